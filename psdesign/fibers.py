@@ -442,7 +442,7 @@ def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float
 
 
 # -------------------------------------------------------------- woven cell (Table I)
-#: Table I translation vectors (normalized) of the six woven fibers.
+#: Table I translation vectors (normalized) of the six woven fibers, as printed.
 WOVEN_TABLE_I = np.array([
     [0.41, -0.318, 0.0],
     [0.72, 0.0, 0.0],
@@ -453,35 +453,50 @@ WOVEN_TABLE_I = np.array([
 ])
 
 
-def woven_cell() -> list[Fiber]:
-    """The six-fiber woven cell of Fig. 10 / Table I (Eq. 19 fibers).
+def _woven_fiber(shift_along: float, offset: np.ndarray, Q: np.ndarray, G: np.ndarray) -> Fiber:
+    """An Eq. (19) fiber moved ``shift_along`` its own axis, rotated by ``Q`` about the
+    cell centre, moved by ``offset``, then rotated by ``G`` about the cell centre."""
+    base = woven_model()
+    model = (base.translated([0.0, 0.0, shift_along]).translated(-_CELL_CENTRE).rotated(Q)
+             .translated(offset).rotated(G).translated(_CELL_CENTRE))
+    diameter, grad = _measure_fixed_shape(base, 0.0)
+    RQ = G @ Q
+    return Fiber(
+        shape="woven", model=model, isovalue=0.0, diameter=diameter,
+        center=_CELL_CENTRE + G @ (Q @ np.array([0.0, 0.0, shift_along]) + offset),
+        direction=RQ @ _Z, lattice=np.array([RQ @ _X, RQ @ np.array([0.0, 1.0, 0.0])]),
+        wave=RQ @ _X, u=0.41, f=1.5, grad_scale=grad, band_radius=None,
+        extra={"axis_offset": 0.5, "phase": -np.pi / 2},
+    )
 
-    Fibers 1-3 keep the Eq. (19) orientation (axis along z, translated by Table I);
-    fibers 4-6 are the same fiber rotated by 90 degrees about x (axis along y) and
-    translated by Table I, expressed in the rotated frame (its y component moves
-    along the new z). The printed table does not say which frame its vectors are
-    in; this reading gives three parallel fibers in each direction.
+
+def woven_cell(thickness_axis: str = "z") -> list[Fiber]:
+    """Six-fiber plain-weave cell built from Eq. (19) fibers (Fig. 10).
+
+    Eq. (19) runs along z, bends in x with wavelength 2/3 (``f = 1.5``) and is
+    compressed every 1/3 along z: the weave plane is y-z and x is the thickness.
+    Warp fibers 1-3 run along z at y = 1/2 + (-1/3, 0, 1/3) (Table I's y column,
+    -0.318/0/0.318) and alternate in phase (shifted 1/3 along the axis, which is Table
+    I's 0.41/0.72/0.41 difference); weft fibers 4-6 run along y at the warp's
+    contact planes z = 1/6, 1/2, 5/6, phased so each passes over a warp fiber where
+    that one is down. Table I's rows 4-6 fit no frame we could find (rows 4 and 6
+    would coincide), so the weft is placed by this symmetry instead; the printed
+    values are kept in :data:`WOVEN_TABLE_I`.
+
+    Parameters
+    ----------
+    thickness_axis : {"x", "z"}
+        ``"x"`` keeps the paper's frame; ``"z"`` (default) turns the cell so the
+        fabric lies in the x-y plane and through-plane flow is along z.
     """
+    if thickness_axis not in ("x", "z"):
+        raise ValueError(f"thickness_axis must be 'x' or 'z', got {thickness_axis!r}")
+    G = np.eye(3) if thickness_axis == "x" else rotation_matrix(theta_deg=-90.0)
+    to_y = rotation_matrix(phi_deg=-90.0)  # z -> y, x unchanged
     fibers = []
-    rx = rotation_matrix(phi_deg=90.0)
-    for i, t in enumerate(WOVEN_TABLE_I):
-        model = woven_model()
-        if i >= 3:
-            model = (model.translated(t).translated(-_CELL_CENTRE).rotated(rx)
-                     .translated(_CELL_CENTRE))
-            direction = rx @ _Z
-            lattice = np.array([rx @ _X, rx @ np.array([0.0, 1.0, 0.0])])
-            center = _CELL_CENTRE + rx @ t
-        else:
-            model = model.translated(t)
-            direction = _Z.copy()
-            lattice = np.array([_X, np.array([0.0, 1.0, 0.0])])
-            center = _CELL_CENTRE + t
-        diameter, grad = _measure_fixed_shape(woven_model(), 0.0)
-        fibers.append(Fiber(
-            shape="woven", model=model, isovalue=0.0, diameter=diameter, center=center,
-            direction=direction, lattice=lattice, wave=lattice[0], u=0.41, f=1.5,
-            grad_scale=grad, band_radius=None, extra={"axis_offset": 0.5,
-                                                      "phase": -2 * np.pi * 1.5 / 6.0},
-        ))
+    for j in range(3):  # warp, along z
+        fibers.append(_woven_fiber(j / 3.0, np.array([0.0, (j - 1) / 3.0, 0.0]), np.eye(3), G))
+    for k in range(3):  # weft, along y
+        fibers.append(_woven_fiber((k + 1) / 3.0, np.array([0.0, 0.0, k / 3.0 - 1.0 / 3.0]),
+                                   to_y, G))
     return fibers
