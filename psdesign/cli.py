@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Sequence
 
@@ -57,6 +58,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except SpecError as exc:
+        print(f"psdesign: error: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:  # bad input found past the spec (geometry, mesh, arguments)
+        if os.environ.get("PSDESIGN_DEBUG"):
+            raise
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

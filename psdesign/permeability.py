@@ -1,0 +1,179 @@
+"""Permeability by Darcy's law from a built-in Stokes solve (paper Sec. 7.2).
+
+Two routes, both geometry-agnostic below this module:
+
+* ``fem``: pore-space tet mesh with empty auxiliary inlet/outlet zones
+  (:func:`psdesign.mesh.mesh_pore_space`), Taylor-Hood Stokes with prescribed
+  pressures (:func:`solvers.fem_stokes.solve_stokes`), and
+
+      K = mu Q L / (A dP_rve)
+
+  with Q the outlet flow rate, L and A the RVE length and full cross-section (so
+  Q/A is the superficial velocity), and dP_rve the drop of the cross-section-averaged
+  pressure between the RVE's own inlet and outlet planes. The auxiliary zones carry
+  part of the applied drop (entrance and exit losses where the flow enters and leaves
+  the pores); measuring across the porous RVE alone removes that, so K does not
+  depend on ``aux_length``.
+* ``voxel``: periodic body-force Stokes on the voxel grid
+  (:func:`solvers.voxel_stokes.solve_voxel_stokes`), K from the mean velocity.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .rve import RVE, VoxelFields
+
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def _axis(direction: str | int) -> tuple[str, int]:
+    if isinstance(direction, int | np.integer) and 0 <= int(direction) <= 2:
+        return "xyz"[int(direction)], int(direction)
+    if direction in AXES:
+        return str(direction), AXES[direction]
+    raise ValueError(f"direction must be 'x', 'y' or 'z', got {direction!r}")
+
+
+def plane_average_pressure(points: np.ndarray, tets: np.ndarray, pressure: np.ndarray,
+                           axis: int, position: float) -> float:
+    """Area-averaged P1 pressure over the cross-section of a tet mesh at ``position``."""
+    import pyvista as pv
+
+    cells = np.hstack([np.full((len(tets), 1), 4), tets]).ravel()
+    grid = pv.UnstructuredGrid(cells, np.full(len(tets), pv.CellType.TETRA), points)
+    grid.point_data["p"] = np.nan_to_num(pressure)
+    normal = np.eye(3)[axis]
+    origin = np.asarray(points).mean(axis=0)
+    origin[axis] = position
+    cut = grid.slice(normal=normal, origin=origin)
+    if cut.n_points == 0:
+        raise ValueError(f"no mesh cross-section at {'xyz'[axis]} = {position}")
+    integ = cut.integrate_data()
+    area = float(integ["Area"][0])
+    return float(integ.point_data["p"][0] / area)
+
+
+def permeability_fem(rve: RVE, fields: VoxelFields, direction: str | int, flow: dict,
+                     mesh=None) -> dict:
+    """Permeability along one axis with the tet mesh + Taylor-Hood route.
+
+    Parameters
+    ----------
+    rve : RVE
+    fields : VoxelFields
+        Voxelized RVE (its distance field is meshed).
+    direction : 'x' | 'y' | 'z'
+    flow : dict
+        The spec's ``[flow]`` table: viscosity, aux_length, sides ('slip' | 'noslip'),
+        pressure_drop, optional edge_length (fraction), tol, max_memory_gb.
+    mesh : PoreMesh, optional
+        A mesh made earlier for this direction.
+
+    Returns
+    -------
+    dict
+        ``permeability_m2``, ``direction``, ``porosity``, ``solver``, ``n_dofs``,
+        ``wall_time_s``, ``flux_imbalance``, ``converged``, ``residual``, ``iterations``,
+        mesh size and quality, ``sides``, pressure drops.
+    """
+    from solvers.fem_stokes import solve_stokes
+
+    from .mesh import mesh_pore_space
+
+    name, ax = _axis(direction)
+    t0 = time.perf_counter()
+    spacing = fields.grid.spacing
+    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+        raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
+    if mesh is None:
+        kw = {}
+        if flow.get("edge_length") is not None:
+            kw["edge_length_fac"] = float(flow["edge_length"])
+        mesh = mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name,
+                               aux_length=float(flow["aux_length"]), **kw)
+    t_mesh = time.perf_counter() - t0
+    sides = [t for t in mesh.facet_tags if t.startswith("side_")]
+    slip = sides if flow.get("sides", "slip") == "slip" else []
+    noslip = ["wall"] + ([] if slip else sides)
+    dp = float(flow.get("pressure_drop", 1.0))
+    res = solve_stokes(mesh.points, mesh.tets, mesh.facet_tags, p_inlet=dp, p_outlet=0.0,
+                       viscosity=float(flow["viscosity"]), noslip=noslip, slip=slip,
+                       tol=float(flow.get("tol", 1e-8)),
+                       max_memory_gb=flow.get("max_memory_gb"))
+    start, end = mesh.porous_region
+    p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
+    p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)
+    dp_rve = p_start - p_end
+    q = -res.flux["outlet"] if res.flux["outlet"] < 0 else res.flux["outlet"]
+    length = rve.size[ax]
+    area = float(np.prod(np.delete(rve.size, ax)))
+    k = float(flow["viscosity"]) * q * length / (area * dp_rve)
+    return {
+        "permeability_m2": k,
+        "direction": name,
+        "porosity": fields.porosity,
+        "solver": "fem",
+        "element": res.element,
+        "n_dofs": res.n_dofs,
+        "n_tets": res.n_tets,
+        "n_points": res.n_points,
+        "converged": bool(res.converged),
+        "residual": float(res.residual),
+        "iterations": int(res.iterations),
+        "flux_imbalance": float(res.flux_imbalance),
+        "flow_rate_m3_s": q,
+        "pressure_drop_applied_pa": dp,
+        "pressure_drop_rve_pa": dp_rve,
+        "sides": "slip" if slip else "noslip",
+        "aux_length": float(flow["aux_length"]),
+        "mesh_quality": mesh.quality,
+        "wall_time_s": time.perf_counter() - t0,
+        "timings_s": {"mesh": t_mesh, **res.timings},
+        "peak_memory_gb": float(res.peak_memory_gb),
+    }
+
+
+def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict) -> dict:
+    """Permeability column along one axis from the periodic voxel Stokes solver."""
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    name, ax = _axis(direction)
+    spacing = fields.grid.spacing
+    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+        raise ValueError("the voxel route needs cubic voxels; make rve.size a multiple of "
+                         "rve.voxel")
+    t0 = time.perf_counter()
+    kw = {}
+    if flow.get("tol") is not None:
+        kw["tol"] = float(flow["tol"])
+    res = solve_voxel_stokes(fields.solid, float(spacing[0]), name,
+                             viscosity=float(flow["viscosity"]),
+                             periodic_treatment=flow.get("periodic_treatment", "periodic"), **kw)
+    column = np.asarray(res.permeability, float)
+    return {
+        "permeability_m2": float(column[ax]),
+        "permeability_column_m2": column.tolist(),
+        "direction": name,
+        "porosity": fields.porosity,
+        "solver": "voxel",
+        "n_cells": int(res.n_cells),
+        "converged": bool(res.converged),
+        "residual": float(res.residual),
+        "iterations": int(res.iterations),
+        "flux_imbalance": float(getattr(res, "flux_imbalance", 0.0)),
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
+def permeability(rve: RVE, fields: VoxelFields, direction: str | int, flow: dict,
+                 solver: str | None = None) -> dict:
+    """Dispatch to :func:`permeability_fem` or :func:`permeability_voxel`."""
+    solver = solver or flow.get("solver", "fem")
+    if solver == "fem":
+        return permeability_fem(rve, fields, direction, flow)
+    if solver == "voxel":
+        return permeability_voxel(fields, direction, flow)
+    raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
