@@ -168,18 +168,16 @@ class RVE:
         margin = margin_voxels * float(h.max())
         distance = np.full(grid.shape, margin, dtype=np.float32)
         count = np.zeros(grid.shape, dtype=np.uint8)
+        mark = np.zeros(grid.shape, dtype=np.uint16)
         dist_flat, count_flat = distance.reshape(-1), count.reshape(-1)
-        for fb in self.fibers:
-            inside = []
-            for flat, vals in _fiber_band_values(fb, grid, self.period, margin):
+        for i, fb in enumerate(self.fibers):
+            if fb.band_radius is not None:
+                _rasterize_band(fb, distance, count, mark, (i % 65535) + 1, h, margin)
+                continue
+            for flat, vals in _fiber_full_values(fb, grid, self.period):
                 dist_flat[flat] = np.minimum(dist_flat[flat], np.minimum(vals, margin))
-                inside.append(flat[vals <= 0.0])
-            # copies of one fiber may share voxels: count each voxel once per fiber
-            if len(inside) == 1:
-                hit = inside[0]
-            else:
-                hit = np.unique(np.concatenate(inside)) if inside else np.zeros(0, np.int64)
-            count_flat[hit] = np.minimum(count_flat[hit].astype(np.int32) + 1, 255)
+                hit = flat[vals <= 0.0]
+                count_flat[hit] = np.minimum(count_flat[hit].astype(np.int32) + 1, 255)
         distance *= np.float32(self.period)
         return VoxelFields(distance=distance, count=count, grid=grid)
 
@@ -193,54 +191,40 @@ class RVE:
         return [[line * self.period for line in fb.medial_axis(lo, hi, n)] for fb in self.fibers]
 
 
-def _fiber_band_values(fb: Fiber, grid: VoxelGrid, period: float, margin: float):
-    """Yield (flat voxel indices, normalized field values) of the voxels a fiber can touch.
+def _rasterize_band(fb: Fiber, distance: np.ndarray, count: np.ndarray, mark: np.ndarray,
+                    mark_id: int, h: np.ndarray, margin: float) -> None:
+    """Rasterize every axis copy of a fiber with a known band radius (numba kernel)."""
+    from .raster import rasterize_copy
 
-    Each yielded index set is duplicate-free. Fibers without a band radius are
-    evaluated on the whole grid in slabs.
-    """
-    h = grid.spacing / period
-    shape = np.array(grid.shape)
-    axes = [(np.arange(n) + 0.5) * hi for n, hi in zip(grid.shape, h, strict=True)]
-    if fb.band_radius is None:
-        yz = np.stack(np.meshgrid(axes[1], axes[2], indexing="ij"), -1).reshape(-1, 2)
-        step = max(1, 2_000_000 // len(yz))
-        for i0 in range(0, grid.shape[0], step):
-            xs = axes[0][i0 : i0 + step]
-            pts = np.column_stack([np.repeat(xs, len(yz)), np.tile(yz, (len(xs), 1))])
-            flat = np.arange(i0 * len(yz), (i0 + len(xs)) * len(yz))
-            yield flat, fb.field(pts)
-        return
     radius = fb.band_radius + margin
-    lo, hi = np.zeros(3), shape * h
-    d = fb.direction
+    shape = np.array(distance.shape)
+    d = np.ascontiguousarray(fb.direction, dtype=float)
     k = int(np.argmax(np.abs(d)))
-    others = [j for j in range(3) if j != k]
-    ext = [radius * np.sqrt(1.0 + d[j] ** 2 / d[k] ** 2) for j in others]
-    win = [int(np.ceil(e / h[j])) + 1 for e, j in zip(ext, others, strict=True)]
-    for p in fb.axis_copies(lo, hi, radius):
-        # slices along the dominant axis k
-        ik = np.arange(grid.shape[k])
-        xk = axes[k][ik]
-        s = (xk - p[k]) / d[k]
-        centre = p[None, :] + s[:, None] * d[None, :]  # (nk, 3)
-        offs = [np.arange(-w, w + 1) for w in win]
-        c0 = np.floor(centre[:, others[0]] / h[others[0]]).astype(np.int64)
-        c1 = np.floor(centre[:, others[1]] / h[others[1]]).astype(np.int64)
-        i0 = c0[:, None, None] + offs[0][None, :, None]
-        i1 = c1[:, None, None] + offs[1][None, None, :]
-        ikk = np.broadcast_to(ik[:, None, None], (len(ik), len(offs[0]), len(offs[1])))
-        i0, i1 = np.broadcast_to(i0, ikk.shape), np.broadcast_to(i1, ikk.shape)
-        ok = (i0 >= 0) & (i0 < shape[others[0]]) & (i1 >= 0) & (i1 < shape[others[1]])
-        idx = np.empty((3, int(ok.sum())), dtype=np.int64)
-        idx[k], idx[others[0]], idx[others[1]] = ikk[ok], i0[ok], i1[ok]
-        if idx.shape[1] == 0:
-            continue
-        pts = (idx.T + 0.5) * h
-        # keep voxels within the band radius of this copy's axis
-        rel = pts - p
-        perp = rel - np.outer(rel @ d, d)
-        near = np.einsum("ij,ij->i", perp, perp) <= radius**2
-        idx, pts = idx[:, near], pts[near]
-        flat = np.ravel_multi_index(tuple(idx), grid.shape)
+    o0, o1 = [j for j in range(3) if j != k]
+    win = [int(np.ceil(radius * np.sqrt(1.0 + d[j] ** 2 / d[k] ** 2) / h[j])) + 1
+           for j in (o0, o1)]
+    m = fb.model
+    cylinder = fb.shape == "cylinder"
+    for p in fb.axis_copies(np.zeros(3), shape * h, radius):
+        rasterize_copy(
+            distance, count, mark, np.uint16(mark_id), np.ascontiguousarray(h, dtype=float),
+            np.ascontiguousarray(p, dtype=float), d, k, o0, o1, win[0], win[1], radius, margin,
+            cylinder, np.ascontiguousarray(fb.center, dtype=float),
+            np.ascontiguousarray(fb.lattice[0]), np.ascontiguousarray(fb.lattice[1]),
+            fb.diameter / 2.0, fb.isovalue, fb.grad_scale,
+            m.mu, m.kappa, np.ascontiguousarray(m.H), m.alpha, m.minor_term.astype(np.int64),
+            m.u, m.f, np.ascontiguousarray(m.G).reshape(-1, 3), m.beta,
+        )
+
+
+def _fiber_full_values(fb: Fiber, grid: VoxelGrid, period: float):
+    """Yield (flat voxel indices, normalized field values) over the whole grid, in slabs."""
+    h = grid.spacing / period
+    axes = [(np.arange(n) + 0.5) * hi for n, hi in zip(grid.shape, h, strict=True)]
+    yz = np.stack(np.meshgrid(axes[1], axes[2], indexing="ij"), -1).reshape(-1, 2)
+    step = max(1, 2_000_000 // len(yz))
+    for i0 in range(0, grid.shape[0], step):
+        xs = axes[0][i0 : i0 + step]
+        pts = np.column_stack([np.repeat(xs, len(yz)), np.tile(yz, (len(xs), 1))])
+        flat = np.arange(i0 * len(yz), (i0 + len(xs)) * len(yz))
         yield flat, fb.field(pts)
