@@ -1,0 +1,23 @@
+"""HTML report of a study (one self-contained file) and reference permeability models."""
+
+from .html import ReportError, build_html, write_report
+from .references import (
+    KOZENY_CONSTANT,
+    TS_ALPHA_IN_PLANE,
+    TS_ALPHA_THROUGH_PLANE,
+    TS_EPS_P,
+    kozeny_carman,
+    tomadakis_sotirchos,
+)
+
+__all__ = [
+    "KOZENY_CONSTANT",
+    "TS_ALPHA_IN_PLANE",
+    "TS_ALPHA_THROUGH_PLANE",
+    "TS_EPS_P",
+    "ReportError",
+    "build_html",
+    "kozeny_carman",
+    "tomadakis_sotirchos",
+    "write_report",
+]

@@ -1,0 +1,379 @@
+"""Build the self-contained HTML report of a study output folder (``OUT/report.html``).
+
+Everything is inline: CSS in a ``<style>`` block, figures and previews as base64 ``data:``
+URIs.  The file loads no external resource and opens offline.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import io
+import json
+import math
+import mimetypes
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .references import (
+    KOZENY_CONSTANT,
+    TS_ALPHA_IN_PLANE,
+    TS_ALPHA_THROUGH_PLANE,
+    TS_EPS_P,
+    kozeny_carman,
+    tomadakis_sotirchos,
+)
+from .sensitivity import main_effects, sensitivity_table
+
+__all__ = ["ReportError", "build_html", "write_report"]
+
+FLUX_IMBALANCE_FLAG = 1e-2
+MAX_PREVIEWS = 8
+MAX_TABLE_ROWS = 2000
+DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
+
+CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:2em;
+color:#222;max-width:1400px}
+h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;font-size:.82em;margin:.5em 0}
+th,td{border:1px solid #ddd;padding:.2em .5em;text-align:right}
+th{background:#f3f3f3;position:sticky;top:0}
+tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
+.scroll{max-height:32em;overflow:auto;border:1px solid #eee}
+.meta td,.meta th{text-align:left}
+figure{display:inline-block;margin:.5em;vertical-align:top}
+figcaption{font-size:.8em;color:#555;max-width:320px}
+.note{color:#555;font-size:.9em}
+"""
+
+
+class ReportError(ValueError):
+    """The folder holds no study results to report on."""
+
+
+def _esc(x) -> str:
+    return html.escape("" if x is None else str(x))
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def _img_file(path: Path) -> str | None:
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    mime = mimetypes.guess_type(path.name)[0] or "image/png"
+    return f"data:{mime};base64," + base64.b64encode(data).decode()
+
+
+def _fmt(v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return ""
+    if isinstance(v, float | np.floating):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int = MAX_TABLE_ROWS):
+    cols = list(df.columns)
+    head = "".join(f"<th>{_esc(c)}</th>" for c in cols)
+    body = []
+    for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
+        cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
+        body.append(f"<tr{cls}>" + "".join(f"<td>{_esc(_fmt(row[c]))}</td>" for c in cols)
+                    + "</tr>")
+    more = ""
+    if len(df) > max_rows:
+        more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
+    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
+            + "".join(body) + "</tbody></table></div>" + more)
+
+
+def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
+    csv = out / "results.csv"
+    if not csv.is_file():
+        raise ReportError(f"out_dir: no results.csv in {out}; run the study first")
+    df = pd.read_csv(csv)
+    study = {}
+    if (out / "study.json").is_file():
+        study = json.loads((out / "study.json").read_text()).get("study", {})
+    runs = {}
+    if (out / "run.json").is_file():
+        runs = json.loads((out / "run.json").read_text())
+    return df, study, runs
+
+
+def _fiber_radius(df: pd.DataFrame, study: dict) -> tuple[pd.Series | None, float | None]:
+    """Per-row fiber radius if the diameter is a study parameter, else the base value."""
+    if "generator.diameter" in df:
+        d = pd.to_numeric(df["generator.diameter"], errors="coerce")
+        return d / 2.0, float(np.nanmedian(d)) / 2.0 if d.notna().any() else None
+    d = (study.get("base") or {}).get("generator", {}).get("diameter")
+    if d is None:
+        fibers = (study.get("base") or {}).get("fibers") or []
+        ds = [f.get("diameter") for f in fibers if isinstance(f, dict) and f.get("diameter")]
+        d = float(np.median(ds)) if ds else None
+    return None, (float(d) / 2.0 if d else None)
+
+
+def _porosity(df: pd.DataFrame) -> pd.Series | None:
+    for c in ("porosity", "generator.porosity"):
+        if c in df:
+            p = pd.to_numeric(df[c], errors="coerce")
+            if p.notna().any():
+                return p
+    return None
+
+
+def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = df[df["status"] == "ok"] if "status" in df else df
+    eps = _porosity(ok)
+    kcols = [c for c in DIRECTIONS if c in ok and pd.to_numeric(ok[c], errors="coerce").gt(0).any()]
+    if eps is None or not kcols:
+        return None, "No porosity/permeability results to plot."
+    r_rows, r0 = _fiber_radius(ok, study)
+    normalize = r_rows is not None and r_rows.nunique() > 1
+    fig, ax = plt.subplots(figsize=(7, 4.8))
+    markers = {"k_x_m2": "o", "k_y_m2": "s", "k_z_m2": "^"}
+    for c in kcols:
+        k = pd.to_numeric(ok[c], errors="coerce")
+        y = k / r_rows**2 if normalize else k
+        ax.scatter(eps, y, marker=markers[c], label=f"{DIRECTIONS[c]} (this study)", alpha=0.8)
+    note = ""
+    if r0:
+        lo = max(TS_EPS_P + 0.02, float(np.nanmin(eps)) - 0.05)
+        hi = min(0.98, float(np.nanmax(eps)) + 0.05)
+        e = np.linspace(lo, hi, 200)
+        rr = 1.0 if normalize else r0
+        ax.plot(e, tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE), "k-",
+                label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})")
+        ax.plot(e, tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE), "k--",
+                label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})")
+        ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
+        note = (f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
+                if not normalize else "Diameter varies: permeability shown as K / r^2.")
+    else:
+        note = "No fiber diameter in the spec: reference curves omitted."
+    ax.set_yscale("log")
+    ax.set_xlabel("porosity")
+    ax.set_ylabel("K / r^2 (-)" if normalize else "permeability K (m^2)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    return _png(fig), note
+
+
+def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
+    stat_cols = [c for c in df.columns if c.startswith(("iterations_", "flux_imbalance_",
+                                                         "converged_", "residual_"))]
+    cols = ["case_id", "status", *stat_cols, "error"]
+    cols = [c for c in cols if c in df]
+    classes = []
+    n_flag = 0
+    for _, row in df.iterrows():
+        flag = row.get("status") != "ok"
+        for c in stat_cols:
+            v = row[c]
+            if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
+                flag = True
+            if c.startswith("flux_imbalance_"):
+                fv = pd.to_numeric(pd.Series([v]), errors="coerce").iloc[0]
+                if pd.notna(fv) and abs(fv) > FLUX_IMBALANCE_FLAG:
+                    flag = True
+        classes.append("flag" if flag else "")
+        n_flag += flag
+    table = _table(df[cols], classes)
+    fig_uri = None
+    fcols = [c for c in stat_cols if c.startswith("flux_imbalance_")
+             and pd.to_numeric(df[c], errors="coerce").abs().gt(0).any()]
+    if fcols:
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 3))
+        x = np.arange(len(df))
+        for c in fcols:
+            v = pd.to_numeric(df[c], errors="coerce").abs()
+            ax.semilogy(x, v.where(v > 0), "o", ms=3, label=c)
+        ax.axhline(FLUX_IMBALANCE_FLAG, color="r", lw=0.8, ls="--", label="flag threshold")
+        ax.set_xlabel("case index")
+        ax.set_ylabel("|flux imbalance| (relative)")
+        ax.legend(fontsize=7)
+        fig_uri = _png(fig)
+    return table, fig_uri, n_flag
+
+
+def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
+    if "preview_png" not in df:
+        return '<p class="note">The case function wrote no preview pictures.</p>'
+    items = []
+    for _, row in df.iterrows():
+        if len(items) >= MAX_PREVIEWS:
+            break
+        p = row.get("preview_png")
+        if not isinstance(p, str) or not p:
+            continue
+        path = Path(p) if Path(p).is_absolute() else out / p
+        uri = _img_file(path)
+        if uri is None:
+            continue
+        cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
+        items.append(f'<figure><img src="{uri}" width="300" alt="preview {_esc(row["case_id"])}">'
+                     f"<figcaption>{_esc(row['case_id'])}: {_esc(cap)} seed={_esc(row.get('seed'))}"
+                     "</figcaption></figure>")
+    return "".join(items) or '<p class="note">No preview pictures found.</p>'
+
+
+def _versions() -> dict:
+    import importlib.metadata as md
+
+    out = {"python": sys.version.split()[0]}
+    for name in ("psdesign", "numpy", "scipy", "pandas", "matplotlib", "dask", "distributed"):
+        try:
+            out[name] = md.version(name)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
+def build_html(out_dir: str | Path) -> str:
+    """Return the report HTML for a study output folder (see :func:`write_report`)."""
+    out = Path(out_dir)
+    df, study, runs = _load(out)
+    params = list((study.get("parameters") or {}).keys()) or [
+        c for c in df.columns if "." in c and not c.startswith("result.")]
+    name = study.get("name", out.name)
+    counts = df["status"].value_counts().to_dict() if "status" in df else {}
+    run_list = runs.get("runs", [])
+    last = run_list[-1] if run_list else {}
+    machine = last.get("machine", {"host": platform.node(), "platform": platform.platform()})
+    total_case_time = pd.to_numeric(df.get("wall_time_s", pd.Series(dtype=float)),
+                                    errors="coerce").sum()
+
+    meta_rows = [
+        ("study", name),
+        ("description", study.get("description", "")),
+        ("design", study.get("design")),
+        ("cases", len(df)),
+        ("status", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))),
+        ("outputs", ", ".join(study.get("outputs", []))),
+        ("solver", study.get("solver")),
+        ("seeds", study.get("seeds")),
+        ("parameters", ", ".join(params)),
+        ("runs", len(run_list)),
+        ("last run", f"{last.get('started_at', '')} .. {last.get('finished_at', '')}, "
+                     f"{last.get('workers', '')} worker(s), scheduler {last.get('scheduler')}"),
+        ("wall time of runs (s)", ", ".join(f"{r.get('wall_time_s', 0):.1f}" for r in run_list)),
+        ("sum of case wall times (s)", f"{total_case_time:.1f}"),
+        ("case function", last.get("case_fn", "")),
+        ("machine", ", ".join(f"{k}={v}" for k, v in machine.items())),
+        ("versions", ", ".join(f"{k} {v}" for k, v in _versions().items())),
+        ("report written", _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")),
+    ]
+    meta = "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in meta_rows)
+
+    perm_uri, perm_note = _perm_figure(df, study)
+    perm_html = (f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else "")
+
+    sens = sensitivity_table(df, params)
+    sens_html = (_table(sens) if len(sens) else
+                 '<p class="note">Not enough varying numeric parameters or results.</p>')
+    me_html = ""
+    if study.get("design") == "full-factorial":
+        me = main_effects(df, params)
+        if len(me):
+            me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
+
+    conv_table, conv_uri, n_flag = _convergence(df)
+    conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
+
+    row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
+    results_html = _table(df, row_cls)
+
+    refs = (
+        "<ol>"
+        "<li>Tomadakis-Sotirchos: M. M. Tomadakis, S. V. Sotirchos, Ordinary and transition "
+        "regime diffusion in random fiber structures, AIChE J. 39 (1993) 397-412; "
+        "permeability model as in M. M. Tomadakis, "
+        "T. J. Robertson, J. Compos. Mater. 39 (2005) 163-188. 2-D random fibers: "
+        f"eps_p = {TS_EPS_P}, alpha = {TS_ALPHA_IN_PLANE} (in-plane), "
+        f"{TS_ALPHA_THROUGH_PLANE} (through-plane). "
+        "K = r^2 eps (eps-eps_p)^(alpha+2) / (8 ln^2(eps) (1-eps_p)^alpha "
+        "((alpha+1) eps - eps_p)^2).</li>"
+        "<li>Kozeny-Carman: P. C. Carman, Fluid flow through granular beds, Trans. Inst. Chem. "
+        "Eng. 15 (1937) 150-166. "
+        f"K = r^2 eps^3 / (4 k_K (1-eps)^2), k_K = {KOZENY_CONSTANT:g}.</li>"
+        "<li>J. T. Gostick, M. W. Fowler, M. D. Pritzker, M. A. Ioannidis, L. M. Behra, In-plane "
+        "and through-plane gas permeability of carbon fiber electrode backing layers, J. Power "
+        "Sources 162 (2006) 228-238 (Toray 090 through-plane 8.3e-12 m^2).</li>"
+        "</ol>"
+    )
+
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>psdesign study report: {_esc(name)}</title>
+<style>{CSS}</style></head><body>
+<h1>Study report: {_esc(name)}</h1>
+<h2>Study</h2><table class="meta">{meta}</table>
+<h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
+x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>
+<h2>Sensitivity</h2>
+<p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
+least squares on standardized variables) of each numeric parameter against porosity and
+log10 K, over cases with status ok.</p>{sens_html}{me_html}
+<h2>Sample RVEs</h2>{_previews(df, out, params)}
+<h2>Solver convergence</h2>
+<p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged,
+or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>{conv_fig}{conv_table}
+<h2>Results</h2>{results_html}
+<h2>References</h2>{refs}
+</body></html>
+"""
+
+
+def write_report(out_dir: str | Path) -> Path:
+    """Write ``OUT/report.html``: one self-contained file that opens offline.
+
+    Sections: study metadata (machine, timing, versions), porosity vs permeability with
+    Tomadakis-Sotirchos and Kozeny-Carman reference curves, sensitivity (Spearman, SRC,
+    main effects for factorial designs), preview pictures, solver convergence, the results
+    table and references.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        A study output folder (holds ``results.csv``, ``study.json``, ``run.json``).
+
+    Returns
+    -------
+    Path
+        The report file.
+
+    Raises
+    ------
+    ReportError
+        If the folder holds no ``results.csv``.
+    """
+    from psdesign.study.store import atomic_write_bytes
+
+    out = Path(out_dir)
+    text = build_html(out)
+    path = out / "report.html"
+    atomic_write_bytes(path, text.encode("utf-8"))
+    return path

@@ -1,0 +1,55 @@
+"""Resolve the case function (kept free of heavy imports: used in every case's child process)."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["DEFAULT_CASE_FN", "load_case_fn", "watch_parent"]
+
+DEFAULT_CASE_FN = "psdesign.pipeline:run_case"
+
+
+def load_case_fn(case_fn: Callable | str | None) -> Callable:
+    """Resolve a case function: a callable, ``"module:attr"``, or None (the default pipeline).
+
+    Raises
+    ------
+    ValueError
+        If a ``"module:attr"`` string is malformed.
+    ImportError, AttributeError
+        If the module or attribute does not exist.
+    """
+    if case_fn is None:
+        case_fn = DEFAULT_CASE_FN
+    if callable(case_fn):
+        return case_fn
+    if not isinstance(case_fn, str) or ":" not in case_fn:
+        raise ValueError(f"case_fn: expected a callable or 'module:function', got {case_fn!r}")
+    mod, _, attr = case_fn.partition(":")
+    obj: Any = importlib.import_module(mod)
+    for part in attr.split("."):
+        obj = getattr(obj, part)
+    if not callable(obj):
+        raise ValueError(f"case_fn: {case_fn!r} is not callable")
+    return obj
+
+
+def watch_parent(parent_pid: int, interval_s: float = 0.5) -> None:
+    """Exit this process at once when ``parent_pid`` is gone (it was killed, e.g. kill -9).
+
+    Runs a daemon thread; used by pool workers and per-case child processes so that no orphan
+    keeps computing (or writing into the output folder) after the runner died.
+    """
+
+    def _watch() -> None:
+        while True:
+            if os.getppid() != parent_pid:
+                os._exit(70)
+            time.sleep(interval_s)
+
+    threading.Thread(target=_watch, name="psdesign-watch-parent", daemon=True).start()

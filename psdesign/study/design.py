@@ -1,0 +1,216 @@
+"""Designs of experiments: expand a :class:`Study` into concrete cases."""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .studyfile import ParamSpec, Study, StudyError
+
+__all__ = ["Case", "apply_params", "case_hash", "expand_design", "design_points"]
+
+MAX_CASES = 1_000_000
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case of a study.
+
+    Attributes
+    ----------
+    case_id : str
+        ``c<index:04d>-<8 hex>``; the hex part is a hash of the full case spec, outputs and
+        solver, so it is stable across runs and changes when anything that affects the result
+        changes.
+    index : int
+        Position in the design (rows of the results table are in this order).
+    params : dict
+        Parameter path -> value for this case.
+    seed : int
+        Replicate seed (written to ``generator.seed`` when the spec has a generator).
+    spec : dict
+        The base spec with ``params`` applied.
+    """
+
+    case_id: str
+    index: int
+    params: dict
+    seed: int
+    spec: dict
+
+    def to_dict(self) -> dict:
+        return {
+            "case_id": self.case_id,
+            "index": self.index,
+            "params": self.params,
+            "seed": self.seed,
+            "spec": self.spec,
+        }
+
+
+def _py(v: Any) -> Any:
+    """numpy scalars -> Python scalars (JSON and hashing friendly)."""
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def apply_params(base: dict, params: dict, seed: int | None = None) -> dict:
+    """Return a deep copy of ``base`` with dotted ``params`` set (and ``generator.seed``).
+
+    Missing intermediate tables are created; integer segments index into lists.
+    """
+    spec = copy.deepcopy(base)
+    for path, value in params.items():
+        parts = path.split(".")
+        node: Any = spec
+        for part in parts[:-1]:
+            if isinstance(node, list):
+                node = node[int(part)]
+            else:
+                nxt = node.get(part)
+                if not isinstance(nxt, dict | list):
+                    nxt = {}
+                    node[part] = nxt
+                node = nxt
+        last = parts[-1]
+        if isinstance(node, list):
+            node[int(last)] = copy.deepcopy(value)
+        else:
+            node[last] = copy.deepcopy(value)
+    if seed is not None and isinstance(spec.get("generator"), dict):
+        spec["generator"]["seed"] = int(seed)
+    return spec
+
+
+def case_hash(spec: dict, outputs: list[str], solver: str) -> str:
+    """8 hex digits identifying a case's full input."""
+    blob = json.dumps(
+        {"spec": spec, "outputs": list(outputs), "solver": solver},
+        sort_keys=True,
+        separators=(",", ":"),
+        default=str,
+    )
+    return hashlib.sha256(blob.encode()).hexdigest()[:8]
+
+
+def _levels(p: ParamSpec) -> list:
+    if p.kind == "values":
+        return list(p.values)
+    n = int(p.levels or 1)
+    if n == 1:
+        pts = np.array([0.5])
+    else:
+        pts = np.linspace(0.0, 1.0, n)
+    return list(_map_unit(p, pts))
+
+
+def _map_unit(p: ParamSpec, u: np.ndarray) -> list:
+    """Map unit samples ``u`` in [0, 1) onto the parameter's domain."""
+    u = np.asarray(u, dtype=float)
+    if p.kind == "values":
+        n = len(p.values)
+        idx = np.minimum((u * n).astype(int), n - 1)
+        return [p.values[i] for i in idx]
+    if p.dist == "loguniform":
+        x = np.exp(np.log(p.low) + u * (np.log(p.high) - np.log(p.low)))
+    else:
+        x = p.low + u * (p.high - p.low)
+    if p.value_type == "int":
+        return [int(round(v)) for v in x]
+    return [float(v) for v in x]
+
+
+def design_points(study: Study) -> list[dict]:
+    """The design's parameter points (without seeds), in design order.
+
+    Returns
+    -------
+    list of dict
+        Each dict maps parameter path -> value; for CSV designs a ``"seed"`` key may be present.
+    """
+    params = list(study.parameters.values())
+    if study.design == "full-factorial":
+        grids = [_levels(p) for p in params]
+        total = math.prod(len(g) for g in grids)
+        if total * len(study.seeds) > MAX_CASES:
+            raise StudyError(
+                f"parameters: full factorial gives {total * len(study.seeds)} cases; "
+                f"allowed at most {MAX_CASES}"
+            )
+        return [
+            {p.path: _py(v) for p, v in zip(params, combo, strict=True)}
+            for combo in itertools.product(*grids)
+        ]
+    if study.design in ("latin-hypercube", "sobol"):
+        from scipy.stats import qmc
+
+        d = len(params)
+        n = int(study.n_samples or 0)
+        if study.design == "latin-hypercube":
+            sampler = qmc.LatinHypercube(d=d, seed=study.design_seed)
+            u = sampler.random(n)
+        else:
+            sampler = qmc.Sobol(d=d, scramble=True, seed=study.design_seed)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # balance warning for n != 2^m
+                u = sampler.random(n)
+        cols = [_map_unit(p, u[:, j]) for j, p in enumerate(params)]
+        return [{p.path: _py(cols[j][i]) for j, p in enumerate(params)} for i in range(n)]
+    if study.design == "csv":
+        rows = []
+        for row in study.csv_rows or []:
+            pt = {}
+            for k, v in row.items():
+                if isinstance(v, float) and math.isnan(v):
+                    raise StudyError(f"study.csv: empty cell in column {k!r}")
+                pt[k] = _py(v)
+            rows.append(pt)
+        return rows
+    raise StudyError(f"study.design: got {study.design!r}")  # pragma: no cover - validated
+
+
+def expand_design(study: Study) -> list[Case]:
+    """Expand a study into its cases (design points x seeds).
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    list of Case
+        In design order: for each design point, one case per seed.  A CSV row with a ``seed``
+        column gives exactly one case with that seed.
+
+    Raises
+    ------
+    StudyError
+        If the design is empty or too large.
+    """
+    cases: list[Case] = []
+    for pt in design_points(study):
+        if "seed" in pt:
+            seeds = [int(pt.pop("seed"))]
+        else:
+            seeds = list(study.seeds)
+        for seed in seeds:
+            spec = apply_params(study.base, pt, seed)
+            h = case_hash(spec, study.outputs, study.solver)
+            idx = len(cases)
+            cases.append(Case(case_id=f"c{idx:04d}-{h}", index=idx, params=dict(pt), seed=seed,
+                              spec=spec))
+    if not cases:
+        raise StudyError("parameters: the design is empty (no cases to run)")
+    ids = [c.case_id for c in cases]
+    if len(set(ids)) != len(ids):  # pragma: no cover - index prefix makes ids unique
+        raise StudyError("parameters: duplicate case ids")
+    return cases

@@ -1,0 +1,495 @@
+"""Run a study: local process pool (default) or a Dask cluster, resumable and atomic.
+
+Every finished case is written at once (``OUT/cases/<case_id>.json``, atomically) and the
+consolidated ``results.csv`` / ``results.parquet`` are rewritten after it.  Re-running the same
+command skips cases whose record says ``ok`` (and ``failed``/``timeout`` unless
+``retry_failed``), so a crash or ``kill -9`` loses at most the cases that were running.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import datetime as _dt
+import json
+import multiprocessing
+import os
+import platform
+import socket
+import sys
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from pathlib import Path
+
+import pandas as pd
+
+from .casefn import watch_parent
+from .design import Case, expand_design
+from .progress import Progress
+from .store import CaseStore, StorageError
+from .studyfile import Study, StudyError, load_study
+from .worker import DEFAULT_CASE_FN, execute_case
+
+__all__ = ["SchedulerError", "run_study"]
+
+CONNECT_TIMEOUT_S = 10.0
+_MAX_POOL_BREAKS = 2
+
+
+class SchedulerError(StudyError):
+    """The Dask scheduler given with ``--scheduler`` does not answer."""
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+# ----------------------------------------------------------------------------- lock
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        import psutil
+
+        return psutil.pid_exists(pid)
+    except ImportError:  # pragma: no cover
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
+
+
+@contextmanager
+def _run_lock(out: Path) -> Iterator[None]:
+    """Refuse two runs writing into the same folder; a stale lock (dead pid) is taken over."""
+    lock = out / ".lock"
+    me = {"pid": os.getpid(), "host": socket.gethostname()}
+    for _ in range(3):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                other = json.loads(lock.read_text())
+            except (OSError, ValueError):
+                other = {}
+            if (
+                other.get("host") == me["host"]
+                and isinstance(other.get("pid"), int)
+                and _pid_alive(other["pid"])
+                and other["pid"] != me["pid"]
+            ):
+                raise StudyError(
+                    f"out_dir: {out} is in use by a running study (pid {other['pid']}); "
+                    "wait for it or choose another folder"
+                ) from None
+            if other.get("host") not in (None, me["host"]):
+                raise StudyError(
+                    f"out_dir: {out} is locked by host {other['host']} (pid {other.get('pid')}); "
+                    f"delete {lock} if that run is dead"
+                ) from None
+            try:
+                lock.unlink()
+            except FileNotFoundError:
+                pass
+            continue
+        except OSError as exc:
+            raise StorageError(exc.errno, f"cannot write {lock}: {exc.strerror or exc}") from exc
+        with os.fdopen(fd, "w") as fh:
+            json.dump(me, fh)
+        break
+    else:  # pragma: no cover - lost a race three times
+        raise StudyError(f"out_dir: cannot lock {out}")
+    try:
+        yield
+    finally:
+        try:
+            lock.unlink()
+        except OSError:
+            pass
+
+
+# ----------------------------------------------------------------------------- backends
+
+
+def _mp_context():
+    return multiprocessing.get_context("spawn")
+
+
+def _run_pool(
+    payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]
+) -> None:
+    """Run payloads on a spawn-based ProcessPoolExecutor.
+
+    If a worker process dies (segfault, out-of-memory kill) the pool breaks and every unfinished
+    case fails with BrokenProcessPool.  Those cases are re-queued on a fresh pool; a case hit by
+    two breaks is then run alone in its own one-worker pool, and recorded as failed only if it
+    breaks that pool too, so innocent queued cases are never blamed.
+    """
+    normal = list(payloads)
+    isolate: list[dict] = []
+    breaks: dict[str, int] = {}
+    while normal or isolate:
+        if normal:
+            batch, normal, n_workers, alone = normal, [], workers, False
+        else:
+            batch, n_workers, alone = [isolate.pop(0)], 1, True
+        ex = cf.ProcessPoolExecutor(max_workers=n_workers, mp_context=_mp_context(),
+                                    initializer=watch_parent, initargs=(os.getpid(),))
+        try:
+            futs = {ex.submit(execute_case, p): p for p in batch}
+            for fut in cf.as_completed(futs):
+                p = futs[fut]
+                try:
+                    rec = fut.result()
+                except BrokenProcessPool:
+                    if alone:
+                        rec = _failed(p, "worker process died while running this case "
+                                         "(crash or out of memory)")
+                    else:
+                        n = breaks[p["case_id"]] = breaks.get(p["case_id"], 0) + 1
+                        (isolate if n >= _MAX_POOL_BREAKS else normal).append(p)
+                        continue
+                except cf.CancelledError:  # pragma: no cover - only after shutdown
+                    continue
+                on_done(p, rec)
+        except BaseException:
+            ex.shutdown(wait=False, cancel_futures=True)
+            _terminate_pool(ex)
+            raise
+        ex.shutdown(wait=True)
+
+
+def _terminate_pool(ex: cf.ProcessPoolExecutor) -> None:
+    """Stop the pool's own worker processes (by pid) after an error or interrupt."""
+    procs = getattr(ex, "_processes", None) or {}
+    for proc in list(procs.values()):
+        try:
+            proc.terminate()
+        except Exception:  # noqa: BLE001, S110
+            pass
+
+
+def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
+    for p in payloads:
+        on_done(p, execute_case(p))
+
+
+def connect_scheduler(address: str, workers: int, timeout_s: float | None = None):
+    """Return ``(client, cluster_or_None)`` for a Dask scheduler address or ``"local"``.
+
+    Raises
+    ------
+    SchedulerError
+        If dask.distributed is missing or nothing answers at ``address`` within ``timeout_s``
+        (default :data:`CONNECT_TIMEOUT_S`).
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as exc:  # pragma: no cover - dependency of psdesign
+        raise SchedulerError(f"--scheduler: dask.distributed is not installed ({exc})") from exc
+    if timeout_s is None:
+        timeout_s = CONNECT_TIMEOUT_S
+    if address == "local":
+        cluster = LocalCluster(
+            n_workers=max(1, workers),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+        )
+        return Client(cluster), cluster
+    if "://" not in address:
+        raise SchedulerError(
+            f"--scheduler: expected an address like tcp://HOST:PORT or 'local', got {address!r}"
+        )
+    try:
+        client = Client(address, timeout=timeout_s)
+    except (OSError, TimeoutError) as exc:
+        raise SchedulerError(
+            f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
+            f"({type(exc).__name__}); nothing was run or changed"
+        ) from exc
+    return client, None
+
+
+def _run_dask(client, payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
+    from distributed import as_completed
+
+    futs = {}
+    for p in payloads:
+        f = client.submit(execute_case, p, pure=False, key=f"psdesign-case-{p['case_id']}-"
+                          f"{os.getpid()}-{time.monotonic_ns()}")
+        futs[f] = p
+    try:
+        for fut in as_completed(list(futs)):
+            p = futs[fut]
+            try:
+                rec = fut.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker
+                rec = _failed(p, f"dask: {type(exc).__name__}: {' '.join(str(exc).split())}")
+            on_done(p, rec)
+    except BaseException:
+        client.cancel(list(futs))
+        raise
+
+
+def _failed(payload: dict, error: str) -> dict:
+    return {
+        "status": "failed",
+        "error": error,
+        "results": {},
+        "wall_time_s": None,
+        "started_at": None,
+        "finished_at": _now(),
+        "host": None,
+        "pid": None,
+    }
+
+
+# ----------------------------------------------------------------------------- main entry
+
+
+def _machine() -> dict:
+    info = {
+        "host": socket.gethostname(),
+        "platform": platform.platform(),
+        "python": sys.version.split()[0],
+        "cpu_count": os.cpu_count(),
+    }
+    try:
+        import psutil
+
+        info["memory_gb"] = round(psutil.virtual_memory().total / 2**30, 1)
+    except Exception:  # noqa: BLE001, S110
+        pass
+    return info
+
+
+def validate_case_specs(cases: list[Case]) -> None:
+    """Check every case spec with the spec validators of the pipeline (before running).
+
+    Raises
+    ------
+    StudyError
+        Naming the first bad case, its parameters and the spec error.
+    """
+    import numpy as np
+
+    from psdesign.spec import validate_spec
+
+    try:
+        from psdesign.generators import parse_generator
+    except ImportError:  # pragma: no cover - generators not available
+        parse_generator = None
+    for c in cases:
+        try:
+            spec = validate_spec(c.spec)
+            if parse_generator is not None and "generator" in spec:
+                parse_generator(spec, np.asarray(spec["rve"]["size"], dtype=float))
+        except ValueError as exc:
+            params = ", ".join(f"{k}={v}" for k, v in c.params.items())
+            raise StudyError(
+                f"parameters: case {c.case_id} ({params}, seed={c.seed}) gives a bad spec: {exc}"
+            ) from exc
+
+
+def run_study(
+    study: str | Path | Study,
+    out_dir: str | Path,
+    workers: int = 1,
+    scheduler: str | None = None,
+    case_fn: Callable | str | None = None,
+    progress: bool = True,
+    timeout_s: float | None = None,
+    retry_failed: bool = False,
+    report: bool = True,
+) -> pd.DataFrame:
+    """Run (or resume) a study and return its results table.
+
+    Parameters
+    ----------
+    study : str, Path or Study
+        A study file or a loaded :class:`Study`.
+    out_dir : str or Path
+        Output folder (created; an existing one is resumed).
+    workers : int
+        Local worker processes (>= 1); ``0`` runs the cases in this process (debugging).  With a
+        scheduler ``"local"`` it is the number of Dask workers; ignored for a remote scheduler.
+    scheduler : str, optional
+        ``tcp://HOST:PORT`` of a Dask scheduler, or ``"local"`` for a local Dask cluster.
+        Default: the local process pool.
+    case_fn : callable or str, optional
+        ``case_fn(spec, outputs, solver, workdir) -> dict``; a module-level function (it is
+        pickled to workers) or ``"module:function"``.  Default ``psdesign.pipeline:run_case``.
+    progress : bool
+        Progress bar (TTY) or log lines on stderr.
+    timeout_s : float, optional
+        Per-case time limit in seconds (overrides ``study.timeout_s``); cases over it are killed
+        and recorded with status ``"timeout"``.
+    retry_failed : bool
+        Re-run cases recorded as ``failed`` or ``timeout`` (``ok`` cases are always skipped).
+    report : bool
+        Write ``OUT/report.html`` at the end.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per finished case of the design, in design order.
+
+    Raises
+    ------
+    StudyError
+        Invalid study or arguments; :class:`SchedulerError` if the scheduler does not answer.
+    StorageError
+        Writing results failed (disk full, permissions); records written so far are intact.
+    """
+    if not isinstance(study, Study):
+        study = load_study(study)
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+        raise StudyError(f"workers: must be an integer >= 0, got {workers!r}")
+    if timeout_s is not None and (not isinstance(timeout_s, int | float) or timeout_s <= 0):
+        raise StudyError(f"timeout: must be a number > 0 (seconds), got {timeout_s!r}")
+    timeout = float(timeout_s) if timeout_s is not None else study.timeout_s
+    if case_fn is None:
+        case_fn = DEFAULT_CASE_FN
+    cases = expand_design(study)
+    if case_fn == DEFAULT_CASE_FN:
+        validate_case_specs(cases)
+    out = Path(out_dir).resolve()
+    store = CaseStore(out)
+    param_names = list(study.parameters)
+
+    # connect first: a dead scheduler must not touch the output folder
+    client = cluster = None
+    if scheduler:
+        client, cluster = connect_scheduler(scheduler, workers)
+    try:
+        store.prepare()
+        with _run_lock(out):
+            return _run_locked(
+                study, cases, store, param_names, workers, scheduler, client, case_fn,
+                progress, timeout, retry_failed, report,
+            )
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _run_locked(
+    study: Study,
+    cases: list[Case],
+    store: CaseStore,
+    param_names: list[str],
+    workers: int,
+    scheduler: str | None,
+    client,
+    case_fn,
+    progress: bool,
+    timeout: float | None,
+    retry_failed: bool,
+    report: bool,
+) -> pd.DataFrame:
+    out = store.out
+    t_start = time.perf_counter()
+    started = _now()
+    store.write_json(
+        "study.json",
+        {"study": study.to_dict(), "n_cases": len(cases), "cases": [c.to_dict() for c in cases]},
+    )
+    design_ids = {c.case_id for c in cases}
+    records = {k: v for k, v in store.load_records().items() if k in design_ids}
+    skip = {"ok"} if retry_failed else {"ok", "failed", "timeout"}
+    todo = [c for c in cases if records.get(c.case_id, {}).get("status") not in skip]
+
+    prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=progress)
+    backend = f"dask {scheduler}" if scheduler else (
+        "in-process" if workers == 0 else f"{workers} local worker(s)")
+    prog.start(
+        f"[study] {study.name}: {len(cases)} cases, {len(cases) - len(todo)} already done, "
+        f"{len(todo)} to run on {backend} -> {out}"
+    )
+
+    by_id = {c.case_id: c for c in cases}
+
+    def on_done(payload: dict, rec: dict) -> None:
+        c = by_id[payload["case_id"]]
+        full = {
+            "case_id": c.case_id,
+            "index": c.index,
+            "params": c.params,
+            "seed": c.seed,
+            **rec,
+        }
+        store.write_record(full)  # raises StorageError: stop, earlier rows intact
+        records[c.case_id] = full
+        store.write_tables(records.values(), param_names)
+        prog.update(c.case_id, full["status"], full.get("wall_time_s"), full.get("error"))
+
+    payloads = [
+        {
+            "case_id": c.case_id,
+            "spec": c.spec,
+            "outputs": list(study.outputs),
+            "solver": study.solver,
+            "workdir": str(store.workdir(c.case_id)),
+            "out_dir": str(out),
+            "case_fn": case_fn,
+            "timeout_s": timeout,
+        }
+        for c in todo
+    ]
+    if payloads:
+        if client is not None:
+            _run_dask(client, payloads, on_done)
+        elif workers == 0:
+            _run_inline(payloads, on_done)
+        else:
+            _run_pool(payloads, min(workers, len(payloads)), on_done)
+
+    df = store.write_tables(records.values(), param_names)
+    counts = df["status"].value_counts().to_dict() if len(df) else {}
+    _append_run(store, {
+        "started_at": started,
+        "finished_at": _now(),
+        "wall_time_s": time.perf_counter() - t_start,
+        "workers": workers,
+        "scheduler": scheduler,
+        "timeout_s": timeout,
+        "n_cases": len(cases),
+        "n_run": len(payloads),
+        "status_counts": {str(k): int(v) for k, v in counts.items()},
+        "case_fn": case_fn if isinstance(case_fn, str) else
+        f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+        "machine": _machine(),
+    })
+    if report:
+        try:
+            from psdesign.report import write_report
+
+            write_report(out)
+        except StorageError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
+            print(f"[study] warning: report not written: {type(exc).__name__}: {exc}",
+                  file=sys.stderr)
+    summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+    prog.finish(f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> "
+                f"{out / 'results.csv'}")
+    return df
+
+
+def _append_run(store: CaseStore, entry: dict) -> None:
+    path = store.out / "run.json"
+    runs = []
+    if path.is_file():
+        try:
+            runs = json.loads(path.read_text()).get("runs", [])
+        except (OSError, ValueError, AttributeError):
+            runs = []
+    runs.append(entry)
+    store.write_json("run.json", {"runs": runs})

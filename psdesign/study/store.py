@@ -1,0 +1,280 @@
+"""Atomic, resumable storage of study results.
+
+Layout of an output folder ``OUT``::
+
+    OUT/study.json            expanded design (study settings + every case's params, seed, spec)
+    OUT/cases/<case_id>.json  one record per finished case (written via temp file + os.replace)
+    OUT/cases/<case_id>/      the case's working folder (previews, logs)
+    OUT/results.csv           consolidated table, one row per finished case, design order
+    OUT/results.parquet       the same table in Parquet
+    OUT/run.json              run history (start/end, workers, scheduler, machine)
+
+Per-case records are the source of truth; the tables are rebuilt from them.  Every file is
+written to a temporary name in the same folder, flushed, fsynced and moved into place with
+:func:`os.replace`, so a crash (even ``kill -9``) leaves either the old or the new file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "CaseStore",
+    "StorageError",
+    "TIMING_COLUMNS",
+    "atomic_write_bytes",
+    "atomic_write_json",
+    "is_timing_column",
+    "records_to_frame",
+]
+
+#: Columns that vary from run to run (excluded when comparing tables for reproducibility).
+TIMING_COLUMNS = ("started_at", "finished_at", "host", "pid", "wall_time_s", "runner_overhead_s")
+LEADING = ("case_id", "index")
+RESULT_ORDER = (
+    "seed",
+    "status",
+    "error",
+    "porosity",
+    "k_x_m2",
+    "k_y_m2",
+    "k_z_m2",
+    "k_xx_m2",
+    "k_xy_m2",
+    "k_xz_m2",
+    "k_yx_m2",
+    "k_yy_m2",
+    "k_yz_m2",
+    "k_zx_m2",
+    "k_zy_m2",
+    "k_zz_m2",
+    "n_fibers",
+)
+TENSOR_KEYS = ("k_xx_m2", "k_xy_m2", "k_xz_m2", "k_yx_m2", "k_yy_m2", "k_yz_m2", "k_zx_m2",
+               "k_zy_m2", "k_zz_m2")
+_SAFE_ID = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+
+class StorageError(OSError):
+    """Writing results failed (disk full, permissions ...); earlier results are intact."""
+
+
+def is_timing_column(name: str) -> bool:
+    """True for columns that legitimately differ between identical runs."""
+    return name in TIMING_COLUMNS or name.endswith("_time_s") or name.startswith("time_")
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (temp file in the same folder + os.replace).
+
+    Raises
+    ------
+    StorageError
+        On any OSError; ``path`` keeps its previous content and no temp file is left.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        raise StorageError(
+            exc.errno, f"cannot write {path}: {exc.strerror or exc}; earlier results are intact"
+        ) from exc
+    _fsync_dir(path.parent)
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return _jsonable(v.tolist())
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, Path):
+        return str(v)
+    if isinstance(v, float) and not math.isfinite(v):
+        return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    return v
+
+
+def atomic_write_json(path: Path, obj: Any) -> None:
+    """Atomically write ``obj`` as indented JSON (numpy values converted)."""
+    text = json.dumps(_jsonable(obj), indent=1, sort_keys=False, allow_nan=False)
+    atomic_write_bytes(Path(path), text.encode())
+
+
+def _cell(v: Any) -> Any:
+    """Table cell: scalars as they are, anything else as compact JSON text."""
+    if v is None or isinstance(v, bool | int | float | str):
+        return v
+    return json.dumps(_jsonable(v), sort_keys=True, separators=(",", ":"))
+
+
+def records_to_frame(records: Iterable[dict], param_names: list[str]) -> pd.DataFrame:
+    """Build the consolidated results table from case records.
+
+    Columns: ``case_id``, ``index``, the study's parameters, ``seed``, ``status``, ``error``,
+    ``porosity``, permeabilities, tensor, then every other result (solver stats, timings) in
+    sorted order.  Rows are in design order.
+    """
+    rows = []
+    for rec in records:
+        row = {"case_id": rec["case_id"], "index": rec["index"]}
+        params = rec.get("params", {})
+        for p in param_names:
+            row[p] = _cell(params.get(p))
+        row["seed"] = rec.get("seed")
+        row["status"] = rec.get("status")
+        row["error"] = rec.get("error")
+        for k, v in (rec.get("results") or {}).items():
+            if k in row or k in params:
+                k = f"result.{k}"
+            row[k] = _cell(v)
+        for k in ("wall_time_s", "runner_overhead_s", "started_at", "finished_at", "host", "pid"):
+            if k in rec:
+                row[k] = rec[k]
+        rows.append(row)
+    rows.sort(key=lambda r: r["index"])
+    df = pd.DataFrame(rows)
+    if df.empty:
+        return pd.DataFrame(columns=[*LEADING, *param_names, "seed", "status", "error"])
+    first = [*LEADING, *param_names]
+    present = [c for c in RESULT_ORDER if c in df.columns]
+    rest = [c for c in df.columns if c not in first and c not in present]
+    stats = sorted(c for c in rest if not is_timing_column(c))
+    timing = sorted(c for c in rest if is_timing_column(c))
+    df = df[first + present + stats + timing]
+    # error is text even when every case succeeded (keeps CSV/Parquet schemas stable)
+    df["error"] = df["error"].astype("object")
+    return df.reset_index(drop=True)
+
+
+class CaseStore:
+    """Per-case records and consolidated tables in an output folder.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The study's output folder (created if needed).
+    """
+
+    def __init__(self, out_dir: str | Path):
+        self.out = Path(out_dir)
+        self.cases_dir = self.out / "cases"
+
+    # -- paths
+    def record_path(self, case_id: str) -> Path:
+        if not _SAFE_ID.match(case_id):
+            raise ValueError(f"case_id: unsafe characters in {case_id!r}")
+        return self.cases_dir / f"{case_id}.json"
+
+    def workdir(self, case_id: str) -> Path:
+        return self.cases_dir / case_id
+
+    # -- setup
+    def prepare(self) -> None:
+        """Create the folders and check that they are writable.
+
+        Raises
+        ------
+        StorageError
+            If the folder cannot be created or written.
+        """
+        try:
+            self.cases_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StorageError(
+                exc.errno, f"cannot create output folder {self.cases_dir}: {exc.strerror or exc}"
+            ) from exc
+        atomic_write_bytes(self.out / ".write-test", b"ok")
+        try:
+            (self.out / ".write-test").unlink()
+        except OSError:
+            pass
+        # leftovers of a killed run: temp files are never valid data
+        for tmp in list(self.cases_dir.glob(".*.tmp")) + list(self.out.glob(".*.tmp")):
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+    # -- records
+    def load_records(self) -> dict[str, dict]:
+        """All readable records by case_id (unreadable/partial files are skipped)."""
+        out: dict[str, dict] = {}
+        if not self.cases_dir.is_dir():
+            return out
+        for p in sorted(self.cases_dir.glob("*.json")):
+            try:
+                rec = json.loads(p.read_text())
+            except (OSError, ValueError):
+                continue
+            if isinstance(rec, dict) and rec.get("case_id") == p.stem and "status" in rec:
+                out[p.stem] = rec
+        return out
+
+    def write_record(self, record: dict) -> None:
+        """Atomically write one case record."""
+        atomic_write_json(self.record_path(record["case_id"]), record)
+
+    def write_tables(self, records: Iterable[dict], param_names: list[str]) -> pd.DataFrame:
+        """Rebuild ``results.csv`` and ``results.parquet`` atomically from ``records``."""
+        df = records_to_frame(records, param_names)
+        atomic_write_bytes(self.out / "results.csv", df.to_csv(index=False).encode())
+        tmp = self.out / f".results.parquet.{os.getpid()}.tmp"
+        try:
+            df.to_parquet(tmp, index=False)
+            os.replace(tmp, self.out / "results.parquet")
+        except OSError as exc:
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+            raise StorageError(
+                exc.errno,
+                f"cannot write {self.out / 'results.parquet'}: {exc.strerror or exc}; "
+                "earlier results are intact",
+            ) from exc
+        except Exception:  # noqa: BLE001 - a Parquet schema problem must not stop the study
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+            df.astype(str).to_parquet(tmp, index=False)
+            os.replace(tmp, self.out / "results.parquet")
+        return df
+
+    def write_json(self, name: str, obj: Any) -> None:
+        atomic_write_json(self.out / name, obj)

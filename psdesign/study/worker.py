@@ -1,0 +1,221 @@
+"""Execution of one case inside a worker (process-pool worker, Dask worker or in-process).
+
+:func:`execute_case` never raises for a failing case: it returns a record with status
+``"ok"``, ``"failed"`` or ``"timeout"``.  With a timeout the case runs in a child process
+(``python -m psdesign.study._child``) in its own session, which is killed (SIGKILL to the
+process group) when the time is up, so a runaway case is really stopped.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+import pickle
+import signal
+import socket
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .casefn import DEFAULT_CASE_FN, load_case_fn
+
+__all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
+
+_AXES = "xyz"
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="milliseconds")
+
+
+def _scalar(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, Path):
+        return str(v)
+    if isinstance(v, float) and not math.isfinite(v):
+        return None if math.isnan(v) else v
+    return v
+
+
+def normalize_results(results: Any, out_dir: Path | None = None) -> dict:
+    """Flatten a case function's result dict into JSON-friendly scalars.
+
+    ``k_tensor_m2`` given as 9 values or a 3x3 array becomes ``k_xx_m2`` ... ``k_zz_m2``;
+    ``preview_png`` is stored relative to ``out_dir`` when it lies inside it; other arrays are
+    kept as lists.
+
+    Raises
+    ------
+    TypeError
+        If ``results`` is not a mapping.
+    """
+    if not isinstance(results, dict):
+        raise TypeError(f"case function returned {type(results).__name__}, expected a dict")
+    out: dict[str, Any] = {}
+    for k, v in results.items():
+        k = str(k)
+        if k == "k_tensor_m2" and v is not None:
+            arr = np.asarray(v, dtype=float).reshape(-1)
+            if arr.size != 9:
+                raise TypeError(f"k_tensor_m2 has {arr.size} values, expected 9")
+            for i, a in enumerate(_AXES):
+                for j, b in enumerate(_AXES):
+                    out[f"k_{a}{b}_m2"] = float(arr[3 * i + j])
+            continue
+        if k == "preview_png" and v is not None:
+            p = Path(v)
+            if out_dir is not None:
+                try:
+                    p = p.resolve().relative_to(Path(out_dir).resolve())
+                except ValueError:
+                    pass
+            out[k] = str(p)
+            continue
+        if isinstance(v, np.ndarray):
+            v = v.tolist()
+        if isinstance(v, list | tuple):
+            v = [_scalar(x) for x in v]
+        elif isinstance(v, dict):
+            v = {str(a): _scalar(b) for a, b in v.items()}
+        else:
+            v = _scalar(v)
+        out[k] = v
+    return out
+
+
+def _one_line(exc: BaseException) -> str:
+    msg = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
+
+
+def _child_env() -> dict:
+    env = dict(os.environ)
+    paths = [p for p in sys.path if p]
+    if env.get("PYTHONPATH"):
+        paths.append(env["PYTHONPATH"])
+    env["PYTHONPATH"] = os.pathsep.join(dict.fromkeys(paths))
+    return env
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError, AttributeError):
+        try:
+            proc.kill()
+        except ProcessLookupError:
+            pass
+    proc.wait()
+
+
+def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str | None]:
+    """Run the case in a killable child process.  Returns (status, results, error)."""
+    inp = workdir / ".case_input.pkl"
+    outp = workdir / ".case_output.pkl"
+    outp.unlink(missing_ok=True)
+    with open(inp, "wb") as fh:
+        pickle.dump(
+            {
+                "case_fn": payload["case_fn"],
+                "spec": payload["spec"],
+                "outputs": payload["outputs"],
+                "solver": payload["solver"],
+                "workdir": str(workdir),
+            },
+            fh,
+        )
+    timeout = float(payload["timeout_s"])
+    with open(workdir / "case.log", "ab") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "psdesign.study._child", str(inp), str(outp),
+             str(os.getpid())],
+            stdout=log,
+            stderr=log,
+            stdin=subprocess.DEVNULL,
+            env=_child_env(),
+            start_new_session=True,
+        )
+        try:
+            proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            return "timeout", None, f"case exceeded the timeout of {timeout:g} s and was killed"
+        except BaseException:
+            _kill_group(proc)
+            raise
+    inp.unlink(missing_ok=True)
+    if not outp.is_file():
+        rc = proc.returncode
+        sig = ""
+        if rc is not None and rc < 0:
+            try:
+                sig = f" ({signal.Signals(-rc).name})"
+            except ValueError:
+                sig = ""
+        return "failed", None, f"case process died with exit status {rc}{sig}; see case.log"
+    with open(outp, "rb") as fh:
+        res = pickle.load(fh)
+    outp.unlink(missing_ok=True)
+    if res.get("ok"):
+        return "ok", res["results"], None
+    (workdir / "error.txt").write_text(res.get("traceback", ""))
+    return "failed", None, res["error"]
+
+
+def run_case_inline(payload: dict, workdir: Path) -> dict:
+    """Call the case function in this process (no isolation, no timeout)."""
+    fn = load_case_fn(payload["case_fn"])
+    return fn(payload["spec"], list(payload["outputs"]), payload["solver"], workdir)
+
+
+def execute_case(payload: dict) -> dict:
+    """Run one case and return its record (never raises for a failing case).
+
+    Parameters
+    ----------
+    payload : dict
+        ``case_id``, ``spec``, ``outputs``, ``solver``, ``workdir``, ``out_dir``, ``case_fn``
+        (callable or ``"module:attr"``) and ``timeout_s`` (None for no limit).
+
+    Returns
+    -------
+    dict
+        ``status``, ``error``, ``results``, ``wall_time_s``, ``started_at``, ``finished_at``,
+        ``host``, ``pid``.
+    """
+    t0 = time.perf_counter()
+    started = _now()
+    workdir = Path(payload["workdir"])
+    status, results, error = "failed", None, None
+    try:
+        workdir.mkdir(parents=True, exist_ok=True)
+        if payload.get("timeout_s"):
+            status, raw, error = _run_in_child(payload, workdir)
+        else:
+            raw = run_case_inline(payload, workdir)
+            status = "ok"
+        if status == "ok":
+            results = normalize_results(raw, payload.get("out_dir"))
+    except Exception as exc:  # noqa: BLE001 - a failing case is data, not a crash
+        status, results, error = "failed", None, _one_line(exc)
+        try:
+            (workdir / "error.txt").write_text(traceback.format_exc())
+        except OSError:
+            pass
+    return {
+        "status": status,
+        "error": error,
+        "results": results or {},
+        "wall_time_s": time.perf_counter() - t0,
+        "started_at": started,
+        "finished_at": _now(),
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+    }
