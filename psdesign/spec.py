@@ -20,7 +20,10 @@ from .fibers import SHAPES, Fiber, make_fiber
 KNOWN_TABLES = ("rve", "fibers", "generator", "intersections", "flow", "mesh", "forcefield",
                 "output")
 RVE_KEYS = ("size", "voxel", "period")
-FIBER_KEYS = ("shape", "diameter", "center", "theta", "omega", "direction", "u", "f", "isovalue")
+FIBER_KEYS = ("shape", "diameter", "center", "theta", "omega", "direction", "u", "f", "isovalue",
+              "thickness_axis")
+#: Shapes that expand to several fibers.
+CELL_SHAPES = ("woven-cell",)
 FLOW_KEYS = ("solver", "viscosity", "aux_length", "direction", "sides", "pressure_drop",
              "tol", "edge_length", "max_memory_gb")
 DEFAULT_FLOW = {"solver": "fem", "viscosity": 1.8e-5, "aux_length": 0.2, "sides": "slip",
@@ -139,9 +142,18 @@ def _validate_fiber(fb: Any, i: int, size: list[float], ref: float) -> dict:
         if k not in FIBER_KEYS:
             raise SpecError(f"{key}.{k}", f"unknown key; allowed: {', '.join(FIBER_KEYS)}")
     shape = fb.get("shape", "rod")
-    if shape not in SHAPES:
-        raise SpecError(f"{key}.shape", f"unknown shape {shape!r}; allowed: {', '.join(SHAPES)}")
+    if shape not in SHAPES + CELL_SHAPES:
+        raise SpecError(f"{key}.shape", f"unknown shape {shape!r}; allowed: "
+                        f"{', '.join(SHAPES + CELL_SHAPES)}")
     out: dict[str, Any] = {"shape": shape}
+    if shape == "woven-cell":
+        axis = fb.get("thickness_axis", "z")
+        if axis not in ("x", "z"):
+            raise SpecError(f"{key}.thickness_axis", f"must be 'x' or 'z', got {axis!r}")
+        extra = set(fb) - {"shape", "thickness_axis"}
+        if extra:
+            raise SpecError(f"{key}.{sorted(extra)[0]}", "woven-cell takes only thickness_axis")
+        return {"shape": shape, "thickness_axis": axis}
     if shape in ("rod", "cylinder", "bent-rod"):
         if "diameter" not in fb:
             raise SpecError(f"{key}.diameter", "missing; give the fiber diameter in metres")
@@ -177,6 +189,11 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
     ref = spec["rve"]["period"] or float(size.max())
     fibers = []
     for i, fb in enumerate(spec["fibers"]):
+        if fb["shape"] == "woven-cell":
+            from .fibers import woven_cell
+
+            fibers.extend(woven_cell(fb.get("thickness_axis", "z")))
+            continue
         center = np.asarray(fb.get("center", size / 2)) / ref
         try:
             fibers.append(make_fiber(

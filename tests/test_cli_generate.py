@@ -84,3 +84,19 @@ def test_missing_file_is_a_clear_error(tmp_path, capsys):
     assert main(["generate", str(tmp_path / "nope.toml"), "-o", str(tmp_path / "o")]) == 2
     assert "file not found" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_woven_cell_spec_expands_to_six_fibers(tmp_path):
+    spec = write(tmp_path, "[rve]\nsize = [1e-4, 1e-4, 1e-4]\nvoxel = 2.5e-6\n"
+                 "[[fibers]]\nshape = \"woven-cell\"\n")
+    out = tmp_path / "w"
+    assert main(["generate", str(spec), "-o", str(out), "--no-preview"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_fibers"] == 6
+    # fabric lies in x-y: the solid is confined to a slab around z = L/2
+    import pyvista as pv
+
+    img = pv.read(out / "field.vti")
+    d = img.point_data["distance_m"].reshape(img.dimensions, order="F")
+    solid_z = np.nonzero((d <= 0).any(axis=(0, 1)))[0]
+    assert 0.2 * d.shape[2] < solid_z.min() and solid_z.max() < 0.8 * d.shape[2]
