@@ -30,8 +30,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             raise SpecError("--format", f"unknown format {fmt!r}; allowed: "
                             f"{', '.join(MESH_FORMATS)}")
     t0 = time.perf_counter()
-    rve = build_rve(spec).rve
-    fields = rve.voxelize(spec["rve"]["voxel"])
+    built = build_rve(spec)
+    rve = built.rve
+    fields = built.voxelize(spec["rve"]["voxel"])
     kw = {}
     if flow.get("edge_length") is not None:
         kw["edge_length_fac"] = float(flow["edge_length"])
@@ -61,8 +62,9 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
         flow["sides"] = args.sides
     solver = args.solver or flow["solver"]
     t0 = time.perf_counter()
-    rve = build_rve(spec).rve
-    fields = rve.voxelize(spec["rve"]["voxel"])
+    built = build_rve(spec)
+    rve = built.rve
+    fields = built.voxelize(spec["rve"]["voxel"])
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     results = [permeability(rve, fields, d, flow, solver=solver) for d in directions]
     if len(results) == 1:

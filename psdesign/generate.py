@@ -19,6 +19,13 @@ class BuiltRVE:
 
     rve: RVE
     report: dict = field(default_factory=dict)
+    fields: VoxelFields | None = None
+
+    def voxelize(self, voxel: float) -> VoxelFields:
+        """Voxel fields at ``voxel``, reusing the generator's final fields when they match."""
+        if self.fields is not None and np.allclose(self.fields.grid.spacing, voxel, rtol=1e-9):
+            return self.fields
+        return self.rve.voxelize(voxel)
 
 
 def build_rve(spec: dict) -> BuiltRVE:
@@ -33,7 +40,7 @@ def build_rve(spec: dict) -> BuiltRVE:
         from .generators import build_fibers
 
         result = build_fibers(spec, explicit=fibers)
-        return BuiltRVE(rve=result.rve, report=dict(result.report))
+        return BuiltRVE(rve=result.rve, report=dict(result.report), fields=result.fields)
     rve = RVE(size=np.asarray(rve_spec["size"]), fibers=fibers, period=rve_spec["period"])
     return BuiltRVE(rve=rve, report={"n_fibers": len(fibers)})
 
@@ -81,12 +88,13 @@ def write_generate_outputs(spec: dict, out_dir: str | Path, preview: bool = True
     dict
         The summary.
     """
+    from .generators import write_medial_axes
     from .preview import distance_image, fiber_surface, render_preview
 
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
-    fields = rve.voxelize(spec["rve"]["voxel"])
+    fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(rve, fields, built.report)
     summary["wall_time_s"] = {"build_and_voxelize": time.perf_counter() - t0}
     with staged_directory(out_dir) as tmp:
@@ -97,22 +105,10 @@ def write_generate_outputs(spec: dict, out_dir: str | Path, preview: bool = True
         surf = fiber_surface(fields.distance, fields.grid.spacing)
         if surf.n_points:
             surf.save(str(tmp / "fibers.stl"))
-        _write_medial_axes(rve, tmp)
+        write_medial_axes(rve, tmp)
         if preview:
             render_preview(fields.distance, fields.grid.spacing, tmp / "preview.png",
                            title=f"porosity {fields.porosity:.4f}, {len(rve.fibers)} fibers")
         summary["wall_time_s"]["total"] = time.perf_counter() - t0
         write_json(tmp / "summary.json", summary)
     return summary
-
-
-def _write_medial_axes(rve: RVE, out: Path) -> None:
-    """medial_axes.csv (fiber, copy, point, x_m, y_m, z_m) and medial_axes.json."""
-    rows = ["fiber,copy,point,x_m,y_m,z_m"]
-    doc = []
-    for i, lines in enumerate(rve.medial_axes_m()):
-        doc.append([line.tolist() for line in lines])
-        for c, line in enumerate(lines):
-            rows += [f"{i},{c},{k},{p[0]:.9e},{p[1]:.9e},{p[2]:.9e}" for k, p in enumerate(line)]
-    (out / "medial_axes.csv").write_text("\n".join(rows) + "\n")
-    write_json(out / "medial_axes.json", {"units": "m", "fibers": doc})

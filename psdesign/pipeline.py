@@ -35,7 +35,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")
     built = build_rve(spec)
     rve = built.rve
-    fields = rve.voxelize(spec["rve"]["voxel"])
+    fields = built.voxelize(spec["rve"]["voxel"])
     row: dict = {
         "porosity": fields.porosity,
         "n_fibers": len(rve.fibers),
