@@ -1,0 +1,300 @@
+"""Implicit fiber fields for the force-field potentials (paper Sec. 6).
+
+A field is a scalar function ``phi`` of normalized coordinates with the fiber solid where
+``phi <= 0``. The potentials need it in four forms: values on a tensor grid (volume
+integrals, marching cubes), values at scattered points, and the analytic gradient and
+Hessian at scattered points (surface projection and curvatures).
+
+:class:`PSField` wraps a :class:`~psdesign.model.GeneralizedPS` model and an isovalue,
+``phi = scale * (psi - isovalue)``; its grid evaluation exploits that every PS term
+depends only on the coordinates its basis vectors touch (a rod term ``cos(2 pi x)`` is a
+1-D array broadcast over the grid), so a grid costs a few 2-D cosines plus 3-D additions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numba
+import numpy as np
+
+from psdesign.model import TWO_PI, GeneralizedPS
+
+
+class NoFiberError(ValueError):
+    """The parameters give a fiber with no solid, or one that breaks inside the domain."""
+
+
+class ImplicitField(Protocol):
+    """What the potentials need from a fiber field (solid where ``phi <= 0``).
+
+    Attributes
+    ----------
+    bounds : tuple of ndarray (3,)
+        Axis-aligned box (lo, hi) that contains every solid point of the field that lies
+        inside the integration domain.
+    """
+
+    bounds: tuple[np.ndarray, np.ndarray]
+
+    def values(self, points: np.ndarray) -> np.ndarray: ...
+
+    def grid_values(self, axes: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray: ...
+
+    def derivatives(
+        self, points: np.ndarray, hessian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]: ...
+
+
+@numba.njit(cache=True, fastmath=False)
+def _derivs_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta,
+                   want_hess):  # pragma: no cover
+    npts, n, k = pts.shape[0], mu.shape[0], u.shape[0]
+    two_pi = 2.0 * np.pi
+    val = np.zeros(npts)
+    grad = np.zeros((npts, 3))
+    hess = np.zeros((npts, 3, 3)) if want_hess else np.zeros((0, 3, 3))
+    dph = np.zeros(3)
+    hph = np.zeros((3, 3))
+    for p in range(npts):
+        x0, x1, x2 = pts[p, 0], pts[p, 1], pts[p, 2]
+        for i in range(n):
+            kk = two_pi * kappa[i]
+            ph = kk * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
+            for a in range(3):
+                dph[a] = kk * H[i, a]
+                for b in range(3):
+                    hph[a, b] = 0.0
+            for j in range(k):
+                if minor_term[j] != i:
+                    continue
+                ff = two_pi * f[j]
+                th = ff * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
+                ct = u[j] * np.cos(th)
+                st = u[j] * np.sin(th)
+                ph += ct
+                for a in range(3):
+                    dph[a] -= st * ff * G[j, a]
+                    if want_hess:
+                        for b in range(3):
+                            hph[a, b] -= ct * ff * ff * G[j, a] * G[j, b]
+            c = mu[i] * np.cos(ph)
+            s = mu[i] * np.sin(ph)
+            val[p] += c
+            for a in range(3):
+                grad[p, a] -= s * dph[a]
+                if want_hess:
+                    for b in range(3):
+                        hess[p, a, b] -= c * dph[a] * dph[b] + s * hph[a, b]
+    return val, grad, hess
+
+
+@numba.njit(cache=True)
+def _value_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta):  # pragma: no cover
+    npts, n, k = pts.shape[0], mu.shape[0], u.shape[0]
+    two_pi = 2.0 * np.pi
+    val = np.zeros(npts)
+    for p in range(npts):
+        x0, x1, x2 = pts[p, 0], pts[p, 1], pts[p, 2]
+        for i in range(n):
+            ph = two_pi * kappa[i] * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
+            for j in range(k):
+                if minor_term[j] == i:
+                    ph += u[j] * np.cos(two_pi * f[j] * (G[j, 0] * x0 + G[j, 1] * x1
+                                                         + G[j, 2] * x2 + beta[j]))
+            val[p] += mu[i] * np.cos(ph)
+    return val
+
+
+def _model_arrays(model: GeneralizedPS) -> tuple:
+    return (model.mu, model.kappa, np.ascontiguousarray(model.H), model.alpha,
+            model.minor_term.astype(np.int64), model.u, model.f,
+            np.ascontiguousarray(model.G), model.beta)
+
+
+def ps_values(model: GeneralizedPS, points: np.ndarray) -> np.ndarray:
+    """Values of a generalized PS model at points (compiled; same as ``model.evaluate``)."""
+    pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
+    return _value_kernel(pts, *_model_arrays(model))
+
+
+def ps_derivatives(
+    model: GeneralizedPS, points: np.ndarray, hessian: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Value, analytic gradient and analytic Hessian of a generalized PS model (compiled).
+
+    Same result as :func:`ps_derivatives_numpy` (see there for the formulas).
+    """
+    pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
+    v, g, h = _derivs_kernel(pts, *_model_arrays(model), bool(hessian))
+    return v, g, (h if hessian else None)
+
+
+def ps_derivatives_numpy(
+    model: GeneralizedPS, points: np.ndarray, hessian: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Value, analytic gradient and analytic Hessian of a generalized PS model.
+
+    With ``Phi_i = 2 pi kappa_i (H_i . r + alpha_i) + sum_k u_k cos(theta_k)`` and
+    ``theta_k = 2 pi f_k (G_k . r + beta_k)`` (minor terms k of major term i)::
+
+        grad Phi_i  = 2 pi kappa_i H_i - sum_k u_k sin(theta_k) 2 pi f_k G_k
+        hess Phi_i  = - sum_k u_k cos(theta_k) (2 pi f_k)^2 G_k G_k^T
+        psi         = sum_i mu_i cos(Phi_i)
+        grad psi    = - sum_i mu_i sin(Phi_i) grad Phi_i
+        hess psi    = - sum_i mu_i [cos(Phi_i) grad Phi_i grad Phi_i^T + sin(Phi_i) hess Phi_i]
+
+    Parameters
+    ----------
+    model : GeneralizedPS
+    points : ndarray, shape (N, 3)
+    hessian : bool
+        Compute the Hessian (else None is returned for it).
+
+    Returns
+    -------
+    value : ndarray (N,)
+    gradient : ndarray (N, 3)
+    hessian : ndarray (N, 3, 3)
+    """
+    pts = np.asarray(points, float).reshape(-1, 3)
+    npts, n = len(pts), model.n_terms
+    kh = TWO_PI * model.kappa[:, None] * model.H  # (n, 3)
+    phase = pts @ kh.T + TWO_PI * model.kappa * model.alpha  # (N, n)
+    dphi = np.empty((n, npts, 3))
+    dphi[:] = kh[:, None, :]
+    hphi: dict[int, np.ndarray] = {}
+    if model.n_minor:
+        fg = TWO_PI * model.f[:, None] * model.G  # (k, 3)
+        theta = pts @ fg.T + TWO_PI * model.f * model.beta  # (N, k)
+        ct, st = np.cos(theta) * model.u, np.sin(theta) * model.u
+        for k, i in enumerate(model.minor_term):  # loop over the (few) minor terms
+            phase[:, i] += ct[:, k]
+            dphi[i] -= st[:, k, None] * fg[k]
+            if hessian:
+                gg = -np.outer(fg[k], fg[k])
+                hk = ct[:, k, None, None] * gg
+                hphi[i] = hphi[i] + hk if i in hphi else hk
+    c, s = np.cos(phase) * model.mu, np.sin(phase) * model.mu  # (N, n)
+    value = c.sum(axis=1)
+    grad = np.zeros((npts, 3))
+    hess = np.zeros((npts, 3, 3)) if hessian else None
+    for i in range(n):  # loop over the (few) major terms
+        grad -= s[:, i, None] * dphi[i]
+        if hessian:
+            hess -= c[:, i, None, None] * (dphi[i][:, :, None] * dphi[i][:, None, :])
+            if i in hphi:
+                hess -= s[:, i, None, None] * hphi[i]
+    return value, grad, hess
+
+
+def ps_grid_values(
+    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """Evaluate a generalized PS model on the tensor grid ``x (ij) y (ij) z``.
+
+    Each term is evaluated only on the coordinates its basis vectors depend on and
+    broadcast, so the cost is dominated by additions on the 3-D grid.
+    """
+    coords = [np.asarray(a, float).reshape(s) for a, s in
+              zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1)), strict=True)]
+    shape = tuple(len(a) for a in axes)
+    out = np.zeros(shape)
+    for i in range(model.n_terms):
+        phase: np.ndarray | float = TWO_PI * model.kappa[i] * model.alpha[i]
+        for a in range(3):
+            if model.H[i, a] != 0.0:
+                phase = phase + (TWO_PI * model.kappa[i] * model.H[i, a]) * coords[a]
+        for k in np.flatnonzero(model.minor_term == i):
+            theta: np.ndarray | float = TWO_PI * model.f[k] * model.beta[k]
+            for a in range(3):
+                if model.G[k, a] != 0.0:
+                    theta = theta + (TWO_PI * model.f[k] * model.G[k, a]) * coords[a]
+            phase = phase + model.u[k] * np.cos(theta)
+        out += model.mu[i] * np.cos(phase)
+    return out
+
+
+@dataclass(frozen=True)
+class Tube:
+    """Carrier axis of a fiber crossing the domain along a coordinate axis.
+
+    Every cross-section of the solid by a plane perpendicular to ``direction`` must be
+    star-shaped about the section's minimum of the field and lie within ``radius`` of the
+    carrier axis.
+
+    Parameters
+    ----------
+    point : array_like (3,)
+        A point on the carrier axis.
+    axis : int
+        0, 1 or 2: the coordinate axis the fiber runs along.
+    radius : float
+        Bound on the distance of solid points from the carrier axis.
+    """
+
+    point: np.ndarray
+    axis: int
+    radius: float
+
+    def __post_init__(self) -> None:
+        if self.axis not in (0, 1, 2):
+            raise ValueError(f"axis must be 0, 1 or 2, got {self.axis}")
+        if not (np.isfinite(self.radius) and self.radius > 0):
+            raise ValueError(f"radius must be positive, got {self.radius}")
+        object.__setattr__(self, "point", np.asarray(self.point, float).reshape(3))
+
+    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Right-handed orthonormal frame (e1, e2, d) with d along the axis."""
+        d = np.eye(3)[self.axis]
+        e1 = np.eye(3)[(self.axis + 1) % 3]
+        return e1, np.cross(d, e1), d
+
+
+@dataclass(frozen=True)
+class PSField:
+    """Fiber field ``phi = scale * (psi - isovalue)`` of a generalized PS model.
+
+    Parameters
+    ----------
+    model : GeneralizedPS
+        Placed model (normalized coordinates).
+    isovalue : float
+        Solid where ``psi <= isovalue``.
+    bounds : tuple of array_like (3,)
+        Axis-aligned box containing the fiber's solid inside the domain (its "tube").
+    scale : float
+        Positive factor on the field (1 = the paper's raw PS values).
+    tubes : tuple of Tube, optional
+        Carrier axes of the fiber's copies that enter the domain; enables the high-order
+        tube quadrature of the surface integrals (else marching cubes is used).
+    """
+
+    model: GeneralizedPS
+    isovalue: float
+    bounds: tuple[np.ndarray, np.ndarray]
+    scale: float = 1.0
+    tubes: tuple[Tube, ...] = ()
+
+    def __post_init__(self) -> None:
+        lo, hi = (np.asarray(b, float).reshape(3) for b in self.bounds)
+        if not np.all(hi > lo):
+            raise ValueError(f"bounds must satisfy hi > lo, got {lo}, {hi}")
+        if not (np.isfinite(self.scale) and self.scale > 0):
+            raise ValueError(f"scale must be positive, got {self.scale}")
+        object.__setattr__(self, "bounds", (lo, hi))
+        object.__setattr__(self, "tubes", tuple(self.tubes))
+
+    def values(self, points: np.ndarray) -> np.ndarray:
+        return self.scale * (ps_values(self.model, points) - self.isovalue)
+
+    def grid_values(self, axes: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+        return self.scale * (ps_grid_values(self.model, axes) - self.isovalue)
+
+    def derivatives(
+        self, points: np.ndarray, hessian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        v, g, h = ps_derivatives(self.model, points, hessian)
+        return (self.scale * (v - self.isovalue), self.scale * g,
+                None if h is None else self.scale * h)

@@ -1,0 +1,173 @@
+"""Generalized pattern search (compass search) with bound constraints.
+
+The paper (Sec. 6) minimizes the force-field energy with MATLAB's pattern search. This is
+the same method family: poll the 2n coordinate directions on a mesh of size ``step``
+(scaled to each variable's bound range), move to the first improving point
+(opportunistic polling, last successful direction first), expand the mesh after a
+success and contract it after a failed poll. Trial points outside the bounds are
+projected onto them, so a bound can be reached exactly. Equality constraints are handled
+by the caller through a parametrization (see :mod:`psdesign.forcefield.params`).
+
+No maintained, dependency-light PyPI package offers this with the iteration control
+used here (PyNomadBBO and pymoo exist but are large dependencies), hence this small
+implementation, tested on quadratic and Rosenbrock functions with bounds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class PatternSearchResult:
+    """Outcome of :func:`pattern_search`.
+
+    Attributes
+    ----------
+    x : ndarray
+        Best point found.
+    fun : float
+        Objective at ``x``.
+    n_iter, n_evals : int
+        Polls performed and objective evaluations (cache hits not counted).
+    converged : bool
+        True if the mesh size fell below ``min_step``; False if an iteration or
+        evaluation limit stopped the run (``x`` is then the best point so far).
+    message : str
+    history : list of dict
+        One entry per iteration: ``iter``, ``n_evals``, ``fun`` (best so far), ``step``.
+    """
+
+    x: np.ndarray
+    fun: float
+    n_iter: int
+    n_evals: int
+    converged: bool
+    message: str
+    history: list[dict] = field(default_factory=list)
+
+
+def check_bounds(x0, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate a start point and bounds; returns float arrays."""
+    x0 = np.atleast_1d(np.asarray(x0, float))
+    lo = np.broadcast_to(np.asarray(lower, float), x0.shape).copy()
+    hi = np.broadcast_to(np.asarray(upper, float), x0.shape).copy()
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError("bounds must be finite")
+    bad = np.flatnonzero(lo > hi)
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"bounds leave no feasible point: lower[{i}] = {lo[i]} > "
+                         f"upper[{i}] = {hi[i]}")
+    out = np.flatnonzero((x0 < lo) | (x0 > hi) | ~np.isfinite(x0))
+    if out.size:
+        i = int(out[0])
+        raise ValueError(f"x0[{i}] = {x0[i]} lies outside its bounds [{lo[i]}, {hi[i]}]")
+    return x0, lo, hi
+
+
+def pattern_search(
+    fun: Callable[[np.ndarray], float],
+    x0,
+    lower,
+    upper,
+    *,
+    step: float = 0.25,
+    min_step: float = 1e-4,
+    max_step: float = 0.5,
+    expand: float = 2.0,
+    contract: float = 0.5,
+    max_iter: int = 500,
+    max_evals: int | None = None,
+    callback: Callable[[dict], None] | None = None,
+) -> PatternSearchResult:
+    """Minimize ``fun`` over the box ``lower <= x <= upper`` by compass pattern search.
+
+    Parameters
+    ----------
+    fun : callable
+        Objective ``fun(x) -> float``.
+    x0 : array_like
+        Start point (inside the bounds).
+    lower, upper : array_like
+        Bounds; a variable with ``lower == upper`` is held fixed.
+    step : float
+        Initial mesh size as a fraction of each variable's range.
+    min_step : float
+        Convergence: stop when the mesh size falls below this fraction.
+    max_step : float
+        Cap on the mesh size after expansions.
+    expand, contract : float
+        Mesh factors after a successful / failed poll (> 1 and in (0, 1)).
+    max_iter : int
+        Iteration (poll) limit; hitting it returns the best point with ``converged=False``.
+    max_evals : int, optional
+        Limit on objective evaluations, handled like ``max_iter``.
+    callback : callable, optional
+        Called with each history entry.
+    """
+    x0, lo, hi = check_bounds(x0, lower, upper)
+    if not (0 < min_step < step <= max_step):
+        raise ValueError(f"need 0 < min_step < step <= max_step, got {min_step}, {step}, "
+                         f"{max_step}")
+    if not (expand >= 1.0 and 0.0 < contract < 1.0):
+        raise ValueError(f"expand must be >= 1 and contract in (0, 1), got {expand}, {contract}")
+    if max_iter < 1 or (max_evals is not None and max_evals < 1):
+        raise ValueError("max_iter and max_evals must be >= 1")
+    width = hi - lo
+    free = np.flatnonzero(width > 0)
+    cache: dict[tuple, float] = {}
+    n_evals = 0
+
+    def f_at(z: np.ndarray) -> float:
+        nonlocal n_evals
+        key = tuple(np.round(z, 12))
+        if key not in cache:
+            x = lo + z * width
+            x[width == 0] = lo[width == 0]
+            val = float(fun(x))
+            cache[key] = val if np.isfinite(val) else np.inf
+            n_evals += 1
+        return cache[key]
+
+    z = np.where(width > 0, (x0 - lo) / np.where(width > 0, width, 1.0), 0.0)
+    fz = f_at(z)
+    dirs = [(i, s) for i in free for s in (1.0, -1.0)]
+    history: list[dict] = []
+    converged, message, it = False, "", 0
+    if free.size == 0:
+        converged, message = True, "no free variables"
+    while not converged:
+        if it >= max_iter:
+            message = f"stopped on the iteration limit (max_iter={max_iter})"
+            break
+        if max_evals is not None and n_evals >= max_evals:
+            message = f"stopped on the evaluation limit (max_evals={max_evals})"
+            break
+        it += 1
+        success = False
+        for k, (i, s) in enumerate(dirs):
+            trial = z.copy()
+            trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
+            if trial[i] == z[i]:
+                continue
+            ft = f_at(trial)
+            if ft < fz:
+                z, fz, success = trial, ft, True
+                dirs.insert(0, dirs.pop(k))  # poll this direction first next time
+                break
+            if max_evals is not None and n_evals >= max_evals:
+                break
+        step = min(step * expand, max_step) if success else step * contract
+        entry = {"iter": it, "n_evals": n_evals, "fun": fz, "step": step}
+        history.append(entry)
+        if callback is not None:
+            callback(entry)
+        if step < min_step:
+            converged, message = True, f"mesh size below min_step={min_step}"
+    x = lo + z * width
+    return PatternSearchResult(x=x, fun=fz, n_iter=it, n_evals=n_evals, converged=converged,
+                               message=message, history=history)
