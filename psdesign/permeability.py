@@ -101,7 +101,7 @@ def permeability_fem(rve: RVE, fields: VoxelFields, direction: str | int, flow: 
     dp = float(flow.get("pressure_drop", 1.0))
     res = solve_stokes(mesh.points, mesh.tets, mesh.facet_tags, p_inlet=dp, p_outlet=0.0,
                        viscosity=float(flow["viscosity"]), noslip=noslip, slip=slip,
-                       tol=float(flow.get("tol", 1e-8)),
+                       tol=float(flow.get("tol") or 1e-6),
                        max_memory_gb=flow.get("max_memory_gb"))
     start, end = mesh.porous_region
     p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
