@@ -1,0 +1,151 @@
+"""Benchmark of the pore-space mesher on a Toray-like RVE (tet count, time, peak memory).
+
+Geometry: 100 um cube, straight cylinders D = 7 um lying nearly in the x-y plane (random in-plane
+angle, tilt within +-5 deg), added until the voxel porosity reaches ~0.8 (about 40 fibers);
+analytic signed distance min_i(|r - axis_i| - R). Each configuration runs in a fresh subprocess
+so that the peak RSS (ru_maxrss) is its own.
+
+Usage::
+
+    python benchmarks/bench_mesh.py                         # default sweep, prints a markdown table
+    python benchmarks/bench_mesh.py --voxel 1e-6 --edge-fac 0.05 0.03 --direction z
+    python benchmarks/bench_mesh.py --single '{"voxel": 1e-6, "edge_fac": 0.05}'   # one run, JSON
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SIZE = 100e-6
+DIAM = 7e-6
+
+
+def toray_like_distance(
+    voxel: float, porosity: float = 0.8, seed: int = 1
+) -> tuple[np.ndarray, int]:
+    """Signed distance (metres) of random straight cylinders; returns (field, n_fibers)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(SIZE / voxel))
+    c = (np.arange(n) + 0.5) * voxel
+    pts = np.stack(np.meshgrid(c, c, c, indexing="ij"), axis=-1).reshape(-1, 3)
+    p2 = np.einsum("ij,ij->i", pts, pts)
+    d2 = np.full(len(pts), np.inf)  # squared distance to the nearest axis
+    r = 0.5 * DIAM
+    n_fib = 0
+    while True:
+        omega = rng.uniform(0, np.pi)
+        theta = np.radians(rng.uniform(-5, 5))
+        u = np.array([np.cos(omega) * np.cos(theta), np.sin(omega) * np.cos(theta),
+                      np.sin(theta)])
+        p0 = rng.uniform(0, SIZE, 3)
+        pu = pts @ np.stack([u, p0], axis=1)  # (N, 2): r.u, r.p0
+        t = pu[:, 0] - p0 @ u
+        # |r - p0|^2 - ((r - p0).u)^2
+        np.minimum(d2, p2 - 2 * pu[:, 1] + p0 @ p0 - t * t, out=d2)
+        n_fib += 1
+        if float((d2 > r * r).mean()) <= porosity:
+            break
+    d = np.sqrt(np.maximum(d2, 0.0)) - r
+    return d.reshape(n, n, n), n_fib
+
+
+def run_single(cfg: dict) -> dict:
+    from psdesign.mesh import mesh_pore_space
+
+    t0 = time.perf_counter()
+    name = f"psdesign_toray_{cfg['voxel']:g}_{cfg.get('seed', 1)}.npz"
+    cache = Path(tempfile.gettempdir()) / name
+    if cache.exists():  # the geometry is not part of the mesh benchmark: reuse it
+        with np.load(cache) as z:
+            d, n_fib = z["d"], int(z["n_fib"])
+    else:
+        d, n_fib = toray_like_distance(cfg["voxel"], seed=cfg.get("seed", 1))
+        np.savez(cache, d=d, n_fib=n_fib)
+    t_geom = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    out = {"config": cfg, "n_fibers": n_fib, "porosity_voxel": float((d > 0).mean()),
+           "geometry_s": t_geom}
+    try:
+        pm = mesh_pore_space(
+            d, cfg["voxel"], (SIZE,) * 3, cfg.get("direction", "z"),
+            aux_length=cfg.get("aux", 0.2),
+            edge_length=cfg.get("edge_abs"),
+            edge_length_fac=cfg.get("edge_fac", 0.05),
+            epsilon=cfg.get("epsilon"),
+            surface_step=cfg.get("step"),
+            simplify_tol=cfg.get("simplify", 0.0) * cfg["voxel"],
+            num_threads=cfg.get("threads", 1),
+            tetwild_options=cfg.get("tetwild"),
+        )
+        q = pm.quality
+        keys = ["n_tets", "n_points", "n_surface_triangles", "edge_length_m", "epsilon_rel",
+                "min_dihedral_deg", "p01_min_dihedral_deg", "mean_radius_ratio",
+                "volume_rel_error", "volume_rel_error_vs_voxel", "porosity_mesh",
+                "pore_centroid_fraction", "n_closed_gap_voxels", "n_removed_components",
+                "surface_s", "tetwild_s", "tagging_s", "checks_s", "wall_time_s"]
+        out.update({k: q[k] for k in keys})
+        out["ok"] = True
+    except ValueError as e:
+        out["ok"] = False
+        out["error"] = f"{type(e).__name__}: {e}"
+    out["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    out["total_s"] = time.perf_counter() - t0
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--single", help="JSON config: run one case in this process")
+    ap.add_argument("--voxel", type=float, nargs="+", default=[1e-6, 0.5e-6])
+    ap.add_argument("--edge-fac", type=float, nargs="+", default=[0.05, 0.03])
+    ap.add_argument("--direction", default="z")
+    ap.add_argument("--step", type=int, default=None, help="surface step (default: auto)")
+    ap.add_argument("--epsilon", type=float, default=None)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--timeout", type=float, default=1800)
+    args = ap.parse_args()
+    if args.single:
+        print(json.dumps(run_single(json.loads(args.single))))
+        return
+    rows = []
+    for vox in args.voxel:
+        for fac in args.edge_fac:
+            cfg = {"voxel": vox, "edge_fac": fac, "direction": args.direction,
+                   "step": args.step, "epsilon": args.epsilon, "threads": args.threads}
+            try:
+                res = subprocess.run([sys.executable, __file__, "--single", json.dumps(cfg)],
+                                     capture_output=True, text=True, timeout=args.timeout)
+                line = [s for s in res.stdout.splitlines() if s.startswith("{")]
+                r = json.loads(line[-1]) if line else {"config": cfg, "ok": False,
+                                                       "error": res.stderr[-500:]}
+            except subprocess.TimeoutExpired:
+                r = {"config": cfg, "ok": False, "error": f"timeout {args.timeout} s"}
+            rows.append(r)
+            print(json.dumps(r), file=sys.stderr, flush=True)
+    print("| voxel um | step | edge_fac | edge um | surf tris | tets | tetwild s | total mesh s |"
+          " peak GB | vol err % | pore centroid % | min dihedral | porosity mesh |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        c = r["config"]
+        if not r.get("ok"):
+            print(f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | failed: "
+                  f"{r.get('error', '')[:80]} |")
+            continue
+        print(f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | "
+              f"{r['edge_length_m'] * 1e6:.2f} | {r['n_surface_triangles']} | {r['n_tets']} | "
+              f"{r['tetwild_s']:.1f} | {r['wall_time_s']:.1f} | {r['peak_rss_gb']:.2f} | "
+              f"{100 * r['volume_rel_error']:.2f} | {100 * r['pore_centroid_fraction']:.2f} | "
+              f"{r['min_dihedral_deg']:.1f} | {r['porosity_mesh']:.4f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,244 @@
+"""Tetrahedralization (pytetwild), boundary faces, plane snapping, boundary tags, connectivity."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytetwild
+from scipy import sparse
+from scipy.sparse import csgraph
+
+from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError
+
+# outward faces of a positively oriented tet (a, b, c, d)
+TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+SIDE_NAMES = ("x0", "x1", "y0", "y1", "z0", "z1")
+TETWILD_OPTIONS = {"stop_energy", "num_opt_iter", "coarsen", "simplify"}
+
+
+def tetrahedralize(
+    verts: np.ndarray,
+    faces: np.ndarray,
+    edge_length_abs: float,
+    epsilon: float,
+    num_threads: int = 1,
+    options: dict | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Run pytetwild (fTetWild) on a closed surface; tets returned positively oriented.
+
+    ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``.
+    """
+    options = dict(options or {})
+    bad = set(options) - TETWILD_OPTIONS
+    if bad:
+        raise MeshInputError(
+            f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"
+        )
+    pts, tets = pytetwild.tetrahedralize(
+        np.array(verts, dtype=np.float64, order="C"),  # writeable copies: nanobind rejects
+        np.array(faces, dtype=np.int32, order="C"),  # read-only buffers
+        edge_length_abs=float(edge_length_abs),
+        epsilon=float(epsilon),
+        optimize=True,  # optimize=False produced broken meshes in the trial of issue 5
+        num_threads=int(num_threads),
+        quiet=True,
+        **options,
+    )
+    tets = np.asarray(tets, dtype=np.int64)
+    if len(tets) == 0:
+        raise MeshFailedError("pytetwild returned no tetrahedra (surface too small or degenerate)")
+    vol = tet_volumes(pts, tets)
+    neg = vol < 0
+    tets[neg] = tets[neg][:, [0, 2, 1, 3]]
+    return np.asarray(pts, dtype=np.float64), tets
+
+
+def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Signed volumes of tets."""
+    a = points[tets[:, 0]]
+    return np.einsum(
+        "ij,ij->i", points[tets[:, 1]] - a, np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a)
+    ) / 6.0
+
+
+def face_structure(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Boundary faces and interior face adjacency of a tet mesh.
+
+    Returns
+    -------
+    bfaces
+        (k, 3) outward-oriented boundary triangles.
+    btet
+        (k,) owning tet of each boundary face.
+    pairs
+        (p, 2) tets sharing an interior face.
+    """
+    nt = len(tets)
+    allf = tets[:, TET_FACES].reshape(-1, 3)
+    owner = np.repeat(np.arange(nt), 4)
+    s = np.sort(allf, axis=1)
+    n = int(tets.max()) + 1
+    key = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
+    if key is None:
+        _, inv = np.unique(s, axis=0, return_inverse=True)
+        key = inv.ravel()
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same_next = ks[1:] == ks[:-1]
+    if len(ks) > 2 and (same_next[1:] & same_next[:-1]).any():
+        raise MeshFailedError("non-manifold tet mesh: a face is shared by more than two tets")
+    first = np.flatnonzero(same_next)
+    pairs = np.stack([owner[order[first]], owner[order[first + 1]]], axis=1)
+    is_pair = np.zeros(len(ks), dtype=bool)
+    is_pair[first] = True
+    is_pair[first + 1] = True
+    bidx = order[~is_pair]
+    return allf[bidx], owner[bidx], pairs
+
+
+def components(nt: int, pairs: np.ndarray) -> np.ndarray:
+    """Connected-component label of each tet (face adjacency)."""
+    g = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(nt, nt))
+    _, labels = csgraph.connected_components(g, directed=False)
+    return labels
+
+
+def snap_to_planes(
+    points: np.ndarray,
+    bfaces: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    tol: float,
+    cos_max: float = 0.98,
+) -> tuple[np.ndarray, float]:
+    """Move the vertices of boundary faces that lie on a box plane exactly onto it.
+
+    A boundary face is taken as lying on a plane when its three vertices are within ``tol`` of
+    the plane and its unit normal is within ``arccos(cos_max)`` of the plane normal; only the
+    vertices of such faces move (fiber-wall vertices that merely pass near a box face are left
+    alone, which would otherwise flatten tets).
+
+    Returns the snapped copy and the largest displacement applied.
+    """
+    pts = points.copy()
+    a, b, c = (points[bfaces[:, i]] for i in range(3))
+    n = np.cross(b - a, c - a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    max_move = 0.0
+    for ax in range(3):
+        for plane in (lo[ax], hi[ax]):
+            near = (np.abs(points[bfaces, ax] - plane) <= tol).all(axis=1)
+            on = near & (np.abs(n[:, ax]) >= cos_max)
+            if on.any():
+                idx = np.unique(bfaces[on])
+                max_move = max(max_move, float(np.abs(pts[idx, ax] - plane).max()))
+                pts[idx, ax] = plane
+    return pts, max_move
+
+
+def untangle_near_planes(
+    points: np.ndarray,
+    tets: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    push: float,
+    max_iter: int = 5,
+) -> tuple[np.ndarray, int]:
+    """Repair tets flattened or inverted by plane snapping.
+
+    A tet inverts when its face was snapped onto a box plane while its fourth vertex lies within
+    the snapping distance of that plane. Vertices of such tets that are not on a plane are moved
+    away from every plane they are closer to than ``push`` (to distance ``push``); the moved
+    vertices are interior or fiber-wall vertices (also ones left slightly outside the box),
+    displaced by about ``push`` at most (of the order of the envelope).
+    Returns the repaired copy and the number of vertices moved.
+    """
+    pts = points.copy()
+    moved: set[int] = set()
+    for _ in range(max_iter):
+        bad = tet_volumes(pts, tets) <= 0
+        if not bad.any():
+            break
+        verts = np.unique(tets[bad])
+        for ax in range(3):
+            c = pts[verts, ax]
+            for plane, sign in ((lo[ax], 1.0), (hi[ax], -1.0)):
+                dist = sign * (c - plane)
+                sel = (dist != 0) & (dist < push)  # dist == 0: snapped, stays
+                if sel.any():
+                    pts[verts[sel], ax] = plane + sign * push
+                    moved.update(verts[sel].tolist())
+                    c = pts[verts, ax]
+    return pts, len(moved)
+
+
+def tag_faces(
+    points: np.ndarray, bfaces: np.ndarray, lo: np.ndarray, hi: np.ndarray, axis: int
+) -> dict[str, np.ndarray]:
+    """Split boundary faces into inlet/outlet/side_*/wall by exact plane membership.
+
+    A face belongs to a box plane when its three (snapped) vertices lie exactly on it; every
+    other boundary face lies on a fiber surface (including fiber end caps facing the auxiliary
+    slabs) and is tagged ``wall``.
+    """
+    tags: dict[str, np.ndarray] = {}
+    used = np.zeros(len(bfaces), dtype=bool)
+    for ax in range(3):
+        for j, plane in enumerate((lo[ax], hi[ax])):
+            on = (points[bfaces, ax] == plane).all(axis=1) & ~used
+            used |= on
+            if ax == axis:
+                name = "inlet" if j == 0 else "outlet"
+            else:
+                name = "side_" + SIDE_NAMES[2 * ax + j]
+            tags[name] = bfaces[on]
+    tags["wall"] = bfaces[~used]
+    return tags
+
+
+def keep_through_components(
+    points: np.ndarray,
+    tets: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    axis: int,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Drop tet components that touch neither inlet nor outlet; fail if none spans both.
+
+    Returns the filtered (points, tets) (vertices renumbered) and a report dict.
+    """
+    bfaces, btet, pairs = face_structure(tets)
+    labels = components(len(tets), pairs)
+    ncomp = int(labels.max()) + 1
+    fc = points[bfaces, axis]
+    at_in = (np.abs(fc - lo[axis]) <= tol).all(axis=1)
+    at_out = (np.abs(fc - hi[axis]) <= tol).all(axis=1)
+    touches_in = np.zeros(ncomp, dtype=bool)
+    touches_out = np.zeros(ncomp, dtype=bool)
+    touches_in[labels[btet[at_in]]] = True
+    touches_out[labels[btet[at_out]]] = True
+    vol = tet_volumes(points, tets)
+    comp_vol = np.bincount(labels, weights=vol, minlength=ncomp)
+    if not touches_in.any():
+        raise PoreTopologyError("the inlet face is fully blocked by solid: no pore at the inlet")
+    if not touches_out.any():
+        raise PoreTopologyError("the outlet face is fully blocked by solid: no pore at the outlet")
+    if not (touches_in & touches_out).any():
+        raise PoreTopologyError(
+            "disconnected pore space: no pore path from the inlet to the outlet "
+            f"({ncomp} pore components, none touches both)"
+        )
+    keep_comp = touches_in | touches_out
+    keep = keep_comp[labels]
+    report = {
+        "n_components": ncomp,
+        "n_removed_components": int((~keep_comp).sum()),
+        "removed_volume": float(comp_vol[~keep_comp].sum()),
+    }
+    if keep.all():
+        return points, tets, report
+    tets = tets[keep]
+    used = np.unique(tets)
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return points[used], remap[tets], report
