@@ -53,6 +53,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     for d in directions:
         res = permeability(rve, fields, d, spec["flow"], solver=solver)
         row[f"k_{d}_m2"] = res["permeability_m2"]
+        if "permeability_core_m2" in res:
+            row[f"k_core_{d}_m2"] = res["permeability_core_m2"]
         row[f"converged_{d}"] = res["converged"]
         row[f"residual_{d}"] = res["residual"]
         row[f"iterations_{d}"] = res["iterations"]
