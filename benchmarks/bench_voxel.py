@@ -1,0 +1,141 @@
+"""Benchmark of the periodic MAC voxel Stokes solver (solvers.voxel_stokes).
+
+Usage::
+
+    python benchmarks/bench_voxel.py puma            # PuMA geometries 32^3 and 64^3 (K_zz vs PuMA)
+    python benchmarks/bench_voxel.py toray 100 200   # Toray-like fibrous grids of the given sizes
+    python benchmarks/bench_voxel.py base            # warm-up only: the numba/Python RSS baseline
+    python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
+
+Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
+``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import numba as nb
+import numpy as np
+
+from solvers.voxel_stokes import solve_voxel_stokes
+
+BENCH = Path("/work/shared/bench")
+PUMA = {32: (0.009785, 77.7, 211), 64: (0.010145, 1201.0, 500)}
+
+
+@nb.njit(parallel=True)  # no cache: the tests load this file by path
+def _rasterise(n, p0, dirs, radius, out):
+    """Mark cells whose centre lies within ``radius`` of any periodic straight fibre (unit box)."""
+    for i in nb.prange(n):
+        for j in range(n):
+            for k in range(n):
+                x = (i + 0.5) / n
+                y = (j + 0.5) / n
+                z = (k + 0.5) / n
+                for f in range(p0.shape[0]):
+                    rx = x - p0[f, 0]
+                    ry = y - p0[f, 1]
+                    rz = z - p0[f, 2]
+                    rx -= np.floor(rx + 0.5)
+                    ry -= np.floor(ry + 0.5)
+                    rz -= np.floor(rz + 0.5)
+                    t = rx * dirs[f, 0] + ry * dirs[f, 1] + rz * dirs[f, 2]
+                    px = rx - t * dirs[f, 0]
+                    py = ry - t * dirs[f, 1]
+                    pz = rz - t * dirs[f, 2]
+                    if px * px + py * py + pz * pz < radius * radius:
+                        out[i, j, k] = True
+                        break
+
+
+def toray_like(
+    n: int, diameter: float = 0.07, porosity: float = 0.8, seed: int = 0, n_ref: int = 100
+) -> np.ndarray:
+    """Toray-like fibrous grid: random straight fibres in a periodic unit box, ``n^3`` voxels.
+
+    Fibres (diameter ``diameter`` box lengths, 7 voxels at n = 100 by default, i.e. 7 um fibres
+    in a 100 um box) get a uniformly random centre point and a random direction flattened
+    towards the x-y plane (paper-type GDL, z-component scaled by 0.3), and wrap periodically
+    (minimum image), so the grid is periodic.  Fibres are added (fixed ``seed``) until the
+    porosity of an ``n_ref^3`` rasterisation reaches ``porosity``; the same fibre set is then
+    rasterised at ``n``, so different ``n`` are refinements of one geometry.
+    """
+    rng = np.random.default_rng(seed)
+    centres = np.zeros((0, 3))
+    dirs = np.zeros((0, 3))
+    ref = np.zeros((n_ref,) * 3, dtype=bool)
+    while 1.0 - ref.mean() > porosity:
+        d = rng.normal(size=3)
+        d[2] *= 0.3
+        d /= np.linalg.norm(d)
+        c = rng.random(3)
+        _rasterise(n_ref, c[None], d[None], 0.5 * diameter, ref)
+        centres = np.vstack([centres, c])
+        dirs = np.vstack([dirs, d])
+    out = np.zeros((n,) * 3, dtype=bool)
+    _rasterise(n, centres, dirs, 0.5 * diameter, out)
+    return out
+
+
+def run(solid: np.ndarray, h: float, label: str, direction: str = "z") -> None:
+    """Solve one direction and print K column, convergence data, time and peak RSS."""
+    load = os.getloadavg()
+    t = time.perf_counter()
+    res = solve_voxel_stokes(solid, h, direction, tol=1e-6)
+    wall = time.perf_counter() - t
+    print(
+        f"{label}: K[:,{direction}] = {res.permeability} porosity {res.porosity:.4f} "
+        f"converged {res.converged} MINRES iterations {res.iterations} residual "
+        f"{res.residual:.2e} flux imbalance {res.flux_imbalance:.1e} solve {wall:.1f} s "
+        f"peak RSS {res.peak_memory_mb:.0f} MB (load average before {load[0]:.1f})",
+        flush=True,
+    )
+
+
+SANGANI_ACRIVOS = {0.1: 24.83, 0.2: 51.53, 0.3: 102.90}  # Table 1, L^2 / K, transverse flow
+
+
+def cylinders(sizes: tuple[int, ...] = (16, 32, 64, 128)) -> None:
+    """Transverse flow through square cylinder arrays, grids (n, n, 4): deviation of L^2/K."""
+    for phi_s, ref in SANGANI_ACRIVOS.items():
+        row = []
+        for n in sizes:
+            c = np.arange(n) + 0.5 - n / 2
+            xx, yy = np.meshgrid(c, c, indexing="ij")
+            disk = xx**2 + yy**2 < phi_s * n * n / np.pi
+            solid = np.repeat(disk[:, :, None], 4, axis=2)
+            res = solve_voxel_stokes(solid, 1.0 / n, "x", tol=1e-7)
+            dev = 100.0 * (1.0 / res.permeability[0] / ref - 1.0)
+            row.append(f"n={n}: {dev:+.1f} % ({res.iterations} its, converged {res.converged})")
+        print(f"solid fraction {phi_s} (S&A {ref}): " + " | ".join(row), flush=True)
+
+
+def main(argv: list[str]) -> None:
+    what = argv[1] if len(argv) > 1 else "puma"
+    # warm-up: compile the numba kernels outside the timings
+    warm = np.zeros((16, 16, 16), dtype=bool)
+    warm[:, :2, :] = True
+    res0 = solve_voxel_stokes(warm, 1.0, "z")
+    if what == "cylinders":
+        cylinders()
+    elif what == "base":
+        print(f"baseline after warm-up: peak RSS {res0.peak_memory_mb:.0f} MB")
+    elif what == "puma":
+        sizes = [int(a) for a in argv[2:]] or [32, 64]
+        for n in sizes:
+            solid = np.load(BENCH / f"fibres_{n}.npz")["solid"].astype(bool)
+            run(solid, 1.0 / n, f"PuMA fibres_{n} (PuMA K_zz {PUMA[n][0]}, {PUMA[n][1]} s)")
+    else:
+        for n in [int(a) for a in argv[2:]] or [100]:
+            t = time.perf_counter()
+            solid = toray_like(n)
+            print(f"toray {n}^3 generated in {time.perf_counter() - t:.1f} s", flush=True)
+            run(solid, 100e-6 / n, f"toray {n}^3", "x")
+
+
+if __name__ == "__main__":
+    main(sys.argv)

@@ -1,0 +1,365 @@
+"""Numba kernels of the MAC (staggered) voxel Stokes solver (see :mod:`solvers.voxel_stokes`).
+
+Layout (all arrays C-ordered, indexed ``[i, j, k]`` = ``[x, y, z]``, periodic, voxel units h = 1,
+unit viscosity):
+
+* ``solid[i, j, k]``: uint8, 1 = solid cell.
+* velocity component ``a`` lives on the faces normal to ``a``; ``q_a[i, j, k]`` is the face
+  between cells ``(i, j, k) - e_a`` and ``(i, j, k)``.  A face is *active* (an unknown) when both
+  of its cells are fluid; inactive entries are kept at 0.
+* ``p[i, j, k]``: pressure at fluid cell centres (0 in solid cells).
+
+Scalar operators (one per velocity component, and the Galerkin coarse operators of the
+multigrid) are 7-point stencils stored as ``diag[i, j, k]`` and the couplings ``cx, cy, cz``
+between unknown ``(i, j, k)`` and its *lower* neighbour along x, y, z (periodic):
+``(A x)_I = diag_I x_I - sum_b (c_b[I] x[I - e_b] + c_b[I + e_b] x[I + e_b])``.
+An unknown with ``diag == 0`` is inactive.  Finest-level coefficients are small integers
+(uint8); coarse ones float32.  The symmetric saddle-point system is::
+
+    [ A  G ] [q]   [f]        A = -Laplacian (per component, no-slip on solid faces)
+    [ G' 0 ] [p] = [0]        (G p)_face = p[i] - p[i - e_a],  G' = -div
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+_OPTS = {"cache": True, "fastmath": True, "nogil": True}
+
+
+@nb.njit(inline="always")
+def _up(i, n):
+    return i + 1 if i + 1 < n else 0
+
+
+@nb.njit(inline="always")
+def _dn(i, n):
+    return i - 1 if i > 0 else n - 1
+
+
+@nb.njit(inline="always")
+def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
+    """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings."""
+    ip = _up(i, nx)
+    im = _dn(i, nx)
+    jp = _up(j, ny)
+    jm = _dn(j, ny)
+    kp = _up(k, nz)
+    km = _dn(k, nz)
+    s = (
+        cx[i, j, k] * x[im, j, k]
+        + cx[ip, j, k] * x[ip, j, k]
+        + cy[i, j, k] * x[i, jm, k]
+        + cy[i, jp, k] * x[i, jp, k]
+        + cz[i, j, k] * x[i, j, km]
+        + cz[i, j, kp] * x[i, j, kp]
+    )
+    return d[i, j, k] * x[i, j, k] - s
+
+
+@nb.njit(parallel=True, **_OPTS)
+def lap_residual(d, cx, cy, cz, x, b, r):
+    """r = b - A x (0 on inactive unknowns)."""
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if d[i, j, k] == 0:
+                    r[i, j, k] = 0.0
+                else:
+                    r[i, j, k] = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
+
+
+@nb.njit(parallel=True, **_OPTS)
+def jacobi(d, cx, cy, cz, x, b, xnew, omega):
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)``."""
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                dd = d[i, j, k]
+                if dd == 0:
+                    xnew[i, j, k] = 0.0
+                else:
+                    res = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
+                    xnew[i, j, k] = x[i, j, k] + omega * res / dd
+
+
+@nb.njit(parallel=True, **_OPTS)
+def jacobi_zero(d, b, x, omega):
+    """First Jacobi sweep from a zero guess: ``x = omega D^-1 b``."""
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                dd = d[i, j, k]
+                x[i, j, k] = 0.0 if dd == 0 else omega * b[i, j, k] / dd
+
+
+@nb.njit(inline="always")
+def _children(ic, f, nc, n):
+    lo = ic * f
+    hi = n if ic == nc - 1 else lo + f
+    return lo, hi
+
+
+@nb.njit(parallel=True, **_OPTS)
+def restrict_sum(r, fx, fy, fz, rc):
+    """Coarse right-hand side = sum of the fine residual over each aggregate (R = P^T)."""
+    nx, ny, nz = r.shape
+    ncx, ncy, ncz = rc.shape
+    for ic in nb.prange(ncx):
+        i0, i1 = _children(ic, fx, ncx, nx)
+        for jc in range(ncy):
+            j0, j1 = _children(jc, fy, ncy, ny)
+            for kc in range(ncz):
+                k0, k1 = _children(kc, fz, ncz, nz)
+                acc = 0.0
+                for i in range(i0, i1):
+                    for j in range(j0, j1):
+                        for k in range(k0, k1):
+                            acc += r[i, j, k]
+                rc[ic, jc, kc] = acc
+
+
+@nb.njit(parallel=True, **_OPTS)
+def prolong_add(d, xc, fx, fy, fz, alpha, x):
+    """x += alpha * (piecewise-constant interpolation of xc) on active fine unknowns."""
+    nx, ny, nz = d.shape
+    ncx, ncy, ncz = xc.shape
+    for i in nb.prange(nx):
+        ic = min(i // fx, ncx - 1)
+        for j in range(ny):
+            jc = min(j // fy, ncy - 1)
+            for k in range(nz):
+                if d[i, j, k] != 0:
+                    kc = min(k // fz, ncz - 1)
+                    x[i, j, k] += alpha * xc[ic, jc, kc]
+
+
+@nb.njit(parallel=True, **_OPTS)
+def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
+    """Galerkin coarse operator P^T A P for piecewise-constant aggregation (box aggregates).
+
+    Couplings of children on the lower boundary of an aggregate become the coarse coupling to
+    the lower coarse neighbour; couplings inside an aggregate cancel against the diagonal.
+    """
+    nx, ny, nz = d.shape
+    ncx, ncy, ncz = dc.shape
+    for ic in nb.prange(ncx):
+        i0, i1 = _children(ic, fx, ncx, nx)
+        for jc in range(ncy):
+            j0, j1 = _children(jc, fy, ncy, ny)
+            for kc in range(ncz):
+                k0, k1 = _children(kc, fz, ncz, nz)
+                dd = 0.0
+                ex = 0.0
+                ey = 0.0
+                ez = 0.0
+                for i in range(i0, i1):
+                    for j in range(j0, j1):
+                        for k in range(k0, k1):
+                            dd += d[i, j, k]
+                            if i == i0:
+                                ex += cx[i, j, k]
+                            else:
+                                dd -= 2.0 * cx[i, j, k]
+                            if j == j0:
+                                ey += cy[i, j, k]
+                            else:
+                                dd -= 2.0 * cy[i, j, k]
+                            if k == k0:
+                                ez += cz[i, j, k]
+                            else:
+                                dd -= 2.0 * cz[i, j, k]
+                dc[ic, jc, kc] = dd
+                cxc[ic, jc, kc] = ex
+                cyc[ic, jc, kc] = ey
+                czc[ic, jc, kc] = ez
+
+
+@nb.njit(parallel=True, **_OPTS)
+def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y):
+    """y = K x for the symmetric MAC Stokes matrix; x, y have shape (4, nx, ny, nz) = (u, v, w, p).
+
+    ``du, dv, dw`` are the diagonals of the three component operators, ``cu = (cx, cy, cz)`` of
+    component u etc. (stacked uint8 arrays of shape (3, nx, ny, nz)); ``fluid`` is uint8.
+    """
+    nx, ny, nz = fluid.shape
+    u = x[0]
+    v = x[1]
+    w = x[2]
+    p = x[3]
+    for i in nb.prange(nx):
+        im = _dn(i, nx)
+        ip = _up(i, nx)
+        for j in range(ny):
+            jm = _dn(j, ny)
+            jp = _up(j, ny)
+            for k in range(nz):
+                km = _dn(k, nz)
+                kp = _up(k, nz)
+                pc = p[i, j, k]
+                if du[i, j, k] != 0:
+                    y[0, i, j, k] = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz) + (
+                        pc - p[im, j, k]
+                    )
+                else:
+                    y[0, i, j, k] = 0.0
+                if dv[i, j, k] != 0:
+                    y[1, i, j, k] = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz) + (
+                        pc - p[i, jm, k]
+                    )
+                else:
+                    y[1, i, j, k] = 0.0
+                if dw[i, j, k] != 0:
+                    y[2, i, j, k] = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz) + (
+                        pc - p[i, j, km]
+                    )
+                else:
+                    y[2, i, j, k] = 0.0
+                if fluid[i, j, k] != 0:
+                    y[3, i, j, k] = (
+                        u[i, j, k]
+                        - u[ip, j, k]
+                        + v[i, j, k]
+                        - v[i, jp, k]
+                        + w[i, j, k]
+                        - w[i, j, kp]
+                    )
+                else:
+                    y[3, i, j, k] = 0.0
+
+
+@nb.njit(parallel=True, **_OPTS)
+def dot(a, b):
+    """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype)."""
+    fa = a.ravel()
+    fb = b.ravel()
+    n = fa.size
+    nchunk = 64
+    part = np.zeros(nchunk)
+    step = (n + nchunk - 1) // nchunk
+    for c in nb.prange(nchunk):
+        s = 0.0
+        for t in range(c * step, min(n, (c + 1) * step)):
+            s += np.float64(fa[t]) * np.float64(fb[t])
+        part[c] = s
+    return part.sum()
+
+
+@nb.njit(parallel=True, **_OPTS)
+def axpby(alpha, x, beta, y, out):
+    """out = alpha x + beta y (flat, parallel); out may alias x or y."""
+    fx = x.ravel()
+    fy = y.ravel()
+    fo = out.ravel()
+    for t in nb.prange(fo.size):
+        fo[t] = alpha * fx[t] + beta * fy[t]
+
+
+@nb.njit(parallel=True, **_OPTS)
+def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
+    """r = f - K x in float64 arithmetic (r may be float32); f = 1 on the active faces of
+    component ``gdir`` (unit body force).  Returns ``(||r||^2, ||f||^2)``."""
+    nx, ny, nz = fluid.shape
+    u = x[0]
+    v = x[1]
+    w = x[2]
+    p = x[3]
+    acc = np.zeros(nx)
+    accf = np.zeros(nx)
+    for i in nb.prange(nx):
+        im = _dn(i, nx)
+        ip = _up(i, nx)
+        s2 = 0.0
+        f2 = 0.0
+        for j in range(ny):
+            jm = _dn(j, ny)
+            jp = _up(j, ny)
+            for k in range(nz):
+                km = _dn(k, nz)
+                kp = _up(k, nz)
+                pc = p[i, j, k]
+                for a in range(3):
+                    if a == 0:
+                        act = du[i, j, k] != 0
+                    elif a == 1:
+                        act = dv[i, j, k] != 0
+                    else:
+                        act = dw[i, j, k] != 0
+                    if not act:
+                        r[a, i, j, k] = 0.0
+                        continue
+                    if a == 0:
+                        val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
+                        val += pc - p[im, j, k]
+                    elif a == 1:
+                        val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
+                        val += pc - p[i, jm, k]
+                    else:
+                        val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
+                        val += pc - p[i, j, km]
+                    f = 1.0 if a == gdir else 0.0
+                    res = f - val
+                    r[a, i, j, k] = res
+                    s2 += res * res
+                    f2 += f
+                if fluid[i, j, k] != 0:
+                    res = -(
+                        u[i, j, k]
+                        - u[ip, j, k]
+                        + v[i, j, k]
+                        - v[i, jp, k]
+                        + w[i, j, k]
+                        - w[i, j, kp]
+                    )
+                    r[3, i, j, k] = res
+                    s2 += res * res
+                else:
+                    r[3, i, j, k] = 0.0
+        acc[i] = s2
+        accf[i] = f2
+    return acc.sum(), accf.sum()
+
+
+@nb.njit(parallel=True, **_OPTS)
+def lanczos_step(y, r1, r2, v, c1, c2):
+    """y -= c1 r1 + c2 r2 (c2 from <v, y> is computed by the caller); returns nothing."""
+    fy = y.ravel()
+    f1 = r1.ravel()
+    f2 = r2.ravel()
+    for t in nb.prange(fy.size):
+        fy[t] = fy[t] - c1 * f1[t] - c2 * f2[t]
+
+
+@nb.njit(parallel=True, **_OPTS)
+def minres_update(v, w, w1, x, oldeps, delta, denom, phi):
+    """w_new = (v - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new."""
+    fv = v.ravel()
+    fw = w.ravel()
+    f1 = w1.ravel()
+    fx = x.ravel()
+    for t in nb.prange(fv.size):
+        wn = (fv[t] - oldeps * f1[t] - delta * fw[t]) * denom
+        f1[t] = wn
+        fx[t] += phi * wn
+
+
+@nb.njit(parallel=True, **_OPTS)
+def scale_into(s, y, v):
+    """v = s y."""
+    fy = y.ravel()
+    fv = v.ravel()
+    for t in nb.prange(fv.size):
+        fv[t] = s * fy[t]
+
+
+@nb.njit(parallel=True, **_OPTS)
+def add_into(x, e):
+    """x += e (x float64, e any float)."""
+    fx = x.ravel()
+    fe = e.ravel()
+    for t in nb.prange(fx.size):
+        fx[t] += fe[t]
