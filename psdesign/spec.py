@@ -25,7 +25,7 @@ FIBER_KEYS = ("shape", "diameter", "center", "theta", "omega", "direction", "u",
 #: Shapes that expand to several fibers.
 CELL_SHAPES = ("woven-cell",)
 FLOW_KEYS = ("solver", "viscosity", "aux_length", "direction", "sides", "pressure_drop",
-             "tol", "edge_length", "max_memory_gb")
+             "tol", "edge_length", "max_memory_gb", "periodic_treatment", "mesher", "lattice_step")
 DEFAULT_FLOW = {"solver": "fem", "viscosity": 1.8e-5, "aux_length": 0.2, "sides": "slip",
                 "pressure_drop": 1.0}
 
@@ -128,6 +128,9 @@ def validate_spec(data: dict) -> dict:
     flow["viscosity"] = _number(flow["viscosity"], "flow.viscosity", positive=True)
     flow["aux_length"] = _number(flow["aux_length"], "flow.aux_length", low=0.0, high=2.0)
     flow["pressure_drop"] = _number(flow["pressure_drop"], "flow.pressure_drop", positive=True)
+    if flow.get("periodic_treatment", "periodic") not in ("periodic", "mirror", "frame"):
+        raise SpecError("flow.periodic_treatment", "must be 'periodic', 'mirror' or 'frame', "
+                        f"got {flow['periodic_treatment']!r}")
     if flow["sides"] not in ("slip", "noslip"):
         raise SpecError("flow.sides", f"must be 'slip' or 'noslip', got {flow['sides']!r}")
     spec["flow"] = flow

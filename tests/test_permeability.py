@@ -52,3 +52,36 @@ def test_flow_along_cylinder_array_through_cli_json(tmp_path):
     assert out["permeability_core_m2"] == pytest.approx(exact, rel=0.03)
     # whole-RVE value includes the flow development after the empty inlet zone: lower
     assert 0.85 * exact < out["permeability_m2"] < out["permeability_core_m2"]
+
+
+def test_voxel_all_directions_gives_symmetric_tensor_and_flags_periodicity(tmp_path):
+    spec = tmp_path / "rods.toml"
+    spec.write_text("""
+[rve]
+size = [40e-6, 40e-6, 40e-6]
+voxel = 1e-6
+[[fibers]]
+shape = "cylinder"
+diameter = 10e-6
+center = [20e-6, 20e-6, 20e-6]
+direction = [1, 1, 0]
+[[fibers]]
+shape = "rod"
+diameter = 8e-6
+center = [10e-6, 30e-6, 10e-6]
+direction = [0, 1, 0]
+""")
+    proc = subprocess.run([sys.executable, "-m", "psdesign.cli", "permeability", str(spec),
+                           "--direction", "all", "--solver", "voxel", "--json"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    K = np.array(out["tensor_m2"])
+    assert out["converged"] and K.shape == (3, 3)
+    # Stokes permeability tensors are symmetric positive definite
+    np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-3 * np.abs(K).max())
+    assert np.all(np.linalg.eigvalsh(0.5 * (K + K.T)) > 0)
+    # the diagonal cylinder (direction [1, 1, 0], period 40 um) is not periodic on the box
+    assert not out["results"][0]["geometry_periodic"]
+    assert {r["direction"]: r["permeability_m2"] for r in out["results"]} == \
+        out["permeability_m2"]
