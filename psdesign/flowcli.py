@@ -22,9 +22,10 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     from .atomic import staged_directory, write_json
     from .generate import build_rve
     from .mesh import export_mesh, mesh_pore_space
+    from .permeability import mesher_options
 
     spec = _load(args.spec)
-    flow = spec["flow"]
+    flow = dict(spec["flow"])
     for fmt in args.format:
         if fmt not in MESH_FORMATS:
             raise SpecError("--format", f"unknown format {fmt!r}; allowed: "
@@ -33,11 +34,11 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
-    kw = {}
-    if flow.get("edge_length") is not None:
-        kw["edge_length_fac"] = float(flow["edge_length"])
+    if args.mesher:
+        flow["mesher"] = args.mesher
     pm = mesh_pore_space(fields.distance, float(fields.grid.spacing[0]), rve.size,
-                         args.direction, aux_length=float(flow["aux_length"]), **kw)
+                         args.direction, aux_length=float(flow["aux_length"]),
+                         **mesher_options(flow))
     with staged_directory(args.output) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])))
         info = {"direction": args.direction, "porosity": fields.porosity,
@@ -99,6 +100,8 @@ def add_flow_subcommands(sub: argparse._SubParsersAction) -> None:
     mesh.add_argument("spec")
     mesh.add_argument("-o", "--output", required=True)
     mesh.add_argument("--direction", choices=("x", "y", "z"), default="z")
+    mesh.add_argument("--mesher", choices=("stuffing", "pytetwild"), default=None,
+                      help="tet mesher (default: the spec's flow.mesher, stuffing)")
     mesh.add_argument("--format", nargs="*", default=["vtu"], metavar="FMT",
                       help=f"extra formats: {', '.join(MESH_FORMATS)}")
     mesh.set_defaults(func=_cmd_mesh)

@@ -47,13 +47,25 @@ def plane_average_pressure(points: np.ndarray, tets: np.ndarray, pressure: np.nd
     grid.point_data["p"] = np.nan_to_num(pressure)
     normal = np.eye(3)[axis]
     origin = np.asarray(points).mean(axis=0)
-    origin[axis] = position
+    lo, hi = np.min(points[:, axis]), np.max(points[:, axis])
+    eps = 1e-9 * (hi - lo)
+    origin[axis] = min(max(position, lo + eps), hi - eps)  # a cut on the boundary is empty
     cut = grid.slice(normal=normal, origin=origin)
     if cut.n_points == 0:
         raise ValueError(f"no mesh cross-section at {'xyz'[axis]} = {position}")
     integ = cut.integrate_data()
     area = float(integ["Area"][0])
     return float(integ.point_data["p"][0] / area)
+
+
+def mesher_options(flow: dict) -> dict:
+    """Keyword arguments of :func:`psdesign.mesh.mesh_pore_space` from a ``[flow]`` table."""
+    kw: dict = {"mesher": flow.get("mesher", "stuffing")}
+    if flow.get("edge_length") is not None:
+        kw["edge_length_fac"] = float(flow["edge_length"])
+    if flow.get("lattice_step") is not None:
+        kw["lattice_step"] = float(flow["lattice_step"])
+    return kw
 
 
 def permeability_fem(rve: RVE, fields: VoxelFields, direction: str | int, flow: dict,
@@ -89,14 +101,8 @@ def permeability_fem(rve: RVE, fields: VoxelFields, direction: str | int, flow: 
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
     if mesh is None:
-        kw = {}
-        if flow.get("edge_length") is not None:
-            kw["edge_length_fac"] = float(flow["edge_length"])
-        if flow.get("lattice_step") is not None:
-            kw["lattice_step"] = float(flow["lattice_step"])
         mesh = mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name,
-                               aux_length=float(flow["aux_length"]),
-                               mesher=flow.get("mesher", "pytetwild"), **kw)
+                               aux_length=float(flow["aux_length"]), **mesher_options(flow))
     t_mesh = time.perf_counter() - t0
     sides = [t for t in mesh.facet_tags if t.startswith("side_")]
     slip = sides if flow.get("sides", "slip") == "slip" else []

@@ -25,9 +25,10 @@ FIBER_KEYS = ("shape", "diameter", "center", "theta", "omega", "direction", "u",
 #: Shapes that expand to several fibers.
 CELL_SHAPES = ("woven-cell",)
 FLOW_KEYS = ("solver", "viscosity", "aux_length", "direction", "sides", "pressure_drop",
-             "tol", "edge_length", "max_memory_gb", "periodic_treatment", "mesher", "lattice_step")
+             "tol", "edge_length", "max_memory_gb", "periodic_treatment", "mesher",
+             "lattice_step")
 DEFAULT_FLOW = {"solver": "fem", "viscosity": 1.8e-5, "aux_length": 0.2, "sides": "slip",
-                "pressure_drop": 1.0}
+                "pressure_drop": 1.0, "mesher": "stuffing"}
 
 
 def load_spec(path: str | Path) -> dict:
@@ -131,6 +132,13 @@ def validate_spec(data: dict) -> dict:
     if flow.get("periodic_treatment", "periodic") not in ("periodic", "mirror", "frame"):
         raise SpecError("flow.periodic_treatment", "must be 'periodic', 'mirror' or 'frame', "
                         f"got {flow['periodic_treatment']!r}")
+    if flow["mesher"] not in ("stuffing", "pytetwild"):
+        raise SpecError("flow.mesher", f"must be 'stuffing' or 'pytetwild', got {flow['mesher']!r}")
+    if flow.get("lattice_step") is not None:
+        step = _number(flow["lattice_step"], "flow.lattice_step", positive=True)
+        if step > min(size) / 2:
+            raise SpecError("flow.lattice_step", f"must be <= {min(size) / 2:g} m (half the "
+                            f"smallest edge), got {step:g}")
     if flow["sides"] not in ("slip", "noslip"):
         raise SpecError("flow.sides", f"must be 'slip' or 'noslip', got {flow['sides']!r}")
     spec["flow"] = flow

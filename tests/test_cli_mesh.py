@@ -18,7 +18,7 @@ diameter = 10e-6
 center = [20e-6, 20.3e-6, 19.6e-6]
 direction = [0, 0, 1]
 [flow]
-edge_length = 0.08
+lattice_step = 4e-6
 aux_length = 0.25
 """
 

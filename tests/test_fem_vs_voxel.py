@@ -23,7 +23,7 @@ def spec(voxel, n_cells):
         "rve": {"size": [n_cells * L, L, L], "voxel": voxel},
         "fibers": [{"shape": "cylinder", "diameter": 10e-6, "center": [L / 2 + i * L, L / 2, L / 2],
                     "direction": [0, 0, 1]} for i in range(n_cells)],
-        "flow": {"viscosity": 1.8e-5, "edge_length": 0.03},
+        "flow": {"viscosity": 1.8e-5, "lattice_step": 2e-6},
     })
 
 

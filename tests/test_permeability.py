@@ -17,7 +17,7 @@ diameter = 10e-6
 center = [20e-6, 20e-6, 60e-6]
 direction = [0, 0, 1]
 [flow]
-edge_length = 0.04
+lattice_step = 2e-6
 viscosity = 1.8e-5
 """
 
