@@ -3,7 +3,7 @@ surface-term alternatives.
 
 Run:  python benchmarks/bench_forcefield.py [--quick]
 
-Prints a markdown report (paste into benchmarks/RESULTS_forcefield.md). For each case it
+Prints a markdown report (paste into benchmarks/RESULTS.md). For each case it
 solves at the default quadrature of the study spec, re-solves at a refined quadrature
 (grid step halved, tube nodes doubled) and reports how far the optimum moved, the wall
 time, U at the optimum and U at the paper's reported optimum evaluated with the same

@@ -17,9 +17,9 @@ with ``H`` fluid voxels across, the discrete solution is exactly ``K = phi (H^2/
 first order in ``h`` with a sign and magnitude that oscillate with how the surface cuts the grid.
 Use :func:`richardson_extrapolate` on two (or more) resolutions of the *same* geometry (order 1
 for staircase surfaces, order 2 for grid-aligned walls) to reach ~1 %; see the tests and
-``benchmarks/RESULTS_voxel.md`` for measured convergence.
+``benchmarks/RESULTS.md`` for measured convergence.
 
-*Solver* (chosen by measurement, see ``benchmarks/RESULTS_voxel.md``): preconditioned MINRES on
+*Solver* (chosen by measurement, see ``benchmarks/RESULTS.md``): preconditioned MINRES on
 the symmetric saddle-point system ``[[A, G], [G^T, 0]]`` with the block-diagonal preconditioner
 ``diag(V_u, V_v, V_w, I)`` (Elman, Silvester & Wathen, *Finite Elements and Fast Iterative
 Solvers*, ch. 4):

@@ -105,7 +105,8 @@ def test_puma_fibres_32_kzz() -> None:
     res = solve_voxel_stokes(data, 1.0 / 32, "z", tol=1e-6)
     assert res.converged
     # MAC (walls on voxel faces) vs PuMA Q1-Q1 FEM (nodes touching solid are fixed, i.e. thicker
-    # fibres): both are first order and approach each other from opposite sides (see RESULTS_voxel).
+    # fibres): both are first order and approach each other from opposite sides
+    # (see benchmarks/RESULTS.md).
     # At 32^3 (fibre diameter 2.2 voxels) MAC gives 0.01254, PuMA 0.009785 (32^3) / 0.010145 (64^3).
     assert 0.0100 < res.permeability[2] < 0.0135
     assert res.porosity == pytest.approx(0.96139, abs=1e-4)

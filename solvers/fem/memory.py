@@ -11,7 +11,7 @@ pressure per vertex), and the peak resident memory is
 COO arrays of one 100 k-element assembly chunk; interpreter and libraries). Calibrated on this
 machine with ``benchmarks/bench_fem.py`` (structured cylinder-array meshes with 5.6 k to 1.07 M
 unknowns, measured peak 0.10-1.17 GB; fTetWild fiber meshes with 0.15 M and 1.27 M unknowns,
-0.47 and 1.52 GB; see benchmarks/RESULTS_fem.md) and rounded up: the estimate exceeds every
+0.47 and 1.52 GB; see benchmarks/RESULTS.md) and rounded up: the estimate exceeds every
 measured peak, by 15-80 %.
 """
 
