@@ -23,7 +23,7 @@ import numpy as np
 
 from solvers.voxel_stokes import solve_voxel_stokes
 
-BENCH = Path("/work/shared/bench")
+BENCH = Path(__file__).resolve().parents[2] / "shared" / "bench"  # shared/ beside the checkout
 PUMA = {32: (0.009785, 77.7, 211), 64: (0.010145, 1201.0, 500)}
 
 

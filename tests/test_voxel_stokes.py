@@ -18,7 +18,7 @@ from solvers.voxel_stokes import (
     voxel_permeability_tensor,
 )
 
-BENCH = Path("/work/shared/bench")
+BENCH = Path(__file__).resolve().parents[2] / "shared" / "bench"  # shared/ beside the checkout
 _spec = importlib.util.spec_from_file_location(
     "bench_voxel", Path(__file__).resolve().parents[1] / "benchmarks" / "bench_voxel.py"
 )
