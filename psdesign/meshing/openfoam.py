@@ -124,6 +124,7 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
         "        libs            (\"libfieldFunctionObjects.so\");\n"
         "        writeControl    timeStep;\n        writeInterval   50;\n"
         "        regionType      patch;\n        name            outlet;\n"
+        "        writeFields     false;\n"
         "        operation       sum;\n        fields          (phi);\n    }\n}\n")
     (s / "fvSchemes").write_text(
         _header("dictionary", "fvSchemes", "system")
