@@ -326,11 +326,9 @@ def mesh_pore_space(
                   simplify_tol=simplify_tol, seed=seed, tetwild_options=tetwild_options,
                   volume_tol=volume_tol,
                   min_pore_fraction=min_pore_fraction, v=_CACHE_VERSION)
-    cache_file = None
-    if cache_dir is not None:
-        cache_file = Path(cache_dir) / f"poremesh_{_cache_key(distance, params)}.npz"
-        if cache_file.exists():
-            return _load_cached(cache_file)
+    cache_file, cached = _lookup_cache(cache_dir, distance, params)
+    if cached is not None:
+        return cached
 
     # work in units of the largest side so that coordinates are O(1)
     scale = float(size.max())
@@ -470,11 +468,9 @@ def _mesh_by_stuffing(distance, voxel, size, direction, aux_length, lattice_step
                   match_volume=match_volume, slab_factor=slab_factor,
                   min_gap_voxels=min_gap_voxels, volume_tol=volume_tol,
                   min_pore_fraction=min_pore_fraction, v=_CACHE_VERSION)
-    cache_file = None
-    if cache_dir is not None:
-        cache_file = Path(cache_dir) / f"poremesh_{_cache_key(distance, params)}.npz"
-        if cache_file.exists():
-            return _load_cached(cache_file)
+    cache_file, cached = _lookup_cache(cache_dir, distance, params)
+    if cached is not None:
+        return cached
     scale = float(size.max())
     d_s, v_s, size_s = distance / scale, voxel / scale, size / scale
     timings: dict[str, float] = {}
@@ -624,6 +620,14 @@ def _centroid_pore_fraction(d_s, v_s, pts, tets, vol, axis, rve_lo, rve_hi):
     pore = interp(c) > 0
     w = vol[inside]
     return float(pore.mean()), float(w[pore].sum() / w.sum())
+
+
+def _lookup_cache(cache_dir, distance: np.ndarray, params: dict):
+    """(cache file or None, cached PoreMesh or None) for these inputs."""
+    if cache_dir is None:
+        return None, None
+    cache_file = Path(cache_dir) / f"poremesh_{_cache_key(distance, params)}.npz"
+    return cache_file, (_load_cached(cache_file) if cache_file.exists() else None)
 
 
 def _save_cached(path: Path, pm: PoreMesh) -> None:
