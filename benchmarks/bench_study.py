@@ -27,7 +27,7 @@ if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
 SLEEP_S = 0.2
-BURN_ITERS = 6_000_000
+BURN_ITERS = int(os.environ.get("BENCH_BURN_ITERS", 6_000_000))  # env: workers inherit it
 
 
 def sleep_case(spec, outputs, solver, workdir):
