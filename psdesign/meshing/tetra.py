@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import tempfile
+
 import numpy as np
 import pytetwild
 from scipy import sparse
@@ -33,16 +36,18 @@ def tetrahedralize(
         raise MeshInputError(
             f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"
         )
-    pts, tets = pytetwild.tetrahedralize(
-        np.array(verts, dtype=np.float64, order="C"),  # writeable copies: nanobind rejects
-        np.array(faces, dtype=np.int32, order="C"),  # read-only buffers
-        edge_length_abs=float(edge_length_abs),
-        epsilon=float(epsilon),
-        optimize=True,  # optimize=False produced broken meshes in the trial of issue 5
-        num_threads=int(num_threads),
-        quiet=True,
-        **options,
-    )
+    # pytetwild writes a scratch file (__tracked_surface.stl) into the working directory
+    with tempfile.TemporaryDirectory() as scratch, contextlib.chdir(scratch):
+        pts, tets = pytetwild.tetrahedralize(
+            np.array(verts, dtype=np.float64, order="C"),  # writeable copies: nanobind rejects
+            np.array(faces, dtype=np.int32, order="C"),  # read-only buffers
+            edge_length_abs=float(edge_length_abs),
+            epsilon=float(epsilon),
+            optimize=True,  # optimize=False produced broken meshes in the trial of issue 5
+            num_threads=int(num_threads),
+            quiet=True,
+            **options,
+        )
     tets = np.asarray(tets, dtype=np.int64)
     if len(tets) == 0:
         raise MeshFailedError("pytetwild returned no tetrahedra (surface too small or degenerate)")
