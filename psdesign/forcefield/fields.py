@@ -14,12 +14,15 @@ depends only on the coordinates its basis vectors touch (a rod term ``cos(2 pi x
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Protocol
 
 import numba
 import numpy as np
 
 from psdesign.model import TWO_PI, GeneralizedPS
+
+from .kernels import model_arrays
 
 
 class NoFiberError(ValueError):
@@ -107,16 +110,10 @@ def _value_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta):  # pragm
     return val
 
 
-def _model_arrays(model: GeneralizedPS) -> tuple:
-    return (model.mu, model.kappa, np.ascontiguousarray(model.H), model.alpha,
-            model.minor_term.astype(np.int64), model.u, model.f,
-            np.ascontiguousarray(model.G), model.beta)
-
-
 def ps_values(model: GeneralizedPS, points: np.ndarray) -> np.ndarray:
     """Values of a generalized PS model at points (compiled; same as ``model.evaluate``)."""
     pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-    return _value_kernel(pts, *_model_arrays(model))
+    return _value_kernel(pts, *model_arrays(model))
 
 
 def ps_derivatives(
@@ -127,7 +124,7 @@ def ps_derivatives(
     Same result as :func:`ps_derivatives_numpy` (see there for the formulas).
     """
     pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-    v, g, h = _derivs_kernel(pts, *_model_arrays(model), bool(hessian))
+    v, g, h = _derivs_kernel(pts, *model_arrays(model), bool(hessian))
     return v, g, (h if hessian else None)
 
 
@@ -189,18 +186,18 @@ def ps_derivatives_numpy(
     return value, grad, hess
 
 
-def ps_grid_values(
+def ps_term_tables(
     model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray]
-) -> np.ndarray:
-    """Evaluate a generalized PS model on the tensor grid ``x (ij) y (ij) z``.
+) -> list[np.ndarray]:
+    """Per-term values ``mu_i cos(Phi_i)`` of a PS model on the grid ``x (ij) y (ij) z``.
 
-    Each term is evaluated only on the coordinates its basis vectors depend on and
-    broadcast, so the cost is dominated by additions on the 3-D grid.
+    Each term is evaluated only on the coordinates its basis vectors depend on: the
+    arrays have length 1 along the other axes (broadcast shapes). Terms that depend on
+    the same axes are summed into one table.
     """
     coords = [np.asarray(a, float).reshape(s) for a, s in
               zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1)), strict=True)]
-    shape = tuple(len(a) for a in axes)
-    out = np.zeros(shape)
+    tables: dict[tuple[int, ...], np.ndarray] = {}
     for i in range(model.n_terms):
         phase: np.ndarray | float = TWO_PI * model.kappa[i] * model.alpha[i]
         for a in range(3):
@@ -212,8 +209,45 @@ def ps_grid_values(
                 if model.G[k, a] != 0.0:
                     theta = theta + (TWO_PI * model.f[k] * model.G[k, a]) * coords[a]
             phase = phase + model.u[k] * np.cos(theta)
-        out += model.mu[i] * np.cos(phase)
+        term = np.asarray(model.mu[i] * np.cos(phase), float).reshape(
+            np.broadcast_shapes(np.shape(phase), (1, 1, 1)))
+        key = term.shape
+        tables[key] = tables[key] + term if key in tables else term
+    return list(tables.values())
+
+
+def ps_grid_values(
+    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """Evaluate a generalized PS model on the tensor grid ``x (ij) y (ij) z``.
+
+    Sums the broadcast term tables of :func:`ps_term_tables`, so the cost is dominated by
+    additions on the 3-D grid.
+    """
+    out = np.zeros(tuple(len(a) for a in axes))
+    for t in ps_term_tables(model, axes):
+        out += t
     return out
+
+
+def packed_tables(
+    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ps_term_tables` packed for :func:`.kernels.pair_max_grid`.
+
+    Returns ``(flat, meta)``: the tables concatenated, and per table its offset and its
+    strides along x, y, z (0 where the table does not depend on the axis).
+    """
+    tabs = ps_term_tables(model, axes)
+    meta = np.zeros((len(tabs), 4), dtype=np.int64)
+    off = 0
+    for t, tab in enumerate(tabs):
+        nx, ny, nz = tab.shape
+        meta[t] = (off, (ny * nz) if nx > 1 else 0, nz if ny > 1 else 0, 1 if nz > 1 else 0)
+        off += tab.size
+    flat = np.concatenate([np.ascontiguousarray(t).ravel() for t in tabs]) if tabs else \
+        np.zeros(1)
+    return flat, meta
 
 
 @dataclass(frozen=True)
@@ -286,8 +320,14 @@ class PSField:
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "tubes", tuple(self.tubes))
 
+    @cached_property
+    def arrays(self) -> tuple:
+        """The model's arrays for the compiled kernels (:func:`.kernels.model_arrays`)."""
+        return model_arrays(self.model)
+
     def values(self, points: np.ndarray) -> np.ndarray:
-        return self.scale * (ps_values(self.model, points) - self.isovalue)
+        pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
+        return self.scale * (_value_kernel(pts, *self.arrays) - self.isovalue)
 
     def grid_values(self, axes: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
         return self.scale * (ps_grid_values(self.model, axes) - self.isovalue)
@@ -295,6 +335,8 @@ class PSField:
     def derivatives(
         self, points: np.ndarray, hessian: bool = True
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        v, g, h = ps_derivatives(self.model, points, hessian)
+        pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
+        v, g, h = _derivs_kernel(pts, *self.arrays, bool(hessian))
+        h = h if hessian else None
         return (self.scale * (v - self.isovalue), self.scale * g,
                 None if h is None else self.scale * h)

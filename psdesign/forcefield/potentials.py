@@ -35,7 +35,8 @@ import numba
 import numpy as np
 from skimage import measure
 
-from .fields import ImplicitField
+from .fields import ImplicitField, PSField, packed_tables
+from .kernels import deepest_point, lens_candidates, pair_max_grid
 
 SURFACE_TERMS = ("gaussian", "area", "bending")
 
@@ -219,6 +220,9 @@ def volume_interaction(
     grid of step ``h / 4`` whose centre node is the deepest point. A thin overlap lens that
     falls between the coarse nodes is therefore detected (its value is then accurate to
     about a factor 2: the local box may truncate a wide, thin lens).
+
+    Two :class:`PSField` s use the compiled kernels of :mod:`.kernels`; other fields the
+    generic numpy path (same rule).
     """
     lo, hi = _check_domain(domain)
     h = _check_h(h)
@@ -227,13 +231,8 @@ def volume_interaction(
     if np.any(bhi <= blo):
         return 0.0
     axes = node_axes(blo, bhi, h)
-    m = np.maximum(fi.grid_values(axes), fj.grid_values(axes))
-    depth = np.maximum(-m, 0.0)
-    w = [np.full(len(a), a[1] - a[0]) for a in axes]
-    for wa in w:
-        wa[0] *= 0.5
-        wa[-1] *= 0.5
-    total = float(np.einsum("ijk,i,j,k->", depth, *w)) if depth.any() else 0.0
+    w = _trapezoid_weights(axes)
+    m, total = _pair_grid(fi, fj, axes, w)
     if not lens_guard:
         return total
     done: list[np.ndarray] = []
@@ -246,27 +245,39 @@ def volume_interaction(
         done.append(p)
         if max(fi.values(p[None])[0], fj.values(p[None])[0]) >= 0:
             continue
-        total += _local_correction(fi, fj, p, axes, depth, w, h)
+        total += _local_correction(fi, fj, p, axes, m, w, h)
     return max(total, 0.0)
 
 
+def _trapezoid_weights(axes) -> list[np.ndarray]:
+    w = [np.full(len(a), a[1] - a[0]) for a in axes]
+    for wa in w:
+        wa[0] *= 0.5
+        wa[-1] *= 0.5
+    return w
+
+
+def _pair_grid(fi: ImplicitField, fj: ImplicitField, axes, w) -> tuple[np.ndarray, float]:
+    """``m = max(phi_i, phi_j)`` on the grid and ``int max(-m, 0) dV`` (weights ``w``)."""
+    if isinstance(fi, PSField) and isinstance(fj, PSField):
+        fa, ma = packed_tables(fi.model, axes)
+        fb, mb = packed_tables(fj.model, axes)
+        m, total = pair_max_grid(fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue,
+                                 fj.scale, *w)
+        return m, float(total)
+    m = np.maximum(fi.grid_values(axes), fj.grid_values(axes))
+    depth = np.maximum(-m, 0.0)
+    total = float(np.einsum("ijk,i,j,k->", depth, *w)) if depth.any() else 0.0
+    return m, total
+
+
 def _lens_candidates(m: np.ndarray, axes, max_n: int = 4) -> list[np.ndarray]:
-    """Grid nodes that are local minima of m and within one grid slope of zero."""
-    if min(m.shape) < 3:
+    """Grid nodes that are local minima of m and within one grid slope of zero
+    (the ``max_n`` deepest)."""
+    vals, idx = lens_candidates(np.ascontiguousarray(m))
+    if len(vals) == 0:
         return []
-    bound = max(float(np.abs(np.diff(m, axis=a)).max()) for a in range(3))
-    inner = m[1:-1, 1:-1, 1:-1]
-    idx = np.argwhere(inner < bound) + 1  # cheap prefilter: only nodes near both surfaces
-    if len(idx) == 0:
-        return []
-    i, j, k = idx.T
-    c = m[i, j, k]
-    nb = np.stack([m[i + 1, j, k], m[i - 1, j, k], m[i, j + 1, k], m[i, j - 1, k],
-                   m[i, j, k + 1], m[i, j, k - 1]])
-    ok = np.all(c <= nb, axis=0) & (c < np.max(np.abs(nb - c), axis=0))
-    if not ok.any():
-        return []
-    sel = idx[ok][np.argsort(c[ok])[:max_n]]
+    sel = idx[np.argsort(vals, kind="stable")[:max_n]]
     return [np.array([axes[a][s[a]] for a in range(3)]) for s in sel]
 
 
@@ -274,6 +285,10 @@ def _deepest_point(
     fi: ImplicitField, fj: ImplicitField, x0: np.ndarray, reach: float
 ) -> np.ndarray | None:
     """Minimax point of (phi_i, phi_j) within ``reach`` of x0, or None if Newton fails."""
+    if isinstance(fi, PSField) and isinstance(fj, PSField):
+        x, ok = deepest_point(fi.arrays, fi.isovalue, fi.scale, fj.arrays, fj.isovalue,
+                              fj.scale, np.asarray(x0, float).copy(), float(reach))
+        return x if ok else None
     x = np.asarray(x0, float).copy()
     _, gi, _ = fi.derivatives(x[None], hessian=False)
     _, gj, _ = fj.derivatives(x[None], hessian=False)
@@ -299,7 +314,7 @@ def _deepest_point(
     return x
 
 
-def _local_correction(fi, fj, p, axes, depth, w, h) -> float:
+def _local_correction(fi, fj, p, axes, m, w, h) -> float:
     """Fine-minus-coarse integral over the box p +- 2h (fine step h/4, centre node p)."""
     half = 2.0 * h
     fine = np.linspace(-half, half, 17)
@@ -309,20 +324,19 @@ def _local_correction(fi, fj, p, axes, depth, w, h) -> float:
     fax = tuple(f[(f >= lo[a]) & (f <= hi[a])] for a, f in enumerate(fax))
     if min(len(f) for f in fax) < 2:
         return 0.0
-    fd = np.maximum(-np.maximum(fi.grid_values(fax), fj.grid_values(fax)), 0.0)
     step = fine[1] - fine[0]
     wf = [np.full(len(f), step) for f in fax]
     for wa in wf:
         wa[0] *= 0.5
         wa[-1] *= 0.5
-    fine_int = float(np.einsum("ijk,i,j,k->", fd, *wf))
+    _, fine_int = _pair_grid(fi, fj, fax, wf)
     box_lo = np.array([f[0] for f in fax])
     box_hi = np.array([f[-1] for f in fax])
     sel = [np.flatnonzero((a > box_lo[k]) & (a < box_hi[k])) for k, a in enumerate(axes)]
     if min(len(s) for s in sel) == 0:
         coarse = 0.0
     else:
-        sub = depth[np.ix_(*sel)]
+        sub = np.maximum(-m[np.ix_(*sel)], 0.0)
         coarse = float(np.einsum("ijk,i,j,k->", sub, *(w[k][s] for k, s in enumerate(sel))))
     return fine_int - coarse
 

@@ -22,6 +22,7 @@ from functools import lru_cache
 import numpy as np
 
 from .fields import NoFiberError, PSField, Tube
+from .kernels import BEYOND_RADIUS, NO_SOLID, NOT_CONVERGED, section_centres, section_roots
 from .potentials import SurfaceSample
 
 _NEWTON_ITERS = 30
@@ -34,6 +35,9 @@ def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _centres(fld: PSField, base: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
     """Minimum of the field in each cross-section plane (2-D Newton from ``base``)."""
+    if isinstance(fld, PSField):
+        return section_centres(fld.arrays, np.ascontiguousarray(base, dtype=float),
+                               np.asarray(e1, float), np.asarray(e2, float))
     c = base.copy()
     P = np.stack([e1, e2])  # (2, 3)
     for _ in range(12):
@@ -83,20 +87,24 @@ def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
     a = tube.axis
     base = tube.point + np.outer(s - tube.point[a], d)
     c = _centres(fld, base, e1, e2)
-    vc = fld.values(c)
-    if np.any(vc >= 0):
-        raise NoFiberError("a cross-section of the fiber has no solid (field minimum >= 0); "
-                           "the fiber breaks inside the domain")
     th = np.arange(n_theta) * (2 * np.pi / n_theta)
     e = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2  # (m, 3)
     C = np.repeat(c, n_theta, axis=0)
     E = np.tile(e, (len(s), 1))
+    if isinstance(fld, PSField):
+        rho, _, status = section_roots(fld.arrays, float(fld.isovalue), float(fld.scale), c,
+                                       np.ascontiguousarray(e), float(tube.radius),
+                                       _NEWTON_ITERS)
+        _raise_status(status)
+        return C, E, rho, e
+    vc = fld.values(c)
+    if np.any(vc >= 0):
+        _raise_status(NO_SOLID)
     npts = len(C)
     # bracket [0, radius]; start from the quadratic model of the field at the centre
     v_out = fld.values(C + tube.radius * E)
     if np.any(v_out <= 0):
-        raise ValueError("a fiber's surface lies farther than its tube radius from the axis; "
-                         "enlarge the tube radius")
+        _raise_status(BEYOND_RADIUS)
     _, _, hc = fld.derivatives(c)
     curv = np.einsum("ma,nab,mb->nm", e, hc, e).ravel()  # e^T H e per (section, angle)
     vcr = np.repeat(vc, n_theta)
@@ -121,8 +129,20 @@ def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
             break
     else:
         if np.max(np.abs(v)) > 1e-8 * max(1.0, float(np.abs(vc).max())):
-            raise ValueError("tube quadrature: surface root finding did not converge")
+            _raise_status(NOT_CONVERGED)
     return C, E, rho, e
+
+
+def _raise_status(status: int) -> None:
+    """Raise the error a :func:`.kernels.section_roots` status code stands for."""
+    if status == NO_SOLID:
+        raise NoFiberError("a cross-section of the fiber has no solid (field minimum >= 0); "
+                           "the fiber breaks inside the domain")
+    if status == BEYOND_RADIUS:
+        raise ValueError("a fiber's surface lies farther than its tube radius from the axis; "
+                         "enlarge the tube radius")
+    if status == NOT_CONVERGED:
+        raise ValueError("tube quadrature: surface root finding did not converge")
 
 
 def check_continuous(
