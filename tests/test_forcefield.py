@@ -309,6 +309,28 @@ def test_pattern_search_rosenbrock_and_iteration_limit():
     assert len(short.history) == 5
 
 
+def test_batched_polling_keeps_the_iterates():
+    """Speculative polling (batch > 1, serial or in forked workers) visits the same
+    iterates as plain opportunistic polling; only extra evaluations are spent."""
+    from psdesign.forcefield.parallel import batch_map
+
+    rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
+    ref = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6, max_iter=5000)
+    for batch in (2, 3):
+        r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6,
+                           max_iter=5000, batch=batch)
+        assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter
+        assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
+        assert r.n_evals >= ref.n_evals
+    with batch_map(rosen, 2) as pmap:
+        r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2,
+                           map_fun=pmap)
+    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2)
+    assert np.array_equal(r.x, short.x) and r.n_evals == short.n_evals
+    capped = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], batch=3, max_evals=10)
+    assert capped.n_evals == 10 and not capped.converged
+
+
 def test_pattern_search_rejects_infeasible_bounds():
     with pytest.raises(ValueError, match="no feasible point"):
         pattern_search(lambda x: 0.0, [0.0], [1.0], [0.0])
@@ -388,6 +410,9 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
                    'kappa1 = 0.01\nkappa3 = 0.01\n')
     assert main(["forcefield", str(bad), "-o", str(tmp_path / "y")]) == 2
     assert "no feasible value" in capsys.readouterr().err
+    bad.write_text('[forcefield]\ncase = "two-fiber"\nworkers = 0\n')
+    assert main(["forcefield", str(bad), "-o", str(tmp_path / "z")]) == 2
+    assert "forcefield.workers" in capsys.readouterr().err
 
 
 def test_broken_fiber_is_infeasible():

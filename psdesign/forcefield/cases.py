@@ -40,12 +40,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
 from psdesign.model import GeneralizedPS
 
 from .fields import NoFiberError, PSField, Tube
+from .parallel import batch_map
 from .params import Parametrization, Tie
 from .pattern import PatternSearchResult, pattern_search
 from .potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
@@ -163,11 +165,16 @@ class ForceFieldProblem:
             return float("inf")
 
     def solve(self, max_iter: int = 200, max_evals: int | None = None, step: float = 0.25,
-              min_step: float = 1e-3, callback=None) -> PatternSearchResult:
-        """Pattern search from the start point within the feasible box."""
-        return pattern_search(self.objective, self.x0, self.lower, self.upper, step=step,
-                              min_step=min_step, max_iter=max_iter, max_evals=max_evals,
-                              callback=callback)
+              min_step: float = 1e-3, callback=None, workers: int = 1) -> PatternSearchResult:
+        """Pattern search from the start point within the feasible box.
+
+        ``workers > 1`` polls ``workers`` points at a time in as many processes
+        (speculative parallel polling: same iterates, see :func:`.pattern.pattern_search`).
+        """
+        with batch_map(self.objective, workers) as map_fun:
+            return pattern_search(self.objective, self.x0, self.lower, self.upper, step=step,
+                                  min_step=min_step, max_iter=max_iter, max_evals=max_evals,
+                                  callback=callback, batch=workers, map_fun=map_fun)
 
     def free_of(self, params: dict) -> np.ndarray:
         return self.param.free_from(params)
@@ -259,12 +266,23 @@ def woven_canonical(p: dict, u: float, t: np.ndarray) -> GeneralizedPS:
     return model.translated(t)
 
 
+_WIDTH_KEYS = ("mu1", "mu2", "mu3", "mu4", "mu5", "kappa1", "kappa2", "kappa3", "kappa4",
+               "kappa5")
+
+
 def woven_half_widths(p: dict, isovalue: float) -> tuple[float, float]:
     """(lateral, out-of-plane) half widths of the straight (u = 0) Sec. 6.2 fiber.
 
     Scans the canonical cross-sections over one axial period on a fine grid and solves
-    the x-extent in closed form; conservative by one scan step.
+    the x-extent in closed form; conservative by one scan step. Memoized (a pattern-search
+    poll along u, t_x or t_y does not change them).
     """
+    return _half_widths(tuple(float(p[k]) for k in _WIDTH_KEYS), float(isovalue))
+
+
+@lru_cache(maxsize=256)
+def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, float]:
+    p = dict(zip(_WIDTH_KEYS, values, strict=True))
     k1, k2, k3 = p["kappa1"], p["kappa2"], p["kappa3"]
     ys = np.linspace(-0.45, 0.45, 451) / k2
     zs = np.linspace(0.0, 1.0, 61) / max(k3, 1e-9)

@@ -153,11 +153,11 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
         vmax = max(vmax, abs(vc[k]))
     for k in range(ns):
         for j in range(nt):
-            e0, e1_, e2_ = e[j, 0], e[j, 1], e[j, 2]
-            vout = scale * (psi_at(m, c[k, 0] + radius * e0, c[k, 1] + radius * e1_,
-                                   c[k, 2] + radius * e2_, g, hs, 0) - iso)
+            vout = scale * (psi_at(m, c[k, 0] + radius * e[j, 0], c[k, 1] + radius * e[j, 1],
+                                   c[k, 2] + radius * e[j, 2], g, hs, 0) - iso)
             if vout <= 0:
                 return rho, vc, BEYOND_RADIUS
+    for k in range(ns):
         psi_at(m, c[k, 0], c[k, 1], c[k, 2], g, hs, 2)
         hc = hs.copy()
         for j in range(nt):

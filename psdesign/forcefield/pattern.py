@@ -83,6 +83,8 @@ def pattern_search(
     max_iter: int = 500,
     max_evals: int | None = None,
     callback: Callable[[dict], None] | None = None,
+    batch: int = 1,
+    map_fun: Callable[[list[np.ndarray]], list[float]] | None = None,
 ) -> PatternSearchResult:
     """Minimize ``fun`` over the box ``lower <= x <= upper`` by compass pattern search.
 
@@ -108,6 +110,15 @@ def pattern_search(
         Limit on objective evaluations, handled like ``max_iter``.
     callback : callable, optional
         Called with each history entry.
+    batch : int
+        Trial points evaluated together (speculative parallel polling): the poll
+        directions are taken in order in groups of ``batch`` points not yet in the cache,
+        evaluated with ``map_fun``, and the first improving point in poll order is
+        accepted. The iterates are those of ``batch = 1`` (plain opportunistic polling);
+        only the evaluation count grows by the speculative points after a success.
+    map_fun : callable, optional
+        ``map_fun(list of x) -> list of fun(x)``, e.g. a process pool's map
+        (default: serial).
     """
     x0, lo, hi = check_bounds(x0, lower, upper)
     if not (0 < min_step < step <= max_step):
@@ -117,21 +128,39 @@ def pattern_search(
         raise ValueError(f"expand must be >= 1 and contract in (0, 1), got {expand}, {contract}")
     if max_iter < 1 or (max_evals is not None and max_evals < 1):
         raise ValueError("max_iter and max_evals must be >= 1")
+    if batch < 1:
+        raise ValueError(f"batch must be >= 1, got {batch}")
+    if map_fun is None:
+        def map_fun(xs: list[np.ndarray]) -> list[float]:
+            return [fun(x) for x in xs]
     width = hi - lo
     free = np.flatnonzero(width > 0)
     cache: dict[tuple, float] = {}
     n_evals = 0
 
-    def f_at(z: np.ndarray) -> float:
+    def key(z: np.ndarray) -> tuple:
+        return tuple(np.round(z, 12))
+
+    def to_x(z: np.ndarray) -> np.ndarray:
+        x = lo + z * width
+        x[width == 0] = lo[width == 0]
+        return x
+
+    def evaluate(zs: list[np.ndarray]) -> None:
+        """Evaluate the points not yet cached (in one ``map_fun`` call)."""
         nonlocal n_evals
-        key = tuple(np.round(z, 12))
-        if key not in cache:
-            x = lo + z * width
-            x[width == 0] = lo[width == 0]
-            val = float(fun(x))
-            cache[key] = val if np.isfinite(val) else np.inf
-            n_evals += 1
-        return cache[key]
+        new = list({key(z): z for z in zs if key(z) not in cache}.items())
+        if not new:
+            return
+        vals = map_fun([to_x(z) for _, z in new])
+        for (k, _), v in zip(new, vals, strict=True):
+            v = float(v)
+            cache[k] = v if np.isfinite(v) else np.inf
+        n_evals += len(new)
+
+    def f_at(z: np.ndarray) -> float:
+        evaluate([z])
+        return cache[key(z)]
 
     z = np.where(width > 0, (x0 - lo) / np.where(width > 0, width, 1.0), 0.0)
     fz = f_at(z)
@@ -149,18 +178,30 @@ def pattern_search(
             break
         it += 1
         success = False
+        trials = []
         for k, (i, s) in enumerate(dirs):
             trial = z.copy()
             trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
-            if trial[i] == z[i]:
-                continue
-            ft = f_at(trial)
-            if ft < fz:
-                z, fz, success = trial, ft, True
-                dirs.insert(0, dirs.pop(k))  # poll this direction first next time
+            if trial[i] != z[i]:
+                trials.append((k, trial))
+        pos = 0
+        while pos < len(trials) and not success:
+            room = batch if max_evals is None else min(batch, max_evals - n_evals)
+            end, fresh = pos, set()
+            while end < len(trials) and (len(fresh) < room or key(trials[end][1]) in cache):
+                if key(trials[end][1]) not in cache:
+                    fresh.add(key(trials[end][1]))
+                end += 1
+            if end == pos:  # evaluation limit reached
                 break
-            if max_evals is not None and n_evals >= max_evals:
-                break
+            evaluate([t for _, t in trials[pos:end]])
+            for k, trial in trials[pos:end]:
+                ft = cache[key(trial)]
+                if ft < fz:
+                    z, fz, success = trial, ft, True
+                    dirs.insert(0, dirs.pop(k))  # poll this direction first next time
+                    break
+            pos = end
         step = min(step * expand, max_step) if success else step * contract
         entry = {"iter": it, "n_evals": n_evals, "fun": fz, "step": step}
         history.append(entry)

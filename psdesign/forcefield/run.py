@@ -9,6 +9,7 @@ Spec layout (all keys optional except ``case``)::
     max_iter = 200                # pattern-search polls
     min_step = 1e-3               # mesh size (fraction of each range) for convergence
     step = 0.25                   # initial mesh size
+    workers = 2                   # processes polling in parallel (same result for any value)
 
     [forcefield.quadrature]
     h = 0.005                     # volume-interaction grid step (normalized)
@@ -53,8 +54,8 @@ from .pattern import PatternSearchResult
 from .potentials import SURFACE_TERMS
 
 CASES = ("two-fiber", "six-fiber")
-_TOP = {"case", "surface", "weights", "max_iter", "min_step", "step", "quadrature",
-        "two_fiber", "six_fiber"}
+_TOP = {"case", "surface", "weights", "max_iter", "min_step", "step", "workers",
+        "quadrature", "two_fiber", "six_fiber"}
 
 
 def _num(table: dict, key: str, where: str, default, lo=None, hi=None, integer=False):
@@ -170,10 +171,12 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     step = _num(ff, "step", "forcefield", 0.25, 1e-6, 0.5)
     if not min_step < step:
         raise SpecError("forcefield.min_step", f"must be below step={step}, got {min_step}")
+    workers = _num(ff, "workers", "forcefield", 2, 1, 64, True)
     t0 = time.perf_counter()
-    res = prob.solve(max_iter=max_iter, step=step, min_step=min_step)
+    res = prob.solve(max_iter=max_iter, step=step, min_step=min_step, workers=workers)
     wall = time.perf_counter() - t0
     summary = summarize(prob, res, wall)
+    summary["workers"] = workers
     with staged_directory(out_dir) as tmp:
         write_json(tmp / "rve.json", summary)
         write_history(tmp / "history.csv", res)
