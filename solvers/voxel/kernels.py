@@ -58,13 +58,52 @@ def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     return d[i, j, k] * x[i, j, k] - s
 
 
+@nb.njit(inline="always")
+def _ends(nz):
+    """Number of k-boundary points handled by the scalar (wrapping) stencil: k = 0 and nz - 1."""
+    return 1 if nz == 1 else 2
+
+
 @nb.njit(parallel=True, **_OPTS)
 def lap_residual(d, cx, cy, cz, x, b, r):
-    """r = b - A x (0 on inactive unknowns)."""
+    """r = b - A x (0 on inactive unknowns).
+
+    Rows along k are processed with plain (vectorisable) loops over 1-D row views; only the two
+    periodic k ends use the wrapping scalar stencil.
+    """
     nx, ny, nz = d.shape
     for i in nb.prange(nx):
+        ip = _up(i, nx)
+        im = _dn(i, nx)
         for j in range(ny):
-            for k in range(nz):
+            jp = _up(j, ny)
+            jm = _dn(j, ny)
+            dr = d[i, j]
+            cxr = cx[i, j]
+            cxp = cx[ip, j]
+            cyr = cy[i, j]
+            cyp = cy[i, jp]
+            czr = cz[i, j]
+            xr = x[i, j]
+            xim = x[im, j]
+            xip = x[ip, j]
+            xjm = x[i, jm]
+            xjp = x[i, jp]
+            br = b[i, j]
+            out = r[i, j]
+            for k in range(1, nz - 1):
+                s = (
+                    cxr[k] * xim[k]
+                    + cxp[k] * xip[k]
+                    + cyr[k] * xjm[k]
+                    + cyp[k] * xjp[k]
+                    + czr[k] * xr[k - 1]
+                    + czr[k + 1] * xr[k + 1]
+                )
+                res = br[k] - (dr[k] * xr[k] - s)
+                out[k] = res if dr[k] != 0 else 0.0
+            for e in range(_ends(nz)):
+                k = 0 if e == 0 else nz - 1
                 if d[i, j, k] == 0:
                     r[i, j, k] = 0.0
                 else:
@@ -73,11 +112,41 @@ def lap_residual(d, cx, cy, cz, x, b, r):
 
 @nb.njit(parallel=True, **_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
-    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)``."""
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised)."""
     nx, ny, nz = d.shape
     for i in nb.prange(nx):
+        ip = _up(i, nx)
+        im = _dn(i, nx)
         for j in range(ny):
-            for k in range(nz):
+            jp = _up(j, ny)
+            jm = _dn(j, ny)
+            dr = d[i, j]
+            cxr = cx[i, j]
+            cxp = cx[ip, j]
+            cyr = cy[i, j]
+            cyp = cy[i, jp]
+            czr = cz[i, j]
+            xr = x[i, j]
+            xim = x[im, j]
+            xip = x[ip, j]
+            xjm = x[i, jm]
+            xjp = x[i, jp]
+            br = b[i, j]
+            out = xnew[i, j]
+            for k in range(1, nz - 1):
+                s = (
+                    cxr[k] * xim[k]
+                    + cxp[k] * xip[k]
+                    + cyr[k] * xjm[k]
+                    + cyp[k] * xjp[k]
+                    + czr[k] * xr[k - 1]
+                    + czr[k + 1] * xr[k + 1]
+                )
+                dd = dr[k]
+                res = br[k] - (dd * xr[k] - s)
+                out[k] = xr[k] + omega * res / dd if dd != 0 else 0.0
+            for e in range(_ends(nz)):
+                k = 0 if e == 0 else nz - 1
                 dd = d[i, j, k]
                 if dd == 0:
                     xnew[i, j, k] = 0.0
@@ -113,14 +182,19 @@ def restrict_sum(r, fx, fy, fz, rc):
         i0, i1 = _children(ic, fx, ncx, nx)
         for jc in range(ncy):
             j0, j1 = _children(jc, fy, ncy, ny)
-            for kc in range(ncz):
-                k0, k1 = _children(kc, fz, ncz, nz)
-                acc = 0.0
-                for i in range(i0, i1):
-                    for j in range(j0, j1):
-                        for k in range(k0, k1):
-                            acc += r[i, j, k]
-                rc[ic, jc, kc] = acc
+            out = rc[ic, jc]
+            out[:] = 0.0
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    row = r[i, j]
+                    if fz == 2:
+                        for kc in range(ncz):
+                            out[kc] += row[2 * kc] + row[2 * kc + 1]
+                        if nz > 2 * ncz:
+                            out[ncz - 1] += row[nz - 1]
+                    else:
+                        for k in range(nz):
+                            out[min(k // fz, ncz - 1)] += row[k]
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -132,10 +206,18 @@ def prolong_add(d, xc, fx, fy, fz, alpha, x):
         ic = min(i // fx, ncx - 1)
         for j in range(ny):
             jc = min(j // fy, ncy - 1)
-            for k in range(nz):
-                if d[i, j, k] != 0:
-                    kc = min(k // fz, ncz - 1)
-                    x[i, j, k] += alpha * xc[ic, jc, kc]
+            dr = d[i, j]
+            xr = x[i, j]
+            cr = xc[ic, jc]
+            if fz == 2:
+                for k in range(2 * ncz):
+                    xr[k] += alpha * cr[k >> 1] if dr[k] != 0 else 0.0
+                for k in range(2 * ncz, nz):
+                    xr[k] += alpha * cr[ncz - 1] if dr[k] != 0 else 0.0
+            else:
+                for k in range(nz):
+                    if dr[k] != 0:
+                        xr[k] += alpha * cr[min(k // fz, ncz - 1)]
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -179,84 +261,186 @@ def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
                 czc[ic, jc, kc] = ez
 
 
+@nb.njit(inline="always")
+def _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny, nz):
+    """y = K x at one cell (wrapping indices; used at the periodic k ends)."""
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    jm = _dn(j, ny)
+    jp = _up(j, ny)
+    km = _dn(k, nz)
+    kp = _up(k, nz)
+    pc = p[i, j, k]
+    if du[i, j, k] != 0:
+        y[0, i, j, k] = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz) + (
+            pc - p[im, j, k]
+        )
+    else:
+        y[0, i, j, k] = 0.0
+    if dv[i, j, k] != 0:
+        y[1, i, j, k] = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz) + (
+            pc - p[i, jm, k]
+        )
+    else:
+        y[1, i, j, k] = 0.0
+    if dw[i, j, k] != 0:
+        y[2, i, j, k] = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz) + (
+            pc - p[i, j, km]
+        )
+    else:
+        y[2, i, j, k] = 0.0
+    if fluid[i, j, k] != 0:
+        y[3, i, j, k] = (
+            u[i, j, k] - u[ip, j, k] + v[i, j, k] - v[i, jp, k] + w[i, j, k] - w[i, j, kp]
+        )
+    else:
+        y[3, i, j, k] = 0.0
+
+
 @nb.njit(parallel=True, **_OPTS)
-def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y):
+def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
     """y = K x for the symmetric MAC Stokes matrix; x, y have shape (4, nx, ny, nz) = (u, v, w, p).
 
     ``du, dv, dw`` are the diagonals of the three component operators, ``cu = (cx, cy, cz)`` of
     component u etc. (stacked uint8 arrays of shape (3, nx, ny, nz)); ``fluid`` is uint8.
+    Rows along k are plain loops over 1-D views (vectorised); the periodic k ends use
+    :func:`_stokes_point`.  Returns the float64 dot products ``(x . y, x . r)`` computed in the
+    same pass (``r`` is any array of the shape of ``x``; pass ``x`` if not needed).
     """
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
+    acc_y = np.zeros(nx)
+    acc_r = np.zeros(nx)
     for i in nb.prange(nx):
+        s_y = 0.0
+        s_r = 0.0
         im = _dn(i, nx)
         ip = _up(i, nx)
         for j in range(ny):
             jm = _dn(j, ny)
             jp = _up(j, ny)
-            for k in range(nz):
-                km = _dn(k, nz)
-                kp = _up(k, nz)
-                pc = p[i, j, k]
-                if du[i, j, k] != 0:
-                    y[0, i, j, k] = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz) + (
-                        pc - p[im, j, k]
-                    )
-                else:
-                    y[0, i, j, k] = 0.0
-                if dv[i, j, k] != 0:
-                    y[1, i, j, k] = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz) + (
-                        pc - p[i, jm, k]
-                    )
-                else:
-                    y[1, i, j, k] = 0.0
-                if dw[i, j, k] != 0:
-                    y[2, i, j, k] = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz) + (
-                        pc - p[i, j, km]
-                    )
-                else:
-                    y[2, i, j, k] = 0.0
-                if fluid[i, j, k] != 0:
-                    y[3, i, j, k] = (
-                        u[i, j, k]
-                        - u[ip, j, k]
-                        + v[i, j, k]
-                        - v[i, jp, k]
-                        + w[i, j, k]
-                        - w[i, j, kp]
-                    )
-                else:
-                    y[3, i, j, k] = 0.0
+            pr = p[i, j]
+            pim = p[im, j]
+            pjm = p[i, jm]
+            fr = fluid[i, j]
+            # u
+            dr = du[i, j]
+            ax = cu[0, i, j]
+            axp = cu[0, ip, j]
+            ay = cu[1, i, j]
+            ayp = cu[1, i, jp]
+            az = cu[2, i, j]
+            qr = u[i, j]
+            qim = u[im, j]
+            qip = u[ip, j]
+            qjm = u[i, jm]
+            qjp = u[i, jp]
+            out = y[0, i, j]
+            for k in range(1, nz - 1):
+                s = (
+                    ax[k] * qim[k]
+                    + axp[k] * qip[k]
+                    + ay[k] * qjm[k]
+                    + ayp[k] * qjp[k]
+                    + az[k] * qr[k - 1]
+                    + az[k + 1] * qr[k + 1]
+                )
+                val = dr[k] * qr[k] - s + (pr[k] - pim[k])
+                out[k] = val if dr[k] != 0 else 0.0
+            # v
+            dr = dv[i, j]
+            ax = cv[0, i, j]
+            axp = cv[0, ip, j]
+            ay = cv[1, i, j]
+            ayp = cv[1, i, jp]
+            az = cv[2, i, j]
+            qr = v[i, j]
+            qim = v[im, j]
+            qip = v[ip, j]
+            qjm = v[i, jm]
+            qjp = v[i, jp]
+            out = y[1, i, j]
+            for k in range(1, nz - 1):
+                s = (
+                    ax[k] * qim[k]
+                    + axp[k] * qip[k]
+                    + ay[k] * qjm[k]
+                    + ayp[k] * qjp[k]
+                    + az[k] * qr[k - 1]
+                    + az[k + 1] * qr[k + 1]
+                )
+                val = dr[k] * qr[k] - s + (pr[k] - pjm[k])
+                out[k] = val if dr[k] != 0 else 0.0
+            # w
+            dr = dw[i, j]
+            ax = cw[0, i, j]
+            axp = cw[0, ip, j]
+            ay = cw[1, i, j]
+            ayp = cw[1, i, jp]
+            az = cw[2, i, j]
+            qr = w[i, j]
+            qim = w[im, j]
+            qip = w[ip, j]
+            qjm = w[i, jm]
+            qjp = w[i, jp]
+            out = y[2, i, j]
+            for k in range(1, nz - 1):
+                s = (
+                    ax[k] * qim[k]
+                    + axp[k] * qip[k]
+                    + ay[k] * qjm[k]
+                    + ayp[k] * qjp[k]
+                    + az[k] * qr[k - 1]
+                    + az[k + 1] * qr[k + 1]
+                )
+                val = dr[k] * qr[k] - s + (pr[k] - pr[k - 1])
+                out[k] = val if dr[k] != 0 else 0.0
+            # continuity
+            ur = u[i, j]
+            uip = u[ip, j]
+            vr = v[i, j]
+            vjp = v[i, jp]
+            wr = w[i, j]
+            out = y[3, i, j]
+            for k in range(1, nz - 1):
+                val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
+                out[k] = val if fr[k] != 0 else 0.0
+            for e in range(_ends(nz)):
+                k = 0 if e == 0 else nz - 1
+                _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny, nz)
+            for a in range(4):
+                xr = x[a, i, j]
+                yr = y[a, i, j]
+                rr = r[a, i, j]
+                for k in range(nz):
+                    s_y += np.float64(xr[k]) * np.float64(yr[k])
+                    s_r += np.float64(xr[k]) * np.float64(rr[k])
+        acc_y[i] = s_y
+        acc_r[i] = s_r
+    return acc_y.sum(), acc_r.sum()
 
 
 @nb.njit(parallel=True, **_OPTS)
 def dot(a, b):
-    """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype)."""
-    fa = a.ravel()
-    fb = b.ravel()
-    n = fa.size
-    nchunk = 64
-    part = np.zeros(nchunk)
-    step = (n + nchunk - 1) // nchunk
-    for c in nb.prange(nchunk):
+    """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype).
+
+    Parallel over rows of the last axis, each row accumulated in float64 (vectorised).
+    """
+    fa = a.reshape(-1, a.shape[-1])
+    fb = b.reshape(-1, b.shape[-1])
+    m, n = fa.shape
+    part = np.zeros(m)
+    for row in nb.prange(m):
+        ra = fa[row]
+        rb = fb[row]
         s = 0.0
-        for t in range(c * step, min(n, (c + 1) * step)):
-            s += np.float64(fa[t]) * np.float64(fb[t])
-        part[c] = s
+        for t in range(n):
+            s += np.float64(ra[t]) * np.float64(rb[t])
+        part[row] = s
     return part.sum()
-
-
-@nb.njit(parallel=True, **_OPTS)
-def axpby(alpha, x, beta, y, out):
-    """out = alpha x + beta y (flat, parallel); out may alias x or y."""
-    fx = x.ravel()
-    fy = y.ravel()
-    fo = out.ravel()
-    for t in nb.prange(fo.size):
-        fo[t] = alpha * fx[t] + beta * fy[t]
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -325,35 +509,27 @@ def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
 
 
 @nb.njit(parallel=True, **_OPTS)
-def lanczos_step(y, r1, r2, v, c1, c2):
-    """y -= c1 r1 + c2 r2 (c2 from <v, y> is computed by the caller); returns nothing."""
-    fy = y.ravel()
+def lanczos_step(t, s, r1, c1, r2, c2, out):
+    """out = s t - c1 r1 - c2 r2 (flat, parallel); out may alias r1."""
+    ft = t.ravel()
     f1 = r1.ravel()
     f2 = r2.ravel()
-    for t in nb.prange(fy.size):
-        fy[t] = fy[t] - c1 * f1[t] - c2 * f2[t]
+    fo = out.ravel()
+    for q in nb.prange(fo.size):
+        fo[q] = s * ft[q] - c1 * f1[q] - c2 * f2[q]
 
 
 @nb.njit(parallel=True, **_OPTS)
-def minres_update(v, w, w1, x, oldeps, delta, denom, phi):
-    """w_new = (v - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new."""
-    fv = v.ravel()
+def minres_update(z, s, w, w1, x, oldeps, delta, denom, phi):
+    """w_new = (s z - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new."""
+    fz = z.ravel()
     fw = w.ravel()
     f1 = w1.ravel()
     fx = x.ravel()
-    for t in nb.prange(fv.size):
-        wn = (fv[t] - oldeps * f1[t] - delta * fw[t]) * denom
-        f1[t] = wn
-        fx[t] += phi * wn
-
-
-@nb.njit(parallel=True, **_OPTS)
-def scale_into(s, y, v):
-    """v = s y."""
-    fy = y.ravel()
-    fv = v.ravel()
-    for t in nb.prange(fv.size):
-        fv[t] = s * fy[t]
+    for q in nb.prange(fz.size):
+        wn = (s * fz[q] - oldeps * f1[q] - delta * fw[q]) * denom
+        f1[q] = wn
+        fx[q] += phi * wn
 
 
 @nb.njit(parallel=True, **_OPTS)

@@ -133,14 +133,21 @@ class ScalarMG:
 
         return solve
 
-    def _smooth(self, lev: Level, first_from_zero: bool) -> None:
+    def _smooth(self, lev: Level, first_from_zero: bool, out: np.ndarray | None = None) -> None:
+        """``pre`` damped Jacobi sweeps on ``lev.x``; the last one writes into ``out`` if given
+        (saves a copy on the finest level)."""
         sweeps = self.pre
         if first_from_zero:
             kr.jacobi_zero(lev.d, lev.b, lev.x, self.omega)
             sweeps -= 1
-        for _ in range(sweeps):
+        for s in range(sweeps):
+            if out is not None and s == sweeps - 1:
+                kr.jacobi(lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, out, self.omega)
+                return
             kr.jacobi(lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, lev.t, self.omega)
             lev.x, lev.t = lev.t, lev.x
+        if out is not None:
+            np.copyto(out, lev.x)
 
     def apply(self, b: np.ndarray, out: np.ndarray) -> None:
         """out = V-cycle(b) starting from zero (approximates A^-1 b)."""
@@ -156,8 +163,9 @@ class ScalarMG:
         for li in range(nlev - 2, -1, -1):
             lev = levels[li]
             kr.prolong_add(lev.d, levels[li + 1].x, *lev.f, self.alpha, lev.x)
-            self._smooth(lev, False)
-        np.copyto(out, levels[0].x)
+            self._smooth(lev, False, out if li == 0 else None)
+        if nlev == 1:
+            np.copyto(out, levels[0].x)
         levels[0].b = np.zeros(0)
 
     @property
