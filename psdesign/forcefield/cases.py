@@ -47,6 +47,7 @@ import numpy as np
 from psdesign.model import GeneralizedPS
 
 from .fields import NoFiberError, PSField, Tube
+from .memo import FiberMemo
 from .parallel import batch_map
 from .params import Parametrization, Tie
 from .pattern import PatternSearchResult, pattern_search
@@ -140,6 +141,7 @@ class ForceFieldProblem:
             raise ValueError(f"start value of {self.param.free[k]!r} = {self.x0[k]:.6g} lies "
                              f"outside its feasible range [{self.lower[k]:.6g}, "
                              f"{self.upper[k]:.6g}]")
+        self.memo = FiberMemo()
         self.notes = self.notes + [f"start inconsistent with constraints, derived instead: {s}"
                                    for s in self.param.inconsistencies(self.start)]
 
@@ -155,7 +157,7 @@ class ForceFieldProblem:
         hh = self.h if h is None else h
         flds = self.build(self.params(x), 3.0 * hh)
         return total_potential(flds, DOMAIN, hh, self.weights, surface or self.surface,
-                               n_s or self.n_s, n_theta or self.n_theta)
+                               n_s or self.n_s, n_theta or self.n_theta, self.memo)
 
     def objective(self, x) -> float:
         """U at ``x``; +inf where a fiber vanishes or breaks (infeasible shape)."""

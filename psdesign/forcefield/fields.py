@@ -22,7 +22,7 @@ import numpy as np
 
 from psdesign.model import TWO_PI, GeneralizedPS
 
-from .kernels import model_arrays
+from .kernels import fill_tables, model_arrays
 
 
 class NoFiberError(ValueError):
@@ -230,23 +230,49 @@ def ps_grid_values(
     return out
 
 
-def packed_tables(
-    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray]
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`ps_term_tables` packed for :func:`.kernels.pair_max_grid`.
+def term_groups(model: GeneralizedPS) -> tuple[np.ndarray, np.ndarray]:
+    """Major terms grouped by the axes they depend on (for :func:`packed_tables`).
 
-    Returns ``(flat, meta)``: the tables concatenated, and per table its offset and its
-    strides along x, y, z (0 where the table does not depend on the axis).
+    Returns ``(deps, group)``: per group a 0/1 row (depends on x, y, z), per major term
+    its group index. A term depends on an axis if its own or one of its minor terms'
+    direction has a non-zero component along it.
     """
-    tabs = ps_term_tables(model, axes)
-    meta = np.zeros((len(tabs), 4), dtype=np.int64)
+    keys: dict[tuple[bool, ...], int] = {}
+    group = np.empty(model.n_terms, dtype=np.int64)
+    for i in range(model.n_terms):
+        dep = model.H[i] != 0.0
+        for k in np.flatnonzero(model.minor_term == i):
+            dep = dep | (model.G[k] != 0.0)
+        group[i] = keys.setdefault(tuple(bool(v) for v in dep), len(keys))
+    deps = np.array(list(keys), dtype=np.int64).reshape(-1, 3)
+    return deps, group
+
+
+def packed_tables(
+    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray],
+    groups: tuple[np.ndarray, np.ndarray] | None = None, arrays: tuple | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Separable term tables of a PS model on a tensor grid, packed for
+    :func:`.kernels.pair_max_grid`.
+
+    Returns ``(flat, meta)``: per group of :func:`term_groups` the sum of its terms
+    ``mu_i cos(Phi_i)`` on the axes the group depends on (broadcast along the others),
+    concatenated, and per table its offset and its strides along x, y, z (0 where the
+    table does not depend on the axis). ``groups`` / ``arrays`` may pass precomputed
+    :func:`term_groups` / :func:`.kernels.model_arrays`.
+    """
+    deps, group = term_groups(model) if groups is None else groups
+    ax = [np.ascontiguousarray(a, dtype=float) for a in axes]
+    n = np.array([len(a) for a in ax])
+    meta = np.zeros((len(deps), 4), dtype=np.int64)
     off = 0
-    for t, tab in enumerate(tabs):
-        nx, ny, nz = tab.shape
-        meta[t] = (off, (ny * nz) if nx > 1 else 0, nz if ny > 1 else 0, 1 if nz > 1 else 0)
-        off += tab.size
-    flat = np.concatenate([np.ascontiguousarray(t).ravel() for t in tabs]) if tabs else \
-        np.zeros(1)
+    for t, dep in enumerate(deps):
+        shape = np.where(dep > 0, n, 1)
+        meta[t] = (off, shape[1] * shape[2] if dep[0] else 0, shape[2] if dep[1] else 0,
+                   1 if dep[2] else 0)
+        off += int(np.prod(shape))
+    flat = fill_tables(model_arrays(model) if arrays is None else arrays, group, deps,
+                       meta, ax[0], ax[1], ax[2], max(off, 1))
     return flat, meta
 
 
@@ -281,9 +307,16 @@ class Tube:
 
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Right-handed orthonormal frame (e1, e2, d) with d along the axis."""
+        return self._frame
+
+    @cached_property
+    def _frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         d = np.eye(3)[self.axis]
         e1 = np.eye(3)[(self.axis + 1) % 3]
-        return e1, np.cross(d, e1), d
+        e2 = np.cross(d, e1)
+        for v in (d, e1, e2):
+            v.flags.writeable = False
+        return e1, e2, d
 
 
 @dataclass(frozen=True)
@@ -319,6 +352,11 @@ class PSField:
             raise ValueError(f"scale must be positive, got {self.scale}")
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "tubes", tuple(self.tubes))
+
+    @cached_property
+    def groups(self) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`term_groups` of the model."""
+        return term_groups(self.model)
 
     @cached_property
     def arrays(self) -> tuple:

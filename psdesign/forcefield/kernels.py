@@ -199,6 +199,38 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
 
 # ---------------------------------------------------------------- pair overlap
 @numba.njit(cache=True)
+def fill_tables(m, group, deps, meta, ax, ay, az, size):  # pragma: no cover
+    """Values of :func:`.fields.packed_tables`: table ``t`` at node (i, j, k) of its
+    broadcast shape holds ``sum_{group[i] = t} mu_i cos(Phi_i)``."""
+    mu, kappa, H, alpha, minor_term, u, f, G, beta = m
+    two_pi = 2.0 * np.pi
+    flat = np.zeros(size)
+    for t in range(deps.shape[0]):
+        nx = ax.shape[0] if deps[t, 0] else 1
+        ny = ay.shape[0] if deps[t, 1] else 1
+        nz = az.shape[0] if deps[t, 2] else 1
+        for i in range(nx):
+            x0 = ax[i] if deps[t, 0] else 0.0
+            for j in range(ny):
+                x1 = ay[j] if deps[t, 1] else 0.0
+                for k in range(nz):
+                    x2 = az[k] if deps[t, 2] else 0.0
+                    val = 0.0
+                    for n in range(mu.shape[0]):
+                        if group[n] != t:
+                            continue
+                        ph = two_pi * kappa[n] * (H[n, 0] * x0 + H[n, 1] * x1 + H[n, 2] * x2
+                                                  + alpha[n])
+                        for q in range(u.shape[0]):
+                            if minor_term[q] == n:
+                                ph += u[q] * math.cos(two_pi * f[q] * (
+                                    G[q, 0] * x0 + G[q, 1] * x1 + G[q, 2] * x2 + beta[q]))
+                        val += mu[n] * math.cos(ph)
+                    flat[meta[t, 0] + i * meta[t, 1] + j * meta[t, 2] + k * meta[t, 3]] = val
+    return flat
+
+
+@numba.njit(cache=True)
 def _split_tables(meta):  # pragma: no cover
     """Rows of ``meta`` that vary along z, and those that do not."""
     n = meta.shape[0]

@@ -37,6 +37,7 @@ from skimage import measure
 
 from .fields import ImplicitField, PSField, packed_tables
 from .kernels import deepest_point, lens_candidates, pair_max_grid
+from .memo import FiberMemo, domain_key, fiber_key
 
 SURFACE_TERMS = ("gaussian", "area", "bending")
 
@@ -260,8 +261,8 @@ def _trapezoid_weights(axes) -> list[np.ndarray]:
 def _pair_grid(fi: ImplicitField, fj: ImplicitField, axes, w) -> tuple[np.ndarray, float]:
     """``m = max(phi_i, phi_j)`` on the grid and ``int max(-m, 0) dV`` (weights ``w``)."""
     if isinstance(fi, PSField) and isinstance(fj, PSField):
-        fa, ma = packed_tables(fi.model, axes)
-        fb, mb = packed_tables(fj.model, axes)
+        fa, ma = packed_tables(fi.model, axes, fi.groups, fi.arrays)
+        fb, mb = packed_tables(fj.model, axes, fj.groups, fj.arrays)
         m, total = pair_max_grid(fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue,
                                  fj.scale, *w)
         return m, float(total)
@@ -414,6 +415,7 @@ def total_potential(
     surface: str = "gaussian",
     n_s: int = 64,
     n_theta: int = 32,
+    memo: FiberMemo | None = None,
 ) -> Potentials:
     """Evaluate ``U`` and its parts for a set of fiber fields.
 
@@ -435,6 +437,9 @@ def total_potential(
     weights : (w1, w2, w3)
     surface : {"gaussian", "area", "bending"}
         The surface potential: Gaussian curvature (as printed), area, or bending energy.
+    memo : FiberMemo, optional
+        Reuse the surface quadrature and ``S_j`` of fibers seen before with the same
+        content (:mod:`.memo`).
     """
     w = check_weights(weights)
     if surface not in SURFACE_TERMS:
@@ -448,13 +453,22 @@ def total_potential(
     from .tube import fiber_gaussian_term, fiber_sample
 
     curv = surface == "bending"
-    samples = [fiber_sample(f, domain, n_s, n_theta, curv) if getattr(f, "tubes", ())
-               else surface_sample(f, domain, h, surface != "area") for f in fields]
+    def own(f: ImplicitField) -> tuple[SurfaceSample, float]:
+        """One fiber's surface quadrature and surface potential S_j."""
+        s = (fiber_sample(f, domain, n_s, n_theta, curv) if getattr(f, "tubes", ())
+             else surface_sample(f, domain, h, surface != "area"))
+        tube_gauss = surface == "gaussian" and getattr(f, "tubes", ())
+        return s, (fiber_gaussian_term(f, domain, s) if tube_gauss
+                   else surface_term(s, surface))
+
+    memo = FiberMemo(1) if memo is None else memo
+    dkey = domain_key(domain)
+    parts = [memo.get(fiber_key(f, dkey, h, n_s, n_theta, surface), lambda f=f: own(f))
+             for f in fields]
+    samples = [s for s, _ in parts]
     inter = sum(surface_interaction(s, fields[:j] + fields[j + 1:])
                 for j, s in enumerate(samples)) if w[1] > 0 else 0.0
-    per = tuple(fiber_gaussian_term(f, domain, s) if surface == "gaussian" and
-                getattr(f, "tubes", ()) else surface_term(s, surface)
-                for f, s in zip(fields, samples, strict=True))
+    per = tuple(float(v) for _, v in parts)
     surf = float(sum(per))
     area = float(sum(s.area for s in samples))
     U = float(w[0] * vol + w[1] * inter + w[2] * surf)
