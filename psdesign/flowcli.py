@@ -51,6 +51,21 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     return 0
 
 
+def _progress_printer(direction: str, every_s: float = 5.0):
+    """Progress callback of the voxel solver: one line on stderr at most every ``every_s``."""
+    t0 = time.perf_counter()
+    last = [t0]
+
+    def report(iterations: int, residual: float) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= every_s:
+            last[0] = now
+            print(f"psdesign: voxel solve {direction}: {iterations} MINRES iterations, "
+                  f"residual {residual:.1e}, {now - t0:.0f} s", file=sys.stderr, flush=True)
+
+    return report
+
+
 def _cmd_permeability(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -67,7 +82,9 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
-    results = [permeability(rve, fields, d, flow, solver=solver) for d in directions]
+    results = [permeability(rve, fields, d, flow, solver=solver,
+                            progress=None if args.quiet else _progress_printer(d))
+               for d in directions]
     if len(results) == 1:
         out = results[0]
     else:
@@ -113,6 +130,8 @@ def add_flow_subcommands(sub: argparse._SubParsersAction) -> None:
     perm.add_argument("--sides", choices=("slip", "noslip"), default=None,
                       help="lateral walls for the fem route (default: the spec's, slip)")
     perm.add_argument("--json", action="store_true", help="print one JSON object")
+    perm.add_argument("--quiet", action="store_true",
+                      help="no progress lines on stderr during long voxel solves")
     perm.set_defaults(func=_cmd_permeability)
 
 

@@ -21,6 +21,7 @@ Two routes, both geometry-agnostic below this module:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -163,7 +164,8 @@ def face_mismatch(solid: np.ndarray) -> list[float]:
     return out
 
 
-def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict) -> dict:
+def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict,
+                       progress: Callable[[int, float], None] | None = None) -> dict:
     """Permeability column along one axis from the periodic voxel Stokes solver.
 
     The solver treats the grid as periodic. A non-periodic RVE (random tilted fibers) is
@@ -172,7 +174,8 @@ def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict) ->
     of face voxels whose state differs from the opposite face; compare with the solid
     fraction of the face for random geometry) and ``geometry_periodic`` (all mismatches
     below 1 %); ``flow.periodic_treatment = "mirror"`` mirrors the grid along the flow
-    to make it periodic instead.
+    to make it periodic instead. ``progress(iterations, residual)`` is passed to the solver
+    (periodic progress reports).
     """
     from solvers.voxel_stokes import solve_voxel_stokes
 
@@ -187,7 +190,8 @@ def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict) ->
         kw["tol"] = float(flow["tol"])
     res = solve_voxel_stokes(fields.solid, float(spacing[0]), name,
                              viscosity=float(flow["viscosity"]),
-                             periodic_treatment=flow.get("periodic_treatment", "periodic"), **kw)
+                             periodic_treatment=flow.get("periodic_treatment", "periodic"),
+                             progress=progress, **kw)
     column = np.asarray(res.permeability, float)
     return {
         "permeability_m2": float(column[ax]),
@@ -209,11 +213,13 @@ def permeability_voxel(fields: VoxelFields, direction: str | int, flow: dict) ->
 
 
 def permeability(rve: RVE, fields: VoxelFields, direction: str | int, flow: dict,
-                 solver: str | None = None) -> dict:
-    """Dispatch to :func:`permeability_fem` or :func:`permeability_voxel`."""
+                 solver: str | None = None,
+                 progress: Callable[[int, float], None] | None = None) -> dict:
+    """Dispatch to :func:`permeability_fem` or :func:`permeability_voxel` (``progress`` is
+    used by the voxel route only)."""
     solver = solver or flow.get("solver", "fem")
     if solver == "fem":
         return permeability_fem(rve, fields, direction, flow)
     if solver == "voxel":
-        return permeability_voxel(fields, direction, flow)
+        return permeability_voxel(fields, direction, flow, progress=progress)
     raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")

@@ -70,6 +70,7 @@ from __future__ import annotations
 import resource
 import time
 from collections import deque
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -236,6 +237,7 @@ def solve_voxel_stokes(
     max_iter: int = 2000,
     periodic_treatment: str = "periodic",
     return_velocity: bool = False,
+    progress: Callable[[int, float], None] | None = None,
 ) -> VoxelFlowResult:
     """Solve periodic Stokes flow driven by a mean pressure gradient along ``direction``.
 
@@ -265,6 +267,10 @@ def solve_voxel_stokes(
         In all cases ``<u>`` is averaged over the solved (treated) grid.
     return_velocity : bool
         Return the velocity field (float32, 3 x grid) in ``result.velocity``.
+    progress : callable, optional
+        ``progress(iterations, residual)`` is called every ``PROGRESS_EVERY`` MINRES iterations
+        with the running estimate of the relative residual, and after each refinement cycle
+        with the true one (for progress reports on long solves).
 
     Returns
     -------
@@ -305,7 +311,7 @@ def solve_voxel_stokes(
             "(periodic, face-connected fluid voxels)"
         )
     with _threads(grid.size):
-        x, info = _solve_core(grid, d, tol, int(max_iter))
+        x, info = _solve_core(grid, d, tol, int(max_iter), progress)
     h2 = voxel_size * voxel_size
     k_col = np.array([x[a].mean() * h2 for a in range(3)])
     flow = x[d].sum(axis=tuple(b for b in range(3) if b != d))
@@ -426,7 +432,13 @@ class _Stokes:
 
 
 def _minres(
-    op: _Stokes, b: np.ndarray, e: np.ndarray, bufs: list[np.ndarray], rtol: float, maxit: int
+    op: _Stokes,
+    b: np.ndarray,
+    e: np.ndarray,
+    bufs: list[np.ndarray],
+    rtol: float,
+    maxit: int,
+    report: Callable[[int, float], None] | None = None,
 ) -> tuple[int, str]:
     """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b.
 
@@ -436,7 +448,8 @@ def _minres(
     Memory passes are fused: the Lanczos vector ``v = z / beta`` is never stored (the scale is
     carried into the kernels), the operator product returns ``z . Kz`` and ``z . r1`` in the
     same pass, so ``alpha = v . (K v - c1 r1)`` needs no extra sweep, and the new Lanczos
-    residual is formed in one sweep.
+    residual is formed in one sweep.  ``report(itn, phibar / beta1)`` is called every
+    ``PROGRESS_EVERY`` iterations if given.
     """
     z, t, wa, wb, r1 = bufs
     for arr in (e, wa, wb, r1):
@@ -474,6 +487,8 @@ def _minres(
         kr.minres_update(z, s, wb, wa, e, oldeps, delta, 1.0 / gamma, phi)
         wa, wb = wb, wa
         z, t = t, z
+        if report is not None and itn % PROGRESS_EVERY == 0:
+            report(itn, phibar / beta1)
         if phibar <= rtol * beta1:
             return itn, "ok"
         if beta == 0.0:
@@ -481,11 +496,20 @@ def _minres(
     return maxit, "max_iter"
 
 
+PROGRESS_EVERY = 25
+"""MINRES iterations between two progress reports."""
+
 INNER_RTOL_FLOOR = 1e-4
 """Smallest relative reduction asked of one float32 MINRES run (float32 round-off floor)."""
 
 
-def _solve_core(solid: np.ndarray, d: int, tol: float, max_iter: int) -> tuple[np.ndarray, dict]:
+def _solve_core(
+    solid: np.ndarray,
+    d: int,
+    tol: float,
+    max_iter: int,
+    progress: Callable[[int, float], None] | None = None,
+) -> tuple[np.ndarray, dict]:
     """Iterative refinement: float64 residual and solution, float32 preconditioned MINRES."""
     op = _Stokes(solid)
     shp = op.shape
@@ -504,7 +528,14 @@ def _solve_core(solid: np.ndarray, d: int, tol: float, max_iter: int) -> tuple[n
             message = f"max_iter={max_iter} MINRES iterations reached"
             break
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
-        its, status = _minres(op, r, e, bufs, rtol, max_iter - total)
+        report = None
+        if progress is not None:
+            done, scale = total, rel
+
+            def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
+                progress(done + itn, scale * ratio)
+
+        its, status = _minres(op, r, e, bufs, rtol, max_iter - total, report)
         total += its
         if status == "preconditioner not positive":
             message = "preconditioner lost positivity (round-off); stopped"
@@ -513,6 +544,8 @@ def _solve_core(solid: np.ndarray, d: int, tol: float, max_iter: int) -> tuple[n
         rn, _ = op.residual(x, d, r)
         new = rn / bn
         history.append(new)
+        if progress is not None:
+            progress(total, new)
         stalls = stalls + 1 if not new < 0.5 * rel else 0
         rel = new
         if not np.isfinite(rel) or stalls >= 3:

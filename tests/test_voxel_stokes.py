@@ -298,3 +298,23 @@ def test_max_iter_exhausted_is_flagged_not_converged() -> None:
     assert not res.converged
     assert res.iterations <= 5 and res.residual > 1e-10
     assert "max_iter" in res.message
+
+
+def test_progress_reports_monotone_iterations_and_final_true_residual() -> None:
+    calls: list[tuple[int, float]] = []
+    solid = _cylinder_array(32, 0.2, nz=4)
+    res = solve_voxel_stokes(solid, 1.0 / 32, "x", tol=1e-8,
+                             progress=lambda its, r: calls.append((its, r)))
+    its = [c[0] for c in calls]
+    assert len(calls) >= 3 and its == sorted(its)
+    assert calls[-1] == (res.iterations, res.residual)
+    assert all(0.0 < r < 1.0 for _, r in calls)
+
+
+def test_cli_progress_printer_writes_one_line_per_report(capsys) -> None:
+    from psdesign.flowcli import _progress_printer
+
+    report = _progress_printer("x", every_s=0.0)
+    report(25, 1.5e-3)
+    err = capsys.readouterr().err
+    assert err.startswith("psdesign: voxel solve x: 25 MINRES iterations, residual 1.5e-03")
