@@ -48,8 +48,8 @@ fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
 more work per iteration and was dropped.  Memory is O(N): about 170 bytes per voxel (float64
 solution, 7 float32 4-field vectors, uint8 stencils); there is no assembled matrix.  Kernels run
-on one numba thread below ``PARALLEL_MIN_CELLS`` cells (a parallel region costs ~15 ms start-up
-on this busy shared machine) and on all numba threads above.
+on one numba thread below ``PARALLEL_MIN_CELLS`` cells (100 000; a parallel region costs up to
+~15 ms start-up on a busy machine) and on all numba threads above.
 
 Kernel design (speed): every stencil kernel walks rows along the last axis through 1-D views
 with branch-free bodies, so LLVM vectorises them (only the two periodic row ends use a wrapping
@@ -384,9 +384,12 @@ def richardson_extrapolate(
 # ---------------------------------------------------------------------------------------------
 # solver core (voxel units: h = 1, mu = 1, unit body force)
 
-PARALLEL_MIN_CELLS = 4_000_000
-"""Grids with fewer cells run the numba kernels on one thread: on this shared 2-core machine the
-start-up latency of a parallel region (~15 ms under load) exceeds the gain below this size."""
+PARALLEL_MIN_CELLS = 100_000
+"""Grids with fewer cells run the numba kernels on one thread.  Measured on an idle 2-core
+machine with the row-vectorised kernels, two threads are faster from 32^3 up (100^3: 9.5 s ->
+5.4 s, 150^3: 32.9 s -> 18.3 s); on a machine whose cores are busy with other work the start-up
+latency of a parallel region (~15 ms under load) can make one thread faster for small grids,
+so the tiny grids of tests and screening stay on one thread."""
 
 
 @contextmanager
