@@ -318,3 +318,35 @@ def test_cli_progress_printer_writes_one_line_per_report(capsys) -> None:
     report(25, 1.5e-3)
     err = capsys.readouterr().err
     assert err.startswith("psdesign: voxel solve x: 25 MINRES iterations, residual 1.5e-03")
+
+
+@pytest.mark.parametrize("shape", [(12, 10, 9), (8, 6, 3), (5, 7, 1)])
+def test_fused_residual_restriction_equals_residual_then_sum(shape) -> None:
+    from solvers.voxel import kernels as kr
+    from solvers.voxel import multigrid as mg
+
+    rng = np.random.default_rng(7)
+    fluid = rng.random(shape) > 0.25
+    d, c = mg.component_operator(fluid, 0)
+    x = (rng.random(shape) * (d > 0)).astype(np.float32)
+    b = (rng.random(shape) * (d > 0)).astype(np.float32)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    coarse = tuple(n // m for n, m in zip(shape, f, strict=True))
+    r = np.empty(shape, np.float32)
+    kr.lap_residual(d, c[0], c[1], c[2], x, b, r)
+    expected = np.empty(coarse, np.float32)
+    kr.restrict_sum(r, *f, expected)
+    fused = np.empty(coarse, np.float32)
+    kr.residual_restrict(d, c[0], c[1], c[2], x, b, *f, fused)
+    np.testing.assert_allclose(fused, expected, rtol=1e-6, atol=1e-6)
+    # and the residual itself against a dense evaluation of A x
+    dd = d.astype(float)
+    ax = dd * x
+    for axis in range(3):
+        ax -= c[axis] * np.roll(x, 1, axis=axis) + np.roll(c[axis] * x, -1, axis=axis)
+    np.testing.assert_allclose(r, np.where(d > 0, b - ax, 0.0), rtol=1e-5, atol=1e-5)
+    # aggregate sums of the fine residual (odd sizes fold the last cell into the last aggregate)
+    idx = [np.minimum(np.arange(n) // m, nc - 1) for n, m, nc in zip(shape, f, coarse, strict=True)]
+    manual = np.zeros(coarse)
+    np.add.at(manual, np.ix_(*idx), r)
+    np.testing.assert_allclose(expected, manual, rtol=1e-5, atol=1e-5)

@@ -64,50 +64,85 @@ def _ends(nz):
     return 1 if nz == 1 else 2
 
 
-@nb.njit(parallel=True, **_OPTS)
-def lap_residual(d, cx, cy, cz, x, b, r):
-    """r = b - A x (0 on inactive unknowns).
+@nb.njit(inline="always")
+def _residual_row(d, cx, cy, cz, x, b, i, j, out):
+    """out[:] = (b - A x)[i, j, :] (0 on inactive unknowns) for one row along k.
 
-    Rows along k are processed with plain (vectorisable) loops over 1-D row views; only the two
-    periodic k ends use the wrapping scalar stencil.
+    The interior is a plain loop over 1-D row views (vectorised); only the two periodic k ends
+    use the wrapping scalar stencil.
     """
     nx, ny, nz = d.shape
+    ip = _up(i, nx)
+    im = _dn(i, nx)
+    jp = _up(j, ny)
+    jm = _dn(j, ny)
+    dr = d[i, j]
+    cxr = cx[i, j]
+    cxp = cx[ip, j]
+    cyr = cy[i, j]
+    cyp = cy[i, jp]
+    czr = cz[i, j]
+    xr = x[i, j]
+    xim = x[im, j]
+    xip = x[ip, j]
+    xjm = x[i, jm]
+    xjp = x[i, jp]
+    br = b[i, j]
+    for k in range(1, nz - 1):
+        s = (
+            cxr[k] * xim[k]
+            + cxp[k] * xip[k]
+            + cyr[k] * xjm[k]
+            + cyp[k] * xjp[k]
+            + czr[k] * xr[k - 1]
+            + czr[k + 1] * xr[k + 1]
+        )
+        res = br[k] - (dr[k] * xr[k] - s)
+        out[k] = res if dr[k] != 0 else 0.0
+    for e in range(_ends(nz)):
+        k = 0 if e == 0 else nz - 1
+        if d[i, j, k] == 0:
+            out[k] = 0.0
+        else:
+            out[k] = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
+
+
+@nb.njit(parallel=True, **_OPTS)
+def lap_residual(d, cx, cy, cz, x, b, r):
+    """r = b - A x (0 on inactive unknowns), row-vectorised."""
+    nx, ny, nz = d.shape
     for i in nb.prange(nx):
-        ip = _up(i, nx)
-        im = _dn(i, nx)
         for j in range(ny):
-            jp = _up(j, ny)
-            jm = _dn(j, ny)
-            dr = d[i, j]
-            cxr = cx[i, j]
-            cxp = cx[ip, j]
-            cyr = cy[i, j]
-            cyp = cy[i, jp]
-            czr = cz[i, j]
-            xr = x[i, j]
-            xim = x[im, j]
-            xip = x[ip, j]
-            xjm = x[i, jm]
-            xjp = x[i, jp]
-            br = b[i, j]
-            out = r[i, j]
-            for k in range(1, nz - 1):
-                s = (
-                    cxr[k] * xim[k]
-                    + cxp[k] * xip[k]
-                    + cyr[k] * xjm[k]
-                    + cyp[k] * xjp[k]
-                    + czr[k] * xr[k - 1]
-                    + czr[k + 1] * xr[k + 1]
-                )
-                res = br[k] - (dr[k] * xr[k] - s)
-                out[k] = res if dr[k] != 0 else 0.0
-            for e in range(_ends(nz)):
-                k = 0 if e == 0 else nz - 1
-                if d[i, j, k] == 0:
-                    r[i, j, k] = 0.0
-                else:
-                    r[i, j, k] = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
+            _residual_row(d, cx, cy, cz, x, b, i, j, r[i, j])
+
+
+@nb.njit(parallel=True, **_OPTS)
+def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
+    """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
+
+    Same result as :func:`lap_residual` followed by :func:`restrict_sum` (one pass fewer over
+    the fine grid).
+    """
+    nx, ny, nz = d.shape
+    ncx, ncy, ncz = rc.shape
+    for ic in nb.prange(ncx):
+        i0, i1 = _children(ic, fx, ncx, nx)
+        row = np.empty(nz, dtype=rc.dtype)
+        for jc in range(ncy):
+            j0, j1 = _children(jc, fy, ncy, ny)
+            out = rc[ic, jc]
+            out[:] = 0.0
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    _residual_row(d, cx, cy, cz, x, b, i, j, row)
+                    if fz == 2:
+                        for kc in range(ncz):
+                            out[kc] += row[2 * kc] + row[2 * kc + 1]
+                        if nz > 2 * ncz:
+                            out[ncz - 1] += row[nz - 1]
+                    else:
+                        for k in range(nz):
+                            out[min(k // fz, ncz - 1)] += row[k]
 
 
 @nb.njit(parallel=True, **_OPTS)

@@ -157,8 +157,9 @@ class ScalarMG:
         for li in range(nlev - 1):
             lev = levels[li]
             self._smooth(lev, True)
-            kr.lap_residual(lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, lev.t)
-            kr.restrict_sum(lev.t, *lev.f, levels[li + 1].b)
+            kr.residual_restrict(
+                lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, *lev.f, levels[li + 1].b
+            )
         self._coarse_solve(levels[-1].b, levels[-1].x)
         for li in range(nlev - 2, -1, -1):
             lev = levels[li]
