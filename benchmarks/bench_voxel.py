@@ -6,6 +6,7 @@ Usage::
     python benchmarks/bench_voxel.py toray 100 200   # Toray-like fibrous grids of the given sizes
     python benchmarks/bench_voxel.py base            # warm-up only: the numba/Python RSS baseline
     python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
+    python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -114,6 +115,54 @@ def cylinders(sizes: tuple[int, ...] = (16, 32, 64, 128)) -> None:
         print(f"solid fraction {phi_s} (S&A {ref}): " + " | ".join(row), flush=True)
 
 
+def kernels(n: int, reps: int = 5) -> None:
+    """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid."""
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import kernels as kr
+
+    solid = toray_like(n)
+    with vs._threads(solid.size):
+        op = vs._Stokes(solid)
+        rng = np.random.default_rng(0)
+        x = rng.random(op.shape, dtype=np.float32)
+        y = np.empty_like(x)
+        z = np.empty_like(x)
+        mg0 = op.mg[0]
+        lev = mg0.levels[0]
+        b = x[0].copy()
+        t = np.empty_like(b)
+
+        def ms(fun) -> float:
+            fun()
+            t0 = time.perf_counter()
+            for _ in range(reps):
+                fun()
+            return (time.perf_counter() - t0) / reps * 1e3
+
+        rows = {
+            "operator product (+2 dots)": ms(lambda: op.apply(x, y, z)),
+            "preconditioner (3 V-cycles)": ms(lambda: op.precondition(x, z)),
+            "one V-cycle": ms(lambda: mg0.apply(b, t)),
+            "Jacobi sweep (finest)": ms(
+                lambda: kr.jacobi(lev.d, *lev.c, b, b, t, 0.9)
+            ),
+            "dot product (4 fields)": ms(lambda: kr.dot(x, y)),
+        }
+        rhs = np.empty(op.shape, np.float32)
+        op.residual(np.zeros(op.shape), 0, rhs)
+        bufs = [np.empty(op.shape, np.float32) for _ in range(5)]
+        e = np.empty(op.shape, np.float32)
+        its = 20
+        vs._minres(op, rhs.copy(), e, bufs, 1e-30, 2)
+        t0 = time.perf_counter()
+        vs._minres(op, rhs.copy(), e, bufs, 1e-30, its)
+        rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
+    load = os.getloadavg()[0]
+    print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
+    for name, val in rows.items():
+        print(f"  {name}: {val:.1f} ms")
+
+
 def main(argv: list[str]) -> None:
     what = argv[1] if len(argv) > 1 else "puma"
     # warm-up: compile the numba kernels outside the timings
@@ -122,6 +171,9 @@ def main(argv: list[str]) -> None:
     res0 = solve_voxel_stokes(warm, 1.0, "z")
     if what == "cylinders":
         cylinders()
+    elif what == "kernels":
+        for n in [int(a) for a in argv[2:]] or [200]:
+            kernels(n)
     elif what == "base":
         print(f"baseline after warm-up: peak RSS {res0.peak_memory_mb:.0f} MB")
     elif what == "puma":
