@@ -38,6 +38,7 @@ are not printed; we allow +-0.1.
 
 from __future__ import annotations
 
+import multiprocessing as mp
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -48,7 +49,7 @@ from psdesign.model import GeneralizedPS
 
 from .fields import NoFiberError, PSField, Tube
 from .memo import FiberMemo
-from .parallel import batch_map
+from .parallel import WorkerPool
 from .params import Parametrization, Tie
 from .pattern import PatternSearchResult, pattern_search
 from .potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
@@ -170,13 +171,19 @@ class ForceFieldProblem:
               min_step: float = 1e-3, callback=None, workers: int = 1) -> PatternSearchResult:
         """Pattern search from the start point within the feasible box.
 
-        ``workers > 1`` polls ``workers`` points at a time in as many processes
-        (speculative parallel polling: same iterates, see :func:`.pattern.pattern_search`).
+        ``workers > 1`` evaluates poll points in as many forked processes, each taking the
+        next point as soon as it is free (asynchronous speculative polling: same
+        iterates, see :func:`.pattern.pattern_search` with ``evaluator``).
         """
-        with batch_map(self.objective, workers) as map_fun:
-            return pattern_search(self.objective, self.x0, self.lower, self.upper, step=step,
-                                  min_step=min_step, max_iter=max_iter, max_evals=max_evals,
-                                  callback=callback, batch=workers, map_fun=map_fun)
+        if workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers}")
+        kw = dict(step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals,
+                  callback=callback)
+        if workers == 1 or "fork" not in mp.get_all_start_methods():
+            return pattern_search(self.objective, self.x0, self.lower, self.upper, **kw)
+        with WorkerPool(self.objective, workers) as pool:
+            return pattern_search(self.objective, self.x0, self.lower, self.upper,
+                                  evaluator=pool, **kw)
 
     def free_of(self, params: dict) -> np.ndarray:
         return self.param.free_from(params)

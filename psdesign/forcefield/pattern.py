@@ -15,10 +15,24 @@ implementation, tested on quadratic and Rosenbrock functions with bounds.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
+
+
+class Evaluator(Protocol):
+    """Asynchronous evaluation of the objective (see :class:`.parallel.WorkerPool`)."""
+
+    def free(self) -> int:
+        """Number of points that can be submitted now."""
+
+    def submit(self, tag: Hashable, x: np.ndarray) -> None:
+        """Start evaluating ``x``; its value comes back from :meth:`collect` with ``tag``."""
+
+    def collect(self, block: bool = True) -> list[tuple[Hashable, float]]:
+        """Finished ``(tag, value)`` pairs (wait for at least one if ``block``)."""
 
 
 @dataclass
@@ -32,7 +46,12 @@ class PatternSearchResult:
     fun : float
         Objective at ``x``.
     n_iter, n_evals : int
-        Polls performed and objective evaluations (cache hits not counted).
+        Polls performed and objective evaluations the search used (cache hits not
+        counted): the evaluations of plain serial polling, for any ``batch`` or
+        ``evaluator``.
+    n_speculative : int
+        Further evaluations made ahead by parallel polling and not used (finished ones;
+        may vary from run to run with ``evaluator``).
     converged : bool
         True if the mesh size fell below ``min_step``; False if an iteration or
         evaluation limit stopped the run (``x`` is then the best point so far).
@@ -48,6 +67,7 @@ class PatternSearchResult:
     converged: bool
     message: str
     history: list[dict] = field(default_factory=list)
+    n_speculative: int = 0
 
 
 def check_bounds(x0, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -85,6 +105,7 @@ def pattern_search(
     callback: Callable[[dict], None] | None = None,
     batch: int = 1,
     map_fun: Callable[[list[np.ndarray]], list[float]] | None = None,
+    evaluator: Evaluator | None = None,
 ) -> PatternSearchResult:
     """Minimize ``fun`` over the box ``lower <= x <= upper`` by compass pattern search.
 
@@ -115,10 +136,18 @@ def pattern_search(
         directions are taken in order in groups of ``batch`` points not yet in the cache,
         evaluated with ``map_fun``, and the first improving point in poll order is
         accepted. The iterates are those of ``batch = 1`` (plain opportunistic polling);
-        only the evaluation count grows by the speculative points after a success.
+        the speculative points after a success are counted in ``n_speculative``.
     map_fun : callable, optional
         ``map_fun(list of x) -> list of fun(x)``, e.g. a process pool's map
         (default: serial).
+    evaluator : Evaluator, optional
+        Asynchronous speculative polling (e.g. :class:`.parallel.WorkerPool`; ``batch``
+        and ``map_fun`` are then ignored): every free worker gets the next poll point
+        in order that is neither cached nor running, and the points are examined in poll
+        order as their values arrive; the first improving one is accepted. The iterates
+        are again those of plain polling; no worker waits for another, and points still
+        running after a success finish into the cache (``n_speculative``). ``fun`` is
+        not called.
     """
     x0, lo, hi = check_bounds(x0, lower, upper)
     if not (0 < min_step < step <= max_step):
@@ -136,7 +165,9 @@ def pattern_search(
     width = hi - lo
     free = np.flatnonzero(width > 0)
     cache: dict[tuple, float] = {}
-    n_evals = 0
+    used: set[tuple] = set()  # points whose value the search examined
+    running: set[tuple] = set()  # points with the evaluator
+    n_done = 0  # evaluations performed
 
     def key(z: np.ndarray) -> tuple:
         return tuple(np.round(z, 12))
@@ -146,24 +177,68 @@ def pattern_search(
         x[width == 0] = lo[width == 0]
         return x
 
+    def store(k: tuple, v: float) -> None:
+        nonlocal n_done
+        v = float(v)
+        cache[k] = v if np.isfinite(v) else np.inf
+        n_done += 1
+
     def evaluate(zs: list[np.ndarray]) -> None:
         """Evaluate the points not yet cached (in one ``map_fun`` call)."""
-        nonlocal n_evals
         new = list({key(z): z for z in zs if key(z) not in cache}.items())
-        if not new:
-            return
-        vals = map_fun([to_x(z) for _, z in new])
-        for (k, _), v in zip(new, vals, strict=True):
-            v = float(v)
-            cache[k] = v if np.isfinite(v) else np.inf
-        n_evals += len(new)
+        if new:
+            for (k, _), v in zip(new, map_fun([to_x(z) for _, z in new]), strict=True):
+                store(k, v)
 
-    def f_at(z: np.ndarray) -> float:
-        evaluate([z])
-        return cache[key(z)]
+    def collect(block: bool) -> None:
+        for k, v in evaluator.collect(block):
+            running.discard(k)
+            store(k, v)
+
+    def room() -> int:
+        return np.inf if max_evals is None else max_evals - n_done - len(running)
+
+    def poll(trials: list[tuple[int, np.ndarray]]) -> int | None:
+        """Examine ``trials`` in order; index of the first improving one (None: none, or
+        the evaluation limit stopped the poll)."""
+        pos, nxt = 0, 0
+        while pos < len(trials):
+            k_pos = key(trials[pos][1])
+            if k_pos in cache:
+                used.add(k_pos)
+                if cache[k_pos] < fz:
+                    return pos
+                pos += 1
+                continue
+            if evaluator is None:
+                # groups of ``batch`` points not yet cached, in poll order
+                end, fresh = pos, set()
+                lim = min(batch, room())
+                while end < len(trials) and (len(fresh) < lim or key(trials[end][1]) in cache):
+                    if key(trials[end][1]) not in cache:
+                        fresh.add(key(trials[end][1]))
+                    end += 1
+                if not fresh:  # evaluation limit reached
+                    return None
+                evaluate([t for _, t in trials[pos:end]])
+                continue
+            nxt = max(nxt, pos)
+            while evaluator.free() > 0 and nxt < len(trials) and room() > 0:
+                k = key(trials[nxt][1])
+                if k not in cache and k not in running:
+                    evaluator.submit(k, to_x(trials[nxt][1]))
+                    running.add(k)
+                nxt += 1
+            if k_pos not in running and not running:  # evaluation limit reached
+                return None
+            collect(block=True)
+        return None
 
     z = np.where(width > 0, (x0 - lo) / np.where(width > 0, width, 1.0), 0.0)
-    fz = f_at(z)
+    fz = np.inf
+    if poll([(0, z)]) is None and key(z) not in cache:  # pragma: no cover
+        raise RuntimeError("the start point could not be evaluated")
+    fz = cache[key(z)]
     dirs = [(i, s) for i in free for s in (1.0, -1.0)]
     history: list[dict] = []
     converged, message, it = False, "", 0
@@ -173,42 +248,30 @@ def pattern_search(
         if it >= max_iter:
             message = f"stopped on the iteration limit (max_iter={max_iter})"
             break
-        if max_evals is not None and n_evals >= max_evals:
+        if max_evals is not None and n_done >= max_evals:
             message = f"stopped on the evaluation limit (max_evals={max_evals})"
             break
         it += 1
-        success = False
         trials = []
         for k, (i, s) in enumerate(dirs):
             trial = z.copy()
             trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
             if trial[i] != z[i]:
                 trials.append((k, trial))
-        pos = 0
-        while pos < len(trials) and not success:
-            room = batch if max_evals is None else min(batch, max_evals - n_evals)
-            end, fresh = pos, set()
-            while end < len(trials) and (len(fresh) < room or key(trials[end][1]) in cache):
-                if key(trials[end][1]) not in cache:
-                    fresh.add(key(trials[end][1]))
-                end += 1
-            if end == pos:  # evaluation limit reached
-                break
-            evaluate([t for _, t in trials[pos:end]])
-            for k, trial in trials[pos:end]:
-                ft = cache[key(trial)]
-                if ft < fz:
-                    z, fz, success = trial, ft, True
-                    dirs.insert(0, dirs.pop(k))  # poll this direction first next time
-                    break
-            pos = end
+        hit = poll(trials)
+        success = hit is not None
+        if success:
+            k, z = trials[hit]
+            fz = cache[key(z)]
+            dirs.insert(0, dirs.pop(k))  # poll this direction first next time
         step = min(step * expand, max_step) if success else step * contract
-        entry = {"iter": it, "n_evals": n_evals, "fun": fz, "step": step}
+        entry = {"iter": it, "n_evals": len(used), "fun": fz, "step": step}
         history.append(entry)
         if callback is not None:
             callback(entry)
         if step < min_step:
             converged, message = True, f"mesh size below min_step={min_step}"
     x = lo + z * width
-    return PatternSearchResult(x=x, fun=fz, n_iter=it, n_evals=n_evals, converged=converged,
-                               message=message, history=history)
+    return PatternSearchResult(x=x, fun=fz, n_iter=it, n_evals=len(used), converged=converged,
+                               message=message, history=history,
+                               n_speculative=n_done - len(used))
