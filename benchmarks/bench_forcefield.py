@@ -67,7 +67,8 @@ def case_report(name: str, make, coarse: dict, fine: dict, warm_step: float | No
         f"- **optimum** (quadrature {coarse}): x = {_fmt(res.x)}, U = {res.fun:.6g} "
         f"(I^V = {pot.volume:.4g}, sum I^S = {pot.surface_interaction:.6g}, "
         f"sum S = {pot.surface:.4g}, area = {pot.area:.5g}); {res.n_iter} polls, "
-        f"{res.n_evals} evaluations, converged = {res.converged}; **wall {dt:.1f} s** "
+        f"{res.n_evals} evaluations (+{res.n_speculative} speculative), converged = "
+        f"{res.converged}; **wall {dt:.1f} s** "
         f"({WORKERS} workers, {_load(res)})",
         f"- paper's optimum {_fmt(paper_x)}: U = {pp.U:.6g} (I^V = {pp.volume:.4g}, "
         f"sum I^S = {pp.surface_interaction:.6g}, sum S = {pp.surface:.4g}) -> "

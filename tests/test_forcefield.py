@@ -321,14 +321,86 @@ def test_batched_polling_keeps_the_iterates():
                            max_iter=5000, batch=batch)
         assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter
         assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
-        assert r.n_evals >= ref.n_evals
+        assert r.n_evals == ref.n_evals and r.n_speculative > 0
     with batch_map(rosen, 2) as pmap:
         r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2,
                            map_fun=pmap)
     short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2)
     assert np.array_equal(r.x, short.x) and r.n_evals == short.n_evals
     capped = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], batch=3, max_evals=10)
-    assert capped.n_evals == 10 and not capped.converged
+    assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
+
+
+class _ShuffledEvaluator:
+    """In-process evaluator with ``slots`` points running that finishes them out of order
+    (last submitted first, or one at a time from the front)."""
+
+    def __init__(self, fun, slots: int, lifo: bool):
+        self.fun, self.slots, self.lifo, self.running, self.n = fun, slots, lifo, [], 0
+
+    def free(self) -> int:
+        return self.slots - len(self.running)
+
+    def submit(self, tag, x) -> None:
+        assert self.free() > 0
+        self.running.append((tag, float(self.fun(x))))
+        self.n += 1
+
+    def collect(self, block=True):
+        if not self.running:
+            return []
+        if self.lifo:
+            out, self.running = self.running[::-1], []
+            return out
+        return [self.running.pop(0)]
+
+
+def test_asynchronous_polling_keeps_the_iterates():
+    """With an evaluator the points arrive in any order and points keep running across
+    polls; the search still examines them in poll order: same iterates, same n_evals."""
+    from psdesign.forcefield.parallel import WorkerPool
+
+    rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
+    args = ([-1.2, 1.0], [-2, -2], [2, 2])
+    ref = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000)
+    for slots, lifo in ((2, True), (3, False), (4, True)):
+        ev = _ShuffledEvaluator(rosen, slots, lifo)
+        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=ev)
+        assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter and r.fun == ref.fun
+        assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
+        assert [h["n_evals"] for h in r.history] == [h["n_evals"] for h in ref.history]
+        assert r.n_evals == ref.n_evals and r.n_speculative > 0
+        assert r.n_evals + r.n_speculative == ev.n
+    capped = pattern_search(rosen, *args, max_evals=10,
+                            evaluator=_ShuffledEvaluator(rosen, 3, True))
+    assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
+    with WorkerPool(rosen, 2) as pool:
+        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=pool)
+    assert np.array_equal(r.x, ref.x) and r.n_evals == ref.n_evals
+
+
+def test_worker_pool_returns_values_and_raises_worker_errors():
+    from psdesign.forcefield.parallel import WorkerPool
+
+    def fun(x):
+        if x[0] < 0:
+            raise ArithmeticError("negative")
+        return 2.0 * x[0]
+
+    with WorkerPool(fun, 2) as pool:
+        pool.submit("a", np.array([1.0]))
+        pool.submit("b", np.array([3.0]))
+        assert pool.free() == 0
+        with pytest.raises(RuntimeError, match="no free worker"):
+            pool.submit("c", np.array([1.0]))
+        got = {}
+        while len(got) < 2:
+            got.update(pool.collect())
+        assert got == {"a": 2.0, "b": 6.0} and pool.free() == 2
+        pool.submit("d", np.array([-1.0]))
+        with pytest.raises(ArithmeticError, match="negative"):
+            pool.collect()
+        assert pool.collect(block=False) == []
 
 
 def test_pattern_search_rejects_infeasible_bounds():
@@ -358,8 +430,9 @@ def test_two_fiber_case_is_reproducible_and_beats_paper_point():
     kw = dict(seed=3, h=0.01, n_s=32, n_theta=16)
     p1, p2 = two_fiber_problem(**kw), two_fiber_problem(**kw)
     assert p1.x0[0] == p2.x0[0] == pytest.approx(np.random.default_rng(3).uniform(1, 2))
-    r1, r2 = p1.solve(max_iter=100), p2.solve(max_iter=100)
+    r1, r2 = p1.solve(max_iter=100), p2.solve(max_iter=100, workers=2)  # same for any workers
     assert np.array_equal(r1.x, r2.x) and r1.fun == r2.fun and r1.converged
+    assert r1.history == r2.history and r1.n_evals == r2.n_evals and r1.n_speculative == 0
     # D = 0.090 > 2 * 0.2 / (2 pi): the overlap cannot vanish; largest amplitude wins
     assert abs(r1.x[1]) == pytest.approx(0.2)
     paper = p1.potential(p1.free_of(PAPER_TWO_FIBER))

@@ -9,7 +9,7 @@ Spec layout (all keys optional except ``case``)::
     max_iter = 200                # pattern-search polls
     min_step = 1e-3               # mesh size (fraction of each range) for convergence
     step = 0.25                   # initial mesh size
-    workers = 2                   # processes polling in parallel (same result for any value)
+    workers = 2                   # processes evaluating poll points (same result for any value)
 
     [forcefield.quadrature]
     h = 0.005                     # volume-interaction grid step (normalized)
@@ -208,6 +208,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "message": res.message,
         "n_iter": res.n_iter,
         "n_evals": res.n_evals,
+        "n_speculative": res.n_speculative,
         "wall_time_s": wall,
         "start": {"parameters": prob.params(prob.x0), **prob.potential(prob.x0).to_dict()},
         "notes": prob.notes,
