@@ -563,3 +563,46 @@ def test_compiled_kernels_match_generic_paths():
     fast, slow = volume_interaction(a, b, UNIT, 0.01), volume_interaction(
         Generic(a), Generic(b), UNIT, 0.01)
     assert fast == pytest.approx(slow, rel=1e-9, abs=1e-18)
+
+
+def test_fused_pair_slope_and_one_step_placement_are_exact():
+    """The slope bound computed inside the pair kernel is the one lens_candidates finds,
+    and the six-fiber build places each model with the bits of the three-step
+    _place(woven_canonical(...)) chain."""
+    from psdesign.forcefield.cases import (
+        R_ALONG_Y,
+        _place,
+        _place_translated,
+        _woven_base,
+        woven_canonical,
+    )
+    from psdesign.forcefield.fields import packed_tables
+    from psdesign.forcefield.kernels import lens_candidates, lens_minima, pair_max_grid
+    from psdesign.forcefield.potentials import _trapezoid_weights, node_axes
+
+    p = six_fiber_problem()
+    x = p.x0.copy()
+    x[p.param.free.index("u1")] = 0.4
+    fl = p.fields(x)
+    a, b = fl[0], fl[4]
+    lo = np.maximum(a.bounds[0], b.bounds[0])
+    hi = np.minimum(a.bounds[1], b.bounds[1])
+    axes = node_axes(lo, hi, 0.005)
+    fa, ma = packed_tables(a.model, axes, a.groups, a.arrays)
+    fb, mb = packed_tables(b.model, axes, b.groups, b.arrays)
+    m, total, slope = pair_max_grid(fa, ma, a.isovalue, a.scale, fb, mb, b.isovalue, b.scale,
+                                    *_trapezoid_weights(axes))
+    ref = np.maximum(a.grid_values(axes), b.grid_values(axes))
+    assert np.allclose(m, ref, rtol=0, atol=1e-12) and total > 0
+    steps = [np.abs(np.diff(m, axis=k)).max() for k in range(3)]
+    assert slope == max(steps)
+    v1, i1 = lens_candidates(m)
+    v2, i2 = lens_minima(m, slope)
+    assert len(v1) > 0 and np.array_equal(v1, v2) and np.array_equal(i1, i2)
+    prm = p.params(x)
+    t = np.array([0.41, 0.05, 0.0])
+    for u in (prm["u1"], prm["u2"]):
+        one = _place_translated(_woven_base(prm, u), t, R_ALONG_Y, np.array([0.45, 0, 0]))
+        three = _place(woven_canonical(prm, u, t), R_ALONG_Y, np.array([0.45, 0, 0]))
+        for name in ("mu", "kappa", "H", "alpha", "u", "f", "G", "beta"):
+            assert np.array_equal(getattr(one, name), getattr(three, name)), name

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
@@ -266,13 +266,28 @@ def two_fiber_problem(
 # ------------------------------------------------------------------ six fibers
 def woven_canonical(p: dict, u: float, t: np.ndarray) -> GeneralizedPS:
     """The Sec. 6.2 fiber (no constant) translated by ``t`` in its canonical frame."""
+    return _woven_base(p, u).translated(t)
+
+
+def _woven_base(p: dict, u: float) -> GeneralizedPS:
     k = [p[f"kappa{i}"] for i in range(1, 6)]
-    model = GeneralizedPS(
+    return GeneralizedPS(
         mu=[p[f"mu{i}"] for i in range(1, 6)], kappa=k,
         H=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 3], [0, 1, -3]], alpha=[0] * 5,
         minor_term=[0], u=[u], f=[p["f"]], G=[[0, 0, 1]], beta=[-1.0 / 6.0],
     )
-    return model.translated(t)
+
+
+def _place_translated(canon: GeneralizedPS, t: np.ndarray, R: np.ndarray,
+                      shift: np.ndarray) -> GeneralizedPS:
+    """``_place(canon.translated(t), R, shift)`` with one model construction (the same
+    floating-point operations in the same order, so the same bits)."""
+    t = np.asarray(t, float).reshape(3)
+    alpha, beta = canon.alpha - canon.H @ t, canon.beta - canon.G @ t
+    s = -(CENTRE + shift)
+    alpha, beta = alpha - canon.H @ s, beta - canon.G @ s
+    H, G = canon.H @ R.T, canon.G @ R.T
+    return replace(canon, H=H, G=G, alpha=alpha - H @ CENTRE, beta=beta - G @ CENTRE)
 
 
 _WIDTH_KEYS = ("mu1", "mu2", "mu3", "mu4", "mu5", "kappa1", "kappa2", "kappa3", "kappa4",
@@ -365,6 +380,7 @@ def six_fiber_problem(
         lat, out_half = woven_half_widths(p, isovalue)
         amp = abs(p["u1"]) / (2 * np.pi * p["kappa1"])
         out = []
+        bases = {u: _woven_base(p, u) for u in (p["u1"], p["u2"], -p["u1"], -p["u2"])}
         sets = ((R_ALONG_X, SIX_TRANSLATIONS, 0),
                 (R_ALONG_Y, np.array([[p["tx"], p["ty"] + i * spacing, 0.0] for i in range(3)]),
                  1))
@@ -375,7 +391,7 @@ def six_fiber_problem(
                 if n >= 3:
                     u = -weave_sign * u  # n = 3, 4, 5 -> weave_sign * (u1, u2, u1)
                 n += 1
-                model = _place(woven_canonical(p, u, t), R, shift)
+                model = _place_translated(bases[u], t, R, shift)
                 yc = t[1] + 0.5 / p["kappa2"]  # canonical lateral centre
                 lat_c = 1.0 - yc if axis == 0 else yc
                 out_c = t[0] + 0.5 / p["kappa1"] - shift[0]

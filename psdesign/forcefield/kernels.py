@@ -258,14 +258,19 @@ def pair_max_grid(flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b,
 
     ``psi`` of a field at node (i, j, k) is ``sum_t flat[o_t + i sx_t + j sy_t + k sz_t]``
     with ``meta[t] = (o_t, sx_t, sy_t, sz_t)`` (stride 0 along axes a table does not
-    depend on; tables constant along z are summed once per (i, j)). Returns
-    ``(m, int -min(m, 0) dV)`` with the trapezoid weights ``w``.
+    depend on; tables constant along z are summed once per (i, j), the others row by
+    row). Returns ``(m, int -min(m, 0) dV, slope)`` with the trapezoid weights ``w`` and
+    ``slope`` the largest difference of neighbouring nodes of ``m`` along any axis (the
+    bound of :func:`lens_minima`).
     """
     nx, ny, nz = wx.shape[0], wy.shape[0], wz.shape[0]
     m = np.empty((nx, ny, nz))
     za, fa = _split_tables(meta_a)
     zb, fb = _split_tables(meta_b)
+    ra = np.empty(nz)
+    rb = np.empty(nz)
     total = 0.0
+    bound = 0.0
     for i in range(nx):
         for j in range(ny):
             wij = wx[i] * wy[j]
@@ -275,20 +280,36 @@ def pair_max_grid(flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b,
             b0 = -iso_b
             for t in fb:
                 b0 += flat_b[meta_b[t, 0] + i * meta_b[t, 1] + j * meta_b[t, 2]]
+            ra[:] = a0
+            for t in za:
+                base = meta_a[t, 0] + i * meta_a[t, 1] + j * meta_a[t, 2]
+                sz = meta_a[t, 3]
+                for k in range(nz):
+                    ra[k] += flat_a[base + k * sz]
+            rb[:] = b0
+            for t in zb:
+                base = meta_b[t, 0] + i * meta_b[t, 1] + j * meta_b[t, 2]
+                sz = meta_b[t, 3]
+                for k in range(nz):
+                    rb[k] += flat_b[base + k * sz]
+            row = m[i, j]
             for k in range(nz):
-                a = a0
-                for t in za:
-                    a += flat_a[meta_a[t, 0] + i * meta_a[t, 1] + j * meta_a[t, 2]
-                                + k * meta_a[t, 3]]
-                b = b0
-                for t in zb:
-                    b += flat_b[meta_b[t, 0] + i * meta_b[t, 1] + j * meta_b[t, 2]
-                                + k * meta_b[t, 3]]
-                v = max(sc_a * a, sc_b * b)
-                m[i, j, k] = v
+                row[k] = max(sc_a * ra[k], sc_b * rb[k])
+            for k in range(nz):
+                v = row[k]
                 if v < 0:
                     total -= v * wij * wz[k]
-    return m, total
+            for k in range(1, nz):
+                bound = max(bound, abs(row[k] - row[k - 1]))
+            if j > 0:
+                prev = m[i, j - 1]
+                for k in range(nz):
+                    bound = max(bound, abs(row[k] - prev[k]))
+            if i > 0:
+                prev = m[i - 1, j]
+                for k in range(nz):
+                    bound = max(bound, abs(row[k] - prev[k]))
+    return m, total, bound
 
 
 @numba.njit(cache=True)
@@ -311,6 +332,13 @@ def lens_candidates(m):  # pragma: no cover
                     bound = max(bound, abs(m[i, j + 1, k] - v))
                 if k + 1 < nz:
                     bound = max(bound, abs(m[i, j, k + 1] - v))
+    return lens_minima(m, bound)
+
+
+@numba.njit(cache=True)
+def lens_minima(m, bound):  # pragma: no cover
+    """The candidates of :func:`lens_candidates` for a given slope ``bound``."""
+    nx, ny, nz = m.shape
     vals = []
     idx = []
     if nx < 3 or ny < 3 or nz < 3:

@@ -36,7 +36,7 @@ import numpy as np
 from skimage import measure
 
 from .fields import ImplicitField, PSField, packed_tables
-from .kernels import deepest_point, lens_candidates, pair_max_grid
+from .kernels import deepest_point, lens_candidates, lens_minima, pair_max_grid
 from .memo import FiberMemo, domain_key, fiber_key
 
 SURFACE_TERMS = ("gaussian", "area", "bending")
@@ -233,11 +233,11 @@ def volume_interaction(
         return 0.0
     axes = node_axes(blo, bhi, h)
     w = _trapezoid_weights(axes)
-    m, total = _pair_grid(fi, fj, axes, w)
+    m, total, slope = _pair_grid(fi, fj, axes, w)
     if not lens_guard:
         return total
     done: list[np.ndarray] = []
-    for x in _lens_candidates(m, axes):
+    for x in _lens_candidates(m, axes, slope=slope):
         p = _deepest_point(fi, fj, x, 4 * h)
         if p is None or not (np.all(p >= blo) and np.all(p <= bhi)):
             continue
@@ -258,24 +258,29 @@ def _trapezoid_weights(axes) -> list[np.ndarray]:
     return w
 
 
-def _pair_grid(fi: ImplicitField, fj: ImplicitField, axes, w) -> tuple[np.ndarray, float]:
-    """``m = max(phi_i, phi_j)`` on the grid and ``int max(-m, 0) dV`` (weights ``w``)."""
+def _pair_grid(
+    fi: ImplicitField, fj: ImplicitField, axes, w
+) -> tuple[np.ndarray, float, float | None]:
+    """``m = max(phi_i, phi_j)`` on the grid, ``int max(-m, 0) dV`` (weights ``w``) and the
+    largest neighbour difference of ``m`` (None: not computed)."""
     if isinstance(fi, PSField) and isinstance(fj, PSField):
         fa, ma = packed_tables(fi.model, axes, fi.groups, fi.arrays)
         fb, mb = packed_tables(fj.model, axes, fj.groups, fj.arrays)
-        m, total = pair_max_grid(fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue,
-                                 fj.scale, *w)
-        return m, float(total)
+        m, total, slope = pair_max_grid(fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue,
+                                        fj.scale, *w)
+        return m, float(total), float(slope)
     m = np.maximum(fi.grid_values(axes), fj.grid_values(axes))
     depth = np.maximum(-m, 0.0)
     total = float(np.einsum("ijk,i,j,k->", depth, *w)) if depth.any() else 0.0
-    return m, total
+    return m, total, None
 
 
-def _lens_candidates(m: np.ndarray, axes, max_n: int = 4) -> list[np.ndarray]:
+def _lens_candidates(m: np.ndarray, axes, max_n: int = 4,
+                     slope: float | None = None) -> list[np.ndarray]:
     """Grid nodes that are local minima of m and within one grid slope of zero
-    (the ``max_n`` deepest)."""
-    vals, idx = lens_candidates(np.ascontiguousarray(m))
+    (the ``max_n`` deepest); ``slope`` is the largest neighbour difference if known."""
+    m = np.ascontiguousarray(m)
+    vals, idx = lens_candidates(m) if slope is None else lens_minima(m, slope)
     if len(vals) == 0:
         return []
     sel = idx[np.argsort(vals, kind="stable")[:max_n]]
@@ -330,7 +335,7 @@ def _local_correction(fi, fj, p, axes, m, w, h) -> float:
     for wa in wf:
         wa[0] *= 0.5
         wa[-1] *= 0.5
-    _, fine_int = _pair_grid(fi, fj, fax, wf)
+    _, fine_int, _ = _pair_grid(fi, fj, fax, wf)
     box_lo = np.array([f[0] for f in fax])
     box_hi = np.array([f[-1] for f in fax])
     sel = [np.flatnonzero((a > box_lo[k]) & (a < box_hi[k])) for k, a in enumerate(axes)]
