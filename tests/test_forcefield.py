@@ -606,3 +606,50 @@ def test_fused_pair_slope_and_one_step_placement_are_exact():
         three = _place(woven_canonical(prm, u, t), R_ALONG_Y, np.array([0.45, 0, 0]))
         for name in ("mu", "kappa", "H", "alpha", "u", "f", "G", "beta"):
             assert np.array_equal(getattr(one, name), getattr(three, name)), name
+
+
+def test_shared_tubes_reuse_one_quadrature_per_shape():
+    """The six woven fibers are rigid copies of two shapes (u1, u2): their tube quadrature
+    is computed twice per evaluation (a t_x / t_y move computes none) and equals the
+    direct quadrature of each fiber to round-off."""
+    from dataclasses import replace
+
+    from psdesign.forcefield.fields import SharedTube, Tube
+    from psdesign.forcefield.memo import FiberMemo
+    from psdesign.forcefield.potentials import total_potential
+    from psdesign.forcefield.tube import fiber_gaussian_term, fiber_sample, shared_fiber_sample
+
+    p = six_fiber_problem(n_s=32, n_theta=16)
+    fl = p.fields(p.x0)
+    for f in fl:
+        assert len(f.shared) == len(f.tubes) == 1
+        st, t = f.shared[0], f.tubes[0]
+        assert np.allclose(st.rotation @ st.tube.point + st.offset, t.point, atol=1e-13)
+        a = fiber_sample(f, UNIT, 32, 16, True)
+        b, ends = shared_fiber_sample(f, UNIT, 32, 16, True, True)
+        ia, ib = (np.lexsort(s.points.T.round(8)) for s in (a, b))
+        assert np.allclose(a.points[ia], b.points[ib], atol=1e-12, rtol=0)
+        assert np.allclose(a.weights[ia], b.weights[ib], atol=1e-14, rtol=1e-10)
+        assert np.allclose(a.gradient[ia], b.gradient[ib], atol=1e-9, rtol=1e-10)
+        assert np.allclose(a.hessian[ia], b.hessian[ib], atol=1e-8, rtol=1e-10)
+        assert ends == pytest.approx(fiber_gaussian_term(f, UNIT, a), rel=1e-10, abs=1e-12)
+    keys = {f.shared[0].key() for f in fl}
+    assert len(keys) == 2
+    memo = FiberMemo()
+    pot = total_potential(fl, UNIT, 0.01, n_s=32, n_theta=16, memo=memo)
+    assert memo.misses == 6 + 2  # six fibers, two shared tube quadratures
+    plain = total_potential([replace(f, shared=()) for f in fl], UNIT, 0.01, n_s=32, n_theta=16)
+    assert pot.U == pytest.approx(plain.U, rel=1e-11)
+    assert pot.per_fiber_surface == pytest.approx(plain.per_fiber_surface, rel=1e-9)
+    x = p.x0.copy()
+    x[p.param.free.index("ty")] += 0.01
+    total_potential(p.fields(x), UNIT, 0.01, n_s=32, n_theta=16, memo=memo)
+    assert memo.misses == 8 + 3  # only fibers 4-6 are new; their tubes are shared
+    with pytest.raises(ValueError, match="signed permutation"):
+        SharedTube(fl[0].shared[0].local, fl[0].shared[0].tube, np.diag([1.0, -1, 1]),
+                   np.zeros(3))
+    st = fl[0].shared[0]
+    with pytest.raises(ValueError, match="axial offset"):
+        replace(fl[0], shared=(SharedTube(st.local, st.tube, st.rotation, [0.1, 0, 0]),))
+    with pytest.raises(ValueError, match="one SharedTube per tube"):
+        replace(fl[0], tubes=(*fl[0].tubes, Tube(fl[0].tubes[0].point, 0, 0.2)))

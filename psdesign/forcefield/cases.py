@@ -47,7 +47,7 @@ import numpy as np
 
 from psdesign.model import GeneralizedPS
 
-from .fields import NoFiberError, PSField, Tube
+from .fields import NoFiberError, PSField, SharedTube, Tube
 from .memo import FiberMemo
 from .parallel import WorkerPool
 from .params import Parametrization, Tie
@@ -68,6 +68,8 @@ TABLE_II_INITIAL = dict(zip(SIX_NAMES, (3.9, 2.9, 1.1, 0.55, 0.55, 0.9, 0.9, 2.9
 TABLE_II_RANGE = dict(zip(SIX_NAMES, (0.2,) * 5 + (0.3,) * 5 + (0.2, 0.2, 0.3), strict=True))
 TABLE_II_RESULT = dict(zip(SIX_NAMES, (4.08, 3.08, 0.975, 0.4549, 0.4549, 0.96, 0.96, 2.88,
                                         0.96, 0.96, 0.415, -0.415, 1.44), strict=True))
+#: world frame of a fiber along y from that of a fiber along x (90 degrees about z)
+Q_Y_FROM_X = R_ALONG_Y @ R_ALONG_X.T
 SIX_TRANSLATIONS = np.array([[0.45, -0.28, 0.0], [0.45, 0.038, 0.0], [0.45, 0.356, 0.0]])
 
 
@@ -373,6 +375,7 @@ def six_fiber_problem(
     )
     spacing = SIX_TRANSLATIONS[1, 1] - SIX_TRANSLATIONS[0, 1]
     shift = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # t_x = 0.45 -> layer at z = 1/2
+    t_ref = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # translation of the shared shapes
 
     def build(p: dict, margin: float) -> list[PSField]:
         if p["f"] <= 0:
@@ -381,6 +384,15 @@ def six_fiber_problem(
         amp = abs(p["u1"]) / (2 * np.pi * p["kappa1"])
         out = []
         bases = {u: _woven_base(p, u) for u in (p["u1"], p["u2"], -p["u1"], -p["u2"])}
+        # every fiber is a rigid copy of the fiber along x at t_ref with the same u: its
+        # tube quadrature is computed once per u (SharedTube, tube.shared_fiber_sample)
+        period = 1.0 / p["kappa2"]
+        rad = 1.5 * float(np.hypot(lat, out_half + amp) + margin)
+        lat_ref = 1.0 - (t_ref[1] + 0.5 / p["kappa2"])
+        out_ref = t_ref[0] + 0.5 / p["kappa1"] - shift[0]
+        box_ref = _axis_box(0, lat_ref, lat + margin, out_ref, out_half + amp + margin)
+        local = {u: PSField(_place_translated(b, t_ref, R_ALONG_X, shift), isovalue, box_ref)
+                 for u, b in bases.items()}
         sets = ((R_ALONG_X, SIX_TRANSLATIONS, 0),
                 (R_ALONG_Y, np.array([[p["tx"], p["ty"] + i * spacing, 0.0] for i in range(3)]),
                  1))
@@ -395,9 +407,10 @@ def six_fiber_problem(
                 yc = t[1] + 0.5 / p["kappa2"]  # canonical lateral centre
                 lat_c = 1.0 - yc if axis == 0 else yc
                 out_c = t[0] + 0.5 / p["kappa1"] - shift[0]
-                period = 1.0 / p["kappa2"]
-                rad = 1.5 * float(np.hypot(lat, out_half + amp) + margin)
-                tubes, los, his = [], [], []
+                Q = Q_Y_FROM_X if axis == 1 else np.eye(3)
+                offset = CENTRE - Q @ CENTRE + R @ (t - t_ref)
+                sign = 1.0 if axis == 0 else -1.0  # local copy index of world copy k
+                tubes, shared, los, his = [], [], [], []
                 for k in (-1, 0, 1):  # lateral periodic copies that enter the cube
                     lc = lat_c + k * period
                     if lc + lat + margin <= 0.0 or lc - lat - margin >= 1.0:
@@ -408,8 +421,11 @@ def six_fiber_problem(
                     point = np.full(3, 0.5)
                     point[1 - axis], point[2] = lc, out_c
                     tubes.append(Tube(point, axis, rad))
+                    loc = Tube(np.array([0.5, lat_ref + sign * k * period, out_ref]), 0, rad)
+                    shared.append(SharedTube(local[u], loc, Q, offset))
                 box = (np.min(los, axis=0), np.max(his, axis=0))
-                out.append(PSField(model, isovalue, box, tubes=tuple(tubes)))
+                out.append(PSField(model, isovalue, box, tubes=tuple(tubes),
+                                   shared=tuple(shared)))
         return out
 
     start = {k: v for k, v in init.items()}

@@ -319,6 +319,54 @@ class Tube:
         return e1, e2, d
 
 
+@dataclass(frozen=True, eq=False)
+class SharedTube:
+    """A tube of a fiber given as a rigid copy of a tube of a shared local fiber.
+
+    The fiber near the tube is ``phi(r) = local.phi(Q^T (r - offset))``: a proper
+    rotation ``Q`` (a signed permutation, so exact in floating point) that maps the
+    local tube axis onto the world tube axis, and an ``offset`` with no component along
+    that axis (the axial coordinate is the same in both frames). Fibers that are
+    translated or rotated copies of one shape (the woven fibers) carry the same
+    ``local`` field and tube, so their tube quadrature is computed once
+    (:func:`.tube.shared_fiber_sample`).
+
+    Parameters
+    ----------
+    local : PSField
+        The shared fiber in local coordinates.
+    tube : Tube
+        Its tube in local coordinates.
+    rotation : array_like (3, 3)
+        ``Q``.
+    offset : array_like (3,)
+    """
+
+    local: PSField
+    tube: Tube
+    rotation: np.ndarray
+    offset: np.ndarray
+
+    def __post_init__(self) -> None:
+        Q = np.asarray(self.rotation, float).reshape(3, 3)
+        off = np.asarray(self.offset, float).reshape(3)
+        perm = np.all(np.isin(Q, (-1.0, 0.0, 1.0))) and np.all(np.abs(Q).sum(axis=0) == 1)
+        if not (perm and np.all(np.abs(Q).sum(axis=1) == 1) and np.linalg.det(Q) > 0):
+            raise ValueError("rotation must be a proper signed permutation matrix")
+        object.__setattr__(self, "rotation", Q)
+        object.__setattr__(self, "offset", off)
+
+    def world_axis(self) -> int:
+        """The world axis the tube runs along."""
+        return int(np.flatnonzero(self.rotation[:, self.tube.axis])[0])
+
+    def key(self) -> tuple:
+        """Content key of the local fiber and tube (equal keys: same local quadrature)."""
+        f, t = self.local, self.tube
+        return (*[a.tobytes() for a in f.arrays], float(f.isovalue), float(f.scale),
+                t.point.tobytes(), t.axis, float(t.radius))
+
+
 @dataclass(frozen=True)
 class PSField:
     """Fiber field ``phi = scale * (psi - isovalue)`` of a generalized PS model.
@@ -336,6 +384,10 @@ class PSField:
     tubes : tuple of Tube, optional
         Carrier axes of the fiber's copies that enter the domain; enables the high-order
         tube quadrature of the surface integrals (else marching cubes is used).
+    shared : tuple of SharedTube, optional
+        One per tube: the tube as a rigid copy of a shared local fiber (its quadrature is
+        then computed in local coordinates and reused by every copy with the same local
+        fiber and tube).
     """
 
     model: GeneralizedPS
@@ -343,6 +395,7 @@ class PSField:
     bounds: tuple[np.ndarray, np.ndarray]
     scale: float = 1.0
     tubes: tuple[Tube, ...] = ()
+    shared: tuple[SharedTube, ...] = ()
 
     def __post_init__(self) -> None:
         lo, hi = (np.asarray(b, float).reshape(3) for b in self.bounds)
@@ -352,6 +405,14 @@ class PSField:
             raise ValueError(f"scale must be positive, got {self.scale}")
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "tubes", tuple(self.tubes))
+        object.__setattr__(self, "shared", tuple(self.shared))
+        if self.shared and len(self.shared) != len(self.tubes):
+            raise ValueError("shared must give one SharedTube per tube")
+        for t, st in zip(self.tubes, self.shared, strict=False):
+            if (st.world_axis() != t.axis or st.rotation[t.axis, st.tube.axis] != 1.0
+                    or st.offset[t.axis] != 0.0):
+                raise ValueError("a shared tube must run along its tube's axis with no "
+                                 "axial offset")
 
     @cached_property
     def groups(self) -> tuple[np.ndarray, np.ndarray]:

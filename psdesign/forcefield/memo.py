@@ -27,6 +27,7 @@ def fiber_key(fld: Any, *settings: Any) -> tuple | None:
     parts += [float(fld.isovalue), float(fld.scale), fld.bounds[0].tobytes(),
               fld.bounds[1].tobytes()]
     parts += [(t.point.tobytes(), t.axis, float(t.radius)) for t in fld.tubes]
+    parts += [(st.key(), st.rotation.tobytes(), st.offset.tobytes()) for st in fld.shared]
     return (*parts, *settings)
 
 

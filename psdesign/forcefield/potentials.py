@@ -455,18 +455,24 @@ def total_potential(
         for i in range(n):
             for j in range(i + 1, n):
                 vol += volume_interaction(fields[i], fields[j], domain, h)
-    from .tube import fiber_gaussian_term, fiber_sample
+    from .tube import fiber_gaussian_term, fiber_sample, shared_fiber_sample
 
     curv = surface == "bending"
+    memo = FiberMemo() if memo is None else memo
+
     def own(f: ImplicitField) -> tuple[SurfaceSample, float]:
         """One fiber's surface quadrature and surface potential S_j."""
-        s = (fiber_sample(f, domain, n_s, n_theta, curv) if getattr(f, "tubes", ())
-             else surface_sample(f, domain, h, surface != "area"))
         tube_gauss = surface == "gaussian" and getattr(f, "tubes", ())
-        return s, (fiber_gaussian_term(f, domain, s) if tube_gauss
+        ends = None
+        if getattr(f, "shared", ()):
+            s, ends = shared_fiber_sample(f, domain, n_s, n_theta, curv, bool(tube_gauss), memo)
+        elif getattr(f, "tubes", ()):
+            s = fiber_sample(f, domain, n_s, n_theta, curv)
+        else:
+            s = surface_sample(f, domain, h, surface != "area")
+        return s, (fiber_gaussian_term(f, domain, s, ends=ends) if tube_gauss
                    else surface_term(s, surface))
 
-    memo = FiberMemo(1) if memo is None else memo
     dkey = domain_key(domain)
     parts = [memo.get(fiber_key(f, dkey, h, n_s, n_theta, surface), lambda f=f: own(f))
              for f in fields]

@@ -21,8 +21,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from .fields import NoFiberError, PSField, Tube
+from .fields import NoFiberError, PSField, SharedTube, Tube
 from .kernels import BEYOND_RADIUS, NO_SOLID, NOT_CONVERGED, section_centres, section_roots
+from .memo import FiberMemo
 from .potentials import SurfaceSample
 
 _NEWTON_ITERS = 30
@@ -190,26 +191,96 @@ def tube_sample(
         minimum of a section is not inside the solid.
     """
     tube = _pick_tube(fld, tube)
+    lo, hi = (np.asarray(b, float) for b in domain)
+    X, w, g, hs = _tube_nodes(fld, tube, lo[tube.axis], hi[tube.axis], n_s, n_theta, curvature)
+    return _cut(X, w, g, hs, lo, hi)
+
+
+def _tube_nodes(fld: PSField, tube: Tube, s_lo: float, s_hi: float, n_s: int, n_theta: int,
+                curvature: bool):
+    """Nodes, weights, gradients and Hessians (None without ``curvature``) of the tube
+    quadrature between the axial coordinates ``s_lo`` and ``s_hi`` (no lateral cut)."""
     if n_s < 2 or n_theta < 3:
         raise ValueError(f"need n_s >= 2 and n_theta >= 3, got {n_s}, {n_theta}")
-    lo, hi = (np.asarray(b, float) for b in domain)
-    a = tube.axis
     xg, wg = _gauss_legendre(n_s)
-    s = lo[a] + (xg + 1.0) * 0.5 * (hi[a] - lo[a])
-    ws = wg * 0.5 * (hi[a] - lo[a])
+    s = s_lo + (xg + 1.0) * 0.5 * (s_hi - s_lo)
+    ws = wg * 0.5 * (s_hi - s_lo)
     C, E, rho, _ = _sections(fld, tube, s, n_theta)
     X = C + rho[:, None] * E
     _, g, hs = fld.derivatives(X, hessian=curvature)
     gn = np.linalg.norm(g, axis=1)
     ge = np.abs(np.einsum("ij,ij->i", g, E))
     w = rho * gn / ge * np.repeat(ws, n_theta) * (2 * np.pi / n_theta)
+    return X, w, g, hs
+
+
+def _cut(X, w, g, hs, lo, hi) -> SurfaceSample:
+    """Sample with the weights of nodes outside the domain's lateral faces set to zero."""
     # parts of a copy outside the domain's lateral faces do not count (first-order cut)
     outside = np.any((X < lo - 1e-12) | (X > hi + 1e-12), axis=1)
+    w = w.copy()
     w[outside] = 0.0
     if hs is None:
         hs = np.zeros((len(X), 3, 3))
     return SurfaceSample(points=X, weights=w, gradient=g, hessian=hs,
                          verts=np.zeros((0, 3)), faces=np.zeros((0, 3), int))
+
+
+def _local_domain(st: SharedTube, s_lo: float, s_hi: float):
+    """A domain in the local frame with the world axial extent along the local axis (the
+    other extents are not used by the tube routines)."""
+    lo, hi = np.zeros(3), np.ones(3)
+    lo[st.tube.axis], hi[st.tube.axis] = s_lo, s_hi
+    return lo, hi
+
+
+def _shared_part(st: SharedTube, s_lo: float, s_hi: float, n_s: int, n_theta: int,
+                 curvature: bool, gauss: bool) -> tuple:
+    """Local quadrature of a shared tube: ``(X, w, g, hs, int K dA or None)``."""
+    dom = _local_domain(st, s_lo, s_hi)
+    check_continuous(st.local, dom, st.tube, max(128, 4 * n_s))
+    X, w, g, hs = _tube_nodes(st.local, st.tube, s_lo, s_hi, n_s, n_theta, curvature)
+    gb = gauss_bonnet_ends(st.local, dom, 256, st.tube) if gauss else None
+    return X, w, g, hs, gb
+
+
+def shared_fiber_sample(
+    fld: PSField, domain: tuple[np.ndarray, np.ndarray], n_s: int, n_theta: int,
+    curvature: bool = True, gauss: bool = False, memo: FiberMemo | None = None,
+) -> tuple[SurfaceSample, float | None]:
+    """Tube quadrature of a fiber whose tubes are rigid copies (``fld.shared``).
+
+    Each tube's nodes, weights and derivatives are computed in the local frame of its
+    :class:`.fields.SharedTube` (once per local fiber, tube, axial extent and settings
+    when ``memo`` is given: copies of one shape share the work) and mapped to the world
+    frame; then the lateral cut of :func:`tube_sample` is applied. Returns the sample and,
+    with ``gauss``, the Gauss-Bonnet end term ``sum int K dA`` over the tubes (see
+    :func:`gauss_bonnet_ends`; the value does not change under a proper rigid motion).
+
+    The result equals :func:`fiber_sample` (and :func:`gauss_bonnet_ends`) of ``fld`` up to
+    round-off; the angle nodes are the local ones mapped by the rotation, the same node
+    set when ``n_theta`` is a multiple of 4.
+    """
+    if not fld.shared:
+        raise ValueError("shared_fiber_sample needs a field with shared tubes")
+    lo, hi = (np.asarray(b, float) for b in domain)
+    memo = FiberMemo(len(fld.shared)) if memo is None else memo
+    Xs, ws, gs, hss, gb = [], [], [], [], 0.0
+    for t, st in zip(fld.tubes, fld.shared, strict=True):
+        a = t.axis
+        s_lo, s_hi = float(lo[a]), float(hi[a])
+        key = ("shared-tube", st.key(), s_lo, s_hi, n_s, n_theta, bool(curvature), bool(gauss))
+        X, w, g, hs, ends = memo.get(key, lambda st=st, s_lo=s_lo, s_hi=s_hi: _shared_part(
+            st, s_lo, s_hi, n_s, n_theta, curvature, gauss))
+        Q = st.rotation
+        Xs.append(X @ Q.T + st.offset)
+        ws.append(w)
+        gs.append(g @ Q.T)
+        hss.append(None if hs is None else np.einsum("ik,nkl,jl->nij", Q, hs, Q))
+        gb = gb + ends if gauss else None
+    X = np.concatenate(Xs)
+    hs = None if hss[0] is None else np.concatenate(hss)
+    return _cut(X, np.concatenate(ws), np.concatenate(gs), hs, lo, hi), gb
 
 
 def _pick_tube(fld: PSField, tube: Tube | None) -> Tube:
@@ -268,9 +339,10 @@ def gauss_bonnet_ends(
 
 def fiber_gaussian_term(
     fld: PSField, domain: tuple[np.ndarray, np.ndarray], sample: SurfaceSample,
-    n_theta_ends: int = 256,
+    n_theta_ends: int = 256, ends: float | None = None,
 ) -> float:
-    """The printed ``S_j = int K dA`` of a tube fiber, via :func:`gauss_bonnet_ends`.
+    """The printed ``S_j = int K dA`` of a tube fiber, via :func:`gauss_bonnet_ends`
+    (``ends``: that sum over the tubes, if already known).
 
     Falls back to the area quadrature ``sample`` when a copy is cut by a domain face
     parallel to its axis (the cut would add boundary the end formula ignores).
@@ -280,4 +352,6 @@ def fiber_gaussian_term(
         from .potentials import surface_term
 
         return surface_term(sample, "gaussian")
+    if ends is not None:
+        return float(ends)
     return float(sum(gauss_bonnet_ends(fld, domain, n_theta_ends, t) for t in fld.tubes))
