@@ -599,6 +599,12 @@ def test_fused_pair_slope_and_one_step_placement_are_exact():
     v1, i1 = lens_candidates(m)
     v2, i2 = lens_minima(m, slope)
     assert len(v1) > 0 and np.array_equal(v1, v2) and np.array_equal(i1, i2)
+    from psdesign.forcefield.fields import term_groups
+
+    deps, group = term_groups(a.model)
+    assert deps.tolist() == [[1, 0, 1], [0, 1, 0], [1, 0, 0], [1, 1, 0]]
+    assert group.tolist() == [0, 1, 2, 3, 3] and not group.flags.writeable
+    assert term_groups(fl[1].model)[0] is deps  # memoized by the non-zero pattern
     prm = p.params(x)
     t = np.array([0.41, 0.05, 0.0])
     for u in (prm["u1"], prm["u2"]):

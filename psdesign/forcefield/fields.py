@@ -14,7 +14,7 @@ depends only on the coordinates its basis vectors touch (a rod term ``cos(2 pi x
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Protocol
 
 import numba
@@ -237,14 +237,25 @@ def term_groups(model: GeneralizedPS) -> tuple[np.ndarray, np.ndarray]:
     its group index. A term depends on an axis if its own or one of its minor terms'
     direction has a non-zero component along it.
     """
+    Hnz = tuple(tuple(bool(v) for v in row) for row in (model.H != 0.0))
+    Gnz = tuple(tuple(bool(v) for v in row) for row in (model.G != 0.0))
+    return _term_groups(Hnz, Gnz, tuple(int(i) for i in model.minor_term))
+
+
+@lru_cache(maxsize=64)
+def _term_groups(Hnz: tuple, Gnz: tuple, minor_term: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`term_groups` from the non-zero patterns (memoized; read-only arrays)."""
     keys: dict[tuple[bool, ...], int] = {}
-    group = np.empty(model.n_terms, dtype=np.int64)
-    for i in range(model.n_terms):
-        dep = model.H[i] != 0.0
-        for k in np.flatnonzero(model.minor_term == i):
-            dep = dep | (model.G[k] != 0.0)
-        group[i] = keys.setdefault(tuple(bool(v) for v in dep), len(keys))
+    group = np.empty(len(Hnz), dtype=np.int64)
+    for i, hrow in enumerate(Hnz):
+        dep = list(hrow)
+        for k, term in enumerate(minor_term):
+            if term == i:
+                dep = [a or b for a, b in zip(dep, Gnz[k], strict=True)]
+        group[i] = keys.setdefault(tuple(dep), len(keys))
     deps = np.array(list(keys), dtype=np.int64).reshape(-1, 3)
+    deps.flags.writeable = False
+    group.flags.writeable = False
     return deps, group
 
 
@@ -263,14 +274,14 @@ def packed_tables(
     """
     deps, group = term_groups(model) if groups is None else groups
     ax = [np.ascontiguousarray(a, dtype=float) for a in axes]
-    n = np.array([len(a) for a in ax])
-    meta = np.zeros((len(deps), 4), dtype=np.int64)
+    n = [len(a) for a in ax]
+    rows = []
     off = 0
-    for t, dep in enumerate(deps):
-        shape = np.where(dep > 0, n, 1)
-        meta[t] = (off, shape[1] * shape[2] if dep[0] else 0, shape[2] if dep[1] else 0,
-                   1 if dep[2] else 0)
-        off += int(np.prod(shape))
+    for dx, dy, dz in deps.tolist():
+        sx, sy, sz = (n[0] if dx else 1), (n[1] if dy else 1), (n[2] if dz else 1)
+        rows.append((off, sy * sz if dx else 0, sz if dy else 0, 1 if dz else 0))
+        off += sx * sy * sz
+    meta = np.array(rows, dtype=np.int64).reshape(-1, 4)
     flat = fill_tables(model_arrays(model) if arrays is None else arrays, group, deps,
                        meta, ax[0], ax[1], ax[2], max(off, 1))
     return flat, meta
