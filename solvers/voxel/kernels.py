@@ -150,44 +150,14 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised)."""
     nx, ny, nz = d.shape
     for i in nb.prange(nx):
-        ip = _up(i, nx)
-        im = _dn(i, nx)
+        row = np.empty(nz, dtype=xnew.dtype)
         for j in range(ny):
-            jp = _up(j, ny)
-            jm = _dn(j, ny)
+            _residual_row(d, cx, cy, cz, x, b, i, j, row)
             dr = d[i, j]
-            cxr = cx[i, j]
-            cxp = cx[ip, j]
-            cyr = cy[i, j]
-            cyp = cy[i, jp]
-            czr = cz[i, j]
             xr = x[i, j]
-            xim = x[im, j]
-            xip = x[ip, j]
-            xjm = x[i, jm]
-            xjp = x[i, jp]
-            br = b[i, j]
             out = xnew[i, j]
-            for k in range(1, nz - 1):
-                s = (
-                    cxr[k] * xim[k]
-                    + cxp[k] * xip[k]
-                    + cyr[k] * xjm[k]
-                    + cyp[k] * xjp[k]
-                    + czr[k] * xr[k - 1]
-                    + czr[k + 1] * xr[k + 1]
-                )
-                dd = dr[k]
-                res = br[k] - (dd * xr[k] - s)
-                out[k] = xr[k] + omega * res / dd if dd != 0 else 0.0
-            for e in range(_ends(nz)):
-                k = 0 if e == 0 else nz - 1
-                dd = d[i, j, k]
-                if dd == 0:
-                    xnew[i, j, k] = 0.0
-                else:
-                    res = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
-                    xnew[i, j, k] = x[i, j, k] + omega * res / dd
+            for k in range(nz):
+                out[k] = xr[k] + omega * row[k] / dr[k] if dr[k] != 0 else 0.0
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -332,6 +302,38 @@ def _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny,
         y[3, i, j, k] = 0.0
 
 
+@nb.njit(inline="always")
+def _momentum_row(d, c, q, pr, plow, shift, i, j, im, ip, jm, jp, out):
+    """Interior of one momentum row: ``out[k] = (A q)[i, j, k] + pr[k] - plow[k - shift]``.
+
+    ``plow`` is the pressure row of the cell below the face (``shift = 1`` when it is the same
+    row, for the component along k); 0 on inactive faces.
+    """
+    nz = d.shape[2]
+    dr = d[i, j]
+    ax = c[0, i, j]
+    axp = c[0, ip, j]
+    ay = c[1, i, j]
+    ayp = c[1, i, jp]
+    az = c[2, i, j]
+    qr = q[i, j]
+    qim = q[im, j]
+    qip = q[ip, j]
+    qjm = q[i, jm]
+    qjp = q[i, jp]
+    for k in range(1, nz - 1):
+        s = (
+            ax[k] * qim[k]
+            + axp[k] * qip[k]
+            + ay[k] * qjm[k]
+            + ayp[k] * qjp[k]
+            + az[k] * qr[k - 1]
+            + az[k + 1] * qr[k + 1]
+        )
+        val = dr[k] * qr[k] - s + (pr[k] - plow[k - shift])
+        out[k] = val if dr[k] != 0 else 0.0
+
+
 @nb.njit(parallel=True, **_OPTS)
 def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
     """y = K x for the symmetric MAC Stokes matrix; x, y have shape (4, nx, ny, nz) = (u, v, w, p).
@@ -361,78 +363,9 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
             pim = p[im, j]
             pjm = p[i, jm]
             fr = fluid[i, j]
-            # u
-            dr = du[i, j]
-            ax = cu[0, i, j]
-            axp = cu[0, ip, j]
-            ay = cu[1, i, j]
-            ayp = cu[1, i, jp]
-            az = cu[2, i, j]
-            qr = u[i, j]
-            qim = u[im, j]
-            qip = u[ip, j]
-            qjm = u[i, jm]
-            qjp = u[i, jp]
-            out = y[0, i, j]
-            for k in range(1, nz - 1):
-                s = (
-                    ax[k] * qim[k]
-                    + axp[k] * qip[k]
-                    + ay[k] * qjm[k]
-                    + ayp[k] * qjp[k]
-                    + az[k] * qr[k - 1]
-                    + az[k + 1] * qr[k + 1]
-                )
-                val = dr[k] * qr[k] - s + (pr[k] - pim[k])
-                out[k] = val if dr[k] != 0 else 0.0
-            # v
-            dr = dv[i, j]
-            ax = cv[0, i, j]
-            axp = cv[0, ip, j]
-            ay = cv[1, i, j]
-            ayp = cv[1, i, jp]
-            az = cv[2, i, j]
-            qr = v[i, j]
-            qim = v[im, j]
-            qip = v[ip, j]
-            qjm = v[i, jm]
-            qjp = v[i, jp]
-            out = y[1, i, j]
-            for k in range(1, nz - 1):
-                s = (
-                    ax[k] * qim[k]
-                    + axp[k] * qip[k]
-                    + ay[k] * qjm[k]
-                    + ayp[k] * qjp[k]
-                    + az[k] * qr[k - 1]
-                    + az[k + 1] * qr[k + 1]
-                )
-                val = dr[k] * qr[k] - s + (pr[k] - pjm[k])
-                out[k] = val if dr[k] != 0 else 0.0
-            # w
-            dr = dw[i, j]
-            ax = cw[0, i, j]
-            axp = cw[0, ip, j]
-            ay = cw[1, i, j]
-            ayp = cw[1, i, jp]
-            az = cw[2, i, j]
-            qr = w[i, j]
-            qim = w[im, j]
-            qip = w[ip, j]
-            qjm = w[i, jm]
-            qjp = w[i, jp]
-            out = y[2, i, j]
-            for k in range(1, nz - 1):
-                s = (
-                    ax[k] * qim[k]
-                    + axp[k] * qip[k]
-                    + ay[k] * qjm[k]
-                    + ayp[k] * qjp[k]
-                    + az[k] * qr[k - 1]
-                    + az[k + 1] * qr[k + 1]
-                )
-                val = dr[k] * qr[k] - s + (pr[k] - pr[k - 1])
-                out[k] = val if dr[k] != 0 else 0.0
+            _momentum_row(du, cu, u, pr, pim, 0, i, j, im, ip, jm, jp, y[0, i, j])
+            _momentum_row(dv, cv, v, pr, pjm, 0, i, j, im, ip, jm, jp, y[1, i, j])
+            _momentum_row(dw, cw, w, pr, pr, 1, i, j, im, ip, jm, jp, y[2, i, j])
             # continuity
             ur = u[i, j]
             uip = u[ip, j]
