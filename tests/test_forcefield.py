@@ -659,3 +659,27 @@ def test_shared_tubes_reuse_one_quadrature_per_shape():
         replace(fl[0], shared=(SharedTube(st.local, st.tube, st.rotation, [0.1, 0, 0]),))
     with pytest.raises(ValueError, match="one SharedTube per tube"):
         replace(fl[0], tubes=(*fl[0].tubes, Tube(fl[0].tubes[0].point, 0, 0.2)))
+
+
+def test_gaussian_fallback_for_lateral_cut_uses_curvature_not_zero():
+    # A fiber cut by a face parallel to its axis: the end formula does not apply and the
+    # printed term falls back to the area quadrature of K, which needs Hessians even when
+    # the sample was built without them (the usual case for the Gaussian term).
+    from psdesign.forcefield.tube import fiber_gaussian_term
+
+    p = six_fiber_problem()
+    fld = p.fields(p.x0)[0]
+    tube = fld.tubes[0]
+    full = tube_sample(fld, UNIT, 96, 48, curvature=False)
+    lateral = [a for a in range(3) if a != tube.axis][0]
+    inside = full.weights > 0
+    cut_at = float(np.median(full.points[inside, lateral]))
+    lo, hi = np.zeros(3), np.ones(3)
+    hi[lateral] = cut_at
+    dom = (lo, hi)
+    no_hessian = tube_sample(fld, dom, 96, 48, curvature=False)
+    with_hessian = tube_sample(fld, dom, 96, 48, curvature=True)
+    reference = surface_term(with_hessian, "gaussian")
+    assert abs(reference) > 0.05
+    assert fiber_gaussian_term(fld, dom, no_hessian) == pytest.approx(reference, rel=1e-12)
+    assert fiber_gaussian_term(fld, dom, with_hessian) == pytest.approx(reference, rel=1e-12)

@@ -345,13 +345,19 @@ def fiber_gaussian_term(
     (``ends``: that sum over the tubes, if already known).
 
     Falls back to the area quadrature ``sample`` when a copy is cut by a domain face
-    parallel to its axis (the cut would add boundary the end formula ignores).
+    parallel to its axis (the cut would add boundary the end formula ignores). A sample
+    built without Hessians (``curvature=False``, the usual case for this term) gets them
+    evaluated at its nodes for the fallback.
     """
     lo, hi = (np.asarray(b, float) for b in domain)
     if np.any((sample.points < lo - 1e-12) | (sample.points > hi + 1e-12)):
-        from .potentials import surface_term
+        from .potentials import _wsum, gaussian_curvature
 
-        return surface_term(sample, "gaussian")
+        hs = sample.hessian
+        if hs is None or not np.any(hs):
+            _, _, hs = fld.derivatives(sample.points, hessian=True)
+        kappa = gaussian_curvature(sample.gradient, hs)
+        return _wsum(sample.weights, kappa)
     if ends is not None:
         return float(ends)
     return float(sum(gauss_bonnet_ends(fld, domain, n_theta_ends, t) for t in fld.tubes))
