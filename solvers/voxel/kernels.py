@@ -65,8 +65,8 @@ def _ends(nz):
 
 
 @nb.njit(inline="always")
-def _residual_row(d, cx, cy, cz, x, b, i, j, out):
-    """out[:] = (b - A x)[i, j, :] (0 on inactive unknowns) for one row along k.
+def _apply_row(d, cx, cy, cz, x, i, j, out):
+    """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k.
 
     The interior is a plain loop over 1-D row views (vectorised); only the two periodic k ends
     use the wrapping scalar stencil.
@@ -87,7 +87,6 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
     xip = x[ip, j]
     xjm = x[i, jm]
     xjp = x[i, jp]
-    br = b[i, j]
     for k in range(1, nz - 1):
         s = (
             cxr[k] * xim[k]
@@ -97,14 +96,21 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
             + czr[k] * xr[k - 1]
             + czr[k + 1] * xr[k + 1]
         )
-        res = br[k] - (dr[k] * xr[k] - s)
-        out[k] = res if dr[k] != 0 else 0.0
+        val = dr[k] * xr[k] - s
+        out[k] = val if dr[k] != 0 else 0.0
     for e in range(_ends(nz)):
         k = 0 if e == 0 else nz - 1
-        if d[i, j, k] == 0:
-            out[k] = 0.0
-        else:
-            out[k] = b[i, j, k] - _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz)
+        out[k] = _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz) if d[i, j, k] != 0 else 0.0
+
+
+@nb.njit(inline="always")
+def _residual_row(d, cx, cy, cz, x, b, i, j, out):
+    """out[:] = (b - A x)[i, j, :] (0 on inactive unknowns) for one row along k."""
+    _apply_row(d, cx, cy, cz, x, i, j, out)
+    dr = d[i, j]
+    br = b[i, j]
+    for k in range(out.shape[0]):
+        out[k] = br[k] - out[k] if dr[k] != 0 else 0.0
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -303,35 +309,17 @@ def _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny,
 
 
 @nb.njit(inline="always")
-def _momentum_row(d, c, q, pr, plow, shift, i, j, im, ip, jm, jp, out):
+def _momentum_row(d, c, q, pr, plow, shift, i, j, out):
     """Interior of one momentum row: ``out[k] = (A q)[i, j, k] + pr[k] - plow[k - shift]``.
 
     ``plow`` is the pressure row of the cell below the face (``shift = 1`` when it is the same
-    row, for the component along k); 0 on inactive faces.
+    row, for the component along k); 0 on inactive faces.  The two k ends are left to
+    :func:`_stokes_point`.
     """
-    nz = d.shape[2]
+    _apply_row(d, c[0], c[1], c[2], q, i, j, out)
     dr = d[i, j]
-    ax = c[0, i, j]
-    axp = c[0, ip, j]
-    ay = c[1, i, j]
-    ayp = c[1, i, jp]
-    az = c[2, i, j]
-    qr = q[i, j]
-    qim = q[im, j]
-    qip = q[ip, j]
-    qjm = q[i, jm]
-    qjp = q[i, jp]
-    for k in range(1, nz - 1):
-        s = (
-            ax[k] * qim[k]
-            + axp[k] * qip[k]
-            + ay[k] * qjm[k]
-            + ayp[k] * qjp[k]
-            + az[k] * qr[k - 1]
-            + az[k + 1] * qr[k + 1]
-        )
-        val = dr[k] * qr[k] - s + (pr[k] - plow[k - shift])
-        out[k] = val if dr[k] != 0 else 0.0
+    for k in range(1, out.shape[0] - 1):
+        out[k] += (pr[k] - plow[k - shift]) if dr[k] != 0 else 0.0
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -363,9 +351,9 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
             pim = p[im, j]
             pjm = p[i, jm]
             fr = fluid[i, j]
-            _momentum_row(du, cu, u, pr, pim, 0, i, j, im, ip, jm, jp, y[0, i, j])
-            _momentum_row(dv, cv, v, pr, pjm, 0, i, j, im, ip, jm, jp, y[1, i, j])
-            _momentum_row(dw, cw, w, pr, pr, 1, i, j, im, ip, jm, jp, y[2, i, j])
+            _momentum_row(du, cu, u, pr, pim, 0, i, j, y[0, i, j])
+            _momentum_row(dv, cv, v, pr, pjm, 0, i, j, y[1, i, j])
+            _momentum_row(dw, cw, w, pr, pr, 1, i, j, y[2, i, j])
             # continuity
             ur = u[i, j]
             uip = u[ip, j]
