@@ -251,6 +251,22 @@ def _split_tables(meta):  # pragma: no cover
     return zdep, zfree
 
 
+@numba.njit(cache=True, inline="always")
+def _field_row(flat, meta, iso, zdep, zfree, i, j, out):  # pragma: no cover
+    """``out[k] = psi(i, j, k) - iso`` for one row along z from separable term tables
+    (tables constant along z summed once, the others row by row)."""
+    nz = out.shape[0]
+    c0 = -iso
+    for t in zfree:
+        c0 += flat[meta[t, 0] + i * meta[t, 1] + j * meta[t, 2]]
+    out[:] = c0
+    for t in zdep:
+        base = meta[t, 0] + i * meta[t, 1] + j * meta[t, 2]
+        sz = meta[t, 3]
+        for k in range(nz):
+            out[k] += flat[base + k * sz]
+
+
 @numba.njit(cache=True)
 def pair_max_grid(flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b,
                   wx, wy, wz):  # pragma: no cover
@@ -274,24 +290,8 @@ def pair_max_grid(flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b,
     for i in range(nx):
         for j in range(ny):
             wij = wx[i] * wy[j]
-            a0 = -iso_a
-            for t in fa:
-                a0 += flat_a[meta_a[t, 0] + i * meta_a[t, 1] + j * meta_a[t, 2]]
-            b0 = -iso_b
-            for t in fb:
-                b0 += flat_b[meta_b[t, 0] + i * meta_b[t, 1] + j * meta_b[t, 2]]
-            ra[:] = a0
-            for t in za:
-                base = meta_a[t, 0] + i * meta_a[t, 1] + j * meta_a[t, 2]
-                sz = meta_a[t, 3]
-                for k in range(nz):
-                    ra[k] += flat_a[base + k * sz]
-            rb[:] = b0
-            for t in zb:
-                base = meta_b[t, 0] + i * meta_b[t, 1] + j * meta_b[t, 2]
-                sz = meta_b[t, 3]
-                for k in range(nz):
-                    rb[k] += flat_b[base + k * sz]
+            _field_row(flat_a, meta_a, iso_a, za, fa, i, j, ra)
+            _field_row(flat_b, meta_b, iso_b, zb, fb, i, j, rb)
             row = m[i, j]
             for k in range(nz):
                 row[k] = max(sc_a * ra[k], sc_b * rb[k])
