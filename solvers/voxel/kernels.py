@@ -122,6 +122,22 @@ def lap_residual(d, cx, cy, cz, x, b, r):
             _residual_row(d, cx, cy, cz, x, b, i, j, r[i, j])
 
 
+@nb.njit(inline="always")
+def _sum_row(row, fz, out):
+    """out[kc] += sum of ``row`` over the k-children of coarse cell kc (aggregation by ``fz``
+    along k; an odd length puts the last cell in the last aggregate)."""
+    nz = row.shape[0]
+    ncz = out.shape[0]
+    if fz == 2:
+        for kc in range(ncz):
+            out[kc] += row[2 * kc] + row[2 * kc + 1]
+        if nz > 2 * ncz:
+            out[ncz - 1] += row[nz - 1]
+    else:
+        for k in range(nz):
+            out[min(k // fz, ncz - 1)] += row[k]
+
+
 @nb.njit(parallel=True, **_OPTS)
 def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
@@ -141,14 +157,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             for i in range(i0, i1):
                 for j in range(j0, j1):
                     _residual_row(d, cx, cy, cz, x, b, i, j, row)
-                    if fz == 2:
-                        for kc in range(ncz):
-                            out[kc] += row[2 * kc] + row[2 * kc + 1]
-                        if nz > 2 * ncz:
-                            out[ncz - 1] += row[nz - 1]
-                    else:
-                        for k in range(nz):
-                            out[min(k // fz, ncz - 1)] += row[k]
+                    _sum_row(row, fz, out)
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -197,15 +206,7 @@ def restrict_sum(r, fx, fy, fz, rc):
             out[:] = 0.0
             for i in range(i0, i1):
                 for j in range(j0, j1):
-                    row = r[i, j]
-                    if fz == 2:
-                        for kc in range(ncz):
-                            out[kc] += row[2 * kc] + row[2 * kc + 1]
-                        if nz > 2 * ncz:
-                            out[ncz - 1] += row[nz - 1]
-                    else:
-                        for k in range(nz):
-                            out[min(k // fz, ncz - 1)] += row[k]
+                    _sum_row(r[i, j], fz, out)
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -273,53 +274,19 @@ def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
 
 
 @nb.njit(inline="always")
-def _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny, nz):
-    """y = K x at one cell (wrapping indices; used at the periodic k ends)."""
-    im = _dn(i, nx)
-    ip = _up(i, nx)
-    jm = _dn(j, ny)
-    jp = _up(j, ny)
-    km = _dn(k, nz)
-    kp = _up(k, nz)
-    pc = p[i, j, k]
-    if du[i, j, k] != 0:
-        y[0, i, j, k] = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz) + (
-            pc - p[im, j, k]
-        )
-    else:
-        y[0, i, j, k] = 0.0
-    if dv[i, j, k] != 0:
-        y[1, i, j, k] = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz) + (
-            pc - p[i, jm, k]
-        )
-    else:
-        y[1, i, j, k] = 0.0
-    if dw[i, j, k] != 0:
-        y[2, i, j, k] = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz) + (
-            pc - p[i, j, km]
-        )
-    else:
-        y[2, i, j, k] = 0.0
-    if fluid[i, j, k] != 0:
-        y[3, i, j, k] = (
-            u[i, j, k] - u[ip, j, k] + v[i, j, k] - v[i, jp, k] + w[i, j, k] - w[i, j, kp]
-        )
-    else:
-        y[3, i, j, k] = 0.0
-
-
-@nb.njit(inline="always")
 def _momentum_row(d, c, q, pr, plow, shift, i, j, out):
-    """Interior of one momentum row: ``out[k] = (A q)[i, j, k] + pr[k] - plow[k - shift]``.
+    """One momentum row: ``out[k] = (A q)[i, j, k] + pr[k] - plow[k - shift]`` (periodic in k).
 
     ``plow`` is the pressure row of the cell below the face (``shift = 1`` when it is the same
-    row, for the component along k); 0 on inactive faces.  The two k ends are left to
-    :func:`_stokes_point`.
+    row, for the component along k); 0 on inactive faces.
     """
     _apply_row(d, c[0], c[1], c[2], q, i, j, out)
+    nz = out.shape[0]
     dr = d[i, j]
-    for k in range(1, out.shape[0] - 1):
+    for k in range(1, nz):
         out[k] += (pr[k] - plow[k - shift]) if dr[k] != 0 else 0.0
+    if dr[0] != 0:
+        out[0] += pr[0] - plow[(nz - shift) % nz]
 
 
 @nb.njit(parallel=True, **_OPTS)
@@ -328,9 +295,9 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
 
     ``du, dv, dw`` are the diagonals of the three component operators, ``cu = (cx, cy, cz)`` of
     component u etc. (stacked uint8 arrays of shape (3, nx, ny, nz)); ``fluid`` is uint8.
-    Rows along k are plain loops over 1-D views (vectorised); the periodic k ends use
-    :func:`_stokes_point`.  Returns the float64 dot products ``(x . y, x . r)`` computed in the
-    same pass (``r`` is any array of the shape of ``x``; pass ``x`` if not needed).
+    Rows along k are plain loops over 1-D views (vectorised; see :func:`_apply_row`).
+    Returns the float64 dot products ``(x . y, x . r)`` computed in the same pass (``r`` is any
+    array of the shape of ``x``; pass ``x`` if not needed).
     """
     nx, ny, nz = fluid.shape
     u = x[0]
@@ -361,12 +328,12 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
             vjp = v[i, jp]
             wr = w[i, j]
             out = y[3, i, j]
-            for k in range(1, nz - 1):
+            for k in range(nz - 1):
                 val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
                 out[k] = val if fr[k] != 0 else 0.0
-            for e in range(_ends(nz)):
-                k = 0 if e == 0 else nz - 1
-                _stokes_point(du, dv, dw, cu, cv, cw, fluid, u, v, w, p, y, i, j, k, nx, ny, nz)
+            k = nz - 1
+            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
+            out[k] = val if fr[k] != 0 else 0.0
             for a in range(4):
                 xr = x[a, i, j]
                 yr = y[a, i, j]
