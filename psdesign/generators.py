@@ -480,6 +480,13 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
         if abs(err) <= gs.tolerance:
             break
         bias = (1.0 - vf.porosity) - cum[k]  # measured minus predicted solid
+        if err > 0 and not jammed and used >= n_pool < gs.max_fibers:
+            # rejections used up the pool before a jam was detected: draw more (the first
+            # n_pool draws are unchanged, so the placed fibers stay valid)
+            n_pool = min(gs.max_fibers, 2 * n_pool)
+            pool = draw_fibers(gs, gs.seed, n_pool, size)
+            areas = _areas(pool)
+            continue
         if err > 0 and (jammed or used >= n_pool):
             break
     porosity, st, kept, vf = best
