@@ -344,6 +344,32 @@ def test_pool_and_inline_give_same_table(tmp_path):
     assert len(set(b["pid"])) >= 1 and os.getpid() not in set(b["pid"])
 
 
+def thread_env_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    out["numba_threads"] = int(os.environ.get("NUMBA_NUM_THREADS", "-1"))
+    return out
+
+
+def test_pool_workers_share_the_cpus(tmp_path, monkeypatch):
+    from psdesign.study.runner import THREAD_VARS, threads_per_worker
+
+    assert threads_per_worker(2, cpus=2) == 1
+    assert threads_per_worker(3, cpus=8) == 2
+    assert threads_per_worker(4, cpus=2) == 1
+    for var in THREAD_VARS:
+        monkeypatch.delenv(var, raising=False)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    df = run_study(p, tmp_path / "out", workers=2, case_fn=thread_env_case, progress=False,
+                   report=False)
+    assert set(df["numba_threads"]) == {threads_per_worker(2)}
+    assert all(var not in os.environ for var in THREAD_VARS)  # the runner's own env restored
+    # a value the user set is respected
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    df = run_study(p, tmp_path / "out2", workers=2, case_fn=thread_env_case, progress=False,
+                   report=False)
+    assert set(df["numba_threads"]) == {1}
+
+
 def test_failed_case_recorded_and_retry(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     out = tmp_path / "out"

@@ -119,6 +119,34 @@ def _mp_context():
     return multiprocessing.get_context("spawn")
 
 
+THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""Thread-count variables shared out among pool workers (numba kernels, BLAS)."""
+
+
+def threads_per_worker(workers: int, cpus: int | None = None) -> int:
+    """Threads each of ``workers`` local processes may use: the CPUs shared out, at least 1."""
+    return max(1, (cpus or os.cpu_count() or 1) // max(1, workers))
+
+
+@contextmanager
+def _thread_budget(workers: int):
+    """Set the thread variables (unless the user set them) while worker processes are spawned.
+
+    Spawned workers inherit the environment; without this, N workers each start numba and BLAS
+    with one thread per CPU and oversubscribe the machine (2 workers x 2 threads on 2 cores
+    made each voxel case ~1.6x slower than running the cases one after another).
+    """
+    n = str(threads_per_worker(workers))
+    added = [v for v in THREAD_VARS if v not in os.environ]
+    for v in added:
+        os.environ[v] = n
+    try:
+        yield
+    finally:
+        for v in added:
+            os.environ.pop(v, None)
+
+
 def _run_pool(
     payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]
 ) -> None:
@@ -140,7 +168,8 @@ def _run_pool(
         ex = cf.ProcessPoolExecutor(max_workers=n_workers, mp_context=_mp_context(),
                                     initializer=watch_parent, initargs=(os.getpid(),))
         try:
-            futs = {ex.submit(execute_case, p): p for p in batch}
+            with _thread_budget(n_workers):
+                futs = {ex.submit(execute_case, p): p for p in batch}
             for fut in cf.as_completed(futs):
                 p = futs[fut]
                 try:
