@@ -37,6 +37,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))  # tests/meshes.py
 
 PHI = 0.1
 SPACING = 1.0
@@ -54,7 +55,8 @@ def k_transverse_sa(a: float, phi: float) -> float:
 
 
 def run_cylinders(n: int, tol: float = 1e-8) -> dict:
-    from solvers.fem.meshes import cylinder_transverse_row
+    from meshes import cylinder_transverse_row
+
     from solvers.fem_stokes import solve_stokes
 
     t0 = time.perf_counter()
@@ -67,8 +69,16 @@ def run_cylinders(n: int, tol: float = 1e-8) -> dict:
     grad = (means[0] - means[1]) / SPACING
     k = res.flux["outlet"] / (SPACING / 2 * depth) / grad
     k_ref = k_transverse_sa(RADIUS, PHI)
-    return dict(case="cylinders", size=n, tol=tol, t_mesh=t_mesh, k=k, k_ref=k_ref,
-                err_ref=k / k_ref - 1, **_summary(res))
+    return dict(
+        case="cylinders",
+        size=n,
+        tol=tol,
+        t_mesh=t_mesh,
+        k=k,
+        k_ref=k_ref,
+        err_ref=k / k_ref - 1,
+        **_summary(res),
+    )
 
 
 def fiber_surface(seed: int = 3, n_fibers: int = 10, radius: float = 0.07):
@@ -94,8 +104,8 @@ def fiber_surface(seed: int = 3, n_fibers: int = 10, radius: float = 0.07):
 
 def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     import pytetwild
+    from meshes import snap_to_box, tag_box_boundary
 
-    from solvers.fem.meshes import snap_to_box, tag_box_boundary
     from solvers.fem_stokes import solve_stokes
 
     t0 = time.perf_counter()
@@ -121,17 +131,33 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     res = solve_stokes(p, t, tags, slip=("side_x0", "side_x1", "side_y0", "side_y1"), tol=tol)
     k = res.flux["outlet"] * 1.0 / (1.0 * 1.0)  # K = mu Q L / (A dp), mu = dp = L = A = 1
     size = f"{fac}/r{refine}" if refine else fac
-    return dict(case="fibers", size=size, tol=tol, t_mesh=t_mesh, k=k, porosity=porosity,
-                rss_after_mesh_gb=rss_mesh, **_summary(res))
+    return dict(
+        case="fibers",
+        size=size,
+        tol=tol,
+        t_mesh=t_mesh,
+        k=k,
+        porosity=porosity,
+        rss_after_mesh_gb=rss_mesh,
+        **_summary(res),
+    )
 
 
 def _summary(res) -> dict:
     return dict(
-        n_tets=res.n_tets, n_points=res.n_points, n_dofs=res.n_dofs, method=res.method,
-        iterations=res.iterations, residual=res.residual, converged=res.converged,
-        flux_imbalance=res.flux_imbalance, t_assembly=res.timings["assembly"],
-        t_solve=res.timings["solve"], t_total_solver=res.wall_time_s,
-        estimate_gb=res.memory_estimate_gb, peak_gb=_rss_gb(),
+        n_tets=res.n_tets,
+        n_points=res.n_points,
+        n_dofs=res.n_dofs,
+        method=res.method,
+        iterations=res.iterations,
+        residual=res.residual,
+        converged=res.converged,
+        flux_imbalance=res.flux_imbalance,
+        t_assembly=res.timings["assembly"],
+        t_solve=res.timings["solve"],
+        t_total_solver=res.wall_time_s,
+        estimate_gb=res.memory_estimate_gb,
+        peak_gb=_rss_gb(),
     )
 
 
@@ -142,8 +168,9 @@ def main() -> None:
     ap.add_argument("--one", nargs=2, metavar=("CASE", "SIZE"))
     ap.add_argument("--timeout", type=float, default=1800)
     ap.add_argument("--tol", type=float, default=1e-8, help="solver tolerance")
-    ap.add_argument("--refine", type=int, default=0,
-                    help="fibers: uniform refinements of the pytetwild mesh")
+    ap.add_argument(
+        "--refine", type=int, default=0, help="fibers: uniform refinements of the pytetwild mesh"
+    )
     args = ap.parse_args()
     if args.one:
         case, size = args.one
@@ -159,8 +186,17 @@ def main() -> None:
         rows = []
         for s in sizes:
             s = int(s) if case == "cylinders" else s
-            cmd = [sys.executable, __file__, "--one", case, str(s), "--tol", str(args.tol),
-                   "--refine", str(args.refine)]
+            cmd = [
+                sys.executable,
+                __file__,
+                "--one",
+                case,
+                str(s),
+                "--tol",
+                str(args.tol),
+                "--refine",
+                str(args.refine),
+            ]
             try:
                 cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
             except subprocess.TimeoutExpired:
@@ -180,15 +216,19 @@ def _table(case: str, rows: list[dict]) -> None:
         return
     k_fine = rows[-1]["k"]
     print(f"\n### {case}\n")
-    print("| size | tets | dofs | method | iters | residual | K | dK vs ref | dK vs finest "
-          "| mesh s | assembly s | solve s | peak GB | estimate GB |")
+    print(
+        "| size | tets | dofs | method | iters | residual | K | dK vs ref | dK vs finest "
+        "| mesh s | assembly s | solve s | peak GB | estimate GB |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         ref = f"{r['err_ref']:+.2e}" if "err_ref" in r else "-"
-        print(f"| {r['size']} | {r['n_tets']} | {r['n_dofs']} | {r['method']} | {r['iterations']} "
-              f"| {r['residual']:.1e} | {r['k']:.5e} | {ref} | {r['k'] / k_fine - 1:+.2e} "
-              f"| {r['t_mesh']:.1f} | {r['t_assembly']:.1f} | {r['t_solve']:.1f} "
-              f"| {r['peak_gb']:.2f} | {r['estimate_gb']:.2f} |")
+        print(
+            f"| {r['size']} | {r['n_tets']} | {r['n_dofs']} | {r['method']} | {r['iterations']} "
+            f"| {r['residual']:.1e} | {r['k']:.5e} | {ref} | {r['k'] / k_fine - 1:+.2e} "
+            f"| {r['t_mesh']:.1f} | {r['t_assembly']:.1f} | {r['t_solve']:.1f} "
+            f"| {r['peak_gb']:.2f} | {r['estimate_gb']:.2f} |"
+        )
     print(flush=True)
 
 

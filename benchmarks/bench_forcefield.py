@@ -53,8 +53,15 @@ def _move(prob, a, b) -> tuple[float, float]:
     return float(rel), float(rng)
 
 
-def case_report(name: str, make, coarse: dict, fine: dict, warm_step: float | None,
-                surfaces: tuple[str, ...], max_iter: int) -> list[str]:
+def case_report(
+    name: str,
+    make,
+    coarse: dict,
+    fine: dict,
+    warm_step: float | None,
+    surfaces: tuple[str, ...],
+    max_iter: int,
+) -> list[str]:
     lines = [f"### {name}", ""]
     prob = make(**coarse)
     res, dt = _solve(prob, max_iter=max_iter)
@@ -83,55 +90,90 @@ def case_report(name: str, make, coarse: dict, fine: dict, warm_step: float | No
         fres, fdt = _solve(fprob, max_iter=max_iter, step=warm_step)
         how = f"warm-started at the coarse optimum, initial mesh {warm_step}"
     rel, rng = _move(prob, res.x, fres.x)
-    lines += [f"- refined quadrature {fine} ({how}): x = {_fmt(fres.x)}, U = {fres.fun:.6g}, "
-              f"wall {fdt:.1f} s ({_load(fres)}); optimum moved by {100 * rel:.2f} % of the value "
-              f"({100 * rng:.2f} % of the range); coarse-optimum U re-evaluated on the fine "
-              f"quadrature: {fprob.objective(res.x):.6g}"]
+    lines += [
+        f"- refined quadrature {fine} ({how}): x = {_fmt(fres.x)}, U = {fres.fun:.6g}, "
+        f"wall {fdt:.1f} s ({_load(fres)}); optimum moved by {100 * rel:.2f} % of the value "
+        f"({100 * rng:.2f} % of the range); coarse-optimum U re-evaluated on the fine "
+        f"quadrature: {fprob.objective(res.x):.6g}"
+    ]
     for s in surfaces:
         sprob = make(**coarse, surface=s)
         sres, sdt = _solve(sprob, max_iter=max_iter)
         sp = sprob.potential(sres.x)
-        lines.append(f"- surface term `{s}`: x = {_fmt(sres.x)}, U = {sres.fun:.6g} "
-                     f"(I^V = {sp.volume:.4g}, sum S = {sp.surface:.5g}), wall {sdt:.1f} s "
-                     f"({sres.n_evals} evaluations, {_load(sres)})")
+        lines.append(
+            f"- surface term `{s}`: x = {_fmt(sres.x)}, U = {sres.fun:.6g} "
+            f"(I^V = {sp.volume:.4g}, sum S = {sp.surface:.5g}), wall {sdt:.1f} s "
+            f"({sres.n_evals} evaluations, {_load(sres)})"
+        )
     return lines + [""]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", choices=("two", "thin", "six"), action="append",
-                    help="run only these cases (repeatable; default all)")
-    ap.add_argument("--workers", type=int, default=2,
-                    help="processes polling in parallel (default 2; results do not change)")
-    ap.add_argument("--no-variants", action="store_true",
-                    help="skip the area / bending surface-term runs")
+    ap.add_argument(
+        "--only",
+        choices=("two", "thin", "six"),
+        action="append",
+        help="run only these cases (repeatable; default all)",
+    )
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        help="processes polling in parallel (default 2; results do not change)",
+    )
+    ap.add_argument(
+        "--no-variants", action="store_true", help="skip the area / bending surface-term runs"
+    )
     args = ap.parse_args()
     global WORKERS
     WORKERS = args.workers
     variants = () if args.no_variants else ("area", "bending")
     t_all = time.perf_counter()
     cpu = platform.processor() or platform.machine()
-    out = ["## Force field (Sec. 6) benchmark", "",
-           f"`python benchmarks/bench_forcefield.py`; {cpu}, {os.cpu_count()} cores, "
-           f"load average at start {os.getloadavg()[0]:.1f}", ""]
+    out = [
+        "## Force field (Sec. 6) benchmark",
+        "",
+        f"`python benchmarks/bench_forcefield.py`; {cpu}, {os.cpu_count()} cores, "
+        f"load average at start {os.getloadavg()[0]:.1f}",
+        "",
+    ]
     only = set(args.only or ("two", "thin", "six"))
     if "two" in only:
-        out += case_report("Two-fiber assembly (Sec. 6.1), isovalue -8.82, mu = 4.5",
-                           lambda **k: two_fiber_problem(seed=5, **k),
-                           dict(h=0.005, n_s=64, n_theta=32),
-                           dict(h=0.0025, n_s=128, n_theta=64), None, variants, 200)
+        out += case_report(
+            "Two-fiber assembly (Sec. 6.1), isovalue -8.82, mu = 4.5",
+            lambda **k: two_fiber_problem(seed=5, **k),
+            dict(h=0.005, n_s=64, n_theta=32),
+            dict(h=0.0025, n_s=128, n_theta=64),
+            None,
+            variants,
+            200,
+        )
     if "thin" in only:
-        out += case_report("Two-fiber, thin variant (isovalue -8.95, D = 0.048: separable)",
-                           lambda **k: two_fiber_problem(seed=5, isovalue=-8.95, **k),
-                           dict(h=0.005, n_s=64, n_theta=32),
-                           dict(h=0.0025, n_s=128, n_theta=64), None, variants, 200)
+        out += case_report(
+            "Two-fiber, thin variant (isovalue -8.95, D = 0.048: separable)",
+            lambda **k: two_fiber_problem(seed=5, isovalue=-8.95, **k),
+            dict(h=0.005, n_s=64, n_theta=32),
+            dict(h=0.0025, n_s=128, n_theta=64),
+            None,
+            variants,
+            200,
+        )
     if "six" in only:
-        out += case_report("Six-fiber woven assembly (Sec. 6.2), isovalue -6.65",
-                           six_fiber_problem, dict(h=0.005, n_s=48, n_theta=24),
-                           dict(h=0.0025, n_s=96, n_theta=48), 0.0625, variants, 200)
+        out += case_report(
+            "Six-fiber woven assembly (Sec. 6.2), isovalue -6.65",
+            six_fiber_problem,
+            dict(h=0.005, n_s=48, n_theta=24),
+            dict(h=0.0025, n_s=96, n_theta=48),
+            0.0625,
+            variants,
+            200,
+        )
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    out += [f"Total {time.perf_counter() - t_all:.0f} s, peak RSS {peak:.0f} MB, "
-            f"load average at end {os.getloadavg()[0]:.1f}."]
+    out += [
+        f"Total {time.perf_counter() - t_all:.0f} s, peak RSS {peak:.0f} MB, "
+        f"load average at end {os.getloadavg()[0]:.1f}."
+    ]
     print("\n".join(out))
 
 

@@ -27,10 +27,12 @@ import subprocess
 import sys
 import time
 
-from psdesign.generators import build_fibers
+from psdesign.packing.generators import build_fibers
 
-BASE = {"rve": {"size": [100e-6] * 3, "voxel": 0.5e-6},
-        "generator": {"kind": "straight", "diameter": 7e-6, "seed": 1}}
+BASE = {
+    "rve": {"size": [100e-6] * 3, "voxel": 0.5e-6},
+    "generator": {"kind": "straight", "diameter": 7e-6, "seed": 1},
+}
 
 
 def _spec(gen: dict, inter: dict, size: float = 100e-6, voxel: float = 0.5e-6) -> dict:
@@ -42,13 +44,23 @@ def _spec(gen: dict, inter: dict, size: float = 100e-6, voxel: float = 0.5e-6) -
 CASES = {
     "fast40": _spec({"n_fibers": 40}, {"method": "fast"}),
     "ga40": _spec({"n_fibers": 40}, {"method": "ga"}),
-    "ga40vox": _spec({"n_fibers": 40}, {"method": "ga", "objective": "voxel", "ga_voxel": 2e-6,
-                                        "population": 12, "generations": 10}),
+    "ga40vox": _spec(
+        {"n_fibers": 40},
+        {
+            "method": "ga",
+            "objective": "voxel",
+            "ga_voxel": 2e-6,
+            "population": 12,
+            "generations": 10,
+        },
+    ),
     "por80": _spec({"porosity": 0.8}, {"method": "fast"}),
     "fast160_200": _spec({"n_fibers": 160}, {"method": "fast"}, size=200e-6, voxel=1e-6),
     "por80_200": _spec({"porosity": 0.8}, {"method": "fast"}, size=200e-6, voxel=1e-6),
-    "bent20": _spec({"kind": "bent", "n_fibers": 20,
-                     "f": {"dist": "uniform", "low": 1.0, "high": 3.0}}, {"method": "fast"}),
+    "bent20": _spec(
+        {"kind": "bent", "n_fibers": 20, "f": {"dist": "uniform", "low": 1.0, "high": 3.0}},
+        {"method": "fast"},
+    ),
 }
 
 
@@ -74,8 +86,9 @@ def run(case: str) -> dict:
     if "placement_time_s" in r:
         out["removal_s"] = round(r["placement_time_s"], 2)
     if "ga" in r:
-        out["ga"] = [{k: (round(v, 6) if isinstance(v, float) else v) for k, v in g.items()}
-                     for g in r["ga"]]
+        out["ga"] = [
+            {k: (round(v, 6) if isinstance(v, float) else v) for k, v in g.items()} for g in r["ga"]
+        ]
     return out
 
 

@@ -16,8 +16,8 @@ import sys
 CHILD = r"""
 import json, resource, time
 import numpy as np
-from psdesign.fibers import make_fiber
-from psdesign.rve import RVE
+from psdesign.geometry.fibers import make_fiber
+from psdesign.geometry.rve import RVE
 n = {n}
 rng = np.random.default_rng(0)
 L, D = 100e-6, 7e-6
@@ -41,15 +41,18 @@ print(json.dumps({{"n": n, "time_s": best, "porosity": por, "peak_rss_mb": peak 
 def main() -> None:
     rows = []
     for n in (100, 200, 300, 400):
-        out = subprocess.run([sys.executable, "-c", CHILD.format(n=n)], capture_output=True,
-                             text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, "-c", CHILD.format(n=n)], capture_output=True, text=True, check=True
+        )
         rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
         print(rows[-1], flush=True)
     import math
 
     t100, t400 = rows[0]["time_s"], rows[-1]["time_s"]
-    print(f"growth exponent in N = n^3 from 100^3 to 400^3: "
-          f"{math.log(t400 / t100) / math.log(64):.2f}")
+    print(
+        f"growth exponent in N = n^3 from 100^3 to 400^3: "
+        f"{math.log(t400 / t100) / math.log(64):.2f}"
+    )
 
 
 if __name__ == "__main__":

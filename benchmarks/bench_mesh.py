@@ -44,8 +44,7 @@ def toray_like_distance(
     while True:
         omega = rng.uniform(0, np.pi)
         theta = np.radians(rng.uniform(-5, 5))
-        u = np.array([np.cos(omega) * np.cos(theta), np.sin(omega) * np.cos(theta),
-                      np.sin(theta)])
+        u = np.array([np.cos(omega) * np.cos(theta), np.sin(omega) * np.cos(theta), np.sin(theta)])
         p0 = rng.uniform(0, SIZE, 3)
         pu = pts @ np.stack([u, p0], axis=1)  # (N, 2): r.u, r.p0
         t = pu[:, 0] - p0 @ u
@@ -59,7 +58,7 @@ def toray_like_distance(
 
 
 def run_single(cfg: dict) -> dict:
-    from psdesign.mesh import mesh_pore_space
+    from psdesign.meshing.pore_mesh import mesh_pore_space
 
     t0 = time.perf_counter()
     name = f"psdesign_toray_{cfg['voxel']:g}_{cfg.get('seed', 1)}.npz"
@@ -72,11 +71,18 @@ def run_single(cfg: dict) -> dict:
         np.savez(cache, d=d, n_fib=n_fib)
     t_geom = time.perf_counter() - t0
     t0 = time.perf_counter()
-    out = {"config": cfg, "n_fibers": n_fib, "porosity_voxel": float((d > 0).mean()),
-           "geometry_s": t_geom}
+    out = {
+        "config": cfg,
+        "n_fibers": n_fib,
+        "porosity_voxel": float((d > 0).mean()),
+        "geometry_s": t_geom,
+    }
     try:
         pm = mesh_pore_space(
-            d, cfg["voxel"], (SIZE,) * 3, cfg.get("direction", "z"),
+            d,
+            cfg["voxel"],
+            (SIZE,) * 3,
+            cfg.get("direction", "z"),
             aux_length=cfg.get("aux", 0.2),
             edge_length=cfg.get("edge_abs"),
             edge_length_fac=cfg.get("edge_fac", 0.05),
@@ -87,11 +93,27 @@ def run_single(cfg: dict) -> dict:
             tetwild_options=cfg.get("tetwild"),
         )
         q = pm.quality
-        keys = ["n_tets", "n_points", "n_surface_triangles", "edge_length_m", "epsilon_rel",
-                "min_dihedral_deg", "p01_min_dihedral_deg", "mean_radius_ratio",
-                "volume_rel_error", "volume_rel_error_vs_voxel", "porosity_mesh",
-                "pore_centroid_fraction", "n_closed_gap_voxels", "n_removed_components",
-                "surface_s", "tetwild_s", "tagging_s", "checks_s", "wall_time_s"]
+        keys = [
+            "n_tets",
+            "n_points",
+            "n_surface_triangles",
+            "edge_length_m",
+            "epsilon_rel",
+            "min_dihedral_deg",
+            "p01_min_dihedral_deg",
+            "mean_radius_ratio",
+            "volume_rel_error",
+            "volume_rel_error_vs_voxel",
+            "porosity_mesh",
+            "pore_centroid_fraction",
+            "n_closed_gap_voxels",
+            "n_removed_components",
+            "surface_s",
+            "tetwild_s",
+            "tagging_s",
+            "checks_s",
+            "wall_time_s",
+        ]
         out.update({k: q[k] for k in keys})
         out["ok"] = True
     except ValueError as e:
@@ -119,32 +141,51 @@ def main() -> None:
     rows = []
     for vox in args.voxel:
         for fac in args.edge_fac:
-            cfg = {"voxel": vox, "edge_fac": fac, "direction": args.direction,
-                   "step": args.step, "epsilon": args.epsilon, "threads": args.threads}
+            cfg = {
+                "voxel": vox,
+                "edge_fac": fac,
+                "direction": args.direction,
+                "step": args.step,
+                "epsilon": args.epsilon,
+                "threads": args.threads,
+            }
             try:
-                res = subprocess.run([sys.executable, __file__, "--single", json.dumps(cfg)],
-                                     capture_output=True, text=True, timeout=args.timeout)
+                res = subprocess.run(
+                    [sys.executable, __file__, "--single", json.dumps(cfg)],
+                    capture_output=True,
+                    text=True,
+                    timeout=args.timeout,
+                )
                 line = [s for s in res.stdout.splitlines() if s.startswith("{")]
-                r = json.loads(line[-1]) if line else {"config": cfg, "ok": False,
-                                                       "error": res.stderr[-500:]}
+                r = (
+                    json.loads(line[-1])
+                    if line
+                    else {"config": cfg, "ok": False, "error": res.stderr[-500:]}
+                )
             except subprocess.TimeoutExpired:
                 r = {"config": cfg, "ok": False, "error": f"timeout {args.timeout} s"}
             rows.append(r)
             print(json.dumps(r), file=sys.stderr, flush=True)
-    print("| voxel um | step | edge_fac | edge um | surf tris | tets | tetwild s | total mesh s |"
-          " peak GB | vol err % | pore centroid % | min dihedral | porosity mesh |")
+    print(
+        "| voxel um | step | edge_fac | edge um | surf tris | tets | tetwild s | total mesh s |"
+        " peak GB | vol err % | pore centroid % | min dihedral | porosity mesh |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         c = r["config"]
         if not r.get("ok"):
-            print(f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | failed: "
-                  f"{r.get('error', '')[:80]} |")
+            print(
+                f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | failed: "
+                f"{r.get('error', '')[:80]} |"
+            )
             continue
-        print(f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | "
-              f"{r['edge_length_m'] * 1e6:.2f} | {r['n_surface_triangles']} | {r['n_tets']} | "
-              f"{r['tetwild_s']:.1f} | {r['wall_time_s']:.1f} | {r['peak_rss_gb']:.2f} | "
-              f"{100 * r['volume_rel_error']:.2f} | {100 * r['pore_centroid_fraction']:.2f} | "
-              f"{r['min_dihedral_deg']:.1f} | {r['porosity_mesh']:.4f} |")
+        print(
+            f"| {c['voxel'] * 1e6:g} | {c['step']} | {c['edge_fac']} | "
+            f"{r['edge_length_m'] * 1e6:.2f} | {r['n_surface_triangles']} | {r['n_tets']} | "
+            f"{r['tetwild_s']:.1f} | {r['wall_time_s']:.1f} | {r['peak_rss_gb']:.2f} | "
+            f"{100 * r['volume_rel_error']:.2f} | {100 * r['pore_centroid_fraction']:.2f} | "
+            f"{r['min_dihedral_deg']:.1f} | {r['porosity_mesh']:.4f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -42,8 +42,12 @@ def burn_case(spec, outputs, solver, workdir):
     acc = 0
     for i in range(BURN_ITERS):
         acc += i * i % 7
-    return {"porosity": spec["generator"]["porosity"], "k_z_m2": 1e-12, "acc": acc,
-            "burn_time_s": time.perf_counter() - t0}
+    return {
+        "porosity": spec["generator"]["porosity"],
+        "k_z_m2": 1e-12,
+        "acc": acc,
+        "burn_time_s": time.perf_counter() - t0,
+    }
 
 
 STUDY = """
@@ -92,79 +96,166 @@ def main() -> None:
 
         # 1. overhead
         s = _study(tmp, n_over)
-        wall, la, _ = _timed(lambda: run_study(s, tmp / "o1", workers=1,
-                                               case_fn="bench_study:sleep_case",
-                                               progress=False, report=False))
+        wall, la, _ = _timed(
+            lambda: run_study(
+                s,
+                tmp / "o1",
+                workers=1,
+                case_fn="bench_study:sleep_case",
+                progress=False,
+                report=False,
+            )
+        )
         ov = (wall - n_over * SLEEP_S) / n_over
-        print(f"[overhead] {n_over} cases x {SLEEP_S} s sleep, 1 worker: wall {wall:.2f} s, "
-              f"overhead {ov * 1e3:.0f} ms/case (incl. pool start-up; load {la:.2f})")
+        print(
+            f"[overhead] {n_over} cases x {SLEEP_S} s sleep, 1 worker: wall {wall:.2f} s, "
+            f"overhead {ov * 1e3:.0f} ms/case (incl. pool start-up; load {la:.2f})"
+        )
         s_half = _study(tmp, n_over // 2)
-        wall_h, la_h, _ = _timed(lambda: run_study(s_half, tmp / "o1h", workers=1,
-                                                   case_fn="bench_study:sleep_case",
-                                                   progress=False, report=False))
+        wall_h, la_h, _ = _timed(
+            lambda: run_study(
+                s_half,
+                tmp / "o1h",
+                workers=1,
+                case_fn="bench_study:sleep_case",
+                progress=False,
+                report=False,
+            )
+        )
         marg = ((wall - wall_h) - (n_over - n_over // 2) * SLEEP_S) / (n_over - n_over // 2)
-        print(f"[overhead] marginal per case (wall({n_over}) - wall({n_over // 2}), pool start "
-              f"cancels): {marg * 1e3:.0f} ms/case (load {la_h:.2f})")
-        wall, la, _ = _timed(lambda: run_study(s, tmp / "o1b", workers=0,
-                                               case_fn="bench_study:sleep_case",
-                                               progress=False, report=False))
+        print(
+            f"[overhead] marginal per case (wall({n_over}) - wall({n_over // 2}), pool start "
+            f"cancels): {marg * 1e3:.0f} ms/case (load {la_h:.2f})"
+        )
+        wall, la, _ = _timed(
+            lambda: run_study(
+                s,
+                tmp / "o1b",
+                workers=0,
+                case_fn="bench_study:sleep_case",
+                progress=False,
+                report=False,
+            )
+        )
         ov0 = (wall - n_over * SLEEP_S) / n_over
-        print(f"[overhead] same, in-process (workers=0): wall {wall:.2f} s, "
-              f"overhead {ov0 * 1e3:.0f} ms/case (storage only; load {la:.2f})")
-        wall, la, _ = _timed(lambda: run_study(s, tmp / "o1c", workers=1, timeout_s=60,
-                                               case_fn="bench_study:sleep_case",
-                                               progress=False, report=False))
+        print(
+            f"[overhead] same, in-process (workers=0): wall {wall:.2f} s, "
+            f"overhead {ov0 * 1e3:.0f} ms/case (storage only; load {la:.2f})"
+        )
+        wall, la, _ = _timed(
+            lambda: run_study(
+                s,
+                tmp / "o1c",
+                workers=1,
+                timeout_s=60,
+                case_fn="bench_study:sleep_case",
+                progress=False,
+                report=False,
+            )
+        )
         ovt = (wall - n_over * SLEEP_S) / n_over
-        print(f"[overhead] same with --timeout (child process per case): wall {wall:.2f} s, "
-              f"overhead {ovt * 1e3:.0f} ms/case (load {la:.2f})")
-        wall, la, _ = _timed(lambda: run_study(s, tmp / "o1", workers=1,
-                                               case_fn="bench_study:sleep_case",
-                                               progress=False, report=False))
+        print(
+            f"[overhead] same with --timeout (child process per case): wall {wall:.2f} s, "
+            f"overhead {ovt * 1e3:.0f} ms/case (load {la:.2f})"
+        )
+        wall, la, _ = _timed(
+            lambda: run_study(
+                s,
+                tmp / "o1",
+                workers=1,
+                case_fn="bench_study:sleep_case",
+                progress=False,
+                report=False,
+            )
+        )
         print(f"[resume] rerun of the finished study (all skipped): {wall:.2f} s")
 
         # 2. scaling
         s8 = _study(tmp, 8)
-        w1, la1, df1 = _timed(lambda: run_study(s8, tmp / "w1", workers=1,
-                                                case_fn="bench_study:burn_case",
-                                                progress=False, report=False))
-        w2, la2, df2 = _timed(lambda: run_study(s8, tmp / "w2", workers=2,
-                                                case_fn="bench_study:burn_case",
-                                                progress=False, report=False))
-        print(f"[scaling] 8 CPU-bound cases (~{df1['burn_time_s'].mean():.2f} s each alone): "
-              f"1 worker {w1:.2f} s (load {la1:.2f}), 2 workers {w2:.2f} s (load {la2:.2f}), "
-              f"speed-up {w1 / w2:.2f}x")
+        w1, la1, df1 = _timed(
+            lambda: run_study(
+                s8,
+                tmp / "w1",
+                workers=1,
+                case_fn="bench_study:burn_case",
+                progress=False,
+                report=False,
+            )
+        )
+        w2, la2, df2 = _timed(
+            lambda: run_study(
+                s8,
+                tmp / "w2",
+                workers=2,
+                case_fn="bench_study:burn_case",
+                progress=False,
+                report=False,
+            )
+        )
+        print(
+            f"[scaling] 8 CPU-bound cases (~{df1['burn_time_s'].mean():.2f} s each alone): "
+            f"1 worker {w1:.2f} s (load {la1:.2f}), 2 workers {w2:.2f} s (load {la2:.2f}), "
+            f"speed-up {w1 / w2:.2f}x"
+        )
         # busy fraction: time inside the case functions / (workers x wall); 1.0 = the runner
         # keeps every worker busy (independent of how much CPU other users take)
-        print(f"[scaling] busy fraction: 1 worker {df1['burn_time_s'].sum() / w1:.2f}, "
-              f"2 workers {df2['burn_time_s'].sum() / (2 * w2):.2f}; mean case time "
-              f"{df1['burn_time_s'].mean():.2f} s (1 worker) vs {df2['burn_time_s'].mean():.2f} s "
-              "(2 workers; > means the 2 cores were not free)")
+        print(
+            f"[scaling] busy fraction: 1 worker {df1['burn_time_s'].sum() / w1:.2f}, "
+            f"2 workers {df2['burn_time_s'].sum() / (2 * w2):.2f}; mean case time "
+            f"{df1['burn_time_s'].mean():.2f} s (1 worker) vs {df2['burn_time_s'].mean():.2f} s "
+            "(2 workers; > means the 2 cores were not free)"
+        )
 
         # 3. dask
-        wd, lad, dfd = _timed(lambda: run_study(s8, tmp / "dk", workers=2, scheduler="local",
-                                              case_fn="bench_study:burn_case",
-                                              progress=False, report=False))
-        print(f"[dask] same 8 cases, LocalCluster 2 workers: {wd:.2f} s incl. cluster start "
-              f"(load {lad:.2f}); pool 2 workers {w2:.2f} s; ratio {wd / w2:.2f}; "
-              f"busy fraction {dfd['burn_time_s'].sum() / (2 * wd):.2f}")
+        wd, lad, dfd = _timed(
+            lambda: run_study(
+                s8,
+                tmp / "dk",
+                workers=2,
+                scheduler="local",
+                case_fn="bench_study:burn_case",
+                progress=False,
+                report=False,
+            )
+        )
+        print(
+            f"[dask] same 8 cases, LocalCluster 2 workers: {wd:.2f} s incl. cluster start "
+            f"(load {lad:.2f}); pool 2 workers {w2:.2f} s; ratio {wd / w2:.2f}; "
+            f"busy fraction {dfd['burn_time_s'].sum() / (2 * wd):.2f}"
+        )
 
         from distributed import LocalCluster
 
         t0 = time.perf_counter()
-        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                          dashboard_address=None) as cluster:
+        with LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+        ) as cluster:
             t_start = time.perf_counter() - t0
-            wc, lac, dfc = _timed(lambda: run_study(s8, tmp / "dk2", workers=2,
-                                                    scheduler=cluster.scheduler_address,
-                                                    case_fn="bench_study:burn_case",
-                                                    progress=False, report=False))
-        print(f"[dask] same 8 cases on an already running cluster (tcp://, start took "
-              f"{t_start:.1f} s): {wc:.2f} s (load {lac:.2f}); ratio to pool {wc / w2:.2f}; "
-              f"busy fraction {dfc['burn_time_s'].sum() / (2 * wc):.2f}")
+            wc, lac, dfc = _timed(
+                lambda: run_study(
+                    s8,
+                    tmp / "dk2",
+                    workers=2,
+                    scheduler=cluster.scheduler_address,
+                    case_fn="bench_study:burn_case",
+                    progress=False,
+                    report=False,
+                )
+            )
+        print(
+            f"[dask] same 8 cases on an already running cluster (tcp://, start took "
+            f"{t_start:.1f} s): {wc:.2f} s (load {lac:.2f}); ratio to pool {wc / w2:.2f}; "
+            f"busy fraction {dfc['burn_time_s'].sum() / (2 * wc):.2f}"
+        )
 
         # report time
-        wr, _, _ = _timed(lambda: __import__("psdesign.report", fromlist=["x"]).write_report(
-            tmp / "w2"))
+        wr, _, _ = _timed(
+            lambda: __import__("psdesign.report", fromlist=["x"]).write_report(tmp / "w2")
+        )
         print(f"[report] write_report on 8 cases: {wr:.2f} s")
     ru_self = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     ru_ch = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024

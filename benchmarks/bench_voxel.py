@@ -24,7 +24,7 @@ import numpy as np
 
 from solvers.voxel_stokes import solve_voxel_stokes
 
-BENCH = Path(__file__).resolve().parents[2] / "shared" / "bench"  # shared/ beside the checkout
+BENCH = Path(__file__).resolve().parents[1] / "tests" / "data"  # vendored peer geometry
 PUMA = {32: (0.009785, 77.7, 211), 64: (0.010145, 1201.0, 500)}
 
 
@@ -143,9 +143,7 @@ def kernels(n: int, reps: int = 5) -> None:
             "operator product (+2 dots)": ms(lambda: op.apply(x, y, z)),
             "preconditioner (3 V-cycles)": ms(lambda: op.precondition(x, z)),
             "one V-cycle": ms(lambda: mg0.apply(b, t)),
-            "Jacobi sweep (finest)": ms(
-                lambda: kr.jacobi(lev.d, *lev.c, b, b, t, 0.9)
-            ),
+            "Jacobi sweep (finest)": ms(lambda: kr.jacobi(lev.d, *lev.c, b, b, t, 0.9)),
             "dot product (4 fields)": ms(lambda: kr.dot(x, y)),
         }
         rhs = np.empty(op.shape, np.float32)

@@ -205,8 +205,21 @@ def _as_names(value, arg: str) -> tuple[str, ...]:
     raise ValueError(f"{arg} must be a tag name or a sequence of tag names, got {value!r}")
 
 
-def _validate(points, tets, facet_tags, inlet, outlet, noslip, slip, p_inlet, p_outlet,
-              viscosity, element, tol, max_iter):
+def _validate(
+    points,
+    tets,
+    facet_tags,
+    inlet,
+    outlet,
+    noslip,
+    slip,
+    p_inlet,
+    p_outlet,
+    viscosity,
+    element,
+    tol,
+    max_iter,
+):
     points = np.asarray(points, dtype=np.float64)
     tets = np.asarray(tets)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 4:
@@ -229,13 +242,18 @@ def _validate(points, tets, facet_tags, inlet, outlet, noslip, slip, p_inlet, p_
         if tri.ndim != 2 or tri.shape[1] != 3 or not np.issubdtype(tri.dtype, np.integer):
             raise ValueError(f"facet_tags[{name!r}] must be a (k, 3) integer array")
         if len(tri) and (tri.min() < 0 or tri.max() >= len(points)):
-            raise ValueError(f"facet_tags[{name!r}]: vertex indices must lie in "
-                             f"[0, {len(points) - 1}]")
+            raise ValueError(
+                f"facet_tags[{name!r}]: vertex indices must lie in [0, {len(points) - 1}]"
+            )
         tags[name] = tri.astype(np.int64)
     noslip = _as_names(noslip, "noslip")
     slip = _as_names(slip, "slip")
-    for arg, names in (("inlet", (inlet,)), ("outlet", (outlet,)), ("noslip", noslip),
-                       ("slip", slip)):
+    for arg, names in (
+        ("inlet", (inlet,)),
+        ("outlet", (outlet,)),
+        ("noslip", noslip),
+        ("slip", slip),
+    ):
         for n in names:
             if n not in tags:
                 raise ValueError(f"{arg}: tag {n!r} is not in facet_tags (have {sorted(tags)})")
@@ -245,8 +263,12 @@ def _validate(points, tets, facet_tags, inlet, outlet, noslip, slip, p_inlet, p_
         if len(tags[n]) == 0:
             raise ValueError(f"facet_tags[{n!r}] is empty: the {n} needs at least one facet")
     roles = {}
-    for role, names in (("inlet", (inlet,)), ("outlet", (outlet,)), ("noslip", noslip),
-                        ("slip", slip)):
+    for role, names in (
+        ("inlet", (inlet,)),
+        ("outlet", (outlet,)),
+        ("noslip", noslip),
+        ("slip", slip),
+    ):
         for n in names:
             if n in roles and roles[n] != role:
                 raise ValueError(f"tag {n!r} is given two roles: {roles[n]} and {role}")
@@ -340,8 +362,19 @@ def solve_stokes(
     """
     t_start = time.perf_counter()
     points, tets, tags, noslip, slip = _validate(
-        points, tets, facet_tags, inlet, outlet, noslip, slip, p_inlet, p_outlet, viscosity,
-        element, tol, max_iter,
+        points,
+        tets,
+        facet_tags,
+        inlet,
+        outlet,
+        noslip,
+        slip,
+        p_inlet,
+        p_outlet,
+        viscosity,
+        element,
+        tol,
+        max_iter,
     )
     if amg not in ("sa", "rs"):
         raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
@@ -391,8 +424,7 @@ def solve_stokes(
 
     mesh = assembly.make_mesh(x, tets_k)
     dofs2, n2 = assembly.p2_dofs(mesh)
-    probe = assembly.CellBasis(mesh, ElementTetP2(), intorder=2, elements=np.array([0]),
-                               dofs=dofs2)
+    probe = assembly.CellBasis(mesh, ElementTetP2(), intorder=2, elements=np.array([0]), dofs=dofs2)
     boundary = mesh.f2t[1] == -1
 
     # --- tags -> facet indices ---
@@ -497,6 +529,14 @@ def solve_stokes(
         element=element,
         slip_axes=slip_axes,
         timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
-        _state={"mesh": mesh, "dofs2": dofs2, "u": u, "p": p, "origin": origin,
-                "length": length, "u_scale": u_scale, "p_scale": p_scale},
+        _state={
+            "mesh": mesh,
+            "dofs2": dofs2,
+            "u": u,
+            "p": p,
+            "origin": origin,
+            "length": length,
+            "u_scale": u_scale,
+            "p_scale": p_scale,
+        },
     )

@@ -7,9 +7,16 @@ Gauss-Bonnet end formula), :mod:`.pattern` (bounded pattern search), :mod:`.para
 :mod:`.run` / :mod:`.cli` (``psdesign forcefield``), :mod:`.render` (pictures).
 """
 
-from .cases import ForceFieldProblem, six_fiber_problem, two_fiber_problem
-from .pattern import PatternSearchResult, pattern_search
-from .potentials import Potentials, total_potential
+from psdesign.forcefield.cases import ForceFieldProblem, six_fiber_problem, two_fiber_problem
+from psdesign.forcefield.pattern import PatternSearchResult, pattern_search
+from psdesign.forcefield.potentials import Potentials, total_potential
 
-__all__ = ["ForceFieldProblem", "PatternSearchResult", "Potentials", "pattern_search",
-           "six_fiber_problem", "total_potential", "two_fiber_problem"]
+__all__ = [
+    "ForceFieldProblem",
+    "PatternSearchResult",
+    "Potentials",
+    "pattern_search",
+    "six_fiber_problem",
+    "total_potential",
+    "two_fiber_problem",
+]

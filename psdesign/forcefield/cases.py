@@ -45,14 +45,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from psdesign.model import GeneralizedPS
-
-from .fields import NoFiberError, PSField, SharedTube, Tube
-from .memo import FiberMemo
-from .parallel import WorkerPool
-from .params import Parametrization, Tie
-from .pattern import PatternSearchResult, pattern_search
-from .potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
+from psdesign.forcefield.fields import NoFiberError, PSField, SharedTube, Tube
+from psdesign.forcefield.memo import FiberMemo
+from psdesign.forcefield.parallel import WorkerPool
+from psdesign.forcefield.params import Parametrization, Tie
+from psdesign.forcefield.pattern import PatternSearchResult, pattern_search
+from psdesign.forcefield.potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
+from psdesign.geometry.model import GeneralizedPS
 
 CENTRE = np.array([0.5, 0.5, 0.5])
 DOMAIN = (np.zeros(3), np.ones(3))
@@ -61,13 +60,36 @@ R_ALONG_X = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
 R_ALONG_Y = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 PAPER_TWO_FIBER = {"f": 2.6733, "u1": 0.1896, "u2": -0.1896}
-SIX_NAMES = ("mu1", "mu2", "mu3", "mu4", "mu5", "kappa1", "kappa2", "kappa3", "kappa4",
-             "kappa5", "u1", "u2", "f")
-TABLE_II_INITIAL = dict(zip(SIX_NAMES, (3.9, 2.9, 1.1, 0.55, 0.55, 0.9, 0.9, 2.9, 0.9, 0.9,
-                                         0.29, -0.29, 1.3), strict=True))
+SIX_NAMES = (
+    "mu1",
+    "mu2",
+    "mu3",
+    "mu4",
+    "mu5",
+    "kappa1",
+    "kappa2",
+    "kappa3",
+    "kappa4",
+    "kappa5",
+    "u1",
+    "u2",
+    "f",
+)
+TABLE_II_INITIAL = dict(
+    zip(
+        SIX_NAMES,
+        (3.9, 2.9, 1.1, 0.55, 0.55, 0.9, 0.9, 2.9, 0.9, 0.9, 0.29, -0.29, 1.3),
+        strict=True,
+    )
+)
 TABLE_II_RANGE = dict(zip(SIX_NAMES, (0.2,) * 5 + (0.3,) * 5 + (0.2, 0.2, 0.3), strict=True))
-TABLE_II_RESULT = dict(zip(SIX_NAMES, (4.08, 3.08, 0.975, 0.4549, 0.4549, 0.96, 0.96, 2.88,
-                                        0.96, 0.96, 0.415, -0.415, 1.44), strict=True))
+TABLE_II_RESULT = dict(
+    zip(
+        SIX_NAMES,
+        (4.08, 3.08, 0.975, 0.4549, 0.4549, 0.96, 0.96, 2.88, 0.96, 0.96, 0.415, -0.415, 1.44),
+        strict=True,
+    )
+)
 #: world frame of a fiber along y from that of a fiber along x (90 degrees about z)
 Q_Y_FROM_X = R_ALONG_Y @ R_ALONG_X.T
 SIX_TRANSLATIONS = np.array([[0.45, -0.28, 0.0], [0.45, 0.038, 0.0], [0.45, 0.356, 0.0]])
@@ -78,8 +100,9 @@ def _place(canon: GeneralizedPS, R: np.ndarray, shift: np.ndarray) -> Generalize
     return canon.translated(-(CENTRE + shift)).rotated(R).translated(CENTRE)
 
 
-def _axis_box(axis: int, centre_lat: float, half_lat: float, centre_out: float,
-              half_out: float) -> tuple[np.ndarray, np.ndarray]:
+def _axis_box(
+    axis: int, centre_lat: float, half_lat: float, centre_out: float, half_out: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of a fiber along world ``axis`` (0 = x, 1 = y); out-of-plane is z."""
     lo, hi = np.zeros(3), np.ones(3)
     lat = 1 - axis
@@ -129,24 +152,30 @@ class ForceFieldProblem:
     def __post_init__(self) -> None:
         self.weights = check_weights(self.weights)
         if self.surface not in SURFACE_TERMS:
-            raise ValueError(f"surface must be one of {', '.join(SURFACE_TERMS)}; "
-                             f"got {self.surface!r}")
+            raise ValueError(
+                f"surface must be one of {', '.join(SURFACE_TERMS)}; got {self.surface!r}"
+            )
         if not (np.isfinite(self.h) and 0 < self.h <= 0.05):
             raise ValueError(f"h must lie in (0, 0.05], got {self.h}")
         if not (4 <= self.n_s <= 4096 and 4 <= self.n_theta <= 4096):
-            raise ValueError(f"n_s and n_theta must lie in [4, 4096], got {self.n_s}, "
-                             f"{self.n_theta}")
+            raise ValueError(
+                f"n_s and n_theta must lie in [4, 4096], got {self.n_s}, {self.n_theta}"
+            )
         self.lower, self.upper = self.param.bounds()
         self.x0 = self.param.free_from(self.start)
         bad = np.flatnonzero((self.x0 < self.lower - 1e-12) | (self.x0 > self.upper + 1e-12))
         if bad.size:
             k = int(bad[0])
-            raise ValueError(f"start value of {self.param.free[k]!r} = {self.x0[k]:.6g} lies "
-                             f"outside its feasible range [{self.lower[k]:.6g}, "
-                             f"{self.upper[k]:.6g}]")
+            raise ValueError(
+                f"start value of {self.param.free[k]!r} = {self.x0[k]:.6g} lies "
+                f"outside its feasible range [{self.lower[k]:.6g}, "
+                f"{self.upper[k]:.6g}]"
+            )
         self.memo = FiberMemo()
-        self.notes = self.notes + [f"start inconsistent with constraints, derived instead: {s}"
-                                   for s in self.param.inconsistencies(self.start)]
+        self.notes = self.notes + [
+            f"start inconsistent with constraints, derived instead: {s}"
+            for s in self.param.inconsistencies(self.start)
+        ]
 
     def params(self, x) -> dict[str, float]:
         return self.param.expand(x)
@@ -154,13 +183,27 @@ class ForceFieldProblem:
     def fields(self, x) -> list[PSField]:
         return self.build(self.params(x), 3.0 * self.h)
 
-    def potential(self, x, h: float | None = None, surface: str | None = None,
-                  n_s: int | None = None, n_theta: int | None = None) -> Potentials:
+    def potential(
+        self,
+        x,
+        h: float | None = None,
+        surface: str | None = None,
+        n_s: int | None = None,
+        n_theta: int | None = None,
+    ) -> Potentials:
         """U and its parts at free variables ``x`` (quadrature overrides optional)."""
         hh = self.h if h is None else h
         flds = self.build(self.params(x), 3.0 * hh)
-        return total_potential(flds, DOMAIN, hh, self.weights, surface or self.surface,
-                               n_s or self.n_s, n_theta or self.n_theta, self.memo)
+        return total_potential(
+            flds,
+            DOMAIN,
+            hh,
+            self.weights,
+            surface or self.surface,
+            n_s or self.n_s,
+            n_theta or self.n_theta,
+            self.memo,
+        )
 
     def objective(self, x) -> float:
         """U at ``x``; +inf where a fiber vanishes or breaks (infeasible shape)."""
@@ -169,8 +212,15 @@ class ForceFieldProblem:
         except NoFiberError:
             return float("inf")
 
-    def solve(self, max_iter: int = 200, max_evals: int | None = None, step: float = 0.25,
-              min_step: float = 1e-3, callback=None, workers: int = 1) -> PatternSearchResult:
+    def solve(
+        self,
+        max_iter: int = 200,
+        max_evals: int | None = None,
+        step: float = 0.25,
+        min_step: float = 1e-3,
+        callback=None,
+        workers: int = 1,
+    ) -> PatternSearchResult:
         """Pattern search from the start point within the feasible box.
 
         ``workers > 1`` evaluates poll points in as many forked processes, each taking the
@@ -179,13 +229,15 @@ class ForceFieldProblem:
         """
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
-        kw = dict(step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals,
-                  callback=callback)
+        kw = dict(
+            step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals, callback=callback
+        )
         if workers == 1 or "fork" not in mp.get_all_start_methods():
             return pattern_search(self.objective, self.x0, self.lower, self.upper, **kw)
         with WorkerPool(self.objective, workers) as pool:
-            return pattern_search(self.objective, self.x0, self.lower, self.upper,
-                                  evaluator=pool, **kw)
+            return pattern_search(
+                self.objective, self.x0, self.lower, self.upper, evaluator=pool, **kw
+            )
 
     def free_of(self, params: dict) -> np.ndarray:
         return self.param.free_from(params)
@@ -194,17 +246,27 @@ class ForceFieldProblem:
 # ------------------------------------------------------------------ two fibers
 def bent_rod_canonical(mu: float, constant: float, u: float, f: float) -> GeneralizedPS:
     """``mu cos(2 pi x + u cos(2 pi f (z - 1/2))) + mu cos(2 pi y) + constant``."""
-    return GeneralizedPS(mu=[mu, mu, constant], kappa=[1, 1, 1],
-                         H=[[1, 0, 0], [0, 1, 0], [0, 0, 0]], alpha=[0, 0, 0],
-                         minor_term=[0], u=[u], f=[f], G=[[0, 0, 1]], beta=[-0.5])
+    return GeneralizedPS(
+        mu=[mu, mu, constant],
+        kappa=[1, 1, 1],
+        H=[[1, 0, 0], [0, 1, 0], [0, 0, 0]],
+        alpha=[0, 0, 0],
+        minor_term=[0],
+        u=[u],
+        f=[f],
+        G=[[0, 0, 1]],
+        beta=[-0.5],
+    )
 
 
 def rod_half_width(mu: float, constant: float, isovalue: float) -> float:
     """Half width of the two-term rod ``mu cos(2 pi x) + mu cos(2 pi y) + constant <= iso``."""
     c = (constant - isovalue - mu) / mu
     if not -1.0 < c < 1.0:
-        raise ValueError(f"isovalue {isovalue} gives no fiber for moments {mu} and constant "
-                         f"{constant}: it must lie in ({constant - 2 * mu}, {constant})")
+        raise ValueError(
+            f"isovalue {isovalue} gives no fiber for moments {mu} and constant "
+            f"{constant}: it must lie in ({constant - 2 * mu}, {constant})"
+        )
     return float(np.arccos(c) / (2 * np.pi))
 
 
@@ -243,9 +305,11 @@ def two_fiber_problem(
         raise ValueError("f_range and u_range must be >= 0 and f_min > 0")
     param = Parametrization(
         free=("f", "u"),
-        ties=(Tie("f", "f", low=max(f0 - f_range, f_min), high=f0 + f_range),
-              Tie("u1", "u", low=-u_range, high=u_range),
-              Tie("u2", "u", a=-1.0, low=-u_range, high=u_range)),
+        ties=(
+            Tie("f", "f", low=max(f0 - f_range, f_min), high=f0 + f_range),
+            Tie("u1", "u", low=-u_range, high=u_range),
+            Tie("u2", "u", a=-1.0, low=-u_range, high=u_range),
+        ),
     )
 
     def build(p: dict, margin: float) -> list[PSField]:
@@ -258,9 +322,16 @@ def two_fiber_problem(
         return out
 
     return ForceFieldProblem(
-        name="two-fiber", param=param, start={"f": f0, "u1": 0.0}, build=build, h=h,
-        n_s=n_s, n_theta=n_theta,
-        weights=np.asarray(weights, float), surface=surface, paper=dict(PAPER_TWO_FIBER),
+        name="two-fiber",
+        param=param,
+        start={"f": f0, "u1": 0.0},
+        build=build,
+        h=h,
+        n_s=n_s,
+        n_theta=n_theta,
+        weights=np.asarray(weights, float),
+        surface=surface,
+        paper=dict(PAPER_TWO_FIBER),
         notes=[f"fiber diameter {2 * half:.4f} (normalized), f0 = {f0:.4f}"],
     )
 
@@ -274,14 +345,21 @@ def woven_canonical(p: dict, u: float, t: np.ndarray) -> GeneralizedPS:
 def _woven_base(p: dict, u: float) -> GeneralizedPS:
     k = [p[f"kappa{i}"] for i in range(1, 6)]
     return GeneralizedPS(
-        mu=[p[f"mu{i}"] for i in range(1, 6)], kappa=k,
-        H=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 3], [0, 1, -3]], alpha=[0] * 5,
-        minor_term=[0], u=[u], f=[p["f"]], G=[[0, 0, 1]], beta=[-1.0 / 6.0],
+        mu=[p[f"mu{i}"] for i in range(1, 6)],
+        kappa=k,
+        H=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 3], [0, 1, -3]],
+        alpha=[0] * 5,
+        minor_term=[0],
+        u=[u],
+        f=[p["f"]],
+        G=[[0, 0, 1]],
+        beta=[-1.0 / 6.0],
     )
 
 
-def _place_translated(canon: GeneralizedPS, t: np.ndarray, R: np.ndarray,
-                      shift: np.ndarray) -> GeneralizedPS:
+def _place_translated(
+    canon: GeneralizedPS, t: np.ndarray, R: np.ndarray, shift: np.ndarray
+) -> GeneralizedPS:
     """``_place(canon.translated(t), R, shift)`` with one model construction (the same
     floating-point operations in the same order, so the same bits)."""
     t = np.asarray(t, float).reshape(3)
@@ -292,8 +370,7 @@ def _place_translated(canon: GeneralizedPS, t: np.ndarray, R: np.ndarray,
     return replace(canon, H=H, G=G, alpha=alpha - H @ CENTRE, beta=beta - G @ CENTRE)
 
 
-_WIDTH_KEYS = ("mu1", "mu2", "mu3", "mu4", "mu5", "kappa1", "kappa2", "kappa3", "kappa4",
-               "kappa5")
+_WIDTH_KEYS = ("mu1", "mu2", "mu3", "mu4", "mu5", "kappa1", "kappa2", "kappa3", "kappa4", "kappa5")
 
 
 def woven_half_widths(p: dict, isovalue: float) -> tuple[float, float]:
@@ -313,9 +390,12 @@ def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, flo
     ys = np.linspace(-0.45, 0.45, 451) / k2
     zs = np.linspace(0.0, 1.0, 61) / max(k3, 1e-9)
     Y, Z = np.meshgrid(ys + 0.5 / k2, zs, indexing="ij")
-    rest = (p["mu2"] * np.cos(2 * np.pi * k2 * Y) + p["mu3"] * np.cos(2 * np.pi * k3 * Z)
-            + p["mu4"] * np.cos(2 * np.pi * p["kappa4"] * (Y + 3 * Z))
-            + p["mu5"] * np.cos(2 * np.pi * p["kappa5"] * (Y - 3 * Z)))
+    rest = (
+        p["mu2"] * np.cos(2 * np.pi * k2 * Y)
+        + p["mu3"] * np.cos(2 * np.pi * k3 * Z)
+        + p["mu4"] * np.cos(2 * np.pi * p["kappa4"] * (Y + 3 * Z))
+        + p["mu5"] * np.cos(2 * np.pi * p["kappa5"] * (Y - 3 * Z))
+    )
     cstar = (isovalue - rest) / p["mu1"]
     solid = cstar >= -1.0
     if not solid.any():
@@ -365,13 +445,23 @@ def six_fiber_problem(
 
     param = Parametrization(
         free=("mu1", "mu3", "mu4", "kappa1", "u1", "tx", "ty"),
-        ties=(tie("mu1", "mu1"), tie("mu2", "mu1", b=-1.0), tie("mu3", "mu3"),
-              tie("mu4", "mu4"), tie("mu5", "mu4"),
-              tie("kappa1", "kappa1"), tie("kappa2", "kappa1"), tie("kappa3", "kappa1", a=3.0),
-              tie("kappa4", "kappa1"), tie("kappa5", "kappa1"), tie("f", "kappa1", a=1.5),
-              tie("u1", "u1"), tie("u2", "u1", a=-1.0),
-              Tie("tx", "tx", low=t0[0] - t_range, high=t0[0] + t_range),
-              Tie("ty", "ty", low=t0[1] - t_range, high=t0[1] + t_range)),
+        ties=(
+            tie("mu1", "mu1"),
+            tie("mu2", "mu1", b=-1.0),
+            tie("mu3", "mu3"),
+            tie("mu4", "mu4"),
+            tie("mu5", "mu4"),
+            tie("kappa1", "kappa1"),
+            tie("kappa2", "kappa1"),
+            tie("kappa3", "kappa1", a=3.0),
+            tie("kappa4", "kappa1"),
+            tie("kappa5", "kappa1"),
+            tie("f", "kappa1", a=1.5),
+            tie("u1", "u1"),
+            tie("u2", "u1", a=-1.0),
+            Tie("tx", "tx", low=t0[0] - t_range, high=t0[0] + t_range),
+            Tie("ty", "ty", low=t0[1] - t_range, high=t0[1] + t_range),
+        ),
     )
     spacing = SIX_TRANSLATIONS[1, 1] - SIX_TRANSLATIONS[0, 1]
     shift = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # t_x = 0.45 -> layer at z = 1/2
@@ -391,11 +481,14 @@ def six_fiber_problem(
         lat_ref = 1.0 - (t_ref[1] + 0.5 / p["kappa2"])
         out_ref = t_ref[0] + 0.5 / p["kappa1"] - shift[0]
         box_ref = _axis_box(0, lat_ref, lat + margin, out_ref, out_half + amp + margin)
-        local = {u: PSField(_place_translated(b, t_ref, R_ALONG_X, shift), isovalue, box_ref)
-                 for u, b in bases.items()}
-        sets = ((R_ALONG_X, SIX_TRANSLATIONS, 0),
-                (R_ALONG_Y, np.array([[p["tx"], p["ty"] + i * spacing, 0.0] for i in range(3)]),
-                 1))
+        local = {
+            u: PSField(_place_translated(b, t_ref, R_ALONG_X, shift), isovalue, box_ref)
+            for u, b in bases.items()
+        }
+        sets = (
+            (R_ALONG_X, SIX_TRANSLATIONS, 0),
+            (R_ALONG_Y, np.array([[p["tx"], p["ty"] + i * spacing, 0.0] for i in range(3)]), 1),
+        )
         n = 0
         for R, trans, axis in sets:
             for t in trans:
@@ -424,8 +517,7 @@ def six_fiber_problem(
                     loc = Tube(np.array([0.5, lat_ref + sign * k * period, out_ref]), 0, rad)
                     shared.append(SharedTube(local[u], loc, Q, offset))
                 box = (np.min(los, axis=0), np.max(his, axis=0))
-                out.append(PSField(model, isovalue, box, tubes=tuple(tubes),
-                                   shared=tuple(shared)))
+                out.append(PSField(model, isovalue, box, tubes=tuple(tubes), shared=tuple(shared)))
         return out
 
     start = {k: v for k, v in init.items()}
@@ -433,10 +525,19 @@ def six_fiber_problem(
     start["kappa3"] = 3 * init["kappa1"]  # Table II's 2.9 is inconsistent; reported in notes
     start["f"] = 1.5 * init["kappa1"]
     prob = ForceFieldProblem(
-        name="six-fiber", param=param, start=start, build=build, h=h, n_s=n_s, n_theta=n_theta,
-        weights=np.asarray(weights, float), surface=surface,
+        name="six-fiber",
+        param=param,
+        start=start,
+        build=build,
+        h=h,
+        n_s=n_s,
+        n_theta=n_theta,
+        weights=np.asarray(weights, float),
+        surface=surface,
         paper={**TABLE_II_RESULT, "tx": float(t0[0]), "ty": float(t0[1])},
     )
-    prob.notes = [f"Table II start kappa3 = {init['kappa3']}, f = {init['f']} replaced by "
-                  f"3 kappa1 = {start['kappa3']:.4g}, 1.5 kappa1 = {start['f']:.4g}"] + prob.notes
+    prob.notes = [
+        f"Table II start kappa3 = {init['kappa3']}, f = {init['f']} replaced by "
+        f"3 kappa1 = {start['kappa3']:.4g}, 1.5 kappa1 = {start['f']:.4g}"
+    ] + prob.notes
     return prob

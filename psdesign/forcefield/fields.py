@@ -5,7 +5,7 @@ A field is a scalar function ``phi`` of normalized coordinates with the fiber so
 integrals, marching cubes), values at scattered points, and the analytic gradient and
 Hessian at scattered points (surface projection and curvatures).
 
-:class:`PSField` wraps a :class:`~psdesign.model.GeneralizedPS` model and an isovalue,
+:class:`PSField` wraps a :class:`~psdesign.geometry.model.GeneralizedPS` model and an isovalue,
 ``phi = scale * (psi - isovalue)``; its grid evaluation exploits that every PS term
 depends only on the coordinates its basis vectors touch (a rod term ``cos(2 pi x)`` is a
 1-D array broadcast over the grid), so a grid costs a few 2-D cosines plus 3-D additions.
@@ -20,9 +20,8 @@ from typing import Protocol
 import numba
 import numpy as np
 
-from psdesign.model import TWO_PI, GeneralizedPS
-
-from .kernels import fill_tables, model_arrays
+from psdesign.forcefield.kernels import fill_tables, model_arrays
+from psdesign.geometry.model import TWO_PI, GeneralizedPS
 
 
 class NoFiberError(ValueError):
@@ -51,8 +50,9 @@ class ImplicitField(Protocol):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _derivs_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta,
-                   want_hess):  # pragma: no cover
+def _derivs_kernel(
+    pts, mu, kappa, H, alpha, minor_term, u, f, G, beta, want_hess
+):  # pragma: no cover
     npts, n, k = pts.shape[0], mu.shape[0], u.shape[0]
     two_pi = 2.0 * np.pi
     val = np.zeros(npts)
@@ -104,8 +104,9 @@ def _value_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta):  # pragm
             ph = two_pi * kappa[i] * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
             for j in range(k):
                 if minor_term[j] == i:
-                    ph += u[j] * np.cos(two_pi * f[j] * (G[j, 0] * x0 + G[j, 1] * x1
-                                                         + G[j, 2] * x2 + beta[j]))
+                    ph += u[j] * np.cos(
+                        two_pi * f[j] * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
+                    )
             val[p] += mu[i] * np.cos(ph)
     return val
 
@@ -195,8 +196,10 @@ def ps_term_tables(
     arrays have length 1 along the other axes (broadcast shapes). Terms that depend on
     the same axes are summed into one table.
     """
-    coords = [np.asarray(a, float).reshape(s) for a, s in
-              zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1)), strict=True)]
+    coords = [
+        np.asarray(a, float).reshape(s)
+        for a, s in zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1)), strict=True)
+    ]
     tables: dict[tuple[int, ...], np.ndarray] = {}
     for i in range(model.n_terms):
         phase: np.ndarray | float = TWO_PI * model.kappa[i] * model.alpha[i]
@@ -210,7 +213,8 @@ def ps_term_tables(
                     theta = theta + (TWO_PI * model.f[k] * model.G[k, a]) * coords[a]
             phase = phase + model.u[k] * np.cos(theta)
         term = np.asarray(model.mu[i] * np.cos(phase), float).reshape(
-            np.broadcast_shapes(np.shape(phase), (1, 1, 1)))
+            np.broadcast_shapes(np.shape(phase), (1, 1, 1))
+        )
         key = term.shape
         tables[key] = tables[key] + term if key in tables else term
     return list(tables.values())
@@ -260,8 +264,10 @@ def _term_groups(Hnz: tuple, Gnz: tuple, minor_term: tuple) -> tuple[np.ndarray,
 
 
 def packed_tables(
-    model: GeneralizedPS, axes: tuple[np.ndarray, np.ndarray, np.ndarray],
-    groups: tuple[np.ndarray, np.ndarray] | None = None, arrays: tuple | None = None,
+    model: GeneralizedPS,
+    axes: tuple[np.ndarray, np.ndarray, np.ndarray],
+    groups: tuple[np.ndarray, np.ndarray] | None = None,
+    arrays: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Separable term tables of a PS model on a tensor grid, packed for
     :func:`.kernels.pair_max_grid`.
@@ -282,8 +288,16 @@ def packed_tables(
         rows.append((off, sy * sz if dx else 0, sz if dy else 0, 1 if dz else 0))
         off += sx * sy * sz
     meta = np.array(rows, dtype=np.int64).reshape(-1, 4)
-    flat = fill_tables(model_arrays(model) if arrays is None else arrays, group, deps,
-                       meta, ax[0], ax[1], ax[2], max(off, 1))
+    flat = fill_tables(
+        model_arrays(model) if arrays is None else arrays,
+        group,
+        deps,
+        meta,
+        ax[0],
+        ax[1],
+        ax[2],
+        max(off, 1),
+    )
     return flat, meta
 
 
@@ -374,8 +388,14 @@ class SharedTube:
     def key(self) -> tuple:
         """Content key of the local fiber and tube (equal keys: same local quadrature)."""
         f, t = self.local, self.tube
-        return (*[a.tobytes() for a in f.arrays], float(f.isovalue), float(f.scale),
-                t.point.tobytes(), t.axis, float(t.radius))
+        return (
+            *[a.tobytes() for a in f.arrays],
+            float(f.isovalue),
+            float(f.scale),
+            t.point.tobytes(),
+            t.axis,
+            float(t.radius),
+        )
 
 
 @dataclass(frozen=True)
@@ -420,10 +440,14 @@ class PSField:
         if self.shared and len(self.shared) != len(self.tubes):
             raise ValueError("shared must give one SharedTube per tube")
         for t, st in zip(self.tubes, self.shared, strict=False):
-            if (st.world_axis() != t.axis or st.rotation[t.axis, st.tube.axis] != 1.0
-                    or st.offset[t.axis] != 0.0):
-                raise ValueError("a shared tube must run along its tube's axis with no "
-                                 "axial offset")
+            if (
+                st.world_axis() != t.axis
+                or st.rotation[t.axis, st.tube.axis] != 1.0
+                or st.offset[t.axis] != 0.0
+            ):
+                raise ValueError(
+                    "a shared tube must run along its tube's axis with no axial offset"
+                )
 
     @cached_property
     def groups(self) -> tuple[np.ndarray, np.ndarray]:
@@ -448,5 +472,8 @@ class PSField:
         pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
         v, g, h = _derivs_kernel(pts, *self.arrays, bool(hessian))
         h = h if hessian else None
-        return (self.scale * (v - self.isovalue), self.scale * g,
-                None if h is None else self.scale * h)
+        return (
+            self.scale * (v - self.isovalue),
+            self.scale * g,
+            None if h is None else self.scale * h,
+        )

@@ -17,7 +17,7 @@ import math
 import numba
 import numpy as np
 
-from psdesign.model import GeneralizedPS
+from psdesign.geometry.model import GeneralizedPS
 
 #: status codes returned by :func:`section_roots`
 OK, NO_SOLID, BEYOND_RADIUS, NOT_CONVERGED = 0, 1, 2, 3
@@ -25,9 +25,17 @@ OK, NO_SOLID, BEYOND_RADIUS, NOT_CONVERGED = 0, 1, 2, 3
 
 def model_arrays(model: GeneralizedPS) -> tuple:
     """The arrays of a PS model in the order the kernels take them."""
-    return (model.mu, model.kappa, np.ascontiguousarray(model.H), model.alpha,
-            model.minor_term.astype(np.int64), model.u, model.f,
-            np.ascontiguousarray(model.G), model.beta)
+    return (
+        model.mu,
+        model.kappa,
+        np.ascontiguousarray(model.H),
+        model.alpha,
+        model.minor_term.astype(np.int64),
+        model.u,
+        model.f,
+        np.ascontiguousarray(model.G),
+        model.beta,
+    )
 
 
 @numba.njit(cache=True)
@@ -153,8 +161,18 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
         vmax = max(vmax, abs(vc[k]))
     for k in range(ns):
         for j in range(nt):
-            vout = scale * (psi_at(m, c[k, 0] + radius * e[j, 0], c[k, 1] + radius * e[j, 1],
-                                   c[k, 2] + radius * e[j, 2], g, hs, 0) - iso)
+            vout = scale * (
+                psi_at(
+                    m,
+                    c[k, 0] + radius * e[j, 0],
+                    c[k, 1] + radius * e[j, 1],
+                    c[k, 2] + radius * e[j, 2],
+                    g,
+                    hs,
+                    0,
+                )
+                - iso
+            )
             if vout <= 0:
                 return rho, vc, BEYOND_RADIUS
     for k in range(ns):
@@ -174,8 +192,10 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
             done = False
             v = 0.0
             for _ in range(max_iter):
-                v = scale * (psi_at(m, c[k, 0] + r * e0, c[k, 1] + r * e1_,
-                                    c[k, 2] + r * e2_, g, hs, 1) - iso)
+                v = scale * (
+                    psi_at(m, c[k, 0] + r * e0, c[k, 1] + r * e1_, c[k, 2] + r * e2_, g, hs, 1)
+                    - iso
+                )
                 dv = scale * (g[0] * e0 + g[1] * e1_ + g[2] * e2_)
                 if v <= 0:
                     r_lo = r
@@ -219,12 +239,18 @@ def fill_tables(m, group, deps, meta, ax, ay, az, size):  # pragma: no cover
                     for n in range(mu.shape[0]):
                         if group[n] != t:
                             continue
-                        ph = two_pi * kappa[n] * (H[n, 0] * x0 + H[n, 1] * x1 + H[n, 2] * x2
-                                                  + alpha[n])
+                        ph = (
+                            two_pi
+                            * kappa[n]
+                            * (H[n, 0] * x0 + H[n, 1] * x1 + H[n, 2] * x2 + alpha[n])
+                        )
                         for q in range(u.shape[0]):
                             if minor_term[q] == n:
-                                ph += u[q] * math.cos(two_pi * f[q] * (
-                                    G[q, 0] * x0 + G[q, 1] * x1 + G[q, 2] * x2 + beta[q]))
+                                ph += u[q] * math.cos(
+                                    two_pi
+                                    * f[q]
+                                    * (G[q, 0] * x0 + G[q, 1] * x1 + G[q, 2] * x2 + beta[q])
+                                )
                         val += mu[n] * math.cos(ph)
                     flat[meta[t, 0] + i * meta[t, 1] + j * meta[t, 2] + k * meta[t, 3]] = val
     return flat
@@ -268,8 +294,9 @@ def _field_row(flat, meta, iso, zdep, zfree, i, j, out):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def pair_max_grid(flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b,
-                  wx, wy, wz):  # pragma: no cover
+def pair_max_grid(
+    flat_a, meta_a, iso_a, sc_a, flat_b, meta_b, iso_b, sc_b, wx, wy, wz
+):  # pragma: no cover
     """``m = max(phi_a, phi_b)`` on a tensor grid from separable term tables.
 
     ``psi`` of a field at node (i, j, k) is ``sum_t flat[o_t + i sx_t + j sy_t + k sz_t]``
@@ -349,8 +376,14 @@ def lens_minima(m, bound):  # pragma: no cover
                 c = m[i, j, k]
                 if not c < bound:
                     continue
-                nb = (m[i + 1, j, k], m[i - 1, j, k], m[i, j + 1, k], m[i, j - 1, k],
-                      m[i, j, k + 1], m[i, j, k - 1])
+                nb = (
+                    m[i + 1, j, k],
+                    m[i - 1, j, k],
+                    m[i, j + 1, k],
+                    m[i, j - 1, k],
+                    m[i, j, k + 1],
+                    m[i, j, k - 1],
+                )
                 ok = True
                 spread = 0.0
                 for q in nb:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .fields import PSField
+from psdesign.forcefield.fields import PSField
 
 
 def fiber_key(fld: Any, *settings: Any) -> tuple | None:
@@ -24,8 +24,12 @@ def fiber_key(fld: Any, *settings: Any) -> tuple | None:
     if not isinstance(fld, PSField):
         return None
     parts: list[Any] = [a.tobytes() for a in fld.arrays]
-    parts += [float(fld.isovalue), float(fld.scale), fld.bounds[0].tobytes(),
-              fld.bounds[1].tobytes()]
+    parts += [
+        float(fld.isovalue),
+        float(fld.scale),
+        fld.bounds[0].tobytes(),
+        fld.bounds[1].tobytes(),
+    ]
     parts += [(t.point.tobytes(), t.axis, float(t.radius)) for t in fld.tubes]
     parts += [(st.key(), st.rotation.tobytes(), st.offset.tobytes()) for st in fld.shared]
     return (*parts, *settings)

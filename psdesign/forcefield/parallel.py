@@ -57,6 +57,7 @@ def batch_map(
     ctx = mp.get_context("fork")
     pool = ctx.Pool(workers - 1, initializer=_init_worker)
     try:
+
         def mapper(xs: list[np.ndarray]) -> list[float]:
             if len(xs) == 1:
                 return [float(fun(xs[0]))]
@@ -69,7 +70,6 @@ def batch_map(
         pool.terminate()
         pool.join()
         _FUN = None
-
 
 
 def _worker_loop(fun: Callable[[np.ndarray], float], conn) -> None:  # pragma: no cover

@@ -75,10 +75,12 @@ class Parametrization:
                 raise ValueError(
                     f"constraints leave no feasible value of {name!r}: the range of "
                     f"{who_lo[k]!r} needs {name} >= {lo[k]:.6g} but the range of "
-                    f"{who_hi[k]!r} needs {name} <= {hi[k]:.6g}")
+                    f"{who_hi[k]!r} needs {name} <= {hi[k]:.6g}"
+                )
             if not (np.isfinite(lo[k]) and np.isfinite(hi[k])):
-                raise ValueError(f"variable {name!r} needs a finite range (give its parameters "
-                                 f"low/high bounds)")
+                raise ValueError(
+                    f"variable {name!r} needs a finite range (give its parameters low/high bounds)"
+                )
             hi[k] = max(hi[k], lo[k])
         return lo, hi
 
@@ -103,5 +105,8 @@ class Parametrization:
         """Parameters whose given value differs from the value the constraints imply."""
         x = self.free_from(params)
         implied = self.expand(x)
-        return [f"{n}: given {params[n]:.6g}, constraints imply {implied[n]:.6g}"
-                for n in implied if n in params and abs(params[n] - implied[n]) > tol]
+        return [
+            f"{n}: given {params[n]:.6g}, constraints imply {implied[n]:.6g}"
+            for n in implied
+            if n in params and abs(params[n] - implied[n]) > tol
+        ]

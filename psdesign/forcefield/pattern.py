@@ -80,8 +80,9 @@ def check_bounds(x0, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     bad = np.flatnonzero(lo > hi)
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"bounds leave no feasible point: lower[{i}] = {lo[i]} > "
-                         f"upper[{i}] = {hi[i]}")
+        raise ValueError(
+            f"bounds leave no feasible point: lower[{i}] = {lo[i]} > upper[{i}] = {hi[i]}"
+        )
     out = np.flatnonzero((x0 < lo) | (x0 > hi) | ~np.isfinite(x0))
     if out.size:
         i = int(out[0])
@@ -151,8 +152,9 @@ def pattern_search(
     """
     x0, lo, hi = check_bounds(x0, lower, upper)
     if not (0 < min_step < step <= max_step):
-        raise ValueError(f"need 0 < min_step < step <= max_step, got {min_step}, {step}, "
-                         f"{max_step}")
+        raise ValueError(
+            f"need 0 < min_step < step <= max_step, got {min_step}, {step}, {max_step}"
+        )
     if not (expand >= 1.0 and 0.0 < contract < 1.0):
         raise ValueError(f"expand must be >= 1 and contract in (0, 1), got {expand}, {contract}")
     if max_iter < 1 or (max_evals is not None and max_evals < 1):
@@ -160,8 +162,10 @@ def pattern_search(
     if batch < 1:
         raise ValueError(f"batch must be >= 1, got {batch}")
     if map_fun is None:
+
         def map_fun(xs: list[np.ndarray]) -> list[float]:
             return [fun(x) for x in xs]
+
     width = hi - lo
     free = np.flatnonzero(width > 0)
     cache: dict[tuple, float] = {}
@@ -272,6 +276,13 @@ def pattern_search(
         if step < min_step:
             converged, message = True, f"mesh size below min_step={min_step}"
     x = lo + z * width
-    return PatternSearchResult(x=x, fun=fz, n_iter=it, n_evals=len(used), converged=converged,
-                               message=message, history=history,
-                               n_speculative=n_done - len(used))
+    return PatternSearchResult(
+        x=x,
+        fun=fz,
+        n_iter=it,
+        n_evals=len(used),
+        converged=converged,
+        message=message,
+        history=history,
+        n_speculative=n_done - len(used),
+    )

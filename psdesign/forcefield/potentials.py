@@ -35,9 +35,9 @@ import numba
 import numpy as np
 from skimage import measure
 
-from .fields import ImplicitField, PSField, packed_tables
-from .kernels import deepest_point, lens_candidates, lens_minima, pair_max_grid
-from .memo import FiberMemo, domain_key, fiber_key
+from psdesign.forcefield.fields import ImplicitField, PSField, packed_tables
+from psdesign.forcefield.kernels import deepest_point, lens_candidates, lens_minima, pair_max_grid
+from psdesign.forcefield.memo import FiberMemo, domain_key, fiber_key
 
 SURFACE_TERMS = ("gaussian", "area", "bending")
 
@@ -96,7 +96,9 @@ def _clip_box(fld: ImplicitField, lo: np.ndarray, hi: np.ndarray):
 
 
 def surface_sample(
-    fld: ImplicitField, domain: tuple[np.ndarray, np.ndarray], h: float,
+    fld: ImplicitField,
+    domain: tuple[np.ndarray, np.ndarray],
+    h: float,
     curvature: bool = True,
 ) -> SurfaceSample:
     """Triangulate ``phi = 0`` inside the domain and build its quadrature.
@@ -112,8 +114,14 @@ def surface_sample(
     lo, hi = _check_domain(domain)
     h = _check_h(h)
     blo, bhi = _clip_box(fld, lo, hi)
-    empty = SurfaceSample(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3)),
-                          np.zeros((0, 3)), np.zeros((0, 3), int))
+    empty = SurfaceSample(
+        np.zeros((0, 3)),
+        np.zeros(0),
+        np.zeros((0, 3)),
+        np.zeros((0, 3, 3)),
+        np.zeros((0, 3)),
+        np.zeros((0, 3), int),
+    )
     if np.any(bhi <= blo):
         return empty
     axes = node_axes(blo, bhi, h)
@@ -137,20 +145,26 @@ def surface_sample(
     p = p - (v / np.where(g2 > 0, g2, 1.0))[:, None] * g
     if hs is None:
         hs = np.zeros((len(p), 3, 3))
-    return SurfaceSample(points=p, weights=w[keep], gradient=g, hessian=hs,
-                         verts=verts, faces=faces)
+    return SurfaceSample(
+        points=p, weights=w[keep], gradient=g, hessian=hs, verts=verts, faces=faces
+    )
 
 
 def _check_not_clipped(vals, blo, bhi, lo, hi) -> None:
     faces = [
-        (vals[0], blo[0] > lo[0]), (vals[-1], bhi[0] < hi[0]),
-        (vals[:, 0], blo[1] > lo[1]), (vals[:, -1], bhi[1] < hi[1]),
-        (vals[:, :, 0], blo[2] > lo[2]), (vals[:, :, -1], bhi[2] < hi[2]),
+        (vals[0], blo[0] > lo[0]),
+        (vals[-1], bhi[0] < hi[0]),
+        (vals[:, 0], blo[1] > lo[1]),
+        (vals[:, -1], bhi[1] < hi[1]),
+        (vals[:, :, 0], blo[2] > lo[2]),
+        (vals[:, :, -1], bhi[2] < hi[2]),
     ]
     for face, interior in faces:
         if interior and face.min() <= 0.0:
-            raise ValueError("a fiber's solid reaches the edge of its bounds box; "
-                             "enlarge the field's bounds (tube radius)")
+            raise ValueError(
+                "a fiber's solid reaches the edge of its bounds box; "
+                "enlarge the field's bounds (tube radius)"
+            )
 
 
 @numba.njit(cache=True)
@@ -169,26 +183,36 @@ def _curvatures(g, hs):  # pragma: no cover
         c12 = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
         x, y, z = g[p, 0], g[p, 1], g[p, 2]
         g2 = x * x + y * y + z * z
-        num = (c00 * x * x + c11 * y * y + c22 * z * z
-               + 2.0 * (c01 * x * y + c02 * x * z + c12 * y * z))
+        num = (
+            c00 * x * x
+            + c11 * y * y
+            + c22 * z * z
+            + 2.0 * (c01 * x * y + c02 * x * z + c12 * y * z)
+        )
         K[p] = num / (g2 * g2)
-        ghg = (a[0, 0] * x * x + a[1, 1] * y * y + a[2, 2] * z * z
-               + 2.0 * (a[0, 1] * x * y + a[0, 2] * x * z + a[1, 2] * y * z))
+        ghg = (
+            a[0, 0] * x * x
+            + a[1, 1] * y * y
+            + a[2, 2] * z * z
+            + 2.0 * (a[0, 1] * x * y + a[0, 2] * x * z + a[1, 2] * y * z)
+        )
         tr = a[0, 0] + a[1, 1] + a[2, 2]
-        Hm[p] = (g2 * tr - ghg) / (2.0 * g2 ** 1.5)
+        Hm[p] = (g2 * tr - ghg) / (2.0 * g2**1.5)
     return K, Hm
 
 
 def gaussian_curvature(gradient: np.ndarray, hessian: np.ndarray) -> np.ndarray:
     """Gaussian curvature of the level set: ``K = g^T adj(Hs) g / |g|^4``."""
-    return _curvatures(np.ascontiguousarray(gradient, dtype=float),
-                       np.ascontiguousarray(hessian, dtype=float))[0]
+    return _curvatures(
+        np.ascontiguousarray(gradient, dtype=float), np.ascontiguousarray(hessian, dtype=float)
+    )[0]
 
 
 def mean_curvature(gradient: np.ndarray, hessian: np.ndarray) -> np.ndarray:
     """Mean curvature ``(|g|^2 tr Hs - g^T Hs g) / (2 |g|^3)`` (1/R on a sphere)."""
-    return _curvatures(np.ascontiguousarray(gradient, dtype=float),
-                       np.ascontiguousarray(hessian, dtype=float))[1]
+    return _curvatures(
+        np.ascontiguousarray(gradient, dtype=float), np.ascontiguousarray(hessian, dtype=float)
+    )[1]
 
 
 def _wsum(w: np.ndarray, g: np.ndarray) -> float:
@@ -208,7 +232,10 @@ def surface_term(sample: SurfaceSample, kind: str) -> float:
 
 
 def volume_interaction(
-    fi: ImplicitField, fj: ImplicitField, domain: tuple[np.ndarray, np.ndarray], h: float,
+    fi: ImplicitField,
+    fj: ImplicitField,
+    domain: tuple[np.ndarray, np.ndarray],
+    h: float,
     lens_guard: bool = True,
 ) -> float:
     """``I_ij^(V) = -int_{max(phi_i, phi_j) <= 0} max(phi_i, phi_j) dV`` (>= 0).
@@ -266,8 +293,9 @@ def _pair_grid(
     if isinstance(fi, PSField) and isinstance(fj, PSField):
         fa, ma = packed_tables(fi.model, axes, fi.groups, fi.arrays)
         fb, mb = packed_tables(fj.model, axes, fj.groups, fj.arrays)
-        m, total, slope = pair_max_grid(fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue,
-                                        fj.scale, *w)
+        m, total, slope = pair_max_grid(
+            fa, ma, fi.isovalue, fi.scale, fb, mb, fj.isovalue, fj.scale, *w
+        )
         return m, float(total), float(slope)
     m = np.maximum(fi.grid_values(axes), fj.grid_values(axes))
     depth = np.maximum(-m, 0.0)
@@ -275,8 +303,9 @@ def _pair_grid(
     return m, total, None
 
 
-def _lens_candidates(m: np.ndarray, axes, max_n: int = 4,
-                     slope: float | None = None) -> list[np.ndarray]:
+def _lens_candidates(
+    m: np.ndarray, axes, max_n: int = 4, slope: float | None = None
+) -> list[np.ndarray]:
     """Grid nodes that are local minima of m and within one grid slope of zero
     (the ``max_n`` deepest); ``slope`` is the largest neighbour difference if known."""
     m = np.ascontiguousarray(m)
@@ -292,8 +321,16 @@ def _deepest_point(
 ) -> np.ndarray | None:
     """Minimax point of (phi_i, phi_j) within ``reach`` of x0, or None if Newton fails."""
     if isinstance(fi, PSField) and isinstance(fj, PSField):
-        x, ok = deepest_point(fi.arrays, fi.isovalue, fi.scale, fj.arrays, fj.isovalue,
-                              fj.scale, np.asarray(x0, float).copy(), float(reach))
+        x, ok = deepest_point(
+            fi.arrays,
+            fi.isovalue,
+            fi.scale,
+            fj.arrays,
+            fj.isovalue,
+            fj.scale,
+            np.asarray(x0, float).copy(),
+            float(reach),
+        )
         return x if ok else None
     x = np.asarray(x0, float).copy()
     _, gi, _ = fi.derivatives(x[None], hessian=False)
@@ -398,17 +435,23 @@ class Potentials:
     per_fiber_surface: tuple[float, ...]
 
     def to_dict(self) -> dict:
-        return {"U": self.U, "volume_interaction": self.volume,
-                "surface_interaction": self.surface_interaction, "surface": self.surface,
-                "area": self.area, "per_fiber_surface": list(self.per_fiber_surface)}
+        return {
+            "U": self.U,
+            "volume_interaction": self.volume,
+            "surface_interaction": self.surface_interaction,
+            "surface": self.surface,
+            "area": self.area,
+            "per_fiber_surface": list(self.per_fiber_surface),
+        }
 
 
 def check_weights(weights) -> np.ndarray:
     """Validate the weights (w1, w2, w3): finite, >= 0, not all zero."""
     w = np.asarray(weights, float)
     if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
-        raise ValueError(f"weights must be three finite non-negative numbers, not all zero; "
-                         f"got {weights}")
+        raise ValueError(
+            f"weights must be three finite non-negative numbers, not all zero; got {weights}"
+        )
     return w
 
 
@@ -455,7 +498,7 @@ def total_potential(
         for i in range(n):
             for j in range(i + 1, n):
                 vol += volume_interaction(fields[i], fields[j], domain, h)
-    from .tube import fiber_gaussian_term, fiber_sample, shared_fiber_sample
+    from psdesign.forcefield.tube import fiber_gaussian_term, fiber_sample, shared_fiber_sample
 
     curv = surface == "bending"
     memo = FiberMemo() if memo is None else memo
@@ -470,18 +513,29 @@ def total_potential(
             s = fiber_sample(f, domain, n_s, n_theta, curv)
         else:
             s = surface_sample(f, domain, h, surface != "area")
-        return s, (fiber_gaussian_term(f, domain, s, ends=ends) if tube_gauss
-                   else surface_term(s, surface))
+        return s, (
+            fiber_gaussian_term(f, domain, s, ends=ends) if tube_gauss else surface_term(s, surface)
+        )
 
     dkey = domain_key(domain)
-    parts = [memo.get(fiber_key(f, dkey, h, n_s, n_theta, surface), lambda f=f: own(f))
-             for f in fields]
+    parts = [
+        memo.get(fiber_key(f, dkey, h, n_s, n_theta, surface), lambda f=f: own(f)) for f in fields
+    ]
     samples = [s for s, _ in parts]
-    inter = sum(surface_interaction(s, fields[:j] + fields[j + 1:])
-                for j, s in enumerate(samples)) if w[1] > 0 else 0.0
+    inter = (
+        sum(surface_interaction(s, fields[:j] + fields[j + 1 :]) for j, s in enumerate(samples))
+        if w[1] > 0
+        else 0.0
+    )
     per = tuple(float(v) for _, v in parts)
     surf = float(sum(per))
     area = float(sum(s.area for s in samples))
     U = float(w[0] * vol + w[1] * inter + w[2] * surf)
-    return Potentials(U=U, volume=vol, surface_interaction=float(inter), surface=surf,
-                      area=area, per_fiber_surface=per)
+    return Potentials(
+        U=U,
+        volume=vol,
+        surface_interaction=float(inter),
+        surface=surf,
+        area=area,
+        per_fiber_surface=per,
+    )

@@ -6,14 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .fields import ImplicitField
-from .potentials import surface_sample
+from psdesign.forcefield.fields import ImplicitField
+from psdesign.forcefield.potentials import surface_sample
 
 _COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
 
-def render_fibers(fields: list[ImplicitField], path: str | Path, title: str = "",
-                  h: float = 0.008) -> None:
+def render_fibers(
+    fields: list[ImplicitField], path: str | Path, title: str = "", h: float = 0.008
+) -> None:
     """Render every fiber's surface inside the unit cube to a PNG (off-screen pyvista).
 
     Parameters

@@ -41,8 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from psdesign.errors import SpecError
-
-from .cases import (
+from psdesign.forcefield.cases import (
     SIX_NAMES,
     TABLE_II_INITIAL,
     TABLE_II_RANGE,
@@ -50,12 +49,22 @@ from .cases import (
     six_fiber_problem,
     two_fiber_problem,
 )
-from .pattern import PatternSearchResult
-from .potentials import SURFACE_TERMS
+from psdesign.forcefield.pattern import PatternSearchResult
+from psdesign.forcefield.potentials import SURFACE_TERMS
 
 CASES = ("two-fiber", "six-fiber")
-_TOP = {"case", "surface", "weights", "max_iter", "min_step", "step", "workers",
-        "quadrature", "two_fiber", "six_fiber"}
+_TOP = {
+    "case",
+    "surface",
+    "weights",
+    "max_iter",
+    "min_step",
+    "step",
+    "workers",
+    "quadrature",
+    "two_fiber",
+    "six_fiber",
+}
 
 
 def _num(table: dict, key: str, where: str, default, lo=None, hi=None, integer=False):
@@ -65,8 +74,12 @@ def _num(table: dict, key: str, where: str, default, lo=None, hi=None, integer=F
     ok = isinstance(val, int | float) and not isinstance(val, bool)
     if integer:
         ok = ok and float(val).is_integer()
-    if not ok or not np.isfinite(val) or (lo is not None and val < lo) or (
-            hi is not None and val > hi):
+    if (
+        not ok
+        or not np.isfinite(val)
+        or (lo is not None and val < lo)
+        or (hi is not None and val > hi)
+    ):
         rng = f" in [{lo}, {hi}]" if lo is not None or hi is not None else ""
         kind = "an integer" if integer else "a number"
         raise SpecError(f"{where}.{key}", f"must be {kind}{rng}, got {val!r}")
@@ -98,20 +111,28 @@ def problem_from_spec(ff: dict) -> ForceFieldProblem:
         raise SpecError("forcefield.case", f"must be one of {', '.join(CASES)}, got {case!r}")
     surface = ff.get("surface", "gaussian")
     if surface not in SURFACE_TERMS:
-        raise SpecError("forcefield.surface",
-                        f"must be one of {', '.join(SURFACE_TERMS)}, got {surface!r}")
+        raise SpecError(
+            "forcefield.surface", f"must be one of {', '.join(SURFACE_TERMS)}, got {surface!r}"
+        )
     w = ff.get("weights", [1e10, 1.0, 1.0])
-    if (not isinstance(w, list) or len(w) != 3
-            or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in w)
-            or not all(np.isfinite(v) and v >= 0 for v in w) or not any(v > 0 for v in w)):
-        raise SpecError("forcefield.weights",
-                        f"must be three finite numbers >= 0, not all zero; got {w!r}")
+    if (
+        not isinstance(w, list)
+        or len(w) != 3
+        or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in w)
+        or not all(np.isfinite(v) and v >= 0 for v in w)
+        or not any(v > 0 for v in w)
+    ):
+        raise SpecError(
+            "forcefield.weights", f"must be three finite numbers >= 0, not all zero; got {w!r}"
+        )
     q = ff.get("quadrature", {})
     if not isinstance(q, dict):
         raise SpecError("forcefield.quadrature", "must be a table")
-    quad = dict(h=_num(q, "h", "forcefield.quadrature", 0.005, 1e-4, 0.05),
-                n_s=_num(q, "n_s", "forcefield.quadrature", 64, 4, 4096, True),
-                n_theta=_num(q, "n_theta", "forcefield.quadrature", 32, 4, 4096, True))
+    quad = dict(
+        h=_num(q, "h", "forcefield.quadrature", 0.005, 1e-4, 0.05),
+        n_s=_num(q, "n_s", "forcefield.quadrature", 64, 4, 4096, True),
+        n_theta=_num(q, "n_theta", "forcefield.quadrature", 32, 4, 4096, True),
+    )
     common = dict(weights=tuple(float(v) for v in w), surface=surface, **quad)
     key = case.replace("-", "_")
     sub = ff.get(key, {})
@@ -132,7 +153,8 @@ def problem_from_spec(ff: dict) -> ForceFieldProblem:
                 seed=_num(sub, "seed", where, 0, 0, integer=True),
                 f_range=_num(sub, "f_range", where, 1.0, 0.0),
                 u_range=_num(sub, "u_range", where, 0.2, 0.0),
-                **common)
+                **common,
+            )
         allowed = {"isovalue", "t_range", "initial", "ranges"}
         bad = sorted(set(sub) - allowed)
         if bad:
@@ -145,13 +167,17 @@ def problem_from_spec(ff: dict) -> ForceFieldProblem:
                 raise SpecError(f"{where}.{name}", "must be a table")
             for k in tab:
                 if k not in SIX_NAMES:
-                    raise SpecError(f"{where}.{name}.{k}", f"unknown parameter; allowed: "
-                                    f"{list(SIX_NAMES)}")
-                target[k] = _num(tab, k, f"{where}.{name}", None,
-                                 0.0 if name == "ranges" else None)
-        return six_fiber_problem(isovalue=_num(sub, "isovalue", where, -6.65),
-                                 initial=init, ranges=rng,
-                                 t_range=_num(sub, "t_range", where, 0.1, 0.0), **common)
+                    raise SpecError(
+                        f"{where}.{name}.{k}", f"unknown parameter; allowed: {list(SIX_NAMES)}"
+                    )
+                target[k] = _num(tab, k, f"{where}.{name}", None, 0.0 if name == "ranges" else None)
+        return six_fiber_problem(
+            isovalue=_num(sub, "isovalue", where, -6.65),
+            initial=init,
+            ranges=rng,
+            t_range=_num(sub, "t_range", where, 0.1, 0.0),
+            **common,
+        )
     except SpecError:
         raise
     except ValueError as exc:  # infeasible ranges / constraints, bad isovalue
@@ -163,7 +189,7 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
 
     Returns the summary written to ``rve.json``.
     """
-    from psdesign.atomic import staged_directory, write_json
+    from psdesign.io.atomic import staged_directory, write_json
 
     prob = problem_from_spec(ff)
     max_iter = _num(ff, "max_iter", "forcefield", 200, 1, 100000, True)
@@ -181,12 +207,18 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
         write_json(tmp / "rve.json", summary)
         write_history(tmp / "history.csv", res)
         if pictures:
-            from .render import render_fibers
+            from psdesign.forcefield.render import render_fibers
 
-            render_fibers(prob.fields(prob.x0), tmp / "before.png",
-                          f"{prob.name}: start, U = {summary['start']['U']:.6g}")
-            render_fibers(prob.fields(res.x), tmp / "after.png",
-                          f"{prob.name}: optimum ({prob.surface}), U = {res.fun:.6g}")
+            render_fibers(
+                prob.fields(prob.x0),
+                tmp / "before.png",
+                f"{prob.name}: start, U = {summary['start']['U']:.6g}",
+            )
+            render_fibers(
+                prob.fields(res.x),
+                tmp / "after.png",
+                f"{prob.name}: optimum ({prob.surface}), U = {res.fun:.6g}",
+            )
     return summary
 
 
@@ -199,8 +231,10 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "weights": prob.weights.tolist(),
         "quadrature": {"h": prob.h, "n_s": prob.n_s, "n_theta": prob.n_theta},
         "free_variables": dict(zip(prob.param.free, map(float, res.x), strict=True)),
-        "bounds": {n: [float(a), float(b)] for n, a, b in
-                   zip(prob.param.free, prob.lower, prob.upper, strict=True)},
+        "bounds": {
+            n: [float(a), float(b)]
+            for n, a, b in zip(prob.param.free, prob.lower, prob.upper, strict=True)
+        },
         "parameters": prob.params(res.x),
         "U": res.fun,
         "potentials": prob.potential(res.x).to_dict(),
@@ -212,15 +246,21 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "wall_time_s": wall,
         "start": {"parameters": prob.params(prob.x0), **prob.potential(prob.x0).to_dict()},
         "notes": prob.notes,
-        "fibers": [{"index": i + 1, "isovalue": f.isovalue, "ps_model": f.model.to_dict()}
-                   for i, f in enumerate(fields)],
+        "fibers": [
+            {"index": i + 1, "isovalue": f.isovalue, "ps_model": f.model.to_dict()}
+            for i, f in enumerate(fields)
+        ],
     }
     if prob.paper is not None:
         xp = prob.free_of(prob.paper)
         inside = bool(np.all((xp >= prob.lower - 1e-12) & (xp <= prob.upper + 1e-12)))
         pot = prob.potential(xp)
-        out["paper_optimum"] = {"parameters": prob.params(xp), **pot.to_dict(),
-                                "inside_bounds": inside, "reported": prob.paper}
+        out["paper_optimum"] = {
+            "parameters": prob.params(xp),
+            **pot.to_dict(),
+            "inside_bounds": inside,
+            "reported": prob.paper,
+        }
     return out
 
 

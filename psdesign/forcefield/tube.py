@@ -21,10 +21,16 @@ from functools import lru_cache
 
 import numpy as np
 
-from .fields import NoFiberError, PSField, SharedTube, Tube
-from .kernels import BEYOND_RADIUS, NO_SOLID, NOT_CONVERGED, section_centres, section_roots
-from .memo import FiberMemo
-from .potentials import SurfaceSample
+from psdesign.forcefield.fields import NoFiberError, PSField, SharedTube, Tube
+from psdesign.forcefield.kernels import (
+    BEYOND_RADIUS,
+    NO_SOLID,
+    NOT_CONVERGED,
+    section_centres,
+    section_roots,
+)
+from psdesign.forcefield.memo import FiberMemo
+from psdesign.forcefield.potentials import SurfaceSample
 
 _NEWTON_ITERS = 30
 
@@ -37,8 +43,12 @@ def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
 def _centres(fld: PSField, base: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
     """Minimum of the field in each cross-section plane (2-D Newton from ``base``)."""
     if isinstance(fld, PSField):
-        return section_centres(fld.arrays, np.ascontiguousarray(base, dtype=float),
-                               np.asarray(e1, float), np.asarray(e2, float))
+        return section_centres(
+            fld.arrays,
+            np.ascontiguousarray(base, dtype=float),
+            np.asarray(e1, float),
+            np.asarray(e2, float),
+        )
     c = base.copy()
     P = np.stack([e1, e2])  # (2, 3)
     for _ in range(12):
@@ -59,7 +69,10 @@ def _centres(fld: PSField, base: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> 
 
 
 def fiber_sample(
-    fld: PSField, domain: tuple[np.ndarray, np.ndarray], n_s: int, n_theta: int,
+    fld: PSField,
+    domain: tuple[np.ndarray, np.ndarray],
+    n_s: int,
+    n_theta: int,
     curvature: bool = True,
 ) -> SurfaceSample:
     """Tube quadrature over every copy (tube) of a fiber inside the domain."""
@@ -75,7 +88,9 @@ def fiber_sample(
         weights=np.concatenate([p.weights for p in parts]),
         gradient=np.concatenate([p.gradient for p in parts]),
         hessian=np.concatenate([p.hessian for p in parts]),
-        verts=np.zeros((0, 3)), faces=np.zeros((0, 3), int))
+        verts=np.zeros((0, 3)),
+        faces=np.zeros((0, 3), int),
+    )
 
 
 def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
@@ -93,9 +108,15 @@ def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
     C = np.repeat(c, n_theta, axis=0)
     E = np.tile(e, (len(s), 1))
     if isinstance(fld, PSField):
-        rho, _, status = section_roots(fld.arrays, float(fld.isovalue), float(fld.scale), c,
-                                       np.ascontiguousarray(e), float(tube.radius),
-                                       _NEWTON_ITERS)
+        rho, _, status = section_roots(
+            fld.arrays,
+            float(fld.isovalue),
+            float(fld.scale),
+            c,
+            np.ascontiguousarray(e),
+            float(tube.radius),
+            _NEWTON_ITERS,
+        )
         _raise_status(status)
         return C, E, rho, e
     vc = fld.values(c)
@@ -110,8 +131,11 @@ def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
     curv = np.einsum("ma,nab,mb->nm", e, hc, e).ravel()  # e^T H e per (section, angle)
     vcr = np.repeat(vc, n_theta)
     rho = np.sqrt(-2.0 * vcr / np.where(curv > 0, curv, np.inf))
-    rho = np.clip(np.where(np.isfinite(rho) & (rho > 0), rho, 0.5 * tube.radius),
-                  1e-6 * tube.radius, 0.999 * tube.radius)
+    rho = np.clip(
+        np.where(np.isfinite(rho) & (rho > 0), rho, 0.5 * tube.radius),
+        1e-6 * tube.radius,
+        0.999 * tube.radius,
+    )
     r_lo = np.zeros(npts)
     r_hi = np.full(npts, tube.radius)
     for _ in range(_NEWTON_ITERS):
@@ -137,11 +161,15 @@ def _sections(fld: PSField, tube: Tube, s: np.ndarray, n_theta: int):
 def _raise_status(status: int) -> None:
     """Raise the error a :func:`.kernels.section_roots` status code stands for."""
     if status == NO_SOLID:
-        raise NoFiberError("a cross-section of the fiber has no solid (field minimum >= 0); "
-                           "the fiber breaks inside the domain")
+        raise NoFiberError(
+            "a cross-section of the fiber has no solid (field minimum >= 0); "
+            "the fiber breaks inside the domain"
+        )
     if status == BEYOND_RADIUS:
-        raise ValueError("a fiber's surface lies farther than its tube radius from the axis; "
-                         "enlarge the tube radius")
+        raise ValueError(
+            "a fiber's surface lies farther than its tube radius from the axis; "
+            "enlarge the tube radius"
+        )
     if status == NOT_CONVERGED:
         raise ValueError("tube quadrature: surface root finding did not converge")
 
@@ -162,13 +190,16 @@ def check_continuous(
     s = np.linspace(lo[a], hi[a], n_check)
     c = _centres(fld, tube.point + np.outer(s - tube.point[a], d), e1, e2)
     if np.any(fld.values(c) >= 0):
-        raise NoFiberError("the fiber pinches off inside the domain (a cross-section has no "
-                           "solid)")
+        raise NoFiberError("the fiber pinches off inside the domain (a cross-section has no solid)")
 
 
 def tube_sample(
-    fld: PSField, domain: tuple[np.ndarray, np.ndarray], n_s: int, n_theta: int,
-    curvature: bool = True, tube: Tube | None = None,
+    fld: PSField,
+    domain: tuple[np.ndarray, np.ndarray],
+    n_s: int,
+    n_theta: int,
+    curvature: bool = True,
+    tube: Tube | None = None,
 ) -> SurfaceSample:
     """Quadrature of the fiber surface ``phi = 0`` inside the domain.
 
@@ -196,8 +227,9 @@ def tube_sample(
     return _cut(X, w, g, hs, lo, hi)
 
 
-def _tube_nodes(fld: PSField, tube: Tube, s_lo: float, s_hi: float, n_s: int, n_theta: int,
-                curvature: bool):
+def _tube_nodes(
+    fld: PSField, tube: Tube, s_lo: float, s_hi: float, n_s: int, n_theta: int, curvature: bool
+):
     """Nodes, weights, gradients and Hessians (None without ``curvature``) of the tube
     quadrature between the axial coordinates ``s_lo`` and ``s_hi`` (no lateral cut)."""
     if n_s < 2 or n_theta < 3:
@@ -222,8 +254,14 @@ def _cut(X, w, g, hs, lo, hi) -> SurfaceSample:
     w[outside] = 0.0
     if hs is None:
         hs = np.zeros((len(X), 3, 3))
-    return SurfaceSample(points=X, weights=w, gradient=g, hessian=hs,
-                         verts=np.zeros((0, 3)), faces=np.zeros((0, 3), int))
+    return SurfaceSample(
+        points=X,
+        weights=w,
+        gradient=g,
+        hessian=hs,
+        verts=np.zeros((0, 3)),
+        faces=np.zeros((0, 3), int),
+    )
 
 
 def _local_domain(st: SharedTube, s_lo: float, s_hi: float):
@@ -234,8 +272,9 @@ def _local_domain(st: SharedTube, s_lo: float, s_hi: float):
     return lo, hi
 
 
-def _shared_part(st: SharedTube, s_lo: float, s_hi: float, n_s: int, n_theta: int,
-                 curvature: bool, gauss: bool) -> tuple:
+def _shared_part(
+    st: SharedTube, s_lo: float, s_hi: float, n_s: int, n_theta: int, curvature: bool, gauss: bool
+) -> tuple:
     """Local quadrature of a shared tube: ``(X, w, g, hs, int K dA or None)``."""
     dom = _local_domain(st, s_lo, s_hi)
     check_continuous(st.local, dom, st.tube, max(128, 4 * n_s))
@@ -245,8 +284,13 @@ def _shared_part(st: SharedTube, s_lo: float, s_hi: float, n_s: int, n_theta: in
 
 
 def shared_fiber_sample(
-    fld: PSField, domain: tuple[np.ndarray, np.ndarray], n_s: int, n_theta: int,
-    curvature: bool = True, gauss: bool = False, memo: FiberMemo | None = None,
+    fld: PSField,
+    domain: tuple[np.ndarray, np.ndarray],
+    n_s: int,
+    n_theta: int,
+    curvature: bool = True,
+    gauss: bool = False,
+    memo: FiberMemo | None = None,
 ) -> tuple[SurfaceSample, float | None]:
     """Tube quadrature of a fiber whose tubes are rigid copies (``fld.shared``).
 
@@ -270,8 +314,12 @@ def shared_fiber_sample(
         a = t.axis
         s_lo, s_hi = float(lo[a]), float(hi[a])
         key = ("shared-tube", st.key(), s_lo, s_hi, n_s, n_theta, bool(curvature), bool(gauss))
-        X, w, g, hs, ends = memo.get(key, lambda st=st, s_lo=s_lo, s_hi=s_hi: _shared_part(
-            st, s_lo, s_hi, n_s, n_theta, curvature, gauss))
+        X, w, g, hs, ends = memo.get(
+            key,
+            lambda st=st, s_lo=s_lo, s_hi=s_hi: _shared_part(
+                st, s_lo, s_hi, n_s, n_theta, curvature, gauss
+            ),
+        )
         Q = st.rotation
         Xs.append(X @ Q.T + st.offset)
         ws.append(w)
@@ -292,7 +340,9 @@ def _pick_tube(fld: PSField, tube: Tube | None) -> Tube:
 
 
 def gauss_bonnet_ends(
-    fld: PSField, domain: tuple[np.ndarray, np.ndarray], n_theta: int = 256,
+    fld: PSField,
+    domain: tuple[np.ndarray, np.ndarray],
+    n_theta: int = 256,
     tube: Tube | None = None,
 ) -> float:
     """``int K dA`` over the tube inside the domain, from its two end curves.
@@ -316,7 +366,7 @@ def gauss_bonnet_ends(
     k = np.fft.rfftfreq(n_theta, 1.0 / n_theta)
     total = 0.0
     for j, sign in ((0, -1.0), (1, 1.0)):
-        r = rho[j * n_theta:(j + 1) * n_theta]
+        r = rho[j * n_theta : (j + 1) * n_theta]
         rf = np.fft.rfft(r)
         if n_theta % 2 == 0:
             rf1 = 1j * k * rf
@@ -327,7 +377,7 @@ def gauss_bonnet_ends(
         r2 = np.fft.irfft(-(k**2) * rf, n_theta)
         g1 = r1[:, None] * e + r[:, None] * ep
         g2 = (r2 - r)[:, None] * e + 2 * r1[:, None] * ep
-        X = C[j * n_theta:(j + 1) * n_theta] + r[:, None] * e
+        X = C[j * n_theta : (j + 1) * n_theta] + r[:, None] * e
         _, g, _ = fld.derivatives(X, hessian=False)
         N = g / np.linalg.norm(g, axis=1)[:, None]
         sp = np.linalg.norm(g1, axis=1)
@@ -338,8 +388,11 @@ def gauss_bonnet_ends(
 
 
 def fiber_gaussian_term(
-    fld: PSField, domain: tuple[np.ndarray, np.ndarray], sample: SurfaceSample,
-    n_theta_ends: int = 256, ends: float | None = None,
+    fld: PSField,
+    domain: tuple[np.ndarray, np.ndarray],
+    sample: SurfaceSample,
+    n_theta_ends: int = 256,
+    ends: float | None = None,
 ) -> float:
     """The printed ``S_j = int K dA`` of a tube fiber, via :func:`gauss_bonnet_ends`
     (``ends``: that sum over the tubes, if already known).
@@ -351,7 +404,7 @@ def fiber_gaussian_term(
     """
     lo, hi = (np.asarray(b, float) for b in domain)
     if np.any((sample.points < lo - 1e-12) | (sample.points > hi + 1e-12)):
-        from .potentials import _wsum, gaussian_curvature
+        from psdesign.forcefield.potentials import _wsum, gaussian_curvature
 
         hs = sample.hessian
         if hs is None or not np.any(hs):

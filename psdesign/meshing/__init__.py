@@ -1,4 +1,4 @@
-"""Building blocks of the pore-space mesher (see :mod:`psdesign.mesh` for the public API).
+"""Building blocks of the pore-space mesher (public API: :mod:`psdesign.meshing.pore_mesh`).
 
 Modules
 -------

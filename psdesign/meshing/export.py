@@ -12,12 +12,21 @@ import numpy as np
 from psdesign.meshing.errors import MeshInputError
 
 if TYPE_CHECKING:
-    from psdesign.mesh import PoreMesh
+    from psdesign.meshing.pore_mesh import PoreMesh
 
 FORMATS = ("vtu", "msh", "fluent", "stl", "openfoam")
 FLUID_TAG = 10
-TAG_IDS = {"inlet": 1, "outlet": 2, "wall": 3, "side_x0": 4, "side_x1": 5, "side_y0": 6,
-           "side_y1": 7, "side_z0": 8, "side_z1": 9}
+TAG_IDS = {
+    "inlet": 1,
+    "outlet": 2,
+    "wall": 3,
+    "side_x0": 4,
+    "side_x1": 5,
+    "side_y0": 6,
+    "side_y1": 7,
+    "side_z0": 8,
+    "side_z1": 9,
+}
 
 
 def _boundary(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -30,8 +39,14 @@ def _boundary(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray, list[str]]:
 def write_vtu(pm: PoreMesh, out: Path) -> dict[str, Path]:
     """``pore.vtu`` (tets) and ``pore_boundary.vtu`` (triangles with integer ``tag``)."""
     p1, p2 = out / "pore.vtu", out / "pore_boundary.vtu"
-    meshio.write(p1, meshio.Mesh(pm.points, [("tetra", pm.tets)],
-                                 cell_data={"region": [np.full(len(pm.tets), FLUID_TAG)]}))
+    meshio.write(
+        p1,
+        meshio.Mesh(
+            pm.points,
+            [("tetra", pm.tets)],
+            cell_data={"region": [np.full(len(pm.tets), FLUID_TAG)]},
+        ),
+    )
     tris, ids, _ = _boundary(pm)
     meshio.write(p2, meshio.Mesh(pm.points, [("triangle", tris)], cell_data={"tag": [ids]}))
     return {"vtu": p1, "vtu_boundary": p2}
@@ -58,8 +73,7 @@ def write_stl(pm: PoreMesh, out: Path) -> dict[str, Path]:
     """Closed, outward-oriented boundary surface of the pore space (binary STL)."""
     path = out / "pore.stl"
     tris, _, _ = _boundary(pm)
-    meshio.write(path, meshio.Mesh(pm.points, [("triangle", tris)]), file_format="stl",
-                 binary=True)
+    meshio.write(path, meshio.Mesh(pm.points, [("triangle", tris)]), file_format="stl", binary=True)
     return {"stl": path}
 
 
@@ -72,8 +86,10 @@ def write_json(pm: PoreMesh, out: Path) -> Path:
         "bounds_m": np.asarray(pm.bounds).tolist(),
         "n_points": int(len(pm.points)),
         "n_tets": int(len(pm.tets)),
-        "tags": {k: {"id": TAG_IDS[k], "n_facets": int(len(v)), "area_m2": pm.tag_area(k)}
-                 for k, v in pm.facet_tags.items()},
+        "tags": {
+            k: {"id": TAG_IDS[k], "n_facets": int(len(v)), "area_m2": pm.tag_area(k)}
+            for k, v in pm.facet_tags.items()
+        },
         "fluid_tag": FLUID_TAG,
         "quality": pm.quality,
     }

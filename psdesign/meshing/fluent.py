@@ -19,7 +19,7 @@ import numpy as np
 from psdesign.meshing.topology import face_topology
 
 if TYPE_CHECKING:
-    from psdesign.mesh import PoreMesh
+    from psdesign.meshing.pore_mesh import PoreMesh
 
 BC_TYPES = {"interior": 2, "wall": 3, "pressure-inlet": 4, "pressure-outlet": 5, "symmetry": 7}
 ZONE_TYPE = {"inlet": "pressure-inlet", "outlet": "pressure-outlet", "wall": "wall"}
@@ -52,8 +52,7 @@ def write_fluent(pm: PoreMesh, path: Path) -> Path:
     out.write(_hex_rows(rows))
     out.write("))\n")
     zone_id = 4
-    for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size,
-                                 strict=True):
+    for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
         ztype = ZONE_TYPE.get(name, "symmetry")
         sl = slice(start, start + size)
         # boundary faces are stored outward; reverse so that the normal points into c0

@@ -17,7 +17,7 @@ import numpy as np
 from psdesign.meshing.topology import FaceTopology, face_topology
 
 if TYPE_CHECKING:
-    from psdesign.mesh import PoreMesh
+    from psdesign.meshing.pore_mesh import PoreMesh
 
 _BANNER = """/*--------------------------------*- C++ -*----------------------------------*\\
   written by psdesign (pore-space mesher)
@@ -30,7 +30,7 @@ def _header(cls: str, obj: str, location: str, note: str = "") -> str:
     return (
         _BANNER
         + "FoamFile\n{\n    version     2.0;\n    format      ascii;\n"
-        + f"    class       {cls};\n{note_line}    location    \"{location}\";\n"
+        + f'    class       {cls};\n{note_line}    location    "{location}";\n'
         + f"    object      {obj};\n}}\n\n"
     )
 
@@ -61,29 +61,37 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
     poly.mkdir(parents=True, exist_ok=True)
     topo = face_topology(pm.points, pm.tets, openfoam_patches(pm))
     loc = "constant/polyMesh"
-    note = (f"nPoints:{len(pm.points)}  nCells:{len(pm.tets)}  nFaces:{len(topo.faces)}  "
-            f"nInternalFaces:{topo.n_internal}")
-    _write_array(poly / "points", _header("vectorField", "points", loc), pm.points,
-                 "(%.12g %.12g %.12g)")
+    note = (
+        f"nPoints:{len(pm.points)}  nCells:{len(pm.tets)}  nFaces:{len(topo.faces)}  "
+        f"nInternalFaces:{topo.n_internal}"
+    )
+    _write_array(
+        poly / "points", _header("vectorField", "points", loc), pm.points, "(%.12g %.12g %.12g)"
+    )
     _write_array(poly / "faces", _header("faceList", "faces", loc), topo.faces, "3(%d %d %d)")
-    _write_array(poly / "owner", _header("labelList", "owner", loc, note), topo.owner[:, None],
-                 "%d")
-    _write_array(poly / "neighbour", _header("labelList", "neighbour", loc, note),
-                 topo.neighbour[:, None], "%d")
+    _write_array(
+        poly / "owner", _header("labelList", "owner", loc, note), topo.owner[:, None], "%d"
+    )
+    _write_array(
+        poly / "neighbour",
+        _header("labelList", "neighbour", loc, note),
+        topo.neighbour[:, None],
+        "%d",
+    )
     types = {"inlet": "patch", "outlet": "patch", "walls": "wall", "sides": "symmetry"}
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
-    for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size,
-                                 strict=True):
+    for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
         extra = "        inGroups    List<word> 1(wall);\n" if types[name] == "wall" else ""
-        lines.append(f"    {name}\n    {{\n        type        {types[name]};\n{extra}"
-                     f"        nFaces      {size};\n        startFace   {start};\n    }}\n")
+        lines.append(
+            f"    {name}\n    {{\n        type        {types[name]};\n{extra}"
+            f"        nFaces      {size};\n        startFace   {start};\n    }}\n"
+        )
     lines.append(")\n")
     (poly / "boundary").write_text("".join(lines))
     return topo
 
 
-def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: float = 1.5e-5
-                        ) -> Path:
+def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: float = 1.5e-5) -> Path:
     """Write a simpleFoam case (laminar Stokes-regime flow driven by a kinematic pressure drop).
 
     Parameters
@@ -110,7 +118,8 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
     c = case / "constant"
     (c / "transportProperties").write_text(
         _header("dictionary", "transportProperties", "constant")
-        + f"transportModel  Newtonian;\n\nnu              {nu:.6g};\n")
+        + f"transportModel  Newtonian;\n\nnu              {nu:.6g};\n"
+    )
     for obj in ("turbulenceProperties", "momentumTransport"):
         (c / obj).write_text(_header("dictionary", obj, "constant") + "simulationType  laminar;\n")
     s = case / "system"
@@ -121,18 +130,20 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
         "writeControl    timeStep;\nwriteInterval   500;\npurgeWrite      1;\n"
         "writeFormat     ascii;\nwritePrecision  10;\nrunTimeModifiable true;\n\n"
         "functions\n{\n    flux\n    {\n        type            surfaceFieldValue;\n"
-        "        libs            (\"libfieldFunctionObjects.so\");\n"
+        '        libs            ("libfieldFunctionObjects.so");\n'
         "        writeControl    timeStep;\n        writeInterval   50;\n"
         "        regionType      patch;\n        name            outlet;\n"
         "        writeFields     false;\n"
-        "        operation       sum;\n        fields          (phi);\n    }\n}\n")
+        "        operation       sum;\n        fields          (phi);\n    }\n}\n"
+    )
     (s / "fvSchemes").write_text(
         _header("dictionary", "fvSchemes", "system")
         + "ddtSchemes      { default steadyState; }\ngradSchemes     { default Gauss linear; }\n"
         "divSchemes\n{\n    default         none;\n    div(phi,U)      bounded Gauss linearUpwind"
         " grad(U);\n    div((nuEff*dev2(T(grad(U))))) Gauss linear;\n}\n"
         "laplacianSchemes { default Gauss linear corrected; }\n"
-        "interpolationSchemes { default linear; }\nsnGradSchemes   { default corrected; }\n")
+        "interpolationSchemes { default linear; }\nsnGradSchemes   { default corrected; }\n"
+    )
     (s / "fvSolution").write_text(
         _header("dictionary", "fvSolution", "system")
         + "solvers\n{\n    p\n    {\n        solver          GAMG;\n        smoother        "
@@ -141,20 +152,23 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
         "symGaussSeidel;\n        tolerance       1e-10;\n        relTol          0.1;\n    }\n}\n"
         "\nSIMPLE\n{\n    nNonOrthogonalCorrectors 2;\n    consistent      yes;\n"
         "    residualControl { p 1e-6; U 1e-7; }\n}\n\nrelaxationFactors\n{\n"
-        "    equations { U 0.9; \".*\" 0.9; }\n}\n")
+        '    equations { U 0.9; ".*" 0.9; }\n}\n'
+    )
     (case / "0" / "p").write_text(
         _header("volScalarField", "p", "0")
         + "dimensions      [0 2 -2 0 0 0 0];\n\ninternalField   uniform 0;\n\nboundaryField\n{\n"
         f"    inlet  {{ type fixedValue; value uniform {p_inlet:.6g}; }}\n"
         "    outlet { type fixedValue; value uniform 0; }\n"
-        "    walls  { type zeroGradient; }\n    sides  { type symmetry; }\n}\n")
+        "    walls  { type zeroGradient; }\n    sides  { type symmetry; }\n}\n"
+    )
     (case / "0" / "U").write_text(
         _header("volVectorField", "U", "0")
         + "dimensions      [0 1 -1 0 0 0 0];\n\ninternalField   uniform (0 0 0);\n\n"
         "boundaryField\n{\n"
         "    inlet  { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
         "    outlet { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
-        "    walls  { type noSlip; }\n    sides  { type symmetry; }\n}\n")
+        "    walls  { type noSlip; }\n    sides  { type symmetry; }\n}\n"
+    )
     lo, hi = pm.porous_region
     (case / "README.txt").write_text(
         "psdesign pore-space case for simpleFoam (laminar, creeping flow).\n"
@@ -164,5 +178,6 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
         "Permeability: K = nu * Q * L / (A * dp), Q = outlet flux (sum phi), A = RVE face area,\n"
         "dp = kinematic pressure drop between the RVE planes (sample p there, e.g. with a\n"
         "surfaceFieldValue over cutting planes), L = RVE length.\n"
-        "Sides are 'symmetry' (slip); change to noSlip in 0/U for walled sides.\n")
+        "Sides are 'symmetry' (slip); change to noSlip in 0/U for walled sides.\n"
+    )
     return case

@@ -29,7 +29,8 @@ meshes with good dihedral angles", ACM Trans. Graph. 26(3) (SIGGRAPH 2007), art.
 Everything is vectorized numpy and deterministic (no randomness, stable sorts). The boundary is
 piecewise linear through the cut points (second-order accurate in ``h`` for smooth surfaces,
 but biased: chords of a convex fiber cut into it, inflating the pore by about
-``chord^2 / (12 R)`` per unit fiber area; :func:`psdesign.mesh.mesh_pore_space` can remove the
+``chord^2 / (12 R)`` per unit fiber area; :func:`~psdesign.meshing.pore_mesh.mesh_pore_space` can
+remove the
 bias with a uniform level ``offset`` that matches the voxel pore volume). Features thinner than
 about ``h`` can be lost where no lattice vertex or edge sees them, so ``h`` should stay below
 the fiber radius.
@@ -46,8 +47,9 @@ from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopolog
 from psdesign.meshing.tetra import tet_volumes
 
 # lattice edge directions (offsets in {0, 1}^3) used by the Kuhn split
-EDGE_DIRS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [1, 0, 1], [0, 1, 1],
-                      [1, 1, 1]], dtype=np.int64)
+EDGE_DIRS = np.array(
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [1, 0, 1], [0, 1, 1], [1, 1, 1]], dtype=np.int64
+)
 _REGULA_FALSI_ITERS = 6
 _MAX_UNWARP_ROUNDS = 8
 
@@ -86,8 +88,15 @@ class PoreField:
     ``phi = max(d, s)`` with ``s`` the distance outside the slab ``0 <= x_axis <= L``.
     """
 
-    def __init__(self, distance: np.ndarray, voxel: float, size: np.ndarray, axis: int,
-                 clip: bool, offset: float = 0.0):
+    def __init__(
+        self,
+        distance: np.ndarray,
+        voxel: float,
+        size: np.ndarray,
+        axis: int,
+        clip: bool,
+        offset: float = 0.0,
+    ):
         self.d = np.ascontiguousarray(distance, dtype=np.float64) - offset
         self.voxel = float(voxel)
         self.axis = int(axis)
@@ -125,8 +134,9 @@ class PoreField:
         return np.where(s > 0.0, np.maximum(d, s), d)
 
 
-def lattice_axes(size: np.ndarray, axis: int, aux_length: float, h: float,
-                 slab_factor: float = 1.0) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+def lattice_axes(
+    size: np.ndarray, axis: int, aux_length: float, h: float, slab_factor: float = 1.0
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """Lattice coordinates per axis: RVE planes and box faces are lattice planes.
 
     The auxiliary slabs get an axial step of about ``slab_factor * h`` (they hold no fibers).
@@ -156,8 +166,11 @@ def kuhn_tets(shape: tuple[int, int, int]) -> np.ndarray:
     """(6 * cells, 4) Kuhn tets of a lattice of ``shape`` vertices (C-order vertex index)."""
     nx, ny, nz = shape
     stride = np.array([ny * nz, nz, 1], dtype=np.int64)
-    base = (np.arange(nx - 1)[:, None, None] * stride[0] + np.arange(ny - 1)[None, :, None]
-            * stride[1] + np.arange(nz - 1)[None, None, :] * stride[2]).ravel()
+    base = (
+        np.arange(nx - 1)[:, None, None] * stride[0]
+        + np.arange(ny - 1)[None, :, None] * stride[1]
+        + np.arange(nz - 1)[None, None, :] * stride[2]
+    ).ravel()
     out = np.empty((len(base), 6, 4), dtype=np.int64)
     for k, (a, b, _) in enumerate(permutations(range(3))):
         out[:, k, 0] = base
@@ -187,8 +200,9 @@ def _crossing_edges(phi: np.ndarray, shape: tuple[int, int, int]) -> tuple[np.nd
     return np.concatenate(vs), np.concatenate(ws), np.concatenate(ds)
 
 
-def _cut_parameter(fn: PoreField, xv: np.ndarray, xw: np.ndarray, fv: np.ndarray,
-                   fw: np.ndarray) -> np.ndarray:
+def _cut_parameter(
+    fn: PoreField, xv: np.ndarray, xw: np.ndarray, fv: np.ndarray, fw: np.ndarray
+) -> np.ndarray:
     """Zero of phi on segments xv -> xw (fv, fw of opposite signs), Illinois regula falsi."""
     ta, tb = np.zeros(len(fv)), np.ones(len(fv))
     fa, fb = fv.copy(), fw.copy()
@@ -206,14 +220,22 @@ def _cut_parameter(fn: PoreField, xv: np.ndarray, xw: np.ndarray, fv: np.ndarray
         fa = np.where(~left & (side == -1), 0.5 * fa, fa)
         side = np.where(left, 1, -1).astype(np.int8)
         denom = fa - fb
-        t = np.where(denom != 0, ta + (tb - ta) * fa / np.where(denom != 0, denom, 1.0),
-                     0.5 * (ta + tb))
+        t = np.where(
+            denom != 0, ta + (tb - ta) * fa / np.where(denom != 0, denom, 1.0), 0.5 * (ta + tb)
+        )
         t = np.clip(t, ta, tb)
     return np.clip(t, 0.0, 1.0)
 
 
-def _fixed_axes(points: np.ndarray, coords: list[np.ndarray], lo: np.ndarray, hi: np.ndarray,
-                axis: int, clip: bool, length: float) -> np.ndarray:
+def _fixed_axes(
+    points: np.ndarray,
+    coords: list[np.ndarray],
+    lo: np.ndarray,
+    hi: np.ndarray,
+    axis: int,
+    clip: bool,
+    length: float,
+) -> np.ndarray:
     """(n, 3) bool: vertex lies on a box face (or a clipped RVE end plane) normal to each axis."""
     fixed = np.zeros(points.shape, dtype=bool)
     for a in range(3):
@@ -233,8 +255,16 @@ def _split_prisms(p: np.ndarray) -> np.ndarray:
     if len(p) == 0:
         return np.zeros((0, 4), dtype=np.int64)
     # permutations that keep the prism structure and bring position k to position 0
-    perm = np.array([[0, 1, 2, 3, 4, 5], [1, 2, 0, 4, 5, 3], [2, 0, 1, 5, 3, 4],
-                     [3, 4, 5, 0, 1, 2], [4, 5, 3, 1, 2, 0], [5, 3, 4, 2, 0, 1]])
+    perm = np.array(
+        [
+            [0, 1, 2, 3, 4, 5],
+            [1, 2, 0, 4, 5, 3],
+            [2, 0, 1, 5, 3, 4],
+            [3, 4, 5, 0, 1, 2],
+            [4, 5, 3, 1, 2, 0],
+            [5, 3, 4, 2, 0, 1],
+        ]
+    )
     k = np.argmin(p, axis=1)
     q = np.take_along_axis(p, perm[k], axis=1)
     a, b, c, d, e, f = q.T
@@ -275,8 +305,9 @@ def _split_quads(q: np.ndarray) -> np.ndarray:
     return np.concatenate([r[:, [0, 1, 2]], r[:, [0, 2, 3]]])
 
 
-def _split_slab_tets(tets: np.ndarray, phi: np.ndarray, on_plane: np.ndarray,
-                     ekeys: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+def _split_slab_tets(
+    tets: np.ndarray, phi: np.ndarray, on_plane: np.ndarray, ekeys: np.ndarray, n_nodes: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Subdivide auxiliary-slab tets (all fluid) to conform with the clipped RVE side.
 
     A slab tet touching an RVE end plane with an edge or a face is split at the cut points of
@@ -301,8 +332,10 @@ def _split_slab_tets(tets: np.ndarray, phi: np.ndarray, on_plane: np.ndarray,
         o = np.argsort(onp[m], axis=1, kind="stable")  # off-plane first
         tt = np.take_along_axis(tets[m], o, axis=1)
         c = _cut_ids(tt[:, 2], tt[:, 3], ekeys, n_nodes)
-        out += [np.stack([tt[:, 0], tt[:, 1], tt[:, 2], c], 1),
-                np.stack([tt[:, 0], tt[:, 1], c, tt[:, 3]], 1)]
+        out += [
+            np.stack([tt[:, 0], tt[:, 1], tt[:, 2], c], 1),
+            np.stack([tt[:, 0], tt[:, 1], c, tt[:, 3]], 1),
+        ]
         src += [idx, idx]
     # face tets: apex + in-plane triangle cut by the zero line
     m = split & (k == 3)
@@ -323,18 +356,24 @@ def _split_slab_tets(tets: np.ndarray, phi: np.ndarray, on_plane: np.ndarray,
             g = f[a]
             c1 = _cut_ids(g[:, 0], g[:, 1], ekeys, n_nodes)
             c2 = _cut_ids(g[:, 0], g[:, 2], ekeys, n_nodes)
-            tris += [np.stack([g[:, 0], c1, c2], 1),
-                     _split_quads(np.stack([c1, g[:, 1], g[:, 2], c2], 1))]
+            tris += [
+                np.stack([g[:, 0], c1, c2], 1),
+                _split_quads(np.stack([c1, g[:, 1], g[:, 2], c2], 1)),
+            ]
             tsrc += [idx[a], np.tile(idx[a], 2)]
             apex_a = apex[a]
-            tris[-2:] = [np.column_stack([apex_a, tris[-2]]),
-                         np.column_stack([np.tile(apex_a, 2), tris[-1]])]
+            tris[-2:] = [
+                np.column_stack([apex_a, tris[-2]]),
+                np.column_stack([np.tile(apex_a, 2), tris[-1]]),
+            ]
         b = (npos == 1) & (nneg == 1)  # p, z, n
         if b.any():
             g = f[b]
             c = _cut_ids(g[:, 0], g[:, 2], ekeys, n_nodes)
-            tris += [np.column_stack([apex[b], g[:, 0], g[:, 1], c]),
-                     np.column_stack([apex[b], c, g[:, 1], g[:, 2]])]
+            tris += [
+                np.column_stack([apex[b], g[:, 0], g[:, 1], c]),
+                np.column_stack([apex[b], c, g[:, 1], g[:, 2]]),
+            ]
             tsrc += [idx[b], idx[b]]
         e = (npos == 2) & (nneg == 1)  # p1, p2, n
         if e.any():
@@ -342,16 +381,24 @@ def _split_slab_tets(tets: np.ndarray, phi: np.ndarray, on_plane: np.ndarray,
             c1 = _cut_ids(g[:, 0], g[:, 2], ekeys, n_nodes)
             c2 = _cut_ids(g[:, 1], g[:, 2], ekeys, n_nodes)
             q = _split_quads(np.stack([g[:, 0], g[:, 1], c2, c1], 1))
-            tris += [np.column_stack([np.tile(apex[e], 2), q]),
-                     np.column_stack([apex[e], c1, c2, g[:, 2]])]
+            tris += [
+                np.column_stack([np.tile(apex[e], 2), q]),
+                np.column_stack([apex[e], c1, c2, g[:, 2]]),
+            ]
             tsrc += [np.tile(idx[e], 2), idx[e]]
         out += tris
         src += tsrc
     return np.concatenate(out), np.concatenate(src)
 
 
-def _clip_tets(tets: np.ndarray, phi: np.ndarray, points: np.ndarray, fn: PoreField,
-               ekeys: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray, dict]:
+def _clip_tets(
+    tets: np.ndarray,
+    phi: np.ndarray,
+    points: np.ndarray,
+    fn: PoreField,
+    ekeys: np.ndarray,
+    n_nodes: int,
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Clip lattice tets to phi >= 0; returns (tets over nodes + cut ids, source tet, counts).
 
     Cut point ``j`` (edge key ``ekeys[j]``, sorted) has vertex id ``n_nodes + j``.
@@ -405,16 +452,34 @@ def _clip_tets(tets: np.ndarray, phi: np.ndarray, points: np.ndarray, fn: PoreFi
     m = (n_pos == 2) & (n_neg == 2)
     if m.any():
         tt = t[m]
-        pr = np.stack([tt[:, 0], cut(tt[:, 0], tt[:, 2]), cut(tt[:, 0], tt[:, 3]),
-                       tt[:, 1], cut(tt[:, 1], tt[:, 2]), cut(tt[:, 1], tt[:, 3])], 1)
+        pr = np.stack(
+            [
+                tt[:, 0],
+                cut(tt[:, 0], tt[:, 2]),
+                cut(tt[:, 0], tt[:, 3]),
+                tt[:, 1],
+                cut(tt[:, 1], tt[:, 2]),
+                cut(tt[:, 1], tt[:, 3]),
+            ],
+            1,
+        )
         out.append(_split_prisms(pr))
         src.append(np.tile(np.flatnonzero(m), 3))
     # three positive, one negative: prism (p1, p2, p3) - (c1, c2, c3)
     m = (n_pos == 3) & (n_neg == 1)
     if m.any():
         tt = t[m]
-        pr = np.stack([tt[:, 0], tt[:, 1], tt[:, 2], cut(tt[:, 0], tt[:, 3]),
-                       cut(tt[:, 1], tt[:, 3]), cut(tt[:, 2], tt[:, 3])], 1)
+        pr = np.stack(
+            [
+                tt[:, 0],
+                tt[:, 1],
+                tt[:, 2],
+                cut(tt[:, 0], tt[:, 3]),
+                cut(tt[:, 1], tt[:, 3]),
+                cut(tt[:, 2], tt[:, 3]),
+            ],
+            1,
+        )
         out.append(_split_prisms(pr))
         src.append(np.tile(np.flatnonzero(m), 3))
     counts["n_lattice_tets_whole"] = int(whole.sum())
@@ -477,8 +542,10 @@ def stuff_pore_space(
     if not (0.0 < alpha < 0.5):
         raise MeshInputError(f"stuffing alpha must be in (0, 0.5), got {alpha}")
     if not (size / h <= 2000).all():
-        raise MeshInputError(f"lattice_step {h} gives more than 2000 cells per axis; use a "
-                             f"step >= {size.max() / 2000:.3g}")
+        raise MeshInputError(
+            f"lattice_step {h} gives more than 2000 cells per axis; use a "
+            f"step >= {size.max() / 2000:.3g}"
+        )
     clip = aux_length > 0
     fn = PoreField(distance, voxel, size, axis, clip, offset)
     if not (1.0 <= slab_factor <= 10.0):
@@ -497,8 +564,10 @@ def stuff_pore_space(
     # values at round-off level (surfaces through lattice vertices) count as on the surface
     phi0[np.abs(phi0) <= 1e-9 * h] = 0.0
     if not (phi0 > 0).any():
-        raise PoreTopologyError("the pore space is empty at the lattice vertices: `distance` "
-                                "is <= 0 everywhere (or lattice_step too coarse)")
+        raise PoreTopologyError(
+            "the pore space is empty at the lattice vertices: `distance` "
+            "is <= 0 everywhere (or lattice_step too coarse)"
+        )
 
     # cut points on crossing edges (before warping)
     ev, ew, edir = _crossing_edges(phi0, shape)
@@ -582,7 +651,8 @@ def stuff_pore_space(
             # vertices (t == 0 or 1); orient the rest and drop the flat ones
             if neg[~tiny].any():
                 raise MeshFailedError(
-                    f"{int(neg[~tiny].sum())} inverted tets without warped vertices")
+                    f"{int(neg[~tiny].sum())} inverted tets without warped vertices"
+                )
             break
         pos_in_warp = np.searchsorted(warp_v, culprits)
         warped[pos_in_warp] = False
@@ -590,7 +660,8 @@ def stuff_pore_space(
     else:
         raise MeshFailedError(
             f"isosurface stuffing left {int(bad.sum())} flat or inverted tets after "
-            f"{_MAX_UNWARP_ROUNDS} unwarping rounds; try another lattice_step")
+            f"{_MAX_UNWARP_ROUNDS} unwarping rounds; try another lattice_step"
+        )
     n_flat = int(tiny.sum())
     out = out[~tiny]
     vol = vol[~tiny]

@@ -81,8 +81,9 @@ def close_narrow_gaps(
     free = np.pad(distance >= r, k, mode="symmetric")
     if not free.any():
         return distance, 0
-    dist_free = ndimage.distance_transform_edt(~free)[tuple(slice(k, k + n)
-                                                            for n in distance.shape)]
+    dist_free = ndimage.distance_transform_edt(~free)[
+        tuple(slice(k, k + n) for n in distance.shape)
+    ]
     gap = (distance > 0) & (dist_free * voxel > r + voxel)
     n_closed = int(gap.sum())
     if n_closed == 0:
@@ -153,9 +154,7 @@ def _manifold(verts: np.ndarray, faces: np.ndarray) -> mf.Manifold:
 
 
 def _box(lo: np.ndarray, hi: np.ndarray) -> mf.Manifold:
-    return mf.Manifold.cube(tuple(float(v) for v in hi - lo)).translate(
-        tuple(float(v) for v in lo)
-    )
+    return mf.Manifold.cube(tuple(float(v) for v in hi - lo)).translate(tuple(float(v) for v in lo))
 
 
 def pore_surface(

@@ -60,9 +60,14 @@ def tetrahedralize(
 def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """Signed volumes of tets."""
     a = points[tets[:, 0]]
-    return np.einsum(
-        "ij,ij->i", points[tets[:, 1]] - a, np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a)
-    ) / 6.0
+    return (
+        np.einsum(
+            "ij,ij->i",
+            points[tets[:, 1]] - a,
+            np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a),
+        )
+        / 6.0
+    )
 
 
 def face_structure(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -36,8 +36,9 @@ def _keys(tri: np.ndarray, n: int) -> np.ndarray:
     return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
 
 
-def face_topology(points: np.ndarray, tets: np.ndarray, patches: dict[str, np.ndarray]
-                  ) -> FaceTopology:
+def face_topology(
+    points: np.ndarray, tets: np.ndarray, patches: dict[str, np.ndarray]
+) -> FaceTopology:
     """Build owner/neighbour face lists; ``patches`` maps patch name -> boundary triangles."""
     n = len(points)
     if n >= 2_000_000:
@@ -89,5 +90,6 @@ def face_topology(points: np.ndarray, tets: np.ndarray, patches: dict[str, np.nd
         raise MeshFailedError(
             f"boundary tags cover {n_tagged} faces but the mesh has {len(bidx)} boundary faces"
         )
-    return FaceTopology(np.concatenate(faces), np.concatenate(owners), neigh[srt], names,
-                        starts, sizes)
+    return FaceTopology(
+        np.concatenate(faces), np.concatenate(owners), neigh[srt], names, starts, sizes
+    )

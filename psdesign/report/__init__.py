@@ -1,7 +1,7 @@
 """HTML report of a study (one self-contained file) and reference permeability models."""
 
-from .html import ReportError, build_html, write_report
-from .references import (
+from psdesign.report.html import ReportError, build_html, write_report
+from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
     TS_ALPHA_THROUGH_PLANE,

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .references import (
+from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
     TS_ALPHA_THROUGH_PLANE,
@@ -28,7 +28,7 @@ from .references import (
     kozeny_carman,
     tomadakis_sotirchos,
 )
-from .sensitivity import main_effects, sensitivity_table
+from psdesign.report.sensitivity import main_effects, sensitivity_table
 
 __all__ = ["ReportError", "build_html", "write_report"]
 
@@ -93,13 +93,18 @@ def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int =
     body = []
     for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
         cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
-        body.append(f"<tr{cls}>" + "".join(f"<td>{_esc(_fmt(row[c]))}</td>" for c in cols)
-                    + "</tr>")
+        body.append(
+            f"<tr{cls}>" + "".join(f"<td>{_esc(_fmt(row[c]))}</td>" for c in cols) + "</tr>"
+        )
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
-    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
-            + "".join(body) + "</tbody></table></div>" + more)
+    return (
+        f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
+        + "".join(body)
+        + "</tbody></table></div>"
+        + more
+    )
 
 
 def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
@@ -163,13 +168,24 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         hi = min(0.98, float(np.nanmax(eps)) + 0.05)
         e = np.linspace(lo, hi, 200)
         rr = 1.0 if normalize else r0
-        ax.plot(e, tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE), "k-",
-                label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})")
-        ax.plot(e, tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE), "k--",
-                label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})")
+        ax.plot(
+            e,
+            tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE),
+            "k-",
+            label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
+        )
+        ax.plot(
+            e,
+            tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE),
+            "k--",
+            label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})",
+        )
         ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
-        note = (f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
-                if not normalize else "Diameter varies: permeability shown as K / r^2.")
+        note = (
+            f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
+            if not normalize
+            else "Diameter varies: permeability shown as K / r^2."
+        )
     else:
         note = "No fiber diameter in the spec: reference curves omitted."
     ax.set_yscale("log")
@@ -181,8 +197,11 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
 
 
 def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
-    stat_cols = [c for c in df.columns if c.startswith(("iterations_", "flux_imbalance_",
-                                                         "converged_", "residual_"))]
+    stat_cols = [
+        c
+        for c in df.columns
+        if c.startswith(("iterations_", "flux_imbalance_", "converged_", "residual_"))
+    ]
     cols = ["case_id", "status", *stat_cols, "error"]
     cols = [c for c in cols if c in df]
     classes = []
@@ -201,8 +220,12 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
         n_flag += flag
     table = _table(df[cols], classes)
     fig_uri = None
-    fcols = [c for c in stat_cols if c.startswith("flux_imbalance_")
-             and pd.to_numeric(df[c], errors="coerce").abs().gt(0).any()]
+    fcols = [
+        c
+        for c in stat_cols
+        if c.startswith("flux_imbalance_")
+        and pd.to_numeric(df[c], errors="coerce").abs().gt(0).any()
+    ]
     if fcols:
         import matplotlib.pyplot as plt
 
@@ -234,9 +257,11 @@ def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         if uri is None:
             continue
         cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
-        items.append(f'<figure><img src="{uri}" width="300" alt="preview {_esc(row["case_id"])}">'
-                     f"<figcaption>{_esc(row['case_id'])}: {_esc(cap)} seed={_esc(row.get('seed'))}"
-                     "</figcaption></figure>")
+        items.append(
+            f'<figure><img src="{uri}" width="300" alt="preview {_esc(row["case_id"])}">'
+            f"<figcaption>{_esc(row['case_id'])}: {_esc(cap)} seed={_esc(row.get('seed'))}"
+            "</figcaption></figure>"
+        )
     return "".join(items) or '<p class="note">No preview pictures found.</p>'
 
 
@@ -257,14 +282,16 @@ def build_html(out_dir: str | Path) -> str:
     out = Path(out_dir)
     df, study, runs = _load(out)
     params = list((study.get("parameters") or {}).keys()) or [
-        c for c in df.columns if "." in c and not c.startswith("result.")]
+        c for c in df.columns if "." in c and not c.startswith("result.")
+    ]
     name = study.get("name", out.name)
     counts = df["status"].value_counts().to_dict() if "status" in df else {}
     run_list = runs.get("runs", [])
     last = run_list[-1] if run_list else {}
     machine = last.get("machine", {"host": platform.node(), "platform": platform.platform()})
-    total_case_time = pd.to_numeric(df.get("wall_time_s", pd.Series(dtype=float)),
-                                    errors="coerce").sum()
+    total_case_time = pd.to_numeric(
+        df.get("wall_time_s", pd.Series(dtype=float)), errors="coerce"
+    ).sum()
 
     meta_rows = [
         ("study", name),
@@ -277,8 +304,11 @@ def build_html(out_dir: str | Path) -> str:
         ("seeds", study.get("seeds")),
         ("parameters", ", ".join(params)),
         ("runs", len(run_list)),
-        ("last run", f"{last.get('started_at', '')} .. {last.get('finished_at', '')}, "
-                     f"{last.get('workers', '')} worker(s), scheduler {last.get('scheduler')}"),
+        (
+            "last run",
+            f"{last.get('started_at', '')} .. {last.get('finished_at', '')}, "
+            f"{last.get('workers', '')} worker(s), scheduler {last.get('scheduler')}",
+        ),
         ("wall time of runs (s)", ", ".join(f"{r.get('wall_time_s', 0):.1f}" for r in run_list)),
         ("sum of case wall times (s)", f"{total_case_time:.1f}"),
         ("case function", last.get("case_fn", "")),
@@ -289,11 +319,14 @@ def build_html(out_dir: str | Path) -> str:
     meta = "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in meta_rows)
 
     perm_uri, perm_note = _perm_figure(df, study)
-    perm_html = (f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else "")
+    perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
 
     sens = sensitivity_table(df, params)
-    sens_html = (_table(sens) if len(sens) else
-                 '<p class="note">Not enough varying numeric parameters or results.</p>')
+    sens_html = (
+        _table(sens)
+        if len(sens)
+        else '<p class="note">Not enough varying numeric parameters or results.</p>'
+    )
     me_html = ""
     if study.get("design") == "full-factorial":
         me = main_effects(df, params)

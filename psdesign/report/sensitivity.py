@@ -69,8 +69,15 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
             rho = np.nan
             if m.sum() > 2 and y[m].nunique() > 1:
                 rho = float(spearmanr(x[m], y[m]).statistic)
-            rows.append({"parameter": p, "response": rname, "spearman": rho,
-                         "src": float(src.get(p, np.nan)), "n": int(m.sum())})
+            rows.append(
+                {
+                    "parameter": p,
+                    "response": rname,
+                    "spearman": rho,
+                    "src": float(src.get(p, np.nan)),
+                    "n": int(m.sum()),
+                }
+            )
     return pd.DataFrame(rows, columns=["parameter", "response", "spearman", "src", "n"])
 
 

@@ -11,7 +11,9 @@ from typing import Any
 
 __all__ = ["DEFAULT_CASE_FN", "load_case_fn", "watch_parent"]
 
-DEFAULT_CASE_FN = "psdesign.pipeline:run_case"
+DEFAULT_CASE_FN = "psdesign.study.case:run_case"
+#: Case functions renamed by a layout change; old study folders record the old names.
+RENAMED_CASE_FNS = {"psdesign.pipeline:run_case": DEFAULT_CASE_FN}
 
 
 def load_case_fn(case_fn: Callable | str | None) -> Callable:
@@ -28,6 +30,7 @@ def load_case_fn(case_fn: Callable | str | None) -> Callable:
         case_fn = DEFAULT_CASE_FN
     if callable(case_fn):
         return case_fn
+    case_fn = RENAMED_CASE_FNS.get(case_fn, case_fn)
     if not isinstance(case_fn, str) or ":" not in case_fn:
         raise ValueError(f"case_fn: expected a callable or 'module:function', got {case_fn!r}")
     mod, _, attr = case_fn.partition(":")

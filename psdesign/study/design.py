@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .studyfile import ParamSpec, Study, StudyError
+from psdesign.study.studyfile import ParamSpec, Study, StudyError
 
 __all__ = ["Case", "apply_params", "case_hash", "expand_design", "design_points"]
 
@@ -206,8 +206,9 @@ def expand_design(study: Study) -> list[Case]:
             spec = apply_params(study.base, pt, seed)
             h = case_hash(spec, study.outputs, study.solver)
             idx = len(cases)
-            cases.append(Case(case_id=f"c{idx:04d}-{h}", index=idx, params=dict(pt), seed=seed,
-                              spec=spec))
+            cases.append(
+                Case(case_id=f"c{idx:04d}-{h}", index=idx, params=dict(pt), seed=seed, spec=spec)
+            )
     if not cases:
         raise StudyError("parameters: the design is empty (no cases to run)")
     ids = [c.case_id for c in cases]

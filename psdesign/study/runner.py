@@ -24,12 +24,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from .casefn import watch_parent
-from .design import Case, expand_design
-from .progress import Progress
-from .store import CaseStore, StorageError
-from .studyfile import Study, StudyError, load_study
-from .worker import DEFAULT_CASE_FN, execute_case
+from psdesign.study.casefn import watch_parent
+from psdesign.study.design import Case, expand_design
+from psdesign.study.progress import Progress
+from psdesign.study.store import CaseStore, StorageError
+from psdesign.study.studyfile import Study, StudyError, load_study
+from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
 
 __all__ = ["SchedulerError", "run_study"]
 
@@ -147,9 +147,7 @@ def _thread_budget(workers: int):
             os.environ.pop(v, None)
 
 
-def _run_pool(
-    payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]
-) -> None:
+def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]) -> None:
     """Run payloads on a spawn-based ProcessPoolExecutor.
 
     If a worker process dies (segfault, out-of-memory kill) the pool breaks and every unfinished
@@ -165,8 +163,12 @@ def _run_pool(
             batch, normal, n_workers, alone = normal, [], workers, False
         else:
             batch, n_workers, alone = [isolate.pop(0)], 1, True
-        ex = cf.ProcessPoolExecutor(max_workers=n_workers, mp_context=_mp_context(),
-                                    initializer=watch_parent, initargs=(os.getpid(),))
+        ex = cf.ProcessPoolExecutor(
+            max_workers=n_workers,
+            mp_context=_mp_context(),
+            initializer=watch_parent,
+            initargs=(os.getpid(),),
+        )
         try:
             with _thread_budget(n_workers):
                 futs = {ex.submit(execute_case, p): p for p in batch}
@@ -176,8 +178,10 @@ def _run_pool(
                     rec = fut.result()
                 except BrokenProcessPool:
                     if alone:
-                        rec = _failed(p, "worker process died while running this case "
-                                         "(crash or out of memory)")
+                        rec = _failed(
+                            p,
+                            "worker process died while running this case (crash or out of memory)",
+                        )
                     else:
                         n = breaks[p["case_id"]] = breaks.get(p["case_id"], 0) + 1
                         (isolate if n >= _MAX_POOL_BREAKS else normal).append(p)
@@ -249,8 +253,12 @@ def _run_dask(client, payloads: list[dict], on_done: Callable[[dict, dict], None
 
     futs = {}
     for p in payloads:
-        f = client.submit(execute_case, p, pure=False, key=f"psdesign-case-{p['case_id']}-"
-                          f"{os.getpid()}-{time.monotonic_ns()}")
+        f = client.submit(
+            execute_case,
+            p,
+            pure=False,
+            key=f"psdesign-case-{p['case_id']}-{os.getpid()}-{time.monotonic_ns()}",
+        )
         futs[f] = p
     try:
         for fut in as_completed(list(futs)):
@@ -307,10 +315,10 @@ def validate_case_specs(cases: list[Case]) -> None:
     """
     import numpy as np
 
-    from psdesign.spec import validate_spec
+    from psdesign.schema.spec import validate_spec
 
     try:
-        from psdesign.generators import parse_generator
+        from psdesign.packing.generators import parse_generator
     except ImportError:  # pragma: no cover - generators not available
         parse_generator = None
     for c in cases:
@@ -352,7 +360,7 @@ def run_study(
         Default: the local process pool.
     case_fn : callable or str, optional
         ``case_fn(spec, outputs, solver, workdir) -> dict``; a module-level function (it is
-        pickled to workers) or ``"module:function"``.  Default ``psdesign.pipeline:run_case``.
+        pickled to workers) or ``"module:function"``.  Default ``psdesign.study.case:run_case``.
     progress : bool
         Progress bar (TTY) or log lines on stderr.
     timeout_s : float, optional
@@ -399,8 +407,18 @@ def run_study(
         store.prepare()
         with _run_lock(out):
             return _run_locked(
-                study, cases, store, param_names, workers, scheduler, client, case_fn,
-                progress, timeout, retry_failed, report,
+                study,
+                cases,
+                store,
+                param_names,
+                workers,
+                scheduler,
+                client,
+                case_fn,
+                progress,
+                timeout,
+                retry_failed,
+                report,
             )
     finally:
         if client is not None:
@@ -436,8 +454,11 @@ def _run_locked(
     todo = [c for c in cases if records.get(c.case_id, {}).get("status") not in skip]
 
     prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=progress)
-    backend = f"dask {scheduler}" if scheduler else (
-        "in-process" if workers == 0 else f"{workers} local worker(s)")
+    backend = (
+        f"dask {scheduler}"
+        if scheduler
+        else ("in-process" if workers == 0 else f"{workers} local worker(s)")
+    )
     prog.start(
         f"[study] {study.name}: {len(cases)} cases, {len(cases) - len(todo)} already done, "
         f"{len(todo)} to run on {backend} -> {out}"
@@ -482,20 +503,24 @@ def _run_locked(
 
     df = store.write_tables(records.values(), param_names)
     counts = df["status"].value_counts().to_dict() if len(df) else {}
-    _append_run(store, {
-        "started_at": started,
-        "finished_at": _now(),
-        "wall_time_s": time.perf_counter() - t_start,
-        "workers": workers,
-        "scheduler": scheduler,
-        "timeout_s": timeout,
-        "n_cases": len(cases),
-        "n_run": len(payloads),
-        "status_counts": {str(k): int(v) for k, v in counts.items()},
-        "case_fn": case_fn if isinstance(case_fn, str) else
-        f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
-        "machine": _machine(),
-    })
+    _append_run(
+        store,
+        {
+            "started_at": started,
+            "finished_at": _now(),
+            "wall_time_s": time.perf_counter() - t_start,
+            "workers": workers,
+            "scheduler": scheduler,
+            "timeout_s": timeout,
+            "n_cases": len(cases),
+            "n_run": len(payloads),
+            "status_counts": {str(k): int(v) for k, v in counts.items()},
+            "case_fn": case_fn
+            if isinstance(case_fn, str)
+            else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+            "machine": _machine(),
+        },
+    )
     if report:
         try:
             from psdesign.report import write_report
@@ -504,11 +529,13 @@ def _run_locked(
         except StorageError:
             raise
         except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
-            print(f"[study] warning: report not written: {type(exc).__name__}: {exc}",
-                  file=sys.stderr)
+            print(
+                f"[study] warning: report not written: {type(exc).__name__}: {exc}", file=sys.stderr
+            )
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
-    prog.finish(f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> "
-                f"{out / 'results.csv'}")
+    prog.finish(
+        f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> {out / 'results.csv'}"
+    )
     return df
 
 

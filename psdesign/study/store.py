@@ -59,8 +59,17 @@ RESULT_ORDER = (
     "k_zz_m2",
     "n_fibers",
 )
-TENSOR_KEYS = ("k_xx_m2", "k_xy_m2", "k_xz_m2", "k_yx_m2", "k_yy_m2", "k_yz_m2", "k_zx_m2",
-               "k_zy_m2", "k_zz_m2")
+TENSOR_KEYS = (
+    "k_xx_m2",
+    "k_xy_m2",
+    "k_xz_m2",
+    "k_yx_m2",
+    "k_yy_m2",
+    "k_yz_m2",
+    "k_zx_m2",
+    "k_zy_m2",
+    "k_zz_m2",
+)
 _SAFE_ID = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 

@@ -78,16 +78,32 @@ KNOWN_SPEC_KEYS: set[str] = {
     *(
         f"intersections.{k}"
         for k in (
-            "method", "min_gap", "max_rotation_deg", "orientation_tries", "step", "population",
-            "generations", "objective", "ga_voxel", "angle_range_deg", "shift_range",
+            "method",
+            "min_gap",
+            "max_rotation_deg",
+            "orientation_tries",
+            "step",
+            "population",
+            "generations",
+            "objective",
+            "ga_voxel",
+            "angle_range_deg",
+            "shift_range",
             "time_limit_s",
         )
     ),
     *(
         f"flow.{k}"
         for k in (
-            "solver", "viscosity", "aux_length", "direction", "sides", "pressure_drop", "tol",
-            "edge_length", "max_memory_gb",
+            "solver",
+            "viscosity",
+            "aux_length",
+            "direction",
+            "sides",
+            "pressure_drop",
+            "tol",
+            "edge_length",
+            "max_memory_gb",
         )
     ),
 }
@@ -222,9 +238,11 @@ def _lookup(spec: Any, parts: list[str]) -> bool:
     for part in parts:
         if isinstance(node, dict) and part in node:
             node = node[part]
-        elif isinstance(node, list) and part.lstrip("-").isdigit() and -len(node) <= int(
-            part
-        ) < len(node):
+        elif (
+            isinstance(node, list)
+            and part.lstrip("-").isdigit()
+            and -len(node) <= int(part) < len(node)
+        ):
             node = node[int(part)]
         else:
             return False
@@ -255,9 +273,7 @@ def _range_values(key: str, spec: dict) -> tuple:
         if not _is_number(v) or not math.isfinite(v):
             raise _err(f"{key}.{name}", f"must be a finite number, got {v!r}")
     if step == 0 or (stop - start) * step < 0:
-        raise _err(
-            f"{key}.step", f"must be non-zero and point from start={start} to stop={stop}"
-        )
+        raise _err(f"{key}.step", f"must be non-zero and point from start={start} to stop={stop}")
     n = int(math.floor((stop - start) / step + 1e-9)) + 1
     if n > 100_000:
         raise _err(key, f"range has {n} values; allowed at most 100000")
@@ -404,7 +420,7 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
 
     # --- base spec
     if "base" not in data:
-        raise _err("base", "missing: give an inline [base] table or base = \"spec.toml\"")
+        raise _err("base", 'missing: give an inline [base] table or base = "spec.toml"')
     base_raw = data["base"]
     if isinstance(base_raw, str):
         bpath = (root / base_raw).resolve()

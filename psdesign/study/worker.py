@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .casefn import DEFAULT_CASE_FN, load_case_fn
+from psdesign.study.casefn import DEFAULT_CASE_FN, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
 
@@ -134,8 +134,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
     timeout = float(payload["timeout_s"])
     with open(workdir / "case.log", "ab") as log:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "psdesign.study._child", str(inp), str(outp),
-             str(os.getpid())],
+            [sys.executable, "-m", "psdesign.study._child", str(inp), str(outp), str(os.getpid())],
             stdout=log,
             stderr=log,
             stdin=subprocess.DEVNULL,

@@ -50,7 +50,7 @@ def match_rows(reference: np.ndarray, query: np.ndarray) -> np.ndarray:
     inv = inv.ravel()
     slot = np.full(inv.max() + 1, -1, dtype=np.int64)
     slot[inv[: len(ref)]] = np.arange(len(ref))
-    return slot[inv[len(ref):]]
+    return slot[inv[len(ref) :]]
 
 
 def triangle_normals(points: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -100,8 +100,7 @@ def solve_direct(system: SaddleSystem, b: np.ndarray, tol: float) -> SolveInfo:
     x = lu.solve(b)
     del lu, K
     res = relative_residual(system, x, b)
-    return SolveInfo(x=x, converged=bool(res <= tol), iterations=1, residual=res,
-                     method="direct")
+    return SolveInfo(x=x, converged=bool(res <= tol), iterations=1, residual=res, method="direct")
 
 
 def _amg(A: sp.csr_matrix, kind: str):
@@ -151,11 +150,15 @@ def solve_minres(
     inner_tol = tol * INNER_FACTOR
     while count[0] < max_iter:
         before = count[0]
-        x, _info = minres(K, b, x0=x, rtol=inner_tol, maxiter=max_iter - count[0], M=M,
-                          callback=cb)
+        x, _info = minres(K, b, x0=x, rtol=inner_tol, maxiter=max_iter - count[0], M=M, callback=cb)
         res = relative_residual(system, x, b)
         if res <= tol or not np.isfinite(res) or count[0] == before:
             break
         inner_tol = max(inner_tol * 0.1, 1e-15)
-    return SolveInfo(x=x, converged=bool(res <= tol), iterations=count[0], residual=res,
-                     method=f"minres+amg-{amg}")
+    return SolveInfo(
+        x=x,
+        converged=bool(res <= tol),
+        iterations=count[0],
+        residual=res,
+        method=f"minres+amg-{amg}",
+    )

@@ -54,8 +54,9 @@ class PointLocator:
         return cells, lam
 
 
-def p2_weights(t: np.ndarray, edges: np.ndarray, t2e: np.ndarray, cells: np.ndarray,
-               lam: np.ndarray) -> np.ndarray:
+def p2_weights(
+    t: np.ndarray, edges: np.ndarray, t2e: np.ndarray, cells: np.ndarray, lam: np.ndarray
+) -> np.ndarray:
     """Values (10, k) of the 10 P2 basis functions, in skfem's element dof order.
 
     Rows 0-3: vertex functions ``l_i (2 l_i - 1)``; rows 4-9: edge functions ``4 l_a l_b`` for

@@ -1,0 +1,7 @@
+"""``python -m psdesign``: the ``psdesign`` command."""
+
+import sys
+
+from psdesign.cli.main import main
+
+sys.exit(main())

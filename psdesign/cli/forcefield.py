@@ -1,0 +1,45 @@
+"""``psdesign forcefield SPEC -o OUT``: optimize a fiber assembly with the Sec. 6 force field."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def _cmd_forcefield(args: argparse.Namespace) -> int:
+    from psdesign.forcefield.run import load_forcefield_spec, run_forcefield
+
+    ff = load_forcefield_spec(args.spec)
+    summary = run_forcefield(ff, args.output, pictures=not args.no_pictures)
+    print(
+        json.dumps(
+            {
+                k: summary[k]
+                for k in (
+                    "case",
+                    "U",
+                    "converged",
+                    "message",
+                    "n_evals",
+                    "wall_time_s",
+                    "free_variables",
+                )
+            }
+        )
+    )
+    if not summary["converged"]:
+        print(f"psdesign: warning: {summary['message']}; wrote the best point found")
+    return 0
+
+
+def register(subparsers) -> None:
+    """Register ``forcefield`` on the ``psdesign`` sub-command parser."""
+    p = subparsers.add_parser(
+        "forcefield",
+        help="bend and compress fibers by minimizing the empirical force field "
+        "(paper Sec. 6); writes rve.json, history.csv, before.png, after.png",
+    )
+    p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.add_argument("--no-pictures", action="store_true", help="skip before.png / after.png")
+    p.set_defaults(func=_cmd_forcefield)

@@ -1,0 +1,55 @@
+"""The ``psdesign`` command."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+
+from psdesign.errors import SpecError
+
+#: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
+COMMANDS = ("generate", "mesh", "permeability", "study", "forcefield")
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2
+        self.exit(2, f"psdesign: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand registered."""
+    parser = _Parser(
+        prog="psdesign",
+        description="Design fibrous porous media with generalized periodic-surface models.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    for name in COMMANDS:
+        importlib.import_module(f"psdesign.cli.{name}").register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except SpecError as exc:
+        print(f"psdesign: error: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:  # bad input found past the spec (geometry, mesh, arguments)
+        if os.environ.get("PSDESIGN_DEBUG"):
+            raise
+        print(f"psdesign: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("psdesign: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

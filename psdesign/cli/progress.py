@@ -1,0 +1,25 @@
+"""Progress lines on stderr for long solves (shared by the CLI commands)."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+
+def progress_printer(direction: str, every_s: float = 5.0):
+    """Progress callback of the voxel solver: one line on stderr at most every ``every_s``."""
+    t0 = time.perf_counter()
+    last = [t0]
+
+    def report(iterations: int, residual: float) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= every_s:
+            last[0] = now
+            print(
+                f"psdesign: voxel solve {direction}: {iterations} MINRES iterations, "
+                f"residual {residual:.1e}, {now - t0:.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    return report

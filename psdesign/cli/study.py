@@ -1,0 +1,143 @@
+"""argparse glue for ``psdesign study run`` and ``psdesign study report``.
+
+The main CLI registers these with::
+
+    from psdesign.cli.study import register
+    register(subparsers)      # subparsers of the top-level parser
+    ...
+    args = parser.parse_args(argv)
+    return args.func(args)   # exit status: 0 ok, 1 failed cases / storage error, 2 bad input
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["cmd_study_report", "cmd_study_run", "main"]
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {v}")
+    return v
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {v}")
+    return v
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add ``study run`` / ``study report`` to an argparse sub-parser collection.
+
+    Each leaf parser sets ``func`` to a handler ``handler(args) -> int``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``study`` parser.
+    """
+    study = subparsers.add_parser("study", help="run parameter studies and report on them")
+    sub = study.add_subparsers(dest="study_command", required=True)
+
+    run = sub.add_parser("run", help="run (or resume) a study file")
+    run.add_argument("study", help="study TOML file")
+    run.add_argument("-o", "--out", required=True, help="output folder (resumed if it exists)")
+    run.add_argument(
+        "--workers", type=_positive_int, default=1, help="local worker processes (default 1)"
+    )
+    run.add_argument(
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address tcp://HOST:PORT, or 'local' for a local "
+        "Dask cluster (default: local process pool)",
+    )
+    run.add_argument(
+        "--timeout",
+        type=_positive_float,
+        default=None,
+        help="per-case time limit in seconds (overrides study.timeout_s)",
+    )
+    run.add_argument(
+        "--retry-failed", action="store_true", help="re-run cases recorded as failed or timeout"
+    )
+    run.add_argument("--no-report", action="store_true", help="do not write report.html")
+    run.add_argument("--quiet", action="store_true", help="no progress output")
+    run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
+    run.set_defaults(func=cmd_study_run)
+
+    rep = sub.add_parser("report", help="write OUT/report.html from a study output folder")
+    rep.add_argument("out", help="study output folder")
+    rep.set_defaults(func=cmd_study_report)
+    return study
+
+
+def _fail(msg: str, code: int) -> int:
+    print(f"psdesign: error: {msg}", file=sys.stderr)
+    return code
+
+
+def cmd_study_run(args: argparse.Namespace) -> int:
+    """Handler of ``psdesign study run``; returns the exit status."""
+    from psdesign.study.runner import run_study
+    from psdesign.study.store import StorageError
+    from psdesign.study.studyfile import StudyError
+
+    try:
+        df = run_study(
+            args.study,
+            args.out,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            case_fn=args.case_fn,
+            progress=not args.quiet,
+            timeout_s=args.timeout,
+            retry_failed=args.retry_failed,
+            report=not args.no_report,
+        )
+    except StudyError as exc:
+        return _fail(str(exc), 2)
+    except StorageError as exc:
+        return _fail(str(exc), 1)
+    except KeyboardInterrupt:
+        return _fail("interrupted; finished cases are saved, rerun the command to resume", 130)
+    n_bad = int((df["status"] != "ok").sum()) if len(df) else 0
+    return 0 if n_bad == 0 else 1
+
+
+def cmd_study_report(args: argparse.Namespace) -> int:
+    """Handler of ``psdesign study report``; returns the exit status."""
+    from psdesign.report import ReportError, write_report
+    from psdesign.study.store import StorageError
+
+    try:
+        path = write_report(args.out)
+    except ReportError as exc:
+        return _fail(str(exc), 2)
+    except StorageError as exc:
+        return _fail(str(exc), 1)
+    print(path)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry (``python -m psdesign.cli.study study run ...``) for testing."""
+    parser = argparse.ArgumentParser(prog="psdesign")
+    subparsers = parser.add_subparsers(dest="command", required=True)
+    register(subparsers)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

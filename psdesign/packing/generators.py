@@ -1,0 +1,777 @@
+"""Random straight and bent fiber RVEs at a target porosity (paper Sec. 7.1, Figs 13-18).
+
+Entry point: :func:`build_fibers` turns a spec (``[rve]``, ``[generator]``,
+``[intersections]`` tables, see ``/work/shared/design.md``) into fibers, an :class:`RVE`
+and a report. Fibers follow Sec. 7.1: each starts along x through the cell centre, is
+rotated about y by ``theta`` and about z by ``omega`` (degrees) and translated to
+``(tx, ty, tz)`` (fractions of the RVE edges). Every parameter is drawn from a named
+distribution (:mod:`psdesign.packing.distributions`); ``orientation = {anisotropy = b}`` replaces
+theta/omega by the Schulz et al. (2007) density.
+
+Porosity targeting: a fiber of normalized cross-section area ``A`` whose carrier axis
+has length ``L`` inside the box adds ``A L / V`` solid (exact for a cylinder cut by the
+box faces away from edges). Fibers are added (``fast``: placed without overlap) until the
+predicted porosity reaches the target, then the porosity is MEASURED on the voxel grid
+and corrected by adding or dropping fibers until it is within the tolerance; the
+achieved value is reported. An unreachable target raises :class:`GenerationError`
+with the closest porosity reached.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from psdesign.errors import SpecError
+from psdesign.geometry.fibers import Fiber, rod_cross_section_area
+from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.packing.distributions import AnisotropicOrientation, Distribution
+from psdesign.packing.intersections import (
+    FiberState,
+    analytic_omega,
+    carrier_lengths,
+    clearance,
+    genetic,
+    orientation_tensor,
+    place_sequential,
+)
+
+#: Densest packing of equal infinite cylinders (Bezdek & Kuperberg 1990): pi / sqrt(12).
+MAX_CYLINDER_PACKING = float(np.pi / np.sqrt(12.0))
+DEFAULT_TOLERANCE = 0.005
+_GEN_KEYS = {
+    "kind",
+    "porosity",
+    "n_fibers",
+    "diameter",
+    "seed",
+    "theta",
+    "omega",
+    "orientation",
+    "tx",
+    "ty",
+    "tz",
+    "u",
+    "f",
+    "porosity_tolerance",
+    "max_fibers",
+}
+_INT_KEYS = {
+    "method",
+    "min_gap",
+    "max_rotation_deg",
+    "orientation_tries",
+    "step",
+    "max_shift_z",
+    "max_ejections",
+    "population",
+    "generations",
+    "objective",
+    "ga_voxel",
+    "angle_range_deg",
+    "shift_range",
+    "time_limit_s",
+}
+METHODS = ("none", "ga", "fast")
+
+
+class GenerationError(ValueError):
+    """The generator could not build a valid RVE (e.g. an unreachable porosity).
+
+    Attributes
+    ----------
+    closest_porosity : float or None
+        The porosity closest to the target that was reached (voxel measure).
+    """
+
+    def __init__(self, message: str, closest_porosity: float | None = None) -> None:
+        self.closest_porosity = closest_porosity
+        super().__init__(message)
+
+
+@dataclass
+class GenerationResult:
+    """Fibers, the RVE holding them, the final voxel fields and a report dict."""
+
+    fibers: list[Fiber]
+    rve: RVE
+    report: dict
+    fields: VoxelFields | None = None
+
+
+@dataclass
+class GeneratorSpec:
+    """Validated ``[generator]`` + ``[intersections]`` tables (lengths in metres)."""
+
+    kind: str
+    porosity: float | None
+    n_fibers: int | None
+    diameter: Distribution
+    seed: int
+    theta: Distribution | None
+    omega: Distribution | None
+    orientation: AnisotropicOrientation | None
+    t: tuple[Distribution, Distribution, Distribution]
+    u: Distribution | None
+    f: Distribution | None
+    tolerance: float
+    max_fibers: int
+    method: str
+    min_gap: float
+    options: dict = field(default_factory=dict)
+    period: float = 1.0
+
+
+# ------------------------------------------------------------------- validation
+def _number(key: str, v, lo=None, hi=None, lo_open=True, hi_open=True) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
+        raise SpecError(key, f"must be a finite number, got {v!r}")
+    v = float(v)
+    rng = (
+        f"{'(' if lo_open else '['}{lo if lo is not None else '-inf'}, "
+        f"{hi if hi is not None else 'inf'}{')' if hi_open else ']'}"
+    )
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        raise SpecError(key, f"must be in {rng}, got {v}")
+    if hi is not None and (v > hi or (hi_open and v == hi)):
+        raise SpecError(key, f"must be in {rng}, got {v}")
+    return v
+
+
+def parse_rve(spec: dict) -> tuple[np.ndarray, float, float]:
+    """``[rve] size`` (metres, 3 positive), ``voxel`` and ``period`` (metres)."""
+    rv = spec.get("rve")
+    if not isinstance(rv, dict):
+        raise SpecError("rve", "table is required (size = [x, y, z] metres, voxel = step)")
+    size = rv.get("size")
+    if not isinstance(size, list | tuple) or len(size) != 3:
+        raise SpecError("rve.size", f"must be three lengths in metres, got {size!r}")
+    size = np.array([_number(f"rve.size[{k}]", s, 0.0) for k, s in enumerate(size)])
+    voxel = _number(
+        "rve.voxel",
+        rv.get("voxel", float(size.max()) / 200.0),
+        0.0,
+        float(size.min()),
+        hi_open=False,
+    )
+    period = rv.get("period")
+    period = float(size.max()) if period is None else _number("rve.period", period, 0.0)
+    return size, voxel, period
+
+
+def parse_generator(spec: dict, size: np.ndarray, period: float | None = None) -> GeneratorSpec:
+    """Validate ``[generator]`` and ``[intersections]``; raise :class:`SpecError`."""
+    g = spec.get("generator")
+    if not isinstance(g, dict):
+        raise SpecError("generator", "must be a table")
+    unknown = set(g) - _GEN_KEYS
+    if unknown:
+        raise SpecError(
+            f"generator.{sorted(unknown)[0]}",
+            f"unknown key; allowed: {', '.join(sorted(_GEN_KEYS))}",
+        )
+    period = float(size.max()) if period is None else period
+    kind = g.get("kind", "straight")
+    if kind not in ("straight", "bent"):
+        raise SpecError("generator.kind", f"must be 'straight' or 'bent', got {kind!r}")
+    if ("porosity" in g) == ("n_fibers" in g):
+        raise SpecError("generator", "give exactly one of porosity or n_fibers")
+    inter = spec.get("intersections", {}) or {}
+    if not isinstance(inter, dict):
+        raise SpecError("intersections", "must be a table")
+    unknown = set(inter) - _INT_KEYS
+    if unknown:
+        raise SpecError(
+            f"intersections.{sorted(unknown)[0]}",
+            f"unknown key; allowed: {', '.join(sorted(_INT_KEYS))}",
+        )
+    method = inter.get("method", "none")
+    if method not in METHODS:
+        raise SpecError(
+            "intersections.method", f"must be one of {', '.join(METHODS)}; got {method!r}"
+        )
+    porosity = n_fibers = None
+    if "porosity" in g:
+        porosity = _number("generator.porosity", g["porosity"], 0.0, 1.0)
+        if method != "none" and porosity <= 1.0 - MAX_CYLINDER_PACKING:
+            raise SpecError(
+                "generator.porosity",
+                f"must be > {1 - MAX_CYLINDER_PACKING:.4f} for non-overlapping "
+                f"fibers (densest cylinder packing pi/sqrt(12)), got {porosity}",
+            )
+    else:
+        n = g["n_fibers"]
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise SpecError("generator.n_fibers", f"must be an integer >= 1, got {n!r}")
+        n_fibers = n
+    diameter = Distribution.from_spec("generator.diameter", g.get("diameter"))
+    dlo, dhi = diameter.support
+    if not (dlo > 0 and dhi < 0.5 * period):
+        raise SpecError(
+            "generator.diameter",
+            f"values must lie in (0, {0.5 * period:g}) m (half the period); the "
+            f"distribution allows [{dlo:g}, {dhi:g}] (truncate with low/high)",
+        )
+    seed = g.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise SpecError("generator.seed", f"must be an integer >= 0, got {seed!r}")
+    orientation = theta = omega = None
+    if "orientation" in g:
+        if "theta" in g or "omega" in g:
+            raise SpecError("generator.orientation", "give either orientation or theta/omega")
+        orientation = AnisotropicOrientation.from_spec("generator.orientation", g["orientation"])
+    else:
+        theta = Distribution.from_spec(
+            "generator.theta", g.get("theta"), Distribution.uniform(-5.0, 5.0)
+        )
+        omega = Distribution.from_spec(
+            "generator.omega", g.get("omega"), Distribution.uniform(0.0, 180.0)
+        )
+    t = tuple(
+        Distribution.from_spec(f"generator.{k}", g.get(k), Distribution.uniform(0.0, 1.0))
+        for k in ("tx", "ty", "tz")
+    )
+    u = f = None
+    if kind == "bent":
+        u = Distribution.from_spec("generator.u", g.get("u"), Distribution.uniform(0.1, 0.3))
+        f = Distribution.from_spec("generator.f", g.get("f"), Distribution.uniform(1.0, 10.0))
+        if not f.support[0] > 0:
+            raise SpecError(
+                "generator.f",
+                f"values must be > 0, distribution allows [{f.support[0]:g}, {f.support[1]:g}]",
+            )
+        if max(abs(v) for v in u.support) >= np.pi:
+            raise SpecError("generator.u", "values must lie in (-pi, pi)")
+    else:
+        for k in ("u", "f"):
+            if k in g:
+                raise SpecError(f"generator.{k}", "only used with kind = 'bent'")
+    tol = _number(
+        "generator.porosity_tolerance", g.get("porosity_tolerance", DEFAULT_TOLERANCE), 0.0, 0.5
+    )
+    max_fibers = g.get("max_fibers", 5000)
+    if isinstance(max_fibers, bool) or not isinstance(max_fibers, int) or max_fibers < 1:
+        raise SpecError("generator.max_fibers", f"must be an integer >= 1, got {max_fibers!r}")
+    min_gap = _number(
+        "intersections.min_gap", inter.get("min_gap", 0.0), -0.5 * dlo, 0.5 * period, lo_open=False
+    )
+    opts = {k: v for k, v in inter.items() if k not in ("method", "min_gap")}
+    for k in (
+        "max_rotation_deg",
+        "step",
+        "ga_voxel",
+        "angle_range_deg",
+        "shift_range",
+        "time_limit_s",
+        "max_shift_z",
+    ):
+        if k in opts:
+            opts[k] = _number(
+                f"intersections.{k}", opts[k], 0.0, None, lo_open=k != "max_rotation_deg"
+            )
+    for k in ("orientation_tries", "population", "generations", "max_ejections"):
+        if k in opts and (
+            not isinstance(opts[k], int)
+            or isinstance(opts[k], bool)
+            or opts[k] < (0 if k in ("orientation_tries", "max_ejections") else 2)
+        ):
+            raise SpecError(f"intersections.{k}", f"must be a positive integer, got {opts[k]!r}")
+    if opts.get("objective", "analytic") not in ("analytic", "voxel"):
+        raise SpecError("intersections.objective", "must be 'analytic' or 'voxel'")
+    return GeneratorSpec(
+        kind=kind,
+        porosity=porosity,
+        n_fibers=n_fibers,
+        diameter=diameter,
+        seed=seed,
+        theta=theta,
+        omega=omega,
+        orientation=orientation,
+        t=t,
+        u=u,
+        f=f,
+        tolerance=tol,
+        max_fibers=max_fibers,
+        method=method,
+        min_gap=min_gap,
+        options=opts,
+        period=period,
+    )
+
+
+# ---------------------------------------------------------------------- drawing
+def draw_fibers(gs: GeneratorSpec, seed: int, n: int, size: np.ndarray) -> FiberState:
+    """Draw ``n`` fibers (normalized state) from the spec's distributions.
+
+    Every parameter has its own random stream (spawned from ``seed``), so the first k
+    fibers are the same whatever ``n`` is: the porosity search, ``n_fibers`` and every
+    intersection method start from the same fibers for one seed.
+    """
+    period = gs.period
+    r = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(9)]
+    d = gs.diameter.sample(r[0], n) / period
+    if gs.orientation is not None:
+        theta, omega = gs.orientation.sample_angles(r[1], n)
+    else:
+        theta = gs.theta.sample(r[1], n)
+        omega = gs.omega.sample(r[2], n)
+    t = np.column_stack([dist.sample(r[3 + k], n) for k, dist in enumerate(gs.t)])
+    center = t * (size / period)
+    if gs.kind == "bent":
+        u = gs.u.sample(r[6], n)
+        f = gs.f.sample(r[7], n)
+        u = np.where(u == 0.0, 1e-12, u)  # keep the bent-rod shape
+    else:
+        u, f = np.zeros(n), np.ones(n)
+    return FiberState(
+        diameter=d,
+        center=center,
+        theta=theta,
+        omega=omega,
+        u=u,
+        f=f,
+        fixed=np.zeros(n, bool),
+        shape=["bent-rod" if gs.kind == "bent" else "rod"] * n,
+    )
+
+
+def _areas(st: FiberState) -> np.ndarray:
+    return np.array(
+        [
+            np.pi * d * d / 4 if s == "cylinder" else rod_cross_section_area(d)
+            for d, s in zip(st.diameter, st.shape, strict=True)
+        ]
+    )
+
+
+# ------------------------------------------------------------------- main entry
+def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationResult:
+    """Build the fibers of an RVE spec (generator + intersection removal + porosity target).
+
+    Parameters
+    ----------
+    spec : dict
+        Parsed TOML with ``rve``, optionally ``generator`` and ``intersections`` tables.
+    explicit : list of Fiber
+        Explicit fibers (normalized to the RVE period); kept fixed, obstacles for the
+        intersection removal, counted in the porosity.
+
+    Returns
+    -------
+    GenerationResult
+        ``report`` holds: method, seed, n_fibers, n_explicit, target_porosity, porosity,
+        porosity_before, omega_before / omega_after (voxel fractions, Eq. 8),
+        orientation_tensor_before / after, displacement_m and rotation_deg statistics,
+        min_clearance_m, n_rejected, wall_time_s.
+
+    Raises
+    ------
+    SpecError
+        Bad keys or values (the message names the key and the allowed range).
+    GenerationError
+        Unreachable porosity or remaining overlap after ``fast``; reports the closest
+        porosity reached.
+    """
+    t_start = time.perf_counter()
+    size, voxel, period = parse_rve(spec)
+    lo, hi = np.zeros(3), size / period
+    explicit = list(explicit)
+    if "generator" not in spec:
+        rve = RVE(size, explicit, period=period)
+        vf = rve.voxelize(voxel)
+        report = {
+            "method": "none",
+            "n_fibers": 0,
+            "n_explicit": len(explicit),
+            "porosity": vf.porosity,
+            "omega_after": vf.intersection_volume_fraction,
+            "voxel_m": voxel,
+            "wall_time_s": {"total": time.perf_counter() - t_start},
+        }
+        return GenerationResult(explicit, rve, report, vf)
+    gs = parse_generator(spec, size, period)
+    rng = np.random.default_rng(gs.seed)
+    supported = [fb for fb in explicit if fb.shape in ("rod", "cylinder", "bent-rod")]
+    fixed = FiberState.from_fibers(supported, fixed=True) if supported else None
+    others = [fb for fb in explicit if fb.shape not in ("rod", "cylinder", "bent-rod")]
+    gap = gs.min_gap / period
+    times: dict = {}
+
+    def measure(st: FiberState) -> VoxelFields:
+        t0 = time.perf_counter()
+        vf = RVE(size, explicit + st.to_fibers(), period=period).voxelize(voxel)
+        times["voxelize"] = times.get("voxelize", 0.0) + time.perf_counter() - t0
+        return vf
+
+    t0 = time.perf_counter()
+    if gs.method == "fast":
+        st, drawn, info = _fast(gs, rng, size, lo, hi, gap, fixed, measure)
+    elif gs.method == "ga":
+        st, drawn, info = _ga(gs, rng, size, lo, hi, voxel / period, measure)
+    else:
+        st, drawn, info = _none(gs, rng, size, measure)
+    times["generate_and_remove"] = time.perf_counter() - t0 - times.get("voxelize", 0.0)
+    vf = info.pop("fields")
+    achieved = vf.porosity
+    omega_after = vf.intersection_volume_fraction
+    if gs.porosity is not None and abs(achieved - gs.porosity) > gs.tolerance + 1e-12:
+        raise GenerationError(
+            f"generator.porosity: target {gs.porosity} not reached within +-{gs.tolerance} on "
+            f"the voxel grid; closest porosity reached {info.get('closest', achieved):.4f} "
+            f"({info.get('why', 'optimizer limit')})",
+            info.get("closest", achieved),
+        )
+    if gs.method == "fast" and omega_after > 0 and gs.min_gap >= 0:
+        raise GenerationError(
+            f"intersections.method: fast left Omega = {omega_after:.3g} on the voxel grid "
+            f"(explicit fibers overlapping each other or unsupported explicit shapes "
+            f"{sorted({fb.shape for fb in others})})",
+            achieved,
+        )
+    vf_before = measure(drawn)
+    fibers = explicit + st.to_fibers()
+    rve = RVE(size, fibers, period=period)
+    disp = st.center - drawn.center
+    d0, d1 = drawn.direction, st.direction
+    disp_perp = disp - np.einsum("ij,ij->i", disp, d0)[:, None] * d0
+    dist = np.linalg.norm(disp_perp, axis=1) * period
+    rot = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", d0, d1)), 0, 1)))
+    both = FiberState.concat(fixed, st) if fixed is not None else st
+    report = {
+        "method": gs.method,
+        "kind": gs.kind,
+        "seed": gs.seed,
+        "n_fibers": len(st),
+        "n_explicit": len(explicit),
+        "target_porosity": gs.porosity,
+        "porosity": achieved,
+        "porosity_tolerance": gs.tolerance,
+        "porosity_before": vf_before.porosity,
+        "omega_before": vf_before.intersection_volume_fraction,
+        "omega_after": omega_after,
+        "omega_analytic_before": analytic_omega(drawn, lo, hi) if len(drawn) else 0.0,
+        "omega_analytic_after": analytic_omega(both, lo, hi) if len(both) else 0.0,
+        "orientation_tensor_before": orientation_tensor(drawn).round(6).tolist(),
+        "orientation_tensor_after": orientation_tensor(st).round(6).tolist(),
+        "displacement_m": _stats(dist),
+        "center_z_m": {
+            "before": _stats_ms(drawn.center[:, 2] * period),
+            "after": _stats_ms(st.center[:, 2] * period),
+        },
+        "rotation_deg": _stats(rot),
+        "min_clearance_m": (clearance(both, lo, hi) * period) if len(both) > 1 else None,
+        "min_gap_m": gs.min_gap,
+        "voxel_m": voxel,
+        "grid_shape": list(vf.grid.shape),
+        **{k: v for k, v in info.items() if k not in ("closest", "why")},
+    }
+    times["total"] = time.perf_counter() - t_start
+    report["wall_time_s"] = {k: round(v, 3) for k, v in times.items()}
+    return GenerationResult(fibers, rve, report, vf)
+
+
+def _stats_ms(x: np.ndarray) -> dict:
+    return {
+        "mean": float(np.mean(x)) if len(x) else 0.0,
+        "std": float(np.std(x)) if len(x) else 0.0,
+    }
+
+
+def _stats(x: np.ndarray) -> dict:
+    if len(x) == 0:
+        return {"mean": 0.0, "rms": 0.0, "max": 0.0}
+    return {
+        "mean": float(np.mean(x)),
+        "rms": float(np.sqrt(np.mean(x * x))),
+        "max": float(np.max(x)),
+    }
+
+
+# ------------------------------------------------------------------- the methods
+def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
+    """Sequential minimal-shift placement, with porosity targeting by measured correction."""
+    opts = gs.options
+    kw = dict(
+        gap=gap,
+        step=opts.get("step", None) and opts["step"] / gs.period,
+        max_rotation_deg=float(opts.get("max_rotation_deg", 5.0)),
+        orientation_tries=int(opts.get("orientation_tries", 4)),
+        seed=gs.seed,
+        max_ejections=int(opts.get("max_ejections", 6)),
+        max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
+    )
+    t0 = time.perf_counter()
+    if gs.n_fibers is not None:
+        drawn = draw_fibers(gs, gs.seed, gs.n_fibers, size)
+        full = FiberState.concat(fixed, drawn) if fixed is not None else drawn
+        res = place_sequential(full, lo, hi, on_reject="raise", **kw)
+        if len(res.rejected):
+            vf = measure(res.state.subset(~res.state.fixed))
+            raise GenerationError(
+                f"generator.n_fibers: no intersection-free place for fiber "
+                f"{int(res.rejected[0]) - (len(fixed) if fixed else 0)} of {gs.n_fibers} "
+                f"(jammed at porosity {vf.porosity:.4f}); lower n_fibers, widen the "
+                f"orientation range or allow intersections.max_rotation_deg",
+                vf.porosity,
+            )
+        st = res.state.subset(~res.state.fixed)
+        n_fx = len(fixed) if fixed is not None else 0
+        drawn = drawn.subset(res.placed[res.placed >= n_fx] - n_fx)  # placement order
+        vf = measure(st)
+        return (
+            st,
+            drawn,
+            {
+                "n_rejected": 0,
+                "fields": vf,
+                "placement_time_s": res.wall_time_s,
+                "candidates_tested": res.candidates_tested,
+                "n_ejections": res.n_ejections,
+            },
+        )
+    # porosity target: draw a generous pool once (reproducible), place until the solid target
+    target_solid = 1.0 - gs.porosity
+    probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+    mean_area = float(np.mean(_areas(probe)))
+    n_pool = min(gs.max_fibers, int(np.ceil(2.0 * target_solid / mean_area)) + 50)
+    pool = draw_fibers(gs, gs.seed, n_pool, size)
+    areas = _areas(pool)
+    box_volume = float(np.prod(hi - lo))
+    n_fixed = len(fixed) if fixed is not None else 0
+    fixed_solid = 0.0
+    if fixed is not None:
+        fixed_solid = float(np.sum(_areas(fixed) * carrier_lengths(fixed, lo, hi))) / box_volume
+    placed = fixed  # explicit fibers first, then placed pool fibers in order
+    kept: list[int] = []  # pool index of each placed pool fiber
+    used = 0
+    bias = 0.0
+    best = None
+    n_rejected = 0
+    n_ejections = 0
+    why = "the measured porosity did not converge"
+    jammed = False
+    for _round in range(6):
+        goal = target_solid - bias
+        if fixed_solid + _solid(pool, kept, areas, lo, hi) < goal and used < n_pool and not jammed:
+            rest = pool.subset(np.arange(used, n_pool))
+            if placed is None:
+                full, full_area, nb = rest, areas[used:], 0
+            else:
+                full = FiberState.concat(_as_fixed(placed), rest)
+                full_area = np.r_[_areas(placed), areas[used:]]
+                nb = len(placed)
+            res = place_sequential(
+                full, lo, hi, area=full_area, stop_solid=goal, max_consecutive_rejects=40, **kw
+            )
+            new = [int(k) - nb for k in res.placed if k >= nb]
+            seen = new + [int(k) - nb for k in res.rejected]
+            kept += [used + k for k in new]
+            used += (max(seen) + 1) if seen else 0
+            n_rejected += len(res.rejected)
+            n_ejections += res.n_ejections
+            placed = res.state
+            placed.fixed[:] = np.arange(len(placed)) < n_fixed
+            if not res.reached_stop:
+                jammed = used < n_pool
+                why = (
+                    "packing jammed: 40 fibers in a row found no free place"
+                    if jammed
+                    else "fiber pool exhausted (raise generator.max_fibers)"
+                )
+        # the prefix of placed fibers whose predicted porosity is closest to the goal
+        mov = np.array(kept, int)
+        lengths = carrier_lengths(pool.subset(mov), lo, hi) if len(mov) else np.zeros(0)
+        cum = fixed_solid + np.r_[0.0, np.cumsum(areas[mov] * lengths) / box_volume]
+        k = int(np.argmin(np.abs(cum - goal)))
+        kept = kept[:k]
+        if placed is not None:
+            placed = placed.subset(np.arange(n_fixed + k))
+        st = (
+            placed.subset(np.arange(n_fixed, len(placed)))
+            if placed is not None
+            else pool.subset(np.zeros(0, int))
+        )
+        vf = measure(st)
+        if best is None or abs(vf.porosity - gs.porosity) < abs(best[0] - gs.porosity):
+            best = (vf.porosity, st, list(kept), vf)
+        err = vf.porosity - gs.porosity
+        if abs(err) <= gs.tolerance:
+            break
+        bias = (1.0 - vf.porosity) - cum[k]  # measured minus predicted solid
+        if err > 0 and not jammed and used >= n_pool < gs.max_fibers:
+            # rejections used up the pool before a jam was detected: draw more (the first
+            # n_pool draws are unchanged, so the placed fibers stay valid)
+            n_pool = min(gs.max_fibers, 2 * n_pool)
+            pool = draw_fibers(gs, gs.seed, n_pool, size)
+            areas = _areas(pool)
+            continue
+        if err > 0 and (jammed or used >= n_pool):
+            break
+    porosity, st, kept, vf = best
+    drawn = pool.subset(np.array(kept, int))
+    info = {
+        "n_rejected": n_rejected,
+        "n_ejections": n_ejections,
+        "fields": vf,
+        "closest": porosity,
+        "why": why,
+        "placement_time_s": time.perf_counter() - t0,
+    }
+    return st, drawn, info
+
+
+def _as_fixed(st: FiberState) -> FiberState:
+    s = st.copy()
+    s.fixed[:] = True
+    return s
+
+
+def _solid(pool: FiberState, idx: list[int], areas: np.ndarray, lo, hi) -> float:
+    if not idx:
+        return 0.0
+    sub = pool.subset(np.array(idx, int))
+    return float(np.sum(areas[idx] * carrier_lengths(sub, lo, hi))) / float(np.prod(hi - lo))
+
+
+def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
+    """The paper's GA; the fiber count is set by the no-overlap prediction and corrected."""
+    opts = gs.options
+    period = gs.period
+    if gs.n_fibers is not None:
+        n = gs.n_fibers
+    else:
+        probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+        n = max(1, int(round((1.0 - gs.porosity) / float(np.mean(_areas(probe))))))
+    pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 4 * n + 50), size)
+    kw = dict(
+        angle_range_deg=float(opts.get("angle_range_deg", 1.0)),
+        shift_range=float(opts.get("shift_range", 0.1)),
+        population=int(opts.get("population", 24)),
+        generations=int(opts.get("generations", 40)),
+        objective=opts.get("objective", "analytic"),
+        voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
+        time_limit_s=opts.get("time_limit_s"),
+    )
+    if gs.kind == "bent":
+        kw["u_range"] = (0.1, 0.3)
+        kw["f_range"] = (1.0, 10.0)
+    best = None
+    info: dict = {"ga": []}
+    st = pool.subset(np.arange(n))
+    for _round in range(4):
+        res = genetic(st, lo, hi, size / period, seed=gs.seed + _round, **kw)
+        vf = measure(res.state)
+        info["ga"].append(
+            {
+                "n_fibers": len(st),
+                "objective_initial": res.objective_initial,
+                "objective_final": res.objective_final,
+                "generations": res.generations,
+                "evaluations": res.evaluations,
+                "wall_time_s": res.wall_time_s,
+                "porosity": vf.porosity,
+            }
+        )
+        if (
+            best is None
+            or gs.porosity is None
+            or abs(vf.porosity - gs.porosity) < abs(best[1].porosity - gs.porosity)
+        ):
+            best = (res.state, vf, len(st))
+        if gs.porosity is None or abs(vf.porosity - gs.porosity) <= gs.tolerance:
+            break
+        # add/remove fibers by the measured deficit (solid per fiber from this round)
+        per = (1.0 - vf.porosity) / max(len(st), 1)
+        dn = int(round((vf.porosity - gs.porosity) / max(per, 1e-12)))
+        dn = dn if dn != 0 else (1 if vf.porosity > gs.porosity else -1)
+        m = int(np.clip(len(st) + dn, 1, len(pool.diameter)))
+        st = (
+            FiberState.concat(
+                res.state.subset(np.arange(min(m, len(st)))), pool.subset(np.arange(len(st), m))
+            )
+            if m > len(st)
+            else res.state.subset(np.arange(m))
+        )
+    state, vf, m = best
+    info.update(
+        {"fields": vf, "closest": vf.porosity, "why": "GA rounds exhausted", "n_rejected": 0}
+    )
+    return state, pool.subset(np.arange(m)), info
+
+
+def _none(gs, rng, size, measure):
+    """No intersection removal: overlapping fibers (Boolean model) to the target porosity."""
+    if gs.n_fibers is not None:
+        st = draw_fibers(gs, gs.seed, gs.n_fibers, size)
+        return st, st, {"fields": measure(st), "n_rejected": 0}
+    probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+    a = float(np.mean(_areas(probe)))
+    # Boolean model: porosity = exp(-n a) for random lines of density n per unit area
+    n = max(1, int(round(-np.log(gs.porosity) / a)))
+    pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 3 * n + 50), size)
+    best = None
+    for _round in range(8):
+        st = pool.subset(np.arange(n))
+        vf = measure(st)
+        if best is None or abs(vf.porosity - gs.porosity) < abs(best[1].porosity - gs.porosity):
+            best = (st, vf)
+        if abs(vf.porosity - gs.porosity) <= gs.tolerance:
+            break
+        dn = int(round((np.log(gs.porosity) - np.log(vf.porosity)) / -a))
+        n = int(
+            np.clip(
+                n + (dn if dn else (1 if vf.porosity > gs.porosity else -1)), 1, len(pool.diameter)
+            )
+        )
+    st, vf = best
+    return (
+        st,
+        st,
+        {
+            "fields": vf,
+            "closest": vf.porosity,
+            "n_rejected": 0,
+            "why": "fiber count search exhausted",
+        },
+    )
+
+
+# ---------------------------------------------------------------------- exports
+def write_medial_axes(rve: RVE, out_dir: str | Path, n: int = 64) -> tuple[Path, Path]:
+    """Write ``medial_axes.csv`` and ``medial_axes.json`` (polylines in metres).
+
+    The CSV has one row per point: ``fiber, copy, point, x_m, y_m, z_m``; the JSON holds
+    ``{"units": "m", "fibers": [{"fiber", "shape", "diameter_m", "copies": [[[x, y, z],
+    ...], ...]}]}``. Each copy is one periodic copy of the fiber clipped to the box.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    lines = rve.medial_axes_m(n)
+    csv_path, json_path = out / "medial_axes.csv", out / "medial_axes.json"
+    with open(csv_path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["fiber", "copy", "point", "x_m", "y_m", "z_m"])
+        for i, copies in enumerate(lines):
+            for c, pts in enumerate(copies):
+                for k, p in enumerate(pts):
+                    w.writerow([i, c, k, *(f"{v:.9e}" for v in p)])
+    data = {
+        "units": "m",
+        "size_m": rve.size.tolist(),
+        "fibers": [
+            {
+                "fiber": i,
+                "shape": fb.shape,
+                "diameter_m": fb.diameter * rve.period,
+                "copies": [pts.tolist() for pts in copies],
+            }
+            for i, (fb, copies) in enumerate(zip(rve.fibers, lines, strict=True))
+        ],
+    }
+    json_path.write_text(json.dumps(data))
+    return csv_path, json_path

@@ -1,0 +1,91 @@
+"""Pictures of RVEs: fiber isosurfaces rendered off-screen with pyvista."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+
+def _quiet_vtk() -> None:
+    """Hide VTK's warnings about a missing X display (rendering falls back off-screen)."""
+    from vtkmodules.vtkCommonCore import vtkLogger
+
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+
+
+def distance_image(distance: np.ndarray, spacing: np.ndarray):
+    """A pyvista ImageData with the distance field (metres) at voxel centres as point data."""
+    import pyvista as pv
+
+    img = pv.ImageData(
+        dimensions=distance.shape, spacing=tuple(spacing), origin=tuple(np.asarray(spacing) / 2)
+    )
+    img.point_data["distance_m"] = np.asarray(distance, np.float32).ravel(order="F")
+    return img
+
+
+def fiber_surface(distance: np.ndarray, spacing: np.ndarray):
+    """Closed triangle surface of the fiber solid (level 0 of the padded distance field).
+
+    The field is padded by one pore voxel on every side so fibers are capped where
+    they cross the box faces. Coordinates in metres.
+    """
+    pad = np.pad(np.asarray(distance, np.float32), 1, constant_values=float(np.max(spacing)))
+    img = distance_image(pad, spacing)
+    img.origin = tuple(-np.asarray(spacing) / 2)
+    surf = img.contour([0.0], scalars="distance_m")
+    return surf.triangulate().clean()
+
+
+def render_preview(
+    distance: np.ndarray,
+    spacing: np.ndarray,
+    path: str | Path,
+    title: str = "",
+    window_size: tuple[int, int] = (900, 700),
+) -> Path:
+    """Render the fibers (and the RVE box outline) to a PNG off-screen.
+
+    Parameters
+    ----------
+    distance : ndarray (nx, ny, nz)
+        Union field in metres, <= 0 in the solid.
+    spacing : ndarray (3,)
+        Voxel edges in metres.
+    path : path
+        PNG to write.
+    """
+    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    _quiet_vtk()
+    surf = fiber_surface(distance, spacing)
+    scale = 1e6  # show micrometres
+    plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+    plotter.set_background("white")
+    if surf.n_points:
+        surf = surf.scale(scale, inplace=False)
+        plotter.add_mesh(surf, color="#4a7ab5", smooth_shading=True, specular=0.3)
+    box = pv.Box(
+        bounds=(
+            0,
+            distance.shape[0] * spacing[0] * scale,
+            0,
+            distance.shape[1] * spacing[1] * scale,
+            0,
+            distance.shape[2] * spacing[2] * scale,
+        )
+    )
+    plotter.add_mesh(box, style="wireframe", color="black", line_width=1)
+    plotter.show_axes()
+    if title:
+        plotter.add_text(title, font_size=10, color="black")
+    plotter.camera_position = "iso"
+    plotter.camera.zoom(1.1)
+    path = Path(path)
+    plotter.screenshot(str(path))
+    plotter.close()
+    return path

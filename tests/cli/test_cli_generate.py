@@ -1,0 +1,123 @@
+"""`psdesign generate`: outputs, and one-line errors with exit status 2 for bad specs."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from psdesign.cli import main
+from psdesign.geometry.fibers import rod_cross_section_area
+
+SPEC = """
+[rve]
+size = [100e-6, 100e-6, 100e-6]
+voxel = 2e-6
+
+[[fibers]]
+shape = "rod"
+diameter = {d}
+center = [50e-6, 50.3e-6, 49.1e-6]
+"""
+
+
+def write(tmp_path, text, name="spec.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_generate_writes_every_output(tmp_path):
+    spec = write(tmp_path, SPEC.format(d="20e-6"))
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out)]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert {
+        "rve.json",
+        "summary.json",
+        "field.vti",
+        "fibers.stl",
+        "preview.png",
+        "medial_axes.csv",
+        "medial_axes.json",
+    } <= names
+    summary = json.loads((out / "summary.json").read_text())
+    # x-aligned rod of D = 0.2 periods: solid fraction = exact PS cross-section area
+    assert 1 - summary["porosity"] == pytest.approx(rod_cross_section_area(0.2), rel=0.03)
+    assert summary["n_fibers"] == 1 and summary["intersection_volume_fraction"] == 0
+    doc = json.loads((out / "rve.json").read_text())
+    axis = np.array(doc["fibers"][0]["medial_axis_m"][0])
+    np.testing.assert_allclose(axis[:, 1:], [[50.3e-6, 49.1e-6]] * 2, atol=1e-12)
+    np.testing.assert_allclose(axis[:, 0], [0, 100e-6], atol=1e-12)
+    assert (out / "preview.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_same_spec_gives_identical_outputs(tmp_path):
+    spec = write(tmp_path, SPEC.format(d="20e-6"))
+    for name in ("a", "b"):
+        assert main(["generate", str(spec), "-o", str(tmp_path / name), "--no-preview"]) == 0
+    for f in ("rve.json", "field.vti", "medial_axes.csv"):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
+
+
+@pytest.mark.parametrize(
+    "text,key",
+    [
+        (SPEC.format(d="-7e-6"), "fibers[0].diameter"),
+        (SPEC.format(d="0"), "fibers[0].diameter"),
+        (SPEC.format(d="100e-6"), "fibers[0].diameter"),
+        (SPEC.format(d="nan"), "fibers[0].diameter"),
+        (SPEC.format(d="7e-6").replace('"rod"', '"hexagon"'), "fibers[0].shape"),
+        (
+            SPEC.format(d="7e-6").replace("center", "direction = [0, 0, 0]\ncenter"),
+            "fibers[0].direction",
+        ),
+        (
+            SPEC.format(d="7e-6").replace(
+                "size = [100e-6, 100e-6, 100e-6]", "size = [0, 1e-4, 1e-4]"
+            ),
+            "rve.size[0]",
+        ),
+        (SPEC.format(d="7e-6").replace("voxel = 2e-6", "voxel = -1e-6"), "rve.voxel"),
+        ("[rve]\nsize = [1e-4, 1e-4, 1e-4]\n", "fibers"),
+        ("[rve\nsize = 1", "spec"),
+    ],
+)
+def test_bad_spec_one_line_exit_2_no_output(tmp_path, text, key):
+    spec = write(tmp_path, text)
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-m", "psdesign.cli", "generate", str(spec), "-o", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0] and "Traceback" not in proc.stderr
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]
+
+
+def test_missing_file_is_a_clear_error(tmp_path, capsys):
+    assert main(["generate", str(tmp_path / "nope.toml"), "-o", str(tmp_path / "o")]) == 2
+    assert "file not found" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_woven_cell_spec_expands_to_six_fibers(tmp_path):
+    spec = write(
+        tmp_path,
+        '[rve]\nsize = [1e-4, 1e-4, 1e-4]\nvoxel = 2.5e-6\n[[fibers]]\nshape = "woven-cell"\n',
+    )
+    out = tmp_path / "w"
+    assert main(["generate", str(spec), "-o", str(out), "--no-preview"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_fibers"] == 6
+    # fabric lies in x-y: the solid is confined to a slab around z = L/2
+    import pyvista as pv
+
+    img = pv.read(out / "field.vti")
+    d = img.point_data["distance_m"].reshape(img.dimensions, order="F")
+    solid_z = np.nonzero((d <= 0).any(axis=(0, 1)))[0]
+    assert 0.2 * d.shape[2] < solid_z.min() and solid_z.max() < 0.8 * d.shape[2]

@@ -1,0 +1,27 @@
+"""Shared test set-up.
+
+This folder is on ``sys.path`` (pytest's rootdir conftest), so tests import the shared helpers
+by name: :mod:`reference_values` (published values with sources), :mod:`meshes` (small tagged
+tet meshes), :mod:`study_cases` (fake case functions that pickle to workers).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+TESTS_DIR = Path(__file__).resolve().parent
+REPO_ROOT = TESTS_DIR.parent
+DATA_DIR = TESTS_DIR / "data"
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    """``tests/data``: small vendored inputs (every file named in ``data/README-puma.md``)."""
+    return DATA_DIR
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> Path:
+    return REPO_ROOT

@@ -1,0 +1,117 @@
+"""Fake case functions and study-file helpers shared by the study and report tests.
+
+The case functions are module-level so that they pickle to worker processes; the fake "solver"
+is Kozeny-Carman (independent of psdesign).
+"""
+
+from __future__ import annotations
+
+import base64
+import os
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+TESTS_DIR = Path(__file__).resolve().parent
+PNG_1PX = base64.b64decode(
+    "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNkYPhfDwAChwGA60e6kgAAAABJRU5ErkJggg=="
+)
+
+
+# ----------------------------------------------------------------------------- fake case functions
+# Module-level so that they pickle to worker processes.
+
+
+def kc_truth(eps: float, d: float) -> float:
+    """Kozeny-Carman with k_K = 5: the 'solver' of the fake case (independent of psdesign)."""
+    r = d / 2
+    return r * r * eps**3 / (20.0 * (1 - eps) ** 2)
+
+
+def fake_case(spec, outputs, solver, workdir):
+    g = spec["generator"]
+    eps = float(g["porosity"])
+    k = kc_truth(eps, float(g["diameter"]))
+    noise = 1.0 + 0.01 * np.random.default_rng(g["seed"]).standard_normal()
+    out = {"porosity": eps, "n_fibers": 12, "solver_used": solver}
+    for i, a in enumerate("xyz"):
+        if f"k_{a}" in outputs:
+            out[f"k_{a}_m2"] = k * (1 + 0.5 * i) * noise
+            out[f"converged_{a}"] = True
+            out[f"iterations_{a}"] = 40 + i
+            out[f"flux_imbalance_{a}"] = 1e-5
+    if "k_tensor" in outputs:
+        out["k_tensor_m2"] = np.diag([k, k, 2 * k])
+    (workdir / "preview.png").write_bytes(PNG_1PX)
+    out["preview_png"] = workdir / "preview.png"
+    with open(workdir / "calls.txt", "a") as fh:
+        fh.write(f"{os.getpid()}\n")
+    return out
+
+
+def failing_case(spec, outputs, solver, workdir):
+    if spec["generator"]["porosity"] == 0.8:
+        raise RuntimeError("mesh failed\nsecond line")
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def sleepy_case(spec, outputs, solver, workdir):
+    (workdir / "pid.txt").write_text(str(os.getpid()))
+    if spec["generator"]["porosity"] == 0.9:
+        time.sleep(60)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def crash_case(spec, outputs, solver, workdir):
+    if spec["generator"]["porosity"] == 0.8:
+        os._exit(3)  # the worker process dies, like a segfault or an OOM kill
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def slow_counting_case(spec, outputs, solver, workdir):
+    with open(workdir / "calls.txt", "a") as fh:
+        fh.write("start\n")
+    time.sleep(0.25)
+    out = fake_case(spec, outputs, solver, workdir)
+    return out
+
+
+# ----------------------------------------------------------------------------- helpers
+
+BASE = """
+[base.rve]
+size = [100e-6, 100e-6, 100e-6]
+voxel = 1e-6
+[base.generator]
+kind = "straight"
+porosity = 0.8
+diameter = 7e-6
+seed = 1
+theta = { dist = "uniform", low = -5.0, high = 5.0 }
+[base.flow]
+solver = "voxel"
+aux_length = 0.2
+"""
+
+
+def write_study(tmp_path: Path, study: str, params: str, name="s.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(
+        BASE + "\n[study]\n" + textwrap.dedent(study) + "\n[parameters]\n" + textwrap.dedent(params)
+    )
+    return p
+
+
+FACTORIAL = """
+name = "fac"
+design = "full-factorial"
+seeds = [1, 2]
+outputs = ["porosity", "k_x", "k_z"]
+solver = "voxel"
+"""
+FAC_PARAMS = """
+"generator.porosity" = [0.7, 0.8, 0.9]
+generator.diameter = { start = 6e-6, stop = 8e-6, step = 2e-6 }
+"""

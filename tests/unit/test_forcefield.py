@@ -1,0 +1,706 @@
+"""Tests of the empirical force field (paper Sec. 6): potentials, quadrature, pattern search,
+the two paper cases and the CLI."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from psdesign.forcefield.cases import (
+    PAPER_TWO_FIBER,
+    TABLE_II_INITIAL,
+    six_fiber_problem,
+    two_fiber_problem,
+)
+from psdesign.forcefield.fields import (
+    PSField,
+    Tube,
+    ps_derivatives,
+    ps_derivatives_numpy,
+    ps_grid_values,
+)
+from psdesign.forcefield.params import Parametrization, Tie
+from psdesign.forcefield.pattern import pattern_search
+from psdesign.forcefield.potentials import (
+    overlap_volume,
+    surface_interaction,
+    surface_sample,
+    surface_term,
+    volume_interaction,
+)
+from psdesign.forcefield.tube import gauss_bonnet_ends, tube_sample
+from psdesign.geometry.fibers import woven_model
+from psdesign.geometry.model import GeneralizedPS
+
+UNIT = (np.zeros(3), np.ones(3))
+
+
+# ----------------------------------------------------------------- exact test fields
+@dataclass(frozen=True)
+class Sphere:
+    """phi = |r - c|^2 - R^2 (exact sphere)."""
+
+    c: np.ndarray
+    R: float
+
+    @property
+    def bounds(self):
+        return self.c - self.R - 0.05, self.c + self.R + 0.05
+
+    def values(self, p):
+        return np.sum((p - self.c) ** 2, axis=1) - self.R**2
+
+    def grid_values(self, axes):
+        x, y, z = (a - c for a, c in zip(axes, self.c, strict=True))
+        return x[:, None, None] ** 2 + y[None, :, None] ** 2 + z[None, None, :] ** 2 - self.R**2
+
+    def derivatives(self, p, hessian=True):
+        hs = np.broadcast_to(2 * np.eye(3), (len(p), 3, 3)).copy() if hessian else None
+        return self.values(p), 2 * (p - self.c), hs
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """phi = rho^2 - r^2, rho = distance from the axis through c along coordinate ``axis``."""
+
+    c: np.ndarray
+    r: float
+    axis: int
+    tubes: tuple = ()
+
+    @property
+    def bounds(self):
+        lo, hi = self.c - self.r - 0.05, self.c + self.r + 0.05
+        lo[self.axis], hi[self.axis] = -10.0, 10.0
+        return lo, hi
+
+    def _mask(self):
+        m = np.ones(3)
+        m[self.axis] = 0.0
+        return m
+
+    def values(self, p):
+        return np.sum(((p - self.c) * self._mask()) ** 2, axis=1) - self.r**2
+
+    def grid_values(self, axes):
+        m = self._mask()
+        x, y, z = ((a - c) * mm for a, c, mm in zip(axes, self.c, m, strict=True))
+        return x[:, None, None] ** 2 + y[None, :, None] ** 2 + z[None, None, :] ** 2 - self.r**2
+
+    def derivatives(self, p, hessian=True):
+        m = self._mask()
+        hs = np.broadcast_to(2 * np.diag(m), (len(p), 3, 3)).copy() if hessian else None
+        return self.values(p), 2 * (p - self.c) * m, hs
+
+
+@dataclass(frozen=True)
+class Revolution:
+    """phi = rho^2 - R(x)^2 about the x axis through (., 1/2, 1/2).
+
+    R = r0 (1 + a sin(2 pi 1.3 x + p)): the ends have different slopes."""
+
+    r0: float = 0.1
+    a: float = 0.3
+    p: float = 0.4
+    tubes: tuple = (Tube(np.full(3, 0.5), 0, 0.3),)
+    bounds: tuple = (np.array([0.0, 0.2, 0.2]), np.array([1.0, 0.8, 0.8]))
+
+    def R(self, x, k=0):
+        w = 2 * np.pi * 1.3
+        t = w * x + self.p
+        return (
+            self.r0
+            * ((1 + self.a * np.sin(t)), self.a * w * np.cos(t), -self.a * w * w * np.sin(t))[k]
+        )
+
+    def values(self, q):
+        return (q[:, 1] - 0.5) ** 2 + (q[:, 2] - 0.5) ** 2 - self.R(q[:, 0]) ** 2
+
+    def grid_values(self, axes):
+        x, y, z = axes
+        return (
+            (y[None, :, None] - 0.5) ** 2
+            + (z[None, None, :] - 0.5) ** 2
+            - self.R(x)[:, None, None] ** 2
+        )
+
+    def derivatives(self, q, hessian=True):
+        r, r1, r2 = (self.R(q[:, 0], k) for k in range(3))
+        g = np.column_stack([-2 * r * r1, 2 * (q[:, 1] - 0.5), 2 * (q[:, 2] - 0.5)])
+        hs = None
+        if hessian:
+            hs = np.zeros((len(q), 3, 3))
+            hs[:, 0, 0] = -2 * (r1**2 + r * r2)
+            hs[:, 1, 1] = hs[:, 2, 2] = 2.0
+        return self.values(q), g, hs
+
+
+def blob(iso: float) -> PSField:
+    """cos(2 pi x) + cos(2 pi y) + cos(2 pi z) <= iso: a closed, sphere-like level set."""
+    m = GeneralizedPS(mu=[1, 1, 1], kappa=[1, 1, 1], H=np.eye(3), alpha=[0, 0, 0])
+    return PSField(m, iso, UNIT)
+
+
+# ------------------------------------------------------------------- field algebra
+def test_hessian_matches_finite_differences_of_analytic_gradient():
+    rot = np.array([[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]])
+    m = woven_model().rotated(rot).translated([0.1, 0.2, 0.3])
+    p = np.random.default_rng(0).random((40, 3))
+    v, g, hs = ps_derivatives(m, p)
+    assert np.allclose(v, m.evaluate(p), atol=1e-12)
+    assert np.allclose(g, m.gradient(p), atol=1e-10)
+    eps = 1e-6
+    fd = np.stack(
+        [(m.gradient(p + eps * e) - m.gradient(p - eps * e)) / (2 * eps) for e in np.eye(3)],
+        axis=-1,
+    )
+    assert np.max(np.abs(fd - hs)) < 1e-6 * np.max(np.abs(hs))
+    assert np.allclose(hs, np.transpose(hs, (0, 2, 1)))
+    vn, gn, hn = ps_derivatives_numpy(m, p)
+    assert np.allclose(hs, hn, atol=1e-9) and np.allclose(g, gn) and np.allclose(v, vn)
+
+
+def test_grid_values_match_pointwise_evaluation():
+    m = woven_model().translated([0.05, -0.1, 0.2])
+    axes = (np.linspace(0, 1, 7), np.linspace(0, 1, 5), np.linspace(0.2, 0.9, 6))
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    assert np.allclose(ps_grid_values(m, axes).ravel(), m.evaluate(pts), atol=1e-12)
+
+
+# ---------------------------------------------------------- surface integrals (MC)
+def test_exact_sphere_area_curvatures_converge_second_order():
+    sph = Sphere(np.array([0.5, 0.5, 0.5]), 0.3)
+    errs = []
+    for h in (0.02, 0.01):
+        s = surface_sample(sph, UNIT, h)
+        errs.append(abs(s.area - 4 * np.pi * 0.09) / (4 * np.pi * 0.09))
+        assert surface_term(s, "gaussian") == pytest.approx(4 * np.pi, rel=5e-3)  # chi = 2
+        assert surface_term(s, "bending") == pytest.approx(4 * np.pi, rel=5e-3)  # Willmore
+    assert errs[1] < 1e-3
+    assert errs[0] / errs[1] > 3.0  # second order
+
+
+def test_gauss_bonnet_on_closed_ps_level_set():
+    """Closed sphere-like PS level set: int K dA = 2 pi chi = 4 pi, error O(h^2)."""
+    errs = [
+        abs(surface_term(surface_sample(blob(-2.5), UNIT, h), "gaussian") - 4 * np.pi)
+        for h in (0.02, 0.01)
+    ]
+    assert errs[1] < 0.002 * 4 * np.pi
+    assert errs[0] / errs[1] > 3.0
+
+
+def _star_area_reference(fld: PSField, c: np.ndarray, n: int = 96) -> float:
+    """Area of a star-shaped level set by an independent spherical parametrization:
+    Gauss-Legendre in cos(theta), trapezoid in phi, roots by bisection,
+    dA = rho^2 |grad phi| / |grad phi . e| dOmega."""
+    xg, wg = np.polynomial.legendre.leggauss(n)
+    ph = np.arange(2 * n) * np.pi / n
+    ct, P = np.meshgrid(xg, ph, indexing="ij")
+    st = np.sqrt(1 - ct**2)
+    e = np.stack([st * np.cos(P), st * np.sin(P), ct], -1).reshape(-1, 3)
+    lo, hi = np.zeros(len(e)), np.full(len(e), 0.45)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        inside = fld.values(c + mid[:, None] * e) <= 0
+        lo, hi = np.where(inside, mid, lo), np.where(inside, hi, mid)
+    rho = 0.5 * (lo + hi)
+    _, g, _ = fld.derivatives(c + rho[:, None] * e, hessian=False)
+    w = np.repeat(wg, 2 * n) * (np.pi / n)
+    return float(np.sum(w * rho**2 * np.linalg.norm(g, axis=1) / np.abs(np.sum(g * e, 1))))
+
+
+def test_ps_level_set_area_matches_fine_reference():
+    fld = blob(-2.5)
+    ref = _star_area_reference(fld, np.full(3, 0.5))
+    a1 = surface_sample(fld, UNIT, 0.02).area
+    a2 = surface_sample(fld, UNIT, 0.01).area
+    assert abs(a2 - ref) / ref < 2e-3
+    assert abs(a1 - ref) / abs(a2 - ref) > 3.0
+
+
+# -------------------------------------------------------------- volume interaction
+def test_steinmetz_volume_and_depth_integral():
+    """Two crossing cylinders of radius r: overlap volume 16 r^3 / 3; with the fields
+    rho^2 - r^2 the depth integral I^V is 32 r^5 / 15 (closed form, docs/forcefield.md)."""
+    r, c = 0.2, np.full(3, 0.5)
+    a, b = Cylinder(c, r, 0), Cylinder(c, r, 1)
+    iv = volume_interaction(a, b, UNIT, 0.005)
+    assert iv == pytest.approx(32 * r**5 / 15, rel=2e-3)
+    assert overlap_volume(a, b, UNIT, 0.005) == pytest.approx(16 * r**3 / 3, rel=1e-2)
+    far = Cylinder(np.array([0.5, 0.5, 0.1]), 0.05, 1)
+    assert volume_interaction(a, far, UNIT, 0.01) == 0.0
+
+
+def test_surface_interaction_of_concentric_spheres():
+    """Sphere R1 inside the field of sphere R2: phi_2 = R1^2 - R2^2 on the whole surface."""
+    c = np.full(3, 0.5)
+    s1, s2 = Sphere(c, 0.2), Sphere(c, 0.3)
+    samp = surface_sample(s1, UNIT, 0.01)
+    val = surface_interaction(samp, [s2])
+    assert val == pytest.approx((0.04 - 0.09) * 4 * np.pi * 0.04, rel=2e-3)
+
+
+# ---------------------------------------------------------------- tube quadrature
+def test_tube_quadrature_on_exact_cylinder():
+    r = 0.1
+    cyl = Cylinder(np.full(3, 0.5), r, 0, tubes=(Tube(np.full(3, 0.5), 0, 0.2),))
+    s = tube_sample(cyl, UNIT, 8, 16)
+    assert s.area == pytest.approx(2 * np.pi * r, rel=1e-12)
+    assert surface_term(s, "gaussian") == pytest.approx(0.0, abs=1e-10)
+    assert surface_term(s, "bending") == pytest.approx(np.pi / (2 * r), rel=1e-10)
+
+
+def test_tube_quadrature_agrees_with_marching_cubes_on_bent_fiber():
+    prob = two_fiber_problem(f0=1.7)
+    fld = prob.fields([2.2, 0.15])[0]
+    ref = tube_sample(fld, UNIT, 128, 64)
+    coarse = tube_sample(fld, UNIT, 32, 16)
+    assert coarse.area == pytest.approx(ref.area, rel=1e-7)  # spectral in theta, GL in s
+    mc = [surface_sample(fld, UNIT, h, curvature=False).area for h in (0.01, 0.005)]
+    e = [abs(m - ref.area) for m in mc]
+    assert e[1] < 2e-3 * ref.area and e[0] / e[1] > 3.0
+
+
+def test_gaussian_curvature_of_surface_of_revolution_area_and_gauss_bonnet():
+    """int K dA = -2 pi [R' / sqrt(1 + R'^2)] between the ends, by the area quadrature and
+    by the end-curve (Gauss-Bonnet) formula; the area is checked against 1-D quadrature."""
+    from scipy.integrate import quad
+
+    rev = Revolution()
+    d1 = rev.R(1.0, 1) / np.sqrt(1 + rev.R(1.0, 1) ** 2)
+    d0 = rev.R(0.0, 1) / np.sqrt(1 + rev.R(0.0, 1) ** 2)
+    exact = -2 * np.pi * (d1 - d0)
+    assert abs(exact) > 0.5
+    s = tube_sample(rev, UNIT, 64, 16)
+    assert surface_term(s, "gaussian") == pytest.approx(exact, rel=1e-9)
+    assert gauss_bonnet_ends(rev, UNIT, 32) == pytest.approx(exact, rel=1e-9)
+    area = quad(lambda x: 2 * np.pi * rev.R(x) * np.sqrt(1 + rev.R(x, 1) ** 2), 0, 1, epsabs=1e-13)[
+        0
+    ]
+    assert s.area == pytest.approx(area, rel=1e-10)
+
+
+def test_gauss_bonnet_end_formula_matches_area_integral_on_woven_fiber():
+    p = six_fiber_problem()
+    fld = p.fields(p.x0)[0]
+    area_int = surface_term(tube_sample(fld, UNIT, 192, 96), "gaussian")
+    assert abs(area_int) > 0.1
+    assert gauss_bonnet_ends(fld, UNIT, 128) == pytest.approx(area_int, rel=1e-9)
+
+
+def test_gaussian_term_of_two_fiber_rods_vanishes():
+    """The printed S_j: every two-fiber rod is a sheared tube, int K dA = 0 for any (u, f)."""
+    prob = two_fiber_problem(f0=1.5)
+    for x in ([1.0, 0.1], [2.5, -0.2], [0.7, 0.05]):
+        pot = prob.potential(x, n_s=48, n_theta=24)
+        assert abs(pot.surface) < 1e-9
+
+
+# ------------------------------------------------------------------ pattern search
+def test_pattern_search_quadratic_with_bounds():
+    f = lambda x: (x[0] - 0.3) ** 2 + 10 * (x[1] + 0.2) ** 2 + (x[2] - 5.0) ** 2  # noqa: E731
+    r = pattern_search(f, [0.0, 0.0, 0.0], [-1, -1, -1], [1, 1, 2], min_step=1e-7)
+    assert r.converged
+    assert np.allclose(r.x, [0.3, -0.2, 2.0], atol=1e-6)  # third variable on its bound
+    assert r.fun == pytest.approx(9.0, abs=1e-10)
+
+
+def test_pattern_search_rosenbrock_and_iteration_limit():
+    rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
+    r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-8, max_iter=20000)
+    assert r.converged and np.allclose(r.x, [1, 1], atol=1e-3)
+    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], max_iter=5)
+    assert not short.converged and "iteration limit" in short.message
+    assert short.fun == pytest.approx(rosen(short.x)) and short.fun < rosen([-1.2, 1.0])
+    assert len(short.history) == 5
+
+
+def test_batched_polling_keeps_the_iterates():
+    """Speculative polling (batch > 1, serial or in forked workers) visits the same
+    iterates as plain opportunistic polling; only extra evaluations are spent."""
+    from psdesign.forcefield.parallel import batch_map
+
+    rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
+    ref = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6, max_iter=5000)
+    for batch in (2, 3):
+        r = pattern_search(
+            rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6, max_iter=5000, batch=batch
+        )
+        assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter
+        assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
+        assert r.n_evals == ref.n_evals and r.n_speculative > 0
+    with batch_map(rosen, 2) as pmap:
+        r = pattern_search(
+            rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2, map_fun=pmap
+        )
+    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2)
+    assert np.array_equal(r.x, short.x) and r.n_evals == short.n_evals
+    capped = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], batch=3, max_evals=10)
+    assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
+
+
+class _ShuffledEvaluator:
+    """In-process evaluator with ``slots`` points running that finishes them out of order
+    (last submitted first, or one at a time from the front)."""
+
+    def __init__(self, fun, slots: int, lifo: bool):
+        self.fun, self.slots, self.lifo, self.running, self.n = fun, slots, lifo, [], 0
+
+    def free(self) -> int:
+        return self.slots - len(self.running)
+
+    def submit(self, tag, x) -> None:
+        assert self.free() > 0
+        self.running.append((tag, float(self.fun(x))))
+        self.n += 1
+
+    def collect(self, block=True):
+        if not self.running:
+            return []
+        if self.lifo:
+            out, self.running = self.running[::-1], []
+            return out
+        return [self.running.pop(0)]
+
+
+def test_asynchronous_polling_keeps_the_iterates():
+    """With an evaluator the points arrive in any order and points keep running across
+    polls; the search still examines them in poll order: same iterates, same n_evals."""
+    from psdesign.forcefield.parallel import WorkerPool
+
+    rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
+    args = ([-1.2, 1.0], [-2, -2], [2, 2])
+    ref = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000)
+    for slots, lifo in ((2, True), (3, False), (4, True)):
+        ev = _ShuffledEvaluator(rosen, slots, lifo)
+        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=ev)
+        assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter and r.fun == ref.fun
+        assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
+        assert [h["n_evals"] for h in r.history] == [h["n_evals"] for h in ref.history]
+        assert r.n_evals == ref.n_evals and r.n_speculative > 0
+        assert r.n_evals + r.n_speculative == ev.n
+    capped = pattern_search(
+        rosen, *args, max_evals=10, evaluator=_ShuffledEvaluator(rosen, 3, True)
+    )
+    assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
+    with WorkerPool(rosen, 2) as pool:
+        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=pool)
+    assert np.array_equal(r.x, ref.x) and r.n_evals == ref.n_evals
+
+
+def test_worker_pool_returns_values_and_raises_worker_errors():
+    from psdesign.forcefield.parallel import WorkerPool
+
+    def fun(x):
+        if x[0] < 0:
+            raise ArithmeticError("negative")
+        return 2.0 * x[0]
+
+    with WorkerPool(fun, 2) as pool:
+        pool.submit("a", np.array([1.0]))
+        pool.submit("b", np.array([3.0]))
+        assert pool.free() == 0
+        with pytest.raises(RuntimeError, match="no free worker"):
+            pool.submit("c", np.array([1.0]))
+        got = {}
+        while len(got) < 2:
+            got.update(pool.collect())
+        assert got == {"a": 2.0, "b": 6.0} and pool.free() == 2
+        pool.submit("d", np.array([-1.0]))
+        with pytest.raises(ArithmeticError, match="negative"):
+            pool.collect()
+        assert pool.collect(block=False) == []
+
+
+def test_pattern_search_rejects_infeasible_bounds():
+    with pytest.raises(ValueError, match="no feasible point"):
+        pattern_search(lambda x: 0.0, [0.0], [1.0], [0.0])
+    with pytest.raises(ValueError, match="outside its bounds"):
+        pattern_search(lambda x: 0.0, [2.0], [0.0], [1.0])
+
+
+def test_parametrization_bounds_and_infeasible_constraints():
+    p = six_fiber_problem()
+    k = p.param.free.index("kappa1")
+    # kappa3 = 3 kappa1 in 2.9 +- 0.3 and f = 1.5 kappa1 in 1.3 +- 0.3 tighten 0.9 +- 0.3
+    assert p.lower[k] == pytest.approx(2.6 / 3) and p.upper[k] == pytest.approx(1.6 / 1.5)
+    bad = Parametrization(
+        free=("a",), ties=(Tie("p", "a", low=0, high=1), Tie("q", "a", a=2.0, low=3, high=4))
+    )
+    with pytest.raises(ValueError, match="no feasible value of 'a'"):
+        bad.bounds()
+    with pytest.raises(ValueError, match="weights"):
+        two_fiber_problem(weights=(1.0, -1.0, 1.0))
+    with pytest.raises(ValueError, match="outside its feasible range"):
+        six_fiber_problem(initial={**TABLE_II_INITIAL, "kappa1": 1.2})
+
+
+# --------------------------------------------------------------------- paper cases
+def test_two_fiber_case_is_reproducible_and_beats_paper_point():
+    kw = dict(seed=3, h=0.01, n_s=32, n_theta=16)
+    p1, p2 = two_fiber_problem(**kw), two_fiber_problem(**kw)
+    assert p1.x0[0] == p2.x0[0] == pytest.approx(np.random.default_rng(3).uniform(1, 2))
+    r1, r2 = p1.solve(max_iter=100), p2.solve(max_iter=100, workers=2)  # same for any workers
+    assert np.array_equal(r1.x, r2.x) and r1.fun == r2.fun and r1.converged
+    assert r1.history == r2.history and r1.n_evals == r2.n_evals and r1.n_speculative == 0
+    # D = 0.090 > 2 * 0.2 / (2 pi): the overlap cannot vanish; largest amplitude wins
+    assert abs(r1.x[1]) == pytest.approx(0.2)
+    paper = p1.potential(p1.free_of(PAPER_TWO_FIBER))
+    assert paper.U > r1.fun and paper.volume > 0
+
+
+def test_six_fiber_start_and_weave():
+    p = six_fiber_problem(n_s=32, n_theta=16)
+    start = p.potential(p.x0)
+    assert start.volume > 0  # Table II start: fibers overlap at the crossings
+    # the alternating bend weaves: bending the second set the other way overlaps more
+    same = six_fiber_problem(n_s=32, n_theta=16, weave_sign=1)
+    assert same.potential(same.x0).volume > 3 * start.volume
+    fl = p.fields(p.x0)
+    assert len(fl) == 6 and all(f.tubes for f in fl)
+    assert [f.model.u[0] for f in fl] == pytest.approx([0.29, -0.29, 0.29, -0.29, 0.29, -0.29])
+    paper = p.potential(p.free_of(p.paper))
+    assert paper.volume > start.volume  # Table II optimum is fatter: more overlap here
+
+
+# ---------------------------------------------------------------------------- CLI
+def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
+    from psdesign.cli import main
+
+    spec = tmp_path / "two.toml"
+    spec.write_text(
+        '[forcefield]\ncase = "two-fiber"\nmax_iter = 3\n'
+        "[forcefield.quadrature]\nh = 0.01\nn_s = 24\nn_theta = 12\n"
+        "[forcefield.two_fiber]\nseed = 2\n"
+    )
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures"]) == 0
+    printed = capsys.readouterr().out
+    assert "iteration limit" in printed
+    rve = json.loads((out / "rve.json").read_text())
+    assert rve["converged"] is False and len(rve["fibers"]) == 2
+    m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
+    assert m.n_minor == 1 and m.u[0] == pytest.approx(rve["parameters"]["u1"])
+    rows = (out / "history.csv").read_text().strip().splitlines()
+    assert rows[0] == "iter,n_evals,U,step" and len(rows) == 4
+    assert "paper_optimum" in rve and rve["paper_optimum"]["U"] > 0
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[forcefield]\ncase = "three-fiber"\n')
+    assert main(["forcefield", str(bad), "-o", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "forcefield.case" in err[0]
+    assert not (tmp_path / "x").exists()
+    bad.write_text(
+        '[forcefield]\ncase = "six-fiber"\n[forcefield.six_fiber.ranges]\n'
+        "kappa1 = 0.01\nkappa3 = 0.01\n"
+    )
+    assert main(["forcefield", str(bad), "-o", str(tmp_path / "y")]) == 2
+    assert "no feasible value" in capsys.readouterr().err
+    bad.write_text('[forcefield]\ncase = "two-fiber"\nworkers = 0\n')
+    assert main(["forcefield", str(bad), "-o", str(tmp_path / "z")]) == 2
+    assert "forcefield.workers" in capsys.readouterr().err
+
+
+def test_broken_fiber_is_infeasible():
+    """Moments too small for the isovalue: the fiber vanishes; the objective is +inf."""
+    p = six_fiber_problem(n_s=32, n_theta=16)
+    x = p.x0.copy()
+    x[p.param.free.index("mu1")] = 3.7  # mu1 + mu2 = 6.4 < 6.65: no solid anywhere
+    assert p.objective(x) == np.inf
+    with pytest.raises(ValueError):
+        p.potential(x)
+
+
+def test_lens_guard_catches_overlap_thinner_than_grid():
+    """Two exact cylinders (r = 0.1) crossing with a 0.004 overlap: a grid of step 0.02 can
+    miss the lens; the guard finds the deepest point and integrates around it."""
+    r, eps = 0.1, 0.004
+    a = Cylinder(np.array([0.5, 0.5, 0.5]), r, 0)
+    b = Cylinder(np.array([0.503, 0.507, 0.5 + 2 * r - eps]), r, 1)
+    ref = volume_interaction(a, b, UNIT, 0.001, lens_guard=False)
+    assert ref > 0
+    for h in (0.01, 0.005):
+        assert volume_interaction(a, b, UNIT, h, lens_guard=False) == 0.0  # lens missed
+        guarded = volume_interaction(a, b, UNIT, h)
+        assert 0.3 * ref < guarded < 2.0 * ref  # detected; thin-lens value within 2x
+
+
+# ------------------------------------------------------------ compiled kernels
+@dataclass(frozen=True)
+class Generic:
+    """A PSField seen through the generic ImplicitField protocol (numpy code paths)."""
+
+    fld: PSField
+
+    @property
+    def bounds(self):
+        return self.fld.bounds
+
+    @property
+    def tubes(self):
+        return self.fld.tubes
+
+    def values(self, p):
+        return self.fld.values(p)
+
+    def grid_values(self, axes):
+        return self.fld.grid_values(axes)
+
+    def derivatives(self, p, hessian=True):
+        return self.fld.derivatives(p, hessian)
+
+
+def test_compiled_kernels_match_generic_paths():
+    """Tube roots, section centres, pair grid, lens candidates and the deepest point:
+    the PSField kernels agree with the generic numpy code to round-off."""
+    p = six_fiber_problem()
+    x = p.x0.copy()
+    x[p.param.free.index("u1")] = 0.4  # overlapping crossings: lens guard active
+    fl = p.fields(x)
+    for f in (fl[0], fl[4]):
+        a, b = tube_sample(f, UNIT, 24, 12), tube_sample(Generic(f), UNIT, 24, 12)
+        assert np.allclose(a.points, b.points, atol=1e-9, rtol=0)
+        assert np.allclose(a.weights, b.weights, rtol=1e-8)
+        assert gauss_bonnet_ends(f, UNIT, 64) == pytest.approx(
+            gauss_bonnet_ends(Generic(f), UNIT, 64), rel=1e-8, abs=1e-10
+        )
+    vols = []
+    for i, j in ((0, 3), (0, 4), (1, 4), (2, 5)):
+        fast = volume_interaction(fl[i], fl[j], UNIT, 0.01)
+        slow = volume_interaction(Generic(fl[i]), Generic(fl[j]), UNIT, 0.01)
+        assert fast == pytest.approx(slow, rel=1e-9, abs=1e-18)
+        vols.append(fast)
+    assert max(vols) > 0
+    # a lens thinner than the grid (two-fiber thin variant just touching)
+    q = two_fiber_problem(seed=5, isovalue=-8.95)
+    a, b = q.fields([1.3, 0.147])
+    fast, slow = (
+        volume_interaction(a, b, UNIT, 0.01),
+        volume_interaction(Generic(a), Generic(b), UNIT, 0.01),
+    )
+    assert fast == pytest.approx(slow, rel=1e-9, abs=1e-18)
+
+
+def test_fused_pair_slope_and_one_step_placement_are_exact():
+    """The slope bound computed inside the pair kernel is the one lens_candidates finds,
+    and the six-fiber build places each model with the bits of the three-step
+    _place(woven_canonical(...)) chain."""
+    from psdesign.forcefield.cases import (
+        R_ALONG_Y,
+        _place,
+        _place_translated,
+        _woven_base,
+        woven_canonical,
+    )
+    from psdesign.forcefield.fields import packed_tables
+    from psdesign.forcefield.kernels import lens_candidates, lens_minima, pair_max_grid
+    from psdesign.forcefield.potentials import _trapezoid_weights, node_axes
+
+    p = six_fiber_problem()
+    x = p.x0.copy()
+    x[p.param.free.index("u1")] = 0.4
+    fl = p.fields(x)
+    a, b = fl[0], fl[4]
+    lo = np.maximum(a.bounds[0], b.bounds[0])
+    hi = np.minimum(a.bounds[1], b.bounds[1])
+    axes = node_axes(lo, hi, 0.005)
+    fa, ma = packed_tables(a.model, axes, a.groups, a.arrays)
+    fb, mb = packed_tables(b.model, axes, b.groups, b.arrays)
+    m, total, slope = pair_max_grid(
+        fa, ma, a.isovalue, a.scale, fb, mb, b.isovalue, b.scale, *_trapezoid_weights(axes)
+    )
+    ref = np.maximum(a.grid_values(axes), b.grid_values(axes))
+    assert np.allclose(m, ref, rtol=0, atol=1e-12) and total > 0
+    steps = [np.abs(np.diff(m, axis=k)).max() for k in range(3)]
+    assert slope == max(steps)
+    v1, i1 = lens_candidates(m)
+    v2, i2 = lens_minima(m, slope)
+    assert len(v1) > 0 and np.array_equal(v1, v2) and np.array_equal(i1, i2)
+    from psdesign.forcefield.fields import term_groups
+
+    deps, group = term_groups(a.model)
+    assert deps.tolist() == [[1, 0, 1], [0, 1, 0], [1, 0, 0], [1, 1, 0]]
+    assert group.tolist() == [0, 1, 2, 3, 3] and not group.flags.writeable
+    assert term_groups(fl[1].model)[0] is deps  # memoized by the non-zero pattern
+    prm = p.params(x)
+    t = np.array([0.41, 0.05, 0.0])
+    for u in (prm["u1"], prm["u2"]):
+        one = _place_translated(_woven_base(prm, u), t, R_ALONG_Y, np.array([0.45, 0, 0]))
+        three = _place(woven_canonical(prm, u, t), R_ALONG_Y, np.array([0.45, 0, 0]))
+        for name in ("mu", "kappa", "H", "alpha", "u", "f", "G", "beta"):
+            assert np.array_equal(getattr(one, name), getattr(three, name)), name
+
+
+def test_shared_tubes_reuse_one_quadrature_per_shape():
+    """The six woven fibers are rigid copies of two shapes (u1, u2): their tube quadrature
+    is computed twice per evaluation (a t_x / t_y move computes none) and equals the
+    direct quadrature of each fiber to round-off."""
+    from dataclasses import replace
+
+    from psdesign.forcefield.fields import SharedTube, Tube
+    from psdesign.forcefield.memo import FiberMemo
+    from psdesign.forcefield.potentials import total_potential
+    from psdesign.forcefield.tube import fiber_gaussian_term, fiber_sample, shared_fiber_sample
+
+    p = six_fiber_problem(n_s=32, n_theta=16)
+    fl = p.fields(p.x0)
+    for f in fl:
+        assert len(f.shared) == len(f.tubes) == 1
+        st, t = f.shared[0], f.tubes[0]
+        assert np.allclose(st.rotation @ st.tube.point + st.offset, t.point, atol=1e-13)
+        a = fiber_sample(f, UNIT, 32, 16, True)
+        b, ends = shared_fiber_sample(f, UNIT, 32, 16, True, True)
+        ia, ib = (np.lexsort(s.points.T.round(8)) for s in (a, b))
+        assert np.allclose(a.points[ia], b.points[ib], atol=1e-12, rtol=0)
+        assert np.allclose(a.weights[ia], b.weights[ib], atol=1e-14, rtol=1e-10)
+        assert np.allclose(a.gradient[ia], b.gradient[ib], atol=1e-9, rtol=1e-10)
+        assert np.allclose(a.hessian[ia], b.hessian[ib], atol=1e-8, rtol=1e-10)
+        assert ends == pytest.approx(fiber_gaussian_term(f, UNIT, a), rel=1e-10, abs=1e-12)
+    keys = {f.shared[0].key() for f in fl}
+    assert len(keys) == 2
+    memo = FiberMemo()
+    pot = total_potential(fl, UNIT, 0.01, n_s=32, n_theta=16, memo=memo)
+    assert memo.misses == 6 + 2  # six fibers, two shared tube quadratures
+    plain = total_potential([replace(f, shared=()) for f in fl], UNIT, 0.01, n_s=32, n_theta=16)
+    assert pot.U == pytest.approx(plain.U, rel=1e-11)
+    assert pot.per_fiber_surface == pytest.approx(plain.per_fiber_surface, rel=1e-9)
+    x = p.x0.copy()
+    x[p.param.free.index("ty")] += 0.01
+    total_potential(p.fields(x), UNIT, 0.01, n_s=32, n_theta=16, memo=memo)
+    assert memo.misses == 8 + 3  # only fibers 4-6 are new; their tubes are shared
+    with pytest.raises(ValueError, match="signed permutation"):
+        SharedTube(fl[0].shared[0].local, fl[0].shared[0].tube, np.diag([1.0, -1, 1]), np.zeros(3))
+    st = fl[0].shared[0]
+    with pytest.raises(ValueError, match="axial offset"):
+        replace(fl[0], shared=(SharedTube(st.local, st.tube, st.rotation, [0.1, 0, 0]),))
+    with pytest.raises(ValueError, match="one SharedTube per tube"):
+        replace(fl[0], tubes=(*fl[0].tubes, Tube(fl[0].tubes[0].point, 0, 0.2)))
+
+
+def test_gaussian_fallback_for_lateral_cut_uses_curvature_not_zero():
+    # A fiber cut by a face parallel to its axis: the end formula does not apply and the
+    # printed term falls back to the area quadrature of K, which needs Hessians even when
+    # the sample was built without them (the usual case for the Gaussian term).
+    from psdesign.forcefield.tube import fiber_gaussian_term
+
+    p = six_fiber_problem()
+    fld = p.fields(p.x0)[0]
+    tube = fld.tubes[0]
+    full = tube_sample(fld, UNIT, 96, 48, curvature=False)
+    lateral = [a for a in range(3) if a != tube.axis][0]
+    inside = full.weights > 0
+    cut_at = float(np.median(full.points[inside, lateral]))
+    lo, hi = np.zeros(3), np.ones(3)
+    hi[lateral] = cut_at
+    dom = (lo, hi)
+    no_hessian = tube_sample(fld, dom, 96, 48, curvature=False)
+    with_hessian = tube_sample(fld, dom, 96, 48, curvature=True)
+    reference = surface_term(with_hessian, "gaussian")
+    assert abs(reference) > 0.05
+    assert fiber_gaussian_term(fld, dom, no_hessian) == pytest.approx(reference, rel=1e-12)
+    assert fiber_gaussian_term(fld, dom, with_hessian) == pytest.approx(reference, rel=1e-12)

@@ -1,0 +1,730 @@
+"""Tests of the study runner: study files, designs, running, resume, faults, CLI."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from study_cases import (
+    BASE,
+    FAC_PARAMS,
+    FACTORIAL,
+    TESTS_DIR,
+    crash_case,
+    failing_case,
+    fake_case,
+    kc_truth,
+    sleepy_case,
+    slow_counting_case,
+    write_study,
+)
+
+from psdesign.study import (
+    SchedulerError,
+    StorageError,
+    StudyError,
+    expand_design,
+    is_timing_column,
+    load_study,
+    run_study,
+)
+from psdesign.study import runner as runner_mod
+from psdesign.study import store as store_mod
+from psdesign.study.progress import Progress
+from psdesign.study.studyfile import parse_study
+
+
+def drop_timing(df: pd.DataFrame) -> pd.DataFrame:
+    return df[[c for c in df.columns if not is_timing_column(c)]]
+
+
+# ----------------------------------------------------------------------------- study files
+
+
+@pytest.mark.parametrize(
+    ("study", "params", "key"),
+    [
+        ('design = "taguchi"', '"generator.porosity" = [0.7]', "study.design"),
+        ('design = "full-factorial"', '"generator.porsity" = [0.7]', "generator.porsity"),
+        ('design = "full-factorial"', '"generator.porosity" = []', "generator.porosity"),
+        ('design = "full-factorial"', "", "parameters"),
+        (
+            'design = "full-factorial"\noutputs = ["k_q"]',
+            '"generator.porosity" = [0.7]',
+            "study.outputs",
+        ),
+        (
+            'design = "full-factorial"\nsolver = "lbm"',
+            '"generator.porosity" = [0.7]',
+            "study.solver",
+        ),
+        ('design = "full-factorial"\nworkers = 3', '"generator.porosity" = [0.7]', "study.workers"),
+        (
+            'design = "latin-hypercube"',
+            '"generator.porosity" = {low = 0.6, high = 0.9}',
+            "study.n_samples",
+        ),
+        (
+            'design = "full-factorial"',
+            '"generator.porosity" = {low = 0.6, high = 0.9}',
+            "generator.porosity",
+        ),
+        (
+            'design = "full-factorial"',
+            '"generator.porosity" = {start = 0.9, stop = 0.6, step = 0.1}',
+            "generator.porosity.step",
+        ),
+        (
+            'design = "sobol"\nn_samples = 4',
+            '"generator.porosity" = {low = 0.9, high = 0.6}',
+            "generator.porosity",
+        ),
+        (
+            'design = "full-factorial"\ntimeout_s = -1',
+            '"generator.porosity" = [0.7]',
+            "study.timeout_s",
+        ),
+        (
+            'design = "full-factorial"\nseeds = [1, 1]',
+            '"generator.porosity" = [0.7]',
+            "study.seeds",
+        ),
+        ('design = "csv"', "", "study.csv"),
+    ],
+)
+def test_invalid_study_names_key(tmp_path, study, params, key):
+    p = write_study(tmp_path, study, params)
+    with pytest.raises(StudyError) as ei:
+        load_study(p)
+    msg = str(ei.value)
+    assert key in msg
+    assert "\n" not in msg
+
+
+def test_unknown_path_lists_known_keys_and_known_optional_key_accepted(tmp_path):
+    p = write_study(tmp_path, 'design = "full-factorial"', '"flow.viscosityy" = [1e-5]')
+    with pytest.raises(StudyError, match="flow.viscosity"):
+        load_study(p)
+    # flow.viscosity is not in the base spec but is a known optional key -> accepted
+    p = write_study(tmp_path, 'design = "full-factorial"', '"flow.viscosity" = [1e-5, 2e-5]')
+    cases = expand_design(load_study(p))
+    assert [c.spec["flow"]["viscosity"] for c in cases] == [1e-5, 2e-5]
+
+
+def test_missing_file_and_base_file(tmp_path):
+    with pytest.raises(StudyError, match="file not found"):
+        load_study(tmp_path / "nope.toml")
+    (tmp_path / "s.toml").write_text('base = "spec.toml"\n[study]\n[parameters]\n"a.b" = [1]\n')
+    with pytest.raises(StudyError, match="^base: spec file not found"):
+        load_study(tmp_path / "s.toml")
+
+
+def test_base_from_relative_file_and_nested_parameter_tables(tmp_path):
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "specs" / "spec.toml").write_text(BASE.replace("[base.", "["))
+    (tmp_path / "s.toml").write_text(
+        textwrap.dedent("""
+        base = "specs/spec.toml"
+        [study]
+        design = "full-factorial"
+        [parameters]
+        generator.porosity = [0.7, 0.8]
+        generator.theta.high = [5.0, 10.0]
+        "rve.size.2" = [50e-6]
+    """)
+    )
+    st = load_study(tmp_path / "s.toml")
+    assert list(st.parameters) == ["generator.porosity", "generator.theta.high", "rve.size.2"]
+    cases = expand_design(st)
+    assert len(cases) == 4
+    c = cases[3]
+    assert c.spec["generator"]["porosity"] == 0.8
+    assert c.spec["generator"]["theta"] == {"dist": "uniform", "low": -5.0, "high": 10.0}
+    assert c.spec["rve"]["size"] == [100e-6, 100e-6, 50e-6]
+    # base spec left untouched
+    assert st.base["generator"]["theta"]["high"] == 5.0
+
+
+def test_full_factorial_expansion(tmp_path):
+    st = load_study(write_study(tmp_path, FACTORIAL, FAC_PARAMS))
+    cases = expand_design(st)
+    assert len(cases) == 3 * 2 * 2
+    got = [(c.params["generator.porosity"], c.params["generator.diameter"], c.seed) for c in cases]
+    want = [(e, d, s) for e in (0.7, 0.8, 0.9) for d in (6e-6, 8e-6) for s in (1, 2)]
+    assert got == want
+    for c in cases:
+        assert c.spec["generator"]["seed"] == c.seed
+        assert c.spec["generator"]["porosity"] == c.params["generator.porosity"]
+        assert c.case_id.startswith(f"c{c.index:04d}-")
+    assert len({c.case_id for c in cases}) == len(cases)
+    # stable ids across loads; any change of the base spec changes them
+    again = expand_design(load_study(tmp_path / "s.toml"))
+    assert [c.case_id for c in again] == [c.case_id for c in cases]
+    st.base["flow"]["aux_length"] = 0.3
+    assert expand_design(st)[0].case_id != cases[0].case_id
+
+
+def test_range_is_inclusive_and_replicates(tmp_path):
+    st = load_study(
+        write_study(
+            tmp_path,
+            'design = "full-factorial"\nreplicates = 3',
+            '"generator.porosity" = {start = 0.6, stop = 0.9, step = 0.1}',
+        )
+    )
+    assert st.parameters["generator.porosity"].values == (0.6, 0.7, 0.8, 0.9)
+    assert st.seeds == [1, 2, 3]  # base generator.seed = 1
+    assert len(expand_design(st)) == 12
+
+
+def test_latin_hypercube_is_stratified_and_reproducible(tmp_path):
+    n = 16
+    st = load_study(
+        write_study(
+            tmp_path,
+            f'design = "latin-hypercube"\nn_samples = {n}\ndesign_seed = 7',
+            '"generator.porosity" = {low = 0.6, high = 0.9}\n'
+            '"generator.n_fibers" = {low = 10, high = 50, type = "int"}\n'
+            '"generator.diameter" = {low = 5e-6, high = 1e-5, dist = "loguniform"}\n',
+        )
+    )
+    cases = expand_design(st)
+    assert len(cases) == n
+    eps = np.array([c.params["generator.porosity"] for c in cases])
+    # LHS: exactly one sample in each of the n equal strata
+    strata = np.floor((eps - 0.6) / 0.3 * n).astype(int)
+    assert sorted(strata) == list(range(n))
+    d = np.array([c.params["generator.diameter"] for c in cases])
+    logstrata = np.floor((np.log(d) - np.log(5e-6)) / np.log(2.0) * n).astype(int)
+    assert sorted(logstrata) == list(range(n))
+    nf = [c.params["generator.n_fibers"] for c in cases]
+    assert all(isinstance(v, int) and 10 <= v <= 50 for v in nf)
+    assert [c.case_id for c in expand_design(load_study(tmp_path / "s.toml"))] == [
+        c.case_id for c in cases
+    ]
+
+
+def test_sobol_bounds_and_seed(tmp_path):
+    params = '"generator.porosity" = {low = 0.6, high = 0.9}\n"flow.aux_length" = [0.1, 0.2]\n'
+    st = load_study(write_study(tmp_path, 'design = "sobol"\nn_samples = 8', params))
+    a = expand_design(st)
+    eps = np.array([c.params["generator.porosity"] for c in a])
+    assert np.all((eps >= 0.6) & (eps < 0.9))
+    # scrambled Sobol with 8 = 2^3 points is a (0, m, s)-net: one point per 1/8 stratum
+    assert sorted(np.floor((eps - 0.6) / 0.3 * 8).astype(int)) == list(range(8))
+    aux = [c.params["flow.aux_length"] for c in a]
+    assert aux.count(0.1) == 4 and aux.count(0.2) == 4
+    st.design_seed = 1
+    b = expand_design(st)
+    assert [c.params for c in b] != [c.params for c in a]
+
+
+def test_csv_design(tmp_path):
+    (tmp_path / "pts.csv").write_text(
+        "generator.porosity,generator.diameter,seed\n0.7,6e-6,3\n0.85,8e-6,4\n"
+    )
+    p = tmp_path / "s.toml"
+    p.write_text(BASE + '[study]\ndesign = "csv"\ncsv = "pts.csv"\n')
+    cases = expand_design(load_study(p))
+    assert [(c.params["generator.porosity"], c.seed) for c in cases] == [(0.7, 3), (0.85, 4)]
+    assert cases[1].spec["generator"]["diameter"] == 8e-6
+    (tmp_path / "bad.csv").write_text("generator.porosty\n0.7\n")
+    p.write_text(BASE + '[study]\ndesign = "csv"\ncsv = "bad.csv"\n')
+    with pytest.raises(StudyError, match="generator.porosty"):
+        load_study(p)
+    (tmp_path / "empty.csv").write_text("generator.porosity\n")
+    p.write_text(BASE + '[study]\ndesign = "csv"\ncsv = "empty.csv"\n')
+    with pytest.raises(StudyError, match="no rows"):
+        load_study(p)
+
+
+# ----------------------------------------------------------------------------- running
+
+
+def test_run_inline_table_matches_truth(tmp_path):
+    p = write_study(tmp_path, FACTORIAL.replace('"k_z"]', '"k_z", "k_tensor"]'), FAC_PARAMS)
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(df) == 12
+    cols = list(df.columns)
+    assert cols[:6] == [
+        "case_id",
+        "index",
+        "generator.porosity",
+        "generator.diameter",
+        "seed",
+        "status",
+    ]
+    assert cols.index("porosity") < cols.index("k_x_m2") < cols.index("k_z_m2")
+    assert "k_zz_m2" in cols and "k_y_m2" not in cols
+    assert (df["status"] == "ok").all()
+    for _, row in df.iterrows():
+        k = kc_truth(row["generator.porosity"], row["generator.diameter"])
+        noise = 1.0 + 0.01 * np.random.default_rng(row["seed"]).standard_normal()
+        assert row["k_x_m2"] == pytest.approx(k * noise, rel=1e-12)
+        assert row["k_z_m2"] == pytest.approx(2 * k * noise, rel=1e-12)
+        assert row["k_zz_m2"] == pytest.approx(2 * k, rel=1e-12)
+        assert row["k_xy_m2"] == 0.0
+        assert row["preview_png"] == f"cases/{row['case_id']}/preview.png"
+    csv = pd.read_csv(out / "results.csv")
+    pq = pd.read_parquet(out / "results.parquet")
+    assert csv["error"].isna().all() and pq["error"].isna().all()
+    pd.testing.assert_frame_equal(
+        csv.drop(columns="error"), pq.drop(columns="error"), check_dtype=False
+    )
+    assert len(list((out / "cases").glob("*.json"))) == 12
+    design = json.loads((out / "study.json").read_text())
+    assert design["n_cases"] == 12 and design["cases"][5]["case_id"] == df["case_id"][5]
+    assert not list(out.rglob("*.tmp")) and not (out / ".lock").exists()
+
+
+def test_pool_and_inline_give_same_table(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    a = run_study(p, tmp_path / "a", workers=0, case_fn=fake_case, progress=False, report=False)
+    b = run_study(p, tmp_path / "b", workers=2, case_fn=fake_case, progress=False, report=False)
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(b))
+    assert len(set(b["pid"])) >= 1 and os.getpid() not in set(b["pid"])
+
+
+def thread_env_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    out["numba_threads"] = int(os.environ.get("NUMBA_NUM_THREADS", "-1"))
+    return out
+
+
+def test_pool_workers_share_the_cpus(tmp_path, monkeypatch):
+    from psdesign.study.runner import THREAD_VARS, threads_per_worker
+
+    assert threads_per_worker(2, cpus=2) == 1
+    assert threads_per_worker(3, cpus=8) == 2
+    assert threads_per_worker(4, cpus=2) == 1
+    for var in THREAD_VARS:
+        monkeypatch.delenv(var, raising=False)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    df = run_study(
+        p, tmp_path / "out", workers=2, case_fn=thread_env_case, progress=False, report=False
+    )
+    assert set(df["numba_threads"]) == {threads_per_worker(2)}
+    assert all(var not in os.environ for var in THREAD_VARS)  # the runner's own env restored
+    # a value the user set is respected
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    df = run_study(
+        p, tmp_path / "out2", workers=2, case_fn=thread_env_case, progress=False, report=False
+    )
+    assert set(df["numba_threads"]) == {1}
+
+
+def test_failed_case_recorded_and_retry(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=failing_case, progress=False, report=False)
+    bad = df[df["generator.porosity"] == 0.8]
+    assert (bad["status"] == "failed").all() and len(bad) == 4
+    assert (bad["error"] == "RuntimeError: mesh failed second line").all()
+    assert (df[df["generator.porosity"] != 0.8]["status"] == "ok").all()
+    assert bad["k_x_m2"].isna().all()
+    cid = bad["case_id"].iloc[0]
+    assert "Traceback" in (out / "cases" / cid / "error.txt").read_text()
+    # plain rerun: nothing to do (failed cases count as finished)
+    df2 = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert (df2["status"] == "failed").sum() == 4
+    # --retry-failed reruns only the failed ones
+    df3 = run_study(
+        p, out, workers=0, case_fn=fake_case, progress=False, report=False, retry_failed=True
+    )
+    assert (df3["status"] == "ok").all()
+    calls = {c: len((out / "cases" / c / "calls.txt").read_text().split()) for c in df3["case_id"]}
+    assert all(n == 1 for n in calls.values())
+
+
+@pytest.mark.slow
+def test_worker_crash_blames_only_the_crashing_case(tmp_path):
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\noutputs = ["porosity", "k_x"]',
+        '"generator.porosity" = [0.7, 0.8, 0.9, 0.75, 0.85]',
+    )
+    df = run_study(p, tmp_path / "out", workers=2, case_fn=crash_case, progress=False, report=False)
+    st = dict(zip(df["generator.porosity"], df["status"], strict=True))
+    assert st == {0.7: "ok", 0.8: "failed", 0.9: "ok", 0.75: "ok", 0.85: "ok"}
+    assert "worker process died" in df.loc[df["generator.porosity"] == 0.8, "error"].iloc[0]
+
+
+def test_timeout_kills_case(tmp_path):
+    import psutil
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\noutputs = ["porosity", "k_x"]',
+        '"generator.porosity" = [0.7, 0.9]',
+    )
+    out = tmp_path / "out"
+    t0 = time.monotonic()
+    df = run_study(
+        p, out, workers=0, case_fn=sleepy_case, progress=False, report=False, timeout_s=3.0
+    )
+    assert time.monotonic() - t0 < 30
+    st = dict(zip(df["generator.porosity"], df["status"], strict=True))
+    assert st == {0.7: "ok", 0.9: "timeout"}
+    row = df[df["status"] == "timeout"].iloc[0]
+    assert "timeout of 3 s" in row["error"]
+    pid = int((out / "cases" / row["case_id"] / "pid.txt").read_text())
+    assert pid != os.getpid()
+    assert not psutil.pid_exists(pid)
+
+
+def test_resume_after_lost_record_runs_only_missing(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    victim = df["case_id"][4]
+    (out / "cases" / f"{victim}.json").unlink()
+    (out / "cases" / "garbage.json").write_text("{not json")  # ignored
+    df2 = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    pd.testing.assert_frame_equal(drop_timing(df), drop_timing(df2))
+    for c in df2["case_id"]:
+        n = len((out / "cases" / c / "calls.txt").read_text().split())
+        assert n == (2 if c == victim else 1)
+
+
+def test_kill_minus_9_and_resume(tmp_path):
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\noutputs = ["porosity", "k_x"]',
+        '"generator.porosity" = {start = 0.5, stop = 0.95, step = 0.05}',
+    )
+    out = tmp_path / "out"
+    code = (
+        f"import sys; sys.path.insert(0, {str(TESTS_DIR)!r})\n"
+        "from psdesign.study import run_study\n"
+        "import study_cases\n"
+        f"run_study({str(p)!r}, {str(out)!r}, workers=1,"
+        " case_fn=study_cases.slow_counting_case, progress=True, report=False)\n"
+    )
+    import psutil
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code],
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    kids: list = []
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if len(list((out / "cases").glob("c*.json"))) >= 3:
+                break
+            time.sleep(0.05)
+        kids = psutil.Process(proc.pid).children(recursive=True)
+        os.kill(proc.pid, signal.SIGKILL)  # kill -9 of the runner only
+        proc.wait(timeout=30)
+        # the pool workers notice the dead parent and exit by themselves (no orphans)
+        gone, alive = psutil.wait_procs(kids, timeout=10)
+        assert not alive
+    finally:
+        for k in kids:
+            try:
+                k.kill()
+            except psutil.NoSuchProcess:
+                pass
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    before = {f.stem: f.read_text() for f in (out / "cases").glob("c*.json")}
+    assert 3 <= len(before) < 10
+    csv_before = pd.read_csv(out / "results.csv")
+    assert set(csv_before["case_id"]) <= set(before)
+    df = run_study(p, out, workers=1, case_fn=slow_counting_case, progress=False, report=False)
+    assert len(df) == 10 and df["case_id"].is_unique and (df["status"] == "ok").all()
+    for cid, text in before.items():  # finished records untouched, not re-run
+        assert (out / "cases" / f"{cid}.json").read_text() == text
+        assert (out / "cases" / cid / "calls.txt").read_text().count("start") == 1
+    assert not (out / ".lock").exists()
+
+
+def test_disk_full_mid_run_keeps_earlier_rows(tmp_path, monkeypatch):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    real = store_mod.atomic_write_bytes
+    state = {"records": 0}
+
+    def flaky(path, data):
+        if path.suffix == ".json" and path.parent.name == "cases":
+            state["records"] += 1
+            if state["records"] == 5:
+                raise StorageError(errno.ENOSPC, f"cannot write {path}: No space left on device")
+        return real(path, data)
+
+    monkeypatch.setattr(store_mod, "atomic_write_bytes", flaky)
+    with pytest.raises(StorageError, match="No space left"):
+        run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    df = pd.read_csv(out / "results.csv")
+    assert len(df) == 4 and (df["status"] == "ok").all()
+    assert len(list((out / "cases").glob("*.json"))) == 4
+    monkeypatch.setattr(store_mod, "atomic_write_bytes", real)
+    df2 = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(df2) == 12
+    cols = ["case_id", "seed", "status", "porosity", "k_x_m2", "k_z_m2", "finished_at"]
+    pd.testing.assert_frame_equal(df2.head(4)[cols], df[cols], check_dtype=False)
+
+
+def test_atomic_write_failure_leaves_old_file(tmp_path, monkeypatch):
+    target = tmp_path / "results.csv"
+    target.write_text("old")
+
+    def boom(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(store_mod.os, "replace", boom)
+    with pytest.raises(StorageError, match="No space left on device; earlier results are intact"):
+        store_mod.atomic_write_bytes(target, b"new")
+    assert target.read_text() == "old"
+    assert list(tmp_path.iterdir()) == [target]
+
+
+@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root ignores chmod")
+def test_read_only_output_folder(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    before = (out / "results.csv").read_text()
+    os.chmod(out, 0o555)
+    try:
+        with pytest.raises(StorageError, match="Permission denied"):
+            run_study(
+                p,
+                out,
+                workers=0,
+                case_fn=fake_case,
+                progress=False,
+                report=False,
+                retry_failed=True,
+            )
+    finally:
+        os.chmod(out, 0o755)
+    assert (out / "results.csv").read_text() == before
+
+
+def test_permission_denied_simulated(tmp_path, monkeypatch):
+    """Root ignores chmod, so also simulate EACCES on every new file in the store."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    before = (out / "results.csv").read_text()
+
+    def denied(path, mode="r", *a, **k):
+        if "w" in mode:
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return open(path, mode, *a, **k)
+
+    monkeypatch.setattr(store_mod, "open", denied, raising=False)
+    with pytest.raises(StorageError, match=r"^\[Errno 13\] cannot write .*Permission denied"):
+        run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert (out / "results.csv").read_text() == before
+    assert not list(out.rglob("*.tmp"))
+
+
+def test_scheduler_not_answering_is_clear_and_harmless(tmp_path, monkeypatch):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    snapshot = {f: f.read_bytes() for f in out.rglob("*") if f.is_file()}
+    monkeypatch.setattr(runner_mod, "CONNECT_TIMEOUT_S", 2.0)
+    with pytest.raises(
+        SchedulerError,
+        match=r"^--scheduler: no Dask scheduler answers at "
+        r"tcp://127.0.0.1:9",
+    ):
+        run_study(p, out, scheduler="tcp://127.0.0.1:9", case_fn=fake_case, progress=False)
+    assert {f: f.read_bytes() for f in out.rglob("*") if f.is_file()} == snapshot
+    with pytest.raises(SchedulerError, match="tcp://HOST:PORT"):
+        run_study(p, out, scheduler="127.0.0.1:9", case_fn=fake_case, progress=False)
+
+
+@pytest.mark.slow
+def test_dask_cluster_on_loopback_same_table(tmp_path):
+    from distributed import LocalCluster
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    a = run_study(p, tmp_path / "a", workers=0, case_fn=fake_case, progress=False, report=False)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        addr = cluster.scheduler_address
+        assert addr.startswith("tcp://127.0.0.1:")
+        b = run_study(
+            p, tmp_path / "b", scheduler=addr, case_fn=fake_case, progress=False, report=False
+        )
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(b))
+    assert os.getpid() not in set(b["pid"])
+    c = run_study(
+        p,
+        tmp_path / "c",
+        workers=2,
+        scheduler="local",
+        case_fn=fake_case,
+        progress=False,
+        report=False,
+    )
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(c))
+
+
+def test_concurrent_run_refused(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    out.mkdir()
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        import socket
+
+        (out / ".lock").write_text(json.dumps({"pid": sleeper.pid, "host": socket.gethostname()}))
+        with pytest.raises(StudyError, match="in use by a running study"):
+            run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    # stale lock (dead pid) is taken over
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(df) == 12
+
+
+def test_bad_arguments(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    with pytest.raises(StudyError, match="^workers"):
+        run_study(p, tmp_path / "o", workers=-1, case_fn=fake_case)
+    with pytest.raises(StudyError, match="^timeout"):
+        run_study(p, tmp_path / "o", timeout_s=0, case_fn=fake_case)
+    assert not (tmp_path / "o").exists()
+
+
+def test_parse_study_rejects_non_table():
+    with pytest.raises(StudyError, match="^study"):
+        parse_study({"base": {"rve": {}}, "study": "x"})
+
+
+# ----------------------------------------------------------------------------- progress + CLI
+
+
+class _Stream:
+    def __init__(self, tty):
+        self.tty, self.text = tty, ""
+
+    def isatty(self):
+        return self.tty
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+def test_progress_plain_lines_and_bar():
+    s = _Stream(False)
+    pr = Progress(4, already_done=1, stream=s)
+    pr.update("c0001-aa", "ok", 1.0)
+    pr.update("c0002-bb", "failed", 0.5, "RuntimeError: x")
+    lines = s.text.strip().splitlines()
+    assert lines[0].startswith("[study] 2/4 c0001-aa ok 1.0 s") and "ETA" in lines[0]
+    assert "3/4 c0002-bb failed 0.5 s (RuntimeError: x)" in lines[1]
+    t = _Stream(True)
+    pr = Progress(2, stream=t)
+    pr.update("c0000-aa", "ok", 1.0)
+    pr.update("c0001-bb", "ok", 1.0)
+    pr.finish()
+    assert "\r[" in t.text and "2/2 100%" in t.text and "ETA 0:00:00" in t.text
+
+
+def test_cli_exit_codes(tmp_path, capsys):
+    from psdesign.cli.study import main
+
+    bad = write_study(tmp_path, 'design = "nope"', '"generator.porosity" = [0.7]', "bad.toml")
+    assert main(["study", "run", str(bad), "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("psdesign: error: study.design: got 'nope'; allowed: full-factorial")
+    assert len(err.splitlines()) == 1
+    good = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7]')
+    out = tmp_path / "o2"
+    rc = main(
+        [
+            "study",
+            "run",
+            str(good),
+            "-o",
+            str(out),
+            "--quiet",
+            "--no-report",
+            "--case-fn",
+            "study_cases:fake_case",
+        ]
+    )
+    assert rc == 0 and len(pd.read_csv(out / "results.csv")) == 2
+    assert main(["study", "report", str(out)]) == 0
+    assert (out / "report.html").is_file()
+    assert main(["study", "report", str(tmp_path / "empty")]) == 2
+
+
+# ----------------------------------------------------------------------------- real pipeline
+
+
+def test_default_pipeline_specs_validated_before_running(tmp_path):
+    pytest.importorskip("psdesign.study.case")
+    # base has generator.porosity; varying n_fibers as well gives both -> the generator refuses
+    p = write_study(tmp_path, 'design = "full-factorial"', '"generator.n_fibers" = [10, 20]')
+    out = tmp_path / "out"
+    with pytest.raises(
+        StudyError,
+        match=r"^parameters: case c0000-\w+ \(generator.n_fibers=10, "
+        r"seed=1\) gives a bad spec: generator",
+    ):
+        run_study(p, out, progress=False)
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_real_pipeline_end_to_end(tmp_path):
+    """Two small voxel cases through psdesign.study.case.run_case (about 30-60 s)."""
+    pytest.importorskip("psdesign.study.case")
+    from psdesign.report import tomadakis_sotirchos
+
+    p = tmp_path / "s.toml"
+    p.write_text(
+        textwrap.dedent("""
+        [base.rve]
+        size = [50e-6, 50e-6, 50e-6]
+        voxel = 2e-6
+        [base.generator]
+        kind = "straight"
+        porosity = 0.8
+        diameter = 7e-6
+        seed = 1
+        [base.flow]
+        solver = "voxel"
+        [study]
+        design = "full-factorial"
+        outputs = ["porosity", "k_z"]
+        solver = "voxel"
+        [parameters]
+        "generator.porosity" = [0.75, 0.85]
+    """)
+    )
+    df = run_study(p, tmp_path / "out", workers=1, progress=False)
+    assert (df["status"] == "ok").all(), df["error"].tolist()
+    assert np.allclose(df["porosity"], df["generator.porosity"], atol=0.02)
+    assert df["k_z_m2"].is_monotonic_increasing
+    # within a factor 2 of the Tomadakis-Sotirchos through-plane curve (coarse voxels)
+    ts = tomadakis_sotirchos(df["porosity"].to_numpy(), 3.5e-6)
+    ratio = df["k_z_m2"].to_numpy() / ts
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 3  # plot + 2 previews
