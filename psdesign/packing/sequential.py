@@ -1,0 +1,460 @@
+"""``fast`` intersection removal: sequential zero-overlap placement on the shift torus (Sec. 7.1).
+
+Fibers are placed one after the other. A fiber stays where it was drawn if its centre lines clear
+every placed fiber by ``(D_i + D_j) / 2 + gap``; otherwise it moves by the smallest shift in its
+lattice plane that clears them. Those shifts form a torus (a shift by a lattice vector maps the
+fiber onto itself), and projected along the fiber axis every placed centre-line piece forbids an
+exact capsule of shifts; the capsules are rasterized on a grid of the torus (numba), so one fiber
+costs O(pieces), not a search. Bent fibers use capsules dilated by the sway of their axis, and may
+also move their bend phase. A fiber that fits nowhere tries a few re-orientations and then ejects
+the fewest placed fibers blocking a position (they are re-queued). Because the rod cross-section
+of Eq. (4) lies inside the circle of the nominal diameter (and a bent rod's slices are shifted rod
+sections), this separation guarantees that no voxel centre is inside two fibers: Omega on the
+voxel grid is exactly 0.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from psdesign.packing.fiberset import (
+    FiberState,
+    Pieces,
+    carrier_lengths,
+    pieces_for,
+)
+
+
+# ------------------------------------------------------------------ fast method
+@dataclass
+class PlacementResult:
+    """Outcome of :func:`place_sequential`.
+
+    Attributes
+    ----------
+    state : FiberState
+        The placed fibers (rejected ones removed).
+    placed : ndarray of int
+        Indices (into the input state) of the fibers kept, in order.
+    rejected : ndarray of int
+        Indices of fibers for which no free position was found.
+    shift : ndarray (n_placed, 3)
+        Translation applied to each kept fiber (normalized).
+    rotation_deg : ndarray (n_placed,)
+        Angle between the drawn and the final direction of each kept fiber.
+    candidates_tested : int
+    wall_time_s : float
+    """
+
+    state: FiberState
+    placed: np.ndarray
+    rejected: np.ndarray
+    shift: np.ndarray
+    rotation_deg: np.ndarray
+    candidates_tested: int
+    wall_time_s: float
+    solid: float = 0.0
+    reached_stop: bool = False
+    n_ejections: int = 0
+
+
+def torus_offsets(step: float) -> np.ndarray:
+    """Lattice-plane shifts (t1, t2) in [-1/2, 1/2)^2 on a grid, nearest to 0 first."""
+    k = max(2, int(np.ceil(1.0 / step)))
+    g = (np.arange(k) - k // 2) / k
+    T = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    return T[np.argsort(np.hypot(T[:, 0], T[:, 1]), kind="stable")]
+
+
+@numba.njit(cache=True)
+def _mark_capsules(free, A, B, lim):  # pragma: no cover - compiled
+    """Clear the grid points (periodic, grid units) closer than lim[m] to segment A[m]B[m]."""
+    k = free.shape[0]
+    half = k // 2
+    for m in range(A.shape[0]):
+        ax, ay, bx, by, r = A[m, 0], A[m, 1], B[m, 0], B[m, 1], lim[m]
+        ex, ey = bx - ax, by - ay
+        L2 = max(ex * ex + ey * ey, 1e-30)
+        i0 = int(np.floor(min(ax, bx) - r))
+        i1 = int(np.ceil(max(ax, bx) + r))
+        j0 = int(np.floor(min(ay, by) - r))
+        j1 = int(np.ceil(max(ay, by) + r))
+        for i in range(i0, i1 + 1):
+            px = i - ax
+            for j in range(j0, j1 + 1):
+                py = j - ay
+                t = (px * ex + py * ey) / L2
+                t = min(1.0, max(0.0, t))
+                dx = px - t * ex
+                dy = py - t * ey
+                if dx * dx + dy * dy < r * r:
+                    free[(i + half) % k, (j + half) % k] = False
+
+
+def _bent_capsules(trial: FiberState, old: Pieces, A, B, lim):
+    """Capsules (projected plane) that hold every shift bringing a bent fiber within lim.
+
+    The new axis sits at ``w(s) l1`` off its carrier (``w = -u cos(2 pi f (s + 1/2) + phase)
+    / (2 pi)``). For an old piece spanning axial range [s_min, s_max] (measured along the
+    new axis), a contact at new-axis parameter s needs ``(s - s_y)^2 + r^2 < lim^2``. The
+    window ``[s_min - lim, s_max + lim]`` is cut into short sub-intervals; on each, the
+    in-plane radius is at most ``sqrt(lim^2 - g^2)`` (g: axial gap to the piece) and w
+    varies within [w_lo, w_hi], giving one capsule shifted by ``-(w_lo + w_hi)/2`` and
+    grown by ``(w_hi - w_lo)/2``. The union over-covers the exact forbidden set (safe).
+    """
+    c, d = trial.center[0], trial.frames[0, 0]
+    u, f, ph = float(trial.u[0]), float(trial.f[0]), float(trial.phase[0])
+    sa, sb = (old.a - c) @ d, (old.b - c) @ d
+    smin, smax = np.minimum(sa, sb), np.maximum(sa, sb)
+    width = min(0.5 * float(lim.min()), 1.0 / (12.0 * f))
+    m = np.maximum(1, np.ceil((smax - smin + 2 * lim) / width).astype(np.int64))
+    rep = np.repeat(np.arange(len(m)), m)
+    j = np.arange(len(rep)) - (np.cumsum(m) - m)[rep]
+    h = ((smax - smin + 2 * lim) / m)[rep]
+    s0 = smin[rep] - lim[rep] + j * h
+    s1 = s0 + h
+    g = np.maximum(0.0, np.maximum(s0 - smax[rep], smin[rep] - s1))
+    r = np.sqrt(np.clip(lim[rep] ** 2 - g**2, 0.0, None))
+    tp = 2 * np.pi
+    th0 = tp * f * (s0 + 0.5) + ph
+    th1 = tp * f * (s1 + 0.5) + ph
+    has_max = np.floor(th1 / tp) >= np.ceil(th0 / tp)
+    has_min = np.floor((th1 - np.pi) / tp) >= np.ceil((th0 - np.pi) / tp)
+    cmax = np.where(has_max, 1.0, np.maximum(np.cos(th0), np.cos(th1)))
+    cmin = np.where(has_min, -1.0, np.minimum(np.cos(th0), np.cos(th1)))
+    w1, w2 = -u * cmax / tp, -u * cmin / tp
+    wlo, whi = np.minimum(w1, w2), np.maximum(w1, w2)
+    keep = g < lim[rep]
+    shift = np.zeros((len(rep), 2))
+    shift[:, 0] = 0.5 * (wlo + whi)
+    A2 = (A[rep] - shift)[keep]
+    B2 = (B[rep] - shift)[keep]
+    return A2, B2, (r + 0.5 * (whi - wlo))[keep], old.fiber[rep][keep]
+
+
+def _capsules(trial: FiberState, old: Pieces, old_d: np.ndarray, gap: float):
+    """Forbidden-shift capsules (A, B, radius, owning fiber) in lattice coordinates."""
+    c = trial.center[0]
+    l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
+    A = np.column_stack([(old.a - c) @ l1, (old.a - c) @ l2])
+    B = np.column_stack([(old.b - c) @ l1, (old.b - c) @ l2])
+    lim = 0.5 * (trial.diameter[0] + old_d[old.fiber]) + gap + old.sag
+    if float(trial.u[0]) != 0.0:
+        return _bent_capsules(trial, old, A, B, lim)
+    return A, B, lim, old.fiber
+
+
+def _free_shift_raster(
+    trial: FiberState, old: Pieces | None, old_d: np.ndarray, gap: float, k: int
+) -> np.ndarray:
+    """Boolean (k, k) grid of lattice-plane shifts of a straight fiber that clear ``old``.
+
+    Grid cell (i, j) is the shift ``((i - k//2)/k) l1 + ((j - k//2)/k) l2``. A straight
+    line is within ``limit`` of a segment iff, projected along the line direction onto
+    the (l1, l2) plane, the shift lies within ``limit`` of the projected segment; so each
+    old piece forbids a capsule, marked exactly at the grid points of a window around it
+    (periodic in both lattice coordinates).
+    """
+    free = np.ones((k, k), bool)
+    if old is None or len(old.fiber) == 0:
+        return free
+    A, B, lim, _ = _capsules(trial, old, old_d, gap)
+    A, B, lim = A * k, B * k, lim * k  # grid units
+    _mark_capsules(free, A, B, lim)
+    return free
+
+
+def place_sequential(
+    st: FiberState,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    gap: float = 0.0,
+    step: float | None = None,
+    max_rotation_deg: float = 0.0,
+    orientation_tries: int = 0,
+    seed: int = 0,
+    on_reject: str = "skip",
+    area: np.ndarray | None = None,
+    stop_solid: float | None = None,
+    max_consecutive_rejects: int | None = None,
+    max_shift_z: float | None = None,
+    max_ejections: int = 6,
+) -> PlacementResult:
+    """Intersection-free fibers by sequential minimal shifts on the lattice torus.
+
+    Fibers are taken in order; fixed fibers are obstacles from the start. Each movable
+    fiber is kept where it was drawn if it clears every fiber already placed by
+    ``(D_i + D_j)/2 + gap``; otherwise it is translated by the smallest shift
+    ``t1 l1 + t2 l2`` in its lattice plane (l1, l2: the unit lattice vectors of its
+    periodic copies, so the shifts form a torus ``[-1/2, 1/2)^2`` and cover every distinct
+    position) that clears them. The free shifts are found on a grid of the torus by
+    projecting every placed centre-line piece along the new fiber's axis: a straight line
+    is within ``limit`` of a segment iff the shift lies in the projected segment's capsule
+    (bent fibers: dilated by the sway of their axis), so each piece marks an exact capsule
+    of forbidden grid points; the free grid point nearest to the drawn position is taken.
+    Bent fibers also try moving their bend phase by quarter wavelengths.
+    Orientations are unchanged unless no shift works, in which case up to
+    ``orientation_tries`` random re-orientations within ``+-max_rotation_deg`` are tried.
+
+    Parameters
+    ----------
+    st : FiberState
+        Drawn fibers (not modified).
+    lo, hi : ndarray (3,)
+        The box (normalized).
+    gap : float
+        Minimum surface gap (normalized); negative allows a contact overlap of ``-gap``.
+    step : float, optional
+        Grid step of the shift search (default: min diameter / 4).
+    on_reject : {"skip", "raise"}
+        What to do with a fiber that fits nowhere: leave it out, or stop and return the
+        fibers placed so far (``rejected`` then lists the first failure).
+    area, stop_solid : optional
+        Cross-section area of each fiber (normalized); placement stops once the placed
+        solid ``sum(area_i * carrier length_i in box) / box volume`` reaches ``stop_solid``.
+    max_consecutive_rejects : int, optional
+        Stop after this many fibers in a row found no place (the packing is jammed).
+    max_ejections : int
+        A fiber that fits nowhere may eject the placed fibers blocking its least blocked
+        position; they go back to the front of the queue. Each fiber can be ejected at
+        most this often (0 disables ejection).
+    max_shift_z : float, optional
+        Largest allowed z component of a shift (normalized), to keep a drawn through-plane
+        position distribution (e.g. beta z translations, Fig. 17); in-plane moves stay
+        free. Default: the whole lattice torus.
+    """
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    n = len(st)
+    if n == 0:
+        return PlacementResult(
+            st.copy(), np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), 0, 0.0
+        )
+    dmin_all = float(st.diameter.min())
+    step = dmin_all / 4.0 if step is None else step
+    T = torus_offsets(step)
+    k_grid = max(2, int(np.ceil(1.0 / step)))
+    tidx = (np.round(T * k_grid).astype(np.int64) + k_grid // 2) % k_grid
+    cut = float(st.diameter.max()) + max(gap, 0.0)
+    piece = max(0.5 * cut, 0.005)
+    out = st.copy()
+    old: Pieces | None = None
+    tested = 0
+    box_volume = float(np.prod(hi - lo))
+    placed: list[int] = []
+    rejected: list[int] = []
+    contrib: dict[int, float] = {}
+    ejected = np.zeros(n, np.int64)
+    streak = 0
+    stopped = False
+
+    def add_old(idx) -> None:
+        nonlocal old
+        idx = np.atleast_1d(idx)
+        pc = pieces_for(out.subset(idx), lo, hi, gap, piece)
+        pc.fiber = idx[pc.fiber]
+        if area is not None:
+            lengths = carrier_lengths(out.subset(idx), lo, hi)
+            for k, v in zip(idx, area[idx] * lengths / box_volume, strict=True):
+                contrib[int(k)] = float(v)
+        old = pc if old is None else _concat_pieces(old, pc)
+
+    def remove_old(idx: np.ndarray) -> None:
+        nonlocal old
+        keep = ~np.isin(old.fiber, idx)
+        old = Pieces(
+            a=old.a[keep],
+            b=old.b[keep],
+            fiber=old.fiber[keep],
+            copy=old.copy[keep],
+            sag=old.sag[keep],
+            s_mid=old.s_mid[keep],
+            copy_len=old.copy_len,
+            copy_fiber=old.copy_fiber,
+        )
+        for k in idx:
+            contrib.pop(int(k), None)
+            placed.remove(int(k))
+
+    def accept(i: int, c_new: np.ndarray, trial: FiberState) -> None:
+        out.center[i] = c_new
+        out.theta[i], out.omega[i] = trial.theta[0], trial.omega[0]
+        out.frames[i] = trial.frames[0]
+        placed.append(i)
+        add_old(i)
+
+    fixed_idx = np.flatnonzero(st.fixed)
+    if len(fixed_idx):
+        placed.extend(int(k) for k in fixed_idx)
+        add_old(fixed_idx)
+    queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
+    while queue:
+        if stop_solid is not None and sum(contrib.values()) >= stop_solid:
+            stopped = True
+            break
+        if max_consecutive_rejects is not None and streak >= max_consecutive_rejects:
+            break
+        i = queue.popleft()
+        found = None
+        base = st.subset([i])
+        # tries: the drawn orientation (bent fibers also with their bend phase moved by
+        # quarter wavelengths along the axis), then random re-orientations
+        tries = [(0.0, 0.0, 0.0)]
+        if base.u[0] != 0.0:
+            tries += [(0.0, 0.0, q / base.f[0]) for q in (0.25, 0.5, 0.75)]
+        if max_rotation_deg > 0:
+            tries += [
+                (
+                    rng.uniform(-max_rotation_deg, max_rotation_deg),
+                    rng.uniform(-max_rotation_deg, max_rotation_deg),
+                    0.0,
+                )
+                for _ in range(orientation_tries)
+            ]
+        for dth, dom, ds in tries:
+            trial = base.copy()
+            if dth or dom:
+                trial.theta += dth
+                trial.omega += dom
+                trial.refresh_frames()
+            trial.center[0] += ds * trial.frames[0, 0]
+            l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
+            tested += len(T)
+            free = _free_shift_raster(trial, old, out.diameter, gap, k_grid)
+            ok = free[tidx[:, 0], tidx[:, 1]]
+            if max_shift_z is not None:
+                ok &= np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) <= max_shift_z + 1e-12
+            if np.any(ok):
+                k = int(np.argmax(ok))
+                found = (trial.center[0] + T[k, 0] * l1 + T[k, 1] * l2, trial)
+                break
+        if found is None and max_ejections > 0:
+            # eject the fewest placed fibers that block a position; they are re-queued
+            c_new, blockers = _least_blocked(
+                base, old, out.diameter, st.fixed, gap, T, max_shift_z, k_grid, tidx
+            )
+            if c_new is not None and np.all(ejected[blockers] < max_ejections):
+                ejected[blockers] += 1
+                remove_old(blockers)
+                queue.extendleft(int(b) for b in blockers[::-1])
+                found = (c_new, base)
+        if found is None:
+            rejected.append(i)
+            streak += 1
+            if on_reject == "raise":
+                break
+            continue
+        streak = 0
+        accept(i, *found)
+    keep = np.array(placed, dtype=np.int64)
+    final = out.subset(keep)
+    shift = final.center - st.center[keep]
+    cosang = np.abs(np.einsum("ij,ij->i", final.direction, st.direction[keep]))
+    return PlacementResult(
+        state=final,
+        placed=keep,
+        rejected=np.array(rejected, dtype=np.int64),
+        shift=shift,
+        rotation_deg=np.degrees(np.arccos(np.clip(cosang, 0.0, 1.0))),
+        candidates_tested=tested,
+        wall_time_s=time.perf_counter() - t0,
+        solid=sum(contrib.values()),
+        reached_stop=stopped or (stop_solid is not None and sum(contrib.values()) >= stop_solid),
+        n_ejections=int(ejected.sum()),
+    )
+
+
+def _concat_pieces(p: Pieces, q: Pieces) -> Pieces:
+    return Pieces(
+        a=np.r_[p.a, q.a],
+        b=np.r_[p.b, q.b],
+        fiber=np.r_[p.fiber, q.fiber],
+        copy=np.r_[p.copy, q.copy],
+        sag=np.r_[p.sag, q.sag],
+        s_mid=np.r_[p.s_mid, q.s_mid],
+        copy_len=p.copy_len,
+        copy_fiber=p.copy_fiber,
+    )
+
+
+def _least_blocked(
+    trial: FiberState,
+    old: Pieces | None,
+    old_d: np.ndarray,
+    fixed: np.ndarray,
+    gap: float,
+    T: np.ndarray,
+    max_shift_z: float | None,
+    k: int,
+    tidx,
+):
+    """Shift (nearest first) blocked by the fewest movable fibers, and those fibers.
+
+    Returns ``(None, None)`` if every shift is blocked by a fixed fiber.
+    """
+    if old is None or len(old.fiber) == 0:
+        return None, None
+    c = trial.center[0]
+    l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
+    A, B, lim, owner = _capsules(trial, old, old_d, gap)
+    count = np.zeros((k, k), np.int64)
+    stamp = np.full((k, k), -1, np.int64)
+    weight = np.where(fixed[owner], 1 << 30, 1).astype(np.int64)
+    _count_capsules(count, stamp, A * k, B * k, lim * k, owner.astype(np.int64), weight)
+    cnt = count[tidx[:, 0], tidx[:, 1]]
+    if max_shift_z is not None:
+        far = np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) > max_shift_z + 1e-12
+        cnt = np.where(far, np.iinfo(np.int64).max, cnt)
+    j = int(np.argmin(cnt))  # first minimum = nearest
+    if cnt[j] >= 1 << 30:
+        return None, None
+    hit = _capsule_hits(T[j], A, B, lim)
+    fibers = np.unique(owner[hit])
+    if np.any(fixed[fibers]):
+        return None, None
+    return c + T[j, 0] * l1 + T[j, 1] * l2, fibers
+
+
+@numba.njit(cache=True)
+def _count_capsules(count, stamp, A, B, lim, owner, weight):  # pragma: no cover - compiled
+    """Per grid point, the (weighted) number of distinct owners whose capsules contain it.
+
+    Capsules of one owner must be contiguous; ``stamp`` remembers the last owner counted.
+    """
+    k = count.shape[0]
+    half = k // 2
+    for m in range(A.shape[0]):
+        ax, ay, bx, by, r = A[m, 0], A[m, 1], B[m, 0], B[m, 1], lim[m]
+        ex, ey = bx - ax, by - ay
+        L2 = max(ex * ex + ey * ey, 1e-30)
+        for i in range(int(np.floor(min(ax, bx) - r)), int(np.ceil(max(ax, bx) + r)) + 1):
+            px = i - ax
+            for j in range(int(np.floor(min(ay, by) - r)), int(np.ceil(max(ay, by) + r)) + 1):
+                py = j - ay
+                t = min(1.0, max(0.0, (px * ex + py * ey) / L2))
+                dx = px - t * ex
+                dy = py - t * ey
+                if dx * dx + dy * dy < r * r:
+                    ii = (i + half) % k
+                    jj = (j + half) % k
+                    if stamp[ii, jj] != owner[m]:
+                        stamp[ii, jj] = owner[m]
+                        count[ii, jj] += weight[m]
+
+
+def _capsule_hits(t: np.ndarray, A, B, lim) -> np.ndarray:
+    """Capsules (segments A-B grown by lim, periodic with period 1) that contain point t."""
+    ab = B - A
+    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30)
+    # nearest periodic image of t to each capsule's midpoint
+    mid = 0.5 * (A + B)
+    tt = t + np.round(mid - t)
+    p = tt - A
+    s = np.clip(np.einsum("ij,ij->i", p, ab) / L2, 0.0, 1.0)
+    d = p - s[:, None] * ab
+    return np.einsum("ij,ij->i", d, d) < lim * lim
