@@ -22,6 +22,7 @@ import numpy as np
 
 from psdesign.forcefield.kernels import fill_tables, model_arrays
 from psdesign.geometry.model import TWO_PI, GeneralizedPS
+from psdesign.geometry.ps_kernel import psi_point, psi_value
 
 
 class NoFiberError(ValueError):
@@ -49,65 +50,32 @@ class ImplicitField(Protocol):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]: ...
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True)
 def _derivs_kernel(
     pts, mu, kappa, H, alpha, minor_term, u, f, G, beta, want_hess
 ):  # pragma: no cover
-    npts, n, k = pts.shape[0], mu.shape[0], u.shape[0]
-    two_pi = 2.0 * np.pi
+    m = (mu, kappa, H, alpha, minor_term, u, f, G, beta)
+    npts = pts.shape[0]
     val = np.zeros(npts)
     grad = np.zeros((npts, 3))
     hess = np.zeros((npts, 3, 3)) if want_hess else np.zeros((0, 3, 3))
-    dph = np.zeros(3)
-    hph = np.zeros((3, 3))
+    g = np.zeros(3)
+    hs = np.zeros((3, 3))
+    order = 2 if want_hess else 1
     for p in range(npts):
-        x0, x1, x2 = pts[p, 0], pts[p, 1], pts[p, 2]
-        for i in range(n):
-            kk = two_pi * kappa[i]
-            ph = kk * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
-            for a in range(3):
-                dph[a] = kk * H[i, a]
-                for b in range(3):
-                    hph[a, b] = 0.0
-            for j in range(k):
-                if minor_term[j] != i:
-                    continue
-                ff = two_pi * f[j]
-                th = ff * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
-                ct = u[j] * np.cos(th)
-                st = u[j] * np.sin(th)
-                ph += ct
-                for a in range(3):
-                    dph[a] -= st * ff * G[j, a]
-                    if want_hess:
-                        for b in range(3):
-                            hph[a, b] -= ct * ff * ff * G[j, a] * G[j, b]
-            c = mu[i] * np.cos(ph)
-            s = mu[i] * np.sin(ph)
-            val[p] += c
-            for a in range(3):
-                grad[p, a] -= s * dph[a]
-                if want_hess:
-                    for b in range(3):
-                        hess[p, a, b] -= c * dph[a] * dph[b] + s * hph[a, b]
+        val[p] = psi_point(m, pts[p, 0], pts[p, 1], pts[p, 2], g, hs, order)
+        grad[p] = g
+        if want_hess:
+            hess[p] = hs
     return val, grad, hess
 
 
 @numba.njit(cache=True)
 def _value_kernel(pts, mu, kappa, H, alpha, minor_term, u, f, G, beta):  # pragma: no cover
-    npts, n, k = pts.shape[0], mu.shape[0], u.shape[0]
-    two_pi = 2.0 * np.pi
-    val = np.zeros(npts)
-    for p in range(npts):
-        x0, x1, x2 = pts[p, 0], pts[p, 1], pts[p, 2]
-        for i in range(n):
-            ph = two_pi * kappa[i] * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
-            for j in range(k):
-                if minor_term[j] == i:
-                    ph += u[j] * np.cos(
-                        two_pi * f[j] * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
-                    )
-            val[p] += mu[i] * np.cos(ph)
+    m = (mu, kappa, H, alpha, minor_term, u, f, G, beta)
+    val = np.zeros(pts.shape[0])
+    for p in range(pts.shape[0]):
+        val[p] = psi_value(m, pts[p, 0], pts[p, 1], pts[p, 2])
     return val
 
 

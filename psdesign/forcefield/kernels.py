@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from psdesign.geometry.model import GeneralizedPS
+from psdesign.geometry.ps_kernel import psi_point, term_phase
 
 #: status codes returned by :func:`section_roots`
 OK, NO_SOLID, BEYOND_RADIUS, NOT_CONVERGED = 0, 1, 2, 3
@@ -38,64 +39,6 @@ def model_arrays(model: GeneralizedPS) -> tuple:
     )
 
 
-@numba.njit(cache=True)
-def psi_at(m, x0, x1, x2, g, hs, order):  # pragma: no cover
-    """psi at one point; fills ``g`` (order >= 1) and ``hs`` (order 2, 3x3)."""
-    mu, kappa, H, alpha, minor_term, u, f, G, beta = m
-    two_pi = 2.0 * np.pi
-    val = 0.0
-    if order >= 1:
-        g[0] = g[1] = g[2] = 0.0
-    if order >= 2:
-        for a in range(3):
-            for b in range(3):
-                hs[a, b] = 0.0
-    for i in range(mu.shape[0]):
-        kk = two_pi * kappa[i]
-        ph = kk * (H[i, 0] * x0 + H[i, 1] * x1 + H[i, 2] * x2 + alpha[i])
-        d0, d1, d2 = kk * H[i, 0], kk * H[i, 1], kk * H[i, 2]
-        h00 = h01 = h02 = h11 = h12 = h22 = 0.0
-        for j in range(u.shape[0]):
-            if minor_term[j] != i:
-                continue
-            ff = two_pi * f[j]
-            th = ff * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
-            ct = u[j] * math.cos(th)
-            ph += ct
-            if order >= 1:
-                st = u[j] * math.sin(th) * ff
-                d0 -= st * G[j, 0]
-                d1 -= st * G[j, 1]
-                d2 -= st * G[j, 2]
-            if order >= 2:
-                c2 = ct * ff * ff
-                h00 -= c2 * G[j, 0] * G[j, 0]
-                h01 -= c2 * G[j, 0] * G[j, 1]
-                h02 -= c2 * G[j, 0] * G[j, 2]
-                h11 -= c2 * G[j, 1] * G[j, 1]
-                h12 -= c2 * G[j, 1] * G[j, 2]
-                h22 -= c2 * G[j, 2] * G[j, 2]
-        c = mu[i] * math.cos(ph)
-        val += c
-        if order >= 1:
-            s = mu[i] * math.sin(ph)
-            g[0] -= s * d0
-            g[1] -= s * d1
-            g[2] -= s * d2
-            if order >= 2:
-                hs[0, 0] -= c * d0 * d0 + s * h00
-                hs[0, 1] -= c * d0 * d1 + s * h01
-                hs[0, 2] -= c * d0 * d2 + s * h02
-                hs[1, 1] -= c * d1 * d1 + s * h11
-                hs[1, 2] -= c * d1 * d2 + s * h12
-                hs[2, 2] -= c * d2 * d2 + s * h22
-    if order >= 2:
-        hs[1, 0] = hs[0, 1]
-        hs[2, 0] = hs[0, 2]
-        hs[2, 1] = hs[1, 2]
-    return val
-
-
 # ------------------------------------------------------------------ tube sections
 @numba.njit(cache=True)
 def section_centres(m, base, e1, e2):  # pragma: no cover
@@ -111,7 +54,7 @@ def section_centres(m, base, e1, e2):  # pragma: no cover
     for k in range(n):
         c0, c1, c2 = base[k, 0], base[k, 1], base[k, 2]
         for _ in range(12):
-            psi_at(m, c0, c1, c2, g, hs, 2)
+            psi_point(m, c0, c1, c2, g, hs, 2)
             ga = g[0] * e1[0] + g[1] * e1[1] + g[2] * e1[2]
             gb = g[0] * e2[0] + g[1] * e2[1] + g[2] * e2[2]
             haa = hab = hba = hbb = 0.0
@@ -155,14 +98,14 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
     hs = np.zeros((3, 3))
     vmax = 1.0
     for k in range(ns):
-        vc[k] = scale * (psi_at(m, c[k, 0], c[k, 1], c[k, 2], g, hs, 0) - iso)
+        vc[k] = scale * (psi_point(m, c[k, 0], c[k, 1], c[k, 2], g, hs, 0) - iso)
         if vc[k] >= 0:
             return rho, vc, NO_SOLID
         vmax = max(vmax, abs(vc[k]))
     for k in range(ns):
         for j in range(nt):
             vout = scale * (
-                psi_at(
+                psi_point(
                     m,
                     c[k, 0] + radius * e[j, 0],
                     c[k, 1] + radius * e[j, 1],
@@ -176,7 +119,7 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
             if vout <= 0:
                 return rho, vc, BEYOND_RADIUS
     for k in range(ns):
-        psi_at(m, c[k, 0], c[k, 1], c[k, 2], g, hs, 2)
+        psi_point(m, c[k, 0], c[k, 1], c[k, 2], g, hs, 2)
         hc = hs.copy()
         for j in range(nt):
             e0, e1_, e2_ = e[j, 0], e[j, 1], e[j, 2]
@@ -193,7 +136,7 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
             v = 0.0
             for _ in range(max_iter):
                 v = scale * (
-                    psi_at(m, c[k, 0] + r * e0, c[k, 1] + r * e1_, c[k, 2] + r * e2_, g, hs, 1)
+                    psi_point(m, c[k, 0] + r * e0, c[k, 1] + r * e1_, c[k, 2] + r * e2_, g, hs, 1)
                     - iso
                 )
                 dv = scale * (g[0] * e0 + g[1] * e1_ + g[2] * e2_)
@@ -222,8 +165,7 @@ def section_roots(m, iso, scale, c, e, radius, max_iter):  # pragma: no cover
 def fill_tables(m, group, deps, meta, ax, ay, az, size):  # pragma: no cover
     """Values of :func:`.fields.packed_tables`: table ``t`` at node (i, j, k) of its
     broadcast shape holds ``sum_{group[i] = t} mu_i cos(Phi_i)``."""
-    mu, kappa, H, alpha, minor_term, u, f, G, beta = m
-    two_pi = 2.0 * np.pi
+    mu = m[0]
     flat = np.zeros(size)
     for t in range(deps.shape[0]):
         nx = ax.shape[0] if deps[t, 0] else 1
@@ -237,21 +179,8 @@ def fill_tables(m, group, deps, meta, ax, ay, az, size):  # pragma: no cover
                     x2 = az[k] if deps[t, 2] else 0.0
                     val = 0.0
                     for n in range(mu.shape[0]):
-                        if group[n] != t:
-                            continue
-                        ph = (
-                            two_pi
-                            * kappa[n]
-                            * (H[n, 0] * x0 + H[n, 1] * x1 + H[n, 2] * x2 + alpha[n])
-                        )
-                        for q in range(u.shape[0]):
-                            if minor_term[q] == n:
-                                ph += u[q] * math.cos(
-                                    two_pi
-                                    * f[q]
-                                    * (G[q, 0] * x0 + G[q, 1] * x1 + G[q, 2] * x2 + beta[q])
-                                )
-                        val += mu[n] * math.cos(ph)
+                        if group[n] == t:
+                            val += mu[n] * math.cos(term_phase(m, n, x0, x1, x2))
                     flat[meta[t, 0] + i * meta[t, 1] + j * meta[t, 2] + k * meta[t, 3]] = val
     return flat
 
@@ -442,16 +371,16 @@ def deepest_point(ma, iso_a, sc_a, mb, iso_b, sc_b, x0, reach):  # pragma: no co
     ha = np.zeros((3, 3))
     hb = np.zeros((3, 3))
     x = x0.copy()
-    psi_at(ma, x[0], x[1], x[2], ga, ha, 1)
-    psi_at(mb, x[0], x[1], x[2], gb, hb, 1)
+    psi_point(ma, x[0], x[1], x[2], ga, ha, 1)
+    psi_point(mb, x[0], x[1], x[2], gb, hb, 1)
     na = sc_a * math.sqrt(ga[0] ** 2 + ga[1] ** 2 + ga[2] ** 2)
     nb = sc_b * math.sqrt(gb[0] ** 2 + gb[1] ** 2 + gb[2] ** 2)
     lam = na / max(nb, 1e-30)
     J = np.zeros((4, 4))
     F = np.zeros(4)
     for _ in range(30):
-        va = sc_a * (psi_at(ma, x[0], x[1], x[2], ga, ha, 2) - iso_a)
-        vb = sc_b * (psi_at(mb, x[0], x[1], x[2], gb, hb, 2) - iso_b)
+        va = sc_a * (psi_point(ma, x[0], x[1], x[2], ga, ha, 2) - iso_a)
+        vb = sc_b * (psi_point(mb, x[0], x[1], x[2], gb, hb, 2) - iso_b)
         for a in range(3):
             F[a] = sc_a * ga[a] + lam * sc_b * gb[a]
             for b in range(3):

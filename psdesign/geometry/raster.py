@@ -9,22 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-TWO_PI = 2.0 * np.pi
-
-
-@njit(cache=True, fastmath=False)
-def _psi(x0, x1, x2, mu, kappa, H, alpha, minor_term, u, f, G, beta):
-    """Generalized PS model at one point (same formula as GeneralizedPS.evaluate)."""
-    total = 0.0
-    for m in range(mu.shape[0]):
-        phase = TWO_PI * kappa[m] * (H[m, 0] * x0 + H[m, 1] * x1 + H[m, 2] * x2 + alpha[m])
-        for j in range(u.shape[0]):
-            if minor_term[j] == m:
-                phase += u[j] * np.cos(
-                    TWO_PI * f[j] * (G[j, 0] * x0 + G[j, 1] * x1 + G[j, 2] * x2 + beta[j])
-                )
-        total += mu[m] * np.cos(phase)
-    return total
+from psdesign.geometry.ps_kernel import psi_value
 
 
 @njit(cache=True, parallel=True)
@@ -71,6 +56,7 @@ def rasterize_copy(
     n0 = distance.shape[o0]
     n1 = distance.shape[o1]
     r2 = radius * radius
+    model = (mu, kappa, H, alpha, minor_term, u, f, G, beta)
     for ik in prange(nk):
         xk = (ik + 0.5) * h[k]
         s = (xk - p[k]) / d[k]
@@ -108,9 +94,7 @@ def rasterize_copy(
                     b_ -= np.round(b_)
                     val = np.sqrt(a_ * a_ + b_ * b_) - cyl_radius
                 else:
-                    val = (
-                        _psi(x[0], x[1], x[2], mu, kappa, H, alpha, minor_term, u, f, G, beta) - iso
-                    ) / grad
+                    val = (psi_value(model, x[0], x[1], x[2]) - iso) / grad
                 clipped = min(val, margin)
                 i, j, l_ = idx[0], idx[1], idx[2]
                 if clipped < distance[i, j, l_]:
