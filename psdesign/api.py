@@ -1,0 +1,202 @@
+"""The Python API for scripts and notebooks: build a material from a spec, ask for its properties.
+
+>>> import psdesign
+>>> spec = {"rve": {"size": [20e-6, 20e-6, 20e-6], "voxel": 1e-6},
+...         "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}]}
+>>> m = psdesign.build(spec)
+>>> round(m.porosity, 2)
+0.87
+
+Results are dataclasses with a readable ``repr`` (and ``_repr_html_`` for notebooks); the full
+result dict of the route stays in ``details``.
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Material", "PermeabilityResult", "build", "load_spec", "run_study"]
+
+
+def load_spec(path: str | Path) -> dict:
+    """Read and validate an RVE spec file (TOML); raises ``SpecError`` naming the key."""
+    from psdesign.schema.spec import load_spec as _load
+
+    return _load(path)
+
+
+@dataclass(frozen=True)
+class PermeabilityResult:
+    """Permeability along one axis, with its trust indicators.
+
+    Attributes
+    ----------
+    direction : str
+    permeability_m2 : float
+        K in m^2 (superficial velocity, Darcy's law).
+    converged : bool
+    status : str
+        ``"ok"``, ``"not_converged"`` or ``"untrustworthy"`` (see ``details["warnings"]``).
+    rel_error : float or None
+        Estimated relative error of K (``permeability_rel_error``), when the route gives one.
+    solver, bc : str
+    porosity : float
+    details : dict
+        Everything the route returned (iterations, residual, flux imbalance, timings, ...).
+    """
+
+    direction: str
+    permeability_m2: float
+    converged: bool
+    status: str
+    rel_error: float | None
+    solver: str
+    bc: str
+    porosity: float
+    details: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> PermeabilityResult:
+        converged = bool(d.get("converged", False))
+        status = d.get("status") or ("ok" if converged else "not_converged")
+        rel = d.get("permeability_rel_error")
+        return cls(
+            direction=str(d["direction"]),
+            permeability_m2=float(d["permeability_m2"]),
+            converged=converged,
+            status=str(status),
+            rel_error=None if rel is None else float(rel),
+            solver=str(d.get("solver", "")),
+            bc=str(d.get("bc", "")),
+            porosity=float(d.get("porosity", float("nan"))),
+            details=dict(d),
+        )
+
+    def _repr_html_(self) -> str:
+        err = "n/a" if self.rel_error is None else f"&plusmn; {100 * self.rel_error:.2g} %"
+        rows = [
+            ("direction", self.direction),
+            ("K (m<sup>2</sup>)", f"{self.permeability_m2:.4e}"),
+            ("error estimate", err),
+            ("status", self.status),
+            ("solver / bc", f"{self.solver} / {self.bc}"),
+            ("porosity", f"{self.porosity:.4f}"),
+        ]
+        body = "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in rows)
+        return f"<table>{body}</table>"
+
+
+class Material:
+    """An RVE built from a spec: geometry, voxel fields on demand, properties on request.
+
+    Parameters
+    ----------
+    spec : dict
+        A validated spec (see :func:`build`).
+    """
+
+    def __init__(self, spec: dict) -> None:
+        from psdesign.packing.build import build_rve
+
+        self.spec = spec
+        self._built = build_rve(spec)
+        self._fields = None
+
+    @property
+    def rve(self):
+        """The :class:`~psdesign.geometry.rve.RVE` (box and fibers, SI units)."""
+        return self._built.rve
+
+    @property
+    def generation_report(self) -> dict:
+        """What the generator did (target and reached porosity, intersection removal, ...)."""
+        return dict(self._built.report)
+
+    @property
+    def fields(self):
+        """Voxel fields at ``rve.voxel`` (signed distance, fiber counts), computed once."""
+        if self._fields is None:
+            self._fields = self._built.voxelize(self.spec["rve"]["voxel"])
+        return self._fields
+
+    @property
+    def porosity(self) -> float:
+        """Pore volume fraction on the voxel grid."""
+        return self.fields.porosity
+
+    def permeability(
+        self, direction: str = "z", solver: str | None = None, bc: str | None = None, **flow: Any
+    ) -> PermeabilityResult:
+        """Permeability along ``direction`` ('x', 'y' or 'z').
+
+        ``solver`` ('fem' | 'voxel'), ``bc`` ('permeameter' | 'periodic') and any other
+        ``[flow]`` key given as a keyword override the spec's ``[flow]`` table.
+        """
+        from psdesign.flow.permeability import permeability
+
+        table = dict(self.spec["flow"])
+        table.update(flow)
+        if bc is not None:
+            table["bc"] = bc
+        result = permeability(self.rve, self.fields, direction, table, solver=solver)
+        return PermeabilityResult.from_dict(result)
+
+    def __repr__(self) -> str:
+        size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)
+        return f"Material({size} um, {len(self.rve.fibers)} fibers)"
+
+
+def build(spec: dict | str | Path) -> Material:
+    """Build a material from a spec dict or a spec file; the spec is validated first."""
+    from psdesign.schema.spec import validate_spec
+
+    spec = load_spec(spec) if isinstance(spec, str | Path) else validate_spec(spec)
+    return Material(spec)
+
+
+def _unguarded_call_in_main_script(name: str) -> bool:
+    """True when the running script calls ``name`` at module level outside a main guard.
+
+    Spawned worker processes re-import that script; the call would then start again in each
+    worker (and hit the output lock), so the runner refuses it up front.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if not path or not str(path).endswith(".py") or not Path(path).is_file():
+        return False  # interactive, Jupyter, python -c, python -m: nothing is re-imported
+    try:
+        tree = ast.parse(Path(path).read_text())
+    except (OSError, SyntaxError, ValueError):
+        return False
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef | ast.If):
+            continue  # definitions and guarded blocks (if __name__ == "__main__") do not run
+        for sub in ast.walk(node):
+            if isinstance(sub, ast.Call):
+                fn = sub.func
+                called = fn.attr if isinstance(fn, ast.Attribute) else getattr(fn, "id", None)
+                if called == name:
+                    return True
+    return False
+
+
+def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
+    """Run (or resume) a study; see :func:`psdesign.study.runner.run_study` for the arguments.
+
+    With ``workers >= 1`` (worker processes), a call from a script must sit under
+    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
+    """
+    from psdesign.study import StudyError
+    from psdesign.study import run_study as _run
+
+    if workers and _unguarded_call_in_main_script("run_study"):
+        raise StudyError(
+            "run_study: called at the top level of a script with worker processes; put the "
+            'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
+            "workers=0"
+        )
+    return _run(study, out_dir, workers=workers, **kwargs)

@@ -1,0 +1,85 @@
+"""The Python API (psdesign.build, Material, PermeabilityResult, run_study's main-guard check)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import psdesign
+from psdesign.api import PermeabilityResult, _unguarded_call_in_main_script
+
+
+def test_import_is_light() -> None:
+    # a fresh interpreter: `import psdesign` pulls in none of the heavy stacks (issue 16 item 6)
+    code = (
+        "import sys, psdesign; heavy = [m for m in ('numba', 'scipy', 'pyvista', 'matplotlib',"
+        " 'pandas', 'dask') if m in sys.modules]; print(heavy)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_build_porosity_matches_the_exact_cylinder_area() -> None:
+    # one z-aligned circular cylinder of diameter 8 um in a 20 um box: porosity 1 - pi r^2 / A
+    spec = {
+        "rve": {"size": [20e-6, 20e-6, 20e-6], "voxel": 0.25e-6},
+        "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+    }
+    m = psdesign.build(spec)
+    exact = 1.0 - math.pi * 4e-6**2 / 20e-6**2
+    assert m.porosity == pytest.approx(exact, abs=2e-3)
+    assert "1 fibers" in repr(m)
+
+
+def test_build_rejects_a_bad_spec_naming_the_key() -> None:
+    with pytest.raises(psdesign.SpecError, match=r"rve\.size"):
+        psdesign.build({"rve": {"size": [1, 2]}, "fibers": []})
+
+
+def test_permeability_result_repr_and_html() -> None:
+    d = {
+        "direction": "z",
+        "permeability_m2": 1.25e-12,
+        "converged": False,
+        "solver": "voxel",
+        "bc": "periodic",
+        "porosity": 0.8,
+        "iterations": 3,
+    }
+    r = PermeabilityResult.from_dict(d)
+    assert r.status == "not_converged" and r.details["iterations"] == 3
+    assert "1.25e-12" in repr(r) and "details" not in repr(r)
+    assert "1.2500e-12" in r._repr_html_()
+
+
+@pytest.mark.parametrize(
+    ("body", "unguarded"),
+    [
+        ("import psdesign\npsdesign.run_study('s.toml', 'out', workers=2)\n", True),
+        ("from psdesign import run_study\ndf = run_study('s.toml', 'out')\n", True),
+        ("import psdesign\nif __name__ == '__main__':\n    psdesign.run_study('s', 'o')\n", False),
+        ("import psdesign\ndef main():\n    psdesign.run_study('s', 'o')\n", False),
+    ],
+)
+def test_main_guard_detection(tmp_path, monkeypatch, body, unguarded) -> None:
+    script = tmp_path / "script.py"
+    script.write_text(textwrap.dedent(body))
+    fake_main = type(sys)("__main__")
+    fake_main.__file__ = str(script)
+    monkeypatch.setitem(sys.modules, "__main__", fake_main)
+    assert _unguarded_call_in_main_script("run_study") is unguarded
+
+
+def test_unguarded_script_fails_with_one_line(tmp_path) -> None:
+    script = tmp_path / "script.py"
+    script.write_text("import psdesign\npsdesign.run_study('nope.toml', 'out', workers=2)\n")
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path
+    )
+    assert proc.returncode != 0
+    assert 'if __name__ == "__main__":' in proc.stderr
+    assert not (tmp_path / "out").exists()
