@@ -79,6 +79,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="write OUT/report.html from a study output folder")
     rep.add_argument("out", help="study output folder")
     rep.set_defaults(func=cmd_study_report)
+
+    from psdesign.cli.study_analysis import register_study_commands
+
+    register_study_commands(sub)
     return study
 
 

@@ -1,0 +1,92 @@
+"""Statistics over replicates: one row per design point with mean, std, 95 % CI and n.
+
+Replicates are the cases that share every design parameter and differ in the seed. The 95 %
+confidence interval of the mean is Student's ``mean +- t_{0.975, n-1} s / sqrt(n)``; with one
+replicate the spread is unknown and the interval is NaN (said, not hidden).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from psdesign.analysis.columns import output_columns
+
+
+def t_quantile_975(dof: int) -> float:
+    """Two-sided 95 % Student-t quantile for ``dof`` degrees of freedom (NaN for dof < 1)."""
+    if dof < 1:
+        return math.nan
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, dof))
+
+
+def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
+    """One row per design point of the ``ok`` cases of a results table.
+
+    Parameters
+    ----------
+    df : DataFrame
+        ``results.csv`` of a study.
+    params : list of str
+        The study's parameter columns (the design point).
+
+    Returns
+    -------
+    DataFrame
+        The parameter columns, ``n`` and for every numeric output ``X``: ``X_mean``,
+        ``X_std`` (sample, ddof 1), ``X_ci95_low``, ``X_ci95_high``.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"a": [1, 1, 2], "status": "ok", "k": [1.0, 3.0, 5.0]})
+    >>> s = replicate_summary(df, ["a"])
+    >>> s[["a", "n", "k_mean", "k_std"]].values.tolist()
+    [[1.0, 2.0, 2.0, 1.4142135623730951], [2.0, 1.0, 5.0, nan]]
+    """
+    ok = df[df["status"] == "ok"] if "status" in df.columns else df
+    outputs = output_columns(ok, params)
+    keys = [p for p in params if p in ok.columns]
+    rows = []
+    groups = ok.groupby(keys, sort=False, dropna=False) if keys else [((), ok)]
+    for key, g in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        row: dict = dict(zip(keys, key, strict=True))
+        row["n"] = len(g)
+        for c in outputs:
+            x = g[c].to_numpy(dtype=float)
+            x = x[np.isfinite(x)]
+            n = len(x)
+            mean = float(x.mean()) if n else math.nan
+            std = float(x.std(ddof=1)) if n > 1 else math.nan
+            half = t_quantile_975(n - 1) * std / math.sqrt(n) if n > 1 else math.nan
+            row |= {
+                f"{c}_mean": mean,
+                f"{c}_std": std,
+                f"{c}_ci95_low": mean - half,
+                f"{c}_ci95_high": mean + half,
+            }
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_summary(out_dir: str | Path, df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
+    """Write ``OUT/summary.csv`` and ``OUT/summary.parquet`` atomically; returns the table."""
+    from psdesign.study.store import atomic_write_bytes
+
+    out = Path(out_dir)
+    summary = replicate_summary(df, params)
+    atomic_write_bytes(out / "summary.csv", summary.to_csv(index=False).encode())
+    try:
+        import io
+
+        buf = io.BytesIO()
+        summary.to_parquet(buf, index=False)
+        atomic_write_bytes(out / "summary.parquet", buf.getvalue())
+    except (ImportError, ValueError):  # pyarrow missing or an object column it cannot store
+        pass
+    return summary

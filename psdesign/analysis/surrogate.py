@@ -1,0 +1,257 @@
+"""Gaussian-process surrogates of study outputs over the design parameters (scikit-learn).
+
+Inputs are scaled to [0, 1] by the parameter bounds (log10 first for log-uniform parameters);
+strictly positive outputs spanning more than a factor of 3 (permeabilities) are modelled as
+log10. The kernel is ``C * Matern(nu=2.5, one length scale per parameter) + White`` with
+``normalize_y``; its fitted hyper-parameters and the training data are saved as JSON (portable,
+no pickle), and :meth:`Surrogate.from_dict` rebuilds the same predictor by refitting with the
+optimizer off. The cross-validated error (k-fold, k = min(5, n)) is stored with each model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from psdesign.analysis.columns import numeric_parameters, output_columns, study_parameters
+
+SURROGATE_FILE = "surrogate.json"
+
+
+@dataclass
+class Surrogate:
+    """A fitted GP for one output.
+
+    Attributes
+    ----------
+    output : str
+    params : list of str
+        Design parameters, in input order.
+    low, high : list of float
+        Bounds used to scale each parameter to [0, 1].
+    log_params : list of bool
+        Parameter scaled in log10.
+    log_output : bool
+        The GP models ``log10(output)``.
+    kernel : dict
+        Fitted hyper-parameters: ``constant``, ``length_scale`` (list), ``noise``.
+    x, y : list
+        Training inputs (original units) and outputs (original units).
+    cv_rmse : float
+        k-fold cross-validated RMSE in the modelled space (log10 units for log outputs).
+    cv_rel_error : float
+        The same as a relative error of the output (``10**rmse - 1`` for log outputs, RMSE /
+        mean |y| otherwise).
+    """
+
+    output: str
+    params: list[str]
+    low: list[float]
+    high: list[float]
+    log_params: list[bool]
+    log_output: bool
+    kernel: dict
+    x: list[list[float]]
+    y: list[float]
+    cv_rmse: float = math.nan
+    cv_rel_error: float = math.nan
+    _gp: object = field(default=None, repr=False, compare=False)
+
+    # -------------------------------------------------------------- transforms
+    def _scale(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float).reshape(-1, len(self.params))
+        lo, hi = np.asarray(self.low, float), np.asarray(self.high, float)
+        lg = np.asarray(self.log_params, bool)
+        x = np.where(lg, np.log10(np.where(lg, x, 1.0)), x)
+        lo = np.where(lg, np.log10(np.where(lg, lo, 1.0)), lo)
+        hi = np.where(lg, np.log10(np.where(lg, hi, 1.0)), hi)
+        return (x - lo) / np.where(hi > lo, hi - lo, 1.0)
+
+    def _target(self, y: np.ndarray) -> np.ndarray:
+        y = np.asarray(y, dtype=float)
+        return np.log10(y) if self.log_output else y
+
+    # -------------------------------------------------------------- model
+    def _regressor(self, fixed: bool):
+        from sklearn.gaussian_process import GaussianProcessRegressor
+        from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
+
+        k = self.kernel
+        kern = ConstantKernel(k.get("constant", 1.0), (1e-3, 1e3)) * Matern(
+            length_scale=k.get("length_scale", [0.5] * len(self.params)),
+            length_scale_bounds=(1e-2, 1e2),
+            nu=2.5,
+        ) + WhiteKernel(k.get("noise", 1e-4), (1e-8, 1e0))
+        return GaussianProcessRegressor(
+            kernel=kern,
+            normalize_y=True,
+            optimizer=None if fixed else "fmin_l_bfgs_b",
+            n_restarts_optimizer=0 if fixed else 3,
+            random_state=0,
+        )
+
+    def _fit(self) -> None:
+        import warnings
+
+        from sklearn.exceptions import ConvergenceWarning
+
+        gp = self._regressor(fixed=bool(self.kernel))
+        with warnings.catch_warnings():  # a hyper-parameter on its bound is fine here
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            gp.fit(self._scale(np.asarray(self.x)), self._target(np.asarray(self.y)))
+        if not self.kernel:
+            kp = gp.kernel_.get_params()
+            self.kernel = {
+                "constant": float(kp["k1__k1__constant_value"]),
+                "length_scale": np.atleast_1d(kp["k1__k2__length_scale"]).astype(float).tolist(),
+                "noise": float(kp["k2__noise_level"]),
+            }
+        self._gp = gp
+
+    def predict(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and standard deviation at points ``x`` (n, n_params), original units.
+
+        For log outputs the mean is ``10**m`` (the median) and the std is that of the
+        log-normal, ``10**m * sqrt(exp(s^2 ln(10)^2) - 1)``.
+        """
+        if self._gp is None:
+            self._fit()
+        m, s = self._gp.predict(self._scale(np.asarray(x, dtype=float)), return_std=True)
+        if not self.log_output:
+            return m, s
+        ln10 = math.log(10.0)
+        return 10.0**m, 10.0**m * np.sqrt(np.expm1((s * ln10) ** 2))
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d.pop("_gp")
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Surrogate:
+        return cls(**{k: v for k, v in d.items() if k != "_gp"})
+
+
+def _cross_validate(s: Surrogate) -> tuple[float, float]:
+    x, y = np.asarray(s.x, float), np.asarray(s.y, float)
+    n = len(y)
+    k = min(5, n)
+    if k < 2:
+        return math.nan, math.nan
+    folds = np.arange(n) % k
+    err = np.empty(n)
+    for f in range(k):
+        test = folds == f
+        sub = Surrogate(
+            s.output,
+            s.params,
+            s.low,
+            s.high,
+            s.log_params,
+            s.log_output,
+            dict(s.kernel),
+            x[~test].tolist(),
+            y[~test].tolist(),
+        )
+        m, _ = sub.predict(x[test])
+        err[test] = s._target(m) - s._target(y[test])
+    rmse = float(np.sqrt(np.mean(err**2)))
+    rel = 10.0**rmse - 1.0 if s.log_output else rmse / float(np.mean(np.abs(y)))
+    return rmse, float(rel)
+
+
+def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict) -> Surrogate:
+    """Fit one output of a results table; ``bounds[p] = (low, high, log)``."""
+    ok = df[(df["status"] == "ok") & df[output].notna()] if "status" in df else df
+    if len(ok) < 3:
+        raise ValueError(f"{output}: need at least 3 finished cases to fit, got {len(ok)}")
+    y = ok[output].to_numpy(float)
+    log_out = bool(np.all(y > 0) and y.max() / y.min() > 3.0)
+    s = Surrogate(
+        output=output,
+        params=list(params),
+        low=[float(bounds[p][0]) for p in params],
+        high=[float(bounds[p][1]) for p in params],
+        log_params=[bool(bounds[p][2]) for p in params],
+        log_output=log_out,
+        kernel={},
+        x=ok[params].to_numpy(float).tolist(),
+        y=y.tolist(),
+    )
+    s._fit()
+    s.cv_rmse, s.cv_rel_error = _cross_validate(s)
+    return s
+
+
+def _bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict]) -> dict:
+    out = {}
+    for p in params:
+        info = spec.get(p, {})
+        lo, hi = info.get("low"), info.get("high")
+        if lo is None or hi is None:
+            lo, hi = float(df[p].min()), float(df[p].max())
+        out[p] = (lo, hi, info.get("dist") == "loguniform")
+    return out
+
+
+def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
+    """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``."""
+    from psdesign.study.store import atomic_write_json
+
+    out = Path(out_dir)
+    spec = study_parameters(out)
+    df = pd.read_csv(out / "results.csv")
+    params = numeric_parameters(df, list(spec))
+    if not params:
+        raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
+    bounds = _bounds(df, params, spec)
+    names = outputs or [
+        c
+        for c in output_columns(df, params)
+        if c == "porosity"
+        or c.endswith("_m2")
+        or c.startswith(("diffusivity_", "tortuosity_", "conductivity_"))
+    ]
+    models = {}
+    for name in names:
+        if name not in df.columns:
+            raise ValueError(f"--outputs: {name!r} is not a column of results.csv")
+        models[name] = fit_surrogate(df, name, params, bounds)
+    atomic_write_json(
+        out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}
+    )
+    return models
+
+
+def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
+    """The surrogates saved by :func:`fit_study`."""
+    path = Path(out_dir) / SURROGATE_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"{out_dir}: no {SURROGATE_FILE}; run `psdesign study fit` first")
+    doc = json.loads(path.read_text())
+    return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+
+
+def parse_point(text: str, params: list[str]) -> np.ndarray:
+    """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order."""
+    values: dict[str, float] = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise ValueError(f"--at: expected KEY=VALUE, got {item!r}")
+        key = key.strip()
+        if key not in params:
+            raise ValueError(f"--at: unknown parameter {key!r}; allowed: {', '.join(params)}")
+        try:
+            values[key] = float(val)
+        except ValueError:
+            raise ValueError(f"--at: {key} must be a number, got {val!r}") from None
+    missing = [p for p in params if p not in values]
+    if missing:
+        raise ValueError(f"--at: missing {', '.join(missing)}")
+    return np.array([values[p] for p in params])

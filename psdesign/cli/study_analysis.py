@@ -1,0 +1,124 @@
+"""``psdesign study fit | predict | sensitivity``: surrogates and global sensitivity of a study."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _fail(msg: str, code: int = 2) -> int:
+    print(f"psdesign: error: {msg}", file=sys.stderr)
+    return code
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
+
+    try:
+        models = fit_study(args.out, args.outputs or None)
+    except (FileNotFoundError, ValueError) as exc:
+        return _fail(str(exc))
+    rows = {
+        name: {
+            "cv_rmse": m.cv_rmse,
+            "cv_rel_error": m.cv_rel_error,
+            "log_output": m.log_output,
+            "n_cases": len(m.y),
+            "params": m.params,
+        }
+        for name, m in models.items()
+    }
+    if args.json:
+        print(json.dumps(rows))
+    else:
+        for name, r in rows.items():
+            space = "log10 " if r["log_output"] else ""
+            print(
+                f"{name}: GP over {', '.join(r['params'])} from {r['n_cases']} cases, "
+                f"cross-validated error {100 * r['cv_rel_error']:.2g} % ({space}RMSE "
+                f"{r['cv_rmse']:.3g})"
+            )
+        print(f"wrote {args.out}/{SURROGATE_FILE}")
+    return 0
+
+
+def _cmd_predict(args: argparse.Namespace) -> int:
+    from psdesign.analysis.surrogate import load_study_surrogates, parse_point
+
+    try:
+        models = load_study_surrogates(args.out)
+        out = {}
+        for name, m in models.items():
+            x = parse_point(args.at, m.params)
+            mean, std = m.predict(x[None, :])
+            out[name] = {
+                "mean": float(mean[0]),
+                "std": float(std[0]),
+                "cv_rel_error": m.cv_rel_error,
+            }
+    except (FileNotFoundError, ValueError) as exc:
+        return _fail(str(exc))
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for name, r in out.items():
+            print(
+                f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
+                f"{100 * r['cv_rel_error']:.2g} %)"
+            )
+    return 0
+
+
+def _cmd_sensitivity(args: argparse.Namespace) -> int:
+    from psdesign.analysis.sensitivity import morris_screening, sobol_indices
+    from psdesign.analysis.surrogate import load_study_surrogates
+
+    try:
+        models = load_study_surrogates(args.out)
+    except (FileNotFoundError, ValueError) as exc:
+        return _fail(str(exc))
+    names = args.outputs or list(models)
+    unknown = [n for n in names if n not in models]
+    if unknown:
+        return _fail(f"--outputs: no surrogate for {unknown[0]!r}; fitted: {', '.join(models)}")
+    result = {}
+    for name in names:
+        fn = sobol_indices if args.method == "sobol" else morris_screening
+        table = fn(models[name], seed=args.seed)
+        result[name] = table.to_dict(orient="records")
+        if not args.json:
+            print(f"{name} ({args.method}):")
+            print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if args.json:
+        print(json.dumps(result))
+    return 0
+
+
+def register_study_commands(sub: argparse._SubParsersAction) -> None:
+    """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
+    fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
+    fit.add_argument("out", help="study output folder")
+    fit.add_argument(
+        "--outputs", nargs="*", default=None, help="columns to fit (default: K, porosity)"
+    )
+    fit.add_argument("--json", action="store_true")
+    fit.set_defaults(func=_cmd_fit)
+
+    pred = sub.add_parser("predict", help="predict outputs at a design point from the surrogates")
+    pred.add_argument("out", help="study output folder (after `study fit`)")
+    pred.add_argument(
+        "--at", required=True, help='e.g. "generator.porosity=0.82,generator.diameter=8e-6"'
+    )
+    pred.add_argument("--json", action="store_true")
+    pred.set_defaults(func=_cmd_predict)
+
+    sens = sub.add_parser(
+        "sensitivity", help="Sobol indices or Morris screening from the surrogates"
+    )
+    sens.add_argument("out", help="study output folder (after `study fit`)")
+    sens.add_argument("--method", choices=("sobol", "morris"), default="sobol")
+    sens.add_argument("--outputs", nargs="*", default=None)
+    sens.add_argument("--seed", type=int, default=0)
+    sens.add_argument("--json", action="store_true")
+    sens.set_defaults(func=_cmd_sensitivity)

@@ -1,0 +1,123 @@
+"""Replicate statistics, GP surrogates and global sensitivity (psdesign.analysis).
+
+Independent truths: Student-t intervals (closed form), Sobol indices of additive and product
+functions of uniform inputs (Saltelli et al., *Global Sensitivity Analysis: The Primer*, 2008,
+Sec. 4: for f = a x1 + b x2, S_i = a_i^2 / sum a^2; for f = x1 x2 on [0, 1]^2,
+S_1 = S_2 = 3/7 and S_T1 = S_T2 = 4/7), and the Kozeny-Carman fake solver of study_cases.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from study_cases import fake_case, kc_truth, write_study
+
+from psdesign.analysis.replicates import replicate_summary
+from psdesign.analysis.sensitivity import morris_screening, sobol_indices
+from psdesign.analysis.surrogate import Surrogate, fit_surrogate, load_study_surrogates
+from psdesign.cli.main import main
+from psdesign.study import run_study
+
+
+def test_replicate_summary_student_t_interval() -> None:
+    df = pd.DataFrame(
+        {
+            "p": [1.0] * 3 + [2.0],
+            "status": ["ok"] * 3 + ["failed"],
+            "k": [1.0, 2.0, 3.0, 9.0],
+            "seed": [1, 2, 3, 1],
+        }
+    )
+    s = replicate_summary(df, ["p"])
+    assert len(s) == 1 and s.loc[0, "n"] == 3  # the failed case is left out
+    half = 4.302652729911275 * 1.0 / math.sqrt(3)  # t_{0.975, 2} * s / sqrt(n)
+    assert s.loc[0, "k_mean"] == pytest.approx(2.0)
+    assert s.loc[0, "k_std"] == pytest.approx(1.0)
+    assert s.loc[0, "k_ci95_low"] == pytest.approx(2.0 - half)
+    assert s.loc[0, "k_ci95_high"] == pytest.approx(2.0 + half)
+    assert "seed_mean" not in s.columns
+
+
+def _fit(f, n=40, seed=0) -> Surrogate:
+    x = np.random.default_rng(seed).random((n, 2))
+    df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "y": f(x[:, 0], x[:, 1])})
+    return fit_surrogate(df, "y", ["a", "b"], {"a": (0, 1, False), "b": (0, 1, False)})
+
+
+def test_sobol_of_an_additive_function() -> None:
+    s = _fit(lambda a, b: 10 + 3 * a + b)
+    assert not s.log_output and s.cv_rel_error < 1e-3
+    t = sobol_indices(s, n=512).set_index("parameter")
+    assert t.loc["a", "S1"] == pytest.approx(0.9, abs=0.03)
+    assert t.loc["b", "S1"] == pytest.approx(0.1, abs=0.03)
+    assert t.loc["a", "ST"] == pytest.approx(0.9, abs=0.03)
+    m = morris_screening(s).set_index("parameter")
+    assert m.loc["a", "mu_star"] == pytest.approx(3.0, rel=0.01)  # the slopes, scaled inputs
+    assert m.loc["b", "mu_star"] == pytest.approx(1.0, rel=0.01)
+
+
+def test_sobol_of_a_product_has_the_interaction() -> None:
+    s = _fit(lambda a, b: 1 + a * b, n=60)  # shifted: modelled linearly, same indices
+    assert not s.log_output
+    t = sobol_indices(s, n=4096).set_index("parameter")
+    for p in ("a", "b"):
+        assert t.loc[p, "S1"] == pytest.approx(3 / 7, abs=0.04)
+        assert t.loc[p, "ST"] == pytest.approx(4 / 7, abs=0.04)
+
+
+def test_surrogate_json_round_trip_predicts_the_same() -> None:
+    s = _fit(lambda a, b: np.sin(3 * a) + b**2)
+    doc = json.loads(json.dumps(s.to_dict()))
+    r = Surrogate.from_dict(doc)
+    x = np.array([[0.2, 0.3], [0.9, 0.1]])
+    np.testing.assert_allclose(r.predict(x)[0], s.predict(x)[0], rtol=1e-10)
+    np.testing.assert_allclose(r.predict(x)[1], s.predict(x)[1], rtol=1e-6)
+
+
+def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 24\nseeds = [1, 2]\n'
+        'outputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    summary = pd.read_csv(out / "summary.csv")
+    assert len(summary) == 24 and set(summary["n"]) == {2}
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    fit = json.loads(capsys.readouterr().out)
+    assert fit["k_z_m2"]["log_output"] and fit["k_z_m2"]["cv_rel_error"] < 0.05
+    assert "surrogate.json" in {f.name for f in out.iterdir()}
+    at = "generator.porosity=0.8,generator.diameter=7.5e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    pred = json.loads(capsys.readouterr().out)
+    truth = kc_truth(0.8, 7.5e-6) * 2.0  # k_z of the fake case is 2x Kozeny-Carman
+    assert pred["k_z_m2"]["mean"] == pytest.approx(truth, rel=0.03)
+    assert 0 < pred["k_z_m2"]["std"] < 0.1 * truth
+    assert main(["study", "sensitivity", str(out), "--outputs", "k_z_m2", "--json"]) == 0
+    sob = {r["parameter"]: r for r in json.loads(capsys.readouterr().out)["k_z_m2"]}
+    # log10 K = 2 log10 d + f(eps): porosity over 0.7-0.9 moves K 12x, diameter 6-9 um 2.25x
+    assert sob["generator.porosity"]["ST"] > 0.8 > sob["generator.diameter"]["ST"]
+    assert len(load_study_surrogates(out)) == 2
+
+
+def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2
+    assert "study fit" in capsys.readouterr().err
+    assert main(["study", "fit", str(out)]) == 0
+    assert main(["study", "predict", str(out), "--at", "generator.porsity=0.8"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown parameter 'generator.porsity'" in err and len(err.strip().splitlines()) == 1
