@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.surrogate import Surrogate
+from psdesign.analysis.surrogate import Surrogate, from_unit
 
 
 def _problem(s: Surrogate) -> dict:
@@ -23,12 +23,7 @@ def _problem(s: Surrogate) -> dict:
 
 
 def _unscale(s: Surrogate, u: np.ndarray) -> np.ndarray:
-    lo, hi = np.asarray(s.low, float), np.asarray(s.high, float)
-    lg = np.asarray(s.log_params, bool)
-    llo = np.where(lg, np.log10(np.where(lg, lo, 1.0)), lo)
-    lhi = np.where(lg, np.log10(np.where(lg, hi, 1.0)), hi)
-    x = llo + u * (lhi - llo)
-    return np.where(lg, 10.0**x, x)
+    return from_unit(u, s.low, s.high, s.log_params)
 
 
 def _model_output(s: Surrogate, x: np.ndarray) -> np.ndarray:

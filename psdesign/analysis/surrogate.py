@@ -23,6 +23,27 @@ from psdesign.analysis.columns import numeric_parameters, output_columns, study_
 SURROGATE_FILE = "surrogate.json"
 
 
+def _box(low, high, log) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    lo, hi, lg = np.asarray(low, float), np.asarray(high, float), np.asarray(log, bool)
+    lo = np.where(lg, np.log10(np.where(lg, lo, 1.0)), lo)
+    hi = np.where(lg, np.log10(np.where(lg, hi, 1.0)), hi)
+    return lo, np.where(hi > lo, hi - lo, 1.0), lg
+
+
+def to_unit(x: np.ndarray, low, high, log) -> np.ndarray:
+    """Map points (n, d) of the parameter box to [0, 1]^d (log10 first where ``log``)."""
+    lo, span, lg = _box(low, high, log)
+    x = np.asarray(x, dtype=float)
+    return (np.where(lg, np.log10(np.where(lg, x, 1.0)), x) - lo) / span
+
+
+def from_unit(u: np.ndarray, low, high, log) -> np.ndarray:
+    """Inverse of :func:`to_unit`."""
+    lo, span, lg = _box(low, high, log)
+    x = lo + np.asarray(u, dtype=float) * span
+    return np.where(lg, 10.0**x, x)
+
+
 @dataclass
 class Surrogate:
     """A fitted GP for one output.
@@ -65,12 +86,7 @@ class Surrogate:
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float).reshape(-1, len(self.params))
-        lo, hi = np.asarray(self.low, float), np.asarray(self.high, float)
-        lg = np.asarray(self.log_params, bool)
-        x = np.where(lg, np.log10(np.where(lg, x, 1.0)), x)
-        lo = np.where(lg, np.log10(np.where(lg, lo, 1.0)), lo)
-        hi = np.where(lg, np.log10(np.where(lg, hi, 1.0)), hi)
-        return (x - lo) / np.where(hi > lo, hi - lo, 1.0)
+        return to_unit(x, self.low, self.high, self.log_params)
 
     def _target(self, y: np.ndarray) -> np.ndarray:
         y = np.asarray(y, dtype=float)

@@ -95,6 +95,47 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_optimize(args: argparse.Namespace) -> int:
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.study.studyfile import StudyError
+
+    try:
+        targets = [Target.parse(t) for t in args.target]
+        res = optimize_study(
+            args.study,
+            args.out,
+            targets,
+            budget=args.budget,
+            batch=args.batch,
+            seed=args.seed,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            case_fn=args.case_fn,
+            progress=not args.quiet,
+        )
+    except (StudyError, ValueError) as exc:
+        return _fail(str(exc))
+    summary = {
+        "met": res.met,
+        "message": res.message,
+        "n_points": res.n_points,
+        "rounds": res.rounds,
+        "best": res.best,
+        "history": res.history,
+    }
+    if args.json:
+        print(json.dumps(summary, default=str))
+    else:
+        print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
+        for t in targets:
+            y = res.best.get(t.output, float("nan"))
+            print(f"  {t}: measured {y:.4g} ({'met' if t.met(float(y)) else 'missed'})")
+        params = {k: v for k, v in res.best.items() if "." in k}
+        print("  at " + ", ".join(f"{k}={v:.4g}" for k, v in params.items()))
+    return 0 if res.met else 1
+
+
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
@@ -122,3 +163,24 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     sens.add_argument("--seed", type=int, default=0)
     sens.add_argument("--json", action="store_true")
     sens.set_defaults(func=_cmd_sensitivity)
+
+    opt = sub.add_parser(
+        "optimize", help="adaptive sampling toward target outputs (runs cases through the runner)"
+    )
+    opt.add_argument("study", help="study TOML file; every parameter a {low, high} range")
+    opt.add_argument("-o", "--out", required=True, help="output folder (resumed if it exists)")
+    opt.add_argument(
+        "--target",
+        action="append",
+        required=True,
+        help='"OUTPUT=VALUE[+-P%%]", "OUTPUT>=VALUE" or "OUTPUT<=VALUE" (repeat for more)',
+    )
+    opt.add_argument("--budget", type=int, default=20, help="maximum design points (default 20)")
+    opt.add_argument("--batch", type=int, default=1, help="points per round (default 1)")
+    opt.add_argument("--seed", type=int, default=0)
+    opt.add_argument("--workers", type=int, default=1)
+    opt.add_argument("--scheduler", default=None, help="Dask scheduler address, or 'local'")
+    opt.add_argument("--quiet", action="store_true")
+    opt.add_argument("--json", action="store_true")
+    opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)
+    opt.set_defaults(func=_cmd_optimize)

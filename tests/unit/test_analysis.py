@@ -121,3 +121,61 @@ def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
     assert main(["study", "predict", str(out), "--at", "generator.porsity=0.8"]) == 2
     err = capsys.readouterr().err
     assert "unknown parameter 'generator.porsity'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_optimize_finds_a_hidden_target_in_under_half_a_factorial(tmp_path, capsys) -> None:
+    # hidden design: porosity 0.83, diameter 7.7 um; the fake solver's k_z is 2x Kozeny-Carman
+    target = 2.0 * kc_truth(0.83, 7.7e-6)
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["porosity", "k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.diameter" = {low = 5e-6, high = 10e-6}',
+    )
+    out = tmp_path / "opt"
+    argv = [
+        "study",
+        "optimize",
+        str(p),
+        "-o",
+        str(out),
+        "--target",
+        f"k_z_m2={target:.6e}+-3%",
+        "--target",
+        "porosity>=0.8",
+        "--budget",
+        "12",
+        "--seed",
+        "3",
+        "--workers",
+        "0",
+        "--quiet",
+        "--json",
+        "--case-fn",
+        "study_cases:fake_case",
+    ]
+    assert main(argv) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["met"] and res["n_points"] <= 12  # a 5 x 5 factorial of the box has 25
+    assert abs(res["best"]["k_z_m2"] / target - 1) <= 0.03 + 0.01  # fake solver noise is 1 %
+    assert res["best"]["porosity"] >= 0.8
+    # same seed, fresh folder: the same path
+    assert main([*argv[:4], str(tmp_path / "again"), *argv[5:]]) == 0
+    again = json.loads(capsys.readouterr().out)
+    keys = ("generator.porosity", "generator.diameter", "k_z_m2", "case_id")
+    assert again["n_points"] == res["n_points"]
+    assert [again["best"][k] for k in keys] == [res["best"][k] for k in keys]
+
+
+def test_optimize_refuses_list_parameters_and_bad_targets(tmp_path, capsys) -> None:
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = [0.7, 0.8]',
+    )
+    base = ["study", "optimize", str(p), "-o", str(tmp_path / "o"), "--workers", "0", "--quiet"]
+    assert main([*base, "--target", "k_z_m2=1e-12"]) == 2
+    assert "needs {low, high} bounds" in capsys.readouterr().err
+    assert main([*base, "--target", "k_z_m2~1e-12"]) == 2
+    assert "--target: expected OUTPUT=VALUE" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,187 @@
+"""Inverse design: adaptive sampling toward targets through the resumable study runner.
+
+Round 0 runs a small Latin-hypercube design (``2 d + 2`` points, seeded) over the study's
+parameter bounds. Each later round fits a GP surrogate per target output to every finished case
+and runs the ``batch`` candidates (from a seeded Sobol set of 2048 points, away from points
+already run) with the highest probability of meeting every target under the surrogates
+(product over targets of the Gaussian probability, in log10 space for log outputs). The new
+points are appended as CSV rows of the same study, so the runner (local pool or Dask) skips
+what is done and a stopped optimization resumes. It stops when a finished case meets every
+target by its measured value, or when ``budget`` design points have run, and then reports the
+closest case.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
+from psdesign.analysis.targets import Target
+
+
+@dataclass
+class OptimizeResult:
+    """Outcome of :func:`optimize_study`.
+
+    Attributes
+    ----------
+    met : bool
+        A finished case meets every target.
+    best : dict
+        Parameters and outputs of the case closest to the targets (sum of relative misses).
+    n_points : int
+        Design points run (each once per study seed).
+    rounds : int
+    history : list of dict
+        Per round: points added and the best miss so far.
+    message : str
+    """
+
+    met: bool
+    best: dict
+    n_points: int
+    rounds: int
+    history: list[dict] = field(default_factory=list)
+    message: str = ""
+
+
+def _bounds(study) -> dict[str, tuple[float, float, bool]]:
+    out = {}
+    for name, p in study.parameters.items():
+        if p.kind != "bounds":
+            raise ValueError(
+                f"{name}: optimize needs {{low, high}} bounds for every parameter, not a list"
+            )
+        out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
+    return out
+
+
+def _from_unit(u: np.ndarray, b: list[tuple[float, float, bool]], study) -> np.ndarray:
+    x = from_unit(u, *zip(*b, strict=True))
+    for j, p in enumerate(study.parameters.values()):
+        if p.value_type == "int":
+            x[:, j] = np.round(x[:, j])
+    return x
+
+
+def _probability(models: dict, targets: list[Target], x: np.ndarray) -> np.ndarray:
+    from scipy.stats import norm
+
+    prob = np.ones(len(x))
+    for t in targets:
+        s = models[t.output]
+        m, sd = s._gp.predict(s._scale(x), return_std=True)  # modelled space
+        sd = np.maximum(sd, 1e-12)
+        tr = (lambda v: math.log10(v)) if s.log_output else (lambda v: v)
+        if t.op == ">=":
+            prob *= norm.sf(tr(t.value), m, sd)
+        elif t.op == "<=":
+            prob *= norm.cdf(tr(t.value), m, sd)
+        else:
+            lo, hi = t.value * (1 - t.tolerance), t.value * (1 + t.tolerance)
+            lo, hi = sorted((tr(lo), tr(hi)))
+            prob *= norm.cdf(hi, m, sd) - norm.cdf(lo, m, sd)
+    return prob
+
+
+def _score(row: dict, targets: list[Target]) -> float:
+    return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
+
+
+def optimize_study(
+    study_path: str | Path,
+    out_dir: str | Path,
+    targets: list[Target],
+    budget: int = 20,
+    batch: int = 1,
+    seed: int = 0,
+    **run_kw,
+) -> OptimizeResult:
+    """Search the study's parameter box for a design that meets every target.
+
+    Parameters
+    ----------
+    study_path : str or Path
+        A study file whose ``[parameters]`` are all ``{low, high}`` bounds.
+    out_dir : str or Path
+        Output folder (a normal study folder; rerun to resume).
+    targets : list of Target
+    budget : int
+        Maximum number of design points.
+    batch : int
+        Points per round after the initial design (run in parallel by the runner).
+    seed : int
+        Seed of the initial design and of the candidate set (same seed -> same path).
+    **run_kw
+        Passed to :func:`psdesign.study.runner.run_study` (workers, scheduler, case_fn, ...).
+    """
+    from scipy.stats import qmc
+
+    from psdesign.study.runner import run_study
+    from psdesign.study.studyfile import load_study
+
+    study = load_study(study_path)
+    bounds = _bounds(study)
+    names = list(bounds)
+    b = [bounds[n] for n in names]
+    d = len(names)
+    n0 = min(budget, 2 * d + 2)
+    u0 = qmc.LatinHypercube(d=d, seed=seed).random(n0)
+    points = _from_unit(u0, b, study).tolist()
+    cand_u = qmc.Sobol(d=d, scramble=True, seed=seed + 1).random(2048)
+    history: list[dict] = []
+    rounds = 0
+    while True:
+        rows = [dict(zip(names, p, strict=True)) for p in points]
+        st = dataclasses.replace(study, design="csv", csv_rows=rows, n_samples=None)
+        df = run_study(st, out_dir, report=False, **run_kw)
+        rounds += 1
+        ok = df[df["status"] == "ok"] if "status" in df else df
+        for t in targets:
+            if t.output not in df.columns:
+                raise ValueError(
+                    f"--target: {t.output!r} is not an output of this study; outputs: "
+                    + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
+                )
+        recs = ok.to_dict(orient="records")
+        best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
+        best_miss = _score(best, targets) if best else math.inf
+        history.append({"round": rounds, "n_points": len(points), "best_miss": best_miss})
+        if best and best_miss == 0.0:
+            return OptimizeResult(
+                True,
+                best,
+                len(points),
+                rounds,
+                history,
+                f"met every target after {len(points)} design points",
+            )
+        if len(points) >= budget or len(ok) < 3:
+            msg = (
+                f"budget of {budget} design points spent"
+                if len(points) >= budget
+                else "fewer than 3 finished cases; cannot fit"
+            )
+            return OptimizeResult(
+                False,
+                best,
+                len(points),
+                rounds,
+                history,
+                f"{msg}; closest case misses by {best_miss:.3g} (relative)",
+            )
+        models = {
+            t.output: fit_surrogate(ok, t.output, names, bounds)
+            for t in {t.output: t for t in targets}.values()
+        }
+        done_u = to_unit(np.asarray(points, float), *zip(*b, strict=True))
+        far = np.min(np.linalg.norm(cand_u[:, None, :] - done_u[None, :, :], axis=2), axis=1) > 0.02
+        pool = cand_u[far]
+        prob = _probability(models, targets, _from_unit(pool, b, study))
+        pick = pool[np.argsort(-prob, kind="stable")[: min(batch, budget - len(points))]]
+        points.extend(_from_unit(pick, b, study).tolist())
