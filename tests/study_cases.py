@@ -115,3 +115,16 @@ FAC_PARAMS = """
 "generator.porosity" = [0.7, 0.8, 0.9]
 generator.diameter = { start = 6e-6, stop = 8e-6, step = 2e-6 }
 """
+
+
+def rev_case(spec, outputs, solver, workdir):
+    """Fake case for REV checks: K scatters like a volume average, std ~ (30 um / L)^1.5."""
+    edge = float(spec["rve"]["size"][0])
+    rng = np.random.default_rng([int(spec["generator"]["seed"]), int(round(edge * 1e9))])
+    sigma = 0.3 * (30e-6 / edge) ** 1.5
+    out = {"porosity": 0.8, "n_fibers": 10}
+    for a in "xyz":
+        if f"k_{a}" in outputs:
+            out[f"k_{a}_m2"] = 5e-12 * (1.0 + sigma * rng.standard_normal())
+            out[f"converged_{a}"] = True
+    return out

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from psdesign.errors import SpecError
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
-COMMANDS = ("generate", "mesh", "permeability", "study", "forcefield")
+COMMANDS = ("generate", "mesh", "permeability", "study", "rev", "forcefield")
 
 
 class _Parser(argparse.ArgumentParser):

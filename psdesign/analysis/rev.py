@@ -1,0 +1,131 @@
+"""Representative-volume check: grow the RVE at fixed statistics and watch K settle.
+
+The spec's box is scaled to each requested edge length (cubes; the voxel size stays, so the
+resolution per fiber is the same; a generator ``n_fibers`` scales with the volume, a porosity
+target stays), every size is built with ``seeds`` independent seeds through the study runner,
+and each output's mean, std and Student-t 95 % confidence interval are reported per size. The
+REV size is the smallest edge from which on every output's relative CI half-width stays below
+``tol``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from psdesign.analysis.replicates import replicate_summary
+
+
+@dataclass
+class RevResult:
+    """Outcome of :func:`rev_study`.
+
+    Attributes
+    ----------
+    table : DataFrame
+        One row per size: ``size_m``, ``n`` and per output ``X_mean``, ``X_std``,
+        ``X_ci95_low``, ``X_ci95_high``, ``X_ci_rel`` (half-width / |mean|).
+    rev_size_m : float or None
+        Smallest edge whose (and every larger edge's) relative CI half-width is below ``tol``
+        for every output; None when no size reaches it.
+    tol : float
+    outputs : list of str
+    """
+
+    table: pd.DataFrame
+    rev_size_m: float | None
+    tol: float
+    outputs: list[str] = field(default_factory=list)
+
+
+def _rows(spec: dict, sizes: list[float]) -> list[dict]:
+    base = [float(s) for s in spec["rve"]["size"]]
+    n_fib = (spec.get("generator") or {}).get("n_fibers")
+    rows = []
+    for edge in sizes:
+        row = {f"rve.size.{i}": float(edge) for i in range(3)}
+        if isinstance(n_fib, int | float) and not isinstance(n_fib, bool):
+            vol = edge**3 / (base[0] * base[1] * base[2])
+            row["generator.n_fibers"] = max(1, round(n_fib * vol))
+        rows.append(row)
+    return rows
+
+
+def rev_study(
+    spec_path: str | Path,
+    sizes: list[float],
+    seeds: int,
+    out_dir: str | Path,
+    solver: str = "voxel",
+    directions: str = "xyz",
+    tol: float = 0.1,
+    **run_kw,
+) -> RevResult:
+    """Run the REV study; ``run_kw`` go to :func:`psdesign.study.runner.run_study`."""
+    from psdesign.schema.spec import load_spec
+    from psdesign.study.runner import run_study
+    from psdesign.study.studyfile import ParamSpec, Study
+
+    if not sizes or any(not (s > 0 and math.isfinite(s)) for s in sizes):
+        raise ValueError(f"--sizes: need edge lengths > 0 in metres, got {sizes}")
+    if not isinstance(seeds, int) or seeds < 2:
+        raise ValueError(f"--seeds: need >= 2 seeds for a confidence interval, got {seeds}")
+    if not 0 < tol < 1:
+        raise ValueError(f"--tol: must be in (0, 1), got {tol}")
+    spec = load_spec(spec_path)
+    if "generator" not in spec:
+        raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
+    rows = _rows(spec, sorted(sizes))
+    params = {
+        k: ParamSpec(path=k, kind="values", values=tuple(r[k] for r in rows)) for k in rows[0]
+    }
+    outputs = ["porosity", *[f"k_{d}" for d in directions]]
+    study = Study(
+        name="rev",
+        design="csv",
+        base=spec,
+        parameters=params,
+        seeds=list(range(1, seeds + 1)),
+        outputs=outputs,
+        solver=solver,
+        csv_rows=rows,
+        description=f"REV check of {spec_path}: sizes {sizes} m, {seeds} seeds",
+    )
+    df = run_study(study, out_dir, **run_kw)
+    df["size_m"] = df["rve.size.0"]
+    table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
+    names = ["porosity", *[f"k_{d}_m2" for d in directions]]
+    for c in names:
+        if f"{c}_mean" in table:
+            half = (table[f"{c}_ci95_high"] - table[f"{c}_ci95_low"]) / 2
+            table[f"{c}_ci_rel"] = half / table[f"{c}_mean"].abs()
+    keep = [
+        "size_m",
+        "n",
+        *[
+            f"{c}_{s}"
+            for c in names
+            for s in ("mean", "std", "ci95_low", "ci95_high", "ci_rel")
+            if f"{c}_{s}" in table
+        ],
+    ]
+    table = table[keep]
+    k_cols = [f"{c}_ci_rel" for c in names if c != "porosity" and f"{c}_ci_rel" in table]
+    ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
+    rev = None
+    for i in range(len(ok)):
+        if ok[i:].all():
+            rev = float(table["size_m"].iloc[i])
+            break
+    from psdesign.study.store import atomic_write_bytes, atomic_write_json
+
+    out = Path(out_dir)
+    atomic_write_bytes(out / "rev.csv", table.to_csv(index=False).encode())
+    atomic_write_json(
+        out / "rev.json",
+        {"rev_size_m": rev, "tol": tol, "outputs": names, "table": table.to_dict(orient="records")},
+    )
+    return RevResult(table, rev, tol, names)

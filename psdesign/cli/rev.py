@@ -1,0 +1,66 @@
+"""``psdesign rev SPEC --sizes ... --seeds N -o OUT``: is the RVE a representative volume?"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _cmd_rev(args: argparse.Namespace) -> int:
+    from psdesign.analysis.rev import rev_study
+
+    try:
+        res = rev_study(
+            args.spec,
+            args.sizes,
+            args.seeds,
+            args.out,
+            solver=args.solver,
+            directions=args.directions,
+            tol=args.tol,
+            workers=args.workers,
+            progress=not args.quiet,
+            report=False,
+        )
+    except ValueError as exc:
+        print(f"psdesign: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "rev_size_m": res.rev_size_m,
+                    "tol": res.tol,
+                    "table": res.table.to_dict(orient="records"),
+                }
+            )
+        )
+        return 0
+    for _, row in res.table.iterrows():
+        parts = [f"{row['size_m'] * 1e6:g} um (n={int(row['n'])})"]
+        for c in res.outputs:
+            if f"{c}_mean" in row and c != "porosity":
+                parts.append(f"{c} {row[f'{c}_mean']:.3e} +- {100 * row[f'{c}_ci_rel']:.1f} %")
+        print("  ".join(parts))
+    if res.rev_size_m is None:
+        print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
+    else:
+        print(f"REV: {res.rev_size_m * 1e6:g} um (95 % CI half-width below {100 * res.tol:g} %)")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Register ``rev``."""
+    p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
+    p.add_argument("spec", help="RVE spec with a [generator] table")
+    p.add_argument("--sizes", type=float, nargs="+", required=True, help="cube edges in metres")
+    p.add_argument("--seeds", type=int, default=3, help="seeds per size (>= 2, default 3)")
+    p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
+    p.add_argument("--solver", choices=("voxel", "fem"), default="voxel")
+    p.add_argument("--directions", default="xyz", help="subset of xyz (default xyz)")
+    p.add_argument("--tol", type=float, default=0.1, help="relative CI half-width (default 0.1)")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_rev)

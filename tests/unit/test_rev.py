@@ -1,0 +1,72 @@
+"""REV check (psdesign rev): statistics per size and the REV size rule, on a fake solver whose
+seed scatter falls like a volume average, std/mean = 0.3 (30 um / L)^1.5."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from psdesign.analysis.rev import rev_study
+from psdesign.cli.main import main
+
+SPEC = """
+[rve]
+size = [30e-6, 30e-6, 30e-6]
+voxel = 1e-6
+[generator]
+kind = "straight"
+porosity = 0.8
+diameter = 7e-6
+seed = 1
+[flow]
+solver = "voxel"
+"""
+
+
+def test_rev_statistics_and_size(tmp_path) -> None:
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    sizes = [30e-6, 60e-6, 120e-6, 240e-6]
+    res = rev_study(
+        spec,
+        sizes,
+        8,
+        tmp_path / "out",
+        directions="z",
+        tol=0.05,
+        workers=0,
+        case_fn="study_cases:rev_case",
+        progress=False,
+        report=False,
+    )
+    t = res.table
+    assert t["size_m"].tolist() == sizes and set(t["n"]) == {8}
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    for _, row in t.iterrows():  # Student-t interval recomputed from the raw table
+        k = df.loc[np.isclose(df["rve.size.0"], row["size_m"]), "k_z_m2"].to_numpy()
+        half = 2.364624251592785 * k.std(ddof=1) / math.sqrt(8)  # t_{0.975, 7}
+        assert row["k_z_m2_ci_rel"] == pytest.approx(half / abs(k.mean()), rel=1e-9)
+    # the scatter falls with size: the 240 um spread is 8^1.5 = 22.6x smaller than 30 um's
+    ratio = t["k_z_m2_std"].iloc[0] / t["k_z_m2_std"].iloc[-1]
+    assert 8 < ratio < 60
+    ok = (t["k_z_m2_ci_rel"] <= 0.05).to_numpy()
+    first = next(i for i in range(len(ok)) if ok[i:].all())
+    assert res.rev_size_m == sizes[first] and first >= 1  # 30 um is not representative
+    doc = json.loads((tmp_path / "out" / "rev.json").read_text())
+    assert doc["rev_size_m"] == res.rev_size_m
+
+
+def test_rev_cli_bad_input(tmp_path, capsys) -> None:
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    assert (
+        main(["rev", str(spec), "--sizes", "50e-6", "--seeds", "1", "-o", str(tmp_path / "o")]) == 2
+    )
+    assert "--seeds: need >= 2" in capsys.readouterr().err
+    assert main(["rev", str(spec), "--sizes", "-1", "-o", str(tmp_path / "o")]) == 2
+    assert "--sizes" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
