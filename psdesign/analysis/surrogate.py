@@ -204,7 +204,7 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     return s
 
 
-def _bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict]) -> dict:
+def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict]) -> dict:
     out = {}
     for p in params:
         info = spec.get(p, {})
@@ -225,7 +225,7 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
     params = numeric_parameters(df, list(spec))
     if not params:
         raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
-    bounds = _bounds(df, params, spec)
+    bounds = parameter_bounds(df, params, spec)
     names = outputs or [
         c
         for c in output_columns(df, params)

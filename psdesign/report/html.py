@@ -20,6 +20,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
+from psdesign.report.interactive import CSS as INTERACTIVE_CSS
+from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
@@ -33,7 +36,6 @@ from psdesign.report.sensitivity import main_effects, sensitivity_table
 __all__ = ["ReportError", "build_html", "write_report"]
 
 FLUX_IMBALANCE_FLAG = 1e-2
-MAX_PREVIEWS = 8
 MAX_TABLE_ROWS = 2000
 DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
 
@@ -87,20 +89,25 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _cell(col: str, v) -> str:
+    """A table cell; K columns (``*_m2``) carry the value in m^2 for the unit selector."""
+    if col.endswith("_m2") and isinstance(v, float | int | np.floating) and math.isfinite(v):
+        return f'<td data-m2="{float(v)!r}">{_esc(_fmt(v))}</td>'
+    return f"<td>{_esc(_fmt(v))}</td>"
+
+
 def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int = MAX_TABLE_ROWS):
     cols = list(df.columns)
     head = "".join(f"<th>{_esc(c)}</th>" for c in cols)
     body = []
     for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
         cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
-        body.append(
-            f"<tr{cls}>" + "".join(f"<td>{_esc(_fmt(row[c]))}</td>" for c in cols) + "</tr>"
-        )
+        body.append(f"<tr{cls}>" + "".join(_cell(c, row[c]) for c in cols) + "</tr>")
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
     return (
-        f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
+        f'<div class="scroll"><table class="sortable"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(body)
         + "</tbody></table></div>"
         + more
@@ -243,12 +250,11 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
 
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
+    """Every case's preview picture, paged (images are decoded only when their page shows)."""
     if "preview_png" not in df:
         return '<p class="note">The case function wrote no preview pictures.</p>'
     items = []
     for _, row in df.iterrows():
-        if len(items) >= MAX_PREVIEWS:
-            break
         p = row.get("preview_png")
         if not isinstance(p, str) or not p:
             continue
@@ -257,12 +263,10 @@ def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         if uri is None:
             continue
         cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
-        items.append(
-            f'<figure><img src="{uri}" width="300" alt="preview {_esc(row["case_id"])}">'
-            f"<figcaption>{_esc(row['case_id'])}: {_esc(cap)} seed={_esc(row.get('seed'))}"
-            "</figcaption></figure>"
-        )
-    return "".join(items) or '<p class="note">No preview pictures found.</p>'
+        items.append((uri, f"{row['case_id']}: {cap} seed={row.get('seed')}"))
+    if not items:
+        return '<p class="note">No preview pictures found.</p>'
+    return gallery_html(items)
 
 
 def _versions() -> dict:
@@ -275,6 +279,14 @@ def _versions() -> dict:
         except md.PackageNotFoundError:
             pass
     return out
+
+
+def _safe(section, *args) -> str:
+    """A report section, or a note saying why it is missing (a report is never lost to one)."""
+    try:
+        return section(*args)
+    except Exception as exc:  # noqa: BLE001 - e.g. too few cases for a fit
+        return f'<p class="note">Section not available: {_esc(type(exc).__name__)}: {_esc(exc)}</p>'
 
 
 def build_html(out_dir: str | Path) -> str:
@@ -361,11 +373,19 @@ def build_html(out_dir: str | Path) -> str:
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>psdesign study report: {_esc(name)}</title>
-<style>{CSS}</style></head><body>
+<style>{CSS}{INTERACTIVE_CSS}</style>
+{head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
 <h2>Study</h2><table class="meta">{meta}</table>
+{unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>
+<h2>Outputs vs design parameters</h2>
+<p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
+(summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
+{_safe(parameter_plots, df, params)}
+<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params)}
+<h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
 <h2>Sensitivity</h2>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
 least squares on standardized variables) of each numeric parameter against porosity and

@@ -77,14 +77,17 @@ def test_report_is_self_contained(tmp_path):
     out = tmp_path / "out"
     df = run_study(p, out, workers=0, case_fn=failing_case, progress=False)  # writes the report
     html = (out / "report.html").read_text()
-    # no external resources: every src/href is a data: URI or a fragment
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html, flags=re.I)
+    # scripts (plotly.js and the report's helpers) are inline: no <script src=...>
+    scripts = re.findall(r"<script\b([^>]*)>", html, flags=re.I)
+    assert scripts and not any("src" in attrs.lower() for attrs in scripts)
+    markup = re.sub(r"<script\b[^>]*>.*?</script>", "", html, flags=re.I | re.S)
+    # no external resources: every src/href of the markup is a data: URI or a fragment
+    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", markup, flags=re.I)
     assert refs, "expected embedded images"
     assert all(r.startswith(("data:", "#")) for r in refs), refs
-    assert not re.search(r"url\(\s*['\"]?(https?:)?//", html)
-    assert "<script" not in html.lower()
-    # figures decode as PNG; the fake previews are embedded
-    uris = re.findall(r'src="data:image/png;base64,([^"]+)"', html)
+    assert not re.search(r"url\(\s*['\"]?(https?:)?//", markup)
+    # figures decode as PNG; the fake previews are embedded (paged: data-src)
+    uris = re.findall(r'src="data:image/png;base64,([^"]+)"', markup)
     assert len(uris) >= 3
     assert all(base64.b64decode(u)[:8] == b"\x89PNG\r\n\x1a\n" for u in uris)
     # every case is in the results table, failed cases are flagged with their error

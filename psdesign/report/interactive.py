@@ -1,0 +1,105 @@
+"""Interactive pieces of the report: Plotly figures (plotly.js inlined once, offline), a
+sortable table, paged thumbnails, the K-unit selector, and a JavaScript error trap that the
+browser test reads (``#psd-js-errors`` stays empty, ``body[data-psd-ready]`` is set on load)."""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+from psdesign.report.units import K_UNIT_LABELS, K_UNITS
+
+ASSETS = Path(__file__).resolve().parent / "assets"
+
+#: Width of every figure (px); fixed so that figures render the same in every browser.
+FIGURE_WIDTH = 640
+#: Thumbnails per page of the gallery.
+THUMBS_PER_PAGE = 24
+
+
+CSS = """
+.psd-grid{display:grid;grid-template-columns:repeat(auto-fill,650px);gap:.5em}
+table.sortable th{cursor:pointer}table.sortable th[data-order=asc]::after{content:" \\25B2"}
+table.sortable th[data-order=desc]::after{content:" \\25BC"}
+.scroll{max-width:100%;overflow:auto}
+#psd-js-errors{color:#b00;white-space:pre}
+"""
+
+
+def head_scripts() -> str:
+    """``<script>`` blocks for the ``<head>``: plotly.js (inline) and the report's helpers."""
+    from plotly.offline import get_plotlyjs
+
+    units = (
+        f"window.PSD_UNITS = {json.dumps(K_UNITS)};\n"
+        f"window.PSD_UNIT_LABELS = {json.dumps(K_UNIT_LABELS)};\n"
+    )
+    helpers = (ASSETS / "report.js").read_text()
+    return f"<script>{get_plotlyjs()}</script>\n<script>{units}{helpers}</script>"
+
+
+def unit_selector() -> str:
+    """The K-unit drop-down (affects every K table cell and K figure)."""
+    opts = "".join(
+        f'<option value="{k}">{html.escape(v)}</option>' for k, v in K_UNIT_LABELS.items()
+    )
+    return (
+        '<p>Permeability unit: <select id="psd-unit">' + opts + "</select> "
+        '<span class="note">(files stay in m²)</span></p><div id="psd-js-errors"></div>'
+    )
+
+
+def figure_html(fig, div_id: str, k_axis: str | None = None, k_label: str = "K") -> str:
+    """A Plotly figure as a ``<div>`` (no plotly.js; :func:`head_scripts` loads it once).
+
+    With ``k_axis`` (``"yaxis"``), the figure's y data are K in m^2 and follow the unit selector.
+    """
+    fig.update_layout(autosize=False, width=FIGURE_WIDTH)
+    div = fig.to_html(
+        full_html=False,
+        include_plotlyjs=False,
+        div_id=div_id,
+        config={"displaylogo": False},
+    )
+    if not k_axis:
+        return div
+    ys, errs = [], []
+    for tr in fig.data:
+        ys.append([None if v is None else float(v) for v in (tr.y if tr.y is not None else [])])
+        e = getattr(tr, "error_y", None)
+        arr = getattr(e, "array", None) if e is not None else None
+        errs.append(None if arr is None else [None if v is None else float(v) for v in arr])
+    reg = {
+        "id": div_id,
+        "traces": list(range(len(fig.data))),
+        "y": ys,
+        "err": errs if any(e is not None for e in errs) else None,
+        "axis": k_axis,
+        "label": k_label,
+    }
+    return div + (
+        "<script>(window.PSD_KFIGS = window.PSD_KFIGS || []).push("
+        + json.dumps(reg, allow_nan=False).replace("NaN", "null")
+        + ");</script>"
+    )
+
+
+def gallery_html(items: list[tuple[str, str]], gallery_id: str = "psd-thumbs") -> str:
+    """Paged thumbnails; ``items`` are ``(data_uri, caption)``. Images load when shown."""
+    figs = "".join(
+        f'<figure><img data-src="{uri}" alt="{html.escape(cap)}" width="300">'
+        f"<figcaption>{html.escape(cap)}</figcaption></figure>"
+        for uri, cap in items
+    )
+    nav = (
+        f"<p><button onclick=\"psdPage('{gallery_id}', parseInt(document.getElementById("
+        f"'{gallery_id}').getAttribute('data-page')) - 1)\">previous</button> "
+        f'<span id="{gallery_id}-label"></span> '
+        f"<button onclick=\"psdPage('{gallery_id}', parseInt(document.getElementById("
+        f"'{gallery_id}').getAttribute('data-page')) + 1)\">next</button></p>"
+    )
+    return (
+        f'{nav}<div class="psd-gallery" id="{gallery_id}" data-per-page="{THUMBS_PER_PAGE}"'
+        f' data-page="0">{figs}</div>'
+    )

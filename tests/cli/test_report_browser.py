@@ -1,0 +1,65 @@
+"""The study report in a real headless browser (Debian's chromium): it renders, runs its
+JavaScript without errors, draws the Plotly figures, and converts K units on request."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import pytest
+from study_cases import fake_case, write_study
+
+from psdesign.study import run_study
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--virtual-time-budget=5000",
+    "--window-size=1400,2400",
+]
+
+
+def _chromium(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([CHROMIUM, *FLAGS, *args], capture_output=True, text=True, timeout=120)
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("browser")
+    p = write_study(
+        tmp,
+        'design = "latin-hypercube"\nn_samples = 8\nseeds = [1, 2]\n'
+        'outputs = ["porosity", "k_x", "k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}',
+    )
+    run_study(p, tmp / "out", workers=0, case_fn=fake_case, progress=False)
+    return tmp / "out" / "report.html"
+
+
+def test_report_renders_without_javascript_errors(report, tmp_path) -> None:
+    dom = _chromium("--dump-dom", report.as_uri()).stdout
+    assert 'data-psd-ready="1"' in dom  # DOMContentLoaded handler ran to its end
+    errors = re.search(r'<div id="psd-js-errors">(.*?)</div>', dom, flags=re.S)
+    assert errors is not None and errors.group(1).strip() == ""
+    # Plotly drew every figure (its SVG containers exist), incl. Sobol and the surface
+    for div in ("psd-sobol", "psd-surface", "psd-main-effects", "psd-interaction"):
+        assert re.search(rf'id="{div}"[^>]*class="[^"]*js-plotly-plot', dom), div
+    assert dom.count('class="main-svg"') >= 8
+    shot = tmp_path / "report.png"
+    _chromium(f"--screenshot={shot}", report.as_uri())
+    assert shot.is_file() and shot.stat().st_size > 20_000
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_unit_selector_converts_k_to_darcy(report) -> None:
+    dom = _chromium("--dump-dom", report.as_uri() + "#unit=darcy").stdout
+    cells = re.findall(r'<td data-m2="([^"]+)">([^<]*)</td>', dom)
+    assert cells
+    for m2, shown in cells:
+        assert float(shown) == pytest.approx(float(m2) / 9.869233e-13, rel=1e-3)
