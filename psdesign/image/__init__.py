@@ -1,0 +1,2 @@
+"""Measured structures in: voxel images (TIFF stacks, raw, NumPy, VTI) as RVEs; RVEs out as
+TIFF stacks. An image enters the data flow where the geometry stage's voxel fields do."""

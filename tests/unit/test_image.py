@@ -1,0 +1,73 @@
+"""Image input and output (psdesign.image): formats, labels, crop, signed distance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psdesign.image.fields import image_fields, signed_distance
+from psdesign.image.reader import ImageSource, read_image
+from psdesign.image.writer import write_tiff
+
+
+def test_shipped_tiff_is_the_peer_geometry(data_dir) -> None:
+    ref = np.load(data_dir / "fibres_32.npz")["solid"].astype(bool)
+    got = read_image(ImageSource(data_dir / "fibres_32.tif", voxel=1e-4 / 32, solid=255))
+    assert got.shape == (32, 32, 32) and np.array_equal(got, ref)
+
+
+@pytest.mark.parametrize("fmt", ["tif", "npy", "raw", "vti"])
+def test_round_trip_every_format(tmp_path, fmt) -> None:
+    rng = np.random.default_rng(4)
+    solid = rng.random((7, 5, 3)) < 0.3  # non-cubic: catches swapped axes
+    path = tmp_path / f"img.{fmt}"
+    kw: dict = {}
+    if fmt == "tif":
+        write_tiff(solid, path, 1e-6)
+        kw["solid"] = 255
+    elif fmt == "npy":
+        np.save(path, solid.astype(np.uint8) * 3)
+        kw["solid"] = 3
+    elif fmt == "raw":
+        solid.astype(">u2").transpose(2, 1, 0).tofile(path)  # x fastest, big endian
+        kw |= {"shape": (7, 5, 3), "dtype": "uint16", "byte_order": "big", "solid": 1}
+    else:
+        import pyvista as pv
+
+        img = pv.ImageData(dimensions=solid.shape)
+        img.point_data["phase"] = solid.ravel(order="F").astype(np.uint8)
+        img.save(str(path))
+        kw["solid"] = 1
+    got = read_image(ImageSource(path, voxel=1e-6, **kw))
+    assert np.array_equal(got, solid)
+
+
+def test_crop_and_label_errors(tmp_path) -> None:
+    a = np.zeros((6, 6, 6), np.uint8)
+    a[2:4] = 7
+    np.save(tmp_path / "a.npy", a)
+    src = ImageSource(tmp_path / "a.npy", voxel=1e-6, solid=7, crop=((2, 6), (0, 6), (0, 3)))
+    assert read_image(src).shape == (4, 6, 3) and read_image(src)[:2].all()
+    with pytest.raises(ValueError, match=r"image\.crop\[0\]"):
+        read_image(ImageSource(tmp_path / "a.npy", voxel=1e-6, solid=7, crop=((0, 9),) * 3))
+    with pytest.raises(ValueError, match=r"image\.solid: no voxel has label \[5\]"):
+        read_image(ImageSource(tmp_path / "a.npy", voxel=1e-6, solid=5))
+    (tmp_path / "b.raw").write_bytes(b"\0" * 10)
+    with pytest.raises(ValueError, match=r"image\.shape"):
+        read_image(ImageSource(tmp_path / "b.raw", voxel=1e-6, shape=(2, 2, 2)))
+
+
+def test_signed_distance_of_a_sphere() -> None:
+    # a solid ball of radius 10 voxels: |d| is the distance to the sphere to within a voxel
+    n, r, h = 40, 10.0, 2e-6
+    x = np.arange(n) + 0.5 - n / 2
+    X, Y, Z = np.meshgrid(x, x, x, indexing="ij")
+    rho = np.sqrt(X**2 + Y**2 + Z**2)
+    d = signed_distance(rho <= r, h) / h
+    exact = rho - r
+    near = np.abs(exact) < 5
+    assert np.all(np.sign(d[np.abs(exact) > 1]) == np.sign(exact[np.abs(exact) > 1]))
+    assert np.abs(d - exact)[near].max() < 1.0
+    f = image_fields(rho <= r, h)
+    assert f.porosity == pytest.approx(1 - np.count_nonzero(rho <= r) / n**3)
+    assert np.allclose(f.grid.spacing, h) and f.grid.shape == (n, n, n)
