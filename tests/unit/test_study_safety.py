@@ -370,3 +370,89 @@ def test_tls_options_are_checked(tmp_path):
     with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
         runner_mod.connect_scheduler("tls://127.0.0.1:9", 1)
     assert runner_mod.scheduler_security() is None
+
+
+def _self_signed(tmp_path: Path) -> tuple[str, str]:
+    """A CA-signed-by-itself certificate for 127.0.0.1 (cert + key in one PEM, and the key)."""
+    import datetime as dt
+    import ipaddress
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "psdesign-test")])
+    now = dt.datetime.now(dt.UTC)
+    cert = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(name)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - dt.timedelta(days=1))
+        .not_valid_after(now + dt.timedelta(days=2))
+        .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+        .add_extension(
+            x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            critical=False,
+        )
+        .sign(key, hashes.SHA256())
+    )
+    cert_pem = tmp_path / "cert.pem"
+    key_pem = tmp_path / "key.pem"
+    cert_pem.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_pem.write_bytes(
+        key.private_bytes(
+            serialization.Encoding.PEM,
+            serialization.PrivateFormat.PKCS8,
+            serialization.NoEncryption(),
+        )
+    )
+    return str(cert_pem), str(key_pem)
+
+
+@pytest.mark.slow
+def test_tls_scheduler_end_to_end(tmp_path, capsys):
+    from distributed import LocalCluster
+    from distributed.security import Security
+
+    cert, key = _self_signed(tmp_path)
+    sec = Security(
+        tls_ca_file=cert,
+        tls_scheduler_cert=cert,
+        tls_scheduler_key=key,
+        tls_worker_cert=cert,
+        tls_worker_key=key,
+        tls_client_cert=cert,
+        tls_client_key=key,
+        require_encryption=True,
+    )
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    a = run_study(p, tmp_path / "a", workers=0, case_fn=fake_case, progress=False, report=False)
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=False,
+        protocol="tls",
+        host="127.0.0.1",
+        security=sec,
+        dashboard_address=None,
+    ) as cluster:
+        addr = cluster.scheduler_address
+        assert addr.startswith("tls://127.0.0.1:")
+        with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
+            run_study(p, tmp_path / "b", scheduler=addr, case_fn=fake_case, progress=False)
+        b = run_study(
+            p,
+            tmp_path / "b",
+            scheduler=addr,
+            case_fn=fake_case,
+            progress=False,
+            report=False,
+            security=runner_mod.scheduler_security(cert, cert, key),
+        )
+    cols = ["case_id", "status", "k_x_m2", "k_z_m2"]
+    pd.testing.assert_frame_equal(a[cols], b[cols])
+    assert "warning" not in capsys.readouterr().err
