@@ -296,6 +296,26 @@ def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
     assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
 
 
+def test_interrupt_stops_only_processes_started_during_the_run():
+    from psdesign.study.interrupt import stop_on_interrupt
+
+    sleep = [sys.executable, "-c", "import time; time.sleep(60)"]
+    before = subprocess.Popen(sleep)
+    during = None
+    try:
+        with pytest.raises(KeyboardInterrupt), stop_on_interrupt():
+            during = subprocess.Popen(sleep)
+            raise KeyboardInterrupt
+        during.wait(timeout=5)  # stopped (reaped by psutil: no exit status to check)
+        assert before.poll() is None  # the caller's own child is left alone
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        for proc in (before, during):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
+
+
 # ----------------------------------------------------------------------------- Dask
 
 
