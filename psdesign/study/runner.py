@@ -528,6 +528,8 @@ def run_study(
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
 
+    The parameters mirror the options of ``psdesign study run`` one to one (hence their number).
+
     Parameters
     ----------
     study : str, Path or Study
@@ -739,21 +741,23 @@ def _run_locked(
         },
     )
     if report:
-        try:
-            from psdesign.report import write_report
-
-            write_report(out)
-        except StorageError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
-            print(
-                f"[study] warning: report not written: {type(exc).__name__}: {exc}", file=sys.stderr
-            )
+        _write_report(out)
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
     prog.finish(
         f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> {out / 'results.csv'}"
     )
     return df
+
+
+def _write_report(out: Path) -> None:
+    try:
+        from psdesign.report import write_report
+
+        write_report(out)
+    except StorageError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
+        print(f"[study] warning: report not written: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
 def _append_run(store: CaseStore, entry: dict) -> None:
