@@ -5,12 +5,21 @@ from __future__ import annotations
 import argparse
 import json
 
+from psdesign.cli.progress import add_force_argument
+
+FORCEFIELD_FILES = ("rve.json", "history.csv", "before.png", "after.png")
+
 
 def _cmd_forcefield(args: argparse.Namespace) -> int:
     from psdesign.forcefield.run import load_forcefield_spec, run_forcefield
+    from psdesign.io.outputs import check_output_dir
 
     ff = load_forcefield_spec(args.spec)
-    summary = run_forcefield(ff, args.output, pictures=not args.no_pictures)
+    # checked before the optimization; run_forcefield's staged folder accepts the checked target
+    target = check_output_dir(
+        args.output, force=args.force, command="forcefield", expected=FORCEFIELD_FILES
+    )
+    summary = run_forcefield(ff, target, pictures=not args.no_pictures)
     print(
         json.dumps(
             {
@@ -42,4 +51,5 @@ def register(subparsers) -> None:
     p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--no-pictures", action="store_true", help="skip before.png / after.png")
+    add_force_argument(p)
     p.set_defaults(func=_cmd_forcefield)

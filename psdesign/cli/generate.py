@@ -8,12 +8,16 @@ import json
 import time
 from pathlib import Path
 
+from psdesign.cli.progress import add_force_argument
+
 
 def _cmd_generate(args: argparse.Namespace) -> int:
     from psdesign.schema.spec import load_spec
 
     spec = load_spec(args.spec)
-    summary = write_generate_outputs(spec, args.output, preview=not args.no_preview)
+    summary = write_generate_outputs(
+        spec, args.output, preview=not args.no_preview, force=args.force
+    )
     print(
         json.dumps(
             {k: summary[k] for k in ("porosity", "n_fibers", "intersection_volume_fraction")}
@@ -22,10 +26,26 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def write_generate_outputs(spec: dict, out_dir: str | Path, preview: bool = True) -> dict:
+GENERATE_FILES = (
+    "rve.json",
+    "summary.json",
+    "field.vti",
+    "fibers.stl",
+    "medial_axes.csv",
+    "medial_axes.json",
+    "preview.png",
+)
+"""Files ``generate`` writes (checked against user files before the work starts)."""
+
+
+def write_generate_outputs(
+    spec: dict, out_dir: str | Path, preview: bool = True, force: bool = False
+) -> dict:
     """Build, voxelize and write rve.json, summary.json, field.vti, fibers.stl, preview.png.
 
-    All files appear together in ``out_dir`` or, on failure, none do.
+    All files appear together in ``out_dir`` or, on failure, none do.  ``out_dir`` is checked
+    first (:func:`psdesign.io.outputs.check_output_dir`; ``force`` is ``--force``), so a refused
+    folder costs no work and nothing psdesign did not write is ever replaced.
 
     Returns
     -------
@@ -33,17 +53,19 @@ def write_generate_outputs(spec: dict, out_dir: str | Path, preview: bool = True
         The summary.
     """
     from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.outputs import check_output_dir
     from psdesign.packing.build import build_rve, rve_document, summarize
     from psdesign.packing.generators import write_medial_axes
     from psdesign.report.preview import distance_image, fiber_surface, render_preview
 
+    target = check_output_dir(out_dir, force=force, command="generate", expected=GENERATE_FILES)
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(rve, fields, built.report)
     summary["wall_time_s"] = {"build_and_voxelize": time.perf_counter() - t0}
-    with staged_directory(out_dir) as tmp:
+    with staged_directory(target) as tmp:
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
         img.point_data["fiber_count"] = fields.count.ravel(order="F")
@@ -73,4 +95,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("spec", help="RVE spec (TOML)")
     gen.add_argument("-o", "--output", required=True, help="output folder")
     gen.add_argument("--no-preview", action="store_true", help="skip preview.png")
+    add_force_argument(gen)
     gen.set_defaults(func=_cmd_generate)

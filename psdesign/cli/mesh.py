@@ -6,6 +6,7 @@ import argparse
 import json
 import time
 
+from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
 
 MESH_FORMATS = ("vtu", "msh", "fluent", "stl", "openfoam")
@@ -14,6 +15,7 @@ MESH_FORMATS = ("vtu", "msh", "fluent", "stl", "openfoam")
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.flow.permeability import mesher_options
     from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.outputs import check_output_dir
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -25,6 +27,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             raise SpecError(
                 "--format", f"unknown format {fmt!r}; allowed: {', '.join(MESH_FORMATS)}"
             )
+    target = check_output_dir(
+        args.output, force=args.force, command="mesh", expected=("mesh.json",)
+    )
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
@@ -39,7 +44,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         aux_length=float(flow["aux_length"]),
         **mesher_options(flow),
     )
-    with staged_directory(args.output) as tmp:
+    with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])))
         info = {
             "direction": args.direction,
@@ -78,4 +83,5 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FMT",
         help=f"extra formats: {', '.join(MESH_FORMATS)}",
     )
+    add_force_argument(mesh)
     mesh.set_defaults(func=_cmd_mesh)

@@ -1,4 +1,4 @@
-"""Progress lines on stderr for long solves (shared by the CLI commands)."""
+"""Helpers shared by the CLI commands: progress lines on stderr, the ``--force`` option."""
 
 from __future__ import annotations
 
@@ -23,3 +23,14 @@ def progress_printer(direction: str, every_s: float = 5.0):
             )
 
     return report
+
+
+FORCE_HELP = (
+    "write into a non-empty folder psdesign did not create; files psdesign did not write are "
+    "still never replaced, and / and the home folder are always refused"
+)
+
+
+def add_force_argument(parser) -> None:
+    """Add ``--force`` (see :mod:`psdesign.io.outputs`) to a sub-command parser."""
+    parser.add_argument("--force", action="store_true", help=FORCE_HELP)

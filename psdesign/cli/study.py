@@ -6,13 +6,16 @@ The main CLI registers these with::
     register(subparsers)      # subparsers of the top-level parser
     ...
     args = parser.parse_args(argv)
-    return args.func(args)   # exit status: 0 ok, 1 failed cases / storage error, 2 bad input
+    return args.func(args)   # exit status: 0 ok, 1 failed / timeout / not_converged cases or
+                             # storage error, 2 bad input (also a refused -o), 130 Ctrl-C
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+
+from psdesign.cli.progress import add_force_argument
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
 
@@ -59,9 +62,13 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument(
         "--scheduler",
         default=None,
-        help="Dask scheduler address tcp://HOST:PORT, or 'local' for a local "
-        "Dask cluster (default: local process pool)",
+        help="Dask scheduler address tls://HOST:PORT or tcp://HOST:PORT (unencrypted: a "
+        "warning unless on this machine), or 'local' for a local Dask cluster "
+        "(default: local process pool)",
     )
+    run.add_argument("--tls-ca-file", default=None, help="CA certificate for a tls:// scheduler")
+    run.add_argument("--tls-cert", default=None, help="client certificate for a tls:// scheduler")
+    run.add_argument("--tls-key", default=None, help="client private key for a tls:// scheduler")
     run.add_argument(
         "--timeout",
         type=_positive_float,
@@ -71,6 +78,17 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument(
         "--retry-failed", action="store_true", help="re-run cases recorded as failed or timeout"
     )
+    run.add_argument(
+        "--retry-not-converged",
+        action="store_true",
+        help="re-run cases recorded as not_converged (otherwise they count as finished)",
+    )
+    run.add_argument(
+        "--allow-not-converged",
+        action="store_true",
+        help="exit 0 even if some cases are not_converged (failed/timeout still exit 1)",
+    )
+    add_force_argument(run)
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
     run.add_argument("--quiet", action="store_true", help="no progress output")
     run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
@@ -93,11 +111,13 @@ def _fail(msg: str, code: int) -> int:
 
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
-    from psdesign.study.runner import run_study
+    from psdesign.errors import SpecError
+    from psdesign.study.runner import run_study, scheduler_security
     from psdesign.study.store import StorageError
     from psdesign.study.studyfile import StudyError
 
     try:
+        security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
         df = run_study(
             args.study,
             args.out,
@@ -108,15 +128,31 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             timeout_s=args.timeout,
             retry_failed=args.retry_failed,
             report=not args.no_report,
+            force=args.force,
+            retry_not_converged=args.retry_not_converged,
+            security=security,
         )
-    except StudyError as exc:
+    except (StudyError, SpecError) as exc:
         return _fail(str(exc), 2)
     except StorageError as exc:
         return _fail(str(exc), 1)
     except KeyboardInterrupt:
         return _fail("interrupted; finished cases are saved, rerun the command to resume", 130)
-    n_bad = int((df["status"] != "ok").sum()) if len(df) else 0
-    return 0 if n_bad == 0 else 1
+    return study_exit_status(df, allow_not_converged=args.allow_not_converged)
+
+
+def study_exit_status(df, allow_not_converged: bool = False) -> int:
+    """0 when every case is ``ok`` (or ``not_converged`` and allowed), else 1 (one line why)."""
+    status = df["status"] if len(df) else []
+    n_nc = int((status == "not_converged").sum()) if len(df) else 0
+    n_bad = int(((status != "ok") & (status != "not_converged")).sum()) if len(df) else 0
+    if n_nc and not allow_not_converged:
+        print(
+            f"psdesign: {n_nc} case(s) not_converged (a solve did not converge or was flagged); "
+            "--allow-not-converged to accept them, --retry-not-converged to re-run them",
+            file=sys.stderr,
+        )
+    return 1 if n_bad or (n_nc and not allow_not_converged) else 0
 
 
 def cmd_study_report(args: argparse.Namespace) -> int:

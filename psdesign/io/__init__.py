@@ -1,1 +1,2 @@
-"""io"""
+"""File output: safe output folders (:mod:`~psdesign.io.outputs`) and atomic writes
+(:mod:`~psdesign.io.atomic`)."""

@@ -5,43 +5,31 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from psdesign.io.outputs import TEMP_PREFIX, OutputDir, check_output_dir, staged_output
+
 
 @contextlib.contextmanager
-def staged_directory(out_dir: str | Path) -> Iterator[Path]:
+def staged_directory(out_dir: str | Path | OutputDir) -> Iterator[Path]:
     """Yield a temporary sibling folder; on success move its files into ``out_dir``.
 
-    On any exception the temporary folder is removed and ``out_dir`` is left as it
-    was (not created if it did not exist).
+    On any exception the temporary folder is removed and ``out_dir`` is left as it was (not
+    created if it did not exist).  ``out_dir`` is best checked first with
+    :func:`psdesign.io.outputs.check_output_dir` (before the work); a plain path is checked
+    here with the same rules and no ``--force``.  Only files psdesign wrote are ever replaced
+    (see :mod:`psdesign.io.outputs`).
     """
-    out = Path(out_dir)
-    parent = out.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
-    tmp.chmod(0o755)
-    try:
+    out = out_dir if isinstance(out_dir, OutputDir) else check_output_dir(out_dir)
+    with staged_output(out) as tmp:
         yield tmp
-        if not out.exists():
-            os.replace(tmp, out)
-            return
-        for item in tmp.iterdir():
-            target = out / item.name
-            if target.is_dir() and not target.is_symlink():
-                shutil.rmtree(target)
-            os.replace(item, target)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def write_json(path: str | Path, data: object) -> None:
     """Write JSON atomically (temp file + rename)."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
+    tmp = path.with_name(f"{TEMP_PREFIX}{path.name}.{os.getpid()}.tmp")
     tmp.write_text(json.dumps(data, indent=2, default=_json_default))
     os.replace(tmp, path)
 

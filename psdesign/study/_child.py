@@ -1,28 +1,30 @@
-"""Child-process entry point for a case with a timeout: ``python -m psdesign.study._child IN OUT``.
+"""Child-process entry point for a case with a timeout: ``python -m psdesign.study._child WORKDIR
+[PARENT_PID]``.
 
-Reads the pickled case input from IN, runs the case function and writes a pickled
-``{"ok": bool, "results" | "error", "traceback"}`` to OUT (temp file + os.replace).
+Reads the case job as JSON from stdin (:func:`psdesign.study.exchange.read_job`), runs the case
+function and writes ``{"ok": bool, "results" | "error", "traceback"}`` as JSON (+ npz for
+arrays) into WORKDIR (:func:`psdesign.study.exchange.write_result`).  No pickle is involved.
 """
 
 from __future__ import annotations
 
-import os
-import pickle
+import signal
 import sys
 import traceback
 from pathlib import Path
 
 
 def main(argv: list[str]) -> int:
-    inp, outp = Path(argv[0]), Path(argv[1])
+    """Run one case; returns the exit status (0 when a result was written)."""
     from psdesign.study.casefn import load_case_fn, watch_parent
+    from psdesign.study.exchange import read_job, write_result
 
-    if len(argv) > 2:
-        watch_parent(int(argv[2]))
-    with open(inp, "rb") as fh:
-        job = pickle.load(fh)
-
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runner decides when a case stops
+    workdir = Path(argv[0])
+    if len(argv) > 1:
+        watch_parent(int(argv[1]))
     try:
+        job = read_job(sys.stdin.buffer)
         fn = load_case_fn(job["case_fn"])
         res = fn(job["spec"], list(job["outputs"]), job["solver"], Path(job["workdir"]))
         out = {"ok": True, "results": res}
@@ -33,10 +35,7 @@ def main(argv: list[str]) -> int:
             "error": f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__,
             "traceback": traceback.format_exc(),
         }
-    tmp = outp.with_name(outp.name + ".tmp")
-    with open(tmp, "wb") as fh:
-        pickle.dump(out, fh)
-    os.replace(tmp, outp)
+    write_result(workdir, out)
     return 0
 
 

@@ -20,12 +20,15 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
+from psdesign.io.outputs import check_output_dir, claim_output_dir
 from psdesign.study.casefn import watch_parent
 from psdesign.study.design import Case, expand_design
+from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
 from psdesign.study.store import CaseStore, StorageError
 from psdesign.study.studyfile import Study, StudyError, load_study
@@ -34,6 +37,8 @@ from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
 __all__ = ["SchedulerError", "run_study"]
 
 CONNECT_TIMEOUT_S = 10.0
+#: What ``study run`` writes in its output folder (a trailing ``/``: a whole sub-folder).
+STUDY_FILES = ("study.json", "results.csv", "results.parquet", "run.json", "report.html", "cases/")
 _MAX_POOL_BREAKS = 2
 
 
@@ -166,7 +171,7 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
         ex = cf.ProcessPoolExecutor(
             max_workers=n_workers,
             mp_context=_mp_context(),
-            initializer=watch_parent,
+            initializer=_init_worker,
             initargs=(os.getpid(),),
         )
         try:
@@ -196,6 +201,12 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
         ex.shutdown(wait=True)
 
 
+def _init_worker(parent_pid: int) -> None:
+    """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle."""
+    ignore_sigint()
+    watch_parent(parent_pid)
+
+
 def _terminate_pool(ex: cf.ProcessPoolExecutor) -> None:
     """Stop the pool's own worker processes (by pid) after an error or interrupt."""
     procs = getattr(ex, "_processes", None) or {}
@@ -211,16 +222,146 @@ def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> 
         on_done(p, execute_case(p))
 
 
-def connect_scheduler(address: str, workers: int, timeout_s: float | None = None):
-    """Return ``(client, cluster_or_None)`` for a Dask scheduler address or ``"local"``.
+def _host_port(address: str) -> tuple[str, str, int]:
+    scheme, _, rest = address.partition("://")
+    host, sep, port = rest.rpartition(":")
+    host = host.strip("[]")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise SchedulerError(
+            f"--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT or 'local', "
+            f"got {address!r}"
+        )
+    return scheme, host, int(port)
+
+
+def _is_loopback(host: str) -> bool:
+    import ipaddress
+
+    try:
+        infos = socket.getaddrinfo(host, None)
+    except OSError:
+        return False
+    try:
+        return bool(infos) and all(ipaddress.ip_address(i[4][0]).is_loopback for i in infos)
+    except ValueError:  # pragma: no cover
+        return False
+
+
+MAX_HANDSHAKE_BYTES = 1 << 20
+"""Largest first message accepted from a scheduler while probing it (a Dask handshake is
+a few hundred bytes; dask itself has no such limit and would allocate whatever a peer claims)."""
+
+
+def _recv_exact(sock, n: int) -> bytes:
+    buf = bytearray()
+    while len(buf) < n:
+        chunk = sock.recv(min(n - len(buf), 65536))
+        if not chunk:
+            raise ConnectionError("connection closed by the peer")
+        buf += chunk
+    return bytes(buf)
+
+
+def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
+    """Check that a Dask scheduler (not some other server) answers at ``address``.
+
+    A Dask comm sends its handshake as soon as a connection is made: an 8-byte little-endian
+    length, then the frames (8-byte frame count, 8-byte lengths).  The probe reads it with
+    bounded sizes and a timeout, so a non-Dask peer gives a clean error instead of dask trying
+    to allocate whatever length the peer's first bytes spell.
 
     Raises
     ------
     SchedulerError
-        If dask.distributed is missing or nothing answers at ``address`` within ``timeout_s``
-        (default :data:`CONNECT_TIMEOUT_S`).
+        One line: nothing answers, or the peer does not speak the Dask protocol.
+    """
+    import struct
+
+    _scheme, host, port = _host_port(address)
+    where = f"--scheduler: {address}"
+    try:
+        raw = socket.create_connection((host, port), timeout=timeout_s)
+    except OSError as exc:
+        raise SchedulerError(
+            f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
+            f"({type(exc).__name__}); nothing was run or changed"
+        ) from None
+    try:
+        raw.settimeout(timeout_s)
+        sock = ssl_context.wrap_socket(raw, server_hostname=host) if ssl_context else raw
+        (total,) = struct.unpack("<Q", _recv_exact(sock, 8))
+        if not 16 <= total <= MAX_HANDSHAKE_BYTES:
+            raise ValueError(f"first message claims {total} bytes")
+        body = _recv_exact(sock, total)
+        (n_frames,) = struct.unpack_from("<Q", body)
+        if not 1 <= n_frames <= 64 or 8 * (n_frames + 1) > total:
+            raise ValueError(f"first message claims {n_frames} frames")
+        sizes = struct.unpack_from(f"<{n_frames}Q", body, 8)
+        if sum(sizes) > MAX_HANDSHAKE_BYTES:
+            raise ValueError("first message frames too large")
+    except TimeoutError:
+        raise SchedulerError(
+            f"{where} accepted the connection but sent no Dask handshake within "
+            f"{timeout_s:g} s; is it a Dask scheduler? nothing was run or changed"
+        ) from None
+    except (OSError, ValueError, struct.error) as exc:
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        raise SchedulerError(
+            f"{where} does not speak the Dask protocol ({msg}); nothing was run or changed"
+        ) from None
+    finally:
+        raw.close()
+
+
+def scheduler_security(
+    tls_ca_file: str | None = None, tls_cert: str | None = None, tls_key: str | None = None
+):
+    """A :class:`distributed.security.Security` for a ``tls://`` scheduler, or None.
+
+    With no file given, None: dask's own configuration (``distributed.comm.tls.*``) applies.
+
+    Raises
+    ------
+    SchedulerError
+        A file is missing or only some of the three are given.
+    """
+    given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
+    if not any(given.values()):
+        return None
+    missing = [k for k, v in given.items() if not v]
+    if missing:
+        raise SchedulerError(f"{missing[0]}: required with the other --tls-* options")
+    for k, v in given.items():
+        if not Path(v).is_file():
+            raise SchedulerError(f"{k}: no such file {v}")
+    from distributed.security import Security
+
+    return Security(
+        tls_ca_file=tls_ca_file,
+        tls_client_cert=tls_cert,
+        tls_client_key=tls_key,
+        require_encryption=True,
+    )
+
+
+def connect_scheduler(address: str, workers: int, timeout_s: float | None = None, security=None):
+    """Return ``(client, cluster_or_None)`` for a Dask scheduler address or ``"local"``.
+
+    ``tcp://`` to a non-loopback host is unencrypted and unauthenticated: one warning line on
+    stderr.  ``tls://`` uses ``security`` (a :class:`distributed.security.Security`, see
+    :func:`scheduler_security`) or dask's ``distributed.comm.tls`` configuration.  The remote
+    end is probed first (:func:`probe_scheduler`), and dask's connect timeouts are set to
+    ``timeout_s``.
+
+    Raises
+    ------
+    SchedulerError
+        If dask.distributed is missing, the address is malformed, nothing answers at
+        ``address`` within ``timeout_s`` (default :data:`CONNECT_TIMEOUT_S`) or the peer is
+        not a Dask scheduler.
     """
     try:
+        import dask
         from distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - dependency of psdesign
         raise SchedulerError(f"--scheduler: dask.distributed is not installed ({exc})") from exc
@@ -238,13 +379,50 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         raise SchedulerError(
             f"--scheduler: expected an address like tcp://HOST:PORT or 'local', got {address!r}"
         )
+    scheme, host, _port = _host_port(address)
+    if scheme not in ("tcp", "tls"):
+        raise SchedulerError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
+    ssl_context = None
+    if scheme == "tls":
+        from distributed.security import Security
+
+        sec = security if security is not None else Security()
+        ssl_context = sec.get_connection_args("client").get("ssl_context")
+        if ssl_context is None:
+            raise SchedulerError(
+                "--scheduler: tls:// needs --tls-ca-file, --tls-cert and --tls-key "
+                "(or dask config distributed.comm.tls.*)"
+            )
+        security = sec
+    else:
+        if security is not None:
+            raise SchedulerError(
+                f"--tls-ca-file: TLS options given but {address} is plain tcp://; use tls://"
+            )
+        if not _is_loopback(host):
+            print(
+                f"psdesign: warning: {address} is unencrypted and unauthenticated tcp:// to "
+                "another machine; use tls:// with --tls-ca-file/--tls-cert/--tls-key",
+                file=sys.stderr,
+            )
+    probe_scheduler(address, timeout_s, ssl_context)
+    limits = {
+        "distributed.comm.timeouts.connect": f"{timeout_s}s",
+        "distributed.comm.timeouts.tcp": f"{max(timeout_s, 30.0)}s",
+    }
     try:
-        client = Client(address, timeout=timeout_s)
+        with dask.config.set(limits):
+            client = Client(address, timeout=timeout_s, security=security)
     except (OSError, TimeoutError) as exc:
         raise SchedulerError(
             f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
             f"({type(exc).__name__}); nothing was run or changed"
         ) from exc
+    except (MemoryError, ValueError) as exc:  # garbage after a valid-looking handshake
+        raise SchedulerError(
+            f"--scheduler: {address} does not speak the Dask protocol ({type(exc).__name__}); "
+            "nothing was run or changed"
+        ) from None
     return client, None
 
 
@@ -343,8 +521,14 @@ def run_study(
     timeout_s: float | None = None,
     retry_failed: bool = False,
     report: bool = True,
+    *,
+    force: bool = False,
+    retry_not_converged: bool = False,
+    security=None,
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
+
+    The parameters mirror the options of ``psdesign study run`` one to one (hence their number).
 
     Parameters
     ----------
@@ -370,6 +554,13 @@ def run_study(
         Re-run cases recorded as ``failed`` or ``timeout`` (``ok`` cases are always skipped).
     report : bool
         Write ``OUT/report.html`` at the end.
+    force : bool
+        Accept a non-empty ``out_dir`` psdesign did not create (``--force``); a file psdesign
+        did not write is still never replaced (:mod:`psdesign.io.outputs`).
+    retry_not_converged : bool
+        Re-run cases recorded as ``not_converged`` (otherwise they count as finished).
+    security : distributed.security.Security, optional
+        TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
 
     Returns
     -------
@@ -380,6 +571,8 @@ def run_study(
     ------
     StudyError
         Invalid study or arguments; :class:`SchedulerError` if the scheduler does not answer.
+    psdesign.io.outputs.OutputError
+        ``out_dir`` is refused (``/``, home, a file, a non-empty folder of the user's).
     StorageError
         Writing results failed (disk full, permissions); records written so far are intact.
     """
@@ -395,36 +588,64 @@ def run_study(
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
         validate_case_specs(cases)
-    out = Path(out_dir).resolve()
+    target = check_output_dir(
+        out_dir,
+        force=force,
+        command="study run",
+        expected=STUDY_FILES,
+        legacy=("study.json", "cases"),
+    )
+    out = target.path
     store = CaseStore(out)
     param_names = list(study.parameters)
+    opts = _RunOptions(
+        workers,
+        scheduler,
+        case_fn,
+        progress,
+        timeout,
+        retry_failed,
+        retry_not_converged,
+        report,
+    )
 
     # connect first: a dead scheduler must not touch the output folder
     client = cluster = None
-    if scheduler:
-        client, cluster = connect_scheduler(scheduler, workers)
     try:
-        store.prepare()
-        with _run_lock(out):
-            return _run_locked(
-                study,
-                cases,
-                store,
-                param_names,
-                workers,
-                scheduler,
-                client,
-                case_fn,
-                progress,
-                timeout,
-                retry_failed,
-                report,
-            )
+        with stop_on_interrupt():
+            if scheduler:
+                client, cluster = connect_scheduler(scheduler, workers, security=security)
+            _claim(target)  # the folder and its marker; nothing is deleted before the lock
+            store.prepare()
+            with _run_lock(out), stop_on_interrupt():  # workers stop before the lock goes
+                store.remove_stale_temp()
+                return _run_locked(study, cases, store, param_names, client, opts)
     finally:
         if client is not None:
-            client.close()
+            client.close(timeout=5)
         if cluster is not None:
-            cluster.close()
+            cluster.close(timeout=5)
+
+
+def _claim(target) -> None:
+    try:
+        claim_output_dir(target, STUDY_FILES)
+    except OSError as exc:
+        raise StorageError(
+            exc.errno, f"cannot write {target.path}: {exc.strerror or exc}; nothing was changed"
+        ) from exc
+
+
+@dataclass(frozen=True)
+class _RunOptions:
+    workers: int
+    scheduler: str | None
+    case_fn: Callable | str
+    progress: bool
+    timeout: float | None
+    retry_failed: bool
+    retry_not_converged: bool
+    report: bool
 
 
 def _run_locked(
@@ -432,15 +653,11 @@ def _run_locked(
     cases: list[Case],
     store: CaseStore,
     param_names: list[str],
-    workers: int,
-    scheduler: str | None,
     client,
-    case_fn,
-    progress: bool,
-    timeout: float | None,
-    retry_failed: bool,
-    report: bool,
+    opts: _RunOptions,
 ) -> pd.DataFrame:
+    workers, scheduler, case_fn = opts.workers, opts.scheduler, opts.case_fn
+    progress, timeout, report = opts.progress, opts.timeout, opts.report
     out = store.out
     t_start = time.perf_counter()
     started = _now()
@@ -450,7 +667,9 @@ def _run_locked(
     )
     design_ids = {c.case_id for c in cases}
     records = {k: v for k, v in store.load_records().items() if k in design_ids}
-    skip = {"ok"} if retry_failed else {"ok", "failed", "timeout"}
+    skip = {"ok"} if opts.retry_failed else {"ok", "failed", "timeout"}
+    if not opts.retry_not_converged:
+        skip.add("not_converged")
     todo = [c for c in cases if records.get(c.case_id, {}).get("status") not in skip]
 
     prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=progress)
@@ -522,21 +741,23 @@ def _run_locked(
         },
     )
     if report:
-        try:
-            from psdesign.report import write_report
-
-            write_report(out)
-        except StorageError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
-            print(
-                f"[study] warning: report not written: {type(exc).__name__}: {exc}", file=sys.stderr
-            )
+        _write_report(out)
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
     prog.finish(
         f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> {out / 'results.csv'}"
     )
     return df
+
+
+def _write_report(out: Path) -> None:
+    try:
+        from psdesign.report import write_report
+
+        write_report(out)
+    except StorageError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the results are safe; say why no report
+        print(f"[study] warning: report not written: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
 def _append_run(store: CaseStore, entry: dict) -> None:

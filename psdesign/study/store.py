@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from psdesign.io.outputs import TEMP_PREFIX, is_psdesign_temp
+
 __all__ = [
     "CaseStore",
     "StorageError",
@@ -105,7 +107,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
         On any OSError; ``path`` keeps its previous content and no temp file is left.
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = path.with_name(f"{TEMP_PREFIX}{path.name}.{os.getpid()}.tmp")
     try:
         with open(tmp, "wb") as fh:
             fh.write(data)
@@ -215,7 +217,7 @@ class CaseStore:
 
     # -- setup
     def prepare(self) -> None:
-        """Create the folders and check that they are writable.
+        """Create the folders and check that they are writable (nothing is deleted here).
 
         Raises
         ------
@@ -228,17 +230,34 @@ class CaseStore:
             raise StorageError(
                 exc.errno, f"cannot create output folder {self.cases_dir}: {exc.strerror or exc}"
             ) from exc
-        atomic_write_bytes(self.out / ".write-test", b"ok")
+        probe = self.out / f"{TEMP_PREFIX}write-test.{os.getpid()}.tmp"
+        atomic_write_bytes(probe, b"ok")
         try:
-            (self.out / ".write-test").unlink()
+            probe.unlink()
         except OSError:
             pass
-        # leftovers of a killed run: temp files are never valid data
-        for tmp in list(self.cases_dir.glob(".*.tmp")) + list(self.out.glob(".*.tmp")):
-            try:
-                tmp.unlink()
-            except OSError:
-                pass
+
+    def remove_stale_temp(self) -> list[Path]:
+        """Delete temp files a killed run left (``.psdesign-*.tmp``); call with the lock held.
+
+        Only psdesign's own temp names are touched, never a user's ``*.tmp``.
+
+        Returns
+        -------
+        list of Path
+            The files removed.
+        """
+        removed = []
+        for folder in (self.out, self.cases_dir):
+            for tmp in list(folder.glob(f"{TEMP_PREFIX}*.tmp")):
+                if not is_psdesign_temp(tmp) or not tmp.is_file() or tmp.is_symlink():
+                    continue
+                try:
+                    tmp.unlink()
+                    removed.append(tmp)
+                except OSError:
+                    pass
+        return removed
 
     # -- records
     def load_records(self) -> dict[str, dict]:
@@ -263,7 +282,7 @@ class CaseStore:
         """Rebuild ``results.csv`` and ``results.parquet`` atomically from ``records``."""
         df = records_to_frame(records, param_names)
         atomic_write_bytes(self.out / "results.csv", df.to_csv(index=False).encode())
-        tmp = self.out / f".results.parquet.{os.getpid()}.tmp"
+        tmp = self.out / f"{TEMP_PREFIX}results.parquet.{os.getpid()}.tmp"
         try:
             df.to_parquet(tmp, index=False)
             os.replace(tmp, self.out / "results.parquet")

@@ -1,23 +1,25 @@
 """Execution of one case inside a worker (process-pool worker, Dask worker or in-process).
 
 :func:`execute_case` never raises for a failing case: it returns a record with status
-``"ok"``, ``"failed"`` or ``"timeout"``.  With a timeout the case runs in a child process
-(``python -m psdesign.study._child``) in its own session, which is killed (SIGKILL to the
-process group) when the time is up, so a runaway case is really stopped.
+``"ok"``, ``"not_converged"`` (a solve did not converge or a result is flagged, see
+:func:`untrusted_reason`), ``"failed"`` or ``"timeout"``.  With a timeout the case runs in a
+child process (``python -m psdesign.study._child``) in its own session, which is killed
+(SIGKILL to the process group) when the time is up, so a runaway case is really stopped.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import math
 import os
-import pickle
 import signal
 import socket
 import subprocess
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -115,41 +117,69 @@ def _kill_group(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
-def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str | None]:
-    """Run the case in a killable child process.  Returns (status, results, error)."""
-    inp = workdir / ".case_input.pkl"
-    outp = workdir / ".case_output.pkl"
-    outp.unlink(missing_ok=True)
-    with open(inp, "wb") as fh:
-        pickle.dump(
-            {
-                "case_fn": payload["case_fn"],
-                "spec": payload["spec"],
-                "outputs": payload["outputs"],
-                "solver": payload["solver"],
-                "workdir": str(workdir),
-            },
-            fh,
+def case_fn_name(case_fn: Callable | str | None) -> str:
+    """``"module:function"`` naming ``case_fn`` (sent to the per-case child process as text).
+
+    Raises
+    ------
+    ValueError
+        If a callable cannot be imported back by that name (a lambda, a nested function).
+    """
+    if case_fn is None:
+        return DEFAULT_CASE_FN
+    if isinstance(case_fn, str):
+        return case_fn
+    name = f"{getattr(case_fn, '__module__', '')}:{getattr(case_fn, '__qualname__', '')}"
+    try:
+        same = load_case_fn(name) is case_fn
+    except (ImportError, AttributeError, ValueError):
+        same = False
+    if not same or "<" in name:
+        raise ValueError(
+            f"case_fn: with a timeout the case function must be importable as module:function, "
+            f"got {name}"
         )
+    return name
+
+
+def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str | None]:
+    """Run the case in a killable child process.  Returns (status, results, error).
+
+    The case goes to the child as JSON on its stdin; the child writes its result as JSON (+ an
+    npz for arrays) which is validated on read (:func:`psdesign.study.exchange.read_result`).
+    Nothing read back from disk is ever unpickled.
+    """
+    from psdesign.study.exchange import CaseExchangeError, read_result, result_paths
+
+    job = {
+        "case_fn": case_fn_name(payload["case_fn"]),
+        "spec": payload["spec"],
+        "outputs": list(payload["outputs"]),
+        "solver": payload["solver"],
+        "workdir": str(workdir),
+    }
+    data = json.dumps(job, default=_json_default).encode()
+    outp, arrays = result_paths(workdir)
+    outp.unlink(missing_ok=True)
+    arrays.unlink(missing_ok=True)
     timeout = float(payload["timeout_s"])
     with open(workdir / "case.log", "ab") as log:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "psdesign.study._child", str(inp), str(outp), str(os.getpid())],
+            [sys.executable, "-m", "psdesign.study._child", str(workdir), str(os.getpid())],
             stdout=log,
             stderr=log,
-            stdin=subprocess.DEVNULL,
+            stdin=subprocess.PIPE,
             env=_child_env(),
             start_new_session=True,
         )
         try:
-            proc.wait(timeout=timeout)
+            proc.communicate(data, timeout=timeout)
         except subprocess.TimeoutExpired:
             _kill_group(proc)
             return "timeout", None, f"case exceeded the timeout of {timeout:g} s and was killed"
         except BaseException:
             _kill_group(proc)
             raise
-    inp.unlink(missing_ok=True)
     if not outp.is_file():
         rc = proc.returncode
         sig = ""
@@ -159,13 +189,51 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
             except ValueError:
                 sig = ""
         return "failed", None, f"case process died with exit status {rc}{sig}; see case.log"
-    with open(outp, "rb") as fh:
-        res = pickle.load(fh)
-    outp.unlink(missing_ok=True)
-    if res.get("ok"):
+    try:
+        res = read_result(workdir)
+    except CaseExchangeError as exc:
+        return "failed", None, f"unreadable case result: {exc}"
+    finally:
+        outp.unlink(missing_ok=True)
+        arrays.unlink(missing_ok=True)
+    if res["ok"]:
         return "ok", res["results"], None
-    (workdir / "error.txt").write_text(res.get("traceback", ""))
+    (workdir / "error.txt").write_text(res["traceback"])
     return "failed", None, res["error"]
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+
+
+#: Result keys whose False value marks a case as untrustworthy (prefix match with ``_``).
+TRUST_FLAGS = ("converged", "trusted", "trustworthy")
+
+
+def untrusted_reason(results: dict) -> str | None:
+    """Why a case's results cannot be trusted, or None.
+
+    A case is ``not_converged`` when any ``converged``/``converged_*`` (or ``trusted*``,
+    ``trustworthy*``) result is False, or a ``status``/``status_*`` result is a string other
+    than ``"ok"``/``"converged"``.
+    """
+    bad = []
+    for k, v in results.items():
+        flag = any(k == f or k.startswith(f + "_") for f in TRUST_FLAGS)
+        if flag and v is False:
+            bad.append(f"{k}=False")
+        elif (k == "status" or k.startswith("status_")) and isinstance(v, str):
+            if v.strip().lower() not in ("ok", "converged"):
+                bad.append(f"{k}={v}")
+    if not bad:
+        return None
+    return "not converged or flagged: " + ", ".join(sorted(bad))
 
 
 def run_case_inline(payload: dict, workdir: Path) -> dict:
@@ -202,6 +270,9 @@ def execute_case(payload: dict) -> dict:
             status = "ok"
         if status == "ok":
             results = normalize_results(raw, payload.get("out_dir"))
+            reason = untrusted_reason(results)
+            if reason is not None:
+                status, error = "not_converged", reason
     except Exception as exc:  # noqa: BLE001 - a failing case is data, not a crash
         status, results, error = "failed", None, _one_line(exc)
         try:

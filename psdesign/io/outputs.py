@@ -1,0 +1,326 @@
+"""Safe output folders: psdesign writes only where it may and replaces only what it wrote.
+
+Every command that takes ``-o`` calls :func:`check_output_dir` before any work starts.  The
+rules (also in ``docs/study-files.md`` and the README):
+
+* ``/``, the home folder and any folder that contains the home folder are always refused.
+* An existing file or a dangling symbolic link at ``-o`` is always refused.
+* A new folder, an empty folder, or a folder psdesign created (it holds the marker file
+  :data:`MARKER`) is used as it is.
+* A non-empty folder without the marker is refused unless ``--force``.
+* Even with ``--force`` nothing psdesign did not write is deleted or overwritten: the marker
+  lists the files psdesign wrote, and a new output whose name is taken by any other file or
+  folder stops the command with an error before anything is moved.
+
+Temporary names all start with :data:`TEMP_PREFIX` and end in ``.tmp`` so that a clean-up can
+never remove a user's own ``*.tmp`` files.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from psdesign.errors import SpecError
+
+__all__ = [
+    "MARKER",
+    "TEMP_PREFIX",
+    "OutputDir",
+    "OutputError",
+    "check_output_dir",
+    "claim_output_dir",
+    "is_psdesign_temp",
+    "staged_output",
+]
+
+MARKER = ".psdesign-output.json"
+"""Marker file psdesign writes into every output folder it creates or uses."""
+TEMP_PREFIX = ".psdesign-"
+"""Prefix of every temporary file or folder psdesign creates (suffix ``.tmp``)."""
+_MARKER_FORMAT = 1
+
+
+class OutputError(SpecError):
+    """An output folder psdesign must not write into (exit status 2)."""
+
+
+@dataclass(frozen=True)
+class OutputDir:
+    """A checked output folder.
+
+    Attributes
+    ----------
+    path : Path
+        The folder (resolved, symlinks followed).
+    option : str
+        Name of the command-line option, for messages (``-o``).
+    command : str
+        The command writing it (recorded in the marker).
+    owned : frozenset of str
+        Relative POSIX paths psdesign wrote here earlier (from the marker); an entry ending in
+        ``/`` owns a whole sub-folder.
+    exists : bool
+        The folder existed when checked.
+    """
+
+    path: Path
+    option: str = "-o"
+    command: str = ""
+    owned: frozenset[str] = field(default_factory=frozenset)
+    exists: bool = False
+
+    def owns(self, rel: str) -> bool:
+        """True if psdesign wrote ``rel`` (relative POSIX path) in this folder."""
+        if rel in self.owned:
+            return True
+        parts = rel.split("/")
+        return any("/".join(parts[:i]) + "/" in self.owned for i in range(1, len(parts)))
+
+    def fail(self, message: str) -> OutputError:
+        """An :class:`OutputError` for this folder's option."""
+        return OutputError(self.option, message)
+
+
+def is_psdesign_temp(path: str | Path) -> bool:
+    """True for names psdesign uses for temporary files (``.psdesign-*.tmp``)."""
+    name = Path(path).name
+    return name.startswith(TEMP_PREFIX) and name.endswith(".tmp")
+
+
+def _protected(p: Path) -> str | None:
+    """Why ``p`` (resolved) may never be an output folder, or None."""
+    if p == Path(p.anchor):
+        return "the file-system root"
+    try:
+        home = Path.home().resolve()
+    except (RuntimeError, KeyError, OSError):  # pragma: no cover - no home folder
+        return None
+    if p == home:
+        return "the home folder"
+    if p in home.parents:
+        return "a folder that contains the home folder"
+    return None
+
+
+def read_marker(folder: Path) -> dict | None:
+    """The marker of ``folder`` as a dict, or None if absent or not a valid psdesign marker."""
+    try:
+        data = json.loads((folder / MARKER).read_text())
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(data, dict) or data.get("psdesign_output") != _MARKER_FORMAT:
+        return None
+    files = data.get("files")
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        return None
+    return data
+
+
+def _is_lock_file(p: Path) -> bool:
+    """A study lock file (``.lock`` holding ``{"pid": int, "host": str}``) psdesign wrote."""
+    try:
+        data = json.loads(p.read_text())
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
+    return (
+        isinstance(data, dict)
+        and set(data) == {"pid", "host"}
+        and isinstance(data["pid"], int)
+        and isinstance(data["host"], str)
+    )
+
+
+def _user_entries(folder: Path) -> list[str]:
+    """Top-level names in ``folder`` that psdesign did not put there."""
+    names = []
+    for item in folder.iterdir():
+        if item.name == MARKER or is_psdesign_temp(item):
+            continue
+        if item.name == ".lock" and _is_lock_file(item):
+            continue
+        names.append(item.name)
+    return sorted(names)
+
+
+def check_output_dir(
+    path: str | Path,
+    *,
+    force: bool = False,
+    option: str = "-o",
+    command: str = "",
+    expected: Iterable[str] = (),
+    legacy: Iterable[str] = (),
+) -> OutputDir:
+    """Check that psdesign may write into ``path``; nothing is created or changed.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``-o`` argument.
+    force : bool
+        Accept a non-empty folder psdesign did not create (``--force``); files psdesign did not
+        write are still never replaced.
+    option, command : str
+        Option name and command, for messages and the marker.
+    expected : iterable of str
+        Relative paths the command will write (a trailing ``/`` for a sub-folder); any that
+        exists and was not written by psdesign is refused now, before the work starts.
+    legacy : iterable of str
+        Top-level names that identify an output folder written by an older psdesign without a
+        marker (all must be present); such a folder is psdesign's and owns ``expected``.
+
+    Returns
+    -------
+    OutputDir
+
+    Raises
+    ------
+    OutputError
+        One line naming the option, the folder and the rule.
+    """
+    raw = Path(path).expanduser()
+    if raw.is_symlink() and not raw.exists():
+        raise OutputError(
+            option,
+            f"{raw} is a dangling symbolic link; psdesign never replaces a link, "
+            "give a new folder name",
+        )
+    resolved = raw.resolve()
+    why = _protected(resolved)
+    if why is not None:
+        raise OutputError(
+            option,
+            f"refusing to write into {why} ({resolved}), even with --force; give a new folder name",
+        )
+    for anc in [resolved, *resolved.parents]:
+        if anc.exists():
+            if not anc.is_dir():
+                what = "an existing file" if anc == resolved else f"inside the file {anc}"
+                raise OutputError(
+                    option, f"{resolved} is {what}; -o takes a folder, give a new folder name"
+                )
+            break
+    if not resolved.exists():
+        return OutputDir(resolved, option, command, frozenset(), False)
+    marker = read_marker(resolved)
+    legacy, expected = tuple(legacy), tuple(expected)
+    owned: set[str] = set(marker["files"]) if marker else set()
+    if marker is None and legacy and all((resolved / n).exists() for n in legacy):
+        owned = set(expected)  # an older psdesign's folder: its files are the command's own
+    foreign = _user_entries(resolved) if marker is None and not owned else []
+    if foreign and not force:
+        shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+        raise OutputError(
+            option,
+            f"{resolved} is a non-empty folder psdesign did not create ({shown}); "
+            "give a new or empty folder, or --force to add psdesign's files beside them",
+        )
+    out = OutputDir(resolved, option, command, frozenset(owned), True)
+    for rel in expected:
+        _refuse_foreign(out, rel.rstrip("/"))
+    return out
+
+
+def _refuse_foreign(out: OutputDir, rel: str) -> None:
+    """Raise if writing ``rel`` in ``out`` would replace something psdesign did not write."""
+    parts = rel.split("/")
+    for i in range(1, len(parts) + 1):
+        sub = "/".join(parts[:i])
+        p = out.path / sub
+        if not (p.exists() or p.is_symlink()):
+            return
+        last = i == len(parts)
+        if p.is_symlink() or (not last and not p.is_dir()):
+            raise out.fail(
+                f"{p} is in the way and was not written by psdesign; nothing was changed"
+            )
+        if last and not out.owns(sub) and not (p.is_dir() and out.owns(sub + "/")):
+            raise out.fail(
+                f"{p} exists and was not written by psdesign; it is never replaced, even with "
+                "--force; move it away or choose another folder"
+            )
+
+
+def _write_marker(folder: Path, command: str, files: Iterable[str]) -> None:
+    data = {
+        "psdesign_output": _MARKER_FORMAT,
+        "command": command,
+        "updated_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "files": sorted(set(files)),
+        "note": "written by psdesign: the files listed here may be replaced by psdesign",
+    }
+    tmp = folder / f"{TEMP_PREFIX}marker.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, folder / MARKER)
+
+
+def claim_output_dir(out: OutputDir, files: Iterable[str]) -> OutputDir:
+    """Create ``out.path`` if needed and record ``files`` (relative paths) as psdesign's.
+
+    Raises
+    ------
+    OutputError
+        If one of ``files`` exists and was not written by psdesign (checked again here).
+    """
+    files = list(files)
+    for rel in files:
+        _refuse_foreign(out, rel.rstrip("/"))
+    try:
+        out.path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise out.fail(f"cannot create {out.path}: {exc.strerror or exc}") from None
+    owned = out.owned | set(files)
+    _write_marker(out.path, out.command, owned)
+    return OutputDir(out.path, out.option, out.command, frozenset(owned), True)
+
+
+def _files_under(root: Path) -> list[str]:
+    rels = []
+    for dirpath, _dirs, names in os.walk(root):
+        for n in names:
+            rels.append((Path(dirpath) / n).relative_to(root).as_posix())
+    return sorted(rels)
+
+
+@contextlib.contextmanager
+def staged_output(out: OutputDir) -> Iterator[Path]:
+    """Yield a temporary folder; on success move its files into ``out.path``.
+
+    A new folder appears with all its files at once.  Into an existing folder the files are
+    moved one by one after checking that none of them would replace a file psdesign did not
+    write (if one would, nothing is moved and :class:`OutputError` is raised).  On any
+    exception the temporary folder is removed and ``out.path`` is left as it was.
+    """
+    parent = out.path.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise out.fail(f"cannot create {parent}: {exc.strerror or exc}") from None
+    tmp = Path(tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{out.path.name}.", suffix=".tmp", dir=parent))
+    tmp.chmod(0o755)
+    try:
+        yield tmp
+        files = _files_under(tmp)
+        if not out.path.exists() and not out.path.is_symlink():
+            _write_marker(tmp, out.command, files)
+            os.replace(tmp, out.path)
+            return
+        # re-read the marker: the folder may have changed while the command worked
+        now = check_output_dir(out.path, force=True, option=out.option, command=out.command)
+        merged = OutputDir(now.path, now.option, now.command, now.owned | out.owned, True)
+        claimed = claim_output_dir(merged, files)
+        for rel in files:
+            target = claimed.path / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(tmp / rel, target)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)

@@ -1,0 +1,124 @@
+"""Ctrl-C for the study runner: stop everything within seconds, leave a resumable folder.
+
+The first SIGINT (Ctrl-C, to the runner alone or to its whole process group as a terminal sends
+it) raises :class:`KeyboardInterrupt` in the runner; further SIGINTs while it stops are ignored,
+so a second quick Ctrl-C can no longer break the clean-up half-way and leave workers running.
+On the way out every process the runner started (pool workers, per-case child processes, a
+local Dask cluster; child processes that existed before the run are left alone) is sent
+SIGTERM and, if still alive after :data:`GRACE_S`, SIGKILL.  Case records are written
+atomically, so the folder is resumable: rerunning the command resumes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+
+__all__ = ["GRACE_S", "ignore_sigint", "stop_children", "stop_on_interrupt"]
+
+GRACE_S = 1.5
+"""Seconds between SIGTERM and SIGKILL for the runner's child processes."""
+
+
+def ignore_sigint() -> None:
+    """In a worker process: ignore SIGINT (the runner decides when workers stop)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _key(proc) -> tuple[int, float]:
+    try:
+        return proc.pid, proc.create_time()
+    except Exception:  # noqa: BLE001 - gone already
+        return proc.pid, -1.0
+
+
+def _children_now() -> set[tuple[int, float]]:
+    try:
+        import psutil
+
+        return {_key(c) for c in psutil.Process().children()}
+    except Exception:  # noqa: BLE001 - psutil missing or no access
+        return set()
+
+
+def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None = None) -> int:
+    """Terminate the child processes of this one and all their descendants (SIGTERM, SIGKILL).
+
+    Parameters
+    ----------
+    grace_s : float
+        Seconds between SIGTERM and SIGKILL.
+    keep : set of (pid, create_time), optional
+        Direct children to leave alone (those that existed before the run started).
+
+    Returns
+    -------
+    int
+        Number of processes that were signalled.
+    """
+    try:
+        import psutil
+    except ImportError:  # pragma: no cover - psutil is a dependency
+        return 0
+    keep = keep or set()
+    targets = []
+    try:
+        for child in psutil.Process().children():
+            if _key(child) in keep:
+                continue
+            targets.append(child)
+            with contextlib.suppress(psutil.Error):
+                targets.extend(child.children(recursive=True))
+    except psutil.Error:  # pragma: no cover
+        return 0
+    for k in targets:
+        with contextlib.suppress(psutil.Error):
+            k.terminate()
+    _gone, alive = psutil.wait_procs(targets, timeout=grace_s)
+    for k in alive:
+        with contextlib.suppress(psutil.Error):
+            k.kill()
+    psutil.wait_procs(alive, timeout=grace_s)
+    return len(targets)
+
+
+_STATE: dict = {"depth": 0, "hit": False, "before": set()}
+
+
+def _on_sigint(signum, frame) -> None:  # noqa: ARG001
+    if _STATE["hit"]:
+        return  # already stopping; the clean-up is bounded by GRACE_S
+    _STATE["hit"] = True
+    print("psdesign: interrupted; stopping workers ...", file=sys.stderr, flush=True)
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def stop_on_interrupt() -> Iterator[None]:
+    """Run the body with the Ctrl-C policy of this module (main thread only; nestable).
+
+    On :class:`KeyboardInterrupt` all child processes are stopped before it propagates (so
+    an inner use inside the output-folder lock stops the workers before the lock is released).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    outer = _STATE["depth"] == 0
+    if outer:
+        _STATE["hit"] = False
+        _STATE["before"] = _children_now()
+        previous = signal.signal(signal.SIGINT, _on_sigint)
+    _STATE["depth"] += 1
+    try:
+        yield
+    except KeyboardInterrupt:
+        _STATE["hit"] = True  # also for an interrupt raised before the handler saw it
+        stop_children(keep=_STATE["before"])
+        raise
+    finally:
+        _STATE["depth"] -= 1
+        if outer:
+            signal.signal(signal.SIGINT, previous)

@@ -1,0 +1,259 @@
+"""`-o` safety (issue 11, item 4): psdesign never writes into `/` or the home folder, never
+replaces a file or folder it did not write, and refuses with one line and exit status 2 before
+any work starts."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from psdesign.cli import main
+from psdesign.io.outputs import (
+    MARKER,
+    OutputError,
+    check_output_dir,
+    claim_output_dir,
+    staged_output,
+)
+
+SPEC = """
+[rve]
+size = [40e-6, 40e-6, 40e-6]
+voxel = 4e-6
+
+[[fibers]]
+shape = "rod"
+diameter = 10e-6
+center = [20e-6, 20.3e-6, 19.1e-6]
+"""
+
+STUDY = """
+base = "spec.toml"
+[study]
+name = "s"
+design = "full-factorial"
+outputs = ["porosity", "k_z"]
+[parameters]
+"flow.viscosity" = [1e-5]
+"""
+
+FF_SPEC = """
+[forcefield]
+case = "nope"
+"""
+
+
+@pytest.fixture()
+def spec(tmp_path) -> Path:
+    p = tmp_path / "spec.toml"
+    p.write_text(SPEC)
+    return p
+
+
+def snapshot(folder: Path) -> dict:
+    return {
+        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None)
+        for p in folder.rglob("*")
+    }
+
+
+def run_cli(args: list[str], capsys, home: Path | None = None, monkeypatch=None):
+    """Run the CLI in this process; returns (exit status, stderr)."""
+    if home is not None:
+        monkeypatch.setenv("HOME", str(home))
+    rc = main(args)
+    return rc, capsys.readouterr().err
+
+
+def assert_one_line_exit_2(result, *needles: str) -> None:
+    rc, err = result
+    assert rc == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("psdesign: error: -o: ")
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+def test_subprocess_one_line_exit_2(tmp_path, spec):
+    proc = subprocess.run(
+        [sys.executable, "-m", "psdesign.cli", "generate", str(spec), "-o", "/"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        "psdesign: error: -o: refusing to write into the file-system root (/), even with "
+        "--force; give a new folder name"
+    ]
+
+
+# ----------------------------------------------------------------------------- every command
+
+
+def _commands(spec: Path, study: Path, out: str) -> list[list[str]]:
+    return [
+        ["generate", str(spec), "-o", out, "--no-preview"],
+        ["mesh", str(spec), "-o", out],
+        ["forcefield", str(spec.parent / "ff.toml"), "-o", out],
+        ["study", "run", str(study), "-o", out, "--quiet"],
+    ]
+
+
+@pytest.mark.parametrize("force", [False, True])
+def test_root_and_home_refused_by_every_command_even_with_force(
+    tmp_path, spec, force, capsys, monkeypatch
+):
+    home = tmp_path / "home"
+    home.mkdir()
+    (home / "keep.txt").write_text("mine")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    (tmp_path / "ff.toml").write_text(FF_SPEC)
+    extra = ["--force"] if force else []
+    for target, why in (("/", "file-system root"), ("~", "home folder"), (str(home), "home")):
+        for cmd in _commands(spec, study, target):
+            assert_one_line_exit_2(run_cli(cmd + extra, capsys, home, monkeypatch), why)
+    assert sorted(p.name for p in home.iterdir()) == ["keep.txt"]
+
+
+def test_existing_file_and_dangling_link_refused(tmp_path, spec, capsys):
+    f = tmp_path / "file.txt"
+    f.write_text("user data")
+    link = tmp_path / "dangling"
+    link.symlink_to(tmp_path / "nowhere")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    (tmp_path / "ff.toml").write_text(FF_SPEC)
+    for cmd in _commands(spec, study, str(f)):
+        for extra in ([], ["--force"]):
+            assert_one_line_exit_2(run_cli(cmd + extra, capsys), "existing file")
+    for cmd in _commands(spec, study, str(link)):
+        assert_one_line_exit_2(run_cli(cmd, capsys), "dangling symbolic link")
+    assert f.read_text() == "user data"
+    assert link.is_symlink() and not (tmp_path / "nowhere").exists()
+    # a path below an existing file is refused too (was a NotADirectoryError traceback)
+    assert_one_line_exit_2(
+        run_cli(["generate", str(spec), "-o", str(f / "sub")], capsys), "inside the file"
+    )
+
+
+def test_non_empty_user_folder_refused_without_force(tmp_path, spec, capsys):
+    user = tmp_path / "photos"
+    user.mkdir()
+    (user / "a.jpg").write_text("jpeg")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    (tmp_path / "ff.toml").write_text(FF_SPEC)
+    before = snapshot(user)
+    for cmd in _commands(spec, study, str(user)):
+        assert_one_line_exit_2(
+            run_cli(cmd, capsys), "non-empty folder psdesign did not create", "a.jpg"
+        )
+    assert snapshot(user) == before
+
+
+def test_generate_into_existing_user_folder_keeps_same_named_user_directory(tmp_path, spec):
+    """Old behaviour: the staged move rmtree'd a user directory named like an output."""
+    user = tmp_path / "work"
+    (user / "field.vti").mkdir(parents=True)
+    (user / "field.vti" / "thesis.tex").write_text("years of work")
+    assert main(["generate", str(spec), "-o", str(user), "--no-preview"]) == 2
+    assert main(["generate", str(spec), "-o", str(user), "--no-preview", "--force"]) == 2
+    assert (user / "field.vti" / "thesis.tex").read_text() == "years of work"
+    assert sorted(p.name for p in user.iterdir()) == ["field.vti"]
+
+
+def test_force_adds_beside_user_files_and_rerun_replaces_only_psdesign_files(tmp_path, spec):
+    user = tmp_path / "work"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    (user / ".x.tmp").write_text("my temp file")
+    assert main(["generate", str(spec), "-o", str(user), "--no-preview", "--force"]) == 0
+    marker = json.loads((user / MARKER).read_text())
+    assert "rve.json" in marker["files"] and "notes.txt" not in marker["files"]
+    assert (user / "notes.txt").read_text() == "mine"
+    assert (user / ".x.tmp").read_text() == "my temp file"
+    # psdesign's folder now: a rerun needs no --force and replaces psdesign's files only
+    (user / "summary.json").write_text("stale")
+    assert main(["generate", str(spec), "-o", str(user), "--no-preview"]) == 0
+    assert json.loads((user / "summary.json").read_text())["n_fibers"] == 1
+    assert (user / "notes.txt").read_text() == "mine"
+    assert not [p for p in user.parent.iterdir() if p.name.startswith(".psdesign-")]
+
+
+def test_new_and_empty_folders_get_a_marker(tmp_path, spec):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    for out in (tmp_path / "new" / "deep", empty):
+        assert main(["generate", str(spec), "-o", str(out), "--no-preview"]) == 0
+        files = json.loads((out / MARKER).read_text())["files"]
+        written = sorted(p.name for p in out.iterdir() if p.name != MARKER)
+        assert files == written
+
+
+def test_refusal_happens_before_any_work(tmp_path, spec, monkeypatch):
+    import psdesign.packing.build as build
+
+    def boom(*a, **k):  # pragma: no cover - must not be reached
+        raise AssertionError("work started")
+
+    monkeypatch.setattr(build, "build_rve", boom)
+    user = tmp_path / "u"
+    user.mkdir()
+    (user / "x").write_text("1")
+    assert main(["generate", str(spec), "-o", str(user)]) == 2
+    assert main(["mesh", str(spec), "-o", str(user)]) == 2
+
+
+# ----------------------------------------------------------------------------- the helper
+
+
+def test_helper_never_replaces_a_foreign_file_found_at_commit(tmp_path):
+    out = tmp_path / "o"
+    target = check_output_dir(out, command="t")
+    claim_output_dir(target, [])  # psdesign's (empty) folder
+    target = check_output_dir(out, command="t")
+    (out / "b.txt").write_text("user wrote this while psdesign worked")
+    with pytest.raises(OutputError, match="b.txt exists and was not written by psdesign"):
+        with staged_output(target) as tmp:
+            (tmp / "a.txt").write_text("new")
+            (tmp / "b.txt").write_text("new")
+    assert (out / "b.txt").read_text().startswith("user wrote")
+    assert not (out / "a.txt").exists()  # nothing moved
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".psdesign-")]
+
+
+def test_helper_owns_subfolders_and_refuses_symlinks_in_the_way(tmp_path):
+    out = tmp_path / "o"
+    with staged_output(check_output_dir(out, command="t")) as tmp:
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "f.txt").write_text("1")
+    t = check_output_dir(out)
+    assert t.owns("sub/f.txt") and not t.owns("sub/g.txt") and not t.owns("other")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (out / "link").symlink_to(elsewhere)
+    with pytest.raises(OutputError, match="in the way"):
+        with staged_output(check_output_dir(out)) as tmp:
+            (tmp / "link").mkdir()
+            (tmp / "link" / "x").write_text("1")
+    assert list(elsewhere.iterdir()) == []
+
+
+def test_corrupt_marker_is_not_trusted(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / MARKER).write_text('{"psdesign_output": 1, "files": "everything"}')
+    (out / "data.csv").write_text("1")
+    with pytest.raises(OutputError, match="non-empty folder"):
+        check_output_dir(out)
+    t = check_output_dir(out, force=True, expected=["x.csv"])
+    with pytest.raises(OutputError, match="data.csv exists"):
+        check_output_dir(out, force=True, expected=["data.csv"])
+    assert not t.owns("data.csv")

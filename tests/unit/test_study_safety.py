@@ -1,0 +1,478 @@
+"""Study runner safety (issue 11, item 4): lock before clean-up, psdesign's own temp names only,
+no pickle read back from disk, ``not_converged`` status, Ctrl-C, Dask security and junk peers."""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from study_cases import FAC_PARAMS, FACTORIAL, TESTS_DIR, fake_case, write_study
+
+from psdesign.io.outputs import OutputError
+from psdesign.study import SchedulerError, StudyError, run_study
+from psdesign.study import runner as runner_mod
+from psdesign.study.exchange import CaseExchangeError, read_result, result_paths
+from psdesign.study.worker import untrusted_reason
+
+HERE = Path(__file__).resolve().parent
+ONE = 'design = "full-factorial"\noutputs = ["porosity", "k_x", "k_z"]\nsolver = "voxel"'
+
+
+# ----------------------------------------------------------------------------- case functions
+# Module-level: imported by name in worker and per-case child processes.
+
+
+def unconverged_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    if spec["generator"]["porosity"] == 0.8:
+        out["converged_z"] = False
+    return out
+
+
+def flagged_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    out["status_x"] = "entrance_bias"
+    return out
+
+
+def planting_case(spec, outputs, solver, workdir):
+    """Plays the attacker who can write the output folder, then the child dies."""
+
+    class Evil:
+        def __reduce__(self):
+            return (Path.touch, (Path(workdir) / "PWNED",))
+
+    (Path(workdir) / ".case_output.pkl").write_bytes(pickle.dumps({"ok": True, "results": Evil()}))
+    result, _ = result_paths(Path(workdir))
+    result.write_text('{"ok": true, "results": [1, 2]}')
+    os._exit(0)
+
+
+def slow_unless_flag_case(spec, outputs, solver, workdir):
+    """Sleeps 60 s while ``FLAG`` (beside the output folder) exists, else a fast fake case."""
+    flag = Path(workdir).resolve().parents[2] / "FLAG"  # workdir = <tmp>/out/cases/<id>
+    if flag.exists() and spec["generator"]["porosity"] != 0.7:
+        (Path(workdir) / "pid.txt").write_text(str(os.getpid()))
+        time.sleep(60)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+# ----------------------------------------------------------------------------- lock, temp files
+
+
+def test_cleanup_after_lock_and_only_psdesign_temp_files(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    user_tmp = [out / ".notes.tmp", out / "cases" / ".draft.tmp", out / "cases" / ".x.json.tmp"]
+    for f in user_tmp:
+        f.write_text("the user's")
+    ours = [out / ".psdesign-results.csv.99999.tmp", out / "cases" / ".psdesign-c.json.1.tmp"]
+    for f in ours:
+        f.write_text("stale")
+    # a live run holds the lock: nothing may be deleted, not even psdesign's temp files
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        (out / ".lock").write_text(json.dumps({"pid": sleeper.pid, "host": socket.gethostname()}))
+        with pytest.raises(StudyError, match="in use by a running study"):
+            run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+        assert all(f.exists() for f in user_tmp + ours)
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert all(f.read_text() == "the user's" for f in user_tmp)
+    assert not any(f.exists() for f in ours)
+
+
+def test_study_output_folder_rules(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "results.csv").write_text("my own table")
+    with pytest.raises(OutputError, match="non-empty folder psdesign did not create"):
+        run_study(p, user, workers=0, case_fn=fake_case, progress=False)
+    with pytest.raises(OutputError, match="results.csv exists and was not written by psdesign"):
+        run_study(p, user, workers=0, case_fn=fake_case, progress=False, force=True)
+    assert sorted(x.name for x in user.iterdir()) == ["results.csv"]
+    # --force beside unrelated user files works and keeps them
+    (user / "results.csv").rename(user / "mine.csv")
+    df = run_study(p, user, workers=0, case_fn=fake_case, progress=False, report=False, force=True)
+    assert len(df) == 12 and (user / "mine.csv").read_text() == "my own table"
+    # an old study folder (no marker) is still resumed
+    (user / ".psdesign-output.json").unlink()
+    (user / "mine.csv").unlink()
+    again = run_study(p, user, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(again) == 12
+
+
+# ----------------------------------------------------------------------------- no pickle
+
+
+def test_timeout_mode_never_unpickles_what_it_reads_back(tmp_path):
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    out = tmp_path / "out"
+    df = run_study(
+        p, out, workers=0, case_fn=planting_case, progress=False, report=False, timeout_s=60
+    )
+    (workdir,) = [d for d in (out / "cases").iterdir() if d.is_dir()]
+    assert not (workdir / "PWNED").exists()
+    assert df["status"].tolist() == ["failed"]
+    assert "unreadable case result" in df["error"].iloc[0]
+
+
+def test_timeout_mode_round_trips_arrays_through_json_and_npz(tmp_path):
+    p = write_study(
+        tmp_path, ONE.replace('"k_z"]', '"k_z", "k_tensor"]'), '"generator.porosity" = [0.7]'
+    )
+    a = run_study(p, tmp_path / "a", workers=0, case_fn=fake_case, progress=False, report=False)
+    b = run_study(
+        p, tmp_path / "b", workers=0, case_fn=fake_case, progress=False, report=False, timeout_s=60
+    )
+    assert b["status"].tolist() == ["ok"]
+    cols = [c for c in a.columns if c.startswith("k_")]
+    assert len(cols) == 11  # k_x, k_z and the 9 tensor entries (sent as an npz array)
+    pd.testing.assert_frame_equal(a[cols], b[cols])
+    assert not list((tmp_path / "b").rglob("*.pkl"))
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["", "not json", "[1]", '{"ok": "yes"}', '{"ok": true, "results": 1}', '{"ok": false}'],
+)
+def test_read_result_validates(tmp_path, text):
+    result, _ = result_paths(tmp_path)
+    result.write_text(text)
+    with pytest.raises(CaseExchangeError):
+        read_result(tmp_path)
+
+
+def test_read_result_refuses_object_arrays(tmp_path):
+    import numpy as np
+
+    result, arrays = result_paths(tmp_path)
+    np.savez(arrays, a0=np.array([{"x": 1}], dtype=object))
+    result.write_text('{"ok": true, "results": {"v": {"__psdesign_ndarray__": "a0"}}}')
+    with pytest.raises(CaseExchangeError):
+        read_result(tmp_path)
+
+
+# ----------------------------------------------------------------------------- not_converged
+
+
+def test_untrusted_reason():
+    assert untrusted_reason({"converged_x": True, "status": "ok", "k_x_m2": 1.0}) is None
+    assert "converged_z=False" in untrusted_reason({"converged_x": True, "converged_z": False})
+    assert "converged=False" in untrusted_reason({"converged": False})
+    assert "status_x=entrance_bias" in untrusted_reason({"status_x": "entrance_bias"})
+    assert "trusted=False" in untrusted_reason({"trusted": False})
+
+
+def test_not_converged_status_resume_retry_and_exit_code(tmp_path, capsys):
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "out"
+    args = ["study", "run", str(p), "-o", str(out), "--quiet", "--no-report", "--case-fn"]
+    assert main([*args, "test_study_safety:unconverged_case"]) == 1
+    assert "1 case(s) not_converged" in capsys.readouterr().err
+    df = pd.read_csv(out / "results.csv")
+    st = dict(zip(df["generator.porosity"], df["status"], strict=True))
+    assert st == {0.7: "ok", 0.8: "not_converged"}
+    assert "converged_z=False" in df[df["status"] == "not_converged"]["error"].iloc[0]
+    calls = {d.name: (d / "calls.txt").read_text() for d in (out / "cases").iterdir() if d.is_dir()}
+    # resume: not_converged counts as finished; --allow-not-converged exits 0
+    assert main([*args, "test_study_safety:unconverged_case", "--allow-not-converged"]) == 0
+    assert {
+        d.name: (d / "calls.txt").read_text() for d in (out / "cases").iterdir() if d.is_dir()
+    } == calls
+    # --retry-not-converged re-runs only that case; a fixed solver gives ok and exit 0
+    assert main([*args, "study_cases:fake_case", "--retry-not-converged"]) == 0
+    df = pd.read_csv(out / "results.csv")
+    assert (df["status"] == "ok").all()
+    reran = [c for c, t in calls.items() if (out / "cases" / c / "calls.txt").read_text() != t]
+    assert len(reran) == 1
+
+
+def test_flagged_case_is_not_converged_and_shown_in_report(tmp_path):
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=flagged_case, progress=False, report=True)
+    assert df["status"].tolist() == ["not_converged"]
+    html = (out / "report.html").read_text()
+    assert "not_converged" in html
+
+
+# ----------------------------------------------------------------------------- Ctrl-C
+
+
+def _start_runner(tmp_path: Path, timeout: float | None, workers: int = 2):
+    flag = tmp_path / "FLAG"
+    flag.write_text("slow")
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.75, 0.8, 0.85]')
+    out = tmp_path / "out"
+    code = (
+        f"import sys; sys.path[:0] = [{str(TESTS_DIR)!r}, {str(HERE)!r}]\n"
+        "from psdesign.cli.study import main\n"
+        f"sys.exit(main(['study', 'run', {str(p)!r}, '-o', {str(out)!r}, '--workers',"
+        f" '{workers}', '--no-report', '--case-fn', 'test_study_safety:slow_unless_flag_case']"
+        + (f" + ['--timeout', '{timeout}']" if timeout else "")
+        + "))\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code],
+        start_new_session=True,  # its own process group, as a terminal gives a job
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    return proc, p, out, flag
+
+
+def _wait_for_sleepers(proc, out: Path, n: int, limit_s: float = 60.0) -> None:
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline:
+        if len(list((out / "cases").glob("*/pid.txt"))) >= n:
+            return
+        assert proc.poll() is None, proc.stderr.read().decode()
+        time.sleep(0.05)
+    raise AssertionError("cases did not start")
+
+
+@pytest.mark.parametrize(
+    ("target", "times", "timeout"),
+    [
+        pytest.param("group", 2, None, id="group-twice"),
+        pytest.param("group", 1, None, id="group-once", marks=pytest.mark.slow),
+        pytest.param("runner", 2, None, id="runner-alone-twice", marks=pytest.mark.slow),
+        pytest.param("group", 2, 120.0, id="group-twice-timeout-mode", marks=pytest.mark.slow),
+        pytest.param("runner", 1, 120.0, id="runner-once-timeout-mode", marks=pytest.mark.slow),
+    ],
+)
+def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
+    tmp_path, target, times, timeout
+):
+    import psutil
+
+    proc, p, out, flag = _start_runner(tmp_path, timeout)
+    procs: list = []
+    try:
+        _wait_for_sleepers(proc, out, 2)
+        procs = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
+        assert len(procs) >= 3  # the runner, 2 workers (+ per-case children in timeout mode)
+        for i in range(times):
+            if target == "group":
+                os.killpg(proc.pid, signal.SIGINT)
+            else:
+                os.kill(proc.pid, signal.SIGINT)
+            if i + 1 < times:
+                time.sleep(0.1)
+        gone, alive = psutil.wait_procs(procs, timeout=5.0)  # the issue's limit
+        assert not alive, [a.pid for a in alive]
+        err = proc.stderr.read().decode()
+        (runner,) = [g for g in gone if g.pid == proc.pid]
+        assert runner.returncode == 130, err
+        assert "rerun the command to resume" in err and "Traceback" not in err
+    finally:
+        for k in procs:
+            try:
+                k.kill()
+            except psutil.Error:
+                pass
+    assert not (out / ".lock").exists()
+    done_before = {f.name for f in (out / "cases").glob("*.json")}
+    flag.unlink()
+    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
+    assert len(df) == 4 and (df["status"] == "ok").all()
+    assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
+
+
+def test_interrupt_stops_only_processes_started_during_the_run():
+    from psdesign.study.interrupt import stop_on_interrupt
+
+    sleep = [sys.executable, "-c", "import time; time.sleep(60)"]
+    before = subprocess.Popen(sleep)
+    during = None
+    try:
+        with pytest.raises(KeyboardInterrupt), stop_on_interrupt():
+            during = subprocess.Popen(sleep)
+            raise KeyboardInterrupt
+        during.wait(timeout=5)  # stopped (reaped by psutil: no exit status to check)
+        assert before.poll() is None  # the caller's own child is left alone
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        for proc in (before, during):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
+
+
+# ----------------------------------------------------------------------------- Dask
+
+
+class _JunkServer:
+    """A plain TCP server on 127.0.0.1 that answers every connection with ``payload``."""
+
+    def __init__(self, payload: bytes | None):
+        self.payload = payload
+        self.sock = socket.create_server(("127.0.0.1", 0))
+        self.port = self.sock.getsockname()[1]
+        self.conns: list = []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            if self.payload is not None:
+                try:
+                    conn.sendall(self.payload)
+                except OSError:
+                    pass
+
+    def close(self) -> None:
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+@pytest.mark.parametrize(
+    ("payload", "match"),
+    [
+        (b"\xff" * 64, "does not speak the Dask protocol"),  # claims a 16 EiB message
+        (b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4, "does not speak the Dask protocol"),
+        (None, "sent no Dask handshake within 2 s"),
+    ],
+)
+def test_non_dask_peer_gives_clean_error_fast(tmp_path, monkeypatch, payload, match):
+    monkeypatch.setattr(runner_mod, "CONNECT_TIMEOUT_S", 2.0)
+    srv = _JunkServer(payload)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(SchedulerError, match=match) as info:
+            run_study(p, tmp_path / "out", scheduler=f"tcp://127.0.0.1:{srv.port}", progress=False)
+    finally:
+        srv.close()
+    assert time.monotonic() - t0 < 10
+    assert len(str(info.value).splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_plain_tcp_to_another_machine_warns_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(runner_mod, "CONNECT_TIMEOUT_S", 1.0)
+    with pytest.raises(SchedulerError):
+        runner_mod.connect_scheduler("tcp://192.0.2.1:8786", 1)  # TEST-NET-1: nobody there
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unencrypted" in err[0] and "tls://" in err[0]
+    with pytest.raises(SchedulerError):
+        runner_mod.connect_scheduler("tcp://127.0.0.1:9", 1)
+    assert capsys.readouterr().err == ""  # loopback: no warning
+
+
+def test_tls_options_are_checked(tmp_path):
+    with pytest.raises(SchedulerError, match="^--tls-cert: required"):
+        runner_mod.scheduler_security(tls_ca_file=str(tmp_path / "ca.pem"))
+    with pytest.raises(SchedulerError, match="^--tls-ca-file: no such file"):
+        runner_mod.scheduler_security(str(tmp_path / "a"), str(tmp_path / "b"), str(tmp_path / "c"))
+    with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
+        runner_mod.connect_scheduler("tls://127.0.0.1:9", 1)
+    assert runner_mod.scheduler_security() is None
+
+
+def _self_signed(tmp_path: Path) -> tuple[str, str]:
+    """A CA-signed-by-itself certificate for 127.0.0.1 (cert + key in one PEM, and the key)."""
+    import datetime as dt
+    import ipaddress
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "psdesign-test")])
+    now = dt.datetime.now(dt.UTC)
+    cert = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(name)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - dt.timedelta(days=1))
+        .not_valid_after(now + dt.timedelta(days=2))
+        .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+        .add_extension(
+            x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            critical=False,
+        )
+        .sign(key, hashes.SHA256())
+    )
+    cert_pem = tmp_path / "cert.pem"
+    key_pem = tmp_path / "key.pem"
+    cert_pem.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_pem.write_bytes(
+        key.private_bytes(
+            serialization.Encoding.PEM,
+            serialization.PrivateFormat.PKCS8,
+            serialization.NoEncryption(),
+        )
+    )
+    return str(cert_pem), str(key_pem)
+
+
+@pytest.mark.slow
+def test_tls_scheduler_end_to_end(tmp_path, capsys):
+    from distributed import LocalCluster
+    from distributed.security import Security
+
+    cert, key = _self_signed(tmp_path)
+    sec = Security(
+        tls_ca_file=cert,
+        tls_scheduler_cert=cert,
+        tls_scheduler_key=key,
+        tls_worker_cert=cert,
+        tls_worker_key=key,
+        tls_client_cert=cert,
+        tls_client_key=key,
+        require_encryption=True,
+    )
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    a = run_study(p, tmp_path / "a", workers=0, case_fn=fake_case, progress=False, report=False)
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=False,
+        protocol="tls",
+        host="127.0.0.1",
+        security=sec,
+        dashboard_address=None,
+    ) as cluster:
+        addr = cluster.scheduler_address
+        assert addr.startswith("tls://127.0.0.1:")
+        with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
+            run_study(p, tmp_path / "b", scheduler=addr, case_fn=fake_case, progress=False)
+        b = run_study(
+            p,
+            tmp_path / "b",
+            scheduler=addr,
+            case_fn=fake_case,
+            progress=False,
+            report=False,
+            security=runner_mod.scheduler_security(cert, cert, key),
+        )
+    cols = ["case_id", "status", "k_x_m2", "k_z_m2"]
+    pd.testing.assert_frame_equal(a[cols], b[cols])
+    assert "warning" not in capsys.readouterr().err
