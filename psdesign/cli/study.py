@@ -66,6 +66,17 @@ def register(subparsers) -> argparse.ArgumentParser:
         "warning unless on this machine), or 'local' for a local Dask cluster "
         "(default: local process pool)",
     )
+    run.add_argument(
+        "--cluster",
+        choices=("slurm", "pbs"),
+        default=None,
+        help="submit one batch job per worker (dask-jobqueue; see docs/study-files.md)",
+    )
+    run.add_argument("--cluster-cores", type=_positive_int, default=2, help="cores per job")
+    run.add_argument("--cluster-memory", default="8GB", help="memory per job (default 8GB)")
+    run.add_argument("--cluster-walltime", default="01:00:00", help="HH:MM:SS per job")
+    run.add_argument("--cluster-queue", default=None, help="partition / queue")
+    run.add_argument("--cluster-account", default=None, help="project account")
     run.add_argument("--tls-ca-file", default=None, help="CA certificate for a tls:// scheduler")
     run.add_argument("--tls-cert", default=None, help="client certificate for a tls:// scheduler")
     run.add_argument("--tls-key", default=None, help="client private key for a tls:// scheduler")
@@ -109,6 +120,29 @@ def _fail(msg: str, code: int) -> int:
     return code
 
 
+def _cluster(args: argparse.Namespace):
+    """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None."""
+    from psdesign.study.studyfile import StudyError
+
+    if not args.cluster:
+        return None
+    if args.scheduler:
+        raise StudyError("--cluster: give either --cluster or --scheduler, not both")
+    from psdesign.study.cluster import ClusterOptions
+
+    try:
+        return ClusterOptions(
+            args.cluster,
+            cores=args.cluster_cores,
+            memory=args.cluster_memory,
+            walltime=args.cluster_walltime,
+            queue=args.cluster_queue,
+            account=args.cluster_account,
+        )
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
+
+
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
@@ -118,11 +152,12 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
+        scheduler = _cluster(args) or args.scheduler
         df = run_study(
             args.study,
             args.out,
             workers=args.workers,
-            scheduler=args.scheduler,
+            scheduler=scheduler,
             case_fn=args.case_fn,
             progress=not args.quiet,
             timeout_s=args.timeout,

@@ -367,6 +367,12 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         raise SchedulerError(f"--scheduler: dask.distributed is not installed ({exc})") from exc
     if timeout_s is None:
         timeout_s = CONNECT_TIMEOUT_S
+    from psdesign.study.cluster import ClusterOptions, make_cluster
+
+    if isinstance(address, ClusterOptions):  # --cluster slurm|pbs: one batch job per worker
+        cluster = make_cluster(address)
+        cluster.scale(jobs=max(1, workers))
+        return Client(cluster), cluster
     if address == "local":
         cluster = LocalCluster(
             n_workers=max(1, workers),
@@ -729,7 +735,7 @@ def _run_locked(
             "finished_at": _now(),
             "wall_time_s": time.perf_counter() - t_start,
             "workers": workers,
-            "scheduler": scheduler,
+            "scheduler": None if scheduler is None else str(scheduler),
             "timeout_s": timeout,
             "n_cases": len(cases),
             "n_run": len(payloads),

@@ -43,3 +43,37 @@ def test_pbs_job_script() -> None:
 def test_bad_cluster_options_name_the_flag(kw, key) -> None:
     with pytest.raises(ValueError, match=key):
         ClusterOptions(**kw)
+
+
+def test_study_runs_through_a_cluster_option(tmp_path, monkeypatch) -> None:
+    # no batch system here: stand a LocalCluster in for the Slurm one and check the wiring
+    # (ClusterOptions -> make_cluster -> scale(jobs=workers) -> cases run on its workers)
+    from distributed import LocalCluster
+    from study_cases import FACTORIAL, fake_case, write_study
+
+    from psdesign.study import cluster as cluster_mod
+    from psdesign.study import run_study
+
+    scaled = []
+
+    class FakeSlurm(LocalCluster):
+        def scale(self, n=None, jobs=0, **kw):
+            scaled.append(jobs)
+            return super().scale(jobs)
+
+    def fake_make(opts):
+        assert opts.kind == "slurm" and opts.cores == 1
+        return FakeSlurm(n_workers=0, threads_per_worker=1, processes=True, dashboard_address=None)
+
+    monkeypatch.setattr(cluster_mod, "make_cluster", fake_make)
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    df = run_study(
+        p,
+        tmp_path / "o",
+        workers=2,
+        scheduler=ClusterOptions("slurm", cores=1),
+        case_fn=fake_case,
+        progress=False,
+        report=False,
+    )
+    assert scaled[0] == 2 and len(df) == 4 and set(df["status"]) == {"ok"}
