@@ -41,7 +41,12 @@ from solvers.fem.memory import (
     default_limit_gb,
     estimate_memory_gb,
 )
-from solvers.fem.periodic import PeriodicMeshError, face_partners, identification, p2_representatives
+from solvers.fem.periodic import (
+    PeriodicMeshError,
+    face_partners,
+    identification,
+    p2_representatives,
+)
 from solvers.fem.probe import PointLocator, p2_weights
 
 try:  # single-threaded BLAS in the Krylov loop: OpenBLAS threading on short vectors is 6x slower
@@ -667,7 +672,9 @@ def solve_stokes_periodic(
         raise ValueError(f"pressure_gradient must be > 0 (Pa/m), got {pressure_gradient}")
     periodic_axes = tuple(sorted(set(int(a) for a in periodic_axes)))
     if not periodic_axes or any(a not in (0, 1, 2) for a in periodic_axes):
-        raise ValueError(f"periodic_axes must be a non-empty subset of (0, 1, 2), got {periodic_axes}")
+        raise ValueError(
+            f"periodic_axes must be a non-empty subset of (0, 1, 2), got {periodic_axes}"
+        )
     if axis not in periodic_axes:
         raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
     if amg not in ("sa", "rs"):

@@ -170,7 +170,9 @@ def weighted_dissipation(mesh: MeshTet, u: np.ndarray, weight, chunk: int = 100_
 
     @Functional
     def form(w):
-        return w.wt * (dot(w.u0.grad, w.u0.grad) + dot(w.u1.grad, w.u1.grad) + dot(w.u2.grad, w.u2.grad))
+        return w.wt * (
+            dot(w.u0.grad, w.u0.grad) + dot(w.u1.grad, w.u1.grad) + dot(w.u2.grad, w.u2.grad)
+        )
 
     total = 0.0
     for start in range(0, n_el, chunk):
