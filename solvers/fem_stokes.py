@@ -1,7 +1,10 @@
 """Stokes flow on tetrahedral meshes with Taylor-Hood (P2-P1) finite elements.
 
 Geometry-agnostic: a tetrahedral mesh and named sets of boundary triangles go in; velocity and
-pressure fields and the volumetric flow rate through each named boundary come out.
+pressure fields and the volumetric flow rate through each named boundary come out
+(:func:`solve_stokes`, pressure-driven). :func:`solve_stokes_periodic` solves the same equations
+periodic across opposite box faces, driven by a mean pressure gradient, and returns the
+superficial mean velocity. ``StokesResult.dissipation`` integrates ``w mu |grad u|^2``.
 
 Equations (steady incompressible Stokes, constant viscosity ``mu``)::
 
@@ -117,6 +120,9 @@ class StokesResult:
         Normal axis (0=x, 1=y, 2=z) found for each slip tag.
     timings : dict[str, float]
         Seconds spent in ``assembly``, ``solve`` and ``post``.
+    mean_velocity : ndarray (3,) or None
+        :func:`solve_stokes_periodic` only: superficial mean velocity ``int u dV / V_box``
+        (m/s), the Darcy velocity of the homogenized medium.
     """
 
     flux: dict[str, float]
@@ -137,6 +143,7 @@ class StokesResult:
     element: str = "taylor-hood"
     slip_axes: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    mean_velocity: np.ndarray | None = None
     _state: dict = field(default_factory=dict, repr=False)
 
     def sample(self, xyz: np.ndarray, outside: str = "raise") -> tuple[np.ndarray, np.ndarray]:
@@ -652,10 +659,9 @@ def solve_stokes_periodic(
     Returns
     -------
     StokesResult
-        ``flux`` holds ``"mean_velocity_<x|y|z>"``: the superficial mean velocity (m/s) over
-        the box, ``int u dV / V_box`` (the Darcy velocity of the homogenized medium);
-        ``flux_imbalance`` is the relative net flux through the periodic face pairs of
-        ``axis`` (mass conservation check, 0 up to the solver tolerance).
+        ``mean_velocity``: the superficial mean velocity (m/s), ``int u dV / V_box``;
+        ``flux``: flow rates (m^3/s, outward normal) through the two box faces normal to
+        ``axis`` (``"x0"``, ``"x1"`` for axis 0); ``flux_imbalance`` their relative sum.
 
     Raises
     ------
@@ -701,12 +707,89 @@ def solve_stokes_periodic(
     mesh = assembly.make_mesh(x, tets)
     dofs2, n2 = assembly.p2_dofs(mesh)
     boundary = mesh.f2t[1] == -1
-    bfac = np.nonzero(boundary)[0]
-    partners = face_partners(x, mesh.facets[:, bfac].T, periodic_axes, x.min(0), x.max(0))
-    vrep, rep2 = p2_representatives(partners, mesh.edges)
+    constraints = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
+    P2, P1k, free, slip_axes = constraints
+    t0 = time.perf_counter()
+    system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis)
+    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
+    t_asm = time.perf_counter() - t0
 
-    # boundary facets off the periodic faces are walls (or slip planes)
+    t0 = time.perf_counter()
+    if system.n <= direct_max_dofs:
+        info = solve_direct(system, b, tol)
+    else:
+        with _single_thread_blas():
+            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+    t_solve = time.perf_counter() - t0
+    del system
+
+    t0 = time.perf_counter()
+    parts = np.split(info.x, np.cumsum([len(f) for f in free]))
+    u = np.zeros((3, n2))
+    for c in range(3):
+        u[c] = Pf[c] @ parts[c]
+    p = P1k @ parts[3]
+    box = np.prod(hi - lo)
+    mean_u = np.array([load @ u[c] for c in range(3)]) * u_scale * length**3 / box
+    bfac = np.nonzero(boundary)[0]
     tri = mesh.facets[:, bfac].T
+    flux = {}
+    for side, val in (("0", x[:, axis].min()), ("1", x[:, axis].max())):
+        on = np.all(np.abs(x[tri][:, :, axis] - val) <= 1e-7 * float(x.max()), axis=1)
+        flux[f"{'xyz'[axis]}{side}"] = assembly.facet_flux(mesh, bfac[on], u) * u_scale * length**2
+    q0, q1 = flux[f"{'xyz'[axis]}0"], flux[f"{'xyz'[axis]}1"]
+    imbalance = abs(q0 + q1) / abs(q0) if q0 != 0 else float("inf")
+    p_scale = pressure_gradient * length
+    velocity = (u[:, : len(points)].T * u_scale).copy()
+    pressure = p * p_scale
+    t_post = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
+    return StokesResult(
+        flux=flux,
+        flux_imbalance=float(imbalance),
+        converged=info.converged,
+        iterations=info.iterations,
+        residual=info.residual,
+        n_dofs=int(len(info.x)),
+        n_tets=int(len(tets)),
+        n_points=int(len(points)),
+        n_tets_removed=0,
+        wall_time_s=time.perf_counter() - t_start,
+        peak_memory_gb=peak,
+        memory_estimate_gb=est,
+        velocity=velocity,
+        pressure=pressure,
+        method=info.method,
+        slip_axes=slip_axes,
+        timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
+        mean_velocity=mean_u,
+        _state={
+            "mesh": mesh,
+            "dofs2": dofs2,
+            "u": u,
+            "p": p,
+            "origin": lo,
+            "length": length,
+            "u_scale": u_scale,
+            "p_scale": p_scale,
+            "viscosity": float(viscosity),
+        },
+    )
+
+
+def _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary):
+    """Identification matrices and free dofs of the periodic solve.
+
+    Returns ``(P2, P1k, free, slip_axes)``: the P2 prolongation (nodes x masters), the P1 one
+    with the first master (pressure constant) removed, the free master indices per velocity
+    component and the slip tag axes. Boundary facets off the periodic faces are no-slip
+    unless tagged slip.
+    """
+    dofs2, _ = assembly.p2_dofs(mesh)
+    bfac = np.nonzero(boundary)[0]
+    tri = mesh.facets[:, bfac].T
+    partners = face_partners(x, tri, periodic_axes, x.min(0), x.max(0))
+    vrep, rep2 = p2_representatives(partners, mesh.edges)
     tol_x = 1e-7 * float(x.max())
     on_periodic = np.zeros(len(bfac), dtype=bool)
     for ax in periodic_axes:
@@ -735,95 +818,35 @@ def solve_stokes_periodic(
             raise ValueError(f"slip: tag {name!r} lies on a periodic face (axis {'xyz'[ax]})")
         slip_axes[name] = ax
         fixed[ax] = np.union1d(fixed[ax], probe.get_dofs(facets=f).all())
-
     P2, masters2 = identification(rep2)
     P1, masters1 = identification(vrep)
     free = []
     for c in range(3):
         mask = np.ones(len(masters2), dtype=bool)
-        col = np.searchsorted(masters2, rep2[fixed[c]])
-        mask[col] = False
+        mask[np.searchsorted(masters2, rep2[fixed[c]])] = False
         free.append(np.nonzero(mask)[0])
+    return P2, P1[:, 1:], free, slip_axes
 
-    t0 = time.perf_counter()
+
+def _assemble_periodic(mesh, P2, P1k, free, axis):
+    """Reduced saddle system for a unit body force along ``axis`` (scaled units).
+
+    Returns ``(system, b, Pf, load)``: the system, its right-hand side, the per-component
+    prolongations from free masters to P2 nodes and the P2 volume load ``int phi dV``.
+    """
     L, D, m_lumped = assembly.assemble_volume(mesh)
     load = assembly.assemble_volume_load(mesh)
-    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
     Lp = (P2.T @ L @ P2).tocsr()
     del L
-    Pf = [P2[:, free[c]] for c in range(3)]
+    Pf = [P2[:, free[c]].tocsr() for c in range(3)]
     A_red = []
     for c in range(3):
         same = next((j for j in range(c) if np.array_equal(free[j], free[c])), None)
         A_red.append(A_red[same] if same is not None else Lp[free[c]][:, free[c]].tocsr())
     del Lp
-    # pressure: periodic P1, one dof pinned (the constant is free)
-    keep_p = np.arange(1, len(masters1))
-    P1k = P1[:, keep_p]
     D_red = [(P1k.T @ D[c] @ Pf[c]).tocsr() for c in range(3)]
     m_red = np.asarray(P1k.T @ m_lumped).ravel()
-    del D
     rhs = [np.zeros(len(free[c])) for c in range(3)]
     rhs[axis] = np.asarray(Pf[axis].T @ load).ravel()
-    b = np.concatenate(rhs + [np.zeros(len(keep_p))])
-    system = SaddleSystem(A=A_red, D=D_red, m_lumped=m_red, viscosity=1.0)
-    t_asm = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    if system.n <= direct_max_dofs:
-        info = solve_direct(system, b, tol)
-    else:
-        with _single_thread_blas():
-            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
-    t_solve = time.perf_counter() - t0
-    del system, A_red, D_red
-
-    t0 = time.perf_counter()
-    parts = np.split(info.x, np.cumsum([len(f) for f in free]))
-    u = np.zeros((3, n2))
-    for c in range(3):
-        u[c] = Pf[c] @ parts[c]
-    p = P1k @ parts[3]
-    box = np.prod(hi - lo)
-    mean_u = np.array([load @ u[c] for c in range(3)]) * u_scale * length**3 / box
-    flux = {f"mean_velocity_{'xyz'[c]}": float(mean_u[c]) for c in range(3)}
-    q = {}
-    for side, val in (("0", x[:, axis].min()), ("1", x[:, axis].max())):
-        on = np.all(np.abs(x[tri][:, :, axis] - val) <= tol_x, axis=1)
-        q[side] = assembly.facet_flux(mesh, bfac[on], u)
-    imbalance = abs(q["0"] + q["1"]) / abs(q["0"]) if q["0"] != 0 else float("inf")
-    p_scale = pressure_gradient * length
-    velocity = (u[:, : len(points)].T * u_scale).copy()
-    pressure = p * p_scale
-    t_post = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
-    return StokesResult(
-        flux=flux,
-        flux_imbalance=float(imbalance),
-        converged=info.converged,
-        iterations=info.iterations,
-        residual=info.residual,
-        n_dofs=int(len(info.x)),
-        n_tets=int(len(tets)),
-        n_points=int(len(points)),
-        n_tets_removed=0,
-        wall_time_s=time.perf_counter() - t_start,
-        peak_memory_gb=peak,
-        memory_estimate_gb=est,
-        velocity=velocity,
-        pressure=pressure,
-        method=info.method,
-        slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
-        _state={
-            "mesh": mesh,
-            "dofs2": dofs2,
-            "u": u,
-            "p": p,
-            "origin": lo,
-            "length": length,
-            "u_scale": u_scale,
-            "p_scale": p_scale,
-            "viscosity": float(viscosity),
-        },
-    )
+    b = np.concatenate(rhs + [np.zeros(P1k.shape[1])])
+    return SaddleSystem(A=A_red, D=D_red, m_lumped=m_red, viscosity=1.0), b, Pf, load

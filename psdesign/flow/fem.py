@@ -191,7 +191,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         tol=float(flow.get("tol") or 1e-6),
         max_memory_gb=flow.get("max_memory_gb"),
     )
-    u = np.array([res.flux[f"mean_velocity_{c}"] for c in "xyz"])
+    u = np.asarray(res.mean_velocity, dtype=float)
     col = darcy_column(u, mu, grad)
     return {
         "permeability_m2": float(col[ax]),
