@@ -135,3 +135,31 @@ def test_permeameter_matches_periodic_for_2_to_5_cells(kind, phi, step, n):
     assert per["permeability_m2"] == pytest.approx(
         per["k_ref"], rel=0.01 if kind == "across" else 0.03
     )
+
+
+def test_periodic_route_on_non_periodic_geometry_names_the_face():
+    """A cylinder cut by the face x = 0 only: the x faces differ, so bc="periodic" refuses."""
+    from fem_arrays import MU, S
+
+    from psdesign.flow.fem import permeability_fem
+    from psdesign.geometry.fibers import make_fiber
+    from psdesign.geometry.rve import RVE
+
+    size = np.array([S, S, 8e-6])
+    fiber = make_fiber(
+        "cylinder",
+        diameter=0.3,
+        center=np.array([0.1, 0.5, 0.1]),
+        theta=None,
+        omega=None,
+        direction=[0, 0, 1],
+        u=0.0,
+        f=1.0,
+        isovalue=None,
+    )
+    rve = RVE(size=size, fibers=[fiber], period=None)
+    flow = {"viscosity": MU, "bc": "periodic", "mesher": "stuffing", "lattice_step": 4e-6}
+    with pytest.raises(PeriodicMeshError, match=r"face x1"):
+        permeability_fem(rve, rve.voxelize(2e-6), "x", flow)
+    with pytest.raises(ValueError, match="flow.bc"):
+        permeability_fem(rve, rve.voxelize(2e-6), "x", dict(flow, bc="mirror"))
