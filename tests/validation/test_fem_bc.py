@@ -4,7 +4,7 @@ Truth: plane Poiseuille flow (exact in P2-P1); the power identity (dissipation =
 published square-array series (``reference_values``: Drummond & Tahir 1984 along, Sangani &
 Acrivos 1982 across); and the FEM's own periodic solution at the same resolution, which the
 permeameter must reproduce for any number of cells (2-5) once entrance and exit losses are
-excluded. Before the fix the permeameter K was 8-14 % low along the cylinders (2-4 cells).
+excluded. Before the fix the permeameter K was 5-13 % low along the cylinders (5 to 2 cells).
 """
 
 from __future__ import annotations
