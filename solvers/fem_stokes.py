@@ -1,7 +1,10 @@
 """Stokes flow on tetrahedral meshes with Taylor-Hood (P2-P1) finite elements.
 
 Geometry-agnostic: a tetrahedral mesh and named sets of boundary triangles go in; velocity and
-pressure fields and the volumetric flow rate through each named boundary come out.
+pressure fields and the volumetric flow rate through each named boundary come out
+(:func:`solve_stokes`, pressure-driven). :func:`solve_stokes_periodic` solves the same equations
+periodic across opposite box faces, driven by a mean pressure gradient, and returns the
+superficial mean velocity. ``StokesResult.dissipation`` integrates ``w mu |grad u|^2``.
 
 Equations (steady incompressible Stokes, constant viscosity ``mu``)::
 
@@ -41,6 +44,12 @@ from solvers.fem.memory import (
     default_limit_gb,
     estimate_memory_gb,
 )
+from solvers.fem.periodic import (
+    PeriodicMeshError,
+    face_partners,
+    identification,
+    p2_representatives,
+)
 from solvers.fem.probe import PointLocator, p2_weights
 
 try:  # single-threaded BLAS in the Krylov loop: OpenBLAS threading on short vectors is 6x slower
@@ -57,6 +66,8 @@ def _single_thread_blas():
 
 __all__ = [
     "solve_stokes",
+    "solve_stokes_periodic",
+    "PeriodicMeshError",
     "StokesResult",
     "estimate_memory_gb",
     "MemoryLimitError",
@@ -109,6 +120,9 @@ class StokesResult:
         Normal axis (0=x, 1=y, 2=z) found for each slip tag.
     timings : dict[str, float]
         Seconds spent in ``assembly``, ``solve`` and ``post``.
+    mean_velocity : ndarray (3,) or None
+        :func:`solve_stokes_periodic` only: superficial mean velocity ``int u dV / V_box``
+        (m/s), the Darcy velocity of the homogenized medium.
     """
 
     flux: dict[str, float]
@@ -129,6 +143,7 @@ class StokesResult:
     element: str = "taylor-hood"
     slip_axes: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    mean_velocity: np.ndarray | None = None
     _state: dict = field(default_factory=dict, repr=False)
 
     def sample(self, xyz: np.ndarray, outside: str = "raise") -> tuple[np.ndarray, np.ndarray]:
@@ -163,6 +178,34 @@ class StokesResult:
         u[inside] = np.einsum("jk,cjk->kc", w, st["u"][:, dof]) * st["u_scale"]
         p[inside] = np.einsum("kj,jk->k", lam, st["p"][mesh.t[:, c]]) * st["p_scale"]
         return u, p
+
+    def dissipation(self, weight=None) -> float:
+        """Weighted viscous dissipation ``int w mu |grad u|^2 dV`` of the fluid (W).
+
+        Without a weight this is the power put in by the driving pressures or body force
+        (``Q dp`` for a permeameter; the discrete Galerkin solution satisfies the identity to the
+        solver tolerance). A weight selects part of the domain, e.g. a window over the RVE
+        (:mod:`psdesign.flow.fem`). Integrated with a degree-4 rule (exact for a polynomial
+        weight of degree <= 2 on each tetrahedron).
+
+        Parameters
+        ----------
+        weight : callable, optional
+            ``weight(xyz)`` for an (k, 3) array of points (m) returns (k,) weights.
+        """
+        st = self._state
+        mesh = st["mesh"]
+
+        def w_scaled(x: np.ndarray) -> np.ndarray:
+            if weight is None:
+                return np.ones(len(x))
+            w = np.asarray(weight(st["origin"] + st["length"] * x), dtype=float)
+            if w.shape != (len(x),) or not np.all(np.isfinite(w)):
+                raise ValueError("weight must return one finite value per point")
+            return w
+
+        phi = assembly.weighted_dissipation(mesh, st["u"], w_scaled)
+        return phi * st["p_scale"] ** 2 * st["length"] ** 3 / st["viscosity"]
 
     def plane_mean(self, axis: int, coord: float, n: int = 64) -> tuple[float, float]:
         """Mean pressure and mean normal velocity over the fluid part of a plane.
@@ -538,5 +581,272 @@ def solve_stokes(
             "length": length,
             "u_scale": u_scale,
             "p_scale": p_scale,
+            "viscosity": float(viscosity),
         },
     )
+
+
+def _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter):
+    """Validation shared by :func:`solve_stokes_periodic` (one-line ``ValueError`` messages)."""
+    points = np.asarray(points, dtype=np.float64)
+    tets = np.asarray(tets)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 4:
+        raise ValueError(f"points must be an (n, 3) array with n >= 4, got shape {points.shape}")
+    if not np.all(np.isfinite(points)):
+        raise ValueError("points must be finite")
+    if tets.ndim != 2 or tets.shape[1] != 4 or len(tets) < 1:
+        raise ValueError(f"tets must be an (m, 4) integer array with m >= 1, got {tets.shape}")
+    if not np.issubdtype(tets.dtype, np.integer):
+        raise ValueError(f"tets must be integer, got dtype {tets.dtype}")
+    if tets.min() < 0 or tets.max() >= len(points):
+        raise ValueError(f"tets: vertex indices must lie in [0, {len(points) - 1}]")
+    if not isinstance(facet_tags, Mapping):
+        raise ValueError("facet_tags must be a dict {tag name: (k, 3) int array}")
+    if not (np.isfinite(viscosity) and viscosity > 0):
+        raise ValueError(f"viscosity must be > 0 (Pa s), got {viscosity}")
+    if not (0 < tol < 1):
+        raise ValueError(f"tol must lie in (0, 1), got {tol}")
+    if int(max_iter) < 1:
+        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
+    return points, tets.astype(np.int64)
+
+
+def solve_stokes_periodic(
+    points: np.ndarray,
+    tets: np.ndarray,
+    facet_tags: Mapping[str, np.ndarray] | None = None,
+    *,
+    axis: int,
+    pressure_gradient: float = 1.0,
+    viscosity: float = 1.0,
+    periodic_axes: Iterable[int] = (0, 1, 2),
+    slip: Iterable[str] = (),
+    tol: float = 1e-8,
+    max_iter: int = 2000,
+    max_memory_gb: float | None = None,
+    force: bool = False,
+    direct_max_dofs: int = 8_000,
+    amg: str = "sa",
+) -> StokesResult:
+    """Stokes flow periodic across opposite box faces, driven by a mean pressure gradient.
+
+    Solves ``-mu Laplace(u) + grad p' = G e_axis``, ``div u = 0`` for the periodic velocity and
+    the periodic pressure fluctuation ``p'`` (total pressure ``p' - G x_axis``), with u = 0 on
+    every boundary facet that is not on a periodic box face (fiber walls) and not tagged in
+    ``slip``. The box is the mesh's bounding box; the boundary triangles on the two faces
+    normal to each periodic axis must be translates of each other.
+
+    Parameters
+    ----------
+    points, tets
+        The mesh (m); see :func:`solve_stokes`.
+    facet_tags : dict, optional
+        Boundary triangles by name; only the ``slip`` tags are used (periodic faces are found
+        geometrically, all other boundary facets are no-slip).
+    axis : int
+        Direction of the driving mean pressure gradient (0, 1, 2).
+    pressure_gradient : float
+        ``G`` (Pa/m) > 0: the mean pressure decreases by ``G`` per metre along ``axis``.
+    viscosity : float
+        Pa s, > 0.
+    periodic_axes : sequence of int
+        Axes whose face pairs are identified (default all three).
+    slip : sequence of str
+        Tags of flat faces normal to a non-periodic axis with a symmetry condition.
+    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg
+        As in :func:`solve_stokes`.
+
+    Returns
+    -------
+    StokesResult
+        ``mean_velocity``: the superficial mean velocity (m/s), ``int u dV / V_box``;
+        ``flux``: flow rates (m^3/s, outward normal) through the two box faces normal to
+        ``axis`` (``"x0"``, ``"x1"`` for axis 0); ``flux_imbalance`` their relative sum.
+
+    Raises
+    ------
+    PeriodicMeshError
+        Opposite faces do not match (the message names the face).
+    ValueError
+        Bad arguments, no no-slip facets (the periodic velocity would be undetermined).
+    """
+    t_start = time.perf_counter()
+    points, tets = _check_mesh(points, tets, facet_tags or {}, viscosity, tol, max_iter)
+    if axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2, got {axis}")
+    if not (np.isfinite(pressure_gradient) and pressure_gradient > 0):
+        raise ValueError(f"pressure_gradient must be > 0 (Pa/m), got {pressure_gradient}")
+    periodic_axes = tuple(sorted(set(int(a) for a in periodic_axes)))
+    if not periodic_axes or any(a not in (0, 1, 2) for a in periodic_axes):
+        raise ValueError(
+            f"periodic_axes must be a non-empty subset of (0, 1, 2), got {periodic_axes}"
+        )
+    if axis not in periodic_axes:
+        raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
+    if amg not in ("sa", "rs"):
+        raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
+    slip = _as_names(slip, "slip")
+    tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in (facet_tags or {}).items()}
+    for n in slip:
+        if n not in tags:
+            raise ValueError(f"slip: tag {n!r} is not in facet_tags (have {sorted(tags)})")
+    est = estimate_memory_gb(len(points), len(tets))
+    limit = default_limit_gb() if max_memory_gb is None else float(max_memory_gb)
+    if est > limit and not force:
+        raise MemoryLimitError(
+            f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
+            f"({len(tets)} tets, {len(points)} points); coarsen the mesh or pass force=True"
+        )
+    used = np.unique(tets)
+    if len(used) != len(points):
+        raise ValueError(f"points: {len(points) - len(used)} vertices belong to no tetrahedron")
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    e = points[tets[:, 1]] - points[tets[:, 0]]
+    length = float(np.sqrt((e * e).sum(axis=1)).mean())
+    x = (points - lo) / length
+    mesh = assembly.make_mesh(x, tets)
+    dofs2, n2 = assembly.p2_dofs(mesh)
+    boundary = mesh.f2t[1] == -1
+    constraints = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
+    P2, P1k, free, slip_axes = constraints
+    t0 = time.perf_counter()
+    system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis)
+    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
+    t_asm = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    if system.n <= direct_max_dofs:
+        info = solve_direct(system, b, tol)
+    else:
+        with _single_thread_blas():
+            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+    t_solve = time.perf_counter() - t0
+    del system
+
+    t0 = time.perf_counter()
+    parts = np.split(info.x, np.cumsum([len(f) for f in free]))
+    u = np.zeros((3, n2))
+    for c in range(3):
+        u[c] = Pf[c] @ parts[c]
+    p = P1k @ parts[3]
+    box = np.prod(hi - lo)
+    mean_u = np.array([load @ u[c] for c in range(3)]) * u_scale * length**3 / box
+    bfac = np.nonzero(boundary)[0]
+    tri = mesh.facets[:, bfac].T
+    flux = {}
+    for side, val in (("0", x[:, axis].min()), ("1", x[:, axis].max())):
+        on = np.all(np.abs(x[tri][:, :, axis] - val) <= 1e-7 * float(x.max()), axis=1)
+        flux[f"{'xyz'[axis]}{side}"] = assembly.facet_flux(mesh, bfac[on], u) * u_scale * length**2
+    q0, q1 = flux[f"{'xyz'[axis]}0"], flux[f"{'xyz'[axis]}1"]
+    imbalance = abs(q0 + q1) / abs(q0) if q0 != 0 else float("inf")
+    p_scale = pressure_gradient * length
+    velocity = (u[:, : len(points)].T * u_scale).copy()
+    pressure = p * p_scale
+    t_post = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
+    return StokesResult(
+        flux=flux,
+        flux_imbalance=float(imbalance),
+        converged=info.converged,
+        iterations=info.iterations,
+        residual=info.residual,
+        n_dofs=int(len(info.x)),
+        n_tets=int(len(tets)),
+        n_points=int(len(points)),
+        n_tets_removed=0,
+        wall_time_s=time.perf_counter() - t_start,
+        peak_memory_gb=peak,
+        memory_estimate_gb=est,
+        velocity=velocity,
+        pressure=pressure,
+        method=info.method,
+        slip_axes=slip_axes,
+        timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
+        mean_velocity=mean_u,
+        _state={
+            "mesh": mesh,
+            "dofs2": dofs2,
+            "u": u,
+            "p": p,
+            "origin": lo,
+            "length": length,
+            "u_scale": u_scale,
+            "p_scale": p_scale,
+            "viscosity": float(viscosity),
+        },
+    )
+
+
+def _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary):
+    """Identification matrices and free dofs of the periodic solve.
+
+    Returns ``(P2, P1k, free, slip_axes)``: the P2 prolongation (nodes x masters), the P1 one
+    with the first master (pressure constant) removed, the free master indices per velocity
+    component and the slip tag axes. Boundary facets off the periodic faces are no-slip
+    unless tagged slip.
+    """
+    dofs2, _ = assembly.p2_dofs(mesh)
+    bfac = np.nonzero(boundary)[0]
+    tri = mesh.facets[:, bfac].T
+    partners = face_partners(x, tri, periodic_axes, x.min(0), x.max(0))
+    vrep, rep2 = p2_representatives(partners, mesh.edges)
+    tol_x = 1e-7 * float(x.max())
+    on_periodic = np.zeros(len(bfac), dtype=bool)
+    for ax in periodic_axes:
+        for val in (x[:, ax].min(), x[:, ax].max()):
+            on_periodic |= np.all(np.abs(x[tri][:, :, ax] - val) <= tol_x, axis=1)
+    probe = assembly.CellBasis(mesh, ElementTetP2(), intorder=2, elements=np.array([0]), dofs=dofs2)
+    slip_facets = {}
+    for name in slip:
+        idx = match_rows(mesh.facets.T, tags[name])
+        if np.any(idx < 0) or not boundary[np.maximum(idx, 0)].all():
+            raise BoundaryTagError(f"facet_tags[{name!r}]: triangles are not boundary facets")
+        slip_facets[name] = np.unique(idx)
+    slip_all = np.concatenate([f for f in slip_facets.values()] + [np.zeros(0, int)])
+    wall = np.setdiff1d(bfac[~on_periodic], slip_all)
+    if len(wall) == 0:
+        raise ValueError(
+            "periodic: the mesh has no no-slip facets (no fibers); the periodic velocity is "
+            "undetermined"
+        )
+    fixed_all = probe.get_dofs(facets=wall).all()
+    fixed = [fixed_all, fixed_all, fixed_all]
+    slip_axes = {}
+    for name, f in slip_facets.items():
+        ax = slip_axis(x, mesh.facets[:, f].T, name)
+        if ax in periodic_axes:
+            raise ValueError(f"slip: tag {name!r} lies on a periodic face (axis {'xyz'[ax]})")
+        slip_axes[name] = ax
+        fixed[ax] = np.union1d(fixed[ax], probe.get_dofs(facets=f).all())
+    P2, masters2 = identification(rep2)
+    P1, masters1 = identification(vrep)
+    free = []
+    for c in range(3):
+        mask = np.ones(len(masters2), dtype=bool)
+        mask[np.searchsorted(masters2, rep2[fixed[c]])] = False
+        free.append(np.nonzero(mask)[0])
+    return P2, P1[:, 1:], free, slip_axes
+
+
+def _assemble_periodic(mesh, P2, P1k, free, axis):
+    """Reduced saddle system for a unit body force along ``axis`` (scaled units).
+
+    Returns ``(system, b, Pf, load)``: the system, its right-hand side, the per-component
+    prolongations from free masters to P2 nodes and the P2 volume load ``int phi dV``.
+    """
+    L, D, m_lumped = assembly.assemble_volume(mesh)
+    load = assembly.assemble_volume_load(mesh)
+    Lp = (P2.T @ L @ P2).tocsr()
+    del L
+    Pf = [P2[:, free[c]].tocsr() for c in range(3)]
+    A_red = []
+    for c in range(3):
+        same = next((j for j in range(c) if np.array_equal(free[j], free[c])), None)
+        A_red.append(A_red[same] if same is not None else Lp[free[c]][:, free[c]].tocsr())
+    del Lp
+    D_red = [(P1k.T @ D[c] @ Pf[c]).tocsr() for c in range(3)]
+    m_red = np.asarray(P1k.T @ m_lumped).ravel()
+    rhs = [np.zeros(len(free[c])) for c in range(3)]
+    rhs[axis] = np.asarray(Pf[axis].T @ load).ravel()
+    b = np.concatenate(rhs + [np.zeros(P1k.shape[1])])
+    return SaddleSystem(A=A_red, D=D_red, m_lumped=m_red, viscosity=1.0), b, Pf, load

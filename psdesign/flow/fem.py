@@ -1,11 +1,22 @@
 """Permeability with the tet mesh + Taylor-Hood route (``solver = "fem"``).
 
-Pore-space tet mesh with empty auxiliary inlet/outlet zones
-(:func:`psdesign.meshing.pore_mesh.mesh_pore_space`), Taylor-Hood Stokes with prescribed
-pressures (:func:`solvers.fem_stokes.solve_stokes`), K by
-:func:`psdesign.flow.darcy.darcy_permeability`
-from the outlet flow rate and the drop of the cross-section-averaged pressure between the RVE's
-own inlet and outlet planes.
+Two boundary-condition models (``flow.bc``, see ``docs/permeability.md``):
+
+``"permeameter"`` (default)
+    Pore-space tet mesh with empty auxiliary inlet/outlet zones
+    (:func:`psdesign.meshing.pore_mesh.mesh_pore_space`), Taylor-Hood Stokes with prescribed
+    pressures (:func:`solvers.fem_stokes.solve_stokes`). The pressure drop across the RVE is
+    defined by the windowed dissipation (section "FEM permeameter: definition of the pressure
+    drop"): ``dp = 2 Phi_w / Q`` with ``Phi_w = int w mu |grad u|^2 dV`` and the window
+    ``w = sin^2(pi s / L)`` over the RVE, which removes the entrance and exit losses and is
+    exact for RVEs of two or more periods.
+``"periodic"``
+    Mesh without auxiliary zones, periodic on all faces, driven by a mean pressure gradient
+    (:func:`solvers.fem_stokes.solve_stokes_periodic`); K from the superficial mean velocity.
+    Needs matching opposite faces (the lattice mesher gives them for periodic geometry);
+    otherwise :class:`solvers.fem_stokes.PeriodicMeshError` says which face differs.
+
+K always comes from :mod:`psdesign.flow.darcy`.
 """
 
 from __future__ import annotations
@@ -14,7 +25,7 @@ import time
 
 import numpy as np
 
-from psdesign.flow.darcy import axis_of, darcy_permeability
+from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability
 from psdesign.geometry.rve import RVE, VoxelFields
 
 
@@ -50,6 +61,78 @@ def mesher_options(flow: dict) -> dict:
     return kw
 
 
+BCS = ("permeameter", "periodic")
+
+
+def rve_window(axis: int, start: float, end: float):
+    """Window ``w = sin^2(pi (x - start) / (end - start))`` on the RVE, 0 outside; its integral
+    over ``[start, end]`` is ``(end - start) / 2``."""
+    length = end - start
+
+    def w(xyz: np.ndarray) -> np.ndarray:
+        s = np.clip((xyz[:, axis] - start) / length, 0.0, 1.0)
+        return np.sin(np.pi * s) ** 2
+
+    return w
+
+
+def cells_per_diameter(rve: RVE, mesh) -> float | None:
+    """Thinnest fiber diameter over the mean edge length of the RVE's tets (auxiliary zones
+    excluded); None without fibers."""
+    diam = [float(fb.diameter) * rve.period for fb in rve.fibers if getattr(fb, "diameter", 0)]
+    if not diam:
+        return None
+    pts, tets = mesh.points, mesh.tets
+    start, end = mesh.porous_region
+    centre = pts[tets].mean(axis=1)[:, mesh.axis]
+    inside = tets[(centre > start) & (centre < end)]
+    if len(inside) == 0:
+        inside = tets
+    pairs = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+    e = np.concatenate([pts[inside[:, i]] - pts[inside[:, j]] for i, j in pairs])
+    return float(min(diam) / np.sqrt((e * e).sum(axis=1)).mean())
+
+
+def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
+    import inspect
+
+    from psdesign.meshing.pore_mesh import mesh_pore_space
+
+    spacing = fields.grid.spacing
+    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+        raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
+    kw = mesher_options(flow)
+    if bc == "periodic":
+        kw["aux_length"] = 0.0
+        if "periodic" in inspect.signature(mesh_pore_space).parameters:
+            kw["periodic"] = True
+    else:
+        kw["aux_length"] = float(flow["aux_length"])
+    return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, **kw)
+
+
+def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
+    return {
+        "direction": name,
+        "porosity": fields.porosity,
+        "solver": "fem",
+        "bc": bc,
+        "element": res.element,
+        "n_dofs": res.n_dofs,
+        "n_tets": res.n_tets,
+        "n_points": res.n_points,
+        "converged": bool(res.converged),
+        "residual": float(res.residual),
+        "iterations": int(res.iterations),
+        "flux_imbalance": float(res.flux_imbalance),
+        "cells_per_diameter": cells_per_diameter(rve, mesh),
+        "mesh_quality": mesh.quality,
+        "wall_time_s": time.perf_counter() - t0,
+        "timings_s": {"mesh": t_mesh, **res.timings},
+        "peak_memory_gb": float(res.peak_memory_gb),
+    }
+
+
 def permeability_fem(
     rve: RVE, fields: VoxelFields, direction: str | int, flow: dict, mesh=None
 ) -> dict:
@@ -62,88 +145,108 @@ def permeability_fem(
         Voxelized RVE (its distance field is meshed).
     direction : 'x' | 'y' | 'z'
     flow : dict
-        The spec's ``[flow]`` table: viscosity, aux_length, sides ('slip' | 'noslip'),
-        pressure_drop, optional edge_length (fraction), tol, max_memory_gb.
+        The spec's ``[flow]`` table: viscosity, bc ('permeameter' | 'periodic', default
+        'permeameter'), aux_length, sides ('slip' | 'noslip'), pressure_drop, optional
+        edge_length (fraction), lattice_step, tol, max_memory_gb.
     mesh : PoreMesh, optional
-        A mesh made earlier for this direction.
+        A mesh made earlier for this direction (and BC: without auxiliary zones for periodic).
 
     Returns
     -------
     dict
-        ``permeability_m2``, ``direction``, ``porosity``, ``solver``, ``n_dofs``,
+        ``permeability_m2``, ``direction``, ``porosity``, ``solver``, ``bc``, ``n_dofs``,
         ``wall_time_s``, ``flux_imbalance``, ``converged``, ``residual``, ``iterations``,
-        mesh size and quality, ``sides``, pressure drops.
+        ``cells_per_diameter``, mesh size and quality; permeameter: ``sides``, ``aux_length``,
+        ``flow_rate_m3_s``, ``pressure_drop_applied_pa``, ``pressure_drop_rve_pa`` (the
+        windowed-dissipation drop that defines K) and ``pressure_drop_faces_pa`` (drop of
+        the plane-averaged pressure between the RVE faces, includes entrance/exit losses);
+        periodic: ``mean_velocity_m_s`` (superficial, 3 components), ``pressure_gradient_pa_m``
+        and ``permeability_column_m2`` (K[:, j]).
+
+    Raises
+    ------
+    ValueError
+        Unknown ``bc``; :class:`solvers.fem_stokes.PeriodicMeshError` when ``bc='periodic'``
+        and the mesh's opposite faces do not match.
     """
-    from psdesign.meshing.pore_mesh import mesh_pore_space
+    name, ax = axis_of(direction)
+    bc = flow.get("bc") or "permeameter"
+    if bc not in BCS:
+        raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
+    t0 = time.perf_counter()
+    if mesh is None:
+        mesh = _mesh(rve, fields, name, flow, bc)
+    t_mesh = time.perf_counter() - t0
+    if bc == "periodic":
+        return _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+    return _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+
+
+def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
+    from solvers.fem_stokes import solve_stokes_periodic
+
+    mu = float(flow["viscosity"])
+    grad = float(flow.get("pressure_drop", 1.0)) / float(rve.size[ax])
+    res = solve_stokes_periodic(
+        mesh.points,
+        mesh.tets,
+        mesh.facet_tags,
+        axis=ax,
+        pressure_gradient=grad,
+        viscosity=mu,
+        tol=float(flow.get("tol") or 1e-6),
+        max_memory_gb=flow.get("max_memory_gb"),
+    )
+    u = np.asarray(res.mean_velocity, dtype=float)
+    col = darcy_column(u, mu, grad)
+    return {
+        "permeability_m2": float(col[ax]),
+        **_common(res, mesh, rve, fields, name, flow, "periodic", t0, t_mesh),
+        "permeability_column_m2": col.tolist(),
+        "mean_velocity_m_s": u.tolist(),
+        "pressure_gradient_pa_m": grad,
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
+def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     from solvers.fem_stokes import solve_stokes
 
-    name, ax = axis_of(direction)
-    t0 = time.perf_counter()
-    spacing = fields.grid.spacing
-    if not np.allclose(spacing, spacing[0], rtol=1e-9):
-        raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
-    if mesh is None:
-        mesh = mesh_pore_space(
-            fields.distance,
-            float(spacing[0]),
-            rve.size,
-            name,
-            aux_length=float(flow["aux_length"]),
-            **mesher_options(flow),
-        )
-    t_mesh = time.perf_counter() - t0
     sides = [t for t in mesh.facet_tags if t.startswith("side_")]
     slip = sides if flow.get("sides", "slip") == "slip" else []
     noslip = ["wall"] + ([] if slip else sides)
     dp = float(flow.get("pressure_drop", 1.0))
+    mu = float(flow["viscosity"])
     res = solve_stokes(
         mesh.points,
         mesh.tets,
         mesh.facet_tags,
         p_inlet=dp,
         p_outlet=0.0,
-        viscosity=float(flow["viscosity"]),
+        viscosity=mu,
         noslip=noslip,
         slip=slip,
         tol=float(flow.get("tol") or 1e-6),
         max_memory_gb=flow.get("max_memory_gb"),
     )
     start, end = mesh.porous_region
+    q = abs(res.flux["outlet"])
+    length = end - start
+    area = float(np.prod(np.delete(rve.size, ax)))
+    # windowed dissipation: Phi_w = G Q int w dx = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q
+    dp_rve = 2.0 * res.dissipation(rve_window(ax, start, end)) / q
+    k = darcy_permeability(q, mu, length, area, dp_rve)
     p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
     p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)
-    dp_rve = p_start - p_end
-    q = abs(res.flux["outlet"])
-    length = rve.size[ax]
-    area = float(np.prod(np.delete(rve.size, ax)))
-    mu = float(flow["viscosity"])
-    k = darcy_permeability(q, mu, length, area, dp_rve)
-    # diagnostic: the drop across the middle half of the RVE (free of entrance/exit effects)
-    q1, q3 = start + 0.25 * (end - start), start + 0.75 * (end - start)
-    dp_core = plane_average_pressure(
-        mesh.points, mesh.tets, res.pressure, ax, q1
-    ) - plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, q3)
-    k_core = darcy_permeability(q, mu, q3 - q1, area, dp_core)
     return {
         "permeability_m2": k,
-        "permeability_core_m2": k_core,
-        "direction": name,
-        "porosity": fields.porosity,
-        "solver": "fem",
-        "element": res.element,
-        "n_dofs": res.n_dofs,
-        "n_tets": res.n_tets,
-        "n_points": res.n_points,
-        "converged": bool(res.converged),
-        "residual": float(res.residual),
-        "iterations": int(res.iterations),
-        "flux_imbalance": float(res.flux_imbalance),
+        **_common(res, mesh, rve, fields, name, flow, "permeameter", t0, t_mesh),
         "flow_rate_m3_s": q,
         "pressure_drop_applied_pa": dp,
         "pressure_drop_rve_pa": dp_rve,
+        "pressure_drop_faces_pa": p_start - p_end,
+        "pressure_drop_definition": "windowed-dissipation",
         "sides": "slip" if slip else "noslip",
         "aux_length": float(flow["aux_length"]),
-        "mesh_quality": mesh.quality,
         "wall_time_s": time.perf_counter() - t0,
-        "timings_s": {"mesh": t_mesh, **res.timings},
-        "peak_memory_gb": float(res.peak_memory_gb),
     }

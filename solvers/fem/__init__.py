@@ -11,6 +11,8 @@ linsolve
     Sparse direct solve for small systems and block-preconditioned MINRES (pyamg) for large ones.
 memory
     Up-front memory estimate.
+periodic
+    Matching of opposite box faces and the periodic identification of P2 / P1 unknowns.
 probe
     Point location (KD-tree + barycentrics) and P2/P1 evaluation for ``StokesResult.sample``.
 meshes

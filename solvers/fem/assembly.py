@@ -124,6 +124,23 @@ def assemble_normal_load(mesh: MeshTet, facets: np.ndarray) -> np.ndarray:
     return out
 
 
+def assemble_volume_load(mesh: MeshTet) -> np.ndarray:
+    """``int phi_j dV`` of the P2 functions (n2,) (a unit body force; degree-2 rule, exact)."""
+    dofs2, _ = p2_dofs(mesh)
+    vb = CellBasis(mesh, ElementTetP2(), intorder=INTORDER, dofs=dofs2)
+
+    @LinearForm
+    def lf(v, w):
+        return v
+
+    return asm(lf, vb)
+
+
+def volume_integral(mesh: MeshTet, u: np.ndarray) -> np.ndarray:
+    """``int u dV`` (3,) of a P2 field ``u`` (3, n2)."""
+    return np.array([assemble_volume_load(mesh) @ u[c] for c in range(3)])
+
+
 def facet_flux(mesh: MeshTet, facets: np.ndarray, u: np.ndarray) -> float:
     """Volumetric flow rate ``int_F u . n ds`` (outward normal) of a P2 velocity.
 
@@ -143,6 +160,37 @@ def facet_flux(mesh: MeshTet, facets: np.ndarray, u: np.ndarray) -> float:
     return float(
         asm(flux, fb, ux=fb.interpolate(u[0]), uy=fb.interpolate(u[1]), uz=fb.interpolate(u[2]))
     )
+
+
+def weighted_dissipation(mesh: MeshTet, u: np.ndarray, weight, chunk: int = 100_000) -> float:
+    """``int w |grad u|^2 dV`` of a P2 velocity ``u`` (3, n2), weight ``w = weight(x)`` at the
+    quadrature points (x: (k, 3) mesh coordinates), degree-4 rule."""
+    dofs2, _ = p2_dofs(mesh)
+    n_el = mesh.t.shape[1]
+
+    @Functional
+    def form(w):
+        return w.wt * (
+            dot(w.u0.grad, w.u0.grad) + dot(w.u1.grad, w.u1.grad) + dot(w.u2.grad, w.u2.grad)
+        )
+
+    total = 0.0
+    for start in range(0, n_el, chunk):
+        idx = np.arange(start, min(start + chunk, n_el))
+        vb = CellBasis(mesh, ElementTetP2(), intorder=4, elements=idx, dofs=dofs2)
+        xq = vb.global_coordinates().value  # (3, n_el, n_qp)
+        wq = weight(xq.reshape(3, -1).T).reshape(xq.shape[1:])
+        total += float(
+            asm(
+                form,
+                vb,
+                wt=wq,
+                u0=vb.interpolate(u[0]),
+                u1=vb.interpolate(u[1]),
+                u2=vb.interpolate(u[2]),
+            )
+        )
+    return total
 
 
 def facet_mean(mesh: MeshTet, facets: np.ndarray, p1: np.ndarray) -> tuple[float, float]:
