@@ -66,6 +66,34 @@ def _check(solver: str, bc: str | None) -> None:
         raise ValueError(f"flow.bc must be 'permeameter' or 'periodic', got {bc!r}")
 
 
+def supported_bc(solver: str) -> tuple[str, ...]:
+    """The ``flow.bc`` models a route can apply: its module's ``BC_MODELS`` if it declares
+    them, both models if the route reads ``flow["bc"]`` itself, else only its own model."""
+    import inspect
+
+    from psdesign.flow import fem, voxel
+
+    module, func = (
+        (fem, fem.permeability_fem) if solver == "fem" else (voxel, voxel.permeability_voxel)
+    )
+    declared = getattr(module, "BC_MODELS", None)
+    if declared:
+        return tuple(declared)
+    try:
+        src = inspect.getsource(func)
+    except (OSError, TypeError):
+        return BC_MODELS
+    reads = '"bc"' in src or "'bc'" in src
+    return BC_MODELS if reads else (NATIVE_BC[solver],)
+
+
+def _refuse(solver: str, bc: str, got: str) -> BoundaryConditionUnavailable:
+    return BoundaryConditionUnavailable(
+        f"flow.bc: {bc!r} is not available with solver {solver!r} in this build "
+        f"(it applies {got!r}); allowed here: {got!r}"
+    )
+
+
 def route_result(
     rve: RVE,
     fields: VoxelFields,
@@ -84,6 +112,8 @@ def route_result(
     """
     bc = flow.get("bc")
     _check(solver, bc)
+    if bc is not None and bc not in supported_bc(solver):
+        raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
     if solver == "fem":
         res = permeability_fem(rve, fields, direction, flow)
     else:
@@ -93,10 +123,7 @@ def route_result(
         got = NATIVE_BC[solver]
         res["bc"] = got
     if bc is not None and got != bc:
-        raise BoundaryConditionUnavailable(
-            f"flow.bc: {bc!r} is not available with solver {solver!r} in this build "
-            f"(it applies {got!r}); allowed here: {got!r}"
-        )
+        raise _refuse(solver, bc, got)
     return res
 
 
