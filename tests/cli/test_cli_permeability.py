@@ -160,3 +160,17 @@ def test_flow_bc_reaches_the_route(monkeypatch):
     res = perm_mod.route_result(None, None, "x", {"bc": "periodic"}, "voxel")
     assert seen["bc"] == "periodic" and res["bc"] == "periodic"
     assert np.isfinite(res["permeability_m2"])
+
+
+def test_all_directions_summarize_bar_status_and_bc(tmp_path, capsys):
+    code, out, _ = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "all", "--json")
+    res = json.loads(out)
+    assert code == 0 and res["bc"] == "periodic"
+    assert set(res["permeability_rel_error"]) == {"x", "y", "z"}
+    assert res["status"] in ("ok", "untrustworthy")
+    worst = [r["status"] for r in res["results"]]
+    assert res["status"] == ("untrustworthy" if "untrustworthy" in worst else "ok")
+    # square array: K_x = K_y by symmetry
+    k = res["permeability_m2"]
+    assert k["x"] == pytest.approx(k["y"], rel=1e-6)
+    assert np.asarray(res["tensor_m2"]).shape == (3, 3)
