@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -61,6 +61,7 @@ class ErrorEstimate:
     ratio: float | None
     k_coarse: float | None
     method: str
+    coarse_failure: str | None = None
 
     def as_dict(self) -> dict:
         """JSON-ready dict (``permeability_rel_error`` is the headline value)."""
@@ -75,6 +76,7 @@ class ErrorEstimate:
                 "order": self.order,
                 "ratio": self.ratio,
                 "permeability_coarse_m2": self.k_coarse,
+                "coarse_failure": self.coarse_failure,
             },
         }
 
@@ -223,15 +225,18 @@ def estimate_with(
     coarse: Callable[[], tuple[float, float]] | None,
 ) -> ErrorEstimate:
     """Error bar of a route ``result`` (``permeability_m2``, ``porosity``, ``residual``,
-    ``flux_imbalance``); ``coarse()`` returns ``(k_coarse, ratio)`` or raises ``ValueError``
-    (then the resolution floor alone is used)."""
+    ``flux_imbalance``); ``coarse()`` returns ``(k_coarse, ratio)``; if it raises (a coarse
+    grid that does not percolate, a lattice too coarse to mesh), the resolution floor alone is
+    used and the reason is kept in ``coarse_failure``."""
     k_c = ratio = None
+    failure = None
     if coarse is not None:
         try:
             k_c, ratio = coarse()
-        except (ValueError, NotImplementedError, MemoryError):
+        except Exception as exc:  # noqa: BLE001 - the result exists; the bar falls back
             k_c = ratio = None
-    return combine(
+            failure = f"{type(exc).__name__}: {exc}"
+    est = combine(
         float(result["permeability_m2"]),
         float(result["porosity"]),
         float(step),
@@ -240,3 +245,4 @@ def estimate_with(
         k_c,
         ratio,
     )
+    return replace(est, coarse_failure=failure)

@@ -198,9 +198,10 @@ def with_error_estimate(
             f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"
         )
     if est.method != "two_grid" and second_resolution:
+        why = f" ({est.coarse_failure})" if est.coarse_failure else ""
         warnings.append(
-            f"K_{res['direction']}: no second resolution could be solved; the error bar is the "
-            "resolution floor alone"
+            f"K_{res['direction']}: no second resolution could be solved{why}; the error bar is "
+            "the resolution floor alone"
         )
     if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
         warnings.append(

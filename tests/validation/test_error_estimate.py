@@ -90,3 +90,14 @@ def test_coarse_grid_keeps_cubic_voxels():
     assert err.coarse_voxel_shape((40, 40, 12)) == ((20, 20, 6), 2.0)
     assert err.coarse_voxel_shape((30, 45, 15)) == ((20, 30, 10), 1.5)
     assert err.coarse_voxel_shape((7, 5, 3)) is None
+
+
+def test_failed_coarse_solve_falls_back_to_doubled_floor():
+    def boom():
+        raise RuntimeError("coarse lattice does not mesh")
+
+    res = {"permeability_m2": 1e-12, "porosity": 0.5, "residual": 1e-7, "flux_imbalance": 0.0}
+    est = err.estimate_with(res, 1e-7, 1, boom)
+    assert est.method == "resolution_only" and "does not mesh" in est.coarse_failure
+    assert est.floor == pytest.approx(2 * err.resolution_floor(1e-7, 1e-12, 0.5, 1))
+    assert est.rel_error == pytest.approx(est.floor + 1e-7)
