@@ -24,8 +24,9 @@ from psdesign.flow.permeability import (
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Warn when ``bc_sensitivity`` exceeds this plus the two results' error bars: beyond the
-#: discretization, the two models may differ by 5 % (the scatter of K between seeds of one
-#: design is of that size) before the RVE size, not the material, sets K.
+#: discretization, a face effect of 5 % is a systematic error of the size of the seed scatter
+#: of K in a small RVE (11 % in a 40 um Toray-like cube, docs/validation.md), so the RVE size,
+#: not the material, starts to set K (docs/permeability.md).
 BC_SENSITIVITY_WARN = 0.05
 
 
