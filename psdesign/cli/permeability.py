@@ -1,18 +1,67 @@
-"""``psdesign permeability``: permeability by Darcy's law from a Stokes solve."""
+"""``psdesign permeability``: permeability by Darcy's law from a Stokes solve, with its
+boundary-condition model, error bar and status."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 
 from psdesign.cli.progress import progress_printer
 
 
-def _cmd_permeability(args: argparse.Namespace) -> int:
+def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str):
+    from psdesign.flow.compare import permeability_both_bc
+    from psdesign.flow.permeability import permeability
+
+    progress = None if args.quiet else progress_printer(direction)
+    estimate = False if args.no_error_estimate else None
+    if args.bc == "both":
+        return permeability_both_bc(rve, fields, direction, flow, solver, progress, estimate)
+    return permeability(rve, fields, direction, flow, solver, progress, estimate)
+
+
+def _combine(results: list[dict], solver: str, porosity: float) -> dict:
     import numpy as np
 
-    from psdesign.flow.permeability import permeability
+    worst = {"ok": 0, "untrustworthy": 1, "not_converged": 2}
+    out = {
+        "direction": "all",
+        "solver": solver,
+        "porosity": porosity,
+        "results": results,
+        "bc": results[0]["bc"],
+        "converged": all(r["converged"] for r in results),
+        "flux_imbalance": max(r["flux_imbalance"] for r in results),
+        "status": max((r["status"] for r in results), key=worst.get),
+        "warnings": [w for r in results for w in r.get("warnings", [])],
+    }
+    for key in ("permeability_m2", "permeability_rel_error"):
+        out[key] = {r["direction"]: r.get(key) for r in results}
+    if all("permeability_column_m2" in r for r in results):
+        out["tensor_m2"] = np.column_stack([r["permeability_column_m2"] for r in results]).tolist()
+        out["n_cells"] = results[0].get("n_cells")
+    if all("n_dofs" in r for r in results):
+        out["n_dofs"] = sum(r["n_dofs"] for r in results)
+    if all("bc_sensitivity" in r for r in results):
+        out["bc_sensitivity"] = {r["direction"]: r["bc_sensitivity"] for r in results}
+    return out
+
+
+def _line(r: dict) -> str:
+    err = r.get("permeability_rel_error")
+    bar = f" +- {100 * err:.1f} %" if err is not None else ""
+    sens = r.get("bc_sensitivity")
+    extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
+    return (
+        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2{bar}  [{r['status']}]  "
+        f"bc {r['bc']}  converged {str(r['converged']).lower()}  porosity {r['porosity']:.4f}  "
+        f"solver {r['solver']}  flux imbalance {r['flux_imbalance']:.2e}{extra}"
+    )
+
+
+def _cmd_permeability(args: argparse.Namespace) -> int:
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
 
@@ -20,52 +69,24 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     flow = dict(spec["flow"])
     if args.sides:
         flow["sides"] = args.sides
+    if args.bc in ("permeameter", "periodic"):
+        flow["bc"] = args.bc
     solver = args.solver or flow["solver"]
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
-    results = [
-        permeability(
-            rve,
-            fields,
-            d,
-            flow,
-            solver=solver,
-            progress=None if args.quiet else progress_printer(d),
-        )
-        for d in directions
-    ]
-    if len(results) == 1:
-        out = results[0]
-    else:
-        out = {
-            "direction": "all",
-            "solver": solver,
-            "porosity": fields.porosity,
-            "results": results,
-            "permeability_m2": {r["direction"]: r["permeability_m2"] for r in results},
-            "converged": all(r["converged"] for r in results),
-            "flux_imbalance": max(r["flux_imbalance"] for r in results),
-        }
-        if solver == "voxel":
-            tensor = np.column_stack([r["permeability_column_m2"] for r in results])
-            out["tensor_m2"] = tensor.tolist()
-            out["n_cells"] = results[0]["n_cells"]
-        else:
-            out["n_dofs"] = sum(r["n_dofs"] for r in results)
+    results = [_solve(rve, fields, d, flow, args, solver) for d in directions]
+    out = results[0] if len(results) == 1 else _combine(results, solver, fields.porosity)
     out["wall_time_s"] = time.perf_counter() - t0
+    for w in dict.fromkeys(out.get("warnings", [])):
+        print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
         print(json.dumps(out, default=float))
     else:
         for r in results:
-            flag = "" if r["converged"] else "  (NOT CONVERGED)"
-            print(
-                f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2  porosity "
-                f"{r['porosity']:.4f}  solver {r['solver']}  flux imbalance "
-                f"{r['flux_imbalance']:.2e}{flag}"
-            )
+            print(_line(r))
     return 0 if out["converged"] else 1
 
 
@@ -80,6 +101,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("slip", "noslip"),
         default=None,
         help="lateral walls for the fem route (default: the spec's, slip)",
+    )
+    perm.add_argument(
+        "--bc",
+        choices=("permeameter", "periodic", "both"),
+        default=None,
+        help="boundary-condition model (default: the spec's flow.bc, else the solver's own: "
+        "fem permeameter, voxel periodic); 'both' also reports bc_sensitivity",
+    )
+    perm.add_argument(
+        "--no-error-estimate",
+        action="store_true",
+        help="skip the second, coarser solve (the error bar is then the resolution floor)",
     )
     perm.add_argument("--json", action="store_true", help="print one JSON object")
     perm.add_argument(

@@ -16,24 +16,212 @@ Two routes, both geometry-agnostic below this module:
   depend on ``aux_length``.
 * ``voxel``: periodic body-force Stokes on the voxel grid
   (:func:`solvers.voxel_stokes.solve_voxel_stokes`), K from the mean velocity.
+
+The dispatcher :func:`permeability` adds what every route's result needs to be trusted
+(``docs/permeability.md``): ``bc`` (the boundary-condition model, ``flow.bc``), an error bar
+``permeability_rel_error`` from a second, cheaper resolution (:mod:`psdesign.flow.error`),
+``cells_per_diameter``, ``warnings`` and ``status`` ("ok" | "not_converged" | "untrustworthy").
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
+import numpy as np
+
+from psdesign.flow import error as err
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.voxel import face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
 
 __all__ = [
+    "BC_MODELS",
+    "BoundaryConditionUnavailable",
+    "NATIVE_BC",
     "face_mismatch",
     "mesher_options",
     "permeability",
     "permeability_fem",
     "permeability_voxel",
     "plane_average_pressure",
+    "route_result",
 ]
+
+#: The boundary-condition models of ``flow.bc``.
+BC_MODELS = ("permeameter", "periodic")
+#: Each route's behaviour when ``flow.bc`` is absent.
+NATIVE_BC = {"fem": "permeameter", "voxel": "periodic"}
+SOLVERS = ("fem", "voxel")
+
+
+class BoundaryConditionUnavailable(ValueError, NotImplementedError):
+    """The chosen solver cannot apply the requested ``flow.bc`` (yet)."""
+
+
+def _check(solver: str, bc: str | None) -> None:
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
+    if bc is not None and bc not in BC_MODELS:
+        raise ValueError(f"flow.bc must be 'permeameter' or 'periodic', got {bc!r}")
+
+
+def supported_bc(solver: str) -> tuple[str, ...]:
+    """The ``flow.bc`` models a route can apply: its module's ``BC_MODELS`` if it declares
+    them, both models if the route reads ``flow["bc"]`` itself, else only its own model."""
+    import inspect
+
+    from psdesign.flow import fem, voxel
+
+    module, func = (
+        (fem, fem.permeability_fem) if solver == "fem" else (voxel, voxel.permeability_voxel)
+    )
+    declared = getattr(module, "BC_MODELS", None)
+    if declared:
+        return tuple(declared)
+    try:
+        src = inspect.getsource(func)
+    except (OSError, TypeError):
+        return BC_MODELS
+    reads = '"bc"' in src or "'bc'" in src
+    return BC_MODELS if reads else (NATIVE_BC[solver],)
+
+
+def _refuse(solver: str, bc: str, got: str) -> BoundaryConditionUnavailable:
+    return BoundaryConditionUnavailable(
+        f"flow.bc: {bc!r} is not available with solver {solver!r} in this build "
+        f"(it applies {got!r}); allowed here: {got!r}"
+    )
+
+
+def route_result(
+    rve: RVE,
+    fields: VoxelFields,
+    direction: str | int,
+    flow: dict,
+    solver: str,
+    progress: Callable[[int, float], None] | None = None,
+) -> dict:
+    """One route's raw result with ``bc`` set; no error estimate.
+
+    Raises
+    ------
+    BoundaryConditionUnavailable
+        If ``flow["bc"]`` is not the route's behaviour and the route does not report
+        a ``bc`` of its own (it predates the ``bc`` key).
+    """
+    bc = flow.get("bc")
+    _check(solver, bc)
+    if bc is not None and bc not in supported_bc(solver):
+        raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
+    if solver == "fem":
+        res = permeability_fem(rve, fields, direction, flow)
+    else:
+        res = permeability_voxel(fields, direction, flow, progress=progress)
+    got = res.get("bc")
+    if got is None:
+        got = NATIVE_BC[solver]
+        res["bc"] = got
+    if bc is not None and got != bc:
+        raise _refuse(solver, bc, got)
+    return res
+
+
+def _fem_step(res: dict, fields: VoxelFields, rve: RVE, flow: dict) -> float:
+    q = res.get("mesh_quality") or {}
+    if q.get("lattice_step_m"):
+        return float(q["lattice_step_m"])
+    if flow.get("lattice_step") is not None:
+        return float(flow["lattice_step"])
+    return max(2.0 * float(fields.grid.spacing[0]), float(np.min(rve.size)) / 30.0)
+
+
+def _order(solver: str, res: dict) -> int:
+    """Theoretical order: 1 for the voxel staircase, 2 for sub-voxel walls and tet meshes."""
+    if solver == "voxel":
+        wall = str(res.get("wall_treatment", "staircase"))
+        return 1 if wall == "staircase" else 2
+    return 2
+
+
+def _coarse_fn(rve, fields, direction, flow, solver, res):
+    """The second resolution, as a callable returning ``(k_coarse, ratio)``."""
+    if solver == "voxel":
+        found = err.coarse_voxel_shape(fields.grid.shape)
+        if found is None:
+            return None
+        shape, ratio = found
+        h_coarse = float(fields.grid.size[0]) / shape[0]
+
+        def run() -> tuple[float, float]:
+            coarse = rve.voxelize(h_coarse)
+            return float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"]), (
+                ratio
+            )
+
+        return run
+    step = _fem_step(res, fields, rve, flow)
+
+    def run_fem() -> tuple[float, float]:
+        failures = []
+        for ratio in err.COARSE_RATIOS[:2]:  # 2, then 1.5 if the lattice is too coarse to mesh
+            f2 = {**flow, "lattice_step": ratio * step}
+            try:
+                return float(route_result(rve, fields, direction, f2, solver)["permeability_m2"]), (
+                    ratio
+                )
+            except ValueError as exc:
+                failures.append(f"x{ratio:g}: {exc}")
+        raise ValueError("; ".join(failures))
+
+    return run_fem
+
+
+def with_error_estimate(
+    rve: RVE,
+    fields: VoxelFields,
+    direction: str | int,
+    flow: dict,
+    solver: str,
+    res: dict,
+    second_resolution: bool = True,
+) -> dict:
+    """Add ``permeability_rel_error``, ``error_estimate``, ``cells_per_diameter``,
+    ``warnings`` and ``status`` to a route result ``res`` (in place; returned)."""
+    step = float(fields.grid.spacing[0]) if solver == "voxel" else _fem_step(res, fields, rve, flow)
+    cpd = res.get("cells_per_diameter")
+    if cpd is None:
+        cpd = err.cells_per_diameter(rve, step)
+    res["cells_per_diameter"] = cpd
+    coarse = _coarse_fn(rve, fields, direction, flow, solver, res) if second_resolution else None
+    t0 = time.perf_counter()
+    est = err.estimate_with(res, step, _order(solver, res), coarse)
+    res.update(est.as_dict())
+    res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
+    warnings = list(res.get("warnings", []))
+    warnings += err.resolution_warnings(cpd, solver, res["direction"])
+    if not res.get("converged", False):
+        warnings.append(
+            f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"
+        )
+    if est.method != "two_grid" and second_resolution:
+        why = f" ({est.coarse_failure})" if est.coarse_failure else ""
+        warnings.append(
+            f"K_{res['direction']}: no second resolution could be solved{why}; the error bar is "
+            "the resolution floor alone"
+        )
+    if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
+        warnings.append(
+            f"K_{res['direction']}: estimated error {100 * est.rel_error:.1f} % exceeds "
+            f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
+        )
+    res["warnings"] = warnings
+    # the staircase voxel route is unreliable below MIN_CELLS_PER_DIAMETER (status); the
+    # body-fitted P2 tet route gets the warning, and its status follows the error bar
+    res["status"] = err.status_of(
+        bool(res.get("converged", False)), est.rel_error, cpd if solver == "voxel" else None
+    )
+    return res
 
 
 def permeability(
@@ -43,12 +231,38 @@ def permeability(
     flow: dict,
     solver: str | None = None,
     progress: Callable[[int, float], None] | None = None,
+    error_estimate: bool | None = None,
 ) -> dict:
-    """Dispatch to :func:`permeability_fem` or :func:`permeability_voxel` (``progress`` is
-    used by the voxel route only)."""
+    """Permeability along one axis with an error bar.
+
+    Parameters
+    ----------
+    rve : RVE
+    fields : VoxelFields
+        The RVE on its voxel grid (meshed by the fem route, solved by the voxel route).
+    direction : 'x' | 'y' | 'z'
+    flow : dict
+        The spec's ``[flow]`` table; ``flow["bc"]`` ('permeameter' | 'periodic', absent: the
+        solver's own behaviour, :data:`NATIVE_BC`) is passed to the route.
+    solver : 'fem' | 'voxel', optional
+        Default ``flow["solver"]`` or 'fem'.
+    progress : callable, optional
+        ``progress(iterations, residual)`` (voxel route only).
+    error_estimate : bool, optional
+        Solve a second, coarser resolution for the error bar (default
+        ``flow["error_estimate"]`` or True). Without it the bar is the resolution floor alone.
+
+    Returns
+    -------
+    dict
+        The route's result (``permeability_m2``, ``direction``, ``porosity``, ``solver``,
+        ``bc``, ``converged``, ``residual``, ``iterations``, ``flux_imbalance``,
+        ``wall_time_s``, ...) plus ``permeability_rel_error``, ``error_estimate``,
+        ``cells_per_diameter``, ``warnings`` and ``status``.
+    """
     solver = solver or flow.get("solver", "fem")
-    if solver == "fem":
-        return permeability_fem(rve, fields, direction, flow)
-    if solver == "voxel":
-        return permeability_voxel(fields, direction, flow, progress=progress)
-    raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
+    _check(solver, flow.get("bc"))
+    res = route_result(rve, fields, direction, flow, solver, progress=progress)
+    if error_estimate is None:
+        error_estimate = bool(flow.get("error_estimate", True))
+    return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)

@@ -223,6 +223,10 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
                 fv = pd.to_numeric(pd.Series([v]), errors="coerce").iloc[0]
                 if pd.notna(fv) and abs(fv) > FLUX_IMBALANCE_FLAG:
                     flag = True
+        for d in "xyz":
+            st = row.get(f"k_{d}_status")
+            if isinstance(st, str) and st != "ok":
+                flag = True
         classes.append("flag" if flag else "")
         n_flag += flag
     table = _table(df[cols], classes)
@@ -247,6 +251,39 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
         ax.legend(fontsize=7)
         fig_uri = _png(fig)
     return table, fig_uri, n_flag
+
+
+def _k_table(df: pd.DataFrame) -> str:
+    """K per direction with its error bar, status and boundary-condition model."""
+    rows = []
+    dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
+    if not any(f"k_{d}_rel_error" in df for d in dirs):
+        return ""
+    if not dirs:
+        return ""
+    classes = []
+    for _, row in df.iterrows():
+        out = {"case_id": row.get("case_id", "")}
+        flag = False
+        for d in dirs:
+            k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
+            e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
+            txt = "" if pd.isna(k) else f"{k:.4g}"
+            if pd.notna(e):
+                txt += f" +- {100 * e:.1f} %"
+            out[f"K_{d} (m^2)"] = txt
+            st = row.get(f"k_{d}_status")
+            out[f"status_{d}"] = "" if pd.isna(st) else st
+            out[f"bc_{d}"] = row.get(f"bc_{d}", "")
+            flag |= isinstance(st, str) and st != "ok"
+        rows.append(out)
+        classes.append("flag" if flag else "")
+    note = (
+        '<p class="note">Error bar: two-grid discretization estimate (a second solve at about '
+        "twice the step) with a resolution floor, plus the solver residual "
+        "(docs/permeability.md). Highlighted: a status other than ok.</p>"
+    )
+    return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
 
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
@@ -379,7 +416,7 @@ def build_html(out_dir: str | Path) -> str:
 <h2>Study</h2><table class="meta">{meta}</table>
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
-x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>
+x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
 (summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
@@ -392,8 +429,9 @@ least squares on standardized variables) of each numeric parameter against poros
 log10 K, over cases with status ok.</p>{sens_html}{me_html}
 <h2>Sample RVEs</h2>{_previews(df, out, params)}
 <h2>Solver convergence</h2>
-<p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged,
-or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>{conv_fig}{conv_table}
+<p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged
+or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>
+{conv_fig}{conv_table}
 <h2>Results</h2>{results_html}
 <h2>References</h2>{refs}
 </body></html>

@@ -44,6 +44,8 @@ FIBER_KEYS = (
 CELL_SHAPES = ("woven-cell",)
 FLOW_KEYS = (
     "solver",
+    "bc",
+    "error_estimate",
     "viscosity",
     "aux_length",
     "direction",
@@ -188,6 +190,10 @@ def validate_spec(data: dict) -> dict:
                 "flow.lattice_step",
                 f"must be <= {min(size) / 2:g} m (half the smallest edge), got {step:g}",
             )
+    if flow.get("bc") is not None and flow["bc"] not in ("permeameter", "periodic"):
+        raise SpecError("flow.bc", f"must be 'permeameter' or 'periodic', got {flow['bc']!r}")
+    if not isinstance(flow.get("error_estimate", True), bool):
+        raise SpecError("flow.error_estimate", "must be true or false")
     if flow["sides"] not in ("slip", "noslip"):
         raise SpecError("flow.sides", f"must be 'slip' or 'noslip', got {flow['sides']!r}")
     spec["flow"] = flow

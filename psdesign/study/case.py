@@ -53,6 +53,12 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     for d in directions:
         res = permeability(rve, fields, d, spec["flow"], solver=solver)
         row[f"k_{d}_m2"] = res["permeability_m2"]
+        row[f"k_{d}_rel_error"] = res.get("permeability_rel_error")
+        row[f"k_{d}_status"] = res.get("status")
+        row[f"bc_{d}"] = res.get("bc")
+        row[f"cells_per_diameter_{d}"] = res.get("cells_per_diameter")
+        if res.get("warnings"):
+            row[f"warnings_{d}"] = "; ".join(res["warnings"])
         if "permeability_core_m2" in res:
             row[f"k_core_{d}_m2"] = res["permeability_core_m2"]
         row[f"converged_{d}"] = res["converged"]

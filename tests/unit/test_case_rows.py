@@ -1,0 +1,48 @@
+"""Study rows carry the boundary-condition model, the error bar and the status of every K."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from psdesign.report.html import _k_table
+from psdesign.study.case import run_case
+
+SPEC = {
+    "rve": {"size": [40e-6, 40e-6, 40e-6], "voxel": 2e-6},
+    "fibers": [
+        {
+            "shape": "cylinder",
+            "diameter": 10e-6,
+            "center": [20e-6, 20e-6, 20e-6],
+            "direction": [0, 0, 1],
+        },
+    ],
+    "flow": {"solver": "voxel", "viscosity": 1.8e-5},
+}
+
+
+def test_run_case_row_has_bc_error_bar_status(tmp_path):
+    row = run_case(SPEC, ["porosity", "k_x"], "voxel", tmp_path)
+    assert row["bc_x"] == "periodic"
+    assert 0 < row["k_x_rel_error"] < 10
+    assert row["k_x_status"] in ("ok", "untrustworthy", "not_converged")
+    assert row["cells_per_diameter_x"] == pytest.approx(5.0)  # 10 um / 2 um
+    assert row["k_x_status"] == "untrustworthy"  # < 8 voxels across the fiber
+    assert "across the thinnest fiber" in row["warnings_x"]
+
+
+def test_report_k_table_shows_bar_and_flags():
+    df = pd.DataFrame(
+        {
+            "case_id": ["a", "b"],
+            "k_z_m2": [1e-11, 2e-11],
+            "k_z_rel_error": [0.031, 0.5],
+            "k_z_status": ["ok", "untrustworthy"],
+            "bc_z": ["periodic", "periodic"],
+        }
+    )
+    html = _k_table(df)
+    assert "1e-11 +- 3.1 %" in html and "2e-11 +- 50.0 %" in html
+    assert html.count('class="flag"') == 1
+    assert _k_table(df.drop(columns=["k_z_rel_error"])) == ""  # old tables: no section
