@@ -7,6 +7,7 @@ Usage::
     python benchmarks/bench_voxel.py toray-subvoxel 100  # the same with the exact fibre distance
     python benchmarks/bench_voxel.py base            # warm-up only: the numba/Python RSS baseline
     python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
+    python benchmarks/bench_voxel.py arrays          # sub-voxel vs staircase, square/hex arrays
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
@@ -162,6 +163,44 @@ def cylinders(sizes: tuple[int, ...] = (16, 32, 64, 128)) -> None:
         print(f"solid fraction {phi_s} (S&A {ref}): " + " | ".join(row), flush=True)
 
 
+def arrays(sizes: tuple[int, ...] = (32, 40, 64, 96)) -> None:
+    """Sub-voxel vs staircase on cylinder arrays: deviation from the published / collocation
+    reference and MINRES iterations (tol 1e-7 across, 1e-9 along)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from arrays import along_array_k, array_distance, radius_of
+
+    hexes = {32: (30, 52), 40: (41, 71), 64: (56, 97), 96: (97, 168)}
+    for phis in (0.1, 0.2, 0.3, 0.4, 0.5):
+        for case in ("across square", "along square", "along hexagonal"):
+            row = []
+            kind = case.split()[1]
+            for n in sizes:
+                shape = (n, n) if kind == "square" else hexes[n]
+                along = case.startswith("along")
+                phi = array_distance((*shape, 1 if along else 4), kind, phis)
+                out = []
+                for dist in (phi, None):
+                    res = solve_voxel_stokes(
+                        phi <= 0,
+                        1.0,
+                        "z" if along else "x",
+                        distance=dist,
+                        tol=1e-9 if along else 1e-7,
+                    )
+                    k = column_of(res)[2 if along else 0]
+                    if along:
+                        ref = along_array_k(phis, kind) * radius_of(phis, kind, shape[0]) ** 2
+                        dev = 100.0 * (k / ref - 1.0)
+                    else:
+                        dev = 100.0 * (n * n / k / SANGANI_ACRIVOS_FULL[phis] - 1.0)
+                    out.append(f"{dev:+.2f} % ({res.iterations})")
+                row.append(f"{n}: {out[0]} / {out[1]}")
+            print(f"phi_s {phis} {case}: " + " | ".join(row), flush=True)
+
+
+SANGANI_ACRIVOS_FULL = {0.1: 24.83, 0.2: 51.53, 0.3: 102.90, 0.4: 217.89, 0.5: 532.55}
+
+
 def kernels(n: int, reps: int = 5) -> None:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid."""
     from solvers import voxel_stokes as vs
@@ -216,6 +255,8 @@ def main(argv: list[str]) -> None:
     res0 = solve_voxel_stokes(warm, 1.0, "z")
     if what == "cylinders":
         cylinders()
+    elif what == "arrays":
+        arrays(tuple(int(a) for a in argv[2:]) or (32, 40, 64, 96))
     elif what == "kernels":
         for n in [int(a) for a in argv[2:]] or [200]:
             kernels(n)

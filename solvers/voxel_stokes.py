@@ -1,26 +1,43 @@
-"""Fully periodic Stokes flow on a voxel grid and the permeability tensor (Darcy's law).
+"""Stokes flow on a voxel grid (MAC finite volumes): fields and fluxes for Darcy's law.
+
+The solver returns velocities, pressures, flow rates and the driving pressure gradient; the
+permeability is formed by :mod:`psdesign.flow.voxel` through :mod:`psdesign.flow.darcy`.
 
 Method and reasons
 ------------------
-*Discretisation*: staggered-grid (MAC) finite volumes on the voxels.  Pressure lives at fluid
-cell centres, each velocity component on the cell faces normal to it; a face between two fluid
-cells is an unknown, a face touching a solid cell is zero (no penetration, no slip on the voxel
-surface).  The viscous term is the 7-point Laplacian with the wall exactly on the voxel faces
-(ghost value ``-u`` for a wall half a cell away, ``0`` for a node on a solid surface).  The scheme
-is conservative, has no spurious pressure modes (no stabilisation needed, unlike the Q1-Q1 FEM of
-PuMA), and needs only a voxel mask: walls coincide with voxel faces, so there is no geometric
-ambiguity.
+*Discretisation*: staggered-grid (MAC) finite volumes on the voxels.  Pressure lives at cell
+centres, each velocity component on the cell faces normal to it.  The scheme is conservative and
+has no spurious pressure modes (no stabilisation, unlike the Q1-Q1 FEM of PuMA).
 
-*Accuracy*: for walls aligned with the grid the scheme is second order; for plane Poiseuille flow
-with ``H`` fluid voxels across, the discrete solution is exactly ``K = phi (H^2/12 + h^2/6)``
-(relative error ``2 (h/H)^2``), and :func:`richardson_extrapolate` with order 2 removes it.  For
-curved surfaces the voxel staircase dominates.  On random fibre RVEs the errors of many fibres
-at random angles average out and K converges fast (Toray-like, 7 um fibres: +1.2 % at 7,
-+0.15 % at 10.5 voxels per diameter, relative to 21 voxels), so refinement to about 8 voxels
-per diameter gives 1 %.  For a single ordered array the staircase error is first order with a
-sign that oscillates with how the surface cuts the grid (Sangani & Acrivos arrays: +7.7 % at
-32, -1.8 % at 64, +0.8 % at 128 cells per period), so Richardson extrapolation is not reliable
-there; refine instead.  Measured figures: ``benchmarks/RESULTS.md``.
+*Walls* (:mod:`solvers.voxel.boundary`):
+
+* ``staircase`` (a binary image): walls on the voxel faces; a face between two fluid cells is an
+  unknown, the 7-point Laplacian uses the ghost value ``-u`` for a wall half a cell away and
+  ``0`` for a node on a solid surface.  Second order for grid-aligned walls (plane Poiseuille
+  with ``H`` fluid voxels: exactly ``K = phi (H^2/12 + h^2/6)``); for curved walls the staircase
+  error is first order with a sign that oscillates with how the surface cuts the grid
+  (Sangani & Acrivos arrays: +7.7 % at 32, -1.8 % at 64, +0.8 % at 128 cells per period).
+* ``subvoxel`` (a signed distance is given): a face is an unknown when its centre lies in the
+  fluid; the viscous term sees the wall at its true position (symmetric ghost-fluid diagonal
+  ``1/theta``, Gibou et al. 2002) and the momentum and mass balances of the cut control volumes
+  are weighted by their per-axis fluid fraction ``w_f`` (pressure force ``w_f dp``, flux
+  ``w_f q_f``, body force ``w_f G``; the same weight on both off-diagonal blocks keeps the
+  saddle-point matrix symmetric, the velocity blocks stay SPD).  Plane Poiseuille with off-grid
+  walls converges at second order; square/hexagonal arrays across and along are within 1 % at
+  40 voxels per period for solid fractions 0.1-0.5 (``benchmarks/RESULTS.md``).  The iteration
+  count grows by about 20-50 % (the pressure block of the preconditioner is scaled by the
+  cells' squared face weights to keep it so).
+
+*Boundary conditions*: ``bc="periodic"`` (periodic on all faces, mean pressure gradient as a
+body force: the homogenised K) or ``bc="permeameter"``: empty reservoirs before and after the
+RVE along the flow (they join across the periodic face, so the body force applies the pressure
+drop between the reservoir ends), lateral box faces as walls (``"slip"``: symmetry planes, zero
+normal velocity and shear; ``"noslip"``), by editing only the operator coefficients on the box
+faces (kernels, multigrid and MINRES unchanged).  ``rve_pressure_drop`` is the drop of the
+fluid-face-averaged pressure between the RVE's own inlet and outlet planes, as in the FEM route.
+Padding costs the reservoir volume (``1 + 2 aux_length`` times the RVE cells); mirroring the
+lateral faces for slip walls would have cost 4x and a native pressure-Dirichlet inlet needs a
+non-symmetric right-hand side path in every kernel.
 
 *Solver* (chosen by measurement, see ``benchmarks/RESULTS.md``): preconditioned MINRES on
 the symmetric saddle-point system ``[[A, G], [G^T, 0]]`` with the block-diagonal preconditioner
@@ -63,9 +80,10 @@ smoothing sweep of each V-cycle writes straight into the output.
 
 Driving force and averages
 --------------------------
-The flow is driven by a unit mean pressure gradient (body force ``G``) along ``direction`` in a
-fully periodic box.  ``K_ij = mu <u_i> / G_j`` with ``<.>`` the average over the *whole* grid
-including solid (superficial velocity).
+The flow is driven by a mean pressure gradient ``pressure_gradient`` (body force) along
+``direction``.  ``mean_velocity`` is the superficial velocity (flux ``w_f q_f`` averaged over the
+whole solved grid, solid and reservoirs included); ``flow_rate`` the flow through the grid
+planes normal to the flow.  For ``bc="periodic"``, ``K[:, j] = mu <u> / G``.
 """
 
 from __future__ import annotations
@@ -287,6 +305,7 @@ def _apply_treatment(
     if treatment == "periodic":
         return solid, phi
     if treatment == "mirror":
+
         def cat(g: np.ndarray) -> np.ndarray:
             return np.concatenate([g, np.flip(g, axis=d)], axis=d)
 
@@ -425,8 +444,20 @@ def solve_voxel_stokes(
         )
     with _threads(grid.size):
         x, info = _solve_core(setup["op"], d, tol, int(max_iter), progress)
-    return _result(x, info, setup, d, voxel_size, viscosity, pressure_gradient, t0,
-                   (return_velocity, return_pressure), periodic_treatment, bc, sides)
+    return _result(
+        x,
+        info,
+        setup,
+        d,
+        voxel_size,
+        viscosity,
+        pressure_gradient,
+        t0,
+        (return_velocity, return_pressure),
+        periodic_treatment,
+        bc,
+        sides,
+    )
 
 
 def _setup_grid(
@@ -455,8 +486,14 @@ def _setup_grid(
         rve = (0, n_d)
         blocked = grid
     op = _Stokes.build(grid, phi, walls, d, rve if bc == "permeameter" else None)
-    return {"grid": grid, "blocked": blocked, "op": op, "rve": rve, "n_d": n_d,
-            "wall_treatment": "staircase" if phi is None else "subvoxel"}
+    return {
+        "grid": grid,
+        "blocked": blocked,
+        "op": op,
+        "rve": rve,
+        "n_d": n_d,
+        "wall_treatment": "staircase" if phi is None else "subvoxel",
+    }
 
 
 def _plane_pressure(p: np.ndarray, act_d: np.ndarray, d: int, i: int) -> float:
@@ -586,6 +623,10 @@ def _threads(n_cells: int):
 
 
 PRESSURE_SCALING = True
+"""Sub-voxel walls: scale the pressure block of the preconditioner by ``1 / max(0.05, sum of the
+cell's squared face weights / 6)`` (the diagonal of the Schur complement in a wall-free box is 1);
+measured on the square arrays at 40 voxels per cell it cuts MINRES iterations from 93-184 to
+60-76 (staircase: 48-58)."""
 
 
 class _Stokes:

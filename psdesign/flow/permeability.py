@@ -50,5 +50,5 @@ def permeability(
     if solver == "fem":
         return permeability_fem(rve, fields, direction, flow)
     if solver == "voxel":
-        return permeability_voxel(fields, direction, flow, progress=progress)
+        return permeability_voxel(fields, direction, flow, progress=progress, rve=rve)
     raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")

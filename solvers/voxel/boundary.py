@@ -16,8 +16,9 @@ saddle-point system that MINRES solves); the solution is second-order accurate.
 
 *Staircase* (binary image): a face is active when both of its cells are fluid; an inactive
 neighbour has ``theta = 1`` (node on the solid surface), or ``theta = 1/2`` for a tangential
-neighbour whose two cells are both solid (the wall on the voxel face half a cell away).  These are
-small integers, stored as uint8 (bit-identical to :func:`solvers.voxel.multigrid.component_operator`).
+neighbour whose two cells are both solid (the wall on the voxel face half a cell away).  These
+are small integers, stored as uint8 (identical to
+:func:`solvers.voxel.multigrid.component_operator`).
 
 *Sub-voxel* (signed distance ``phi`` at the cell centres, > 0 in the fluid, in voxels): the
 distance at a face centre is the mean of its two cells; a face is active when that is > 0 (its
@@ -25,6 +26,16 @@ centre lies in the fluid) and ``theta = phi_f / (phi_f - phi_nb)`` from the face
 neighbour distances (clipped below at ``THETA_MIN``).  Pressure cells are the cells with at least
 one active face (a cut cell whose centre lies in the solid still carries the mass balance of its
 fluid faces).
+
+Cut control volumes: the diagonal-only closure alone leaves an O(1) truncation error at the
+near-wall faces (1-D: the discrete operator returns ``(1 + theta) / 2`` times the curvature).
+Each active face therefore gets a weight ``w_f = min_b [1 + sum_s (theta_bs - 1) / 2]`` (the
+fluid fraction of its control volume along the most cut axis ``b``, ``s`` over the wall sides),
+used for the body force, the pressure force and the face's flux in the mass balance: the
+saddle-point matrix ``[[A, W G], [G^T W, 0]]`` stays symmetric and a pressure balancing the body
+force in a closed pocket still gives no flow.  With it plane Poiseuille between off-grid walls
+is exact at the nodes (the K error, 1.6e-2 / 4.3e-3 / 1.1e-3 at 8 / 15 / 30 voxels across, is
+the quadrature of the mean) and cylinder arrays converge from one side.
 
 *Box walls* (``walls``: axes whose two box faces are walls instead of periodic seams): the face
 on the box face is pinned (no penetration); a tangential component loses its neighbour across
@@ -75,6 +86,9 @@ def component_coefficients(
         Couplings to the lower neighbour along each axis.
     act : np.ndarray of bool
         Active faces.
+    weight : np.ndarray (float32) or None
+        Cut-control-volume weights ``w_f`` (sub-voxel; 0 on inactive faces), None for the
+        staircase.
     """
     walls = walls or {}
     if phi_faces is None:
@@ -125,7 +139,7 @@ def component_coefficients(
                 else:
                     contrib[rows] = 0.0 if walls[b] == "slip" else 2.0
             diag += contrib
-        weight = _combine(weight, vol_b)
+        weight = np.minimum(weight, vol_b)
         if b in walls:
             idx = [slice(None)] * 3
             idx[b] = 0
@@ -134,15 +148,7 @@ def component_coefficients(
     if phi is None:
         return diag.astype(np.uint8), c, act, None
     weight[~act] = 0.0
-    return diag.astype(np.float32), c, act, weight.astype(np.float32) if WEIGHTED else None
-
-
-WEIGHTED = True
-COMBINE = "min"
-
-
-def _combine(w: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return w * v if COMBINE == "product" else np.minimum(w, v)
+    return diag.astype(np.float32), c, act, weight.astype(np.float32)
 
 
 def pressure_cells(acts: list[np.ndarray]) -> np.ndarray:

@@ -394,8 +394,12 @@ def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
             for k in range(nz):
                 kp = k + 1 if k + 1 < nz else 0
                 val = (
-                    a0[k] * ur[k] - a1[k] * uip[k] + b0[k] * vr[k] - b1[k] * vjp[k]
-                    + c0[k] * wr[k] - c0[kp] * wr[kp]
+                    a0[k] * ur[k]
+                    - a1[k] * uip[k]
+                    + b0[k] * vr[k]
+                    - b1[k] * vjp[k]
+                    + c0[k] * wr[k]
+                    - c0[kp] * wr[kp]
                 )
                 out[k] = val if fr[k] != 0 else 0.0
             for a in range(4):

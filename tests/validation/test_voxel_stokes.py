@@ -160,9 +160,7 @@ def test_mirror_and_frame_treatments() -> None:
     solid = _channel(6, nx=4, nz=4)
     base = column_of(solve_voxel_stokes(solid, 1.0, "z"))[2]
     mir = solve_voxel_stokes(solid, 1.0, "z", periodic_treatment="mirror")
-    assert column_of(mir)[2] == pytest.approx(
-        base, rel=1e-5
-    )  # z-invariant: mirror changes nothing
+    assert column_of(mir)[2] == pytest.approx(base, rel=1e-5)  # z-invariant: mirror changes nothing
     frame = solve_voxel_stokes(solid, 1.0, "z", periodic_treatment="frame")
     assert 0 < column_of(frame)[2] < base  # extra walls add drag
 

@@ -37,8 +37,10 @@ def _along(shape: tuple[int, int], kind: str, phis: float):
     return column_of(res)[2] / a**2, res
 
 
-@pytest.mark.parametrize(("kind", "dt"), [("square", drummond_tahir_along_square),
-                                          ("hexagonal", drummond_tahir_along_hexagonal)])
+@pytest.mark.parametrize(
+    ("kind", "dt"),
+    [("square", drummond_tahir_along_square), ("hexagonal", drummond_tahir_along_hexagonal)],
+)
 def test_collocation_reference_matches_drummond_tahir_when_dilute(kind, dt) -> None:
     for phis in (0.05, 0.1):
         assert along_array_k(phis, kind) == pytest.approx(dt(phis), rel=1e-3)
@@ -131,7 +133,12 @@ def test_permeameter_noslip_empty_box_is_the_duct() -> None:
     errs = []
     for n in (8, 16):
         res = solve_voxel_stokes(
-            np.zeros((n, n, 6), bool), 1.0 / n, "z", tol=1e-9, bc="permeameter", sides="noslip",
+            np.zeros((n, n, 6), bool),
+            1.0 / n,
+            "z",
+            tol=1e-9,
+            bc="permeameter",
+            sides="noslip",
             aux_length=0.5,
         )
         assert res.bc == "permeameter" and res.converged
@@ -164,8 +171,16 @@ def test_permeameter_slip_array_approaches_periodic_with_length() -> None:
 def test_permeameter_fluxes_and_fields() -> None:
     phi = array_distance((16, 16, 8), "square", 0.2)
     res = solve_voxel_stokes(
-        phi <= 0, 1e-6, "z", distance=phi * 1e-6, bc="permeameter", aux_length=0.25,
-        pressure_gradient=2.0, viscosity=1e-3, return_velocity=True, return_pressure=True,
+        phi <= 0,
+        1e-6,
+        "z",
+        distance=phi * 1e-6,
+        bc="permeameter",
+        aux_length=0.25,
+        pressure_gradient=2.0,
+        viscosity=1e-3,
+        return_velocity=True,
+        return_pressure=True,
         tol=1e-9,
     )
     assert res.rve_slice == (2, 10) and res.velocity.shape == (3, 16, 16, 12)
