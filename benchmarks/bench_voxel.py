@@ -4,8 +4,10 @@ Usage::
 
     python benchmarks/bench_voxel.py puma            # PuMA geometries 32^3 and 64^3 (K_zz vs PuMA)
     python benchmarks/bench_voxel.py toray 100 200   # Toray-like fibrous grids of the given sizes
+    python benchmarks/bench_voxel.py toray-subvoxel 100  # the same with the exact fibre distance
     python benchmarks/bench_voxel.py base            # warm-up only: the numba/Python RSS baseline
     python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
+    python benchmarks/bench_voxel.py arrays          # sub-voxel vs staircase, square/hex arrays
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
@@ -22,6 +24,7 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 
+from psdesign.flow.voxel import column_of
 from solvers.voxel_stokes import solve_voxel_stokes
 
 BENCH = Path(__file__).resolve().parents[1] / "tests" / "data"  # vendored peer geometry
@@ -53,8 +56,39 @@ def _rasterise(n, p0, dirs, radius, out):
                         break
 
 
+@nb.njit(parallel=True)  # no cache: the tests load this file by path
+def _distance(n, p0, dirs, radius, out):
+    """Signed distance (box lengths, > 0 outside) to the union of periodic straight fibres."""
+    for i in nb.prange(n):
+        for j in range(n):
+            for k in range(n):
+                x = (i + 0.5) / n
+                y = (j + 0.5) / n
+                z = (k + 0.5) / n
+                best = 1e30
+                for f in range(p0.shape[0]):
+                    rx = x - p0[f, 0]
+                    ry = y - p0[f, 1]
+                    rz = z - p0[f, 2]
+                    rx -= np.floor(rx + 0.5)
+                    ry -= np.floor(ry + 0.5)
+                    rz -= np.floor(rz + 0.5)
+                    t = rx * dirs[f, 0] + ry * dirs[f, 1] + rz * dirs[f, 2]
+                    px = rx - t * dirs[f, 0]
+                    py = ry - t * dirs[f, 1]
+                    pz = rz - t * dirs[f, 2]
+                    dist = np.sqrt(px * px + py * py + pz * pz) - radius
+                    best = min(best, dist)
+                out[i, j, k] = best
+
+
 def toray_like(
-    n: int, diameter: float = 0.07, porosity: float = 0.8, seed: int = 0, n_ref: int = 100
+    n: int,
+    diameter: float = 0.07,
+    porosity: float = 0.8,
+    seed: int = 0,
+    n_ref: int = 100,
+    distance: bool = False,
 ) -> np.ndarray:
     """Toray-like fibrous grid: random straight fibres in a periodic unit box, ``n^3`` voxels.
 
@@ -63,7 +97,9 @@ def toray_like(
     towards the x-y plane (paper-type GDL, z-component scaled by 0.3), and wrap periodically
     (minimum image), so the grid is periodic.  Fibres are added (fixed ``seed``) until the
     porosity of an ``n_ref^3`` rasterisation reaches ``porosity``; the same fibre set is then
-    rasterised at ``n``, so different ``n`` are refinements of one geometry.
+    rasterised at ``n``, so different ``n`` are refinements of one geometry.  With
+    ``distance=True`` the exact signed distance to the fibres (box lengths, > 0 in the pore) is
+    returned instead of the solid mask (``solid = distance <= 0``).
     """
     rng = np.random.default_rng(seed)
     centres = np.zeros((0, 3))
@@ -77,19 +113,31 @@ def toray_like(
         _rasterise(n_ref, c[None], d[None], 0.5 * diameter, ref)
         centres = np.vstack([centres, c])
         dirs = np.vstack([dirs, d])
+    if distance:
+        dist = np.zeros((n,) * 3)
+        _distance(n, centres, dirs, 0.5 * diameter, dist)
+        dist[dist == 0.0] = -1e-12  # the rasteriser's solid test is strict (<)
+        return dist
     out = np.zeros((n,) * 3, dtype=bool)
     _rasterise(n, centres, dirs, 0.5 * diameter, out)
     return out
 
 
-def run(solid: np.ndarray, h: float, label: str, direction: str = "z") -> None:
+def run(
+    solid: np.ndarray,
+    h: float,
+    label: str,
+    direction: str = "z",
+    distance: np.ndarray | None = None,
+) -> None:
     """Solve one direction and print K column, convergence data, time and peak RSS."""
     load = os.getloadavg()
     t = time.perf_counter()
-    res = solve_voxel_stokes(solid, h, direction, tol=1e-6)
+    res = solve_voxel_stokes(solid, h, direction, tol=1e-6, distance=distance)
     wall = time.perf_counter() - t
     print(
-        f"{label}: K[:,{direction}] = {res.permeability} porosity {res.porosity:.4f} "
+        f"{label} ({res.wall_treatment}): K[:,{direction}] = {column_of(res)} "
+        f"porosity {res.porosity:.4f} "
         f"converged {res.converged} MINRES iterations {res.iterations} residual "
         f"{res.residual:.2e} flux imbalance {res.flux_imbalance:.1e} solve {wall:.1f} s "
         f"peak RSS {res.peak_memory_mb:.0f} MB (load average before {load[0]:.1f})",
@@ -110,9 +158,47 @@ def cylinders(sizes: tuple[int, ...] = (16, 32, 64, 128)) -> None:
             disk = xx**2 + yy**2 < phi_s * n * n / np.pi
             solid = np.repeat(disk[:, :, None], 4, axis=2)
             res = solve_voxel_stokes(solid, 1.0 / n, "x", tol=1e-7)
-            dev = 100.0 * (1.0 / res.permeability[0] / ref - 1.0)
+            dev = 100.0 * (1.0 / column_of(res)[0] / ref - 1.0)
             row.append(f"n={n}: {dev:+.1f} % ({res.iterations} its, converged {res.converged})")
         print(f"solid fraction {phi_s} (S&A {ref}): " + " | ".join(row), flush=True)
+
+
+def arrays(sizes: tuple[int, ...] = (32, 40, 64, 96)) -> None:
+    """Sub-voxel vs staircase on cylinder arrays: deviation from the published / collocation
+    reference and MINRES iterations (tol 1e-7 across, 1e-9 along)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from arrays import along_array_k, array_distance, radius_of
+
+    hexes = {32: (30, 52), 40: (41, 71), 64: (56, 97), 96: (97, 168)}
+    for phis in (0.1, 0.2, 0.3, 0.4, 0.5):
+        for case in ("across square", "along square", "along hexagonal"):
+            row = []
+            kind = case.split()[1]
+            for n in sizes:
+                shape = (n, n) if kind == "square" else hexes[n]
+                along = case.startswith("along")
+                phi = array_distance((*shape, 1 if along else 4), kind, phis)
+                out = []
+                for dist in (phi, None):
+                    res = solve_voxel_stokes(
+                        phi <= 0,
+                        1.0,
+                        "z" if along else "x",
+                        distance=dist,
+                        tol=1e-9 if along else 1e-7,
+                    )
+                    k = column_of(res)[2 if along else 0]
+                    if along:
+                        ref = along_array_k(phis, kind) * radius_of(phis, kind, shape[0]) ** 2
+                        dev = 100.0 * (k / ref - 1.0)
+                    else:
+                        dev = 100.0 * (n * n / k / SANGANI_ACRIVOS_FULL[phis] - 1.0)
+                    out.append(f"{dev:+.2f} % ({res.iterations})")
+                row.append(f"{n}: {out[0]} / {out[1]}")
+            print(f"phi_s {phis} {case}: " + " | ".join(row), flush=True)
+
+
+SANGANI_ACRIVOS_FULL = {0.1: 24.83, 0.2: 51.53, 0.3: 102.90, 0.4: 217.89, 0.5: 532.55}
 
 
 def kernels(n: int, reps: int = 5) -> None:
@@ -122,7 +208,7 @@ def kernels(n: int, reps: int = 5) -> None:
 
     solid = toray_like(n)
     with vs._threads(solid.size):
-        op = vs._Stokes(solid)
+        op = vs._Stokes.build(solid)
         rng = np.random.default_rng(0)
         x = rng.random(op.shape, dtype=np.float32)
         y = np.empty_like(x)
@@ -169,6 +255,8 @@ def main(argv: list[str]) -> None:
     res0 = solve_voxel_stokes(warm, 1.0, "z")
     if what == "cylinders":
         cylinders()
+    elif what == "arrays":
+        arrays(tuple(int(a) for a in argv[2:]) or (32, 40, 64, 96))
     elif what == "kernels":
         for n in [int(a) for a in argv[2:]] or [200]:
             kernels(n)
@@ -179,6 +267,10 @@ def main(argv: list[str]) -> None:
         for n in sizes:
             solid = np.load(BENCH / f"fibres_{n}.npz")["solid"].astype(bool)
             run(solid, 1.0 / n, f"PuMA fibres_{n} (PuMA K_zz {PUMA[n][0]}, {PUMA[n][1]} s)")
+    elif what == "toray-subvoxel":
+        for n in [int(a) for a in argv[2:]] or [100]:
+            dist = toray_like(n, distance=True) * 100e-6
+            run(dist <= 0.0, 100e-6 / n, f"toray {n}^3", "x", distance=dist)
     else:
         for n in [int(a) for a in argv[2:]] or [100]:
             t = time.perf_counter()

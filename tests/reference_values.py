@@ -20,13 +20,14 @@ PAPER_TABLE3 = {
 
 
 # ---------------------------------------------------------------------------------------------
-# Regular cylinder arrays (flowdarcy: error-estimate coverage test, docs/validation.md).
-# Lengths are in units of the array spacing L; K is returned as K / L^2. phi = solid fraction.
+# Regular cylinder arrays (voxel and FEM validation, error-estimate coverage, docs/validation.md)
+# a = radius, L = spacing (nearest neighbours), phi = solid fraction.
 # ---------------------------------------------------------------------------------------------
 
-#: Sangani & Acrivos (1982), Int. J. Multiphase Flow 8, 193-206, Table 1: square array, flow
-#: across the cylinders, dimensionless drag per unit length F / (mu U) with U the superficial
-#: velocity, which equals L^2 / K (also tabulated in Basilisk, src/test/cylinders.c).
+#: Sangani & Acrivos (1982), "Slow flow past periodic arrays of cylinders with application to
+#: heat transfer", Int. J. Multiphase Flow 8, 193-206, Table 1: square array, flow across the
+#: cylinders, dimensionless drag per unit length F / (mu U) with U the superficial velocity, so
+#: that F / (mu U) = L^2 / K (transcribed as in Basilisk's src/test/cylinders.c).
 SANGANI_ACRIVOS_SQUARE_TRANSVERSE = {
     0.05: 15.56,
     0.1: 24.83,
@@ -35,31 +36,53 @@ SANGANI_ACRIVOS_SQUARE_TRANSVERSE = {
     0.4: 217.89,
     0.5: 532.55,
     0.6: 1.763e3,
+    0.7: 1.352e4,
+    0.75: 1.263e5,
 }
+SANGANI_ACRIVOS_SQUARE_DRAG = SANGANI_ACRIVOS_SQUARE_TRANSVERSE  # the same table (L^2 / K)
+#: The tabulated values the FEM tests use for flow across (where the dilute series fails).
+SANGANI_ACRIVOS_SQUARE_L2_OVER_K = {
+    phi: SANGANI_ACRIVOS_SQUARE_TRANSVERSE[phi] for phi in (0.1, 0.2, 0.3)
+}
+#: Drummond & Tahir (1984), Int. J. Multiphase Flow 10, 515-540, flow along the cylinders:
+#: K / a^2 = (-ln phi + c0 + c1 phi + c2 phi^2) / (4 phi); square Eq. (21) (constant as Sparrow &
+#: Loeffler 1959), hexagonal (triangular) array. Neglected terms O(phi^4).
+SQUARE_ALONG_COEFFS = (-1.476, 2.0, -0.5)
+HEX_ALONG_COEFFS = (-1.498, 2.0, -0.5)
+#: Sangani & Acrivos / Drummond & Tahir dilute series, square array, flow across:
+#: K / a^2 = (-ln phi + c0 + c1 phi + c2 phi^2 + c3 phi^3) / (8 phi); above ~0.2 use the table.
+SQUARE_ACROSS_COEFFS = (-1.476, 2.0, -1.774, 4.076)
 
 
-def _dt_log(phi: float) -> float:
+def _along(phi: float, coeffs: tuple[float, float, float]) -> float:
     import math
 
-    return -math.log(phi)
+    c0, c1, c2 = coeffs
+    return (-math.log(phi) + c0 + c1 * phi + c2 * phi**2) / (4 * phi)
+
+
+def drummond_tahir_along_square(phi: float) -> float:
+    """K / a^2 along a square array, Drummond & Tahir (1984)."""
+    return _along(phi, SQUARE_ALONG_COEFFS)
+
+
+def drummond_tahir_along_hexagonal(phi: float) -> float:
+    """K / a^2 along a hexagonal (triangular) array, Drummond & Tahir (1984)."""
+    return _along(phi, HEX_ALONG_COEFFS)
 
 
 def drummond_tahir_square_parallel(phi: float) -> float:
-    """K / L^2 for flow along a square array: Drummond & Tahir (1984), Int. J. Multiphase Flow
-    10, 515-540: K / a^2 = (-ln phi - 1.476 + 2 phi - phi^2 / 2) / (4 phi), a = radius."""
+    """K / L^2 along a square array of spacing L (a^2 / L^2 = phi / pi)."""
     import math
 
-    a2 = phi / math.pi  # a^2 / L^2
-    return a2 * (_dt_log(phi) - 1.476 + 2 * phi - 0.5 * phi**2) / (4 * phi)
+    return phi / math.pi * drummond_tahir_along_square(phi)
 
 
 def drummond_tahir_hex_parallel(phi: float) -> float:
-    """K / L^2 for flow along a hexagonal (equilateral triangular) array of spacing L:
-    Drummond & Tahir (1984): K / a^2 = (-ln phi - 1.498 + 2 phi - phi^2 / 2) / (4 phi)."""
+    """K / L^2 along a hexagonal array of spacing L (cell area sqrt(3)/2 L^2 per cylinder)."""
     import math
 
-    a2 = phi * math.sqrt(3.0) / (2 * math.pi)  # unit cell area sqrt(3)/2 L^2 per cylinder
-    return a2 * (_dt_log(phi) - 1.498 + 2 * phi - 0.5 * phi**2) / (4 * phi)
+    return phi * math.sqrt(3.0) / (2 * math.pi) * drummond_tahir_along_hexagonal(phi)
 
 
 def drummond_tahir_hex_transverse(phi: float) -> float:
@@ -70,7 +93,7 @@ def drummond_tahir_hex_transverse(phi: float) -> float:
 
     a2 = phi * math.sqrt(3.0) / (2 * math.pi)
     series = (
-        _dt_log(phi)
+        -math.log(phi)
         - 1.497
         + 2 * phi
         - 0.5 * phi**2
@@ -80,31 +103,9 @@ def drummond_tahir_hex_transverse(phi: float) -> float:
     return a2 * series / (8 * phi)
 
 
-# ----------------------------------------------------------------- end of cylinder arrays ----
-
-
-# ---- square cylinder arrays (issue 12, FEM boundary conditions) ------------------------------
-# Radius a, solid fraction phi. Flow along the cylinders: Drummond & Tahir, Int. J. Multiphase
-# Flow 10 (1984) 515-540, Eq. (21) square array (constant agrees with Sparrow & Loeffler, AIChE J.
-# 5 (1959) 325-330); neglected terms O(phi^4). Flow across: Sangani & Acrivos, Int. J.
-# Multiphase Flow 8 (1982) 193-206, dilute series for the square array (Drummond & Tahir give the
-# same series). Both are dilute expansions. The transverse one departs from Sangani & Acrivos'
-# numerical Table 1 (square array, L^2/K below) by +0.08 % at phi = 0.1, +1.5 % at 0.2 and
-# +14 % at 0.3, so for flow across the table value is used where it exists.
-#: Sangani & Acrivos (1982) Table 1, square array, flow across: L^2 / K (L = spacing).
-SANGANI_ACRIVOS_SQUARE_L2_OVER_K = {
-    phi: SANGANI_ACRIVOS_SQUARE_TRANSVERSE[phi] for phi in (0.1, 0.2, 0.3)
-}
-SQUARE_ALONG_COEFFS = (-1.476, 2.0, -0.5)  #: K/a^2 = [-ln phi + c0 + c1 phi + c2 phi^2] / (4 phi)
-SQUARE_ACROSS_COEFFS = (-1.476, 2.0, -1.774, 4.076)  #: ... + c3 phi^3] / (8 phi)
-
-
 def k_square_along(a: float, phi: float) -> float:
     """K (m^2) along a square array of cylinders of radius ``a`` (m), Drummond & Tahir 1984."""
-    import math
-
-    c0, c1, c2 = SQUARE_ALONG_COEFFS
-    return a * a / (4 * phi) * (-math.log(phi) + c0 + c1 * phi + c2 * phi**2)
+    return a * a * drummond_tahir_along_square(phi)
 
 
 def k_square_across(a: float, phi: float) -> float:
@@ -121,4 +122,4 @@ def k_square_across(a: float, phi: float) -> float:
     return a * a / (8 * phi) * (-math.log(phi) + c0 + c1 * phi + c2 * phi**2 + c3 * phi**3)
 
 
-# ---- end square cylinder arrays ---------------------------------------------------------------
+# ------------------------------------------------------------------- end of cylinder arrays ---

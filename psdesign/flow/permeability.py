@@ -117,7 +117,7 @@ def route_result(
     if solver == "fem":
         res = permeability_fem(rve, fields, direction, flow)
     else:
-        res = permeability_voxel(fields, direction, flow, progress=progress)
+        res = permeability_voxel(fields, direction, flow, progress=progress, rve=rve)
     got = res.get("bc")
     if got is None:
         got = NATIVE_BC[solver]

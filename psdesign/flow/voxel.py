@@ -1,18 +1,40 @@
-"""Permeability with the periodic voxel Stokes route (``solver = "voxel"``).
+"""Permeability with the voxel Stokes route (``solver = "voxel"``).
 
-Periodic body-force Stokes on the voxel grid (:func:`solvers.voxel_stokes.solve_voxel_stokes`);
-K by :func:`psdesign.flow.darcy.darcy_column` from the superficial mean velocity.
+The MAC solver (:func:`solvers.voxel_stokes.solve_voxel_stokes`) returns fields and fluxes; K is
+formed here, through :mod:`psdesign.flow.darcy` only:
+
+* ``bc = "periodic"`` (default): ``K[:, j] = mu <u> / G`` (:func:`darcy_column`) from the
+  superficial mean velocity of the periodic grid driven by the mean gradient ``G``;
+* ``bc = "permeameter"``: ``K = mu Q L / (A dP_rve)`` (:func:`darcy_permeability`) with Q the flow
+  rate, L and A the RVE length and full cross-section and dP_rve the drop of the
+  cross-section-averaged pressure between the RVE's own inlet and outlet planes (the FEM route's
+  definition), the RVE sitting between empty reservoirs of ``flow.aux_length`` x L with lateral
+  walls ``flow.sides``.
+
+Walls are sub-voxel (from the RVE's analytic distance field) unless ``flow.wall_treatment =
+"staircase"``.
 """
 
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
-from psdesign.flow.darcy import axis_of
-from psdesign.geometry.rve import VoxelFields
+from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability, permeability_tensor
+from psdesign.geometry.rve import RVE, VoxelFields
+
+#: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
+MIN_CELLS_PER_DIAMETER = 8.0
+
+BCS = ("periodic", "permeameter")
+WALL_TREATMENTS = ("subvoxel", "staircase")
+
+
+class ResolutionWarning(UserWarning):
+    """The voxel grid resolves the thinnest fiber with fewer than ``MIN_CELLS_PER_DIAMETER``."""
 
 
 def face_mismatch(solid: np.ndarray) -> list[float]:
@@ -26,59 +48,151 @@ def face_mismatch(solid: np.ndarray) -> list[float]:
     return out
 
 
+def column_of(res) -> np.ndarray:
+    """Permeability column ``K[:, direction]`` (m^2) of a periodic solve (:func:`darcy_column`)."""
+    return darcy_column(res.mean_velocity, res.viscosity, res.pressure_gradient)
+
+
+def permeameter_k(res) -> float:
+    """``K = mu Q L / (A dP_rve)`` (m^2) of a solve (:func:`darcy_permeability`); for a
+    periodic solve without treatment it equals ``column_of(res)[direction]``."""
+    return darcy_permeability(
+        res.flow_rate, res.viscosity, res.rve_length, res.rve_area, res.rve_pressure_drop
+    )
+
+
+def voxel_permeability_tensor(
+    solid: np.ndarray, voxel_size: float, viscosity: float = 1.0, **kw: object
+) -> tuple[np.ndarray, list]:
+    """Full 3x3 periodic permeability tensor (m^2) from three solves; column j = flow along j.
+
+    Extra keyword arguments go to :func:`solvers.voxel_stokes.solve_voxel_stokes`.
+    Returns ``(K, results)``.
+    """
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    results = [
+        solve_voxel_stokes(solid, voxel_size, d, viscosity=viscosity, **kw) for d in range(3)
+    ]
+    return permeability_tensor([column_of(r) for r in results]), results
+
+
+def cells_per_diameter(rve: RVE | None, voxel: float) -> float | None:
+    """Voxels across the thinnest fiber diameter (None without fibers)."""
+    if rve is None or not rve.fibers:
+        return None
+    dmin = min(float(fb.diameter) for fb in rve.fibers) * float(rve.period)
+    return dmin / voxel
+
+
+def _options(flow: dict) -> tuple[str, str]:
+    bc = flow.get("bc") or "periodic"
+    if bc not in BCS:
+        raise ValueError(f"flow.bc: must be one of {', '.join(BCS)}, got {bc!r}")
+    wall = flow.get("wall_treatment") or "subvoxel"
+    if wall not in WALL_TREATMENTS:
+        raise ValueError(
+            f"flow.wall_treatment: must be one of {', '.join(WALL_TREATMENTS)}, got {wall!r}"
+        )
+    return bc, wall
+
+
 def permeability_voxel(
     fields: VoxelFields,
     direction: str | int,
     flow: dict,
     progress: Callable[[int, float], None] | None = None,
+    rve: RVE | None = None,
 ) -> dict:
-    """Permeability column along one axis from the periodic voxel Stokes solver.
+    """Permeability along one axis from the voxel Stokes solver.
 
-    The solver treats the grid as periodic. A non-periodic RVE (random tilted fibers) is
-    solved as is, as PuMA does: fibers are cut at the faces and meet mismatched
-    neighbours across them. The result reports ``face_mismatch`` (per axis, the fraction
-    of face voxels whose state differs from the opposite face; compare with the solid
-    fraction of the face for random geometry) and ``geometry_periodic`` (all mismatches
-    below 1 %); ``flow.periodic_treatment = "mirror"`` mirrors the grid along the flow
-    to make it periodic instead. ``progress(iterations, residual)`` is passed to the solver
-    (periodic progress reports).
+    ``flow.bc = "periodic"`` (default) treats the grid as periodic. A non-periodic RVE (random
+    tilted fibers) is solved as is, as PuMA does; the result reports ``face_mismatch`` (per
+    axis, the fraction of face voxels whose state differs from the opposite face) and
+    ``geometry_periodic`` (all mismatches below 1 %); ``flow.periodic_treatment = "mirror"``
+    mirrors the grid along the flow instead. ``flow.bc = "permeameter"`` puts the RVE between
+    empty reservoirs (``flow.aux_length``, ``flow.sides``, ``flow.pressure_drop`` between the
+    reservoir ends) and reports ``K = mu Q L / (A dP_rve)``.
+
+    ``progress(iterations, residual)`` is passed to the solver. With ``rve`` the result has
+    ``cells_per_diameter`` (voxels across the thinnest fiber) and a :class:`ResolutionWarning`
+    is issued below ``MIN_CELLS_PER_DIAMETER``.
     """
     from solvers.voxel_stokes import solve_voxel_stokes
 
     name, ax = axis_of(direction)
+    bc, wall = _options(flow)
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError(
             "the voxel route needs cubic voxels; make rve.size a multiple of rve.voxel"
         )
+    h = float(spacing[0])
+    cpd = cells_per_diameter(rve, h)
+    if cpd is not None and cpd < MIN_CELLS_PER_DIAMETER:
+        warnings.warn(
+            f"voxel grid has {cpd:.1f} voxels across the thinnest fiber diameter (< "
+            f"{MIN_CELLS_PER_DIAMETER:g}): K may be off by several per cent; refine rve.voxel",
+            ResolutionWarning,
+            stacklevel=2,
+        )
     t0 = time.perf_counter()
-    kw = {}
+    mu = float(flow["viscosity"])
+    kw: dict = {"bc": bc}
     if flow.get("tol") is not None:
         kw["tol"] = float(flow["tol"])
+    if wall == "subvoxel":
+        kw["distance"] = fields.distance
+    if bc == "permeameter":
+        aux = float(flow.get("aux_length", 0.2))
+        kw["aux_length"] = aux
+        kw["sides"] = flow.get("sides", "slip")
+        n_d = fields.solid.shape[ax]
+        n_tot = n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
+        kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
     res = solve_voxel_stokes(
         fields.solid,
-        float(spacing[0]),
+        h,
         name,
-        viscosity=float(flow["viscosity"]),
+        viscosity=mu,
         periodic_treatment=flow.get("periodic_treatment", "periodic"),
         progress=progress,
         **kw,
     )
-    column = np.asarray(res.permeability, float)
-    return {
-        "permeability_m2": float(column[ax]),
+    column = column_of(res)
+    if bc == "periodic":
+        k = float(column[ax])
+    else:
+        k = permeameter_k(res)
+        column = column * (k / column[ax])
+    out = {
+        "permeability_m2": k,
         "permeability_column_m2": column.tolist(),
         "direction": name,
         "porosity": fields.porosity,
         "solver": "voxel",
+        "bc": bc,
+        "wall_treatment": res.wall_treatment,
+        "cells_per_diameter": cpd,
         "n_cells": int(res.n_cells),
         "converged": bool(res.converged),
         "residual": float(res.residual),
         "iterations": int(res.iterations),
-        "flux_imbalance": float(getattr(res, "flux_imbalance", 0.0)),
-        "message": getattr(res, "message", ""),
+        "flux_imbalance": float(res.flux_imbalance),
+        "message": res.message,
         "face_mismatch": (mismatch := face_mismatch(fields.solid)),
         "geometry_periodic": bool(max(mismatch) < 0.01),
         "periodic_treatment": flow.get("periodic_treatment", "periodic"),
+        "flow_rate_m3_s": float(res.flow_rate),
+        "mean_velocity_m_s": np.asarray(res.mean_velocity, float).tolist(),
+        "pressure_gradient_pa_m": float(res.pressure_gradient),
         "wall_time_s": time.perf_counter() - t0,
     }
+    if bc == "permeameter":
+        out |= {
+            "sides": res.sides,
+            "aux_length": float(flow.get("aux_length", 0.2)),
+            "pressure_drop_applied_pa": float(res.applied_pressure_drop),
+            "pressure_drop_rve_pa": float(res.rve_pressure_drop),
+        }
+    return out

@@ -346,6 +346,143 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
     return acc_y.sum(), acc_r.sum()
 
 
+@nb.njit(inline="always")
+def _momentum_row_w(d, c, q, pr, plow, shift, wr, i, j, out):
+    """:func:`_momentum_row` with the pressure difference weighted by the face weight ``wr``."""
+    _apply_row(d, c[0], c[1], c[2], q, i, j, out)
+    nz = out.shape[0]
+    for k in range(1, nz):
+        out[k] += wr[k] * (pr[k] - plow[k - shift])
+    out[0] += wr[0] * (pr[0] - plow[(nz - shift) % nz])
+
+
+@nb.njit(parallel=True, **_OPTS)
+def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
+    """:func:`stokes_apply` with face weights (cut-cell fluid fractions, 0 on inactive faces):
+    gradient ``w_f (p_i - p_{i-1})`` and divergence ``sum_f +-w_f q_f`` (still symmetric)."""
+    nx, ny, nz = fluid.shape
+    u = x[0]
+    v = x[1]
+    w = x[2]
+    p = x[3]
+    acc_y = np.zeros(nx)
+    acc_r = np.zeros(nx)
+    for i in nb.prange(nx):
+        s_y = 0.0
+        s_r = 0.0
+        im = _dn(i, nx)
+        ip = _up(i, nx)
+        for j in range(ny):
+            jm = _dn(j, ny)
+            jp = _up(j, ny)
+            pr = p[i, j]
+            _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, y[0, i, j])
+            _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, y[1, i, j])
+            _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, y[2, i, j])
+            ur = u[i, j]
+            uip = u[ip, j]
+            vr = v[i, j]
+            vjp = v[i, jp]
+            wr = w[i, j]
+            a0 = wu[i, j]
+            a1 = wu[ip, j]
+            b0 = wv[i, j]
+            b1 = wv[i, jp]
+            c0 = ww[i, j]
+            fr = fluid[i, j]
+            out = y[3, i, j]
+            for k in range(nz):
+                kp = k + 1 if k + 1 < nz else 0
+                val = (
+                    a0[k] * ur[k]
+                    - a1[k] * uip[k]
+                    + b0[k] * vr[k]
+                    - b1[k] * vjp[k]
+                    + c0[k] * wr[k]
+                    - c0[kp] * wr[kp]
+                )
+                out[k] = val if fr[k] != 0 else 0.0
+            for a in range(4):
+                xr = x[a, i, j]
+                yr = y[a, i, j]
+                rr = r[a, i, j]
+                for k in range(nz):
+                    s_y += np.float64(xr[k]) * np.float64(yr[k])
+                    s_r += np.float64(xr[k]) * np.float64(rr[k])
+        acc_y[i] = s_y
+        acc_r[i] = s_r
+    return acc_y.sum(), acc_r.sum()
+
+
+@nb.njit(parallel=True, **_OPTS)
+def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
+    """r = f - K x for the weighted system of :func:`stokes_apply_w`; f = ``w`` on the faces of
+    component ``gdir`` (the body force on the cut control volumes).  Returns
+    ``(||r||^2, ||f||^2)``."""
+    nx, ny, nz = fluid.shape
+    u = x[0]
+    v = x[1]
+    w = x[2]
+    p = x[3]
+    acc = np.zeros(nx)
+    accf = np.zeros(nx)
+    for i in nb.prange(nx):
+        im = _dn(i, nx)
+        ip = _up(i, nx)
+        s2 = 0.0
+        f2 = 0.0
+        for j in range(ny):
+            jm = _dn(j, ny)
+            jp = _up(j, ny)
+            for k in range(nz):
+                km = _dn(k, nz)
+                kp = _up(k, nz)
+                pc = p[i, j, k]
+                for a in range(3):
+                    if a == 0:
+                        act = du[i, j, k] != 0
+                        wt = wu[i, j, k]
+                    elif a == 1:
+                        act = dv[i, j, k] != 0
+                        wt = wv[i, j, k]
+                    else:
+                        act = dw[i, j, k] != 0
+                        wt = ww[i, j, k]
+                    if not act:
+                        r[a, i, j, k] = 0.0
+                        continue
+                    if a == 0:
+                        val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
+                        val += wt * (pc - p[im, j, k])
+                    elif a == 1:
+                        val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
+                        val += wt * (pc - p[i, jm, k])
+                    else:
+                        val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
+                        val += wt * (pc - p[i, j, km])
+                    f = wt if a == gdir else 0.0
+                    res = f - val
+                    r[a, i, j, k] = res
+                    s2 += res * res
+                    f2 += f * f
+                if fluid[i, j, k] != 0:
+                    res = -(
+                        wu[i, j, k] * u[i, j, k]
+                        - wu[ip, j, k] * u[ip, j, k]
+                        + wv[i, j, k] * v[i, j, k]
+                        - wv[i, jp, k] * v[i, jp, k]
+                        + ww[i, j, k] * w[i, j, k]
+                        - ww[i, j, kp] * w[i, j, kp]
+                    )
+                    r[3, i, j, k] = res
+                    s2 += res * res
+                else:
+                    r[3, i, j, k] = 0.0
+        acc[i] = s2
+        accf[i] = f2
+    return acc.sum(), accf.sum()
+
+
 @nb.njit(parallel=True, **_OPTS)
 def dot(a, b):
     """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype).

@@ -12,11 +12,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from reference_values import PUMA_FIBRES_KZZ, PUMA_FIBRES_POROSITY
 
+from psdesign.flow.voxel import column_of, voxel_permeability_tensor
 from solvers.voxel_stokes import (
     percolates,
     richardson_extrapolate,
     solve_voxel_stokes,
-    voxel_permeability_tensor,
 )
 
 BENCH = Path(__file__).resolve().parents[1] / "data"  # vendored peer geometry (data/README-puma.md)
@@ -47,8 +47,8 @@ def test_poiseuille_channel_matches_discrete_closed_form(h_fluid: int) -> None:
     phi = h_fluid / (h_fluid + 2)
     exact = phi * ((h_fluid * h) ** 2 / 12 + h**2 / 6)
     assert res.converged
-    assert res.permeability[2] == pytest.approx(exact, rel=1e-6)
-    assert abs(res.permeability[0]) < 1e-6 * exact and abs(res.permeability[1]) < 1e-6 * exact
+    assert column_of(res)[2] == pytest.approx(exact, rel=1e-6)
+    assert abs(column_of(res)[0]) < 1e-6 * exact and abs(column_of(res)[1]) < 1e-6 * exact
     assert res.porosity == pytest.approx(phi)
 
 
@@ -58,7 +58,7 @@ def test_poiseuille_second_order_convergence() -> None:
     for nf in (4, 8, 16):
         res = solve_voxel_stokes(_channel(nf, nx=4, nz=4), width / nf, "x", tol=1e-9)
         phi = nf / (nf + 2)
-        errs.append(res.permeability[0] / (phi * width**2 / 12) - 1.0)
+        errs.append(column_of(res)[0] / (phi * width**2 / 12) - 1.0)
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     assert np.allclose(orders, 2.0, atol=0.05)
     # Richardson with order 2 removes the leading error
@@ -76,18 +76,18 @@ def _cylinder_array(n: int, phi_s: float, nz: int = 8) -> np.ndarray:
 def test_transverse_flow_square_array_vs_sangani_acrivos() -> None:
     n, phi_s = 32, 0.2
     res = solve_voxel_stokes(_cylinder_array(n, phi_s), 1.0 / n, "x", tol=1e-7, max_iter=80)
-    drag = 1.0 / res.permeability[0]  # L^2 / K with L = 1
+    drag = 1.0 / column_of(res)[0]  # L^2 / K with L = 1
     assert res.converged
     assert drag == pytest.approx(SANGANI_ACRIVOS[0.2], rel=0.03)
     # transverse isotropy of the square array and no cross flow
-    assert abs(res.permeability[1]) < 1e-6 * res.permeability[0]
+    assert abs(column_of(res)[1]) < 1e-6 * column_of(res)[0]
 
 
 def test_parallel_flow_exceeds_transverse_flow() -> None:
     # for square arrays K_parallel / K_transverse ~ 2 at low solid fraction (Drummond & Tahir 1984)
     solid = _cylinder_array(16, 0.1, nz=4)
-    kx = solve_voxel_stokes(solid, 1.0, "x").permeability[0]
-    kz = solve_voxel_stokes(solid, 1.0, "z").permeability[2]
+    kx = column_of(solve_voxel_stokes(solid, 1.0, "x"))[0]
+    kz = column_of(solve_voxel_stokes(solid, 1.0, "z"))[2]
     assert 1.5 < kz / kx < 2.5
 
 
@@ -109,7 +109,7 @@ def test_puma_fibres_32_kzz() -> None:
     # fibres): both are first order and approach each other from opposite sides
     # (see benchmarks/RESULTS.md).
     # At 32^3 (fibre diameter 2.2 voxels) MAC gives 0.01254, PuMA 0.009785 (32^3) / 0.010145 (64^3).
-    assert 0.0100 < res.permeability[2] < 0.0135
+    assert 0.0100 < column_of(res)[2] < 0.0135
     assert res.porosity == pytest.approx(PUMA_FIBRES_POROSITY[32], abs=1e-4)
 
 
@@ -118,7 +118,7 @@ def test_puma_fibres_richardson_agrees_with_puma_richardson() -> None:
     ks = []
     for n in (32, 64):
         data = np.load(BENCH / f"fibres_{n}.npz")["solid"].astype(bool)
-        ks.append(solve_voxel_stokes(data, 1.0 / n, "z", tol=1e-6).permeability[2])
+        ks.append(column_of(solve_voxel_stokes(data, 1.0 / n, "z", tol=1e-6))[2])
     ours = richardson_extrapolate(ks[0], ks[1], 2.0, 1.0)
     puma = richardson_extrapolate(PUMA_FIBRES_KZZ[32], PUMA_FIBRES_KZZ[64], 2.0, 1.0)
     assert ours == pytest.approx(puma, rel=0.02)
@@ -158,13 +158,11 @@ def test_bad_input_raises(solid: np.ndarray, kw: dict, match: str) -> None:
 
 def test_mirror_and_frame_treatments() -> None:
     solid = _channel(6, nx=4, nz=4)
-    base = solve_voxel_stokes(solid, 1.0, "z").permeability[2]
+    base = column_of(solve_voxel_stokes(solid, 1.0, "z"))[2]
     mir = solve_voxel_stokes(solid, 1.0, "z", periodic_treatment="mirror")
-    assert mir.permeability[2] == pytest.approx(
-        base, rel=1e-5
-    )  # z-invariant: mirror changes nothing
+    assert column_of(mir)[2] == pytest.approx(base, rel=1e-5)  # z-invariant: mirror changes nothing
     frame = solve_voxel_stokes(solid, 1.0, "z", periodic_treatment="frame")
-    assert 0 < frame.permeability[2] < base  # extra walls add drag
+    assert 0 < column_of(frame)[2] < base  # extra walls add drag
 
 
 # --- independent assembled MAC system (scipy), built from the textbook stencil description ----
@@ -242,7 +240,7 @@ def test_toray_like_small_matches_direct_solve_of_assembled_system() -> None:
     k_direct = [sol[index[a][act[a]]].sum() / solid.size for a in range(3)]
     res = solve_voxel_stokes(solid, 1.0, "x", tol=1e-9)
     assert res.converged and res.residual <= 1e-9
-    assert np.allclose(res.permeability, k_direct, rtol=1e-6, atol=1e-7 * k_direct[0])
+    assert np.allclose(column_of(res), k_direct, rtol=1e-6, atol=1e-7 * k_direct[0])
 
 
 def _toray_check(solid: np.ndarray, direction: int, tol: float) -> None:
@@ -258,7 +256,7 @@ def _toray_check(solid: np.ndarray, direction: int, tol: float) -> None:
     work = rhs[:nvel] @ u
     dissipation = u @ (k_mat[:nvel, :nvel] @ u)
     assert dissipation == pytest.approx(work, rel=10 * tol)
-    assert res.permeability[direction] == pytest.approx(work / solid.size * h**2, rel=1e-12)
+    assert column_of(res)[direction] == pytest.approx(work / solid.size * h**2, rel=1e-12)
 
 
 def test_toray_like_48_with_7_voxel_fibres_converges() -> None:
@@ -284,13 +282,13 @@ def test_thin_and_odd_grids_converge_to_channel_closed_form(shape: tuple[int, in
     res = solve_voxel_stokes(solid, 1.0, d, tol=1e-9)
     phi = h_fluid / shape[1]
     assert res.converged
-    assert res.permeability[d] == pytest.approx(phi * (h_fluid**2 / 12 + 1 / 6), rel=1e-7)
+    assert column_of(res)[d] == pytest.approx(phi * (h_fluid**2 / 12 + 1 / 6), rel=1e-7)
 
 
 def test_cylinder_array_thin_axis_64_vs_sangani_acrivos() -> None:
     res = solve_voxel_stokes(_cylinder_array(64, 0.2, nz=4), 1.0 / 64, "x", tol=1e-7)
     assert res.converged
-    assert 1.0 / res.permeability[0] == pytest.approx(SANGANI_ACRIVOS[0.2], rel=0.02)
+    assert 1.0 / column_of(res)[0] == pytest.approx(SANGANI_ACRIVOS[0.2], rel=0.02)
 
 
 def test_max_iter_exhausted_is_flagged_not_converged() -> None:

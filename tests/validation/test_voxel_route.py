@@ -1,0 +1,91 @@
+"""The voxel permeability route: bc, wall treatment, resolution warning and result keys.
+
+Flow across a square array of PS cylinders (spacing L = 40 um, D = 10 um, solid fraction 0.049);
+reference: Drummond & Tahir (1984) / Sangani & Acrivos (1982) dilute series (test_fem_vs_voxel).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psdesign.flow.permeability import permeability
+from psdesign.flow.voxel import ResolutionWarning
+from psdesign.packing.build import build_rve
+from psdesign.schema.spec import validate_spec
+
+L = 40e-6
+PHI = np.pi * 25e-12 / L**2
+#: Drummond & Tahir (1984) transverse square-array series, K for a = 5 um.
+EXACT = (-np.log(PHI) - 1.476 + 2 * PHI - 1.774 * PHI**2 + 4.076 * PHI**3) / (8 * PHI) * 25e-12
+
+
+def spec(voxel: float, n_cells: int, **flow: object) -> dict:
+    s = validate_spec(
+        {
+            "rve": {"size": [n_cells * L, L, L], "voxel": voxel},
+            "fibers": [
+                {
+                    "shape": "cylinder",
+                    "diameter": 10e-6,
+                    "center": [L / 2 + i * L, L / 2, L / 2],
+                    "direction": [0, 0, 1],
+                }
+                for i in range(n_cells)
+            ],
+            "flow": {"viscosity": 1.8e-5},
+        }
+    )
+    s["flow"] |= flow  # bc / wall_treatment: new [flow] keys (schema branch)
+    return s
+
+
+KEYS = {
+    "permeability_m2",
+    "direction",
+    "porosity",
+    "solver",
+    "bc",
+    "converged",
+    "residual",
+    "iterations",
+    "flux_imbalance",
+    "wall_time_s",
+    "cells_per_diameter",
+    "wall_treatment",
+}
+
+
+def _route(voxel: float, n_cells: int, **flow: object) -> dict:
+    s = spec(voxel, n_cells, **flow)
+    built = build_rve(s)
+    return permeability(built.rve, built.voxelize(voxel), "x", s["flow"], solver="voxel")
+
+
+def test_periodic_subvoxel_route_within_half_percent() -> None:
+    res = _route(1e-6, 1)  # 40 voxels per cell, 10 across the fiber
+    assert KEYS <= set(res)
+    assert res["bc"] == "periodic" and res["wall_treatment"] == "subvoxel"
+    assert res["cells_per_diameter"] == pytest.approx(10.0)
+    assert res["converged"] and res["flux_imbalance"] < 1e-5
+    assert res["permeability_m2"] == pytest.approx(EXACT, rel=0.005)
+    stair = _route(1e-6, 1, wall_treatment="staircase")
+    assert stair["wall_treatment"] == "staircase"
+    assert abs(stair["permeability_m2"] / EXACT - 1) > abs(res["permeability_m2"] / EXACT - 1)
+
+
+def test_permeameter_route_keys_and_entrance_effect() -> None:
+    per = _route(2e-6, 2)
+    with pytest.warns(ResolutionWarning, match="5.0 voxels"):
+        res = _route(2e-6, 2, bc="permeameter", aux_length=0.5, pressure_drop=3.0)
+    assert res["bc"] == "permeameter" and res["sides"] == "slip"
+    assert res["pressure_drop_applied_pa"] == pytest.approx(3.0)
+    assert 0 < res["pressure_drop_rve_pa"] < 3.0
+    assert res["converged"] and res["flux_imbalance"] < 1e-5
+    # two cells along the flow: entrance and exit losses lower K by a few per cent
+    assert 0.85 < res["permeability_m2"] / per["permeability_m2"] < 1.0
+
+
+def test_bad_bc_raises() -> None:
+    with pytest.raises(ValueError, match="flow.bc"):
+        _route(4e-6, 1, bc="open")
