@@ -54,7 +54,9 @@ def test_solver_term_alone_would_not_cover():
 def test_result_carries_bar_status_and_resolution():
     res, _ = _solve("square", "across", 0.2, 24)
     est = res["error_estimate"]
-    assert est["method"] == "two_grid" and est["ratio"] == 2.0 and est["order"] == 1
+    # analytic cylinders: sub-voxel walls, second order (staircase would be first order)
+    assert res["wall_treatment"] == "subvoxel"
+    assert est["method"] == "two_grid" and est["ratio"] == 2.0 and est["order"] == 2
     assert res["bc"] == "periodic"
     # D = 2 sqrt(0.2 / pi) L = 0.505 L at 24 voxels per L: 12.1 voxels across
     assert res["cells_per_diameter"] == pytest.approx(2 * np.sqrt(0.2 / np.pi) * 24, rel=1e-3)
