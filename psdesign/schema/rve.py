@@ -1,0 +1,27 @@
+"""Schema of the ``[rve]`` table."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field
+
+from psdesign.schema.types import Table, number
+
+Length = number(gt=0)
+
+
+class RveTable(Table):
+    """The box, its sampling step and the PS period (metres)."""
+
+    size: Annotated[tuple[Length, Length, Length], Field(description="[x, y, z] lengths > 0 m")]
+    voxel: Length | None = Field(
+        None,
+        description="sampling step > 0 m, <= a quarter of the smallest edge, >= 2 voxels across "
+        "the thinnest fiber, grid within the memory budget (default: smallest edge / 100)",
+    )
+    period: Length | None = Field(
+        None,
+        description="metres per PS period > 0, between largest edge / 10 and 100 x largest edge "
+        "(default: the largest edge)",
+    )
