@@ -8,6 +8,7 @@ as the docs key table), or the bounds carried by the error.
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from typing import Any
@@ -39,11 +40,21 @@ def dotted(parts: typing.Iterable[Any]) -> str:
     return out
 
 
+_TYPE_NAMES = {"str", "int", "float", "bool", "list", "tuple", "dict", "none"}
+_WRAPPERS = ("function-", "literal", "tagged-union", "nullable", "union", "lax-or-strict")
+
+
 def _clean_loc(loc: tuple) -> tuple:
-    # union tags ("dist=uniform") and pydantic's function wrappers are not spec keys
-    return tuple(
-        p for p in loc if not (isinstance(p, str) and ("=" in p or p.startswith("function-")))
-    )
+    # union tags ("dist=uniform"), union members ("list[literal[...]]") and pydantic's
+    # function wrappers are not spec keys
+    def is_key(p: Any) -> bool:
+        if not isinstance(p, str):
+            return True
+        return not (
+            "=" in p or "[" in p or "'" in p or p in _TYPE_NAMES or p.startswith(_WRAPPERS)
+        )
+
+    return tuple(p for p in loc if is_key(p))
 
 
 def _models(tp: Any) -> list[type[BaseModel]]:
@@ -100,8 +111,8 @@ def _message(err: dict, root: Any, loc: tuple) -> tuple[str, str]:
     elif typ == "missing":
         msg = "missing"
     elif typ == "literal_error":
-        msg = f"got {got}"
-        allowed = allowed or str(ctx.get("expected", ""))
+        names = re.findall(r"'([^']*)'", str(ctx.get("expected", "")))
+        return "", f"got {got}; allowed: {', '.join(names)}"
     elif typ in ("model_type", "dict_type", "model_attributes_type"):
         msg = f"must be a table, got {got}"
     elif typ in ("tuple_type", "list_type", "too_short", "too_long"):
@@ -124,7 +135,8 @@ def _message(err: dict, root: Any, loc: tuple) -> tuple[str, str]:
 def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str, str]:
     """(dotted key, one-line message) of the first error of ``exc``."""
     errs = exc.errors(include_url=False)
-    err = errs[0]
+    # the most specific error (a union reports one per member; the deepest names the key)
+    err = max(errs, key=lambda e: len(_clean_loc(tuple(e["loc"]))))
     loc = _clean_loc(tuple(err["loc"]))
     suffix, msg = _message(err, root, loc)
     key = dotted((prefix, *loc, *(suffix.split(".") if suffix else ())))
