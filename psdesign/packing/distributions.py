@@ -36,15 +36,10 @@ import numpy as np
 from scipy import stats
 
 from psdesign.errors import SpecError
+from psdesign.schema.distributions import DIST_MODELS
 
-DISTRIBUTIONS = ("constant", "uniform", "normal", "beta", "exponential")
-_KEYS = {
-    "constant": ({"value"}, set()),
-    "uniform": ({"low", "high"}, set()),
-    "normal": ({"mean", "std"}, {"low", "high"}),
-    "beta": ({"a", "b"}, {"low", "high"}),
-    "exponential": ({"mean"}, {"low", "high"}),
-}
+#: Distribution names (from the schema, :mod:`psdesign.schema.distributions`).
+DISTRIBUTIONS = tuple(DIST_MODELS)
 
 
 @dataclass(frozen=True)

@@ -40,11 +40,9 @@ from psdesign.packing.intersections import (
     orientation_tensor,
     place_sequential,
 )
-
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
-from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS  # noqa: F401
+from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
 from psdesign.schema.generator import GeneratorTable as _GeneratorTable
-from psdesign.schema.generator import IntersectionsTable
 from psdesign.schema.spec import validate_document
 
 #: Keys of ``[generator]`` / ``[intersections]`` (derived from the schema).
@@ -101,7 +99,7 @@ class GeneratorSpec:
 
 # ------------------------------------------------------------------- validation
 def parse_rve(spec: dict) -> tuple[np.ndarray, float, float]:
-    """``[rve] size`` (metres), ``voxel`` and ``period`` (metres) of a spec, validated by the schema.
+    """``[rve] size``, ``voxel`` and ``period`` (metres) of a spec, validated by the schema.
 
     One default and limit for the voxel (:class:`psdesign.schema.document.SpecDocument`):
     smallest edge / 100, at most a quarter of the smallest edge, within the memory budget.

@@ -40,7 +40,11 @@ def machine_memory() -> float:
 
 def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
     """Voxels per axis as floats (no overflow for absurd sizes)."""
-    return [max(1.0, math.floor(s / voxel + 0.5)) for s in size]
+    out = []
+    for s in size:
+        v = s / voxel
+        out.append(max(1.0, float(math.floor(v + 0.5)) if math.isfinite(v) else v))
+    return out
 
 
 def check_grid(size: tuple[float, ...], voxel: float, solver: str) -> None:
@@ -72,8 +76,11 @@ def check_copies(size: tuple[float, ...], period: float) -> None:
             f"period >= {lo:.3g} m (at most {MAX_COPIES} copies)",
         )
     if period > 100.0 * max(size):
-        raise fail("rve.period", f"{period:g} m is over 100 x the largest edge",
-                   f"period <= {100 * max(size):.3g} m")
+        raise fail(
+            "rve.period",
+            f"{period:g} m is over 100 x the largest edge",
+            f"period <= {100 * max(size):.3g} m",
+        )
 
 
 def check_ga(population: int, generations: int, n_fibers: float) -> None:

@@ -93,8 +93,11 @@ class Beta(_Dist):
 
     @model_validator(mode="after")
     def _check(self) -> Beta:
-        self._range(0.0 if self.low is None else self.low, 1.0 if self.high is None else self.high,
-                    "beta range")
+        self._range(
+            0.0 if self.low is None else self.low,
+            1.0 if self.high is None else self.high,
+            "beta range",
+        )
         return self
 
 
@@ -147,8 +150,11 @@ def support(value: Any) -> tuple[float, float]:
         return float(value), float(value)
     if isinstance(value, Constant):
         return value.value, value.value
-    defaults = {"normal": (-float("inf"), float("inf")), "beta": (0.0, 1.0),
-                "exponential": (0.0, float("inf"))}.get(value.dist, (None, None))
+    defaults = {
+        "normal": (-float("inf"), float("inf")),
+        "beta": (0.0, 1.0),
+        "exponential": (0.0, float("inf")),
+    }.get(value.dist, (None, None))
     lo = value.low if value.low is not None else defaults[0]
     hi = value.high if value.high is not None else defaults[1]
     return float(lo), float(hi)

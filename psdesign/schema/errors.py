@@ -50,9 +50,7 @@ def _clean_loc(loc: tuple) -> tuple:
     def is_key(p: Any) -> bool:
         if not isinstance(p, str):
             return True
-        return not (
-            "=" in p or "[" in p or "'" in p or p in _TYPE_NAMES or p.startswith(_WRAPPERS)
-        )
+        return not ("=" in p or "[" in p or "'" in p or p in _TYPE_NAMES or p.startswith(_WRAPPERS))
 
     return tuple(p for p in loc if is_key(p))
 
@@ -103,9 +101,7 @@ def _message(err: dict, root: Any, loc: tuple) -> tuple[str, str]:
     allowed = field_allowed(root, loc)
     got = short(err.get("input"))
     if typ in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
-        bound = {"greater_than": "gt", "greater_than_equal": "ge", "less_than": "lt"}.get(
-            typ, "le"
-        )
+        bound = {"greater_than": "gt", "greater_than_equal": "ge", "less_than": "lt"}.get(typ, "le")
         limit = _BOUND_TEXT[bound].format(ctx.get(bound))
         msg = f"must be {limit}, got {got}"
     elif typ == "missing":

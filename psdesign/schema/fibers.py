@@ -20,13 +20,16 @@ class FiberTable(Table):
 
     shape: Shape = Field("rod", description=" | ".join(SHAPES + CELL_SHAPES) + " (default rod)")
     diameter: number(gt=0) | None = Field(
-        None, description="metres > 0, below the smallest edge and the period (rod, cylinder, "
-        "bent-rod: required)"
+        None,
+        description="metres > 0, below the smallest edge and the period (rod, cylinder, "
+        "bent-rod: required)",
     )
     center: Vec3 | None = Field(None, description="[x, y, z] metres (default: the box centre)")
     theta: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
     omega: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
-    direction: Vec3 | None = Field(None, description="[dx, dy, dz], non-zero (instead of theta/omega)")
+    direction: Vec3 | None = Field(
+        None, description="[dx, dy, dz], non-zero (instead of theta/omega)"
+    )
     u: number(ge=-10, le=10) = Field(0.0, description="bent-rod minor moment in [-10, 10]")
     f: number(gt=0) = Field(1.0, description="bends per period > 0")
     isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
@@ -50,8 +53,11 @@ class FiberTable(Table):
             if sum(c * c for c in self.direction) < 1e-24:
                 raise fail("direction", "must have non-zero length", "non-zero vector")
         if self.u and self.shape != "bent-rod":
-            raise fail("u", f"bending (u != 0) needs shape = 'bent-rod', got {self.shape!r}",
-                       "0 unless shape = 'bent-rod'")
+            raise fail(
+                "u",
+                f"bending (u != 0) needs shape = 'bent-rod', got {self.shape!r}",
+                "0 unless shape = 'bent-rod'",
+            )
         return self
 
     def to_spec(self) -> dict:

@@ -24,8 +24,9 @@ class FlowTable(Table):
 
     solver: Literal["fem", "voxel"] = Field("fem", description="fem | voxel (default fem)")
     bc: Literal["permeameter", "periodic"] | None = Field(
-        None, description="permeameter | periodic (default: the solver's own, fem -> "
-        "permeameter, voxel -> periodic)"
+        None,
+        description="permeameter | periodic (default: the solver's own, fem -> "
+        "permeameter, voxel -> periodic)",
     )
     viscosity: number(gt=0) = Field(1.8e-5, description="Pa s > 0 (default 1.8e-5)")
     aux_length: number(ge=0, le=2) = Field(

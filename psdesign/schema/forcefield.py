@@ -72,6 +72,7 @@ class ForceFieldTable(Table):
         if not any(w > 0 for w in self.weights):
             raise fail("weights", "must not be all zero", "three numbers >= 0, not all zero")
         if not self.min_step < self.step:
-            raise fail("min_step", f"must be below step={self.step}, got {self.min_step}",
-                       f"< {self.step}")
+            raise fail(
+                "min_step", f"must be below step={self.step}, got {self.min_step}", f"< {self.step}"
+            )
         return self

@@ -70,13 +70,19 @@ class GeneratorTable(Table):
         if self.orientation is not None and ({"theta", "omega"} & given):
             raise fail("orientation", "give either orientation or theta/omega")
         if self.n_fibers is not None and self.n_fibers > self.max_fibers:
-            raise fail("n_fibers", f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
-                       f"<= {self.max_fibers}")
+            raise fail(
+                "n_fibers",
+                f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
+                f"<= {self.max_fibers}",
+            )
         for k in ("theta", "omega"):
             lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
             if lo < -360 or hi > 360:
-                raise fail(k, f"the distribution allows [{lo:g}, {hi:g}] degrees (truncate with "
-                           "low/high)", "[-360, 360]")
+                raise fail(
+                    k,
+                    f"the distribution allows [{lo:g}, {hi:g}] degrees (truncate with low/high)",
+                    "[-360, 360]",
+                )
         if self.kind == "bent":
             if self.f is not None and not support(self.f)[0] > 0:
                 lo, hi = support(self.f)
@@ -94,11 +100,11 @@ class IntersectionsTable(Table):
     """Intersection removal: none, the paper's GA, or fast sequential placement."""
 
     method: Literal["none", "ga", "fast"] = Field("none", description="none | ga | fast")
-    min_gap: number() = Field(
-        0.0, description="metres in [-d_min / 2, period / 2) (default 0)"
-    )
+    min_gap: number() = Field(0.0, description="metres in [-d_min / 2, period / 2) (default 0)")
     max_rotation_deg: number(ge=0, le=360) | None = Field(None, description="degrees in [0, 360]")
-    orientation_tries: integer(ge=0, le=1000) | None = Field(None, description="integer in [0, 1000]")
+    orientation_tries: integer(ge=0, le=1000) | None = Field(
+        None, description="integer in [0, 1000]"
+    )
     step: number(gt=0) | None = Field(None, description="metres > 0")
     max_shift_z: number(gt=0) | None = Field(None, description="metres > 0")
     max_ejections: integer(ge=0, le=10_000) | None = Field(

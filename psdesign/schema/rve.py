@@ -22,6 +22,7 @@ class RveTable(Table):
     )
     period: Length | None = Field(
         None,
-        description="metres per PS period > 0, between largest edge / 10 and 100 x largest edge "
+        description="metres per PS period > 0: at most 1000 periodic copies of a fiber in the box, "
+        "<= 100 x the largest edge "
         "(default: the largest edge)",
     )

@@ -101,8 +101,10 @@ def validate_document(data: Any) -> SpecDocument:
     except ValidationError as exc:
         raise spec_error(exc, SpecDocument) from None
     except (RecursionError, OverflowError, MemoryError) as exc:
-        raise SpecError("spec", f"cannot validate ({type(exc).__name__}): nested too deeply "
-                        "or numbers too large") from None
+        raise SpecError(
+            "spec",
+            f"cannot validate ({type(exc).__name__}): nested too deeply or numbers too large",
+        ) from None
 
 
 def validate_spec(data: dict) -> dict:

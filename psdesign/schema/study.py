@@ -56,8 +56,11 @@ class StudyTable(Table):
         if self.design in ("latin-hypercube", "sobol") and self.n_samples is None:
             raise fail("n_samples", f"required for design {self.design!r}", "integer >= 1")
         if self.design not in ("latin-hypercube", "sobol") and self.n_samples is not None:
-            raise fail("n_samples", f"only used by latin-hypercube / sobol designs, not "
-                       f"{self.design!r}", "remove it or change study.design")
+            raise fail(
+                "n_samples",
+                f"only used by latin-hypercube / sobol designs, not {self.design!r}",
+                "remove it or change study.design",
+            )
         if self.design == "csv" and self.csv is None:
             raise fail("csv", "required for design 'csv' (path to a CSV file)", "a path string")
         if self.design != "csv" and self.csv is not None:
@@ -90,7 +93,9 @@ class BoundsParam(Table):
     @model_validator(mode="after")
     def _check(self) -> BoundsParam:
         if not self.low < self.high:
-            raise fail("", f"low must be < high, got low={self.low}, high={self.high}", "low < high")
+            raise fail(
+                "", f"low must be < high, got low={self.low}, high={self.high}", "low < high"
+            )
         if self.dist == "loguniform" and self.low <= 0:
             raise fail("low", f"loguniform needs low > 0, got {self.low}", "> 0")
         return self

@@ -36,7 +36,9 @@ def fail(key: str, message: str, allowed: str = "") -> PydanticCustomError:
 
 def _finite(value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise PydanticCustomError("number_type", "must be a number, got {got}", {"got": short(value)})
+        raise PydanticCustomError(
+            "number_type", "must be a number, got {got}", {"got": short(value)}
+        )
     try:
         v = float(value)
     except OverflowError:
@@ -52,12 +54,17 @@ def _finite(value: Any) -> float:
 
 def _int(value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
-        raise PydanticCustomError("int_type", "must be an integer, got {got}", {"got": short(value)})
+        raise PydanticCustomError(
+            "int_type", "must be an integer, got {got}", {"got": short(value)}
+        )
     return value
 
 
 def number(
-    *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
     le: float | None = None,
 ) -> Any:
     """A finite float type with optional bounds (the one number validator)."""
@@ -88,6 +95,8 @@ class Table(BaseModel):
             for key in data:
                 if key not in allowed:
                     raise fail(
-                        str(key), f"unknown key{did_you_mean(str(key), allowed)}", ", ".join(allowed)
+                        str(key),
+                        f"unknown key{did_you_mean(str(key), allowed)}",
+                        ", ".join(allowed),
                     )
         return data

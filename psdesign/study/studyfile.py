@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-import warnings
 from typing import Any
 
 from pydantic import ValidationError
@@ -340,8 +339,9 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
     except RecursionError:
         raise _err("study", "nested too deeply (allowed: a few levels of tables)") from None
     except (OverflowError, MemoryError) as exc:
-        raise _err("study", f"cannot validate ({type(exc).__name__}): numbers or sizes too "
-                   "large") from None
+        raise _err(
+            "study", f"cannot validate ({type(exc).__name__}): numbers or sizes too large"
+        ) from None
 
 
 def _read_base(data: dict, root: Path) -> dict:
@@ -372,8 +372,9 @@ def _parse_study(data: dict, source: Path | None) -> Study:
     for k in data:
         if k not in top_allowed:
             raise _err(
-                k, f"unknown top-level key{did_you_mean(k, top_allowed)} (allowed: base, "
-                "study, parameters)"
+                k,
+                f"unknown top-level key{did_you_mean(k, top_allowed)} (allowed: base, "
+                "study, parameters)",
             )
     root = source.parent if source is not None else Path.cwd()
     st_raw = data.get("study")
@@ -414,8 +415,10 @@ def _parse_study(data: dict, source: Path | None) -> Study:
     if st.design == "csv":
         cols, csv_rows = _read_csv_rows((root / st.csv).resolve(), "study.csv")
         if len(csv_rows) * (1 if "seed" in cols else len(seeds)) > MAX_CASES:
-            raise _err("study.csv", f"{len(csv_rows)} rows x {len(seeds)} seeds (allowed: at "
-                       f"most {MAX_CASES} cases)")
+            raise _err(
+                "study.csv",
+                f"{len(csv_rows)} rows x {len(seeds)} seeds (allowed: at most {MAX_CASES} cases)",
+            )
         for c in cols:
             if c == "seed":
                 continue
@@ -462,13 +465,18 @@ def _parse_study(data: dict, source: Path | None) -> Study:
 def _check_design_size(st: StudyTable, params: dict[str, ParamSpec], seeds: list[int]) -> None:
     """Refuse a design with more than :data:`MAX_CASES` cases, before expanding it."""
     if st.design == "full-factorial":
-        n = math.prod(len(p.values) if p.kind == "values" else int(p.levels) for p in params.values())
+        n = math.prod(
+            len(p.values) if p.kind == "values" else int(p.levels) for p in params.values()
+        )
         what = "full factorial"
     else:
         n, what = int(st.n_samples), st.design
     if n * len(seeds) > MAX_CASES:
-        raise _err("parameters", f"{what} gives {n * len(seeds):.4g} cases ({len(seeds)} seeds) "
-                   f"(allowed: at most {MAX_CASES})")
+        raise _err(
+            "parameters",
+            f"{what} gives {n * len(seeds):.4g} cases ({len(seeds)} seeds) "
+            f"(allowed: at most {MAX_CASES})",
+        )
 
 
 def _levels_to_check(p: ParamSpec) -> list:
