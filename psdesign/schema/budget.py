@@ -20,6 +20,8 @@ MEMORY_FRACTION = 0.5
 #: Periodic copies of one fiber in the box (a tiny period multiplies the work).
 MAX_COPIES = 1000
 MAX_EXPLICIT_FIBERS = 2000
+#: Cells of the stuffing mesher's lattice (a tiny flow.lattice_step).
+MAX_LATTICE_CELLS = 5e7
 #: GA work: population x generations x fibers fitness terms.
 MAX_GA_WORK = 5e9
 #: Study size: cases, seeds, levels of one parameter.
@@ -47,7 +49,7 @@ def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
     return out
 
 
-def check_grid(size: tuple[float, ...], voxel: float, solver: str) -> None:
+def check_grid(size: tuple[float, ...], voxel: float, solver: str, key: str = "rve.voxel") -> None:
     """Refuse a voxel grid whose estimated memory exceeds the budget."""
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
@@ -58,10 +60,21 @@ def check_grid(size: tuple[float, ...], voxel: float, solver: str) -> None:
         vmin = voxel * (need / budget) ** (1 / 3)
         dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
         raise fail(
-            "rve.voxel",
+            key,
             f"a {dims} grid ({n:.3g} voxels, {per} B each with solver {solver!r}) needs about "
             f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
             f"voxel >= {vmin:.3g} m",
+        )
+
+
+def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) -> None:
+    """Refuse a lattice step giving more than ``limit`` cells in the box."""
+    n = math.prod(grid_shape(size, step))
+    if not n <= limit:
+        raise fail(
+            key,
+            f"{step:g} m gives {n:.3g} cells",
+            f"at most {limit:.0e} cells, step >= {step * (n / limit) ** (1 / 3):.3g} m",
         )
 
 

@@ -77,6 +77,10 @@ class SpecDocument(Table):
                 f"{self.flow.lattice_step:g} m is over half the smallest edge",
                 f"<= {min(size) / 2:g} m",
             )
+        if self.flow.lattice_step is not None:
+            budget.check_cells(
+                "flow.lattice_step", size, self.flow.lattice_step, budget.MAX_LATTICE_CELLS
+            )
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -97,6 +101,13 @@ class SpecDocument(Table):
             )
         limit = min(min(size), period)
         for i, fb in enumerate(self.fibers):
+            for k, c in enumerate(fb.center or ()):
+                if not -size[k] <= c <= 2 * size[k]:
+                    raise fail(
+                        f"fibers[{i}].center[{k}]",
+                        f"{c:g} m is far outside the box",
+                        f"[{-size[k]:g}, {2 * size[k]:g}] m",
+                    )
             if fb.diameter is None or fb.shape not in ("rod", "cylinder", "bent-rod"):
                 continue
             if fb.diameter >= limit:
@@ -157,6 +168,10 @@ class SpecDocument(Table):
                 f"needs about {n_est:.0f} fibers, over max_fibers = {g.max_fibers}",
                 "a porosity reachable with max_fibers fibers",
             )
+        if inter.step is not None and inter.step < min(size) / 1e4:
+            raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")
+        if inter.ga_voxel is not None:
+            budget.check_grid(size, inter.ga_voxel, "fem", key="intersections.ga_voxel")
         if inter.method == "ga":
             budget.check_ga(inter.population or 24, inter.generations or 40, n_est)
 

@@ -24,14 +24,16 @@ class FiberTable(Table):
         description="metres > 0, below the smallest edge and the period (rod, cylinder, "
         "bent-rod: required)",
     )
-    center: Vec3 | None = Field(None, description="[x, y, z] metres (default: the box centre)")
+    center: Vec3 | None = Field(
+        None, description="[x, y, z] metres, each in [-edge, 2 edge] (default: the box centre)"
+    )
     theta: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
     omega: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
     direction: Vec3 | None = Field(
         None, description="[dx, dy, dz], non-zero (instead of theta/omega)"
     )
     u: number(ge=-10, le=10) = Field(0.0, description="bent-rod minor moment in [-10, 10]")
-    f: number(gt=0) = Field(1.0, description="bends per period > 0")
+    f: number(gt=0, le=1000) = Field(1.0, description="bends per period in (0, 1000]")
     isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
     thickness_axis: Literal["x", "z"] | None = Field(None, description="x | z (woven-cell only)")
 
@@ -50,8 +52,9 @@ class FiberTable(Table):
         if self.direction is not None:
             if "theta" in given or "omega" in given:
                 raise fail("direction", "give either direction or theta/omega, not both")
-            if sum(c * c for c in self.direction) < 1e-24:
-                raise fail("direction", "must have non-zero length", "non-zero vector")
+            big = max(abs(c) for c in self.direction)
+            if not 1e-12 <= big <= 1e12:
+                raise fail("direction", "must have a length in [1e-12, 1e12]", "non-zero vector")
         if self.u and self.shape != "bent-rod":
             raise fail(
                 "u",

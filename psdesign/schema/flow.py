@@ -28,16 +28,16 @@ class FlowTable(Table):
         description="permeameter | periodic (default: the solver's own, fem -> "
         "permeameter, voxel -> periodic)",
     )
-    viscosity: number(gt=0) = Field(1.8e-5, description="Pa s > 0 (default 1.8e-5)")
+    viscosity: number(gt=0, le=1e6) = Field(1.8e-5, description="Pa s in (0, 1e6] (default 1.8e-5)")
     aux_length: number(ge=0, le=2) = Field(
         0.2, description="inlet/outlet zone length, fraction of the RVE length in [0, 2]"
     )
     direction: Literal["x", "y", "z"] | None = Field(None, description="x | y | z")
     sides: Literal["slip", "noslip"] = Field("slip", description="slip | noslip (default slip)")
-    pressure_drop: number(gt=0) = Field(1.0, description="Pa > 0 (default 1)")
+    pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
     tol: number(gt=0, lt=1) | None = Field(None, description="relative tolerance in (0, 1)")
-    edge_length: number(gt=0, le=10) | None = Field(
-        None, description="pytetwild edge length, fraction in (0, 10]"
+    edge_length: number(ge=0.005, le=10) | None = Field(
+        None, description="pytetwild edge length, fraction of the diagonal in [0.005, 10]"
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None, description="fem solver memory cap, GB in (0, 1e5]"
@@ -49,7 +49,9 @@ class FlowTable(Table):
         "stuffing", description="stuffing | pytetwild (default stuffing)"
     )
     lattice_step: number(gt=0) | None = Field(
-        None, description="stuffing lattice step > 0 m, <= half the smallest edge"
+        None,
+        description="stuffing lattice step > 0 m, <= half the smallest edge, at most 5e7 "
+        "lattice cells",
     )
 
     def to_spec(self) -> dict:

@@ -46,14 +46,14 @@ class GeneratorTable(Table):
     orientation: Orientation | None = Field(
         None, description="{ anisotropy = beta } instead of theta/omega"
     )
-    tx: DistField | None = Field(None, description=f"fraction of the x edge: {_DIST}")
-    ty: DistField | None = Field(None, description=f"fraction of the y edge: {_DIST}")
-    tz: DistField | None = Field(None, description=f"fraction of the z edge: {_DIST}")
+    tx: DistField | None = Field(None, description=f"fraction of the x edge in [-1, 2]: {_DIST}")
+    ty: DistField | None = Field(None, description=f"fraction of the y edge in [-1, 2]: {_DIST}")
+    tz: DistField | None = Field(None, description=f"fraction of the z edge in [-1, 2]: {_DIST}")
     u: DistField | None = Field(
         None, description=f"bent only, in (-pi, pi): {_DIST} (default uniform [0.1, 0.3])"
     )
     f: DistField | None = Field(
-        None, description=f"bent only, > 0: {_DIST} (default uniform [1, 10])"
+        None, description=f"bent only, in (0, 1000]: {_DIST} (default uniform [1, 10])"
     )
     porosity_tolerance: number(gt=0, lt=0.5) = Field(
         DEFAULT_TOLERANCE, description="in (0, 0.5) (default 0.005)"
@@ -75,6 +75,10 @@ class GeneratorTable(Table):
                 f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
                 f"<= {self.max_fibers}",
             )
+        for k in ("tx", "ty", "tz"):
+            lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
+            if lo < -1 or hi > 2:
+                raise fail(k, f"the distribution allows [{lo:g}, {hi:g}]", "[-1, 2]")
         for k in ("theta", "omega"):
             lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
             if lo < -360 or hi > 360:
@@ -84,9 +88,9 @@ class GeneratorTable(Table):
                     "[-360, 360]",
                 )
         if self.kind == "bent":
-            if self.f is not None and not support(self.f)[0] > 0:
+            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= 1000:
                 lo, hi = support(self.f)
-                raise fail("f", f"values must be > 0, distribution allows [{lo:g}, {hi:g}]", "> 0")
+                raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
             if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
                 raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
         else:
@@ -105,7 +109,7 @@ class IntersectionsTable(Table):
     orientation_tries: integer(ge=0, le=1000) | None = Field(
         None, description="integer in [0, 1000]"
     )
-    step: number(gt=0) | None = Field(None, description="metres > 0")
+    step: number(gt=0) | None = Field(None, description="metres > 0, >= smallest edge / 1e4")
     max_shift_z: number(gt=0) | None = Field(None, description="metres > 0")
     max_ejections: integer(ge=0, le=10_000) | None = Field(
         None, description="integer in [0, 10000]"
@@ -117,7 +121,9 @@ class IntersectionsTable(Table):
         None, description="GA generations, integer in [2, 100000] (default 40)"
     )
     objective: Literal["analytic", "voxel"] | None = Field(None, description="analytic | voxel")
-    ga_voxel: number(gt=0) | None = Field(None, description="metres > 0")
+    ga_voxel: number(gt=0) | None = Field(
+        None, description="metres > 0, GA voxel grid within the memory budget"
+    )
     angle_range_deg: number(gt=0, le=360) | None = Field(None, description="degrees in (0, 360]")
     shift_range: number(gt=0, le=1) | None = Field(None, description="fraction in (0, 1]")
     time_limit_s: number(gt=0, le=604_800) | None = Field(

@@ -9,12 +9,13 @@ from pydantic import Field
 from psdesign.schema.types import Table, number
 
 Length = number(gt=0)
+Edge = number(ge=1e-9, le=1.0)
 
 
 class RveTable(Table):
     """The box, its sampling step and the PS period (metres)."""
 
-    size: Annotated[tuple[Length, Length, Length], Field(description="[x, y, z] lengths > 0 m")]
+    size: Annotated[tuple[Edge, Edge, Edge], Field(description="[x, y, z] lengths in [1e-9, 1] m")]
     voxel: Length | None = Field(
         None,
         description="sampling step > 0 m, <= a quarter of the smallest edge, >= 2 voxels across "

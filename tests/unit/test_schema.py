@@ -83,10 +83,11 @@ def test_one_voxel_default_for_spec_and_generator():
 @pytest.mark.parametrize(
     "path, value, key",
     [
-        ("rve.size", [1e300, 1e-4, 1e-4], "rve.voxel"),
+        ("rve.size", [1e300, 1e-4, 1e-4], "rve.size[0]"),
         ("rve.size", [1e-4, -1.0, 1e-4], "rve.size[1]"),
         ("rve.size", [1e-4, 1e-4], "rve.size[2]"),
-        ("rve.size", [1e308, 1e308, 1e308], "rve.voxel"),
+        ("rve.size", [1e308, 1e308, 1e308], "rve.size[0]"),
+        ("rve.voxel", 1e-12, "rve.voxel"),  # a 1e8-cube grid: refused before allocation
         ("rve.voxel", 1e-4, "rve.voxel"),
         ("rve.voxel", 4e-6, "rve.voxel"),  # under 2 voxels across a 7 um fiber
         ("rve.period", 1.0, "rve.period"),  # 1 m period in a 100 um box
@@ -114,6 +115,13 @@ def test_one_voxel_default_for_spec_and_generator():
         ("flow.lattice_step", 1.0, "flow.lattice_step"),
         ("flow.viscosity", float("nan"), "flow.viscosity"),
         ("flow.viscosty", 1.0, "flow.viscosty"),
+        ("flow.lattice_step", 1e-9, "flow.lattice_step"),  # 1e15 lattice cells
+        ("flow.edge_length", 1e-9, "flow.edge_length"),
+        ("flow.pressure_drop", 1e300, "flow.pressure_drop"),
+        ("intersections.ga_voxel", 1e-9, "intersections.ga_voxel"),  # 1e15 GA voxels
+        ("intersections.step", 1e-15, "intersections.step"),
+        ("generator.tz", {"dist": "uniform", "low": 0, "high": 1e9}, "generator.tz"),
+        ("rve.size", [1e3, 1e-4, 1e-4], "rve.size[0]"),
         ("mesh.anything", 1, "mesh"),
         ("output.dir", "x", "output"),
         ("forcefield.case", "garbage", "forcefield.case"),
@@ -138,6 +146,11 @@ def test_explicit_fiber_checks():
     assert spec_err(with_(doc, "fibers", [{**fb, "theta": 1e18}])).key == "fibers[0].theta"
     assert spec_err(with_(doc, "fibers", [{**fb, "diameter": 2e-4}])).key == "fibers[0].diameter"
     assert spec_err(with_(doc, "fibers", [fb] * 20000)).key == "fibers"
+    far = {**fb, "center": [1e300, 0.0, 0.0]}
+    assert spec_err(with_(doc, "fibers", [far])).key == "fibers[0].center[0]"
+    assert spec_err(with_(doc, "fibers", [{**fb, "f": 1e300}])).key == "fibers[0].f"
+    tiny = {**fb, "direction": [1e-300, 0.0, 0.0]}
+    assert spec_err(with_(doc, "fibers", [tiny])).key == "fibers[0].direction"
 
 
 def test_memory_budget_refuses_a_1200_cube_before_allocating(monkeypatch):
