@@ -399,6 +399,30 @@ def _parse_study(data: dict, source: Path | None) -> Study:
     if solver not in SOLVERS:
         raise _err("base.flow.solver", f"got {short(solver)}; allowed: {', '.join(SOLVERS)}")
 
+    params, csv_rows = _parameters(data, st, base, root, seeds)
+    study = Study(
+        name=name.strip(),
+        design=st.design,
+        base=base,
+        parameters=params,
+        seeds=seeds,
+        outputs=outputs,
+        solver=solver,
+        n_samples=st.n_samples,
+        timeout_s=st.timeout_s,
+        design_seed=st.design_seed,
+        csv_rows=csv_rows,
+        source=source,
+        description=st.description,
+    )
+    check_study_specs(study)
+    return study
+
+
+def _parameters(
+    data: dict, st: StudyTable, base: dict, root: Path, seeds: list[int]
+) -> tuple[dict[str, ParamSpec], list[dict] | None]:
+    """The ``[parameters]`` table (and the CSV design's columns), validated."""
     # --- [parameters]
     ptable = data.get("parameters", {})
     if not isinstance(ptable, dict):
@@ -443,23 +467,7 @@ def _parse_study(data: dict, source: Path | None) -> Study:
                         "bounds need levels = N in a full-factorial design (or give a list/range)",
                     )
         _check_design_size(st, params, seeds)
-    study = Study(
-        name=name.strip(),
-        design=st.design,
-        base=base,
-        parameters=params,
-        seeds=seeds,
-        outputs=outputs,
-        solver=solver,
-        n_samples=st.n_samples,
-        timeout_s=st.timeout_s,
-        design_seed=st.design_seed,
-        csv_rows=csv_rows,
-        source=source,
-        description=st.description,
-    )
-    check_study_specs(study)
-    return study
+    return params, csv_rows
 
 
 def _check_design_size(st: StudyTable, params: dict[str, ParamSpec], seeds: list[int]) -> None:
