@@ -31,6 +31,8 @@ class SpecWarning(UserWarning):
 class SpecDocument(Table):
     """An RVE spec: ``[rve]``, ``[[fibers]]``, ``[generator]``, ``[intersections]``, ``[flow]``."""
 
+    entry = "table"
+
     rve: RveTable = Field(description="table (required)")
     fibers: list[FiberTable] = Field(default_factory=list, description="array of tables")
     generator: GeneratorTable | None = Field(None, description="table")

@@ -9,7 +9,7 @@ or :func:`integer` (a true integer, not a bool, optional bounds); the bounds are
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 import annotated_types as at
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
@@ -84,6 +84,8 @@ class Table(BaseModel):
     """A TOML table: unknown keys are errors with a "did you mean"."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+    #: What an entry of this table is called in messages.
+    entry: ClassVar[str] = "key"
 
     @model_validator(mode="before")
     @classmethod
@@ -96,7 +98,7 @@ class Table(BaseModel):
                 if key not in allowed:
                     raise fail(
                         str(key),
-                        f"unknown key{did_you_mean(str(key), allowed)}",
+                        f"unknown {cls.entry}{did_you_mean(str(key), allowed)}",
                         ", ".join(allowed),
                     )
         return data

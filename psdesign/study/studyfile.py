@@ -208,11 +208,14 @@ def check_spec_path(base: dict, path: str, key: str) -> None:
         raise _err(key, f"empty segment in parameter path {path!r}")
     if _lookup(base, parts) or path in KNOWN_SPEC_KEYS:
         return
-    hint = did_you_mean(path, KNOWN_SPEC_KEYS)
+    table = parts[0]
+    same = sorted(k for k in KNOWN_SPEC_KEYS if k.split(".")[0] == table and k.count(".") == 1)
+    allowed = same or sorted(k for k in KNOWN_SPEC_KEYS if "." not in k)
+    hint = did_you_mean(path, same or KNOWN_SPEC_KEYS)
     raise _err(
         key,
         f"unknown parameter path {path!r}{hint}: not in the base spec and not a spec key "
-        f"(allowed: {', '.join(sorted(KNOWN_SPEC_KEYS))})",
+        f"(allowed: {', '.join(allowed)}, their sub-keys, or paths in the base spec)",
     )
 
 
