@@ -6,6 +6,11 @@ import json
 import math
 
 
+def _s(text: str) -> str:
+    """A TOML basic string (JSON escapes, non-ASCII kept: TOML has no surrogate pairs)."""
+    return json.dumps(text, ensure_ascii=False)
+
+
 def value(v) -> str:
     """One TOML value."""
     if isinstance(v, bool):
@@ -19,11 +24,11 @@ def value(v) -> str:
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(v, str):
-        return json.dumps(v)
+        return _s(v)
     if isinstance(v, list | tuple):
         return "[" + ", ".join(value(x) for x in v) + "]"
     if isinstance(v, dict):
-        return "{" + ", ".join(f"{json.dumps(str(k))} = {value(x)}" for k, x in v.items()) + "}"
+        return "{" + ", ".join(f"{_s(str(k))} = {value(x)}" for k, x in v.items()) + "}"
     raise TypeError(f"no TOML for {type(v).__name__}")
 
 
@@ -32,8 +37,8 @@ def dumps(doc: dict) -> str:
     lines = []
     for k, v in doc.items():
         if isinstance(v, dict):
-            lines.append(f"[{json.dumps(str(k))}]")
-            lines += [f"{json.dumps(str(kk))} = {value(vv)}" for kk, vv in v.items()]
+            lines.append(f"[{_s(str(k))}]")
+            lines += [f"{_s(str(kk))} = {value(vv)}" for kk, vv in v.items()]
         else:
-            lines.insert(0, f"{json.dumps(str(k))} = {value(v)}")
+            lines.insert(0, f"{_s(str(k))} = {value(v)}")
     return "\n".join(lines) + "\n"

@@ -13,6 +13,8 @@ from psdesign.schema.types import Table, Vec3, fail, number
 CELL_SHAPES = ("woven-cell",)
 Shape = Literal[tuple(SHAPES + CELL_SHAPES)]  # type: ignore[valid-type]
 Angle = number(ge=-360, le=360)
+#: Largest bend slope amplitude ``|u| f`` (Eq. 16; the paper's fibers have u f <= 3).
+MAX_SLOPE = 10.0
 
 
 class FiberTable(Table):
@@ -33,7 +35,9 @@ class FiberTable(Table):
         None, description="[dx, dy, dz], non-zero (instead of theta/omega)"
     )
     u: number(ge=-10, le=10) = Field(0.0, description="bent-rod minor moment in [-10, 10]")
-    f: number(gt=0, le=1000) = Field(1.0, description="bends per period in (0, 1000]")
+    f: number(gt=0, le=1000) = Field(
+        1.0, description="bends per period in (0, 1000], with |u| f <= 10"
+    )
     isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
     thickness_axis: Literal["x", "z"] | None = Field(None, description="x | z (woven-cell only)")
 
@@ -55,6 +59,12 @@ class FiberTable(Table):
             big = max(abs(c) for c in self.direction)
             if not 1e-12 <= big <= 1e12:
                 raise fail("direction", "must have a length in [1e-12, 1e12]", "non-zero vector")
+        if abs(self.u) * self.f > MAX_SLOPE:
+            raise fail(
+                "f",
+                f"bend slope |u| f = {abs(self.u) * self.f:g} (a dense zigzag)",
+                f"|u| f <= {MAX_SLOPE:g}",
+            )
         if self.u and self.shape != "bent-rod":
             raise fail(
                 "u",

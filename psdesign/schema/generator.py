@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.schema.distributions import DistField, support
+from psdesign.schema.fibers import MAX_SLOPE
 from psdesign.schema.types import Table, fail, integer, number
 
 METHODS = ("none", "ga", "fast")
@@ -53,7 +54,9 @@ class GeneratorTable(Table):
         None, description=f"bent only, in (-pi, pi): {_DIST} (default uniform [0.1, 0.3])"
     )
     f: DistField | None = Field(
-        None, description=f"bent only, in (0, 1000]: {_DIST} (default uniform [1, 10])"
+        None,
+        description=f"bent only, in (0, 1000], max |u| x max f <= 10: {_DIST} (default "
+        "uniform [1, 10])",
     )
     porosity_tolerance: number(gt=0, lt=0.5) = Field(
         DEFAULT_TOLERANCE, description="in (0, 0.5) (default 0.005)"
@@ -93,6 +96,14 @@ class GeneratorTable(Table):
                 raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
             if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
                 raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
+            umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3
+            fmax = support(self.f)[1] if self.f is not None else 10.0
+            if umax * fmax > MAX_SLOPE:
+                raise fail(
+                    "f",
+                    f"bend slope max |u| x max f = {umax * fmax:g} (a dense zigzag)",
+                    f"max |u| x max f <= {MAX_SLOPE:g}",
+                )
         else:
             for k in ("u", "f"):
                 if k in given:

@@ -122,6 +122,7 @@ def test_one_voxel_default_for_spec_and_generator():
         ("intersections.step", 1e-15, "intersections.step"),
         ("generator.tz", {"dist": "uniform", "low": 0, "high": 1e9}, "generator.tz"),
         ("rve.size", [1e3, 1e-4, 1e-4], "rve.size[0]"),
+        ("generator.u", 3.0, "generator.u"),  # only with kind = 'bent'
         ("mesh.anything", 1, "mesh"),
         ("output.dir", "x", "output"),
         ("forcefield.case", "garbage", "forcefield.case"),
@@ -149,6 +150,8 @@ def test_explicit_fiber_checks():
     far = {**fb, "center": [1e300, 0.0, 0.0]}
     assert spec_err(with_(doc, "fibers", [far])).key == "fibers[0].center[0]"
     assert spec_err(with_(doc, "fibers", [{**fb, "f": 1e300}])).key == "fibers[0].f"
+    zigzag = {**fb, "shape": "bent-rod", "u": 3.0, "f": 1000.0}
+    assert spec_err(with_(doc, "fibers", [zigzag])).key == "fibers[0].f"
     tiny = {**fb, "direction": [1e-300, 0.0, 0.0]}
     assert spec_err(with_(doc, "fibers", [tiny])).key == "fibers[0].direction"
 

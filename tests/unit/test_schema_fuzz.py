@@ -27,7 +27,9 @@ from toml_writer import dumps
 
 from psdesign.cli.main import main
 from psdesign.errors import SpecError
+from psdesign.forcefield.run import load_forcefield_spec
 from psdesign.schema.document import SpecDocument
+from psdesign.schema.forcefield import ForceFieldTable
 from psdesign.schema.spec import load_spec, validate_spec
 from psdesign.schema.study import StudyTable
 from psdesign.study.studyfile import StudyError, load_study, parse_study
@@ -88,7 +90,7 @@ def _bounds(info) -> list[float]:
 #: (path, table, field info) of every key of the tables a mutation may hit.
 LEAVES = [
     (t, k, info)
-    for t in ("rve", "generator", "intersections", "flow")
+    for t in ("rve", "generator", "intersections", "flow", "forcefield")
     for k, info in _table_fields(t).items()
 ]
 FIBER_LEAVES = list(_table_fields("fibers").items())
@@ -379,3 +381,32 @@ def test_fuzz_cli_study(case):
         assert rc == 2, err
         assert len(err.strip().splitlines()) == 1 and err.startswith("psdesign: error: ")
         assert not out.exists()
+
+
+FF = {"case": "two-fiber", "max_iter": 50, "two_fiber": {"seed": 5}, "quadrature": {"h": 0.01}}
+
+
+@st.composite
+def bad_forcefields(draw) -> dict:
+    doc = copy.deepcopy(FF)
+    key, info = draw(st.sampled_from(list(ForceFieldTable.model_fields.items())))
+    bad = _bounds(info)
+    doc[key] = draw(st.sampled_from(bad)) if bad and draw(st.booleans()) else draw(ALWAYS_BAD)
+    if draw(st.booleans()):
+        doc[draw(NAME) + "_q"] = 1
+    return doc
+
+
+@settings(FAST, max_examples=60)
+@given(bad_forcefields())
+def test_fuzz_load_forcefield_spec(doc):
+    try:
+        text = dumps({"forcefield": doc})
+    except (TypeError, RecursionError):
+        return
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "ff.toml"
+        p.write_text(text)
+        with pytest.raises(SpecError) as ei:
+            load_forcefield_spec(p)
+    assert "\n" not in str(ei.value) and str(ei.value).startswith(("forcefield", "spec"))
