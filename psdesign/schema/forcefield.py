@@ -6,11 +6,19 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from psdesign.forcefield.cases import SIX_NAMES
-from psdesign.forcefield.potentials import SURFACE_TERMS
 from psdesign.schema.types import Table, fail, integer, number
 
 Weight = number(ge=0)
+#: Free parameters of the six-fiber case (== ``psdesign.forcefield.cases.SIX_NAMES``; written
+#: out here so that validating a spec does not import the numba kernels, checked by
+#: ``tests/unit/test_consistency.py``).
+SIX_NAMES = (
+    "mu1", "mu2", "mu3", "mu4", "mu5",
+    "kappa1", "kappa2", "kappa3", "kappa4", "kappa5",
+    "u1", "u2", "f",
+)  # fmt: skip
+#: Surface terms (== ``psdesign.forcefield.potentials.SURFACE_TERMS``).
+SURFACE_TERMS = ("gaussian", "area", "bending")
 
 
 class Quadrature(Table):

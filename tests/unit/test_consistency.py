@@ -79,3 +79,12 @@ def test_study_parameter_paths_come_from_the_schema():
         head = rest.split(".")[0]
         if head:
             assert head in _models(SpecDocument.model_fields[table].annotation)[0].model_fields
+
+
+def test_forcefield_names_match_the_force_field_code():
+    from psdesign.forcefield.cases import SIX_NAMES
+    from psdesign.forcefield.potentials import SURFACE_TERMS
+    from psdesign.schema import forcefield as schema_ff
+
+    assert schema_ff.SIX_NAMES == SIX_NAMES
+    assert schema_ff.SURFACE_TERMS == SURFACE_TERMS
