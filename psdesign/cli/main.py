@@ -6,6 +6,7 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 
 from psdesign.errors import SpecError
@@ -32,14 +33,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"psdesign: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    warnings.showwarning = _show_warning  # one line per warning
     try:
         return int(args.func(args) or 0)
     except SpecError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
+        return 2
+    except (RecursionError, OverflowError) as exc:  # input nested too deeply / numbers too large
+        if os.environ.get("PSDESIGN_DEBUG"):
+            raise
+        print(
+            f"psdesign: error: input: {type(exc).__name__} (nested too deeply or numbers too "
+            "large)",
+            file=sys.stderr,
+        )
         return 2
     except ValueError as exc:  # bad input found past the spec (geometry, mesh, arguments)
         if os.environ.get("PSDESIGN_DEBUG"):

@@ -35,14 +35,13 @@ from __future__ import annotations
 
 import csv
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
+from pydantic import ValidationError
 
 from psdesign.errors import SpecError
 from psdesign.forcefield.cases import (
-    SIX_NAMES,
     TABLE_II_INITIAL,
     TABLE_II_RANGE,
     ForceFieldProblem,
@@ -50,136 +49,76 @@ from psdesign.forcefield.cases import (
     two_fiber_problem,
 )
 from psdesign.forcefield.pattern import PatternSearchResult
-from psdesign.forcefield.potentials import SURFACE_TERMS
+from psdesign.schema.errors import did_you_mean, spec_error
+from psdesign.schema.forcefield import ForceFieldTable, SixFiber, TwoFiber
+from psdesign.schema.spec import read_toml
 
 CASES = ("two-fiber", "six-fiber")
-_TOP = {
-    "case",
-    "surface",
-    "weights",
-    "max_iter",
-    "min_step",
-    "step",
-    "workers",
-    "quadrature",
-    "two_fiber",
-    "six_fiber",
-}
+_TOP = set(ForceFieldTable.model_fields)
 
 
-def _num(table: dict, key: str, where: str, default, lo=None, hi=None, integer=False):
-    val = table.get(key, default)
-    if val is None:
-        return None
-    ok = isinstance(val, int | float) and not isinstance(val, bool)
-    if integer:
-        ok = ok and float(val).is_integer()
-    if (
-        not ok
-        or not np.isfinite(val)
-        or (lo is not None and val < lo)
-        or (hi is not None and val > hi)
-    ):
-        rng = f" in [{lo}, {hi}]" if lo is not None or hi is not None else ""
-        kind = "an integer" if integer else "a number"
-        raise SpecError(f"{where}.{key}", f"must be {kind}{rng}, got {val!r}")
-    return int(val) if integer else float(val)
+def _validated(ff: dict) -> ForceFieldTable:
+    try:
+        return ForceFieldTable.model_validate(ff)
+    except ValidationError as exc:
+        raise spec_error(exc, ForceFieldTable, "forcefield") from None
 
 
 def load_forcefield_spec(path: str | Path) -> dict:
-    """Read and validate a force-field spec file; returns the ``[forcefield]`` table."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SpecError("spec", f"file not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError("spec", f"not valid TOML: {exc}") from None
+    """Read and validate a force-field spec file; returns the ``[forcefield]`` table.
+
+    Every key is validated here by :class:`psdesign.schema.forcefield.ForceFieldTable`
+    (before any work); other tables are errors.
+    """
+    data = read_toml(path)
+    for key in data:
+        if key != "forcefield":
+            raise SpecError(
+                key, f"unknown table{did_you_mean(key, ['forcefield'])} (allowed: forcefield)"
+            )
     ff = data.get("forcefield")
     if not isinstance(ff, dict):
-        raise SpecError("forcefield", "missing [forcefield] table")
-    unknown = sorted(set(ff) - _TOP)
-    if unknown:
-        raise SpecError(f"forcefield.{unknown[0]}", f"unknown key; allowed: {sorted(_TOP)}")
+        raise SpecError(
+            "forcefield", "missing [forcefield] table (allowed: [forcefield] case = ...)"
+        )
+    try:
+        _validated(ff)
+    except RecursionError:
+        raise SpecError("forcefield", "nested too deeply") from None
     return ff
 
 
 def problem_from_spec(ff: dict) -> ForceFieldProblem:
-    """Build the optimization problem a validated spec describes."""
-    case = ff.get("case")
-    if case not in CASES:
-        raise SpecError("forcefield.case", f"must be one of {', '.join(CASES)}, got {case!r}")
-    surface = ff.get("surface", "gaussian")
-    if surface not in SURFACE_TERMS:
-        raise SpecError(
-            "forcefield.surface", f"must be one of {', '.join(SURFACE_TERMS)}, got {surface!r}"
-        )
-    w = ff.get("weights", [1e10, 1.0, 1.0])
-    if (
-        not isinstance(w, list)
-        or len(w) != 3
-        or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in w)
-        or not all(np.isfinite(v) and v >= 0 for v in w)
-        or not any(v > 0 for v in w)
-    ):
-        raise SpecError(
-            "forcefield.weights", f"must be three finite numbers >= 0, not all zero; got {w!r}"
-        )
-    q = ff.get("quadrature", {})
-    if not isinstance(q, dict):
-        raise SpecError("forcefield.quadrature", "must be a table")
-    quad = dict(
-        h=_num(q, "h", "forcefield.quadrature", 0.005, 1e-4, 0.05),
-        n_s=_num(q, "n_s", "forcefield.quadrature", 64, 4, 4096, True),
-        n_theta=_num(q, "n_theta", "forcefield.quadrature", 32, 4, 4096, True),
+    """Build the optimization problem a force-field table describes (validated here)."""
+    v = _validated(ff)
+    q = v.quadrature
+    common = dict(
+        weights=tuple(float(w) for w in v.weights),
+        surface=v.surface,
+        h=q.h,
+        n_s=q.n_s,
+        n_theta=q.n_theta,
     )
-    common = dict(weights=tuple(float(v) for v in w), surface=surface, **quad)
-    key = case.replace("-", "_")
-    sub = ff.get(key, {})
-    if not isinstance(sub, dict):
-        raise SpecError(f"forcefield.{key}", "must be a table")
-    where = f"forcefield.{key}"
+    where = f"forcefield.{v.case.replace('-', '_')}"
     try:
-        if case == "two-fiber":
-            allowed = {"isovalue", "mu", "constant", "seed", "f0", "f_range", "u_range"}
-            bad = sorted(set(sub) - allowed)
-            if bad:
-                raise SpecError(f"{where}.{bad[0]}", f"unknown key; allowed: {sorted(allowed)}")
+        if v.case == "two-fiber":
+            t = v.two_fiber or TwoFiber()
             return two_fiber_problem(
-                isovalue=_num(sub, "isovalue", where, -8.82),
-                mu=_num(sub, "mu", where, 4.5, 0.0),
-                constant=_num(sub, "constant", where, 0.0),
-                f0=_num(sub, "f0", where, None, 1e-6),
-                seed=_num(sub, "seed", where, 0, 0, integer=True),
-                f_range=_num(sub, "f_range", where, 1.0, 0.0),
-                u_range=_num(sub, "u_range", where, 0.2, 0.0),
+                isovalue=t.isovalue,
+                mu=t.mu,
+                constant=t.constant,
+                f0=t.f0,
+                seed=t.seed,
+                f_range=t.f_range,
+                u_range=t.u_range,
                 **common,
             )
-        allowed = {"isovalue", "t_range", "initial", "ranges"}
-        bad = sorted(set(sub) - allowed)
-        if bad:
-            raise SpecError(f"{where}.{bad[0]}", f"unknown key; allowed: {sorted(allowed)}")
-        init = dict(TABLE_II_INITIAL)
-        rng = dict(TABLE_II_RANGE)
-        for name, target in (("initial", init), ("ranges", rng)):
-            tab = sub.get(name, {})
-            if not isinstance(tab, dict):
-                raise SpecError(f"{where}.{name}", "must be a table")
-            for k in tab:
-                if k not in SIX_NAMES:
-                    raise SpecError(
-                        f"{where}.{name}.{k}", f"unknown parameter; allowed: {list(SIX_NAMES)}"
-                    )
-                target[k] = _num(tab, k, f"{where}.{name}", None, 0.0 if name == "ranges" else None)
+        six = v.six_fiber or SixFiber()
+        init = {**TABLE_II_INITIAL, **six.initial}
+        rng = {**TABLE_II_RANGE, **six.ranges}
         return six_fiber_problem(
-            isovalue=_num(sub, "isovalue", where, -6.65),
-            initial=init,
-            ranges=rng,
-            t_range=_num(sub, "t_range", where, 0.1, 0.0),
-            **common,
+            isovalue=six.isovalue, initial=init, ranges=rng, t_range=six.t_range, **common
         )
-    except SpecError:
-        raise
     except ValueError as exc:  # infeasible ranges / constraints, bad isovalue
         raise SpecError(where, str(exc)) from None
 
@@ -192,12 +131,8 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     from psdesign.io.atomic import staged_directory, write_json
 
     prob = problem_from_spec(ff)
-    max_iter = _num(ff, "max_iter", "forcefield", 200, 1, 100000, True)
-    min_step = _num(ff, "min_step", "forcefield", 1e-3, 1e-8, 0.1)
-    step = _num(ff, "step", "forcefield", 0.25, 1e-6, 0.5)
-    if not min_step < step:
-        raise SpecError("forcefield.min_step", f"must be below step={step}, got {min_step}")
-    workers = _num(ff, "workers", "forcefield", 2, 1, 64, True)
+    v = _validated(ff)
+    max_iter, min_step, step, workers = v.max_iter, v.min_step, v.step, v.workers
     t0 = time.perf_counter()
     res = prob.solve(max_iter=max_iter, step=step, min_step=min_step, workers=workers)
     wall = time.perf_counter() - t0

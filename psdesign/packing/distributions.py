@@ -36,24 +36,10 @@ import numpy as np
 from scipy import stats
 
 from psdesign.errors import SpecError
+from psdesign.schema.distributions import DIST_MODELS
 
-DISTRIBUTIONS = ("constant", "uniform", "normal", "beta", "exponential")
-_KEYS = {
-    "constant": ({"value"}, set()),
-    "uniform": ({"low", "high"}, set()),
-    "normal": ({"mean", "std"}, {"low", "high"}),
-    "beta": ({"a", "b"}, {"low", "high"}),
-    "exponential": ({"mean"}, {"low", "high"}),
-}
-
-
-def _num(key: str, name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SpecError(f"{key}.{name}", f"must be a number, got {value!r}")
-    v = float(value)
-    if not np.isfinite(v):
-        raise SpecError(f"{key}.{name}", f"must be finite, got {value!r}")
-    return v
+#: Distribution names (from the schema, :mod:`psdesign.schema.distributions`).
+DISTRIBUTIONS = tuple(DIST_MODELS)
 
 
 @dataclass(frozen=True)
@@ -88,57 +74,31 @@ class Distribution:
             if default is None:
                 raise SpecError(key, "is required")
             return cls(default.kind, dict(default.params), key)
-        if not isinstance(spec, dict):
-            return cls("constant", {"value": _num(key, "value", spec)}, key)
-        kind = spec.get("dist")
-        if kind not in DISTRIBUTIONS:
-            raise SpecError(
-                f"{key}.dist", f"must be one of {', '.join(DISTRIBUTIONS)}; got {kind!r}"
-            )
-        required, optional = _KEYS[kind]
-        given = set(spec) - {"dist"}
-        missing = required - given
-        if missing:
-            raise SpecError(key, f"{kind} distribution needs {', '.join(sorted(missing))}")
-        unknown = given - required - optional
-        if unknown:
-            raise SpecError(
-                f"{key}.{sorted(unknown)[0]}",
-                f"unknown key for a {kind} distribution; allowed: "
-                f"{', '.join(sorted(required | optional))}",
-            )
-        p = {k: _num(key, k, v) for k, v in spec.items() if k != "dist"}
-        if kind == "uniform" and not p["low"] < p["high"]:
-            raise SpecError(key, f"uniform needs low < high, got [{p['low']}, {p['high']}]")
-        if kind == "normal":
-            if p["std"] <= 0:
-                raise SpecError(f"{key}.std", f"must be > 0, got {p['std']}")
-            p.setdefault("low", -np.inf)
-            p.setdefault("high", np.inf)
-            if not p["low"] < p["high"]:
-                raise SpecError(
-                    key, f"normal truncation needs low < high, got [{p['low']}, {p['high']}]"
-                )
-            # guard against a truncation window with (numerically) no mass
-            za, zb = (p["low"] - p["mean"]) / p["std"], (p["high"] - p["mean"]) / p["std"]
-            if stats.norm.cdf(zb) - stats.norm.cdf(za) < 1e-12 and min(abs(za), abs(zb)) > 30:
-                raise SpecError(key, "normal truncation window lies > 30 std from the mean")
-        if kind == "beta":
-            for k in ("a", "b"):
-                if p[k] <= 0:
-                    raise SpecError(f"{key}.{k}", f"must be > 0, got {p[k]}")
-            p.setdefault("low", 0.0)
-            p.setdefault("high", 1.0)
-            if not p["low"] < p["high"]:
-                raise SpecError(key, f"beta range needs low < high, got [{p['low']}, {p['high']}]")
-        if kind == "exponential":
-            if p["mean"] <= 0:
-                raise SpecError(f"{key}.mean", f"must be > 0, got {p['mean']}")
-            p.setdefault("low", 0.0)
-            p.setdefault("high", np.inf)
-            if not p["low"] < p["high"]:
-                raise SpecError(key, f"exponential needs low < high, got [{p['low']}, {p['high']}]")
-        return cls(kind, p, key)
+        from pydantic import ValidationError
+
+        from psdesign.schema.distributions import DIST_ADAPTER, DistField
+        from psdesign.schema.errors import spec_error
+
+        try:
+            value = DIST_ADAPTER.validate_python(spec)
+        except ValidationError as exc:
+            raise spec_error(exc, DistField, key) from None
+        return cls.from_model(key, value)
+
+    @classmethod
+    def from_model(cls, key: str, value) -> Distribution:
+        """From a validated schema value (a float or a distribution model)."""
+        if isinstance(value, int | float):
+            return cls("constant", {"value": float(value)}, key)
+        p = {k: v for k, v in value.model_dump().items() if k != "dist" and v is not None}
+        defaults = {
+            "normal": {"low": -np.inf, "high": np.inf},
+            "beta": {"low": 0.0, "high": 1.0},
+            "exponential": {"low": 0.0, "high": np.inf},
+        }.get(value.dist, {})
+        for k, v in defaults.items():
+            p.setdefault(k, v)
+        return cls(value.dist, {k: float(v) for k, v in p.items()}, key)
 
     @classmethod
     def uniform(cls, low: float, high: float, key: str = "?") -> Distribution:
@@ -220,15 +180,15 @@ class AnisotropicOrientation:
 
     @classmethod
     def from_spec(cls, key: str, spec) -> AnisotropicOrientation:
-        if not isinstance(spec, dict):
-            raise SpecError(key, f"must be a table like {{ anisotropy = 10.0 }}, got {spec!r}")
-        unknown = set(spec) - {"anisotropy"}
-        if unknown:
-            raise SpecError(f"{key}.{sorted(unknown)[0]}", "unknown key; allowed: anisotropy")
-        beta = _num(key, "anisotropy", spec.get("anisotropy", 1.0))
-        if beta <= 0:
-            raise SpecError(f"{key}.anisotropy", f"must be > 0 (1 = isotropic), got {beta}")
-        return cls(beta)
+        from pydantic import ValidationError
+
+        from psdesign.schema.errors import spec_error
+        from psdesign.schema.generator import Orientation
+
+        try:
+            return cls(Orientation.model_validate(spec).anisotropy)
+        except ValidationError as exc:
+            raise spec_error(exc, Orientation, key) from None
 
     def pdf_polar(self, theta: np.ndarray) -> np.ndarray:
         """Density of the polar angle (radians, from +z) on [0, pi]."""

@@ -40,44 +40,14 @@ from psdesign.packing.intersections import (
     orientation_tensor,
     place_sequential,
 )
+from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
+from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
+from psdesign.schema.generator import GeneratorTable as _GeneratorTable
+from psdesign.schema.spec import validate_document
 
-#: Densest packing of equal infinite cylinders (Bezdek & Kuperberg 1990): pi / sqrt(12).
-MAX_CYLINDER_PACKING = float(np.pi / np.sqrt(12.0))
-DEFAULT_TOLERANCE = 0.005
-_GEN_KEYS = {
-    "kind",
-    "porosity",
-    "n_fibers",
-    "diameter",
-    "seed",
-    "theta",
-    "omega",
-    "orientation",
-    "tx",
-    "ty",
-    "tz",
-    "u",
-    "f",
-    "porosity_tolerance",
-    "max_fibers",
-}
-_INT_KEYS = {
-    "method",
-    "min_gap",
-    "max_rotation_deg",
-    "orientation_tries",
-    "step",
-    "max_shift_z",
-    "max_ejections",
-    "population",
-    "generations",
-    "objective",
-    "ga_voxel",
-    "angle_range_deg",
-    "shift_range",
-    "time_limit_s",
-}
-METHODS = ("none", "ga", "fast")
+#: Keys of ``[generator]`` / ``[intersections]`` (derived from the schema).
+_GEN_KEYS = set(_GeneratorTable.model_fields)
+_INT_KEYS = set(IntersectionsTable.model_fields)
 
 
 class GenerationError(ValueError):
@@ -128,177 +98,74 @@ class GeneratorSpec:
 
 
 # ------------------------------------------------------------------- validation
-def _number(key: str, v, lo=None, hi=None, lo_open=True, hi_open=True) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
-        raise SpecError(key, f"must be a finite number, got {v!r}")
-    v = float(v)
-    rng = (
-        f"{'(' if lo_open else '['}{lo if lo is not None else '-inf'}, "
-        f"{hi if hi is not None else 'inf'}{')' if hi_open else ']'}"
-    )
-    if lo is not None and (v < lo or (lo_open and v == lo)):
-        raise SpecError(key, f"must be in {rng}, got {v}")
-    if hi is not None and (v > hi or (hi_open and v == hi)):
-        raise SpecError(key, f"must be in {rng}, got {v}")
-    return v
-
-
 def parse_rve(spec: dict) -> tuple[np.ndarray, float, float]:
-    """``[rve] size`` (metres, 3 positive), ``voxel`` and ``period`` (metres)."""
-    rv = spec.get("rve")
-    if not isinstance(rv, dict):
-        raise SpecError("rve", "table is required (size = [x, y, z] metres, voxel = step)")
-    size = rv.get("size")
-    if not isinstance(size, list | tuple) or len(size) != 3:
-        raise SpecError("rve.size", f"must be three lengths in metres, got {size!r}")
-    size = np.array([_number(f"rve.size[{k}]", s, 0.0) for k, s in enumerate(size)])
-    voxel = _number(
-        "rve.voxel",
-        rv.get("voxel", float(size.max()) / 200.0),
-        0.0,
-        float(size.min()),
-        hi_open=False,
-    )
-    period = rv.get("period")
-    period = float(size.max()) if period is None else _number("rve.period", period, 0.0)
-    return size, voxel, period
+    """``[rve] size``, ``voxel`` and ``period`` (metres) of a spec, validated by the schema.
+
+    One default and limit for the voxel (:class:`psdesign.schema.document.SpecDocument`):
+    smallest edge / 100, at most a quarter of the smallest edge, within the memory budget.
+    """
+    doc = validate_document(spec)
+    return np.asarray(doc.rve.size, float), float(doc.voxel), float(doc.period)
 
 
 def parse_generator(spec: dict, size: np.ndarray, period: float | None = None) -> GeneratorSpec:
-    """Validate ``[generator]`` and ``[intersections]``; raise :class:`SpecError`."""
-    g = spec.get("generator")
-    if not isinstance(g, dict):
-        raise SpecError("generator", "must be a table")
-    unknown = set(g) - _GEN_KEYS
-    if unknown:
-        raise SpecError(
-            f"generator.{sorted(unknown)[0]}",
-            f"unknown key; allowed: {', '.join(sorted(_GEN_KEYS))}",
-        )
-    period = float(size.max()) if period is None else period
-    kind = g.get("kind", "straight")
-    if kind not in ("straight", "bent"):
-        raise SpecError("generator.kind", f"must be 'straight' or 'bent', got {kind!r}")
-    if ("porosity" in g) == ("n_fibers" in g):
-        raise SpecError("generator", "give exactly one of porosity or n_fibers")
-    inter = spec.get("intersections", {}) or {}
-    if not isinstance(inter, dict):
-        raise SpecError("intersections", "must be a table")
-    unknown = set(inter) - _INT_KEYS
-    if unknown:
-        raise SpecError(
-            f"intersections.{sorted(unknown)[0]}",
-            f"unknown key; allowed: {', '.join(sorted(_INT_KEYS))}",
-        )
-    method = inter.get("method", "none")
-    if method not in METHODS:
-        raise SpecError(
-            "intersections.method", f"must be one of {', '.join(METHODS)}; got {method!r}"
-        )
-    porosity = n_fibers = None
-    if "porosity" in g:
-        porosity = _number("generator.porosity", g["porosity"], 0.0, 1.0)
-        if method != "none" and porosity <= 1.0 - MAX_CYLINDER_PACKING:
-            raise SpecError(
-                "generator.porosity",
-                f"must be > {1 - MAX_CYLINDER_PACKING:.4f} for non-overlapping "
-                f"fibers (densest cylinder packing pi/sqrt(12)), got {porosity}",
-            )
-    else:
-        n = g["n_fibers"]
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise SpecError("generator.n_fibers", f"must be an integer >= 1, got {n!r}")
-        n_fibers = n
-    diameter = Distribution.from_spec("generator.diameter", g.get("diameter"))
-    dlo, dhi = diameter.support
-    if not (dlo > 0 and dhi < 0.5 * period):
-        raise SpecError(
-            "generator.diameter",
-            f"values must lie in (0, {0.5 * period:g}) m (half the period); the "
-            f"distribution allows [{dlo:g}, {dhi:g}] (truncate with low/high)",
-        )
-    seed = g.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise SpecError("generator.seed", f"must be an integer >= 0, got {seed!r}")
+    """``[generator]`` and ``[intersections]`` as a :class:`GeneratorSpec`.
+
+    The values are validated once, by the schema (:mod:`psdesign.schema.generator` and the
+    cross-field checks of :class:`~psdesign.schema.document.SpecDocument`); this function only
+    reads them. ``size`` is kept for compatibility (the spec's ``rve.size`` is used);
+    ``period`` defaults to the spec's.
+
+    Raises
+    ------
+    SpecError
+        Any bad key or value (the message names the key and the allowed range).
+    """
+    if not isinstance(spec, dict) or not isinstance(spec.get("generator"), dict):
+        raise SpecError("generator", "must be a table (allowed: [generator] kind, porosity, ...)")
+    doc = validate_document(spec)
+    g = doc.generator
+    inter = doc.intersections or IntersectionsTable()
+    period = float(doc.period) if period is None else float(period)
+
+    def dist(name: str, default: Distribution | None = None) -> Distribution | None:
+        value = getattr(g, name)
+        if value is None:
+            return None if default is None else Distribution(default.kind, default.params, name)
+        return Distribution.from_model(f"generator.{name}", value)
+
     orientation = theta = omega = None
-    if "orientation" in g:
-        if "theta" in g or "omega" in g:
-            raise SpecError("generator.orientation", "give either orientation or theta/omega")
-        orientation = AnisotropicOrientation.from_spec("generator.orientation", g["orientation"])
+    if g.orientation is not None:
+        orientation = AnisotropicOrientation(g.orientation.anisotropy)
     else:
-        theta = Distribution.from_spec(
-            "generator.theta", g.get("theta"), Distribution.uniform(-5.0, 5.0)
-        )
-        omega = Distribution.from_spec(
-            "generator.omega", g.get("omega"), Distribution.uniform(0.0, 180.0)
-        )
-    t = tuple(
-        Distribution.from_spec(f"generator.{k}", g.get(k), Distribution.uniform(0.0, 1.0))
-        for k in ("tx", "ty", "tz")
-    )
+        theta = dist("theta", Distribution.uniform(-5.0, 5.0))
+        omega = dist("omega", Distribution.uniform(0.0, 180.0))
+    t = tuple(dist(k, Distribution.uniform(0.0, 1.0)) for k in ("tx", "ty", "tz"))
     u = f = None
-    if kind == "bent":
-        u = Distribution.from_spec("generator.u", g.get("u"), Distribution.uniform(0.1, 0.3))
-        f = Distribution.from_spec("generator.f", g.get("f"), Distribution.uniform(1.0, 10.0))
-        if not f.support[0] > 0:
-            raise SpecError(
-                "generator.f",
-                f"values must be > 0, distribution allows [{f.support[0]:g}, {f.support[1]:g}]",
-            )
-        if max(abs(v) for v in u.support) >= np.pi:
-            raise SpecError("generator.u", "values must lie in (-pi, pi)")
-    else:
-        for k in ("u", "f"):
-            if k in g:
-                raise SpecError(f"generator.{k}", "only used with kind = 'bent'")
-    tol = _number(
-        "generator.porosity_tolerance", g.get("porosity_tolerance", DEFAULT_TOLERANCE), 0.0, 0.5
-    )
-    max_fibers = g.get("max_fibers", 5000)
-    if isinstance(max_fibers, bool) or not isinstance(max_fibers, int) or max_fibers < 1:
-        raise SpecError("generator.max_fibers", f"must be an integer >= 1, got {max_fibers!r}")
-    min_gap = _number(
-        "intersections.min_gap", inter.get("min_gap", 0.0), -0.5 * dlo, 0.5 * period, lo_open=False
-    )
-    opts = {k: v for k, v in inter.items() if k not in ("method", "min_gap")}
-    for k in (
-        "max_rotation_deg",
-        "step",
-        "ga_voxel",
-        "angle_range_deg",
-        "shift_range",
-        "time_limit_s",
-        "max_shift_z",
-    ):
-        if k in opts:
-            opts[k] = _number(
-                f"intersections.{k}", opts[k], 0.0, None, lo_open=k != "max_rotation_deg"
-            )
-    for k in ("orientation_tries", "population", "generations", "max_ejections"):
-        if k in opts and (
-            not isinstance(opts[k], int)
-            or isinstance(opts[k], bool)
-            or opts[k] < (0 if k in ("orientation_tries", "max_ejections") else 2)
-        ):
-            raise SpecError(f"intersections.{k}", f"must be a positive integer, got {opts[k]!r}")
-    if opts.get("objective", "analytic") not in ("analytic", "voxel"):
-        raise SpecError("intersections.objective", "must be 'analytic' or 'voxel'")
+    if g.kind == "bent":
+        u = dist("u", Distribution.uniform(0.1, 0.3))
+        f = dist("f", Distribution.uniform(1.0, 10.0))
+    opts = {
+        k: getattr(inter, k)
+        for k in inter.model_fields_set
+        if k not in ("method", "min_gap") and getattr(inter, k) is not None
+    }
     return GeneratorSpec(
-        kind=kind,
-        porosity=porosity,
-        n_fibers=n_fibers,
-        diameter=diameter,
-        seed=seed,
+        kind=g.kind,
+        porosity=g.porosity,
+        n_fibers=g.n_fibers,
+        diameter=dist("diameter"),
+        seed=g.seed,
         theta=theta,
         omega=omega,
         orientation=orientation,
         t=t,
         u=u,
         f=f,
-        tolerance=tol,
-        max_fibers=max_fibers,
-        method=method,
-        min_gap=min_gap,
+        tolerance=g.porosity_tolerance,
+        max_fibers=g.max_fibers,
+        method=inter.method,
+        min_gap=inter.min_gap,
         options=opts,
         period=period,
     )

@@ -1,71 +1,78 @@
 """RVE spec files (TOML): load, validate, and build explicit fibers.
 
-Every check raises :class:`~psdesign.errors.SpecError` naming the key and the
-allowed range; nothing is built from an invalid spec. Lengths are in metres.
+The schema (:class:`psdesign.schema.document.SpecDocument` and its tables) is the single
+description of the spec; every check raises :class:`~psdesign.errors.SpecError` naming the key
+and the allowed range, before anything is built. Lengths are in metres.
 """
 
 from __future__ import annotations
 
-import math
+import copy
 import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from psdesign.errors import SpecError
-from psdesign.geometry.fibers import SHAPES, Fiber, make_fiber
+from psdesign.geometry.fibers import Fiber, make_fiber
+from psdesign.schema.document import SpecDocument, SpecWarning
+from psdesign.schema.errors import spec_error
+from psdesign.schema.fibers import CELL_SHAPES, FiberTable
+from psdesign.schema.flow import DEFAULT_FLOW, FlowTable
 
-#: Tables an RVE spec may hold.
-KNOWN_TABLES = (
-    "rve",
-    "fibers",
-    "generator",
-    "intersections",
-    "flow",
-    "mesh",
-    "forcefield",
-    "output",
-)
+__all__ = [
+    "CELL_SHAPES",
+    "DEFAULT_FLOW",
+    "FIBER_KEYS",
+    "FLOW_KEYS",
+    "KNOWN_TABLES",
+    "MAX_FILE_BYTES",
+    "RVE_KEYS",
+    "SpecWarning",
+    "explicit_fibers",
+    "load_spec",
+    "read_toml",
+    "validate_document",
+    "validate_spec",
+]
+
+#: Tables an RVE spec may hold (derived from the schema).
+KNOWN_TABLES = tuple(SpecDocument.model_fields)
 RVE_KEYS = ("size", "voxel", "period")
-FIBER_KEYS = (
-    "shape",
-    "diameter",
-    "center",
-    "theta",
-    "omega",
-    "direction",
-    "u",
-    "f",
-    "isovalue",
-    "thickness_axis",
-)
-#: Shapes that expand to several fibers.
-CELL_SHAPES = ("woven-cell",)
-FLOW_KEYS = (
-    "solver",
-    "bc",
-    "error_estimate",
-    "viscosity",
-    "aux_length",
-    "direction",
-    "sides",
-    "pressure_drop",
-    "tol",
-    "edge_length",
-    "max_memory_gb",
-    "periodic_treatment",
-    "mesher",
-    "lattice_step",
-)
-DEFAULT_FLOW = {
-    "solver": "fem",
-    "viscosity": 1.8e-5,
-    "aux_length": 0.2,
-    "sides": "slip",
-    "pressure_drop": 1.0,
-    "mesher": "stuffing",
-}
+FIBER_KEYS = tuple(FiberTable.model_fields)
+FLOW_KEYS = tuple(FlowTable.model_fields)
+#: Spec and study files larger than this are refused unread.
+MAX_FILE_BYTES = 10 * 2**20
+
+
+def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = SpecError) -> dict:
+    """Parse a TOML file; every problem is one ``error`` line (no traceback).
+
+    Missing or unreadable file, over :data:`MAX_FILE_BYTES`, not UTF-8, TOML syntax,
+    nesting too deep for the parser.
+    """
+
+    def bad(msg: str) -> Exception:
+        return error(key, msg) if error is SpecError else error(f"{key}: {msg}")
+
+    p = Path(path)
+    try:
+        if not p.is_file():
+            raise bad(f"file not found: {p}")
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise bad(f"{p} is {p.stat().st_size} bytes (allowed: at most {MAX_FILE_BYTES})")
+        text = p.read_bytes().decode("utf-8")
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise bad(f"TOML syntax error in {p}: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise bad(f"{p} is not UTF-8 text (byte {exc.start})") from None
+    except RecursionError:
+        raise bad(f"{p} nests tables or arrays too deeply (allowed: a few levels)") from None
+    except OSError as exc:
+        raise bad(f"cannot read {p}: {exc.strerror or exc}") from None
 
 
 def load_spec(path: str | Path) -> dict:
@@ -76,178 +83,43 @@ def load_spec(path: str | Path) -> dict:
     SpecError
         Missing or unreadable file, TOML syntax error, or a bad value.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise SpecError("spec", f"file not found: {p}")
+    return validate_spec(read_toml(path))
+
+
+def validate_document(data: Any) -> SpecDocument:
+    """Validate a parsed spec against the schema; returns the typed document.
+
+    Raises
+    ------
+    SpecError
+        The first problem, as ``key: message (allowed: ...)``.
+    """
+    if not isinstance(data, dict):
+        raise SpecError("spec", f"must be a TOML table, got {type(data).__name__}")
     try:
-        data = tomllib.loads(p.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError("spec", f"TOML syntax error in {p}: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError("spec", f"cannot read {p}: {exc}") from None
-    return validate_spec(data)
-
-
-def _number(
-    value: Any,
-    key: str,
-    *,
-    positive: bool = False,
-    low: float | None = None,
-    high: float | None = None,
-) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SpecError(key, f"must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise SpecError(key, f"must be finite, got {value!r}")
-    if positive and v <= 0:
-        raise SpecError(key, f"must be > 0, got {value!r}")
-    if low is not None and v < low:
-        raise SpecError(key, f"must be >= {low}, got {value!r}")
-    if high is not None and v > high:
-        raise SpecError(key, f"must be <= {high}, got {value!r}")
-    return v
-
-
-def _vector(value: Any, key: str) -> list[float]:
-    if not isinstance(value, list | tuple) or len(value) != 3:
-        raise SpecError(key, f"must be a list of three numbers, got {value!r}")
-    return [_number(v, f"{key}[{i}]") for i, v in enumerate(value)]
+        return SpecDocument.model_validate(data)
+    except ValidationError as exc:
+        raise spec_error(exc, SpecDocument) from None
+    except (RecursionError, OverflowError, MemoryError) as exc:
+        raise SpecError(
+            "spec",
+            f"cannot validate ({type(exc).__name__}): nested too deeply or numbers too large",
+        ) from None
 
 
 def validate_spec(data: dict) -> dict:
-    """Validate a parsed spec and fill defaults; returns a new dict."""
-    if not isinstance(data, dict):
-        raise SpecError("spec", "must be a TOML table")
-    for key in data:
-        if key not in KNOWN_TABLES:
-            raise SpecError(key, f"unknown table; allowed: {', '.join(KNOWN_TABLES)}")
-    spec = {k: v for k, v in data.items()}
-    rve = data.get("rve")
-    if not isinstance(rve, dict):
-        raise SpecError("rve", "missing [rve] table with size = [x, y, z] in metres")
-    for key in rve:
-        if key not in RVE_KEYS:
-            raise SpecError(f"rve.{key}", f"unknown key; allowed: {', '.join(RVE_KEYS)}")
-    if "size" not in rve:
-        raise SpecError("rve.size", "missing; give [x, y, z] in metres")
-    size = _vector(rve["size"], "rve.size")
-    for i, s in enumerate(size):
-        if s <= 0:
-            raise SpecError(f"rve.size[{i}]", f"must be > 0 metres, got {s}")
-    voxel = _number(rve.get("voxel", min(size) / 100), "rve.voxel", positive=True)
-    if voxel > min(size) / 4:
-        raise SpecError(
-            "rve.voxel",
-            f"must be <= {min(size) / 4:g} m (a quarter of the smallest edge), got {voxel:g}",
-        )
-    n_vox = np.prod([round(s / voxel) for s in size])
-    if n_vox > 2_000_000_000:
-        raise SpecError(
-            "rve.voxel",
-            f"gives {n_vox:.3g} voxels; use a voxel >= {(np.prod(size) / 2e9) ** (1 / 3):.3g} m",
-        )
-    period = rve.get("period")
-    if period is not None:
-        period = _number(period, "rve.period", positive=True)
-    spec["rve"] = {"size": size, "voxel": voxel, "period": period}
+    """Validate a parsed spec and fill defaults; returns a new plain dict.
 
-    fibers = data.get("fibers", [])
-    if isinstance(fibers, dict):
-        fibers = [fibers]
-    if not isinstance(fibers, list):
-        raise SpecError("fibers", "must be an array of tables ([[fibers]])")
-    ref = period or max(size)
-    spec["fibers"] = [_validate_fiber(fb, i, size, ref) for i, fb in enumerate(fibers)]
-    if not spec["fibers"] and "generator" not in data:
-        raise SpecError("fibers", "no fibers: give [[fibers]] tables or a [generator] table")
-
-    flow = dict(DEFAULT_FLOW)
-    flow_in = data.get("flow", {})
-    if not isinstance(flow_in, dict):
-        raise SpecError("flow", "must be a table")
-    for key, value in flow_in.items():
-        if key not in FLOW_KEYS:
-            raise SpecError(f"flow.{key}", f"unknown key; allowed: {', '.join(FLOW_KEYS)}")
-        flow[key] = value
-    if flow["solver"] not in ("fem", "voxel"):
-        raise SpecError("flow.solver", f"must be 'fem' or 'voxel', got {flow['solver']!r}")
-    flow["viscosity"] = _number(flow["viscosity"], "flow.viscosity", positive=True)
-    flow["aux_length"] = _number(flow["aux_length"], "flow.aux_length", low=0.0, high=2.0)
-    flow["pressure_drop"] = _number(flow["pressure_drop"], "flow.pressure_drop", positive=True)
-    if flow.get("periodic_treatment", "periodic") not in ("periodic", "mirror", "frame"):
-        raise SpecError(
-            "flow.periodic_treatment",
-            f"must be 'periodic', 'mirror' or 'frame', got {flow['periodic_treatment']!r}",
-        )
-    if flow["mesher"] not in ("stuffing", "pytetwild"):
-        raise SpecError("flow.mesher", f"must be 'stuffing' or 'pytetwild', got {flow['mesher']!r}")
-    if flow.get("lattice_step") is not None:
-        step = _number(flow["lattice_step"], "flow.lattice_step", positive=True)
-        if step > min(size) / 2:
-            raise SpecError(
-                "flow.lattice_step",
-                f"must be <= {min(size) / 2:g} m (half the smallest edge), got {step:g}",
-            )
-    if flow.get("bc") is not None and flow["bc"] not in ("permeameter", "periodic"):
-        raise SpecError("flow.bc", f"must be 'permeameter' or 'periodic', got {flow['bc']!r}")
-    if not isinstance(flow.get("error_estimate", True), bool):
-        raise SpecError("flow.error_estimate", "must be true or false")
-    if flow["sides"] not in ("slip", "noslip"):
-        raise SpecError("flow.sides", f"must be 'slip' or 'noslip', got {flow['sides']!r}")
-    spec["flow"] = flow
+    The shape is the one the pipeline reads: ``rve`` = ``{size, voxel, period}`` (voxel
+    filled), ``fibers`` = list of fiber dicts, ``flow`` = defaults plus the keys given,
+    ``generator``/``intersections``/``forcefield`` as given (validated).
+    """
+    doc = validate_document(data)
+    spec = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("rve", "fibers", "flow")}
+    spec["rve"] = {"size": list(doc.rve.size), "voxel": doc.voxel, "period": doc.rve.period}
+    spec["fibers"] = [fb.to_spec() for fb in doc.fibers]
+    spec["flow"] = doc.flow.to_spec()
     return spec
-
-
-def _validate_fiber(fb: Any, i: int, size: list[float], ref: float) -> dict:
-    key = f"fibers[{i}]"
-    if not isinstance(fb, dict):
-        raise SpecError(key, "must be a table")
-    for k in fb:
-        if k not in FIBER_KEYS:
-            raise SpecError(f"{key}.{k}", f"unknown key; allowed: {', '.join(FIBER_KEYS)}")
-    shape = fb.get("shape", "rod")
-    if shape not in SHAPES + CELL_SHAPES:
-        raise SpecError(
-            f"{key}.shape", f"unknown shape {shape!r}; allowed: {', '.join(SHAPES + CELL_SHAPES)}"
-        )
-    out: dict[str, Any] = {"shape": shape}
-    if shape == "woven-cell":
-        axis = fb.get("thickness_axis", "z")
-        if axis not in ("x", "z"):
-            raise SpecError(f"{key}.thickness_axis", f"must be 'x' or 'z', got {axis!r}")
-        extra = set(fb) - {"shape", "thickness_axis"}
-        if extra:
-            raise SpecError(f"{key}.{sorted(extra)[0]}", "woven-cell takes only thickness_axis")
-        return {"shape": shape, "thickness_axis": axis}
-    if shape in ("rod", "cylinder", "bent-rod"):
-        if "diameter" not in fb:
-            raise SpecError(f"{key}.diameter", "missing; give the fiber diameter in metres")
-        d = _number(fb["diameter"], f"{key}.diameter", positive=True)
-        limit = min(min(size), ref)
-        if d >= limit:
-            raise SpecError(f"{key}.diameter", f"must be < {limit:g} m (the cell), got {d:g}")
-        out["diameter"] = d
-    if "center" in fb:
-        out["center"] = _vector(fb["center"], f"{key}.center")
-    if "direction" in fb:
-        if "theta" in fb or "omega" in fb:
-            raise SpecError(f"{key}.direction", "give either direction or theta/omega, not both")
-        d = _vector(fb["direction"], f"{key}.direction")
-        if np.linalg.norm(d) < 1e-12:
-            raise SpecError(f"{key}.direction", "must have non-zero length")
-        out["direction"] = d
-    else:
-        out["theta"] = _number(fb.get("theta", 0.0), f"{key}.theta", low=-360, high=360)
-        out["omega"] = _number(fb.get("omega", 0.0), f"{key}.omega", low=-360, high=360)
-    out["u"] = _number(fb.get("u", 0.0), f"{key}.u", low=-10, high=10)
-    out["f"] = _number(fb.get("f", 1.0), f"{key}.f", positive=True)
-    if out["u"] and shape != "bent-rod":
-        raise SpecError(f"{key}.u", f"bending (u != 0) needs shape = 'bent-rod', got {shape!r}")
-    if "isovalue" in fb:
-        out["isovalue"] = _number(fb["isovalue"], f"{key}.isovalue")
-    return out
 
 
 def explicit_fibers(spec: dict) -> list[Fiber]:

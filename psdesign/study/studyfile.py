@@ -9,10 +9,27 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from pydantic import ValidationError
+
+from psdesign.errors import SpecError
+from psdesign.schema.budget import MAX_CASES, MAX_LEVELS
+from psdesign.schema.errors import did_you_mean, first_error
+from psdesign.schema.keys import spec_paths
+from psdesign.schema.spec import SpecWarning, read_toml, validate_spec
+from psdesign.schema.study import (
+    DESIGNS,
+    OUTPUTS,
+    SOLVERS,
+    BoundsParam,
+    RangeParam,
+    StudyTable,
+)
+from psdesign.schema.types import short
 
 __all__ = [
     "DESIGNS",
@@ -26,87 +43,17 @@ __all__ = [
     "parse_study",
 ]
 
-DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
-OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor")
-SOLVERS = ("fem", "voxel")
-STUDY_KEYS = (
-    "name",
-    "design",
-    "csv",
-    "n_samples",
-    "seeds",
-    "replicates",
-    "outputs",
-    "solver",
-    "timeout_s",
-    "design_seed",
-    "description",
-)
-RANGE_KEYS = frozenset({"start", "stop", "step"})
-BOUNDS_KEYS = frozenset({"low", "high", "dist", "levels", "type"})
+
+STUDY_KEYS = tuple(StudyTable.model_fields)
+RANGE_KEYS = frozenset(RangeParam.model_fields)
+BOUNDS_KEYS = frozenset(BoundsParam.model_fields)
 DISTS = ("uniform", "loguniform")
 VALUE_TYPES = ("float", "int")
 
-#: Spec keys a parameter may set even when the base spec does not hold them (optional keys of
-#: the RVE spec, see /work/shared/design.md).  Extend this list when the spec grows.
-KNOWN_SPEC_KEYS: set[str] = {
-    "rve.size",
-    "rve.voxel",
-    "rve.period",
-    "generator.kind",
-    "generator.porosity",
-    "generator.n_fibers",
-    "generator.diameter",
-    "generator.seed",
-    "generator.theta",
-    "generator.theta.dist",
-    "generator.theta.low",
-    "generator.theta.high",
-    "generator.omega",
-    "generator.omega.dist",
-    "generator.omega.low",
-    "generator.omega.high",
-    "generator.u",
-    "generator.f",
-    "generator.layers",
-    "generator.orientation",
-    "generator.tx",
-    "generator.ty",
-    "generator.tz",
-    "generator.porosity_tolerance",
-    "generator.max_fibers",
-    *(
-        f"intersections.{k}"
-        for k in (
-            "method",
-            "min_gap",
-            "max_rotation_deg",
-            "orientation_tries",
-            "step",
-            "population",
-            "generations",
-            "objective",
-            "ga_voxel",
-            "angle_range_deg",
-            "shift_range",
-            "time_limit_s",
-        )
-    ),
-    *(
-        f"flow.{k}"
-        for k in (
-            "solver",
-            "viscosity",
-            "aux_length",
-            "direction",
-            "sides",
-            "pressure_drop",
-            "tol",
-            "edge_length",
-            "max_memory_gb",
-        )
-    ),
-}
+#: Spec paths a parameter may set even when the base spec does not hold them: every key of the
+#: ``rve``, ``generator``, ``intersections`` and ``flow`` tables of the schema (derived from
+#: :mod:`psdesign.schema`, see :func:`psdesign.schema.keys.spec_paths`).
+KNOWN_SPEC_KEYS: frozenset[str] = frozenset(spec_paths())
 
 
 class StudyError(ValueError):
@@ -228,8 +175,13 @@ def _err(key: str, msg: str) -> StudyError:
     return StudyError(f"{key}: {msg}")
 
 
-def _is_number(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool)
+def _validate(model: type, value: Any, key: str) -> Any:
+    """Validate ``value`` with a schema model; errors become one-line StudyErrors."""
+    try:
+        return model.model_validate(value)
+    except ValidationError as exc:
+        k, msg = first_error(exc, model, key)
+        raise _err(k, msg) from None
 
 
 def _lookup(spec: Any, parts: list[str]) -> bool:
@@ -256,11 +208,14 @@ def check_spec_path(base: dict, path: str, key: str) -> None:
         raise _err(key, f"empty segment in parameter path {path!r}")
     if _lookup(base, parts) or path in KNOWN_SPEC_KEYS:
         return
-    known = sorted(KNOWN_SPEC_KEYS)
+    table = parts[0]
+    same = sorted(k for k in KNOWN_SPEC_KEYS if k.split(".")[0] == table and k.count(".") == 1)
+    allowed = same or sorted(k for k in KNOWN_SPEC_KEYS if "." not in k)
+    hint = did_you_mean(path, same or KNOWN_SPEC_KEYS)
     raise _err(
         key,
-        f"unknown parameter path {path!r}: not in the base spec and not a known spec key "
-        f"(known: {', '.join(known)})",
+        f"unknown parameter path {path!r}{hint}: not in the base spec and not a spec key "
+        f"(allowed: {', '.join(allowed)}, their sub-keys, or paths in the base spec)",
     )
 
 
@@ -268,15 +223,14 @@ def _range_values(key: str, spec: dict) -> tuple:
     missing = RANGE_KEYS - set(spec)
     if missing:
         raise _err(key, f"range needs start, stop and step (missing {', '.join(sorted(missing))})")
+    r = _validate(RangeParam, spec, key)
     start, stop, step = spec["start"], spec["stop"], spec["step"]
-    for name, v in (("start", start), ("stop", stop), ("step", step)):
-        if not _is_number(v) or not math.isfinite(v):
-            raise _err(f"{key}.{name}", f"must be a finite number, got {v!r}")
     if step == 0 or (stop - start) * step < 0:
         raise _err(f"{key}.step", f"must be non-zero and point from start={start} to stop={stop}")
-    n = int(math.floor((stop - start) / step + 1e-9)) + 1
-    if n > 100_000:
-        raise _err(key, f"range has {n} values; allowed at most 100000")
+    n_float = (r.stop - r.start) / r.step + 1e-9
+    if not n_float < MAX_LEVELS:
+        raise _err(key, f"range has {n_float:.3g} values (allowed: at most {MAX_LEVELS})")
+    n = int(math.floor(n_float)) + 1
     all_int = all(isinstance(v, int) for v in (start, stop, step))
     vals = [start + i * step for i in range(n)]
     if not all_int:
@@ -288,47 +242,31 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
     if isinstance(value, list):
         if not value:
             raise _err(key, "empty list of values; give at least one value")
+        if len(value) > MAX_LEVELS:
+            raise _err(key, f"{len(value)} levels (allowed: at most {MAX_LEVELS})")
         return ParamSpec(path=path, kind="values", values=tuple(value))
     if isinstance(value, dict):
         keys = set(value)
         if keys and keys <= RANGE_KEYS:
-            vals = _range_values(key, value)
-            return ParamSpec(path=path, kind="values", values=vals)
+            return ParamSpec(path=path, kind="values", values=_range_values(key, value))
         if keys and keys <= BOUNDS_KEYS:
             for name in ("low", "high"):
                 if name not in value:
                     raise _err(key, f"bounds need low and high (missing {name})")
-                if not _is_number(value[name]) or not math.isfinite(value[name]):
-                    raise _err(f"{key}.{name}", f"must be a finite number, got {value[name]!r}")
-            low, high = float(value["low"]), float(value["high"])
-            if not low < high:
-                raise _err(key, f"low must be < high, got low={low}, high={high}")
-            dist = value.get("dist", "uniform")
-            if dist not in DISTS:
-                raise _err(f"{key}.dist", f"got {dist!r}; allowed: {', '.join(DISTS)}")
-            if dist == "loguniform" and low <= 0:
-                raise _err(f"{key}.low", f"loguniform needs low > 0, got {low}")
-            vtype = value.get("type", "float")
-            if vtype not in VALUE_TYPES:
-                raise _err(f"{key}.type", f"got {vtype!r}; allowed: {', '.join(VALUE_TYPES)}")
-            levels = value.get("levels")
-            if levels is not None and (
-                not isinstance(levels, int) or isinstance(levels, bool) or levels < 1
-            ):
-                raise _err(f"{key}.levels", f"must be an integer >= 1, got {levels!r}")
+            b = _validate(BoundsParam, value, key)
             return ParamSpec(
                 path=path,
                 kind="bounds",
-                low=low,
-                high=high,
-                dist=dist,
-                value_type=vtype,
-                levels=levels,
+                low=b.low,
+                high=b.high,
+                dist=b.dist,
+                value_type=b.type,
+                levels=b.levels,
             )
     raise _err(
         key,
         "a parameter must be a list of values, a range {start=, stop=, step=} or bounds "
-        f"{{low=, high=[, dist=, levels=, type=]}}; got {value!r}",
+        f"{{low=, high=[, dist=, levels=, type=]}}; got {short(value)}",
     )
 
 
@@ -353,17 +291,6 @@ def _flatten_parameters(table: dict, prefix: str = "") -> list[tuple[str, Any]]:
         else:
             out.append((path, v))
     return out
-
-
-def _int_list(key: str, v: Any) -> list[int]:
-    if not isinstance(v, list) or not v:
-        raise _err(key, f"must be a non-empty list of integers, got {v!r}")
-    for s in v:
-        if not isinstance(s, int) or isinstance(s, bool):
-            raise _err(key, f"must be a list of integers, got element {s!r}")
-    if len(set(v)) != len(v):
-        raise _err(key, f"seeds must be distinct, got {v!r}")
-    return list(v)
 
 
 def _read_csv_rows(path: Path, key: str) -> tuple[list[str], list[dict]]:
@@ -410,15 +337,17 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
     StudyError
         With one line naming the bad key and the allowed values.
     """
-    if not isinstance(data, dict):
-        raise _err("study", "the study file must be a TOML document")
-    top_allowed = {"base", "study", "parameters"}
-    for k in data:
-        if k not in top_allowed:
-            raise _err(k, f"unknown top-level key; allowed: {', '.join(sorted(top_allowed))}")
-    root = source.parent if source is not None else Path.cwd()
+    try:
+        return _parse_study(data, source)
+    except RecursionError:
+        raise _err("study", "nested too deeply (allowed: a few levels of tables)") from None
+    except (OverflowError, MemoryError) as exc:
+        raise _err(
+            "study", f"cannot validate ({type(exc).__name__}): numbers or sizes too large"
+        ) from None
 
-    # --- base spec
+
+def _read_base(data: dict, root: Path) -> dict:
     if "base" not in data:
         raise _err("base", 'missing: give an inline [base] table or base = "spec.toml"')
     base_raw = data["base"]
@@ -427,85 +356,76 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
         if not bpath.is_file():
             raise _err("base", f"spec file not found: {bpath}")
         try:
-            with open(bpath, "rb") as fh:
-                base = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise _err("base", f"cannot parse {bpath}: {exc}") from exc
+            base = read_toml(bpath, key="base", error=SpecError)
+        except SpecError as exc:
+            raise _err("base", exc.message) from None
     elif isinstance(base_raw, dict):
         base = copy.deepcopy(base_raw)
     else:
         raise _err("base", f"must be a table or a path string, got {type(base_raw).__name__}")
     if not base:
         raise _err("base", "the base spec is empty; it needs at least an [rve] table")
+    return base
 
-    # --- [study]
-    st = data.get("study")
-    if not isinstance(st, dict):
+
+def _parse_study(data: dict, source: Path | None) -> Study:
+    if not isinstance(data, dict):
+        raise _err("study", "the study file must be a TOML document")
+    top_allowed = ("base", "study", "parameters")
+    for k in data:
+        if k not in top_allowed:
+            raise _err(
+                k,
+                f"unknown top-level key{did_you_mean(k, top_allowed)} (allowed: base, "
+                "study, parameters)",
+            )
+    root = source.parent if source is not None else Path.cwd()
+    st_raw = data.get("study")
+    if not isinstance(st_raw, dict):
         raise _err("study", "missing [study] table (name, design, outputs, solver ...)")
-    for k in st:
-        if k not in STUDY_KEYS:
-            raise _err(f"study.{k}", f"unknown key; allowed: {', '.join(STUDY_KEYS)}")
-    name = st.get("name", source.stem if source is not None else "study")
-    if not isinstance(name, str) or not name.strip():
-        raise _err("study.name", f"must be a non-empty string, got {name!r}")
-    design = st.get("design", "full-factorial")
-    if design not in DESIGNS:
-        raise _err("study.design", f"got {design!r}; allowed: {', '.join(DESIGNS)}")
-
-    n_samples = st.get("n_samples")
-    if design in ("latin-hypercube", "sobol"):
-        if n_samples is None:
-            raise _err("study.n_samples", f"required for design {design!r} (integer >= 1)")
-    if n_samples is not None and (
-        not isinstance(n_samples, int) or isinstance(n_samples, bool) or n_samples < 1
-    ):
-        raise _err("study.n_samples", f"must be an integer >= 1, got {n_samples!r}")
-    if n_samples is not None and n_samples > 1_000_000:
-        raise _err("study.n_samples", f"must be <= 1000000, got {n_samples}")
-
-    design_seed = st.get("design_seed", 0)
-    if not isinstance(design_seed, int) or isinstance(design_seed, bool) or design_seed < 0:
-        raise _err("study.design_seed", f"must be an integer >= 0, got {design_seed!r}")
-
-    if "seeds" in st and "replicates" in st:
-        raise _err("study.seeds", "give either seeds = [...] or replicates = N, not both")
-    if "seeds" in st:
-        seeds = _int_list("study.seeds", st["seeds"])
+    st = _validate(StudyTable, st_raw, "study")
+    base = _read_base(data, root)
+    name = st.name if st.name is not None else (source.stem if source is not None else "study")
+    if st.seeds is not None:
+        seeds = list(st.seeds)
     else:
-        reps = st.get("replicates", 1)
-        if not isinstance(reps, int) or isinstance(reps, bool) or reps < 1:
-            raise _err("study.replicates", f"must be an integer >= 1, got {reps!r}")
+        reps = st.replicates or 1
         gen = base.get("generator") if isinstance(base.get("generator"), dict) else {}
         s0 = gen.get("seed", 1)
-        if not isinstance(s0, int) or isinstance(s0, bool):
-            raise _err("base.generator.seed", f"must be an integer, got {s0!r}")
+        if not isinstance(s0, int) or isinstance(s0, bool) or not 0 <= s0 < 2**62:
+            raise _err("base.generator.seed", f"must be an integer >= 0, got {short(s0)}")
         seeds = [s0 + i for i in range(reps)]
-
-    outputs = st.get("outputs", ["porosity", "k_z"])
-    if isinstance(outputs, str):
-        outputs = [outputs]
-    if not isinstance(outputs, list) or not outputs:
-        raise _err("study.outputs", f"must be a non-empty list among {', '.join(OUTPUTS)}")
-    for o in outputs:
-        if o not in OUTPUTS:
-            raise _err("study.outputs", f"unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")
+    outputs = [st.outputs] if isinstance(st.outputs, str) else list(st.outputs)
     outputs = list(dict.fromkeys(outputs))
-
     flow = base.get("flow") if isinstance(base.get("flow"), dict) else {}
-    solver = st.get("solver", flow.get("solver", "fem"))
+    solver = st.solver or flow.get("solver", "fem")
     if solver not in SOLVERS:
-        raise _err("study.solver", f"got {solver!r}; allowed: {', '.join(SOLVERS)}")
+        raise _err("base.flow.solver", f"got {short(solver)}; allowed: {', '.join(SOLVERS)}")
 
-    timeout_s = st.get("timeout_s")
-    if timeout_s is not None:
-        if not _is_number(timeout_s) or not math.isfinite(timeout_s) or timeout_s <= 0:
-            raise _err("study.timeout_s", f"must be a number > 0 (seconds), got {timeout_s!r}")
-        timeout_s = float(timeout_s)
+    params, csv_rows = _parameters(data, st, base, root, seeds)
+    study = Study(
+        name=name.strip(),
+        design=st.design,
+        base=base,
+        parameters=params,
+        seeds=seeds,
+        outputs=outputs,
+        solver=solver,
+        n_samples=st.n_samples,
+        timeout_s=st.timeout_s,
+        design_seed=st.design_seed,
+        csv_rows=csv_rows,
+        source=source,
+        description=st.description,
+    )
+    check_study_specs(study)
+    return study
 
-    description = st.get("description", "")
-    if not isinstance(description, str):
-        raise _err("study.description", "must be a string")
 
+def _parameters(
+    data: dict, st: StudyTable, base: dict, root: Path, seeds: list[int]
+) -> tuple[dict[str, ParamSpec], list[dict] | None]:
+    """The ``[parameters]`` table (and the CSV design's columns), validated."""
     # --- [parameters]
     ptable = data.get("parameters", {})
     if not isinstance(ptable, dict):
@@ -519,12 +439,13 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
         params[path] = _param_spec(path, value, key)
 
     csv_rows = None
-    if design == "csv":
-        if "csv" not in st:
-            raise _err("study.csv", "required for design 'csv' (path to a CSV file)")
-        if not isinstance(st["csv"], str):
-            raise _err("study.csv", f"must be a path string, got {st['csv']!r}")
-        cols, csv_rows = _read_csv_rows((root / st["csv"]).resolve(), "study.csv")
+    if st.design == "csv":
+        cols, csv_rows = _read_csv_rows((root / st.csv).resolve(), "study.csv")
+        if len(csv_rows) * (1 if "seed" in cols else len(seeds)) > MAX_CASES:
+            raise _err(
+                "study.csv",
+                f"{len(csv_rows)} rows x {len(seeds)} seeds (allowed: at most {MAX_CASES} cases)",
+            )
         for c in cols:
             if c == "seed":
                 continue
@@ -539,32 +460,89 @@ def parse_study(data: dict, source: Path | None = None) -> Study:
                 elif not isinstance(row["seed"], int):
                     raise _err("study.csv", f"row {i + 1}: seed must be an integer, got {s!r}")
     else:
-        if "csv" in st:
-            raise _err("study.csv", f"only allowed with design = 'csv' (design is {design!r})")
         if not params:
             raise _err("parameters", "no parameters to vary; the design would be empty")
-        if design == "full-factorial":
+        if st.design == "full-factorial":
             for p in params.values():
                 if p.kind == "bounds" and p.levels is None:
                     raise _err(
                         f"parameters.{p.path}",
                         "bounds need levels = N in a full-factorial design (or give a list/range)",
                     )
-    return Study(
-        name=name.strip(),
-        design=design,
-        base=base,
-        parameters=params,
-        seeds=seeds,
-        outputs=outputs,
-        solver=solver,
-        n_samples=n_samples,
-        timeout_s=timeout_s,
-        design_seed=design_seed,
-        csv_rows=csv_rows,
-        source=source,
-        description=description,
-    )
+        _check_design_size(st, params, seeds)
+    return params, csv_rows
+
+
+def _check_design_size(st: StudyTable, params: dict[str, ParamSpec], seeds: list[int]) -> None:
+    """Refuse a design with more than :data:`MAX_CASES` cases, before expanding it."""
+    if st.design == "full-factorial":
+        n = math.prod(
+            len(p.values) if p.kind == "values" else int(p.levels) for p in params.values()
+        )
+        what = "full factorial"
+    else:
+        n, what = int(st.n_samples), st.design
+    if n * len(seeds) > MAX_CASES:
+        raise _err(
+            "parameters",
+            f"{what} gives {n * len(seeds):.4g} cases ({len(seeds)} seeds) "
+            f"(allowed: at most {MAX_CASES})",
+        )
+
+
+def _levels_to_check(p: ParamSpec) -> list:
+    if p.kind == "values":
+        return list(p.values)
+    ends = [p.low, p.high]
+    return [int(round(v)) for v in ends] if p.value_type == "int" else ends
+
+
+def _under(key: str, path: str) -> bool:
+    """True if the spec error key ``key`` is at or below the parameter ``path``."""
+    dotted = key.replace("[", ".").replace("]", "")
+    return dotted == path or dotted.startswith(path + ".")
+
+
+def check_study_specs(study: Study) -> None:
+    """Validate the base spec and every parameter level against the schema, before any work.
+
+    The base is validated with the first level of every parameter applied; then each level of
+    each parameter (up to 200 per parameter, the others at their first level). An error in a
+    key no parameter touches is reported as ``base.KEY``; a level whose own key is invalid as
+    ``parameters.PATH``. Errors that only arise from combinations are left to the runner's
+    per-case check (``psdesign.study.runner.validate_case_specs``), which names the case.
+    """
+    from psdesign.study.design import apply_params
+
+    first: dict = {}
+    for p in study.parameters.values():
+        levels = _levels_to_check(p)
+        if levels:
+            first[p.path] = levels[0]
+        elif study.csv_rows:
+            first[p.path] = study.csv_rows[0].get(p.path)
+    seed = study.seeds[0] if study.seeds else None
+
+    def check(point: dict) -> tuple[str, str] | None:
+        spec = apply_params(study.base, point, seed)
+        if isinstance(spec.get("flow"), dict):
+            spec["flow"] = {**spec["flow"], "solver": study.solver}
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", SpecWarning)
+                validate_spec(spec)
+        except SpecError as exc:
+            return exc.key, str(exc)
+        return None
+
+    bad = check(first)
+    if bad and not any(_under(bad[0], p) or _under(p, bad[0]) for p in study.parameters):
+        raise _err(f"base.{bad[0]}", bad[1].partition(": ")[2])
+    for p in study.parameters.values():
+        for v in _levels_to_check(p)[:200]:
+            bad = check({**first, p.path: v})
+            if bad and _under(bad[0], p.path):
+                raise _err(f"parameters.{p.path}", f"level {short(v)} gives {bad[1]}")
 
 
 def load_study(path: str | Path) -> Study:
@@ -582,14 +560,12 @@ def load_study(path: str | Path) -> Study:
     Raises
     ------
     StudyError
-        File missing, TOML syntax error, or any invalid key (one line naming it).
+        File missing, too large, not UTF-8, TOML syntax error, or any invalid key (one line
+        naming it).
     """
     p = Path(path)
-    if not p.is_file():
-        raise _err("study", f"file not found: {p}")
     try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise _err("study", f"cannot parse {p}: {exc}") from exc
+        data = read_toml(p, key="study", error=SpecError)
+    except SpecError as exc:
+        raise _err("study", exc.message) from None
     return parse_study(data, source=p.resolve())

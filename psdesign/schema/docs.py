@@ -1,0 +1,61 @@
+"""Generate ``docs/spec-keys.md``, the key tables of the RVE spec and the study file.
+
+Run ``python -m psdesign.schema.docs > docs/spec-keys.md`` after changing the schema;
+``tests/unit/test_consistency.py`` fails while the file and the schema disagree.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from psdesign.schema.keys import key_rows, study_rows
+
+HEADER = """# Spec and study keys
+
+Generated from the schema (`psdesign/schema/`) by `python -m psdesign.schema.docs`; do not
+edit by hand. Every key is validated before any work starts: a bad value ends with exit
+status 2 and one line `psdesign: error: KEY: message (allowed: ...)`. Unknown keys and tables
+are errors with a "did you mean". Lengths in metres, angles in degrees.
+
+Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
+
+* `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
+  (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
+  memory (16 B per voxel, plus 180 B with `flow.solver = "voxel"`) within half the machine's
+  memory (psutil).
+* `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
+  edge.
+* `fibers[i].diameter` < the smallest edge and the period; at most 2000 explicit fibers.
+* `generator.diameter` within (0, period / 2); `generator.porosity` below the porosity of the
+  box with one fiber of the smallest diameter and below `1 - porosity_tolerance` (an empty RVE
+  is an error); above `1 - pi / sqrt(12)` (densest packing) when `intersections.method` is
+  `fast` or `ga`; below 0.72 with `fast` a warning: zero-overlap placement of near-planar
+  straight fibers jams at 0.69-0.72 in a 100 um cube (`studies/porosity_sweep.toml`).
+* `generator.n_fibers` <= `generator.max_fibers`, and (fast/ga) the fibers' volume below the
+  densest packing; the fiber count a porosity needs <= `max_fibers`.
+* GA work `population x generations x fibers` <= 5e9.
+* Studies: at most 1000 seeds, 10000 levels per parameter, 100000 cases; `n_samples` only
+  with latin-hypercube / sobol; the base spec and every parameter level validated at load.
+"""
+
+
+def _table(title: str, rows: list[tuple[str, str, str]]) -> str:
+    out = [f"## {title}", "", "| key | default | allowed |", "| --- | --- | --- |"]
+    for key, default, allowed in rows:
+        out.append(f"| `{key}` | {default.replace('|', '/')} | {allowed.replace('|', '/')} |")
+    return "\n".join(out) + "\n"
+
+
+def render() -> str:
+    """The whole ``docs/spec-keys.md`` text."""
+    parts = [HEADER]
+    for name, rows in key_rows().items():
+        title = "distribution tables" if name == "distribution" else f"[{name}]"
+        parts.append(_table(title, rows))
+    for name, rows in study_rows().items():
+        parts.append(_table(f"study file: {name}", rows))
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    sys.stdout.write(render())

@@ -1,0 +1,205 @@
+"""The whole RVE spec: tables plus the cross-field checks that need several of them."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+from pydantic import Field, model_validator
+
+from psdesign.schema import budget
+from psdesign.schema.distributions import support
+from psdesign.schema.fibers import FiberTable
+from psdesign.schema.flow import FlowTable
+from psdesign.schema.forcefield import ForceFieldTable
+from psdesign.schema.generator import GeneratorTable, IntersectionsTable
+from psdesign.schema.rve import RveTable
+from psdesign.schema.types import Table, fail
+
+#: Densest packing of equal infinite cylinders (Bezdek & Kuperberg 1990): pi / sqrt(12).
+MAX_CYLINDER_PACKING = math.pi / math.sqrt(12.0)
+#: Zero-overlap ("fast") placement of straight fibers tilted <= 5 deg jams at porosity
+#: 0.69-0.72 in a 100 um cube (studies/porosity_sweep.toml); below it expect a jam.
+FAST_JAM_POROSITY = 0.72
+
+
+class SpecWarning(UserWarning):
+    """A spec that is valid but likely to fail or to be slow (printed as one line)."""
+
+
+class SpecDocument(Table):
+    """An RVE spec: ``[rve]``, ``[[fibers]]``, ``[generator]``, ``[intersections]``, ``[flow]``."""
+
+    entry = "table"
+
+    rve: RveTable = Field(description="table (required)")
+    fibers: list[FiberTable] = Field(default_factory=list, description="array of tables")
+    generator: GeneratorTable | None = Field(None, description="table")
+    intersections: IntersectionsTable | None = Field(None, description="table")
+    flow: FlowTable = Field(default_factory=FlowTable, description="table")
+    forcefield: ForceFieldTable | None = Field(None, description="table (force-field specs)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _one_fiber_table(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("fibers"), dict):
+            data = {**data, "fibers": [data["fibers"]]}
+        if isinstance(data, dict) and "rve" not in data:
+            raise fail(
+                "rve",
+                "missing [rve] table with size = [x, y, z] in metres",
+                "[rve] size = [x, y, z]",
+            )
+        return data
+
+    # ------------------------------------------------------------------ derived values
+    @property
+    def voxel(self) -> float:
+        return self.rve.voxel if self.rve.voxel is not None else min(self.rve.size) / 100
+
+    @property
+    def period(self) -> float:
+        return self.rve.period if self.rve.period is not None else max(self.rve.size)
+
+    @model_validator(mode="after")
+    def _cross(self) -> SpecDocument:
+        size, voxel, period = self.rve.size, self.voxel, self.period
+        if voxel > min(size) / 4:
+            raise fail(
+                "rve.voxel",
+                f"{voxel:g} m is over a quarter of the smallest edge",
+                f"<= {min(size) / 4:g} m",
+            )
+        budget.check_copies(size, period)
+        budget.check_grid(size, voxel, self.flow.solver)
+        if self.flow.lattice_step is not None and self.flow.lattice_step > min(size) / 2:
+            raise fail(
+                "flow.lattice_step",
+                f"{self.flow.lattice_step:g} m is over half the smallest edge",
+                f"<= {min(size) / 2:g} m",
+            )
+        if self.flow.lattice_step is not None:
+            budget.check_cells(
+                "flow.lattice_step", size, self.flow.lattice_step, budget.MAX_LATTICE_CELLS
+            )
+        self._check_fibers(size, voxel, period)
+        if not self.fibers and self.generator is None:
+            raise fail(
+                "fibers",
+                "no fibers: give [[fibers]] tables or a [generator] table",
+                "[[fibers]] or [generator]",
+            )
+        if self.generator is not None:
+            self._check_generator(size, voxel, period)
+        return self
+
+    def _check_fibers(self, size, voxel: float, period: float) -> None:
+        if len(self.fibers) > budget.MAX_EXPLICIT_FIBERS:
+            raise fail(
+                "fibers",
+                f"{len(self.fibers)} explicit fibers",
+                f"at most {budget.MAX_EXPLICIT_FIBERS} (use [generator])",
+            )
+        limit = min(min(size), period)
+        for i, fb in enumerate(self.fibers):
+            for k, c in enumerate(fb.center or ()):
+                if not -size[k] <= c <= 2 * size[k]:
+                    raise fail(
+                        f"fibers[{i}].center[{k}]",
+                        f"{c:g} m is far outside the box",
+                        f"[{-size[k]:g}, {2 * size[k]:g}] m",
+                    )
+            if fb.diameter is None or fb.shape not in ("rod", "cylinder", "bent-rod"):
+                continue
+            if fb.diameter >= limit:
+                raise fail(
+                    f"fibers[{i}].diameter",
+                    f"{fb.diameter:g} m is not below the cell",
+                    f"< {limit:g} m",
+                )
+            if voxel > fb.diameter / 2:
+                raise fail(
+                    "rve.voxel",
+                    f"{voxel:g} m gives under 2 voxels across fibers[{i}] "
+                    f"(diameter {fb.diameter:g} m)",
+                    f"<= {fb.diameter / 2:g} m",
+                )
+
+    def _check_generator(self, size, voxel: float, period: float) -> None:
+        g = self.generator
+        inter = self.intersections or IntersectionsTable()
+        dlo, dhi = support(g.diameter)
+        if not (dlo > 0 and dhi < 0.5 * period):
+            raise fail(
+                "generator.diameter",
+                f"the distribution allows [{dlo:g}, {dhi:g}] m (truncate with low/high)",
+                f"(0, {0.5 * period:g}) m (half the period)",
+            )
+        if voxel > dlo / 2:
+            raise fail(
+                "rve.voxel",
+                f"{voxel:g} m gives under 2 voxels across the thinnest generated fiber ({dlo:g} m)",
+                f"<= {dlo / 2:g} m",
+            )
+        if not -0.5 * dlo <= inter.min_gap < 0.5 * period:
+            raise fail(
+                "intersections.min_gap",
+                f"got {inter.min_gap:g}",
+                f"[{-0.5 * dlo:g}, {0.5 * period:g}) m",
+            )
+        # solid fraction of the thinnest fiber crossing the box along its shortest edge
+        one = math.pi * dlo * dlo / 4 * min(size) / math.prod(size)
+        packs = inter.method != "none"
+        if g.porosity is not None:
+            self._check_porosity(g.porosity, g.porosity_tolerance, one, inter.method)
+            n_est = (1 - g.porosity) / max(one, 1e-300)
+        else:
+            n_est = float(g.n_fibers)
+            if packs and g.n_fibers * one > MAX_CYLINDER_PACKING:
+                raise fail(
+                    "generator.n_fibers",
+                    f"{g.n_fibers} fibers of diameter >= {dlo:g} m "
+                    f"fill {g.n_fibers * one:.3g} of the box, over the densest packing "
+                    "pi/sqrt(12) without overlap",
+                    f"<= {MAX_CYLINDER_PACKING / one:.0f}",
+                )
+        if n_est > g.max_fibers:
+            raise fail(
+                "generator.porosity",
+                f"needs about {n_est:.0f} fibers, over max_fibers = {g.max_fibers}",
+                "a porosity reachable with max_fibers fibers",
+            )
+        if inter.step is not None and inter.step < min(size) / 1e4:
+            raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")
+        if inter.ga_voxel is not None:
+            budget.check_grid(size, inter.ga_voxel, "fem", key="intersections.ga_voxel")
+        if inter.method == "ga":
+            budget.check_ga(inter.population or 24, inter.generations or 40, n_est)
+
+    @staticmethod
+    def _check_porosity(porosity: float, tol: float, one: float, method: str) -> None:
+        top = min(1.0 - one, 1.0 - tol)
+        if porosity > top:
+            raise fail(
+                "generator.porosity",
+                f"{porosity} is above the porosity of one fiber or "
+                "within the tolerance of an empty box (the RVE would be empty)",
+                f"<= {top:.4f}",
+            )
+        if method != "none" and porosity <= 1.0 - MAX_CYLINDER_PACKING:
+            raise fail(
+                "generator.porosity",
+                f"must be > {1 - MAX_CYLINDER_PACKING:.4f} for "
+                f"non-overlapping fibers (densest cylinder packing pi/sqrt(12)), got "
+                f"{porosity}",
+                f"> {1 - MAX_CYLINDER_PACKING:.4f}",
+            )
+        if method == "fast" and porosity < FAST_JAM_POROSITY:
+            warnings.warn(
+                f"generator.porosity: {porosity} is below {FAST_JAM_POROSITY}, where zero-overlap "
+                "placement of near-planar straight fibers jams (docs/spec-keys.md); expect "
+                "'packing jammed' or use method = 'none'",
+                SpecWarning,
+                stacklevel=2,
+            )

@@ -1,0 +1,93 @@
+"""Schema of one ``[[fibers]]`` table (an explicit fiber)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from psdesign.geometry.fibers import SHAPES
+from psdesign.schema.types import Table, Vec3, fail, number
+
+#: Shapes that expand to several fibers.
+CELL_SHAPES = ("woven-cell",)
+Shape = Literal[tuple(SHAPES + CELL_SHAPES)]  # type: ignore[valid-type]
+Angle = number(ge=-360, le=360)
+#: Largest bend slope amplitude ``|u| f`` (Eq. 16; the paper's fibers have u f <= 3).
+MAX_SLOPE = 10.0
+
+
+class FiberTable(Table):
+    """One explicit fiber (lengths in metres, angles in degrees)."""
+
+    shape: Shape = Field("rod", description=" | ".join(SHAPES + CELL_SHAPES) + " (default rod)")
+    diameter: number(gt=0) | None = Field(
+        None,
+        description="metres > 0, below the smallest edge and the period (rod, cylinder, "
+        "bent-rod: required)",
+    )
+    center: Vec3 | None = Field(
+        None, description="[x, y, z] metres, each in [-edge, 2 edge] (default: the box centre)"
+    )
+    theta: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
+    omega: Angle | None = Field(None, description="degrees in [-360, 360] (default 0)")
+    direction: Vec3 | None = Field(
+        None, description="[dx, dy, dz], non-zero (instead of theta/omega)"
+    )
+    u: number(ge=-10, le=10) = Field(0.0, description="bent-rod minor moment in [-10, 10]")
+    f: number(gt=0, le=1000) = Field(
+        1.0, description="bends per period in (0, 1000], with |u| f <= 10"
+    )
+    isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
+    thickness_axis: Literal["x", "z"] | None = Field(None, description="x | z (woven-cell only)")
+
+    @model_validator(mode="after")
+    def _check(self) -> FiberTable:
+        given = self.model_fields_set
+        if self.shape == "woven-cell":
+            extra = sorted(given - {"shape", "thickness_axis"})
+            if extra:
+                raise fail(extra[0], "woven-cell takes only thickness_axis", "thickness_axis")
+            return self
+        if self.thickness_axis is not None:
+            raise fail("thickness_axis", "only used with shape = 'woven-cell'", "woven-cell")
+        if self.shape in ("rod", "cylinder", "bent-rod") and self.diameter is None:
+            raise fail("diameter", "missing; give the fiber diameter in metres", "number > 0 m")
+        if self.direction is not None:
+            if "theta" in given or "omega" in given:
+                raise fail("direction", "give either direction or theta/omega, not both")
+            big = max(abs(c) for c in self.direction)
+            if not 1e-12 <= big <= 1e12:
+                raise fail("direction", "must have a length in [1e-12, 1e12]", "non-zero vector")
+        if abs(self.u) * self.f > MAX_SLOPE:
+            raise fail(
+                "f",
+                f"bend slope |u| f = {abs(self.u) * self.f:g} (a dense zigzag)",
+                f"|u| f <= {MAX_SLOPE:g}",
+            )
+        if self.u and self.shape != "bent-rod":
+            raise fail(
+                "u",
+                f"bending (u != 0) needs shape = 'bent-rod', got {self.shape!r}",
+                "0 unless shape = 'bent-rod'",
+            )
+        return self
+
+    def to_spec(self) -> dict:
+        """The plain dict of today's validated spec."""
+        if self.shape == "woven-cell":
+            return {"shape": self.shape, "thickness_axis": self.thickness_axis or "z"}
+        out: dict = {"shape": self.shape}
+        if self.diameter is not None and self.shape in ("rod", "cylinder", "bent-rod"):
+            out["diameter"] = self.diameter
+        if self.center is not None:
+            out["center"] = list(self.center)
+        if self.direction is not None:
+            out["direction"] = list(self.direction)
+        else:
+            out["theta"] = self.theta or 0.0
+            out["omega"] = self.omega or 0.0
+        out["u"], out["f"] = self.u, self.f
+        if self.isovalue is not None:
+            out["isovalue"] = self.isovalue
+        return out

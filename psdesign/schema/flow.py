@@ -1,0 +1,71 @@
+"""Schema of the ``[flow]`` table."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from psdesign.schema.types import Table, number
+
+#: Defaults filled into every validated spec (other keys appear only when given).
+DEFAULT_FLOW = {
+    "solver": "fem",
+    "viscosity": 1.8e-5,
+    "aux_length": 0.2,
+    "sides": "slip",
+    "pressure_drop": 1.0,
+    "mesher": "stuffing",
+}
+
+
+class FlowTable(Table):
+    """Stokes solve and boundary conditions."""
+
+    solver: Literal["fem", "voxel"] = Field("fem", description="fem | voxel (default fem)")
+    bc: Literal["permeameter", "periodic"] | None = Field(
+        None,
+        description="permeameter | periodic (default: the solver's own, fem -> "
+        "permeameter, voxel -> periodic)",
+    )
+    error_estimate: bool | None = Field(
+        None,
+        description="true | false: second solve at a coarser resolution for the error bar "
+        "(default true)",
+    )
+    wall_treatment: Literal["subvoxel", "staircase"] | None = Field(
+        None,
+        description="subvoxel | staircase (voxel solver walls, default subvoxel where the "
+        "geometry has an analytic distance)",
+    )
+    viscosity: number(gt=0, le=1e6) = Field(1.8e-5, description="Pa s in (0, 1e6] (default 1.8e-5)")
+    aux_length: number(ge=0, le=2) = Field(
+        0.2, description="inlet/outlet zone length, fraction of the RVE length in [0, 2]"
+    )
+    direction: Literal["x", "y", "z"] | None = Field(None, description="x | y | z")
+    sides: Literal["slip", "noslip"] = Field("slip", description="slip | noslip (default slip)")
+    pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
+    tol: number(gt=0, lt=1) | None = Field(None, description="relative tolerance in (0, 1)")
+    edge_length: number(ge=0.005, le=10) | None = Field(
+        None, description="pytetwild edge length, fraction of the diagonal in [0.005, 10]"
+    )
+    max_memory_gb: number(gt=0, le=1e5) | None = Field(
+        None, description="fem solver memory cap, GB in (0, 1e5]"
+    )
+    periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
+        None, description="periodic | mirror | frame (voxel solver, default periodic)"
+    )
+    mesher: Literal["stuffing", "pytetwild"] = Field(
+        "stuffing", description="stuffing | pytetwild (default stuffing)"
+    )
+    lattice_step: number(gt=0) | None = Field(
+        None,
+        description="stuffing lattice step > 0 m, <= half the smallest edge, at most 5e7 "
+        "lattice cells",
+    )
+
+    def to_spec(self) -> dict:
+        """Defaults plus the keys given."""
+        out = dict(DEFAULT_FLOW)
+        out.update({k: getattr(self, k) for k in self.model_fields_set})
+        return out

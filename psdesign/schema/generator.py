@@ -1,0 +1,142 @@
+"""Schema of the ``[generator]`` and ``[intersections]`` tables (paper Sec. 7.1)."""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from psdesign.schema.distributions import DistField, support
+from psdesign.schema.fibers import MAX_SLOPE
+from psdesign.schema.types import Table, fail, integer, number
+
+METHODS = ("none", "ga", "fast")
+DEFAULT_TOLERANCE = 0.005
+#: Hard cap of generated fibers (time budget: placement is O(n^2) candidate tests).
+MAX_FIBERS_CAP = 100_000
+_DIST = "a number or { dist = constant | uniform | normal | beta | exponential, ... }"
+
+
+class Orientation(Table):
+    """Schulz et al. (2007) orientation density."""
+
+    anisotropy: number(gt=0) = Field(1.0, description="beta > 0 (1 = isotropic)")
+
+
+class GeneratorTable(Table):
+    """Random fibers: counts, diameters and Sec. 7.1 parameter distributions."""
+
+    kind: Literal["straight", "bent"] = Field("straight", description="straight | bent")
+    porosity: number(gt=0, lt=1) | None = Field(
+        None,
+        description="target in (0, 1): below one fiber's porosity and 1 - porosity_tolerance; "
+        "above the densest packing for fast/ga (or give n_fibers)",
+    )
+    n_fibers: integer(ge=1, le=MAX_FIBERS_CAP) | None = Field(
+        None, description="integer in [1, max_fibers] (or give porosity)"
+    )
+    diameter: DistField = Field(description=f"metres in (0, period / 2): {_DIST}")
+    seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0 (default 0)")
+    theta: DistField | None = Field(
+        None, description=f"degrees in [-360, 360]: {_DIST} (default uniform [-5, 5])"
+    )
+    omega: DistField | None = Field(
+        None, description=f"degrees in [-360, 360]: {_DIST} (default uniform [0, 180])"
+    )
+    orientation: Orientation | None = Field(
+        None, description="{ anisotropy = beta } instead of theta/omega"
+    )
+    tx: DistField | None = Field(None, description=f"fraction of the x edge in [-1, 2]: {_DIST}")
+    ty: DistField | None = Field(None, description=f"fraction of the y edge in [-1, 2]: {_DIST}")
+    tz: DistField | None = Field(None, description=f"fraction of the z edge in [-1, 2]: {_DIST}")
+    u: DistField | None = Field(
+        None, description=f"bent only, in (-pi, pi): {_DIST} (default uniform [0.1, 0.3])"
+    )
+    f: DistField | None = Field(
+        None,
+        description=f"bent only, in (0, 1000], max |u| x max f <= 10: {_DIST} (default "
+        "uniform [1, 10])",
+    )
+    porosity_tolerance: number(gt=0, lt=0.5) = Field(
+        DEFAULT_TOLERANCE, description="in (0, 0.5) (default 0.005)"
+    )
+    max_fibers: integer(ge=1, le=MAX_FIBERS_CAP) = Field(
+        5000, description=f"integer in [1, {MAX_FIBERS_CAP}] (default 5000)"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> GeneratorTable:
+        given = self.model_fields_set
+        if ("porosity" in given) == ("n_fibers" in given):
+            raise fail("", "give exactly one of porosity or n_fibers", "porosity or n_fibers")
+        if self.orientation is not None and ({"theta", "omega"} & given):
+            raise fail("orientation", "give either orientation or theta/omega")
+        if self.n_fibers is not None and self.n_fibers > self.max_fibers:
+            raise fail(
+                "n_fibers",
+                f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
+                f"<= {self.max_fibers}",
+            )
+        for k in ("tx", "ty", "tz"):
+            lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
+            if lo < -1 or hi > 2:
+                raise fail(k, f"the distribution allows [{lo:g}, {hi:g}]", "[-1, 2]")
+        for k in ("theta", "omega"):
+            lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
+            if lo < -360 or hi > 360:
+                raise fail(
+                    k,
+                    f"the distribution allows [{lo:g}, {hi:g}] degrees (truncate with low/high)",
+                    "[-360, 360]",
+                )
+        if self.kind == "bent":
+            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= 1000:
+                lo, hi = support(self.f)
+                raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
+            if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
+                raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
+            umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3
+            fmax = support(self.f)[1] if self.f is not None else 10.0
+            if umax * fmax > MAX_SLOPE:
+                raise fail(
+                    "f",
+                    f"bend slope max |u| x max f = {umax * fmax:g} (a dense zigzag)",
+                    f"max |u| x max f <= {MAX_SLOPE:g}",
+                )
+        else:
+            for k in ("u", "f"):
+                if k in given:
+                    raise fail(k, "only used with kind = 'bent'", "kind = 'bent'")
+        return self
+
+
+class IntersectionsTable(Table):
+    """Intersection removal: none, the paper's GA, or fast sequential placement."""
+
+    method: Literal["none", "ga", "fast"] = Field("none", description="none | ga | fast")
+    min_gap: number() = Field(0.0, description="metres in [-d_min / 2, period / 2) (default 0)")
+    max_rotation_deg: number(ge=0, le=360) | None = Field(None, description="degrees in [0, 360]")
+    orientation_tries: integer(ge=0, le=1000) | None = Field(
+        None, description="integer in [0, 1000]"
+    )
+    step: number(gt=0) | None = Field(None, description="metres > 0, >= smallest edge / 1e4")
+    max_shift_z: number(gt=0) | None = Field(None, description="metres > 0")
+    max_ejections: integer(ge=0, le=10_000) | None = Field(
+        None, description="integer in [0, 10000]"
+    )
+    population: integer(ge=2, le=10_000) | None = Field(
+        None, description="GA population, integer in [2, 10000] (default 24)"
+    )
+    generations: integer(ge=2, le=100_000) | None = Field(
+        None, description="GA generations, integer in [2, 100000] (default 40)"
+    )
+    objective: Literal["analytic", "voxel"] | None = Field(None, description="analytic | voxel")
+    ga_voxel: number(gt=0) | None = Field(
+        None, description="metres > 0, GA voxel grid within the memory budget"
+    )
+    angle_range_deg: number(gt=0, le=360) | None = Field(None, description="degrees in (0, 360]")
+    shift_range: number(gt=0, le=1) | None = Field(None, description="fraction in (0, 1]")
+    time_limit_s: number(gt=0, le=604_800) | None = Field(
+        None, description="seconds in (0, 604800] (one week)"
+    )

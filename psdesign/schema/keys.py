@@ -1,0 +1,98 @@
+"""Every key of the schema, as dotted paths with type, default and allowed range.
+
+The study runner derives the parameter paths that may vary from :func:`spec_paths`; the docs
+key tables (``docs/spec-keys.md``) are generated from :func:`key_rows`.
+"""
+
+from __future__ import annotations
+
+import typing
+
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+from psdesign.schema.distributions import DIST_MODELS
+from psdesign.schema.document import SpecDocument
+from psdesign.schema.errors import _models
+from psdesign.schema.study import BoundsParam, RangeParam, StudyTable
+
+__all__ = ["key_rows", "spec_paths", "study_rows"]
+
+#: Tables whose keys a study parameter may set although the base spec lacks them.
+_VARIABLE_TABLES = ("rve", "generator", "intersections", "flow")
+
+
+def _is_dist(annotation) -> bool:
+    return any(m in DIST_MODELS.values() for m in _models(annotation))
+
+
+def _rows(model: type[BaseModel], prefix: str) -> list[tuple[str, str, str]]:
+    """(key, default, allowed) of a table and its sub-tables."""
+    out = []
+    for name, info in model.model_fields.items():
+        key = f"{prefix}{name}"
+        default = "" if info.is_required() else _default(info)
+        out.append((key, default, info.description or ""))
+        subs = [m for m in _models(info.annotation) if m not in DIST_MODELS.values()]
+        if subs and typing.get_origin(info.annotation) is not dict:
+            for sub in subs:
+                out += _rows(sub, f"{key}.")
+    return out
+
+
+def _default(info) -> str:
+    if info.default_factory is not None:
+        return "(table)"
+    return "" if info.default in (None, PydanticUndefined) else repr(info.default)
+
+
+def key_rows() -> dict[str, list[tuple[str, str, str]]]:
+    """Key rows per RVE spec table (``fibers`` keys as ``fibers[].key``)."""
+    tables: dict[str, list[tuple[str, str, str]]] = {}
+    for name, info in SpecDocument.model_fields.items():
+        prefix = f"{name}[]." if name == "fibers" else f"{name}."
+        model = _models(info.annotation)[0]
+        tables[name] = _rows(model, prefix)
+    dist_keys = sorted({k for m in DIST_MODELS.values() for k in m.model_fields})
+    tables["distribution"] = [
+        (f"<dist>.{k}", "", f"distribution table key ({_dist_users(k)})") for k in dist_keys
+    ]
+    return tables
+
+
+def _dist_users(key: str) -> str:
+    return ", ".join(n for n, m in DIST_MODELS.items() if key in m.model_fields)
+
+
+def study_rows() -> dict[str, list[tuple[str, str, str]]]:
+    """Key rows of the study file: top level, ``[study]`` and the parameter value forms."""
+    top = [
+        ("base", "", "inline table (an RVE spec) or path of a spec file"),
+        ("study", "", "table (required)"),
+        ("parameters", "", "table of dotted spec paths -> list | range | bounds"),
+    ]
+    return {
+        "study file": top,
+        "study": _rows(StudyTable, "study."),
+        "parameter range": _rows(RangeParam, "<range>."),
+        "parameter bounds": _rows(BoundsParam, "<bounds>."),
+    }
+
+
+def spec_paths() -> set[str]:
+    """Dotted paths a study parameter may vary (``rve.size.2``, ``generator.theta.high``)."""
+    paths: set[str] = set()
+    dist_keys = {k for m in DIST_MODELS.values() for k in m.model_fields}
+    for table in _VARIABLE_TABLES:
+        model = _models(SpecDocument.model_fields[table].annotation)[0]
+        paths.add(table)
+        for name, info in model.model_fields.items():
+            key = f"{table}.{name}"
+            paths.add(key)
+            if _is_dist(info.annotation):
+                paths.update(f"{key}.{k}" for k in dist_keys)
+            for sub in _models(info.annotation):
+                if sub not in DIST_MODELS.values():
+                    paths.update(f"{key}.{k}" for k in sub.model_fields)
+    paths.update(f"rve.size.{i}" for i in range(3))
+    return paths

@@ -1,0 +1,101 @@
+"""Schema of a study file: ``base``, ``[study]`` and the value forms of ``[parameters]``."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS
+from psdesign.schema.types import Table, fail, integer, number
+
+DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
+OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor")
+SOLVERS = ("fem", "voxel")
+Output = Literal["porosity", "k_x", "k_y", "k_z", "k_tensor"]
+
+
+class StudyTable(Table):
+    """The ``[study]`` table."""
+
+    name: str | None = Field(None, description="non-empty string (default: the file name)")
+    description: str = Field("", description="string")
+    design: Literal["full-factorial", "latin-hypercube", "sobol", "csv"] = Field(
+        "full-factorial", description="full-factorial | latin-hypercube | sobol | csv"
+    )
+    csv: str | None = Field(None, description="path of the CSV design (design = 'csv' only)")
+    n_samples: integer(ge=1, le=MAX_CASES) | None = Field(
+        None, description=f"integer in [1, {MAX_CASES}] (latin-hypercube / sobol only)"
+    )
+    seeds: list[integer(ge=0, le=2**63 - 1)] | None = Field(
+        None, description=f"distinct integers >= 0, 1 to {MAX_SEEDS} of them"
+    )
+    replicates: integer(ge=1, le=MAX_SEEDS) | None = Field(
+        None, description=f"integer in [1, {MAX_SEEDS}] (seeds generator.seed + 0, 1, ...)"
+    )
+    outputs: Output | list[Output] = Field(
+        ["porosity", "k_z"], description=" | ".join(OUTPUTS) + " (a list)"
+    )
+    solver: Literal["fem", "voxel"] | None = Field(
+        None, description="fem | voxel (default: base flow.solver, else fem)"
+    )
+    timeout_s: number(gt=0, le=1e7) | None = Field(None, description="seconds in (0, 1e7]")
+    design_seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0 (default 0)")
+
+    @model_validator(mode="after")
+    def _check(self) -> StudyTable:
+        if self.name is not None and not self.name.strip():
+            raise fail("name", "must be a non-empty string", "non-empty string")
+        if self.seeds is not None:
+            if self.replicates is not None:
+                raise fail("seeds", "give either seeds = [...] or replicates = N, not both")
+            if not self.seeds or len(self.seeds) > MAX_SEEDS:
+                raise fail("seeds", f"{len(self.seeds)} seeds", f"1 to {MAX_SEEDS} integers")
+            if len(set(self.seeds)) != len(self.seeds):
+                raise fail("seeds", f"seeds must be distinct, got {self.seeds!r}", "distinct")
+        if self.design in ("latin-hypercube", "sobol") and self.n_samples is None:
+            raise fail("n_samples", f"required for design {self.design!r}", "integer >= 1")
+        if self.design not in ("latin-hypercube", "sobol") and self.n_samples is not None:
+            raise fail(
+                "n_samples",
+                f"only used by latin-hypercube / sobol designs, not {self.design!r}",
+                "remove it or change study.design",
+            )
+        if self.design == "csv" and self.csv is None:
+            raise fail("csv", "required for design 'csv' (path to a CSV file)", "a path string")
+        if self.design != "csv" and self.csv is not None:
+            raise fail("csv", f"only allowed with design = 'csv' (design is {self.design!r})")
+        outs = [self.outputs] if isinstance(self.outputs, str) else self.outputs
+        if not outs:
+            raise fail("outputs", "must be a non-empty list", ", ".join(OUTPUTS))
+        return self
+
+
+class RangeParam(Table):
+    """``{start, stop, step}``: levels start, start + step, ... up to and including stop."""
+
+    start: number() = Field(description="finite number")
+    stop: number() = Field(description="finite number")
+    step: number() = Field(description="non-zero, pointing from start to stop")
+
+
+class BoundsParam(Table):
+    """``{low, high[, dist, levels, type]}``: a continuous interval."""
+
+    low: number() = Field(description="finite number < high")
+    high: number() = Field(description="finite number > low")
+    dist: Literal["uniform", "loguniform"] = Field("uniform", description="uniform | loguniform")
+    levels: integer(ge=1, le=MAX_LEVELS) | None = Field(
+        None, description=f"integer in [1, {MAX_LEVELS}] (full factorial)"
+    )
+    type: Literal["float", "int"] = Field("float", description="float | int")
+
+    @model_validator(mode="after")
+    def _check(self) -> BoundsParam:
+        if not self.low < self.high:
+            raise fail(
+                "", f"low must be < high, got low={self.low}, high={self.high}", "low < high"
+            )
+        if self.dist == "loguniform" and self.low <= 0:
+            raise fail("low", f"loguniform needs low > 0, got {self.low}", "> 0")
+        return self

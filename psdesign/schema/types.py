@@ -1,0 +1,104 @@
+"""The one number validator and the shared field types of the schema.
+
+Every number of every table goes through :func:`number` (finite, not a bool, optional bounds)
+or :func:`integer` (a true integer, not a bool, optional bounds); the bounds are pydantic
+``annotated_types`` constraints, so the error carries them and
+:mod:`psdesign.schema.errors` turns them into ``(allowed: ...)``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, ClassVar
+
+import annotated_types as at
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
+
+__all__ = ["Table", "Vec3", "fail", "integer", "number", "short"]
+
+
+def short(value: Any, limit: int = 60) -> str:
+    """``repr`` of a user value, cut to ``limit`` characters; never raises."""
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - e.g. a value whose repr overflows
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def fail(key: str, message: str, allowed: str = "") -> PydanticCustomError:
+    """A schema error at ``key`` (relative to the table validated) with an allowed range."""
+    return PydanticCustomError(
+        "psdesign", "{message}", {"key": key, "message": message, "allowed": allowed}
+    )
+
+
+def _finite(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise PydanticCustomError(
+            "number_type", "must be a number, got {got}", {"got": short(value)}
+        )
+    try:
+        v = float(value)
+    except OverflowError:
+        raise PydanticCustomError(
+            "finite_number", "must be a finite number, got {got}", {"got": short(value)}
+        ) from None
+    if not math.isfinite(v):
+        raise PydanticCustomError(
+            "finite_number", "must be a finite number, got {got}", {"got": short(value)}
+        )
+    return v
+
+
+def _int(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise PydanticCustomError(
+            "int_type", "must be an integer, got {got}", {"got": short(value)}
+        )
+    return value
+
+
+def number(
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+) -> Any:
+    """A finite float type with optional bounds (the one number validator)."""
+    return Annotated[float, BeforeValidator(_finite), at.Interval(gt=gt, ge=ge, lt=lt, le=le)]
+
+
+def integer(*, ge: int | None = None, le: int | None = None) -> Any:
+    """An integer type (bools and floats refused) with optional bounds."""
+    return Annotated[int, BeforeValidator(_int), at.Interval(ge=ge, le=le)]
+
+
+#: Three finite numbers.
+Vec3 = Annotated[tuple[number(), number(), number()], Field(description="[x, y, z] numbers")]
+
+
+class Table(BaseModel):
+    """A TOML table: unknown keys are errors with a "did you mean"."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    #: What an entry of this table is called in messages.
+    entry: ClassVar[str] = "key"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            from psdesign.schema.errors import did_you_mean
+
+            allowed = list(cls.model_fields)
+            for key in data:
+                if key not in allowed:
+                    raise fail(
+                        str(key),
+                        f"unknown {cls.entry}{did_you_mean(str(key), allowed)}",
+                        ", ".join(allowed),
+                    )
+        return data

@@ -1,0 +1,322 @@
+"""Regression tests of the schema: every bad input of issue 11 gives one clean line naming the
+key, and the schema is the one description the generator, the study runner and the CLI read."""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+import warnings
+
+import pytest
+from toml_writer import dumps
+
+from psdesign.cli.main import main
+from psdesign.errors import SpecError
+from psdesign.packing.generators import parse_generator, parse_rve
+from psdesign.schema import budget
+from psdesign.schema.spec import SpecWarning, load_spec, validate_spec
+from psdesign.study.studyfile import KNOWN_SPEC_KEYS, StudyError, load_study, parse_study
+
+BOX = [100e-6, 100e-6, 100e-6]
+SPEC = {
+    "rve": {"size": BOX, "voxel": 1e-6},
+    "generator": {"kind": "straight", "porosity": 0.8, "diameter": 7e-6, "seed": 1},
+    "intersections": {"method": "fast"},
+    "flow": {"solver": "fem"},
+}
+STUDY = {
+    "base": SPEC,
+    "study": {"design": "full-factorial", "seeds": [1, 2], "outputs": ["porosity", "k_z"]},
+    "parameters": {"generator.porosity": [0.75, 0.8]},
+}
+
+
+def with_(doc: dict, path: str, v) -> dict:
+    out = copy.deepcopy(doc)
+    node = out
+    *head, last = path.split(".")
+    for p in head:
+        node = node.setdefault(p, {})
+    node[last] = v
+    return out
+
+
+def spec_err(doc: dict) -> SpecError:
+    with pytest.raises(SpecError) as ei:
+        validate_spec(doc)
+    msg = str(ei.value)
+    assert "\n" not in msg and len(msg) < 2000
+    return ei.value
+
+
+def study_err(doc: dict) -> str:
+    with pytest.raises(StudyError) as ei:
+        parse_study(doc)
+    msg = str(ei.value)
+    assert "\n" not in msg and len(msg) < 3000
+    return msg
+
+
+def test_valid_spec_keeps_the_shape_and_fills_defaults():
+    out = validate_spec(SPEC)
+    assert out["rve"] == {"size": BOX, "voxel": 1e-6, "period": None}
+    assert out["flow"] == {
+        "solver": "fem",
+        "viscosity": 1.8e-5,
+        "aux_length": 0.2,
+        "sides": "slip",
+        "pressure_drop": 1.0,
+        "mesher": "stuffing",
+    }
+    assert out["generator"] == SPEC["generator"] and out["fibers"] == []
+    assert validate_spec(out) == out  # idempotent
+
+
+def test_one_voxel_default_for_spec_and_generator():
+    doc = copy.deepcopy(SPEC)
+    del doc["rve"]["voxel"]
+    assert validate_spec(doc)["rve"]["voxel"] == pytest.approx(1e-6)  # smallest edge / 100
+    assert parse_rve(doc)[1] == pytest.approx(1e-6)
+    assert parse_rve(with_(doc, "rve.size", [50e-6, 100e-6, 200e-6]))[1] == pytest.approx(0.5e-6)
+
+
+@pytest.mark.parametrize(
+    "path, value, key",
+    [
+        ("rve.size", [1e300, 1e-4, 1e-4], "rve.size[0]"),
+        ("rve.size", [1e-4, -1.0, 1e-4], "rve.size[1]"),
+        ("rve.size", [1e-4, 1e-4], "rve.size[2]"),
+        ("rve.size", [1e308, 1e308, 1e308], "rve.size[0]"),
+        ("rve.voxel", 1e-12, "rve.voxel"),  # a 1e8-cube grid: refused before allocation
+        ("rve.voxel", 1e-4, "rve.voxel"),
+        ("rve.voxel", 4e-6, "rve.voxel"),  # under 2 voxels across a 7 um fiber
+        ("rve.period", 1.0, "rve.period"),  # 1 m period in a 100 um box
+        ("rve.period", 2e-6, "rve.period"),  # copies explode
+        ("generator.porosity", 0.999, "generator.porosity"),
+        ("generator.porosity", 1.0, "generator.porosity"),
+        ("generator.porosity", "x", "generator.porosity"),
+        ("generator.theta", 1e18, "generator.theta"),
+        ("generator.theta", {"dist": "normal", "mean": 0, "std": 5}, "generator.theta"),
+        ("generator.layers", 3, "generator.layers"),
+        ("generator.max_fibers", 10**9, "generator.max_fibers"),
+        ("generator.seed", -1, "generator.seed"),
+        ("generator.seed", True, "generator.seed"),
+        ("generator.diameter", {"dist": "gamma"}, "generator.diameter.dist"),
+        ("intersections.population", 10**7, "intersections.population"),
+        ("intersections.generations", 10**9, "intersections.generations"),
+        ("intersections.time_limit_s", 1e18, "intersections.time_limit_s"),
+        ("intersections.method", "magic", "intersections.method"),
+        ("flow.direction", "w", "flow.direction"),
+        ("flow.tol", [1], "flow.tol"),
+        ("flow.bc", "open", "flow.bc"),
+        ("flow.max_memory_gb", "x", "flow.max_memory_gb"),
+        ("flow.max_memory_gb", -1, "flow.max_memory_gb"),
+        ("flow.max_memory_gb", 0, "flow.max_memory_gb"),
+        ("flow.lattice_step", 1.0, "flow.lattice_step"),
+        ("flow.viscosity", float("nan"), "flow.viscosity"),
+        ("flow.viscosty", 1.0, "flow.viscosty"),
+        ("flow.lattice_step", 1e-9, "flow.lattice_step"),  # 1e15 lattice cells
+        ("flow.edge_length", 1e-9, "flow.edge_length"),
+        ("flow.pressure_drop", 1e300, "flow.pressure_drop"),
+        ("intersections.ga_voxel", 1e-9, "intersections.ga_voxel"),  # 1e15 GA voxels
+        ("intersections.step", 1e-15, "intersections.step"),
+        ("generator.tz", {"dist": "uniform", "low": 0, "high": 1e9}, "generator.tz"),
+        ("rve.size", [1e3, 1e-4, 1e-4], "rve.size[0]"),
+        ("generator.u", 3.0, "generator.u"),  # only with kind = 'bent'
+        ("mesh.anything", 1, "mesh"),
+        ("output.dir", "x", "output"),
+        ("forcefield.case", "garbage", "forcefield.case"),
+        ("forcefield.garbage", 1, "forcefield.garbage"),
+    ],
+)
+def test_bad_value_names_the_key(path, value, key):
+    err = spec_err(with_(SPEC, path, value))
+    assert err.key == key
+    assert "allowed" in err.message
+
+
+def test_unknown_keys_suggest_the_closest():
+    assert "did you mean 'viscosity'" in spec_err(with_(SPEC, "flow.viscosty", 1.0)).message
+    assert "did you mean 'fibers'" in spec_err({**SPEC, "fibres": []}).message
+
+
+def test_explicit_fiber_checks():
+    fb = {"shape": "rod", "diameter": 7e-6}
+    doc = {"rve": {"size": BOX, "voxel": 1e-6}, "fibers": [fb]}
+    assert validate_spec(doc)["fibers"][0]["theta"] == 0.0
+    assert spec_err(with_(doc, "fibers", [{**fb, "theta": 1e18}])).key == "fibers[0].theta"
+    assert spec_err(with_(doc, "fibers", [{**fb, "diameter": 2e-4}])).key == "fibers[0].diameter"
+    assert spec_err(with_(doc, "fibers", [fb] * 20000)).key == "fibers"
+    far = {**fb, "center": [1e300, 0.0, 0.0]}
+    assert spec_err(with_(doc, "fibers", [far])).key == "fibers[0].center[0]"
+    assert spec_err(with_(doc, "fibers", [{**fb, "f": 1e300}])).key == "fibers[0].f"
+    zigzag = {**fb, "shape": "bent-rod", "u": 3.0, "f": 1000.0}
+    assert spec_err(with_(doc, "fibers", [zigzag])).key == "fibers[0].f"
+    tiny = {**fb, "direction": [1e-300, 0.0, 0.0]}
+    assert spec_err(with_(doc, "fibers", [tiny])).key == "fibers[0].direction"
+
+
+def test_memory_budget_refuses_a_1200_cube_before_allocating(monkeypatch):
+    doc = with_(SPEC, "rve", {"size": [1.2e-3] * 3, "voxel": 1e-6})
+    doc = with_(doc, "generator.porosity", 0.9)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    err = spec_err(doc)
+    assert err.key == "rve.voxel" and "1200x1200x1200" in err.message and "GiB" in err.message
+    # 27.6 GB of geometry fits a 64 GiB machine, the voxel solver's 180 B per voxel does not
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
+    validate_spec(doc)
+    assert spec_err(with_(doc, "flow.solver", "voxel")).key == "rve.voxel"
+
+
+def test_fiber_counts_are_capped():
+    doc = copy.deepcopy(SPEC)
+    del doc["generator"]["porosity"]
+    assert spec_err(with_(doc, "generator.n_fibers", 1e6)).key == "generator.n_fibers"
+    assert spec_err(with_(doc, "generator.n_fibers", 10**6)).key == "generator.n_fibers"
+    # 600 fibers of 7 um fill 2.3 x a 100 um cube: no zero-overlap placement exists
+    assert spec_err(with_(doc, "generator.n_fibers", 600)).key == "generator.n_fibers"
+    ok = with_(doc, "generator.n_fibers", 600)
+    ok["intersections"]["method"] = "none"  # overlapping fibers: any count
+    validate_spec(ok)
+
+
+def test_fast_below_the_jamming_porosity_warns():
+    with pytest.warns(SpecWarning, match="jams"):
+        validate_spec(with_(SPEC, "generator.porosity", 0.6))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_spec(with_(SPEC, "generator.porosity", 0.8))
+    assert spec_err(with_(SPEC, "generator.porosity", 0.05)).key == "generator.porosity"
+
+
+def test_generator_reads_validated_values():
+    spec = validate_spec(SPEC)
+    size, voxel, period = parse_rve(spec)
+    gs = parse_generator(spec, size)
+    assert (gs.porosity, gs.method, gs.seed, period) == (0.8, "fast", 1, 1e-4)
+    assert gs.theta.params == {"low": -5.0, "high": 5.0}
+
+
+# ----------------------------------------------------------------------------- files
+
+
+def test_load_spec_file_problems(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_bytes(b"[rve]\nsize = [1e-4, 1e-4, 1e-4]\n# \xff\xfe not utf-8\n")
+    with pytest.raises(SpecError, match="not UTF-8"):
+        load_spec(p)
+    p.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(SpecError, match="spec: "):
+        load_spec(p)
+    p.write_text("a = 1\n" * (3 * 2**20))
+    with pytest.raises(SpecError, match="bytes"):
+        load_spec(p)
+    with pytest.raises(SpecError, match="file not found"):
+        load_spec(tmp_path / "none.toml")
+
+
+def test_deep_nesting_in_a_valid_toml_is_one_line():
+    deep: dict = {}
+    node = deep
+    for _ in range(5000):
+        node["a"] = {}
+        node = node["a"]
+    err = spec_err(with_(SPEC, "flow.tol", deep))
+    assert err.key == "flow.tol"
+    assert study_err({**STUDY, "parameters": deep})
+
+
+# ----------------------------------------------------------------------------- studies
+
+
+@pytest.mark.parametrize(
+    "path, value, key",
+    [
+        ("study.seeds", list(range(100_000)), "study.seeds"),
+        ("study.replicates", 100_000, "study.replicates"),
+        ("study.seeds", [1, 1], "study.seeds"),
+        ("study.n_samples", 8, "study.n_samples"),  # given with a factorial design
+        ("study.design", "taguchi", "study.design"),
+        ("study.timeout_s", "x", "study.timeout_s"),
+        ("study.outputs", ["k_q"], "study.outputs"),
+        ("study.workers", 3, "study.workers"),
+        ("parameters.generator\\.porosity", {"low": 0.6, "high": 0.9, "levels": 1e9}, "levels"),
+        ("parameters.generator\\.porosity", {"low": 0.6, "high": 0.9, "levels": 10**9}, "levels"),
+        ("parameters.generator\\.layers", [1, 2], "generator.layers"),
+        ("parameters.generator\\.porosity", [0.8, 0.999], "parameters.generator.porosity"),
+        ("parameters.flow\\.direction", ["w"], "parameters.flow.direction"),
+        ("parameters.flow\\.bc", ["open"], "parameters.flow.bc"),
+        ("base.flow.direction", "w", "base.flow.direction"),
+        ("base.mesh", {"a": 1}, "base.mesh"),
+        ("extra", 1, "extra"),
+    ],
+)
+def test_bad_study_names_the_key(path, value, key):
+    doc = copy.deepcopy(STUDY)
+    head, _, last = path.replace("\\.", "\0").rpartition(".")
+    node = doc
+    for p in head.split(".") if head else []:
+        node = node.setdefault(p.replace("\0", "."), {})
+    node[last.replace("\0", ".")] = value
+    assert key in study_err(doc)
+
+
+def test_factorial_size_is_refused_before_expansion():
+    params = {"flow.viscosity": {"low": 1e-5, "high": 2e-5, "levels": 10_000}}
+    params["flow.aux_length"] = {"low": 0.1, "high": 0.3, "levels": 10_000}
+    msg = study_err({**STUDY, "parameters": params})
+    assert msg.startswith("parameters: full factorial gives 2e+08 cases")
+
+
+@pytest.mark.parametrize(
+    "path, values",
+    [
+        ("flow.mesher", ["stuffing", "pytetwild"]),
+        ("flow.lattice_step", [2e-6, 3e-6]),
+        ("intersections.max_ejections", [2, 6]),
+        ("flow.bc", ["permeameter", "periodic"]),
+        ("generator.theta.high", [5.0, 10.0]),
+    ],
+)
+def test_study_may_vary_any_schema_key_missing_from_the_base(path, values):
+    assert path in KNOWN_SPEC_KEYS
+    base = copy.deepcopy(SPEC)
+    base["generator"]["theta"] = {"dist": "uniform", "low": -5.0, "high": 5.0}
+    st = parse_study({**STUDY, "base": base, "parameters": {path: values}})
+    assert st.parameters[path].values == tuple(values)
+
+
+def test_generator_layers_is_accepted_nowhere():
+    assert "generator.layers" not in KNOWN_SPEC_KEYS
+    assert spec_err(with_(SPEC, "generator.layers", 2)).key == "generator.layers"
+
+
+def test_load_study_file_problems(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_bytes(b"[study]\nname = '\xff'\n")
+    with pytest.raises(StudyError, match="^study: .*not UTF-8"):
+        load_study(p)
+    p.write_text(dumps(STUDY))
+    assert tomllib.loads(p.read_text())["study"]["seeds"] == [1, 2]
+    assert len(load_study(p).seeds) == 2
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+@pytest.mark.parametrize(
+    "cmd",
+    [["generate"], ["mesh"], ["permeability"], ["forcefield"]],
+)
+def test_cli_bad_spec_exit_2_one_line_nothing_written(tmp_path, capsys, cmd):
+    p = tmp_path / "bad.toml"
+    p.write_text(dumps(with_(SPEC, "flow.direction", "w")))
+    out = tmp_path / "out"
+    args = [*cmd, str(p)] + ([] if cmd == ["permeability"] else ["-o", str(out)])
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("psdesign: error: ")
+    expected = "flow.direction: got 'w'; allowed: x, y, z"
+    expected = "forcefield" if cmd == ["forcefield"] else expected
+    assert expected in err
+    assert not out.exists()
