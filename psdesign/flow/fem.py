@@ -28,6 +28,9 @@ import numpy as np
 from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability
 from psdesign.geometry.rve import RVE, VoxelFields
 
+#: The ``flow.bc`` models this route applies.
+BC_MODELS = ("permeameter", "periodic")
+
 
 def plane_average_pressure(
     points: np.ndarray, tets: np.ndarray, pressure: np.ndarray, axis: int, position: float

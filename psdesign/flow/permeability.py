@@ -67,24 +67,11 @@ def _check(solver: str, bc: str | None) -> None:
 
 
 def supported_bc(solver: str) -> tuple[str, ...]:
-    """The ``flow.bc`` models a route can apply: its module's ``BC_MODELS`` if it declares
-    them, both models if the route reads ``flow["bc"]`` itself, else only its own model."""
-    import inspect
-
+    """The ``flow.bc`` models a route can apply: its module's ``BC_MODELS``."""
     from psdesign.flow import fem, voxel
 
-    module, func = (
-        (fem, fem.permeability_fem) if solver == "fem" else (voxel, voxel.permeability_voxel)
-    )
-    declared = getattr(module, "BC_MODELS", None)
-    if declared:
-        return tuple(declared)
-    try:
-        src = inspect.getsource(func)
-    except (OSError, TypeError):
-        return BC_MODELS
-    reads = '"bc"' in src or "'bc'" in src
-    return BC_MODELS if reads else (NATIVE_BC[solver],)
+    module = fem if solver == "fem" else voxel
+    return tuple(getattr(module, "BC_MODELS", (NATIVE_BC[solver],)))
 
 
 def _refuse(solver: str, bc: str, got: str) -> BoundaryConditionUnavailable:

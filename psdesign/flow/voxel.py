@@ -32,6 +32,9 @@ MIN_CELLS_PER_DIAMETER = 8.0
 BCS = ("periodic", "permeameter")
 WALL_TREATMENTS = ("subvoxel", "staircase")
 
+#: The ``flow.bc`` models this route applies.
+BC_MODELS = ("permeameter", "periodic")
+
 
 class ResolutionWarning(UserWarning):
     """The voxel grid resolves the thinnest fiber with fewer than ``MIN_CELLS_PER_DIAMETER``."""

@@ -13,14 +13,15 @@ from psdesign.flow import compare
 from psdesign.flow import permeability as perm_mod
 
 L = 40e-6
-# square array, solid fraction pi 25 / 1600 = 0.049 (D = 10 um), 10 voxels across the fiber
+# square array at solid fraction 0.05 (D = 2 L sqrt(0.05 / pi) = 10.0925 um, 10.09 voxels
+# across the fiber): Sangani & Acrivos' tabulated value applies exactly
 SPEC = """
 [rve]
 size = [40e-6, 40e-6, 12e-6]
 voxel = 1e-6
 [[fibers]]
 shape = "cylinder"
-diameter = 10e-6
+diameter = 10.09253e-6
 center = [20e-6, 20e-6, 6e-6]
 direction = [0, 0, 1]
 [flow]
@@ -59,8 +60,8 @@ def test_voxel_json_has_bc_error_bar_and_status(tmp_path, capsys):
     res = json.loads(out)
     for key in KEYS:
         assert key in res, key
-    assert res["bc"] == "periodic" and res["cells_per_diameter"] == pytest.approx(10.0)
-    # Sangani & Acrivos (1982) Table 1 at phi 0.05 is 15.56 (ours: 0.049): the bar covers it
+    assert res["bc"] == "periodic" and res["cells_per_diameter"] == pytest.approx(10.09253)
+    # Sangani & Acrivos (1982) Table 1 at phi 0.05 is 15.56: the bar covers the true error
     exact = L**2 / SANGANI_ACRIVOS_SQUARE_TRANSVERSE[0.05]
     assert abs(res["permeability_m2"] / exact - 1) < res["permeability_rel_error"]
     assert res["error_estimate"]["method"] == "two_grid"
@@ -73,9 +74,12 @@ def test_text_line_carries_error_bar_status_and_bc(tmp_path, capsys):
     assert "+-" in out and "bc periodic" in out and "converged true" in out and "[" in out
 
 
-def test_unavailable_bc_exits_2_with_one_line(tmp_path, capsys):
+def test_unavailable_bc_exits_2_with_one_line(tmp_path, capsys, monkeypatch):
+    from psdesign.flow import voxel
+
+    # a route without the permeameter model: refused before any solve, not silently periodic
+    monkeypatch.setattr(voxel, "BC_MODELS", ("periodic",))
     code, _, err = _run(tmp_path, capsys, "--solver", "voxel", "--bc", "permeameter")
-    # this branch's voxel route has no permeameter model: refused, not silently periodic
     assert code == 2
     assert err.count("\n") == 1 and "flow.bc" in err
 
@@ -152,7 +156,7 @@ def test_bc_sensitivity_and_warning_when_both_models_exist(tmp_path, capsys, mon
 def test_flow_bc_reaches_the_route(monkeypatch):
     seen = {}
 
-    def fake_voxel(fields, direction, flow, progress=None):
+    def fake_voxel(fields, direction, flow, progress=None, rve=None):
         seen["bc"] = flow.get("bc")
         return {**_fake_route({"periodic": 2.0})(None, None, "x", {}, "voxel"), "bc": flow["bc"]}
 
