@@ -16,6 +16,8 @@ import numpy as np
 
 from psdesign.flow.darcy import axis_of, darcy_permeability
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.meshing import tags
+from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
 
 
 def plane_average_pressure(
@@ -38,16 +40,6 @@ def plane_average_pressure(
     integ = cut.integrate_data()
     area = float(integ["Area"][0])
     return float(integ.point_data["p"][0] / area)
-
-
-def mesher_options(flow: dict) -> dict:
-    """Keyword arguments of :func:`~psdesign.meshing.pore_mesh.mesh_pore_space` from ``[flow]``."""
-    kw: dict = {"mesher": flow.get("mesher", "stuffing")}
-    if flow.get("edge_length") is not None:
-        kw["edge_length_fac"] = float(flow["edge_length"])
-    if flow.get("lattice_step") is not None:
-        kw["lattice_step"] = float(flow["lattice_step"])
-    return kw
 
 
 def permeability_fem(
@@ -92,9 +84,9 @@ def permeability_fem(
             **mesher_options(flow),
         )
     t_mesh = time.perf_counter() - t0
-    sides = [t for t in mesh.facet_tags if t.startswith("side_")]
+    sides = [t for t in mesh.facet_tags if tags.is_side(t)]
     slip = sides if flow.get("sides", "slip") == "slip" else []
-    noslip = ["wall"] + ([] if slip else sides)
+    noslip = [tags.WALL] + ([] if slip else sides)
     dp = float(flow.get("pressure_drop", 1.0))
     res = solve_stokes(
         mesh.points,
@@ -112,7 +104,7 @@ def permeability_fem(
     p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
     p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)
     dp_rve = p_start - p_end
-    q = abs(res.flux["outlet"])
+    q = abs(res.flux[tags.OUTLET])
     length = rve.size[ax]
     area = float(np.prod(np.delete(rve.size, ax)))
     mu = float(flow["viscosity"])

@@ -50,6 +50,12 @@ def area(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
     )
 
 
+def mesh_tw(*args, **kw):
+    """The pytetwild mesher (the default mesher is the lattice one since MeshOptions)."""
+    kw.setdefault("mesher", "pytetwild")
+    return mesh_pore_space(*args, **kw)
+
+
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory):
     return tmp_path_factory.mktemp("meshcache")
@@ -59,7 +65,7 @@ def cache(tmp_path_factory):
 def through_x(cache) -> PoreMesh:
     """Cylinder along x crossing inlet and outlet; flow x; no auxiliary zones."""
     d = cylinder(0, 0.5 * L, 0.5 * L)
-    return mesh_pore_space(
+    return mesh_tw(
         d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache
     )
 
@@ -68,7 +74,7 @@ def through_x(cache) -> PoreMesh:
 def crossing_z() -> PoreMesh:
     """Two perpendicular cylinders (x and y) that intersect and cross the side faces; flow z."""
     d = np.minimum(cylinder(0, 0.5 * L, 0.5 * L), cylinder(1, 0.5 * L, 0.5 * L))
-    return mesh_pore_space(d, VOX, (L, L, L), "z", aux_length=0.2, edge_length_fac=0.15)
+    return mesh_tw(d, VOX, (L, L, L), "z", aux_length=0.2, edge_length_fac=0.15)
 
 
 # ---------------------------------------------------------------- areas, volumes, tags
@@ -164,7 +170,7 @@ def test_inverted_fiber_surface_is_caught(monkeypatch):
     monkeypatch.setattr(surface_mod, "fiber_solid_surface", inverted)
     d = cylinder(0, 0.5 * L, 0.5 * L)
     with pytest.raises(MeshFailedError, match="inverted"):
-        mesh_pore_space(d, VOX, (L, L, L), "x")
+        mesh_tw(d, VOX, (L, L, L), "x")
 
 
 def test_solid_surface_is_outward(monkeypatch):
@@ -180,7 +186,7 @@ def test_disconnected_pore_space_raises():
     x = grid()[0]
     slab = np.abs(x - 0.5 * L) - 0.1 * L  # solid wall across the flow
     with pytest.raises(PoreTopologyError, match="no pore path from the inlet to the outlet"):
-        mesh_pore_space(slab, VOX, (L, L, L), "x")
+        mesh_tw(slab, VOX, (L, L, L), "x")
     # along y the same slab is a channel wall: fine at the voxel pre-check level
     surface_mod.check_voxel_connectivity(slab, 1, True)
 
@@ -189,12 +195,12 @@ def test_blocked_inlet_raises():
     x = grid()[0]
     d = x - 0.2 * L  # solid for x < 0.2 L, covers the whole inlet face
     with pytest.raises(PoreTopologyError, match="inlet face is fully blocked"):
-        mesh_pore_space(d, VOX, (L, L, L), "x", aux_length=0.0)
+        mesh_tw(d, VOX, (L, L, L), "x", aux_length=0.0)
 
 
 def test_all_solid_raises():
     with pytest.raises(PoreTopologyError, match="empty"):
-        mesh_pore_space(-np.ones((N, N, N)) * VOX, VOX, (L, L, L), "x")
+        mesh_tw(-np.ones((N, N, N)) * VOX, VOX, (L, L, L), "x")
 
 
 @pytest.mark.parametrize(
@@ -213,14 +219,14 @@ def test_bad_input(kwargs, match):
     args = dict(distance=cylinder(0, 0.5 * L, 0.5 * L), voxel=VOX, size=(L, L, L), direction="x")
     args.update(kwargs)
     with pytest.raises(MeshInputError, match=match):
-        mesh_pore_space(**args)
+        mesh_tw(**args)
 
 
 def test_nan_distance_rejected():
     d = cylinder(0, 0.5 * L, 0.5 * L)
     d[3, 3, 3] = np.nan
     with pytest.raises(MeshInputError, match="finite"):
-        mesh_pore_space(d, VOX, (L, L, L), "x")
+        mesh_tw(d, VOX, (L, L, L), "x")
 
 
 # ---------------------------------------------------------------- gap closing
@@ -246,7 +252,7 @@ def test_gap_closing_only_touches_narrow_gaps():
 
 def test_cache_makes_meshing_reproducible(through_x, cache):
     d = cylinder(0, 0.5 * L, 0.5 * L)
-    again = mesh_pore_space(
+    again = mesh_tw(
         d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache
     )
     assert again.quality.get("from_cache") is True
@@ -381,7 +387,7 @@ def test_nearly_touching_fibers_mesh_or_fail_clearly():
             cylinder(1, 0.5 * L, 0.3 * L, r),  # along y: crosses both z-fibers and two side faces
         ]
     )
-    pm = mesh_pore_space(
+    pm = mesh_tw(
         d, VOX, (L, L, L), "x", aux_length=0.2, edge_length_fac=0.15, min_gap_voxels=3.0
     )
     assert pm.quality["n_closed_gap_voxels"] > 0
@@ -393,7 +399,7 @@ def test_nearly_touching_fibers_mesh_or_fail_clearly():
 
 def test_bad_tetwild_option():
     with pytest.raises(MeshInputError, match="tetwild_options"):
-        mesh_pore_space(
+        mesh_tw(
             cylinder(0, 0.5 * L, 0.5 * L), VOX, (L, L, L), "x", tetwild_options={"optimise": False}
         )
 

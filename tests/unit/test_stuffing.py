@@ -39,6 +39,8 @@ def cylinder_z(n: int = N, r: float = R, cx: float = 0.5 * L, cy: float = 0.5 * 
 def mesh(d, direction="z", step=2.0, aux=0.2, **kw):
     """Stuffing mesh of the raw level set (no volume matching) unless asked."""
     kw.setdefault("match_volume", False)
+    if not kw["match_volume"]:  # the raw level set misses the analytic volume by up to ~2 %
+        kw.setdefault("volume_tol", 0.05)
     return mesh_pore_space(
         d,
         L / d.shape[0],
