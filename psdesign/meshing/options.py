@@ -166,7 +166,9 @@ def mesher_options(flow: dict) -> dict:
 
 def _in(name: str, value, lo: float, hi: float, lo_open=False, hi_open=False) -> None:
     ok = value is not None and np.isfinite(value)
-    ok = ok and (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    ok = (
+        ok and (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    )
     if not ok:
         lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
         raise MeshInputError(f"{name} must be in {lb}{lo:g}, {hi:g}{rb}, got {value!r}")

@@ -561,9 +561,7 @@ def stuff_pore_space(
     warp_v, warp_c = _warp_candidates(lat, cuts, alpha, clip, size[axis])
     tets_lat, slab = _active_tets(lat, warp_v)
     twin = _periodic_keys(lat.shape) if periodic else None
-    out, allpts, counts = _clip_with_unwarping(
-        fn, lat, cuts, warp_v, warp_c, tets_lat, slab, twin
-    )
+    out, allpts, counts = _clip_with_unwarping(fn, lat, cuts, warp_v, warp_c, tets_lat, slab, twin)
     used = np.unique(out)
     remap = np.full(len(allpts), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -575,9 +573,7 @@ def stuff_pore_space(
         "periodic": bool(periodic),
         **counts,
     }
-    return StuffedMesh(
-        allpts[used], remap[out], lat.lo, lat.hi, np.zeros(3), size.copy(), report
-    )
+    return StuffedMesh(allpts[used], remap[out], lat.lo, lat.hi, np.zeros(3), size.copy(), report)
 
 
 def _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic) -> None:

@@ -9,7 +9,13 @@ import numpy as np
 
 from psdesign.meshing import cache
 from psdesign.meshing import tags as T
-from psdesign.meshing.checks import area, centroid_pore_fraction, gate, restore_planes, volume_report
+from psdesign.meshing.checks import (
+    area,
+    centroid_pore_fraction,
+    gate,
+    restore_planes,
+    volume_report,
+)
 from psdesign.meshing.errors import MeshFailedError
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions

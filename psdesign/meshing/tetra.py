@@ -31,7 +31,7 @@ def tetrahedralize(
     ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``.
     """
     options = dict(options or {})
-    bad = set(options) - TETWILD_OPTIONS
+    bad = set(options) - set(TETWILD_OPTIONS)
     if bad:
         raise MeshInputError(
             f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"

@@ -21,7 +21,13 @@ import numpy as np
 
 from psdesign.meshing import cache
 from psdesign.meshing import tags as T
-from psdesign.meshing.checks import area, centroid_pore_fraction, gate, restore_planes, volume_report
+from psdesign.meshing.checks import (
+    area,
+    centroid_pore_fraction,
+    gate,
+    restore_planes,
+    volume_report,
+)
 from psdesign.meshing.errors import MeshFailedError
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions
@@ -45,8 +51,10 @@ def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOp
     """Marching-cubes step: about a fifth of the target edge length in voxels."""
     ext = size.copy()
     ext[axis] *= 1.0 + 2.0 * opts.aux_length
-    h = opts.edge_length if opts.edge_length is not None else opts.edge_length_fac * float(
-        np.linalg.norm(ext)
+    h = (
+        opts.edge_length
+        if opts.edge_length is not None
+        else opts.edge_length_fac * float(np.linalg.norm(ext))
     )
     n_min = int(round(float(size.min()) / voxel))
     return int(np.clip(h // (5.0 * voxel), 1, max(1, n_min // 4)))
@@ -75,7 +83,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     )
     timings["surface_s"] = time.perf_counter() - t
     diag = float(np.linalg.norm(surf.hi - surf.lo))
-    eps_rel = opts.epsilon if opts.epsilon is not None else 0.25 * f.voxel * opts.surface_step / diag
+    eps_rel = (
+        opts.epsilon if opts.epsilon is not None else 0.25 * f.voxel * opts.surface_step / diag
+    )
     eps_rel = min(eps_rel, 0.01)
     h = opts.edge_length / f.scale if opts.edge_length is not None else opts.edge_length_fac * diag
     t = time.perf_counter()
@@ -86,7 +96,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     timings["tetwild_s"] = time.perf_counter() - t
     t = time.perf_counter()
     snap_tol = 2.0 * eps_rel * diag
-    pts, tets, comp, n_untangled, n_flat, max_move = _snap_and_clean(pts, tets, surf, axis, snap_tol)
+    pts, tets, comp, n_untangled, n_flat, max_move = _snap_and_clean(
+        pts, tets, surf, axis, snap_tol
+    )
     bfaces, _, _ = face_structure(tets)
     tags = tag_faces(pts, bfaces, surf.lo, surf.hi, axis)
     timings["tagging_s"] = time.perf_counter() - t

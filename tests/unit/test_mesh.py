@@ -65,9 +65,7 @@ def cache(tmp_path_factory):
 def through_x(cache) -> PoreMesh:
     """Cylinder along x crossing inlet and outlet; flow x; no auxiliary zones."""
     d = cylinder(0, 0.5 * L, 0.5 * L)
-    return mesh_tw(
-        d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache
-    )
+    return mesh_tw(d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache)
 
 
 @pytest.fixture(scope="module")
@@ -252,9 +250,7 @@ def test_gap_closing_only_touches_narrow_gaps():
 
 def test_cache_makes_meshing_reproducible(through_x, cache):
     d = cylinder(0, 0.5 * L, 0.5 * L)
-    again = mesh_tw(
-        d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache
-    )
+    again = mesh_tw(d, VOX, (L, L, L), "x", aux_length=0.0, edge_length_fac=0.1, cache_dir=cache)
     assert again.quality.get("from_cache") is True
     np.testing.assert_array_equal(again.points, through_x.points)
     np.testing.assert_array_equal(again.tets, through_x.tets)
@@ -387,9 +383,7 @@ def test_nearly_touching_fibers_mesh_or_fail_clearly():
             cylinder(1, 0.5 * L, 0.3 * L, r),  # along y: crosses both z-fibers and two side faces
         ]
     )
-    pm = mesh_tw(
-        d, VOX, (L, L, L), "x", aux_length=0.2, edge_length_fac=0.15, min_gap_voxels=3.0
-    )
+    pm = mesh_tw(d, VOX, (L, L, L), "x", aux_length=0.2, edge_length_fac=0.15, min_gap_voxels=3.0)
     assert pm.quality["n_closed_gap_voxels"] > 0
     assert pm.quality["pore_centroid_fraction"] > 0.98
     assert abs(pm.quality["volume_rel_error"]) < 0.02

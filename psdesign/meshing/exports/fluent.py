@@ -22,8 +22,18 @@ from psdesign.meshing.topology import face_topology
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
 
-BC_TYPES = {"interior": 2, "wall": 3, "pressure-inlet": 4, "pressure-outlet": 5, "symmetry": 7}
-ZONE_TYPE = {T.INLET: "pressure-inlet", T.OUTLET: "pressure-outlet", T.WALL: "wall"}
+BC_TYPES = {  # Fluent zone-type ids
+    "interior": 2,
+    "wall": 3,  # format keyword, not a tag
+    "pressure-inlet": 4,
+    "pressure-outlet": 5,
+    "symmetry": 7,
+}
+ZONE_TYPE = {
+    T.INLET: "pressure-inlet",
+    T.OUTLET: "pressure-outlet",
+    T.WALL: "wall",  # format keyword
+}
 
 
 def _hex_rows(rows: np.ndarray) -> str:

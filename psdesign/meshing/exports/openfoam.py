@@ -79,10 +79,16 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
         topo.neighbour[:, None],
         "%d",
     )
-    types = {T.INLET: "patch", T.OUTLET: "patch", "walls": "wall", "sides": "symmetry"}
+    types = {
+        T.INLET: "patch",
+        T.OUTLET: "patch",
+        "walls": "wall",  # format keyword
+        "sides": "symmetry",
+    }
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
-        extra = "        inGroups    List<word> 1(wall);\n" if types[name] == "wall" else ""
+        is_wall = types[name] == "wall"  # format keyword, not a tag
+        extra = "        inGroups    List<word> 1(wall);\n" if is_wall else ""
         lines.append(
             f"    {name}\n    {{\n        type        {types[name]};\n{extra}"
             f"        nFaces      {size};\n        startFace   {start};\n    }}\n"
