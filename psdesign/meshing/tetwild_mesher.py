@@ -108,9 +108,11 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     t = time.perf_counter()
     wall_shift, n_frozen = 0.0, 0
     if opts.match_volume and opts.offset is None:
+        ends = [(axis, surf.rve_lo[axis], snap_tol), (axis, surf.rve_hi[axis], snap_tol)]
         pts, wall_shift, n_frozen = match_wall_volume(
-            pts, tets, tags, surf.lo, surf.hi, target, _MAX_WALL_MOVE_EPS * eps_rel * diag
-        )
+            pts, tets, tags, surf.lo, surf.hi, target, _MAX_WALL_MOVE_EPS * eps_rel * diag,
+            planes=ends if opts.aux_length > 0 else (),
+        )  # fmt: skip
     timings["volume_match_s"] = time.perf_counter() - t
     t = time.perf_counter()
     quality = _quality(f, pts, tets, bfaces, tags, comp, surf, target, aux_volume, opts)
@@ -167,8 +169,12 @@ def _snap_and_clean(pts, tets, surf, axis, snap_tol):
     return pts, tets, comp, n_untangled, int(flat.sum()), max_move
 
 
-def wall_normals(pts, wall, lo, hi) -> tuple[np.ndarray, np.ndarray]:
-    """(wall vertex ids, unit outward normals): area-weighted, in-plane on box faces."""
+def wall_normals(pts, wall, lo, hi, planes=()) -> tuple[np.ndarray, np.ndarray]:
+    """(wall vertex ids, unit outward normals): area-weighted, in-plane on box faces.
+
+    ``planes`` are extra (axis, coordinate, tolerance) planes whose vertices also stay in the
+    plane (the RVE end planes, where fiber end caps face the auxiliary zones).
+    """
     a, b, c = pts[wall[:, 0]], pts[wall[:, 1]], pts[wall[:, 2]]
     fn = np.cross(b - a, c - a)  # outward (facets are outward-oriented), |fn| = 2 area
     nrm = np.zeros_like(pts)
@@ -179,20 +185,22 @@ def wall_normals(pts, wall, lo, hi) -> tuple[np.ndarray, np.ndarray]:
     for ax in range(3):  # vertices on a box plane must stay on it
         on = (pts[verts, ax] == lo[ax]) | (pts[verts, ax] == hi[ax])
         n[on, ax] = 0.0
+    for ax, c, tol in planes:
+        n[np.abs(pts[verts, ax] - c) <= tol, ax] = 0.0
     ln = np.linalg.norm(n, axis=1)
     ok = ln > 0
     n[ok] /= ln[ok, None]
     return verts[ok], n[ok]
 
 
-def match_wall_volume(pts, tets, tags, lo, hi, target, max_shift, rtol=1e-5, max_iter=8):
+def match_wall_volume(pts, tets, tags, lo, hi, target, max_shift, planes=(), rtol=1e-5, max_iter=8):
     """Move the wall vertices along their outward normals by one distance to hit ``target``.
 
     The tet volume is a cubic in the shift; a secant iteration finds it. Wall vertices of tets
     that the move would invert (or make 10x smaller) keep their place; the shift is capped at
     ``max_shift``. Returns (points, shift, number of frozen wall vertices).
     """
-    verts, n = wall_normals(pts, tags[T.WALL], lo, hi)
+    verts, n = wall_normals(pts, tags[T.WALL], lo, hi, planes)
     if len(verts) == 0:
         return pts, 0.0, 0
     vol0 = tet_volumes(pts, tets)
