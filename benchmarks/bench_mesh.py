@@ -145,6 +145,10 @@ SPEC_KEYS = [
     "min_dihedral_deg",
     "n_closed_gap_voxels",
     "n_removed_components",
+    "wall_shift_m",
+    "surface_step",
+    "edge_length_m",
+    "tetwild_s",
     "wall_time_s",
 ]
 
@@ -178,6 +182,7 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
         row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": mesher}
         row["geometry_s"] = t_geom
         t1 = time.perf_counter()
+        cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
         try:
             pm = mesh_pore_space(
                 fields.distance, float(fields.grid.spacing[0]), built.rve.size, args.direction, opts
@@ -194,7 +199,9 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
                 )
         except ValueError as e:
             row.update(ok=False, error=f"{type(e).__name__}: {e}")
-        row["mesh_s"] = time.perf_counter() - t1
+        row["mesh_s"] = time.perf_counter() - t1  # mesh (+ FEM with --permeability), wall
+        # CPU time of the same span: comparable across machine loads (the host is shared)
+        row["mesh_cpu_s"] = resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1
         row["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
         print(json.dumps(row), flush=True)
         rows.append(row)
