@@ -10,6 +10,11 @@ Usage::
     python benchmarks/bench_mesh.py                         # default sweep, prints a markdown table
     python benchmarks/bench_mesh.py --voxel 1e-6 --edge-fac 0.05 0.03 --direction z
     python benchmarks/bench_mesh.py --single '{"voxel": 1e-6, "edge_fac": 0.05}'   # one run, JSON
+    # a spec's RVE (e.g. the Table III Toray-like RVE) with another seed, one mesher, JSON:
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 2 --mesher pytetwild
+    # both meshers + FEM K on a smaller RVE of the same spec (50 um cube):
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --size 50e-6 \
+        --mesher stuffing pytetwild --permeability
 """
 
 from __future__ import annotations
@@ -83,6 +88,7 @@ def run_single(cfg: dict) -> dict:
             cfg["voxel"],
             (SIZE,) * 3,
             cfg.get("direction", "z"),
+            mesher="pytetwild",
             aux_length=cfg.get("aux", 0.2),
             edge_length=cfg.get("edge_abs"),
             edge_length_fac=cfg.get("edge_fac", 0.05),
@@ -124,11 +130,95 @@ def run_single(cfg: dict) -> dict:
     return out
 
 
+SPEC_KEYS = [
+    "n_tets",
+    "n_points",
+    "porosity_voxel",
+    "porosity_analytic",
+    "porosity_mesh",
+    "pore_volume_m3",
+    "analytic_pore_volume_m3",
+    "pore_volume_rel_diff",
+    "pore_volume_rel_diff_vs_voxel",
+    "volume_rel_error",
+    "pore_centroid_fraction",
+    "min_dihedral_deg",
+    "n_closed_gap_voxels",
+    "n_removed_components",
+    "wall_shift_m",
+    "surface_step",
+    "edge_length_m",
+    "tetwild_s",
+    "wall_time_s",
+]
+
+
+def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args) -> list[dict]:
+    """Mesh one spec's RVE (generator seed, optional smaller cube) with each mesher; K if asked."""
+    from psdesign.meshing.options import MeshOptions
+    from psdesign.meshing.pore_mesh import mesh_pore_space
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+
+    spec = load_spec(path)
+    spec["generator"]["seed"] = seed
+    if size is not None:
+        spec["rve"]["size"] = [size] * 3
+    t0 = time.perf_counter()
+    built = build_rve(spec)
+    fields = built.voxelize(spec["rve"]["voxel"])
+    t_geom = time.perf_counter() - t0
+    flow = dict(spec["flow"])
+    rows = []
+    for mesher in meshers:
+        extra = {"mesher": mesher, "num_threads": args.threads}
+        if args.stop_energy is not None:
+            extra["tetwild_options"] = {"stop_energy": args.stop_energy}
+        if args.edge_fac is not None and mesher == "pytetwild":
+            extra["edge_length_fac"] = args.edge_fac[0]
+        if args.step is not None and mesher == "pytetwild":
+            extra["surface_step"] = args.step
+        opts = MeshOptions.from_flow(flow, **extra)
+        row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": mesher}
+        row["geometry_s"] = t_geom
+        t1 = time.perf_counter()
+        cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
+        try:
+            pm = mesh_pore_space(
+                fields.distance, float(fields.grid.spacing[0]), built.rve.size, args.direction, opts
+            )
+            row.update({k: pm.quality.get(k) for k in SPEC_KEYS}, ok=True)
+            if args.permeability:
+                from psdesign.flow.fem import permeability_fem
+
+                res = permeability_fem(built.rve, fields, args.direction, flow, mesh=pm)
+                row.update(
+                    permeability_m2=res["permeability_m2"],
+                    converged=res["converged"],
+                    fem_s=res["wall_time_s"],
+                )
+        except ValueError as e:
+            row.update(ok=False, error=f"{type(e).__name__}: {e}")
+        row["mesh_s"] = time.perf_counter() - t1  # mesh (+ FEM with --permeability), wall
+        # CPU time of the same span: comparable across machine loads (the host is shared)
+        row["mesh_cpu_s"] = resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1
+        row["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--single", help="JSON config: run one case in this process")
+    ap.add_argument("--spec", help="mesh this spec's RVE instead of the built-in geometry")
+    ap.add_argument("--seed", type=int, default=1, help="generator.seed for --spec")
+    ap.add_argument("--size", type=float, default=None, help="cube side for --spec (m)")
+    ap.add_argument("--mesher", nargs="+", default=["pytetwild"], help="meshers for --spec")
+    ap.add_argument("--stop-energy", type=float, default=None, help="pytetwild stop_energy")
+    ap.add_argument("--permeability", action="store_true", help="FEM K per mesh (--spec)")
     ap.add_argument("--voxel", type=float, nargs="+", default=[1e-6, 0.5e-6])
-    ap.add_argument("--edge-fac", type=float, nargs="+", default=[0.05, 0.03])
+    ap.add_argument("--edge-fac", type=float, nargs="+", default=None)
     ap.add_argument("--direction", default="z")
     ap.add_argument("--step", type=int, default=None, help="surface step (default: auto)")
     ap.add_argument("--epsilon", type=float, default=None)
@@ -138,6 +228,10 @@ def main() -> None:
     if args.single:
         print(json.dumps(run_single(json.loads(args.single))))
         return
+    if args.spec:
+        run_spec(args.spec, args.seed, args.mesher, args.size, args)
+        return
+    args.edge_fac = args.edge_fac or [0.05, 0.03]
     rows = []
     for vox in args.voxel:
         for fac in args.edge_fac:

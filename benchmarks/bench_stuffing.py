@@ -197,6 +197,7 @@ def run_rve(cfg: dict) -> dict:
             rve.size,
             cfg["direction"],
             aux_length=float(flow["aux_length"]),
+            mesher="pytetwild",
             edge_length_fac=cfg.get("edge_fac", 0.05),
             surface_step=cfg.get("surface_step", 2),
             tetwild_options=cfg.get("tetwild"),

@@ -8,14 +8,15 @@ import time
 
 from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
+from psdesign.meshing.exports import WRITERS
 
-MESH_FORMATS = ("vtu", "msh", "fluent", "stl", "openfoam")
+MESH_FORMATS = tuple(WRITERS)  # the export registry
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
-    from psdesign.flow.permeability import mesher_options
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
+    from psdesign.meshing.options import MeshOptions
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -23,10 +24,8 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec)
     flow = dict(spec["flow"])
     for fmt in args.format:
-        if fmt not in MESH_FORMATS:
-            raise SpecError(
-                "--format", f"unknown format {fmt!r}; allowed: {', '.join(MESH_FORMATS)}"
-            )
+        if fmt not in WRITERS:
+            raise SpecError("--format", f"unknown format {fmt!r}; allowed: {', '.join(WRITERS)}")
     target = check_output_dir(
         args.output, force=args.force, command="mesh", expected=("mesh.json",)
     )
@@ -41,8 +40,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         float(fields.grid.spacing[0]),
         rve.size,
         args.direction,
-        aux_length=float(flow["aux_length"]),
-        **mesher_options(flow),
+        MeshOptions.from_flow(flow),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])))
@@ -81,7 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         nargs="*",
         default=["vtu"],
         metavar="FMT",
-        help=f"extra formats: {', '.join(MESH_FORMATS)}",
+        help=f"extra formats (export registry): {', '.join(WRITERS)}",
     )
     add_force_argument(mesh)
     mesh.set_defaults(func=_cmd_mesh)

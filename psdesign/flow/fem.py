@@ -27,6 +27,8 @@ import numpy as np
 
 from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.meshing import tags
+from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
 
 #: The ``flow.bc`` models this route applies.
 BC_MODELS = ("permeameter", "periodic")
@@ -52,16 +54,6 @@ def plane_average_pressure(
     integ = cut.integrate_data()
     area = float(integ["Area"][0])
     return float(integ.point_data["p"][0] / area)
-
-
-def mesher_options(flow: dict) -> dict:
-    """Keyword arguments of :func:`~psdesign.meshing.pore_mesh.mesh_pore_space` from ``[flow]``."""
-    kw: dict = {"mesher": flow.get("mesher", "stuffing")}
-    if flow.get("edge_length") is not None:
-        kw["edge_length_fac"] = float(flow["edge_length"])
-    if flow.get("lattice_step") is not None:
-        kw["lattice_step"] = float(flow["lattice_step"])
-    return kw
 
 
 BCS = ("permeameter", "periodic")
@@ -97,21 +89,17 @@ def cells_per_diameter(rve: RVE, mesh) -> float | None:
 
 
 def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
-    import inspect
-
+    from psdesign.meshing.options import MeshOptions
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
-    kw = mesher_options(flow)
     if bc == "periodic":
-        kw["aux_length"] = 0.0
-        if "periodic" in inspect.signature(mesh_pore_space).parameters:
-            kw["periodic"] = True
+        opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True)
     else:
-        kw["aux_length"] = float(flow["aux_length"])
-    return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, **kw)
+        opts = MeshOptions.from_flow(flow, periodic=False)
+    return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
 
 
 def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
@@ -215,9 +203,9 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
 def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     from solvers.fem_stokes import solve_stokes
 
-    sides = [t for t in mesh.facet_tags if t.startswith("side_")]
+    sides = [t for t in mesh.facet_tags if tags.is_side(t)]
     slip = sides if flow.get("sides", "slip") == "slip" else []
-    noslip = ["wall"] + ([] if slip else sides)
+    noslip = [tags.WALL] + ([] if slip else sides)
     dp = float(flow.get("pressure_drop", 1.0))
     mu = float(flow["viscosity"])
     res = solve_stokes(
@@ -233,7 +221,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         max_memory_gb=flow.get("max_memory_gb"),
     )
     start, end = mesh.porous_region
-    q = abs(res.flux["outlet"])
+    q = abs(res.flux[tags.OUTLET])
     length = end - start
     area = float(np.prod(np.delete(rve.size, ax)))
     # windowed dissipation: Phi_w = G Q int w dx = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q

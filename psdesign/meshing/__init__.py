@@ -1,14 +1,29 @@
-"""Building blocks of the pore-space mesher (public API: :mod:`psdesign.meshing.pore_mesh`).
+"""Pore-space mesher (public API: :func:`psdesign.meshing.pore_mesh.mesh_pore_space`).
 
 Modules
 -------
-surface
-    Signed-distance field -> fiber-solid surface (marching cubes) -> exact pore-space surface with
-    auxiliary inlet/outlet slabs (manifold3d booleans).
-tetra
-    pytetwild tetrahedralization, boundary extraction, plane snapping, boundary tags, connectivity.
-quality
-    Tet-quality measures (dihedral angles, radius ratio, volumes).
-export
-    VTU, Gmsh 2.2, STL and JSON writers; :mod:`.fluent` and :mod:`.openfoam` for the CFD formats.
+pore_mesh
+    ``mesh_pore_space(distance, voxel, size, direction, options)``: checks, dispatch.
+options
+    :class:`MeshOptions` (frozen; ``MeshOptions.from_flow(spec["flow"])``).
+tags
+    Boundary and region tag names and their integer ids.
+inputs
+    Input validation; scaled, gap-closed field with its pore-volume estimates.
+pore_volume
+    Sub-voxel ("analytic") pore volume of a signed-distance field.
+stuffing_mesher, stuffing
+    The default lattice mesher (deterministic; periodic option) and its lattice kernel.
+tetwild_mesher, surface, tetra
+    The pytetwild mesher: marching cubes + manifold3d booleans, fTetWild, snapping, tags.
+periodic
+    Vertex pairing of opposite box faces.
+result, checks, quality, cache, topology, errors
+    :class:`PoreMesh`; shared checks; tet quality; on-disk cache; face topology; exceptions.
+exports
+    Writer registry (vtu, msh, fluent, stl, openfoam) and ``mesh.json``.
 """
+
+from psdesign.meshing.options import MeshOptions
+
+__all__ = ["MeshOptions"]

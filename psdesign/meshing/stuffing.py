@@ -84,8 +84,10 @@ class PoreField:
 
     Trilinear interpolation of ``distance`` sampled at voxel centres ``(i + 0.5) * voxel``,
     constant extension beyond the outer centres (as the marching-cubes path replicates the
-    boundary layers). With auxiliary slabs the solid is clipped to the RVE along ``axis``:
-    ``phi = max(d, s)`` with ``s`` the distance outside the slab ``0 <= x_axis <= L``.
+    boundary layers), or periodic wrap-around (``periodic``: the box faces are periodic, so both
+    faces of a pair see exactly the same values). With auxiliary slabs the solid is clipped to
+    the RVE along ``axis``: ``phi = max(d, s)`` with ``s`` the distance outside the slab
+    ``0 <= x_axis <= L``.
     """
 
     def __init__(
@@ -96,33 +98,42 @@ class PoreField:
         axis: int,
         clip: bool,
         offset: float = 0.0,
+        periodic: bool = False,
     ):
         self.d = np.ascontiguousarray(distance, dtype=np.float64) - offset
         self.voxel = float(voxel)
         self.axis = int(axis)
         self.length = float(size[axis])
-        self.clip = bool(clip)
+        self.clip = bool(clip) and not periodic
+        self.periodic = bool(periodic)
         self.shape = np.asarray(self.d.shape)
+
+    def _stencil(self, u: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Lower / upper sample index and weight of the upper one along axis ``a``."""
+        n = int(self.shape[a])
+        if self.periodic:  # wrap: x = 0 and x = L see the same samples (n - 1, 0)
+            fl = np.floor(u)
+            i0 = fl.astype(np.int64) % n
+            return i0, (i0 + 1) % n, u - fl
+        ua = np.clip(u, 0.0, n - 1.0)
+        i0 = np.minimum(np.floor(ua).astype(np.int64), n - 2)
+        return i0, i0 + 1, ua - i0
 
     def distance(self, x: np.ndarray) -> np.ndarray:
         """Trilinear interpolation of the voxel field at points ``x`` (k, 3)."""
         u = x / self.voxel - 0.5
-        i0 = np.empty(u.shape, dtype=np.int64)
-        f = np.empty(u.shape)
-        for a in range(3):
-            ua = np.clip(u[:, a], 0.0, self.shape[a] - 1.0)
-            ia = np.minimum(np.floor(ua).astype(np.int64), self.shape[a] - 2)
-            i0[:, a] = ia
-            f[:, a] = ua - ia
+        st = [self._stencil(u[:, a], a) for a in range(3)]
         d = self.d
         out = np.zeros(len(x))
         for dx in (0, 1):
-            wx = f[:, 0] if dx else 1.0 - f[:, 0]
+            wx = st[0][2] if dx else 1.0 - st[0][2]
+            ix = st[0][dx]
             for dy in (0, 1):
-                wy = f[:, 1] if dy else 1.0 - f[:, 1]
+                wy = st[1][2] if dy else 1.0 - st[1][2]
+                iy = st[1][dy]
                 for dz in (0, 1):
-                    wz = f[:, 2] if dz else 1.0 - f[:, 2]
-                    out += wx * wy * wz * d[i0[:, 0] + dx, i0[:, 1] + dy, i0[:, 2] + dz]
+                    wz = st[2][2] if dz else 1.0 - st[2][2]
+                    out += wx * wy * wz * d[ix, iy, st[2][dz]]
         return out
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -497,6 +508,7 @@ def stuff_pore_space(
     alpha: float = 0.3,
     offset: float = 0.0,
     slab_factor: float = 1.0,
+    periodic: bool = False,
 ) -> StuffedMesh:
     """Tet mesh of ``{phi >= 0}`` in the box with auxiliary slabs by lattice stuffing.
 
@@ -511,7 +523,7 @@ def stuff_pore_space(
     axis
         Flow axis index (0, 1, 2); the auxiliary slabs extend the box along it.
     aux_length
-        Auxiliary slab length as a fraction of ``size[axis]`` (>= 0).
+        Auxiliary slab length as a fraction of ``size[axis]`` (>= 0; must be 0 if periodic).
     h
         Lattice step (> 0); each axis gets ``round(length / h)`` cells (at least one).
     alpha
@@ -522,6 +534,10 @@ def stuff_pore_space(
     slab_factor
         Axial lattice step in the auxiliary slabs as a multiple of ``h`` (>= 1; the slabs are
         plain fluid, coarser cells there save tets).
+    periodic
+        Periodic box: the field is interpolated with wrap-around and warping is undone on
+        both vertices of a periodic pair together, so opposite faces carry the same vertices
+        and triangles (up to the translation by the box side).
 
     Returns
     -------
@@ -530,13 +546,37 @@ def stuff_pore_space(
     Raises
     ------
     MeshInputError
-        ``h`` or ``alpha`` out of range.
+        ``h``, ``alpha`` or ``slab_factor`` out of range; ``aux_length > 0`` with ``periodic``.
     PoreTopologyError
         No lattice vertex lies in the pore.
     MeshFailedError
         Flat or inverted tets that unwarping could not repair.
     """
     size = np.asarray(size, dtype=float)
+    _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic)
+    clip = aux_length > 0
+    fn = PoreField(distance, voxel, size, axis, clip, offset, periodic=periodic)
+    lat = _Lattice.build(fn, size, axis, aux_length, h, slab_factor)
+    cuts = _cut_points(fn, lat)
+    warp_v, warp_c = _warp_candidates(lat, cuts, alpha, clip, size[axis])
+    tets_lat, slab = _active_tets(lat, warp_v)
+    twin = _periodic_keys(lat.shape) if periodic else None
+    out, allpts, counts = _clip_with_unwarping(fn, lat, cuts, warp_v, warp_c, tets_lat, slab, twin)
+    used = np.unique(out)
+    remap = np.full(len(allpts), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    report = {
+        "lattice_shape": list(lat.shape),
+        "lattice_step": [float(np.diff(c).mean()) for c in lat.coords],
+        "n_lattice_tets_active": int(len(tets_lat)),
+        "stuffing_alpha": float(alpha),
+        "periodic": bool(periodic),
+        **counts,
+    }
+    return StuffedMesh(allpts[used], remap[out], lat.lo, lat.hi, np.zeros(3), size.copy(), report)
+
+
+def _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic) -> None:
     if not (h > 0 and np.isfinite(h)):
         raise MeshInputError(f"lattice_step must be a positive length, got {h}")
     if not (0.0 < alpha < 0.5):
@@ -546,99 +586,151 @@ def stuff_pore_space(
             f"lattice_step {h} gives more than 2000 cells per axis; use a "
             f"step >= {size.max() / 2000:.3g}"
         )
-    clip = aux_length > 0
-    fn = PoreField(distance, voxel, size, axis, clip, offset)
     if not (1.0 <= slab_factor <= 10.0):
         raise MeshInputError(f"slab_factor must be in [1, 10], got {slab_factor}")
-    coords, lo, hi = lattice_axes(size, axis, aux_length, h, slab_factor)
-    shape = tuple(len(c) for c in coords)
-    n_nodes = int(np.prod(shape))
-    grid = np.meshgrid(*coords, indexing="ij")
-    pts0 = np.stack([g.ravel() for g in grid], axis=1)
-    del grid
-    phi0 = fn(pts0)
-    xa = pts0[:, axis]
-    in_slab = (xa < 0.0) | (xa > size[axis])  # auxiliary-slab vertices (all fluid)
-    on_plane = clip & ((xa == 0.0) | (xa == size[axis]))  # RVE end planes next to a slab
-    phi0[in_slab] = h
-    # values at round-off level (surfaces through lattice vertices) count as on the surface
-    phi0[np.abs(phi0) <= 1e-9 * h] = 0.0
-    if not (phi0 > 0).any():
-        raise PoreTopologyError(
-            "the pore space is empty at the lattice vertices: `distance` "
-            "is <= 0 everywhere (or lattice_step too coarse)"
-        )
+    if periodic and aux_length > 0:
+        raise MeshInputError(f"aux_length must be 0 for a periodic mesh, got {aux_length}")
 
-    # cut points on crossing edges (before warping)
-    ev, ew, edir = _crossing_edges(phi0, shape)
-    inner = ~(in_slab[ev] | in_slab[ew])  # slab tets are split on the planes, never clipped
+
+@dataclass
+class _Lattice:
+    """Lattice vertices, their field values and slab / end-plane masks."""
+
+    coords: list
+    lo: np.ndarray
+    hi: np.ndarray
+    shape: tuple
+    pts0: np.ndarray
+    phi0: np.ndarray
+    in_slab: np.ndarray
+    on_plane: np.ndarray
+    fixed: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.prod(self.shape))
+
+    @classmethod
+    def build(cls, fn, size, axis, aux_length, h, slab_factor) -> _Lattice:
+        clip = aux_length > 0
+        coords, lo, hi = lattice_axes(size, axis, aux_length, h, slab_factor)
+        shape = tuple(len(c) for c in coords)
+        grid = np.meshgrid(*coords, indexing="ij")
+        pts0 = np.stack([g.ravel() for g in grid], axis=1)
+        del grid
+        phi0 = fn(pts0)
+        xa = pts0[:, axis]
+        in_slab = (xa < 0.0) | (xa > size[axis])  # auxiliary-slab vertices (all fluid)
+        on_plane = clip & ((xa == 0.0) | (xa == size[axis]))  # RVE end planes next to a slab
+        phi0[in_slab] = h
+        # values at round-off level (surfaces through lattice vertices) count as on the surface
+        phi0[np.abs(phi0) <= 1e-9 * h] = 0.0
+        if not (phi0 > 0).any():
+            raise PoreTopologyError(
+                "the pore space is empty at the lattice vertices: `distance` "
+                "is <= 0 everywhere (or lattice_step too coarse)"
+            )
+        fixed = _fixed_axes(pts0, coords, lo, hi, axis, clip, float(size[axis]))
+        return cls(coords, lo, hi, shape, pts0, phi0, in_slab, on_plane, fixed)
+
+
+@dataclass
+class _Cuts:
+    """Crossing lattice edges (ev -> ew, direction index) and their cut points."""
+
+    ev: np.ndarray
+    ew: np.ndarray
+    edir: np.ndarray
+    t: np.ndarray
+    pts: np.ndarray
+    elen: np.ndarray
+
+
+def _cut_points(fn: PoreField, lat: _Lattice) -> _Cuts:
+    """Cut points on crossing edges (before warping); in-plane coordinates kept exact."""
+    pts0, phi0 = lat.pts0, lat.phi0
+    ev, ew, edir = _crossing_edges(phi0, lat.shape)
+    inner = ~(lat.in_slab[ev] | lat.in_slab[ew])  # slab tets are split on the planes
     ev, ew, edir = ev[inner], ew[inner], edir[inner]
     t_cut = _cut_parameter(fn, pts0[ev], pts0[ew], phi0[ev], phi0[ew])
     cut_pts = pts0[ev] + t_cut[:, None] * (pts0[ew] - pts0[ev])
-    # exact in-plane coordinates for edges lying in a lattice plane
     for a in range(3):
         same = pts0[ev, a] == pts0[ew, a]
         cut_pts[same, a] = pts0[ev[same], a]
     elen = np.linalg.norm(pts0[ew] - pts0[ev], axis=1)
+    return _Cuts(ev, ew, edir, t_cut, cut_pts, elen)
 
-    # warping candidates: (vertex, distance to cut point, cut index)
-    fixed = _fixed_axes(pts0, coords, lo, hi, axis, clip, float(size[axis]))
-    n_fixed = fixed.sum(axis=1)
-    dirs = EDGE_DIRS[edir].astype(bool)
+
+def _warp_candidates(lat: _Lattice, cuts: _Cuts, alpha: float, clip: bool, length: float):
+    """(vertex, cut index) of the nearest cut point within ``alpha`` edge lengths per vertex."""
+    n_fixed = lat.fixed.sum(axis=1)
+    dirs = EDGE_DIRS[cuts.edir].astype(bool)
     cand_v, cand_d, cand_c = [], [], []
-    for verts, frac in ((ev, t_cut), (ew, 1.0 - t_cut)):
-        ok = (frac < alpha) & (n_fixed[verts] <= 1) & ~(fixed[verts] & dirs).any(axis=1)
+    for verts, frac in ((cuts.ev, cuts.t), (cuts.ew, 1.0 - cuts.t)):
+        ok = (frac < alpha) & (n_fixed[verts] <= 1) & ~(lat.fixed[verts] & dirs).any(axis=1)
         cand_v.append(verts[ok])
-        cand_d.append((frac * elen)[ok])
+        cand_d.append((frac * cuts.elen)[ok])
         cand_c.append(np.flatnonzero(ok))
     cv, cd, cc = (np.concatenate(x) for x in (cand_v, cand_d, cand_c))
     order = np.lexsort((cc, cd, cv))  # by vertex, then distance, then cut index
     cv, cc = cv[order], cc[order]
     first = np.ones(len(cv), dtype=bool)
     first[1:] = cv[1:] != cv[:-1]
-    warp_v, warp_c = cv[first], cc[first]
+    return cv[first], cc[first]
 
-    tets_all = kuhn_tets(shape)
-    # only tets with a vertex that is (or may become) non-negative matter
-    active = (phi0[tets_all] >= 0).any(axis=1)
-    near = np.zeros(n_nodes, dtype=bool)
+
+def _active_tets(lat: _Lattice, warp_v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lattice tets that may hold pore (and whether each lies in an auxiliary slab)."""
+    tets_all = kuhn_tets(lat.shape)
+    active = (lat.phi0[tets_all] >= 0).any(axis=1)
+    near = np.zeros(lat.n_nodes, dtype=bool)
     near[warp_v] = True
     active |= near[tets_all].any(axis=1)
-    slab_all = in_slab[tets_all].any(axis=1)  # a lattice tet is on one side of each plane
+    slab_all = lat.in_slab[tets_all].any(axis=1)  # a lattice tet is on one side of each plane
     active |= slab_all
-    tets_lat = tets_all[active]
-    slab = slab_all[active]
-    del tets_all, slab_all
-    slab_idx, rve_idx = np.flatnonzero(slab), np.flatnonzero(~slab)
+    return tets_all[active], slab_all[active]
 
+
+def _periodic_keys(shape: tuple) -> np.ndarray:
+    """Per lattice vertex: index of its periodic representative (last layer -> first)."""
+    idx = [np.arange(n) for n in shape]
+    for a, n in enumerate(shape):
+        idx[a] = np.where(idx[a] == n - 1, 0, idx[a])
+    g = np.meshgrid(*idx, indexing="ij")
+    return np.ravel_multi_index([x.ravel() for x in g], shape)
+
+
+def _clip_with_unwarping(fn, lat, cuts, warp_v, warp_c, tets_lat, slab, twin):
+    """Warp, clip, and undo warping of vertices of flat/inverted tets until none is left."""
+    n_nodes = lat.n_nodes
+    pts0, phi0, ev, ew = lat.pts0, lat.phi0, cuts.ev, cuts.ew
+    slab_idx, rve_idx = np.flatnonzero(slab), np.flatnonzero(~slab)
     ekeys_all = np.minimum(ev, ew) * n_nodes + np.maximum(ev, ew)
+    scale_v = float(np.min([np.diff(c).min() for c in lat.coords])) ** 3
     warped = np.ones(len(warp_v), dtype=bool)
     n_unwarped = 0
     for _round in range(_MAX_UNWARP_ROUNDS):
-        pts = pts0.copy()
-        phi = phi0.copy()
+        pts, phi = pts0.copy(), phi0.copy()
         wv, wc = warp_v[warped], warp_c[warped]
-        pts[wv] = cut_pts[wc]
+        pts[wv] = cuts.pts[wc]
         phi[wv] = 0.0
         # cut points still in use: edges whose (possibly warped) ends keep opposite signs
         live = ((phi[ev] > 0) & (phi[ew] < 0)) | ((phi[ev] < 0) & (phi[ew] > 0))
         keys = ekeys_all[live]
         srt = np.argsort(keys, kind="stable")
         keys = keys[srt]
-        cpts = cut_pts[live][srt]
+        cpts = cuts.pts[live][srt]
         out, src, counts = _clip_tets(tets_lat[rve_idx], phi, pts, fn, keys, n_nodes)
         src = rve_idx[src]
         if len(slab_idx):
-            out_s, src_s = _split_slab_tets(tets_lat[slab_idx], phi, on_plane, keys, n_nodes)
+            out_s, src_s = _split_slab_tets(tets_lat[slab_idx], phi, lat.on_plane, keys, n_nodes)
             out, src = np.concatenate([out, out_s]), np.concatenate([src, slab_idx[src_s]])
         allpts = np.concatenate([pts, cpts])
         vol = tet_volumes(allpts, out)
-        scale_v = float(np.min([np.diff(c).min() for c in coords])) ** 3
         tiny = np.abs(vol) <= 1e-10 * scale_v
         # the same connectivity on the unwarped lattice is a valid decomposition (cut points
         # lie strictly inside lattice edges): a sign change against it means inversion
-        vol_ref = tet_volumes(np.concatenate([pts0, cpts]), out)
-        neg = np.sign(vol) != np.sign(vol_ref)
+        neg = np.sign(vol) != np.sign(tet_volumes(np.concatenate([pts0, cpts]), out))
         bad = tiny | neg
         if not bad.any():
             break
@@ -654,31 +746,23 @@ def stuff_pore_space(
                     f"{int(neg[~tiny].sum())} inverted tets without warped vertices"
                 )
             break
-        pos_in_warp = np.searchsorted(warp_v, culprits)
-        warped[pos_in_warp] = False
+        if twin is None:
+            warped[np.searchsorted(warp_v, culprits)] = False
+        else:  # unwarp both vertices of a periodic pair so that the faces stay identical
+            warped[np.isin(twin[warp_v], twin[culprits])] = False
         n_unwarped += len(culprits)
     else:
         raise MeshFailedError(
             f"isosurface stuffing left {int(bad.sum())} flat or inverted tets after "
             f"{_MAX_UNWARP_ROUNDS} unwarping rounds; try another lattice_step"
         )
-    n_flat = int(tiny.sum())
-    out = out[~tiny]
-    vol = vol[~tiny]
+    out, vol = out[~tiny], vol[~tiny]
     flip = vol < 0
     out[flip] = out[flip][:, [0, 2, 1, 3]]
-    used = np.unique(out)
-    remap = np.full(len(allpts), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    report = {
-        "lattice_shape": list(shape),
-        "lattice_step": [float(np.diff(c).mean()) for c in coords],
-        "n_lattice_tets_active": int(len(tets_lat)),
-        "n_cut_points": int(len(keys)),
-        "n_warped_vertices": int(warped.sum()),
-        "n_unwarped_vertices": int(n_unwarped),
-        "n_flat_tets_dropped": n_flat,
-        "stuffing_alpha": float(alpha),
-        **counts,
-    }
-    return StuffedMesh(allpts[used], remap[out], lo, hi, np.zeros(3), size.copy(), report)
+    counts.update(
+        n_cut_points=int(len(keys)),
+        n_warped_vertices=int(warped.sum()),
+        n_unwarped_vertices=int(n_unwarped),
+        n_flat_tets_dropped=int(tiny.sum()),
+    )
+    return out, allpts, counts

@@ -48,7 +48,7 @@ class PoreSurface:
 
 
 def close_narrow_gaps(
-    distance: np.ndarray, voxel: float, min_gap_voxels: float
+    distance: np.ndarray, voxel: float, min_gap_voxels: float, periodic: bool = False
 ) -> tuple[np.ndarray, int]:
     """Morphologically close pore gaps narrower than ``min_gap_voxels`` voxels.
 
@@ -58,7 +58,8 @@ def close_narrow_gaps(
     a point is closed
     only if it exceeds r by more than one voxel, so that the voxel quantization never erodes a
     convex fiber (an isolated fiber is left untouched; narrow gaps between fibers have
-    dist >> r). The field is mirrored across the box faces (they are symmetry planes, not walls).
+    dist >> r). The field is mirrored across the box faces (they are symmetry planes, not walls),
+    or wrapped around when ``periodic``.
 
     Parameters
     ----------
@@ -68,6 +69,8 @@ def close_narrow_gaps(
         Voxel size.
     min_gap_voxels
         Gap width (in voxels) below which pore is turned into solid; 0 disables.
+    periodic
+        Wrap the field around the box faces instead of mirroring it.
 
     Returns
     -------
@@ -78,7 +81,7 @@ def close_narrow_gaps(
         return distance, 0
     r = 0.5 * min_gap_voxels * voxel
     k = int(np.ceil(r / voxel)) + 2
-    free = np.pad(distance >= r, k, mode="symmetric")
+    free = np.pad(distance >= r, k, mode="wrap" if periodic else "symmetric")
     if not free.any():
         return distance, 0
     dist_free = ndimage.distance_transform_edt(~free)[

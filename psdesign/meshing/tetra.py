@@ -10,12 +10,12 @@ import pytetwild
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError
+from psdesign.meshing.options import TETWILD_OPTIONS
 
 # outward faces of a positively oriented tet (a, b, c, d)
 TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-SIDE_NAMES = ("x0", "x1", "y0", "y1", "z0", "z1")
-TETWILD_OPTIONS = {"stop_energy", "num_opt_iter", "coarsen", "simplify"}
 
 
 def tetrahedralize(
@@ -31,7 +31,7 @@ def tetrahedralize(
     ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``.
     """
     options = dict(options or {})
-    bad = set(options) - TETWILD_OPTIONS
+    bad = set(options) - set(TETWILD_OPTIONS)
     if bad:
         raise MeshInputError(
             f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"
@@ -184,7 +184,7 @@ def untangle_near_planes(
 def tag_faces(
     points: np.ndarray, bfaces: np.ndarray, lo: np.ndarray, hi: np.ndarray, axis: int
 ) -> dict[str, np.ndarray]:
-    """Split boundary faces into inlet/outlet/side_*/wall by exact plane membership.
+    """Split boundary faces into inlet/outlet/side_*/wall (:mod:`.tags`) by exact plane membership.
 
     A face belongs to a box plane when its three (snapped) vertices lie exactly on it; every
     other boundary face lies on a fiber surface (including fiber end caps facing the auxiliary
@@ -196,12 +196,8 @@ def tag_faces(
         for j, plane in enumerate((lo[ax], hi[ax])):
             on = (points[bfaces, ax] == plane).all(axis=1) & ~used
             used |= on
-            if ax == axis:
-                name = "inlet" if j == 0 else "outlet"
-            else:
-                name = "side_" + SIDE_NAMES[2 * ax + j]
-            tags[name] = bfaces[on]
-    tags["wall"] = bfaces[~used]
+            tags[T.face_name(ax, bool(j), axis)] = bfaces[on]
+    tags[T.WALL] = bfaces[~used]
     return tags
 
 
@@ -212,9 +208,12 @@ def keep_through_components(
     hi: np.ndarray,
     axis: int,
     tol: float,
+    any_face: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Drop tet components that touch neither inlet nor outlet; fail if none spans both.
 
+    With ``any_face`` (periodic meshes) only components touching no box face at all are
+    dropped (a pocket cut by a lateral face continues through its periodic image).
     Returns the filtered (points, tets) (vertices renumbered) and a report dict.
     """
     bfaces, btet, pairs = face_structure(tets)
@@ -239,6 +238,13 @@ def keep_through_components(
             f"({ncomp} pore components, none touches both)"
         )
     keep_comp = touches_in | touches_out
+    if any_face:
+        on_box = np.zeros(len(bfaces), dtype=bool)
+        for ax in range(3):
+            fa = points[bfaces, ax]
+            on_box |= (np.abs(fa - lo[ax]) <= tol).all(axis=1)
+            on_box |= (np.abs(fa - hi[ax]) <= tol).all(axis=1)
+        keep_comp[labels[btet[on_box]]] = True
     keep = keep_comp[labels]
     report = {
         "n_components": ncomp,

@@ -46,3 +46,34 @@ def test_mesh_command_rejects_unknown_format(tmp_path, capsys):
     assert main(["mesh", str(spec), "-o", str(tmp_path / "m"), "--format", "obj"]) == 2
     assert "--format" in capsys.readouterr().err
     assert not (tmp_path / "m").exists()
+
+
+def test_mesh_format_help_lists_the_export_registry(tmp_path, capsys):
+    from psdesign.meshing.exports import WRITERS
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    assert main(["mesh", str(spec), "-o", str(tmp_path / "m"), "--format", "obj"]) == 2
+    err = capsys.readouterr().err
+    assert all(name in err for name in WRITERS)
+    with pytest.raises(SystemExit):
+        main(["mesh", "--help"])
+    out = capsys.readouterr().out
+    assert "export registry" in out and all(name in out for name in WRITERS)
+
+
+def test_mesh_json_reports_analytic_pore_volume(tmp_path):
+    """mesh.json carries pore_volume_m3, analytic_pore_volume_m3 and their relative
+    difference; the analytic value is the exact RVE pore volume L^3 - pi R^2 L (R = 5 voxels)."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--direction", "x"]) == 0
+    q = json.loads((out / "mesh.json").read_text())["quality"]
+    L = 40e-6
+    exact = L**3 - np.pi * 25e-12 * L
+    assert q["analytic_pore_volume_m3"] == pytest.approx(exact, rel=2e-4)
+    assert abs(q["pore_volume_rel_diff"]) < 5e-4
+    assert q["pore_volume_rel_diff"] == pytest.approx(
+        q["pore_volume_m3"] / q["analytic_pore_volume_m3"] - 1, abs=1e-12
+    )

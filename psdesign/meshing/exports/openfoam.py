@@ -14,10 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdesign.meshing import tags as T
 from psdesign.meshing.topology import FaceTopology, face_topology
 
 if TYPE_CHECKING:
-    from psdesign.meshing.pore_mesh import PoreMesh
+    from psdesign.meshing.result import PoreMesh
 
 _BANNER = """/*--------------------------------*- C++ -*----------------------------------*\\
   written by psdesign (pore-space mesher)
@@ -47,11 +48,11 @@ def _write_array(path: Path, header: str, rows: np.ndarray, fmt: str) -> None:
 def openfoam_patches(pm: PoreMesh) -> dict[str, np.ndarray]:
     """OpenFOAM patch name -> boundary triangles (sides merged into one patch)."""
     tags = pm.facet_tags
-    sides = [v for k, v in tags.items() if k.startswith("side_") and len(v)]
+    sides = [v for k, v in tags.items() if T.is_side(k) and len(v)]
     return {
-        "inlet": tags["inlet"],
-        "outlet": tags["outlet"],
-        "walls": tags["wall"],
+        T.INLET: tags[T.INLET],
+        T.OUTLET: tags[T.OUTLET],
+        "walls": tags[T.WALL],
         "sides": np.concatenate(sides) if sides else np.zeros((0, 3), dtype=np.int64),
     }
 
@@ -78,10 +79,16 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
         topo.neighbour[:, None],
         "%d",
     )
-    types = {"inlet": "patch", "outlet": "patch", "walls": "wall", "sides": "symmetry"}
+    types = {
+        T.INLET: "patch",
+        T.OUTLET: "patch",
+        "walls": "wall",  # format keyword
+        "sides": "symmetry",
+    }
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
-        extra = "        inGroups    List<word> 1(wall);\n" if types[name] == "wall" else ""
+        is_wall = types[name] == "wall"  # format keyword, not a tag
+        extra = "        inGroups    List<word> 1(wall);\n" if is_wall else ""
         lines.append(
             f"    {name}\n    {{\n        type        {types[name]};\n{extra}"
             f"        nFaces      {size};\n        startFace   {start};\n    }}\n"

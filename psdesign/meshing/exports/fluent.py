@@ -16,13 +16,24 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdesign.meshing import tags as T
 from psdesign.meshing.topology import face_topology
 
 if TYPE_CHECKING:
-    from psdesign.meshing.pore_mesh import PoreMesh
+    from psdesign.meshing.result import PoreMesh
 
-BC_TYPES = {"interior": 2, "wall": 3, "pressure-inlet": 4, "pressure-outlet": 5, "symmetry": 7}
-ZONE_TYPE = {"inlet": "pressure-inlet", "outlet": "pressure-outlet", "wall": "wall"}
+BC_TYPES = {  # Fluent zone-type ids
+    "interior": 2,
+    "wall": 3,  # format keyword, not a tag
+    "pressure-inlet": 4,
+    "pressure-outlet": 5,
+    "symmetry": 7,
+}
+ZONE_TYPE = {
+    T.INLET: "pressure-inlet",
+    T.OUTLET: "pressure-outlet",
+    T.WALL: "wall",  # format keyword
+}
 
 
 def _hex_rows(rows: np.ndarray) -> str:

@@ -1,0 +1,68 @@
+"""Checks and bookkeeping shared by both meshers: pore fraction, exact planes, volume gate."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import RegularGridInterpolator
+
+from psdesign.meshing import tags as T
+from psdesign.meshing.errors import MeshFailedError
+from psdesign.meshing.result import PoreMesh, triangle_areas
+
+
+def area(pts: np.ndarray, f: np.ndarray) -> float:
+    """Total area of triangles ``f``."""
+    return float(triangle_areas(pts, f).sum())
+
+
+def restore_planes(pm: PoreMesh, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Put the vertices of box-face tags exactly on their planes (after scaling to metres)."""
+    for ax in range(3):
+        for high, value in ((False, lo[ax]), (True, hi[ax])):
+            f = pm.facet_tags.get(T.face_name(ax, high, pm.axis))
+            if f is not None and len(f):
+                pm.points[np.unique(f), ax] = value
+
+
+def centroid_pore_fraction(d_s, v_s, pts, tets, vol, axis, rve_lo, rve_hi, periodic=False):
+    """Fraction (by count and by volume) of RVE tet centroids where interpolated distance > 0."""
+    cen = pts[tets].mean(axis=1)
+    inside = (cen[:, axis] > rve_lo[axis]) & (cen[:, axis] < rve_hi[axis])
+    if not inside.any():
+        return 1.0, 1.0
+    grids = [(np.arange(n) + 0.5) * v_s for n in d_s.shape]
+    interp = RegularGridInterpolator(grids, d_s, bounds_error=False, fill_value=None)
+    c = cen[inside]
+    for ax in range(3):
+        c[:, ax] = np.clip(c[:, ax], grids[ax][0], grids[ax][-1])
+    pore = interp(c) > 0
+    w = vol[inside]
+    return float(pore.mean()), float(w[pore].sum() / w.sum())
+
+
+def volume_report(mesh_volume: float, analytic: float, voxel: float, scale3: float) -> dict:
+    """The pore-volume keys of ``PoreMesh.quality`` (inputs in scaled units, output in m^3)."""
+    return {
+        "pore_volume_m3": mesh_volume * scale3,
+        "analytic_pore_volume_m3": analytic * scale3,
+        "voxel_pore_volume_m3": voxel * scale3,
+        "pore_volume_rel_diff": mesh_volume / analytic - 1.0,
+        "pore_volume_rel_diff_vs_voxel": mesh_volume / voxel - 1.0,
+    }
+
+
+def gate(quality: dict, volume_tol: float, min_pore_fraction: float, what: str, hint: str):
+    """Raise :class:`MeshFailedError` when the volume or pore-fraction checks fail."""
+    err = quality["volume_rel_error"]
+    if abs(err) > volume_tol:
+        raise MeshFailedError(
+            f"tet mesh volume {quality['mesh_volume_m3']:.4g} m^3 differs from the {what} "
+            f"{quality['volume_target_m3']:.4g} m^3 by {100 * err:.2f} % (> volume_tol = "
+            f"{100 * volume_tol:.2f} %): {hint}"
+        )
+    frac = quality["pore_centroid_fraction"]
+    if frac < min_pore_fraction:
+        raise MeshFailedError(
+            f"only {100 * frac:.2f} % of the RVE tet centroids lie in the pore "
+            f"(min_pore_fraction = {100 * min_pore_fraction:.1f} %): {hint}"
+        )

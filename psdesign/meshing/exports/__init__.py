@@ -1,0 +1,92 @@
+"""Mesh export registry (meshio-style): one module per format, ``WRITERS`` maps name -> writer.
+
+Every writer has the signature ``writer(pm, out_dir) -> dict[str, Path]`` (key -> written
+file); :func:`export_mesh` runs the requested ones and always adds ``mesh.json``. Register a new
+format with :func:`register_writer`; ``psdesign mesh --format`` lists :data:`WRITERS`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from psdesign.meshing.errors import MeshInputError
+from psdesign.meshing.exports.gmsh import write_gmsh
+from psdesign.meshing.exports.meshjson import write_json
+from psdesign.meshing.exports.stl import write_stl
+from psdesign.meshing.exports.vtu import write_vtu
+
+if TYPE_CHECKING:
+    from psdesign.meshing.result import PoreMesh
+
+Writer = Callable[["PoreMesh", Path], dict[str, Path]]
+
+
+def _write_fluent(pm: PoreMesh, out: Path) -> dict[str, Path]:
+    """``pore_fluent.msh``: ANSYS Fluent ASCII with named boundary zones."""
+    from psdesign.meshing.exports.fluent import write_fluent
+
+    return {"fluent": write_fluent(pm, out / "pore_fluent.msh")}
+
+
+def _write_openfoam(pm: PoreMesh, out: Path) -> dict[str, Path]:
+    """``openfoam/``: a ready-to-run simpleFoam case."""
+    from psdesign.meshing.exports.openfoam import write_openfoam_case
+
+    return {"openfoam": write_openfoam_case(pm, out / "openfoam")}
+
+
+#: format name -> writer (insertion order is the order ``--format`` lists them)
+WRITERS: dict[str, Writer] = {
+    "vtu": write_vtu,
+    "msh": write_gmsh,
+    "fluent": _write_fluent,
+    "stl": write_stl,
+    "openfoam": _write_openfoam,
+}
+
+
+def formats() -> tuple[str, ...]:
+    """Names of the registered formats."""
+    return tuple(WRITERS)
+
+
+def register_writer(name: str, writer: Writer) -> None:
+    """Add (or replace) the writer of format ``name``."""
+    if not name.isidentifier():
+        raise MeshInputError(f"format name must be an identifier, got {name!r}")
+    WRITERS[name] = writer
+
+
+def export_mesh(pm: PoreMesh, out_dir, formats=("vtu",)) -> dict[str, Path]:
+    """Write ``pm`` into ``out_dir`` in the requested formats, plus ``mesh.json``.
+
+    Parameters
+    ----------
+    pm
+        The mesh.
+    out_dir
+        Output folder (created).
+    formats
+        Names from :data:`WRITERS`: ``vtu`` (``pore.vtu`` + ``pore_boundary.vtu``), ``msh``
+        (Gmsh 2.2 with physical names), ``fluent`` (``pore_fluent.msh``), ``stl`` (boundary
+        surface), ``openfoam`` (case folder ``openfoam/`` for simpleFoam).
+
+    Returns
+    -------
+    dict
+        Output key -> written path (``json`` always present).
+    """
+    if isinstance(formats, str):
+        formats = (formats,)
+    bad = [f for f in formats if f not in WRITERS]
+    if bad:
+        raise MeshInputError(f"formats {bad} not supported; allowed: {', '.join(WRITERS)}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: dict[str, Path] = {}
+    for fmt in formats:
+        written.update(WRITERS[fmt](pm, out))
+    written["json"] = write_json(pm, out)
+    return written

@@ -1,0 +1,20 @@
+"""Helpers shared by the mesh writers."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from psdesign.meshing.tags import TAG_IDS
+
+if TYPE_CHECKING:
+    from psdesign.meshing.result import PoreMesh
+
+
+def boundary(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """All tagged boundary triangles, their integer tag ids and the tag names present."""
+    names = [k for k in TAG_IDS if k in pm.facet_tags and len(pm.facet_tags[k])]
+    tris = np.concatenate([pm.facet_tags[k] for k in names]).astype(np.int64)
+    ids = np.concatenate([np.full(len(pm.facet_tags[k]), TAG_IDS[k]) for k in names])
+    return tris, ids, names

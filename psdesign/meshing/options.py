@@ -1,0 +1,211 @@
+"""Options of the pore-space mesher: one frozen :class:`MeshOptions`, built from ``[flow]``.
+
+:func:`psdesign.meshing.pore_mesh.mesh_pore_space` takes a :class:`MeshOptions`; the old
+keyword arguments are still accepted and mapped here (:meth:`MeshOptions.from_kwargs`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from psdesign.meshing.errors import MeshInputError
+
+MESHERS = ("stuffing", "pytetwild")
+VOLUME_TARGETS = ("analytic", "voxel")
+TETWILD_OPTIONS = ("stop_energy", "num_opt_iter", "coarsen", "simplify")
+# old keyword names of mesh_pore_space -> MeshOptions field
+_LEGACY_NAMES = {"stuffing_alpha": "alpha", "stuffing_slab_factor": "slab_factor"}
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """Every choice of the pore mesher (lengths in metres).
+
+    Attributes
+    ----------
+    mesher
+        ``'stuffing'`` (default: deterministic lattice mesher, seconds) or ``'pytetwild'``
+        (fTetWild on the exact box-minus-fibers surface; minutes, not deterministic).
+    aux_length
+        Empty auxiliary zone at inlet and outlet, fraction of the RVE length, in [0, 2]
+        (paper Fig. 19); forced to 0 when ``periodic``.
+    periodic
+        Mesh for periodic boundary conditions (``flow.bc = "periodic"``): no auxiliary zones,
+        the field interpolated periodically, opposite box faces with matching vertices
+        (``PoreMesh.periodic_pairs``). Stuffing only.
+    match_volume
+        Shift the meshed level set so that the mesh pore volume equals ``volume_target``
+        (removes the chord bias of a piecewise-linear boundary).
+    volume_target
+        ``'analytic'`` (default: sub-voxel estimate from the signed distance,
+        :mod:`psdesign.meshing.pore_volume`) or ``'voxel'`` (voxel count, the old target).
+    offset
+        Explicit level offset in metres (the surface meshed is ``distance = offset``); if set,
+        no volume matching is done.
+    min_gap_voxels
+        Closing diameter in voxels for pore gaps between nearly touching fibers, in [0, 10].
+    volume_tol
+        Allowed relative difference between the mesh volume and its target, in (0, 1).
+    min_pore_fraction
+        Minimum fraction of RVE tet centroids in the pore, in [0, 1].
+    cache_dir
+        Folder of cached meshes (keyed by a hash of field + options), or None.
+    seed
+        Recorded and part of the cache key (pytetwild itself has no seed).
+    lattice_step
+        Stuffing lattice step; default ``max(2 * voxel, min(size) / 30)``.
+    alpha
+        Stuffing warping threshold in (0, 0.5) (fraction of a lattice edge).
+    slab_factor
+        Stuffing axial step in the auxiliary zones as a multiple of ``lattice_step``, [1, 10].
+    edge_length
+        pytetwild target edge length; default ``edge_length_fac`` times the box diagonal.
+    edge_length_fac
+        pytetwild target edge length as a fraction of the box diagonal, in (0, 1].
+    epsilon
+        pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default a quarter
+        of the marching-cubes step.
+    surface_step
+        Sub-sampling step of the field for the marching-cubes surface (pytetwild input).
+    simplify_tol
+        Surface decimation tolerance in metres (manifold3d ``simplify``); 0 disables.
+    num_threads
+        pytetwild threads (0 = all cores).
+    tetwild_options
+        Extra pytetwild arguments (``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``).
+    """
+
+    mesher: str = "stuffing"
+    aux_length: float = 0.2
+    periodic: bool = False
+    match_volume: bool = True
+    volume_target: str = "analytic"
+    offset: float | None = None
+    min_gap_voxels: float = 1.0
+    volume_tol: float = 0.02
+    min_pore_fraction: float = 0.97
+    cache_dir: str | Path | None = None
+    seed: int = 0
+    lattice_step: float | None = None
+    alpha: float = 0.3
+    slab_factor: float = 3.0
+    edge_length: float | None = None
+    edge_length_fac: float = 0.05
+    epsilon: float | None = None
+    surface_step: int | None = None
+    simplify_tol: float = 0.0
+    num_threads: int = 1
+    tetwild_options: dict | None = field(default=None, hash=False)
+
+    def __post_init__(self) -> None:
+        _check(self)
+        if self.periodic and self.aux_length != 0.0:
+            object.__setattr__(self, "aux_length", 0.0)
+
+    @classmethod
+    def from_flow(cls, flow: dict, **overrides) -> MeshOptions:
+        """Options from a spec's ``[flow]`` table (keys ``mesher``, ``aux_length``,
+        ``lattice_step``, ``edge_length`` (fraction of the box diagonal), ``bc``).
+
+        ``bc = "periodic"`` selects :attr:`periodic`; ``overrides`` replace single fields.
+        """
+        kw: dict = {"mesher": flow.get("mesher") or "stuffing"}
+        if flow.get("aux_length") is not None:
+            kw["aux_length"] = float(flow["aux_length"])
+        if flow.get("edge_length") is not None:
+            kw["edge_length_fac"] = float(flow["edge_length"])
+        if flow.get("lattice_step") is not None:
+            kw["lattice_step"] = float(flow["lattice_step"])
+        if flow.get("bc") == "periodic":
+            kw["periodic"] = True
+        kw.update(overrides)
+        return cls.from_kwargs(**kw)
+
+    @classmethod
+    def from_kwargs(cls, **kwargs) -> MeshOptions:
+        """Options from the old keyword arguments of ``mesh_pore_space`` (and field names)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        kw = {}
+        for key, value in kwargs.items():
+            key = _LEGACY_NAMES.get(key, key)
+            if key not in names:
+                raise MeshInputError(
+                    f"unknown mesh option {key!r}; allowed: {', '.join(sorted(names))}"
+                )
+            kw[key] = value
+        return cls(**kw)
+
+    def replace(self, **changes) -> MeshOptions:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def cache_params(self) -> dict:
+        """The options that change the mesh (part of the cache key)."""
+        d = dataclasses.asdict(self)
+        d.pop("cache_dir")
+        return d
+
+
+def mesher_options(flow: dict) -> dict:
+    """Old keyword arguments of ``mesh_pore_space`` from ``[flow]`` (without ``aux_length``).
+
+    Kept for callers that pass ``aux_length`` separately (it ignores ``bc``); new code uses
+    :meth:`MeshOptions.from_flow`, which also maps ``bc = "periodic"``.
+    """
+    kw: dict = {"mesher": flow.get("mesher", "stuffing")}
+    if flow.get("edge_length") is not None:
+        kw["edge_length_fac"] = float(flow["edge_length"])
+    if flow.get("lattice_step") is not None:
+        kw["lattice_step"] = float(flow["lattice_step"])
+    return kw
+
+
+def _in(name: str, value, lo: float, hi: float, lo_open=False, hi_open=False) -> None:
+    ok = value is not None and np.isfinite(value)
+    ok = (
+        ok and (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    )
+    if not ok:
+        lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
+        raise MeshInputError(f"{name} must be in {lb}{lo:g}, {hi:g}{rb}, got {value!r}")
+
+
+def _check(o: MeshOptions) -> None:
+    """Range checks of every field (one-line :class:`MeshInputError` naming the field)."""
+    if o.mesher not in MESHERS:
+        raise MeshInputError(f"mesher must be 'pytetwild' or 'stuffing', got {o.mesher!r}")
+    if o.volume_target not in VOLUME_TARGETS:
+        raise MeshInputError(
+            f"volume_target must be 'analytic' or 'voxel', got {o.volume_target!r}"
+        )
+    if o.periodic and o.mesher != "stuffing":
+        raise MeshInputError(
+            "periodic meshes need mesher = 'stuffing' (pytetwild cannot give matching "
+            f"opposite faces), got mesher = {o.mesher!r}"
+        )
+    bad = sorted(set(o.tetwild_options or {}) - set(TETWILD_OPTIONS))
+    if bad:
+        raise MeshInputError(
+            f"tetwild_options {bad} not supported; allowed: {', '.join(TETWILD_OPTIONS)}"
+        )
+    _in("aux_length", o.aux_length, 0.0, 2.0)
+    _in("min_gap_voxels", o.min_gap_voxels, 0.0, 10.0)
+    _in("volume_tol", o.volume_tol, 0.0, 1.0, lo_open=True, hi_open=True)
+    _in("min_pore_fraction", o.min_pore_fraction, 0.0, 1.0)
+    _in("stuffing_alpha", o.alpha, 0.0, 0.5, lo_open=True, hi_open=True)
+    _in("stuffing_slab_factor", o.slab_factor, 1.0, 10.0)
+    _in("edge_length_fac", o.edge_length_fac, 0.0, 1.0, lo_open=True)
+    _in("simplify_tol", o.simplify_tol, 0.0, np.inf)
+    _in("num_threads", o.num_threads, 0, 1024)
+    if o.lattice_step is not None:
+        _in("lattice_step", o.lattice_step, 0.0, np.inf, lo_open=True, hi_open=True)
+    if o.edge_length is not None:
+        _in("edge_length", o.edge_length, 0.0, np.inf, lo_open=True, hi_open=True)
+    if o.epsilon is not None:
+        _in("epsilon", o.epsilon, 0.0, 0.1, lo_open=True, hi_open=True)
+    if o.offset is not None:
+        _in("offset", o.offset, -np.inf, np.inf, lo_open=True, hi_open=True)
