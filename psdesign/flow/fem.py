@@ -95,11 +95,17 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
-    if bc == "periodic":
-        opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True)
-    else:
+    if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False)
-    return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
+        return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
+    from psdesign.meshing.errors import MeshFailedError
+    from solvers.fem.periodic import PeriodicMeshError
+
+    opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True)
+    try:
+        return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
+    except MeshFailedError as exc:  # the mesher found opposite faces that differ
+        raise PeriodicMeshError(f"flow.bc = 'periodic': {exc}") from None
 
 
 def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
