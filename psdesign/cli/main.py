@@ -11,7 +11,16 @@ from collections.abc import Sequence
 from psdesign.errors import SpecError
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
-COMMANDS = ("generate", "mesh", "permeability", "study", "forcefield")
+COMMANDS = (
+    "generate",
+    "mesh",
+    "permeability",
+    "diffusivity",
+    "conductivity",
+    "pores",
+    "study",
+    "forcefield",
+)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -26,6 +26,7 @@ KNOWN_TABLES = (
     "mesh",
     "forcefield",
     "output",
+    "transport",  # validated by psdesign.schema.transport (issue 13)
 )
 RVE_KEYS = ("size", "voxel", "period")
 FIBER_KEYS = (

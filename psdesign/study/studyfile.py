@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS  # issue 13
+
 __all__ = [
     "DESIGNS",
     "KNOWN_SPEC_KEYS",
@@ -27,7 +29,7 @@ __all__ = [
 ]
 
 DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
-OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor")
+OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 SOLVERS = ("fem", "voxel")
 STUDY_KEYS = (
     "name",
