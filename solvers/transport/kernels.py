@@ -68,8 +68,9 @@ def apply_dot(d, cx, cy, cz, x, out):
 
 
 @nb.njit(parallel=True, **_OPTS)
-def update_xr(x, r, p, q, alpha, r32):
-    """``x += alpha p``, ``r -= alpha q``, ``r32 = float32(r)``; returns ``r . r``."""
+def update_xr(x, r, p, q, alpha, r32, d):
+    """``x += alpha p``, ``r -= alpha q``, ``r32 = float32(r)``; returns ``|D^-1 r|^2``."""
+    fd = d.reshape(-1)
     fx = x.reshape(-1)
     fr = r.reshape(-1)
     fp = p.reshape(-1)
@@ -86,7 +87,9 @@ def update_xr(x, r, p, q, alpha, r32):
             v = fr[t] - alpha * fq[t]
             fr[t] = v
             f32[t] = v
-            acc += v * v
+            if fd[t] != 0:
+                w = v / fd[t]
+                acc += w * w
         part[c] = acc
     return part.sum()
 
@@ -214,10 +217,7 @@ def coefficients(sigma, axis, fixed, cx, cy, cz, d, rhs):
                         b = np.float64(cy[i, j, k]) - cy[i, jp, k]
                     else:
                         b = np.float64(cz[i, j, k]) - cz[i, j, kp]
-                d32 = np.float32(dd)
-                if d32 < dd:  # round up: keeps the float32 operator diagonally dominant
-                    d32 = np.nextafter(d32, np.float32(np.inf))
-                d[i, j, k] = d32
+                d[i, j, k] = dd
                 rhs[i, j, k] = b if dd != 0 else 0.0
 
 
