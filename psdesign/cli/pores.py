@@ -20,6 +20,10 @@ def _cmd(args: argparse.Namespace) -> int:
         tr["thickness_axis"] = args.axis
     out = pore_report(case.rve, case.fields, tr)
     out["wall_time_s"] = time.perf_counter() - t0
+    if args.plot:
+        from psdesign.report.transport import pore_figure
+
+        out["plot"] = str(pore_figure(out, args.plot))
     if args.json:
         print(json.dumps(out, default=float))
     else:
@@ -40,5 +44,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("spec")
     p.add_argument("--n-radii", type=int, default=None, help="radii of the scan (16)")
     p.add_argument("--axis", choices=("x", "y", "z"), default=None, help="through-plane axis")
+    p.add_argument("--plot", default=None, help="write the size / intrusion plot to this PNG")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd)
