@@ -6,6 +6,9 @@ Run with an environment that has the peers (benchmark-only, never runtime or tes
         porespy taufactor
     PYTHONPATH=$PWD /tmp/venv-bench/bin/python benchmarks/bench_transport.py --n 200
 
+Run with ``NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1`` to compare single-thread CPU times
+(``cpu_s``; the machine is shared, wall times depend on its load).
+
 Image: Toray-like carbon paper, 7 um straight fibres, porosity 0.8, fast zero-overlap
 placement, seed 1, ``n^3`` voxels over a 100 um cube.  Each tool is timed once, one after the
 other in one process (the machine is shared: the 1-minute load average is printed with each
@@ -44,10 +47,17 @@ def _image(n: int):
 
 
 def _timed(fn):
+    """Wall time, process CPU time (all threads) and the 1-minute load when it started; on a
+    shared machine ``cpu_s`` with one thread is the load-independent figure."""
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
+    c0 = time.process_time()
     out = fn()
-    return out, {"wall_s": time.perf_counter() - t0, "load_1min": load}
+    return out, {
+        "wall_s": time.perf_counter() - t0,
+        "cpu_s": time.process_time() - c0,
+        "load_1min": load,
+    }
 
 
 def main() -> None:
@@ -99,7 +109,9 @@ def _peers(fields, pore, args, res) -> None:
     h = float(fields.grid.spacing[0])
     try:
         import taufactor
+        import torch
 
+        torch.set_num_threads(int(os.environ.get("NUMBA_NUM_THREADS", "1")))
         img = np.moveaxis(pore, 2, 0).astype(np.float32)  # TauFactor drives along axis 0
         solver = taufactor.Solver(img, device="cpu")
         _, t = _timed(lambda: solver.solve(verbose=False, conv_crit=1e-3))
