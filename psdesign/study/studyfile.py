@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS  # issue 13
+from psdesign.transport.study_outputs import TRANSPORT_KEYS, TRANSPORT_OUTPUTS  # issue 13
 
 __all__ = [
     "DESIGNS",
@@ -109,6 +109,7 @@ KNOWN_SPEC_KEYS: set[str] = {
         )
     ),
 }
+KNOWN_SPEC_KEYS |= set(TRANSPORT_KEYS)  # issue 13: the [transport] table
 
 
 class StudyError(ValueError):

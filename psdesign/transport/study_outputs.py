@@ -15,6 +15,23 @@ from __future__ import annotations
 
 from psdesign.geometry.rve import RVE, VoxelFields
 
+#: Spec paths of the ``[transport]`` table a study parameter may vary.
+TRANSPORT_KEYS = tuple(
+    f"transport.{k}"
+    for k in (
+        "bc",
+        "tol",
+        "error_estimate",
+        "bulk_diffusivity_m2_s",
+        "mean_free_path_m",
+        "solid_conductivity",
+        "fluid_conductivity",
+        "insulating_phase",
+        "thickness_axis",
+        "n_radii",
+    )
+)
+
 TRANSPORT_OUTPUTS = (
     "diffusivity_x",
     "diffusivity_y",

@@ -86,3 +86,29 @@ def test_study_outputs_row(spec):
     assert row["tortuosity_x"] > 1.0
     assert row["conductivity_z"] > 0 and row["pore_d50_m"] > 0
     assert row["specific_surface_m-1"] > 0
+
+
+def test_study_file_accepts_transport_outputs_and_run_case_fills_them(tmp_path):
+    import tomllib
+
+    from psdesign.study.case import run_case
+    from psdesign.study.studyfile import parse_study
+
+    base = tomllib.loads(SPEC)
+    study = parse_study(
+        {
+            "base": base,
+            "study": {
+                "name": "t",
+                "design": "full-factorial",
+                "seeds": [1],
+                "outputs": ["porosity", "diffusivity_z", "tortuosity_x", "specific_surface_m-1"],
+                "solver": "voxel",
+            },
+            "parameters": {"transport.fluid_conductivity": [0.026, 0.05]},
+        }
+    )
+    assert "diffusivity_z" in study.outputs
+    row = run_case(base, study.outputs, "voxel", tmp_path)
+    assert row["diffusivity_z"] == pytest.approx(row["porosity"], rel=1e-6)
+    assert row["tortuosity_x"] > 1.0 and row["specific_surface_m-1"] > 0
