@@ -12,7 +12,17 @@ from collections.abc import Sequence
 from psdesign.errors import SpecError
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
-COMMANDS = ("generate", "mesh", "permeability", "study", "rev", "forcefield")
+COMMANDS = (
+    "generate",
+    "mesh",
+    "permeability",
+    "diffusivity",
+    "conductivity",
+    "pores",
+    "study",
+    "rev",
+    "forcefield",
+)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -15,6 +15,7 @@ from psdesign.schema.flow import FlowTable
 from psdesign.schema.forcefield import ForceFieldTable
 from psdesign.schema.generator import GeneratorTable, IntersectionsTable
 from psdesign.schema.rve import RveTable
+from psdesign.schema.transport import TransportSpec
 from psdesign.schema.types import Table, fail
 
 #: Densest packing of equal infinite cylinders (Bezdek & Kuperberg 1990): pi / sqrt(12).
@@ -39,6 +40,7 @@ class SpecDocument(Table):
     intersections: IntersectionsTable | None = Field(None, description="table")
     flow: FlowTable = Field(default_factory=FlowTable, description="table")
     forcefield: ForceFieldTable | None = Field(None, description="table (force-field specs)")
+    transport: TransportSpec | None = Field(None, description="table (docs/transport.md)")
 
     @model_validator(mode="before")
     @classmethod

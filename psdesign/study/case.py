@@ -10,9 +10,10 @@ import numpy as np
 from psdesign.flow.permeability import permeability
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
+from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
 
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
-OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor")
+OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 
 
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
@@ -74,6 +75,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         for i, a in enumerate("xyz"):
             for j, b in enumerate("xyz"):
                 row[f"k_{a}{b}_m2"] = float(tensor[i, j])
+    row.update(transport_outputs(rve, fields, outputs, spec))  # issue 13: transport outputs
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     try:

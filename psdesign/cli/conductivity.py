@@ -1,0 +1,80 @@
+"""``psdesign conductivity``: effective conductivity of the fibre / pore medium."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.schema.transport import check_conductivity
+    from psdesign.transport.conductivity import effective_conductivity
+    from psdesign.transport.load import load_case, progress_lines
+
+    solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
+    fluid = None if args.fluid is None else check_conductivity(args.fluid, "--fluid")
+    t0 = time.perf_counter()
+    case = load_case(args.spec)
+    tr = dict(case.transport)
+    if args.bc:
+        tr["bc"] = args.bc
+    if args.insulating:
+        tr["insulating_phase"] = args.insulating
+    dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
+    results = [
+        effective_conductivity(
+            case.fields, d, solid, fluid, tr, progress=None if args.quiet else progress_lines(d)
+        ).to_dict()
+        for d in dirs
+    ]
+    if len(results) == 1:
+        out = results[0]
+    else:
+        out = {
+            "direction": "all",
+            "bc": tr["bc"],
+            "porosity": case.fields.porosity,
+            "results": results,
+            "effective_conductivity": {
+                r["direction"]: r["effective_conductivity"] for r in results
+            },
+            "converged": all(r["converged"] for r in results),
+        }
+        if tr["bc"] == "periodic":
+            out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
+    out["wall_time_s"] = time.perf_counter() - t0
+    for r in results:
+        if r["blocked"]:
+            print(f"psdesign: conductivity {r['direction']}: {r['message']}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(out, default=float))
+    else:
+        for r in results:
+            flag = "" if r["converged"] else "  (NOT CONVERGED)"
+            print(
+                f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g}  (solid "
+                f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g})  bc {r['bc']}  "
+                f"rel. error {r['rel_error']:.1e}{flag}"
+            )
+    return 0 if out["converged"] else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Register ``conductivity``."""
+    p = sub.add_parser("conductivity", help="effective thermal / electrical conductivity")
+    p.add_argument("spec")
+    p.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
+    p.add_argument("--solid", type=float, default=None, help="solid (fibre) conductivity, > 0")
+    p.add_argument("--fluid", type=float, default=None, help="fluid (pore) conductivity, > 0")
+    p.add_argument(
+        "--insulating",
+        choices=("none", "solid", "fluid"),
+        default=None,
+        help="treat one phase as a perfect insulator",
+    )
+    p.add_argument("--bc", choices=("periodic", "permeameter"), default=None)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=_cmd)

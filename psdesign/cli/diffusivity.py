@@ -1,0 +1,83 @@
+"""``psdesign diffusivity``: relative diffusivity and tortuosity factor of the pore space."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
+    from psdesign.transport.load import load_case, progress_lines
+
+    t0 = time.perf_counter()
+    case = load_case(args.spec)
+    tr = dict(case.transport)
+    if args.bc:
+        tr["bc"] = args.bc
+    if args.tol:
+        tr["tol"] = args.tol
+    dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
+    if args.direction == "all" and tr["bc"] == "periodic":
+        out = diffusivity_tensor(case.fields, tr)
+        out["direction"] = "all"
+        out["bc"] = "periodic"
+        results = out["results"]
+    else:
+        results = [
+            relative_diffusivity(
+                case.fields, d, tr, progress=None if args.quiet else progress_lines(d)
+            ).to_dict()
+            for d in dirs
+        ]
+        out = (
+            results[0]
+            if len(results) == 1
+            else {
+                "direction": "all",
+                "bc": tr["bc"],
+                "porosity": case.fields.porosity,
+                "results": results,
+                "relative_diffusivity": {
+                    r["direction"]: r["relative_diffusivity"] for r in results
+                },
+                "tortuosity_factor": {r["direction"]: r["tortuosity_factor"] for r in results},
+                "converged": all(r["converged"] for r in results),
+            }
+        )
+    out["wall_time_s"] = time.perf_counter() - t0
+    for r in results:
+        if r["blocked"]:
+            print(f"psdesign: diffusivity {r['direction']}: {r['message']}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(out, default=float))
+    else:
+        for r in results:
+            tau = r["tortuosity_factor"]
+            flag = "" if r["converged"] else "  (NOT CONVERGED)"
+            print(
+                f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}  tortuosity factor "
+                f"{'inf' if tau is None else f'{tau:.4f}'}  porosity {r['porosity']:.4f}  "
+                f"bc {r['bc']}  rel. error {r['rel_error']:.1e}{flag}"
+            )
+    return 0 if out["converged"] else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Register ``diffusivity``."""
+    p = sub.add_parser("diffusivity", help="effective diffusivity and tortuosity of the pores")
+    p.add_argument("spec")
+    p.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
+    p.add_argument(
+        "--bc",
+        choices=("periodic", "permeameter"),
+        default=None,
+        help="periodic (homogenized tensor) or fixed inlet/outlet with insulated sides "
+        "(default: the spec's transport.bc, periodic)",
+    )
+    p.add_argument("--tol", type=float, default=None, help="CG relative residual (1e-8)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=_cmd)

@@ -1,0 +1,49 @@
+"""``psdesign pores``: pore sizes, intrusion curve, specific surface, profiles, orientation."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.transport.load import load_case
+    from psdesign.transport.study_outputs import pore_report
+
+    t0 = time.perf_counter()
+    case = load_case(args.spec)
+    tr = dict(case.transport)
+    if args.n_radii:
+        tr["n_radii"] = args.n_radii
+    if args.axis:
+        tr["thickness_axis"] = args.axis
+    out = pore_report(case.rve, case.fields, tr)
+    out["wall_time_s"] = time.perf_counter() - t0
+    if args.plot:
+        from psdesign.report.transport import pore_figure
+
+        out["plot"] = str(pore_figure(out, args.plot))
+    if args.json:
+        print(json.dumps(out, default=float))
+    else:
+        print(
+            f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
+            f"d90 {out['pore_d90_m']:.3e} m  (step {out['bin_width_m']:.1e} m)"
+        )
+        print(
+            f"specific surface {out['specific_surface_m-1']:.4e} 1/m  porosity "
+            f"{out['porosity']:.4f}  breakthrough diameter {out['breakthrough_diameter_m']:.3e} m"
+        )
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Register ``pores``."""
+    p = sub.add_parser("pores", help="pore size distribution, intrusion, surface, orientation")
+    p.add_argument("spec")
+    p.add_argument("--n-radii", type=int, default=None, help="radii of the scan (16)")
+    p.add_argument("--axis", choices=("x", "y", "z"), default=None, help="through-plane axis")
+    p.add_argument("--plot", default=None, help="write the size / intrusion plot to this PNG")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd)

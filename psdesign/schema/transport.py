@@ -1,0 +1,106 @@
+"""The ``[transport]`` table of an RVE spec (pydantic v2): diffusivity, conductivity, pores.
+
+:func:`validate_transport` returns the validated table as a plain dict with defaults filled
+in; a bad value raises :class:`~psdesign.errors.SpecError` naming ``transport.<key>`` and the
+allowed range (one line).  Wired into the main schema by the coordinator; the transport
+commands call it directly.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from psdesign.errors import SpecError
+
+
+class TransportSpec(BaseModel):
+    """Keys of ``[transport]`` (SI units).
+
+    Attributes
+    ----------
+    bc : {"periodic", "permeameter"}
+        Laplace boundary conditions: periodic (homogenized tensor, unit mean gradient) or
+        fixed inlet/outlet values with insulated sides.
+    tol : float
+        Relative residual of the conjugate-gradient solve.
+    max_iter : int
+        Conjugate-gradient iteration cap.
+    error_estimate : {"resolution", "residual"}
+        ``resolution``: a second solve on a grid twice as coarse (first-order estimate
+        ``|X_h - X_2h|``) combined with the flux imbalance; ``residual``: flux imbalance only.
+    bulk_diffusivity_m2_s : float
+        Molecular (bulk) diffusivity of the gas, m^2/s (default O2 in air, 25 C: 2.0e-5).
+    mean_free_path_m : float
+        Gas mean free path, m (default air at 25 C, 1 atm: 68 nm; 0 switches Knudsen off).
+    solid_conductivity, fluid_conductivity : float
+        Phase conductivities (W/m/K or S/m), > 0 (defaults: carbon fibre 120, air 0.026).
+    insulating_phase : {"none", "solid", "fluid"}
+        Treat one phase as a perfect insulator (conductivity exactly 0).
+    thickness_axis : {"x", "y", "z"}
+        Through-plane axis (porosity profile, intrusion inlet face).
+    n_radii : int
+        Radii of the local-thickness / intrusion scan.
+    surface_tension_n_m, contact_angle_deg : float
+        Intrusion fluid (default mercury: 0.485 N/m, 140 deg) for the Washburn pressure.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    bc: Literal["periodic", "permeameter"] = "periodic"
+    tol: float = Field(1e-8, gt=0.0, lt=1.0)
+    max_iter: int = Field(2000, ge=1, le=100_000)
+    error_estimate: Literal["resolution", "residual"] = "resolution"
+    bulk_diffusivity_m2_s: float = Field(2.0e-5, gt=0.0, lt=1.0)
+    mean_free_path_m: float = Field(6.8e-8, ge=0.0, lt=1.0)
+    solid_conductivity: float = Field(120.0, gt=0.0, lt=1e12)
+    fluid_conductivity: float = Field(0.026, gt=0.0, lt=1e12)
+    insulating_phase: Literal["none", "solid", "fluid"] = "none"
+    thickness_axis: Literal["x", "y", "z"] = "z"
+    n_radii: int = Field(16, ge=4, le=200)
+    surface_tension_n_m: float = Field(0.485, gt=0.0, lt=10.0)
+    contact_angle_deg: float = Field(140.0, gt=90.0, le=180.0)
+
+
+def _one_line(exc: ValidationError) -> SpecError:
+    err = exc.errors()[0]
+    loc = ".".join(str(p) for p in err["loc"])
+    key = f"transport.{loc}" if loc else "transport"
+    if err["type"] == "extra_forbidden":
+        allowed = ", ".join(TransportSpec.model_fields)
+        return SpecError(key, f"unknown key; allowed: {allowed}")
+    return SpecError(key, f"{err['msg']}, got {err.get('input')!r}")
+
+
+def validate_transport(spec: dict | None) -> dict:
+    """The validated ``[transport]`` table of ``spec`` (defaults if absent), a plain dict.
+
+    Parameters
+    ----------
+    spec : dict or None
+        A whole RVE spec (its ``"transport"`` entry is read) or None.
+
+    Raises
+    ------
+    SpecError
+        ``transport.<key>: ...`` for an unknown key or a value out of range.
+    """
+    table = (spec or {}).get("transport", {})
+    if not isinstance(table, dict):
+        raise SpecError("transport", "must be a table")
+    try:
+        return TransportSpec(**table).model_dump()
+    except ValidationError as exc:
+        raise _one_line(exc) from None
+
+
+def check_conductivity(value: float, key: str) -> float:
+    """A conductivity given outside the spec (CLI): finite and > 0, else SpecError naming key."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SpecError(key, f"must be a number > 0, got {value!r}") from None
+    if not (v > 0 and v < 1e12):
+        raise SpecError(key, f"must be > 0 and < 1e12 (use insulating_phase for 0), got {v:g}")
+    return v

@@ -1,0 +1,187 @@
+"""Effective diffusivity of the pore space, tortuosity factor, Knudsen / transition regime.
+
+Definitions (Fick's law on the pore space, solid impermeable, zero flux on the fibre walls):
+
+* relative diffusivity ``D_eff / D_bulk = <J_a> / (D_bulk |grad c|)``, the superficial mean
+  flux over the whole box per unit applied gradient, from one Laplace solve on the pore voxels
+  (:func:`solvers.transport.solve_laplace`, conductivity 1 in pore, 0 in solid);
+* tortuosity factor ``tau = porosity / (D_eff / D_bulk)`` (so ``D_eff = D_bulk eps / tau``; 1
+  for straight channels along the gradient);
+* transition regime (Bosanquet): ``1 / D_pore = 1 / D_bulk + 1 / D_Kn`` with the Knudsen
+  diffusivity from kinetic theory, ``D_Kn = d_pore u / 3`` and ``D_bulk = lambda u / 3`` at the
+  same mean molecular speed ``u``, hence ``D_Kn = D_bulk d_pore / lambda`` and
+  ``D_pore = D_bulk / (1 + Kn)`` with ``Kn = lambda / d_pore``; ``d_pore = 4 eps / S_v`` (mean
+  pore intercept from the specific surface of :func:`psdesign.transport.pores.specific_surface`)
+  and ``lambda`` = ``transport.mean_free_path_m``.  The same ``Kn`` is used in every pore (a
+  mean-pore-size model); ``D_eff = D_pore (D_eff / D_bulk)``.
+
+Boundary conditions: ``periodic`` (homogenized tensor; three solves give it whole) or
+``permeameter`` (fixed concentrations on the inlet and outlet faces, insulated sides).
+A blocked direction gives 0 with ``blocked=True`` and a message; the tortuosity factor is then
+None (infinite).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from psdesign.geometry.rve import VoxelFields
+from psdesign.schema.transport import validate_transport
+from psdesign.transport.effective import Effective, solve_effective
+
+
+@dataclass
+class DiffusivityResult:
+    """Pore diffusion along one axis (SI units; see module docstring)."""
+
+    direction: str
+    bc: str
+    relative_diffusivity: float
+    tortuosity_factor: float | None
+    porosity: float
+    relative_diffusivity_column: list[float]
+    converged: bool
+    residual: float
+    iterations: int
+    flux_imbalance: float
+    rel_error: float
+    error_method: str
+    blocked: bool
+    message: str
+    n_cells: int
+    wall_time_s: float
+    bulk_diffusivity_m2_s: float
+    effective_diffusivity_m2_s: float
+    mean_pore_diameter_m: float | None = None
+    knudsen_number: float | None = None
+    effective_diffusivity_transition_m2_s: float | None = None
+
+    def to_dict(self) -> dict:
+        """Plain dict (JSON-ready)."""
+        out = asdict(self)
+        out["solver"] = "voxel-laplace"
+        return out
+
+
+def knudsen_number(mean_free_path: float, pore_diameter: float) -> float:
+    """``Kn = lambda / d``."""
+    if pore_diameter <= 0:
+        raise ValueError(f"pore_diameter must be > 0 m, got {pore_diameter:g}")
+    return float(mean_free_path) / float(pore_diameter)
+
+
+def bosanquet(bulk: float, knudsen: float) -> float:
+    """Transition diffusivity ``1 / (1 / D_bulk + 1 / D_Kn)`` (``D_Kn = inf`` gives bulk)."""
+    if not np.isfinite(knudsen):
+        return float(bulk)
+    return float(1.0 / (1.0 / bulk + 1.0 / knudsen))
+
+
+def pore_diffusivity(bulk: float, mean_free_path: float, pore_diameter: float) -> float:
+    """Bosanquet diffusivity in a pore of diameter ``d``: ``D_Kn = D_bulk d / lambda``."""
+    if mean_free_path <= 0:
+        return float(bulk)
+    return bosanquet(bulk, bulk * pore_diameter / mean_free_path)
+
+
+def _pore_sigma(solid: np.ndarray) -> np.ndarray:
+    return (~solid).astype(np.float32)
+
+
+def _result(eff: Effective, fields: VoxelFields, tr: dict, pore_d: float | None):
+    eps = fields.porosity
+    rel = max(eff.value, 0.0)
+    tau = eps / rel if rel > 0 else None
+    bulk = float(tr["bulk_diffusivity_m2_s"])
+    out = DiffusivityResult(
+        direction=eff.direction,
+        bc=eff.bc,
+        relative_diffusivity=rel,
+        tortuosity_factor=tau,
+        porosity=eps,
+        relative_diffusivity_column=eff.column,
+        converged=eff.converged,
+        residual=eff.residual,
+        iterations=eff.iterations,
+        flux_imbalance=eff.flux_imbalance,
+        rel_error=eff.rel_error,
+        error_method=eff.error_method,
+        blocked=eff.blocked,
+        message=eff.message,
+        n_cells=eff.n_cells,
+        wall_time_s=eff.wall_time_s,
+        bulk_diffusivity_m2_s=bulk,
+        effective_diffusivity_m2_s=bulk * rel,
+    )
+    if pore_d is not None and pore_d > 0:
+        lam = float(tr["mean_free_path_m"])
+        out.mean_pore_diameter_m = float(pore_d)
+        out.knudsen_number = knudsen_number(lam, pore_d)
+        out.effective_diffusivity_transition_m2_s = pore_diffusivity(bulk, lam, pore_d) * rel
+    return out
+
+
+def mean_pore_diameter(fields: VoxelFields) -> float | None:
+    """``4 eps / S_v`` from the marching-cubes surface (None without pore surface)."""
+    from psdesign.transport.pores import specific_surface
+
+    sv = specific_surface(fields).specific_surface_m_1
+    return 4.0 * fields.porosity / sv if sv > 0 else None
+
+
+def relative_diffusivity(
+    fields: VoxelFields,
+    direction: str | int = "z",
+    transport: dict | None = None,
+    progress: Callable[[int, float], None] | None = None,
+    pore_diameter: float | None = None,
+) -> DiffusivityResult:
+    """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along one axis.
+
+    Parameters
+    ----------
+    fields : VoxelFields
+        Voxelized RVE (cubic voxels); pore where ``distance > 0``.
+    direction : "x", "y", "z" or 0..2
+    transport : dict, optional
+        ``[transport]`` table (validated here; keys ``bc``, ``tol``, ``error_estimate``,
+        ``bulk_diffusivity_m2_s``, ``mean_free_path_m``).
+    progress : callable, optional
+        ``progress(iteration, residual)``.
+    pore_diameter : float, optional
+        Mean pore diameter for the Knudsen number (default ``4 eps / S_v``).
+    """
+    tr = validate_transport({"transport": transport or {}})
+    eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress)
+    if pore_diameter is None and tr["mean_free_path_m"] > 0:
+        pore_diameter = mean_pore_diameter(fields)
+    return _result(eff, fields, tr, pore_diameter)
+
+
+def diffusivity_tensor(fields: VoxelFields, transport: dict | None = None) -> dict:
+    """Full relative-diffusivity tensor with periodic BC (three solves).
+
+    Returns a dict with ``tensor`` (3x3, column ``a`` = mean flux for a unit gradient along
+    ``a``), ``symmetric`` (its symmetric part), ``eigenvalues``, ``tortuosity_factor`` per
+    axis, ``results`` (the three :class:`DiffusivityResult` dicts) and ``converged``.
+    """
+    tr = dict(transport or {})
+    tr["bc"] = "periodic"
+    tr = validate_transport({"transport": tr})
+    pore_d = mean_pore_diameter(fields) if tr["mean_free_path_m"] > 0 else None
+    results = [relative_diffusivity(fields, d, tr, pore_diameter=pore_d) for d in "xyz"]
+    tensor = np.column_stack([r.relative_diffusivity_column for r in results])
+    sym = 0.5 * (tensor + tensor.T)
+    return {
+        "tensor": tensor.tolist(),
+        "symmetric": sym.tolist(),
+        "eigenvalues": np.linalg.eigvalsh(sym).tolist(),
+        "tortuosity_factor": {r.direction: r.tortuosity_factor for r in results},
+        "relative_diffusivity": {r.direction: r.relative_diffusivity for r in results},
+        "porosity": fields.porosity,
+        "results": [r.to_dict() for r in results],
+        "converged": all(r.converged for r in results),
+    }

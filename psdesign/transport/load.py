@@ -1,0 +1,70 @@
+"""Spec -> validated ``[transport]`` table, RVE and voxel fields (shared by the commands)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from psdesign.geometry.rve import RVE, VoxelFields
+
+
+@dataclass
+class TransportCase:
+    """A built RVE with its validated spec and ``[transport]`` table."""
+
+    spec: dict
+    transport: dict
+    rve: RVE
+    fields: VoxelFields
+
+
+def load_case(path: str) -> TransportCase:
+    """Load and validate a spec file, build the RVE and voxelize it at ``rve.voxel``.
+
+    Raises
+    ------
+    SpecError
+        A bad key anywhere in the spec (the ``[transport]`` table included).
+    """
+    import tomllib
+    from pathlib import Path
+
+    from psdesign.errors import SpecError
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec, validate_spec
+    from psdesign.schema.transport import validate_transport
+
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError("spec", f"file not found: {p}")
+    try:
+        raw = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SpecError("spec", f"not valid TOML: {exc}") from None
+    transport = validate_transport(raw)
+    rest = {k: v for k, v in raw.items() if k != "transport"}
+    spec = validate_spec(rest) if rest else load_spec(p)
+    spec["transport"] = transport
+    built = build_rve(spec)
+    return TransportCase(spec, transport, built.rve, built.voxelize(spec["rve"]["voxel"]))
+
+
+def progress_lines(direction: str, every_s: float = 5.0):
+    """Progress callback of the Laplace solve: one line on stderr at most every ``every_s``."""
+    import sys
+    import time
+
+    t0 = time.perf_counter()
+    last = [t0]
+
+    def report(iterations: int, residual: float) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= every_s:
+            last[0] = now
+            print(
+                f"psdesign: Laplace solve {direction}: {iterations} CG iterations, "
+                f"residual {residual:.1e}, {now - t0:.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    return report

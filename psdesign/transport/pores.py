@@ -1,0 +1,274 @@
+"""Pore structure of a voxelized RVE: local thickness, intrusion, surface, profiles, orientation.
+
+* **Local thickness** (pore size distribution, Hildebrand & Ruegsegger, J. Microsc. 185, 67,
+  1997): the diameter of the largest inscribed sphere containing each pore voxel.  The
+  Euclidean distance map ``dt`` (:func:`scipy.ndimage.distance_transform_edt`, minus half a
+  voxel so that it measures to the voxel *faces* of the solid) is scanned over ``n_radii``
+  radii ``r`` from its maximum down: the seeds ``dt >= r`` are dilated by a ball of radius
+  ``r`` (one distance transform of the seed complement per radius) and voxels first
+  covered get the thickness ``2 r``.  Voxels never
+  covered by a scanned radius get the smallest one.  The distribution is pore-volume
+  weighted; ``d10/d50/d90`` are the diameters below which 10/50/90 % of the pore volume lies,
+  resolved to the radius step (``bin_width_m``, the error estimate).
+* **Intrusion / capillary drainage** (as PoreSpy's ``porosimetry``): a non-wetting fluid
+  enters from the inlet face (first layer along ``thickness_axis``); at radius ``r`` it fills
+  the union of balls of radius ``r`` whose centres ``dt >= r`` are connected to the inlet
+  through such centres.  Saturation vs accessible pore diameter, and the Washburn pressure
+  ``p = -2 gamma cos(theta) / r``.
+* **Specific surface** ``S_v = A / V_box`` (m^-1) with ``A`` from marching cubes
+  (:func:`skimage.measure.marching_cubes`) on the signed distance field
+  ``VoxelFields.distance`` (the analytic surface sampled at voxel centres, second order, not
+  voxel faces); the grid is padded by one wrapped layer so the surface between the last and
+  the first voxel layer is counted once.  The error estimate compares with the same
+  measurement on every second voxel (``|S_h - S_2h| / S_h``).
+* **Porosity profile** along ``thickness_axis`` (pore fraction per voxel layer).
+* **Fibre orientation tensor** ``a_ij = sum_f w_f p_i p_j / sum_f w_f`` of the fibres' carrier
+  directions ``p`` (Advani & Tucker, J. Rheol. 31, 751, 1987), weight ``w_f = d_f^2`` (volume
+  per unit length).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from psdesign.flow.darcy import axis_of
+from psdesign.geometry.rve import RVE, VoxelFields
+
+
+@dataclass
+class PoreSizeResult:
+    """Local-thickness pore size distribution and intrusion curve (metres)."""
+
+    diameters_m: list[float]
+    volume_fraction: list[float]
+    cumulative_fraction: list[float]
+    pore_d10_m: float
+    pore_d50_m: float
+    pore_d90_m: float
+    mean_diameter_m: float
+    max_diameter_m: float
+    intrusion_diameter_m: list[float]
+    intrusion_saturation: list[float]
+    intrusion_pressure_pa: list[float]
+    breakthrough_diameter_m: float
+    bin_width_m: float
+    porosity: float
+    converged: bool = True
+    rel_error: float = 0.0
+    wall_time_s: float = 0.0
+    thickness_axis: str = "z"
+
+    def to_dict(self) -> dict:
+        """Plain dict (JSON-ready)."""
+        return asdict(self)
+
+
+@dataclass
+class SurfaceResult:
+    """Specific surface from marching cubes on the signed distance field."""
+
+    area_m2: float
+    specific_surface_m_1: float
+    coarse_specific_surface_m_1: float | None
+    rel_error: float
+    converged: bool = True
+    extra: dict = field(default_factory=dict)
+
+
+def _edt_pore(distance: np.ndarray, h: float) -> np.ndarray:
+    """Distance (voxels) from pore voxel centres to the solid surface.
+
+    The signed distance field is used where it is below its clip value (the narrow band of
+    the rasterizer: exact surface, sub-voxel); farther out the Euclidean distance to the
+    nearest solid voxel minus half a voxel (to its face), never below the clip value.
+    """
+    pore = distance > 0
+    clip = float(distance.max())
+    if pore.all():
+        return np.maximum(distance / h, 0.5 * min(pore.shape)).astype(np.float32)
+    dt = ndimage.distance_transform_edt(pore).astype(np.float32)
+    dt[pore] -= 0.5
+    analytic = (distance / h).astype(np.float32)
+    far = distance >= clip
+    dt = np.where(far, np.maximum(dt, analytic), analytic)
+    dt[~pore] = 0.0
+    return dt
+
+
+def _edt(mask: np.ndarray) -> np.ndarray:
+    """Euclidean distance (voxels) of every True voxel to the nearest False one: the
+    multi-threaded ``edt`` library (Silversmith, seung-lab; also PoreSpy's) when installed,
+    else :func:`scipy.ndimage.distance_transform_edt`."""
+    try:
+        import edt as _edt_lib
+    except ImportError:  # pragma: no cover - optional accelerator
+        return ndimage.distance_transform_edt(mask)
+    import numba
+
+    return _edt_lib.edt(np.ascontiguousarray(mask), parallel=numba.get_num_threads())
+
+
+def _ball_union(seeds: np.ndarray, r: float) -> np.ndarray:
+    """Voxels whose centre lies within ``r`` of a seed voxel centre."""
+    return _edt(~seeds) <= r
+
+
+def _scan(dt, pore, radii, inlet_axis):
+    """Local thickness (index of the radius per voxel, -1 = none) and intrusion saturation."""
+    lt = np.full(dt.shape, -1, np.int16)
+    sat = []
+    npore = max(int(np.count_nonzero(pore)), 1)
+    invaded = np.zeros(dt.shape, bool)
+    for i, r in enumerate(radii):
+        seeds = dt >= r
+        if not seeds.any():
+            sat.append(0.0)
+            continue
+        cov = _ball_union(seeds, r)
+        lab, n = ndimage.label(seeds)
+        inlet = np.unique(np.take(lab, 0, axis=inlet_axis))
+        inlet = inlet[inlet > 0]
+        if inlet.size == n:
+            inv = cov
+        elif inlet.size == 0:
+            inv = None
+        else:
+            lut = np.zeros(n + 1, bool)
+            lut[inlet] = True
+            inv = _ball_union(lut[lab], r)
+        lt[cov & pore & (lt < 0)] = i
+        if inv is not None:
+            invaded |= inv & pore
+        sat.append(float(np.count_nonzero(invaded)) / npore)
+    lt[pore & (lt < 0)] = len(radii) - 1
+    return lt, sat
+
+
+def pore_sizes(
+    fields: VoxelFields,
+    n_radii: int = 16,
+    thickness_axis: str | int = "z",
+    surface_tension: float = 0.485,
+    contact_angle_deg: float = 140.0,
+) -> PoreSizeResult:
+    """Local-thickness pore size distribution and intrusion curve (see module docstring).
+
+    Parameters
+    ----------
+    fields : VoxelFields
+        Cubic voxels; pore where ``distance > 0``.
+    n_radii : int
+        Radii scanned, evenly spaced from the largest inscribed radius down to one voxel.
+    thickness_axis : "x", "y", "z" or 0..2
+        Intrusion inlet is the first layer along it.
+    surface_tension, contact_angle_deg : float
+        Intrusion fluid for the Washburn pressure (mercury by default).
+    """
+    t0 = time.perf_counter()
+    if n_radii < 2:
+        raise ValueError(f"transport.n_radii: must be >= 2, got {n_radii}")
+    name, ax = axis_of(thickness_axis)
+    h = float(fields.grid.spacing[0])
+    pore = ~fields.solid
+    eps = fields.porosity
+    if not pore.any():
+        raise ValueError("pores: the RVE has no pore voxel")
+    dt = _edt_pore(fields.distance, h)
+    rmax = float(dt.max())
+    radii = np.unique(np.linspace(max(rmax, 1.0), min(1.0, rmax), n_radii))[::-1]
+    lt, sat = _scan(dt, pore, radii, ax)
+    idx = lt[pore]
+    diam = 2.0 * h * radii[idx]
+    d_bins = 2.0 * h * radii[::-1]
+    counts = np.bincount(idx, minlength=radii.size)[::-1].astype(float)
+    frac = counts / counts.sum()
+    q10, q50, q90 = (float(v) for v in np.percentile(diam, [10, 50, 90], method="inverted_cdf"))
+    p = -2.0 * surface_tension * np.cos(np.radians(contact_angle_deg)) / (radii * h)
+    sat_arr = np.asarray(sat)
+    hit = np.nonzero(sat_arr > 0)[0]
+    step = float(2.0 * h * (radii[0] - radii[1])) if radii.size > 1 else 2.0 * h
+    return PoreSizeResult(
+        diameters_m=d_bins.tolist(),
+        volume_fraction=frac.tolist(),
+        cumulative_fraction=np.cumsum(frac).tolist(),
+        pore_d10_m=q10,
+        pore_d50_m=q50,
+        pore_d90_m=q90,
+        mean_diameter_m=float(diam.mean()),
+        max_diameter_m=float(diam.max()),
+        intrusion_diameter_m=(2.0 * h * radii).tolist(),
+        intrusion_saturation=sat_arr.tolist(),
+        intrusion_pressure_pa=p.tolist(),
+        breakthrough_diameter_m=float(2.0 * h * radii[hit[0]]) if hit.size else 0.0,
+        bin_width_m=step,
+        porosity=eps,
+        rel_error=float(step / q50) if q50 > 0 else 0.0,
+        wall_time_s=time.perf_counter() - t0,
+        thickness_axis=name,
+    )
+
+
+def _mc_area(distance: np.ndarray, h: float) -> float:
+    from skimage.measure import marching_cubes, mesh_surface_area
+
+    d = np.pad(distance.astype(np.float32), [(0, 1)] * 3, mode="wrap")
+    if d.min() > 0 or d.max() <= 0:
+        return 0.0
+    verts, faces, _, _ = marching_cubes(d, level=0.0, spacing=(h, h, h))
+    return float(mesh_surface_area(verts, faces))
+
+
+def specific_surface(fields: VoxelFields) -> SurfaceResult:
+    """Specific surface ``S_v`` (m^-1) by marching cubes on the signed distance field."""
+    h = float(fields.grid.spacing[0])
+    vol = float(np.prod(fields.grid.size))
+    area = _mc_area(fields.distance, h)
+    sv = area / vol
+    coarse = None
+    rel = 0.0
+    if min(fields.distance.shape) >= 8:
+        n = [s - s % 2 for s in fields.distance.shape]
+        sub = fields.distance[: n[0] : 2, : n[1] : 2, : n[2] : 2]
+        coarse = _mc_area(sub, 2.0 * h) / (vol * np.prod(n) / np.prod(fields.distance.shape))
+        rel = abs(sv - coarse) / sv if sv > 0 else 0.0
+    return SurfaceResult(
+        area_m2=area,
+        specific_surface_m_1=sv,
+        coarse_specific_surface_m_1=coarse,
+        rel_error=float(rel),
+    )
+
+
+def porosity_profile(fields: VoxelFields, axis: str | int = "z") -> dict:
+    """Pore fraction of each voxel layer along ``axis``: positions (m) and porosity."""
+    name, ax = axis_of(axis)
+    pore = ~fields.solid
+    other = tuple(b for b in range(3) if b != ax)
+    prof = pore.mean(axis=other)
+    h = float(fields.grid.spacing[ax])
+    pos = (np.arange(prof.size) + 0.5) * h
+    return {"axis": name, "position_m": pos.tolist(), "porosity": prof.tolist()}
+
+
+def orientation_tensor(rve: RVE) -> dict:
+    """Second-order fibre orientation tensor of the carrier directions (weight ``d^2``)."""
+    if not rve.fibers:
+        return {"tensor": np.zeros((3, 3)).tolist(), "eigenvalues": [0.0, 0.0, 0.0], "n_fibers": 0}
+    a = np.zeros((3, 3))
+    wsum = 0.0
+    for fb in rve.fibers:
+        p = np.asarray(fb.direction, float)
+        p = p / np.linalg.norm(p)
+        w = float(fb.diameter) ** 2
+        a += w * np.outer(p, p)
+        wsum += w
+    a /= wsum
+    return {
+        "tensor": a.tolist(),
+        "eigenvalues": np.linalg.eigvalsh(a)[::-1].tolist(),
+        "n_fibers": len(rve.fibers),
+    }

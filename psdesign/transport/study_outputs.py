@@ -1,0 +1,123 @@
+"""Transport outputs of a study case (one call from :func:`psdesign.study.case.run_case`).
+
+Output names (``[study] outputs``) and the row keys they add:
+
+* ``diffusivity_x|y|z``: ``diffusivity_<d>`` (D_eff / D_bulk), ``diffusivity_<d>_rel_error``,
+  ``diffusivity_<d>_converged``;
+* ``tortuosity_x|y|z``: ``tortuosity_<d>`` (porosity / relative diffusivity; empty if blocked);
+* ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
+  ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``;
+* ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m);
+* ``specific_surface_m-1``: marching-cubes surface per box volume (1/m).
+"""
+
+from __future__ import annotations
+
+from psdesign.geometry.rve import RVE, VoxelFields
+
+#: Spec paths of the ``[transport]`` table a study parameter may vary.
+TRANSPORT_KEYS = tuple(
+    f"transport.{k}"
+    for k in (
+        "bc",
+        "tol",
+        "error_estimate",
+        "bulk_diffusivity_m2_s",
+        "mean_free_path_m",
+        "solid_conductivity",
+        "fluid_conductivity",
+        "insulating_phase",
+        "thickness_axis",
+        "n_radii",
+    )
+)
+
+TRANSPORT_OUTPUTS = (
+    "diffusivity_x",
+    "diffusivity_y",
+    "diffusivity_z",
+    "tortuosity_x",
+    "tortuosity_y",
+    "tortuosity_z",
+    "conductivity_x",
+    "conductivity_y",
+    "conductivity_z",
+    "pore_d10_m",
+    "pore_d50_m",
+    "pore_d90_m",
+    "specific_surface_m-1",
+)
+
+
+def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
+    """Everything ``psdesign pores`` prints: size distribution, intrusion, surface, profile,
+    orientation tensor (when ``rve`` is given)."""
+    from psdesign.transport.pores import (
+        orientation_tensor,
+        pore_sizes,
+        porosity_profile,
+        specific_surface,
+    )
+
+    ps = pore_sizes(
+        fields,
+        n_radii=int(transport["n_radii"]),
+        thickness_axis=transport["thickness_axis"],
+        surface_tension=float(transport["surface_tension_n_m"]),
+        contact_angle_deg=float(transport["contact_angle_deg"]),
+    )
+    sv = specific_surface(fields)
+    out = ps.to_dict()
+    out["specific_surface_m-1"] = sv.specific_surface_m_1
+    out["specific_surface_rel_error"] = sv.rel_error
+    out["surface_area_m2"] = sv.area_m2
+    out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
+    if rve is not None:
+        out["orientation_tensor"] = orientation_tensor(rve)
+    return out
+
+
+def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: dict) -> dict:
+    """Row entries for the transport outputs requested in ``outputs`` (others ignored)."""
+    from psdesign.schema.transport import validate_transport
+
+    wanted = [o for o in outputs if o in TRANSPORT_OUTPUTS]
+    if not wanted:
+        return {}
+    tr = validate_transport(spec)
+    row: dict = {}
+    diff_dirs = sorted({o[-1] for o in wanted if o[:-1] in ("diffusivity_", "tortuosity_")})
+    if diff_dirs:
+        from psdesign.transport.diffusivity import relative_diffusivity
+
+        for d in diff_dirs:
+            res = relative_diffusivity(fields, d, tr)
+            if f"diffusivity_{d}" in wanted or f"tortuosity_{d}" in wanted:
+                row[f"diffusivity_{d}"] = res.relative_diffusivity
+                row[f"diffusivity_{d}_rel_error"] = res.rel_error
+                row[f"diffusivity_{d}_converged"] = res.converged
+                row[f"tortuosity_{d}"] = res.tortuosity_factor
+                row[f"time_diffusivity_{d}_s"] = res.wall_time_s
+    for d in sorted({o[-1] for o in wanted if o.startswith("conductivity_")}):
+        from psdesign.transport.conductivity import effective_conductivity
+
+        res = effective_conductivity(fields, d, transport=tr)
+        row[f"conductivity_{d}"] = res.effective_conductivity
+        row[f"conductivity_{d}_rel_error"] = res.rel_error
+        row[f"conductivity_{d}_converged"] = res.converged
+        row[f"time_conductivity_{d}_s"] = res.wall_time_s
+    if any(o.startswith("pore_d") for o in wanted):
+        from psdesign.transport.pores import pore_sizes
+
+        ps = pore_sizes(fields, n_radii=int(tr["n_radii"]), thickness_axis=tr["thickness_axis"])
+        row.update(
+            {"pore_d10_m": ps.pore_d10_m, "pore_d50_m": ps.pore_d50_m, "pore_d90_m": ps.pore_d90_m}
+        )
+        row["pore_bin_width_m"] = ps.bin_width_m
+    if "specific_surface_m-1" in wanted:
+        from psdesign.transport.pores import specific_surface
+
+        sv = specific_surface(fields)
+        row["specific_surface_m-1"] = sv.specific_surface_m_1
+        row["specific_surface_rel_error"] = sv.rel_error
+    return row

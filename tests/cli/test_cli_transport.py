@@ -1,0 +1,114 @@
+"""``psdesign diffusivity | conductivity | pores`` and the transport study outputs."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from psdesign.cli.main import main
+
+SPEC = """
+[rve]
+size = [20e-6, 20e-6, 20e-6]
+voxel = 1e-6
+
+[[fibers]]
+shape = "cylinder"
+diameter = 8e-6
+center = [10e-6, 10e-6, 10e-6]
+direction = [0, 0, 1]
+
+[transport]
+error_estimate = "residual"
+"""
+
+
+@pytest.fixture()
+def spec(tmp_path):
+    p = tmp_path / "spec.toml"
+    p.write_text(SPEC)
+    return p
+
+
+def test_diffusivity_json_along_and_across_a_cylinder(spec, capsys):
+    assert main(["diffusivity", str(spec), "--direction", "all", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    eps = out["porosity"]
+    assert out["relative_diffusivity"]["z"] == pytest.approx(eps, rel=1e-6)  # straight pore
+    assert 0 < out["relative_diffusivity"]["x"] < eps
+    assert out["tortuosity_factor"]["z"] == pytest.approx(1.0, rel=1e-6)
+    assert out["converged"] is True
+
+
+def test_conductivity_json_and_bad_value(spec, capsys):
+    args = ["conductivity", str(spec), "--direction", "z", "--solid", "10", "--fluid", "1"]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    fs = out["solid_fraction"]
+    assert out["effective_conductivity"] == pytest.approx(10 * fs + (1 - fs), rel=1e-6)  # parallel
+    assert main(["conductivity", str(spec), "--solid", "0"]) == 2
+    assert "--solid" in capsys.readouterr().err
+
+
+def test_bad_transport_key_exits_2(tmp_path, capsys):
+    p = tmp_path / "bad.toml"
+    p.write_text(SPEC.replace('error_estimate = "residual"', "fluid_conductivity = -1"))
+    assert main(["diffusivity", str(p)]) == 2
+    assert "transport.fluid_conductivity" in capsys.readouterr().err
+
+
+def test_pores_json(spec, capsys):
+    assert main(["pores", str(spec), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("pore_d10_m", "pore_d50_m", "pore_d90_m", "specific_surface_m-1"):
+        assert out[key] > 0
+    # a cylinder of diameter 8 um in a 20 um periodic cell: S_v = pi d L / L^3
+    assert out["specific_surface_m-1"] == pytest.approx(3.14159265 * 8e-6 / (20e-6) ** 2, rel=0.02)
+    assert out["orientation_tensor"]["tensor"][2][2] == pytest.approx(1.0)
+
+
+def test_study_outputs_row(spec):
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+    from psdesign.transport.study_outputs import transport_outputs
+
+    s = load_spec(spec)
+    built = build_rve(s)
+    fields = built.voxelize(s["rve"]["voxel"])
+    row = transport_outputs(
+        built.rve,
+        fields,
+        ["diffusivity_z", "tortuosity_x", "conductivity_z", "pore_d50_m", "specific_surface_m-1"],
+        s,
+    )
+    assert row["diffusivity_z"] == pytest.approx(fields.porosity, rel=1e-6)
+    assert row["tortuosity_x"] > 1.0
+    assert row["conductivity_z"] > 0 and row["pore_d50_m"] > 0
+    assert row["specific_surface_m-1"] > 0
+
+
+def test_study_file_accepts_transport_outputs_and_run_case_fills_them(tmp_path):
+    import tomllib
+
+    from psdesign.study.case import run_case
+    from psdesign.study.studyfile import parse_study
+
+    base = tomllib.loads(SPEC)
+    study = parse_study(
+        {
+            "base": base,
+            "study": {
+                "name": "t",
+                "design": "full-factorial",
+                "seeds": [1],
+                "outputs": ["porosity", "diffusivity_z", "tortuosity_x", "specific_surface_m-1"],
+                "solver": "voxel",
+            },
+            "parameters": {"transport.fluid_conductivity": [0.026, 0.05]},
+        }
+    )
+    assert "diffusivity_z" in study.outputs
+    row = run_case(base, study.outputs, "voxel", tmp_path)
+    assert row["diffusivity_z"] == pytest.approx(row["porosity"], rel=1e-6)
+    assert row["tortuosity_x"] > 1.0 and row["specific_surface_m-1"] > 0
