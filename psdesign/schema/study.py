@@ -8,13 +8,13 @@ from pydantic import Field, model_validator
 
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS
 from psdesign.schema.types import Table, fail, integer, number
+from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS
 
 DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
-from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS  # noqa: E402 (issue 13)
 
 OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 SOLVERS = ("fem", "voxel")
-Output = Literal["porosity", "k_x", "k_y", "k_z", "k_tensor"]
+Output = Literal[OUTPUTS]  # type: ignore[valid-type]
 
 
 class StudyTable(Table):

@@ -87,11 +87,18 @@ def _bounds(info) -> list[float]:
     return out
 
 
-#: (path, table, field info) of every key of the tables a mutation may hit.
+def _takes_bool(info) -> bool:
+    """Switch keys (``flow.error_estimate``) accept booleans: they are not 'always bad' there."""
+    return "bool" in str(info.annotation)
+
+
+#: (path, table, field info) of every key of the tables a mutation may hit (switch keys are
+#: left out: the "always bad" values include booleans).
 LEAVES = [
     (t, k, info)
     for t in ("rve", "generator", "intersections", "flow", "forcefield")
     for k, info in _table_fields(t).items()
+    if not _takes_bool(info)
 ]
 FIBER_LEAVES = list(_table_fields("fibers").items())
 deep = {"a": 1}
