@@ -39,6 +39,8 @@ FIBER_KEYS = (
     "f",
     "isovalue",
     "thickness_axis",
+    "layers",
+    "layer_shift",
 )
 #: Shapes that expand to several fibers.
 CELL_SHAPES = ("woven-cell",)
@@ -211,10 +213,31 @@ def _validate_fiber(fb: Any, i: int, size: list[float], ref: float) -> dict:
         axis = fb.get("thickness_axis", "z")
         if axis not in ("x", "z"):
             raise SpecError(f"{key}.thickness_axis", f"must be 'x' or 'z', got {axis!r}")
-        extra = set(fb) - {"shape", "thickness_axis"}
+        extra = set(fb) - {"shape", "thickness_axis", "layers", "layer_shift"}
         if extra:
-            raise SpecError(f"{key}.{sorted(extra)[0]}", "woven-cell takes only thickness_axis")
-        return {"shape": shape, "thickness_axis": axis}
+            raise SpecError(
+                f"{key}.{sorted(extra)[0]}",
+                "woven-cell takes only thickness_axis, layers, layer_shift",
+            )
+        layers = fb.get("layers", 1)
+        if isinstance(layers, bool) or not isinstance(layers, int) or not 1 <= layers <= 8:
+            raise SpecError(f"{key}.layers", f"must be an integer in [1, 8], got {layers!r}")
+        shift = fb.get("layer_shift", [0.0, 0.0])
+        if (
+            not isinstance(shift, list)
+            or len(shift) != 2
+            or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in shift)
+            or not all(-1.0 <= v <= 1.0 for v in shift)
+        ):
+            raise SpecError(
+                f"{key}.layer_shift", f"must be two numbers in [-1, 1] (periods), got {shift!r}"
+            )
+        return {
+            "shape": shape,
+            "thickness_axis": axis,
+            "layers": layers,
+            "layer_shift": [float(v) for v in shift],
+        }
     if shape in ("rod", "cylinder", "bent-rod"):
         if "diameter" not in fb:
             raise SpecError(f"{key}.diameter", "missing; give the fiber diameter in metres")
@@ -253,7 +276,13 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
         if fb["shape"] == "woven-cell":
             from psdesign.geometry.fibers import woven_cell
 
-            fibers.extend(woven_cell(fb.get("thickness_axis", "z")))
+            fibers.extend(
+                woven_cell(
+                    fb.get("thickness_axis", "z"),
+                    fb.get("layers", 1),
+                    tuple(fb.get("layer_shift", (0.0, 0.0))),
+                )
+            )
             continue
         center = np.asarray(fb.get("center", size / 2)) / ref
         try:
