@@ -4,7 +4,8 @@ Spec layout (all keys optional except ``case``)::
 
     [forcefield]
     case = "two-fiber"            # two-fiber | six-fiber
-    surface = "gaussian"          # gaussian (as printed) | area | bending
+    surface = "area"              # area (default: surface area, continuous fibers) |
+                                  # gaussian (the printed term, to reproduce the paper) | bending
     weights = [1e10, 1.0, 1.0]    # w1 (volume), w2 (surface interaction), w3 (surface)
     max_iter = 200                # pattern-search polls
     min_step = 1e-3               # mesh size (fraction of each range) for convergence
@@ -53,6 +54,10 @@ from psdesign.forcefield.pattern import PatternSearchResult
 from psdesign.forcefield.potentials import SURFACE_TERMS
 
 CASES = ("two-fiber", "six-fiber")
+#: Default surface term S_j: the surface area (Sec. 6's stated aim, "the fibers have the
+#: minimum surface area"). The printed Gaussian-curvature integral is fixed by topology
+#: (Gauss-Bonnet) on closed surfaces and pinches the woven fibers at the cube faces.
+DEFAULT_SURFACE = "area"
 _TOP = {
     "case",
     "surface",
@@ -87,7 +92,11 @@ def _num(table: dict, key: str, where: str, default, lo=None, hi=None, integer=F
 
 
 def load_forcefield_spec(path: str | Path) -> dict:
-    """Read and validate a force-field spec file; returns the ``[forcefield]`` table."""
+    """Read and validate a force-field spec file; returns the ``[forcefield]`` table.
+
+    An RVE spec (with ``[rve]``) is relaxed as a fiber set (:mod:`psdesign.forcefield.relax`);
+    its optional ``[forcefield.relax]`` table holds the options.
+    """
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -96,6 +105,12 @@ def load_forcefield_spec(path: str | Path) -> dict:
     except tomllib.TOMLDecodeError as exc:
         raise SpecError("spec", f"not valid TOML: {exc}") from None
     ff = data.get("forcefield")
+    if "rve" in data:  # an RVE spec: relax its fiber set (psdesign.forcefield.relax)
+        ff = {} if ff is None else ff
+        if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
+            raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
+        spec = {k: v for k, v in data.items() if k != "forcefield"}
+        return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     if not isinstance(ff, dict):
         raise SpecError("forcefield", "missing [forcefield] table")
     unknown = sorted(set(ff) - _TOP)
@@ -109,7 +124,7 @@ def problem_from_spec(ff: dict) -> ForceFieldProblem:
     case = ff.get("case")
     if case not in CASES:
         raise SpecError("forcefield.case", f"must be one of {', '.join(CASES)}, got {case!r}")
-    surface = ff.get("surface", "gaussian")
+    surface = ff.get("surface", DEFAULT_SURFACE)
     if surface not in SURFACE_TERMS:
         raise SpecError(
             "forcefield.surface", f"must be one of {', '.join(SURFACE_TERMS)}, got {surface!r}"
@@ -191,6 +206,14 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     """
     from psdesign.io.atomic import staged_directory, write_json
 
+    if ff.get("case") == "relax":
+        from psdesign.forcefield.relax import relax_spec
+        from psdesign.schema.spec import validate_spec
+
+        relax = ff.get("relax", {})
+        if not isinstance(relax, dict):
+            raise SpecError("forcefield.relax", "must be a table")
+        return relax_spec(validate_spec(ff["spec"]), relax, out_dir)
     prob = problem_from_spec(ff)
     max_iter = _num(ff, "max_iter", "forcefield", 200, 1, 100000, True)
     min_step = _num(ff, "min_step", "forcefield", 1e-3, 1e-8, 0.1)
@@ -225,6 +248,11 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
 def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) -> dict:
     """JSON-ready record of an optimization run."""
     fields = prob.fields(res.x)
+    at_bound = at_bounds(prob.param.free, res.x, prob.lower, prob.upper)
+    if at_bound:
+        status = "at_bound"
+    else:
+        status = "converged" if res.converged else "not_converged"
     out = {
         "case": prob.name,
         "surface_term": prob.surface,
@@ -238,7 +266,9 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "parameters": prob.params(res.x),
         "U": res.fun,
         "potentials": prob.potential(res.x).to_dict(),
-        "converged": res.converged,
+        "converged": res.converged and not at_bound,
+        "status": status,
+        "at_bound": at_bound,
         "message": res.message,
         "n_iter": res.n_iter,
         "n_evals": res.n_evals,
@@ -262,6 +292,18 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
             "reported": prob.paper,
         }
     return out
+
+
+def at_bounds(names, x, lower, upper, rel: float = 1e-6) -> list[str]:
+    """Free variables lying on a bound of their feasible box (within ``rel`` of its width).
+
+    A pattern-search optimum with a variable on its bound is a constrained stop, not a
+    stationary point of U: it is reported, not called converged.
+    """
+    x, lower, upper = (np.asarray(a, float) for a in (x, lower, upper))
+    tol = rel * np.maximum(upper - lower, 1e-300)
+    on = (x <= lower + tol) | (x >= upper - tol)
+    return [str(n) for n, flag in zip(names, on, strict=True) if flag]
 
 
 def write_history(path: str | Path, res: PatternSearchResult) -> None:
