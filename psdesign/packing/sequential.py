@@ -267,6 +267,7 @@ def place_sequential(
     rejected: list[int] = []
     contrib: dict[int, float] = {}
     ejected = np.zeros(n, np.int64)
+    ejected_in_bounds = np.zeros(n, np.int64)
     exceeded: set[int] = set()
     streak = 0
 
@@ -348,13 +349,18 @@ def place_sequential(
                 tries, base, old, out.diameter, gap, T, k_grid, tidx, bounds(bounded)
             )
             tested += len(T) * n_tried
-            if found is None and max_ejections > 0 and bounded == passes[-1]:
-                # last pass: eject the fewest placed fibers that block a position (re-queued)
+            # eject the fewest placed fibers that block a position (they are re-queued);
+            # ejections within the bounds have their own budget (half), so they never use up
+            # the last pass's
+            last = bounded == passes[-1]
+            count = ejected if last else ejected_in_bounds
+            budget = max_ejections if last else max_ejections // 2
+            if found is None and budget > 0:
                 c_new, blockers = _least_blocked(
                     base, old, out.diameter, st.fixed, gap, T, bounds(bounded), k_grid, tidx
                 )
-                if c_new is not None and np.all(ejected[blockers] < max_ejections):
-                    ejected[blockers] += 1
+                if c_new is not None and np.all(count[blockers] < budget):
+                    count[blockers] += 1
                     remove_old(blockers)
                     queue.extendleft(int(b) for b in blockers[::-1])
                     found = (c_new, base)
@@ -386,7 +392,7 @@ def place_sequential(
         wall_time_s=time.perf_counter() - t0,
         solid=sum(contrib.values()),
         reached_stop=stopped or (stop_solid is not None and sum(contrib.values()) >= stop_solid),
-        n_ejections=int(ejected.sum()),
+        n_ejections=int(ejected.sum() + ejected_in_bounds.sum()),
         exceeded=np.array(sorted(k for k in exceeded if k in set(placed)), dtype=np.int64),
     )
 
