@@ -28,6 +28,8 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
                     "case",
                     "U",
                     "converged",
+                    "status",
+                    "at_bound",
                     "message",
                     "n_evals",
                     "wall_time_s",
@@ -36,7 +38,12 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
             }
         )
     )
-    if not summary["converged"]:
+    if summary["at_bound"]:
+        print(
+            f"psdesign: warning: optimum on the bound of {', '.join(summary['at_bound'])} "
+            "(a constrained stop, not converged); widen the ranges or read it as such"
+        )
+    elif not summary["converged"]:
         print(f"psdesign: warning: {summary['message']}; wrote the best point found")
     return 0
 

@@ -51,6 +51,7 @@ from psdesign.forcefield.parallel import WorkerPool
 from psdesign.forcefield.params import Parametrization, Tie
 from psdesign.forcefield.pattern import PatternSearchResult, pattern_search
 from psdesign.forcefield.potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
+from psdesign.geometry.fibers import WOVEN_SPACING, woven_fiber_model
 from psdesign.geometry.model import GeneralizedPS
 
 CENTRE = np.array([0.5, 0.5, 0.5])
@@ -92,7 +93,10 @@ TABLE_II_RESULT = dict(
 )
 #: world frame of a fiber along y from that of a fiber along x (90 degrees about z)
 Q_Y_FROM_X = R_ALONG_Y @ R_ALONG_X.T
-SIX_TRANSLATIONS = np.array([[0.45, -0.28, 0.0], [0.45, 0.038, 0.0], [0.45, 0.356, 0.0]])
+#: Sec. 6.2's initial translations; their spacing is the product's one woven spacing
+#: (:data:`psdesign.geometry.fibers.WOVEN_SPACING`, Table I).
+SIX_TRANSLATIONS = np.array([[0.45, -0.28, 0.0], [0.45, -0.28 + WOVEN_SPACING, 0.0]])
+SIX_TRANSLATIONS = np.vstack([SIX_TRANSLATIONS, [0.45, -0.28 + 2 * WOVEN_SPACING, 0.0]])
 
 
 def _place(canon: GeneralizedPS, R: np.ndarray, shift: np.ndarray) -> GeneralizedPS:
@@ -343,18 +347,8 @@ def woven_canonical(p: dict, u: float, t: np.ndarray) -> GeneralizedPS:
 
 
 def _woven_base(p: dict, u: float) -> GeneralizedPS:
-    k = [p[f"kappa{i}"] for i in range(1, 6)]
-    return GeneralizedPS(
-        mu=[p[f"mu{i}"] for i in range(1, 6)],
-        kappa=k,
-        H=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 3], [0, 1, -3]],
-        alpha=[0] * 5,
-        minor_term=[0],
-        u=[u],
-        f=[p["f"]],
-        G=[[0, 0, 1]],
-        beta=[-1.0 / 6.0],
-    )
+    """The product's one woven fiber model (:func:`psdesign.geometry.fibers.woven_fiber_model`)."""
+    return woven_fiber_model(p, u)
 
 
 def _place_translated(
@@ -463,7 +457,7 @@ def six_fiber_problem(
             Tie("ty", "ty", low=t0[1] - t_range, high=t0[1] + t_range),
         ),
     )
-    spacing = SIX_TRANSLATIONS[1, 1] - SIX_TRANSLATIONS[0, 1]
+    spacing = WOVEN_SPACING
     shift = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # t_x = 0.45 -> layer at z = 1/2
     t_ref = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # translation of the shared shapes
 

@@ -4,7 +4,8 @@ Spec layout (all keys optional except ``case``)::
 
     [forcefield]
     case = "two-fiber"            # two-fiber | six-fiber
-    surface = "gaussian"          # gaussian (as printed) | area | bending
+    surface = "area"              # area (default: surface area, continuous fibers) |
+                                  # gaussian (the printed term, to reproduce the paper) | bending
     weights = [1e10, 1.0, 1.0]    # w1 (volume), w2 (surface interaction), w3 (surface)
     max_iter = 200                # pattern-search polls
     min_step = 1e-3               # mesh size (fraction of each range) for convergence
@@ -54,6 +55,10 @@ from psdesign.schema.forcefield import ForceFieldTable, SixFiber, TwoFiber
 from psdesign.schema.spec import read_toml
 
 CASES = ("two-fiber", "six-fiber")
+#: Default surface term S_j: the surface area (Sec. 6's stated aim, "the fibers have the
+#: minimum surface area"). The printed Gaussian-curvature integral is fixed by topology
+#: (Gauss-Bonnet) on closed surfaces and pinches the woven fibers at the cube faces.
+DEFAULT_SURFACE = "area"
 _TOP = set(ForceFieldTable.model_fields)
 
 
@@ -68,15 +73,32 @@ def load_forcefield_spec(path: str | Path) -> dict:
     """Read and validate a force-field spec file; returns the ``[forcefield]`` table.
 
     Every key is validated here by :class:`psdesign.schema.forcefield.ForceFieldTable`
-    (before any work); other tables are errors.
+    (before any work); other tables are errors. An RVE spec (with ``[rve]``) is relaxed as
+    a fiber set (:mod:`psdesign.forcefield.relax`); its optional ``[forcefield.relax]`` table
+    holds the options.
     """
     data = read_toml(path)
+    if "rve" in data:  # an RVE spec: relax its fiber set (psdesign.forcefield.relax)
+        from psdesign.schema.spec import validate_spec
+
+        ff = data.get("forcefield") or {}
+        if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
+            raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
+        spec = {k: v for k, v in data.items() if k != "forcefield"}
+        validate_spec(spec)
+        return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     for key in data:
         if key != "forcefield":
             raise SpecError(
                 key, f"unknown table{did_you_mean(key, ['forcefield'])} (allowed: forcefield)"
             )
     ff = data.get("forcefield")
+    if "rve" in data:  # an RVE spec: relax its fiber set (psdesign.forcefield.relax)
+        ff = {} if ff is None else ff
+        if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
+            raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
+        spec = {k: v for k, v in data.items() if k != "forcefield"}
+        return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     if not isinstance(ff, dict):
         raise SpecError(
             "forcefield", "missing [forcefield] table (allowed: [forcefield] case = ...)"
@@ -130,6 +152,14 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     """
     from psdesign.io.atomic import staged_directory, write_json
 
+    if ff.get("case") == "relax":
+        from psdesign.forcefield.relax import relax_spec
+        from psdesign.schema.spec import validate_spec
+
+        relax = ff.get("relax", {})
+        if not isinstance(relax, dict):
+            raise SpecError("forcefield.relax", "must be a table")
+        return relax_spec(validate_spec(ff["spec"]), relax, out_dir)
     prob = problem_from_spec(ff)
     v = _validated(ff)
     max_iter, min_step, step, workers = v.max_iter, v.min_step, v.step, v.workers
@@ -160,6 +190,11 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
 def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) -> dict:
     """JSON-ready record of an optimization run."""
     fields = prob.fields(res.x)
+    at_bound = at_bounds(prob.param.free, res.x, prob.lower, prob.upper)
+    if at_bound:
+        status = "at_bound"
+    else:
+        status = "converged" if res.converged else "not_converged"
     out = {
         "case": prob.name,
         "surface_term": prob.surface,
@@ -173,7 +208,9 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "parameters": prob.params(res.x),
         "U": res.fun,
         "potentials": prob.potential(res.x).to_dict(),
-        "converged": res.converged,
+        "converged": res.converged and not at_bound,
+        "status": status,
+        "at_bound": at_bound,
         "message": res.message,
         "n_iter": res.n_iter,
         "n_evals": res.n_evals,
@@ -197,6 +234,18 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
             "reported": prob.paper,
         }
     return out
+
+
+def at_bounds(names, x, lower, upper, rel: float = 1e-6) -> list[str]:
+    """Free variables lying on a bound of their feasible box (within ``rel`` of its width).
+
+    A pattern-search optimum with a variable on its bound is a constrained stop, not a
+    stationary point of U: it is reported, not called converged.
+    """
+    x, lower, upper = (np.asarray(a, float) for a in (x, lower, upper))
+    tol = rel * np.maximum(upper - lower, 1e-300)
+    on = (x <= lower + tol) | (x >= upper - tol)
+    return [str(n) for n, flag in zip(names, on, strict=True) if flag]
 
 
 def write_history(path: str | Path, res: PatternSearchResult) -> None:

@@ -150,17 +150,72 @@ def compressed_bent_model() -> GeneralizedPS:
     )
 
 
-def woven_model() -> GeneralizedPS:
-    """Eq. (19): woven fiber, ``4cos(2pi x + 0.41cos(3pi z - pi/2)) + 3cos(2pi y) + 0.95cos(6pi z)
-    + 0.5cos(2pi(y+3z)) + 0.5cos(2pi(y-3z)) + 6.55``."""
+#: Eq. (19) in the five-term form of Sec. 6.2 (moments mu, scales kappa, minor moment u and
+#: scale f; the solid is ``psi <= WOVEN_EQ19_ISOVALUE``). The Sec. 6.2 force field starts near
+#: it (Table II) and its optimum (Table II result) is close to it.
+WOVEN_EQ19 = {
+    "mu1": 4.0,
+    "mu2": 3.0,
+    "mu3": 0.95,
+    "mu4": 0.5,
+    "mu5": 0.5,
+    "kappa1": 1.0,
+    "kappa2": 1.0,
+    "kappa3": 3.0,
+    "kappa4": 1.0,
+    "kappa5": 1.0,
+    "f": 1.5,
+}
+WOVEN_EQ19_U = 0.41
+WOVEN_EQ19_ISOVALUE = -6.55
+
+
+def woven_fiber_model(
+    params: dict | None = None, u: float | None = None, constant: float = 0.0
+) -> GeneralizedPS:
+    """The one woven (compressed bent) fiber model of the product (Eq. 19, Sec. 6.2).
+
+    ``mu1 cos(2 pi kappa1 x + u cos(2 pi f (z - 1/6))) + mu2 cos(2 pi kappa2 y)
+    + mu3 cos(2 pi kappa3 z) + mu4 cos(2 pi kappa4 (y + 3z)) + mu5 cos(2 pi kappa5 (y - 3z))
+    + constant``: axis along z, bend along x, flattened along y. Geometry (Table I cell,
+    ``woven_cell``) and the Sec. 6.2 force field (``forcefield.cases``) both build it here.
+
+    Parameters
+    ----------
+    params : dict, optional
+        ``mu1..mu5``, ``kappa1..kappa5``, ``f``; missing keys take the Eq. (19) values
+        (:data:`WOVEN_EQ19`).
+    u : float, optional
+        Minor moment (default Eq. 19's 0.41).
+    constant : float
+        Constant term (Eq. 19 writes +6.55 on the left with isovalue 0; the force field
+        uses no constant and isovalue -6.55 / -6.65).
+    """
+    p = {**WOVEN_EQ19, **(params or {})}
+    u = WOVEN_EQ19_U if u is None else u
+    mu = [p[f"mu{i}"] for i in range(1, 6)]
+    kappa = [p[f"kappa{i}"] for i in range(1, 6)]
+    H = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 3], [0, 1, -3]]
+    if constant:
+        mu, kappa, H = mu + [constant], kappa + [1.0], H + [[0, 0, 0]]
     return GeneralizedPS(
-        **_compressed_terms(3.0),
+        mu=mu,
+        kappa=kappa,
+        H=H,
+        alpha=[0] * len(mu),
         minor_term=[0],
-        u=[0.41],
-        f=[1.5],
+        u=[u],
+        f=[p["f"]],
         G=[[0, 0, 1]],
         beta=[-1.0 / 6.0],
     )
+
+
+def woven_model() -> GeneralizedPS:
+    """Eq. (19): woven fiber, ``4cos(2pi x + 0.41cos(3pi z - pi/2)) + 3cos(2pi y) + 0.95cos(6pi z)
+    + 0.5cos(2pi(y+3z)) + 0.5cos(2pi(y-3z)) + 6.55`` (isovalue 0); see
+    :func:`woven_fiber_model`."""
+    return woven_fiber_model(constant=-WOVEN_EQ19_ISOVALUE)
 
 
 _FIXED_MODELS = {
@@ -485,67 +540,92 @@ WOVEN_TABLE_I = np.array(
         [0.28, 0.204, 0.0],
     ]
 )
+#: Distance between adjacent parallel woven fibers (Table I rows 1-3; Sec. 6.2's translations
+#: (0.45, -0.28), (0.45, 0.038), (0.45, 0.356): "the distances between adjacent fibers in both
+#: directions are the same and fixed").
+WOVEN_SPACING = 0.318
 
 
-def _woven_fiber(shift_along: float, offset: np.ndarray, Q: np.ndarray, G: np.ndarray) -> Fiber:
-    """An Eq. (19) fiber moved ``shift_along`` its own axis, rotated by ``Q`` about the
-    cell centre, moved by ``offset``, then rotated by ``G`` about the cell centre."""
-    base = woven_model()
-    model = (
-        base.translated([0.0, 0.0, shift_along])
-        .translated(-_CELL_CENTRE)
-        .rotated(Q)
-        .translated(offset)
-        .rotated(G)
-        .translated(_CELL_CENTRE)
-    )
+def woven_table_i() -> np.ndarray:
+    """Table I as read by :func:`woven_cell` (normalized, in each fiber's own frame).
+
+    Columns: along the fiber axis, across it in the fabric plane, through the fabric. Rows
+    4 and 6 print the same lateral value 0.204, which puts two weft fibers on top of each
+    other in every frame; the weft must be spaced like the warp (Sec. 6.2), and 0.204 =
+    -0.433 + 2 x 0.318 (mod 1) is row 6's, so row 4's lateral value is read as
+    -0.433 + 0.318 = -0.115. All other entries are used as printed.
+    """
+    t = WOVEN_TABLE_I.copy()
+    t[3, 1] = t[4, 1] + WOVEN_SPACING
+    return t
+
+
+def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
+    """An Eq. (19) fiber (minor moment ``u``) turned by ``R`` and centred at ``center``."""
+    base = woven_fiber_model(u=u, constant=-WOVEN_EQ19_ISOVALUE)
+    model = base.translated(-_CELL_CENTRE).rotated(R).translated(center)
     diameter, grad = _measure_fixed_shape(base, 0.0)
-    RQ = G @ Q
     return Fiber(
         shape="woven",
         model=model,
         isovalue=0.0,
         diameter=diameter,
-        center=_CELL_CENTRE + G @ (Q @ np.array([0.0, 0.0, shift_along]) + offset),
-        direction=RQ @ _Z,
-        lattice=np.array([RQ @ _X, RQ @ np.array([0.0, 1.0, 0.0])]),
-        wave=RQ @ _X,
-        u=0.41,
-        f=1.5,
+        center=np.asarray(center, float),
+        direction=R @ _Z,
+        lattice=np.array([R @ _X, R @ np.array([0.0, 1.0, 0.0])]),
+        wave=R @ _X,
+        u=float(u),
+        f=float(WOVEN_EQ19["f"]),
         grad_scale=grad,
         band_radius=None,
         extra={"axis_offset": 0.5, "phase": -np.pi / 2},
     )
 
 
-def woven_cell(thickness_axis: str = "z") -> list[Fiber]:
-    """Six-fiber plain-weave cell built from Eq. (19) fibers (Fig. 10).
+def woven_cell(
+    thickness_axis: str = "z", layers: int = 1, layer_shift: tuple[float, float] = (0.0, 0.0)
+) -> list[Fiber]:
+    """Six-fiber plain-weave cell of Eq. (19) fibers placed by Table I (Fig. 10), stacked.
 
-    Eq. (19) runs along z, bends in x with wavelength 2/3 (``f = 1.5``) and is
-    compressed every 1/3 along z: the weave plane is y-z and x is the thickness.
-    Warp fibers 1-3 run along z at y = 1/2 + (-1/3, 0, 1/3) (Table I's y column,
-    -0.318/0/0.318) and alternate in phase (shifted 1/3 along the axis, which is Table
-    I's 0.41/0.72/0.41 difference); weft fibers 4-6 run along y at the warp's
-    contact planes z = 1/6, 1/2, 5/6, phased so each passes over a warp fiber where
-    that one is down. Table I's rows 4-6 fit no frame we could find (rows 4 and 6
-    would coincide), so the weft is placed by this symmetry instead; the printed
-    values are kept in :data:`WOVEN_TABLE_I`.
+    Each fiber is Eq. (19) (axis along its own z, bend along its own x) placed as in Sec. 7.1:
+    turned to run along x, with the bend through the fabric. Fibers 1-3 (warp) run along x,
+    fibers 4-6 (weft) are rotated 90 degrees about the thickness axis and run along y. Table I
+    (:func:`woven_table_i`) is read in each fiber's own frame before the rotation: (along the
+    axis, across it, through the fabric), added to the cell centre. Rows 1-3 alternate their
+    bend by the along-axis shift 0.72 - 0.41 = 0.31 (about half the bend wavelength 2/3);
+    rows 4-6 do not (0.38, 0.33, 0.28), so the middle weft fiber takes the opposite minor
+    moment, as Sec. 6.2 requires of adjacent fibers ("opposite value of minor moment u").
 
     Parameters
     ----------
     thickness_axis : {"x", "z"}
-        ``"x"`` keeps the paper's frame; ``"z"`` (default) turns the cell so the
-        fabric lies in the x-y plane and through-plane flow is along z.
+        Through-fabric axis. ``"z"`` (default): fabric in the x-y plane. ``"x"``: the paper's
+        Eq. (19) frame (bend along x).
+    layers : int
+        Fabric layers per period through the thickness (1 = the PS model's own period, the
+        layer repeating every period; ``n`` stacks n copies at thickness offsets k/n).
+    layer_shift : (float, float)
+        In-plane shift (normalized) of layer k+1 relative to layer k (nesting), along the
+        warp and weft axes.
     """
     if thickness_axis not in ("x", "z"):
         raise ValueError(f"thickness_axis must be 'x' or 'z', got {thickness_axis!r}")
-    G = np.eye(3) if thickness_axis == "x" else rotation_matrix(theta_deg=-90.0)
-    to_y = rotation_matrix(phi_deg=-90.0)  # z -> y, x unchanged
+    if isinstance(layers, bool) or not isinstance(layers, int) or not 1 <= layers <= 8:
+        raise ValueError(f"layers must be an integer in [1, 8], got {layers!r}")
+    G = np.eye(3) if thickness_axis == "z" else rotation_matrix(theta_deg=90.0)
+    R_warp = placement_rotation(0.0, 0.0)
+    R_weft = placement_rotation(0.0, 90.0)
+    rot90 = rotation_matrix(0.0, 90.0)  # own frame -> world frame of the weft
+    table = woven_table_i()
+    u0 = WOVEN_EQ19_U
     fibers = []
-    for j in range(3):  # warp, along z
-        fibers.append(_woven_fiber(j / 3.0, np.array([0.0, (j - 1) / 3.0, 0.0]), np.eye(3), G))
-    for k in range(3):  # weft, along y
-        fibers.append(
-            _woven_fiber((k + 1) / 3.0, np.array([0.0, 0.0, k / 3.0 - 1.0 / 3.0]), to_y, G)
-        )
+    for k in range(layers):
+        base = np.array([layer_shift[0] * k, layer_shift[1] * k, k / layers])
+        for j in range(3):
+            off = base + table[j]
+            fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_warp, u0))
+        for j in range(3):
+            off = base + rot90 @ table[3 + j]
+            u = -u0 if j == 1 else u0
+            fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_weft, u))
     return fibers

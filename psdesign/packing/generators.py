@@ -48,6 +48,10 @@ from psdesign.schema.spec import validate_document
 #: Keys of ``[generator]`` / ``[intersections]`` (derived from the schema).
 _GEN_KEYS = set(_GeneratorTable.model_fields)
 _INT_KEYS = set(IntersectionsTable.model_fields)
+#: Default move bounds of the ``fast`` placement: the paper's GA adjustment ranges (Sec. 7.1),
+#: translations +-0.1 of the RVE edge and rotations +-1 degree.
+PAPER_MAX_SHIFT = 0.1
+PAPER_MAX_ROTATION_DEG = 1.0
 
 
 class GenerationError(ValueError):
@@ -331,6 +335,7 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
             "after": _stats_ms(st.center[:, 2] * period),
         },
         "rotation_deg": _stats(rot),
+        "orientation_deg": {"before": _angle_stats(drawn), "after": _angle_stats(st)},
         "min_clearance_m": (clearance(both, lo, hi) * period) if len(both) > 1 else None,
         "min_gap_m": gs.min_gap,
         "voxel_m": voxel,
@@ -346,6 +351,22 @@ def _stats_ms(x: np.ndarray) -> dict:
     return {
         "mean": float(np.mean(x)) if len(x) else 0.0,
         "std": float(np.std(x)) if len(x) else 0.0,
+    }
+
+
+def _angle_stats(st: FiberState) -> dict:
+    """Mean and std of the Sec. 7.1 angles of the fiber axes (theta from the axis' z
+    component, omega in [0, 180) degrees)."""
+    d = st.direction
+    theta = np.degrees(-np.arcsin(np.clip(d[:, 2], -1.0, 1.0))) if len(d) else np.zeros(0)
+    sign = np.where(d[:, 0] < 0, -1.0, 1.0) if len(d) else np.zeros(0)
+    omega = np.degrees(np.arctan2(sign * d[:, 1], sign * d[:, 0])) % 180.0 if len(d) else theta
+    theta = theta * sign
+    return {
+        "theta_mean": float(np.mean(theta)) if len(d) else 0.0,
+        "theta_std": float(np.std(theta)) if len(d) else 0.0,
+        "omega_mean": float(np.mean(omega)) if len(d) else 0.0,
+        "omega_std": float(np.std(omega)) if len(d) else 0.0,
     }
 
 
@@ -366,11 +387,14 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
     kw = dict(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
-        max_rotation_deg=float(opts.get("max_rotation_deg", 5.0)),
+        max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
         orientation_tries=int(opts.get("orientation_tries", 4)),
         seed=gs.seed,
         max_ejections=int(opts.get("max_ejections", 6)),
         max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
+        max_shift=float(opts.get("max_shift", PAPER_MAX_SHIFT * gs.period)) / gs.period,
+        exceed=bool(opts.get("exceed_bounds", True)),
+        exceed_rotation_deg=float(opts.get("exceed_rotation_deg", 5.0)),
     )
     t0 = time.perf_counter()
     if gs.n_fibers is not None:
@@ -399,6 +423,7 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
                 "placement_time_s": res.wall_time_s,
                 "candidates_tested": res.candidates_tested,
                 "n_ejections": res.n_ejections,
+                "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
             },
         )
     # porosity target: draw a generous pool once (reproducible), place until the solid target
@@ -420,6 +445,7 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
     best = None
     n_rejected = 0
     n_ejections = 0
+    exceeded_counts: list[int] = []
     why = "the measured porosity did not converge"
     jammed = False
     for _round in range(6):
@@ -441,6 +467,7 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
             used += (max(seen) + 1) if seen else 0
             n_rejected += len(res.rejected)
             n_ejections += res.n_ejections
+            exceeded_counts.append(len(res.exceeded))
             placed = res.state
             placed.fixed[:] = np.arange(len(placed)) < n_fixed
             if not res.reached_stop:
@@ -488,8 +515,23 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
         "closest": porosity,
         "why": why,
         "placement_time_s": time.perf_counter() - t0,
+        "bounds": _bounds_report(kw, gs.period, exceeded_counts),
     }
     return st, drawn, info
+
+
+def _bounds_report(kw: dict, period: float, exceeded: list[int]) -> dict:
+    """Move bounds used by ``fast`` and how many placements had to exceed them."""
+    n = int(sum(exceeded))
+    return {
+        "max_shift_m": kw["max_shift"] * period if kw["max_shift"] is not None else None,
+        "max_shift_z_m": kw["max_shift_z"] * period if kw["max_shift_z"] is not None else None,
+        "max_rotation_deg": kw["max_rotation_deg"],
+        "exceed_bounds": kw["exceed"],
+        "exceed_rotation_deg": kw["exceed_rotation_deg"],
+        "n_exceeded": n,
+        "status": "within_bounds" if n == 0 else "exceeded_bounds",
+    }
 
 
 def _as_fixed(st: FiberState) -> FiberState:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -49,6 +49,9 @@ class PlacementResult:
         Angle between the drawn and the final direction of each kept fiber.
     candidates_tested : int
     wall_time_s : float
+    exceeded : ndarray of int
+        Indices (into the input state) of the kept fibers that found no place within the
+        move bounds (``max_shift``) and were moved further (nearest free shift).
     """
 
     state: FiberState
@@ -61,6 +64,7 @@ class PlacementResult:
     solid: float = 0.0
     reached_stop: bool = False
     n_ejections: int = 0
+    exceeded: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 def torus_offsets(step: float) -> np.ndarray:
@@ -184,6 +188,9 @@ def place_sequential(
     max_consecutive_rejects: int | None = None,
     max_shift_z: float | None = None,
     max_ejections: int = 6,
+    max_shift: float | None = None,
+    exceed: bool = True,
+    exceed_rotation_deg: float = 0.0,
 ) -> PlacementResult:
     """Intersection-free fibers by sequential minimal shifts on the lattice torus.
 
@@ -227,6 +234,16 @@ def place_sequential(
         Largest allowed z component of a shift (normalized), to keep a drawn through-plane
         position distribution (e.g. beta z translations, Fig. 17); in-plane moves stay
         free. Default: the whole lattice torus.
+    max_shift : float, optional
+        Move bound: largest shift length (normalized) a fiber may move from where it was
+        drawn (the paper's GA range is 0.1 of the RVE edge per component). Every fiber is
+        first placed within ``max_shift`` (re-orientations within ``max_rotation_deg``,
+        ejections included); only if that fails is it moved to the nearest free shift
+        beyond the bound (``exceed=True``, recorded in ``PlacementResult.exceeded``) or
+        rejected (``exceed=False``). Default: no bound.
+    exceed_rotation_deg : float
+        Re-orientation range of that second, out-of-bounds pass (``max_rotation_deg`` is
+        the bound of the first); a fiber placed in the second pass counts as exceeded.
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -250,7 +267,13 @@ def place_sequential(
     rejected: list[int] = []
     contrib: dict[int, float] = {}
     ejected = np.zeros(n, np.int64)
+    ejected_in_bounds = np.zeros(n, np.int64)
+    exceeded: set[int] = set()
     streak = 0
+
+    def bounds(bounded: bool):
+        return (max_shift_z, max_shift if bounded else None)
+
     stopped = False
 
     def add_old(idx) -> None:
@@ -304,45 +327,49 @@ def place_sequential(
         base = st.subset([i])
         # tries: the drawn orientation (bent fibers also with their bend phase moved by
         # quarter wavelengths along the axis), then random re-orientations
-        tries = [(0.0, 0.0, 0.0)]
+        tries0 = [(0.0, 0.0, 0.0)]
         if base.u[0] != 0.0:
-            tries += [(0.0, 0.0, q / base.f[0]) for q in (0.25, 0.5, 0.75)]
-        if max_rotation_deg > 0:
-            tries += [
-                (
-                    rng.uniform(-max_rotation_deg, max_rotation_deg),
-                    rng.uniform(-max_rotation_deg, max_rotation_deg),
-                    0.0,
-                )
+            tries0 += [(0.0, 0.0, q / base.f[0]) for q in (0.25, 0.5, 0.75)]
+
+        def tries_for(bounded: bool, tries0=tries0):
+            lim = max_rotation_deg if bounded else max(max_rotation_deg, exceed_rotation_deg)
+            if lim <= 0:
+                return tries0
+            return tries0 + [
+                (rng.uniform(-lim, lim), rng.uniform(-lim, lim), 0.0)
                 for _ in range(orientation_tries)
             ]
-        for dth, dom, ds in tries:
-            trial = base.copy()
-            if dth or dom:
-                trial.theta += dth
-                trial.omega += dom
-                trial.refresh_frames()
-            trial.center[0] += ds * trial.frames[0, 0]
-            l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
-            tested += len(T)
-            free = _free_shift_raster(trial, old, out.diameter, gap, k_grid)
-            ok = free[tidx[:, 0], tidx[:, 1]]
-            if max_shift_z is not None:
-                ok &= np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) <= max_shift_z + 1e-12
-            if np.any(ok):
-                k = int(np.argmax(ok))
-                found = (trial.center[0] + T[k, 0] * l1 + T[k, 1] * l2, trial)
-                break
-        if found is None and max_ejections > 0:
-            # eject the fewest placed fibers that block a position; they are re-queued
-            c_new, blockers = _least_blocked(
-                base, old, out.diameter, st.fixed, gap, T, max_shift_z, k_grid, tidx
+
+        passes = (
+            [True, False] if exceed and (max_shift is not None or exceed_rotation_deg) else [True]
+        )
+        for bounded in passes:
+            tries = tries_for(bounded)
+            found, n_tried = _search(
+                tries, base, old, out.diameter, gap, T, k_grid, tidx, bounds(bounded)
             )
-            if c_new is not None and np.all(ejected[blockers] < max_ejections):
-                ejected[blockers] += 1
-                remove_old(blockers)
-                queue.extendleft(int(b) for b in blockers[::-1])
-                found = (c_new, base)
+            tested += len(T) * n_tried
+            # eject the fewest placed fibers that block a position (they are re-queued);
+            # ejections within the bounds have their own budget (half), so they never use up
+            # the last pass's
+            last = bounded == passes[-1]
+            count = ejected if last else ejected_in_bounds
+            budget = max_ejections if last else max_ejections // 2
+            if found is None and budget > 0:
+                c_new, blockers = _least_blocked(
+                    base, old, out.diameter, st.fixed, gap, T, bounds(bounded), k_grid, tidx
+                )
+                if c_new is not None and np.all(count[blockers] < budget):
+                    count[blockers] += 1
+                    remove_old(blockers)
+                    queue.extendleft(int(b) for b in blockers[::-1])
+                    found = (c_new, base)
+            if found is not None:
+                if not bounded:
+                    exceeded.add(i)
+                else:
+                    exceeded.discard(i)
+                break
         if found is None:
             rejected.append(i)
             streak += 1
@@ -365,8 +392,39 @@ def place_sequential(
         wall_time_s=time.perf_counter() - t0,
         solid=sum(contrib.values()),
         reached_stop=stopped or (stop_solid is not None and sum(contrib.values()) >= stop_solid),
-        n_ejections=int(ejected.sum()),
+        n_ejections=int(ejected.sum() + ejected_in_bounds.sum()),
+        exceeded=np.array(sorted(k for k in exceeded if k in set(placed)), dtype=np.int64),
     )
+
+
+def _allowed(T: np.ndarray, l1: np.ndarray, l2: np.ndarray, limits) -> np.ndarray:
+    """Shifts of ``T`` within the move bounds ``limits = (max_shift_z, max_shift)``."""
+    max_z, max_len = limits
+    ok = np.ones(len(T), bool)
+    if max_z is not None:
+        ok &= np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) <= max_z + 1e-12
+    if max_len is not None:
+        ok &= np.hypot(T[:, 0], T[:, 1]) <= max_len + 1e-12
+    return ok
+
+
+def _search(tries, base: FiberState, old, old_d, gap, T, k_grid, tidx, limits):
+    """First (orientation try, nearest allowed free shift) that clears ``old`` (or None), and
+    the number of tries used."""
+    for n_tried, (dth, dom, ds) in enumerate(tries, start=1):
+        trial = base.copy()
+        if dth or dom:
+            trial.theta += dth
+            trial.omega += dom
+            trial.refresh_frames()
+        trial.center[0] += ds * trial.frames[0, 0]
+        l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
+        free = _free_shift_raster(trial, old, old_d, gap, k_grid)
+        ok = free[tidx[:, 0], tidx[:, 1]] & _allowed(T, l1, l2, limits)
+        if np.any(ok):
+            k = int(np.argmax(ok))
+            return (trial.center[0] + T[k, 0] * l1 + T[k, 1] * l2, trial), n_tried
+    return None, len(tries)
 
 
 def _concat_pieces(p: Pieces, q: Pieces) -> Pieces:
@@ -389,7 +447,7 @@ def _least_blocked(
     fixed: np.ndarray,
     gap: float,
     T: np.ndarray,
-    max_shift_z: float | None,
+    limits,
     k: int,
     tidx,
 ):
@@ -407,9 +465,7 @@ def _least_blocked(
     weight = np.where(fixed[owner], 1 << 30, 1).astype(np.int64)
     _count_capsules(count, stamp, A * k, B * k, lim * k, owner.astype(np.int64), weight)
     cnt = count[tidx[:, 0], tidx[:, 1]]
-    if max_shift_z is not None:
-        far = np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) > max_shift_z + 1e-12
-        cnt = np.where(far, np.iinfo(np.int64).max, cnt)
+    cnt = np.where(_allowed(T, l1, l2, limits), cnt, np.iinfo(np.int64).max)
     j = int(np.argmin(cnt))  # first minimum = nearest
     if cnt[j] >= 1 << 30:
         return None, None

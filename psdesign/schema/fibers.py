@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.geometry.fibers import SHAPES
-from psdesign.schema.types import Table, Vec3, fail, number
+from psdesign.schema.types import Table, Vec3, fail, integer, number
 
 #: Shapes that expand to several fibers.
 CELL_SHAPES = ("woven-cell",)
@@ -40,17 +40,28 @@ class FiberTable(Table):
     )
     isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
     thickness_axis: Literal["x", "z"] | None = Field(None, description="x | z (woven-cell only)")
+    layers: integer(ge=1, le=8) | None = Field(
+        None, description="woven-cell layers stacked along the thickness, integer in [1, 8]"
+    )
+    layer_shift: tuple[number(ge=-1, le=1), number(ge=-1, le=1)] | None = Field(
+        None, description="woven-cell in-plane shift between layers, two numbers in [-1, 1] periods"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> FiberTable:
         given = self.model_fields_set
         if self.shape == "woven-cell":
-            extra = sorted(given - {"shape", "thickness_axis"})
+            extra = sorted(given - {"shape", "thickness_axis", "layers", "layer_shift"})
             if extra:
-                raise fail(extra[0], "woven-cell takes only thickness_axis", "thickness_axis")
+                raise fail(
+                    extra[0],
+                    "woven-cell takes only thickness_axis, layers, layer_shift",
+                    "thickness_axis, layers, layer_shift",
+                )
             return self
-        if self.thickness_axis is not None:
-            raise fail("thickness_axis", "only used with shape = 'woven-cell'", "woven-cell")
+        for key in ("thickness_axis", "layers", "layer_shift"):
+            if getattr(self, key) is not None:
+                raise fail(key, "only used with shape = 'woven-cell'", "woven-cell")
         if self.shape in ("rod", "cylinder", "bent-rod") and self.diameter is None:
             raise fail("diameter", "missing; give the fiber diameter in metres", "number > 0 m")
         if self.direction is not None:
@@ -76,7 +87,12 @@ class FiberTable(Table):
     def to_spec(self) -> dict:
         """The plain dict of today's validated spec."""
         if self.shape == "woven-cell":
-            return {"shape": self.shape, "thickness_axis": self.thickness_axis or "z"}
+            return {
+                "shape": self.shape,
+                "thickness_axis": self.thickness_axis or "z",
+                "layers": self.layers or 1,
+                "layer_shift": list(self.layer_shift or (0.0, 0.0)),
+            }
         out: dict = {"shape": self.shape}
         if self.diameter is not None and self.shape in ("rod", "cylinder", "bent-rod"):
             out["diameter"] = self.diameter

@@ -62,7 +62,7 @@ class ForceFieldTable(Table):
 
     case: Literal["two-fiber", "six-fiber"] = Field(description="two-fiber | six-fiber")
     surface: Literal[tuple(SURFACE_TERMS)] = Field(  # type: ignore[valid-type]
-        "gaussian", description=" | ".join(SURFACE_TERMS) + " (default gaussian)"
+        "area", description=" | ".join(SURFACE_TERMS) + " (default area; gaussian = as printed)"
     )
     weights: Annotated[tuple[Weight, Weight, Weight], Field()] = Field(
         (1e10, 1.0, 1.0), description="three numbers >= 0, not all zero"

@@ -122,6 +122,18 @@ class IntersectionsTable(Table):
     )
     step: number(gt=0) | None = Field(None, description="metres > 0, >= smallest edge / 1e4")
     max_shift_z: number(gt=0) | None = Field(None, description="metres > 0")
+    max_shift: number(gt=0) | None = Field(
+        None, description="fast: largest move in metres > 0 (default 0.1 of the period, Sec. 7.1)"
+    )
+    exceed_bounds: bool | None = Field(
+        None,
+        description="true | false: fast may exceed the bounds when a fiber fits nowhere "
+        "(default true; reported)",
+    )
+    exceed_rotation_deg: number(ge=0, le=360) | None = Field(
+        None,
+        description="fast: rotation beyond the bounds, degrees in [0, 360] (default 5)",
+    )
     max_ejections: integer(ge=0, le=10_000) | None = Field(
         None, description="integer in [0, 10000]"
     )

@@ -131,7 +131,13 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
         if fb["shape"] == "woven-cell":
             from psdesign.geometry.fibers import woven_cell
 
-            fibers.extend(woven_cell(fb.get("thickness_axis", "z")))
+            fibers.extend(
+                woven_cell(
+                    fb.get("thickness_axis", "z"),
+                    fb.get("layers", 1),
+                    tuple(fb.get("layer_shift", (0.0, 0.0))),
+                )
+            )
             continue
         center = np.asarray(fb.get("center", size / 2)) / ref
         try:

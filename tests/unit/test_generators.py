@@ -262,7 +262,10 @@ def test_example_specs_parse(name):
     )
     size, voxel, period = parse_rve(spec)
     gs = parse_generator(spec, size, period)
-    assert voxel == 0.5e-6 and gs.method == "fast"
+    # issue 17: Figs 13 and 17 use the paper's GA (zero-overlap placement cannot keep their
+    # drawn statistics), Figs 15 and 18 the bounded zero-overlap placement
+    expected = {"fig13_straight": "ga", "fig17_beta_z": "ga"}.get(name, "fast")
+    assert voxel == 0.5e-6 and gs.method == expected
 
 
 def test_draws_are_prefix_stable():
