@@ -14,11 +14,11 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
     from psdesign.forcefield.run import load_forcefield_spec, run_forcefield
     from psdesign.io.outputs import check_output_dir
 
-    ff = load_forcefield_spec(args.spec)
-    # checked before the optimization; run_forcefield's staged folder accepts the checked target
+    # the folder is checked first (like every -o command), then the spec; both before any work
     target = check_output_dir(
         args.output, force=args.force, command="forcefield", expected=FORCEFIELD_FILES
     )
+    ff = load_forcefield_spec(args.spec)
     summary = run_forcefield(ff, target, pictures=not args.no_pictures)
     print(
         json.dumps(

@@ -316,7 +316,6 @@ def test_cli_bad_spec_exit_2_one_line_nothing_written(tmp_path, capsys, cmd):
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("psdesign: error: ")
-    expected = "flow.direction: got 'w'; allowed: x, y, z"
-    expected = "forcefield" if cmd == ["forcefield"] else expected
-    assert expected in err
+    # forcefield relaxes an RVE spec's fiber set, so it validates the same keys
+    assert "flow.direction: got 'w'; allowed: x, y, z" in err
     assert not out.exists()
