@@ -302,13 +302,14 @@ def test_interrupt_stops_only_processes_started_during_the_run():
     sleep = [sys.executable, "-c", "import time; time.sleep(60)"]
     before = subprocess.Popen(sleep)
     during = None
+    handler = signal.getsignal(signal.SIGINT)  # whatever the caller had (other tests may set one)
     try:
         with pytest.raises(KeyboardInterrupt), stop_on_interrupt():
             during = subprocess.Popen(sleep)
             raise KeyboardInterrupt
         during.wait(timeout=5)  # stopped (reaped by psutil: no exit status to check)
         assert before.poll() is None  # the caller's own child is left alone
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        assert signal.getsignal(signal.SIGINT) is handler  # restored
     finally:
         for proc in (before, during):
             if proc is not None and proc.poll() is None:
