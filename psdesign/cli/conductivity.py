@@ -9,9 +9,10 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.cli.progress import progress_printer
     from psdesign.schema.transport import check_conductivity
     from psdesign.transport.conductivity import effective_conductivity
-    from psdesign.transport.load import load_case, progress_lines
+    from psdesign.transport.load import load_case
 
     solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
     fluid = None if args.fluid is None else check_conductivity(args.fluid, "--fluid")
@@ -25,7 +26,14 @@ def _cmd(args: argparse.Namespace) -> int:
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     results = [
         effective_conductivity(
-            case.fields, d, solid, fluid, tr, progress=None if args.quiet else progress_lines(d)
+            case.fields,
+            d,
+            solid,
+            fluid,
+            tr,
+            progress=None
+            if args.quiet
+            else progress_printer(d, solve="Laplace solve", method="CG"),
         ).to_dict()
         for d in dirs
     ]
@@ -78,3 +86,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)
+
+
+def _progress(args: argparse.Namespace, direction: str):
+    """Progress lines of the Laplace solve on stderr (none with ``--quiet``)."""
+    from psdesign.cli.progress import progress_printer
+
+    return None if args.quiet else progress_printer(direction, solve="Laplace solve", method="CG")

@@ -9,8 +9,9 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.cli.progress import progress_printer
     from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
-    from psdesign.transport.load import load_case, progress_lines
+    from psdesign.transport.load import load_case
 
     t0 = time.perf_counter()
     case = load_case(args.spec)
@@ -28,7 +29,12 @@ def _cmd(args: argparse.Namespace) -> int:
     else:
         results = [
             relative_diffusivity(
-                case.fields, d, tr, progress=None if args.quiet else progress_lines(d)
+                case.fields,
+                d,
+                tr,
+                progress=None
+                if args.quiet
+                else progress_printer(d, solve="Laplace solve", method="CG"),
             ).to_dict()
             for d in dirs
         ]
@@ -81,3 +87,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)
+
+
+def _progress(args: argparse.Namespace, direction: str):
+    """Progress lines of the Laplace solve on stderr (none with ``--quiet``)."""
+    from psdesign.cli.progress import progress_printer
+
+    return None if args.quiet else progress_printer(direction, solve="Laplace solve", method="CG")

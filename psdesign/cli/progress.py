@@ -6,8 +6,11 @@ import sys
 import time
 
 
-def progress_printer(direction: str, every_s: float = 5.0):
-    """Progress callback of the voxel solver: one line on stderr at most every ``every_s``."""
+def progress_printer(
+    direction: str, every_s: float = 5.0, solve: str = "voxel solve", method: str = "MINRES"
+):
+    """Progress callback ``report(iterations, residual)`` of an iterative solve: one line on
+    stderr at most every ``every_s`` (``psdesign: voxel solve z: 40 MINRES iterations, ...``)."""
     t0 = time.perf_counter()
     last = [t0]
 
@@ -16,7 +19,7 @@ def progress_printer(direction: str, every_s: float = 5.0):
         if now - last[0] >= every_s:
             last[0] = now
             print(
-                f"psdesign: voxel solve {direction}: {iterations} MINRES iterations, "
+                f"psdesign: {solve} {direction}: {iterations} {method} iterations, "
                 f"residual {residual:.1e}, {now - t0:.0f} s",
                 file=sys.stderr,
                 flush=True,

@@ -46,25 +46,3 @@ def load_case(path: str) -> TransportCase:
     spec["transport"] = transport
     built = build_rve(spec)
     return TransportCase(spec, transport, built.rve, built.voxelize(spec["rve"]["voxel"]))
-
-
-def progress_lines(direction: str, every_s: float = 5.0):
-    """Progress callback of the Laplace solve: one line on stderr at most every ``every_s``."""
-    import sys
-    import time
-
-    t0 = time.perf_counter()
-    last = [t0]
-
-    def report(iterations: int, residual: float) -> None:
-        now = time.perf_counter()
-        if now - last[0] >= every_s:
-            last[0] = now
-            print(
-                f"psdesign: Laplace solve {direction}: {iterations} CG iterations, "
-                f"residual {residual:.1e}, {now - t0:.0f} s",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    return report
