@@ -79,6 +79,9 @@ def test_permeameter_route_keys_and_entrance_effect() -> None:
     with pytest.warns(ResolutionWarning, match="5.0 voxels"):
         res = _route(2e-6, 2, bc="permeameter", aux_length=0.5, pressure_drop=3.0)
     assert res["bc"] == "permeameter" and res["sides"] == "slip"
+    # its K carries entrance/exit losses outside the bar (docs/validation.md): flagged
+    assert res["status"] == "untrustworthy"
+    assert any("entrance/exit losses" in w for w in res["warnings"])
     assert res["pressure_drop_applied_pa"] == pytest.approx(3.0)
     # slip-walled reservoirs carry plug flow without loss: the RVE takes the whole drop
     assert res["pressure_drop_rve_pa"] == pytest.approx(3.0, rel=1e-3)
