@@ -9,7 +9,7 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
-    from psdesign.cli.progress import progress_printer
+    from psdesign.cli.progress import laplace_progress
     from psdesign.schema.transport import check_conductivity
     from psdesign.transport.conductivity import effective_conductivity
     from psdesign.transport.load import load_case
@@ -31,9 +31,7 @@ def _cmd(args: argparse.Namespace) -> int:
             solid,
             fluid,
             tr,
-            progress=None
-            if args.quiet
-            else progress_printer(d, solve="Laplace solve", method="CG"),
+            progress=laplace_progress(args, d),
         ).to_dict()
         for d in dirs
     ]
@@ -86,10 +84,3 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)
-
-
-def _progress(args: argparse.Namespace, direction: str):
-    """Progress lines of the Laplace solve on stderr (none with ``--quiet``)."""
-    from psdesign.cli.progress import progress_printer
-
-    return None if args.quiet else progress_printer(direction, solve="Laplace solve", method="CG")

@@ -28,6 +28,11 @@ def progress_printer(
     return report
 
 
+def laplace_progress(args, direction: str):
+    """Progress lines of a Laplace (CG) solve on stderr; None with ``--quiet``."""
+    return None if args.quiet else progress_printer(direction, "Laplace solve", method="CG")
+
+
 FORCE_HELP = (
     "write into a non-empty folder psdesign did not create; files psdesign did not write are "
     "still never replaced, and / and the home folder are always refused"
