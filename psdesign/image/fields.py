@@ -30,12 +30,17 @@ def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
     return d * np.float32(voxel)
 
 
-def image_fields(solid: np.ndarray, voxel: float) -> VoxelFields:
-    """:class:`VoxelFields` of an image (``count`` = 1 in the solid: no fiber identities)."""
+def image_fields(
+    solid: np.ndarray, voxel: float, distance: np.ndarray | None = None
+) -> VoxelFields:
+    """:class:`VoxelFields` of an image (``count`` = 1 in the solid: no fiber identities).
+
+    ``distance`` (metres, > 0 in the pore) defaults to :func:`signed_distance`.
+    """
     solid = np.asarray(solid, dtype=bool)
     shape = solid.shape
     size = np.array(shape, float) * voxel
     grid = VoxelGrid(size=size, shape=tuple(int(n) for n in shape), spacing=np.full(3, voxel))
-    return VoxelFields(
-        distance=signed_distance(solid, voxel), count=solid.astype(np.uint8), grid=grid
-    )
+    if distance is None:
+        distance = signed_distance(solid, voxel)
+    return VoxelFields(distance=distance, count=solid.astype(np.uint8), grid=grid)

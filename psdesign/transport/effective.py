@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from psdesign.flow.darcy import axis_of
-from psdesign.geometry.rve import VoxelFields, VoxelGrid
+from psdesign.geometry.rve import VoxelFields
 
 BC_NAMES = ("periodic", "permeameter")
 
@@ -49,13 +49,11 @@ class Effective:
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:
     """VoxelFields of a voxel image (True = solid) with cubic voxels of ``voxel`` metres; the
     distance field is a binary +-voxel/2 (no sub-voxel surface)."""
+    from psdesign.image.fields import image_fields
+
     solid = np.asarray(solid, bool)
     h = float(voxel)
-    dist = np.where(solid, -0.5 * h, 0.5 * h).astype(np.float32)
-    shape = tuple(int(n) for n in solid.shape)
-    size = np.array(shape, float) * h
-    grid = VoxelGrid(size=size, shape=shape, spacing=np.full(3, h))
-    return VoxelFields(distance=dist, count=solid.astype(np.uint8), grid=grid)
+    return image_fields(solid, h, distance=np.where(solid, -0.5 * h, 0.5 * h).astype(np.float32))
 
 
 def coarsen_solid(distance: np.ndarray) -> np.ndarray:
