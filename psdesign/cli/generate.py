@@ -16,7 +16,11 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 
     spec = load_spec(args.spec)
     summary = write_generate_outputs(
-        spec, args.output, preview=not args.no_preview, force=args.force
+        spec,
+        args.output,
+        preview=not args.no_preview,
+        force=args.force,
+        formats=tuple(args.format or ()),
     )
     print(
         json.dumps(
@@ -36,12 +40,35 @@ GENERATE_FILES = (
     "preview.png",
 )
 """Files ``generate`` writes (checked against user files before the work starts)."""
+#: Extra formats of ``generate --format``: name -> file written.
+GENERATE_FORMATS = {"tiff": "rve.tif"}
+
+
+def tiff_description(voxel: float) -> dict:
+    """What ``rve.tif`` holds (written into summary.json)."""
+    from psdesign.image.writer import SOLID_VALUE
+
+    return {
+        "file": GENERATE_FORMATS["tiff"],
+        "dtype": "uint8",
+        "solid_value": SOLID_VALUE,
+        "pore_value": 0,
+        "axes": "ZYX: pages z, rows y, columns x",
+        "voxel_size_m": voxel,
+        "voxel_size_stored": "X/Y resolution in pixels per um, ImageJ spacing (z) and unit = um",
+    }
 
 
 def write_generate_outputs(
-    spec: dict, out_dir: str | Path, preview: bool = True, force: bool = False
+    spec: dict,
+    out_dir: str | Path,
+    preview: bool = True,
+    force: bool = False,
+    formats: tuple[str, ...] = (),
 ) -> dict:
-    """Build, voxelize and write rve.json, summary.json, field.vti, fibers.stl, preview.png.
+    """Build, voxelize and write rve.json, summary.json, field.vti, fibers.stl, preview.png
+    (and ``rve.tif`` with ``formats = ("tiff",)``: the solid mask as a uint8 TIFF stack,
+    :func:`psdesign.image.writer.write_tiff`).
 
     All files appear together in ``out_dir`` or, on failure, none do.  ``out_dir`` is checked
     first (:func:`psdesign.io.outputs.check_output_dir`; ``force`` is ``--force``), so a refused
@@ -58,7 +85,15 @@ def write_generate_outputs(
     from psdesign.packing.generators import write_medial_axes
     from psdesign.report.preview import distance_image, fiber_surface, render_preview
 
-    target = check_output_dir(out_dir, force=force, command="generate", expected=GENERATE_FILES)
+    from psdesign.errors import SpecError
+
+    for fmt in formats:
+        if fmt not in GENERATE_FORMATS:
+            raise SpecError("--format", f"unknown format {fmt!r}; allowed: tiff")
+    extra = tuple(GENERATE_FORMATS[f] for f in formats)
+    target = check_output_dir(
+        out_dir, force=force, command="generate", expected=GENERATE_FILES + extra
+    )
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
@@ -81,6 +116,12 @@ def write_generate_outputs(
                 tmp / "preview.png",
                 title=f"porosity {fields.porosity:.4f}, {len(rve.fibers)} fibers",
             )
+        if "tiff" in formats:
+            from psdesign.image.writer import write_tiff
+
+            voxel = float(fields.grid.spacing[0])
+            write_tiff(fields.solid, tmp / GENERATE_FORMATS["tiff"], voxel)
+            summary["tiff"] = tiff_description(voxel)
         summary["wall_time_s"]["total"] = time.perf_counter() - t0
         write_json(tmp / "summary.json", summary)
     return summary
@@ -95,5 +136,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("spec", help="RVE spec (TOML)")
     gen.add_argument("-o", "--output", required=True, help="output folder")
     gen.add_argument("--no-preview", action="store_true", help="skip preview.png")
+    gen.add_argument(
+        "--format",
+        nargs="*",
+        choices=tuple(GENERATE_FORMATS),
+        default=[],
+        help="extra outputs: tiff = rve.tif, the solid mask as a uint8 TIFF stack (1 = solid, "
+        "pages z, voxel size in the resolution tags; docs/images.md)",
+    )
     add_force_argument(gen)
     gen.set_defaults(func=_cmd_generate)

@@ -95,13 +95,15 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
+    # an image has no analytic pore volume: match the mesh to the voxel count
+    target = {} if fields.analytic_distance else {"volume_target": "voxel"}
     if bc != "periodic":
-        opts = MeshOptions.from_flow(flow, periodic=False)
+        opts = MeshOptions.from_flow(flow, periodic=False, **target)
         return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
     from psdesign.meshing.errors import MeshFailedError
     from solvers.fem.periodic import PeriodicMeshError
 
-    opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True)
+    opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True, **target)
     try:
         return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
     except MeshFailedError as exc:  # the mesher found opposite faces that differ
@@ -109,7 +111,15 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
 
 
 def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
+    notes = []
+    if not fields.analytic_distance:
+        v = mesh.quality.get("volume_target_m3")
+        notes.append(
+            f"K_{name}: image input has no analytic pore volume: the mesh matched the voxel "
+            f"count ({v:.4g} m^3)"
+        )
     return {
+        "warnings": notes,
         "direction": name,
         "porosity": fields.porosity,
         "solver": "fem",
@@ -124,6 +134,8 @@ def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
         "flux_imbalance": float(res.flux_imbalance),
         "cells_per_diameter": cells_per_diameter(rve, mesh),
         "mesh_quality": mesh.quality,
+        "pore_volume_target": mesh.quality.get("volume_target"),
+        "pore_volume_target_m3": mesh.quality.get("volume_target_m3"),
         "wall_time_s": time.perf_counter() - t0,
         "timings_s": {"mesh": t_mesh, **res.timings},
         "peak_memory_gb": float(res.peak_memory_gb),

@@ -125,6 +125,13 @@ def permeability_voxel(
 
     name, ax = axis_of(direction)
     bc, wall = _options(flow)
+    notes = []
+    if not fields.analytic_distance:  # a segmented image: no surface to put sub-voxel walls on
+        wall = "staircase"
+        notes.append(
+            f"K_{name}: image input has no analytic surface: wall_treatment = 'staircase' "
+            "(first-order walls on the voxel faces)"
+        )
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError(
@@ -191,6 +198,8 @@ def permeability_voxel(
         "pressure_gradient_pa_m": float(res.pressure_gradient),
         "wall_time_s": time.perf_counter() - t0,
     }
+    if notes:
+        out["warnings"] = notes
     if bc == "permeameter":
         out |= {
             "sides": res.sides,

@@ -19,6 +19,7 @@ the distance field holds the clip value (``margin`` metres, positive = pore).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -78,11 +79,15 @@ class VoxelFields:
     count : ndarray uint8 (nx, ny, nz)
         Number of fibers whose solid contains the voxel centre.
     grid : VoxelGrid
+    analytic_distance : bool (class attribute)
+        True when ``distance`` samples an analytic surface (sub-voxel walls and volumes
+        possible); False for a segmented image (:class:`psdesign.image.fields.ImageFields`).
     """
 
     distance: np.ndarray
     count: np.ndarray
     grid: VoxelGrid
+    analytic_distance: ClassVar[bool] = True
 
     @property
     def solid(self) -> np.ndarray:

@@ -10,9 +10,20 @@ see ``wall_treatment = "staircase"`` for images.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
 
 from psdesign.geometry.rve import VoxelFields, VoxelGrid
+
+
+@dataclass(frozen=True)
+class ImageFields(VoxelFields):
+    """:class:`VoxelFields` of a segmented image: the distance comes from the voxels (EDT),
+    not from an analytic surface, so walls are staircase and volumes are voxel counts."""
+
+    analytic_distance: ClassVar[bool] = False
 
 
 def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
@@ -32,8 +43,8 @@ def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
 
 def image_fields(
     solid: np.ndarray, voxel: float, distance: np.ndarray | None = None
-) -> VoxelFields:
-    """:class:`VoxelFields` of an image (``count`` = 1 in the solid: no fiber identities).
+) -> ImageFields:
+    """:class:`ImageFields` of an image (``count`` = 1 in the solid: no fiber identities).
 
     ``distance`` (metres, > 0 in the pore) defaults to :func:`signed_distance`.
     """
@@ -43,4 +54,25 @@ def image_fields(
     grid = VoxelGrid(size=size, shape=tuple(int(n) for n in shape), spacing=np.full(3, voxel))
     if distance is None:
         distance = signed_distance(solid, voxel)
-    return VoxelFields(distance=distance, count=solid.astype(np.uint8), grid=grid)
+    return ImageFields(distance=distance, count=solid.astype(np.uint8), grid=grid)
+
+
+def resample(fields: VoxelFields, shape: tuple[int, int, int]) -> ImageFields:
+    """The image on a coarser (or finer) grid of the same box: the signed distance is
+    interpolated (trilinear) at the new voxel centres, solid where it is <= 0, and the
+    distance of the new mask recomputed by :func:`signed_distance`.
+
+    Used for the second resolution of the error bar (an image has no geometry to sample
+    again). The box must hold a whole number of cubic voxels of the new grid.
+    """
+    from scipy.ndimage import map_coordinates
+
+    size = np.asarray(fields.grid.size, float)
+    h_new = size / np.asarray(shape, float)
+    if not np.allclose(h_new, h_new[0], rtol=1e-9):
+        raise ValueError(f"resample: shape {list(shape)} does not give cubic voxels")
+    h_old = np.asarray(fields.grid.spacing, float)
+    axes = [(np.arange(n) + 0.5) * h_new[a] / h_old[a] - 0.5 for a, n in enumerate(shape)]
+    coords = np.meshgrid(*axes, indexing="ij")
+    d = map_coordinates(fields.distance, coords, order=1, mode="nearest")
+    return image_fields(d <= 0.0, float(h_new[0]))

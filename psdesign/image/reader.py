@@ -1,11 +1,17 @@
 """Read a voxel image into a solid mask indexed ``[x, y, z]``.
 
-Formats (by extension): ``.tif``/``.tiff`` stacks (tifffile; pages are z, rows y, columns x),
-``.npy`` (NumPy, indexed as stored unless ``axis_order`` says otherwise), ``.raw`` (headerless;
-``shape`` in x, y, z order, ``dtype``, ``byte_order``, C order with x fastest unless stated) and
-``.vti`` (VTK image data, first point or cell array). Which values are solid is given by
-``solid`` (a label or list of labels, or ``"nonzero"``); an optional ``crop`` keeps
-``[[x0, x1], [y0, y1], [z0, z1]]`` voxels (half-open).
+Formats (``format``, by default from the extension): ``tif``/``tiff`` stacks (tifffile;
+pages are z, rows y, columns x), ``npy`` (NumPy, indexed ``[x, y, z]`` as stored unless
+``axis_order`` says otherwise), ``raw`` (headerless; ``shape`` in x, y, z order, ``dtype``,
+``byte_order``, C order with x fastest unless ``axis_order`` says otherwise) and ``vti`` (VTK
+image data, first point or cell array, ``[x, y, z]``). ``axis_order`` names the stored axes
+from the slowest to the fastest index, e.g. ``"zyx"`` (TIFF and raw default). Which values are
+solid is given by ``solid`` (a label or list of labels, or ``"nonzero"``) or by
+``threshold`` (solid where the value is ``>= threshold``); an optional ``crop`` keeps
+``[[x0, x1], [y0, y1], [z0, z1]]`` voxels (half-open, after the axis order is applied).
+
+Every problem is a :class:`ValueError` whose message starts with the ``[image]`` key it is
+about (``image.path: ...``), so the spec validation can report it as a one-line error.
 """
 
 from __future__ import annotations
@@ -16,6 +22,19 @@ from pathlib import Path
 import numpy as np
 
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
+#: Element types of a raw image.
+RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
+#: Length units of ImageJ metadata, in metres.
+_UNITS = {
+    "nm": 1e-9,
+    "um": 1e-6,
+    "micron": 1e-6,
+    "\u00b5m": 1e-6,
+    "\\u00B5m": 1e-6,
+    "mm": 1e-3,
+    "cm": 1e-2,
+    "m": 1.0,
+}
 
 
 @dataclass(frozen=True)
@@ -27,12 +46,17 @@ class ImageSource:
     path : Path
     voxel : float
         Voxel edge in metres (cubic voxels).
-    solid : int, list of int, or "nonzero"
+    solid : int, tuple of int, or "nonzero"
+        Labels of the solid (ignored when ``threshold`` is set).
     crop : tuple of (lo, hi) per axis, or None
     shape, dtype, byte_order : raw images only (shape in x, y, z order; "little" | "big")
-    axis_order : str
-        Order of the axes as stored: ``"zyx"`` (TIFF and raw default: x varies fastest) or
-        ``"xyz"`` (NumPy default).
+    axis_order : str, optional
+        Stored axes from the slowest to the fastest index, a permutation of ``"xyz"``
+        (default ``"zyx"`` for TIFF and raw, ``"xyz"`` for NumPy and VTI).
+    threshold : float, optional
+        Solid where the stored value is ``>= threshold``.
+    format : str, optional
+        ``"tif"``, ``"tiff"``, ``"npy"``, ``"raw"`` or ``"vti"`` (default: the extension).
     """
 
     path: Path
@@ -43,25 +67,39 @@ class ImageSource:
     dtype: str = "uint8"
     byte_order: str = "little"
     axis_order: str | None = None
+    threshold: float | None = None
+    format: str | None = None
+
+    @property
+    def ext(self) -> str:
+        """The format as an extension (``".tif"``, ...)."""
+        return f".{self.format}" if self.format else Path(self.path).suffix.lower()
+
+
+def _to_xyz(data: np.ndarray, order: str) -> np.ndarray:
+    """Transpose stored axes ``order`` (slowest first) to ``[x, y, z]``."""
+    if sorted(order) != ["x", "y", "z"]:
+        raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
+    return data.transpose([order.index(a) for a in "xyz"])
 
 
 def _read_raw(src: ImageSource) -> np.ndarray:
     if src.shape is None:
-        raise ValueError("image.shape: required for a .raw image ([nx, ny, nz])")
+        raise ValueError("image.shape: required for a raw image ([nx, ny, nz])")
+    if src.dtype not in RAW_DTYPES:
+        raise ValueError(f"image.dtype: unknown {src.dtype!r}; allowed: {', '.join(RAW_DTYPES)}")
     dt = np.dtype(src.dtype).newbyteorder("<" if src.byte_order == "little" else ">")
     n = int(np.prod(src.shape))
-    size = src.path.stat().st_size
+    size = Path(src.path).stat().st_size
     if size != n * dt.itemsize:
         raise ValueError(
             f"image.shape: {list(src.shape)} x {dt.itemsize} bytes = {n * dt.itemsize} bytes, "
-            f"but {src.path.name} has {size} bytes"
+            f"but {Path(src.path).name} has {size} bytes"
         )
     data = np.fromfile(src.path, dtype=dt, count=n)
     order = src.axis_order or "zyx"
-    nx, ny, nz = src.shape
-    if order == "zyx":
-        return data.reshape(nz, ny, nx).transpose(2, 1, 0)
-    return data.reshape(nx, ny, nz)
+    stored = [src.shape["xyz".index(a)] for a in order] if sorted(order) == list("xyz") else [n]
+    return _to_xyz(data.reshape(stored), order)
 
 
 def _read_vti(path: Path) -> np.ndarray:
@@ -80,32 +118,44 @@ def _read_vti(path: Path) -> np.ndarray:
     return data.reshape(dims, order="F")
 
 
-def read_labels(src: ImageSource) -> np.ndarray:
-    """The stored values as an array indexed ``[x, y, z]`` (after the crop)."""
-    path = Path(src.path)
-    ext = path.suffix.lower()
-    if ext not in FORMATS:
-        raise ValueError(f"image.path: unknown format {ext!r}; allowed: {', '.join(FORMATS)}")
-    if not path.is_file():
-        raise ValueError(f"image.path: file not found: {path}")
+def _read_stored(src: ImageSource) -> np.ndarray:
+    path, ext = Path(src.path), src.ext
     if ext in (".tif", ".tiff"):
         import tifffile
 
-        data = np.asarray(tifffile.imread(path))
+        try:
+            data = np.asarray(tifffile.imread(path))
+        except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
+            raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
         if data.ndim == 2:
             data = data[None]
         if data.ndim != 3:
             raise ValueError(f"image.path: expected a 3-D stack, got shape {data.shape}")
-        data = data.transpose(2, 1, 0) if (src.axis_order or "zyx") == "zyx" else data
-    elif ext == ".npy":
-        data = np.load(path, allow_pickle=False)
+        return _to_xyz(data, src.axis_order or "zyx")
+    if ext == ".npy":
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
         if data.ndim != 3:
             raise ValueError(f"image.path: expected a 3-D array, got shape {data.shape}")
-        data = data.transpose(2, 1, 0) if src.axis_order == "zyx" else data
-    elif ext == ".raw":
-        data = _read_raw(src)
-    else:
-        data = _read_vti(path)
+        return _to_xyz(data, src.axis_order or "xyz")
+    if ext == ".raw":
+        return _read_raw(src)
+    return _to_xyz(_read_vti(path), src.axis_order or "xyz")
+
+
+def read_labels(src: ImageSource) -> np.ndarray:
+    """The stored values as an array indexed ``[x, y, z]`` (after the crop)."""
+    path = Path(src.path)
+    if src.ext not in FORMATS:
+        raise ValueError(
+            f"image.format: unknown format {src.ext!r}; allowed: "
+            f"{', '.join(f.lstrip('.') for f in FORMATS)}"
+        )
+    if not path.is_file():
+        raise ValueError(f"image.path: file not found: {path}")
+    data = _read_stored(src)
     if src.crop is not None:
         sl = []
         for ax, (lo, hi) in enumerate(src.crop):
@@ -119,22 +169,69 @@ def read_labels(src: ImageSource) -> np.ndarray:
     return data
 
 
-def solid_mask(labels: np.ndarray, solid: int | tuple[int, ...] | str) -> np.ndarray:
-    """Boolean mask of the solid voxels."""
+def solid_mask(
+    labels: np.ndarray, solid: int | tuple[int, ...] | str, threshold: float | None = None
+) -> np.ndarray:
+    """Boolean mask of the solid voxels (``threshold`` wins over ``solid``)."""
+    if threshold is not None:
+        return labels >= threshold
     if isinstance(solid, str):
         if solid != "nonzero":
-            raise ValueError(f"image.solid: a label, a list of labels or 'nonzero', got {solid!r}")
+            raise ValueError(
+                f"image.solid_label: a label, a list of labels or 'nonzero', got {solid!r}"
+            )
         return labels != 0
     values = (solid,) if isinstance(solid, int) else tuple(solid)
     mask = np.isin(labels, values)
     if not mask.any():
         present = np.unique(labels)[:10].tolist()
         raise ValueError(
-            f"image.solid: no voxel has label {list(values)}; labels present: {present}"
+            f"image.solid_label: no voxel has label {list(values)}; labels present: {present}"
         )
     return mask
 
 
 def read_image(src: ImageSource) -> np.ndarray:
     """The solid mask (bool, ``[x, y, z]``) of an image."""
-    return solid_mask(read_labels(src), src.solid)
+    return solid_mask(read_labels(src), src.solid, src.threshold)
+
+
+def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
+    """The voxel edge (metres) a file carries, or None.
+
+    TIFF: the ImageJ ``unit`` with the X/Y resolution tags (pixels per unit) and the z
+    ``spacing``; x, y and z must agree to 1e-6 (cubic voxels). VTI: the ``spacing`` (taken as
+    metres, as psdesign writes it). Raw and NumPy files carry none.
+    """
+    path = Path(path)
+    ext = f".{fmt}" if fmt else path.suffix.lower()
+    if ext in (".tif", ".tiff"):
+        import tifffile
+
+        with tifffile.TiffFile(path) as tf:
+            meta = tf.imagej_metadata or {}
+            unit = _UNITS.get(str(meta.get("unit", "")).strip())
+            tag = tf.pages[0].tags.get("XResolution")
+            if unit is None or tag is None:
+                return None
+            num, den = tag.value
+            if not num or not den:
+                return None
+            xy = den / num * unit
+            z = float(meta.get("spacing", den / num)) * unit
+        if abs(z - xy) > 1e-6 * xy:
+            raise ValueError(
+                f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, z {z:g} m); "
+                "resample to cubic voxels"
+            )
+        return float(xy)
+    if ext == ".vti":
+        import pyvista as pv
+
+        h = np.asarray(pv.read(str(path)).spacing, float)
+        if not np.allclose(h, h[0], rtol=1e-6):
+            raise ValueError(
+                f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()})"
+            )
+        return float(h[0])
+    return None

@@ -29,8 +29,14 @@ def build_rve(spec: dict) -> BuiltRVE:
     """Build the RVE of a validated spec: explicit fibers plus generated ones.
 
     A ``[generator]`` table (and ``[intersections]``) is handed to
-    :func:`psdesign.packing.generators.build_fibers`.
+    :func:`psdesign.packing.generators.build_fibers`; an ``[image]`` table gives an
+    :class:`~psdesign.image.load.ImageRVE` (no fibers) with the image's voxel fields.
     """
+    if "image" in spec:
+        from psdesign.image.load import image_report, image_rve
+
+        rve = image_rve(spec["image"])
+        return BuiltRVE(rve=rve, report=image_report(rve), fields=rve.image)
     fibers = explicit_fibers(spec)
     rve_spec = spec["rve"]
     if "generator" in spec:

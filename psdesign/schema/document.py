@@ -14,6 +14,7 @@ from psdesign.schema.fibers import FiberTable
 from psdesign.schema.flow import FlowTable
 from psdesign.schema.forcefield import ForceFieldTable
 from psdesign.schema.generator import GeneratorTable, IntersectionsTable
+from psdesign.schema.image import ImageTable
 from psdesign.schema.rve import RveTable
 from psdesign.schema.transport import TransportSpec
 from psdesign.schema.types import Table, fail
@@ -30,24 +31,28 @@ class SpecWarning(UserWarning):
 
 
 class SpecDocument(Table):
-    """An RVE spec: ``[rve]``, ``[[fibers]]``, ``[generator]``, ``[intersections]``, ``[flow]``."""
+    """An RVE spec: ``[rve]``, ``[[fibers]]``, ``[generator]``, ``[intersections]``, ``[flow]``
+    (or ``[image]`` instead of the fiber tables)."""
 
     entry = "table"
 
-    rve: RveTable = Field(description="table (required)")
+    rve: RveTable | None = Field(None, description="table (required unless [image])")
     fibers: list[FiberTable] = Field(default_factory=list, description="array of tables")
     generator: GeneratorTable | None = Field(None, description="table")
     intersections: IntersectionsTable | None = Field(None, description="table")
     flow: FlowTable = Field(default_factory=FlowTable, description="table")
     forcefield: ForceFieldTable | None = Field(None, description="table (force-field specs)")
     transport: TransportSpec | None = Field(None, description="table (docs/transport.md)")
+    image: ImageTable | None = Field(
+        None, description="table (docs/images.md): a segmented voxel image as the RVE"
+    )
 
     @model_validator(mode="before")
     @classmethod
     def _one_fiber_table(cls, data: Any) -> Any:
         if isinstance(data, dict) and isinstance(data.get("fibers"), dict):
             data = {**data, "fibers": [data["fibers"]]}
-        if isinstance(data, dict) and "rve" not in data:
+        if isinstance(data, dict) and "rve" not in data and "image" not in data:
             raise fail(
                 "rve",
                 "missing [rve] table with size = [x, y, z] in metres",
@@ -58,14 +63,26 @@ class SpecDocument(Table):
     # ------------------------------------------------------------------ derived values
     @property
     def voxel(self) -> float:
+        if self.image is not None:
+            return self.image.voxel
         return self.rve.voxel if self.rve.voxel is not None else min(self.rve.size) / 100
 
     @property
     def period(self) -> float:
+        if self.image is not None:
+            return max(self.image.size)
         return self.rve.period if self.rve.period is not None else max(self.rve.size)
+
+    @property
+    def size(self) -> tuple[float, float, float]:
+        """Box edges in metres (``[rve]`` or the image's extent)."""
+        return self.image.size if self.image is not None else tuple(self.rve.size)
 
     @model_validator(mode="after")
     def _cross(self) -> SpecDocument:
+        if self.image is not None:
+            self._check_image()
+            return self
         size, voxel, period = self.rve.size, self.voxel, self.period
         if voxel > min(size) / 4:
             raise fail(
@@ -95,6 +112,59 @@ class SpecDocument(Table):
         if self.generator is not None:
             self._check_generator(size, voxel, period)
         return self
+
+    def _check_image(self) -> None:
+        """An ``[image]`` spec: no fiber tables, ``[rve]`` consistent, memory, the voxels."""
+        from psdesign.image.load import load_mask, source_of
+
+        for name in ("generator", "intersections", "forcefield"):
+            if getattr(self, name) is not None:
+                raise fail(
+                    name, "not allowed with [image] (the image is the geometry)", "remove it"
+                )
+        if self.fibers:
+            raise fail(
+                "fibers", "not allowed with [image] (the image is the geometry)", "remove it"
+            )
+        img = self.image
+        if self.rve is not None:
+            for k, (a, b) in enumerate(zip(self.rve.size, img.size, strict=True)):
+                if abs(a - b) > 1e-6 * b:
+                    raise fail(
+                        f"rve.size[{k}]",
+                        f"{a:g} m is not the image's extent",
+                        f"{b:g} m or leave [rve] out",
+                    )
+            if self.rve.voxel is not None and abs(self.rve.voxel - img.voxel) > 1e-6 * img.voxel:
+                raise fail(
+                    "rve.voxel",
+                    f"{self.rve.voxel:g} m is not the image's voxel size",
+                    f"{img.voxel:g} m",
+                )
+        if self.flow.wall_treatment == "subvoxel":
+            raise fail(
+                "flow.wall_treatment",
+                "'subvoxel' needs an analytic surface; an [image] has none",
+                "staircase",
+            )
+        budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop")
+        try:
+            solid = load_mask(source_of(img.to_spec()))
+        except ValueError as exc:
+            key, _, msg = str(exc).partition(": ")
+            raise fail(key, msg) from None
+        n_solid = int(solid.sum())
+        which = "threshold" if img.threshold is not None else "solid_label"
+        if n_solid == solid.size:
+            raise fail(
+                f"image.{which}",
+                "every voxel is solid: no pore voxels",
+                "a label or threshold leaving pore",
+            )
+        if n_solid == 0:
+            raise fail(
+                f"image.{which}", "no voxel is solid", "a label or threshold that marks the solid"
+            )
 
     def _check_fibers(self, size, voxel: float, period: float) -> None:
         if len(self.fibers) > budget.MAX_EXPLICIT_FIBERS:

@@ -19,7 +19,7 @@ from psdesign.schema.study import BoundsParam, RangeParam, StudyTable
 __all__ = ["key_rows", "spec_paths", "study_rows"]
 
 #: Tables whose keys a study parameter may set although the base spec lacks them.
-_VARIABLE_TABLES = ("rve", "generator", "intersections", "flow", "transport")
+_VARIABLE_TABLES = ("rve", "generator", "intersections", "flow", "transport", "image")
 
 
 def _is_dist(annotation) -> bool:

@@ -83,11 +83,14 @@ def load_spec(path: str | Path) -> dict:
     SpecError
         Missing or unreadable file, TOML syntax error, or a bad value.
     """
-    return validate_spec(read_toml(path))
+    return validate_spec(read_toml(path), base=Path(path).parent)
 
 
-def validate_document(data: Any) -> SpecDocument:
+def validate_document(data: Any, base: str | Path | None = None) -> SpecDocument:
     """Validate a parsed spec against the schema; returns the typed document.
+
+    ``base`` is the folder relative ``[image]`` paths start from (the spec file's; default
+    the current folder).
 
     Raises
     ------
@@ -97,7 +100,7 @@ def validate_document(data: Any) -> SpecDocument:
     if not isinstance(data, dict):
         raise SpecError("spec", f"must be a TOML table, got {type(data).__name__}")
     try:
-        return SpecDocument.model_validate(data)
+        return SpecDocument.model_validate(data, context={"base": base})
     except ValidationError as exc:
         raise spec_error(exc, SpecDocument) from None
     except (RecursionError, OverflowError, MemoryError) as exc:
@@ -107,18 +110,26 @@ def validate_document(data: Any) -> SpecDocument:
         ) from None
 
 
-def validate_spec(data: dict) -> dict:
+def validate_spec(data: dict, base: str | Path | None = None) -> dict:
     """Validate a parsed spec and fill defaults; returns a new plain dict.
 
     The shape is the one the pipeline reads: ``rve`` = ``{size, voxel, period}`` (voxel
     filled), ``fibers`` = list of fiber dicts, ``flow`` = defaults plus the keys given,
-    ``generator``/``intersections``/``forcefield`` as given (validated).
+    ``generator``/``intersections``/``forcefield`` as given (validated). With ``[image]``
+    (relative ``path`` from ``base``, default the current folder): ``image`` with the
+    absolute path, format and voxel size filled in, ``rve`` the image's box and voxel,
+    ``flow.wall_treatment = "staircase"`` (an image has no analytic surface).
     """
-    doc = validate_document(data)
-    spec = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("rve", "fibers", "flow")}
-    spec["rve"] = {"size": list(doc.rve.size), "voxel": doc.voxel, "period": doc.rve.period}
+    doc = validate_document(data, base)
+    skip = ("rve", "fibers", "flow", "image")
+    spec = {k: copy.deepcopy(v) for k, v in data.items() if k not in skip}
+    period = doc.rve.period if doc.rve is not None else None
+    spec["rve"] = {"size": list(doc.size), "voxel": doc.voxel, "period": period}
     spec["fibers"] = [fb.to_spec() for fb in doc.fibers]
     spec["flow"] = doc.flow.to_spec()
+    if doc.image is not None:
+        spec["image"] = doc.image.to_spec()
+        spec["flow"].setdefault("wall_treatment", "staircase")
     return spec
 
 

@@ -365,6 +365,11 @@ def _read_base(data: dict, root: Path) -> dict:
         raise _err("base", f"must be a table or a path string, got {type(base_raw).__name__}")
     if not base:
         raise _err("base", "the base spec is empty; it needs at least an [rve] table")
+    # an [image] path is relative to the spec file (or, inline, to the study file)
+    image = base.get("image")
+    if isinstance(image, dict) and isinstance(image.get("path"), str):
+        folder = bpath.parent if isinstance(base_raw, str) else root
+        image["path"] = str((folder / Path(image["path"]).expanduser()).resolve())
     return base
 
 

@@ -42,7 +42,7 @@ def load_case(path: str) -> TransportCase:
         raise SpecError("spec", f"not valid TOML: {exc}") from None
     transport = validate_transport(raw)
     rest = {k: v for k, v in raw.items() if k != "transport"}
-    spec = validate_spec(rest) if rest else load_spec(p)
+    spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
     spec["transport"] = transport
     built = build_rve(spec)
     return TransportCase(spec, transport, built.rve, built.voxelize(spec["rve"]["voxel"]))

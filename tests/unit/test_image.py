@@ -24,7 +24,7 @@ def test_round_trip_every_format(tmp_path, fmt) -> None:
     kw: dict = {}
     if fmt == "tif":
         write_tiff(solid, path, 1e-6)
-        kw["solid"] = 255
+        kw["solid"] = 1
     elif fmt == "npy":
         np.save(path, solid.astype(np.uint8) * 3)
         kw["solid"] = 3
@@ -50,7 +50,7 @@ def test_crop_and_label_errors(tmp_path) -> None:
     assert read_image(src).shape == (4, 6, 3) and read_image(src)[:2].all()
     with pytest.raises(ValueError, match=r"image\.crop\[0\]"):
         read_image(ImageSource(tmp_path / "a.npy", voxel=1e-6, solid=7, crop=((0, 9),) * 3))
-    with pytest.raises(ValueError, match=r"image\.solid: no voxel has label \[5\]"):
+    with pytest.raises(ValueError, match=r"image\.solid_label: no voxel has label \[5\]"):
         read_image(ImageSource(tmp_path / "a.npy", voxel=1e-6, solid=5))
     (tmp_path / "b.raw").write_bytes(b"\0" * 10)
     with pytest.raises(ValueError, match=r"image\.shape"):
