@@ -5,6 +5,7 @@ Public API (imported lazily, so ``import psdesign`` is fast)::
     spec = psdesign.load_spec("studies/table3/straight.toml")
     m = psdesign.build(spec)                  # Material: .rve, .fields, .porosity
     k = m.permeability("z", solver="voxel")   # PermeabilityResult
+    m = psdesign.from_image("scan.tif", voxel_size=1e-6, solid_label=1)   # a CT image
     df = psdesign.run_study("studies/quickstart.toml", "out/q")
 
 The stages of the data flow are subpackages: ``schema`` (spec files) -> ``geometry`` (PS models,
@@ -20,6 +21,7 @@ __version__ = "0.1.0"
 
 _LAZY = {
     "build": "psdesign.api",
+    "from_image": "psdesign.api",
     "load_spec": "psdesign.api",
     "run_study": "psdesign.api",
     "Material": "psdesign.api",

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Material", "PermeabilityResult", "build", "load_spec", "run_study"]
+__all__ = ["Material", "PermeabilityResult", "build", "from_image", "load_spec", "run_study"]
 
 
 def load_spec(path: str | Path) -> dict:
@@ -147,6 +147,9 @@ class Material:
 
     def __repr__(self) -> str:
         size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)
+        if "image" in self.spec:
+            name = Path(self.spec["image"]["path"]).name
+            return f"Material({size} um, image {name}, voxel {self.spec['rve']['voxel']:.4g} m)"
         return f"Material({size} um, {len(self.rve.fibers)} fibers)"
 
 
@@ -156,6 +159,46 @@ def build(spec: dict | str | Path) -> Material:
 
     spec = load_spec(spec) if isinstance(spec, str | Path) else validate_spec(spec)
     return Material(spec)
+
+
+def from_image(
+    path: str | Path,
+    voxel_size: float | None = None,
+    solid_label: int | list[int] | None = None,
+    flow: dict | None = None,
+    **image: Any,
+) -> Material:
+    """A material from a segmented voxel image (docs/images.md).
+
+    Parameters
+    ----------
+    path : str or Path
+        TIFF stack, raw, ``.npy`` or ``.vti`` file (relative to the current folder).
+    voxel_size : float, optional
+        Voxel edge in metres; required unless the file carries it (TIFF ImageJ metadata,
+        VTI spacing).
+    solid_label : int or list of int, optional
+        Label(s) of the solid (default: every nonzero voxel).
+    flow : dict, optional
+        A ``[flow]`` table (solver, bc, viscosity, ...).
+    **image
+        Other ``[image]`` keys: ``threshold``, ``crop``, ``axis_order``, ``format``, ``shape``,
+        ``dtype``, ``byte_order``.
+
+    Returns
+    -------
+    Material
+        Validated like a spec with an ``[image]`` table (``SpecError`` naming the key).
+    """
+    table: dict[str, Any] = {"path": str(path), **image}
+    if voxel_size is not None:
+        table["voxel_size"] = voxel_size
+    if solid_label is not None:
+        table["solid_label"] = solid_label
+    spec: dict[str, Any] = {"image": table}
+    if flow:
+        spec["flow"] = dict(flow)
+    return build(spec)
 
 
 def _unguarded_call_in_main_script(name: str) -> bool:

@@ -79,13 +79,12 @@ def write_generate_outputs(
     dict
         The summary.
     """
+    from psdesign.errors import SpecError
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.packing.build import build_rve, rve_document, summarize
     from psdesign.packing.generators import write_medial_axes
     from psdesign.report.preview import distance_image, fiber_surface, render_preview
-
-    from psdesign.errors import SpecError
 
     for fmt in formats:
         if fmt not in GENERATE_FORMATS:

@@ -30,7 +30,7 @@ def progress_printer(
 
 def laplace_progress(args, direction: str):
     """Progress lines of a Laplace (CG) solve on stderr; None with ``--quiet``."""
-    return None if args.quiet else progress_printer(direction, "Laplace solve", method="CG")
+    return None if args.quiet else progress_printer(direction, solve="Laplace solve", method="CG")
 
 
 FORCE_HELP = (

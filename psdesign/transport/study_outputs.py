@@ -71,6 +71,12 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["specific_surface_m-1"] = sv.specific_surface_m_1
     out["specific_surface_rel_error"] = sv.rel_error
     out["surface_area_m2"] = sv.area_m2
+    out["surface_method"] = (
+        "marching cubes on the analytic signed distance"
+        if fields.analytic_distance
+        else "marching cubes on the image's voxel-face distance (not analytic: a segmented "
+        "image has no sub-voxel surface)"
+    )
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)

@@ -1,0 +1,163 @@
+"""The ``[image]`` spec table: loading the shipped image, derived box and voxel, refusals,
+the image RVE (resampling for the error bar), the Python API and the solver wiring."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+import psdesign
+from psdesign.errors import SpecError
+from psdesign.image.fields import ImageFields, resample
+from psdesign.image.writer import write_tiff
+from psdesign.packing.build import build_rve
+from psdesign.schema.spec import load_spec, validate_spec
+
+#: tests/data/README-puma.md: porosity of fibres_32 (ten rods, 32^3 voxels).
+PUMA_POROSITY_32 = 0.96139
+VOXEL_32 = 1e-4 / 32  # the unit cube scaled to 100 um
+
+
+@pytest.fixture()
+def img_dir(tmp_path, data_dir):
+    shutil.copy(data_dir / "fibres_32.tif", tmp_path / "fibres_32.tif")
+    return tmp_path
+
+
+def write_spec(folder, body: str, name: str = "spec.toml"):
+    p = folder / name
+    p.write_text(body)
+    return p
+
+
+def test_shipped_tiff_spec_gives_the_peer_box_voxel_and_porosity(img_dir, data_dir) -> None:
+    # relative path from the spec's folder, voxel size from the TIFF's ImageJ metadata
+    sub = img_dir / "specs"
+    sub.mkdir()
+    spec = load_spec(write_spec(sub, '[image]\npath = "../fibres_32.tif"\n'))
+    assert spec["rve"]["voxel"] == pytest.approx(VOXEL_32, rel=1e-12)
+    assert spec["rve"]["size"] == pytest.approx([1e-4] * 3, rel=1e-12)
+    assert spec["image"]["path"] == str((img_dir / "fibres_32.tif").resolve())
+    assert spec["flow"]["wall_treatment"] == "staircase"
+    built = build_rve(spec)
+    fields = built.voxelize(spec["rve"]["voxel"])
+    ref = np.load(data_dir / "fibres_32.npz")["solid"].astype(bool)
+    assert isinstance(fields, ImageFields) and not fields.analytic_distance
+    assert np.array_equal(fields.solid, ref)
+    assert fields.porosity == pytest.approx(PUMA_POROSITY_32, abs=1e-5)  # README: 5 digits
+    assert built.rve.fibers == [] and built.report["source"] == "image"
+    # the validated spec validates again to itself (studies and the API re-validate)
+    assert validate_spec(spec) == spec
+
+
+def test_crop_threshold_and_axis_order(tmp_path) -> None:
+    rng = np.random.default_rng(7)
+    grey = rng.integers(0, 200, size=(12, 10, 8)).astype(np.uint8)  # [x, y, z]
+    np.save(tmp_path / "g.npy", grey.transpose(2, 1, 0))  # stored z, y, x
+    body = (
+        '[image]\npath = "g.npy"\nvoxel_size = 2e-6\nthreshold = 120\naxis_order = "zyx"\n'
+        "crop = [[2, 10], [1, 9], [0, 8]]\n"
+    )
+    spec = load_spec(write_spec(tmp_path, body))
+    f = build_rve(spec).voxelize(2e-6)
+    want = grey[2:10, 1:9, 0:8] >= 120
+    assert f.grid.shape == (8, 8, 8) and np.array_equal(f.solid, want)
+    assert spec["rve"]["size"] == pytest.approx([16e-6] * 3)
+
+
+def test_signed_distance_is_metres_and_resample_keeps_porosity(img_dir) -> None:
+    spec = load_spec(write_spec(img_dir, '[image]\npath = "fibres_32.tif"\n'))
+    f = build_rve(spec).voxelize(spec["rve"]["voxel"])
+    h = VOXEL_32
+    # the surface lies half-way between solid and pore voxel centres
+    assert f.distance[f.solid].max() == pytest.approx(-0.5 * h, rel=1e-6)
+    assert f.distance[~f.solid].min() == pytest.approx(0.5 * h, rel=1e-6)
+    coarse = resample(f, (16, 16, 16))
+    assert coarse.grid.shape == (16, 16, 16)
+    assert np.allclose(coarse.grid.spacing, 2 * h)
+    assert coarse.porosity == pytest.approx(f.porosity, abs=0.01)
+
+
+@pytest.mark.parametrize(
+    ("body", "key"),
+    [
+        ('path = "nope.tif"', "image.path"),
+        ('path = "b.raw"\nvoxel_size = 1e-6\nshape = [4, 4, 5]', "image.shape"),
+        ('path = "b.raw"\nvoxel_size = 1e-6\nshape = [4, 4, 4]\ndtype = "uint12"', "image.dtype"),
+        ('path = "b.raw"\nvoxel_size = 1e-6', "image.shape"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\ncrop = [[0, 9], [0, 8], [0, 8]]', "image.crop[0]"),
+        ('path = "a.npy"', "image.voxel_size"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\nsolid_label = [0, 5]', "image.solid_label"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\nsolid_label = 9', "image.solid_label"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\nthreshold = 9', "image.threshold"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\nthreshold = 1\nsolid_label = 5', "image.threshold"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\ndtype = "uint16"', "image.dtype"),
+        ('path = "a.txt"\nvoxel_size = 1e-6', "image.format"),
+        ('path = "a.npy"\nvoxel_size = 1e-6\naxis_order = "xxz"', "image.axis_order"),
+    ],
+)
+def test_bad_image_tables_name_the_key(tmp_path, body, key) -> None:
+    a = np.zeros((8, 8, 8), np.uint8)
+    a[2:4] = 5
+    np.save(tmp_path / "a.npy", a)
+    (tmp_path / "a.txt").write_text("x")
+    (tmp_path / "b.raw").write_bytes(bytes(64))
+    with pytest.raises(SpecError) as exc:
+        load_spec(write_spec(tmp_path, f"[image]\n{body}\n"))
+    assert exc.value.key == key, str(exc.value)
+    assert "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    ("extra", "key"),
+    [
+        ('[[fibers]]\nshape = "rod"\ndiameter = 2e-5\n', "fibers"),
+        ("[generator]\nporosity = 0.9\ndiameter = 7e-6\n", "generator"),
+        ("[rve]\nsize = [1e-4, 1e-4, 2e-4]\n", "rve.size[2]"),
+        ("[rve]\nsize = [1e-4, 1e-4, 1e-4]\nvoxel = 1e-6\n", "rve.voxel"),
+        ('[flow]\nwall_treatment = "subvoxel"\n', "flow.wall_treatment"),
+    ],
+)
+def test_fiber_tables_and_inconsistent_tables_are_refused(img_dir, extra, key) -> None:
+    p = write_spec(img_dir, f'[image]\npath = "fibres_32.tif"\n{extra}')
+    with pytest.raises(SpecError) as exc:
+        load_spec(p)
+    assert exc.value.key == key, str(exc.value)
+
+
+def test_consistent_rve_table_is_accepted(img_dir) -> None:
+    body = '[image]\npath = "fibres_32.tif"\n[rve]\nsize = [1e-4, 1e-4, 1e-4]\n'
+    assert load_spec(write_spec(img_dir, body))["rve"]["voxel"] == pytest.approx(VOXEL_32)
+
+
+def test_from_image_api_and_voxel_route_on_a_crop(img_dir) -> None:
+    m = psdesign.from_image(
+        img_dir / "fibres_32.tif", solid_label=255, crop=[[0, 16], [0, 16], [0, 32]]
+    )
+    assert "image fibres_32.tif" in repr(m)
+    assert m.rve.size == pytest.approx([0.5e-4, 0.5e-4, 1e-4])
+    k = m.permeability("z", solver="voxel", bc="periodic", error_estimate=False)
+    assert k.details["wall_treatment"] == "staircase"
+    assert any("staircase" in w for w in k.details["warnings"])
+    assert k.converged and k.permeability_m2 > 0
+    # the same voxels written as .npy (stored [x, y, z]) give the same K
+    np.save(img_dir / "crop.npy", m.fields.solid.astype(np.uint8))
+    m2 = psdesign.from_image(img_dir / "crop.npy", voxel_size=VOXEL_32)
+    k2 = m2.permeability("z", solver="voxel", bc="periodic", error_estimate=False)
+    assert k2.permeability_m2 == pytest.approx(k.permeability_m2, rel=1e-12)
+
+
+def test_tiff_writer_labels_and_voxel_size_round_trip(tmp_path) -> None:
+    from psdesign.image.reader import file_voxel_size
+
+    solid = np.zeros((6, 5, 4), bool)
+    solid[1:3, 2, :] = True
+    write_tiff(solid, tmp_path / "s.tif", 0.7e-6)
+    import tifffile
+
+    data = tifffile.imread(tmp_path / "s.tif")
+    assert data.dtype == np.uint8 and data.shape == (4, 5, 6)  # pages z, rows y, columns x
+    assert set(np.unique(data)) == {0, 1}
+    assert file_voxel_size(tmp_path / "s.tif") == pytest.approx(0.7e-6, rel=1e-9)
