@@ -14,6 +14,7 @@ MESH_FORMATS = tuple(WRITERS)  # the export registry
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
+    from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.meshing.options import MeshOptions
@@ -40,7 +41,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         float(fields.grid.spacing[0]),
         rve.size,
         args.direction,
-        MeshOptions.from_flow(flow),
+        MeshOptions.from_flow(flow, **mesh_overrides(fields)),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])))

@@ -95,8 +95,9 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
-    # an image has no analytic pore volume: match the mesh to the voxel count
-    target = {} if fields.analytic_distance else {"volume_target": "voxel"}
+    from psdesign.image.fields import mesh_overrides
+
+    target = mesh_overrides(fields)  # an image: match the mesh to the voxel count
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
         return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)

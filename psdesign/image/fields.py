@@ -76,3 +76,9 @@ def resample(fields: VoxelFields, shape: tuple[int, int, int]) -> ImageFields:
     coords = np.meshgrid(*axes, indexing="ij")
     d = map_coordinates(fields.distance, coords, order=1, mode="nearest")
     return image_fields(d <= 0.0, float(h_new[0]))
+
+
+def mesh_overrides(fields: VoxelFields) -> dict:
+    """Mesher options an image needs: its pore volume is the voxel count (no analytic
+    surface to estimate a sub-voxel volume from); ``{}`` for analytic fields."""
+    return {} if fields.analytic_distance else {"volume_target": "voxel"}
