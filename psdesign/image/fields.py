@@ -57,25 +57,54 @@ def image_fields(
     return ImageFields(distance=distance, count=solid.astype(np.uint8), grid=grid)
 
 
+def _overlap(n_old: int, n_new: int) -> np.ndarray:
+    """(n_new, n_old) weights: the fraction of coarse cell i covered by fine cell j."""
+    r = n_old / n_new
+    lo = np.arange(n_new)[:, None] * r
+    j = np.arange(n_old)[None, :]
+    return (np.clip(np.minimum(lo + r, j + 1) - np.maximum(lo, j), 0.0, None) / r).astype(
+        np.float64
+    )
+
+
+def _box_average(a: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
+    """Volume average of ``a`` over the cells of a coarser grid of the same box."""
+    out = np.asarray(a, np.float64)
+    for ax, n in enumerate(shape):
+        n_old = out.shape[ax]
+        if n_old % n == 0:  # whole blocks: a reshape
+            k = n_old // n
+            s = list(out.shape)
+            out = out.reshape(s[:ax] + [n, k] + s[ax + 1 :]).mean(axis=ax + 1)
+        else:
+            out = np.moveaxis(np.tensordot(_overlap(n_old, n), out, axes=(1, ax)), 0, ax)
+    return out
+
+
 def resample(fields: VoxelFields, shape: tuple[int, int, int]) -> ImageFields:
-    """The image on a coarser (or finer) grid of the same box: the signed distance is
-    interpolated (trilinear) at the new voxel centres, solid where it is <= 0, and the
-    distance of the new mask recomputed by :func:`signed_distance`.
+    """The image on a coarser grid of the same box, with the same solid volume fraction.
 
-    Used for the second resolution of the error bar (an image has no geometry to sample
-    again). The box must hold a whole number of cubic voxels of the new grid.
+    Each coarse voxel gets the volume average of the fine mask (its solid fraction); the
+    ``round(solid fraction x n_coarse)`` voxels with the highest fraction (ties: the lower
+    mean signed distance) are solid, and the distance is recomputed by
+    :func:`signed_distance`. A plain majority vote shrinks convex solids and interpolating
+    the distance grows them (3-4 % of the solid volume on cylinders of 6-12 voxels); keeping
+    the porosity is what the error bar's second resolution needs (an image has no geometry
+    to sample again). The box must hold a whole number of cubic voxels of the new grid.
     """
-    from scipy.ndimage import map_coordinates
-
     size = np.asarray(fields.grid.size, float)
     h_new = size / np.asarray(shape, float)
     if not np.allclose(h_new, h_new[0], rtol=1e-9):
         raise ValueError(f"resample: shape {list(shape)} does not give cubic voxels")
-    h_old = np.asarray(fields.grid.spacing, float)
-    axes = [(np.arange(n) + 0.5) * h_new[a] / h_old[a] - 0.5 for a, n in enumerate(shape)]
-    coords = np.meshgrid(*axes, indexing="ij")
-    d = map_coordinates(fields.distance, coords, order=1, mode="nearest")
-    return image_fields(d <= 0.0, float(h_new[0]))
+    fine = fields.solid
+    frac = _box_average(fine, shape).ravel()
+    n_solid = int(round(np.count_nonzero(fine) / fine.size * frac.size))
+    h = float(np.min(fields.grid.spacing))
+    key = frac - 1e-3 * np.clip(_box_average(fields.distance, shape).ravel() / h, -100, 100)
+    solid = np.zeros(frac.size, bool)
+    if n_solid > 0:
+        solid[np.argpartition(-key, n_solid - 1)[:n_solid]] = True
+    return image_fields(solid.reshape(shape), float(h_new[0]))
 
 
 def mesh_overrides(fields: VoxelFields) -> dict:

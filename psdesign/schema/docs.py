@@ -34,6 +34,11 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 * `generator.n_fibers` <= `generator.max_fibers`, and (fast/ga) the fibers' volume below the
   densest packing; the fiber count a porosity needs <= `max_fibers`.
 * GA work `population x generations x fibers` <= 5e9.
+* `[image]` (docs/images.md): no `[[fibers]]`, `[generator]`, `[intersections]` or
+  `[forcefield]`; `[rve]` optional, and if given its `size` and `voxel` equal the image's; the
+  file, its size (raw), the crop and the voxel size checked, then (within the memory budget)
+  the voxels read: at least one pore and one solid voxel, at least 4 voxels per axis;
+  `flow.wall_treatment = "subvoxel"` refused (no analytic surface).
 * Studies: at most 1000 seeds, 10000 levels per parameter, 100000 cases; `n_samples` only
   with latin-hypercube / sobol; the base spec and every parameter level validated at load.
 """
