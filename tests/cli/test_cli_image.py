@@ -129,6 +129,16 @@ def test_mesh_command_on_the_shipped_image(folder, capsys) -> None:
     assert (folder / "m" / "pore.vtu").is_file()
 
 
+@pytest.mark.slow
+def test_pytetwild_meshes_the_image_surface(folder) -> None:
+    spec = spec_file(folder, CROP)
+    assert main(["mesh", str(spec), "-o", str(folder / "m"), "--mesher", "pytetwild"]) == 0
+    q = json.loads((folder / "m" / "mesh.json").read_text())["quality"]
+    pore = (1 - 108 / (16 * 16 * 32)) * 0.5e-4 * 0.5e-4 * 1e-4
+    assert q["volume_target"] == "voxel"
+    assert q["volume_target_m3"] == pytest.approx(pore, rel=1e-9)
+
+
 def test_study_on_an_image_spec(folder) -> None:
     import psdesign
 

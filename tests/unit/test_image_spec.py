@@ -74,10 +74,16 @@ def test_signed_distance_is_metres_and_resample_keeps_porosity(img_dir) -> None:
     # the surface lies half-way between solid and pore voxel centres
     assert f.distance[f.solid].max() == pytest.approx(-0.5 * h, rel=1e-6)
     assert f.distance[~f.solid].min() == pytest.approx(0.5 * h, rel=1e-6)
-    coarse = resample(f, (16, 16, 16))
-    assert coarse.grid.shape == (16, 16, 16)
-    assert np.allclose(coarse.grid.spacing, 2 * h)
-    assert coarse.porosity == pytest.approx(f.porosity, abs=0.01)
+    for shape, ratio in (((16, 16, 16), 2.0), ((24, 24, 24), 4 / 3)):
+        coarse = resample(f, shape)
+        assert coarse.grid.shape == shape and np.allclose(coarse.grid.spacing, ratio * h)
+        # the solid volume is kept to one coarse voxel (the error bar's second resolution)
+        assert abs(coarse.porosity - f.porosity) <= 0.5 / np.prod(shape) + 1e-12
+        assert isinstance(coarse, ImageFields)
+    # ImageRVE.voxelize: its own voxel gives the image itself, another one a resampling
+    rve = build_rve(spec).rve
+    assert rve.voxelize(h) is rve.image
+    assert rve.voxelize(2 * h).grid.shape == (16, 16, 16)
 
 
 @pytest.mark.parametrize(
@@ -161,3 +167,23 @@ def test_tiff_writer_labels_and_voxel_size_round_trip(tmp_path) -> None:
     assert data.dtype == np.uint8 and data.shape == (4, 5, 6)  # pages z, rows y, columns x
     assert set(np.unique(data)) == {0, 1}
     assert file_voxel_size(tmp_path / "s.tif") == pytest.approx(0.7e-6, rel=1e-9)
+
+
+def test_raw_spec_and_vti_voxel_size_from_the_file(tmp_path) -> None:
+    import pyvista as pv
+
+    rng = np.random.default_rng(3)
+    solid = rng.random((6, 5, 4)) < 0.4
+    solid.astype("<i2").transpose(2, 1, 0).tofile(tmp_path / "s.raw")  # x fastest
+    body = (
+        '[image]\npath = "s.raw"\nvoxel_size = 2e-6\nshape = [6, 5, 4]\ndtype = "int16"\n'
+        "solid_label = 1\n"
+    )
+    spec = load_spec(write_spec(tmp_path, body))
+    assert np.array_equal(build_rve(spec).voxelize(2e-6).solid, solid)
+    img = pv.ImageData(dimensions=(6, 5, 4), spacing=(2.5e-6,) * 3)
+    img.point_data["phase"] = solid.ravel(order="F").astype(np.uint8)
+    img.save(str(tmp_path / "s.vti"))
+    spec = load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n', "v.toml"))
+    assert spec["rve"]["voxel"] == pytest.approx(2.5e-6)
+    assert spec["rve"]["size"] == pytest.approx([15e-6, 12.5e-6, 10e-6])
