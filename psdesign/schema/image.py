@@ -14,6 +14,7 @@ folder for a spec given as a dict).
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -27,6 +28,10 @@ Count = integer(ge=1, le=10**6)
 AXIS_ORDERS = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
 DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 RAW_ONLY = ("shape", "dtype", "byte_order")
+
+
+class ImageWarning(UserWarning):
+    """An image spec that is valid but probably not what was meant (one line)."""
 
 
 class ImageTable(Table):
@@ -125,7 +130,8 @@ class ImageTable(Table):
         try:
             stored = header_shape(src)
             shape = _cropped(stored, self.crop)
-            voxel = self.voxel_size if self.voxel_size is not None else file_voxel_size(path, fmt)
+            in_file = file_voxel_size(path, fmt)
+            voxel = self.voxel_size if self.voxel_size is not None else in_file
         except ValueError as exc:
             key, _, msg = str(exc).partition(": ")
             raise fail(key.removeprefix("image."), msg) from None
@@ -143,6 +149,12 @@ class ImageTable(Table):
             )
         if min(shape) < 4:
             raise fail("crop", f"the image is {list(shape)} voxels", "at least 4 voxels per axis")
+        if in_file is not None and abs(voxel - in_file) > 1e-3 * in_file:
+            warnings.warn(
+                f"image.voxel_size: {voxel:g} m is used; {path.name} says {in_file:g} m",
+                ImageWarning,
+                stacklevel=2,
+            )
         self._voxel = float(voxel)
         self._shape = shape
         return self

@@ -187,3 +187,12 @@ def test_raw_spec_and_vti_voxel_size_from_the_file(tmp_path) -> None:
     spec = load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n', "v.toml"))
     assert spec["rve"]["voxel"] == pytest.approx(2.5e-6)
     assert spec["rve"]["size"] == pytest.approx([15e-6, 12.5e-6, 10e-6])
+
+
+def test_voxel_size_key_wins_over_the_file_with_a_warning(img_dir) -> None:
+    from psdesign.schema.image import ImageWarning
+
+    body = '[image]\npath = "fibres_32.tif"\nvoxel_size = 1e-6\n'
+    with pytest.warns(ImageWarning, match="image.voxel_size"):
+        spec = load_spec(write_spec(img_dir, body))
+    assert spec["rve"]["voxel"] == 1e-6 and spec["rve"]["size"] == pytest.approx([32e-6] * 3)
