@@ -218,6 +218,7 @@ def permeability_voxel(
             "pressure_drop_rve_pa": rve_drop(res),
             "pressure_drop_faces_pa": float(res.rve_pressure_drop),
             "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile),
+            "rve_length_m": float(res.rve_length),
             "pressure_drop_definition": "windowed-dissipation",
         }
     return out

@@ -98,3 +98,22 @@ def test_permeameter_error_bar_covers_true_error():
         faces_covered.append(abs(k_faces / exact - 1.0) <= bar)
     # the bar has teeth: K from the face-plane drop falls outside it
     assert not any(faces_covered)
+
+
+def test_floor_law_and_window_term_closed_forms():
+    from psdesign.flow import error as err
+
+    k, eps, h = 1e-12, 0.5, 1e-7
+    r = np.sqrt(8 * k / eps)
+    # sub-voxel walls: first-order floor 0.1 h / R (calibrated), not the order-2 0.5 (h / R)^2
+    q, c = err.FLOOR["subvoxel"]
+    assert err.resolution_floor(h, k, eps, 2, err.FLOOR["subvoxel"]) == pytest.approx(c * h / r)
+    assert (q, c) == (1, 0.1)
+    # window term: the larger of C_W x (gap of the two windowed estimators) and C_R (R / L)^2
+    assert err.window_rel_error(2.0, 2.01, k, eps, 100 * r) == pytest.approx(
+        err.WINDOW_SAFETY * 0.005
+    )
+    assert err.window_rel_error(2.0, 2.0, k, eps, 4 * r) == pytest.approx(err.WINDOW_REACH / 16)
+    assert err.window_rel_error(2.0, None, k, eps, 4 * r) == 0.0  # no second estimator
+    est = err.combine(k, eps, h, 2, 1e-6, k_coarse=k, ratio=2.0, floor_law=(1, 0.1), window=0.02)
+    assert est.rel_error == pytest.approx(0.1 * h / r + 0.02 + 1e-6)
