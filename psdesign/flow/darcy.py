@@ -6,7 +6,10 @@ driving pressure gradient) is written once:
     K = mu * Q * L / (A * dP)          (flow rate Q through cross-section A over length L)
     K[:, j] = mu * <u> / G_j           (superficial mean velocity <u> for a mean gradient G_j)
 
-The tensor is assembled from its columns by :func:`permeability_tensor`.
+The tensor is assembled from its columns by :func:`permeability_tensor`. The pressure drop
+``dP`` of a permeameter (RVE between reservoirs) is defined here too, once for both solvers: the
+windowed dissipation (:func:`windowed_drop_from_dissipation` for the tet route,
+:func:`windowed_drop` for the voxel route; ``docs/permeability.md``).
 """
 
 from __future__ import annotations
@@ -126,7 +129,7 @@ def windowed_drop_from_dissipation(dissipation_w: float, flow_rate: float) -> fl
 
 def windowed_drop(profile: np.ndarray) -> float:
     """The pressure drop (Pa) across an RVE from its energy-flux profile on ``n + 1`` equally
-    spaced planes ``s_k = k L / n`` (``E(s_k) / Q`` in Pa, e.g. the flux-weighted mean pressure):
+    spaced planes ``s_k = k L / n`` (``E(s_k) / Q`` in Pa, the energy flux per unit flow rate):
     ``dp = n sum_k w(t_k) (F_k - F_{k+1}) / sum_k w(t_k)`` with ``t_k = (k + 1/2) / n``, the
     layer midpoints.
 
