@@ -9,9 +9,16 @@ Usage::
 Tables: square and hexagonal cylinder arrays, flow along and across the cylinders, at several
 solid fractions and resolutions, both solvers and both boundary-condition models (a model a
 route cannot apply yet is recorded as ``n/a: <reason>``, so new models appear when they land),
-with the reported error bar beside the true error against Sangani & Acrivos (1982, Table 1) and
-Drummond & Tahir (1984) (``tests/reference_values.py``); and a random Toray-like RVE family (seed
+with the reported error bar beside the true error against Sangani & Acrivos (1982, Table 1),
+Drummond & Tahir (1984) and the Sparrow & Loeffler (1959) series for flow along the cylinders
+(``tests/reference_values.py``, ``tests/arrays.py``); and a random Toray-like RVE family (seed
 scatter) with the voxel route's bar beside its error against a solve at half the voxel size.
+
+This is the VALIDATION set of the error bar: its resolutions (24/48 voxels per spacing square,
+30/52 hexagonal) and its hexagonal arrays are not in the calibration set of
+``benchmarks/calibrate_error_bar.py`` (square arrays at 20/32/40), so the coverage reported here
+is out of sample. The voxel permeameter RVEs are two cells long along the flow (the windowed
+drop is exact in the periodic interior for two or more cells, ``docs/permeability.md``).
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
-from arrays import array_spec, exact_k  # noqa: E402
+from arrays import L, along_array_k, array_spec, exact_k, radius_of  # noqa: E402
 
 from psdesign.flow.permeability import BC_MODELS, permeability  # noqa: E402
 from psdesign.packing.build import build_rve  # noqa: E402
@@ -57,6 +64,18 @@ FEM_GRID = {
     + [("hex", "along", 0.2, 52, 1, 0.05)],
 }
 RANDOM_SEEDS = {False: (1, 2, 3), True: (1, 2, 3, 4, 5)}
+#: Cells along the flow of the voxel permeameter RVEs.
+PERMEAMETER_CELLS = 2
+
+
+def reference_k(kind: str, flow: str, phi: float) -> float:
+    """Published K (m^2): along the cylinders the Sparrow & Loeffler (1959) collocation series
+    (``arrays.along_array_k``; it agrees with Drummond & Tahir's dilute expansion to 1e-4 at
+    phi 0.1 and is exact where that expansion is 0.26 % off at phi 0.3), else ``exact_k``."""
+    if flow == "along":
+        lattice = "square" if kind == "square" else "hexagonal"
+        return along_array_k(phi, lattice) * radius_of(phi, lattice, spacing=L) ** 2
+    return exact_k(kind, flow, phi)
 
 
 def _fmt_pct(x: float | None) -> str:
@@ -76,22 +95,23 @@ def _solve(spec: dict, direction: str, solver: str, bc: str) -> dict | str:
 
 def _row(case: str, res: dict | str, exact: float | None) -> tuple[str, bool | None]:
     if isinstance(res, str):
-        return f"| {case} | {res} | | | | | |", None
+        return f"| {case} | {res} | | | | | | |", None
     k = res["permeability_m2"]
     true = None if exact is None else k / exact - 1.0
     bar = res["permeability_rel_error"]
     covered = None if true is None else abs(true) <= bar
     cov = "" if covered is None else ("yes" if covered else "**no**")
+    window = res["error_estimate"].get("window") or 0.0
     return (
-        f"| {case} | {k:.4e} | {_fmt_pct(true)} | {100 * bar:.2f} % | {cov} | "
-        f"{res['status']} | {res['iterations']} |",
+        f"| {case} | {k:.4e} | {_fmt_pct(true)} | {100 * bar:.2f} % | "
+        f"{100 * window:.2f} % | {cov} | {res['status']} | {res['iterations']} |",
         covered,
     )
 
 
 HEADER = (
-    "| case | K (m^2) | true error | error bar | covered | status | iterations |\n"
-    "|---|---|---|---|---|---|---|"
+    "| case | K (m^2) | true error | error bar | of which window | covered | status | "
+    "iterations |\n|---|---|---|---|---|---|---|---|"
 )
 
 
@@ -103,82 +123,111 @@ def array_tables(full: bool) -> tuple[list[str], list[bool]]:
             lines += ["", f"### {solver}, bc = {bc}", "", HEADER]
             cases = []
             if solver == "voxel":
+                cells = PERMEAMETER_CELLS if bc == "permeameter" else 1
                 for kind, flow, phis, ns in VOXEL_GRID[full]:
-                    cases += [(kind, flow, phi, n, 1, None) for phi in phis for n in ns]
+                    cases += [(kind, flow, phi, n, cells, None) for phi in phis for n in ns]
             else:
                 cases = list(FEM_GRID[full])
             for kind, flow, phi, n, cells, step in cases:
-                depth = n if (solver == "fem" and flow == "along") else None  # RVE length L
-                spec = array_spec(kind, phi, n, n_cells=cells, depth_voxels=depth)
+                along = flow == "along"
+                depth = cells * n if along and (solver == "fem" or cells > 1) else None
+                spec = array_spec(kind, phi, n, n_cells=1 if along else cells, depth_voxels=depth)
                 if step is not None:
                     spec["flow"]["lattice_step"] = step * 40e-6
                 name = f"{kind} {flow}, phi {phi:g}, {n} voxels/L" + (
-                    f", {cells} cells, lattice L/{1 / step:g}" if step else ""
+                    f", {cells} cells" if cells > 1 or step else ""
                 )
+                name += f", lattice L/{1 / step:g}" if step else ""
                 t0 = time.perf_counter()
                 res = _solve(spec, "x" if flow == "across" else "z", solver, bc)
-                line, ok = _row(name, res, exact_k(kind, flow, phi))
+                line, ok = _row(name, res, reference_k(kind, flow, phi))
                 print(f"{line}  ({time.perf_counter() - t0:.1f} s)", flush=True)
                 lines.append(line)
                 if ok is not None:
-                    cover.append(ok)
+                    true = res["permeability_m2"] / reference_k(kind, flow, phi) - 1.0
+                    cover.append((f"{solver} {bc}: {name}", ok, true, res))
                 if isinstance(res, str):  # the route cannot apply this model: one line is enough
                     break
     return lines, cover
 
 
+def _random_spec(seed: int) -> dict:
+    return {
+        "rve": {"size": [40e-6, 40e-6, 40e-6], "voxel": 1e-6},
+        "generator": {
+            "kind": "straight",
+            "porosity": 0.85,
+            "porosity_tolerance": RANDOM_POROSITY_TOLERANCE,
+            "diameter": 7e-6,
+            "seed": seed,
+            "theta": {"dist": "uniform", "low": -5.0, "high": 5.0},
+            "omega": {"dist": "uniform", "low": 0.0, "high": 180.0},
+        },
+        "intersections": {"method": "fast", "min_gap": 0.5e-6},
+        "flow": {"viscosity": 1.8e-5, "solver": "voxel"},
+    }
+
+
+#: The bounded 'fast' placement reaches 0.850-0.857 on the voxel grid for seeds 1-5 (it cannot
+#: reach 0.85 +- 0.005 for 4 of them: the closest is 0.857), so the family's tolerance is 0.01.
+RANDOM_POROSITY_TOLERANCE = 0.01
+
+
 def random_family(full: bool) -> list[str]:
-    """Seed scatter of a small Toray-like RVE (quickstart base, 40 um) with the voxel route."""
-    lines = [
-        "",
-        "| seed | porosity | K_z (m^2) | error bar | K_z at half the voxel | error vs it | "
-        "covered | status |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    ks = []
-    for seed in RANDOM_SEEDS[full]:
-        spec = {
-            "rve": {"size": [40e-6, 40e-6, 40e-6], "voxel": 1e-6},
-            "generator": {
-                "kind": "straight",
-                "porosity": 0.85,
-                "diameter": 7e-6,
-                "seed": seed,
-                "theta": {"dist": "uniform", "low": -5.0, "high": 5.0},
-                "omega": {"dist": "uniform", "low": 0.0, "high": 180.0},
-            },
-            "intersections": {"method": "fast", "min_gap": 0.5e-6},
-            "flow": {"viscosity": 1.8e-5, "solver": "voxel"},
-        }
-        spec = validate_spec(spec)
-        try:
-            built = build_rve(spec)
-        except ValueError as exc:  # e.g. the porosity target not reached with bounded moves
-            lines.append(f"| {seed} | n/a: {' '.join(str(exc).split())} | | | | | | |")
-            print(lines[-1], flush=True)
-            continue
-        res = permeability(built.rve, built.voxelize(1e-6), "z", spec["flow"], "voxel")
-        ref = permeability(
-            built.rve, built.rve.voxelize(0.5e-6), "z", spec["flow"], "voxel", error_estimate=False
-        )
-        k, kr = res["permeability_m2"], ref["permeability_m2"]
-        true = k / kr - 1.0
-        ks.append(k)
-        cov = "yes" if abs(true) <= res["permeability_rel_error"] else "**no**"
-        line = (
-            f"| {seed} | {res['porosity']:.4f} | {k:.4e} | "
-            f"{100 * res['permeability_rel_error']:.2f} % | {kr:.4e} | {_fmt_pct(true)} | {cov} | "
-            f"{res['status']} |"
-        )
-        print(line, flush=True)
-        lines.append(line)
-    ks = np.array(ks)
+    """Seed scatter of a small Toray-like RVE (quickstart base, 40 um) with the voxel route,
+    both boundary-condition models."""
+    lines = []
+    for bc in BC_MODELS:
+        lines += [
+            "",
+            f"### bc = {bc}",
+            "",
+            "| seed | porosity | K_z (m^2) | error bar | K_z at half the voxel | error vs it | "
+            "covered | status |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        ks, bars, errs = [], [], []
+        for seed in RANDOM_SEEDS[full]:
+            spec = validate_spec(_random_spec(seed))
+            try:
+                built = build_rve(spec)
+            except ValueError as exc:  # e.g. the porosity target not reached with bounded moves
+                lines.append(f"| {seed} | n/a: {' '.join(str(exc).split())} | | | | | | |")
+                print(lines[-1], flush=True)
+                continue
+            flow = {**spec["flow"], "bc": bc}
+            res = permeability(built.rve, built.voxelize(1e-6), "z", flow, "voxel")
+            ref = permeability(
+                built.rve, built.rve.voxelize(0.5e-6), "z", flow, "voxel", error_estimate=False
+            )
+            k, kr = res["permeability_m2"], ref["permeability_m2"]
+            true = k / kr - 1.0
+            ks.append(k)
+            bars.append(res["permeability_rel_error"])
+            errs.append(abs(true))
+            cov = "yes" if abs(true) <= res["permeability_rel_error"] else "**no**"
+            line = (
+                f"| {seed} | {res['porosity']:.4f} | {k:.4e} | "
+                f"{100 * res['permeability_rel_error']:.2f} % | {kr:.4e} | {_fmt_pct(true)} | "
+                f"{cov} | {res['status']} |"
+            )
+            print(line, flush=True)
+            lines.append(line)
+        ks = np.array(ks)
+        scatter = 100 * ks.std(ddof=1) / ks.mean() if len(ks) > 1 else float("nan")
+        lines += [
+            "",
+            f"Seed scatter of K_z ({bc}): mean {ks.mean():.4e} m^2, standard deviation "
+            f"{scatter:.1f} % of the mean over {len(ks)} seeds; median error bar "
+            f"{100 * float(np.median(bars)):.2f} %, median |error vs half the voxel| "
+            f"{100 * float(np.median(errs)):.2f} %.",
+        ]
     lines += [
         "",
-        f"Seed scatter of K_z: mean {ks.mean():.4e} m^2, standard deviation "
-        f"{100 * ks.std(ddof=1) / ks.mean():.1f} % of the mean over {len(ks)} seeds. "
-        "The error at half the voxel is itself first order, so it understates the true error "
-        "by about half for a first-order scheme.",
+        "The error against half the voxel understates the true error (the reference has its own, "
+        "about a quarter as large for the second-order sub-voxel walls). 7 voxels per fiber "
+        "diameter is below the 8 the route asks for, so the status is 'untrustworthy' by that "
+        "rule whatever the bar.",
     ]
     return lines
 
@@ -192,7 +241,18 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     arrays, cover = array_tables(args.full)
     rnd = random_family(args.full)
-    n_cov = sum(cover)
+    n_cov = sum(c[1] for c in cover)
+    misses = [c for c in cover if not c[1]]
+    bars = [c[3]["permeability_rel_error"] for c in cover]
+    trues = [abs(c[2]) for c in cover]
+    tight = float(np.median(bars) / max(np.median(trues), 1e-12))
+    miss_lines = [
+        f"- {name}: true error {_fmt_pct(true)}, bar {100 * res['permeability_rel_error']:.2f} % "
+        f"(two-grid {_fmt_pct(res['error_estimate']['richardson'])}, floor "
+        f"{100 * res['error_estimate']['floor']:.2f} %, window "
+        f"{100 * (res['error_estimate'].get('window') or 0):.2f} %)"
+        for name, _, true, res in misses
+    ]
     text = [
         "# Validation: permeability and its error bar against published values",
         "",
@@ -200,24 +260,34 @@ def main(argv: list[str] | None = None) -> int:
         f"({time.perf_counter() - t0:.0f} s, {platform.node()}, {time.strftime('%Y-%m-%d')}). "
         "Do not edit by hand.",
         "",
-        "References (`tests/reference_values.py`): square array across the cylinders: Sangani & "
-        "Acrivos (1982), Int. J. Multiphase Flow 8, 193-206, Table 1; along the cylinders "
-        "(square and hexagonal) and hexagonal across (dilute series, phi <= 0.3): Drummond & "
-        "Tahir (1984), Int. J. Multiphase Flow 10, 515-540. Arrays: spacing L = 40 um; "
+        "References (`tests/reference_values.py`, `tests/arrays.py`): square array across the "
+        "cylinders: Sangani & Acrivos (1982), Int. J. Multiphase Flow 8, 193-206, Table 1; "
+        "hexagonal across (dilute series, phi <= 0.3): Drummond & Tahir (1984), Int. J. "
+        "Multiphase Flow 10, 515-540; along the cylinders (square and hexagonal): the collocation "
+        "series of Sparrow & Loeffler (1959), AIChE J. 5, 325-330 (it agrees with Drummond & "
+        "Tahir's dilute expansion to 1e-4 at phi 0.1; that expansion is 0.26 % high at phi 0.3). "
+        "Permeameter RVEs (voxel route) are 2 cells long along the flow. Arrays: spacing "
+        "L = 40 um; "
         "'voxels/L' voxels per spacing; the error bar is `permeability_rel_error` "
         "(docs/permeability.md); 'covered' = |true error| <= error bar; a boundary-condition "
         "model a route cannot apply yet is recorded as n/a with the reason.",
         "",
         f"**Coverage: {n_cov} of {len(cover)} array results "
-        f"({100 * n_cov / max(1, len(cover)):.0f} %) have |true error| <= error bar.**",
+        f"({100 * n_cov / max(1, len(cover)):.0f} %) have |true error| <= error bar.** "
+        f"Median error bar {100 * float(np.median(bars)):.2f} %, median |true error| "
+        f"{100 * float(np.median(trues)):.2f} % (ratio {tight:.1f}). The bar's constants were "
+        "calibrated on a different set (`benchmarks/calibrate_error_bar.py`: square arrays at "
+        "20, 32 and 40 voxels per spacing; `psdesign/flow/error.py`).",
         "",
+        *(["Cases the bar misses:", "", *miss_lines, ""] if misses else []),
         "## Cylinder arrays",
         *arrays,
         "",
-        "## Random Toray-like RVE family (voxel route, periodic)",
+        "## Random Toray-like RVE family (voxel route)",
         "",
-        "40 um cube, straight 7 um fibers, target porosity 0.85, 'fast' intersection removal, "
-        "voxel 1 um (7 voxels per diameter); reference: the same RVE at 0.5 um.",
+        "40 um cube, straight 7 um fibers, target porosity 0.85 +- "
+        f"{RANDOM_POROSITY_TOLERANCE:g}, 'fast' intersection removal, voxel 1 um (7 voxels per "
+        "diameter); reference: the same RVE at 0.5 um.",
         *rnd,
         "",
     ]

@@ -34,7 +34,10 @@ RVE along the flow (they join across the periodic face, so the body force applie
 drop between the reservoir ends), lateral box faces as walls (``"slip"``: symmetry planes, zero
 normal velocity and shear; ``"noslip"``), by editing only the operator coefficients on the box
 faces (kernels, multigrid and MINRES unchanged).  ``rve_pressure_drop`` is the drop of the
-fluid-face-averaged pressure between the RVE's own inlet and outlet planes, as in the FEM route.
+fluid-face-averaged pressure between the RVE's own inlet and outlet planes (a diagnostic: it
+keeps the entrance and exit losses); ``rve_energy_flux_profile`` (the mechanical energy flux per
+unit flow rate on the RVE's face planes) gives the permeameter's windowed-dissipation drop, the
+FEM route's definition (:func:`psdesign.flow.darcy.windowed_drop`).
 Padding costs the reservoir volume (``1 + 2 aux_length`` times the RVE cells); mirroring the
 lateral faces for slip walls would have cost 4x and a native pressure-Dirichlet inlet needs a
 non-symmetric right-hand side path in every kernel.
@@ -184,6 +187,17 @@ class VoxelFlowResult:
         Drop of the cross-section-averaged total pressure between the RVE's inlet and outlet
         planes (Pa; average over the fluid faces of each plane).  For ``bc="periodic"`` without
         treatment this is ``pressure_gradient * L``.
+    rve_energy_flux_profile : np.ndarray or None
+        Permeameter: the mechanical energy flux per unit flow rate ``E(s) / Q`` (Pa; pressure
+        work minus viscous work through the plane, see ``_energy_flux_profile``) on each of the
+        ``n + 1`` face planes of the RVE along ``direction``, relative to the inlet plane.  It
+        falls by the dissipation; :func:`psdesign.flow.darcy.windowed_drop` forms from it the
+        pressure drop without entrance and exit losses.  None for ``bc="periodic"``.
+    rve_plane_pressure_profile : np.ndarray or None
+        Permeameter: the mean total pressure over the active faces of the same planes (Pa,
+        relative to the inlet plane; ``rve_pressure_drop`` is its end-to-end drop).  A second
+        estimator of the same windowed drop with a different entrance residual (used for the
+        error bar).  None for ``bc="periodic"``.
     rve_length, rve_area : float
         RVE length along ``direction`` (m) and full cross-section (m^2).
     applied_pressure_drop : float
@@ -216,6 +230,8 @@ class VoxelFlowResult:
     rve_slice: tuple[int, int] = (0, 0)
     voxel_size: float = float("nan")
     rve_pressure_drop: float = float("nan")
+    rve_energy_flux_profile: np.ndarray | None = None
+    rve_plane_pressure_profile: np.ndarray | None = None
     rve_length: float = float("nan")
     rve_area: float = float("nan")
     applied_pressure_drop: float = float("nan")
@@ -508,6 +524,37 @@ def _plane_pressure(p: np.ndarray, act_d: np.ndarray, d: int, i: int) -> float:
     return float(0.5 * (hi[act] + lo[act]).mean())
 
 
+def _energy_flux_profile(x: np.ndarray, flux: np.ndarray, d: int, i0: int, i1: int) -> np.ndarray:
+    """Mechanical energy flux per unit flow rate, ``E(s) / Q``, on the face planes ``i0..i1``
+    normal to ``d`` (voxel units, ``h = mu = G = 1``; relative to plane ``i0``).
+
+    ``E(s) = int (P u_s - mu u . d_s u) dA`` with ``P`` the total pressure (the body-force
+    gradient included: ``-1`` per cell): the pressure work ``sum q_f P_f`` (``q_f`` the face
+    flux, ``P_f`` the mean of the two cells' pressures) minus the viscous work
+    ``d_s int |u|^2 / 2 dA`` (central difference of the plane sums of ``u_d^2 / 2`` on the face
+    planes, one-cell difference of those of the tangential components on the cell planes).
+    ``E`` falls along the RVE by the dissipation; in the periodic interior ``E / Q`` is
+    ``c - G s`` plus a periodic part.
+    """
+    n = x.shape[1 + d]
+    sub = "ijk,ijk->" + "ijk"[d]  # plane sums of u_a^2 without a grid-sized temporary
+    half_u2 = [0.5 * np.einsum(sub, x[a], x[a]) for a in range(3)]
+    p = x[3]
+    out = np.empty(i1 - i0 + 1)
+    for k, i in enumerate(range(i0, i1 + 1)):
+        q = np.take(flux, i % n, axis=d).astype(np.float64)
+        p_face = 0.5 * (np.take(p, i % n, axis=d) + np.take(p, (i - 1) % n, axis=d))
+        e = float((q * p_face).sum())
+        for a in range(3):
+            ke = half_u2[a]
+            if a == d:
+                e -= 0.5 * (ke[(i + 1) % n] - ke[(i - 1) % n])
+            else:
+                e -= ke[i % n] - ke[(i - 1) % n]
+        out[k] = e / float(q.sum()) - (i - i0)
+    return out - out[0]
+
+
 def _result(
     x: np.ndarray,
     info: dict,
@@ -536,6 +583,13 @@ def _result(
     n_d = setup["n_d"]
     p = x[3]
     dp_fluct = _plane_pressure(p, op.act[d], d, i0) - _plane_pressure(p, op.act[d], d, i1)
+    profile = plane_p = None
+    if bc == "permeameter":
+        profile = _energy_flux_profile(x, flux[d], d, i0, i1) * (g * h)
+        plane_p = np.array(
+            [_plane_pressure(p, op.act[d], d, i) - (i - i0) for i in range(i0, i1 + 1)]
+        )
+        plane_p = (plane_p - plane_p[0]) * (g * h)
     shp = grid.shape
     velocity = (x[:3] * vel_scale).astype(np.float32) if returns[0] else None
     pressure = (p * (g * h)).astype(np.float32) if returns[1] else None
@@ -568,6 +622,8 @@ def _result(
         rve_slice=(i0, i1),
         voxel_size=h,
         rve_pressure_drop=g * h * (n_d + dp_fluct) if bc == "permeameter" else g * n_d * h,
+        rve_energy_flux_profile=profile,
+        rve_plane_pressure_profile=plane_p,
         rve_length=n_d * h,
         rve_area=float(shp[lat[0]] * shp[lat[1]]) * h * h,
         applied_pressure_drop=g * shp[d] * h,

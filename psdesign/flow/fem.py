@@ -25,7 +25,13 @@ import time
 
 import numpy as np
 
-from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability
+from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-exported)
+    axis_of,
+    darcy_column,
+    darcy_permeability,
+    rve_window,
+    windowed_drop_from_dissipation,
+)
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
@@ -57,18 +63,6 @@ def plane_average_pressure(
 
 
 BCS = ("permeameter", "periodic")
-
-
-def rve_window(axis: int, start: float, end: float):
-    """Window ``w = sin^2(pi (x - start) / (end - start))`` on the RVE, 0 outside; its integral
-    over ``[start, end]`` is ``(end - start) / 2``."""
-    length = end - start
-
-    def w(xyz: np.ndarray) -> np.ndarray:
-        s = np.clip((xyz[:, axis] - start) / length, 0.0, 1.0)
-        return np.sin(np.pi * s) ** 2
-
-    return w
 
 
 def cells_per_diameter(rve: RVE, mesh) -> float | None:
@@ -243,8 +237,8 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     q = abs(res.flux[tags.OUTLET])
     length = end - start
     area = float(np.prod(np.delete(rve.size, ax)))
-    # windowed dissipation: Phi_w = G Q int w dx = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q
-    dp_rve = 2.0 * res.dissipation(rve_window(ax, start, end)) / q
+    # windowed dissipation (psdesign.flow.darcy): Phi_w = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q
+    dp_rve = windowed_drop_from_dissipation(res.dissipation(rve_window(ax, start, end)), q)
     k = darcy_permeability(q, mu, length, area, dp_rve)
     p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
     p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)

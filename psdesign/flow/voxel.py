@@ -6,10 +6,10 @@ formed here, through :mod:`psdesign.flow.darcy` only:
 * ``bc = "periodic"`` (default): ``K[:, j] = mu <u> / G`` (:func:`darcy_column`) from the
   superficial mean velocity of the periodic grid driven by the mean gradient ``G``;
 * ``bc = "permeameter"``: ``K = mu Q L / (A dP_rve)`` (:func:`darcy_permeability`) with Q the flow
-  rate, L and A the RVE length and full cross-section and dP_rve the drop of the
-  cross-section-averaged pressure between the RVE's own inlet and outlet planes (the FEM route's
-  definition), the RVE sitting between empty reservoirs of ``flow.aux_length`` x L with lateral
-  walls ``flow.sides``.
+  rate, L and A the RVE length and full cross-section and dP_rve the windowed-dissipation drop
+  (:func:`psdesign.flow.darcy.windowed_drop` of the energy flux per unit flow rate on the RVE's face
+  planes: the FEM route's definition, without entrance and exit losses), the RVE sitting between
+  empty reservoirs of ``flow.aux_length`` x L with lateral walls ``flow.sides``.
 
 Walls are sub-voxel (from the RVE's analytic distance field) unless ``flow.wall_treatment =
 "staircase"``.
@@ -23,7 +23,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from psdesign.flow.darcy import axis_of, darcy_column, darcy_permeability, permeability_tensor
+from psdesign.flow.darcy import (
+    axis_of,
+    darcy_column,
+    darcy_permeability,
+    permeability_tensor,
+    windowed_drop,
+)
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
@@ -56,11 +62,22 @@ def column_of(res) -> np.ndarray:
     return darcy_column(res.mean_velocity, res.viscosity, res.pressure_gradient)
 
 
+def rve_drop(res) -> float:
+    """The pressure drop (Pa) across the RVE that defines the permeameter K: the windowed
+    dissipation drop (:func:`windowed_drop` of ``res.rve_energy_flux_profile``, no entrance and
+    exit losses); ``res.rve_pressure_drop`` for a periodic solve (``G L``)."""
+    profile = getattr(res, "rve_energy_flux_profile", None)
+    if profile is None:
+        return float(res.rve_pressure_drop)
+    return windowed_drop(profile)
+
+
 def permeameter_k(res) -> float:
-    """``K = mu Q L / (A dP_rve)`` (m^2) of a solve (:func:`darcy_permeability`); for a
-    periodic solve without treatment it equals ``column_of(res)[direction]``."""
+    """``K = mu Q L / (A dP_rve)`` (m^2) of a solve (:func:`darcy_permeability`) with the drop
+    :func:`rve_drop`; for a periodic solve without treatment it equals
+    ``column_of(res)[direction]``."""
     return darcy_permeability(
-        res.flow_rate, res.viscosity, res.rve_length, res.rve_area, res.rve_pressure_drop
+        res.flow_rate, res.viscosity, res.rve_length, res.rve_area, rve_drop(res)
     )
 
 
@@ -115,7 +132,9 @@ def permeability_voxel(
     ``geometry_periodic`` (all mismatches below 1 %); ``flow.periodic_treatment = "mirror"``
     mirrors the grid along the flow instead. ``flow.bc = "permeameter"`` puts the RVE between
     empty reservoirs (``flow.aux_length``, ``flow.sides``, ``flow.pressure_drop`` between the
-    reservoir ends) and reports ``K = mu Q L / (A dP_rve)``.
+    reservoir ends) and reports ``K = mu Q L / (A dP_rve)`` with the windowed-dissipation drop
+    ``pressure_drop_rve_pa`` (:func:`rve_drop`; ``pressure_drop_faces_pa``: the drop between the
+    RVE's face planes, entrance and exit losses included, a diagnostic).
 
     ``progress(iterations, residual)`` is passed to the solver. With ``rve`` the result has
     ``cells_per_diameter`` (voxels across the thinnest fiber) and a :class:`ResolutionWarning`
@@ -205,6 +224,10 @@ def permeability_voxel(
             "sides": res.sides,
             "aux_length": float(flow.get("aux_length", 0.2)),
             "pressure_drop_applied_pa": float(res.applied_pressure_drop),
-            "pressure_drop_rve_pa": float(res.rve_pressure_drop),
+            "pressure_drop_rve_pa": rve_drop(res),
+            "pressure_drop_faces_pa": float(res.rve_pressure_drop),
+            "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile),
+            "rve_length_m": float(res.rve_length),
+            "pressure_drop_definition": "windowed-dissipation",
         }
     return out
