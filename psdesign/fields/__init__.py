@@ -3,6 +3,6 @@ potential of the Laplace solves, as VTU (tet mesh) and VTI (voxel grid) files wi
 and units, region and boundary tag tables, and a PNG picture of each solve
 (``--fields OUT/`` on ``permeability``, ``diffusivity`` and ``conductivity``)."""
 
-from psdesign.fields.writer import UNITS, FieldWriter, field_files, fields_output
+from psdesign.fields.writer import UNITS, FieldWriter, field_files, fields_folder, fields_output
 
-__all__ = ["UNITS", "FieldWriter", "field_files", "fields_output"]
+__all__ = ["UNITS", "FieldWriter", "field_files", "fields_folder", "fields_output"]

@@ -103,9 +103,7 @@ def _add_result(grid, result: dict | None, viscosity: float) -> None:
     grid.field_data["viscosity_Pa_s"] = np.array([float(viscosity)])
     if not result:
         return
-    grid.field_data["direction"] = [str(result["direction"])]
-    grid.field_data["solver"] = [str(result.get("solver", ""))]
-    grid.field_data["bc"] = [str(result.get("bc", ""))]
+    grid.field_data["direction_axis"] = np.array(["xyz".index(str(result["direction"]))])
     grid.field_data["permeability_m2"] = np.array([float(result["permeability_m2"])])
     for key, name in (
         ("mean_velocity_m_s", "superficial_velocity_m_per_s"),
@@ -157,6 +155,6 @@ def fem_flow_grids(
         for k, v in point_data.items():
             g.point_data[k] = v
         add_tables(g, boundary=True)
-        g.field_data["velocity_interpolation"] = ["P2 velocity sampled at the P1 vertices"]
+        g.field_data["velocity_p2_at_p1_vertices"] = np.array([1], np.int32)
         _add_result(g, result, viscosity)
     return vol, bnd

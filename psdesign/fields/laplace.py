@@ -86,8 +86,8 @@ def laplace_grid(solution, conductivity: np.ndarray, fields, kind: str, result: 
     grid.cell_data["solid"] = _flat(np.asarray(fields.solid, np.uint8))
     grid.cell_data["conductivity"] = _flat(sigma.astype(np.float32))
     add_tables(grid)
-    grid.field_data["direction"] = ["xyz"[a]]
-    grid.field_data["bc"] = ["permeameter" if fixed else "periodic"]
+    grid.field_data["direction_axis"] = np.array([a], np.int32)
+    grid.field_data["periodic"] = np.array([int(not fixed)], np.int32)
     grid.field_data["mean_flux_per_unit_gradient"] = np.asarray(
         solution.mean_flux / solution.gradient, float
     )

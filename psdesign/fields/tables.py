@@ -21,16 +21,30 @@ def boundary_table() -> dict[str, int]:
     return dict(tags.TAG_IDS)
 
 
+#: Field-data name prefixes of the tables: ``zone_<region>`` and ``tag_<boundary tag>``.
+ZONE_PREFIX, TAG_PREFIX = "zone_", "tag_"
+
+
 def add_tables(dataset, boundary: bool = False) -> None:
-    """Put the region (and boundary) tables into ``dataset.field_data`` (pyvista dataset):
-    ``region_ids`` / ``region_names`` and ``boundary_tag_ids`` / ``boundary_tag_names``."""
-    reg = region_table()
-    dataset.field_data["region_names"] = list(reg)
-    dataset.field_data["region_ids"] = np.array(list(reg.values()), np.int32)
+    """Put the region (and boundary) tables into ``dataset.field_data`` (pyvista dataset): one
+    one-value integer array per name, ``zone_rve = [10]``, ..., ``tag_inlet = [1]``, ... (numeric
+    arrays only: meshio does not read VTK string arrays)."""
+    for name, i in region_table().items():
+        dataset.field_data[ZONE_PREFIX + name] = np.array([i], np.int32)
     if boundary:
-        bnd = boundary_table()
-        dataset.field_data["boundary_tag_names"] = list(bnd)
-        dataset.field_data["boundary_tag_ids"] = np.array(list(bnd.values()), np.int32)
+        for name, i in boundary_table().items():
+            dataset.field_data[TAG_PREFIX + name] = np.array([i], np.int32)
+
+
+def read_tables(field_data) -> dict[str, dict[str, int]]:
+    """``{"regions": {name: id}, "boundary_tags": {name: id}}`` back from field data (any
+    mapping of array name -> array, e.g. pyvista's or meshio's)."""
+    out: dict[str, dict[str, int]] = {"regions": {}, "boundary_tags": {}}
+    for key, value in field_data.items():
+        for prefix, table in ((ZONE_PREFIX, "regions"), (TAG_PREFIX, "boundary_tags")):
+            if key.startswith(prefix):
+                out[table][key[len(prefix) :]] = int(np.ravel(value)[0])
+    return out
 
 
 def region_ids_along(n_total: int, start: int, stop: int) -> np.ndarray:

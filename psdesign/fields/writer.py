@@ -165,6 +165,18 @@ class FieldWriter:
         return path
 
 
+def fields_folder(
+    path: str | Path | None, kind: str, directions: Iterable[str], solver: str = "voxel"
+):
+    """:func:`fields_output` for the ``--fields`` option of the command ``kind``
+    ("permeability", "diffusivity", "conductivity"), or a null context (yielding None) when
+    ``path`` is None."""
+    if path is None:
+        return contextlib.nullcontext(None)
+    expected = field_files(kind, directions, solver)
+    return fields_output(path, f"{kind} --fields", expected)
+
+
 @contextlib.contextmanager
 def fields_output(
     path: str | Path, command: str, expected: Iterable[str] = (), option: str = "--fields"
