@@ -224,3 +224,31 @@ def test_fields_refuses_a_user_folder_before_solving(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--fields" in err and err.count("\n") == 1
     assert sorted(p.name for p in user.iterdir()) == ["notes.txt"]
+
+
+@pytest.mark.slow  # a whole study run with its report (~15 s idle)
+def test_study_fields_true_writes_case_fields_and_report_picture(tmp_path):
+    from psdesign.study import run_study
+
+    base = SPEC.replace("[rve]", "[base.rve]").replace("[[fibers]]", "[[base.fibers]]")
+    base = base.replace("[flow]", "[base.flow]")
+    study = tmp_path / "study.toml"
+    study.write_text(
+        '[study]\nname = "f"\noutputs = ["k_x"]\nsolver = "voxel"\nfields = true\n'
+        + base
+        + "error_estimate = false\n"
+        + '[parameters]\n"flow.viscosity" = [1.8e-5]\n'
+    )
+    out = tmp_path / "out"
+    df = run_study(study, out, workers=0, progress=False)
+    assert (df["status"] == "ok").all()
+    png = df["fields_png"].iloc[0]
+    folder = __import__("pathlib").Path(png).parent
+    assert sorted(p.name for p in folder.iterdir()) == ["fields.json", "flow_x.png", "flow_x.vti"]
+    grid = pv.read(folder / "flow_x.vti")
+    u = _cells(grid, "velocity_m_per_s")
+    assert MU * u[0].mean() / grid.field_data["pressure_gradient_Pa_per_m"][0] == pytest.approx(
+        df["k_x_m2"].iloc[0], rel=1e-5
+    )
+    html = (out / "report.html").read_text()
+    assert "<h2>Flow fields</h2>" in html
