@@ -252,3 +252,20 @@ def test_study_fields_true_writes_case_fields_and_report_picture(tmp_path):
     )
     html = (out / "report.html").read_text()
     assert "<h2>Flow fields</h2>" in html
+
+
+def test_mesh_exports_name_their_tags(tmp_path):
+    """pore.vtu / pore_boundary.vtu carry the id -> name tables; mesh.json has them too."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("lattice_step = 2e-6", "lattice_step = 4e-6"))
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--direction", "x"]) == 0
+    info = json.loads((out / "mesh.json").read_text())
+    assert info["tag_table"] == tags.TAG_IDS and info["region_table"] == tags.REGION_IDS
+    bnd = meshio.read(out / "pore_boundary.vtu")
+    tables = read_tables(bnd.field_data)
+    assert tables == {"regions": tags.REGION_IDS, "boundary_tags": tags.TAG_IDS}
+    present = set(np.unique(bnd.cell_data["tag"][0]))
+    assert {tags.TAG_IDS[tags.INLET], tags.TAG_IDS[tags.OUTLET], tags.TAG_IDS[tags.WALL]} <= present
+    vol = pv.read(out / "pore.vtu")
+    assert read_tables(vol.field_data)["regions"] == tags.REGION_IDS
