@@ -92,7 +92,7 @@ def voxel_flow_grid(solution, fields, result: dict | None = None):
     grid.cell_data["pressure_Pa"] = _flat(total)
     grid.cell_data["solid"] = _flat(solid.astype(np.uint8))
     zone = region_ids_along(shape[d], i0, i1).reshape([-1 if b == d else 1 for b in range(3)])
-    grid.cell_data["zone"] = _flat(np.broadcast_to(zone, shape))
+    grid.cell_data["zone"] = _flat(np.broadcast_to(zone, shape).astype(np.uint8))
     add_tables(grid)
     grid.field_data["cut_cell_weighted_velocity"] = np.array([int(weights is not None)])
     _add_result(grid, result, solution.viscosity)
