@@ -2,6 +2,7 @@
 matplotlib's Agg backend (no display, no X server, no GPU; pyvista's own renderer needs an
 OpenGL context that a headless machine may not have).
 
+Of the two mid-planes through the flow axis the one cutting more fibre outline is drawn.
 Left panel: the magnitude of a vector field with its in-plane streamlines; right panel: a
 scalar (pressure, concentration or potential). The slice is sampled from the dataset with
 ``vtkProbeFilter`` (:meth:`pyvista.DataSet.sample`) on a regular grid of points, so voxel
@@ -16,12 +17,32 @@ from pathlib import Path
 import numpy as np
 
 
-def _plane(dataset, flow_axis: int, n: int):
+def _valid(probe) -> np.ndarray:
+    valid = np.asarray(probe.point_data["vtkValidPointMask"], bool)
+    if "solid" in probe.point_data:  # voxel grids: blank the fibres as the mesh does
+        valid &= np.asarray(probe.point_data["solid"]) == 0
+    return valid
+
+
+def _probe(dataset, flow_axis: int, n: int):
+    """The mid-plane probe through the flow axis that cuts the most fibre outline (of the two
+    planes containing the flow axis), and its normal axis."""
+    best = None
+    for normal in [b for b in range(3) if b != flow_axis]:
+        plane = _plane(dataset, flow_axis, n, normal)
+        probe = plane.sample(dataset)
+        img = _valid(probe).reshape([d for d in probe.dimensions if d > 1], order="F")
+        edges = int(np.count_nonzero(np.diff(img, axis=0)) + np.count_nonzero(np.diff(img, axis=1)))
+        if best is None or edges > best[0]:
+            best = (edges, probe, normal)
+    return best[1], best[2]
+
+
+def _plane(dataset, flow_axis: int, n: int, normal: int):
     import pyvista as pv
 
     lo = np.array(dataset.bounds[0::2], float)
     hi = np.array(dataset.bounds[1::2], float)
-    normal = [b for b in range(3) if b != flow_axis][-1]
     dims = [n, n, n]
     dims[normal] = 1
     spacing = (hi - lo) / np.maximum(np.array(dims) - 1, 1)
@@ -32,8 +53,7 @@ def _plane(dataset, flow_axis: int, n: int):
     inset = 1e-6 * (hi - lo)
     spacing = spacing - 2 * inset / np.maximum(np.array(dims) - 1, 1)
     origin = origin + np.where(np.arange(3) == normal, 0.0, inset)
-    plane = pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
-    return plane, normal
+    return pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
 
 
 def slice_picture(
@@ -62,15 +82,12 @@ def slice_picture(
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    plane, normal = _plane(dataset, flow_axis, n)
-    probe = plane.sample(dataset)
-    valid = np.asarray(probe.point_data["vtkValidPointMask"], bool)
+    probe, normal = _probe(dataset, flow_axis, n)
+    valid = _valid(probe)
     across = [b for b in range(3) if b not in (flow_axis, normal)][0]
     shape = [d for d in probe.dimensions if d > 1]
     vec = np.asarray(probe.point_data[vector], float)
     sca = np.asarray(probe.point_data[scalar], float)
-    if "solid" in probe.point_data:  # voxel grids: blank the fibres as the mesh does
-        valid &= np.asarray(probe.point_data["solid"]) == 0
     vec[~valid] = np.nan
     sca[~valid] = np.nan
 
