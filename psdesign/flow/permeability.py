@@ -81,6 +81,12 @@ def _refuse(solver: str, bc: str, got: str) -> BoundaryConditionUnavailable:
     )
 
 
+def _cap(capture: Callable[..., None] | None) -> dict:
+    """``{"capture": capture}`` when fields are asked for, else no keyword: a route (or a
+    stand-in for one) without fields need not know the argument."""
+    return {} if capture is None else {"capture": capture}
+
+
 def route_result(
     rve: RVE,
     fields: VoxelFields,
@@ -104,10 +110,10 @@ def route_result(
     if bc is not None and bc not in supported_bc(solver):
         raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
     if solver == "fem":
-        res = permeability_fem(rve, fields, direction, flow, capture=capture)
+        res = permeability_fem(rve, fields, direction, flow, **_cap(capture))
     else:
         res = permeability_voxel(
-            fields, direction, flow, progress=progress, rve=rve, capture=capture
+            fields, direction, flow, progress=progress, rve=rve, **_cap(capture)
         )
     got = res.get("bc")
     if got is None:
@@ -269,7 +275,7 @@ def permeability(
     """
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
-    res = route_result(rve, fields, direction, flow, solver, progress=progress, capture=capture)
+    res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(capture))
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
