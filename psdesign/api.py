@@ -129,21 +129,62 @@ class Material:
         return self.fields.porosity
 
     def permeability(
-        self, direction: str = "z", solver: str | None = None, bc: str | None = None, **flow: Any
+        self,
+        direction: str = "z",
+        solver: str | None = None,
+        bc: str | None = None,
+        fields: str | Path | None = None,
+        **flow: Any,
     ) -> PermeabilityResult:
         """Permeability along ``direction`` ('x', 'y' or 'z').
 
         ``solver`` ('fem' | 'voxel'), ``bc`` ('permeameter' | 'periodic') and any other
-        ``[flow]`` key given as a keyword override the spec's ``[flow]`` table.
+        ``[flow]`` key given as a keyword override the spec's ``[flow]`` table. ``fields``: a
+        folder for the velocity and pressure fields (``flow_<d>.vti`` or ``.vtu``, a PNG slice
+        and ``fields.json``; see :mod:`psdesign.fields`).
         """
+        from psdesign.fields import fields_folder
         from psdesign.flow.permeability import permeability
 
         table = dict(self.spec["flow"])
         table.update(flow)
         if bc is not None:
             table["bc"] = bc
-        result = permeability(self.rve, self.fields, direction, table, solver=solver)
+        route = solver or table.get("solver", "fem")
+        with fields_folder(fields, "permeability", [direction], route) as writer:
+            result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
         return PermeabilityResult.from_dict(result)
+
+    def diffusivity(self, direction: str = "z", fields: str | Path | None = None, **transport: Any):
+        """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along ``direction``
+        (a :class:`~psdesign.transport.diffusivity.DiffusivityResult`); keywords override the
+        spec's ``[transport]`` table; ``fields``: a folder for the concentration field."""
+        from psdesign.fields import fields_folder
+        from psdesign.transport.diffusivity import relative_diffusivity
+
+        table = {**self.spec.get("transport", {}), **transport}
+        with fields_folder(fields, "diffusivity", [direction]) as writer:
+            return relative_diffusivity(self.fields, direction, table, capture=writer)
+
+    def conductivity(
+        self,
+        direction: str = "z",
+        solid: float | None = None,
+        fluid: float | None = None,
+        fields: str | Path | None = None,
+        **transport: Any,
+    ):
+        """Effective conductivity along ``direction`` with phase conductivities ``solid`` and
+        ``fluid`` (a :class:`~psdesign.transport.conductivity.ConductivityResult`); ``fields``:
+        a folder for the potential field."""
+        from psdesign.fields import fields_folder
+        from psdesign.transport.conductivity import effective_conductivity
+
+        table = {**self.spec.get("transport", {}), **transport}
+        with fields_folder(fields, "conductivity", [direction]) as writer:
+            return effective_conductivity(
+                self.fields, direction, solid, fluid, table, capture=writer
+            )
 
     def __repr__(self) -> str:
         size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)

@@ -10,6 +10,7 @@ import time
 
 def _cmd(args: argparse.Namespace) -> int:
     from psdesign.cli.progress import laplace_progress
+    from psdesign.fields import fields_folder
     from psdesign.schema.transport import check_conductivity
     from psdesign.transport.conductivity import effective_conductivity
     from psdesign.transport.load import load_case
@@ -17,24 +18,26 @@ def _cmd(args: argparse.Namespace) -> int:
     solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
     fluid = None if args.fluid is None else check_conductivity(args.fluid, "--fluid")
     t0 = time.perf_counter()
-    case = load_case(args.spec)
-    tr = dict(case.transport)
-    if args.bc:
-        tr["bc"] = args.bc
-    if args.insulating:
-        tr["insulating_phase"] = args.insulating
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
-    results = [
-        effective_conductivity(
-            case.fields,
-            d,
-            solid,
-            fluid,
-            tr,
-            progress=laplace_progress(args, d),
-        ).to_dict()
-        for d in dirs
-    ]
+    with fields_folder(args.fields, "conductivity", dirs) as writer:
+        case = load_case(args.spec)
+        tr = dict(case.transport)
+        if args.bc:
+            tr["bc"] = args.bc
+        if args.insulating:
+            tr["insulating_phase"] = args.insulating
+        results = [
+            effective_conductivity(
+                case.fields,
+                d,
+                solid,
+                fluid,
+                tr,
+                progress=laplace_progress(args, d),
+                capture=writer,
+            ).to_dict()
+            for d in dirs
+        ]
     if len(results) == 1:
         out = results[0]
     else:
@@ -81,6 +84,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="treat one phase as a perfect insulator",
     )
     p.add_argument("--bc", choices=("periodic", "permeameter"), default=None)
+    p.add_argument(
+        "--fields",
+        metavar="OUT/",
+        default=None,
+        help="write the potential and flux fields (VTI on the voxel grid), a PNG "
+        "slice and fields.json into this folder",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)

@@ -8,21 +8,12 @@ import sys
 import time
 
 
-def _cmd(args: argparse.Namespace) -> int:
+def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
     from psdesign.cli.progress import laplace_progress
     from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
-    from psdesign.transport.load import load_case
 
-    t0 = time.perf_counter()
-    case = load_case(args.spec)
-    tr = dict(case.transport)
-    if args.bc:
-        tr["bc"] = args.bc
-    if args.tol:
-        tr["tol"] = args.tol
-    dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     if args.direction == "all" and tr["bc"] == "periodic":
-        out = diffusivity_tensor(case.fields, tr)
+        out = diffusivity_tensor(case.fields, tr, capture=writer)
         out["direction"] = "all"
         out["bc"] = "periodic"
         results = out["results"]
@@ -33,6 +24,7 @@ def _cmd(args: argparse.Namespace) -> int:
                 d,
                 tr,
                 progress=laplace_progress(args, d),
+                capture=writer,
             ).to_dict()
             for d in dirs
         ]
@@ -51,6 +43,23 @@ def _cmd(args: argparse.Namespace) -> int:
                 "converged": all(r["converged"] for r in results),
             }
         )
+    return out, results
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.fields import fields_folder
+    from psdesign.transport.load import load_case
+
+    t0 = time.perf_counter()
+    dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
+    with fields_folder(args.fields, "diffusivity", dirs) as writer:
+        case = load_case(args.spec)
+        tr = dict(case.transport)
+        if args.bc:
+            tr["bc"] = args.bc
+        if args.tol:
+            tr["tol"] = args.tol
+        out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0
     for r in results:
         if r["blocked"]:
@@ -82,6 +91,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(default: the spec's transport.bc, periodic)",
     )
     p.add_argument("--tol", type=float, default=None, help="CG relative residual (1e-8)")
+    p.add_argument(
+        "--fields",
+        metavar="OUT/",
+        default=None,
+        help="write the concentration and flux fields (VTI on the voxel grid), a PNG "
+        "slice and fields.json into this folder",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)

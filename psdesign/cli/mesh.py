@@ -17,6 +17,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
+    from psdesign.meshing.exports.meshjson import mesh_summary
     from psdesign.meshing.options import MeshOptions
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
@@ -53,6 +54,8 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             "files": sorted(p.name for p in files.values()),
             "wall_time_s": time.perf_counter() - t0,
         }
+        summary = mesh_summary(pm)  # the tag tables: names -> ids, facets and areas per tag
+        info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
         write_json(tmp / "mesh.json", info)
     print(
         json.dumps(

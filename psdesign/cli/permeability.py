@@ -11,7 +11,7 @@ import time
 from psdesign.cli.progress import progress_printer
 
 
-def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str):
+def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str, capture):
     from psdesign.flow.compare import permeability_both_bc
     from psdesign.flow.permeability import permeability
 
@@ -19,7 +19,7 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":
         return permeability_both_bc(rve, fields, direction, flow, solver, progress, estimate)
-    return permeability(rve, fields, direction, flow, solver, progress, estimate)
+    return permeability(rve, fields, direction, flow, solver, progress, estimate, capture)
 
 
 def _combine(results: list[dict], solver: str, porosity: float) -> dict:
@@ -61,6 +61,16 @@ def _line(r: dict) -> str:
     )
 
 
+def _fields_folder(args: argparse.Namespace, directions: list[str], solver: str):
+    """The ``--fields`` writer (checked now, before any solve), or a null context."""
+    from psdesign.errors import SpecError
+    from psdesign.fields import fields_folder
+
+    if args.fields and args.bc == "both":
+        raise SpecError("--fields", "not with --bc both; give --bc permeameter or periodic")
+    return fields_folder(args.fields, "permeability", directions, solver)
+
+
 def _cmd_permeability(args: argparse.Namespace) -> int:
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -73,11 +83,12 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
         flow["bc"] = args.bc
     solver = args.solver or flow["solver"]
     t0 = time.perf_counter()
-    built = build_rve(spec)
-    rve = built.rve
-    fields = built.voxelize(spec["rve"]["voxel"])
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
-    results = [_solve(rve, fields, d, flow, args, solver) for d in directions]
+    with _fields_folder(args, directions, solver) as writer:
+        built = build_rve(spec)
+        rve = built.rve
+        fields = built.voxelize(spec["rve"]["voxel"])
+        results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
     out = results[0] if len(results) == 1 else _combine(results, solver, fields.porosity)
     out["wall_time_s"] = time.perf_counter() - t0
     for w in dict.fromkeys(out.get("warnings", [])):
@@ -113,6 +124,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--no-error-estimate",
         action="store_true",
         help="skip the second, coarser solve (the error bar is then the resolution floor)",
+    )
+    perm.add_argument(
+        "--fields",
+        metavar="OUT/",
+        default=None,
+        help="write velocity and pressure fields (VTU on the tet mesh, VTI on the voxel grid), "
+        "a PNG slice and fields.json into this folder",
     )
     perm.add_argument("--json", action="store_true", help="print one JSON object")
     perm.add_argument(

@@ -138,7 +138,7 @@ def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
 
 
 def permeability_fem(
-    rve: RVE, fields: VoxelFields, direction: str | int, flow: dict, mesh=None
+    rve: RVE, fields: VoxelFields, direction: str | int, flow: dict, mesh=None, capture=None
 ) -> dict:
     """Permeability along one axis with the tet mesh + Taylor-Hood route.
 
@@ -154,6 +154,9 @@ def permeability_fem(
         edge_length (fraction), lattice_step, tol, max_memory_gb.
     mesh : PoreMesh, optional
         A mesh made earlier for this direction (and BC: without auxiliary zones for periodic).
+    capture : callable, optional
+        Called as ``capture("fem_flow", solution=StokesResult, result=dict, mesh=PoreMesh,
+        flow=dict)`` after the solve (:mod:`psdesign.fields` writes the fields).
 
     Returns
     -------
@@ -181,9 +184,11 @@ def permeability_fem(
     if mesh is None:
         mesh = _mesh(rve, fields, name, flow, bc)
     t_mesh = time.perf_counter() - t0
-    if bc == "periodic":
-        return _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
-    return _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+    route = _periodic if bc == "periodic" else _permeameter
+    res, out = route(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+    if capture is not None:
+        capture("fem_flow", solution=res, result=out, mesh=mesh, flow=flow)
+    return out
 
 
 def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
@@ -203,7 +208,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     )
     u = np.asarray(res.mean_velocity, dtype=float)
     col = darcy_column(u, mu, grad)
-    return {
+    return res, {
         "permeability_m2": float(col[ax]),
         **_common(res, mesh, rve, fields, name, flow, "periodic", t0, t_mesh),
         "permeability_column_m2": col.tolist(),
@@ -242,7 +247,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     k = darcy_permeability(q, mu, length, area, dp_rve)
     p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
     p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)
-    return {
+    return res, {
         "permeability_m2": k,
         **_common(res, mesh, rve, fields, name, flow, "permeameter", t0, t_mesh),
         "flow_rate_m3_s": q,

@@ -81,6 +81,12 @@ def _refuse(solver: str, bc: str, got: str) -> BoundaryConditionUnavailable:
     )
 
 
+def _cap(capture: Callable[..., None] | None) -> dict:
+    """``{"capture": capture}`` when fields are asked for, else no keyword: a route (or a
+    stand-in for one) without fields need not know the argument."""
+    return {} if capture is None else {"capture": capture}
+
+
 def route_result(
     rve: RVE,
     fields: VoxelFields,
@@ -88,8 +94,10 @@ def route_result(
     flow: dict,
     solver: str,
     progress: Callable[[int, float], None] | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> dict:
-    """One route's raw result with ``bc`` set; no error estimate.
+    """One route's raw result with ``bc`` set; no error estimate. ``capture`` receives the
+    solver's fields (see :func:`permeability`).
 
     Raises
     ------
@@ -102,9 +110,11 @@ def route_result(
     if bc is not None and bc not in supported_bc(solver):
         raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
     if solver == "fem":
-        res = permeability_fem(rve, fields, direction, flow)
+        res = permeability_fem(rve, fields, direction, flow, **_cap(capture))
     else:
-        res = permeability_voxel(fields, direction, flow, progress=progress, rve=rve)
+        res = permeability_voxel(
+            fields, direction, flow, progress=progress, rve=rve, **_cap(capture)
+        )
     got = res.get("bc")
     if got is None:
         got = NATIVE_BC[solver]
@@ -226,6 +236,7 @@ def permeability(
     solver: str | None = None,
     progress: Callable[[int, float], None] | None = None,
     error_estimate: bool | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> dict:
     """Permeability along one axis with an error bar.
 
@@ -245,6 +256,10 @@ def permeability(
     error_estimate : bool, optional
         Solve a second, coarser resolution for the error bar (default
         ``flow["error_estimate"]`` or True). Without it the bar is the resolution floor alone.
+    capture : callable, optional
+        Receives the fields of the main solve (not of the coarse one), e.g. a
+        :class:`psdesign.fields.FieldWriter`: ``capture(kind, solution=..., result=..., ...)``
+        with kind ``"fem_flow"`` or ``"voxel_flow"``.
 
     Returns
     -------
@@ -256,7 +271,7 @@ def permeability(
     """
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
-    res = route_result(rve, fields, direction, flow, solver, progress=progress)
+    res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(capture))
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)

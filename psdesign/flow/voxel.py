@@ -123,6 +123,7 @@ def permeability_voxel(
     flow: dict,
     progress: Callable[[int, float], None] | None = None,
     rve: RVE | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> dict:
     """Permeability along one axis from the voxel Stokes solver.
 
@@ -138,7 +139,9 @@ def permeability_voxel(
 
     ``progress(iterations, residual)`` is passed to the solver. With ``rve`` the result has
     ``cells_per_diameter`` (voxels across the thinnest fiber) and a :class:`ResolutionWarning`
-    is issued below ``MIN_CELLS_PER_DIAMETER``.
+    is issued below ``MIN_CELLS_PER_DIAMETER``. With ``capture`` the solver also returns its
+    velocity and pressure fields and ``capture("voxel_flow", solution=..., result=...,
+    fields=..., flow=...)`` is called after the solve (:mod:`psdesign.fields`).
     """
     from solvers.voxel_stokes import solve_voxel_stokes
 
@@ -186,6 +189,8 @@ def permeability_voxel(
         viscosity=mu,
         periodic_treatment=flow.get("periodic_treatment", "periodic"),
         progress=progress,
+        return_velocity=capture is not None,
+        return_pressure=capture is not None,
         **kw,
     )
     column = column_of(res)
@@ -230,4 +235,6 @@ def permeability_voxel(
             "rve_length_m": float(res.rve_length),
             "pressure_drop_definition": "windowed-dissipation",
         }
+    if capture is not None:
+        capture("voxel_flow", solution=res, result=out, fields=fields, flow=flow)
     return out

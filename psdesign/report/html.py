@@ -286,6 +286,29 @@ def _k_table(df: pd.DataFrame) -> str:
     return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
 
 
+def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
+    """The flow-field pictures of the cases that wrote one (``[study] fields = true``)."""
+    if "fields_png" not in df:
+        return ""
+    items = []
+    for _, row in df.iterrows():
+        p = row.get("fields_png")
+        if not isinstance(p, str) or not p:
+            continue
+        uri = _img_file(Path(p) if Path(p).is_absolute() else out / p)
+        if uri is not None:
+            cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
+            items.append((uri, f"{row['case_id']}: {cap} seed={row.get('seed')}"))
+    if not items:
+        return ""
+    note = (
+        '<p class="note">Mid-plane slice of each case\'s first permeability solve: |velocity| '
+        "with streamlines, and pressure. The VTU/VTI files for ParaView are in the case's "
+        "<code>fields/</code> folder (fields.json lists the arrays and units).</p>"
+    )
+    return "<h2>Flow fields</h2>" + note + gallery_html(items)
+
+
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
     """Every case's preview picture, paged (images are decoded only when their page shows)."""
     if "preview_png" not in df:
@@ -428,6 +451,7 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_tabl
 least squares on standardized variables) of each numeric parameter against porosity and
 log10 K, over cases with status ok.</p>{sens_html}{me_html}
 <h2>Sample RVEs</h2>{_previews(df, out, params)}
+{_field_pictures(df, out, params)}
 <h2>Solver convergence</h2>
 <p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged
 or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>

@@ -13,6 +13,8 @@ from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS
 DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
 
 OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
+#: Added to a case's outputs by ``[study] fields = true``: the case writes its flow fields.
+FIELDS_FLAG = "fields"
 SOLVERS = ("fem", "voxel")
 Output = Literal[OUTPUTS]  # type: ignore[valid-type]
 
@@ -42,6 +44,12 @@ class StudyTable(Table):
         None, description="fem | voxel (default: base flow.solver, else fem)"
     )
     timeout_s: number(gt=0, le=1e7) | None = Field(None, description="seconds in (0, 1e7]")
+    fields: bool = Field(
+        False,
+        description="true | false (default false): each case writes its velocity and pressure "
+        "fields (cases/<id>/fields/: VTU or VTI, PNG slice) and the report shows a case's "
+        "field picture",
+    )
     design_seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0 (default 0)")
 
     @model_validator(mode="after")

@@ -10,10 +10,31 @@ import numpy as np
 from psdesign.flow.permeability import permeability
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
+from psdesign.schema.study import FIELDS_FLAG
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
 
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
 OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
+
+
+def _field_writer(workdir: Path):
+    from psdesign.fields import FieldWriter
+
+    folder = Path(workdir) / "fields"
+    folder.mkdir(parents=True, exist_ok=True)
+    return FieldWriter(folder)
+
+
+def _finish_fields(writer) -> dict:
+    """``fields.json`` written; the row's ``fields_png`` (first picture) and warnings."""
+    writer.finish()
+    pics = [s["picture"] for s in writer.solves if s.get("picture")]
+    out: dict = {}
+    if pics:
+        out["fields_png"] = str(writer.folder / pics[0])
+    if writer.warnings:
+        out["fields_warnings"] = "; ".join(writer.warnings)
+    return out
 
 
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
@@ -24,7 +45,9 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     spec : dict
         An RVE spec (validated here).
     outputs : list of str
-        Among :data:`OUTPUTS`.
+        Among :data:`OUTPUTS`; with ``"fields"`` (``[study] fields = true``) the permeability
+        solves write their fields into ``workdir / "fields"`` (:mod:`psdesign.fields`) and the
+        row gets ``fields_png`` (the first picture).
     solver : {"fem", "voxel"}
     workdir : Path
         Folder for this case's files (a preview picture).
@@ -32,7 +55,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     t0 = time.perf_counter()
     spec = validate_spec(spec)
     for o in outputs:
-        if o not in OUTPUTS:
+        if o not in OUTPUTS and o != FIELDS_FLAG:
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")
     built = build_rve(spec)
     rve = built.rve
@@ -51,8 +74,9 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     if "k_tensor" in outputs:
         directions = ["x", "y", "z"]
     columns = {}
+    writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:
-        res = permeability(rve, fields, d, spec["flow"], solver=solver)
+        res = permeability(rve, fields, d, spec["flow"], solver=solver, capture=writer)
         row[f"k_{d}_m2"] = res["permeability_m2"]
         row[f"k_{d}_rel_error"] = res.get("permeability_rel_error")
         row[f"k_{d}_status"] = res.get("status")
@@ -75,6 +99,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         for i, a in enumerate("xyz"):
             for j, b in enumerate("xyz"):
                 row[f"k_{a}{b}_m2"] = float(tensor[i, j])
+    if writer is not None:
+        row.update(_finish_fields(writer))
     row.update(transport_outputs(rve, fields, outputs, spec))  # issue 13: transport outputs
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)

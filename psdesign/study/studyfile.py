@@ -23,6 +23,7 @@ from psdesign.schema.keys import spec_paths
 from psdesign.schema.spec import SpecWarning, read_toml, validate_spec
 from psdesign.schema.study import (
     DESIGNS,
+    FIELDS_FLAG,
     OUTPUTS,
     SOLVERS,
     BoundsParam,
@@ -402,6 +403,8 @@ def _parse_study(data: dict, source: Path | None) -> Study:
         seeds = [s0 + i for i in range(reps)]
     outputs = [st.outputs] if isinstance(st.outputs, str) else list(st.outputs)
     outputs = list(dict.fromkeys(outputs))
+    if st.fields:
+        outputs.append(FIELDS_FLAG)  # the case writes its fields (psdesign.study.case)
     flow = base.get("flow") if isinstance(base.get("flow"), dict) else {}
     solver = st.solver or flow.get("solver", "fem")
     if solver not in SOLVERS:

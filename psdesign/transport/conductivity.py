@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 
 import numpy as np
 
@@ -87,6 +88,7 @@ def effective_conductivity(
     fluid: float | None = None,
     transport: dict | None = None,
     progress: Callable[[int, float], None] | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> ConductivityResult:
     """Effective conductivity of the voxelized RVE along one axis.
 
@@ -100,6 +102,9 @@ def effective_conductivity(
     transport : dict, optional
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
     progress : callable, optional
+    capture : callable, optional
+        Receives the potential field: ``capture("conductivity", solution=..., ...)``
+        (e.g. a :class:`psdesign.fields.FieldWriter`).
 
     Raises
     ------
@@ -118,7 +123,8 @@ def effective_conductivity(
     def sigma_of(mask: np.ndarray) -> np.ndarray:
         return np.where(mask, np.float32(ks), np.float32(kf))
 
-    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress)
+    cap = None if capture is None else partial(capture, "conductivity")
+    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=cap)
     fs = 1.0 - fields.porosity
     return ConductivityResult(
         direction=eff.direction,

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 
 import numpy as np
 
@@ -138,6 +139,7 @@ def relative_diffusivity(
     transport: dict | None = None,
     progress: Callable[[int, float], None] | None = None,
     pore_diameter: float | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> DiffusivityResult:
     """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along one axis.
 
@@ -153,16 +155,23 @@ def relative_diffusivity(
         ``progress(iteration, residual)``.
     pore_diameter : float, optional
         Mean pore diameter for the Knudsen number (default ``4 eps / S_v``).
+    capture : callable, optional
+        Receives the concentration field: ``capture("diffusivity", solution=..., ...)``
+        (e.g. a :class:`psdesign.fields.FieldWriter`).
     """
     tr = validate_transport({"transport": transport or {}})
-    eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress)
+    cap = None if capture is None else partial(capture, "diffusivity")
+    eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=cap)
     if pore_diameter is None and tr["mean_free_path_m"] > 0:
         pore_diameter = mean_pore_diameter(fields)
     return _result(eff, fields, tr, pore_diameter)
 
 
-def diffusivity_tensor(fields: VoxelFields, transport: dict | None = None) -> dict:
-    """Full relative-diffusivity tensor with periodic BC (three solves).
+def diffusivity_tensor(
+    fields: VoxelFields, transport: dict | None = None, capture: Callable[..., None] | None = None
+) -> dict:
+    """Full relative-diffusivity tensor with periodic BC (three solves; ``capture`` as in
+    :func:`relative_diffusivity`).
 
     Returns a dict with ``tensor`` (3x3, column ``a`` = mean flux for a unit gradient along
     ``a``), ``symmetric`` (its symmetric part), ``eigenvalues``, ``tortuosity_factor`` per
@@ -172,7 +181,9 @@ def diffusivity_tensor(fields: VoxelFields, transport: dict | None = None) -> di
     tr["bc"] = "periodic"
     tr = validate_transport({"transport": tr})
     pore_d = mean_pore_diameter(fields) if tr["mean_free_path_m"] > 0 else None
-    results = [relative_diffusivity(fields, d, tr, pore_diameter=pore_d) for d in "xyz"]
+    results = [
+        relative_diffusivity(fields, d, tr, pore_diameter=pore_d, capture=capture) for d in "xyz"
+    ]
     tensor = np.column_stack([r.relative_diffusivity_column for r in results])
     sym = 0.5 * (tensor + tensor.T)
     return {

@@ -78,6 +78,7 @@ def solve_effective(
     direction: str | int,
     transport: dict,
     progress: Callable[[int, float], None] | None = None,
+    capture: Callable[..., None] | None = None,
 ) -> Effective:
     """Solve for the effective property along ``direction``.
 
@@ -93,6 +94,9 @@ def solve_effective(
         Validated ``[transport]`` table (``bc``, ``tol``, ``max_iter``, ``error_estimate``).
     progress : callable, optional
         ``progress(iteration, residual)`` passed to the solver.
+    capture : callable, optional
+        Called as ``capture(solution=LaplaceResult, conductivity=array, fields=fields)`` after
+        the fine solve (the potential field for :mod:`psdesign.fields`).
     """
     from solvers.transport import solve_laplace
 
@@ -106,7 +110,11 @@ def solve_effective(
         "tol": float(transport.get("tol", 1e-8)),
         "max_iter": int(transport.get("max_iter", 2000)),
     }
-    res = solve_laplace(sigma_of(fields.solid), ax, bc=bc, progress=progress, **kw)
+    sigma = sigma_of(fields.solid)
+    res = solve_laplace(sigma, ax, bc=bc, progress=progress, **kw)
+    if capture is not None:
+        capture(solution=res, conductivity=sigma, fields=fields)
+    del sigma
     column = (res.mean_flux / res.gradient).tolist()
     value = float(column[ax])
     rel_error = float(res.flux_imbalance)

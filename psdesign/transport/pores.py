@@ -90,7 +90,7 @@ def _edt_pore(distance: np.ndarray, h: float) -> np.ndarray:
     clip = float(distance.max())
     if pore.all():
         return np.maximum(distance / h, 0.5 * min(pore.shape)).astype(np.float32)
-    dt = ndimage.distance_transform_edt(pore).astype(np.float32)
+    dt = _edt(pore).astype(np.float32)
     dt[pore] -= 0.5
     analytic = (distance / h).astype(np.float32)
     far = distance >= clip
@@ -109,16 +109,86 @@ def _edt(mask: np.ndarray) -> np.ndarray:
         return ndimage.distance_transform_edt(mask)
     import numba
 
-    return _edt_lib.edt(np.ascontiguousarray(mask), parallel=numba.get_num_threads())
+    mask = np.ascontiguousarray(mask)
+    if mask.dtype == bool:
+        mask = mask.view(np.uint8)  # the same labels; edt runs faster on uint8 than on bool
+    return _edt_lib.edt(mask, parallel=numba.get_num_threads())
 
 
-def _ball_union(seeds: np.ndarray, r: float) -> np.ndarray:
-    """Voxels whose centre lies within ``r`` of a seed voxel centre."""
-    return _edt(~seeds) <= r
+#: A ball union is computed crop by crop (one box per seed cluster) while the boxes hold fewer
+#: voxels than this fraction of the grid; otherwise by one distance transform of the whole grid.
+CROP_FRACTION = 0.6
+
+
+def _volume(box: tuple) -> int:
+    (x0, x1), (y0, y1), (z0, z1) = box
+    return (x1 - x0) * (y1 - y0) * (z1 - z0)
+
+
+def _merge_boxes(boxes: list[tuple]) -> list[tuple]:
+    """Replace two boxes by their bounding box wherever that holds no more voxels than the two
+    (fewer, larger transforms for the same work), until no pair qualifies."""
+    items = [(b, _volume(b)) for b in sorted(boxes)]
+    changed = True
+    while changed and len(items) > 1:
+        changed = False
+        merged: list[tuple] = []
+        for b, vb in items:
+            (bx0, bx1), (by0, by1), (bz0, bz1) = b
+            for j, (o, vo) in enumerate(merged):
+                (ox0, ox1), (oy0, oy1), (oz0, oz1) = o
+                m = (
+                    (min(ox0, bx0), max(ox1, bx1)),
+                    (min(oy0, by0), max(oy1, by1)),
+                    (min(oz0, bz0), max(oz1, bz1)),
+                )
+                vm = _volume(m)
+                if vm <= vo + vb:
+                    merged[j] = (m, vm)
+                    changed = True
+                    break
+            else:
+                merged.append((b, vb))
+        items = merged
+    return [b for b, _ in items]
+
+
+def _ball_union(lab: np.ndarray, boxes: list, ids: np.ndarray, r: float) -> np.ndarray:
+    """Voxels whose centre lies within ``r`` of a voxel of the clusters ``ids`` of ``lab``.
+
+    Every ball of a cluster lies inside the cluster's bounding box grown by ``ceil(r) + 1``;
+    the distance transform inside such a box (or a box holding several) to the voxels of the
+    clusters in it is exact for those clusters' balls and never marks a voxel outside the
+    union, so the union over the boxes equals the whole-grid transform (the same comparisons,
+    bit for bit) at the cost of the boxes' volume.
+    """
+    lut = np.zeros(len(boxes) + 1, bool)
+    lut[ids] = True
+    grow = int(np.ceil(r)) + 1
+    crops = [
+        tuple(
+            (max(s.start - grow, 0), min(s.stop + grow, n))
+            for s, n in zip(boxes[k - 1], lab.shape, strict=True)
+        )
+        for k in ids
+    ]
+    crops = _merge_boxes(crops)
+    if sum(map(_volume, crops)) >= CROP_FRACTION * lab.size:
+        return _edt(~lut[lab]) <= r
+    out = np.zeros(lab.shape, bool)
+    for crop in crops:
+        sl = tuple(slice(lo, hi) for lo, hi in crop)
+        out[sl] |= _edt(~lut[lab[sl]]) <= r
+    return out
 
 
 def _scan(dt, pore, radii, inlet_axis):
-    """Local thickness (index of the radius per voxel, -1 = none) and intrusion saturation."""
+    """Local thickness (index of the radius per voxel, -1 = none) and intrusion saturation.
+
+    At each radius ``r`` the seeds ``dt >= r`` are labelled; the ball union of the clusters
+    touching the inlet is the invaded set, and with the ball union of the other clusters the
+    covered set (two transforms, each over the clusters' boxes or the whole grid).
+    """
     lt = np.full(dt.shape, -1, np.int16)
     sat = []
     npore = max(int(np.count_nonzero(pore)), 1)
@@ -128,18 +198,16 @@ def _scan(dt, pore, radii, inlet_axis):
         if not seeds.any():
             sat.append(0.0)
             continue
-        cov = _ball_union(seeds, r)
         lab, n = ndimage.label(seeds)
-        inlet = np.unique(np.take(lab, 0, axis=inlet_axis))
-        inlet = inlet[inlet > 0]
-        if inlet.size == n:
-            inv = cov
-        elif inlet.size == 0:
-            inv = None
-        else:
-            lut = np.zeros(n + 1, bool)
-            lut[inlet] = True
-            inv = _ball_union(lut[lab], r)
+        boxes = ndimage.find_objects(lab)
+        at_inlet = np.zeros(n + 1, bool)
+        at_inlet[np.unique(np.take(lab, 0, axis=inlet_axis))] = True
+        at_inlet[0] = False
+        ids = np.arange(1, n + 1)
+        inlet, other = ids[at_inlet[1:]], ids[~at_inlet[1:]]
+        inv = _ball_union(lab, boxes, inlet, r) if inlet.size else None
+        cov = _ball_union(lab, boxes, other, r) if other.size else None
+        cov = inv if cov is None else (cov if inv is None else cov | inv)
         lt[cov & pore & (lt < 0)] = i
         if inv is not None:
             invaded |= inv & pore

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from psdesign.meshing.tags import FLUID_TAG, TAG_IDS
+from psdesign.meshing.tags import FLUID_TAG, REGION_IDS, TAG_IDS
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
@@ -27,6 +27,8 @@ def mesh_summary(pm: PoreMesh) -> dict:
             for k, v in pm.facet_tags.items()
         },
         "fluid_tag": FLUID_TAG,
+        "tag_table": dict(TAG_IDS),  # every boundary tag name -> id (VTU ``tag``, Gmsh)
+        "region_table": dict(REGION_IDS),  # region name -> id (VTU ``zone``)
         "periodic": pm.periodic,
         "quality": pm.quality,
     }

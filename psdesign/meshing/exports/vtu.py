@@ -1,11 +1,12 @@
-"""VTU writer: ``pore.vtu`` (tets, ``region`` and ``zone`` ids) and ``pore_boundary.vtu``."""
+"""VTU writer: ``pore.vtu`` (tets, ``region`` and ``zone`` ids) and ``pore_boundary.vtu``
+(triangles with integer ``tag``); both carry the id -> name tables as field data
+(``zone_rve = [10]``, ..., ``tag_inlet = [1]``, ...; :mod:`psdesign.fields.tables`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import meshio
 import numpy as np
 
 from psdesign.meshing.exports._common import boundary
@@ -17,16 +18,19 @@ if TYPE_CHECKING:
 
 def write_vtu(pm: PoreMesh, out: Path) -> dict[str, Path]:
     """``pore.vtu`` (tets) and ``pore_boundary.vtu`` (triangles with integer ``tag``)."""
+    import pyvista as pv
+
+    from psdesign.fields.tables import add_tables
+
     p1, p2 = out / "pore.vtu", out / "pore_boundary.vtu"
-    zone = np.vectorize(REGION_IDS.get, otypes=[np.int64])(pm.tet_regions())
-    meshio.write(
-        p1,
-        meshio.Mesh(
-            pm.points,
-            [("tetra", pm.tets)],
-            cell_data={"region": [np.full(len(pm.tets), FLUID_TAG)], "zone": [zone]},
-        ),
-    )
+    pts = np.asarray(pm.points, float)
+    vol = pv.UnstructuredGrid({pv.CellType.TETRA: np.asarray(pm.tets, np.int64)}, pts)
+    vol.cell_data["region"] = np.full(len(pm.tets), FLUID_TAG, np.int64)
+    vol.cell_data["zone"] = np.vectorize(REGION_IDS.get, otypes=[np.int64])(pm.tet_regions())
     tris, ids, _ = boundary(pm)
-    meshio.write(p2, meshio.Mesh(pm.points, [("triangle", tris)], cell_data={"tag": [ids]}))
+    bnd = pv.UnstructuredGrid({pv.CellType.TRIANGLE: tris}, pts)
+    bnd.cell_data["tag"] = np.asarray(ids, np.int64)
+    for g, path in ((vol, p1), (bnd, p2)):
+        add_tables(g, boundary=True)
+        g.save(path)
     return {"vtu": p1, "vtu_boundary": p2}

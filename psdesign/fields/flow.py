@@ -1,0 +1,160 @@
+"""Stokes solutions as VTK datasets (pyvista): the voxel grid as ``ImageData`` (cell data), the
+tet mesh as ``UnstructuredGrid`` (point data at the vertices).
+
+Arrays (SI units in the names): ``velocity_m_per_s`` (3-vector), ``velocity_magnitude_m_per_s``,
+``pressure_Pa`` (the total pressure: the solvers' periodic fluctuation plus the mean gradient,
+0 at the outlet end of the solved domain; NaN where no pressure is defined), ``zone`` (region
+ids, :func:`psdesign.fields.tables.region_table`) and, on the voxel grid, ``solid`` (1 = fibre).
+
+* **Voxel grid**: the solved grid (with the permeameter's empty reservoirs, so the RVE starts at
+  the origin's ``+ n_aux`` cells; the origin is shifted by ``-n_aux`` voxels along the flow).
+  The cell velocity is the mean of the superficial velocities on the cell's two faces normal to
+  each axis (the solver's face velocity times its cut-cell fluid fraction for the sub-voxel
+  walls), so the mean over the grid equals the solver's superficial mean velocity.
+* **Tet mesh**: the Taylor-Hood P2 velocity is written at the P1 vertices only (the mid-edge
+  values are dropped: ParaView interpolates linearly inside each tet); the P1 pressure is exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from psdesign.fields.tables import add_tables, region_ids_along
+from psdesign.meshing import tags
+
+
+def _flat(a: np.ndarray) -> np.ndarray:
+    """An ``[x, y, z]`` array in VTK cell order (x fastest)."""
+    return np.asarray(a).ravel(order="F")
+
+
+def _face_weights(solution, fields) -> list[np.ndarray] | None:
+    """Cut-cell fluid fractions of the faces of the solved grid (sub-voxel walls), from the
+    solver's own coefficient routine; None for the staircase (all 1) or a treatment whose grid
+    is not rebuilt here."""
+    if solution.wall_treatment != "subvoxel":
+        return None
+    from solvers.voxel import boundary as bd
+
+    d, h = int(solution.direction), float(solution.voxel_size)
+    phi = np.asarray(fields.distance, np.float64) / h
+    walls: dict[int, str] = {}
+    if solution.bc == "permeameter":
+        _, phi = bd.pad_reservoirs(fields.solid, phi, d, int(solution.rve_slice[0]))
+        walls = {b: str(solution.sides) for b in range(3) if b != d}
+    elif solution.periodic_treatment != "periodic":
+        return None
+    faces = [bd.face_distance(phi, b) for b in range(3)]
+    return [bd.component_coefficients(a, phi_faces=faces, walls=walls)[3] for a in range(3)]
+
+
+def _solved_solid(solution, fields, shape) -> np.ndarray:
+    solid = np.asarray(fields.solid, bool)
+    d = int(solution.direction)
+    if solution.bc == "permeameter":
+        pad = [(0, 0)] * 3
+        i0 = int(solution.rve_slice[0])
+        pad[d] = (i0, shape[d] - solid.shape[d] - i0)
+        return np.pad(solid, pad, constant_values=False)
+    if solid.shape == tuple(shape):
+        return solid
+    if solution.periodic_treatment == "mirror":
+        return np.concatenate([solid, np.flip(solid, axis=d)], axis=d)
+    return (solution.pressure == 0) & ~np.any(solution.velocity != 0, axis=0)
+
+
+def voxel_flow_grid(solution, fields, result: dict | None = None):
+    """``pyvista.ImageData`` of a voxel Stokes solve (``return_velocity`` and
+    ``return_pressure`` on); ``result`` (the route's dict) adds its K and drops as field data."""
+    import pyvista as pv
+
+    vel, p = solution.velocity, solution.pressure
+    if vel is None or p is None:
+        raise ValueError("fields: the voxel solve was run without its velocity and pressure")
+    shape = p.shape
+    d, h = int(solution.direction), float(solution.voxel_size)
+    weights = _face_weights(solution, fields)
+    cell = np.empty((3, *shape), np.float32)
+    for a in range(3):
+        q = vel[a] if weights is None else vel[a] * weights[a]
+        cell[a] = 0.5 * (q + np.roll(q, -1, axis=a))
+    solid = _solved_solid(solution, fields, shape)
+    x_c = (np.arange(shape[d]) + 0.5) * h
+    drop = solution.pressure_gradient * (shape[d] * h - x_c)
+    total = p + drop.reshape([-1 if b == d else 1 for b in range(3)])
+    total = np.where(solid & (p == 0), np.nan, total).astype(np.float32)
+    i0, i1 = (int(v) for v in solution.rve_slice)
+    origin = [0.0, 0.0, 0.0]
+    origin[d] = -i0 * h
+    grid = pv.ImageData(dimensions=np.array(shape) + 1, spacing=(h, h, h), origin=origin)
+    grid.cell_data["velocity_m_per_s"] = np.column_stack([_flat(c) for c in cell])
+    grid.cell_data["velocity_magnitude_m_per_s"] = _flat(np.sqrt((cell**2).sum(axis=0)))
+    grid.cell_data["pressure_Pa"] = _flat(total)
+    grid.cell_data["solid"] = _flat(solid.astype(np.uint8))
+    zone = region_ids_along(shape[d], i0, i1).reshape([-1 if b == d else 1 for b in range(3)])
+    grid.cell_data["zone"] = _flat(np.broadcast_to(zone, shape).astype(np.uint8))
+    add_tables(grid)
+    grid.field_data["cut_cell_weighted_velocity"] = np.array([int(weights is not None)])
+    _add_result(grid, result, solution.viscosity)
+    return grid
+
+
+def _add_result(grid, result: dict | None, viscosity: float) -> None:
+    grid.field_data["viscosity_Pa_s"] = np.array([float(viscosity)])
+    if not result:
+        return
+    grid.field_data["direction_axis"] = np.array(["xyz".index(str(result["direction"]))])
+    grid.field_data["permeability_m2"] = np.array([float(result["permeability_m2"])])
+    for key, name in (
+        ("mean_velocity_m_s", "superficial_velocity_m_per_s"),
+        ("flow_rate_m3_s", "flow_rate_m3_per_s"),
+        ("pressure_drop_rve_pa", "pressure_drop_rve_Pa"),
+        ("pressure_gradient_pa_m", "pressure_gradient_Pa_per_m"),
+    ):
+        if result.get(key) is not None:
+            grid.field_data[name] = np.atleast_1d(np.asarray(result[key], float))
+
+
+def fem_flow_grids(
+    solution,
+    mesh,
+    result: dict | None = None,
+    viscosity: float = float("nan"),
+    pressure_gradient: float = 0.0,
+):
+    """Volume and boundary ``pyvista.UnstructuredGrid`` of a tet-mesh Stokes solve.
+
+    ``viscosity`` (Pa s) is recorded as field data; ``pressure_gradient`` (Pa/m, periodic
+    solves) is added back to the periodic pressure fluctuation along the flow axis. The
+    boundary grid holds the tagged triangles with ``tag`` cell data (ids of
+    :func:`psdesign.fields.tables.boundary_table`) and the same point data.
+    """
+    import pyvista as pv
+
+    from psdesign.meshing.exports._common import boundary
+
+    pts = np.asarray(mesh.points, float)
+    vel = np.asarray(solution.velocity, float)
+    p = np.asarray(solution.pressure, float)
+    if pressure_gradient:
+        x = pts[:, mesh.axis]
+        p = p + pressure_gradient * (x.max() - x)
+    point_data = {
+        "velocity_m_per_s": vel,
+        "velocity_magnitude_m_per_s": np.linalg.norm(vel, axis=1),
+        "pressure_Pa": p,
+    }
+    vol = pv.UnstructuredGrid({pv.CellType.TETRA: np.asarray(mesh.tets)}, pts)
+    zone = np.vectorize(tags.REGION_IDS.get, otypes=[np.int32])(mesh.tet_regions())
+    vol.cell_data["zone"] = zone
+    vol.cell_data["region"] = np.full(len(mesh.tets), tags.FLUID_TAG, np.int32)
+    tris, ids, _ = boundary(mesh)
+    bnd = pv.UnstructuredGrid({pv.CellType.TRIANGLE: tris}, pts)
+    bnd.cell_data["tag"] = ids.astype(np.int32)
+    for g in (vol, bnd):
+        for k, v in point_data.items():
+            g.point_data[k] = v
+        add_tables(g, boundary=True)
+        g.field_data["velocity_p2_at_p1_vertices"] = np.array([1], np.int32)
+        _add_result(g, result, viscosity)
+    return vol, bnd

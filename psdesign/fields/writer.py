@@ -1,0 +1,193 @@
+"""Writing solver fields into a ``--fields`` folder: one file per solve as it finishes, a PNG
+picture of each, and ``fields.json`` (the index: files, array names and units, tag tables).
+
+The folder follows the safe-output rules of :mod:`psdesign.io.outputs` (a user's non-psdesign
+folder is refused, nothing psdesign did not write is replaced) and appears atomically: the files
+are written into a temporary folder that is moved into place when the command succeeds.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from psdesign.fields.tables import boundary_table, region_table
+
+#: Array names and units of every field file (also in ``fields.json``).
+UNITS = {
+    "velocity_m_per_s": "m/s (3-vector)",
+    "velocity_magnitude_m_per_s": "m/s",
+    "pressure_Pa": "Pa (total pressure, 0 at the outlet end of the solved domain)",
+    "concentration_relative": "1 (1 at the inlet face, 0 at the outlet face)",
+    "potential_relative": "1 (1 at the inlet face, 0 at the outlet face)",
+    "flux_per_unit_gradient": "conductivity units (1 in the pore for diffusion) (3-vector)",
+    "solid": "1 = fibre, 0 = pore",
+    "conductivity": "the phase conductivities as given",
+    "zone": "region id (see regions)",
+    "tag": "boundary tag id (see boundary_tags)",
+}
+
+_KINDS = ("fem_flow", "voxel_flow", "diffusivity", "conductivity")
+
+
+def field_files(kind: str, directions: Iterable[str], solver: str = "voxel") -> list[str]:
+    """The files a command writes into the fields folder (``kind``: "permeability",
+    "diffusivity" or "conductivity"), for the up-front output-folder check."""
+    names = ["fields.json"]
+    for d in directions:
+        if kind == "permeability":
+            stem = f"flow_{d}"
+            names += [f"{stem}.vtu", f"{stem}_boundary.vtu"] if solver == "fem" else [f"{stem}.vti"]
+        else:
+            stem = f"{kind}_{d}"
+            names.append(f"{stem}.vti")
+        names.append(f"{stem}.png")
+    return names
+
+
+class FieldWriter:
+    """A ``capture`` callable for the solvers' routes that writes each solve's fields.
+
+    Parameters
+    ----------
+    folder : Path
+        An existing folder (the temporary folder of :func:`fields_output`).
+    picture : bool
+        Also render a PNG of each solve (:func:`psdesign.fields.picture.slice_picture`).
+    """
+
+    def __init__(self, folder: str | Path, picture: bool = True) -> None:
+        self.folder = Path(folder)
+        self.picture = picture
+        self.solves: list[dict] = []
+        self.warnings: list[str] = []
+
+    def _stem(self, base: str) -> str:
+        used = {s["stem"] for s in self.solves}
+        stem, i = base, 2
+        while stem in used:
+            stem, i = f"{base}_{i}", i + 1
+        return stem
+
+    def __call__(self, kind: str, *, solution, fields=None, result=None, **extra) -> None:
+        """Write one solve (``kind`` in "fem_flow", "voxel_flow", "diffusivity",
+        "conductivity"); the keywords are those the routes pass."""
+        if kind not in _KINDS:
+            raise ValueError(f"fields: unknown solve kind {kind!r}")
+        if kind in ("fem_flow", "voxel_flow"):
+            self._flow(kind, solution, fields, result, extra)
+        else:
+            self._laplace(kind, solution, fields, extra["conductivity"])
+
+    def _flow(self, kind, solution, fields, result, extra) -> None:
+        from psdesign.fields.flow import fem_flow_grids, voxel_flow_grid
+
+        d = str(result["direction"])
+        stem = self._stem(f"flow_{d}")
+        entry = {"kind": kind, "stem": stem, "direction": d, "result": result}
+        if kind == "voxel_flow":
+            grid = voxel_flow_grid(solution, fields, result)
+            grid.save(self.folder / f"{stem}.vti")
+            entry["files"] = [f"{stem}.vti"]
+        else:
+            flow = extra.get("flow") or {}
+            grad = result.get("pressure_gradient_pa_m") if result.get("bc") == "periodic" else 0
+            grid, bnd = fem_flow_grids(
+                solution, extra["mesh"], result, float(flow.get("viscosity", "nan")), grad or 0.0
+            )
+            grid.save(self.folder / f"{stem}.vtu")
+            bnd.save(self.folder / f"{stem}_boundary.vtu")
+            entry["files"] = [f"{stem}.vtu", f"{stem}_boundary.vtu"]
+        axis = "xyz".index(d)
+        title = f"{result.get('solver', '')} {result.get('bc', '')}: flow along {d}"
+        self._picture(entry, grid, axis, "velocity_m_per_s", "pressure_Pa", title)
+        self.solves.append(entry)
+
+    def _laplace(self, kind, solution, fields, conductivity) -> None:
+        from psdesign.fields.laplace import laplace_grid
+
+        d = "xyz"[int(solution.axis)]
+        stem = self._stem(f"{kind}_{d}")
+        grid = laplace_grid(solution, conductivity, fields, kind, None)
+        grid.save(self.folder / f"{stem}.vti")
+        entry = {"kind": kind, "stem": stem, "direction": d, "files": [f"{stem}.vti"]}
+        entry["mean_flux_per_unit_gradient"] = [
+            float(v) for v in solution.mean_flux / solution.gradient
+        ]
+        scalar = "concentration_relative" if kind == "diffusivity" else "potential_relative"
+        title = f"{kind}: gradient along {d}"
+        self._picture(entry, grid, int(solution.axis), "flux_per_unit_gradient", scalar, title)
+        self.solves.append(entry)
+
+    def _picture(self, entry, grid, axis, vector, scalar, title) -> None:
+        if not self.picture:
+            return
+        from psdesign.fields.picture import slice_picture
+
+        try:
+            slice_picture(grid, self.folder / f"{entry['stem']}.png", axis, vector, scalar, title)
+        except Exception as exc:  # a picture must not lose the solve's field files
+            self.warnings.append(f"{entry['stem']}.png: picture failed ({exc})")
+            return
+        entry["picture"] = f"{entry['stem']}.png"
+
+    def index(self) -> dict:
+        """The content of ``fields.json``."""
+        solves = []
+        for s in self.solves:
+            s = dict(s)
+            res = s.pop("result", None)
+            if res is not None:
+                s["result"] = {
+                    k: res.get(k)
+                    for k in ("permeability_m2", "solver", "bc", "status", "flow_rate_m3_s")
+                    if k in res
+                }
+            solves.append(s)
+        return {
+            "solves": solves,
+            "units": UNITS,
+            "regions": region_table(),
+            "boundary_tags": boundary_table(),
+            "warnings": self.warnings,
+            "notes": [
+                "VTU (tet mesh): the P2 velocity at the P1 vertices, the P1 pressure",
+                "VTI (voxel grid): cell data, spacing = voxel size in metres",
+            ],
+        }
+
+    def finish(self) -> Path:
+        """Write ``fields.json``; returns its path."""
+        path = self.folder / "fields.json"
+        path.write_text(json.dumps(self.index(), indent=1, default=float))
+        return path
+
+
+def fields_folder(
+    path: str | Path | None, kind: str, directions: Iterable[str], solver: str = "voxel"
+):
+    """:func:`fields_output` for the ``--fields`` option of the command ``kind``
+    ("permeability", "diffusivity", "conductivity"), or a null context (yielding None) when
+    ``path`` is None."""
+    if path is None:
+        return contextlib.nullcontext(None)
+    expected = field_files(kind, directions, solver)
+    return fields_output(path, f"{kind} --fields", expected)
+
+
+@contextlib.contextmanager
+def fields_output(
+    path: str | Path, command: str, expected: Iterable[str] = (), option: str = "--fields"
+) -> Iterator[FieldWriter]:
+    """Check the fields folder now (:class:`psdesign.io.outputs.OutputError`, exit 2, before
+    any solve), yield a :class:`FieldWriter` on a temporary folder, and move its files into
+    place when the block succeeds (nothing is written if it fails)."""
+    from psdesign.io.outputs import check_output_dir, staged_output
+
+    out = check_output_dir(path, option=option, command=command, expected=expected)
+    with staged_output(out) as tmp:
+        writer = FieldWriter(tmp)
+        yield writer
+        writer.finish()

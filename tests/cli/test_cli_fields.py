@@ -1,0 +1,271 @@
+"""``--fields OUT/`` (issue 15 item 2): the velocity / pressure and concentration / potential
+fields read back with pyvista and meshio; names, units, shapes, tag tables and the physics the
+results report (mean velocity = superficial velocity, inlet flux = outlet flux = Q, pressure
+drop, mean flux = effective property)."""
+
+from __future__ import annotations
+
+import json
+
+import meshio
+import numpy as np
+import pytest
+import pyvista as pv
+from scipy import ndimage
+
+from psdesign.cli import main
+from psdesign.fields.tables import read_tables
+from psdesign.meshing import tags
+
+H = 1e-6
+MU = 1.8e-5
+# one cylinder along y in a 24 x 12 x 16 um box: transverse flow along x goes around it
+SPEC = """
+[rve]
+size = [24e-6, 12e-6, 16e-6]
+voxel = 1e-6
+[[fibers]]
+shape = "cylinder"
+diameter = 10e-6
+center = [12e-6, 6e-6, 8e-6]
+direction = [0, 1, 0]
+[flow]
+viscosity = 1.8e-5
+lattice_step = 2e-6
+"""
+
+
+def _cells(grid, name):
+    """A cell array of an ImageData as an [x, y, z](, c) numpy array."""
+    nx, ny, nz = (d - 1 for d in grid.dimensions)
+    a = np.asarray(grid.cell_data[name])
+    if a.ndim == 1:
+        return a.reshape((nx, ny, nz), order="F")
+    return np.stack([a[:, c].reshape((nx, ny, nz), order="F") for c in range(3)])
+
+
+def _run_json(spec, *argv):
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main([*argv[:1], str(spec), "--quiet", "--json", *argv[1:]])
+    return code, json.loads(buf.getvalue())
+
+
+@pytest.fixture(scope="module")
+def voxel_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("voxel")
+    spec = tmp / "s.toml"
+    spec.write_text(SPEC)
+    runs = {}
+    for bc in ("periodic", "permeameter"):
+        out = tmp / f"fields_{bc}"
+        argv = ["permeability", "--solver", "voxel", "--direction", "x", "--bc", bc]
+        code, res = _run_json(spec, *argv, "--no-error-estimate", "--fields", str(out))
+        assert code == 0
+        runs[bc] = (out, res)
+    return runs
+
+
+def test_voxel_periodic_vti_names_units_and_mean_velocity(voxel_runs):
+    out, res = voxel_runs["periodic"]
+    index = json.loads((out / "fields.json").read_text())
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "fields.json",
+        "flow_x.png",
+        "flow_x.vti",
+    ]
+    assert index["regions"] == tags.REGION_IDS and index["boundary_tags"] == tags.TAG_IDS
+    grid = pv.read(out / "flow_x.vti")
+    assert tuple(d - 1 for d in grid.dimensions) == (24, 12, 16)
+    assert grid.spacing == pytest.approx((H, H, H))
+    for name in ("velocity_m_per_s", "pressure_Pa", "solid", "zone"):
+        assert name in grid.cell_data
+    assert read_tables(grid.field_data)["regions"] == tags.REGION_IDS
+    u = _cells(grid, "velocity_m_per_s")
+    solid = _cells(grid, "solid").astype(bool)
+    assert solid.mean() == pytest.approx(1 - res["porosity"], abs=1e-12)
+    # the field's box mean is the superficial velocity the result reports
+    assert u.reshape(3, -1).mean(axis=1) == pytest.approx(res["mean_velocity_m_s"], rel=1e-5)
+    k = MU * u[0].mean() / res["pressure_gradient_pa_m"]
+    assert k == pytest.approx(res["permeability_m2"], rel=1e-5)
+    inner = ndimage.binary_erosion(solid)  # cut cells at the wall carry their fluid faces
+    assert np.abs(u[:, inner]).max() <= 1e-9 * np.abs(u).max()
+    # VTK's own reader (no pyvista) finds the same array
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    reader = vtkXMLImageDataReader()
+    reader.SetFileName(str(out / "flow_x.vti"))
+    reader.Update()
+    arr = reader.GetOutput().GetCellData().GetArray("velocity_m_per_s")
+    assert (arr.GetNumberOfTuples(), arr.GetNumberOfComponents()) == (24 * 12 * 16, 3)
+
+
+def test_voxel_permeameter_flux_and_pressure_drop(voxel_runs):
+    out, res = voxel_runs["permeameter"]
+    grid = pv.read(out / "flow_x.vti")
+    zone = _cells(grid, "zone")
+    n_aux = int(np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.AUX_INLET]))
+    assert n_aux >= 1
+    assert np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.RVE]) == 24
+    assert np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.AUX_OUTLET]) == n_aux
+    assert grid.origin[0] == pytest.approx(-n_aux * H)
+    u = _cells(grid, "velocity_m_per_s")
+    q_layers = u[0].sum(axis=(1, 2)) * H * H  # every cell layer carries the flow rate
+    assert q_layers == pytest.approx(np.full(q_layers.size, res["flow_rate_m3_s"]), rel=1e-4)
+    p = _cells(grid, "pressure_Pa")
+    i0, i1 = n_aux, n_aux + 24
+    # plane pressure: mean of the two cells on each face with fluid on both sides
+
+    def plane(i):
+        a, b = p[i - 1], p[i]
+        ok = np.isfinite(a) & np.isfinite(b)
+        return 0.5 * (a[ok] + b[ok]).mean()
+
+    assert plane(i0) - plane(i1) == pytest.approx(res["pressure_drop_rve_pa"], rel=0.02)
+    assert p[0][np.isfinite(p[0])].mean() == pytest.approx(
+        res["pressure_drop_applied_pa"], rel=0.05
+    )
+
+
+@pytest.fixture(scope="module")
+def fem_run(tmp_path_factory):
+    import psdesign
+
+    tmp = tmp_path_factory.mktemp("fem")
+    spec = tmp / "s.toml"
+    spec.write_text(SPEC)
+    m = psdesign.build(spec)
+    out = tmp / "fields"
+    res = m.permeability("x", solver="fem", fields=out, error_estimate=False)
+    return out, res.details
+
+
+def test_fem_vtu_tags_regions_and_inlet_outlet_flux(fem_run):
+    out, res = fem_run
+    vol = pv.read(out / "flow_x.vtu")
+    bnd = pv.read(out / "flow_x_boundary.vtu")
+    assert set(np.unique(vol.cell_data["zone"])) == set(tags.REGION_IDS.values())
+    assert read_tables(bnd.field_data)["boundary_tags"] == tags.TAG_IDS
+    assert vol.field_data["velocity_p2_at_p1_vertices"][0] == 1
+    m = meshio.read(out / "flow_x.vtu")
+    assert read_tables(m.field_data) == {"regions": tags.REGION_IDS, "boundary_tags": tags.TAG_IDS}
+    assert m.point_data["velocity_m_per_s"].shape == (len(m.points), 3)
+    # flux through the inlet and the outlet triangles (P1 interpolation of the vertex values)
+    flux = {}
+    for name in (tags.INLET, tags.OUTLET):
+        part = bnd.extract_cells(np.nonzero(bnd.cell_data["tag"] == tags.TAG_IDS[name])[0])
+        integ = part.integrate_data()
+        flux[name] = float(integ.point_data["velocity_m_per_s"][0][0])
+        if name == tags.INLET:
+            p_in = float(integ.point_data["pressure_Pa"][0] / integ["Area"][0])
+    q = res["flow_rate_m3_s"]
+    assert flux[tags.INLET] == pytest.approx(q, rel=0.02)
+    assert flux[tags.OUTLET] == pytest.approx(q, rel=0.02)
+    assert p_in == pytest.approx(res["pressure_drop_applied_pa"], rel=1e-4)
+    # superficial velocity over the RVE: the volume integral of u_x over the RVE zone / V
+    rve = vol.extract_cells(np.nonzero(vol.cell_data["zone"] == tags.REGION_IDS[tags.RVE])[0])
+    ux = float(rve.integrate_data().point_data["velocity_m_per_s"][0][0])
+    area = 12e-6 * 16e-6
+    assert ux / (24e-6 * area) == pytest.approx(q / area, rel=0.03)
+    assert (out / "flow_x.png").stat().st_size > 10_000
+
+
+def test_transport_fields_mean_flux_is_the_effective_property(tmp_path):
+    import contextlib
+    import io
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    for cmd, extra, key in (
+        ("diffusivity", ["--bc", "periodic"], "relative_diffusivity"),
+        ("conductivity", ["--solid", "100", "--fluid", "1", "--bc", "permeameter"], None),
+    ):
+        out = tmp_path / cmd
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            code = main(
+                [
+                    cmd,
+                    str(spec),
+                    "--direction",
+                    "x",
+                    "--json",
+                    "--quiet",
+                    *extra,
+                    "--fields",
+                    str(out),
+                ]
+            )
+        assert code == 0
+        res = json.loads(buf.getvalue())
+        grid = pv.read(out / f"{cmd}_x.vti")
+        flux = _cells(grid, "flux_per_unit_gradient")
+        value = res[key or "effective_conductivity"]
+        assert flux[0].mean() == pytest.approx(value, rel=1e-6)
+        pot = _cells(
+            grid, "concentration_relative" if cmd == "diffusivity" else "potential_relative"
+        )
+        fin = pot[np.isfinite(pot)]
+        assert fin.min() >= -0.05 and fin.max() <= 1.05
+        assert (out / f"{cmd}_x.png").exists()
+
+
+def test_fields_refuses_a_user_folder_before_solving(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "notes.txt").write_text("keep")
+    code = main(["permeability", str(spec), "--solver", "voxel", "--fields", str(user)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--fields" in err and err.count("\n") == 1
+    assert sorted(p.name for p in user.iterdir()) == ["notes.txt"]
+
+
+@pytest.mark.slow  # a whole study run with its report (~15 s idle)
+def test_study_fields_true_writes_case_fields_and_report_picture(tmp_path):
+    from psdesign.study import run_study
+
+    base = SPEC.replace("[rve]", "[base.rve]").replace("[[fibers]]", "[[base.fibers]]")
+    base = base.replace("[flow]", "[base.flow]")
+    study = tmp_path / "study.toml"
+    study.write_text(
+        '[study]\nname = "f"\noutputs = ["k_x"]\nsolver = "voxel"\nfields = true\n'
+        + base
+        + "error_estimate = false\n"
+        + '[parameters]\n"flow.viscosity" = [1.8e-5]\n'
+    )
+    out = tmp_path / "out"
+    df = run_study(study, out, workers=0, progress=False)
+    assert (df["status"] == "ok").all()
+    png = df["fields_png"].iloc[0]
+    folder = __import__("pathlib").Path(png).parent
+    assert sorted(p.name for p in folder.iterdir()) == ["fields.json", "flow_x.png", "flow_x.vti"]
+    grid = pv.read(folder / "flow_x.vti")
+    u = _cells(grid, "velocity_m_per_s")
+    assert MU * u[0].mean() / grid.field_data["pressure_gradient_Pa_per_m"][0] == pytest.approx(
+        df["k_x_m2"].iloc[0], rel=1e-5
+    )
+    html = (out / "report.html").read_text()
+    assert "<h2>Flow fields</h2>" in html
+
+
+def test_mesh_exports_name_their_tags(tmp_path):
+    """pore.vtu / pore_boundary.vtu carry the id -> name tables; mesh.json has them too."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("lattice_step = 2e-6", "lattice_step = 4e-6"))
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--direction", "x"]) == 0
+    info = json.loads((out / "mesh.json").read_text())
+    assert info["tag_table"] == tags.TAG_IDS and info["region_table"] == tags.REGION_IDS
+    bnd = meshio.read(out / "pore_boundary.vtu")
+    tables = read_tables(bnd.field_data)
+    assert tables == {"regions": tags.REGION_IDS, "boundary_tags": tags.TAG_IDS}
+    present = set(np.unique(bnd.cell_data["tag"][0]))
+    assert {tags.TAG_IDS[tags.INLET], tags.TAG_IDS[tags.OUTLET], tags.TAG_IDS[tags.WALL]} <= present
+    vol = pv.read(out / "pore.vtu")
+    assert read_tables(vol.field_data)["regions"] == tags.REGION_IDS
