@@ -43,7 +43,11 @@ PHI = 0.1
 SPACING = 1.0
 RADIUS = float(np.sqrt(PHI / np.pi))
 CACHE = os.environ.get("PSDESIGN_BENCH_CACHE", "/tmp/psdesign_bench_cache")
-DEFAULT_SIZES = {"cylinders": [4, 8, 12, 16, 24], "fibers": [0.07, 0.05, 0.035, 0.025]}
+DEFAULT_SIZES = {
+    "cylinders": [4, 8, 12, 16, 24],
+    "fibers": [0.07, 0.05, 0.035, 0.025],
+    "toray": [0.5],
+}
 
 
 def _rss_gb() -> float:
@@ -141,6 +145,39 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
         rss_after_mesh_gb=rss_mesh,
         **_summary(res),
     )
+
+
+def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6):
+    """RVE, flow table and default permeameter mesh of ``studies/table3/straight.toml`` at
+    ``voxel`` (m) in a cube of side ``size`` (m), cached as a pickle in $PSDESIGN_BENCH_CACHE."""
+    import pickle
+    import tempfile
+    from pathlib import Path
+
+    cache = Path(CACHE) / f"toray_{voxel:g}_{direction}_{size:g}.pkl"
+    if cache.exists():
+        with cache.open("rb") as f:
+            return pickle.load(f)
+    from psdesign.flow.fem import _mesh
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "studies/table3/straight.toml").read_text()
+    text = text.replace("voxel = 0.5e-6", f"voxel = {voxel!r}")
+    text = text.replace("size = [100e-6, 100e-6, 100e-6]", f"size = [{size!r}, {size!r}, {size!r}]")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "straight.toml"
+        path.write_text(text)
+        spec = load_spec(path)
+    built = build_rve(spec)
+    fields = built.voxelize(voxel)
+    flow = dict(spec["flow"])
+    pm = _mesh(built.rve, fields, direction, flow, "permeameter")
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    with cache.open("wb") as f:
+        pickle.dump((built.rve, flow, pm), f)
+    return built.rve, flow, pm
 
 
 def _summary(res) -> dict:
