@@ -11,6 +11,13 @@ fibers
     (radius 0.07, porosity ~0.8), surface by manifold3d, tetrahedra by pytetwild, box faces
     snapped flat, flow along z (through-plane), slip sides. Reference: the finest mesh.
 
+toray
+    The Toray-like through-plane permeameter solve of ``studies/table3/straight.toml``
+    (size = voxel in um, default 0.5: the stuffing mesher's default mesh, 658 k unknowns),
+    slip sides, tol 1e-6, K from the windowed dissipation as in ``permeability_fem``; the mesh
+    is cached as a pickle. ``--krylov gmres minres`` runs the block-triangular GMRES and the
+    block-diagonal MINRES one after the other (solve CPU seconds do not depend on the load).
+
 Tet meshes of the fibers case are cached in $PSDESIGN_BENCH_CACHE (default
 /tmp/psdesign_bench_cache); the reported mesh time is the pytetwild time only on a cache miss.
 Each size runs in its own subprocess so that the peak resident memory (getrusage high-water
@@ -22,6 +29,7 @@ Usage
     python benchmarks/bench_fem.py --case fibers --sizes 0.06 0.04
     python benchmarks/bench_fem.py --case fibers --sizes 0.07 --refine 1   # 1:8 refined mesh
     python benchmarks/bench_fem.py --one cylinders 8     # one run, prints one JSON line
+    python benchmarks/bench_fem.py --case toray --krylov gmres minres   # new vs old, one run
 """
 
 from __future__ import annotations
@@ -180,6 +188,47 @@ def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6
     return built.rve, flow, pm
 
 
+def run_toray(voxel: float, tol: float = 1e-6, krylov: str = "gmres") -> dict:
+    """The Toray-like through-plane permeameter solve (``permeability_fem``'s settings: slip
+    sides, windowed-dissipation K) on the cached default mesh of :func:`toray_mesh`."""
+    from psdesign.flow.fem import rve_window
+    from psdesign.meshing import tags as T
+    from solvers.fem_stokes import solve_stokes
+
+    t0 = time.perf_counter()
+    rve, flow, pm = toray_mesh(voxel)
+    t_mesh = time.perf_counter() - t0
+    rss_mesh = _rss_gb()
+    sides = [t for t in pm.facet_tags if T.is_side(t)]
+    mu = float(flow["viscosity"])
+    res = solve_stokes(
+        pm.points,
+        pm.tets,
+        pm.facet_tags,
+        p_inlet=1.0,
+        p_outlet=0.0,
+        viscosity=mu,
+        noslip=[T.WALL],
+        slip=sides,
+        tol=tol,
+        krylov=krylov,
+    )
+    start, end = pm.porous_region
+    q = abs(res.flux[T.OUTLET])
+    dp_rve = 2.0 * res.dissipation(rve_window(pm.axis, start, end)) / q
+    area = float(np.prod(np.delete(rve.size, pm.axis)))
+    k = mu * q * (end - start) / (area * dp_rve)
+    return dict(
+        case="toray",
+        size=f"{voxel:g}/{krylov}",
+        tol=tol,
+        t_mesh=t_mesh,
+        k=k,
+        rss_after_mesh_gb=rss_mesh,
+        **_summary(res),
+    )
+
+
 def _summary(res) -> dict:
     return dict(
         n_tets=res.n_tets,
@@ -192,60 +241,70 @@ def _summary(res) -> dict:
         flux_imbalance=res.flux_imbalance,
         t_assembly=res.timings["assembly"],
         t_solve=res.timings["solve"],
+        cpu_solve=res.timings["solve_cpu"],
         t_total_solver=res.wall_time_s,
         estimate_gb=res.memory_estimate_gb,
         peak_gb=_rss_gb(),
+        load=os.getloadavg()[0],
     )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--case", choices=["cylinders", "fibers", "all"], default="all")
+    ap.add_argument("--case", choices=["cylinders", "fibers", "toray", "all"], default="all")
     ap.add_argument("--sizes", nargs="*", type=float)
     ap.add_argument("--one", nargs=2, metavar=("CASE", "SIZE"))
     ap.add_argument("--timeout", type=float, default=1800)
-    ap.add_argument("--tol", type=float, default=1e-8, help="solver tolerance")
+    ap.add_argument(
+        "--tol", type=float, default=None, help="solver tolerance (default 1e-8; toray 1e-6)"
+    )
     ap.add_argument(
         "--refine", type=int, default=0, help="fibers: uniform refinements of the pytetwild mesh"
+    )
+    ap.add_argument(
+        "--krylov",
+        nargs="*",
+        default=["gmres"],
+        choices=["gmres", "minres"],
+        help="toray: Krylov method(s), each in its own subprocess, one after the other",
     )
     args = ap.parse_args()
     if args.one:
         case, size = args.one
         if case == "cylinders":
-            out = run_cylinders(int(size), args.tol)
+            out = run_cylinders(int(size), args.tol or 1e-8)
+        elif case == "toray":
+            out = run_toray(float(size) * 1e-6, args.tol or 1e-6, args.krylov[0])
         else:
-            out = run_fibers(float(size), args.tol, args.refine)
+            out = run_fibers(float(size), args.tol or 1e-8, args.refine)
         print(json.dumps(out))
         return
     cases = ["cylinders", "fibers"] if args.case == "all" else [args.case]
     for case in cases:
-        sizes = args.sizes or DEFAULT_SIZES[case]
         rows = []
-        for s in sizes:
+        for s in args.sizes or DEFAULT_SIZES[case]:
             s = int(s) if case == "cylinders" else s
-            cmd = [
-                sys.executable,
-                __file__,
-                "--one",
-                case,
-                str(s),
-                "--tol",
-                str(args.tol),
-                "--refine",
-                str(args.refine),
-            ]
-            try:
-                cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
-            except subprocess.TimeoutExpired:
-                print(f"{case} {s}: timed out after {args.timeout} s", flush=True)
-                break
-            if cp.returncode != 0:
-                print(f"{case} {s}: failed\n{cp.stderr[-2000:]}", flush=True)
-                break
-            row = json.loads(cp.stdout.strip().splitlines()[-1])
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+            for kr in args.krylov if case == "toray" else args.krylov[:1]:
+                row = _run_one(case, s, args, kr)
+                if row is None:
+                    break
+                rows.append(row)
+                print(json.dumps(row), flush=True)
         _table(case, rows)
+
+
+def _run_one(case: str, size, args, krylov: str) -> dict | None:
+    cmd = [sys.executable, __file__, "--one", case, str(size), "--refine", str(args.refine)]
+    cmd += ["--krylov", krylov] + ([] if args.tol is None else ["--tol", str(args.tol)])
+    try:
+        cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+    except subprocess.TimeoutExpired:
+        print(f"{case} {size}: timed out after {args.timeout} s", flush=True)
+        return None
+    if cp.returncode != 0:
+        print(f"{case} {size}: failed\n{cp.stderr[-2000:]}", flush=True)
+        return None
+    return json.loads(cp.stdout.strip().splitlines()[-1])
 
 
 def _table(case: str, rows: list[dict]) -> None:
@@ -255,15 +314,16 @@ def _table(case: str, rows: list[dict]) -> None:
     print(f"\n### {case}\n")
     print(
         "| size | tets | dofs | method | iters | residual | K | dK vs ref | dK vs finest "
-        "| mesh s | assembly s | solve s | peak GB | estimate GB |"
+        "| mesh s | assembly s | solve s | solve CPU s | load | peak GB | estimate GB |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         ref = f"{r['err_ref']:+.2e}" if "err_ref" in r else "-"
         print(
             f"| {r['size']} | {r['n_tets']} | {r['n_dofs']} | {r['method']} | {r['iterations']} "
             f"| {r['residual']:.1e} | {r['k']:.5e} | {ref} | {r['k'] / k_fine - 1:+.2e} "
             f"| {r['t_mesh']:.1f} | {r['t_assembly']:.1f} | {r['t_solve']:.1f} "
+            f"| {r.get('cpu_solve', float('nan')):.1f} | {r.get('load', float('nan')):.1f} "
             f"| {r['peak_gb']:.2f} | {r['estimate_gb']:.2f} |"
         )
     print(flush=True)

@@ -369,3 +369,32 @@ def test_degenerate_tetrahedron_is_refused():
     flat = np.array([[0, 2, 6, len(pts) - 1]])
     with pytest.raises(ValueError, match="degenerate"):
         solve_stokes(pts, np.concatenate([tets, flat]), tags, noslip=SIDES_XY)
+
+
+def test_block_triangular_gmres_iteration_bound():
+    """Flow across three cells of a square array (22.8 k unknowns), tol 1e-8: GMRES with the
+    block-triangular preconditioner needs <= 100 iterations (measured 67); the block-diagonal
+    MINRES needs more than that (measured 199, and 157 at tol 1e-6), and both give the same
+    flow rate. The progress callback sees every GMRES iteration and its residual."""
+    pts, tets, tags = cylinder_transverse_row(SPACING, RADIUS, 3, 8, 8)
+    slip = ("side_y0", "side_y1", "side_z0", "side_z1")
+    seen = []
+    runs = {
+        kr: solve_stokes(
+            pts,
+            tets,
+            tags,
+            slip=slip,
+            tol=1e-8,
+            direct_max_dofs=0,
+            krylov=kr,
+            progress=(lambda i, r: seen.append((i, r))) if kr == "gmres" else None,
+        )
+        for kr in ("gmres", "minres")
+    }
+    assert runs["gmres"].converged and runs["minres"].converged
+    assert runs["gmres"].iterations <= 100 < runs["minres"].iterations
+    q = {kr: r.flux["outlet"] for kr, r in runs.items()}
+    assert q["gmres"] == pytest.approx(q["minres"], rel=1e-7)
+    assert [i for i, _ in seen] == list(range(1, runs["gmres"].iterations + 1))
+    assert seen[-1][1] <= 1e-8 < seen[0][1]
