@@ -124,6 +124,10 @@ KRYLOV = ("gmres", "minres")
 #: pages are touched only as the basis grows). The Toray-like case converges in ~100.
 DEFAULT_RESTART = 200
 
+#: Re-orthogonalise an Arnoldi vector when one Gram-Schmidt pass leaves less than this fraction
+#: of its norm (the DGKS criterion, 1 / sqrt(2)).
+REORTH = 0.7071
+
 
 def _amg(A: sp.csr_matrix, kind: str):
     if kind == "sa":
@@ -185,9 +189,11 @@ def gmres(
 ) -> tuple[np.ndarray, int]:
     """Right-preconditioned restarted GMRES for ``K x = b`` (``K = matvec``, ``P^-1 = prec``).
 
-    Arnoldi with classical Gram-Schmidt applied twice (CGS2: two matrix-vector products with
-    the stored basis per step, orthogonal to working precision), Givens rotations for the
-    least-squares problem. Stops when the GMRES residual norm, which with right
+    Arnoldi with classical Gram-Schmidt (two matrix-vector products with the stored basis per
+    step) and a second pass only when the first one cancelled more than ``1 - REORTH`` of the
+    vector's norm (Daniel, Gragg, Kaufman & Stewart, Math. Comp. 30 (1976) 772-795), which
+    keeps the basis orthogonal to working precision; Givens rotations for the least-squares
+    problem. Stops when the GMRES residual norm, which with right
     preconditioning is ``||b - K x||``, is <= ``tol ||b||``, or after ``max_iter`` steps in all.
 
     Parameters
@@ -230,12 +236,15 @@ def gmres(
         k = 0
         while k < m and total < max_iter:
             w = matvec(prec(V[k]))
+            w_norm = float(np.linalg.norm(w))
             h = V[: k + 1] @ w
             w -= V[: k + 1].T @ h
-            h2 = V[: k + 1] @ w
-            w -= V[: k + 1].T @ h2
-            h += h2
             hn = float(np.linalg.norm(w))
+            if hn < REORTH * w_norm:  # cancellation: orthogonalise once more (DGKS)
+                h2 = V[: k + 1] @ w
+                w -= V[: k + 1].T @ h2
+                h += h2
+                hn = float(np.linalg.norm(w))
             H[: k + 1, k] = h
             H[k + 1, k] = hn
             if hn > 0:
