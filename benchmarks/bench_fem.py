@@ -30,6 +30,7 @@ Usage
     python benchmarks/bench_fem.py --case fibers --sizes 0.07 --refine 1   # 1:8 refined mesh
     python benchmarks/bench_fem.py --one cylinders 8     # one run, prints one JSON line
     python benchmarks/bench_fem.py --case toray --krylov gmres minres   # new vs old, one run
+    python benchmarks/bench_fem.py --one array along/periodic/gmres  # array, either bc
 """
 
 from __future__ import annotations
@@ -229,6 +230,34 @@ def run_toray(voxel: float, tol: float = 1e-6, krylov: str = "gmres") -> dict:
     )
 
 
+def run_array(kind: str, bc: str, krylov: str, phi: float = 0.3, cells: int = 3) -> dict:
+    """A square cylinder array through ``permeability_fem`` (``tests/validation/fem_arrays``,
+    lattice step 4 um, voxel 1 um) with the Krylov method ``krylov``: both boundary conditions
+    use the same solver path."""
+    import functools
+
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests", "validation"))
+    from fem_arrays import array_k
+
+    import solvers.fem_stokes as fs
+
+    for name in ("solve_stokes", "solve_stokes_periodic"):
+        setattr(fs, name, functools.partial(getattr(fs, name), krylov=krylov))
+    c0 = time.process_time()
+    r = array_k(kind, phi, cells, bc, 4e-6)
+    return dict(
+        case="array",
+        size=f"{kind}/{bc}/phi {phi}/{cells} cells/{krylov}",
+        k=r["permeability_m2"],
+        err_ref=r["permeability_m2"] / r["k_ref"] - 1,
+        n_dofs=r["n_dofs"],
+        iterations=r["iterations"],
+        residual=r["residual"],
+        cpu_total=time.process_time() - c0,
+        load=os.getloadavg()[0],
+    )
+
+
 def _summary(res) -> dict:
     return dict(
         n_tets=res.n_tets,
@@ -273,6 +302,9 @@ def main() -> None:
         case, size = args.one
         if case == "cylinders":
             out = run_cylinders(int(size), args.tol or 1e-8)
+        elif case == "array":
+            kind, bc, kr = size.split("/")
+            out = run_array(kind, bc, kr)
         elif case == "toray":
             out = run_toray(float(size) * 1e-6, args.tol or 1e-6, args.krylov[0])
         else:
