@@ -400,8 +400,9 @@ def solve_stokes(
         :data:`solvers.fem.linsolve.DEFAULT_RESTART` Krylov vectors) or MINRES with the
         block-diagonal one (no stored basis, about 3x more iterations).
     progress : callable, optional
-        ``progress(iteration, relative_residual)`` after each Krylov iteration (GMRES: the
-        true relative residual of the iterate; MINRES: NaN).
+        ``progress(iteration, relative_residual)`` after each Krylov iteration (GMRES: its
+        recurrence value of ``||b - K x|| / ||b||``, equal to the true one up to rounding;
+        MINRES: NaN). Not called by the direct solver.
 
     Returns
     -------
