@@ -39,6 +39,7 @@ from solvers.fem_stokes import (
     MemoryLimitError,
     estimate_memory_gb,
     solve_stokes,
+    solve_stokes_periodic,
 )
 
 SIDES_XY = ("side_x0", "side_x1", "side_y0", "side_y1")
@@ -398,3 +399,12 @@ def test_block_triangular_gmres_iteration_bound():
     assert q["gmres"] == pytest.approx(q["minres"], rel=1e-7)
     assert [i for i, _ in seen] == list(range(1, runs["gmres"].iterations + 1))
     assert seen[-1][1] <= 1e-8 < seen[0][1]
+
+
+def test_unknown_krylov_is_refused():
+    pts, tets = box_mesh((0, 0, 0), (1, 1, 1), (2, 2, 2))
+    tags = tag_box_boundary(pts, tets, (0, 0, 0), (1, 1, 1), 2)
+    with pytest.raises(ValueError, match="krylov must be one of"):
+        solve_stokes(pts, tets, tags, krylov="cg")
+    with pytest.raises(ValueError, match="krylov must be one of"):
+        solve_stokes_periodic(pts, tets, axis=2, periodic_axes=(0, 2), krylov="cg")
