@@ -11,6 +11,13 @@ fibers
     (radius 0.07, porosity ~0.8), surface by manifold3d, tetrahedra by pytetwild, box faces
     snapped flat, flow along z (through-plane), slip sides. Reference: the finest mesh.
 
+toray
+    The Toray-like through-plane permeameter solve of ``studies/table3/straight.toml``
+    (size = voxel in um, default 0.5: the stuffing mesher's default mesh, 658 k unknowns),
+    slip sides, tol 1e-6, K from the windowed dissipation as in ``permeability_fem``; the mesh
+    is cached as a pickle. ``--krylov gmres minres`` runs the block-triangular GMRES and the
+    block-diagonal MINRES one after the other (solve CPU seconds do not depend on the load).
+
 Tet meshes of the fibers case are cached in $PSDESIGN_BENCH_CACHE (default
 /tmp/psdesign_bench_cache); the reported mesh time is the pytetwild time only on a cache miss.
 Each size runs in its own subprocess so that the peak resident memory (getrusage high-water
@@ -22,6 +29,8 @@ Usage
     python benchmarks/bench_fem.py --case fibers --sizes 0.06 0.04
     python benchmarks/bench_fem.py --case fibers --sizes 0.07 --refine 1   # 1:8 refined mesh
     python benchmarks/bench_fem.py --one cylinders 8     # one run, prints one JSON line
+    python benchmarks/bench_fem.py --case toray --krylov gmres minres   # new vs old, one run
+    python benchmarks/bench_fem.py --one array along/periodic/gmres  # array, either bc
 """
 
 from __future__ import annotations
@@ -43,7 +52,11 @@ PHI = 0.1
 SPACING = 1.0
 RADIUS = float(np.sqrt(PHI / np.pi))
 CACHE = os.environ.get("PSDESIGN_BENCH_CACHE", "/tmp/psdesign_bench_cache")
-DEFAULT_SIZES = {"cylinders": [4, 8, 12, 16, 24], "fibers": [0.07, 0.05, 0.035, 0.025]}
+DEFAULT_SIZES = {
+    "cylinders": [4, 8, 12, 16, 24],
+    "fibers": [0.07, 0.05, 0.035, 0.025],
+    "toray": [0.5],
+}
 
 
 def _rss_gb() -> float:
@@ -143,6 +156,108 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     )
 
 
+def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6):
+    """RVE, flow table and default permeameter mesh of ``studies/table3/straight.toml`` at
+    ``voxel`` (m) in a cube of side ``size`` (m), cached as a pickle in $PSDESIGN_BENCH_CACHE."""
+    import pickle
+    import tempfile
+    from pathlib import Path
+
+    cache = Path(CACHE) / f"toray_{voxel:g}_{direction}_{size:g}.pkl"
+    if cache.exists():
+        with cache.open("rb") as f:
+            return pickle.load(f)
+    from psdesign.flow.fem import _mesh
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "studies/table3/straight.toml").read_text()
+    text = text.replace("voxel = 0.5e-6", f"voxel = {voxel!r}")
+    text = text.replace("size = [100e-6, 100e-6, 100e-6]", f"size = [{size!r}, {size!r}, {size!r}]")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "straight.toml"
+        path.write_text(text)
+        spec = load_spec(path)
+    built = build_rve(spec)
+    fields = built.voxelize(voxel)
+    flow = dict(spec["flow"])
+    pm = _mesh(built.rve, fields, direction, flow, "permeameter")
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    with cache.open("wb") as f:
+        pickle.dump((built.rve, flow, pm), f)
+    return built.rve, flow, pm
+
+
+def run_toray(voxel: float, tol: float = 1e-6, krylov: str = "gmres") -> dict:
+    """The Toray-like through-plane permeameter solve (``permeability_fem``'s settings: slip
+    sides, windowed-dissipation K) on the cached default mesh of :func:`toray_mesh`."""
+    from psdesign.flow.fem import rve_window
+    from psdesign.meshing import tags as T
+    from solvers.fem_stokes import solve_stokes
+
+    t0 = time.perf_counter()
+    rve, flow, pm = toray_mesh(voxel)
+    t_mesh = time.perf_counter() - t0
+    rss_mesh = _rss_gb()
+    sides = [t for t in pm.facet_tags if T.is_side(t)]
+    mu = float(flow["viscosity"])
+    res = solve_stokes(
+        pm.points,
+        pm.tets,
+        pm.facet_tags,
+        p_inlet=1.0,
+        p_outlet=0.0,
+        viscosity=mu,
+        noslip=[T.WALL],
+        slip=sides,
+        tol=tol,
+        krylov=krylov,
+    )
+    start, end = pm.porous_region
+    q = abs(res.flux[T.OUTLET])
+    dp_rve = 2.0 * res.dissipation(rve_window(pm.axis, start, end)) / q
+    area = float(np.prod(np.delete(rve.size, pm.axis)))
+    k = mu * q * (end - start) / (area * dp_rve)
+    return dict(
+        case="toray",
+        size=f"{voxel:g}/{krylov}",
+        tol=tol,
+        t_mesh=t_mesh,
+        k=k,
+        rss_after_mesh_gb=rss_mesh,
+        **_summary(res),
+    )
+
+
+def run_array(kind: str, bc: str, krylov: str, phi: float = 0.3, cells: int = 3) -> dict:
+    """A square cylinder array through ``permeability_fem`` (``tests/validation/fem_arrays``,
+    lattice step 4 um, voxel 1 um) with the Krylov method ``krylov``: both boundary conditions
+    use the same solver path."""
+    import functools
+
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests", "validation"))
+    from fem_arrays import array_k
+
+    import solvers.fem_stokes as fs
+
+    for name in ("solve_stokes", "solve_stokes_periodic"):
+        setattr(fs, name, functools.partial(getattr(fs, name), krylov=krylov))
+    c0 = time.process_time()
+    r = array_k(kind, phi, cells, bc, 4e-6)
+    return dict(
+        case="array",
+        size=f"{kind}/{bc}/phi {phi}/{cells} cells/{krylov}",
+        k=r["permeability_m2"],
+        err_ref=r["permeability_m2"] / r["k_ref"] - 1,
+        n_dofs=r["n_dofs"],
+        iterations=r["iterations"],
+        residual=r["residual"],
+        cpu_total=time.process_time() - c0,
+        load=os.getloadavg()[0],
+    )
+
+
 def _summary(res) -> dict:
     return dict(
         n_tets=res.n_tets,
@@ -155,60 +270,73 @@ def _summary(res) -> dict:
         flux_imbalance=res.flux_imbalance,
         t_assembly=res.timings["assembly"],
         t_solve=res.timings["solve"],
+        cpu_solve=res.timings["solve_cpu"],
         t_total_solver=res.wall_time_s,
         estimate_gb=res.memory_estimate_gb,
         peak_gb=_rss_gb(),
+        load=os.getloadavg()[0],
     )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--case", choices=["cylinders", "fibers", "all"], default="all")
+    ap.add_argument("--case", choices=["cylinders", "fibers", "toray", "all"], default="all")
     ap.add_argument("--sizes", nargs="*", type=float)
     ap.add_argument("--one", nargs=2, metavar=("CASE", "SIZE"))
     ap.add_argument("--timeout", type=float, default=1800)
-    ap.add_argument("--tol", type=float, default=1e-8, help="solver tolerance")
+    ap.add_argument(
+        "--tol", type=float, default=None, help="solver tolerance (default 1e-8; toray 1e-6)"
+    )
     ap.add_argument(
         "--refine", type=int, default=0, help="fibers: uniform refinements of the pytetwild mesh"
+    )
+    ap.add_argument(
+        "--krylov",
+        nargs="*",
+        default=["gmres"],
+        choices=["gmres", "minres"],
+        help="toray: Krylov method(s), each in its own subprocess, one after the other",
     )
     args = ap.parse_args()
     if args.one:
         case, size = args.one
         if case == "cylinders":
-            out = run_cylinders(int(size), args.tol)
+            out = run_cylinders(int(size), args.tol or 1e-8)
+        elif case == "array":
+            kind, bc, kr = size.split("/")
+            out = run_array(kind, bc, kr)
+        elif case == "toray":
+            out = run_toray(float(size) * 1e-6, args.tol or 1e-6, args.krylov[0])
         else:
-            out = run_fibers(float(size), args.tol, args.refine)
+            out = run_fibers(float(size), args.tol or 1e-8, args.refine)
         print(json.dumps(out))
         return
     cases = ["cylinders", "fibers"] if args.case == "all" else [args.case]
     for case in cases:
-        sizes = args.sizes or DEFAULT_SIZES[case]
         rows = []
-        for s in sizes:
+        for s in args.sizes or DEFAULT_SIZES[case]:
             s = int(s) if case == "cylinders" else s
-            cmd = [
-                sys.executable,
-                __file__,
-                "--one",
-                case,
-                str(s),
-                "--tol",
-                str(args.tol),
-                "--refine",
-                str(args.refine),
-            ]
-            try:
-                cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
-            except subprocess.TimeoutExpired:
-                print(f"{case} {s}: timed out after {args.timeout} s", flush=True)
-                break
-            if cp.returncode != 0:
-                print(f"{case} {s}: failed\n{cp.stderr[-2000:]}", flush=True)
-                break
-            row = json.loads(cp.stdout.strip().splitlines()[-1])
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+            for kr in args.krylov if case == "toray" else args.krylov[:1]:
+                row = _run_one(case, s, args, kr)
+                if row is None:
+                    break
+                rows.append(row)
+                print(json.dumps(row), flush=True)
         _table(case, rows)
+
+
+def _run_one(case: str, size, args, krylov: str) -> dict | None:
+    cmd = [sys.executable, __file__, "--one", case, str(size), "--refine", str(args.refine)]
+    cmd += ["--krylov", krylov] + ([] if args.tol is None else ["--tol", str(args.tol)])
+    try:
+        cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+    except subprocess.TimeoutExpired:
+        print(f"{case} {size}: timed out after {args.timeout} s", flush=True)
+        return None
+    if cp.returncode != 0:
+        print(f"{case} {size}: failed\n{cp.stderr[-2000:]}", flush=True)
+        return None
+    return json.loads(cp.stdout.strip().splitlines()[-1])
 
 
 def _table(case: str, rows: list[dict]) -> None:
@@ -218,15 +346,16 @@ def _table(case: str, rows: list[dict]) -> None:
     print(f"\n### {case}\n")
     print(
         "| size | tets | dofs | method | iters | residual | K | dK vs ref | dK vs finest "
-        "| mesh s | assembly s | solve s | peak GB | estimate GB |"
+        "| mesh s | assembly s | solve s | solve CPU s | load | peak GB | estimate GB |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         ref = f"{r['err_ref']:+.2e}" if "err_ref" in r else "-"
         print(
             f"| {r['size']} | {r['n_tets']} | {r['n_dofs']} | {r['method']} | {r['iterations']} "
             f"| {r['residual']:.1e} | {r['k']:.5e} | {ref} | {r['k'] / k_fine - 1:+.2e} "
             f"| {r['t_mesh']:.1f} | {r['t_assembly']:.1f} | {r['t_solve']:.1f} "
+            f"| {r.get('cpu_solve', float('nan')):.1f} | {r.get('load', float('nan')):.1f} "
             f"| {r['peak_gb']:.2f} | {r['estimate_gb']:.2f} |"
         )
     print(flush=True)

@@ -15,9 +15,10 @@ Equations (steady incompressible Stokes, constant viscosity ``mu``)::
     u . n = 0, mu du_t/dn = 0       on slip facets (flat, axis-aligned symmetry planes)
 
 Discretization: Taylor-Hood P2 velocity / P1 pressure (inf-sup stable), assembled with
-scikit-fem (vectorized, chunked). Solver: sparse LU for small systems, otherwise MINRES with a
-block-diagonal preconditioner (pyamg smoothed aggregation per velocity component, lumped
-pressure mass / viscosity for the Schur complement). See :mod:`solvers.fem` for the pieces.
+scikit-fem (vectorized, chunked). Solver: sparse LU for small systems, otherwise GMRES with a
+block upper-triangular preconditioner (pyamg smoothed aggregation per velocity component,
+lumped pressure mass / viscosity for the Schur complement; ``krylov="minres"``: the
+block-diagonal one with MINRES). See :mod:`solvers.fem` for the pieces.
 
 The problem is solved in scaled variables (lengths by the mean edge length, pressure by
 max(|p_inlet|, |p_outlet|), viscosity 1) so that tolerances do not depend on the SI
@@ -29,7 +30,7 @@ from __future__ import annotations
 import contextlib
 import resource
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,7 +38,7 @@ from skfem import ElementTetP2
 
 from solvers.fem import assembly
 from solvers.fem.boundary import BoundaryTagError, match_rows, slip_axis, vertex_components
-from solvers.fem.linsolve import SaddleSystem, solve_direct, solve_minres
+from solvers.fem.linsolve import KRYLOV, SaddleSystem, solve_direct, solve_iterative
 from solvers.fem.memory import (
     ELEMENTS,
     MemoryLimitError,
@@ -115,11 +116,13 @@ class StokesResult:
     pressure : ndarray (n,)
         Pressure at the input vertices (Pa); NaN at removed/unused vertices.
     method : str
-        ``"direct"`` or ``"minres+amg-sa"``.
+        ``"direct"``, ``"gmres+amg-sa"`` (default iterative) or ``"minres+amg-sa"``.
     slip_axes : dict[str, int]
         Normal axis (0=x, 1=y, 2=z) found for each slip tag.
     timings : dict[str, float]
-        Seconds spent in ``assembly``, ``solve`` and ``post``.
+        Seconds spent in ``assembly``, ``solve`` and ``post`` (wall clock) and CPU seconds of
+        the solve, ``solve_cpu`` (all threads of the process; independent of other jobs'
+        load, unlike the wall clock).
     mean_velocity : ndarray (3,) or None
         :func:`solve_stokes_periodic` only: superficial mean velocity ``int u dV / V_box``
         (m/s), the Darcy velocity of the homogenized medium.
@@ -351,6 +354,8 @@ def solve_stokes(
     force: bool = False,
     direct_max_dofs: int = 8_000,
     amg: str = "sa",
+    krylov: str = "gmres",
+    progress: Callable[[int, float], None] | None = None,
 ) -> StokesResult:
     """Solve steady Stokes flow driven by prescribed inlet/outlet pressures.
 
@@ -390,6 +395,14 @@ def solve_stokes(
         unstructured P2-P1 mesh, MINRES 3 s for the 31 k).
     amg : {"sa", "rs"}
         pyamg smoothed aggregation or Ruge-Stuben for the velocity blocks.
+    krylov : {"gmres", "minres"}
+        GMRES with the block-triangular preconditioner (default; stores up to
+        :data:`solvers.fem.linsolve.DEFAULT_RESTART` Krylov vectors) or MINRES with the
+        block-diagonal one (no stored basis, about 3x more iterations).
+    progress : callable, optional
+        ``progress(iteration, relative_residual)`` after each Krylov iteration (GMRES: its
+        recurrence value of ``||b - K x|| / ||b||``, equal to the true one up to rounding;
+        MINRES: NaN). Not called by the direct solver.
 
     Returns
     -------
@@ -421,6 +434,8 @@ def solve_stokes(
     )
     if amg not in ("sa", "rs"):
         raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
+    if krylov not in KRYLOV:
+        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
     n_in_points = len(points)
 
     est = estimate_memory_gb(len(points), len(tets), element)
@@ -526,12 +541,16 @@ def solve_stokes(
 
     # --- solve ---
     t0 = time.perf_counter()
+    c0 = time.process_time()
     if system.n <= direct_max_dofs:
         info = solve_direct(system, b, tol)
     else:
         with _single_thread_blas():
-            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+            info = solve_iterative(
+                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
+            )
     t_solve = time.perf_counter() - t0
+    c_solve = time.process_time() - c0
     del system, A_red, D_red
 
     # --- post-processing ---
@@ -571,7 +590,7 @@ def solve_stokes(
         method=info.method,
         element=element,
         slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
+        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
         _state={
             "mesh": mesh,
             "dofs2": dofs2,
@@ -627,6 +646,8 @@ def solve_stokes_periodic(
     force: bool = False,
     direct_max_dofs: int = 8_000,
     amg: str = "sa",
+    krylov: str = "gmres",
+    progress: Callable[[int, float], None] | None = None,
 ) -> StokesResult:
     """Stokes flow periodic across opposite box faces, driven by a mean pressure gradient.
 
@@ -653,7 +674,7 @@ def solve_stokes_periodic(
         Axes whose face pairs are identified (default all three).
     slip : sequence of str
         Tags of flat faces normal to a non-periodic axis with a symmetry condition.
-    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg
+    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg, krylov, progress
         As in :func:`solve_stokes`.
 
     Returns
@@ -685,6 +706,8 @@ def solve_stokes_periodic(
         raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
     if amg not in ("sa", "rs"):
         raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
+    if krylov not in KRYLOV:
+        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
     slip = _as_names(slip, "slip")
     tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in (facet_tags or {}).items()}
     for n in slip:
@@ -715,12 +738,16 @@ def solve_stokes_periodic(
     t_asm = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    c0 = time.process_time()
     if system.n <= direct_max_dofs:
         info = solve_direct(system, b, tol)
     else:
         with _single_thread_blas():
-            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+            info = solve_iterative(
+                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
+            )
     t_solve = time.perf_counter() - t0
+    c_solve = time.process_time() - c0
     del system
 
     t0 = time.perf_counter()
@@ -761,7 +788,7 @@ def solve_stokes_periodic(
         pressure=pressure,
         method=info.method,
         slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "post": t_post},
+        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
         mean_velocity=mean_u,
         _state={
             "mesh": mesh,

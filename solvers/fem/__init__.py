@@ -8,7 +8,8 @@ assembly
     Chunked, vectorized scikit-fem assembly of the scalar P2 Laplacian, the P1-P2 divergence
     blocks, the P1 pressure mass matrix and the boundary pressure loads.
 linsolve
-    Sparse direct solve for small systems and block-preconditioned MINRES (pyamg) for large ones.
+    Sparse direct solve for small systems; block-triangular GMRES (default) or block-diagonal
+    MINRES (pyamg velocity AMG) for large ones.
 memory
     Up-front memory estimate.
 periodic

@@ -4,20 +4,24 @@ Model: the number of Taylor-Hood unknowns is about ``7 n_points + 3 n_tets`` (P2
 vertices + edges, edges ~ vertices + tets by Euler's formula; 3 velocity components + 1
 pressure per vertex), and the peak resident memory is
 
-    bytes = BYTES_PER_DOF * (7 n_points + 3 n_tets) + BYTES_PER_CHUNK_TET * min(n_tets, 1e5)
-            + BASE_BYTES
+    bytes = (BYTES_PER_DOF + KRYLOV_BYTES_PER_DOF) * (7 n_points + 3 n_tets)
+            + BYTES_PER_CHUNK_TET * min(n_tets, 1e5) + BASE_BYTES
 
-(matrices, three smoothed-aggregation hierarchies and Krylov vectors per unknown; temporary
-COO arrays of one 100 k-element assembly chunk; interpreter and libraries). Calibrated on this
+(matrices, three smoothed-aggregation hierarchies and work vectors per unknown; the GMRES
+basis of up to ``DEFAULT_RESTART + 1`` vectors, :mod:`solvers.fem.linsolve`; temporary COO
+arrays of one 100 k-element assembly chunk; interpreter and libraries). Calibrated on this
 machine with ``benchmarks/bench_fem.py`` (structured cylinder-array meshes with 5.6 k to 1.07 M
 unknowns, measured peak 0.10-1.17 GB; fTetWild fiber meshes with 0.15 M and 1.27 M unknowns,
 0.47 and 1.52 GB; see benchmarks/RESULTS.md) and rounded up: the estimate exceeds every
-measured peak, by 15-80 %.
+measured peak, by 15-80 %. These were MINRES runs; the GMRES basis term was added when GMRES
+became the default (Toray-like permeameter, 658 k unknowns, 128 iterations: peak 1.46 GB).
 """
 
 from __future__ import annotations
 
 import psutil
+
+from solvers.fem.linsolve import DEFAULT_RESTART
 
 ELEMENTS = ("taylor-hood",)
 
@@ -25,6 +29,8 @@ BYTES_PER_DOF = 1.5e3
 BYTES_PER_CHUNK_TET = 3.0e3
 CHUNK = 100_000
 BASE_BYTES = 0.15e9
+#: The GMRES basis at its largest (``linsolve.DEFAULT_RESTART + 1`` float64 vectors).
+KRYLOV_BYTES_PER_DOF = 8.0 * (DEFAULT_RESTART + 1)
 
 
 class MemoryLimitError(ValueError):
@@ -55,7 +61,8 @@ def estimate_memory_gb(n_points: int, n_tets: int, element: str = "taylor-hood")
             f"n_points must be >= 4 and n_tets >= 1, got n_points={n_points}, n_tets={n_tets}"
         )
     dofs = 7.0 * n_points + 3.0 * n_tets
-    return (BYTES_PER_DOF * dofs + BYTES_PER_CHUNK_TET * min(n_tets, CHUNK) + BASE_BYTES) / 1e9
+    per_dof = BYTES_PER_DOF + KRYLOV_BYTES_PER_DOF
+    return (per_dof * dofs + BYTES_PER_CHUNK_TET * min(n_tets, CHUNK) + BASE_BYTES) / 1e9
 
 
 def default_limit_gb() -> float:

@@ -20,8 +20,12 @@ W, H, LZ = 1e-5, 2e-5, 3e-5
 MU, G = 1.8e-5, 7.0
 
 
-@pytest.mark.parametrize("direct_max_dofs", [10**6, 0], ids=["direct", "minres"])
-def test_periodic_plane_poiseuille_exact(direct_max_dofs):
+@pytest.mark.parametrize(
+    ("direct_max_dofs", "krylov"),
+    [(10**6, "gmres"), (0, "minres"), (0, "gmres")],
+    ids=["direct", "minres", "gmres"],
+)
+def test_periodic_plane_poiseuille_exact(direct_max_dofs, krylov):
     """Periodic in x and z, walls y = 0, H: <u_z> = G H^2 / (12 mu) over the box, exactly."""
     pts, tets = box_mesh((0, 0, 0), (W, H, LZ), (3, 4, 5))
     res = solve_stokes_periodic(
@@ -33,8 +37,10 @@ def test_periodic_plane_poiseuille_exact(direct_max_dofs):
         periodic_axes=(0, 2),
         tol=1e-10,
         direct_max_dofs=direct_max_dofs,
+        krylov=krylov,
     )
     assert res.converged
+    assert res.method == ("direct" if direct_max_dofs else f"{krylov}+amg-sa")
     u_mean = res.mean_velocity
     assert u_mean[2] == pytest.approx(G * H**2 / (12 * MU), rel=1e-9)
     assert np.all(np.abs(u_mean[:2]) < 1e-9 * u_mean[2])
