@@ -224,30 +224,42 @@ def _ci95(x: np.ndarray) -> float:
     return float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
 
 
-def summary(path: Path) -> str:
-    """Markdown table: mean +- 95 % CI per (spec, method, direction) and pore statistics."""
+def _key(r: dict) -> tuple:
+    return (r["spec"], r["method"], r.get("solver", "voxel"), r.get("bc", "periodic"))
+
+
+def _k_cell(rs: list, key: str, ref: float | None) -> list[str]:
+    k = np.array([r[key] for r in rs if key in r])
+    if len(k) == 0:
+        return ["-", "-"]
+    vs = f"{100 * (k.mean() / ref - 1):+.0f} %" if ref else "n/a"
+    ci = f" +- {_ci95(k):.2e}" if len(k) > 1 else ""
+    return [f"{k.mean():.3e}{ci} (n={len(k)})", vs]
+
+
+def summary(path: Path, reading: str = "") -> str:
+    """Markdown table: mean +- 95 % CI per (spec, method, solver, bc, direction).
+
+    ``reading``: '' (the route's K; FEM permeameter: windowed dissipation), '_faces' (FEM
+    permeameter, drop between the RVE faces) or '_applied' (FEM permeameter, applied drop over
+    the RVE plus both auxiliary zones).
+    """
     rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     groups: dict = {}
     for r in rows:
-        groups.setdefault((r["spec"], r["method"]), []).append(r)
+        groups.setdefault(_key(r), []).append(r)
     lines = [
-        "| spec | method | n | porosity | Omega | K_z mean +- 95% CI (m^2) | vs paper | "
+        "| spec | method | solver, bc | porosity | Omega | K_z mean +- 95% CI (m^2) | vs paper | "
         "K_x mean +- 95% CI (m^2) | vs paper | pore d50 (um) | d90 (um) | clustering CV |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for (spec, method), rs in sorted(groups.items()):
+    for (spec, method, solver, bc), rs in sorted(groups.items()):
         kind = Path(spec).stem
-        cells = [spec, method, str(len(rs))]
+        cells = [spec, method, f"{solver}, {bc}"]
         cells.append(f"{np.mean([r['porosity'] for r in rs]):.4f}")
         cells.append(f"{np.mean([r['omega'] for r in rs]):.4f}")
         for d in ("z", "x"):
-            k = np.array([r[f"k_{d}_m2"] for r in rs if f"k_{d}_m2" in r])
-            if len(k) == 0:
-                cells += ["-", "-"]
-                continue
-            cells.append(f"{k.mean():.3e} +- {_ci95(k):.2e}")
-            ref = PAPER.get((kind, d))
-            cells.append(f"{100 * (k.mean() / ref - 1):+.0f} %" if ref else "n/a")
+            cells += _k_cell(rs, f"k_{d}{reading}_m2", PAPER.get((kind, d)))
         cells.append(f"{1e6 * np.mean([r['pore_d50_m'] for r in rs]):.1f}")
         cells.append(f"{1e6 * np.mean([r['pore_d90_m'] for r in rs]):.1f}")
         cells.append(f"{np.mean([r['clustering_cv_20um'] for r in rs]):.3f}")
@@ -282,9 +294,10 @@ def main(argv=None) -> int:
     m.add_argument("--out", required=True)
     s = sub.add_parser("summary")
     s.add_argument("path")
+    s.add_argument("--reading", default="", choices=("", "_faces", "_applied"))
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        print(summary(Path(a.path)))
+        print(summary(Path(a.path), a.reading))
         return 0
     global CACHE_DIR
     CACHE_DIR = a.cache
