@@ -73,13 +73,56 @@ def pore_statistics(solid: np.ndarray, voxel: float) -> dict:
     }
 
 
-def run_case(spec_path: Path, method: str | None, seed: int, directions, voxel: float) -> dict:
-    """Generate one RVE and measure it; returns the JSON record."""
+#: Folder of pickled built RVEs (same spec dict -> same RVE: every random choice is seeded), so
+#: that the solver/BC variants of one seed do not re-run the GA. Unset: no cache.
+CACHE_DIR = None
+
+
+def _cached_build(spec: dict, build):
+    import hashlib
+    import pickle
+
+    if CACHE_DIR is None:
+        return build(spec)
+    key = hashlib.sha1(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:16]
+    path = Path(CACHE_DIR) / f"rve_{key}.pkl"
+    if path.exists():
+        return pickle.loads(path.read_bytes())
+    built = build(spec)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_bytes(pickle.dumps(built))
+    tmp.replace(path)
+    return built
+
+
+def run_case(
+    spec_path: Path,
+    method: str | None,
+    seed: int,
+    directions,
+    voxel: float,
+    solver: str = "voxel",
+    bc: str = "periodic",
+    error_estimate: bool = True,
+    size: float | None = None,
+    lattice_step: float | None = None,
+) -> dict:
+    """Generate one RVE and measure it; returns the JSON record.
+
+    ``solver``/``bc``: the route (voxel periodic by default; ``fem`` + ``permeameter`` is the
+    paper's setting: empty inlet/outlet zones of ``flow.aux_length``, slip sides, K from the
+    windowed dissipation; the faces-drop and applied-drop readings are recorded beside it).
+    ``size``: cube edge (m) instead of the spec's (RVE-size study). ``lattice_step``: the FEM
+    mesher's lattice step (m), default the route's (L/30).
+    """
     from psdesign.flow.permeability import permeability
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
 
     spec = load_spec(spec_path)
+    if size is not None:
+        spec["rve"] = {**spec["rve"], "size": [size, size, size]}
     if "generator" in spec:
         spec["generator"] = {**spec["generator"], "seed": seed}
     if method is not None:
@@ -87,7 +130,7 @@ def run_case(spec_path: Path, method: str | None, seed: int, directions, voxel: 
         if method == "ga":
             spec["intersections"]["min_gap"] = 0.0
     t0 = time.perf_counter()
-    built = build_rve(spec)
+    built = _cached_build(spec, build_rve)
     t_gen = time.perf_counter() - t0
     fields = built.rve.voxelize(voxel)
     rec = {
@@ -105,13 +148,71 @@ def run_case(spec_path: Path, method: str | None, seed: int, directions, voxel: 
         },
     }
     rec.update(pore_statistics(fields.solid, voxel))
-    flow = {**spec["flow"], "solver": "voxel"}
+    rec["solver"], rec["bc"], rec["size_m"] = solver, bc, float(built.rve.size[0])
+    flow = {**spec["flow"], "solver": solver, "bc": bc}
+    if lattice_step is not None:
+        flow["lattice_step"] = lattice_step
+        rec["lattice_step_m"] = lattice_step
     for d in directions:
-        r = permeability(built.rve, fields, d, flow, solver="voxel")
+        r = permeability(built.rve, fields, d, flow, solver=solver, error_estimate=error_estimate)
         rec[f"k_{d}_m2"] = r["permeability_m2"]
         rec[f"k_{d}_converged"] = r["converged"]
         rec[f"k_{d}_wall_s"] = r["wall_time_s"]
-        rec["bc"] = r.get("bc", "periodic")
+        rec[f"k_{d}_rel_error"] = r.get("permeability_rel_error")
+        rec[f"k_{d}_status"] = r.get("status")
+        if "pressure_drop_faces_pa" in r:  # the FEM permeameter's other readings of dP
+            kw = r["permeability_m2"]
+            rec[f"k_{d}_faces_m2"] = kw * r["pressure_drop_rve_pa"] / r["pressure_drop_faces_pa"]
+            frac = 1.0 + 2.0 * r["aux_length"]  # applied drop over the RVE + both zones
+            rec[f"k_{d}_applied_m2"] = (
+                kw * r["pressure_drop_rve_pa"] / r["pressure_drop_applied_pa"] * frac
+            )
+            rec[f"k_{d}_n_dofs"] = r.get("n_dofs")
+    return rec
+
+
+def mirrored_fields(fields, axis: int):
+    """The voxel image followed by its mirror image along ``axis`` (twice as long).
+
+    Periodic without face mismatch along ``axis``: every fiber cut by the two faces meets
+    its own mirror image. For fibers with omega uniform in [0, 180) the mirror image has the
+    same orientation statistics, so the doubled image is the same material.
+    """
+    from psdesign.geometry.rve import VoxelFields, VoxelGrid
+
+    def both(a):
+        return np.concatenate([a, np.flip(a, axis=axis)], axis=axis)
+
+    size = np.array(fields.grid.size, float)
+    size[axis] *= 2
+    grid = VoxelGrid.from_voxel(size, float(fields.grid.spacing[0]))
+    return VoxelFields(distance=both(fields.distance), count=both(fields.count), grid=grid)
+
+
+def run_mirror(spec_path: Path, method: str, seed: int, direction: str, voxel: float) -> dict:
+    """K along ``direction`` (voxel, periodic) of one RVE and of it + its mirror image."""
+    from psdesign.flow.permeability import permeability
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+
+    spec = load_spec(spec_path)
+    spec["generator"] = {**spec["generator"], "seed": seed}
+    spec["intersections"] = {**spec.get("intersections", {}), "method": method}
+    if method == "ga":
+        spec["intersections"]["min_gap"] = 0.0
+    built = _cached_build(spec, build_rve)
+    fields = built.rve.voxelize(voxel)
+    flow = {**spec["flow"], "solver": "voxel", "bc": "periodic"}
+    ax = "xyz".index(direction)
+    rec = {"spec": str(spec_path.relative_to(ROOT)), "method": method, "seed": seed}
+    rec.update({"voxel_m": voxel, "direction": direction, "porosity": fields.porosity})
+    first, last = np.take(fields.solid, 0, axis=ax), np.take(fields.solid, -1, axis=ax)
+    rec["face_mismatch"] = float(np.mean(first != last))
+    for name, f in (("plain", fields), ("mirrored", mirrored_fields(fields, ax))):
+        r = permeability(built.rve, f, direction, flow, solver="voxel", error_estimate=False)
+        rec[f"k_{name}_m2"] = r["permeability_m2"]
+        rec[f"k_{name}_converged"] = r["converged"]
+        rec[f"k_{name}_wall_s"] = r["wall_time_s"]
     return rec
 
 
@@ -123,30 +224,42 @@ def _ci95(x: np.ndarray) -> float:
     return float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
 
 
-def summary(path: Path) -> str:
-    """Markdown table: mean +- 95 % CI per (spec, method, direction) and pore statistics."""
+def _key(r: dict) -> tuple:
+    return (r["spec"], r["method"], r.get("solver", "voxel"), r.get("bc", "periodic"))
+
+
+def _k_cell(rs: list, key: str, ref: float | None) -> list[str]:
+    k = np.array([r[key] for r in rs if key in r])
+    if len(k) == 0:
+        return ["-", "-"]
+    vs = f"{100 * (k.mean() / ref - 1):+.0f} %" if ref else "n/a"
+    ci = f" +- {_ci95(k):.2e}" if len(k) > 1 else ""
+    return [f"{k.mean():.3e}{ci} (n={len(k)})", vs]
+
+
+def summary(path: Path, reading: str = "") -> str:
+    """Markdown table: mean +- 95 % CI per (spec, method, solver, bc, direction).
+
+    ``reading``: '' (the route's K; FEM permeameter: windowed dissipation), '_faces' (FEM
+    permeameter, drop between the RVE faces) or '_applied' (FEM permeameter, applied drop over
+    the RVE plus both auxiliary zones).
+    """
     rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     groups: dict = {}
     for r in rows:
-        groups.setdefault((r["spec"], r["method"]), []).append(r)
+        groups.setdefault(_key(r), []).append(r)
     lines = [
-        "| spec | method | n | porosity | Omega | K_z mean +- 95% CI (m^2) | vs paper | "
+        "| spec | method | solver, bc | porosity | Omega | K_z mean +- 95% CI (m^2) | vs paper | "
         "K_x mean +- 95% CI (m^2) | vs paper | pore d50 (um) | d90 (um) | clustering CV |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for (spec, method), rs in sorted(groups.items()):
+    for (spec, method, solver, bc), rs in sorted(groups.items()):
         kind = Path(spec).stem
-        cells = [spec, method, str(len(rs))]
+        cells = [spec, method, f"{solver}, {bc}"]
         cells.append(f"{np.mean([r['porosity'] for r in rs]):.4f}")
         cells.append(f"{np.mean([r['omega'] for r in rs]):.4f}")
         for d in ("z", "x"):
-            k = np.array([r[f"k_{d}_m2"] for r in rs if f"k_{d}_m2" in r])
-            if len(k) == 0:
-                cells += ["-", "-"]
-                continue
-            cells.append(f"{k.mean():.3e} +- {_ci95(k):.2e}")
-            ref = PAPER.get((kind, d))
-            cells.append(f"{100 * (k.mean() / ref - 1):+.0f} %" if ref else "n/a")
+            cells += _k_cell(rs, f"k_{d}{reading}_m2", PAPER.get((kind, d)))
         cells.append(f"{1e6 * np.mean([r['pore_d50_m'] for r in rs]):.1f}")
         cells.append(f"{1e6 * np.mean([r['pore_d90_m'] for r in rs]):.1f}")
         cells.append(f"{np.mean([r['clustering_cv_20um'] for r in rs]):.3f}")
@@ -164,17 +277,46 @@ def main(argv=None) -> int:
     r.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     r.add_argument("--directions", nargs="+", default=["z", "x"])
     r.add_argument("--voxel", type=float, default=1e-6)
+    r.add_argument("--solver", default="voxel", choices=("voxel", "fem"))
+    r.add_argument("--bc", default="periodic", choices=("periodic", "permeameter"))
+    r.add_argument("--size", type=float, default=None, help="cube edge (m)")
+    r.add_argument("--no-error-estimate", action="store_true")
+    r.add_argument("--lattice-step", type=float, default=None, help="FEM lattice step (m)")
+    r.add_argument("--cache", default=None, help="folder of built RVEs reused across runs")
     r.add_argument("--out", required=True)
+    m = sub.add_parser("mirror", help="K of the RVE and of it + its mirror image (no mismatch)")
+    m.add_argument("--kind", default="straight")
+    m.add_argument("--method", default="ga")
+    m.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    m.add_argument("--direction", default="x")
+    m.add_argument("--voxel", type=float, default=1e-6)
+    m.add_argument("--cache", default=None)
+    m.add_argument("--out", required=True)
     s = sub.add_parser("summary")
     s.add_argument("path")
+    s.add_argument("--reading", default="", choices=("", "_faces", "_applied"))
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        print(summary(Path(a.path)))
+        print(summary(Path(a.path), a.reading))
+        return 0
+    global CACHE_DIR
+    CACHE_DIR = a.cache
+    if a.cmd == "mirror":
+        for seed in a.seeds:
+            spec = (ROOT / "studies" / "table3" / f"{a.kind}.toml").resolve()
+            rec = run_mirror(spec, a.method, seed, a.direction, a.voxel)
+            with open(a.out, "a") as fh:
+                fh.write(json.dumps(rec) + "\n")
+            print(json.dumps(rec))
+            sys.stdout.flush()
         return 0
     spec = Path(a.spec) if a.spec else ROOT / "studies" / "table3" / f"{a.kind}.toml"
     spec = spec.resolve()
     for seed in a.seeds:
-        rec = run_case(spec, a.method, seed, a.directions, a.voxel)
+        rec = run_case(
+            spec, a.method, seed, a.directions, a.voxel, a.solver, a.bc,
+            not a.no_error_estimate, a.size, a.lattice_step,
+        )  # fmt: skip
         with open(a.out, "a") as fh:
             fh.write(json.dumps(rec) + "\n")
         print(json.dumps({k: v for k, v in rec.items() if not k.startswith("pore_hist")}))

@@ -34,6 +34,8 @@ from psdesign.packing.fiberset import FiberState, carrier_lengths, find_contacts
 from psdesign.packing.genetic import analytic_omega
 
 RELAX_KEYS = {"max_shift", "u_max", "f", "weights", "max_iter", "max_evals", "min_step"}
+#: Keys of the field route (woven / compressed fibers, :mod:`psdesign.forcefield.contact`).
+FIELD_ONLY_KEYS = {"grid", "gap"}
 
 
 @dataclass
@@ -160,11 +162,20 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     from psdesign.packing.build import build_rve, rve_document
     from psdesign.packing.fiberset import FiberState as FS
 
-    bad = sorted(set(options) - RELAX_KEYS)
+    allowed = RELAX_KEYS | FIELD_ONLY_KEYS
+    bad = sorted(set(options) - allowed)
     if bad:
-        raise SpecError(f"forcefield.relax.{bad[0]}", f"unknown key; allowed: {sorted(RELAX_KEYS)}")
+        raise SpecError(f"forcefield.relax.{bad[0]}", f"unknown key; allowed: {sorted(allowed)}")
     built = build_rve(spec)
     rve = built.rve
+    if any(fb.shape not in ("rod", "bent-rod") for fb in rve.fibers):
+        return relax_spec_fields(spec, rve, options, out_dir)
+    field_only = sorted(set(options) & FIELD_ONLY_KEYS)
+    if field_only:
+        raise SpecError(
+            f"forcefield.relax.{field_only[0]}",
+            "only used for woven / compressed fibers (rods are relaxed by their centre lines)",
+        )
     fibers = [fb for fb in rve.fibers if fb.shape in ("rod", "bent-rod")]
     if not fibers:
         raise SpecError("fibers", "the force field relaxes rod and bent-rod fibers; none found")
@@ -217,6 +228,44 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     with staged_directory(out_dir) as tmp:
         write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": summary})
         (tmp / "relaxed.toml").write_text(relaxed_spec_toml(spec, others, res.state, period))
+        write_json(tmp / "summary.json", summary)
+    return summary
+
+
+def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> dict:
+    """The field route of :func:`relax_spec`: any fiber shapes (woven yarns, compressed
+    fibers), contacts measured on the fibers' fields (:mod:`psdesign.forcefield.contact`).
+
+    ``options`` as :func:`relax_spec` (``f`` unused) plus ``grid`` (step of the volume term,
+    metres, default a fifth of the thinnest fiber) and ``gap`` (clearance asked for, metres,
+    default the grid step).
+    """
+    from psdesign.forcefield.contact import field_summary, relax_rve_fields, relaxed_fibers_toml
+    from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.packing.build import rve_document
+
+    period = float(rve.period)
+    dmin = min(float(fb.diameter) for fb in rve.fibers) * period
+    w = options.get("weights", [1e10, 1.0, 1.0])
+    if not (isinstance(w, list) and len(w) == 3 and all(isinstance(v, int | float) for v in w)):
+        raise SpecError("forcefield.relax.weights", f"must be three numbers, got {w!r}")
+    kw = dict(
+        max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
+        u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
+        weights=tuple(float(v) for v in w),
+        max_iter=int(_num(options, "max_iter", 200, 1, 100000)),
+        max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
+        min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
+    )
+    grid = _num(options, "grid", dmin / 5.0, 1e-3 * dmin, dmin) if "grid" in options else None
+    gap = _num(options, "gap", 0.0, 0.0, dmin) if "gap" in options else None
+    relaxed, res = relax_rve_fields(rve, kw, grid, gap)
+    h_m = grid if grid is not None else dmin / 5.0
+    summary = field_summary(res, period, kw, h_m)
+    text = relaxed_fibers_toml(spec, relaxed.fibers, period)  # before writing: may refuse
+    with staged_directory(out_dir) as tmp:
+        write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": summary})
+        (tmp / "relaxed.toml").write_text(text)
         write_json(tmp / "summary.json", summary)
     return summary
 

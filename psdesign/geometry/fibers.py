@@ -414,6 +414,7 @@ def make_fiber(
     f: float = 1.0,
     isovalue: float | None = None,
     extra_rotation: np.ndarray | None = None,
+    minor_moment: float | None = None,
 ) -> Fiber:
     """Build and place a fiber (all lengths normalized: one period = 1).
 
@@ -436,6 +437,9 @@ def make_fiber(
         Override of the isovalue for fixed-shape fibers.
     extra_rotation : ndarray (3, 3), optional
         Applied before the placement rotation (used by the woven cell).
+    minor_moment : float, optional
+        Bend moment of a fixed shape with a bend term (woven, compressed-bent; default: the
+        equation's), as changed by the force field.
     """
     if shape not in SHAPES:
         raise ValueError(f"shape must be one of {', '.join(SHAPES)}; got {shape!r}")
@@ -466,6 +470,10 @@ def make_fiber(
         extra = {"axis_offset": 0.5, "phase": 0.0}
     else:
         canon = _FIXED_MODELS[shape]()
+        if minor_moment is not None:
+            if not canon.n_minor or not np.isfinite(minor_moment):
+                raise ValueError(f"{shape} has no bend term; u must be 0 (got {minor_moment})")
+            canon = canon._replace(u=[float(minor_moment)])
         iso = 0.0 if isovalue is None else float(isovalue)
         if canon.n_minor:
             u, f = float(canon.u[0]), float(canon.f[0])

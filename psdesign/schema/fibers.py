@@ -13,6 +13,8 @@ from psdesign.schema.types import Table, Vec3, fail, integer, number
 CELL_SHAPES = ("woven-cell",)
 Shape = Literal[tuple(SHAPES + CELL_SHAPES)]  # type: ignore[valid-type]
 Angle = number(ge=-360, le=360)
+#: Fixed shapes whose equation has a bend term: ``u`` replaces its minor moment.
+BENT_FIXED_SHAPES = ("woven", "compressed-bent")
 #: Largest bend slope amplitude ``|u| f`` (Eq. 16; the paper's fibers have u f <= 3).
 MAX_SLOPE = 10.0
 
@@ -34,7 +36,11 @@ class FiberTable(Table):
     direction: Vec3 | None = Field(
         None, description="[dx, dy, dz], non-zero (instead of theta/omega)"
     )
-    u: number(ge=-10, le=10) = Field(0.0, description="bent-rod minor moment in [-10, 10]")
+    u: number(ge=-10, le=10) = Field(
+        0.0,
+        description="bent-rod minor moment in [-10, 10]; woven, compressed-bent: the bend "
+        "moment (default: the equation's)",
+    )
     f: number(gt=0, le=1000) = Field(
         1.0, description="bends per period in (0, 1000], with |u| f <= 10"
     )
@@ -76,11 +82,11 @@ class FiberTable(Table):
                 f"bend slope |u| f = {abs(self.u) * self.f:g} (a dense zigzag)",
                 f"|u| f <= {MAX_SLOPE:g}",
             )
-        if self.u and self.shape != "bent-rod":
+        if self.u and self.shape not in ("bent-rod",) + BENT_FIXED_SHAPES:
             raise fail(
                 "u",
                 f"bending (u != 0) needs shape = 'bent-rod', got {self.shape!r}",
-                "0 unless shape = 'bent-rod'",
+                "0 unless shape = 'bent-rod', 'woven' or 'compressed-bent'",
             )
         return self
 
@@ -104,6 +110,8 @@ class FiberTable(Table):
             out["theta"] = self.theta or 0.0
             out["omega"] = self.omega or 0.0
         out["u"], out["f"] = self.u, self.f
+        if self.shape in BENT_FIXED_SHAPES and "u" not in self.model_fields_set:
+            del out["u"]  # the equation's own bend
         if self.isovalue is not None:
             out["isovalue"] = self.isovalue
         return out

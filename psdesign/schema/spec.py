@@ -19,7 +19,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, make_fiber
 from psdesign.schema.document import SpecDocument, SpecWarning
 from psdesign.schema.errors import spec_error
-from psdesign.schema.fibers import CELL_SHAPES, FiberTable
+from psdesign.schema.fibers import BENT_FIXED_SHAPES, CELL_SHAPES, FiberTable
 from psdesign.schema.flow import DEFAULT_FLOW, FlowTable
 
 __all__ = [
@@ -163,6 +163,7 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
                     u=fb.get("u", 0.0),
                     f=fb.get("f", 1.0),
                     isovalue=fb.get("isovalue"),
+                    minor_moment=fb.get("u") if fb["shape"] in BENT_FIXED_SHAPES else None,
                 )
             )
         except ValueError as exc:

@@ -1,0 +1,402 @@
+"""Force-field relaxation of any implicit fiber set: woven yarns, compressed fibers (issue 17).
+
+:mod:`psdesign.forcefield.relax` relaxes round rods and bent rods through their centre lines
+(analytic crossing volumes). Woven (Eq. 19) and compressed (Eq. 17-18, Fig. 6) fibers have
+no round cross-section, so here the Sec. 6 volume interaction is evaluated on their fields:
+every fiber ``j`` has the normalized field ``phi_j`` (approximate signed distance, periods,
+``<= 0`` in the solid) and a pair is in contact where ``max(phi_i, phi_j) < gap``. The energy
+minimized by pattern search (as in the paper) is
+
+    U = w1 * sum_{i<j} h^3 sum_grid relu(gap - max(phi_i, phi_j))^2
+      + w3 * sum_j [ (du_j f_j)^2 + |t_j|^2 / D_j^2 ]
+
+over, per fiber in contact, two shifts ``t_j`` in its lattice plane (through and across the
+fabric for a woven fiber) and, for fibers with a bend term (woven, compressed-bent, bent-rod),
+the change ``du_j`` of the minor moment (Eq. 16/19: the bend amplitude). The first term is the
+depth-weighted overlap (Eq. 8) with a clearance ``gap``; the second keeps the change of shape
+small ("the fibers have the minimum deformation"; Sec. 6 uses surface terms for the same
+purpose). A fiber changes only by a rigid shift and a bend amplitude, so it stays one
+continuous fiber. Variables that end on their bound are listed in ``at_bound`` and the result
+is not called converged; a contact left after the search is reported (``min_gap_after < 0``).
+
+Cost: the fields are evaluated only at grid nodes where two fibers could meet within the move
+bounds (the contact zone, fixed at the start), and each poll of the compass search changes one
+fiber, whose field alone is recomputed (one cached field per fiber and trial value).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from psdesign.forcefield.pattern import pattern_search
+from psdesign.geometry.fibers import Fiber
+
+
+@dataclass
+class ContactRelaxResult:
+    """Outcome of :func:`relax_contacts` (normalized lengths: one period = 1)."""
+
+    fibers: list
+    movable: np.ndarray
+    names: list
+    x: np.ndarray
+    min_gap_before: float
+    min_gap_after: float
+    overlap_before: float
+    overlap_after: float
+    U_before: float
+    U_after: float
+    at_bound: list
+    converged: bool
+    message: str
+    n_evals: int
+    wall_time_s: float
+
+
+def grid_points(lo: np.ndarray, hi: np.ndarray, h: float) -> np.ndarray:
+    """Cell-centred grid of step about ``h`` over the box ``[lo, hi]``, shape (N, 3)."""
+    axes = []
+    for a, b in zip(lo, hi, strict=True):
+        n = max(2, int(np.ceil((b - a) / h)))
+        axes.append(a + (np.arange(n) + 0.5) * (b - a) / n)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+
+def can_bend(fb: Fiber) -> bool:
+    """True if the fiber's model has a bend (minor) term whose moment can change."""
+    return fb.model.n_minor > 0
+
+
+def moved_fiber(fb: Fiber, t1: float, t2: float, du: float = 0.0) -> Fiber:
+    """The fiber shifted by ``t1, t2`` along its two lattice vectors, bend moment ``u + du``."""
+    t = t1 * fb.lattice[0] + t2 * fb.lattice[1]
+    model = fb.model
+    if du and model.n_minor:
+        model = model._replace(u=model.u + du)
+    model = model.translated(t)
+    return replace(fb, model=model, center=np.asarray(fb.center) + t, u=fb.u + du)
+
+
+def min_pair_gap(fibers: list, points: np.ndarray) -> float:
+    """``min_{i<j} min_x max(phi_i, phi_j)`` over the points: < 0 where two fibers overlap.
+
+    Equal to the minimum of the second-smallest field (Eq. 8's intersection field).
+    """
+    if len(fibers) < 2:
+        return float("inf")
+    phi = np.array([fb.field(points) for fb in fibers])
+    return float(np.partition(phi, 1, axis=0)[1].min())
+
+
+def overlap_fraction(fibers: list, points: np.ndarray) -> float:
+    """Fraction of the points inside two or more fibers (the voxel Omega on this grid)."""
+    phi = np.array([fb.field(points) for fb in fibers])
+    return float(np.mean((phi <= 0.0).sum(axis=0) >= 2))
+
+
+def _reach(fb: Fiber, max_shift: float, u_max: float) -> float:
+    """Largest distance a surface point of ``fb`` can move within the bounds."""
+    bend = u_max / (2 * np.pi) if can_bend(fb) else 0.0
+    return float(np.sqrt(2.0) * max_shift + bend)
+
+
+class _Problem:
+    """Contact zone, variables and cached per-fiber fields of one relaxation."""
+
+    def __init__(self, fibers, points, h, gap, max_shift, u_max, weights) -> None:
+        self.fibers, self.h, self.gap = list(fibers), float(h), float(gap)
+        self.w1, self.w3 = float(weights[0]), float(weights[2])
+        phi = np.array([fb.field(points) for fb in self.fibers])
+        reach = np.array([_reach(fb, max_shift, u_max) for fb in self.fibers])
+        n = len(self.fibers)
+        contact = set()
+        for i in range(n):
+            for j in range(i + 1, n):
+                if np.maximum(phi[i], phi[j]).min() < gap:
+                    contact.update((i, j))
+        self.movable = np.array(sorted(contact), dtype=np.int64)
+        mov = set(self.movable.tolist())
+        # pairs that can meet within the bounds, with their points (thr: Lipschitz ~1 fields)
+        self.pairs, pts_of = [], {k: [] for k in range(n)}
+        for i in range(n):
+            for j in range(i + 1, n):
+                if i not in mov and j not in mov:
+                    continue
+                thr = gap + 1.5 * (reach[i] * (i in mov) + reach[j] * (j in mov)) + 2 * h
+                idx = np.flatnonzero((phi[i] < thr) & (phi[j] < thr))
+                if len(idx):
+                    self.pairs.append((i, j, idx))
+                    pts_of[i].append(idx)
+                    pts_of[j].append(idx)
+        self.local = {}  # fiber -> the indices of the points its pairs use
+        for k in range(n):
+            if pts_of[k]:
+                self.local[k] = np.unique(np.concatenate(pts_of[k]))
+        self.points = points
+        self.base_phi = {k: phi[k][ix] for k, ix in self.local.items()}
+        self.slots = {}
+        for i, j, idx in self.pairs:
+            self.slots[(i, j)] = (
+                np.searchsorted(self.local[i], idx),
+                np.searchsorted(self.local[j], idx),
+            )
+        self.bends = np.array([can_bend(self.fibers[k]) for k in self.movable], bool)
+        self.nvar = 2 * len(self.movable) + int(self.bends.sum())
+        self.cache: dict = {}
+        lo, names = [], []
+        for k, b in zip(self.movable, self.bends, strict=True):
+            lo += [-max_shift, -max_shift] + ([-u_max] if b else [])
+            names += [f"t1[{k}]", f"t2[{k}]"] + ([f"u[{k}]"] if b else [])
+        self.lower = np.array(lo, float)
+        self.upper = -self.lower
+        self.names = names
+
+    def split(self, x: np.ndarray) -> dict:
+        """Per movable fiber, its ``(t1, t2, du)``."""
+        out, p = {}, 0
+        for k, b in zip(self.movable, self.bends, strict=True):
+            du = float(x[p + 2]) if b else 0.0
+            out[int(k)] = (float(x[p]), float(x[p + 1]), du)
+            p += 3 if b else 2
+        return out
+
+    def _phi(self, k: int, v: tuple) -> np.ndarray:
+        if v == (0.0, 0.0, 0.0):
+            return self.base_phi[k]
+        key = (k, v)
+        got = self.cache.get(key)
+        if got is None:
+            if len(self.cache) > 4096:
+                self.cache.clear()
+            got = moved_fiber(self.fibers[k], *v).field(self.points[self.local[k]])
+            self.cache[key] = got
+        return got
+
+    def overlap_energy(self, parts: dict) -> float:
+        total = 0.0
+        zero = (0.0, 0.0, 0.0)
+        for i, j, _ in self.pairs:
+            si, sj = self.slots[(i, j)]
+            a = self._phi(i, parts.get(i, zero))[si]
+            b = self._phi(j, parts.get(j, zero))[sj]
+            d = np.maximum(self.gap - np.maximum(a, b), 0.0)
+            total += float(d @ d)
+        return total * self.h**3
+
+    def change_energy(self, parts: dict) -> float:
+        s = 0.0
+        for k, (t1, t2, du) in parts.items():
+            fb = self.fibers[k]
+            s += (du * fb.f) ** 2 + (t1 * t1 + t2 * t2) / fb.diameter**2
+        return s
+
+    def energy(self, x: np.ndarray) -> float:
+        parts = self.split(x)
+        return self.w1 * self.overlap_energy(parts) + self.w3 * self.change_energy(parts)
+
+    def result_fibers(self, x: np.ndarray) -> list:
+        parts = self.split(x)
+        return [
+            moved_fiber(fb, *parts[k]) if k in parts else fb for k, fb in enumerate(self.fibers)
+        ]
+
+
+def relax_contacts(
+    fibers: list,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    h: float = 0.02,
+    gap: float | None = None,
+    max_shift: float = 0.05,
+    u_max: float = 0.2,
+    weights=(1e10, 1.0, 1.0),
+    max_iter: int = 200,
+    max_evals: int = 4000,
+    min_step: float = 1e-3,
+) -> ContactRelaxResult:
+    """Remove the contacts of an implicit fiber set by small shifts and bends (Sec. 6).
+
+    Parameters
+    ----------
+    fibers : list of Fiber
+        Any shapes (woven, compressed, rods); normalized coordinates.
+    lo, hi : ndarray (3,)
+        The box (normalized); contacts are looked for inside it.
+    h : float
+        Grid step of the volume term (normalized).
+    gap : float, optional
+        Clearance asked for between fibers (normalized; default ``h``, so that no grid cell
+        holds two fibers).
+    max_shift : float
+        Bound of each lattice-plane shift (normalized).
+    u_max : float
+        Bound of the change of the bend moment (fibers with a bend term).
+    weights : (w1, w2, w3)
+        Sec. 6 weights; w2 (surface interaction) is not used for fiber sets.
+    max_iter, max_evals, min_step
+        Pattern-search limits.
+
+    Returns
+    -------
+    ContactRelaxResult
+    """
+    t0 = time.perf_counter()
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    gap = float(h if gap is None else gap)
+    pts = grid_points(lo, hi, h)
+    gap0 = min_pair_gap(fibers, pts)
+    om0 = overlap_fraction(fibers, pts)
+    prob = _Problem(fibers, pts, h, gap, max_shift, u_max, weights)
+    x0 = np.zeros(prob.nvar)
+    if prob.nvar == 0:
+        return ContactRelaxResult(
+            list(fibers), prob.movable, [], x0, gap0, gap0, om0, om0, 0.0, 0.0, [], True,
+            "no contacts", 0, time.perf_counter() - t0,
+        )  # fmt: skip
+    u0 = prob.energy(x0)
+    res = pattern_search(
+        prob.energy, x0, prob.lower, prob.upper, step=0.25, min_step=min_step,
+        max_iter=max_iter, max_evals=max_evals,
+    )  # fmt: skip
+    from psdesign.forcefield.run import at_bounds
+
+    on = at_bounds(prob.names, res.x, prob.lower, prob.upper)
+    final = prob.result_fibers(res.x)
+    gap1 = min_pair_gap(final, pts)
+    return ContactRelaxResult(
+        fibers=final,
+        movable=prob.movable,
+        names=prob.names,
+        x=res.x,
+        min_gap_before=gap0,
+        min_gap_after=gap1,
+        overlap_before=om0,
+        overlap_after=overlap_fraction(final, pts),
+        U_before=u0,
+        U_after=float(res.fun),
+        at_bound=on,
+        converged=bool(res.converged and not on and gap1 >= 0.0),
+        message=res.message,
+        n_evals=res.n_evals,
+        wall_time_s=time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------ specs
+#: Options of ``[forcefield.relax]`` used only by this route (metres).
+FIELD_KEYS = {"grid", "gap"}
+
+
+def placement_angles(fb: Fiber) -> tuple[float, float]:
+    """Sec. 7.1 angles ``(theta, omega)`` that place ``fb`` with its own roll.
+
+    Raises
+    ------
+    ValueError
+        If no ``(theta, omega)`` reproduces the fiber's frame (a roll about its axis that the
+        spec keys cannot express).
+    """
+    from psdesign.geometry.fibers import placement_rotation
+
+    if fb.theta is not None and fb.omega is not None:
+        return float(fb.theta), float(fb.omega)
+    d = np.asarray(fb.direction, float)
+    theta = float(np.degrees(-np.arcsin(np.clip(d[2], -1.0, 1.0))))
+    omega = float(np.degrees(np.arctan2(d[1], d[0])))
+    R = np.column_stack([fb.lattice[0], fb.lattice[1], d])
+    if fb.shape not in ("rod", "cylinder") and not np.allclose(
+        placement_rotation(theta, omega), R, atol=1e-9
+    ):
+        raise ValueError(f"a {fb.shape} fiber turned about its own axis has no theta/omega")
+    return theta, omega
+
+
+def fiber_table_lines(fb: Fiber, period: float) -> list[str]:
+    """The ``[[fibers]]`` TOML lines of one placed fiber (metres, degrees)."""
+    theta, omega = placement_angles(fb)
+    lines = ["[[fibers]]", f'shape = "{fb.shape}"']
+    if fb.shape in ("rod", "cylinder", "bent-rod"):
+        lines.append(f"diameter = {float(fb.diameter * period)!r}")
+    lines.append(f"center = [{', '.join(repr(float(v * period)) for v in fb.center)}]")
+    lines += [f"theta = {theta!r}", f"omega = {omega!r}"]
+    if fb.shape == "bent-rod":
+        lines += [f"u = {float(fb.u)!r}", f"f = {float(fb.f)!r}"]
+    elif fb.model.n_minor:
+        lines.append(f"u = {float(fb.model.u[0])!r}")
+    if fb.shape not in ("rod", "cylinder", "bent-rod") and fb.isovalue != 0.0:
+        lines.append(f"isovalue = {float(fb.isovalue)!r}")
+    return lines
+
+
+def relaxed_fibers_toml(spec: dict, fibers: list, period: float) -> str:
+    """An explicit RVE spec (TOML text) of any relaxed fiber set, readable by every command."""
+    rv = spec["rve"]
+    lines = ["# Fibers relaxed by psdesign forcefield (paper Sec. 6).", "[rve]"]
+    lines.append(f"size = [{', '.join(repr(float(v)) for v in rv['size'])}]")
+    lines.append(f"voxel = {float(rv['voxel'])!r}")
+    lines.append(f"period = {float(period)!r}")
+    for i, fb in enumerate(fibers):
+        try:
+            lines += [""] + fiber_table_lines(fb, period)
+        except ValueError as exc:
+            from psdesign.errors import SpecError
+
+            raise SpecError(f"fibers[{i}]", f"relaxed.toml cannot hold it: {exc}") from None
+    if "flow" in spec:
+        lines += ["", "[flow]"]
+        for k, v in spec["flow"].items():
+            if isinstance(v, str):
+                lines.append(f'{k} = "{v}"')
+            elif isinstance(v, bool):
+                lines.append(f"{k} = {'true' if v else 'false'}")
+            elif isinstance(v, int | float):
+                lines.append(f"{k} = {v!r}")
+    return "\n".join(lines) + "\n"
+
+
+def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):
+    """Run :func:`relax_contacts` on every fiber of ``rve``; returns (relaxed RVE, result)."""
+    from psdesign.geometry.rve import RVE
+
+    period = float(rve.period)
+    dmin = min(float(fb.diameter) for fb in rve.fibers) * period
+    h = (grid_m if grid_m is not None else dmin / 5.0) / period
+    gap = None if gap_m is None else gap_m / period
+    lo, hi = rve.box_normalized
+    res = relax_contacts(list(rve.fibers), lo, hi, h=h, gap=gap, **kw)
+    return RVE(rve.size, res.fibers, period=period), res
+
+
+def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) -> dict:
+    """The ``summary.json`` record of a field-route relaxation (lengths in metres)."""
+    if res.at_bound:
+        status = "at_bound"
+    elif res.min_gap_after < 0.0:
+        status = "contact_left"
+    else:
+        status = "converged" if res.converged else "not_converged"
+    return {
+        "case": "relax",
+        "route": "fields",
+        "n_fibers": len(res.fibers),
+        "n_moved": int(len(res.movable)),
+        "min_gap_before_m": res.min_gap_before * period,
+        "min_gap_after_m": res.min_gap_after * period,
+        "overlap_fraction_before": res.overlap_before,
+        "overlap_fraction_after": res.overlap_after,
+        "U": res.U_after,
+        "start": {"U": res.U_before},
+        "converged": res.converged,
+        "status": status,
+        "at_bound": res.at_bound,
+        "variables": dict(zip(res.names, (float(v) for v in res.x), strict=True)),
+        "message": res.message,
+        "n_evals": res.n_evals,
+        "wall_time_s": res.wall_time_s,
+        "grid_m": h_m,
+        "free_variables": {"max_shift_m": kw["max_shift"] * period, "u_max": kw["u_max"]},
+        "surface_term": "change of shape (bend moment and shift)",
+    }
