@@ -101,7 +101,9 @@ from scipy import ndimage
 
 from solvers.voxel import boundary as bd
 from solvers.voxel import kernels as kr
+from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
+from solvers.voxel import threads as vthreads
 
 __all__ = [
     "VoxelFlowResult",
@@ -435,6 +437,7 @@ def solve_voxel_stokes(
             f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
             "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
         )
+    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None)
     setup = _setup_grid(solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides)
     grid = setup["grid"]
     if not percolates(setup["blocked"], d):
@@ -604,18 +607,38 @@ def richardson_extrapolate(
 # ---------------------------------------------------------------------------------------------
 # solver core (voxel units: h = 1, mu = 1, unit body force)
 
-PARALLEL_MIN_CELLS = 100_000
-"""Grids with fewer cells run the numba kernels on one thread.  Measured on an idle 2-core
-machine with the row-vectorised kernels, two threads are faster from 32^3 up (100^3: 9.5 s ->
-5.4 s, 150^3: 32.9 s -> 18.3 s); on a machine whose cores are busy with other work the start-up
-latency of a parallel region (~15 ms under load) can make one thread faster for small grids,
-so the tiny grids of tests and screening stay on one thread."""
+PARALLEL_MIN_CELLS = vthreads.PARALLEL_MIN_CELLS
+"""Grids with fewer cells run on one numba thread (see :mod:`solvers.voxel.threads`)."""
+
+
+def _check_memory(
+    shape: tuple[int, ...], d: int, bc: str, treatment: str, aux_length: float, subvoxel: bool
+) -> None:
+    """Refuse, before any allocation, a solve whose estimated peak memory
+    (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
+    dims = [float(n) for n in shape]
+    if bc == "permeameter":
+        dims[d] += 2 * max(1, int(np.ceil(aux_length * shape[d] - 1e-9)))
+    elif treatment == "mirror":
+        dims[d] *= 2
+    elif treatment == "frame":
+        dims = [n + (b != d) for b, n in enumerate(dims)]
+    cells = float(np.prod(dims))
+    kind = "subvoxel" if subvoxel else "staircase"
+    need = vmem.solver_bytes(cells, kind)
+    avail = vmem.available_bytes()
+    if avail is not None and need > avail:
+        raise VoxelStokesError(
+            f"solid: the solved grid of {cells:.3g} cells needs about {need / 2**30:.3g} GiB "
+            f"({vmem.BYTES_PER_CELL[kind]} B per cell, {kind} walls); "
+            f"{avail / 2**30:.3g} GiB are available: use a coarser voxel or a smaller RVE"
+        )
 
 
 @contextmanager
 def _threads(n_cells: int):
     old = numba.get_num_threads()
-    numba.set_num_threads(old if n_cells >= PARALLEL_MIN_CELLS else 1)
+    numba.set_num_threads(vthreads.level_threads(n_cells, old))
     try:
         yield
     finally:
@@ -719,13 +742,14 @@ class _Stokes:
 def _minres(
     op: _Stokes,
     b: np.ndarray,
-    e: np.ndarray,
+    x: np.ndarray,
     bufs: list[np.ndarray],
     rtol: float,
     maxit: int,
     report: Callable[[int, float], None] | None = None,
 ) -> tuple[int, str]:
-    """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b.
+    """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b,
+    accumulated into ``x`` (``x += e``; float64, so no separate correction vector is stored).
 
     Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  Stops when the
     preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations, status).
@@ -737,7 +761,7 @@ def _minres(
     ``PROGRESS_EVERY`` iterations if given.
     """
     z, t, wa, wb, r1 = bufs
-    for arr in (e, wa, wb, r1):
+    for arr in (wa, wb, r1):
         arr.fill(0.0)
     r2 = b
     op.precondition(r2, z)
@@ -769,7 +793,7 @@ def _minres(
         sn = beta / gamma
         phi = cs * phibar
         phibar = sn * phibar
-        kr.minres_update(z, s, wb, wa, e, oldeps, delta, 1.0 / gamma, phi)
+        kr.minres_update(z, s, wb, wa, x, oldeps, delta, 1.0 / gamma, phi)
         wa, wb = wb, wa
         z, t = t, z
         if report is not None and itn % PROGRESS_EVERY == 0:
@@ -799,7 +823,6 @@ def _solve_core(
     shp = op.shape
     x = np.zeros(shp)
     r = np.empty(shp, np.float32)
-    e = np.empty(shp, np.float32)
     bufs = [np.empty(shp, np.float32) for _ in range(5)]
     rn, bn = op.residual(x, d, r)
     rel = rn / bn
@@ -819,17 +842,17 @@ def _solve_core(
             def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
                 progress(done + itn, scale * ratio)
 
-        its, status = _minres(op, r, e, bufs, rtol, max_iter - total, report)
+        its, status = _minres(op, r, x, bufs, rtol, max_iter - total, report)
         total += its
-        if status == "preconditioner not positive":
-            message = "preconditioner lost positivity (round-off); stopped"
-            break
-        kr.add_into(x, e)
         rn, _ = op.residual(x, d, r)
         new = rn / bn
         history.append(new)
         if progress is not None:
             progress(total, new)
+        if status == "preconditioner not positive":
+            rel = new
+            message = "preconditioner lost positivity (round-off); stopped"
+            break
         stalls = stalls + 1 if not new < 0.5 * rel else 0
         rel = new
         if not np.isfinite(rel) or stalls >= 3:
