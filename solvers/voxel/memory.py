@@ -18,17 +18,16 @@ No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refu
 
 from __future__ import annotations
 
-BYTES_PER_CELL = {"staircase": 164, "subvoxel": 197}
+BYTES_PER_CELL = {"staircase": 176, "subvoxel": 210}
 """Peak bytes per solved cell of :func:`solvers.voxel_stokes.solve_voxel_stokes` by wall
-treatment (the Python/numba baseline of ~150 MB comes on top)."""
-
-BASELINE_BYTES = 150 * 2**20
-"""Resident memory of the interpreter with numpy, scipy and the compiled kernels loaded."""
+treatment (the Python/numba baseline of ~150 MB comes on top): the counts above plus the
+multigrid's small-grid overheads; traced peak on PuMA fibres_32 172.5 / 206.1 B per cell."""
 
 
 def solver_bytes(n_cells: float, wall_treatment: str = "subvoxel") -> float:
-    """Estimated peak memory (bytes) of a voxel Stokes solve on ``n_cells`` solved cells."""
-    return BASELINE_BYTES + BYTES_PER_CELL[wall_treatment] * float(n_cells)
+    """Estimated peak memory (bytes) a voxel Stokes solve on ``n_cells`` solved cells adds to
+    the running process."""
+    return BYTES_PER_CELL[wall_treatment] * float(n_cells)
 
 
 def available_bytes() -> float | None:
