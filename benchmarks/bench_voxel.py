@@ -364,7 +364,7 @@ def thread_case(n: int, its: int) -> None:
     print(json.dumps({"wall": wall, "cpu": time.process_time() - cpu0, "its": iters}))
 
 
-def threads(sizes: list[int], reps: int = 3, its: int = 20) -> None:
+def threads(sizes: list[int], reps: int = 2, its: int = 20) -> None:
     """Default thread setting vs one thread, side by side, without and with one CPU-bound
     competing process (a busy loop started here); every timing in its own process, the modes
     interleaved.  Prints the medians and the ratio to the 1-thread time."""

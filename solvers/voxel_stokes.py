@@ -56,8 +56,9 @@ Solvers*, ch. 4):
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
 * MINRES runs in float32 (6 vectors of 4 fields) inside a float64 iterative refinement: the
-  residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it), each MINRES run reduces its preconditioned
-  residual by up to ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
+  residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
+  each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
+  restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
   when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
   without halving the residual, or loss of positivity of the preconditioner (round-off) stop
@@ -67,9 +68,10 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 175 bytes per voxel, 210 with sub-voxel walls
-(float64 solution, 6 float32 4-field vectors, uint8 stencils; :mod:`solvers.voxel.memory`,
-checked before anything is allocated); there is no assembled matrix.  Threads
+more work per iteration and was dropped.  Memory is O(N): about 175 bytes per voxel, 210 with
+sub-voxel walls (float64 solution, 6 float32 4-field vectors, uint8 stencils;
+:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
+matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
 grids and multigrid levels below ``PARALLEL_MIN_CELLS`` cells (100 000; a parallel region costs
 up to ~15 ms start-up on a busy machine) run on one numba thread, larger ones on all.
