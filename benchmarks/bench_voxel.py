@@ -10,6 +10,7 @@ Usage::
     python benchmarks/bench_voxel.py arrays          # sub-voxel vs staircase, square/hex arrays
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
     python benchmarks/bench_voxel.py threads 64 200  # 1 vs 2 threads, with and without a competitor
+    python benchmarks/bench_voxel.py threads 200 reps=1 its=10  # fewer repetitions / iterations
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -415,8 +416,10 @@ def main(argv: list[str]) -> None:
     if what == "_threadcase":
         thread_case(int(argv[2]), int(argv[3]))
         return
-    if what == "threads":
-        threads([int(a) for a in argv[2:]] or [64, 200])
+    if what == "threads":  # sizes, then optional reps=R its=I
+        opts = dict(a.split("=") for a in argv[2:] if "=" in a)
+        sizes = [int(a) for a in argv[2:] if "=" not in a] or [64, 200]
+        threads(sizes, int(opts.get("reps", 2)), int(opts.get("its", 20)))
         return
     # warm-up: compile the numba kernels outside the timings
     warm = np.zeros((16, 16, 16), dtype=bool)
