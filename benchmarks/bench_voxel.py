@@ -9,6 +9,8 @@ Usage::
     python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
     python benchmarks/bench_voxel.py arrays          # sub-voxel vs staircase, square/hex arrays
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
+    python benchmarks/bench_voxel.py threads 64 200  # 1 vs 2 threads, with and without a competitor
+    python benchmarks/bench_voxel.py threads 200 reps=1 its=10  # fewer repetitions / iterations
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -16,7 +18,10 @@ Run each case in its own process under ``/usr/bin/time -v`` for the peak memory,
 
 from __future__ import annotations
 
+import json
 import os
+import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -201,12 +206,71 @@ def arrays(sizes: tuple[int, ...] = (32, 40, 64, 96)) -> None:
 SANGANI_ACRIVOS_FULL = {0.1: 24.83, 0.2: 51.53, 0.3: 102.90, 0.4: 217.89, 0.5: 532.55}
 
 
+@nb.njit(parallel=True, cache=False)
+def _triad(a, b, c, s):
+    for q in nb.prange(a.size):
+        a[q] = b[q] + s * c[q]
+
+
+def triad_bandwidth(n: int = 32_000_000, reps: int = 5) -> float:
+    """Best-of-``reps`` STREAM triad ``a = b + s c`` on float32 arrays (12 bytes per element
+    counted, the STREAM convention), in bytes per second."""
+    a = np.zeros(n, np.float32)
+    b = np.ones(n, np.float32)
+    c = np.ones(n, np.float32)
+    _triad(a, b, c, 0.5)
+    best = float("inf")
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        _triad(a, b, c, 0.5)
+        best = min(best, time.perf_counter() - t0)
+    return 12.0 * n / best
+
+
+def _vcycle_bytes(mg0) -> float:
+    """Bytes one V-cycle must stream (every array touched once per pass; neighbours from
+    cache), summed over the levels above the coarsest (the LU is negligible)."""
+    total = 0.0
+    levels = mg0.levels
+    for li, lev in enumerate(levels[:-1]):
+        n = lev.d.size
+        vec = 4.0
+        opb = lev.d.itemsize + 3 * lev.c.itemsize
+        coarse = levels[li + 1].d.size * vec / n
+        sweep = opb + 3 * vec  # d, c, x, b read; x_new written
+        per = lev.d.itemsize + 2 * vec  # Jacobi from zero
+        per += (mg0.pre - 1) * sweep  # remaining pre-smoothing sweeps
+        per += opb + 2 * vec + coarse  # residual + restriction
+        per += lev.d.itemsize + 2 * vec + coarse  # prolongation (x read and written)
+        per += mg0.pre * sweep  # post-smoothing
+        total += per * n
+    return total
+
+
+def iteration_bytes(op) -> float:
+    """Bytes one MINRES iteration must stream (the kernels of :func:`solvers.voxel_stokes._minres`
+    as they are fused now, each array read or written once per kernel)."""
+    n = op.fluid.size
+    vec4 = 16.0  # one 4-field float32 vector per cell
+    ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
+    if op.w is not None:
+        ops += 12.0
+    apply = ops + 3 * vec4  # z, K z, r1
+    lanczos = 4 * vec4
+    prec = sum(_vcycle_bytes(m) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
+    dot = 2 * vec4
+    update = 4 * vec4 + 2 * 32.0  # z, w read; w1 read + written; x (float64) read + written
+    return n * (apply + lanczos + prec + dot + update)
+
+
 def kernels(n: int, reps: int = 5) -> None:
-    """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid."""
+    """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid, and
+    compare the iteration with the bytes it must stream over the measured triad bandwidth."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
 
-    solid = toray_like(n)
+    solid = _grid(n)
+    bw = triad_bandwidth()
     with vs._threads(solid.size):
         op = vs._Stokes.build(solid)
         rng = np.random.default_rng(0)
@@ -235,20 +299,128 @@ def kernels(n: int, reps: int = 5) -> None:
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
         bufs = [np.empty(op.shape, np.float32) for _ in range(5)]
-        e = np.empty(op.shape, np.float32)
+        e = np.zeros(op.shape)
         its = 20
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, 2)
         t0 = time.perf_counter()
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
+        need = iteration_bytes(op)
     load = os.getloadavg()[0]
     print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
     for name, val in rows.items():
         print(f"  {name}: {val:.1f} ms")
+    ideal = need / bw * 1e3
+    meas = rows["one MINRES iteration"]
+    print(
+        f"  triad bandwidth {bw / 1e9:.1f} GB/s; one MINRES iteration streams "
+        f"{need / solid.size:.0f} B per voxel = {need / 1e9:.2f} GB: ideal {ideal:.1f} ms, "
+        f"measured {meas:.1f} ms = {meas / ideal:.2f} x ideal"
+    )
+
+
+THREAD_MODES = {
+    "1 thread": {"NUMBA_NUM_THREADS": "1"},
+    "default": {},
+    "libgomp spin (old default)": {"_SPIN": "1"},
+    "workqueue layer": {"NUMBA_THREADING_LAYER": "workqueue"},
+}
+
+
+def _grid(n: int) -> np.ndarray:
+    """Test grid of the thread benchmark: PuMA fibres_64 at 64, else Toray-like (cached)."""
+    if n == 64:
+        return np.load(BENCH / "fibres_64.npz")["solid"].astype(bool)
+    cache = Path(f"/tmp/psdesign_bench_toray_{n}.npy")
+    if not cache.exists():
+        np.save(cache, toray_like(n))
+    return np.load(cache)
+
+
+def thread_case(n: int, its: int) -> None:
+    """One timing in this process: the full solve at 64^3, ``its`` MINRES iterations (solver
+    core only) above; prints one JSON line."""
+    if os.environ.pop("_SPIN", None):
+        os.environ.pop("OMP_WAIT_POLICY", None)  # before the first parallel region
+    from solvers import voxel_stokes as vs
+
+    warm = np.zeros((16, 16, 16), dtype=bool)
+    warm[:, :2, :] = True
+    solve_voxel_stokes(warm, 1.0, "z")
+    solid = _grid(n)
+    cpu0 = time.process_time()
+    t0 = time.perf_counter()
+    if n == 64:
+        res = solve_voxel_stokes(solid, 1.0 / n, "z", tol=1e-6)
+        iters = res.iterations
+    else:
+        op = vs._Stokes.build(solid)
+        with vs._threads(solid.size):
+            vs._solve_core(op, 0, 1e-6, 2)  # warm the caches of this grid
+            cpu0 = time.process_time()
+            t0 = time.perf_counter()
+            _, info = vs._solve_core(op, 0, 1e-6, its)
+        iters = info["iterations"]
+    wall = time.perf_counter() - t0
+    print(json.dumps({"wall": wall, "cpu": time.process_time() - cpu0, "its": iters}))
+
+
+def threads(sizes: list[int], reps: int = 2, its: int = 20) -> None:
+    """Default thread setting vs one thread, side by side, without and with one CPU-bound
+    competing process (a busy loop started here); every timing in its own process, the modes
+    interleaved.  Prints the medians and the ratio to the 1-thread time."""
+    here = Path(__file__).resolve()
+    for n in sizes:
+        for competitor in (False, True):
+            busy = None
+            if competitor:
+                busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            times: dict[str, list[tuple[float, float]]] = {m: [] for m in THREAD_MODES}
+            load = os.getloadavg()[0]
+            try:
+                for _ in range(reps):
+                    for mode, env in THREAD_MODES.items():
+                        out = subprocess.run(
+                            [sys.executable, str(here), "_threadcase", str(n), str(its)],
+                            env={**os.environ, **env},
+                            capture_output=True,
+                            text=True,
+                            check=True,
+                        )
+                        row = json.loads(out.stdout.strip().splitlines()[-1])
+                        times[mode].append((row["wall"], row["cpu"]))
+            finally:
+                if busy is not None:
+                    busy.kill()
+                    busy.wait()
+            what = "full solve" if n == 64 else f"{its} MINRES iterations"
+            print(
+                f"{n}^3 ({what}), {'with' if competitor else 'without'} a competitor, "
+                f"load average before {load:.1f}:",
+                flush=True,
+            )
+            ref = statistics.median(w for w, _ in times["1 thread"])
+            for mode, vals in times.items():
+                wall = statistics.median(w for w, _ in vals)
+                cpu = statistics.median(c for _, c in vals)
+                runs = ", ".join(f"{w:.2f}" for w, _ in vals)
+                print(
+                    f"  {mode:28s} wall {wall:7.2f} s (runs {runs})"
+                    f"  cpu {cpu:7.2f} s  wall / 1-thread {wall / ref:.2f}",
+                    flush=True,
+                )
 
 
 def main(argv: list[str]) -> None:
     what = argv[1] if len(argv) > 1 else "puma"
+    if what == "_threadcase":
+        thread_case(int(argv[2]), int(argv[3]))
+        return
+    if what == "threads":  # sizes, then optional reps=R its=I
+        opts = dict(a.split("=") for a in argv[2:] if "=" in a)
+        sizes = [int(a) for a in argv[2:] if "=" not in a] or [64, 200]
+        threads(sizes, int(opts.get("reps", 2)), int(opts.get("its", 20)))
+        return
     # warm-up: compile the numba kernels outside the timings
     warm = np.zeros((16, 16, 16), dtype=bool)
     warm[:, :2, :] = True

@@ -17,6 +17,10 @@ from __future__ import annotations
 
 import importlib
 
+from solvers.voxel.threads import passive_wait
+
+passive_wait()  # before any numba parallel region: idle OpenMP threads sleep, never spin
+
 __version__ = "0.1.0"
 
 _LAZY = {

@@ -24,9 +24,10 @@ has no spurious pressure modes (no stabilisation, unlike the Q1-Q1 FEM of PuMA).
   ``w_f q_f``, body force ``w_f G``; the same weight on both off-diagonal blocks keeps the
   saddle-point matrix symmetric, the velocity blocks stay SPD).  Plane Poiseuille with off-grid
   walls converges at second order; square/hexagonal arrays across and along are within 1 % at
-  40 voxels per period for solid fractions 0.1-0.5 (``benchmarks/RESULTS.md``).  The iteration
-  count grows by about 20-50 % (the pressure block of the preconditioner is scaled by the
-  cells' squared face weights to keep it so).
+  40 voxels per period for solid fractions 0.1-0.5 (``benchmarks/RESULTS.md``).  The pressure block
+  of the preconditioner is the inverse diagonal of the weighted Schur complement (see
+  ``PRESSURE_SCALING``), which keeps the iteration count near the staircase's (Toray-like
+  40^3: 171 vs 133).
 
 *Boundary conditions*: ``bc="periodic"`` (periodic on all faces, mean pressure gradient as a
 body force: the homogenised K) or ``bc="permeameter"``: empty reservoirs before and after the
@@ -57,9 +58,10 @@ Solvers*, ch. 4):
 * the pressure block uses the pressure mass matrix (``h^3/mu`` times the identity, i.e. the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
-* MINRES runs in float32 (7 vectors of 4 fields) inside a float64 iterative refinement: the
-  residual ``b - K x`` and the solution are float64, each MINRES run reduces its preconditioned
-  residual by up to ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
+* MINRES runs in float32 (6 vectors of 4 fields) inside a float64 iterative refinement: the
+  residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
+  each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
+  restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
   when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
   without halving the residual, or loss of positivity of the preconditioner (round-off) stop
@@ -69,10 +71,13 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 170 bytes per voxel (float64
-solution, 7 float32 4-field vectors, uint8 stencils); there is no assembled matrix.  Kernels run
-on one numba thread below ``PARALLEL_MIN_CELLS`` cells (100 000; a parallel region costs up to
-~15 ms start-up on a busy machine) and on all numba threads above.
+more work per iteration and was dropped.  Memory is O(N): about 175 bytes per voxel, 210 with
+sub-voxel walls (float64 solution, 6 float32 4-field vectors, uint8 stencils;
+:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
+matrix.  Threads
+(:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
+grids and multigrid levels below ``PARALLEL_MIN_CELLS`` cells (100 000; a parallel region costs
+up to ~15 ms start-up on a busy machine) run on one numba thread, larger ones on all.
 
 Kernel design (speed): every stencil kernel walks rows along the last axis through 1-D views
 with branch-free bodies, so LLVM vectorises them (only the two periodic row ends use a wrapping
@@ -104,7 +109,9 @@ from scipy import ndimage
 
 from solvers.voxel import boundary as bd
 from solvers.voxel import kernels as kr
+from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
+from solvers.voxel import threads as vthreads
 
 __all__ = [
     "VoxelFlowResult",
@@ -451,6 +458,7 @@ def solve_voxel_stokes(
             f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
             "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
         )
+    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None)
     setup = _setup_grid(solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides)
     grid = setup["grid"]
     if not percolates(setup["blocked"], d):
@@ -660,18 +668,38 @@ def richardson_extrapolate(
 # ---------------------------------------------------------------------------------------------
 # solver core (voxel units: h = 1, mu = 1, unit body force)
 
-PARALLEL_MIN_CELLS = 100_000
-"""Grids with fewer cells run the numba kernels on one thread.  Measured on an idle 2-core
-machine with the row-vectorised kernels, two threads are faster from 32^3 up (100^3: 9.5 s ->
-5.4 s, 150^3: 32.9 s -> 18.3 s); on a machine whose cores are busy with other work the start-up
-latency of a parallel region (~15 ms under load) can make one thread faster for small grids,
-so the tiny grids of tests and screening stay on one thread."""
+PARALLEL_MIN_CELLS = vthreads.PARALLEL_MIN_CELLS
+"""Grids with fewer cells run on one numba thread (see :mod:`solvers.voxel.threads`)."""
+
+
+def _check_memory(
+    shape: tuple[int, ...], d: int, bc: str, treatment: str, aux_length: float, subvoxel: bool
+) -> None:
+    """Refuse, before any allocation, a solve whose estimated peak memory
+    (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
+    dims = [float(n) for n in shape]
+    if bc == "permeameter":
+        dims[d] += 2 * max(1, int(np.ceil(aux_length * shape[d] - 1e-9)))
+    elif treatment == "mirror":
+        dims[d] *= 2
+    elif treatment == "frame":
+        dims = [n + (b != d) for b, n in enumerate(dims)]
+    cells = float(np.prod(dims))
+    kind = "subvoxel" if subvoxel else "staircase"
+    need = vmem.solver_bytes(cells, kind)
+    avail = vmem.available_bytes()
+    if avail is not None and need > avail:
+        raise VoxelStokesError(
+            f"solid: the solved grid of {cells:.3g} cells needs about {need / 2**30:.3g} GiB "
+            f"({vmem.BYTES_PER_CELL[kind]} B per cell, {kind} walls); "
+            f"{avail / 2**30:.3g} GiB are available: use a coarser voxel or a smaller RVE"
+        )
 
 
 @contextmanager
 def _threads(n_cells: int):
     old = numba.get_num_threads()
-    numba.set_num_threads(old if n_cells >= PARALLEL_MIN_CELLS else 1)
+    numba.set_num_threads(vthreads.level_threads(n_cells, old))
     try:
         yield
     finally:
@@ -679,10 +707,18 @@ def _threads(n_cells: int):
 
 
 PRESSURE_SCALING = True
-"""Sub-voxel walls: scale the pressure block of the preconditioner by ``1 / max(0.05, sum of the
-cell's squared face weights / 6)`` (the diagonal of the Schur complement in a wall-free box is 1);
-measured on the square arrays at 40 voxels per cell it cuts MINRES iterations from 93-184 to
-60-76 (staircase: 48-58)."""
+"""Sub-voxel walls: scale the pressure block of the preconditioner by ``1 / max(SCHUR_FLOOR,
+sum over the cell's faces f of w_f^2 / A_ff)``, the diagonal of the Schur complement
+``W G^T diag(A)^-1 G W`` (1 in a wall-free box: six faces of weight 1 and diagonal 6).  The
+diagonal ``A_ff`` carries the ghost-fluid stiffness ``1 / theta`` of the cut faces, so a cell
+whose fluid faces sit against a wall gets the large scale it needs.  Measured, MINRES
+iterations to 1e-6 (``benchmarks/RESULTS.md``): Toray-like 40^3 with the exact fibre
+distance 566 -> 171 (staircase 133; K identical to 7 digits); the former estimate
+``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76."""
+
+SCHUR_FLOOR = 1e-4
+"""Lower bound of the Schur diagonal estimate (the smallest possible value, a weight of 0.05 on
+a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 40^3)."""
 
 
 class _Stokes:
@@ -702,12 +738,15 @@ class _Stokes:
         self.p_scale = None
         if self.w is not None and PRESSURE_SCALING:
             # pressure block of the preconditioner: 1 / diag of the Schur complement estimate
-            # (sum of the squared face weights of the cell / 6, the wall-free value being 1)
+            # (sum of w_f^2 / A_ff over the cell's faces, the wall-free value being 1)
             s2 = np.zeros(cells.shape, np.float64)
             for a, wa in enumerate(self.w):
-                s2 += wa.astype(np.float64) ** 2 + np.roll(wa, -1, axis=a).astype(np.float64) ** 2
-            s2 /= 6.0
-            self.p_scale = (1.0 / np.maximum(s2, 0.05)).astype(np.float32)
+                da = ops[a][0]
+                q = np.divide(
+                    np.square(wa, dtype=np.float64), da, out=np.zeros(da.shape), where=da > 0
+                )
+                s2 += q + np.roll(q, -1, axis=a)
+            self.p_scale = (1.0 / np.maximum(s2, SCHUR_FLOOR)).astype(np.float32)
         self.d = [o[0] for o in ops]
         self.c = [o[1] for o in ops]
         shp = cells.shape
@@ -775,13 +814,14 @@ class _Stokes:
 def _minres(
     op: _Stokes,
     b: np.ndarray,
-    e: np.ndarray,
+    x: np.ndarray,
     bufs: list[np.ndarray],
     rtol: float,
     maxit: int,
     report: Callable[[int, float], None] | None = None,
 ) -> tuple[int, str]:
-    """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b.
+    """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b,
+    accumulated into ``x`` (``x += e``; float64, so no separate correction vector is stored).
 
     Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  Stops when the
     preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations, status).
@@ -793,7 +833,7 @@ def _minres(
     ``PROGRESS_EVERY`` iterations if given.
     """
     z, t, wa, wb, r1 = bufs
-    for arr in (e, wa, wb, r1):
+    for arr in (wa, wb, r1):
         arr.fill(0.0)
     r2 = b
     op.precondition(r2, z)
@@ -825,7 +865,7 @@ def _minres(
         sn = beta / gamma
         phi = cs * phibar
         phibar = sn * phibar
-        kr.minres_update(z, s, wb, wa, e, oldeps, delta, 1.0 / gamma, phi)
+        kr.minres_update(z, s, wb, wa, x, oldeps, delta, 1.0 / gamma, phi)
         wa, wb = wb, wa
         z, t = t, z
         if report is not None and itn % PROGRESS_EVERY == 0:
@@ -855,7 +895,6 @@ def _solve_core(
     shp = op.shape
     x = np.zeros(shp)
     r = np.empty(shp, np.float32)
-    e = np.empty(shp, np.float32)
     bufs = [np.empty(shp, np.float32) for _ in range(5)]
     rn, bn = op.residual(x, d, r)
     rel = rn / bn
@@ -875,17 +914,17 @@ def _solve_core(
             def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
                 progress(done + itn, scale * ratio)
 
-        its, status = _minres(op, r, e, bufs, rtol, max_iter - total, report)
+        its, status = _minres(op, r, x, bufs, rtol, max_iter - total, report)
         total += its
-        if status == "preconditioner not positive":
-            message = "preconditioner lost positivity (round-off); stopped"
-            break
-        kr.add_into(x, e)
         rn, _ = op.residual(x, d, r)
         new = rn / bn
         history.append(new)
         if progress is not None:
             progress(total, new)
+        if status == "preconditioner not positive":
+            rel = new
+            message = "preconditioner lost positivity (round-off); stopped"
+            break
         stalls = stalls + 1 if not new < 0.5 * rel else 0
         rel = new
         if not np.isfinite(rel) or stalls >= 3:

@@ -4,7 +4,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
 
 * geometry: 16 bytes per voxel (float32 distance, uint8 count, uint16 mark, bool solid and a
   float64 temporary; ``benchmarks/RESULTS.md``: 7 bytes per voxel of fields);
-* voxel Stokes solver: about 180 bytes per voxel (``solvers/voxel_stokes.py``);
+* voxel Stokes solver: :data:`solvers.voxel.memory.BYTES_PER_CELL` (sub-voxel walls, the
+  larger figure);
 * the budget is half the machine's memory (``psutil.virtual_memory().total``).
 """
 
@@ -13,9 +14,10 @@ from __future__ import annotations
 import math
 
 from psdesign.schema.types import fail
+from solvers.voxel.memory import BYTES_PER_CELL
 
 GEOMETRY_BYTES_PER_VOXEL = 16
-VOXEL_SOLVER_BYTES_PER_VOXEL = 180
+VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"]
 MEMORY_FRACTION = 0.5
 #: Periodic copies of one fiber in the box (a tiny period multiplies the work).
 MAX_COPIES = 1000

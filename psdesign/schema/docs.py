@@ -21,7 +21,7 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
-  memory (16 B per voxel, plus 180 B with `flow.solver = "voxel"`) within half the machine's
+  memory (16 B per voxel, plus 210 B with `flow.solver = "voxel"`) within half the machine's
   memory (psutil).
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.

@@ -581,7 +581,8 @@ def lanczos_step(t, s, r1, c1, r2, c2, out):
 
 @nb.njit(parallel=True, **_OPTS)
 def minres_update(z, s, w, w1, x, oldeps, delta, denom, phi):
-    """w_new = (s z - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new."""
+    """w_new = (s z - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new
+    (x float64: MINRES accumulates straight into the solution)."""
     fz = z.ravel()
     fw = w.ravel()
     f1 = w1.ravel()
@@ -590,12 +591,3 @@ def minres_update(z, s, w, w1, x, oldeps, delta, denom, phi):
         wn = (s * fz[q] - oldeps * f1[q] - delta * fw[q]) * denom
         f1[q] = wn
         fx[q] += phi * wn
-
-
-@nb.njit(parallel=True, **_OPTS)
-def add_into(x, e):
-    """x += e (x float64, e any float)."""
-    fx = x.ravel()
-    fe = e.ravel()
-    for t in nb.prange(fx.size):
-        fx[t] += fe[t]

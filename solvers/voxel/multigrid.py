@@ -20,11 +20,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from solvers.voxel import kernels as kr
+from solvers.voxel.threads import level_threads
 
 
 def component_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarray]:
@@ -150,12 +152,26 @@ class ScalarMG:
             np.copyto(out, lev.x)
 
     def apply(self, b: np.ndarray, out: np.ndarray) -> None:
-        """out = V-cycle(b) starting from zero (approximates A^-1 b)."""
+        """out = V-cycle(b) starting from zero (approximates A^-1 b).
+
+        Each level runs on :func:`~solvers.voxel.threads.level_threads` numba threads (the
+        coarse levels on one: a parallel region there costs more than its work on a busy
+        machine); the caller's thread count is restored on return.
+        """
+        avail = numba.get_num_threads()
+        try:
+            self._vcycle(b, out, avail)
+        finally:
+            numba.set_num_threads(avail)
+
+    def _vcycle(self, b: np.ndarray, out: np.ndarray, avail: int) -> None:
         levels = self.levels
         levels[0].b = b
         nlev = len(levels)
+        nthr = [level_threads(lev.d.size, avail) for lev in levels]
         for li in range(nlev - 1):
             lev = levels[li]
+            numba.set_num_threads(nthr[li])
             self._smooth(lev, True)
             kr.residual_restrict(
                 lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, *lev.f, levels[li + 1].b
@@ -163,6 +179,7 @@ class ScalarMG:
         self._coarse_solve(levels[-1].b, levels[-1].x)
         for li in range(nlev - 2, -1, -1):
             lev = levels[li]
+            numba.set_num_threads(nthr[li])
             kr.prolong_add(lev.d, levels[li + 1].x, *lev.f, self.alpha, lev.x)
             self._smooth(lev, False, out if li == 0 else None)
         if nlev == 1:

@@ -23,6 +23,18 @@ def test_import_is_light() -> None:
     assert out.stdout.strip() == "[]"
 
 
+def test_cli_help_is_light() -> None:
+    # `psdesign --help` (the console script's entry point) imports none of the heavy stacks
+    code = (
+        "import sys\nfrom psdesign.cli import main\ntry:\n    main(['--help'])\n"
+        "except SystemExit:\n    pass\nheavy = [m for m in ('numba', 'scipy.stats', 'pyvista',"
+        " 'matplotlib') if m in sys.modules]\nprint(heavy, file=sys.stderr)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "usage" in out.stdout
+    assert out.stderr.strip().splitlines()[-1] == "[]"
+
+
 def test_build_porosity_matches_the_exact_cylinder_area() -> None:
     # one z-aligned circular cylinder of diameter 8 um in a 20 um box: porosity 1 - pi r^2 / A
     spec = {

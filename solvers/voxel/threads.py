@@ -1,0 +1,40 @@
+"""Thread policy of the voxel Stokes kernels: how many numba threads each grid level uses.
+
+Measured on a 2-core machine shared with other jobs (``python benchmarks/bench_voxel.py
+threads``; ``benchmarks/RESULTS.md``):
+
+* numba's OpenMP layer (libgomp) spins while a thread waits at the end of a parallel region.
+  With another process on the second core the spinning thread steals the CPU its partner needs,
+  so two threads ran up to 42x slower than one.  ``OMP_WAIT_POLICY=PASSIVE`` (waiting threads
+  sleep) is therefore set as the default before any parallel region runs
+  (:func:`passive_wait`, called on import of :mod:`psdesign` and :mod:`solvers`); a value set
+  by the user is kept.
+* A parallel region also costs a wake-up of every thread (a scheduler time slice on a busy
+  machine), so grids or multigrid levels below ``PARALLEL_MIN_CELLS`` cells run on one thread
+  (:func:`level_threads`); only the fine levels, where the work is, use all threads.
+"""
+
+from __future__ import annotations
+
+import os
+
+PARALLEL_MIN_CELLS = 100_000
+"""Grids (and multigrid levels) with fewer cells run the numba kernels on one thread.  Measured
+on an idle 2-core machine with the row-vectorised kernels, two threads are faster from 32^3 up
+(100^3: 9.5 s -> 5.4 s, 150^3: 32.9 s -> 18.3 s); on a machine whose cores are busy with other
+work the start-up latency of a parallel region (~15 ms under load) can make one thread faster
+for small grids, so the tiny grids of tests and screening and the coarse multigrid levels stay
+on one thread."""
+
+
+def passive_wait() -> None:
+    """Make idle OpenMP threads sleep instead of spin (``OMP_WAIT_POLICY=PASSIVE``) unless the
+    user chose otherwise.  Must run before the first numba parallel region of the process (the
+    OpenMP runtime reads it when it starts)."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
+def level_threads(n_cells: int, available: int) -> int:
+    """Numba threads for a grid (or multigrid level) of ``n_cells`` cells: all ``available``
+    from ``PARALLEL_MIN_CELLS`` cells up, else one."""
+    return available if n_cells >= PARALLEL_MIN_CELLS else 1
