@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import resource
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -351,6 +351,7 @@ def solve_stokes(
     force: bool = False,
     direct_max_dofs: int = 8_000,
     amg: str = "sa",
+    progress: Callable[[int, float], None] | None = None,
 ) -> StokesResult:
     """Solve steady Stokes flow driven by prescribed inlet/outlet pressures.
 
@@ -390,6 +391,8 @@ def solve_stokes(
         unstructured P2-P1 mesh, MINRES 3 s for the 31 k).
     amg : {"sa", "rs"}
         pyamg smoothed aggregation or Ruge-Stuben for the velocity blocks.
+    progress : callable, optional
+        ``progress(iterations, relative_residual)`` during MINRES, every few seconds.
 
     Returns
     -------
@@ -530,7 +533,7 @@ def solve_stokes(
         info = solve_direct(system, b, tol)
     else:
         with _single_thread_blas():
-            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg, progress=progress)
     t_solve = time.perf_counter() - t0
     del system, A_red, D_red
 
@@ -627,6 +630,7 @@ def solve_stokes_periodic(
     force: bool = False,
     direct_max_dofs: int = 8_000,
     amg: str = "sa",
+    progress: Callable[[int, float], None] | None = None,
 ) -> StokesResult:
     """Stokes flow periodic across opposite box faces, driven by a mean pressure gradient.
 
@@ -653,7 +657,7 @@ def solve_stokes_periodic(
         Axes whose face pairs are identified (default all three).
     slip : sequence of str
         Tags of flat faces normal to a non-periodic axis with a symmetry condition.
-    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg
+    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg, progress
         As in :func:`solve_stokes`.
 
     Returns
@@ -719,7 +723,7 @@ def solve_stokes_periodic(
         info = solve_direct(system, b, tol)
     else:
         with _single_thread_blas():
-            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg)
+            info = solve_minres(system, b, tol=tol, max_iter=max_iter, amg=amg, progress=progress)
     t_solve = time.perf_counter() - t0
     del system
 

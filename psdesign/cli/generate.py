@@ -96,4 +96,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("-o", "--output", required=True, help="output folder")
     gen.add_argument("--no-preview", action="store_true", help="skip preview.png")
     add_force_argument(gen)
+    gen.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     gen.set_defaults(func=_cmd_generate)

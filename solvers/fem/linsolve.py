@@ -21,6 +21,8 @@ component c) and ``D_c`` the P1 x P2 derivative blocks. It is symmetric indefini
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,8 @@ from scipy.sparse.linalg import LinearOperator, minres, splu
 
 # MINRES' own stopping test uses a preconditioned-norm estimate; aiming below the requested
 # true-residual tolerance avoids restarts (each restart discards the Krylov space).
+#: Seconds between two ``progress`` reports of :func:`solve_minres` (each costs one product).
+PROGRESS_EVERY_S = 2.0
 INNER_FACTOR = 0.01
 
 
@@ -120,8 +124,12 @@ def solve_minres(
     tol: float,
     max_iter: int,
     amg: str = "sa",
+    progress: Callable[[int, float], None] | None = None,
 ) -> SolveInfo:
     """Block-diagonally preconditioned MINRES.
+
+    ``progress(iterations, residual)``, if given, is called about every
+    :data:`PROGRESS_EVERY_S` seconds with the true relative residual of the current iterate.
 
     The stopping test is the true relative residual ``||b - K x|| / ||b|| <= tol``: MINRES
     (whose internal test uses a preconditioned-norm estimate) is restarted from its last
@@ -141,9 +149,13 @@ def solve_minres(
     M = LinearOperator((system.n, system.n), matvec=apply_prec, dtype=np.float64)
     K = system.operator()
     count = [0]
+    last = [time.perf_counter()]
 
-    def cb(_xk):
+    def cb(xk):
         count[0] += 1
+        if progress is not None and time.perf_counter() - last[0] >= PROGRESS_EVERY_S:
+            last[0] = time.perf_counter()
+            progress(count[0], relative_residual(system, xk, b))
 
     x = np.zeros_like(b)
     res = 1.0
