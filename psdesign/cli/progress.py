@@ -125,6 +125,12 @@ def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Prin
         yield printer
     finally:
         _ACTIVE.remove(printer)
+        jit = sys.modules.get("solvers.jit")
+        if jit is not None and jit.parallel_pending():
+            printer.stage(
+                "numba kernels ran on one thread (parallel versions not compiled yet); "
+                "`psdesign warmup` compiles them once"
+            )
         printer.close()
 
 
