@@ -43,18 +43,23 @@ def _task(mode: str) -> tuple[str, float]:
     import numba
 
     import psdesign.geometry.raster as raster
+    import solvers.jit as jit
     import solvers.voxel_stokes as vs
     from psdesign.flow.permeability import route_result
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import validate_spec
     from psdesign.transport.diffusivity import relative_diffusivity
 
+    import warnings
+
+    warnings.simplefilter("ignore")  # resolution warnings of the tiny grid
     t0 = time.perf_counter()
     if mode == "serial":
         numba.set_num_threads(1)
     else:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
         vs.PARALLEL_MIN_CELLS = 0
+        jit.COMPILE_PARALLEL_ABOVE = 0  # compile the parallel kernels, not their twins
         raster.rasterize_copy.serial_below = 0
     spec = validate_spec(_SPEC)
     built = build_rve(spec)
