@@ -79,7 +79,7 @@ class Printer:
     def iterations(self, label: str, method: str) -> Callable[[int, float], None]:
         """Callback ``report(iterations, residual)`` of one iterative solve."""
         t0 = time.perf_counter()
-        last = [t0]
+        last = [float("-inf") if self.tty else t0]  # a terminal line is drawn at once
 
         def report(n: int, residual: float) -> None:
             now = time.perf_counter()

@@ -102,7 +102,7 @@ def test_mesh_stages_on_stderr(tmp_path, capsys):
     assert main(["mesh", str(spec), "-o", str(tmp_path / "m")]) == 0
     err = capsys.readouterr().err
     assert "psdesign: meshing the pore space (stuffing, z)" in err
-    n_tets = json.loads((tmp_path / "m" / "mesh.json").read_text())["n_tets"]
+    n_tets = json.loads((tmp_path / "m" / "mesh.json").read_text())["quality"]["n_tets"]
     assert f"{n_tets} tets (" in err
     assert main(["mesh", str(spec), "-o", str(tmp_path / "q"), "--quiet"]) == 0
     assert "meshing" not in capsys.readouterr().err
