@@ -40,6 +40,8 @@ _SPEC = {
 
 def _task(mode: str) -> tuple[str, float]:
     """Compile (or load) every kernel of one mode; returns ``(mode, seconds)``."""
+    import warnings
+
     import numba
 
     import psdesign.geometry.raster as raster
@@ -49,8 +51,6 @@ def _task(mode: str) -> tuple[str, float]:
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import validate_spec
     from psdesign.transport.diffusivity import relative_diffusivity
-
-    import warnings
 
     warnings.simplefilter("ignore")  # resolution warnings of the tiny grid
     t0 = time.perf_counter()
