@@ -144,4 +144,5 @@ def register(sub: argparse._SubParsersAction) -> None:
         "pages z, voxel size in the resolution tags; docs/images.md)",
     )
     add_force_argument(gen)
+    gen.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     gen.set_defaults(func=_cmd_generate)

@@ -9,6 +9,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
+from psdesign.cli.progress import activate
 from psdesign.errors import SpecError
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
@@ -22,6 +23,7 @@ COMMANDS = (
     "study",
     "rev",
     "forcefield",
+    "warmup",
 )
 
 
@@ -53,7 +55,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     warnings.showwarning = _show_warning  # one line per warning
     try:
-        return int(args.func(args) or 0)
+        with activate(quiet=bool(getattr(args, "quiet", False))):  # progress on stderr
+            return int(args.func(args) or 0)
     except SpecError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2

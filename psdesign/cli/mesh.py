@@ -45,7 +45,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         MeshOptions.from_flow(flow, **mesh_overrides(fields)),
     )
     with staged_directory(target) as tmp:
-        files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])))
+        files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])), flow=flow)
         info = {
             "direction": args.direction,
             "porosity": fields.porosity,
@@ -86,4 +86,5 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=f"extra formats (export registry): {', '.join(WRITERS)}",
     )
     add_force_argument(mesh)
+    mesh.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     mesh.set_defaults(func=_cmd_mesh)

@@ -1,31 +1,171 @@
-"""Helpers shared by the CLI commands: progress lines on stderr, the ``--force`` option."""
+"""Progress on stderr, one printer for every long step; the ``--force`` option.
+
+:class:`Printer` writes stage lines (``psdesign: meshing (stuffing) ...``), estimates before long
+runs and the iterations of iterative solves: a redrawn status line on a terminal, plain lines at
+most every ``every_s`` otherwise; ``quiet`` silences it. The CLI activates one printer per
+command (:func:`activate`); library code reports through the module functions :func:`stage`,
+:func:`estimate` and :func:`iterations`, which do nothing when no printer is active (API use,
+tests, ``--quiet``). stdout is never written.
+"""
 
 from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import TextIO
+
+__all__ = [
+    "Printer",
+    "activate",
+    "active",
+    "estimate",
+    "iterations",
+    "laplace_progress",
+    "progress_printer",
+    "stage",
+]
+
+
+class Printer:
+    """Progress lines on ``stream`` (default stderr).
+
+    Parameters
+    ----------
+    quiet
+        Print nothing.
+    stream
+        Text stream; a terminal gets a redrawn line (``\\r``), anything else plain lines.
+    every_s
+        Plain-line mode: at most one iteration line per solve every ``every_s`` seconds.
+    """
+
+    def __init__(
+        self, quiet: bool = False, stream: TextIO | None = None, every_s: float = 5.0
+    ) -> None:
+        self.quiet = quiet
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.every_s = every_s
+        self.t0 = time.perf_counter()
+        self._open = False  # a redrawn (unterminated) line is on the terminal
+
+    def _write(self, text: str, redraw: bool = False) -> None:
+        if self.quiet:
+            return
+        if self.tty:
+            self.stream.write(("\r" if self._open else "") + text + ("\033[K" if redraw else ""))
+            if not redraw:
+                self.stream.write("\n")
+            self._open = redraw
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def stage(self, message: str) -> None:
+        """One line ``psdesign: <message> (<elapsed> s)``."""
+        self._write(f"psdesign: {message} ({time.perf_counter() - self.t0:.0f} s)")
+
+    def estimate(self, what: str, seconds: float | None, memory_gb: float | None) -> None:
+        """``psdesign: <what>: estimated ~T, ~M GB`` before a long run."""
+        parts = []
+        if seconds is not None:
+            parts.append(f"~{_duration(seconds)}")
+        if memory_gb is not None:
+            parts.append(f"~{memory_gb:.2g} GB")
+        self._write(f"psdesign: {what}: estimated {', '.join(parts) or 'unknown'}")
+
+    def iterations(self, label: str, method: str) -> Callable[[int, float], None]:
+        """Callback ``report(iterations, residual)`` of one iterative solve."""
+        t0 = time.perf_counter()
+        last = [float("-inf") if self.tty else t0]  # a terminal line is drawn at once
+
+        def report(n: int, residual: float) -> None:
+            now = time.perf_counter()
+            if self.quiet or (not self.tty and now - last[0] < self.every_s):
+                return
+            if self.tty and now - last[0] < 0.2:
+                return
+            last[0] = now
+            self._write(
+                f"psdesign: {label}: {n} {method} iterations, residual {residual:.1e}, "
+                f"{now - t0:.0f} s",
+                redraw=self.tty,
+            )
+
+        return report
+
+    def close(self) -> None:
+        """End a redrawn line."""
+        if self._open and not self.quiet:
+            self.stream.write("\n")
+            self.stream.flush()
+        self._open = False
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+_ACTIVE: list[Printer] = []
+
+
+@contextmanager
+def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Printer]:
+    """Make a :class:`Printer` the target of :func:`stage`, :func:`estimate`, :func:`iterations`
+    for the duration of the block (the CLI wraps each command in it)."""
+    printer = Printer(quiet=quiet, stream=stream)
+    _ACTIVE.append(printer)
+    try:
+        yield printer
+    finally:
+        _ACTIVE.remove(printer)
+        jit = sys.modules.get("solvers.jit")
+        if jit is not None and jit.parallel_pending():
+            printer.stage(
+                "numba kernels ran on one thread (parallel versions not compiled yet); "
+                "`psdesign warmup` compiles them once"
+            )
+        printer.close()
+
+
+def active() -> Printer | None:
+    """The printer of the running command, or None (library use)."""
+    return _ACTIVE[-1] if _ACTIVE else None
+
+
+def stage(message: str) -> None:
+    """Report a stage of a long step on the active printer (no-op without one)."""
+    if _ACTIVE:
+        _ACTIVE[-1].stage(message)
+
+
+def estimate(what: str, seconds: float | None = None, memory_gb: float | None = None) -> None:
+    """Report a time / memory estimate before a long run (no-op without a printer)."""
+    if _ACTIVE:
+        _ACTIVE[-1].estimate(what, seconds, memory_gb)
+
+
+def iterations(label: str, method: str) -> Callable[[int, float], None] | None:
+    """Iteration callback of the active printer, or None without one."""
+    return _ACTIVE[-1].iterations(label, method) if _ACTIVE else None
 
 
 def progress_printer(
     direction: str, every_s: float = 5.0, solve: str = "voxel solve", method: str = "MINRES"
-):
+) -> Callable[[int, float], None]:
     """Progress callback ``report(iterations, residual)`` of an iterative solve: one line on
-    stderr at most every ``every_s`` (``psdesign: voxel solve z: 40 MINRES iterations, ...``)."""
-    t0 = time.perf_counter()
-    last = [t0]
-
-    def report(iterations: int, residual: float) -> None:
-        now = time.perf_counter()
-        if now - last[0] >= every_s:
-            last[0] = now
-            print(
-                f"psdesign: {solve} {direction}: {iterations} {method} iterations, "
-                f"residual {residual:.1e}, {now - t0:.0f} s",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    return report
+    stderr at most every ``every_s`` (``psdesign: voxel solve z: 40 MINRES iterations, ...``);
+    the active printer's (a redrawn line on a terminal) when a command runs."""
+    printer = active() or Printer(every_s=every_s)
+    if printer.every_s != every_s:
+        printer = Printer(quiet=printer.quiet, stream=printer.stream, every_s=every_s)
+    return printer.iterations(f"{solve} {direction}", method)
 
 
 def laplace_progress(args, direction: str):

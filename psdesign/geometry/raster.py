@@ -7,12 +7,17 @@ runs in parallel without races.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from psdesign.geometry.ps_kernel import psi_value
+from solvers.jit import parallel_kernel
+
+SERIAL_BELOW = 100_000
+"""Grids of fewer voxels rasterize on one thread (the serial twin: half the compile time of
+the parallel kernel, and a parallel region buys little on a grid this small)."""
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel(cache=True, serial_below=SERIAL_BELOW)
 def rasterize_copy(
     distance,
     count,

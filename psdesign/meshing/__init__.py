@@ -24,6 +24,13 @@ exports
     Writer registry (vtu, msh, fluent, stl, openfoam) and ``mesh.json``.
 """
 
-from psdesign.meshing.options import MeshOptions
-
 __all__ = ["MeshOptions"]
+
+
+def __getattr__(name: str):
+    # lazy: ``import psdesign.meshing.exports`` (the CLI's format list) must not import numpy
+    if name == "MeshOptions":
+        from psdesign.meshing.options import MeshOptions
+
+        return MeshOptions
+    raise AttributeError(f"module 'psdesign.meshing' has no attribute {name!r}")

@@ -93,8 +93,13 @@ def mesh_pore_space(
     if legacy:
         opts = MeshOptions.from_kwargs(**{**_fields(opts), **legacy})
     distance, voxel, size = validate_inputs(distance, voxel, size, direction, opts)
+    from psdesign.cli import progress
+
     mesher = mesh_stuffing if opts.mesher == "stuffing" else mesh_tetwild
-    return mesher(distance, voxel, size, direction, opts, t0)
+    progress.stage(f"meshing the pore space ({opts.mesher}, {direction})")
+    pm = mesher(distance, voxel, size, direction, opts, t0)
+    progress.stage(f"mesh: {len(pm.points)} points, {len(pm.tets)} tets")
+    return pm
 
 
 def _fields(opts: MeshOptions) -> dict:

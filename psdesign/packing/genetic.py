@@ -146,6 +146,9 @@ def genetic(
     f_init = float(fit[0])
     history = [float(fit.min())]
     gen = 0
+    from psdesign.cli import progress
+
+    report = progress.iterations("fiber placement", "GA generation")
     for _ in range(generations):
         if fit.min() <= 0.0:
             break
@@ -165,6 +168,8 @@ def genetic(
         evals += population - 2
         gen += 1
         history.append(float(fit.min()))
+        if report is not None:
+            report(gen, history[-1])
     best = int(np.argmin(fit))
     return GAResult(
         state=decode(pop[best]),

@@ -39,6 +39,11 @@ class FlowTable(Table):
         "geometry has an analytic distance)",
     )
     viscosity: number(gt=0, le=1e6) = Field(1.8e-5, description="Pa s in (0, 1e6] (default 1.8e-5)")
+    density: number(gt=0, le=1e5) | None = Field(
+        None,
+        description="fluid density, kg/m^3 in (0, 1e5] (default 1.2, air; only the OpenFOAM "
+        "export uses it: nu = viscosity / density)",
+    )
     aux_length: number(ge=0, le=2) = Field(
         0.2, description="inlet/outlet zone length, fraction of the RVE length in [0, 2]"
     )

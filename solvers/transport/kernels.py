@@ -13,6 +13,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from solvers.jit import parallel_kernel
+
 _OPTS = {"cache": True, "fastmath": False, "nogil": True}
 
 
@@ -25,7 +27,7 @@ def _wrap(i, n):
     return i
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def apply_dot(d, cx, cy, cz, x, out):
     """``out = A x`` (0 on inactive unknowns); returns ``x . A x``."""
     nx, ny, nz = d.shape
@@ -67,7 +69,7 @@ def apply_dot(d, cx, cy, cz, x, out):
     return part.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def update_xr(x, r, p, q, alpha, r32, d):
     """``x += alpha p``, ``r -= alpha q``, ``r32 = float32(r)``; returns ``|D^-1 r|^2``."""
     fd = d.reshape(-1)
@@ -94,7 +96,7 @@ def update_xr(x, r, p, q, alpha, r32, d):
     return part.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def dot_z(r, z32, z):
     """``z = float64(z32)``; returns ``r . z``."""
     fr = r.reshape(-1)
@@ -114,7 +116,7 @@ def dot_z(r, z32, z):
     return part.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def update_p(p, z, beta):
     """``p = z + beta p``."""
     fp = p.reshape(-1)
@@ -124,7 +126,7 @@ def update_p(p, z, beta):
         fp[t] = fz[t] + beta * fp[t]
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def dot_z32(r, z32):
     """Returns ``r . float64(z32)``."""
     fr = r.reshape(-1)
@@ -141,7 +143,7 @@ def dot_z32(r, z32):
     return part.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def update_p32(p, z32, beta):
     """``p = float64(z32) + beta p``."""
     fp = p.reshape(-1)
@@ -157,7 +159,7 @@ def _harmonic(a, b):
     return 2.0 * a * b / s if s > 0 else 0.0
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def coefficients(sigma, axis, fixed, cx, cy, cz, d, rhs):
     """Face conductances (harmonic means), diagonal and right-hand side of the system.
 
@@ -221,7 +223,7 @@ def coefficients(sigma, axis, fixed, cx, cy, cz, d, rhs):
                 rhs[i, j, k] = b if dd != 0 else 0.0
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def face_fluxes(t, cx, cy, cz, axis, offset):
     """Face fluxes ``c_b (t[I - e_b] - t[I] + offset [b == axis])`` summed per plane normal to
     ``axis`` (``planes[p]`` = faces between layers ``p - 1`` and ``p``) and summed over the box

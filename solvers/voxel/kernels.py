@@ -25,6 +25,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from solvers.jit import parallel_kernel
+
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
 
 
@@ -113,7 +115,7 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
         out[k] = br[k] - out[k] if dr[k] != 0 else 0.0
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def lap_residual(d, cx, cy, cz, x, b, r):
     """r = b - A x (0 on inactive unknowns), row-vectorised."""
     nx, ny, nz = d.shape
@@ -138,7 +140,7 @@ def _sum_row(row, fz, out):
             out[min(k // fz, ncz - 1)] += row[k]
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
 
@@ -160,7 +162,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
                     _sum_row(row, fz, out)
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised)."""
     nx, ny, nz = d.shape
@@ -175,7 +177,7 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
                 out[k] = xr[k] + omega * row[k] / dr[k] if dr[k] != 0 else 0.0
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def jacobi_zero(d, b, x, omega):
     """First Jacobi sweep from a zero guess: ``x = omega D^-1 b``."""
     nx, ny, nz = d.shape
@@ -193,7 +195,7 @@ def _children(ic, f, nc, n):
     return lo, hi
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def restrict_sum(r, fx, fy, fz, rc):
     """Coarse right-hand side = sum of the fine residual over each aggregate (R = P^T)."""
     nx, ny, nz = r.shape
@@ -209,7 +211,7 @@ def restrict_sum(r, fx, fy, fz, rc):
                     _sum_row(r[i, j], fz, out)
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def prolong_add(d, xc, fx, fy, fz, alpha, x):
     """x += alpha * (piecewise-constant interpolation of xc) on active fine unknowns."""
     nx, ny, nz = d.shape
@@ -232,7 +234,7 @@ def prolong_add(d, xc, fx, fy, fz, alpha, x):
                         xr[k] += alpha * cr[min(k // fz, ncz - 1)]
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
     """Galerkin coarse operator P^T A P for piecewise-constant aggregation (box aggregates).
 
@@ -289,7 +291,7 @@ def _momentum_row(d, c, q, pr, plow, shift, i, j, out):
         out[0] += pr[0] - plow[(nz - shift) % nz]
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
     """y = K x for the symmetric MAC Stokes matrix; x, y have shape (4, nx, ny, nz) = (u, v, w, p).
 
@@ -356,7 +358,7 @@ def _momentum_row_w(d, c, q, pr, plow, shift, wr, i, j, out):
     out[0] += wr[0] * (pr[0] - plow[(nz - shift) % nz])
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
     """:func:`stokes_apply` with face weights (cut-cell fluid fractions, 0 on inactive faces):
     gradient ``w_f (p_i - p_{i-1})`` and divergence ``sum_f +-w_f q_f`` (still symmetric)."""
@@ -414,7 +416,7 @@ def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
     return acc_y.sum(), acc_r.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
     """r = f - K x for the weighted system of :func:`stokes_apply_w`; f = ``w`` on the faces of
     component ``gdir`` (the body force on the cut control volumes).  Returns
@@ -483,7 +485,7 @@ def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
     return acc.sum(), accf.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def dot(a, b):
     """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype).
 
@@ -503,7 +505,7 @@ def dot(a, b):
     return part.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
     """r = f - K x in float64 arithmetic (r may be float32); f = 1 on the active faces of
     component ``gdir`` (unit body force).  Returns ``(||r||^2, ||f||^2)``."""
@@ -568,7 +570,7 @@ def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
     return acc.sum(), accf.sum()
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def lanczos_step(t, s, r1, c1, r2, c2, out):
     """out = s t - c1 r1 - c2 r2 (flat, parallel); out may alias r1."""
     ft = t.ravel()
@@ -579,7 +581,7 @@ def lanczos_step(t, s, r1, c1, r2, c2, out):
         fo[q] = s * ft[q] - c1 * f1[q] - c2 * f2[q]
 
 
-@nb.njit(parallel=True, **_OPTS)
+@parallel_kernel(**_OPTS)
 def minres_update(z, s, w, w1, x, oldeps, delta, denom, phi):
     """w_new = (s z - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new
     (x float64: MINRES accumulates straight into the solution)."""

@@ -12,15 +12,42 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from psdesign.meshing.errors import MeshInputError
-from psdesign.meshing.exports.gmsh import write_gmsh
-from psdesign.meshing.exports.meshjson import write_json
-from psdesign.meshing.exports.stl import write_stl
-from psdesign.meshing.exports.vtu import write_vtu
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
 
 Writer = Callable[["PoreMesh", Path], dict[str, Path]]
+
+# The writers import meshio/numpy when called, not when the registry is imported: the CLI lists
+# the format names in ``psdesign --help`` without paying for those imports (cold start).
+
+
+def write_vtu(pm: PoreMesh, out: Path) -> dict[str, Path]:
+    """``pore.vtu`` + ``pore_boundary.vtu`` (:func:`psdesign.meshing.exports.vtu.write_vtu`)."""
+    from psdesign.meshing.exports.vtu import write_vtu as writer
+
+    return writer(pm, out)
+
+
+def write_gmsh(pm: PoreMesh, out: Path) -> dict[str, Path]:
+    """Gmsh MSH with physical names (:func:`psdesign.meshing.exports.gmsh.write_gmsh`)."""
+    from psdesign.meshing.exports.gmsh import write_gmsh as writer
+
+    return writer(pm, out)
+
+
+def write_stl(pm: PoreMesh, out: Path) -> dict[str, Path]:
+    """Boundary surface STL (:func:`psdesign.meshing.exports.stl.write_stl`)."""
+    from psdesign.meshing.exports.stl import write_stl as writer
+
+    return writer(pm, out)
+
+
+def write_json(pm: PoreMesh, out: Path) -> Path:
+    """``mesh.json`` (:func:`psdesign.meshing.exports.meshjson.write_json`)."""
+    from psdesign.meshing.exports.meshjson import write_json as writer
+
+    return writer(pm, out)
 
 
 def _write_fluent(pm: PoreMesh, out: Path) -> dict[str, Path]:
@@ -30,11 +57,12 @@ def _write_fluent(pm: PoreMesh, out: Path) -> dict[str, Path]:
     return {"fluent": write_fluent(pm, out / "pore_fluent.msh")}
 
 
-def _write_openfoam(pm: PoreMesh, out: Path) -> dict[str, Path]:
-    """``openfoam/``: a ready-to-run simpleFoam case."""
+def _write_openfoam(pm: PoreMesh, out: Path, flow: dict | None = None) -> dict[str, Path]:
+    """``openfoam/``: a ready-to-run simpleFoam case (``Allrun``) with the spec's ``flow``
+    viscosity, density and pressure drop."""
     from psdesign.meshing.exports.openfoam import write_openfoam_case
 
-    return {"openfoam": write_openfoam_case(pm, out / "openfoam")}
+    return {"openfoam": write_openfoam_case(pm, out / "openfoam", flow=flow)}
 
 
 #: format name -> writer (insertion order is the order ``--format`` lists them)
@@ -59,7 +87,9 @@ def register_writer(name: str, writer: Writer) -> None:
     WRITERS[name] = writer
 
 
-def export_mesh(pm: PoreMesh, out_dir, formats=("vtu",)) -> dict[str, Path]:
+def export_mesh(
+    pm: PoreMesh, out_dir, formats=("vtu",), flow: dict | None = None
+) -> dict[str, Path]:
     """Write ``pm`` into ``out_dir`` in the requested formats, plus ``mesh.json``.
 
     Parameters
@@ -72,6 +102,9 @@ def export_mesh(pm: PoreMesh, out_dir, formats=("vtu",)) -> dict[str, Path]:
         Names from :data:`WRITERS`: ``vtu`` (``pore.vtu`` + ``pore_boundary.vtu``), ``msh``
         (Gmsh 2.2 with physical names), ``fluent`` (``pore_fluent.msh``), ``stl`` (boundary
         surface), ``openfoam`` (case folder ``openfoam/`` for simpleFoam).
+    flow
+        The spec's ``[flow]`` table, passed to the writers that take a ``flow`` argument
+        (``openfoam``: viscosity, density, pressure drop).
 
     Returns
     -------
@@ -86,7 +119,11 @@ def export_mesh(pm: PoreMesh, out_dir, formats=("vtu",)) -> dict[str, Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
+    import inspect
+
     for fmt in formats:
-        written.update(WRITERS[fmt](pm, out))
+        writer = WRITERS[fmt]
+        takes_flow = "flow" in inspect.signature(writer).parameters
+        written.update(writer(pm, out, flow=flow) if takes_flow else writer(pm, out))
     written["json"] = write_json(pm, out)
     return written

@@ -1,9 +1,15 @@
-"""Ready-to-run OpenFOAM case (constant/polyMesh + minimal system/ and 0/) for simpleFoam.
+"""Ready-to-run OpenFOAM case (constant/polyMesh, system/, 0/, ``Allrun``) for simpleFoam.
 
 Patches: ``inlet`` and ``outlet`` (fixed kinematic pressure), ``walls`` (no-slip fiber
-surfaces) and ``sides`` (the four lateral faces, ``symmetry``). Run with e.g.
-``simpleFoam -case OUT/openfoam`` (Debian's openfoam package: set ``WM_PROJECT_DIR`` to its
-``share/openfoam`` folder); ``checkMesh`` first.
+surfaces) and ``sides`` (the four lateral faces, ``symmetry``). The case uses the spec's
+viscosity and density (``nu = flow.viscosity / flow.density``, kinematic pressure drop
+``flow.pressure_drop / flow.density``). Its function objects sample the area-averaged pressure
+on the inlet and outlet patches and on the two RVE planes (cutting planes at the ends of
+``porous_region``) and the flux through the inlet and outlet. ``./Allrun`` runs ``checkMesh``
+(or, with ``./Allrun gmsh``, converts ``../pore.msh`` with ``gmshToFoam`` and types its
+``wall`` patch as a wall and the sides as symmetry planes), ``simpleFoam``, and prints K by
+the plain RVE-plane definition ``K = mu Q L / (A (p_start - p_end))``, the one psdesign reports
+as ``pressure_drop_faces_pa`` (see :func:`openfoam_permeability`).
 """
 
 from __future__ import annotations
@@ -98,7 +104,211 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
     return topo
 
 
-def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: float = 1.5e-5) -> Path:
+#: Density used when the spec has no ``flow.density`` (air at 20 C, kg/m^3).
+DEFAULT_DENSITY = 1.2
+
+_PATCH_BC = {
+    # regex keys: the direct polyMesh names (walls, sides) and gmshToFoam's (wall, side_x0...)
+    "p": (
+        "    inlet  {{ type fixedValue; value uniform {p_inlet:.10g}; }}\n"
+        "    outlet {{ type fixedValue; value uniform 0; }}\n"
+        '    "walls?" {{ type zeroGradient; }}\n    "sides?.*" {{ type symmetry; }}\n'
+    ),
+    "U": (
+        "    inlet  { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
+        "    outlet { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
+        '    "walls?" { type noSlip; }\n    "sides?.*" { type symmetry; }\n'
+    ),
+}
+
+
+_FV_SCHEMES = _header("dictionary", "fvSchemes", "system") + (
+    "ddtSchemes      { default steadyState; }\ngradSchemes     { default Gauss linear; }\n"
+    "divSchemes\n{\n    default         none;\n    div(phi,U)      bounded Gauss linearUpwind"
+    " grad(U);\n    div((nuEff*dev2(T(grad(U))))) Gauss linear;\n}\n"
+    "laplacianSchemes { default Gauss linear corrected; }\n"
+    "interpolationSchemes { default linear; }\nsnGradSchemes   { default corrected; }\n"
+)
+
+_FV_SOLUTION = _header("dictionary", "fvSolution", "system") + (
+    "solvers\n{\n    p\n    {\n        solver          GAMG;\n        smoother        "
+    "GaussSeidel;\n        tolerance       1e-8;\n        relTol          0.05;\n    }\n"
+    "    U\n    {\n        solver          smoothSolver;\n        smoother        "
+    "symGaussSeidel;\n        tolerance       1e-10;\n        relTol          0.1;\n    }\n}\n"
+    "\nSIMPLE\n{\n    nNonOrthogonalCorrectors 2;\n    consistent      yes;\n"
+    "    residualControl { p 1e-6; U 1e-7; }\n}\n\nrelaxationFactors\n{\n"
+    '    equations { U 0.9; ".*" 0.9; }\n}\n'
+)
+
+
+def _patch_fo(name: str, patch: str, operation: str, field: str) -> str:
+    return (
+        f"    {name}\n    {{\n        type            surfaceFieldValue;\n"
+        '        libs            ("libfieldFunctionObjects.so");\n'
+        "        writeControl    timeStep;\n        writeInterval   50;\n"
+        f"        regionType      patch;\n        name            {patch};\n"
+        "        writeFields     false;\n        log             false;\n"
+        f"        operation       {operation};\n        fields          ({field});\n    }}\n"
+    )
+
+
+def _plane_fo(name: str, point: np.ndarray, axis: int) -> str:
+    normal = " ".join("1" if a == axis else "0" for a in range(3))
+    pt = " ".join(f"{v:.12g}" for v in point)
+    return (
+        f"    {name}\n    {{\n        type            surfaceFieldValue;\n"
+        '        libs            ("libfieldFunctionObjects.so");\n'
+        "        writeControl    timeStep;\n        writeInterval   50;\n"
+        f"        regionType      sampledSurface;\n        name            {name};\n"
+        "        sampledSurfaceDict\n        {\n            type        cuttingPlane;\n"
+        "            planeType   pointAndNormal;\n"
+        f"            pointAndNormalDict {{ point ({pt}); normal ({normal}); }}\n"
+        "            interpolate false;\n        }\n"
+        "        writeFields     false;\n        log             false;\n"
+        "        operation       areaAverage;\n        fields          (p);\n    }\n"
+    )
+
+
+def _rve_plane_points(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray]:
+    """A point on each RVE plane (box centre moved to ``porous_region``'s ends)."""
+    ax = pm.axis
+    centre = np.asarray(pm.bounds, dtype=float).mean(axis=0)
+    a, b = centre.copy(), centre.copy()
+    a[ax], b[ax] = pm.porous_region
+    return a, b
+
+
+def _control_dict(pm: PoreMesh) -> str:
+    a, b = _rve_plane_points(pm)
+    fos = (
+        _patch_fo("pInlet", T.INLET, "areaAverage", "p")
+        + _patch_fo("pOutlet", T.OUTLET, "areaAverage", "p")
+        + _patch_fo("fluxInlet", T.INLET, "sum", "phi")
+        + _patch_fo("flux", T.OUTLET, "sum", "phi")
+        + _plane_fo("pRveStart", a, pm.axis)
+        + _plane_fo("pRveEnd", b, pm.axis)
+    )
+    return (
+        _header("dictionary", "controlDict", "system")
+        + "application     simpleFoam;\nstartFrom       startTime;\nstartTime       0;\n"
+        "stopAt          endTime;\nendTime         2000;\ndeltaT          1;\n"
+        "writeControl    timeStep;\nwriteInterval   500;\npurgeWrite      1;\n"
+        "writeFormat     ascii;\nwritePrecision  10;\nrunTimeModifiable true;\n\n"
+        f"functions\n{{\n{fos}}}\n"
+    )
+
+
+def case_constants(pm: PoreMesh, flow: dict | None = None) -> dict[str, float]:
+    """Viscosity, density, kinematic quantities and RVE geometry of the exported case.
+
+    ``mu`` = ``flow.viscosity`` (default 1.8e-5 Pa s), ``rho`` = ``flow.density`` (default
+    :data:`DEFAULT_DENSITY`), ``nu = mu / rho``, ``p_inlet`` = ``flow.pressure_drop / rho``
+    (kinematic, m^2/s^2), ``length`` = RVE length along the flow, ``area`` = cross-section.
+    """
+    flow = flow or {}
+    mu = float(flow.get("viscosity") or 1.8e-5)
+    rho = float(flow.get("density") or DEFAULT_DENSITY)
+    dp = float(flow.get("pressure_drop") or 1.0)
+    lo, hi = pm.porous_region
+    extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
+    area = float(np.prod(np.delete(extent, pm.axis)))
+    return {
+        "mu": mu,
+        "rho": rho,
+        "nu": mu / rho,
+        "p_inlet": dp / rho,
+        "length": float(hi - lo),
+        "area": area,
+        "box_length": float(extent[pm.axis]),
+    }
+
+
+def openfoam_permeability(c: dict[str, float], q: float, p_start: float, p_end: float) -> float:
+    """K (m^2) from the sampled OpenFOAM values, the definition ``./Allrun`` prints.
+
+    ``K = nu Q L / (A (p_start - p_end))`` with the kinematic pressures averaged over the RVE
+    planes: the same as ``mu Q L / (A dp)`` with the static pressures (psdesign's
+    ``pressure_drop_faces_pa``).
+    """
+    return c["nu"] * abs(q) * c["length"] / (c["area"] * (p_start - p_end))
+
+
+_ALLRUN = r"""#!/bin/sh
+# psdesign OpenFOAM case: checkMesh + simpleFoam, then K by Darcy's law.
+#
+# Definition of K (the one psdesign reproduces with the same plain definition):
+#   K = nu Q L / (A (p_start - p_end))
+#   Q  = |flux through the outlet| (sum of phi, m^3/s), A = RVE cross-section, L = RVE length,
+#   p_start, p_end = area-averaged kinematic pressure on the RVE planes (cutting planes at the
+#   ends of the RVE proper, auxiliary zones outside); nu = mu / rho.
+# psdesign's FEM permeameter reports K from the windowed dissipation (which removes entrance and
+# exit losses); that needs the velocity gradient weighted over the volume and is NOT reproduced
+# here. Compare this K with psdesign's plain RVE-face K: mu Q L / (A pressure_drop_faces_pa).
+#
+# Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
+#        ./Allrun gmsh     (convert ../pore.msh with gmshToFoam, wall -> wall, sides -> symmetry)
+cd "${0%/*}" || exit 1
+if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
+    export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
+fi
+set -e
+if [ "$1" = gmsh ]; then
+    rm -rf constant/polyMesh
+    gmshToFoam ../pore.msh > log.gmshToFoam 2>&1
+    changeDictionary > log.changeDictionary 2>&1
+fi
+checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
+simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
+last() {
+    f=$(ls -d postProcessing/"$1"/*/ | tail -n 1)surfaceFieldValue.dat
+    tail -n 1 "$f" | awk '{print $2}'
+}
+Q=$(last flux); PS=$(last pRveStart); PE=$(last pRveEnd); PI=$(last pInlet); PO=$(last pOutlet)
+awk -v q="$Q" -v ps="$PS" -v pe="$PE" -v pi="$PI" -v po="$PO" \
+    -v nu=@NU@ -v rho=@RHO@ -v L=@L@ -v A=@A@ -v LB=@LB@ 'BEGIN {
+    if (q < 0) q = -q
+    printf "Q = %.6e m^3/s  dp_rve = %.6e Pa  dp_patches = %.6e Pa\n", q, rho*(ps-pe), rho*(pi-po)
+    printf "K_rve_planes = %.6e m^2\n", nu*q*L/(A*(ps-pe))
+    printf "K_patches (whole box incl. auxiliary zones) = %.6e m^2\n", nu*q*LB/(A*(pi-po))
+}'
+"""
+
+_CHANGE_DICT = """dictionaryReplacement
+{
+    boundary
+    {
+        wall { type wall; inGroups List<word> 1(wall); }
+        "side_.*" { type symmetry; inGroups List<word> 1(symmetry); }
+    }
+}
+"""
+
+
+def _write_allrun(case: Path, c: dict[str, float]) -> None:
+    text = _ALLRUN
+    for key, val in (
+        ("@NU@", c["nu"]),
+        ("@RHO@", c["rho"]),
+        ("@L@", c["length"]),
+        ("@A@", c["area"]),
+        ("@LB@", c["box_length"]),
+    ):
+        text = text.replace(key, f"{val:.12g}")
+    path = case / "Allrun"
+    path.write_text(text)
+    path.chmod(0o755)
+    (case / "system" / "changeDictionaryDict").write_text(
+        _header("dictionary", "changeDictionaryDict", "system") + _CHANGE_DICT
+    )
+
+
+def write_openfoam_case(
+    pm: PoreMesh,
+    case: Path,
+    p_inlet: float | None = None,
+    nu: float | None = None,
+    flow: dict | None = None,
+) -> Path:
     """Write a simpleFoam case (laminar Stokes-regime flow driven by a kinematic pressure drop).
 
     Parameters
@@ -108,10 +318,13 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
     case
         Case folder (created).
     p_inlet
-        Inlet kinematic pressure in m^2/s^2 (outlet 0). The default with ``nu`` = 1.5e-5 m^2/s
-        (air) keeps Re = u d / nu ~ 1e-3 for GDL-like media (creeping flow, Darcy regime).
+        Inlet kinematic pressure in m^2/s^2 (outlet 0); default ``flow.pressure_drop /
+        flow.density``. With the defaults (1 Pa, 1.2 kg/m^3, 1.8e-5 Pa s) Re = u d / nu ~ 1e-3
+        for GDL-like media (creeping flow, Darcy regime).
     nu
-        Kinematic viscosity in m^2/s.
+        Kinematic viscosity in m^2/s; default ``flow.viscosity / flow.density``.
+    flow
+        The spec's ``[flow]`` table (``viscosity``, ``density``, ``pressure_drop``).
 
     Returns
     -------
@@ -119,72 +332,50 @@ def write_openfoam_case(pm: PoreMesh, case: Path, p_inlet: float = 1.0, nu: floa
         The case folder.
     """
     case = Path(case)
+    c = case_constants(pm, flow)
+    if nu is not None:
+        c["nu"] = float(nu)
+        c["rho"] = c["mu"] / c["nu"]
+    if p_inlet is not None:
+        c["p_inlet"] = float(p_inlet)
     write_polymesh(pm, case / "constant" / "polyMesh")
     (case / "system").mkdir(parents=True, exist_ok=True)
     (case / "0").mkdir(parents=True, exist_ok=True)
-    c = case / "constant"
-    (c / "transportProperties").write_text(
+    const = case / "constant"
+    (const / "transportProperties").write_text(
         _header("dictionary", "transportProperties", "constant")
-        + f"transportModel  Newtonian;\n\nnu              {nu:.6g};\n"
+        + f"transportModel  Newtonian;\n\nnu              {c['nu']:.10g};\n"
     )
     for obj in ("turbulenceProperties", "momentumTransport"):
-        (c / obj).write_text(_header("dictionary", obj, "constant") + "simulationType  laminar;\n")
+        (const / obj).write_text(
+            _header("dictionary", obj, "constant") + "simulationType  laminar;\n"
+        )
     s = case / "system"
-    (s / "controlDict").write_text(
-        _header("dictionary", "controlDict", "system")
-        + "application     simpleFoam;\nstartFrom       startTime;\nstartTime       0;\n"
-        "stopAt          endTime;\nendTime         2000;\ndeltaT          1;\n"
-        "writeControl    timeStep;\nwriteInterval   500;\npurgeWrite      1;\n"
-        "writeFormat     ascii;\nwritePrecision  10;\nrunTimeModifiable true;\n\n"
-        "functions\n{\n    flux\n    {\n        type            surfaceFieldValue;\n"
-        '        libs            ("libfieldFunctionObjects.so");\n'
-        "        writeControl    timeStep;\n        writeInterval   50;\n"
-        "        regionType      patch;\n        name            outlet;\n"
-        "        writeFields     false;\n"
-        "        operation       sum;\n        fields          (phi);\n    }\n}\n"
-    )
-    (s / "fvSchemes").write_text(
-        _header("dictionary", "fvSchemes", "system")
-        + "ddtSchemes      { default steadyState; }\ngradSchemes     { default Gauss linear; }\n"
-        "divSchemes\n{\n    default         none;\n    div(phi,U)      bounded Gauss linearUpwind"
-        " grad(U);\n    div((nuEff*dev2(T(grad(U))))) Gauss linear;\n}\n"
-        "laplacianSchemes { default Gauss linear corrected; }\n"
-        "interpolationSchemes { default linear; }\nsnGradSchemes   { default corrected; }\n"
-    )
-    (s / "fvSolution").write_text(
-        _header("dictionary", "fvSolution", "system")
-        + "solvers\n{\n    p\n    {\n        solver          GAMG;\n        smoother        "
-        "GaussSeidel;\n        tolerance       1e-8;\n        relTol          0.05;\n    }\n"
-        "    U\n    {\n        solver          smoothSolver;\n        smoother        "
-        "symGaussSeidel;\n        tolerance       1e-10;\n        relTol          0.1;\n    }\n}\n"
-        "\nSIMPLE\n{\n    nNonOrthogonalCorrectors 2;\n    consistent      yes;\n"
-        "    residualControl { p 1e-6; U 1e-7; }\n}\n\nrelaxationFactors\n{\n"
-        '    equations { U 0.9; ".*" 0.9; }\n}\n'
-    )
-    (case / "0" / "p").write_text(
-        _header("volScalarField", "p", "0")
-        + "dimensions      [0 2 -2 0 0 0 0];\n\ninternalField   uniform 0;\n\nboundaryField\n{\n"
-        f"    inlet  {{ type fixedValue; value uniform {p_inlet:.6g}; }}\n"
-        "    outlet { type fixedValue; value uniform 0; }\n"
-        "    walls  { type zeroGradient; }\n    sides  { type symmetry; }\n}\n"
-    )
-    (case / "0" / "U").write_text(
-        _header("volVectorField", "U", "0")
-        + "dimensions      [0 1 -1 0 0 0 0];\n\ninternalField   uniform (0 0 0);\n\n"
-        "boundaryField\n{\n"
-        "    inlet  { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
-        "    outlet { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
-        "    walls  { type noSlip; }\n    sides  { type symmetry; }\n}\n"
-    )
+    (s / "controlDict").write_text(_control_dict(pm))
+    (s / "fvSchemes").write_text(_FV_SCHEMES)
+    (s / "fvSolution").write_text(_FV_SOLUTION)
+    for name, cls, dim, init in (
+        ("p", "volScalarField", "[0 2 -2 0 0 0 0]", "0"),
+        ("U", "volVectorField", "[0 1 -1 0 0 0 0]", "(0 0 0)"),
+    ):
+        (case / "0" / name).write_text(
+            _header(cls, name, "0")
+            + f"dimensions      {dim};\n\ninternalField   uniform {init};\n\n"
+            + "boundaryField\n{\n"
+            + (_PATCH_BC[name].format(p_inlet=c["p_inlet"]) if name == "p" else _PATCH_BC[name])
+            + "}\n"
+        )
+    _write_allrun(case, c)
     lo, hi = pm.porous_region
     (case / "README.txt").write_text(
-        "psdesign pore-space case for simpleFoam (laminar, creeping flow).\n"
+        "psdesign pore-space case for simpleFoam (laminar, creeping flow). Run ./Allrun.\n"
         f"Flow direction: {pm.direction}; RVE proper between {pm.direction} = {lo:.6g} and "
         f"{hi:.6g} m (auxiliary zones outside).\n"
-        f"Inlet kinematic pressure {p_inlet:.6g} m^2/s^2, outlet 0, nu = {nu:.6g} m^2/s.\n"
-        "Permeability: K = nu * Q * L / (A * dp), Q = outlet flux (sum phi), A = RVE face area,\n"
-        "dp = kinematic pressure drop between the RVE planes (sample p there, e.g. with a\n"
-        "surfaceFieldValue over cutting planes), L = RVE length.\n"
+        f"mu = {c['mu']:.6g} Pa s, rho = {c['rho']:.6g} kg/m^3, nu = {c['nu']:.6g} m^2/s; inlet "
+        f"kinematic pressure {c['p_inlet']:.6g} m^2/s^2, outlet 0.\n"
+        "Permeability (printed by ./Allrun): K = nu * Q * L / (A * dp), Q = outlet flux\n"
+        "(sum phi), A = RVE face area, L = RVE length, dp = kinematic pressure drop between the\n"
+        "RVE planes (postProcessing/pRveStart, pRveEnd: cutting-plane area averages).\n"
         "Sides are 'symmetry' (slip); change to noSlip in 0/U for walled sides.\n"
     )
     return case

@@ -1,0 +1,34 @@
+"""``psdesign warmup``: compile the numba kernels into the on-disk cache ahead of the first
+solve (run once after ``pip install``; see :mod:`psdesign.warmup`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    from psdesign.warmup import TASKS, warmup
+
+    tasks = tuple(args.only) if args.only else TASKS
+    if not args.quiet:
+        print(
+            f"psdesign: compiling the numba kernels ({', '.join(tasks)}) into the cache; "
+            "a few minutes on 2 cores, once per install",
+            file=sys.stderr,
+            flush=True,
+        )
+    times = warmup(tasks, jobs=args.jobs)
+    if not args.quiet:
+        parts = ", ".join(f"{k} {v:.0f} s" for k, v in times.items() if k != "total")
+        print(f"psdesign: warmup done in {times['total']:.0f} s ({parts})", file=sys.stderr)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Register ``warmup``."""
+    p = sub.add_parser("warmup", help="compile the numba kernels once (after install)")
+    p.add_argument("--only", nargs="+", choices=("serial", "parallel"), default=None)
+    p.add_argument("--jobs", type=int, default=None, help="processes (default: CPUs)")
+    p.add_argument("--quiet", action="store_true", help="no messages on stderr")
+    p.set_defaults(func=_cmd_warmup)

@@ -1,0 +1,102 @@
+"""Fill numba's on-disk cache ahead of the first solve (``psdesign warmup``).
+
+The numba kernels (voxel Stokes, voxel Laplace, rasterization) compile on first use and are
+cached on disk (``cache=True``: ``__pycache__`` beside the sources, or ``NUMBA_CACHE_DIR``).
+A first solve in a fresh install otherwise pays the compilation (see ``benchmarks/RESULTS.md``,
+"Cold start"). :func:`warmup` runs tiny solves that call every kernel with the argument types
+the real solves use, in separate processes so the compilation runs on all cores:
+
+* ``serial``: the one-thread twins (small grids, ``NUMBA_NUM_THREADS=1``; see
+  :mod:`solvers.jit`);
+* ``parallel``: the ``parallel=True`` kernels (grids from
+  :data:`solvers.voxel_stokes.PARALLEL_MIN_CELLS` cells on more than one thread); skipped when
+  numba has one thread only.
+
+Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
+walls) and the voxel Laplace solves (periodic and permeameter). The cache stays valid until the
+sources or numba change; a second ``warmup`` only loads it.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
+
+__all__ = ["TASKS", "warmup"]
+
+TASKS = ("serial", "parallel")
+
+#: a 16^3 grid with two crossing rods: percolating, analytic distance (sub-voxel walls)
+_SPEC = {
+    "rve": {"size": [32e-6, 32e-6, 32e-6], "voxel": 2e-6},
+    "fibers": [
+        {"shape": "rod", "diameter": 10e-6, "center": [16e-6, 8e-6, 8e-6]},
+        {"shape": "rod", "diameter": 10e-6, "center": [8e-6, 16e-6, 24e-6], "omega": 90.0},
+    ],
+}
+
+
+def _task(mode: str) -> tuple[str, float]:
+    """Compile (or load) every kernel of one mode; returns ``(mode, seconds)``."""
+    import warnings
+
+    import numba
+
+    import psdesign.geometry.raster as raster
+    import solvers.jit as jit
+    import solvers.voxel_stokes as vs
+    from psdesign.flow.permeability import route_result
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import validate_spec
+    from psdesign.transport.diffusivity import relative_diffusivity
+
+    warnings.simplefilter("ignore")  # resolution warnings of the tiny grid
+    t0 = time.perf_counter()
+    if mode == "serial":
+        numba.set_num_threads(1)
+    else:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        vs.PARALLEL_MIN_CELLS = 0
+        jit.COMPILE_PARALLEL_ABOVE = 0  # compile the parallel kernels, not their twins
+        raster.rasterize_copy.serial_below = 0
+    spec = validate_spec(_SPEC)
+    built = build_rve(spec)
+    fields = built.voxelize(spec["rve"]["voxel"])
+    for bc in ("periodic", "permeameter"):
+        for wall in ("subvoxel", "staircase"):
+            flow = {**spec["flow"], "solver": "voxel", "bc": bc, "wall_treatment": wall}
+            route_result(built.rve, fields, "z", flow, "voxel")
+        relative_diffusivity(fields, "z", {"bc": bc})
+    return mode, time.perf_counter() - t0
+
+
+def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str, float]:
+    """Compile the kernels into numba's cache, one process per task.
+
+    Parameters
+    ----------
+    tasks
+        Subset of :data:`TASKS`.
+    jobs
+        Processes at once (default: the number of CPUs, at most ``len(tasks)``).
+
+    Returns
+    -------
+    dict
+        Task -> seconds it took (its process), ``"total"`` -> wall time.
+    """
+    import numba
+
+    bad = [t for t in tasks if t not in TASKS]
+    if bad:
+        raise ValueError(f"warmup tasks {bad}: allowed {', '.join(TASKS)}")
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        tasks = tuple(t for t in tasks if t != "parallel")
+    t0 = time.perf_counter()
+    n = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
+        out = dict(pool.map(_task, tasks))
+    out["total"] = time.perf_counter() - t0
+    return out
