@@ -34,8 +34,6 @@ The operator is applied blockwise, never assembled as one matrix.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -379,9 +377,7 @@ def solve_minres(
     M = LinearOperator((system.n, system.n), matvec=block_diagonal(system, precs), dtype=float)
     K = system.operator()
     count = [0]
-    last = [time.perf_counter()]
-
-    def cb(xk):
+    def cb(_xk):
         count[0] += 1
         if callback is not None:
             callback(count[0], float("nan"))
