@@ -377,6 +377,7 @@ def solve_minres(
     M = LinearOperator((system.n, system.n), matvec=block_diagonal(system, precs), dtype=float)
     K = system.operator()
     count = [0]
+
     def cb(_xk):
         count[0] += 1
         if callback is not None:
