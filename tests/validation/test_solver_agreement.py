@@ -11,10 +11,11 @@ field, the voxel route uses it for sub-voxel walls). The assertion is ``|K_fem /
   or a bent rod with a whole number of bends per period is periodic along its axis, its PS copies
   repeat across it); the woven cell of Eq. (19) repeats every two periods along its fibers, so
   its box is two periods wide in-plane and one period thick.
-* ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides. The voxel
-  permeameter's pressure drop (the drop between the RVE faces) still carries the entrance and
-  exit losses (2-10 % low, ``docs/validation.md``) that the FEM's windowed dissipation removes;
-  those tests are ``xfail(strict=False)`` until the voxel definition changes (branch vperm).
+* ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides, ``xfail(strict
+  =False)``: on the array the voxel permeameter's face-plane drop carries entrance and exit
+  losses (2-10 % low on short arrays, ``docs/validation.md``; branch vperm changes it), on the
+  one-period random RVEs the FEM's windowed-dissipation drop is the one that is off (measured
+  -18 to -47 %, see the test's reason).
 
 Measured values are in ``docs/solver-agreement.md`` (``benchmarks/solver_agreement.py``).
 """
@@ -225,7 +226,13 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
 
 
 @pytest.mark.slow
-@VOXEL_PERMEAMETER_XFAIL
+@pytest.mark.xfail(
+    strict=False,
+    reason="measured fem/voxel - 1 = -37 % straight, -18 % bent, -47 % woven: the FEM's "
+    "windowed-dissipation drop is exact only for >= 2 periods; on these one-period layered RVEs "
+    "it exceeds the applied drop (1.575 vs 1 Pa), while the faces drop gives K within 1 % of "
+    "the voxel permeameter and both periodic values (benchmarks/RESULTS.md)",
+)
 @pytest.mark.parametrize("kind", ["straight", "bent", "woven"])
 def test_random_permeameter_fem_and_voxel_agree(kind):
     """The same RVEs through-plane between empty reservoirs with slip sides."""
