@@ -45,6 +45,9 @@ from psdesign.meshing.tetra import (
 )
 
 _MAX_WALL_MOVE_EPS = 2.0  # the volume correction moves walls by at most this many envelopes
+# rounds of freezing wall vertices whose move would invert a tet (4 failed on one of five
+# Toray-like seeds, benchmarks/RESULTS.md "pytetwild ... seeds 1-5")
+_MAX_FREEZE_ROUNDS = 12
 
 
 def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOptions) -> int:
@@ -218,7 +221,7 @@ def match_wall_volume(pts, tets, tags, lo, hi, target, max_shift, planes=(), rto
         return float(vol0[~touched].sum() + tet_volumes(moved(s), tets[touched]).sum())
 
     s = 0.0
-    for _round in range(4):
+    for _round in range(_MAX_FREEZE_ROUNDS):
         s0, v0 = 0.0, volume(0.0)
         wall_area = area(pts, tags[T.WALL])
         s1 = float(np.clip((target - v0) / max(wall_area, 1e-300), -max_shift, max_shift))

@@ -1,0 +1,239 @@
+"""The FEM and voxel routes agree on the same RVE and boundary condition (issue 12, item 1).
+
+Both routes solve the same voxelized analytic RVE (``RVE.voxelize``: the FEM meshes its distance
+field, the voxel route uses it for sub-voxel walls). The assertion is ``|K_fem / K_voxel - 1| <=
+2 %`` for
+
+* ``bc = "periodic"``: square cylinder arrays (thin slabs: along and across the cylinders, also
+  checked against the published values), and periodic random RVEs of straight and bent fibers
+  and a plain-weave cell. The FEM periodic route needs matching opposite faces, so the random
+  RVEs are built periodic: fibers along x or y at seeded random positions (a straight cylinder
+  or a bent rod with a whole number of bends per period is periodic along its axis, its PS copies
+  repeat across it); the woven cell of Eq. (19) repeats every two periods along its fibers, so
+  its box is two periods wide in-plane and one period thick.
+* ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides, ``xfail(strict
+  =False)``: on the array the voxel permeameter's face-plane drop carries entrance and exit
+  losses (2-10 % low on short arrays, ``docs/validation.md``; branch vperm changes it), on the
+  one-period random RVEs the FEM's windowed-dissipation drop is the one that is off (measured
+  -18 to -47 %, see the test's reason).
+
+Measured values are in ``docs/solver-agreement.md`` (``benchmarks/solver_agreement.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from reference_values import k_square_across, k_square_along
+
+from psdesign.flow.permeability import route_result
+from psdesign.geometry.fibers import make_fiber
+from psdesign.geometry.rve import RVE
+from psdesign.packing.build import build_rve
+from psdesign.schema.spec import validate_spec
+
+MU = 1.8e-5
+S = 40e-6  #: array spacing (m)
+AGREE = 0.02  #: FEM vs voxel, relative
+VOXEL_PERMEAMETER_XFAIL = pytest.mark.xfail(
+    strict=False,
+    reason="the voxel permeameter's face-plane pressure drop includes entrance/exit losses "
+    "(2-10 % low, docs/validation.md); flips to pass with the vperm branch's definition",
+)
+
+
+def _pair(rve: RVE, fields, direction: str, flow: dict) -> tuple[dict, dict]:
+    fem = route_result(rve, fields, direction, flow, "fem")
+    vox = route_result(rve, fields, direction, flow, "voxel")
+    for r in (fem, vox):
+        assert r["converged"], r
+        assert r["bc"] == flow["bc"]
+    return fem, vox
+
+
+def _report(name: str, fem: dict, vox: dict) -> float:
+    diff = fem["permeability_m2"] / vox["permeability_m2"] - 1.0
+    print(
+        f"\n{name}: K fem {fem['permeability_m2']:.5e} voxel {vox['permeability_m2']:.5e} "
+        f"fem/voxel - 1 = {100 * diff:+.2f} %"
+    )
+    return diff
+
+
+# ------------------------------------------------------------------------------- arrays
+
+
+def square_slab(phi: float, n_cells: int = 1, depth: float = 4e-6) -> tuple[RVE, float]:
+    """``n_cells`` square-array cells in a row along x, cylinders along z, ``depth`` thick in z
+    (the flow along and across is two-dimensional, so a thin periodic slab is exact)."""
+    a = S * np.sqrt(phi / np.pi)
+    size = np.array([n_cells * S, S, depth])
+    ref = float(size.max())
+    fibers = [
+        make_fiber(
+            "cylinder",
+            diameter=2 * a / ref,
+            center=np.array([S / 2 + i * S, S / 2, depth / 2]) / ref,
+            theta=None,
+            omega=None,
+            direction=[0, 0, 1],
+            u=0.0,
+            f=1.0,
+            isovalue=None,
+        )
+        for i in range(n_cells)
+    ]
+    return RVE(size=size, fibers=fibers, period=None), a
+
+
+def _square_ref(direction: str, a: float, phi: float) -> float:
+    return k_square_along(a, phi) if direction == "z" else k_square_across(a, phi)
+
+
+@pytest.mark.parametrize("direction", ["z", "x"], ids=["along", "across"])
+@pytest.mark.parametrize("phi", [0.2, 0.3])
+def test_array_periodic_fem_and_voxel_agree(phi, direction):
+    """Square array, one periodic cell, voxel 1 um (40 per spacing), FEM default lattice step.
+
+    Truth: Drummond & Tahir (1984) along, Sangani & Acrivos (1982) Table 1 across; both routes
+    within 1.5 % of it and within 2 % of each other.
+    """
+    rve, a = square_slab(phi)
+    fields = rve.voxelize(1e-6)
+    fem, vox = _pair(rve, fields, direction, {"viscosity": MU, "bc": "periodic"})
+    diff = _report(f"square phi {phi} {direction}", fem, vox)
+    ref = _square_ref(direction, a, phi)
+    assert fem["permeability_m2"] == pytest.approx(ref, rel=0.015)
+    assert vox["permeability_m2"] == pytest.approx(ref, rel=0.015)
+    assert abs(diff) <= AGREE
+
+
+@VOXEL_PERMEAMETER_XFAIL
+def test_array_permeameter_fem_and_voxel_agree():
+    """Across a square array three cells long between slip walls (symmetry planes), phi 0.2."""
+    rve, a = square_slab(0.2, n_cells=3)
+    fields = rve.voxelize(1e-6)
+    flow = {"viscosity": MU, "bc": "permeameter", "aux_length": 0.2, "sides": "slip"}
+    fem, vox = _pair(rve, fields, "x", flow)
+    diff = _report("square phi 0.2 across, permeameter, 3 cells", fem, vox)
+    assert fem["permeability_m2"] == pytest.approx(k_square_across(a, 0.2), rel=0.015)
+    assert abs(diff) <= AGREE
+
+
+# ------------------------------------------------------------------- periodic random RVEs
+
+
+def periodic_fibers(
+    kind: str, seed: int, size: float = 40e-6, n: int = 5, diameter: float = 8e-6
+) -> list[dict]:
+    """``n`` fibers along x or y (seeded), centre lines at least one diameter + 2 um apart
+    (minimum image; bent rods add their bend amplitude). ``kind``: 'straight' (exact cylinders)
+    or 'bent' (bent rods, u = 0.25, 1 or 2 bends per period: periodic along the axis)."""
+    rng = np.random.default_rng(seed)
+    u = 0.25
+    clearance = diameter + 2e-6 + (2 * u * size / (2 * np.pi) if kind == "bent" else 0.0)
+    placed: list[tuple[int, float, float]] = []
+    fibers: list[dict] = []
+    for _ in range(20000):
+        if len(fibers) == n:
+            break
+        ax = int(rng.integers(0, 2))
+        pos, z = rng.uniform(0, size, 2)
+        f = float(rng.integers(1, 3))
+
+        def wrap(d: float) -> float:
+            return (d + size / 2) % size - size / 2
+
+        if any(
+            (np.hypot(wrap(pos - p2), wrap(z - z2)) if a2 == ax else abs(wrap(z - z2))) < clearance
+            for a2, p2, z2 in placed
+        ):
+            continue
+        placed.append((ax, pos, z))
+        centre = [0.0, pos, z] if ax == 0 else [pos, 0.0, z]
+        direction = [1, 0, 0] if ax == 0 else [0, 1, 0]
+        fb = {"diameter": diameter, "center": centre, "direction": direction}
+        if kind == "straight":
+            fibers.append({"shape": "cylinder", **fb})
+        else:
+            fibers.append({"shape": "bent-rod", **fb, "u": u, "f": f})
+    if len(fibers) < n:
+        raise ValueError(f"n: could not place {n} fibers in a {size} m box")
+    return fibers
+
+
+def periodic_spec(kind: str, seed: int = 1, voxel: float = 1e-6, flow: dict | None = None) -> dict:
+    """Spec of a periodic RVE: 'straight' / 'bent' (40 um cube, five 8 um fibers) or 'woven'
+    (the plain-weave cell of Eq. (19), period 30 um, box 60 x 60 x 30 um, one layer)."""
+    if kind == "woven":
+        period = 30e-6
+        rve = {"size": [2 * period, 2 * period, period], "voxel": voxel, "period": period}
+        fibers = [{"shape": "woven-cell", "thickness_axis": "z", "layers": 1}]
+    else:
+        rve = {"size": [40e-6] * 3, "voxel": voxel}
+        fibers = periodic_fibers(kind, seed)
+    return validate_spec({"rve": rve, "fibers": fibers, "flow": {"viscosity": MU, **(flow or {})}})
+
+
+def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6):
+    """FEM on the ``voxel`` grid's distance field (default lattice step, 2 voxels), voxel route
+    on a grid twice as fine: at 8 voxels per diameter the voxel route is the one that carries
+    the error (bent z, periodic: K voxel 7.877e-12 at 1 um, 7.752e-12 at 0.5 um; FEM 7.651e-12,
+    its lattice step halved from 4 um moves it by < 1 %; docs/solver-agreement.md)."""
+    flow = {"bc": bc}
+    if bc == "permeameter":
+        flow |= {"aux_length": 0.2, "sides": "slip"}
+    spec = periodic_spec(kind, voxel=voxel, flow=flow)
+    built = build_rve(spec)
+    fem = route_result(built.rve, built.voxelize(voxel), direction, spec["flow"], "fem")
+    vox = route_result(built.rve, built.voxelize(voxel / 2), direction, spec["flow"], "voxel")
+    for r in (fem, vox):
+        assert r["converged"], r
+        assert r["bc"] == bc
+    return _report(f"{kind} {direction} {bc} fem voxel {voxel:g}, voxel {voxel / 2:g}", fem, vox)
+
+
+def test_periodic_fibers_are_periodic():
+    """The random RVEs' distance fields match across every face pair (what FEM periodic needs)."""
+    for kind in ("straight", "bent", "woven"):
+        built = build_rve(periodic_spec(kind))
+        size = np.asarray(built.rve.size)
+        p = np.random.default_rng(0).uniform(0, 1, (2000, 3)) * size
+        for ax in range(3):
+            lo, hi = p.copy(), p.copy()
+            lo[:, ax], hi[:, ax] = 0.0, size[ax]
+            gap = np.abs(built.rve.union_field(lo) - built.rve.union_field(hi)).max()
+            assert gap < 1e-9 * size.max(), (kind, ax, gap)
+
+
+WOVEN_UNRESOLVED = pytest.mark.xfail(
+    strict=False,
+    reason="woven cell (period 30 um: yarns 4.3 um thick, 2 FEM lattice steps) measured "
+    "fem/voxel - 1 = -2.94 % through-plane with both on the 1 um grid; the refined pair "
+    "(voxel 0.5 um) was not run on this branch for lack of machine time",
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("direction", ["z", "x"], ids=["through", "in-plane"])
+@pytest.mark.parametrize(
+    "kind", ["straight", "bent", pytest.param("woven", marks=WOVEN_UNRESOLVED)]
+)
+def test_random_periodic_fem_and_voxel_agree(kind, direction):
+    """Periodic random straight / bent RVE and woven cell: FEM on the 1 um field at its default
+    step (2 um), voxel route at 0.5 um (16 voxels per diameter)."""
+    assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=False,
+    reason="measured fem/voxel - 1 = -37 % straight, -18 % bent, -47 % woven: the FEM's "
+    "windowed-dissipation drop is exact only for >= 2 periods; on these one-period layered RVEs "
+    "it exceeds the applied drop (1.575 vs 1 Pa), while the faces drop gives K within 1 % of "
+    "the voxel permeameter and both periodic values (benchmarks/RESULTS.md)",
+)
+@pytest.mark.parametrize("kind", ["straight", "bent", "woven"])
+def test_random_permeameter_fem_and_voxel_agree(kind):
+    """The same RVEs through-plane between empty reservoirs with slip sides."""
+    assert abs(_random_pair(kind, "z", "permeameter")) <= AGREE
