@@ -31,6 +31,7 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     darcy_column,
     darcy_permeability,
     rve_window,
+    windowed_drop,
     windowed_drop_from_dissipation,
 )
 from psdesign.geometry.rve import RVE, VoxelFields
@@ -41,15 +42,44 @@ from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exp
 BC_MODELS = ("permeameter", "periodic")
 
 
-def plane_average_pressure(
-    points: np.ndarray, tets: np.ndarray, pressure: np.ndarray, axis: int, position: float
-) -> float:
-    """Area-averaged P1 pressure over the cross-section of a tet mesh at ``position``."""
+#: Layers of the plane-pressure profile whose windowed drop (:func:`windowed_drop`) is the
+#: second estimator of the FEM permeameter's drop (error bar's window term); 60 is a multiple of
+#: 2-6, so the estimator is exact on periodic arrays of up to 6 cells, like the dissipation form.
+PLANE_PROFILE_LAYERS = 60
+
+
+def _pressure_grid(points: np.ndarray, tets: np.ndarray, pressure: np.ndarray):
     import pyvista as pv
 
     cells = np.hstack([np.full((len(tets), 1), 4), tets]).ravel()
     grid = pv.UnstructuredGrid(cells, np.full(len(tets), pv.CellType.TETRA), points)
     grid.point_data["p"] = np.nan_to_num(pressure)
+    return grid
+
+
+def plane_average_pressure(
+    points: np.ndarray, tets: np.ndarray, pressure: np.ndarray, axis: int, position: float
+) -> float:
+    """Area-averaged P1 pressure over the cross-section of a tet mesh at ``position``."""
+    return _plane_average(_pressure_grid(points, tets, pressure), points, axis, position)
+
+
+def plane_pressure_profile(
+    points: np.ndarray,
+    tets: np.ndarray,
+    pressure: np.ndarray,
+    axis: int,
+    span: tuple[float, float],
+    layers: int = PLANE_PROFILE_LAYERS,
+) -> np.ndarray:
+    """Area-averaged P1 pressure on ``layers + 1`` equally spaced planes from ``span[0]`` to
+    ``span[1]`` (the input of :func:`psdesign.flow.darcy.windowed_drop`)."""
+    grid = _pressure_grid(points, tets, pressure)
+    planes = np.linspace(span[0], span[1], layers + 1)
+    return np.array([_plane_average(grid, points, axis, s) for s in planes])
+
+
+def _plane_average(grid, points: np.ndarray, axis: int, position: float) -> float:
     normal = np.eye(3)[axis]
     origin = np.asarray(points).mean(axis=0)
     lo, hi = np.min(points[:, axis]), np.max(points[:, axis])
@@ -268,16 +298,20 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     # windowed dissipation (psdesign.flow.darcy): Phi_w = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q
     dp_rve = windowed_drop_from_dissipation(res.dissipation(rve_window(ax, start, end)), q)
     k = darcy_permeability(q, mu, length, area, dp_rve)
-    p_start = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, start)
-    p_end = plane_average_pressure(mesh.points, mesh.tets, res.pressure, ax, end)
+    profile = plane_pressure_profile(mesh.points, mesh.tets, res.pressure, ax, (start, end))
+    p_start, p_end = profile[0], profile[-1]
     return res, {
         "permeability_m2": k,
         **_common(res, mesh, rve, fields, name, flow, "permeameter", t0, t_mesh),
         "flow_rate_m3_s": q,
         "pressure_drop_applied_pa": dp,
         "pressure_drop_rve_pa": dp_rve,
-        "pressure_drop_faces_pa": p_start - p_end,
+        "pressure_drop_faces_pa": float(p_start - p_end),
+        # second windowed estimator (plane pressure): its gap to dp_rve is the error bar's
+        # window term, as on the voxel route (psdesign.flow.error.window_rel_error)
+        "pressure_drop_plane_window_pa": windowed_drop(profile),
         "pressure_drop_definition": "windowed-dissipation",
+        "rve_length_m": float(length),
         "sides": "slip" if slip else "noslip",
         "aux_length": float(flow["aux_length"]),
         "wall_time_s": time.perf_counter() - t0,

@@ -219,6 +219,17 @@ def with_error_estimate(
             f"{100 * est.window:.1f} % (in the error bar): the RVE is short compared with the "
             "entrance length; lengthen it along the flow or use bc = 'periodic'"
         )
+    spread = err.definition_spread(res)
+    if spread is not None:
+        res["definition_spread"] = spread
+        if spread > err.DEFINITION_WARN:
+            warnings.append(
+                f"K_{res['direction']}: the face-plane pressure drop gives a K "
+                f"{100 * spread:.0f} % different from the windowed one: this RVE is not "
+                "homogeneous along the flow at its own length (e.g. few fibre layers, open end "
+                "layers), so its permeameter K depends on the definition; compare bc = "
+                "'periodic' (--bc both reports bc_sensitivity) or a longer RVE"
+            )
     res["warnings"] = warnings
     # the staircase voxel route is unreliable below MIN_CELLS_PER_DIAMETER (status); the
     # body-fitted P2 tet route gets the warning, and its status follows the error bar
