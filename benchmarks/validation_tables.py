@@ -279,6 +279,10 @@ def main(argv: list[str] | None = None) -> int:
         "calibrated on a different set (`benchmarks/calibrate_error_bar.py`: square arrays at "
         "20, 32 and 40 voxels per spacing; `psdesign/flow/error.py`).",
         "",
+        "FEM against voxel on the same RVE and boundary condition (arrays, periodic random "
+        "straight / bent / woven RVEs, every shipped spec): "
+        "[solver-agreement.md](solver-agreement.md) (`benchmarks/solver_agreement.py`).",
+        "",
         *(["Cases the bar misses:", "", *miss_lines, ""] if misses else []),
         "## Cylinder arrays",
         *arrays,

@@ -121,17 +121,23 @@ def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Prin
     for the duration of the block (the CLI wraps each command in it)."""
     printer = Printer(quiet=quiet, stream=stream)
     _ACTIVE.append(printer)
+    before = _pending_kernels()
     try:
         yield printer
     finally:
         _ACTIVE.remove(printer)
-        jit = sys.modules.get("solvers.jit")
-        if jit is not None and jit.parallel_pending():
+        if _pending_kernels() - before:  # this command ran kernels on one thread
             printer.stage(
                 "numba kernels ran on one thread (parallel versions not compiled yet); "
                 "`psdesign warmup` compiles them once"
             )
         printer.close()
+
+
+def _pending_kernels() -> set[str]:
+    """Kernels that ran serially because their parallel version is not compiled yet."""
+    jit = sys.modules.get("solvers.jit")
+    return set(jit.parallel_pending()) if jit is not None else set()
 
 
 def active() -> Printer | None:
