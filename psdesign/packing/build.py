@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,9 +41,19 @@ def build_rve(spec: dict) -> BuiltRVE:
     fibers = explicit_fibers(spec)
     rve_spec = spec["rve"]
     if "generator" in spec:
+        from psdesign.cli import progress
         from psdesign.packing.generators import build_fibers
 
+        gen = spec["generator"]
+        t0 = time.perf_counter()
+        progress.stage(
+            f"generating the RVE ({gen.get('kind', '?')} fibers, target porosity "
+            f"{gen.get('porosity', '?')}, seed {gen.get('seed', '?')})"
+        )
         result = build_fibers(spec, explicit=fibers)
+        progress.stage(
+            f"RVE generated: {len(result.rve.fibers)} fibers in {time.perf_counter() - t0:.1f} s"
+        )
         return BuiltRVE(rve=result.rve, report=dict(result.report), fields=result.fields)
     rve = RVE(size=np.asarray(rve_spec["size"]), fibers=fibers, period=rve_spec["period"])
     return BuiltRVE(rve=rve, report={"n_fibers": len(fibers)})

@@ -26,7 +26,10 @@ def main(argv: list[str]) -> int:
     try:
         job = read_job(sys.stdin.buffer)
         fn = load_case_fn(job["case_fn"])
-        res = fn(job["spec"], list(job["outputs"]), job["solver"], Path(job["workdir"]))
+        from psdesign.cli import progress
+
+        with progress.activate(stream=sys.stderr):  # solver progress lines go to case.log
+            res = fn(job["spec"], list(job["outputs"]), job["solver"], Path(job["workdir"]))
         out = {"ok": True, "results": res}
     except Exception as exc:  # noqa: BLE001 - reported to the parent
         msg = " ".join(str(exc).split())

@@ -11,6 +11,7 @@ from psdesign.flow.permeability import permeability
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
 from psdesign.schema.study import FIELDS_FLAG
+from psdesign.study.stages import mark_stage
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
 
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
@@ -57,6 +58,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     for o in outputs:
         if o not in OUTPUTS and o != FIELDS_FLAG:
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")
+    mark_stage(workdir, "generating the RVE")
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
@@ -76,6 +78,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     columns = {}
     writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:
+        mark_stage(workdir, f"solving K_{d} ({solver}, bc {spec['flow'].get('bc', 'default')})")
         res = permeability(rve, fields, d, spec["flow"], solver=solver, capture=writer)
         row[f"k_{d}_m2"] = res["permeability_m2"]
         row[f"k_{d}_rel_error"] = res.get("permeability_rel_error")
@@ -101,9 +104,12 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
                 row[f"k_{a}{b}_m2"] = float(tensor[i, j])
     if writer is not None:
         row.update(_finish_fields(writer))
+    if any(o in TRANSPORT_OUTPUTS for o in outputs):
+        mark_stage(workdir, "transport outputs")
     row.update(transport_outputs(rve, fields, outputs, spec))  # issue 13: transport outputs
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
+    mark_stage(workdir, "preview picture")
     try:
         from psdesign.report.preview import render_preview
 

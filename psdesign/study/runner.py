@@ -30,6 +30,7 @@ from psdesign.study.casefn import watch_parent
 from psdesign.study.design import Case, expand_design
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
+from psdesign.study.stages import StageWatcher
 from psdesign.study.store import CaseStore, StorageError
 from psdesign.study.studyfile import Study, StudyError, load_study
 from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
@@ -700,6 +701,7 @@ def _run_locked(
             "seed": c.seed,
             **rec,
         }
+        watcher.done(c.case_id)
         store.write_record(full)  # raises StorageError: stop, earlier rows intact
         records[c.case_id] = full
         store.write_tables(records.values(), param_names)
@@ -718,12 +720,14 @@ def _run_locked(
         }
         for c in todo
     ]
-    if payloads:
-        if client is not None:
+    # each running case's stage (generate -> solve K_d -> transport -> preview) every 15 s
+    watcher = StageWatcher({p["case_id"]: Path(p["workdir"]) for p in payloads} if progress else {})
+    with watcher:
+        if payloads and client is not None:
             _run_dask(client, payloads, on_done)
-        elif workers == 0:
+        elif payloads and workers == 0:
             _run_inline(payloads, on_done)
-        else:
+        elif payloads:
             _run_pool(payloads, min(workers, len(payloads)), on_done)
 
     df = store.write_tables(records.values(), param_names)

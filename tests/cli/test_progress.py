@@ -154,3 +154,29 @@ def test_serial_twin_matches_parallel_and_has_its_own_cache_name():
         assert scale_sum(y, 1.0) == pytest.approx(45.0)
         assert "scale_sum" in " ".join(jit.parallel_pending())
         assert len(scale_sum.parallel.signatures) == 1  # only the float64 one from above
+
+
+GEN_SPEC = """
+[rve]
+size = [40e-6, 40e-6, 40e-6]
+voxel = 1e-6
+[generator]
+kind = "straight"
+porosity = 0.85
+diameter = 7e-6
+seed = 1
+"""
+
+
+def test_generate_reports_generation_and_quiet_silences(tmp_path, capsys):
+    spec = tmp_path / "g.toml"
+    spec.write_text(GEN_SPEC)
+    assert main(["generate", str(spec), "-o", str(tmp_path / "a")]) == 0
+    captured = capsys.readouterr()
+    assert "psdesign: generating the RVE (straight fibers, target porosity 0.85, seed 1)" in (
+        captured.err
+    )
+    n = json.loads(captured.out)["n_fibers"]
+    assert f"RVE generated: {n} fibers in " in captured.err
+    assert main(["generate", str(spec), "-o", str(tmp_path / "b"), "--quiet"]) == 0
+    assert "generating" not in capsys.readouterr().err
