@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fem_arrays import array_rve
 from reference_values import k_square_across, k_square_along
 
 from psdesign.flow.permeability import route_result
-from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
@@ -58,25 +58,10 @@ def _report(name: str, fem: dict, vox: dict) -> float:
 
 def square_slab(phi: float, n_cells: int = 1, depth: float = 4e-6) -> tuple[RVE, float]:
     """``n_cells`` square-array cells in a row along x, cylinders along z, ``depth`` thick in z
-    (the flow along and across is two-dimensional, so a thin periodic slab is exact)."""
-    a = S * np.sqrt(phi / np.pi)
-    size = np.array([n_cells * S, S, depth])
-    ref = float(size.max())
-    fibers = [
-        make_fiber(
-            "cylinder",
-            diameter=2 * a / ref,
-            center=np.array([S / 2 + i * S, S / 2, depth / 2]) / ref,
-            theta=None,
-            omega=None,
-            direction=[0, 0, 1],
-            u=0.0,
-            f=1.0,
-            isovalue=None,
-        )
-        for i in range(n_cells)
-    ]
-    return RVE(size=size, fibers=fibers, period=None), a
+    (the flow along and across is two-dimensional, so a thin periodic slab is exact); returns
+    the RVE (:func:`fem_arrays.array_rve`) and the cylinder radius."""
+    rve, _ = array_rve("across", phi, n_cells, depth)
+    return rve, S * np.sqrt(phi / np.pi)
 
 
 def _square_ref(direction: str, a: float, phi: float) -> float:
