@@ -30,11 +30,13 @@ def write_json(path: str | Path, data: object) -> None:
     """Write JSON atomically (temp file + rename)."""
     path = Path(path)
     tmp = path.with_name(f"{TEMP_PREFIX}{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_json_default))
+    tmp.write_text(json.dumps(data, indent=2, default=json_default))
     os.replace(tmp, path)
 
 
-def _json_default(obj: object) -> object:
+def json_default(obj: object) -> object:
+    """``json.dumps`` ``default=``: numpy arrays and scalars as lists / Python numbers, paths as
+    strings (the one encoder of psdesign's JSON files)."""
     import numpy as np
 
     if isinstance(obj, np.ndarray):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.io.atomic import json_default
 from psdesign.meshing.result import PoreMesh
 
 CACHE_VERSION = 2
@@ -40,7 +41,7 @@ def save(path: Path | None, pm: PoreMesh) -> None:
     arrays.update({f"pair_{k}": v for k, v in pm.periodic_pairs.items()})
     meta = json.dumps(
         {"direction": pm.direction, "porous_region": list(pm.porous_region), "quality": pm.quality},
-        default=_json_default,
+        default=json_default,
     )
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(
@@ -65,13 +66,3 @@ def load(path: Path) -> PoreMesh:
         )
     pm.quality["from_cache"] = True
     return pm
-
-
-def _json_default(o):
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from psdesign.io.atomic import json_default
 from psdesign.study.casefn import DEFAULT_CASE_FN, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
@@ -158,7 +159,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
         "solver": payload["solver"],
         "workdir": str(workdir),
     }
-    data = json.dumps(job, default=_json_default).encode()
+    data = json.dumps(job, default=json_default).encode()
     outp, arrays = result_paths(workdir)
     outp.unlink(missing_ok=True)
     arrays.unlink(missing_ok=True)
@@ -200,16 +201,6 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
         return "ok", res["results"], None
     (workdir / "error.txt").write_text(res["traceback"])
     return "failed", None, res["error"]
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serializable: {type(obj).__name__}")
 
 
 #: Result keys whose False value marks a case as untrustworthy (prefix match with ``_``).

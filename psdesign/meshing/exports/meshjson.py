@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdesign.io.atomic import json_default
 from psdesign.meshing.tags import FLUID_TAG, REGION_IDS, TAG_IDS
 
 if TYPE_CHECKING:
@@ -39,14 +40,3 @@ def write_json(pm: PoreMesh, out: Path) -> Path:
     path = out / "mesh.json"
     path.write_text(json.dumps(mesh_summary(pm), indent=2, default=json_default))
     return path
-
-
-def json_default(o):
-    """numpy scalars/arrays -> JSON."""
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
