@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
+
+from psdesign.cli.laplace_report import combine, emit
 
 
 def _cmd(args: argparse.Namespace) -> int:
@@ -38,36 +38,19 @@ def _cmd(args: argparse.Namespace) -> int:
             ).to_dict()
             for d in dirs
         ]
-    if len(results) == 1:
-        out = results[0]
-    else:
-        out = {
-            "direction": "all",
-            "bc": tr["bc"],
-            "porosity": case.fields.porosity,
-            "results": results,
-            "effective_conductivity": {
-                r["direction"]: r["effective_conductivity"] for r in results
-            },
-            "converged": all(r["converged"] for r in results),
-        }
-        if tr["bc"] == "periodic":
-            out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
+    out = combine(results, tr["bc"], case.fields.porosity, ("effective_conductivity",))
+    if len(results) > 1 and tr["bc"] == "periodic":
+        out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
     out["wall_time_s"] = time.perf_counter() - t0
-    for r in results:
-        if r["blocked"]:
-            print(f"psdesign: conductivity {r['direction']}: {r['message']}", file=sys.stderr)
-    if args.json:
-        print(json.dumps(out, default=float))
-    else:
-        for r in results:
-            flag = "" if r["converged"] else "  (NOT CONVERGED)"
-            print(
-                f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g}  (solid "
-                f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g})  bc {r['bc']}  "
-                f"rel. error {r['rel_error']:.1e}{flag}"
-            )
-    return 0 if out["converged"] else 1
+    return emit("conductivity", out, results, args.json, _line)
+
+
+def _line(r: dict) -> str:
+    return (
+        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g}  (solid "
+        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g})  bc {r['bc']}  "
+        f"rel. error {r['rel_error']:.1e}"
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:

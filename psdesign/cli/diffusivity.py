@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
+
+from psdesign.cli.laplace_report import combine, emit
 
 
 def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
@@ -28,20 +28,11 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
             ).to_dict()
             for d in dirs
         ]
-        out = (
-            results[0]
-            if len(results) == 1
-            else {
-                "direction": "all",
-                "bc": tr["bc"],
-                "porosity": case.fields.porosity,
-                "results": results,
-                "relative_diffusivity": {
-                    r["direction"]: r["relative_diffusivity"] for r in results
-                },
-                "tortuosity_factor": {r["direction"]: r["tortuosity_factor"] for r in results},
-                "converged": all(r["converged"] for r in results),
-            }
+        out = combine(
+            results,
+            tr["bc"],
+            case.fields.porosity,
+            ("relative_diffusivity", "tortuosity_factor"),
         )
     return out, results
 
@@ -61,21 +52,16 @@ def _cmd(args: argparse.Namespace) -> int:
             tr["tol"] = args.tol
         out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0
-    for r in results:
-        if r["blocked"]:
-            print(f"psdesign: diffusivity {r['direction']}: {r['message']}", file=sys.stderr)
-    if args.json:
-        print(json.dumps(out, default=float))
-    else:
-        for r in results:
-            tau = r["tortuosity_factor"]
-            flag = "" if r["converged"] else "  (NOT CONVERGED)"
-            print(
-                f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}  tortuosity factor "
-                f"{'inf' if tau is None else f'{tau:.4f}'}  porosity {r['porosity']:.4f}  "
-                f"bc {r['bc']}  rel. error {r['rel_error']:.1e}{flag}"
-            )
-    return 0 if out["converged"] else 1
+    return emit("diffusivity", out, results, args.json, _line)
+
+
+def _line(r: dict) -> str:
+    tau = r["tortuosity_factor"]
+    return (
+        f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}  tortuosity factor "
+        f"{'inf' if tau is None else f'{tau:.4f}'}  porosity {r['porosity']:.4f}  "
+        f"bc {r['bc']}  rel. error {r['rel_error']:.1e}"
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
