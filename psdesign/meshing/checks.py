@@ -51,6 +51,47 @@ def volume_report(mesh_volume: float, analytic: float, voxel: float, scale3: flo
     }
 
 
+def mesh_quality(f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: float, inverted: str):
+    """The ``PoreMesh.quality`` keys both meshers report (lengths in metres): counts, tag areas,
+    element quality, pore volumes and porosities, pore-centroid fractions and the removed
+    components. ``f`` is the :class:`psdesign.meshing.inputs.ScaledField`, ``rve_box`` the
+    RVE's ``(lo, hi)`` in scaled units; a mesh with inverted or flat tets raises
+    :class:`MeshFailedError` (``inverted`` completes its message). Returns ``(quality,
+    mesh_volume, porosity_voxel)``, the volume in scaled units."""
+    from psdesign.meshing.quality import quality_report
+    from psdesign.meshing.tetra import tet_volumes
+
+    s = f.scale
+    vol = tet_volumes(pts, tets)
+    qual = quality_report(pts, tets)
+    if qual["n_inverted"]:
+        raise MeshFailedError(f"{qual['n_inverted']} tets are inverted or flat {inverted}")
+    mesh_vol = float(vol.sum())
+    pore_frac, pore_frac_vol = centroid_pore_fraction(
+        f.d, f.voxel, pts, tets, vol, f.axis, rve_box[0], rve_box[1]
+    )
+    porosity_voxel = float((f.d > 0).mean())
+    voxel_rve = porosity_voxel * f.rve_volume
+    report = {
+        "n_tets": int(len(tets)),
+        "n_points": int(len(pts)),
+        "n_facets": {k: int(len(v)) for k, v in tags.items()},
+        "tag_area_m2": {k: area(pts, v) * s**2 for k, v in tags.items()},
+        **qual,
+        "mesh_volume_m3": mesh_vol * s**3,
+        **volume_report(mesh_vol - aux_volume, f.analytic_rve, voxel_rve, s**3),
+        "porosity_voxel": porosity_voxel,
+        "porosity_analytic": f.analytic_rve / f.rve_volume,
+        "porosity_mesh": (mesh_vol - aux_volume) / f.rve_volume,
+        "pore_centroid_fraction": pore_frac,
+        "pore_centroid_volume_fraction": pore_frac_vol,
+        "n_closed_gap_voxels": f.n_closed,
+        **comp,
+        "removed_volume": comp["removed_volume"] * s**3,
+    }
+    return report, mesh_vol, porosity_voxel
+
+
 def gate(quality: dict, volume_tol: float, min_pore_fraction: float, what: str, hint: str):
     """Raise :class:`MeshFailedError` when the volume or pore-fraction checks fail."""
     err = quality["volume_rel_error"]

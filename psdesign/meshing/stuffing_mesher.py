@@ -11,16 +11,13 @@ from psdesign.meshing import cache
 from psdesign.meshing import tags as T
 from psdesign.meshing.checks import (
     area,
-    centroid_pore_fraction,
     gate,
+    mesh_quality,
     restore_planes,
-    volume_report,
 )
-from psdesign.meshing.errors import MeshFailedError
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions
 from psdesign.meshing.periodic import periodic_pairs
-from psdesign.meshing.quality import quality_report
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.stuffing import stuff_pore_space
 from psdesign.meshing.tetra import face_structure, keep_through_components, tag_faces, tet_volumes
@@ -117,40 +114,20 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
 def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts) -> dict:
     """``PoreMesh.quality`` of a stuffed mesh (lengths in metres)."""
     s = f.scale
-    vol = tet_volumes(pts, tets)
-    qual = quality_report(pts, tets)
-    if qual["n_inverted"]:
-        raise MeshFailedError(f"{qual['n_inverted']} tets are inverted or flat after stuffing")
-    mesh_vol = float(vol.sum())
-    pore_frac, pore_frac_vol = centroid_pore_fraction(
-        f.d, f.voxel, pts, tets, vol, f.axis, sm.rve_lo, sm.rve_hi
+    common, mesh_vol, porosity_voxel = mesh_quality(
+        f, pts, tets, tags, comp, (sm.rve_lo, sm.rve_hi), aux_volume, "after stuffing"
     )
-    porosity_voxel = float((f.d > 0).mean())
     # isolated pockets removed by keep_through_components are part of the target pore volume
     vol_err = (mesh_vol + comp["removed_volume"]) / target - 1.0
     return {
         "mesher": "stuffing",
-        "n_tets": int(len(tets)),
-        "n_points": int(len(pts)),
+        **common,
         "n_boundary_facets": int(len(bfaces)),
-        "n_facets": {k: int(len(v)) for k, v in tags.items()},
-        "tag_area_m2": {k: area(pts, v) * s**2 for k, v in tags.items()},
-        **qual,
-        "mesh_volume_m3": mesh_vol * s**3,
         "volume_target": opts.volume_target,
         "volume_target_m3": target * s**3,
         "expected_pore_volume_voxel_m3": (f.voxel_rve + aux_volume) * s**3,
         "volume_rel_error": vol_err,
         "volume_rel_error_vs_voxel": mesh_vol / (porosity_voxel * f.rve_volume + aux_volume) - 1,
-        **volume_report(mesh_vol - aux_volume, f.analytic_rve, porosity_voxel * f.rve_volume, s**3),
-        "porosity_voxel": porosity_voxel,
-        "porosity_analytic": f.analytic_rve / f.rve_volume,
-        "porosity_mesh": (mesh_vol - aux_volume) / f.rve_volume,
-        "pore_centroid_fraction": pore_frac,
-        "pore_centroid_volume_fraction": pore_frac_vol,
-        "n_closed_gap_voxels": f.n_closed,
-        **comp,
-        "removed_volume": comp["removed_volume"] * s**3,
         "lattice_step_m": opts.lattice_step,
         **{k: v for k, v in sm.report.items() if k != "lattice_step"},
         "lattice_step_axes_m": [v * s for v in sm.report["lattice_step"]],

@@ -23,15 +23,13 @@ from psdesign.meshing import cache
 from psdesign.meshing import tags as T
 from psdesign.meshing.checks import (
     area,
-    centroid_pore_fraction,
     gate,
+    mesh_quality,
     restore_planes,
-    volume_report,
 )
 from psdesign.meshing.errors import MeshFailedError
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions
-from psdesign.meshing.quality import quality_report
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.surface import pore_surface
 from psdesign.meshing.tetra import (
@@ -248,28 +246,21 @@ def match_wall_volume(pts, tets, tags, lo, hi, target, max_shift, planes=(), rto
 def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, surf, target, aux_volume, opts):
     """``PoreMesh.quality`` of a pytetwild mesh (lengths in metres)."""
     s = f.scale
-    vol = tet_volumes(pts, tets)
-    qual = quality_report(pts, tets)
-    if qual["n_inverted"]:
-        raise MeshFailedError(
-            f"{qual['n_inverted']} tets are inverted or flat after snapping the box faces; "
-            "try a smaller epsilon"
-        )
-    mesh_vol = float(vol.sum())
-    pore_frac, pore_frac_vol = centroid_pore_fraction(
-        f.d, f.voxel, pts, tets, vol, f.axis, surf.rve_lo, surf.rve_hi
+    common, mesh_vol, porosity_voxel = mesh_quality(
+        f,
+        pts,
+        tets,
+        tags,
+        comp,
+        (surf.rve_lo, surf.rve_hi),
+        aux_volume,
+        "after snapping the box faces; try a smaller epsilon",
     )
-    porosity_voxel = float((f.d > 0).mean())
     expected_voxel = porosity_voxel * f.rve_volume + aux_volume
     return {
         "mesher": "pytetwild",
-        "n_tets": int(len(tets)),
-        "n_points": int(len(pts)),
+        **common,
         "n_boundary_facets": int(len(bfaces)),
-        "n_facets": {k: int(len(v)) for k, v in tags.items()},
-        "tag_area_m2": {k: area(pts, v) * s**2 for k, v in tags.items()},
-        **qual,
-        "mesh_volume_m3": mesh_vol * s**3,
         "surface_pore_volume_m3": surf.volume * s**3,
         "volume_target": opts.volume_target,
         "volume_target_m3": target * s**3,
@@ -277,16 +268,7 @@ def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, surf, target, aux_vo
         "volume_rel_error": mesh_vol / target - 1.0,
         "volume_rel_error_vs_surface": mesh_vol / surf.volume - 1.0,
         "volume_rel_error_vs_voxel": mesh_vol / expected_voxel - 1.0,
-        **volume_report(mesh_vol - aux_volume, f.analytic_rve, porosity_voxel * f.rve_volume, s**3),
-        "porosity_voxel": porosity_voxel,
-        "porosity_analytic": f.analytic_rve / f.rve_volume,
         "porosity_surface": 1.0 - surf.solid_volume / f.rve_volume,
-        "porosity_mesh": (mesh_vol - aux_volume) / f.rve_volume,
-        "pore_centroid_fraction": pore_frac,
-        "pore_centroid_volume_fraction": pore_frac_vol,
-        "n_closed_gap_voxels": f.n_closed,
-        **comp,
-        "removed_volume": comp["removed_volume"] * s**3,
         "n_surface_triangles": int(len(surf.faces)),
         "aux_length": opts.aux_length,
         "pytetwild_deterministic": False,
