@@ -32,6 +32,7 @@ from psdesign.meshing.options import MeshOptions
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.surface import pore_surface
 from psdesign.meshing.tetra import (
+    aux_sizing_field,
     face_structure,
     keep_through_components,
     snap_to_planes,
@@ -41,6 +42,10 @@ from psdesign.meshing.tetra import (
     untangle_near_planes,
 )
 
+# default fTetWild envelope: this fraction of the marching-cubes step. 0.5 instead of 0.25:
+# 2.4x less fTetWild CPU on the small in-plane RVE of tests/unit/test_tetwild_rve.py with the
+# pore volume unchanged after the wall correction (benchmarks/RESULTS.md "pytetwild options")
+ENVELOPE_PER_STEP = 0.5
 _MAX_WALL_MOVE_EPS = 2.0  # the volume correction moves walls by at most this many envelopes
 # rounds of freezing wall vertices whose move would invert a tet (4 failed on one of five
 # Toray-like seeds, benchmarks/RESULTS.md "pytetwild ... seeds 1-5")
@@ -84,14 +89,23 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     timings["surface_s"] = time.perf_counter() - t
     diag = float(np.linalg.norm(surf.hi - surf.lo))
     eps_rel = (
-        opts.epsilon if opts.epsilon is not None else 0.25 * f.voxel * opts.surface_step / diag
+        opts.epsilon
+        if opts.epsilon is not None
+        else ENVELOPE_PER_STEP * f.voxel * opts.surface_step / diag
     )
     eps_rel = min(eps_rel, 0.01)
     h = opts.edge_length / f.scale if opts.edge_length is not None else opts.edge_length_fac * diag
+    sizing, h_global = None, h
+    if opts.aux_edge_factor > 1.0 and opts.aux_length > 0:
+        # fTetWild only refines below its global ideal length: make that the coarsest target
+        sizing = aux_sizing_field(
+            surf.lo, surf.hi, surf.rve_lo[axis], surf.rve_hi[axis], axis, h, opts.aux_edge_factor
+        )
+        h_global = h * opts.aux_edge_factor
     t = time.perf_counter()
     pts, tets = tetrahedralize(
-        surf.verts, surf.faces, h, eps_rel, num_threads=opts.num_threads,
-        options=opts.tetwild_options,
+        surf.verts, surf.faces, h_global, eps_rel, num_threads=opts.num_threads,
+        options=opts.tetwild_options, sizing=sizing,
     )  # fmt: skip
     timings["tetwild_s"] = time.perf_counter() - t
     t = time.perf_counter()

@@ -59,3 +59,25 @@ def test_pytetwild_pore_volume_of_small_rve_is_exact(rve_mesh):
     assert abs(q["pore_volume_rel_diff"]) < 1e-4  # matched to the analytic estimate
     assert q["analytic_pore_volume_m3"] == pytest.approx(exact, rel=1e-3)
     assert q["pore_centroid_fraction"] > 0.99
+
+
+def test_aux_sizing_field_is_linear_through_the_aux_zones():
+    """The background mesh tiles the box and its target length is h in the RVE and grows
+    linearly to factor * h at the inlet and outlet faces (exact under interpolation)."""
+    from psdesign.meshing.options import MeshOptions
+    from psdesign.meshing.pore_mesh import MeshInputError
+    from psdesign.meshing.tetra import aux_sizing_field, tet_volumes
+
+    lo, hi = np.zeros(3), np.array([1.0, 0.8, 1.4])
+    pts, tets, val = aux_sizing_field(lo, hi, 0.2, 1.2, 2, 0.05, 3.0)
+    vol = tet_volumes(pts, tets)
+    assert (vol > 0).all() and vol.sum() == pytest.approx(np.prod(hi - lo), rel=1e-12)
+    # barycentric interpolation at random points of each tet reproduces h(z)
+    rng = np.random.default_rng(0)
+    w = rng.dirichlet(np.ones(4), size=len(tets))
+    p = np.einsum("tk,tkd->td", w, pts[tets])
+    h = np.einsum("tk,tk->t", w, val[tets])
+    exact = 0.05 * (1.0 + 2.0 * np.maximum(np.maximum(0.2 - p[:, 2], p[:, 2] - 1.2), 0) / 0.2)
+    assert h == pytest.approx(exact, rel=1e-12)
+    with pytest.raises(MeshInputError, match="aux_edge_factor"):
+        MeshOptions(mesher="pytetwild", aux_edge_factor=0.5)
