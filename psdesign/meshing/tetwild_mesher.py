@@ -170,15 +170,26 @@ def _snap_and_clean(pts, tets, surf, axis, snap_tol):
     bfaces, _, _ = face_structure(tets)
     pts, max_move = snap_to_planes(pts, bfaces, surf.lo, surf.hi, snap_tol)
     pts, n_untangled = untangle_near_planes(pts, tets, surf.lo, surf.hi, 2.0 * snap_tol)
+    pts, tets, n_flat, n_inv = drop_slivers(pts, tets, surf.lo, surf.hi)
+    return pts, tets, comp, n_untangled, n_flat, n_inv, max_move
+
+
+def drop_slivers(pts, tets, lo, hi):
+    """Drop zero-volume and unrepairable inverted slivers after plane snapping.
+
+    Tets with all four vertices on one box plane (surface slivers) are dropped, which leaves the
+    boundary on the plane; inverted tets the untangling could not repair (their vertices pinned
+    on box planes, e.g. at a box edge: 1 of 232 k tets on a 100 um Toray-like seed with the
+    half-step envelope) are dropped too when there are at most ``_MAX_DROPPED_INVERTED`` of
+    them with at most 1e-5 of the mesh volume, else kept for the inverted-tet check to report.
+    Orphaned vertices are removed. Returns (points, tets, number flat, number inverted).
+    """
     # tets with all four vertices snapped onto one plane (surface slivers) have zero volume:
     # dropping them leaves the boundary on the same plane
     flat = np.zeros(len(tets), dtype=bool)
     for ax in range(3):
-        for plane in (surf.lo[ax], surf.hi[ax]):
+        for plane in (lo[ax], hi[ax]):
             flat |= (pts[tets, ax] == plane).all(axis=1)
-    # slivers the untangling could not repair (all their vertices pinned on box planes, e.g. at
-    # a box edge; 1 of 232 k tets on a 100 um Toray-like seed with the half-step envelope):
-    # dropped when few and of negligible volume, else left for the inverted-tet check to report
     vol = tet_volumes(pts, tets)
     inverted = (vol <= 0) & ~flat
     n_inv = int(inverted.sum())
@@ -193,7 +204,7 @@ def _snap_and_clean(pts, tets, surf, axis, snap_tol):
             remap = np.full(len(pts), -1, dtype=np.int64)
             remap[used] = np.arange(len(used))
             pts, tets = pts[used], remap[tets]
-    return pts, tets, comp, n_untangled, int(flat.sum()) - n_inv, n_inv, max_move
+    return pts, tets, int(flat.sum()) - n_inv, n_inv
 
 
 def wall_normals(pts, wall, lo, hi, planes=()) -> tuple[np.ndarray, np.ndarray]:

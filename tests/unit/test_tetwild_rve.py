@@ -81,3 +81,26 @@ def test_aux_sizing_field_is_linear_through_the_aux_zones():
     assert h == pytest.approx(exact, rel=1e-12)
     with pytest.raises(MeshInputError, match="aux_edge_factor"):
         MeshOptions(mesher="pytetwild", aux_edge_factor=0.5)
+
+
+def test_drop_slivers_removes_few_pinned_inverted_tets_only():
+    """A tiny inverted tet and a flat one on a box plane are dropped (with their orphaned
+    vertices); 21 inverted tets (more than allowed) are kept for the inverted-tet check."""
+    from psdesign.meshing.tetra import aux_sizing_field, tet_volumes
+    from psdesign.meshing.tetwild_mesher import drop_slivers
+
+    lo, hi = np.zeros(3), np.ones(3)
+    pts, tets, _ = aux_sizing_field(lo, hi, 0.25, 0.75, 2, 1.0, 1.0)  # 18 positive tets
+    n0 = len(pts)
+    e = 1e-2
+    extra = np.array([[0, 0, 0], [e, 0, 0], [0, e, 0], [0, 0, e], [e, e, 0]], dtype=float)
+    p = np.vstack([pts, extra])
+    inv = np.array([[n0, n0 + 2, n0 + 1, n0 + 3]])  # reversed corner tet: volume -e^3 / 6
+    flat = np.array([[n0, n0 + 1, n0 + 2, n0 + 4]])  # all four on z = 0
+    assert tet_volumes(p, inv)[0] < 0
+    q, t, n_flat, n_inv = drop_slivers(p, np.vstack([tets, inv, flat]), lo, hi)
+    assert (n_flat, n_inv) == (1, 1) and len(t) == len(tets) and len(q) == n0
+    assert tet_volumes(q, t).sum() == pytest.approx(1.0, rel=1e-12)
+    many = np.repeat(inv, 21, axis=0)
+    _, t2, _, n_inv2 = drop_slivers(p, np.vstack([tets, many]), lo, hi)
+    assert n_inv2 == 0 and len(t2) == len(tets) + 21
