@@ -204,6 +204,10 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
                     permeability_m2=res["permeability_m2"],
                     converged=res["converged"],
                     fem_s=res["wall_time_s"],
+                    # the two windowed drops' gap: the FEM error bar's window term
+                    window_rel_gap=res["pressure_drop_plane_window_pa"]
+                    / res["pressure_drop_rve_pa"]
+                    - 1.0,
                 )
         except ValueError as e:
             row.update(ok=False, error=f"{type(e).__name__}: {e}")
