@@ -196,6 +196,7 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
                 fields.distance, float(fields.grid.spacing[0]), built.rve.size, args.direction, opts
             )
             row.update({k: pm.quality.get(k) for k in SPEC_KEYS}, ok=True)
+            row["mesh_only_cpu_s"] = resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1
             if args.permeability:
                 from psdesign.flow.fem import permeability_fem
 
