@@ -150,6 +150,7 @@ SPEC_KEYS = [
     "edge_length_m",
     "epsilon_rel",
     "n_wall_vertices_frozen",
+    "n_dropped_inverted_tets",
     "p01_min_dihedral_deg",
     "tetwild_s",
     "wall_time_s",
