@@ -67,12 +67,16 @@ class MeshOptions:
     edge_length_fac
         pytetwild target edge length as a fraction of the box diagonal, in (0, 1].
     epsilon
-        pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default a quarter
-        of the marching-cubes step.
+        pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default half the
+        marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``).
     surface_step
         Sub-sampling step of the field for the marching-cubes surface (pytetwild input).
     simplify_tol
         Surface decimation tolerance in metres (manifold3d ``simplify``); 0 disables.
+    aux_edge_factor
+        pytetwild target edge length at the inlet and outlet faces as a multiple of the RVE's,
+        in [1, 10]: a sizing field grows it linearly through the empty auxiliary zones
+        (1 = uniform, no sizing field).
     num_threads
         pytetwild threads (0 = all cores).
     tetwild_options
@@ -98,6 +102,7 @@ class MeshOptions:
     epsilon: float | None = None
     surface_step: int | None = None
     simplify_tol: float = 0.0
+    aux_edge_factor: float = 1.0
     num_threads: int = 1
     tetwild_options: dict | None = field(default=None, hash=False)
 
@@ -198,6 +203,7 @@ def _check(o: MeshOptions) -> None:
     _in("min_pore_fraction", o.min_pore_fraction, 0.0, 1.0)
     _in("stuffing_alpha", o.alpha, 0.0, 0.5, lo_open=True, hi_open=True)
     _in("stuffing_slab_factor", o.slab_factor, 1.0, 10.0)
+    _in("aux_edge_factor", o.aux_edge_factor, 1.0, 10.0)
     _in("edge_length_fac", o.edge_length_fac, 0.0, 1.0, lo_open=True)
     _in("simplify_tol", o.simplify_tol, 0.0, np.inf)
     _in("num_threads", o.num_threads, 0, 1024)

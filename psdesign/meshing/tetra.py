@@ -25,13 +25,22 @@ def tetrahedralize(
     epsilon: float,
     num_threads: int = 1,
     options: dict | None = None,
+    sizing: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run pytetwild (fTetWild) on a closed surface; tets returned positively oriented.
 
-    ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``.
+    ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``;
+    ``sizing`` is a background mesh ``(points, tets, target edge length per point)`` (pytetwild's
+    ``bg_vertices``, ``bg_tets``, ``bg_values``), see :func:`aux_sizing_field`.
     """
     options = dict(options or {})
-    bad = set(options) - set(TETWILD_OPTIONS)
+    if sizing is not None:
+        options.update(
+            bg_vertices=np.ascontiguousarray(sizing[0], dtype=np.float64),
+            bg_tets=np.ascontiguousarray(sizing[1], dtype=np.int32),
+            bg_values=np.ascontiguousarray(sizing[2], dtype=np.float64),
+        )
+    bad = set(options) - set(TETWILD_OPTIONS) - {"bg_vertices", "bg_tets", "bg_values"}
     if bad:
         raise MeshInputError(
             f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"
@@ -55,6 +64,38 @@ def tetrahedralize(
     neg = vol < 0
     tets[neg] = tets[neg][:, [0, 2, 1, 3]]
     return np.asarray(pts, dtype=np.float64), tets
+
+
+def aux_sizing_field(
+    lo: np.ndarray, hi: np.ndarray, rve_lo: float, rve_hi: float, axis: int, h: float, factor: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Background mesh for pytetwild: edge length ``h`` in the RVE, growing linearly along the
+    flow axis through the empty auxiliary zones to ``factor * h`` at the inlet and outlet faces.
+
+    The box ``[lo, hi]`` is cut at the RVE end planes into three boxes along ``axis``, each split
+    into six Kuhn tets; the target length is linear in the axis coordinate, so the
+    interpolation over the tets reproduces it exactly.
+    """
+    ticks = [np.array([lo[a], hi[a]]) for a in range(3)]
+    ticks[axis] = np.array([lo[axis], rve_lo, rve_hi, hi[axis]])
+    g = np.stack(np.meshgrid(*ticks, indexing="ij"), axis=-1)
+    shape = g.shape[:3]
+    pts = g.reshape(-1, 3)
+    idx = np.arange(pts.shape[0]).reshape(shape)
+    corner = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    kuhn = [(0, 1, 3, 7), (0, 1, 5, 7), (0, 2, 3, 7), (0, 2, 6, 7), (0, 4, 5, 7), (0, 4, 6, 7)]
+    tets = []
+    for c in np.ndindex(*(n - 1 for n in shape)):
+        ids = [idx[tuple(np.add(c, corner[m]))] for m in range(8)]  # corner m = 4 i + 2 j + k
+        tets += [[ids[m] for m in t] for t in kuhn]
+    x = pts[:, axis]
+    dist = np.maximum(rve_lo - x, x - rve_hi).clip(min=0.0)  # distance from the RVE end planes
+    depth = max(rve_lo - lo[axis], hi[axis] - rve_hi, 1e-300)
+    values = h * (1.0 + (factor - 1.0) * dist / depth)
+    tets = np.asarray(tets, dtype=np.int64)
+    neg = tet_volumes(pts, tets) < 0
+    tets[neg] = tets[neg][:, [0, 2, 1, 3]]
+    return pts, tets, values
 
 
 def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
