@@ -12,8 +12,9 @@ field, the voxel route uses it for sub-voxel walls). The assertion is ``|K_fem /
   repeat across it); the woven cell of Eq. (19) repeats every two periods along its fibers, so
   its box is two periods wide in-plane and one period thick.
 * ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides. On the array
-  both routes take the windowed-dissipation drop and agree; on the one-period random RVEs
-  (``xfail(strict=False)``) the windowed drop itself is not representative (see the reason).
+  both routes take the windowed-dissipation drop and agree; the one-period random RVEs are
+  periodic along the flow, so both routes stack two copies (``flow.permeameter_copies``), where
+  the windowed drop is exact again (docs/permeability.md, "Stacked permeameter").
 
 Measured values are in ``docs/solver-agreement.md`` (``benchmarks/solver_agreement.py``).
 """
