@@ -205,9 +205,17 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
+WOVEN_STACK_UNRESOLVED = pytest.mark.xfail(
+    strict=False,
+    reason="woven cell stacked (2 copies through the thickness): measured FEM 1.706e-12, voxel "
+    "(0.5 um) 1.574e-12, fem/voxel - 1 = +8.34 % (its periodic pair: -2.94 %, yarns 4.3 um = 2 "
+    "FEM lattice steps); not investigated on this branch",
+)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "kind", ["straight", "bent", pytest.param("woven", marks=WOVEN_UNRESOLVED)]
+    "kind", ["straight", "bent", pytest.param("woven", marks=WOVEN_STACK_UNRESOLVED)]
 )
 def test_random_permeameter_fem_and_voxel_agree(kind):
     """The same RVEs through-plane between empty reservoirs with slip sides, stacked: these
