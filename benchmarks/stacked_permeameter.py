@@ -141,7 +141,7 @@ def array_cases(args) -> list[dict]:
                 f1 = b1.voxelize(one["rve"]["voxel"])
                 per = _solve(b1.rve, f1, d, {**one["flow"], "bc": "periodic"}, "voxel")
                 k_per = float(per["permeability_m2"])
-                for cells in (1, 2, 3, 4, 5) if flow_dir == "across" else (1,):
+                for cells in args.cells if flow_dir == "across" else (1,):
                     spec = validate_spec(array_spec(kind, phi, n, n_cells=cells))
                     b = build_rve(spec)
                     f = b.voxelize(spec["rve"]["voxel"])
@@ -190,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--directions", nargs="+", default=["z", "x"])
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--copies", nargs="+", default=["1", "auto", "3"], help="permeameters run")
+    ap.add_argument("--cells", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="arrays")
     ap.add_argument(
         "--lateral",
         choices=("slip", "periodic"),

@@ -109,14 +109,17 @@ def test_voxel_permeameter_flux_and_pressure_drop(voxel_runs):
     zone = _cells(grid, "zone")
     n_aux = int(np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.AUX_INLET]))
     assert n_aux >= 1
-    assert np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.RVE]) == 24
+    # the box is one period along x: the permeameter stacks two copies (psdesign.flow.stack)
+    assert res["permeameter_copies"] == 2
+    n_rve = 24 * res["permeameter_copies"]
+    assert np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.RVE]) == n_rve
     assert np.count_nonzero(zone[:, 0, 0] == tags.REGION_IDS[tags.AUX_OUTLET]) == n_aux
     assert grid.origin[0] == pytest.approx(-n_aux * H)
     u = _cells(grid, "velocity_m_per_s")
     q_layers = u[0].sum(axis=(1, 2)) * H * H  # every cell layer carries the flow rate
     assert q_layers == pytest.approx(np.full(q_layers.size, res["flow_rate_m3_s"]), rel=1e-4)
     p = _cells(grid, "pressure_Pa")
-    i0, i1 = n_aux, n_aux + 24
+    i0, i1 = n_aux, n_aux + n_rve
     # plane pressure: mean of the two cells on each face with fluid on both sides
 
     def plane(i):
@@ -170,7 +173,9 @@ def test_fem_vtu_tags_regions_and_inlet_outlet_flux(fem_run):
     rve = vol.extract_cells(np.nonzero(vol.cell_data["zone"] == tags.REGION_IDS[tags.RVE])[0])
     ux = float(rve.integrate_data().point_data["velocity_m_per_s"][0][0])
     area = 12e-6 * 16e-6
-    assert ux / (24e-6 * area) == pytest.approx(q / area, rel=0.03)
+    assert res["permeameter_copies"] == 2  # one period along x: two copies stacked
+    assert res["rve_length_m"] == pytest.approx(2 * 24e-6)
+    assert ux / (res["rve_length_m"] * area) == pytest.approx(q / area, rel=0.03)
     assert (out / "flow_x.png").stat().st_size > 10_000
 
 

@@ -12,8 +12,9 @@ field, the voxel route uses it for sub-voxel walls). The assertion is ``|K_fem /
   repeat across it); the woven cell of Eq. (19) repeats every two periods along its fibers, so
   its box is two periods wide in-plane and one period thick.
 * ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides. On the array
-  both routes take the windowed-dissipation drop and agree; on the one-period random RVEs
-  (``xfail(strict=False)``) the windowed drop itself is not representative (see the reason).
+  both routes take the windowed-dissipation drop and agree; the one-period random RVEs are
+  periodic along the flow, so both routes stack two copies (``flow.permeameter_copies``), where
+  the windowed drop is exact again (docs/permeability.md, "Stacked permeameter").
 
 Measured values are in ``docs/solver-agreement.md`` (``benchmarks/solver_agreement.py``).
 """
@@ -167,6 +168,8 @@ def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6):
     for r in (fem, vox):
         assert r["converged"], r
         assert r["bc"] == bc
+        if bc == "permeameter":
+            assert r["permeameter_copies"] == 2
     return _report(f"{kind} {direction} {bc} fem voxel {voxel:g}, voxel {voxel / 2:g}", fem, vox)
 
 
@@ -202,16 +205,21 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(
+WOVEN_STACK_UNRESOLVED = pytest.mark.xfail(
     strict=False,
-    reason="before the voxel permeameter took the windowed drop: fem/voxel - 1 = -37 % "
-    "straight, -18 % bent, -47 % woven. With both windowed (straight, both at 1 um): FEM "
-    "4.222e-12, voxel 4.314e-12 (-2.1 %), both 36 % below the periodic K 6.588e-12: the "
-    "windowed drop is exact only for >= 2 periods; on these one-period layered RVEs it is 1.57 x "
-    "the face drop (results carry definition_spread and a warning)",
+    reason="woven cell stacked (2 copies through the thickness): measured FEM 1.706e-12, voxel "
+    "(0.5 um) 1.574e-12, fem/voxel - 1 = +8.34 % (its periodic pair: -2.94 %, yarns 4.3 um = 2 "
+    "FEM lattice steps); not investigated on this branch",
 )
-@pytest.mark.parametrize("kind", ["straight", "bent", "woven"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "kind", ["straight", "bent", pytest.param("woven", marks=WOVEN_STACK_UNRESOLVED)]
+)
 def test_random_permeameter_fem_and_voxel_agree(kind):
-    """The same RVEs through-plane between empty reservoirs with slip sides."""
+    """The same RVEs through-plane between empty reservoirs with slip sides, stacked: these
+    one-period RVEs are periodic along z, so both routes solve two copies (``permeameter_copies
+    = "auto"``, psdesign.flow.stack; one copy: FEM 4.222e-12, voxel 4.314e-12, both 36 % below
+    the periodic K, docs/permeability.md "Stacked permeameter")."""
     assert abs(_random_pair(kind, "z", "permeameter")) <= AGREE
