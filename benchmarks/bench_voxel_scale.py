@@ -4,6 +4,7 @@ Usage (one size per process, for the peak memory)::
 
     /usr/bin/time -v python benchmarks/bench_voxel_scale.py 400     # 400 um cube, 64 M voxels
     /usr/bin/time -v python benchmarks/bench_voxel_scale.py 100 x   # direction (default x)
+    python benchmarks/bench_voxel_scale.py memory 64   # traced bytes per cell (tracemalloc)
 
 The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
 a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
@@ -90,11 +91,50 @@ def toray_box(n: int, seed: int = 0) -> tuple[np.ndarray, int]:
     return out, fibres
 
 
+def traced_memory(n: int) -> None:
+    """Traced peak (numpy allocations) per solved cell of one solve: PuMA fibres_32 and the
+    ``bench_voxel.toray_like(n)`` grid, staircase and sub-voxel (kernels loaded first)."""
+    import tracemalloc
+    from pathlib import Path
+
+    from bench_voxel import toray_like
+
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    warm = np.zeros((16, 16, 16), dtype=bool)
+    warm[:, :2, :] = True
+    solve_voxel_stokes(warm, 1.0, "z")
+    slab = np.broadcast_to(np.abs(np.arange(16) + 0.5 - 8.0)[None, :, None] - 2.0, (16,) * 3)
+    solve_voxel_stokes(slab <= 0.0, 1.0, "x", distance=slab.copy())  # sub-voxel kernels
+    data = Path(__file__).resolve().parents[1] / "tests" / "data" / "fibres_32.npz"
+    dist = toray_like(n, distance=True) * 100e-6
+    cases = [
+        ("PuMA fibres_32 staircase", np.load(data)["solid"].astype(bool), None, "z"),
+        (f"Toray-like {n}^3 staircase", toray_like(n), None, "x"),
+        (f"Toray-like {n}^3 sub-voxel", dist <= 0.0, dist, "x"),
+    ]
+    for label, solid, distance, direction in cases:
+        h = 100e-6 / solid.shape[0]
+        tracemalloc.start()
+        res = solve_voxel_stokes(solid, h, direction, distance=distance)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        print(
+            f"{label}: traced peak {peak / solid.size:.1f} B per cell, K-column mean velocity "
+            f"{res.mean_velocity['xyz'.index(direction)]:.9e} m/s, {res.iterations} iterations, "
+            f"residual {res.residual:.2e}",
+            flush=True,
+        )
+
+
 def main(argv: list[str]) -> None:
     from psdesign.flow.voxel import column_of
     from solvers import jit
     from solvers.voxel_stokes import solve_voxel_stokes
 
+    if len(argv) > 1 and argv[1] == "memory":
+        traced_memory(int(argv[2]) if len(argv) > 2 else 64)
+        return
     n = int(argv[1]) if len(argv) > 1 else 100
     direction = argv[2] if len(argv) > 2 else "x"
     # warm-up outside the timings: compile (or load from numba's cache) the parallel kernels
