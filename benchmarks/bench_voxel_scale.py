@@ -8,15 +8,16 @@ Usage (one size per process, for the peak memory)::
 
 The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
 a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
-image, porosity 0.8), but in a box of ``n`` um instead of 100 um, so the
-number of fibres grows with the volume (about 1 500 at 400 um) and ``n = 100`` is exactly
+image, porosity 0.8), but in a box of ``n`` um instead of 100 um, so the number of fibres grows
+with the volume (789 at 400 um: they span the box) and ``n = 100`` is exactly
 ``toray_like(100)``.  The fibres are rasterised one at a time near their own axis (samples
 every half voxel along it, the same exact minimum-image test as ``bench_voxel._rasterise``),
 so the grid costs O(fibres x fibre length) instead of O(fibres x n^3), and the porosity is
-counted on the grid itself.  A warm-up solve on a 48^3 box compiles (or loads) the parallel kernels
-first, so every size runs the same kernels on numba's default threads.  Prints the generation
-time, K, iterations, residual, solve time, the solver's own peak RSS and the load average
-before and after.
+counted on the grid itself (the grid is kept in ``/tmp/psdesign_scale_box_<n>.npz`` for the
+next run).  A warm-up solve on a 48^3 box compiles (or loads) the parallel kernels first, so
+every size runs the same kernels on numba's default threads.  Prints the generation time, K,
+iterations, residual, solve time, the solver's own peak RSS and the load average before and
+after.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from pathlib import Path
 
 import numba as nb
 import numpy as np
@@ -95,7 +97,6 @@ def traced_memory(n: int) -> None:
     """Traced peak (numpy allocations) per solved cell of one solve: PuMA fibres_32 and the
     ``bench_voxel.toray_like(n)`` grid, staircase and sub-voxel (kernels loaded first)."""
     import tracemalloc
-    from pathlib import Path
 
     from bench_voxel import toray_like
 
@@ -143,7 +144,13 @@ def main(argv: list[str]) -> None:
     solve_voxel_stokes(toray_box(48)[0], 1e-6, direction, tol=1e-3)
     load0 = os.getloadavg()[0]
     t = time.perf_counter()
-    solid, fibres = toray_box(n)
+    cache = Path(f"/tmp/psdesign_scale_box_{n}.npz")
+    if cache.exists():
+        with np.load(cache) as f:
+            solid, fibres = f["solid"], int(f["fibres"])
+    else:
+        solid, fibres = toray_box(n)
+        np.savez(cache, solid=solid, fibres=fibres)
     gen = time.perf_counter() - t
     print(f"toray box {n} um at 1 um: {fibres} fibres, generated in {gen:.1f} s", flush=True)
     t = time.perf_counter()
