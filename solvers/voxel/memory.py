@@ -16,9 +16,9 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B) and the pressure scaling
   (4 B); the caller's float64 distance (8 B) comes on top.
 
-Traced (numpy allocations, ``tracemalloc``): 138.2 B per cell staircase and 166.3 B sub-voxel on
-the Toray-like 64^3 grid, 146.1 B on PuMA fibres_32 (formerly 164.6 / 172.5 B with seven
-vectors and two fine work arrays).
+Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``): 138.2 B per
+cell staircase and 163.2 B sub-voxel on the Toray-like 64^3 grid, 145.7 B on PuMA fibres_32
+(formerly 164.6 / 189.6 B on the 64^3 grid, with seven vectors and two fine work arrays).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
