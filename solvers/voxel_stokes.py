@@ -58,7 +58,7 @@ Solvers*, ch. 4):
 * the pressure block uses the pressure mass matrix (``h^3/mu`` times the identity, i.e. the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
-* MINRES runs in float32 (6 vectors of 4 fields) inside a float64 iterative refinement: the
+* MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
   residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
   each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
   restarts on the new residual; the reported
@@ -71,8 +71,8 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 175 bytes per voxel, 210 with
-sub-voxel walls (float64 solution, 6 float32 4-field vectors, uint8 stencils;
+more work per iteration and was dropped.  Memory is O(N): about 140 bytes per voxel, 165 with
+sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
 :mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
@@ -109,6 +109,7 @@ from scipy import ndimage
 
 from solvers.voxel import boundary as bd
 from solvers.voxel import kernels as kr
+from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
 from solvers.voxel import threads as vthreads
@@ -721,6 +722,17 @@ SCHUR_FLOOR = 1e-4
 a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 40^3)."""
 
 
+def _share_coarse_work(mgs: list[mg.ScalarMG]) -> None:
+    """Let the V-cycles of the three components (run one after the other) share the work
+    arrays ``x, t, b`` of their coarse levels where the shapes agree (about 3.4 B per fine
+    cell saved; the coarse operators stay per component)."""
+    first = mgs[0].levels[1:]
+    for other in mgs[1:]:
+        for lev, lev0 in zip(other.levels[1:], first, strict=False):
+            if lev.d.shape == lev0.d.shape:
+                lev.x, lev.t, lev.b = lev0.x, lev0.t, lev0.b
+
+
 class _Stokes:
     """Matrix-free MAC Stokes operator and block-diagonal preconditioner of one grid."""
 
@@ -733,7 +745,8 @@ class _Stokes:
         **mg_kw: object,
     ) -> None:
         self.fluid = np.ascontiguousarray(cells).view(np.uint8)
-        self.act = acts
+        # the active faces are the unknowns with a non-zero diagonal: not stored (3 B per cell)
+        del acts
         self.w = None if forces is None or forces[0] is None else forces
         self.p_scale = None
         if self.w is not None and PRESSURE_SCALING:
@@ -750,10 +763,19 @@ class _Stokes:
         self.d = [o[0] for o in ops]
         self.c = [o[1] for o in ops]
         shp = cells.shape
-        work = [np.zeros(shp, np.float32), np.zeros(shp, np.float32)]
+        self.shape = (4, *shp)
+        # the preconditioner's output vector: its pressure field is written last, so the
+        # velocity V-cycles use it as one of their two fine work arrays (4 B per cell saved)
+        self.z = np.zeros(self.shape, np.float32)
+        work = [self.z[3], np.zeros(shp, np.float32)]
         self._work = work
         self.mg = [mg.ScalarMG(o[0], o[1], work=work, **mg_kw) for o in ops]
-        self.shape = (4, *shp)
+        _share_coarse_work(self.mg)
+
+    @property
+    def act(self) -> list[np.ndarray]:
+        """Active faces (unknowns) of each velocity component: ``diag > 0`` (computed)."""
+        return [da > 0 for da in self.d]
 
     @classmethod
     def build(
@@ -795,6 +817,12 @@ class _Stokes:
             xy, xr = kr.stokes_apply_w(*self.d, *self.c, self.fluid, *self.w, x, y, rr)
         return float(xy), float(xr)
 
+    def lanczos(self, x: np.ndarray, s: float, c1: float, y: np.ndarray) -> float:
+        """``y <- s K x - c1 y`` in place (``y`` unread if ``c1 == 0``); returns ``x . y``."""
+        if self.w is None:
+            return float(lz.stokes_lanczos(*self.d, *self.c, self.fluid, x, s, c1, y))
+        return float(lz.stokes_lanczos_w(*self.d, *self.c, self.fluid, *self.w, x, s, c1, y))
+
     def residual(self, x: np.ndarray, gdir: int, r: np.ndarray) -> tuple[float, float]:
         if self.w is None:
             rr, ff = kr.stokes_residual(*self.d, *self.c, self.fluid, x, gdir, r)
@@ -803,6 +831,8 @@ class _Stokes:
         return float(np.sqrt(rr)), float(np.sqrt(ff))
 
     def precondition(self, r: np.ndarray, z: np.ndarray) -> None:
+        """z = P^-1 r (three scalar V-cycles and the pressure scaling); ``r`` must not be
+        :attr:`z` (its pressure field is the V-cycles' work array), ``z`` may."""
         for a in range(3):
             self.mg[a].apply(r[a], z[a])
         if self.p_scale is None:
@@ -823,18 +853,24 @@ def _minres(
     """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b,
     accumulated into ``x`` (``x += e``; float64, so no separate correction vector is stored).
 
-    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  Stops when the
-    preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations, status).
+    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  ``bufs`` are four
+    work vectors of ``b``'s shape (``z, u, u1, r1``; further ones are ignored); with
+    ``bufs[0] is op.z`` the multigrid shares its work array with ``z``.  Stops when the
+    preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations,
+    status).
 
-    Memory passes are fused: the Lanczos vector ``v = z / beta`` is never stored (the scale is
-    carried into the kernels), the operator product returns ``z . Kz`` and ``z . r1`` in the
-    same pass, so ``alpha = v . (K v - c1 r1)`` needs no extra sweep, and the new Lanczos
-    residual is formed in one sweep.  ``report(itn, phibar / beta1)`` is called every
+    Six vectors in all (:mod:`solvers.voxel.lanczos`): the Lanczos vector ``v = z / beta`` is
+    never stored (the scale is carried into the kernels); the operator product overwrites the
+    older Lanczos vector in place (``r1 <- s K z - c1 r1``, returning ``z . r1``, so ``alpha``
+    needs no extra sweep); the directions ``w = u / gamma`` are stored unscaled and updated
+    before the next preconditioned vector is formed (``gamma`` is not known yet), and each
+    direction's solution update ``x += phi w`` is fused into the next direction update (the
+    last one is flushed on return).  ``report(itn, phibar / beta1)`` is called every
     ``PROGRESS_EVERY`` iterations if given.
     """
-    z, t, wa, wb, r1 = bufs
-    for arr in (wa, wb, r1):
-        arr.fill(0.0)
+    z, u, u1, r1 = bufs[:4]
+    u.fill(0.0)
+    u1.fill(0.0)
     r2 = b
     op.precondition(r2, z)
     beta1 = kr.dot(r2, z)
@@ -842,22 +878,25 @@ def _minres(
         return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
     beta1 = np.sqrt(beta1)
     oldb, beta, dbar, epsln, phibar, cs, sn = 0.0, beta1, 0.0, 0.0, beta1, -1.0, 0.0
+    su = su1 = phi = 0.0  # scales of the stored directions (w = su u), pending x += phi w
     for itn in range(1, maxit + 1):
         s = 1.0 / beta
         c1 = beta / oldb if itn >= 2 else 0.0
-        zt, zr1 = op.apply(z, t, r1)
-        alfa = s * s * zt - s * c1 * zr1
-        kr.lanczos_step(t, s, r1, c1, r2, alfa / beta, r1)
+        alfa = s * op.lanczos(z, s, c1, r1)
+        lz.add_scaled(r1, -alfa / beta, r2)
         r1, r2 = r2, r1
-        op.precondition(r2, t)
-        oldb = beta
-        beta = kr.dot(r2, t)
-        if beta < 0.0:
-            return itn, "preconditioner not positive"
-        beta = np.sqrt(beta)
         oldeps = epsln
         delta = cs * dbar + sn * alfa
         gbar = sn * dbar - cs * alfa
+        lz.minres_direction(z, s, u1, oldeps * su1, u, delta * su, x, phi * su)
+        u, u1 = u1, u
+        su1 = su
+        op.precondition(r2, z)
+        oldb = beta
+        beta = kr.dot(r2, z)
+        if beta < 0.0:
+            return itn, "preconditioner not positive"
+        beta = np.sqrt(beta)
         epsln = sn * beta
         dbar = -cs * beta
         gamma = max(np.hypot(gbar, beta), 1e-300)
@@ -865,15 +904,13 @@ def _minres(
         sn = beta / gamma
         phi = cs * phibar
         phibar = sn * phibar
-        kr.minres_update(z, s, wb, wa, x, oldeps, delta, 1.0 / gamma, phi)
-        wa, wb = wb, wa
-        z, t = t, z
+        su = 1.0 / gamma
         if report is not None and itn % PROGRESS_EVERY == 0:
             report(itn, phibar / beta1)
-        if phibar <= rtol * beta1:
-            return itn, "ok"
-        if beta == 0.0:
-            return itn, "exact"
+        if phibar <= rtol * beta1 or beta == 0.0:
+            lz.add_scaled(x, phi * su, u)
+            return itn, "ok" if phibar <= rtol * beta1 else "exact"
+    lz.add_scaled(x, phi * su, u)
     return maxit, "max_iter"
 
 
@@ -895,7 +932,7 @@ def _solve_core(
     shp = op.shape
     x = np.zeros(shp)
     r = np.empty(shp, np.float32)
-    bufs = [np.empty(shp, np.float32) for _ in range(5)]
+    bufs = [op.z] + [np.empty(shp, np.float32) for _ in range(3)]
     rn, bn = op.residual(x, d, r)
     rel = rn / bn
     history = [rel]

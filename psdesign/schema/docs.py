@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 
+from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
 from psdesign.schema.keys import key_rows, study_rows
 
 HEADER = """# Spec and study keys
@@ -21,7 +22,7 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
-  memory (16 B per voxel, plus 210 B with `flow.solver = "voxel"`) within half the machine's
+  memory (16 B per voxel, plus {B} B with `flow.solver = "voxel"`) within half the machine's
   memory (psutil).
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.
@@ -53,7 +54,7 @@ def _table(title: str, rows: list[tuple[str, str, str]]) -> str:
 
 def render() -> str:
     """The whole ``docs/spec-keys.md`` text."""
-    parts = [HEADER]
+    parts = [HEADER.replace("{B}", str(VOXEL_SOLVER_BYTES_PER_VOXEL))]
     for name, rows in key_rows().items():
         title = "distribution tables" if name == "distribution" else f"[{name}]"
         parts.append(_table(title, rows))

@@ -34,6 +34,23 @@ def test_estimate_bounds_the_traced_peak_of_a_solve() -> None:
     assert 0.75 * est <= peak <= est
 
 
+def test_subvoxel_estimate_bounds_the_traced_peak_of_a_solve() -> None:
+    # square array of cylinders (radius 0.3 of the period) across the flow, 4 periods of 12
+    n, period = 48, 12
+    c = (np.arange(n) % period) + 0.5 - 0.5 * period
+    r = np.hypot(c[:, None], c[None, :])
+    dist = np.broadcast_to((r - 0.3 * period)[:, :, None], (n, n, n)).copy()
+    warm = np.broadcast_to((r[:12, :12] - 3.6)[:, :, None], (12, 12, 12)).copy()
+    solve_voxel_stokes(warm <= 0, 1.0, "x", distance=warm)  # kernels loaded outside the trace
+    tracemalloc.start()
+    res = solve_voxel_stokes(dist <= 0, 1.0, "x", distance=dist)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert res.converged
+    est = vmem.BYTES_PER_CELL["subvoxel"] * dist.size
+    assert 0.75 * est <= peak <= est
+
+
 def test_too_large_a_grid_is_refused_before_allocating(monkeypatch) -> None:
     solid = _fibres_32()
     need = vmem.solver_bytes(solid.size, "staircase")

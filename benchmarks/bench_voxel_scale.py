@@ -1,0 +1,171 @@
+"""Scale of the voxel Stokes solver: a Toray-like fibre RVE of ``n`` um at 1 um voxels.
+
+Usage (one size per process, for the peak memory)::
+
+    /usr/bin/time -v python benchmarks/bench_voxel_scale.py 400     # 400 um cube, 64 M voxels
+    /usr/bin/time -v python benchmarks/bench_voxel_scale.py 100 x   # direction (default x)
+    python benchmarks/bench_voxel_scale.py memory 64   # traced bytes per cell (tracemalloc)
+
+The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
+a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
+image, porosity 0.8), but in a box of ``n`` um instead of 100 um, so the number of fibres grows
+with the volume (789 at 400 um: they span the box) and ``n = 100`` is exactly
+``toray_like(100)``.  The fibres are rasterised one at a time near their own axis (samples
+every half voxel along it, the same exact minimum-image test as ``bench_voxel._rasterise``),
+so the grid costs O(fibres x fibre length) instead of O(fibres x n^3), and the porosity is
+counted on the grid itself (the grid is kept in ``/tmp/psdesign_scale_box_<n>.npz`` for the
+next run).  A warm-up solve on a 48^3 box compiles (or loads) the parallel kernels first, so
+every size runs the same kernels on numba's default threads.  Prints the generation time, K,
+iterations, residual, solve time, the solver's own peak RSS and the load average before and
+after.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import numba as nb
+import numpy as np
+
+DIAMETER_UM = 7.0
+POROSITY = 0.8
+
+
+@nb.njit(cache=False)  # no cache: a benchmark file
+def _add_fibre(n, c, d, radius, out):
+    """Mark the cells of ``out`` (``n^3``, unit box) whose centre lies within ``radius`` of the
+    periodic straight fibre through ``c`` along ``d`` (minimum image around ``c``); returns the
+    number of cells newly marked."""
+    half = int(radius * n) + 2
+    step = 0.5 / n
+    tmax = 0.87 + radius
+    new = 0
+    m = int(2.0 * tmax / step) + 1
+    for s in range(m + 1):
+        t0 = -tmax + s * step
+        ci = int(np.floor((c[0] + t0 * d[0]) * n))
+        cj = int(np.floor((c[1] + t0 * d[1]) * n))
+        ck = int(np.floor((c[2] + t0 * d[2]) * n))
+        for di in range(-half, half + 1):
+            i = (ci + di) % n
+            x = (i + 0.5) / n
+            for dj in range(-half, half + 1):
+                j = (cj + dj) % n
+                y = (j + 0.5) / n
+                for dk in range(-half, half + 1):
+                    k = (ck + dk) % n
+                    if out[i, j, k]:
+                        continue
+                    z = (k + 0.5) / n
+                    rx = x - c[0]
+                    ry = y - c[1]
+                    rz = z - c[2]
+                    rx -= np.floor(rx + 0.5)
+                    ry -= np.floor(ry + 0.5)
+                    rz -= np.floor(rz + 0.5)
+                    t = rx * d[0] + ry * d[1] + rz * d[2]
+                    px = rx - t * d[0]
+                    py = ry - t * d[1]
+                    pz = rz - t * d[2]
+                    if px * px + py * py + pz * pz < radius * radius:
+                        out[i, j, k] = True
+                        new += 1
+    return new
+
+
+def toray_box(n: int, seed: int = 0) -> tuple[np.ndarray, int]:
+    """Solid mask of a Toray-like RVE of ``n`` um at 1 um voxels and its number of fibres."""
+    rng = np.random.default_rng(seed)
+    out = np.zeros((n, n, n), dtype=bool)
+    radius = 0.5 * DIAMETER_UM / n
+    solid = 0
+    fibres = 0
+    while 1.0 - solid / out.size > POROSITY:
+        d = rng.normal(size=3)
+        d[2] *= 0.3
+        d /= np.linalg.norm(d)
+        c = rng.random(3)
+        solid += _add_fibre(n, c, d, radius, out)
+        fibres += 1
+    return out, fibres
+
+
+def traced_memory(n: int) -> None:
+    """Traced peak (numpy allocations) per solved cell of one solve: PuMA fibres_32 and the
+    ``bench_voxel.toray_like(n)`` grid, staircase and sub-voxel (kernels loaded first)."""
+    import tracemalloc
+
+    from bench_voxel import toray_like
+
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    warm = np.zeros((16, 16, 16), dtype=bool)
+    warm[:, :2, :] = True
+    solve_voxel_stokes(warm, 1.0, "z")
+    slab = np.broadcast_to(np.abs(np.arange(16) + 0.5 - 8.0)[None, :, None] - 2.0, (16,) * 3)
+    solve_voxel_stokes(slab <= 0.0, 1.0, "x", distance=slab.copy())  # sub-voxel kernels
+    data = Path(__file__).resolve().parents[1] / "tests" / "data" / "fibres_32.npz"
+    dist = toray_like(n, distance=True) * 100e-6
+    cases = [
+        ("PuMA fibres_32 staircase", np.load(data)["solid"].astype(bool), None, "z"),
+        (f"Toray-like {n}^3 staircase", toray_like(n), None, "x"),
+        (f"Toray-like {n}^3 sub-voxel", dist <= 0.0, dist, "x"),
+    ]
+    for label, solid, distance, direction in cases:
+        h = 100e-6 / solid.shape[0]
+        tracemalloc.start()
+        res = solve_voxel_stokes(solid, h, direction, distance=distance)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        print(
+            f"{label}: traced peak {peak / solid.size:.1f} B per cell, K-column mean velocity "
+            f"{res.mean_velocity['xyz'.index(direction)]:.9e} m/s, {res.iterations} iterations, "
+            f"residual {res.residual:.2e}",
+            flush=True,
+        )
+
+
+def main(argv: list[str]) -> None:
+    from psdesign.flow.voxel import column_of
+    from solvers import jit
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    if len(argv) > 1 and argv[1] == "memory":
+        traced_memory(int(argv[2]) if len(argv) > 2 else 64)
+        return
+    n = int(argv[1]) if len(argv) > 1 else 100
+    direction = argv[2] if len(argv) > 2 else "x"
+    # warm-up outside the timings: compile (or load from numba's cache) the parallel kernels
+    # that every size then uses, on a grid just above the one-thread threshold
+    jit.COMPILE_PARALLEL_ABOVE = 0
+    solve_voxel_stokes(toray_box(48)[0], 1e-6, direction, tol=1e-3)
+    load0 = os.getloadavg()[0]
+    t = time.perf_counter()
+    cache = Path(f"/tmp/psdesign_scale_box_{n}.npz")
+    if cache.exists():
+        with np.load(cache) as f:
+            solid, fibres = f["solid"], int(f["fibres"])
+    else:
+        solid, fibres = toray_box(n)
+        np.savez(cache, solid=solid, fibres=fibres)
+    gen = time.perf_counter() - t
+    print(f"toray box {n} um at 1 um: {fibres} fibres, generated in {gen:.1f} s", flush=True)
+    t = time.perf_counter()
+    res = solve_voxel_stokes(solid, 1e-6, direction, tol=1e-6)
+    wall = time.perf_counter() - t
+    print(
+        f"toray box {n}^3 ({res.wall_treatment}): K[:,{direction}] = {column_of(res)} "
+        f"porosity {res.porosity:.4f} converged {res.converged} MINRES iterations "
+        f"{res.iterations} residual {res.residual:.2e} flux imbalance {res.flux_imbalance:.1e} "
+        f"solve {wall:.1f} s peak RSS {res.peak_memory_mb:.0f} MB "
+        f"({res.peak_memory_mb * 2**20 / solid.size:.1f} B per voxel) "
+        f"load average before {load0:.1f} after {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+
+
+if __name__ == "__main__":
+    main(sys.argv)
