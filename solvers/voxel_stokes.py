@@ -802,13 +802,13 @@ class _Stokes:
             rr, ff = kr.stokes_residual_w(*self.d, *self.c, self.fluid, *self.w, x, gdir, r)
         return float(np.sqrt(rr)), float(np.sqrt(ff))
 
-    def precondition(self, r: np.ndarray, z: np.ndarray) -> None:
-        for a in range(3):
-            self.mg[a].apply(r[a], z[a])
+    def precondition(self, r: np.ndarray, z: np.ndarray) -> float:
+        """z = M^-1 r; returns ``r . z`` (float64) from the same passes (the last smoothing
+        sweep of each V-cycle and the pressure block), so MINRES needs no dot-product pass."""
+        rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
         if self.p_scale is None:
-            np.copyto(z[3], r[3])
-        else:
-            np.multiply(r[3], self.p_scale, out=z[3])
+            return rz + kr.copy_dot(r[3], z[3])
+        return rz + kr.scale_dot(r[3], self.p_scale, z[3])
 
 
 def _minres(
@@ -836,8 +836,7 @@ def _minres(
     for arr in (wa, wb, r1):
         arr.fill(0.0)
     r2 = b
-    op.precondition(r2, z)
-    beta1 = kr.dot(r2, z)
+    beta1 = op.precondition(r2, z)
     if not beta1 > 0.0:
         return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
     beta1 = np.sqrt(beta1)
@@ -849,9 +848,8 @@ def _minres(
         alfa = s * s * zt - s * c1 * zr1
         kr.lanczos_step(t, s, r1, c1, r2, alfa / beta, r1)
         r1, r2 = r2, r1
-        op.precondition(r2, t)
         oldb = beta
-        beta = kr.dot(r2, t)
+        beta = op.precondition(r2, t)
         if beta < 0.0:
             return itn, "preconditioner not positive"
         beta = np.sqrt(beta)

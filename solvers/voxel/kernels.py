@@ -67,28 +67,14 @@ def _ends(nz):
 
 
 @nb.njit(inline="always")
-def _apply_row(d, cx, cy, cz, x, i, j, out):
-    """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k.
+def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
+    """out[:] = (A x) on one row along k from 1-D row views (0 where ``dr == 0``).
 
-    The interior is a plain loop over 1-D row views (vectorised); only the two periodic k ends
-    use the wrapping scalar stencil.
+    ``cxr, cyr, czr`` are the couplings of the row, ``cxp, cyp`` those of the rows above along x
+    and y; ``xr`` the row of ``x`` and ``xim .. xjp`` its four neighbour rows.  The interior is a
+    plain loop (vectorised); the two ends wrap periodically along k.
     """
-    nx, ny, nz = d.shape
-    ip = _up(i, nx)
-    im = _dn(i, nx)
-    jp = _up(j, ny)
-    jm = _dn(j, ny)
-    dr = d[i, j]
-    cxr = cx[i, j]
-    cxp = cx[ip, j]
-    cyr = cy[i, j]
-    cyp = cy[i, jp]
-    czr = cz[i, j]
-    xr = x[i, j]
-    xim = x[im, j]
-    xip = x[ip, j]
-    xjm = x[i, jm]
-    xjp = x[i, jp]
+    nz = dr.shape[0]
     for k in range(1, nz - 1):
         s = (
             cxr[k] * xim[k]
@@ -102,7 +88,33 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
         out[k] = val if dr[k] != 0 else 0.0
     for e in range(_ends(nz)):
         k = 0 if e == 0 else nz - 1
-        out[k] = _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz) if d[i, j, k] != 0 else 0.0
+        km = _dn(k, nz)
+        kp = _up(k, nz)
+        s = (
+            cxr[k] * xim[k]
+            + cxp[k] * xip[k]
+            + cyr[k] * xjm[k]
+            + cyp[k] * xjp[k]
+            + czr[k] * xr[km]
+            + czr[kp] * xr[kp]
+        )
+        val = dr[k] * xr[k] - s
+        out[k] = val if dr[k] != 0 else 0.0
+
+
+@nb.njit(inline="always")
+def _apply_row(d, cx, cy, cz, x, i, j, out):
+    """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k
+    (:func:`_stencil_rows` on the row views of ``x`` around row ``(i, j)``)."""
+    nx, ny, nz = d.shape
+    ip = _up(i, nx)
+    im = _dn(i, nx)
+    jp = _up(j, ny)
+    jm = _dn(j, ny)
+    _stencil_rows(
+        d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+        x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
+    )  # fmt: skip
 
 
 @nb.njit(inline="always")
@@ -162,19 +174,35 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
                     _sum_row(row, fz, out)
 
 
+@nb.njit(inline="always")
+def _jacobi_row(dr, xr, br, ax, omega, out):
+    """out = xr + omega (br - ax) / dr on one row (0 where ``dr == 0``; ``ax`` = (A x) row);
+    returns the float64 sum of ``br * out`` (the preconditioned dot product of the row)."""
+    s = 0.0
+    for k in range(out.shape[0]):
+        val = xr[k] + omega * (br[k] - ax[k]) / dr[k] if dr[k] != 0 else 0.0
+        out[k] = val
+        s += np.float64(br[k]) * np.float64(out[k])
+    return s
+
+
 @parallel_kernel(**_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
-    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised)."""
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised).
+
+    Returns ``b . xnew`` (float64) from the same pass: after the last smoothing sweep of a
+    V-cycle on the finest level that is the preconditioned dot product MINRES needs.
+    """
     nx, ny, nz = d.shape
+    acc = np.zeros(nx)
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
+        s = 0.0
         for j in range(ny):
-            _residual_row(d, cx, cy, cz, x, b, i, j, row)
-            dr = d[i, j]
-            xr = x[i, j]
-            out = xnew[i, j]
-            for k in range(nz):
-                out[k] = xr[k] + omega * row[k] / dr[k] if dr[k] != 0 else 0.0
+            _apply_row(d, cx, cy, cz, x, i, j, row)
+            s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
+        acc[i] = s
+    return acc.sum()
 
 
 @parallel_kernel(**_OPTS)
@@ -183,9 +211,147 @@ def jacobi_zero(d, b, x, omega):
     nx, ny, nz = d.shape
     for i in nb.prange(nx):
         for j in range(ny):
-            for k in range(nz):
-                dd = d[i, j, k]
-                x[i, j, k] = 0.0 if dd == 0 else omega * b[i, j, k] / dd
+            _zero_row(d[i, j], b[i, j], omega, x[i, j])
+
+
+@nb.njit(inline="always")
+def _zero_row(dr, br, omega, out):
+    """out = omega br / dr (0 where ``dr == 0``): one row of the first Jacobi sweep from 0."""
+    for k in range(out.shape[0]):
+        out[k] = omega * br[k] / dr[k] if dr[k] != 0 else 0.0
+
+
+@parallel_kernel(**_OPTS)
+def jacobi2_zero(d, cx, cy, cz, b, xnew, omega):
+    """Two damped Jacobi sweeps from a zero guess in one pass over the grid.
+
+    ``x1 = omega D^-1 b`` (:func:`jacobi_zero`) is never stored: each row of it is recomputed
+    where the stencil of the second sweep ``xnew = x1 + omega D^-1 (b - A x1)`` needs it (its
+    own row and the four neighbour rows, which are in cache).  Streams ``d, c, b`` once and
+    writes ``xnew`` instead of two passes (same values as :func:`jacobi_zero` +
+    :func:`jacobi`).
+    """
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        ip = _up(i, nx)
+        im = _dn(i, nx)
+        x0 = np.empty(nz, dtype=xnew.dtype)
+        xim = np.empty(nz, dtype=xnew.dtype)
+        xip = np.empty(nz, dtype=xnew.dtype)
+        xjm = np.empty(nz, dtype=xnew.dtype)
+        xjp = np.empty(nz, dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        for j in range(ny):
+            jp = _up(j, ny)
+            jm = _dn(j, ny)
+            _zero_row(d[i, j], b[i, j], omega, x0)
+            _zero_row(d[im, j], b[im, j], omega, xim)
+            _zero_row(d[ip, j], b[ip, j], omega, xip)
+            _zero_row(d[i, jm], b[i, jm], omega, xjm)
+            _zero_row(d[i, jp], b[i, jp], omega, xjp)
+            _stencil_rows(
+                d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+                x0, xim, xip, xjm, xjp, row,
+            )  # fmt: skip
+            _jacobi_row(d[i, j], x0, b[i, j], row, omega, xnew[i, j])
+
+
+@nb.njit(inline="always")
+def _prolong_row(dr, xr, cr, fz, alpha, out):
+    """out = xr + alpha (P xc) on one row (where ``dr != 0``; ``xr`` elsewhere), ``cr`` the
+    coarse row (piecewise-constant interpolation along k by the factor ``fz``)."""
+    nz = out.shape[0]
+    ncz = cr.shape[0]
+    if fz == 2:
+        for k in range(2 * ncz):
+            out[k] = xr[k] + alpha * cr[k >> 1] if dr[k] != 0 else xr[k]
+        for k in range(2 * ncz, nz):
+            out[k] = xr[k] + alpha * cr[ncz - 1] if dr[k] != 0 else xr[k]
+    else:
+        for k in range(nz):
+            out[k] = xr[k] + alpha * cr[min(k // fz, ncz - 1)] if dr[k] != 0 else xr[k]
+
+
+@parallel_kernel(**_OPTS)
+def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega):
+    """Coarse correction and the first post-smoothing sweep in one pass over the grid.
+
+    ``x' = x + alpha P xc`` (:func:`prolong_add`) is never stored: each row of it is formed
+    where the stencil of ``xnew = x' + omega D^-1 (b - A x')`` needs it (own and four
+    neighbour rows).  Same values as :func:`prolong_add` + :func:`jacobi`; ``x`` is not
+    modified.  Returns ``b . xnew`` (float64), as :func:`jacobi`.
+    (13 parameters: the fine operator, both grids' vectors and the two methods' scalars.)
+    """
+    nx, ny, nz = d.shape
+    ncx, ncy, ncz = xc.shape
+    acc = np.zeros(nx)
+    for i in nb.prange(nx):
+        ip = _up(i, nx)
+        im = _dn(i, nx)
+        ic = min(i // fx, ncx - 1)
+        icm = min(im // fx, ncx - 1)
+        icp = min(ip // fx, ncx - 1)
+        x0 = np.empty(nz, dtype=xnew.dtype)
+        xim = np.empty(nz, dtype=xnew.dtype)
+        xip = np.empty(nz, dtype=xnew.dtype)
+        xjm = np.empty(nz, dtype=xnew.dtype)
+        xjp = np.empty(nz, dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        s = 0.0
+        for j in range(ny):
+            jp = _up(j, ny)
+            jm = _dn(j, ny)
+            jc = min(j // fy, ncy - 1)
+            _prolong_row(d[i, j], x[i, j], xc[ic, jc], fz, alpha, x0)
+            _prolong_row(d[im, j], x[im, j], xc[icm, jc], fz, alpha, xim)
+            _prolong_row(d[ip, j], x[ip, j], xc[icp, jc], fz, alpha, xip)
+            _prolong_row(d[i, jm], x[i, jm], xc[ic, min(jm // fy, ncy - 1)], fz, alpha, xjm)
+            _prolong_row(d[i, jp], x[i, jp], xc[ic, min(jp // fy, ncy - 1)], fz, alpha, xjp)
+            _stencil_rows(
+                d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+                x0, xim, xip, xjm, xjp, row,
+            )  # fmt: skip
+            s += _jacobi_row(d[i, j], x0, b[i, j], row, omega, xnew[i, j])
+        acc[i] = s
+    return acc.sum()
+
+
+@parallel_kernel(**_OPTS)
+def copy_dot(r, z):
+    """z = r (identity pressure block); returns ``r . z`` (float64) from the same pass."""
+    fr = r.reshape(-1, r.shape[-1])
+    fz = z.reshape(-1, z.shape[-1])
+    m, n = fr.shape
+    part = np.zeros(m)
+    for row in nb.prange(m):
+        a = fr[row]
+        o = fz[row]
+        s = 0.0
+        for t in range(n):
+            o[t] = a[t]
+            s += np.float64(a[t]) * np.float64(o[t])
+        part[row] = s
+    return part.sum()
+
+
+@parallel_kernel(**_OPTS)
+def scale_dot(r, c, z):
+    """z = r * c (diagonal pressure block); returns ``r . z`` (float64) from the same pass."""
+    fr = r.reshape(-1, r.shape[-1])
+    fc = c.reshape(-1, c.shape[-1])
+    fz = z.reshape(-1, z.shape[-1])
+    m, n = fr.shape
+    part = np.zeros(m)
+    for row in nb.prange(m):
+        a = fr[row]
+        sc = fc[row]
+        o = fz[row]
+        s = 0.0
+        for t in range(n):
+            o[t] = a[t] * sc[t]
+            s += np.float64(a[t]) * np.float64(o[t])
+        part[row] = s
+    return part.sum()
 
 
 @nb.njit(inline="always")
