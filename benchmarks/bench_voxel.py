@@ -276,20 +276,24 @@ def iteration_bytes(op, fused: bool = True) -> float:
     return n * (apply + lanczos + prec + dot + update)
 
 
-def _best_ms(fun, reps: int) -> float:
-    """Best of ``reps`` timings of ``fun()`` after one warm-up call (ms)."""
+def _best_ms(fun, reps: int, cpu: bool = False) -> float:
+    """Best of ``reps`` timings of ``fun()`` after one warm-up call (ms): wall time, or the
+    process CPU time with ``cpu=True`` (on a loaded machine the CPU time of a one-thread run is
+    the better estimate of its idle wall time)."""
+    clock = time.process_time if cpu else time.perf_counter
     fun()
     best = float("inf")
     for _ in range(reps):
-        t0 = time.perf_counter()
+        t0 = clock()
         fun()
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, clock() - t0)
     return best * 1e3
 
 
-def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, float]]:
+def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, ...]]:
     """Separate kernels vs the fused pass that replaced them, timed alternately on the finest
-    level of component 0 (best of ``reps``, ms)."""
+    level of component 0: best of ``reps`` wall times (separate, fused) and CPU times
+    (separate, fused), ms."""
     from solvers.voxel import kernels as kr
 
     mg0 = op.mg[0]
@@ -318,21 +322,25 @@ def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, float]]:
     pairs = {
         "2 Jacobi sweeps from zero": (
             sep_zero,
-            lambda: kr.jacobi2_zero(lev.d, *lev.c, b, t, om),
+            lambda: kr.jacobi2_zero(lev.d, *lev.c, b, t, om, nb.get_num_threads()),
         ),
         "prolongation + first post sweep": (
             sep_prolong,
-            lambda: kr.prolong_jacobi(lev.d, *lev.c, x, xc, *lev.f, al, b, t, om),
+            lambda: kr.prolong_jacobi(
+                lev.d, *lev.c, x, xc, *lev.f, al, b, t, om, nb.get_num_threads()
+            ),
         ),
         "preconditioner + dot product": (sep_prec, lambda: op.precondition(r, z)),
     }
     out = {}
     for name, (sep, fused) in pairs.items():
-        t_sep = t_fused = float("inf")
+        best = [float("inf")] * 4
         for _ in range(reps):  # alternate, so both see the same load
-            t_sep = min(t_sep, _best_ms(sep, 1))
-            t_fused = min(t_fused, _best_ms(fused, 1))
-        out[name] = (t_sep, t_fused)
+            for q, (fun, cpu) in enumerate(
+                ((sep, False), (fused, False), (sep, True), (fused, True))
+            ):
+                best[q] = min(best[q], _best_ms(fun, 1, cpu))
+        out[name] = tuple(best)
     return out
 
 
@@ -370,18 +378,23 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
         its = 20
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, 2)
         t0 = time.perf_counter()
+        c0 = time.process_time()
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
+        rows["one MINRES iteration, CPU time (all threads)"] = (
+            (time.process_time() - c0) / its * 1e3
+        )
         need = iteration_bytes(op)
         before = iteration_bytes(op, fused=False)
     load = os.getloadavg()[0]
     print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
     for name, val in rows.items():
         print(f"  {name}: {val:.1f} ms")
-    for name, (t_sep, t_fused) in pairs.items():
+    for name, (t_sep, t_fused, c_sep, c_fused) in pairs.items():
         print(
-            f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms "
-            f"(fused / separate {t_fused / t_sep:.2f})"
+            f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms wall "
+            f"(fused / separate {t_fused / t_sep:.2f}); CPU {c_sep:.1f} / {c_fused:.1f} ms "
+            f"({c_fused / c_sep:.2f})"
         )
     ideal = need / bw * 1e3
     meas = rows["one MINRES iteration"]

@@ -144,7 +144,7 @@ class ScalarMG:
     def _pre_smooth(self, lev: Level) -> None:
         """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass)."""
         if self.pre >= 2:
-            kr.jacobi2_zero(lev.d, *lev.c, lev.b, lev.x, self.omega)
+            kr.jacobi2_zero(lev.d, *lev.c, lev.b, lev.x, self.omega, numba.get_num_threads())
             rest = self.pre - 2
         else:
             kr.jacobi_zero(lev.d, lev.b, lev.x, self.omega)
@@ -158,8 +158,9 @@ class ScalarMG:
         into the first); the last sweep writes into ``out`` if given (the finest level: saves a
         copy) and its ``b . out`` is returned (0.0 without ``out``)."""
         dst = out if (out is not None and self.pre == 1) else lev.t
+        nchunks = numba.get_num_threads()
         dot = kr.prolong_jacobi(
-            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega
+            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nchunks
         )
         if dst is lev.t:
             lev.x, lev.t = lev.t, lev.x

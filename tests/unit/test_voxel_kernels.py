@@ -40,8 +40,14 @@ def _close(a: np.ndarray, b: np.ndarray) -> None:
 SHAPES = [(8, 8, 8), (7, 9, 5), (6, 5, 1), (5, 4, 2), (4, 6, 3)]
 
 
+@pytest.fixture(params=[1, 2, 3])
+def chunks(request) -> int:
+    """Number of x-chunks of the plane-rolling kernels (each chunk starts its own planes)."""
+    return request.param
+
+
 @pytest.mark.parametrize("shape", SHAPES)
-def test_two_jacobi_sweeps_from_zero_in_one_pass(shape: tuple[int, int, int]) -> None:
+def test_two_jacobi_sweeps_from_zero_in_one_pass(shape: tuple[int, int, int], chunks) -> None:
     rng = np.random.default_rng(1)
     for d, c, _ in _operators(shape):
         b = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
@@ -50,14 +56,14 @@ def test_two_jacobi_sweeps_from_zero_in_one_pass(shape: tuple[int, int, int]) ->
         kr.jacobi_zero(d, b, x1, 0.9)
         kr.jacobi(d, *c, x1, b, ref, 0.9)
         out = np.full(d.shape, np.nan, np.float32)
-        kr.jacobi2_zero(d, *c, b, out, 0.9)
+        kr.jacobi2_zero(d, *c, b, out, 0.9, chunks)
         _close(out, ref)
         assert np.all(out[d == 0] == 0.0)
         assert np.abs(ref).max() > 0.1  # not a trivial comparison
 
 
 @pytest.mark.parametrize("shape", SHAPES)
-def test_prolongation_fused_into_the_first_post_sweep(shape: tuple[int, int, int]) -> None:
+def test_prolongation_fused_into_the_first_post_sweep(shape: tuple[int, int, int], chunks) -> None:
     rng = np.random.default_rng(2)
     d, c, f = _operators(shape)[0]
     nc = tuple(n // m for n, m in zip(shape, f, strict=True))
@@ -70,7 +76,7 @@ def test_prolongation_fused_into_the_first_post_sweep(shape: tuple[int, int, int
     dot_ref = kr.jacobi(d, *c, x_ref, b, ref, 0.9)
     x_before = x.copy()
     out = np.full(shape, np.nan, np.float32)
-    dot = kr.prolong_jacobi(d, *c, x, xc, *f, 1.6, b, out, 0.9)
+    dot = kr.prolong_jacobi(d, *c, x, xc, *f, 1.6, b, out, 0.9, chunks)
     _close(out, ref)
     assert np.array_equal(x, x_before)  # x' is never stored
     exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
@@ -140,3 +146,33 @@ def test_stokes_preconditioner_returns_r_dot_z(scaled: bool) -> None:
     exact = float(np.dot(r.ravel().astype(np.float64), z.ravel().astype(np.float64)))
     assert rz == pytest.approx(exact, rel=1e-9)
     assert rz == pytest.approx(kr.dot(r, z), rel=1e-12)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
+    """``stokes_residual`` / ``stokes_residual_w`` (one kernel, weights 1 when absent) give
+    ``f - K x`` with ``K x`` from the row-vectorised operator products."""
+    from solvers import voxel_stokes as vs
+
+    shape = (9, 8, 7)
+    rng = np.random.default_rng(8)
+    if weighted:
+        phi = rng.random(shape) - 0.25  # sub-voxel walls: float32 weights in (0, 1]
+        op = vs._Stokes.build(phi <= 0, phi)
+        assert op.w is not None and 0.0 < float(op.w[0][op.w[0] > 0].min()) < 1.0
+    else:
+        op = vs._Stokes.build(~_fluid(shape, seed=9))
+    x = rng.standard_normal(op.shape).astype(np.float32)
+    for a in range(3):
+        x[a] *= op.d[a] > 0
+    x[3] *= op.fluid > 0
+    y = np.empty_like(x)
+    op.apply(x, y)
+    r = np.empty(op.shape, np.float32)
+    rn, fn = op.residual(x.astype(np.float64), 1, r)
+    f = np.zeros(op.shape)
+    f[1] = op.w[1] if weighted else (op.d[1] > 0)
+    expect = f - y
+    assert np.abs(r - expect).max() <= 1e-5 * np.abs(expect).max()
+    assert rn == pytest.approx(float(np.linalg.norm(expect)), rel=1e-5)
+    assert fn == pytest.approx(float(np.linalg.norm(f)), rel=1e-12)
