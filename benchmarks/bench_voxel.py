@@ -486,7 +486,7 @@ def thread_case(n: int, its: int, min_cells: int | None = None) -> None:
     print(json.dumps(row))
 
 
-PHASES = ("wall", "generate", "setup", "iterations")
+PHASES = ("wall", "generate", "solve", "setup", "iterations")
 
 
 def _run_modes(n: int, its: int, reps: int, modes: dict[str, dict[str, str]], extra: dict) -> dict:
@@ -516,8 +516,8 @@ def _print_modes(times: dict[str, list[dict]]) -> dict[str, dict[str, float]]:
         runs = ", ".join(f"{r['wall']:.2f}" for r in times[mode])
         print(
             f"  {mode:30s} wall {m['wall']:7.2f} s (runs {runs}) cpu {m['cpu']:7.2f} s "
-            f"its {m['its']:.0f} | generate {m['generate']:.2f} s, set-up {m['setup']:.2f} s, "
-            f"iterations {m['iterations']:.2f} s",
+            f"its {m['its']:.0f} | generate {m['generate']:.2f} s, solve {m['solve']:.2f} s "
+            f"(set-up {m['setup']:.2f} s, iterations {m['iterations']:.2f} s)",
             flush=True,
         )
         print(
