@@ -417,6 +417,7 @@ THREAD_MODES = {
     "1 thread": {"NUMBA_NUM_THREADS": "1"},
     "default": {},
     "libgomp spin (old default)": {"_SPIN": "1"},
+    "libgomp short spin (GOMP_SPINCOUNT=10000)": {"_SPIN": "1", "GOMP_SPINCOUNT": "10000"},
     "workqueue layer": {"NUMBA_THREADING_LAYER": "workqueue"},
 }
 
