@@ -11,6 +11,9 @@ Usage::
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
     python benchmarks/bench_voxel.py threads 64 200  # 1 vs 2 threads, with and without a competitor
     python benchmarks/bench_voxel.py threads 200 reps=1 its=10  # fewer repetitions / iterations
+    python benchmarks/bench_voxel.py threads 200 its=0 modes=default competitor=no \
+        mincells=30000,300000        # full solves; 1 thread / default only; coarse thresholds
+    python benchmarks/bench_voxel.py speedup 200     # idle check: both wall ratios + bandwidth
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -227,9 +230,11 @@ def triad_bandwidth(n: int = 32_000_000, reps: int = 5) -> float:
     return 12.0 * n / best
 
 
-def _vcycle_bytes(mg0) -> float:
+def _vcycle_bytes(mg0, fused: bool = True) -> float:
     """Bytes one V-cycle must stream (every array touched once per pass; neighbours from
-    cache), summed over the levels above the coarsest (the LU is negligible)."""
+    cache), summed over the levels above the coarsest (the LU is negligible).  ``fused``: the
+    kernels as the multigrid runs them now (two sweeps from zero in one pass, prolongation in
+    the first post-smoothing sweep); ``False``: one pass per sweep (before the fusions)."""
     total = 0.0
     levels = mg0.levels
     for li, lev in enumerate(levels[:-1]):
@@ -238,18 +243,26 @@ def _vcycle_bytes(mg0) -> float:
         opb = lev.d.itemsize + 3 * lev.c.itemsize
         coarse = levels[li + 1].d.size * vec / n
         sweep = opb + 3 * vec  # d, c, x, b read; x_new written
-        per = lev.d.itemsize + 2 * vec  # Jacobi from zero
-        per += (mg0.pre - 1) * sweep  # remaining pre-smoothing sweeps
-        per += opb + 2 * vec + coarse  # residual + restriction
-        per += lev.d.itemsize + 2 * vec + coarse  # prolongation (x read and written)
-        per += mg0.pre * sweep  # post-smoothing
+        if fused:
+            per = opb + 2 * vec  # two sweeps from zero: d, c, b read; x_new written
+            per += (mg0.pre - 2) * sweep
+            per += opb + 2 * vec + coarse  # residual + restriction
+            per += sweep + coarse  # prolongation + first post sweep (x_c read)
+            per += (mg0.pre - 1) * sweep
+        else:
+            per = lev.d.itemsize + 2 * vec  # Jacobi from zero
+            per += (mg0.pre - 1) * sweep  # remaining pre-smoothing sweeps
+            per += opb + 2 * vec + coarse  # residual + restriction
+            per += lev.d.itemsize + 2 * vec + coarse  # prolongation (x read and written)
+            per += mg0.pre * sweep  # post-smoothing
         total += per * n
     return total
 
 
-def iteration_bytes(op) -> float:
+def iteration_bytes(op, fused: bool = True) -> float:
     """Bytes one MINRES iteration must stream (the kernels of :func:`solvers.voxel_stokes._minres`
-    as they are fused now, each array read or written once per kernel)."""
+    as they are fused now, each array read or written once per kernel; ``fused=False``: before
+    the multigrid fusions and with the separate preconditioned dot product)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
     ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
@@ -257,18 +270,88 @@ def iteration_bytes(op) -> float:
         ops += 12.0
     apply = ops + 3 * vec4  # z, K z, r1
     lanczos = 4 * vec4
-    prec = sum(_vcycle_bytes(m) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
-    dot = 2 * vec4
+    prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
+    dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
     update = 4 * vec4 + 2 * 32.0  # z, w read; w1 read + written; x (float64) read + written
     return n * (apply + lanczos + prec + dot + update)
 
 
-def kernels(n: int, reps: int = 5) -> None:
+def _best_ms(fun, reps: int, cpu: bool = False) -> float:
+    """Best of ``reps`` timings of ``fun()`` after one warm-up call (ms): wall time, or the
+    process CPU time with ``cpu=True`` (on a loaded machine the CPU time of a one-thread run is
+    the better estimate of its idle wall time)."""
+    clock = time.process_time if cpu else time.perf_counter
+    fun()
+    best = float("inf")
+    for _ in range(reps):
+        t0 = clock()
+        fun()
+        best = min(best, clock() - t0)
+    return best * 1e3
+
+
+def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, ...]]:
+    """Separate kernels vs the fused pass that replaced them, timed alternately on the finest
+    level of component 0: best of ``reps`` wall times (separate, fused) and CPU times
+    (separate, fused), ms."""
+    from solvers.voxel import kernels as kr
+
+    mg0 = op.mg[0]
+    lev, lev1 = mg0.levels[0], mg0.levels[1]
+    rng = np.random.default_rng(1)
+    b = (rng.random(lev.d.shape, dtype=np.float32) * (lev.d > 0)).astype(np.float32)
+    xc = rng.random(lev1.d.shape, dtype=np.float32)
+    x = np.empty_like(b)
+    t = np.empty_like(b)
+    r = rng.random(op.shape, dtype=np.float32)
+    z = np.empty_like(r)
+    om, al = mg0.omega, mg0.alpha
+
+    def sep_zero():
+        kr.jacobi_zero(lev.d, b, x, om)
+        kr.jacobi(lev.d, *lev.c, x, b, t, om)
+
+    def sep_prolong():
+        kr.prolong_add(lev.d, xc, *lev.f, al, x)
+        kr.jacobi(lev.d, *lev.c, x, b, t, om)
+
+    def sep_prec():
+        op.precondition(r, z)
+        kr.dot(r, z)
+
+    pairs = {
+        "2 Jacobi sweeps from zero": (
+            sep_zero,
+            lambda: kr.jacobi2_zero(lev.d, *lev.c, b, t, om, nb.get_num_threads()),
+        ),
+        "prolongation + first post sweep": (
+            sep_prolong,
+            lambda: kr.prolong_jacobi(
+                lev.d, *lev.c, x, xc, *lev.f, al, b, t, om, nb.get_num_threads()
+            ),
+        ),
+        "preconditioner + dot product": (sep_prec, lambda: op.precondition(r, z)),
+    }
+    out = {}
+    for name, (sep, fused) in pairs.items():
+        best = [float("inf")] * 4
+        for _ in range(reps):  # alternate, so both see the same load
+            for q, (fun, cpu) in enumerate(
+                ((sep, False), (fused, False), (sep, True), (fused, True))
+            ):
+                best[q] = min(best[q], _best_ms(fun, 1, cpu))
+        out[name] = tuple(best)
+    return out
+
+
+def kernels(n: int, reps: int = 5) -> dict[str, float]:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid, and
-    compare the iteration with the bytes it must stream over the measured triad bandwidth."""
+    compare the iteration with the bytes it must stream over the measured triad bandwidth
+    (printed; also returned: ``bytes_per_voxel``, ``ideal_ms``, ``iteration_ms``, ``ratio``)."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
 
+    _warm_parallel()
     solid = _grid(n)
     bw = triad_bandwidth()
     with vs._threads(solid.size):
@@ -281,21 +364,14 @@ def kernels(n: int, reps: int = 5) -> None:
         lev = mg0.levels[0]
         b = x[0].copy()
         t = np.empty_like(b)
-
-        def ms(fun) -> float:
-            fun()
-            t0 = time.perf_counter()
-            for _ in range(reps):
-                fun()
-            return (time.perf_counter() - t0) / reps * 1e3
-
         rows = {
-            "operator product (+2 dots)": ms(lambda: op.apply(x, y, z)),
-            "preconditioner (3 V-cycles)": ms(lambda: op.precondition(x, z)),
-            "one V-cycle": ms(lambda: mg0.apply(b, t)),
-            "Jacobi sweep (finest)": ms(lambda: kr.jacobi(lev.d, *lev.c, b, b, t, 0.9)),
-            "dot product (4 fields)": ms(lambda: kr.dot(x, y)),
+            "operator product (+2 dots)": _best_ms(lambda: op.apply(x, y, z), reps),
+            "preconditioner (3 V-cycles + dot)": _best_ms(lambda: op.precondition(x, z), reps),
+            "one V-cycle": _best_ms(lambda: mg0.apply(b, t), reps),
+            "Jacobi sweep (finest)": _best_ms(lambda: kr.jacobi(lev.d, *lev.c, b, b, t, 0.9), reps),
+            "dot product (4 fields)": _best_ms(lambda: kr.dot(x, y), reps),
         }
+        pairs = _fusion_pairs(op, reps)
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
         bufs = [np.empty(op.shape, np.float32) for _ in range(5)]
@@ -303,26 +379,46 @@ def kernels(n: int, reps: int = 5) -> None:
         its = 20
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, 2)
         t0 = time.perf_counter()
+        c0 = time.process_time()
         vs._minres(op, rhs.copy(), e, bufs, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
+        rows["one MINRES iteration, CPU time (all threads)"] = (
+            (time.process_time() - c0) / its * 1e3
+        )
         need = iteration_bytes(op)
+        before = iteration_bytes(op, fused=False)
     load = os.getloadavg()[0]
     print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
     for name, val in rows.items():
         print(f"  {name}: {val:.1f} ms")
+    for name, (t_sep, t_fused, c_sep, c_fused) in pairs.items():
+        print(
+            f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms wall "
+            f"(fused / separate {t_fused / t_sep:.2f}); CPU {c_sep:.1f} / {c_fused:.1f} ms "
+            f"({c_fused / c_sep:.2f})"
+        )
     ideal = need / bw * 1e3
     meas = rows["one MINRES iteration"]
     print(
         f"  triad bandwidth {bw / 1e9:.1f} GB/s; one MINRES iteration streams "
-        f"{need / solid.size:.0f} B per voxel = {need / 1e9:.2f} GB: ideal {ideal:.1f} ms, "
-        f"measured {meas:.1f} ms = {meas / ideal:.2f} x ideal"
+        f"{need / solid.size:.0f} B per voxel (before the fusions {before / solid.size:.0f}) "
+        f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms, measured {meas:.1f} ms = "
+        f"{meas / ideal:.2f} x ideal",
+        flush=True,
     )
+    return {
+        "bytes_per_voxel": need / solid.size,
+        "ideal_ms": ideal,
+        "iteration_ms": meas,
+        "ratio": meas / ideal,
+    }
 
 
 THREAD_MODES = {
     "1 thread": {"NUMBA_NUM_THREADS": "1"},
     "default": {},
     "libgomp spin (old default)": {"_SPIN": "1"},
+    "libgomp short spin (GOMP_SPINCOUNT=10000)": {"_SPIN": "1", "GOMP_SPINCOUNT": "10000"},
     "workqueue layer": {"NUMBA_THREADING_LAYER": "workqueue"},
 }
 
@@ -337,89 +433,192 @@ def _grid(n: int) -> np.ndarray:
     return np.load(cache)
 
 
-def thread_case(n: int, its: int) -> None:
-    """One timing in this process: the full solve at 64^3, ``its`` MINRES iterations (solver
-    core only) above; prints one JSON line."""
+def _timed(mod, name: str, acc: dict[str, float]) -> None:
+    """Wrap ``mod.name`` so that its wall time adds up in ``acc[name]`` (benchmark only)."""
+    fun = getattr(mod, name)
+
+    def wrapper(*args, **kw):
+        t0 = time.perf_counter()
+        try:
+            return fun(*args, **kw)
+        finally:
+            acc[name] = acc.get(name, 0.0) + time.perf_counter() - t0
+
+    setattr(mod, name, wrapper)
+
+
+def _warm_parallel() -> None:
+    """Compile (or load) the kernels a solve uses, the parallel ones too, outside the timings.
+
+    Grids below :data:`solvers.jit.COMPILE_PARALLEL_ABOVE` cells (200^3 is) run the serial
+    twins when the parallel kernels are not in numba's cache yet, which would time one thread
+    under the name of two; the warm-up solve is on a grid above the one-thread threshold."""
+    import solvers.jit as jit
+
+    before = jit.COMPILE_PARALLEL_ABOVE
+    jit.COMPILE_PARALLEL_ABOVE = 0
+    try:
+        warm = np.zeros((48, 48, 48), dtype=bool)
+        warm[:, :4, :] = True
+        warm[:4, :, :] = True
+        solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
+    finally:
+        jit.COMPILE_PARALLEL_ABOVE = before
+
+
+def thread_case(n: int, its: int, min_cells: int | None = None) -> None:
+    """One timing in this process (prints one JSON line): generation of the grid, then one
+    ``solve_voxel_stokes`` (at most ``its`` MINRES iterations; 0 = to convergence), split into
+    the set-up (``_setup_grid``: operator build and multigrid set-up; ``percolates``), the
+    iterations (``_solve_core``) and the rest (checks, result).  ``min_cells`` replaces the
+    per-level threshold :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS`."""
     if os.environ.pop("_SPIN", None):
         os.environ.pop("OMP_WAIT_POLICY", None)  # before the first parallel region
     from solvers import voxel_stokes as vs
+    from solvers.voxel import threads as vthreads
 
-    warm = np.zeros((16, 16, 16), dtype=bool)
-    warm[:, :2, :] = True
-    solve_voxel_stokes(warm, 1.0, "z")
-    solid = _grid(n)
+    if min_cells is not None:
+        vthreads.PARALLEL_MIN_CELLS = min_cells
+    _warm_parallel()
+    if n > 64:  # warm the parallel generation kernel outside the timing
+        _rasterise(8, np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]), 0.1, np.zeros((8,) * 3, bool))
+    acc: dict[str, float] = {}
+    for name in ("_setup_grid", "percolates", "_solve_core"):
+        _timed(vs, name, acc)
     cpu0 = time.process_time()
     t0 = time.perf_counter()
-    if n == 64:
-        res = solve_voxel_stokes(solid, 1.0 / n, "z", tol=1e-6)
-        iters = res.iterations
-    else:
-        op = vs._Stokes.build(solid)
-        with vs._threads(solid.size):
-            vs._solve_core(op, 0, 1e-6, 2)  # warm the caches of this grid
-            cpu0 = time.process_time()
-            t0 = time.perf_counter()
-            _, info = vs._solve_core(op, 0, 1e-6, its)
-        iters = info["iterations"]
+    solid = np.load(BENCH / "fibres_64.npz")["solid"].astype(bool) if n == 64 else toray_like(n)
+    t_gen = time.perf_counter() - t0
+    res = solve_voxel_stokes(solid, 1.0 / n, "x", tol=1e-6, max_iter=its or 2000)
     wall = time.perf_counter() - t0
-    print(json.dumps({"wall": wall, "cpu": time.process_time() - cpu0, "its": iters}))
+    row = {
+        "wall": wall,
+        "cpu": time.process_time() - cpu0,
+        "its": res.iterations,
+        "generate": t_gen,
+        "setup": acc["_setup_grid"] + acc["percolates"],
+        "operator+multigrid": acc["_setup_grid"],
+        "percolates": acc["percolates"],
+        "iterations": acc["_solve_core"],
+        "solve": res.wall_time_s,
+    }
+    print(json.dumps(row))
 
 
-def threads(sizes: list[int], reps: int = 2, its: int = 20) -> None:
-    """Default thread setting vs one thread, side by side, without and with one CPU-bound
-    competing process (a busy loop started here); every timing in its own process, the modes
-    interleaved.  Prints the medians and the ratio to the 1-thread time."""
+PHASES = ("wall", "generate", "solve", "setup", "iterations")
+
+
+def _run_modes(n: int, its: int, reps: int, modes: dict[str, dict[str, str]], extra: dict) -> dict:
+    """Every mode ``reps`` times, each timing in its own process, the modes interleaved."""
     here = Path(__file__).resolve()
+    times: dict[str, list[dict]] = {m: [] for m in modes}
+    for _ in range(reps):
+        for mode, env in modes.items():
+            args = [sys.executable, str(here), "_threadcase", str(n), str(its)]
+            if mode in extra:
+                args.append(str(extra[mode]))
+            out = subprocess.run(
+                args, env={**os.environ, **env}, capture_output=True, text=True, check=True
+            )
+            times[mode].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    return times
+
+
+def _print_modes(times: dict[str, list[dict]]) -> dict[str, dict[str, float]]:
+    """Medians of each phase per mode and the ratio 1-thread / mode (speed-up, > 1 = faster)."""
+    med = {
+        m: {k: statistics.median(r[k] for r in rows) for k in (*PHASES, "cpu", "its")}
+        for m, rows in times.items()
+    }
+    ref = med["1 thread"]
+    for mode, m in med.items():
+        runs = ", ".join(f"{r['wall']:.2f}" for r in times[mode])
+        print(
+            f"  {mode:30s} wall {m['wall']:7.2f} s (runs {runs}) cpu {m['cpu']:7.2f} s "
+            f"its {m['its']:.0f} | generate {m['generate']:.2f} s, solve {m['solve']:.2f} s "
+            f"(set-up {m['setup']:.2f} s, iterations {m['iterations']:.2f} s)",
+            flush=True,
+        )
+        print(
+            "  "
+            + " " * 30
+            + " speed-up vs 1 thread: "
+            + ", ".join(f"{k} {ref[k] / m[k]:.2f}x" for k in PHASES),
+            flush=True,
+        )
+    return med
+
+
+def threads(
+    sizes: list[int],
+    reps: int = 2,
+    its: int = 20,
+    modes: str = "all",
+    competitor: str = "both",
+    min_cells: tuple[int, ...] = (),
+) -> None:
+    """Default thread setting vs one thread (and the other modes), side by side, without and
+    with one CPU-bound competing process (a busy loop started here); every timing in its own
+    process, the modes interleaved.  Prints the medians of the whole run (generation + solve),
+    the set-up and the iterations, and each one's speed-up over one thread.  ``min_cells``:
+    extra default-thread modes with that coarse-level threshold."""
+    sel = THREAD_MODES if modes == "all" else {m: THREAD_MODES[m] for m in ("1 thread", "default")}
+    sel = dict(sel)
+    extra = {}
+    for mc in min_cells:
+        sel[f"default, levels >= {mc} cells"] = {}
+        extra[f"default, levels >= {mc} cells"] = mc
+    states = {"both": (False, True), "no": (False,), "yes": (True,)}[competitor]
     for n in sizes:
-        for competitor in (False, True):
+        for comp in states:
             busy = None
-            if competitor:
+            if comp:
                 busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            times: dict[str, list[tuple[float, float]]] = {m: [] for m in THREAD_MODES}
             load = os.getloadavg()[0]
             try:
-                for _ in range(reps):
-                    for mode, env in THREAD_MODES.items():
-                        out = subprocess.run(
-                            [sys.executable, str(here), "_threadcase", str(n), str(its)],
-                            env={**os.environ, **env},
-                            capture_output=True,
-                            text=True,
-                            check=True,
-                        )
-                        row = json.loads(out.stdout.strip().splitlines()[-1])
-                        times[mode].append((row["wall"], row["cpu"]))
+                times = _run_modes(n, its, reps, sel, extra)
             finally:
                 if busy is not None:
                     busy.kill()
                     busy.wait()
-            what = "full solve" if n == 64 else f"{its} MINRES iterations"
+            what = "full solve" if its == 0 else f"at most {its} MINRES iterations"
             print(
-                f"{n}^3 ({what}), {'with' if competitor else 'without'} a competitor, "
+                f"{n}^3 ({what}), {'with' if comp else 'without'} a competitor, "
                 f"load average before {load:.1f}:",
                 flush=True,
             )
-            ref = statistics.median(w for w, _ in times["1 thread"])
-            for mode, vals in times.items():
-                wall = statistics.median(w for w, _ in vals)
-                cpu = statistics.median(c for _, c in vals)
-                runs = ", ".join(f"{w:.2f}" for w, _ in vals)
-                print(
-                    f"  {mode:28s} wall {wall:7.2f} s (runs {runs})"
-                    f"  cpu {cpu:7.2f} s  wall / 1-thread {wall / ref:.2f}",
-                    flush=True,
-                )
+            _print_modes(times)
+
+
+def speedup(n: int = 200, reps: int = 1) -> None:
+    """The idle check of issue 16 in one command: 1 thread vs the default, full solves of the
+    Toray-like ``n^3`` grid (whole run and iterations only), then the bandwidth ratio of one
+    MINRES iteration with the default threads (:func:`kernels`), in its own process."""
+    threads([n], reps=reps, its=0, modes="default", competitor="no")
+    here = Path(__file__).resolve()
+    subprocess.run([sys.executable, str(here), "kernels", str(n)], check=True)
 
 
 def main(argv: list[str]) -> None:
     what = argv[1] if len(argv) > 1 else "puma"
     if what == "_threadcase":
-        thread_case(int(argv[2]), int(argv[3]))
+        thread_case(int(argv[2]), int(argv[3]), int(argv[4]) if len(argv) > 4 else None)
         return
-    if what == "threads":  # sizes, then optional reps=R its=I
+    if what == "threads":  # sizes, then optional reps=R its=I modes=default competitor=no
         opts = dict(a.split("=") for a in argv[2:] if "=" in a)
         sizes = [int(a) for a in argv[2:] if "=" not in a] or [64, 200]
-        threads(sizes, int(opts.get("reps", 2)), int(opts.get("its", 20)))
+        cells = tuple(int(c) for c in opts["mincells"].split(",")) if "mincells" in opts else ()
+        threads(
+            sizes,
+            int(opts.get("reps", 2)),
+            int(opts.get("its", 20)),
+            opts.get("modes", "all"),
+            opts.get("competitor", "both"),
+            cells,
+        )
+        return
+    if what == "speedup":
+        speedup(*[int(a) for a in argv[2:3]] or [200])
         return
     # warm-up: compile the numba kernels outside the timings
     warm = np.zeros((16, 16, 16), dtype=bool)

@@ -46,6 +46,7 @@ def _task(mode: str) -> tuple[str, float]:
 
     import psdesign.geometry.raster as raster
     import solvers.jit as jit
+    import solvers.voxel.threads as vthreads
     import solvers.voxel_stokes as vs
     from psdesign.flow.permeability import route_result
     from psdesign.packing.build import build_rve
@@ -59,6 +60,7 @@ def _task(mode: str) -> tuple[str, float]:
     else:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
         vs.PARALLEL_MIN_CELLS = 0
+        vthreads.PARALLEL_MIN_CELLS = 0  # the policy reads this one: all levels parallel
         jit.COMPILE_PARALLEL_ABOVE = 0  # compile the parallel kernels, not their twins
         raster.rasterize_copy.serial_below = 0
     spec = validate_spec(_SPEC)

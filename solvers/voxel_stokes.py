@@ -830,15 +830,15 @@ class _Stokes:
             rr, ff = kr.stokes_residual_w(*self.d, *self.c, self.fluid, *self.w, x, gdir, r)
         return float(np.sqrt(rr)), float(np.sqrt(ff))
 
-    def precondition(self, r: np.ndarray, z: np.ndarray) -> None:
-        """z = P^-1 r (three scalar V-cycles and the pressure scaling); ``r`` must not be
-        :attr:`z` (its pressure field is the V-cycles' work array), ``z`` may."""
-        for a in range(3):
-            self.mg[a].apply(r[a], z[a])
+    def precondition(self, r: np.ndarray, z: np.ndarray) -> float:
+        """z = M^-1 r (three scalar V-cycles and the pressure scaling); returns ``r . z``
+        (float64) from the same passes (the last smoothing sweep of each V-cycle and the pressure
+        block), so MINRES needs no dot-product pass.  ``r`` must not be :attr:`z` (its pressure
+        field is the V-cycles' work array), ``z`` may."""
+        rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
         if self.p_scale is None:
-            np.copyto(z[3], r[3])
-        else:
-            np.multiply(r[3], self.p_scale, out=z[3])
+            return rz + kr.copy_dot(r[3], z[3])
+        return rz + kr.scale_dot(r[3], self.p_scale, z[3])
 
 
 def _minres(
@@ -872,8 +872,7 @@ def _minres(
     u.fill(0.0)
     u1.fill(0.0)
     r2 = b
-    op.precondition(r2, z)
-    beta1 = kr.dot(r2, z)
+    beta1 = op.precondition(r2, z)
     if not beta1 > 0.0:
         return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
     beta1 = np.sqrt(beta1)
@@ -891,9 +890,8 @@ def _minres(
         lz.minres_direction(z, s, u1, oldeps * su1, u, delta * su, x, phi * su)
         u, u1 = u1, u
         su1 = su
-        op.precondition(r2, z)
         oldb = beta
-        beta = kr.dot(r2, z)
+        beta = op.precondition(r2, z)
         if beta < 0.0:
             return itn, "preconditioner not positive"
         beta = np.sqrt(beta)

@@ -67,28 +67,14 @@ def _ends(nz):
 
 
 @nb.njit(inline="always")
-def _apply_row(d, cx, cy, cz, x, i, j, out):
-    """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k.
+def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
+    """out[:] = (A x) on one row along k from 1-D row views (0 where ``dr == 0``).
 
-    The interior is a plain loop over 1-D row views (vectorised); only the two periodic k ends
-    use the wrapping scalar stencil.
+    ``cxr, cyr, czr`` are the couplings of the row, ``cxp, cyp`` those of the rows above along x
+    and y; ``xr`` the row of ``x`` and ``xim .. xjp`` its four neighbour rows.  The interior is a
+    plain loop (vectorised); the two ends wrap periodically along k.
     """
-    nx, ny, nz = d.shape
-    ip = _up(i, nx)
-    im = _dn(i, nx)
-    jp = _up(j, ny)
-    jm = _dn(j, ny)
-    dr = d[i, j]
-    cxr = cx[i, j]
-    cxp = cx[ip, j]
-    cyr = cy[i, j]
-    cyp = cy[i, jp]
-    czr = cz[i, j]
-    xr = x[i, j]
-    xim = x[im, j]
-    xip = x[ip, j]
-    xjm = x[i, jm]
-    xjp = x[i, jp]
+    nz = dr.shape[0]
     for k in range(1, nz - 1):
         s = (
             cxr[k] * xim[k]
@@ -102,7 +88,33 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
         out[k] = val if dr[k] != 0 else 0.0
     for e in range(_ends(nz)):
         k = 0 if e == 0 else nz - 1
-        out[k] = _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz) if d[i, j, k] != 0 else 0.0
+        km = _dn(k, nz)
+        kp = _up(k, nz)
+        s = (
+            cxr[k] * xim[k]
+            + cxp[k] * xip[k]
+            + cyr[k] * xjm[k]
+            + cyp[k] * xjp[k]
+            + czr[k] * xr[km]
+            + czr[kp] * xr[kp]
+        )
+        val = dr[k] * xr[k] - s
+        out[k] = val if dr[k] != 0 else 0.0
+
+
+@nb.njit(inline="always")
+def _apply_row(d, cx, cy, cz, x, i, j, out):
+    """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k
+    (:func:`_stencil_rows` on the row views of ``x`` around row ``(i, j)``)."""
+    nx, ny, nz = d.shape
+    ip = _up(i, nx)
+    im = _dn(i, nx)
+    jp = _up(j, ny)
+    jm = _dn(j, ny)
+    _stencil_rows(
+        d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+        x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
+    )  # fmt: skip
 
 
 @nb.njit(inline="always")
@@ -162,19 +174,35 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
                     _sum_row(row, fz, out)
 
 
+@nb.njit(inline="always")
+def _jacobi_row(dr, xr, br, ax, omega, out):
+    """out = xr + omega (br - ax) / dr on one row (0 where ``dr == 0``; ``ax`` = (A x) row);
+    returns the float64 sum of ``br * out`` (the preconditioned dot product of the row)."""
+    s = 0.0
+    for k in range(out.shape[0]):
+        val = xr[k] + omega * (br[k] - ax[k]) / dr[k] if dr[k] != 0 else 0.0
+        out[k] = val
+        s += np.float64(br[k]) * np.float64(out[k])
+    return s
+
+
 @parallel_kernel(**_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
-    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised)."""
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised).
+
+    Returns ``b . xnew`` (float64) from the same pass: after the last smoothing sweep of a
+    V-cycle on the finest level that is the preconditioned dot product MINRES needs.
+    """
     nx, ny, nz = d.shape
+    acc = np.zeros(nx)
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
+        s = 0.0
         for j in range(ny):
-            _residual_row(d, cx, cy, cz, x, b, i, j, row)
-            dr = d[i, j]
-            xr = x[i, j]
-            out = xnew[i, j]
-            for k in range(nz):
-                out[k] = xr[k] + omega * row[k] / dr[k] if dr[k] != 0 else 0.0
+            _apply_row(d, cx, cy, cz, x, i, j, row)
+            s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
+        acc[i] = s
+    return acc.sum()
 
 
 @parallel_kernel(**_OPTS)
@@ -183,9 +211,166 @@ def jacobi_zero(d, b, x, omega):
     nx, ny, nz = d.shape
     for i in nb.prange(nx):
         for j in range(ny):
-            for k in range(nz):
-                dd = d[i, j, k]
-                x[i, j, k] = 0.0 if dd == 0 else omega * b[i, j, k] / dd
+            _zero_row(d[i, j], b[i, j], omega, x[i, j])
+
+
+@nb.njit(inline="always")
+def _zero_row(dr, br, omega, out):
+    """out = omega br / dr (0 where ``dr == 0``): one row of the first Jacobi sweep from 0."""
+    for k in range(out.shape[0]):
+        out[k] = omega * br[k] / dr[k] if dr[k] != 0 else 0.0
+
+
+@nb.njit(inline="always")
+def _chunk(t, nt, n):
+    """Range ``[lo, hi)`` of the ``t``-th of ``nt`` equal chunks of ``range(n)``."""
+    return t * n // nt, (t + 1) * n // nt
+
+
+@nb.njit(inline="always")
+def _zero_plane(d, b, i, omega, out):
+    """out[j, :] = omega b[i, j, :] / d[i, j, :]: plane ``i`` of the first sweep from zero."""
+    for j in range(d.shape[1]):
+        _zero_row(d[i, j], b[i, j], omega, out[j])
+
+
+@nb.njit(inline="always")
+def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
+    """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
+    p0, pp``: buffers of shape (ny, nz)) into ``xnew[i]``; returns the plane's ``b . xnew``."""
+    nx, ny, nz = d.shape
+    ip = _up(i, nx)
+    s = 0.0
+    for j in range(ny):
+        jp = _up(j, ny)
+        jm = _dn(j, ny)
+        _stencil_rows(
+            d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+            p0[j], pm[j], pp[j], p0[jm], p0[jp], row,
+        )  # fmt: skip
+        s += _jacobi_row(d[i, j], p0[j], b[i, j], row, omega, xnew[i, j])
+    return s
+
+
+@parallel_kernel(**_OPTS)
+def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
+    """Two damped Jacobi sweeps from a zero guess in one pass over the grid.
+
+    ``x1 = omega D^-1 b`` (:func:`jacobi_zero`) is never stored in the grid: each thread walks
+    its chunk of x-planes keeping the planes ``i - 1, i, i + 1`` of ``x1`` in three plane
+    buffers (in cache), so the second sweep ``xnew = x1 + omega D^-1 (b - A x1)`` streams
+    ``d, c, b`` once and writes ``xnew`` (same values as :func:`jacobi_zero` +
+    :func:`jacobi`).  ``nchunks``: number of x-chunks, i.e. of threads that can work at once
+    (each chunk computes two planes more).
+    """
+    nx, ny, nz = d.shape
+    nt = max(1, min(nchunks, nx))
+    for t in nb.prange(nt):
+        lo, hi = _chunk(t, nt, nx)
+        pm = np.empty((ny, nz), dtype=xnew.dtype)
+        p0 = np.empty((ny, nz), dtype=xnew.dtype)
+        pp = np.empty((ny, nz), dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        _zero_plane(d, b, _dn(lo, nx), omega, pm)
+        _zero_plane(d, b, lo, omega, p0)
+        for i in range(lo, hi):
+            _zero_plane(d, b, _up(i, nx), omega, pp)
+            _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
+            pm, p0, pp = p0, pp, pm
+
+
+@nb.njit(inline="always")
+def _prolong_row(dr, xr, cr, fz, alpha, out):
+    """out = xr + alpha (P xc) on one row (where ``dr != 0``; ``xr`` elsewhere), ``cr`` the
+    coarse row (piecewise-constant interpolation along k by the factor ``fz``)."""
+    nz = out.shape[0]
+    ncz = cr.shape[0]
+    if fz == 2:
+        for k in range(2 * ncz):
+            out[k] = xr[k] + alpha * cr[k >> 1] if dr[k] != 0 else xr[k]
+        for k in range(2 * ncz, nz):
+            out[k] = xr[k] + alpha * cr[ncz - 1] if dr[k] != 0 else xr[k]
+    else:
+        for k in range(nz):
+            out[k] = xr[k] + alpha * cr[min(k // fz, ncz - 1)] if dr[k] != 0 else xr[k]
+
+
+@nb.njit(inline="always")
+def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out):
+    """out[j, :] = plane ``i`` of ``x + alpha P xc`` (on active unknowns; ``x`` elsewhere)."""
+    ncx, ncy, _ = xc.shape
+    ic = min(i // fx, ncx - 1)
+    for j in range(d.shape[1]):
+        _prolong_row(d[i, j], x[i, j], xc[ic, min(j // fy, ncy - 1)], fz, alpha, out[j])
+
+
+@parallel_kernel(**_OPTS)
+def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchunks):
+    """Coarse correction and the first post-smoothing sweep in one pass over the grid.
+
+    ``x' = x + alpha P xc`` (:func:`prolong_add`) is never stored in the grid: each thread keeps
+    the planes ``i - 1, i, i + 1`` of it in plane buffers while it walks its chunk of x-planes,
+    and ``xnew = x' + omega D^-1 (b - A x')`` is formed from them (same values as
+    :func:`prolong_add` + :func:`jacobi`; ``x`` is not modified).  Returns ``b . xnew``
+    (float64), as :func:`jacobi`; ``nchunks`` as for :func:`jacobi2_zero`.  (14 parameters: the
+    fine operator, both grids' vectors, the two methods' scalars and the chunk count.)
+    """
+    nx, ny, nz = d.shape
+    nt = max(1, min(nchunks, nx))
+    acc = np.zeros(nt)
+    for t in nb.prange(nt):
+        lo, hi = _chunk(t, nt, nx)
+        pm = np.empty((ny, nz), dtype=xnew.dtype)
+        p0 = np.empty((ny, nz), dtype=xnew.dtype)
+        pp = np.empty((ny, nz), dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm)
+        _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0)
+        s = 0.0
+        for i in range(lo, hi):
+            _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, pp)
+            s += _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
+            pm, p0, pp = p0, pp, pm
+        acc[t] = s
+    return acc.sum()
+
+
+@parallel_kernel(**_OPTS)
+def copy_dot(r, z):
+    """z = r (identity pressure block); returns ``r . z`` (float64) from the same pass."""
+    fr = r.reshape(-1, r.shape[-1])
+    fz = z.reshape(-1, z.shape[-1])
+    m, n = fr.shape
+    part = np.zeros(m)
+    for row in nb.prange(m):
+        a = fr[row]
+        o = fz[row]
+        s = 0.0
+        for t in range(n):
+            o[t] = a[t]
+            s += np.float64(a[t]) * np.float64(o[t])
+        part[row] = s
+    return part.sum()
+
+
+@parallel_kernel(**_OPTS)
+def scale_dot(r, c, z):
+    """z = r * c (diagonal pressure block); returns ``r . z`` (float64) from the same pass."""
+    fr = r.reshape(-1, r.shape[-1])
+    fc = c.reshape(-1, c.shape[-1])
+    fz = z.reshape(-1, z.shape[-1])
+    m, n = fr.shape
+    part = np.zeros(m)
+    for row in nb.prange(m):
+        a = fr[row]
+        sc = fc[row]
+        o = fz[row]
+        s = 0.0
+        for t in range(n):
+            o[t] = a[t] * sc[t]
+            s += np.float64(a[t]) * np.float64(o[t])
+        part[row] = s
+    return part.sum()
 
 
 @nb.njit(inline="always")
@@ -416,10 +601,18 @@ def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
     return acc_y.sum(), acc_r.sum()
 
 
+@nb.njit(inline="always")
+def _weight(w, i, j, k):
+    """Face weight ``w[i, j, k]``, or 1 when ``w`` is empty (staircase: no weights)."""
+    return w[i, j, k] if w.size > 0 else 1.0
+
+
 @parallel_kernel(**_OPTS)
-def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
-    """r = f - K x for the weighted system of :func:`stokes_apply_w`; f = ``w`` on the faces of
-    component ``gdir`` (the body force on the cut control volumes).  Returns
+def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
+    """r = f - K x in float64 arithmetic (r may be float32) for the system of
+    :func:`stokes_apply_w` (face weights ``wu, wv, ww``) or, with empty weight arrays, of
+    :func:`stokes_apply` (all weights 1); f = the weight on the active faces of component
+    ``gdir`` (the body force on the cut control volumes; 1 for the staircase).  Returns
     ``(||r||^2, ||f||^2)``."""
     nx, ny, nz = fluid.shape
     u = x[0]
@@ -443,13 +636,13 @@ def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
                 for a in range(3):
                     if a == 0:
                         act = du[i, j, k] != 0
-                        wt = wu[i, j, k]
+                        wt = _weight(wu, i, j, k)
                     elif a == 1:
                         act = dv[i, j, k] != 0
-                        wt = wv[i, j, k]
+                        wt = _weight(wv, i, j, k)
                     else:
                         act = dw[i, j, k] != 0
-                        wt = ww[i, j, k]
+                        wt = _weight(ww, i, j, k)
                     if not act:
                         r[a, i, j, k] = 0.0
                         continue
@@ -469,12 +662,12 @@ def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
                     f2 += f * f
                 if fluid[i, j, k] != 0:
                     res = -(
-                        wu[i, j, k] * u[i, j, k]
-                        - wu[ip, j, k] * u[ip, j, k]
-                        + wv[i, j, k] * v[i, j, k]
-                        - wv[i, jp, k] * v[i, jp, k]
-                        + ww[i, j, k] * w[i, j, k]
-                        - ww[i, j, kp] * w[i, j, kp]
+                        _weight(wu, i, j, k) * u[i, j, k]
+                        - _weight(wu, ip, j, k) * u[ip, j, k]
+                        + _weight(wv, i, j, k) * v[i, j, k]
+                        - _weight(wv, i, jp, k) * v[i, jp, k]
+                        + _weight(ww, i, j, k) * w[i, j, k]
+                        - _weight(ww, i, j, kp) * w[i, j, kp]
                     )
                     r[3, i, j, k] = res
                     s2 += res * res
@@ -483,6 +676,21 @@ def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
         acc[i] = s2
         accf[i] = f2
     return acc.sum(), accf.sum()
+
+
+_NO_WEIGHTS = np.zeros((0, 0, 0), np.float32)
+
+
+def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
+    """r = f - K x for :func:`stokes_apply` (staircase; f = 1 on the active faces of ``gdir``),
+    float64 arithmetic.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
+    return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, *(_NO_WEIGHTS,) * 3, x, gdir, r)
+
+
+def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
+    """r = f - K x for the weighted system of :func:`stokes_apply_w`; f = ``w`` on the faces of
+    component ``gdir``.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
+    return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r)
 
 
 @parallel_kernel(**_OPTS)
@@ -503,71 +711,6 @@ def dot(a, b):
             s += np.float64(ra[t]) * np.float64(rb[t])
         part[row] = s
     return part.sum()
-
-
-@parallel_kernel(**_OPTS)
-def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
-    """r = f - K x in float64 arithmetic (r may be float32); f = 1 on the active faces of
-    component ``gdir`` (unit body force).  Returns ``(||r||^2, ||f||^2)``."""
-    nx, ny, nz = fluid.shape
-    u = x[0]
-    v = x[1]
-    w = x[2]
-    p = x[3]
-    acc = np.zeros(nx)
-    accf = np.zeros(nx)
-    for i in nb.prange(nx):
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        s2 = 0.0
-        f2 = 0.0
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            for k in range(nz):
-                km = _dn(k, nz)
-                kp = _up(k, nz)
-                pc = p[i, j, k]
-                for a in range(3):
-                    if a == 0:
-                        act = du[i, j, k] != 0
-                    elif a == 1:
-                        act = dv[i, j, k] != 0
-                    else:
-                        act = dw[i, j, k] != 0
-                    if not act:
-                        r[a, i, j, k] = 0.0
-                        continue
-                    if a == 0:
-                        val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
-                        val += pc - p[im, j, k]
-                    elif a == 1:
-                        val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
-                        val += pc - p[i, jm, k]
-                    else:
-                        val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
-                        val += pc - p[i, j, km]
-                    f = 1.0 if a == gdir else 0.0
-                    res = f - val
-                    r[a, i, j, k] = res
-                    s2 += res * res
-                    f2 += f
-                if fluid[i, j, k] != 0:
-                    res = -(
-                        u[i, j, k]
-                        - u[ip, j, k]
-                        + v[i, j, k]
-                        - v[i, jp, k]
-                        + w[i, j, k]
-                        - w[i, j, kp]
-                    )
-                    r[3, i, j, k] = res
-                    s2 += res * res
-                else:
-                    r[3, i, j, k] = 0.0
-        acc[i] = s2
-        accf[i] = f2
-    return acc.sum(), accf.sum()
 
 
 @parallel_kernel(**_OPTS)

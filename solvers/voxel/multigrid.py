@@ -8,7 +8,11 @@ symmetric V-cycle per component:
   aggregates of 2 cells per axis (1 on axes of fewer than 4 cells; an odd axis puts 3 cells in
   its last aggregate), so they stay 7-point stencils, stay SPD, and keep exactly the drag of the
   walls of the fine grid however thin the fibres are (no re-discretised coarse masks);
-* damped Jacobi smoothing (parallel, symmetric), ``pre = post`` sweeps;
+* damped Jacobi smoothing (parallel, symmetric), ``pre = post`` sweeps; the first two
+  pre-smoothing sweeps from zero are one pass (:func:`~solvers.voxel.kernels.jacobi2_zero`),
+  the coarse correction is fused into the first post-smoothing sweep
+  (:func:`~solvers.voxel.kernels.prolong_jacobi`) and the last sweep returns ``b . out``, the
+  preconditioned dot product of MINRES, so no pass of the grid is spent on them;
 * the coarse correction is over-weighted by ``alpha`` (piecewise-constant aggregation makes the
   coarse operator about twice too stiff for smooth modes; cf. Braess 1995, Notay's AGMG);
 * the coarsest level (<= ``max_coarse`` unknowns) is solved by a sparse LU.
@@ -78,7 +82,9 @@ class ScalarMG:
         max_coarse: int = 512,
         work: list[np.ndarray] | None = None,
     ) -> None:
-        self.pre = pre
+        if int(pre) < 1:
+            raise ValueError(f"pre (Jacobi sweeps per half cycle) must be >= 1, got {pre!r}")
+        self.pre = int(pre)
         self.omega = omega
         self.alpha = alpha
         self.levels = [Level(d=d, c=c)]
@@ -135,24 +141,39 @@ class ScalarMG:
 
         return solve
 
-    def _smooth(self, lev: Level, first_from_zero: bool, out: np.ndarray | None = None) -> None:
-        """``pre`` damped Jacobi sweeps on ``lev.x``; the last one writes into ``out`` if given
-        (saves a copy on the finest level)."""
-        sweeps = self.pre
-        if first_from_zero:
+    def _pre_smooth(self, lev: Level) -> None:
+        """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass)."""
+        if self.pre >= 2:
+            kr.jacobi2_zero(lev.d, *lev.c, lev.b, lev.x, self.omega, numba.get_num_threads())
+            rest = self.pre - 2
+        else:
             kr.jacobi_zero(lev.d, lev.b, lev.x, self.omega)
-            sweeps -= 1
-        for s in range(sweeps):
-            if out is not None and s == sweeps - 1:
-                kr.jacobi(lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, out, self.omega)
-                return
-            kr.jacobi(lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, lev.t, self.omega)
+            rest = self.pre - 1
+        for _ in range(rest):
+            kr.jacobi(lev.d, *lev.c, lev.x, lev.b, lev.t, self.omega)
             lev.x, lev.t = lev.t, lev.x
-        if out is not None:
-            np.copyto(out, lev.x)
 
-    def apply(self, b: np.ndarray, out: np.ndarray) -> None:
-        """out = V-cycle(b) starting from zero (approximates A^-1 b).
+    def _post_smooth(self, lev: Level, xc: np.ndarray, out: np.ndarray | None) -> float:
+        """Coarse correction ``x += alpha P xc`` and ``pre`` Jacobi sweeps (the correction fused
+        into the first); the last sweep writes into ``out`` if given (the finest level: saves a
+        copy) and its ``b . out`` is returned (0.0 without ``out``)."""
+        dst = out if (out is not None and self.pre == 1) else lev.t
+        nchunks = numba.get_num_threads()
+        dot = kr.prolong_jacobi(
+            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nchunks
+        )
+        if dst is lev.t:
+            lev.x, lev.t = lev.t, lev.x
+        for s in range(1, self.pre):
+            dst = out if (out is not None and s == self.pre - 1) else lev.t
+            dot = kr.jacobi(lev.d, *lev.c, lev.x, lev.b, dst, self.omega)
+            if dst is lev.t:
+                lev.x, lev.t = lev.t, lev.x
+        return dot if out is not None else 0.0
+
+    def apply(self, b: np.ndarray, out: np.ndarray) -> float:
+        """out = V-cycle(b) starting from zero (approximates A^-1 b); returns ``b . out``
+        (float64, from the last smoothing sweep: no extra pass).
 
         Each level runs on :func:`~solvers.voxel.threads.level_threads` numba threads (the
         coarse levels on one: a parallel region there costs more than its work on a busy
@@ -160,11 +181,11 @@ class ScalarMG:
         """
         avail = numba.get_num_threads()
         try:
-            self._vcycle(b, out, avail)
+            return self._vcycle(b, out, avail)
         finally:
             numba.set_num_threads(avail)
 
-    def _vcycle(self, b: np.ndarray, out: np.ndarray, avail: int) -> None:
+    def _vcycle(self, b: np.ndarray, out: np.ndarray, avail: int) -> float:
         levels = self.levels
         levels[0].b = b
         nlev = len(levels)
@@ -172,19 +193,19 @@ class ScalarMG:
         for li in range(nlev - 1):
             lev = levels[li]
             numba.set_num_threads(nthr[li])
-            self._smooth(lev, True)
-            kr.residual_restrict(
-                lev.d, lev.c[0], lev.c[1], lev.c[2], lev.x, lev.b, *lev.f, levels[li + 1].b
-            )
+            self._pre_smooth(lev)
+            kr.residual_restrict(lev.d, *lev.c, lev.x, lev.b, *lev.f, levels[li + 1].b)
         self._coarse_solve(levels[-1].b, levels[-1].x)
+        dot = 0.0
         for li in range(nlev - 2, -1, -1):
             lev = levels[li]
             numba.set_num_threads(nthr[li])
-            kr.prolong_add(lev.d, levels[li + 1].x, *lev.f, self.alpha, lev.x)
-            self._smooth(lev, False, out if li == 0 else None)
+            dot = self._post_smooth(lev, levels[li + 1].x, out if li == 0 else None)
         if nlev == 1:
             np.copyto(out, levels[0].x)
+            dot = kr.dot(b, out)
         levels[0].b = np.zeros(0)
+        return float(dot)
 
     @property
     def n_levels(self) -> int:

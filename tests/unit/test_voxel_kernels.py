@@ -1,0 +1,178 @@
+"""Fused multigrid kernels of the voxel Stokes solver against their unfused compositions.
+
+The fused passes (``jacobi2_zero``, ``prolong_jacobi``, the dot products returned by the last
+smoothing sweep and the pressure block) must give the values of the separate kernels they
+replace (``jacobi_zero`` + ``jacobi``, ``prolong_add`` + ``jacobi``, ``dot``) to float32
+round-off, on every level type (uint8 finest operators, float32 Galerkin operators), odd and
+degenerate row lengths, and inactive unknowns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solvers.voxel import kernels as kr
+from solvers.voxel import multigrid as mg
+
+
+def _fluid(shape: tuple[int, int, int], seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.random(shape) > 0.3
+
+
+def _operators(shape: tuple[int, int, int]):
+    """Finest (uint8) and first Galerkin (float32) operator of component 0 of a random grid."""
+    d, c = mg.component_operator(_fluid(shape), 0)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    nc = tuple(n // m for n, m in zip(shape, f, strict=True))
+    dc = np.empty(nc, np.float32)
+    cc = np.empty((3, *nc), np.float32)
+    kr.galerkin(d, *c, *f, dc, *cc)
+    return [(d, c, f), (dc, cc, None)]
+
+
+def _close(a: np.ndarray, b: np.ndarray) -> None:
+    scale = max(float(np.abs(b).max()), 1e-30)
+    assert np.abs(a - b).max() <= 2e-6 * scale
+
+
+SHAPES = [(8, 8, 8), (7, 9, 5), (6, 5, 1), (5, 4, 2), (4, 6, 3)]
+
+
+@pytest.fixture(params=[1, 2, 3])
+def chunks(request) -> int:
+    """Number of x-chunks of the plane-rolling kernels (each chunk starts its own planes)."""
+    return request.param
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_two_jacobi_sweeps_from_zero_in_one_pass(shape: tuple[int, int, int], chunks) -> None:
+    rng = np.random.default_rng(1)
+    for d, c, _ in _operators(shape):
+        b = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+        x1 = np.empty(d.shape, np.float32)
+        ref = np.empty(d.shape, np.float32)
+        kr.jacobi_zero(d, b, x1, 0.9)
+        kr.jacobi(d, *c, x1, b, ref, 0.9)
+        out = np.full(d.shape, np.nan, np.float32)
+        kr.jacobi2_zero(d, *c, b, out, 0.9, chunks)
+        _close(out, ref)
+        assert np.all(out[d == 0] == 0.0)
+        assert np.abs(ref).max() > 0.1  # not a trivial comparison
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_prolongation_fused_into_the_first_post_sweep(shape: tuple[int, int, int], chunks) -> None:
+    rng = np.random.default_rng(2)
+    d, c, f = _operators(shape)[0]
+    nc = tuple(n // m for n, m in zip(shape, f, strict=True))
+    xc = rng.standard_normal(nc).astype(np.float32)
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    x_ref = x.copy()
+    kr.prolong_add(d, xc, *f, 1.6, x_ref)
+    ref = np.empty(shape, np.float32)
+    dot_ref = kr.jacobi(d, *c, x_ref, b, ref, 0.9)
+    x_before = x.copy()
+    out = np.full(shape, np.nan, np.float32)
+    dot = kr.prolong_jacobi(d, *c, x, xc, *f, 1.6, b, out, 0.9, chunks)
+    _close(out, ref)
+    assert np.array_equal(x, x_before)  # x' is never stored
+    exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
+    assert dot == pytest.approx(exact, rel=1e-9, abs=1e-9)
+    assert dot_ref == pytest.approx(exact, rel=1e-5)
+
+
+def _reference_vcycle(m: mg.ScalarMG, b: np.ndarray) -> np.ndarray:
+    """The V-cycle of :class:`ScalarMG` from the unfused kernels (one sweep per pass)."""
+    lv = m.levels
+    xs = [np.zeros(lev.d.shape, np.float32) for lev in lv]
+    bs = [b] + [np.zeros(lev.d.shape, np.float32) for lev in lv[1:]]
+    t = [np.zeros(lev.d.shape, np.float32) for lev in lv]
+    for li in range(len(lv) - 1):
+        lev = lv[li]
+        kr.jacobi_zero(lev.d, bs[li], xs[li], m.omega)
+        for _ in range(m.pre - 1):
+            kr.jacobi(lev.d, *lev.c, xs[li], bs[li], t[li], m.omega)
+            xs[li], t[li] = t[li], xs[li]
+        r = np.zeros(lev.d.shape, np.float32)
+        kr.lap_residual(lev.d, *lev.c, xs[li], bs[li], r)
+        kr.restrict_sum(r, *lev.f, bs[li + 1])
+    m._coarse_solve(bs[-1], xs[-1])
+    for li in range(len(lv) - 2, -1, -1):
+        lev = lv[li]
+        kr.prolong_add(lev.d, xs[li + 1], *lev.f, m.alpha, xs[li])
+        for _ in range(m.pre):
+            kr.jacobi(lev.d, *lev.c, xs[li], bs[li], t[li], m.omega)
+            xs[li], t[li] = t[li], xs[li]
+    return xs[0]
+
+
+@pytest.mark.parametrize("pre", [1, 2, 3])
+def test_fused_vcycle_matches_the_unfused_one_and_returns_b_dot_out(pre: int) -> None:
+    d, c = mg.component_operator(_fluid((12, 10, 9), seed=3), 1)
+    m = mg.ScalarMG(d, c, pre=pre, max_coarse=8)
+    assert m.n_levels >= 3
+    b = (np.random.default_rng(4).standard_normal(d.shape) * (d > 0)).astype(np.float32)
+    out = np.empty(d.shape, np.float32)
+    dot = m.apply(b, out)
+    _close(out, _reference_vcycle(m, b))
+    exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
+    assert dot == pytest.approx(exact, rel=1e-9)
+    assert dot > 0.0  # the V-cycle is SPD
+
+
+def test_pre_smoothing_sweeps_must_be_positive() -> None:
+    d, c = mg.component_operator(_fluid((6, 6, 6)), 0)
+    with pytest.raises(ValueError, match="pre"):
+        mg.ScalarMG(d, c, pre=0)
+
+
+@pytest.mark.parametrize("scaled", [False, True])
+def test_stokes_preconditioner_returns_r_dot_z(scaled: bool) -> None:
+    from solvers import voxel_stokes as vs
+
+    solid = ~_fluid((10, 8, 6), seed=5)
+    op = vs._Stokes.build(solid)
+    if scaled:
+        op.p_scale = np.random.default_rng(6).random(solid.shape).astype(np.float32)
+    r = (np.random.default_rng(7).standard_normal(op.shape)).astype(np.float32)
+    r[:3] *= np.stack([dd > 0 for dd in op.d])
+    z = np.empty_like(r)
+    rz = op.precondition(r, z)
+    p_ref = r[3] * op.p_scale if scaled else r[3]
+    assert np.array_equal(z[3], p_ref)
+    exact = float(np.dot(r.ravel().astype(np.float64), z.ravel().astype(np.float64)))
+    assert rz == pytest.approx(exact, rel=1e-9)
+    assert rz == pytest.approx(kr.dot(r, z), rel=1e-12)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
+    """``stokes_residual`` / ``stokes_residual_w`` (one kernel, weights 1 when absent) give
+    ``f - K x`` with ``K x`` from the row-vectorised operator products."""
+    from solvers import voxel_stokes as vs
+
+    shape = (9, 8, 7)
+    rng = np.random.default_rng(8)
+    if weighted:
+        phi = rng.random(shape) - 0.25  # sub-voxel walls: float32 weights in (0, 1]
+        op = vs._Stokes.build(phi <= 0, phi)
+        assert op.w is not None and 0.0 < float(op.w[0][op.w[0] > 0].min()) < 1.0
+    else:
+        op = vs._Stokes.build(~_fluid(shape, seed=9))
+    x = rng.standard_normal(op.shape).astype(np.float32)
+    for a in range(3):
+        x[a] *= op.d[a] > 0
+    x[3] *= op.fluid > 0
+    y = np.empty_like(x)
+    op.apply(x, y)
+    r = np.empty(op.shape, np.float32)
+    rn, fn = op.residual(x.astype(np.float64), 1, r)
+    f = np.zeros(op.shape)
+    f[1] = op.w[1] if weighted else (op.d[1] > 0)
+    expect = f - y
+    assert np.abs(r - expect).max() <= 1e-5 * np.abs(expect).max()
+    assert rn == pytest.approx(float(np.linalg.norm(expect)), rel=1e-5)
+    assert fn == pytest.approx(float(np.linalg.norm(f)), rel=1e-12)
