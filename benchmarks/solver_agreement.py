@@ -16,6 +16,7 @@ Usage::
 
     python benchmarks/solver_agreement.py arrays [--phi 0.1 0.3 0.5] [--kind square hex]
     python benchmarks/solver_agreement.py specs [--size 40e-6] [--voxel 1e-6] [--only table3]
+    python benchmarks/solver_agreement.py hexwindow
     python benchmarks/solver_agreement.py render
 """
 
@@ -361,6 +362,53 @@ def run_specs(args) -> None:
             _write_cache(_cache(rel, args.direction, bc, solver), row)
 
 
+# --------------------------------------------------------------------------- hex window
+
+#: (solid fraction, voxels per spacing, cells along the flow) of the window-length probe.
+HEX_WINDOW = [(0.1, 26, 2), (0.1, 40, 2), (0.1, 40, 3), (0.1, 40, 4), (0.2, 40, 2)]
+
+
+def _hex_cache(phi: float, n: int, cells: int) -> Path:
+    return CACHE / f"hexwindow__phi{phi:g}__n{n}__cells{cells}.json"
+
+
+def run_hexwindow(args) -> None:
+    """Hexagonal array across, voxel permeameter vs periodic K on the same grid, by
+    resolution and cell count (``benchmarks/calibrate_error_bar.solve``): is the -1 % of two
+    cells at phi 0.1 resolution or window length?"""
+    from calibrate_error_bar import solve
+
+    for phi, n, cells in HEX_WINDOW:
+        path = _hex_cache(phi, n, cells)
+        if path.exists() and not args.force:
+            continue
+        t0 = time.perf_counter()
+        rec = solve("hex", "across", phi, n, "permeameter", cells)
+        rec |= {"phi": phi, "n": n, "cells": cells, "wall_s": time.perf_counter() - t0}
+        rec["perm_vs_periodic"] = rec["k"] / rec["k_periodic"] - 1
+        _write_cache(path, rec)
+
+
+def render_hexwindow() -> list[str]:
+    lines = [
+        "| phi | voxels per spacing | cells | K permeameter (m^2) | K periodic (m^2) | "
+        "permeameter / periodic - 1 | periodic vs published | permeameter bar |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for phi, n, cells in HEX_WINDOW:
+        path = _hex_cache(phi, n, cells)
+        if not path.exists():
+            lines.append(f"| {phi:g} | {n} | {cells} | not run ||||||")
+            continue
+        r = json.loads(path.read_text())
+        lines.append(
+            f"| {phi:g} | {n} | {cells} | {r['k']:.4e} | {r['k_periodic']:.4e} | "
+            f"{_pct(r['perm_vs_periodic'])} | {_pct(r['k_periodic'] / r['exact'] - 1)} | "
+            f"{100 * r['bar']:.2f} % |"
+        )
+    return lines
+
+
 # ------------------------------------------------------------------------------- render
 
 
@@ -548,9 +596,13 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--force", action="store_true", help="solve rows that have a cache file")
     s.add_argument("--direction", default="z")
     s.add_argument("--only", nargs="+", default=None, help="substrings of the spec paths")
+    h = sub.add_parser("hexwindow")
+    h.add_argument("--force", action="store_true")
     sub.add_parser("render")
     args = ap.parse_args(argv)
-    {"arrays": run_arrays, "specs": run_specs, "render": render}[args.cmd](args)
+    {"arrays": run_arrays, "specs": run_specs, "hexwindow": run_hexwindow, "render": render}[
+        args.cmd
+    ](args)
     return 0
 
 
