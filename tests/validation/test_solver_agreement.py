@@ -198,7 +198,11 @@ WOVEN_UNRESOLVED = pytest.mark.xfail(
 )
 def test_random_periodic_fem_and_voxel_agree(kind, direction):
     """Periodic random straight / bent RVE and woven cell: FEM on the 1 um field at its default
-    step (2 um), voxel route at 0.5 um (16 voxels per diameter)."""
+    step (2 um), voxel route at 0.5 um (16 voxels per diameter).
+
+    Measured (seed 1, load 11): straight fem/voxel - 1 = -1.13 % through-plane, -0.46 % in x
+    (K fem 1.8069e-11, voxel 1.8153e-11); bent -1.31 % through-plane, -0.67 % in x (1.8403e-11,
+    1.8526e-11)."""
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
