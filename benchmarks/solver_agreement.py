@@ -306,6 +306,24 @@ def _build(rel: str, spec: dict, sizes: list[float]):
     return None
 
 
+def _not_an_rve(path: Path) -> str | None:
+    """Why a force-field spec has no row of its own, or None."""
+    from psdesign.schema.spec import read_toml
+
+    data = read_toml(path)
+    if "forcefield" not in data:
+        return None
+    if "rve" not in data:
+        return "a force-field problem (no [rve]): no RVE to solve"
+    twin = ROOT / "studies" / "table3" / "woven.toml"
+    same = {k: v for k, v in data.items() if k != "forcefield"} == read_toml(twin)
+    return (
+        "relaxes an RVE with `psdesign forcefield` (its relaxed RVE is that command's "
+        "output, not run here); its input RVE"
+        + (" is studies/table3/woven.toml's (same [rve], [[fibers]], [flow])" if same else "")
+    )
+
+
 def run_specs(args) -> None:
     """Every shipped spec, rows in the order bc x solver given, one cache file per row:
     a row whose file exists is not solved again (``--force`` to redo)."""
@@ -319,7 +337,7 @@ def run_specs(args) -> None:
         try:
             spec, label = first_case(path)
         except Exception as exc:  # noqa: BLE001 (recorded: not an RVE spec)
-            msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            msg = _not_an_rve(path) or f"{type(exc).__name__}: {exc}".splitlines()[0]
             if not _cache(rel, "build").exists():
                 _write_cache(_cache(rel, "build"), {"spec": rel, "error": msg})
             continue
