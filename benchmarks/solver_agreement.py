@@ -563,6 +563,12 @@ def render_specs() -> list[str]:
             diff, bars, verdict = _verdict(fem, vox)
             if bc != "periodic" and _copies(fem) != _copies(vox) and diff:
                 verdict = "n/a (the routes stacked differently)"
+            if bc == "permeameter-stacked":
+                if not fem:
+                    kf = "n/a: the stack's FEM route was not committed when this ran"
+                per = solves.get((spec, "periodic", "voxel"), {})
+                if "k_m2" in vox and "k_m2" in per:
+                    verdict += f"; voxel vs voxel periodic {_pct(vox['k_m2'] / per['k_m2'] - 1)}"
             counts[verdict] = counts.get(verdict, 0) + 1
             case = (fem or vox).get("case", "")
             bc_cell = bc if bc == "periodic" else f"{bc} ({_copies(fem)} / {_copies(vox)})"
@@ -581,9 +587,14 @@ def render_specs() -> list[str]:
 
 #: How the permeameter rows' pressure drop is defined (set when the rows were run).
 PERMEAMETER_NOTE = (
-    "The permeameter rows use the windowed-dissipation drop of main at d560a79 (one RVE "
-    "between the reservoirs, window sin^2 over it): engineer stack's stacked definition was "
-    "not committed when they ran."
+    "Permeameter rows (empty reservoirs, slip sides, windowed-dissipation drop): "
+    "'permeameter' has one RVE between the reservoirs (`permeameter_copies = 1`, the "
+    "definition of main at d560a79, both routes); 'permeameter-stacked' has `"
+    'permeameter_copies = "auto"` (engineer stack\'s stacked permeameter, '
+    "`psdesign/flow/stack.py`, merged at 58d7951 'STACK-READY voxel'; 2 copies along the flow "
+    "when the geometry is periodic along it). The stack's FEM route was not committed when "
+    "these rows ran, so the stacked rows are voxel-only (compare them with the periodic row). "
+    "The bc cell names each route's copies (FEM / voxel)."
 )
 
 
