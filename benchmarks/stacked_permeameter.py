@@ -11,6 +11,7 @@ straight fibres along x or y in a 40 um cube, seeded), through-plane (z) and in-
     python benchmarks/stacked_permeameter.py random --route voxel --voxel 1e-6 --seeds 1 2 3
     python benchmarks/stacked_permeameter.py random --route fem --voxel 1e-6 --seeds 1 2
     python benchmarks/stacked_permeameter.py arrays
+    python benchmarks/stacked_permeameter.py summary A.json B.json   # the docs table
 
 Prints one markdown row per solve; ``--json FILE`` also writes the rows.
 """
@@ -152,7 +153,35 @@ def array_cases(args) -> list[dict]:
     return rows
 
 
+def summary(paths: list[Path]) -> None:
+    """One row per random case from ``--json`` files: periodic K, 1 / 2 / 3 copies (windowed,
+    relative to periodic), face drop of 2 / 3 copies."""
+    cases: dict[str, dict] = {}
+    for path in paths:
+        for row in json.loads(path.read_text()):
+            cases.setdefault(row["case"], {})[row["solve"]] = row
+
+    def pct(r, key="vs_periodic"):
+        return "-" if r is None or r.get(key) is None else f"{100 * r[key]:+.2f} %"
+
+    for case, rows in cases.items():
+        per = rows.get("periodic")
+        two, three = rows.get("permeameter auto"), rows.get("permeameter 3")
+        sides = "periodic" if "periodic sides" in case else "slip"
+        name = case.replace(" periodic sides", "").replace("random straight ", "")
+        print(
+            f"| {name} | {sides} | {per['k_m2']:.3e} | {pct(rows.get('permeameter 1 copy'))} | "
+            f"{pct(two)} | {pct(three)} | {pct(two, 'faces_vs_periodic')} / "
+            f"{pct(three, 'faces_vs_periodic')} |"
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:
+        argv = sys.argv[1:]
+    if argv and argv[0] == "summary":
+        summary([Path(a) for a in argv[1:]])
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("random", "arrays"))
     ap.add_argument("--route", choices=("voxel", "fem"), default="voxel")
