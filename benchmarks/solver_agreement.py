@@ -339,6 +339,25 @@ def _flow_of(flow: dict, label: str) -> dict:
     }
 
 
+def _reuse_single_copy(rel: str, built, fields, direction: str, bc: str, solver: str) -> bool:
+    """A permeameter row whose ``"auto"`` plan is one copy is the same solve as the other
+    permeameter label's: copy that row (marked) instead of solving again."""
+    if not bc.startswith("permeameter"):
+        return False
+    from psdesign.flow.darcy import axis_of
+    from psdesign.flow.stack import plan_copies
+
+    plan = plan_copies({"permeameter_copies": "auto"}, built.rve, fields, axis_of(direction)[1])
+    other = "permeameter" if bc == "permeameter-stacked" else "permeameter-stacked"
+    src = _cache(rel, direction, other, solver)
+    if plan.copies != 1 or not src.exists():
+        return False
+    row = json.loads(src.read_text())
+    row |= {"bc": bc, "reused_from": other, "auto_plan": plan.as_dict()}
+    _write_cache(_cache(rel, direction, bc, solver), row)
+    return True
+
+
 def run_specs(args) -> None:
     """Every shipped spec, rows in the order bc x solver given, one cache file per row:
     a row whose file exists is not solved again (``--force`` to redo)."""
@@ -369,6 +388,8 @@ def run_specs(args) -> None:
             continue
         built, fields, base = got
         for bc, solver in todo:
+            if _reuse_single_copy(rel, built, fields, args.direction, bc, solver):
+                continue
             row = {
                 "part": "specs",
                 "spec": rel,
