@@ -27,6 +27,7 @@ import argparse
 import platform
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,34 @@ def _fmt_pct(x: float | None) -> str:
     return "" if x is None else f"{100 * x:+.2f} %"
 
 
+#: Per-row cache directory (``--cache``; None: solve every row) and the sections to run.
+CACHE: Path | None = None
+ONLY: set[str] | None = None
+
+
+def _cached(key: str, compute):
+    """``compute()`` (a JSON-able result), stored under ``CACHE`` by ``key`` so that an
+    interrupted or split run (``--only``) is resumed instead of solved again."""
+    if CACHE is None:
+        return compute()
+    import json
+    import re
+
+    from psdesign.io.atomic import write_json
+
+    path = CACHE / (re.sub(r"[^A-Za-z0-9.]+", "_", key) + ".json")
+    if path.exists():
+        return json.loads(path.read_text())["value"]
+    value = compute()
+    CACHE.mkdir(parents=True, exist_ok=True)
+    write_json(path, {"key": key, "date": time.strftime("%Y-%m-%d %H:%M"), "value": value})
+    return json.loads(path.read_text())["value"]
+
+
+def _wanted(section: str) -> bool:
+    return ONLY is None or section in ONLY
+
+
 def _solve(spec: dict, direction: str, solver: str, bc: str) -> dict | str:
     spec = validate_spec(spec)
     built = build_rve(spec)
@@ -128,6 +157,8 @@ def array_tables(full: bool) -> tuple[list[str], list[bool]]:
                     cases += [(kind, flow, phi, n, cells, None) for phi in phis for n in ns]
             else:
                 cases = list(FEM_GRID[full])
+            if not _wanted(f"{solver}-{bc}"):
+                continue
             for kind, flow, phi, n, cells, step in cases:
                 along = flow == "along"
                 depth = cells * n if along and (solver == "fem" or cells > 1) else None
@@ -139,7 +170,8 @@ def array_tables(full: bool) -> tuple[list[str], list[bool]]:
                 )
                 name += f", lattice L/{1 / step:g}" if step else ""
                 t0 = time.perf_counter()
-                res = _solve(spec, "x" if flow == "across" else "z", solver, bc)
+                direction = "x" if flow == "across" else "z"
+                res = _cached(f"{solver} {bc} {name}", partial(_solve, spec, direction, solver, bc))
                 line, ok = _row(name, res, reference_k(kind, flow, phi))
                 print(f"{line}  ({time.perf_counter() - t0:.1f} s)", flush=True)
                 lines.append(line)
@@ -173,6 +205,21 @@ def _random_spec(seed: int) -> dict:
 RANDOM_POROSITY_TOLERANCE = 0.01
 
 
+def _random_pair(seed: int, bc: str) -> dict:
+    """One seed of the random family: the result at 1 um and K at 0.5 um (the reference)."""
+    spec = validate_spec(_random_spec(seed))
+    try:
+        built = build_rve(spec)
+    except ValueError as exc:
+        return {"error": " ".join(str(exc).split())}
+    flow = {**spec["flow"], "bc": bc}
+    res = permeability(built.rve, built.voxelize(1e-6), "z", flow, "voxel")
+    ref = permeability(
+        built.rve, built.rve.voxelize(0.5e-6), "z", flow, "voxel", error_estimate=False
+    )
+    return {"res": res, "k_ref": ref["permeability_m2"]}
+
+
 def random_family(full: bool) -> list[str]:
     """Seed scatter of a small Toray-like RVE (quickstart base, 40 um) with the voxel route,
     both boundary-condition models."""
@@ -187,20 +234,18 @@ def random_family(full: bool) -> list[str]:
             "|---|---|---|---|---|---|---|---|",
         ]
         ks, bars, errs = [], [], []
+        if not _wanted(f"random-{bc}"):
+            continue
         for seed in RANDOM_SEEDS[full]:
-            spec = validate_spec(_random_spec(seed))
-            try:
-                built = build_rve(spec)
-            except ValueError as exc:  # e.g. the porosity target not reached with bounded moves
-                lines.append(f"| {seed} | n/a: {' '.join(str(exc).split())} | | | | | | |")
+            got = _cached(
+                f"random {bc} seed {seed}", lambda seed=seed, bc=bc: _random_pair(seed, bc)
+            )
+            if "error" in got:  # e.g. the porosity target not reached with bounded moves
+                lines.append(f"| {seed} | n/a: {got['error']} | | | | | | |")
                 print(lines[-1], flush=True)
                 continue
-            flow = {**spec["flow"], "bc": bc}
-            res = permeability(built.rve, built.voxelize(1e-6), "z", flow, "voxel")
-            ref = permeability(
-                built.rve, built.rve.voxelize(0.5e-6), "z", flow, "voxel", error_estimate=False
-            )
-            k, kr = res["permeability_m2"], ref["permeability_m2"]
+            res, kr = got["res"], got["k_ref"]
+            k = res["permeability_m2"]
             true = k / kr - 1.0
             ks.append(k)
             bars.append(res["permeability_rel_error"])
@@ -237,10 +282,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", action="store_true", help="more solid fractions and resolutions")
     ap.add_argument("--out", default=str(ROOT / "docs" / "validation.md"))
+    ap.add_argument("--cache", default=None, help="per-row cache directory (resumable runs)")
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        default=None,
+        help="sections to solve into --cache without writing the file: voxel-permeameter "
+        "voxel-periodic fem-permeameter fem-periodic random-permeameter random-periodic",
+    )
     args = ap.parse_args(argv)
+    global CACHE, ONLY
+    CACHE = None if args.cache is None else Path(args.cache)
+    ONLY = None if args.only is None else set(args.only)
     t0 = time.perf_counter()
     arrays, cover = array_tables(args.full)
     rnd = random_family(args.full)
+    if ONLY is not None:
+        print(f"solved {sorted(ONLY)} into {CACHE}; run without --only to write the file")
+        return 0
     n_cov = sum(c[1] for c in cover)
     misses = [c for c in cover if not c[1]]
     bars = [c[3]["permeability_rel_error"] for c in cover]
