@@ -88,6 +88,8 @@ CACHE: Path | None = None
 ONLY: set[str] | None = None
 #: ``--cache-only``: a row without a cache file is reported as not run instead of solved.
 CACHE_ONLY = False
+#: ``--reverse``: solve a section's rows last first (a second process fills the cache from the end).
+REVERSE = False
 NOT_RUN = "not run (no cached row: machine time)"
 
 
@@ -164,7 +166,7 @@ def array_tables(full: bool) -> tuple[list[str], list[bool]]:
                 cases = list(FEM_GRID[full])
             if not _wanted(f"{solver}-{bc}"):
                 continue
-            for kind, flow, phi, n, cells, step in cases:
+            for kind, flow, phi, n, cells, step in cases[::-1] if REVERSE else cases:
                 along = flow == "along"
                 depth = cells * n if along and (solver == "fem" or cells > 1) else None
                 spec = array_spec(kind, phi, n, n_cells=1 if along else cells, depth_voxels=depth)
@@ -314,8 +316,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--cache-only", action="store_true", help="write the file from --cache without solving"
     )
+    ap.add_argument("--reverse", action="store_true", help="rows of a section last first")
     args = ap.parse_args(argv)
-    global CACHE, ONLY, CACHE_ONLY
+    global CACHE, ONLY, CACHE_ONLY, REVERSE
+    REVERSE = args.reverse
     CACHE_ONLY = args.cache_only
     CACHE = None if args.cache is None else Path(args.cache)
     ONLY = None if args.only is None else set(args.only)
