@@ -379,7 +379,10 @@ def main(argv: list[str] | None = None) -> int:
         "",
         "40 um cube, straight 7 um fibers, target porosity 0.85 +- "
         f"{RANDOM_POROSITY_TOLERANCE:g}, 'fast' intersection removal, voxel 1 um (7 voxels per "
-        "diameter); reference: the same RVE at 0.5 um.",
+        "diameter); reference: the same RVE at 0.5 um. The permeameter takes "
+        '`flow.permeameter_copies = "auto"` (the stacked permeameter, `psdesign/flow/stack.py`: '
+        "two copies of these one-period RVEs along the flow); the arrays above need no stack "
+        "(two cells already hold two periods).",
         *rnd,
         "",
     ]
