@@ -272,7 +272,8 @@ def random_family(full: bool) -> list[str]:
         lines += [
             "",
             f"Seed scatter of K_z ({bc}): mean {ks.mean():.4e} m^2, standard deviation "
-            f"{scatter:.1f} % of the mean over {len(ks)} seeds; median error bar "
+            + (f"{scatter:.1f} %" if len(ks) > 1 else "n/a")
+            + f" of the mean over {len(ks)} seeds; median error bar "
             f"{100 * float(np.median(bars)):.2f} %, median |error vs half the voxel| "
             f"{100 * float(np.median(errs)):.2f} %.",
         ]
