@@ -579,6 +579,8 @@ def render_specs() -> list[str]:
         changed = base["changed"] + (
             "; smaller boxes failed: " + "; ".join(base["tried"]) if base.get("tried") else ""
         )
+        if not any((spec, bc, r) in solves for bc in SPEC_BCS for r in SOLVERS):
+            lines.append(f"| {spec} | built ({geo}), not solved (machine time) |||||||||||")
         for bc in SPEC_BCS:
             fem, vox = solves.get((spec, bc, "fem"), {}), solves.get((spec, bc, "voxel"), {})
             if not fem and not vox:
