@@ -16,6 +16,7 @@ Usage::
 
     python benchmarks/solver_agreement.py arrays [--phi 0.1 0.3 0.5] [--kind square hex]
     python benchmarks/solver_agreement.py specs [--size 40e-6] [--voxel 1e-6] [--only table3]
+    python benchmarks/solver_agreement.py hexwindow
     python benchmarks/solver_agreement.py render
 """
 
@@ -44,6 +45,10 @@ S = 40e-6  #: array spacing (m)
 AGREE = 0.02
 SOLVERS = ("fem", "voxel")
 BCS = ("periodic", "permeameter")
+#: Row labels of the specs part: the permeameter with one RVE between the reservoirs
+#: (``permeameter_copies = 1``, the definition before the stack) and with ``"auto"`` copies
+#: (engineer stack's stacked permeameter, ``psdesign/flow/stack.py``).
+SPEC_BCS = ("periodic", "permeameter", "permeameter-stacked")
 
 
 def _append(row: dict) -> None:
@@ -187,56 +192,277 @@ def first_case(path: Path) -> tuple[dict, str]:
     return load_spec(path), "single RVE"
 
 
-def run_specs(args) -> None:
-    from psdesign.flow.permeability import permeability
+CACHE = ROOT / "benchmarks" / "solver_agreement_cache"  #: one JSON file per spec row (kept)
+BUILDS = ROOT / "out" / "solver_agreement_builds"  #: pickled built RVEs (not kept)
+VOXELS_PER_DIAMETER = 8  #: the voxel grid resolves the thinnest fiber with at least this
+MAX_VOXELS_PER_DIAMETER = 10  #: a finer spec voxel is coarsened to d / 8 (machine time)
+
+
+def _slug(rel: str) -> str:
+    return rel.removeprefix("studies/").removesuffix(".toml").replace("/", "-")
+
+
+def _cache(rel: str, *parts: str) -> Path:
+    return CACHE / ("__".join([_slug(rel), *parts]) + ".json")
+
+
+def _write_cache(path: Path, row: dict) -> None:
+    from psdesign.io.atomic import json_default, write_json
+
+    CACHE.mkdir(parents=True, exist_ok=True)
+    row = {"date": time.strftime("%Y-%m-%d %H:%M"), "host": platform.node(), **row}
+    write_json(path, row)
+    print(json.dumps(row, default=json_default), flush=True)
+
+
+def _thinnest(spec: dict) -> float | None:
+    """The smallest fiber diameter a spec names (generator or explicit fibers), or None."""
+    ds = [f["diameter"] for f in spec.get("fibers") or [] if f.get("diameter")]
+    if spec.get("generator", {}).get("diameter"):
+        ds.append(spec["generator"]["diameter"])
+    return min(ds) if ds else None
+
+
+def _dividing(size: list[float], target: float, fallback: float) -> float:
+    """The largest voxel <= ``target`` that divides every edge of ``size`` (and of the trial
+    cubes, which are whole micrometres), else ``fallback``."""
+    for n in range(math.ceil(min(size) / target - 1e-9), 20 * math.ceil(min(size) / target)):
+        v = min(size) / n
+        if all(abs(x / v - round(x / v)) < 1e-6 for x in [*size, 50e-6, 60e-6, 80e-6]):
+            return v
+    return fallback
+
+
+def _candidates(spec: dict, sizes: list[float]) -> list[tuple[dict, str]]:
+    """The spec at each trial size (smallest first, its own size last) with the resolution
+    rule applied, each with what was changed and why.
+
+    Only a porosity target is shrunk (a fixed fiber count, explicit fibers or a woven cell in
+    a smaller box is another material). The voxel gives the thinnest fiber at least 8 voxels: a
+    coarser spec voxel is refined to d / 8; one giving more than 10 is coarsened to d / 8
+    (machine time); both rounded down to a voxel dividing the box."""
+    own = list(spec["rve"]["size"])
+    d = _thinnest(spec)
+    voxel = spec["rve"]["voxel"]
+    why = []
+    if d is not None and d / voxel < VOXELS_PER_DIAMETER - 1e-9:
+        voxel = _dividing(own, d / VOXELS_PER_DIAMETER, voxel)
+    elif d is not None and d / voxel > MAX_VOXELS_PER_DIAMETER + 1e-9:
+        voxel = _dividing(own, d / VOXELS_PER_DIAMETER, voxel)
+    if voxel != spec["rve"]["voxel"]:
+        why.append(f"voxel {voxel * 1e6:.4g} um (spec {spec['rve']['voxel'] * 1e6:g})")
+    gen = spec.get("generator") or {}
+    shrink = gen.get("porosity") is not None
+    trial = [s for s in sorted(sizes) if s < min(own) - 1e-12] if shrink else []
+    out = []
+    for s in trial:
+        rve = {**spec["rve"], "size": [s] * 3, "voxel": voxel}
+        out.append(({**spec, "rve": rve}, ", ".join([*why, f"{s * 1e6:g} um cube"])))
+    note = "own size" if shrink or trial else "own size (not a porosity target: not shrunk)"
+    out.append(({**spec, "rve": {**spec["rve"], "voxel": voxel}}, ", ".join([*why, note])))
+    return out
+
+
+def _build(rel: str, spec: dict, sizes: list[float]):
+    """Build the spec at the smallest trial size that generates (cached: the choice in
+    ``CACHE``, the built RVE in ``BUILDS``); returns (built, fields, base row) or None."""
+    import pickle
+
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import validate_spec
+
+    info_path, pkl = _cache(rel, "build"), BUILDS / (_slug(rel) + ".pkl")
+    if info_path.exists():
+        info = json.loads(info_path.read_text())
+        if "error" in info:
+            return None
+        if pkl.exists():
+            built, fields = pickle.loads(pkl.read_bytes())
+            return built, fields, info["base"]
+    tried = []
+    for cand, changed in _candidates(spec, sizes):
+        t0 = time.perf_counter()
+        try:
+            cand = validate_spec(cand)
+            built = build_rve(cand)
+            fields = built.voxelize(cand["rve"]["voxel"])
+        except Exception as exc:  # noqa: BLE001 (recorded: a size that does not generate)
+            msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            tried.append(f"{changed}: {msg[:160]} ({time.perf_counter() - t0:.0f} s)")
+            continue
+        base = {
+            "changed": changed,
+            "tried": tried,
+            "size_m": [float(x) for x in cand["rve"]["size"]],
+            "voxel_m": float(cand["rve"]["voxel"]),
+            "voxels_per_diameter": (
+                None if _thinnest(cand) is None else _thinnest(cand) / cand["rve"]["voxel"]
+            ),
+            "porosity": float(fields.porosity),
+            "build_s": time.perf_counter() - t0,
+            "flow": {k: v for k, v in cand["flow"].items() if isinstance(v, (int, float, str))},
+        }
+        BUILDS.mkdir(parents=True, exist_ok=True)
+        pkl.write_bytes(pickle.dumps((built, fields)))
+        _write_cache(info_path, {"spec": rel, "base": base})
+        return built, fields, base
+    _write_cache(info_path, {"spec": rel, "error": "; ".join(tried) or "no candidate"})
+    return None
+
+
+def _not_an_rve(path: Path) -> str | None:
+    """Why a force-field spec has no row of its own, or None."""
+    from psdesign.schema.spec import read_toml
+
+    data = read_toml(path)
+    if "forcefield" not in data:
+        return None
+    if "rve" not in data:
+        return "a force-field problem (no [rve]): no RVE to solve"
+    twin = ROOT / "studies" / "table3" / "woven.toml"
+    same = {k: v for k, v in data.items() if k != "forcefield"} == read_toml(twin)
+    return (
+        "relaxes an RVE with `psdesign forcefield` (its relaxed RVE is that command's "
+        "output, not run here); its input RVE"
+        + (" is studies/table3/woven.toml's (same [rve], [[fibers]], [flow])" if same else "")
+    )
+
+
+def _flow_of(flow: dict, label: str) -> dict:
+    """The ``[flow]`` table of a row label of :data:`SPEC_BCS`."""
+    if label == "periodic":
+        return {**flow, "bc": "periodic"}
+    return {
+        **flow,
+        "bc": "permeameter",
+        "permeameter_copies": 1 if label == "permeameter" else "auto",
+    }
+
+
+def _reuse_single_copy(rel: str, built, fields, direction: str, bc: str, solver: str) -> bool:
+    """A permeameter row whose ``"auto"`` plan is one copy is the same solve as the other
+    permeameter label's: copy that row (marked) instead of solving again."""
+    if not bc.startswith("permeameter"):
+        return False
+    from psdesign.flow.darcy import axis_of
+    from psdesign.flow.stack import plan_copies
+
+    plan = plan_copies({"permeameter_copies": "auto"}, built.rve, fields, axis_of(direction)[1])
+    other = "permeameter" if bc == "permeameter-stacked" else "permeameter-stacked"
+    src = _cache(rel, direction, other, solver)
+    if plan.copies != 1 or not src.exists():
+        return False
+    row = json.loads(src.read_text())
+    row |= {"bc": bc, "reused_from": other, "auto_plan": plan.as_dict()}
+    _write_cache(_cache(rel, direction, bc, solver), row)
+    return True
+
+
+def run_specs(args) -> None:
+    """Every shipped spec, rows in the order bc x solver given, one cache file per row:
+    a row whose file exists is not solved again (``--force`` to redo)."""
+    from psdesign.flow.permeability import permeability
 
     paths = shipped_specs()
     if args.only:  # in the order given
         paths = [p for s in args.only for p in paths if s in str(p.relative_to(ROOT))]
     for path in dict.fromkeys(paths):
         rel = str(path.relative_to(ROOT))
-        base = {"part": "specs", "spec": rel, "direction": args.direction}
         try:
             spec, label = first_case(path)
-            spec = dict(spec)
-            changed = []
-            if args.size is not None and max(spec["rve"]["size"]) > args.size:
-                spec["rve"] = {**spec["rve"], "size": [args.size] * 3}
-                changed.append(f"size {args.size * 1e6:g} um cube")
-            if args.voxel is not None:
-                spec["rve"] = {**spec["rve"], "voxel": args.voxel}
-                changed.append(f"voxel {args.voxel * 1e6:g} um")
-            spec = validate_spec(spec)
-            t0 = time.perf_counter()
-            built = build_rve(spec)
-            fields = built.voxelize(spec["rve"]["voxel"])
-            base |= {
-                "case": label,
-                "changed": ", ".join(changed),
-                "size_m": list(spec["rve"]["size"]),
-                "voxel_m": spec["rve"]["voxel"],
-                "porosity": fields.porosity,
-                "build_s": time.perf_counter() - t0,
-            }
-        except Exception as exc:  # noqa: BLE001 (recorded: a spec that cannot be built)
-            _append({**base, "error": f"{type(exc).__name__}: {exc}".splitlines()[0]})
+        except Exception as exc:  # noqa: BLE001 (recorded: not an RVE spec)
+            msg = _not_an_rve(path) or f"{type(exc).__name__}: {exc}".splitlines()[0]
+            if not _cache(rel, "build").exists():
+                _write_cache(_cache(rel, "build"), {"spec": rel, "error": msg})
             continue
-        for bc in BCS:
-            for solver in SOLVERS:
-                row = {**base, "solver": solver, "bc": bc, "load_1min": _load()}
-                flow = {**spec["flow"], "bc": bc}
-                t0 = time.perf_counter()
-                try:
-                    row |= _summary(permeability(built.rve, fields, args.direction, flow, solver))
-                except (ValueError, NotImplementedError, MemoryError) as exc:
-                    row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
-                except Exception as exc:  # noqa: BLE001
-                    row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
-                    traceback.print_exc()
-                row["wall_s"] = time.perf_counter() - t0
-                _append(row)
+        todo = [
+            (bc, solver)
+            for bc in args.bc
+            for solver in args.solvers
+            if args.force or not _cache(rel, args.direction, bc, solver).exists()
+        ]
+        if not todo:
+            continue
+        got = _build(rel, dict(spec), args.sizes)
+        if got is None:
+            continue
+        built, fields, base = got
+        for bc, solver in todo:
+            if _reuse_single_copy(rel, built, fields, args.direction, bc, solver):
+                continue
+            row = {
+                "part": "specs",
+                "spec": rel,
+                "case": label,
+                "direction": args.direction,
+                **base,
+                "solver": solver,
+                "bc": bc,
+                "load_1min": _load(),
+            }
+            flow = _flow_of(base["flow"], bc)
+            t0 = time.perf_counter()
+            try:
+                res = permeability(built.rve, fields, args.direction, flow, solver)
+                row |= _summary(res)
+                row["definition_spread"] = res.get("definition_spread")
+                row["permeameter_copies"] = res.get("permeameter_copies")
+                row["warnings"] = [str(w)[:200] for w in res.get("warnings") or []]
+            except (ValueError, NotImplementedError, MemoryError) as exc:
+                row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            except Exception as exc:  # noqa: BLE001
+                row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
+                traceback.print_exc()
+            row["wall_s"] = time.perf_counter() - t0
+            row["load_1min_end"] = _load()
+            _write_cache(_cache(rel, args.direction, bc, solver), row)
+
+
+# --------------------------------------------------------------------------- hex window
+
+#: (solid fraction, voxels per spacing, cells along the flow) of the window-length probe.
+HEX_WINDOW = [(0.1, 26, 2), (0.1, 40, 2), (0.1, 40, 3), (0.1, 40, 4), (0.2, 40, 2)]
+
+
+def _hex_cache(phi: float, n: int, cells: int) -> Path:
+    return CACHE / f"hexwindow__phi{phi:g}__n{n}__cells{cells}.json"
+
+
+def run_hexwindow(args) -> None:
+    """Hexagonal array across, voxel permeameter vs periodic K on the same grid, by
+    resolution and cell count (``benchmarks/calibrate_error_bar.solve``): is the -1 % of two
+    cells at phi 0.1 resolution or window length?"""
+    from calibrate_error_bar import solve
+
+    for phi, n, cells in HEX_WINDOW:
+        path = _hex_cache(phi, n, cells)
+        if path.exists() and not args.force:
+            continue
+        t0 = time.perf_counter()
+        rec = solve("hex", "across", phi, n, "permeameter", cells)
+        rec |= {"phi": phi, "n": n, "cells": cells, "wall_s": time.perf_counter() - t0}
+        rec["perm_vs_periodic"] = rec["k"] / rec["k_periodic"] - 1
+        _write_cache(path, rec)
+
+
+def render_hexwindow() -> list[str]:
+    lines = [
+        "| phi | voxels per spacing | cells | K permeameter (m^2) | K periodic (m^2) | "
+        "permeameter / periodic - 1 | periodic vs published | permeameter bar |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for phi, n, cells in HEX_WINDOW:
+        path = _hex_cache(phi, n, cells)
+        if not path.exists():
+            lines.append(f"| {phi:g} | {n} | {cells} | not run ||||||")
+            continue
+        r = json.loads(path.read_text())
+        lines.append(
+            f"| {phi:g} | {n} | {cells} | {r['k']:.4e} | {r['k_periodic']:.4e} | "
+            f"{_pct(r['perm_vs_periodic'])} | {_pct(r['k_periodic'] / r['exact'] - 1)} | "
+            f"{100 * r['bar']:.2f} % |"
+        )
+    return lines
 
 
 # ------------------------------------------------------------------------------- render
@@ -289,70 +515,153 @@ def render_arrays(rows: list[dict]) -> list[str]:
     return lines
 
 
-def render_specs(rows: list[dict]) -> list[str]:
-    rows = [r for r in rows if r["part"] == "specs"]
-    latest = _latest(rows, lambda r: (r["spec"], r.get("bc"), r.get("solver")))
-    specs = sorted({r["spec"] for r in rows})
-    lines = [
-        "| spec | case | changed for this machine | bc | K FEM (m^2) | bar | K voxel (m^2) | bar "
-        "| FEM / voxel - 1 | status |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for spec in specs:
-        if (spec, None, None) in latest:  # could not be built
-            lines.append(f"| {spec} | n/a: {latest[(spec, None, None)]['error'][:140]} |||||||||")
+def _spec_rows() -> tuple[dict, dict]:
+    """The cache: build records by spec, solve rows by (spec, bc, solver)."""
+    builds, solves = {}, {}
+    for f in sorted(CACHE.glob("*.json")):
+        if f.stem.startswith("hexwindow__"):
             continue
-        for bc in BCS:
-            fem, vox = latest.get((spec, bc, "fem"), {}), latest.get((spec, bc, "voxel"), {})
-            first = fem or vox
-            if not first:
+        r = json.loads(f.read_text())
+        if f.stem.endswith("__build"):
+            builds[r["spec"]] = r
+        else:
+            solves[(r["spec"], r["bc"], r["solver"])] = r
+    return builds, solves
+
+
+def _k_cell(r: dict) -> tuple[str, str]:
+    if "k_m2" in r:
+        return f"{r['k_m2']:.4e} ({r.get('status')})", f"{100 * r['rel_error']:.1f} %"
+    return ("n/a: " + r.get("error", "not run"))[:220], ""
+
+
+def _verdict(fem: dict, vox: dict) -> tuple[str, str, str]:
+    """(FEM / voxel - 1, combined bar, verdict) of one row pair."""
+    if "k_m2" not in fem or "k_m2" not in vox:
+        return "", "", "n/a"
+    d = fem["k_m2"] / vox["k_m2"] - 1
+    bars = fem["rel_error"] + vox["rel_error"]
+    if abs(d) <= AGREE:
+        verdict = "agree (<= 2 %)"
+    else:
+        verdict = "inside combined bar" if abs(d) <= bars else "**outside combined bar**"
+    return _pct(d), f"{100 * bars:.1f} %", verdict
+
+
+def _copies(r: dict) -> str:
+    """The permeameter definition a row used: copies of the RVE between the reservoirs."""
+    if not r or "k_m2" not in r:
+        return "-"
+    c = r.get("permeameter_copies") or 1  # absent: one copy (code before the stack)
+    return f"{c} cop{'y' if c == 1 else 'ies'}"
+
+
+def render_specs() -> list[str]:
+    builds, solves = _spec_rows()
+    lines = [
+        "| spec | case | box (um) / voxel (um) / voxels per d | changed (why) | bc | K FEM (m^2) "
+        "| FEM bar | K voxel (m^2) | voxel bar | FEM / voxel - 1 | combined bar | verdict |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    counts = {"agree (<= 2 %)": 0, "inside combined bar": 0, "**outside combined bar**": 0}
+    for spec in sorted({str(q.relative_to(ROOT)) for q in shipped_specs()} | set(builds)):
+        if spec not in builds:
+            lines.append(f"| {spec} | not run (machine time: not built) |||||||||||")
+            continue
+        b = builds[spec]
+        if "error" in b:
+            lines.append(f"| {spec} | n/a: {b['error'][:400]} |||||||||||")
+            continue
+        base = b["base"]
+        box = " x ".join(f"{x * 1e6:g}" for x in base["size_m"])
+        vpd = base.get("voxels_per_diameter")
+        geo = f"{box} / {base['voxel_m'] * 1e6:.3g} / {'' if vpd is None else f'{vpd:.1f}'}"
+        changed = base["changed"] + (
+            "; smaller boxes failed: " + "; ".join(base["tried"]) if base.get("tried") else ""
+        )
+        if not any((spec, bc, r) in solves for bc in SPEC_BCS for r in SOLVERS):
+            lines.append(f"| {spec} | built ({geo}), not solved (machine time) |||||||||||")
+        for bc in SPEC_BCS:
+            fem, vox = solves.get((spec, bc, "fem"), {}), solves.get((spec, bc, "voxel"), {})
+            if not fem and not vox:
                 continue
-
-            def k(r: dict) -> tuple[str, str]:
-                if "k_m2" in r:
-                    return f"{r['k_m2']:.4e} ({r.get('status')})", f"{100 * r['rel_error']:.1f} %"
-                return ("n/a: " + r.get("error", "not run"))[:110], ""
-
-            (kf, bf), (kv, bv) = k(fem), k(vox)
-            diff, status = "", "n/a"
-            if "k_m2" in fem and "k_m2" in vox:
-                d = fem["k_m2"] / vox["k_m2"] - 1
-                diff = _pct(d)
-                bars = fem["rel_error"] + vox["rel_error"]
-                status = (
-                    "agree (<= 2 %)"
-                    if abs(d) <= AGREE
-                    else ("within error bars" if abs(d) <= bars else "**differ**")
-                )
+            (kf, bf), (kv, bv) = _k_cell(fem), _k_cell(vox)
+            diff, bars, verdict = _verdict(fem, vox)
+            if bc != "periodic" and _copies(fem) != _copies(vox) and diff:
+                verdict = "n/a (the routes stacked differently)"
+            counts[verdict] = counts.get(verdict, 0) + 1
+            if bc == "permeameter-stacked":
+                per = solves.get((spec, "periodic", "voxel"), {})
+                if "k_m2" in vox and "k_m2" in per:
+                    verdict += f"; voxel vs voxel periodic {_pct(vox['k_m2'] / per['k_m2'] - 1)}"
+            case = (fem or vox).get("case", "")
+            bc_cell = bc if bc == "periodic" else f"{bc} ({_copies(fem)} / {_copies(vox)})"
             lines.append(
-                f"| {spec} | {first.get('case', '')} | {first.get('changed', '')} | {bc} | {kf} | "
-                f"{bf} | {kv} | {bv} | {diff} | {status} |"
+                f"| {spec} | {case} | {geo} | {changed} | {bc_cell} | {kf} | {bf} | {kv} | {bv} | "
+                f"{diff} | {bars} | {verdict} |"
             )
+    lines += [
+        "",
+        "Rows with both K: "
+        + ", ".join(f"{v} {k.strip('*')}" for k, v in counts.items() if not k.startswith("n/a"))
+        + ". 'not run' = not solved in the session's machine time (load 20-38 on 2 cores).",
+    ]
     return lines
+
+
+#: How the permeameter rows' pressure drop is defined (set when the rows were run).
+PERMEAMETER_NOTE = (
+    "Permeameter rows (empty reservoirs, slip sides, windowed-dissipation drop) are "
+    "'permeameter-stacked': `permeameter_copies = \"auto\"`, engineer stack's stacked "
+    "permeameter (`psdesign/flow/stack.py`, merged at 58d7951 'STACK-READY voxel' and 254421a "
+    "'STACK-READY fem'): 2 copies along the flow when the geometry is periodic along it and one "
+    "copy holds one period, else 1 (the bc cell names each route's copies, FEM / voxel). Rows "
+    "labelled 'permeameter' (one copy, the definition of d560a79) were dropped for machine "
+    "time once the stack was in; where the auto plan is one copy the two are the same solve. "
+    "The permeameter's slip side walls are another boundary condition than the periodic "
+    "sides: on a random RVE the stacked K can differ from the periodic K by far more than "
+    "the definition (the 'voxel vs voxel periodic' figure; it is `bc_sensitivity`, a sign "
+    "that the box is small), while the two routes are compared on the same model."
+)
+
+
+def _spec_loads() -> str:
+    loads = [
+        x
+        for f in CACHE.glob("*__z__*.json")
+        for x in (json.loads(f.read_text()).get("load_1min"),)
+        if x is not None
+    ]
+    return f"{min(loads):.1f}-{max(loads):.1f}" if loads else "?"
 
 
 def render(_args=None) -> None:
     rows = [json.loads(s) for s in RUNS.read_text().splitlines() if s.strip()]
-    loads = [r["load_1min"] for r in rows if "load_1min" in r]
+    arrays = [r for r in rows if r["part"] == "arrays"]
+    loads = [r["load_1min"] for r in arrays if "load_1min" in r]
     load = f"{min(loads):.1f}-{max(loads):.1f}" if loads else "?"
+    dates = sorted(r["date"] for r in arrays)
     text = [
         "# Solver agreement: FEM vs voxel on the same RVE and boundary condition",
         "",
         "Generated by `python benchmarks/solver_agreement.py render` from "
-        "`benchmarks/solver_agreement_runs.jsonl` (runs: `... arrays`, `... specs`; "
-        f"machine load average {load} on 2 cores during the runs). Do not edit by hand. "
-        "Linked from `docs/validation.md`; tests: `tests/validation/test_solver_agreement.py`.",
+        "`benchmarks/solver_agreement_runs.jsonl` (`... arrays`) and the per-row cache "
+        "`benchmarks/solver_agreement_cache/` (`... specs`, `... hexwindow`; a row with a cache "
+        "file is not solved again). Do not edit by hand. Linked from `docs/validation.md`; "
+        "tests: `tests/validation/test_solver_agreement.py`.",
         "",
         "Both routes solve the same voxelized analytic RVE: the FEM meshes its distance field "
         "(stuffing lattice mesher, mesh pore volume matched to the analytic pore volume), the "
         "voxel route uses it for sub-voxel walls. 'bar' is `permeability_rel_error` "
-        "(docs/permeability.md).",
+        "(docs/permeability.md); 'combined bar' is the sum of the two routes' bars.",
         "",
         "## Cylinder arrays at default settings (bc = periodic)",
         "",
-        "One cell of spacing 40 um as a thin periodic slab (4 voxels thick; both flows are "
-        "two-dimensional), cylinders along z; 'along' = flow along z, 'across' = along x. "
-        "Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
+        f"Run {dates[0] if dates else '?'} to {dates[-1] if dates else '?'} (machine load "
+        f"average {load} on 2 cores); periodic rows, so the later permeameter changes do not "
+        "touch them. One cell of spacing 40 um as a thin periodic slab (4 voxels thick; both "
+        "flows are two-dimensional), cylinders along z; 'along' = flow along z, 'across' = "
+        "along x. Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
         "settings: FEM lattice step `max(2 voxel, min(size) / 30)` = 2 voxels, analytic volume "
         "target; voxel: sub-voxel walls. References: Sangani & Acrivos (1982) Int. J. "
         "Multiphase Flow 8, 193-206, Table 1 (square across); Sparrow & Loeffler (1959) AIChE "
@@ -363,17 +672,63 @@ def render(_args=None) -> None:
         "",
         "## Shipped specs (first case of each study)",
         "",
-        "Through-plane (z) K of every spec in `studies/` with both routes and both models. "
-        "Periodic FEM needs matching opposite faces: random fiber RVEs are not periodic, so "
-        "it is n/a there (the voxel route solves them as if periodic and reports "
-        "`face_mismatch`). The voxel permeameter's pressure drop still includes the entrance "
-        "and exit losses (flagged `untrustworthy`; vperm's change).",
+        "Through-plane (z) K of every spec in `studies/` (a study: its first case) with both "
+        f"routes and both models (machine load average {_spec_loads()} on 2 cores during the "
+        "runs). Size: a porosity target is generated in the smallest of 50, 60, 80 um cubes "
+        "that reaches it, else at the spec's own size (the failures are listed); a fixed fiber "
+        "count, explicit fibers or a woven cell keep their own box (in a smaller one they are "
+        "another material). Voxel: the thinnest fiber gets at least 8 voxels (a coarser spec "
+        "voxel is refined to d / 8; one giving more than 10 is coarsened to d / 8 for machine "
+        "time; rounded down to divide the box). The FEM uses the spec's `flow.lattice_step` "
+        "where it sets one, else its default. Periodic FEM needs matching opposite faces "
+        "(and a lattice fine enough that 97 % of the tet centroids lie in the pore); where it "
+        "refuses, the reason is in the row. " + PERMEAMETER_NOTE,
         "",
-        *render_specs(rows),
+        *render_specs(),
+        "",
+        "Studies whose first case is the same straight Toray-like generator and seed (table3, "
+        "bent_vs_straight, table3/straight, fig13_straight at 50 um) build the same RVE: their "
+        "porosity and K are equal, as they should be.",
+        "",
+        "## Residual misses",
+        "",
+        "**Hexagonal array across, phi 0.1, voxel permeameter two cells long** (-1.05 % vs "
+        "periodic in the calibration; issue 12 asks 1 %). The same grid's periodic K is the "
+        "reference, so the voxel discretization cancels:",
+        "",
+        *render_hexwindow(),
+        "",
+        "The gap does not move with resolution (-1.00 % at 26, -1.04 % at 40 voxels per "
+        "spacing) and falls with the cell count as m^-3 (2 -> 3 cells: x 0.33, (2/3)^3 = 0.30; "
+        "3 -> 4: x 0.43, (3/4)^3 = 0.42): it is the entrance disturbance reaching into the "
+        "sin^2 window (its weight near the ends grows as t^2, so a layer delta thick costs "
+        "(delta / L)^3). At phi 0.2 it is -0.50 % (the disturbance decays faster in a denser "
+        "array). Not fixed here: a window exact for two periods cannot be flatter at its ends "
+        "(sin^4 has a two-period harmonic), so the remedy is a longer RVE (3 cells: -0.34 %) "
+        "or the stacked permeameter (`flow.permeameter_copies`, engineer stack's change); "
+        "the error bar covers the gap in every row (1.2-2.5 % against <= 1.04 %). "
+        "Reproduce: `python benchmarks/solver_agreement.py hexwindow --force`.",
+        "",
+        WOVEN_AND_RANDOM,
         "",
     ]
     DOC.write_text("\n".join(text))
     print(f"wrote {DOC}")
+
+
+#: The slow tests' measurements (``tests/validation/test_solver_agreement.py``).
+WOVEN_AND_RANDOM = (
+    "**Periodic random RVEs and the woven cell** (slow tests, `python -m pytest -m slow -s "
+    "tests/validation/test_solver_agreement.py -k random_periodic`; FEM on the 1 um field at "
+    "its default step of 2 um, voxel route at 0.5 um). In x (never measured before): "
+    "straight -0.46 % (K FEM 1.8069e-11, voxel 1.8153e-11), bent -0.67 % (1.8403e-11, "
+    "1.8526e-11), load 11, 2026-12-01 15:01. Woven cell (period 30 um, yarns 4.3 um thick: "
+    "8.6 voxels at 0.5 um): +1.30 % through-plane (K FEM 1.5796e-12, voxel 1.5593e-12), "
+    "+1.83 % in x (4.1151e-11, 4.0412e-11), load 11-21, 15:01-15:14 (both xpassed: the xfail "
+    "is removed, the test stays slow, 712 s for the two). The earlier -2.94 % had the voxel "
+    "route on the 1 um grid (4.3 voxels across a yarn). The in-plane +1.83 % is near the 2 % "
+    "bound; the FEM there has about 2 lattice steps across a yarn."
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -384,13 +739,25 @@ def main(argv: list[str] | None = None) -> int:
     a.add_argument("--phi", type=float, nargs="+", default=[0.1, 0.2, 0.3, 0.4, 0.5])
     a.add_argument("--solvers", nargs="+", default=list(SOLVERS))
     s = sub.add_parser("specs")
-    s.add_argument("--size", type=float, default=None, help="shrink larger RVEs to this cube (m)")
-    s.add_argument("--voxel", type=float, default=None, help="voxel override (m)")
+    s.add_argument(
+        "--sizes",
+        type=float,
+        nargs="+",
+        default=[50e-6, 60e-6, 80e-6],
+        help="cube sizes (m) tried smallest first before the spec's own (porosity targets only)",
+    )
+    s.add_argument("--bc", nargs="+", default=list(SPEC_BCS), choices=SPEC_BCS)
+    s.add_argument("--solvers", nargs="+", default=list(SOLVERS))
+    s.add_argument("--force", action="store_true", help="solve rows that have a cache file")
     s.add_argument("--direction", default="z")
     s.add_argument("--only", nargs="+", default=None, help="substrings of the spec paths")
+    h = sub.add_parser("hexwindow")
+    h.add_argument("--force", action="store_true")
     sub.add_parser("render")
     args = ap.parse_args(argv)
-    {"arrays": run_arrays, "specs": run_specs, "render": render}[args.cmd](args)
+    {"arrays": run_arrays, "specs": run_specs, "hexwindow": run_hexwindow, "render": render}[
+        args.cmd
+    ](args)
     return 0
 
 
