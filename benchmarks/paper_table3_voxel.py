@@ -63,13 +63,13 @@ def _solve_path(cache: str, key: dict) -> Path:
     return Path(cache) / "solves" / f"{name}.json"
 
 
-def solve_one(built, fields, direction: str, bc: str, voxel: float) -> dict:
-    """One voxel solve: K along ``direction`` with ``bc``; the record of the route's result."""
+def solve_one(built, fields, direction: str, bc: str, tol: float) -> dict:
+    """One voxel solve: K along ``direction`` with ``bc`` to relative residual ``tol``."""
     from psdesign.flow.permeability import permeability
     from psdesign.schema.spec import load_spec
 
     flow = {**load_spec(ROOT / "studies" / "table3" / "straight.toml")["flow"]}
-    flow.update(solver="voxel", bc=bc)
+    flow.update(solver="voxel", bc=bc, tol=tol)
     r = permeability(built.rve, fields, direction, flow, solver="voxel", error_estimate=False)
     keep = (
         "permeability_m2",
@@ -112,7 +112,8 @@ def run(a) -> int:
                     rec = {**key, "size_m": size, "voxel_m": a.voxel, "bc_model": bc}
                     rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
                     rec.update(n_fibers=len(built.rve.fibers), generation_s=t_gen)
-                    rec.update(solve_one(built, fields, d, bc, a.voxel))
+                    rec["tol"] = a.tol
+                    rec.update(solve_one(built, fields, d, bc, a.tol))
                     path.parent.mkdir(parents=True, exist_ok=True)
                     path.write_text(json.dumps(rec))
                     with open(a.out, "a") as fh:
@@ -243,10 +244,11 @@ def _rows(path: Path) -> list[dict]:
     return [json.loads(s) for s in path.read_text().splitlines() if s.strip()]
 
 
-def _cell(k: np.ndarray, ref: float | None) -> str:
-    ci = f" +- {t3._ci95(k):.2e}" if len(k) > 1 else ""
+def _cell(k: np.ndarray, ref: float | None, fmt: str = ".3e") -> str:
+    """``mean +- 95 % CI (vs ref)``; the CI is Student's t with n - 1 dof."""
+    ci = f" +- {format(t3._ci95(k), fmt)}" if len(k) > 1 else ""
     vs = f" ({100 * (k.mean() / ref - 1):+.0f} %)" if ref else ""
-    return f"{k.mean():.3e}{ci}{vs}"
+    return f"{format(k.mean(), fmt)}{ci}{vs}"
 
 
 def summary(path: Path) -> str:
@@ -273,7 +275,8 @@ def summary(path: Path) -> str:
         kin = np.array([(by_dir["x"][s] + by_dir["y"][s]) / 2 for s in both])
         cells.append(_cell(kin, PAPER_IN_PLANE.get(kind)) if len(kin) else "-")
         rat = [kin[i] / by_dir["z"][s] for i, s in enumerate(both) if s in by_dir.get("z", {})]
-        cells.append(_cell(np.array(rat), 1.50 if kind != "bent" else 1.11 / 0.78) if rat else "-")
+        paper = 1.21 / 0.807 if kind != "bent" else 1.11 / 0.78
+        cells.append(_cell(np.array(rat), paper, ".3f") if rat else "-")
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
 
@@ -299,6 +302,42 @@ def per_seed(path: Path) -> str:
     return "\n".join(out)
 
 
+GEOMETRY_COLUMNS = (
+    ("porosity", "porosity", 1.0, ".4f"),
+    ("Omega (%)", "omega", 100.0, ".2f"),
+    ("n fibres", "n_fibers", 1.0, ".0f"),
+    ("pore d10 / d50 / d90 (um)", ("pore_d10_m", "pore_d50_m", "pore_d90_m"), 1e6, ".1f"),
+    ("pore mean (um)", "pore_mean_m", 1e6, ".2f"),
+    ("solid CV 10 / 20 um", ("clustering_cv_10um", "clustering_cv_20um"), 1.0, ".3f"),
+    ("NN axis distance mean / median (um)", ("nn_axis_mean_m", "nn_axis_median_m"), 1e6, ".2f"),
+    ("axis point NN p10 / p50 / p90 (um)", ("point_nn_p10_m", "point_nn_median_m",
+                                           "point_nn_p90_m"), 1e6, ".2f"),
+    ("axis length in contact (%)", "contact_fraction", 100.0, ".1f"),
+    ("a_xx / a_yy / a_zz", ("a_xx", "a_yy", "a_zz"), 1.0, ".3f"),
+    ("tilt rms / max (deg)", ("tilt_rms_deg", "tilt_max_deg"), 1.0, ".2f"),
+    ("in-plane order", "phi_order", 1.0, ".3f"),
+)  # fmt: skip
+
+
+def geometry_summary(path: Path, per_seed: bool = False) -> str:
+    """Markdown: the generator statistics, mean over seeds per (kind, method) or per seed."""
+    rows = _rows(path)
+    groups: dict = {}
+    for r in rows:
+        key = (r["kind"], r["method"]) + ((r["seed"],) if per_seed else ())
+        groups.setdefault(key, []).append(r)
+    head = ["kind", "method", "seed" if per_seed else "n"] + [c[0] for c in GEOMETRY_COLUMNS]
+    out = ["| " + " | ".join(head) + " |", "| " + " | ".join(["---"] * len(head)) + " |"]
+    for key, rs in sorted(groups.items()):
+        cells = [key[0], key[1], str(key[2]) if per_seed else str(len(rs))]
+        for _, names, scale, fmt in GEOMETRY_COLUMNS:
+            names = names if isinstance(names, tuple) else (names,)
+            vals = [scale * np.mean([r[n] for r in rs]) for n in names]
+            cells.append(" / ".join(format(v, fmt) for v in vals))
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -310,6 +349,7 @@ def main(argv=None) -> int:
     r.add_argument("--bc-tag", default="permeameter", help="name of the permeameter definition")
     r.add_argument("--directions", nargs="+", default=["z", "x", "y"])
     r.add_argument("--voxel", type=float, default=0.5e-6)
+    r.add_argument("--tol", type=float, default=1e-4, help="solver relative residual")
     r.add_argument("--size", type=float, default=None, help="cube edge (m), default the spec's")
     r.add_argument("--cache", required=True)
     r.add_argument("--out", required=True)
@@ -324,9 +364,13 @@ def main(argv=None) -> int:
     s = sub.add_parser("summary")
     s.add_argument("path")
     s.add_argument("--per-seed", action="store_true")
+    s.add_argument("--geometry", action="store_true", help="PATH is a geometry jsonl")
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        print(per_seed(Path(a.path)) if a.per_seed else summary(Path(a.path)))
+        if a.geometry:
+            print(geometry_summary(Path(a.path), a.per_seed))
+        else:
+            print(per_seed(Path(a.path)) if a.per_seed else summary(Path(a.path)))
         return 0
     return run(a) if a.cmd == "run" else geometry(a)
 
