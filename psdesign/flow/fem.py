@@ -22,6 +22,7 @@ K always comes from :mod:`psdesign.flow.darcy`.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -34,6 +35,7 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     windowed_drop,
     windowed_drop_from_dissipation,
 )
+from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
@@ -123,15 +125,16 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     from psdesign.image.fields import mesh_overrides
 
     target = mesh_overrides(fields)  # an image: match the mesh to the voxel count
+    size = np.asarray(fields.grid.size, float)  # rve.size, or the stack's (psdesign.flow.stack)
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
-        return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
+        return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     from psdesign.meshing.errors import MeshFailedError
     from solvers.fem.periodic import PeriodicMeshError
 
     opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True, **target)
     try:
-        return mesh_pore_space(fields.distance, float(spacing[0]), rve.size, name, opts)
+        return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     except MeshFailedError as exc:  # the mesher found opposite faces that differ
         raise PeriodicMeshError(f"flow.bc = 'periodic': {exc}") from None
 
@@ -212,11 +215,21 @@ def permeability_fem(
     if bc not in BCS:
         raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
     t0 = time.perf_counter()
-    if mesh is None:
-        mesh = _mesh(rve, fields, name, flow, bc)
+    plan = plan_copies(flow, rve, fields, ax) if bc == "permeameter" else None
+    if mesh is None:  # the permeameter meshes plan.copies copies along the flow
+        copies = plan.copies if plan is not None else 1
+        mesh = _mesh(rve, stack_fields(fields, ax, copies), name, stacked_flow(flow, copies), bc)
+    elif plan is not None:  # a mesh made by the caller: its RVE part says how many copies
+        start, end = mesh.porous_region
+        plan = replace(plan, copies=max(1, round((end - start) / float(rve.size[ax]))))
     t_mesh = time.perf_counter() - t0
-    route = _periodic if bc == "periodic" else _permeameter
-    res, out = route(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+    if plan is None:
+        res, out = _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+    else:
+        res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+        out |= plan.as_dict()
+        if plan.note:
+            out["warnings"].append(plan.note)
     if capture is not None:
         capture("fem_flow", solution=res, result=out, mesh=mesh, flow=flow)
     return out

@@ -222,12 +222,12 @@ def with_error_estimate(
     spread = err.definition_spread(res)
     if spread is not None:
         res["definition_spread"] = spread
-        if spread > err.DEFINITION_WARN:
+        if err.definition_spread_warns(res, spread):
             warnings.append(
                 f"K_{res['direction']}: the face-plane pressure drop gives a K "
-                f"{100 * spread:.0f} % different from the windowed one: this RVE is not "
-                "homogeneous along the flow at its own length (e.g. few fibre layers, open end "
-                "layers), so its permeameter K depends on the definition; compare bc = "
+                f"{100 * spread:.0f} % different from the windowed one: this one-period sample "
+                "is not homogeneous along the flow at its own length (e.g. few fibre layers, open "
+                "end layers), so its permeameter K depends on the definition; compare bc = "
                 "'periodic' (--bc both reports bc_sensitivity) or a longer RVE"
             )
     res["warnings"] = warnings

@@ -30,6 +30,7 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
+from psdesign.flow.stack import plan_copies, stack_fields
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
@@ -175,15 +176,20 @@ def permeability_voxel(
         kw["tol"] = float(flow["tol"])
     if wall == "subvoxel":
         kw["distance"] = fields.distance
+    plan, solve = None, fields
     if bc == "permeameter":
-        aux = float(flow.get("aux_length", 0.2))
+        plan = plan_copies(flow, rve, fields, ax)  # m copies along the flow (psdesign.flow.stack)
+        solve = stack_fields(fields, ax, plan.copies)
+        if wall == "subvoxel":
+            kw["distance"] = solve.distance
+        aux = float(flow.get("aux_length", 0.2)) / plan.copies  # reservoirs: one copy's aux
         kw["aux_length"] = aux
         kw["sides"] = flow.get("sides", "slip")
-        n_d = fields.solid.shape[ax]
+        n_d = solve.solid.shape[ax]
         n_tot = n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
         kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
     res = solve_voxel_stokes(
-        fields.solid,
+        solve.solid,
         h,
         name,
         viscosity=mu,
@@ -222,10 +228,12 @@ def permeability_voxel(
         "pressure_gradient_pa_m": float(res.pressure_gradient),
         "wall_time_s": time.perf_counter() - t0,
     }
+    if plan is not None and plan.note:
+        notes.append(plan.note)
     if notes:
         out["warnings"] = notes
     if bc == "permeameter":
-        out |= {
+        out |= plan.as_dict() | {
             "sides": res.sides,
             "aux_length": float(flow.get("aux_length", 0.2)),
             "pressure_drop_applied_pa": float(res.applied_pressure_drop),
@@ -236,5 +244,5 @@ def permeability_voxel(
             "pressure_drop_definition": "windowed-dissipation",
         }
     if capture is not None:
-        capture("voxel_flow", solution=res, result=out, fields=fields, flow=flow)
+        capture("voxel_flow", solution=res, result=out, fields=solve, flow=flow)
     return out

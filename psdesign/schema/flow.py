@@ -2,11 +2,29 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import Field
+from pydantic import BeforeValidator, Field
 
-from psdesign.schema.types import Table, number
+from psdesign.schema.types import Table, fail, number, short
+
+#: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
+MAX_PERMEAMETER_COPIES = 8
+
+
+def _copies(value: Any) -> Any:
+    """``"auto"`` or an integer in ``[1, MAX_PERMEAMETER_COPIES]`` (bools and floats refused)."""
+    if value == "auto" and isinstance(value, str):
+        return value
+    if isinstance(value, int) and not isinstance(value, bool):
+        if 1 <= value <= MAX_PERMEAMETER_COPIES:
+            return value
+    raise fail(
+        "",
+        f"must be 'auto' or an integer in [1, {MAX_PERMEAMETER_COPIES}], got {short(value)}",
+        f"auto | 1 ... {MAX_PERMEAMETER_COPIES}",
+    )
+
 
 #: Defaults filled into every validated spec (other keys appear only when given).
 DEFAULT_FLOW = {
@@ -27,6 +45,12 @@ class FlowTable(Table):
         None,
         description="permeameter | periodic (default: the solver's own, fem -> "
         "permeameter, voxel -> periodic)",
+    )
+    permeameter_copies: Annotated[int | str, BeforeValidator(_copies)] | None = Field(
+        None,
+        description="auto | integer in [1, 8]: copies of the RVE stacked along the flow in the "
+        "permeameter (default auto: 2 when the geometry is periodic along the flow and one copy "
+        "holds fewer than two periods, else 1)",
     )
     error_estimate: bool | None = Field(
         None,

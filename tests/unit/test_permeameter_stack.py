@@ -1,0 +1,120 @@
+"""The stacked permeameter's plan (``flow.permeameter_copies``) and the tiled fields."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psdesign.errors import SpecError
+from psdesign.flow.stack import periodicity, plan_copies, stack_fields, stacked_flow
+from psdesign.geometry.fibers import make_fiber
+from psdesign.geometry.rve import RVE
+from psdesign.image.fields import ImageFields, image_fields
+from psdesign.schema.spec import validate_spec
+
+S = 20e-6
+
+
+def _cylinders(size, centres, diameter=6e-6, direction=(0, 0, 1)) -> RVE:
+    ref = float(max(size))
+    fibers = [
+        make_fiber(
+            "cylinder",
+            diameter=diameter / ref,
+            center=np.asarray(c, float) / ref,
+            theta=None,
+            omega=None,
+            direction=list(direction),
+            u=0.0,
+            f=1.0,
+            isovalue=None,
+        )
+        for c in centres
+    ]
+    return RVE(size=np.asarray(size, float), fibers=fibers)
+
+
+def _row(n: int) -> RVE:
+    """``n`` square-array cells in a row along x, cylinders along z (flow across along x)."""
+    return _cylinders([n * S, S, 4e-6], [[S / 2 + i * S, S / 2, 2e-6] for i in range(n)])
+
+
+@pytest.mark.parametrize(("cells", "copies"), [(1, 2), (2, 1), (3, 1)])
+def test_auto_stacks_one_period_only(cells, copies):
+    rve = _row(cells)
+    plan = plan_copies({}, rve, rve.voxelize(1e-6), 0)
+    assert plan.periodic and plan.check == "analytic" and plan.note is None
+    assert plan.periods == cells  # a row of n cells repeats every L / n
+    assert plan.copies == copies
+    # along the cylinders the structure repeats at every shift: never stacked
+    along = plan_copies({"permeameter_copies": "auto"}, rve, rve.voxelize(1e-6), 2)
+    assert along.copies == 1 and along.periods >= 2
+
+
+def test_not_periodic_gives_one_copy_and_a_warning_and_refuses_a_stack():
+    # box 40 x 40 x 30 um, period 40 um: a fibre along x at z = 10 um is not periodic in z
+    rve = _cylinders([40e-6, 40e-6, 30e-6], [[20e-6, 20e-6, 10e-6]], direction=(1, 0, 0))
+    fields = rve.voxelize(1e-6)
+    assert periodicity(rve, fields, 2)[0] is False
+    assert periodicity(rve, fields, 0)[0] is True  # along the fibre it is
+    plan = plan_copies({}, rve, fields, 2)
+    assert plan.copies == 1 and not plan.periodic
+    assert "not periodic along z" in plan.note and "entrance" in plan.note
+    with pytest.raises(SpecError, match=r"flow\.permeameter_copies.*periodic along z"):
+        plan_copies({"permeameter_copies": 2}, rve, fields, 2)
+    assert plan_copies({"permeameter_copies": 1}, rve, fields, 2).copies == 1
+    assert plan_copies({"permeameter_copies": 3}, rve, fields, 0).copies == 3
+
+
+def test_voxel_check_on_images():
+    rng = np.random.default_rng(0)
+    solid = np.zeros((24, 12, 12), bool)
+    solid[:, 4:8, 4:8] = True  # a square rod along x: periodic along x and y
+    solid[10:14, :, 2:5] = True  # a slab across x
+    img = image_fields(solid, 1e-6)
+    assert periodicity(None, img, 0)[0] and periodicity(None, img, 1)[0]
+    noise = image_fields(rng.uniform(size=(16, 16, 16)) < 0.3, 1e-6)
+    half = np.concatenate([noise.solid[:8]] * 2)  # two copies of a random half: period n / 2
+    assert periodicity(None, image_fields(half, 1e-6), 0)[:2] == (True, 2)
+    # a slanted slab (0.4 voxel per layer): each inner step moves it a little, the seam by 9 voxels
+    i, j = np.meshgrid(np.arange(24), np.arange(12), indexing="ij")
+    slant = np.broadcast_to((((j - 0.4 * i) % 12) < 4)[:, :, None], (24, 12, 12))
+    assert periodicity(None, image_fields(slant, 1e-6), 0)[0] is False
+    assert periodicity(None, image_fields(slant, 1e-6), 1)[0] is True
+
+
+def test_stack_fields_tiles_and_keeps_the_class():
+    rve = _row(1)
+    f = rve.voxelize(1e-6)
+    st = stack_fields(f, 0, 3)
+    assert st.distance.shape == (3 * f.distance.shape[0], *f.distance.shape[1:])
+    assert np.array_equal(st.distance[: f.grid.shape[0]], f.distance)
+    assert np.array_equal(st.distance[-f.grid.shape[0] :], f.distance)
+    assert st.grid.size[0] == pytest.approx(3 * f.grid.size[0])
+    assert np.allclose(st.grid.spacing, f.grid.spacing) and st.porosity == pytest.approx(f.porosity)
+    assert stack_fields(f, 0, 1) is f
+    img = image_fields(f.solid, 1e-6)
+    assert isinstance(stack_fields(img, 2, 2), ImageFields)
+    assert stacked_flow({"aux_length": 0.2}, 2)["aux_length"] == pytest.approx(0.1)
+
+
+def _spec(flow: dict) -> dict:
+    return validate_spec(
+        {
+            "rve": {"size": [40e-6] * 3, "voxel": 1e-6},
+            "fibers": [{"shape": "cylinder", "diameter": 8e-6, "center": [0, 2e-5, 2e-5]}],
+            "flow": flow,
+        }
+    )
+
+
+@pytest.mark.parametrize("bad", [0, 9, "two", 2.0, True])
+def test_schema_names_the_key_and_range(bad):
+    with pytest.raises(SpecError, match=r"flow\.permeameter_copies: .*auto.*\[1, 8\]"):
+        _spec({"permeameter_copies": bad})
+
+
+def test_schema_accepts_auto_and_counts():
+    assert _spec({"permeameter_copies": "auto"})["flow"]["permeameter_copies"] == "auto"
+    assert _spec({"permeameter_copies": 3})["flow"]["permeameter_copies"] == 3
+    assert "permeameter_copies" not in _spec({})["flow"]
