@@ -88,6 +88,9 @@ def solve_one(built, fields, direction: str, bc: str, tol: float) -> dict:
         "pressure_drop_definition",
         "aux_length",
         "sides",
+        "permeameter_copies",
+        "geometry_periodic_along_flow",
+        "warnings",
     )
     return {k: r[k] for k in keep if k in r}
 
@@ -343,7 +346,7 @@ def main(argv=None) -> int:
     sub = p.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--kinds", nargs="+", default=["straight", "bent"])
-    r.add_argument("--method", default="ga", choices=("ga", "fast"))
+    r.add_argument("--method", default="ga", choices=("ga", "fast", "none"))
     r.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     r.add_argument("--bcs", nargs="+", default=["periodic"], choices=("periodic", "permeameter"))
     r.add_argument("--bc-tag", default="permeameter", help="name of the permeameter definition")
