@@ -207,6 +207,21 @@ def clustering_stats(rve, step: float = 0.5e-6) -> dict:
     }
 
 
+def layering_stats(fields) -> dict:
+    """The solid's layering along z: porosity of each voxel layer (what in-plane flow sees).
+
+    ``layer_porosity_std``: standard deviation of the layer porosities; ``open_layer_fraction``:
+    share of layers with porosity above 0.9 (in-plane channels).
+    """
+    prof = (~fields.solid).mean(axis=(0, 1))
+    return {
+        "layer_porosity_std": float(prof.std()),
+        "layer_porosity_max": float(prof.max()),
+        "layer_porosity_min": float(prof.min()),
+        "open_layer_fraction": float(np.mean(prof > 0.9)),
+    }
+
+
 def geometry(a) -> int:
     """Generator statistics per (kind, method, seed): orientation, overlap, clustering, pores."""
     for kind in a.kinds:
@@ -224,6 +239,7 @@ def geometry(a) -> int:
                 }
                 rec.update(orientation_stats(built.rve))
                 rec.update(clustering_stats(built.rve))
+                rec.update(layering_stats(fields))
                 rec.update(t3.pore_statistics(fields.solid, a.voxel))
                 rec["clustering_cv_10um"] = t3.clustering_cv(
                     fields.solid, max(1, int(round(10e-6 / a.voxel)))
@@ -319,6 +335,7 @@ GEOMETRY_COLUMNS = (
     ("a_xx / a_yy / a_zz", ("a_xx", "a_yy", "a_zz"), 1.0, ".3f"),
     ("tilt rms / max (deg)", ("tilt_rms_deg", "tilt_max_deg"), 1.0, ".2f"),
     ("in-plane order", "phi_order", 1.0, ".3f"),
+    ("z-layer porosity std / max", ("layer_porosity_std", "layer_porosity_max"), 1.0, ".3f"),
 )  # fmt: skip
 
 
@@ -358,7 +375,7 @@ def main(argv=None) -> int:
     r.add_argument("--out", required=True)
     g = sub.add_parser("geometry")
     g.add_argument("--kinds", nargs="+", default=["straight"])
-    g.add_argument("--methods", nargs="+", default=["ga", "fast"])
+    g.add_argument("--methods", nargs="+", default=["ga", "fast"], choices=("ga", "fast", "none"))
     g.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     g.add_argument("--voxel", type=float, default=1e-6)
     g.add_argument("--size", type=float, default=None)
