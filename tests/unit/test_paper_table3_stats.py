@@ -60,3 +60,16 @@ def test_orientation_of_crossed_and_tilted_rods(stats):
     assert out["tilt_max_deg"] == pytest.approx(4.0, abs=1e-6)
     assert out["a_zz"] == pytest.approx(np.sin(t) ** 2, rel=1e-6)
     assert out["phi_order"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_layering_of_a_solid_slab(stats):
+    class Fields:  # only ``solid`` is read
+        solid = np.zeros((4, 4, 10), bool)
+
+    Fields.solid[:, :, :2] = True  # two solid layers, eight empty ones
+    Fields.solid[:2, :, 5] = True  # one half-solid layer
+    out = stats.layering_stats(Fields)
+    prof = np.array([0, 0, 1, 1, 1, 0.5, 1, 1, 1, 1])
+    assert out["layer_porosity_std"] == pytest.approx(prof.std(), rel=1e-12)
+    assert out["open_layer_fraction"] == pytest.approx(0.7)
+    assert out["layer_porosity_min"] == 0.0
