@@ -352,8 +352,9 @@ def geometry_summary(path: Path, per_seed: bool = False) -> str:
         cells = [key[0], key[1], str(key[2]) if per_seed else str(len(rs))]
         for _, names, scale, fmt in GEOMETRY_COLUMNS:
             names = names if isinstance(names, tuple) else (names,)
-            vals = [scale * np.mean([r[n] for r in rs]) for n in names]
-            cells.append(" / ".join(format(v, fmt) for v in vals))
+            vals = [[r[n] for r in rs if n in r] for n in names]
+            ok = all(vals)
+            cells.append(" / ".join(format(scale * np.mean(v), fmt) for v in vals) if ok else "-")
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
 
