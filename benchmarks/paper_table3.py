@@ -217,11 +217,12 @@ def run_mirror(spec_path: Path, method: str, seed: int, direction: str, voxel: f
 
 
 def _ci95(x: np.ndarray) -> float:
-    from scipy.stats import t
+    """Half-width of the 95 % CI of the mean (Student t, n - 1 dof; NaN for n < 2)."""
+    from psdesign.analysis.replicates import t_quantile_975
 
     if len(x) < 2:
         return float("nan")
-    return float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
+    return float(t_quantile_975(len(x) - 1) * np.std(x, ddof=1) / np.sqrt(len(x)))
 
 
 def _key(r: dict) -> tuple:

@@ -1,0 +1,400 @@
+"""Paper Table III on the voxel route: GA RVEs, 5 seeds, K_x, K_y, K_z, periodic and permeameter BC.
+
+Usage::
+
+    nice -n 5 python benchmarks/paper_table3_voxel.py run --kinds straight bent --seeds 1 2 3 4 5 \
+        --bcs periodic --directions z x y --cache /tmp/table3 \
+        --out benchmarks/paper_table3_voxel_runs.jsonl
+    python benchmarks/paper_table3_voxel.py summary benchmarks/paper_table3_voxel_runs.jsonl
+    nice -n 5 python benchmarks/paper_table3_voxel.py geometry --kinds straight --methods ga fast \
+        --seeds 1 2 3 --cache /tmp/table3 --out benchmarks/paper_table3_geometry.jsonl
+
+``run``: one RVE generation per (kind, method, seed, size), pickled in ``--cache`` and reused by
+every BC and direction; every solve is cached as its own JSON file (``--cache``/solves), so a
+stopped run resumes where it stopped, and is appended to ``--out`` once. ``--bc-tag`` names the
+permeameter definition in the record (the definition may change between code versions).
+``geometry``: what the generator actually produced (orientation, overlap, clustering by
+nearest-neighbour fibre-axis distances, pore sizes by local thickness), no solve.
+``summary``: mean +- 95 % CI (Student t, n - 1 dof) per (kind, method, size, bc, direction).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import paper_table3 as t3  # noqa: E402  (the shared helpers: cache, pore statistics, CI)
+
+ROOT = t3.ROOT
+PAPER_IN_PLANE = {"straight": 1.21e-11, "bent": 1.11e-11}
+
+
+def _spec(kind: str, method: str, seed: int, size: float | None) -> dict:
+    from psdesign.schema.spec import load_spec
+
+    spec = load_spec(ROOT / "studies" / "table3" / f"{kind}.toml")
+    if size is not None:
+        spec["rve"] = {**spec["rve"], "size": [size, size, size]}
+    spec["generator"] = {**spec["generator"], "seed": seed}
+    spec["intersections"] = {**spec.get("intersections", {}), "method": method}
+    if method == "ga":
+        spec["intersections"]["min_gap"] = 0.0
+    return spec
+
+
+def build(kind: str, method: str, seed: int, size: float | None, cache: str):
+    """The built RVE of one seed (GA or fast), generated once and pickled in ``cache``."""
+    from psdesign.packing.build import build_rve
+
+    t3.CACHE_DIR = cache
+    t0 = time.perf_counter()
+    built = t3._cached_build(_spec(kind, method, seed, size), build_rve)
+    return built, time.perf_counter() - t0
+
+
+def _solve_path(cache: str, key: dict) -> Path:
+    name = "_".join(f"{k}-{key[k]}" for k in sorted(key))
+    return Path(cache) / "solves" / f"{name}.json"
+
+
+def solve_one(built, fields, direction: str, bc: str, tol: float) -> dict:
+    """One voxel solve: K along ``direction`` with ``bc`` to relative residual ``tol``."""
+    from psdesign.flow.permeability import permeability
+    from psdesign.schema.spec import load_spec
+
+    flow = {**load_spec(ROOT / "studies" / "table3" / "straight.toml")["flow"]}
+    flow.update(solver="voxel", bc=bc, tol=tol)
+    r = permeability(built.rve, fields, direction, flow, solver="voxel", error_estimate=False)
+    keep = (
+        "permeability_m2",
+        "converged",
+        "iterations",
+        "residual",
+        "wall_time_s",
+        "face_mismatch",
+        "cells_per_diameter",
+        "n_cells",
+        "permeability_column_m2",
+        "pressure_drop_rve_pa",
+        "pressure_drop_faces_pa",
+        "pressure_drop_applied_pa",
+        "pressure_drop_plane_window_pa",
+        "pressure_drop_definition",
+        "aux_length",
+        "sides",
+        "permeameter_copies",
+        "geometry_periodic_along_flow",
+        "warnings",
+    )
+    return {k: r[k] for k in keep if k in r}
+
+
+def run(a) -> int:
+    """Every (kind, seed, bc, direction) solve not yet cached; one generation per seed."""
+    for kind in a.kinds:
+        for seed in a.seeds:
+            built, t_gen = build(kind, a.method, seed, a.size, a.cache)
+            fields = None
+            size = float(built.rve.size[0])
+            for bc in a.bcs:
+                tag = a.bc_tag if bc == "permeameter" else "periodic"
+                for d in a.directions:
+                    key = {"kind": kind, "method": a.method, "seed": seed, "size": f"{size:.3g}"}
+                    key.update(voxel=f"{a.voxel:.3g}", bc=tag, dir=d)
+                    path = _solve_path(a.cache, key)
+                    if path.exists():
+                        continue
+                    if fields is None:
+                        fields = built.rve.voxelize(a.voxel)
+                    rec = {**key, "size_m": size, "voxel_m": a.voxel, "bc_model": bc}
+                    rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
+                    rec.update(n_fibers=len(built.rve.fibers), generation_s=t_gen)
+                    rec["tol"] = a.tol
+                    rec.update(solve_one(built, fields, d, bc, a.tol))
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    path.write_text(json.dumps(rec))
+                    with open(a.out, "a") as fh:
+                        fh.write(json.dumps(rec) + "\n")
+                    print(json.dumps({k: rec[k] for k in ("kind", "seed", "bc", "dir")}), end=" ")
+                    print(f"K = {rec['permeability_m2']:.4e} ({rec['wall_time_s']:.0f} s)")
+                    sys.stdout.flush()
+    return 0
+
+
+# ---------------------------------------------------------------- geometry of the generator
+def axis_points(rve, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points every ``step`` (m) along every fibre's medial axis inside the box, and labels."""
+    pts, lab = [], []
+    for i, lines in enumerate(rve.medial_axes_m()):
+        for line in lines:
+            for p, q in zip(line[:-1], line[1:], strict=True):
+                n = max(1, int(np.ceil(np.linalg.norm(q - p) / step)))
+                s = (np.arange(n) + 0.5) / n
+                pts.append(p + np.outer(s, q - p))
+                lab.append(np.full(n, i))
+    return np.concatenate(pts), np.concatenate(lab)
+
+
+def orientation_stats(rve, step: float = 0.5e-6) -> dict:
+    """Length-weighted orientation of the axes inside the box: tensor, tilt, in-plane angle.
+
+    The axis segments inside the box weigh by their length (what the flow sees); tilt is the
+    angle out of the x-y plane, ``phi`` the in-plane angle in [0, 180) deg from x.
+    """
+    seg_d, seg_w = [], []
+    for lines in rve.medial_axes_m():
+        for line in lines:
+            d = np.diff(line, axis=0)
+            seg_d.append(d)
+            seg_w.append(np.linalg.norm(d, axis=1))
+    d = np.concatenate(seg_d)
+    w = np.concatenate(seg_w)
+    p = d / w[:, None]
+    a = np.einsum("n,ni,nj->ij", w, p, p) / w.sum()
+    tilt = np.degrees(np.arcsin(np.clip(np.abs(p[:, 2]), 0.0, 1.0)))
+    phi = np.degrees(np.arctan2(p[:, 1], p[:, 0])) % 180.0
+    hist, _ = np.histogram(phi, bins=np.arange(0.0, 181.0, 15.0), weights=w)
+    # circular (doubled-angle) in-plane order: 0 = isotropic in plane, 1 = aligned
+    c = np.sum(w * np.cos(np.radians(2 * phi))) / w.sum()
+    s = np.sum(w * np.sin(np.radians(2 * phi))) / w.sum()
+    return {
+        "a_tensor": a.tolist(),
+        "a_xx": float(a[0, 0]),
+        "a_yy": float(a[1, 1]),
+        "a_zz": float(a[2, 2]),
+        "tilt_mean_deg": float(np.sum(w * tilt) / w.sum()),
+        "tilt_rms_deg": float(np.sqrt(np.sum(w * tilt**2) / w.sum())),
+        "tilt_max_deg": float(tilt.max()),
+        "phi_hist_15deg": (hist / hist.sum()).tolist(),
+        "phi_order": float(np.hypot(c, s)),
+        "phi_mean_deg": float(np.degrees(np.arctan2(s, c)) / 2 % 180.0),
+        "axis_length_m": float(w.sum()),
+    }
+
+
+def clustering_stats(rve, step: float = 0.5e-6) -> dict:
+    """Nearest-neighbour distances between fibre axes (clustering of the solid).
+
+    For each axis point the distance to the nearest axis point of *another* fibre (m); per
+    fibre the smallest of those (its nearest neighbour). Axis distance minus D < 0 means the
+    two fibres overlap there; ``contact_fraction``: share of axis length within D of another
+    axis (overlapping or touching).
+    """
+    from scipy.spatial import cKDTree
+
+    pts, lab = axis_points(rve, step)
+    dia = float(min(fb.diameter for fb in rve.fibers)) * float(rve.period)
+    near = np.empty(len(pts))
+    for i in np.unique(lab):
+        mine = lab == i
+        near[mine] = cKDTree(pts[~mine]).query(pts[mine], k=1)[0]
+    per_fibre = np.array([near[lab == i].min() for i in np.unique(lab)])
+    return {
+        "nn_axis_mean_m": float(per_fibre.mean()),
+        "nn_axis_median_m": float(np.median(per_fibre)),
+        "nn_axis_gap_min_m": float(per_fibre.min() - dia),
+        "point_nn_median_m": float(np.median(near)),
+        "point_nn_p10_m": float(np.percentile(near, 10)),
+        "point_nn_p90_m": float(np.percentile(near, 90)),
+        "contact_fraction": float(np.mean(near <= dia)),
+        "overlap_axis_fraction": float(np.mean(near < dia * (1 - 1e-3))),
+    }
+
+
+def layering_stats(fields) -> dict:
+    """The solid's layering along z: porosity of each voxel layer (what in-plane flow sees).
+
+    ``layer_porosity_std``: standard deviation of the layer porosities; ``open_layer_fraction``:
+    share of layers with porosity above 0.9 (in-plane channels).
+    """
+    prof = (~fields.solid).mean(axis=(0, 1))
+    return {
+        "layer_porosity_std": float(prof.std()),
+        "layer_porosity_max": float(prof.max()),
+        "layer_porosity_min": float(prof.min()),
+        "open_layer_fraction": float(np.mean(prof > 0.9)),
+    }
+
+
+def geometry(a) -> int:
+    """Generator statistics per (kind, method, seed): orientation, overlap, clustering, pores."""
+    for kind in a.kinds:
+        for method in a.methods:
+            for seed in a.seeds:
+                built, t_gen = build(kind, method, seed, a.size, a.cache)
+                fields = built.rve.voxelize(a.voxel)
+                rec = {"kind": kind, "method": method, "seed": seed, "voxel_m": a.voxel}
+                rec.update(size_m=float(built.rve.size[0]), n_fibers=len(built.rve.fibers))
+                rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
+                rec["generation_s"] = t_gen
+                rec["generation"] = {
+                    k: built.report.get(k)
+                    for k in ("omega_after", "center_z_m", "rotation_deg", "displacement_m")
+                }
+                rec.update(orientation_stats(built.rve))
+                rec.update(clustering_stats(built.rve))
+                rec.update(layering_stats(fields))
+                rec.update(t3.pore_statistics(fields.solid, a.voxel))
+                rec["clustering_cv_10um"] = t3.clustering_cv(
+                    fields.solid, max(1, int(round(10e-6 / a.voxel)))
+                )
+                with open(a.out, "a") as fh:
+                    fh.write(json.dumps(rec) + "\n")
+                print(
+                    kind,
+                    method,
+                    seed,
+                    f"eps={rec['porosity']:.4f} Omega={rec['omega']:.4f}",
+                    f"a_xx={rec['a_xx']:.3f} a_yy={rec['a_yy']:.3f} a_zz={rec['a_zz']:.4f}",
+                    f"nn={1e6 * rec['nn_axis_mean_m']:.2f}um d50={1e6 * rec['pore_d50_m']:.1f}",
+                )
+                sys.stdout.flush()
+    return 0
+
+
+# ---------------------------------------------------------------- summary
+def _rows(path: Path) -> list[dict]:
+    return [json.loads(s) for s in path.read_text().splitlines() if s.strip()]
+
+
+def _cell(k: np.ndarray, ref: float | None, fmt: str = ".3e") -> str:
+    """``mean +- 95 % CI (vs ref)``; the CI is Student's t with n - 1 dof."""
+    ci = f" +- {format(t3._ci95(k), fmt)}" if len(k) > 1 else ""
+    vs = f" ({100 * (k.mean() / ref - 1):+.0f} %)" if ref else ""
+    return f"{format(k.mean(), fmt)}{ci}{vs}"
+
+
+def summary(path: Path) -> str:
+    """Markdown: per (kind, method, size, voxel, bc) the mean +- 95 % CI of K_z, K_x, K_y."""
+    rows = _rows(path)
+    groups: dict = {}
+    for r in rows:
+        key = (r["kind"], r["method"], r["size"], r["voxel"], r["bc"])
+        groups.setdefault(key, {}).setdefault(r["dir"], {})[r["seed"]] = r["permeability_m2"]
+    out = [
+        "| kind | method | size (um) | voxel (um) | bc | n | K_z (m^2) | K_x (m^2) | K_y (m^2) "
+        "| (K_x+K_y)/2 (m^2) | K_in / K_z |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for (kind, method, size, voxel, bc), by_dir in sorted(groups.items()):
+        cells = [kind, method, f"{1e6 * float(size):.0f}", f"{1e6 * float(voxel):.2g}", bc]
+        seeds = sorted(set().union(*[set(v) for v in by_dir.values()]))
+        cells.append(str(len(seeds)))
+        for d in ("z", "x", "y"):
+            k = np.array([by_dir.get(d, {})[s] for s in seeds if s in by_dir.get(d, {})])
+            ref = t3.PAPER.get((kind, d if d != "y" else "x"))
+            cells.append(_cell(k, ref) + f" n={len(k)}" if len(k) else "-")
+        both = [s for s in seeds if s in by_dir.get("x", {}) and s in by_dir.get("y", {})]
+        kin = np.array([(by_dir["x"][s] + by_dir["y"][s]) / 2 for s in both])
+        cells.append(_cell(kin, PAPER_IN_PLANE.get(kind)) if len(kin) else "-")
+        rat = [kin[i] / by_dir["z"][s] for i, s in enumerate(both) if s in by_dir.get("z", {})]
+        paper = 1.21 / 0.807 if kind != "bent" else 1.11 / 0.78
+        cells.append(_cell(np.array(rat), paper, ".3f") if rat else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def per_seed(path: Path) -> str:
+    """Markdown: K per seed, direction and bc, with K_x / K_y."""
+    rows = _rows(path)
+    tab: dict = {}
+    for r in rows:
+        key = (r["kind"], r["method"], r["size"], r["voxel"], r["seed"])
+        tab.setdefault(key, {})[(r["bc"], r["dir"])] = r["permeability_m2"]
+    bcs = sorted({r["bc"] for r in rows})
+    head = [f"{bc} K_{d}" for bc in bcs for d in "zxy"] + [f"{bc} K_x/K_y" for bc in bcs]
+    out = ["| kind | method | size | voxel | seed | " + " | ".join(head) + " |"]
+    out.append("| " + " | ".join(["---"] * (5 + len(head))) + " |")
+    for (kind, method, size, voxel, seed), v in sorted(tab.items()):
+        cells = [kind, method, f"{1e6 * float(size):.0f}", f"{1e6 * float(voxel):.2g}", str(seed)]
+        cells += [f"{v[(bc, d)]:.3e}" if (bc, d) in v else "-" for bc in bcs for d in "zxy"]
+        for bc in bcs:
+            ok = (bc, "x") in v and (bc, "y") in v
+            cells.append(f"{v[(bc, 'x')] / v[(bc, 'y')]:.3f}" if ok else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+GEOMETRY_COLUMNS = (
+    ("porosity", "porosity", 1.0, ".4f"),
+    ("Omega (%)", "omega", 100.0, ".2f"),
+    ("n fibres", "n_fibers", 1.0, ".0f"),
+    ("pore d10 / d50 / d90 (um)", ("pore_d10_m", "pore_d50_m", "pore_d90_m"), 1e6, ".1f"),
+    ("pore mean (um)", "pore_mean_m", 1e6, ".2f"),
+    ("solid CV 10 / 20 um", ("clustering_cv_10um", "clustering_cv_20um"), 1.0, ".3f"),
+    ("NN axis distance mean / median (um)", ("nn_axis_mean_m", "nn_axis_median_m"), 1e6, ".2f"),
+    ("axis point NN p10 / p50 / p90 (um)", ("point_nn_p10_m", "point_nn_median_m",
+                                           "point_nn_p90_m"), 1e6, ".2f"),
+    ("axis length in contact (%)", "contact_fraction", 100.0, ".1f"),
+    ("a_xx / a_yy / a_zz", ("a_xx", "a_yy", "a_zz"), 1.0, ".3f"),
+    ("tilt rms / max (deg)", ("tilt_rms_deg", "tilt_max_deg"), 1.0, ".2f"),
+    ("in-plane order", "phi_order", 1.0, ".3f"),
+    ("z-layer porosity std / max", ("layer_porosity_std", "layer_porosity_max"), 1.0, ".3f"),
+)  # fmt: skip
+
+
+def geometry_summary(path: Path, per_seed: bool = False) -> str:
+    """Markdown: the generator statistics, mean over seeds per (kind, method) or per seed."""
+    rows = _rows(path)
+    groups: dict = {}
+    for r in rows:
+        key = (r["kind"], r["method"]) + ((r["seed"],) if per_seed else ())
+        groups.setdefault(key, []).append(r)
+    head = ["kind", "method", "seed" if per_seed else "n"] + [c[0] for c in GEOMETRY_COLUMNS]
+    out = ["| " + " | ".join(head) + " |", "| " + " | ".join(["---"] * len(head)) + " |"]
+    for key, rs in sorted(groups.items()):
+        cells = [key[0], key[1], str(key[2]) if per_seed else str(len(rs))]
+        for _, names, scale, fmt in GEOMETRY_COLUMNS:
+            names = names if isinstance(names, tuple) else (names,)
+            vals = [[r[n] for r in rs if n in r] for n in names]
+            ok = all(vals)
+            cells.append(" / ".join(format(scale * np.mean(v), fmt) for v in vals) if ok else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--kinds", nargs="+", default=["straight", "bent"])
+    r.add_argument("--method", default="ga", choices=("ga", "fast", "none"))
+    r.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
+    r.add_argument("--bcs", nargs="+", default=["periodic"], choices=("periodic", "permeameter"))
+    r.add_argument("--bc-tag", default="permeameter", help="name of the permeameter definition")
+    r.add_argument("--directions", nargs="+", default=["z", "x", "y"])
+    r.add_argument("--voxel", type=float, default=0.5e-6)
+    r.add_argument("--tol", type=float, default=1e-4, help="solver relative residual")
+    r.add_argument("--size", type=float, default=None, help="cube edge (m), default the spec's")
+    r.add_argument("--cache", required=True)
+    r.add_argument("--out", required=True)
+    g = sub.add_parser("geometry")
+    g.add_argument("--kinds", nargs="+", default=["straight"])
+    g.add_argument("--methods", nargs="+", default=["ga", "fast"], choices=("ga", "fast", "none"))
+    g.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    g.add_argument("--voxel", type=float, default=1e-6)
+    g.add_argument("--size", type=float, default=None)
+    g.add_argument("--cache", required=True)
+    g.add_argument("--out", required=True)
+    s = sub.add_parser("summary")
+    s.add_argument("path")
+    s.add_argument("--per-seed", action="store_true")
+    s.add_argument("--geometry", action="store_true", help="PATH is a geometry jsonl")
+    a = p.parse_args(argv)
+    if a.cmd == "summary":
+        if a.geometry:
+            print(geometry_summary(Path(a.path), a.per_seed))
+        else:
+            print(per_seed(Path(a.path)) if a.per_seed else summary(Path(a.path)))
+        return 0
+    return run(a) if a.cmd == "run" else geometry(a)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

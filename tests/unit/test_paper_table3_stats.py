@@ -1,0 +1,75 @@
+"""The fibre-structure statistics of ``benchmarks/paper_table3_voxel.py`` on closed-form layouts.
+
+Two parallel rods a known distance apart (nearest-neighbour axis distance, contact fraction),
+rods along x and along y (orientation tensor and in-plane angle), a tilted rod (tilt angle).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psdesign.geometry.fibers import make_fiber
+from psdesign.geometry.rve import RVE
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def stats():
+    path = ROOT / "benchmarks" / "paper_table3_voxel.py"
+    spec = importlib.util.spec_from_file_location("paper_table3_voxel", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _rve(fibers) -> RVE:
+    return RVE(size=np.array([100e-6] * 3), fibers=fibers)
+
+
+def test_nearest_neighbour_axis_distance_of_two_parallel_rods(stats):
+    d = 0.07  # 7 um in a 100 um period
+    a = make_fiber("rod", diameter=d, center=[0.5, 0.30, 0.5], direction=[1, 0, 0])
+    b = make_fiber("rod", diameter=d, center=[0.5, 0.42, 0.5], direction=[1, 0, 0])
+    out = stats.clustering_stats(_rve([a, b]), step=0.5e-6)
+    assert out["nn_axis_mean_m"] == pytest.approx(12e-6, rel=1e-6)
+    assert out["nn_axis_gap_min_m"] == pytest.approx(5e-6, rel=1e-6)
+    assert out["contact_fraction"] == 0.0
+    c = make_fiber("rod", diameter=d, center=[0.5, 0.35, 0.5], direction=[1, 0, 0])
+    out = stats.clustering_stats(_rve([a, c]), step=0.5e-6)
+    assert out["nn_axis_gap_min_m"] == pytest.approx(-2e-6, rel=1e-6)  # 2 um overlap
+    assert out["overlap_axis_fraction"] == 1.0
+
+
+def test_orientation_of_crossed_and_tilted_rods(stats):
+    d = 0.07
+    x = make_fiber("rod", diameter=d, center=[0.5, 0.3, 0.3], direction=[1, 0, 0])
+    y = make_fiber("rod", diameter=d, center=[0.3, 0.5, 0.7], direction=[0, 1, 0])
+    out = stats.orientation_stats(_rve([x, y]))
+    assert out["a_xx"] == pytest.approx(0.5, abs=1e-9)
+    assert out["a_yy"] == pytest.approx(0.5, abs=1e-9)
+    assert out["a_zz"] == pytest.approx(0.0, abs=1e-12)
+    assert out["phi_order"] == pytest.approx(0.0, abs=1e-9)  # isotropic in plane
+    t = np.radians(4.0)
+    tilted = make_fiber("rod", diameter=d, center=[0.5] * 3, direction=[np.cos(t), 0, np.sin(t)])
+    out = stats.orientation_stats(_rve([tilted]))
+    assert out["tilt_max_deg"] == pytest.approx(4.0, abs=1e-6)
+    assert out["a_zz"] == pytest.approx(np.sin(t) ** 2, rel=1e-6)
+    assert out["phi_order"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_layering_of_a_solid_slab(stats):
+    class Fields:  # only ``solid`` is read
+        solid = np.zeros((4, 4, 10), bool)
+
+    Fields.solid[:, :, :2] = True  # two solid layers, eight empty ones
+    Fields.solid[:2, :, 5] = True  # one half-solid layer
+    out = stats.layering_stats(Fields)
+    prof = np.array([0, 0, 1, 1, 1, 0.5, 1, 1, 1, 1])
+    assert out["layer_porosity_std"] == pytest.approx(prof.std(), rel=1e-12)
+    assert out["open_layer_fraction"] == pytest.approx(0.7)
+    assert out["layer_porosity_min"] == 0.0
