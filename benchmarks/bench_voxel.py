@@ -268,8 +268,8 @@ def iteration_bytes(op, fused: bool = True) -> float:
     ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
     if op.w is not None:
         ops += 12.0
-    apply = ops + 3 * vec4  # z, K z, r1
-    lanczos = 4 * vec4
+    apply = ops + 3 * vec4  # z read; r1 read and overwritten by s K z - c1 r1 (in place)
+    lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
     prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
     dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
     update = 4 * vec4 + 2 * 32.0  # z, w read; w1 read + written; x (float64) read + written
