@@ -106,7 +106,7 @@ def _reach(fb: Fiber, max_shift: float, u_max: float) -> float:
 class _Problem:
     """Contact zone, variables and cached per-fiber fields of one relaxation."""
 
-    def __init__(self, fibers, points, h, gap, max_shift, u_max, weights) -> None:
+    def __init__(self, fibers, points, h, gap, max_shift, u_max, weights, tie_bend=False):
         self.fibers, self.h, self.gap = list(fibers), float(h), float(gap)
         self.w1, self.w3 = float(weights[0]), float(weights[2])
         phi = np.array([fb.field(points) for fb in self.fibers])
@@ -144,12 +144,24 @@ class _Problem:
                 np.searchsorted(self.local[j], idx),
             )
         self.bends = np.array([can_bend(self.fibers[k]) for k in self.movable], bool)
-        self.nvar = 2 * len(self.movable) + int(self.bends.sum())
+        # tied: one change of |u| shared by every bending fiber (Sec. 6.2's "same absolute
+        # value of minor moment u"), signed like each fiber's own u
+        self.tied = bool(tie_bend and self.bends.any())
+        self.sign = {
+            int(k): (1.0 if self.fibers[k].u >= 0 else -1.0)
+            for k, b in zip(self.movable, self.bends, strict=True)
+            if b
+        }
         self.cache: dict = {}
         lo, names = [], []
         for k, b in zip(self.movable, self.bends, strict=True):
-            lo += [-max_shift, -max_shift] + ([-u_max] if b else [])
-            names += [f"t1[{k}]", f"t2[{k}]"] + ([f"u[{k}]"] if b else [])
+            own = b and not self.tied
+            lo += [-max_shift, -max_shift] + ([-u_max] if own else [])
+            names += [f"t1[{k}]", f"t2[{k}]"] + ([f"u[{k}]"] if own else [])
+        if self.tied:
+            lo.append(-u_max)
+            names.append("|u|")
+        self.nvar = len(lo)
         self.lower = np.array(lo, float)
         self.upper = -self.lower
         self.names = names
@@ -157,10 +169,16 @@ class _Problem:
     def split(self, x: np.ndarray) -> dict:
         """Per movable fiber, its ``(t1, t2, du)``."""
         out, p = {}, 0
+        common = float(x[-1]) if self.tied else 0.0
         for k, b in zip(self.movable, self.bends, strict=True):
-            du = float(x[p + 2]) if b else 0.0
+            if self.tied:
+                du = self.sign[int(k)] * common if b else 0.0
+                p_next = p + 2
+            else:
+                du = float(x[p + 2]) if b else 0.0
+                p_next = p + (3 if b else 2)
             out[int(k)] = (float(x[p]), float(x[p + 1]), du)
-            p += 3 if b else 2
+            p = p_next
         return out
 
     def _phi(self, k: int, v: tuple) -> np.ndarray:
@@ -216,6 +234,7 @@ def relax_contacts(
     max_iter: int = 200,
     max_evals: int = 4000,
     min_step: float = 1e-3,
+    tie_bend: bool = False,
 ) -> ContactRelaxResult:
     """Remove the contacts of an implicit fiber set by small shifts and bends (Sec. 6).
 
@@ -238,6 +257,9 @@ def relax_contacts(
         Sec. 6 weights; w2 (surface interaction) is not used for fiber sets.
     max_iter, max_evals, min_step
         Pattern-search limits.
+    tie_bend : bool
+        One change of ``|u|`` for every fiber with a bend term (each keeps its sign), as the
+        paper ties its woven yarns (Sec. 6.2); default: a change per fiber.
 
     Returns
     -------
@@ -249,7 +271,7 @@ def relax_contacts(
     pts = grid_points(lo, hi, h)
     gap0 = min_pair_gap(fibers, pts)
     om0 = overlap_fraction(fibers, pts)
-    prob = _Problem(fibers, pts, h, gap, max_shift, u_max, weights)
+    prob = _Problem(fibers, pts, h, gap, max_shift, u_max, weights, tie_bend)
     x0 = np.zeros(prob.nvar)
     if prob.nvar == 0:
         return ContactRelaxResult(
@@ -287,7 +309,7 @@ def relax_contacts(
 
 # ------------------------------------------------------------------ specs
 #: Options of ``[forcefield.relax]`` used only by this route (metres).
-FIELD_KEYS = {"grid", "gap"}
+FIELD_KEYS = {"grid", "gap", "tie_bend"}
 
 
 def placement_angles(fb: Fiber) -> tuple[float, float]:
@@ -397,6 +419,10 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
         "grid_m": h_m,
-        "free_variables": {"max_shift_m": kw["max_shift"] * period, "u_max": kw["u_max"]},
+        "free_variables": {
+            "max_shift_m": kw["max_shift"] * period,
+            "u_max": kw["u_max"],
+            "tie_bend": bool(kw.get("tie_bend", False)),
+        },
         "surface_term": "change of shape (bend moment and shift)",
     }

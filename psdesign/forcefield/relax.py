@@ -35,7 +35,7 @@ from psdesign.packing.genetic import analytic_omega
 
 RELAX_KEYS = {"max_shift", "u_max", "f", "weights", "max_iter", "max_evals", "min_step"}
 #: Keys of the field route (woven / compressed fibers, :mod:`psdesign.forcefield.contact`).
-FIELD_ONLY_KEYS = {"grid", "gap"}
+FIELD_ONLY_KEYS = {"grid", "gap", "tie_bend"}
 
 
 @dataclass
@@ -237,8 +237,9 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     fibers), contacts measured on the fibers' fields (:mod:`psdesign.forcefield.contact`).
 
     ``options`` as :func:`relax_spec` (``f`` unused) plus ``grid`` (step of the volume term,
-    metres, default a fifth of the thinnest fiber) and ``gap`` (clearance asked for, metres,
-    default the grid step).
+    metres, default a fifth of the thinnest fiber), ``gap`` (clearance asked for, metres,
+    default the grid step) and ``tie_bend`` (one change of ``|u|`` shared by every fiber
+    with a bend term, as Sec. 6.2 ties its woven yarns; default false).
     """
     from psdesign.forcefield.contact import field_summary, relax_rve_fields, relaxed_fibers_toml
     from psdesign.io.atomic import staged_directory, write_json
@@ -257,6 +258,10 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
         max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
         min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
     )
+    tie = options.get("tie_bend", False)
+    if not isinstance(tie, bool):
+        raise SpecError("forcefield.relax.tie_bend", f"must be true or false, got {tie!r}")
+    kw["tie_bend"] = tie
     grid = _num(options, "grid", dmin / 5.0, 1e-3 * dmin, dmin) if "grid" in options else None
     gap = _num(options, "gap", 0.0, 0.0, dmin) if "gap" in options else None
     relaxed, res = relax_rve_fields(rve, kw, grid, gap)

@@ -93,12 +93,6 @@ def load_forcefield_spec(path: str | Path) -> dict:
                 key, f"unknown table{did_you_mean(key, ['forcefield'])} (allowed: forcefield)"
             )
     ff = data.get("forcefield")
-    if "rve" in data:  # an RVE spec: relax its fiber set (psdesign.forcefield.relax)
-        ff = {} if ff is None else ff
-        if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
-            raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
-        spec = {k: v for k, v in data.items() if k != "forcefield"}
-        return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     if not isinstance(ff, dict):
         raise SpecError(
             "forcefield", "missing [forcefield] table (allowed: [forcefield] case = ...)"

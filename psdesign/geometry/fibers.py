@@ -568,6 +568,16 @@ def woven_table_i() -> np.ndarray:
     return t
 
 
+#: Sign of the Eq. (19) minor moment of the weft fibers (Table I rows 4-6). Across the cell the
+#: wefts lie in the order row 6, row 4, row 5 (lateral 0.204, -0.115, -0.433 in their own frame,
+#: i.e. x = 0.296, 0.615, 0.933 when the fabric is in the x-y plane); Sec. 6.2 asks adjacent
+#: fibers in the same direction for opposite u, and of the two alternating choices this one
+#: crosses every warp on the other side of it (the plain weave of Fig. 10; the other one puts
+#: every weft on the warps' side). Row 5 alone flipped (the reading before 2026-12-01) leaves
+#: row 6 on the warps' side at its three crossings (Omega 1.3 % instead of 0.6 %).
+WOVEN_WEFT_SIGNS = (1.0, -1.0, -1.0)
+
+
 def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
     """An Eq. (19) fiber (minor moment ``u``) turned by ``R`` and centred at ``center``."""
     base = woven_fiber_model(u=u, constant=-WOVEN_EQ19_ISOVALUE)
@@ -601,8 +611,9 @@ def woven_cell(
     (:func:`woven_table_i`) is read in each fiber's own frame before the rotation: (along the
     axis, across it, through the fabric), added to the cell centre. Rows 1-3 alternate their
     bend by the along-axis shift 0.72 - 0.41 = 0.31 (about half the bend wavelength 2/3);
-    rows 4-6 do not (0.38, 0.33, 0.28), so the middle weft fiber takes the opposite minor
-    moment, as Sec. 6.2 requires of adjacent fibers ("opposite value of minor moment u").
+    rows 4-6 do not (0.38, 0.33, 0.28), so adjacent wefts take opposite minor moments, as
+    Sec. 6.2 requires ("opposite value of minor moment u"), with the signs
+    :data:`WOVEN_WEFT_SIGNS` that interlace them with the warps.
 
     Parameters
     ----------
@@ -634,6 +645,6 @@ def woven_cell(
             fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_warp, u0))
         for j in range(3):
             off = base + rot90 @ table[3 + j]
-            u = -u0 if j == 1 else u0
+            u = WOVEN_WEFT_SIGNS[j] * u0
             fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_weft, u))
     return fibers
