@@ -711,28 +711,3 @@ def dot(a, b):
             s += np.float64(ra[t]) * np.float64(rb[t])
         part[row] = s
     return part.sum()
-
-
-@parallel_kernel(**_OPTS)
-def lanczos_step(t, s, r1, c1, r2, c2, out):
-    """out = s t - c1 r1 - c2 r2 (flat, parallel); out may alias r1."""
-    ft = t.ravel()
-    f1 = r1.ravel()
-    f2 = r2.ravel()
-    fo = out.ravel()
-    for q in nb.prange(fo.size):
-        fo[q] = s * ft[q] - c1 * f1[q] - c2 * f2[q]
-
-
-@parallel_kernel(**_OPTS)
-def minres_update(z, s, w, w1, x, oldeps, delta, denom, phi):
-    """w_new = (s z - oldeps w1 - delta w) / gamma stored in w1 (caller swaps); x += phi w_new
-    (x float64: MINRES accumulates straight into the solution)."""
-    fz = z.ravel()
-    fw = w.ravel()
-    f1 = w1.ravel()
-    fx = x.ravel()
-    for q in nb.prange(fz.size):
-        wn = (s * fz[q] - oldeps * f1[q] - delta * fw[q]) * denom
-        f1[q] = wn
-        fx[q] += phi * wn
