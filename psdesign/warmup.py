@@ -9,7 +9,7 @@ the real solves use, in separate processes so the compilation runs on all cores:
 * ``serial``: the one-thread twins (small grids, ``NUMBA_NUM_THREADS=1``; see
   :mod:`solvers.jit`);
 * ``parallel``: the ``parallel=True`` kernels (grids from
-  :data:`solvers.voxel_stokes.PARALLEL_MIN_CELLS` cells on more than one thread); skipped when
+  :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells on more than one thread); skipped when
   numba has one thread only.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
@@ -47,7 +47,6 @@ def _task(mode: str) -> tuple[str, float]:
     import psdesign.geometry.raster as raster
     import solvers.jit as jit
     import solvers.voxel.threads as vthreads
-    import solvers.voxel_stokes as vs
     from psdesign.flow.permeability import route_result
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import validate_spec
@@ -59,8 +58,7 @@ def _task(mode: str) -> tuple[str, float]:
         numba.set_num_threads(1)
     else:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        vs.PARALLEL_MIN_CELLS = 0
-        vthreads.PARALLEL_MIN_CELLS = 0  # the policy reads this one: all levels parallel
+        vthreads.PARALLEL_MIN_CELLS = 0  # all grids and levels parallel
         jit.COMPILE_PARALLEL_ABOVE = 0  # compile the parallel kernels, not their twins
         raster.rasterize_copy.serial_below = 0
     spec = validate_spec(_SPEC)

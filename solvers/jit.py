@@ -4,7 +4,7 @@ Compiling a ``parallel=True`` kernel costs 2-3 times the CPU time of the same fu
 serially (the parfor passes and the gufunc wrapper; measured on the voxel Stokes kernels:
 ``jacobi`` 4.5 s vs 1.9 s, ``stokes_residual_w`` 11.4 s vs 4.3 s), and on one thread the
 parallel version buys nothing.  Small grids run on one thread
-(:data:`solvers.voxel_stokes.PARALLEL_MIN_CELLS`), so a cold start on a small case compiles only
+(:data:`solvers.voxel.threads.PARALLEL_MIN_CELLS`), so a cold start on a small case compiles only
 the serial twins.  Both are compiled lazily on first use (only the specializations a solve
 needs) and cached on disk (``cache=True``); :mod:`psdesign.warmup` fills that cache ahead of
 time.  ``prange`` is a plain ``range`` in the serial twin, so both give the same results up to

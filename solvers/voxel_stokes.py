@@ -76,8 +76,9 @@ sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
 :mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
-grids and multigrid levels below ``PARALLEL_MIN_CELLS`` cells (100 000; a parallel region costs
-up to ~15 ms start-up on a busy machine) run on one numba thread, larger ones on all.
+grids and multigrid levels below :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells
+(100 000; a parallel region costs up to ~15 ms start-up on a busy machine) run on one numba
+thread, larger ones on all.
 
 Kernel design (speed): every stencil kernel walks rows along the last axis through 1-D views
 with branch-free bodies, so LLVM vectorises them (only the two periodic row ends use a wrapping
@@ -668,9 +669,6 @@ def richardson_extrapolate(
 
 # ---------------------------------------------------------------------------------------------
 # solver core (voxel units: h = 1, mu = 1, unit body force)
-
-PARALLEL_MIN_CELLS = vthreads.PARALLEL_MIN_CELLS
-"""Grids with fewer cells run on one numba thread (see :mod:`solvers.voxel.threads`)."""
 
 
 def _check_memory(

@@ -11,7 +11,7 @@ import time
 from psdesign.cli.progress import progress_printer
 
 #: Voxel Stokes solve time per grid cell, one thread and two (measured on the idle 2-core
-#: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel_stokes.PARALLEL_MIN_CELLS``).
+#: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel.threads.PARALLEL_MIN_CELLS``).
 VOXEL_SECONDS_PER_CELL = {1: 9.5e-6, 2: 5.4e-6}
 
 
