@@ -150,6 +150,23 @@ def _num(tab: dict, key: str, default: float, lo: float, hi: float) -> float:
     return float(v)
 
 
+def _search_options(options: dict, dmin: float, period: float) -> dict:
+    """The pattern-search keys of ``[forcefield.relax]`` both relax routes share (move bounds in
+    box units, penalty weights, iteration and evaluation limits), each checked against its range
+    (:class:`SpecError` naming the key)."""
+    w = options.get("weights", [1e10, 1.0, 1.0])
+    if not (isinstance(w, list) and len(w) == 3 and all(isinstance(v, int | float) for v in w)):
+        raise SpecError("forcefield.relax.weights", f"must be three numbers, got {w!r}")
+    return dict(
+        max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
+        u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
+        weights=tuple(float(v) for v in w),
+        max_iter=int(_num(options, "max_iter", 200, 1, 100000)),
+        max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
+        min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
+    )
+
+
 def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     """Relax the fiber set of a validated RVE spec; write relaxed.toml, rve.json, summary.
 
@@ -189,18 +206,8 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     period = rve.period
     lo, hi = rve.box_normalized
     dmin = float(st.diameter.min()) * period
-    w = options.get("weights", [1e10, 1.0, 1.0])
-    if not (isinstance(w, list) and len(w) == 3 and all(isinstance(v, int | float) for v in w)):
-        raise SpecError("forcefield.relax.weights", f"must be three numbers, got {w!r}")
-    kw = dict(
-        max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
-        u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
-        f_straight=_num(options, "f", 1.0, 1e-3, 100.0),
-        weights=tuple(float(v) for v in w),
-        max_iter=int(_num(options, "max_iter", 200, 1, 100000)),
-        max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
-        min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
-    )
+    kw = _search_options(options, dmin, period)
+    kw["f_straight"] = _num(options, "f", 1.0, 1e-3, 100.0)
     res = relax_fibers(st, lo, hi, **kw)
     others = [fb for fb in rve.fibers if fb.shape not in ("rod", "bent-rod")]
     from psdesign.geometry.rve import RVE
@@ -247,17 +254,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
 
     period = float(rve.period)
     dmin = min(float(fb.diameter) for fb in rve.fibers) * period
-    w = options.get("weights", [1e10, 1.0, 1.0])
-    if not (isinstance(w, list) and len(w) == 3 and all(isinstance(v, int | float) for v in w)):
-        raise SpecError("forcefield.relax.weights", f"must be three numbers, got {w!r}")
-    kw = dict(
-        max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
-        u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
-        weights=tuple(float(v) for v in w),
-        max_iter=int(_num(options, "max_iter", 200, 1, 100000)),
-        max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
-        min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
-    )
+    kw = _search_options(options, dmin, period)
     tie = options.get("tie_bend", False)
     if not isinstance(tie, bool):
         raise SpecError("forcefield.relax.tie_bend", f"must be true or false, got {tie!r}")
