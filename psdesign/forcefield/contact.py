@@ -367,16 +367,23 @@ def relaxed_fibers_toml(spec: dict, fibers: list, period: float) -> str:
             from psdesign.errors import SpecError
 
             raise SpecError(f"fibers[{i}]", f"relaxed.toml cannot hold it: {exc}") from None
-    if "flow" in spec:
-        lines += ["", "[flow]"]
-        for k, v in spec["flow"].items():
-            if isinstance(v, str):
-                lines.append(f'{k} = "{v}"')
-            elif isinstance(v, bool):
-                lines.append(f"{k} = {'true' if v else 'false'}")
-            elif isinstance(v, int | float):
-                lines.append(f"{k} = {v!r}")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + flow_table_lines(spec)) + "\n"
+
+
+def flow_table_lines(spec: dict) -> list[str]:
+    """The spec's ``[flow]`` table as TOML lines for a relaxed spec (strings, booleans and
+    numbers; nothing when the spec has none)."""
+    if "flow" not in spec:
+        return []
+    lines = ["", "[flow]"]
+    for k, v in spec["flow"].items():
+        if isinstance(v, str):
+            lines.append(f'{k} = "{v}"')
+        elif isinstance(v, bool):
+            lines.append(f"{k} = {'true' if v else 'false'}")
+        elif isinstance(v, int | float):
+            lines.append(f"{k} = {v!r}")
+    return lines
 
 
 def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):

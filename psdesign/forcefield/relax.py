@@ -290,13 +290,6 @@ def relaxed_spec_toml(spec: dict, others: list, st: FiberState, period: float) -
         lines.append(f"omega = {float(st.omega[i])!r}")
         if bent:
             lines += [f"u = {float(st.u[i])!r}", f"f = {float(st.f[i])!r}"]
-    if "flow" in spec:
-        lines += ["", "[flow]"]
-        for k, v in spec["flow"].items():
-            if isinstance(v, str):
-                lines.append(f'{k} = "{v}"')
-            elif isinstance(v, bool):
-                lines.append(f"{k} = {'true' if v else 'false'}")
-            elif isinstance(v, int | float):
-                lines.append(f"{k} = {v!r}")
-    return "\n".join(lines) + "\n"
+    from psdesign.forcefield.contact import flow_table_lines
+
+    return "\n".join(lines + flow_table_lines(spec)) + "\n"
