@@ -30,8 +30,14 @@ import numpy as np
 
 from psdesign.errors import SpecError
 from psdesign.forcefield.pattern import pattern_search
-from psdesign.packing.fiberset import FiberState, carrier_lengths, find_contacts
-from psdesign.packing.genetic import analytic_omega
+from psdesign.packing.fiberset import (
+    FiberState,
+    build_pieces,
+    carrier_lengths,
+    find_contacts,
+    segment_distance,
+)
+from psdesign.packing.genetic import analytic_omega, crossing_volume
 
 RELAX_KEYS = {"max_shift", "u_max", "f", "weights", "max_iter", "max_evals", "min_step"}
 #: Keys of the field route (woven / compressed fibers, :mod:`psdesign.forcefield.contact`).
@@ -58,6 +64,174 @@ class RelaxResult:
 def bending_area(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Area added by bending, per fiber: ``pi D L (u f)^2 / 4`` (L: carrier length in box)."""
     return np.pi * st.diameter * carrier_lengths(st, lo, hi) * (st.u * st.f) ** 2 / 4.0
+
+
+class _RodEnergy:
+    """``w1 Omega + w3 sum_j S_j`` of :func:`relax_fibers`, evaluated incrementally.
+
+    Each poll of the compass search changes one variable, so one fiber: only that fiber's
+    pairs and its bending area change. The pairs a fiber can form within the move bounds are
+    found once (its *neighbours*: every fiber whose centre line comes within ``(D_i + D_j)/2
+    + reach`` of it) and the centre-line pieces of every fiber are kept; a trial cuts the
+    changed fiber's axis alone and measures it against its neighbours' pieces (the contacts
+    of :func:`find_contacts` restricted to its pairs), and the energy is the reference energy
+    plus the change. The reference (a whole-set evaluation at the start) moves to each point
+    evaluated with more than one fiber changed, one fiber at a time. For fibers of one
+    diameter (their axes are then cut alike) it equals the whole-set evaluation for straight
+    rods; for bent rods it differs only where two pieces of a bent axis share the closest
+    point (a tie that :func:`find_contacts` breaks by its search order and this class by the
+    axis parameter), so that the running energy is a function of the state alone (tests in
+    ``tests/unit/test_forcefield_rods.py``). The result is re-measured on the whole set.
+    """
+
+    def __init__(self, st, movable, lo, hi, reach: float, w1: float, w3: float):
+        self.base, self.movable, self.lo, self.hi = st, np.asarray(movable), lo, hi
+        self.w1, self.w3 = w1, w3
+        self.vol = float(np.prod(hi - lo))
+        self.frames = st.frames.copy()
+        self.state = st.copy()
+        c = find_contacts(st, lo, hi, 0.0, reach=reach)
+        near: dict[int, set] = {int(k): set() for k in movable}
+        for i, j in zip(c.i.tolist(), c.j.tolist(), strict=True):
+            if i in near:
+                near[i].add(j)
+            if j in near:
+                near[j].add(i)
+        self.near = {k: np.array(sorted(v), dtype=np.int64) for k, v in near.items()}
+        self.x = np.zeros(3 * len(movable))
+        self.pair: dict[tuple[int, int], float] = {}
+        # the cut of find_contacts(st, lo, hi, 0.0): margin D_max / 2, pieces of 2 D_max
+        self.dmax = float(st.diameter.max())
+        self.piece = max(2.0 * self.dmax, 0.02)
+        used = set(self.near) | {int(j) for v in self.near.values() for j in v}
+        self.pc = {j: self._pieces(st, j) for j in sorted(used)}
+        self.area = bending_area(self.state, lo, hi)
+        for k in self.near:
+            self._commit(k, *self._row(k, self.state))
+        self.E = w1 * analytic_omega(st, lo, hi) + w3 * float(self.area.sum())
+        self._trial: dict = {}
+
+    def _place(self, s: FiberState, k: int, v: np.ndarray) -> None:
+        """Fiber ``k`` of ``s`` at its variables ``v = (t1, t2, du)``."""
+        l1, l2 = self.frames[k, 1], self.frames[k, 2]
+        s.center[k] = self.base.center[k] + v[0] * l1 + v[1] * l2
+        s.u[k] = self.base.u[k] + v[2]
+        s.shape[k] = "bent-rod" if s.u[k] != 0.0 else self.base.shape[k]
+
+    def _pieces(self, s: FiberState, k: int) -> tuple:
+        """Centre-line pieces of fiber ``k`` alone, cut as :func:`find_contacts` cuts them."""
+        pc = build_pieces(s.subset([k]), self.lo, self.hi, 0.5 * self.dmax, self.piece)
+        return pc.a, pc.b, pc.sag, pc.copy, pc.s_mid
+
+    def _row(self, k: int, s: FiberState) -> tuple[dict, float]:
+        """Crossing volumes of fiber ``k`` with each neighbour, and its bending area.
+
+        The contacts of :func:`find_contacts` restricted to the pairs with ``k``: every piece
+        of ``k`` against every piece of its neighbours, one contact (the closest piece pair)
+        per pair of copies.
+        """
+        one = s.subset([k])
+        area = float(bending_area(one, self.lo, self.hi)[0])
+        a, b, sag, cp, sm = self._pieces(s, k)
+        nb = self.near[k]
+        row = dict.fromkeys(nb.tolist(), 0.0)
+        if len(nb) == 0 or len(a) == 0:
+            return row, area
+        got = [self.pc[j] for j in nb.tolist()]
+        A = np.concatenate([g[0] for g in got])
+        B = np.concatenate([g[1] for g in got])
+        SAG = np.concatenate([g[2] for g in got])
+        # copy key of the neighbour pieces: (neighbour position, its copy) as one integer
+        CP = np.concatenate([m * 4096 + g[3] for m, g in enumerate(got)])
+        OWN = np.concatenate([np.full(len(g[0]), m) for m, g in enumerate(got)])
+        SM = np.concatenate([g[4] for g in got])
+        # candidate piece pairs: midpoints closer than both half lengths + the largest limit
+        ma, mb = 0.5 * (a + b), 0.5 * (A + B)
+        ha = 0.5 * np.linalg.norm(b - a, axis=1)
+        hb = 0.5 * np.linalg.norm(B - A, axis=1)
+        d2 = ((ma[:, None, :] - mb[None, :, :]) ** 2).sum(-1)
+        cut = ha[:, None] + hb[None, :] + self.dmax + sag[:, None] + SAG[None, :]
+        ia, ib = np.nonzero(d2 < cut * cut)
+        if len(ia) == 0:
+            return row, area
+        dist, _, _ = segment_distance(a[ia], b[ia], A[ib], B[ib])
+        dj = s.diameter[nb][OWN[ib]]
+        limit = 0.5 * (s.diameter[k] + dj) + sag[ia] + SAG[ib]
+        hit = np.flatnonzero(dist < limit)
+        if len(hit) == 0:
+            return row, area
+        key = cp[ia[hit]] * (1 << 40) + CP[ib[hit]]
+        # two pieces sharing the closest point (a vertex of a bent axis) tie; take the one
+        # first along the axis of the lower-numbered fiber, then of the other: a pair's
+        # volume is then the same from either fiber's row (a function of the state alone)
+        low = k < nb[OWN[ib[hit]]]
+        s_a, s_b = sm[ia[hit]], SM[ib[hit]]
+        order = np.lexsort(
+            (
+                np.where(low, s_b, s_a),
+                np.where(low, s_a, s_b),
+                np.round((dist - limit)[hit], 12),
+                key,
+            )
+        )
+        first = np.r_[True, key[order][1:] != key[order][:-1]]
+        sel = hit[order[first]]
+        ua = b[ia[sel]] - a[ia[sel]]
+        ub = B[ib[sel]] - A[ib[sel]]
+        ua /= np.linalg.norm(ua, axis=1)[:, None]
+        ub /= np.linalg.norm(ub, axis=1)[:, None]
+        sin_a = np.linalg.norm(np.cross(ua, ub), axis=1)
+        rk = np.full(len(sel), 0.5 * s.diameter[k])
+        v = crossing_volume(dist[sel], rk, 0.5 * dj[sel], sin_a)
+        for m, vol in zip(OWN[ib[sel]].tolist(), v.tolist(), strict=True):
+            row[int(nb[m])] += vol
+        return row, area
+
+    def _delta(self, k: int, row: dict, area: float) -> float:
+        old = sum(self.pair.get((min(k, j), max(k, j)), 0.0) for j in row)
+        return self.w1 * (sum(row.values()) - old) / self.vol + self.w3 * (area - self.area[k])
+
+    def _commit(self, k: int, row: dict, area: float) -> None:
+        for j, v in row.items():
+            self.pair[(min(k, j), max(k, j))] = v
+        self.area[k] = area
+        self.pc[k] = self._pieces(self.state, k)
+
+    def energy(self, x: np.ndarray) -> float:
+        x3, r3 = x.reshape(-1, 3), self.x.reshape(-1, 3)
+        changed = np.flatnonzero(np.any(x3 != r3, axis=1)).tolist()
+        # a fiber whose trial row is at hand moves the reference first (the accepted poll)
+        changed.sort(key=lambda q: (q, x3[q].tobytes()) not in self._trial)
+        while len(changed) > 1:  # move the reference, one fiber at a time
+            p = changed.pop(0)
+            k = int(self.movable[p])
+            self._place(self.state, k, x3[p])
+            got = self._trial.get((p, x3[p].tobytes()))
+            row, area = got if got is not None else self._row(k, self.state)
+            self.E += self._delta(k, row, area)
+            self._commit(k, row, area)
+            self.x[3 * p : 3 * p + 3] = x3[p]
+            self._trial = {}
+        if not changed:
+            return self.E
+        p = changed[0]
+        k = int(self.movable[p])
+        s = self.state
+        keep = (s.center[k].copy(), s.u[k], s.shape[k])
+        self._place(s, k, x3[p])
+        row, area = self._row(k, s)
+        s.center[k], s.u[k], s.shape[k] = keep
+        if len(self._trial) > 256:
+            self._trial = {}
+        self._trial[(p, x3[p].tobytes())] = (row, area)
+        return self.E + self._delta(k, row, area)
+
+    def state_at(self, x: np.ndarray) -> FiberState:
+        """The fiber set at the variables ``x``."""
+        s = self.base.copy()
+        for p, k in enumerate(self.movable.tolist()):
+            self._place(s, k, x[3 * p : 3 * p + 3])
+        return s
 
 
 def relax_fibers(
@@ -96,45 +270,32 @@ def relax_fibers(
     involved = np.unique(np.r_[c.i, c.j]) if len(c) else np.zeros(0, int)
     movable = np.array([k for k in involved if not st.fixed[k]], dtype=np.int64)
     w1, _, w3 = (float(v) for v in weights)
-    base_center, base_u = st.center.copy(), st.u.copy()
-    frames = st.frames.copy()
-
-    def apply(x: np.ndarray) -> FiberState:
-        s = st.copy()
-        if len(movable):
-            x = x.reshape(len(movable), 3)
-            l1, l2 = frames[movable, 1], frames[movable, 2]
-            s.center[movable] = base_center[movable] + x[:, :1] * l1 + x[:, 1:2] * l2
-            s.u[movable] = base_u[movable] + x[:, 2]
-        s.shape = ["bent-rod" if u != 0.0 else sh for u, sh in zip(s.u, s.shape, strict=True)]
-        return s
-
-    def energy(x: np.ndarray) -> float:
-        s = apply(x)
-        return w1 * analytic_omega(s, lo, hi) + w3 * float(bending_area(s, lo, hi).sum())
-
-    x0 = np.zeros(3 * len(movable))
-    lower = np.tile([-max_shift, -max_shift, -u_max], len(movable))
-    upper = -lower
     omega0 = analytic_omega(st, lo, hi)
     if len(movable) == 0:
         return RelaxResult(st, movable, omega0, omega0, 0.0, 0.0, [], True, "no contacts", 0, 0.0)
+    reach = 2.0 * (np.sqrt(2.0) * max_shift + u_max / (2.0 * np.pi))
+    model = _RodEnergy(st, movable, lo, hi, reach, w1, w3)
+    x0 = np.zeros(3 * len(movable))
+    lower = np.tile([-max_shift, -max_shift, -u_max], len(movable))
+    upper = -lower
+    u0 = model.energy(x0)
     res = pattern_search(
-        energy, x0, lower, upper, step=0.25, min_step=min_step, max_iter=max_iter,
+        model.energy, x0, lower, upper, step=0.25, min_step=min_step, max_iter=max_iter,
         max_evals=max_evals,
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds
 
     names = [f"{v}[{k}]" for k in movable for v in ("t1", "t2", "u")]
     on = at_bounds(names, res.x, lower, upper)
-    final = apply(res.x)
+    final = model.state_at(res.x)
+    omega1 = analytic_omega(final, lo, hi)  # the whole set, not the running sum
     return RelaxResult(
         state=final,
         movable=movable,
         omega_before=omega0,
-        omega_after=analytic_omega(final, lo, hi),
-        U_before=energy(x0),
-        U_after=float(res.fun),
+        omega_after=omega1,
+        U_before=u0,
+        U_after=w1 * omega1 + w3 * float(bending_area(final, lo, hi).sum()),
         at_bound=on,
         converged=bool(res.converged and not on),
         message=res.message,
