@@ -23,7 +23,7 @@ touch. The relaxed fibers are written as an explicit RVE spec that ``psdesign pe
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +59,10 @@ class RelaxResult:
     message: str
     n_evals: int
     wall_time_s: float
+    names: list = field(default_factory=list)
+    x: np.ndarray | None = None
+    n_contacts_before: int = 0
+    n_contacts_after: int = 0
 
 
 def bending_area(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -273,6 +277,7 @@ def relax_fibers(
     omega0 = analytic_omega(st, lo, hi)
     if len(movable) == 0:
         return RelaxResult(st, movable, omega0, omega0, 0.0, 0.0, [], True, "no contacts", 0, 0.0)
+    n_before = len(np.unique(np.c_[np.minimum(c.i, c.j), np.maximum(c.i, c.j)], axis=0))
     reach = 2.0 * (np.sqrt(2.0) * max_shift + u_max / (2.0 * np.pi))
     model = _RodEnergy(st, movable, lo, hi, reach, w1, w3)
     x0 = np.zeros(3 * len(movable))
@@ -289,6 +294,8 @@ def relax_fibers(
     on = at_bounds(names, res.x, lower, upper)
     final = model.state_at(res.x)
     omega1 = analytic_omega(final, lo, hi)  # the whole set, not the running sum
+    c1 = find_contacts(final, lo, hi, 0.0)
+    n_after = len(np.unique(np.c_[np.minimum(c1.i, c1.j), np.maximum(c1.i, c1.j)], axis=0))
     return RelaxResult(
         state=final,
         movable=movable,
@@ -297,10 +304,14 @@ def relax_fibers(
         U_before=u0,
         U_after=w1 * omega1 + w3 * float(bending_area(final, lo, hi).sum()),
         at_bound=on,
-        converged=bool(res.converged and not on),
+        converged=bool(res.converged and not on and omega1 == 0.0),
         message=res.message,
         n_evals=res.n_evals,
         wall_time_s=time.perf_counter() - t0,
+        names=names,
+        x=res.x,
+        n_contacts_before=n_before,
+        n_contacts_after=n_after,
     )
 
 
@@ -326,6 +337,16 @@ def _search_options(options: dict, dmin: float, period: float) -> dict:
         max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
         min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
     )
+
+
+def rod_status(res: RelaxResult) -> str:
+    """``at_bound`` (a free variable on its bound), ``contact_left`` (the search stopped with
+    an overlap left), else ``converged`` or ``not_converged`` (a limit stopped it)."""
+    if res.at_bound:
+        return "at_bound"
+    if res.omega_after > 0.0:
+        return "contact_left"
+    return "converged" if res.converged else "not_converged"
 
 
 def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
@@ -382,11 +403,14 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "omega_analytic_after": res.omega_after,
         "U": res.U_after,
         "start": {"U": res.U_before},
+        "n_contacts_before": res.n_contacts_before,
+        "n_contacts_after": res.n_contacts_after,
         "converged": res.converged,
-        "status": "at_bound"
-        if res.at_bound
-        else ("converged" if res.converged else "not_converged"),
+        "status": rod_status(res),
         "at_bound": res.at_bound,
+        "variables": dict(zip(res.names, (float(v) for v in res.x), strict=True))
+        if res.x is not None
+        else {},
         "message": res.message,
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
