@@ -42,6 +42,14 @@ def shipped_specs() -> list[Path]:
     return out
 
 
+def shown(path: Path) -> str:
+    """The path relative to the repository when it lies inside it."""
+    try:
+        return str(path.relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
 def spec_text(path: Path) -> str:
     """The RVE spec of ``path`` as TOML text (a study's inline ``[base]`` tables alone)."""
     text = path.read_text()
@@ -140,7 +148,7 @@ def run_one(
     t0, c0 = time.perf_counter(), time.process_time()
     rc = main(["forcefield", str(spec), "-o", str(out), "--no-pictures"])
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    rec = {"spec": str(path.relative_to(ROOT)), "exit": rc, "n_fibers": len(before.fibers)}
+    rec = {"spec": shown(path), "exit": rc, "n_fibers": len(before.fibers)}
     rec["generate_s"] = gen_s
     rec["voxel_m"] = voxel
     rec["before"] = voxel_state(before, voxel)
@@ -216,7 +224,7 @@ def eval_cost(path: Path, n: int = 300, seed: int = 0) -> dict:
     t_whole = (time.process_time() - t0) / n
     err = np.abs(np.array(inc) - np.array(whole)) / np.abs(np.array(whole))
     return {
-        "spec": str(path.relative_to(ROOT)),
+        "spec": shown(path),
         "n_fibers": len(st),
         "n_movable": len(movable),
         "n_polls": n,
