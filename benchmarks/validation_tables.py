@@ -57,13 +57,16 @@ VOXEL_GRID = {
         ("hex", "along", (0.1, 0.2, 0.3), (30, 52, 60)),
     ],
 }
-#: (array, flow, solid fraction, voxels per spacing, cells along the flow, lattice step / L).
+#: (array, flow, solid fraction, voxels per spacing, cells along the flow, lattice step / L[,
+#: cells across x for flow along]). The hexagonal array along the cylinders is 3 cells wide: one
+#: or two cells wide, the lattice mesher's periodic y faces did not match (PeriodicMeshError,
+#: in-plane mismatch 0.45-0.49, 2026-12-01), three cells wide they do.
 FEM_GRID = {
     False: [
         ("square", "across", 0.2, 40, 3, 0.05),
         ("square", "along", 0.2, 40, 1, 0.05),
         ("hex", "across", 0.2, 52, 3, 0.05),
-        ("hex", "along", 0.2, 52, 1, 0.05),
+        ("hex", "along", 0.2, 52, 1, 0.05, 3),
     ],
     True: [("square", "across", phi, 40, 3, 0.05) for phi in (0.1, 0.2, 0.3, 0.5)]
     + [("square", "along", phi, 40, 1, 0.05) for phi in (0.1, 0.3)]
@@ -166,21 +169,24 @@ def array_tables(full: bool) -> tuple[list[str], list[bool]]:
             if solver == "voxel":
                 cells = PERMEAMETER_CELLS if bc == "permeameter" else 1
                 for kind, flow, phis, ns in VOXEL_GRID[full]:
-                    cases += [(kind, flow, phi, n, cells, None) for phi in phis for n in ns]
+                    cases += [(kind, flow, phi, n, cells, None, 1) for phi in phis for n in ns]
             else:
-                cases = list(FEM_GRID[full])
+                cases = [(*c, 1) if len(c) == 6 else c for c in FEM_GRID[full]]
             if not _wanted(f"{solver}-{bc}"):
                 continue
-            for kind, flow, phi, n, cells, step in cases[::-1] if REVERSE else cases:
+            for kind, flow, phi, n, cells, step, wide in cases[::-1] if REVERSE else cases:
                 along = flow == "along"
                 depth = cells * n if along and (solver == "fem" or cells > 1) else None
-                spec = array_spec(kind, phi, n, n_cells=1 if along else cells, depth_voxels=depth)
+                spec = array_spec(
+                    kind, phi, n, n_cells=wide if along else cells, depth_voxels=depth
+                )
                 if step is not None:
                     spec["flow"]["lattice_step"] = step * 40e-6
                 name = f"{kind} {flow}, phi {phi:g}, {n} voxels/L" + (
                     f", {cells} cells" if cells > 1 or step else ""
                 )
                 name += f", lattice L/{1 / step:g}" if step else ""
+                name += f", {wide} cells wide" if wide > 1 else ""
                 t0 = time.perf_counter()
                 direction = "x" if flow == "across" else "z"
                 res = _cached(f"{solver} {bc} {name}", partial(_solve, spec, direction, solver, bc))
@@ -241,7 +247,17 @@ def accuracy_summary(cover: list) -> list[str]:
             f"{'yes' if mono else '**no**'} |"
         )
     total = sum(len(p) >= 2 for p in cases.values())
-    lines += ["", f"Monotone in {n_mono} of {total} voxel array cases."]
+    lines += [
+        "",
+        f"Monotone in {n_mono} of {total} voxel array cases. Two effects make the others cross "
+        "the published value. (1) The hexagonal cell's width is rounded to whole voxels: "
+        "+0.074 % at 30 voxels per spacing (52 for 51.96), -0.074 % at 52 (90 for 90.07); at "
+        "40 voxels (69 for 69.28, -0.41 %) the periodic K is 0.5-1.2 % below the published "
+        "value (docs/permeability.md), so the rounding alone moves K by about +0.1-0.2 % at 30 "
+        "and -0.1-0.2 % at 52: the size of the sign changes in the hexagonal rows. (2) The "
+        "sub-voxel walls converge at second order on average with a scatter of +-0.1-0.5 % "
+        "(docs/permeability.md, 'Floor'), as in square across at 0.3.",
+    ]
     return lines
 
 
@@ -377,10 +393,10 @@ def main(argv: list[str] | None = None) -> int:
         "--cache-only", action="store_true", help="write the file from --cache without solving"
     )
     ap.add_argument("--reverse", action="store_true", help="rows of a section last first")
-    ap.add_argument("--load", default=LOAD, help="machine load during the runs (header text)")
+    ap.add_argument("--load", default=None, help="machine load during the runs (header text)")
     args = ap.parse_args(argv)
     global CACHE, ONLY, CACHE_ONLY, REVERSE, LOAD
-    LOAD = args.load
+    LOAD = args.load or LOAD
     REVERSE = args.reverse
     CACHE_ONLY = args.cache_only
     CACHE = None if args.cache is None else Path(args.cache)
