@@ -7,9 +7,10 @@ Two boundary-condition models (``flow.bc``, see ``docs/permeability.md``):
     (:func:`psdesign.meshing.pore_mesh.mesh_pore_space`), Taylor-Hood Stokes with prescribed
     pressures (:func:`solvers.fem_stokes.solve_stokes`). The pressure drop across the RVE is
     defined by the windowed dissipation (section "FEM permeameter: definition of the pressure
-    drop"): ``dp = 2 Phi_w / Q`` with ``Phi_w = int w mu |grad u|^2 dV`` and the window
-    ``w = sin^2(pi s / L)`` over the RVE, which removes the entrance and exit losses and is
-    exact for RVEs of two or more periods.
+    drop"): ``dp = Phi_w / (Q int w dt)`` with ``Phi_w = int w mu |grad u|^2 dV`` and the window
+    of :func:`psdesign.flow.darcy.window`: for two or more periods of the structure in the sample
+    a flat-top window of whole periods in its middle (exact, zero near the faces, so the entrance
+    and exit losses drop out); for one period ``w = sin^2(pi s / L)``.
 ``"periodic"``
     Mesh without auxiliary zones, periodic on all faces, driven by a mean pressure gradient
     (:func:`solvers.fem_stokes.solve_stokes_periodic`); K from the superficial mean velocity.
@@ -21,6 +22,7 @@ K always comes from :mod:`psdesign.flow.darcy`.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 
@@ -45,8 +47,9 @@ BC_MODELS = ("permeameter", "periodic")
 
 
 #: Layers of the plane-pressure profile whose windowed drop (:func:`windowed_drop`) is the
-#: second estimator of the FEM permeameter's drop (error bar's window term); 60 is a multiple of
-#: 2-6, so the estimator is exact on periodic arrays of up to 6 cells, like the dissipation form.
+#: second estimator of the FEM permeameter's drop (error bar's window term): at least this many,
+#: rounded up to a multiple of the periods in the sample so that a period is whole layers and the
+#: estimator is exact in the periodic interior, like the dissipation form.
 PLANE_PROFILE_LAYERS = 60
 
 
@@ -226,7 +229,8 @@ def permeability_fem(
     if plan is None:
         res, out = _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
     else:
-        res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+        periods = plan.copies * plan.periods  # of the structure in the sample: the window
+        res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods)
         out |= plan.as_dict()
         if plan.note:
             out["warnings"].append(plan.note)
@@ -282,7 +286,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     }
 
 
-def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
+def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods: int = 1) -> dict:
     from solvers.fem_stokes import solve_stokes
 
     sides = [t for t in mesh.facet_tags if tags.is_side(t)]
@@ -308,10 +312,12 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     q = abs(res.flux[tags.OUTLET])
     length = end - start
     area = float(np.prod(np.delete(rve.size, ax)))
-    # windowed dissipation (psdesign.flow.darcy): Phi_w = G Q L / 2 -> dp_rve = G L = 2 Phi_w / Q
-    dp_rve = windowed_drop_from_dissipation(res.dissipation(rve_window(ax, start, end)), q)
+    # windowed dissipation (psdesign.flow.darcy): Phi_w = G Q L int w dt -> dp_rve = G L
+    window = rve_window(ax, start, end, periods)
+    dp_rve = windowed_drop_from_dissipation(res.dissipation(window), q, periods)
     k = darcy_permeability(q, mu, length, area, dp_rve)
-    profile = plane_pressure_profile(mesh.points, mesh.tets, res.pressure, ax, (start, end))
+    layers = periods * math.ceil(PLANE_PROFILE_LAYERS / periods)  # whole layers per period
+    profile = plane_pressure_profile(mesh.points, mesh.tets, res.pressure, ax, (start, end), layers)
     p_start, p_end = profile[0], profile[-1]
     return res, {
         "permeability_m2": k,
@@ -322,7 +328,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         "pressure_drop_faces_pa": float(p_start - p_end),
         # second windowed estimator (plane pressure): its gap to dp_rve is the error bar's
         # window term, as on the voxel route (psdesign.flow.error.window_rel_error)
-        "pressure_drop_plane_window_pa": windowed_drop(profile),
+        "pressure_drop_plane_window_pa": windowed_drop(profile, periods),
         "pressure_drop_definition": "windowed-dissipation",
         "rve_length_m": float(length),
         "sides": "slip" if slip else "noslip",

@@ -63,22 +63,23 @@ def column_of(res) -> np.ndarray:
     return darcy_column(res.mean_velocity, res.viscosity, res.pressure_gradient)
 
 
-def rve_drop(res) -> float:
+def rve_drop(res, periods: int = 1) -> float:
     """The pressure drop (Pa) across the RVE that defines the permeameter K: the windowed
-    dissipation drop (:func:`windowed_drop` of ``res.rve_energy_flux_profile``, no entrance and
-    exit losses); ``res.rve_pressure_drop`` for a periodic solve (``G L``)."""
+    dissipation drop (:func:`windowed_drop` of ``res.rve_energy_flux_profile`` with the window for
+    ``periods`` periods of the structure in the sample, no entrance and exit losses);
+    ``res.rve_pressure_drop`` for a periodic solve (``G L``)."""
     profile = getattr(res, "rve_energy_flux_profile", None)
     if profile is None:
         return float(res.rve_pressure_drop)
-    return windowed_drop(profile)
+    return windowed_drop(profile, periods)
 
 
-def permeameter_k(res) -> float:
+def permeameter_k(res, periods: int = 1) -> float:
     """``K = mu Q L / (A dP_rve)`` (m^2) of a solve (:func:`darcy_permeability`) with the drop
-    :func:`rve_drop`; for a periodic solve without treatment it equals
-    ``column_of(res)[direction]``."""
+    :func:`rve_drop` (``periods``: periods of the structure in the sample); for a periodic solve
+    without treatment it equals ``column_of(res)[direction]``."""
     return darcy_permeability(
-        res.flow_rate, res.viscosity, res.rve_length, res.rve_area, rve_drop(res)
+        res.flow_rate, res.viscosity, res.rve_length, res.rve_area, rve_drop(res, periods)
     )
 
 
@@ -203,7 +204,7 @@ def permeability_voxel(
     if bc == "periodic":
         k = float(column[ax])
     else:
-        k = permeameter_k(res)
+        k = permeameter_k(res, periods := plan.copies * plan.periods)
         column = column * (k / column[ax])
     out = {
         "permeability_m2": k,
@@ -237,9 +238,9 @@ def permeability_voxel(
             "sides": res.sides,
             "aux_length": float(flow.get("aux_length", 0.2)),
             "pressure_drop_applied_pa": float(res.applied_pressure_drop),
-            "pressure_drop_rve_pa": rve_drop(res),
+            "pressure_drop_rve_pa": rve_drop(res, periods),
             "pressure_drop_faces_pa": float(res.rve_pressure_drop),
-            "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile),
+            "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile, periods),
             "rve_length_m": float(res.rve_length),
             "pressure_drop_definition": "windowed-dissipation",
         }
