@@ -27,12 +27,12 @@ import numpy as np
 
 from psdesign.errors import SpecError
 from psdesign.geometry.rve import RVE, VoxelFields, VoxelGrid
-from psdesign.schema.flow import MAX_PERMEAMETER_COPIES
+from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES, MAX_PERMEAMETER_COPIES
 
 #: Largest ``flow.permeameter_copies`` (the cost grows linearly with the copies).
 MAX_COPIES = MAX_PERMEAMETER_COPIES
 #: Copies ``"auto"`` takes for a periodic one-period RVE.
-AUTO_COPIES = 2
+AUTO_COPIES = AUTO_PERMEAMETER_COPIES
 #: Sub-periods looked for within one copy (a structure of period ``L / k``, ``k`` up to this).
 MAX_SUB_PERIODS = 8
 #: Points sampled to compare the analytic field at ``s`` and ``s + L / k`` (seeded).

@@ -16,7 +16,7 @@ from psdesign.meshing.checks import (
     restore_planes,
 )
 from psdesign.meshing.inputs import ScaledField, scaled_field
-from psdesign.meshing.options import MeshOptions
+from psdesign.meshing.options import MeshOptions, default_lattice_step
 from psdesign.meshing.periodic import periodic_pairs
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.stuffing import stuff_pore_space
@@ -24,11 +24,6 @@ from psdesign.meshing.tetra import face_structure, keep_through_components, tag_
 
 _MATCH_RTOL = 2e-4
 _MATCH_MAX_ITER = 6
-
-
-def default_lattice_step(voxel: float, size: np.ndarray) -> float:
-    """``max(2 * voxel, min(size) / 30)`` (3.3 um for a 100 um RVE)."""
-    return max(2.0 * voxel, float(np.min(size)) / 30.0)
 
 
 def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
