@@ -16,7 +16,7 @@ from psdesign.meshing.checks import (
     restore_planes,
 )
 from psdesign.meshing.inputs import ScaledField, scaled_field
-from psdesign.meshing.options import MeshOptions
+from psdesign.meshing.options import MeshOptions, default_lattice_step
 from psdesign.meshing.periodic import periodic_pairs
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.stuffing import stuff_pore_space
@@ -24,11 +24,6 @@ from psdesign.meshing.tetra import face_structure, keep_through_components, tag_
 
 _MATCH_RTOL = 2e-4
 _MATCH_MAX_ITER = 6
-
-
-def default_lattice_step(voxel: float, size: np.ndarray) -> float:
-    """``max(2 * voxel, min(size) / 30)`` (3.3 um for a 100 um RVE)."""
-    return max(2.0 * voxel, float(np.min(size)) / 30.0)
 
 
 def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
@@ -114,8 +109,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
 def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts) -> dict:
     """``PoreMesh.quality`` of a stuffed mesh (lengths in metres)."""
     s = f.scale
+    box = (sm.rve_lo, sm.rve_hi)
     common, mesh_vol, porosity_voxel = mesh_quality(
-        f, pts, tets, tags, comp, (sm.rve_lo, sm.rve_hi), aux_volume, "after stuffing"
+        f, pts, tets, tags, comp, box, aux_volume, "after stuffing", opts.periodic
     )
     # isolated pockets removed by keep_through_components are part of the target pore volume
     vol_err = (mesh_vol + comp["removed_volume"]) / target - 1.0

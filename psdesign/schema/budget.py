@@ -5,7 +5,12 @@ Every check raises a schema error naming the key and the estimate. Figures:
 * geometry: 16 bytes per voxel (float32 distance, uint8 count, uint16 mark, bool solid and a
   float64 temporary; ``benchmarks/RESULTS.md``: 7 bytes per voxel of fields);
 * voxel Stokes solver: :data:`solvers.voxel.memory.BYTES_PER_CELL` (sub-voxel walls, the
-  larger figure);
+  larger figure) per *solved* cell: a permeameter solves ``copies`` stacked copies of the RVE
+  (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, the most it
+  stacks) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
+* the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
+* FEM solver: :func:`solvers.fem.memory.estimate_memory_gb` (the estimate the solve checks) of
+  the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`);
 * the budget is half the machine's memory (``psutil.virtual_memory().total``).
 """
 
@@ -13,12 +18,20 @@ from __future__ import annotations
 
 import math
 
+from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES
 from psdesign.schema.types import fail
 from solvers.voxel.memory import BYTES_PER_CELL
 
 GEOMETRY_BYTES_PER_VOXEL = 16
 VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"]
 MEMORY_FRACTION = 0.5
+#: The kept voxel fields (float32 distance, uint8 count): what the stacked permeameter tiles.
+FIELD_BYTES_PER_VOXEL = 5
+#: Stuffing mesh per lattice cell of pore (6 Kuhn tets a cell, plus the clipped pieces), rounded
+#: up from 6.2 tets and 1.43 vertices per pore lattice vertex (50 um Toray-like cube, porosity
+#: 0.80, 2 um step, periodic and permeameter meshes alike).
+TETS_PER_PORE_CELL = 6.5
+POINTS_PER_PORE_CELL = 1.5
 #: Periodic copies of one fiber in the box (a tiny period multiplies the work).
 MAX_COPIES = 1000
 MAX_EXPLICIT_FIBERS = 2000
@@ -51,22 +64,110 @@ def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
     return out
 
 
-def check_grid(size: tuple[float, ...], voxel: float, solver: str, key: str = "rve.voxel") -> None:
-    """Refuse a voxel grid whose estimated memory exceeds the budget."""
+def stack_of(flow) -> tuple[int, float]:
+    """``(copies, aux_length)`` of the solve a ``[flow]`` table asks for, at most: a permeameter
+    (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``:
+    :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a periodic one-period RVE) between
+    reservoirs of ``aux_length`` times one copy; a periodic solve is one copy, no reservoirs."""
+    if flow is None:
+        return 1, 0.0
+    bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
+    if bc != "permeameter":
+        return 1, 0.0
+    copies = flow.permeameter_copies
+    n = AUTO_PERMEAMETER_COPIES if copies in (None, "auto") else int(copies)
+    return n, float(flow.aux_length)
+
+
+def solved_cells(n: float, copies: int, aux: float) -> float:
+    """Cells of the grid the voxel solver holds for an RVE of ``n`` voxels: ``copies`` copies
+    plus two reservoirs of ``aux`` times one copy (psdesign.flow.stack.stacked_flow)."""
+    return n * (copies + 2.0 * aux)
+
+
+def grid_bytes(n: float, solver: str, copies: int = 1, aux: float = 0.0) -> float:
+    """Estimated peak bytes of the voxel fields (and the voxel solver's grid) for ``n`` voxels."""
+    geometry = n * max(GEOMETRY_BYTES_PER_VOXEL, FIELD_BYTES_PER_VOXEL * (1 + copies))
+    if solver != "voxel":
+        return geometry
+    return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(n, copies, aux)
+
+
+def check_grid(
+    size: tuple[float, ...], voxel: float, solver: str, key: str = "rve.voxel", flow=None
+) -> None:
+    """Refuse a voxel grid whose estimated memory (the permeameter's stack included,
+    :func:`stack_of`) exceeds the budget; ``flow.permeameter_copies`` is named when one copy
+    would fit."""
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
-    per = GEOMETRY_BYTES_PER_VOXEL + (VOXEL_SOLVER_BYTES_PER_VOXEL if solver == "voxel" else 0)
-    need = n * per
+    copies, aux = stack_of(flow)
+    need = grid_bytes(n, solver, copies, aux)
     budget = MEMORY_FRACTION * machine_memory()
-    if not need <= budget:
-        vmin = voxel * (need / budget) ** (1 / 3)
-        dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
+    if need <= budget:
+        return
+    dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
+    single = grid_bytes(n, solver, 1, aux)
+    if copies > 1 and single <= budget:
         raise fail(
-            key,
-            f"a {dims} grid ({n:.3g} voxels, {per} B each with solver {solver!r}) needs about "
-            f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
-            f"voxel >= {vmin:.3g} m",
+            "flow.permeameter_copies",
+            f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
+            f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
+            f"is {budget / 2**30:.3g} GiB (half the machine)",
+            f"1, or bc = 'periodic', or a coarser {key}",
         )
+    vmin = voxel * (need / budget) ** (1 / 3)
+    per = need / n
+    raise fail(
+        key,
+        f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each with solver {solver!r}"
+        f"{f', {copies} copies stacked' if copies > 1 else ''}) needs about "
+        f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
+        f"voxel >= {vmin:.3g} m",
+    )
+
+
+def fem_mesh_size(
+    size: tuple[float, ...], step: float, copies: int, aux: float, porosity: float
+) -> tuple[float, float]:
+    """``(n_points, n_tets)`` of the stuffing mesh: lattice cells of pore in ``copies`` copies
+    (``porosity``) plus the all-fluid reservoir slabs (axial step ``slab_factor`` times
+    ``step``, :class:`psdesign.meshing.options.MeshOptions`)."""
+    from psdesign.meshing.options import MeshOptions
+
+    cells = math.prod(max(1.0, s / step) for s in size)
+    pore = cells * (copies * porosity + 2.0 * aux / MeshOptions().slab_factor)
+    return POINTS_PER_PORE_CELL * pore, TETS_PER_PORE_CELL * pore
+
+
+def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | None) -> None:
+    """Refuse an FEM solve whose estimated memory (:func:`solvers.fem.memory.estimate_memory_gb`
+    of :func:`fem_mesh_size`, the stack included) exceeds the budget; ``porosity`` None counts
+    every lattice cell as pore."""
+    from psdesign.meshing.options import default_lattice_step
+    from solvers.fem.memory import estimate_memory_gb
+
+    step = flow.lattice_step if flow.lattice_step is not None else default_lattice_step(voxel, size)
+    copies, aux = stack_of(flow)
+    phi = 1.0 if porosity is None else float(porosity)
+    budget = MEMORY_FRACTION * machine_memory()
+
+    def need(n_copies: int) -> float:
+        pts, tets = fem_mesh_size(size, step, n_copies, aux, phi)
+        return estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
+
+    total = need(copies)
+    if total <= budget:
+        return
+    pts, tets = fem_mesh_size(size, step, copies, aux, phi)
+    what = (
+        f"the FEM solve of about {tets:.3g} tets ({copies} copies, lattice step {step:.3g} m) "
+        f"needs about {total / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half "
+        "the machine)"
+    )
+    if copies > 1 and need(1) <= budget:
+        raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
+    raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
 
 
 def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) -> None:

@@ -22,8 +22,13 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
-  memory (16 B per voxel, plus {B} B with `flow.solver = "voxel"`) within half the machine's
-  memory (psutil).
+  memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`) within half
+  the machine's memory (psutil). A permeameter (`flow.bc`, or the FEM's default) counts its
+  stack: `flow.permeameter_copies` copies (`"auto"` counts 2, the most it stacks) plus two
+  reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
+  solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
+  vertices per lattice cell of pore, `generator.porosity` or 1) must fit too. A spec that fits
+  as one copy but not as the stack names `flow.permeameter_copies`.
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.
 * `fibers[i].diameter` < the smallest edge and the period; at most 2000 explicit fibers.

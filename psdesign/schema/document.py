@@ -91,7 +91,7 @@ class SpecDocument(Table):
                 f"<= {min(size) / 4:g} m",
             )
         budget.check_copies(size, period)
-        budget.check_grid(size, voxel, self.flow.solver)
+        budget.check_grid(size, voxel, self.flow.solver, flow=self.flow)
         if self.flow.lattice_step is not None and self.flow.lattice_step > min(size) / 2:
             raise fail(
                 "flow.lattice_step",
@@ -102,6 +102,9 @@ class SpecDocument(Table):
             budget.check_cells(
                 "flow.lattice_step", size, self.flow.lattice_step, budget.MAX_LATTICE_CELLS
             )
+        if self.flow.solver == "fem":
+            porosity = self.generator.porosity if self.generator is not None else None
+            budget.check_fem(size, voxel, self.flow, porosity)
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -147,7 +150,9 @@ class SpecDocument(Table):
                 "'subvoxel' needs an analytic surface; an [image] has none",
                 "staircase",
             )
-        budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop")
+        budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop", flow=self.flow)
+        if self.flow.solver == "fem":
+            budget.check_fem(img.size, img.voxel, self.flow, None)
         try:
             solid = load_mask(source_of(img.to_spec()))
         except ValueError as exc:

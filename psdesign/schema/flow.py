@@ -10,6 +10,9 @@ from psdesign.schema.types import Table, fail, number, short
 
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
+#: Copies ``"auto"`` stacks for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES); the
+#: up-front memory budget counts them for every "auto" permeameter (psdesign.schema.budget).
+AUTO_PERMEAMETER_COPIES = 2
 
 
 def _copies(value: Any) -> Any:

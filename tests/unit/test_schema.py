@@ -77,6 +77,9 @@ def test_one_voxel_default_for_spec_and_generator():
     del doc["rve"]["voxel"]
     assert validate_spec(doc)["rve"]["voxel"] == pytest.approx(1e-6)  # smallest edge / 100
     assert parse_rve(doc)[1] == pytest.approx(1e-6)
+    # (voxel solver: the FEM's stacked permeameter of this box, 2.4 M tets at the default
+    # lattice step, is over a 24 GB machine's budget)
+    doc = with_(doc, "flow.solver", "voxel")
     assert parse_rve(with_(doc, "rve.size", [50e-6, 100e-6, 200e-6]))[1] == pytest.approx(0.5e-6)
 
 
@@ -166,6 +169,56 @@ def test_memory_budget_refuses_a_1200_cube_before_allocating(monkeypatch):
     monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
     validate_spec(doc)
     assert spec_err(with_(doc, "flow.solver", "voxel")).key == "rve.voxel"
+
+
+def test_memory_budget_counts_the_stacked_permeameter(monkeypatch, tmp_path, capsys):
+    """A 200 um cube at 1 um on the voxel route: periodic 201 B per voxel (1.50 GiB); the
+    permeameter with one copy adds two reservoirs of 0.2 (16 + 185 x 1.4 = 275 B, 2.05 GiB);
+    "auto" counts 2 copies (max(16, 5 x 3) + 185 x 2.4 = 460 B, 3.43 GiB). A 3 GiB budget
+    holds one copy but not the stack: refused up front, naming flow.permeameter_copies."""
+    monkeypatch.setattr(budget, "machine_memory", lambda: 6 * 2**30)
+    doc = with_(SPEC, "rve.size", [200e-6] * 3)
+    doc = with_(doc, "flow", {"solver": "voxel", "bc": "permeameter"})
+    n = 200.0**3
+    assert budget.grid_bytes(n, "voxel", 2, 0.2) == pytest.approx(n * (16 + 185 * 2.4))
+    assert budget.grid_bytes(n, "voxel", 1, 0.2) == pytest.approx(n * (16 + 185 * 1.4))
+    for copies in ("auto", 2, 3):
+        err = spec_err(with_(doc, "flow.permeameter_copies", copies))
+        assert err.key == "flow.permeameter_copies", copies
+        assert "GiB" in err.message and "budget is 3 GiB" in err.message
+    assert "3.43 GiB, one copy 2.05 GiB" in spec_err(doc).message
+    validate_spec(with_(doc, "flow.permeameter_copies", 1))
+    validate_spec(with_(doc, "flow.bc", "periodic"))
+    # no copy fits: the voxel size is named, the stack counted in the estimate
+    monkeypatch.setattr(budget, "machine_memory", lambda: 3 * 2**30)
+    err = spec_err(doc)
+    assert err.key == "rve.voxel" and "2 copies stacked" in err.message
+    # the CLI: exit 2, one line, nothing solved
+    monkeypatch.setattr(budget, "machine_memory", lambda: 6 * 2**30)
+    path = tmp_path / "big.toml"
+    path.write_text(dumps(doc))
+    assert main(["permeability", str(path), "--direction", "z"]) == 2
+    err_lines = capsys.readouterr().err.strip().splitlines()
+    assert len(err_lines) == 1 and "flow.permeameter_copies" in err_lines[0]
+
+
+def test_fem_budget_counts_the_stack(monkeypatch):
+    """FEM permeameter (the default), 100 um cube, lattice step 1 um: 1e6 lattice cells at
+    porosity 0.8 -> about 6.5 x (2 x 0.8 + 0.4 / 3) = 11.3 M tets stacked, 6.1 M for one copy;
+    solvers.fem.memory's estimate of each against a budget between them."""
+    from solvers.fem.memory import estimate_memory_gb
+
+    doc = with_(SPEC, "flow.lattice_step", 1e-6)
+    two = estimate_memory_gb(int(1.5 * 1.7333e6), int(6.5 * 1.7333e6)) * 1e9
+    one = estimate_memory_gb(int(1.5 * 0.9333e6), int(6.5 * 0.9333e6)) * 1e9
+    assert one < 0.6 * two
+    monkeypatch.setattr(budget, "machine_memory", lambda: one + two)  # budget (one + two) / 2
+    err = spec_err(doc)
+    assert err.key == "flow.permeameter_copies" and "1.13e+07 tets (2 copies" in err.message
+    validate_spec(with_(doc, "flow.permeameter_copies", 1))
+    validate_spec(with_(doc, "flow.bc", "periodic"))
+    monkeypatch.setattr(budget, "machine_memory", lambda: one)
+    assert spec_err(with_(doc, "flow.permeameter_copies", 1)).key == "flow.lattice_step"
 
 
 def test_fiber_counts_are_capped():
@@ -272,7 +325,7 @@ def test_factorial_size_is_refused_before_expansion():
     "path, values",
     [
         ("flow.mesher", ["stuffing", "pytetwild"]),
-        ("flow.lattice_step", [2e-6, 3e-6]),
+        ("flow.lattice_step", [3e-6, 4e-6]),  # 2 um: the FEM stack is over a 24 GB budget
         ("intersections.max_ejections", [2, 6]),
         ("flow.bc", ["permeameter", "periodic"]),
         ("generator.theta.high", [5.0, 10.0]),

@@ -153,7 +153,7 @@ def periodic_spec(kind: str, seed: int = 1, voxel: float = 1e-6, flow: dict | No
     return validate_spec({"rve": rve, "fibers": fibers, "flow": {"viscosity": MU, **(flow or {})}})
 
 
-def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6):
+def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6, seed: int = 1):
     """FEM on the ``voxel`` grid's distance field (default lattice step, 2 voxels), voxel route
     on a grid twice as fine: at 8 voxels per diameter the voxel route is the one that carries
     the error (bent z, periodic: K voxel 7.877e-12 at 1 um, 7.752e-12 at 0.5 um; FEM 7.651e-12,
@@ -161,7 +161,7 @@ def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6):
     flow = {"bc": bc}
     if bc == "permeameter":
         flow |= {"aux_length": 0.2, "sides": "slip"}
-    spec = periodic_spec(kind, voxel=voxel, flow=flow)
+    spec = periodic_spec(kind, seed=seed, voxel=voxel, flow=flow)
     built = build_rve(spec)
     fem = route_result(built.rve, built.voxelize(voxel), direction, spec["flow"], "fem")
     vox = route_result(built.rve, built.voxelize(voxel / 2), direction, spec["flow"], "voxel")
@@ -170,7 +170,8 @@ def _random_pair(kind: str, direction: str, bc: str, voxel: float = 1e-6):
         assert r["bc"] == bc
         if bc == "permeameter":
             assert r["permeameter_copies"] == 2
-    return _report(f"{kind} {direction} {bc} fem voxel {voxel:g}, voxel {voxel / 2:g}", fem, vox)
+    name = f"{kind} seed {seed} {direction} {bc} fem voxel {voxel:g}, voxel {voxel / 2:g}"
+    return _report(name, fem, vox)
 
 
 def test_periodic_fibers_are_periodic():
@@ -201,12 +202,39 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
+@pytest.mark.slow
+def test_periodic_faces_of_bent_seed_3_match_and_agree():
+    """The periodic bent RVE of seed 3, whose FEM periodic mesh used to fail ("the triangles of
+    face x1 differ from those of face x0": a flat clipped tet next to a face was dropped on one
+    face of the pair only); the mesher now makes the faces match by construction
+    (docs/permeability.md, "Periodic"), and the two routes agree through-plane."""
+    assert abs(_random_pair("bent", "z", "periodic", seed=3)) <= AGREE
+
+
 WOVEN_STACK_UNRESOLVED = pytest.mark.xfail(
     strict=False,
-    reason="woven cell stacked (2 copies through the thickness): measured FEM 1.706e-12, voxel "
-    "(0.5 um) 1.574e-12, fem/voxel - 1 = +8.34 % (its periodic pair: -2.94 %, yarns 4.3 um = 2 "
-    "FEM lattice steps); not investigated on this branch",
+    reason="woven cell stacked (2 copies through the thickness), slip sides: FEM on the 1 um "
+    "field 1.698e-12, voxel at 0.5 um 1.560e-12, fem/voxel - 1 = +8.9 %; FEM on the 0.5 um field "
+    "(same 2 um lattice) 1.502e-12, -3.7 %. Cause: resolution at the slip walls, in both routes "
+    "(voxel slip / periodic K: +5.7 % at 1 um, +0.02 % at 0.5 um; a yarn cut at a grazing angle by "
+    "x = 0: solid within 1 um of that wall 7.6 % of the voxels at 1 um, 9.3 % at 0.5 um); on the "
+    "same 1 um field the two routes agree (-0.35 %, test_woven_stack_same_field_agrees)",
 )
+
+
+@pytest.mark.slow
+def test_woven_stack_same_field_agrees():
+    """The woven cell stacked through the thickness with slip sides, both routes on the same
+    1 um field (FEM 1.6982e-12, voxel 1.7041e-12: -0.35 %, load 9, 2026-12-01 18:20). The stack,
+    its seam and the windowed drop are the same in both (the windowed, plane-window and face
+    drops agree to 1e-4 of the applied drop in each); what the 0.5 um comparison (xfail above)
+    misses is the slip walls' resolution, which both routes share."""
+    spec = periodic_spec("woven", voxel=1e-6, flow={"bc": "permeameter", "sides": "slip"})
+    built = build_rve(spec)
+    fields = built.voxelize(1e-6)
+    fem, vox = _pair(built.rve, fields, "z", spec["flow"])
+    assert fem["permeameter_copies"] == vox["permeameter_copies"] == 2
+    assert abs(_report("woven z stacked, same 1 um field", fem, vox)) <= AGREE
 
 
 @pytest.mark.slow
