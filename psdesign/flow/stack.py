@@ -1,13 +1,14 @@
 """Stacked permeameter: copies of a periodic RVE along the flow (``flow.permeameter_copies``).
 
 The permeameter's windowed-dissipation drop (:mod:`psdesign.flow.darcy`) is exactly ``G L`` when
-the sample between the reservoirs holds two or more periods of the structure along the flow:
-the window ``sin^2(pi s / L)`` has only the Fourier modes 0 and +-1 over the sample, the periodic
-part of the dissipation only multiples of the number of periods. A one-period RVE (a random RVE,
-generated periodic) does not: the window weights its middle layers (measured: K 36 % below the
-periodic K on five 8 um fibres in a 40 um cube). Stacking ``m = 2`` copies of a geometry that is
-periodic along the flow makes the sample two periods long, so the windowed drop is ``G m L``
-again and the entrance and exit layers get the weight ``O((delta / m L)^2)``.
+the sample between the reservoirs holds two or more periods of the structure along the flow: the
+window is then a flat top of whole periods with smooth ramps (a box of whole periods convolved
+with a bump), which annihilates the periodic part of the dissipation and is zero near the faces.
+A one-period RVE (a random RVE, generated periodic) has no such window (the sin^2 window it falls
+back to weights its middle layers; measured: K 36 % below the periodic K on five 8 um fibres in a
+40 um cube). Stacking ``m = 2`` copies of a geometry that is periodic along the flow makes the
+sample two periods long, so the windowed drop is ``G m L`` again and the entrance and exit layers
+fall outside the window.
 
 The stack is built on the voxel grid (distance field and fiber counts tiled along the axis), which
 both routes use: the voxel solver directly, the tet mesher through the distance field. The
