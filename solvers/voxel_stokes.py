@@ -113,6 +113,7 @@ from solvers.voxel import kernels as kr
 from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
+from solvers.voxel import schur
 from solvers.voxel import threads as vthreads
 
 __all__ = [
@@ -715,6 +716,10 @@ iterations to 1e-6 (``benchmarks/RESULTS.md``): Toray-like 40^3 with the exact f
 distance 566 -> 171 (staircase 133; K identical to 7 digits); the former estimate
 ``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76."""
 
+COARSE_PRESSURE = False
+"""Add the coarse Darcy correction :class:`solvers.voxel.schur.CoarsePressure` to the pressure
+block of the preconditioner (without it the MINRES iterations grow with the box side)."""
+
 SCHUR_FLOOR = 1e-4
 """Lower bound of the Schur diagonal estimate (the smallest possible value, a weight of 0.05 on
 a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 40^3)."""
@@ -769,6 +774,9 @@ class _Stokes:
         self._work = work
         self.mg = [mg.ScalarMG(o[0], o[1], work=work, **mg_kw) for o in ops]
         _share_coarse_work(self.mg)
+        self.coarse_p = None
+        if COARSE_PRESSURE:
+            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
 
     @property
     def act(self) -> list[np.ndarray]:
@@ -835,8 +843,12 @@ class _Stokes:
         field is the V-cycles' work array), ``z`` may."""
         rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
         if self.p_scale is None:
-            return rz + kr.copy_dot(r[3], z[3])
-        return rz + kr.scale_dot(r[3], self.p_scale, z[3])
+            rz += kr.copy_dot(r[3], z[3])
+        else:
+            rz += kr.scale_dot(r[3], self.p_scale, z[3])
+        if self.coarse_p is not None:
+            rz += self.coarse_p.apply(r[3], z[3])
+        return rz
 
 
 def _minres(

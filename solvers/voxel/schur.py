@@ -1,0 +1,262 @@
+"""Coarse Darcy correction of the pressure block of the voxel Stokes preconditioner.
+
+Why
+---
+The pressure block of the block-diagonal MINRES preconditioner (:mod:`solvers.voxel_stokes`) is
+a pore-scale approximation of the Schur complement ``S = G^T A^-1 G``: the identity (staircase)
+or the inverse of its diagonal (sub-voxel walls).  That is right for pressure modes shorter than
+the pores, where ``S`` acts like the identity (exactly so in a wall-free box).  For modes of
+wave number ``k`` much longer than the pores, ``S`` is the Darcy operator ``-div(K grad)`` (voxel
+units, ``K`` the permeability over ``h^2``) with eigenvalues ``K k^2``: the preconditioned
+spectrum spans ``[K (2 pi / L)^2, 1]``, so its condition number grows as ``(L / sqrt K)^2`` and
+MINRES needs about ``L / sqrt K`` iterations once the box side ``L`` is a few times
+``2 pi sqrt K`` (measured, Toray-like material at 1 um, ``benchmarks/RESULTS.md``: 107-114
+iterations for 32-64 um boxes, 171 at 96, 222 at 128, 253 at 200, 456 at 400).
+
+What
+----
+A two-level additive pressure block (as two-level additive Schwarz / a coarse-grid correction
+of an elliptic preconditioner; cf. the Darcy-type coarse pressure corrections of SIMPLE-like
+pore-scale solvers)::
+
+    M_p^-1 = D^-1 + R^T S_c^+ R
+
+* ``R`` sums the pressure residual over box blocks of :data:`BLOCK` cells per axis (the fluid
+  cells only) and ``R^T`` injects a block value into the block's fluid cells, so the term is
+  symmetric positive semi-definite and ``M_p`` stays SPD (MINRES).
+* ``S_c`` is a 7-point finite-volume Darcy operator on the blocks: transmissibility
+  ``K_f A / l`` between two face-neighbouring blocks (``A`` the block face area, ``l`` the block
+  length along the axis, ``K_f`` the harmonic mean of the two blocks' permeabilities), 0 when no
+  velocity unknown crosses the interface (box walls of the permeameter, solid planes).  The
+  block permeability is a Kozeny-Carman estimate ``phi^3 / (c s^2)`` from the fluid fraction
+  ``phi`` and the voxel-face surface per volume ``s``, both averaged over ``SMOOTH^3`` blocks
+  (a pore-scale block has no meaningful permeability of its own), capped at ``(box side)^2``
+  (an empty reservoir is then nearly isobaric, as it is: ``S`` is the identity there and the
+  correction must vanish).  ``c`` (:data:`KOZENY`) is calibrated on the Toray-like material
+  (voxel-face surface overestimates the true area, hence a constant below Carman's 5); a
+  factor 2 error in ``K`` costs a factor of at most 2 in the condition number, not growth with
+  ``L``.
+* ``S_c^+`` (pseudo-inverse: the constant pressure of each connected coarse component is in the
+  null space of ``S``) is applied as one symmetric V-cycle of the same aggregation multigrid as
+  the velocities (:class:`solvers.voxel.multigrid.ScalarMG`) with the right-hand side and the
+  result projected to zero mean on each component; a tiny diagonal shift
+  (:data:`SHIFT`) keeps the coarsest direct solve regular.
+
+With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
+is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
+the box.  Cost per MINRES iteration: one restriction and one prolongation pass over the pressure
+field (8 bytes per voxel of the ~461 streamed) and a V-cycle on ``N / BLOCK^3`` blocks; memory:
+the coarse operator and work arrays, about ``40 / BLOCK^3`` bytes per voxel plus the V-cycle
+hierarchy (~1/7 more).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from solvers.voxel import kernels as kr
+from solvers.voxel import multigrid as mg
+
+__all__ = ["BLOCK", "KOZENY", "SHIFT", "SMOOTH", "WEIGHT", "CoarsePressure"]
+
+BLOCK = 8
+"""Cells per axis of a coarse pressure block (the Darcy correction acts on modes longer than
+about two blocks; the uncorrected Darcy modes then have eigenvalues above ``K (pi / BLOCK)^2``,
+about 1 on the Toray-like material)."""
+
+KOZENY = 2.5
+"""Kozeny constant ``c`` of the block permeability ``phi^3 / (c s^2)`` with ``s`` the voxel-face
+surface per volume (Toray-like 100 um at 1 um: ``phi = 0.80``, ``s = 0.154``, gives 9.2 voxel^2
+against the solved 6.9-10 um^2 of 32-128 um boxes)."""
+
+CYCLES = 4
+"""Multigrid-preconditioned iterations for the Poisson velocity ``A^-1 w`` of each component."""
+
+SMOOTH = 3
+"""Blocks per axis of the window over which ``phi`` and ``s`` are averaged."""
+
+WEIGHT = 1.0
+"""Weight of the coarse term in the pressure block."""
+
+SHIFT = 1e-4
+"""Diagonal shift of the coarse operator relative to its mean diagonal (regularises the constant
+mode, which the projection removes)."""
+
+
+@nb.njit(cache=True, nogil=True)
+def _block_count(fluid, fx, fy, fz, nf):
+    """Number of fluid cells of every block (``nf`` zeroed by the caller)."""
+    nx, ny, nz = fluid.shape
+    ncx, ncy, ncz = nf.shape
+    for i in range(nx):
+        ic = min(i // fx, ncx - 1)
+        for j in range(ny):
+            jc = min(j // fy, ncy - 1)
+            for k in range(nz):
+                nf[ic, jc, min(k // fz, ncz - 1)] += fluid[i, j, k]
+
+
+def poisson_velocity(
+    smg: mg.ScalarMG,
+    d: np.ndarray,
+    c: np.ndarray,
+    weight: np.ndarray | None,
+    cycles: int,
+) -> np.ndarray:
+    """``w * A^-1 w`` approximated by ``cycles`` multigrid-preconditioned iterations (float32):
+    the unconstrained velocity under a unit force, whose block mean is the Poisson permeability
+    (``w`` the sub-voxel face weight, 1 on the staircase's active faces)."""
+    b = (d > 0).astype(np.float32) if weight is None else np.asarray(weight, np.float32)
+    u = np.zeros(d.shape, np.float32)
+    r = b.copy()
+    e = np.empty(d.shape, np.float32)
+    for it in range(cycles):
+        smg.apply(r, e)
+        u += e
+        if it + 1 < cycles:
+            kr.lap_residual(d, c[0], c[1], c[2], u, b, r)
+    del r, e
+    u *= b
+    return u
+
+
+def _starts(n: int, f: int, nc: int) -> np.ndarray:
+    return np.arange(nc) * f if nc > 0 else np.zeros(1, int)
+
+
+class CoarsePressure:
+    """The coarse Darcy term ``R^T S_c^+ R`` of the pressure preconditioner (module docstring).
+
+    Parameters
+    ----------
+    fluid : np.ndarray of uint8, shape (nx, ny, nz)
+        Pressure unknowns (1 = fluid cell).
+    diags : list of 3 np.ndarray
+        Diagonals of the three velocity operators (``> 0`` on the velocity unknowns): an
+        interface between two blocks is open when a velocity unknown crosses it.
+    block : int
+        Cells per axis of a block (:data:`BLOCK`).
+    """
+
+    def __init__(
+        self,
+        fluid: np.ndarray,
+        ops: list[tuple[np.ndarray, np.ndarray]],
+        mgs: list[mg.ScalarMG],
+        weights: list[np.ndarray] | None = None,
+        block: int | None = None,
+    ) -> None:
+        shp = fluid.shape
+        blk = BLOCK if block is None else int(block)
+        self.f = tuple(max(1, min(blk, n)) for n in shp)
+        nc = tuple(n // f for n, f in zip(shp, self.f, strict=True))
+        self.nc = nc
+        self.fluid = fluid
+        nf = np.zeros(nc, np.int64)
+        _block_count(fluid, *self.f, nf)
+        vol = np.ones(nc)
+        for a in range(3):
+            sizes = np.full(nc[a], self.f[a], float)
+            sizes[-1] = shp[a] - self.f[a] * (nc[a] - 1)
+            vol = vol * sizes.reshape([-1 if b == a else 1 for b in range(3)])
+        win = [min(SMOOTH, n) for n in nc]
+        m_vol = ndimage.uniform_filter(vol, win, mode="wrap")
+        kmax = float(max(shp)) ** 2
+        self.permeability = []
+        trans = []
+        for a in range(3):
+            w = None if weights is None else weights[a]
+            u = poisson_velocity(mgs[a], ops[a][0], ops[a][1], w, CYCLES)
+            ku = np.zeros(nc, np.float32)
+            kr.restrict_sum(u, *self.f, ku)
+            del u
+            perm = ndimage.uniform_filter(ku.astype(float), win, mode="wrap") / m_vol
+            perm = np.clip(perm, 0.0, kmax)
+            perm[nf == 0] = 0.0
+            self.permeability.append(perm)
+            trans.append(self._transmissibility(perm, ops[a][0], a))
+        dc = np.zeros(nc)
+        for a, t in enumerate(trans):
+            dc += t + np.roll(t, -1, axis=a)
+        live = dc > 0
+        shift = SHIFT * float(dc[live].mean()) if live.any() else 0.0
+        dc = np.where(live, dc + shift, 0.0)
+        cc = np.stack([np.where(live, t, 0.0) for t in trans]).astype(np.float32)
+        self.labels, self.n_comp = self._components(cc, live)
+        self.live = live
+        self.mg = mg.ScalarMG(dc.astype(np.float32), cc, pre=2)
+        self.rc = np.zeros(nc, np.float32)
+        self.xc = np.zeros(nc, np.float32)
+
+    def _transmissibility(self, perm: np.ndarray, da: np.ndarray, a: int) -> np.ndarray:
+        """``T[I]`` between block ``I - e_a`` and ``I``: harmonic-mean permeability times face
+        area over length, 0 where no velocity unknown of component ``a`` crosses."""
+        shp = da.shape
+        nc = self.nc
+        planes = np.take(da, _starts(shp[a], self.f[a], nc[a]), axis=a) > 0
+        opened = planes.astype(np.int64)
+        for b in range(3):
+            if b != a:
+                opened = np.add.reduceat(opened, _starts(shp[b], self.f[b], nc[b]), axis=b)
+        lower = np.roll(perm, 1, axis=a)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            hm = np.where((perm > 0) & (lower > 0), 2.0 * perm * lower / (perm + lower), 0.0)
+        area = float(np.prod([self.f[b] for b in range(3) if b != a]))
+        t = hm * area / self.f[a]
+        t[opened == 0] = 0.0
+        if nc[a] == 1:
+            t[...] = 0.0  # one block along a: no interface of its own
+        return t
+
+    @staticmethod
+    def _components(cc: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, int]:
+        """Connected components of the coarse graph (labels -1 on dead blocks)."""
+        nc = live.shape
+        n = live.size
+        idx = np.arange(n).reshape(nc)
+        rows, cols = [], []
+        for a in range(3):
+            keep = (cc[a] > 0).ravel()
+            rows.append(idx.ravel()[keep])
+            cols.append(np.roll(idx, 1, axis=a).ravel()[keep])
+        r = np.concatenate(rows)
+        c = np.concatenate(cols)
+        graph = coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        _, lab = connected_components(graph, directed=False)
+        lab = lab.reshape(nc)
+        lab = np.where(live, lab, -1)
+        uniq, inv = np.unique(lab[live], return_inverse=True)
+        out = np.full(nc, -1, np.int64)
+        out[live] = inv
+        return out, int(uniq.size)
+
+    def _project(self, v: np.ndarray) -> None:
+        """Zero mean of ``v`` on every connected component; 0 on dead blocks (in place)."""
+        live = self.live
+        lab = self.labels[live]
+        vals = v[live].astype(np.float64)
+        mean = np.bincount(lab, vals, self.n_comp) / np.bincount(lab, None, self.n_comp)
+        v[live] = (vals - mean[lab]).astype(v.dtype)
+        v[~live] = 0.0
+
+    def apply(self, r: np.ndarray, z: np.ndarray) -> float:
+        """``z += R^T S_c^+ R r`` on the fluid cells; returns ``r . (R^T S_c^+ R r)`` (float64)."""
+        kr.restrict_sum(r, *self.f, self.rc)
+        self._project(self.rc)
+        dot = self.mg.apply(self.rc, self.xc)
+        self._project(self.xc)
+        kr.prolong_add(self.fluid, self.xc, *self.f, WEIGHT, z)
+        return WEIGHT * float(dot)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the coarse operator, its multigrid hierarchy and work arrays."""
+        total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + self.live.nbytes
+        total += sum(p.nbytes for p in self.permeability)
+        for lev in self.mg.levels:
+            total += lev.d.nbytes + lev.c.nbytes + lev.x.nbytes + lev.t.nbytes + lev.b.nbytes
+        return int(total)
