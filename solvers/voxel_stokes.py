@@ -55,9 +55,15 @@ Solvers*, ch. 4):
   the coarsest level.  Galerkin coarsening keeps the wall drag of the fine grid on every level
   however thin the fibres are, which is what broke the former re-discretised coupled (Vanka)
   multigrid on Toray-like grids (residual 1.2 after 80 cycles at 100^3).
-* the pressure block uses the pressure mass matrix (``h^3/mu`` times the identity, i.e. the
-  identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
-  the identity in a wall-free periodic box.
+* the pressure block is two-level (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`):
+  the inverse diagonal of the Schur complement estimate ``G^T diag(A)^-1 G`` (the identity,
+  ``h^3/mu`` in physical units, in a wall-free periodic box, where ``G^T (-Laplacian)^-1 G``
+  is exactly the identity for MAC) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of
+  8^3 cells with the Poisson permeability of each block.  The pore-scale part alone leaves
+  the long pressure waves, whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew
+  with the box side (Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 253 at 200, 456
+  at 400); the two together need 94 and 121 at 48 and 96 um (``benchmarks/RESULTS.md``).
+  Either part alone does not help (182 and 192 iterations at 96 um).
 * MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
   residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
   each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
@@ -70,8 +76,10 @@ Solvers*, ch. 4):
 Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterations for 1e-6;
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
-``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 140 bytes per voxel, 165 with
+``(G^T G)^-1`` pressure term (Cahouet-Chabard style) on the fine grid saved only 20 % of the
+iterations at 25 % more work per iteration and was dropped; the coarse Darcy term of
+:mod:`solvers.voxel.schur` costs two passes over the pressure field.  Memory is O(N): about
+140 bytes per voxel, 165 with
 sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
 :mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
@@ -716,7 +724,7 @@ iterations to 1e-6 (``benchmarks/RESULTS.md``): Toray-like 40^3 with the exact f
 distance 566 -> 171 (staircase 133; K identical to 7 digits); the former estimate
 ``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76."""
 
-COARSE_PRESSURE = False
+COARSE_PRESSURE = True
 """Add the coarse Darcy correction :class:`solvers.voxel.schur.CoarsePressure` to the pressure
 block of the preconditioner (without it the MINRES iterations grow with the box side)."""
 
@@ -842,13 +850,11 @@ class _Stokes:
         block), so MINRES needs no dot-product pass.  ``r`` must not be :attr:`z` (its pressure
         field is the V-cycles' work array), ``z`` may."""
         rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
+        if self.coarse_p is not None:  # two-level pressure block (solvers.voxel.schur)
+            return rz + self.coarse_p.apply(r[3], z[3], self.d, self.p_scale, SCHUR_FLOOR)
         if self.p_scale is None:
-            rz += kr.copy_dot(r[3], z[3])
-        else:
-            rz += kr.scale_dot(r[3], self.p_scale, z[3])
-        if self.coarse_p is not None:
-            rz += self.coarse_p.apply(r[3], z[3])
-        return rz
+            return rz + kr.copy_dot(r[3], z[3])
+        return rz + kr.scale_dot(r[3], self.p_scale, z[3])
 
 
 def _minres(
