@@ -6,6 +6,7 @@ Usage (one size per process, for the peak memory)::
     /usr/bin/time -v python benchmarks/bench_voxel_scale.py 100 x   # direction (default x)
     python benchmarks/bench_voxel_scale.py memory 64   # traced bytes per cell (tracemalloc)
     python benchmarks/bench_voxel_scale.py schur 100 200   # coarse pressure term off / on
+    python benchmarks/bench_voxel_scale.py schur-cost 100  # preconditioner time off / on
 
 The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
 a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
@@ -170,6 +171,44 @@ def schur_side_by_side(sizes: list[int], direction: str = "x") -> None:
     vs.COARSE_PRESSURE = True
 
 
+def schur_cost(n: int, repeats: int = 10) -> None:
+    """Time of one preconditioner application (three V-cycles and the pressure block) and of
+    one operator product, with and without the coarse pressure term, interleaved in one
+    process (median of ``repeats``), and the set-up time of the coarse term."""
+    import solvers.voxel_stokes as vs
+
+    solid, _ = _box(n)
+    ops = {}
+    for on in (False, True):
+        vs.COARSE_PRESSURE = on
+        t = time.perf_counter()
+        ops[on] = vs._Stokes.build(solid)
+        print(f"{n}^3 coarse {'on ' if on else 'off'}: build {time.perf_counter() - t:.2f} s")
+    vs.COARSE_PRESSURE = True
+    rng = np.random.default_rng(0)
+    r = rng.standard_normal(ops[True].shape).astype(np.float32)
+    r[3][solid] = 0.0
+    z = np.empty_like(r)
+    y = np.empty_like(r)
+    times = {False: [], True: [], "K": []}
+    for _ in range(repeats):
+        for on in (False, True):
+            t = time.perf_counter()
+            ops[on].precondition(r, z)
+            times[on].append(time.perf_counter() - t)
+        t = time.perf_counter()
+        ops[True].apply(r, y)
+        times["K"].append(time.perf_counter() - t)
+    med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
+    print(
+        f"{n}^3 preconditioner off {med[False]:.1f} ms, on {med[True]:.1f} ms "
+        f"(ratio {med[True] / med[False]:.3f}); operator product {med['K']:.1f} ms; "
+        f"coarse term {ops[True].coarse_p.nbytes / solid.size:.2f} B per voxel; "
+        f"load {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+
+
 def main(argv: list[str]) -> None:
     from psdesign.flow.voxel import column_of
     from solvers import jit
@@ -177,6 +216,9 @@ def main(argv: list[str]) -> None:
 
     if len(argv) > 1 and argv[1] == "memory":
         traced_memory(int(argv[2]) if len(argv) > 2 else 64)
+        return
+    if len(argv) > 1 and argv[1] == "schur-cost":
+        schur_cost(int(argv[2]) if len(argv) > 2 else 100)
         return
     if len(argv) > 1 and argv[1] == "schur":
         schur_side_by_side([int(a) for a in argv[2:]] or [100, 200])
