@@ -72,9 +72,10 @@ __all__ = [
     "WEIGHT",
     "CoarsePressure",
     "block_sum",
-    "diag_dot",
+    "CODE_TABLE",
     "poisson_velocity",
-    "pressure_block_diag",
+    "schur_code",
+    "pressure_block_code",
     "pressure_block_scale",
 ]
 
@@ -98,12 +99,6 @@ mode, which the projection removes)."""
 
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
-
-
-@nb.njit(inline="always")
-def _inv(d):
-    """``1 / d`` on an active face (``d > 0``), 0 on an inactive one (branch-free)."""
-    return np.float32(d > 0) / np.float32(max(d, 1))
 
 
 @nb.njit(inline="always")
@@ -132,53 +127,6 @@ def block_sum(r, fx, fy, fz, rc):
                         for k in range(k0, k1):
                             acc += row[k]
                 out[kc] = acc
-
-
-@nb.njit(inline="always")
-def _diag_row(dur, dup, dvr, dvp, dwr, k0, k1, nz, floor, out):
-    """``out[k] = 1 / max(floor, sum of 1 / A_ff over the six faces)`` for ``k0 <= k < k1``."""
-    for k in range(k0, min(k1, nz - 1)):
-        q = _inv(dur[k]) + _inv(dup[k]) + _inv(dvr[k]) + _inv(dvp[k])
-        q += _inv(dwr[k]) + _inv(dwr[k + 1])
-        out[k] = np.float32(1.0) / max(q, np.float32(floor))
-    if k1 == nz:
-        k = nz - 1
-        q = _inv(dur[k]) + _inv(dup[k]) + _inv(dvr[k]) + _inv(dvp[k])
-        q += _inv(dwr[k]) + _inv(dwr[0])
-        out[k] = np.float32(1.0) / max(q, np.float32(floor))
-
-
-@parallel_kernel(**_OPTS)
-def pressure_block_diag(du, dv, dw, fluid, r, xc, fx, fy, fz, weight, floor, z):
-    """Staircase two-level pressure block in one pass: ``z = D^-1 r + weight R^T xc`` with
-    ``D`` the Schur diagonal ``sum over the cell's faces of 1 / A_ff`` (from the uint8
-    velocity diagonals, not stored) and ``R^T`` the injection into the fluid cells; returns
-    ``r . z`` (float64)."""
-    nx, ny, nz = r.shape
-    ncx, ncy, ncz = xc.shape
-    part = np.zeros(nx)
-    for i in nb.prange(nx):
-        ip = i + 1 if i + 1 < nx else 0
-        ic = min(i // fx, ncx - 1)
-        acc = 0.0
-        sc = np.empty(nz, np.float32)
-        for j in range(ny):
-            jp = j + 1 if j + 1 < ny else 0
-            jc = min(j // fy, ncy - 1)
-            _diag_row(du[i, j], du[ip, j], dv[i, j], dv[i, jp], dw[i, j], 0, nz, nz, floor, sc)
-            rr = r[i, j]
-            fr = fluid[i, j]
-            zr = z[i, j]
-            xr = xc[ic, jc]
-            for kc in range(ncz):
-                k0, k1 = _bounds(kc, fz, ncz, nz)
-                cv = np.float32(weight * xr[kc])
-                for k in range(k0, k1):
-                    v = rr[k] * sc[k] + cv * np.float32(fr[k])
-                    zr[k] = v
-                    acc += np.float64(rr[k]) * np.float64(v)
-        part[i] = acc
-    return part.sum()
 
 
 @parallel_kernel(**_OPTS)
@@ -210,24 +158,60 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
 
 
 @parallel_kernel(**_OPTS)
-def diag_dot(du, dv, dw, r, z, floor):
-    """Staircase pore-scale pressure block alone, ``z = D^-1 r`` (see
-    :func:`pressure_block_diag`); returns ``r . z`` (float64)."""
+def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
+    """Staircase two-level pressure block in one pass: ``z = table[code] r + weight R^T xc``
+    (the Schur diagonal stored as a one-byte logarithmic code, :func:`schur_code`); returns
+    ``r . z`` (float64)."""
     nx, ny, nz = r.shape
+    ncx, ncy, ncz = xc.shape
     part = np.zeros(nx)
     for i in nb.prange(nx):
-        ip = i + 1 if i + 1 < nx else 0
+        ic = min(i // fx, ncx - 1)
         acc = 0.0
         for j in range(ny):
-            jp = j + 1 if j + 1 < ny else 0
-            zr = z[i, j]
-            _diag_row(du[i, j], du[ip, j], dv[i, j], dv[i, jp], dw[i, j], 0, nz, nz, floor, zr)
+            jc = min(j // fy, ncy - 1)
             rr = r[i, j]
-            for k in range(nz):
-                zr[k] = rr[k] * zr[k]
-                acc += np.float64(rr[k]) * np.float64(zr[k])
+            cr = code[i, j]
+            fr = fluid[i, j]
+            zr = z[i, j]
+            xr = xc[ic, jc]
+            for kc in range(ncz):
+                k0, k1 = _bounds(kc, fz, ncz, nz)
+                cv = np.float32(weight * xr[kc])
+                for k in range(k0, k1):
+                    v = rr[k] * table[cr[k]] + cv * np.float32(fr[k])
+                    zr[k] = v
+                    acc += np.float64(rr[k]) * np.float64(v)
         part[i] = acc
     return part.sum()
+
+
+CODE_STEPS = 16
+"""Codes per octave of the one-byte Schur-diagonal scale (a relative step of 2^(1/16) - 1 =
+4.4 %, at most 2.2 % off: any fixed SPD diagonal is a valid preconditioner)."""
+
+CODE_TABLE = (2.0 ** ((np.arange(256) - 32) / CODE_STEPS)).astype(np.float32)
+"""Scale of each code: ``2^((c - 32) / 16)``, 0.25 to 1.6e4 (the floor 1e-4 of the Schur
+diagonal gives at most 1e4)."""
+
+
+def schur_code(diags: list[np.ndarray], floor: float) -> np.ndarray:
+    """One-byte code of the staircase pressure scale ``1 / max(floor, sum over the cell's faces
+    of 1 / A_ff)`` (the diagonal of ``G^T diag(A)^-1 G``; 1 in a wall-free box), nearest
+    entry of :data:`CODE_TABLE`."""
+    s2 = np.zeros(diags[0].shape, np.float32)
+    for a, da in enumerate(diags):
+        q = np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+        s2 += q
+        s2 += np.roll(q, -1, axis=a)
+        del q
+    np.maximum(s2, floor, out=s2)
+    np.log2(s2, out=s2)
+    s2 *= -CODE_STEPS
+    s2 += 32.0
+    np.rint(s2, out=s2)
+    np.clip(s2, 0, 255, out=s2)
+    return s2.astype(np.uint8)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -338,6 +322,7 @@ class CoarsePressure:
         self.mg = mg.ScalarMG(dc.astype(np.float32), cc, pre=2)
         self.rc = np.zeros(nc, np.float32)
         self.xc = np.zeros(nc, np.float32)
+        self._code: np.ndarray | None = None
 
     def _transmissibility(self, perm: np.ndarray, da: np.ndarray, a: int) -> np.ndarray:
         """``T[I]`` between block ``I - e_a`` and ``I``: harmonic-mean permeability times face
@@ -400,7 +385,8 @@ class CoarsePressure:
     ) -> float:
         """The whole pressure block ``z = D^-1 r + R^T S_c^+ R r``; returns ``r . z``
         (float64).  ``D^-1`` is the stored ``scale`` if given (sub-voxel walls), else the
-        Schur diagonal computed from the velocity ``diags`` (staircase, clamped at ``floor``).
+        Schur diagonal of the velocity ``diags`` as a one-byte code (staircase, clamped at
+        ``floor``; :func:`schur_code`).
         Two passes over the pressure field: the restriction and one fused write."""
         block_sum(r, *self.f, self.rc)
         self._project(self.rc)
@@ -408,13 +394,24 @@ class CoarsePressure:
         self._project(self.xc)
         if scale is not None:
             return float(pressure_block_scale(scale, self.fluid, r, self.xc, *self.f, WEIGHT, z))
-        return float(pressure_block_diag(*diags, self.fluid, r, self.xc, *self.f, WEIGHT, floor, z))
+        code = self.code(diags, floor)
+        return float(
+            pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
+        )
+
+    def code(self, diags: list[np.ndarray], floor: float) -> np.ndarray:
+        """The staircase scale code (:func:`schur_code`), formed on first use and kept
+        (1 B per voxel)."""
+        if self._code is None:
+            self._code = schur_code(diags, floor)
+        return self._code
 
     @property
     def nbytes(self) -> int:
         """Bytes held by the coarse operator, its multigrid hierarchy and work arrays."""
         total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + self.live.nbytes
         total += sum(p.nbytes for p in self.permeability)
+        total += 0 if self._code is None else self._code.nbytes
         for lev in self.mg.levels:
             total += lev.d.nbytes + lev.c.nbytes + lev.x.nbytes + lev.t.nbytes + lev.b.nbytes
         return int(total)

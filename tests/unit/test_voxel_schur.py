@@ -49,8 +49,7 @@ def test_symmetric_positive_semidefinite_and_dot(monkeypatch: pytest.MonkeyPatch
     # the whole block: the staircase Schur diagonal plus the coarse term
     z3 = np.zeros_like(r1)
     d3 = cp.apply(r1, z3, op.d, None, vs.SCHUR_FLOOR)
-    z4 = np.zeros_like(r1)
-    schur.diag_dot(*op.d, r1, z4, vs.SCHUR_FLOOR)
+    z4 = r1 * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
     assert np.allclose(z3, z4 + z1, rtol=1e-5, atol=1e-5 * np.abs(z3).max())
     assert d3 == pytest.approx(float(np.dot(r1.ravel().astype(float), z3.ravel())), rel=1e-5)
 
@@ -93,9 +92,9 @@ def test_inverts_the_darcy_symbol_on_a_long_wave(monkeypatch: pytest.MonkeyPatch
     assert ratio == pytest.approx(want, rel=0.03)
 
 
-def test_staircase_diagonal_equals_the_stored_scale() -> None:
-    # diag_dot computes 1 / sum(1 / A_ff) from the uint8 diagonals: compare with the formula
-    # the sub-voxel path stores (w = 1 on the active faces)
+def test_staircase_scale_code_matches_the_schur_diagonal() -> None:
+    # the one-byte code of 1 / sum(1 / A_ff) (uint8 diagonals) against the formula the
+    # sub-voxel path stores (w = 1 on the active faces): within half a code step
     rng = np.random.default_rng(4)
     solid = rng.random((12, 10, 9)) < 0.3
     op = vs._Stokes.build(solid)
@@ -104,16 +103,14 @@ def test_staircase_diagonal_equals_the_stored_scale() -> None:
         da = op.d[a].astype(float)
         q = np.divide(1.0, da, out=np.zeros(da.shape), where=da > 0)
         s2 += q + np.roll(q, -1, axis=a)
-    r = rng.standard_normal(solid.shape).astype(np.float32)
-    z = np.empty_like(r)
-    dot = schur.diag_dot(*op.d, r, z, vs.SCHUR_FLOOR)
-    want = r / np.maximum(s2, vs.SCHUR_FLOOR)
-    assert np.allclose(z, want, rtol=1e-6)
-    assert dot == pytest.approx(float(np.sum(r.astype(float) * want)), rel=1e-6)
-    # a wall-free box: six faces of diagonal 6, the identity
+    want = 1.0 / np.maximum(s2, vs.SCHUR_FLOOR)
+    got = schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
+    half = 2.0 ** (0.5 / schur.CODE_STEPS)
+    assert np.all(got <= want * half * (1 + 1e-6)) and np.all(got >= want / half * (1 - 1e-6))
+    assert np.abs(np.log2(got / want)).max() > 0.1 / schur.CODE_STEPS  # really quantised
+    # a wall-free box: six faces of diagonal 6, the identity exactly
     free = vs._Stokes.build(np.zeros((6, 6, 6), dtype=bool))
-    schur.diag_dot(*free.d, r[:6, :6, :6].copy(), z[:6, :6, :6], vs.SCHUR_FLOOR)
-    assert np.allclose(z[:6, :6, :6], r[:6, :6, :6], rtol=1e-6)
+    assert np.all(schur.CODE_TABLE[schur.schur_code(free.d, vs.SCHUR_FLOOR)] == 1.0)
 
 
 @pytest.mark.parametrize("subvoxel", [False, True])
@@ -142,6 +139,5 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     if subvoxel:
         fine = r[3] * op.p_scale
     else:
-        fine = np.empty_like(r[3])
-        schur.diag_dot(*op.d, r[3], fine, vs.SCHUR_FLOOR)
+        fine = r[3] * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
     assert np.allclose(z[3], fine + zc, rtol=1e-5, atol=1e-5 * float(np.abs(z[3]).max()))
