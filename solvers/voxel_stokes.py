@@ -62,7 +62,9 @@ Solvers*, ch. 4):
   8^3 cells with the Poisson permeability of each block.  The pore-scale part alone leaves
   the long pressure waves, whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew
   with the box side (Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 253 at 200, 456
-  at 400); the two together need 94 and 121 at 48 and 96 um (``benchmarks/RESULTS.md``).
+  at 400); the two together need 94 and 121 at 48 and 96 um, 151 at 100 um (206 before;
+  ``benchmarks/RESULTS.md``).  On the staircase the diagonal is stored as a one-byte
+  logarithmic code (:func:`solvers.voxel.schur.schur_code`).
   Either part alone does not help (182 and 192 iterations at 96 um).
 * MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
   residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
