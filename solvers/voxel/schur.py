@@ -46,10 +46,17 @@ pore-scale solvers)::
 
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
-the box.  Cost per MINRES iteration: one restriction and one prolongation pass over the pressure
-field (8 bytes per voxel of the ~461 streamed) and a V-cycle on ``N / BLOCK^3`` blocks; memory:
-the coarse operator and work arrays, about ``40 / BLOCK^3`` bytes per voxel plus the V-cycle
-hierarchy (~1/7 more).
+the box.  ``D`` is the Schur diagonal ``sum over the cell's faces of w_f^2 / A_ff`` (stored in
+float32 for sub-voxel walls by :mod:`solvers.voxel_stokes`; for the staircase a one-byte
+logarithmic code, :func:`schur_code`).  Either half alone does not cut the iterations (Toray-like
+96 um: 171 before, 192 with ``D`` alone, 182 with the coarse term alone, 121 with both; 200 um:
+253 -> 176).  Cost per MINRES iteration: the restriction pass and one fused pass writing the
+pressure block (read ``r``, the code and the fluid mask, write ``z``) instead of the former
+copy, and a V-cycle on ``N / BLOCK^3`` blocks: within the noise of the one-level block
+(``bench_voxel_scale.py schur-cost``).  Memory: 1 B per voxel for the staircase code plus about
+0.12 B per voxel for the coarse operator, hierarchy and work arrays.  Similar in spirit to the
+pore-level multiscale / pore-network preconditioners of Mehmani and co-workers (a coarse
+pore-scale flow model as the coarse space of a Stokes preconditioner).
 """
 
 from __future__ import annotations
