@@ -55,17 +55,9 @@ Solvers*, ch. 4):
   the coarsest level.  Galerkin coarsening keeps the wall drag of the fine grid on every level
   however thin the fibres are, which is what broke the former re-discretised coupled (Vanka)
   multigrid on Toray-like grids (residual 1.2 after 80 cycles at 100^3).
-* the pressure block is two-level (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`):
-  the inverse diagonal of the Schur complement estimate ``G^T diag(A)^-1 G`` (the identity,
-  ``h^3/mu`` in physical units, in a wall-free periodic box, where ``G^T (-Laplacian)^-1 G``
-  is exactly the identity for MAC) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of
-  8^3 cells with the Poisson permeability of each block.  The pore-scale part alone leaves
-  the long pressure waves, whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew
-  with the box side (Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 253 at 200, 456
-  at 400); the two together need 94 and 121 at 48 and 96 um, 151 at 100 um (206 before;
-  ``benchmarks/RESULTS.md``).  On the staircase the diagonal is stored as a one-byte
-  logarithmic code (:func:`solvers.voxel.schur.schur_code`).
-  Either part alone does not help (182 and 192 iterations at 96 um).
+* the pressure block (two-level since issue 16: *Pressure block* below) starts from the mass (the
+  identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
+  the identity in a wall-free periodic box.
 * MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
   residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
   each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
@@ -78,10 +70,8 @@ Solvers*, ch. 4):
 Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterations for 1e-6;
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
-``(G^T G)^-1`` pressure term (Cahouet-Chabard style) on the fine grid saved only 20 % of the
-iterations at 25 % more work per iteration and was dropped; the coarse Darcy term of
-:mod:`solvers.voxel.schur` costs two passes over the pressure field.  Memory is O(N): about
-140 bytes per voxel, 165 with
+``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
+more work per iteration and was dropped.  Memory is O(N): about 140 bytes per voxel, 165 with
 sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
 :mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
@@ -96,6 +86,18 @@ scalar stencil); this made the V-cycle 3x and the operator product 3x faster tha
 point-wise version.  The solve is then memory-bandwidth bound (about 28 GB/s here, the same
 with one or two threads), so MINRES passes are fused (see :func:`_minres`) and the last
 smoothing sweep of each V-cycle writes straight into the output.
+
+*Pressure block* (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`): the inverse diagonal
+of the Schur complement estimate ``G^T diag(A)^-1 G`` (1 in a wall-free box; a one-byte
+logarithmic code on the staircase, :func:`solvers.voxel.schur.schur_code`, float32 for
+sub-voxel walls) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 8^3 cells with the
+Poisson permeability of each block.  The pore-scale part alone leaves the long pressure waves,
+whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew with the box side
+(Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 206 at 100, 253 at 200, 456 at 400);
+with both parts 94, 121, 151 and 176 at 48, 96, 100 and 200 um; either part alone does not
+help (192 and 182 at 96 um).  Against the fine-grid ``(G^T G)^-1`` term above, the coarse
+term costs one restriction pass over the pressure field and a V-cycle on N / 512 blocks
+(``benchmarks/RESULTS.md``).
 
 Driving force and averages
 --------------------------
