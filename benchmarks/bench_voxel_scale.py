@@ -5,6 +5,8 @@ Usage (one size per process, for the peak memory)::
     /usr/bin/time -v python benchmarks/bench_voxel_scale.py 400     # 400 um cube, 64 M voxels
     /usr/bin/time -v python benchmarks/bench_voxel_scale.py 100 x   # direction (default x)
     python benchmarks/bench_voxel_scale.py memory 64   # traced bytes per cell (tracemalloc)
+    python benchmarks/bench_voxel_scale.py schur 100 200   # coarse pressure term off / on
+    python benchmarks/bench_voxel_scale.py schur-cost 100  # preconditioner time off / on
 
 The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
 a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
@@ -128,6 +130,85 @@ def traced_memory(n: int) -> None:
         )
 
 
+def _box(n: int) -> tuple[np.ndarray, int]:
+    """The ``n`` um box, from ``/tmp/psdesign_scale_box_<n>.npz`` if a former run left it."""
+    cache = Path(f"/tmp/psdesign_scale_box_{n}.npz")
+    if cache.exists():
+        with np.load(cache) as f:
+            return f["solid"], int(f["fibres"])
+    solid, fibres = toray_box(n)
+    np.savez(cache, solid=solid, fibres=fibres)
+    return solid, fibres
+
+
+def schur_side_by_side(sizes: list[int], direction: str = "x") -> None:
+    """MINRES iterations and time per iteration without and with the coarse Darcy term of the
+    pressure preconditioner (:mod:`solvers.voxel.schur`), one after the other per size, in one
+    process, with the load average and the coarse term's memory."""
+    import solvers.voxel_stokes as vs
+    from psdesign.flow.voxel import column_of
+
+    vs.solve_voxel_stokes(toray_box(48)[0], 1e-6, direction, tol=1e-3)  # compile both paths
+    for n in sizes:
+        solid, fibres = _box(n)
+        for on in (False, True):
+            vs.COARSE_PRESSURE = on
+            load0 = os.getloadavg()[0]
+            res = vs.solve_voxel_stokes(solid, 1e-6, direction, tol=1e-6)
+            extra = ""
+            if on:
+                op = vs._Stokes.build(solid)
+                extra = f" coarse term {op.coarse_p.nbytes / solid.size:.2f} B per voxel"
+                del op
+            print(
+                f"{n}^3 coarse pressure {'on ' if on else 'off'}: MINRES iterations "
+                f"{res.iterations} solve {res.wall_time_s:.1f} s "
+                f"({1e3 * res.wall_time_s / max(res.iterations, 1):.0f} ms per iteration incl. "
+                f"set-up) K = {column_of(res)[('xyz').index(direction)]:.9e} m^2 residual "
+                f"{res.residual:.1e}{extra} load {load0:.1f} -> {os.getloadavg()[0]:.1f}",
+                flush=True,
+            )
+    vs.COARSE_PRESSURE = True
+
+
+def schur_cost(n: int, repeats: int = 10) -> None:
+    """Time of one preconditioner application (three V-cycles and the pressure block) and of
+    one operator product, with and without the coarse pressure term, interleaved in one
+    process (median of ``repeats``), and the set-up time of the coarse term."""
+    import solvers.voxel_stokes as vs
+
+    solid, _ = _box(n)
+    ops = {}
+    for on in (False, True):
+        vs.COARSE_PRESSURE = on
+        t = time.perf_counter()
+        ops[on] = vs._Stokes.build(solid)
+        print(f"{n}^3 coarse {'on ' if on else 'off'}: build {time.perf_counter() - t:.2f} s")
+    vs.COARSE_PRESSURE = True
+    rng = np.random.default_rng(0)
+    r = rng.standard_normal(ops[True].shape).astype(np.float32)
+    r[3][solid] = 0.0
+    z = np.empty_like(r)
+    y = np.empty_like(r)
+    times = {False: [], True: [], "K": []}
+    for _ in range(repeats):
+        for on in (False, True):
+            t = time.perf_counter()
+            ops[on].precondition(r, z)
+            times[on].append(time.perf_counter() - t)
+        t = time.perf_counter()
+        ops[True].apply(r, y)
+        times["K"].append(time.perf_counter() - t)
+    med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
+    print(
+        f"{n}^3 preconditioner off {med[False]:.1f} ms, on {med[True]:.1f} ms "
+        f"(ratio {med[True] / med[False]:.3f}); operator product {med['K']:.1f} ms; "
+        f"coarse term {ops[True].coarse_p.nbytes / solid.size:.2f} B per voxel; "
+        f"load {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+
+
 def main(argv: list[str]) -> None:
     from psdesign.flow.voxel import column_of
     from solvers import jit
@@ -135,6 +216,12 @@ def main(argv: list[str]) -> None:
 
     if len(argv) > 1 and argv[1] == "memory":
         traced_memory(int(argv[2]) if len(argv) > 2 else 64)
+        return
+    if len(argv) > 1 and argv[1] == "schur-cost":
+        schur_cost(int(argv[2]) if len(argv) > 2 else 100)
+        return
+    if len(argv) > 1 and argv[1] == "schur":
+        schur_side_by_side([int(a) for a in argv[2:]] or [100, 200])
         return
     n = int(argv[1]) if len(argv) > 1 else 100
     direction = argv[2] if len(argv) > 2 else "x"
@@ -144,13 +231,7 @@ def main(argv: list[str]) -> None:
     solve_voxel_stokes(toray_box(48)[0], 1e-6, direction, tol=1e-3)
     load0 = os.getloadavg()[0]
     t = time.perf_counter()
-    cache = Path(f"/tmp/psdesign_scale_box_{n}.npz")
-    if cache.exists():
-        with np.load(cache) as f:
-            solid, fibres = f["solid"], int(f["fibres"])
-    else:
-        solid, fibres = toray_box(n)
-        np.savez(cache, solid=solid, fibres=fibres)
+    solid, fibres = _box(n)
     gen = time.perf_counter() - t
     print(f"toray box {n} um at 1 um: {fibres} fibres, generated in {gen:.1f} s", flush=True)
     t = time.perf_counter()

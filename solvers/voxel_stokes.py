@@ -55,7 +55,7 @@ Solvers*, ch. 4):
   the coarsest level.  Galerkin coarsening keeps the wall drag of the fine grid on every level
   however thin the fibres are, which is what broke the former re-discretised coupled (Vanka)
   multigrid on Toray-like grids (residual 1.2 after 80 cycles at 100^3).
-* the pressure block uses the pressure mass matrix (``h^3/mu`` times the identity, i.e. the
+* the pressure block (two-level since issue 16: *Pressure block* below) starts from the mass (the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
 * MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
@@ -87,6 +87,18 @@ point-wise version.  The solve is then memory-bandwidth bound (about 28 GB/s her
 with one or two threads), so MINRES passes are fused (see :func:`_minres`) and the last
 smoothing sweep of each V-cycle writes straight into the output.
 
+*Pressure block* (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`): the inverse diagonal
+of the Schur complement estimate ``G^T diag(A)^-1 G`` (1 in a wall-free box; a one-byte
+logarithmic code on the staircase, :func:`solvers.voxel.schur.schur_code`, float32 for
+sub-voxel walls) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 8^3 cells with the
+Poisson permeability of each block.  The pore-scale part alone leaves the long pressure waves,
+whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew with the box side
+(Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 206 at 100, 253 at 200, 456 at 400);
+with both parts 94, 121, 151 and 176 at 48, 96, 100 and 200 um; either part alone does not
+help (192 and 182 at 96 um).  Against the fine-grid ``(G^T G)^-1`` term above, the coarse
+term costs one restriction pass over the pressure field and a V-cycle on N / 512 blocks
+(``benchmarks/RESULTS.md``).
+
 Driving force and averages
 --------------------------
 The flow is driven by a mean pressure gradient ``pressure_gradient`` (body force) along
@@ -113,6 +125,7 @@ from solvers.voxel import kernels as kr
 from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
+from solvers.voxel import schur
 from solvers.voxel import threads as vthreads
 
 __all__ = [
@@ -715,6 +728,10 @@ iterations to 1e-6 (``benchmarks/RESULTS.md``): Toray-like 40^3 with the exact f
 distance 566 -> 171 (staircase 133; K identical to 7 digits); the former estimate
 ``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76."""
 
+COARSE_PRESSURE = True
+"""Add the coarse Darcy correction :class:`solvers.voxel.schur.CoarsePressure` to the pressure
+block of the preconditioner (without it the MINRES iterations grow with the box side)."""
+
 SCHUR_FLOOR = 1e-4
 """Lower bound of the Schur diagonal estimate (the smallest possible value, a weight of 0.05 on
 a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 40^3)."""
@@ -769,6 +786,9 @@ class _Stokes:
         self._work = work
         self.mg = [mg.ScalarMG(o[0], o[1], work=work, **mg_kw) for o in ops]
         _share_coarse_work(self.mg)
+        self.coarse_p = None
+        if COARSE_PRESSURE:
+            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
 
     @property
     def act(self) -> list[np.ndarray]:
@@ -834,6 +854,8 @@ class _Stokes:
         block), so MINRES needs no dot-product pass.  ``r`` must not be :attr:`z` (its pressure
         field is the V-cycles' work array), ``z`` may."""
         rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
+        if self.coarse_p is not None:  # two-level pressure block (solvers.voxel.schur)
+            return rz + self.coarse_p.apply(r[3], z[3], self.d, self.p_scale, SCHUR_FLOOR)
         if self.p_scale is None:
             return rz + kr.copy_dot(r[3], z[3])
         return rz + kr.scale_dot(r[3], self.p_scale, z[3])

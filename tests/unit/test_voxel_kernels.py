@@ -130,9 +130,12 @@ def test_pre_smoothing_sweeps_must_be_positive() -> None:
 
 
 @pytest.mark.parametrize("scaled", [False, True])
-def test_stokes_preconditioner_returns_r_dot_z(scaled: bool) -> None:
+def test_stokes_preconditioner_returns_r_dot_z(scaled: bool, monkeypatch) -> None:
     from solvers import voxel_stokes as vs
 
+    # the one-level pressure block (identity / stored scale); the two-level default is
+    # checked in tests/unit/test_voxel_schur.py
+    monkeypatch.setattr(vs, "COARSE_PRESSURE", False)
     solid = ~_fluid((10, 8, 6), seed=5)
     op = vs._Stokes.build(solid)
     if scaled:

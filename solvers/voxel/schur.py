@@ -1,0 +1,424 @@
+"""Coarse Darcy correction of the pressure block of the voxel Stokes preconditioner.
+
+Why
+---
+The pressure block of the block-diagonal MINRES preconditioner (:mod:`solvers.voxel_stokes`) is
+a pore-scale approximation of the Schur complement ``S = G^T A^-1 G``: the identity (staircase)
+or the inverse of its diagonal (sub-voxel walls).  That is right for pressure modes shorter than
+the pores, where ``S`` acts like the identity (exactly so in a wall-free box).  For modes of
+wave number ``k`` much longer than the pores, ``S`` is the Darcy operator ``-div(K grad)`` (voxel
+units, ``K`` the permeability over ``h^2``) with eigenvalues ``K k^2``: the preconditioned
+spectrum spans ``[K (2 pi / L)^2, 1]``, so its condition number grows as ``(L / sqrt K)^2`` and
+MINRES needs about ``L / sqrt K`` iterations once the box side ``L`` is a few times
+``2 pi sqrt K`` (measured, Toray-like material at 1 um, ``benchmarks/RESULTS.md``: 107-114
+iterations for 32-64 um boxes, 171 at 96, 222 at 128, 253 at 200, 456 at 400).
+
+What
+----
+A two-level additive pressure block (as two-level additive Schwarz / a coarse-grid correction
+of an elliptic preconditioner; cf. the Darcy-type coarse pressure corrections of SIMPLE-like
+pore-scale solvers)::
+
+    M_p^-1 = D^-1 + R^T S_c^+ R
+
+* ``R`` sums the pressure residual over box blocks of :data:`BLOCK` cells per axis (the fluid
+  cells only) and ``R^T`` injects a block value into the block's fluid cells, so the term is
+  symmetric positive semi-definite and ``M_p`` stays SPD (MINRES).
+* ``S_c`` is a 7-point finite-volume Darcy operator on the blocks: transmissibility
+  ``K_f A / l`` between two face-neighbouring blocks (``A`` the block face area, ``l`` the block
+  length along the axis, ``K_f`` the harmonic mean of the two blocks' permeabilities along the
+  axis), 0 when no velocity unknown crosses the interface (box walls of the permeameter, solid
+  planes).  The coefficient is the *Poisson* permeability, not Darcy's: the long-wave limit of
+  ``G^T A^-1 G`` is ``-div(K_P grad)`` with ``K_P`` the superficial mean of the unconstrained
+  velocity ``A^-1 w`` under a unit force (no incompressibility; Toray-like 48 um: ``K_P`` = 14
+  voxel^2 against the Stokes 10).  ``A^-1 w`` is approximated by :data:`CYCLES` iterations of
+  the velocity V-cycles already built, its block sums averaged over ``SMOOTH^3`` blocks and
+  capped at ``(box side)^2`` (an empty reservoir is then nearly isobaric, as it is: ``S`` is
+  the identity there and the correction must vanish).  Measured on the same 48 um box,
+  plane pressure waves of 1, 2, 4, 8 periods per box: Rayleigh quotients of ``S`` 0.22, 0.49,
+  0.74, 0.87 (``K_P k^2`` 0.24, 0.96, ...); with the coarse term ``(1 + C) S`` 0.98, 0.94,
+  0.92, 0.92.
+* ``S_c^+`` (pseudo-inverse: the constant pressure of each connected coarse component is in the
+  null space of ``S``) is applied as one symmetric V-cycle of the same aggregation multigrid as
+  the velocities (:class:`solvers.voxel.multigrid.ScalarMG`) with the right-hand side and the
+  result projected to zero mean on each component; a tiny diagonal shift
+  (:data:`SHIFT`) keeps the coarsest direct solve regular.
+
+With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
+is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
+the box.  ``D`` is the Schur diagonal ``sum over the cell's faces of w_f^2 / A_ff`` (stored in
+float32 for sub-voxel walls by :mod:`solvers.voxel_stokes`; for the staircase a one-byte
+logarithmic code, :func:`schur_code`).  Either half alone does not cut the iterations (Toray-like
+96 um: 171 before, 192 with ``D`` alone, 182 with the coarse term alone, 121 with both; 200 um:
+253 -> 176).  Cost per MINRES iteration: the restriction pass and one fused pass writing the
+pressure block (read ``r``, the code and the fluid mask, write ``z``) instead of the former
+copy, and a V-cycle on ``N / BLOCK^3`` blocks: within the noise of the one-level block
+(``bench_voxel_scale.py schur-cost``).  Memory: 1 B per voxel for the staircase code plus about
+0.12 B per voxel for the coarse operator, hierarchy and work arrays.  Similar in spirit to the
+pore-level multiscale / pore-network preconditioners of Mehmani and co-workers (a coarse
+pore-scale flow model as the coarse space of a Stokes preconditioner).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from solvers.jit import parallel_kernel
+from solvers.voxel import kernels as kr
+from solvers.voxel import multigrid as mg
+
+__all__ = [
+    "BLOCK",
+    "CYCLES",
+    "SHIFT",
+    "SMOOTH",
+    "WEIGHT",
+    "CoarsePressure",
+    "block_sum",
+    "CODE_TABLE",
+    "poisson_velocity",
+    "schur_code",
+    "pressure_block_code",
+    "pressure_block_scale",
+]
+
+BLOCK = 8
+"""Cells per axis of a coarse pressure block (the Darcy correction acts on modes longer than
+about two blocks; the uncorrected Darcy modes then have eigenvalues above ``K (pi / BLOCK)^2``,
+about 1 on the Toray-like material)."""
+
+CYCLES = 4
+"""Multigrid-preconditioned iterations for the Poisson velocity ``A^-1 w`` of each component."""
+
+SMOOTH = 3
+"""Blocks per axis of the window over which ``phi`` and ``s`` are averaged."""
+
+WEIGHT = 1.0
+"""Weight of the coarse term in the pressure block."""
+
+SHIFT = 1e-4
+"""Diagonal shift of the coarse operator relative to its mean diagonal (regularises the constant
+mode, which the projection removes)."""
+
+
+_OPTS = {"cache": True, "fastmath": True, "nogil": True}
+
+
+@nb.njit(inline="always")
+def _bounds(c, f, nc, n):
+    lo = c * f
+    return lo, (n if c == nc - 1 else lo + f)
+
+
+@parallel_kernel(**_OPTS)
+def block_sum(r, fx, fy, fz, rc):
+    """``rc = R r``: the sum of ``r`` over each block (the last block of an axis takes the
+    remainder); contiguous inner loops (no division per cell)."""
+    nx, ny, nz = r.shape
+    ncx, ncy, ncz = rc.shape
+    for ic in nb.prange(ncx):
+        i0, i1 = _bounds(ic, fx, ncx, nx)
+        for jc in range(ncy):
+            j0, j1 = _bounds(jc, fy, ncy, ny)
+            out = rc[ic, jc]
+            for kc in range(ncz):
+                k0, k1 = _bounds(kc, fz, ncz, nz)
+                acc = 0.0
+                for i in range(i0, i1):
+                    for j in range(j0, j1):
+                        row = r[i, j]
+                        for k in range(k0, k1):
+                            acc += row[k]
+                out[kc] = acc
+
+
+@parallel_kernel(**_OPTS)
+def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
+    """Sub-voxel two-level pressure block in one pass: ``z = scale r + weight R^T xc`` (the
+    stored Schur-diagonal scale); returns ``r . z`` (float64)."""
+    nx, ny, nz = r.shape
+    ncx, ncy, ncz = xc.shape
+    part = np.zeros(nx)
+    for i in nb.prange(nx):
+        ic = min(i // fx, ncx - 1)
+        acc = 0.0
+        for j in range(ny):
+            jc = min(j // fy, ncy - 1)
+            rr = r[i, j]
+            sr = scale[i, j]
+            fr = fluid[i, j]
+            zr = z[i, j]
+            xr = xc[ic, jc]
+            for kc in range(ncz):
+                k0, k1 = _bounds(kc, fz, ncz, nz)
+                cv = np.float32(weight * xr[kc])
+                for k in range(k0, k1):
+                    v = rr[k] * sr[k] + cv * np.float32(fr[k])
+                    zr[k] = v
+                    acc += np.float64(rr[k]) * np.float64(v)
+        part[i] = acc
+    return part.sum()
+
+
+@parallel_kernel(**_OPTS)
+def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
+    """Staircase two-level pressure block in one pass: ``z = table[code] r + weight R^T xc``
+    (the Schur diagonal stored as a one-byte logarithmic code, :func:`schur_code`); returns
+    ``r . z`` (float64)."""
+    nx, ny, nz = r.shape
+    ncx, ncy, ncz = xc.shape
+    part = np.zeros(nx)
+    for i in nb.prange(nx):
+        ic = min(i // fx, ncx - 1)
+        acc = 0.0
+        for j in range(ny):
+            jc = min(j // fy, ncy - 1)
+            rr = r[i, j]
+            cr = code[i, j]
+            fr = fluid[i, j]
+            zr = z[i, j]
+            xr = xc[ic, jc]
+            for kc in range(ncz):
+                k0, k1 = _bounds(kc, fz, ncz, nz)
+                cv = np.float32(weight * xr[kc])
+                for k in range(k0, k1):
+                    v = rr[k] * table[cr[k]] + cv * np.float32(fr[k])
+                    zr[k] = v
+                    acc += np.float64(rr[k]) * np.float64(v)
+        part[i] = acc
+    return part.sum()
+
+
+CODE_STEPS = 16
+"""Codes per octave of the one-byte Schur-diagonal scale (a relative step of 2^(1/16) - 1 =
+4.4 %, at most 2.2 % off: any fixed SPD diagonal is a valid preconditioner)."""
+
+CODE_TABLE = (2.0 ** ((np.arange(256) - 32) / CODE_STEPS)).astype(np.float32)
+"""Scale of each code: ``2^((c - 32) / 16)``, 0.25 to 1.6e4 (the floor 1e-4 of the Schur
+diagonal gives at most 1e4)."""
+
+
+def schur_code(diags: list[np.ndarray], floor: float) -> np.ndarray:
+    """One-byte code of the staircase pressure scale ``1 / max(floor, sum over the cell's faces
+    of 1 / A_ff)`` (the diagonal of ``G^T diag(A)^-1 G``; 1 in a wall-free box), nearest
+    entry of :data:`CODE_TABLE`."""
+    s2 = np.zeros(diags[0].shape, np.float32)
+    for a, da in enumerate(diags):
+        q = np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+        s2 += q
+        s2 += np.roll(q, -1, axis=a)
+        del q
+    np.maximum(s2, floor, out=s2)
+    np.log2(s2, out=s2)
+    s2 *= -CODE_STEPS
+    s2 += 32.0
+    np.rint(s2, out=s2)
+    np.clip(s2, 0, 255, out=s2)
+    return s2.astype(np.uint8)
+
+
+@nb.njit(cache=True, nogil=True)
+def _block_count(fluid, fx, fy, fz, nf):
+    """Number of fluid cells of every block (``nf`` zeroed by the caller)."""
+    nx, ny, nz = fluid.shape
+    ncx, ncy, ncz = nf.shape
+    for i in range(nx):
+        ic = min(i // fx, ncx - 1)
+        for j in range(ny):
+            jc = min(j // fy, ncy - 1)
+            for k in range(nz):
+                nf[ic, jc, min(k // fz, ncz - 1)] += fluid[i, j, k]
+
+
+def poisson_velocity(
+    smg: mg.ScalarMG,
+    d: np.ndarray,
+    c: np.ndarray,
+    weight: np.ndarray | None,
+    cycles: int,
+) -> np.ndarray:
+    """``w * A^-1 w`` approximated by ``cycles`` multigrid-preconditioned iterations (float32):
+    the unconstrained velocity under a unit force, whose block mean is the Poisson permeability
+    (``w`` the sub-voxel face weight, 1 on the staircase's active faces)."""
+    b = (d > 0).astype(np.float32) if weight is None else np.asarray(weight, np.float32)
+    u = np.zeros(d.shape, np.float32)
+    r = b.copy()
+    e = np.empty(d.shape, np.float32)
+    for it in range(cycles):
+        smg.apply(r, e)
+        u += e
+        if it + 1 < cycles:
+            kr.lap_residual(d, c[0], c[1], c[2], u, b, r)
+    del r, e
+    u *= b
+    return u
+
+
+def _starts(n: int, f: int, nc: int) -> np.ndarray:
+    return np.arange(nc) * f if nc > 0 else np.zeros(1, int)
+
+
+class CoarsePressure:
+    """The coarse Darcy term ``R^T S_c^+ R`` of the pressure preconditioner (module docstring).
+
+    Parameters
+    ----------
+    fluid : np.ndarray of uint8, shape (nx, ny, nz)
+        Pressure unknowns (1 = fluid cell).
+    diags : list of 3 np.ndarray
+        Diagonals of the three velocity operators (``> 0`` on the velocity unknowns): an
+        interface between two blocks is open when a velocity unknown crosses it.
+    block : int
+        Cells per axis of a block (:data:`BLOCK`).
+    """
+
+    def __init__(
+        self,
+        fluid: np.ndarray,
+        ops: list[tuple[np.ndarray, np.ndarray]],
+        mgs: list[mg.ScalarMG],
+        weights: list[np.ndarray] | None = None,
+        block: int | None = None,
+    ) -> None:
+        shp = fluid.shape
+        blk = BLOCK if block is None else int(block)
+        self.f = tuple(max(1, min(blk, n)) for n in shp)
+        nc = tuple(n // f for n, f in zip(shp, self.f, strict=True))
+        self.nc = nc
+        self.fluid = fluid
+        nf = np.zeros(nc, np.int64)
+        _block_count(fluid, *self.f, nf)
+        vol = np.ones(nc)
+        for a in range(3):
+            sizes = np.full(nc[a], self.f[a], float)
+            sizes[-1] = shp[a] - self.f[a] * (nc[a] - 1)
+            vol = vol * sizes.reshape([-1 if b == a else 1 for b in range(3)])
+        win = [min(SMOOTH, n) for n in nc]
+        m_vol = ndimage.uniform_filter(vol, win, mode="wrap")
+        kmax = float(max(shp)) ** 2
+        self.permeability = []
+        trans = []
+        for a in range(3):
+            w = None if weights is None else weights[a]
+            # a wall-free periodic component has a singular A (its coarsest solve overflows):
+            # its velocity is unbounded, i.e. the cap
+            with np.errstate(over="ignore", invalid="ignore"):
+                u = poisson_velocity(mgs[a], ops[a][0], ops[a][1], w, CYCLES)
+                ku = np.zeros(nc, np.float32)
+                block_sum(u, *self.f, ku)
+            del u
+            ku = np.nan_to_num(ku.astype(float), nan=kmax * m_vol.max(), posinf=kmax * m_vol.max())
+            perm = ndimage.uniform_filter(ku, win, mode="wrap") / m_vol
+            perm = np.clip(perm, 0.0, kmax)
+            perm[nf == 0] = 0.0
+            self.permeability.append(perm)
+            trans.append(self._transmissibility(perm, ops[a][0], a))
+        dc = np.zeros(nc)
+        for a, t in enumerate(trans):
+            dc += t + np.roll(t, -1, axis=a)
+        live = dc > 0
+        shift = SHIFT * float(dc[live].mean()) if live.any() else 0.0
+        dc = np.where(live, dc + shift, 0.0)
+        cc = np.stack([np.where(live, t, 0.0) for t in trans]).astype(np.float32)
+        self.labels, self.n_comp = self._components(cc, live)
+        self.live = live
+        self.mg = mg.ScalarMG(dc.astype(np.float32), cc, pre=2)
+        self.rc = np.zeros(nc, np.float32)
+        self.xc = np.zeros(nc, np.float32)
+        self._code: np.ndarray | None = None
+
+    def _transmissibility(self, perm: np.ndarray, da: np.ndarray, a: int) -> np.ndarray:
+        """``T[I]`` between block ``I - e_a`` and ``I``: harmonic-mean permeability times face
+        area over length, 0 where no velocity unknown of component ``a`` crosses."""
+        shp = da.shape
+        nc = self.nc
+        planes = np.take(da, _starts(shp[a], self.f[a], nc[a]), axis=a) > 0
+        opened = planes.astype(np.int64)
+        for b in range(3):
+            if b != a:
+                opened = np.add.reduceat(opened, _starts(shp[b], self.f[b], nc[b]), axis=b)
+        lower = np.roll(perm, 1, axis=a)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            hm = np.where((perm > 0) & (lower > 0), 2.0 * perm * lower / (perm + lower), 0.0)
+        area = float(np.prod([self.f[b] for b in range(3) if b != a]))
+        t = hm * area / self.f[a]
+        t[opened == 0] = 0.0
+        if nc[a] == 1:
+            t[...] = 0.0  # one block along a: no interface of its own
+        return t
+
+    @staticmethod
+    def _components(cc: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, int]:
+        """Connected components of the coarse graph (labels -1 on dead blocks)."""
+        nc = live.shape
+        n = live.size
+        idx = np.arange(n).reshape(nc)
+        rows, cols = [], []
+        for a in range(3):
+            keep = (cc[a] > 0).ravel()
+            rows.append(idx.ravel()[keep])
+            cols.append(np.roll(idx, 1, axis=a).ravel()[keep])
+        r = np.concatenate(rows)
+        c = np.concatenate(cols)
+        graph = coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        _, lab = connected_components(graph, directed=False)
+        lab = lab.reshape(nc)
+        lab = np.where(live, lab, -1)
+        uniq, inv = np.unique(lab[live], return_inverse=True)
+        out = np.full(nc, -1, np.int64)
+        out[live] = inv
+        return out, int(uniq.size)
+
+    def _project(self, v: np.ndarray) -> None:
+        """Zero mean of ``v`` on every connected component; 0 on dead blocks (in place)."""
+        live = self.live
+        lab = self.labels[live]
+        vals = v[live].astype(np.float64)
+        mean = np.bincount(lab, vals, self.n_comp) / np.bincount(lab, None, self.n_comp)
+        v[live] = (vals - mean[lab]).astype(v.dtype)
+        v[~live] = 0.0
+
+    def apply(
+        self,
+        r: np.ndarray,
+        z: np.ndarray,
+        diags: list[np.ndarray] | None = None,
+        scale: np.ndarray | None = None,
+        floor: float = 1e-4,
+    ) -> float:
+        """The whole pressure block ``z = D^-1 r + R^T S_c^+ R r``; returns ``r . z``
+        (float64).  ``D^-1`` is the stored ``scale`` if given (sub-voxel walls), else the
+        Schur diagonal of the velocity ``diags`` as a one-byte code (staircase, clamped at
+        ``floor``; :func:`schur_code`).
+        Two passes over the pressure field: the restriction and one fused write."""
+        block_sum(r, *self.f, self.rc)
+        self._project(self.rc)
+        self.mg.apply(self.rc, self.xc)
+        self._project(self.xc)
+        if scale is not None:
+            return float(pressure_block_scale(scale, self.fluid, r, self.xc, *self.f, WEIGHT, z))
+        code = self.code(diags, floor)
+        return float(
+            pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
+        )
+
+    def code(self, diags: list[np.ndarray], floor: float) -> np.ndarray:
+        """The staircase scale code (:func:`schur_code`), formed on first use and kept
+        (1 B per voxel)."""
+        if self._code is None:
+            self._code = schur_code(diags, floor)
+        return self._code
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the coarse operator, its multigrid hierarchy and work arrays."""
+        total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + self.live.nbytes
+        total += sum(p.nbytes for p in self.permeability)
+        total += 0 if self._code is None else self._code.nbytes
+        for lev in self.mg.levels:
+            total += lev.d.nbytes + lev.c.nbytes + lev.x.nbytes + lev.t.nbytes + lev.b.nbytes
+        return int(total)

@@ -1,0 +1,143 @@
+"""The coarse Darcy term of the voxel pressure preconditioner (solvers.voxel.schur): symmetric
+positive semi-definite, the Poisson permeability of plane channels in closed form, the
+connected components the plates cut, and the inverse of the Darcy symbol on a long wave."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import solvers.voxel_stokes as vs
+from solvers.voxel import schur
+
+
+def _plates(n: int = 32, period: int = 8, thick: int = 2) -> np.ndarray:
+    """Solid plates normal to z: cells ``k % period < thick`` are solid."""
+    solid = np.zeros((n, n, n), dtype=bool)
+    solid[:, :, (np.arange(n) % period) < thick] = True
+    return solid
+
+
+def _coarse(cp: schur.CoarsePressure, r: np.ndarray, z: np.ndarray) -> float:
+    """The coarse term alone (a zero pore-scale scale)."""
+    return cp.apply(r, z, scale=np.zeros(r.shape, np.float32))
+
+
+def _op(solid: np.ndarray, monkeypatch: pytest.MonkeyPatch) -> vs._Stokes:
+    monkeypatch.setattr(vs, "COARSE_PRESSURE", True)
+    return vs._Stokes.build(solid)
+
+
+def test_symmetric_positive_semidefinite_and_dot(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(1)
+    solid = rng.random((24, 24, 24)) < 0.2
+    op = _op(solid, monkeypatch)
+    cp = op.coarse_p
+    fluid = ~solid
+    r1 = (rng.standard_normal(solid.shape) * fluid).astype(np.float32)
+    r2 = (rng.standard_normal(solid.shape) * fluid).astype(np.float32)
+    z1 = np.zeros_like(r1)
+    z2 = np.zeros_like(r2)
+    d1 = _coarse(cp, r1, z1)
+    _coarse(cp, r2, z2)
+    a = float(np.dot(r2.ravel().astype(float), z1.ravel()))
+    b = float(np.dot(r1.ravel().astype(float), z2.ravel()))
+    assert a == pytest.approx(b, rel=1e-4, abs=1e-4 * abs(d1))
+    assert d1 > 0.0
+    assert d1 == pytest.approx(float(np.dot(r1.ravel().astype(float), z1.ravel())), rel=1e-5)
+    assert not np.any(z1[solid])  # nothing injected into solid cells
+    # the whole block: the staircase Schur diagonal plus the coarse term
+    z3 = np.zeros_like(r1)
+    d3 = cp.apply(r1, z3, op.d, None, vs.SCHUR_FLOOR)
+    z4 = r1 * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
+    assert np.allclose(z3, z4 + z1, rtol=1e-5, atol=1e-5 * np.abs(z3).max())
+    assert d3 == pytest.approx(float(np.dot(r1.ravel().astype(float), z3.ravel())), rel=1e-5)
+
+
+def test_channel_poisson_permeability_and_components(monkeypatch: pytest.MonkeyPatch) -> None:
+    # plane channels of H = 6 fluid cells between plates: the unit-force velocity along x has
+    # the superficial mean phi (H^2 / 12 + 1 / 6) (staircase walls half a cell beyond the last
+    # fluid face centre); no velocity unknown crosses a plate, so every channel is its own
+    # coarse component and there is no coupling along z
+    solid = _plates()
+    op = _op(solid, monkeypatch)
+    cp = op.coarse_p
+    phi = 6 / 8
+    want = phi * (36 / 12 + 1 / 6)
+    for a in (0, 1):
+        assert np.allclose(cp.permeability[a], want, rtol=0.02)
+    assert cp.n_comp == 4
+    assert not np.any(cp.mg.levels[0].c[2])
+
+
+def test_inverts_the_darcy_symbol_on_a_long_wave(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a pressure wave along x in the channels: per fluid cell the coarse term returns
+    # phi s^2 r / (K k_b^2): K the superficial Poisson permeability, k_b^2 = 2 (1 - cos(k b)) /
+    # b^2 the coarse discretisation of k^2 (b the block size) and s = sin(k b / 2) /
+    # (b sin(k / 2)) the block mean of the unit wave (restriction and injection)
+    solid = _plates()
+    op = _op(solid, monkeypatch)
+    n = solid.shape[0]
+    x = np.arange(n) + 0.5
+    k = 2 * np.pi / n
+    r = (np.cos(k * x)[:, None, None] * ~solid).astype(np.float32)
+    z = np.zeros_like(r)
+    _coarse(op.coarse_p, r, z)
+    b = schur.BLOCK
+    phi = 0.75
+    kperm = phi * (3 + 1 / 6)
+    s = np.sin(k * b / 2) / (b * np.sin(k / 2))
+    want = phi * s**2 / (kperm * 2 * (1 - np.cos(k * b)) / b**2)
+    ratio = float(np.sum(z * r, dtype=float) / np.sum(r * r, dtype=float))
+    assert ratio == pytest.approx(want, rel=0.03)
+
+
+def test_staircase_scale_code_matches_the_schur_diagonal() -> None:
+    # the one-byte code of 1 / sum(1 / A_ff) (uint8 diagonals) against the formula the
+    # sub-voxel path stores (w = 1 on the active faces): within half a code step
+    rng = np.random.default_rng(4)
+    solid = rng.random((12, 10, 9)) < 0.3
+    op = vs._Stokes.build(solid)
+    s2 = np.zeros(solid.shape)
+    for a in range(3):
+        da = op.d[a].astype(float)
+        q = np.divide(1.0, da, out=np.zeros(da.shape), where=da > 0)
+        s2 += q + np.roll(q, -1, axis=a)
+    want = 1.0 / np.maximum(s2, vs.SCHUR_FLOOR)
+    got = schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
+    half = 2.0 ** (0.5 / schur.CODE_STEPS)
+    assert np.all(got <= want * half * (1 + 1e-6)) and np.all(got >= want / half * (1 - 1e-6))
+    assert np.abs(np.log2(got / want)).max() > 0.1 / schur.CODE_STEPS  # really quantised
+    # a wall-free box: six faces of diagonal 6, the identity exactly
+    free = vs._Stokes.build(np.zeros((6, 6, 6), dtype=bool))
+    assert np.all(schur.CODE_TABLE[schur.schur_code(free.d, vs.SCHUR_FLOOR)] == 1.0)
+
+
+@pytest.mark.parametrize("subvoxel", [False, True])
+def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
+    subvoxel: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = np.random.default_rng(9)
+    phi = rng.random((24, 24, 16)) - 0.2
+    solid = phi <= 0
+    op = _op(solid, monkeypatch) if not subvoxel else None
+    if subvoxel:
+        monkeypatch.setattr(vs, "COARSE_PRESSURE", True)
+        op = vs._Stokes.build(solid, phi)
+        assert op.p_scale is not None
+    assert op.coarse_p.live.any()
+    r = rng.standard_normal(op.shape).astype(np.float32)
+    r[:3] *= np.stack([dd > 0 for dd in op.d])
+    r[3] *= op.fluid
+    z = np.empty_like(r)
+    rz = op.precondition(r, z)
+    exact = float(np.dot(r.ravel().astype(np.float64), z.ravel().astype(np.float64)))
+    assert rz == pytest.approx(exact, rel=1e-6)
+    # the pressure block is the pore-scale part plus the coarse term
+    zc = np.zeros_like(r[3])
+    _coarse(op.coarse_p, r[3], zc)
+    if subvoxel:
+        fine = r[3] * op.p_scale
+    else:
+        fine = r[3] * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
+    assert np.allclose(z[3], fine + zc, rtol=1e-5, atol=1e-5 * float(np.abs(z[3]).max()))
