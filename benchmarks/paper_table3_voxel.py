@@ -55,7 +55,11 @@ DERIVED = {
     "drawn": "the GA's drawn fibres, no removal (same fibres and count as the GA)",
     "ga-zdrawn": "the GA result with every centre z put back to the drawn one",
     "drawn-zga": "the drawn fibres with only the GA's centre-z moves",
+    "ga-single": "the GA result exported as the paper's Fluent input reads (Sec. 7.1: centre and "
+    "axis per fibre): one straight cylinder per fibre, no periodic copies, same fibre count",
 }
+#: Period of the ``ga-single`` cylinders, in RVE edges: long enough that no copy enters the box.
+SINGLE_PERIOD = 3.0
 METHODS = ("ga", "fast", "none", *DERIVED)
 
 
@@ -89,7 +93,14 @@ def derive(built, spec: dict, method: str):
     if shift.max() > 0.1 * rounds + 1e-9 or turn.max() > 1.0 * rounds + 1e-9:
         raise RuntimeError(f"GA fibres do not match the draw (shift {shift.max():.3f} L)")
     out = drawn.copy() if method in ("drawn", "drawn-zga") else ga.copy()
-    if method == "drawn-zga":
+    if method == "ga-single":  # exact cylinders on a lattice 3 edges wide: one copy in the box
+        if any(sh != "rod" for sh in out.shape):
+            raise ValueError("ga-single is defined for straight rods only")
+        out.shape = ["cylinder"] * len(out)
+        out.center /= SINGLE_PERIOD
+        out.diameter /= SINGLE_PERIOD
+        period *= SINGLE_PERIOD
+    elif method == "drawn-zga":
         out.center[:, 2] = ga.center[:, 2]
     elif method == "ga-zdrawn":
         out.center[:, 2] = drawn.center[:, 2]
