@@ -57,6 +57,8 @@ DERIVED = {
     "drawn-zga": "the drawn fibres with only the GA's centre-z moves",
     "ga-single": "the GA result exported as the paper's Fluent input reads (Sec. 7.1: centre and "
     "axis per fibre): one straight cylinder per fibre, no periodic copies, same fibre count",
+    "ga-single-eps": "ga-single with the next fibres of the seed's draw added (unmoved, also "
+    "one cylinder each) until the porosity is back at the spec's target",
 }
 #: Period of the ``ga-single`` cylinders, in RVE edges: long enough that no copy enters the box.
 SINGLE_PERIOD = 3.0
@@ -93,14 +95,13 @@ def derive(built, spec: dict, method: str):
     if shift.max() > 0.1 * rounds + 1e-9 or turn.max() > 1.0 * rounds + 1e-9:
         raise RuntimeError(f"GA fibres do not match the draw (shift {shift.max():.3f} L)")
     out = drawn.copy() if method in ("drawn", "drawn-zga") else ga.copy()
+    if method == "ga-single-eps":
+        return _single_at_target(ga, spec, size, period, report_of=DERIVED[method])
     if method == "ga-single":  # exact cylinders on a lattice 3 edges wide: one copy in the box
-        if any(sh != "rod" for sh in out.shape):
-            raise ValueError("ga-single is defined for straight rods only")
-        out.shape = ["cylinder"] * len(out)
-        out.center /= SINGLE_PERIOD
-        out.diameter /= SINGLE_PERIOD
-        period *= SINGLE_PERIOD
-    elif method == "drawn-zga":
+        fibers, period = _single_cylinders(out, period)
+        report = {"derived_from": "ga", "n_fibers": len(out), "derivation": DERIVED[method]}
+        return BuiltRVE(rve=RVE(size, fibers, period=period), report=report)
+    if method == "drawn-zga":
         out.center[:, 2] = ga.center[:, 2]
     elif method == "ga-zdrawn":
         out.center[:, 2] = drawn.center[:, 2]
@@ -109,6 +110,41 @@ def derive(built, spec: dict, method: str):
     report = {"derived_from": "ga", "n_fibers": len(out), "derivation": DERIVED[method]}
     report["center_z_std_m"] = float(np.std(out.center[:, 2]) * period)
     return BuiltRVE(rve=rve, report=report)
+
+
+def _single_cylinders(st, period: float):
+    """``st`` as exact cylinders on a lattice ``SINGLE_PERIOD`` edges wide (one copy each)."""
+    out = st.copy()
+    if any(sh != "rod" for sh in out.shape):
+        raise ValueError("the single-cylinder export is defined for straight rods only")
+    out.shape = ["cylinder"] * len(out)
+    out.center /= SINGLE_PERIOD
+    out.diameter /= SINGLE_PERIOD
+    out.refresh_frames(np.ones(len(out), bool))
+    return out.to_fibers(), period * SINGLE_PERIOD
+
+
+def _single_at_target(ga, spec: dict, size: np.ndarray, period: float, report_of: str):
+    """The GA fibres plus the next drawn ones, single cylinders, at the target porosity."""
+    from psdesign.geometry.rve import RVE
+    from psdesign.packing.build import BuiltRVE
+    from psdesign.packing.fiberset import FiberState
+
+    target = float(spec["generator"]["porosity"])
+    tol = float(spec["generator"].get("porosity_tolerance", 0.005))
+    voxel = 1e-6  # the search grid (the table's solves are on it)
+    n = len(ga)
+    pool = drawn_state(spec, 3 * n)
+    for m in range(0, 2 * n):
+        st = FiberState.concat(ga, pool.subset(np.arange(n, n + m)))
+        fibers, per = _single_cylinders(st, period)
+        rve = RVE(size, fibers, period=per)
+        eps = rve.voxelize(voxel).porosity
+        if eps <= target + tol:
+            report = {"derived_from": "ga", "n_fibers": len(st), "added_fibers": m}
+            report.update(derivation=report_of, porosity_1um=eps)
+            return BuiltRVE(rve=rve, report=report)
+    raise RuntimeError("target porosity not reached with single cylinders")
 
 
 def build(kind: str, method: str, seed: int, size: float | None, cache: str):
