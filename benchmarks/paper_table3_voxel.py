@@ -527,6 +527,33 @@ def bc_table(path: Path, perm_tag: str = "permeameter-main") -> str:
     return "\n".join(out)
 
 
+def resolution_table(runs: Path, sub: Path) -> str:
+    """Markdown: K at 2, 1 and 0.5 um voxels, full cube (runs) and 50 um sub-cube (sub).
+
+    Per (kind, seed, direction, domain): K at each voxel size and the ratios K(2) / K(1) and
+    K(1) / K(0.5) (the share of K the 1 um grid adds over the 0.5 um one).
+    """
+    tab: dict = {}
+    for r in _rows(runs):
+        if r["method"] == "ga" and r["bc"] == "periodic" and float(r["size"]) == 1e-4:
+            key = (r["kind"], r["seed"], r["dir"], "100 um cube")
+            tab.setdefault(key, {})[float(r["voxel"])] = r["permeability_m2"]
+    for r in _rows(sub):
+        key = (r["kind"], r["seed"], r["dir"], f"{1e6 * float(r['sub']):.0f} um sub-cube")
+        tab.setdefault(key, {})[float(r["voxel"])] = r["permeability_m2"]
+    out = ["| kind | seed | K | domain | 2 um | 1 um | 0.5 um | K(2) / K(1) | K(1) / K(0.5) |"]
+    out.append("| " + " | ".join(["---"] * 9) + " |")
+    for (kind, seed, d, dom), v in sorted(tab.items()):
+        if 0.5e-6 not in v and 2e-6 not in v:
+            continue
+        cells = [kind, str(seed), f"K_{d}", dom]
+        cells += [f"{v[h]:.3e}" if h in v else "-" for h in (2e-6, 1e-6, 0.5e-6)]
+        for a, b in ((2e-6, 1e-6), (1e-6, 0.5e-6)):
+            cells.append(f"{v[a] / v[b]:.3f}" if a in v and b in v else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 #: Row order of the controlled-placement table (section 2.4 of the doc).
 CONTROLLED_ORDER = ("none", "drawn", "ga-zdrawn", "drawn-zga", "ga", "fast")
 
@@ -668,9 +695,12 @@ def main(argv=None) -> int:
     s.add_argument("--per-seed", action="store_true")
     s.add_argument("--geometry", action="store_true", help="PATH is a geometry jsonl")
     s.add_argument("--bcs", action="store_true", help="Table III with both BCs side by side")
+    s.add_argument("--resolution", default=None, help="resolution jsonl: the grid table")
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        if a.bcs:
+        if a.resolution:
+            print(resolution_table(Path(a.path), Path(a.resolution)))
+        elif a.bcs:
             print(bc_table(Path(a.path)))
         elif a.geometry:
             print(geometry_summary(Path(a.path), a.per_seed))
