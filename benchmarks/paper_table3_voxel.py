@@ -555,7 +555,38 @@ def resolution_table(runs: Path, sub: Path) -> str:
 
 
 #: Row order of the controlled-placement table (section 2.4 of the doc).
-CONTROLLED_ORDER = ("none", "drawn", "ga-zdrawn", "drawn-zga", "ga", "fast")
+CONTROLLED_ORDER = (
+    "none", "drawn", "ga-zdrawn", "drawn-zga", "ga", "fast", "ga-single", "ga-single-eps",
+)  # fmt: skip
+
+
+def controlled_per_seed(path: Path, layering_path: Path, kind: str) -> str:
+    """Markdown: the rows of :func:`controlled` seed by seed (K in m^2)."""
+    runs: dict = {}
+    for r in _rows(path):
+        ok = r["kind"] == kind and r["bc"] == "periodic" and float(r["size"]) == 1e-4
+        if ok and float(r["voxel"]) == 1e-6 and r["method"] in CONTROLLED_ORDER:
+            runs.setdefault((r["method"], r["seed"]), {})[r["dir"]] = r["permeability_m2"]
+    geo = {
+        (g["method"], g["seed"]): g
+        for g in _rows(layering_path)
+        if g["kind"] == kind and g.get("size") is None
+    }
+    head = "| placement | seed | porosity | Omega (%) | layer porosity std | K_z | K_x | K_y "
+    out = [head + "| K_in / K_z |", "| " + " | ".join(["---"] * 9) + " |"]
+    order = {m: i for i, m in enumerate(CONTROLLED_ORDER)}
+    for (m, seed), k in sorted(runs.items(), key=lambda t: (order[t[0][0]], t[0][1])):
+        if not all(d in k for d in "zxy"):
+            continue
+        g = geo.get((m, seed), {})
+        cells = [m, str(seed)]
+        cells.append(f"{g['porosity']:.4f}" if g else "-")
+        cells.append(f"{100 * g['omega']:.2f}" if g else "-")
+        cells.append(f"{g['layer_porosity_std']:.3f}" if g else "-")
+        cells += [f"{k[d]:.3e}" for d in "zxy"]
+        cells.append(f"{0.5 * (k['x'] + k['y']) / k['z']:.3f}")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
 
 
 def controlled(path: Path, layering_path: Path, kind: str) -> str:
@@ -569,8 +600,11 @@ def controlled(path: Path, layering_path: Path, kind: str) -> str:
         ok = r["kind"] == kind and r["bc"] == "periodic" and float(r["size"]) == 1e-4
         if ok and float(r["voxel"]) == 1e-6:
             runs.setdefault((r["method"], r["seed"]), {})[r["dir"]] = r["permeability_m2"]
-    geo = {(g["method"], g["seed"]): g for g in _rows(layering_path) if g["kind"] == kind}
-    geo = {k: g for k, g in geo.items() if g.get("size") is None}
+    geo = {
+        (g["method"], g["seed"]): g
+        for g in _rows(layering_path)
+        if g["kind"] == kind and g.get("size") is None
+    }
 
     def ratio(k: dict) -> float:
         return 0.5 * (k["x"] + k["y"]) / k["z"]
@@ -690,6 +724,7 @@ def main(argv=None) -> int:
     c.add_argument("path")
     c.add_argument("--layering", default=str(ROOT / "benchmarks" / "paper_table3_layering.jsonl"))
     c.add_argument("--kind", default="straight", choices=("straight", "bent"))
+    c.add_argument("--per-seed", action="store_true")
     s = sub.add_parser("summary")
     s.add_argument("path")
     s.add_argument("--per-seed", action="store_true")
@@ -708,7 +743,8 @@ def main(argv=None) -> int:
             print(per_seed(Path(a.path)) if a.per_seed else summary(Path(a.path)))
         return 0
     if a.cmd == "controlled":
-        print(controlled(Path(a.path), Path(a.layering), a.kind))
+        table = controlled_per_seed if a.per_seed else controlled
+        print(table(Path(a.path), Path(a.layering), a.kind))
         return 0
     cmds = {"run": run, "geometry": geometry, "layering": layering, "resolution": resolution}
     return cmds[a.cmd](a)
