@@ -48,13 +48,117 @@ def _spec(kind: str, method: str, seed: int, size: float | None) -> dict:
     return spec
 
 
+#: Controlled placements derived from the GA RVE of one seed (section 2.4 of the doc): the same
+#: drawn fibres (the first n of the seed's draw, n = the GA's count), moved by none, some or all
+#: of the GA's adjustments. Names: which centre-z and which (x, y, angles, u, f) each keeps.
+DERIVED = {
+    "drawn": "the GA's drawn fibres, no removal (same fibres and count as the GA)",
+    "ga-zdrawn": "the GA result with every centre z put back to the drawn one",
+    "drawn-zga": "the drawn fibres with only the GA's centre-z moves",
+    "ga-single": "the GA result exported as the paper's Fluent input reads (Sec. 7.1: centre and "
+    "axis per fibre): one straight cylinder per fibre, no periodic copies, same fibre count",
+    "ga-single-eps": "ga-single with the next fibres of the seed's draw added (unmoved, also "
+    "one cylinder each) until the porosity is back at the spec's target",
+}
+#: Period of the ``ga-single`` cylinders, in RVE edges: long enough that no copy enters the box.
+SINGLE_PERIOD = 3.0
+METHODS = ("ga", "fast", "none", *DERIVED)
+
+
+def drawn_state(spec: dict, n: int):
+    """The first ``n`` fibres of the seed's draw (what every placement starts from)."""
+    from psdesign.packing.generators import draw_fibers, parse_generator, parse_rve
+
+    size, _, period = parse_rve(spec)
+    return draw_fibers(parse_generator(spec, size, period), spec["generator"]["seed"], n, size)
+
+
+def derive(built, spec: dict, method: str):
+    """One of the :data:`DERIVED` placements from the GA RVE ``built`` of ``spec``'s seed.
+
+    Fibre i of the GA result is fibre i of the draw (``psdesign.packing.generators._ga`` keeps
+    the order), so the GA's adjustments are ``ga - drawn`` per fibre; the check below fails if
+    a move exceeds the Sec. 7.1 ranges (+-1 deg, +-0.1 of the edge) times the number of GA
+    rounds (a fibre kept from round 1 is adjusted again in round 2), i.e. if the order broke.
+    """
+    from psdesign.geometry.rve import RVE
+    from psdesign.packing.build import BuiltRVE
+    from psdesign.packing.fiberset import FiberState
+
+    ga = FiberState.from_fibers(list(built.rve.fibers), fixed=False)
+    drawn = drawn_state(spec, len(ga))
+    size = np.asarray(built.rve.size, float)
+    period = float(built.rve.period)
+    shift = np.abs(ga.center - drawn.center) * period / size
+    turn = np.maximum(np.abs(ga.theta - drawn.theta), np.abs(ga.omega - drawn.omega))
+    rounds = max(1, len(built.report.get("ga", [])))
+    if shift.max() > 0.1 * rounds + 1e-9 or turn.max() > 1.0 * rounds + 1e-9:
+        raise RuntimeError(f"GA fibres do not match the draw (shift {shift.max():.3f} L)")
+    out = drawn.copy() if method in ("drawn", "drawn-zga") else ga.copy()
+    if method == "ga-single-eps":
+        return _single_at_target(ga, spec, size, period, report_of=DERIVED[method])
+    if method == "ga-single":  # exact cylinders on a lattice 3 edges wide: one copy in the box
+        fibers, period = _single_cylinders(out, period)
+        report = {"derived_from": "ga", "n_fibers": len(out), "derivation": DERIVED[method]}
+        return BuiltRVE(rve=RVE(size, fibers, period=period), report=report)
+    if method == "drawn-zga":
+        out.center[:, 2] = ga.center[:, 2]
+    elif method == "ga-zdrawn":
+        out.center[:, 2] = drawn.center[:, 2]
+    out.refresh_frames(np.ones(len(out), bool))
+    rve = RVE(size, out.to_fibers(), period=period)
+    report = {"derived_from": "ga", "n_fibers": len(out), "derivation": DERIVED[method]}
+    report["center_z_std_m"] = float(np.std(out.center[:, 2]) * period)
+    return BuiltRVE(rve=rve, report=report)
+
+
+def _single_cylinders(st, period: float):
+    """``st`` as exact cylinders on a lattice ``SINGLE_PERIOD`` edges wide (one copy each)."""
+    out = st.copy()
+    if any(sh != "rod" for sh in out.shape):
+        raise ValueError("the single-cylinder export is defined for straight rods only")
+    out.shape = ["cylinder"] * len(out)
+    out.center /= SINGLE_PERIOD
+    out.diameter /= SINGLE_PERIOD
+    out.refresh_frames(np.ones(len(out), bool))
+    return out.to_fibers(), period * SINGLE_PERIOD
+
+
+def _single_at_target(ga, spec: dict, size: np.ndarray, period: float, report_of: str):
+    """The GA fibres plus the next drawn ones, single cylinders, at the target porosity."""
+    from psdesign.geometry.rve import RVE
+    from psdesign.packing.build import BuiltRVE
+    from psdesign.packing.fiberset import FiberState
+
+    target = float(spec["generator"]["porosity"])
+    tol = float(spec["generator"].get("porosity_tolerance", 0.005))
+    voxel = 1e-6  # the search grid (the table's solves are on it)
+    n = len(ga)
+    pool = drawn_state(spec, 3 * n)
+    for m in range(0, 2 * n):
+        st = FiberState.concat(ga, pool.subset(np.arange(n, n + m)))
+        fibers, per = _single_cylinders(st, period)
+        rve = RVE(size, fibers, period=per)
+        eps = rve.voxelize(voxel).porosity
+        if eps <= target + tol:
+            report = {"derived_from": "ga", "n_fibers": len(st), "added_fibers": m}
+            report.update(derivation=report_of, porosity_1um=eps)
+            return BuiltRVE(rve=rve, report=report)
+    raise RuntimeError("target porosity not reached with single cylinders")
+
+
 def build(kind: str, method: str, seed: int, size: float | None, cache: str):
-    """The built RVE of one seed (GA or fast), generated once and pickled in ``cache``."""
+    """The built RVE of one seed (GA, fast, none or a :data:`DERIVED` one), pickled in
+    ``cache`` (the derived ones are rebuilt from the cached GA RVE, no optimisation)."""
     from psdesign.packing.build import build_rve
 
     t3.CACHE_DIR = cache
     t0 = time.perf_counter()
-    built = t3._cached_build(_spec(kind, method, seed, size), build_rve)
+    base = "ga" if method in DERIVED else method
+    spec = _spec(kind, base, seed, size)
+    built = t3._cached_build(spec, build_rve)
+    if method in DERIVED:
+        built = derive(built, spec, method)
     return built, time.perf_counter() - t0
 
 
@@ -63,13 +167,19 @@ def _solve_path(cache: str, key: dict) -> Path:
     return Path(cache) / "solves" / f"{name}.json"
 
 
-def solve_one(built, fields, direction: str, bc: str, tol: float) -> dict:
-    """One voxel solve: K along ``direction`` with ``bc`` to relative residual ``tol``."""
+def solve_one(built, fields, direction: str, bc: str, tol: float, copies="auto") -> dict:
+    """One voxel solve: K along ``direction`` with ``bc`` to relative residual ``tol``.
+
+    ``copies``: ``flow.permeameter_copies`` of the permeameter (1: one sample between the two
+    reservoirs, as the paper's Fluent domain; "auto": stacked where the geometry is periodic).
+    """
     from psdesign.flow.permeability import permeability
     from psdesign.schema.spec import load_spec
 
     flow = {**load_spec(ROOT / "studies" / "table3" / "straight.toml")["flow"]}
     flow.update(solver="voxel", bc=bc, tol=tol)
+    if bc == "permeameter":
+        flow["permeameter_copies"] = copies
     r = permeability(built.rve, fields, direction, flow, solver="voxel", error_estimate=False)
     keep = (
         "permeability_m2",
@@ -116,7 +226,10 @@ def run(a) -> int:
                     rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
                     rec.update(n_fibers=len(built.rve.fibers), generation_s=t_gen)
                     rec["tol"] = a.tol
-                    rec.update(solve_one(built, fields, d, bc, a.tol))
+                    rec.update(layering_stats(fields))
+                    if bc == "permeameter":
+                        rec["copies_requested"] = a.copies
+                    rec.update(solve_one(built, fields, d, bc, a.tol, a.copies))
                     path.parent.mkdir(parents=True, exist_ok=True)
                     path.write_text(json.dumps(rec))
                     with open(a.out, "a") as fh:
@@ -258,6 +371,67 @@ def geometry(a) -> int:
     return 0
 
 
+def subcube_fields(fields, start: float, edge: float):
+    """The cube ``[start, start + edge)^3`` (m) of a voxel image, as its own (periodic) image."""
+    from psdesign.geometry.rve import VoxelFields, VoxelGrid
+
+    h = float(fields.grid.spacing[0])
+    i0, n = int(round(start / h)), int(round(edge / h))
+    cut = (slice(i0, i0 + n),) * 3
+    grid = VoxelGrid.from_voxel(np.full(3, n * h), h)
+    return VoxelFields(distance=fields.distance[cut], count=fields.count[cut], grid=grid)
+
+
+def resolution(a) -> int:
+    """K of one sub-cube of each RVE at several voxel sizes (the grid's share of K).
+
+    The same sub-cube (``--start``, ``--edge``) at every voxel size, periodic BC: its face
+    mismatch and sample scatter are the same at every size, so K(h) / K(h_finest) is the
+    resolution error of the wall representation alone (checked against a full-cube 0.5 um
+    solve in the doc).
+    """
+    for kind in a.kinds:
+        for seed in a.seeds:
+            built, _ = build(kind, a.method, seed, None, a.cache)
+            for h in a.voxels:
+                fields = None
+                for d in a.directions:
+                    key = {"kind": kind, "method": a.method, "seed": seed, "sub": f"{a.edge:.3g}"}
+                    key.update(start=f"{a.start:.3g}", voxel=f"{h:.3g}", bc="periodic", dir=d)
+                    path = _solve_path(a.cache, key)
+                    if path.exists():
+                        continue
+                    if fields is None:
+                        fields = subcube_fields(built.voxelize(h), a.start, a.edge)
+                    rec = {**key, "voxel_m": h, "porosity": fields.porosity, "tol": a.tol}
+                    rec.update(solve_one(built, fields, d, "periodic", a.tol))
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    path.write_text(json.dumps(rec))
+                    with open(a.out, "a") as fh:
+                        fh.write(json.dumps(rec) + "\n")
+                    print(kind, seed, h, d, f"K = {rec['permeability_m2']:.4e}", flush=True)
+    return 0
+
+
+def layering(a) -> int:
+    """Porosity, Omega and z layering of each (kind, method, seed) RVE, one JSON line each."""
+    for kind in a.kinds:
+        for method in a.methods:
+            for seed in a.seeds:
+                built, _ = build(kind, method, seed, a.size, a.cache)
+                fields = built.rve.voxelize(a.voxel)
+                rec = {"kind": kind, "method": method, "seed": seed, "size": a.size}
+                rec.update(omega=fields.intersection_volume_fraction, porosity=fields.porosity)
+                rec.update(layering_stats(fields))
+                rec["n_fibers"] = len(built.rve.fibers)
+                rec["center_z_std_m"] = float(np.std([fb.center[2] for fb in built.rve.fibers]))
+                rec["center_z_std_m"] *= float(built.rve.period)
+                with open(a.out, "a") as fh:
+                    fh.write(json.dumps(rec) + "\n")
+                print(json.dumps(rec))
+    return 0
+
+
 # ---------------------------------------------------------------- summary
 def _rows(path: Path) -> list[dict]:
     return [json.loads(s) for s in path.read_text().splitlines() if s.strip()]
@@ -321,6 +495,145 @@ def per_seed(path: Path) -> str:
     return "\n".join(out)
 
 
+def bc_table(path: Path, perm_tag: str = "permeameter-main") -> str:
+    """Markdown: Table III side by side, periodic and permeameter BC, K_z, K_x, K_y, K_in.
+
+    GA RVEs, 100 um, 1 um voxels; mean +- 95 % CI over the seeds (vs Table III) and, seed by
+    seed, permeameter / periodic (mean +- 95 % CI). K_in = (K_x + K_y) / 2 per seed.
+    """
+    k: dict = {}
+    for r in _rows(path):
+        if r["method"] == "ga" and float(r["size"]) == 1e-4 and float(r["voxel"]) == 1e-6:
+            k.setdefault((r["kind"], r["bc"]), {}).setdefault(r["dir"], {})[r["seed"]] = r[
+                "permeability_m2"
+            ]
+    for by_dir in k.values():
+        both = set(by_dir.get("x", {})) & set(by_dir.get("y", {}))
+        by_dir["in"] = {s: 0.5 * (by_dir["x"][s] + by_dir["y"][s]) for s in both}
+    head = "| kind | K | periodic | n | permeameter | n | permeameter / periodic (same seeds) |"
+    out = [head, "| " + " | ".join(["---"] * 7) + " |"]
+    for kind in ("straight", "bent"):
+        for d in ("z", "x", "y", "in"):
+            ref = PAPER_IN_PLANE[kind] if d != "z" else t3.PAPER[(kind, "z")]
+            cells = [kind, {"in": "(K_x + K_y) / 2"}.get(d, f"K_{d}")]
+            per = k.get((kind, "periodic"), {}).get(d, {})
+            prm = k.get((kind, perm_tag), {}).get(d, {})
+            for v in (per, prm):
+                cells += [_cell(np.array(list(v.values())), ref), str(len(v))] if v else ["-", "0"]
+            common = sorted(set(per) & set(prm))
+            rat = np.array([prm[s] / per[s] for s in common])
+            cells.append(_cell(rat, None, ".3f") + f" (n={len(rat)})" if len(rat) else "-")
+            out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def resolution_table(runs: Path, sub: Path) -> str:
+    """Markdown: K at 2, 1 and 0.5 um voxels, full cube (runs) and 50 um sub-cube (sub).
+
+    Per (kind, seed, direction, domain): K at each voxel size and the ratios K(2) / K(1) and
+    K(1) / K(0.5) (the share of K the 1 um grid adds over the 0.5 um one).
+    """
+    tab: dict = {}
+    for r in _rows(runs):
+        if r["method"] == "ga" and r["bc"] == "periodic" and float(r["size"]) == 1e-4:
+            key = (r["kind"], r["seed"], r["dir"], "100 um cube")
+            tab.setdefault(key, {})[float(r["voxel"])] = r["permeability_m2"]
+    for r in _rows(sub):
+        key = (r["kind"], r["seed"], r["dir"], f"{1e6 * float(r['sub']):.0f} um sub-cube")
+        tab.setdefault(key, {})[float(r["voxel"])] = r["permeability_m2"]
+    out = ["| kind | seed | K | domain | 2 um | 1 um | 0.5 um | K(2) / K(1) | K(1) / K(0.5) |"]
+    out.append("| " + " | ".join(["---"] * 9) + " |")
+    for (kind, seed, d, dom), v in sorted(tab.items()):
+        if 0.5e-6 not in v and 2e-6 not in v:
+            continue
+        cells = [kind, str(seed), f"K_{d}", dom]
+        cells += [f"{v[h]:.3e}" if h in v else "-" for h in (2e-6, 1e-6, 0.5e-6)]
+        for a, b in ((2e-6, 1e-6), (1e-6, 0.5e-6)):
+            cells.append(f"{v[a] / v[b]:.3f}" if a in v and b in v else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+#: Row order of the controlled-placement table (section 2.4 of the doc).
+CONTROLLED_ORDER = (
+    "none", "drawn", "ga-zdrawn", "drawn-zga", "ga", "fast", "ga-single", "ga-single-eps",
+)  # fmt: skip
+
+
+def controlled_per_seed(path: Path, layering_path: Path, kind: str) -> str:
+    """Markdown: the rows of :func:`controlled` seed by seed (K in m^2)."""
+    runs: dict = {}
+    for r in _rows(path):
+        ok = r["kind"] == kind and r["bc"] == "periodic" and float(r["size"]) == 1e-4
+        if ok and float(r["voxel"]) == 1e-6 and r["method"] in CONTROLLED_ORDER:
+            runs.setdefault((r["method"], r["seed"]), {})[r["dir"]] = r["permeability_m2"]
+    geo = {
+        (g["method"], g["seed"]): g
+        for g in _rows(layering_path)
+        if g["kind"] == kind and g.get("size") is None
+    }
+    head = "| placement | seed | porosity | Omega (%) | layer porosity std | K_z | K_x | K_y "
+    out = [head + "| K_in / K_z |", "| " + " | ".join(["---"] * 9) + " |"]
+    order = {m: i for i, m in enumerate(CONTROLLED_ORDER)}
+    for (m, seed), k in sorted(runs.items(), key=lambda t: (order[t[0][0]], t[0][1])):
+        if not all(d in k for d in "zxy"):
+            continue
+        g = geo.get((m, seed), {})
+        cells = [m, str(seed)]
+        cells.append(f"{g['porosity']:.4f}" if g else "-")
+        cells.append(f"{100 * g['omega']:.2f}" if g else "-")
+        cells.append(f"{g['layer_porosity_std']:.3f}" if g else "-")
+        cells += [f"{k[d]:.3e}" for d in "zxy"]
+        cells.append(f"{0.5 * (k['x'] + k['y']) / k['z']:.3f}")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def controlled(path: Path, layering_path: Path, kind: str) -> str:
+    """Markdown: the placements of one drawn fibre set side by side (periodic, 100 um, 1 um).
+
+    Per placement, means over the seeds it has (K_in = (K_x + K_y) / 2; ratio K_in / K_z with
+    its 95 % CI) and, paired seed by seed, K_in / K_z over the GA's of the same seed.
+    """
+    runs: dict = {}
+    for r in _rows(path):
+        ok = r["kind"] == kind and r["bc"] == "periodic" and float(r["size"]) == 1e-4
+        if ok and float(r["voxel"]) == 1e-6:
+            runs.setdefault((r["method"], r["seed"]), {})[r["dir"]] = r["permeability_m2"]
+    geo = {
+        (g["method"], g["seed"]): g
+        for g in _rows(layering_path)
+        if g["kind"] == kind and g.get("size") is None
+    }
+
+    def ratio(k: dict) -> float:
+        return 0.5 * (k["x"] + k["y"]) / k["z"]
+
+    full = {key: k for key, k in runs.items() if all(d in k for d in "zxy")}
+    head = "| placement | seeds | porosity | Omega (%) | layer porosity std | K_z | K_in | "
+    head += "K_in / K_z | K_in / K_z over the GA's (same seed) |"
+    out = [head, "| " + " | ".join(["---"] * 9) + " |"]
+    for m in CONTROLLED_ORDER:
+        seeds = sorted(s for (mm, s) in full if mm == m)
+        if not seeds:
+            continue
+        ks = [full[(m, s)] for s in seeds]
+        g = [geo[(m, s)] for s in seeds if (m, s) in geo]
+        cells = [m, " ".join(map(str, seeds))]
+        for name, scale, fmt in (("porosity", 1, ".4f"), ("omega", 100, ".2f")):
+            cells.append(format(scale * np.mean([x[name] for x in g]), fmt) if g else "-")
+        std = [x["layer_porosity_std"] for x in g]
+        cells.append(f"{np.mean(std):.3f}" if std else "-")
+        cells.append(_cell(np.array([k["z"] for k in ks]), t3.PAPER[(kind, "z")]))
+        kin = np.array([0.5 * (k["x"] + k["y"]) for k in ks])
+        cells.append(_cell(kin, PAPER_IN_PLANE[kind]))
+        cells.append(_cell(np.array([ratio(k) for k in ks]), None, ".3f"))
+        paired = [ratio(full[(m, s)]) / ratio(full[("ga", s)]) for s in seeds if ("ga", s) in full]
+        cells.append(_cell(np.array(paired), None, ".3f") if paired and m != "ga" else "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 GEOMETRY_COLUMNS = (
     ("porosity", "porosity", 1.0, ".4f"),
     ("Omega (%)", "omega", 100.0, ".2f"),
@@ -364,10 +677,16 @@ def main(argv=None) -> int:
     sub = p.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--kinds", nargs="+", default=["straight", "bent"])
-    r.add_argument("--method", default="ga", choices=("ga", "fast", "none"))
+    r.add_argument("--method", default="ga", choices=METHODS)
     r.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     r.add_argument("--bcs", nargs="+", default=["periodic"], choices=("periodic", "permeameter"))
     r.add_argument("--bc-tag", default="permeameter", help="name of the permeameter definition")
+    r.add_argument(
+        "--copies",
+        default="auto",
+        type=lambda v: v if v == "auto" else int(v),
+        help="flow.permeameter_copies of the permeameter ('auto' or 1, 2, ...)",
+    )
     r.add_argument("--directions", nargs="+", default=["z", "x", "y"])
     r.add_argument("--voxel", type=float, default=0.5e-6)
     r.add_argument("--tol", type=float, default=1e-4, help="solver relative residual")
@@ -376,24 +695,59 @@ def main(argv=None) -> int:
     r.add_argument("--out", required=True)
     g = sub.add_parser("geometry")
     g.add_argument("--kinds", nargs="+", default=["straight"])
-    g.add_argument("--methods", nargs="+", default=["ga", "fast"], choices=("ga", "fast", "none"))
+    g.add_argument("--methods", nargs="+", default=["ga", "fast"], choices=METHODS)
     g.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     g.add_argument("--voxel", type=float, default=1e-6)
     g.add_argument("--size", type=float, default=None)
     g.add_argument("--cache", required=True)
     g.add_argument("--out", required=True)
+    lay = sub.add_parser("layering", help="porosity, Omega, z layering per RVE (no solve)")
+    lay.add_argument("--kinds", nargs="+", default=["straight"])
+    lay.add_argument("--methods", nargs="+", default=list(CONTROLLED_ORDER), choices=METHODS)
+    lay.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    lay.add_argument("--voxel", type=float, default=1e-6)
+    lay.add_argument("--size", type=float, default=None)
+    lay.add_argument("--cache", required=True)
+    lay.add_argument("--out", required=True)
+    res = sub.add_parser("resolution", help="K of one sub-cube at several voxel sizes")
+    res.add_argument("--kinds", nargs="+", default=["straight", "bent"])
+    res.add_argument("--method", default="ga", choices=METHODS)
+    res.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    res.add_argument("--voxels", type=float, nargs="+", default=[2e-6, 1e-6, 0.5e-6])
+    res.add_argument("--directions", nargs="+", default=["z", "x"])
+    res.add_argument("--start", type=float, default=25e-6, help="sub-cube corner (m)")
+    res.add_argument("--edge", type=float, default=50e-6, help="sub-cube edge (m)")
+    res.add_argument("--tol", type=float, default=1e-4)
+    res.add_argument("--cache", required=True)
+    res.add_argument("--out", required=True)
+    c = sub.add_parser("controlled", help="table of the placements of one drawn fibre set")
+    c.add_argument("path")
+    c.add_argument("--layering", default=str(ROOT / "benchmarks" / "paper_table3_layering.jsonl"))
+    c.add_argument("--kind", default="straight", choices=("straight", "bent"))
+    c.add_argument("--per-seed", action="store_true")
     s = sub.add_parser("summary")
     s.add_argument("path")
     s.add_argument("--per-seed", action="store_true")
     s.add_argument("--geometry", action="store_true", help="PATH is a geometry jsonl")
+    s.add_argument("--bcs", action="store_true", help="Table III with both BCs side by side")
+    s.add_argument("--resolution", default=None, help="resolution jsonl: the grid table")
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        if a.geometry:
+        if a.resolution:
+            print(resolution_table(Path(a.path), Path(a.resolution)))
+        elif a.bcs:
+            print(bc_table(Path(a.path)))
+        elif a.geometry:
             print(geometry_summary(Path(a.path), a.per_seed))
         else:
             print(per_seed(Path(a.path)) if a.per_seed else summary(Path(a.path)))
         return 0
-    return run(a) if a.cmd == "run" else geometry(a)
+    if a.cmd == "controlled":
+        table = controlled_per_seed if a.per_seed else controlled
+        print(table(Path(a.path), Path(a.layering), a.kind))
+        return 0
+    cmds = {"run": run, "geometry": geometry, "layering": layering, "resolution": resolution}
+    return cmds[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -73,3 +73,32 @@ def test_layering_of_a_solid_slab(stats):
     assert out["layer_porosity_std"] == pytest.approx(prof.std(), rel=1e-12)
     assert out["open_layer_fraction"] == pytest.approx(0.7)
     assert out["layer_porosity_min"] == 0.0
+
+
+def test_single_cylinder_export_drops_the_periodic_copy_at_a_face(stats):
+    """A rod on the z = 0 face: the PS rod keeps its copy at the top face, the export does not."""
+    from psdesign.packing.fiberset import FiberState
+
+    d, size = 0.07, np.array([100e-6] * 3)
+    rod = make_fiber("rod", diameter=d, center=[0.5, 0.5, 0.0], direction=[1, 0, 0])
+    st = FiberState.from_fibers([rod], fixed=False)
+    cyl = RVE(size=size, fibers=[make_fiber("cylinder", d, center=[0.5, 0.5, 0.0], theta=0.0,
+                                            omega=0.0)])  # fmt: skip
+    full = 1.0 - cyl.voxelize(0.5e-6).porosity  # whole disc: half at z = 0, half at z = L
+    fibers, period = stats._single_cylinders(st, 100e-6)
+    assert period == pytest.approx(stats.SINGLE_PERIOD * 100e-6)
+    half = 1.0 - RVE(size=size, fibers=fibers, period=period).voxelize(0.5e-6).porosity
+    area = np.pi * (3.5e-6) ** 2 / (100e-6) ** 2
+    assert full == pytest.approx(area, rel=0.03)
+    assert half == pytest.approx(area / 2, rel=0.03)
+
+
+def test_subcube_is_the_slice_of_the_image(stats):
+    rod = make_fiber("cylinder", 0.07, center=[0.5, 0.5, 0.5], theta=-90.0, omega=0.0)  # along z
+    fields = _rve([rod]).voxelize(0.5e-6)
+    sub = stats.subcube_fields(fields, 25e-6, 50e-6)
+    assert sub.distance.shape == (100, 100, 100)
+    np.testing.assert_array_equal(sub.distance, fields.distance[50:150, 50:150, 50:150])
+    assert np.allclose(sub.grid.size, 50e-6) and np.allclose(sub.grid.spacing, 0.5e-6)
+    # the rod through the middle: solid share pi r^2 / (50 um)^2 of the sub-cube
+    assert 1.0 - sub.porosity == pytest.approx(np.pi * 3.5**2 / 50**2, rel=0.03)
