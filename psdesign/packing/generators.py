@@ -607,10 +607,40 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
             else res.state.subset(np.arange(m))
         )
     state, vf, m = best
+    drawn = pool.subset(np.arange(m))
     info.update(
-        {"fields": vf, "closest": vf.porosity, "why": "GA rounds exhausted", "n_rejected": 0}
+        {
+            "fields": vf,
+            "closest": vf.porosity,
+            "why": "GA rounds exhausted",
+            "n_rejected": 0,
+            "bounds": _ga_bounds_report(state, drawn, kw, size / period, period),
+        }
     )
-    return state, pool.subset(np.arange(m)), info
+    return state, drawn, info
+
+
+def _ga_bounds_report(
+    state: FiberState, drawn: FiberState, kw: dict, size_norm: np.ndarray, period: float
+) -> dict:
+    """The GA's move ranges and how many fibers ended outside them, measured from the drawn
+    state: each round restarts from the previous round's result, so the moves of the fibers
+    kept over several rounds add up (paper Sec. 7.1 gives the ranges of one adjustment)."""
+    shift = np.abs(state.center - drawn.center) / np.asarray(size_norm)
+    turn = np.maximum(np.abs(state.theta - drawn.theta), np.abs(state.omega - drawn.omega))
+    tol = 1e-9
+    out = (shift.max(axis=1, initial=0.0) > kw["shift_range"] + tol) | (
+        turn > kw["angle_range_deg"] + tol
+    )
+    n = int(np.count_nonzero(out))
+    return {
+        "shift_range": kw["shift_range"],
+        "angle_range_deg": kw["angle_range_deg"],
+        "max_shift_m": float(np.max(np.abs(state.center - drawn.center), initial=0.0) * period),
+        "max_turn_deg": float(np.max(turn, initial=0.0)),
+        "n_exceeded": n,
+        "status": "within_bounds" if n == 0 else "exceeded_bounds",
+    }
 
 
 def _none(gs, rng, size, measure):

@@ -246,6 +246,32 @@ def test_ga_method_reports_and_never_worsens_its_objective():
     assert ga["objective_final"] <= ga["objective_initial"]
     assert r.report["method"] == "ga" and r.report["n_fibers"] == 8
     assert r.report["rotation_deg"]["max"] <= np.sqrt(2) + 1e-6  # theta, omega each +-1 deg
+    # one round (fixed count): every move inside the paper's Sec. 7.1 ranges, reported so
+    bounds = r.report["bounds"]
+    assert bounds["status"] == "within_bounds" and bounds["n_exceeded"] == 0
+    assert bounds["max_shift_m"] <= 0.1 * 50e-6 * (1 + 1e-9)
+    assert bounds["max_turn_deg"] <= 1.0 + 1e-9
+
+
+def test_ga_bounds_report_counts_moves_added_over_rounds():
+    """Two rounds of +-0.1 L each can move a fiber 0.16 L from its drawn place (measured on the
+    Table III GA, docs/paper-reproduction.md 2.6): the report must count it against the drawn
+    state, not the last round's start."""
+    from psdesign.packing.generators import _ga_bounds_report, draw_fibers, parse_generator
+
+    size = np.array([50e-6] * 3)
+    gs = parse_generator(_spec(n_fibers=3), size)
+    size_norm = size / gs.period
+    st0 = draw_fibers(gs, 1, 3, size_norm)
+    moved = st0.copy()
+    moved.center[0, 0] += 0.16 * size_norm[0]  # two rounds' worth along x
+    moved.theta[1] += 0.5  # inside +-1 deg
+    moved.omega[2] += 1.7  # two rounds' worth of turn
+    kw = {"shift_range": 0.1, "angle_range_deg": 1.0}
+    rep = _ga_bounds_report(moved, st0, kw, size_norm, gs.period)
+    assert rep["n_exceeded"] == 2 and rep["status"] == "exceeded_bounds"
+    assert rep["max_shift_m"] == pytest.approx(0.16 * 50e-6)
+    assert rep["max_turn_deg"] == pytest.approx(1.7)
 
 
 @pytest.mark.parametrize(
