@@ -839,36 +839,60 @@ class _Stokes:
         return rz + kr.scale_dot(r[3], self.p_scale, z[3])
 
 
+@dataclass
+class MinresWork:
+    """The work vectors of :func:`_minres` besides the right-hand side: the preconditioned
+    vector ``z`` (float32; :attr:`_Stokes.z`, whose pressure field the multigrid shares), the
+    older Lanczos vector ``r1`` (float32) and the two unscaled directions ``u, u1``
+    (:class:`solvers.voxel.lanczos.Directions`, 16 bits per entry)."""
+
+    z: np.ndarray
+    r1: np.ndarray
+    u: lz.Directions
+    u1: lz.Directions
+
+    @classmethod
+    def of(cls, op: _Stokes) -> MinresWork:
+        """Work vectors for the operator ``op``."""
+        shp = op.shape
+        return cls(op.z, np.empty(shp, np.float32), lz.Directions(shp), lz.Directions(shp))
+
+
 def _minres(
     op: _Stokes,
     b: np.ndarray,
-    x: np.ndarray,
-    bufs: list[np.ndarray],
+    x: lz.Solution | np.ndarray,
+    work: MinresWork,
     rtol: float,
     maxit: int,
     report: Callable[[int, float], None] | None = None,
 ) -> tuple[int, str]:
     """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b,
-    accumulated into ``x`` (``x += e``; float64, so no separate correction vector is stored).
+    accumulated into ``x`` (``x += e``; a :class:`solvers.voxel.lanczos.Solution` or a float
+    array, so no separate correction vector is stored).
 
-    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  ``bufs`` are four
-    work vectors of ``b``'s shape (``z, u, u1, r1``; further ones are ignored); with
-    ``bufs[0] is op.z`` the multigrid shares its work array with ``z``.  Stops when the
-    preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations,
-    status).
+    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  ``work`` holds the
+    other vectors (:class:`MinresWork`).  Stops when the preconditioned residual norm estimate
+    has dropped by ``rtol``.  Returns (iterations, status).
 
-    Six vectors in all (:mod:`solvers.voxel.lanczos`): the Lanczos vector ``v = z / beta`` is
-    never stored (the scale is carried into the kernels); the operator product overwrites the
-    older Lanczos vector in place (``r1 <- s K z - c1 r1``, returning ``z . r1``, so ``alpha``
-    needs no extra sweep); the directions ``w = u / gamma`` are stored unscaled and updated
-    before the next preconditioned vector is formed (``gamma`` is not known yet), and each
-    direction's solution update ``x += phi w`` is fused into the next direction update (the
-    last one is flushed on return).  ``report(itn, phibar / beta1)`` is called every
-    ``PROGRESS_EVERY`` iterations if given.
+    Five 4-field vectors besides ``x`` (:mod:`solvers.voxel.lanczos`): the Lanczos vector
+    ``v = z / beta`` is never stored (the scale is carried into the kernels); the operator
+    product overwrites the older Lanczos vector in place (``r1 <- s K z - c1 r1``, returning
+    ``z . r1``, so ``alpha`` needs no extra sweep); the directions ``w = u / gamma`` are stored
+    unscaled and updated before the next preconditioned vector is formed (``gamma`` is not known
+    yet), and each direction's solution update ``x += phi w`` is fused into the next direction
+    update (the last one is flushed on return).  The directions feed only ``x``, never the
+    Lanczos recurrence, so they are stored in 16 bits (row-scaled int16): the recurrence, and
+    with it the iteration count of a MINRES run, is that of float32 storage.
+    ``report(itn, phibar / beta1)`` is called every ``PROGRESS_EVERY`` iterations if given.
     """
-    z, u, u1, r1 = bufs[:4]
-    u.fill(0.0)
-    u1.fill(0.0)
+    z, r1, u, u1 = work.z, work.r1, work.u, work.u1
+    if isinstance(x, lz.Solution):
+        xh, xl, xs = x.hi, x.lo, x.scale
+    else:
+        xh, xl, xs = x, np.zeros((0,) * x.ndim, np.int16), np.ones(x.shape[0])
+    u.clear()
+    u1.clear()
     r2 = b
     beta1 = op.precondition(r2, z)
     if not beta1 > 0.0:
@@ -885,7 +909,9 @@ def _minres(
         oldeps = epsln
         delta = cs * dbar + sn * alfa
         gbar = sn * dbar - cs * alfa
-        lz.minres_direction(z, s, u1, oldeps * su1, u, delta * su, x, phi * su)
+        lz.minres_direction(
+            z, s, u1.q, u1.e, oldeps * su1, u.q, u.e, delta * su, xh, xl, xs, phi * su
+        )
         u, u1 = u1, u
         su1 = su
         oldb = beta
@@ -904,9 +930,9 @@ def _minres(
         if report is not None and itn % PROGRESS_EVERY == 0:
             report(itn, phibar / beta1)
         if phibar <= rtol * beta1 or beta == 0.0:
-            lz.add_scaled(x, phi * su, u)
+            lz.add_direction(xh, xl, xs, phi * su, u.q, u.e)
             return itn, "ok" if phibar <= rtol * beta1 else "exact"
-    lz.add_scaled(x, phi * su, u)
+    lz.add_direction(xh, xl, xs, phi * su, u.q, u.e)
     return maxit, "max_iter"
 
 
@@ -917,6 +943,19 @@ INNER_RTOL_FLOOR = 1e-4
 """Smallest relative reduction asked of one float32 MINRES run (float32 round-off floor)."""
 
 
+def _true_residual(
+    op: _Stokes, x: lz.Solution, d: int, r: np.ndarray, work: MinresWork
+) -> tuple[float, float]:
+    """``r <- b - K x`` for the solution ``hi + lo * scale`` (float64 arithmetic on ``hi``; the
+    small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
+    subtracted); returns ``(||r||, ||b||)``."""
+    rn, bn = op.residual(x.hi, d, r)
+    if x.extended:
+        op.apply(x.lo_value(work.z), work.r1)
+        rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
+    return rn, bn
+
+
 def _solve_core(
     op: _Stokes,
     d: int,
@@ -924,12 +963,14 @@ def _solve_core(
     max_iter: int,
     progress: Callable[[int, float], None] | None = None,
 ) -> tuple[np.ndarray, dict]:
-    """Iterative refinement: float64 residual and solution, float32 preconditioned MINRES."""
+    """Iterative refinement: float64 residual, float32 preconditioned MINRES, the solution in
+    48 bits per entry (:class:`solvers.voxel.lanczos.Solution`: float32 in the first cycle, plus
+    an int16 extension from the second); returns the solution as float64."""
     shp = op.shape
-    x = np.zeros(shp)
+    x = lz.Solution(shp)
     r = np.empty(shp, np.float32)
-    bufs = [op.z] + [np.empty(shp, np.float32) for _ in range(3)]
-    rn, bn = op.residual(x, d, r)
+    work = MinresWork.of(op)
+    rn, bn = _true_residual(op, x, d, r, work)
     rel = rn / bn
     history = [rel]
     total = 0
@@ -939,6 +980,8 @@ def _solve_core(
         if total >= max_iter:
             message = f"max_iter={max_iter} MINRES iterations reached"
             break
+        if total > 0:
+            x.extend()  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None
         if progress is not None:
@@ -947,9 +990,9 @@ def _solve_core(
             def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
                 progress(done + itn, scale * ratio)
 
-        its, status = _minres(op, r, x, bufs, rtol, max_iter - total, report)
+        its, status = _minres(op, r, x, work, rtol, max_iter - total, report)
         total += its
-        rn, _ = op.residual(x, d, r)
+        rn, _ = _true_residual(op, x, d, r, work)
         new = rn / bn
         history.append(new)
         if progress is not None:
@@ -963,7 +1006,8 @@ def _solve_core(
         if not np.isfinite(rel) or stalls >= 3:
             message = "stalled: the residual stopped decreasing"
             break
-    return x, {
+    del work, r
+    return x.value(), {
         "converged": bool(rel <= tol),
         "iterations": total,
         "residual": float(rel),

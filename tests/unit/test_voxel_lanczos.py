@@ -4,6 +4,7 @@ against scipy's MINRES on the same matrix."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import scipy.sparse.linalg as spla
 
 import solvers.voxel_stokes as vs
@@ -51,8 +52,40 @@ def test_minres_matches_scipy_on_the_same_matrix() -> None:
     mmat = spla.LinearOperator((n, n), matvec=prec, dtype=float)
     ref, _ = spla.minres(kmat, b.ravel().astype(float), M=mmat, maxiter=15, rtol=1e-30)
     x = np.zeros(op.shape)
-    bufs = [op.z] + [np.empty(op.shape, np.float32) for _ in range(3)]
-    its, _ = vs._minres(op, b.copy(), x, bufs, 1e-30, 15)
+    its, _ = vs._minres(op, b.copy(), x, vs.MinresWork.of(op), 1e-30, 15)
     assert its == 15
     # the same 15 MINRES iterates up to float32 round-off (a wrong direction update is O(1) off)
     assert np.linalg.norm(x.ravel() - ref) <= 1e-3 * np.linalg.norm(ref)
+
+
+def test_direction_update_on_16_bit_storage_matches_float64() -> None:
+    # u1 <- s z - a1 u1 - a0 u and x += cx u with row-scaled int16 directions and the 48-bit
+    # solution: each stored entry within half a quantum of the float64 result
+    from solvers.voxel import lanczos as lz
+
+    rng = np.random.default_rng(1)
+    shp = (4, 5, 6, 37)
+    z = rng.standard_normal(shp).astype(np.float32)
+    u, u1 = lz.Directions(shp), lz.Directions(shp)
+    for d, scale in ((u, 3.0), (u1, 0.2)):
+        d.q[:] = rng.integers(-32767, 32768, shp)
+        d.e[:] = scale * rng.random(shp[:-1]) / lz.Q_MAX
+    x = lz.Solution(shp)
+    x.hi[:] = rng.standard_normal(shp) * np.array([1.0, 2.0, 3.0, 40.0])[:, None, None, None]
+    x.extend()
+    x0 = x.value()
+    uu, uu1 = (d.q * d.e[..., None].astype(float) for d in (u, u1))  # float64 values
+    s, a1, a0, cx = 0.7, 0.3, -1.1, 1e-3
+    want_u1 = s * z.astype(float) - a1 * uu1 - a0 * uu
+    want_x = x0 + cx * uu
+    lz.minres_direction(z, s, u1.q, u1.e, a1, u.q, u.e, a0, x.hi, x.lo, x.scale, cx)
+    quantum = np.abs(want_u1).max(axis=-1, keepdims=True) / lz.Q_MAX
+    assert np.all(np.abs(u1.value() - want_u1) <= 0.5 * quantum * (1 + 1e-5) + 1e-6)
+    assert np.all(np.abs(u1.q) <= lz.Q_MAX) and np.abs(u1.q).max() == lz.Q_MAX
+    # the solution keeps 2^-38 of the field's scale (float32 alone: 2^-24)
+    err = np.abs(x.value() - want_x).max(axis=(1, 2, 3))
+    assert np.all(err <= x.scale * 0.51)
+    assert np.all(x.scale <= 2.0 ** -36 * np.abs(x0).max(axis=(1, 2, 3)))
+    # the flush x += c u
+    lz.add_direction(x.hi, x.lo, x.scale, -2.0, u.q, u.e)
+    assert np.abs(x.value() - (want_x - 2.0 * uu)).max(axis=(1, 2, 3)).max() <= x.scale.max()
