@@ -58,10 +58,12 @@ Solvers*, ch. 4):
 * the pressure block uses the pressure mass matrix (``h^3/mu`` times the identity, i.e. the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
-* MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
-  residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
-  each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
-  restarts on the new residual; the reported
+* MINRES runs in float32 (3 float32 vectors of 4 fields and two 16-bit directions) inside an
+  iterative refinement with a float64 residual ``b - K x``; the solution is float32 in the
+  first refinement cycle and float32 plus an int16 extension (48 bits, a floor near 1e-10)
+  from the second on (MINRES accumulates straight into it, :class:`solvers.voxel.lanczos.
+  Solution`); each MINRES run reduces its preconditioned residual by up to
+  ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
   when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
   without halving the residual, or loss of positivity of the preconditioner (round-off) stop
@@ -71,8 +73,9 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 140 bytes per voxel, 165 with
-sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
+more work per iteration and was dropped.  Memory is O(N): about 115 bytes per voxel, 140 with
+sub-voxel walls (48-bit solution, 3 float32 4-field vectors, two 16-bit directions, uint8
+stencils;
 :mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);

@@ -1,6 +1,6 @@
 """Numba kernels of the voxel Stokes solver's MINRES loop with the fewest stored vectors.
 
-:func:`solvers.voxel_stokes._minres` keeps six 4-field vectors (the float64 solution ``x``, the
+:func:`solvers.voxel_stokes._minres` keeps six 4-field vectors (the solution ``x``, the
 two Lanczos vectors ``r1, r2``, the preconditioned vector ``z`` and two unscaled directions
 ``u, u1``) instead of seven: the operator product is written *in place* over the older Lanczos
 vector (:func:`stokes_lanczos`: ``r1 <- s K z - c1 r1``, each entry of ``r1`` is read once
@@ -9,6 +9,12 @@ before the next preconditioned vector is formed (:func:`minres_direction`), so t
 free to receive it.  The bytes streamed per iteration do not grow: the in-place product reads
 ``r1`` where the former product read it for its second dot product, and the Lanczos axpy
 (:func:`add_scaled`) reads one vector fewer than the former three-vector update.
+
+Storage (issue 16 item 3): the directions feed only the solution, never the Lanczos
+recurrence, so they are stored in 16 bits per entry (:class:`Directions`, row-scaled int16:
+8 B per cell each instead of 16); the solution is float32 plus, from the second refinement
+cycle, an int16 extension (:class:`Solution`, 24 B per cell instead of the float64 32 B).
+Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (``_momentum_row``,
 ``_momentum_row_w``); the continuity rows are the same expressions as in
