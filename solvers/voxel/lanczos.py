@@ -153,10 +153,18 @@ Q_MAX = 32767.0
 ``q * e`` with ``|q| <= Q_MAX`` and one float32 scale ``e`` per row (block floating point)."""
 
 
+BLOCK = 16
+"""Entries of a direction that share one scale (:class:`Directions`; 2 B per cell for the two
+directions).  Measured, Toray-like 64^3 sub-voxel, tol 1e-6: 230 MINRES iterations with blocks
+of 16, 237 with one scale per row of 64, 217 with float32 directions
+(``benchmarks/RESULTS.md``)."""
+
+
 class Directions:
     """A MINRES direction stored in 16 bits per entry: ``int16`` mantissas ``q`` (4 fields x
-    grid) and one float32 scale ``e`` per row along the last axis; the value is ``q * e``
-    (absolute error at most ``max|row| / 65534``).
+    grid) and one float32 scale ``e`` per block of :data:`BLOCK` consecutive entries along the
+    last axis (per row when the row length is not a multiple of it); the value is ``q * e``
+    (absolute error at most ``max|block| / 65534``).
 
     Parameters
     ----------
@@ -166,7 +174,14 @@ class Directions:
 
     def __init__(self, shape: tuple[int, ...]) -> None:
         self.q = np.zeros(shape, np.int16)
-        self.e = np.zeros(shape[:-1], np.float32)
+        nz = shape[-1]
+        block = BLOCK if nz % BLOCK == 0 else nz
+        self.e = np.zeros(int(np.prod(shape)) // block, np.float32)
+
+    @property
+    def block(self) -> int:
+        """Entries per scale."""
+        return self.q.size // self.e.size
 
     def clear(self) -> None:
         """Set the direction to zero."""
@@ -175,7 +190,8 @@ class Directions:
 
     def value(self) -> np.ndarray:
         """The stored direction as a float32 array (a copy; for tests)."""
-        return self.q.astype(np.float32) * self.e[..., None]
+        b = self.block
+        return (self.q.reshape(-1, b).astype(np.float32) * self.e[:, None]).reshape(self.q.shape)
 
 
 class Solution:
@@ -258,12 +274,12 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
     (:class:`Directions`; the new ``u1`` is quantised row by row); the solution is ``xh`` (any
     float dtype) or, when ``xl`` is not empty, ``xh + xl * xs[field]`` (:class:`Solution`),
     updated in float64 and split again into float32 ``xh`` and int16 ``xl``."""
-    nz = z.shape[-1]
+    nz = z.size // e1.size  # entries per scale (a row along the last axis or a block of it)
     fz = z.reshape(-1, nz)
     f1 = q1.reshape(-1, nz)
     f0 = q0.reshape(-1, nz)
-    g1 = e1.reshape(-1)
-    g0 = e0.reshape(-1)
+    g1 = e1
+    g0 = e0
     fh = xh.reshape(-1, nz)
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
@@ -306,10 +322,10 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
 def add_direction(xh, xl, xs, c, q, e):
     """``x += c u`` for a row-scaled int16 direction ``u = q * e`` and the solution of
     :func:`minres_direction` (``xh``, or ``xh + xl * xs[field]`` when ``xl`` is not empty)."""
-    nz = xh.shape[-1]
+    nz = xh.size // e.size
     fh = xh.reshape(-1, nz)
     fq = q.reshape(-1, nz)
-    fe = e.reshape(-1)
+    fe = e
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
     nrow = fh.shape[0]

@@ -4,10 +4,14 @@ Per cell of the *solved* grid (reservoirs and treatments included), counted from
 solve holds at its peak (MINRES phase) and checked against the traced peak
 (``tests/unit/test_voxel_memory.py``, ``benchmarks/RESULTS.md``):
 
-* solution ``x`` float64, 4 fields: 32 B; five float32 4-field vectors (the residual, which is
-  MINRES' current Lanczos vector, the older Lanczos vector, the preconditioned vector and two
-  unscaled directions; the operator product is written in place, see
-  :mod:`solvers.voxel.lanczos`): 80 B;
+* solution ``x``: float32 ``hi`` 16 B plus, from the second refinement cycle, the int16
+  extension ``lo`` 8 B (:class:`solvers.voxel.lanczos.Solution`; 48 bits: the true residual
+  reaches ~1e-10, float32 alone stalls near 3e-6): 24 B;
+* three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
+  older Lanczos vector and the preconditioned vector; the operator product is written in
+  place, see :mod:`solvers.voxel.lanczos`): 48 B;
+* two unscaled MINRES directions in 16 bits (:class:`solvers.voxel.lanczos.Directions`:
+  int16 and one float32 scale per 16 entries): 2 x 9 = 18 B;
 * multigrid: one float32 fine work array 4 B (the other is the preconditioned vector's pressure
   field); coarse levels (float32 7-point operator per component, 1/8 + 1/64 + ... of the cells:
   about 7 B; their ``x, t, b`` shared by the three components: about 2 B): 13 B;
@@ -16,18 +20,19 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B) and the pressure scaling
   (4 B); the caller's float64 distance (8 B) comes on top.
 
-Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``): 138.2 B per
-cell staircase and 163.2 B sub-voxel on the Toray-like 64^3 grid, 145.7 B on PuMA fibres_32
-(formerly 164.6 / 189.6 B on the 64^3 grid, with seven vectors and two fine work arrays).
+Sum: 117 B staircase.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py
+memory 64``): 116.3 B per cell staircase and 141.3 B sub-voxel on the Toray-like 64^3 grid,
+122.0 B on PuMA fibres_32 (formerly 137.8 / 162.8 / 145.7 B with a float64 solution and
+float32 directions, and 164.6 / 189.6 B with seven vectors and two fine work arrays).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
 
 from __future__ import annotations
 
-BYTES_PER_CELL = {"staircase": 150, "subvoxel": 185}
+BYTES_PER_CELL = {"staircase": 130, "subvoxel": 160}
 """Peak bytes per solved cell of :func:`solvers.voxel_stokes.solve_voxel_stokes` by wall
-treatment (the Python/numba baseline of ~150 MB comes on top): the counts above (139 / 164 B)
+treatment (the Python/numba baseline of ~150 MB comes on top): the counts above (117 / 142 B)
 plus the multigrid's small-grid overheads."""
 
 

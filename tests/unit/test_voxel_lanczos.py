@@ -58,29 +58,33 @@ def test_minres_matches_scipy_on_the_same_matrix() -> None:
     assert np.linalg.norm(x.ravel() - ref) <= 1e-3 * np.linalg.norm(ref)
 
 
-def test_direction_update_on_16_bit_storage_matches_float64() -> None:
-    # u1 <- s z - a1 u1 - a0 u and x += cx u with row-scaled int16 directions and the 48-bit
+@pytest.mark.parametrize("nz", [37, 32])  # one scale per row, per block of 16
+def test_direction_update_on_16_bit_storage_matches_float64(nz: int) -> None:
+    # u1 <- s z - a1 u1 - a0 u and x += cx u with block-scaled int16 directions and the 48-bit
     # solution: each stored entry within half a quantum of the float64 result
     from solvers.voxel import lanczos as lz
 
     rng = np.random.default_rng(1)
-    shp = (4, 5, 6, 37)
+    shp = (4, 5, 6, nz)
     z = rng.standard_normal(shp).astype(np.float32)
     u, u1 = lz.Directions(shp), lz.Directions(shp)
     for d, scale in ((u, 3.0), (u1, 0.2)):
         d.q[:] = rng.integers(-32767, 32768, shp)
-        d.e[:] = scale * rng.random(shp[:-1]) / lz.Q_MAX
+        d.e[:] = scale * rng.random(d.e.shape) / lz.Q_MAX
+    assert u.block == (lz.BLOCK if nz % lz.BLOCK == 0 else nz)
     x = lz.Solution(shp)
     x.hi[:] = rng.standard_normal(shp) * np.array([1.0, 2.0, 3.0, 40.0])[:, None, None, None]
     x.extend()
     x0 = x.value()
-    uu, uu1 = (d.q * d.e[..., None].astype(float) for d in (u, u1))  # float64 values
+    uu, uu1 = (_exact(d) for d in (u, u1))
     s, a1, a0, cx = 0.7, 0.3, -1.1, 1e-3
     want_u1 = s * z.astype(float) - a1 * uu1 - a0 * uu
     want_x = x0 + cx * uu
     lz.minres_direction(z, s, u1.q, u1.e, a1, u.q, u.e, a0, x.hi, x.lo, x.scale, cx)
-    quantum = np.abs(want_u1).max(axis=-1, keepdims=True) / lz.Q_MAX
-    assert np.all(np.abs(u1.value() - want_u1) <= 0.5 * quantum * (1 + 1e-5) + 1e-6)
+    b = u1.block
+    quantum = np.abs(want_u1.reshape(-1, b)).max(axis=-1, keepdims=True) / lz.Q_MAX
+    err = np.abs(_exact(u1) - want_u1).reshape(-1, b)
+    assert np.all(err <= 0.5 * quantum + 1e-6 * np.abs(want_u1).max())  # + float32 round-off
     assert np.all(np.abs(u1.q) <= lz.Q_MAX) and np.abs(u1.q).max() == lz.Q_MAX
     # the solution keeps 2^-38 of the field's scale (float32 alone: 2^-24)
     err = np.abs(x.value() - want_x).max(axis=(1, 2, 3))
@@ -89,3 +93,9 @@ def test_direction_update_on_16_bit_storage_matches_float64() -> None:
     # the flush x += c u
     lz.add_direction(x.hi, x.lo, x.scale, -2.0, u.q, u.e)
     assert np.abs(x.value() - (want_x - 2.0 * uu)).max(axis=(1, 2, 3)).max() <= x.scale.max()
+
+
+def _exact(d) -> np.ndarray:
+    """The value of a :class:`solvers.voxel.lanczos.Directions` in float64."""
+    b = d.block
+    return (d.q.reshape(-1, b) * d.e[:, None].astype(float)).reshape(d.q.shape)
