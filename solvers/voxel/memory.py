@@ -21,8 +21,8 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
   (4 B); the caller's float64 distance (8 B) comes on top.
 
 Sum: 117 B staircase.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py
-memory 64``): 116.3 B per cell staircase and 141.3 B sub-voxel on the Toray-like 64^3 grid,
-122.0 B on PuMA fibres_32 (formerly 137.8 / 162.8 / 145.7 B with a float64 solution and
+memory 64``): 116.2 B per cell staircase and 141.2 B sub-voxel on the Toray-like 64^3 grid,
+121.4 B on PuMA fibres_32 (formerly 137.8 / 162.8 / 145.7 B with a float64 solution and
 float32 directions, and 164.6 / 189.6 B with seven vectors and two fine work arrays).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.

@@ -89,7 +89,7 @@ def test_direction_update_on_16_bit_storage_matches_float64(nz: int) -> None:
     # the solution keeps 2^-38 of the field's scale (float32 alone: 2^-24)
     err = np.abs(x.value() - want_x).max(axis=(1, 2, 3))
     assert np.all(err <= x.scale * 0.51)
-    assert np.all(x.scale <= 2.0 ** -36 * np.abs(x0).max(axis=(1, 2, 3)))
+    assert np.all(x.scale <= 2.0**-36 * np.abs(x0).max(axis=(1, 2, 3)))
     # the flush x += c u
     lz.add_direction(x.hi, x.lo, x.scale, -2.0, u.q, u.e)
     assert np.abs(x.value() - (want_x - 2.0 * uu)).max(axis=(1, 2, 3)).max() <= x.scale.max()
