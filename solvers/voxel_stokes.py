@@ -463,7 +463,7 @@ def solve_voxel_stokes(
             f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
             "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
         )
-    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None)
+    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol)
     setup = _setup_grid(solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides)
     grid = setup["grid"]
     if not percolates(setup["blocked"], d):
@@ -675,7 +675,13 @@ def richardson_extrapolate(
 
 
 def _check_memory(
-    shape: tuple[int, ...], d: int, bc: str, treatment: str, aux_length: float, subvoxel: bool
+    shape: tuple[int, ...],
+    d: int,
+    bc: str,
+    treatment: str,
+    aux_length: float,
+    subvoxel: bool,
+    tol: float = 1e-6,
 ) -> None:
     """Refuse, before any allocation, a solve whose estimated peak memory
     (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
@@ -688,12 +694,12 @@ def _check_memory(
         dims = [n + (b != d) for b, n in enumerate(dims)]
     cells = float(np.prod(dims))
     kind = "subvoxel" if subvoxel else "staircase"
-    need = vmem.solver_bytes(cells, kind)
+    need = vmem.solver_bytes(cells, kind, tol)
     avail = vmem.available_bytes()
     if avail is not None and need > avail:
         raise VoxelStokesError(
             f"solid: the solved grid of {cells:.3g} cells needs about {need / 2**30:.3g} GiB "
-            f"({vmem.BYTES_PER_CELL[kind]} B per cell, {kind} walls); "
+            f"({need / cells:.0f} B per cell, {kind} walls); "
             f"{avail / 2**30:.3g} GiB are available: use a coarser voxel or a smaller RVE"
         )
 
@@ -984,7 +990,7 @@ def _solve_core(
             message = f"max_iter={max_iter} MINRES iterations reached"
             break
         if total > 0:
-            x.extend()  # the float32 round-off of x would stop the next cycle near 1e-6
+            x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None
         if progress is not None:

@@ -28,6 +28,7 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 from solvers.voxel.kernels import _dn, _momentum_row, _momentum_row_w, _up
+from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
 
@@ -198,19 +199,23 @@ class Solution:
     """The MINRES solution in 48 bits per entry: float32 ``hi`` plus, once :meth:`extend` has
     run, an int16 ``lo`` in units of a per-field power of two ``scale`` below the float32
     round-off of the field's largest entry (value ``hi + lo * scale``, absolute error at most
-    ``2^-39`` of that entry).
+    ``2^-39`` of that entry); an int32 ``lo`` (float64 precision) for ``tol`` below
+    :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` (1e-7; +8 B per cell).
 
     A float32 solution alone cannot go below a true relative residual of about 1e-6 (the
     round-off of the velocity times the viscous stencil: 2.6e-6 measured on PuMA fibres_32,
-    ``benchmarks/RESULTS.md``); with ``lo`` the floor is 2e-10.  ``lo`` is allocated after the
-    first refinement cycle (:func:`solvers.voxel_stokes._solve_core`), when the field's size is
-    known, so the first cycle runs on ``hi`` alone.
+    ``benchmarks/RESULTS.md``); with the int16 ``lo`` the floor is about ``4e-12`` times the
+    largest velocity in voxel units (2e-10 on fibres_32, 2e-9 on the 40^3 cylinder arrays along
+    the fibres).  ``lo`` is allocated after the first refinement cycle
+    (:func:`solvers.voxel_stokes._solve_core`), when the field's size is known, so the first
+    cycle runs on ``hi`` alone.
     """
 
-    LO_BITS_BELOW = 38
-    """``scale = 2^(E - 38)`` for a field whose largest magnitude times 2 is below ``2^E``:
-    14 bits below float32's 24-bit mantissa, so ``|lo| <= 2^14`` while the entries stay below
-    twice the largest one at :meth:`extend` (clipped to int16 beyond)."""
+    LO_BITS_BELOW = {2: 38, 4: 52}
+    """``scale = 2^(E - bits)`` for a field whose largest magnitude times 2 is below ``2^E``, by
+    the byte size of ``lo``: 14 (int16) or 28 (int32) bits below float32's 24-bit mantissa,
+    so ``|lo|`` stays a quarter of its range while the entries stay below twice the largest
+    one at :meth:`extend` (clipped beyond)."""
 
     def __init__(self, shape: tuple[int, ...]) -> None:
         self.hi = np.zeros(shape, np.float32)
@@ -222,19 +227,22 @@ class Solution:
         """True once :meth:`extend` has allocated ``lo``."""
         return self.lo.size > 0
 
-    def extend(self) -> None:
-        """Allocate ``lo`` (zero) and set the per-field scales from the current ``hi``."""
+    def extend(self, tol: float = 1e-6) -> None:
+        """Allocate ``lo`` (zero; int32 if ``tol < LO32_BELOW``) and set the per-field scales
+        from the current ``hi``."""
         if self.extended:
             return
+        dtype = np.int32 if tol < LO32_BELOW else np.int16
+        bits = self.LO_BITS_BELOW[np.dtype(dtype).itemsize]
         mags = [max(float(f.max()), -float(f.min())) for f in self.hi]
         top = max(mags)
         for a, m in enumerate(mags):
             m = m if m > 0.0 else top
-            self.scale[a] = 2.0 ** (np.frexp(2.0 * m)[1] - self.LO_BITS_BELOW) if m > 0 else 1.0
-        self.lo = np.zeros(self.hi.shape, np.int16)
+            self.scale[a] = 2.0 ** (np.frexp(2.0 * m)[1] - bits) if m > 0 else 1.0
+        self.lo = np.zeros(self.hi.shape, dtype)
 
     def lo_value(self, out: np.ndarray) -> np.ndarray:
-        """``out <- lo * scale`` (float32, exact), zero before :meth:`extend`."""
+        """``out <- lo * scale`` (float32), zero before :meth:`extend`."""
         if not self.extended:
             out.fill(0.0)
         else:
@@ -283,6 +291,7 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
     fh = xh.reshape(-1, nz)
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
+    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0  # int16 or int32 extension
     nrow = fz.shape[0]
     per = nrow // xs.shape[0]
     for t in nb.prange(nrow):
@@ -307,7 +316,7 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
                 h = np.float32(xe)
                 hr[k] = h
                 lq = np.rint((xe - np.float64(h)) / sc)
-                lr[k] = np.int16(min(max(lq, -Q_MAX), Q_MAX))
+                lr[k] = min(max(lq, -lmax), lmax)
         else:
             for k in range(nz):
                 old = np.float64(r0[k])
@@ -328,6 +337,7 @@ def add_direction(xh, xl, xs, c, q, e):
     fe = e
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
+    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0
     nrow = fh.shape[0]
     per = nrow // xs.shape[0]
     for t in nb.prange(nrow):
@@ -342,7 +352,7 @@ def add_direction(xh, xl, xs, c, q, e):
                 h = np.float32(xe)
                 hr[k] = h
                 lq = np.rint((xe - np.float64(h)) / sc)
-                lr[k] = np.int16(min(max(lq, -Q_MAX), Q_MAX))
+                lr[k] = min(max(lq, -lmax), lmax)
         else:
             for k in range(nz):
                 hr[k] += cu * qr[k]

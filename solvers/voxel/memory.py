@@ -6,7 +6,8 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 
 * solution ``x``: float32 ``hi`` 16 B plus, from the second refinement cycle, the int16
   extension ``lo`` 8 B (:class:`solvers.voxel.lanczos.Solution`; 48 bits: the true residual
-  reaches ~1e-10, float32 alone stalls near 3e-6): 24 B;
+  reaches about 4e-12 times the largest velocity in voxel units, float32 alone stalls near
+  3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B;
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
   place, see :mod:`solvers.voxel.lanczos`): 48 B;
@@ -36,10 +37,19 @@ treatment (the Python/numba baseline of ~150 MB comes on top): the counts above 
 plus the multigrid's small-grid overheads."""
 
 
-def solver_bytes(n_cells: float, wall_treatment: str = "subvoxel") -> float:
+TIGHT_TOL_BELOW = 1e-7
+"""Tolerances below which the solution's extension is int32 instead of int16 (the value of
+:data:`solvers.voxel.lanczos.LO32_BELOW`, kept here without the numba import): +8 B per cell."""
+
+TIGHT_TOL_EXTRA = 8
+
+
+def solver_bytes(n_cells: float, wall_treatment: str = "subvoxel", tol: float = 1e-6) -> float:
     """Estimated peak memory (bytes) a voxel Stokes solve on ``n_cells`` solved cells adds to
-    the running process."""
-    return BYTES_PER_CELL[wall_treatment] * float(n_cells)
+    the running process (``tol``: the solve's tolerance; below :data:`TIGHT_TOL_BELOW` the
+    solution takes :data:`TIGHT_TOL_EXTRA` more bytes per cell)."""
+    per = BYTES_PER_CELL[wall_treatment] + (TIGHT_TOL_EXTRA if tol < TIGHT_TOL_BELOW else 0)
+    return per * float(n_cells)
 
 
 def available_bytes() -> float | None:
