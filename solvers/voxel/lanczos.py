@@ -154,6 +154,13 @@ Q_MAX = 32767.0
 ``q * e`` with ``|q| <= Q_MAX`` and one float32 scale ``e`` per row (block floating point)."""
 
 
+DIRECTION_BITS = 16
+"""Storage of the MINRES directions (:class:`Directions`): 16 (int16 blocks, 9 B per cell per
+direction) or 32 (float32, 16 B).  Measured, Toray-like at 1 um, tol 1e-6 (16 vs 32 bits): 64^3
+157 vs 150 iterations, 100^3 222 vs 206, 200^3 279 vs 253 (+10 %): each refinement cycle then
+reduces the true residual by about 1e-3 instead of 1e-4, so a third cycle is needed; K equal to
+1e-8 (``benchmarks/RESULTS.md``)."""
+
 BLOCK = 16
 """Entries of a direction that share one scale (:class:`Directions`; 2 B per cell for the two
 directions).  Measured, Toray-like 64^3 sub-voxel, tol 1e-6: 230 MINRES iterations with blocks
@@ -173,10 +180,13 @@ class Directions:
         ``(4, nx, ny, nz)``.
     """
 
-    def __init__(self, shape: tuple[int, ...]) -> None:
-        self.q = np.zeros(shape, np.int16)
+    def __init__(self, shape: tuple[int, ...], bits: int | None = None) -> None:
+        bits = DIRECTION_BITS if bits is None else bits
+        if bits not in (16, 32):
+            raise ValueError(f"direction bits must be 16 or 32, got {bits!r}")
+        self.q = np.zeros(shape, np.int16 if bits == 16 else np.float32)
         nz = shape[-1]
-        block = BLOCK if nz % BLOCK == 0 else nz
+        block = BLOCK if nz % BLOCK == 0 and bits == 16 else nz
         self.e = np.zeros(int(np.prod(shape)) // block, np.float32)
 
     @property
@@ -261,8 +271,12 @@ class Solution:
 
 @nb.njit(inline="always")
 def _quantise_row(row, m, q, t, e):
-    """Store ``row`` (largest magnitude ``m``) as ``q[t] * e[t]``."""
-    if m > 0.0:
+    """Store ``row`` (largest magnitude ``m``) as ``q[t] * e[t]`` (float32 ``q``: as is)."""
+    if q.itemsize == 4:
+        e[t] = 1.0
+        for k in range(row.shape[0]):
+            q[t, k] = row[k]
+    elif m > 0.0:
         inv = Q_MAX / m
         e[t] = m / Q_MAX
         for k in range(row.shape[0]):
