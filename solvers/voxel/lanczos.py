@@ -28,6 +28,7 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 from solvers.voxel.kernels import _dn, _momentum_row, _momentum_row_w, _up
+from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
@@ -153,13 +154,6 @@ Q_MAX = 32767.0
 """Largest magnitude of a stored direction entry (int16): each row of a direction is stored as
 ``q * e`` with ``|q| <= Q_MAX`` and one float32 scale ``e`` per row (block floating point)."""
 
-
-DIRECTION_BITS = 16
-"""Storage of the MINRES directions (:class:`Directions`): 16 (int16 blocks, 9 B per cell per
-direction) or 32 (float32, 16 B).  Measured, Toray-like at 1 um, tol 1e-6 (16 vs 32 bits): 64^3
-157 vs 150 iterations, 100^3 222 vs 206, 200^3 279 vs 253 (+10 %): each refinement cycle then
-reduces the true residual by about 1e-3 instead of 1e-4, so a third cycle is needed; K equal to
-1e-8 (``benchmarks/RESULTS.md``)."""
 
 BLOCK = 16
 """Entries of a direction that share one scale (:class:`Directions`; 2 B per cell for the two

@@ -31,15 +31,25 @@ No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refu
 
 from __future__ import annotations
 
-BYTES_PER_CELL = {"staircase": 130, "subvoxel": 160}
+DIRECTION_BITS = 16
+"""Storage of the MINRES directions (:class:`solvers.voxel.lanczos.Directions`): 16 (int16
+blocks, 9 B per cell per direction) or 32 (float32, 16 B).  Measured, Toray-like at 1 um,
+tol 1e-6, 16 vs 32 bits: 157 vs 150 MINRES iterations at 64^3, 222 vs 206 at 100^3, 279 vs 253
+at 200^3 (+10 %): a refinement cycle then reduces the true residual by about 1e-3 instead of
+1e-4, so a third cycle is needed; K equal to 1e-8 (``benchmarks/RESULTS.md``)."""
+
+BYTES_PER_CELL = {
+    wall: per + (14 if DIRECTION_BITS == 32 else 0)
+    for wall, per in (("staircase", 130), ("subvoxel", 160))
+}
 """Peak bytes per solved cell of :func:`solvers.voxel_stokes.solve_voxel_stokes` by wall
 treatment (the Python/numba baseline of ~150 MB comes on top): the counts above (117 / 142 B)
-plus the multigrid's small-grid overheads."""
+plus the multigrid's small-grid overheads; 14 B more with float32 directions."""
 
 
 TIGHT_TOL_BELOW = 1e-7
-"""Tolerances below which the solution's extension is int32 instead of int16 (the value of
-:data:`solvers.voxel.lanczos.LO32_BELOW`, kept here without the numba import): +8 B per cell."""
+"""Tolerances below which the solution's extension is int32 instead of int16 (read by
+:class:`solvers.voxel.lanczos.Solution`): +8 B per cell."""
 
 TIGHT_TOL_EXTRA = 8
 
