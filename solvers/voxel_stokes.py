@@ -60,7 +60,7 @@ Solvers*, ch. 4):
   the identity in a wall-free periodic box.
 * MINRES runs in float32 (3 float32 vectors of 4 fields and two 16-bit directions) inside an
   iterative refinement with a float64 residual ``b - K x``; the solution is float32 in the
-  first refinement cycle and float32 plus an int16 extension (48 bits, a floor near 1e-10)
+  first refinement cycle and float32 plus an int16 extension (48 bits; int32 below ``tol`` 1e-7)
   from the second on (MINRES accumulates straight into it, :class:`solvers.voxel.lanczos.
   Solution`); each MINRES run reduces its preconditioned residual by up to
   ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported

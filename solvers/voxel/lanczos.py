@@ -203,14 +203,15 @@ class Solution:
     """The MINRES solution in 48 bits per entry: float32 ``hi`` plus, once :meth:`extend` has
     run, an int16 ``lo`` in units of a per-field power of two ``scale`` below the float32
     round-off of the field's largest entry (value ``hi + lo * scale``, absolute error at most
-    ``2^-39`` of that entry); an int32 ``lo`` (float64 precision) for ``tol`` below
+    ``2^-37`` of that entry); an int32 ``lo`` (float64 precision) for ``tol`` below
     :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` (1e-7; +8 B per cell).
 
     A float32 solution alone cannot go below a true relative residual of about 1e-6 (the
     round-off of the velocity times the viscous stencil: 2.6e-6 measured on PuMA fibres_32,
-    ``benchmarks/RESULTS.md``); with the int16 ``lo`` the floor is about ``4e-12`` times the
-    largest velocity in voxel units (2e-10 on fibres_32, 2e-9 on the 40^3 cylinder arrays along
-    the fibres).  ``lo`` is allocated after the first refinement cycle
+    ``benchmarks/RESULTS.md``); with the int16 ``lo`` the floor is about ``2.5e-11`` times the
+    largest velocity in voxel units (~1e-9 on fibres_32; the 40^3 cylinder arrays along the
+    fibres, velocities of a few hundred, missed tol 1e-9 with it: hence int32 below 1e-7).
+    ``lo`` is allocated after the first refinement cycle
     (:func:`solvers.voxel_stokes._solve_core`), when the field's size is known, so the first
     cycle runs on ``hi`` alone.
     """

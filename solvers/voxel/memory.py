@@ -6,7 +6,7 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 
 * solution ``x``: float32 ``hi`` 16 B plus, from the second refinement cycle, the int16
   extension ``lo`` 8 B (:class:`solvers.voxel.lanczos.Solution`; 48 bits: the true residual
-  reaches about 4e-12 times the largest velocity in voxel units, float32 alone stalls near
+  reaches about 2.5e-11 times the largest velocity in voxel units, float32 alone stalls near
   3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B;
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
