@@ -262,7 +262,8 @@ def _vcycle_bytes(mg0, fused: bool = True) -> float:
 def iteration_bytes(op, fused: bool = True) -> float:
     """Bytes one MINRES iteration must stream (the kernels of :func:`solvers.voxel_stokes._minres`
     as they are fused now, each array read or written once per kernel; ``fused=False``: before
-    the multigrid fusions and with the separate preconditioned dot product)."""
+    the multigrid fusions, with the separate preconditioned dot product, float32 directions and
+    the float64 solution)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
     ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
@@ -272,7 +273,10 @@ def iteration_bytes(op, fused: bool = True) -> float:
     lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
     prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
     dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
-    update = 4 * vec4 + 2 * 32.0  # z, w read; w1 read + written; x (float64) read + written
+    if fused:  # z read; int16 w read, w1 read + written; x = float32 + int16 read + written
+        update = vec4 + 3 * 8.0 + 2 * 24.0
+    else:  # z, w read; w1 read + written (float32); x (float64) read + written
+        update = 4 * vec4 + 2 * 32.0
     return n * (apply + lanczos + prec + dot + update)
 
 
@@ -350,6 +354,7 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
     (printed; also returned: ``bytes_per_voxel``, ``ideal_ms``, ``iteration_ms``, ``ratio``)."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
+    from solvers.voxel import lanczos as lz
 
     _warm_parallel()
     solid = _grid(n)
@@ -374,13 +379,14 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
         pairs = _fusion_pairs(op, reps)
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
-        bufs = [np.empty(op.shape, np.float32) for _ in range(5)]
-        e = np.zeros(op.shape)
+        work = vs.MinresWork.of(op)
+        e = lz.Solution(op.shape)
         its = 20
-        vs._minres(op, rhs.copy(), e, bufs, 1e-30, 2)
+        vs._minres(op, rhs.copy(), e, work, 1e-30, 2)
+        e.extend()  # the solution of the second and later refinement cycles (48 bits)
         t0 = time.perf_counter()
         c0 = time.process_time()
-        vs._minres(op, rhs.copy(), e, bufs, 1e-30, its)
+        vs._minres(op, rhs.copy(), e, work, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
         rows["one MINRES iteration, CPU time (all threads)"] = (
             (time.process_time() - c0) / its * 1e3

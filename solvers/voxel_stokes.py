@@ -58,10 +58,13 @@ Solvers*, ch. 4):
 * the pressure block (two-level since issue 16: *Pressure block* below) starts from the mass (the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
-* MINRES runs in float32 (5 vectors of 4 fields) inside a float64 iterative refinement: the
-  residual ``b - K x`` and the solution are float64 (MINRES accumulates straight into it),
-  each MINRES run reduces its preconditioned residual by up to ``INNER_RTOL_FLOOR`` and
-  restarts on the new residual; the reported
+* MINRES runs in float32 (3 float32 vectors of 4 fields and two directions, float32 or 16-bit:
+  :data:`solvers.voxel.memory.DIRECTION_BITS`) inside an
+  iterative refinement with a float64 residual ``b - K x``; the solution is float32 in the
+  first refinement cycle and float32 plus an int16 extension (48 bits; int32 below ``tol`` 1e-7)
+  from the second on (MINRES accumulates straight into it, :class:`solvers.voxel.lanczos.
+  Solution`); each MINRES run reduces its preconditioned residual by up to
+  ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
   when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
   without halving the residual, or loss of positivity of the preconditioner (round-off) stop
@@ -71,10 +74,10 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 140 bytes per voxel, 165 with
-sub-voxel walls (float64 solution, 5 float32 4-field vectors, uint8 stencils;
-:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
-matrix.  Threads
+more work per iteration and was dropped.  Memory is O(N): about 131 bytes per voxel, 156 with
+sub-voxel walls (48-bit solution, 3 float32 4-field vectors, two float32 directions, uint8
+stencils; 14 B less with 16-bit directions; :mod:`solvers.voxel.memory`, checked before
+anything is allocated); there is no assembled matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
 grids and multigrid levels below :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells
 (100 000; a parallel region costs up to ~15 ms start-up on a busy machine) run on one numba
@@ -473,7 +476,7 @@ def solve_voxel_stokes(
             f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
             "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
         )
-    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None)
+    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol)
     setup = _setup_grid(solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides)
     grid = setup["grid"]
     if not percolates(setup["blocked"], d):
@@ -685,7 +688,13 @@ def richardson_extrapolate(
 
 
 def _check_memory(
-    shape: tuple[int, ...], d: int, bc: str, treatment: str, aux_length: float, subvoxel: bool
+    shape: tuple[int, ...],
+    d: int,
+    bc: str,
+    treatment: str,
+    aux_length: float,
+    subvoxel: bool,
+    tol: float = 1e-6,
 ) -> None:
     """Refuse, before any allocation, a solve whose estimated peak memory
     (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
@@ -698,12 +707,12 @@ def _check_memory(
         dims = [n + (b != d) for b, n in enumerate(dims)]
     cells = float(np.prod(dims))
     kind = "subvoxel" if subvoxel else "staircase"
-    need = vmem.solver_bytes(cells, kind)
+    need = vmem.solver_bytes(cells, kind, tol)
     avail = vmem.available_bytes()
     if avail is not None and need > avail:
         raise VoxelStokesError(
             f"solid: the solved grid of {cells:.3g} cells needs about {need / 2**30:.3g} GiB "
-            f"({vmem.BYTES_PER_CELL[kind]} B per cell, {kind} walls); "
+            f"({need / cells:.0f} B per cell, {kind} walls); "
             f"{avail / 2**30:.3g} GiB are available: use a coarser voxel or a smaller RVE"
         )
 
@@ -861,36 +870,60 @@ class _Stokes:
         return rz + kr.scale_dot(r[3], self.p_scale, z[3])
 
 
+@dataclass
+class MinresWork:
+    """The work vectors of :func:`_minres` besides the right-hand side: the preconditioned
+    vector ``z`` (float32; :attr:`_Stokes.z`, whose pressure field the multigrid shares), the
+    older Lanczos vector ``r1`` (float32) and the two unscaled directions ``u, u1``
+    (:class:`solvers.voxel.lanczos.Directions`, 16 bits per entry)."""
+
+    z: np.ndarray
+    r1: np.ndarray
+    u: lz.Directions
+    u1: lz.Directions
+
+    @classmethod
+    def of(cls, op: _Stokes) -> MinresWork:
+        """Work vectors for the operator ``op``."""
+        shp = op.shape
+        return cls(op.z, np.empty(shp, np.float32), lz.Directions(shp), lz.Directions(shp))
+
+
 def _minres(
     op: _Stokes,
     b: np.ndarray,
-    x: np.ndarray,
-    bufs: list[np.ndarray],
+    x: lz.Solution | np.ndarray,
+    work: MinresWork,
     rtol: float,
     maxit: int,
     report: Callable[[int, float], None] | None = None,
 ) -> tuple[int, str]:
     """Preconditioned MINRES (Paige & Saunders; as scipy.sparse.linalg.minres) for K e = b,
-    accumulated into ``x`` (``x += e``; float64, so no separate correction vector is stored).
+    accumulated into ``x`` (``x += e``; a :class:`solvers.voxel.lanczos.Solution` or a float
+    array, so no separate correction vector is stored).
 
-    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  ``bufs`` are four
-    work vectors of ``b``'s shape (``z, u, u1, r1``; further ones are ignored); with
-    ``bufs[0] is op.z`` the multigrid shares its work array with ``z``.  Stops when the
-    preconditioned residual norm estimate has dropped by ``rtol``.  Returns (iterations,
-    status).
+    Works in the precision of ``b`` (float32 here); ``b`` is overwritten.  ``work`` holds the
+    other vectors (:class:`MinresWork`).  Stops when the preconditioned residual norm estimate
+    has dropped by ``rtol``.  Returns (iterations, status).
 
-    Six vectors in all (:mod:`solvers.voxel.lanczos`): the Lanczos vector ``v = z / beta`` is
-    never stored (the scale is carried into the kernels); the operator product overwrites the
-    older Lanczos vector in place (``r1 <- s K z - c1 r1``, returning ``z . r1``, so ``alpha``
-    needs no extra sweep); the directions ``w = u / gamma`` are stored unscaled and updated
-    before the next preconditioned vector is formed (``gamma`` is not known yet), and each
-    direction's solution update ``x += phi w`` is fused into the next direction update (the
-    last one is flushed on return).  ``report(itn, phibar / beta1)`` is called every
-    ``PROGRESS_EVERY`` iterations if given.
+    Five 4-field vectors besides ``x`` (:mod:`solvers.voxel.lanczos`): the Lanczos vector
+    ``v = z / beta`` is never stored (the scale is carried into the kernels); the operator
+    product overwrites the older Lanczos vector in place (``r1 <- s K z - c1 r1``, returning
+    ``z . r1``, so ``alpha`` needs no extra sweep); the directions ``w = u / gamma`` are stored
+    unscaled and updated before the next preconditioned vector is formed (``gamma`` is not known
+    yet), and each direction's solution update ``x += phi w`` is fused into the next direction
+    update (the last one is flushed on return).  The directions feed only ``x``, never the
+    Lanczos recurrence, so they are stored in 16 bits (row-scaled int16): the recurrence, and
+    with it the iteration count of a MINRES run, is that of float32 storage.
+    ``report(itn, phibar / beta1)`` is called every ``PROGRESS_EVERY`` iterations if given.
     """
-    z, u, u1, r1 = bufs[:4]
-    u.fill(0.0)
-    u1.fill(0.0)
+    z, r1, u, u1 = work.z, work.r1, work.u, work.u1
+    if isinstance(x, lz.Solution):
+        xh, xl, xs = x.hi, x.lo, x.scale
+    else:
+        xh, xl, xs = x, np.zeros((0,) * x.ndim, np.int16), np.ones(x.shape[0])
+    u.clear()
+    u1.clear()
     r2 = b
     beta1 = op.precondition(r2, z)
     if not beta1 > 0.0:
@@ -907,7 +940,9 @@ def _minres(
         oldeps = epsln
         delta = cs * dbar + sn * alfa
         gbar = sn * dbar - cs * alfa
-        lz.minres_direction(z, s, u1, oldeps * su1, u, delta * su, x, phi * su)
+        lz.minres_direction(
+            z, s, u1.q, u1.e, oldeps * su1, u.q, u.e, delta * su, xh, xl, xs, phi * su
+        )
         u, u1 = u1, u
         su1 = su
         oldb = beta
@@ -926,9 +961,9 @@ def _minres(
         if report is not None and itn % PROGRESS_EVERY == 0:
             report(itn, phibar / beta1)
         if phibar <= rtol * beta1 or beta == 0.0:
-            lz.add_scaled(x, phi * su, u)
+            lz.add_direction(xh, xl, xs, phi * su, u.q, u.e)
             return itn, "ok" if phibar <= rtol * beta1 else "exact"
-    lz.add_scaled(x, phi * su, u)
+    lz.add_direction(xh, xl, xs, phi * su, u.q, u.e)
     return maxit, "max_iter"
 
 
@@ -939,6 +974,19 @@ INNER_RTOL_FLOOR = 1e-4
 """Smallest relative reduction asked of one float32 MINRES run (float32 round-off floor)."""
 
 
+def _true_residual(
+    op: _Stokes, x: lz.Solution, d: int, r: np.ndarray, work: MinresWork
+) -> tuple[float, float]:
+    """``r <- b - K x`` for the solution ``hi + lo * scale`` (float64 arithmetic on ``hi``; the
+    small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
+    subtracted); returns ``(||r||, ||b||)``."""
+    rn, bn = op.residual(x.hi, d, r)
+    if x.extended:
+        op.apply(x.lo_value(work.z), work.r1)
+        rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
+    return rn, bn
+
+
 def _solve_core(
     op: _Stokes,
     d: int,
@@ -946,12 +994,14 @@ def _solve_core(
     max_iter: int,
     progress: Callable[[int, float], None] | None = None,
 ) -> tuple[np.ndarray, dict]:
-    """Iterative refinement: float64 residual and solution, float32 preconditioned MINRES."""
+    """Iterative refinement: float64 residual, float32 preconditioned MINRES, the solution in
+    48 bits per entry (:class:`solvers.voxel.lanczos.Solution`: float32 in the first cycle, plus
+    an int16 extension from the second); returns the solution as float64."""
     shp = op.shape
-    x = np.zeros(shp)
+    x = lz.Solution(shp)
     r = np.empty(shp, np.float32)
-    bufs = [op.z] + [np.empty(shp, np.float32) for _ in range(3)]
-    rn, bn = op.residual(x, d, r)
+    work = MinresWork.of(op)
+    rn, bn = _true_residual(op, x, d, r, work)
     rel = rn / bn
     history = [rel]
     total = 0
@@ -961,6 +1011,8 @@ def _solve_core(
         if total >= max_iter:
             message = f"max_iter={max_iter} MINRES iterations reached"
             break
+        if total > 0:
+            x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None
         if progress is not None:
@@ -969,9 +1021,9 @@ def _solve_core(
             def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
                 progress(done + itn, scale * ratio)
 
-        its, status = _minres(op, r, x, bufs, rtol, max_iter - total, report)
+        its, status = _minres(op, r, x, work, rtol, max_iter - total, report)
         total += its
-        rn, _ = op.residual(x, d, r)
+        rn, _ = _true_residual(op, x, d, r, work)
         new = rn / bn
         history.append(new)
         if progress is not None:
@@ -985,7 +1037,8 @@ def _solve_core(
         if not np.isfinite(rel) or stalls >= 3:
             message = "stalled: the residual stopped decreasing"
             break
-    return x, {
+    del work, r
+    return x.value(), {
         "converged": bool(rel <= tol),
         "iterations": total,
         "residual": float(rel),

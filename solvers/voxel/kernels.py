@@ -42,7 +42,8 @@ def _dn(i, n):
 
 @nb.njit(inline="always")
 def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
-    """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings."""
+    """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings (float64
+    arithmetic for any dtype of ``x``)."""
     ip = _up(i, nx)
     im = _dn(i, nx)
     jp = _up(j, ny)
@@ -50,14 +51,14 @@ def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     kp = _up(k, nz)
     km = _dn(k, nz)
     s = (
-        cx[i, j, k] * x[im, j, k]
-        + cx[ip, j, k] * x[ip, j, k]
-        + cy[i, j, k] * x[i, jm, k]
-        + cy[i, jp, k] * x[i, jp, k]
-        + cz[i, j, k] * x[i, j, km]
-        + cz[i, j, kp] * x[i, j, kp]
+        cx[i, j, k] * np.float64(x[im, j, k])
+        + cx[ip, j, k] * np.float64(x[ip, j, k])
+        + cy[i, j, k] * np.float64(x[i, jm, k])
+        + cy[i, jp, k] * np.float64(x[i, jp, k])
+        + cz[i, j, k] * np.float64(x[i, j, km])
+        + cz[i, j, kp] * np.float64(x[i, j, kp])
     )
-    return d[i, j, k] * x[i, j, k] - s
+    return d[i, j, k] * np.float64(x[i, j, k]) - s
 
 
 @nb.njit(inline="always")
@@ -632,7 +633,7 @@ def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
             for k in range(nz):
                 km = _dn(k, nz)
                 kp = _up(k, nz)
-                pc = p[i, j, k]
+                pc = np.float64(p[i, j, k])  # float64 arithmetic for a float32 x too
                 for a in range(3):
                     if a == 0:
                         act = du[i, j, k] != 0
@@ -648,13 +649,13 @@ def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
                         continue
                     if a == 0:
                         val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
-                        val += wt * (pc - p[im, j, k])
+                        val += wt * (pc - np.float64(p[im, j, k]))
                     elif a == 1:
                         val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
-                        val += wt * (pc - p[i, jm, k])
+                        val += wt * (pc - np.float64(p[i, jm, k]))
                     else:
                         val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
-                        val += wt * (pc - p[i, j, km])
+                        val += wt * (pc - np.float64(p[i, j, km]))
                     f = wt if a == gdir else 0.0
                     res = f - val
                     r[a, i, j, k] = res
@@ -662,12 +663,12 @@ def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
                     f2 += f * f
                 if fluid[i, j, k] != 0:
                     res = -(
-                        _weight(wu, i, j, k) * u[i, j, k]
-                        - _weight(wu, ip, j, k) * u[ip, j, k]
-                        + _weight(wv, i, j, k) * v[i, j, k]
-                        - _weight(wv, i, jp, k) * v[i, jp, k]
-                        + _weight(ww, i, j, k) * w[i, j, k]
-                        - _weight(ww, i, j, kp) * w[i, j, kp]
+                        _weight(wu, i, j, k) * np.float64(u[i, j, k])
+                        - _weight(wu, ip, j, k) * np.float64(u[ip, j, k])
+                        + _weight(wv, i, j, k) * np.float64(v[i, j, k])
+                        - _weight(wv, i, jp, k) * np.float64(v[i, jp, k])
+                        + _weight(ww, i, j, k) * np.float64(w[i, j, k])
+                        - _weight(ww, i, j, kp) * np.float64(w[i, j, kp])
                     )
                     r[3, i, j, k] = res
                     s2 += res * res

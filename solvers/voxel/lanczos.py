@@ -1,6 +1,6 @@
 """Numba kernels of the voxel Stokes solver's MINRES loop with the fewest stored vectors.
 
-:func:`solvers.voxel_stokes._minres` keeps six 4-field vectors (the float64 solution ``x``, the
+:func:`solvers.voxel_stokes._minres` keeps six 4-field vectors (the solution ``x``, the
 two Lanczos vectors ``r1, r2``, the preconditioned vector ``z`` and two unscaled directions
 ``u, u1``) instead of seven: the operator product is written *in place* over the older Lanczos
 vector (:func:`stokes_lanczos`: ``r1 <- s K z - c1 r1``, each entry of ``r1`` is read once
@@ -9,6 +9,12 @@ before the next preconditioned vector is formed (:func:`minres_direction`), so t
 free to receive it.  The bytes streamed per iteration do not grow: the in-place product reads
 ``r1`` where the former product read it for its second dot product, and the Lanczos axpy
 (:func:`add_scaled`) reads one vector fewer than the former three-vector update.
+
+Storage (issue 16 item 3): the directions feed only the solution, never the Lanczos
+recurrence, so they are stored in 16 bits per entry (:class:`Directions`, row-scaled int16:
+8 B per cell each instead of 16); the solution is float32 plus, from the second refinement
+cycle, an int16 extension (:class:`Solution`, 24 B per cell instead of the float64 32 B).
+Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (``_momentum_row``,
 ``_momentum_row_w``); the continuity rows are the same expressions as in
@@ -22,6 +28,8 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 from solvers.voxel.kernels import _dn, _momentum_row, _momentum_row_w, _up
+from solvers.voxel.memory import DIRECTION_BITS
+from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
 
@@ -142,18 +150,240 @@ def stokes_lanczos_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y):
     return acc.sum()
 
 
+Q_MAX = 32767.0
+"""Largest magnitude of a stored direction entry (int16): each row of a direction is stored as
+``q * e`` with ``|q| <= Q_MAX`` and one float32 scale ``e`` per row (block floating point)."""
+
+
+BLOCK = 16
+"""Entries of a direction that share one scale (:class:`Directions`; 2 B per cell for the two
+directions).  Measured, Toray-like 64^3 sub-voxel, tol 1e-6: 230 MINRES iterations with blocks
+of 16, 237 with one scale per row of 64, 217 with float32 directions
+(``benchmarks/RESULTS.md``)."""
+
+
+class Directions:
+    """A MINRES direction stored in 16 bits per entry: ``int16`` mantissas ``q`` (4 fields x
+    grid) and one float32 scale ``e`` per block of :data:`BLOCK` consecutive entries along the
+    last axis (per row when the row length is not a multiple of it); the value is ``q * e``
+    (absolute error at most ``max|block| / 65534``).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(4, nx, ny, nz)``.
+    """
+
+    def __init__(self, shape: tuple[int, ...], bits: int | None = None) -> None:
+        bits = DIRECTION_BITS if bits is None else bits
+        if bits not in (16, 32):
+            raise ValueError(f"direction bits must be 16 or 32, got {bits!r}")
+        self.q = np.zeros(shape, np.int16 if bits == 16 else np.float32)
+        nz = shape[-1]
+        block = BLOCK if nz % BLOCK == 0 and bits == 16 else nz
+        self.e = np.zeros(int(np.prod(shape)) // block, np.float32)
+
+    @property
+    def block(self) -> int:
+        """Entries per scale."""
+        return self.q.size // self.e.size
+
+    def clear(self) -> None:
+        """Set the direction to zero."""
+        self.q.fill(0)
+        self.e.fill(0.0)
+
+    def value(self) -> np.ndarray:
+        """The stored direction as a float32 array (a copy; for tests)."""
+        b = self.block
+        return (self.q.reshape(-1, b).astype(np.float32) * self.e[:, None]).reshape(self.q.shape)
+
+
+class Solution:
+    """The MINRES solution in 48 bits per entry: float32 ``hi`` plus, once :meth:`extend` has
+    run, an int16 ``lo`` in units of a per-field power of two ``scale`` below the float32
+    round-off of the field's largest entry (value ``hi + lo * scale``, absolute error at most
+    ``2^-37`` of that entry); an int32 ``lo`` (float64 precision) for ``tol`` below
+    :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` (1e-7; +8 B per cell).
+
+    A float32 solution alone cannot go below a true relative residual of about 1e-6 (the
+    round-off of the velocity times the viscous stencil: 2.6e-6 measured on PuMA fibres_32,
+    ``benchmarks/RESULTS.md``); with the int16 ``lo`` the floor is about ``2.5e-11`` times the
+    largest velocity in voxel units (~1e-9 on fibres_32; the 40^3 cylinder arrays along the
+    fibres, velocities of a few hundred, missed tol 1e-9 with it: hence int32 below 1e-7).
+    ``lo`` is allocated after the first refinement cycle
+    (:func:`solvers.voxel_stokes._solve_core`), when the field's size is known, so the first
+    cycle runs on ``hi`` alone.
+    """
+
+    LO_BITS_BELOW = {2: 38, 4: 52}
+    """``scale = 2^(E - bits)`` for a field whose largest magnitude times 2 is below ``2^E``, by
+    the byte size of ``lo``: 14 (int16) or 28 (int32) bits below float32's 24-bit mantissa,
+    so ``|lo|`` stays a quarter of its range while the entries stay below twice the largest
+    one at :meth:`extend` (clipped beyond)."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        self.hi = np.zeros(shape, np.float32)
+        self.lo = np.zeros((0,) * len(shape), np.int16)
+        self.scale = np.ones(shape[0])
+
+    @property
+    def extended(self) -> bool:
+        """True once :meth:`extend` has allocated ``lo``."""
+        return self.lo.size > 0
+
+    def extend(self, tol: float = 1e-6) -> None:
+        """Allocate ``lo`` (zero; int32 if ``tol < LO32_BELOW``) and set the per-field scales
+        from the current ``hi``."""
+        if self.extended:
+            return
+        dtype = np.int32 if tol < LO32_BELOW else np.int16
+        bits = self.LO_BITS_BELOW[np.dtype(dtype).itemsize]
+        mags = [max(float(f.max()), -float(f.min())) for f in self.hi]
+        top = max(mags)
+        for a, m in enumerate(mags):
+            m = m if m > 0.0 else top
+            self.scale[a] = 2.0 ** (np.frexp(2.0 * m)[1] - bits) if m > 0 else 1.0
+        self.lo = np.zeros(self.hi.shape, dtype)
+
+    def lo_value(self, out: np.ndarray) -> np.ndarray:
+        """``out <- lo * scale`` (float32), zero before :meth:`extend`."""
+        if not self.extended:
+            out.fill(0.0)
+        else:
+            for a in range(out.shape[0]):
+                np.multiply(self.lo[a], np.float32(self.scale[a]), out=out[a])
+        return out
+
+    def value(self) -> np.ndarray:
+        """The solution as a new float64 array."""
+        x = self.hi.astype(np.float64)
+        if self.extended:
+            for a in range(x.shape[0]):
+                x[a] += self.lo[a] * self.scale[a]
+        return x
+
+
+@nb.njit(inline="always")
+def _quantise_row(row, m, q, t, e):
+    """Store ``row`` (largest magnitude ``m``) as ``q[t] * e[t]`` (float32 ``q``: as is)."""
+    if q.itemsize == 4:
+        e[t] = 1.0
+        for k in range(row.shape[0]):
+            q[t, k] = row[k]
+    elif m > 0.0:
+        inv = Q_MAX / m
+        e[t] = m / Q_MAX
+        for k in range(row.shape[0]):
+            q[t, k] = np.int16(np.rint(row[k] * inv))
+    else:
+        e[t] = 0.0
+        for k in range(row.shape[0]):
+            q[t, k] = 0
+
+
 @parallel_kernel(**_OPTS)
-def minres_direction(z, s, u1, a1, u, a0, x, cx):
+def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
     """``u1 <- s z - a1 u1 - a0 u`` (the next unscaled MINRES direction) and ``x += cx u``
-    (the previous direction's solution update, float64 ``x``) in one pass."""
-    fz = z.ravel()
-    f1 = u1.ravel()
-    f0 = u.ravel()
-    fx = x.ravel()
-    for q in nb.prange(fz.size):
-        old = f0[q]
-        f1[q] = s * fz[q] - a1 * f1[q] - a0 * old
-        fx[q] += cx * old
+    (the previous direction's solution update) in one pass.
+
+    The directions ``u = q0 * e0`` and ``u1 = q1 * e1`` are row-scaled int16
+    (:class:`Directions`; the new ``u1`` is quantised row by row); the solution is ``xh`` (any
+    float dtype) or, when ``xl`` is not empty, ``xh + xl * xs[field]`` (:class:`Solution`),
+    updated in float64 and split again into float32 ``xh`` and int16 ``xl``."""
+    nz = z.size // e1.size  # entries per scale (a row along the last axis or a block of it)
+    fz = z.reshape(-1, nz)
+    f1 = q1.reshape(-1, nz)
+    f0 = q0.reshape(-1, nz)
+    g1 = e1
+    g0 = e0
+    fh = xh.reshape(-1, nz)
+    extended = xl.size > 0
+    fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
+    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0  # int16 or int32 extension
+    nrow = fz.shape[0]
+    per = nrow // xs.shape[0]
+    for t in nb.prange(nrow):
+        row = np.empty(nz, np.float32)
+        zr = fz[t]
+        r1 = f1[t]
+        r0 = f0[t]
+        hr = fh[t]
+        c1 = a1 * g1[t]
+        c0 = a0 * g0[t]
+        cu = cx * g0[t]
+        m = 0.0
+        if extended:
+            lr = fl[t]
+            sc = xs[t // per]
+            for k in range(nz):
+                old = np.float64(r0[k])
+                val = np.float32(s * zr[k] - c1 * r1[k] - c0 * old)
+                row[k] = val
+                m = max(m, abs(val))
+                xe = np.float64(hr[k]) + lr[k] * sc + cu * old
+                h = np.float32(xe)
+                hr[k] = h
+                lq = np.rint((xe - np.float64(h)) / sc)
+                lr[k] = min(max(lq, -lmax), lmax)
+        else:
+            for k in range(nz):
+                old = np.float64(r0[k])
+                val = np.float32(s * zr[k] - c1 * r1[k] - c0 * old)
+                row[k] = val
+                m = max(m, abs(val))
+                hr[k] += cu * old
+        _quantise_row(row, m, f1, t, g1)
+
+
+@parallel_kernel(**_OPTS)
+def add_direction(xh, xl, xs, c, q, e):
+    """``x += c u`` for a row-scaled int16 direction ``u = q * e`` and the solution of
+    :func:`minres_direction` (``xh``, or ``xh + xl * xs[field]`` when ``xl`` is not empty)."""
+    nz = xh.size // e.size
+    fh = xh.reshape(-1, nz)
+    fq = q.reshape(-1, nz)
+    fe = e
+    extended = xl.size > 0
+    fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
+    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0
+    nrow = fh.shape[0]
+    per = nrow // xs.shape[0]
+    for t in nb.prange(nrow):
+        hr = fh[t]
+        qr = fq[t]
+        cu = c * fe[t]
+        if extended:
+            lr = fl[t]
+            sc = xs[t // per]
+            for k in range(nz):
+                xe = np.float64(hr[k]) + lr[k] * sc + cu * qr[k]
+                h = np.float32(xe)
+                hr[k] = h
+                lq = np.rint((xe - np.float64(h)) / sc)
+                lr[k] = min(max(lq, -lmax), lmax)
+        else:
+            for k in range(nz):
+                hr[k] += cu * qr[k]
+
+
+@parallel_kernel(**_OPTS)
+def subtract_sq(r, y):
+    """``r -= y`` (flat, parallel); returns the float64 ``||r||^2`` of the result."""
+    fr = r.reshape(-1, r.shape[-1])
+    fy = y.reshape(-1, y.shape[-1])
+    m, n = fr.shape
+    part = np.zeros(m)
+    for t in nb.prange(m):
+        rr = fr[t]
+        yr = fy[t]
+        acc = 0.0
+        for k in range(n):
+            val = rr[k] - yr[k]
+            rr[k] = val
+            acc += np.float64(val) * np.float64(val)
+        part[t] = acc
+    return part.sum()
 
 
 @parallel_kernel(**_OPTS)

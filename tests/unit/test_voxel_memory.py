@@ -61,3 +61,10 @@ def test_too_large_a_grid_is_refused_before_allocating(monkeypatch) -> None:
     monkeypatch.setattr(vmem, "available_bytes", lambda: 1.2 * need)
     with pytest.raises(VoxelStokesError, match=r"4\.71e\+04 cells"):
         solve_voxel_stokes(solid, 1.0 / 32, "z", bc="permeameter")
+
+
+def test_tight_tolerances_count_the_wider_solution() -> None:
+    # below 1e-7 the solution's extension is int32 (solvers.voxel.lanczos.Solution): +8 B
+    base = vmem.solver_bytes(1000, "staircase")
+    assert vmem.solver_bytes(1000, "staircase", 1e-9) == base + 8 * 1000
+    assert vmem.solver_bytes(1000, "staircase", 1e-7) == base
