@@ -302,12 +302,46 @@ def _build(rel: str, spec: dict, sizes: list[float]):
             "build_s": time.perf_counter() - t0,
             "flow": {k: v for k, v in cand["flow"].items() if isinstance(v, (int, float, str))},
         }
+        base["fingerprint"] = _fingerprint(fields, base)
         BUILDS.mkdir(parents=True, exist_ok=True)
         pkl.write_bytes(pickle.dumps((built, fields)))
         _write_cache(info_path, {"spec": rel, "base": base})
         return built, fields, base
     _write_cache(info_path, {"spec": rel, "error": "; ".join(tried) or "no candidate"})
     return None
+
+
+def _fingerprint(fields, base: dict) -> str:
+    """Hash of the voxelized RVE (distance field, grid) and the ``[flow]`` table: two specs
+    with one fingerprint are one solve (e.g. the studies whose first case is the same
+    straight Toray-like generator and seed)."""
+    import hashlib
+
+    h = hashlib.sha256(np.ascontiguousarray(fields.distance, dtype=np.float64).tobytes())
+    h.update(json.dumps([base["size_m"], base["voxel_m"], base["flow"]], sort_keys=True).encode())
+    return h.hexdigest()[:16]
+
+
+def _reuse_same_rve(rel: str, label: str, base: dict, direction: str, bc: str, solver: str) -> bool:
+    """A row of a spec whose built RVE and ``[flow]`` table equal another spec's (same
+    fingerprint) that has this row solved: copy that row (marked) instead of solving again."""
+    fp = base.get("fingerprint")
+    if fp is None:
+        return False
+    for info_path in sorted(CACHE.glob("*__build.json")):
+        info = json.loads(info_path.read_text())
+        if info.get("spec") == rel or info.get("base", {}).get("fingerprint") != fp:
+            continue
+        src = _cache(info["spec"], direction, bc, solver)
+        if not src.exists():
+            continue
+        row = json.loads(src.read_text())
+        if "k_m2" not in row or "reused_from" in row:
+            continue
+        row |= {"spec": rel, "case": label, "reused_from": info["spec"], "fingerprint": fp}
+        _write_cache(_cache(rel, direction, bc, solver), row)
+        return True
+    return False
 
 
 def _not_an_rve(path: Path) -> str | None:
@@ -389,6 +423,8 @@ def run_specs(args) -> None:
         built, fields, base = got
         for bc, solver in todo:
             if _reuse_single_copy(rel, built, fields, args.direction, bc, solver):
+                continue
+            if not args.force and _reuse_same_rve(rel, label, base, args.direction, bc, solver):
                 continue
             row = {
                 "part": "specs",
@@ -595,6 +631,9 @@ def render_specs() -> list[str]:
                 if "k_m2" in vox and "k_m2" in per:
                     verdict += f"; voxel vs voxel periodic {_pct(vox['k_m2'] / per['k_m2'] - 1)}"
             case = (fem or vox).get("case", "")
+            same = sorted({r["reused_from"] for r in (fem, vox) if "/" in r.get("reused_from", "")})
+            if same:  # the solve of another spec with the same built RVE and [flow]
+                case += f" (same RVE and [flow] as {', '.join(same)}: its solve)"
             bc_cell = bc if bc == "periodic" else f"{bc} ({_copies(fem)} / {_copies(vox)})"
             lines.append(
                 f"| {spec} | {case} | {geo} | {changed} | {bc_cell} | {kf} | {bf} | {kv} | {bv} | "
