@@ -96,17 +96,70 @@ def _surface_gap(a: np.ndarray, b: np.ndarray, h: float) -> float:
     return float(diff[near].max()) if near.any() else float(diff.max())
 
 
-def _analytic_periods(rve: RVE, axis: int, h: float) -> tuple[bool, int]:
-    """Periodic along ``axis`` (field at s = 0 equals field at s = L near the surface, to
-    :data:`SEAM_TOL_VOXELS`) and the largest ``k`` with ``field(s) = field(s + L / k)`` (1 if
-    none)."""
+@dataclass(frozen=True)
+class EndPlanes:
+    """Do the two end planes of the RVE along an axis match (the geometry is periodic along it)?
+
+    Attributes
+    ----------
+    axis : str
+        ``"x"``, ``"y"`` or ``"z"``.
+    periodic : bool
+        The end planes match (:data:`SEAM_TOL_VOXELS` near the surface, or the voxel seam test).
+    check : str
+        ``"analytic"`` or ``"voxel"`` (:func:`periodicity`).
+    detail : str
+        The measurement, for messages.
+    """
+
+    axis: str
+    periodic: bool
+    check: str
+    detail: str
+
+
+def _analytic_points(rve: RVE) -> np.ndarray:
     size = np.asarray(rve.size, float)
-    length = float(size[axis])
-    p = np.random.default_rng(SAMPLE_SEED).uniform(0.0, 1.0, (SAMPLE_POINTS, 3)) * size
-    lo, hi = p.copy(), p.copy()
-    lo[:, axis], hi[:, axis] = 0.0, length
-    if _surface_gap(rve.union_field(lo), rve.union_field(hi), h) > SEAM_TOL_VOXELS * h:
+    return np.random.default_rng(SAMPLE_SEED).uniform(0.0, 1.0, (SAMPLE_POINTS, 3)) * size
+
+
+def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
+    """Compare the geometry on the two end planes along ``axis``: the analytic union field near
+    the surface where the RVE has one (largest difference against :data:`SEAM_TOL_VOXELS`
+    voxels), else the voxel layers (the seam against the worst step between neighbouring
+    layers, :func:`_voxel_periods`)."""
+    name = "xyz"[axis]
+    if _has_analytic(rve, fields):
+        h = float(fields.grid.spacing[axis])
+        p = _analytic_points(rve)
+        lo, hi = p.copy(), p.copy()
+        lo[:, axis], hi[:, axis] = 0.0, float(rve.size[axis])
+        gap = _surface_gap(rve.union_field(lo), rve.union_field(hi), h)
+        detail = (
+            f"the fiber surfaces at {name} = 0 and {name} = L differ by up to {gap / h:.3g} "
+            f"voxels, allowed {SEAM_TOL_VOXELS:g}"
+        )
+        return EndPlanes(name, gap <= SEAM_TOL_VOXELS * h, "analytic", detail)
+    solid = fields.solid
+    n = solid.shape[axis]
+    steps = [np.mean(np.take(solid, i, axis) != np.take(solid, i + 1, axis)) for i in range(n - 1)]
+    seam = float(np.mean(np.take(solid, 0, axis) != np.take(solid, n - 1, axis)))
+    worst = float(max(steps)) if steps else 0.0
+    detail = (
+        f"the first and last voxel layers along {name} differ on {100 * seam:.2f} % of their "
+        f"voxels, neighbouring layers inside on at most {100 * worst:.2f} %"
+    )
+    return EndPlanes(name, n >= 2 and seam <= worst, "voxel", detail)
+
+
+def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, int]:
+    """Periodic along ``axis`` (:func:`end_planes`) and the largest ``k`` with ``field(s) =
+    field(s + L / k)`` (1 if none)."""
+    if not end_planes(rve, fields, axis).periodic:
         return False, 1
+    h = float(fields.grid.spacing[axis])
+    length = float(rve.size[axis])
+    p = _analytic_points(rve)
     base = rve.union_field(p)
     found = 1
     for k in range(2, MAX_SUB_PERIODS + 1):
@@ -119,16 +172,13 @@ def _analytic_periods(rve: RVE, axis: int, h: float) -> tuple[bool, int]:
 
 def _voxel_periods(fields: VoxelFields, axis: int) -> tuple[bool, int]:
     """The same from the grid: the seam between the last and the first layer changes no more
-    voxels than the worst step between neighbouring layers inside; sub-periods by rolling the
-    solid by ``n / k`` layers (``k`` dividing ``n``; an image's distance is not periodic)."""
+    voxels than the worst step between neighbouring layers inside (:func:`end_planes`);
+    sub-periods by rolling the solid by ``n / k`` layers (``k`` dividing ``n``; an image's
+    distance is not periodic)."""
+    if not end_planes(None, fields, axis).periodic:
+        return False, 1
     solid = fields.solid
     n = solid.shape[axis]
-    if n < 2:
-        return False, 1
-    steps = [np.mean(np.take(solid, i, axis) != np.take(solid, i + 1, axis)) for i in range(n - 1)]
-    seam = np.mean(np.take(solid, 0, axis) != np.take(solid, n - 1, axis))
-    if seam > max(steps):
-        return False, 1
     found = 1
     for k in range(2, MAX_SUB_PERIODS + 1):
         if n % k == 0 and np.array_equal(np.roll(solid, n // k, axis=axis), solid):
@@ -142,7 +192,7 @@ def periodicity(rve: RVE | None, fields: VoxelFields, axis: int) -> tuple[bool, 
     points near the surface, :data:`SEAM_TOL_VOXELS`), else from the voxel grid
     (:func:`_voxel_periods`)."""
     if _has_analytic(rve, fields):
-        periodic, periods = _analytic_periods(rve, axis, float(fields.grid.spacing[axis]))
+        periodic, periods = _analytic_periods(rve, fields, axis)
         return periodic, periods, "analytic"
     periodic, periods = _voxel_periods(fields, axis)
     return periodic, periods, "voxel"

@@ -25,18 +25,28 @@ def restore_planes(pm: PoreMesh, lo: np.ndarray, hi: np.ndarray) -> None:
 
 
 def centroid_pore_fraction(d_s, v_s, pts, tets, vol, axis, rve_lo, rve_hi, periodic=False):
-    """Fraction (by count and by volume) of RVE tet centroids where interpolated distance > 0."""
+    """Fraction (by count and by volume) of RVE tet centroids where interpolated distance > 0.
+
+    ``periodic``: the field wraps around the box faces, as the periodic mesh was made from
+    (:class:`psdesign.meshing.stuffing.PoreField`); else it is extended constant beyond the outer
+    voxel centres."""
     cen = pts[tets].mean(axis=1)
     inside = (cen[:, axis] > rve_lo[axis]) & (cen[:, axis] < rve_hi[axis])
     if not inside.any():
         return 1.0, 1.0
+    w = vol[inside]
+    if periodic:
+        from psdesign.meshing.stuffing import PoreField
+
+        size = np.asarray(d_s.shape) * v_s
+        pore = PoreField(d_s, v_s, size, axis, clip=False, periodic=True)(cen[inside]) > 0
+        return float(pore.mean()), float(w[pore].sum() / w.sum())
     grids = [(np.arange(n) + 0.5) * v_s for n in d_s.shape]
     interp = RegularGridInterpolator(grids, d_s, bounds_error=False, fill_value=None)
     c = cen[inside]
     for ax in range(3):
         c[:, ax] = np.clip(c[:, ax], grids[ax][0], grids[ax][-1])
     pore = interp(c) > 0
-    w = vol[inside]
     return float(pore.mean()), float(w[pore].sum() / w.sum())
 
 
@@ -51,12 +61,15 @@ def volume_report(mesh_volume: float, analytic: float, voxel: float, scale3: flo
     }
 
 
-def mesh_quality(f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: float, inverted: str):
+def mesh_quality(
+    f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: float, inverted: str, periodic=False
+):
     """The ``PoreMesh.quality`` keys both meshers report (lengths in metres): counts, tag areas,
     element quality, pore volumes and porosities, pore-centroid fractions and the removed
     components. ``f`` is the :class:`psdesign.meshing.inputs.ScaledField`, ``rve_box`` the
     RVE's ``(lo, hi)`` in scaled units; a mesh with inverted or flat tets raises
-    :class:`MeshFailedError` (``inverted`` completes its message). Returns ``(quality,
+    :class:`MeshFailedError` (``inverted`` completes its message); ``periodic``: the mesh was made
+    from the wrapped field (the pore-centroid check wraps it too). Returns ``(quality,
     mesh_volume, porosity_voxel)``, the volume in scaled units."""
     from psdesign.meshing.quality import quality_report
     from psdesign.meshing.tetra import tet_volumes
@@ -68,7 +81,7 @@ def mesh_quality(f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: floa
         raise MeshFailedError(f"{qual['n_inverted']} tets are inverted or flat {inverted}")
     mesh_vol = float(vol.sum())
     pore_frac, pore_frac_vol = centroid_pore_fraction(
-        f.d, f.voxel, pts, tets, vol, f.axis, rve_box[0], rve_box[1]
+        f.d, f.voxel, pts, tets, vol, f.axis, rve_box[0], rve_box[1], periodic
     )
     porosity_voxel = float((f.d > 0).mean())
     voxel_rve = porosity_voxel * f.rve_volume

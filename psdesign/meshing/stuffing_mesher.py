@@ -114,8 +114,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
 def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts) -> dict:
     """``PoreMesh.quality`` of a stuffed mesh (lengths in metres)."""
     s = f.scale
+    box = (sm.rve_lo, sm.rve_hi)
     common, mesh_vol, porosity_voxel = mesh_quality(
-        f, pts, tets, tags, comp, (sm.rve_lo, sm.rve_hi), aux_volume, "after stuffing"
+        f, pts, tets, tags, comp, box, aux_volume, "after stuffing", opts.periodic
     )
     # isolated pockets removed by keep_through_components are part of the target pore volume
     vol_err = (mesh_vol + comp["removed_volume"]) / target - 1.0

@@ -148,29 +148,41 @@ def test_permeameter_matches_periodic_for_2_to_5_cells(kind, phi, step, n):
 
 
 def test_periodic_route_on_non_periodic_geometry_names_the_face():
-    """A cylinder cut by the face x = 0 only: the x faces differ, so bc="periodic" refuses."""
+    """A cylinder cut by the face x = 0 only: the x faces differ, so bc="periodic" refuses.
+
+    The period is twice the box (no PS copy of the cylinder at x = L); with the default period
+    (the box's largest edge) the copy at x = L makes the same RVE periodic, and the route then
+    meshes it with matching faces (the mesher used to make z faces that did not match: "in-plane
+    mismatch 0.2", which passed for the refusal)."""
     from fem_arrays import MU, S
 
-    from psdesign.flow.fem import permeability_fem
+    from psdesign.flow.fem import _mesh, permeability_fem
     from psdesign.geometry.fibers import make_fiber
     from psdesign.geometry.rve import RVE
 
     size = np.array([S, S, 8e-6])
-    fiber = make_fiber(
-        "cylinder",
-        diameter=0.3,
-        center=np.array([0.1, 0.5, 0.1]),
-        theta=None,
-        omega=None,
-        direction=[0, 0, 1],
-        u=0.0,
-        f=1.0,
-        isovalue=None,
-    )
-    rve = RVE(size=size, fibers=[fiber], period=None)
+
+    def cut_cylinder(period_boxes: float) -> RVE:
+        fiber = make_fiber(
+            "cylinder",
+            diameter=0.3 / period_boxes,
+            center=np.array([0.1, 0.5, 0.1]) / period_boxes,
+            theta=None,
+            omega=None,
+            direction=[0, 0, 1],
+            u=0.0,
+            f=1.0,
+            isovalue=None,
+        )
+        return RVE(size=size, fibers=[fiber], period=period_boxes * S)
+
+    rve = cut_cylinder(2.0)
     flow = {"viscosity": MU, "bc": "periodic", "mesher": "stuffing", "lattice_step": 4e-6}
-    # the mesher (periodic lattice) or the solver (face matching) names the faces that differ
+    # the geometry check (or the solver's face matching) names the faces that differ
     with pytest.raises(PeriodicMeshError, match=r"face x1|faces normal to [xyz] do not match"):
         permeability_fem(rve, rve.voxelize(2e-6), "x", flow)
+    periodic = cut_cylinder(1.0)
+    mesh = _mesh(periodic, periodic.voxelize(2e-6), "x", flow, "periodic")
+    assert {k: len(v) > 0 for k, v in mesh.periodic_pairs.items()} == dict.fromkeys("xyz", True)
     with pytest.raises(ValueError, match="flow.bc"):
         permeability_fem(rve, rve.voxelize(2e-6), "x", dict(flow, bc="mirror"))
