@@ -643,7 +643,7 @@ def render_specs() -> list[str]:
         "",
         "Rows with both K: "
         + ", ".join(f"{v} {k.strip('*')}" for k, v in counts.items() if not k.startswith("n/a"))
-        + ". 'not run' = not solved in the session's machine time (load 20-38 on 2 cores).",
+        + ". 'not run' = not solved in the sessions' machine time (load 8-38 on 2 cores).",
     ]
     return lines
 
@@ -719,9 +719,15 @@ def render(_args=None) -> None:
         "another material). Voxel: the thinnest fiber gets at least 8 voxels (a coarser spec "
         "voxel is refined to d / 8; one giving more than 10 is coarsened to d / 8 for machine "
         "time; rounded down to divide the box). The FEM uses the spec's `flow.lattice_step` "
-        "where it sets one, else its default. Periodic FEM needs matching opposite faces "
-        "(and a lattice fine enough that 97 % of the tet centroids lie in the pore); where it "
-        "refuses, the reason is in the row. " + PERMEAMETER_NOTE,
+        "where it sets one, else its default. Periodic FEM needs a periodic geometry: since "
+        "the stuffing fix 1264ae8 (engineer wovstack: matching faces by construction) the FEM "
+        "refuses a geometry whose opposite faces differ, with the measured gap "
+        "(`psdesign.flow.stack.end_planes`), before meshing. The random generators do not "
+        "build periodic RVEs, so their periodic rows have the voxel K only: the voxel route "
+        "solves the wrapped grid as it is (the seams are part of that material; "
+        "`face_mismatch` in its JSON), which is no FEM-comparable number. "
+        "Rows with 'same RVE and [flow] as' reuse the solve of a spec whose built RVE and "
+        "`[flow]` hash equal (`_fingerprint`). " + PERMEAMETER_NOTE,
         "",
         *render_specs(),
         "",
