@@ -600,6 +600,7 @@ def render_specs() -> list[str]:
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     counts = {"agree (<= 2 %)": 0, "inside combined bar": 0, "**outside combined bar**": 0}
+    copied = 0  #: rows with both K that repeat another spec's solve (same RVE and [flow])
     for spec in sorted({str(q.relative_to(ROOT)) for q in shipped_specs()} | set(builds)):
         if spec not in builds:
             lines.append(f"| {spec} | not run (machine time: not built) |||||||||||")
@@ -626,6 +627,8 @@ def render_specs() -> list[str]:
             if bc != "periodic" and _copies(fem) != _copies(vox) and diff:
                 verdict = "n/a (the routes stacked differently)"
             counts[verdict] = counts.get(verdict, 0) + 1
+            if diff and any("/" in r.get("reused_from", "") for r in (fem, vox)):
+                copied += 1
             if bc == "permeameter-stacked":
                 per = solves.get((spec, "periodic", "voxel"), {})
                 if "k_m2" in vox and "k_m2" in per:
@@ -643,6 +646,7 @@ def render_specs() -> list[str]:
         "",
         "Rows with both K: "
         + ", ".join(f"{v} {k.strip('*')}" for k, v in counts.items() if not k.startswith("n/a"))
+        + f" ({copied} of them repeat another spec's solve: same RVE and [flow])"
         + ". 'not run' = not solved in the sessions' machine time (load 8-38 on 2 cores).",
     ]
     return lines
