@@ -616,12 +616,13 @@ def render_specs() -> list[str]:
         changed = base["changed"] + (
             "; smaller boxes failed: " + "; ".join(base["tried"]) if base.get("tried") else ""
         )
-        if not any((spec, bc, r) in solves for bc in SPEC_BCS for r in SOLVERS):
+        solved = any((spec, bc, r) in solves for bc in SPEC_BCS for r in SOLVERS)
+        if not solved:
             lines.append(f"| {spec} | built ({geo}), not solved (machine time) |||||||||||")
         for bc in SPEC_BCS:
             fem, vox = solves.get((spec, bc, "fem"), {}), solves.get((spec, bc, "voxel"), {})
-            if not fem and not vox:
-                continue
+            if not fem and not vox and (bc == "permeameter" or not solved):
+                continue  # one copy: dropped for the stack (PERMEAMETER_NOTE)
             (kf, bf), (kv, bv) = _k_cell(fem), _k_cell(vox)
             diff, bars, verdict = _verdict(fem, vox)
             if bc != "periodic" and _copies(fem) != _copies(vox) and diff:
@@ -633,7 +634,8 @@ def render_specs() -> list[str]:
                 per = solves.get((spec, "periodic", "voxel"), {})
                 if "k_m2" in vox and "k_m2" in per:
                     verdict += f"; voxel vs voxel periodic {_pct(vox['k_m2'] / per['k_m2'] - 1)}"
-            case = (fem or vox).get("case", "")
+            any_row = next((r for (sp, _, _), r in solves.items() if sp == spec), {})
+            case = (fem or vox or any_row).get("case", "")
             same = sorted({r["reused_from"] for r in (fem, vox) if "/" in r.get("reused_from", "")})
             if same:  # the solve of another spec with the same built RVE and [flow]
                 case += f" (same RVE and [flow] as {', '.join(same)}: its solve)"
