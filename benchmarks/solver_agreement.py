@@ -263,6 +263,18 @@ def _candidates(spec: dict, sizes: list[float]) -> list[tuple[dict, str]]:
     return out
 
 
+def _recorded(info_path: Path, spec: dict) -> list[tuple[dict, str]]:
+    """The size and voxel a build record chose (the rows solved on it stay comparable when the
+    pickle is gone or the resolution rule changed), or [] without a record."""
+    if not info_path.exists():
+        return []
+    base = json.loads(info_path.read_text()).get("base")
+    if not base:
+        return []
+    rve = {**spec["rve"], "size": list(base["size_m"]), "voxel": base["voxel_m"]}
+    return [({**spec, "rve": rve}, base["changed"])]
+
+
 def _build(rel: str, spec: dict, sizes: list[float]):
     """Build the spec at the smallest trial size that generates (cached: the choice in
     ``CACHE``, the built RVE in ``BUILDS``); returns (built, fields, base row) or None."""
@@ -279,8 +291,10 @@ def _build(rel: str, spec: dict, sizes: list[float]):
         if pkl.exists():
             built, fields = pickle.loads(pkl.read_bytes())
             return built, fields, info["base"]
-    tried = []
-    for cand, changed in _candidates(spec, sizes):
+    tried: list[str] = []
+    recorded = _recorded(info_path, spec)
+    old_tried = json.loads(info_path.read_text())["base"].get("tried", []) if recorded else []
+    for cand, changed in recorded or _candidates(spec, sizes):
         t0 = time.perf_counter()
         try:
             cand = validate_spec(cand)
@@ -292,7 +306,7 @@ def _build(rel: str, spec: dict, sizes: list[float]):
             continue
         base = {
             "changed": changed,
-            "tried": tried,
+            "tried": tried or old_tried,
             "size_m": [float(x) for x in cand["rve"]["size"]],
             "voxel_m": float(cand["rve"]["voxel"]),
             "voxels_per_diameter": (
