@@ -685,7 +685,7 @@ def render_specs() -> list[str]:
         "Rows with both K: "
         + ", ".join(f"{v} {k.strip('*')}" for k, v in counts.items() if not k.startswith("n/a"))
         + f" ({copied} of them repeat another spec's solve: same RVE and [flow])"
-        + ". 'not run' = not solved in the sessions' machine time (load 8-38 on 2 cores).",
+        + ". 'not run' = not solved in the sessions' machine time (load 6-38 on 2 cores).",
     ]
     return lines
 
