@@ -835,8 +835,10 @@ FIG15 = (
     "FEM has the fewest mesh cells per fiber diameter here, 1.7 (the default lattice step "
     "`max(2 voxel, min(size) / 30)` is 3.33 um in a 100 um box, D = 7 um; the FEM warns). "
     "The same generator family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells "
-    "per D) agrees within 0.6 %. So the likely cause is the FEM's box-relative default step; "
-    "not verified by a refinement (a 1.67 um step is ~8x the unknowns; machine time)."
+    "per D) agrees within 0.6 %. Refinement (19:22-19:25 UTC, load 2-4; the row's cached "
+    "build, its `[flow]` with `lattice_step = 2.5e-6`, FEM route: 431 231 tets, 2.3 cells "
+    "per D, 138 s CPU, 2.9 GB): K FEM 4.0197e-11, **+1.18 % over the default step, FEM / "
+    "voxel - 1 = -1.45 %**. The cause is the FEM's box-relative default step at 100 um."
 )
 
 #: The pytetwild check at the Table III size (docs/meshers.md, benchmarks/RESULTS.md).
