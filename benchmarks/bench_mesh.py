@@ -15,6 +15,9 @@ Usage::
     # both meshers + FEM K on a smaller RVE of the same spec (50 um cube):
     python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --size 50e-6 \
         --mesher stuffing pytetwild --permeability
+    # the stuffing mesh at a finer lattice step (m) than its default (refinement check):
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --size 100e-6 \
+        --mesher stuffing --lattice-step 2.5e-6 --permeability
 """
 
 from __future__ import annotations
@@ -147,6 +150,7 @@ SPEC_KEYS = [
     "n_removed_components",
     "wall_shift_m",
     "surface_step",
+    "lattice_step_m",
     "edge_length_m",
     "epsilon_rel",
     "n_wall_vertices_frozen",
@@ -187,8 +191,11 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
             extra["edge_length_fac"] = args.edge_fac[0]
         if args.step is not None and mesher == "pytetwild":
             extra["surface_step"] = args.step
+        if args.lattice_step is not None and mesher == "stuffing":
+            extra["lattice_step"] = args.lattice_step
         opts = MeshOptions.from_flow(flow, **extra)
         row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": mesher}
+        row["options"] = {k: v for k, v in extra.items() if k != "mesher"}
         row["geometry_s"] = t_geom
         t1 = time.perf_counter()
         cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
@@ -237,6 +244,9 @@ def main() -> None:
     ap.add_argument("--direction", default="z")
     ap.add_argument("--step", type=int, default=None, help="surface step (default: auto)")
     ap.add_argument("--epsilon", type=float, default=None)
+    ap.add_argument(
+        "--lattice-step", type=float, default=None, help="stuffing lattice step (m; --spec)"
+    )
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=1800)
     args = ap.parse_args()
