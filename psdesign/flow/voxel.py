@@ -30,7 +30,7 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.stack import plan_copies, stack_fields
+from psdesign.flow.stack import end_planes, plan_copies, stack_fields
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
@@ -56,6 +56,20 @@ def face_mismatch(solid: np.ndarray) -> list[float]:
         last = np.take(solid, -1, axis=ax)
         out.append(float(np.mean(first != last)))
     return out
+
+
+def _seam_notes(name: str, rve: RVE | None, fields: VoxelFields) -> list[str]:
+    """A warning when ``bc = "periodic"`` wraps a geometry whose opposite faces differ
+    (:func:`psdesign.flow.stack.end_planes`, the FEM route's refusal test): the solve is then
+    of the wrapped grid, seams of cut fibers included, not of the RVE's material."""
+    bad = [m for ax in range(3) if not (m := end_planes(rve, fields, ax)).periodic]
+    if not bad:
+        return []
+    return [
+        f"K_{name}: bc = 'periodic' on a geometry that is not periodic (faces normal to "
+        f"{', '.join(m.axis for m in bad)}: {'; '.join(m.detail for m in bad)}): the wrapped "
+        "grid's seams are part of this K; bc = 'permeameter' measures the sample as it is"
+    ]
 
 
 def column_of(res) -> np.ndarray:
@@ -132,12 +146,14 @@ def permeability_voxel(
     ``flow.bc = "periodic"`` (default) treats the grid as periodic. A non-periodic RVE (random
     tilted fibers) is solved as is, as PuMA does; the result reports ``face_mismatch`` (per
     axis, the fraction of face voxels whose state differs from the opposite face) and
-    ``geometry_periodic`` (all mismatches below 1 %); ``flow.periodic_treatment = "mirror"``
-    mirrors the grid along the flow instead. ``flow.bc = "permeameter"`` puts the RVE between
-    empty reservoirs (``flow.aux_length``, ``flow.sides``, ``flow.pressure_drop`` between the
-    reservoir ends) and reports ``K = mu Q L / (A dP_rve)`` with the windowed-dissipation drop
-    ``pressure_drop_rve_pa`` (:func:`rve_drop`; ``pressure_drop_faces_pa``: the drop between the
-    RVE's face planes, entrance and exit losses included, a diagnostic).
+    ``geometry_periodic`` (all mismatches below 1 %), and warns when the end planes differ
+    (:func:`psdesign.flow.stack.end_planes`, the FEM route's refusal test);
+    ``flow.periodic_treatment = "mirror"`` mirrors the grid along the flow instead. ``flow.bc =
+    "permeameter"`` puts the RVE between empty reservoirs (``flow.aux_length``, ``flow.sides``,
+    ``flow.pressure_drop`` between the reservoir ends) and reports ``K = mu Q L / (A dP_rve)``
+    with the windowed-dissipation drop ``pressure_drop_rve_pa`` (:func:`rve_drop`;
+    ``pressure_drop_faces_pa``: the drop between the RVE's face planes, entrance and exit losses
+    included, a diagnostic).
 
     ``progress(iterations, residual)`` is passed to the solver. With ``rve`` the result has
     ``cells_per_diameter`` (voxels across the thinnest fiber) and a :class:`ResolutionWarning`
@@ -231,6 +247,8 @@ def permeability_voxel(
     }
     if plan is not None and plan.note:
         notes.append(plan.note)
+    if bc == "periodic" and out["periodic_treatment"] == "periodic":
+        notes.extend(_seam_notes(name, rve, fields))
     if notes:
         out["warnings"] = notes
     if bc == "permeameter":

@@ -97,3 +97,31 @@ def test_permeameter_route_keys_and_entrance_effect() -> None:
 def test_bad_bc_raises() -> None:
     with pytest.raises(ValueError, match="flow.bc"):
         _route(4e-6, 1, bc="open")
+
+
+@pytest.mark.parametrize(("direction", "periodic"), [([0, 0, 1], True), ([0.3, 0, 1], False)])
+def test_periodic_bc_on_a_non_periodic_geometry_says_so(direction, periodic) -> None:
+    """A cylinder along z is periodic in the cube; tilted by 0.3 it enters z = 0 and leaves
+    z = L 12 um apart (5.75 voxels of 2 um; psdesign.flow.stack.end_planes), so the periodic
+    solve is of the wrapped grid's seams too, and the result must say so."""
+    s = validate_spec(
+        {
+            "rve": {"size": [L] * 3, "voxel": 2e-6},
+            "fibers": [
+                {
+                    "shape": "cylinder",
+                    "diameter": 10e-6,
+                    "center": [L / 2] * 3,
+                    "direction": direction,
+                }
+            ],
+            "flow": {"viscosity": 1.8e-5},
+        }
+    )
+    built = build_rve(s)
+    with pytest.warns(ResolutionWarning):  # 5 voxels per diameter: cheap, and warned
+        out = permeability(built.rve, built.voxelize(2e-6), "z", s["flow"], solver="voxel")
+    seams = [w for w in out["warnings"] if "not periodic" in w]
+    assert (not seams) == periodic
+    if not periodic:
+        assert "faces normal to x, z" in seams[0] and "5.75 voxels" in seams[0]
