@@ -232,8 +232,7 @@ def run(a) -> int:
                     rec.update(solve_one(built, fields, d, bc, a.tol, a.copies))
                     path.parent.mkdir(parents=True, exist_ok=True)
                     path.write_text(json.dumps(rec))
-                    with open(a.out, "a") as fh:
-                        fh.write(json.dumps(rec) + "\n")
+                    _append(a.out, rec)
                     print(json.dumps({k: rec[k] for k in ("kind", "seed", "bc", "dir")}), end=" ")
                     print(f"K = {rec['permeability_m2']:.4e} ({rec['wall_time_s']:.0f} s)")
                     sys.stdout.flush()
@@ -335,39 +334,50 @@ def layering_stats(fields) -> dict:
     }
 
 
-def geometry(a) -> int:
-    """Generator statistics per (kind, method, seed): orientation, overlap, clustering, pores."""
+def _append(path, rec: dict) -> None:
+    """One JSON line appended to a runs file (the runs files are resumable logs)."""
+    with open(path, "a") as fh:
+        fh.write(json.dumps(rec) + "\n")
+
+
+def _each_rve(a):
+    """``(kind, method, seed, built, generation_s, fields)`` of every requested RVE, voxelized
+    at ``a.voxel`` (built or read from the cache by :func:`build`)."""
     for kind in a.kinds:
         for method in a.methods:
             for seed in a.seeds:
                 built, t_gen = build(kind, method, seed, a.size, a.cache)
-                fields = built.rve.voxelize(a.voxel)
-                rec = {"kind": kind, "method": method, "seed": seed, "voxel_m": a.voxel}
-                rec.update(size_m=float(built.rve.size[0]), n_fibers=len(built.rve.fibers))
-                rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
-                rec["generation_s"] = t_gen
-                rec["generation"] = {
-                    k: built.report.get(k)
-                    for k in ("omega_after", "center_z_m", "rotation_deg", "displacement_m")
-                }
-                rec.update(orientation_stats(built.rve))
-                rec.update(clustering_stats(built.rve))
-                rec.update(layering_stats(fields))
-                rec.update(t3.pore_statistics(fields.solid, a.voxel))
-                rec["clustering_cv_10um"] = t3.clustering_cv(
-                    fields.solid, max(1, int(round(10e-6 / a.voxel)))
-                )
-                with open(a.out, "a") as fh:
-                    fh.write(json.dumps(rec) + "\n")
-                print(
-                    kind,
-                    method,
-                    seed,
-                    f"eps={rec['porosity']:.4f} Omega={rec['omega']:.4f}",
-                    f"a_xx={rec['a_xx']:.3f} a_yy={rec['a_yy']:.3f} a_zz={rec['a_zz']:.4f}",
-                    f"nn={1e6 * rec['nn_axis_mean_m']:.2f}um d50={1e6 * rec['pore_d50_m']:.1f}",
-                )
-                sys.stdout.flush()
+                yield kind, method, seed, built, t_gen, built.rve.voxelize(a.voxel)
+
+
+def geometry(a) -> int:
+    """Generator statistics per (kind, method, seed): orientation, overlap, clustering, pores."""
+    for kind, method, seed, built, t_gen, fields in _each_rve(a):
+        rec = {"kind": kind, "method": method, "seed": seed, "voxel_m": a.voxel}
+        rec.update(size_m=float(built.rve.size[0]), n_fibers=len(built.rve.fibers))
+        rec.update(porosity=fields.porosity, omega=fields.intersection_volume_fraction)
+        rec["generation_s"] = t_gen
+        rec["generation"] = {
+            k: built.report.get(k)
+            for k in ("omega_after", "center_z_m", "rotation_deg", "displacement_m")
+        }
+        rec.update(orientation_stats(built.rve))
+        rec.update(clustering_stats(built.rve))
+        rec.update(layering_stats(fields))
+        rec.update(t3.pore_statistics(fields.solid, a.voxel))
+        rec["clustering_cv_10um"] = t3.clustering_cv(
+            fields.solid, max(1, int(round(10e-6 / a.voxel)))
+        )
+        _append(a.out, rec)
+        print(
+            kind,
+            method,
+            seed,
+            f"eps={rec['porosity']:.4f} Omega={rec['omega']:.4f}",
+            f"a_xx={rec['a_xx']:.3f} a_yy={rec['a_yy']:.3f} a_zz={rec['a_zz']:.4f}",
+            f"nn={1e6 * rec['nn_axis_mean_m']:.2f}um d50={1e6 * rec['pore_d50_m']:.1f}",
+        )
+        sys.stdout.flush()
     return 0
 
 
@@ -407,28 +417,22 @@ def resolution(a) -> int:
                     rec.update(solve_one(built, fields, d, "periodic", a.tol))
                     path.parent.mkdir(parents=True, exist_ok=True)
                     path.write_text(json.dumps(rec))
-                    with open(a.out, "a") as fh:
-                        fh.write(json.dumps(rec) + "\n")
+                    _append(a.out, rec)
                     print(kind, seed, h, d, f"K = {rec['permeability_m2']:.4e}", flush=True)
     return 0
 
 
 def layering(a) -> int:
     """Porosity, Omega and z layering of each (kind, method, seed) RVE, one JSON line each."""
-    for kind in a.kinds:
-        for method in a.methods:
-            for seed in a.seeds:
-                built, _ = build(kind, method, seed, a.size, a.cache)
-                fields = built.rve.voxelize(a.voxel)
-                rec = {"kind": kind, "method": method, "seed": seed, "size": a.size}
-                rec.update(omega=fields.intersection_volume_fraction, porosity=fields.porosity)
-                rec.update(layering_stats(fields))
-                rec["n_fibers"] = len(built.rve.fibers)
-                rec["center_z_std_m"] = float(np.std([fb.center[2] for fb in built.rve.fibers]))
-                rec["center_z_std_m"] *= float(built.rve.period)
-                with open(a.out, "a") as fh:
-                    fh.write(json.dumps(rec) + "\n")
-                print(json.dumps(rec))
+    for kind, method, seed, built, _, fields in _each_rve(a):
+        rec = {"kind": kind, "method": method, "seed": seed, "size": a.size}
+        rec.update(omega=fields.intersection_volume_fraction, porosity=fields.porosity)
+        rec.update(layering_stats(fields))
+        rec["n_fibers"] = len(built.rve.fibers)
+        rec["center_z_std_m"] = float(np.std([fb.center[2] for fb in built.rve.fibers]))
+        rec["center_z_std_m"] *= float(built.rve.period)
+        _append(a.out, rec)
+        print(json.dumps(rec))
     return 0
 
 
