@@ -37,7 +37,7 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     windowed_drop,
     windowed_drop_from_dissipation,
 )
-from psdesign.flow.stack import end_planes, plan_copies, stack_fields, stacked_flow
+from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
@@ -152,11 +152,10 @@ def _check_periodic_geometry(rve: RVE, fields: VoxelFields) -> None:
     (measured: 4 % within two voxels of the faces of six tilted rods)."""
     from solvers.fem.periodic import PeriodicMeshError
 
-    bad = [m for ax in range(3) if not (m := end_planes(rve, fields, ax)).periodic]
-    if bad:
+    faces = unmatched_faces(rve, fields)
+    if faces:
         raise PeriodicMeshError(
-            "flow.bc = 'periodic': the geometry is not periodic, its faces normal to "
-            f"{', '.join(m.axis for m in bad)} do not match ({'; '.join(m.detail for m in bad)}): "
+            f"flow.bc = 'periodic': the geometry is not periodic, its {faces}: "
             "the FEM needs a periodic RVE; use bc = 'permeameter', or solver = 'voxel' (it "
             "solves the wrapped grid as it is and reports face_mismatch)"
         )

@@ -153,6 +153,17 @@ def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
     return EndPlanes(name, n >= 2 and seam <= worst, "voxel", detail)
 
 
+def unmatched_faces(rve: RVE | None, fields: VoxelFields) -> str:
+    """``"faces normal to x, y do not match (<measurements>)"`` for the axes whose end planes
+    differ (:func:`end_planes`), for messages; ``""`` when the geometry is periodic on all three.
+    """
+    bad = [m for ax in range(3) if not (m := end_planes(rve, fields, ax)).periodic]
+    if not bad:
+        return ""
+    axes, details = ", ".join(m.axis for m in bad), "; ".join(m.detail for m in bad)
+    return f"faces normal to {axes} do not match ({details})"
+
+
 def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, int]:
     """Periodic along ``axis`` (:func:`end_planes`) and the largest ``k`` with ``field(s) =
     field(s + L / k)`` (1 if none)."""

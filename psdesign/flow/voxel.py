@@ -30,7 +30,7 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.stack import end_planes, plan_copies, stack_fields
+from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
@@ -62,12 +62,11 @@ def _seam_notes(name: str, rve: RVE | None, fields: VoxelFields) -> list[str]:
     """A warning when ``bc = "periodic"`` wraps a geometry whose opposite faces differ
     (:func:`psdesign.flow.stack.end_planes`, the FEM route's refusal test): the solve is then
     of the wrapped grid, seams of cut fibers included, not of the RVE's material."""
-    bad = [m for ax in range(3) if not (m := end_planes(rve, fields, ax)).periodic]
-    if not bad:
+    faces = unmatched_faces(rve, fields)
+    if not faces:
         return []
     return [
-        f"K_{name}: bc = 'periodic' on a geometry that is not periodic (faces normal to "
-        f"{', '.join(m.axis for m in bad)}: {'; '.join(m.detail for m in bad)}): the wrapped "
+        f"K_{name}: bc = 'periodic' on a geometry that is not periodic (its {faces}): the wrapped "
         "grid's seams are part of this K; bc = 'permeameter' measures the sample as it is"
     ]
 
