@@ -529,8 +529,15 @@ def _bounds_report(kw: dict, period: float, exceeded: list[int]) -> dict:
         "max_rotation_deg": kw["max_rotation_deg"],
         "exceed_bounds": kw["exceed"],
         "exceed_rotation_deg": kw["exceed_rotation_deg"],
-        "n_exceeded": n,
-        "status": "within_bounds" if n == 0 else "exceeded_bounds",
+        **_bounds_status(n),
+    }
+
+
+def _bounds_status(n_exceeded: int) -> dict:
+    """The ``n_exceeded`` / ``status`` pair of a placement's bounds report."""
+    return {
+        "n_exceeded": n_exceeded,
+        "status": "within_bounds" if n_exceeded == 0 else "exceeded_bounds",
     }
 
 
@@ -632,14 +639,12 @@ def _ga_bounds_report(
     out = (shift.max(axis=1, initial=0.0) > kw["shift_range"] + tol) | (
         turn > kw["angle_range_deg"] + tol
     )
-    n = int(np.count_nonzero(out))
     return {
         "shift_range": kw["shift_range"],
         "angle_range_deg": kw["angle_range_deg"],
         "max_shift_m": float(np.max(np.abs(state.center - drawn.center), initial=0.0) * period),
         "max_turn_deg": float(np.max(turn, initial=0.0)),
-        "n_exceeded": n,
-        "status": "within_bounds" if n == 0 else "exceeded_bounds",
+        **_bounds_status(int(np.count_nonzero(out))),
     }
 
 
