@@ -14,7 +14,8 @@ field, the voxel route uses it for sub-voxel walls). The assertion is ``|K_fem /
 * ``bc = "permeameter"``: the same RVEs between empty reservoirs with slip sides. On the array
   both routes take the windowed-dissipation drop and agree; the one-period random RVEs are
   periodic along the flow, so both routes stack two copies (``flow.permeameter_copies``), where
-  the windowed drop is exact again (docs/permeability.md, "Stacked permeameter").
+  the windowed drop is exact again (docs/permeability.md, "Stacked permeameter"); the woven
+  case is the shipped woven spec (``studies/table3/woven.toml``) stacked two copies deep.
 
 Measured values are in ``docs/solver-agreement.md`` (``benchmarks/solver_agreement.py``).
 """
