@@ -829,8 +829,8 @@ class _Stokes:
                 bd.rve_plane_faces(faces[d], phi, d, list(rve))
             res = [bd.component_coefficients(a, phi_faces=faces, walls=walls) for a in range(3)]
         acts = [r[2] for r in res]
-        cells = ~solid if phi is None else bd.pressure_cells(acts)
         forces = [r[3] for r in res]
+        cells = ~solid if phi is None else bd.pressure_cells(acts, forces)
         return cls(cells, [(r[0], r[1]) for r in res], acts, forces, **mg_kw)
 
     def apply(

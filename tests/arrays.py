@@ -45,12 +45,44 @@ def exact_k(kind: str, flow: str, phi: float) -> float:
     raise ValueError(f"kind/flow: unknown array case {kind!r}/{flow!r}")
 
 
+#: Voxels per spacing at which the hexagonal cell width ``sqrt(3) n`` is within 0.02 % of a whole
+#: number of voxels (convergents and near-convergents of sqrt(3): 41/71, 56/97, 82/142, 97/168,
+#: 112/194; 15/26 is +0.074 %). At other resolutions :func:`array_spec` rounds the width and
+#: stretches the lattice with it, which is a different array (:func:`hex_width_error`).
+HEX_NEAR_WHOLE = (41, 56, 82, 97, 112)
+
+
+def hex_width_voxels(cells_per_spacing: int) -> int:
+    """Whole voxels of the hexagonal cell width ``sqrt(3) L`` at ``cells_per_spacing``."""
+    return round(math.sqrt(3.0) * cells_per_spacing)
+
+
+def hex_width_error(cells_per_spacing: int, width_voxels: int | None = None) -> float:
+    """Relative error of the hexagonal cell width on the grid (``width_voxels``, default
+    :func:`hex_width_voxels`) against ``sqrt(3) L``: +0.074 % at 30, -0.407 % at 40, -0.020 %
+    at 41, -0.074 % at 52. The lattice is stretched by it along y, and K moves by 1.8-3.0 times
+    this (measured, ``docs/validation.md`` 'Hexagonal cell width'): at 40 voxels per spacing
+    -0.7 to -1.2 %."""
+    width = hex_width_voxels(cells_per_spacing) if width_voxels is None else width_voxels
+    return width / (math.sqrt(3.0) * cells_per_spacing) - 1.0
+
+
 def array_spec(
-    kind: str, phi: float, cells_per_spacing: int, n_cells: int = 1, depth_voxels: int | None = None
+    kind: str,
+    phi: float,
+    cells_per_spacing: int,
+    n_cells: int = 1,
+    depth_voxels: int | None = None,
+    width_voxels: int | None = None,
 ) -> dict:
     """Spec (unvalidated dict) of ``n_cells`` periods along x of the array at solid fraction
     ``phi``, voxel L / cells_per_spacing, ``depth_voxels`` voxels thick along z (default: the
-    smallest even count thicker than the diameter, which the spec requires)."""
+    smallest even count thicker than the diameter, which the spec requires).
+
+    Hexagonal: the cell width ``sqrt(3) L`` is not a whole number of voxels; it is rounded to
+    ``width_voxels`` (default :func:`hex_width_voxels`) and the cylinder centres are scaled with
+    it, so the array is stretched by :func:`hex_width_error` along y (the radius is kept). Use
+    :data:`HEX_NEAR_WHOLE` resolutions to compare with the hexagonal array's published K."""
     voxel = L / cells_per_spacing
     if kind == "square":
         width = L
@@ -63,7 +95,10 @@ def array_spec(
     else:
         raise ValueError(f"kind: 'square' or 'hex', got {kind!r}")
     # hex: sqrt(3) L is not a multiple of the voxel; round the cell width to whole voxels
-    width = round(width / voxel) * voxel
+    if kind == "hex" and width_voxels is not None:
+        width = width_voxels * voxel
+    else:
+        width = round(width / voxel) * voxel
     if kind == "hex":
         centres = [(x, y * width / (math.sqrt(3.0) * L)) for x, y in centres]
     if depth_voxels is None:

@@ -45,7 +45,10 @@ def _face_weights(solution, fields) -> list[np.ndarray] | None:
     elif solution.periodic_treatment != "periodic":
         return None
     faces = [bd.face_distance(phi, b) for b in range(3)]
-    return [bd.component_coefficients(a, phi_faces=faces, walls=walls)[3] for a in range(3)]
+    res = [bd.component_coefficients(a, phi_faces=faces, walls=walls) for a in range(3)]
+    weights = [r[3] for r in res]
+    bd.pressure_cells([r[2] for r in res], weights)  # the solver's release of lone cut cells
+    return weights
 
 
 def _solved_solid(solution, fields, shape) -> np.ndarray:
