@@ -16,8 +16,9 @@ recurrence, so they are stored in 16 bits per entry (:class:`Directions`, row-sc
 cycle, an int16 extension (:class:`Solution`, 24 B per cell instead of the float64 32 B).
 Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 
-The momentum rows come from :mod:`solvers.voxel.kernels` (``_momentum_row``,
-``_momentum_row_w``); the continuity rows are the same expressions as in
+The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil_rows``, fused
+here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
+walls); the continuity rows are the same expressions as in
 :func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
 """
 
@@ -27,7 +28,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
-from solvers.voxel.kernels import _dn, _momentum_row, _momentum_row_w, _up
+from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -49,6 +50,33 @@ def _combine(row, s, c1, yr, xr):
             val = s * row[k] - c1 * yr[k]
             yr[k] = val
             acc += np.float64(xr[k]) * np.float64(val)
+    return acc
+
+
+@nb.njit(inline="always")
+def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
+    """One momentum row of :func:`stokes_lanczos`: ``row = (A q)[i, j, :]`` (the stencil of
+    :func:`solvers.voxel.kernels._stencil_rows`, 0 on inactive faces), then in one loop the
+    pressure difference ``pr[k] - plow[k - shift]`` (active faces, periodic in k) and
+    ``yr <- s row - c1 yr``; returns the float64 ``q . yr``.  Two loops instead of the three of
+    ``_momentum_row`` + :func:`_combine` (2.4x faster on the Toray-like 100^3 operator; the
+    same float32 roundings, the fused expressions may differ by one float32 ulp)."""
+    nx, ny, nz = d.shape
+    ip = _up(i, nx)
+    jp = _up(j, ny)
+    _stencil_rows(
+        d[i, j], c[0][i, j], c[0][ip, j], c[1][i, j], c[1][i, jp], c[2][i, j],
+        q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
+    )  # fmt: skip
+    dr = d[i, j]
+    xr = q[i, j]
+    acc = 0.0
+    for k in range(nz):
+        kl = k - shift if k >= shift else k - shift + nz
+        v = np.float32(row[k] + (pr[k] - plow[kl])) if dr[k] != 0 else row[k]
+        val = s * v - c1 * yr[k] if c1 != 0.0 else s * v
+        yr[k] = val
+        acc += np.float64(xr[k]) * np.float64(val)
     return acc
 
 
@@ -75,12 +103,9 @@ def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
             jm = _dn(j, ny)
             jp = _up(j, ny)
             pr = p[i, j]
-            _momentum_row(du, cu, u, pr, p[im, j], 0, i, j, row)
-            s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
-            _momentum_row(dv, cv, v, pr, p[i, jm], 0, i, j, row)
-            s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
-            _momentum_row(dw, cw, w, pr, pr, 1, i, j, row)
-            s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
+            s_y += _momentum_lanczos(du, cu, u, pr, p[im, j], 0, i, j, s, c1, y[0, i, j], row)
+            s_y += _momentum_lanczos(dv, cv, v, pr, p[i, jm], 0, i, j, s, c1, y[1, i, j], row)
+            s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
             ur = u[i, j]
             uip = u[ip, j]
             vr = v[i, j]
