@@ -281,14 +281,11 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
 
 
 @nb.njit(inline="always")
-def _prolong_row(dr, xr, cr, fz, alpha, out, ex):
-    """out = xr + alpha (P xc) on one row (where ``dr != 0``; ``xr`` elsewhere), ``cr`` the
-    coarse row (piecewise-constant interpolation along k by the factor ``fz``).
-
-    ``ex`` is a float64 work row of the row's length: the coarse row is first expanded into it
-    (``alpha cr[k // fz]``, pairwise stores), so the fine loop is a plain vectorised add instead
-    of a gather (8x faster for ``fz = 2``; the same float64 sum, so bit-identical results)."""
-    nz = out.shape[0]
+def _expand_row(cr, fz, nz, alpha, ex):
+    """``ex[k] = alpha cr[k // fz]`` (float64; the last coarse cell takes the remainder): a
+    coarse row expanded to the fine row length (pairwise stores for ``fz = 2``), so that the
+    fine loop of :func:`_prolong_plane` is a plain vectorised add instead of a gather (8x
+    faster; the same float64 sum, so bit-identical results)."""
     ncz = cr.shape[0]
     if fz == 2:
         for kc in range(ncz):
@@ -300,18 +297,27 @@ def _prolong_row(dr, xr, cr, fz, alpha, out, ex):
     else:
         for k in range(nz):
             ex[k] = alpha * cr[min(k // fz, ncz - 1)]
-    for k in range(nz):
-        out[k] = xr[k] + ex[k] if dr[k] != 0 else xr[k]
 
 
 @nb.njit(inline="always")
 def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
     """out[j, :] = plane ``i`` of ``x + alpha P xc`` (on active unknowns; ``x`` elsewhere);
-    ``ex``: float64 work row (:func:`_prolong_row`)."""
+    ``ex``: float64 work row, the expanded coarse row (:func:`_expand_row`), formed once per
+    coarse row."""
     ncx, ncy, _ = xc.shape
     ic = min(i // fx, ncx - 1)
+    nz = d.shape[2]
+    last = -1
     for j in range(d.shape[1]):
-        _prolong_row(d[i, j], x[i, j], xc[ic, min(j // fy, ncy - 1)], fz, alpha, out[j], ex)
+        jc = min(j // fy, ncy - 1)
+        if jc != last:
+            _expand_row(xc[ic, jc], fz, nz, alpha, ex)
+            last = jc
+        dr = d[i, j]
+        xr = x[i, j]
+        orow = out[j]
+        for k in range(nz):
+            orow[k] = xr[k] + ex[k] if dr[k] != 0 else xr[k]
 
 
 @parallel_kernel(**_OPTS)
