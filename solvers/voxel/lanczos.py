@@ -17,8 +17,10 @@ cycle, an int16 extension (:class:`Solution`, 24 B per cell instead of the float
 Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (``_momentum_row``,
-``_momentum_row_w``); the continuity rows are the same expressions as in
-:func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
+``_momentum_row_w``, which also take :func:`solvers.voxel.kernels.unit_couplings`); the
+continuity rows are the same expressions as in :func:`solvers.voxel.kernels.stokes_apply` /
+``stokes_apply_w``.  numba's on-disk cache of this module does not see a change of those
+inlined helpers: edit this file too when they change (its stamp keys the cache).
 """
 
 from __future__ import annotations
