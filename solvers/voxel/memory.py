@@ -27,11 +27,11 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
   (4 B) and float32 first coarse levels (+3 B); the caller's float64 distance (8 B) comes on top.
 
-Sum, staircase, periodic: 113 B with float32 directions, 105 B with 16-bit directions from the
-second cycle, 99 B with 16-bit directions throughout.  Traced (numpy allocations, ``python
-benchmarks/bench_voxel_scale.py memory 64``; before this count, issue 16 session 5: 130.7 B
-per cell staircase and 155.7 B sub-voxel on the Toray-like 64^3 grid, 136.9 B on PuMA
-fibres_32; see ``benchmarks/RESULTS.md`` for the figures after).
+Sum, staircase, periodic: 113 B with float32 directions (the peak is the second cycle's), 105 B
+with 16-bit directions from the second cycle, 99 B with 16-bit directions throughout.  Traced
+(numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``): 113.7 B per cell
+staircase and 143.3 B sub-voxel on the Toray-like 64^3 grid, 115.6 B on PuMA fibres_32
+(before this count, issue 16 session 5: 130.7 / 155.7 / 136.9 B; ``benchmarks/RESULTS.md``).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
@@ -48,7 +48,11 @@ third cycle is needed; K equal to 1e-8 (``benchmarks/RESULTS.md``)."""
 
 LATER_DIRECTION_BITS = 32
 """Storage of the directions from the second refinement cycle on (new zero directions then:
-MINRES restarts on each cycle's residual), when the solution gains its 8 B extension."""
+MINRES restarts on each cycle's residual), when the solution gains its 8 B extension: 16 lowers
+the staircase peak from 113 to 105 B per cell.  Measured, Toray-like at 1 um, tol 1e-6, with the
+two-level pressure block, 16 vs 32: 120 vs 120 MINRES iterations at 64^3, but **167 vs 151 at
+100^3** (+10.6 %: the 16-bit second cycle ends at 1.85e-6 instead of 2.6e-7, just above tol, so
+a third cycle runs); K equal to 3e-8.  Hence 32 by default (``benchmarks/RESULTS.md``)."""
 
 DIRECTION_BYTES = {32: 16, 16: 9}
 """Bytes per cell of one direction by its bits (16: int16 and a float32 scale per 16)."""

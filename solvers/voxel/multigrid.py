@@ -228,6 +228,8 @@ class ScalarMG:
             np.copyto(out, levels[0].x)
             dot = kr.dot(b, out)
         levels[0].b = np.zeros(0)
+        if self._fine_work is not None:  # hold no reference to the caller's output
+            levels[0].x, levels[0].t = self._fine_work, np.zeros(0, np.float32)
         return float(dot)
 
     def _fine_arrays(self, out: np.ndarray) -> None:
