@@ -273,8 +273,12 @@ def iteration_bytes(op, fused: bool = True) -> float:
     lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
     prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
     dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
-    if fused:  # z read; int16 w read, w1 read + written; x = float32 + int16 read + written
-        update = vec4 + 3 * 8.0 + 2 * 24.0
+    if fused:  # z read; w read, w1 read + written (solvers.voxel.memory.DIRECTION_BITS: float32
+        # or int16 + a scale per 16); x = float32 + int16 extension read + written
+        from solvers.voxel.memory import DIRECTION_BITS
+
+        direction = 16.0 if DIRECTION_BITS == 32 else 9.0
+        update = vec4 + 3 * direction + 2 * 24.0
     else:  # z, w read; w1 read + written (float32); x (float64) read + written
         update = 4 * vec4 + 2 * 32.0
     return n * (apply + lanczos + prec + dot + update)

@@ -117,23 +117,51 @@ def _bounds(c, f, nc, n):
 @parallel_kernel(**_OPTS)
 def block_sum(r, fx, fy, fz, rc):
     """``rc = R r``: the sum of ``r`` over each block (the last block of an axis takes the
-    remainder); contiguous inner loops (no division per cell)."""
+    remainder).  The ``fx fy`` rows of a block row are first added into one float64 row
+    (plain vectorised loops), which is then summed block by block."""
     nx, ny, nz = r.shape
     ncx, ncy, ncz = rc.shape
     for ic in nb.prange(ncx):
         i0, i1 = _bounds(ic, fx, ncx, nx)
+        buf = np.empty(nz)
         for jc in range(ncy):
             j0, j1 = _bounds(jc, fy, ncy, ny)
+            buf[:] = 0.0
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    row = r[i, j]
+                    for k in range(nz):
+                        buf[k] += row[k]
             out = rc[ic, jc]
             for kc in range(ncz):
                 k0, k1 = _bounds(kc, fz, ncz, nz)
                 acc = 0.0
-                for i in range(i0, i1):
-                    for j in range(j0, j1):
-                        row = r[i, j]
-                        for k in range(k0, k1):
-                            acc += row[k]
+                for k in range(k0, k1):
+                    acc += buf[k]
                 out[kc] = acc
+
+
+@nb.njit(inline="always")
+def _expand_row(xr, fz, nz, weight, ex):
+    """``ex[k] = float32(weight xr[k // fz])`` (the last block takes the remainder): the coarse
+    row injected into a fine row buffer, so the fine loops are plain vectorised loops."""
+    ncz = xr.shape[0]
+    for kc in range(ncz):
+        k0, k1 = _bounds(kc, fz, ncz, nz)
+        cv = np.float32(weight * xr[kc])
+        for k in range(k0, k1):
+            ex[k] = cv
+
+
+@nb.njit(inline="always")
+def _block_row(rr, sr, fr, ex, zr):
+    """``zr = sr rr + ex fr`` on one row; returns the float64 ``rr . zr``."""
+    acc = 0.0
+    for k in range(rr.shape[0]):
+        v = rr[k] * sr[k] + ex[k] * np.float32(fr[k])
+        zr[k] = v
+        acc += np.float64(rr[k]) * np.float64(v)
+    return acc
 
 
 @parallel_kernel(**_OPTS)
@@ -145,21 +173,11 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
     part = np.zeros(nx)
     for i in nb.prange(nx):
         ic = min(i // fx, ncx - 1)
+        ex = np.empty(nz, np.float32)
         acc = 0.0
         for j in range(ny):
-            jc = min(j // fy, ncy - 1)
-            rr = r[i, j]
-            sr = scale[i, j]
-            fr = fluid[i, j]
-            zr = z[i, j]
-            xr = xc[ic, jc]
-            for kc in range(ncz):
-                k0, k1 = _bounds(kc, fz, ncz, nz)
-                cv = np.float32(weight * xr[kc])
-                for k in range(k0, k1):
-                    v = rr[k] * sr[k] + cv * np.float32(fr[k])
-                    zr[k] = v
-                    acc += np.float64(rr[k]) * np.float64(v)
+            _expand_row(xc[ic, min(j // fy, ncy - 1)], fz, nz, weight, ex)
+            acc += _block_row(r[i, j], scale[i, j], fluid[i, j], ex, z[i, j])
         part[i] = acc
     return part.sum()
 
@@ -168,27 +186,21 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
 def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
     """Staircase two-level pressure block in one pass: ``z = table[code] r + weight R^T xc``
     (the Schur diagonal stored as a one-byte logarithmic code, :func:`schur_code`); returns
-    ``r . z`` (float64)."""
+    ``r . z`` (float64).  The table look-up (a gather) runs in its own loop into a row buffer."""
     nx, ny, nz = r.shape
     ncx, ncy, ncz = xc.shape
     part = np.zeros(nx)
     for i in nb.prange(nx):
         ic = min(i // fx, ncx - 1)
+        ex = np.empty(nz, np.float32)
+        sr = np.empty(nz, np.float32)
         acc = 0.0
         for j in range(ny):
-            jc = min(j // fy, ncy - 1)
-            rr = r[i, j]
+            _expand_row(xc[ic, min(j // fy, ncy - 1)], fz, nz, weight, ex)
             cr = code[i, j]
-            fr = fluid[i, j]
-            zr = z[i, j]
-            xr = xc[ic, jc]
-            for kc in range(ncz):
-                k0, k1 = _bounds(kc, fz, ncz, nz)
-                cv = np.float32(weight * xr[kc])
-                for k in range(k0, k1):
-                    v = rr[k] * table[cr[k]] + cv * np.float32(fr[k])
-                    zr[k] = v
-                    acc += np.float64(rr[k]) * np.float64(v)
+            for k in range(nz):
+                sr[k] = table[cr[k]]
+            acc += _block_row(r[i, j], sr, fluid[i, j], ex, z[i, j])
         part[i] = acc
     return part.sum()
 

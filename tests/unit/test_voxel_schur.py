@@ -141,3 +141,38 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     else:
         fine = r[3] * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
     assert np.allclose(z[3], fine + zc, rtol=1e-5, atol=1e-5 * float(np.abs(z[3]).max()))
+
+
+def _block_index(n: int, f: int, nc: int) -> np.ndarray:
+    """Block of each cell along one axis (the last block takes the remainder)."""
+    return np.minimum(np.arange(n) // f, nc - 1)
+
+
+@pytest.mark.parametrize("shape", [(19, 16, 21), (8, 9, 17), (5, 24, 8)])
+def test_block_sum_and_pressure_block_match_numpy(shape: tuple[int, int, int]) -> None:
+    """``block_sum`` is the sum over blocks with remainder (numpy ``add.at``), the fused
+    pressure blocks are ``table[code] r + weight R^T xc`` on fluid cells (resp. the stored
+    scale) and return ``r . z`` (issue 16: the row-buffer rewrites of these kernels)."""
+    rng = np.random.default_rng(7)
+    f = (8, 4, 8)
+    nc = tuple(max(1, n // b) for n, b in zip(shape, f, strict=True))
+    r = rng.standard_normal(shape).astype(np.float32)
+    idx = np.ix_(*[_block_index(n, b, m) for n, b, m in zip(shape, f, nc, strict=True)])
+    want = np.zeros(nc)
+    np.add.at(want, tuple(np.broadcast_arrays(*idx)), r.astype(np.float64))
+    got = np.zeros(nc, np.float32)
+    schur.block_sum(r, *f, got)
+    assert np.allclose(got, want, rtol=1e-6, atol=1e-5)
+    fluid = (rng.random(shape) < 0.7).astype(np.uint8)
+    code = rng.integers(0, 200, shape).astype(np.uint8)
+    xc = rng.standard_normal(nc).astype(np.float32)
+    inject = xc[idx].astype(np.float64) * 0.75 * fluid
+    scale = schur.CODE_TABLE[code].astype(np.float64)
+    for z_ref, kernel, args in (
+        (scale * r + inject, schur.pressure_block_code, (code, schur.CODE_TABLE)),
+        (scale * r + inject, schur.pressure_block_scale, (scale.astype(np.float32),)),
+    ):
+        z = np.empty(shape, np.float32)
+        dot = kernel(*args, fluid, r, xc, *f, 0.75, z)
+        assert np.allclose(z, z_ref, rtol=1e-6, atol=1e-6)
+        assert dot == pytest.approx(float(np.dot(r.ravel().astype(np.float64), z.ravel())))
