@@ -23,7 +23,7 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 * finest operators: uint8 diagonals of the 3 components, 3 B; their couplings (9 B) only where
   the permeameter's box walls cut some (:func:`solvers.voxel.kernels.unit_couplings` on
   periodic grids: :data:`WALL_COUPLING_BYTES`); pressure-cell mask 1 B; the staircase's
-  one-byte pressure scale code 1 B (formed at set-up, off the peak);
+  one-byte pressure scale code 1 B (formed at set-up, so its temporaries stay off the peak);
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
   (4 B) and float32 first coarse levels (+3 B); the caller's float64 distance (8 B) comes on top.
 
