@@ -74,10 +74,12 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 131 bytes per voxel, 156 with
-sub-voxel walls (48-bit solution, 3 float32 4-field vectors, two float32 directions, uint8
-stencils; 14 B less with 16-bit directions; :mod:`solvers.voxel.memory`, checked before
-anything is allocated); there is no assembled matrix.  Threads
+more work per iteration and was dropped.  Memory is O(N): about 105 bytes per voxel on a
+periodic staircase grid (48-bit solution, 3 float32 4-field vectors, two directions, float32 in
+the first refinement cycle and 16-bit from the second, uint8 diagonals, no stored finest
+couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
+(:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
+matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
 grids and multigrid levels below :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells
 (100 000; a parallel region costs up to ~15 ms start-up on a busy machine) run on one numba
@@ -707,7 +709,7 @@ def _check_memory(
         dims = [n + (b != d) for b, n in enumerate(dims)]
     cells = float(np.prod(dims))
     kind = "subvoxel" if subvoxel else "staircase"
-    need = vmem.solver_bytes(cells, kind, tol)
+    need = vmem.solver_bytes(cells, kind, tol, walls=bc == "permeameter")
     avail = vmem.available_bytes()
     if avail is not None and need > avail:
         raise VoxelStokesError(
@@ -789,15 +791,32 @@ class _Stokes:
         shp = cells.shape
         self.shape = (4, *shp)
         # the preconditioner's output vector: its pressure field is written last, so the
-        # velocity V-cycles use it as one of their two fine work arrays (4 B per cell saved)
+        # velocity V-cycles smooth between it and their own output field z[a]: no fine work
+        # array of their own (8 B per cell saved)
         self.z = np.zeros(self.shape, np.float32)
-        work = [self.z[3], np.zeros(shp, np.float32)]
+        work = [self.z[3]]
         self._work = work
         self.mg = [mg.ScalarMG(o[0], o[1], work=work, **mg_kw) for o in ops]
         _share_coarse_work(self.mg)
         self.coarse_p = None
         if COARSE_PRESSURE:
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
+            if self.p_scale is None:  # the staircase's scale code, formed now: its ~13 B per
+                self.coarse_p.code(self.d, SCHUR_FLOOR)  # cell of temporaries off the peak
+        del ops
+        self._drop_couplings()
+
+    def _drop_couplings(self) -> None:
+        """Replace the finest couplings of each component by :func:`solvers.voxel.kernels.
+        unit_couplings` where they are those of its active unknowns (periodic grids; the box
+        walls of the permeameter cut some: kept there), after the set-up that needs them (the
+        Galerkin levels, the coarse pressure term): 9 B per cell."""
+        for a in range(3):
+            act = self.d[a] > 0
+            if all(np.array_equal(self.c[a][b], act & np.roll(act, 1, axis=b)) for b in range(3)):
+                unit = kr.unit_couplings(act.shape[2])
+                self.c[a] = unit
+                self.mg[a].levels[0].c = unit
 
     @property
     def act(self) -> list[np.ndarray]:
@@ -887,6 +906,15 @@ class MinresWork:
         """Work vectors for the operator ``op``."""
         shp = op.shape
         return cls(op.z, np.empty(shp, np.float32), lz.Directions(shp), lz.Directions(shp))
+
+    def narrow(self, bits: int) -> None:
+        """Store the directions in ``bits`` (16 or 32) from now on (new, zero directions; the
+        old ones are freed first, so the peak is that of the wider pair)."""
+        if self.u.q.itemsize * 8 == bits:
+            return
+        shp = self.u.q.shape
+        self.u = self.u1 = None  # type: ignore[assignment]
+        self.u, self.u1 = lz.Directions(shp, bits), lz.Directions(shp, bits)
 
 
 def _minres(
@@ -1012,6 +1040,8 @@ def _solve_core(
             message = f"max_iter={max_iter} MINRES iterations reached"
             break
         if total > 0:
+            if not x.extended:  # the directions narrow where the solution widens (memory)
+                work.narrow(vmem.LATER_DIRECTION_BITS)
             x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None

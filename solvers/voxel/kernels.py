@@ -40,6 +40,24 @@ def _dn(i, n):
     return i - 1 if i > 0 else n - 1
 
 
+def unit_couplings(nz: int) -> np.ndarray:
+    """Stand-in for the couplings ``(cx, cy, cz)`` of a finest-level operator whose couplings are
+    those of its active unknowns, ``c_b[I] = (d[I] > 0) & (d[I - e_b] > 0)`` (the staircase and
+    sub-voxel component operators, :func:`solvers.voxel.multigrid.component_operator`): a row of
+    ones of length ``nz + 1`` per axis, shape ``(3, 1, 1, nz + 1)``, 9 B per cell less for the
+    three velocity components.  The kernels use a coupling of 1 to every neighbour then, which
+    is the same product for any ``x`` that vanishes on the inactive unknowns, as every vector of
+    the voxel Stokes solve does (the kernels write 0 there).  Read-only use, finest level only
+    (the Galerkin product needs the real couplings)."""
+    return np.ones((3, 1, 1, nz + 1), np.uint8)
+
+
+@nb.njit(inline="always")
+def _unit(d, cx):
+    """True when ``cx`` is the stand-in of :func:`unit_couplings` (its row is one longer)."""
+    return cx.shape[2] != d.shape[2]
+
+
 @nb.njit(inline="always")
 def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings (float64
@@ -50,6 +68,16 @@ def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     jm = _dn(j, ny)
     kp = _up(k, nz)
     km = _dn(k, nz)
+    if _unit(d, cx):
+        s = (
+            np.float64(x[im, j, k])
+            + np.float64(x[ip, j, k])
+            + np.float64(x[i, jm, k])
+            + np.float64(x[i, jp, k])
+            + np.float64(x[i, j, km])
+            + np.float64(x[i, j, kp])
+        )
+        return d[i, j, k] * np.float64(x[i, j, k]) - s
     s = (
         cx[i, j, k] * np.float64(x[im, j, k])
         + cx[ip, j, k] * np.float64(x[ip, j, k])
@@ -112,6 +140,12 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
     im = _dn(i, nx)
     jp = _up(j, ny)
     jm = _dn(j, ny)
+    if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours
+        one = cx[0, 0]
+        _stencil_rows(
+            d[i, j], one, one, one, one, one, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
+        )
+        return
     _stencil_rows(
         d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
         x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
@@ -245,10 +279,16 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
     for j in range(ny):
         jp = _up(j, ny)
         jm = _dn(j, ny)
-        _stencil_rows(
-            d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
-            p0[j], pm[j], pp[j], p0[jm], p0[jp], row,
-        )  # fmt: skip
+        if _unit(d, cx):  # unit_couplings
+            one = cx[0, 0]
+            _stencil_rows(
+                d[i, j], one, one, one, one, one, p0[j], pm[j], pp[j], p0[jm], p0[jp], row
+            )
+        else:
+            _stencil_rows(
+                d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+                p0[j], pm[j], pp[j], p0[jm], p0[jp], row,
+            )  # fmt: skip
         s += _jacobi_row(d[i, j], p0[j], b[i, j], row, omega, xnew[i, j])
     return s
 

@@ -18,8 +18,10 @@ Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil_rows``, fused
 here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
-walls); the continuity rows are the same expressions as in
-:func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
+walls; both also take :func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are
+the same expressions as in :func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
+numba's on-disk cache of this module does not see a change of those inlined helpers: edit this
+file too when they change (its stamp keys the cache).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
-from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _up
+from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -64,10 +66,17 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     nx, ny, nz = d.shape
     ip = _up(i, nx)
     jp = _up(j, ny)
-    _stencil_rows(
-        d[i, j], c[0][i, j], c[0][ip, j], c[1][i, j], c[1][i, jp], c[2][i, j],
-        q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
-    )  # fmt: skip
+    if _unit(d, c[0]):  # kernels.unit_couplings: one row of ones for all six neighbours
+        one = c[0][0, 0]
+        _stencil_rows(
+            d[i, j], one, one, one, one, one,
+            q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
+        )  # fmt: skip
+    else:
+        _stencil_rows(
+            d[i, j], c[0][i, j], c[0][ip, j], c[1][i, j], c[1][i, jp], c[2][i, j],
+            q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
+        )  # fmt: skip
     dr = d[i, j]
     xr = q[i, j]
     acc = 0.0

@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from solvers.voxel import boundary as bd
 from solvers.voxel import kernels as kr
+from solvers.voxel import lanczos as lz
 from solvers.voxel import multigrid as mg
 
 
@@ -179,3 +181,100 @@ def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
     assert np.abs(r - expect).max() <= 1e-5 * np.abs(expect).max()
     assert rn == pytest.approx(float(np.linalg.norm(expect)), rel=1e-5)
     assert fn == pytest.approx(float(np.linalg.norm(f)), rel=1e-12)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_unit_couplings_give_the_products_of_the_stored_ones(weighted: bool, chunks) -> None:
+    """``kernels.unit_couplings`` (no stored finest couplings, 9 B per cell) against the stored
+    ``c_b = act & roll(act)`` of the same grid: every finest-level kernel gives the same numbers
+    on vectors that vanish on the inactive unknowns, and the solver's operator uses them only on
+    grids whose couplings are exactly those (periodic; not the permeameter's box walls)."""
+    from solvers import voxel_stokes as vs
+
+    shape = (9, 8, 7)
+    rng = np.random.default_rng(11)
+    if weighted:
+        phi = rng.random(shape) - 0.25
+        full = [bd.component_coefficients(a, phi_faces=[bd.face_distance(phi, b) for b in
+                range(3)]) for a in range(3)]  # fmt: skip
+        op = vs._Stokes.build(phi <= 0, phi)
+    else:
+        fluid = _fluid(shape, seed=12)
+        full = [mg.component_operator(fluid, a) for a in range(3)]
+        op = vs._Stokes.build(~fluid)
+    unit = kr.unit_couplings(shape[2])
+    assert all(c.shape == unit.shape for c in op.c)  # the stored couplings are dropped
+    cs = [f[1] for f in full]
+    x = rng.standard_normal(op.shape).astype(np.float32)
+    for a in range(3):
+        x[a] *= op.d[a] > 0
+    x[3] *= op.fluid > 0
+    # the Stokes product and the float64 residual
+    y_unit, y_full = np.empty_like(x), np.empty_like(x)
+    r_unit, r_full = np.empty_like(x), np.empty_like(x)
+    if weighted:
+        kr.stokes_apply_w(*op.d, *cs, op.fluid, *op.w, x, y_full, x)
+        kr.stokes_residual_w(*op.d, *cs, op.fluid, *op.w, x, 0, r_full)
+    else:
+        kr.stokes_apply(*op.d, *cs, op.fluid, x, y_full, x)
+        kr.stokes_residual(*op.d, *cs, op.fluid, x, 0, r_full)
+    op.apply(x, y_unit)
+    op.residual(x, 0, r_unit)
+    assert np.array_equal(y_unit, y_full) and np.abs(y_full).max() > 1.0
+    assert np.array_equal(r_unit, r_full)
+    # the in-place Lanczos product (solvers.voxel.lanczos inlines the rows of this module)
+    l_unit, l_full = np.full_like(x, 0.5), np.full_like(x, 0.5)
+    dot_unit = op.lanczos(x, 0.7, 0.3, l_unit)
+    if weighted:
+        dot_full = lz.stokes_lanczos_w(*op.d, *cs, op.fluid, *op.w, x, 0.7, 0.3, l_full)
+    else:
+        dot_full = lz.stokes_lanczos(*op.d, *cs, op.fluid, x, 0.7, 0.3, l_full)
+    assert np.array_equal(l_unit, l_full) and dot_unit == float(dot_full)
+    # the multigrid's finest-level kernels
+    d, c = op.d[0], cs[0]
+    b = x[0].copy()
+    out_u, out_f = np.empty_like(b), np.empty_like(b)
+    kr.jacobi(d, *unit, x[0], b, out_u, 0.9)
+    kr.jacobi(d, *c, x[0], b, out_f, 0.9)
+    assert np.array_equal(out_u, out_f)
+    kr.jacobi2_zero(d, *unit, b, out_u, 0.9, chunks)
+    kr.jacobi2_zero(d, *c, b, out_f, 0.9, chunks)
+    assert np.array_equal(out_u, out_f)
+    f = (2, 2, 2)
+    xc = rng.standard_normal(tuple(n // 2 for n in shape)).astype(np.float32)
+    kr.prolong_jacobi(d, *unit, x[0], xc, *f, 1.6, b, out_u, 0.9, chunks)
+    kr.prolong_jacobi(d, *c, x[0], xc, *f, 1.6, b, out_f, 0.9, chunks)
+    assert np.array_equal(out_u, out_f)
+    # a vector that does not vanish on the inactive unknowns sees the difference
+    dense = rng.standard_normal(shape).astype(np.float32)
+    kr.lap_residual(d, *unit, dense, b, out_u)
+    kr.lap_residual(d, *c, dense, b, out_f)
+    assert not np.array_equal(out_u, out_f)
+
+
+def test_box_walls_keep_the_stored_couplings() -> None:
+    from solvers import voxel_stokes as vs
+
+    solid = ~_fluid((8, 7, 6), seed=13)
+    op = vs._Stokes.build(solid, walls={1: "slip", 2: "slip"})
+    assert [c.shape for c in op.c] == [(3, 8, 7, 6)] * 3
+
+
+@pytest.mark.parametrize("pre", [1, 2, 3])
+def test_vcycle_with_one_work_array_smooths_into_its_output(pre: int) -> None:
+    """``ScalarMG(work=[w])``: the finest level smooths between ``w`` and the output (no array
+    of its own) and gives the V-cycle of the two-array version, bit for bit, on repeated calls
+    with different outputs; the first coarse level of the integer operator is uint8."""
+    d, c = mg.component_operator(_fluid((12, 10, 9), seed=3), 1)
+    ref = mg.ScalarMG(d, c, pre=pre, max_coarse=8)
+    work = np.full(d.shape, np.nan, np.float32)
+    one = mg.ScalarMG(d, c, pre=pre, max_coarse=8, work=[work])
+    assert one.levels[1].d.dtype == np.uint8 and one.levels[1].c.dtype == np.uint8
+    assert ref.levels[1].d.max() > 0
+    rng = np.random.default_rng(14)
+    for _ in range(2):
+        b = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+        out_ref = np.empty(d.shape, np.float32)
+        out = np.full(d.shape, np.nan, np.float32)
+        assert one.apply(b, out) == ref.apply(b, out_ref)
+        assert np.array_equal(out, out_ref)

@@ -67,3 +67,12 @@ def test_tight_tolerances_count_the_wider_solution() -> None:
     base = vmem.solver_bytes(1000, "staircase")
     assert vmem.solver_bytes(1000, "staircase", 1e-9) == base + 8 * 1000
     assert vmem.solver_bytes(1000, "staircase", 1e-7) == base
+
+
+def test_box_walls_count_the_stored_couplings() -> None:
+    # periodic grids keep no finest couplings (kernels.unit_couplings); the permeameter's box
+    # walls cut some, so its operator stores them: 9 B per cell (test_voxel_kernels checks both)
+    periodic = vmem.solver_bytes(1000, "staircase", walls=False)
+    assert vmem.solver_bytes(1000, "staircase", walls=True) == periodic + 9 * 1000
+    # the solution plus the directions: max(first cycle, later cycles) of module docstring
+    assert vmem.BYTES_PER_CELL["staircase"] * 1000 == periodic

@@ -1,0 +1,113 @@
+"""Memory of the voxel Stokes solver by phase, and the iteration cost of 16-bit directions.
+
+Usage (one thread, as recorded in ``benchmarks/RESULTS.md``)::
+
+    python benchmarks/voxel_memory_phases.py phases 64        # traced peak per solve phase
+    python benchmarks/voxel_memory_phases.py phases 64 16     # ... with 16-bit later directions
+    python benchmarks/voxel_memory_phases.py bits 100 32 16   # iterations, history, K for the
+                                                              # first / later direction bits
+
+``phases`` wraps the phases of :func:`solvers.voxel_stokes.solve_voxel_stokes` (set-up, the
+percolation check, the work vectors, each MINRES run, each true residual, the solution's
+extension and its float64 value, the result) and prints the traced numpy memory before, the
+peak within (``tracemalloc.reset_peak``) and after each, in bytes per cell of the staircase
+Toray-like grid ``bench_voxel.toray_like(n)``.  ``bits`` solves the same grid with the given
+direction storage (:data:`solvers.voxel.memory.DIRECTION_BITS` in the first refinement cycle,
+:data:`~solvers.voxel.memory.LATER_DIRECTION_BITS` from the second) and prints the iterations,
+the refinement history, the mean velocity and the times.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+from bench_voxel import toray_like
+
+import solvers.voxel_stokes as vs
+from solvers.voxel import lanczos as lz
+from solvers.voxel import memory as vmem
+
+
+def _wrap(obj: object, name: str, label: str, n_cells: int, log: list) -> None:
+    """Replace ``obj.name`` by a wrapper that logs the traced memory around each call."""
+    fn = getattr(obj, name)
+
+    def wrapped(*args: object, **kwargs: object) -> object:
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        out = fn(*args, **kwargs)
+        cur, peak = tracemalloc.get_traced_memory()
+        log.append((label, before / n_cells, peak / n_cells, cur / n_cells))
+        return out
+
+    setattr(obj, name, wrapped)
+
+
+def phases(n: int) -> None:
+    """Traced bytes per cell before, within and after each phase of one staircase solve."""
+    warm = np.zeros((16, 16, 16), dtype=bool)
+    warm[:, :2, :] = True
+    vs.solve_voxel_stokes(warm, 1.0, "z")  # kernels compiled / loaded outside the trace
+    solid = toray_like(n)
+    log: list = []
+    for obj, name, label in [
+        (vs, "_setup_grid", "set-up"),
+        (vs, "percolates", "percolates"),
+        (vs.MinresWork, "of", "work vectors"),
+        (vs, "_minres", "MINRES run"),
+        (vs, "_true_residual", "true residual"),
+        (lz.Solution, "extend", "extension"),
+        (lz.Solution, "value", "float64 value"),
+        (vs, "_result", "result"),
+    ]:
+        _wrap(obj, name, label, solid.size, log)
+    tracemalloc.start()
+    res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x")
+    tracemalloc.stop()
+    peak = max(top for _, _, top, _ in log) * solid.size  # the wrappers reset the peak
+    for label, before, top, after in log:
+        print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
+    print(
+        f"Toray-like {n}^3 staircase, directions {vmem.DIRECTION_BITS} then "
+        f"{vmem.LATER_DIRECTION_BITS} bits: traced peak {peak / solid.size:.1f} B per cell, "
+        f"{res.iterations} iterations",
+        flush=True,
+    )
+
+
+def bits(n: int) -> None:
+    """Iterations, refinement history and K of one staircase solve (tol 1e-6)."""
+    solid = toray_like(n)
+    t, c = time.perf_counter(), time.process_time()
+    res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x", tol=1e-6)
+    print(
+        f"Toray-like {n}^3 staircase, directions {vmem.DIRECTION_BITS} then "
+        f"{vmem.LATER_DIRECTION_BITS} bits: {res.iterations} iterations, history "
+        f"{', '.join(f'{h:.2e}' for h in res.history)}, mean velocity "
+        f"{res.mean_velocity[0]:.9e} m/s, solve {time.perf_counter() - t:.1f} s wall "
+        f"{time.process_time() - c:.1f} s CPU",
+        flush=True,
+    )
+
+
+def main(argv: list[str]) -> None:
+    mode = argv[1] if len(argv) > 1 else "phases"
+    n = int(argv[2]) if len(argv) > 2 else 64
+    if mode == "phases":
+        if len(argv) > 3:
+            vmem.LATER_DIRECTION_BITS = int(argv[3])
+        phases(n)
+    elif mode == "bits":
+        lz.DIRECTION_BITS = int(argv[3]) if len(argv) > 3 else 32  # Directions read it
+        vmem.DIRECTION_BITS = lz.DIRECTION_BITS
+        vmem.LATER_DIRECTION_BITS = int(argv[4]) if len(argv) > 4 else 32
+        bits(n)
+    else:
+        raise SystemExit(f"unknown mode {mode!r}: phases | bits")
+
+
+if __name__ == "__main__":
+    main(sys.argv)
