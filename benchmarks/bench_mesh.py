@@ -21,6 +21,9 @@ Usage::
     # pytetwild at an edge of 0.6 thinnest-fiber diameters (default: EDGE_PER_DIAMETER):
     python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 \
         --mesher pytetwild --edge-diam 0.6 --permeability
+    # the voxel route's K on the same RVE and BC only (no mesh), a reference for the FEM's:
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --mesher \
+        --voxel-route
     # the 5-seed table (issue 12 item 5): K of both meshers per seed, one subprocess per
     # (seed, mesher) appended to a resumable runs file; a re-run only prints the table
     python benchmarks/bench_mesh.py --table --spec studies/table3/straight.toml \
@@ -186,6 +189,8 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
     t_geom = time.perf_counter() - t0
     flow = dict(spec["flow"])
     rows = []
+    if args.voxel_route:  # the voxel route's K on the same RVE and BC (a reference for the FEM)
+        rows.append(_voxel_row(path, seed, spec, built, fields, flow, args, t_geom))
     for mesher in meshers:
         extra = {"mesher": mesher, "num_threads": args.threads}
         tw = json.loads(args.tetwild) if args.tetwild else {}
@@ -243,6 +248,31 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
     return rows
 
 
+def _voxel_row(path, seed, spec, built, fields, flow, args, t_geom) -> dict:
+    """K of the voxel route (``flow.solver = "voxel"``, the FEM's BC) on the spec's grid."""
+    from psdesign.flow.voxel import permeability_voxel
+
+    vflow = {**flow, "solver": "voxel", "bc": flow.get("bc") or "permeameter"}
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
+    res = permeability_voxel(fields, args.direction, vflow, rve=built.rve)
+    row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": "voxel"}
+    row.update(
+        geometry_s=t_geom,
+        voxel_m=spec["rve"]["voxel"],
+        permeability_m2=res["permeability_m2"],
+        converged=res["converged"],
+        iterations=res.get("iterations"),
+        cells_per_diameter=res.get("cells_per_diameter"),
+        copies=res.get("copies"),
+        voxel_s=res["wall_time_s"],
+        voxel_cpu_s=resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1,
+        peak_rss_gb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2,
+        ok=True,
+    )
+    print(json.dumps(row), flush=True)
+    return row
+
+
 def run_key(spec: str, seed: int, size: float, mesher: str, options: dict) -> str:
     """Identity of one (spec, seed, size, mesher, options) run in a runs file."""
     opts = {k: v for k, v in sorted(options.items()) if k != "num_threads" or v != 1}
@@ -268,6 +298,8 @@ def _spec_cmd(args, seed: int, mesher: str) -> list[str]:
 
 def run_table(args) -> None:
     """Both meshers' FEM K per seed; missing runs go to ``args.out`` (resumable), then the table."""
+    from psdesign.meshing.tetwild_mesher import EDGE_PER_DIAMETER
+
     out = Path(args.out)
     rows = {}
     if out.exists():
@@ -286,8 +318,8 @@ def run_table(args) -> None:
                 if args.stop_energy is not None:
                     tw["stop_energy"] = args.stop_energy
                 opts = {"tetwild_options": tw} if tw else {}
-                if args.edge_diam is not None:
-                    opts["edge_per_diameter"] = args.edge_diam
+                # the default edge is part of the key: a later default change re-runs
+                opts["edge_per_diameter"] = args.edge_diam or EDGE_PER_DIAMETER
             elif args.lattice_step is not None:
                 opts = {"lattice_step": args.lattice_step}
             size = args.size if args.size is not None else _spec_size(args.spec)
@@ -349,10 +381,13 @@ def main() -> None:
     ap.add_argument("--spec", help="mesh this spec's RVE instead of the built-in geometry")
     ap.add_argument("--seed", type=int, default=1, help="generator.seed for --spec")
     ap.add_argument("--size", type=float, default=None, help="cube side for --spec (m)")
-    ap.add_argument("--mesher", nargs="+", default=["pytetwild"], help="meshers for --spec")
+    ap.add_argument("--mesher", nargs="*", default=["pytetwild"], help="meshers for --spec")
     ap.add_argument("--stop-energy", type=float, default=None, help="pytetwild stop_energy")
     ap.add_argument("--tetwild", default=None, help="JSON of pytetwild options (--spec)")
     ap.add_argument("--permeability", action="store_true", help="FEM K per mesh (--spec)")
+    ap.add_argument(
+        "--voxel-route", action="store_true", help="also the voxel route's K, same BC (--spec)"
+    )
     ap.add_argument("--voxel", type=float, nargs="+", default=[1e-6, 0.5e-6])
     ap.add_argument("--edge-fac", type=float, nargs="+", default=None)
     ap.add_argument(
