@@ -91,7 +91,7 @@ class MeshOptions:
         default edge length. The spec routes pass it (:func:`thinnest_fiber_diameter`).
     edge_per_diameter
         pytetwild default edge length in fiber diameters, in (0, 10]; default
-        ``tetwild_mesher.EDGE_PER_DIAMETER`` (chosen by a convergence study, ``docs/meshers.md``).
+        ``tetwild_mesher.EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
     epsilon
         pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default half the
         marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``).

@@ -50,11 +50,12 @@ _MAX_WALL_MOVE_EPS = 2.0  # the volume correction moves walls by at most this ma
 # rounds of freezing wall vertices whose move would invert a tet (4 failed on one of five
 # Toray-like seeds, benchmarks/RESULTS.md "pytetwild ... seeds 1-5")
 _MAX_FREEZE_ROUNDS = 12
-_MAX_DROPPED_INVERTED = 20
+_MAX_DROPPED_INVERTED = 20  # inverted slivers left after untangling that may be dropped
 # edge length without a fiber list (a plain field): this fraction of the box diagonal
 DEFAULT_EDGE_FAC = 0.05
-# default edge length in thinnest-fiber diameters (spec routes); see docs/meshers.md
-EDGE_PER_DIAMETER = 0.85  # inverted slivers left after untangling that may be dropped
+# default edge length in thinnest-fiber diameters (spec routes): the old rule's edge on the 60 um
+# Toray-like cube; at 100 um it reads K 0.50 % above 1.42 D (docs/meshers.md, session 5)
+EDGE_PER_DIAMETER = 0.85
 
 
 def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
