@@ -4,7 +4,8 @@ at its default edge (``EDGE_PER_DIAMETER`` thinnest-fiber diameters) agrees with
 
 60 um cube of the Table III straight spec (seed 1): the 100 um cube costs about 10 min of CPU
 per seed (``docs/meshers.md``); measured at 60 um with the same edge (5.95 um), five seeds:
--0.88 to -1.73 % (``benchmarks/RESULTS.md``).
+-0.88 to -1.73 % (``benchmarks/RESULTS.md``). Cost: 350 s CPU, 3.1 GB max RSS (both meshes and
+FEM solves in one process; 22:00 UTC, load 1.5-2.9 on 2 cores).
 """
 
 from __future__ import annotations
