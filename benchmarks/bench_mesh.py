@@ -18,6 +18,16 @@ Usage::
     # the stuffing mesh at a finer lattice step (m) than its default (refinement check):
     python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --size 100e-6 \
         --mesher stuffing --lattice-step 2.5e-6 --permeability
+    # pytetwild at an edge of 0.6 thinnest-fiber diameters (default: EDGE_PER_DIAMETER):
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 \
+        --mesher pytetwild --edge-diam 0.6 --permeability
+    # the voxel route's K on the same RVE and BC only (no mesh), a reference for the FEM's:
+    python benchmarks/bench_mesh.py --spec studies/table3/straight.toml --seed 1 --mesher \
+        --voxel-route
+    # the 5-seed table (issue 12 item 5): K of both meshers per seed, one subprocess per
+    # (seed, mesher) appended to a resumable runs file; a re-run only prints the table
+    python benchmarks/bench_mesh.py --table --spec studies/table3/straight.toml \
+        --seeds 1 2 3 4 5 --out benchmarks/bench_mesh_tetwild_runs.jsonl
 """
 
 from __future__ import annotations
@@ -152,6 +162,7 @@ SPEC_KEYS = [
     "surface_step",
     "lattice_step_m",
     "edge_length_m",
+    "edge_length_per_diameter",
     "epsilon_rel",
     "n_wall_vertices_frozen",
     "n_dropped_inverted_tets",
@@ -163,7 +174,7 @@ SPEC_KEYS = [
 
 def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args) -> list[dict]:
     """Mesh one spec's RVE (generator seed, optional smaller cube) with each mesher; K if asked."""
-    from psdesign.meshing.options import MeshOptions
+    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -178,6 +189,8 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
     t_geom = time.perf_counter() - t0
     flow = dict(spec["flow"])
     rows = []
+    if args.voxel_route:  # the voxel route's K on the same RVE and BC (a reference for the FEM)
+        rows.append(_voxel_row(path, seed, spec, built, fields, flow, args, t_geom))
     for mesher in meshers:
         extra = {"mesher": mesher, "num_threads": args.threads}
         tw = json.loads(args.tetwild) if args.tetwild else {}
@@ -189,13 +202,18 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
             extra["epsilon"] = args.epsilon
         if args.edge_fac is not None and mesher == "pytetwild":
             extra["edge_length_fac"] = args.edge_fac[0]
+        if args.edge_diam is not None and mesher == "pytetwild":
+            extra["edge_per_diameter"] = args.edge_diam
         if args.step is not None and mesher == "pytetwild":
             extra["surface_step"] = args.step
         if args.lattice_step is not None and mesher == "stuffing":
             extra["lattice_step"] = args.lattice_step
-        opts = MeshOptions.from_flow(flow, **extra)
+        opts = MeshOptions.from_flow(
+            flow, fiber_diameter=thinnest_fiber_diameter(built.rve), **extra
+        )
         row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": mesher}
         row["options"] = {k: v for k, v in extra.items() if k != "mesher"}
+        row["key"] = run_key(path, seed, spec["rve"]["size"][0], mesher, row["options"])
         row["geometry_s"] = t_geom
         t1 = time.perf_counter()
         cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
@@ -224,9 +242,137 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
         # CPU time of the same span: comparable across machine loads (the host is shared)
         row["mesh_cpu_s"] = resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1
         row["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+        row["cpu_total_s"] = resource.getrusage(resource.RUSAGE_SELF).ru_utime
         print(json.dumps(row), flush=True)
         rows.append(row)
     return rows
+
+
+def _voxel_row(path, seed, spec, built, fields, flow, args, t_geom) -> dict:
+    """K of the voxel route (``flow.solver = "voxel"``, the FEM's BC) on the spec's grid."""
+    from psdesign.flow.voxel import permeability_voxel
+
+    vflow = {**flow, "solver": "voxel", "bc": flow.get("bc") or "permeameter"}
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
+    res = permeability_voxel(fields, args.direction, vflow, rve=built.rve)
+    row = {"spec": path, "seed": seed, "size_m": spec["rve"]["size"][0], "mesher": "voxel"}
+    row.update(
+        geometry_s=t_geom,
+        voxel_m=spec["rve"]["voxel"],
+        permeability_m2=res["permeability_m2"],
+        converged=res["converged"],
+        iterations=res.get("iterations"),
+        cells_per_diameter=res.get("cells_per_diameter"),
+        copies=res.get("copies"),
+        voxel_s=res["wall_time_s"],
+        voxel_cpu_s=resource.getrusage(resource.RUSAGE_SELF).ru_utime - cpu1,
+        peak_rss_gb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2,
+        ok=True,
+    )
+    print(json.dumps(row), flush=True)
+    return row
+
+
+def run_key(spec: str, seed: int, size: float, mesher: str, options: dict) -> str:
+    """Identity of one (spec, seed, size, mesher, options) run in a runs file."""
+    opts = {k: v for k, v in sorted(options.items()) if k != "num_threads" or v != 1}
+    return json.dumps([Path(spec).name, seed, size, mesher, opts], sort_keys=True)
+
+
+def _spec_cmd(args, seed: int, mesher: str) -> list[str]:
+    """The ``--spec`` command line of one (seed, mesher) run of :func:`run_table`."""
+    cmd = [sys.executable, __file__, "--spec", args.spec, "--seed", str(seed), "--mesher", mesher]
+    cmd += ["--direction", args.direction, "--threads", str(args.threads), "--permeability"]
+    if args.size is not None:
+        cmd += ["--size", repr(args.size)]
+    if mesher == "pytetwild":
+        for flag, value in (("--edge-diam", args.edge_diam), ("--stop-energy", args.stop_energy)):
+            if value is not None:
+                cmd += [flag, repr(value)]
+        if args.tetwild:
+            cmd += ["--tetwild", args.tetwild]
+    if mesher == "stuffing" and args.lattice_step is not None:
+        cmd += ["--lattice-step", repr(args.lattice_step)]
+    return cmd
+
+
+def run_table(args) -> None:
+    """Both meshers' FEM K per seed; missing runs go to ``args.out`` (resumable), then the table."""
+    from psdesign.meshing.tetwild_mesher import EDGE_PER_DIAMETER
+
+    out = Path(args.out)
+    rows = {}
+    if out.exists():
+        for line in out.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                rows[r["key"]] = r
+    table = []
+    for seed in args.seeds:
+        pair = {}
+        for mesher in ("pytetwild", "stuffing"):
+            cmd = _spec_cmd(args, seed, mesher)
+            opts = {}
+            if mesher == "pytetwild":
+                tw = json.loads(args.tetwild) if args.tetwild else {}
+                if args.stop_energy is not None:
+                    tw["stop_energy"] = args.stop_energy
+                opts = {"tetwild_options": tw} if tw else {}
+                # the default edge is part of the key: a later default change re-runs
+                opts["edge_per_diameter"] = args.edge_diam or EDGE_PER_DIAMETER
+            elif args.lattice_step is not None:
+                opts = {"lattice_step": args.lattice_step}
+            size = args.size if args.size is not None else _spec_size(args.spec)
+            key = run_key(args.spec, seed, size, mesher, opts)
+            if key not in rows:
+                print("running:", " ".join(cmd), file=sys.stderr, flush=True)
+                t0 = time.perf_counter()
+                res = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+                line = [s for s in res.stdout.splitlines() if s.startswith("{")]
+                r = json.loads(line[-1]) if line else {"key": key, "ok": False}
+                r.setdefault("error", res.stderr[-300:] if not line else None)
+                r["key"] = key  # as asked (a row's own key may differ by default options)
+                r["wall_s"] = time.perf_counter() - t0
+                r["load"] = Path("/proc/loadavg").read_text().split()[:3]
+                rows[key] = r
+                with out.open("a") as fh:
+                    fh.write(json.dumps(r) + "\n")
+            pair[mesher] = rows[key]
+        table.append((seed, pair))
+    print(_table_md(table))
+
+
+def _spec_size(spec: str) -> float:
+    from psdesign.schema.spec import load_spec
+
+    return float(load_spec(spec)["rve"]["size"][0])
+
+
+def _table_md(table) -> str:
+    """Markdown table of :func:`run_table`'s rows."""
+    lines = [
+        "| seed | mesher | edge / D | tets | pore volume vs analytic | K (m^2) | pytetwild vs "
+        "stuffing | mesh CPU s | mesh wall s | mesh+FEM CPU s | run wall s | peak RSS GB | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for seed, pair in table:
+        k = {m: r.get("permeability_m2") for m, r in pair.items()}
+        for mesher, r in pair.items():
+            if not r.get("ok"):
+                lines.append(f"| {seed} | {mesher} | failed: {str(r.get('error'))[:80]} |")
+                continue
+            diff = ""
+            if mesher == "pytetwild" and k.get("stuffing") and k.get("pytetwild"):
+                diff = f"**{100 * (k['pytetwild'] / k['stuffing'] - 1):+.2f} %**"
+            epd = r.get("edge_length_per_diameter")
+            lines.append(
+                f"| {seed} | {mesher} | {f'{epd:.2f}' if epd else '-'} | {r['n_tets']} | "
+                f"{r['pore_volume_rel_diff']:+.1e} | {r.get('permeability_m2', 0):.4e} | {diff} | "
+                f"{r['mesh_only_cpu_s']:.0f} | {r['wall_time_s']:.0f} | {r['mesh_cpu_s']:.0f} | "
+                f"{r.get('wall_s', 0):.0f} | "
+                f"{r['peak_rss_gb']:.2f} | {' '.join(r.get('load', []))} |"
+            )
+    return "\n".join(lines)
 
 
 def main() -> None:
@@ -235,12 +381,24 @@ def main() -> None:
     ap.add_argument("--spec", help="mesh this spec's RVE instead of the built-in geometry")
     ap.add_argument("--seed", type=int, default=1, help="generator.seed for --spec")
     ap.add_argument("--size", type=float, default=None, help="cube side for --spec (m)")
-    ap.add_argument("--mesher", nargs="+", default=["pytetwild"], help="meshers for --spec")
+    ap.add_argument("--mesher", nargs="*", default=["pytetwild"], help="meshers for --spec")
     ap.add_argument("--stop-energy", type=float, default=None, help="pytetwild stop_energy")
     ap.add_argument("--tetwild", default=None, help="JSON of pytetwild options (--spec)")
     ap.add_argument("--permeability", action="store_true", help="FEM K per mesh (--spec)")
+    ap.add_argument(
+        "--voxel-route", action="store_true", help="also the voxel route's K, same BC (--spec)"
+    )
     ap.add_argument("--voxel", type=float, nargs="+", default=[1e-6, 0.5e-6])
     ap.add_argument("--edge-fac", type=float, nargs="+", default=None)
+    ap.add_argument(
+        "--edge-diam", type=float, default=None, help="pytetwild edge in fiber diameters (--spec)"
+    )
+    ap.add_argument("--table", action="store_true", help="5-seed table of both meshers (--spec)")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="--table seeds")
+    ap.add_argument(
+        "--out", default=str(Path(__file__).with_name("bench_mesh_tetwild_runs.jsonl")),
+        help="--table runs file (resumable)",
+    )  # fmt: skip
     ap.add_argument("--direction", default="z")
     ap.add_argument("--step", type=int, default=None, help="surface step (default: auto)")
     ap.add_argument("--epsilon", type=float, default=None)
@@ -252,6 +410,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.single:
         print(json.dumps(run_single(json.loads(args.single))))
+        return
+    if args.table:
+        run_table(args)
         return
     if args.spec:
         run_spec(args.spec, args.seed, args.mesher, args.size, args)

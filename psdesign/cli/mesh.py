@@ -18,7 +18,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.meshing.exports.meshjson import mesh_summary
-    from psdesign.meshing.options import MeshOptions
+    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -42,7 +42,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         float(fields.grid.spacing[0]),
         rve.size,
         args.direction,
-        MeshOptions.from_flow(flow, **mesh_overrides(fields)),
+        MeshOptions.from_flow(
+            flow, fiber_diameter=thinnest_fiber_diameter(rve), **mesh_overrides(fields)
+        ),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])), flow=flow)

@@ -104,8 +104,10 @@ BCS = ("permeameter", "periodic")
 def cells_per_diameter(rve: RVE, mesh) -> float | None:
     """Thinnest fiber diameter over the mean edge length of the RVE's tets (auxiliary zones
     excluded); None without fibers."""
-    diam = [float(fb.diameter) * rve.period for fb in rve.fibers if getattr(fb, "diameter", 0)]
-    if not diam:
+    from psdesign.meshing.options import thinnest_fiber_diameter
+
+    d_min = thinnest_fiber_diameter(rve)
+    if d_min is None:
         return None
     pts, tets = mesh.points, mesh.tets
     start, end = mesh.porous_region
@@ -115,11 +117,11 @@ def cells_per_diameter(rve: RVE, mesh) -> float | None:
         inside = tets
     pairs = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
     e = np.concatenate([pts[inside[:, i]] - pts[inside[:, j]] for i, j in pairs])
-    return float(min(diam) / np.sqrt((e * e).sum(axis=1)).mean())
+    return float(d_min / np.sqrt((e * e).sum(axis=1)).mean())
 
 
 def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
-    from psdesign.meshing.options import MeshOptions
+    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     spacing = fields.grid.spacing
@@ -128,6 +130,8 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     from psdesign.image.fields import mesh_overrides
 
     target = mesh_overrides(fields)  # an image: match the mesh to the voxel count
+    # pytetwild's default edge length is a fraction of the thinnest fiber diameter
+    target["fiber_diameter"] = thinnest_fiber_diameter(rve)
     size = np.asarray(fields.grid.size, float)  # rve.size, or the stack's (psdesign.flow.stack)
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)

@@ -21,6 +21,17 @@ TETWILD_OPTIONS = ("stop_energy", "num_opt_iter", "coarsen", "simplify")
 _LEGACY_NAMES = {"stuffing_alpha": "alpha", "stuffing_slab_factor": "slab_factor"}
 
 
+def thinnest_fiber_diameter(rve) -> float | None:
+    """Thinnest fiber diameter of an RVE in metres (``fiber.diameter * rve.period``), or None
+    without fibers (an image)."""
+    diam = [
+        float(fb.diameter) * rve.period
+        for fb in getattr(rve, "fibers", ())
+        if getattr(fb, "diameter", 0)
+    ]
+    return min(diam) if diam else None
+
+
 def default_lattice_step(voxel: float, size) -> float:
     """``max(2 * voxel, min(size) / 30)`` (3.3 um for a 100 um RVE): the stuffing mesher's step
     when ``flow.lattice_step`` is not given."""
@@ -69,9 +80,18 @@ class MeshOptions:
     slab_factor
         Stuffing axial step in the auxiliary zones as a multiple of ``lattice_step``, [1, 10].
     edge_length
-        pytetwild target edge length; default ``edge_length_fac`` times the box diagonal.
+        pytetwild target edge length in metres (overrides the other two edge options).
     edge_length_fac
-        pytetwild target edge length as a fraction of the box diagonal, in (0, 1].
+        pytetwild target edge length as a fraction of the box diagonal (auxiliary zones
+        included), in (0, 1] (``flow.edge_length``). Default (None): ``edge_per_diameter``
+        times ``fiber_diameter`` when that is known, else 0.05 of the diagonal
+        (:func:`psdesign.meshing.tetwild_mesher.target_edge_length`).
+    fiber_diameter
+        Thinnest fiber diameter of the RVE in metres, or None (a plain field); sets pytetwild's
+        default edge length. The spec routes pass it (:func:`thinnest_fiber_diameter`).
+    edge_per_diameter
+        pytetwild default edge length in fiber diameters, in (0, 10]; default
+        ``tetwild_mesher.EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
     epsilon
         pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default half the
         marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``).
@@ -104,7 +124,9 @@ class MeshOptions:
     alpha: float = 0.3
     slab_factor: float = 3.0
     edge_length: float | None = None
-    edge_length_fac: float = 0.05
+    edge_length_fac: float | None = None
+    fiber_diameter: float | None = None
+    edge_per_diameter: float | None = None
     epsilon: float | None = None
     surface_step: int | None = None
     simplify_tol: float = 0.0
@@ -155,9 +177,16 @@ class MeshOptions:
         return dataclasses.replace(self, **changes)
 
     def cache_params(self) -> dict:
-        """The options that change the mesh (part of the cache key)."""
+        """The options that change the mesh (part of the cache key).
+
+        ``fiber_diameter`` and ``edge_per_diameter`` only count where they set the edge length
+        (pytetwild without an explicit edge): a stuffing mesh keeps its key.
+        """
         d = dataclasses.asdict(self)
         d.pop("cache_dir")
+        if self.mesher != "pytetwild" or self.edge_length is not None or self.edge_length_fac:
+            d.pop("fiber_diameter")
+            d.pop("edge_per_diameter")
         return d
 
 
@@ -210,7 +239,12 @@ def _check(o: MeshOptions) -> None:
     _in("stuffing_alpha", o.alpha, 0.0, 0.5, lo_open=True, hi_open=True)
     _in("stuffing_slab_factor", o.slab_factor, 1.0, 10.0)
     _in("aux_edge_factor", o.aux_edge_factor, 1.0, 10.0)
-    _in("edge_length_fac", o.edge_length_fac, 0.0, 1.0, lo_open=True)
+    if o.edge_length_fac is not None:
+        _in("edge_length_fac", o.edge_length_fac, 0.0, 1.0, lo_open=True)
+    if o.fiber_diameter is not None:
+        _in("fiber_diameter", o.fiber_diameter, 0.0, np.inf, lo_open=True, hi_open=True)
+    if o.edge_per_diameter is not None:
+        _in("edge_per_diameter", o.edge_per_diameter, 0.0, 10.0, lo_open=True)
     _in("simplify_tol", o.simplify_tol, 0.0, np.inf)
     _in("num_threads", o.num_threads, 0, 1024)
     if o.lattice_step is not None:

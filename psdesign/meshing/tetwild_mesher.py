@@ -51,17 +51,52 @@ _MAX_WALL_MOVE_EPS = 2.0  # the volume correction moves walls by at most this ma
 # Toray-like seeds, benchmarks/RESULTS.md "pytetwild ... seeds 1-5")
 _MAX_FREEZE_ROUNDS = 12
 _MAX_DROPPED_INVERTED = 20  # inverted slivers left after untangling that may be dropped
+# edge length without a fiber list (a plain field): this fraction of the box diagonal
+DEFAULT_EDGE_FAC = 0.05
+# default edge length in thinnest-fiber diameters (spec routes): the old rule's edge on the 60 um
+# Toray-like cube; at 100 um it reads K 0.50 % above 1.42 D (docs/meshers.md, session 5)
+EDGE_PER_DIAMETER = 0.85
+
+
+def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
+    """pytetwild's target edge length in metres.
+
+    In this order: ``opts.edge_length`` (metres); ``opts.edge_length_fac`` times the diagonal of
+    the meshed box (auxiliary zones included; ``flow.edge_length``); ``edge_per_diameter``
+    (default :data:`EDGE_PER_DIAMETER`) times ``opts.fiber_diameter``, the thinnest fiber
+    (the default on the spec routes); else :data:`DEFAULT_EDGE_FAC` of the diagonal (a plain
+    field with no fiber list).
+
+    Parameters
+    ----------
+    size
+        RVE edge lengths (m).
+    axis
+        Flow axis (0, 1, 2): the auxiliary zones extend the box along it.
+    opts
+        Mesher options.
+
+    Returns
+    -------
+    float
+        Target edge length (m).
+    """
+    if opts.edge_length is not None:
+        return float(opts.edge_length)
+    ext = np.asarray(size, dtype=float).copy()
+    ext[axis] *= 1.0 + 2.0 * opts.aux_length
+    diag = float(np.linalg.norm(ext))
+    if opts.edge_length_fac is not None:
+        return opts.edge_length_fac * diag
+    if opts.fiber_diameter is not None:
+        per_d = opts.edge_per_diameter if opts.edge_per_diameter is not None else EDGE_PER_DIAMETER
+        return per_d * opts.fiber_diameter
+    return DEFAULT_EDGE_FAC * diag
 
 
 def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOptions) -> int:
     """Marching-cubes step: about a fifth of the target edge length in voxels."""
-    ext = size.copy()
-    ext[axis] *= 1.0 + 2.0 * opts.aux_length
-    h = (
-        opts.edge_length
-        if opts.edge_length is not None
-        else opts.edge_length_fac * float(np.linalg.norm(ext))
-    )
+    h = target_edge_length(size, axis, opts)
     n_min = int(round(float(size.min()) / voxel))
     return int(np.clip(h // (5.0 * voxel), 1, max(1, n_min // 4)))
 
@@ -95,7 +130,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         else ENVELOPE_PER_STEP * f.voxel * opts.surface_step / diag
     )
     eps_rel = min(eps_rel, 0.01)
-    h = opts.edge_length / f.scale if opts.edge_length is not None else opts.edge_length_fac * diag
+    h = target_edge_length(size, axis, opts) / f.scale
     sizing, h_global = None, h
     if opts.aux_edge_factor > 1.0 and opts.aux_length > 0:
         # fTetWild only refines below its global ideal length: make that the coarsest target
@@ -137,6 +172,10 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         n_dropped_flat_tets=n_flat,
         n_dropped_inverted_tets=n_inv,
         edge_length_m=h * f.scale,
+        fiber_diameter_m=opts.fiber_diameter,
+        edge_length_per_diameter=(
+            h * f.scale / opts.fiber_diameter if opts.fiber_diameter else None
+        ),
         epsilon_rel=eps_rel,
         surface_step=int(opts.surface_step),
         wall_shift_m=wall_shift * f.scale,

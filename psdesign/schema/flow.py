@@ -79,7 +79,9 @@ class FlowTable(Table):
     pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
     tol: number(gt=0, lt=1) | None = Field(None, description="relative tolerance in (0, 1)")
     edge_length: number(ge=0.005, le=10) | None = Field(
-        None, description="pytetwild edge length, fraction of the diagonal in [0.005, 10]"
+        None,
+        description="pytetwild edge length, fraction of the box diagonal in [0.005, 10] "
+        "(default 0.85 thinnest-fiber diameters)",
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None, description="fem solver memory cap, GB in (0, 1e5]"
