@@ -676,6 +676,18 @@ def geometry_summary(path: Path, per_seed: bool = False) -> str:
     return "\n".join(out)
 
 
+def _rve_arguments(p: argparse.ArgumentParser, methods: list[str]) -> None:
+    """The RVE-set arguments of the sub-commands that walk :func:`_each_rve` (``geometry``,
+    ``layering``); ``methods`` is the default placement list."""
+    p.add_argument("--kinds", nargs="+", default=["straight"])
+    p.add_argument("--methods", nargs="+", default=methods, choices=METHODS)
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    p.add_argument("--voxel", type=float, default=1e-6)
+    p.add_argument("--size", type=float, default=None)
+    p.add_argument("--cache", required=True)
+    p.add_argument("--out", required=True)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -697,22 +709,11 @@ def main(argv=None) -> int:
     r.add_argument("--size", type=float, default=None, help="cube edge (m), default the spec's")
     r.add_argument("--cache", required=True)
     r.add_argument("--out", required=True)
-    g = sub.add_parser("geometry")
-    g.add_argument("--kinds", nargs="+", default=["straight"])
-    g.add_argument("--methods", nargs="+", default=["ga", "fast"], choices=METHODS)
-    g.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    g.add_argument("--voxel", type=float, default=1e-6)
-    g.add_argument("--size", type=float, default=None)
-    g.add_argument("--cache", required=True)
-    g.add_argument("--out", required=True)
-    lay = sub.add_parser("layering", help="porosity, Omega, z layering per RVE (no solve)")
-    lay.add_argument("--kinds", nargs="+", default=["straight"])
-    lay.add_argument("--methods", nargs="+", default=list(CONTROLLED_ORDER), choices=METHODS)
-    lay.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    lay.add_argument("--voxel", type=float, default=1e-6)
-    lay.add_argument("--size", type=float, default=None)
-    lay.add_argument("--cache", required=True)
-    lay.add_argument("--out", required=True)
+    _rve_arguments(sub.add_parser("geometry"), ["ga", "fast"])
+    _rve_arguments(
+        sub.add_parser("layering", help="porosity, Omega, z layering per RVE (no solve)"),
+        list(CONTROLLED_ORDER),
+    )
     res = sub.add_parser("resolution", help="K of one sub-cube at several voxel sizes")
     res.add_argument("--kinds", nargs="+", default=["straight", "bent"])
     res.add_argument("--method", default="ga", choices=METHODS)
