@@ -37,6 +37,7 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     windowed_drop,
     windowed_drop_from_dissipation,
 )
+from psdesign.flow.fem_field import FIELD_MAX_VOXELS, FIELD_VOXELS_PER_DIAMETER, fem_field
 from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
@@ -120,8 +121,15 @@ def cells_per_diameter(rve: RVE, mesh) -> float | None:
     return float(d_min / np.sqrt((e * e).sum(axis=1)).mean())
 
 
-def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
-    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
+def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str, refinement: int = 1):
+    """Pore mesh of ``fields`` (the RVE or its stack). ``refinement > 1``: ``fields`` is the
+    FEM's own field (:mod:`psdesign.flow.fem_field`), ``refinement`` times finer than the spec's
+    grid; the default lattice step stays that of the spec's grid."""
+    from psdesign.meshing.options import (
+        MeshOptions,
+        default_lattice_step,
+        thinnest_fiber_diameter,
+    )
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     spacing = fields.grid.spacing
@@ -133,18 +141,42 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str):
     # pytetwild's default edge length is a fraction of the thinnest fiber diameter
     target["fiber_diameter"] = thinnest_fiber_diameter(rve)
     size = np.asarray(fields.grid.size, float)  # rve.size, or the stack's (psdesign.flow.stack)
+    if refinement > 1 and flow.get("lattice_step") is None:  # the spec grid's default step
+        target["lattice_step"] = default_lattice_step(float(spacing[0]) * refinement, size)
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
         return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     from psdesign.meshing.errors import MeshFailedError
     from solvers.fem.periodic import PeriodicMeshError
 
-    _check_periodic_geometry(rve, fields)
+    if refinement == 1:  # else checked on the spec's grid (permeability_fem): the same tolerance
+        _check_periodic_geometry(rve, fields)
     opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True, **target)
     try:
         return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     except MeshFailedError as exc:  # a check failed on the mesh of the wrapped field
         raise PeriodicMeshError(f"flow.bc = 'periodic': {exc}") from None
+
+
+def fem_mesh(
+    rve: RVE, fields: VoxelFields, direction: str, flow: dict, bc: str, copies: int = 1
+) -> tuple:
+    """The FEM route's pore mesh of ``rve`` along ``direction`` and its field.
+
+    The mesh is made on the FEM's own field (:func:`psdesign.flow.fem_field.fem_field`: the
+    analytic geometry sampled fine enough for the thinnest fiber, independent of the spec's
+    ``fields`` where those are coarser), ``copies`` copies along the flow for the permeameter.
+
+    Returns
+    -------
+    (PoreMesh, FemField)
+    """
+    ax = axis_of(direction)[1]
+    own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
+    if bc == "periodic" and own.refinement > 1:
+        _check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
+    stacked = stack_fields(own.fields, ax, copies)
+    return _mesh(rve, stacked, direction, stacked_flow(flow, copies), bc, own.refinement), own
 
 
 def _check_periodic_geometry(rve: RVE, fields: VoxelFields) -> None:
@@ -242,9 +274,9 @@ def permeability_fem(
         raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
     t0 = time.perf_counter()
     plan = plan_copies(flow, rve, fields, ax) if bc == "permeameter" else None
+    own = None
     if mesh is None:  # the permeameter meshes plan.copies copies along the flow
-        copies = plan.copies if plan is not None else 1
-        mesh = _mesh(rve, stack_fields(fields, ax, copies), name, stacked_flow(flow, copies), bc)
+        mesh, own = fem_mesh(rve, fields, name, flow, bc, plan.copies if plan is not None else 1)
     elif plan is not None:  # a mesh made by the caller: its RVE part says how many copies
         start, end = mesh.porous_region
         plan = replace(plan, copies=max(1, round((end - start) / float(rve.size[ax]))))
@@ -257,6 +289,14 @@ def permeability_fem(
         out |= plan.as_dict()
         if plan.note:
             out["warnings"].append(plan.note)
+    out["fem_field"] = None if own is None else own.as_dict()
+    if own is not None and own.capped:
+        out["warnings"].append(
+            f"K_{name}: the FEM's field has {own.voxels_per_diameter:.1f} voxels across the "
+            f"thinnest fiber (< {FIELD_VOXELS_PER_DIAMETER:g}; refined x{own.refinement} of "
+            f"{own.wanted} wanted, capped at {FIELD_MAX_VOXELS:.3g} voxels): the mesh's solid "
+            "volume may be under-counted; refine rve.voxel"
+        )
     if capture is not None:
         capture("fem_flow", solution=res, result=out, mesh=mesh, flow=flow)
     return out

@@ -1,0 +1,148 @@
+"""The FEM route's own signed-distance field: fine enough for the thinnest fiber, whatever
+``rve.voxel`` the voxel solver was given.
+
+The stuffing mesher clips its lattice on the trilinear interpolant of a sampled signed distance
+and matches the mesh volume to the sub-voxel pore volume of the same samples
+(:mod:`psdesign.meshing.pore_volume`, a smoothed step two voxels wide). Both need several voxels
+across a fiber: at 4.3 voxels across the yarns of the 30 um woven cell the volume target puts
+the solid fraction at 0.1075 against 0.1102 at 8.6 and 17 voxels, and the periodic FEM's K moves
+by 6.3 % at the same lattice (``docs/solver-agreement.md``). The geometry is analytic, so the
+FEM samples it itself: at ``rve.voxel / r`` with the smallest integer ``r`` that gives
+:data:`FIELD_VOXELS_PER_DIAMETER` voxels across the thinnest fiber diameter (yarn width), capped
+at :data:`FIELD_MAX_VOXELS` voxels. A field that is already fine enough is used as it is (the
+mesh is then the one of earlier releases, bit for bit); an image has no analytic geometry and
+keeps its own grid (and the voxel-count volume target, :func:`psdesign.image.fields.
+mesh_overrides`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from psdesign.geometry.rve import RVE, VoxelFields
+
+#: Voxels across the thinnest fiber diameter the FEM's field has at least (the resolution at
+#: which the smoothed-step volume of rods of 3.5-10 voxels radius is within 5e-4 of the exact
+#: one, ``tests/unit/test_pore_volume.py``; the woven cell's solid fraction is the same at 8.6
+#: and 17 voxels across a yarn).
+FIELD_VOXELS_PER_DIAMETER = 8.0
+#: Most voxels of a refined FEM field (about 60 B each while meshing: float32 samples, the
+#: mesher's float64 copies and its gap-closing transform): 2^24 voxels, about 1 GB.
+FIELD_MAX_VOXELS = 2**24
+#: Bytes per voxel of the refined field while it is meshed (counted in the up-front estimate,
+#: :func:`psdesign.schema.budget.check_fem`).
+FIELD_BYTES_PER_VOXEL = 60
+
+
+@dataclass(frozen=True)
+class FemField:
+    """The field the FEM meshes.
+
+    Attributes
+    ----------
+    fields
+        The voxel fields (the caller's own when ``refinement == 1``).
+    refinement
+        Integer ratio of the caller's voxel to this field's (1: not refined).
+    wanted
+        The ratio :data:`FIELD_VOXELS_PER_DIAMETER` asked for (> ``refinement`` when the cap
+        :data:`FIELD_MAX_VOXELS` bound it; 1 for an image or a fine enough field).
+    voxels_per_diameter
+        Voxels of this field across the thinnest fiber diameter (None without fibers).
+    """
+
+    fields: VoxelFields
+    refinement: int
+    wanted: int
+    voxels_per_diameter: float | None
+
+    @property
+    def voxel(self) -> float:
+        """Voxel edge of the meshed field in metres."""
+        return float(self.fields.grid.spacing[0])
+
+    @property
+    def capped(self) -> bool:
+        """True when the voxel cap kept the field coarser than asked."""
+        return self.wanted > self.refinement
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary (``fem_field`` in the route's result)."""
+        return {
+            "voxel_m": self.voxel,
+            "refinement": self.refinement,
+            "wanted_refinement": self.wanted,
+            "voxels_per_diameter": self.voxels_per_diameter,
+            "capped": self.capped,
+        }
+
+
+def thinnest_diameter(rve: RVE) -> float | None:
+    """Thinnest fiber diameter (yarn width) of ``rve`` in metres; None without fibers."""
+    from psdesign.meshing.options import thinnest_fiber_diameter
+
+    return thinnest_fiber_diameter(rve)
+
+
+def wanted_refinement(voxel: float, diameter: float | None) -> int:
+    """Smallest integer ``r`` with ``diameter / (voxel / r) >= FIELD_VOXELS_PER_DIAMETER``.
+
+    >>> wanted_refinement(1e-6, 4.26e-6), wanted_refinement(0.5e-6, 4.26e-6)
+    (2, 1)
+    """
+    if diameter is None or not diameter > 0:
+        return 1
+    return max(1, math.ceil(FIELD_VOXELS_PER_DIAMETER * voxel / diameter - 1e-9))
+
+
+def capped_refinement(n_voxels: int, wanted: int, max_voxels: int = FIELD_MAX_VOXELS) -> int:
+    """The largest ``r <= wanted`` whose refined grid (``n_voxels r^3``) stays within
+    ``max_voxels`` (at least 1: the caller's own grid is always allowed)."""
+    r = int(wanted)
+    while r > 1 and n_voxels * r**3 > max_voxels:
+        r -= 1
+    return r
+
+
+def refinable(rve: RVE, fields: VoxelFields) -> bool:
+    """True when the FEM may sample ``rve`` itself: analytic geometry with fibers, and ``fields``
+    covers the RVE's own box (not an image, not a stack)."""
+    return (
+        bool(getattr(fields, "analytic_distance", False))
+        and bool(getattr(rve, "fibers", None))
+        and np.allclose(np.asarray(fields.grid.size, float), np.asarray(rve.size, float), rtol=1e-9)
+        and np.allclose(fields.grid.spacing, fields.grid.spacing[0], rtol=1e-9)
+    )
+
+
+def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing") -> FemField:
+    """The field the FEM meshes for ``rve`` given the caller's ``fields`` (see module).
+
+    Parameters
+    ----------
+    rve : RVE
+    fields : VoxelFields
+        The RVE on the spec's grid (``rve.voxel``).
+    mesher : str
+        ``flow.mesher``; pytetwild meshes the exact fiber surface and keeps ``fields``.
+
+    Returns
+    -------
+    FemField
+    """
+    voxel = float(fields.grid.spacing[0])
+    diameter = thinnest_diameter(rve)
+    per_d = None if diameter is None else diameter / voxel
+    if mesher != "stuffing" or not refinable(rve, fields):
+        return FemField(fields, 1, 1, per_d)
+    wanted = wanted_refinement(voxel, diameter)
+    r = capped_refinement(int(np.prod(fields.grid.shape)), wanted)
+    if r == 1:
+        return FemField(fields, 1, wanted, per_d)
+    fine = rve.voxelize(voxel / r)
+    if tuple(fine.grid.shape) != tuple(int(n) * r for n in fields.grid.shape):
+        return FemField(fields, 1, wanted, per_d)  # the box is no whole number of fine voxels
+    return FemField(fine, r, wanted, diameter / (voxel / r))
