@@ -3,6 +3,7 @@
 The estimate (derivation in ``docs/permeability.md``) is
 
     e = max(F_s |K_h - K_H| / (r^p - 1),  C (h / R)^q) / |K_h|  +  e_window  +  e_solver
+        + e_field
 
 * ``K_h`` is the result, ``K_H`` a second, cheaper solve of the same problem on a grid (voxel
   route) or lattice (tet route) ``r`` times coarser (``r`` close to 2);
@@ -20,7 +21,10 @@ The estimate (derivation in ``docs/permeability.md``) is
   windowed-dissipation drop ``dp``: the gap to a second windowed estimator ``dp_alt`` (the
   plane-averaged pressure, also exact in the periodic interior, with a different entrance
   residual), or the window's weight over the entrance reach ``R`` in an RVE of length ``L``;
-* ``e_solver = max(residual, flux_imbalance)``: the algebraic error of the flow rate.
+* ``e_solver = max(residual, flux_imbalance)``: the algebraic error of the flow rate;
+* ``e_field`` (tet route, a field with fewer than 8 voxels across the thinnest fiber, e.g. one
+  the memory cap kept coarse): the under-count of thin fibers by the mesh's volume target
+  (:func:`psdesign.flow.fem_field.field_rel_error`); 0 on a resolved field.
 
 The floor's order ``q`` and constant ``C`` depend on the scheme (:data:`FLOOR`); the sub-voxel
 floor and ``C_W`` are calibrated on a set of square cylinder arrays (``benchmarks/
@@ -96,6 +100,7 @@ class ErrorEstimate:
     method: str
     coarse_failure: str | None = None
     window: float = 0.0
+    field: float = 0.0
 
     def as_dict(self) -> dict:
         """JSON-ready dict (``permeability_rel_error`` is the headline value)."""
@@ -108,6 +113,7 @@ class ErrorEstimate:
                 "floor": self.floor,
                 "solver": self.solver,
                 "window": self.window,
+                "field": self.field,
                 "order": self.order,
                 "ratio": self.ratio,
                 "permeability_coarse_m2": self.k_coarse,
@@ -366,4 +372,12 @@ def estimate_with(
             result.get("rve_length_m"),
         ),
     )
-    return replace(est, coarse_failure=failure)
+    field = field_rel_error(result)
+    return replace(est, coarse_failure=failure, rel_error=est.rel_error + field, field=field)
+
+
+def field_rel_error(result: dict) -> float:
+    """The FEM's field term (``result["fem_field"]["rel_error"]``, :func:`psdesign.flow.
+    fem_field.field_rel_error`; 0 for other routes and resolved fields)."""
+    value = (result.get("fem_field") or {}).get("rel_error")
+    return float(value) if value is not None and np.isfinite(value) else 0.0

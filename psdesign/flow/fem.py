@@ -169,14 +169,17 @@ def fem_mesh(
 
     Returns
     -------
-    (PoreMesh, FemField)
+    (PoreMesh, dict)
+        The mesh and :meth:`~psdesign.flow.fem_field.FemField.as_dict` of its field (the field
+        itself is not kept: the solve does not need it).
     """
     ax = axis_of(direction)[1]
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
     if bc == "periodic" and own.refinement > 1:
         _check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
     stacked = stack_fields(own.fields, ax, copies)
-    return _mesh(rve, stacked, direction, stacked_flow(flow, copies), bc, own.refinement), own
+    mesh = _mesh(rve, stacked, direction, stacked_flow(flow, copies), bc, own.refinement)
+    return mesh, own.as_dict()
 
 
 def _check_periodic_geometry(rve: RVE, fields: VoxelFields) -> None:
@@ -260,7 +263,8 @@ def permeability_fem(
         windowed-dissipation drop that defines K) and ``pressure_drop_faces_pa`` (drop of
         the plane-averaged pressure between the RVE faces, includes entrance/exit losses);
         periodic: ``mean_velocity_m_s`` (superficial, 3 components), ``pressure_gradient_pa_m``
-        and ``permeability_column_m2`` (K[:, j]).
+        and ``permeability_column_m2`` (K[:, j]); ``fem_field``: the meshed field
+        (:meth:`psdesign.flow.fem_field.FemField.as_dict`; None for a mesh given by the caller).
 
     Raises
     ------
@@ -289,13 +293,14 @@ def permeability_fem(
         out |= plan.as_dict()
         if plan.note:
             out["warnings"].append(plan.note)
-    out["fem_field"] = None if own is None else own.as_dict()
-    if own is not None and own.capped:
+    out["fem_field"] = own
+    if own is not None and own["rel_error"] > 0:
         out["warnings"].append(
-            f"K_{name}: the FEM's field has {own.voxels_per_diameter:.1f} voxels across the "
-            f"thinnest fiber (< {FIELD_VOXELS_PER_DIAMETER:g}; refined x{own.refinement} of "
-            f"{own.wanted} wanted, capped at {FIELD_MAX_VOXELS:.3g} voxels): the mesh's solid "
-            "volume may be under-counted; refine rve.voxel"
+            f"K_{name}: the FEM's field has {own['voxels_per_diameter']:.1f} voxels across the "
+            f"thinnest fiber (< {FIELD_VOXELS_PER_DIAMETER:g}; refined x{own['refinement']} of "
+            f"x{own['wanted_refinement']} wanted, at most {FIELD_MAX_VOXELS:.3g} voxels): the "
+            f"mesh's solid volume may be under-counted, {100 * own['rel_error']:.1f} % in the "
+            "error bar; refine rve.voxel"
         )
     if capture is not None:
         capture("fem_flow", solution=res, result=out, mesh=mesh, flow=flow)

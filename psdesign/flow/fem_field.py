@@ -1,5 +1,7 @@
-"""The FEM route's own signed-distance field: fine enough for the thinnest fiber, whatever
-``rve.voxel`` the voxel solver was given.
+"""The FEM route's own signed-distance field, fine enough for the thinnest fiber.
+
+Whatever ``rve.voxel`` the voxel solver was given, the FEM meshes the analytic geometry sampled
+at a voxel tied to the thinnest fiber.
 
 The stuffing mesher clips its lattice on the trilinear interpolant of a sampled signed distance
 and matches the mesh volume to the sub-voxel pore volume of the same samples
@@ -52,12 +54,16 @@ class FemField:
         :data:`FIELD_MAX_VOXELS` bound it; 1 for an image or a fine enough field).
     voxels_per_diameter
         Voxels of this field across the thinnest fiber diameter (None without fibers).
+    rel_error
+        The error bar's field term (:func:`field_rel_error`; 0 on a field with at least
+        :data:`FIELD_VOXELS_PER_DIAMETER` voxels across, and for an image).
     """
 
     fields: VoxelFields
     refinement: int
     wanted: int
     voxels_per_diameter: float | None
+    rel_error: float = 0.0
 
     @property
     def voxel(self) -> float:
@@ -77,6 +83,7 @@ class FemField:
             "wanted_refinement": self.wanted,
             "voxels_per_diameter": self.voxels_per_diameter,
             "capped": self.capped,
+            "rel_error": self.rel_error,
         }
 
 
@@ -135,14 +142,43 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing") -> FemFie
     """
     voxel = float(fields.grid.spacing[0])
     diameter = thinnest_diameter(rve)
+    r, wanted = 1, 1
+    if mesher == "stuffing" and refinable(rve, fields):
+        wanted = wanted_refinement(voxel, diameter)
+        r = capped_refinement(int(np.prod(fields.grid.shape)), wanted)
+    if r > 1:
+        fine = rve.voxelize(voxel / r)
+        if tuple(fine.grid.shape) == tuple(int(n) * r for n in fields.grid.shape):
+            fields, voxel = fine, voxel / r
+        else:  # the box is no whole number of fine voxels
+            r = 1
     per_d = None if diameter is None else diameter / voxel
-    if mesher != "stuffing" or not refinable(rve, fields):
-        return FemField(fields, 1, 1, per_d)
-    wanted = wanted_refinement(voxel, diameter)
-    r = capped_refinement(int(np.prod(fields.grid.shape)), wanted)
-    if r == 1:
-        return FemField(fields, 1, wanted, per_d)
-    fine = rve.voxelize(voxel / r)
-    if tuple(fine.grid.shape) != tuple(int(n) * r for n in fields.grid.shape):
-        return FemField(fields, 1, wanted, per_d)  # the box is no whole number of fine voxels
-    return FemField(fine, r, wanted, diameter / (voxel / r))
+    term = 0.0
+    if per_d is not None and per_d < FIELD_VOXELS_PER_DIAMETER and fields.analytic_distance:
+        term = field_rel_error(fields.distance, voxel)
+    return FemField(fields, r, max(wanted, r), per_d, term)
+
+
+def field_rel_error(distance: np.ndarray, voxel: float) -> float:
+    """The error bar's field term of a field too coarse for its thinnest fiber.
+
+    The mesh volume target (:func:`psdesign.meshing.pore_volume.analytic_pore_volume`, a
+    smoothed step two voxels wide) under-counts fibers less than about 8 voxels across (their
+    field never reaches the kernel's width); a kernel one voxel wide does not, but is 0.6-1 %
+    off on resolved rods, so it is no default. Their gap in solid fraction ``s`` times the
+    sensitivity of the Kozeny-Carman law, ``|d ln K / d ln s| = 2 + 3 s / (1 - s)``, bounds
+    the K error of the target. Measured on the 30 um woven cell at 1 um (4.3 voxels across a
+    yarn, periodic FEM, 2 um lattice): solid 0.1075 (two voxels) vs 0.1103 (one voxel; 0.1104
+    by Monte Carlo), term 6.2 %, the K on that field +6.7 % over the one on a 0.5 um field.
+    Only applied below :data:`FIELD_VOXELS_PER_DIAMETER` voxels per diameter, where the two
+    kernels' gap is the field's error and not the narrow kernel's.
+    """
+    from psdesign.meshing.pore_volume import analytic_porosity
+
+    d = np.asarray(distance)
+    s2 = 1.0 - analytic_porosity(d, voxel, 2.0)
+    s1 = 1.0 - analytic_porosity(d, voxel, 1.0)
+    if not 0.0 < s2 < 1.0:
+        return 0.0
+    sensitivity = 2.0 + 3.0 * s2 / (1.0 - s2)
+    return float(sensitivity * abs(s1 - s2) / s2)
