@@ -174,7 +174,7 @@ def fem_mesh(
         itself is not kept: the solve does not need it).
     """
     ax = axis_of(direction)[1]
-    own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
+    own = fem_field(rve, fields, flow.get("mesher") or "stuffing", copies)
     if bc == "periodic" and own.refinement > 1:
         _check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
     stacked = stack_fields(own.fields, ax, copies)

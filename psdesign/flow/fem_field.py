@@ -31,8 +31,8 @@ from psdesign.geometry.rve import RVE, VoxelFields
 #: one, ``tests/unit/test_pore_volume.py``; the woven cell's solid fraction is the same at 8.6
 #: and 17 voxels across a yarn).
 FIELD_VOXELS_PER_DIAMETER = 8.0
-#: Most voxels of a refined FEM field (about 60 B each while meshing: float32 samples, the
-#: mesher's float64 copies and its gap-closing transform): 2^24 voxels, about 1 GB.
+#: Most voxels of a refined FEM field, the permeameter's stacked copies included (about
+#: :data:`FIELD_BYTES_PER_VOXEL` each while meshing): 2^24 voxels, about 1 GB.
 FIELD_MAX_VOXELS = 2**24
 #: Bytes per voxel of the refined field while it is meshed (counted in the up-front estimate,
 #: :func:`psdesign.schema.budget.check_fem`).
@@ -125,7 +125,7 @@ def refinable(rve: RVE, fields: VoxelFields) -> bool:
     )
 
 
-def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing") -> FemField:
+def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing", copies: int = 1) -> FemField:
     """The field the FEM meshes for ``rve`` given the caller's ``fields`` (see module).
 
     Parameters
@@ -135,6 +135,8 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing") -> FemFie
         The RVE on the spec's grid (``rve.voxel``).
     mesher : str
         ``flow.mesher``; pytetwild meshes the exact fiber surface and keeps ``fields``.
+    copies : int
+        Copies the permeameter stacks (the cap counts the stacked field the mesher holds).
 
     Returns
     -------
@@ -145,7 +147,7 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing") -> FemFie
     r, wanted = 1, 1
     if mesher == "stuffing" and refinable(rve, fields):
         wanted = wanted_refinement(voxel, diameter)
-        r = capped_refinement(int(np.prod(fields.grid.shape)), wanted)
+        r = capped_refinement(int(np.prod(fields.grid.shape)) * max(1, int(copies)), wanted)
     if r > 1:
         fine = rve.voxelize(voxel / r)
         if tuple(fine.grid.shape) == tuple(int(n) * r for n in fields.grid.shape):

@@ -10,7 +10,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
   stacks) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
 * FEM solver: :func:`solvers.fem.memory.estimate_memory_gb` (the estimate the solve checks) of
-  the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`);
+  the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`); before it, the
+  FEM's own field refined for thin fibers (:func:`fem_field_bytes`, at most about 1 GB);
 * the budget is half the machine's memory (``psutil.virtual_memory().total``).
 """
 
@@ -151,6 +152,7 @@ def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | Non
     copies, aux = stack_of(flow)
     phi = 1.0 if porosity is None else float(porosity)
     budget = MEMORY_FRACTION * machine_memory()
+    check_fem_field(size, voxel, budget)
 
     def need(n_copies: int) -> float:
         pts, tets = fem_mesh_size(size, step, n_copies, aux, phi)
@@ -168,6 +170,29 @@ def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | Non
     if copies > 1 and need(1) <= budget:
         raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
     raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
+
+
+def fem_field_bytes(size: tuple[float, ...], voxel: float) -> float:
+    """Peak bytes of the FEM's own field while it is meshed (:mod:`psdesign.flow.fem_field`):
+    a grid refined for thin fibers holds at most ``FIELD_MAX_VOXELS`` voxels, the stack
+    included; a grid that cannot be refined within that is meshed as it is (0 here: the spec's
+    grid is counted by :func:`check_grid`)."""
+    from psdesign.flow.fem_field import FIELD_BYTES_PER_VOXEL, FIELD_MAX_VOXELS
+
+    n = math.prod(grid_shape(size, voxel))
+    return FIELD_MAX_VOXELS * FIELD_BYTES_PER_VOXEL if 8 * n <= FIELD_MAX_VOXELS else 0.0
+
+
+def check_fem_field(size: tuple[float, ...], voxel: float, budget: float) -> None:
+    """Refuse an FEM whose own refined field (:func:`fem_field_bytes`) exceeds ``budget``."""
+    need = fem_field_bytes(size, voxel)
+    if need > budget:
+        raise fail(
+            "rve.voxel",
+            f"the FEM's refined field needs about {need / 2**30:.3g} GiB while meshing; the "
+            f"budget is {budget / 2**30:.3g} GiB (half the machine)",
+            "a voxel with 8 or more voxels across the thinnest fiber, or more memory",
+        )
 
 
 def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) -> None:
