@@ -14,11 +14,16 @@ MESH_FORMATS = tuple(WRITERS)  # the export registry
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
+    from psdesign.flow.fem_field import fem_field
     from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.meshing.exports.meshjson import mesh_summary
-    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
+    from psdesign.meshing.options import (
+        MeshOptions,
+        default_lattice_step,
+        thinnest_fiber_diameter,
+    )
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -37,14 +42,17 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     fields = built.voxelize(spec["rve"]["voxel"])
     if args.mesher:
         flow["mesher"] = args.mesher
+    # the FEM's own field (psdesign.flow.fem_field): the mesh the fem route would make
+    own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
+    extra = mesh_overrides(fields)
+    if own.refinement > 1 and flow.get("lattice_step") is None:  # the spec grid's default step
+        extra["lattice_step"] = default_lattice_step(float(fields.grid.spacing[0]), rve.size)
     pm = mesh_pore_space(
-        fields.distance,
-        float(fields.grid.spacing[0]),
+        own.fields.distance,
+        own.voxel,
         rve.size,
         args.direction,
-        MeshOptions.from_flow(
-            flow, fiber_diameter=thinnest_fiber_diameter(rve), **mesh_overrides(fields)
-        ),
+        MeshOptions.from_flow(flow, fiber_diameter=thinnest_fiber_diameter(rve), **extra),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])), flow=flow)
@@ -52,6 +60,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             "direction": args.direction,
             "porosity": fields.porosity,
             "porous_region_m": list(pm.porous_region),
+            "fem_field": own.as_dict(),
             "quality": pm.quality,
             "files": sorted(p.name for p in files.values()),
             "wall_time_s": time.perf_counter() - t0,

@@ -207,12 +207,13 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
     Measured (seed 1, load 11): straight fem/voxel - 1 = -1.13 % through-plane, -0.46 % in x
     (K fem 1.8069e-11, voxel 1.8153e-11); bent -1.31 % through-plane, -0.67 % in x (1.8403e-11,
     1.8526e-11); woven cell (yarns 4.3 um thick: 8.6 voxels at 0.5 um; the FEM samples its own
-    0.5 um field, psdesign.flow.fem_field, at a 1.5 um step, WOVEN_CELL_STEP) -0.72 %
-    through-plane (1.5480e-12, 1.5593e-12), +0.30 % in x (4.0533e-11, 4.0412e-11), load 4,
-    2026-12-01 23:37. Before the FEM sampled its own field it meshed the 1 um grid at 2 um:
-    +1.30 % through-plane (1.5796e-12), +1.83 % in x, a cancellation of the field's error (the
-    yarns' volume under-counted, K +6.7 %) and the lattice's (-5.1 % on the 0.5 um field at
-    2 um)."""
+    0.5 um field, psdesign.flow.fem_field, at a 1.5 um step, WOVEN_CELL_STEP) +0.04 %
+    through-plane (1.5480e-12, 1.5474e-12), +0.16 % in x (4.0533e-11, 4.0469e-11), load 3-4,
+    2026-12-01 23:51-23:55 (the voxel figures of the main at 7a43228; against the earlier
+    1.5593e-12 / 4.0412e-11: -0.72 % / +0.30 %). Before the FEM sampled its own field it meshed
+    the 1 um grid at 2 um: +1.30 % through-plane (1.5796e-12), +1.83 % in x, a cancellation of
+    the field's error (the yarns' volume under-counted, K +6.7 %) and the lattice's (-5.1 % on
+    the 0.5 um field at 2 um)."""
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
@@ -270,7 +271,8 @@ def test_woven_stack_fem_and_voxel_agree():
 def test_woven_stack_same_field_agrees():
     """The periodic woven cell (:func:`periodic_spec`) stacked through the thickness with slip
     sides, both routes on the same 1 um field (FEM 1.6982e-12, voxel 1.7041e-12: -0.35 %, load
-    9, 2026-12-01 18:20). The stack, its seam and the windowed drop are the same in both (the
+    9, 2026-12-01 18:20; at 7a43228 FEM 1.6983e-12, voxel 1.7089e-12: -0.62 %, load 3-4,
+    23:56). The stack, its seam and the windowed drop are the same in both (the
     windowed, plane-window and face drops agree to 1e-4 of the applied drop in each). Against
     the voxel route at 0.5 um (1.5597e-12) neither is resolved on this cell: the 1 um field
     carries the slip walls' and the thin yarns' sampling (docs/solver-agreement.md)."""
