@@ -8,13 +8,18 @@ and matches the mesh volume to the sub-voxel pore volume of the same samples
 (:mod:`psdesign.meshing.pore_volume`, a smoothed step two voxels wide). Both need several voxels
 across a fiber: at 4.3 voxels across the yarns of the 30 um woven cell the volume target puts
 the solid fraction at 0.1075 against 0.1102 at 8.6 and 17 voxels, and the periodic FEM's K moves
-by 6.3 % at the same lattice (``docs/solver-agreement.md``). The geometry is analytic, so the
+by 5.9 % at the same lattice (1.5674e-12 vs 1.4802e-12). The geometry is analytic, so the
 FEM samples it itself: at ``rve.voxel / r`` with the smallest integer ``r`` that gives
 :data:`FIELD_VOXELS_PER_DIAMETER` voxels across the thinnest fiber diameter (yarn width), capped
 at :data:`FIELD_MAX_VOXELS` voxels. A field that is already fine enough is used as it is (the
 mesh is then the one of earlier releases, bit for bit); an image has no analytic geometry and
 keeps its own grid (and the voxel-count volume target, :func:`psdesign.image.fields.
 mesh_overrides`).
+
+What a resolved field still moves (``benchmarks/RESULTS.md``): the woven cell -0.52 % from 8.5
+to 17 voxels per yarn (periodic, 2 um lattice, bar 15 %), the quickstart's RVE -0.26 % from 14
+to 28 voxels per diameter (one-copy permeameter, 3 um lattice; bar about 5 %). A field below
+8 voxels per diameter (the cap, or pytetwild) adds :func:`field_rel_error` to the error bar.
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ FIELD_VOXELS_PER_DIAMETER = 8.0
 #: :data:`FIELD_BYTES_PER_VOXEL` each while meshing): 2^24 voxels, about 1 GB.
 FIELD_MAX_VOXELS = 2**24
 #: Bytes per voxel of the refined field while it is meshed (counted in the up-front estimate,
-#: :func:`psdesign.schema.budget.check_fem`).
+#: :func:`psdesign.schema.budget.check_fem`; measured 50 B per added voxel on the quickstart's
+#: stacked field, ``benchmarks/RESULTS.md``).
 FIELD_BYTES_PER_VOXEL = 60
 
 
@@ -171,7 +177,7 @@ def field_rel_error(distance: np.ndarray, voxel: float) -> float:
     sensitivity of the Kozeny-Carman law, ``|d ln K / d ln s| = 2 + 3 s / (1 - s)``, bounds
     the K error of the target. Measured on the 30 um woven cell at 1 um (4.3 voxels across a
     yarn, periodic FEM, 2 um lattice): solid 0.1075 (two voxels) vs 0.1103 (one voxel; 0.1104
-    by Monte Carlo), term 6.2 %, the K on that field +6.7 % over the one on a 0.5 um field.
+    by Monte Carlo), term 6.0 %, the K on that field +5.9 % over the one on a 0.5 um field.
     Only applied below :data:`FIELD_VOXELS_PER_DIAMETER` voxels per diameter, where the two
     kernels' gap is the field's error and not the narrow kernel's.
     """
