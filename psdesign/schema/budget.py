@@ -172,29 +172,6 @@ def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | Non
     raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
 
 
-def fem_field_bytes(size: tuple[float, ...], voxel: float) -> float:
-    """Peak bytes of the FEM's own field while it is meshed (:mod:`psdesign.flow.fem_field`):
-    a grid refined for thin fibers holds at most ``FIELD_MAX_VOXELS`` voxels, the stack
-    included; a grid that cannot be refined within that is meshed as it is (0 here: the spec's
-    grid is counted by :func:`check_grid`)."""
-    from psdesign.flow.fem_field import FIELD_BYTES_PER_VOXEL, FIELD_MAX_VOXELS
-
-    n = math.prod(grid_shape(size, voxel))
-    return FIELD_MAX_VOXELS * FIELD_BYTES_PER_VOXEL if 8 * n <= FIELD_MAX_VOXELS else 0.0
-
-
-def check_fem_field(size: tuple[float, ...], voxel: float, budget: float) -> None:
-    """Refuse an FEM whose own refined field (:func:`fem_field_bytes`) exceeds ``budget``."""
-    need = fem_field_bytes(size, voxel)
-    if need > budget:
-        raise fail(
-            "rve.voxel",
-            f"the FEM's refined field needs about {need / 2**30:.3g} GiB while meshing; the "
-            f"budget is {budget / 2**30:.3g} GiB (half the machine)",
-            "a voxel with 8 or more voxels across the thinnest fiber, or more memory",
-        )
-
-
 def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) -> None:
     """Refuse a lattice step giving more than ``limit`` cells in the box."""
     n = math.prod(grid_shape(size, step))
@@ -233,4 +210,27 @@ def check_ga(population: int, generations: int, n_fibers: float) -> None:
             f"population {population} x generations {generations} x about {n_fibers:.0f} "
             f"fibers = {work:.3g} fitness terms",
             f"population x generations x fibers <= {MAX_GA_WORK:.0e}",
+        )
+
+
+def fem_field_bytes(size: tuple[float, ...], voxel: float) -> float:
+    """Peak bytes of the FEM's own field while it is meshed (:mod:`psdesign.flow.fem_field`):
+    a grid refined for thin fibers holds at most ``FIELD_MAX_VOXELS`` voxels, the stack
+    included; a grid that cannot be refined within that is meshed as it is (0 here: the spec's
+    grid is counted by :func:`check_grid`)."""
+    from psdesign.flow.fem_field import FIELD_BYTES_PER_VOXEL, FIELD_MAX_VOXELS
+
+    n = math.prod(grid_shape(size, voxel))
+    return FIELD_MAX_VOXELS * FIELD_BYTES_PER_VOXEL if 8 * n <= FIELD_MAX_VOXELS else 0.0
+
+
+def check_fem_field(size: tuple[float, ...], voxel: float, budget: float) -> None:
+    """Refuse an FEM whose own refined field (:func:`fem_field_bytes`) exceeds ``budget``."""
+    need = fem_field_bytes(size, voxel)
+    if need > budget:
+        raise fail(
+            "rve.voxel",
+            f"the FEM's refined field needs about {need / 2**30:.3g} GiB while meshing; the "
+            f"budget is {budget / 2**30:.3g} GiB (half the machine)",
+            "a voxel with 8 or more voxels across the thinnest fiber, or more memory",
         )
