@@ -169,6 +169,13 @@ SPEC_KEYS = [
     "p01_min_dihedral_deg",
     "tetwild_s",
     "wall_time_s",
+    "wall_projection",
+    "n_wall_projected",
+    "n_wall_projection_withdrawn",
+    "wall_phi_p99_before_m",
+    "wall_phi_dev_p99_m",
+    "wall_phi_dev_mean_m",
+    "wall_projection_s",
 ]
 
 
@@ -206,6 +213,8 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
             extra["edge_per_diameter"] = args.edge_diam
         if args.step is not None and mesher == "pytetwild":
             extra["surface_step"] = args.step
+        if args.no_project_walls and mesher == "pytetwild":
+            extra["project_walls"] = False
         if args.lattice_step is not None and mesher == "stuffing":
             extra["lattice_step"] = args.lattice_step
         opts = MeshOptions.from_flow(
@@ -406,6 +415,9 @@ def main() -> None:
         "--lattice-step", type=float, default=None, help="stuffing lattice step (m; --spec)"
     )
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument(
+        "--no-project-walls", action="store_true", help="pytetwild: the old, unprojected walls"
+    )
     ap.add_argument("--timeout", type=float, default=1800)
     args = ap.parse_args()
     if args.single:
