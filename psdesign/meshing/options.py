@@ -106,10 +106,11 @@ class MeshOptions:
     num_threads
         pytetwild threads (0 = all cores).
     project_walls
-        pytetwild: move the fiber-wall vertices onto the zero set of the interpolated field
+        pytetwild: move the curved-wall vertices onto the zero set of the interpolated field
         (the stuffing mesher's :class:`~psdesign.meshing.stuffing.PoreField`) before the
-        volume correction, removing the fTetWild envelope's scatter (default True; False is the
-        old boundary).
+        volume correction, removing the fTetWild envelope's scatter. Off by default: on the
+        Table III RVE it moved K away from the stuffing mesher's (``docs/meshers.md``,
+        session 6).
     tetwild_options
         Extra pytetwild arguments (``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``).
     """
@@ -137,7 +138,7 @@ class MeshOptions:
     simplify_tol: float = 0.0
     aux_edge_factor: float = 1.0
     num_threads: int = 1
-    project_walls: bool = True
+    project_walls: bool = False
     tetwild_options: dict | None = field(default=None, hash=False)
 
     def __post_init__(self) -> None:
