@@ -192,6 +192,12 @@ def tetwild_mesh_size(
     from psdesign.meshing.options import tetwild_mesh_size as estimate
 
     copies, aux = stack_of(flow)
+    if flow.edge_length is not None and flow.edge_length > 1.0:  # the mesher refuses it too
+        raise fail(
+            "flow.edge_length",
+            f"{flow.edge_length:g} of the box diagonal is longer than the box",
+            "(0, 1] with mesher = 'pytetwild'",
+        )
     opts = MeshOptions(
         mesher="pytetwild",
         aux_length=aux,

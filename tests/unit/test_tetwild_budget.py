@@ -81,6 +81,12 @@ def test_too_big_pytetwild_mesh_is_refused_before_any_work(monkeypatch, tmp_path
     coarse["flow"]["edge_length"] = 0.1
     validate_spec(coarse)
 
+    # an edge longer than the box (the mesher's own range, (0, 1] of the diagonal) is refused
+    # up front too, naming the key
+    with pytest.raises(SpecError) as ei:
+        validate_spec({**SPEC, "flow": {**SPEC["flow"], "edge_length": 5.0}})
+    assert ei.value.key == "flow.edge_length"
+
     # the CLI: exit 2, one line naming the key, no placement, no mesh, nothing written
     def boom(*a, **k):
         raise AssertionError("meshed or built although the budget refuses the spec")
