@@ -123,35 +123,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     target = pore_rve + aux_volume - comp["removed_volume"]
     ends = [(axis, surf.rve_lo[axis], snap_tol), (axis, surf.rve_hi[axis], snap_tol)]
     ends = ends if opts.aux_length > 0 else []
-    t = time.perf_counter()
-    field = PoreField(
-        f.closed, f.voxel, f.size, axis, clip=False, offset=(opts.offset or 0.0) / f.scale
+    pts, walls = _fit_walls(
+        f, pts, tets, tags, surf, ends, _MAX_WALL_MOVE_EPS * eps_rel * diag, target, opts, timings
     )
-    proj = {}
-    if opts.project_walls:
-        pts, proj = project_walls(
-            pts,
-            tets,
-            tags[T.WALL],
-            field,
-            surf.lo,
-            surf.hi,
-            ends,
-            _MAX_WALL_MOVE_EPS * eps_rel * diag,
-        )
-    timings["wall_projection_s"] = time.perf_counter() - t
-    t = time.perf_counter()
-    wall_shift, n_frozen = 0.0, 0
-    if opts.match_volume and opts.offset is None:
-        pts, wall_shift, n_frozen = match_wall_volume(
-            pts, tets, tags, surf.lo, surf.hi, target, _MAX_WALL_MOVE_EPS * eps_rel * diag,
-            planes=ends,
-        )  # fmt: skip
-    timings["volume_match_s"] = time.perf_counter() - t
-    # the field at the curved-wall vertices of the final mesh: the walls moved by ``wall_shift``
-    # along their outward normals (into the solid), so on the surface phi = -wall_shift
-    phi_wall = field(pts[curved_wall_vertices(pts, tags[T.WALL], ends)])
-    phi_end, phi_dev = np.abs(phi_wall), np.abs(phi_wall + wall_shift)
     t = time.perf_counter()
     quality = _quality(f, pts, tets, bfaces, tags, comp, surf, target, aux_volume, opts)
     quality.update(
@@ -166,17 +140,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         ),
         epsilon_rel=eps_rel,
         surface_step=int(opts.surface_step),
-        wall_shift_m=wall_shift * f.scale,
-        n_wall_vertices_frozen=n_frozen,
-        wall_projection=bool(opts.project_walls),
-        **{k: v * f.scale if k.endswith("_m") else v for k, v in proj.items()},
-        # |field| at the curved-wall vertices of the final mesh (the common shift included)
-        wall_phi_max_m=float(phi_end.max(initial=0.0)) * f.scale,
-        wall_phi_p99_m=float(np.percentile(phi_end, 99)) * f.scale if len(phi_end) else 0.0,
-        # spread about the common level: the envelope's scatter (about epsilon without the
-        # projection), ~0 with it except for withdrawn vertices
-        wall_phi_dev_p99_m=float(np.percentile(phi_dev, 99)) * f.scale if len(phi_dev) else 0.0,
-        wall_phi_dev_mean_m=float(phi_dev.mean()) * f.scale if len(phi_dev) else 0.0,
+        **walls,
     )
     timings["checks_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
@@ -197,6 +161,47 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     pm.quality["wall_time_s"] = time.perf_counter() - t0
     cache.save(cache_file, pm)
     return pm
+
+
+def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, opts, timings):
+    """Wall projection (``opts.project_walls``) and the common-distance volume correction;
+    returns the moved points and their quality keys (metres). ``timings`` gains
+    ``wall_projection_s`` and ``volume_match_s``. (Ten arguments: :func:`mesh_tetwild`'s
+    intermediate state, passed from its one call site.)"""
+    t = time.perf_counter()
+    field = PoreField(
+        f.closed, f.voxel, f.size, f.axis, clip=False, offset=(opts.offset or 0.0) / f.scale
+    )
+    proj = {}
+    if opts.project_walls:
+        pts, proj = project_walls(pts, tets, tags[T.WALL], field, surf.lo, surf.hi, ends, max_move)
+    timings["wall_projection_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    wall_shift, n_frozen = 0.0, 0
+    if opts.match_volume and opts.offset is None:
+        pts, wall_shift, n_frozen = match_wall_volume(
+            pts, tets, tags, surf.lo, surf.hi, target, max_move, planes=ends
+        )
+    timings["volume_match_s"] = time.perf_counter() - t
+    # the field at the curved-wall vertices of the final mesh: the walls moved by ``wall_shift``
+    # along their outward normals (into the solid), so on the surface phi = -wall_shift
+    phi_wall = field(pts[curved_wall_vertices(pts, tags[T.WALL], ends)])
+    phi_end, phi_dev = np.abs(phi_wall), np.abs(phi_wall + wall_shift)
+    n = len(phi_wall)
+    s = f.scale
+    return pts, {
+        "wall_shift_m": wall_shift * s,
+        "n_wall_vertices_frozen": n_frozen,
+        "wall_projection": bool(opts.project_walls),
+        **{k: v * s if k.endswith("_m") else v for k, v in proj.items()},
+        # |field| at the curved-wall vertices of the final mesh (the common shift included)
+        "wall_phi_max_m": float(phi_end.max(initial=0.0)) * s,
+        "wall_phi_p99_m": float(np.percentile(phi_end, 99)) * s if n else 0.0,
+        # spread about the common level: the envelope's scatter (about epsilon without the
+        # projection), ~0 with it except for withdrawn vertices
+        "wall_phi_dev_p99_m": float(np.percentile(phi_dev, 99)) * s if n else 0.0,
+        "wall_phi_dev_mean_m": float(phi_dev.mean()) * s if n else 0.0,
+    }
 
 
 def _snap_and_clean(pts, tets, surf, axis, snap_tol):
