@@ -28,6 +28,9 @@ Usage::
     # (seed, mesher) appended to a resumable runs file; a re-run only prints the table
     python benchmarks/bench_mesh.py --table --spec studies/table3/straight.toml \
         --seeds 1 2 3 4 5 --out benchmarks/bench_mesh_tetwild_runs.jsonl
+    # the same with the pytetwild walls projected onto the field (session 6)
+    python benchmarks/bench_mesh.py --table --spec studies/table3/straight.toml --seeds 1 2 3 \
+        --project-walls --out benchmarks/bench_mesh_tetwild_runs_s6.jsonl
 """
 
 from __future__ import annotations
@@ -169,6 +172,13 @@ SPEC_KEYS = [
     "p01_min_dihedral_deg",
     "tetwild_s",
     "wall_time_s",
+    "wall_projection",
+    "n_wall_projected",
+    "n_wall_projection_withdrawn",
+    "wall_phi_p99_before_m",
+    "wall_phi_dev_p99_m",
+    "wall_phi_dev_mean_m",
+    "wall_projection_s",
 ]
 
 
@@ -206,6 +216,8 @@ def run_spec(path: str, seed: int, meshers: list[str], size: float | None, args)
             extra["edge_per_diameter"] = args.edge_diam
         if args.step is not None and mesher == "pytetwild":
             extra["surface_step"] = args.step
+        if args.project_walls and mesher == "pytetwild":
+            extra["project_walls"] = True
         if args.lattice_step is not None and mesher == "stuffing":
             extra["lattice_step"] = args.lattice_step
         opts = MeshOptions.from_flow(
@@ -291,6 +303,8 @@ def _spec_cmd(args, seed: int, mesher: str) -> list[str]:
                 cmd += [flag, repr(value)]
         if args.tetwild:
             cmd += ["--tetwild", args.tetwild]
+        if args.project_walls:
+            cmd += ["--project-walls"]
     if mesher == "stuffing" and args.lattice_step is not None:
         cmd += ["--lattice-step", repr(args.lattice_step)]
     return cmd
@@ -320,6 +334,8 @@ def run_table(args) -> None:
                 opts = {"tetwild_options": tw} if tw else {}
                 # the default edge is part of the key: a later default change re-runs
                 opts["edge_per_diameter"] = args.edge_diam or EDGE_PER_DIAMETER
+                if args.project_walls:  # walls projected onto the field (opt-in, session 6)
+                    opts["project_walls"] = True
             elif args.lattice_step is not None:
                 opts = {"lattice_step": args.lattice_step}
             size = args.size if args.size is not None else _spec_size(args.spec)
@@ -406,6 +422,9 @@ def main() -> None:
         "--lattice-step", type=float, default=None, help="stuffing lattice step (m; --spec)"
     )
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument(
+        "--project-walls", action="store_true", help="pytetwild: walls projected onto the field"
+    )
     ap.add_argument("--timeout", type=float, default=1800)
     args = ap.parse_args()
     if args.single:

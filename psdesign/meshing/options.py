@@ -85,13 +85,13 @@ class MeshOptions:
         pytetwild target edge length as a fraction of the box diagonal (auxiliary zones
         included), in (0, 1] (``flow.edge_length``). Default (None): ``edge_per_diameter``
         times ``fiber_diameter`` when that is known, else 0.05 of the diagonal
-        (:func:`psdesign.meshing.tetwild_mesher.target_edge_length`).
+        (:func:`target_edge_length`).
     fiber_diameter
         Thinnest fiber diameter of the RVE in metres, or None (a plain field); sets pytetwild's
         default edge length. The spec routes pass it (:func:`thinnest_fiber_diameter`).
     edge_per_diameter
         pytetwild default edge length in fiber diameters, in (0, 10]; default
-        ``tetwild_mesher.EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
+        ``EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
     epsilon
         pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default half the
         marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``).
@@ -105,6 +105,12 @@ class MeshOptions:
         (1 = uniform, no sizing field).
     num_threads
         pytetwild threads (0 = all cores).
+    project_walls
+        pytetwild: move the curved-wall vertices onto the zero set of the interpolated field
+        (the stuffing mesher's :class:`~psdesign.meshing.stuffing.PoreField`) before the
+        volume correction, removing the fTetWild envelope's scatter. Off by default: on the
+        Table III RVE it moved K away from the stuffing mesher's (``docs/meshers.md``,
+        session 6).
     tetwild_options
         Extra pytetwild arguments (``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``).
     """
@@ -132,6 +138,7 @@ class MeshOptions:
     simplify_tol: float = 0.0
     aux_edge_factor: float = 1.0
     num_threads: int = 1
+    project_walls: bool = False
     tetwild_options: dict | None = field(default=None, hash=False)
 
     def __post_init__(self) -> None:
@@ -184,10 +191,95 @@ class MeshOptions:
         """
         d = dataclasses.asdict(self)
         d.pop("cache_dir")
+        if self.mesher != "pytetwild":
+            d.pop("project_walls")
         if self.mesher != "pytetwild" or self.edge_length is not None or self.edge_length_fac:
             d.pop("fiber_diameter")
             d.pop("edge_per_diameter")
         return d
+
+
+# edge length without a fiber list (a plain field): this fraction of the box diagonal
+DEFAULT_EDGE_FAC = 0.05
+# default edge length in thinnest-fiber diameters (spec routes): the old rule's edge on the 60 um
+# Toray-like cube; at 100 um it reads K 0.50 % above 1.42 D (docs/meshers.md, session 5)
+EDGE_PER_DIAMETER = 0.85
+
+
+def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
+    """pytetwild's target edge length in metres.
+
+    In this order: ``opts.edge_length`` (metres); ``opts.edge_length_fac`` times the diagonal of
+    the meshed box (auxiliary zones included; ``flow.edge_length``); ``edge_per_diameter``
+    (default :data:`EDGE_PER_DIAMETER`) times ``opts.fiber_diameter``, the thinnest fiber
+    (the default on the spec routes); else :data:`DEFAULT_EDGE_FAC` of the diagonal (a plain
+    field with no fiber list).
+
+    Parameters
+    ----------
+    size
+        RVE edge lengths (m).
+    axis
+        Flow axis (0, 1, 2): the auxiliary zones extend the box along it.
+    opts
+        Mesher options.
+
+    Returns
+    -------
+    float
+        Target edge length (m).
+    """
+    if opts.edge_length is not None:
+        return float(opts.edge_length)
+    ext = np.asarray(size, dtype=float).copy()
+    ext[axis] *= 1.0 + 2.0 * opts.aux_length
+    diag = float(np.linalg.norm(ext))
+    if opts.edge_length_fac is not None:
+        return opts.edge_length_fac * diag
+    if opts.fiber_diameter is not None:
+        per_d = opts.edge_per_diameter if opts.edge_per_diameter is not None else EDGE_PER_DIAMETER
+        return per_d * opts.fiber_diameter
+    return DEFAULT_EDGE_FAC * diag
+
+
+#: pytetwild tets per target-edge cube of meshed box (RVE copies plus auxiliary zones), at the
+#: default edge: the five Table III straight seeds at 0.85 D (188-194 k tets in a 100 x 100 x
+#: 140 um box, 5.95 um edge) give 28.2-29.1; rounded up. The count grows more slowly than
+#: edge^-3 (the envelope refines the walls): at 1.42 D one seed gave 58, so coarser edges scale
+#: with :data:`TETWILD_COARSE_EXPONENT` (docs/meshers.md, session 6).
+TETWILD_TETS_PER_EDGE_CUBE = 30.0
+#: n_tets ~ edge^-(3 - TETWILD_COARSE_EXPONENT) above the default edge (82 k at 9.95 um, 193 k
+#: at 5.95 um: exponent 1.66, so 1.34 here, rounded up to 1.4).
+TETWILD_COARSE_EXPONENT = 1.4
+#: Vertices per tet of a pytetwild mesh (0.227-0.233 on the five seeds).
+TETWILD_POINTS_PER_TET = 0.24
+
+
+def tetwild_mesh_size(box_volume: float, edge: float, fiber_diameter: float | None):
+    """Estimated ``(n_points, n_tets)`` of a pytetwild mesh before meshing.
+
+    ``TETWILD_TETS_PER_EDGE_CUBE * box_volume / edge^3``, times
+    ``(edge / (EDGE_PER_DIAMETER * D))^TETWILD_COARSE_EXPONENT`` for an edge coarser than the
+    default one (``fiber_diameter`` D known).
+
+    Parameters
+    ----------
+    box_volume
+        Meshed volume in m^3 (every RVE copy plus the auxiliary zones).
+    edge
+        Target edge length in metres (:func:`target_edge_length`).
+    fiber_diameter
+        Thinnest fiber diameter in metres, or None.
+
+    Returns
+    -------
+    tuple of float
+        Vertices and tets.
+    """
+    tets = TETWILD_TETS_PER_EDGE_CUBE * box_volume / edge**3
+    if fiber_diameter:
+        tets *= max(1.0, edge / (EDGE_PER_DIAMETER * fiber_diameter)) ** TETWILD_COARSE_EXPONENT
+    return TETWILD_POINTS_PER_TET * tets, tets
 
 
 def mesher_options(flow: dict) -> dict:

@@ -28,8 +28,14 @@ from psdesign.meshing.checks import (
     restore_planes,
 )
 from psdesign.meshing.inputs import ScaledField, scaled_field
-from psdesign.meshing.options import MeshOptions
+from psdesign.meshing.options import (  # the edge rule's names, re-exported here
+    DEFAULT_EDGE_FAC,  # noqa: F401
+    EDGE_PER_DIAMETER,  # noqa: F401
+    MeshOptions,
+    target_edge_length,
+)
 from psdesign.meshing.result import PoreMesh
+from psdesign.meshing.stuffing import PoreField
 from psdesign.meshing.surface import pore_surface
 from psdesign.meshing.tetra import (
     aux_sizing_field,
@@ -51,47 +57,7 @@ _MAX_WALL_MOVE_EPS = 2.0  # the volume correction moves walls by at most this ma
 # Toray-like seeds, benchmarks/RESULTS.md "pytetwild ... seeds 1-5")
 _MAX_FREEZE_ROUNDS = 12
 _MAX_DROPPED_INVERTED = 20  # inverted slivers left after untangling that may be dropped
-# edge length without a fiber list (a plain field): this fraction of the box diagonal
-DEFAULT_EDGE_FAC = 0.05
-# default edge length in thinnest-fiber diameters (spec routes): the old rule's edge on the 60 um
-# Toray-like cube; at 100 um it reads K 0.50 % above 1.42 D (docs/meshers.md, session 5)
-EDGE_PER_DIAMETER = 0.85
-
-
-def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
-    """pytetwild's target edge length in metres.
-
-    In this order: ``opts.edge_length`` (metres); ``opts.edge_length_fac`` times the diagonal of
-    the meshed box (auxiliary zones included; ``flow.edge_length``); ``edge_per_diameter``
-    (default :data:`EDGE_PER_DIAMETER`) times ``opts.fiber_diameter``, the thinnest fiber
-    (the default on the spec routes); else :data:`DEFAULT_EDGE_FAC` of the diagonal (a plain
-    field with no fiber list).
-
-    Parameters
-    ----------
-    size
-        RVE edge lengths (m).
-    axis
-        Flow axis (0, 1, 2): the auxiliary zones extend the box along it.
-    opts
-        Mesher options.
-
-    Returns
-    -------
-    float
-        Target edge length (m).
-    """
-    if opts.edge_length is not None:
-        return float(opts.edge_length)
-    ext = np.asarray(size, dtype=float).copy()
-    ext[axis] *= 1.0 + 2.0 * opts.aux_length
-    diag = float(np.linalg.norm(ext))
-    if opts.edge_length_fac is not None:
-        return opts.edge_length_fac * diag
-    if opts.fiber_diameter is not None:
-        per_d = opts.edge_per_diameter if opts.edge_per_diameter is not None else EDGE_PER_DIAMETER
-        return per_d * opts.fiber_diameter
-    return DEFAULT_EDGE_FAC * diag
+_WALL_NEWTON_STEPS = 3  # Newton steps of the wall projection onto the field's zero set
 
 
 def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOptions) -> int:
@@ -155,15 +121,11 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     aux_volume = float(np.prod(surf.hi - surf.lo)) - f.rve_volume
     pore_rve = f.analytic_closed if opts.volume_target == "analytic" else f.voxel_rve
     target = pore_rve + aux_volume - comp["removed_volume"]
-    t = time.perf_counter()
-    wall_shift, n_frozen = 0.0, 0
-    if opts.match_volume and opts.offset is None:
-        ends = [(axis, surf.rve_lo[axis], snap_tol), (axis, surf.rve_hi[axis], snap_tol)]
-        pts, wall_shift, n_frozen = match_wall_volume(
-            pts, tets, tags, surf.lo, surf.hi, target, _MAX_WALL_MOVE_EPS * eps_rel * diag,
-            planes=ends if opts.aux_length > 0 else (),
-        )  # fmt: skip
-    timings["volume_match_s"] = time.perf_counter() - t
+    ends = [(axis, surf.rve_lo[axis], snap_tol), (axis, surf.rve_hi[axis], snap_tol)]
+    ends = ends if opts.aux_length > 0 else []
+    pts, walls = _fit_walls(
+        f, pts, tets, tags, surf, ends, _MAX_WALL_MOVE_EPS * eps_rel * diag, target, opts, timings
+    )
     t = time.perf_counter()
     quality = _quality(f, pts, tets, bfaces, tags, comp, surf, target, aux_volume, opts)
     quality.update(
@@ -178,8 +140,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         ),
         epsilon_rel=eps_rel,
         surface_step=int(opts.surface_step),
-        wall_shift_m=wall_shift * f.scale,
-        n_wall_vertices_frozen=n_frozen,
+        **walls,
     )
     timings["checks_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
@@ -200,6 +161,47 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     pm.quality["wall_time_s"] = time.perf_counter() - t0
     cache.save(cache_file, pm)
     return pm
+
+
+def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, opts, timings):
+    """Wall projection (``opts.project_walls``) and the common-distance volume correction;
+    returns the moved points and their quality keys (metres). ``timings`` gains
+    ``wall_projection_s`` and ``volume_match_s``. (Ten arguments: :func:`mesh_tetwild`'s
+    intermediate state, passed from its one call site.)"""
+    t = time.perf_counter()
+    field = PoreField(
+        f.closed, f.voxel, f.size, f.axis, clip=False, offset=(opts.offset or 0.0) / f.scale
+    )
+    proj = {}
+    if opts.project_walls:
+        pts, proj = project_walls(pts, tets, tags[T.WALL], field, surf.lo, surf.hi, ends, max_move)
+    timings["wall_projection_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    wall_shift, n_frozen = 0.0, 0
+    if opts.match_volume and opts.offset is None:
+        pts, wall_shift, n_frozen = match_wall_volume(
+            pts, tets, tags, surf.lo, surf.hi, target, max_move, planes=ends
+        )
+    timings["volume_match_s"] = time.perf_counter() - t
+    # the field at the curved-wall vertices of the final mesh: the walls moved by ``wall_shift``
+    # along their outward normals (into the solid), so on the surface phi = -wall_shift
+    phi_wall = field(pts[curved_wall_vertices(pts, tags[T.WALL], ends)])
+    phi_end, phi_dev = np.abs(phi_wall), np.abs(phi_wall + wall_shift)
+    n = len(phi_wall)
+    s = f.scale
+    return pts, {
+        "wall_shift_m": wall_shift * s,
+        "n_wall_vertices_frozen": n_frozen,
+        "wall_projection": bool(opts.project_walls),
+        **{k: v * s if k.endswith("_m") else v for k, v in proj.items()},
+        # |field| at the curved-wall vertices of the final mesh (the common shift included)
+        "wall_phi_max_m": float(phi_end.max(initial=0.0)) * s,
+        "wall_phi_p99_m": float(np.percentile(phi_end, 99)) * s if n else 0.0,
+        # spread about the common level: the envelope's scatter (about epsilon without the
+        # projection), ~0 with it except for withdrawn vertices
+        "wall_phi_dev_p99_m": float(np.percentile(phi_dev, 99)) * s if n else 0.0,
+        "wall_phi_dev_mean_m": float(phi_dev.mean()) * s if n else 0.0,
+    }
 
 
 def _snap_and_clean(pts, tets, surf, axis, snap_tol):
@@ -244,6 +246,87 @@ def drop_slivers(pts, tets, lo, hi):
             remap[used] = np.arange(len(used))
             pts, tets = pts[used], remap[tets]
     return pts, tets, int(flat.sum()) - n_inv, n_inv
+
+
+def curved_wall_vertices(pts, wall, planes=()) -> np.ndarray:
+    """Vertices of the wall facets that are not fiber end caps (not all three vertices within
+    tolerance of one of ``planes``): the vertices that lie on the fibers' curved surface."""
+    cap = np.zeros(len(wall), dtype=bool)
+    for ax, c, tol in planes:
+        cap |= (np.abs(pts[wall, ax] - c) <= tol).all(axis=1)
+    return np.unique(wall[~cap])
+
+
+def _field_gradient(field: PoreField, x: np.ndarray) -> np.ndarray:
+    """Central-difference gradient of ``field`` at ``x`` (step a quarter voxel)."""
+    h = 0.25 * field.voxel
+    g = np.empty_like(x)
+    for ax in range(3):
+        e = np.zeros(3)
+        e[ax] = h
+        g[:, ax] = (field(x + e) - field(x - e)) / (2.0 * h)
+    return g
+
+
+def project_walls(pts, tets, wall, field: PoreField, lo, hi, planes, max_move):
+    """Move the curved-wall vertices onto the zero set of ``field`` (Newton along its gradient).
+
+    fTetWild leaves its boundary anywhere within its envelope of the input surface; this puts
+    every vertex of a curved wall facet (:func:`curved_wall_vertices`) on the interpolated
+    surface the stuffing mesher meshes too. Vertices on a box plane or an RVE end plane
+    (``planes``: (axis, coordinate, tolerance)) move within it; moves are capped at
+    ``max_move``; moves that would invert a tet (or make it 10x smaller) are withdrawn, in
+    rounds, vertex by vertex. The pore volume is corrected afterwards
+    (:func:`match_wall_volume`).
+
+    Returns
+    -------
+    points, report
+        The moved copy and a dict: ``n_wall_projected``, ``n_wall_projection_withdrawn``,
+        ``wall_phi_max_before_m`` / ``wall_phi_p99_before_m`` (|field| at those vertices
+        before, in the caller's units; the keys' ``_m`` is the mesher's metre conversion).
+    """
+    verts = curved_wall_vertices(pts, wall, planes)
+    x0 = pts[verts]
+    free = np.ones_like(x0)
+    for ax in range(3):
+        free[(x0[:, ax] == lo[ax]) | (x0[:, ax] == hi[ax]), ax] = 0.0
+    for ax, c, tol in planes:
+        free[np.abs(x0[:, ax] - c) <= tol, ax] = 0.0
+    phi0 = field(x0)
+    x = x0.copy()
+    for _ in range(_WALL_NEWTON_STEPS):
+        g = _field_gradient(field, x) * free
+        g2 = np.einsum("ij,ij->i", g, g)
+        ok = g2 > 0.01  # |grad d| ~ 1; flat spots (ridges between fibers) are left alone
+        x[ok] -= (field(x[ok]) / g2[ok])[:, None] * g[ok]
+    step = x - x0
+    ln = np.linalg.norm(step, axis=1)
+    far = ln > max_move
+    step[far] *= (max_move / ln[far])[:, None]
+    move = np.ones(len(verts), dtype=bool)
+    pos = np.full(len(pts), -1, dtype=np.int64)
+    pos[verts] = np.arange(len(verts))
+    touched = (pos[tets] >= 0).any(axis=1)
+    vol0 = tet_volumes(pts, tets[touched])
+    out = pts.copy()
+    while True:
+        out[verts] = x0 + step * move[:, None]
+        bad = tet_volumes(out, tets[touched]) < 0.1 * vol0
+        if not bad.any():
+            break
+        back = pos[tets[touched][bad]]
+        back = back[back >= 0]
+        if not move[back].any():  # crushed already before the move
+            break
+        move[back] = False
+    a0 = np.abs(phi0)
+    return out, {
+        "n_wall_projected": int(move.sum()),
+        "n_wall_projection_withdrawn": int((~move).sum()),
+        "wall_phi_max_before_m": float(a0.max(initial=0.0)),
+        "wall_phi_p99_before_m": float(np.percentile(a0, 99)) if len(a0) else 0.0,
+    }
 
 
 def wall_normals(pts, wall, lo, hi, planes=()) -> tuple[np.ndarray, np.ndarray]:

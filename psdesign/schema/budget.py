@@ -141,12 +141,23 @@ def fem_mesh_size(
     return POINTS_PER_PORE_CELL * pore, TETS_PER_PORE_CELL * pore
 
 
-def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | None) -> None:
+def check_fem(
+    size: tuple[float, ...],
+    voxel: float,
+    flow,
+    porosity: float | None,
+    fiber_diameter: float | None = None,
+) -> None:
     """Refuse an FEM solve whose estimated memory (:func:`solvers.fem.memory.estimate_memory_gb`
     of :func:`fem_mesh_size`, the stack included) exceeds the budget; ``porosity`` None counts
-    every lattice cell as pore."""
+    every lattice cell as pore. With ``flow.mesher = "pytetwild"`` the mesh is
+    :func:`tetwild_mesh_size` instead (``fiber_diameter``: the thinnest, in metres, or None)."""
     from psdesign.meshing.options import default_lattice_step
     from solvers.fem.memory import estimate_memory_gb
+
+    if getattr(flow, "mesher", "stuffing") == "pytetwild":
+        check_tetwild(size, flow, fiber_diameter)
+        return
 
     step = flow.lattice_step if flow.lattice_step is not None else default_lattice_step(voxel, size)
     copies, aux = stack_of(flow)
@@ -170,6 +181,55 @@ def check_fem(size: tuple[float, ...], voxel: float, flow, porosity: float | Non
     if copies > 1 and need(1) <= budget:
         raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
     raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
+
+
+def tetwild_mesh_size(
+    size: tuple[float, ...], flow, fiber_diameter: float | None
+) -> tuple[float, float, float]:
+    """``(n_points, n_tets, edge)`` of the pytetwild mesh of a spec
+    (:func:`psdesign.meshing.options.tetwild_mesh_size` of the box with the stack and its
+    reservoirs, :func:`~psdesign.meshing.options.target_edge_length`, the shortest edge over
+    the possible flow axes when ``flow.direction`` is not given)."""
+    from psdesign.meshing.options import MeshOptions, target_edge_length
+    from psdesign.meshing.options import tetwild_mesh_size as estimate
+
+    copies, aux = stack_of(flow)
+    if flow.edge_length is not None and flow.edge_length > 1.0:  # the mesher refuses it too
+        raise fail(
+            "flow.edge_length",
+            f"{flow.edge_length:g} of the box diagonal is longer than the box",
+            "(0, 1] with mesher = 'pytetwild'",
+        )
+    opts = MeshOptions(
+        mesher="pytetwild",
+        aux_length=aux,
+        edge_length_fac=flow.edge_length,
+        fiber_diameter=fiber_diameter,
+    )
+    axes = ["xyz".index(flow.direction)] if flow.direction else range(3)
+    edge = min(target_edge_length(size, a, opts) for a in axes)
+    pts, tets = estimate(math.prod(size) * (copies + 2.0 * aux), edge, fiber_diameter)
+    return pts, tets, edge
+
+
+def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -> None:
+    """Refuse a pytetwild FEM solve whose estimated memory (:func:`tetwild_mesh_size`,
+    :func:`solvers.fem.memory.estimate_memory_gb`) exceeds the budget, before any meshing."""
+    from solvers.fem.memory import estimate_memory_gb
+
+    pts, tets, edge = tetwild_mesh_size(size, flow, fiber_diameter)
+    total = estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
+    budget = MEMORY_FRACTION * machine_memory()
+    if total <= budget:
+        return
+    raise fail(
+        "flow.edge_length",
+        f"the pytetwild mesh of about {tets:.3g} tets (edge {edge:.3g} m) needs about "
+        f"{total / 2**30:.3g} GiB in the FEM; the budget is {budget / 2**30:.3g} GiB (half the "
+        "machine)",
+        f"an edge about {(total / budget) ** (1 / 3):.2g} x longer, mesher = 'stuffing', or a "
+        "smaller rve.size",
+    )
 
 
 def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) -> None:

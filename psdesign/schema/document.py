@@ -104,7 +104,7 @@ class SpecDocument(Table):
             )
         if self.flow.solver == "fem":
             porosity = self.generator.porosity if self.generator is not None else None
-            budget.check_fem(size, voxel, self.flow, porosity)
+            budget.check_fem(size, voxel, self.flow, porosity, self._thinnest_diameter())
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -170,6 +170,18 @@ class SpecDocument(Table):
             raise fail(
                 f"image.{which}", "no voxel is solid", "a label or threshold that marks the solid"
             )
+
+    def _thinnest_diameter(self) -> float | None:
+        """Thinnest fiber diameter in metres (explicit rods, the generator's lower bound), or
+        None (pytetwild's default edge follows it: the budget's mesh estimate)."""
+        diam = [
+            float(fb.diameter)
+            for fb in self.fibers
+            if fb.diameter is not None and fb.shape in ("rod", "cylinder", "bent-rod")
+        ]
+        if self.generator is not None:
+            diam.append(float(support(self.generator.diameter)[0]))
+        return min(diam) if diam else None
 
     def _check_fibers(self, size, voxel: float, period: float) -> None:
         if len(self.fibers) > budget.MAX_EXPLICIT_FIBERS:

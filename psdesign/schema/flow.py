@@ -81,7 +81,8 @@ class FlowTable(Table):
     edge_length: number(ge=0.005, le=10) | None = Field(
         None,
         description="pytetwild edge length, fraction of the box diagonal in [0.005, 10] "
-        "(default 0.85 thinnest-fiber diameters)",
+        "(default 0.85 thinnest-fiber diameters); at most 1 with pytetwild, its mesh within the "
+        "memory budget",
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None, description="fem solver memory cap, GB in (0, 1e5]"
