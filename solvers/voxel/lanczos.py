@@ -20,8 +20,8 @@ The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil
 here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
 walls; both also take :func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are
 the same expressions as in :func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
-numba's on-disk cache of this module does not see a change of those inlined helpers: edit this
-file too when they change (its stamp keys the cache).
+A change to those inlined helpers recompiles this module's kernels: the numba cache stamps
+cover the imported project modules (:class:`solvers.jit.DependencyLocator`).
 """
 
 from __future__ import annotations
