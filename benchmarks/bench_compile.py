@@ -4,11 +4,17 @@
 Usage::
 
     python benchmarks/bench_compile.py serial|parallel [--out FILE.json]
+    python benchmarks/bench_compile.py speed OLD_TREE [--sizes 100 200] [--its 10] [--reps 2]
 
 Set ``NUMBA_CACHE_DIR`` to an empty directory first (the script refuses a non-empty one unless
 ``--allow-warm``).  Prints one line per (kernel, signature): exclusive seconds (its own compile,
 without nested compiles of the jitted helpers it calls), inclusive seconds, and the totals with
 the process CPU time.
+
+``speed``: CPU ms per MINRES iteration of this tree and of ``OLD_TREE`` (a checkout of another
+commit) side by side, one thread, alternating, each run in its own process
+(``voxel_iteration_cost.py profile N ITS`` of each tree, with its own numba cache dir under
+``OLD_TREE/../numba_cache_{old,new}``: warmed by a first untimed run), and the ratio new / old.
 """
 
 from __future__ import annotations
@@ -16,7 +22,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import resource
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -70,7 +78,57 @@ def profile(mode: str) -> dict:
     }
 
 
+_ITER = re.compile(r"one MINRES iteration ([0-9.]+) ms CPU")
+
+
+def _iteration_ms(tree: Path, cache: Path, n: int, its: int) -> float:
+    """CPU ms per MINRES iteration of ``tree``'s solver at ``n^3`` (one thread, own process)."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache)}
+    env.update(NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    script = tree / "benchmarks" / "voxel_iteration_cost.py"
+    out = subprocess.run(
+        [sys.executable, str(script), "profile", str(n), str(its)],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    return float(_ITER.search(out).group(1))
+
+
+def speed(old: Path, sizes: list[int], its: int, reps: int) -> None:
+    """Side-by-side iteration cost of this tree vs ``old`` (see the module docstring)."""
+    new = Path(__file__).resolve().parents[1]
+    trees = {"old": old.resolve(), "new": new}
+    caches = {k: old.resolve().parent / f"numba_cache_{k}" for k in trees}
+    for k, tree in trees.items():  # compile (or load) outside the timings
+        caches[k].mkdir(exist_ok=True)
+        _iteration_ms(tree, caches[k], 24, 2)
+    for n in sizes:
+        ms: dict[str, list[float]] = {"old": [], "new": []}
+        for _ in range(reps):
+            for k, tree in trees.items():
+                ms[k].append(_iteration_ms(tree, caches[k], n, its))
+        best = {k: min(v) for k, v in ms.items()}
+        print(
+            f"{n}^3, one thread, {its} iterations x {reps}: old {ms['old']} ms, new {ms['new']} "
+            f"ms CPU per iteration; best new / old = {best['new'] / best['old']:.3f}; "
+            f"load {os.getloadavg()[0]:.1f}",
+            flush=True,
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "speed":
+        sp = argparse.ArgumentParser(description="side-by-side iteration cost")
+        sp.add_argument("old", type=Path)
+        sp.add_argument("--sizes", type=int, nargs="+", default=[100, 200])
+        sp.add_argument("--its", type=int, default=10)
+        sp.add_argument("--reps", type=int, default=2)
+        a = sp.parse_args(argv[1:])
+        speed(a.old, a.sizes, a.its, a.reps)
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("mode", choices=("serial", "parallel"))
     ap.add_argument("--out", type=Path, default=None)
