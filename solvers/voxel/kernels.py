@@ -140,18 +140,6 @@ def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
 
 
 @nb.njit(inline="always")
-def _coupling_rows(d, cx, cy, cz, i, j, ip, jp):
-    """The coupling rows :func:`_stencil_rows` reads for row ``(i, j)``: ``cx[i, j], cx[ip, j],
-    cy[i, j], cy[i, jp], cz[i, j]``, or five times the row of ones of :func:`unit_couplings`.
-    Choosing the rows first keeps one inlined copy of the stencil for both (half the IR numba
-    compiles; the same arithmetic)."""
-    if _unit(d, cx):
-        one = cx[0, 0]
-        return one, one, one, one, one
-    return cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j]
-
-
-@nb.njit(inline="always")
 def _apply_row(d, cx, cy, cz, x, i, j, out):
     """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k
     (:func:`_stencil_rows` on the row views of ``x`` around row ``(i, j)``)."""
@@ -160,10 +148,17 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
     im = _dn(i, nx)
     jp = _up(j, ny)
     jm = _dn(j, ny)
-    cxr, cxp, cyr, cyp, czr = _coupling_rows(d, cx, cy, cz, i, j, ip, jp)
+    if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours (a separate copy:
+        # LLVM then loads the coupling once for all six terms; 1.1-1.25x faster than one copy)
+        one = cx[0, 0]
+        _stencil_rows(
+            d[i, j], one, one, one, one, one, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
+        )
+        return
     _stencil_rows(
-        d[i, j], cxr, cxp, cyr, cyp, czr, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
-    )
+        d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+        x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
+    )  # fmt: skip
 
 
 @nb.njit(inline="always")
@@ -310,8 +305,16 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
     for j in range(ny):
         jp = _up(j, ny)
         jm = _dn(j, ny)
-        cxr, cxp, cyr, cyp, czr = _coupling_rows(d, cx, cy, cz, i, j, ip, jp)
-        _stencil_rows(d[i, j], cxr, cxp, cyr, cyp, czr, p0[j], pm[j], pp[j], p0[jm], p0[jp], row)
+        if _unit(d, cx):  # unit_couplings (a separate copy, as in _apply_row)
+            one = cx[0, 0]
+            _stencil_rows(
+                d[i, j], one, one, one, one, one, p0[j], pm[j], pp[j], p0[jm], p0[jp], row
+            )
+        else:
+            _stencil_rows(
+                d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+                p0[j], pm[j], pp[j], p0[jm], p0[jp], row,
+            )  # fmt: skip
         s += _jacobi_row(d[i, j], p0[j], b[i, j], row, omega, xnew[i, j])
     return s
 

@@ -30,7 +30,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
-from solvers.voxel.kernels import _coupling_rows, _dn, _momentum_row_w, _stencil_rows, _up
+from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -66,11 +66,17 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     nx, ny, nz = d.shape
     ip = _up(i, nx)
     jp = _up(j, ny)
-    cxr, cxp, cyr, cyp, czr = _coupling_rows(d, c[0], c[1], c[2], i, j, ip, jp)
-    _stencil_rows(
-        d[i, j], cxr, cxp, cyr, cyp, czr,
-        q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
-    )  # fmt: skip
+    if _unit(d, c[0]):  # kernels.unit_couplings: one row of ones for all six neighbours
+        one = c[0][0, 0]
+        _stencil_rows(
+            d[i, j], one, one, one, one, one,
+            q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
+        )  # fmt: skip
+    else:
+        _stencil_rows(
+            d[i, j], c[0][i, j], c[0][ip, j], c[1][i, j], c[1][i, jp], c[2][i, j],
+            q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
+        )  # fmt: skip
     dr = d[i, j]
     xr = q[i, j]
     acc = 0.0
