@@ -5,6 +5,7 @@ Usage::
 
     python benchmarks/bench_compile.py serial|parallel [--out FILE.json]
     python benchmarks/bench_compile.py speed OLD_TREE [--sizes 100 200] [--its 10] [--reps 2]
+    python benchmarks/bench_compile.py kernels REV N [REPS]
 
 Set ``NUMBA_CACHE_DIR`` to an empty directory first (the script refuses a non-empty one unless
 ``--allow-warm``).  Prints one line per (kernel, signature): exclusive seconds (its own compile,
@@ -15,6 +16,13 @@ the process CPU time.
 commit) side by side, one thread, alternating, each run in its own process
 (``voxel_iteration_cost.py profile N ITS`` of each tree, with its own numba cache dir under
 ``OLD_TREE/../numba_cache_{old,new}``: warmed by a first untimed run), and the ratio new / old.
+Under load it is noisy (separate processes; kernels that did not change differed by 10-20 %).
+
+``kernels``: the finest-level multigrid kernels and ``stokes_lanczos`` of git revision ``REV``
+(its ``kernels.py`` and ``lanczos.py``, imported as copies) and of this tree in one process, on
+the same arrays of the Toray-like ``N^3`` staircase operator, serial twins (set
+``NUMBA_NUM_THREADS=1``), timed interleaved; checks that both give bitwise the same output and
+prints best and median ratios new / old.
 """
 
 from __future__ import annotations
@@ -118,8 +126,106 @@ def speed(old: Path, sizes: list[int], its: int, reps: int) -> None:
         )
 
 
+def _old_modules(rev: str):
+    """Import ``solvers/voxel/kernels.py`` and ``lanczos.py`` of git revision ``rev`` as the
+    modules ``old_kernels`` and ``old_lanczos`` (copies in a temporary directory)."""
+    import importlib
+    import tempfile
+
+    repo = Path(__file__).resolve().parents[1]
+    tmp = Path(tempfile.mkdtemp(prefix="old_kernels_"))
+
+    def show(path: str) -> str:
+        return subprocess.run(
+            ["git", "-C", str(repo), "show", f"{rev}:{path}"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+
+    (tmp / "old_kernels.py").write_text(show("solvers/voxel/kernels.py"))
+    lz_src = show("solvers/voxel/lanczos.py").replace(
+        "from solvers.voxel.kernels import", "from old_kernels import"
+    )
+    (tmp / "old_lanczos.py").write_text(lz_src)
+    sys.path.insert(0, str(tmp))
+    return importlib.import_module("old_kernels"), importlib.import_module("old_lanczos")
+
+
+def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
+    """See the module docstring (``kernels``)."""
+    import numpy as np
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    import bench_voxel_scale as scale
+
+    import solvers.voxel_stokes as vs
+    from solvers.voxel import kernels as kr
+    from solvers.voxel import lanczos as lz
+
+    ok, ol = _old_modules(rev)
+    op = vs._Stokes.build(scale._box(n)[0])
+    l0, l1 = op.mg[0].levels[0], op.mg[0].levels[1]
+    rng = np.random.default_rng(0)
+    b, x = (rng.standard_normal(l0.d.shape).astype(np.float32) for _ in range(2))
+    xc = rng.standard_normal(l1.d.shape).astype(np.float32)
+    big_x, big_y = (rng.standard_normal(op.shape).astype(np.float32) for _ in range(2))
+    c = l0.c
+
+    def cases(m, mz, out, rc, y):
+        return {
+            "jacobi": lambda: (m.jacobi.serial(l0.d, *c, x, b, out, 0.9), out),
+            "jacobi2_zero": lambda: (m.jacobi2_zero.serial(l0.d, *c, b, out, 0.9, 1), out),
+            "prolong_jacobi": lambda: (
+                m.prolong_jacobi.serial(l0.d, *c, x, xc, *l0.f, 1.6, b, out, 0.9, 1),
+                out,
+            ),
+            "residual_restrict": lambda: (
+                m.residual_restrict.serial(l0.d, *c, x, b, *l0.f, rc),
+                rc,
+            ),
+            "stokes_lanczos": lambda: (
+                mz.stokes_lanczos.serial(*op.d, *op.c, op.fluid, big_x, 0.7, 0.3, y),
+                y,
+            ),
+        }
+
+    runs, ys = {}, {}
+    for key, (m, mz) in {"old": (ok, ol), "new": (kr, lz)}.items():
+        ys[key] = big_y.copy()
+        runs[key] = cases(m, mz, np.zeros_like(x), np.zeros(l1.d.shape, np.float32), ys[key])
+    for name in runs["old"]:
+        outs = []
+        for key in ("old", "new"):
+            ys[key][...] = big_y  # the same input for both
+            r, arr = runs[key][name]()
+            outs.append((r, arr.copy()))
+        same = outs[0][0] == outs[1][0] and np.array_equal(outs[0][1], outs[1][1])
+        print(f"{name}: old and new bitwise equal: {same}", flush=True)
+    tim = {name: {"old": [], "new": []} for name in runs["old"]}
+    for _ in range(reps):
+        for name in tim:
+            for key in ("old", "new"):
+                t = time.process_time()
+                for _ in range(3):
+                    runs[key][name]()
+                tim[name][key].append((time.process_time() - t) / 3 * 1e3)
+    for name, t in tim.items():
+        bo, bn = min(t["old"]), min(t["new"])
+        med = float(np.median(t["new"]) / np.median(t["old"]))
+        print(
+            f"{n}^3 {name:18s} old {bo:7.2f} ms  new {bn:7.2f} ms (best of {reps}): "
+            f"new / old {bn / bo:.3f} best, {med:.3f} median",
+            flush=True,
+        )
+    print(f"load {os.getloadavg()[0]:.1f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "kernels":
+        kernels_side_by_side(argv[1], int(argv[2]), int(argv[3]) if len(argv) > 3 else 7)
+        return 0
     if argv and argv[0] == "speed":
         sp = argparse.ArgumentParser(description="side-by-side iteration cost")
         sp.add_argument("old", type=Path)

@@ -149,7 +149,7 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
     jp = _up(j, ny)
     jm = _dn(j, ny)
     if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours (a separate copy:
-        # LLVM then loads the coupling once for all six terms; 1.1-1.25x faster than one copy)
+        # one copy shared with the real couplings ran 1.09-1.7x slower, benchmarks/RESULTS.md)
         one = cx[0, 0]
         _stencil_rows(
             d[i, j], one, one, one, one, one, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
