@@ -28,14 +28,19 @@ import numpy as np
 from solvers.jit import parallel_kernel
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
-"""Options of every kernel.  The big kernels are split in two: a serial ``@njit(**_OPTS)`` *slab*
-function (one iteration of the outer loop: an x-plane, a coarse x-plane or a chunk of planes,
-with every row helper inlined into it) and the :func:`~solvers.jit.parallel_kernel` that loops
-over the slabs (``prange``).  numba's parfor passes then see a loop of a few statements instead
-of the whole inlined body (they cost 2-3 times the serial compile of what they see), and the
-parallel kernel and its serial twin call the same compiled slab: each row body is compiled once
-per signature instead of twice (the loop index is passed as ``np.int64``: a ``prange`` index is
-unsigned, a ``range`` index signed, which would be two signatures)."""
+"""Options of every kernel.  The big Stokes kernels (``stokes_apply(_w)``, ``_stokes_residual``,
+``stokes_lanczos(_w)`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
+serial ``@njit(**_OPTS)`` *slab* function (one iteration of the outer loop, an x-plane or a
+coarse x-plane, with every row helper inlined into it) and the
+:func:`~solvers.jit.parallel_kernel` that loops over the slabs (``prange``).  numba's parfor
+passes then see a loop of a few statements instead of the whole inlined body (they cost 2-3
+times the serial compile of what they see), and the parallel kernel and its serial twin call
+the same compiled slab.  The loop index is passed as ``np.int64`` (a ``prange`` index is
+unsigned, a ``range`` index signed, which would be two signatures).  The multigrid smoothing
+kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``,
+``lap_residual``) keep their body inside the ``prange`` loop: split the same way they ran
+1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
+the same code as a plain function; ``benchmarks/RESULTS.md``)."""
 
 
 @nb.njit(inline="always")
@@ -171,18 +176,13 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
         out[k] = br[k] - out[k] if dr[k] != 0 else 0.0
 
 
-@nb.njit(**_OPTS)
-def _residual_slab(d, cx, cy, cz, x, b, i, r):
-    """Plane ``i`` of :func:`lap_residual`."""
-    for j in range(d.shape[1]):
-        _residual_row(d, cx, cy, cz, x, b, i, j, r[i, j])
-
-
 @parallel_kernel(**_OPTS)
 def lap_residual(d, cx, cy, cz, x, b, r):
     """r = b - A x (0 on inactive unknowns), row-vectorised."""
-    for i in nb.prange(d.shape[0]):
-        _residual_slab(d, cx, cy, cz, x, b, i, r)
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        for j in range(ny):
+            _residual_row(d, cx, cy, cz, x, b, i, j, r[i, j])
 
 
 @nb.njit(inline="always")
@@ -208,25 +208,19 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     Same result as :func:`lap_residual` followed by :func:`restrict_sum` (one pass fewer over
     the fine grid).
     """
-    for ic in nb.prange(rc.shape[0]):
-        _residual_restrict_slab(d, cx, cy, cz, x, b, fx, fy, fz, rc, np.int64(ic))
-
-
-@nb.njit(**_OPTS)
-def _residual_restrict_slab(d, cx, cy, cz, x, b, fx, fy, fz, rc, ic):
-    """Coarse plane ``ic`` of :func:`residual_restrict` (11 parameters: the kernel's and ``ic``)."""
     nx, ny, nz = d.shape
     ncx, ncy, ncz = rc.shape
-    i0, i1 = _children(ic, fx, ncx, nx)
-    row = np.empty(nz, dtype=rc.dtype)
-    for jc in range(ncy):
-        j0, j1 = _children(jc, fy, ncy, ny)
-        out = rc[ic, jc]
-        out[:] = 0.0
-        for i in range(i0, i1):
-            for j in range(j0, j1):
-                _residual_row(d, cx, cy, cz, x, b, i, j, row)
-                _sum_row(row, fz, out)
+    for ic in nb.prange(ncx):
+        i0, i1 = _children(ic, fx, ncx, nx)
+        row = np.empty(nz, dtype=rc.dtype)
+        for jc in range(ncy):
+            j0, j1 = _children(jc, fy, ncy, ny)
+            out = rc[ic, jc]
+            out[:] = 0.0
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    _residual_row(d, cx, cy, cz, x, b, i, j, row)
+                    _sum_row(row, fz, out)
 
 
 @nb.njit(inline="always")
@@ -248,22 +242,16 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     Returns ``b . xnew`` (float64) from the same pass: after the last smoothing sweep of a
     V-cycle on the finest level that is the preconditioned dot product MINRES needs.
     """
-    nx = d.shape[0]
+    nx, ny, nz = d.shape
     acc = np.zeros(nx)
     for i in nb.prange(nx):
-        acc[i] = _jacobi_slab(d, cx, cy, cz, x, b, xnew, omega, np.int64(i))
+        row = np.empty(nz, dtype=xnew.dtype)
+        s = 0.0
+        for j in range(ny):
+            _apply_row(d, cx, cy, cz, x, i, j, row)
+            s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
+        acc[i] = s
     return acc.sum()
-
-
-@nb.njit(**_OPTS)
-def _jacobi_slab(d, cx, cy, cz, x, b, xnew, omega, i):
-    """Plane ``i`` of :func:`jacobi`; returns its ``b . xnew``."""
-    row = np.empty(d.shape[2], dtype=xnew.dtype)
-    s = 0.0
-    for j in range(d.shape[1]):
-        _apply_row(d, cx, cy, cz, x, i, j, row)
-        s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
-    return s
 
 
 @parallel_kernel(**_OPTS)
@@ -330,27 +318,20 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     :func:`jacobi`).  ``nchunks``: number of x-chunks, i.e. of threads that can work at once
     (each chunk computes two planes more).
     """
-    nx = d.shape[0]
+    nx, ny, nz = d.shape
     nt = max(1, min(nchunks, nx))
     for t in nb.prange(nt):
         lo, hi = _chunk(t, nt, nx)
-        _jacobi2_zero_slab(d, cx, cy, cz, b, xnew, omega, lo, hi)
-
-
-@nb.njit(**_OPTS)
-def _jacobi2_zero_slab(d, cx, cy, cz, b, xnew, omega, lo, hi):
-    """Planes ``lo .. hi - 1`` of :func:`jacobi2_zero` (one thread's chunk)."""
-    nx, ny, nz = d.shape
-    pm = np.empty((ny, nz), dtype=xnew.dtype)
-    p0 = np.empty((ny, nz), dtype=xnew.dtype)
-    pp = np.empty((ny, nz), dtype=xnew.dtype)
-    row = np.empty(nz, dtype=xnew.dtype)
-    _zero_plane(d, b, _dn(lo, nx), omega, pm)
-    _zero_plane(d, b, lo, omega, p0)
-    for i in range(lo, hi):
-        _zero_plane(d, b, _up(i, nx), omega, pp)
-        _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
-        pm, p0, pp = p0, pp, pm
+        pm = np.empty((ny, nz), dtype=xnew.dtype)
+        p0 = np.empty((ny, nz), dtype=xnew.dtype)
+        pp = np.empty((ny, nz), dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        _zero_plane(d, b, _dn(lo, nx), omega, pm)
+        _zero_plane(d, b, lo, omega, p0)
+        for i in range(lo, hi):
+            _zero_plane(d, b, _up(i, nx), omega, pp)
+            _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
+            pm, p0, pp = p0, pp, pm
 
 
 @nb.njit(inline="always")
@@ -404,35 +385,25 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     (float64), as :func:`jacobi`; ``nchunks`` as for :func:`jacobi2_zero`.  (14 parameters: the
     fine operator, both grids' vectors, the two methods' scalars and the chunk count.)
     """
-    nx = d.shape[0]
+    nx, ny, nz = d.shape
     nt = max(1, min(nchunks, nx))
     acc = np.zeros(nt)
     for t in nb.prange(nt):
         lo, hi = _chunk(t, nt, nx)
-        acc[t] = _prolong_jacobi_slab(
-            d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, lo, hi
-        )
+        pm = np.empty((ny, nz), dtype=xnew.dtype)
+        p0 = np.empty((ny, nz), dtype=xnew.dtype)
+        pp = np.empty((ny, nz), dtype=xnew.dtype)
+        row = np.empty(nz, dtype=xnew.dtype)
+        ex = np.empty(nz, dtype=np.float64)
+        _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm, ex)
+        _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0, ex)
+        s = 0.0
+        for i in range(lo, hi):
+            _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, pp, ex)
+            s += _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
+            pm, p0, pp = p0, pp, pm
+        acc[t] = s
     return acc.sum()
-
-
-@nb.njit(**_OPTS)
-def _prolong_jacobi_slab(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, lo, hi):
-    """Planes ``lo .. hi - 1`` of :func:`prolong_jacobi` (one thread's chunk); returns their
-    ``b . xnew`` (15 parameters: the kernel's and the chunk bounds)."""
-    nx, ny, nz = d.shape
-    pm = np.empty((ny, nz), dtype=xnew.dtype)
-    p0 = np.empty((ny, nz), dtype=xnew.dtype)
-    pp = np.empty((ny, nz), dtype=xnew.dtype)
-    row = np.empty(nz, dtype=xnew.dtype)
-    ex = np.empty(nz, dtype=np.float64)
-    _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm, ex)
-    _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0, ex)
-    s = 0.0
-    for i in range(lo, hi):
-        _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, pp, ex)
-        s += _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew)
-        pm, p0, pp = p0, pp, pm
-    return s
 
 
 @parallel_kernel(**_OPTS)
