@@ -20,9 +20,9 @@ Under load it is noisy (separate processes; kernels that did not change differed
 
 ``kernels``: the finest-level multigrid kernels and ``stokes_lanczos`` of git revision ``REV``
 (its ``kernels.py`` and ``lanczos.py``, imported as copies) and of this tree in one process, on
-the same arrays of the Toray-like ``N^3`` staircase operator, serial twins (set
-``NUMBA_NUM_THREADS=1``), timed interleaved; checks that both give bitwise the same output and
-prints best and median ratios new / old.
+the same arrays of the Toray-like ``N^3`` staircase operator, timed interleaved (the serial
+twins and CPU time with ``NUMBA_NUM_THREADS=1``, else the parallel kernels and wall time);
+checks that both give bitwise the same output and prints best and median ratios new / old.
 """
 
 from __future__ import annotations
@@ -158,12 +158,16 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
 
     sys.path.insert(0, str(Path(__file__).parent))
     import bench_voxel_scale as scale
+    import numba
 
     import solvers.voxel_stokes as vs
     from solvers.voxel import kernels as kr
     from solvers.voxel import lanczos as lz
 
     ok, ol = _old_modules(rev)
+    nth = numba.get_num_threads()
+    mode = "serial" if nth == 1 else "parallel"
+    clock = time.process_time if nth == 1 else time.perf_counter
     op = vs._Stokes.build(scale._box(n)[0])
     l0, l1 = op.mg[0].levels[0], op.mg[0].levels[1]
     rng = np.random.default_rng(0)
@@ -174,18 +178,21 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
 
     def cases(m, mz, out, rc, y):
         return {
-            "jacobi": lambda: (m.jacobi.serial(l0.d, *c, x, b, out, 0.9), out),
-            "jacobi2_zero": lambda: (m.jacobi2_zero.serial(l0.d, *c, b, out, 0.9, 1), out),
+            "jacobi": lambda: (getattr(m.jacobi, mode)(l0.d, *c, x, b, out, 0.9), out),
+            "jacobi2_zero": lambda: (
+                getattr(m.jacobi2_zero, mode)(l0.d, *c, b, out, 0.9, nth),
+                out,
+            ),
             "prolong_jacobi": lambda: (
-                m.prolong_jacobi.serial(l0.d, *c, x, xc, *l0.f, 1.6, b, out, 0.9, 1),
+                getattr(m.prolong_jacobi, mode)(l0.d, *c, x, xc, *l0.f, 1.6, b, out, 0.9, nth),
                 out,
             ),
             "residual_restrict": lambda: (
-                m.residual_restrict.serial(l0.d, *c, x, b, *l0.f, rc),
+                getattr(m.residual_restrict, mode)(l0.d, *c, x, b, *l0.f, rc),
                 rc,
             ),
             "stokes_lanczos": lambda: (
-                mz.stokes_lanczos.serial(*op.d, *op.c, op.fluid, big_x, 0.7, 0.3, y),
+                getattr(mz.stokes_lanczos, mode)(*op.d, *op.c, op.fluid, big_x, 0.7, 0.3, y),
                 y,
             ),
         }
@@ -206,15 +213,15 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
     for _ in range(reps):
         for name in tim:
             for key in ("old", "new"):
-                t = time.process_time()
+                t = clock()
                 for _ in range(3):
                     runs[key][name]()
-                tim[name][key].append((time.process_time() - t) / 3 * 1e3)
+                tim[name][key].append((clock() - t) / 3 * 1e3)
     for name, t in tim.items():
         bo, bn = min(t["old"]), min(t["new"])
         med = float(np.median(t["new"]) / np.median(t["old"]))
         print(
-            f"{n}^3 {name:18s} old {bo:7.2f} ms  new {bn:7.2f} ms (best of {reps}): "
+            f"{n}^3 {mode} {name:18s} old {bo:7.2f} ms  new {bn:7.2f} ms (best of {reps}): "
             f"new / old {bn / bo:.3f} best, {med:.3f} median",
             flush=True,
         )
