@@ -4,7 +4,7 @@ The numba kernels (voxel Stokes, voxel Laplace, rasterization) compile on first 
 cached on disk (``cache=True``: ``__pycache__`` beside the sources, or ``NUMBA_CACHE_DIR``).
 A first solve in a fresh install otherwise pays the compilation (see ``benchmarks/RESULTS.md``,
 "Cold start"). :func:`warmup` runs tiny solves that call every kernel with the argument types
-the real solves use, by default both tasks one after the other in one process:
+the real solves use, in separate processes so the compilation runs on all cores:
 
 * ``serial``: the one-thread twins (small grids, ``NUMBA_NUM_THREADS=1``; see
   :mod:`solvers.jit`);
@@ -13,17 +13,16 @@ the real solves use, by default both tasks one after the other in one process:
   numba has one thread only.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
-walls) and the voxel Laplace solves (periodic and permeameter). The parallel kernels are thin
-loops over the serial slab functions of :mod:`solvers.voxel.kernels`, which the ``serial`` task
-compiles first: in one process each slab is compiled once (``jobs=2`` runs the two tasks side by
-side in two processes, which compile the slabs twice: less wall time on an idle two-core
-machine, more CPU; ``benchmarks/RESULTS.md``). The cache stays valid until the sources (of the
-kernel's module or of a project module it imports, :class:`solvers.jit.DependencyLocator`) or
-numba change; a second ``warmup`` only loads it.
+walls) and the voxel Laplace solves (periodic and permeameter). The cache stays valid until the
+sources (of the kernel's module or of a project module it imports,
+:class:`solvers.jit.DependencyLocator`) or numba change; a second ``warmup`` only loads it.
+Two processes (the default on two cores) and one (``jobs=1``) cost the same CPU, 320 vs 325 s;
+two take less wall time, 295 vs 326 s (``benchmarks/RESULTS.md``).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -84,8 +83,7 @@ def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str,
     tasks
         Subset of :data:`TASKS`.
     jobs
-        Processes at once (default 1: the tasks run in order in one process, sharing the
-        compiled slab functions; at most ``len(tasks)``).
+        Processes at once (default: the number of CPUs, at most ``len(tasks)``).
 
     Returns
     -------
@@ -99,9 +97,8 @@ def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str,
         raise ValueError(f"warmup tasks {bad}: allowed {', '.join(TASKS)}")
     if numba.config.NUMBA_NUM_THREADS < 2:
         tasks = tuple(t for t in tasks if t != "parallel")
-    tasks = tuple(t for t in TASKS if t in tasks)  # serial first: it compiles the shared slabs
     t0 = time.perf_counter()
-    n = max(1, min(jobs or 1, len(tasks)))
+    n = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
     with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
         out = dict(pool.map(_task, tasks))
     out["total"] = time.perf_counter() - t0

@@ -14,7 +14,7 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(
             f"psdesign: compiling the numba kernels ({', '.join(tasks)}) into the cache; "
-            "a few minutes, once per install",
+            "a few minutes on 2 cores, once per install",
             file=sys.stderr,
             flush=True,
         )
@@ -29,11 +29,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Register ``warmup``."""
     p = sub.add_parser("warmup", help="compile the numba kernels once (after install)")
     p.add_argument("--only", nargs="+", choices=("serial", "parallel"), default=None)
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=None,
-        help="processes (default 1: the tasks share compiled code)",
-    )
+    p.add_argument("--jobs", type=int, default=None, help="processes (default: CPUs)")
     p.add_argument("--quiet", action="store_true", help="no messages on stderr")
     p.set_defaults(func=_cmd_warmup)
