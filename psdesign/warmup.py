@@ -14,7 +14,10 @@ the real solves use, in separate processes so the compilation runs on all cores:
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
 walls) and the voxel Laplace solves (periodic and permeameter). The cache stays valid until the
-sources or numba change; a second ``warmup`` only loads it.
+sources (of the kernel's module or of a project module it imports,
+:class:`solvers.jit.DependencyLocator`) or numba change; a second ``warmup`` only loads it.
+Two processes (the default on two cores) and one (``jobs=1``) cost the same CPU, 320 vs 325 s;
+two take less wall time, 295 vs 326 s (``benchmarks/RESULTS.md``).
 """
 
 from __future__ import annotations

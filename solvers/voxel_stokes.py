@@ -1009,8 +1009,8 @@ def _true_residual(
     small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
     subtracted); returns ``(||r||, ||b||)``."""
     rn, bn = op.residual(x.hi, d, r)
-    if x.extended:
-        op.apply(x.lo_value(work.z), work.r1)
+    if x.extended:  # the Lanczos kernel with c1 = 0 is the product (no stokes_apply to compile)
+        op.lanczos(x.lo_value(work.z), 1.0, 0.0, work.r1)
         rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
     return rn, bn
 

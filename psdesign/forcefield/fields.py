@@ -20,6 +20,7 @@ from typing import Protocol
 import numba
 import numpy as np
 
+import solvers.jit  # noqa: F401  (numba cache stamps cover the imported modules)
 from psdesign.forcefield.kernels import fill_tables, model_arrays
 from psdesign.geometry.model import TWO_PI, GeneralizedPS
 from psdesign.geometry.ps_kernel import psi_point, psi_value

@@ -17,6 +17,7 @@ import math
 import numba
 import numpy as np
 
+import solvers.jit  # noqa: F401  (numba cache stamps cover the imported modules)
 from psdesign.geometry.model import GeneralizedPS
 from psdesign.geometry.ps_kernel import psi_point, term_phase
 

@@ -18,6 +18,8 @@ import math
 import numba
 import numpy as np
 
+import solvers.jit  # noqa: F401  (numba cache stamps cover the imported modules)
+
 TWO_PI = 2.0 * np.pi
 
 

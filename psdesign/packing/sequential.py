@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+import solvers.jit  # noqa: F401  (numba cache stamps cover the imported modules)
 from psdesign.packing.fiberset import (
     FiberState,
     Pieces,

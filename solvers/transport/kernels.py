@@ -167,60 +167,76 @@ def coefficients(sigma, axis, fixed, cx, cy, cz, d, rhs):
     normal to ``axis`` through a half-cell conductance ``2 sigma``.  Periodic: unit mean
     gradient, ``rhs = c_a[I] - c_a[I + e_a]``.
     """
+    for i in nb.prange(sigma.shape[0]):
+        _conductance_slab(sigma, fixed, cx, cy, cz, np.int64(i))
+    for i in nb.prange(sigma.shape[0]):
+        _diagonal_slab(sigma, axis, fixed, cx, cy, cz, d, rhs, np.int64(i))
+
+
+@nb.njit(**_OPTS)
+def _conductance_slab(sigma, fixed, cx, cy, cz, i):
+    """Plane ``i`` of the face conductances of :func:`coefficients` (a serial function the
+    parallel loop calls: numba's parfor passes see a short loop; see
+    :mod:`solvers.voxel.kernels`)."""
     nx, ny, nz = sigma.shape
-    for i in nb.prange(nx):
-        im = _wrap(i - 1, nx)
-        for j in range(ny):
-            jm = _wrap(j - 1, ny)
-            for k in range(nz):
-                km = _wrap(k - 1, nz)
-                s = sigma[i, j, k]
-                gx = _harmonic(s, sigma[im, j, k])
-                gy = _harmonic(s, sigma[i, jm, k])
-                gz = _harmonic(s, sigma[i, j, km])
-                if fixed:
-                    if i == 0:
-                        gx = 0.0
-                    if j == 0:
-                        gy = 0.0
-                    if k == 0:
-                        gz = 0.0
-                cx[i, j, k] = gx
-                cy[i, j, k] = gy
-                cz[i, j, k] = gz
+    im = _wrap(i - 1, nx)
+    for j in range(ny):
+        jm = _wrap(j - 1, ny)
+        for k in range(nz):
+            km = _wrap(k - 1, nz)
+            s = sigma[i, j, k]
+            gx = _harmonic(s, sigma[im, j, k])
+            gy = _harmonic(s, sigma[i, jm, k])
+            gz = _harmonic(s, sigma[i, j, km])
+            if fixed:
+                if i == 0:
+                    gx = 0.0
+                if j == 0:
+                    gy = 0.0
+                if k == 0:
+                    gz = 0.0
+            cx[i, j, k] = gx
+            cy[i, j, k] = gy
+            cz[i, j, k] = gz
+
+
+@nb.njit(**_OPTS)
+def _diagonal_slab(sigma, axis, fixed, cx, cy, cz, d, rhs, i):
+    """Plane ``i`` of the diagonal and right-hand side of :func:`coefficients` (9 parameters:
+    the kernel's and ``i``)."""
+    nx, ny, nz = sigma.shape
     n_a = sigma.shape[axis]
-    for i in nb.prange(nx):
-        ip = _wrap(i + 1, nx)
-        for j in range(ny):
-            jp = _wrap(j + 1, ny)
-            for k in range(nz):
-                kp = _wrap(k + 1, nz)
-                dd = (
-                    np.float64(cx[i, j, k])
-                    + cx[ip, j, k]
-                    + cy[i, j, k]
-                    + cy[i, jp, k]
-                    + cz[i, j, k]
-                    + cz[i, j, kp]
-                )
-                pos = i if axis == 0 else (j if axis == 1 else k)
-                b = 0.0
-                if fixed:
-                    s = sigma[i, j, k]
-                    if pos == 0:
-                        dd += 2.0 * s
-                        b = 2.0 * s
-                    if pos == n_a - 1:
-                        dd += 2.0 * s
+    ip = _wrap(i + 1, nx)
+    for j in range(ny):
+        jp = _wrap(j + 1, ny)
+        for k in range(nz):
+            kp = _wrap(k + 1, nz)
+            dd = (
+                np.float64(cx[i, j, k])
+                + cx[ip, j, k]
+                + cy[i, j, k]
+                + cy[i, jp, k]
+                + cz[i, j, k]
+                + cz[i, j, kp]
+            )
+            pos = i if axis == 0 else (j if axis == 1 else k)
+            b = 0.0
+            if fixed:
+                s = sigma[i, j, k]
+                if pos == 0:
+                    dd += 2.0 * s
+                    b = 2.0 * s
+                if pos == n_a - 1:
+                    dd += 2.0 * s
+            else:
+                if axis == 0:
+                    b = np.float64(cx[i, j, k]) - cx[ip, j, k]
+                elif axis == 1:
+                    b = np.float64(cy[i, j, k]) - cy[i, jp, k]
                 else:
-                    if axis == 0:
-                        b = np.float64(cx[i, j, k]) - cx[ip, j, k]
-                    elif axis == 1:
-                        b = np.float64(cy[i, j, k]) - cy[i, jp, k]
-                    else:
-                        b = np.float64(cz[i, j, k]) - cz[i, j, kp]
-                d[i, j, k] = dd
-                rhs[i, j, k] = b if dd != 0 else 0.0
+                    b = np.float64(cz[i, j, k]) - cz[i, j, kp]
+            d[i, j, k] = dd
+            rhs[i, j, k] = b if dd != 0 else 0.0
 
 
 @parallel_kernel(**_OPTS)

@@ -28,6 +28,19 @@ import numpy as np
 from solvers.jit import parallel_kernel
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
+"""Options of every kernel.  The big Stokes kernels (``stokes_apply(_w)``, ``_stokes_residual``,
+``stokes_lanczos(_w)`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
+serial ``@njit(**_OPTS)`` *slab* function (one iteration of the outer loop, an x-plane or a
+coarse x-plane, with every row helper inlined into it) and the
+:func:`~solvers.jit.parallel_kernel` that loops over the slabs (``prange``).  numba's parfor
+passes then see a loop of a few statements instead of the whole inlined body (they cost 2-3
+times the serial compile of what they see), and the parallel kernel and its serial twin call
+the same compiled slab.  The loop index is passed as ``np.int64`` (a ``prange`` index is
+unsigned, a ``range`` index signed, which would be two signatures).  The multigrid smoothing
+kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``,
+``lap_residual``) keep their body inside the ``prange`` loop: split the same way they ran
+1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
+the same code as a plain function; ``benchmarks/RESULTS.md``)."""
 
 
 @nb.njit(inline="always")
@@ -140,7 +153,8 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
     im = _dn(i, nx)
     jp = _up(j, ny)
     jm = _dn(j, ny)
-    if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours
+    if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours (a separate copy:
+        # one copy shared with the real couplings ran 1.09-1.7x slower, benchmarks/RESULTS.md)
         one = cx[0, 0]
         _stencil_rows(
             d[i, j], one, one, one, one, one, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
@@ -279,7 +293,7 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
     for j in range(ny):
         jp = _up(j, ny)
         jm = _dn(j, ny)
-        if _unit(d, cx):  # unit_couplings
+        if _unit(d, cx):  # unit_couplings (a separate copy, as in _apply_row)
             one = cx[0, 0]
             _stencil_rows(
                 d[i, j], one, one, one, one, one, p0[j], pm[j], pp[j], p0[jm], p0[jp], row
@@ -483,38 +497,44 @@ def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
     Couplings of children on the lower boundary of an aggregate become the coarse coupling to
     the lower coarse neighbour; couplings inside an aggregate cancel against the diagonal.
     """
+    for ic in nb.prange(dc.shape[0]):
+        _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, np.int64(ic))
+
+
+@nb.njit(**_OPTS)
+def _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, ic):
+    """Coarse plane ``ic`` of :func:`galerkin` (12 parameters: the kernel's and ``ic``)."""
     nx, ny, nz = d.shape
     ncx, ncy, ncz = dc.shape
-    for ic in nb.prange(ncx):
-        i0, i1 = _children(ic, fx, ncx, nx)
-        for jc in range(ncy):
-            j0, j1 = _children(jc, fy, ncy, ny)
-            for kc in range(ncz):
-                k0, k1 = _children(kc, fz, ncz, nz)
-                dd = 0.0
-                ex = 0.0
-                ey = 0.0
-                ez = 0.0
-                for i in range(i0, i1):
-                    for j in range(j0, j1):
-                        for k in range(k0, k1):
-                            dd += d[i, j, k]
-                            if i == i0:
-                                ex += cx[i, j, k]
-                            else:
-                                dd -= 2.0 * cx[i, j, k]
-                            if j == j0:
-                                ey += cy[i, j, k]
-                            else:
-                                dd -= 2.0 * cy[i, j, k]
-                            if k == k0:
-                                ez += cz[i, j, k]
-                            else:
-                                dd -= 2.0 * cz[i, j, k]
-                dc[ic, jc, kc] = dd
-                cxc[ic, jc, kc] = ex
-                cyc[ic, jc, kc] = ey
-                czc[ic, jc, kc] = ez
+    i0, i1 = _children(ic, fx, ncx, nx)
+    for jc in range(ncy):
+        j0, j1 = _children(jc, fy, ncy, ny)
+        for kc in range(ncz):
+            k0, k1 = _children(kc, fz, ncz, nz)
+            dd = 0.0
+            ex = 0.0
+            ey = 0.0
+            ez = 0.0
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    for k in range(k0, k1):
+                        dd += d[i, j, k]
+                        if i == i0:
+                            ex += cx[i, j, k]
+                        else:
+                            dd -= 2.0 * cx[i, j, k]
+                        if j == j0:
+                            ey += cy[i, j, k]
+                        else:
+                            dd -= 2.0 * cy[i, j, k]
+                        if k == k0:
+                            ez += cz[i, j, k]
+                        else:
+                            dd -= 2.0 * cz[i, j, k]
+            dc[ic, jc, kc] = dd
+            cxc[ic, jc, kc] = ex
+            cyc[ic, jc, kc] = ey
+            czc[ic, jc, kc] = ez
 
 
 @nb.njit(inline="always")
@@ -543,51 +563,57 @@ def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
     Returns the float64 dot products ``(x . y, x . r)`` computed in the same pass (``r`` is any
     array of the shape of ``x``; pass ``x`` if not needed).
     """
+    nx = fluid.shape[0]
+    acc_y = np.zeros(nx)
+    acc_r = np.zeros(nx)
+    for i in nb.prange(nx):
+        acc_y[i], acc_r[i] = _stokes_apply_slab(du, dv, dw, cu, cv, cw, fluid, x, y, r, np.int64(i))
+    return acc_y.sum(), acc_r.sum()
+
+
+@nb.njit(**_OPTS)
+def _stokes_apply_slab(du, dv, dw, cu, cv, cw, fluid, x, y, r, i):
+    """Plane ``i`` of :func:`stokes_apply`; returns its ``(x . y, x . r)``."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
-    acc_y = np.zeros(nx)
-    acc_r = np.zeros(nx)
-    for i in nb.prange(nx):
-        s_y = 0.0
-        s_r = 0.0
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            pr = p[i, j]
-            pim = p[im, j]
-            pjm = p[i, jm]
-            fr = fluid[i, j]
-            _momentum_row(du, cu, u, pr, pim, 0, i, j, y[0, i, j])
-            _momentum_row(dv, cv, v, pr, pjm, 0, i, j, y[1, i, j])
-            _momentum_row(dw, cw, w, pr, pr, 1, i, j, y[2, i, j])
-            # continuity
-            ur = u[i, j]
-            uip = u[ip, j]
-            vr = v[i, j]
-            vjp = v[i, jp]
-            wr = w[i, j]
-            out = y[3, i, j]
-            for k in range(nz - 1):
-                val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
-                out[k] = val if fr[k] != 0 else 0.0
-            k = nz - 1
-            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
+    s_y = 0.0
+    s_r = 0.0
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    for j in range(ny):
+        jm = _dn(j, ny)
+        jp = _up(j, ny)
+        pr = p[i, j]
+        pim = p[im, j]
+        pjm = p[i, jm]
+        fr = fluid[i, j]
+        _momentum_row(du, cu, u, pr, pim, 0, i, j, y[0, i, j])
+        _momentum_row(dv, cv, v, pr, pjm, 0, i, j, y[1, i, j])
+        _momentum_row(dw, cw, w, pr, pr, 1, i, j, y[2, i, j])
+        # continuity
+        ur = u[i, j]
+        uip = u[ip, j]
+        vr = v[i, j]
+        vjp = v[i, jp]
+        wr = w[i, j]
+        out = y[3, i, j]
+        for k in range(nz - 1):
+            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
             out[k] = val if fr[k] != 0 else 0.0
-            for a in range(4):
-                xr = x[a, i, j]
-                yr = y[a, i, j]
-                rr = r[a, i, j]
-                for k in range(nz):
-                    s_y += np.float64(xr[k]) * np.float64(yr[k])
-                    s_r += np.float64(xr[k]) * np.float64(rr[k])
-        acc_y[i] = s_y
-        acc_r[i] = s_r
-    return acc_y.sum(), acc_r.sum()
+        k = nz - 1
+        val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
+        out[k] = val if fr[k] != 0 else 0.0
+        for a in range(4):
+            xr = x[a, i, j]
+            yr = y[a, i, j]
+            rr = r[a, i, j]
+            for k in range(nz):
+                s_y += np.float64(xr[k]) * np.float64(yr[k])
+                s_r += np.float64(xr[k]) * np.float64(rr[k])
+    return s_y, s_r
 
 
 @nb.njit(inline="always")
@@ -604,58 +630,67 @@ def _momentum_row_w(d, c, q, pr, plow, shift, wr, i, j, out):
 def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
     """:func:`stokes_apply` with face weights (cut-cell fluid fractions, 0 on inactive faces):
     gradient ``w_f (p_i - p_{i-1})`` and divergence ``sum_f +-w_f q_f`` (still symmetric)."""
+    nx = fluid.shape[0]
+    acc_y = np.zeros(nx)
+    acc_r = np.zeros(nx)
+    for i in nb.prange(nx):
+        acc_y[i], acc_r[i] = _stokes_apply_w_slab(
+            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r, np.int64(i)
+        )
+    return acc_y.sum(), acc_r.sum()
+
+
+@nb.njit(**_OPTS)
+def _stokes_apply_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r, i):
+    """Plane ``i`` of :func:`stokes_apply_w`; returns its ``(x . y, x . r)`` (14 parameters: the
+    kernel's and ``i``)."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
-    acc_y = np.zeros(nx)
-    acc_r = np.zeros(nx)
-    for i in nb.prange(nx):
-        s_y = 0.0
-        s_r = 0.0
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            pr = p[i, j]
-            _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, y[0, i, j])
-            _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, y[1, i, j])
-            _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, y[2, i, j])
-            ur = u[i, j]
-            uip = u[ip, j]
-            vr = v[i, j]
-            vjp = v[i, jp]
-            wr = w[i, j]
-            a0 = wu[i, j]
-            a1 = wu[ip, j]
-            b0 = wv[i, j]
-            b1 = wv[i, jp]
-            c0 = ww[i, j]
-            fr = fluid[i, j]
-            out = y[3, i, j]
+    s_y = 0.0
+    s_r = 0.0
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    for j in range(ny):
+        jm = _dn(j, ny)
+        jp = _up(j, ny)
+        pr = p[i, j]
+        _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, y[0, i, j])
+        _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, y[1, i, j])
+        _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, y[2, i, j])
+        ur = u[i, j]
+        uip = u[ip, j]
+        vr = v[i, j]
+        vjp = v[i, jp]
+        wr = w[i, j]
+        a0 = wu[i, j]
+        a1 = wu[ip, j]
+        b0 = wv[i, j]
+        b1 = wv[i, jp]
+        c0 = ww[i, j]
+        fr = fluid[i, j]
+        out = y[3, i, j]
+        for k in range(nz):
+            kp = k + 1 if k + 1 < nz else 0
+            val = (
+                a0[k] * ur[k]
+                - a1[k] * uip[k]
+                + b0[k] * vr[k]
+                - b1[k] * vjp[k]
+                + c0[k] * wr[k]
+                - c0[kp] * wr[kp]
+            )
+            out[k] = val if fr[k] != 0 else 0.0
+        for a in range(4):
+            xr = x[a, i, j]
+            yr = y[a, i, j]
+            rr = r[a, i, j]
             for k in range(nz):
-                kp = k + 1 if k + 1 < nz else 0
-                val = (
-                    a0[k] * ur[k]
-                    - a1[k] * uip[k]
-                    + b0[k] * vr[k]
-                    - b1[k] * vjp[k]
-                    + c0[k] * wr[k]
-                    - c0[kp] * wr[kp]
-                )
-                out[k] = val if fr[k] != 0 else 0.0
-            for a in range(4):
-                xr = x[a, i, j]
-                yr = y[a, i, j]
-                rr = r[a, i, j]
-                for k in range(nz):
-                    s_y += np.float64(xr[k]) * np.float64(yr[k])
-                    s_r += np.float64(xr[k]) * np.float64(rr[k])
-        acc_y[i] = s_y
-        acc_r[i] = s_r
-    return acc_y.sum(), acc_r.sum()
+                s_y += np.float64(xr[k]) * np.float64(yr[k])
+                s_r += np.float64(xr[k]) * np.float64(rr[k])
+    return s_y, s_r
 
 
 @nb.njit(inline="always")
@@ -671,68 +706,77 @@ def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
     :func:`stokes_apply` (all weights 1); f = the weight on the active faces of component
     ``gdir`` (the body force on the cut control volumes; 1 for the staircase).  Returns
     ``(||r||^2, ||f||^2)``."""
+    nx = fluid.shape[0]
+    acc = np.zeros(nx)
+    accf = np.zeros(nx)
+    for i in nb.prange(nx):
+        acc[i], accf[i] = _stokes_residual_slab(
+            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r, np.int64(i)
+        )
+    return acc.sum(), accf.sum()
+
+
+@nb.njit(**_OPTS)
+def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r, i):
+    """Plane ``i`` of :func:`_stokes_residual`; returns its ``(||r||^2, ||f||^2)`` (14 parameters:
+    the kernel's and ``i``)."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
-    acc = np.zeros(nx)
-    accf = np.zeros(nx)
-    for i in nb.prange(nx):
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        s2 = 0.0
-        f2 = 0.0
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            for k in range(nz):
-                km = _dn(k, nz)
-                kp = _up(k, nz)
-                pc = np.float64(p[i, j, k])  # float64 arithmetic for a float32 x too
-                for a in range(3):
-                    if a == 0:
-                        act = du[i, j, k] != 0
-                        wt = _weight(wu, i, j, k)
-                    elif a == 1:
-                        act = dv[i, j, k] != 0
-                        wt = _weight(wv, i, j, k)
-                    else:
-                        act = dw[i, j, k] != 0
-                        wt = _weight(ww, i, j, k)
-                    if not act:
-                        r[a, i, j, k] = 0.0
-                        continue
-                    if a == 0:
-                        val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
-                        val += wt * (pc - np.float64(p[im, j, k]))
-                    elif a == 1:
-                        val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
-                        val += wt * (pc - np.float64(p[i, jm, k]))
-                    else:
-                        val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
-                        val += wt * (pc - np.float64(p[i, j, km]))
-                    f = wt if a == gdir else 0.0
-                    res = f - val
-                    r[a, i, j, k] = res
-                    s2 += res * res
-                    f2 += f * f
-                if fluid[i, j, k] != 0:
-                    res = -(
-                        _weight(wu, i, j, k) * np.float64(u[i, j, k])
-                        - _weight(wu, ip, j, k) * np.float64(u[ip, j, k])
-                        + _weight(wv, i, j, k) * np.float64(v[i, j, k])
-                        - _weight(wv, i, jp, k) * np.float64(v[i, jp, k])
-                        + _weight(ww, i, j, k) * np.float64(w[i, j, k])
-                        - _weight(ww, i, j, kp) * np.float64(w[i, j, kp])
-                    )
-                    r[3, i, j, k] = res
-                    s2 += res * res
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    s2 = 0.0
+    f2 = 0.0
+    for j in range(ny):
+        jm = _dn(j, ny)
+        jp = _up(j, ny)
+        for k in range(nz):
+            km = _dn(k, nz)
+            kp = _up(k, nz)
+            pc = np.float64(p[i, j, k])  # float64 arithmetic for a float32 x too
+            for a in range(3):
+                if a == 0:
+                    act = du[i, j, k] != 0
+                    wt = _weight(wu, i, j, k)
+                elif a == 1:
+                    act = dv[i, j, k] != 0
+                    wt = _weight(wv, i, j, k)
                 else:
-                    r[3, i, j, k] = 0.0
-        acc[i] = s2
-        accf[i] = f2
-    return acc.sum(), accf.sum()
+                    act = dw[i, j, k] != 0
+                    wt = _weight(ww, i, j, k)
+                if not act:
+                    r[a, i, j, k] = 0.0
+                    continue
+                if a == 0:
+                    val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
+                    val += wt * (pc - np.float64(p[im, j, k]))
+                elif a == 1:
+                    val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
+                    val += wt * (pc - np.float64(p[i, jm, k]))
+                else:
+                    val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
+                    val += wt * (pc - np.float64(p[i, j, km]))
+                f = wt if a == gdir else 0.0
+                res = f - val
+                r[a, i, j, k] = res
+                s2 += res * res
+                f2 += f * f
+            if fluid[i, j, k] != 0:
+                res = -(
+                    _weight(wu, i, j, k) * np.float64(u[i, j, k])
+                    - _weight(wu, ip, j, k) * np.float64(u[ip, j, k])
+                    + _weight(wv, i, j, k) * np.float64(v[i, j, k])
+                    - _weight(wv, i, jp, k) * np.float64(v[i, jp, k])
+                    + _weight(ww, i, j, k) * np.float64(w[i, j, k])
+                    - _weight(ww, i, j, kp) * np.float64(w[i, j, kp])
+                )
+                r[3, i, j, k] = res
+                s2 += res * res
+            else:
+                r[3, i, j, k] = 0.0
+    return s2, f2
 
 
 _NO_WEIGHTS = np.zeros((0, 0, 0), np.float32)

@@ -20,8 +20,8 @@ The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil
 here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
 walls; both also take :func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are
 the same expressions as in :func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
-numba's on-disk cache of this module does not see a change of those inlined helpers: edit this
-file too when they change (its stamp keys the cache).
+A change to those inlined helpers recompiles this module's kernels: the numba cache stamps
+cover the imported project modules (:class:`solvers.jit.DependencyLocator`).
 """
 
 from __future__ import annotations
@@ -97,91 +97,109 @@ def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     ``y`` is read only when ``c1 != 0`` (the first Lanczos step passes ``c1 = 0`` and any
     ``y``).  Rows along k, one temporary row per outer index.
     """
+    nx = fluid.shape[0]
+    acc = np.zeros(nx)
+    for i in nb.prange(nx):
+        acc[i] = _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, np.int64(i))
+    return acc.sum()
+
+
+@nb.njit(**_OPTS)
+def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
+    """Plane ``i`` of :func:`stokes_lanczos`; returns its ``x . y_new`` (12 parameters: the
+    kernel's and ``i``)."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
-    acc = np.zeros(nx)
-    for i in nb.prange(nx):
-        row = np.empty(nz, dtype=y.dtype)
-        s_y = 0.0
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            pr = p[i, j]
-            s_y += _momentum_lanczos(du, cu, u, pr, p[im, j], 0, i, j, s, c1, y[0, i, j], row)
-            s_y += _momentum_lanczos(dv, cv, v, pr, p[i, jm], 0, i, j, s, c1, y[1, i, j], row)
-            s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
-            ur = u[i, j]
-            uip = u[ip, j]
-            vr = v[i, j]
-            vjp = v[i, jp]
-            wr = w[i, j]
-            fr = fluid[i, j]
-            for k in range(nz - 1):
-                val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
-                row[k] = val if fr[k] != 0 else 0.0
-            k = nz - 1
-            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
+    row = np.empty(nz, dtype=y.dtype)
+    s_y = 0.0
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    for j in range(ny):
+        jm = _dn(j, ny)
+        jp = _up(j, ny)
+        pr = p[i, j]
+        s_y += _momentum_lanczos(du, cu, u, pr, p[im, j], 0, i, j, s, c1, y[0, i, j], row)
+        s_y += _momentum_lanczos(dv, cv, v, pr, p[i, jm], 0, i, j, s, c1, y[1, i, j], row)
+        s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
+        ur = u[i, j]
+        uip = u[ip, j]
+        vr = v[i, j]
+        vjp = v[i, jp]
+        wr = w[i, j]
+        fr = fluid[i, j]
+        for k in range(nz - 1):
+            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
             row[k] = val if fr[k] != 0 else 0.0
-            s_y += _combine(row, s, c1, y[3, i, j], pr)
-        acc[i] = s_y
-    return acc.sum()
+        k = nz - 1
+        val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
+        row[k] = val if fr[k] != 0 else 0.0
+        s_y += _combine(row, s, c1, y[3, i, j], pr)
+    return s_y
 
 
 @parallel_kernel(**_OPTS)
 def stokes_lanczos_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y):
     """:func:`stokes_lanczos` for the face-weighted (sub-voxel) matrix of
     :func:`solvers.voxel.kernels.stokes_apply_w`."""
+    nx = fluid.shape[0]
+    acc = np.zeros(nx)
+    for i in nb.prange(nx):
+        acc[i] = _lanczos_w_slab(
+            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, np.int64(i)
+        )
+    return acc.sum()
+
+
+@nb.njit(**_OPTS)
+def _lanczos_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, i):
+    """Plane ``i`` of :func:`stokes_lanczos_w`; returns its ``x . y_new`` (15 parameters: the
+    kernel's and ``i``)."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
     w = x[2]
     p = x[3]
-    acc = np.zeros(nx)
-    for i in nb.prange(nx):
-        row = np.empty(nz, dtype=y.dtype)
-        s_y = 0.0
-        im = _dn(i, nx)
-        ip = _up(i, nx)
-        for j in range(ny):
-            jm = _dn(j, ny)
-            jp = _up(j, ny)
-            pr = p[i, j]
-            _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, row)
-            s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
-            _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, row)
-            s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
-            _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, row)
-            s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
-            ur = u[i, j]
-            uip = u[ip, j]
-            vr = v[i, j]
-            vjp = v[i, jp]
-            wr = w[i, j]
-            a0 = wu[i, j]
-            a1 = wu[ip, j]
-            b0 = wv[i, j]
-            b1 = wv[i, jp]
-            c0 = ww[i, j]
-            fr = fluid[i, j]
-            for k in range(nz):
-                kp = k + 1 if k + 1 < nz else 0
-                val = (
-                    a0[k] * ur[k]
-                    - a1[k] * uip[k]
-                    + b0[k] * vr[k]
-                    - b1[k] * vjp[k]
-                    + c0[k] * wr[k]
-                    - c0[kp] * wr[kp]
-                )
-                row[k] = val if fr[k] != 0 else 0.0
-            s_y += _combine(row, s, c1, y[3, i, j], pr)
-        acc[i] = s_y
-    return acc.sum()
+    row = np.empty(nz, dtype=y.dtype)
+    s_y = 0.0
+    im = _dn(i, nx)
+    ip = _up(i, nx)
+    for j in range(ny):
+        jm = _dn(j, ny)
+        jp = _up(j, ny)
+        pr = p[i, j]
+        _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
+        _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
+        _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
+        ur = u[i, j]
+        uip = u[ip, j]
+        vr = v[i, j]
+        vjp = v[i, jp]
+        wr = w[i, j]
+        a0 = wu[i, j]
+        a1 = wu[ip, j]
+        b0 = wv[i, j]
+        b1 = wv[i, jp]
+        c0 = ww[i, j]
+        fr = fluid[i, j]
+        for k in range(nz):
+            kp = k + 1 if k + 1 < nz else 0
+            val = (
+                a0[k] * ur[k]
+                - a1[k] * uip[k]
+                + b0[k] * vr[k]
+                - b1[k] * vjp[k]
+                + c0[k] * wr[k]
+                - c0[kp] * wr[kp]
+            )
+            row[k] = val if fr[k] != 0 else 0.0
+        s_y += _combine(row, s, c1, y[3, i, j], pr)
+    return s_y
 
 
 Q_MAX = 32767.0
