@@ -14,16 +14,12 @@ MESH_FORMATS = tuple(WRITERS)  # the export registry
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
-    from psdesign.flow.fem_field import fem_field
+    from psdesign.flow.fem_field import fem_field, spec_grid_step
     from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.meshing.exports.meshjson import mesh_summary
-    from psdesign.meshing.options import (
-        MeshOptions,
-        default_lattice_step,
-        thinnest_fiber_diameter,
-    )
+    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -44,9 +40,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         flow["mesher"] = args.mesher
     # the FEM's own field (psdesign.flow.fem_field): the mesh the fem route would make
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
-    extra = mesh_overrides(fields)
-    if own.refinement > 1 and flow.get("lattice_step") is None:  # the spec grid's default step
-        extra["lattice_step"] = default_lattice_step(float(fields.grid.spacing[0]), rve.size)
+    extra = mesh_overrides(fields) | spec_grid_step(
+        flow, own.refinement, float(fields.grid.spacing[0]), rve.size
+    )
     pm = mesh_pore_space(
         own.fields.distance,
         own.voxel,

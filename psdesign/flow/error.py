@@ -372,11 +372,11 @@ def estimate_with(
             result.get("rve_length_m"),
         ),
     )
-    field = field_rel_error(result)
+    field = _field_term(result)
     return replace(est, coarse_failure=failure, rel_error=est.rel_error + field, field=field)
 
 
-def field_rel_error(result: dict) -> float:
+def _field_term(result: dict) -> float:
     """The FEM's field term (``result["fem_field"]["rel_error"]``, :func:`psdesign.flow.
     fem_field.field_rel_error`; 0 for other routes and resolved fields)."""
     value = (result.get("fem_field") or {}).get("rel_error")

@@ -37,7 +37,12 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     windowed_drop,
     windowed_drop_from_dissipation,
 )
-from psdesign.flow.fem_field import FIELD_MAX_VOXELS, FIELD_VOXELS_PER_DIAMETER, fem_field
+from psdesign.flow.fem_field import (
+    FIELD_MAX_VOXELS,
+    FIELD_VOXELS_PER_DIAMETER,
+    fem_field,
+    spec_grid_step,
+)
 from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
@@ -125,11 +130,7 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str, refinem
     """Pore mesh of ``fields`` (the RVE or its stack). ``refinement > 1``: ``fields`` is the
     FEM's own field (:mod:`psdesign.flow.fem_field`), ``refinement`` times finer than the spec's
     grid; the default lattice step stays that of the spec's grid."""
-    from psdesign.meshing.options import (
-        MeshOptions,
-        default_lattice_step,
-        thinnest_fiber_diameter,
-    )
+    from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     spacing = fields.grid.spacing
@@ -141,8 +142,7 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str, refinem
     # pytetwild's default edge length is a fraction of the thinnest fiber diameter
     target["fiber_diameter"] = thinnest_fiber_diameter(rve)
     size = np.asarray(fields.grid.size, float)  # rve.size, or the stack's (psdesign.flow.stack)
-    if refinement > 1 and flow.get("lattice_step") is None:  # the spec grid's default step
-        target["lattice_step"] = default_lattice_step(float(spacing[0]) * refinement, size)
+    target |= spec_grid_step(flow, refinement, float(spacing[0]) * refinement, size)
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
         return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)

@@ -93,13 +93,6 @@ class FemField:
         }
 
 
-def thinnest_diameter(rve: RVE) -> float | None:
-    """Thinnest fiber diameter (yarn width) of ``rve`` in metres; None without fibers."""
-    from psdesign.meshing.options import thinnest_fiber_diameter
-
-    return thinnest_fiber_diameter(rve)
-
-
 def wanted_refinement(voxel: float, diameter: float | None) -> int:
     """Smallest integer ``r`` with ``diameter / (voxel / r) >= FIELD_VOXELS_PER_DIAMETER``.
 
@@ -118,6 +111,18 @@ def capped_refinement(n_voxels: int, wanted: int, max_voxels: int = FIELD_MAX_VO
     while r > 1 and n_voxels * r**3 > max_voxels:
         r -= 1
     return r
+
+
+def spec_grid_step(flow: dict, refinement: int, spec_voxel: float, size) -> dict:
+    """Mesher overrides that keep the lattice step of the spec's grid on a refined field: the
+    default step (:func:`psdesign.meshing.options.default_lattice_step`) follows the voxel, and
+    a field ``refinement`` times finer must not make the mesh finer too. Empty when the field is
+    not refined or ``flow.lattice_step`` is given."""
+    if refinement <= 1 or flow.get("lattice_step") is not None:
+        return {}
+    from psdesign.meshing.options import default_lattice_step
+
+    return {"lattice_step": default_lattice_step(spec_voxel, size)}
 
 
 def refinable(rve: RVE, fields: VoxelFields) -> bool:
@@ -148,8 +153,10 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing", copies: i
     -------
     FemField
     """
+    from psdesign.meshing.options import thinnest_fiber_diameter
+
     voxel = float(fields.grid.spacing[0])
-    diameter = thinnest_diameter(rve)
+    diameter = thinnest_fiber_diameter(rve)
     r, wanted = 1, 1
     if mesher == "stuffing" and refinable(rve, fields):
         wanted = wanted_refinement(voxel, diameter)
