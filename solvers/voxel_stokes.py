@@ -852,19 +852,9 @@ class _Stokes:
         cells = ~solid if phi is None else bd.pressure_cells(acts, forces)
         return cls(cells, [(r[0], r[1]) for r in res], acts, forces, **mg_kw)
 
-    def apply(
-        self, x: np.ndarray, y: np.ndarray, r: np.ndarray | None = None
-    ) -> tuple[float, float]:
-        """y = K x; returns ``(x . y, x . r)`` from the same pass (``r`` defaults to ``x``)."""
-        rr = x if r is None else r
-        if self.w is None:
-            xy, xr = kr.stokes_apply(*self.d, *self.c, self.fluid, x, y, rr)
-        else:
-            xy, xr = kr.stokes_apply_w(*self.d, *self.c, self.fluid, *self.w, x, y, rr)
-        return float(xy), float(xr)
-
     def lanczos(self, x: np.ndarray, s: float, c1: float, y: np.ndarray) -> float:
-        """``y <- s K x - c1 y`` in place (``y`` unread if ``c1 == 0``); returns ``x . y``."""
+        """``y <- s K x - c1 y`` in place (``y`` unread if ``c1 == 0``; ``s = 1, c1 = 0`` is the
+        product ``y = K x``); returns ``x . y``."""
         if self.w is None:
             return float(lz.stokes_lanczos(*self.d, *self.c, self.fluid, x, s, c1, y))
         return float(lz.stokes_lanczos_w(*self.d, *self.c, self.fluid, *self.w, x, s, c1, y))
@@ -1009,7 +999,7 @@ def _true_residual(
     small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
     subtracted); returns ``(||r||, ||b||)``."""
     rn, bn = op.residual(x.hi, d, r)
-    if x.extended:  # the Lanczos kernel with c1 = 0 is the product (no stokes_apply to compile)
+    if x.extended:  # the Lanczos kernel with c1 = 0 is the product K x
         op.lanczos(x.lo_value(work.z), 1.0, 0.0, work.r1)
         rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
     return rn, bn

@@ -28,7 +28,7 @@ import numpy as np
 from solvers.jit import parallel_kernel
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
-"""Options of every kernel.  The big Stokes kernels (``stokes_apply(_w)``, ``_stokes_residual``,
+"""Options of every kernel.  The big Stokes kernels (``_stokes_residual``,
 ``stokes_lanczos(_w)`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
 serial ``@njit(**_OPTS)`` *slab* function (one iteration of the outer loop, an x-plane or a
 coarse x-plane, with every row helper inlined into it) and the
@@ -538,159 +538,16 @@ def _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, ic):
 
 
 @nb.njit(inline="always")
-def _momentum_row(d, c, q, pr, plow, shift, i, j, out):
-    """One momentum row: ``out[k] = (A q)[i, j, k] + pr[k] - plow[k - shift]`` (periodic in k).
-
-    ``plow`` is the pressure row of the cell below the face (``shift = 1`` when it is the same
-    row, for the component along k); 0 on inactive faces.
-    """
-    _apply_row(d, c[0], c[1], c[2], q, i, j, out)
-    nz = out.shape[0]
-    dr = d[i, j]
-    for k in range(1, nz):
-        out[k] += (pr[k] - plow[k - shift]) if dr[k] != 0 else 0.0
-    if dr[0] != 0:
-        out[0] += pr[0] - plow[(nz - shift) % nz]
-
-
-@parallel_kernel(**_OPTS)
-def stokes_apply(du, dv, dw, cu, cv, cw, fluid, x, y, r):
-    """y = K x for the symmetric MAC Stokes matrix; x, y have shape (4, nx, ny, nz) = (u, v, w, p).
-
-    ``du, dv, dw`` are the diagonals of the three component operators, ``cu = (cx, cy, cz)`` of
-    component u etc. (stacked uint8 arrays of shape (3, nx, ny, nz)); ``fluid`` is uint8.
-    Rows along k are plain loops over 1-D views (vectorised; see :func:`_apply_row`).
-    Returns the float64 dot products ``(x . y, x . r)`` computed in the same pass (``r`` is any
-    array of the shape of ``x``; pass ``x`` if not needed).
-    """
-    nx = fluid.shape[0]
-    acc_y = np.zeros(nx)
-    acc_r = np.zeros(nx)
-    for i in nb.prange(nx):
-        acc_y[i], acc_r[i] = _stokes_apply_slab(du, dv, dw, cu, cv, cw, fluid, x, y, r, np.int64(i))
-    return acc_y.sum(), acc_r.sum()
-
-
-@nb.njit(**_OPTS)
-def _stokes_apply_slab(du, dv, dw, cu, cv, cw, fluid, x, y, r, i):
-    """Plane ``i`` of :func:`stokes_apply`; returns its ``(x . y, x . r)``."""
-    nx, ny, nz = fluid.shape
-    u = x[0]
-    v = x[1]
-    w = x[2]
-    p = x[3]
-    s_y = 0.0
-    s_r = 0.0
-    im = _dn(i, nx)
-    ip = _up(i, nx)
-    for j in range(ny):
-        jm = _dn(j, ny)
-        jp = _up(j, ny)
-        pr = p[i, j]
-        pim = p[im, j]
-        pjm = p[i, jm]
-        fr = fluid[i, j]
-        _momentum_row(du, cu, u, pr, pim, 0, i, j, y[0, i, j])
-        _momentum_row(dv, cv, v, pr, pjm, 0, i, j, y[1, i, j])
-        _momentum_row(dw, cw, w, pr, pr, 1, i, j, y[2, i, j])
-        # continuity
-        ur = u[i, j]
-        uip = u[ip, j]
-        vr = v[i, j]
-        vjp = v[i, jp]
-        wr = w[i, j]
-        out = y[3, i, j]
-        for k in range(nz - 1):
-            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
-            out[k] = val if fr[k] != 0 else 0.0
-        k = nz - 1
-        val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
-        out[k] = val if fr[k] != 0 else 0.0
-        for a in range(4):
-            xr = x[a, i, j]
-            yr = y[a, i, j]
-            rr = r[a, i, j]
-            for k in range(nz):
-                s_y += np.float64(xr[k]) * np.float64(yr[k])
-                s_r += np.float64(xr[k]) * np.float64(rr[k])
-    return s_y, s_r
-
-
-@nb.njit(inline="always")
 def _momentum_row_w(d, c, q, pr, plow, shift, wr, i, j, out):
-    """:func:`_momentum_row` with the pressure difference weighted by the face weight ``wr``."""
+    """One momentum row of the weighted system: ``out[k] = (A q)[i, j, k] + wr[k] (pr[k] -
+    plow[k - shift])`` (periodic in k); ``plow`` is the pressure row of the cell below the face
+    (``shift = 1`` when it is the same row, for the component along k), ``wr`` the face weights
+    (0 on inactive faces)."""
     _apply_row(d, c[0], c[1], c[2], q, i, j, out)
     nz = out.shape[0]
     for k in range(1, nz):
         out[k] += wr[k] * (pr[k] - plow[k - shift])
     out[0] += wr[0] * (pr[0] - plow[(nz - shift) % nz])
-
-
-@parallel_kernel(**_OPTS)
-def stokes_apply_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r):
-    """:func:`stokes_apply` with face weights (cut-cell fluid fractions, 0 on inactive faces):
-    gradient ``w_f (p_i - p_{i-1})`` and divergence ``sum_f +-w_f q_f`` (still symmetric)."""
-    nx = fluid.shape[0]
-    acc_y = np.zeros(nx)
-    acc_r = np.zeros(nx)
-    for i in nb.prange(nx):
-        acc_y[i], acc_r[i] = _stokes_apply_w_slab(
-            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r, np.int64(i)
-        )
-    return acc_y.sum(), acc_r.sum()
-
-
-@nb.njit(**_OPTS)
-def _stokes_apply_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, y, r, i):
-    """Plane ``i`` of :func:`stokes_apply_w`; returns its ``(x . y, x . r)`` (14 parameters: the
-    kernel's and ``i``)."""
-    nx, ny, nz = fluid.shape
-    u = x[0]
-    v = x[1]
-    w = x[2]
-    p = x[3]
-    s_y = 0.0
-    s_r = 0.0
-    im = _dn(i, nx)
-    ip = _up(i, nx)
-    for j in range(ny):
-        jm = _dn(j, ny)
-        jp = _up(j, ny)
-        pr = p[i, j]
-        _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, y[0, i, j])
-        _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, y[1, i, j])
-        _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, y[2, i, j])
-        ur = u[i, j]
-        uip = u[ip, j]
-        vr = v[i, j]
-        vjp = v[i, jp]
-        wr = w[i, j]
-        a0 = wu[i, j]
-        a1 = wu[ip, j]
-        b0 = wv[i, j]
-        b1 = wv[i, jp]
-        c0 = ww[i, j]
-        fr = fluid[i, j]
-        out = y[3, i, j]
-        for k in range(nz):
-            kp = k + 1 if k + 1 < nz else 0
-            val = (
-                a0[k] * ur[k]
-                - a1[k] * uip[k]
-                + b0[k] * vr[k]
-                - b1[k] * vjp[k]
-                + c0[k] * wr[k]
-                - c0[kp] * wr[kp]
-            )
-            out[k] = val if fr[k] != 0 else 0.0
-        for a in range(4):
-            xr = x[a, i, j]
-            yr = y[a, i, j]
-            rr = r[a, i, j]
-            for k in range(nz):
-                s_y += np.float64(xr[k]) * np.float64(yr[k])
-                s_r += np.float64(xr[k]) * np.float64(rr[k])
-    return s_y, s_r
 
 
 @nb.njit(inline="always")
@@ -701,10 +558,12 @@ def _weight(w, i, j, k):
 
 @parallel_kernel(**_OPTS)
 def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
-    """r = f - K x in float64 arithmetic (r may be float32) for the system of
-    :func:`stokes_apply_w` (face weights ``wu, wv, ww``) or, with empty weight arrays, of
-    :func:`stokes_apply` (all weights 1); f = the weight on the active faces of component
-    ``gdir`` (the body force on the cut control volumes; 1 for the staircase).  Returns
+    """r = f - K x in float64 arithmetic (r may be float32) for the symmetric MAC Stokes
+    matrix ``K`` of the module docstring with face weights ``wu, wv, ww`` (cut-cell fluid
+    fractions, 0 on inactive faces: gradient ``w_f (p_i - p_{i-1})``, divergence
+    ``sum_f +-w_f q_f``) or, with empty weight arrays, all weights 1 (the staircase);
+    ``x, r`` have shape (4, nx, ny, nz) = (u, v, w, p).  f = the weight on the active faces of
+    component ``gdir`` (the body force on the cut control volumes; 1 for the staircase).  Returns
     ``(||r||^2, ||f||^2)``."""
     nx = fluid.shape[0]
     acc = np.zeros(nx)
@@ -783,13 +642,13 @@ _NO_WEIGHTS = np.zeros((0, 0, 0), np.float32)
 
 
 def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
-    """r = f - K x for :func:`stokes_apply` (staircase; f = 1 on the active faces of ``gdir``),
+    """r = f - K x for the staircase system (f = 1 on the active faces of ``gdir``),
     float64 arithmetic.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
     return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, *(_NO_WEIGHTS,) * 3, x, gdir, r)
 
 
 def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
-    """r = f - K x for the weighted system of :func:`stokes_apply_w`; f = ``w`` on the faces of
+    """r = f - K x for the weighted system (face weights ``wu, wv, ww``); f = ``w`` on the faces of
     component ``gdir``.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
     return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r)
 

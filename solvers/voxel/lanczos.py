@@ -19,7 +19,7 @@ Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
 The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil_rows``, fused
 here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
 walls; both also take :func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are
-the same expressions as in :func:`solvers.voxel.kernels.stokes_apply` / ``stokes_apply_w``.
+the same expressions as in :func:`solvers.voxel.kernels._stokes_residual`.
 A change to those inlined helpers recompiles this module's kernels: the numba cache stamps
 cover the imported project modules (:class:`solvers.jit.DependencyLocator`).
 """
@@ -61,7 +61,7 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     :func:`solvers.voxel.kernels._stencil_rows`, 0 on inactive faces), then in one loop the
     pressure difference ``pr[k] - plow[k - shift]`` (active faces, periodic in k) and
     ``yr <- s row - c1 yr``; returns the float64 ``q . yr``.  Two loops instead of the three of
-    ``_momentum_row`` + :func:`_combine` (2.4x faster on the Toray-like 100^3 operator; the
+    a plain momentum row + :func:`_combine` (2.4x faster on the Toray-like 100^3 operator; the
     same float32 roundings, the fused expressions may differ by one float32 ulp)."""
     nx, ny, nz = d.shape
     ip = _up(i, nx)
@@ -92,7 +92,7 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
 @parallel_kernel(**_OPTS)
 def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     """``y <- s K x - c1 y`` in place for the MAC Stokes matrix of
-    :func:`solvers.voxel.kernels.stokes_apply`; returns ``x . y_new`` (float64).
+    :mod:`solvers.voxel.kernels` (staircase); returns ``x . y_new`` (float64).
 
     ``y`` is read only when ``c1 != 0`` (the first Lanczos step passes ``c1 = 0`` and any
     ``y``).  Rows along k, one temporary row per outer index.
@@ -143,7 +143,7 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
 @parallel_kernel(**_OPTS)
 def stokes_lanczos_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y):
     """:func:`stokes_lanczos` for the face-weighted (sub-voxel) matrix of
-    :func:`solvers.voxel.kernels.stokes_apply_w`."""
+    :func:`solvers.voxel.kernels._stokes_residual`."""
     nx = fluid.shape[0]
     acc = np.zeros(nx)
     for i in nb.prange(nx):

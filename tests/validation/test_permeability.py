@@ -9,12 +9,12 @@ import pytest
 
 SPEC = """
 [rve]
-size = [40e-6, 40e-6, 120e-6]
+size = [40e-6, 40e-6, 80e-6]
 voxel = 0.5e-6
 [[fibers]]
 shape = "cylinder"
 diameter = 10e-6
-center = [20e-6, 20e-6, 60e-6]
+center = [20e-6, 20e-6, 40e-6]
 direction = [0, 0, 1]
 [flow]
 lattice_step = 2e-6
