@@ -384,13 +384,13 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
         work = vs.MinresWork.of(op)
-        e = lz.Solution(op.shape)
+        e = lz.Solution(op.shape, work.packing)
         its = 20
-        vs._minres(op, rhs.copy(), e, work, 1e-30, 2)
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
         e.extend()  # the solution of the second and later refinement cycles (48 bits)
         t0 = time.perf_counter()
         c0 = time.process_time()
-        vs._minres(op, rhs.copy(), e, work, 1e-30, its)
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
         rows["one MINRES iteration, CPU time (all threads)"] = (
             (time.process_time() - c0) / its * 1e3

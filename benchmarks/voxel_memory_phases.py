@@ -57,7 +57,7 @@ def phases(n: int) -> None:
         (vs, "_setup_grid", "set-up"),
         (vs, "percolates", "percolates"),
         (vs.MinresWork, "of", "work vectors"),
-        (vs, "_minres", "MINRES run"),
+        (vs, "krylov_run", "Krylov run"),
         (vs, "_true_residual", "true residual"),
         (lz.Solution, "extend", "extension"),
         (lz.Solution, "value", "float64 value"),
