@@ -1,20 +1,21 @@
-"""Numba kernels of the voxel Stokes solver's MINRES loop with the fewest stored vectors.
+"""Numba kernels of the voxel Stokes solver's Krylov loop with the fewest stored vectors.
 
-:func:`solvers.voxel_stokes._minres` keeps six 4-field vectors (the solution ``x``, the
-two Lanczos vectors ``r1, r2``, the preconditioned vector ``z`` and two unscaled directions
-``u, u1``) instead of seven: the operator product is written *in place* over the older Lanczos
-vector (:func:`stokes_lanczos`: ``r1 <- s K z - c1 r1``, each entry of ``r1`` is read once
-before it is overwritten, so no product vector is stored), and the direction update runs
-before the next preconditioned vector is formed (:func:`minres_direction`), so that ``z`` is
-free to receive it.  The bytes streamed per iteration do not grow: the in-place product reads
-``r1`` where the former product read it for its second dot product, and the Lanczos axpy
-(:func:`add_scaled`) reads one vector fewer than the former three-vector update.
+:func:`solvers.voxel_stokes._symmlq` (the default) keeps five 4-field vectors: the solution
+``x``, the two Lanczos vectors ``r1, r2``, the preconditioned vector ``z`` and one direction
+``w`` (SYMMLQ's ``w-bar``, :func:`symmlq_step`); :func:`solvers.voxel_stokes._minres` keeps
+two unscaled directions ``u, u1`` instead (:func:`minres_direction`).  The operator product is
+written *in place* over the older Lanczos vector (:func:`stokes_lanczos`: ``r1 <- s K z - c1
+r1``, each entry of ``r1`` is read once before it is overwritten, so no product vector is
+stored), and the direction update runs before the next preconditioned vector is formed, so
+that ``z`` is free to receive it.
 
-Storage (issue 16 item 3): the directions feed only the solution, never the Lanczos
-recurrence, so they are stored in 16 bits per entry (:class:`Directions`, row-scaled int16:
-8 B per cell each instead of 16); the solution is float32 plus, from the second refinement
-cycle, an int16 extension (:class:`Solution`, 24 B per cell instead of the float64 32 B).
-Three float32 4-field vectors remain (``r1, r2, z``): they carry the recurrence.
+Storage (issue 16 item 3): the direction and the solution never enter a stencil, so SYMMLQ
+stores them on the active unknowns only (:class:`Packing`; 77 % of the entries on the
+Toray-like grids); the solution is float32 plus, from the second refinement cycle, an int16
+extension (:class:`Solution`: 6 B per entry instead of the float64 8 B).  MINRES'
+directions can be stored in 16 bits per entry (:class:`Directions`, row-scaled int16), at
+about +10 % iterations.  Three float32 4-field vectors remain (``r1, r2, z``): they carry the
+recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil_rows``, fused
 here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
@@ -518,26 +519,29 @@ class Packing:
 
 
 @nb.njit(inline="always")
-def _packed_row(mr, zr, s, w, h, lo, p, cs, sn, zeta, sc, lmax):
-    """:func:`symmlq_step` on one row: ``mr`` the row's activity, ``p`` its first packed entry
-    in ``w, h, lo`` (``lo`` empty: the solution is ``h`` alone)."""
-    inv = 1.0 / sc
-    for k in range(zr.shape[0]):
-        if mr[k] != 0:
-            v = s * np.float64(zr[k])
-            wo = np.float64(w[p])
-            dx = zeta * np.float64(np.float32(cs * wo + sn * v))
-            w[p] = np.float32(sn * wo - cs * v)
-            if zeta != 0.0:
-                if lo.shape[0] > 0:
-                    xe = np.float64(h[p]) + lo[p] * sc + dx
-                    hh = np.float32(xe)
-                    h[p] = hh
-                    lq = np.rint((xe - np.float64(hh)) * inv)
-                    lo[p] = min(max(lq, -lmax), lmax)
-                else:
-                    h[p] += dx
-            p += 1
+def _packed_row(mr, zr, s, w, h, lo, p, q, cs, sn, zeta, sc, lmax, zc, row):
+    """:func:`symmlq_step` on one row: ``mr`` the row's activity, ``w[p:q], h[p:q], lo[p:q]``
+    its packed entries (``lo`` empty: the solution is ``h`` alone).  The active entries of
+    ``zr`` are gathered into ``zc`` first; the rest runs on contiguous slices in the plain loops
+    of :func:`minres_direction` (vectorised; one loop over the mask was 2.9x slower)."""
+    if q == p:
+        return
+    if q - p < zr.shape[0]:  # gather without branches (the row is partly active)
+        c = 0
+        for k in range(zr.shape[0]):
+            zc[c] = zr[k]
+            c += mr[k] != 0
+    else:
+        zc = zr
+    wr = w[p:q]
+    for k in range(q - p):
+        v = s * np.float64(zc[k])
+        wo = np.float64(wr[k])
+        row[k] = np.float32(cs * wo + sn * v)
+        wr[k] = np.float32(sn * wo - cs * v)
+    if zeta != 0.0:
+        lr = lo[p:q] if lo.shape[0] > 0 else lo
+        _solution_row(h[p:q], lr, sc, zeta, row[: q - p], lmax)
 
 
 @parallel_kernel(**_OPTS)
@@ -556,17 +560,20 @@ def symmlq_step(z, s, w, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start):
     nrow = 4 * per
     ntask = (nrow + ROWS_PER_TASK - 1) // ROWS_PER_TASK
     for task in nb.prange(ntask):
+        zc = np.empty(nz, np.float32)
+        row = np.empty(nz, np.float32)
         for t in range(task * ROWS_PER_TASK, min(nrow, (task + 1) * ROWS_PER_TASK)):
             a = t // per
             i = (t - a * per) // ny
             j = t - a * per - i * ny
             p = start[t]
+            q = start[t + 1]
             sc = xs[a]
             if a == 0:
-                _packed_row(du[i, j], fz[t], s, w, xh, xl, p, cs, sn, zeta, sc, lmax)
+                _packed_row(du[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
             elif a == 1:
-                _packed_row(dv[i, j], fz[t], s, w, xh, xl, p, cs, sn, zeta, sc, lmax)
+                _packed_row(dv[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
             elif a == 2:
-                _packed_row(dw[i, j], fz[t], s, w, xh, xl, p, cs, sn, zeta, sc, lmax)
+                _packed_row(dw[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
             else:
-                _packed_row(fluid[i, j], fz[t], s, w, xh, xl, p, cs, sn, zeta, sc, lmax)
+                _packed_row(fluid[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
