@@ -1033,9 +1033,11 @@ def _symmlq(
     holds ``v_k``).  The CG point ``x_L + zeta-bar w-bar`` (``zeta-bar = rhs1 / gamma-bar``)
     has the preconditioned residual norm ``phibar / |c|``, MINRES' ``phibar = beta1 prod(sn)
     sn_k`` over the cosine ``c = gamma-bar / gamma`` of the next rotation; the run stops when
-    that reaches ``rtol beta1`` and moves ``x`` there (at ``maxit``, only if it is below the LQ
-    point's residual ``hypot(rhs1, rhs2)``, Paige & Saunders' rule).  ``report(itn,
-    phibar / beta1)`` (MINRES' estimate: monotone) every ``PROGRESS_EVERY`` iterations.
+    ``phibar <= rtol beta1`` and ``phibar / |c| <= CG_SLACK rtol beta1`` and moves ``x`` there
+    (at ``maxit``, only if that is below the LQ point's residual ``hypot(rhs1, rhs2)``, Paige &
+    Saunders' rule).  ``x`` and ``w-bar`` are packed (:class:`solvers.voxel.lanczos.Packing`,
+    ``work.packing``).  ``report(itn, phibar / beta1)`` (MINRES' estimate: monotone) every
+    ``PROGRESS_EVERY`` iterations.
     """
     z, r1, w = work.z, work.r1, work.w
     masks = (*work.packing.masks, work.packing.start)

@@ -35,9 +35,10 @@ Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all acti
 bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
 grids' active fraction 0.77; with MINRES 113 B with float32 directions, 105 B with 16-bit
 directions from the second cycle, 99 B with 16-bit directions throughout.  Traced (numpy
-allocations, ``python benchmarks/bench_voxel_scale.py memory 64``): see ``benchmarks/
-RESULTS.md`` (issue 16 session 7: SYMMLQ and packing; session 5: 113.7 B per cell staircase
-on the Toray-like 64^3 grid, 115.6 B on PuMA fibres_32, 143.2 B sub-voxel).
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 7): 88.4 B
+per cell staircase and 133.0 B sub-voxel on the Toray-like 64^3 grid, 97.5 B on PuMA fibres_32
+(MINRES, session 5: 113.7 / 143.2 / 115.6 B); 400^3 peak RSS 6.16 GB (``benchmarks/
+RESULTS.md``).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
