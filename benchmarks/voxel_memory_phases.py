@@ -72,8 +72,8 @@ def phases(n: int) -> None:
         print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
         f"Toray-like {n}^3 staircase, {vmem.KRYLOV}, directions {vmem.DIRECTION_BITS} then "
-        f"{vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak {peak / solid.size:.1f} B per cell, "
-        f"{res.iterations} iterations",
+        f"{vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak {peak / solid.size:.1f} B per "
+        f"cell, {res.iterations} iterations",
         flush=True,
     )
 
