@@ -260,10 +260,10 @@ def _vcycle_bytes(mg0, fused: bool = True) -> float:
 
 
 def iteration_bytes(op, fused: bool = True) -> float:
-    """Bytes one MINRES iteration must stream (the kernels of :func:`solvers.voxel_stokes._minres`
-    as they are fused now, each array read or written once per kernel; ``fused=False``: before
-    the multigrid fusions, with the separate preconditioned dot product, float32 directions and
-    the float64 solution)."""
+    """Bytes one Krylov iteration must stream (the kernels of :func:`solvers.voxel_stokes._symmlq`
+    or ``_minres`` by :data:`solvers.voxel.memory.KRYLOV` as they are fused now, each array read
+    or written once per kernel; ``fused=False``: before the multigrid fusions, with the separate
+    preconditioned dot product, float32 directions and the float64 solution)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
     ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
@@ -273,11 +273,15 @@ def iteration_bytes(op, fused: bool = True) -> float:
     lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
     prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
     dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
-    if fused:  # z read; w read, w1 read + written (solvers.voxel.memory.DIRECTION_BITS: float32
-        # or int16 + a scale per 16); x = float32 + int16 extension read + written
-        from solvers.voxel.memory import DIRECTION_BITS
+    from solvers.voxel import memory as vmem
 
-        direction = 16.0 if DIRECTION_BITS == 32 else 9.0
+    if fused and vmem.KRYLOV == "symmlq":  # z read; the packed w (float32) and x (float32 +
+        # int16 extension) read + written on the active unknowns (solvers.voxel.lanczos.Packing)
+        active = (sum(np.count_nonzero(d) for d in op.d) + np.count_nonzero(op.fluid)) / (4 * n)
+        update = vec4 + active * (2 * 16.0 + 2 * 24.0)
+    elif fused:  # z read; w read, w1 read + written (memory.DIRECTION_BITS: float32 or int16 +
+        # a scale per 16); x = float32 + int16 extension read + written
+        direction = 16.0 if vmem.DIRECTION_BITS == 32 else 9.0
         update = vec4 + 3 * direction + 2 * 24.0
     else:  # z, w read; w1 read + written (float32); x (float64) read + written
         update = 4 * vec4 + 2 * 32.0
@@ -386,13 +390,13 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
         work = vs.MinresWork.of(op)
-        e = lz.Solution(op.shape)
+        e = lz.Solution(op.shape, work.packing)
         its = 20
-        vs._minres(op, rhs.copy(), e, work, 1e-30, 2)
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
         e.extend()  # the solution of the second and later refinement cycles (48 bits)
         t0 = time.perf_counter()
         c0 = time.process_time()
-        vs._minres(op, rhs.copy(), e, work, 1e-30, its)
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
         rows["one MINRES iteration"] = (time.perf_counter() - t0) / its * 1e3
         rows["one MINRES iteration, CPU time (all threads)"] = (
             (time.process_time() - c0) / its * 1e3

@@ -31,7 +31,13 @@ from solvers import jit  # noqa: E402
 
 _KERNELS = {
     "solvers.voxel.kernels": ("jacobi2_zero", "residual_restrict", "prolong_jacobi", "jacobi"),
-    "solvers.voxel.lanczos": ("stokes_lanczos", "add_scaled", "minres_direction", "add_direction"),
+    "solvers.voxel.lanczos": (
+        "stokes_lanczos",
+        "add_scaled",
+        "minres_direction",
+        "add_direction",
+        "symmlq_step",
+    ),
     "solvers.voxel.schur": ("block_sum", "pressure_block_code", "pressure_block_scale"),
 }
 
@@ -77,13 +83,13 @@ def profile(n: int, its: int = 6) -> None:
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
         work = vs.MinresWork.of(op)
-        x = lz.Solution(op.shape)
-        vs._minres(op, rhs.copy(), x, work, 1e-30, 2)
+        x = lz.Solution(op.shape, work.packing)
+        vs.krylov_run(op, rhs.copy(), x, work, 1e-30, 2)
         x.extend()
         acc.clear()
         c0 = time.process_time()
         t0 = time.perf_counter()
-        vs._minres(op, rhs, x, work, 1e-30, its)
+        vs.krylov_run(op, rhs, x, work, 1e-30, its)
         cpu = time.process_time() - c0
         wall = time.perf_counter() - t0
     cells = solid.size

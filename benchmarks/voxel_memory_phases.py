@@ -57,7 +57,7 @@ def phases(n: int) -> None:
         (vs, "_setup_grid", "set-up"),
         (vs, "percolates", "percolates"),
         (vs.MinresWork, "of", "work vectors"),
-        (vs, "_minres", "MINRES run"),
+        (vs, "krylov_run", "Krylov run"),
         (vs, "_true_residual", "true residual"),
         (lz.Solution, "extend", "extension"),
         (lz.Solution, "value", "float64 value"),
@@ -71,9 +71,9 @@ def phases(n: int) -> None:
     for label, before, top, after in log:
         print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
-        f"Toray-like {n}^3 staircase, directions {vmem.DIRECTION_BITS} then "
-        f"{vmem.LATER_DIRECTION_BITS} bits: traced peak {peak / solid.size:.1f} B per cell, "
-        f"{res.iterations} iterations",
+        f"Toray-like {n}^3 staircase, {vmem.KRYLOV}, directions {vmem.DIRECTION_BITS} then "
+        f"{vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak {peak / solid.size:.1f} B per "
+        f"cell, {res.iterations} iterations",
         flush=True,
     )
 
@@ -101,6 +101,7 @@ def main(argv: list[str]) -> None:
             vmem.LATER_DIRECTION_BITS = int(argv[3])
         phases(n)
     elif mode == "bits":
+        vmem.KRYLOV = "minres"  # the 16-bit directions are MINRES'
         lz.DIRECTION_BITS = int(argv[3]) if len(argv) > 3 else 32  # Directions read it
         vmem.DIRECTION_BITS = lz.DIRECTION_BITS
         vmem.LATER_DIRECTION_BITS = int(argv[4]) if len(argv) > 4 else 32

@@ -43,10 +43,10 @@ Padding costs the reservoir volume (``1 + 2 aux_length`` times the RVE cells); m
 lateral faces for slip walls would have cost 4x and a native pressure-Dirichlet inlet needs a
 non-symmetric right-hand side path in every kernel.
 
-*Solver* (chosen by measurement, see ``benchmarks/RESULTS.md``): preconditioned MINRES on
-the symmetric saddle-point system ``[[A, G], [G^T, 0]]`` with the block-diagonal preconditioner
-``diag(V_u, V_v, V_w, I)`` (Elman, Silvester & Wathen, *Finite Elements and Fast Iterative
-Solvers*, ch. 4):
+*Solver* (chosen by measurement, see ``benchmarks/RESULTS.md``): preconditioned SYMMLQ
+(MINRES before issue 16 session 7; the same Lanczos recurrence) on the symmetric saddle-point
+system ``[[A, G], [G^T, 0]]`` with the block-diagonal preconditioner ``diag(V_u, V_v, V_w, I)``
+(Elman, Silvester & Wathen, *Finite Elements and Fast Iterative Solvers*, ch. 4):
 
 * ``A`` is, per velocity component, the scalar no-slip Laplacian; ``V_a`` is one symmetric
   V-cycle of a matrix-free aggregation multigrid (:mod:`solvers.voxel.multigrid`): Galerkin
@@ -58,12 +58,15 @@ Solvers*, ch. 4):
 * the pressure block (two-level since issue 16: *Pressure block* below) starts from the mass (the
   identity in the voxel units used internally): for MAC, ``G^T (-Laplacian)^-1 G`` is exactly
   the identity in a wall-free periodic box.
-* MINRES runs in float32 (3 float32 vectors of 4 fields and two directions, float32 or 16-bit:
-  :data:`solvers.voxel.memory.DIRECTION_BITS`) inside an
+* the Krylov method is SYMMLQ (Paige & Saunders), moved to its CG point at the end of each run
+  (:func:`_symmlq`; :data:`solvers.voxel.memory.KRYLOV`: MINRES, :func:`_minres`, on the same
+  Lanczos recurrence, needs two directions instead of one); it runs in float32 (3 float32
+  vectors of 4 fields and one direction, stored on the active unknowns only:
+  :class:`solvers.voxel.lanczos.Packing`) inside an
   iterative refinement with a float64 residual ``b - K x``; the solution is float32 in the
   first refinement cycle and float32 plus an int16 extension (48 bits; int32 below ``tol`` 1e-7)
-  from the second on (MINRES accumulates straight into it, :class:`solvers.voxel.lanczos.
-  Solution`); each MINRES run reduces its preconditioned residual by up to
+  from the second on (the Krylov run accumulates straight into it, :class:`solvers.voxel.
+  lanczos.Solution`); each run reduces its preconditioned residual by up to
   ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
   when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
@@ -74,10 +77,10 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 105 bytes per voxel on a
-periodic staircase grid (48-bit solution, 3 float32 4-field vectors, two directions, float32 in
-the first refinement cycle and 16-bit from the second, uint8 diagonals, no stored finest
-couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
+more work per iteration and was dropped.  Memory is O(N): about 88 bytes per voxel on a
+periodic staircase Toray-like grid, at most 97 B (3 float32 4-field vectors; the 48-bit
+solution and SYMMLQ's float32 direction on the active unknowns only; uint8 diagonals, no stored
+finest couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
 (:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
@@ -177,9 +180,9 @@ class VoxelFlowResult:
     porosity : float
         Fluid fraction of the solved grid (cell centres in the fluid).
     converged, iterations, residual : bool, int, float
-        True relative residual reached ``tol``; MINRES iterations (each one operator product and
-        three scalar V-cycles); final true relative residual ``||b - K x|| / ||b||`` (voxel units,
-        float64).
+        True relative residual reached ``tol``; Krylov (SYMMLQ) iterations (each one operator
+        product and three scalar V-cycles); final true relative residual ``||b - K x|| / ||b||``
+        (voxel units, float64).
     n_cells : int
         Number of pressure cells (unknown mass balances).
     wall_time_s, peak_memory_mb : float
@@ -416,7 +419,7 @@ def solve_voxel_stokes(
     tol : float
         True relative residual at which the iteration stops (0 < tol < 1).
     max_iter : int
-        Maximum number of MINRES iterations in total (>= 1).
+        Maximum number of Krylov (SYMMLQ) iterations in total (>= 1).
     periodic_treatment : {'periodic', 'mirror', 'frame'}
         ``bc="periodic"`` only. ``'periodic'``: the grid is used as is (it must be periodic, or
         the seams act as extra geometry). ``'mirror'``: the grid is doubled along ``direction``
@@ -424,7 +427,7 @@ def solve_voxel_stokes(
     return_velocity : bool
         Return the face velocity field (float32, 3 x grid, m/s) in ``result.velocity``.
     progress : callable, optional
-        ``progress(iterations, residual)`` every ``PROGRESS_EVERY`` MINRES iterations and after
+        ``progress(iterations, residual)`` every ``PROGRESS_EVERY`` Krylov iterations and after
         each refinement cycle.
     distance : np.ndarray, optional
         Signed distance to the solid surface at the voxel centres (metres, > 0 in the pore,
@@ -881,30 +884,47 @@ class _Stokes:
 
 @dataclass
 class MinresWork:
-    """The work vectors of :func:`_minres` besides the right-hand side: the preconditioned
-    vector ``z`` (float32; :attr:`_Stokes.z`, whose pressure field the multigrid shares), the
-    older Lanczos vector ``r1`` (float32) and the two unscaled directions ``u, u1``
-    (:class:`solvers.voxel.lanczos.Directions`, 16 bits per entry)."""
+    """The work vectors of :func:`_minres` / :func:`_symmlq` besides the right-hand side: the
+    preconditioned vector ``z`` (float32; :attr:`_Stokes.z`, whose pressure field the multigrid
+    shares), the older Lanczos vector ``r1`` (float32) and the directions: MINRES' two
+    unscaled ``u, u1`` (:class:`solvers.voxel.lanczos.Directions`, float32 or 16 bits per
+    entry) or SYMMLQ's one ``w`` (float32, on the active unknowns ``packing`` only:
+    :class:`solvers.voxel.lanczos.Packing`; :data:`solvers.voxel.memory.KRYLOV`)."""
 
     z: np.ndarray
     r1: np.ndarray
-    u: lz.Directions
-    u1: lz.Directions
+    u: lz.Directions | None
+    u1: lz.Directions | None
+    w: np.ndarray | None = None
+    packing: lz.Packing | None = None
 
     @classmethod
-    def of(cls, op: _Stokes) -> MinresWork:
-        """Work vectors for the operator ``op``."""
+    def of(cls, op: _Stokes, krylov: str | None = None) -> MinresWork:
+        """Work vectors for the operator ``op`` and the Krylov method ``krylov`` (default
+        :data:`solvers.voxel.memory.KRYLOV`)."""
         shp = op.shape
-        return cls(op.z, np.empty(shp, np.float32), lz.Directions(shp), lz.Directions(shp))
+        r1 = np.empty(shp, np.float32)
+        if (krylov or vmem.KRYLOV) == "symmlq":
+            pk = lz.Packing([*op.d, op.fluid])
+            return cls(op.z, r1, None, None, np.zeros(pk.size, np.float32), pk)
+        return cls(op.z, r1, lz.Directions(shp), lz.Directions(shp))
 
     def narrow(self, bits: int) -> None:
-        """Store the directions in ``bits`` (16 or 32) from now on (new, zero directions; the
-        old ones are freed first, so the peak is that of the wider pair)."""
-        if self.u.q.itemsize * 8 == bits:
+        """Store MINRES' directions in ``bits`` (16 or 32) from now on (new, zero directions;
+        the old ones are freed first, so the peak is that of the wider pair)."""
+        if self.u is None or self.u.q.itemsize * 8 == bits:
             return
         shp = self.u.q.shape
-        self.u = self.u1 = None  # type: ignore[assignment]
+        self.u = self.u1 = None
         self.u, self.u1 = lz.Directions(shp, bits), lz.Directions(shp, bits)
+
+
+def _solution_parts(x: lz.Solution | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(hi, lo, scale)`` of a :class:`solvers.voxel.lanczos.Solution`, or of a float array
+    (an empty ``lo``) for the kernels that accumulate into the solution."""
+    if isinstance(x, lz.Solution):
+        return x.hi, x.lo, x.scale
+    return x, np.zeros((0,) * x.ndim, np.int16), np.ones(x.shape[0])
 
 
 def _minres(
@@ -936,10 +956,7 @@ def _minres(
     ``report(itn, phibar / beta1)`` is called every ``PROGRESS_EVERY`` iterations if given.
     """
     z, r1, u, u1 = work.z, work.r1, work.u, work.u1
-    if isinstance(x, lz.Solution):
-        xh, xl, xs = x.hi, x.lo, x.scale
-    else:
-        xh, xl, xs = x, np.zeros((0,) * x.ndim, np.int16), np.ones(x.shape[0])
+    xh, xl, xs = _solution_parts(x)
     u.clear()
     u1.clear()
     r2 = b
@@ -985,11 +1002,102 @@ def _minres(
     return maxit, "max_iter"
 
 
+def _symmlq(
+    op: _Stokes,
+    b: np.ndarray,
+    x: lz.Solution,
+    work: MinresWork,
+    rtol: float,
+    maxit: int,
+    report: Callable[[int, float], None] | None = None,
+) -> tuple[int, str]:
+    """Preconditioned SYMMLQ (Paige & Saunders 1975) for K e = b, accumulated into ``x`` and
+    moved to the CG point on return: :func:`_minres`' arguments and result, one direction.
+
+    The Lanczos recurrence and its kernels are :func:`_minres`' (the same vectors ``z, r1`` and
+    ``b``); the LQ factorisation of the Lanczos matrix uses the same plane rotations as MINRES'
+    QR, but its iterate ``x_L = W z`` needs only one stored direction ``w-bar`` (float32,
+    ``work.w``): rotation ``k - 1`` of ``(w-bar, v_k)`` gives the finished direction
+    ``cs w-bar + sn v_k``, added to ``x`` with the weight ``zeta``, and the next ``w-bar = sn
+    w-bar - cs v_k`` (:func:`solvers.voxel.lanczos.symmlq_step`, one pass while ``z`` still
+    holds ``v_k``).  The CG point ``x_L + zeta-bar w-bar`` (``zeta-bar = rhs1 / gamma-bar``)
+    has the preconditioned residual norm ``phibar / |c|``, MINRES' ``phibar = beta1 prod(sn)
+    sn_k`` over the cosine ``c = gamma-bar / gamma`` of the next rotation; the run stops when
+    ``phibar <= rtol beta1`` and ``phibar / |c| <= CG_SLACK rtol beta1`` and moves ``x`` there
+    (at ``maxit``, only if that is below the LQ point's residual ``hypot(rhs1, rhs2)``, Paige &
+    Saunders' rule).  ``x`` and ``w-bar`` are packed (:class:`solvers.voxel.lanczos.Packing`,
+    ``work.packing``).  ``report(itn, phibar / beta1)`` (MINRES' estimate: monotone) every
+    ``PROGRESS_EVERY`` iterations.
+    """
+    z, r1, w = work.z, work.r1, work.w
+    masks = (*work.packing.masks, work.packing.start)
+    xh, xl, xs = x.hi, x.lo, x.scale
+    r2 = b
+    beta1 = op.precondition(r2, z)
+    if not beta1 > 0.0:
+        return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
+    beta1 = np.sqrt(beta1)
+    w.fill(0.0)
+    oldb, beta, gbar, dbar, rhs1, rhs2, snprod = 0.0, beta1, 0.0, 0.0, beta1, 0.0, 1.0
+    for itn in range(1, maxit + 1):
+        s = 1.0 / beta
+        c1 = beta / oldb if itn >= 2 else 0.0
+        alfa = s * op.lanczos(z, s, c1, r1)
+        lz.add_scaled(r1, -alfa / beta, r2)
+        r1, r2 = r2, r1
+        if itn == 1:  # w-bar_1 = v_1
+            lz.symmlq_step(z, s, w, -1.0, 0.0, xh, xl, xs, 0.0, *masks)
+            cs, sn, zeta, delta, gbar = -1.0, 0.0, 0.0, 0.0, alfa
+        else:  # rotation itn - 1: (gamma-bar, beta_itn) -> (gamma, 0)
+            gamma = max(np.hypot(gbar, beta), 1e-300)
+            cs, sn, zeta = gbar / gamma, beta / gamma, rhs1 / gamma
+            lz.symmlq_step(z, s, w, cs, sn, xh, xl, xs, zeta, *masks)
+            delta = cs * dbar + sn * alfa
+            gbar = sn * dbar - cs * alfa
+            snprod *= sn
+        oldb = beta
+        beta = op.precondition(r2, z)
+        if beta < 0.0:
+            return itn, "preconditioner not positive"
+        beta = np.sqrt(beta)
+        if itn == 1:
+            dbar = beta
+        else:
+            rhs1, rhs2 = rhs2 - delta * zeta, -sn * beta * zeta
+            dbar = -cs * beta
+        mr = snprod * beta1 * beta / max(np.hypot(gbar, beta), 1e-300)  # MINRES' phibar
+        cg = snprod * beta1 * beta / abs(gbar) if gbar != 0.0 else np.inf
+        if report is not None and itn % PROGRESS_EVERY == 0:
+            report(itn, mr / beta1)
+        done = (mr <= rtol * beta1 and cg <= CG_SLACK * rtol * beta1) or beta == 0.0
+        if done or (itn == maxit and cg <= np.hypot(rhs1, rhs2)):
+            zbar = rhs1 / gbar if gbar != 0.0 else 0.0
+            lz.symmlq_step(z, 0.0, w, 1.0, 0.0, xh, xl, xs, zbar, *masks)  # to the CG point
+        if done:
+            return itn, "exact" if beta == 0.0 else "ok"
+    return maxit, "max_iter"
+
+
+CG_SLACK = 2.0
+""":func:`_symmlq` stops when MINRES' residual estimate is below ``rtol`` and that of the CG
+point, where it moves, below ``CG_SLACK rtol`` (the refinement loop checks the true residual
+after each run).  Measured, Toray-like at 1 um, tol 1e-6 (MINRES 151 / 175 iterations at
+100^3 / 200^3): 1.0, 162 / 191 (the CG residual is about twice MINRES' and oscillates); 2.0,
+153 / 179, final true residuals 4.3e-7 / 5.7e-7 (``benchmarks/RESULTS.md``)."""
+
+
+def krylov_run(*args: object, **kwargs: object) -> tuple[int, str]:
+    """:func:`_symmlq` or :func:`_minres` by :data:`solvers.voxel.memory.KRYLOV` (the work
+    vectors of :meth:`MinresWork.of` must be those of the same method)."""
+    return (_symmlq if vmem.KRYLOV == "symmlq" else _minres)(*args, **kwargs)
+
+
 PROGRESS_EVERY = 25
-"""MINRES iterations between two progress reports."""
+"""Krylov iterations between two progress reports."""
 
 INNER_RTOL_FLOOR = 1e-4
-"""Smallest relative reduction asked of one float32 MINRES run (float32 round-off floor)."""
+"""Smallest relative reduction asked of one float32 Krylov run (float32 round-off floor; 1e-5
+with SYMMLQ: 127 and 164 iterations at 64^3 and 100^3 instead of 126 and 162, no gain)."""
 
 
 def _true_residual(
@@ -998,7 +1106,7 @@ def _true_residual(
     """``r <- b - K x`` for the solution ``hi + lo * scale`` (float64 arithmetic on ``hi``; the
     small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
     subtracted); returns ``(||r||, ||b||)``."""
-    rn, bn = op.residual(x.hi, d, r)
+    rn, bn = op.residual(x.hi_value(work.z), d, r)
     if x.extended:  # the Lanczos kernel with c1 = 0 is the product K x
         op.lanczos(x.lo_value(work.z), 1.0, 0.0, work.r1)
         rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
@@ -1012,13 +1120,14 @@ def _solve_core(
     max_iter: int,
     progress: Callable[[int, float], None] | None = None,
 ) -> tuple[np.ndarray, dict]:
-    """Iterative refinement: float64 residual, float32 preconditioned MINRES, the solution in
+    """Iterative refinement: float64 residual, float32 preconditioned SYMMLQ (or MINRES:
+    :data:`solvers.voxel.memory.KRYLOV`), the solution in
     48 bits per entry (:class:`solvers.voxel.lanczos.Solution`: float32 in the first cycle, plus
     an int16 extension from the second); returns the solution as float64."""
     shp = op.shape
-    x = lz.Solution(shp)
-    r = np.empty(shp, np.float32)
     work = MinresWork.of(op)
+    x = lz.Solution(shp, work.packing)
+    r = np.empty(shp, np.float32)
     rn, bn = _true_residual(op, x, d, r, work)
     rel = rn / bn
     history = [rel]
@@ -1027,7 +1136,7 @@ def _solve_core(
     stalls = 0
     while rel > tol:
         if total >= max_iter:
-            message = f"max_iter={max_iter} MINRES iterations reached"
+            message = f"max_iter={max_iter} Krylov iterations reached"
             break
         if total > 0:
             if not x.extended:  # the directions narrow where the solution widens (memory)
@@ -1041,7 +1150,7 @@ def _solve_core(
             def report(itn: int, ratio: float, done: int = done, scale: float = scale) -> None:
                 progress(done + itn, scale * ratio)
 
-        its, status = _minres(op, r, x, work, rtol, max_iter - total, report)
+        its, status = krylov_run(op, r, x, work, rtol, max_iter - total, report)
         total += its
         rn, _ = _true_residual(op, x, d, r, work)
         new = rn / bn

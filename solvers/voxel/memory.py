@@ -1,20 +1,24 @@
 """Memory of the voxel Stokes solver, estimated before anything is allocated.
 
 Per cell of the *solved* grid (reservoirs and treatments included), counted from the arrays the
-solve holds at its peak (MINRES phase) and checked against the traced peak
+solve holds at its peak (Krylov phase) and checked against the traced peak
 (``tests/unit/test_voxel_memory.py``, ``benchmarks/RESULTS.md``):
 
 * solution ``x``: float32 ``hi`` 16 B plus, from the second refinement cycle, the int16
   extension ``lo`` 8 B (:class:`solvers.voxel.lanczos.Solution`; 48 bits: the true residual
   reaches about 2.5e-11 times the largest velocity in voxel units, float32 alone stalls near
-  3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B;
+  3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B; with SYMMLQ (the default, :data:`KRYLOV`)
+  on the active unknowns only (:class:`solvers.voxel.lanczos.Packing`: 24 B times their
+  fraction, 0.77 on the Toray-like grids, plus 8 B per row of 4 fields for the offsets);
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
   place, see :mod:`solvers.voxel.lanczos`): 48 B;
-* two unscaled MINRES directions (:class:`solvers.voxel.lanczos.Directions`): float32 2 x 16 =
-  32 B, or int16 with one float32 scale per 16 entries, 2 x 9 = 18 B; :data:`DIRECTION_BITS`
-  in the first refinement cycle, :data:`LATER_DIRECTION_BITS` from the second on (where the
-  solution gains its 8 B), so the peak is ``max(16 + first, 24 + later)``;
+* the directions: SYMMLQ's one (:data:`KRYLOV`, the default), float32 16 B, packed as the
+  solution, so the peak is the second cycle's ``24 + 16`` (times the active fraction); or
+  MINRES' two unscaled directions (:class:`solvers.voxel.lanczos.Directions`): float32
+  2 x 16 = 32 B, or int16 with one float32 scale per 16 entries, 2 x 9 = 18 B;
+  :data:`DIRECTION_BITS` in the first refinement cycle, :data:`LATER_DIRECTION_BITS` from the
+  second on (where the solution gains its 8 B), so the peak is ``max(16 + first, 24 + later)``;
 * multigrid: no fine work array (the V-cycles smooth between the preconditioned vector's
   pressure field and their own output field); coarse levels (7-point operators, 1/8 + 1/64 +
   ... of the cells; the first coarse level of the staircase in uint8, the Galerkin sums of its
@@ -27,11 +31,14 @@ solve holds at its peak (MINRES phase) and checked against the traced peak
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
   (4 B) and float32 first coarse levels (+3 B); the caller's float64 distance (8 B) comes on top.
 
-Sum, staircase, periodic: 113 B with float32 directions (the peak is the second cycle's), 105 B
-with 16-bit directions from the second cycle, 99 B with 16-bit directions throughout.  Traced
-(numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``): 113.7 B per cell
-staircase and 143.3 B sub-voxel on the Toray-like 64^3 grid, 115.6 B on PuMA fibres_32
-(before this count, issue 16 session 5: 130.7 / 155.7 / 136.9 B; ``benchmarks/RESULTS.md``).
+Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all active (the
+bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
+grids' active fraction 0.77; with MINRES 113 B with float32 directions, 105 B with 16-bit
+directions from the second cycle, 99 B with 16-bit directions throughout.  Traced (numpy
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 7): 88.4 B
+per cell staircase and 133.0 B sub-voxel on the Toray-like 64^3 grid, 97.5 B on PuMA fibres_32
+(MINRES, session 5: 113.7 / 143.2 / 115.6 B); 400^3 peak RSS 6.16 GB (``benchmarks/
+RESULTS.md``).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
@@ -54,6 +61,12 @@ two-level pressure block, 16 vs 32: 120 vs 120 MINRES iterations at 64^3, but **
 100^3** (+10.6 %: the 16-bit second cycle ends at 1.85e-6 instead of 2.6e-7, just above tol, so
 a third cycle runs); K equal to 3e-8.  Hence 32 by default (``benchmarks/RESULTS.md``)."""
 
+KRYLOV = "symmlq"
+"""Krylov method of the voxel Stokes solve (:func:`solvers.voxel_stokes._solve_core`):
+``"symmlq"`` (one float32 direction, 16 B per cell, and the solution on the active unknowns
+only) or ``"minres"`` (two directions, :data:`DIRECTION_BITS`; the solution on the grid); the
+same Lanczos recurrence and preconditioner."""
+
 DIRECTION_BYTES = {32: 16, 16: 9}
 """Bytes per cell of one direction by its bits (16: int16 and a float32 scale per 16)."""
 
@@ -75,7 +88,10 @@ SUBVOXEL_FLOOR = 174
 
 
 def _per_cell(wall_treatment: str, first: int, later: int) -> int:
-    sol = max(16 + 2 * DIRECTION_BYTES[first], 24 + 2 * DIRECTION_BYTES[later])
+    if KRYLOV == "symmlq":  # all unknowns active: the bound (module docstring)
+        sol = 24 + DIRECTION_BYTES[32]
+    else:
+        sol = max(16 + 2 * DIRECTION_BYTES[first], 24 + 2 * DIRECTION_BYTES[later])
     per = _FIXED[wall_treatment] + sol + _SMALL_GRID
     return max(per, SUBVOXEL_FLOOR) if wall_treatment == "subvoxel" else per
 

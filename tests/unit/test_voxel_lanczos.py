@@ -1,5 +1,6 @@
 """The in-place MINRES kernels (solvers.voxel.lanczos) against the operator product written
-out in numpy (:mod:`stokes_product`) and against scipy's MINRES on the same matrix."""
+out in numpy (:mod:`stokes_product`) and against scipy's MINRES on the same matrix; SYMMLQ's CG
+point against the Galerkin solution on the same Krylov space (Paige & Saunders 1975)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import scipy.sparse.linalg as spla
 from stokes_product import stokes_product
 
 import solvers.voxel_stokes as vs
+from solvers.voxel import lanczos as lz
 
 
 def _grid(n: int = 10, seed: int = 3) -> np.ndarray:
@@ -39,6 +41,19 @@ def test_minres_matches_scipy_on_the_same_matrix() -> None:
     n = int(np.prod(op.shape))
     b = np.empty(op.shape, np.float32)
     op.residual(np.zeros(op.shape), 2, b)
+    matvec, prec = _operators(op)
+    kmat = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+    mmat = spla.LinearOperator((n, n), matvec=prec, dtype=float)
+    ref, _ = spla.minres(kmat, b.ravel().astype(float), M=mmat, maxiter=15, rtol=1e-30)
+    x = np.zeros(op.shape)
+    its, _ = vs._minres(op, b.copy(), x, vs.MinresWork.of(op, "minres"), 1e-30, 15)
+    assert its == 15
+    # the same 15 MINRES iterates up to float32 round-off (a wrong direction update is O(1) off)
+    assert np.linalg.norm(x.ravel() - ref) <= 1e-3 * np.linalg.norm(ref)
+
+
+def _operators(op):
+    """``(K v, M^-1 v)`` of ``op`` as float64 functions of flat vectors (float32 kernels)."""
 
     def matvec(v: np.ndarray) -> np.ndarray:
         return stokes_product(op, v.reshape(op.shape)).ravel()
@@ -48,14 +63,35 @@ def test_minres_matches_scipy_on_the_same_matrix() -> None:
         op.precondition(v.reshape(op.shape).astype(np.float32), out)
         return out.ravel().astype(float)
 
-    kmat = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
-    mmat = spla.LinearOperator((n, n), matvec=prec, dtype=float)
-    ref, _ = spla.minres(kmat, b.ravel().astype(float), M=mmat, maxiter=15, rtol=1e-30)
-    x = np.zeros(op.shape)
-    its, _ = vs._minres(op, b.copy(), x, vs.MinresWork.of(op), 1e-30, 15)
-    assert its == 15
-    # the same 15 MINRES iterates up to float32 round-off (a wrong direction update is O(1) off)
-    assert np.linalg.norm(x.ravel() - ref) <= 1e-3 * np.linalg.norm(ref)
+    return matvec, prec
+
+
+@pytest.mark.parametrize("rtol", [1e30, 0.3, 0.03])
+def test_symmlq_cg_point_is_the_galerkin_solution(rtol: float) -> None:
+    # SYMMLQ stops after k Lanczos steps at the CG point x_C = V_k T_k^-1 beta1 e1, the
+    # Galerkin solution on the Krylov space K_k(M^-1 K, M^-1 b): b - K x_C is orthogonal to
+    # it (Paige & Saunders 1975, sec. 5); the reference is formed densely on that space
+    # (orthonormal basis by Arnoldi in float64)
+    op = vs._Stokes.build(_grid())
+    b = np.empty(op.shape, np.float32)
+    op.residual(np.zeros(op.shape), 2, b)
+    work = vs.MinresWork.of(op, "symmlq")
+    sol = lz.Solution(op.shape, work.packing)
+    k, status = vs._symmlq(op, b.copy(), sol, work, rtol, 100)
+    x = sol.value()
+    assert status == "ok" and (k == 1) == (rtol > 1.0)
+    matvec, prec = _operators(op)
+    basis = [prec(b.ravel().astype(float))]
+    basis[0] /= np.linalg.norm(basis[0])
+    for _ in range(k - 1):
+        v = prec(matvec(basis[-1]))
+        for q in basis:
+            v -= (q @ v) * q
+        basis.append(v / np.linalg.norm(v))
+    q = np.stack(basis, axis=1)
+    kq = np.stack([matvec(col) for col in q.T], axis=1)
+    ref = q @ np.linalg.solve(q.T @ kq, q.T @ b.ravel().astype(float))
+    assert np.linalg.norm(x.ravel() - ref) <= 1e-4 * np.linalg.norm(ref)
 
 
 @pytest.mark.parametrize(("nz", "bits"), [(37, 16), (32, 16), (32, 32)])  # per row, block, -
@@ -100,3 +136,49 @@ def _exact(d) -> np.ndarray:
     """The value of a :class:`solvers.voxel.lanczos.Directions` in float64."""
     b = d.block
     return (d.q.reshape(-1, b) * d.e[:, None].astype(float)).reshape(d.q.shape)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_packing_keeps_every_vector_of_the_solve(weighted: bool) -> None:
+    # lanczos.Packing stores SYMMLQ's direction and the solution on the active unknowns only:
+    # the right-hand side, the preconditioned vector and the Lanczos product of the solve
+    # vanish elsewhere (both wall treatments), and pack / unpack is the identity there
+    rng = np.random.default_rng(5)
+    if weighted:
+        phi = rng.random((9, 8, 7)) - 0.25
+        op = vs._Stokes.build(phi <= 0, phi)
+    else:
+        op = vs._Stokes.build(_grid(9, seed=4))
+    pk = lz.Packing([*op.d, op.fluid])
+    active = np.stack([m != 0 for m in pk.masks])
+    assert pk.size == int(active.sum()) and 0 < pk.size < active.size
+    b = np.empty(op.shape, np.float32)
+    op.residual(np.zeros(op.shape), 0, b)
+    r = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    z = np.empty(op.shape, np.float32)
+    op.precondition(r, z)
+    y = np.full(op.shape, np.nan, np.float32)
+    op.lanczos(z, 0.7, 0.0, y)
+    for v in (b, z, y):
+        assert np.abs(v).max() > 0.0 and not np.any(v[~active])
+    out = np.full(op.shape, 7.0, np.float32)
+    pk.unpack(z[active], out)
+    assert np.array_equal(out, z)
+
+
+def test_symmlq_and_minres_reach_the_same_solution() -> None:
+    # the refinement loop with SYMMLQ on packed vectors and with MINRES on the grid: the same
+    # solution to the tolerance (a packing offset error would be O(1) off)
+    from solvers.voxel import memory as vmem
+
+    op = vs._Stokes.build(_grid())
+    out = {}
+    for krylov in ("minres", "symmlq"):
+        old, vmem.KRYLOV = vmem.KRYLOV, krylov
+        try:
+            out[krylov] = vs._solve_core(op, 2, 1e-8, 500)
+        finally:
+            vmem.KRYLOV = old
+    (xm, im), (xs, info) = out["minres"], out["symmlq"]
+    assert im["converged"] and info["converged"] and info["residual"] <= 1e-8
+    assert np.abs(xs[:3] - xm[:3]).max() <= 1e-6 * np.abs(xm[:3]).max()
