@@ -5,9 +5,9 @@ Two parts, each appending one JSON line per solve to ``benchmarks/solver_agreeme
 
 * ``arrays``: square and hexagonal cylinder arrays along and across at solid fractions
   0.1-0.5 (thin periodic slabs, one cell, spacing 40 um), both routes with ``bc = "periodic"``
-  and their default settings (FEM: stuffing lattice step ``max(2 voxel, min(size) / 30)``, mesh
-  volume matched to the analytic pore volume; voxel: sub-voxel walls), against the published
-  values (issue 12, item 3);
+  and their default settings (FEM: stuffing lattice step ``default_lattice_step``, 2 voxels on
+  these thin slabs, mesh volume matched to the analytic pore volume; voxel: sub-voxel walls),
+  against the published values (issue 12, item 3);
 * ``specs``: every shipped spec in ``studies/`` (a study: its first case), both routes, both BCs,
   with the error bars (issue 12, item 1). ``--size`` / ``--voxel`` shrink the RVE when the
   full one does not fit the machine; the table says so.
@@ -743,7 +743,8 @@ def render(_args=None) -> None:
         "touch them. One cell of spacing 40 um as a thin periodic slab (4 voxels thick; both "
         "flows are two-dimensional), cylinders along z; 'along' = flow along z, 'across' = "
         "along x. Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
-        "settings: FEM lattice step `max(2 voxel, min(size) / 30)` = 2 voxels, analytic volume "
+        "settings: FEM lattice step `max(2 voxel, min(min(size) / 30, D / 3))` = 2 voxels (the "
+        "slab is 4 voxels thick), analytic volume "
         "target; voxel: sub-voxel walls. References: Sangani & Acrivos (1982) Int. J. "
         "Multiphase Flow 8, 193-206, Table 1 (square across); Sparrow & Loeffler (1959) AIChE "
         "J. 5, 325-330 collocation series (`tests/arrays.py`, along); Drummond & Tahir (1984) "
