@@ -41,6 +41,8 @@ LATTICE_CELLS_PER_BOX = 30.0
 #: +1.0 % over a second-order fit's limit (6.30e-12); measurements at D / 3 in
 #: ``docs/meshers.md`` (session 7).
 LATTICE_CELLS_PER_DIAMETER = 3.0
+#: Stuffing axial step in the auxiliary zones, in lattice steps (``MeshOptions.slab_factor``).
+DEFAULT_SLAB_FACTOR = 3.0
 
 
 def default_lattice_step(voxel: float, size, fiber_diameter: float | None = None) -> float:
@@ -157,7 +159,7 @@ class MeshOptions:
     seed: int = 0
     lattice_step: float | None = None
     alpha: float = 0.3
-    slab_factor: float = 3.0
+    slab_factor: float = DEFAULT_SLAB_FACTOR
     edge_length: float | None = None
     edge_length_fac: float | None = None
     fiber_diameter: float | None = None

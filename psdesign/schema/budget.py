@@ -134,11 +134,11 @@ def fem_mesh_size(
 ) -> tuple[float, float]:
     """``(n_points, n_tets)`` of the stuffing mesh: lattice cells of pore in ``copies`` copies
     (``porosity``) plus the all-fluid reservoir slabs (axial step ``slab_factor`` times
-    ``step``, :class:`psdesign.meshing.options.MeshOptions`)."""
-    from psdesign.meshing.options import MeshOptions
+    ``step``, :data:`psdesign.meshing.options.DEFAULT_SLAB_FACTOR`)."""
+    from psdesign.meshing.options import DEFAULT_SLAB_FACTOR
 
     cells = math.prod(max(1.0, s / step) for s in size)
-    pore = cells * (copies * porosity + 2.0 * aux / MeshOptions().slab_factor)
+    pore = cells * (copies * porosity + 2.0 * aux / DEFAULT_SLAB_FACTOR)
     return POINTS_PER_PORE_CELL * pore, TETS_PER_PORE_CELL * pore
 
 
@@ -160,6 +160,7 @@ def fem_lattice_step(
     copies: int = 1,
     aux: float = 0.0,
     porosity: float | None = None,
+    budget: float | None = None,
 ) -> tuple[float, str | None]:
     """The FEM's default lattice step within the memory budget, and a note when it was coarsened.
 
@@ -168,8 +169,9 @@ def fem_lattice_step(
     None = all pore, reservoirs of ``aux``) would exceed the budget (:data:`MEMORY_FRACTION` of
     the machine) while the box-relative step (the same rule without a fiber diameter) fits, the
     finest step between the two that fits is taken instead (never coarser than the box-relative
-    one; the error bar's two-grid term grows with it), and the note says so. When neither fits,
-    the box-relative step is returned (:func:`check_fem` then refuses the spec, as before).
+    one, to 1e-3; the error bar's two-grid term grows with it), and the note says so. When
+    neither fits, the box-relative step is returned (:func:`check_fem` then refuses the spec, as
+    before). ``budget``: in bytes (default half the machine's memory).
 
     Returns
     -------
@@ -183,14 +185,15 @@ def fem_lattice_step(
     if fine >= coarse:
         return fine, None
     phi = 1.0 if porosity is None else float(porosity)
-    budget = MEMORY_FRACTION * machine_memory()
+    if budget is None:
+        budget = MEMORY_FRACTION * machine_memory()
     fine_need = fem_need_bytes(size, fine, copies, aux, phi)
     if fine_need <= budget:
         return fine, None
     if fem_need_bytes(size, coarse, copies, aux, phi) > budget:
         return coarse, None
     lo, hi = fine, coarse  # need(lo) > budget >= need(hi); need falls with the step
-    while hi - lo > 1e-4 * hi:
+    while hi - lo > 1e-3 * hi:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if fem_need_bytes(size, mid, copies, aux, phi) > budget else (lo, mid)
     per_d = f"{fiber_diameter / fine:.3g} -> {fiber_diameter / hi:.3g} cells per fiber diameter"
@@ -221,10 +224,10 @@ def check_fem(
 
     copies, aux = stack_of(flow)
     phi = 1.0 if porosity is None else float(porosity)
+    budget = MEMORY_FRACTION * machine_memory()
     step = flow.lattice_step
     if step is None:
-        step, _ = fem_lattice_step(size, voxel, fiber_diameter, copies, aux, phi)
-    budget = MEMORY_FRACTION * machine_memory()
+        step, _ = fem_lattice_step(size, voxel, fiber_diameter, copies, aux, phi, budget)
     check_fem_field(size, voxel, budget)
 
     total = fem_need_bytes(size, step, copies, aux, phi)

@@ -70,12 +70,12 @@ def test_budget_fallback(monkeypatch):
     monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
     assert budget.fem_lattice_step(*args) == (pytest.approx(fine, rel=1e-12), None)
 
-    # a budget of exactly the estimate at 2.8 um: the fallback lands on 2.8 um (to 1e-4)
+    # a budget of exactly the estimate at 2.8 um: the fallback lands on 2.8 um (to 1e-3)
     want = 2.8e-6
     budget_bytes = budget.fem_need_bytes(BOX, want, 1, 0.2, 0.8)
     monkeypatch.setattr(budget, "machine_memory", lambda: budget_bytes / budget.MEMORY_FRACTION)
     step, note = budget.fem_lattice_step(*args)
-    assert want <= step <= want * (1 + 2e-4)
+    assert want <= step <= want * (1 + 2e-3)
     assert budget.fem_need_bytes(BOX, step, 1, 0.2, 0.8) <= budget_bytes
     assert "2.33e-06 m" in note and "2.8e-06 m" in note and "3 -> 2.5 cells" in note
     assert "flow.lattice_step" in note
@@ -125,4 +125,4 @@ def test_spec_grid_step_is_the_budget_step(monkeypatch):
     periodic = budget.fem_need_bytes(BOX, want, 1, 0.0, 0.8)
     monkeypatch.setattr(budget, "machine_memory", lambda: periodic / budget.MEMORY_FRACTION)
     step, note = spec_grid_step({**flow, "bc": "periodic"}, 0.5e-6, BOX, D, 1, 0.8)
-    assert want <= step["lattice_step"] <= want * (1 + 2e-4) and "2.8e-06 m" in note
+    assert want <= step["lattice_step"] <= want * (1 + 2e-3) and "2.8e-06 m" in note
