@@ -829,17 +829,24 @@ THREE_RODS = (
     "copies) would test it; not run (machine time)."
 )
 
-#: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7).
+#: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7); re-run at the fiber-relative
+#: default step (session 7).
 FIG15 = (
-    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -2.60 %** "
-    "(K FEM 3.9729e-11, voxel 4.0789e-11; inside the combined bar, 13.0 %). Of all rows the "
-    "FEM has the fewest mesh cells per fiber diameter here, 1.7 (the default lattice step "
-    "`max(2 voxel, min(size) / 30)` is 3.33 um in a 100 um box, D = 7 um; the FEM warns). "
-    "The same generator family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells "
-    "per D) agrees within 0.6 %. Refinement (19:22-19:25 UTC, load 2-4; the row's cached "
-    "build, its `[flow]` with `lattice_step = 2.5e-6`, FEM route: 431 231 tets, 2.3 cells "
-    "per D, 138 s CPU, 2.9 GB): K FEM 4.0197e-11, **+1.18 % over the default step, FEM / "
-    "voxel - 1 = -1.45 %**. The cause is the FEM's box-relative default step at 100 um."
+    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -1.30 %** "
+    "at the fiber-relative default lattice step (K FEM 4.0258e-11, voxel 4.0789e-11; FEM bar "
+    "3.7 %). The default step is now `max(2 voxel, min(min(size) / 30, D / 3))` "
+    "(`psdesign.meshing.options.default_lattice_step`), 2.33 um here: 528 315 tets, 2.4 cells "
+    "per D, 208 s user, 3.68 GB max RSS, 11:06 wall at load 5.7-8.8 (2026-12-02 04:22-04:33 "
+    "UTC; `python benchmarks/solver_agreement.py specs --only fig15_bent --bc "
+    "permeameter-stacked --solvers fem --force` on the row's cached build). Before, the "
+    "box-relative default `max(2 voxel, min(size) / 30)` was 3.33 um in this 100 um box (D = 7 "
+    "um, 1.7 cells per D): K FEM 3.9729e-11, **-2.60 %** (bar 8.3 %), and 2.5 um gave "
+    "4.0197e-11, -1.45 % (session 4, 431 231 tets, 138 s CPU, 2.9 GB). The same generator "
+    "family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells per D) agrees within "
+    "0.6 %. Two other rows are still at the old default: fig17_beta_z and fig18_exponential "
+    "(100 um, D = 7 um, permeameter rows solved at 3.33 um on 2026-12-01; both agree within 2 "
+    "% there); not re-run (machine time). Every other FEM row's step is unchanged by the new "
+    "rule (50 um cubes, or D / 3 above min(size) / 30)."
 )
 
 #: The pytetwild check at the Table III size (docs/meshers.md, benchmarks/RESULTS.md).
