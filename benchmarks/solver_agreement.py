@@ -5,9 +5,9 @@ Two parts, each appending one JSON line per solve to ``benchmarks/solver_agreeme
 
 * ``arrays``: square and hexagonal cylinder arrays along and across at solid fractions
   0.1-0.5 (thin periodic slabs, one cell, spacing 40 um), both routes with ``bc = "periodic"``
-  and their default settings (FEM: stuffing lattice step ``max(2 voxel, min(size) / 30)``, mesh
-  volume matched to the analytic pore volume; voxel: sub-voxel walls), against the published
-  values (issue 12, item 3);
+  and their default settings (FEM: stuffing lattice step ``default_lattice_step``, 2 voxels on
+  these thin slabs, mesh volume matched to the analytic pore volume; voxel: sub-voxel walls),
+  against the published values (issue 12, item 3);
 * ``specs``: every shipped spec in ``studies/`` (a study: its first case), both routes, both BCs,
   with the error bars (issue 12, item 1). ``--size`` / ``--voxel`` shrink the RVE when the
   full one does not fit the machine; the table says so.
@@ -743,7 +743,8 @@ def render(_args=None) -> None:
         "touch them. One cell of spacing 40 um as a thin periodic slab (4 voxels thick; both "
         "flows are two-dimensional), cylinders along z; 'along' = flow along z, 'across' = "
         "along x. Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
-        "settings: FEM lattice step `max(2 voxel, min(size) / 30)` = 2 voxels, analytic volume "
+        "settings: FEM lattice step `max(2 voxel, min(min(size) / 30, D / 3))` = 2 voxels (the "
+        "slab is 4 voxels thick), analytic volume "
         "target; voxel: sub-voxel walls. References: Sangani & Acrivos (1982) Int. J. "
         "Multiphase Flow 8, 193-206, Table 1 (square across); Sparrow & Loeffler (1959) AIChE "
         "J. 5, 325-330 collocation series (`tests/arrays.py`, along); Drummond & Tahir (1984) "
@@ -828,17 +829,27 @@ THREE_RODS = (
     "copies) would test it; not run (machine time)."
 )
 
-#: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7).
+#: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7); re-run at the fiber-relative
+#: default step (session 7).
 FIG15 = (
-    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -2.60 %** "
-    "(K FEM 3.9729e-11, voxel 4.0789e-11; inside the combined bar, 13.0 %). Of all rows the "
-    "FEM has the fewest mesh cells per fiber diameter here, 1.7 (the default lattice step "
-    "`max(2 voxel, min(size) / 30)` is 3.33 um in a 100 um box, D = 7 um; the FEM warns). "
-    "The same generator family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells "
-    "per D) agrees within 0.6 %. Refinement (19:22-19:25 UTC, load 2-4; the row's cached "
-    "build, its `[flow]` with `lattice_step = 2.5e-6`, FEM route: 431 231 tets, 2.3 cells "
-    "per D, 138 s CPU, 2.9 GB): K FEM 4.0197e-11, **+1.18 % over the default step, FEM / "
-    "voxel - 1 = -1.45 %**. The cause is the FEM's box-relative default step at 100 um."
+    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -1.30 %** "
+    "at the fiber-relative default lattice step (K FEM 4.0258e-11, voxel 4.0789e-11; FEM bar "
+    "3.7 %). The default step is now `max(2 voxel, min(min(size) / 30, D / 3))` "
+    "(`psdesign.meshing.options.default_lattice_step`), 2.33 um here: 528 315 tets, 2.4 cells "
+    "per D, 208 s user, 3.51 GiB max RSS, 11:06 wall at load 5.7-8.8 (2026-12-02 04:22-04:33 "
+    "UTC; `python benchmarks/solver_agreement.py specs --only fig15_bent --bc "
+    "permeameter-stacked --solvers fem --force` on the row's cached build). Before, the "
+    "box-relative default `max(2 voxel, min(size) / 30)` was 3.33 um in this 100 um box (D = 7 "
+    "um, 1.7 cells per D): K FEM 3.9729e-11, **-2.60 %** (bar 8.3 %), and 2.5 um gave "
+    "4.0197e-11, -1.45 % (session 4, 431 231 tets, 138 s CPU, 2.9 GB). The same generator "
+    "family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells per D) agrees within "
+    "0.6 %. The two other rows whose step the new rule changes (100 um, D = 7 um) were re-run "
+    "the same way: fig17_beta_z -0.26 % (K FEM 2.5319e-11, 524 563 tets, bar 6.5 %, status "
+    "ok; at 3.33 um -0.18 %, bar 28.3 %, untrustworthy; 232 s user, 3.57 GiB, 04:55-05:05 UTC "
+    "at load 5.9 -> 4.6) and fig18_exponential -1.17 % (K FEM 3.9639e-11, 527 235 tets, bar "
+    "8.2 %; at 3.33 um -1.29 %, bar 10.6 %; 200 s user, 3.19 GiB, 05:05-05:11 at load 4.5 "
+    "-> 3.2). Every other FEM row's step is unchanged by the new rule (50 um cubes, or D / 3 "
+    "above min(size) / 30)."
 )
 
 #: The pytetwild check at the Table III size (docs/meshers.md, benchmarks/RESULTS.md).
@@ -848,7 +859,9 @@ PYTETWILD_100 = (
     "-3.34 % of the stuffing mesh's (goal 2 %: missed; -1.40 +- 0.34 % at 60 um). Refining "
     "the stuffing mesh (3.33 -> 2.5 um) moves its K by -1.23 %, so the gap is both meshes' "
     "box-relative default resolution, pytetwild's the larger share (-2.61 % against the finer "
-    "stuffing mesh)."
+    "stuffing mesh). Since session 7 both defaults are fiber-relative (pytetwild's edge 0.85 D, "
+    "the stuffing step D / 3): default pytetwild / default stuffing - 1 is -2.04 / -1.80 / "
+    "-1.55 / -1.56 / -1.49 % on seeds 1-5 (4 of 5 within 2 %)."
 )
 
 #: Engineer fieldres (session 6): the FEM samples its own field (psdesign/flow/fem_field.py).

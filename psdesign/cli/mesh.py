@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 
 from psdesign.cli.progress import add_force_argument
@@ -40,15 +41,19 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         flow["mesher"] = args.mesher
     # the FEM's own field (psdesign.flow.fem_field): the mesh the fem route would make
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
-    extra = mesh_overrides(fields) | spec_grid_step(
-        flow, own.refinement, float(fields.grid.spacing[0]), rve.size
+    diameter = thinnest_fiber_diameter(rve)
+    step, note = spec_grid_step(
+        flow, float(fields.grid.spacing[0]), rve.size, diameter, porosity=fields.porosity
     )
+    if note:
+        print(f"psdesign mesh: {note}", file=sys.stderr)
+    extra = mesh_overrides(fields) | step
     pm = mesh_pore_space(
         own.fields.distance,
         own.voxel,
         rve.size,
         args.direction,
-        MeshOptions.from_flow(flow, fiber_diameter=thinnest_fiber_diameter(rve), **extra),
+        MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])), flow=flow)

@@ -126,10 +126,19 @@ def cells_per_diameter(rve: RVE, mesh) -> float | None:
     return float(d_min / np.sqrt((e * e).sum(axis=1)).mean())
 
 
-def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str, refinement: int = 1):
+def _mesh(
+    rve: RVE,
+    fields: VoxelFields,
+    name: str,
+    flow: dict,
+    bc: str,
+    refinement: int = 1,
+    step: dict | None = None,
+):
     """Pore mesh of ``fields`` (the RVE or its stack). ``refinement > 1``: ``fields`` is the
     FEM's own field (:mod:`psdesign.flow.fem_field`), ``refinement`` times finer than the spec's
-    grid; the default lattice step stays that of the spec's grid."""
+    grid. ``step``: the lattice step override (:func:`~psdesign.flow.fem_field.spec_grid_step`;
+    None: the mesher's default)."""
     from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
@@ -142,7 +151,7 @@ def _mesh(rve: RVE, fields: VoxelFields, name: str, flow: dict, bc: str, refinem
     # pytetwild's default edge length is a fraction of the thinnest fiber diameter
     target["fiber_diameter"] = thinnest_fiber_diameter(rve)
     size = np.asarray(fields.grid.size, float)  # rve.size, or the stack's (psdesign.flow.stack)
-    target |= spec_grid_step(flow, refinement, float(spacing[0]) * refinement, size)
+    target |= step or {}
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
         return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
@@ -165,21 +174,34 @@ def fem_mesh(
 
     The mesh is made on the FEM's own field (:func:`psdesign.flow.fem_field.fem_field`: the
     analytic geometry sampled fine enough for the thinnest fiber, independent of the spec's
-    ``fields`` where those are coarser), ``copies`` copies along the flow for the permeameter.
+    ``fields`` where those are coarser), ``copies`` copies along the flow for the permeameter,
+    at the default lattice step of the spec's grid within the memory budget
+    (:func:`psdesign.flow.fem_field.spec_grid_step`) unless ``flow.lattice_step`` is given.
 
     Returns
     -------
-    (PoreMesh, dict)
-        The mesh and :meth:`~psdesign.flow.fem_field.FemField.as_dict` of its field (the field
-        itself is not kept: the solve does not need it).
+    (PoreMesh, dict, str or None)
+        The mesh, :meth:`~psdesign.flow.fem_field.FemField.as_dict` of its field (the field
+        itself is not kept: the solve does not need it), and the note of a default lattice step
+        coarsened to fit the memory budget (None if it was not).
     """
+    from psdesign.meshing.options import thinnest_fiber_diameter
+
     ax = axis_of(direction)[1]
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing", copies)
     if bc == "periodic" and own.refinement > 1:
         _check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
+    step, note = spec_grid_step(
+        flow,
+        float(fields.grid.spacing[0]),
+        fields.grid.size,
+        thinnest_fiber_diameter(rve),
+        copies,
+        float(fields.porosity),
+    )
     stacked = stack_fields(own.fields, ax, copies)
-    mesh = _mesh(rve, stacked, direction, stacked_flow(flow, copies), bc, own.refinement)
-    return mesh, own.as_dict()
+    mesh = _mesh(rve, stacked, direction, stacked_flow(flow, copies), bc, own.refinement, step)
+    return mesh, own.as_dict(), note
 
 
 def _check_periodic_geometry(rve: RVE, fields: VoxelFields) -> None:
@@ -278,9 +300,12 @@ def permeability_fem(
         raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
     t0 = time.perf_counter()
     plan = plan_copies(flow, rve, fields, ax) if bc == "permeameter" else None
-    own = None
+    own, note = None, None
     if mesh is None:  # the permeameter meshes plan.copies copies along the flow
-        mesh, own = fem_mesh(rve, fields, name, flow, bc, plan.copies if plan is not None else 1)
+        copies = plan.copies if plan is not None else 1
+        mesh, own, note = fem_mesh(rve, fields, name, flow, bc, copies)
+        if note:
+            progress.stage(f"K_{name}: {note}")
     elif plan is not None:  # a mesh made by the caller: its RVE part says how many copies
         start, end = mesh.porous_region
         plan = replace(plan, copies=max(1, round((end - start) / float(rve.size[ax]))))
@@ -294,6 +319,8 @@ def permeability_fem(
         if plan.note:
             out["warnings"].append(plan.note)
     out["fem_field"] = own
+    if note:
+        out["warnings"].append(f"K_{name}: {note}")
     if own is not None and own["rel_error"] > 0:
         out["warnings"].append(
             f"K_{name}: the FEM's field has {own['voxels_per_diameter']:.1f} voxels across the "

@@ -113,16 +113,32 @@ def capped_refinement(n_voxels: int, wanted: int, max_voxels: int = FIELD_MAX_VO
     return r
 
 
-def spec_grid_step(flow: dict, refinement: int, spec_voxel: float, size) -> dict:
-    """Mesher overrides that keep the lattice step of the spec's grid on a refined field: the
-    default step (:func:`psdesign.meshing.options.default_lattice_step`) follows the voxel, and
-    a field ``refinement`` times finer must not make the mesh finer too. Empty when the field is
-    not refined or ``flow.lattice_step`` is given."""
-    if refinement <= 1 or flow.get("lattice_step") is not None:
-        return {}
-    from psdesign.meshing.options import default_lattice_step
+def spec_grid_step(
+    flow: dict,
+    spec_voxel: float,
+    size,
+    diameter: float | None,
+    copies: int = 1,
+    porosity: float | None = None,
+) -> tuple[dict, str | None]:
+    """The default lattice step of a spec route, as a mesher override, and its budget note.
 
-    return {"lattice_step": default_lattice_step(spec_voxel, size)}
+    :func:`psdesign.schema.budget.fem_lattice_step` on the spec's grid (``spec_voxel``: a field
+    the FEM refined must not make the lattice finer through the ``2 voxel`` bound) for the
+    RVE's own ``size`` (not the permeameter's stack), ``diameter`` the thinnest fiber (None for
+    an image), ``copies`` stacked copies, ``flow.aux_length`` reservoirs (0 when periodic): the
+    step the up-front budget counts (:func:`psdesign.schema.budget.check_fem`), coarsened to fit
+    the memory budget if need be (the note then says so). Empty (and no note) when
+    ``flow.lattice_step`` is given or the mesher is pytetwild."""
+    if flow.get("lattice_step") is not None or (flow.get("mesher") or "stuffing") != "stuffing":
+        return {}, None
+    from psdesign.schema.budget import fem_lattice_step
+
+    periodic = flow.get("bc") == "periodic"
+    aux = 0.0 if periodic else float(flow.get("aux_length", 0.2))
+    size = tuple(float(s) for s in size)
+    step, note = fem_lattice_step(size, spec_voxel, diameter, copies, aux, porosity)
+    return {"lattice_step": step}, note
 
 
 def refinable(rve: RVE, fields: VoxelFields) -> bool:

@@ -28,8 +28,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-import numpy as np
-
 from psdesign.flow import error as err
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.voxel import face_mismatch, permeability_voxel
@@ -130,7 +128,10 @@ def _fem_step(res: dict, fields: VoxelFields, rve: RVE, flow: dict) -> float:
         return float(q["lattice_step_m"])
     if flow.get("lattice_step") is not None:
         return float(flow["lattice_step"])
-    return max(2.0 * float(fields.grid.spacing[0]), float(np.min(rve.size)) / 30.0)
+    from psdesign.meshing.options import default_lattice_step
+
+    # a mesh without a lattice (pytetwild): the box-relative step stands for its resolution
+    return default_lattice_step(float(fields.grid.spacing[0]), rve.size)
 
 
 def _order(solver: str, res: dict) -> int:

@@ -32,10 +32,39 @@ def thinnest_fiber_diameter(rve) -> float | None:
     return min(diam) if diam else None
 
 
-def default_lattice_step(voxel: float, size) -> float:
-    """``max(2 * voxel, min(size) / 30)`` (3.3 um for a 100 um RVE): the stuffing mesher's step
-    when ``flow.lattice_step`` is not given."""
-    return max(2.0 * voxel, float(np.min(size)) / 30.0)
+#: Default stuffing lattice step: at most the smallest box edge over this many cells (the
+#: box-relative rule, alone before session 7: 3.33 um in a 100 um box) ...
+LATTICE_CELLS_PER_BOX = 30.0
+#: ... and at most the thinnest fiber diameter over this many cells (2.33 um for D = 7 um, in
+#: any box). Table III Toray-like RVE, 100 um cube, D = 7 um, seed 1, FEM permeameter: K_z at
+#: 3.33 / 2.86 / 2.5 / 2.0 um is 6.4695 / 6.4039 / 6.3901 / 6.3606e-12, +2.7 / +1.7 / +1.4 /
+#: +1.0 % over a second-order fit's limit (6.30e-12); measurements at D / 3 in
+#: ``docs/meshers.md`` (session 7).
+LATTICE_CELLS_PER_DIAMETER = 3.0
+#: Stuffing axial step in the auxiliary zones, in lattice steps (``MeshOptions.slab_factor``).
+DEFAULT_SLAB_FACTOR = 3.0
+
+
+def default_lattice_step(voxel: float, size, fiber_diameter: float | None = None) -> float:
+    """The stuffing mesher's lattice step when ``flow.lattice_step`` is not given.
+
+    ``max(2 voxel, min(min(size) / LATTICE_CELLS_PER_BOX, D / LATTICE_CELLS_PER_DIAMETER))``
+    with ``D = fiber_diameter``, the thinnest fiber diameter (yarn width): 2.33 um for 7 um
+    fibers whatever the box, 3.33 um (the box term) for a 100 um image or plain field
+    (``fiber_diameter`` None). The FEM route may coarsen it to fit the memory budget
+    (:func:`psdesign.schema.budget.fem_lattice_step`).
+
+    >>> round(default_lattice_step(0.5e-6, [100e-6] * 3) * 1e6, 4)
+    3.3333
+    >>> round(default_lattice_step(0.5e-6, [100e-6] * 3, 7e-6) * 1e6, 4)
+    2.3333
+    >>> round(default_lattice_step(0.5e-6, [50e-6] * 3, 7e-6) * 1e6, 4)
+    1.6667
+    """
+    step = float(np.min(size)) / LATTICE_CELLS_PER_BOX
+    if fiber_diameter is not None and fiber_diameter > 0:
+        step = min(step, float(fiber_diameter) / LATTICE_CELLS_PER_DIAMETER)
+    return max(2.0 * float(voxel), step)
 
 
 @dataclass(frozen=True)
@@ -74,7 +103,8 @@ class MeshOptions:
     seed
         Recorded and part of the cache key (pytetwild itself has no seed).
     lattice_step
-        Stuffing lattice step; default ``max(2 * voxel, min(size) / 30)``.
+        Stuffing lattice step; default :func:`default_lattice_step` (fiber-relative when
+        ``fiber_diameter`` is known: D / 3, at most min(size) / 30, at least 2 voxels).
     alpha
         Stuffing warping threshold in (0, 0.5) (fraction of a lattice edge).
     slab_factor
@@ -88,7 +118,8 @@ class MeshOptions:
         (:func:`target_edge_length`).
     fiber_diameter
         Thinnest fiber diameter of the RVE in metres, or None (a plain field); sets pytetwild's
-        default edge length. The spec routes pass it (:func:`thinnest_fiber_diameter`).
+        default edge length and the stuffing mesher's default lattice step. The spec routes
+        pass it (:func:`thinnest_fiber_diameter`).
     edge_per_diameter
         pytetwild default edge length in fiber diameters, in (0, 10]; default
         ``EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
@@ -128,7 +159,7 @@ class MeshOptions:
     seed: int = 0
     lattice_step: float | None = None
     alpha: float = 0.3
-    slab_factor: float = 3.0
+    slab_factor: float = DEFAULT_SLAB_FACTOR
     edge_length: float | None = None
     edge_length_fac: float | None = None
     fiber_diameter: float | None = None

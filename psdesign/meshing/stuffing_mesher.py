@@ -28,7 +28,9 @@ _MATCH_MAX_ITER = 6
 
 def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
     """Lattice ("stuffing") pore mesh; arguments as :func:`~.pore_mesh.mesh_pore_space`."""
-    step = opts.lattice_step if opts.lattice_step is not None else default_lattice_step(voxel, size)
+    step = opts.lattice_step
+    if step is None:
+        step = default_lattice_step(voxel, size, opts.fiber_diameter)
     opts = opts.replace(lattice_step=step)
     params = {"voxel": voxel, "size": size.tolist(), "direction": direction, **opts.cache_params()}
     cache_file, cached = cache.lookup(opts.cache_dir, distance, params)

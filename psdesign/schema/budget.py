@@ -10,7 +10,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
   stacks) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
 * FEM solver: :func:`solvers.fem.memory.estimate_memory_gb` (the estimate the solve checks) of
-  the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`); before it, the
+  the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`; the default
+  fiber-relative step is coarsened to fit, :func:`fem_lattice_step`); before it, the
   FEM's own field refined for thin fibers (:func:`fem_field_bytes`, at most about 1 GB);
 * the budget is half the machine's memory (``psutil.virtual_memory().total``).
 """
@@ -133,12 +134,76 @@ def fem_mesh_size(
 ) -> tuple[float, float]:
     """``(n_points, n_tets)`` of the stuffing mesh: lattice cells of pore in ``copies`` copies
     (``porosity``) plus the all-fluid reservoir slabs (axial step ``slab_factor`` times
-    ``step``, :class:`psdesign.meshing.options.MeshOptions`)."""
-    from psdesign.meshing.options import MeshOptions
+    ``step``, :data:`psdesign.meshing.options.DEFAULT_SLAB_FACTOR`)."""
+    from psdesign.meshing.options import DEFAULT_SLAB_FACTOR
 
     cells = math.prod(max(1.0, s / step) for s in size)
-    pore = cells * (copies * porosity + 2.0 * aux / MeshOptions().slab_factor)
+    pore = cells * (copies * porosity + 2.0 * aux / DEFAULT_SLAB_FACTOR)
     return POINTS_PER_PORE_CELL * pore, TETS_PER_PORE_CELL * pore
+
+
+def fem_need_bytes(
+    size: tuple[float, ...], step: float, copies: int, aux: float, porosity: float
+) -> float:
+    """Estimated peak bytes of the FEM solve of the stuffing mesh at lattice ``step``
+    (:func:`solvers.fem.memory.estimate_memory_gb` of :func:`fem_mesh_size`)."""
+    from solvers.fem.memory import estimate_memory_gb
+
+    pts, tets = fem_mesh_size(size, step, copies, aux, porosity)
+    return estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
+
+
+def fem_lattice_step(
+    size: tuple[float, ...],
+    voxel: float,
+    fiber_diameter: float | None,
+    copies: int = 1,
+    aux: float = 0.0,
+    porosity: float | None = None,
+    budget: float | None = None,
+) -> tuple[float, str | None]:
+    """The FEM's default lattice step within the memory budget, and a note when it was coarsened.
+
+    The step is :func:`psdesign.meshing.options.default_lattice_step` (fiber-relative). When the
+    FEM solve of its mesh (:func:`fem_need_bytes`: ``copies`` copies of porosity ``porosity``,
+    None = all pore, reservoirs of ``aux``) would exceed the budget (:data:`MEMORY_FRACTION` of
+    the machine) while the box-relative step (the same rule without a fiber diameter) fits, the
+    finest step between the two that fits is taken instead (never coarser than the box-relative
+    one, to 1e-3; the error bar's two-grid term grows with it), and the note says so. When
+    neither fits, the box-relative step is returned (:func:`check_fem` then refuses the spec, as
+    before). ``budget``: in bytes (default half the machine's memory).
+
+    Returns
+    -------
+    (float, str or None)
+        Step in metres; the note (None when the fiber-relative step was kept).
+    """
+    from psdesign.meshing.options import default_lattice_step
+
+    fine = default_lattice_step(voxel, size, fiber_diameter)
+    coarse = default_lattice_step(voxel, size)
+    if fine >= coarse:
+        return fine, None
+    phi = 1.0 if porosity is None else float(porosity)
+    if budget is None:
+        budget = MEMORY_FRACTION * machine_memory()
+    fine_need = fem_need_bytes(size, fine, copies, aux, phi)
+    if fine_need <= budget:
+        return fine, None
+    if fem_need_bytes(size, coarse, copies, aux, phi) > budget:
+        return coarse, None
+    lo, hi = fine, coarse  # need(lo) > budget >= need(hi); need falls with the step
+    while hi - lo > 1e-3 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if fem_need_bytes(size, mid, copies, aux, phi) > budget else (lo, mid)
+    per_d = f"{fiber_diameter / fine:.3g} -> {fiber_diameter / hi:.3g} cells per fiber diameter"
+    note = (
+        f"the default lattice step {fine:.3g} m would need about {fine_need / 2**30:.3g} GiB in "
+        f"the FEM ({copies} cop{'y' if copies == 1 else 'ies'}); the budget is "
+        f"{budget / 2**30:.3g} GiB (half the machine), so the step is {hi:.3g} m ({per_d}; the "
+        "error bar grows with it); set flow.lattice_step to choose"
+    )
+    return hi, note
 
 
 def check_fem(
@@ -148,28 +213,24 @@ def check_fem(
     porosity: float | None,
     fiber_diameter: float | None = None,
 ) -> None:
-    """Refuse an FEM solve whose estimated memory (:func:`solvers.fem.memory.estimate_memory_gb`
-    of :func:`fem_mesh_size`, the stack included) exceeds the budget; ``porosity`` None counts
-    every lattice cell as pore. With ``flow.mesher = "pytetwild"`` the mesh is
-    :func:`tetwild_mesh_size` instead (``fiber_diameter``: the thinnest, in metres, or None)."""
-    from psdesign.meshing.options import default_lattice_step
-    from solvers.fem.memory import estimate_memory_gb
-
+    """Refuse an FEM solve whose estimated memory (:func:`fem_need_bytes`, the stack included)
+    exceeds the budget; ``porosity`` None counts every lattice cell as pore. Without
+    ``flow.lattice_step`` the step is :func:`fem_lattice_step`'s (``fiber_diameter``: the
+    thinnest, in metres, or None), coarsened to fit where the box-relative step fits. With
+    ``flow.mesher = "pytetwild"`` the mesh is :func:`tetwild_mesh_size` instead."""
     if getattr(flow, "mesher", "stuffing") == "pytetwild":
         check_tetwild(size, flow, fiber_diameter)
         return
 
-    step = flow.lattice_step if flow.lattice_step is not None else default_lattice_step(voxel, size)
     copies, aux = stack_of(flow)
     phi = 1.0 if porosity is None else float(porosity)
     budget = MEMORY_FRACTION * machine_memory()
+    step = flow.lattice_step
+    if step is None:
+        step, _ = fem_lattice_step(size, voxel, fiber_diameter, copies, aux, phi, budget)
     check_fem_field(size, voxel, budget)
 
-    def need(n_copies: int) -> float:
-        pts, tets = fem_mesh_size(size, step, n_copies, aux, phi)
-        return estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
-
-    total = need(copies)
+    total = fem_need_bytes(size, step, copies, aux, phi)
     if total <= budget:
         return
     pts, tets = fem_mesh_size(size, step, copies, aux, phi)
@@ -178,7 +239,7 @@ def check_fem(
         f"needs about {total / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half "
         "the machine)"
     )
-    if copies > 1 and need(1) <= budget:
+    if copies > 1 and fem_need_bytes(size, step, 1, aux, phi) <= budget:
         raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
     raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
 

@@ -27,7 +27,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   stack: `flow.permeameter_copies` copies (`"auto"` counts 2, the most it stacks) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
   solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
-  vertices per lattice cell of pore, `generator.porosity` or 1) must fit too; with
+  vertices per lattice cell of pore, `generator.porosity` or 1) must fit too (without
+  `flow.lattice_step` the default step, the thinnest fiber diameter / 3, is coarsened to fit,
+  never beyond `max(2 rve.voxel, min(size) / 30)`, which alone decides the refusal); with
   `flow.mesher = "pytetwild"` the mesh counted is pytetwild's (30 tets per cube of its target
   edge in the meshed box, more for an edge coarser than 0.85 thinnest-fiber diameters,
   `psdesign/meshing/options.py`), refused naming `flow.edge_length`. A spec that fits

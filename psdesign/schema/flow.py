@@ -96,7 +96,8 @@ class FlowTable(Table):
     lattice_step: number(gt=0) | None = Field(
         None,
         description="stuffing lattice step > 0 m, <= half the smallest edge, at most 5e7 "
-        "lattice cells",
+        "lattice cells (default: max(2 voxels, min(thinnest fiber diameter / 3, smallest edge "
+        "/ 30)), coarsened up to max(2 voxels, smallest edge / 30) to fit the memory budget)",
     )
 
     def to_spec(self) -> dict:

@@ -33,7 +33,7 @@ def _woven() -> RVE:
 
 def _mesh_solid(rve: RVE, fields) -> tuple[float, dict]:
     flow = {"viscosity": 1.8e-5, "bc": "periodic", "lattice_step": 2e-6}
-    mesh, own = fem_mesh(rve, fields, "z", flow, "periodic")
+    mesh, own, _ = fem_mesh(rve, fields, "z", flow, "periodic")
     solid = 1.0 - float(tet_volumes(mesh.points, mesh.tets).sum()) / float(np.prod(rve.size))
     return solid, own
 

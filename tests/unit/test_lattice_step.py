@@ -1,0 +1,128 @@
+"""The FEM's default stuffing lattice step (issue 12 items 1 and 5): fiber-relative, never finer
+than two voxels, and coarsened (never beyond the old box-relative step) to fit the memory budget.
+
+The numbers are the rule's own arithmetic (``psdesign.meshing.options.default_lattice_step``)
+and the budget's estimate (``psdesign.schema.budget.fem_need_bytes``, i.e.
+``solvers.fem.memory.estimate_memory_gb`` of ``fem_mesh_size``); the choice of 3 cells per
+diameter is measured in ``docs/meshers.md`` (session 7).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+from psdesign.errors import SpecError
+from psdesign.flow.fem_field import spec_grid_step
+from psdesign.meshing.options import (
+    LATTICE_CELLS_PER_BOX,
+    LATTICE_CELLS_PER_DIAMETER,
+    default_lattice_step,
+)
+from psdesign.schema import budget
+from psdesign.schema.spec import validate_spec
+
+BOX = (100e-6, 100e-6, 100e-6)
+D = 7e-6
+SPEC = {
+    "rve": {"size": list(BOX), "voxel": 0.5e-6},
+    "generator": {"kind": "straight", "porosity": 0.8, "diameter": D, "seed": 1},
+    "intersections": {"method": "fast"},
+    "flow": {"solver": "fem"},
+}
+
+
+def test_default_step_rule():
+    """Box-relative without a fiber diameter (an image), fiber-relative with one, the smaller of
+    the two, and never below two voxels."""
+    assert (LATTICE_CELLS_PER_BOX, LATTICE_CELLS_PER_DIAMETER) == (30.0, 3.0)
+    assert default_lattice_step(0.5e-6, BOX) == pytest.approx(100e-6 / 30, rel=1e-12)  # 3.33 um
+    assert default_lattice_step(0.5e-6, BOX, D) == pytest.approx(7e-6 / 3, rel=1e-12)  # 2.33 um
+    assert default_lattice_step(0.5e-6, BOX, None) == default_lattice_step(0.5e-6, BOX)
+    # a 50 um box: the box term (1.67 um) is the finer one, as before
+    assert default_lattice_step(0.5e-6, [50e-6] * 3, D) == pytest.approx(50e-6 / 30, rel=1e-12)
+    # the same material in a 200 um box keeps 2.33 um (the old rule gave 6.67 um)
+    assert default_lattice_step(0.5e-6, [200e-6] * 3, D) == pytest.approx(7e-6 / 3, rel=1e-12)
+    # the smallest edge counts: a 100 x 100 x 40 um sheet, 1.33 um
+    assert default_lattice_step(0.5e-6, [100e-6, 100e-6, 40e-6], D) == pytest.approx(40e-6 / 30)
+    # two voxels bound it from below: a 1.5 um voxel gives 3 um
+    assert default_lattice_step(1.5e-6, BOX, D) == pytest.approx(3e-6, rel=1e-12)
+
+
+def _fits_between(fine_gib: float, coarse_gib: float) -> float:
+    return 2.0 * 0.5 * (fine_gib + coarse_gib) * 2**30  # machine memory; the budget is half
+
+
+def test_budget_fallback(monkeypatch):
+    """One copy of the Toray-like cube, porosity 0.8, reservoirs 0.2: the fiber-relative step
+    when it fits; else the finest step that fits, between it and the box-relative 3.33 um; the
+    box-relative step when neither fits (the spec is then refused as before)."""
+    fine, coarse = 7e-6 / 3, 100e-6 / 30
+    args = (BOX, 0.5e-6, D, 1, 0.2, 0.8)
+    need_fine = budget.fem_need_bytes(BOX, fine, 1, 0.2, 0.8)
+    need_coarse = budget.fem_need_bytes(BOX, coarse, 1, 0.2, 0.8)
+    # 477 551 tets and 110 204 vertices at 2.33 um (78 732 lattice cells, 0.8 + 0.4 / 3 pore)
+    pts, tets = budget.fem_mesh_size(BOX, fine, 1, 0.2, 0.8)
+    assert (round(pts), round(tets)) == (110204, 477551)
+    assert need_coarse < need_fine
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
+    assert budget.fem_lattice_step(*args) == (pytest.approx(fine, rel=1e-12), None)
+
+    # a budget of exactly the estimate at 2.8 um: the fallback lands on 2.8 um (to 1e-3)
+    want = 2.8e-6
+    budget_bytes = budget.fem_need_bytes(BOX, want, 1, 0.2, 0.8)
+    monkeypatch.setattr(budget, "machine_memory", lambda: budget_bytes / budget.MEMORY_FRACTION)
+    step, note = budget.fem_lattice_step(*args)
+    assert want <= step <= want * (1 + 2e-3)
+    assert budget.fem_need_bytes(BOX, step, 1, 0.2, 0.8) <= budget_bytes
+    assert "2.33e-06 m" in note and "2.8e-06 m" in note and "3 -> 2.5 cells" in note
+    assert "flow.lattice_step" in note
+
+    # neither fits: the box-relative step, no note
+    monkeypatch.setattr(budget, "machine_memory", lambda: 0.5 * need_coarse)
+    assert budget.fem_lattice_step(*args) == (pytest.approx(coarse, rel=1e-12), None)
+    # no fiber diameter (an image): the box-relative step whatever the budget
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
+    assert budget.fem_lattice_step(BOX, 0.5e-6, None, 1, 0.2, 0.8)[0] == pytest.approx(coarse)
+
+
+def test_spec_that_fits_today_is_not_refused(monkeypatch):
+    """The up-front check counts the fallback step: a budget that holds the box-relative step
+    but not the fiber-relative one accepts the spec; an explicit flow.lattice_step is honoured
+    (refused at the fiber-relative step's cost); a budget holding neither refuses it."""
+    doc = copy.deepcopy(SPEC)
+    doc["flow"]["permeameter_copies"] = 1
+    need_fine = budget.fem_need_bytes(BOX, 7e-6 / 3, 1, 0.2, 0.8)
+    need_coarse = budget.fem_need_bytes(BOX, 100e-6 / 30, 1, 0.2, 0.8)
+    monkeypatch.setattr(
+        budget, "machine_memory", lambda: _fits_between(need_fine / 2**30, need_coarse / 2**30)
+    )
+    validate_spec(doc)
+    explicit = copy.deepcopy(doc)
+    explicit["flow"]["lattice_step"] = 7e-6 / 3
+    with pytest.raises(SpecError) as ei:
+        validate_spec(explicit)
+    assert ei.value.key == "flow.lattice_step"
+    monkeypatch.setattr(budget, "machine_memory", lambda: 0.9 * need_coarse / 0.5)
+    with pytest.raises(SpecError) as ei:
+        validate_spec(doc)
+    assert ei.value.key == "flow.lattice_step" and "3.33e-06 m" in ei.value.message
+
+
+def test_spec_grid_step_is_the_budget_step(monkeypatch):
+    """The fem route and ``psdesign mesh`` take the budget's step: explicit steps and pytetwild
+    are left alone; a periodic solve has no reservoirs; the note comes with a coarsened step."""
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
+    flow = {"solver": "fem", "aux_length": 0.2}
+    step, note = spec_grid_step(flow, 0.5e-6, BOX, D, 1, 0.8)
+    assert step == {"lattice_step": pytest.approx(7e-6 / 3, rel=1e-12)} and note is None
+    assert spec_grid_step({**flow, "lattice_step": 3e-6}, 0.5e-6, BOX, D) == ({}, None)
+    assert spec_grid_step({**flow, "mesher": "pytetwild"}, 0.5e-6, BOX, D) == ({}, None)
+    assert spec_grid_step(flow, 0.5e-6, BOX, None)[0]["lattice_step"] == pytest.approx(100e-6 / 30)
+    want = 2.8e-6
+    periodic = budget.fem_need_bytes(BOX, want, 1, 0.0, 0.8)
+    monkeypatch.setattr(budget, "machine_memory", lambda: periodic / budget.MEMORY_FRACTION)
+    step, note = spec_grid_step({**flow, "bc": "periodic"}, 0.5e-6, BOX, D, 1, 0.8)
+    assert want <= step["lattice_step"] <= want * (1 + 2e-3) and "2.8e-06 m" in note
