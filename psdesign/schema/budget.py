@@ -27,6 +27,11 @@ from solvers.voxel.memory import BYTES_PER_CELL
 GEOMETRY_BYTES_PER_VOXEL = 16
 VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"]
 MEMORY_FRACTION = 0.5
+#: The most memory the *default* FEM lattice step may plan for (:func:`fem_lattice_step`): a
+#: little under half of the 24 GB reference machine (it reports 23.5 GiB), fixed so that the
+#: default mesh, and with it K, is the same on every machine at least that large (a smaller
+#: machine's own budget applies below it, and the result's note says so).
+DEFAULT_STEP_BUDGET = 11.0 * 2**30
 #: The kept voxel fields (float32 distance, uint8 count): what the stacked permeameter tiles.
 FIELD_BYTES_PER_VOXEL = 5
 #: Stuffing mesh per lattice cell of pore (6 Kuhn tets a cell, plus the clipped pieces), rounded
@@ -171,7 +176,9 @@ def fem_lattice_step(
     finest step between the two that fits is taken instead (never coarser than the box-relative
     one, to 1e-3; the error bar's two-grid term grows with it), and the note says so. When
     neither fits, the box-relative step is returned (:func:`check_fem` then refuses the spec, as
-    before). ``budget``: in bytes (default half the machine's memory).
+    before). ``budget``: the machine's budget in bytes (default half its memory); the step is
+    planned for the smaller of it and :data:`DEFAULT_STEP_BUDGET`, so the default step does not
+    depend on the machine above that size.
 
     Returns
     -------
@@ -187,6 +194,7 @@ def fem_lattice_step(
     phi = 1.0 if porosity is None else float(porosity)
     if budget is None:
         budget = MEMORY_FRACTION * machine_memory()
+    budget = min(budget, DEFAULT_STEP_BUDGET)
     fine_need = fem_need_bytes(size, fine, copies, aux, phi)
     if fine_need <= budget:
         return fine, None
@@ -200,7 +208,8 @@ def fem_lattice_step(
     note = (
         f"the default lattice step {fine:.3g} m would need about {fine_need / 2**30:.3g} GiB in "
         f"the FEM ({copies} cop{'y' if copies == 1 else 'ies'}); the budget is "
-        f"{budget / 2**30:.3g} GiB (half the machine), so the step is {hi:.3g} m ({per_d}; the "
+        f"{budget / 2**30:.3g} GiB (at most {DEFAULT_STEP_BUDGET / 2**30:.3g} GiB, at most half "
+        f"the machine), so the step is {hi:.3g} m ({per_d}; the "
         "error bar grows with it); set flow.lattice_step to choose"
     )
     return hi, note

@@ -126,3 +126,24 @@ def test_spec_grid_step_is_the_budget_step(monkeypatch):
     monkeypatch.setattr(budget, "machine_memory", lambda: periodic / budget.MEMORY_FRACTION)
     step, note = spec_grid_step({**flow, "bc": "periodic"}, 0.5e-6, BOX, D, 1, 0.8)
     assert want <= step["lattice_step"] <= want * (1 + 2e-3) and "2.8e-06 m" in note
+
+
+def test_default_step_is_the_same_on_every_machine_of_the_reference_size(monkeypatch):
+    """The default step plans for at most ``DEFAULT_STEP_BUDGET`` (11 GiB), so K does not change
+    with the machine above 24 GB: the 2-copy stacked Toray-like cube (its D/3 mesh needs 11.8
+    GiB) gets one step on a 23.5 (this project's machines), 64 and 256 GiB machine; a 16 GiB
+    machine's own budget (8 GiB) coarsens it further, and the note says so."""
+    args = (BOX, 0.5e-6, D, 2, 0.2, 0.8)
+    assert budget.fem_need_bytes(BOX, 7e-6 / 3, 2, 0.2, 0.8) > budget.DEFAULT_STEP_BUDGET
+    steps = []
+    for gib in (23.54, 64, 256):
+        monkeypatch.setattr(budget, "machine_memory", lambda gib=gib: gib * 2**30)
+        step, note = budget.fem_lattice_step(*args)
+        assert note is not None and "11 GiB" in note
+        steps.append(step)
+    assert steps[0] == steps[1] == steps[2]
+    assert 7e-6 / 3 < steps[0] < 100e-6 / 30
+    assert budget.fem_need_bytes(BOX, steps[0], 2, 0.2, 0.8) <= budget.DEFAULT_STEP_BUDGET
+    monkeypatch.setattr(budget, "machine_memory", lambda: 16 * 2**30)
+    small, note = budget.fem_lattice_step(*args)
+    assert small > steps[0] and "8 GiB" in note
