@@ -17,7 +17,8 @@ Usage::
     python benchmarks/solver_agreement.py arrays [--phi 0.1 0.3 0.5] [--kind square hex]
     python benchmarks/solver_agreement.py specs [--size 40e-6] [--voxel 1e-6] [--only table3]
     python benchmarks/solver_agreement.py hexwindow
-    python benchmarks/solver_agreement.py voxelprobe studies/examples/three_rods.toml --voxel 1e-6
+    python benchmarks/solver_agreement.py probe studies/examples/three_rods.toml --solver fem \
+        --voxel 1e-6 [--copies 3] [--lattice-step 2.5e-6] [--bc periodic]
     python benchmarks/solver_agreement.py render
 """
 
@@ -47,9 +48,10 @@ AGREE = 0.02
 SOLVERS = ("fem", "voxel")
 BCS = ("periodic", "permeameter")
 #: Row labels of the specs part: the permeameter with one RVE between the reservoirs
-#: (``permeameter_copies = 1``, the definition before the stack) and with ``"auto"`` copies
-#: (engineer stack's stacked permeameter, ``psdesign/flow/stack.py``).
-SPEC_BCS = ("periodic", "permeameter", "permeameter-stacked")
+#: (``permeameter_copies = 1``, the definition before the stack), with ``"auto"`` copies
+#: (engineer stack's stacked permeameter, ``psdesign/flow/stack.py``) and, where the stacked row
+#: flags its entrance residual, one copy longer (:func:`_longer_copies`).
+SPEC_BCS = ("periodic", "permeameter", "permeameter-stacked", "permeameter-longer")
 
 
 def _append(row: dict) -> None:
@@ -153,9 +155,22 @@ def run_arrays(args) -> None:
                     _append(row)
 
 
+def window_name(res: dict) -> str | None:
+    """The permeameter window a result's K was defined with (``psdesign.flow.darcy.window``):
+    ``"flat-top"`` for a sample of two or more periods, ``"sin^2"`` for one; None off the
+    permeameter. Rows solved before the flat-top window (abb0702) have no such key."""
+    from psdesign.flow.darcy import window_shape
+    from psdesign.flow.error import periods_in_sample
+
+    if res.get("bc") != "permeameter":
+        return None
+    return "sin^2" if window_shape(periods_in_sample(res)) is None else "flat-top"
+
+
 def _summary(res: dict) -> dict:
     mq = res.get("mesh_quality") or {}
     return {
+        "permeameter_window": window_name(res),
         "k_m2": res["permeability_m2"],
         "rel_error": res.get("permeability_rel_error"),
         "status": res.get("status"),
@@ -169,6 +184,10 @@ def _summary(res: dict) -> dict:
         "porosity_analytic": mq.get("porosity_analytic"),
         "cells_per_diameter": res.get("cells_per_diameter"),
         "route_wall_s": res.get("wall_time_s"),
+        "window_rel_error": (res.get("error_estimate") or {}).get("window"),
+        "pressure_drop_rve_pa": res.get("pressure_drop_rve_pa"),
+        "pressure_drop_plane_window_pa": res.get("pressure_drop_plane_window_pa"),
+        "pressure_drop_faces_pa": res.get("pressure_drop_faces_pa"),
     }
 
 
@@ -377,15 +396,36 @@ def _not_an_rve(path: Path) -> str | None:
     )
 
 
-def _flow_of(flow: dict, label: str) -> dict:
-    """The ``[flow]`` table of a row label of :data:`SPEC_BCS`."""
+def _flow_of(flow: dict, label: str, copies: int | None = None) -> dict:
+    """The ``[flow]`` table of a row label of :data:`SPEC_BCS` (``copies``: the
+    ``permeameter-longer`` row's, :func:`_longer_copies`)."""
     if label == "periodic":
         return {**flow, "bc": "periodic"}
-    return {
-        **flow,
-        "bc": "permeameter",
-        "permeameter_copies": 1 if label == "permeameter" else "auto",
-    }
+    n = {"permeameter": 1, "permeameter-longer": copies}.get(label) or "auto"
+    return {**flow, "bc": "permeameter", "permeameter_copies": n}
+
+
+def _longer_copies(rel: str, direction: str) -> int | None:
+    """Copies of a spec's ``permeameter-longer`` row: one more than its stacked rows' when those
+    stacked (two or more copies, both routes alike) and either route's window term (the
+    entrance/exit residual of the windowed drop, ``error_estimate.window``) is above the
+    product's :data:`psdesign.flow.error.WINDOW_WARN`; else None (no such row). The same RVE and
+    boundary condition is then compared on a sample where the entrance disturbance, which each
+    route's reservoirs shape differently, has decayed further before the window."""
+    from psdesign.flow.error import WINDOW_WARN
+
+    rows = []
+    for solver in SOLVERS:
+        path = _cache(rel, direction, "permeameter-stacked", solver)
+        if not path.exists():
+            return None
+        rows.append(json.loads(path.read_text()))
+    copies = {r.get("permeameter_copies") for r in rows}
+    if len(copies) != 1 or (c := copies.pop()) is None or c < 2:
+        return None
+    if not any((r.get("window_rel_error") or 0.0) > WINDOW_WARN for r in rows):
+        return None
+    return c + 1
 
 
 def _reuse_single_copy(rel: str, built, fields, direction: str, bc: str, solver: str) -> bool:
@@ -437,6 +477,9 @@ def run_specs(args) -> None:
             continue
         built, fields, base = got
         for bc, solver in todo:
+            longer = _longer_copies(rel, args.direction) if bc == "permeameter-longer" else None
+            if bc == "permeameter-longer" and longer is None:
+                continue  # the stacked rows do not flag their entrance residual
             if _reuse_single_copy(rel, built, fields, args.direction, bc, solver):
                 continue
             if not args.force and _reuse_same_rve(rel, label, base, args.direction, bc, solver):
@@ -451,7 +494,7 @@ def run_specs(args) -> None:
                 "bc": bc,
                 "load_1min": _load(),
             }
-            flow = _flow_of(base["flow"], bc)
+            flow = _flow_of(base["flow"], bc, longer)
             t0 = time.perf_counter()
             try:
                 res = permeability(built.rve, fields, args.direction, flow, solver)
@@ -469,25 +512,121 @@ def run_specs(args) -> None:
             _write_cache(_cache(rel, args.direction, bc, solver), row)
 
 
-# ------------------------------------------------------------------------ voxel probe
+# ------------------------------------------------------------------------------ probe
 
 
-def run_voxelprobe(args) -> None:
-    """One spec's RVE at another voxel size, voxel route, both BCs (z): is a FEM-vs-voxel gap
-    of the specs table the voxel resolution? Prints one JSON line per BC (not cached)."""
+def _probe_cache(args) -> Path:
+    step = "default" if args.lattice_step is None else f"{args.lattice_step * 1e6:g}"
+    copies = "auto" if args.copies is None else str(args.copies)
+    parts = [_slug(args.spec), args.solver, args.bc, f"v{args.voxel * 1e6:g}"]
+    parts += [f"c{copies}", f"s{step}"]
+    return CACHE / ("probe__" + "__".join(parts) + ".json")
+
+
+def run_probe(args) -> None:
+    """One spec's RVE (z) at a given voxel, permeameter copies and FEM lattice step, with its
+    error bar: which route moves with resolution and sample length? One cache file per probe
+    (``probe__...json``, kept; ``--force`` to redo)."""
+    import resource
+
     from psdesign.flow.permeability import permeability
     from psdesign.packing.build import build_rve
 
+    path = _probe_cache(args)
+    if path.exists() and not args.force:
+        print(f"cached: {path}")
+        return
     spec, _ = first_case(ROOT / args.spec)
     built = build_rve(spec)
     fields = built.voxelize(args.voxel)
     flow = {k: v for k, v in spec["flow"].items() if isinstance(v, (int, float, str))}
-    for label in ("permeameter-stacked", "periodic"):
-        t0 = time.perf_counter()
-        res = permeability(built.rve, fields, "z", _flow_of(flow, label), "voxel")
-        out = {"spec": args.spec, "bc": label, "voxel_m": args.voxel, "load_1min": _load()}
-        out |= _summary(res) | {"permeameter_copies": res.get("permeameter_copies")}
-        print(json.dumps(out | {"wall_s": time.perf_counter() - t0}), flush=True)
+    flow = _flow_of(flow, "permeameter-stacked" if args.bc == "permeameter" else "periodic")
+    if args.bc == "mirrored":
+        fields = mirror_sides(fields, 2)
+    if args.copies is not None:
+        flow["permeameter_copies"] = args.copies
+    if args.lattice_step is not None:
+        flow["lattice_step"] = args.lattice_step
+    row = {"part": "probe", "spec": args.spec, "solver": args.solver, "bc": args.bc}
+    row |= {"voxel_m": args.voxel, "copies_asked": args.copies or "auto"}
+    row |= {"lattice_step_asked_m": args.lattice_step, "load_1min": _load()}
+    mirrored = args.bc == "mirrored"
+    cpu0, t0 = time.process_time(), time.perf_counter()
+    # mirrored: the voxel route's coarse grid would be the RVE's own, not the mirrored one (the
+    # FEM's coarse solve is a coarser lattice on the same field: kept)
+    bar = not (mirrored and args.solver == "voxel")
+    res = permeability(built.rve, fields, "z", flow, args.solver, error_estimate=bar)
+    row |= _summary(res) | {"permeameter_copies": res.get("permeameter_copies")}
+    keys = ("pressure_drop_rve_pa", "pressure_drop_faces_pa", "pressure_drop_plane_window_pa")
+    row |= {k: res.get(k) for k in keys} | {"definition_spread": res.get("definition_spread")}
+    row |= {"error_estimate": res.get("error_estimate"), "fem_field": res.get("fem_field")}
+    row["warnings"] = [str(w)[:200] for w in res.get("warnings") or []]
+    row |= {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - cpu0}
+    row["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+    row["load_1min_end"] = _load()
+    _write_cache(path, row)
+
+
+def render_probes(spec: str) -> list[str]:
+    """Table of one spec's probes (:func:`run_probe`), each against its route's mirrored K on the
+    same grid and lattice step (the limit of the slip-sided stack, :func:`mirror_sides`)."""
+    rows = probe_rows(spec)
+    key = lambda r: (r["solver"], r["voxel_m"], r.get("lattice_step_m"))  # noqa: E731
+    limit = {key(r): r["k_m2"] for r in rows if r["bc"] == "mirrored"}
+    order = {"permeameter": 0, "mirrored": 1, "periodic": 2}
+    rows.sort(
+        key=lambda r: (r["solver"], order[r["bc"]], -r["voxel_m"], r.get("lattice_step_m") or 0)
+    )
+    lines = [
+        "| route | bc | voxel (um) | copies | FEM step (um) | tets | K (m^2) | bar | window term | "
+        "vs mirrored, same grid | CPU s | peak RSS (GB) | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        step = r.get("lattice_step_m")
+        lim = limit.get(key(r))
+        vs = _pct(r["k_m2"] / lim - 1) if lim and r["bc"] == "permeameter" else ""
+        win = (r.get("error_estimate") or {}).get("window")
+        bar = (
+            ""
+            if r["bc"] == "mirrored" and r["solver"] == "voxel"
+            else f"{100 * r['rel_error']:.1f} %"
+        )
+        lines.append(
+            f"| {r['solver']} | {r['bc']} | {r['voxel_m'] * 1e6:g} | "
+            f"{r.get('permeameter_copies') or ''} | "
+            f"{'' if step is None else f'{step * 1e6:.3g}'} | "
+            f"{r.get('n_tets') or ''} | {r['k_m2']:.4e} | {bar} | "
+            f"{'' if win is None else f'{100 * win:.1f} %'} | {vs} | {r['cpu_s']:.0f} | "
+            f"{r['peak_rss_gb']:.2f} | {r['load_1min']:.0f}-{r['load_1min_end']:.0f} |"
+        )
+    return lines
+
+
+def mirror_sides(fields, axis: int):
+    """The voxel fields mirrored across their two side faces normal to the axes other than
+    ``axis`` (twice as wide in each): its periodic K along ``axis`` is that of an infinitely
+    long column with slip sides (a slip wall is a mirror plane), the limit of the stacked
+    permeameter with slip sides as its copies grow."""
+    from psdesign.geometry.rve import VoxelGrid
+
+    dist, count = fields.distance, fields.count
+    size, shape = np.asarray(fields.grid.size, float).copy(), list(fields.grid.shape)
+    for a in (a for a in range(3) if a != axis):
+        dist = np.concatenate([dist, np.flip(dist, a)], axis=a)
+        count = np.concatenate([count, np.flip(count, a)], axis=a)
+        size[a], shape[a] = 2 * size[a], 2 * shape[a]
+    spacing = np.asarray(fields.grid.spacing, float).copy()
+    grid = VoxelGrid(size=size, shape=tuple(shape), spacing=spacing)
+    return type(fields)(
+        distance=np.ascontiguousarray(dist), count=np.ascontiguousarray(count), grid=grid
+    )
+
+
+def probe_rows(spec: str) -> list[dict]:
+    """The cached probes of one spec (``studies/...toml``)."""
+    rows = [json.loads(f.read_text()) for f in sorted(CACHE.glob(f"probe__{_slug(spec)}__*.json"))]
+    return [r for r in rows if r.get("spec") == spec]
 
 
 # --------------------------------------------------------------------------- hex window
@@ -591,7 +730,7 @@ def _spec_rows() -> tuple[dict, dict]:
     """The cache: build records by spec, solve rows by (spec, bc, solver)."""
     builds, solves = {}, {}
     for f in sorted(CACHE.glob("*.json")):
-        if f.stem.startswith("hexwindow__"):
+        if f.stem.startswith(("hexwindow__", "probe__")):
             continue
         r = json.loads(f.read_text())
         if f.stem.endswith("__build"):
@@ -657,8 +796,8 @@ def render_specs() -> list[str]:
             lines.append(f"| {spec} | built ({geo}), not solved (machine time) |||||||||||")
         for bc in SPEC_BCS:
             fem, vox = solves.get((spec, bc, "fem"), {}), solves.get((spec, bc, "voxel"), {})
-            if not fem and not vox and (bc == "permeameter" or not solved):
-                continue  # one copy: dropped for the stack (PERMEAMETER_NOTE)
+            if not fem and not vox and (bc != "periodic" or not solved):
+                continue  # one copy: dropped for the stack (PERMEAMETER_NOTE); longer: not needed
             (kf, bf), (kv, bv) = _k_cell(fem), _k_cell(vox)
             diff, bars, verdict = _verdict(fem, vox)
             if bc != "periodic" and _copies(fem) != _copies(vox) and diff:
@@ -976,15 +1115,25 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--force", action="store_true", help="solve rows that have a cache file")
     s.add_argument("--direction", default="z")
     s.add_argument("--only", nargs="+", default=None, help="substrings of the spec paths")
-    v = sub.add_parser("voxelprobe")
+    v = sub.add_parser("probe")
     v.add_argument("spec", help="path of a shipped spec, e.g. studies/examples/three_rods.toml")
+    v.add_argument("--solver", choices=SOLVERS, required=True)
+    v.add_argument(
+        "--bc",
+        choices=[*BCS, "mirrored"],
+        default="permeameter",
+        help="mirrored: periodic K of the RVE mirrored across its side faces (mirror_sides)",
+    )
     v.add_argument("--voxel", type=float, required=True, help="voxel size (m)")
+    v.add_argument("--copies", type=int, default=None, help="permeameter copies (default auto)")
+    v.add_argument("--lattice-step", type=float, default=None, help="FEM lattice step (m)")
+    v.add_argument("--force", action="store_true")
     h = sub.add_parser("hexwindow")
     h.add_argument("--force", action="store_true")
     sub.add_parser("render")
     args = ap.parse_args(argv)
     cmds = {"arrays": run_arrays, "specs": run_specs, "hexwindow": run_hexwindow}
-    cmds |= {"voxelprobe": run_voxelprobe, "render": render}
+    cmds |= {"probe": run_probe, "render": render}
     cmds[args.cmd](args)
     return 0
 
