@@ -280,3 +280,30 @@ def stacked_flow(flow: dict, copies: int) -> dict:
     if copies == 1:
         return flow
     return {**flow, "aux_length": float(flow.get("aux_length", 0.2)) / copies}
+
+
+def mirror_sides(fields: VoxelFields, axis: int) -> VoxelFields:
+    """The voxel fields mirrored across their side faces (the faces normal to the two axes other
+    than ``axis``; the grid is twice as wide in each): a slip wall is a mirror plane, so the
+    periodic K along ``axis`` of this grid is the K of an endless column of the RVE with slip
+    sides, the limit of the stacked permeameter (slip sides) as its copies grow. A diagnostic
+    (``benchmarks/solver_agreement.py probe --bc mirrored``): the stack of a periodic RVE
+    converges to it, e.g. three_rods at 1 um, voxel route, 6 copies within 0.03 %.
+
+    >>> g = VoxelGrid(size=np.array([2.0, 1.0, 1.0]), shape=(2, 1, 1), spacing=np.ones(3))
+    >>> f = VoxelFields(np.array([1.0, -1.0]).reshape(2, 1, 1), np.zeros((2, 1, 1), np.uint8), g)
+    >>> m = mirror_sides(f, 2)
+    >>> m.distance[:, 0, 0].tolist(), m.grid.shape
+    ([1.0, -1.0, -1.0, 1.0], (4, 2, 1))
+    """
+    dist, count = fields.distance, fields.count
+    size, shape = np.asarray(fields.grid.size, float).copy(), list(fields.grid.shape)
+    for a in (a for a in range(3) if a != axis):
+        dist = np.concatenate([dist, np.flip(dist, a)], axis=a)
+        count = np.concatenate([count, np.flip(count, a)], axis=a)
+        size[a], shape[a] = 2 * size[a], 2 * shape[a]
+    spacing = np.asarray(fields.grid.spacing, float).copy()
+    grid = VoxelGrid(size=size, shape=tuple(shape), spacing=spacing)
+    return type(fields)(
+        distance=np.ascontiguousarray(dist), count=np.ascontiguousarray(count), grid=grid
+    )
