@@ -927,6 +927,36 @@ def _solution_parts(x: lz.Solution | np.ndarray) -> tuple[np.ndarray, np.ndarray
     return x, np.zeros((0,) * x.ndim, np.int16), np.ones(x.shape[0])
 
 
+def _lanczos_start(op: _Stokes, r2: np.ndarray, z: np.ndarray) -> tuple[float, str | None]:
+    """``z <- M^-1 r2`` and ``beta1 = sqrt(r2 . z)``, the start of the preconditioned Lanczos
+    recurrence shared by :func:`_minres` and :func:`_symmlq`; ``(0, why)`` when it cannot start
+    (a zero right-hand side, or a preconditioner that lost positivity)."""
+    beta1 = op.precondition(r2, z)
+    if not beta1 > 0.0:
+        return 0.0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
+    return float(np.sqrt(beta1)), None
+
+
+def _lanczos_step(
+    op: _Stokes,
+    z: np.ndarray,
+    r1: np.ndarray,
+    r2: np.ndarray,
+    beta: float,
+    oldb: float,
+    first: bool,
+) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """One step of the preconditioned Lanczos recurrence (Paige & Saunders), in place: the older
+    vector ``r1`` becomes ``s K z - (beta / oldb) r1 - (alfa / beta) r2`` with ``s = 1 / beta``
+    and ``alfa = s^2 z . K z`` (the operator product overwrites ``r1``, ``c1 = 0`` on the first
+    step). Returns ``(s, alfa, r1, r2)`` with the two vectors swapped: ``r2`` is the new one."""
+    s = 1.0 / beta
+    c1 = 0.0 if first else beta / oldb
+    alfa = s * op.lanczos(z, s, c1, r1)
+    lz.add_scaled(r1, -alfa / beta, r2)
+    return s, alfa, r2, r1
+
+
 def _minres(
     op: _Stokes,
     b: np.ndarray,
@@ -960,18 +990,13 @@ def _minres(
     u.clear()
     u1.clear()
     r2 = b
-    beta1 = op.precondition(r2, z)
-    if not beta1 > 0.0:
-        return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
-    beta1 = np.sqrt(beta1)
+    beta1, failed = _lanczos_start(op, r2, z)
+    if failed:
+        return 0, failed
     oldb, beta, dbar, epsln, phibar, cs, sn = 0.0, beta1, 0.0, 0.0, beta1, -1.0, 0.0
     su = su1 = phi = 0.0  # scales of the stored directions (w = su u), pending x += phi w
     for itn in range(1, maxit + 1):
-        s = 1.0 / beta
-        c1 = beta / oldb if itn >= 2 else 0.0
-        alfa = s * op.lanczos(z, s, c1, r1)
-        lz.add_scaled(r1, -alfa / beta, r2)
-        r1, r2 = r2, r1
+        s, alfa, r1, r2 = _lanczos_step(op, z, r1, r2, beta, oldb, itn == 1)
         oldeps = epsln
         delta = cs * dbar + sn * alfa
         gbar = sn * dbar - cs * alfa
@@ -1033,18 +1058,13 @@ def _symmlq(
     masks = (*work.packing.masks, work.packing.start)
     xh, xl, xs = x.hi, x.lo, x.scale
     r2 = b
-    beta1 = op.precondition(r2, z)
-    if not beta1 > 0.0:
-        return 0, "zero right-hand side" if beta1 == 0.0 else "preconditioner not positive"
-    beta1 = np.sqrt(beta1)
+    beta1, failed = _lanczos_start(op, r2, z)
+    if failed:
+        return 0, failed
     w.fill(0.0)
     oldb, beta, gbar, dbar, rhs1, rhs2, snprod = 0.0, beta1, 0.0, 0.0, beta1, 0.0, 1.0
     for itn in range(1, maxit + 1):
-        s = 1.0 / beta
-        c1 = beta / oldb if itn >= 2 else 0.0
-        alfa = s * op.lanczos(z, s, c1, r1)
-        lz.add_scaled(r1, -alfa / beta, r2)
-        r1, r2 = r2, r1
+        s, alfa, r1, r2 = _lanczos_step(op, z, r1, r2, beta, oldb, itn == 1)
         if itn == 1:  # w-bar_1 = v_1
             lz.symmlq_step(z, s, w, -1.0, 0.0, xh, xl, xs, 0.0, *masks)
             cs, sn, zeta, delta, gbar = -1.0, 0.0, 0.0, 0.0, alfa
