@@ -1106,10 +1106,19 @@ after each run).  Measured, Toray-like at 1 um, tol 1e-6 (MINRES 151 / 175 itera
 153 / 179, final true residuals 4.3e-7 / 5.7e-7 (``benchmarks/RESULTS.md``)."""
 
 
-def krylov_run(*args: object, **kwargs: object) -> tuple[int, str]:
-    """:func:`_symmlq` or :func:`_minres` by :data:`solvers.voxel.memory.KRYLOV` (the work
-    vectors of :meth:`MinresWork.of` must be those of the same method)."""
-    return (_symmlq if vmem.KRYLOV == "symmlq" else _minres)(*args, **kwargs)
+def krylov_run(
+    op: _Stokes,
+    b: np.ndarray,
+    x: lz.Solution | np.ndarray,
+    work: MinresWork,
+    rtol: float,
+    maxit: int,
+    report: Callable[[int, float], None] | None = None,
+) -> tuple[int, str]:
+    """:func:`_symmlq` or :func:`_minres`, the method ``work`` was made for
+    (:meth:`MinresWork.of`: SYMMLQ's work holds its one direction ``w``)."""
+    run = _symmlq if work.w is not None else _minres
+    return run(op, b, x, work, rtol, maxit, report)
 
 
 PROGRESS_EVERY = 25
