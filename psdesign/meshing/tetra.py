@@ -126,7 +126,7 @@ def face_structure(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     nt = len(tets)
     allf = tets[:, TET_FACES].reshape(-1, 3)
     owner = np.repeat(np.arange(nt), 4)
-    s = np.sort(allf, axis=1)
+    s = np.sort(allf.astype(np.int64), axis=1)  # int32 tets would wrap the keys
     n = int(tets.max()) + 1
     key = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
     if key is None:

@@ -107,7 +107,11 @@ def face_partners(
 
 
 def _match_pairs(ref: np.ndarray, query: np.ndarray, n: int) -> np.ndarray:
-    """Index into ``ref`` (sorted pairs, (r, 2)) of each sorted pair in ``query``, -1 if absent."""
+    """Index into ``ref`` (sorted pairs, (r, 2)) of each sorted pair in ``query``, -1 if absent.
+
+    The keys are int64 whatever the input: scikit-fem stores ``edges`` as int32, whose
+    ``i * n + j`` wraps above 46 341 vertices."""
+    ref, query, n = ref.astype(np.int64), query.astype(np.int64), int(n)
     key_r = ref[:, 0] * n + ref[:, 1]
     key_q = query[:, 0] * n + query[:, 1]
     order = np.argsort(key_r, kind="stable")
