@@ -846,10 +846,13 @@ class _Stokes:
         if phi is None:
             res = [bd.component_coefficients(a, fluid=~solid, walls=walls) for a in range(3)]
         else:
-            faces = [bd.face_distance(phi, a) for a in range(3)]
-            if rve is not None:
-                bd.rve_plane_faces(faces[d], phi, d, list(rve))
-            res = [bd.component_coefficients(a, phi_faces=faces, walls=walls) for a in range(3)]
+            res = []
+            for a in range(3):  # one component's face distance at a time: 16 B per cell less
+                face = bd.face_distance(phi, a)
+                if rve is not None and a == d:
+                    bd.rve_plane_faces(face, phi, d, list(rve))
+                res.append(bd.component_coefficients(a, phi_faces={a: face}, walls=walls))
+                del face
         acts = [r[2] for r in res]
         forces = [r[3] for r in res]
         cells = ~solid if phi is None else bd.pressure_cells(acts, forces)
