@@ -4,6 +4,7 @@ Usage (one thread, as recorded in ``benchmarks/RESULTS.md``)::
 
     python benchmarks/voxel_memory_phases.py phases 64        # traced peak per solve phase
     python benchmarks/voxel_memory_phases.py phases 64 16     # ... with 16-bit later directions
+    python benchmarks/voxel_memory_phases.py phases-subvoxel 64   # ... sub-voxel walls
     python benchmarks/voxel_memory_phases.py bits 100 32 16   # iterations, history, K for the
                                                               # first / later direction bits
 
@@ -46,12 +47,16 @@ def _wrap(obj: object, name: str, label: str, n_cells: int, log: list) -> None:
     setattr(obj, name, wrapped)
 
 
-def phases(n: int) -> None:
-    """Traced bytes per cell before, within and after each phase of one staircase solve."""
+def phases(n: int, subvoxel: bool = False) -> None:
+    """Traced bytes per cell before, within and after each phase of one staircase (or
+    sub-voxel: the grid's distance field) solve."""
     warm = np.zeros((16, 16, 16), dtype=bool)
     warm[:, :2, :] = True
     vs.solve_voxel_stokes(warm, 1.0, "z")  # kernels compiled / loaded outside the trace
-    solid = toray_like(n)
+    slab = np.broadcast_to(np.abs(np.arange(16) + 0.5 - 8.0)[None, :, None] - 2.0, (16,) * 3)
+    vs.solve_voxel_stokes(slab <= 0.0, 1.0, "x", distance=slab.copy())  # sub-voxel kernels
+    dist = toray_like(n, distance=True) * 100e-6 if subvoxel else None
+    solid = toray_like(n) if dist is None else dist <= 0.0
     log: list = []
     for obj, name, label in [
         (vs, "_setup_grid", "set-up"),
@@ -65,15 +70,15 @@ def phases(n: int) -> None:
     ]:
         _wrap(obj, name, label, solid.size, log)
     tracemalloc.start()
-    res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x")
+    res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x", distance=dist)
     tracemalloc.stop()
     peak = max(top for _, _, top, _ in log) * solid.size  # the wrappers reset the peak
     for label, before, top, after in log:
         print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
-        f"Toray-like {n}^3 staircase, {vmem.KRYLOV}, directions {vmem.DIRECTION_BITS} then "
-        f"{vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak {peak / solid.size:.1f} B per "
-        f"cell, {res.iterations} iterations",
+        f"Toray-like {n}^3 {res.wall_treatment}, {vmem.KRYLOV}, directions "
+        f"{vmem.DIRECTION_BITS} then {vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak "
+        f"{peak / solid.size:.1f} B per cell, {res.iterations} iterations",
         flush=True,
     )
 
@@ -96,10 +101,10 @@ def bits(n: int) -> None:
 def main(argv: list[str]) -> None:
     mode = argv[1] if len(argv) > 1 else "phases"
     n = int(argv[2]) if len(argv) > 2 else 64
-    if mode == "phases":
+    if mode in ("phases", "phases-subvoxel"):
         if len(argv) > 3:
             vmem.LATER_DIRECTION_BITS = int(argv[3])
-        phases(n)
+        phases(n, subvoxel=mode == "phases-subvoxel")
     elif mode == "bits":
         vmem.KRYLOV = "minres"  # the 16-bit directions are MINRES'
         lz.DIRECTION_BITS = int(argv[3]) if len(argv) > 3 else 32  # Directions read it
@@ -107,7 +112,7 @@ def main(argv: list[str]) -> None:
         vmem.LATER_DIRECTION_BITS = int(argv[4]) if len(argv) > 4 else 32
         bits(n)
     else:
-        raise SystemExit(f"unknown mode {mode!r}: phases | bits")
+        raise SystemExit(f"unknown mode {mode!r}: phases | phases-subvoxel | bits")
 
 
 if __name__ == "__main__":
