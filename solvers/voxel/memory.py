@@ -42,8 +42,10 @@ directions, 105 B with 16-bit directions from the second cycle, 99 B with 16-bit
 throughout.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``,
 issue 16 session 8): 88.4 B per cell staircase and 119.6 B sub-voxel on the Toray-like 64^3
 grid, 97.5 B on PuMA fibres_32 (session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5: 113.7 /
-143.2 / 115.6 B).  The process's peak RSS adds the interpreter and numba (about 0.2 GB) and the
-allocator's slack (:func:`release_free_heap`; ``benchmarks/RESULTS.md``).
+143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
+0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
+pre-solve 0.31e9 B plus 88.3 B per cell, once the allocator's free heap is returned
+(:func:`release_free_heap`; ``benchmarks/RESULTS.md``).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
@@ -85,6 +87,7 @@ _FIXED = {"staircase": 48 + 4 + 3 + 2, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 +
 _SMALL_GRID = 8
 """Allowance for the multigrid's and the coarse pressure term's small-grid overheads (PuMA
 fibres_32 traces about 6 B per cell above the Toray-like 64^3 grid)."""
+
 
 def _per_cell(wall_treatment: str, first: int, later: int) -> int:
     if KRYLOV == "symmlq":  # all unknowns active: the bound (module docstring)
