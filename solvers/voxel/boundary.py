@@ -73,9 +73,10 @@ def component_coefficients(
         Component (axis) 0, 1, 2.
     fluid : np.ndarray of bool, optional
         Fluid cells (staircase treatment); used when ``phi_faces`` is None.
-    phi_faces : list of 3 np.ndarray, optional
+    phi_faces : list of 3 np.ndarray, or dict, optional
         Signed distance (voxels, > 0 in the fluid) at the face centres of each component
-        (sub-voxel treatment; see :func:`face_distance`).
+        (sub-voxel treatment; see :func:`face_distance`); only ``phi_faces[a]`` is read, so a
+        caller may form one component's faces at a time (``{a: faces_a}``).
     walls : dict {axis: 'slip' | 'noslip'}, optional
         Axes whose box faces are walls (not periodic).
 
@@ -117,14 +118,9 @@ def component_coefficients(
             nb_act = np.roll(act, -s, axis=b)
             if phi is None:
                 ghost = 1.0 + (np.roll(both_solid, -s, axis=b) if b != a else 0.0)
+                contrib = np.where(nb_act, 1.0, ghost)
             else:
-                nb_phi = np.roll(phi, -s, axis=b)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    theta = phi / (phi - np.minimum(nb_phi, 0.0))
-                theta = np.clip(np.nan_to_num(theta, nan=1.0, posinf=1.0), THETA_MIN, 1.0)
-                ghost = 1.0 / theta
-                vol_b += np.where(nb_act, 0.0, 0.5 * (theta - 1.0))
-            contrib = np.where(nb_act, 1.0, ghost)
+                contrib = _ghost_fluid(phi, np.roll(phi, -s, axis=b), nb_act, vol_b)
             if b in walls:
                 # the neighbour across the box face (rows 0 for s = -1, n - 1 for s = +1)
                 n = shape[b]
@@ -140,7 +136,7 @@ def component_coefficients(
                 else:
                     contrib[rows] = 0.0 if walls[b] == "slip" else 2.0
             diag += contrib
-        weight = np.minimum(weight, vol_b)
+        np.minimum(weight, vol_b, out=weight)
         if b in walls:
             idx = [slice(None)] * 3
             idx[b] = 0
@@ -150,6 +146,34 @@ def component_coefficients(
         return diag.astype(np.uint8), c, act, None
     weight[~act] = 0.0
     return diag.astype(np.float32), c, act, weight.astype(np.float32)
+
+
+def _ghost_fluid(
+    phi: np.ndarray, nb_phi: np.ndarray, nb_act: np.ndarray, vol_b: np.ndarray
+) -> np.ndarray:
+    """Sub-voxel contribution of one neighbour side to the diagonal: 1 where the neighbour
+    ``nb_act`` is active, ``1 / theta`` (``theta = phi / (phi - min(nb_phi, 0))`` clipped to
+    ``[THETA_MIN, 1]``) where it is not; adds the wall's ``(theta - 1) / 2`` to ``vol_b`` there.
+
+    Element-wise the arithmetic of the plain expressions, in place in ``nb_phi`` (which it
+    overwrites and returns) and one temporary: two float64 grids instead of seven (the set-up
+    was the sub-voxel solve's peak).
+    """
+    theta = nb_phi
+    np.minimum(theta, 0.0, out=theta)
+    np.subtract(phi, theta, out=theta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        np.divide(phi, theta, out=theta)
+    np.nan_to_num(theta, copy=False, nan=1.0, posinf=1.0)
+    np.clip(theta, THETA_MIN, 1.0, out=theta)
+    half = np.subtract(theta, 1.0)
+    half *= 0.5
+    half[nb_act] = 0.0
+    vol_b += half
+    del half
+    np.divide(1.0, theta, out=theta)
+    theta[nb_act] = 1.0
+    return theta
 
 
 def pressure_cells(acts: list[np.ndarray], weights: list[np.ndarray] | None = None) -> np.ndarray:

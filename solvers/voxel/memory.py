@@ -29,16 +29,23 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   periodic grids: :data:`WALL_COUPLING_BYTES`); pressure-cell mask 1 B; the staircase's
   one-byte pressure scale code 1 B (formed at set-up, so its temporaries stay off the peak);
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
-  (4 B) and float32 first coarse levels (+3 B); the caller's float64 distance (8 B) comes on top.
+  (4 B) and float32 first coarse levels (+3 B), less the staircase's scale code (1 B); the
+  caller's float64 distance (8 B) comes on top while the caller holds it (the solve frees its
+  own references after the set-up).  Their set-up (one component's float64 face distance and
+  two float64 temporaries at a time, :func:`solvers.voxel.boundary.component_coefficients`)
+  stays below the Krylov phase: 103 B per cell traced on the Toray-like 64^3 grid.
 
 Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all active (the
 bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
-grids' active fraction 0.77; with MINRES 113 B with float32 directions, 105 B with 16-bit
-directions from the second cycle, 99 B with 16-bit directions throughout.  Traced (numpy
-allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 7): 88.4 B
-per cell staircase and 133.0 B sub-voxel on the Toray-like 64^3 grid, 97.5 B on PuMA fibres_32
-(MINRES, session 5: 113.7 / 143.2 / 115.6 B); 400^3 peak RSS 6.16 GB (``benchmarks/
-RESULTS.md``).
+grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 113 B with float32
+directions, 105 B with 16-bit directions from the second cycle, 99 B with 16-bit directions
+throughout.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``,
+issue 16 session 8): 88.4 B per cell staircase and 119.6 B sub-voxel on the Toray-like 64^3
+grid, 97.5 B on PuMA fibres_32 (session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5: 113.7 /
+143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
+0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
+pre-solve 0.31e9 B plus 88.3 B per cell, once the allocator's free heap is returned
+(:func:`release_free_heap`; ``benchmarks/RESULTS.md``).
 
 No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refuse a spec.
 """
@@ -81,19 +88,13 @@ _SMALL_GRID = 8
 """Allowance for the multigrid's and the coarse pressure term's small-grid overheads (PuMA
 fibres_32 traces about 6 B per cell above the Toray-like 64^3 grid)."""
 
-SUBVOXEL_FLOOR = 174
-"""Sub-voxel figure kept at its former value (the count gives about 160 B with box walls):
-:mod:`psdesign.schema.budget` refuses specs by it, and its test's premise (a 200 um stack over a
-3 GiB budget) needs at least 161 B; not re-tightened in this change."""
-
 
 def _per_cell(wall_treatment: str, first: int, later: int) -> int:
     if KRYLOV == "symmlq":  # all unknowns active: the bound (module docstring)
         sol = 24 + DIRECTION_BYTES[32]
     else:
         sol = max(16 + 2 * DIRECTION_BYTES[first], 24 + 2 * DIRECTION_BYTES[later])
-    per = _FIXED[wall_treatment] + sol + _SMALL_GRID
-    return max(per, SUBVOXEL_FLOOR) if wall_treatment == "subvoxel" else per
+    return _FIXED[wall_treatment] + sol + _SMALL_GRID
 
 
 BYTES_PER_CELL = {
@@ -124,6 +125,35 @@ def solver_bytes(
     if walls and wall_treatment == "staircase":  # the sub-voxel figure covers them already
         per += WALL_COUPLING_BYTES
     return per * float(n_cells)
+
+
+_TRIM: object = None
+"""glibc's ``malloc_trim`` once looked up (False where there is none)."""
+
+
+def release_free_heap() -> bool:
+    """Return the free pages inside the C heap to the system (glibc ``malloc_trim(0)``); False
+    where the C library has no such call (nothing done).
+
+    numpy allocates arrays below glibc's mmap threshold (which rises to 32 MiB once a block that
+    large is freed) on the heap, where the set-up's freed temporaries stay resident until
+    trimmed: measured 8 B per cell of the peak RSS of a Toray-like 200^3 solve (97.3 ->
+    89.7 B per cell, ``benchmarks/RESULTS.md``).  Called after the set-up, after the
+    percolation check and before each Krylov run; a few milliseconds.
+    """
+    global _TRIM
+    if _TRIM is None:
+        try:
+            import ctypes
+
+            _TRIM = ctypes.CDLL(None).malloc_trim
+            _TRIM.argtypes = [ctypes.c_size_t]
+        except (OSError, AttributeError):  # not glibc: nothing to trim
+            _TRIM = False
+    if _TRIM is False:
+        return False
+    _TRIM(0)
+    return True
 
 
 def available_bytes() -> float | None:
