@@ -501,12 +501,13 @@ def run_specs(args) -> None:
                 "load_1min": _load(),
             }
             flow = _flow_of(base["flow"], bc, longer)
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             try:
                 res = permeability(built.rve, fields, args.direction, flow, solver)
                 row |= _summary(res)
                 row["definition_spread"] = res.get("definition_spread")
                 row["permeameter_copies"] = res.get("permeameter_copies")
+                row["permeameter_auto"] = res.get("permeameter_auto")  # "auto": each solve
                 row["warnings"] = [str(w)[:200] for w in res.get("warnings") or []]
             except (ValueError, NotImplementedError, MemoryError) as exc:
                 row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
@@ -514,6 +515,7 @@ def run_specs(args) -> None:
                 row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
                 traceback.print_exc()
             row["wall_s"] = time.perf_counter() - t0
+            row["cpu_s"] = time.process_time() - c0  # this process, all threads
             row["load_1min_end"] = _load()
             _write_cache(_cache(rel, args.direction, bc, solver), row)
 
@@ -543,7 +545,12 @@ def run_probe(args) -> None:
         print(f"cached: {path}")
         return
     spec, _ = first_case(ROOT / args.spec)
-    built = build_rve(spec)
+    got = _build(args.spec, dict(spec), [])  # the table's RVE: its recorded size and voxel
+    if got is None:  # no build record: the spec as it is
+        built = build_rve(spec)
+    else:
+        built, _, base = got
+        spec = {**spec, "flow": {**spec["flow"], **base["flow"]}}
     fields = built.voxelize(args.voxel)
     flow = {k: v for k, v in spec["flow"].items() if isinstance(v, (int, float, str))}
     flow = _flow_of(flow, "permeameter-stacked" if args.bc == "permeameter" else "periodic")
