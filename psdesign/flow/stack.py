@@ -23,7 +23,8 @@ Then the sample length (:func:`next_auto_copies`, applied by :func:`psdesign.flo
 permeability`): while the solve's window term (``error_estimate.window``, the entrance/exit
 residual of the windowed drop, :func:`psdesign.flow.error.window_of`) is above
 :data:`AUTO_WINDOW` (the product's ``WINDOW_WARN``, 1 %) on a geometry periodic along the flow,
-``"auto"`` solves again with one copy more, up to :data:`AUTO_MAX_COPIES`, and only while the
+``"auto"`` solves again with one copy more, up to :data:`AUTO_MAX_COPIES` (only a stack of a
+one-period RVE: an array already holds whole periods), and only while the
 longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`; the up-front
 check counts the first solve's :data:`AUTO_COPIES`); where it stops above the threshold the
 result warns and names ``flow.permeameter_copies``. The error bar's second resolution is solved
@@ -282,7 +283,11 @@ def next_auto_copies(requested: object, result: dict, window: float) -> tuple[in
     and why: ``(copies + 1, "window")`` while ``window`` (its window term) is above
     :data:`AUTO_WINDOW`, else ``(None, why)`` with why ``"fixed"`` (an explicit count, or not a
     permeameter), ``"not periodic"`` (the geometry cannot be stacked), ``"converged"`` (the
-    window term is at most the threshold) or ``"max"`` (:data:`AUTO_MAX_COPIES` reached).
+    window term is at most the threshold), ``"periods"`` (one copy already holds two or more
+    periods: an array, or cylinders along the flow, whose window is exact; measured: cylinders
+    along the flow reach a window term of 2-3 % through its a-priori reach part alone while a
+    second copy moves K by < 0.03 %, ``benchmarks/RESULTS.md``) or ``"max"``
+    (:data:`AUTO_MAX_COPIES` reached).
     ``requested`` is ``flow["permeameter_copies"]`` as the user gave it.
 
     >>> r = {"bc": "permeameter", "geometry_periodic_along_flow": True, "permeameter_copies": 2}
@@ -295,6 +300,8 @@ def next_auto_copies(requested: object, result: dict, window: float) -> tuple[in
         return None, "fixed"
     if not result.get("geometry_periodic_along_flow"):
         return None, "not periodic"
+    if int(result.get("periods_per_copy") or 1) >= 2:
+        return None, "periods"
     if not window > AUTO_WINDOW:
         return None, "converged"
     copies = int(result.get("permeameter_copies") or 1)
