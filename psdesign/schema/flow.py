@@ -54,8 +54,8 @@ class FlowTable(Table):
         None,
         description="auto | integer in [1, 8]: copies of the RVE stacked along the flow in the "
         "permeameter (default auto: 2 when the geometry is periodic along the flow and one copy "
-        "holds fewer than two periods, else 1; then one more, up to 4, while the window term is "
-        "above 1 %)",
+        "holds fewer than two periods, else 1; a stack then takes one more, up to 4, while the "
+        "window term is above 1 %)",
     )
     error_estimate: bool | None = Field(
         None,
