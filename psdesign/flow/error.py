@@ -213,6 +213,24 @@ def window_rel_error(
     return float(max(gap, reach))
 
 
+def window_of(result: dict) -> float:
+    """The window term (:func:`window_rel_error`) of a route ``result``: its
+    ``pressure_drop_rve_pa``, ``pressure_drop_plane_window_pa``, ``permeability_m2``,
+    ``porosity`` and ``rve_length_m`` (0 for a result without a second windowed drop, e.g. a
+    periodic solve).
+
+    >>> window_of({"permeability_m2": 1.0, "porosity": 1.0})
+    0.0
+    """
+    return window_rel_error(
+        result.get("pressure_drop_rve_pa"),
+        result.get("pressure_drop_plane_window_pa"),
+        float(result["permeability_m2"]),
+        float(result["porosity"]),
+        result.get("rve_length_m"),
+    )
+
+
 def richardson_rel_error(k_fine: float, k_coarse: float, ratio: float, order: int) -> float:
     """Roache's grid-convergence index ``F_s |K_h - K_H| / ((r^p - 1) |K_h|)``.
 
@@ -364,13 +382,7 @@ def estimate_with(
         k_c,
         ratio,
         FLOOR.get(scheme) if scheme else None,
-        window_rel_error(
-            result.get("pressure_drop_rve_pa"),
-            result.get("pressure_drop_plane_window_pa"),
-            float(result["permeability_m2"]),
-            float(result["porosity"]),
-            result.get("rve_length_m"),
-        ),
+        window_of(result),
     )
     field = _field_term(result)
     return replace(est, coarse_failure=failure, rel_error=est.rel_error + field, field=field)

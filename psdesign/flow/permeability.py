@@ -28,6 +28,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+import numpy as np
+
 from psdesign.flow import error as err
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.voxel import face_mismatch, permeability_voxel
@@ -284,6 +286,74 @@ def permeability(
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(capture))
+    res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, capture)
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
+
+
+def _longer_flow(flow: dict, res: dict, copies: int) -> dict:
+    """``flow`` with ``copies`` stacked; the FEM's default lattice step kept at the first solve's
+    (:func:`psdesign.schema.budget.fem_lattice_step` could coarsen it for a longer stack)."""
+    out = {**flow, "permeameter_copies": copies}
+    step = (res.get("mesh_quality") or {}).get("lattice_step_m")
+    if res.get("solver") == "fem" and flow.get("lattice_step") is None and step:
+        out["lattice_step"] = float(step)
+    return out
+
+
+def auto_lengthen(
+    rve: RVE,
+    fields: VoxelFields,
+    direction: str | int,
+    flow: dict,
+    solver: str,
+    res: dict,
+    progress: Callable[[int, float], None] | None = None,
+    capture: Callable[..., None] | None = None,
+) -> tuple[dict, dict]:
+    """A ``permeameter_copies = "auto"`` permeameter solved again with one copy more while its
+    window term is above the threshold (:func:`psdesign.flow.stack.next_auto_copies`) and the
+    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`).
+
+    Returns the final result and the ``[flow]`` table it was solved with (copies pinned, for
+    the error bar's second resolution). An ``"auto"`` result gets ``permeameter_auto``: the
+    copies, K and window term of each solve and why it stopped; a stop with the window term
+    still above the threshold adds a warning naming ``flow.permeameter_copies``. ``capture``
+    receives every solve's fields (each result names its copies)."""
+    from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
+    from psdesign.schema import budget
+
+    requested, tries = flow.get("permeameter_copies"), []
+    while True:
+        window = err.window_of(res)
+        done = int(res.get("permeameter_copies") or 1)
+        tries.append(
+            {"copies": done, "permeability_m2": float(res["permeability_m2"]), "window": window}
+        )
+        copies, why = next_auto_copies(requested, res, window)
+        reason = f"the most it stacks, {AUTO_MAX_COPIES}" if why == "max" else None
+        if copies is not None:
+            n = float(np.prod(fields.grid.shape))
+            need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
+            limit = budget.MEMORY_FRACTION * budget.machine_memory()
+            if need > limit:
+                why, copies = "budget", None
+                reason = (
+                    f"{done + 1} would need about {need / 2**30:.3g} GiB; the budget is "
+                    f"{limit / 2**30:.3g} GiB, half the machine"
+                )
+        if copies is None:
+            break
+        flow = _longer_flow(flow, res, copies)
+        res = route_result(rve, fields, direction, flow, solver, progress, capture)
+    if why == "fixed":
+        return res, flow
+    res["permeameter_auto"] = {"tries": tries, "stopped": why}
+    if reason is not None:
+        res.setdefault("warnings", []).append(
+            f"K_{res['direction']}: flow.permeameter_copies = 'auto' stopped at {done} copies "
+            f"({reason}) with the window term {100 * window:.1f} % above {100 * AUTO_WINDOW:g} "
+            f"%; set flow.permeameter_copies (up to {MAX_COPIES}), or use bc = 'periodic'"
+        )
+    return res, flow

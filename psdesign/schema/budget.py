@@ -6,14 +6,18 @@ Every check raises a schema error naming the key and the estimate. Figures:
   float64 temporary; ``benchmarks/RESULTS.md``: 7 bytes per voxel of fields);
 * voxel Stokes solver: :data:`solvers.voxel.memory.BYTES_PER_CELL` (sub-voxel walls, the
   larger figure) per *solved* cell: a permeameter solves ``copies`` stacked copies of the RVE
-  (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, the most it
-  stacks) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
+  (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, its first
+  solve) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
 * FEM solver: :func:`solvers.fem.memory.estimate_memory_gb` (the estimate the solve checks) of
   the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`; the default
   fiber-relative step is coarsened to fit, :func:`fem_lattice_step`); before it, the
   FEM's own field refined for thin fibers (:func:`fem_field_bytes`, at most about 1 GB);
-* the budget is half the machine's memory (``psutil.virtual_memory().total``).
+* the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
+  whose ``"auto"`` copies lengthen the sample after the first solve
+  (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
+  (:func:`restack_bytes`) and stops, warning with ``flow.permeameter_copies``, where it would not
+  fit.
 """
 
 from __future__ import annotations
@@ -98,6 +102,26 @@ def grid_bytes(n: float, solver: str, copies: int = 1, aux: float = 0.0) -> floa
     if solver != "voxel":
         return geometry
     return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(n, copies, aux)
+
+
+def restack_bytes(result: dict, copies: int, n_voxels: float, aux: float) -> float:
+    """Estimated peak bytes of solving a permeameter ``result`` again with ``copies`` copies
+    (``"auto"`` lengthening the sample, :func:`psdesign.flow.stack.next_auto_copies`). Voxel
+    route: :func:`grid_bytes` of the RVE's ``n_voxels`` with ``aux`` (``flow.aux_length``)
+    reservoirs; FEM: :func:`solvers.fem.memory.estimate_memory_gb` of the result's mesh scaled by
+    ``copies / permeameter_copies`` (the reservoirs keep their size: an upper bound).
+
+    >>> restack_bytes({"solver": "voxel"}, 3, 1000, 0.2) == grid_bytes(1000, "voxel", 3, 0.2)
+    True
+    """
+    if result.get("solver") == "voxel":
+        return grid_bytes(n_voxels, "voxel", copies, aux)
+    from solvers.fem.memory import estimate_memory_gb
+
+    scale = copies / max(1, int(result.get("permeameter_copies") or 1))
+    pts = max(4, int(scale * float(result["n_points"])))
+    tets = max(1, int(scale * float(result["n_tets"])))
+    return estimate_memory_gb(pts, tets) * 1e9
 
 
 def check_grid(

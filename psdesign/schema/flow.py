@@ -10,8 +10,9 @@ from psdesign.schema.types import Table, fail, number, short
 
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
-#: Copies ``"auto"`` stacks for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES); the
-#: up-front memory budget counts them for every "auto" permeameter (psdesign.schema.budget).
+#: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
+#: the up-front memory budget counts them for every "auto" permeameter (psdesign.schema.budget; a
+#: longer stack "auto" takes after the first solve is checked before it is solved).
 AUTO_PERMEAMETER_COPIES = 2
 
 
@@ -53,7 +54,8 @@ class FlowTable(Table):
         None,
         description="auto | integer in [1, 8]: copies of the RVE stacked along the flow in the "
         "permeameter (default auto: 2 when the geometry is periodic along the flow and one copy "
-        "holds fewer than two periods, else 1)",
+        "holds fewer than two periods, else 1; a stack then takes one more, up to 4, while the "
+        "window term is above 1 %)",
     )
     error_estimate: bool | None = Field(
         None,

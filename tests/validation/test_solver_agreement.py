@@ -353,7 +353,8 @@ def test_three_rods_stack_converges_to_the_slip_column():
 
 @pytest.mark.slow
 def test_three_rods_longer_stack_fem_and_voxel_agree():
-    """three_rods through the stack with 3 copies (the table's 'permeameter-longer' row), on the
+    """three_rods through the stack with 3 copies (the 'permeameter-longer' row of session 7;
+    ``"auto"`` now takes 4: ``test_auto_copies_solve.py``), on the
     table's grid (2 um: 10 voxels per rod; FEM at its default 4 um step on that field): FEM
     1.6492e-10, voxel 1.6566e-10, -0.45 % (load 9, 2026-12-02 04:26-04:34, and as this test at
     load 6, 04:57-05:00, 171 s; on the spec's 1 um grid and field, FEM at 3.33 um: +0.13 %).

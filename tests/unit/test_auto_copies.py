@@ -1,0 +1,151 @@
+"""``permeameter_copies = "auto"`` lengthens the stack while the window term is above 1 %.
+
+The rule (:func:`psdesign.flow.stack.next_auto_copies`) and its loop
+(:func:`psdesign.flow.permeability.auto_lengthen`) on stand-in route results whose window terms
+are those measured on ``studies/examples/three_rods.toml`` (``docs/permeability.md``, "Two copies
+are not always enough": FEM 10.0 / 1.9 / 0.4 %, voxel 5.5 / 1.2 / 0.3 % with 2 / 3 / 4 copies).
+The window term is ``2.5 |dp_alt / dp - 1|`` (:func:`psdesign.flow.error.window_rel_error`), so a
+stand-in with ``dp = 1`` and ``dp_alt = 1 + w / 2.5`` has term ``w`` (its reach term is ~0 here).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from psdesign.flow import permeability as perm
+from psdesign.flow.error import window_of
+from psdesign.flow.stack import AUTO_MAX_COPIES, next_auto_copies
+from psdesign.geometry.fibers import make_fiber
+from psdesign.geometry.rve import RVE
+from psdesign.schema import budget
+
+FEM_WINDOW = {2: 0.100, 3: 0.019, 4: 0.004}
+VOXEL_WINDOW = {2: 0.055, 3: 0.012, 4: 0.003}
+
+
+def _rve() -> RVE:
+    import numpy as np
+
+    fib = make_fiber(
+        "cylinder", diameter=0.2, center=np.array([0.5, 0.5, 0.5]), theta=None, omega=None,
+        direction=[1, 0, 0], u=0.0, f=1.0, isovalue=None,
+    )  # fmt: skip
+    return RVE(size=np.full(3, 20e-6), fibers=[fib])
+
+
+def _stub(windows: dict, solver: str, calls: list):
+    """A route_result stand-in: the result of ``flow["permeameter_copies"]`` copies (auto: 2)."""
+
+    def route(rve, fields, direction, flow, solver_, progress=None, capture=None):
+        copies = flow.get("permeameter_copies", "auto")
+        copies = 2 if copies in (None, "auto") else int(copies)
+        calls.append(dict(flow))
+        return {
+            "bc": "permeameter",
+            "solver": solver,
+            "direction": "z",
+            "geometry_periodic_along_flow": True,
+            "permeameter_copies": copies,
+            "permeability_m2": 1e-12 * (1 + 0.01 * copies),
+            "porosity": 0.9,
+            "pressure_drop_rve_pa": 1.0,
+            "pressure_drop_plane_window_pa": 1.0 + windows[copies] / 2.5,
+            "rve_length_m": 1.0,  # R / L ~ 1e-6: no reach term
+            "n_points": 1000,
+            "n_tets": 5000,
+            "mesh_quality": {"lattice_step_m": 4e-6},
+            "warnings": [],
+        }
+
+    return route
+
+
+def _run(monkeypatch, windows, solver="voxel", flow=None):
+    calls: list = []
+    monkeypatch.setattr(perm, "route_result", _stub(windows, solver, calls))
+    rve = _rve()
+    flow = {"bc": "permeameter", "aux_length": 0.2} | (flow or {})
+    first = perm.route_result(rve, None, "z", flow, solver)
+    fields = rve.voxelize(2e-6)
+    res, used = perm.auto_lengthen(rve, fields, "z", flow, solver, first)
+    return res, used, calls
+
+
+def test_the_rule():
+    r = {"bc": "permeameter", "geometry_periodic_along_flow": True, "permeameter_copies": 2}
+    assert next_auto_copies("auto", r, 0.0101) == (3, "window")
+    assert next_auto_copies(None, r, 0.01) == (None, "converged")  # at the threshold: stays
+    assert next_auto_copies(3, r, 0.5) == (None, "fixed")
+    assert next_auto_copies("auto", {**r, "bc": "periodic"}, 0.5) == (None, "fixed")
+    assert next_auto_copies("auto", {**r, "geometry_periodic_along_flow": False}, 0.5) == (
+        None,
+        "not periodic",
+    )
+    last = {**r, "permeameter_copies": AUTO_MAX_COPIES}
+    assert next_auto_copies("auto", last, 0.5) == (None, "max")
+    # an array of two cells (auto: 1 copy) is not stacked: its window is exact (the term is the
+    # a-priori reach part there; validation_cylinders: 2.8 %, a second copy moved K by 0.03 %)
+    array = {**r, "permeameter_copies": 1, "periods_per_copy": 2}
+    assert next_auto_copies("auto", array, 0.028) == (None, "periods")
+
+
+@pytest.mark.parametrize(("solver", "windows"), [("fem", FEM_WINDOW), ("voxel", VOXEL_WINDOW)])
+def test_three_rods_windows_take_four_copies(monkeypatch, solver, windows):
+    res, used, calls = _run(monkeypatch, windows, solver)
+    assert res["permeameter_copies"] == 4
+    tries = res["permeameter_auto"]["tries"]
+    assert [t["copies"] for t in tries] == [2, 3, 4]
+    assert [t["window"] for t in tries] == pytest.approx([windows[c] for c in (2, 3, 4)])
+    assert res["permeameter_auto"]["stopped"] == "converged"
+    assert used["permeameter_copies"] == 4  # the error bar's coarse solve uses the final stack
+    assert not any("stopped at" in w for w in res["warnings"])
+    if solver == "fem":  # the FEM keeps the first solve's default lattice step
+        assert [c.get("lattice_step") for c in calls] == [None, 4e-6, 4e-6]
+
+
+def test_below_the_threshold_one_solve(monkeypatch):
+    res, used, calls = _run(monkeypatch, {2: 0.0042})  # quickstart's FEM term at 2 copies
+    assert len(calls) == 1 and res["permeameter_copies"] == 2
+    assert res["permeameter_auto"] == {
+        "tries": [{"copies": 2, "permeability_m2": 1.02e-12, "window": pytest.approx(0.0042)}],
+        "stopped": "converged",
+    }
+
+
+def test_explicit_copies_are_kept(monkeypatch):
+    res, used, calls = _run(monkeypatch, FEM_WINDOW, flow={"permeameter_copies": 2})
+    assert len(calls) == 1 and "permeameter_auto" not in res and used["permeameter_copies"] == 2
+
+
+def test_max_copies_warns(monkeypatch):
+    res, _, calls = _run(monkeypatch, {2: 0.2, 3: 0.1, 4: 0.05})
+    assert res["permeameter_copies"] == 4 and len(calls) == 3
+    assert res["permeameter_auto"]["stopped"] == "max"
+    (w,) = [w for w in res["warnings"] if "stopped at" in w]
+    assert "4 copies" in w and "5.0 %" in w and "flow.permeameter_copies" in w
+
+
+def test_budget_stops_and_names_the_key(monkeypatch):
+    # the first solve fits; 3 copies of the 10^3 grid would not in a 1.5 x 2-copy budget
+    two = budget.grid_bytes(1000, "voxel", 2, 0.2)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 2 * 1.2 * two)
+    res, _, calls = _run(monkeypatch, VOXEL_WINDOW)
+    assert len(calls) == 1 and res["permeameter_auto"]["stopped"] == "budget"
+    (w,) = [w for w in res["warnings"] if "stopped at" in w]
+    assert "2 copies" in w and "3 would need" in w and "flow.permeameter_copies" in w
+
+
+def test_restack_bytes_scales_the_fem_mesh():
+    from solvers.fem.memory import estimate_memory_gb
+
+    r = {"solver": "fem", "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
+    assert budget.restack_bytes(r, 3, 0, 0.2) == pytest.approx(estimate_memory_gb(1500, 7500) * 1e9)
+    assert budget.restack_bytes({"solver": "voxel"}, 4, 8000, 0.2) == pytest.approx(
+        budget.grid_bytes(8000, "voxel", 4, 0.2)
+    )
+
+
+def test_window_of_is_the_error_bars_term():
+    r = {"permeability_m2": 1e-12, "porosity": 0.9, "pressure_drop_rve_pa": 1.0}
+    r |= {"pressure_drop_plane_window_pa": 1.004, "rve_length_m": 1.0}
+    assert window_of(r) == pytest.approx(0.01)
