@@ -285,11 +285,39 @@ def permeability(
     """
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
-    res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(capture))
-    res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, capture)
+    final = None if capture is None else _FinalCapture(capture)
+    res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
+    res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)
+    if final is not None:
+        final.flush()
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
+
+
+class _FinalCapture:
+    """Holds a route's ``capture`` call until the solve is known to be the final one: a stack
+    that ``"auto"`` lengthens (:func:`auto_lengthen`) drops the superseded solve's fields before
+    solving again, so only the reported solve's fields reach ``capture`` (and no two solutions
+    are held at once)."""
+
+    def __init__(self, capture: Callable[..., None]) -> None:
+        self.capture = capture
+        self.call: tuple[tuple, dict] | None = None
+
+    def __call__(self, *args, **kwargs) -> None:
+        self.call = (args, kwargs)
+
+    def drop(self) -> None:
+        """Forget the held call (its solve is superseded)."""
+        self.call = None
+
+    def flush(self) -> None:
+        """Pass the held call on to ``capture``."""
+        if self.call is not None:
+            args, kwargs = self.call
+            self.call = None
+            self.capture(*args, **kwargs)
 
 
 def _longer_flow(flow: dict, res: dict, copies: int) -> dict:
@@ -320,7 +348,8 @@ def auto_lengthen(
     the error bar's second resolution). An ``"auto"`` result gets ``permeameter_auto``: the
     copies, K and window term of each solve and why it stopped; a stop with the window term
     still above the threshold adds a warning naming ``flow.permeameter_copies``. ``capture``
-    receives every solve's fields (each result names its copies)."""
+    (a :class:`_FinalCapture` from :func:`permeability`) has each superseded solve's fields
+    dropped before the next solve, so only the final solve's are written."""
     from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
     from psdesign.schema import budget
 
@@ -346,6 +375,8 @@ def auto_lengthen(
         if copies is None:
             break
         flow = _longer_flow(flow, res, copies)
+        if isinstance(capture, _FinalCapture):
+            capture.drop()
         res = route_result(rve, fields, direction, flow, solver, progress, capture)
     if why == "fixed":
         return res, flow

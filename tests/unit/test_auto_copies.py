@@ -40,7 +40,7 @@ def _stub(windows: dict, solver: str, calls: list):
         copies = flow.get("permeameter_copies", "auto")
         copies = 2 if copies in (None, "auto") else int(copies)
         calls.append(dict(flow))
-        return {
+        res = {
             "bc": "permeameter",
             "solver": solver,
             "direction": "z",
@@ -56,6 +56,9 @@ def _stub(windows: dict, solver: str, calls: list):
             "mesh_quality": {"lattice_step_m": 4e-6},
             "warnings": [],
         }
+        if capture is not None:  # as the routes do: the solve's fields, then the result
+            capture("voxel_flow", solution=f"solution of {copies} copies", result=res)
+        return res
 
     return route
 
@@ -149,3 +152,19 @@ def test_window_of_is_the_error_bars_term():
     r = {"permeability_m2": 1e-12, "porosity": 0.9, "pressure_drop_rve_pa": 1.0}
     r |= {"pressure_drop_plane_window_pa": 1.004, "rve_length_m": 1.0}
     assert window_of(r) == pytest.approx(0.01)
+
+
+def test_only_the_final_solves_fields_are_captured(monkeypatch):
+    # a lengthened stack writes the fields of the solve it reports (4 copies), not of the two
+    # superseded ones (they used to be written as flow_z, flow_z_2, flow_z_3)
+    calls: list = []
+    monkeypatch.setattr(perm, "route_result", _stub(VOXEL_WINDOW, "voxel", calls))
+    seen: list = []
+    flow = {"bc": "permeameter", "aux_length": 0.2}
+    res = perm.permeability(
+        _rve(), _rve().voxelize(2e-6), "z", flow, "voxel", error_estimate=False,
+        capture=lambda kind, **kw: seen.append((kind, kw["solution"], kw["result"])),
+    )  # fmt: skip
+    assert len(calls) == 3 and res["permeameter_copies"] == 4
+    assert [(k, s) for k, s, _ in seen] == [("voxel_flow", "solution of 4 copies")]
+    assert seen[0][2] is res
