@@ -61,30 +61,42 @@ def test_same_spec_gives_identical_outputs(tmp_path):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
-@pytest.mark.parametrize(
-    "text,key",
-    [
-        (SPEC.format(d="-7e-6"), "fibers[0].diameter"),
-        (SPEC.format(d="0"), "fibers[0].diameter"),
-        (SPEC.format(d="100e-6"), "fibers[0].diameter"),
-        (SPEC.format(d="nan"), "fibers[0].diameter"),
-        (SPEC.format(d="7e-6").replace('"rod"', '"hexagon"'), "fibers[0].shape"),
-        (
-            SPEC.format(d="7e-6").replace("center", "direction = [0, 0, 0]\ncenter"),
-            "fibers[0].direction",
-        ),
-        (
-            SPEC.format(d="7e-6").replace(
-                "size = [100e-6, 100e-6, 100e-6]", "size = [0, 1e-4, 1e-4]"
-            ),
-            "rve.size[0]",
-        ),
-        (SPEC.format(d="7e-6").replace("voxel = 2e-6", "voxel = -1e-6"), "rve.voxel"),
-        ("[rve]\nsize = [1e-4, 1e-4, 1e-4]\n", "fibers"),
-        ("[rve\nsize = 1", "spec"),
-    ],
-)
-def test_bad_spec_one_line_exit_2_no_output(tmp_path, text, key):
+BAD_SPECS = [
+    (SPEC.format(d="-7e-6"), "fibers[0].diameter"),
+    (SPEC.format(d="0"), "fibers[0].diameter"),
+    (SPEC.format(d="100e-6"), "fibers[0].diameter"),
+    (SPEC.format(d="nan"), "fibers[0].diameter"),
+    (SPEC.format(d="7e-6").replace('"rod"', '"hexagon"'), "fibers[0].shape"),
+    (
+        SPEC.format(d="7e-6").replace("center", "direction = [0, 0, 0]\ncenter"),
+        "fibers[0].direction",
+    ),
+    (
+        SPEC.format(d="7e-6").replace("size = [100e-6, 100e-6, 100e-6]", "size = [0, 1e-4, 1e-4]"),
+        "rve.size[0]",
+    ),
+    (SPEC.format(d="7e-6").replace("voxel = 2e-6", "voxel = -1e-6"), "rve.voxel"),
+    ("[rve]\nsize = [1e-4, 1e-4, 1e-4]\n", "fibers"),
+    ("[rve\nsize = 1", "spec"),
+]
+
+
+@pytest.mark.parametrize("text,key", BAD_SPECS)
+def test_bad_spec_one_line_exit_2_no_output(tmp_path, capsys, text, key):
+    spec = write(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0] and "Traceback" not in err
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]
+
+
+def test_bad_spec_through_the_interpreter_one_line_exit_2(tmp_path):
+    """End to end (``python -m psdesign.cli``, a fresh process): the exit status and the one
+    stderr line of the process itself, for the first bad spec above."""
+    text, key = BAD_SPECS[0]
     spec = write(tmp_path, text)
     out = tmp_path / "out"
     proc = subprocess.run(

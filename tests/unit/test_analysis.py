@@ -81,7 +81,7 @@ def test_surrogate_json_round_trip_predicts_the_same() -> None:
 def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
     p = write_study(
         tmp_path,
-        'design = "latin-hypercube"\nn_samples = 24\nseeds = [1, 2]\n'
+        'design = "latin-hypercube"\nn_samples = 12\nseeds = [1, 2]\n'
         'outputs = ["porosity", "k_z"]\nsolver = "voxel"',
         '"generator.porosity" = {low = 0.7, high = 0.9}\n'
         '"generator.diameter" = {low = 6e-6, high = 9e-6}',
@@ -89,7 +89,9 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
     summary = pd.read_csv(out / "summary.csv")
-    assert len(summary) == 24 and set(summary["n"]) == {2}
+    # 12 points (was 24: 7.2 s of CPU, 1.9 s now); measured at 12: cv 0.15 %, prediction
+    # +0.23 %, ST 0.93 / 0.07
+    assert len(summary) == 12 and set(summary["n"]) == {2}
     assert main(["study", "fit", str(out), "--json"]) == 0
     fit = json.loads(capsys.readouterr().out)
     assert fit["k_z_m2"]["log_output"] and fit["k_z_m2"]["cv_rel_error"] < 0.05

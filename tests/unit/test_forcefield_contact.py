@@ -25,20 +25,34 @@ def _rve(path):
     return build_rve(load_spec(path)).rve
 
 
-def _min_gap_m(rve, voxel: float) -> float:
-    """Smallest second-smallest fiber field (Eq. 8) on a fine grid: < 0 where fibers overlap."""
+def _grid_fields(rve, voxel: float) -> np.ndarray:
+    """Each fiber's field (metres) at the voxel centres of a ``voxel`` grid, shape (n_fibers,
+    nx, ny, nz): one evaluation shared by the gap and the slice measures below."""
     axes = [(np.arange(round(s / voxel)) + 0.5) * voxel for s in rve.size]
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    return float(rve.intersection_field(pts).min())
+    return rve.fiber_fields(pts).reshape(-1, *(len(a) for a in axes))
 
 
-def _slice_areas(rve, k: int, voxel: float) -> np.ndarray:
-    """Solid voxels of fiber k alone in each slice across its axis (x or y here)."""
-    from psdesign.geometry.rve import RVE
+def _min_gap_m(fields: np.ndarray) -> float:
+    """Smallest second-smallest fiber field (Eq. 8, ``RVE.intersection_field``) of
+    :func:`_grid_fields`: < 0 where fibers overlap."""
+    return float(np.partition(fields, 1, axis=0)[1].min())
 
-    solid = RVE(rve.size, [rve.fibers[k]], period=rve.period).voxelize(voxel).solid
+
+def _overlap_fraction(fields: np.ndarray) -> float:
+    """Omega of Sec. 7.1 on the grid of :func:`_grid_fields`: the fraction of voxel centres
+    inside two or more fibers. Equal to ``RVE.voxelize(voxel).intersection_volume_fraction``
+    (whose ``count`` array was found identical on both cases below, before and after
+    relaxing, 2026-12-02) without evaluating every fiber a second time; ``voxelize``'s own
+    count is tested in test_intersections.py and test_paper.py."""
+    return float(np.count_nonzero((fields <= 0.0).sum(axis=0) >= 2) / fields[0].size)
+
+
+def _slice_areas(rve, fields: np.ndarray, k: int) -> np.ndarray:
+    """Solid voxels of fiber k alone (its field <= 0) in each slice across its axis (x or y
+    here), from :func:`_grid_fields`."""
     ax = int(np.argmax(np.abs(rve.fibers[k].direction)))
-    return solid.sum(axis=tuple(a for a in range(3) if a != ax))
+    return (fields[k] <= 0.0).sum(axis=tuple(a for a in range(3) if a != ax))
 
 
 def _relax(tmp_path, text: str, options: str):
@@ -54,11 +68,13 @@ def _relax(tmp_path, text: str, options: str):
 
 def test_force_field_removes_the_contact_of_compressed_fibers(tmp_path):
     before, summary, out = _relax(tmp_path, COMPRESSED, "max_shift = 8e-6\ngrid = 4e-6\n")
-    assert _min_gap_m(before, 1e-6) < -1e-6  # Eq. 17/18 fibers cut 1.7 um into each other
-    assert before.voxelize(1e-6).intersection_volume_fraction > 1e-3
+    f0 = _grid_fields(before, 1e-6)
+    assert _min_gap_m(f0) < -1e-6  # Eq. 17/18 fibers cut 1.7 um into each other
+    assert _overlap_fraction(f0) > 1e-3
     after = _rve(out / "relaxed.toml")  # the relaxed spec reloads like any spec
-    assert after.voxelize(1e-6).intersection_volume_fraction == 0.0
-    assert _min_gap_m(after, 1e-6) >= 0.0  # on a grid 4x finer than the one relaxed on
+    f1 = _grid_fields(after, 1e-6)
+    assert _overlap_fraction(f1) == 0.0
+    assert _min_gap_m(f1) >= 0.0  # on a grid 4x finer than the one relaxed on
     assert summary["route"] == "fields" and summary["min_gap_after_m"] >= 0.0
     # a variable on its bound is flagged, never called converged
     assert summary["converged"] == (summary["status"] == "converged")
@@ -66,7 +82,7 @@ def test_force_field_removes_the_contact_of_compressed_fibers(tmp_path):
         assert summary["status"] == "at_bound"
     # continuous: every slice across each fiber keeps its cross-section (rigid moves, a bend)
     for k in range(2):
-        a0, a1 = _slice_areas(before, k, 1e-6), _slice_areas(after, k, 1e-6)
+        a0, a1 = _slice_areas(before, f0, k), _slice_areas(after, f1, k)
         assert a1.min() > 0.5 * a0.mean()
         assert a1.mean() == pytest.approx(a0.mean(), rel=0.05)
 
@@ -74,14 +90,16 @@ def test_force_field_removes_the_contact_of_compressed_fibers(tmp_path):
 def test_force_field_removes_the_contacts_of_woven_yarns(tmp_path):
     opts = "max_shift = 10e-6\nu_max = 0.6\ngrid = 5e-6\n"
     before, summary, out = _relax(tmp_path, WOVEN, opts)
+    f0 = _grid_fields(before, 1e-6)
     # Table I cell: 0.6 % where Eq. 19's bend is short of half the yarn thickness at crossings
-    assert before.voxelize(1e-6).intersection_volume_fraction == pytest.approx(0.006, abs=1e-3)
+    assert _overlap_fraction(f0) == pytest.approx(0.006, abs=1e-3)
     after = _rve(out / "relaxed.toml")
     assert len(after.fibers) == 6 and {fb.shape for fb in after.fibers} == {"woven"}
-    assert after.voxelize(1e-6).intersection_volume_fraction == 0.0
-    assert _min_gap_m(after, 1e-6) >= 0.0
+    f1 = _grid_fields(after, 1e-6)
+    assert _overlap_fraction(f1) == 0.0
+    assert _min_gap_m(f1) >= 0.0
     for k in range(6):  # each yarn stays one continuous yarn across the cell
-        a0, a1 = _slice_areas(before, k, 1e-6), _slice_areas(after, k, 1e-6)
+        a0, a1 = _slice_areas(before, f0, k), _slice_areas(after, f1, k)
         assert a1.min() > 0.5 * a0.mean()
     doc = json.loads((out / "rve.json").read_text())
     assert doc["forcefield"]["status"] == summary["status"]
@@ -141,7 +159,7 @@ def test_relaxed_woven_cell_goes_through_mesher_and_solver(tmp_path, capsys):
     assert np.allclose(du, du[0]) and du[0] != 0.0 and "|u|" in summary["variables"]
     assert summary["status"] == "converged" and summary["converged"]
     v0, v1 = before.voxelize(1e-6), after.voxelize(1e-6)
-    assert v1.intersection_volume_fraction == 0.0 and _min_gap_m(after, 1e-6) >= 0.0
+    assert v1.intersection_volume_fraction == 0.0 and _min_gap_m(_grid_fields(after, 1e-6)) >= 0.0
     whole = 1 - v0.porosity + v0.intersection_volume_fraction
     assert 1 - v1.porosity == pytest.approx(whole, rel=0.02)
     # mesher: pore volume of the tets = voxel pore volume of the RVE + two 0.2 L empty zones
