@@ -33,6 +33,18 @@ import solvers.voxel_stokes as vs
 from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
 
+#: The solve's phases the modes time: (owner, attribute, label).
+PHASES = [
+    (vs, "_setup_grid", "set-up"),
+    (vs, "percolates", "percolates"),
+    (vs.MinresWork, "of", "work vectors"),
+    (vs, "krylov_run", "Krylov run"),
+    (vs, "_true_residual", "true residual"),
+    (lz.Solution, "extend", "extension"),
+    (lz.Solution, "value", "float64 value"),
+    (vs, "_result", "result"),
+]
+
 
 def _wrap(obj: object, name: str, label: str, n_cells: int, log: list) -> None:
     """Replace ``obj.name`` by a wrapper that logs the traced memory around each call."""
@@ -60,16 +72,7 @@ def phases(n: int, subvoxel: bool = False) -> None:
     dist = toray_like(n, distance=True) * 100e-6 if subvoxel else None
     solid = toray_like(n) if dist is None else dist <= 0.0
     log: list = []
-    for obj, name, label in [
-        (vs, "_setup_grid", "set-up"),
-        (vs, "percolates", "percolates"),
-        (vs.MinresWork, "of", "work vectors"),
-        (vs, "krylov_run", "Krylov run"),
-        (vs, "_true_residual", "true residual"),
-        (lz.Solution, "extend", "extension"),
-        (lz.Solution, "value", "float64 value"),
-        (vs, "_result", "result"),
-    ]:
+    for obj, name, label in PHASES:
         _wrap(obj, name, label, solid.size, log)
     tracemalloc.start()
     res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x", distance=dist)
@@ -110,16 +113,7 @@ def rss(n: int, trim: bool = True) -> None:
     box = [bvs._box(n)[0]]
     cells = box[0].size
     log: list = []
-    for obj, name, label in [
-        (vs, "_setup_grid", "set-up"),
-        (vs, "percolates", "percolates"),
-        (vs.MinresWork, "of", "work vectors"),
-        (vs, "krylov_run", "Krylov run"),
-        (vs, "_true_residual", "true residual"),
-        (lz.Solution, "extend", "extension"),
-        (lz.Solution, "value", "float64 value"),
-        (vs, "_result", "result"),
-    ]:
+    for obj, name, label in PHASES:
         fn = getattr(obj, name)
 
         def wrapped(*args: object, _fn=fn, _label=label, **kwargs: object) -> object:
