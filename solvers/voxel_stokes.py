@@ -493,10 +493,10 @@ def solve_voxel_stokes(
     # the solve holds no grid-sized geometry of its own from here on (the operator keeps what
     # it needs): the caller's arrays are freed now if the caller holds no reference either
     grid = setup.pop("grid")
-    setup["shape"], setup["porosity"] = grid.shape, 1.0 - float(grid.mean())
+    setup["porosity"] = 1.0 - float(grid.mean())
     del solid, distance, grid
     vmem.release_free_heap()
-    with _threads(int(np.prod(setup["shape"]))):
+    with _threads(int(np.prod(setup["op"].shape[1:]))):
         x, info = _solve_core(setup["op"], d, tol, int(max_iter), progress)
     return _result(
         x,
@@ -627,7 +627,7 @@ def _result(
             [_plane_pressure(p, op.act[d], d, i) - (i - i0) for i in range(i0, i1 + 1)]
         )
         plane_p = (plane_p - plane_p[0]) * (g * h)
-    shp = setup["shape"]
+    shp = op.shape[1:]
     velocity = (x[:3] * vel_scale).astype(np.float32) if returns[0] else None
     pressure = (p * (g * h)).astype(np.float32) if returns[1] else None
     mean_u = np.array([flux[a].mean() for a in range(3)]) * vel_scale
