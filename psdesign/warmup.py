@@ -13,9 +13,13 @@ the real solves use, in separate processes so the compilation runs on all cores:
   numba has one thread only.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
-walls) and the voxel Laplace solves (periodic and permeameter). The cache stays valid until the
-sources (of the kernel's module or of a project module it imports,
-:class:`solvers.jit.DependencyLocator`) or numba change; a second ``warmup`` only loads it.
+walls; a tolerance below :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` too, whose Krylov kernel
+keeps a float64 solution) and the voxel Laplace solves (periodic and permeameter); ``serial``
+also compiles the force-field kernels (:mod:`psdesign.forcefield`: PS values and derivatives,
+tube roots, pair grid, lens guard), about 20 s that the first relaxation would otherwise pay.
+The cache stays valid until the sources (of the kernel's module or of a project module it
+imports, :class:`solvers.jit.DependencyLocator`) or numba change; a second ``warmup`` only
+loads it.
 Two processes (the default on two cores) and one (``jobs=1``) cost the same CPU, 320 vs 325 s;
 two take less wall time, 295 vs 326 s (``benchmarks/RESULTS.md``).
 """
@@ -72,7 +76,29 @@ def _task(mode: str) -> tuple[str, float]:
             flow = {**spec["flow"], "solver": "voxel", "bc": bc, "wall_treatment": wall}
             route_result(built.rve, fields, "z", flow, "voxel")
         relative_diffusivity(fields, "z", {"bc": bc})
+    tight = {**spec["flow"], "solver": "voxel", "bc": "periodic", "tol": 1e-8}
+    route_result(built.rve, fields, "z", tight, "voxel")
+    if mode == "serial":
+        _forcefield()
     return mode, time.perf_counter() - t0
+
+
+def _forcefield() -> None:
+    """Evaluate the six-fiber potential where two crossings overlap (lens guard, pair grid,
+    tube quadrature, Gauss-Bonnet ends) and the two-fiber one: every force-field kernel."""
+    import numpy as np
+
+    from psdesign.forcefield.cases import six_fiber_problem, two_fiber_problem
+    from psdesign.forcefield.kernels import lens_candidates
+
+    six = six_fiber_problem()
+    x = six.x0.copy()
+    x[six.param.free.index("u1")] = 0.4
+    six.objective(x)
+    two = two_fiber_problem(f0=1.5)
+    two.objective(two.x0)
+    two.potential(two.x0, surface="bending")  # the curvature kernel (gaussian uses the ends)
+    lens_candidates(np.zeros((3, 3, 3)))  # the lens guard of fields without a slope bound
 
 
 def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str, float]:
