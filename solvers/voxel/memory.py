@@ -74,6 +74,24 @@ KRYLOV = "symmlq"
 only) or ``"minres"`` (two directions, :data:`DIRECTION_BITS`; the solution on the grid); the
 same Lanczos recurrence and preconditioner."""
 
+SHORT_SOLUTION_FROM = 1e-5
+"""Tolerances from which the solution's extension is int8 instead of int16
+(:class:`solvers.voxel.lanczos.Solution`: 40 bits per entry, one scale per row) and SYMMLQ's
+direction is stored in :data:`LATER_SYMMLQ_BITS` from the second refinement cycle on: the
+later cycles then hold ``4 + 1 + 3`` B per active entry instead of ``4 + 2 + 4``, no more than
+the first cycle's ``4 + 4`` (-8 B per cell on a fully active grid; PuMA fibres_32 at tol 1e-6:
+88.4 instead of 96 B per cell traced).  Not at the default 1e-6: the rounding of either (the
+direction's 2^-16, the solution's 2^-31 of a row's largest entry) leaves a true relative
+residual of about 2e-6 on the Toray-like 200^3 grid, amplified by the operator's condition
+number, so a third refinement cycle ran there (190 instead of 180 iterations; 64^3, 100^3
+and fibres_32 unchanged; ``benchmarks/RESULTS.md``, issue 16 session 9)."""
+
+LATER_SYMMLQ_BITS = 24
+"""Bits per entry of SYMMLQ's direction from the second refinement cycle on when ``tol >=``
+:data:`SHORT_SOLUTION_FROM` (24: the float32's upper three bytes, relative round-off 2^-16;
+32: float32).  A 16-bit direction (int16, a scale per 32 entries) added a third refinement
+cycle already at 100^3 (160 instead of 153 iterations)."""
+
 DIRECTION_BYTES = {32: 16, 16: 9}
 """Bytes per cell of one direction by its bits (16: int16 and a float32 scale per 16)."""
 
@@ -113,15 +131,28 @@ TIGHT_TOL_BELOW = 1e-7
 
 TIGHT_TOL_EXTRA = 8
 
+SHORT_TOL_SAVING = 8
+"""Bytes per cell the solution and the direction save at ``tol >=`` :data:`SHORT_SOLUTION_FROM`
+(int8 extension -4 B, 24-bit direction -4 B on a fully active grid)."""
+
+
+def _tol_extra(tol: float) -> int:
+    """Bytes per cell above the count at the default tolerance (1e-6)."""
+    if tol < TIGHT_TOL_BELOW:
+        return TIGHT_TOL_EXTRA
+    return -SHORT_TOL_SAVING if tol >= SHORT_SOLUTION_FROM and KRYLOV == "symmlq" else 0
+
 
 def solver_bytes(
     n_cells: float, wall_treatment: str = "subvoxel", tol: float = 1e-6, walls: bool = True
 ) -> float:
     """Estimated peak memory (bytes) a voxel Stokes solve on ``n_cells`` solved cells adds to
     the running process (``tol``: the solve's tolerance; below :data:`TIGHT_TOL_BELOW` the
-    solution takes :data:`TIGHT_TOL_EXTRA` more bytes per cell; ``walls``: box walls, i.e. the
+    solution takes :data:`TIGHT_TOL_EXTRA` more bytes per cell, from
+    :data:`SHORT_SOLUTION_FROM` on it and the direction :data:`SHORT_TOL_SAVING` less;
+    ``walls``: box walls, i.e. the
     permeameter, whose cut couplings are stored, :data:`WALL_COUPLING_BYTES`)."""
-    per = BYTES_PER_CELL[wall_treatment] + (TIGHT_TOL_EXTRA if tol < TIGHT_TOL_BELOW else 0)
+    per = BYTES_PER_CELL[wall_treatment] + _tol_extra(tol)
     if walls and wall_treatment == "staircase":  # the sub-voxel figure covers them already
         per += WALL_COUPLING_BYTES
     return per * float(n_cells)
