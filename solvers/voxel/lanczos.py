@@ -31,9 +31,9 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
+from solvers.voxel import memory as vmem
 from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
-from solvers.voxel import memory as vmem
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
@@ -277,8 +277,8 @@ class Solution:
     mantissa, so ``|lo|`` stays within its range (int8: up to 128, clipped at 127 on an exact
     tie) or a quarter of it (int16, int32) while the entries stay below twice the largest one
     at :meth:`extend` (clipped beyond).  int8 (40 bits in all, ``2^-31`` of the row's largest
-    entry, one scale per row: :meth:`_row_scales`) for ``tol >= SHORT_SOLUTION_FROM`` only: at tol 1e-6
-    on the Toray-like grids, with one scale per field, ``2^-30`` added a third refinement
+    entry, one scale per row: :meth:`_row_scales`) only for ``tol >= SHORT_SOLUTION_FROM``: at
+    tol 1e-6 on the Toray-like grids, with one scale per field, ``2^-30`` added a third refinement
     cycle at 100^3 (160 instead of 153 iterations), ``2^-31`` and ``2^-32`` did not there but
     did at 200^3 (190 instead of 180), and so did one scale per row (``benchmarks/RESULTS.md``,
     issue 16 session 9)."""
@@ -300,8 +300,9 @@ class Solution:
 
     def extend(self, tol: float = 1e-6) -> None:
         """Allocate ``lo`` (zero; int32 if ``tol < LO32_BELOW``; int8 for a packed solution,
-        SYMMLQ's, if ``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; else int16) and set the scales from the current
-        ``hi``: one per field, or, with int8, one per row (:meth:`_row_scales`)."""
+        SYMMLQ's, if ``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; else int16)
+        and set the scales from the current ``hi``: one per field, or, with int8, one per row
+        (:meth:`_row_scales`)."""
         if self.extended:
             return
         short = self.packing is not None and tol >= vmem.SHORT_SOLUTION_FROM
