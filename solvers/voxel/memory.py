@@ -9,12 +9,15 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   reaches about 2.5e-11 times the largest velocity in voxel units, float32 alone stalls near
   3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B; with SYMMLQ (the default, :data:`KRYLOV`)
   on the active unknowns only (:class:`solvers.voxel.lanczos.Packing`: 24 B times their
-  fraction, 0.77 on the Toray-like grids, plus 8 B per row of 4 fields for the offsets);
+  fraction, 0.77 on the Toray-like grids, plus 8 B per plane of a field for the offsets);
+  for ``tol >=`` :data:`SHORT_SOLUTION_FROM` (1e-5) an int8 extension, 20 B;
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
   place, see :mod:`solvers.voxel.lanczos`): 48 B;
 * the directions: SYMMLQ's one (:data:`KRYLOV`, the default), float32 16 B, packed as the
-  solution, so the peak is the second cycle's ``24 + 16`` (times the active fraction); or
+  solution, so the peak is the second cycle's ``24 + 16`` (times the active fraction;
+  ``20 + 12`` with the int8 extension and the 24-bit later direction for ``tol >=``
+  :data:`SHORT_SOLUTION_FROM`, no more than the first cycle's ``16 + 16``); or
   MINRES' two unscaled directions (:class:`solvers.voxel.lanczos.Directions`): float32
   2 x 16 = 32 B, or int16 with one float32 scale per 16 entries, 2 x 9 = 18 B;
   :data:`DIRECTION_BITS` in the first refinement cycle, :data:`LATER_DIRECTION_BITS` from the
@@ -39,10 +42,12 @@ Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all acti
 bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
 grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 113 B with float32
 directions, 105 B with 16-bit directions from the second cycle, 99 B with 16-bit directions
-throughout.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``,
-issue 16 session 8): 88.4 B per cell staircase and 119.6 B sub-voxel on the Toray-like 64^3
-grid, 97.5 B on PuMA fibres_32 (session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5: 113.7 /
-143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
+throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 87.6 B
+per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 96.0 B on PuMA
+fibres_32 (88.9 B with :data:`SHORT_SOLUTION_FROM` lowered to the default tolerance 1e-6;
+session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
+113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
 pre-solve 0.31e9 B plus 88.3 B per cell, once the allocator's free heap is returned
 (:func:`release_free_heap`; ``benchmarks/RESULTS.md``).
