@@ -84,8 +84,8 @@ def phases(n: int, subvoxel: bool = False, fibres: bool = False) -> None:
     res = vs.solve_voxel_stokes(solid, 100e-6 / solid.shape[0], direction, distance=dist)
     tracemalloc.stop()
     peak = max(top for _, _, top, _ in log) * solid.size  # the wrappers reset the peak
-    for label, before, top, after in log:
-        print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
+    for phase, before, top, after in log:
+        print(f"{phase:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
         f"{label} {res.wall_treatment}, {vmem.KRYLOV}, directions "
         f"{vmem.DIRECTION_BITS} then {vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak "
