@@ -278,10 +278,10 @@ class Solution:
     tie) or a quarter of it (int16, int32) while the entries stay below twice the largest one
     at :meth:`extend` (clipped beyond).  int8 (40 bits in all, ``2^-31`` of the row's largest
     entry, one scale per row: :meth:`_row_scales`) only for ``tol >= SHORT_SOLUTION_FROM``: at
-    tol 1e-6 on the Toray-like grids, with one scale per field, ``2^-30`` added a third refinement
-    cycle at 100^3 (160 instead of 153 iterations), ``2^-31`` and ``2^-32`` did not there but
-    did at 200^3 (190 instead of 180), and so did one scale per row (``benchmarks/RESULTS.md``,
-    issue 16 session 9)."""
+    tol 1e-6 on the Toray-like grids, with one scale per field, ``2^(E - 31)`` added a third
+    refinement cycle at 100^3 (160 instead of 153 iterations), ``2^(E - 32)`` and ``2^(E - 33)``
+    did not there but did at 200^3 (190 instead of 180), and so did one scale per row
+    (``benchmarks/RESULTS.md``, issue 16 session 9)."""
 
     def __init__(self, shape: tuple[int, ...], packing: Packing | None = None) -> None:
         self.shape = shape
