@@ -78,7 +78,7 @@ with an exact velocity solve about two thirds of them remain (the inf-sup consta
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
 more work per iteration and was dropped.  Memory is O(N): about 88 bytes per voxel on a
-periodic staircase Toray-like grid, at most 97 B (96 B traced on PuMA fibres_32, 95 % of its
+periodic staircase Toray-like grid, at most 96 B (95 B traced on PuMA fibres_32, 95 % of its
 unknowns active; 8 B less for ``tol >=`` 1e-5: :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`;
 3 float32 4-field vectors; the 48-bit
 solution and SYMMLQ's float32 direction on the active unknowns only; uint8 diagonals, no stored
@@ -814,8 +814,23 @@ class _Stokes:
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
             if self.p_scale is None:  # the staircase's scale code, formed now: its ~13 B per
                 self.coarse_p.code(self.d, SCHUR_FLOOR)  # cell of temporaries off the peak
+                self._mask_in_code()
         del ops
         self._drop_couplings()
+
+    def _mask_in_code(self) -> None:
+        """Let the staircase's one-byte pressure scale code (:func:`solvers.voxel.schur.
+        schur_code`) be the pressure-cell mask too: 0 off the pressure cells, where no fluid
+        cell's code lies (a Schur diagonal below 4; at most 6 faces of ``1 / A_ff <= 1/4``,
+        codes >= 23), so every kernel that reads the mask as ``!= 0`` reads the code instead
+        and the mask (1 B per cell) is freed."""
+        code = self.coarse_p.code(self.d, SCHUR_FLOOR)
+        cells = self.fluid != 0
+        if np.any(code[cells] == 0):  # not reached on a voxel grid (docstring): keep the mask
+            return
+        code[~cells] = 0
+        del cells
+        self.fluid = self.coarse_p.fluid = code
 
     def _drop_couplings(self) -> None:
         """Replace the finest couplings of each component by :func:`solvers.voxel.kernels.

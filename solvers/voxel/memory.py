@@ -29,23 +29,26 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   2 B): 4 B;
 * finest operators: uint8 diagonals of the 3 components, 3 B; their couplings (9 B) only where
   the permeameter's box walls cut some (:func:`solvers.voxel.kernels.unit_couplings` on
-  periodic grids: :data:`WALL_COUPLING_BYTES`); pressure-cell mask 1 B; the staircase's
-  one-byte pressure scale code 1 B (formed at set-up, so its temporaries stay off the peak);
+  periodic grids: :data:`WALL_COUPLING_BYTES`); the staircase's one-byte pressure scale code
+  1 B (formed at set-up, so its temporaries stay off the peak), 0 off the pressure cells, so it
+  is the pressure-cell mask too (``_Stokes._mask_in_code``); sub-voxel walls keep a 1 B mask;
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
-  (4 B) and float32 first coarse levels (+3 B), less the staircase's scale code (1 B); the
+  (4 B), float32 first coarse levels (+3 B) and the pressure-cell mask (1 B), less the
+  staircase's scale code (1 B); the
   caller's float64 distance (8 B) comes on top while the caller holds it (the solve frees its
   own references after the set-up).  Their set-up (one component's float64 face distance and
   two float64 temporaries at a time, :func:`solvers.voxel.boundary.component_coefficients`)
   stays below the Krylov phase: 103 B per cell traced on the Toray-like 64^3 grid.
 
-Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all active (the
-bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
-grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 113 B with float32
-directions, 105 B with 16-bit directions from the second cycle, 99 B with 16-bit directions
+Sum, staircase, periodic: 96 B with SYMMLQ on a grid whose unknowns are all active (the
+bound counted here: the estimate is made before the grid is known), 87 B at the Toray-like
+grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 112 B with float32
+directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit directions
 throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
-allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 87.6 B
-per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 96.0 B on PuMA
-fibres_32 (88.9 B with :data:`SHORT_SOLUTION_FROM` lowered to the default tolerance 1e-6;
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 86.6 B
+per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 95.0 B on PuMA
+fibres_32 (88.9 B with :data:`SHORT_SOLUTION_FROM` lowered to the default tolerance 1e-6,
+before the mask went into the code;
 session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
 113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
@@ -104,7 +107,7 @@ WALL_COUPLING_BYTES = 9
 """The finest couplings of the three components, stored only where box walls cut some (the
 permeameter: :func:`solver_bytes` ``walls=True``)."""
 
-_FIXED = {"staircase": 48 + 4 + 3 + 2, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 + 3}
+_FIXED = {"staircase": 48 + 4 + 3 + 1, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 + 3}
 """Bytes per cell besides the solution and the directions (module docstring)."""
 
 _SMALL_GRID = 8
