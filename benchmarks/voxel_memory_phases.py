@@ -5,6 +5,7 @@ Usage (one thread, as recorded in ``benchmarks/RESULTS.md``)::
     python benchmarks/voxel_memory_phases.py phases 64        # traced peak per solve phase
     python benchmarks/voxel_memory_phases.py phases 64 16     # ... with 16-bit later directions
     python benchmarks/voxel_memory_phases.py phases-subvoxel 64   # ... sub-voxel walls
+    python benchmarks/voxel_memory_phases.py phases-fibres        # ... PuMA fibres_32 along z
     python benchmarks/voxel_memory_phases.py rss 200          # resident memory per phase of
     python benchmarks/voxel_memory_phases.py rss 200 notrim   # bench_voxel_scale's 200^3 box
     python benchmarks/voxel_memory_phases.py bits 100 32 16   # iterations, history, K for the
@@ -25,6 +26,7 @@ from __future__ import annotations
 import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 from bench_voxel import toray_like
@@ -61,9 +63,9 @@ def _wrap(obj: object, name: str, label: str, n_cells: int, log: list) -> None:
     setattr(obj, name, wrapped)
 
 
-def phases(n: int, subvoxel: bool = False) -> None:
+def phases(n: int, subvoxel: bool = False, fibres: bool = False) -> None:
     """Traced bytes per cell before, within and after each phase of one staircase (or
-    sub-voxel: the grid's distance field) solve."""
+    sub-voxel: the grid's distance field; or PuMA fibres_32 along z, ``fibres``) solve."""
     warm = np.zeros((16, 16, 16), dtype=bool)
     warm[:, :2, :] = True
     vs.solve_voxel_stokes(warm, 1.0, "z")  # kernels compiled / loaded outside the trace
@@ -71,17 +73,21 @@ def phases(n: int, subvoxel: bool = False) -> None:
     vs.solve_voxel_stokes(slab <= 0.0, 1.0, "x", distance=slab.copy())  # sub-voxel kernels
     dist = toray_like(n, distance=True) * 100e-6 if subvoxel else None
     solid = toray_like(n) if dist is None else dist <= 0.0
+    direction, label = "x", f"Toray-like {n}^3"
+    if fibres:
+        data = Path(__file__).resolve().parents[1] / "tests" / "data" / "fibres_32.npz"
+        solid, direction, label = np.load(data)["solid"].astype(bool), "z", "PuMA fibres_32"
     log: list = []
     for obj, name, label in PHASES:
         _wrap(obj, name, label, solid.size, log)
     tracemalloc.start()
-    res = vs.solve_voxel_stokes(solid, 100e-6 / n, "x", distance=dist)
+    res = vs.solve_voxel_stokes(solid, 100e-6 / solid.shape[0], direction, distance=dist)
     tracemalloc.stop()
     peak = max(top for _, _, top, _ in log) * solid.size  # the wrappers reset the peak
-    for label, before, top, after in log:
-        print(f"{label:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
+    for phase, before, top, after in log:
+        print(f"{phase:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
-        f"Toray-like {n}^3 {res.wall_treatment}, {vmem.KRYLOV}, directions "
+        f"{label} {res.wall_treatment}, {vmem.KRYLOV}, directions "
         f"{vmem.DIRECTION_BITS} then {vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak "
         f"{peak / solid.size:.1f} B per cell, {res.iterations} iterations",
         flush=True,
@@ -160,10 +166,10 @@ def bits(n: int) -> None:
 def main(argv: list[str]) -> None:
     mode = argv[1] if len(argv) > 1 else "phases"
     n = int(argv[2]) if len(argv) > 2 else 64
-    if mode in ("phases", "phases-subvoxel"):
+    if mode in ("phases", "phases-subvoxel", "phases-fibres"):
         if len(argv) > 3:
             vmem.LATER_DIRECTION_BITS = int(argv[3])
-        phases(n, subvoxel=mode == "phases-subvoxel")
+        phases(n, subvoxel=mode == "phases-subvoxel", fibres=mode == "phases-fibres")
     elif mode == "rss":
         rss(n, trim=not (len(argv) > 3 and argv[3] == "notrim"))
     elif mode == "bits":
@@ -173,7 +179,9 @@ def main(argv: list[str]) -> None:
         vmem.LATER_DIRECTION_BITS = int(argv[4]) if len(argv) > 4 else 32
         bits(n)
     else:
-        raise SystemExit(f"unknown mode {mode!r}: phases | phases-subvoxel | rss | bits")
+        raise SystemExit(
+            f"unknown mode {mode!r}: phases | phases-subvoxel | phases-fibres | rss | bits"
+        )
 
 
 if __name__ == "__main__":

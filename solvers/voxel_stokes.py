@@ -78,7 +78,9 @@ with an exact velocity solve about two thirds of them remain (the inf-sup consta
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
 more work per iteration and was dropped.  Memory is O(N): about 88 bytes per voxel on a
-periodic staircase Toray-like grid, at most 97 B (3 float32 4-field vectors; the 48-bit
+periodic staircase Toray-like grid, at most 96 B (95 B traced on PuMA fibres_32, 95 % of its
+unknowns active; 8 B less for ``tol >=`` 1e-5: :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`;
+3 float32 4-field vectors; the 48-bit
 solution and SYMMLQ's float32 direction on the active unknowns only; uint8 diagonals, no stored
 finest couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
 (:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
@@ -812,8 +814,23 @@ class _Stokes:
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
             if self.p_scale is None:  # the staircase's scale code, formed now: its ~13 B per
                 self.coarse_p.code(self.d, SCHUR_FLOOR)  # cell of temporaries off the peak
+                self._mask_in_code()
         del ops
         self._drop_couplings()
+
+    def _mask_in_code(self) -> None:
+        """Let the staircase's one-byte pressure scale code (:func:`solvers.voxel.schur.
+        schur_code`) be the pressure-cell mask too: 0 off the pressure cells, where no fluid
+        cell's code lies (a Schur diagonal below 4; at most 6 faces of ``1 / A_ff <= 1/4``,
+        codes >= 23), so every kernel that reads the mask as ``!= 0`` reads the code instead
+        and the mask (1 B per cell) is freed."""
+        code = self.coarse_p.code(self.d, SCHUR_FLOOR)
+        cells = self.fluid != 0
+        if np.any(code[cells] == 0):  # not reached on a voxel grid (docstring): keep the mask
+            return
+        code[~cells] = 0
+        del cells
+        self.fluid = self.coarse_p.fluid = code
 
     def _drop_couplings(self) -> None:
         """Replace the finest couplings of each component by :func:`solvers.voxel.kernels.
@@ -906,6 +923,7 @@ class MinresWork:
     u1: lz.Directions | None
     w: np.ndarray | None = None
     packing: lz.Packing | None = None
+    wm: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
 
     @classmethod
     def of(cls, op: _Stokes, krylov: str | None = None) -> MinresWork:
@@ -919,8 +937,16 @@ class MinresWork:
         return cls(op.z, r1, lz.Directions(shp), lz.Directions(shp))
 
     def narrow(self, bits: int) -> None:
-        """Store MINRES' directions in ``bits`` (16 or 32) from now on (new, zero directions;
-        the old ones are freed first, so the peak is that of the wider pair)."""
+        """Store MINRES' directions in ``bits`` (16 or 32) from now on, or SYMMLQ's in 24
+        (``bits == 24``: the float32's upper two bytes in ``w`` (uint16) and the third in
+        ``wm``, :func:`solvers.voxel.lanczos.symmlq_step`); new, zero directions, the old ones
+        freed first, so the peak is that of the wider storage."""
+        if self.w is not None:
+            if bits == 24 and self.wm.size == 0:
+                size = self.w.size
+                self.w = None
+                self.w, self.wm = np.zeros(size, np.uint16), np.zeros(size, np.uint8)
+            return
         if self.u is None or self.u.q.itemsize * 8 == bits:
             return
         shp = self.u.q.shape
@@ -1063,24 +1089,25 @@ def _symmlq(
     ``work.packing``).  ``report(itn, phibar / beta1)`` (MINRES' estimate: monotone) every
     ``PROGRESS_EVERY`` iterations.
     """
-    z, r1, w = work.z, work.r1, work.w
+    z, r1, w, wm = work.z, work.r1, work.w, work.wm
     masks = (*work.packing.masks, work.packing.start)
     xh, xl, xs = x.hi, x.lo, x.scale
     r2 = b
     beta1, failed = _lanczos_start(op, r2, z)
     if failed:
         return 0, failed
-    w.fill(0.0)
+    w.fill(0)
+    wm.fill(0)
     oldb, beta, gbar, dbar, rhs1, rhs2, snprod = 0.0, beta1, 0.0, 0.0, beta1, 0.0, 1.0
     for itn in range(1, maxit + 1):
         s, alfa, r1, r2 = _lanczos_step(op, z, r1, r2, beta, oldb, itn == 1)
         if itn == 1:  # w-bar_1 = v_1
-            lz.symmlq_step(z, s, w, -1.0, 0.0, xh, xl, xs, 0.0, *masks)
+            lz.symmlq_step(z, s, w, wm, -1.0, 0.0, xh, xl, xs, 0.0, *masks)
             cs, sn, zeta, delta, gbar = -1.0, 0.0, 0.0, 0.0, alfa
         else:  # rotation itn - 1: (gamma-bar, beta_itn) -> (gamma, 0)
             gamma = max(np.hypot(gbar, beta), 1e-300)
             cs, sn, zeta = gbar / gamma, beta / gamma, rhs1 / gamma
-            lz.symmlq_step(z, s, w, cs, sn, xh, xl, xs, zeta, *masks)
+            lz.symmlq_step(z, s, w, wm, cs, sn, xh, xl, xs, zeta, *masks)
             delta = cs * dbar + sn * alfa
             gbar = sn * dbar - cs * alfa
             snprod *= sn
@@ -1101,7 +1128,7 @@ def _symmlq(
         done = (mr <= rtol * beta1 and cg <= CG_SLACK * rtol * beta1) or beta == 0.0
         if done or (itn == maxit and cg <= np.hypot(rhs1, rhs2)):
             zbar = rhs1 / gbar if gbar != 0.0 else 0.0
-            lz.symmlq_step(z, 0.0, w, 1.0, 0.0, xh, xl, xs, zbar, *masks)  # to the CG point
+            lz.symmlq_step(z, 0.0, w, wm, 1.0, 0.0, xh, xl, xs, zbar, *masks)  # to the CG point
         if done:
             return itn, "exact" if beta == 0.0 else "ok"
     return maxit, "max_iter"
@@ -1151,6 +1178,16 @@ def _true_residual(
     return rn, bn
 
 
+def _later_bits(work: MinresWork, tol: float) -> int:
+    """Storage bits of the directions from the second refinement cycle on: SYMMLQ's
+    :data:`solvers.voxel.memory.LATER_SYMMLQ_BITS` where the solution's extension is int8
+    (``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`), else float32; MINRES'
+    :data:`solvers.voxel.memory.LATER_DIRECTION_BITS`."""
+    if work.w is None:
+        return vmem.LATER_DIRECTION_BITS
+    return vmem.LATER_SYMMLQ_BITS if tol >= vmem.SHORT_SOLUTION_FROM else 32
+
+
 def _solve_core(
     op: _Stokes,
     d: int,
@@ -1178,7 +1215,7 @@ def _solve_core(
             break
         if total > 0:
             if not x.extended:  # the directions narrow where the solution widens (memory)
-                work.narrow(vmem.LATER_DIRECTION_BITS)
+                work.narrow(_later_bits(work, tol))
             x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None

@@ -31,6 +31,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
+from solvers.voxel import memory as vmem
 from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
@@ -253,11 +254,12 @@ class Directions:
 
 
 class Solution:
-    """The MINRES solution in 48 bits per entry: float32 ``hi`` plus, once :meth:`extend` has
-    run, an int16 ``lo`` in units of a per-field power of two ``scale`` below the float32
-    round-off of the field's largest entry (value ``hi + lo * scale``, absolute error at most
-    ``2^-37`` of that entry); an int32 ``lo`` (float64 precision) for ``tol`` below
-    :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` (1e-7; +8 B per cell).
+    """The Krylov solution in 40 or 48 bits per entry: float32 ``hi`` plus, once :meth:`extend`
+    has run, an int8 (``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`, 1e-5) or
+    int16 ``lo`` in units of a per-field power of two ``scale`` below the float32 round-off of
+    the field's largest entry (value ``hi + lo * scale``, absolute error at most ``2^-31``
+    (int8) or ``2^-37`` (int16) of that entry); an int32 ``lo`` (float64 precision) for ``tol``
+    below :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` (1e-7).
 
     A float32 solution alone cannot go below a true relative residual of about 1e-6 (the
     round-off of the velocity times the viscous stencil: 2.6e-6 measured on PuMA fibres_32,
@@ -269,11 +271,17 @@ class Solution:
     cycle runs on ``hi`` alone.
     """
 
-    LO_BITS_BELOW = {2: 38, 4: 52}
+    LO_BITS_BELOW = {1: 32, 2: 38, 4: 52}
     """``scale = 2^(E - bits)`` for a field whose largest magnitude times 2 is below ``2^E``, by
-    the byte size of ``lo``: 14 (int16) or 28 (int32) bits below float32's 24-bit mantissa,
-    so ``|lo|`` stays a quarter of its range while the entries stay below twice the largest
-    one at :meth:`extend` (clipped beyond)."""
+    the byte size of ``lo``: 8 (int8), 14 (int16) or 28 (int32) bits below float32's 24-bit
+    mantissa, so ``|lo|`` stays within its range (int8: up to 128, clipped at 127 on an exact
+    tie) or a quarter of it (int16, int32) while the entries stay below twice the largest one
+    at :meth:`extend` (clipped beyond).  int8 (40 bits in all, ``2^-31`` of the row's largest
+    entry, one scale per row: :meth:`_row_scales`) only for ``tol >= SHORT_SOLUTION_FROM``: at
+    tol 1e-6 on the Toray-like grids, with one scale per field, ``2^(E - 31)`` added a third
+    refinement cycle at 100^3 (160 instead of 153 iterations), ``2^(E - 32)`` and ``2^(E - 33)``
+    did not there but did at 200^3 (190 instead of 180), and so did one scale per row
+    (``benchmarks/RESULTS.md``, issue 16 session 9)."""
 
     def __init__(self, shape: tuple[int, ...], packing: Packing | None = None) -> None:
         self.shape = shape
@@ -291,11 +299,14 @@ class Solution:
         return self.lo.size > 0
 
     def extend(self, tol: float = 1e-6) -> None:
-        """Allocate ``lo`` (zero; int32 if ``tol < LO32_BELOW``) and set the per-field scales
-        from the current ``hi``."""
+        """Allocate ``lo`` (zero; int32 if ``tol < LO32_BELOW``; int8 for a packed solution,
+        SYMMLQ's, if ``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; else int16)
+        and set the scales from the current ``hi``: one per field, or, with int8, one per row
+        (:meth:`_row_scales`)."""
         if self.extended:
             return
-        dtype = np.int32 if tol < LO32_BELOW else np.int16
+        short = self.packing is not None and tol >= vmem.SHORT_SOLUTION_FROM
+        dtype = np.int32 if tol < LO32_BELOW else np.int8 if short else np.int16
         bits = self.LO_BITS_BELOW[np.dtype(dtype).itemsize]
         fields = [self._field(self.hi, a) for a in range(self.shape[0])]
         mags = [max(float(f.max()), -float(f.min())) if f.size else 0.0 for f in fields]
@@ -303,7 +314,34 @@ class Solution:
         for a, m in enumerate(mags):
             m = m if m > 0.0 else top
             self.scale[a] = 2.0 ** (np.frexp(2.0 * m)[1] - bits) if m > 0 else 1.0
+        if short:
+            self.scale = self._row_scales(bits)
         self.lo = np.zeros(self.hi.shape, dtype)
+
+    ROW_RANGE = 8
+    """Row scales (int8 extension) are at most ``2^ROW_RANGE`` below their field's: an entry
+    that outgrows its row's scale later is clipped to its float32 round-off, which stays below
+    the field's scale for entries below ``2^-ROW_RANGE`` of the field's largest."""
+
+    def _row_scales(self, bits: int) -> np.ndarray:
+        """float32 scale of every row (``4 nx ny``; 4 B per row, 0.5 B per cell at nz = 32):
+        ``2^(E_row - bits)`` from the row's largest magnitude as for the field (rows without
+        entries take the field's), at least ``2^-ROW_RANGE`` times the field's.  The
+        quantisation error of the solution then follows the local magnitude (Toray-like 100^3,
+        tol 1e-6: final true residual 7.6e-7 against 9.2e-7 with one scale per field and
+        4.3e-7 with the int16 extension; ``benchmarks/RESULTS.md``, issue 16 session 9)."""
+        pk = self.packing
+        per = pk.shape[1] * pk.shape[2]
+        rows = np.empty(4 * per)
+        packed_row_absmax(self.hi, *pk.masks, pk.start, rows)
+        out = np.empty(rows.size, np.float32)
+        for a in range(4):
+            sl = slice(a * per, (a + 1) * per)
+            ef = int(np.frexp(self.scale[a])[1]) - 1  # the field's exponent minus bits
+            e = np.frexp(2.0 * rows[sl])[1] - bits
+            e = np.where(rows[sl] > 0.0, np.maximum(e, ef - self.ROW_RANGE), ef)
+            out[sl] = np.ldexp(1.0, np.maximum(e, -120))
+        return out
 
     def lo_value(self, out: np.ndarray) -> np.ndarray:
         """``out <- lo * scale`` (float32), zero before :meth:`extend`."""
@@ -332,11 +370,10 @@ class Solution:
                     x[a] += self.lo[a] * self.scale[a]
             return x
         x = np.zeros(self.shape)
-        for a, i, sl, act in self.packing.planes():
-            vals = self.hi[sl].astype(np.float64)
-            if self.extended:
-                vals += self.lo[sl] * self.scale[a]
-            x[a, i][act] = vals
+        pk = self.packing
+        unpack_planes(self.hi, np.ones(4), *pk.masks, pk.start, x, False)
+        if self.extended:
+            unpack_planes(self.lo, self.scale, *pk.masks, pk.start, x, True)
         return x
 
 
@@ -356,6 +393,14 @@ def _quantise_row(row, m, q, t, e):
         e[t] = 0.0
         for k in range(row.shape[0]):
             q[t, k] = 0
+
+
+@nb.njit(inline="always")
+def _lo_max(lo):
+    """Largest magnitude of the solution's integer extension ``lo`` (int8, int16 or int32)."""
+    if lo.itemsize == 1:
+        return 127.0
+    return 32767.0 if lo.itemsize == 2 else 2147483647.0
 
 
 ROWS_PER_TASK = 64
@@ -401,7 +446,7 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
     fh = xh.reshape(-1, nz)
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
-    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0  # int16 or int32 extension
+    lmax = _lo_max(xl)
     nrow = fz.shape[0]
     per = nrow // xs.shape[0]
     direct = q1.itemsize == 4
@@ -438,7 +483,7 @@ def add_direction(xh, xl, xs, c, q, e):
     fq = q.reshape(-1, nz)
     extended = xl.size > 0
     fl = xl.reshape(-1, nz) if extended else xl.reshape(0, nz)
-    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0
+    lmax = _lo_max(xl)
     nrow = fh.shape[0]
     per = nrow // xs.shape[0]
     for t in nb.prange(nrow):
@@ -449,9 +494,10 @@ def add_direction(xh, xl, xs, c, q, e):
 @parallel_kernel(**_OPTS)
 def subtract_sq(r, y):
     """``r -= y`` (flat, parallel); returns the float64 ``||r||^2`` of the result."""
-    fr = r.reshape(-1, r.shape[-1])
-    fy = y.reshape(-1, y.shape[-1])
-    m, n = fr.shape
+    m = r.shape[0] * r.shape[1]  # one partial sum per plane (per row: 1 B per cell at 32^3)
+    fr = r.reshape(m, -1)
+    fy = y.reshape(m, -1)
+    n = fr.shape[1]
     part = np.zeros(m)
     for t in nb.prange(m):
         rr = fr[t]
@@ -480,6 +526,10 @@ class Packing:
     stencil): every vector of the solve vanishes on the inactive unknowns (the kernels write 0
     there), so they are not stored (on the Toray-like grids 23 % of the entries).
 
+    Only the offset of each plane is stored (``start``, int64 per plane of a field: 4 nx + 1
+    entries); the kernels count a row's active entries as they gather them (per row, 8 B per
+    row of nz entries, was 1 B per cell at nz = 32).
+
     Parameters
     ----------
     masks : list of 4 np.ndarray
@@ -490,15 +540,15 @@ class Packing:
     def __init__(self, masks: list[np.ndarray]) -> None:
         self.masks = masks
         self.shape = (4, *masks[0].shape)
-        nz = self.shape[-1]
-        counts = np.concatenate([np.count_nonzero(m.reshape(-1, nz), axis=1) for m in masks])
+        nx = self.shape[1]
+        counts = np.concatenate([np.count_nonzero(m.reshape(nx, -1), axis=1) for m in masks])
         self.start = np.zeros(counts.size + 1, np.int64)
         np.cumsum(counts, out=self.start[1:])
         self.size = int(self.start[-1])
 
     def offset(self, a: int, i: int = 0) -> int:
         """First packed entry of plane ``i`` of field ``a``."""
-        return int(self.start[(a * self.shape[1] + i) * self.shape[2]])
+        return int(self.start[a * self.shape[1] + i])
 
     def field(self, packed: np.ndarray, a: int) -> np.ndarray:
         """The packed entries of field ``a`` (a view)."""
@@ -512,68 +562,183 @@ class Packing:
                 yield a, i, slice(self.offset(a, i), self.offset(a, i + 1)), m[i] != 0
 
     def unpack(self, packed: np.ndarray, out: np.ndarray, scale: np.ndarray | None = None) -> None:
-        """``out[a][active] = packed_a (* scale[a])``, zero elsewhere."""
-        out.fill(0.0)
-        for a, i, sl, act in self.planes():
-            out[a, i][act] = packed[sl] if scale is None else packed[sl] * scale[a]
+        """``out[a][active] = packed_a (* scale)``, zero elsewhere (one pass, no temporaries:
+        :func:`unpack_planes`; ``scale`` per field or per row)."""
+        sc = np.ones(4) if scale is None else scale
+        unpack_planes(packed, sc, *self.masks, self.start, out, False)
 
 
 @nb.njit(inline="always")
-def _packed_row(mr, zr, s, w, h, lo, p, q, cs, sn, zeta, sc, lmax, zc, row):
-    """:func:`symmlq_step` on one row: ``mr`` the row's activity, ``w[p:q], h[p:q], lo[p:q]``
-    its packed entries (``lo`` empty: the solution is ``h`` alone).  The active entries of
-    ``zr`` are gathered into ``zc`` first; the rest runs on contiguous slices in the plain loops
-    of :func:`minres_direction` (vectorised; one loop over the mask was 2.9x slower)."""
-    if q == p:
-        return
-    if q - p < zr.shape[0]:  # gather without branches (the row is partly active)
-        c = 0
-        for k in range(zr.shape[0]):
-            zc[c] = zr[k]
-            c += mr[k] != 0
-    else:
-        zc = zr
-    wr = w[p:q]
-    for k in range(q - p):
-        v = s * np.float64(zc[k])
-        wo = np.float64(wr[k])
-        row[k] = np.float32(cs * wo + sn * v)
-        wr[k] = np.float32(sn * wo - cs * v)
-    if zeta != 0.0:
-        lr = lo[p:q] if lo.shape[0] > 0 else lo
-        _solution_row(h[p:q], lr, sc, zeta, row[: q - p], lmax)
+def _count(mr):
+    """Non-zero entries of the row ``mr``."""
+    c = 0
+    for k in range(mr.shape[0]):
+        c += mr[k] != 0
+    return c
+
+
+@nb.njit(inline="always")
+def _unpack_row(mr, packed, p, sc, out, add):
+    """Row ``out`` from the packed entries from ``p`` on (active where ``mr != 0``, scaled by
+    ``sc``; added to ``out`` if ``add``, else written with zeros elsewhere); returns the next
+    row's first packed entry."""
+    for k in range(mr.shape[0]):
+        if mr[k] != 0:
+            val = np.float64(packed[p]) * sc
+            if add:
+                out[k] += val
+            else:
+                out[k] = val
+            p += 1
+        elif not add:
+            out[k] = 0.0
+    return p
 
 
 @parallel_kernel(**_OPTS)
-def symmlq_step(z, s, w, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start):
+def unpack_planes(packed, scale, du, dv, dw, fluid, start, out, add):
+    """``out[a]`` (``+=`` if ``add``) from the packed entries of field ``a`` (:class:`Packing`:
+    plane offsets ``start``) times ``scale`` (one per field, or one per row of the four
+    fields), zero off the active unknowns."""
+    nx, ny, nz = fluid.shape
+    per = (4 * nx * ny) // scale.shape[0]
+    for t in nb.prange(4 * nx):
+        a = t // nx
+        i = t - a * nx
+        p = start[t]
+        for j in range(ny):
+            sc = np.float64(scale[(t * ny + j) // per])
+            if a == 0:
+                p = _unpack_row(du[i, j], packed, p, sc, out[a, i, j], add)
+            elif a == 1:
+                p = _unpack_row(dv[i, j], packed, p, sc, out[a, i, j], add)
+            elif a == 2:
+                p = _unpack_row(dw[i, j], packed, p, sc, out[a, i, j], add)
+            else:
+                p = _unpack_row(fluid[i, j], packed, p, sc, out[a, i, j], add)
+
+
+@nb.njit(inline="always")
+def _row_absmax(packed, p, n):
+    m = 0.0
+    for k in range(p, p + n):
+        m = max(m, abs(np.float64(packed[k])))
+    return m
+
+
+@parallel_kernel(**_OPTS)
+def packed_row_absmax(packed, du, dv, dw, fluid, start, out):
+    """``out[row]``: the largest magnitude of the packed entries of each row (``4 nx ny``
+    rows, 0 for a row without entries)."""
+    nx, ny, nz = fluid.shape
+    for t in nb.prange(4 * nx):
+        a = t // nx
+        i = t - a * nx
+        p = start[t]
+        for j in range(ny):
+            if a == 0:
+                n = _count(du[i, j])
+            elif a == 1:
+                n = _count(dv[i, j])
+            elif a == 2:
+                n = _count(dw[i, j])
+            else:
+                n = _count(fluid[i, j])
+            out[t * ny + j] = _row_absmax(packed, p, n)
+            p += n
+
+
+def direction24_value(wt: np.ndarray, wm: np.ndarray) -> np.ndarray:
+    """The float32 value of a 24-bit direction of :func:`symmlq_step` (upper 16 bits ``wt``,
+    next 8 bits ``wm``; a copy, for tests)."""
+    bits = (wt.astype(np.uint32) << np.uint32(16)) | (wm.astype(np.uint32) << np.uint32(8))
+    return bits.view(np.float32)
+
+
+@nb.njit(inline="always")
+def _gather(mr, zr, zc):
+    """The entries of ``zr`` where ``mr != 0`` into ``zc`` (branch-free); returns how many."""
+    c = 0
+    for k in range(zr.shape[0]):
+        zc[c] = zr[k]
+        c += mr[k] != 0
+    return c
+
+
+@nb.njit(inline="always")
+def _packed_row(mr, zr, s, wt, wm, h, lo, p, cs, sn, zeta, sc, lmax, zc, row, wrow, bits):
+    """:func:`symmlq_step` on one row from packed entry ``p`` on: ``mr`` the row's activity,
+    ``wt, wm, h, lo`` the packed direction and solution (``lo`` empty: the solution is ``h``
+    alone; ``wm`` empty: ``wt`` is the float32 direction, else the 24-bit one, see
+    :func:`symmlq_step`).  The active entries of ``zr`` are gathered into ``zc`` first; the rest
+    runs on contiguous slices in the plain loops of :func:`minres_direction` (vectorised; one
+    loop over the mask was 2.9x slower).  Returns the next row's first packed entry."""
+    n = _gather(mr, zr, zc)
+    if n == 0:
+        return p
+    q = p + n
+    if wm.shape[0] > 0:  # 24-bit direction: float32 bits 31..8 in uint16 + uint8
+        wt_r = wt[p:q]
+        wm_r = wm[p:q]
+        for k in range(n):
+            bits[k] = (np.uint32(wt_r[k]) << np.uint32(16)) | (np.uint32(wm_r[k]) << np.uint32(8))
+        for k in range(n):
+            v = s * np.float64(zc[k])
+            wo = np.float64(wrow[k])
+            row[k] = np.float32(cs * wo + sn * v)
+            wrow[k] = np.float32(sn * wo - cs * v)
+        for k in range(n):
+            b = bits[k] + np.uint32(0x80)  # round the magnitude to nearest (ties away)
+            wt_r[k] = np.uint16(b >> np.uint32(16))
+            wm_r[k] = np.uint8((b >> np.uint32(8)) & np.uint32(0xFF))
+    else:
+        wr = wt[p:q]
+        for k in range(n):
+            v = s * np.float64(zc[k])
+            wo = np.float64(wr[k])
+            row[k] = np.float32(cs * wo + sn * v)
+            wr[k] = np.float32(sn * wo - cs * v)
+    if zeta != 0.0:
+        lr = lo[p:q] if lo.shape[0] > 0 else lo
+        _solution_row(h[p:q], lr, sc, zeta, row[:n], lmax)
+    return q
+
+
+@parallel_kernel(**_OPTS)
+def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start):
     """One SYMMLQ rotation of the direction ``w`` (:func:`solvers.voxel_stokes._symmlq`'s
     ``w-bar``) with the Lanczos vector ``v = s z``: ``x += zeta (cs w + sn v)`` (the finished
     direction, rounded to float32) and ``w <- sn w - cs v`` in one pass.  ``w`` and the
     solution (``xh``, or ``xh + xl * xs[field]`` when ``xl`` is not empty: :class:`Solution`)
-    are packed (:class:`Packing`: the active unknowns of ``du, dv, dw, fluid``, row ``t``
-    starting at ``start[t]``).  ``cs = 1, sn = 0`` moves ``x`` to the CG point
-    (``x += zeta w``); ``zeta = 0, cs = -1, sn = 0`` sets ``w = v``."""
+    are packed (:class:`Packing`: the active unknowns of ``du, dv, dw, fluid``, plane ``t`` of
+    the four fields starting at ``start[t]``).  ``w`` is float32 ``wt`` (``wm`` empty) or
+    24 bits per entry (:data:`solvers.voxel.memory.LATER_SYMMLQ_BITS`): the float32's upper
+    16 bits in uint16 ``wt`` and the next 8 in uint8 ``wm``, rounded to nearest (relative
+    error <= 2^-16).  ``cs = 1, sn = 0`` moves ``x`` to the CG point (``x += zeta w``);
+    ``zeta = 0, cs = -1, sn = 0`` sets ``w = v``."""
     nx, ny, nz = fluid.shape
-    per = nx * ny
-    fz = z.reshape(-1, nz)
-    lmax = 32767.0 if xl.itemsize == 2 else 2147483647.0  # int16 or int32 extension
-    nrow = 4 * per
-    ntask = (nrow + ROWS_PER_TASK - 1) // ROWS_PER_TASK
-    for task in nb.prange(ntask):
+    lmax = _lo_max(xl)
+    per = (4 * nx * ny) // xs.shape[0]  # the solution's scales: per field or per row
+    for t in nb.prange(4 * nx):
         zc = np.empty(nz, np.float32)
         row = np.empty(nz, np.float32)
-        for t in range(task * ROWS_PER_TASK, min(nrow, (task + 1) * ROWS_PER_TASK)):
-            a = t // per
-            i = (t - a * per) // ny
-            j = t - a * per - i * ny
-            p = start[t]
-            q = start[t + 1]
-            sc = xs[a]
-            if a == 0:
-                _packed_row(du[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
+        wrow = np.empty(nz, np.float32)
+        bits = wrow.view(np.uint32)
+        a = t // nx
+        i = t - a * nx
+        p = start[t]
+        for j in range(ny):
+            sc = np.float64(xs[(t * ny + j) // per])
+            zr = z[a, i, j]
+            if a == 0:  # one call per field: the masks' dtypes differ (float32 / uint8)
+                p = _packed_row(du[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
             elif a == 1:
-                _packed_row(dv[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
+                p = _packed_row(dv[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
             elif a == 2:
-                _packed_row(dw[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
+                p = _packed_row(dw[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
             else:
-                _packed_row(fluid[i, j], fz[t], s, w, xh, xl, p, q, cs, sn, zeta, sc, lmax, zc, row)
+                p = _packed_row(fluid[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax,
+                                zc, row, wrow, bits)  # fmt: skip

@@ -9,12 +9,15 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   reaches about 2.5e-11 times the largest velocity in voxel units, float32 alone stalls near
   3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B; with SYMMLQ (the default, :data:`KRYLOV`)
   on the active unknowns only (:class:`solvers.voxel.lanczos.Packing`: 24 B times their
-  fraction, 0.77 on the Toray-like grids, plus 8 B per row of 4 fields for the offsets);
+  fraction, 0.77 on the Toray-like grids, plus 8 B per plane of a field for the offsets);
+  for ``tol >=`` :data:`SHORT_SOLUTION_FROM` (1e-5) an int8 extension, 20 B;
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
   place, see :mod:`solvers.voxel.lanczos`): 48 B;
 * the directions: SYMMLQ's one (:data:`KRYLOV`, the default), float32 16 B, packed as the
-  solution, so the peak is the second cycle's ``24 + 16`` (times the active fraction); or
+  solution, so the peak is the second cycle's ``24 + 16`` (times the active fraction;
+  ``20 + 12`` with the int8 extension and the 24-bit later direction for ``tol >=``
+  :data:`SHORT_SOLUTION_FROM`, no more than the first cycle's ``16 + 16``); or
   MINRES' two unscaled directions (:class:`solvers.voxel.lanczos.Directions`): float32
   2 x 16 = 32 B, or int16 with one float32 scale per 16 entries, 2 x 9 = 18 B;
   :data:`DIRECTION_BITS` in the first refinement cycle, :data:`LATER_DIRECTION_BITS` from the
@@ -26,23 +29,28 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   2 B): 4 B;
 * finest operators: uint8 diagonals of the 3 components, 3 B; their couplings (9 B) only where
   the permeameter's box walls cut some (:func:`solvers.voxel.kernels.unit_couplings` on
-  periodic grids: :data:`WALL_COUPLING_BYTES`); pressure-cell mask 1 B; the staircase's
-  one-byte pressure scale code 1 B (formed at set-up, so its temporaries stay off the peak);
+  periodic grids: :data:`WALL_COUPLING_BYTES`); the staircase's one-byte pressure scale code
+  1 B (formed at set-up, so its temporaries stay off the peak), 0 off the pressure cells, so it
+  is the pressure-cell mask too (``_Stokes._mask_in_code``); sub-voxel walls keep a 1 B mask;
 * sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
-  (4 B) and float32 first coarse levels (+3 B), less the staircase's scale code (1 B); the
+  (4 B), float32 first coarse levels (+3 B) and the pressure-cell mask (1 B), less the
+  staircase's scale code (1 B); the
   caller's float64 distance (8 B) comes on top while the caller holds it (the solve frees its
   own references after the set-up).  Their set-up (one component's float64 face distance and
   two float64 temporaries at a time, :func:`solvers.voxel.boundary.component_coefficients`)
   stays below the Krylov phase: 103 B per cell traced on the Toray-like 64^3 grid.
 
-Sum, staircase, periodic: 97 B with SYMMLQ on a grid whose unknowns are all active (the
-bound counted here: the estimate is made before the grid is known), 88 B at the Toray-like
-grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 113 B with float32
-directions, 105 B with 16-bit directions from the second cycle, 99 B with 16-bit directions
-throughout.  Traced (numpy allocations, ``python benchmarks/bench_voxel_scale.py memory 64``,
-issue 16 session 8): 88.4 B per cell staircase and 119.6 B sub-voxel on the Toray-like 64^3
-grid, 97.5 B on PuMA fibres_32 (session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5: 113.7 /
-143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
+Sum, staircase, periodic: 96 B with SYMMLQ on a grid whose unknowns are all active (the
+bound counted here: the estimate is made before the grid is known), 87 B at the Toray-like
+grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 112 B with float32
+directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit directions
+throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 86.6 B
+per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 95.0 B on PuMA
+fibres_32 (88.9 B with :data:`SHORT_SOLUTION_FROM` lowered to the default tolerance 1e-6,
+before the mask went into the code;
+session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
+113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
 pre-solve 0.31e9 B plus 88.3 B per cell, once the allocator's free heap is returned
 (:func:`release_free_heap`; ``benchmarks/RESULTS.md``).
@@ -74,6 +82,24 @@ KRYLOV = "symmlq"
 only) or ``"minres"`` (two directions, :data:`DIRECTION_BITS`; the solution on the grid); the
 same Lanczos recurrence and preconditioner."""
 
+SHORT_SOLUTION_FROM = 1e-5
+"""Tolerances from which the solution's extension is int8 instead of int16
+(:class:`solvers.voxel.lanczos.Solution`: 40 bits per entry, one scale per row) and SYMMLQ's
+direction is stored in :data:`LATER_SYMMLQ_BITS` from the second refinement cycle on: the
+later cycles then hold ``4 + 1 + 3`` B per active entry instead of ``4 + 2 + 4``, no more than
+the first cycle's ``4 + 4`` (-8 B per cell on a fully active grid; PuMA fibres_32 at tol 1e-6:
+88.4 instead of 96 B per cell traced).  Not at the default 1e-6: the rounding of either (the
+direction's 2^-16, the solution's 2^-31 of a row's largest entry) leaves a true relative
+residual of about 2e-6 on the Toray-like 200^3 grid, amplified by the operator's condition
+number, so a third refinement cycle ran there (190 instead of 180 iterations; 64^3, 100^3
+and fibres_32 unchanged; ``benchmarks/RESULTS.md``, issue 16 session 9)."""
+
+LATER_SYMMLQ_BITS = 24
+"""Bits per entry of SYMMLQ's direction from the second refinement cycle on when ``tol >=``
+:data:`SHORT_SOLUTION_FROM` (24: the float32's upper three bytes, relative round-off 2^-16;
+32: float32).  A 16-bit direction (int16, a scale per 32 entries) added a third refinement
+cycle already at 100^3 (160 instead of 153 iterations)."""
+
 DIRECTION_BYTES = {32: 16, 16: 9}
 """Bytes per cell of one direction by its bits (16: int16 and a float32 scale per 16)."""
 
@@ -81,7 +107,7 @@ WALL_COUPLING_BYTES = 9
 """The finest couplings of the three components, stored only where box walls cut some (the
 permeameter: :func:`solver_bytes` ``walls=True``)."""
 
-_FIXED = {"staircase": 48 + 4 + 3 + 2, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 + 3}
+_FIXED = {"staircase": 48 + 4 + 3 + 1, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 + 3}
 """Bytes per cell besides the solution and the directions (module docstring)."""
 
 _SMALL_GRID = 8
@@ -113,15 +139,28 @@ TIGHT_TOL_BELOW = 1e-7
 
 TIGHT_TOL_EXTRA = 8
 
+SHORT_TOL_SAVING = 8
+"""Bytes per cell the solution and the direction save at ``tol >=`` :data:`SHORT_SOLUTION_FROM`
+(int8 extension -4 B, 24-bit direction -4 B on a fully active grid)."""
+
+
+def _tol_extra(tol: float) -> int:
+    """Bytes per cell above the count at the default tolerance (1e-6)."""
+    if tol < TIGHT_TOL_BELOW:
+        return TIGHT_TOL_EXTRA
+    return -SHORT_TOL_SAVING if tol >= SHORT_SOLUTION_FROM and KRYLOV == "symmlq" else 0
+
 
 def solver_bytes(
     n_cells: float, wall_treatment: str = "subvoxel", tol: float = 1e-6, walls: bool = True
 ) -> float:
     """Estimated peak memory (bytes) a voxel Stokes solve on ``n_cells`` solved cells adds to
     the running process (``tol``: the solve's tolerance; below :data:`TIGHT_TOL_BELOW` the
-    solution takes :data:`TIGHT_TOL_EXTRA` more bytes per cell; ``walls``: box walls, i.e. the
+    solution takes :data:`TIGHT_TOL_EXTRA` more bytes per cell, from
+    :data:`SHORT_SOLUTION_FROM` on it and the direction :data:`SHORT_TOL_SAVING` less;
+    ``walls``: box walls, i.e. the
     permeameter, whose cut couplings are stored, :data:`WALL_COUPLING_BYTES`)."""
-    per = BYTES_PER_CELL[wall_treatment] + (TIGHT_TOL_EXTRA if tol < TIGHT_TOL_BELOW else 0)
+    per = BYTES_PER_CELL[wall_treatment] + _tol_extra(tol)
     if walls and wall_treatment == "staircase":  # the sub-voxel figure covers them already
         per += WALL_COUPLING_BYTES
     return per * float(n_cells)

@@ -155,10 +155,11 @@ def _expand_row(xr, fz, nz, weight, ex):
 
 @nb.njit(inline="always")
 def _block_row(rr, sr, fr, ex, zr):
-    """``zr = sr rr + ex fr`` on one row; returns the float64 ``rr . zr``."""
+    """``zr = sr rr + ex (fr != 0)`` on one row (``fr`` the pressure-cell mask, or the
+    staircase's scale code standing in for it); returns the float64 ``rr . zr``."""
     acc = 0.0
     for k in range(rr.shape[0]):
-        v = rr[k] * sr[k] + ex[k] * np.float32(fr[k])
+        v = rr[k] * sr[k] + ex[k] * np.float32(fr[k] != 0)
         zr[k] = v
         acc += np.float64(rr[k]) * np.float64(v)
     return acc

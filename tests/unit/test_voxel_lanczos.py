@@ -182,3 +182,89 @@ def test_symmlq_and_minres_reach_the_same_solution() -> None:
     (xm, im), (xs, info) = out["minres"], out["symmlq"]
     assert im["converged"] and info["converged"] and info["residual"] <= 1e-8
     assert np.abs(xs[:3] - xm[:3]).max() <= 1e-6 * np.abs(xm[:3]).max()
+
+
+def _round24(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float32 ``w`` to the 24-bit storage of :func:`solvers.voxel.lanczos.symmlq_step` (upper
+    16 bits, next 8), rounded to nearest by integer arithmetic on the bits (independent of the
+    kernel's code)."""
+    bits = w.astype(np.float32).view(np.uint32).astype(np.uint64) + 0x80
+    return (bits >> 16).astype(np.uint16), ((bits >> 8) & 0xFF).astype(np.uint8)
+
+
+def _packed_case(seed: int = 6):
+    """An operator with inactive unknowns, its packing and a Lanczos-like ``z`` (zero off the
+    active unknowns)."""
+    op = vs._Stokes.build(_grid(9, seed=4))
+    pk = lz.Packing([*op.d, op.fluid])
+    active = np.stack([m != 0 for m in pk.masks])
+    rng = np.random.default_rng(seed)
+    z = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    return op, pk, active, z, rng
+
+
+@pytest.mark.parametrize("tol", [1e-5, 1e-6])
+def test_symmlq_step_on_24_bit_direction_matches_float64(tol: float) -> None:
+    # w <- sn w - cs v and x += zeta (cs w + sn v), v = s z, with the direction in 24 bits
+    # (memory.LATER_SYMMLQ_BITS) and the packed solution (int8 extension with row scales at
+    # tol 1e-5, int16 with field scales below): each stored direction entry within half an
+    # ulp of a 16-bit mantissa (2^-16 relative) of the float64 result, the solution within
+    # half its scale (+ the float32 rounding of the finished direction)
+    op, pk, active, z, rng = _packed_case()
+    w0 = (rng.standard_normal(pk.size) * 10.0 ** rng.uniform(-3, 3, pk.size)).astype(np.float32)
+    wt, wm = _round24(w0)
+    w = lz.direction24_value(wt, wm).astype(float)
+    assert np.all(np.abs(w - w0) <= 2.0**-16 * np.abs(w0))  # the storage itself
+    x = lz.Solution(op.shape, pk)
+    x.hi[:] = rng.standard_normal(pk.size) * 3.0
+    x.extend(tol)
+    assert x.lo.dtype == (np.int8 if tol >= 1e-5 else np.int16)
+    assert x.scale.size == (4 * 9 * 9 if tol >= 1e-5 else 4)  # per row / per field
+    x0 = x.value()[active]
+    s, cs, sn, zeta = 0.7, 0.6, 0.8, 0.37
+    v = s * z[active].astype(float)
+    want_w = sn * w - cs * v
+    done = cs * w + sn * v
+    lz.symmlq_step(z, s, wt, wm, cs, sn, x.hi, x.lo, x.scale, zeta, *pk.masks, pk.start)
+    got = lz.direction24_value(wt, wm).astype(float)
+    assert np.all(np.abs(got - want_w) <= 2.0**-16 * np.abs(want_w) * (1 + 1e-6) + 1e-30)
+    assert np.mean(got != want_w.astype(np.float32)) > 0.5  # 24 bits kept, not float32
+    err = np.abs(x.value()[active] - (x0 + zeta * done))
+    sc = np.zeros(op.shape)
+    pk.unpack(np.ones(pk.size), sc, x.scale)  # the scale of every active entry
+    assert np.all(err <= 0.51 * sc[active] + 2.0**-23 * zeta * np.abs(done))
+
+
+def test_short_solution_scales_follow_the_rows() -> None:
+    # the int8 extension (tol >= memory.SHORT_SOLUTION_FROM, 1e-5) keeps 2^-31 of each row's
+    # largest entry (rows down to 2^-8 of their field's largest), the int16 one 2^-37 of the
+    # field's: 40 and 48 bits; unpacked (MINRES) solutions keep int16
+    op, pk, active, _, rng = _packed_case()
+    x = lz.Solution(op.shape, pk)
+    x.hi[:] = rng.standard_normal(pk.size) * 10.0 ** rng.uniform(-4, 0, pk.size)
+    grid = np.zeros(op.shape, np.float32)
+    pk.unpack(x.hi, grid)
+    x.extend(1e-5)
+    rows = np.abs(grid).max(axis=-1).ravel()
+    field = np.repeat(np.abs(grid).reshape(4, -1).max(axis=1), rows.size // 4)
+    ref = np.maximum(rows, 2.0**-8 * field)
+    on = rows > 0
+    # scale 2^(E - 32) with 2 m in [2^(E-1), 2^E): in (2^-31, 2^-30] of m, error <= scale / 2
+    assert np.all(x.scale[on] <= 2.0**-30 * ref[on]) and np.all(x.scale[on] > 2.0**-31 * ref[on])
+    assert lz.Solution(op.shape).lo.dtype == np.int16  # before extend
+    for packing, tol, dtype in ((None, 1e-5, np.int16), (pk, 1e-6, np.int16), (pk, 1e-8, np.int32)):
+        y = lz.Solution(op.shape, packing)
+        y.extend(tol)
+        assert y.lo.dtype == dtype and y.scale.size == 4
+
+
+def test_short_storage_reaches_the_tolerance() -> None:
+    # at tol >= memory.SHORT_SOLUTION_FROM the later refinement cycles run on the 24-bit
+    # direction and the 40-bit solution: the true residual still reaches tol, and the solution
+    # is the tight one to that accuracy (a wrong decode of either is O(1) off)
+    op = vs._Stokes.build(_grid())
+    ref, tight = vs._solve_core(op, 2, 1e-9, 500)
+    x, info = vs._solve_core(op, 2, 1e-5, 500)
+    assert tight["converged"] and info["converged"] and info["residual"] <= 1e-5
+    assert len(info["history"]) >= 3  # a second cycle ran, on the short storage
+    assert np.abs(x[:3] - ref[:3]).max() <= 1e-4 * np.abs(ref[:3]).max()

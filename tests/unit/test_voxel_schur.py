@@ -128,7 +128,7 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     assert op.coarse_p.live.any()
     r = rng.standard_normal(op.shape).astype(np.float32)
     r[:3] *= np.stack([dd > 0 for dd in op.d])
-    r[3] *= op.fluid
+    r[3] *= op.fluid != 0
     z = np.empty_like(r)
     rz = op.precondition(r, z)
     exact = float(np.dot(r.ravel().astype(np.float64), z.ravel().astype(np.float64)))
