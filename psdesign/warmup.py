@@ -13,10 +13,12 @@ the real solves use, in separate processes so the compilation runs on all cores:
   numba has one thread only.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
-walls; a tolerance below :data:`solvers.voxel.memory.TIGHT_TOL_BELOW` too, whose Krylov kernel
-keeps a float64 solution) and the voxel Laplace solves (periodic and permeameter); ``serial``
-also compiles the force-field kernels (:mod:`psdesign.forcefield`: PS values and derivatives,
-tube roots, pair grid, lens guard), about 20 s that the first relaxation would otherwise pay.
+walls; a tolerance below :data:`solvers.voxel.memory.TIGHT_TOL_BELOW`, whose Krylov kernel
+keeps a float64 solution, and one from :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`, whose
+later cycles store the solution and direction in fewer bits) and the voxel Laplace solves
+(periodic and permeameter); ``serial`` also compiles the force-field kernels
+(:mod:`psdesign.forcefield`: PS values and derivatives, tube roots, pair grid, lens guard),
+about 20 s that the first relaxation would otherwise pay.
 The cache stays valid until the sources (of the kernel's module or of a project module it
 imports, :class:`solvers.jit.DependencyLocator`) or numba change; a second ``warmup`` only
 loads it.
@@ -76,8 +78,9 @@ def _task(mode: str) -> tuple[str, float]:
             flow = {**spec["flow"], "solver": "voxel", "bc": bc, "wall_treatment": wall}
             route_result(built.rve, fields, "z", flow, "voxel")
         relative_diffusivity(fields, "z", {"bc": bc})
-    tight = {**spec["flow"], "solver": "voxel", "bc": "periodic", "tol": 1e-8}
-    route_result(built.rve, fields, "z", tight, "voxel")
+    for tol in (1e-8, 1e-5):  # the float64-solution and the short-storage Krylov variants
+        flow = {**spec["flow"], "solver": "voxel", "bc": "periodic", "tol": tol}
+        route_result(built.rve, fields, "z", flow, "voxel")
     if mode == "serial":
         _forcefield()
     return mode, time.perf_counter() - t0
