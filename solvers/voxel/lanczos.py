@@ -31,14 +31,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
-from solvers.voxel.kernels import (
-    _dn,
-    _momentum_row_w,
-    _stencil_rows,
-    _stencil_rows_unit,
-    _unit,
-    _up,
-)
+from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -72,15 +65,15 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     a plain momentum row + :func:`_combine` (2.4x faster on the Toray-like 100^3 operator; the
     same float32 roundings, the fused expressions may differ by one float32 ulp)."""
     nx, ny, nz = d.shape
-    if _unit(d, c[0]):  # kernels.unit_couplings: all six couplings 1, no multiplications (own
-        # neighbour indices in each branch, as in kernels._apply_row)
-        _stencil_rows_unit(
-            d[i, j], q[i, j], q[_dn(i, nx), j], q[_up(i, nx), j], q[i, _dn(j, ny)],
-            q[i, _up(j, ny)], row,
+    ip = _up(i, nx)
+    jp = _up(j, ny)
+    if _unit(d, c[0]):  # kernels.unit_couplings: one row of ones for all six neighbours
+        one = c[0][0, 0]
+        _stencil_rows(
+            d[i, j], one, one, one, one, one,
+            q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
         )  # fmt: skip
     else:
-        ip = _up(i, nx)
-        jp = _up(j, ny)
         _stencil_rows(
             d[i, j], c[0][i, j], c[0][ip, j], c[1][i, j], c[1][i, jp], c[2][i, j],
             q[i, j], q[_dn(i, nx), j], q[ip, j], q[i, _dn(j, ny)], q[i, jp], row,
@@ -88,23 +81,13 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     dr = d[i, j]
     xr = q[i, j]
     acc = 0.0
-    for k in range(shift):  # the entries whose lower cell wraps around along k
-        acc += _lanczos_entry(dr, row, pr, plow, xr, s, c1, yr, k, k - shift + nz)
-    for k in range(shift, nz):  # contiguous: vectorised (one loop with the wrap in the index
-        # was not: 1.x slower, benchmarks/RESULTS.md)
-        acc += _lanczos_entry(dr, row, pr, plow, xr, s, c1, yr, k, k - shift)
+    for k in range(nz):
+        kl = k - shift if k >= shift else k - shift + nz
+        v = np.float32(row[k] + (pr[k] - plow[kl])) if dr[k] != 0 else row[k]
+        val = s * v - c1 * yr[k] if c1 != 0.0 else s * v
+        yr[k] = val
+        acc += np.float64(xr[k]) * np.float64(val)
     return acc
-
-
-@nb.njit(inline="always")
-def _lanczos_entry(dr, row, pr, plow, xr, s, c1, yr, k, kl):
-    """Entry ``k`` of :func:`_momentum_lanczos`'s second loop (``kl``: the lower cell's index
-    along k): ``yr[k] <- s (row[k] + pr[k] - plow[kl]) - c1 yr[k]`` on an active face (``row[k]``
-    alone elsewhere); returns ``xr[k] * yr[k]`` in float64."""
-    v = np.float32(row[k] + (pr[k] - plow[kl])) if dr[k] != 0 else row[k]
-    val = s * v - c1 * yr[k] if c1 != 0.0 else s * v
-    yr[k] = val
-    return np.float64(xr[k]) * np.float64(val)
 
 
 @parallel_kernel(**_OPTS)
