@@ -400,13 +400,16 @@ class KernelLog:
     def _wrapper(self, name: str, fun):
         def timed(*args, **kw):
             t0 = time.perf_counter()
+            c0 = time.process_time()
             out = fun(*args, **kw)
             dt = time.perf_counter() - t0
+            dc = time.process_time() - c0
             key = (name, "x".join(str(n) for n in args[0].shape[-3:]))  # the grid (level)
-            row = self.rows.setdefault(key, [0.0, 0.0, 0.0])
+            row = self.rows.setdefault(key, [0.0, 0.0, 0.0, 0.0])
             row[0] += 1
             row[1] += dt
             row[2] += _call_bytes(name, args)
+            row[3] += dc
             return out
 
         return timed
@@ -421,15 +424,16 @@ class KernelLog:
         time of those bytes; returns the summed (ms, bytes)."""
         print(f"  {title} (per call of the whole; ideal = bytes / triad):")
         tot_t = tot_b = 0.0
-        for (name, grid), (n, t, b) in self.rows.items():
+        for (name, grid), (n, t, b, c) in self.rows.items():
             ms = t / calls * 1e3
             mb = b / calls
             tot_t += ms
             tot_b += mb
             ideal = mb / bw * 1e3
             print(
-                f"    {name:22s} {grid:>12s} x{n / calls:4.1f}: {ms:7.2f} ms, {mb / 1e6:7.1f} MB, "
-                f"ideal {ideal:6.2f} ms = {ms / ideal if ideal else float('inf'):5.2f} x"
+                f"    {name:22s} {grid:>12s} x{n / calls:4.1f}: {ms:7.2f} ms (CPU "
+                f"{c / calls * 1e3:7.2f}), {mb / 1e6:7.1f} MB, ideal {ideal:6.2f} ms = "
+                f"{ms / ideal if ideal else float('inf'):5.2f} x"
             )
         ideal = tot_b / bw * 1e3
         print(f"    sum of kernels: {tot_t:.2f} ms, {tot_b / 1e6:.1f} MB, ideal {ideal:.2f} ms")

@@ -240,7 +240,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             j0, j1 = _children(jc, fy, ncy, ny)
             # the residual rows of the aggregate row are added into one float64 row as they are
             # formed, then summed along k once per coarse row (a residual row stored, re-read
-            # and summed along k per fine row took 1.7x the time, benchmarks/RESULTS.md band9)
+            # and summed along k per fine row took 1.6x the time, benchmarks/RESULTS.md band9)
             acc[:] = 0.0
             for i in range(i0, i1):
                 for j in range(j0, j1):
@@ -258,9 +258,9 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
 def _damping(dk, om):
     """``om / dk`` in float32 (``om``: the float32 damping factor; 1 stands in for an inactive
     ``dk == 0``, whose result the caller discards).  A float32 division: the float64 one cost
-    2.6 ms per 8e6 cells on one thread, half a Jacobi sweep's time (``benchmarks/RESULTS.md``,
-    band9); it rounds ``omega / d`` to float32, a fixed diagonal, so the V-cycle stays a fixed
-    symmetric operator."""
+    2.6 ms per 8e6 cells on one thread (the first sweep from zero: 5.2 ms, 3.3 ms in float32,
+    2.6 ms with no division; ``benchmarks/RESULTS.md``, band9).  It rounds ``omega / d`` to
+    float32, a fixed diagonal, so the V-cycle stays a fixed symmetric operator."""
     return om / np.float32(dk if dk != 0 else 1)
 
 
