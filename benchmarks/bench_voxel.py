@@ -240,7 +240,7 @@ def _vcycle_bytes(mg0, fused: bool = True) -> float:
     for li, lev in enumerate(levels[:-1]):
         n = lev.d.size
         vec = 4.0
-        opb = lev.d.itemsize + 3 * lev.c.itemsize
+        opb = (lev.d.nbytes + lev.c.nbytes) / n  # the stored couplings (unit_couplings: ~0)
         coarse = levels[li + 1].d.size * vec / n
         sweep = opb + 3 * vec  # d, c, x, b read; x_new written
         if fused:
@@ -266,19 +266,26 @@ def iteration_bytes(op, fused: bool = True) -> float:
     preconditioned dot product, float32 directions and the float64 solution)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
-    ops = sum(d.itemsize + 3 * c.itemsize for d, c in zip(op.d, op.c, strict=True)) + 1.0
+    # the operator as stored: the unit_couplings stand-in (periodic grids) streams no couplings
+    ops = sum((d.nbytes + c.nbytes) / n for d, c in zip(op.d, op.c, strict=True)) + 1.0
     if op.w is not None:
         ops += 12.0
     apply = ops + 3 * vec4  # z read; r1 read and overwritten by s K z - c1 r1 (in place)
     lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
-    prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + (8.0 if op.p_scale is None else 12.0)
+    # pressure block: r read, z written, plus the stored scale (4 B) or the staircase code (1 B)
+    # and the fluid mask (1 B) of the two-level block, whose restriction reads r once more
+    pblock = 8.0 if op.p_scale is None else 12.0
+    if getattr(op, "coarse_p", None) is not None:
+        pblock += 4.0 + 1.0 + (0.0 if op.p_scale is not None else 1.0)
+    prec = sum(_vcycle_bytes(m, fused) for m in op.mg) / n + pblock
     dot = 0.0 if fused else 2 * vec4  # fused: returned by the last sweeps
     from solvers.voxel import memory as vmem
 
     if fused and vmem.KRYLOV == "symmlq":  # z read; the packed w (float32) and x (float32 +
         # int16 extension) read + written on the active unknowns (solvers.voxel.lanczos.Packing)
         active = (sum(np.count_nonzero(d) for d in op.d) + np.count_nonzero(op.fluid)) / (4 * n)
-        update = vec4 + active * (2 * 16.0 + 2 * 24.0)
+        masks = sum(d.itemsize for d in op.d) + 1.0  # the activity of each row's entries
+        update = vec4 + masks + active * (2 * 16.0 + 2 * 24.0)
     elif fused:  # z read; w read, w1 read + written (memory.DIRECTION_BITS: float32 or int16 +
         # a scale per 16); x = float32 + int16 extension read + written
         direction = 16.0 if vmem.DIRECTION_BITS == 32 else 9.0
@@ -356,6 +363,149 @@ def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, ...]]:
     return out
 
 
+READ_WRITE = {
+    "stokes_lanczos": (10,),
+    "stokes_lanczos_w": (13,),
+    "add_scaled": (0,),
+    "symmlq_step": (2, 5, 6),
+}
+"""Array arguments a kernel reads *and* writes in place (streamed twice: in and out); every
+other array argument is streamed once (read, or written)."""
+
+
+def _call_bytes(name: str, args: tuple) -> float:
+    """Bytes a kernel call streams: each array argument once (neighbours from cache; the STREAM
+    convention counts a write once), the in-place ones of :data:`READ_WRITE` twice."""
+    rw = READ_WRITE.get(name, ())
+    return float(
+        sum(a.nbytes * (2 if q in rw else 1) for q, a in enumerate(args) if hasattr(a, "nbytes"))
+    )
+
+
+class KernelLog:
+    """Wall time and streamed bytes of every call of the wrapped kernels, keyed by kernel name
+    and the grid of its first array argument (the multigrid level): a per-kernel, per-level
+    breakdown (:func:`vcycle_breakdown`, :func:`iteration_breakdown`)."""
+
+    def __init__(self) -> None:
+        self.rows: dict[tuple[str, str], list[float]] = {}
+        self._saved: list[tuple[object, str, object]] = []
+
+    def wrap(self, mod, names: tuple[str, ...]) -> None:
+        for name in names:
+            fun = getattr(mod, name)
+            self._saved.append((mod, name, fun))
+            setattr(mod, name, self._wrapper(name, fun))
+
+    def _wrapper(self, name: str, fun):
+        def timed(*args, **kw):
+            t0 = time.perf_counter()
+            c0 = time.process_time()
+            out = fun(*args, **kw)
+            dt = time.perf_counter() - t0
+            dc = time.process_time() - c0
+            key = (name, "x".join(str(n) for n in args[0].shape[-3:]))  # the grid (level)
+            row = self.rows.setdefault(key, [0.0, 0.0, 0.0, 0.0])
+            row[0] += 1
+            row[1] += dt
+            row[2] += _call_bytes(name, args)
+            row[3] += dc
+            return out
+
+        return timed
+
+    def restore(self) -> None:
+        for mod, name, fun in reversed(self._saved):
+            setattr(mod, name, fun)
+        self._saved.clear()
+
+    def report(self, calls: int, bw: float, title: str) -> tuple[float, float]:
+        """Print ms and MB per ``calls`` (per V-cycle / per iteration) and the ratio to the triad
+        time of those bytes; returns the summed (ms, bytes)."""
+        print(f"  {title} (per call of the whole; ideal = bytes / triad):")
+        tot_t = tot_b = 0.0
+        for (name, grid), (n, t, b, c) in self.rows.items():
+            ms = t / calls * 1e3
+            mb = b / calls
+            tot_t += ms
+            tot_b += mb
+            ideal = mb / bw * 1e3
+            print(
+                f"    {name:22s} {grid:>12s} x{n / calls:4.1f}: {ms:7.2f} ms (CPU "
+                f"{c / calls * 1e3:7.2f}), {mb / 1e6:7.1f} MB, ideal {ideal:6.2f} ms = "
+                f"{ms / ideal if ideal else float('inf'):5.2f} x"
+            )
+        ideal = tot_b / bw * 1e3
+        print(f"    sum of kernels: {tot_t:.2f} ms, {tot_b / 1e6:.1f} MB, ideal {ideal:.2f} ms")
+        return tot_t, tot_b
+
+
+MG_KERNELS = ("jacobi2_zero", "jacobi_zero", "jacobi", "residual_restrict", "prolong_jacobi")
+
+
+def vcycle_breakdown(mg0, b: np.ndarray, out: np.ndarray, bw: float, reps: int = 10) -> None:
+    """Per level and kernel of one V-cycle (component 0): time vs streamed bytes, the coarsest
+    LU solve, and the rest of the V-cycle's wall time (Python, thread switches)."""
+    from solvers.voxel import kernels as kr
+
+    mg0.apply(b, out)
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        mg0.apply(b, out)
+    plain = (time.perf_counter() - t0) / reps * 1e3
+    log = KernelLog()
+    log.wrap(kr, MG_KERNELS)
+    lu = mg0._coarse_solve
+    acc = [0.0]
+
+    def timed_lu(bb, xx):
+        t1 = time.perf_counter()
+        lu(bb, xx)
+        acc[0] += time.perf_counter() - t1
+
+    mg0._coarse_solve = timed_lu
+    try:
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            mg0.apply(b, out)
+        wrapped = (time.perf_counter() - t0) / reps * 1e3
+    finally:
+        log.restore()
+        mg0._coarse_solve = lu
+    shapes = " ".join("x".join(map(str, lev.d.shape)) for lev in mg0.levels)
+    print(f"  one V-cycle, levels {shapes}: {plain:.2f} ms (instrumented {wrapped:.2f} ms)")
+    kt, kb = log.report(reps, bw, "V-cycle kernels")
+    lu_ms = acc[0] / reps * 1e3
+    print(
+        f"    coarsest LU solve: {lu_ms:.2f} ms; rest (Python, thread switches): "
+        f"{wrapped - kt - lu_ms:.2f} ms; V-cycle / ideal of its bytes: "
+        f"{plain / (kb / bw * 1e3):.2f} x"
+    )
+
+
+def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
+    """Per kernel of the Krylov iteration: time vs streamed bytes (the three V-cycles are one
+    row per kernel and level, summed over the components), and the rest of the wall time."""
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import kernels as kr
+    from solvers.voxel import lanczos as lz
+    from solvers.voxel import schur
+
+    log = KernelLog()
+    log.wrap(kr, MG_KERNELS + ("copy_dot", "scale_dot"))
+    log.wrap(lz, ("stokes_lanczos", "stokes_lanczos_w", "add_scaled", "symmlq_step"))
+    log.wrap(schur, ("block_sum", "pressure_block_code", "pressure_block_scale"))
+    try:
+        t0 = time.perf_counter()
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
+        wall = (time.perf_counter() - t0) / its * 1e3
+    finally:
+        log.restore()
+    print(f"  one Krylov iteration instrumented: {wall:.2f} ms")
+    kt, kb = log.report(its, bw, "iteration kernels")
+    print(f"    rest (Python, coarse levels' LU and pressure cycle): {wall - kt:.2f} ms")
+
+
 def kernels(n: int, reps: int = 5) -> dict[str, float]:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid, and
     compare the iteration with the bytes it must stream over the measured triad bandwidth
@@ -403,10 +553,12 @@ def kernels(n: int, reps: int = 5) -> dict[str, float]:
         )
         need = iteration_bytes(op)
         before = iteration_bytes(op, fused=False)
-    load = os.getloadavg()[0]
-    print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
-    for name, val in rows.items():
-        print(f"  {name}: {val:.1f} ms")
+        load = os.getloadavg()[0]
+        print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
+        for name, val in rows.items():
+            print(f"  {name}: {val:.1f} ms")
+        vcycle_breakdown(mg0, b, t, bw)
+        iteration_breakdown(op, rhs, e, work, bw, its)
     for name, (t_sep, t_fused, c_sep, c_fused) in pairs.items():
         print(
             f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms wall "

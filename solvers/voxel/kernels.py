@@ -27,7 +27,7 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 
-_OPTS = {"cache": True, "fastmath": True, "nogil": True}
+_OPTS = {"cache": True, "fastmath": True, "nogil": True, "error_model": "numpy"}
 """Options of every kernel.  The big Stokes kernels (``_stokes_residual``,
 ``stokes_lanczos(_w)`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
 serial ``@njit(**_OPTS)`` *slab* function (one iteration of the outer loop, an x-plane or a
@@ -40,7 +40,8 @@ unsigned, a ``range`` index signed, which would be two signatures).  The multigr
 kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``,
 ``lap_residual``) keep their body inside the ``prange`` loop: split the same way they ran
 1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
-the same code as a plain function; ``benchmarks/RESULTS.md``)."""
+the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
+zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero."""
 
 
 @nb.njit(inline="always")
@@ -145,25 +146,46 @@ def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
 
 
 @nb.njit(inline="always")
+def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
+    """:func:`_stencil_rows` with every coupling 1 (:func:`unit_couplings`): the six
+    neighbours are summed without the multiplications by a row of ones (the same float32 sum,
+    so the same values; 1.6x less CPU per Jacobi sweep at 200^3 on one thread: the ones were
+    loaded, widened from uint8 and converted for each of the six neighbours of every cell,
+    ``benchmarks/RESULTS.md``)."""
+    nz = dr.shape[0]
+    for k in range(1, nz - 1):
+        s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[k - 1] + xr[k + 1]
+        val = dr[k] * xr[k] - s
+        out[k] = val if dr[k] != 0 else 0.0
+    for e in range(_ends(nz)):
+        k = 0 if e == 0 else nz - 1
+        s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[_dn(k, nz)] + xr[_up(k, nz)]
+        val = dr[k] * xr[k] - s
+        out[k] = val if dr[k] != 0 else 0.0
+
+
+@nb.njit(inline="always")
 def _apply_row(d, cx, cy, cz, x, i, j, out):
     """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k
     (:func:`_stencil_rows` on the row views of ``x`` around row ``(i, j)``)."""
     nx, ny, nz = d.shape
-    ip = _up(i, nx)
-    im = _dn(i, nx)
-    jp = _up(j, ny)
-    jm = _dn(j, ny)
-    if _unit(d, cx):  # unit_couplings: one row of ones for all six neighbours (a separate copy:
-        # one copy shared with the real couplings ran 1.09-1.7x slower, benchmarks/RESULTS.md)
-        one = cx[0, 0]
+    if _unit(d, cx):  # unit_couplings: no multiplications (a separate copy: one copy shared
+        # with the real couplings ran 1.09-1.7x slower, benchmarks/RESULTS.md).  Each branch
+        # forms its own neighbour indices: shared by both branches, the unit branch's loops
+        # ran 1.4x slower (benchmarks/RESULTS.md, band9)
+        _stencil_rows_unit(
+            d[i, j], x[i, j], x[_dn(i, nx), j], x[_up(i, nx), j], x[i, _dn(j, ny)],
+            x[i, _up(j, ny)], out,
+        )  # fmt: skip
+    else:
+        ip = _up(i, nx)
+        im = _dn(i, nx)
+        jp = _up(j, ny)
+        jm = _dn(j, ny)
         _stencil_rows(
-            d[i, j], one, one, one, one, one, x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out
-        )
-        return
-    _stencil_rows(
-        d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
-        x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
-    )  # fmt: skip
+            d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
+            x[i, j], x[im, j], x[ip, j], x[i, jm], x[i, jp], out,
+        )  # fmt: skip
 
 
 @nb.njit(inline="always")
@@ -213,25 +235,45 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     for ic in nb.prange(ncx):
         i0, i1 = _children(ic, fx, ncx, nx)
         row = np.empty(nz, dtype=rc.dtype)
+        acc = np.empty(nz)
         for jc in range(ncy):
             j0, j1 = _children(jc, fy, ncy, ny)
-            out = rc[ic, jc]
-            out[:] = 0.0
+            # the residual rows of the aggregate row are added into one float64 row as they are
+            # formed, then summed along k once per coarse row (a residual row stored, re-read
+            # and summed along k per fine row took 1.6x the time, benchmarks/RESULTS.md band9)
+            acc[:] = 0.0
             for i in range(i0, i1):
                 for j in range(j0, j1):
-                    _residual_row(d, cx, cy, cz, x, b, i, j, row)
-                    _sum_row(row, fz, out)
+                    _apply_row(d, cx, cy, cz, x, i, j, row)
+                    dr = d[i, j]
+                    br = b[i, j]
+                    for k in range(nz):
+                        acc[k] += br[k] - row[k] if dr[k] != 0 else 0.0
+            out = rc[ic, jc]
+            out[:] = 0.0
+            _sum_row(acc, fz, out)
+
+
+@nb.njit(inline="always")
+def _damping(dk, om):
+    """``om / dk`` in float32 (``om``: the float32 damping factor; 1 stands in for an inactive
+    ``dk == 0``, whose result the caller discards).  A float32 division: the float64 one cost
+    2.6 ms per 8e6 cells on one thread (the first sweep from zero: 5.2 ms, 3.3 ms in float32,
+    2.6 ms with no division; ``benchmarks/RESULTS.md``, band9).  It rounds ``omega / d`` to
+    float32, a fixed diagonal, so the V-cycle stays a fixed symmetric operator."""
+    return om / np.float32(dk if dk != 0 else 1)
 
 
 @nb.njit(inline="always")
 def _jacobi_row(dr, xr, br, ax, omega, out):
-    """out = xr + omega (br - ax) / dr on one row (0 where ``dr == 0``; ``ax`` = (A x) row);
-    returns the float64 sum of ``br * out`` (the preconditioned dot product of the row)."""
+    """out = xr + (br - ax) omega / dr on one row (float32; 0 where ``dr == 0``; ``ax`` = (A x)
+    row); returns the float64 sum of ``br * out`` (the preconditioned dot product of the row)."""
     s = 0.0
+    om = np.float32(omega)
     for k in range(out.shape[0]):
-        val = xr[k] + omega * (br[k] - ax[k]) / dr[k] if dr[k] != 0 else 0.0
+        val = xr[k] + (br[k] - ax[k]) * _damping(dr[k], om) if dr[k] != 0 else np.float32(0.0)
         out[k] = val
-        s += np.float64(br[k]) * np.float64(out[k])
+        s += np.float64(br[k]) * np.float64(val)
     return s
 
 
@@ -265,9 +307,11 @@ def jacobi_zero(d, b, x, omega):
 
 @nb.njit(inline="always")
 def _zero_row(dr, br, omega, out):
-    """out = omega br / dr (0 where ``dr == 0``): one row of the first Jacobi sweep from 0."""
+    """out = br omega / dr (float32, :func:`_damping`; 0 where ``dr == 0``): one row of the first
+    Jacobi sweep from 0."""
+    om = np.float32(omega)
     for k in range(out.shape[0]):
-        out[k] = omega * br[k] / dr[k] if dr[k] != 0 else 0.0
+        out[k] = br[k] * _damping(dr[k], om) if dr[k] != 0 else np.float32(0.0)
 
 
 @nb.njit(inline="always")
@@ -291,14 +335,11 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
     ip = _up(i, nx)
     s = 0.0
     for j in range(ny):
-        jp = _up(j, ny)
-        jm = _dn(j, ny)
-        if _unit(d, cx):  # unit_couplings (a separate copy, as in _apply_row)
-            one = cx[0, 0]
-            _stencil_rows(
-                d[i, j], one, one, one, one, one, p0[j], pm[j], pp[j], p0[jm], p0[jp], row
-            )
+        if _unit(d, cx):  # unit_couplings (a separate copy, own indices: as in _apply_row)
+            _stencil_rows_unit(d[i, j], p0[j], pm[j], pp[j], p0[_dn(j, ny)], p0[_up(j, ny)], row)
         else:
+            jp = _up(j, ny)
+            jm = _dn(j, ny)
             _stencil_rows(
                 d[i, j], cx[i, j], cx[ip, j], cy[i, j], cy[i, jp], cz[i, j],
                 p0[j], pm[j], pp[j], p0[jm], p0[jp], row,

@@ -278,3 +278,62 @@ def test_vcycle_with_one_work_array_smooths_into_its_output(pre: int) -> None:
         out = np.full(d.shape, np.nan, np.float32)
         assert one.apply(b, out) == ref.apply(b, out_ref)
         assert np.array_equal(out, out_ref)
+
+
+def _numpy_apply(d: np.ndarray, c: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``A x`` of the 7-point operator in float64 numpy (the stencil of the kernels' module
+    docstring), 0 on inactive unknowns: an independent reference for the row kernels."""
+    x64 = x.astype(np.float64)
+    ax = d * x64
+    for b in range(3):
+        cb = c[b].astype(np.float64)
+        ax -= cb * np.roll(x64, 1, axis=b) + np.roll(cb * x64, -1, axis=b)
+    return np.where(d > 0, ax, 0.0)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_jacobi_sweep_against_numpy(shape: tuple[int, int, int]) -> None:
+    """One damped Jacobi sweep ``x + omega D^-1 (b - A x)`` (band9: ``omega / d`` and the update
+    in float32, the stencil without multiplications for unit couplings) against float64 numpy,
+    to float32 round-off, on both level types and with the unit couplings; the returned dot
+    product is that of the stored output."""
+    rng = np.random.default_rng(21)
+    for d, c, _ in _operators(shape):
+        x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+        b = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+        ref = np.where(d > 0, x + 0.9 * (b - _numpy_apply(d, c, x)) / np.where(d > 0, d, 1), 0)
+        couplings = [c] + ([kr.unit_couplings(shape[2])] if d.dtype == np.uint8 else [])
+        for cc in couplings:
+            out = np.full(d.shape, np.nan, np.float32)
+            dot = kr.jacobi(d, *cc, x, b, out, 0.9)
+            _close(out, ref)
+            exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
+            assert dot == pytest.approx(exact, rel=1e-9, abs=1e-9)
+        zero = np.full(d.shape, np.nan, np.float32)
+        kr.jacobi_zero(d, b, zero, 0.9)
+        _close(zero, np.where(d > 0, 0.9 * b / np.where(d > 0, d, 1), 0))
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_residual_restriction_against_numpy(shape: tuple[int, int, int]) -> None:
+    """``residual_restrict`` (band9: the residual rows of an aggregate summed into one float64
+    row, then along k) is ``P^T (b - A x)``: the float64 numpy residual summed over each
+    aggregate (the last one of an odd axis takes the remainder), to float32 round-off, on both
+    level types and with the unit couplings."""
+    rng = np.random.default_rng(22)
+    for d, c, _ in _operators(shape):
+        shp = d.shape
+        f = tuple(2 if n >= 4 else 1 for n in shp)
+        nc = tuple(n // m for n, m in zip(shp, f, strict=True))
+        x = (rng.standard_normal(shp) * (d > 0)).astype(np.float32)
+        b = (rng.standard_normal(shp) * (d > 0)).astype(np.float32)
+        r = np.where(d > 0, b - _numpy_apply(d, c, x), 0.0)
+        ref = np.zeros(nc)
+        idx = [np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(shp, f, nc, strict=True)]
+        np.add.at(ref, np.ix_(*idx), r)
+        couplings = [c] + ([kr.unit_couplings(shp[2])] if d.dtype == np.uint8 else [])
+        for cc in couplings:
+            rc = np.full(nc, np.nan, np.float32)
+            kr.residual_restrict(d, *cc, x, b, *f, rc)
+            _close(rc, ref)
+        assert np.abs(ref).max() > 0.1  # not a trivial comparison
