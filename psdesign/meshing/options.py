@@ -242,7 +242,7 @@ EDGE_PER_DIAMETER = 0.85
 # default fTetWild envelope where the edge comes from the fiber diameter: D / 28 (0.25 um at
 # D = 7 um, a quarter of the marching-cubes step on Table III). Half the old step rule: it
 # puts pytetwild's K within 2 % of the default stuffing mesh's on the five Table III seeds
-# (the old envelope missed seed 1 by -2.12 %) at 1.1-4.1x the mesh CPU (2.3x summed)
+# (the old envelope missed seed 1 by -2.12 %) at 1.1-4.1x the mesh CPU (2.0x summed)
 # (docs/meshers.md, session 9). fTetWild facets the walls as coarsely as its envelope allows, so
 # an envelope in fiber diameters keeps the facets per fiber circumference the same in any box
 ENVELOPE_PER_DIAMETER = 1.0 / 28.0
