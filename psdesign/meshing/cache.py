@@ -11,7 +11,7 @@ import numpy as np
 from psdesign.io.atomic import json_default
 from psdesign.meshing.result import PoreMesh
 
-CACHE_VERSION = 2
+CACHE_VERSION = 3  # 3: pytetwild's fiber-diameter envelope (session 9)
 
 
 def cache_key(distance: np.ndarray, params: dict) -> str:

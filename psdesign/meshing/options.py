@@ -124,8 +124,10 @@ class MeshOptions:
         pytetwild default edge length in fiber diameters, in (0, 10]; default
         ``EDGE_PER_DIAMETER`` (0.85; its measurements in ``docs/meshers.md``).
     epsilon
-        pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default half the
-        marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``).
+        pytetwild envelope as a fraction of the box diagonal, in (0, 0.1); default
+        :data:`ENVELOPE_PER_DIAMETER` times ``fiber_diameter`` where the edge comes from the
+        fiber diameter, else half the marching-cubes step (``tetwild_mesher.ENVELOPE_PER_STEP``;
+        :func:`envelope_from_diameter`).
     surface_step
         Sub-sampling step of the field for the marching-cubes surface (pytetwild input).
     simplify_tol
@@ -218,13 +220,13 @@ class MeshOptions:
         """The options that change the mesh (part of the cache key).
 
         ``fiber_diameter`` and ``edge_per_diameter`` only count where they set the edge length
-        (pytetwild without an explicit edge): a stuffing mesh keeps its key.
+        and the envelope (pytetwild without an explicit edge): a stuffing mesh keeps its key.
         """
         d = dataclasses.asdict(self)
         d.pop("cache_dir")
         if self.mesher != "pytetwild":
             d.pop("project_walls")
-        if self.mesher != "pytetwild" or self.edge_length is not None or self.edge_length_fac:
+        if self.mesher != "pytetwild" or not edge_from_diameter(self):
             d.pop("fiber_diameter")
             d.pop("edge_per_diameter")
         return d
@@ -235,6 +237,31 @@ DEFAULT_EDGE_FAC = 0.05
 # default edge length in thinnest-fiber diameters (spec routes): the old rule's edge on the 60 um
 # Toray-like cube; at 100 um it reads K 0.50 % above 1.42 D (docs/meshers.md, session 5)
 EDGE_PER_DIAMETER = 0.85
+
+
+# default fTetWild envelope where the edge comes from the fiber diameter: D / 28 (0.25 um at
+# D = 7 um, a quarter of the marching-cubes step on Table III). Half the old step rule: it
+# puts pytetwild's K within 2 % of the default stuffing mesh's on the five Table III seeds
+# (the old envelope missed seed 1 by -2.12 %) at 1.1-4.1x the mesh CPU (2.0x summed)
+# (docs/meshers.md, session 9). fTetWild facets the walls as coarsely as its envelope allows, so
+# an envelope in fiber diameters keeps the facets per fiber circumference the same in any box
+ENVELOPE_PER_DIAMETER = 1.0 / 28.0
+
+
+def edge_from_diameter(opts: MeshOptions) -> bool:
+    """True when pytetwild's edge length comes from ``opts.fiber_diameter`` (no explicit
+    ``edge_length`` or ``edge_length_fac``)."""
+    return opts.fiber_diameter is not None and opts.edge_length is None and not opts.edge_length_fac
+
+
+def envelope_from_diameter(opts: MeshOptions) -> float | None:
+    """pytetwild's default envelope in metres, :data:`ENVELOPE_PER_DIAMETER` times the fiber
+    diameter, where it applies: no explicit ``epsilon`` and the edge from the fiber diameter
+    (:func:`edge_from_diameter`; an explicit coarse edge keeps the cheaper step rule); else
+    None (the mesher's marching-cubes step rule)."""
+    if opts.epsilon is not None or not edge_from_diameter(opts):
+        return None
+    return ENVELOPE_PER_DIAMETER * float(opts.fiber_diameter)
 
 
 def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
@@ -267,7 +294,7 @@ def target_edge_length(size: np.ndarray, axis: int, opts: MeshOptions) -> float:
     diag = float(np.linalg.norm(ext))
     if opts.edge_length_fac is not None:
         return opts.edge_length_fac * diag
-    if opts.fiber_diameter is not None:
+    if edge_from_diameter(opts):
         per_d = opts.edge_per_diameter if opts.edge_per_diameter is not None else EDGE_PER_DIAMETER
         return per_d * opts.fiber_diameter
     return DEFAULT_EDGE_FAC * diag
@@ -284,14 +311,21 @@ TETWILD_TETS_PER_EDGE_CUBE = 30.0
 TETWILD_COARSE_EXPONENT = 1.4
 #: Vertices per tet of a pytetwild mesh (0.227-0.233 on the five seeds).
 TETWILD_POINTS_PER_TET = 0.24
+#: Tets per edge cube with the fiber-diameter envelope (:data:`ENVELOPE_PER_DIAMETER`, the
+#: default where the edge comes from the fiber diameter): the Table III straight seeds at
+#: 0.85 D with an envelope of D / 28 (docs/meshers.md, session 9); rounded up.
+TETWILD_TETS_PER_EDGE_CUBE_FINE = 55.0
 
 
-def tetwild_mesh_size(box_volume: float, edge: float, fiber_diameter: float | None):
+def tetwild_mesh_size(
+    box_volume: float, edge: float, fiber_diameter: float | None, fine_envelope: bool = False
+):
     """Estimated ``(n_points, n_tets)`` of a pytetwild mesh before meshing.
 
-    ``TETWILD_TETS_PER_EDGE_CUBE * box_volume / edge^3``, times
-    ``(edge / (EDGE_PER_DIAMETER * D))^TETWILD_COARSE_EXPONENT`` for an edge coarser than the
-    default one (``fiber_diameter`` D known).
+    ``TETWILD_TETS_PER_EDGE_CUBE * box_volume / edge^3`` (``TETWILD_TETS_PER_EDGE_CUBE_FINE``
+    with ``fine_envelope``, the fiber-diameter envelope of :func:`envelope_from_diameter`),
+    times ``(edge / (EDGE_PER_DIAMETER * D))^TETWILD_COARSE_EXPONENT`` for an edge coarser than
+    the default one (``fiber_diameter`` D known).
 
     Parameters
     ----------
@@ -301,13 +335,16 @@ def tetwild_mesh_size(box_volume: float, edge: float, fiber_diameter: float | No
         Target edge length in metres (:func:`target_edge_length`).
     fiber_diameter
         Thinnest fiber diameter in metres, or None.
+    fine_envelope
+        The envelope is the fiber-diameter one (more tets at the walls).
 
     Returns
     -------
     tuple of float
         Vertices and tets.
     """
-    tets = TETWILD_TETS_PER_EDGE_CUBE * box_volume / edge**3
+    per_cube = TETWILD_TETS_PER_EDGE_CUBE_FINE if fine_envelope else TETWILD_TETS_PER_EDGE_CUBE
+    tets = per_cube * box_volume / edge**3
     if fiber_diameter:
         tets *= max(1.0, edge / (EDGE_PER_DIAMETER * fiber_diameter)) ** TETWILD_COARSE_EXPONENT
     return TETWILD_POINTS_PER_TET * tets, tets

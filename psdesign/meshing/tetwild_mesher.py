@@ -31,7 +31,9 @@ from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import (  # the edge rule's names, re-exported here
     DEFAULT_EDGE_FAC,  # noqa: F401
     EDGE_PER_DIAMETER,  # noqa: F401
+    ENVELOPE_PER_DIAMETER,  # noqa: F401
     MeshOptions,
+    envelope_from_diameter,
     target_edge_length,
 )
 from psdesign.meshing.result import PoreMesh
@@ -48,7 +50,8 @@ from psdesign.meshing.tetra import (
     untangle_near_planes,
 )
 
-# default fTetWild envelope: this fraction of the marching-cubes step. 0.5 instead of 0.25:
+# fTetWild envelope without a fiber-diameter edge (a plain field, an explicit edge): this
+# fraction of the marching-cubes step (options.ENVELOPE_PER_DIAMETER otherwise). 0.5, not 0.25:
 # 2.4x less fTetWild CPU on the small in-plane RVE of tests/unit/test_tetwild_rve.py with the
 # pore volume unchanged after the wall correction (benchmarks/RESULTS.md "pytetwild options")
 ENVELOPE_PER_STEP = 0.5
@@ -65,6 +68,22 @@ def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOp
     h = target_edge_length(size, axis, opts)
     n_min = int(round(float(size.min()) / voxel))
     return int(np.clip(h // (5.0 * voxel), 1, max(1, n_min // 4)))
+
+
+def envelope_rel(voxel: float, opts: MeshOptions, diag: float) -> float:
+    """fTetWild envelope as a fraction of the meshed box diagonal ``diag`` (metres).
+
+    ``opts.epsilon`` if given; else :data:`ENVELOPE_PER_DIAMETER` times the fiber diameter
+    where the edge comes from it (:func:`~.options.envelope_from_diameter`); else
+    :data:`ENVELOPE_PER_STEP` marching-cubes steps of ``voxel`` metres (``opts.surface_step``
+    set). The mesher caps the result at 0.01.
+    """
+    if opts.epsilon is not None:
+        return float(opts.epsilon)
+    env = envelope_from_diameter(opts)
+    if env is None:
+        env = ENVELOPE_PER_STEP * voxel * int(opts.surface_step)
+    return env / diag
 
 
 def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
@@ -90,12 +109,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     )
     timings["surface_s"] = time.perf_counter() - t
     diag = float(np.linalg.norm(surf.hi - surf.lo))
-    eps_rel = (
-        opts.epsilon
-        if opts.epsilon is not None
-        else ENVELOPE_PER_STEP * f.voxel * opts.surface_step / diag
-    )
-    eps_rel = min(eps_rel, 0.01)
+    eps_rel = min(envelope_rel(voxel, opts, diag * f.scale), 0.01)
     h = target_edge_length(size, axis, opts) / f.scale
     sizing, h_global = None, h
     if opts.aux_edge_factor > 1.0 and opts.aux_length > 0:

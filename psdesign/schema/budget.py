@@ -284,7 +284,7 @@ def tetwild_mesh_size(
     (:func:`psdesign.meshing.options.tetwild_mesh_size` of the box with the stack and its
     reservoirs, :func:`~psdesign.meshing.options.target_edge_length`, the shortest edge over
     the possible flow axes when ``flow.direction`` is not given)."""
-    from psdesign.meshing.options import MeshOptions, target_edge_length
+    from psdesign.meshing.options import MeshOptions, envelope_from_diameter, target_edge_length
     from psdesign.meshing.options import tetwild_mesh_size as estimate
 
     copies, aux = stack_of(flow)
@@ -302,7 +302,8 @@ def tetwild_mesh_size(
     )
     axes = ["xyz".index(flow.direction)] if flow.direction else range(3)
     edge = min(target_edge_length(size, a, opts) for a in axes)
-    pts, tets = estimate(math.prod(size) * (copies + 2.0 * aux), edge, fiber_diameter)
+    fine = envelope_from_diameter(opts) is not None
+    pts, tets = estimate(math.prod(size) * (copies + 2.0 * aux), edge, fiber_diameter, fine)
     return pts, tets, edge
 
 

@@ -31,9 +31,11 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   vertices per lattice cell of pore, `generator.porosity` or 1) must fit too (without
   `flow.lattice_step` the default step, the thinnest fiber diameter / 3, is coarsened to fit,
   never beyond `max(2 rve.voxel, min(size) / 30)`, which alone decides the refusal); with
-  `flow.mesher = "pytetwild"` the mesh counted is pytetwild's (30 tets per cube of its target
-  edge in the meshed box, more for an edge coarser than 0.85 thinnest-fiber diameters,
-  `psdesign/meshing/options.py`), refused naming `flow.edge_length`. A spec that fits
+  `flow.mesher = "pytetwild"` the mesh counted is pytetwild's (55 tets per cube of its target
+  edge in the meshed box at the default edge and envelope, 0.85 and 1 / 28 thinnest-fiber
+  diameters; 30 with `flow.edge_length`, whose envelope is half the marching-cubes step, more
+  for an edge coarser than 0.85 diameters; `psdesign/meshing/options.py`), refused naming
+  `flow.edge_length`. A spec that fits
   as one copy but not as the stack names `flow.permeameter_copies`.
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.

@@ -13,7 +13,10 @@ from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
 from psdesign.meshing.tetwild_mesher import (
     DEFAULT_EDGE_FAC,
     EDGE_PER_DIAMETER,
+    ENVELOPE_PER_DIAMETER,
+    ENVELOPE_PER_STEP,
     default_surface_step,
+    envelope_rel,
     target_edge_length,
 )
 
@@ -53,6 +56,36 @@ def test_surface_step_follows_the_edge():
     opts = MeshOptions(mesher="pytetwild", fiber_diameter=D, edge_per_diameter=0.85)
     assert default_surface_step(0.5e-6, _box(100e-6), 2, opts) == 2
     assert default_surface_step(0.5e-6, _box(100e-6), 2, opts.replace(edge_per_diameter=2.0)) == 5
+
+
+def test_default_envelope_is_a_fraction_of_the_fiber_diameter():
+    """With the edge from the fiber diameter the envelope is D / 28 whatever the voxel and the
+    marching-cubes step: 0.25 um at D = 7 um, 0.0012563 of the 100 x 100 x 140 um Table III
+    box diagonal (the halved envelope measured on the five seeds, docs/meshers.md session 9).
+    An explicit edge keeps the step rule (half a marching-cubes step), an explicit epsilon wins.
+    """
+    diag = float(np.linalg.norm([100e-6, 100e-6, 140e-6]))
+    opts = MeshOptions.from_flow({"mesher": "pytetwild"}, fiber_diameter=D).replace(surface_step=2)
+    assert ENVELOPE_PER_DIAMETER == pytest.approx(1.0 / 28.0)
+    for voxel in (0.25e-6, 0.5e-6, 1e-6):
+        assert envelope_rel(voxel, opts, diag) * diag == pytest.approx(0.25e-6, rel=1e-12)
+    assert envelope_rel(0.5e-6, opts, diag) == pytest.approx(0.0012563, rel=1e-4)
+    # the old rule, half a marching-cubes step (2 x 0.5 um): twice the new envelope here
+    coarse = opts.replace(edge_length_fac=0.03)
+    assert ENVELOPE_PER_STEP == 0.5
+    assert envelope_rel(0.5e-6, coarse, diag) * diag == pytest.approx(0.5e-6, rel=1e-12)
+    plain = MeshOptions(mesher="pytetwild", surface_step=3)
+    assert envelope_rel(1e-6, plain, diag) * diag == pytest.approx(1.5e-6, rel=1e-12)
+    assert envelope_rel(0.5e-6, opts.replace(epsilon=0.004), diag) == 0.004
+
+
+def test_fiber_diameter_envelope_changes_the_cache_key_only_where_it_applies():
+    """The fiber diameter sets the envelope exactly where it sets the edge: a pytetwild mesh
+    with an explicit edge and a stuffing mesh keep their keys."""
+    tw = MeshOptions(mesher="pytetwild", fiber_diameter=D)
+    assert tw.replace(fiber_diameter=1.1 * D).cache_params() != tw.cache_params()
+    explicit = MeshOptions(mesher="pytetwild", edge_length=4e-6)
+    assert explicit.replace(fiber_diameter=D).cache_params() == explicit.cache_params()
 
 
 def test_thinnest_fiber_diameter_in_metres():
