@@ -255,7 +255,7 @@ class Directions:
 
 class Solution:
     """The Krylov solution in 40 or 48 bits per entry: float32 ``hi`` plus, once :meth:`extend`
-    has run, an int8 (``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`, 1e-5) or
+    has run, an int8 (``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`, 1e-6) or
     int16 ``lo`` in units of a per-field power of two ``scale`` below the float32 round-off of
     the field's largest entry (value ``hi + lo * scale``, absolute error at most ``2^-31``
     (int8) or ``2^-37`` (int16) of that entry); an int32 ``lo`` (float64 precision) for ``tol``

@@ -10,7 +10,8 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   3e-6; int32, +8 B, for ``tol < 1e-7``): 24 B; with SYMMLQ (the default, :data:`KRYLOV`)
   on the active unknowns only (:class:`solvers.voxel.lanczos.Packing`: 24 B times their
   fraction, 0.77 on the Toray-like grids, plus 8 B per plane of a field for the offsets);
-  for ``tol >=`` :data:`SHORT_SOLUTION_FROM` (1e-5) an int8 extension, 20 B;
+  for ``tol >=`` :data:`SHORT_SOLUTION_FROM` (1e-6, the default tolerance) an int8
+  extension, 20 B;
 * three float32 4-field vectors (the residual, which is MINRES' current Lanczos vector, the
   older Lanczos vector and the preconditioned vector; the operator product is written in
   place, see :mod:`solvers.voxel.lanczos`): 48 B;
@@ -47,8 +48,8 @@ directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit
 throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
 allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 86.6 B
 per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 95.0 B on PuMA
-fibres_32 (88.9 B with :data:`SHORT_SOLUTION_FROM` lowered to the default tolerance 1e-6,
-before the mask went into the code;
+fibres_32 with :data:`SHORT_SOLUTION_FROM` at 1e-5 (88.9 B at 1e-6, the default since
+session 9, measured before the mask went into the code;
 session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
 113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
@@ -82,17 +83,19 @@ KRYLOV = "symmlq"
 only) or ``"minres"`` (two directions, :data:`DIRECTION_BITS`; the solution on the grid); the
 same Lanczos recurrence and preconditioner."""
 
-SHORT_SOLUTION_FROM = 1e-5
+SHORT_SOLUTION_FROM = 1e-6
 """Tolerances from which the solution's extension is int8 instead of int16
 (:class:`solvers.voxel.lanczos.Solution`: 40 bits per entry, one scale per row) and SYMMLQ's
 direction is stored in :data:`LATER_SYMMLQ_BITS` from the second refinement cycle on: the
 later cycles then hold ``4 + 1 + 3`` B per active entry instead of ``4 + 2 + 4``, no more than
 the first cycle's ``4 + 4`` (-8 B per cell on a fully active grid; PuMA fibres_32 at tol 1e-6:
-88.4 instead of 96 B per cell traced).  Not at the default 1e-6: the rounding of either (the
-direction's 2^-16, the solution's 2^-31 of a row's largest entry) leaves a true relative
-residual of about 2e-6 on the Toray-like 200^3 grid, amplified by the operator's condition
-number, so a third refinement cycle ran there (190 instead of 180 iterations; 64^3, 100^3
-and fibres_32 unchanged; ``benchmarks/RESULTS.md``, issue 16 session 9)."""
+88.9 instead of 95.0 B per cell traced).  From the default 1e-6 on since session 9: the
+rounding of either (the direction's 2^-16, the solution's 2^-31 of a row's largest entry)
+leaves a true relative residual of about 2e-6 on the large Toray-like grids, so a third
+refinement cycle runs there: 190 instead of 180 iterations at 200^3 (+5.6 %), 299 instead of
+281 at 400^3 (+6.4 %; solve 293.2 vs 288.2 s, peak RSS 5.42e9 vs 5.89e9 B, K equal to 1e-9);
+64^3, 100^3 and fibres_32 unchanged (``benchmarks/RESULTS.md``, issue 16 session 9).  Tighter
+tolerances keep the int16 extension and the float32 direction."""
 
 LATER_SYMMLQ_BITS = 24
 """Bits per entry of SYMMLQ's direction from the second refinement cycle on when ``tol >=``

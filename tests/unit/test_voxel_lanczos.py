@@ -11,6 +11,7 @@ from stokes_product import stokes_product
 
 import solvers.voxel_stokes as vs
 from solvers.voxel import lanczos as lz
+from solvers.voxel import memory as vmem
 
 
 def _grid(n: int = 10, seed: int = 3) -> np.ndarray:
@@ -169,7 +170,6 @@ def test_packing_keeps_every_vector_of_the_solve(weighted: bool) -> None:
 def test_symmlq_and_minres_reach_the_same_solution() -> None:
     # the refinement loop with SYMMLQ on packed vectors and with MINRES on the grid: the same
     # solution to the tolerance (a packing offset error would be O(1) off)
-    from solvers.voxel import memory as vmem
 
     op = vs._Stokes.build(_grid())
     out = {}
@@ -203,13 +203,14 @@ def _packed_case(seed: int = 6):
     return op, pk, active, z, rng
 
 
-@pytest.mark.parametrize("tol", [1e-5, 1e-6])
+@pytest.mark.parametrize("tol", [1e-6, 5e-7])
 def test_symmlq_step_on_24_bit_direction_matches_float64(tol: float) -> None:
     # w <- sn w - cs v and x += zeta (cs w + sn v), v = s z, with the direction in 24 bits
-    # (memory.LATER_SYMMLQ_BITS) and the packed solution (int8 extension with row scales at
-    # tol 1e-5, int16 with field scales below): each stored direction entry within half an
-    # ulp of a 16-bit mantissa (2^-16 relative) of the float64 result, the solution within
-    # half its scale (+ the float32 rounding of the finished direction)
+    # (memory.LATER_SYMMLQ_BITS) and the packed solution (int8 extension with row scales from
+    # tol memory.SHORT_SOLUTION_FROM = 1e-6, int16 with field scales below): each stored
+    # direction entry within half an ulp of a 16-bit mantissa (2^-16 relative) of the float64
+    # result, the solution within half its scale (+ the float32 rounding of the finished
+    # direction)
     op, pk, active, z, rng = _packed_case()
     w0 = (rng.standard_normal(pk.size) * 10.0 ** rng.uniform(-3, 3, pk.size)).astype(np.float32)
     wt, wm = _round24(w0)
@@ -218,8 +219,9 @@ def test_symmlq_step_on_24_bit_direction_matches_float64(tol: float) -> None:
     x = lz.Solution(op.shape, pk)
     x.hi[:] = rng.standard_normal(pk.size) * 3.0
     x.extend(tol)
-    assert x.lo.dtype == (np.int8 if tol >= 1e-5 else np.int16)
-    assert x.scale.size == (4 * 9 * 9 if tol >= 1e-5 else 4)  # per row / per field
+    short = tol >= vmem.SHORT_SOLUTION_FROM
+    assert x.lo.dtype == (np.int8 if short else np.int16)
+    assert x.scale.size == (4 * 9 * 9 if short else 4)  # per row / per field
     x0 = x.value()[active]
     s, cs, sn, zeta = 0.7, 0.6, 0.8, 0.37
     v = s * z[active].astype(float)
@@ -236,7 +238,7 @@ def test_symmlq_step_on_24_bit_direction_matches_float64(tol: float) -> None:
 
 
 def test_short_solution_scales_follow_the_rows() -> None:
-    # the int8 extension (tol >= memory.SHORT_SOLUTION_FROM, 1e-5) keeps 2^-31 of each row's
+    # the int8 extension (tol >= memory.SHORT_SOLUTION_FROM, 1e-6) keeps 2^-31 of each row's
     # largest entry (rows down to 2^-8 of their field's largest), the int16 one 2^-37 of the
     # field's: 40 and 48 bits; unpacked (MINRES) solutions keep int16
     op, pk, active, _, rng = _packed_case()
@@ -244,7 +246,7 @@ def test_short_solution_scales_follow_the_rows() -> None:
     x.hi[:] = rng.standard_normal(pk.size) * 10.0 ** rng.uniform(-4, 0, pk.size)
     grid = np.zeros(op.shape, np.float32)
     pk.unpack(x.hi, grid)
-    x.extend(1e-5)
+    x.extend(1e-6)
     rows = np.abs(grid).max(axis=-1).ravel()
     field = np.repeat(np.abs(grid).reshape(4, -1).max(axis=1), rows.size // 4)
     ref = np.maximum(rows, 2.0**-8 * field)
@@ -252,7 +254,7 @@ def test_short_solution_scales_follow_the_rows() -> None:
     # scale 2^(E - 32) with 2 m in [2^(E-1), 2^E): in (2^-31, 2^-30] of m, error <= scale / 2
     assert np.all(x.scale[on] <= 2.0**-30 * ref[on]) and np.all(x.scale[on] > 2.0**-31 * ref[on])
     assert lz.Solution(op.shape).lo.dtype == np.int16  # before extend
-    for packing, tol, dtype in ((None, 1e-5, np.int16), (pk, 1e-6, np.int16), (pk, 1e-8, np.int32)):
+    for packing, tol, dtype in ((None, 1e-6, np.int16), (pk, 5e-7, np.int16), (pk, 1e-8, np.int32)):
         y = lz.Solution(op.shape, packing)
         y.extend(tol)
         assert y.lo.dtype == dtype and y.scale.size == 4

@@ -66,10 +66,13 @@ def test_too_large_a_grid_is_refused_before_allocating(monkeypatch) -> None:
 
 
 def test_tight_tolerances_count_the_wider_solution() -> None:
-    # below 1e-7 the solution's extension is int32 (solvers.voxel.lanczos.Solution): +8 B
-    base = vmem.solver_bytes(1000, "staircase")
+    # below 1e-7 the solution's extension is int32 (solvers.voxel.lanczos.Solution): +8 B over
+    # the int16 one of [1e-7, 1e-6); from memory.SHORT_SOLUTION_FROM (1e-6, the default) int8
+    # and a 24-bit direction: -8 B
+    base = vmem.solver_bytes(1000, "staircase", 5e-7)
     assert vmem.solver_bytes(1000, "staircase", 1e-9) == base + 8 * 1000
     assert vmem.solver_bytes(1000, "staircase", 1e-7) == base
+    assert vmem.solver_bytes(1000, "staircase") == base - 8 * 1000
 
 
 def test_box_walls_count_the_stored_couplings() -> None:
@@ -78,7 +81,8 @@ def test_box_walls_count_the_stored_couplings() -> None:
     periodic = vmem.solver_bytes(1000, "staircase", walls=False)
     assert vmem.solver_bytes(1000, "staircase", walls=True) == periodic + 9 * 1000
     # the solution plus the directions: max(first cycle, later cycles) of module docstring
-    assert vmem.BYTES_PER_CELL["staircase"] * 1000 == periodic
+    # (at the default tolerance the later cycles' short storage, memory.SHORT_TOL_SAVING)
+    assert (vmem.BYTES_PER_CELL["staircase"] - vmem.SHORT_TOL_SAVING) * 1000 == periodic
 
 
 def test_the_solve_frees_the_callers_geometry_after_its_set_up() -> None:
