@@ -30,6 +30,7 @@ Usage
     python benchmarks/bench_fem.py --case fibers --sizes 0.07 --refine 1   # 1:8 refined mesh
     python benchmarks/bench_fem.py --one cylinders 8     # one run, prints one JSON line
     python benchmarks/bench_fem.py --case toray --krylov gmres minres   # new vs old, one run
+    python benchmarks/bench_fem.py --case toray --lattice-step 3.333333   # issue 16's 657 k case
     python benchmarks/bench_fem.py --one array along/periodic/gmres  # array, either bc
 """
 
@@ -156,14 +157,21 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     )
 
 
-def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6):
-    """RVE, flow table and default permeameter mesh of ``studies/table3/straight.toml`` at
-    ``voxel`` (m) in a cube of side ``size`` (m), cached as a pickle in $PSDESIGN_BENCH_CACHE."""
+def toray_mesh(
+    voxel: float = 0.5e-6,
+    direction: str = "z",
+    size: float = 100e-6,
+    lattice_step: float | None = None,
+):
+    """RVE, flow table and permeameter mesh of ``studies/table3/straight.toml`` at ``voxel`` (m)
+    in a cube of side ``size`` (m), cached as a pickle in $PSDESIGN_BENCH_CACHE; the stuffing
+    mesher's default step unless ``lattice_step`` (m) is given (``flow.lattice_step``)."""
     import pickle
     import tempfile
     from pathlib import Path
 
-    cache = Path(CACHE) / f"toray_{voxel:g}_{direction}_{size:g}.pkl"
+    step = "default" if lattice_step is None else f"{lattice_step:g}"
+    cache = Path(CACHE) / f"toray_{voxel:g}_{direction}_{size:g}_{step}.pkl"
     if cache.exists():
         with cache.open("rb") as f:
             return pickle.load(f)
@@ -182,6 +190,8 @@ def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6
     built = build_rve(spec)
     fields = built.voxelize(voxel)
     flow = dict(spec["flow"])
+    if lattice_step is not None:
+        flow["lattice_step"] = lattice_step
     pm = _mesh(built.rve, fields, direction, flow, "permeameter")
     cache.parent.mkdir(parents=True, exist_ok=True)
     with cache.open("wb") as f:
@@ -189,15 +199,18 @@ def toray_mesh(voxel: float = 0.5e-6, direction: str = "z", size: float = 100e-6
     return built.rve, flow, pm
 
 
-def run_toray(voxel: float, tol: float = 1e-6, krylov: str = "gmres") -> dict:
+def run_toray(
+    voxel: float, tol: float = 1e-6, krylov: str = "gmres", lattice_step: float | None = None
+) -> dict:
     """The Toray-like through-plane permeameter solve (``permeability_fem``'s settings: slip
-    sides, windowed-dissipation K) on the cached default mesh of :func:`toray_mesh`."""
+    sides, windowed-dissipation K) on the cached mesh of :func:`toray_mesh` (issue 16 item 5's
+    657 k-unknown case: ``lattice_step`` 10 / 3 um, the default before session 7)."""
     from psdesign.flow.fem import rve_window
     from psdesign.meshing import tags as T
     from solvers.fem_stokes import solve_stokes
 
     t0 = time.perf_counter()
-    rve, flow, pm = toray_mesh(voxel)
+    rve, flow, pm = toray_mesh(voxel, lattice_step=lattice_step)
     t_mesh = time.perf_counter() - t0
     rss_mesh = _rss_gb()
     sides = [t for t in pm.facet_tags if T.is_side(t)]
@@ -221,7 +234,7 @@ def run_toray(voxel: float, tol: float = 1e-6, krylov: str = "gmres") -> dict:
     k = mu * q * (end - start) / (area * dp_rve)
     return dict(
         case="toray",
-        size=f"{voxel:g}/{krylov}",
+        size=f"{voxel:g}/{krylov}" + ("" if lattice_step is None else f"/step {lattice_step:g}"),
         tol=tol,
         t_mesh=t_mesh,
         k=k,
@@ -297,6 +310,12 @@ def main() -> None:
         choices=["gmres", "minres"],
         help="toray: Krylov method(s), each in its own subprocess, one after the other",
     )
+    ap.add_argument(
+        "--lattice-step",
+        type=float,
+        default=None,
+        help="toray: stuffing lattice step in um (default: the mesher's; 3.333 = issue 16's case)",
+    )
     args = ap.parse_args()
     if args.one:
         case, size = args.one
@@ -306,7 +325,8 @@ def main() -> None:
             kind, bc, kr = size.split("/")
             out = run_array(kind, bc, kr)
         elif case == "toray":
-            out = run_toray(float(size) * 1e-6, args.tol or 1e-6, args.krylov[0])
+            step = None if args.lattice_step is None else args.lattice_step * 1e-6
+            out = run_toray(float(size) * 1e-6, args.tol or 1e-6, args.krylov[0], step)
         else:
             out = run_fibers(float(size), args.tol or 1e-8, args.refine)
         print(json.dumps(out))
@@ -328,6 +348,8 @@ def main() -> None:
 def _run_one(case: str, size, args, krylov: str) -> dict | None:
     cmd = [sys.executable, __file__, "--one", case, str(size), "--refine", str(args.refine)]
     cmd += ["--krylov", krylov] + ([] if args.tol is None else ["--tol", str(args.tol)])
+    if args.lattice_step is not None:
+        cmd += ["--lattice-step", str(args.lattice_step)]
     try:
         cp = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
     except subprocess.TimeoutExpired:
