@@ -77,11 +77,11 @@ Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterati
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
 fibrous geometry, not the multigrid, sets the count); adding a Darcy-type
 ``(G^T G)^-1`` pressure term (Cahouet-Chabard style) saved only 20 % of the iterations at 25 %
-more work per iteration and was dropped.  Memory is O(N): about 88 bytes per voxel on a
-periodic staircase Toray-like grid, at most 96 B (95 B traced on PuMA fibres_32, 95 % of its
-unknowns active; 8 B less for ``tol >=`` 1e-5: :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`;
-3 float32 4-field vectors; the 48-bit
-solution and SYMMLQ's float32 direction on the active unknowns only; uint8 diagonals, no stored
+more work per iteration and was dropped.  Memory is O(N): about 84 bytes per voxel traced on a
+periodic staircase Toray-like grid, at most 96 B counted (87.9 B traced on PuMA fibres_32, 95 %
+of its unknowns active; at the default ``tol`` 1e-6,
+:data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; 3 float32 4-field vectors; the 40-bit
+solution and SYMMLQ's 24-bit later direction on the active unknowns only; uint8 diagonals, no stored
 finest couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
 (:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
 matrix.  Threads
@@ -812,9 +812,8 @@ class _Stokes:
         self.coarse_p = None
         if COARSE_PRESSURE:
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
-            if self.p_scale is None:  # the staircase's scale code, formed now: its ~13 B per
-                self.coarse_p.code(self.d, SCHUR_FLOOR)  # cell of temporaries off the peak
-                self._mask_in_code()
+            if self.p_scale is None:  # the staircase's scale code, formed now (its ~13 B per
+                self._mask_in_code()  # cell of temporaries off the peak) and the mask with it
         del ops
         self._drop_couplings()
 

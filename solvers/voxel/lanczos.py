@@ -554,13 +554,6 @@ class Packing:
         """The packed entries of field ``a`` (a view)."""
         return packed[self.offset(a) : self.offset(a + 1)]
 
-    def planes(self):
-        """``(field, plane, slice of the packed entries, active entries of the plane)`` for
-        every plane of every field (plane by plane: no temporaries of the grid's size)."""
-        for a, m in enumerate(self.masks):
-            for i in range(self.shape[1]):
-                yield a, i, slice(self.offset(a, i), self.offset(a, i + 1)), m[i] != 0
-
     def unpack(self, packed: np.ndarray, out: np.ndarray, scale: np.ndarray | None = None) -> None:
         """``out[a][active] = packed_a (* scale)``, zero elsewhere (one pass, no temporaries:
         :func:`unpack_planes`; ``scale`` per field or per row)."""

@@ -46,10 +46,9 @@ bound counted here: the estimate is made before the grid is known), 87 B at the 
 grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 112 B with float32
 directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit directions
 throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
-allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9): 86.6 B
-per cell staircase and 118.8 B sub-voxel on the Toray-like 64^3 grid, 95.0 B on PuMA
-fibres_32 with :data:`SHORT_SOLUTION_FROM` at 1e-5 (88.9 B at 1e-6, the default since
-session 9, measured before the mask went into the code;
+allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9, tol
+1e-6): 84.2 B per cell staircase and 115.5 B sub-voxel on the Toray-like 64^3 grid, 87.9 B on
+PuMA fibres_32 (86.6 / 118.8 / 95.0 B with :data:`SHORT_SOLUTION_FROM` at 1e-5;
 session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
 113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
@@ -148,7 +147,8 @@ SHORT_TOL_SAVING = 8
 
 
 def _tol_extra(tol: float) -> int:
-    """Bytes per cell above the count at the default tolerance (1e-6)."""
+    """Bytes per cell above :data:`BYTES_PER_CELL` (the count for tolerances in
+    ``[TIGHT_TOL_BELOW, SHORT_SOLUTION_FROM)``): more below, less from the default 1e-6 on."""
     if tol < TIGHT_TOL_BELOW:
         return TIGHT_TOL_EXTRA
     return -SHORT_TOL_SAVING if tol >= SHORT_SOLUTION_FROM and KRYLOV == "symmlq" else 0
