@@ -50,9 +50,9 @@ grids' active fraction 0.77; sub-voxel 99 B (all active); with MINRES 112 B with
 directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit directions
 throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
 allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9, tol
-1e-6): 84.2 B per cell staircase and 115.5 B sub-voxel on the Toray-like 64^3 grid, 87.9 B on
-PuMA fibres_32; sub-voxel 85.5 B with the cut-face storage (session 10) (86.6 / 118.8 / 95.0 B
-with :data:`SHORT_SOLUTION_FROM` at 1e-5;
+1e-6): 80.7 B per cell staircase and 85.4 B sub-voxel on the Toray-like 64^3 grid, 87.9 B on
+PuMA fibres_32 (session 10, with the cut-face storage; session 9: 84.2 / 115.5 / 87.9 B, and
+86.6 / 118.8 / 95.0 B with :data:`SHORT_SOLUTION_FROM` at 1e-5;
 session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
 113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
