@@ -85,7 +85,7 @@ of its unknowns active; at the default ``tol`` 1e-6,
 :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; 3 float32 4-field vectors; the 40-bit
 solution and SYMMLQ's 24-bit later direction on the active unknowns only; uint8 diagonals, no stored
 finest couplings, no fine multigrid work array), about 3 B more with sub-voxel walls (their
-operator stored as the staircase's plus the cut faces, :mod:`solvers.voxel.cutfaces`: 85.5 B
+operator stored as the staircase's plus the cut faces, :mod:`solvers.voxel.cutfaces`: 85.4 B
 traced on the Toray-like 64^3 grid; :mod:`solvers.voxel.memory`, checked before anything is
 allocated); there is no assembled
 matrix.  Threads
@@ -810,8 +810,9 @@ class _Stokes:
             self.p_scale = self._dense_scale(ops)
         elif cut is not None and PRESSURE_SCALING:
             # the Schur-diagonal scale as the staircase's one-byte code (4 B per cell less)
-            code = schur.schur_code(self.d, SCHUR_FLOOR, [cut.scale_inverse(a, da) for a, da in
-                                                          enumerate(self.d)])  # fmt: skip
+            inverse = [cut.scale_inverse(a, da) for a, da in enumerate(self.d)]
+            code = schur.schur_code(self.d, SCHUR_FLOOR, inverse)  # frees each as it is summed
+            del inverse
         self.c = [o[1] for o in ops]
         shp = cells.shape
         self.shape = (4, *shp)
