@@ -89,6 +89,7 @@ class CutFaces:
 
     @property
     def nbytes(self) -> int:
+        """Bytes held (the offsets and the three per-face arrays)."""
         return int(sum(a.nbytes for a in self.arrays))
 
     def flat_index(self, a: int) -> np.ndarray:
@@ -214,6 +215,8 @@ def _zero_weights(coo: _Coo, off: np.ndarray) -> None:
 def finish(coos: list[_Coo], shape: tuple[int, int, int]) -> CutFaces:
     """Rows (CSR) of the three components' cut faces."""
     nx, ny, nz = shape
+    if nz > 65535:
+        raise ValueError("grid rows longer than 65535 cells: uint16 cut-face positions")
     nrows = nx * ny
     total = sum(c.idx.size for c in coos)
     itype = np.int32 if total < 2**31 else np.int64
@@ -228,8 +231,6 @@ def finish(coos: list[_Coo], shape: tuple[int, int, int]) -> CutFaces:
     k = np.concatenate([(c.idx % nz).astype(np.uint16) for c in coos])
     dd = np.concatenate([c.dd for c in coos])
     ww = np.concatenate([c.ww for c in coos])
-    if nz > 65535:
-        raise ValueError("grid rows longer than 65535 cells: uint16 cut-face positions")
     return CutFaces(start, k, dd, ww, shape)
 
 
