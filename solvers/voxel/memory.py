@@ -36,7 +36,7 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
 * sub-voxel walls keep the staircase's storage (uint8 diagonals, rounded, uint8 first coarse
   levels, the one-byte scale code as the mask, :mod:`solvers.voxel.cutfaces`) and add their
   cut faces: 6 B each (position, the diagonal's remainder and the weight), 0.43 per cell on
-  the Toray-like grids (14 % of each component's active faces), 0.33 on the square cylinder
+  the Toray-like grids (14 % of each component's active faces), 0.47 on the square cylinder
   array of the tests; counted as :data:`CUT_FACES_PER_CELL` per cell, 3 B (session 9, before
   the cut-face storage: +27 B).  The caller's float64 distance (8 B) comes on top while the
   caller holds it (the solve frees its own references after the set-up).  Their set-up (one
@@ -119,7 +119,7 @@ remainder of the diagonal, uint16 weight)."""
 
 CUT_FACES_PER_CELL = 0.5
 """Cut faces per cell counted for sub-voxel walls (the three components together; measured
-0.43 on the Toray-like grids, 0.33 on the square cylinder array of the memory test)."""
+0.43 on the Toray-like grids, 0.47 on the square cylinder array of the memory test)."""
 
 _FIXED = {
     "staircase": 48 + 4 + 3 + 1,
