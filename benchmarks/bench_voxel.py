@@ -9,6 +9,7 @@ Usage::
     python benchmarks/bench_voxel.py cylinders       # square arrays vs Sangani & Acrivos (1982)
     python benchmarks/bench_voxel.py arrays          # sub-voxel vs staircase, square/hex arrays
     python benchmarks/bench_voxel.py kernels 200     # per-kernel and per-iteration times (ms)
+    python benchmarks/bench_voxel.py kernels 200 subvoxel  # ... Toray-like, sub-voxel walls
     python benchmarks/bench_voxel.py threads 64 200  # 1 vs 2 threads, with and without a competitor
     python benchmarks/bench_voxel.py threads 200 reps=1 its=10  # fewer repetitions / iterations
     python benchmarks/bench_voxel.py threads 200 its=0 modes=default competitor=no \
@@ -270,6 +271,8 @@ def iteration_bytes(op, fused: bool = True) -> float:
     ops = sum((d.nbytes + c.nbytes) / n for d, c in zip(op.d, op.c, strict=True)) + 1.0
     if op.w is not None:
         ops += 12.0
+    if getattr(op, "cut", None) is not None:  # the cut faces, read once by each product
+        ops += op.cut.nbytes / n
     apply = ops + 3 * vec4  # z read; r1 read and overwritten by s K z - c1 r1 (in place)
     lanczos = 3 * vec4  # r2 <- r1 - (alfa / beta) r2 (solvers.voxel.lanczos.add_scaled)
     # pressure block: r read, z written, plus the stored scale (4 B) or the staircase code (1 B)
@@ -366,6 +369,7 @@ def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, ...]]:
 READ_WRITE = {
     "stokes_lanczos": (10,),
     "stokes_lanczos_w": (13,),
+    "stokes_lanczos_cut": (14,),
     "add_scaled": (0,),
     "symmlq_step": (2, 5, 6),
 }
@@ -487,6 +491,7 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     """Per kernel of the Krylov iteration: time vs streamed bytes (the three V-cycles are one
     row per kernel and level, summed over the components), and the rest of the wall time."""
     from solvers import voxel_stokes as vs
+    from solvers.voxel import cutfaces as cf
     from solvers.voxel import kernels as kr
     from solvers.voxel import lanczos as lz
     from solvers.voxel import schur
@@ -495,6 +500,7 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     log.wrap(kr, MG_KERNELS + ("copy_dot", "scale_dot"))
     log.wrap(lz, ("stokes_lanczos", "stokes_lanczos_w", "add_scaled", "symmlq_step"))
     log.wrap(schur, ("block_sum", "pressure_block_code", "pressure_block_scale"))
+    log.wrap(cf, ("stokes_lanczos_cut",))
     try:
         t0 = time.perf_counter()
         vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
@@ -506,19 +512,22 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     print(f"    rest (Python, coarse levels' LU and pressure cycle): {wall - kt:.2f} ms")
 
 
-def kernels(n: int, reps: int = 5) -> dict[str, float]:
-    """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid, and
-    compare the iteration with the bytes it must stream over the measured triad bandwidth
-    (printed; also returned: ``bytes_per_voxel``, ``ideal_ms``, ``iteration_ms``, ``ratio``)."""
+def kernels(n: int, reps: int = 5, subvoxel: bool = False) -> dict[str, float]:
+    """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid
+    (``subvoxel``: with its exact fibre distance, sub-voxel walls), and compare the iteration
+    with the bytes it must stream over the measured triad bandwidth (printed; also returned:
+    ``bytes_per_voxel``, ``ideal_ms``, ``iteration_ms``, ``ratio``)."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
     from solvers.voxel import lanczos as lz
 
     _warm_parallel()
-    solid = _grid(n)
+    phi = toray_like(n, distance=True) * n if subvoxel else None
+    solid = _grid(n) if phi is None else phi <= 0
     bw = triad_bandwidth()
     with vs._threads(solid.size):
-        op = vs._Stokes.build(solid)
+        op = vs._Stokes.build(solid, phi)
+        del phi
         rng = np.random.default_rng(0)
         x = rng.random(op.shape, dtype=np.float32)
         y = np.empty_like(x)
@@ -797,8 +806,9 @@ def main(argv: list[str]) -> None:
     elif what == "arrays":
         arrays(tuple(int(a) for a in argv[2:]) or (32, 40, 64, 96))
     elif what == "kernels":
-        for n in [int(a) for a in argv[2:]] or [200]:
-            kernels(n)
+        sub = "subvoxel" in argv[2:]
+        for n in [int(a) for a in argv[2:] if a != "subvoxel"] or [200]:
+            kernels(n, subvoxel=sub)
     elif what == "base":
         print(f"baseline after warm-up: peak RSS {res0.peak_memory_mb:.0f} MB")
     elif what == "puma":

@@ -22,7 +22,9 @@ has no spurious pressure modes (no stabilisation, unlike the Q1-Q1 FEM of PuMA).
   ``1/theta``, Gibou et al. 2002) and the momentum and mass balances of the cut control volumes
   are weighted by their per-axis fluid fraction ``w_f`` (pressure force ``w_f dp``, flux
   ``w_f q_f``, body force ``w_f G``; the same weight on both off-diagonal blocks keeps the
-  saddle-point matrix symmetric, the velocity blocks stay SPD).  Plane Poiseuille with off-grid
+  saddle-point matrix symmetric, the velocity blocks stay SPD).  Stored as the rounded uint8
+  diagonal (the V-cycles' operator) plus the corrections of the cut faces only
+  (:mod:`solvers.voxel.cutfaces`).  Plane Poiseuille with off-grid
   walls converges at second order; square/hexagonal arrays across and along are within 1 % at
   40 voxels per period for solid fractions 0.1-0.5 (``benchmarks/RESULTS.md``).  The pressure block
   of the preconditioner is the inverse diagonal of the weighted Schur complement (see
@@ -82,8 +84,10 @@ periodic staircase Toray-like grid, at most 96 B counted (87.9 B traced on PuMA 
 of its unknowns active; at the default ``tol`` 1e-6,
 :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`; 3 float32 4-field vectors; the 40-bit
 solution and SYMMLQ's 24-bit later direction on the active unknowns only; uint8 diagonals, no stored
-finest couplings, no fine multigrid work array), about 30 B more with sub-voxel walls
-(:mod:`solvers.voxel.memory`, checked before anything is allocated); there is no assembled
+finest couplings, no fine multigrid work array), about 3 B more with sub-voxel walls (their
+operator stored as the staircase's plus the cut faces, :mod:`solvers.voxel.cutfaces`: 85.4 B
+traced on the Toray-like 64^3 grid; :mod:`solvers.voxel.memory`, checked before anything is
+allocated); there is no assembled
 matrix.  Threads
 (:mod:`solvers.voxel.threads`): idle OpenMP threads sleep (``OMP_WAIT_POLICY=PASSIVE``);
 grids and multigrid levels below :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells
@@ -99,8 +103,8 @@ smoothing sweep of each V-cycle writes straight into the output.
 
 *Pressure block* (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`): the inverse diagonal
 of the Schur complement estimate ``G^T diag(A)^-1 G`` (1 in a wall-free box; a one-byte
-logarithmic code on the staircase, :func:`solvers.voxel.schur.schur_code`, float32 for
-sub-voxel walls) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 8^3 cells with the
+logarithmic code, :func:`solvers.voxel.schur.schur_code`, the sub-voxel walls' weighted
+too) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 8^3 cells with the
 Poisson permeability of each block.  The pore-scale part alone leaves the long pressure waves,
 whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew with the box side
 (Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 206 at 100, 253 at 200, 456 at 400);
@@ -131,6 +135,7 @@ import numpy as np
 from scipy import ndimage
 
 from solvers.voxel import boundary as bd
+from solvers.voxel import cutfaces as cf
 from solvers.voxel import kernels as kr
 from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
@@ -595,6 +600,12 @@ def _energy_flux_profile(x: np.ndarray, flux: np.ndarray, d: int, i0: int, i1: i
     return out - out[0]
 
 
+def _face_flux(op: _Stokes, x: np.ndarray, a: int) -> np.ndarray:
+    """``w_f q_f`` of component ``a`` (the staircase's weights are 1: ``x[a]`` itself)."""
+    wa = op.weight(a)
+    return x[a] if wa is None else x[a] * wa
+
+
 def _result(
     x: np.ndarray,
     info: dict,
@@ -613,9 +624,12 @@ def _result(
     op = setup["op"]
     vel_scale = g * h * h / mu
     lat = tuple(b for b in range(3) if b != d)
-    # the flux through a face is w_f q_f (cut-cell fluid fraction w_f; 1 for the staircase)
-    flux = [x[a] if op.w is None else x[a] * op.w[a] for a in range(3)]
-    planes = flux[d].sum(axis=lat) * vel_scale * h * h
+    # the flux through a face is w_f q_f (cut-cell fluid fraction w_f; 1 for the staircase),
+    # one component at a time (the dense sub-voxel weights are formed on demand)
+    flux_d = _face_flux(op, x, d)
+    mean_u = np.array([(flux_d if a == d else _face_flux(op, x, a)).mean() for a in range(3)])
+    mean_u *= vel_scale
+    planes = flux_d.sum(axis=lat) * vel_scale * h * h
     mean_q = float(planes.mean())
     imbalance = float((planes.max() - planes.min()) / mean_q) if mean_q > 0 else float("inf")
     i0, i1 = setup["rve"]
@@ -624,7 +638,7 @@ def _result(
     dp_fluct = _plane_pressure(p, op.act[d], d, i0) - _plane_pressure(p, op.act[d], d, i1)
     profile = plane_p = None
     if bc == "permeameter":
-        profile = _energy_flux_profile(x, flux[d], d, i0, i1) * (g * h)
+        profile = _energy_flux_profile(x, flux_d, d, i0, i1) * (g * h)
         plane_p = np.array(
             [_plane_pressure(p, op.act[d], d, i) - (i - i0) for i in range(i0, i1 + 1)]
         )
@@ -632,8 +646,7 @@ def _result(
     shp = op.shape[1:]
     velocity = (x[:3] * vel_scale).astype(np.float32) if returns[0] else None
     pressure = (p * (g * h)).astype(np.float32) if returns[1] else None
-    mean_u = np.array([flux[a].mean() for a in range(3)]) * vel_scale
-    del x, flux
+    del x, flux_d
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return VoxelFlowResult(
         mean_velocity=mean_u,
@@ -748,7 +761,10 @@ diagonal ``A_ff`` carries the ghost-fluid stiffness ``1 / theta`` of the cut fac
 whose fluid faces sit against a wall gets the large scale it needs.  Measured, MINRES
 iterations to 1e-6 (``benchmarks/RESULTS.md``): Toray-like 40^3 with the exact fibre
 distance 566 -> 171 (staircase 133; K identical to 7 digits); the former estimate
-``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76."""
+``sum w_f^2 / 6`` (clamped at 0.05) had cut the square arrays from 93-184 to 60-76.  Stored
+as the staircase's one-byte code (:func:`solvers.voxel.schur.schur_code`, 4.4 % steps), which
+is the pressure-cell mask too (session 10: 4 B per cell less than the float32 scale and the
+mask)."""
 
 COARSE_PRESSURE = True
 """Add the coarse Darcy correction :class:`solvers.voxel.schur.CoarsePressure` to the pressure
@@ -777,27 +793,26 @@ class _Stokes:
         self,
         cells: np.ndarray,
         ops: list[tuple[np.ndarray, np.ndarray]],
-        acts: list[np.ndarray],
+        acts: list[np.ndarray] | None,
         forces: list[np.ndarray | None] | None = None,
+        cut: cf.CutFaces | None = None,
         **mg_kw: object,
     ) -> None:
         self.fluid = np.ascontiguousarray(cells).view(np.uint8)
         # the active faces are the unknowns with a non-zero diagonal: not stored (3 B per cell)
         del acts
         self.w = None if forces is None or forces[0] is None else forces
+        self.cut = cut
         self.p_scale = None
-        if self.w is not None and PRESSURE_SCALING:
-            # pressure block of the preconditioner: 1 / diag of the Schur complement estimate
-            # (sum of w_f^2 / A_ff over the cell's faces, the wall-free value being 1)
-            s2 = np.zeros(cells.shape, np.float64)
-            for a, wa in enumerate(self.w):
-                da = ops[a][0]
-                q = np.divide(
-                    np.square(wa, dtype=np.float64), da, out=np.zeros(da.shape), where=da > 0
-                )
-                s2 += q + np.roll(q, -1, axis=a)
-            self.p_scale = (1.0 / np.maximum(s2, SCHUR_FLOOR)).astype(np.float32)
         self.d = [o[0] for o in ops]
+        code = None
+        if self.w is not None and PRESSURE_SCALING:
+            self.p_scale = self._dense_scale(ops)
+        elif cut is not None and PRESSURE_SCALING:
+            # the Schur-diagonal scale as the staircase's one-byte code (4 B per cell less)
+            inverse = [cut.scale_inverse(a, da) for a, da in enumerate(self.d)]
+            code = schur.schur_code(self.d, SCHUR_FLOOR, inverse)  # frees each as it is summed
+            del inverse
         self.c = [o[1] for o in ops]
         shp = cells.shape
         self.shape = (4, *shp)
@@ -811,11 +826,48 @@ class _Stokes:
         _share_coarse_work(self.mg)
         self.coarse_p = None
         if COARSE_PRESSURE:
-            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, self.w)
+            weights = self.w if cut is None else cf.WeightView(cut, self.d)
+            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights)
+            if code is not None:
+                self.coarse_p.use_code(code)
             if self.p_scale is None:  # the staircase's scale code, formed now (its ~13 B per
                 self._mask_in_code()  # cell of temporaries off the peak) and the mask with it
+        elif code is not None:
+            self.p_scale = schur.CODE_TABLE[code]
         del ops
         self._drop_couplings()
+
+    def _dense_scale(self, ops: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+        """Pressure block of the preconditioner with dense weights: 1 / diag of the Schur
+        complement estimate (sum of w_f^2 / A_ff over the cell's faces, the wall-free value
+        being 1), float32."""
+        s2 = np.zeros(self.fluid.shape, np.float64)
+        for a, wa in enumerate(self.w):
+            da = ops[a][0]
+            q = np.divide(np.square(wa, dtype=np.float64), da, out=np.zeros(da.shape), where=da > 0)
+            s2 += q + np.roll(q, -1, axis=a)
+        return (1.0 / np.maximum(s2, SCHUR_FLOOR)).astype(np.float32)
+
+    def schur_scale(self) -> np.ndarray | None:
+        """The pore-scale pressure block ``D^-1`` (float32, 0 off the pressure cells): the
+        stored scale, or the decoded one-byte code (:func:`solvers.voxel.schur.schur_code`);
+        None for the identity."""
+        if self.p_scale is not None:
+            return self.p_scale
+        code = None if self.coarse_p is None else self.coarse_p.stored_code
+        return None if code is None else schur.CODE_TABLE[code] * (self.fluid != 0)
+
+    def weight(self, a: int) -> np.ndarray | None:
+        """Dense face weights of component ``a`` (None for the staircase: all 1)."""
+        if self.cut is not None:
+            return self.cut.weight(a, self.d[a])
+        return None if self.w is None else self.w[a]
+
+    def diagonal(self, a: int) -> np.ndarray:
+        """Dense diagonal of component ``a`` of the operator the Krylov solve uses."""
+        if self.cut is not None:
+            return self.cut.diagonal(a, self.d[a])
+        return self.d[a].astype(np.float64)
 
     def _mask_in_code(self) -> None:
         """Let the staircase's one-byte pressure scale code (:func:`solvers.voxel.schur.
@@ -867,28 +919,41 @@ class _Stokes:
             return cls(fluid, ops, acts, **mg_kw)
         if phi is None:
             res = [bd.component_coefficients(a, fluid=~solid, walls=walls) for a in range(3)]
-        else:
-            res = []
-            for a in range(3):  # one component's face distance at a time: 16 B per cell less
-                face = bd.face_distance(phi, a)
-                if rve is not None and a == d:
-                    bd.rve_plane_faces(face, phi, d, list(rve))
-                res.append(bd.component_coefficients(a, phi_faces={a: face}, walls=walls))
-                del face
-        acts = [r[2] for r in res]
-        forces = [r[3] for r in res]
-        cells = ~solid if phi is None else bd.pressure_cells(acts, forces)
-        return cls(cells, [(r[0], r[1]) for r in res], acts, forces, **mg_kw)
+            acts = [r[2] for r in res]
+            return cls(~solid, [(r[0], r[1]) for r in res], acts, **mg_kw)
+        ops, coos = [], []
+        for a in range(3):  # one component at a time, compressed at once (cutfaces.compress)
+            face = bd.face_distance(phi, a)
+            if rve is not None and a == d:
+                bd.rve_plane_faces(face, phi, d, list(rve))
+            diag, c, act, weight = bd.component_coefficients(a, phi_faces={a: face}, walls=walls)
+            del face, act
+            d8, coo = cf.compress(diag, weight)
+            del diag, weight
+            ops.append((d8, c))
+            coos.append(coo)
+        cells = cf.pressure_cells([o[0] for o in ops], coos)
+        cut = cf.finish(coos, cells.shape)
+        del coos
+        return cls(cells, ops, None, cut=cut, **mg_kw)
 
     def lanczos(self, x: np.ndarray, s: float, c1: float, y: np.ndarray) -> float:
         """``y <- s K x - c1 y`` in place (``y`` unread if ``c1 == 0``; ``s = 1, c1 = 0`` is the
         product ``y = K x``); returns ``x . y``."""
+        if self.cut is not None:
+            return float(
+                cf.stokes_lanczos_cut(*self.d, *self.c, self.fluid, *self.cut.arrays, x, s, c1, y)
+            )
         if self.w is None:
             return float(lz.stokes_lanczos(*self.d, *self.c, self.fluid, x, s, c1, y))
         return float(lz.stokes_lanczos_w(*self.d, *self.c, self.fluid, *self.w, x, s, c1, y))
 
     def residual(self, x: np.ndarray, gdir: int, r: np.ndarray) -> tuple[float, float]:
-        if self.w is None:
+        if self.cut is not None:
+            rr, ff = cf.stokes_residual_cut(
+                *self.d, *self.c, self.fluid, *self.cut.arrays, x, gdir, r
+            )
+        elif self.w is None:
             rr, ff = kr.stokes_residual(*self.d, *self.c, self.fluid, x, gdir, r)
         else:
             rr, ff = kr.stokes_residual_w(*self.d, *self.c, self.fluid, *self.w, x, gdir, r)

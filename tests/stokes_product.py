@@ -20,7 +20,7 @@ def stokes_product(op, x: np.ndarray) -> np.ndarray:
     p = x[3].astype(np.float64)
     div = np.zeros(p.shape)
     for a in range(3):
-        d = op.d[a].astype(np.float64)
+        d = op.diagonal(a)
         act = d > 0
         q = x[a].astype(np.float64) * act
         aq = d * q
@@ -28,7 +28,8 @@ def stokes_product(op, x: np.ndarray) -> np.ndarray:
             c_lo = act & np.roll(act, 1, axis=b)
             aq -= c_lo * np.roll(q, 1, axis=b)
             aq -= np.roll(c_lo, -1, axis=b) * np.roll(q, -1, axis=b)
-        w = op.w[a].astype(np.float64) if op.w is not None else act.astype(np.float64)
+        wa = op.weight(a)
+        w = wa.astype(np.float64) if wa is not None else act.astype(np.float64)
         aq += w * (p - np.roll(p, 1, axis=a))
         y[a] = np.where(act, aq, 0.0)
         wq = w * q

@@ -5,7 +5,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
 * geometry: 16 bytes per voxel (float32 distance, uint8 count, uint16 mark, bool solid and a
   float64 temporary; ``benchmarks/RESULTS.md``: 7 bytes per voxel of fields);
 * voxel Stokes solver: :data:`solvers.voxel.memory.BYTES_PER_CELL` (sub-voxel walls, the
-  larger figure) per *solved* cell: a permeameter solves ``copies`` stacked copies of the RVE
+  larger figure, plus the box walls' couplings) per *solved* cell: a permeameter solves
+  ``copies`` stacked copies of the RVE
   (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, its first
   solve) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
@@ -26,10 +27,11 @@ import math
 
 from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES
 from psdesign.schema.types import fail
-from solvers.voxel.memory import BYTES_PER_CELL
+from solvers.voxel.memory import BYTES_PER_CELL, WALL_COUPLING_BYTES
 
 GEOMETRY_BYTES_PER_VOXEL = 16
-VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"]
+#: sub-voxel walls with the permeameter's box walls (their couplings stored), the larger figure
+VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"] + WALL_COUPLING_BYTES
 MEMORY_FRACTION = 0.5
 #: The most memory the *default* FEM lattice step may plan for (:func:`fem_lattice_step`): a
 #: little under half of the 24 GB reference machine (it reports 23.5 GiB), fixed so that the

@@ -33,22 +33,26 @@ solve holds at its peak (Krylov phase) and checked against the traced peak
   periodic grids: :data:`WALL_COUPLING_BYTES`); the staircase's one-byte pressure scale code
   1 B (formed at set-up, so its temporaries stay off the peak), 0 off the pressure cells, so it
   is the pressure-cell mask too (``_Stokes._mask_in_code``); sub-voxel walls keep a 1 B mask;
-* sub-voxel walls add float32 diagonals (+9 B), face weights (12 B), the pressure scaling
-  (4 B), float32 first coarse levels (+3 B) and the pressure-cell mask (1 B), less the
-  staircase's scale code (1 B); the
-  caller's float64 distance (8 B) comes on top while the caller holds it (the solve frees its
-  own references after the set-up).  Their set-up (one component's float64 face distance and
-  two float64 temporaries at a time, :func:`solvers.voxel.boundary.component_coefficients`)
-  stays below the Krylov phase: 103 B per cell traced on the Toray-like 64^3 grid.
+* sub-voxel walls keep the staircase's storage (uint8 diagonals, rounded, uint8 first coarse
+  levels, the one-byte scale code as the mask, :mod:`solvers.voxel.cutfaces`) and add their
+  cut faces: 6 B each (position, the diagonal's remainder and the weight), 0.43 per cell on
+  the Toray-like grids (14 % of each component's active faces), 0.47 on the square cylinder
+  array of the tests; counted as :data:`CUT_FACES_PER_CELL` per cell, 3 B (session 9, before
+  the cut-face storage: +27 B).  The caller's float64 distance (8 B) comes on top while the
+  caller holds it (the solve frees its own references after the set-up).  Their set-up (one
+  component's float64 face distance and two float64 temporaries at a time,
+  :func:`solvers.voxel.boundary.component_coefficients`, each component compressed at once)
+  stays below the Krylov phase: 80 B per cell traced on the Toray-like 64^3 grid.
 
 Sum, staircase, periodic: 96 B with SYMMLQ on a grid whose unknowns are all active (the
 bound counted here: the estimate is made before the grid is known), 87 B at the Toray-like
-grids' active fraction 0.77; sub-voxel 124 B (all active); with MINRES 112 B with float32
+grids' active fraction 0.77; sub-voxel 99 B (all active); with MINRES 112 B with float32
 directions, 104 B with 16-bit directions from the second cycle, 98 B with 16-bit directions
 throughout; 8 B less with SYMMLQ for ``tol >=`` :data:`SHORT_SOLUTION_FROM`.  Traced (numpy
 allocations, ``python benchmarks/bench_voxel_scale.py memory 64``, issue 16 session 9, tol
-1e-6): 84.2 B per cell staircase and 115.5 B sub-voxel on the Toray-like 64^3 grid, 87.9 B on
-PuMA fibres_32 (86.6 / 118.8 / 95.0 B with :data:`SHORT_SOLUTION_FROM` at 1e-5;
+1e-6): 80.7 B per cell staircase and 85.4 B sub-voxel on the Toray-like 64^3 grid, 87.9 B on
+PuMA fibres_32 (session 10, with the cut-face storage; session 9: 84.2 / 115.5 / 87.9 B, and
+86.6 / 118.8 / 95.0 B with :data:`SHORT_SOLUTION_FROM` at 1e-5;
 session 8: 88.4 / 119.6 / 97.5 B; session 7: 88.4 / 133.0 / 97.5 B; MINRES, session 5:
 113.7 / 143.2 / 115.6 B).  The process's peak RSS adds the interpreter, numba and the caller (about
 0.3 GB): Toray-like 400^3, ``bench_voxel_scale.py 400 x``, 5 820 248 KiB = 5.96e9 B, the
@@ -109,7 +113,18 @@ WALL_COUPLING_BYTES = 9
 """The finest couplings of the three components, stored only where box walls cut some (the
 permeameter: :func:`solver_bytes` ``walls=True``)."""
 
-_FIXED = {"staircase": 48 + 4 + 3 + 1, "subvoxel": 48 + 4 + 3 + 1 + 9 + 12 + 4 + 3}
+CUT_FACE_BYTES = 6
+"""Bytes of one cut face (:class:`solvers.voxel.cutfaces.CutFaces`: uint16 position, int16
+remainder of the diagonal, uint16 weight)."""
+
+CUT_FACES_PER_CELL = 0.5
+"""Cut faces per cell counted for sub-voxel walls (the three components together; measured
+0.43 on the Toray-like grids, 0.47 on the square cylinder array of the memory test)."""
+
+_FIXED = {
+    "staircase": 48 + 4 + 3 + 1,
+    "subvoxel": 48 + 4 + 3 + 1 + round(CUT_FACES_PER_CELL * CUT_FACE_BYTES),
+}
 """Bytes per cell besides the solution and the directions (module docstring)."""
 
 _SMALL_GRID = 8
@@ -164,7 +179,7 @@ def solver_bytes(
     ``walls``: box walls, i.e. the
     permeameter, whose cut couplings are stored, :data:`WALL_COUPLING_BYTES`)."""
     per = BYTES_PER_CELL[wall_treatment] + _tol_extra(tol)
-    if walls and wall_treatment == "staircase":  # the sub-voxel figure covers them already
+    if walls:
         per += WALL_COUPLING_BYTES
     return per * float(n_cells)
 

@@ -215,13 +215,20 @@ CODE_TABLE = (2.0 ** ((np.arange(256) - 32) / CODE_STEPS)).astype(np.float32)
 diagonal gives at most 1e4)."""
 
 
-def schur_code(diags: list[np.ndarray], floor: float) -> np.ndarray:
+def schur_code(
+    diags: list[np.ndarray], floor: float, faces: list[np.ndarray] | None = None
+) -> np.ndarray:
     """One-byte code of the staircase pressure scale ``1 / max(floor, sum over the cell's faces
     of 1 / A_ff)`` (the diagonal of ``G^T diag(A)^-1 G``; 1 in a wall-free box), nearest
-    entry of :data:`CODE_TABLE`."""
+    entry of :data:`CODE_TABLE`.  ``faces``: each component's ``w_f^2 / A_ff`` instead of
+    ``1 / A_ff`` (sub-voxel weights, :meth:`solvers.voxel.cutfaces.CutFaces.scale_inverse`)."""
     s2 = np.zeros(diags[0].shape, np.float32)
     for a, da in enumerate(diags):
-        q = np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+        if faces is not None:
+            q = faces[a]
+            faces[a] = None  # freed as it is summed
+        else:
+            q = np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
         s2 += q
         s2 += np.roll(q, -1, axis=a)
         del q
@@ -418,6 +425,15 @@ class CoarsePressure:
         return float(
             pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
         )
+
+    def use_code(self, code: np.ndarray) -> None:
+        """Take a scale code formed by the caller (sub-voxel weights, :func:`schur_code`)."""
+        self._code = code
+
+    @property
+    def stored_code(self) -> np.ndarray | None:
+        """The scale code in use (None before the first :meth:`code` or :meth:`use_code`)."""
+        return self._code
 
     def code(self, diags: list[np.ndarray], floor: float) -> np.ndarray:
         """The staircase scale code (:func:`schur_code`), formed on first use and kept

@@ -172,18 +172,18 @@ def test_memory_budget_refuses_a_1200_cube_before_allocating(monkeypatch):
 
 
 def test_memory_budget_counts_the_stacked_permeameter(monkeypatch, tmp_path, capsys):
-    """A 220 um cube at 1 um on the voxel route, b the solver's bytes per solved cell with
-    sub-voxel walls (solvers.voxel.memory, 132 B): the permeameter with one copy adds two
-    reservoirs of 0.2 (16 + b x 1.4 B per voxel, 1.99 GiB); "auto" counts 2 copies
-    (max(16, 5 x 3) + b x 2.4 B, 3.3 GiB). A 3 GiB budget holds one copy but not the stack
-    (for any b from 120 to 204 B): refused up front, naming flow.permeameter_copies."""
-    from solvers.voxel.memory import BYTES_PER_CELL
-
-    b = BYTES_PER_CELL["subvoxel"]
+    """A 230 um cube at 1 um on the voxel route, b the solver's bytes per solved cell with
+    sub-voxel walls and the permeameter's box walls (solvers.voxel.memory, 107 + 9 B): the
+    permeameter with one copy adds two reservoirs of 0.2 (16 + b x 1.4 B per voxel, 2.02 GiB);
+    "auto" counts 2 copies (max(16, 5 x 3) + b x 2.4 B, 3.34 GiB). A 3 GiB budget holds one
+    copy but not the stack (for any b from 104 to 177 B): refused up front, naming
+    flow.permeameter_copies."""
+    b = budget.VOXEL_SOLVER_BYTES_PER_VOXEL
+    assert 104 <= b <= 177  # the premise's range
     monkeypatch.setattr(budget, "machine_memory", lambda: 6 * 2**30)
-    doc = with_(SPEC, "rve.size", [220e-6] * 3)
+    doc = with_(SPEC, "rve.size", [230e-6] * 3)
     doc = with_(doc, "flow", {"solver": "voxel", "bc": "permeameter"})
-    n = 220.0**3
+    n = 230.0**3
     stack, one = n * (16 + b * 2.4), n * (16 + b * 1.4)
     assert budget.grid_bytes(n, "voxel", 2, 0.2) == pytest.approx(stack)
     assert budget.grid_bytes(n, "voxel", 1, 0.2) == pytest.approx(one)

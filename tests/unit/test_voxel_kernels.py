@@ -14,6 +14,7 @@ import pytest
 from stokes_product import stokes_product
 
 from solvers.voxel import boundary as bd
+from solvers.voxel import cutfaces as cf
 from solvers.voxel import kernels as kr
 from solvers.voxel import lanczos as lz
 from solvers.voxel import multigrid as mg
@@ -166,7 +167,8 @@ def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
     if weighted:
         phi = rng.random(shape) - 0.25  # sub-voxel walls: float32 weights in (0, 1]
         op = vs._Stokes.build(phi <= 0, phi)
-        assert op.w is not None and 0.0 < float(op.w[0][op.w[0] > 0].min()) < 1.0
+        w0 = op.weight(0)
+        assert op.cut is not None and 0.0 < float(w0[w0 > 0].min()) < 1.0
     else:
         op = vs._Stokes.build(~_fluid(shape, seed=9))
     x = rng.standard_normal(op.shape).astype(np.float32)
@@ -181,7 +183,7 @@ def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
     r = np.empty(op.shape, np.float32)
     rn, fn = op.residual(x.astype(np.float64), 1, r)
     f = np.zeros(op.shape)
-    f[1] = op.w[1] if weighted else (op.d[1] > 0)
+    f[1] = op.weight(1) if weighted else (op.d[1] > 0)
     expect = f - kx
     assert np.abs(r - expect).max() <= 1e-5 * np.abs(expect).max()
     assert rn == pytest.approx(float(np.linalg.norm(expect)), rel=1e-5)
@@ -217,7 +219,7 @@ def test_unit_couplings_give_the_products_of_the_stored_ones(weighted: bool, chu
     # the float64 residual
     r_unit, r_full = np.empty_like(x), np.empty_like(x)
     if weighted:
-        kr.stokes_residual_w(*op.d, *cs, op.fluid, *op.w, x, 0, r_full)
+        cf.stokes_residual_cut(*op.d, *cs, op.fluid, *op.cut.arrays, x, 0, r_full)
     else:
         kr.stokes_residual(*op.d, *cs, op.fluid, x, 0, r_full)
     op.residual(x, 0, r_unit)
@@ -226,7 +228,7 @@ def test_unit_couplings_give_the_products_of_the_stored_ones(weighted: bool, chu
     l_unit, l_full = np.full_like(x, 0.5), np.full_like(x, 0.5)
     dot_unit = op.lanczos(x, 0.7, 0.3, l_unit)
     if weighted:
-        dot_full = lz.stokes_lanczos_w(*op.d, *cs, op.fluid, *op.w, x, 0.7, 0.3, l_full)
+        dot_full = cf.stokes_lanczos_cut(*op.d, *cs, op.fluid, *op.cut.arrays, x, 0.7, 0.3, l_full)
     else:
         dot_full = lz.stokes_lanczos(*op.d, *cs, op.fluid, x, 0.7, 0.3, l_full)
     assert np.array_equal(l_unit, l_full) and dot_unit == float(dot_full)

@@ -124,7 +124,7 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     if subvoxel:
         monkeypatch.setattr(vs, "COARSE_PRESSURE", True)
         op = vs._Stokes.build(solid, phi)
-        assert op.p_scale is not None
+        assert op.schur_scale() is not None
     assert op.coarse_p.live.any()
     r = rng.standard_normal(op.shape).astype(np.float32)
     r[:3] *= np.stack([dd > 0 for dd in op.d])
@@ -137,7 +137,7 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     zc = np.zeros_like(r[3])
     _coarse(op.coarse_p, r[3], zc)
     if subvoxel:
-        fine = r[3] * op.p_scale
+        fine = r[3] * op.schur_scale()
     else:
         fine = r[3] * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
     assert np.allclose(z[3], fine + zc, rtol=1e-5, atol=1e-5 * float(np.abs(z[3]).max()))
