@@ -32,6 +32,7 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 from solvers.voxel import memory as vmem
+from solvers.voxel import simd
 from solvers.voxel.kernels import _dn, _momentum_row_w, _on, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
@@ -665,11 +666,18 @@ def direction24_value(wt: np.ndarray, wm: np.ndarray) -> np.ndarray:
 
 @nb.njit(inline="always")
 def _gather(mr, zr, zc):
-    """The entries of ``zr`` where ``mr != 0`` into ``zc`` (branch-free); returns how many."""
+    """The entries of ``zr`` where ``mr != 0`` into ``zc``; returns how many.  Sixteen at a time
+    by :func:`solvers.voxel.simd.compress16` (the scalar loop below, which LLVM does not
+    vectorise, cost about 6 ms of CPU per iteration at 200^3), the rest of the row branch-free."""
+    n = zr.shape[0]
     c = 0
-    for k in range(zr.shape[0]):
-        zc[c] = zr[k]
-        c += mr[k] != 0
+    k = 0
+    while k + simd.WIDTH <= n:
+        c += simd.compress16(zr, mr, zc, k, c)
+        k += simd.WIDTH
+    for t in range(k, n):
+        zc[c] = zr[t]
+        c += mr[t] != 0
     return c
 
 
