@@ -110,6 +110,17 @@ def _ends(nz):
 
 
 @nb.njit(inline="always")
+def _on(dk):
+    """1 on an active unknown (``dk != 0``), else 0, as float32: masks are applied by
+    multiplying with it, after every operand is loaded.  A conditional expression
+    ``val if dk != 0 else 0`` made LLVM load the operands with AVX-512 *masked* loads, which
+    stall on memory here (the first Jacobi sweep from zero streamed at 1.6x the one-thread triad
+    time with them, at 0.97x without; ``benchmarks/RESULTS.md``, vec10).  An inactive entry
+    may then read -0.0 instead of 0.0 (equal in every comparison and sum)."""
+    return np.float32(dk != 0)
+
+
+@nb.njit(inline="always")
 def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
     """out[:] = (A x) on one row along k from 1-D row views (0 where ``dr == 0``).
 
@@ -127,8 +138,7 @@ def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
             + czr[k] * xr[k - 1]
             + czr[k + 1] * xr[k + 1]
         )
-        val = dr[k] * xr[k] - s
-        out[k] = val if dr[k] != 0 else 0.0
+        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
     for e in range(_ends(nz)):
         k = 0 if e == 0 else nz - 1
         km = _dn(k, nz)
@@ -141,8 +151,7 @@ def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
             + czr[k] * xr[km]
             + czr[kp] * xr[kp]
         )
-        val = dr[k] * xr[k] - s
-        out[k] = val if dr[k] != 0 else 0.0
+        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
 
 
 @nb.njit(inline="always")
@@ -155,13 +164,11 @@ def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
     nz = dr.shape[0]
     for k in range(1, nz - 1):
         s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[k - 1] + xr[k + 1]
-        val = dr[k] * xr[k] - s
-        out[k] = val if dr[k] != 0 else 0.0
+        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
     for e in range(_ends(nz)):
         k = 0 if e == 0 else nz - 1
         s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[_dn(k, nz)] + xr[_up(k, nz)]
-        val = dr[k] * xr[k] - s
-        out[k] = val if dr[k] != 0 else 0.0
+        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
 
 
 @nb.njit(inline="always")
@@ -195,7 +202,7 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
     dr = d[i, j]
     br = b[i, j]
     for k in range(out.shape[0]):
-        out[k] = br[k] - out[k] if dr[k] != 0 else 0.0
+        out[k] = (br[k] - out[k]) * _on(dr[k])
 
 
 @parallel_kernel(**_OPTS)
@@ -248,7 +255,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
                     dr = d[i, j]
                     br = b[i, j]
                     for k in range(nz):
-                        acc[k] += br[k] - row[k] if dr[k] != 0 else 0.0
+                        acc[k] += (br[k] - row[k]) * _on(dr[k])
             out = rc[ic, jc]
             out[:] = 0.0
             _sum_row(acc, fz, out)
@@ -271,7 +278,7 @@ def _jacobi_row(dr, xr, br, ax, omega, out):
     s = 0.0
     om = np.float32(omega)
     for k in range(out.shape[0]):
-        val = xr[k] + (br[k] - ax[k]) * _damping(dr[k], om) if dr[k] != 0 else np.float32(0.0)
+        val = (xr[k] + (br[k] - ax[k]) * _damping(dr[k], om)) * _on(dr[k])
         out[k] = val
         s += np.float64(br[k]) * np.float64(val)
     return s
@@ -311,7 +318,7 @@ def _zero_row(dr, br, omega, out):
     Jacobi sweep from 0."""
     om = np.float32(omega)
     for k in range(out.shape[0]):
-        out[k] = br[k] * _damping(dr[k], om) if dr[k] != 0 else np.float32(0.0)
+        out[k] = br[k] * _damping(dr[k], om) * _on(dr[k])
 
 
 @nb.njit(inline="always")
@@ -412,7 +419,7 @@ def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
         xr = x[i, j]
         orow = out[j]
         for k in range(nz):
-            orow[k] = xr[k] + ex[k] if dr[k] != 0 else xr[k]
+            orow[k] = xr[k] + ex[k] * _on(dr[k])
 
 
 @parallel_kernel(**_OPTS)

@@ -32,7 +32,8 @@ import numpy as np
 
 from solvers.jit import parallel_kernel
 from solvers.voxel import memory as vmem
-from solvers.voxel.kernels import _dn, _momentum_row_w, _stencil_rows, _unit, _up
+from solvers.voxel import simd
+from solvers.voxel.kernels import _dn, _momentum_row_w, _on, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -82,9 +83,15 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     dr = d[i, j]
     xr = q[i, j]
     acc = 0.0
-    for k in range(nz):
-        kl = k - shift if k >= shift else k - shift + nz
-        v = np.float32(row[k] + (pr[k] - plow[kl])) if dr[k] != 0 else row[k]
+    # the first ``shift`` entries wrap along k; the rest is one branch-free loop (the mask
+    # multiplies: kernels._on)
+    for k in range(shift):
+        v = row[k] + (pr[k] - plow[k - shift + nz]) * _on(dr[k])
+        val = s * v - c1 * yr[k] if c1 != 0.0 else s * v
+        yr[k] = val
+        acc += np.float64(xr[k]) * np.float64(val)
+    for k in range(shift, nz):
+        v = row[k] + (pr[k] - plow[k - shift]) * _on(dr[k])
         val = s * v - c1 * yr[k] if c1 != 0.0 else s * v
         yr[k] = val
         acc += np.float64(xr[k]) * np.float64(val)
@@ -119,13 +126,21 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
     s_y = 0.0
     im = _dn(i, nx)
     ip = _up(i, nx)
+    # one equation over the whole plane at a time (the rows of one momentum component, then the
+    # continuity rows): about 9 arrays streamed at once instead of about 25 when the four rows
+    # of each (i, j) were formed together, which the hardware prefetchers did not follow
+    # (-15 % CPU at 200^3, the same values; benchmarks/RESULTS.md, vec10)
     for j in range(ny):
-        jm = _dn(j, ny)
+        s_y += _momentum_lanczos(du, cu, u, p[i, j], p[im, j], 0, i, j, s, c1, y[0, i, j], row)
+    for j in range(ny):
+        pr = p[i, j]
+        s_y += _momentum_lanczos(dv, cv, v, pr, p[i, _dn(j, ny)], 0, i, j, s, c1, y[1, i, j], row)
+    for j in range(ny):
+        pr = p[i, j]
+        s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
+    for j in range(ny):
         jp = _up(j, ny)
         pr = p[i, j]
-        s_y += _momentum_lanczos(du, cu, u, pr, p[im, j], 0, i, j, s, c1, y[0, i, j], row)
-        s_y += _momentum_lanczos(dv, cv, v, pr, p[i, jm], 0, i, j, s, c1, y[1, i, j], row)
-        s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
         ur = u[i, j]
         uip = u[ip, j]
         vr = v[i, j]
@@ -133,11 +148,9 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
         wr = w[i, j]
         fr = fluid[i, j]
         for k in range(nz - 1):
-            val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]
-            row[k] = val if fr[k] != 0 else 0.0
+            row[k] = (ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]) * _on(fr[k])
         k = nz - 1
-        val = ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]
-        row[k] = val if fr[k] != 0 else 0.0
+        row[k] = (ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]) * _on(fr[k])
         s_y += _combine(row, s, c1, y[3, i, j], pr)
     return s_y
 
@@ -168,16 +181,19 @@ def _lanczos_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, i):
     s_y = 0.0
     im = _dn(i, nx)
     ip = _up(i, nx)
+    # one equation over the whole plane at a time, as in :func:`_lanczos_slab`
     for j in range(ny):
-        jm = _dn(j, ny)
+        _momentum_row_w(du, cu, u, p[i, j], p[im, j], 0, wu[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
+    for j in range(ny):
+        _momentum_row_w(dv, cv, v, p[i, j], p[i, _dn(j, ny)], 0, wv[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
+    for j in range(ny):
+        _momentum_row_w(dw, cw, w, p[i, j], p[i, j], 1, ww[i, j], i, j, row)
+        s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
+    for j in range(ny):
         jp = _up(j, ny)
         pr = p[i, j]
-        _momentum_row_w(du, cu, u, pr, p[im, j], 0, wu[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
-        _momentum_row_w(dv, cv, v, pr, p[i, jm], 0, wv[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
-        _momentum_row_w(dw, cw, w, pr, pr, 1, ww[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
         ur = u[i, j]
         uip = u[ip, j]
         vr = v[i, j]
@@ -199,7 +215,7 @@ def _lanczos_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, i):
                 + c0[k] * wr[k]
                 - c0[kp] * wr[kp]
             )
-            row[k] = val if fr[k] != 0 else 0.0
+            row[k] = val * _on(fr[k])
         s_y += _combine(row, s, c1, y[3, i, j], pr)
     return s_y
 
@@ -650,11 +666,18 @@ def direction24_value(wt: np.ndarray, wm: np.ndarray) -> np.ndarray:
 
 @nb.njit(inline="always")
 def _gather(mr, zr, zc):
-    """The entries of ``zr`` where ``mr != 0`` into ``zc`` (branch-free); returns how many."""
+    """The entries of ``zr`` where ``mr != 0`` into ``zc``; returns how many.  Sixteen at a time
+    by :func:`solvers.voxel.simd.compress16` (the scalar loop below, which LLVM does not
+    vectorise, cost about 6 ms of CPU per iteration at 200^3), the rest of the row branch-free."""
+    n = zr.shape[0]
     c = 0
-    for k in range(zr.shape[0]):
-        zc[c] = zr[k]
-        c += mr[k] != 0
+    k = 0
+    while k + simd.WIDTH <= n:
+        c += simd.compress16(zr, mr, zc, k, c)
+        k += simd.WIDTH
+    for t in range(k, n):
+        zc[c] = zr[t]
+        c += mr[t] != 0
     return c
 
 

@@ -270,3 +270,51 @@ def test_short_storage_reaches_the_tolerance() -> None:
     assert tight["converged"] and info["converged"] and info["residual"] <= 1e-5
     assert len(info["history"]) >= 3  # a second cycle ran, on the short storage
     assert np.abs(x[:3] - ref[:3]).max() <= 1e-4 * np.abs(ref[:3]).max()
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("shape", [(6, 5, 1), (5, 6, 2), (7, 6, 9)])
+def test_product_on_short_and_odd_rows(shape: tuple[int, int, int], weighted: bool) -> None:
+    """``y <- s K x - c1 y`` against the numpy product (:mod:`stokes_product`) on rows of 1, 2
+    and 9 entries: the rows' periodic ends (the pressure term of the component along k wraps
+    at k = 0) and the masks applied by multiplication (vec10: ``kernels._on``); the inactive
+    entries stay zero."""
+    rng = np.random.default_rng(21)
+    if weighted:
+        phi = rng.random(shape) - 0.25
+        op = vs._Stokes.build(phi <= 0, phi)
+    else:
+        op = vs._Stokes.build(rng.random(shape) < 0.3)
+    active = np.stack([*(d > 0 for d in op.d), op.fluid > 0])
+    x = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    y0 = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    want = 1.3 * stokes_product(op, x) - 0.4 * y0
+    y = y0.copy()
+    xy = op.lanczos(x, 1.3, 0.4, y)
+    assert np.abs(y - want).max() <= 1e-6 * np.abs(want).max()
+    assert np.all(y[~active] == 0.0) and np.abs(want).max() > 1.0
+    assert xy == pytest.approx(float(np.dot(x.ravel().astype(np.float64), y.ravel())), rel=1e-6)
+
+
+@pytest.mark.parametrize("mask_dtype", [np.uint8, np.float32])
+def test_gather_keeps_the_active_entries_in_order(mask_dtype) -> None:
+    """``lanczos._gather`` (16 entries at a time by ``simd.compress16``, the rest of the row one
+    by one) equals numpy's boolean indexing on rows shorter than, equal to and longer than 16,
+    with empty and full masks."""
+    import numba as nb
+
+    @nb.njit
+    def gather(mr, zr, zc):
+        return lz._gather(mr, zr, zc)
+
+    rng = np.random.default_rng(5)
+    for n in (1, 15, 16, 17, 40, 203):
+        for density in (0.0, 0.3, 1.0):
+            mr = (rng.random(n) < density).astype(mask_dtype) * rng.integers(1, 4, n)
+            mr = mr.astype(mask_dtype)
+            zr = rng.standard_normal(n).astype(np.float32)
+            zc = np.full(n, np.nan, np.float32)
+            c = gather(mr, zr, zc)
+            want = zr[mr != 0]
+            assert c == want.size
+            assert np.array_equal(zc[:c], want)

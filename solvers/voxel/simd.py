@@ -1,0 +1,64 @@
+"""Vector instructions LLVM does not derive from a plain loop, as numba intrinsics.
+
+``compress16``: the entries of 16 consecutive float32 values whose mask entry is non-zero, stored
+contiguously (``llvm.masked.compressstore``: one AVX-512 ``vcompressps`` where the CPU has it,
+scalar code that LLVM writes otherwise).  LLVM does not vectorise the compress loop ``zc[c] =
+zr[k]; c += m[k] != 0`` (each store address depends on the previous count): at 200^3 it took
+2.4 ms per field against 0.84 ms for a plain copy, about 6 ms of CPU per Krylov iteration in
+:func:`solvers.voxel.lanczos.symmlq_step` (``benchmarks/RESULTS.md``, vec10).
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
+
+WIDTH = 16
+"""Entries per :func:`compress16` call."""
+
+
+@intrinsic
+def compress16(typingctx, src, mask, dst, k, c):
+    """``dst[c : c + n] = src[k : k + 16][mask[k : k + 16] != 0]``; returns ``n`` (int64).
+
+    ``src``, ``dst``: 1-D contiguous float32 arrays; ``mask``: 1-D contiguous uint8 or float32;
+    the caller keeps ``k + 16 <= len(src)`` and ``c + n <= len(dst)`` (no bounds checks)."""
+    for arr in (src, mask, dst):
+        if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout in "CA"):
+            raise TypingError("compress16 takes 1-D arrays")
+    if src.dtype != types.float32 or dst.dtype != types.float32:
+        raise TypingError("compress16 moves float32 entries")
+    if mask.dtype not in (types.uint8, types.float32):
+        raise TypingError("compress16 takes a uint8 or float32 mask")
+    sig = types.int64(src, mask, dst, types.int64, types.int64)
+
+    def codegen(context, builder, signature, args):
+        src_v, mask_v, dst_v, k_v, c_v = args
+        sa = context.make_array(signature.args[0])(context, builder, src_v)
+        ma = context.make_array(signature.args[1])(context, builder, mask_v)
+        da = context.make_array(signature.args[2])(context, builder, dst_v)
+        f32 = ir.FloatType()
+        vf = ir.VectorType(f32, WIDTH)
+        sv = builder.load(builder.bitcast(builder.gep(sa.data, [k_v]), vf.as_pointer()), align=1)
+        mp = builder.gep(ma.data, [k_v])
+        if signature.args[1].dtype == types.uint8:
+            vb = ir.VectorType(ir.IntType(8), WIDTH)
+            mv = builder.load(builder.bitcast(mp, vb.as_pointer()), align=1)
+            on = builder.icmp_unsigned("!=", mv, ir.Constant(vb, None))
+        else:
+            mv = builder.load(builder.bitcast(mp, vf.as_pointer()), align=1)
+            on = builder.fcmp_unordered("!=", mv, ir.Constant(vf, None))
+        mod = builder.module
+        store_ty = ir.FunctionType(
+            ir.VoidType(), [vf, f32.as_pointer(), ir.VectorType(ir.IntType(1), WIDTH)]
+        )
+        store = cgutils.get_or_insert_function(mod, store_ty, "llvm.masked.compressstore.v16f32")
+        builder.call(store, [sv, builder.gep(da.data, [c_v]), on])
+        i16 = ir.IntType(16)
+        popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i16, [i16]), "llvm.ctpop.i16")
+        return builder.zext(builder.call(popcnt, [builder.bitcast(on, i16)]), ir.IntType(64))
+
+    return sig, codegen
