@@ -32,7 +32,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
-from solvers.voxel.kernels import _dn, _stencil, _up
+from solvers.voxel.kernels import _dn, _on, _stencil, _up
 from solvers.voxel.lanczos import _combine, _momentum_lanczos
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
@@ -326,7 +326,7 @@ def _divergence_row(ur, uip, vr, vjp, wr, fr, out):
             + np.float64(wr[k])
             - np.float64(wr[kp])
         )
-        out[k] = val if fr[k] != 0 else 0.0
+        out[k] = val * _on(fr[k])  # a multiply, not a select: kernels._on
 
 
 @nb.njit(inline="always")
