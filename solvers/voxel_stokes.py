@@ -1017,6 +1017,14 @@ class MinresWork:
         self.u = self.u1 = None
         self.u, self.u1 = lz.Directions(shp, bits), lz.Directions(shp, bits)
 
+    def widen(self) -> None:
+        """SYMMLQ's direction back in float32 (zero) after 24-bit storage (:meth:`narrow`),
+        for the cycles after :meth:`solvers.voxel.lanczos.Solution.widen`."""
+        if self.w is not None and self.wm.size:
+            size = self.w.size
+            self.w = self.wm = None
+            self.w, self.wm = np.zeros(size, np.float32), np.zeros(0, np.uint8)
+
 
 def _solution_parts(x: lz.Solution | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(hi, lo, scale)`` of a :class:`solvers.voxel.lanczos.Solution`, or of a float array
@@ -1242,14 +1250,14 @@ def _true_residual(
     return rn, bn
 
 
-def _later_bits(work: MinresWork, tol: float) -> int:
+def _later_bits(work: MinresWork, short: bool) -> int:
     """Storage bits of the directions from the second refinement cycle on: SYMMLQ's
     :data:`solvers.voxel.memory.LATER_SYMMLQ_BITS` where the solution's extension is int8
-    (``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`), else float32; MINRES'
+    (``short``: :meth:`solvers.voxel.lanczos.Solution.short`), else float32; MINRES'
     :data:`solvers.voxel.memory.LATER_DIRECTION_BITS`."""
     if work.w is None:
         return vmem.LATER_DIRECTION_BITS
-    return vmem.LATER_SYMMLQ_BITS if tol >= vmem.SHORT_SOLUTION_FROM else 32
+    return vmem.LATER_SYMMLQ_BITS if short else 32
 
 
 def _solve_core(
@@ -1279,7 +1287,7 @@ def _solve_core(
             break
         if total > 0:
             if not x.extended:  # the directions narrow where the solution widens (memory)
-                work.narrow(_later_bits(work, tol))
+                work.narrow(_later_bits(work, x.short(tol)))
             x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None
@@ -1303,6 +1311,14 @@ def _solve_core(
             break
         stalls = stalls + 1 if not new < 0.5 * rel else 0
         rel = new
+        if stalls and rel > tol and x.short(tol):
+            # the int8 extension's floor: go on with int16 and float32 directions
+            x.widen()
+            work.widen()
+            stalls = 0
+            rn, _ = _true_residual(op, x, d, r, work)  # of the folded solution
+            rel = rn / bn
+            history.append(rel)
         if not np.isfinite(rel) or stalls >= 3:
             message = "stalled: the residual stopped decreasing"
             break

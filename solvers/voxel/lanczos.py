@@ -305,6 +305,7 @@ class Solution:
         self.hi = np.zeros(shape if packing is None else packing.size, np.float32)
         self.lo = np.zeros((0,) * self.hi.ndim, np.int16)
         self.scale = np.ones(shape[0])
+        self.widened = False
 
     def _field(self, arr: np.ndarray, a: int) -> np.ndarray:
         return arr[a] if self.packing is None else self.packing.field(arr, a)
@@ -321,7 +322,7 @@ class Solution:
         (:meth:`_row_scales`)."""
         if self.extended:
             return
-        short = self.packing is not None and tol >= vmem.SHORT_SOLUTION_FROM
+        short = self.short(tol)
         dtype = np.int32 if tol < LO32_BELOW else np.int8 if short else np.int16
         bits = self.LO_BITS_BELOW[np.dtype(dtype).itemsize]
         fields = [self._field(self.hi, a) for a in range(self.shape[0])]
@@ -333,6 +334,30 @@ class Solution:
         if short:
             self.scale = self._row_scales(bits)
         self.lo = np.zeros(self.hi.shape, dtype)
+
+    def short(self, tol: float) -> bool:
+        """True when :meth:`extend` gives the int8 extension at ``tol``: a packed solution,
+        ``tol >=`` :data:`solvers.voxel.memory.SHORT_SOLUTION_FROM`, not :meth:`widen`-ed."""
+        return self.packing is not None and tol >= vmem.SHORT_SOLUTION_FROM and not self.widened
+
+    def widen(self) -> None:
+        """Fold the int8 extension into ``hi`` (float32 rounding) and make the next
+        :meth:`extend` an int16 one: the way past the int8 extension's residual floor, which
+        lies just above ``tol`` 1e-6 on some grids (hexagonal array along the rods, phi 0.1, 82
+        voxels per spacing, two cells, permeameter: the residual stalled at 1.05e-6;
+        ``benchmarks/RESULTS.md``, session 10).  One field at a time, so the fold's temporaries
+        are two float32 arrays of one field."""
+        if self.lo.dtype == np.int8:
+            pk = self.packing
+            per = pk.shape[1] * pk.shape[2]
+            for a, mask in enumerate(pk.masks):
+                rows = np.count_nonzero(mask, axis=2).ravel()
+                scales = np.repeat(self.scale[a * per : (a + 1) * per], rows)
+                hi = pk.field(self.hi, a)
+                hi += pk.field(self.lo, a) * scales
+            self.lo = np.zeros((0,) * self.hi.ndim, np.int16)
+            self.scale = np.ones(self.shape[0])
+        self.widened = True
 
     ROW_RANGE = 8
     """Row scales (int8 extension) are at most ``2^ROW_RANGE`` below their field's: an entry

@@ -139,6 +139,45 @@ def _exact(d) -> np.ndarray:
     return (d.q.reshape(-1, b) * d.e[:, None].astype(float)).reshape(d.q.shape)
 
 
+def test_widen_folds_the_int8_extension_into_float32() -> None:
+    # Solution.widen: hi + lo * scale rounded to float32 (within half an ulp of the 40-bit
+    # value), no extension left, and the next extend is int16 with one scale per field
+    op, pk, active, _, rng = _packed_case()
+    x = lz.Solution(op.shape, pk)
+    x.hi[:] = rng.standard_normal(pk.size) * 10.0 ** rng.uniform(-4, 0, pk.size)
+    hi0 = x.hi.copy()
+    x.extend(1e-6)
+    assert x.lo.dtype == np.int8 and x.short(1e-6)
+    x.lo[:] = rng.integers(-127, 128, pk.size)
+    v0 = x.value()
+    x.widen()
+    v1 = x.value()
+    assert not x.extended and not x.short(1e-6)
+    assert np.all(np.abs(v1 - v0) <= 2.0**-24 * np.abs(v0) * (1 + 1e-9))
+    assert np.mean(x.hi != hi0) > 0.5  # the extension was folded in, not dropped
+    x.extend(1e-6)
+    assert x.lo.dtype == np.int16 and x.scale.size == 4
+
+
+def test_short_storage_widens_where_it_stalls(monkeypatch) -> None:
+    # an int8 extension 6 bits coarser (scale 2^(E - 26)) floors the true residual at ~3e-6
+    # on a rod array along the flow (velocities ~80 voxel units), above tol 1e-6: the
+    # refinement folds it into float32 and goes on in int16 (Solution.widen, MinresWork.widen)
+    # and converges, instead of stopping as stalled (with the real int8 scale: hexagonal array
+    # along the rods, 82 voxels per spacing, permeameter, stalled at 1.05e-6;
+    # benchmarks/RESULTS.md, session 10)
+    x, y = np.meshgrid(np.arange(24) + 0.5, np.arange(24) + 0.5, indexing="ij")
+    rod = np.repeat(((x - 12) ** 2 + (y - 12) ** 2 < 16)[:, :, None], 8, axis=2)
+    op = vs._Stokes.build(rod)
+    ref, tight = vs._solve_core(op, 2, 1e-9, 500)
+    monkeypatch.setitem(lz.Solution.LO_BITS_BELOW, 1, 26)
+    u, info = vs._solve_core(op, 2, 1e-6, 500)
+    assert tight["converged"] and info["converged"] and info["residual"] <= 1e-6
+    hist = info["history"]
+    assert any(b > a for a, b in zip(hist[:-1], hist[1:], strict=True))  # the fold
+    assert np.abs(u[:3] - ref[:3]).max() <= 1e-5 * np.abs(ref[:3]).max()
+
+
 @pytest.mark.parametrize("weighted", [False, True])
 def test_packing_keeps_every_vector_of_the_solve(weighted: bool) -> None:
     # lanczos.Packing stores SYMMLQ's direction and the solution on the active unknowns only:
