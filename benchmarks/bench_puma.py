@@ -191,14 +191,19 @@ PUMA_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREAD
 
 def _puma_plan(n: int, args: argparse.Namespace, done: list[dict]) -> tuple[int, str | None]:
     """PuMA's ``maxiter`` at ``n`` (full or capped), or a refusal when the peak RSS extrapolated
-    from the grids already measured exceeds ``--puma-mem-limit-gb``."""
-    pts = [(r["n"] ** 3, r["puma"]["rss_mb"]) for r in done if "rss_mb" in r["puma"]]
+    from the two largest grids already measured exceeds ``--puma-mem-limit-gb``.
+
+    Only the two largest: the interpreter's ~150 MB dominates the small grids, and a fit
+    through all of them (N^0.61 over 32-160) predicted 5.0 GB for 200^3 where the last two
+    (N^0.94) predict 7.7 GB."""
+    pts = sorted((r["n"] ** 3, r["puma"]["rss_mb"]) for r in done if "rss_mb" in r["puma"])[-2:]
     if len(pts) >= 2:
         a, b = _power_fit(*zip(*pts, strict=True))
         need = a * (n**3) ** b / 1024.0
         if need > args.puma_mem_limit_gb:
             return 0, (
-                f"refused: peak RSS extrapolated from {len(pts)} grids (N^{b:.2f}) "
+                f"refused: peak RSS extrapolated from {pts[0][0]:.0f} and {pts[1][0]:.0f} "
+                f"voxels (N^{b:.2f}) "
                 f"{need:.1f} GB > --puma-mem-limit-gb {args.puma_mem_limit_gb}"
             )
     return (10000 if n <= args.puma_full_max else args.puma_capped_iters), None
@@ -224,8 +229,11 @@ def run_grid(n: int, args: argparse.Namespace, done: list[dict], bw: float) -> d
             env = {**os.environ, **PUMA_ENV}
             env.pop("PYTHONPATH", None)  # PuMA's venv sees neither psdesign nor numba
             row["load_before_puma"] = os.getloadavg()[0]
-            pm, rss = _time_v([*cmd, str(maxiter)], env)
-            row["puma"] = {**pm, "rss_mb": rss, "maxiter": maxiter}
+            try:
+                pm, rss = _time_v([*cmd, str(maxiter)], env)
+                row["puma"] = {**pm, "rss_mb": rss, "maxiter": maxiter}
+            except RuntimeError as exc:  # e.g. killed for memory: keep the other rows
+                row["puma"] = {"error": str(exc), "maxiter": maxiter}
         row["load_after"] = os.getloadavg()[0]
     return row
 
