@@ -14,13 +14,18 @@ unit viscosity and body force, as PuMA was run for ``tests/data/README-puma.md``
 Above ``--puma-full-max`` voxels per side PuMA runs only ``--puma-capped-iters`` MINRES
 iterations: its set-up time, its time per iteration and its peak memory are measured, and its
 full time is estimated from the iteration growth of the full runs (printed as an estimate).
-A grid whose PuMA memory, extrapolated from the grids already measured, exceeds
+A grid whose PuMA memory, extrapolated from the two largest grids measured, exceeds
 ``--puma-mem-limit-gb`` is refused (printed as such).
 
 Usage (the run recorded in ``benchmarks/RESULTS.md``, issue 16 item 7)::
 
-    NUMBA_NUM_THREADS=1 nice -n 19 python benchmarks/bench_puma.py \\
-        --puma-python /work/venv-puma/bin/python 32 64 96 128 200 --out /tmp/puma_runs.jsonl
+    NUMBA_NUM_THREADS=1 PYTHONPATH=$PWD nice -n 19 python benchmarks/bench_puma.py \\
+        --puma-python /work/venv-puma/bin/python 32 64 96 128 160 200 --out /tmp/puma_runs.jsonl
+
+The 32/64 rows alone (about 7 min on this machine, PuMA's 64^3 solve most of it)::
+
+    NUMBA_NUM_THREADS=1 PYTHONPATH=$PWD python benchmarks/bench_puma.py \\
+        --puma-python /work/venv-puma/bin/python 32 64
 
 Building pumapy 3.2.2 from NASA's source into its own venv (never a psdesign dependency; the
 PyPI name ``pumapy`` is an unrelated package)::
@@ -59,7 +64,9 @@ PUMA_TOL = 1e-7  # PuMA's recommended MINRES tolerance (tests/data/README-puma.m
 TEN_RODS_SEED = 8  # seed 0-39 whose 64^3 porosity (0.9608) is nearest fibres_64's 0.9613
 
 
-def ten_rods(n: int, seed: int = TEN_RODS_SEED, count: int = 10, diameter: float = 0.07):
+def ten_rods(
+    n: int, seed: int = TEN_RODS_SEED, count: int = 10, diameter: float = 0.07
+) -> np.ndarray:
     """Ten random straight rods in the unit cube, ``n^3`` voxels (True = solid), the family of
     PuMA's ``fibres_32`` / ``fibres_64`` (whose generator is not in the repository).
 
