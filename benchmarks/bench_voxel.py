@@ -37,6 +37,8 @@ from psdesign.flow.voxel import column_of
 from solvers.voxel_stokes import solve_voxel_stokes
 
 BENCH = Path(__file__).resolve().parents[1] / "tests" / "data"  # vendored peer geometry
+# PuMA K_zz, s, MB as recorded from another machine run (tests/data/README-puma.md), printed as
+# labels only; bench_puma.py runs PuMA itself beside psdesign in one run.
 PUMA = {32: (0.009785, 77.7, 211), 64: (0.010145, 1201.0, 500)}
 
 
