@@ -71,9 +71,11 @@ system ``[[A, G], [G^T, 0]]`` with the block-diagonal preconditioner ``diag(V_u,
   lanczos.Solution`); each run reduces its preconditioned residual by up to
   ``INNER_RTOL_FLOOR`` and restarts on the new residual; the reported
   ``residual`` is always the true float64 ``||b - K x|| / ||b||``.  ``converged`` is True only
-  when that reaches ``tol``; exhausting ``max_iter`` MINRES iterations, three refinement cycles
-  without halving the residual, or loss of positivity of the preconditioner (round-off) stop
-  the solve with ``converged=False`` and a ``message``.
+  when that reaches ``tol``; a cycle that does not halve the residual while the solution has
+  the short int8 extension widens it first (:meth:`solvers.voxel.lanczos.Solution.widen`:
+  int16 and float32 directions from then on); exhausting ``max_iter`` MINRES iterations, three
+  refinement cycles without halving the residual, or loss of positivity of the preconditioner
+  (round-off) stop the solve with ``converged=False`` and a ``message``.
 
 Measured (Toray-like 48^3-200^3, PuMA and cylinder grids): 40-260 MINRES iterations for 1e-6;
 with an exact velocity solve about two thirds of them remain (the inf-sup constant of the
