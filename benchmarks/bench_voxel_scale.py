@@ -7,6 +7,8 @@ Usage (one size per process, for the peak memory)::
     python benchmarks/bench_voxel_scale.py memory 64   # traced bytes per cell (tracemalloc)
     python benchmarks/bench_voxel_scale.py schur 100 200   # coarse pressure term off / on
     python benchmarks/bench_voxel_scale.py schur-cost 100  # preconditioner time off / on
+    python benchmarks/bench_voxel_scale.py cycles 100 [block]  # iterations per refinement cycle,
+                                                    # Ritz values (coarse pressure block size)
 
 The material is that of ``bench_voxel.py toray`` (7 um straight fibres with a random centre and
 a direction flattened towards the x-y plane, z-component scaled by 0.3, periodic by minimum
@@ -209,6 +211,61 @@ def schur_cost(n: int, repeats: int = 10) -> None:
     )
 
 
+def cycles(n: int, block: int | None = None, direction: str = "x") -> None:
+    """Iterations, true residual and Lanczos (Ritz) spectrum of each refinement cycle of one
+    solve of the ``n`` um box (tol 1e-6), optionally with ``schur.BLOCK = block``: where the
+    iterations grow with the box (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration
+    growth").  The Ritz values are the eigenvalues of the tridiagonal Lanczos matrix of each
+    Krylov run: estimates of the extreme eigenvalues of the preconditioned operator, negative
+    ones from the pressure block."""
+    import solvers.voxel_stokes as vs
+    from psdesign.flow.voxel import column_of
+    from solvers.voxel import schur
+
+    if block is not None:
+        schur.BLOCK = block
+    runs: list[tuple[list[float], list[float]]] = []
+    step0, run0 = vs._lanczos_step, vs.krylov_run
+
+    def step(op, z, r1, r2, beta, oldb, first):  # record alpha_k and beta_k
+        out = step0(op, z, r1, r2, beta, oldb, first)
+        if first:
+            runs.append(([], []))
+        runs[-1][0].append(out[1])
+        runs[-1][1].append(beta)
+        return out
+
+    rtols: list[float] = []
+
+    def run(op, b, x, work, rtol, maxit, report=None):
+        rtols.append(rtol)
+        return run0(op, b, x, work, rtol, maxit, report)
+
+    vs._lanczos_step, vs.krylov_run = step, run
+    solid, _ = _box(n)
+    load0 = os.getloadavg()[0]
+    cpu = time.process_time()
+    res = vs.solve_voxel_stokes(solid, 1e-6, direction, tol=1e-6)
+    cpu = time.process_time() - cpu
+    vs._lanczos_step, vs.krylov_run = step0, run0
+    print(
+        f"{n}^3 block {schur.BLOCK}: K = {column_of(res)['xyz'.index(direction)]:.9e} m^2 "
+        f"{res.iterations} iterations, {cpu:.1f} s CPU, load {load0:.1f} -> "
+        f"{os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+    for i, ((alpha, beta), rtol) in enumerate(zip(runs, rtols, strict=True)):
+        k = len(alpha)
+        ev = np.linalg.eigvalsh(np.diag(alpha) + np.diag(beta[1:k], 1) + np.diag(beta[1:k], -1))
+        neg, pos = ev[ev < 0], ev[ev > 0]
+        print(
+            f"  cycle {i + 1}: rtol {rtol:.2e}, {k} iterations, true residual "
+            f"{res.history[i]:.2e} -> {res.history[i + 1]:.2e}; Ritz negative "
+            f"[{neg.min():.4f}, {neg.max():.5f}], positive [{pos.min():.5f}, {pos.max():.4f}]",
+            flush=True,
+        )
+
+
 def main(argv: list[str]) -> None:
     from psdesign.flow.voxel import column_of
     from solvers import jit
@@ -219,6 +276,9 @@ def main(argv: list[str]) -> None:
         return
     if len(argv) > 1 and argv[1] == "schur-cost":
         schur_cost(int(argv[2]) if len(argv) > 2 else 100)
+        return
+    if len(argv) > 1 and argv[1] == "cycles":
+        cycles(int(argv[2]), int(argv[3]) if len(argv) > 3 else None)
         return
     if len(argv) > 1 and argv[1] == "schur":
         schur_side_by_side([int(a) for a in argv[2:]] or [100, 200])

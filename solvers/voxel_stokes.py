@@ -106,14 +106,16 @@ smoothing sweep of each V-cycle writes straight into the output.
 *Pressure block* (:mod:`solvers.voxel.schur`, :data:`COARSE_PRESSURE`): the inverse diagonal
 of the Schur complement estimate ``G^T diag(A)^-1 G`` (1 in a wall-free box; a one-byte
 logarithmic code, :func:`solvers.voxel.schur.schur_code`, the sub-voxel walls' weighted
-too) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 8^3 cells with the
-Poisson permeability of each block.  The pore-scale part alone leaves the long pressure waves,
+too) plus a coarse Darcy correction ``R^T S_c^+ R`` on blocks of 4^3 cells
+(:data:`solvers.voxel.schur.BLOCK`; 8^3 until session 10) with the Poisson permeability of each
+block.  The pore-scale part alone leaves the long pressure waves,
 whose Schur eigenvalues are ``K_P k^2``, and the MINRES count grew with the box side
 (Toray-like at 1 um: 112 iterations at 48 um, 171 at 96, 206 at 100, 253 at 200, 456 at 400);
 with both parts 94, 121, 151 and 176 at 48, 96, 100 and 200 um; either part alone does not
 help (192 and 182 at 96 um).  Against the fine-grid ``(G^T G)^-1`` term above, the coarse
-term costs one restriction pass over the pressure field and a V-cycle on N / 512 blocks
-(``benchmarks/RESULTS.md``).
+term costs one restriction pass over the pressure field and a V-cycle on N / 64 blocks
+(``benchmarks/RESULTS.md``).  The 4^3 blocks took the count at 100 / 200 um from 153 / 187
+(8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").
 
 Driving force and averages
 --------------------------

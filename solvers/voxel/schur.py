@@ -53,8 +53,9 @@ logarithmic code, :func:`schur_code`).  Either half alone does not cut the itera
 253 -> 176).  Cost per MINRES iteration: the restriction pass and one fused pass writing the
 pressure block (read ``r``, the code and the fluid mask, write ``z``) instead of the former
 copy, and a V-cycle on ``N / BLOCK^3`` blocks: within the noise of the one-level block
-(``bench_voxel_scale.py schur-cost``).  Memory: 1 B per voxel for the staircase code plus about
-0.12 B per voxel for the coarse operator, hierarchy and work arrays.  Similar in spirit to the
+(``bench_voxel_scale.py schur-cost``, 8^3 blocks).  Memory: 1 B per voxel for the staircase code
+plus about 1 B per voxel (4^3 blocks; 0.12 B with 8^3) for the coarse operator, hierarchy and
+work arrays.  Similar in spirit to the
 pore-level multiscale / pore-network preconditioners of Mehmani and co-workers (a coarse
 pore-scale flow model as the coarse space of a Stokes preconditioner).
 """
@@ -86,10 +87,15 @@ __all__ = [
     "pressure_block_scale",
 ]
 
-BLOCK = 8
+BLOCK = 4
 """Cells per axis of a coarse pressure block (the Darcy correction acts on modes longer than
-about two blocks; the uncorrected Darcy modes then have eigenvalues above ``K (pi / BLOCK)^2``,
-about 1 on the Toray-like material)."""
+about two blocks; the uncorrected Darcy modes then have eigenvalues above ``K (pi / BLOCK)^2``).
+4 since session 10 (8 before): the SYMMLQ count to 1e-6 on the Toray-like material at 1 um,
+100 / 200 um boxes, fell from 153 / 187 to 140 / 164 (2 cells: 170 at 200 um; ``SMOOTH`` 1
+instead of 3 at 8 cells: 264), and the smallest preconditioned eigenvalues, which set the
+count's growth with the box, are those of the pressure block (``benchmarks/RESULTS.md``, "Issue
+16 item 4, iteration growth").  Memory: about 1 B per voxel for the coarse operator, its
+hierarchy and work arrays (0.12 B at 8 cells)."""
 
 CYCLES = 4
 """Multigrid-preconditioned iterations for the Poisson velocity ``A^-1 w`` of each component."""
@@ -346,6 +352,8 @@ class CoarsePressure:
         cc = np.stack([np.where(live, t, 0.0) for t in trans]).astype(np.float32)
         self.labels, self.n_comp = self._components(cc, live)
         self.live = live
+        self.n_live = int(live.sum())
+        self.dead = ~live
         self.mg = mg.ScalarMG(dc.astype(np.float32), cc, pre=2)
         self.rc = np.zeros(nc, np.float32)
         self.xc = np.zeros(nc, np.float32)
@@ -396,6 +404,11 @@ class CoarsePressure:
     def _project(self, v: np.ndarray) -> None:
         """Zero mean of ``v`` on every connected component; 0 on dead blocks (in place)."""
         live = self.live
+        if self.n_comp == 1:  # the usual case: two plain passes instead of gathers
+            np.copyto(v, 0.0, where=self.dead)
+            mean = float(v.sum(dtype=np.float64)) / float(self.n_live)
+            np.subtract(v, v.dtype.type(mean), out=v, where=live)
+            return
         lab = self.labels[live]
         vals = v[live].astype(np.float64)
         mean = np.bincount(lab, vals, self.n_comp) / np.bincount(lab, None, self.n_comp)
@@ -445,7 +458,7 @@ class CoarsePressure:
     @property
     def nbytes(self) -> int:
         """Bytes held by the coarse operator, its multigrid hierarchy and work arrays."""
-        total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + self.live.nbytes
+        total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + 2 * self.live.nbytes
         total += sum(p.nbytes for p in self.permeability)
         total += 0 if self._code is None else self._code.nbytes
         for lev in self.mg.levels:

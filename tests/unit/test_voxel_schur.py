@@ -54,28 +54,42 @@ def test_symmetric_positive_semidefinite_and_dot(monkeypatch: pytest.MonkeyPatch
     assert d3 == pytest.approx(float(np.dot(r1.ravel().astype(float), z3.ravel())), rel=1e-5)
 
 
-def test_channel_poisson_permeability_and_components(monkeypatch: pytest.MonkeyPatch) -> None:
-    # plane channels of H = 6 fluid cells between plates: the unit-force velocity along x has
+# (block, plate period, plate thickness): one channel per block along z, for the former block
+# size 8 and the default 4 (``schur.BLOCK``)
+_CHANNELS = [(8, 8, 2), (4, 4, 1)]
+
+
+@pytest.mark.parametrize(("block", "period", "thick"), _CHANNELS)
+def test_channel_poisson_permeability_and_components(
+    monkeypatch: pytest.MonkeyPatch, block: int, period: int, thick: int
+) -> None:
+    # plane channels of H fluid cells between plates: the unit-force velocity along x has
     # the superficial mean phi (H^2 / 12 + 1 / 6) (staircase walls half a cell beyond the last
     # fluid face centre); no velocity unknown crosses a plate, so every channel is its own
     # coarse component and there is no coupling along z
-    solid = _plates()
+    monkeypatch.setattr(schur, "BLOCK", block)
+    solid = _plates(period=period, thick=thick)
     op = _op(solid, monkeypatch)
     cp = op.coarse_p
-    phi = 6 / 8
-    want = phi * (36 / 12 + 1 / 6)
+    h = period - thick
+    phi = h / period
+    want = phi * (h**2 / 12 + 1 / 6)
     for a in (0, 1):
         assert np.allclose(cp.permeability[a], want, rtol=0.02)
-    assert cp.n_comp == 4
+    assert cp.n_comp == solid.shape[2] // period
     assert not np.any(cp.mg.levels[0].c[2])
 
 
-def test_inverts_the_darcy_symbol_on_a_long_wave(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize(("block", "period", "thick"), _CHANNELS)
+def test_inverts_the_darcy_symbol_on_a_long_wave(
+    monkeypatch: pytest.MonkeyPatch, block: int, period: int, thick: int
+) -> None:
     # a pressure wave along x in the channels: per fluid cell the coarse term returns
     # phi s^2 r / (K k_b^2): K the superficial Poisson permeability, k_b^2 = 2 (1 - cos(k b)) /
     # b^2 the coarse discretisation of k^2 (b the block size) and s = sin(k b / 2) /
     # (b sin(k / 2)) the block mean of the unit wave (restriction and injection)
-    solid = _plates()
+    monkeypatch.setattr(schur, "BLOCK", block)
+    solid = _plates(period=period, thick=thick)
     op = _op(solid, monkeypatch)
     n = solid.shape[0]
     x = np.arange(n) + 0.5
@@ -84,8 +98,9 @@ def test_inverts_the_darcy_symbol_on_a_long_wave(monkeypatch: pytest.MonkeyPatch
     z = np.zeros_like(r)
     _coarse(op.coarse_p, r, z)
     b = schur.BLOCK
-    phi = 0.75
-    kperm = phi * (3 + 1 / 6)
+    h = period - thick
+    phi = h / period
+    kperm = phi * (h**2 / 12 + 1 / 6)
     s = np.sin(k * b / 2) / (b * np.sin(k / 2))
     want = phi * s**2 / (kperm * 2 * (1 - np.cos(k * b)) / b**2)
     ratio = float(np.sum(z * r, dtype=float) / np.sum(r * r, dtype=float))
