@@ -1004,30 +1004,26 @@ class MinresWork:
             return cls(op.z, r1, None, None, np.zeros(pk.size, np.float32), pk)
         return cls(op.z, r1, lz.Directions(shp), lz.Directions(shp))
 
-    def narrow(self, bits: int) -> None:
+    def store_directions(self, bits: int) -> None:
         """Store MINRES' directions in ``bits`` (16 or 32) from now on, or SYMMLQ's in 24
         (``bits == 24``: the float32's upper two bytes in ``w`` (uint16) and the third in
-        ``wm``, :func:`solvers.voxel.lanczos.symmlq_step`); new, zero directions, the old ones
+        ``wm``, :func:`solvers.voxel.lanczos.symmlq_step`) or 32 (float32 ``w``, e.g. after
+        :meth:`solvers.voxel.lanczos.Solution.widen`); new, zero directions, the old ones
         freed first, so the peak is that of the wider storage."""
         if self.w is not None:
+            size = self.w.size
             if bits == 24 and self.wm.size == 0:
-                size = self.w.size
                 self.w = None
                 self.w, self.wm = np.zeros(size, np.uint16), np.zeros(size, np.uint8)
+            elif bits == 32 and self.wm.size:
+                self.w = self.wm = None
+                self.w, self.wm = np.zeros(size, np.float32), np.zeros(0, np.uint8)
             return
         if self.u is None or self.u.q.itemsize * 8 == bits:
             return
         shp = self.u.q.shape
         self.u = self.u1 = None
         self.u, self.u1 = lz.Directions(shp, bits), lz.Directions(shp, bits)
-
-    def widen(self) -> None:
-        """SYMMLQ's direction back in float32 (zero) after 24-bit storage (:meth:`narrow`),
-        for the cycles after :meth:`solvers.voxel.lanczos.Solution.widen`."""
-        if self.w is not None and self.wm.size:
-            size = self.w.size
-            self.w = self.wm = None
-            self.w, self.wm = np.zeros(size, np.float32), np.zeros(0, np.uint8)
 
 
 def _solution_parts(x: lz.Solution | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1291,7 +1287,7 @@ def _solve_core(
             break
         if total > 0:
             if not x.extended:  # the directions narrow where the solution widens (memory)
-                work.narrow(_later_bits(work, x.short(tol)))
+                work.store_directions(_later_bits(work, x.short(tol)))
             x.extend(tol)  # the float32 round-off of x would stop the next cycle near 1e-6
         rtol = min(0.5, max(INNER_RTOL_FLOOR, 0.3 * tol / rel))
         report = None
@@ -1316,9 +1312,9 @@ def _solve_core(
         stalls = stalls + 1 if not new < 0.5 * rel else 0
         rel = new
         if stalls and rel > tol and x.short(tol):
-            # the int8 extension's floor: go on with int16 and float32 directions
+            # the int8 extension's floor: go on with int16 (and, at the next cycle's
+            # store_directions, float32 directions)
             x.widen()
-            work.widen()
             stalls = 0
             rn, _ = _true_residual(op, x, d, r, work)  # of the folded solution
             rel = rn / bn

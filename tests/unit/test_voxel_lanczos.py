@@ -162,8 +162,9 @@ def test_widen_folds_the_int8_extension_into_float32() -> None:
 def test_short_storage_widens_where_it_stalls(monkeypatch) -> None:
     # an int8 extension 6 bits coarser (scale 2^(E - 26)) floors the true residual at ~3e-6
     # on a rod array along the flow (velocities ~80 voxel units), above tol 1e-6: the
-    # refinement folds it into float32 and goes on in int16 (Solution.widen, MinresWork.widen)
-    # and converges, instead of stopping as stalled (with the real int8 scale: hexagonal array
+    # refinement folds it into float32 and goes on in int16 and float32 directions
+    # (Solution.widen, MinresWork.store_directions) and converges, instead of stopping as
+    # stalled (with the real int8 scale: hexagonal array
     # along the rods, 82 voxels per spacing, permeameter, stalled at 1.05e-6;
     # benchmarks/RESULTS.md, session 10)
     x, y = np.meshgrid(np.arange(24) + 0.5, np.arange(24) + 0.5, indexing="ij")
