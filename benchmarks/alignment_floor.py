@@ -97,7 +97,7 @@ def _case_rows(cached: Callable, not_run: str, kind: str, flow: str, phi: float,
     return errs, its
 
 
-def bar_floor(kind: str, flow: str, phi: float, n: int, k: float) -> float:
+def bar_floor(phi: float, n: int, k: float) -> float:
     """The error bar's resolution floor ``C (h / R)^q`` of the sub-voxel walls
     (:data:`psdesign.flow.error.FLOOR`) for the array at ``n`` voxels per spacing: a lower
     bound of every bar the product reports there (the bar is at least this)."""
@@ -132,7 +132,7 @@ def alignment_section(cached: Callable, reference_k: Callable, not_run: str) -> 
                     lines.append(f"| {kind} {flow}, phi {phi:g} | {n} | {not_run} | | | | | |")
                     continue
                 mean, sd = _stats(errs)
-                floor = bar_floor(kind, flow, phi, n, reference_k(kind, flow, phi) * (1 + mean))
+                floor = bar_floor(phi, n, reference_k(kind, flow, phi) * (1 + mean))
                 inside = sum(abs(e) <= floor for e in errs)
                 for part in ("all", "resolved") if n >= RESOLVED else ("all",):
                     floor_rows[part][0] += len(errs)
@@ -147,9 +147,12 @@ def alignment_section(cached: Callable, reference_k: Callable, not_run: str) -> 
                 )
             if len(means) == len(ns):
                 summary.append((f"{kind} {flow}, phi {phi:g}", firsts, means, sds, ns))
-    if not summary:
-        return lines
-    lines += [
+    return lines + (_summary_lines(summary, floor_rows) if summary else [])
+
+
+def _summary_lines(summary: list, floor_rows: dict) -> list[str]:
+    """The per-case monotone counts under the three criteria and the bar-floor count."""
+    lines = [
         "",
         "| case | monotone (unshifted) | offset mean monotone | within the floor "
         f"({FLOOR_SIGMAS:g} sd) | sd coarsest -> finest |",
