@@ -41,11 +41,13 @@ the quadrature of the mean) and cylinder arrays converge from one side.
 *Alignment scatter*: K depends on where the wall cuts the cells (a shift of the geometry by a
 fraction of a voxel moves it), standard deviation over sub-voxel shifts 0.03-0.09 % at 32 voxels
 per cylinder spacing, 0.01-0.03 % at 64 (square arrays; ``docs/validation.md``, 'Alignment
-floor'). It is how the face-centred velocity nodes sample the wall: exact wall fractions from the
-analytic distance, exact control-volume fractions or face apertures as ``w_f``, other
-``THETA_MIN``, keeping or merging the lone cells, or the consistent (non-symmetric) Shortley-Weller
-closure all leave it (or make it larger); ``benchmarks/voxel_scatter.py`` and
-``benchmarks/RESULTS.md``, "Issue 12 item 3, alignment scatter (mono11, 2026-12-02)".
+floor'). It is how the face-centred velocity nodes sample the wall: across the cylinders exact
+wall fractions from the analytic distance, exact control-volume fractions or face apertures as
+``w_f``, another ``THETA_MIN``, keeping or merging the lone cells, or the consistent
+(non-symmetric) Shortley-Weller closure all leave it (or make it larger); along them (no pressure
+cells) a ``THETA_MIN`` of 0.005-0.01 cuts it 3-5x at solid fraction 0.3, not at 0.1
+(``benchmarks/voxel_scatter.py``; ``benchmarks/RESULTS.md``, "Issue 12 item 3, alignment scatter
+(mono11, 2026-12-02)").
 
 *Box walls* (``walls``: axes whose two box faces are walls instead of periodic seams): the face
 on the box face is pinned (no penetration); a tangential component loses its neighbour across
