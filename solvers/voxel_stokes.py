@@ -1232,9 +1232,14 @@ def krylov_run(
 PROGRESS_EVERY = 25
 """Krylov iterations between two progress reports."""
 
-INNER_RTOL_FLOOR = 1e-4
-"""Smallest relative reduction asked of one float32 Krylov run (float32 round-off floor; 1e-5
-with SYMMLQ: 127 and 164 iterations at 64^3 and 100^3 instead of 126 and 162, no gain)."""
+INNER_RTOL_FLOOR = 1e-5
+"""Smallest relative reduction asked of one float32 Krylov run: the first refinement cycle runs
+to it, down to about the float32 floor of its solution (true residual ~1e-4 after it; 1e-6 goes
+past the floor: 3e-5 only).  1e-5 since session 11 (1e-4 before): the first cycle costs about
+20 iterations per decade at 400^3 against 50 in the later ones, which restart on a rough
+residual; Toray-like at 1 um, 100 / 200 / 300 / 400 um, with :data:`solvers.voxel.schur.WEIGHT`
+0.6: 140 / 157 / 222 / 307 iterations before, 129 / 150 / 187 / 259 after
+(``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)")."""
 
 
 def _true_residual(
