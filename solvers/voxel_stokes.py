@@ -115,7 +115,12 @@ with both parts 94, 121, 151 and 176 at 48, 96, 100 and 200 um; either part alon
 help (192 and 182 at 96 um).  Against the fine-grid ``(G^T G)^-1`` term above, the coarse
 term costs one restriction pass over the pressure field and a V-cycle on N / 64 blocks
 (``benchmarks/RESULTS.md``).  The 4^3 blocks took the count at 100 / 200 um from 153 / 187
-(8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").
+(8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").  Since session 11 the
+coarse term has the weight 0.6 (:data:`solvers.voxel.schur.WEIGHT`) and a third, local term
+for the blocks a fibre cuts into several fluid parts (:mod:`solvers.voxel.block_parts`), and
+the first refinement cycle runs to 1e-5 (:data:`INNER_RTOL_FLOOR`): 140 / 157 / 222 / 307
+iterations at 100 / 200 / 300 / 400 um before, 129 / 150 / ~187 / 259 after ("Issue 16 item 4,
+iteration growth (iter11)").
 
 Driving force and averages
 --------------------------

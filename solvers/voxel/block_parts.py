@@ -25,7 +25,8 @@ correction on a few local subspaces)::
 * ``P`` sums the pressure residual over each fluid part of every *split* block (a block whose
   fluid cells, joined through the velocity unknowns inside the block, form more than one
   connected part); ``P^T`` injects a part value into its cells.  Toray-like at 1 um, 4^3
-  blocks: about 2.6 % of the blocks, 0.2 % of the fluid cells.
+  blocks: 1.2 % of the blocks, 0.2 % of the fluid cells (100 um: 188 split blocks of 15 625,
+  401 parts, 1 808 of 797 610 fluid cells; 200 um: 1 406 blocks, 2 982 parts, 12 136 cells).
 * ``T`` is diagonal: the Darcy transmissibility of the part to the neighbouring blocks, the
   sum over its open faces on the block boundary of the box term's interface transmissibility
   shared equally among the interface's open faces (``K_f A / l / n_open``).  A part with no

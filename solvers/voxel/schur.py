@@ -44,6 +44,10 @@ pore-scale solvers)::
   result projected to zero mean on each component; a tiny diagonal shift
   (:data:`SHIFT`) keeps the coarsest direct solve regular.
 
+The coarse term enters with the weight :data:`WEIGHT` (0.6), and the blocks a fibre cuts into
+several fluid parts get a third, local term (:mod:`solvers.voxel.block_parts`,
+:data:`SPLIT_PARTS`).
+
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
 the box.  ``D`` is the Schur diagonal ``sum over the cell's faces of w_f^2 / A_ff`` (stored in
@@ -109,9 +113,10 @@ WEIGHT = 0.6
 """Weight of the coarse term in the pressure block.  0.6 since session 11 (1.0 before): the
 coarse term over-corrects where the Poisson permeability exceeds the Darcy one (the largest
 negative Ritz value of the preconditioned system, -1.25 / -1.47 / -1.75 at 100 / 200 / 300 um
-with 1.0, -1.05 / -1.17 / -1.37 with 0.6); Toray-like at 1 um, SYMMLQ to 1e-6: 140 -> 124
-iterations at 100 um, 157 -> 147 at 200 um (with the floor 1e-4 and without the split
-parts, 100 um: 0.5 131, 0.7 133; ``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)")."""
+with 1.0, -1.05 / -1.17 / -1.37 with 0.6).  Toray-like at 1 um, SYMMLQ to 1e-6, floor 1e-4,
+with the split parts: 140 -> 124 iterations at 100 um, 157 -> 147 at 200 um; without them,
+100 um: 0.5 131, 0.7 133 (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth
+(iter11)")."""
 
 SPLIT_PARTS = True
 """Add the split blocks' local term :class:`solvers.voxel.block_parts.SplitParts` (a per-part
