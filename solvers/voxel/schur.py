@@ -44,9 +44,9 @@ pore-scale solvers)::
   result projected to zero mean on each component; a tiny diagonal shift
   (:data:`SHIFT`) keeps the coarsest direct solve regular.
 
-The coarse term enters with the weight :data:`WEIGHT` (0.6), and the blocks a fibre cuts into
-several fluid parts get a third, local term (:mod:`solvers.voxel.block_parts`,
-:data:`SPLIT_PARTS`).
+The coarse term enters with the weight :data:`WEIGHT` (0.6); the blocks a fibre cuts into
+several fluid parts can get a third, local term (:mod:`solvers.voxel.block_parts`,
+:data:`SPLIT_PARTS`, off by default).
 
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
@@ -118,9 +118,13 @@ with the split parts: 140 -> 124 iterations at 100 um, 157 -> 147 at 200 um; wit
 100 um: 0.5 131, 0.7 133 (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth
 (iter11)")."""
 
-SPLIT_PARTS = True
+SPLIT_PARTS = False
 """Add the split blocks' local term :class:`solvers.voxel.block_parts.SplitParts` (a per-part
-correction where a block's fluid falls into several parts joined only outside it)."""
+correction where a block's fluid falls into several parts joined only outside it).  Off by
+default: with :data:`WEIGHT` 0.6 and the floor 1e-5 it saves 2 iterations at 100 um (131 -> 129)
+but costs 7 at 300 um (187 -> 194; the far end of the negative spectrum -1.37 -> -1.66: added to
+the box term on the largest part too, it over-corrects) (``benchmarks/RESULTS.md``, "Issue 16
+item 4, iteration growth (iter11)")."""
 
 SHIFT = 1e-4
 """Diagonal shift of the coarse operator relative to its mean diagonal (regularises the constant

@@ -88,10 +88,11 @@ def test_apply_is_symmetric_and_returns_its_energy() -> None:
 
 
 def test_coarse_pressure_holds_the_split_parts(monkeypatch: pytest.MonkeyPatch) -> None:
-    # the walled grid through the solver's set-up: the coarse term finds the same 16 parts and
-    # adds their term to the pressure block (off: the box term alone)
+    # the walled grid through the solver's set-up (the term switched on): the coarse term finds
+    # the 2 x 64 parts and adds their term to the pressure block (off: the box term alone)
     solid = ~_walls(16)
     monkeypatch.setattr(vs, "COARSE_PRESSURE", True)
+    monkeypatch.setattr(schur, "SPLIT_PARTS", True)
     monkeypatch.setattr(schur, "BLOCK", 4)
     op = vs._Stokes.build(solid)
     assert op.coarse_p.parts is not None and op.coarse_p.parts.n_parts == 2 * 64
