@@ -118,7 +118,7 @@ term costs one restriction pass over the pressure field and a V-cycle on N / 64 
 (8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").  Since session 11 the
 coarse term has the weight 0.6 (:data:`solvers.voxel.schur.WEIGHT`) and the first refinement
 cycle runs to 1e-5 (:data:`INNER_RTOL_FLOOR`): 140 / 157 / 222 / 307 iterations at 100 / 200 /
-300 / 400 um before, 131 / ~148 / 187 / 246 after (``benchmarks/RESULTS.md``, "Issue 16 item 4,
+300 / 400 um before, 131 / 150 / 187 / 246 after (``benchmarks/RESULTS.md``, "Issue 16 item 4,
 iteration growth (iter11)"; a local term for the blocks a fibre cuts into several fluid parts,
 :mod:`solvers.voxel.block_parts`, is there but off by default).
 
@@ -1243,7 +1243,7 @@ to it, down to about the float32 floor of its solution (true residual ~1e-4 afte
 past the floor: 3e-5 only).  1e-5 since session 11 (1e-4 before): the first cycle costs about
 20 iterations per decade at 400^3 against 50 in the later ones, which restart on a rough
 residual; Toray-like at 1 um, 100 / 200 / 300 um, with :data:`solvers.voxel.schur.WEIGHT`
-0.6: 140 / 157 / 222 / 307 iterations before, 131 / ~148 / 187 / 246 after
+0.6: 140 / 157 / 222 / 307 iterations before, 131 / 150 / 187 / 246 after
 (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)")."""
 
 

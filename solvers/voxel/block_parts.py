@@ -34,7 +34,7 @@ correction on a few local subspaces)::
 
 The term is symmetric positive semi-definite, so ``M_p`` stays SPD (SYMMLQ / MINRES).  It is
 off by default (:data:`solvers.voxel.schur.SPLIT_PARTS`): with the coarse weight 0.6 and the
-first-cycle floor 1e-5 it took the 100 / 200 / 300 um boxes from 131 / ~148 / 187 to 129 / 150
+first-cycle floor 1e-5 it took the 100 / 200 / 300 um boxes from 131 / 150 / 187 to 129 / 150
 / 194 iterations; added to the box term on the largest part of a block too, it over-corrects
 there (the far end of the negative spectrum at 300 um: -1.37 -> -1.66).  Restricting it to the
 smaller parts (126 instead of 124 at 100 um with the floor 1e-4) was not measured at 300 um.  Cost:
