@@ -115,7 +115,12 @@ with both parts 94, 121, 151 and 176 at 48, 96, 100 and 200 um; either part alon
 help (192 and 182 at 96 um).  Against the fine-grid ``(G^T G)^-1`` term above, the coarse
 term costs one restriction pass over the pressure field and a V-cycle on N / 64 blocks
 (``benchmarks/RESULTS.md``).  The 4^3 blocks took the count at 100 / 200 um from 153 / 187
-(8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").
+(8^3) to 140 / 164 (session 10, "Issue 16 item 4, iteration growth").  Since session 11 the
+coarse term has the weight 0.6 (:data:`solvers.voxel.schur.WEIGHT`) and the first refinement
+cycle runs to 1e-5 (:data:`INNER_RTOL_FLOOR`): 140 / 157 / 222 / 307 iterations at 100 / 200 /
+300 / 400 um before, 131 / 150 / 187 / 246 after (``benchmarks/RESULTS.md``, "Issue 16 item 4,
+iteration growth (iter11)"; a local term for the blocks a fibre cuts into several fluid parts,
+:mod:`solvers.voxel.block_parts`, is there but off by default).
 
 Driving force and averages
 --------------------------
@@ -1232,9 +1237,14 @@ def krylov_run(
 PROGRESS_EVERY = 25
 """Krylov iterations between two progress reports."""
 
-INNER_RTOL_FLOOR = 1e-4
-"""Smallest relative reduction asked of one float32 Krylov run (float32 round-off floor; 1e-5
-with SYMMLQ: 127 and 164 iterations at 64^3 and 100^3 instead of 126 and 162, no gain)."""
+INNER_RTOL_FLOOR = 1e-5
+"""Smallest relative reduction asked of one float32 Krylov run: the first refinement cycle runs
+to it, down to about the float32 floor of its solution (true residual ~1e-4 after it; 1e-6 goes
+past the floor: 3e-5 only).  1e-5 since session 11 (1e-4 before): the first cycle costs about
+20 iterations per decade at 400^3 against 50 in the later ones, which restart on a rough
+residual; Toray-like at 1 um, 100 / 200 / 300 um, with :data:`solvers.voxel.schur.WEIGHT`
+0.6: 140 / 157 / 222 / 307 iterations before, 131 / 150 / 187 / 246 after
+(``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)")."""
 
 
 def _true_residual(

@@ -87,7 +87,8 @@ def test_inverts_the_darcy_symbol_on_a_long_wave(
     # a pressure wave along x in the channels: per fluid cell the coarse term returns
     # phi s^2 r / (K k_b^2): K the superficial Poisson permeability, k_b^2 = 2 (1 - cos(k b)) /
     # b^2 the coarse discretisation of k^2 (b the block size) and s = sin(k b / 2) /
-    # (b sin(k / 2)) the block mean of the unit wave (restriction and injection)
+    # (b sin(k / 2)) the block mean of the unit wave (restriction and injection), times the
+    # term's weight (schur.WEIGHT, 0.6 since session 11; the closed form is that of weight 1)
     monkeypatch.setattr(schur, "BLOCK", block)
     solid = _plates(period=period, thick=thick)
     op = _op(solid, monkeypatch)
@@ -102,7 +103,7 @@ def test_inverts_the_darcy_symbol_on_a_long_wave(
     phi = h / period
     kperm = phi * (h**2 / 12 + 1 / 6)
     s = np.sin(k * b / 2) / (b * np.sin(k / 2))
-    want = phi * s**2 / (kperm * 2 * (1 - np.cos(k * b)) / b**2)
+    want = schur.WEIGHT * phi * s**2 / (kperm * 2 * (1 - np.cos(k * b)) / b**2)
     ratio = float(np.sum(z * r, dtype=float) / np.sum(r * r, dtype=float))
     assert ratio == pytest.approx(want, rel=0.03)
 
