@@ -193,7 +193,9 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
 def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
     """Staircase two-level pressure block in one pass: ``z = table[code] r + weight R^T xc``
     (the Schur diagonal stored as a one-byte logarithmic code, :func:`schur_code`); returns
-    ``r . z`` (float64).  The table look-up (a gather) runs in its own loop into a row buffer."""
+    ``r . z`` (float64).  The table look-up (a gather) runs in its own loop into a row buffer;
+    the injected coarse row is formed once per block row (``fy`` fine rows): formed for every
+    fine row it took half the kernel's time (``benchmarks/RESULTS.md``, band11)."""
     nx, ny, nz = r.shape
     ncx, ncy, ncz = xc.shape
     part = np.zeros(nx)
@@ -202,8 +204,12 @@ def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
         ex = np.empty(nz, np.float32)
         sr = np.empty(nz, np.float32)
         acc = 0.0
+        last = -1
         for j in range(ny):
-            _expand_row(xc[ic, min(j // fy, ncy - 1)], fz, nz, weight, ex)
+            jc = min(j // fy, ncy - 1)
+            if jc != last:
+                _expand_row(xc[ic, jc], fz, nz, weight, ex)
+                last = jc
             cr = code[i, j]
             for k in range(nz):
                 sr[k] = table[cr[k]]
