@@ -788,20 +788,15 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
         for j in range(ny):
             sc = np.float64(xs[(t * ny + j) // per])
             zr = z[a, i, j]
-            _fetch(z[a], i, j)  # the rows a few j ahead (kernels._fetch)
             if a == 0:  # one call per field: the masks' dtypes differ (float32 / uint8)
-                _fetch(du, i, j)
                 p = _packed_row(du[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
                                 row, wrow, bits)  # fmt: skip
             elif a == 1:
-                _fetch(dv, i, j)
                 p = _packed_row(dv[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
                                 row, wrow, bits)  # fmt: skip
             elif a == 2:
-                _fetch(dw, i, j)
                 p = _packed_row(dw[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
                                 row, wrow, bits)  # fmt: skip
             else:
-                _fetch(fluid, i, j)
                 p = _packed_row(fluid[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax,
                                 zc, row, wrow, bits)  # fmt: skip
