@@ -102,3 +102,71 @@ def prefetch_row(typingctx, row):
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+def _has_avx512(context) -> bool:
+    """True when numba compiles for a CPU with AVX-512 F (its target features, which follow
+    ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES``)."""
+    return "+avx512f" in getattr(context.codegen(), "_tm_features", "")
+
+
+@intrinsic
+def code_scale16(typingctx, code, k, mant, shift, out):
+    """``out[k : k + 16] = mant[c & 15] * 2^((c >> 4) + shift)`` for the 16 one-byte codes ``c =
+    code[k : k + 16]``: the power of two is added to the float32 exponent bits, so the result is
+    exactly the product (no rounding; the caller keeps it a normal float32).  With AVX-512 the
+    16-entry look-up is one ``vpermps`` from a register (``llvm.x86.avx512.permvar.sf.512``)
+    instead of a gather from memory; elsewhere LLVM writes it lane by lane.
+
+    ``code``: 1-D contiguous uint8; ``mant``: 16 float32; ``out``: 1-D contiguous float32; the
+    caller keeps ``k + 16 <= len(code)`` and ``len(out)`` (no bounds checks)."""
+    for arr in (code, mant, out):
+        if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout in "CA"):
+            raise TypingError("code_scale16 takes 1-D arrays")
+    if code.dtype != types.uint8 or mant.dtype != types.float32 or out.dtype != types.float32:
+        raise TypingError("code_scale16 takes uint8 codes, float32 mantissas and output")
+    sig = types.void(code, types.int64, mant, types.int64, out)
+
+    def codegen(context, builder, signature, args):
+        code_v, k_v, mant_v, shift_v, out_v = args
+        ca = context.make_array(signature.args[0])(context, builder, code_v)
+        ma = context.make_array(signature.args[2])(context, builder, mant_v)
+        oa = context.make_array(signature.args[4])(context, builder, out_v)
+        i32 = ir.IntType(32)
+        f32 = ir.FloatType()
+        vi8 = ir.VectorType(ir.IntType(8), WIDTH)
+        vi32 = ir.VectorType(i32, WIDTH)
+        vf = ir.VectorType(f32, WIDTH)
+        cp = builder.bitcast(builder.gep(ca.data, [k_v]), vi8.as_pointer())
+        c = builder.zext(builder.load(cp, align=1), vi32)
+        idx = builder.and_(c, ir.Constant(vi32, [15] * WIDTH))
+        table = builder.load(builder.bitcast(ma.data, vf.as_pointer()), align=1)
+        if _has_avx512(context):
+            perm = cgutils.get_or_insert_function(
+                builder.module, ir.FunctionType(vf, [vf, vi32]), "llvm.x86.avx512.permvar.sf.512"
+            )
+            val = builder.call(perm, [table, idx])
+        else:
+            val = ir.Constant(vf, None)
+            for lane in range(WIDTH):
+                e = builder.extract_element(idx, ir.Constant(i32, lane))
+                val = builder.insert_element(
+                    val, builder.extract_element(table, e), ir.Constant(i32, lane)
+                )
+        sh = builder.trunc(shift_v, i32)
+        expo = builder.add(builder.lshr(c, ir.Constant(vi32, [4] * WIDTH)), _splat(builder, sh))
+        bits = builder.add(
+            builder.bitcast(val, vi32), builder.shl(expo, ir.Constant(vi32, [23] * WIDTH))
+        )
+        op = builder.bitcast(builder.gep(oa.data, [k_v]), vf.as_pointer())
+        builder.store(builder.bitcast(bits, vf), op, align=1)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+def _splat(builder, scalar):
+    """A vector of :data:`WIDTH` copies of an i32 ``scalar``."""
+    vty = ir.VectorType(scalar.type, WIDTH)
+    one = builder.insert_element(ir.Constant(vty, None), scalar, ir.Constant(ir.IntType(32), 0))
+    return builder.shuffle_vector(one, ir.Constant(vty, None), ir.Constant(vty, [0] * WIDTH))
