@@ -12,6 +12,10 @@ multigrid smoothers and of the Lanczos product stalled on the first load of each
 streamed from memory; prefetching the rows a few j ahead cut ``stokes_lanczos`` by 20 % and
 ``prolong_jacobi`` by 20 % of their one-thread CPU time at 200^3 (``benchmarks/RESULTS.md``,
 band11).
+
+``code_scale16``: the staircase pressure scales of 16 one-byte codes from 16 mantissas held in a
+register (a permute) and an exponent add, bit-identical to the table look-up, which LLVM
+compiled into a gather (a third of :func:`solvers.voxel.schur.pressure_block_code`'s time).
 """
 
 from __future__ import annotations
@@ -104,19 +108,13 @@ def prefetch_row(typingctx, row):
     return sig, codegen
 
 
-def _has_avx512(context) -> bool:
-    """True when numba compiles for a CPU with AVX-512 F (its target features, which follow
-    ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES``)."""
-    return "+avx512f" in getattr(context.codegen(), "_tm_features", "")
-
-
 @intrinsic
 def code_scale16(typingctx, code, k, mant, shift, out):
     """``out[k : k + 16] = mant[c & 15] * 2^((c >> 4) + shift)`` for the 16 one-byte codes ``c =
     code[k : k + 16]``: the power of two is added to the float32 exponent bits, so the result is
-    exactly the product (no rounding; the caller keeps it a normal float32).  With AVX-512 the
-    16-entry look-up is one ``vpermps`` from a register (``llvm.x86.avx512.permvar.sf.512``)
-    instead of a gather from memory; elsewhere LLVM writes it lane by lane.
+    exactly the product (no rounding; the caller keeps it a normal float32).  The 16-entry
+    look-up is written lane by lane on a vector register, which LLVM compiles into one register
+    permute where the CPU has one (``vpermd`` with AVX-512) instead of a gather from memory.
 
     ``code``: 1-D contiguous uint8; ``mant``: 16 float32; ``out``: 1-D contiguous float32; the
     caller keeps ``k + 16 <= len(code)`` and ``len(out)`` (no bounds checks)."""
@@ -141,18 +139,14 @@ def code_scale16(typingctx, code, k, mant, shift, out):
         c = builder.zext(builder.load(cp, align=1), vi32)
         idx = builder.and_(c, ir.Constant(vi32, [15] * WIDTH))
         table = builder.load(builder.bitcast(ma.data, vf.as_pointer()), align=1)
-        if _has_avx512(context):
-            perm = cgutils.get_or_insert_function(
-                builder.module, ir.FunctionType(vf, [vf, vi32]), "llvm.x86.avx512.permvar.sf.512"
+        # lane l takes table[idx[l]]: LLVM turns this into one register permute (vpermd on
+        # AVX-512) instead of a gather from memory
+        val = ir.Constant(vf, None)
+        for lane in range(WIDTH):
+            e = builder.extract_element(idx, ir.Constant(i32, lane))
+            val = builder.insert_element(
+                val, builder.extract_element(table, e), ir.Constant(i32, lane)
             )
-            val = builder.call(perm, [table, idx])
-        else:
-            val = ir.Constant(vf, None)
-            for lane in range(WIDTH):
-                e = builder.extract_element(idx, ir.Constant(i32, lane))
-                val = builder.insert_element(
-                    val, builder.extract_element(table, e), ir.Constant(i32, lane)
-                )
         sh = builder.trunc(shift_v, i32)
         expo = builder.add(builder.lshr(c, ir.Constant(vi32, [4] * WIDTH)), _splat(builder, sh))
         bits = builder.add(
