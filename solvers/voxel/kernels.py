@@ -26,6 +26,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
+from solvers.voxel import simd
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True, "error_model": "numpy"}
 """Options of every kernel.  The big Stokes kernels (``_stokes_residual``,
@@ -101,6 +102,25 @@ def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
         + cz[i, j, kp] * np.float64(x[i, j, kp])
     )
     return d[i, j, k] * np.float64(x[i, j, k]) - s
+
+
+AHEAD = 4
+"""Rows ahead along j at which the finest-level row loops prefetch the rows they will read from
+memory (:func:`_fetch`)."""
+
+
+@nb.njit(inline="always")
+def _fetch(a, i, j):
+    """Prefetch row ``(i, j + AHEAD)`` of ``a`` (the next plane's row when past the last one):
+    the row loops stalled on the first load of each row stream from memory (a quarter of the
+    samples of ``jacobi`` on one load), which the hardware prefetcher alone did not hide
+    (``benchmarks/RESULTS.md``, band11).  No effect on the values."""
+    nx, ny = a.shape[0], a.shape[1]
+    jj = j + AHEAD
+    if jj < ny:
+        simd.prefetch_row(a[i, jj])
+    elif jj - ny < ny:
+        simd.prefetch_row(a[_up(i, nx), jj - ny])
 
 
 @nb.njit(inline="always")
@@ -297,6 +317,8 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
         row = np.empty(nz, dtype=xnew.dtype)
         s = 0.0
         for j in range(ny):
+            # no prefetch (kernels._fetch) here: -8 % CPU in the parallel twin, but its serial
+            # twin (one-thread solves, coarse levels) ran 1.7x slower with it (band11)
             _apply_row(d, cx, cy, cz, x, i, j, row)
             s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
         acc[i] = s
@@ -342,6 +364,7 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, row, xnew):
     ip = _up(i, nx)
     s = 0.0
     for j in range(ny):
+        _fetch(b, i, j)
         if _unit(d, cx):  # unit_couplings (a separate copy, own indices: as in _apply_row)
             _stencil_rows_unit(d[i, j], p0[j], pm[j], pp[j], p0[_dn(j, ny)], p0[_up(j, ny)], row)
         else:
@@ -411,6 +434,8 @@ def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
     nz = d.shape[2]
     last = -1
     for j in range(d.shape[1]):
+        _fetch(x, i, j)
+        _fetch(d, i, j)
         jc = min(j // fy, ncy - 1)
         if jc != last:
             _expand_row(xc[ic, jc], fz, nz, alpha, ex)

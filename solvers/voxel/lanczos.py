@@ -33,7 +33,7 @@ import numpy as np
 from solvers.jit import parallel_kernel
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
-from solvers.voxel.kernels import _dn, _momentum_row_w, _on, _stencil_rows, _unit, _up
+from solvers.voxel.kernels import _dn, _fetch, _momentum_row_w, _on, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -98,6 +98,15 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     return acc
 
 
+@nb.njit(inline="always")
+def _fetch_momentum(d, q, ya, i, ip, j):
+    """Prefetch the rows of a momentum equation's streams a few j ahead: the diagonal, the
+    component's next plane and the output (kernels._fetch)."""
+    _fetch(d, i, j)
+    _fetch(q, ip, j)
+    _fetch(ya, i, j)
+
+
 @parallel_kernel(**_OPTS)
 def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     """``y <- s K x - c1 y`` in place for the MAC Stokes matrix of
@@ -130,15 +139,23 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
     # continuity rows): about 9 arrays streamed at once instead of about 25 when the four rows
     # of each (i, j) were formed together, which the hardware prefetchers did not follow
     # (-15 % CPU at 200^3, the same values; benchmarks/RESULTS.md, vec10)
+    # each loop prefetches the rows a few j ahead of the arrays it streams from memory
+    # (kernels._fetch; the same values)
     for j in range(ny):
+        _fetch_momentum(du, u, y[0], i, ip, j)
+        _fetch(p, i, j)
         s_y += _momentum_lanczos(du, cu, u, p[i, j], p[im, j], 0, i, j, s, c1, y[0, i, j], row)
     for j in range(ny):
+        _fetch_momentum(dv, v, y[1], i, ip, j)
         pr = p[i, j]
         s_y += _momentum_lanczos(dv, cv, v, pr, p[i, _dn(j, ny)], 0, i, j, s, c1, y[1, i, j], row)
     for j in range(ny):
+        _fetch_momentum(dw, w, y[2], i, ip, j)
         pr = p[i, j]
         s_y += _momentum_lanczos(dw, cw, w, pr, pr, 1, i, j, s, c1, y[2, i, j], row)
     for j in range(ny):
+        _fetch(fluid, i, j)
+        _fetch(y[3], i, j)
         jp = _up(j, ny)
         pr = p[i, j]
         ur = u[i, j]

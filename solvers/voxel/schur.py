@@ -76,6 +76,7 @@ from solvers.jit import parallel_kernel
 from solvers.voxel import block_parts as bp
 from solvers.voxel import kernels as kr
 from solvers.voxel import multigrid as mg
+from solvers.voxel import simd
 
 __all__ = [
     "BLOCK",
@@ -86,6 +87,7 @@ __all__ = [
     "WEIGHT",
     "CoarsePressure",
     "block_sum",
+    "CODE_SHIFT",
     "CODE_TABLE",
     "poisson_velocity",
     "schur_code",
@@ -213,20 +215,34 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
 def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
     """Staircase two-level pressure block in one pass: ``z = table[code] r + weight R^T xc``
     (the Schur diagonal stored as a one-byte logarithmic code, :func:`schur_code`); returns
-    ``r . z`` (float64).  The table look-up (a gather) runs in its own loop into a row buffer."""
+    ``r . z`` (float64).  ``table`` has the structure of :data:`CODE_TABLE` (``table[c] =
+    table[32 + c % 16] 2^(c // 16 + CODE_SHIFT)``): the look-up runs 16 codes at a time by
+    :func:`solvers.voxel.simd.code_scale16` (a register permute and an exponent add, the same
+    float32 values; a gather from the table cost a third of the kernel) into a row buffer.  The
+    injected coarse row is formed once per block row (``fy`` fine rows): formed for every fine
+    row it took half the kernel's time (``benchmarks/RESULTS.md``, band11)."""
     nx, ny, nz = r.shape
     ncx, ncy, ncz = xc.shape
+    mant = table[32:48]
     part = np.zeros(nx)
     for i in nb.prange(nx):
         ic = min(i // fx, ncx - 1)
         ex = np.empty(nz, np.float32)
         sr = np.empty(nz, np.float32)
         acc = 0.0
+        last = -1
         for j in range(ny):
-            _expand_row(xc[ic, min(j // fy, ncy - 1)], fz, nz, weight, ex)
+            jc = min(j // fy, ncy - 1)
+            if jc != last:
+                _expand_row(xc[ic, jc], fz, nz, weight, ex)
+                last = jc
             cr = code[i, j]
-            for k in range(nz):
-                sr[k] = table[cr[k]]
+            k = 0
+            while k + simd.WIDTH <= nz:  # 16 scales from the mantissas in one register
+                simd.code_scale16(cr, k, mant, CODE_SHIFT, sr)
+                k += simd.WIDTH
+            for t in range(k, nz):
+                sr[t] = table[cr[t]]
             acc += _block_row(r[i, j], sr, fluid[i, j], ex, z[i, j])
         part[i] = acc
     return part.sum()
@@ -239,6 +255,16 @@ CODE_STEPS = 16
 CODE_TABLE = (2.0 ** ((np.arange(256) - 32) / CODE_STEPS)).astype(np.float32)
 """Scale of each code: ``2^((c - 32) / 16)``, 0.25 to 1.6e4 (the floor 1e-4 of the Schur
 diagonal gives at most 1e4)."""
+
+CODE_SHIFT = -2
+"""``CODE_TABLE[c] = CODE_TABLE[32 + c % 16] * 2^(c // 16 + CODE_SHIFT)`` exactly (a power of two
+only moves the float32 exponent): :func:`pressure_block_code` forms the scales from the 16
+mantissas ``CODE_TABLE[32:48]`` (:func:`solvers.voxel.simd.code_scale16`)."""
+
+_c = np.arange(256)
+if not np.array_equal(CODE_TABLE, np.ldexp(CODE_TABLE[32 + _c % 16], _c // 16 + CODE_SHIFT)):
+    raise AssertionError("CODE_TABLE is not 16 mantissas times powers of two")
+del _c
 
 
 def schur_code(

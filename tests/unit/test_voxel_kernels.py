@@ -339,3 +339,54 @@ def test_residual_restriction_against_numpy(shape: tuple[int, int, int]) -> None
             kr.residual_restrict(d, *cc, x, b, *f, rc)
             _close(rc, ref)
         assert np.abs(ref).max() > 0.1  # not a trivial comparison
+
+
+@pytest.mark.parametrize("ny", [1, kr.AHEAD - 1, kr.AHEAD, kr.AHEAD + 1, 2 * kr.AHEAD + 3])
+def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
+    """band11: the row loops prefetch row ``(i, j + AHEAD)``, past the last row the next plane's
+    (``kernels._fetch``, ``simd.prefetch_row``), which must never change a value nor read out of
+    the grid: the Jacobi sweep, the two sweeps from zero and the prolongation fused into the
+    first post sweep against float64 numpy on grids with fewer, as many and more rows than
+    ``AHEAD`` (the last plane wraps to plane 0), stored and unit couplings."""
+    import numba as nb
+
+    from solvers.voxel import simd
+
+    shape = (5, ny, 7)
+    rng = np.random.default_rng(30 + ny)
+    d, c = mg.component_operator(_fluid(shape, seed=ny), 0)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    nc = tuple(n // m for n, m in zip(shape, f, strict=True))
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    xc = rng.standard_normal(nc).astype(np.float32)
+    dd = np.where(d > 0, d, 1).astype(np.float64)
+
+    def sweep(x0: np.ndarray) -> np.ndarray:
+        return np.where(d > 0, x0 + 0.9 * (b - _numpy_apply(d, c, x0)) / dd, 0.0)
+
+    idx = np.ix_(
+        *[np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(shape, f, nc, strict=True)]
+    )
+    x_pro = np.where(d > 0, x + 1.6 * xc[idx].astype(np.float64), 0.0)
+    x1 = np.where(d > 0, 0.9 * b / dd, 0.0)
+    for cc in (c, kr.unit_couplings(shape[2])):
+        out = np.full(shape, np.nan, np.float32)
+        kr.jacobi(d, *cc, x, b, out, 0.9)
+        _close(out, sweep(x))
+        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
+        _close(out, sweep(x1))
+        kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
+        _close(out, sweep(x_pro))
+
+    @nb.njit
+    def fetch_all(a):
+        for i in range(a.shape[0]):
+            for j in range(a.shape[1]):
+                kr._fetch(a, i, j)
+                simd.prefetch_row(a[i, j, :0])  # an empty row: no line
+
+    for a in (d, x, np.zeros((2, 3, 0), np.float32)):
+        before = a.copy()
+        fetch_all(a)
+        assert np.array_equal(a, before)

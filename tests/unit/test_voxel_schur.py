@@ -192,3 +192,24 @@ def test_block_sum_and_pressure_block_match_numpy(shape: tuple[int, int, int]) -
         dot = kernel(*args, fluid, r, xc, *f, 0.75, z)
         assert np.allclose(z, z_ref, rtol=1e-6, atol=1e-6)
         assert dot == pytest.approx(float(np.dot(r.ravel().astype(np.float64), z.ravel())))
+
+
+def test_code_scales_sixteen_at_a_time_equal_the_table() -> None:
+    """band11: ``simd.code_scale16`` (16 mantissas in a register, the power of two added to the
+    float32 exponent) gives exactly ``CODE_TABLE[c] = float32(2^((c - 32) / 16))`` for all 256
+    codes (the exact bound: bit-identical scales, so the preconditioner is unchanged)."""
+    import numba as nb
+
+    from solvers.voxel import simd
+
+    @nb.njit(cache=False)
+    def scales(code, mant, out):
+        for k in range(0, code.shape[0] - simd.WIDTH + 1, simd.WIDTH):
+            simd.code_scale16(code, k, mant, schur.CODE_SHIFT, out)
+
+    code = np.random.default_rng(3).permutation(256).astype(np.uint8)
+    out = np.full(256, np.nan, np.float32)
+    scales(code, schur.CODE_TABLE[32:48].copy(), out)
+    want = (2.0 ** ((code.astype(np.float64) - 32) / 16)).astype(np.float32)
+    assert np.array_equal(out.view(np.uint32), want.view(np.uint32))
+    assert np.array_equal(out, schur.CODE_TABLE[code])
