@@ -119,8 +119,8 @@ term costs one restriction pass over the pressure field and a V-cycle on N / 64 
 coarse term has the weight 0.6 (:data:`solvers.voxel.schur.WEIGHT`) and the first refinement
 cycle runs to 1e-5 (:data:`INNER_RTOL_FLOOR`): 140 / 157 / 222 / 307 iterations at 100 / 200 /
 300 / 400 um before, 131 / 150 / 187 / 246 after (``benchmarks/RESULTS.md``, "Issue 16 item 4,
-iteration growth (iter11)"; a local term for the blocks a fibre cuts into several fluid parts,
-:mod:`solvers.voxel.block_parts`, is there but off by default).
+iteration growth (iter11)"; a local term for the blocks a fibre cuts into several fluid parts
+was measured there and not kept).
 
 Driving force and averages
 --------------------------

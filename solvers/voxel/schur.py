@@ -44,9 +44,10 @@ pore-scale solvers)::
   result projected to zero mean on each component; a tiny diagonal shift
   (:data:`SHIFT`) keeps the coarsest direct solve regular.
 
-The coarse term enters with the weight :data:`WEIGHT` (0.6); the blocks a fibre cuts into
-several fluid parts can get a third, local term (:mod:`solvers.voxel.block_parts`,
-:data:`SPLIT_PARTS`, off by default).
+The coarse term enters with the weight :data:`WEIGHT` (0.6).  A third, local term for the
+blocks a fibre cuts into several fluid parts was measured and not kept (it over-corrects from
+300 um on; ``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)"; its code is
+in the history, commit aa21e6c).
 
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
@@ -73,7 +74,6 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from solvers.jit import parallel_kernel
-from solvers.voxel import block_parts as bp
 from solvers.voxel import kernels as kr
 from solvers.voxel import multigrid as mg
 from solvers.voxel import simd
@@ -82,7 +82,6 @@ __all__ = [
     "BLOCK",
     "CYCLES",
     "SHIFT",
-    "SPLIT_PARTS",
     "SMOOTH",
     "WEIGHT",
     "CoarsePressure",
@@ -115,18 +114,9 @@ WEIGHT = 0.6
 """Weight of the coarse term in the pressure block.  0.6 since session 11 (1.0 before): the
 coarse term over-corrects where the Poisson permeability exceeds the Darcy one (the largest
 negative Ritz value of the preconditioned system, -1.25 / -1.47 / -1.75 at 100 / 200 / 300 um
-with 1.0, -1.05 / -1.17 / -1.37 with 0.6).  Toray-like at 1 um, SYMMLQ to 1e-6, floor 1e-4,
-with the split parts: 140 -> 124 iterations at 100 um, 157 -> 147 at 200 um; without them,
-100 um: 0.5 131, 0.7 133 (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth
-(iter11)")."""
-
-SPLIT_PARTS = False
-"""Add the split blocks' local term :class:`solvers.voxel.block_parts.SplitParts` (a per-part
-correction where a block's fluid falls into several parts joined only outside it).  Off by
-default: with :data:`WEIGHT` 0.6 and the floor 1e-5 it saves 2 iterations at 100 um (131 -> 129)
-but costs 7 at 300 um (187 -> 194; the far end of the negative spectrum -1.37 -> -1.66: added to
-the box term on the largest part too, it over-corrects) (``benchmarks/RESULTS.md``, "Issue 16
-item 4, iteration growth (iter11)")."""
+with 1.0, -1.05 / -1.17 / -1.37 with 0.6).  Toray-like at 1 um, SYMMLQ to 1e-6, first-cycle
+floor 1e-5, 100 um: weight 0.5 131, 0.6 131, 0.7 133 iterations (``benchmarks/RESULTS.md``,
+"Issue 16 item 4, iteration growth (iter11)")."""
 
 SHIFT = 1e-4
 """Diagonal shift of the coarse operator relative to its mean diagonal (regularises the constant
@@ -396,10 +386,6 @@ class CoarsePressure:
         shift = SHIFT * float(dc[live].mean()) if live.any() else 0.0
         dc = np.where(live, dc + shift, 0.0)
         cc = np.stack([np.where(live, t, 0.0) for t in trans]).astype(np.float32)
-        self.parts = None
-        if SPLIT_PARTS:  # the split blocks' local term (solvers.voxel.block_parts)
-            per_face = [t / np.maximum(self._opened(ops[a][0], a), 1) for a, t in enumerate(trans)]
-            self.parts = bp.SplitParts(fluid, [o[0] for o in ops], self.f, per_face)
         self.labels, self.n_comp = self._components(cc, live)
         self.live = live
         self.n_live = int(live.sum())
@@ -494,8 +480,6 @@ class CoarsePressure:
         else:
             code = self.code(diags, floor)
             rz = pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
-        if self.parts is not None:
-            rz += self.parts.apply(r, z)
         return float(rz)
 
     def use_code(self, code: np.ndarray) -> None:
@@ -520,7 +504,6 @@ class CoarsePressure:
         total = self.rc.nbytes + self.xc.nbytes + self.labels.nbytes + 2 * self.live.nbytes
         total += sum(p.nbytes for p in self.permeability)
         total += 0 if self._code is None else self._code.nbytes
-        total += 0 if self.parts is None else self.parts.nbytes
         for lev in self.mg.levels:
             total += lev.d.nbytes + lev.c.nbytes + lev.x.nbytes + lev.t.nbytes + lev.b.nbytes
         return int(total)
