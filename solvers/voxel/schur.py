@@ -172,6 +172,17 @@ def _expand_row(xr, fz, nz, weight, ex):
 
 
 @nb.njit(inline="always")
+def _coarse_row(xc, ic, j, fy, fz, nz, weight, ex, last):
+    """Expand the coarse row ``(ic, j // fy)`` into ``ex`` (:func:`_expand_row`) unless ``last``
+    says it is there already; returns its index.  Once per block row, not per fine row: formed
+    for every fine row it took half of :func:`pressure_block_code`'s time (band11)."""
+    jc = min(j // fy, xc.shape[1] - 1)
+    if jc != last:
+        _expand_row(xc[ic, jc], fz, nz, weight, ex)
+    return jc
+
+
+@nb.njit(inline="always")
 def _block_row(rr, sr, fr, ex, zr):
     """``zr = sr rr + ex (fr != 0)`` on one row (``fr`` the pressure-cell mask, or the
     staircase's scale code standing in for it); returns the float64 ``rr . zr``."""
@@ -194,8 +205,9 @@ def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
         ic = min(i // fx, ncx - 1)
         ex = np.empty(nz, np.float32)
         acc = 0.0
+        last = -1
         for j in range(ny):
-            _expand_row(xc[ic, min(j // fy, ncy - 1)], fz, nz, weight, ex)
+            last = _coarse_row(xc, ic, j, fy, fz, nz, weight, ex, last)
             acc += _block_row(r[i, j], scale[i, j], fluid[i, j], ex, z[i, j])
         part[i] = acc
     return part.sum()
@@ -209,8 +221,7 @@ def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
     table[32 + c % 16] 2^(c // 16 + CODE_SHIFT)``): the look-up runs 16 codes at a time by
     :func:`solvers.voxel.simd.code_scale16` (a register permute and an exponent add, the same
     float32 values; a gather from the table cost a third of the kernel) into a row buffer.  The
-    injected coarse row is formed once per block row (``fy`` fine rows): formed for every fine
-    row it took half the kernel's time (``benchmarks/RESULTS.md``, band11)."""
+    injected coarse row is formed once per block row (:func:`_coarse_row`)."""
     nx, ny, nz = r.shape
     ncx, ncy, ncz = xc.shape
     mant = table[32:48]
@@ -222,10 +233,7 @@ def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
         acc = 0.0
         last = -1
         for j in range(ny):
-            jc = min(j // fy, ncy - 1)
-            if jc != last:
-                _expand_row(xc[ic, jc], fz, nz, weight, ex)
-                last = jc
+            last = _coarse_row(xc, ic, j, fy, fz, nz, weight, ex, last)
             cr = code[i, j]
             k = 0
             while k + simd.WIDTH <= nz:  # 16 scales from the mantissas in one register
