@@ -271,8 +271,6 @@ def iteration_bytes(op, fused: bool = True) -> float:
     vec4 = 16.0  # one 4-field float32 vector per cell
     # the operator as stored: the unit_couplings stand-in (periodic grids) streams no couplings
     ops = sum((d.nbytes + c.nbytes) / n for d, c in zip(op.d, op.c, strict=True)) + 1.0
-    if op.w is not None:
-        ops += 12.0
     if getattr(op, "cut", None) is not None:  # the cut faces, read once by each product
         ops += op.cut.nbytes / n
     apply = ops + 3 * vec4  # z read; r1 read and overwritten by s K z - c1 r1 (in place)
@@ -370,7 +368,6 @@ def _fusion_pairs(op, reps: int) -> dict[str, tuple[float, ...]]:
 
 READ_WRITE = {
     "stokes_lanczos": (10,),
-    "stokes_lanczos_w": (13,),
     "stokes_lanczos_cut": (14,),
     "add_scaled": (0,),
     "symmlq_step": (2, 5, 6),
@@ -500,8 +497,8 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
 
     log = KernelLog()
     log.wrap(kr, MG_KERNELS + ("copy_dot", "scale_dot"))
-    log.wrap(lz, ("stokes_lanczos", "stokes_lanczos_w", "add_scaled", "symmlq_step"))
-    log.wrap(schur, ("block_sum", "pressure_block_code", "pressure_block_scale"))
+    log.wrap(lz, ("stokes_lanczos", "add_scaled", "symmlq_step"))
+    log.wrap(schur, ("block_sum", "pressure_block_code"))
     log.wrap(cf, ("stokes_lanczos_cut",))
     try:
         t0 = time.perf_counter()

@@ -38,7 +38,7 @@ _KERNELS = {
         "add_direction",
         "symmlq_step",
     ),
-    "solvers.voxel.schur": ("block_sum", "pressure_block_code", "pressure_block_scale"),
+    "solvers.voxel.schur": ("block_sum", "pressure_block_code"),
 }
 
 

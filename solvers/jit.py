@@ -2,7 +2,7 @@
 
 Compiling a ``parallel=True`` kernel costs 2-3 times the CPU time of the same function compiled
 serially (the parfor passes and the gufunc wrapper; measured on the voxel Stokes kernels:
-``jacobi`` 4.5 s vs 1.9 s, ``stokes_residual_w`` 11.4 s vs 4.3 s), and on one thread the
+``jacobi`` 4.5 s vs 1.9 s, the former weighted residual 11.4 s vs 4.3 s), and on one thread the
 parallel version buys nothing.  Small grids run on one thread
 (:data:`solvers.voxel.threads.PARALLEL_MIN_CELLS`), so a cold start on a small case compiles only
 the serial twins.  Both are compiled lazily on first use (only the specializations a solve

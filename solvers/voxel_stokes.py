@@ -803,21 +803,17 @@ class _Stokes:
         cells: np.ndarray,
         ops: list[tuple[np.ndarray, np.ndarray]],
         acts: list[np.ndarray] | None,
-        forces: list[np.ndarray | None] | None = None,
         cut: cf.CutFaces | None = None,
         **mg_kw: object,
     ) -> None:
         self.fluid = np.ascontiguousarray(cells).view(np.uint8)
         # the active faces are the unknowns with a non-zero diagonal: not stored (3 B per cell)
         del acts
-        self.w = None if forces is None or forces[0] is None else forces
         self.cut = cut
         self.p_scale = None
         self.d = [o[0] for o in ops]
         code = None
-        if self.w is not None and PRESSURE_SCALING:
-            self.p_scale = self._dense_scale(ops)
-        elif cut is not None and PRESSURE_SCALING:
+        if cut is not None and PRESSURE_SCALING:
             # the Schur-diagonal scale as the staircase's one-byte code (4 B per cell less)
             inverse = [cut.scale_inverse(a, da) for a, da in enumerate(self.d)]
             code = schur.schur_code(self.d, SCHUR_FLOOR, inverse)  # frees each as it is summed
@@ -835,27 +831,16 @@ class _Stokes:
         _share_coarse_work(self.mg)
         self.coarse_p = None
         if COARSE_PRESSURE:
-            weights = self.w if cut is None else cf.WeightView(cut, self.d)
+            weights = None if cut is None else cf.WeightView(cut, self.d)
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights)
             if code is not None:
                 self.coarse_p.use_code(code)
-            if self.p_scale is None:  # the staircase's scale code, formed now (its ~13 B per
-                self._mask_in_code()  # cell of temporaries off the peak) and the mask with it
+            # the scale code (the staircase's formed now, its ~13 B per cell of temporaries
+            self._mask_in_code()  # off the peak) is the pressure-cell mask too
         elif code is not None:
             self.p_scale = schur.CODE_TABLE[code]
         del ops
         self._drop_couplings()
-
-    def _dense_scale(self, ops: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        """Pressure block of the preconditioner with dense weights: 1 / diag of the Schur
-        complement estimate (sum of w_f^2 / A_ff over the cell's faces, the wall-free value
-        being 1), float32."""
-        s2 = np.zeros(self.fluid.shape, np.float64)
-        for a, wa in enumerate(self.w):
-            da = ops[a][0]
-            q = np.divide(np.square(wa, dtype=np.float64), da, out=np.zeros(da.shape), where=da > 0)
-            s2 += q + np.roll(q, -1, axis=a)
-        return (1.0 / np.maximum(s2, SCHUR_FLOOR)).astype(np.float32)
 
     def schur_scale(self) -> np.ndarray | None:
         """The pore-scale pressure block ``D^-1`` (float32, 0 off the pressure cells): the
@@ -868,9 +853,7 @@ class _Stokes:
 
     def weight(self, a: int) -> np.ndarray | None:
         """Dense face weights of component ``a`` (None for the staircase: all 1)."""
-        if self.cut is not None:
-            return self.cut.weight(a, self.d[a])
-        return None if self.w is None else self.w[a]
+        return None if self.cut is None else self.cut.weight(a, self.d[a])
 
     def diagonal(self, a: int) -> np.ndarray:
         """Dense diagonal of component ``a`` of the operator the Krylov solve uses."""
@@ -953,19 +936,15 @@ class _Stokes:
             return float(
                 cf.stokes_lanczos_cut(*self.d, *self.c, self.fluid, *self.cut.arrays, x, s, c1, y)
             )
-        if self.w is None:
-            return float(lz.stokes_lanczos(*self.d, *self.c, self.fluid, x, s, c1, y))
-        return float(lz.stokes_lanczos_w(*self.d, *self.c, self.fluid, *self.w, x, s, c1, y))
+        return float(lz.stokes_lanczos(*self.d, *self.c, self.fluid, x, s, c1, y))
 
     def residual(self, x: np.ndarray, gdir: int, r: np.ndarray) -> tuple[float, float]:
         if self.cut is not None:
             rr, ff = cf.stokes_residual_cut(
                 *self.d, *self.c, self.fluid, *self.cut.arrays, x, gdir, r
             )
-        elif self.w is None:
-            rr, ff = kr.stokes_residual(*self.d, *self.c, self.fluid, x, gdir, r)
         else:
-            rr, ff = kr.stokes_residual_w(*self.d, *self.c, self.fluid, *self.w, x, gdir, r)
+            rr, ff = kr.stokes_residual(*self.d, *self.c, self.fluid, x, gdir, r)
         return float(np.sqrt(rr)), float(np.sqrt(ff))
 
     def precondition(self, r: np.ndarray, z: np.ndarray) -> float:
@@ -975,7 +954,7 @@ class _Stokes:
         field is the V-cycles' work array), ``z`` may."""
         rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
         if self.coarse_p is not None:  # two-level pressure block (solvers.voxel.schur)
-            return rz + self.coarse_p.apply(r[3], z[3], self.d, self.p_scale, SCHUR_FLOOR)
+            return rz + self.coarse_p.apply(r[3], z[3], self.d, SCHUR_FLOOR)
         if self.p_scale is None:
             return rz + kr.copy_dot(r[3], z[3])
         return rz + kr.scale_dot(r[3], self.p_scale, z[3])

@@ -345,7 +345,7 @@ def _fix_rows(u, v, w, start, kk, ww, i, j, ip, jp, ny, fr, div):
 def stokes_residual_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, gdir, r):
     """``r = f - K x`` in float64 arithmetic for the matrix of :func:`stokes_lanczos_cut` (``f``
     the face weight on the active faces of ``gdir``); returns ``(||r||^2, ||f||^2)`` (as
-    :func:`solvers.voxel.kernels.stokes_residual_w`)."""
+    :func:`solvers.voxel.kernels.stokes_residual`)."""
     nx = fluid.shape[0]
     acc = np.zeros(nx)
     accf = np.zeros(nx)

@@ -29,8 +29,8 @@ from solvers.jit import parallel_kernel
 from solvers.voxel import simd
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True, "error_model": "numpy"}
-"""Options of every kernel.  The big Stokes kernels (``_stokes_residual``,
-``stokes_lanczos(_w)`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
+"""Options of every kernel.  The big Stokes kernels (``stokes_residual``,
+``stokes_lanczos`` in :mod:`solvers.voxel.lanczos`) and ``galerkin`` are split in two: a
 serial ``@njit(**_OPTS)`` *slab* function (one iteration of the outer loop, an x-plane or a
 coarse x-plane, with every row helper inlined into it) and the
 :func:`~solvers.jit.parallel_kernel` that loops over the slabs (``prange``).  numba's parfor
@@ -610,48 +610,27 @@ def _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, ic):
             czc[ic, jc, kc] = ez
 
 
-@nb.njit(inline="always")
-def _momentum_row_w(d, c, q, pr, plow, shift, wr, i, j, out):
-    """One momentum row of the weighted system: ``out[k] = (A q)[i, j, k] + wr[k] (pr[k] -
-    plow[k - shift])`` (periodic in k); ``plow`` is the pressure row of the cell below the face
-    (``shift = 1`` when it is the same row, for the component along k), ``wr`` the face weights
-    (0 on inactive faces)."""
-    _apply_row(d, c[0], c[1], c[2], q, i, j, out)
-    nz = out.shape[0]
-    for k in range(1, nz):
-        out[k] += wr[k] * (pr[k] - plow[k - shift])
-    out[0] += wr[0] * (pr[0] - plow[(nz - shift) % nz])
-
-
-@nb.njit(inline="always")
-def _weight(w, i, j, k):
-    """Face weight ``w[i, j, k]``, or 1 when ``w`` is empty (staircase: no weights)."""
-    return w[i, j, k] if w.size > 0 else 1.0
-
-
 @parallel_kernel(**_OPTS)
-def _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
+def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
     """r = f - K x in float64 arithmetic (r may be float32) for the symmetric MAC Stokes
-    matrix ``K`` of the module docstring with face weights ``wu, wv, ww`` (cut-cell fluid
-    fractions, 0 on inactive faces: gradient ``w_f (p_i - p_{i-1})``, divergence
-    ``sum_f +-w_f q_f``) or, with empty weight arrays, all weights 1 (the staircase);
-    ``x, r`` have shape (4, nx, ny, nz) = (u, v, w, p).  f = the weight on the active faces of
-    component ``gdir`` (the body force on the cut control volumes; 1 for the staircase).  Returns
-    ``(||r||^2, ||f||^2)``."""
+    matrix ``K`` of the module docstring (staircase walls: every face weight 1; the sub-voxel
+    matrix has its own kernel, :func:`solvers.voxel.cutfaces.stokes_residual_cut`); ``x, r``
+    have shape (4, nx, ny, nz) = (u, v, w, p).  f = 1 on the active faces of component
+    ``gdir`` (the unit body force).  Returns ``(||r||^2, ||f||^2)``."""
     nx = fluid.shape[0]
     acc = np.zeros(nx)
     accf = np.zeros(nx)
     for i in nb.prange(nx):
         acc[i], accf[i] = _stokes_residual_slab(
-            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r, np.int64(i)
+            du, dv, dw, cu, cv, cw, fluid, x, gdir, r, np.int64(i)
         )
     return acc.sum(), accf.sum()
 
 
 @nb.njit(**_OPTS)
-def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r, i):
-    """Plane ``i`` of :func:`_stokes_residual`; returns its ``(||r||^2, ||f||^2)`` (14 parameters:
-    the kernel's and ``i``)."""
+def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, x, gdir, r, i):
+    """Plane ``i`` of :func:`stokes_residual`; returns its ``(||r||^2, ||f||^2)`` (11
+    parameters: the kernel's and ``i``)."""
     nx, ny, nz = fluid.shape
     u = x[0]
     v = x[1]
@@ -671,59 +650,41 @@ def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r,
             for a in range(3):
                 if a == 0:
                     act = du[i, j, k] != 0
-                    wt = _weight(wu, i, j, k)
                 elif a == 1:
                     act = dv[i, j, k] != 0
-                    wt = _weight(wv, i, j, k)
                 else:
                     act = dw[i, j, k] != 0
-                    wt = _weight(ww, i, j, k)
                 if not act:
                     r[a, i, j, k] = 0.0
                     continue
                 if a == 0:
                     val = _stencil(du, cu[0], cu[1], cu[2], u, i, j, k, nx, ny, nz)
-                    val += wt * (pc - np.float64(p[im, j, k]))
+                    val += pc - np.float64(p[im, j, k])
                 elif a == 1:
                     val = _stencil(dv, cv[0], cv[1], cv[2], v, i, j, k, nx, ny, nz)
-                    val += wt * (pc - np.float64(p[i, jm, k]))
+                    val += pc - np.float64(p[i, jm, k])
                 else:
                     val = _stencil(dw, cw[0], cw[1], cw[2], w, i, j, k, nx, ny, nz)
-                    val += wt * (pc - np.float64(p[i, j, km]))
-                f = wt if a == gdir else 0.0
+                    val += pc - np.float64(p[i, j, km])
+                f = 1.0 if a == gdir else 0.0
                 res = f - val
                 r[a, i, j, k] = res
                 s2 += res * res
                 f2 += f * f
             if fluid[i, j, k] != 0:
                 res = -(
-                    _weight(wu, i, j, k) * np.float64(u[i, j, k])
-                    - _weight(wu, ip, j, k) * np.float64(u[ip, j, k])
-                    + _weight(wv, i, j, k) * np.float64(v[i, j, k])
-                    - _weight(wv, i, jp, k) * np.float64(v[i, jp, k])
-                    + _weight(ww, i, j, k) * np.float64(w[i, j, k])
-                    - _weight(ww, i, j, kp) * np.float64(w[i, j, kp])
+                    np.float64(u[i, j, k])
+                    - np.float64(u[ip, j, k])
+                    + np.float64(v[i, j, k])
+                    - np.float64(v[i, jp, k])
+                    + np.float64(w[i, j, k])
+                    - np.float64(w[i, j, kp])
                 )
                 r[3, i, j, k] = res
                 s2 += res * res
             else:
                 r[3, i, j, k] = 0.0
     return s2, f2
-
-
-_NO_WEIGHTS = np.zeros((0, 0, 0), np.float32)
-
-
-def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
-    """r = f - K x for the staircase system (f = 1 on the active faces of ``gdir``),
-    float64 arithmetic.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
-    return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, *(_NO_WEIGHTS,) * 3, x, gdir, r)
-
-
-def stokes_residual_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r):
-    """r = f - K x for the weighted system (face weights ``wu, wv, ww``); f = ``w`` on the faces of
-    component ``gdir``.  Returns ``(||r||^2, ||f||^2)`` (:func:`_stokes_residual`)."""
-    return _stokes_residual(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, gdir, r)
 
 
 @parallel_kernel(**_OPTS)

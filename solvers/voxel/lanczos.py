@@ -18,9 +18,10 @@ about +10 % iterations.  Three float32 4-field vectors remain (``r1, r2, z``): t
 recurrence.
 
 The momentum rows come from :mod:`solvers.voxel.kernels` (the stencil ``_stencil_rows``, fused
-here with the pressure term and the Lanczos combination; ``_momentum_row_w`` for sub-voxel
-walls; both also take :func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are
-the same expressions as in :func:`solvers.voxel.kernels._stokes_residual`.
+here with the pressure term and the Lanczos combination; it also takes
+:func:`solvers.voxel.kernels.unit_couplings`); the continuity rows are the same expressions as
+in :func:`solvers.voxel.kernels.stokes_residual` (sub-voxel walls:
+:func:`solvers.voxel.cutfaces.stokes_lanczos_cut`).
 A change to those inlined helpers recompiles this module's kernels: the numba cache stamps
 cover the imported project modules (:class:`solvers.jit.DependencyLocator`).
 """
@@ -33,7 +34,7 @@ import numpy as np
 from solvers.jit import parallel_kernel
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
-from solvers.voxel.kernels import _dn, _fetch, _momentum_row_w, _on, _stencil_rows, _unit, _up
+from solvers.voxel.kernels import _dn, _fetch, _on, _stencil_rows, _unit, _up
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
@@ -168,71 +169,6 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
             row[k] = (ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[k + 1]) * _on(fr[k])
         k = nz - 1
         row[k] = (ur[k] - uip[k] + vr[k] - vjp[k] + wr[k] - wr[0]) * _on(fr[k])
-        s_y += _combine(row, s, c1, y[3, i, j], pr)
-    return s_y
-
-
-@parallel_kernel(**_OPTS)
-def stokes_lanczos_w(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y):
-    """:func:`stokes_lanczos` for the face-weighted (sub-voxel) matrix of
-    :func:`solvers.voxel.kernels._stokes_residual`."""
-    nx = fluid.shape[0]
-    acc = np.zeros(nx)
-    for i in nb.prange(nx):
-        acc[i] = _lanczos_w_slab(
-            du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, np.int64(i)
-        )
-    return acc.sum()
-
-
-@nb.njit(**_OPTS)
-def _lanczos_w_slab(du, dv, dw, cu, cv, cw, fluid, wu, wv, ww, x, s, c1, y, i):
-    """Plane ``i`` of :func:`stokes_lanczos_w`; returns its ``x . y_new`` (15 parameters: the
-    kernel's and ``i``)."""
-    nx, ny, nz = fluid.shape
-    u = x[0]
-    v = x[1]
-    w = x[2]
-    p = x[3]
-    row = np.empty(nz, dtype=y.dtype)
-    s_y = 0.0
-    im = _dn(i, nx)
-    ip = _up(i, nx)
-    # one equation over the whole plane at a time, as in :func:`_lanczos_slab`
-    for j in range(ny):
-        _momentum_row_w(du, cu, u, p[i, j], p[im, j], 0, wu[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[0, i, j], u[i, j])
-    for j in range(ny):
-        _momentum_row_w(dv, cv, v, p[i, j], p[i, _dn(j, ny)], 0, wv[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[1, i, j], v[i, j])
-    for j in range(ny):
-        _momentum_row_w(dw, cw, w, p[i, j], p[i, j], 1, ww[i, j], i, j, row)
-        s_y += _combine(row, s, c1, y[2, i, j], w[i, j])
-    for j in range(ny):
-        jp = _up(j, ny)
-        pr = p[i, j]
-        ur = u[i, j]
-        uip = u[ip, j]
-        vr = v[i, j]
-        vjp = v[i, jp]
-        wr = w[i, j]
-        a0 = wu[i, j]
-        a1 = wu[ip, j]
-        b0 = wv[i, j]
-        b1 = wv[i, jp]
-        c0 = ww[i, j]
-        fr = fluid[i, j]
-        for k in range(nz):
-            kp = k + 1 if k + 1 < nz else 0
-            val = (
-                a0[k] * ur[k]
-                - a1[k] * uip[k]
-                + b0[k] * vr[k]
-                - b1[k] * vjp[k]
-                + c0[k] * wr[k]
-                - c0[kp] * wr[kp]
-            )
-            row[k] = val * _on(fr[k])
         s_y += _combine(row, s, c1, y[3, i, j], pr)
     return s_y
 

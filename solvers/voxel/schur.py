@@ -51,9 +51,9 @@ in the history, commit aa21e6c).
 
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
-the box.  ``D`` is the Schur diagonal ``sum over the cell's faces of w_f^2 / A_ff`` (stored in
-float32 for sub-voxel walls by :mod:`solvers.voxel_stokes`; for the staircase a one-byte
-logarithmic code, :func:`schur_code`).  Either half alone does not cut the iterations (Toray-like
+the box.  ``D`` is the Schur diagonal ``sum over the cell's faces of w_f^2 / A_ff`` (a one-byte
+logarithmic code for both wall treatments, :func:`schur_code`).  Either half alone does not
+cut the iterations (Toray-like
 96 um: 171 before, 192 with ``D`` alone, 182 with the coarse term alone, 121 with both; 200 um:
 253 -> 176).  Cost per MINRES iteration: the restriction pass and one fused pass writing the
 pressure block (read ``r``, the code and the fluid mask, write ``z``) instead of the former
@@ -91,7 +91,6 @@ __all__ = [
     "poisson_velocity",
     "schur_code",
     "pressure_block_code",
-    "pressure_block_scale",
 ]
 
 BLOCK = 4
@@ -192,25 +191,6 @@ def _block_row(rr, sr, fr, ex, zr):
         zr[k] = v
         acc += np.float64(rr[k]) * np.float64(v)
     return acc
-
-
-@parallel_kernel(**_OPTS)
-def pressure_block_scale(scale, fluid, r, xc, fx, fy, fz, weight, z):
-    """Sub-voxel two-level pressure block in one pass: ``z = scale r + weight R^T xc`` (the
-    stored Schur-diagonal scale); returns ``r . z`` (float64)."""
-    nx, ny, nz = r.shape
-    ncx, ncy, ncz = xc.shape
-    part = np.zeros(nx)
-    for i in nb.prange(nx):
-        ic = min(i // fx, ncx - 1)
-        ex = np.empty(nz, np.float32)
-        acc = 0.0
-        last = -1
-        for j in range(ny):
-            last = _coarse_row(xc, ic, j, fy, fz, nz, weight, ex, last)
-            acc += _block_row(r[i, j], scale[i, j], fluid[i, j], ex, z[i, j])
-        part[i] = acc
-    return part.sum()
 
 
 @parallel_kernel(**_OPTS)
@@ -470,25 +450,27 @@ class CoarsePressure:
         self,
         r: np.ndarray,
         z: np.ndarray,
-        diags: list[np.ndarray] | None = None,
-        scale: np.ndarray | None = None,
+        diags: list[np.ndarray],
         floor: float = 1e-4,
     ) -> float:
         """The whole pressure block ``z = D^-1 r + R^T S_c^+ R r``; returns ``r . z``
-        (float64).  ``D^-1`` is the stored ``scale`` if given (sub-voxel walls), else the
-        Schur diagonal of the velocity ``diags`` as a one-byte code (staircase, clamped at
-        ``floor``; :func:`schur_code`).
+        (float64).  ``D^-1`` is the Schur diagonal as a one-byte code: the one given by
+        :meth:`use_code` (sub-voxel walls), else that of the velocity ``diags`` (staircase,
+        clamped at ``floor``; :func:`schur_code`).
         Two passes over the pressure field: the restriction and one fused write."""
+        self.solve(r)
+        code = self.code(diags, floor)
+        rz = pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
+        return float(rz)
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """``xc = S_c^+ R r`` into :attr:`xc` (restriction, projection, one V-cycle,
+        projection); :meth:`apply` injects ``WEIGHT xc`` into the fine cells."""
         block_sum(r, *self.f, self.rc)
         self._project(self.rc)
         self.mg.apply(self.rc, self.xc)
         self._project(self.xc)
-        if scale is not None:
-            rz = pressure_block_scale(scale, self.fluid, r, self.xc, *self.f, WEIGHT, z)
-        else:
-            code = self.code(diags, floor)
-            rz = pressure_block_code(code, CODE_TABLE, self.fluid, r, self.xc, *self.f, WEIGHT, z)
-        return float(rz)
+        return self.xc
 
     def use_code(self, code: np.ndarray) -> None:
         """Take a scale code formed by the caller (sub-voxel weights, :func:`schur_code`)."""

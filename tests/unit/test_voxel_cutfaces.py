@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from stokes_product import stokes_product
+from stokes_product import DenseStokes, stokes_product
 
 from solvers import voxel_stokes as vs
 from solvers.voxel import boundary as bd
@@ -25,14 +25,12 @@ def _phi(shape: tuple[int, int, int], seed: int) -> np.ndarray:
     return phi + 0.3 * rng.standard_normal(shape)
 
 
-def _dense(phi: np.ndarray, couplings: bool = False) -> tuple:
-    """Dense diagonals, weights (after the lone-cell release) and pressure cells (and the
-    couplings with ``couplings``)."""
+def _dense(phi: np.ndarray) -> tuple:
+    """Dense diagonals, weights (after the lone-cell release) and pressure cells."""
     res = [bd.component_coefficients(a, phi_faces={a: bd.face_distance(phi, a)}) for a in range(3)]
     weights = [r[3] for r in res]
     cells = bd.pressure_cells([r[2] for r in res], weights)
-    out = ([r[0] for r in res], weights, cells)
-    return (*out, [r[1] for r in res]) if couplings else out
+    return [r[0] for r in res], weights, cells
 
 
 def test_compressed_coefficients_are_the_dense_ones_within_the_quanta() -> None:
@@ -111,9 +109,10 @@ def test_subvoxel_solve_uses_the_cut_storage_and_keeps_k() -> None:
     x, info = vs._solve_core(op, 0, 1e-8, 2000)
     assert info["converged"]
     k_cut = float((x[0] * op.weight(0)).mean())
-    diags, weights, cells, cs = _dense(phi, couplings=True)
-    # the same solve on the dense float32 coefficients (the storage before the cut faces)
-    dense = vs._Stokes(cells, list(zip(diags, cs, strict=True)), None, weights)
+    diags, weights, cells = _dense(phi)
+    # the same solve on the dense float32 coefficients (the storage before the cut faces), K x
+    # in numpy (stokes_product.DenseStokes)
+    dense = DenseStokes(diags, weights, cells, op)
     xd, infod = vs._solve_core(dense, 0, 1e-8, 2000)
     assert infod["converged"]
     k_dense = float((xd[0] * weights[0]).mean())

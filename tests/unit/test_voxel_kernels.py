@@ -157,9 +157,10 @@ def test_stokes_preconditioner_returns_r_dot_z(scaled: bool, monkeypatch) -> Non
 
 @pytest.mark.parametrize("weighted", [False, True])
 def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
-    """``stokes_residual`` / ``stokes_residual_w`` (one kernel, weights 1 when absent) and the
-    Lanczos product with ``s = 1, c1 = 0`` give ``f - K x`` and ``K x`` of the matrix written
-    out in numpy from the stencil description (:mod:`stokes_product`)."""
+    """The float64 residual (``kernels.stokes_residual``; ``cutfaces.stokes_residual_cut``
+    for sub-voxel walls) and the Lanczos product with ``s = 1, c1 = 0`` give ``f - K x`` and
+    ``K x`` of the matrix written out in numpy from the stencil description
+    (:mod:`stokes_product`)."""
     from solvers import voxel_stokes as vs
 
     shape = (9, 8, 7)

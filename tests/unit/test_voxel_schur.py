@@ -18,9 +18,19 @@ def _plates(n: int = 32, period: int = 8, thick: int = 2) -> np.ndarray:
     return solid
 
 
+def _block_index(n: int, f: int, nc: int) -> np.ndarray:
+    """Block of each cell along one axis (the last block takes the remainder)."""
+    return np.minimum(np.arange(n) // f, nc - 1)
+
+
 def _coarse(cp: schur.CoarsePressure, r: np.ndarray, z: np.ndarray) -> float:
-    """The coarse term alone (a zero pore-scale scale)."""
-    return cp.apply(r, z, scale=np.zeros(r.shape, np.float32))
+    """The coarse term alone, ``z = WEIGHT R^T xc`` on the fluid cells with ``xc`` from
+    :meth:`~solvers.voxel.schur.CoarsePressure.solve` (the injection in numpy); returns
+    ``r . z``."""
+    xc = cp.solve(r)
+    idx = np.ix_(*[_block_index(n, f, m) for n, f, m in zip(r.shape, cp.f, xc.shape, strict=True)])
+    z[...] = schur.WEIGHT * xc[idx] * (cp.fluid != 0)
+    return float(np.dot(r.ravel().astype(np.float64), z.ravel().astype(np.float64)))
 
 
 def _op(solid: np.ndarray, monkeypatch: pytest.MonkeyPatch) -> vs._Stokes:
@@ -48,7 +58,7 @@ def test_symmetric_positive_semidefinite_and_dot(monkeypatch: pytest.MonkeyPatch
     assert not np.any(z1[solid])  # nothing injected into solid cells
     # the whole block: the staircase Schur diagonal plus the coarse term
     z3 = np.zeros_like(r1)
-    d3 = cp.apply(r1, z3, op.d, None, vs.SCHUR_FLOOR)
+    d3 = cp.apply(r1, z3, op.d, vs.SCHUR_FLOOR)
     z4 = r1 * schur.CODE_TABLE[schur.schur_code(op.d, vs.SCHUR_FLOOR)]
     assert np.allclose(z3, z4 + z1, rtol=1e-5, atol=1e-5 * np.abs(z3).max())
     assert d3 == pytest.approx(float(np.dot(r1.ravel().astype(float), z3.ravel())), rel=1e-5)
@@ -159,16 +169,11 @@ def test_preconditioner_returns_r_dot_z_with_the_coarse_term(
     assert np.allclose(z[3], fine + zc, rtol=1e-5, atol=1e-5 * float(np.abs(z[3]).max()))
 
 
-def _block_index(n: int, f: int, nc: int) -> np.ndarray:
-    """Block of each cell along one axis (the last block takes the remainder)."""
-    return np.minimum(np.arange(n) // f, nc - 1)
-
-
 @pytest.mark.parametrize("shape", [(19, 16, 21), (8, 9, 17), (5, 24, 8)])
 def test_block_sum_and_pressure_block_match_numpy(shape: tuple[int, int, int]) -> None:
     """``block_sum`` is the sum over blocks with remainder (numpy ``add.at``), the fused
-    pressure blocks are ``table[code] r + weight R^T xc`` on fluid cells (resp. the stored
-    scale) and return ``r . z`` (issue 16: the row-buffer rewrites of these kernels)."""
+    pressure block is ``table[code] r + weight R^T xc`` on fluid cells and returns ``r . z``
+    (issue 16: the row-buffer rewrites of these kernels)."""
     rng = np.random.default_rng(7)
     f = (8, 4, 8)
     nc = tuple(max(1, n // b) for n, b in zip(shape, f, strict=True))
@@ -184,14 +189,10 @@ def test_block_sum_and_pressure_block_match_numpy(shape: tuple[int, int, int]) -
     xc = rng.standard_normal(nc).astype(np.float32)
     inject = xc[idx].astype(np.float64) * 0.75 * fluid
     scale = schur.CODE_TABLE[code].astype(np.float64)
-    for z_ref, kernel, args in (
-        (scale * r + inject, schur.pressure_block_code, (code, schur.CODE_TABLE)),
-        (scale * r + inject, schur.pressure_block_scale, (scale.astype(np.float32),)),
-    ):
-        z = np.empty(shape, np.float32)
-        dot = kernel(*args, fluid, r, xc, *f, 0.75, z)
-        assert np.allclose(z, z_ref, rtol=1e-6, atol=1e-6)
-        assert dot == pytest.approx(float(np.dot(r.ravel().astype(np.float64), z.ravel())))
+    z = np.empty(shape, np.float32)
+    dot = schur.pressure_block_code(code, schur.CODE_TABLE, fluid, r, xc, *f, 0.75, z)
+    assert np.allclose(z, scale * r + inject, rtol=1e-6, atol=1e-6)
+    assert dot == pytest.approx(float(np.dot(r.ravel().astype(np.float64), z.ravel())))
 
 
 def test_code_scales_sixteen_at_a_time_equal_the_table() -> None:
