@@ -24,11 +24,12 @@ modules import this module before their first ``cache=True`` decorator.
 from __future__ import annotations
 
 import ast
+import contextlib
 import functools
 import hashlib
 import os
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numba as nb
@@ -38,9 +39,12 @@ __all__ = [
     "CACHE_ROOTS",
     "COMPILE_PARALLEL_ABOVE",
     "DependencyLocator",
+    "KernelLog",
     "TwinKernel",
+    "WARMUP_NOTE",
     "dependency_files",
     "dependency_stamp",
+    "kernel_log",
     "parallel_kernel",
     "parallel_pending",
 ]
@@ -196,6 +200,36 @@ def parallel_pending() -> tuple[str, ...]:
     return tuple(sorted(_PENDING))
 
 
+WARMUP_NOTE = "parallel kernels not compiled yet; `psdesign warmup` compiles them once"
+"""Why kernels ran on one thread although more were available (the one text of the solver
+results and the CLI line)."""
+
+
+class KernelLog:
+    """Which :class:`TwinKernel` s ran, and how, while a :func:`kernel_log` block was open:
+    ``parallel`` on the parallel dispatcher; ``fallback`` on the serial twin only because the
+    parallel version was not compiled (one thread although numba had more)."""
+
+    def __init__(self) -> None:
+        self.parallel: set[str] = set()
+        self.fallback: set[str] = set()
+
+
+_LOGS: list[KernelLog] = []
+
+
+@contextlib.contextmanager
+def kernel_log() -> Iterator[KernelLog]:
+    """Record in a :class:`KernelLog` the twin kernels called inside the block (innermost block
+    only; for results that report the threads their solve really used)."""
+    log = KernelLog()
+    _LOGS.append(log)
+    try:
+        yield log
+    finally:
+        _LOGS.remove(log)
+
+
 class TwinKernel:
     """A parallel and a serial numba dispatcher of one Python function.
 
@@ -205,8 +239,9 @@ class TwinKernel:
     for these argument types (in this process or in the on-disk cache, e.g. by
     ``psdesign warmup``) or if the first argument has at least :data:`COMPILE_PARALLEL_ABOVE`
     elements (a solve long enough to pay for compiling it); else the serial twin (one thread),
-    and :func:`parallel_pending` says so.  Call it from Python only (a jitted function cannot
-    call it; jitted helpers stay plain ``numba.njit`` functions).
+    and :func:`parallel_pending` and an open :func:`kernel_log` say so.  Call it from Python
+    only (a jitted function cannot call it; jitted helpers stay plain ``numba.njit``
+    functions).
     """
 
     def __init__(self, fn: Callable, serial_below: int = 0, **opts: object) -> None:
@@ -229,9 +264,14 @@ class TwinKernel:
         size = getattr(args[0], "size", 0)
         if nb.get_num_threads() == 1 or (self.serial_below and size < self.serial_below):
             return self.serial(*args)
+        name = self.py_func.__qualname__
         if size >= COMPILE_PARALLEL_ABOVE or self._parallel_ready(args):
+            if _LOGS:
+                _LOGS[-1].parallel.add(name)
             return self.parallel(*args)
-        _PENDING.add(self.py_func.__qualname__)
+        _PENDING.add(name)
+        if _LOGS:
+            _LOGS[-1].fallback.add(name)
         return self.serial(*args)
 
     def _parallel_ready(self, args: tuple) -> bool:

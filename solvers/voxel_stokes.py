@@ -143,6 +143,7 @@ import numba
 import numpy as np
 from scipy import ndimage
 
+from solvers import jit
 from solvers.voxel import boundary as bd
 from solvers.voxel import cutfaces as cf
 from solvers.voxel import kernels as kr
@@ -220,6 +221,14 @@ class VoxelFlowResult:
         ``(max - min) / mean`` of ``plane_flow_rates`` (mass conservation; ~ ``residual``).
     message : str
         ``"converged"`` or why the iteration stopped.
+    threads_used : int
+        numba threads the solve's fine-grid kernels ran on (:func:`solvers.voxel.threads.
+        thread_use`): 1 when the grid is small or when the parallel kernels were not compiled
+        yet (run ``psdesign warmup``; :data:`solvers.jit.COMPILE_PARALLEL_ABOVE`).
+    thread_note : str
+        Why ``threads_used`` is fewer than numba's threads; ``""`` when it is not.
+    serial_fallback : tuple of str
+        Kernels that ran on one thread only because their parallel version was not compiled.
     bc : str
         ``"periodic"`` or ``"permeameter"``.
     wall_treatment : str
@@ -271,6 +280,9 @@ class VoxelFlowResult:
     periodic_treatment: str = "periodic"
     flux_imbalance: float = float("nan")
     message: str = ""
+    threads_used: int = 1
+    thread_note: str = ""
+    serial_fallback: tuple[str, ...] = ()
     bc: str = "periodic"
     wall_treatment: str = "staircase"
     sides: str | None = None
@@ -512,8 +524,10 @@ def solve_voxel_stokes(
     setup["porosity"] = 1.0 - float(grid.mean())
     del solid, distance, grid
     vmem.release_free_heap()
-    with _threads(int(np.prod(setup["op"].shape[1:]))):
+    with _threads(int(np.prod(setup["op"].shape[1:]))) as threads, jit.kernel_log() as log:
         x, info = _solve_core(setup["op"], d, tol, int(max_iter), progress)
+    info["threads"] = vthreads.thread_use(*threads, log.fallback, log.parallel)
+    info["fallback"] = tuple(sorted(log.fallback))
     return _result(
         x,
         info,
@@ -677,6 +691,9 @@ def _result(
         periodic_treatment=treatment if bc == "periodic" else "periodic",
         flux_imbalance=imbalance,
         message=info["message"],
+        threads_used=info["threads"][0],
+        thread_note=info["threads"][1],
+        serial_fallback=info["fallback"],
         bc=bc,
         wall_treatment=setup["wall_treatment"],
         sides=sides if bc == "permeameter" else None,
@@ -754,10 +771,12 @@ def _check_memory(
 
 @contextmanager
 def _threads(n_cells: int):
+    """numba threads for a solve on ``n_cells`` cells (:func:`solvers.voxel.threads.
+    level_threads`); yields ``(threads, available)``."""
     old = numba.get_num_threads()
-    numba.set_num_threads(vthreads.level_threads(n_cells, old))
+    numba.set_num_threads(n := vthreads.level_threads(n_cells, old))
     try:
-        yield
+        yield n, old
     finally:
         numba.set_num_threads(old)
 

@@ -127,10 +127,9 @@ def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Prin
     finally:
         _ACTIVE.remove(printer)
         if _pending_kernels() - before:  # this command ran kernels on one thread
-            printer.stage(
-                "numba kernels ran on one thread (parallel versions not compiled yet); "
-                "`psdesign warmup` compiles them once"
-            )
+            from solvers.jit import WARMUP_NOTE
+
+            printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
         printer.close()
 
 

@@ -243,7 +243,11 @@ def permeability_voxel(
         "mean_velocity_m_s": np.asarray(res.mean_velocity, float).tolist(),
         "pressure_gradient_pa_m": float(res.pressure_gradient),
         "wall_time_s": time.perf_counter() - t0,
+        "threads_used": int(res.threads_used),
+        "thread_note": res.thread_note,
     }
+    if res.serial_fallback:  # slower than it could be: say so where the user looks
+        notes.append(f"K_{name}: voxel solve {res.thread_note}")
     if plan is not None and plan.note:
         notes.append(plan.note)
     if bc == "periodic" and out["periodic_treatment"] == "periodic":

@@ -38,3 +38,29 @@ def level_threads(n_cells: int, available: int) -> int:
     """Numba threads for a grid (or multigrid level) of ``n_cells`` cells: all ``available``
     from ``PARALLEL_MIN_CELLS`` cells up, else one."""
     return available if n_cells >= PARALLEL_MIN_CELLS else 1
+
+
+def thread_use(
+    threads: int, available: int, fallback: set[str], parallel: set[str]
+) -> tuple[int, str]:
+    """Threads a solve's fine-grid kernels really ran on, and why that is fewer than numba's
+    ``available`` (``""`` when it is not): ``threads`` is what :func:`level_threads` gave the
+    solve, ``fallback`` the kernels that ran their serial twin only because their parallel
+    version was not compiled and ``parallel`` those that ran in parallel
+    (:class:`solvers.jit.KernelLog`).  If every kernel ran its serial twin the solve ran on
+    one thread; if only some did, the note names them."""
+    if threads == 1:
+        if available == 1:
+            return 1, ""
+        return 1, f"ran on 1 of {available} threads: grid below {PARALLEL_MIN_CELLS} cells"
+    if not fallback:
+        return threads, ""
+    from solvers.jit import WARMUP_NOTE  # numba is not imported with this module
+
+    if not parallel:
+        return 1, f"ran on 1 of {threads} threads: {WARMUP_NOTE}"
+    names = ", ".join(sorted(fallback))
+    return (
+        threads,
+        f"{len(fallback)} kernels ran on 1 of {threads} threads ({names}): {WARMUP_NOTE}",
+    )

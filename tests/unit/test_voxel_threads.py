@@ -8,6 +8,7 @@ import sys
 
 import numba
 import numpy as np
+import pytest
 
 from solvers.voxel import multigrid as mg
 from solvers.voxel.threads import PARALLEL_MIN_CELLS, level_threads
@@ -43,3 +44,54 @@ def test_vcycle_restores_the_callers_thread_count() -> None:
     m.apply(np.ones(d.shape, np.float32), out)
     assert numba.get_num_threads() == before
     assert np.all(out[d == 0] == 0.0) and np.all(out[d > 0] > 0.0)
+
+
+def _twin_kernels() -> list:
+    """Every :class:`solvers.jit.TwinKernel` of the loaded solver modules."""
+    from solvers.jit import TwinKernel
+
+    mods = [m for name, m in list(sys.modules.items()) if name.startswith("solvers.") and m]
+    return [k for m in mods for k in vars(m).values() if isinstance(k, TwinKernel)]
+
+
+@pytest.mark.parametrize("case", ["not_compiled", "compiled", "small_grid"])
+def test_result_states_the_threads_its_kernels_ran_on(case: str, monkeypatch) -> None:
+    """Session 11: with the parallel kernels not in numba's cache a two-thread solve below
+    ``jit.COMPILE_PARALLEL_ABOVE`` cells ran the serial twins, about 2x slower, and said
+    nothing.  Two threads are simulated (numba's thread count as the solver reads and sets
+    it; the run needs one real thread only); a "compiled" parallel kernel runs its serial
+    twin's code."""
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import threads as vthreads
+
+    threads = [2]
+    monkeypatch.setattr(numba, "get_num_threads", lambda: threads[0])
+    monkeypatch.setattr(numba, "set_num_threads", lambda n: threads.__setitem__(0, n))
+    if case != "small_grid":
+        monkeypatch.setattr(vthreads, "PARALLEL_MIN_CELLS", 0)
+    monkeypatch.setattr(jit.TwinKernel, "_parallel_ready", lambda self, args: case == "compiled")
+    for kernel in _twin_kernels():
+        monkeypatch.setattr(kernel, "parallel", kernel.serial)
+    solid = np.zeros((12, 12, 12), dtype=bool)
+    solid[:, 3:7, 3:7] = True  # a square rod along x, flow along y
+    res = vs.solve_voxel_stokes(solid, 1e-6, "y", tol=1e-6)
+    assert res.converged and threads == [2]  # the caller's count restored
+    if case == "not_compiled":
+        assert res.threads_used == 1
+        assert "psdesign warmup" in res.thread_note and "1 of 2 threads" in res.thread_note
+        assert "stokes_lanczos" in res.serial_fallback
+    elif case == "compiled":
+        assert (res.threads_used, res.thread_note, res.serial_fallback) == (2, "", ())
+    else:
+        assert res.threads_used == 1 and res.serial_fallback == ()
+        assert res.thread_note == f"ran on 1 of 2 threads: grid below {PARALLEL_MIN_CELLS} cells"
+
+
+def test_partly_compiled_kernels_are_named() -> None:
+    from solvers.voxel.threads import thread_use
+
+    n, note = thread_use(2, 2, {"jacobi"}, {"stokes_lanczos"})
+    assert n == 2 and note.startswith("1 kernels ran on 1 of 2 threads (jacobi): ")
+    assert thread_use(1, 1, set(), set()) == (1, "")
+    assert thread_use(2, 2, set(), {"jacobi"}) == (2, "")
