@@ -281,16 +281,21 @@ def stokes_lanczos_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c
     return acc.sum()
 
 
+@nb.njit(inline="always")
+def _plane(fluid, x, i):
+    """``(ny, nz, u, v, w, p, i - 1, i + 1)`` of plane ``i`` (periodic): the preamble of the
+    slab functions of :func:`stokes_lanczos_cut` and :func:`stokes_residual_cut`."""
+    nx, ny, nz = fluid.shape
+    return ny, nz, x[0], x[1], x[2], x[3], _dn(i, nx), _up(i, nx)
+
+
 @nb.njit(**_OPTS)
 def _lanczos_cut_slab(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos_cut` (16 parameters: the kernel's and ``i``)."""
-    nx, ny, nz = fluid.shape
-    u, v, w, p = x[0], x[1], x[2], x[3]
+    ny, nz, u, v, w, p, im, ip = _plane(fluid, x, i)
     row = np.empty(nz, dtype=y.dtype)
     div = np.empty(nz)
     s_y = 0.0
-    im = _dn(i, nx)
-    ip = _up(i, nx)
     for j in range(ny):
         jm = _dn(j, ny)
         jp = _up(j, ny)
@@ -388,14 +393,11 @@ def _momentum_residual(d, c, q, pr, plow, shift, st, kk, dd, ww, i, j, force, va
 def _residual_cut_slab(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, gdir, r, i):
     """Plane ``i`` of :func:`stokes_residual_cut`; returns its ``(||r||^2, ||f||^2)``
     (15 parameters: the kernel's and ``i``)."""
-    nx, ny, nz = fluid.shape
-    u, v, w, p = x[0], x[1], x[2], x[3]
+    ny, nz, u, v, w, p, im, ip = _plane(fluid, x, i)
     val = np.empty(nz)
     f = np.empty(nz)
     s2 = 0.0
     f2 = 0.0
-    im = _dn(i, nx)
-    ip = _up(i, nx)
     for j in range(ny):
         jm = _dn(j, ny)
         jp = _up(j, ny)
