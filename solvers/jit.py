@@ -189,7 +189,11 @@ COMPILE_PARALLEL_ABOVE = 10_000_000
 is compiled on first use: on 2 cores two threads save about 40 % of a solve (100^3: 9.5 s ->
 5.4 s), which pays for the extra ~1-2 min of compiling only from a few hundred voxels per
 side. Smaller grids run the serial twin until ``psdesign warmup`` has compiled the parallel
-kernels."""
+kernels, and the voxel solve's result says so (``threads_used``, ``thread_note``;
+:class:`KernelLog`).  Re-measured in clean12 (``benchmarks/RESULTS.md``, "Voxel solver
+hygiene"): the parallel set of one staircase route costs about 113 s CPU to compile against
+6-8 s saved by two threads on a 200^3 (8 M cells) solve at load 5-6 (about half the solve
+idle): kept."""
 
 _PENDING: set[str] = set()
 
