@@ -33,11 +33,14 @@ R^T S_c^+ R`` stays SPD and SYMMLQ / MINRES stay valid.  Stored as ``E_P = L_P^-
 float32, added to the pressure block's output in one pass (:func:`thin_apply`); single cells
 are left out (their block is ``D`` itself).
 
-Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``): with ``MAX_FACES`` 4 the
-100 / 200 um boxes take 113 / 139 iterations instead of 131 / 150 (2 faces, the one-voxel tubes
-alone: 124 / 150; 5 faces: 146 / 162, the pieces then span the open pore space and the far end
-of the spectrum grows, -1.05 to -1.63).  Memory: about 5.3 % of the fluid cells are thin, with
-about 2.7 stored entries per thin cell (about 0.1 B per voxel in all).
+Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``, "Issue 16 item 4,
+iteration growth (defl12)"): the 100 / 200 / 300 / 400 um boxes take 113 / 139 / 166 / 182
+iterations instead of 131 / 150 / 187 / 246 (the second refinement cycle's smallest Ritz value
+0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.066 / 0.068 / 0.042), K within 5e-9.  With at most 2
+open faces (the one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145; 5 faces
+146 / 162: the pieces then span the open pore space and the far end of the spectrum grows (-1.05
+to -1.63 at 100 um).  Memory: 3.2 % of the cells are in pieces at 200^3, about 4.4 stored
+entries per piece cell; 0.84 B per voxel in all.
 """
 
 from __future__ import annotations
@@ -58,9 +61,6 @@ PIECE = 64
 """Most cells of a piece (a larger connected set of thin cells is cut into runs of this many:
 any partition keeps the block diagonal ``B`` SPD; it bounds the stored entries per cell)."""
 
-LARGEST = 1 << 62
-"""Components of more thin cells than this keep ``D`` (experiment)."""
-
 TASK = 256
 """Pieces per parallel task of :func:`thin_apply` (one pair of work rows per task)."""
 
@@ -69,24 +69,25 @@ _OPTS = {"cache": True, "fastmath": True, "nogil": True}
 
 @nb.njit(inline="always")
 def _piece_apply(cells, c0, s, packed, f, r, z, x, y):
-    """``z[cells] += E r[cells]`` for one piece of ``s`` cells (``E`` packed lower from ``f``);
-    returns the float64 ``r . E r`` on the piece."""
+    """``z[cells] += E r[cells]`` for one piece of ``s`` cells (``E`` packed lower from ``f``,
+    walked with one running index); returns the float64 ``r . E r`` on the piece."""
     for i in range(s):
         x[i] = np.float64(r[cells[c0 + i]])
         y[i] = 0.0
+    k = f
     for i in range(s):
-        row = f + i * (i + 1) // 2
         xi = x[i]
         acc = 0.0
         for j in range(i):
-            e = np.float64(packed[row + j])
+            e = np.float64(packed[k])
+            k += 1
             acc += e * x[j]
             y[j] += e * xi
-        y[i] += acc + np.float64(packed[row + i]) * xi
+        y[i] += acc + np.float64(packed[k]) * xi
+        k += 1
     out = 0.0
     for i in range(s):
-        c = cells[c0 + i]
-        z[c] += np.float32(y[i])
+        z[cells[c0 + i]] += np.float32(y[i])
         out += x[i] * y[i]
     return out
 
@@ -187,7 +188,7 @@ class ThinBlocks:
         leaving = d - np.bincount(r, v, n) - np.bincount(c, v, n)
         opened = np.bincount(labels, leaving > 1e-6 * d, ncomp) > 0
         size = np.bincount(labels, None, ncomp)
-        keep = opened[labels] & (size[labels] >= 2) & (size[labels] <= LARGEST)
+        keep = opened[labels] & (size[labels] >= 2)
         self._build(thin, labels, keep, d, (r, c, v), dinv.ravel())
 
     def _build(
