@@ -783,7 +783,7 @@ THIN_BLOCKS = True
 """Replace the pressure block's diagonal ``D`` by exact local solves on the thin pieces of the
 fluid (dead-end tubes, slits: :class:`solvers.voxel.thin.ThinBlocks`), whose local pressure
 modes are the smallest eigenvalues of the preconditioned system.  Since session 12: Toray-like
-at 1 um, 100 / 200 / 300 / 400 um, 131 / 150 / 187 / 246 -> 113 / 139 / 166 / 182 SYMMLQ
+at 1 um, 100 / 200 / 300 / 400 um, 131 / 150 / 187 / 246 -> 113 / 141 / 166 / 182 SYMMLQ
 iterations (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (defl12)")."""
 
 SCHUR_FLOOR = 1e-4

@@ -34,9 +34,9 @@ float32, added to the pressure block's output in one pass (:func:`thin_apply`); 
 are left out (their block is ``D`` itself).
 
 Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``, "Issue 16 item 4,
-iteration growth (defl12)"): the 100 / 200 / 300 / 400 um boxes take 113 / 139 / 166 / 182
+iteration growth (defl12)"): the 100 / 200 / 300 / 400 um boxes take 113 / 141 / 166 / 182
 iterations instead of 131 / 150 / 187 / 246 (the second refinement cycle's smallest Ritz value
-0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.066 / 0.068 / 0.042), K within 5e-9.  With at most 2
+0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.063 / 0.068 / 0.042), K within 5e-9.  With at most 2
 open faces (the one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145; 5 faces
 146 / 162: the pieces then span the open pore space and the far end of the spectrum grows (-1.05
 to -1.63 at 100 um).  Memory: 3.2 % of the cells are in pieces at 200^3, about 4.4 stored
