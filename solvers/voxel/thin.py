@@ -51,6 +51,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from solvers.jit import parallel_kernel
+from solvers.voxel import simd
 
 __all__ = ["MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
 
@@ -63,6 +64,13 @@ any partition keeps the block diagonal ``B`` SPD; it bounds the stored entries p
 
 TASK = 256
 """Pieces per parallel task of :func:`thin_apply` (one pair of work rows per task)."""
+
+AHEAD = 8
+"""Pieces ahead whose cells :func:`thin_apply` prefetches: the thin cells are scattered over the
+pressure fields, so each piece's loads miss the caches and the hardware prefetchers cannot guess
+them (Toray-like 300 um, 0.86 M thin cells, two threads, load 2.6: 48-51 ms -> 17 ms per pass, the
+same value; a synthetic 400^3 layout, 2 M cells in 640 k pieces: 64-67 -> 19-20 ms, 4 pieces
+ahead 22 ms, 16-32 slower)."""
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
 
@@ -104,7 +112,13 @@ def thin_apply(cells, start, fstart, packed, width, r, z):
         x = np.empty(width)
         y = np.empty(width)
         acc = 0.0
-        for p in range(t * TASK, min(npieces, (t + 1) * TASK)):
+        hi = min(npieces, (t + 1) * TASK)
+        for p in range(t * TASK, hi):
+            if p + AHEAD < hi:
+                for k in range(start[p + AHEAD], start[p + AHEAD + 1]):
+                    c = cells[k]
+                    simd.prefetch_row(r[c : c + 1])
+                    simd.prefetch_row(z[c : c + 1])
             c0 = start[p]
             acc += _piece_apply(cells, c0, start[p + 1] - c0, packed, fstart[p], r, z, x, y)
         part[t] = acc
