@@ -150,7 +150,7 @@ from solvers.voxel import kernels as kr
 from solvers.voxel import lanczos as lz
 from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
-from solvers.voxel import schur
+from solvers.voxel import schur, thin
 from solvers.voxel import threads as vthreads
 
 __all__ = [
@@ -798,6 +798,13 @@ COARSE_PRESSURE = True
 """Add the coarse Darcy correction :class:`solvers.voxel.schur.CoarsePressure` to the pressure
 block of the preconditioner (without it the MINRES iterations grow with the box side)."""
 
+THIN_BLOCKS = True
+"""Replace the pressure block's diagonal ``D`` by exact local solves on the thin pieces of the
+fluid (dead-end tubes, slits: :class:`solvers.voxel.thin.ThinBlocks`), whose local pressure
+modes are the smallest eigenvalues of the preconditioned system.  Since session 12: Toray-like
+at 1 um, 100 / 200 / 300 / 400 um, 131 / 150 / 187 / 246 -> 113 / 141 / 166 / 182 SYMMLQ
+iterations (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (defl12)")."""
+
 SCHUR_FLOOR = 1e-4
 """Lower bound of the Schur diagonal estimate (the smallest possible value, a weight of 0.05 on
 a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 40^3)."""
@@ -858,8 +865,23 @@ class _Stokes:
             self._mask_in_code()  # off the peak) is the pressure-cell mask too
         elif code is not None:
             self.p_scale = schur.CODE_TABLE[code]
+        self.thin = self._thin_blocks() if THIN_BLOCKS else None
         del ops
         self._drop_couplings()
+
+    def _thin_blocks(self) -> thin.ThinBlocks | None:
+        """The exact local pressure solves on the thin cells (:mod:`solvers.voxel.thin`), from
+        the faces' ``w_f^2 / A_ff`` (staircase: ``1 / A_ff``); None without a pressure scale."""
+        dinv = self.schur_scale()
+        if dinv is None:
+            return None
+        faces = []
+        for a, da in enumerate(self.d):
+            if self.cut is not None:
+                faces.append(self.cut.scale_inverse(a, da))
+            else:
+                faces.append(np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0))
+        return thin.ThinBlocks(faces, self.fluid, dinv, SCHUR_FLOOR)
 
     def schur_scale(self) -> np.ndarray | None:
         """The pore-scale pressure block ``D^-1`` (float32, 0 off the pressure cells): the
@@ -973,10 +995,14 @@ class _Stokes:
         field is the V-cycles' work array), ``z`` may."""
         rz = sum(self.mg[a].apply(r[a], z[a]) for a in range(3))
         if self.coarse_p is not None:  # two-level pressure block (solvers.voxel.schur)
-            return rz + self.coarse_p.apply(r[3], z[3], self.d, SCHUR_FLOOR)
-        if self.p_scale is None:
-            return rz + kr.copy_dot(r[3], z[3])
-        return rz + kr.scale_dot(r[3], self.p_scale, z[3])
+            rz += self.coarse_p.apply(r[3], z[3], self.d, SCHUR_FLOOR)
+        elif self.p_scale is None:
+            rz += kr.copy_dot(r[3], z[3])
+        else:
+            rz += kr.scale_dot(r[3], self.p_scale, z[3])
+        if self.thin is not None:  # D^-1 -> L_P^-1 on the thin pieces (solvers.voxel.thin)
+            rz += self.thin.apply(r[3], z[3])
+        return rz
 
 
 @dataclass

@@ -1,0 +1,296 @@
+"""Exact local pressure solves on the thin fluid regions of the voxel Stokes preconditioner.
+
+Why
+---
+The smallest eigenvalues of the preconditioned Stokes system, which set how the refinement
+cycles' iteration count grows with the box (``benchmarks/RESULTS.md``, "Issue 16 item 4,
+iteration growth (defl12)"), belong to *local* pressure modes: on the Toray-like 100 um box the
+smallest one (Ritz value -0.048 of the second refinement cycle) holds 90 % of its norm on 4 cells
+of a dead-end tube one voxel wide, and the next ones are mixtures of many short dead-end stubs.
+The pressure block's pore-scale part ``D^-1`` (the inverse Schur diagonal,
+:mod:`solvers.voxel.schur`) treats each cell alone, and the coarse Darcy term's blocks (4^3
+cells) average such a tube with the open pore around it, so neither represents the tube's
+slowest mode: a one-dimensional Laplacian along the tube, whose smallest Jacobi-scaled
+eigenvalue falls as ``(pi / (2 L + 1))^2`` with the tube's length ``L``, and a bigger box holds
+longer tubes.
+
+What
+----
+The pressure cells with at most :data:`MAX_FACES` open faces (the *thin* cells: tubes, slits,
+dead ends, throats) are grouped into their connected pieces (face neighbours through open faces;
+a piece of more than :data:`PIECE` cells is cut into consecutive runs of its cells), and on each
+piece ``P`` the diagonal ``D_P`` is replaced by the piece's own block of the Schur
+approximation ``L = G^T diag(A)^-1 G`` (``L_cc = D_c``, the Schur diagonal; ``L_cd = -w_f^2 /
+A_ff`` for the face ``f`` between two cells of the piece; faces leaving the piece only on the
+diagonal, i.e. a Dirichlet condition at the piece's mouth)::
+
+    B^-1 = blockdiag(L_P^-1 on the pieces, D^-1 on the other cells)
+
+``B`` is block diagonal with symmetric positive definite blocks (a piece with no face leaving
+it, an enclosed pocket, keeps ``D``: its ``L_P`` is singular), so the pressure block ``B^-1 +
+R^T S_c^+ R`` stays SPD and SYMMLQ / MINRES stay valid.  Stored as ``E_P = L_P^-1 - D_P^-1``
+(the pressure block's own, coded ``D^-1``) per piece, symmetric, packed lower triangle,
+float32, added to the pressure block's output in one pass (:func:`thin_apply`); single cells
+are left out (their block is ``D`` itself).
+
+Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``, "Issue 16 item 4,
+iteration growth (defl12)"): the 100 / 200 / 300 / 400 um boxes take 113 / 141 / 166 / 182
+iterations instead of 131 / 150 / 187 / 246 (the second refinement cycle's smallest Ritz value
+0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.063 / 0.068 / 0.042), K within 5e-9.  With at most 2
+open faces (the one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145; 5 faces
+146 / 162: the pieces then span the open pore space and the far end of the spectrum grows (-1.05
+to -1.63 at 100 um).  Memory: 3.2 % of the cells are in pieces at 200^3, about 4.4 stored
+entries per piece cell; 0.84 B per voxel in all.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from solvers.jit import parallel_kernel
+from solvers.voxel import simd
+
+__all__ = ["MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
+
+MAX_FACES = 4
+"""Most open faces of a thin cell (1-voxel tubes have 2, slits one voxel thick 4)."""
+
+PIECE = 64
+"""Most cells of a piece (a larger connected set of thin cells is cut into runs of this many:
+any partition keeps the block diagonal ``B`` SPD; it bounds the stored entries per cell)."""
+
+TASK = 256
+"""Pieces per parallel task of :func:`thin_apply` (one pair of work rows per task)."""
+
+AHEAD = 8
+"""Pieces ahead whose cells :func:`thin_apply` prefetches: the thin cells are scattered over the
+pressure fields, so each piece's loads miss the caches and the hardware prefetchers cannot guess
+them (Toray-like 300 um, 0.86 M thin cells, two threads, load 2.6: 48-51 ms -> 17 ms per pass, the
+same value; a synthetic 400^3 layout, 2 M cells in 640 k pieces: 64-67 -> 19-20 ms, 4 pieces
+ahead 22 ms, 16-32 slower)."""
+
+_OPTS = {"cache": True, "fastmath": True, "nogil": True}
+
+
+@nb.njit(inline="always")
+def _piece_apply(cells, c0, s, packed, f, r, z, x, y):
+    """``z[cells] += E r[cells]`` for one piece of ``s`` cells (``E`` packed lower from ``f``,
+    walked with one running index); returns the float64 ``r . E r`` on the piece."""
+    for i in range(s):
+        x[i] = np.float64(r[cells[c0 + i]])
+        y[i] = 0.0
+    k = f
+    for i in range(s):
+        xi = x[i]
+        acc = 0.0
+        for j in range(i):
+            e = np.float64(packed[k])
+            k += 1
+            acc += e * x[j]
+            y[j] += e * xi
+        y[i] += acc + np.float64(packed[k]) * xi
+        k += 1
+    out = 0.0
+    for i in range(s):
+        z[cells[c0 + i]] += np.float32(y[i])
+        out += x[i] * y[i]
+    return out
+
+
+@parallel_kernel(**_OPTS)
+def thin_apply(cells, start, fstart, packed, width, r, z):
+    """``z += E r`` on every piece (:class:`ThinBlocks`: at most ``width`` cells each; ``r, z``
+    the flat pressure fields); returns the float64 ``r . E r``.  Pieces are disjoint: no two
+    tasks write one cell."""
+    npieces = start.shape[0] - 1
+    ntask = (npieces + TASK - 1) // TASK
+    part = np.zeros(ntask)
+    for t in nb.prange(ntask):
+        x = np.empty(width)
+        y = np.empty(width)
+        acc = 0.0
+        hi = min(npieces, (t + 1) * TASK)
+        for p in range(t * TASK, hi):
+            if p + AHEAD < hi:
+                for k in range(start[p + AHEAD], start[p + AHEAD + 1]):
+                    c = cells[k]
+                    simd.prefetch_row(r[c : c + 1])
+                    simd.prefetch_row(z[c : c + 1])
+            c0 = start[p]
+            acc += _piece_apply(cells, c0, start[p + 1] - c0, packed, fstart[p], r, z, x, y)
+        part[t] = acc
+    return part.sum()
+
+
+def _neighbour(flat: np.ndarray, shape: tuple[int, ...], a: int) -> np.ndarray:
+    """Flat index of the lower neighbour along ``a`` (periodic) of each flat index."""
+    idx = list(np.unravel_index(flat, shape))
+    idx[a] = (idx[a] - 1) % shape[a]
+    return np.ravel_multi_index(tuple(idx), shape)
+
+
+def _pieces(labels: np.ndarray) -> np.ndarray:
+    """Piece number of each thin cell (sorted by label): runs of at most :data:`PIECE` cells of
+    one component."""
+    order = np.argsort(labels, kind="stable")
+    lab = labels[order]
+    first = np.r_[0, np.flatnonzero(np.diff(lab)) + 1]
+    rank = np.arange(lab.size) - np.repeat(first, np.diff(np.r_[first, lab.size]))
+    new = (rank % PIECE == 0).astype(np.int64)
+    piece = np.empty(lab.size, np.int64)
+    piece[order] = np.cumsum(new) - 1
+    return piece
+
+
+class ThinBlocks:
+    """The thin pieces' correction ``E_P = L_P^-1 - D_P^-1`` of the pressure block (module
+    docstring).
+
+    Parameters
+    ----------
+    faces : list of 3 np.ndarray
+        ``w_f^2 / A_ff`` of each velocity component's faces (0 off the active faces; the face
+        of component ``a`` at cell ``c`` lies between ``c - e_a`` and ``c``).
+    cells : np.ndarray
+        Pressure-cell mask (non-zero on the pressure unknowns).
+    dinv : np.ndarray
+        The pressure block's ``D^-1`` (float32 per cell).
+    floor : float
+        Lower bound of the Schur diagonal (:data:`solvers.voxel_stokes.SCHUR_FLOOR`).
+    max_faces : int, optional
+        Most open faces of a thin cell (default :data:`MAX_FACES`).
+    """
+
+    def __init__(
+        self,
+        faces: list[np.ndarray],
+        cells: np.ndarray,
+        dinv: np.ndarray,
+        floor: float,
+        max_faces: int | None = None,
+    ) -> None:
+        shape = cells.shape
+        most = MAX_FACES if max_faces is None else int(max_faces)
+        nopen = np.zeros(shape, np.int8)
+        diag = np.zeros(shape, np.float64)
+        for a, q in enumerate(faces):
+            up = np.roll(q, -1, axis=a)
+            nopen += (q > 0).astype(np.int8) + (up > 0)
+            diag += q + up
+        thin = np.flatnonzero((cells != 0) & (nopen >= 1) & (nopen <= most))
+        del nopen
+        rows, cols, vals = [], [], []
+        for a, q in enumerate(faces):
+            low = _neighbour(thin, shape, a)
+            pos = np.searchsorted(thin, low)
+            pos[pos == thin.size] = 0
+            w = q.ravel()[thin]
+            both = (thin[pos] == low) & (w > 0)
+            rows.append(np.flatnonzero(both))
+            cols.append(pos[both])
+            vals.append(w[both])
+        r, c, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        d = np.maximum(diag.ravel()[thin], floor)
+        del diag
+        n = thin.size
+        graph = coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        ncomp, labels = connected_components(graph, directed=False)
+        # an enclosed set of thin cells (no face leaving it) has a singular L_P: keep D there
+        leaving = d - np.bincount(r, v, n) - np.bincount(c, v, n)
+        opened = np.bincount(labels, leaving > 1e-6 * d, ncomp) > 0
+        size = np.bincount(labels, None, ncomp)
+        keep = opened[labels] & (size[labels] >= 2)
+        self._build(thin, labels, keep, d, (r, c, v), dinv.ravel())
+
+    def _build(
+        self,
+        thin: np.ndarray,
+        labels: np.ndarray,
+        keep: np.ndarray,
+        d: np.ndarray,
+        edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+        dinv: np.ndarray,
+    ) -> None:
+        """Cut the kept components into pieces, invert each piece's ``L_P`` (batched by size)
+        and store ``E_P`` packed."""
+        piece = np.full(thin.size, -1, np.int64)
+        piece[keep] = _pieces(labels[keep])
+        order = np.lexsort((thin, piece))[np.count_nonzero(~keep) :]
+        npieces = int(piece.max()) + 1 if keep.any() else 0
+        sizes = np.bincount(piece[order], None, npieces)
+        keepers = np.flatnonzero(sizes >= 2)  # runs of one cell (a cut remainder) keep D
+        local = np.full(thin.size, -1, np.int64)
+        remap = np.full(npieces, -1, np.int64)
+        remap[keepers] = np.arange(keepers.size)
+        sel = order[remap[piece[order]] >= 0]
+        new_piece = remap[piece[sel]]
+        self.start = np.zeros(keepers.size + 1, np.int64)
+        np.cumsum(sizes[keepers], out=self.start[1:])
+        local[sel] = np.arange(sel.size) - self.start[new_piece]
+        owner = np.full(thin.size, -1, np.int64)
+        owner[sel] = new_piece
+        self.cells = thin[sel]
+        s = np.diff(self.start)
+        self.width = int(s.max()) if s.size else 0
+        self.fstart = np.zeros(keepers.size + 1, np.int64)
+        np.cumsum(s * (s + 1) // 2, out=self.fstart[1:])
+        self.packed = np.zeros(int(self.fstart[-1]), np.float32)
+        r, c, v = edges
+        inside = (owner[r] >= 0) & (owner[r] == owner[c])
+        er, ec, ev = r[inside], c[inside], v[inside]
+        for size in np.unique(s):
+            self._invert(
+                int(size), np.flatnonzero(s == size), sel, d, (er, ec, ev), local, owner, dinv
+            )
+
+    def _invert(
+        self,
+        size: int,
+        which: np.ndarray,
+        sel: np.ndarray,
+        d: np.ndarray,
+        edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+        local: np.ndarray,
+        owner: np.ndarray,
+        dinv: np.ndarray,
+    ) -> None:
+        """``E_P`` of the pieces ``which``, all of ``size`` cells, in one batched inverse."""
+        slot = np.full(self.start.size - 1, -1, np.int64)
+        slot[which] = np.arange(which.size)
+        mats = np.zeros((which.size, size, size))
+        members = sel[(self.start[which][:, None] + np.arange(size)).ravel()].reshape(-1, size)
+        mats[:, np.arange(size), np.arange(size)] = d[members]
+        r, c, v = edges
+        mine = slot[owner[r]] >= 0
+        k, i, j = slot[owner[r[mine]]], local[r[mine]], local[c[mine]]
+        mats[k, i, j] = -v[mine]
+        mats[k, j, i] = -v[mine]
+        inv = np.linalg.inv(mats)
+        inv[:, np.arange(size), np.arange(size)] -= dinv[self.cells[self.start[which][:, None]
+                                                                   + np.arange(size)]]  # fmt: skip
+        li, lj = np.tril_indices(size)
+        dest = self.fstart[which][:, None] + np.arange(li.size)
+        self.packed[dest.ravel()] = inv[:, li, lj].ravel()
+
+    @property
+    def n_cells(self) -> int:
+        """Thin cells in the kept pieces."""
+        return int(self.cells.size)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the stored pieces."""
+        return int(self.cells.nbytes + self.start.nbytes + self.fstart.nbytes + self.packed.nbytes)
+
+    def apply(self, r: np.ndarray, z: np.ndarray) -> float:
+        """``z += E r`` on the pieces (``r, z`` pressure fields, C-contiguous); returns ``r . E
+        r`` (float64), the change of the pressure block's ``r . z``."""
+        if self.cells.size == 0:
+            return 0.0
+        return float(
+            thin_apply(self.cells, self.start, self.fstart, self.packed, self.width,
+                       r.reshape(-1), z.reshape(-1))
+        )  # fmt: skip
