@@ -74,8 +74,9 @@ def _kernel(kernel, nthr: int):
     """The dispatcher of a :func:`~solvers.jit.parallel_kernel` that a level on ``nthr``
     threads runs: its serial twin on one thread (what the twin's own dispatch picks there,
     without its per-call thread-count query; the coarse levels make 24 of the 36 kernel calls
-    of a Krylov iteration's three V-cycles), else the twin itself."""
-    return kernel.serial if nthr == 1 else kernel
+    of a Krylov iteration's three V-cycles), else the twin itself.  A kernel without a twin (a
+    benchmark's timing wrapper) is called as it is."""
+    return getattr(kernel, "serial", kernel) if nthr == 1 else kernel
 
 
 @dataclass
