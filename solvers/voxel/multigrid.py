@@ -70,6 +70,15 @@ def _small_integers(fine: Level, coarse: np.ndarray) -> np.ndarray:
     return coarse
 
 
+def _kernel(kernel, nthr: int):
+    """The dispatcher of a :func:`~solvers.jit.parallel_kernel` that a level on ``nthr``
+    threads runs: its serial twin on one thread (what the twin's own dispatch picks there,
+    without its per-call thread-count query; the coarse levels make 24 of the 36 kernel calls
+    of a Krylov iteration's three V-cycles), else the twin itself.  A kernel without a twin (a
+    benchmark's timing wrapper) is called as it is."""
+    return getattr(kernel, "serial", kernel) if nthr == 1 else kernel
+
+
 @dataclass
 class Level:
     """One level: operator (diag, couplings), aggregation factors to the next level, work."""
@@ -162,32 +171,32 @@ class ScalarMG:
 
         return solve
 
-    def _pre_smooth(self, lev: Level) -> None:
-        """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass)."""
+    def _pre_smooth(self, lev: Level, nthr: int) -> None:
+        """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass), on
+        ``nthr`` threads (:func:`_kernel`)."""
         if self.pre >= 2:
-            kr.jacobi2_zero(lev.d, *lev.c, lev.b, lev.x, self.omega, numba.get_num_threads())
+            _kernel(kr.jacobi2_zero, nthr)(lev.d, *lev.c, lev.b, lev.x, self.omega, nthr)
             rest = self.pre - 2
         else:
-            kr.jacobi_zero(lev.d, lev.b, lev.x, self.omega)
+            _kernel(kr.jacobi_zero, nthr)(lev.d, lev.b, lev.x, self.omega)
             rest = self.pre - 1
         for _ in range(rest):
-            kr.jacobi(lev.d, *lev.c, lev.x, lev.b, lev.t, self.omega)
+            _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, lev.t, self.omega)
             lev.x, lev.t = lev.t, lev.x
 
-    def _post_smooth(self, lev: Level, xc: np.ndarray, out: np.ndarray | None) -> float:
+    def _post_smooth(self, lev: Level, xc: np.ndarray, out: np.ndarray | None, nthr: int) -> float:
         """Coarse correction ``x += alpha P xc`` and ``pre`` Jacobi sweeps (the correction fused
-        into the first); the last sweep writes into ``out`` if given (the finest level: saves a
-        copy) and its ``b . out`` is returned (0.0 without ``out``)."""
+        into the first), on ``nthr`` threads; the last sweep writes into ``out`` if given (the
+        finest level: saves a copy) and its ``b . out`` is returned (0.0 without ``out``)."""
         dst = out if (out is not None and self.pre == 1) else lev.t
-        nchunks = numba.get_num_threads()
-        dot = kr.prolong_jacobi(
-            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nchunks
+        dot = _kernel(kr.prolong_jacobi, nthr)(
+            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nthr
         )
         if dst is lev.t:
             lev.x, lev.t = lev.t, lev.x
         for s in range(1, self.pre):
             dst = out if (out is not None and s == self.pre - 1) else lev.t
-            dot = kr.jacobi(lev.d, *lev.c, lev.x, lev.b, dst, self.omega)
+            dot = _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, dst, self.omega)
             if dst is lev.t:
                 lev.x, lev.t = lev.t, lev.x
         return dot if out is not None else 0.0
@@ -213,17 +222,24 @@ class ScalarMG:
             self._fine_arrays(out)
         nlev = len(levels)
         nthr = [level_threads(lev.d.size, avail) for lev in levels]
+        cur = avail  # numba.set_num_threads only where the count changes (it takes a lock)
         for li in range(nlev - 1):
             lev = levels[li]
-            numba.set_num_threads(nthr[li])
-            self._pre_smooth(lev)
-            kr.residual_restrict(lev.d, *lev.c, lev.x, lev.b, *lev.f, levels[li + 1].b)
+            if nthr[li] != cur:
+                cur = nthr[li]
+                numba.set_num_threads(cur)
+            self._pre_smooth(lev, nthr[li])
+            _kernel(kr.residual_restrict, nthr[li])(
+                lev.d, *lev.c, lev.x, lev.b, *lev.f, levels[li + 1].b
+            )
         self._coarse_solve(levels[-1].b, levels[-1].x)
         dot = 0.0
         for li in range(nlev - 2, -1, -1):
             lev = levels[li]
-            numba.set_num_threads(nthr[li])
-            dot = self._post_smooth(lev, levels[li + 1].x, out if li == 0 else None)
+            if nthr[li] != cur:
+                cur = nthr[li]
+                numba.set_num_threads(cur)
+            dot = self._post_smooth(lev, levels[li + 1].x, out if li == 0 else None, nthr[li])
         if nlev == 1:
             np.copyto(out, levels[0].x)
             dot = kr.dot(b, out)

@@ -391,3 +391,86 @@ def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
         before = a.copy()
         fetch_all(a)
         assert np.array_equal(a, before)
+
+
+@pytest.mark.parametrize("nz", [1, 2, 3, 7, 33])
+@pytest.mark.parametrize("ny", [1, 2, 3, kr.ROWS, kr.ROWS + 1, kr.ROWS + 2, 2 * kr.ROWS + 3])
+def test_flat_runs_of_rows_give_the_row_stencil_bit_for_bit(ny: int, nz: int) -> None:
+    """band12: the plane-buffer sweeps form the unit-coupling stencil of up to ``ROWS`` interior
+    rows in one flat loop (``_flat_unit``, whose k-neighbours at the row ends belong to the next
+    and previous rows) and rewrite the two ends of each row (``_ends_unit``).  The same float32
+    sum in the same order as ``_stencil_rows_unit`` row by row, so the same bits: every row of
+    the plane against the per-row stencil, on planes with fewer, as many and more rows than a
+    run, and rows of 1-3 cells (no interior: all ends)."""
+    import numba as nb
+
+    shape = (3, ny, nz)
+    rng = np.random.default_rng(40 + ny + nz)
+    d, c = mg.component_operator(_fluid(shape, seed=ny * nz), 0)
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+
+    @nb.njit
+    def rows_flat(d, x, out):
+        i = 1
+        m = d.shape[1] * d.shape[2]
+        xf = x.reshape(-1)
+        blk = np.empty(kr.ROWS * d.shape[2], np.float32)
+        rows = blk.reshape((kr.ROWS, d.shape[2]))
+        j0 = 0
+        while j0 < d.shape[1]:
+            n = kr._unit_rows(
+                d, d.reshape(-1), i, j0, x[1], x[0], x[2], xf, m, xf, 0, xf, 2 * m, blk, rows
+            )
+            for r in range(n):
+                out[j0 + r] = rows[r]
+            j0 += n
+
+    @nb.njit
+    def rows_ref(d, x, out):
+        ny = d.shape[1]
+        for j in range(ny):
+            kr._stencil_rows_unit(
+                d[1, j], x[1, j], x[0, j], x[2, j], x[1, (j - 1) % ny], x[1, (j + 1) % ny], out[j]
+            )
+
+    got = np.full((ny, nz), np.nan, np.float32)
+    ref = np.full((ny, nz), np.nan, np.float32)
+    rows_flat(d, x, got)
+    rows_ref(d, x, ref)
+    assert np.array_equal(got.view(np.uint32), ref.view(np.uint32))
+    # and the stencil itself, against float64 numpy (the stored couplings: the same product on
+    # a vector that vanishes on the inactive unknowns)
+    _close(got, _numpy_apply(d, c, x)[1])
+
+
+@pytest.mark.parametrize("ny", [1, 2, kr.ROWS + 1, kr.ROWS + 2, 2 * kr.ROWS + 3])
+def test_plane_sweeps_with_flat_runs_against_numpy(ny: int, chunks) -> None:
+    """band12: ``jacobi2_zero`` and ``prolong_jacobi`` (unit couplings: flat runs of rows, and
+    the rows of the plane two ahead prefetched) against float64 numpy, with the stored
+    couplings too, on grids whose planes have fewer and more rows than a run."""
+    shape = (6, ny, 9)
+    rng = np.random.default_rng(50 + ny)
+    d, c = mg.component_operator(_fluid(shape, seed=7 + ny), 0)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    nc = tuple(n // m for n, m in zip(shape, f, strict=True))
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    xc = rng.standard_normal(nc).astype(np.float32)
+    dd = np.where(d > 0, d, 1).astype(np.float64)
+
+    def sweep(x0: np.ndarray) -> np.ndarray:
+        return np.where(d > 0, x0 + 0.9 * (b - _numpy_apply(d, c, x0)) / dd, 0.0)
+
+    idx = np.ix_(
+        *[np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(shape, f, nc, strict=True)]
+    )
+    x_pro = np.where(d > 0, x + 1.6 * xc[idx].astype(np.float64), 0.0)
+    x1 = np.where(d > 0, 0.9 * b / dd, 0.0)
+    for cc in (c, kr.unit_couplings(shape[2])):
+        out = np.full(shape, np.nan, np.float32)
+        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
+        _close(out, sweep(x1))
+        dot = kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
+        ref = sweep(x_pro)
+        _close(out, ref)
+        assert abs(dot - float(np.sum(b * ref))) <= 1e-5 * float(np.sum(np.abs(b * ref)))
