@@ -79,9 +79,11 @@ def _task(mode: str) -> tuple[str, float]:
         # occur in neither pass above (a 100^3 solve after warmup compiled 5 of them, ~19 s);
         # and Galerkin levels of float32 diagonals with one-byte couplings, which the 48^3
         # grid has (16^3 and 32^3 do not)
+        # (all levels parallel first: a 400^3 solve's 200^3 and 100^3 levels are of that kind)
         fine = built.voxelize(spec["rve"]["voxel"] / 3)
-        vthreads.PARALLEL_MIN_CELLS = int(fine.solid.size)
-        _solves(built, fine, spec)
+        for threshold in (0, int(fine.solid.size)):
+            vthreads.PARALLEL_MIN_CELLS = threshold
+            _solves(built, fine, spec)
     if mode == "serial":
         _forcefield()
     return mode, time.perf_counter() - t0
