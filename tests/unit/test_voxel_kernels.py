@@ -354,23 +354,8 @@ def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
     from solvers.voxel import simd
 
     shape = (5, ny, 7)
-    rng = np.random.default_rng(30 + ny)
-    d, c = mg.component_operator(_fluid(shape, seed=ny), 0)
-    f = tuple(2 if n >= 4 else 1 for n in shape)
-    nc = tuple(n // m for n, m in zip(shape, f, strict=True))
-    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
-    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
-    xc = rng.standard_normal(nc).astype(np.float32)
-    dd = np.where(d > 0, d, 1).astype(np.float64)
-
-    def sweep(x0: np.ndarray) -> np.ndarray:
-        return np.where(d > 0, x0 + 0.9 * (b - _numpy_apply(d, c, x0)) / dd, 0.0)
-
-    idx = np.ix_(
-        *[np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(shape, f, nc, strict=True)]
-    )
-    x_pro = np.where(d > 0, x + 1.6 * xc[idx].astype(np.float64), 0.0)
-    x1 = np.where(d > 0, 0.9 * b / dd, 0.0)
+    d, c, f, x, xc, b, sweep = _sweep_case(shape, 30 + ny, ny)
+    x_pro, x1 = _sweep_starts(d, f, x, xc, b)
     for cc in (c, kr.unit_couplings(shape[2])):
         out = np.full(shape, np.nan, np.float32)
         kr.jacobi(d, *cc, x, b, out, 0.9)
@@ -449,8 +434,23 @@ def test_plane_sweeps_with_flat_runs_against_numpy(ny: int, chunks) -> None:
     the rows of the plane two ahead prefetched) against float64 numpy, with the stored
     couplings too, on grids whose planes have fewer and more rows than a run."""
     shape = (6, ny, 9)
-    rng = np.random.default_rng(50 + ny)
-    d, c = mg.component_operator(_fluid(shape, seed=7 + ny), 0)
+    d, c, f, x, xc, b, sweep = _sweep_case(shape, 50 + ny, 7 + ny)
+    x_pro, x1 = _sweep_starts(d, f, x, xc, b)
+    for cc in (c, kr.unit_couplings(shape[2])):
+        out = np.full(shape, np.nan, np.float32)
+        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
+        _close(out, sweep(x1))
+        dot = kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
+        ref = sweep(x_pro)
+        _close(out, ref)
+        assert abs(dot - float(np.sum(b * ref))) <= 1e-5 * float(np.sum(np.abs(b * ref)))
+
+
+def _sweep_case(shape: tuple[int, int, int], seed: int, fluid_seed: int):
+    """Operator of a random fluid mask, random fine/coarse vectors and one float64 damped Jacobi
+    sweep (omega 0.9) in numpy: the reference of the plane-sweep tests."""
+    rng = np.random.default_rng(seed)
+    d, c = mg.component_operator(_fluid(shape, seed=fluid_seed), 0)
     f = tuple(2 if n >= 4 else 1 for n in shape)
     nc = tuple(n // m for n, m in zip(shape, f, strict=True))
     x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
@@ -461,16 +461,15 @@ def test_plane_sweeps_with_flat_runs_against_numpy(ny: int, chunks) -> None:
     def sweep(x0: np.ndarray) -> np.ndarray:
         return np.where(d > 0, x0 + 0.9 * (b - _numpy_apply(d, c, x0)) / dd, 0.0)
 
+    return d, c, f, x, xc, b, sweep
+
+
+def _sweep_starts(d, f, x, xc, b):
+    """The prolonged start ``x + 1.6 P xc`` and the first sweep from zero ``0.9 b / d``."""
+    nc = xc.shape
     idx = np.ix_(
-        *[np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(shape, f, nc, strict=True)]
+        *[np.minimum(np.arange(n) // m, q - 1) for n, m, q in zip(d.shape, f, nc, strict=True)]
     )
     x_pro = np.where(d > 0, x + 1.6 * xc[idx].astype(np.float64), 0.0)
-    x1 = np.where(d > 0, 0.9 * b / dd, 0.0)
-    for cc in (c, kr.unit_couplings(shape[2])):
-        out = np.full(shape, np.nan, np.float32)
-        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
-        _close(out, sweep(x1))
-        dot = kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
-        ref = sweep(x_pro)
-        _close(out, ref)
-        assert abs(dot - float(np.sum(b * ref))) <= 1e-5 * float(np.sum(np.abs(b * ref)))
+    x1 = np.where(d > 0, 0.9 * b / np.where(d > 0, d, 1).astype(np.float64), 0.0)
+    return x_pro, x1
