@@ -9,6 +9,7 @@ degenerate row lengths, and inactive unknowns.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from stokes_product import stokes_product
@@ -378,6 +379,33 @@ def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
         assert np.array_equal(a, before)
 
 
+# module level, so each compiles once per process and not once per parametrized case
+@numba.njit(cache=False)
+def _rows_flat(d, x, out):
+    i = 1
+    m = d.shape[1] * d.shape[2]
+    xf = x.reshape(-1)
+    blk = np.empty(kr.ROWS * d.shape[2], np.float32)
+    rows = blk.reshape((kr.ROWS, d.shape[2]))
+    j0 = 0
+    while j0 < d.shape[1]:
+        n = kr._unit_rows(
+            d, d.reshape(-1), i, j0, x[1], x[0], x[2], xf, m, xf, 0, xf, 2 * m, blk, rows
+        )
+        for r in range(n):
+            out[j0 + r] = rows[r]
+        j0 += n
+
+
+@numba.njit(cache=False)
+def _rows_ref(d, x, out):
+    ny = d.shape[1]
+    for j in range(ny):
+        kr._stencil_rows_unit(
+            d[1, j], x[1, j], x[0, j], x[2, j], x[1, (j - 1) % ny], x[1, (j + 1) % ny], out[j]
+        )
+
+
 @pytest.mark.parametrize("nz", [1, 2, 3, 7, 33])
 @pytest.mark.parametrize("ny", [1, 2, 3, kr.ROWS, kr.ROWS + 1, kr.ROWS + 2, 2 * kr.ROWS + 3])
 def test_flat_runs_of_rows_give_the_row_stencil_bit_for_bit(ny: int, nz: int) -> None:
@@ -387,41 +415,15 @@ def test_flat_runs_of_rows_give_the_row_stencil_bit_for_bit(ny: int, nz: int) ->
     sum in the same order as ``_stencil_rows_unit`` row by row, so the same bits: every row of
     the plane against the per-row stencil, on planes with fewer, as many and more rows than a
     run, and rows of 1-3 cells (no interior: all ends)."""
-    import numba as nb
-
     shape = (3, ny, nz)
     rng = np.random.default_rng(40 + ny + nz)
     d, c = mg.component_operator(_fluid(shape, seed=ny * nz), 0)
     x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
 
-    @nb.njit
-    def rows_flat(d, x, out):
-        i = 1
-        m = d.shape[1] * d.shape[2]
-        xf = x.reshape(-1)
-        blk = np.empty(kr.ROWS * d.shape[2], np.float32)
-        rows = blk.reshape((kr.ROWS, d.shape[2]))
-        j0 = 0
-        while j0 < d.shape[1]:
-            n = kr._unit_rows(
-                d, d.reshape(-1), i, j0, x[1], x[0], x[2], xf, m, xf, 0, xf, 2 * m, blk, rows
-            )
-            for r in range(n):
-                out[j0 + r] = rows[r]
-            j0 += n
-
-    @nb.njit
-    def rows_ref(d, x, out):
-        ny = d.shape[1]
-        for j in range(ny):
-            kr._stencil_rows_unit(
-                d[1, j], x[1, j], x[0, j], x[2, j], x[1, (j - 1) % ny], x[1, (j + 1) % ny], out[j]
-            )
-
     got = np.full((ny, nz), np.nan, np.float32)
     ref = np.full((ny, nz), np.nan, np.float32)
-    rows_flat(d, x, got)
-    rows_ref(d, x, ref)
+    _rows_flat(d, x, got)
+    _rows_ref(d, x, ref)
     assert np.array_equal(got.view(np.uint32), ref.view(np.uint32))
     # and the stencil itself, against float64 numpy (the stored couplings: the same product on
     # a vector that vanishes on the inactive unknowns)
