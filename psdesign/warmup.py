@@ -73,19 +73,17 @@ def _task(mode: str) -> tuple[str, float]:
     built = build_rve(spec)
     fields = built.voxelize(spec["rve"]["voxel"])
     _solves(built, fields, spec)
-    if mode != "serial":
-        # a real multi-thread solve runs its fine levels in parallel and its small coarse levels
-        # on the serial twins, with the Galerkin couplings stored: those twins' argument types
-        # occur in neither pass above (a 100^3 solve after warmup compiled 5 of them, ~19 s);
-        # and Galerkin levels of float32 diagonals with one-byte couplings, which the 48^3
-        # grid has (16^3 and 32^3 do not)
-        # (all levels parallel first: a 400^3 solve's 200^3 and 100^3 levels are of that kind)
+    if mode == "serial":
+        _forcefield()
+    else:
+        # a real multi-thread solve also meets Galerkin levels of float32 diagonals with
+        # one-byte couplings, in parallel (a 400^3 solve's 200^3 and 100^3 levels) and on the
+        # serial twins (its small coarse levels): the 16^3 grid has none, the 48^3 grid has
+        # them (after the 16^3 pass alone a 100^3 solve compiled 5 kernels, ~19 s)
         fine = built.voxelize(spec["rve"]["voxel"] / 3)
         for threshold in (0, int(fine.solid.size)):
             vthreads.PARALLEL_MIN_CELLS = threshold
             _solves(built, fine, spec)
-    if mode == "serial":
-        _forcefield()
     return mode, time.perf_counter() - t0
 
 

@@ -399,7 +399,7 @@ def _jacobi_rows_unit(d, i, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, b, omega, 
     """Jacobi sweep of plane ``i`` (unit couplings) into ``xnew[i]`` from the planes ``p0, pm,
     pp`` of the iterate at ``i, i - 1, i + 1`` (2-D views and flat views with offsets, as
     :func:`_unit_rows`); returns the plane's ``b . xnew``, summed row by row in order (the same
-    sum as :func:`_jacobi_row` per row).  ``fetch``: prefetch the rows of ``b`` ahead."""
+    sum as :func:`_jacobi_row` per row).  ``fa, fb``: as :func:`_fetch_ahead`."""
     ny, nz = d.shape[1], d.shape[2]
     df = d.reshape(-1)
     rows = blk.reshape((ROWS, nz))
