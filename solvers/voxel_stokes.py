@@ -511,7 +511,11 @@ def solve_voxel_stokes(
             "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
         )
     _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol)
-    setup = _setup_grid(solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides)
+    # the set-up's kernels follow the same thread policy as the solve (a small grid on one thread)
+    with _threads(solid.size), jit.kernel_log() as setup_log:
+        setup = _setup_grid(
+            solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides
+        )
     vmem.release_free_heap()  # the set-up's freed temporaries (8 B per cell at 200^3)
     if not percolates(setup.pop("blocked"), d):
         raise VoxelStokesError(
@@ -526,8 +530,9 @@ def solve_voxel_stokes(
     vmem.release_free_heap()
     with _threads(int(np.prod(setup["op"].shape[1:]))) as threads, jit.kernel_log() as log:
         x, info = _solve_core(setup["op"], d, tol, int(max_iter), progress)
-    info["threads"] = vthreads.thread_use(*threads, log.fallback, log.parallel)
-    info["fallback"] = tuple(sorted(log.fallback))
+    fallback, parallel = log.fallback | setup_log.fallback, log.parallel | setup_log.parallel
+    info["threads"] = vthreads.thread_use(*threads, fallback, parallel)
+    info["fallback"] = tuple(sorted(fallback))
     return _result(
         x,
         info,

@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 
-from psdesign.cli.progress import progress_printer
+from psdesign.cli.progress import progress_printer, warning
 
 #: Voxel Stokes solve time per grid cell, one thread and two (measured on the idle 2-core
 #: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel.threads.PARALLEL_MIN_CELLS``).
@@ -114,7 +113,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     out = results[0] if len(results) == 1 else _combine(results, solver, fields.porosity)
     out["wall_time_s"] = time.perf_counter() - t0
     for w in dict.fromkeys(out.get("warnings", [])):
-        print(f"psdesign: warning: {w}", file=sys.stderr)
+        warning(w)
     if args.json:
         print(json.dumps(out, default=float))
     else:

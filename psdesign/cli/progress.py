@@ -25,6 +25,7 @@ __all__ = [
     "laplace_progress",
     "progress_printer",
     "stage",
+    "warning",
 ]
 
 
@@ -50,6 +51,7 @@ class Printer:
         self.every_s = every_s
         self.t0 = time.perf_counter()
         self._open = False  # a redrawn (unterminated) line is on the terminal
+        self.warned: list[str] = []  # warnings printed by :func:`warning` during the command
 
     def _write(self, text: str, redraw: bool = False) -> None:
         if self.quiet:
@@ -129,7 +131,8 @@ def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Prin
         if _pending_kernels() - before:  # this command ran kernels on one thread
             from solvers.jit import WARMUP_NOTE
 
-            printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
+            if not any(WARMUP_NOTE in w for w in printer.warned):  # not said already
+                printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
         printer.close()
 
 
@@ -148,6 +151,15 @@ def stage(message: str) -> None:
     """Report a stage of a long step on the active printer (no-op without one)."""
     if _ACTIVE:
         _ACTIVE[-1].stage(message)
+
+
+def warning(text: str) -> None:
+    """Print ``psdesign: warning: <text>`` on stderr (also with ``--quiet``: a warning is part
+    of the result) and remember it on the active printer, so the command's closing notes do not
+    repeat it."""
+    print(f"psdesign: warning: {text}", file=sys.stderr)
+    if _ACTIVE:
+        _ACTIVE[-1].warned.append(text)
 
 
 def estimate(what: str, seconds: float | None = None, memory_gb: float | None = None) -> None:

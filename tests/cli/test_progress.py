@@ -180,3 +180,19 @@ def test_generate_reports_generation_and_quiet_silences(tmp_path, capsys):
     assert f"RVE generated: {n} fibers in " in captured.err
     assert main(["generate", str(spec), "-o", str(tmp_path / "b"), "--quiet"]) == 0
     assert "generating" not in capsys.readouterr().err
+
+
+def test_warmup_note_is_said_once(monkeypatch, capsys):
+    """A voxel solve that fell back to one thread says so in its result warning; the command's
+    closing line must not repeat it (session 12 printed it twice), and says it when nothing
+    else did."""
+    monkeypatch.setattr(jit, "_PENDING", set())
+    stream = io.StringIO()
+    with pr.activate(stream=stream):
+        jit._PENDING.add("a_kernel")
+        pr.warning(f"K_x: voxel solve ran on 1 of 2 threads: {jit.WARMUP_NOTE}")
+    assert jit.WARMUP_NOTE not in stream.getvalue()
+    assert capsys.readouterr().err.count(jit.WARMUP_NOTE) == 1
+    with pr.activate(stream=stream):
+        jit._PENDING.add("another_kernel")
+    assert stream.getvalue().count(jit.WARMUP_NOTE) == 1
