@@ -49,16 +49,19 @@ are corrected::
     B_P^-1 = D^-1/2 (I + sum_{theta_k < LOW} (1 / theta_k - 1) v_k v_k^T) D^-1/2
 
 (``E_P`` the sum term: SPD, ``B_P^-1`` maps those modes of ``D^-1 L_P`` to 1 and leaves the
-others at ``D``); a piece with no mode below :data:`LOW` is dropped.  Toray-like 100 / 200 um,
-1 % / 0.9 % of the pieces are kept (101 / 713), 0.12 B per voxel instead of 0.84, the pass 29x
-shorter; every array row of ``docs/validation.md`` back to its count without thin pieces.
+others at ``D``); on a dead end (at most :data:`MOUTHS` cells with a face leaving the piece, where
+the Dirichlet mouth is right) the modes below :data:`DEAD_END_LOW`.  A piece with no such mode
+is dropped: Toray-like 200 um, 765 of 80 574 pieces kept, 0.12 B per voxel instead of 0.84, the
+pass 29x shorter.  Every row of ``docs/validation.md`` is back to its count without thin
+pieces.
 
 Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``): without thin pieces
 131 / 150 / 187 / 246 iterations at 100 / 200 / 300 / 400 um; the whole ``L_P^-1`` (session 12,
 "Issue 16 item 4, iteration growth (defl12)") 113 / 141 / 166 / 182 (the second refinement
 cycle's smallest Ritz value 0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.063 / 0.068 / 0.042, the
-far end at 100 um -1.05 -> -1.11); the slow modes only (:data:`LOW` 0.3) 104 / 136 / 164 / see
-RESULTS (100 um: smallest 0.120, far end -1.03), K within 1e-9.  With at most 2 open faces (the
+far end at 100 um -1.05 -> -1.11); the slow modes (:data:`LOW` 0.3, dead ends 0.45) 104 / 139 /
+164 / 182, K within 1e-9 (:data:`LOW` 0.3 alone: 104 / 136 / 164 / 191; 100 um: smallest Ritz
+value 0.120, far end -1.03).  With at most 2 open faces (the
 one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145 (session 12; 3 faces and
 :data:`LOW` 0.3: 124 at 100 um); 5 faces 146 / 162: the pieces then span the open pore space
 (5 faces and :data:`LOW` 0.3: 169 at 100 um: those pieces' low modes are not local either).
@@ -87,9 +90,20 @@ any partition keeps the block diagonal ``B`` SPD; it bounds the stored entries p
 LOW = 0.3
 """Modes of a piece's ``D^-1 L_P`` below this are corrected (mapped to 1), the rest keep ``D``
 (inf: the whole ``L_P^-1``, session 12's rule).  Toray-like 100 um: 0.15 / 0.2 / 0.25 / 0.3 /
-0.35 / 0.4 / 0.5 / inf give 104 / 106 / 106 / 104 / 104 / 107 / 108 / 113 iterations, 200 um
-0.2 / 0.3 / 0.4 / inf 141 / 136 / 141 / 141; the wall-corner columns of the cylinder arrays sit
-at 0.54 and above, a dead-end tube of L cells at about ``(pi / (2 L + 1))^2``."""
+0.35 / 0.4 / 0.45 / 0.5 / inf give 104 / 106 / 106 / 104 / 104 / 107 / 107 / 108 / 113
+iterations, 200 um 0.2 / 0.3 / 0.4 / 0.45 / 0.5 / inf 141 / 136 / 141 / 141 / 139 / 141, 400 um
+0.3 / 0.45 / inf 191 / 182 / 182; the wall-corner columns of the cylinder arrays sit at 0.54 and
+above, pieces of the permeameter arrays between 0.3 and 0.45 (every permeameter row of
+``docs/validation.md`` took 1-9 % more iterations at 0.45), a dead-end tube of L cells at about
+``(pi / (2 L + 1))^2``."""
+
+DEAD_END_LOW = 0.45
+""":data:`LOW` of the pieces that open to the rest of the fluid through at most
+:data:`MOUTHS` cells (dead ends: their Dirichlet mouth is right); Toray-like 100 / 200 / 300 /
+400 um 104 / 139 / 164 / 182 iterations, the arrays' counts unchanged."""
+
+MOUTHS = 2
+"""Most cells with a face leaving the piece of a dead end (:data:`DEAD_END_LOW`)."""
 
 TASK = 256
 """Pieces per parallel task of :func:`thin_apply` (one pair of work rows per task)."""
@@ -176,19 +190,23 @@ def _pieces(labels: np.ndarray) -> np.ndarray:
 
 def _correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``E_P`` of a batch of pieces (``mats``: their ``L_P``, ``dinv``: the coded ``D^-1`` of their
-    cells): the modes of ``D^-1 L_P`` below :data:`LOW` mapped to 1, the others left to ``D``;
-    and which pieces have such a mode."""
+    cells): the modes of ``D^-1 L_P`` below :data:`LOW` (:data:`DEAD_END_LOW` on a piece with at
+    most :data:`MOUTHS` mouth cells) mapped to 1, the others left to ``D``; and which pieces have
+    such a mode."""
     if not np.isfinite(LOW):
         inv = np.linalg.inv(mats)
         inv[:, np.arange(mats.shape[1]), np.arange(mats.shape[1])] -= dinv
         return inv, np.ones(mats.shape[0], bool)
+    # the cells with a face leaving the piece: row sum of L_P > 0 (faces inside cancel)
+    mouths = (mats.sum(axis=2) > 1e-6 * np.diagonal(mats, axis1=1, axis2=2)).sum(axis=1)
+    low = np.where(mouths <= MOUTHS, DEAD_END_LOW, LOW)
     s = np.sqrt(dinv.astype(np.float64))
     out = mats  # scaled in place, then overwritten by the correction: no second batch array
     out *= s[:, :, None] * s[:, None, :]
     # the eigenvalues of all (cheap), the eigenvectors of the few pieces with a low mode
-    active = np.linalg.eigvalsh(out)[:, 0] < LOW
+    active = np.linalg.eigvalsh(out)[:, 0] < low
     lam, vec = np.linalg.eigh(out[active])
-    gain = np.where(lam < LOW, 1.0 / lam - 1.0, 0.0)
+    gain = np.where(lam < low[active, None], 1.0 / lam - 1.0, 0.0)
     out[~active] = 0.0
     out[active] = np.einsum("pik,pk,pjk->pij", vec, gain, vec) * (
         s[active, :, None] * s[active, None, :]

@@ -65,6 +65,24 @@ def _dinv(faces: list[np.ndarray]) -> np.ndarray:
     return (1.0 / np.maximum(s2, FLOOR)).astype(np.float32)
 
 
+def _kept(faces: list[np.ndarray], fluid: np.ndarray, every: thin.ThinBlocks) -> list[np.ndarray]:
+    """The pieces of ``every`` (all pieces, ``LOW = inf``) that the rule keeps, from the dense
+    ``L_P`` cell by cell: a mode of ``D^-1 L_P`` below ``LOW``, or below ``DEAD_END_LOW`` with at
+    most ``MOUTHS`` cells whose row of ``L_P`` does not sum to 0 (a face leaving the piece)."""
+    kept = []
+    for p in range(every.start.size - 1):
+        cells = every.cells[every.start[p] : every.start[p + 1]]
+        piece = [tuple(int(i) for i in np.unravel_index(c, fluid.shape)) for c in cells]
+        lp = _schur_piece(faces, piece)
+        dp = np.diag(lp)
+        theta = np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))[0]
+        mouths = int((lp.sum(axis=1) > 1e-6 * dp).sum())
+        low = thin.DEAD_END_LOW if mouths <= thin.MOUTHS else thin.LOW
+        if theta < low:
+            kept.append(cells)
+    return kept
+
+
 def _block(tb: thin.ThinBlocks, dinv: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float]:
     """``B^-1 r`` and ``r . B^-1 r`` (the diagonal block plus the thin pieces' correction)."""
     z = (dinv * r).astype(np.float32)
@@ -98,8 +116,9 @@ def test_the_dead_end_tube_is_one_piece_solved_exactly(monkeypatch: pytest.Monke
 
 def test_the_tubes_slow_mode_is_mapped_to_one_and_the_others_keep_d() -> None:
     # D^-1 L_P on the tube has a small eigenvalue (the 1-D Laplacian's slowest mode behind the
-    # dead end): the piece's block maps it to 1; its modes at or above LOW keep D (eigenvalue
-    # theta_k of D^-1 L_P), which the whole L_P^-1 (the former rule) would map to 1 too
+    # dead end): the piece's block maps it to 1; its modes at or above DEAD_END_LOW (the tube
+    # opens through one cell) keep D (eigenvalue theta_k of D^-1 L_P), which the whole L_P^-1
+    # (the former rule) would map to 1 too
     fluid, tube = _tube_grid(6)
     faces = _faces(fluid)
     dinv = _dinv(faces)
@@ -108,15 +127,55 @@ def test_the_tubes_slow_mode_is_mapped_to_one_and_the_others_keep_d() -> None:
     dp = np.diag(lp)
     theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
     assert theta[0] < 0.1  # the slow mode the diagonal leaves
-    assert (theta < thin.LOW).sum() == 1 and theta[-1] > 1.0  # one mode corrected, others not
+    assert (lp.sum(axis=1) > 1e-6 * dp).sum() == 1 <= thin.MOUTHS  # a dead end
+    low = thin.DEAD_END_LOW
+    assert 0 < (theta < low).sum() < len(tube)  # some modes corrected, the others not
     for k in range(len(tube)):
         v = vecs[:, k] / np.sqrt(dp)  # eigenvector of D^-1 L_P with value theta_k
         r = np.zeros(fluid.shape, np.float32)
         for c, val in zip(tube, lp @ v, strict=True):
             r[c] = val
         z, _ = _block(tb, dinv, r)
-        want = v if theta[k] < thin.LOW else theta[k] * v
+        want = v if theta[k] < low else theta[k] * v
         np.testing.assert_allclose([z[c] for c in tube], want, rtol=1e-4, atol=1e-5 * abs(v).max())
+
+
+def test_a_short_dead_end_keeps_its_slow_mode(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a tube of 2 cells behind one mouth cell: its slow mode (0.39) is above LOW but below
+    # DEAD_END_LOW, so it is corrected as a dead end's; without the dead-end rule (MOUTHS = 0)
+    # the piece would keep D
+    fluid, tube = _tube_grid(2)
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    lp = _schur_piece(faces, tube)
+    dp = np.diag(lp)
+    theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
+    assert thin.LOW <= theta[0] < thin.DEAD_END_LOW and (lp.sum(axis=1) > 1e-6 * dp).sum() == 1
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    assert tb.n_cells == 2
+    v = vecs[:, 0] / np.sqrt(dp)
+    r = np.zeros(fluid.shape, np.float32)
+    for c, val in zip(tube, lp @ v, strict=True):
+        r[c] = val
+    z, _ = _block(tb, dinv, r)
+    np.testing.assert_allclose([z[c] for c in tube], v, rtol=1e-4, atol=1e-5 * abs(v).max())
+    monkeypatch.setattr(thin, "MOUTHS", 0)
+    assert thin.ThinBlocks(faces, fluid, dinv, FLOOR).n_cells == 0
+
+
+def test_the_kept_pieces_of_a_random_pore_space(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a random 12^3 pore space (65 % fluid): pieces of every kind, among them dead ends and
+    # pieces with many mouths whose slowest mode lies between LOW and DEAD_END_LOW
+    fluid = np.random.default_rng(5).random((12, 12, 12)) > 0.35
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    with monkeypatch.context() as m:
+        m.setattr(thin, "LOW", np.inf)
+        every = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    kept = _kept(faces, fluid, every)
+    assert 0 < len(kept) < every.start.size - 1
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    np.testing.assert_array_equal(np.sort(tb.cells), np.sort(np.concatenate(kept)))
 
 
 def _corner_channel(nz: int = 6) -> tuple[np.ndarray, list[list[tuple[int, int, int]]]]:
@@ -186,15 +245,8 @@ def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd(
     if low is not None:
         monkeypatch.setattr(thin, "LOW", low)
     tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
-    # kept: exactly the pieces whose D^-1 L_P (dense, cell by cell) has a mode below LOW
-    kept = []
-    for p in range(sizes.size):
-        cells = every.cells[every.start[p] : every.start[p + 1]]
-        lp = _schur_piece(faces, [tuple(int(i) for i in np.unravel_index(c, fluid.shape))
-                                  for c in cells])  # fmt: skip
-        dp = np.diag(lp)
-        if np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))[0] < thin.LOW:
-            kept.append(cells)
+    # kept: exactly the pieces the rule keeps on the dense L_P (cell by cell)
+    kept = _kept(faces, fluid, every)
     assert 0 < len(kept) < sizes.size or low == np.inf
     np.testing.assert_array_equal(np.sort(tb.cells), np.sort(np.concatenate(kept)))
     rng = np.random.default_rng(2)
