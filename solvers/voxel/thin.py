@@ -215,8 +215,8 @@ def _correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 class ThinBlocks:
-    """The thin pieces' correction ``E_P = L_P^-1 - D_P^-1`` of the pressure block (module
-    docstring).
+    """The thin pieces' correction ``E_P`` of the pressure block: ``L_P^-1 - D_P^-1`` on the
+    slow modes of ``D^-1 L_P`` only (module docstring).
 
     Parameters
     ----------
@@ -320,7 +320,7 @@ class ThinBlocks:
         self._drop(~active)
 
     def _drop(self, idle: np.ndarray) -> None:
-        """Remove the pieces ``idle`` (no mode below :data:`LOW`: their correction is 0)."""
+        """Remove the pieces ``idle`` (no slow mode: their correction is 0)."""
         if not idle.any():
             return
         s = np.diff(self.start)
