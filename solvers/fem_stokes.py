@@ -27,7 +27,6 @@ magnitudes (micrometre meshes, mu ~ 1e-5 Pa s); results are returned in SI units
 
 from __future__ import annotations
 
-import contextlib
 import resource
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -52,18 +51,7 @@ from solvers.fem.periodic import (
     p2_representatives,
 )
 from solvers.fem.probe import PointLocator, p2_weights
-
-try:  # single-threaded BLAS in the Krylov loop: OpenBLAS threading on short vectors is 6x slower
-    from threadpoolctl import threadpool_limits
-except ImportError:  # pragma: no cover - optional dependency
-    threadpool_limits = None
-
-
-def _single_thread_blas():
-    if threadpool_limits is None:
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
-
+from solvers.voxel.threads import single_thread_blas
 
 __all__ = [
     "solve_stokes",
@@ -545,7 +533,7 @@ def solve_stokes(
     if system.n <= direct_max_dofs:
         info = solve_direct(system, b, tol)
     else:
-        with _single_thread_blas():
+        with single_thread_blas():  # short vectors: BLAS threads cost
             info = solve_iterative(
                 system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
             )
@@ -742,7 +730,7 @@ def solve_stokes_periodic(
     if system.n <= direct_max_dofs:
         info = solve_direct(system, b, tol)
     else:
-        with _single_thread_blas():
+        with single_thread_blas():  # short vectors: BLAS threads cost
             info = solve_iterative(
                 system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
             )

@@ -806,9 +806,12 @@ block of the preconditioner (without it the MINRES iterations grow with the box 
 THIN_BLOCKS = True
 """Replace the pressure block's diagonal ``D`` by exact local solves on the thin pieces of the
 fluid (dead-end tubes, slits: :class:`solvers.voxel.thin.ThinBlocks`), whose local pressure
-modes are the smallest eigenvalues of the preconditioned system.  Since session 12: Toray-like
-at 1 um, 100 / 200 / 300 / 400 um, 131 / 150 / 187 / 246 -> 113 / 141 / 166 / 182 SYMMLQ
-iterations (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (defl12)")."""
+modes are the smallest eigenvalues of the preconditioned system; since session 13 only the
+pieces' slow modes (:data:`solvers.voxel.thin.LOW`; the exact solve of the whole piece cost the
+cylinder arrays up to 23 % more iterations).  Toray-like at 1 um, 100 / 200 / 300 / 400 um: 131
+/ 150 / 187 / 246 SYMMLQ iterations without, 113 / 141 / 166 / 182 with the whole pieces
+(session 12), 104 / 139 / 164 / 182 with their slow modes (``benchmarks/RESULTS.md``, "Thin
+pieces on array grids (thin13)")."""
 
 SCHUR_FLOOR = 1e-4
 """Lower bound of the Schur diagonal estimate (the smallest possible value, a weight of 0.05 on

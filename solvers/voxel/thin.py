@@ -1,4 +1,4 @@
-"""Exact local pressure solves on the thin fluid regions of the voxel Stokes preconditioner.
+"""Local pressure solves of the slow modes of the thin fluid regions (voxel Stokes preconditioner).
 
 Why
 ---
@@ -33,14 +33,38 @@ R^T S_c^+ R`` stays SPD and SYMMLQ / MINRES stay valid.  Stored as ``E_P = L_P^-
 float32, added to the pressure block's output in one pass (:func:`thin_apply`); single cells
 are left out (their block is ``D`` itself).
 
-Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``, "Issue 16 item 4,
-iteration growth (defl12)"): the 100 / 200 / 300 / 400 um boxes take 113 / 141 / 166 / 182
-iterations instead of 131 / 150 / 187 / 246 (the second refinement cycle's smallest Ritz value
-0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.063 / 0.068 / 0.042), K within 5e-9.  With at most 2
-open faces (the one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145; 5 faces
-146 / 162: the pieces then span the open pore space and the far end of the spectrum grows (-1.05
-to -1.63 at 100 um).  Memory: 3.2 % of the cells are in pieces at 200^3, about 4.4 stored
-entries per piece cell; 0.84 B per voxel in all.
+Only the slow modes (since session 13)
+-------------------------------------
+The Dirichlet condition at the mouth is right for a dead end behind a narrow mouth, wrong for a
+piece whose faces leave it on every cell: the concave corners of a staircase wall are columns of
+4-face cells along the wall with two of their four faces into the open pore.  There ``D^-1
+L_P`` has its smallest eigenvalue at 0.54-0.56 (sub-voxel walls: 0.72-0.92), the exact local
+solve scales those modes by up to 1.8 against a true local Schur complement that couples them to
+the pore around, and the far end of the preconditioned spectrum grows: the cylinder arrays of
+``docs/validation.md`` took up to 23 % more iterations (``benchmarks/RESULTS.md``, "Thin pieces
+on array grids (thin13)").  So each piece's scaled block ``M = D^-1/2 L_P D^-1/2`` (``D`` the
+coded diagonal) is decomposed, ``M = V diag(theta) V^T``, and only its modes below :data:`LOW`
+are corrected::
+
+    B_P^-1 = D^-1/2 (I + sum_{theta_k < LOW} (1 / theta_k - 1) v_k v_k^T) D^-1/2
+
+(``E_P`` the sum term: SPD, ``B_P^-1`` maps those modes of ``D^-1 L_P`` to 1 and leaves the
+others at ``D``); on a dead end (at most :data:`MOUTHS` cells with a face leaving the piece, where
+the Dirichlet mouth is right) the modes below :data:`DEAD_END_LOW`.  A piece with no such mode
+is dropped: Toray-like 200 um, 765 of 80 574 pieces kept, 0.12 B per voxel instead of 0.84, the
+pass 29x shorter.  Every row of ``docs/validation.md`` is back to its count without thin
+pieces.
+
+Measured (Toray-like 1 um, SYMMLQ to 1e-6; ``benchmarks/RESULTS.md``): without thin pieces
+131 / 150 / 187 / 246 iterations at 100 / 200 / 300 / 400 um; the whole ``L_P^-1`` (session 12,
+"Issue 16 item 4, iteration growth (defl12)") 113 / 141 / 166 / 182 (the second refinement
+cycle's smallest Ritz value 0.048 / 0.036 / 0.030 / 0.015 -> 0.12 / 0.063 / 0.068 / 0.042, the
+far end at 100 um -1.05 -> -1.11); the slow modes (:data:`LOW` 0.3, dead ends 0.45) 104 / 139 /
+164 / 182, K within 1e-9 (:data:`LOW` 0.3 alone: 104 / 136 / 164 / 191; 100 um: smallest Ritz
+value 0.120, far end -1.03).  With at most 2 open faces (the
+one-voxel tubes alone) 124 / 150 at 100 / 200 um, 3 faces 122 / 145 (session 12; 3 faces and
+:data:`LOW` 0.3: 124 at 100 um); 5 faces 146 / 162: the pieces then span the open pore space
+(5 faces and :data:`LOW` 0.3: 169 at 100 um: those pieces' low modes are not local either).
 """
 
 from __future__ import annotations
@@ -52,6 +76,7 @@ from scipy.sparse.csgraph import connected_components
 
 from solvers.jit import parallel_kernel
 from solvers.voxel import simd
+from solvers.voxel.threads import single_thread_blas
 
 __all__ = ["MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
 
@@ -61,6 +86,24 @@ MAX_FACES = 4
 PIECE = 64
 """Most cells of a piece (a larger connected set of thin cells is cut into runs of this many:
 any partition keeps the block diagonal ``B`` SPD; it bounds the stored entries per cell)."""
+
+LOW = 0.3
+"""Modes of a piece's ``D^-1 L_P`` below this are corrected (mapped to 1), the rest keep ``D``
+(inf: the whole ``L_P^-1``, session 12's rule).  Toray-like 100 um: 0.15 / 0.2 / 0.25 / 0.3 /
+0.35 / 0.4 / 0.45 / 0.5 / inf give 104 / 106 / 106 / 104 / 104 / 107 / 107 / 108 / 113
+iterations, 200 um 0.2 / 0.3 / 0.4 / 0.45 / 0.5 / inf 141 / 136 / 141 / 141 / 139 / 141, 400 um
+0.3 / 0.45 / inf 191 / 182 / 182; the wall-corner columns of the cylinder arrays sit at 0.54 and
+above, pieces of the permeameter arrays between 0.3 and 0.45 (every permeameter row of
+``docs/validation.md`` took 1-9 % more iterations at 0.45), a dead-end tube of L cells at about
+``(pi / (2 L + 1))^2``."""
+
+DEAD_END_LOW = 0.45
+""":data:`LOW` of the pieces that open to the rest of the fluid through at most
+:data:`MOUTHS` cells (dead ends: their Dirichlet mouth is right); Toray-like 100 / 200 / 300 /
+400 um 104 / 139 / 164 / 182 iterations, the arrays' counts unchanged."""
+
+MOUTHS = 2
+"""Most cells with a face leaving the piece of a dead end (:data:`DEAD_END_LOW`)."""
 
 TASK = 256
 """Pieces per parallel task of :func:`thin_apply` (one pair of work rows per task)."""
@@ -145,9 +188,35 @@ def _pieces(labels: np.ndarray) -> np.ndarray:
     return piece
 
 
+def _correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``E_P`` of a batch of pieces (``mats``: their ``L_P``, ``dinv``: the coded ``D^-1`` of their
+    cells): the modes of ``D^-1 L_P`` below :data:`LOW` (:data:`DEAD_END_LOW` on a piece with at
+    most :data:`MOUTHS` mouth cells) mapped to 1, the others left to ``D``; and which pieces have
+    such a mode."""
+    if not np.isfinite(LOW):
+        inv = np.linalg.inv(mats)
+        inv[:, np.arange(mats.shape[1]), np.arange(mats.shape[1])] -= dinv
+        return inv, np.ones(mats.shape[0], bool)
+    # the cells with a face leaving the piece: row sum of L_P > 0 (faces inside cancel)
+    mouths = (mats.sum(axis=2) > 1e-6 * np.diagonal(mats, axis1=1, axis2=2)).sum(axis=1)
+    low = np.where(mouths <= MOUTHS, DEAD_END_LOW, LOW)
+    s = np.sqrt(dinv.astype(np.float64))
+    out = mats  # scaled in place, then overwritten by the correction: no second batch array
+    out *= s[:, :, None] * s[:, None, :]
+    # the eigenvalues of all (cheap), the eigenvectors of the few pieces with a low mode
+    active = np.linalg.eigvalsh(out)[:, 0] < low
+    lam, vec = np.linalg.eigh(out[active])
+    gain = np.where(lam < low[active, None], 1.0 / lam - 1.0, 0.0)
+    out[~active] = 0.0
+    out[active] = np.einsum("pik,pk,pjk->pij", vec, gain, vec) * (
+        s[active, :, None] * s[active, None, :]
+    )
+    return out, active
+
+
 class ThinBlocks:
-    """The thin pieces' correction ``E_P = L_P^-1 - D_P^-1`` of the pressure block (module
-    docstring).
+    """The thin pieces' correction ``E_P`` of the pressure block: ``L_P^-1 - D_P^-1`` on the
+    slow modes of ``D^-1 L_P`` only (module docstring).
 
     Parameters
     ----------
@@ -241,10 +310,28 @@ class ThinBlocks:
         r, c, v = edges
         inside = (owner[r] >= 0) & (owner[r] == owner[c])
         er, ec, ev = r[inside], c[inside], v[inside]
-        for size in np.unique(s):
-            self._invert(
-                int(size), np.flatnonzero(s == size), sel, d, (er, ec, ev), local, owner, dinv
-            )
+        active = np.zeros(s.size, bool)
+        with single_thread_blas():  # many small problems: BLAS threads only cost
+            for size in np.unique(s):
+                which = np.flatnonzero(s == size)
+                active[which] = self._invert(
+                    int(size), which, sel, d, (er, ec, ev), local, owner, dinv
+                )
+        self._drop(~active)
+
+    def _drop(self, idle: np.ndarray) -> None:
+        """Remove the pieces ``idle`` (no slow mode: their correction is 0)."""
+        if not idle.any():
+            return
+        s = np.diff(self.start)
+        self.cells = self.cells[np.repeat(~idle, s)]
+        self.packed = self.packed[np.repeat(~idle, s * (s + 1) // 2)]
+        s = s[~idle]
+        self.start = np.zeros(s.size + 1, np.int64)
+        np.cumsum(s, out=self.start[1:])
+        self.fstart = np.zeros(s.size + 1, np.int64)
+        np.cumsum(s * (s + 1) // 2, out=self.fstart[1:])
+        self.width = int(s.max()) if s.size else 0
 
     def _invert(
         self,
@@ -256,8 +343,9 @@ class ThinBlocks:
         local: np.ndarray,
         owner: np.ndarray,
         dinv: np.ndarray,
-    ) -> None:
-        """``E_P`` of the pieces ``which``, all of ``size`` cells, in one batched inverse."""
+    ) -> np.ndarray:
+        """``E_P`` of the pieces ``which``, all of ``size`` cells, in one batched
+        decomposition; returns which of them have a correction (a mode below :data:`LOW`)."""
         slot = np.full(self.start.size - 1, -1, np.int64)
         slot[which] = np.arange(which.size)
         mats = np.zeros((which.size, size, size))
@@ -268,12 +356,13 @@ class ThinBlocks:
         k, i, j = slot[owner[r[mine]]], local[r[mine]], local[c[mine]]
         mats[k, i, j] = -v[mine]
         mats[k, j, i] = -v[mine]
-        inv = np.linalg.inv(mats)
-        inv[:, np.arange(size), np.arange(size)] -= dinv[self.cells[self.start[which][:, None]
-                                                                   + np.arange(size)]]  # fmt: skip
+        inv, active = _correction(
+            mats, dinv[self.cells[self.start[which][:, None] + np.arange(size)]]
+        )
         li, lj = np.tril_indices(size)
         dest = self.fstart[which][:, None] + np.arange(li.size)
         self.packed[dest.ravel()] = inv[:, li, lj].ravel()
+        return active
 
     @property
     def n_cells(self) -> int:

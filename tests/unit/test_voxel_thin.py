@@ -65,6 +65,24 @@ def _dinv(faces: list[np.ndarray]) -> np.ndarray:
     return (1.0 / np.maximum(s2, FLOOR)).astype(np.float32)
 
 
+def _kept(faces: list[np.ndarray], fluid: np.ndarray, every: thin.ThinBlocks) -> list[np.ndarray]:
+    """The pieces of ``every`` (all pieces, ``LOW = inf``) that the rule keeps, from the dense
+    ``L_P`` cell by cell: a mode of ``D^-1 L_P`` below ``LOW``, or below ``DEAD_END_LOW`` with at
+    most ``MOUTHS`` cells whose row of ``L_P`` does not sum to 0 (a face leaving the piece)."""
+    kept = []
+    for p in range(every.start.size - 1):
+        cells = every.cells[every.start[p] : every.start[p + 1]]
+        piece = [tuple(int(i) for i in np.unravel_index(c, fluid.shape)) for c in cells]
+        lp = _schur_piece(faces, piece)
+        dp = np.diag(lp)
+        theta = np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))[0]
+        mouths = int((lp.sum(axis=1) > 1e-6 * dp).sum())
+        low = thin.DEAD_END_LOW if mouths <= thin.MOUTHS else thin.LOW
+        if theta < low:
+            kept.append(cells)
+    return kept
+
+
 def _block(tb: thin.ThinBlocks, dinv: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float]:
     """``B^-1 r`` and ``r . B^-1 r`` (the diagonal block plus the thin pieces' correction)."""
     z = (dinv * r).astype(np.float32)
@@ -73,7 +91,9 @@ def _block(tb: thin.ThinBlocks, dinv: np.ndarray, r: np.ndarray) -> tuple[np.nda
     return z, rz
 
 
-def test_the_dead_end_tube_is_one_piece_solved_exactly() -> None:
+def test_the_dead_end_tube_is_one_piece_solved_exactly(monkeypatch: pytest.MonkeyPatch) -> None:
+    # with every mode corrected (LOW = inf) the piece's block is L_P itself
+    monkeypatch.setattr(thin, "LOW", np.inf)
     fluid, tube = _tube_grid(5)
     faces = _faces(fluid)
     dinv = _dinv(faces)
@@ -94,9 +114,11 @@ def test_the_dead_end_tube_is_one_piece_solved_exactly() -> None:
     assert rz == pytest.approx(float(np.dot(r.ravel(), z.ravel())), rel=1e-5)
 
 
-def test_the_tubes_slow_mode_is_mapped_to_one() -> None:
+def test_the_tubes_slow_mode_is_mapped_to_one_and_the_others_keep_d() -> None:
     # D^-1 L_P on the tube has a small eigenvalue (the 1-D Laplacian's slowest mode behind the
-    # dead end); with the piece's block the preconditioned local operator is the identity
+    # dead end): the piece's block maps it to 1; its modes at or above DEAD_END_LOW (the tube
+    # opens through one cell) keep D (eigenvalue theta_k of D^-1 L_P), which the whole L_P^-1
+    # (the former rule) would map to 1 too
     fluid, tube = _tube_grid(6)
     faces = _faces(fluid)
     dinv = _dinv(faces)
@@ -105,13 +127,93 @@ def test_the_tubes_slow_mode_is_mapped_to_one() -> None:
     dp = np.diag(lp)
     theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
     assert theta[0] < 0.1  # the slow mode the diagonal leaves
+    assert (lp.sum(axis=1) > 1e-6 * dp).sum() == 1 <= thin.MOUTHS  # a dead end
+    low = thin.DEAD_END_LOW
+    assert 0 < (theta < low).sum() < len(tube)  # some modes corrected, the others not
     for k in range(len(tube)):
         v = vecs[:, k] / np.sqrt(dp)  # eigenvector of D^-1 L_P with value theta_k
         r = np.zeros(fluid.shape, np.float32)
         for c, val in zip(tube, lp @ v, strict=True):
             r[c] = val
         z, _ = _block(tb, dinv, r)
-        np.testing.assert_allclose([z[c] for c in tube], v, rtol=1e-4, atol=1e-5 * abs(v).max())
+        want = v if theta[k] < low else theta[k] * v
+        np.testing.assert_allclose([z[c] for c in tube], want, rtol=1e-4, atol=1e-5 * abs(v).max())
+
+
+def test_a_short_dead_end_keeps_its_slow_mode(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a tube of 2 cells behind one mouth cell: its slow mode (0.39) is above LOW but below
+    # DEAD_END_LOW, so it is corrected as a dead end's; without the dead-end rule (MOUTHS = 0)
+    # the piece would keep D
+    fluid, tube = _tube_grid(2)
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    lp = _schur_piece(faces, tube)
+    dp = np.diag(lp)
+    theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
+    assert thin.LOW <= theta[0] < thin.DEAD_END_LOW and (lp.sum(axis=1) > 1e-6 * dp).sum() == 1
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    assert tb.n_cells == 2
+    v = vecs[:, 0] / np.sqrt(dp)
+    r = np.zeros(fluid.shape, np.float32)
+    for c, val in zip(tube, lp @ v, strict=True):
+        r[c] = val
+    z, _ = _block(tb, dinv, r)
+    np.testing.assert_allclose([z[c] for c in tube], v, rtol=1e-4, atol=1e-5 * abs(v).max())
+    monkeypatch.setattr(thin, "MOUTHS", 0)
+    assert thin.ThinBlocks(faces, fluid, dinv, FLOOR).n_cells == 0
+
+
+def test_the_kept_pieces_of_a_random_pore_space(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a random 12^3 pore space (65 % fluid): pieces of every kind, among them dead ends and
+    # pieces with many mouths whose slowest mode lies between LOW and DEAD_END_LOW
+    fluid = np.random.default_rng(5).random((12, 12, 12)) > 0.35
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    with monkeypatch.context() as m:
+        m.setattr(thin, "LOW", np.inf)
+        every = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    kept = _kept(faces, fluid, every)
+    assert 0 < len(kept) < every.start.size - 1
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    np.testing.assert_array_equal(np.sort(tb.cells), np.sort(np.concatenate(kept)))
+
+
+def _corner_channel(nz: int = 6) -> tuple[np.ndarray, list[list[tuple[int, int, int]]]]:
+    """Fluid: a square channel along z (x, y = 2..7 of a periodic 8 x 8 plane, the rest solid)
+    and its four corner columns (4 open faces each: two along z, two into the channel), the
+    thin pieces of a staircase wall's concave corners."""
+    fluid = np.zeros((8, 8, nz), bool)
+    fluid[2:, 2:, :] = True
+    corners = [[(x, y, z) for z in range(nz)] for x in (2, 7) for y in (2, 7)]
+    return fluid, corners
+
+
+def test_a_wall_corner_column_keeps_the_diagonal(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Periodic column of identical cells, two faces leaving each (w_x + w_y) and two along z
+    # (w_z): D^-1 L_P has the eigenvalues 1 - 2 w_z cos(2 pi k / n) / D, the smallest
+    # (w_x + w_y) / D = 0.5 for equal weights (closed form). Its Dirichlet mouth is half of
+    # each cell: the exact local solve over-corrects (the cylinder arrays' extra iterations,
+    # benchmarks/RESULTS.md "Thin pieces on array grids (thin13)"), so no mode is below LOW
+    fluid, corners = _corner_channel()
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    for column in corners:
+        lp = _schur_piece(faces, column)
+        dp = np.diag(lp)
+        wz = -lp[0, 1]
+        n = len(column)
+        want = 1.0 - 2.0 * wz * np.cos(2 * np.pi * np.arange(n) / n) / dp[0]
+        theta = np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))
+        np.testing.assert_allclose(theta, np.sort(want), rtol=1e-6)
+        assert 0.4 < theta[0] < 0.6 and theta[0] > thin.LOW
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    assert tb.n_cells == 0 and tb.nbytes < 100  # every corner column keeps D
+    r = np.zeros(fluid.shape, np.float32)
+    r[fluid] = np.random.default_rng(3).standard_normal(int(fluid.sum()))
+    z, _ = _block(tb, dinv, r)
+    np.testing.assert_array_equal(z, dinv * r)
+    monkeypatch.setattr(thin, "LOW", np.inf)  # the former rule: the four columns, exactly
+    assert thin.ThinBlocks(faces, fluid, dinv, FLOOR).n_cells == 4 * fluid.shape[2]
 
 
 def test_an_enclosed_pocket_keeps_the_diagonal() -> None:
@@ -123,7 +225,10 @@ def test_an_enclosed_pocket_keeps_the_diagonal() -> None:
     assert not np.isin(pocket, tb.cells).any() and tb.n_cells == 3
 
 
-def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd() -> None:
+@pytest.mark.parametrize("low", [None, np.inf])
+def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd(
+    low: float | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # a slit one cell thick (4 open faces per cell) spanning a periodic plane: 64 x 4 cells of
     # one component, cut into runs of PIECE cells
     fluid = np.zeros((4, 6, 64), bool)
@@ -132,9 +237,18 @@ def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd() -> None:
     fluid[0, 3, ::8] = True  # eight one-cell throats from the slit to the channel
     faces = _faces(fluid)
     dinv = _dinv(faces)
+    with monkeypatch.context() as m:
+        m.setattr(thin, "LOW", np.inf)
+        every = thin.ThinBlocks(faces, fluid, dinv, FLOOR)  # every piece, the former rule
+    sizes = np.diff(every.start)
+    assert sizes.max() <= thin.PIECE and every.n_cells == 4 * 64 - 8  # the throats: single cells
+    if low is not None:
+        monkeypatch.setattr(thin, "LOW", low)
     tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
-    sizes = np.diff(tb.start)
-    assert sizes.max() <= thin.PIECE and tb.n_cells == 4 * 64 - 8  # the throats: single cells
+    # kept: exactly the pieces the rule keeps on the dense L_P (cell by cell)
+    kept = _kept(faces, fluid, every)
+    assert 0 < len(kept) < sizes.size or low == np.inf
+    np.testing.assert_array_equal(np.sort(tb.cells), np.sort(np.concatenate(kept)))
     rng = np.random.default_rng(2)
     vecs = []
     for _ in range(2):
@@ -147,13 +261,19 @@ def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd() -> None:
         float(np.dot(vecs[0].ravel(), zb.ravel())), rel=1e-4
     )
     assert ra > 0.0
-    # each piece's block is its own L_P: B^-1 L_P = I on the first piece
+    # on the first piece B^-1 L_P maps the modes of D^-1 L_P below LOW to 1 and keeps the
+    # others (theta_k); LOW = inf: B^-1 L_P = I, the piece's block is its own L_P
     first = [np.unravel_index(c, fluid.shape) for c in tb.cells[tb.start[0] : tb.start[1]]]
     first = [tuple(int(i) for i in c) for c in first]
     lp = _schur_piece(faces, first)
-    v = rng.standard_normal(len(first))
-    r = np.zeros(fluid.shape, np.float32)
-    for c, val in zip(first, lp @ v, strict=True):
-        r[c] = val
-    z, _ = _block(tb, dinv, r)
-    np.testing.assert_allclose([z[c] for c in first], v, rtol=1e-3, atol=1e-4 * abs(v).max())
+    dp = np.diag(lp)
+    theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
+    assert theta[0] < thin.LOW
+    for k in range(len(first)):
+        v = vecs[:, k] / np.sqrt(dp)
+        r = np.zeros(fluid.shape, np.float32)
+        for c, val in zip(first, lp @ v, strict=True):
+            r[c] = val
+        z, _ = _block(tb, dinv, r)
+        want = v if theta[k] < thin.LOW else theta[k] * v
+        np.testing.assert_allclose([z[c] for c in first], want, atol=2e-3 * abs(v).max())
