@@ -3,6 +3,7 @@
 Usage (one size per process; the Toray-like box of ``bench_voxel_scale.py``)::
 
     /usr/bin/time -v python benchmarks/bench_voxel_parts.py 400 x
+    /usr/bin/time -v python benchmarks/bench_voxel_parts.py 400 x nohuge   # 4 KiB pages only
 
 Wraps, for the timed solve only, the solver's Python-level steps with timers (wall, CPU of the
 process, minor page faults): the set-up (``_Stokes.build`` and its phases: the component
@@ -14,9 +15,15 @@ velocity components and the coarse pressure term's own; the coarse pressure bloc
 pieces' pass) and the Krylov vector steps (``add_scaled``, ``symmlq_step``).  The numba
 kernels are the solver's own (a warm-up solve on a 48^3 box loads or compiles them first, as
 ``bench_voxel_scale.py`` does), so the sum of the parts is the solve; the printed medians per
-cycle separate the first call of a new array (its page faults) from the steady cost.  The same
-file runs on an older tree (``PYTHONPATH`` there): a part the tree does not have is skipped.
-Written for ``benchmarks/RESULTS.md``, "Issue 16 item 4, per-iteration cost at 400^3 (gap13)".
+cycle separate the first call of a new array (its page faults) from the steady cost.
+
+``nohuge`` turns numpy's ``madvise(MADV_HUGEPAGE)`` of its large arrays off
+(``numpy._core.multiarray._set_madvise_hugepage``): with transparent huge pages on ``madvise``
+(this machine), each first touch of a new large array allocates 2 MiB pages, compacting memory
+when it is fragmented, which made the first call on fresh arrays 2-3x slower at 300^3 under
+load.  The same file runs on an older tree (``PYTHONPATH`` there): a part the tree does not
+have is skipped.  Written for ``benchmarks/RESULTS.md``, "Issue 16 item 4, per-iteration cost
+at 400^3 (gap13)".
 """
 
 from __future__ import annotations
@@ -157,6 +164,8 @@ def main(argv: list[str]) -> None:
 
     n = int(argv[1]) if len(argv) > 1 else 100
     direction = argv[2] if len(argv) > 2 else "x"
+    if "nohuge" in argv[3:]:
+        np._core.multiarray._set_madvise_hugepage(False)
     instrument()
     jit.COMPILE_PARALLEL_ABOVE = 0  # as bench_voxel_scale: the parallel kernels first
     solve_voxel_stokes(toray_box(48)[0], 1e-6, direction, tol=1e-3)
