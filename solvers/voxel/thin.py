@@ -168,6 +168,51 @@ def thin_apply(cells, start, fstart, packed, width, r, z):
     return part.sum()
 
 
+@nb.njit(inline="always")
+def _faces_at(f0, f1, f2, i, j, k):
+    """The open-face count and the Schur diagonal (float64 sum over the axes of the float32
+    ``q + up``, the two faces of the cell along the axis) of cell ``(i, j, k)``; periodic."""
+    nx, ny, nz = f0.shape
+    ip = i + 1 if i + 1 < nx else 0
+    jp = j + 1 if j + 1 < ny else 0
+    kp = k + 1 if k + 1 < nz else 0
+    nopen = 0
+    diag = 0.0
+    for q, up in ((f0[i, j, k], f0[ip, j, k]), (f1[i, j, k], f1[i, jp, k]),
+                  (f2[i, j, k], f2[i, j, kp])):  # fmt: skip
+        nopen += (q > 0) + (up > 0)
+        diag += np.float64(q + up)  # float32 faces: summed in float32, as before
+    return nopen, diag
+
+
+@nb.njit(cache=True, nogil=True)
+def _thin_mask(f0, f1, f2, cells, most, mask):
+    """``mask`` of the thin cells: pressure cells (``cells != 0``) with 1 to ``most`` open
+    faces (the ``w_f^2 / A_ff`` of each component ``f0, f1, f2``, face ``a`` of a cell at the
+    cell and at its upper neighbour along ``a``).  One pass over the grid: the former
+    ``np.roll`` copies and grid-sized temporaries (count, float64 diagonal) took about 1.5 s of
+    the 6 s set-up at 400^3 (``benchmarks/RESULTS.md``, gap13)."""
+    nx, ny, nz = f0.shape
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                n = _faces_at(f0, f1, f2, i, j, k)[0]
+                mask[i, j, k] = (cells[i, j, k] != 0) and n >= 1 and n <= most
+
+
+@nb.njit(cache=True, nogil=True)
+def _thin_diagonal(f0, f1, f2, flat):
+    """The Schur diagonal (:func:`_faces_at`) of the cells ``flat`` (flat C indices)."""
+    nx, ny, nz = f0.shape
+    out = np.empty(flat.size)
+    for t in range(flat.size):
+        c = flat[t]
+        i = c // (ny * nz)
+        j = (c // nz) % ny
+        out[t] = _faces_at(f0, f1, f2, i, j, c % nz)[1]
+    return out
+
+
 def _neighbour(flat: np.ndarray, shape: tuple[int, ...], a: int) -> np.ndarray:
     """Flat index of the lower neighbour along ``a`` (periodic) of each flat index."""
     idx = list(np.unravel_index(flat, shape))
@@ -243,16 +288,13 @@ class ThinBlocks:
     ) -> None:
         shape = cells.shape
         most = MAX_FACES if max_faces is None else int(max_faces)
-        nopen = np.zeros(shape, np.int8)
-        diag = np.zeros(shape, np.float64)
-        for a, q in enumerate(faces):
-            up = np.roll(q, -1, axis=a)
-            nopen += (q > 0).astype(np.int8) + (up > 0)
-            diag += q + up
-        thin = np.flatnonzero((cells != 0) & (nopen >= 1) & (nopen <= most))
-        del nopen
+        f0, f1, f2 = (np.ascontiguousarray(q) for q in faces)
+        mask = np.empty(shape, np.bool_)
+        _thin_mask(f0, f1, f2, np.ascontiguousarray(cells), most, mask)
+        thin = np.flatnonzero(mask)
+        del mask
         rows, cols, vals = [], [], []
-        for a, q in enumerate(faces):
+        for a, q in enumerate((f0, f1, f2)):
             low = _neighbour(thin, shape, a)
             pos = np.searchsorted(thin, low)
             pos[pos == thin.size] = 0
@@ -262,8 +304,7 @@ class ThinBlocks:
             cols.append(pos[both])
             vals.append(w[both])
         r, c, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-        d = np.maximum(diag.ravel()[thin], floor)
-        del diag
+        d = np.maximum(_thin_diagonal(f0, f1, f2, thin), floor)
         n = thin.size
         graph = coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
         ncomp, labels = connected_components(graph, directed=False)
