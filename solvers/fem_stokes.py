@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skfem import ElementTetP2
 
+from solvers.blas_threads import single_thread_blas
 from solvers.fem import assembly
 from solvers.fem.boundary import BoundaryTagError, match_rows, slip_axis, vertex_components
 from solvers.fem.linsolve import KRYLOV, SaddleSystem, solve_direct, solve_iterative
@@ -51,7 +52,6 @@ from solvers.fem.periodic import (
     p2_representatives,
 )
 from solvers.fem.probe import PointLocator, p2_weights
-from solvers.voxel.threads import single_thread_blas
 
 __all__ = [
     "solve_stokes",

@@ -74,9 +74,9 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from solvers.blas_threads import single_thread_blas
 from solvers.jit import parallel_kernel
 from solvers.voxel import simd
-from solvers.voxel.threads import single_thread_blas
 
 __all__ = ["MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
 

@@ -16,7 +16,6 @@ threads``; ``benchmarks/RESULTS.md``):
 
 from __future__ import annotations
 
-import contextlib
 import os
 
 PARALLEL_MIN_CELLS = 100_000
@@ -33,18 +32,6 @@ def passive_wait() -> None:
     user chose otherwise.  Must run before the first numba parallel region of the process (the
     OpenMP runtime reads it when it starts)."""
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
-
-def single_thread_blas() -> contextlib.AbstractContextManager:
-    """Context in which BLAS / LAPACK run on one thread (``threadpoolctl``; nothing without it).
-    OpenBLAS threading costs more than it gives on small problems: the FEM Krylov loop's short
-    vectors ran 6x slower with it, batched 64 x 64 eigenvalue problems (:mod:`solvers.voxel.thin`)
-    90x slower on a loaded 2-core machine (0.09 vs 8 ms each)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - optional dependency
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def level_threads(n_cells: int, available: int) -> int:
