@@ -433,13 +433,18 @@ class CoarsePressure:
     def _face_conductance(self, da: np.ndarray, a: int) -> np.ndarray:
         """``sum w_f^2 / A_ff`` over the velocity unknowns of component ``a`` on the interface
         between block ``I - e_a`` and ``I``, per block ``I``: the edge weight of the block graph
-        Laplacian ``R L R^T`` of ``L = G^T diag(A)^-1 G`` (:data:`FACE_FLOOR`)."""
-        if self._faces is not None:  # sub-voxel weights: the caller's w_f^2 / A_ff
-            q = self._planes(self._faces(a), a).astype(np.float64)
-        else:
-            planes = self._planes(da, a).astype(np.float64)
-            q = np.divide(1.0, planes, out=np.zeros(planes.shape), where=planes > 0)
-        return self._interface_sum(q, a)
+        Laplacian ``R L R^T`` of ``L = G^T diag(A)^-1 G`` (:data:`FACE_FLOOR`).  One plane at a
+        time (a float64 copy of all the planes cost 2 B per cell at the set-up's peak)."""
+        q = self._faces(a) if self._faces is not None else da  # sub-voxel: the caller's w^2 / A
+        out = np.empty(self.nc)
+        for ic, s in enumerate(_starts(da.shape[a], self.f[a], self.nc[a])):
+            plane = np.take(q, [s], axis=a).astype(np.float64)
+            if self._faces is None:
+                np.divide(1.0, plane, out=plane, where=plane > 0)
+            idx = [slice(None)] * 3
+            idx[a] = slice(ic, ic + 1)
+            out[tuple(idx)] = self._interface_sum(plane, a)
+        return out
 
     def _transmissibility(self, perm: np.ndarray, da: np.ndarray, a: int) -> np.ndarray:
         """``T[I]`` between block ``I - e_a`` and ``I``: harmonic-mean permeability times face
