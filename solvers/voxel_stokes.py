@@ -124,7 +124,9 @@ was measured there and not kept).  Since session 14 each coarse transmissibility
 twice the interface's sum of ``w_f^2 / A_ff`` (:data:`solvers.voxel.schur.FACE_FLOOR`): the far
 end of the spectrum was the coarse term over-correcting in small open pores of low smoothed
 permeability; 104 / 139 / 164 / 182 -> 104 / 133 / 151 / 155 iterations at 100 / 200 / 300 /
-400 um (``benchmarks/RESULTS.md``, "Issue 16 item 4, the far end of the spectrum (grow14)").
+400 um, 148 at 400 um with the knots of thin branches as thin cells too
+(:data:`solvers.voxel.thin.JUNCTION`; ``benchmarks/RESULTS.md``, "Issue 16 item 4, the far end of
+the spectrum (grow14)").
 
 Driving force and averages
 --------------------------
