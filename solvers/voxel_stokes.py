@@ -120,7 +120,13 @@ coarse term has the weight 0.6 (:data:`solvers.voxel.schur.WEIGHT`) and the firs
 cycle runs to 1e-5 (:data:`INNER_RTOL_FLOOR`): 140 / 157 / 222 / 307 iterations at 100 / 200 /
 300 / 400 um before, 131 / 150 / 187 / 246 after (``benchmarks/RESULTS.md``, "Issue 16 item 4,
 iteration growth (iter11)"; a local term for the blocks a fibre cuts into several fluid parts
-was measured there and not kept).
+was measured there and not kept).  Since session 14 each coarse transmissibility is at least
+twice the interface's sum of ``w_f^2 / A_ff`` (:data:`solvers.voxel.schur.FACE_FLOOR`): the far
+end of the spectrum was the coarse term over-correcting in small open pores of low smoothed
+permeability; 104 / 139 / 164 / 182 -> 104 / 133 / 151 / 155 iterations at 100 / 200 / 300 /
+400 um, 148 at 400 um with the knots of thin branches as thin cells too
+(:data:`solvers.voxel.thin.JUNCTION`; ``benchmarks/RESULTS.md``, "Issue 16 item 4, the far end of
+the spectrum (grow14)").
 
 Driving force and averages
 --------------------------
@@ -866,7 +872,8 @@ class _Stokes:
         self.coarse_p = None
         if COARSE_PRESSURE:
             weights = None if cut is None else cf.WeightView(cut, self.d)
-            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights)
+            faces = None if cut is None else (lambda a: cut.scale_inverse(a, self.d[a]))
+            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights, faces=faces)
             if code is not None:
                 self.coarse_p.use_code(code)
             # the scale code (the staircase's formed now, its ~13 B per cell of temporaries

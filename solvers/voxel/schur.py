@@ -44,10 +44,13 @@ pore-scale solvers)::
   result projected to zero mean on each component; a tiny diagonal shift
   (:data:`SHIFT`) keeps the coarsest direct solve regular.
 
-The coarse term enters with the weight :data:`WEIGHT` (0.6).  A third, local term for the
-blocks a fibre cuts into several fluid parts was measured and not kept (it over-corrects from
-300 um on; ``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)"; its code is
-in the history, commit aa21e6c).
+Each transmissibility is at least :data:`FACE_FLOOR` times the interface's sum of ``w_f^2 /
+A_ff`` (the pore-scale face graph; the Galerkin coarse Schur complement is at least half of it):
+where the smoothed Poisson permeability is far too low for a small open pore the term would
+over-correct (since session 14).  The coarse term enters with the weight :data:`WEIGHT` (0.6).
+A third, local term for the blocks a fibre cuts into several fluid parts was measured and not
+kept (it over-corrects from 300 um on; ``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration
+growth (iter11)"; its code is in the history, commit aa21e6c).
 
 With the Brinkman-like interpolation ``S(k) ~ K k^2 / (1 + K k^2)`` the preconditioned symbol
 is ``(1 + 1 / (K_c k^2)) S(k) = 1`` for ``K_c = K``: the iteration count no longer depends on
@@ -66,6 +69,8 @@ pore-scale flow model as the coarse space of a Stokes preconditioner).
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numba as nb
 import numpy as np
@@ -116,6 +121,23 @@ negative Ritz value of the preconditioned system, -1.25 / -1.47 / -1.75 at 100 /
 with 1.0, -1.05 / -1.17 / -1.37 with 0.6).  Toray-like at 1 um, SYMMLQ to 1e-6, first-cycle
 floor 1e-5, 100 um: weight 0.5 131, 0.6 131, 0.7 133 iterations (``benchmarks/RESULTS.md``,
 "Issue 16 item 4, iteration growth (iter11)")."""
+
+FACE_FLOOR = 2.0
+"""Floor of a coarse transmissibility: this multiple of the interface's sum of ``w_f^2 / A_ff``
+over the velocity unknowns crossing it (staircase ``1 / A_ff``), the edge weight of the block
+graph Laplacian ``R L R^T`` of ``L = G^T diag(A)^-1 G`` (0: no floor, session 13 and before).
+Why: ``A`` is diagonally dominant, so ``A^-1 >= diag(A)^-1 / 2`` and the Galerkin coarse Schur
+complement ``R S R^T`` is at least ``R L R^T / 2``; where the Darcy transmissibility falls well
+below the face sums (blocks of a small open pore in a region of low smoothed Poisson
+permeability, 0.2-0.4 voxel^2 against a median of 16), the term over-corrects: those were the
+far end of the preconditioned spectrum, the second refinement cycle's most negative Ritz values
+-1.17 / -1.37 / -1.66 at 200 / 300 / 400 um on the Toray-like material (vectors on 30-60 cells
+of one or two blocks).  Binds on 0.06-0.09 % of the interfaces there.  With 2: far end -1.03 /
+-1.09 / -1.14; SYMMLQ iterations to 1e-6 at 100 / 200 / 300 / 400 um 104 / 139 / 164 / 182 ->
+104 / 133 / 151 / 155; random sphere packs at porosity 0.25-0.5 (48^3-64^3) 261 / 193 / 161 ->
+155 / 147 / 135 (floor 1: 155 / 156 / 144, 3: 166 / 152 / 131, 4: 181 / 160 / 128); the arrays
+of ``docs/validation.md`` unchanged but one row (+2 of 80).  ``benchmarks/RESULTS.md``, "Issue
+16 item 4, the far end of the spectrum (grow14)"."""
 
 SHIFT = 1e-4
 """Diagonal shift of the coarse operator relative to its mean diagonal (regularises the constant
@@ -324,6 +346,10 @@ class CoarsePressure:
         interface between two blocks is open when a velocity unknown crosses it.
     block : int
         Cells per axis of a block (:data:`BLOCK`).
+    faces : callable, optional
+        ``faces(a)``: ``w_f^2 / A_ff`` of component ``a``'s faces (sub-voxel walls,
+        :meth:`solvers.voxel.cutfaces.CutFaces.scale_inverse`); None: ``1 / A_ff`` from the
+        diagonals (staircase).  Sets the floor of the transmissibilities (:data:`FACE_FLOOR`).
     """
 
     def __init__(
@@ -333,7 +359,9 @@ class CoarsePressure:
         mgs: list[mg.ScalarMG],
         weights: list[np.ndarray] | None = None,
         block: int | None = None,
+        faces: Callable[[int], np.ndarray] | None = None,
     ) -> None:
+        self._faces = faces
         shp = fluid.shape
         blk = BLOCK if block is None else int(block)
         self.f = tuple(max(1, min(blk, n)) for n in shp)
@@ -383,17 +411,40 @@ class CoarsePressure:
         self.xc = np.zeros(nc, np.float32)
         self._code: np.ndarray | None = None
 
+    def _planes(self, q: np.ndarray, a: int) -> np.ndarray:
+        """The first plane of every block along ``a`` of a field on the faces of component
+        ``a`` (the faces between block ``I - e_a`` and ``I``)."""
+        return np.take(q, _starts(q.shape[a], self.f[a], self.nc[a]), axis=a)
+
+    def _interface_sum(self, planes: np.ndarray, a: int) -> np.ndarray:
+        """Sum of :meth:`_planes` over each block interface, per block ``I``."""
+        for b in range(3):
+            if b != a:
+                planes = np.add.reduceat(
+                    planes, _starts(planes.shape[b], self.f[b], self.nc[b]), axis=b
+                )
+        return planes
+
     def _opened(self, da: np.ndarray, a: int) -> np.ndarray:
         """Number of active velocity unknowns of component ``a`` on the interface between
         block ``I - e_a`` and ``I``, per block ``I``."""
-        shp = da.shape
-        nc = self.nc
-        planes = np.take(da, _starts(shp[a], self.f[a], nc[a]), axis=a) > 0
-        opened = planes.astype(np.int64)
-        for b in range(3):
-            if b != a:
-                opened = np.add.reduceat(opened, _starts(shp[b], self.f[b], nc[b]), axis=b)
-        return opened
+        return self._interface_sum((self._planes(da, a) > 0).astype(np.int64), a)
+
+    def _face_conductance(self, da: np.ndarray, a: int) -> np.ndarray:
+        """``sum w_f^2 / A_ff`` over the velocity unknowns of component ``a`` on the interface
+        between block ``I - e_a`` and ``I``, per block ``I``: the edge weight of the block graph
+        Laplacian ``R L R^T`` of ``L = G^T diag(A)^-1 G`` (:data:`FACE_FLOOR`).  One plane at a
+        time (a float64 copy of all the planes cost 2 B per cell at the set-up's peak)."""
+        q = self._faces(a) if self._faces is not None else da  # sub-voxel: the caller's w^2 / A
+        out = np.empty(self.nc)
+        for ic, s in enumerate(_starts(da.shape[a], self.f[a], self.nc[a])):
+            plane = np.take(q, [s], axis=a).astype(np.float64)
+            if self._faces is None:
+                np.divide(1.0, plane, out=plane, where=plane > 0)
+            idx = [slice(None)] * 3
+            idx[a] = slice(ic, ic + 1)
+            out[tuple(idx)] = self._interface_sum(plane, a)
+        return out
 
     def _transmissibility(self, perm: np.ndarray, da: np.ndarray, a: int) -> np.ndarray:
         """``T[I]`` between block ``I - e_a`` and ``I``: harmonic-mean permeability times face
@@ -405,6 +456,8 @@ class CoarsePressure:
             hm = np.where((perm > 0) & (lower > 0), 2.0 * perm * lower / (perm + lower), 0.0)
         area = float(np.prod([self.f[b] for b in range(3) if b != a]))
         t = hm * area / self.f[a]
+        if FACE_FLOOR > 0:  # no softer than the pore-scale face graph (FACE_FLOOR)
+            t = np.maximum(t, FACE_FLOOR * self._face_conductance(da, a))
         t[opened == 0] = 0.0
         if nc[a] == 1:
             t[...] = 0.0  # one block along a: no interface of its own

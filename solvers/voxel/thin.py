@@ -17,8 +17,10 @@ longer tubes.
 What
 ----
 The pressure cells with at most :data:`MAX_FACES` open faces (the *thin* cells: tubes, slits,
-dead ends, throats) are grouped into their connected pieces (face neighbours through open faces;
-a piece of more than :data:`PIECE` cells is cut into consecutive runs of its cells), and on each
+dead ends, throats), and since session 14 the knots where such branches meet (more open faces,
+all into thin cells: :data:`JUNCTION`), are grouped into their connected pieces (face neighbours
+through open faces; a piece of more than :data:`PIECE` cells is cut into consecutive runs of its
+cells), and on each
 piece ``P`` the diagonal ``D_P`` is replaced by the piece's own block of the Schur
 approximation ``L = G^T diag(A)^-1 G`` (``L_cc = D_c``, the Schur diagonal; ``L_cd = -w_f^2 /
 A_ff`` for the face ``f`` between two cells of the piece; faces leaving the piece only on the
@@ -78,7 +80,7 @@ from solvers.blas_threads import single_thread_blas
 from solvers.jit import parallel_kernel
 from solvers.voxel import simd
 
-__all__ = ["MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
+__all__ = ["JUNCTION", "MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
 
 MAX_FACES = 4
 """Most open faces of a thin cell (1-voxel tubes have 2, slits one voxel thick 4)."""
@@ -101,6 +103,15 @@ DEAD_END_LOW = 0.45
 """:data:`LOW` of the pieces that open to the rest of the fluid through at most
 :data:`MOUTHS` cells (dead ends: their Dirichlet mouth is right); Toray-like 100 / 200 / 300 /
 400 um 104 / 139 / 164 / 182 iterations, the arrays' counts unchanged."""
+
+JUNCTION = 0
+"""A pressure cell with more than :data:`MAX_FACES` open faces whose open faces lead to thin
+cells except at most this many is thin too (-1: no such cells, session 13 and before): the knot
+where 1-voxel branches of a dead-end tree meet has 5-6 open faces, and cut there each branch was
+its own piece with its mouth at the knot, while the tree's slowest mode spans them all (Toray-like
+400 um: the second refinement cycle's smallest Ritz value -0.040 on 14 cells for half its norm
+around such a knot).  0 (every open neighbour thin): 1 506 cells at 400 um, 13 at 100 um;
+``benchmarks/RESULTS.md``, "Issue 16 item 4, the far end of the spectrum (grow14)"."""
 
 MOUTHS = 2
 """Most cells with a face leaving the piece of a dead end (:data:`DEAD_END_LOW`)."""
@@ -201,6 +212,33 @@ def _thin_mask(f0, f1, f2, cells, most, mask):
 
 
 @nb.njit(cache=True, nogil=True)
+def _junctions(f0, f1, f2, cells, mask, most, other, out):
+    """``out`` of the pressure cells with more than ``most`` open faces of which at most
+    ``other`` lead to a cell outside ``mask`` (the thin cells): the knots of thin branches
+    (:data:`JUNCTION`).  One pass; ``mask`` is read only, so the result does not depend on the
+    order of the cells."""
+    nx, ny, nz = f0.shape
+    for i in range(nx):
+        ip, im = (i + 1) % nx, (i - 1) % nx
+        for j in range(ny):
+            jp, jm = (j + 1) % ny, (j - 1) % ny
+            for k in range(nz):
+                if cells[i, j, k] == 0 or mask[i, j, k]:
+                    continue
+                kp, km = (k + 1) % nz, (k - 1) % nz
+                nopen = 0
+                wide = 0
+                mk = mask[i, j]
+                for q, m in ((f0[i, j, k], mask[im, j, k]), (f0[ip, j, k], mask[ip, j, k]),
+                             (f1[i, j, k], mask[i, jm, k]), (f1[i, jp, k], mask[i, jp, k]),
+                             (f2[i, j, k], mk[km]), (f2[i, j, kp], mk[kp])):  # fmt: skip
+                    if q > 0:
+                        nopen += 1
+                        wide += not m
+                out[i, j, k] = nopen > most and wide <= other
+
+
+@nb.njit(cache=True, nogil=True)
 def _thin_diagonal(f0, f1, f2, flat):
     """The Schur diagonal (:func:`_faces_at`) of the cells ``flat`` (flat C indices)."""
     nx, ny, nz = f0.shape
@@ -291,6 +329,11 @@ class ThinBlocks:
         f0, f1, f2 = (np.ascontiguousarray(q) for q in faces)
         mask = np.empty(shape, np.bool_)
         _thin_mask(f0, f1, f2, np.ascontiguousarray(cells), most, mask)
+        if JUNCTION >= 0:  # junctions of thin branches join their pieces (JUNCTION)
+            junction = np.zeros(shape, np.bool_)
+            _junctions(f0, f1, f2, np.ascontiguousarray(cells), mask, most, JUNCTION, junction)
+            mask |= junction
+            del junction
         thin = np.flatnonzero(mask)
         del mask
         rows, cols, vals = [], [], []

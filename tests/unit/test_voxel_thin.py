@@ -230,7 +230,10 @@ def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd(
     low: float | None, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # a slit one cell thick (4 open faces per cell) spanning a periodic plane: 64 x 4 cells of
-    # one component, cut into runs of PIECE cells
+    # one component, cut into runs of PIECE cells.  Without the knots of thin.JUNCTION: the 8
+    # slit cells at a throat have 5 open faces, all into thin cells, and would join the slit to
+    # its throats (264 cells, no piece with a mode below LOW); the knots have their own test
+    monkeypatch.setattr(thin, "JUNCTION", -1)
     fluid = np.zeros((4, 6, 64), bool)
     fluid[:, 0:3, :] = True  # the thick channel
     fluid[:, 4, :] = True  # the slit (y = 3 and 5 solid)
@@ -309,3 +312,82 @@ def test_the_thin_mask_and_diagonal_count_every_open_face() -> None:
     np.testing.assert_allclose(
         thin._thin_diagonal(*faces, flat), want_diag.ravel()[flat], rtol=1e-6
     )
+
+
+def _knot_grid(stem: int = 3, arm: int = 4) -> tuple[np.ndarray, list[tuple[int, int, int]]]:
+    """Fluid: the slab of :func:`_tube_grid` (16 x 3 x 16 cells) and a dead-end tree of 1-voxel
+    tubes: a stem of ``stem`` cells along +y to a knot cell, from which four arms of ``arm``
+    cells run along +-x and +-z. The knot has 5 open faces, all into tube cells."""
+    fluid = np.zeros((16, 12, 16), bool)
+    fluid[:, 0:3, :] = True
+    yk = 3 + stem
+    tree = [(8, 3 + t, 8) for t in range(stem)] + [(8, yk, 8)]
+    for dx, dz in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        tree += [(8 + dx * t, yk, 8 + dz * t) for t in range(1, arm + 1)]
+    for c in tree:
+        fluid[c] = True
+    return fluid, tree
+
+
+@pytest.mark.parametrize("junction", [-1, 0])
+def test_a_knot_of_thin_branches_joins_them_into_one_piece(
+    monkeypatch: pytest.MonkeyPatch, junction: int
+) -> None:
+    # grow14 (thin.JUNCTION): the tree's slowest mode of D^-1 L_P (dense, Dirichlet at the
+    # slab) is 0.0075; cut at the knot (its 5 open faces make it no thin cell: JUNCTION -1,
+    # the former rule) the stem and the four arms are five pieces and the tree's smallest
+    # eigenvalue of B^-1 L_tree stays at 0.020; with the knot thin the tree is one dead-end piece,
+    # whose modes below DEAD_END_LOW go to 1 and the others keep theta >= DEAD_END_LOW
+    monkeypatch.setattr(thin, "JUNCTION", junction)
+    fluid, tree = _knot_grid()
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    flat = np.array([np.ravel_multi_index(c, fluid.shape) for c in tree])
+    knot = flat[3]
+    lp = _schur_piece(faces, tree)
+    dp = np.diag(lp)
+    assert np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))[0] < 0.01
+    binv = np.zeros((len(tree), len(tree)))
+    for t, c in enumerate(tree):
+        r = np.zeros(fluid.shape, np.float32)
+        r[c] = 1.0
+        z, _ = _block(tb, dinv, r)
+        binv[:, t] = z.ravel()[flat]
+    smallest = float(np.linalg.eigvals(binv @ lp).real.min())
+    if junction < 0:
+        assert knot not in tb.cells and tb.start.size - 1 == 5
+        assert smallest < 0.05
+    else:
+        assert np.array_equal(np.sort(tb.cells), np.sort(flat)) and tb.start.size - 1 == 1
+        assert smallest > thin.DEAD_END_LOW - 1e-4
+
+
+def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
+    # thin._junctions against numpy rolls on random periodic grids (face of component a at
+    # cell c between c - e_a and c): pressure cells outside the thin mask with more than
+    # MAX_FACES open faces, at most `other` of them into cells outside the mask
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        shape = tuple(int(n) for n in rng.integers(4, 9, 3))
+        cells = rng.random(shape) < 0.6
+        f = []
+        for a in range(3):
+            act = cells & np.roll(cells, 1, axis=a) & (rng.random(shape) < 0.8)
+            f.append(np.where(act, rng.random(shape) + 0.1, 0.0).astype(np.float32))
+        mask = np.empty(shape, bool)
+        thin._thin_mask(*f, cells.astype(np.uint8), thin.MAX_FACES, mask)
+        for other in (0, 1):
+            out = np.zeros(shape, bool)
+            thin._junctions(*f, cells.astype(np.uint8), mask, thin.MAX_FACES, other, out)
+            wide = np.zeros(shape, int)
+            nopen = np.zeros(shape, int)
+            for a, q in enumerate(f):
+                lo = q > 0
+                up = np.roll(lo, -1, axis=a)
+                nopen += lo.astype(int) + up
+                wide += (lo & ~np.roll(mask, 1, axis=a)).astype(int) + (
+                    up & ~np.roll(mask, -1, axis=a)
+                )
+            want = cells & ~mask & (nopen > thin.MAX_FACES) & (wide <= other)
+            assert np.array_equal(out, want)
