@@ -373,15 +373,105 @@ def _jacobi_row(dr, xr, br, ax, omega, out):
     return s
 
 
+PREFETCH = 1024
+"""Cells ahead of its loads at which the flat Jacobi sweep (:func:`_jacobi_flat`) prefetches
+each stream it reads from memory (4 KiB of float32; 1024-4096 measured alike)."""
+
+BLOCK = 64
+"""Cells per prefetch step of :func:`_jacobi_flat` (one 64-byte line of uint8 ``d``)."""
+
+
+@nb.njit(inline="always")
+def _jacobi_cell(fd, fx, fb, q, sm, om):
+    """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views, index ``q``):
+    the expression of :func:`_stencil_rows_unit` and :func:`_jacobi_row` in one."""
+    ax = (fd[q] * fx[q] - sm) * _on(fd[q])
+    return (fx[q] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
+
+
+@nb.njit(inline="always")
+def _jacobi_flat(d, x, b, xnew, i, om):
+    """Jacobi sweep of plane ``i`` (unit couplings) into ``xnew[i]``; returns its ``b . xnew``.
+
+    The interior rows (``1 <= j <= ny - 2``) are one flat loop over the plane (the stencil and
+    the update in one expression, no row buffer), in blocks of :data:`BLOCK` cells, each block
+    prefetching the lines :data:`PREFETCH` cells ahead in the four streams from memory (``x``
+    of plane ``i + 1``, ``d``, ``b``, ``xnew``).  The row loops of the old sweep issued their
+    loads too slowly for the memory system and ran 1.9x the one-thread triad time of their
+    bytes, this loop 1.05x (``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two
+    ends of each row (read from the neighbouring rows by the flat loop) and the rows 0 and
+    ``ny - 1`` (the y-wrap) are then redone with the periodic neighbours, and ``b . xnew`` is
+    summed over the plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
+    nx, ny, nz = d.shape
+    fd = d.reshape(-1)
+    fx = x.reshape(-1)
+    fb = b.reshape(-1)
+    fo = xnew.reshape(-1)
+    pl = _u(ny * nz)
+    base = _u(i) * pl
+    bm = _u(_dn(i, nx)) * pl
+    bp = _u(_up(i, nx)) * pl
+    unz = _u(nz)
+    one = _u(1)
+    ahead = _u(PREFETCH)
+    if ny >= 3:
+        lo = base + unz
+        hi = base + pl - unz
+        q0 = lo
+        while q0 < hi:
+            qa = q0 + ahead
+            for r in range(0, BLOCK, 16):  # one line per 16 float32
+                simd.prefetch_at(fx, bp + (qa - base) + _u(r))
+                simd.prefetch_at(fb, qa + _u(r))
+                simd.prefetch_at(fo, qa + _u(r))
+            simd.prefetch_at(fd, qa)
+            q1 = min(q0 + _u(BLOCK), hi)
+            for q in range(q0, q1):
+                t = q - base
+                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
+                fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
+            q0 = q1
+        for j in range(1, ny - 1):  # the two ends of each row: the periodic k-neighbours
+            for e in range(_ends(nz)):
+                k = 0 if e == 0 else nz - 1
+                q = base + _u(j * nz + k)
+                kq = q - _u(k)
+                km = kq + _u(_dn(k, nz))
+                kp = kq + _u(_up(k, nz))
+                t = q - base
+                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[km] + fx[kp]
+                fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
+    for j in (0, ny - 1):  # the y-wrap rows (one row when ny == 1)
+        for k in range(nz):
+            q = base + _u(j * nz + k)
+            t = q - base
+            jm = base + _u(_dn(j, ny) * nz + k)
+            jp = base + _u(_up(j, ny) * nz + k)
+            km = base + _u(j * nz + _dn(k, nz))
+            kp = base + _u(j * nz + _up(k, nz))
+            sm = fx[bm + t] + fx[bp + t] + fx[jm] + fx[jp] + fx[km] + fx[kp]
+            fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
+    s = 0.0
+    for q in range(base, base + pl):
+        s += np.float64(fb[q]) * np.float64(fo[q])
+    return s
+
+
 @parallel_kernel(**_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
-    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised).
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised; with unit
+    couplings one flat prefetching loop per plane, :func:`_jacobi_flat`).
 
     Returns ``b . xnew`` (float64) from the same pass: after the last smoothing sweep of a
     V-cycle on the finest level that is the preconditioned dot product MINRES needs.
     """
     nx, ny, nz = d.shape
     acc = np.zeros(nx)
+    if _unit(d, cx):
+        om = np.float32(omega)
+        for i in nb.prange(nx):
+            acc[i] = _jacobi_flat(d, x, b, xnew, i, om)
+        return acc.sum()
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
         s = 0.0
