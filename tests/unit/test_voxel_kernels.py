@@ -238,9 +238,12 @@ def test_unit_couplings_give_the_products_of_the_stored_ones(weighted: bool, chu
     d, c = op.d[0], cs[0]
     b = x[0].copy()
     out_u, out_f = np.empty_like(b), np.empty_like(b)
-    kr.jacobi(d, *unit, x[0], b, out_u, 0.9)
-    kr.jacobi(d, *c, x[0], b, out_f, 0.9)
-    assert np.array_equal(out_u, out_f)
+    dot_u = kr.jacobi(d, *unit, x[0], b, out_u, 0.9)
+    dot_f = kr.jacobi(d, *c, x[0], b, out_f, 0.9)
+    # band14: with unit couplings the sweep is one flat loop per plane (stencil and update in
+    # one expression, other vector widths): the same values to float32 round-off, not the bits
+    _close(out_u, out_f)
+    assert dot_u == pytest.approx(dot_f, rel=1e-6)
     kr.jacobi2_zero(d, *unit, b, out_u, 0.9, chunks)
     kr.jacobi2_zero(d, *c, b, out_f, 0.9, chunks)
     assert np.array_equal(out_u, out_f)
@@ -316,6 +319,49 @@ def test_jacobi_sweep_against_numpy(shape: tuple[int, int, int]) -> None:
         zero = np.full(d.shape, np.nan, np.float32)
         kr.jacobi_zero(d, b, zero, 0.9)
         _close(zero, np.where(d > 0, 0.9 * b / np.where(d > 0, d, 1), 0))
+
+
+@pytest.mark.parametrize("twin", ["serial", "parallel"])
+@pytest.mark.parametrize(
+    "shape", [(3, 1, 5), (4, 2, 1), (3, 3, 2), (5, 3, 3), (4, 7, 17), (3, 5, 150), (6, 9, 37)]
+)
+def test_flat_prefetching_jacobi_against_numpy(shape: tuple[int, int, int], twin: str) -> None:
+    """band14: the finest-level Jacobi sweep with unit couplings is one flat loop over the
+    interior rows of each plane (``kernels._jacobi_flat``: its k-neighbours at the row ends come
+    from the neighbouring rows and are redone, the rows 0 and ``ny - 1`` wrap along y, and it
+    prefetches ``PREFETCH`` cells ahead, past the array's end on the last planes).  Against the
+    float64 numpy sweep on the stored couplings to float32 round-off, on planes of 1, 2, 3 and
+    more rows (no interior, one interior row), rows of 1, 2, 3 cells (every cell a row end) and
+    rows longer than a ``BLOCK``; inactive unknowns exactly 0; the returned value is the float64
+    ``b . xnew`` of the stored output."""
+    rng = np.random.default_rng(70 + shape[1] * shape[2])
+    d, c = mg.component_operator(_fluid(shape, seed=shape[2]), 0)
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    ref = np.where(d > 0, x + 0.9 * (b - _numpy_apply(d, c, x)) / np.where(d > 0, d, 1), 0)
+    out = np.full(shape, np.nan, np.float32)
+    dot = getattr(kr.jacobi, twin)(d, *kr.unit_couplings(shape[2]), x, b, out, 0.9)
+    _close(out, ref)
+    assert np.all(out[d == 0] == 0.0)
+    exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
+    assert dot == pytest.approx(exact, rel=1e-9, abs=1e-9)
+    assert np.abs(ref).max() > 0.1  # not a trivial comparison
+
+
+def test_prefetch_at_changes_nothing() -> None:
+    """``simd.prefetch_at`` is a hint: prefetching every element and far past the end of an
+    array (as the flat sweep does on its last planes) leaves every array as it was."""
+    from solvers.voxel import simd
+
+    @numba.njit(cache=False)
+    def fetch(a, far):
+        for q in range(a.size + far):
+            simd.prefetch_at(a, q)
+
+    for a in (np.arange(100, dtype=np.float32), np.arange(7, dtype=np.uint8)):
+        before = a.copy()
+        fetch(a, 4096)
+        assert np.array_equal(a, before)
 
 
 @pytest.mark.parametrize("shape", SHAPES)
