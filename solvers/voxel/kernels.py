@@ -324,14 +324,24 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
 
     Same result as :func:`lap_residual` followed by :func:`restrict_sum` (one pass fewer over
-    the fine grid).
+    the fine grid).  With unit couplings (the finest level) the residual planes of each coarse
+    plane are formed by the flat prefetching loop (:func:`_residual_flat`) into plane buffers
+    (in cache) and summed from there, in the same order as the row loop of the stored
+    couplings.
     """
     nx, ny, nz = d.shape
     ncx, ncy, ncz = rc.shape
+    unit = _unit(d, cx)
     for ic in nb.prange(ncx):
         i0, i1 = _children(ic, fx, ncx, nx)
         row = np.empty(nz, dtype=rc.dtype)
         acc = np.empty(nz)
+        # the residual planes of the coarse plane (unit couplings; the last aggregate of an odd
+        # axis has 3)
+        planes = np.empty((i1 - i0 if unit else 0, ny, nz), dtype=rc.dtype)
+        if unit:
+            for i in range(i0, i1):
+                _residual_flat(d, x, b, i, planes[i - i0].reshape(-1))
         for jc in range(ncy):
             j0, j1 = _children(jc, fy, ncy, ny)
             # the residual rows of the aggregate row are added into one float64 row as they are
@@ -340,6 +350,11 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             acc[:] = 0.0
             for i in range(i0, i1):
                 for j in range(j0, j1):
+                    if unit:
+                        pr = planes[i - i0, j]
+                        for k in range(nz):
+                            acc[k] += pr[k]
+                        continue
                     _apply_row(d, cx, cy, cz, x, i, j, row)
                     dr = d[i, j]
                     br = b[i, j]
@@ -374,11 +389,11 @@ def _jacobi_row(dr, xr, br, ax, omega, out):
 
 
 PREFETCH = 1024
-"""Cells ahead of its loads at which the flat Jacobi sweep (:func:`_jacobi_flat`) prefetches
-each stream it reads from memory (4 KiB of float32; 1024-4096 measured alike)."""
+"""Cells ahead of its loads at which a flat sweep (:func:`_jacobi_flat`, :func:`_residual_flat`)
+prefetches each stream it reads from memory (4 KiB of float32; 1024-4096 measured alike)."""
 
 BLOCK = 64
-"""Cells per prefetch step of :func:`_jacobi_flat` (one 64-byte line of uint8 ``d``)."""
+"""Cells per prefetch step of the flat sweeps (one 64-byte line of uint8 ``d``)."""
 
 
 @nb.njit(inline="always")
@@ -387,6 +402,53 @@ def _jacobi_cell(fd, fx, fb, q, sm, om):
     the expression of :func:`_stencil_rows_unit` and :func:`_jacobi_row` in one."""
     ax = (fd[q] * fx[q] - sm) * _on(fd[q])
     return (fx[q] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
+
+
+@nb.njit(inline="always")
+def _residual_cell(fd, fx, fb, q, sm):
+    """One cell of ``b - A x`` from its neighbours' sum ``sm`` (0 on an inactive unknown): the
+    expression of :func:`_stencil_rows_unit` and :func:`residual_restrict`'s row in one."""
+    ax = (fd[q] * fx[q] - sm) * _on(fd[q])
+    return (fb[q] - ax) * _on(fd[q])
+
+
+@nb.njit(inline="always")
+def _prefetch_block(fx, xa, fd, fb, qa, fo):
+    """Prefetch the lines of one :data:`BLOCK` of a flat sweep: ``x`` from ``xa`` (its plane
+    ``i + 1``), ``d, b`` and (unless None) the output ``fo`` from ``qa``."""
+    for r in range(0, BLOCK, 16):  # one line per 16 float32
+        simd.prefetch_at(fx, xa + _u(r))
+        simd.prefetch_at(fb, qa + _u(r))
+        if fo is not None:
+            simd.prefetch_at(fo, qa + _u(r))
+    simd.prefetch_at(fd, qa)
+
+
+@nb.njit(inline="always")
+def _edge_cells(j, ny, nz):
+    """Cells of row ``j`` a flat sweep redoes with the periodic neighbours: every cell of the
+    rows 0 and ``ny - 1`` (their y-neighbours wrap), the two ends of the others (k wraps)."""
+    return nz if (j == 0 or j == ny - 1) else _ends(nz)
+
+
+@nb.njit(inline="always")
+def _edge_k(j, e, ny, nz):
+    """``k`` of the ``e``-th cell of row ``j`` that :func:`_edge_cells` counts."""
+    if j == 0 or j == ny - 1:
+        return e
+    return 0 if e == 0 else nz - 1
+
+
+@nb.njit(inline="always")
+def _wrap_sum(fx, base, bm, bp, j, k, ny, nz):
+    """The six neighbours' sum of cell ``(j, k)`` of the plane at flat offset ``base`` (its
+    neighbour planes at ``bm, bp``), periodic along y and k; the order of the flat loops."""
+    t = _u(j * nz + k)
+    jm = base + _u(_dn(j, ny) * nz + k)
+    jp = base + _u(_up(j, ny) * nz + k)
+    km = base + _u(j * nz + _dn(k, nz))
+    kp = base + _u(j * nz + _up(k, nz))
+    return fx[bm + t] + fx[bp + t] + fx[jm] + fx[jp] + fx[km] + fx[kp]
 
 
 @nb.njit(inline="always")
@@ -400,8 +462,9 @@ def _jacobi_flat(d, x, b, xnew, i, om):
     loads too slowly for the memory system and ran 1.9x the one-thread triad time of their
     bytes, this loop 1.05x (``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two
     ends of each row (read from the neighbouring rows by the flat loop) and the rows 0 and
-    ``ny - 1`` (the y-wrap) are then redone with the periodic neighbours, and ``b . xnew`` is
-    summed over the plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
+    ``ny - 1`` (the y-wrap) are then redone with the periodic neighbours (:func:`_edge_cells`),
+    and ``b . xnew`` is summed over the plane from cache.  Unsigned indices (:func:`_u`):
+    vectorised."""
     nx, ny, nz = d.shape
     fd = d.reshape(-1)
     fx = x.reshape(-1)
@@ -413,48 +476,60 @@ def _jacobi_flat(d, x, b, xnew, i, om):
     bp = _u(_up(i, nx)) * pl
     unz = _u(nz)
     one = _u(1)
-    ahead = _u(PREFETCH)
     if ny >= 3:
-        lo = base + unz
         hi = base + pl - unz
-        q0 = lo
+        q0 = base + unz
         while q0 < hi:
-            qa = q0 + ahead
-            for r in range(0, BLOCK, 16):  # one line per 16 float32
-                simd.prefetch_at(fx, bp + (qa - base) + _u(r))
-                simd.prefetch_at(fb, qa + _u(r))
-                simd.prefetch_at(fo, qa + _u(r))
-            simd.prefetch_at(fd, qa)
+            qa = q0 + _u(PREFETCH)
+            _prefetch_block(fx, bp + (qa - base), fd, fb, qa, fo)
             q1 = min(q0 + _u(BLOCK), hi)
             for q in range(q0, q1):
                 t = q - base
                 sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
                 fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
             q0 = q1
-        for j in range(1, ny - 1):  # the two ends of each row: the periodic k-neighbours
-            for e in range(_ends(nz)):
-                k = 0 if e == 0 else nz - 1
-                q = base + _u(j * nz + k)
-                kq = q - _u(k)
-                km = kq + _u(_dn(k, nz))
-                kp = kq + _u(_up(k, nz))
-                t = q - base
-                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[km] + fx[kp]
-                fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
-    for j in (0, ny - 1):  # the y-wrap rows (one row when ny == 1)
-        for k in range(nz):
+    for j in range(ny):
+        for e in range(_edge_cells(j, ny, nz)):
+            k = _edge_k(j, e, ny, nz)
             q = base + _u(j * nz + k)
-            t = q - base
-            jm = base + _u(_dn(j, ny) * nz + k)
-            jp = base + _u(_up(j, ny) * nz + k)
-            km = base + _u(j * nz + _dn(k, nz))
-            kp = base + _u(j * nz + _up(k, nz))
-            sm = fx[bm + t] + fx[bp + t] + fx[jm] + fx[jp] + fx[km] + fx[kp]
-            fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
+            fo[q] = _jacobi_cell(fd, fx, fb, q, _wrap_sum(fx, base, bm, bp, j, k, ny, nz), om)
     s = 0.0
     for q in range(base, base + pl):
         s += np.float64(fb[q]) * np.float64(fo[q])
     return s
+
+
+@nb.njit(inline="always")
+def _residual_flat(d, x, b, i, rp):
+    """``rp`` (flat, ``ny nz`` entries) = plane ``i`` of ``b - A x`` (unit couplings): the flat
+    prefetching loop of :func:`_jacobi_flat` with :func:`_residual_cell`."""
+    nx, ny, nz = d.shape
+    fd = d.reshape(-1)
+    fx = x.reshape(-1)
+    fb = b.reshape(-1)
+    pl = _u(ny * nz)
+    base = _u(i) * pl
+    bm = _u(_dn(i, nx)) * pl
+    bp = _u(_up(i, nx)) * pl
+    unz = _u(nz)
+    one = _u(1)
+    if ny >= 3:
+        hi = base + pl - unz
+        q0 = base + unz
+        while q0 < hi:
+            qa = q0 + _u(PREFETCH)
+            _prefetch_block(fx, bp + (qa - base), fd, fb, qa, None)
+            q1 = min(q0 + _u(BLOCK), hi)
+            for q in range(q0, q1):
+                t = q - base
+                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
+                rp[t] = _residual_cell(fd, fx, fb, q, sm)
+            q0 = q1
+    for j in range(ny):
+        for e in range(_edge_cells(j, ny, nz)):
+            k = _edge_k(j, e, ny, nz)
+            q = base + _u(j * nz + k)
+            rp[q - base] = _residual_cell(fd, fx, fb, q, _wrap_sum(fx, base, bm, bp, j, k, ny, nz))
 
 
 @parallel_kernel(**_OPTS)
