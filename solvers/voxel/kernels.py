@@ -397,11 +397,12 @@ BLOCK = 64
 
 
 @nb.njit(inline="always")
-def _jacobi_cell(fd, fx, fb, q, sm, om):
-    """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views, index ``q``):
-    the expression of :func:`_stencil_rows_unit` and :func:`_jacobi_row` in one."""
-    ax = (fd[q] * fx[q] - sm) * _on(fd[q])
-    return (fx[q] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
+def _jacobi_cell(fd, fx, fb, q, c, sm, om):
+    """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views: ``d, b`` at
+    ``q``, the iterate at ``c``): the expression of :func:`_stencil_rows_unit` and
+    :func:`_jacobi_row` in one."""
+    ax = (fd[q] * fx[c] - sm) * _on(fd[q])
+    return (fx[c] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
 
 
 @nb.njit(inline="always")
@@ -413,15 +414,15 @@ def _residual_cell(fd, fx, fb, q, sm):
 
 
 @nb.njit(inline="always")
-def _prefetch_block(fx, xa, fd, fb, qa, fo):
-    """Prefetch the lines of one :data:`BLOCK` of a flat sweep: ``x`` from ``xa`` (its plane
-    ``i + 1``), ``d, b`` and (unless None) the output ``fo`` from ``qa``."""
-    for r in range(0, BLOCK, 16):  # one line per 16 float32
-        simd.prefetch_at(fx, xa + _u(r))
-        simd.prefetch_at(fb, qa + _u(r))
-        if fo is not None:
-            simd.prefetch_at(fo, qa + _u(r))
-    simd.prefetch_at(fd, qa)
+def _fetch_lines(a, q, step):
+    """Prefetch the lines of :data:`BLOCK` entries of the 1-D array ``a`` from index ``q``: one
+    prefetch per ``step`` entries (a literal at the call: 16 for float32, 64 for uint8, one
+    64-byte line).  None: nothing.  (Neither a reshape nor the array's itemsize here: both are
+    run-time calls or loads in numba, and per block they made the sweeps 1.1-1.9x slower.)"""
+    if a is None:
+        return
+    for r in range(0, BLOCK, step):
+        simd.prefetch_at(a, q + _u(r))
 
 
 @nb.njit(inline="always")
@@ -440,62 +441,63 @@ def _edge_k(j, e, ny, nz):
 
 
 @nb.njit(inline="always")
-def _wrap_sum(fx, base, bm, bp, j, k, ny, nz):
-    """The six neighbours' sum of cell ``(j, k)`` of the plane at flat offset ``base`` (its
-    neighbour planes at ``bm, bp``), periodic along y and k; the order of the flat loops."""
+def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
+    """The six neighbours' sum of cell ``(j, k)`` of the plane at ``x0[b0:]`` (its neighbour
+    planes at ``xm[bm:], xp[bp:]``), periodic along y and k; the order of the flat loops."""
     t = _u(j * nz + k)
-    jm = base + _u(_dn(j, ny) * nz + k)
-    jp = base + _u(_up(j, ny) * nz + k)
-    km = base + _u(j * nz + _dn(k, nz))
-    kp = base + _u(j * nz + _up(k, nz))
-    return fx[bm + t] + fx[bp + t] + fx[jm] + fx[jp] + fx[km] + fx[kp]
+    jm = b0 + _u(_dn(j, ny) * nz + k)
+    jp = b0 + _u(_up(j, ny) * nz + k)
+    km = b0 + _u(j * nz + _dn(k, nz))
+    kp = b0 + _u(j * nz + _up(k, nz))
+    return xm[bm + t] + xp[bp + t] + x0[jm] + x0[jp] + x0[km] + x0[kp]
 
 
 @nb.njit(inline="always")
-def _jacobi_flat(d, x, b, xnew, i, om):
-    """Jacobi sweep of plane ``i`` (unit couplings) into ``xnew[i]``; returns its ``b . xnew``.
+def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
+    """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
+    ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
+    along x at ``xm[bm:], xp[bp:]`` (the grid itself, or plane buffers); returns the plane's
+    ``b . xnew`` if ``dot``, else 0.0.
 
     The interior rows (``1 <= j <= ny - 2``) are one flat loop over the plane (the stencil and
     the update in one expression, no row buffer), in blocks of :data:`BLOCK` cells, each block
-    prefetching the lines :data:`PREFETCH` cells ahead in the four streams from memory (``x``
-    of plane ``i + 1``, ``d``, ``b``, ``xnew``).  The row loops of the old sweep issued their
-    loads too slowly for the memory system and ran 1.9x the one-thread triad time of their
-    bytes, this loop 1.05x (``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two
-    ends of each row (read from the neighbouring rows by the flat loop) and the rows 0 and
-    ``ny - 1`` (the y-wrap) are then redone with the periodic neighbours (:func:`_edge_cells`),
-    and ``b . xnew`` is summed over the plane from cache.  Unsigned indices (:func:`_u`):
-    vectorised."""
-    nx, ny, nz = d.shape
-    fd = d.reshape(-1)
-    fx = x.reshape(-1)
-    fb = b.reshape(-1)
-    fo = xnew.reshape(-1)
+    prefetching the lines :data:`PREFETCH` cells ahead in ``d, b`` and the output, and the
+    block at ``ea[eq + t], eb[eq + t]`` (the caller's next streams from memory: the iterate's
+    plane ``i + 1`` with ``eq`` that many cells ahead, or the plane two ahead; None: none).
+    The row loops of the old sweeps issued their loads too slowly for the memory system (a
+    sweep of the grid ran 1.9x the one-thread triad time of its bytes, this loop 1.05x;
+    ``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two ends of each row (read
+    from the neighbouring rows by the flat loop) and the rows 0 and ``ny - 1`` (the y-wrap)
+    are then redone with the periodic neighbours (:func:`_edge_cells`), and ``b . xnew`` is
+    summed over the plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
     pl = _u(ny * nz)
-    base = _u(i) * pl
-    bm = _u(_dn(i, nx)) * pl
-    bp = _u(_up(i, nx)) * pl
     unz = _u(nz)
     one = _u(1)
     if ny >= 3:
-        hi = base + pl - unz
-        q0 = base + unz
-        while q0 < hi:
-            qa = q0 + _u(PREFETCH)
-            _prefetch_block(fx, bp + (qa - base), fd, fb, qa, fo)
-            q1 = min(q0 + _u(BLOCK), hi)
-            for q in range(q0, q1):
-                t = q - base
-                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
-                fo[q] = _jacobi_cell(fd, fx, fb, q, sm, om)
-            q0 = q1
+        t0 = unz
+        while t0 < pl - unz:
+            qa = base + t0 + _u(PREFETCH)
+            _fetch_lines(fo, qa, 16)
+            _fetch_lines(fb, qa, 16)
+            _fetch_lines(fd, qa, 64)
+            _fetch_lines(ea, eq + t0, 16)  # float32 (b, or x)
+            _fetch_lines(eb, eq + t0, 64)  # uint8 (d) or None
+            t1 = min(t0 + _u(BLOCK), pl - unz)
+            for t in range(t0, t1):
+                c = b0 + t
+                sm = xm[bm + t] + xp[bp + t] + x0[c - unz] + x0[c + unz] + x0[c - one] + x0[c + one]
+                fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+            t0 = t1
     for j in range(ny):
         for e in range(_edge_cells(j, ny, nz)):
             k = _edge_k(j, e, ny, nz)
-            q = base + _u(j * nz + k)
-            fo[q] = _jacobi_cell(fd, fx, fb, q, _wrap_sum(fx, base, bm, bp, j, k, ny, nz), om)
+            t = _u(j * nz + k)
+            sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
+            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
     s = 0.0
-    for q in range(base, base + pl):
-        s += np.float64(fb[q]) * np.float64(fo[q])
+    if dot:
+        for q in range(base, base + pl):
+            s += np.float64(fb[q]) * np.float64(fo[q])
     return s
 
 
@@ -518,7 +520,9 @@ def _residual_flat(d, x, b, i, rp):
         q0 = base + unz
         while q0 < hi:
             qa = q0 + _u(PREFETCH)
-            _prefetch_block(fx, bp + (qa - base), fd, fb, qa, None)
+            _fetch_lines(fx, bp + (qa - base), 16)
+            _fetch_lines(fb, qa, 16)
+            _fetch_lines(fd, qa, 64)
             q1 = min(q0 + _u(BLOCK), hi)
             for q in range(q0, q1):
                 t = q - base
@@ -529,7 +533,9 @@ def _residual_flat(d, x, b, i, rp):
         for e in range(_edge_cells(j, ny, nz)):
             k = _edge_k(j, e, ny, nz)
             q = base + _u(j * nz + k)
-            rp[q - base] = _residual_cell(fd, fx, fb, q, _wrap_sum(fx, base, bm, bp, j, k, ny, nz))
+            rp[q - base] = _residual_cell(
+                fd, fx, fb, q, _wrap_sum(fx, base, fx, bm, fx, bp, j, k, ny, nz)
+            )
 
 
 @parallel_kernel(**_OPTS)
@@ -544,8 +550,16 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     acc = np.zeros(nx)
     if _unit(d, cx):
         om = np.float32(omega)
+        pl = _u(ny * nz)
+        fx = x.reshape(-1)
         for i in nb.prange(nx):
-            acc[i] = _jacobi_flat(d, x, b, xnew, i, om)
+            base = _u(i) * pl
+            bp = _u(_up(i, nx)) * pl
+            acc[i] = _jacobi_flat(
+                d.reshape(-1), b.reshape(-1), xnew.reshape(-1), base,
+                fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
+                fx, bp + _u(PREFETCH), None,
+            )  # fmt: skip
         return acc.sum()
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
@@ -643,10 +657,20 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     pm2 = pm.reshape((ny, nz))
     p02 = p0.reshape((ny, nz))
     pp2 = pp.reshape((ny, nz))
-    if _unit(d, cx):  # unit_couplings: flat runs of rows (_unit_rows)
-        return _jacobi_rows_unit(
-            d, i, p02, pm2, pp2, p0, 0, pm, 0, pp, 0, b, omega, blk, xnew, fa, fb
-        )
+    if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
+        pl = _u(ny * nz)
+        zero = _u(0)
+        ahead = _u(_up(_up(i, nx), nx)) * pl  # the next plane step's d, b (plane i + 2)
+        fd, fbb, fo, om = d.reshape(-1), b.reshape(-1), xnew.reshape(-1), np.float32(omega)
+        if fa is None:  # compiled out where the caller passes arrays
+            return _jacobi_flat(
+                fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+                None, ahead, None,
+            )  # fmt: skip
+        return _jacobi_flat(
+            fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+            fb.reshape(-1), ahead, fa.reshape(-1),
+        )  # fmt: skip
     ip = _up(i, nx)
     row = blk.reshape((ROWS, nz))[0]
     s = 0.0
