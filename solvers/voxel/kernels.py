@@ -192,72 +192,10 @@ def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
 
 
 @nb.njit(inline="always")
-def _ends_unit(dr, xr, xim, xip, xjm, xjp, out):
-    """The two k-ends of :func:`_stencil_rows_unit` (the same expression, so the same values;
-    a copy: :func:`_stencil_rows_unit` calling it made the serial twin of :func:`jacobi` 1.46x
-    slower, band12)."""
-    nz = dr.shape[0]
-    for e in range(_ends(nz)):
-        k = 0 if e == 0 else nz - 1
-        s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[_dn(k, nz)] + xr[_up(k, nz)]
-        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
-
-
-ROWS = 8
-"""Rows of one flat run of :func:`_flat_unit` (its output buffer: ``ROWS * nz`` float32, in L1)."""
-
-
-@nb.njit(inline="always")
 def _u(q):
     """``q`` as an unsigned index: numba adds no negative-index wrap-around test, which kept LLVM
-    from vectorising the flat loop of :func:`_flat_unit` (8x slower)."""
+    from vectorising the flat loops (:func:`_jacobi_flat`; 8x slower, band12)."""
     return np.uint64(q)
-
-
-@nb.njit(inline="always")
-def _flat_unit(df, dq, x0, x0q, xm, xmq, xp, xpq, n, nz, out):
-    """:func:`_stencil_rows_unit` over ``n`` consecutive cells of whole interior rows (``1 <= j <=
-    ny - 2``) in one loop through flat views: ``out[t]`` for the cell at ``df[dq + t]``, whose
-    values are ``x0[x0q + t]``, below and above along x ``xm[xmq + t], xp[xpq + t]``, along y
-    ``x0[x0q + t -+ nz]``.  Along k it reads ``x0[x0q + t -+ 1]``, the neighbouring row's entry
-    at the two ends of each row: :func:`_ends_unit` rewrites those.  Same sum in the same order,
-    so the same values; one loop per run of rows instead of a loop, its remainder and two
-    scalar ends per row (the stencil took 1.5x less CPU on a cache-resident grid,
-    ``benchmarks/RESULTS.md``, band12)."""
-    bd = _u(dq)
-    b0 = _u(x0q)
-    bm = _u(xmq)
-    bp = _u(xpq)
-    unz = _u(nz)
-    one = _u(1)
-    for t in range(n):
-        u = _u(t)
-        q = b0 + u
-        s = xm[bm + u] + xp[bp + u] + x0[q - unz] + x0[q + unz] + x0[q - one] + x0[q + one]
-        out[u] = (df[bd + u] * x0[q] - s) * _on(df[bd + u])
-
-
-@nb.njit(inline="always")
-def _unit_rows(d, df, i, j0, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, blk, rows):
-    """(A x) of rows ``j0 ..`` of plane ``i`` (unit couplings) into ``blk`` (row ``r`` at
-    ``blk[r nz:]``) from the planes ``p0, pm, pp`` of ``x`` at ``i, i - 1, i + 1`` (2-D views)
-    and their flat views with offsets (``p0f[p0q]`` = ``p0[0, 0]``; ``rows``: ``blk`` as
-    ``(ROWS, nz)``, whose rows are C-contiguous views, unlike slices); returns the number of rows
-    done: one row through :func:`_stencil_rows_unit` at ``j0 = 0`` or ``ny - 1`` (the
-    neighbours wrap along y), else up to :data:`ROWS` rows in one :func:`_flat_unit` run."""
-    ny, nz = d.shape[1], d.shape[2]
-    if j0 == 0 or j0 == ny - 1:
-        _stencil_rows_unit(
-            d[i, j0], p0[j0], pm[j0], pp[j0], p0[_dn(j0, ny)], p0[_up(j0, ny)], rows[0]
-        )
-        return 1
-    n = min(ROWS, ny - 1 - j0)
-    o = j0 * nz
-    _flat_unit(df, (i * ny + j0) * nz, p0f, p0q + o, pmf, pmq + o, ppf, ppq + o, n * nz, nz, blk)
-    for r in range(n):
-        j = j0 + r
-        _ends_unit(d[i, j], p0[j], pm[j], pp[j], p0[j - 1], p0[j + 1], rows[r])
-    return n
 
 
 @nb.njit(inline="always")
@@ -573,28 +511,6 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     return acc.sum()
 
 
-@nb.njit(inline="always")
-def _jacobi_rows_unit(d, i, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, b, omega, blk, xnew, fa, fb):
-    """Jacobi sweep of plane ``i`` (unit couplings) into ``xnew[i]`` from the planes ``p0, pm,
-    pp`` of the iterate at ``i, i - 1, i + 1`` (2-D views and flat views with offsets, as
-    :func:`_unit_rows`); returns the plane's ``b . xnew``, summed row by row in order (the same
-    sum as :func:`_jacobi_row` per row).  ``fa, fb``: as :func:`_fetch_ahead`."""
-    ny, nz = d.shape[1], d.shape[2]
-    df = d.reshape(-1)
-    rows = blk.reshape((ROWS, nz))
-    s = 0.0
-    j0 = 0
-    while j0 < ny:
-        n = _unit_rows(d, df, i, j0, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, blk, rows)
-        for r in range(n):
-            j = j0 + r
-            _fetch(b, i, j)
-            _fetch_ahead(fa, fb, i, j)
-            s += _jacobi_row(d[i, j], p0[j], b[i, j], rows[r], omega, xnew[i, j])
-        j0 += n
-    return s
-
-
 @parallel_kernel(**_OPTS)
 def jacobi_zero(d, b, x, omega):
     """First Jacobi sweep from a zero guess: ``x = omega D^-1 b``."""
@@ -645,18 +561,14 @@ def _fetch_ahead(fa, fb, i, j):
 def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
     p0, pp``: flat buffers of ``ny nz`` entries) into ``xnew[i]``; returns the plane's ``b .
-    xnew``.  ``blk``: work buffer of ``ROWS nz`` entries; ``fa, fb``: the arrays whose plane
+    xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
-    With unit couplings the stencil runs over flat runs of rows (:func:`_unit_rows`; the
-    buffered planes are in cache, where the loop's per-row overhead was half its cost).  The
-    sweeps that read the iterate from the grid (:func:`jacobi`, :func:`residual_restrict`) keep
-    their row loops: flat runs made them 1.07-1.34x slower (one thread, 200^3, runs of 2-32
-    rows; ``benchmarks/RESULTS.md``, band12)."""
+    With unit couplings (the finest level) the sweep is the flat prefetching loop of
+    :func:`jacobi` over the buffered planes (:func:`_jacobi_flat`), which also prefetches the
+    plane ``i + 2`` of ``fa, fb`` block by block; the coarse levels (stored couplings) keep the
+    row loops (``benchmarks/RESULTS.md``, band14)."""
     nx, ny, nz = d.shape
-    pm2 = pm.reshape((ny, nz))
-    p02 = p0.reshape((ny, nz))
-    pp2 = pp.reshape((ny, nz))
     if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
         pl = _u(ny * nz)
         zero = _u(0)
@@ -671,8 +583,11 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
             fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
             fb.reshape(-1), ahead, fa.reshape(-1),
         )  # fmt: skip
+    pm2 = pm.reshape((ny, nz))
+    p02 = p0.reshape((ny, nz))
+    pp2 = pp.reshape((ny, nz))
     ip = _up(i, nx)
-    row = blk.reshape((ROWS, nz))[0]
+    row = blk
     s = 0.0
     for j in range(ny):
         _fetch(b, i, j)
@@ -705,7 +620,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         pm = np.empty(ny * nz, dtype=xnew.dtype)
         p0 = np.empty(ny * nz, dtype=xnew.dtype)
         pp = np.empty(ny * nz, dtype=xnew.dtype)
-        blk = np.empty(ROWS * nz, dtype=xnew.dtype)
+        blk = np.empty(nz, dtype=xnew.dtype)
         _zero_plane(d, b, _dn(lo, nx), omega, pm.reshape((ny, nz)))
         _zero_plane(d, b, lo, omega, p0.reshape((ny, nz)))
         for i in range(lo, hi):
@@ -775,7 +690,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
         pm = np.empty(ny * nz, dtype=xnew.dtype)
         p0 = np.empty(ny * nz, dtype=xnew.dtype)
         pp = np.empty(ny * nz, dtype=xnew.dtype)
-        blk = np.empty(ROWS * nz, dtype=xnew.dtype)
+        blk = np.empty(nz, dtype=xnew.dtype)
         ex = np.empty(nz, dtype=np.float64)
         _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm.reshape((ny, nz)), ex)
         _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0.reshape((ny, nz)), ex)
