@@ -403,8 +403,9 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
     block at ``ea[eq + t], eb[eq + t]`` (the caller's next streams from memory: the iterate's
     plane ``i + 1`` with ``eq`` that many cells ahead, or the plane two ahead; None: none).
     The row loops of the old sweeps issued their loads too slowly for the memory system (a
-    sweep of the grid ran 1.9x the one-thread triad time of its bytes, this loop 1.05x;
-    ``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two ends of each row (read
+    sweep of the grid ran 1.9x the one-thread triad time of its bytes; an ideal flat loop with
+    this prefetch 1.05x, without it 1.85x; the sweeps 0.66-0.83x main's one-thread CPU at
+    200^3, ``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two ends of each row (read
     from the neighbouring rows by the flat loop) and the rows 0 and ``ny - 1`` (the y-wrap)
     are then redone with the periodic neighbours (:func:`_edge_cells`), and ``b . xnew`` is
     summed over the plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
