@@ -364,18 +364,16 @@ def _fetch_lines(a, q, step):
 
 
 @nb.njit(inline="always")
-def _edge_cells(j, ny, nz):
-    """Cells of row ``j`` a flat sweep redoes with the periodic neighbours: every cell of the
-    rows 0 and ``ny - 1`` (their y-neighbours wrap), the two ends of the others (k wraps)."""
-    return nz if (j == 0 or j == ny - 1) else _ends(nz)
+def _wrap_rows(ny):
+    """Rows of a plane whose y-neighbours wrap, which a flat sweep does apart: 0 and ``ny - 1``
+    (one row when ``ny == 1``)."""
+    return 1 if ny == 1 else 2
 
 
 @nb.njit(inline="always")
-def _edge_k(j, e, ny, nz):
-    """``k`` of the ``e``-th cell of row ``j`` that :func:`_edge_cells` counts."""
-    if j == 0 or j == ny - 1:
-        return e
-    return 0 if e == 0 else nz - 1
+def _wrap_row(r, ny):
+    """``j`` of the ``r``-th row of :func:`_wrap_rows`."""
+    return 0 if r == 0 else ny - 1
 
 
 @nb.njit(inline="always")
@@ -406,9 +404,10 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
     sweep of the grid ran 1.9x the one-thread triad time of its bytes; an ideal flat loop with
     this prefetch 1.05x, without it 1.85x; the sweeps 0.66-0.83x main's one-thread CPU at
     200^3, ``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two ends of each row (read
-    from the neighbouring rows by the flat loop) and the rows 0 and ``ny - 1`` (the y-wrap)
-    are then redone with the periodic neighbours (:func:`_edge_cells`), and ``b . xnew`` is
-    summed over the plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
+    from the neighbouring rows by the flat loop) are then redone with the periodic neighbours,
+    the rows 0 and ``ny - 1`` (the y-wrap) by their own vector loops (:func:`_wrap_rows`; as
+    scalar cells they cost ~20 % of the sweep at 200^3), and ``b . xnew`` is summed over the
+    plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
     pl = _u(ny * nz)
     unz = _u(nz)
     one = _u(1)
@@ -427,9 +426,19 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
                 sm = xm[bm + t] + xp[bp + t] + x0[c - unz] + x0[c + unz] + x0[c - one] + x0[c + one]
                 fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
             t0 = t1
-    for j in range(ny):
-        for e in range(_edge_cells(j, ny, nz)):
-            k = _edge_k(j, e, ny, nz)
+    for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
+        j = _wrap_row(r, ny)
+        rj = _u(j * nz)
+        rm = b0 + _u(_dn(j, ny) * nz)
+        rp = b0 + _u(_up(j, ny) * nz)
+        for k in range(one, unz - one):
+            t = rj + k
+            c = b0 + t
+            sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
+            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+    for j in range(ny):  # the two ends of every row: the periodic k-neighbours
+        for e in range(_ends(nz)):
+            k = 0 if e == 0 else nz - 1
             t = _u(j * nz + k)
             sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
             fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
@@ -468,9 +477,19 @@ def _residual_flat(d, x, b, i, rp):
                 sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
                 rp[t] = _residual_cell(fd, fx, fb, q, sm)
             q0 = q1
-    for j in range(ny):
-        for e in range(_edge_cells(j, ny, nz)):
-            k = _edge_k(j, e, ny, nz)
+    for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
+        j = _wrap_row(r, ny)
+        rj = _u(j * nz)
+        rm = base + _u(_dn(j, ny) * nz)
+        rq = base + _u(_up(j, ny) * nz)
+        for k in range(one, unz - one):
+            t = rj + k
+            q = base + t
+            sm = fx[bm + t] + fx[bp + t] + fx[rm + k] + fx[rq + k] + fx[q - one] + fx[q + one]
+            rp[t] = _residual_cell(fd, fx, fb, q, sm)
+    for j in range(ny):  # the two ends of every row: the periodic k-neighbours
+        for e in range(_ends(nz)):
+            k = 0 if e == 0 else nz - 1
             q = base + _u(j * nz + k)
             rp[q - base] = _residual_cell(
                 fd, fx, fb, q, _wrap_sum(fx, base, fx, bm, fx, bp, j, k, ny, nz)
