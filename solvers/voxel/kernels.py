@@ -192,72 +192,10 @@ def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
 
 
 @nb.njit(inline="always")
-def _ends_unit(dr, xr, xim, xip, xjm, xjp, out):
-    """The two k-ends of :func:`_stencil_rows_unit` (the same expression, so the same values;
-    a copy: :func:`_stencil_rows_unit` calling it made the serial twin of :func:`jacobi` 1.46x
-    slower, band12)."""
-    nz = dr.shape[0]
-    for e in range(_ends(nz)):
-        k = 0 if e == 0 else nz - 1
-        s = xim[k] + xip[k] + xjm[k] + xjp[k] + xr[_dn(k, nz)] + xr[_up(k, nz)]
-        out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
-
-
-ROWS = 8
-"""Rows of one flat run of :func:`_flat_unit` (its output buffer: ``ROWS * nz`` float32, in L1)."""
-
-
-@nb.njit(inline="always")
 def _u(q):
     """``q`` as an unsigned index: numba adds no negative-index wrap-around test, which kept LLVM
-    from vectorising the flat loop of :func:`_flat_unit` (8x slower)."""
+    from vectorising the flat loops (:func:`_jacobi_flat`; 8x slower, band12)."""
     return np.uint64(q)
-
-
-@nb.njit(inline="always")
-def _flat_unit(df, dq, x0, x0q, xm, xmq, xp, xpq, n, nz, out):
-    """:func:`_stencil_rows_unit` over ``n`` consecutive cells of whole interior rows (``1 <= j <=
-    ny - 2``) in one loop through flat views: ``out[t]`` for the cell at ``df[dq + t]``, whose
-    values are ``x0[x0q + t]``, below and above along x ``xm[xmq + t], xp[xpq + t]``, along y
-    ``x0[x0q + t -+ nz]``.  Along k it reads ``x0[x0q + t -+ 1]``, the neighbouring row's entry
-    at the two ends of each row: :func:`_ends_unit` rewrites those.  Same sum in the same order,
-    so the same values; one loop per run of rows instead of a loop, its remainder and two
-    scalar ends per row (the stencil took 1.5x less CPU on a cache-resident grid,
-    ``benchmarks/RESULTS.md``, band12)."""
-    bd = _u(dq)
-    b0 = _u(x0q)
-    bm = _u(xmq)
-    bp = _u(xpq)
-    unz = _u(nz)
-    one = _u(1)
-    for t in range(n):
-        u = _u(t)
-        q = b0 + u
-        s = xm[bm + u] + xp[bp + u] + x0[q - unz] + x0[q + unz] + x0[q - one] + x0[q + one]
-        out[u] = (df[bd + u] * x0[q] - s) * _on(df[bd + u])
-
-
-@nb.njit(inline="always")
-def _unit_rows(d, df, i, j0, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, blk, rows):
-    """(A x) of rows ``j0 ..`` of plane ``i`` (unit couplings) into ``blk`` (row ``r`` at
-    ``blk[r nz:]``) from the planes ``p0, pm, pp`` of ``x`` at ``i, i - 1, i + 1`` (2-D views)
-    and their flat views with offsets (``p0f[p0q]`` = ``p0[0, 0]``; ``rows``: ``blk`` as
-    ``(ROWS, nz)``, whose rows are C-contiguous views, unlike slices); returns the number of rows
-    done: one row through :func:`_stencil_rows_unit` at ``j0 = 0`` or ``ny - 1`` (the
-    neighbours wrap along y), else up to :data:`ROWS` rows in one :func:`_flat_unit` run."""
-    ny, nz = d.shape[1], d.shape[2]
-    if j0 == 0 or j0 == ny - 1:
-        _stencil_rows_unit(
-            d[i, j0], p0[j0], pm[j0], pp[j0], p0[_dn(j0, ny)], p0[_up(j0, ny)], rows[0]
-        )
-        return 1
-    n = min(ROWS, ny - 1 - j0)
-    o = j0 * nz
-    _flat_unit(df, (i * ny + j0) * nz, p0f, p0q + o, pmf, pmq + o, ppf, ppq + o, n * nz, nz, blk)
-    for r in range(n):
-        j = j0 + r
-        _ends_unit(d[i, j], p0[j], pm[j], pp[j], p0[j - 1], p0[j + 1], rows[r])
-    return n
 
 
 @nb.njit(inline="always")
@@ -324,14 +262,24 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
 
     Same result as :func:`lap_residual` followed by :func:`restrict_sum` (one pass fewer over
-    the fine grid).
+    the fine grid).  With unit couplings (the finest level) the residual planes of each coarse
+    plane are formed by the flat prefetching loop (:func:`_residual_flat`) into plane buffers
+    (in cache) and summed from there, in the same order as the row loop of the stored
+    couplings.
     """
     nx, ny, nz = d.shape
     ncx, ncy, ncz = rc.shape
+    unit = _unit(d, cx)
     for ic in nb.prange(ncx):
         i0, i1 = _children(ic, fx, ncx, nx)
         row = np.empty(nz, dtype=rc.dtype)
         acc = np.empty(nz)
+        # the residual planes of the coarse plane (unit couplings; the last aggregate of an odd
+        # axis has 3)
+        planes = np.empty((i1 - i0 if unit else 0, ny, nz), dtype=rc.dtype)
+        if unit:
+            for i in range(i0, i1):
+                _residual_flat(d, x, b, i, planes[i - i0].reshape(-1))
         for jc in range(ncy):
             j0, j1 = _children(jc, fy, ncy, ny)
             # the residual rows of the aggregate row are added into one float64 row as they are
@@ -340,6 +288,11 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             acc[:] = 0.0
             for i in range(i0, i1):
                 for j in range(j0, j1):
+                    if unit:
+                        pr = planes[i - i0, j]
+                        for k in range(nz):
+                            acc[k] += pr[k]
+                        continue
                     _apply_row(d, cx, cy, cz, x, i, j, row)
                     dr = d[i, j]
                     br = b[i, j]
@@ -373,15 +326,199 @@ def _jacobi_row(dr, xr, br, ax, omega, out):
     return s
 
 
+PREFETCH = 1024
+"""Cells ahead of its loads at which a flat sweep (:func:`_jacobi_flat`, :func:`_residual_flat`)
+prefetches each stream it reads from memory (4 KiB of float32; 1024-4096 measured alike)."""
+
+BLOCK = 64
+"""Cells per prefetch step of the flat sweeps (one 64-byte line of uint8 ``d``)."""
+
+
+@nb.njit(inline="always")
+def _jacobi_cell(fd, fx, fb, q, c, sm, om):
+    """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views: ``d, b`` at
+    ``q``, the iterate at ``c``): the expression of :func:`_stencil_rows_unit` and
+    :func:`_jacobi_row` in one."""
+    ax = (fd[q] * fx[c] - sm) * _on(fd[q])
+    return (fx[c] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
+
+
+@nb.njit(inline="always")
+def _residual_cell(fd, fx, fb, q, sm):
+    """One cell of ``b - A x`` from its neighbours' sum ``sm`` (0 on an inactive unknown): the
+    expression of :func:`_stencil_rows_unit` and :func:`residual_restrict`'s row in one."""
+    ax = (fd[q] * fx[q] - sm) * _on(fd[q])
+    return (fb[q] - ax) * _on(fd[q])
+
+
+@nb.njit(inline="always")
+def _fetch_lines(a, q, step):
+    """Prefetch the lines of :data:`BLOCK` entries of the 1-D array ``a`` from index ``q``: one
+    prefetch per ``step`` entries (a literal at the call: 16 for float32, 64 for uint8, one
+    64-byte line).  None: nothing.  (Neither a reshape nor the array's itemsize here: both are
+    run-time calls or loads in numba, and per block they made the sweeps 1.1-1.9x slower.)"""
+    if a is None:
+        return
+    for r in range(0, BLOCK, step):
+        simd.prefetch_at(a, q + _u(r))
+
+
+@nb.njit(inline="always")
+def _wrap_rows(ny):
+    """Rows of a plane whose y-neighbours wrap, which a flat sweep does apart: 0 and ``ny - 1``
+    (one row when ``ny == 1``)."""
+    return 1 if ny == 1 else 2
+
+
+@nb.njit(inline="always")
+def _wrap_row(r, ny):
+    """``j`` of the ``r``-th row of :func:`_wrap_rows`."""
+    return 0 if r == 0 else ny - 1
+
+
+@nb.njit(inline="always")
+def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
+    """The six neighbours' sum of cell ``(j, k)`` of the plane at ``x0[b0:]`` (its neighbour
+    planes at ``xm[bm:], xp[bp:]``), periodic along y and k; the order of the flat loops."""
+    t = _u(j * nz + k)
+    jm = b0 + _u(_dn(j, ny) * nz + k)
+    jp = b0 + _u(_up(j, ny) * nz + k)
+    km = b0 + _u(j * nz + _dn(k, nz))
+    kp = b0 + _u(j * nz + _up(k, nz))
+    return xm[bm + t] + xp[bp + t] + x0[jm] + x0[jp] + x0[km] + x0[kp]
+
+
+@nb.njit(inline="always")
+def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
+    """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
+    ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
+    along x at ``xm[bm:], xp[bp:]`` (the grid itself, or plane buffers); returns the plane's
+    ``b . xnew`` if ``dot``, else 0.0.
+
+    The interior rows (``1 <= j <= ny - 2``) are one flat loop over the plane (the stencil and
+    the update in one expression, no row buffer), in blocks of :data:`BLOCK` cells, each block
+    prefetching the lines :data:`PREFETCH` cells ahead in ``d, b`` and the output, and the
+    block at ``ea[eq + t], eb[eq + t]`` (the caller's next streams from memory: the iterate's
+    plane ``i + 1`` with ``eq`` that many cells ahead, or the plane two ahead; None: none).
+    The row loops of the old sweeps issued their loads too slowly for the memory system (a
+    sweep of the grid ran 1.9x the one-thread triad time of its bytes; an ideal flat loop with
+    this prefetch 1.05x, without it 1.85x; the sweeps 0.66-0.83x main's one-thread CPU at
+    200^3, ``benchmarks/RESULTS.md``, band14).  The k-neighbours at the two ends of each row (read
+    from the neighbouring rows by the flat loop) are then redone with the periodic neighbours,
+    the rows 0 and ``ny - 1`` (the y-wrap) by their own vector loops (:func:`_wrap_rows`; as
+    scalar cells they cost ~20 % of the sweep at 200^3), and ``b . xnew`` is summed over the
+    plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
+    pl = _u(ny * nz)
+    unz = _u(nz)
+    one = _u(1)
+    if ny >= 3:
+        t0 = unz
+        while t0 < pl - unz:
+            qa = base + t0 + _u(PREFETCH)
+            _fetch_lines(fo, qa, 16)
+            _fetch_lines(fb, qa, 16)
+            _fetch_lines(fd, qa, 64)
+            _fetch_lines(ea, eq + t0, 16)  # float32 (b, or x)
+            _fetch_lines(eb, eq + t0, 64)  # uint8 (d) or None
+            t1 = min(t0 + _u(BLOCK), pl - unz)
+            for t in range(t0, t1):
+                c = b0 + t
+                sm = xm[bm + t] + xp[bp + t] + x0[c - unz] + x0[c + unz] + x0[c - one] + x0[c + one]
+                fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+            t0 = t1
+    for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
+        j = _wrap_row(r, ny)
+        rj = _u(j * nz)
+        rm = b0 + _u(_dn(j, ny) * nz)
+        rp = b0 + _u(_up(j, ny) * nz)
+        for k in range(one, unz - one):
+            t = rj + k
+            c = b0 + t
+            sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
+            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+    for j in range(ny):  # the two ends of every row: the periodic k-neighbours
+        for e in range(_ends(nz)):
+            k = 0 if e == 0 else nz - 1
+            t = _u(j * nz + k)
+            sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
+            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
+    s = 0.0
+    if dot:
+        for q in range(base, base + pl):
+            s += np.float64(fb[q]) * np.float64(fo[q])
+    return s
+
+
+@nb.njit(inline="always")
+def _residual_flat(d, x, b, i, rp):
+    """``rp`` (flat, ``ny nz`` entries) = plane ``i`` of ``b - A x`` (unit couplings): the flat
+    prefetching loop of :func:`_jacobi_flat` with :func:`_residual_cell`."""
+    nx, ny, nz = d.shape
+    fd = d.reshape(-1)
+    fx = x.reshape(-1)
+    fb = b.reshape(-1)
+    pl = _u(ny * nz)
+    base = _u(i) * pl
+    bm = _u(_dn(i, nx)) * pl
+    bp = _u(_up(i, nx)) * pl
+    unz = _u(nz)
+    one = _u(1)
+    if ny >= 3:
+        hi = base + pl - unz
+        q0 = base + unz
+        while q0 < hi:
+            qa = q0 + _u(PREFETCH)
+            _fetch_lines(fx, bp + (qa - base), 16)
+            _fetch_lines(fb, qa, 16)
+            _fetch_lines(fd, qa, 64)
+            q1 = min(q0 + _u(BLOCK), hi)
+            for q in range(q0, q1):
+                t = q - base
+                sm = fx[bm + t] + fx[bp + t] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
+                rp[t] = _residual_cell(fd, fx, fb, q, sm)
+            q0 = q1
+    for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
+        j = _wrap_row(r, ny)
+        rj = _u(j * nz)
+        rm = base + _u(_dn(j, ny) * nz)
+        rq = base + _u(_up(j, ny) * nz)
+        for k in range(one, unz - one):
+            t = rj + k
+            q = base + t
+            sm = fx[bm + t] + fx[bp + t] + fx[rm + k] + fx[rq + k] + fx[q - one] + fx[q + one]
+            rp[t] = _residual_cell(fd, fx, fb, q, sm)
+    for j in range(ny):  # the two ends of every row: the periodic k-neighbours
+        for e in range(_ends(nz)):
+            k = 0 if e == 0 else nz - 1
+            q = base + _u(j * nz + k)
+            rp[q - base] = _residual_cell(
+                fd, fx, fb, q, _wrap_sum(fx, base, fx, bm, fx, bp, j, k, ny, nz)
+            )
+
+
 @parallel_kernel(**_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
-    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised).
+    """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised; with unit
+    couplings one flat prefetching loop per plane, :func:`_jacobi_flat`).
 
     Returns ``b . xnew`` (float64) from the same pass: after the last smoothing sweep of a
     V-cycle on the finest level that is the preconditioned dot product MINRES needs.
     """
     nx, ny, nz = d.shape
     acc = np.zeros(nx)
+    if _unit(d, cx):
+        om = np.float32(omega)
+        pl = _u(ny * nz)
+        fx = x.reshape(-1)
+        for i in nb.prange(nx):
+            base = _u(i) * pl
+            bp = _u(_up(i, nx)) * pl
+            acc[i] = _jacobi_flat(
+                d.reshape(-1), b.reshape(-1), xnew.reshape(-1), base,
+                fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
+                fx, bp + _u(PREFETCH), None,
+            )  # fmt: skip
+        return acc.sum()
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
         s = 0.0
@@ -392,28 +529,6 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
             s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
         acc[i] = s
     return acc.sum()
-
-
-@nb.njit(inline="always")
-def _jacobi_rows_unit(d, i, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, b, omega, blk, xnew, fa, fb):
-    """Jacobi sweep of plane ``i`` (unit couplings) into ``xnew[i]`` from the planes ``p0, pm,
-    pp`` of the iterate at ``i, i - 1, i + 1`` (2-D views and flat views with offsets, as
-    :func:`_unit_rows`); returns the plane's ``b . xnew``, summed row by row in order (the same
-    sum as :func:`_jacobi_row` per row).  ``fa, fb``: as :func:`_fetch_ahead`."""
-    ny, nz = d.shape[1], d.shape[2]
-    df = d.reshape(-1)
-    rows = blk.reshape((ROWS, nz))
-    s = 0.0
-    j0 = 0
-    while j0 < ny:
-        n = _unit_rows(d, df, i, j0, p0, pm, pp, p0f, p0q, pmf, pmq, ppf, ppq, blk, rows)
-        for r in range(n):
-            j = j0 + r
-            _fetch(b, i, j)
-            _fetch_ahead(fa, fb, i, j)
-            s += _jacobi_row(d[i, j], p0[j], b[i, j], rows[r], omega, xnew[i, j])
-        j0 += n
-    return s
 
 
 @parallel_kernel(**_OPTS)
@@ -466,24 +581,33 @@ def _fetch_ahead(fa, fb, i, j):
 def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
     p0, pp``: flat buffers of ``ny nz`` entries) into ``xnew[i]``; returns the plane's ``b .
-    xnew``.  ``blk``: work buffer of ``ROWS nz`` entries; ``fa, fb``: the arrays whose plane
+    xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
-    With unit couplings the stencil runs over flat runs of rows (:func:`_unit_rows`; the
-    buffered planes are in cache, where the loop's per-row overhead was half its cost).  The
-    sweeps that read the iterate from the grid (:func:`jacobi`, :func:`residual_restrict`) keep
-    their row loops: flat runs made them 1.07-1.34x slower (one thread, 200^3, runs of 2-32
-    rows; ``benchmarks/RESULTS.md``, band12)."""
+    With unit couplings (the finest level) the sweep is the flat prefetching loop of
+    :func:`jacobi` over the buffered planes (:func:`_jacobi_flat`), which also prefetches the
+    plane ``i + 2`` of ``fa, fb`` block by block; the coarse levels (stored couplings) keep the
+    row loops (``benchmarks/RESULTS.md``, band14)."""
     nx, ny, nz = d.shape
+    if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
+        pl = _u(ny * nz)
+        zero = _u(0)
+        ahead = _u(_up(_up(i, nx), nx)) * pl  # the next plane step's d, b (plane i + 2)
+        fd, fbb, fo, om = d.reshape(-1), b.reshape(-1), xnew.reshape(-1), np.float32(omega)
+        if fa is None:  # compiled out where the caller passes arrays
+            return _jacobi_flat(
+                fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+                None, ahead, None,
+            )  # fmt: skip
+        return _jacobi_flat(
+            fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+            fb.reshape(-1), ahead, fa.reshape(-1),
+        )  # fmt: skip
     pm2 = pm.reshape((ny, nz))
     p02 = p0.reshape((ny, nz))
     pp2 = pp.reshape((ny, nz))
-    if _unit(d, cx):  # unit_couplings: flat runs of rows (_unit_rows)
-        return _jacobi_rows_unit(
-            d, i, p02, pm2, pp2, p0, 0, pm, 0, pp, 0, b, omega, blk, xnew, fa, fb
-        )
     ip = _up(i, nx)
-    row = blk.reshape((ROWS, nz))[0]
+    row = blk
     s = 0.0
     for j in range(ny):
         _fetch(b, i, j)
@@ -516,7 +640,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         pm = np.empty(ny * nz, dtype=xnew.dtype)
         p0 = np.empty(ny * nz, dtype=xnew.dtype)
         pp = np.empty(ny * nz, dtype=xnew.dtype)
-        blk = np.empty(ROWS * nz, dtype=xnew.dtype)
+        blk = np.empty(nz, dtype=xnew.dtype)
         _zero_plane(d, b, _dn(lo, nx), omega, pm.reshape((ny, nz)))
         _zero_plane(d, b, lo, omega, p0.reshape((ny, nz)))
         for i in range(lo, hi):
@@ -586,7 +710,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
         pm = np.empty(ny * nz, dtype=xnew.dtype)
         p0 = np.empty(ny * nz, dtype=xnew.dtype)
         pp = np.empty(ny * nz, dtype=xnew.dtype)
-        blk = np.empty(ROWS * nz, dtype=xnew.dtype)
+        blk = np.empty(nz, dtype=xnew.dtype)
         ex = np.empty(nz, dtype=np.float64)
         _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm.reshape((ny, nz)), ex)
         _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0.reshape((ny, nz)), ex)
