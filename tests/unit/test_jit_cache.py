@@ -159,3 +159,49 @@ def test_project_dispatchers_use_the_locator():
                     assert isinstance(cache._impl.locator, jit.DependencyLocator), d
                     seen += 1
     assert seen >= 40
+
+
+def _racing_saves(tmp_path: Path, monkeypatch) -> caching.IndexDataCacheFile:
+    """Two writers (threads, each with its own ``IndexDataCacheFile`` as two processes have)
+    save two keys of one function; each holds its index write for 0.3 s, so without a lock both
+    read the empty index and pick data file 1.  Returns a reader of the result."""
+    import threading
+    import time
+
+    slow_index = caching.IndexDataCacheFile._save_index
+
+    def save_index(self, overloads):
+        time.sleep(0.3)
+        slow_index(self, overloads)
+
+    monkeypatch.setattr(caching.IndexDataCacheFile, "_save_index", save_index)
+
+    def writer(key: str) -> None:
+        caching.IndexDataCacheFile(str(tmp_path), "f-1.py", "stamp").save(key, f"code of {key}")
+
+    threads = [threading.Thread(target=writer, args=(k,)) for k in ("sig-a", "sig-b")]
+    for t in threads:
+        t.start()
+        time.sleep(0.05)
+    for t in threads:
+        t.join()
+    return caching.IndexDataCacheFile(str(tmp_path), "f-1.py", "stamp")
+
+
+def test_concurrent_saves_of_one_function_keep_both_signatures(tmp_path, monkeypatch):
+    """``jit.locked_save`` (installed by importing :mod:`solvers.jit`): two processes that
+    compile two signatures of one kernel at once (``pytest -n 2``) each find their own code."""
+    assert caching.IndexDataCacheFile.save is jit.locked_save
+    reader = _racing_saves(tmp_path, monkeypatch)
+    assert reader.load("sig-a") == "code of sig-a"
+    assert reader.load("sig-b") == "code of sig-b"
+
+
+def test_numba_unlocked_save_loses_a_signature(tmp_path, monkeypatch):
+    """The race itself, with numba's own ``save``: both writers take data file 1 and the
+    second index write drops the first signature (with other timings the index names the
+    other signature's file)."""
+    monkeypatch.setattr(caching.IndexDataCacheFile, "save", jit._NUMBA_SAVE)
+    reader = _racing_saves(tmp_path, monkeypatch)
+    assert reader.load("sig-a") is None
+    assert reader.load("sig-b") == "code of sig-b"
