@@ -183,7 +183,7 @@ def test_one_residual_kernel_for_both_wall_treatments(weighted: bool) -> None:
     assert np.abs(y - kx).max() <= 1e-6 * np.abs(kx).max()
     assert dot == pytest.approx(float(np.dot(x.ravel().astype(np.float64), kx.ravel())), rel=1e-6)
     r = np.empty(op.shape, np.float32)
-    rn, fn = op.residual(x.astype(np.float64), 1, r)
+    rn, fn = op.residual(x, 1, r)  # float32, as the solver passes it
     f = np.zeros(op.shape)
     f[1] = op.weight(1) if weighted else (op.d[1] > 0)
     expect = f - kx
@@ -402,10 +402,6 @@ def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
     the grid: the Jacobi sweep, the two sweeps from zero and the prolongation fused into the
     first post sweep against float64 numpy on grids with fewer, as many and more rows than
     ``AHEAD`` (the last plane wraps to plane 0), stored and unit couplings."""
-    import numba as nb
-
-    from solvers.voxel import simd
-
     shape = (5, ny, 7)
     d, c, f, x, xc, b, sweep = _sweep_case(shape, 30 + ny, ny)
     x_pro, x1 = _sweep_starts(d, f, x, xc, b)
@@ -417,18 +413,21 @@ def test_prefetching_sweeps_at_the_grid_ends(ny: int, chunks) -> None:
         _close(out, sweep(x1))
         kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
         _close(out, sweep(x_pro))
-
-    @nb.njit
-    def fetch_all(a):
-        for i in range(a.shape[0]):
-            for j in range(a.shape[1]):
-                kr._fetch(a, i, j)
-                simd.prefetch_row(a[i, j, :0])  # an empty row: no line
-
     for a in (d, x, np.zeros((2, 3, 0), np.float32)):
         before = a.copy()
-        fetch_all(a)
+        _fetch_all(a)
         assert np.array_equal(a, before)
+
+
+@numba.njit
+def _fetch_all(a):
+    """Every row's prefetch of ``a`` (``kernels._fetch``) and an empty row's
+    (``simd.prefetch_row``): one dispatcher for all the grid-end cases (a closure in the test
+    compiled anew for each of its 15 cases)."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            kr._fetch(a, i, j)
+            kr.simd.prefetch_row(a[i, j, :0])  # an empty row: no line
 
 
 @pytest.mark.parametrize("ny", [1, 2, 3, 9, 19])
