@@ -128,7 +128,9 @@ def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     :mod:`solvers.voxel.kernels` (staircase); returns ``x . y_new`` (float64).
 
     ``y`` is read only when ``c1 != 0`` (the first Lanczos step passes ``c1 = 0`` and any
-    ``y``).  Rows along k, one temporary row per outer index.
+    ``y``).  With :func:`solvers.voxel.kernels.unit_couplings` (periodic staircase grids) one
+    flat prefetching loop per equation and x-plane (:func:`_lanczos_flat_slab`); otherwise rows
+    along k, one temporary row per outer index.
     """
     nx = fluid.shape[0]
     acc = np.zeros(nx)
