@@ -368,8 +368,8 @@ def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     :func:`solvers.voxel.kernels.unit_couplings` (the staircase's periodic grids): each
     equation's plane is one flat loop with software prefetch, as the multigrid's finest sweeps
     (:func:`solvers.voxel.kernels._jacobi_flat`), the row ends and wrap rows redone apart, and
-    ``x . y_new`` summed per plane from cache.  The row loops of :func:`_lanczos_slab` ran at
-    about half the one-thread triad rate of their 52 B per cell (``benchmarks/RESULTS.md``,
+    ``x . y_new`` summed per plane from cache: 0.84-0.89x the one-thread CPU of the row loops
+    of :func:`_lanczos_slab` at 200^3; 1.55x without the prefetch (``benchmarks/RESULTS.md``,
     band15).  The same expressions, so the same values up to float32 round-off (fastmath may
     contract them differently)."""
     nx, ny, nz = fluid.shape
