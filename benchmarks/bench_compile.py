@@ -18,11 +18,12 @@ commit) side by side, one thread, alternating, each run in its own process
 ``OLD_TREE/../numba_cache_{old,new}``: warmed by a first untimed run), and the ratio new / old.
 Under load it is noisy (separate processes; kernels that did not change differed by 10-20 %).
 
-``kernels``: the finest-level multigrid kernels and ``stokes_lanczos`` of git revision ``REV``
-(its ``kernels.py`` and ``lanczos.py``, imported as copies) and of this tree in one process, on
-the same arrays of the Toray-like ``N^3`` staircase operator, timed interleaved (the serial
-twins and CPU time with ``NUMBA_NUM_THREADS=1``, else the parallel kernels and wall time);
-checks that both give bitwise the same output and prints best and median ratios new / old.
+``kernels``: the finest-level multigrid kernels, ``stokes_lanczos`` and ``symmlq_step`` of git
+revision ``REV`` (its ``kernels.py`` and ``lanczos.py``, imported as copies) and of this tree in
+one process, on the same arrays of the Toray-like ``N^3`` staircase operator, timed interleaved
+(the serial twins and CPU time with ``NUMBA_NUM_THREADS=1``, else the parallel kernels and wall
+time); checks whether both give bitwise the same output and prints best and median ratios new /
+old.
 """
 
 from __future__ import annotations
@@ -175,8 +176,15 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
     xc = rng.standard_normal(l1.d.shape).astype(np.float32)
     big_x, big_y = (rng.standard_normal(op.shape).astype(np.float32) for _ in range(2))
     c = l0.c
+    # symmlq_step's packed direction and 40-bit solution (float32 + int8 per-row extension)
+    pk = lz.Packing([*op.d, op.fluid])
+    sol = lz.Solution(op.shape, pk)
+    sol.hi[:] = rng.standard_normal(pk.size)
+    sol.extend()
+    w0 = rng.standard_normal(pk.size).astype(np.float32)
+    masks = (*pk.masks, pk.start)
 
-    def cases(m, mz, out, rc, y):
+    def cases(m, mz, out, rc, y, w):
         return {
             "jacobi": lambda: (getattr(m.jacobi, mode)(l0.d, *c, x, b, out, 0.9), out),
             "jacobi2_zero": lambda: (
@@ -195,16 +203,29 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
                 getattr(mz.stokes_lanczos, mode)(*op.d, *op.c, op.fluid, big_x, 0.7, 0.3, y),
                 y,
             ),
+            "symmlq_step": lambda: (
+                getattr(mz.symmlq_step, mode)(
+                    big_x, 0.7, w, w[:0].view(np.uint8), 0.6, 0.8, *sols[id(w)], 0.3, *masks
+                ),
+                w,
+            ),
         }
 
-    runs, ys = {}, {}
+    runs, ys, ws, sols = {}, {}, {}, {}
     for key, (m, mz) in {"old": (ok, ol), "new": (kr, lz)}.items():
         ys[key] = big_y.copy()
-        runs[key] = cases(m, mz, np.zeros_like(x), np.zeros(l1.d.shape, np.float32), ys[key])
+        ws[key] = w0.copy()
+        sols[id(ws[key])] = (sol.hi.copy(), sol.lo.copy(), sol.scale.copy())
+        runs[key] = cases(
+            m, mz, np.zeros_like(x), np.zeros(l1.d.shape, np.float32), ys[key], ws[key]
+        )
     for name in runs["old"]:
         outs = []
         for key in ("old", "new"):
             ys[key][...] = big_y  # the same input for both
+            ws[key][...] = w0
+            hi, lo, _ = sols[id(ws[key])]
+            hi[...], lo[...] = sol.hi, sol.lo
             r, arr = runs[key][name]()
             outs.append((r, arr.copy()))
         same = outs[0][0] == outs[1][0] and np.array_equal(outs[0][1], outs[1][1])

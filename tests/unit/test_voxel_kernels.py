@@ -233,7 +233,10 @@ def test_unit_couplings_give_the_products_of_the_stored_ones(weighted: bool, chu
         dot_full = cf.stokes_lanczos_cut(*op.d, *cs, op.fluid, *op.cut.arrays, x, 0.7, 0.3, l_full)
     else:
         dot_full = lz.stokes_lanczos(*op.d, *cs, op.fluid, x, 0.7, 0.3, l_full)
-    assert np.array_equal(l_unit, l_full) and dot_unit == float(dot_full)
+    # with unit couplings the product is band15's flat prefetching loop
+    # (lanczos._lanczos_flat_slab): the same expressions, contracted differently by fastmath
+    _close(l_unit, l_full)
+    assert dot_unit == pytest.approx(float(dot_full), rel=1e-6)
     # the multigrid's finest-level kernels
     d, c = op.d[0], cs[0]
     b = x[0].copy()

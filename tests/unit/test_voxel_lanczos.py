@@ -358,3 +358,28 @@ def test_gather_keeps_the_active_entries_in_order(mask_dtype) -> None:
             want = zr[mr != 0]
             assert c == want.size
             assert np.array_equal(zc[:c], want)
+
+
+@pytest.mark.parametrize("twin", ["serial", "parallel"])
+@pytest.mark.parametrize("shape", [(3, 1, 9), (4, 2, 1), (3, 3, 2), (4, 5, 3), (3, 7, 37)])
+def test_flat_lanczos_product_against_numpy(shape: tuple[int, int, int], twin: str) -> None:
+    """The flat prefetching Lanczos product (``lanczos._lanczos_flat_slab``, unit couplings:
+    one loop over each equation's plane, the wrap rows and row ends redone apart) against the
+    numpy product (:mod:`stokes_product`) on planes of 1, 2, 3, 5 and 7 rows and rows of 1, 2,
+    3, 9 and 37 cells (every cell an end, wrap rows only, both, and neither), both twins;
+    ``c1 = 0`` with NaN in ``y`` (unread), and the returned ``x . y`` against numpy's."""
+    rng = np.random.default_rng(sum(shape))
+    op = vs._Stokes.build(rng.random(shape) < 0.25)
+    assert all(c.shape[-1] == shape[2] + 1 for c in op.c)  # unit couplings: the flat path
+    active = np.stack([*(d > 0 for d in op.d), op.fluid > 0])
+    x = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    y0 = (rng.standard_normal(op.shape) * active).astype(np.float32)
+    kx = stokes_product(op, x)
+    kernel = getattr(lz.stokes_lanczos, twin)
+    for s, c1 in ((0.7, 0.0), (1.3, 0.4)):
+        y = np.full_like(y0, np.nan) if c1 == 0.0 else y0.copy()
+        xy = kernel(*op.d, *op.c, op.fluid, x, s, c1, y)
+        want = s * kx - c1 * y0
+        assert np.abs(want).max() > 1.0
+        assert np.abs(y - want).max() <= 1e-6 * np.abs(want).max()
+        assert xy == pytest.approx(float(np.dot(x.ravel().astype(float), want.ravel())), rel=1e-6)
