@@ -389,6 +389,16 @@ def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
 
 
 @nb.njit(inline="always")
+def _plane_dot(fx, fy, c0, pl):
+    """Float64 ``x . y`` over the ``pl`` entries from flat offset ``c0`` (a plane just written:
+    from cache)."""
+    acc = 0.0
+    for q in range(c0, c0 + pl):
+        acc += np.float64(fx[q]) * np.float64(fy[q])
+    return acc
+
+
+@nb.njit(inline="always")
 def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
     """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
     ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
@@ -442,11 +452,7 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
             t = _u(j * nz + k)
             sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
             fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
-    s = 0.0
-    if dot:
-        for q in range(base, base + pl):
-            s += np.float64(fb[q]) * np.float64(fo[q])
-    return s
+    return _plane_dot(fb, fo, base, pl) if dot else 0.0
 
 
 @nb.njit(inline="always")

@@ -42,12 +42,14 @@ from solvers.voxel.kernels import (
     _fetch,
     _fetch_lines,
     _on,
+    _plane_dot,
     _stencil_rows,
     _u,
     _unit,
     _up,
     _wrap_row,
     _wrap_rows,
+    _wrap_sum,
 )
 from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
@@ -277,10 +279,7 @@ def _momentum_ends(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved):
             jm = _u(_dn(j, ny) * nz + k)
             km = _u(j * nz + _dn(k, nz))
             c = c0 + t
-            sm = (
-                fx[xm + t] + fx[xp + t] + fx[c0 + jm] + fx[c0 + _u(_up(j, ny) * nz + k)]
-                + fx[c0 + km] + fx[c0 + _u(j * nz + _up(k, nz))]
-            )  # fmt: skip
+            sm = _wrap_sum(fx, c0, fx, xm, fx, xp, j, k, ny, nz)
             plo = pb + t if a == 0 else p0 + jm if a == 1 else p0 + km
             v = _momentum_value(fd[q0 + t], fx[c], sm, fx[p0 + t], fx[plo])
             fy[c] = _lanczos_value(v, s, c1, saved[2 * j + e], upd)
@@ -293,15 +292,6 @@ def _save_ends(fy, c0, ny, nz, saved):
     for j in range(ny):
         for e in range(_ends(nz)):
             saved[2 * j + e] = fy[c0 + _u(j * nz + (0 if e == 0 else nz - 1))]
-
-
-@nb.njit(inline="always")
-def _plane_dot(fx, fy, c0, pl):
-    """Float64 ``x . y`` over the plane at ``c0`` (``pl`` entries; from cache)."""
-    acc = 0.0
-    for q in range(c0, c0 + pl):
-        acc += np.float64(fx[q]) * np.float64(fy[q])
-    return acc
 
 
 @nb.njit(inline="always")
