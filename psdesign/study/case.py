@@ -89,8 +89,6 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
             row[f"permeameter_copies_{d}"] = res["permeameter_copies"]
         if res.get("warnings"):
             row[f"warnings_{d}"] = "; ".join(res["warnings"])
-        if "permeability_core_m2" in res:
-            row[f"k_core_{d}_m2"] = res["permeability_core_m2"]
         row[f"converged_{d}"] = res["converged"]
         row[f"residual_{d}"] = res["residual"]
         row[f"iterations_{d}"] = res["iterations"]
