@@ -37,11 +37,13 @@ Usage
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -129,7 +131,9 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
         d = np.load(cache)
         p, t = d["p"], d["t"]
     else:
-        p, t = pytetwild.tetrahedralize(v, f, edge_length_fac=fac, num_threads=1)
+        # pytetwild writes __tracked_surface.stl into the working directory: run it in a scratch one
+        with tempfile.TemporaryDirectory() as scratch, contextlib.chdir(scratch):
+            p, t = pytetwild.tetrahedralize(v, f, edge_length_fac=fac, num_threads=1)
         os.makedirs(CACHE, exist_ok=True)
         np.savez(cache, p=p, t=t)
     p = snap_to_box(p, (0, 0, 0), (1, 1, 1))
