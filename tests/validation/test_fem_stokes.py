@@ -225,11 +225,8 @@ def test_parallel_array_refinement_slow():
 
 
 @pytest.mark.slow
-def test_parallel_array_on_pytetwild_mesh(tmp_path, monkeypatch):
+def test_parallel_array_on_pytetwild_mesh():
     """Unstructured fTetWild mesh of box minus cylinder (manifold3d), snapped box faces."""
-    # pytetwild writes __tracked_surface.stl into the working directory (the product runs it in
-    # a scratch directory, psdesign.meshing.tetra.tetrahedralize; this test calls it directly)
-    monkeypatch.chdir(tmp_path)
     import manifold3d as m3
     import pytetwild
 
