@@ -250,12 +250,13 @@ def test_woven_stack_fem_and_voxel_agree():
     lattice step (3.33 um: 4.3 steps across a yarn) and voxel route (14 voxels across a yarn),
     both on the spec's 1 um field.
 
-    Measured (load 4-6, 2026-12-01 20:45-21:08): stacked K FEM 5.9745e-12, voxel 5.8661e-12,
-    fem/voxel - 1 = +1.85 %. Both are resolved (one copy, the same K to 0.05 %): the FEM moves
-    -0.13 % from a 3.33 to a 2.5 um step and -0.32 % from the 1 to a 0.5 um field; the voxel
-    route 5.9975e-12 / 5.8664e-12 / 5.8481e-12 at 2 / 1 / 0.5 um (observed order 2.9, limit
-    about 5.845e-12), so the converged pair is +1.7-1.8 % apart (FEM on the 0.5 um field vs
-    voxel at 0.5 um: +1.79 %). The periodic woven cell of :func:`periodic_spec` cannot be
+    Measured (slow16, main 8ab1e27, load 3.5-5, 2026-12-03 08:04): stacked K FEM 5.9745e-12,
+    voxel 5.8750e-12, fem/voxel - 1 = +1.69 % (2026-12-01, before the sub-voxel fix 6fe9f8d:
+    voxel 5.8661e-12, +1.85 %). Both are resolved (one copy, the same K to 0.002 %): the FEM
+    moves -0.13 % from a 3.33 to a 2.5 um step and -0.32 % from the 1 to a 0.5 um field; the
+    voxel route 6.0101e-12 / 5.8750e-12 / 5.8532e-12 at 2 / 1 / 0.5 um (observed order 2.6,
+    limit about 5.849e-12), so the converged pair is +1.7 % apart (FEM on the 0.5 um field vs
+    voxel at 0.5 um: +1.70 %). The periodic woven cell of :func:`periodic_spec` cannot be
     resolved by the FEM within the memory cap (docs/solver-agreement.md: yarns 4.3 um thick,
     about 2 lattice steps across at 2 um; on the 0.5 um field the stacked FEM K moved +5.7 %
     from a 2 to a 1.5 um step and -0.83 % to 1.25 um, +0.95 % against the voxel route there at
