@@ -85,7 +85,9 @@ def test_aux_sizing_field_is_linear_through_the_aux_zones():
 
 def test_drop_slivers_removes_few_pinned_inverted_tets_only():
     """A tiny inverted tet and a flat one on a box plane are dropped (with their orphaned
-    vertices); 21 inverted tets (more than allowed) are kept for the inverted-tet check."""
+    vertices); 21 inverted tets (more than allowed), one of 2e-3 of the mesh volume (more than
+    ``_MAX_DROPPED_VOLUME``) and one larger than the mean tet are kept for the inverted-tet
+    check; one of 5e-4 (a sliver of a 7 000-tet image mesh) is dropped."""
     from psdesign.meshing.tetra import aux_sizing_field, tet_volumes
     from psdesign.meshing.tetwild_mesher import drop_slivers
 
@@ -104,6 +106,11 @@ def test_drop_slivers_removes_few_pinned_inverted_tets_only():
     many = np.repeat(inv, 21, axis=0)
     _, t2, _, n_inv2 = drop_slivers(p, np.vstack([tets, many]), lo, hi)
     assert n_inv2 == 0 and len(t2) == len(tets) + 21
+    # the volume bound: a corner tet of edge e has volume e^3 / 6 (mean tet 1 / 18 = 0.056)
+    for e, dropped in [(0.144, True), (0.229, False), (0.8, False)]:  # 5e-4, 2e-3, 0.085
+        big = np.vstack([pts, e * extra / 1e-2])
+        _, t3, _, n_inv3 = drop_slivers(big, np.vstack([tets, inv]), lo, hi)
+        assert (n_inv3, len(t3)) == ((1, len(tets)) if dropped else (0, len(tets) + 1)), e
 
 
 def test_pytetwild_wall_vertices_lie_on_the_field_surface(rve_mesh):
