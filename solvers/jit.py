@@ -20,10 +20,13 @@ source stamp is the file's hash *and* the hashes of every project module it impo
 transitively (:func:`dependency_files`), so a change to any of them recompiles it.  Kernel
 modules import this module before their first ``cache=True`` decorator.
 
-**Cache writes are locked.**  Importing this module also replaces numba's cache-file save by
-:func:`locked_save` (an exclusive file lock per function, data written before the index names
-it), so processes compiling one function at once (``pytest -n 2``, ``psdesign warmup --jobs
-2``) cannot leave an index entry pointing at another signature's code.
+**One compile per signature across processes, locked cache writes.**  Importing this module also
+installs :mod:`solvers.jit_locks` into numba: a cached function's compile of one signature runs
+under a file lock of that signature, so a second process that needs it (``pytest -n 2``,
+``psdesign warmup --jobs 2``, study workers) waits and loads it from the cache instead of
+compiling it again; and the cache-file save runs under a lock per function, so processes saving
+signatures of one function at once cannot leave an index entry pointing at another signature's
+code.
 """
 
 from __future__ import annotations
@@ -32,7 +35,6 @@ import ast
 import contextlib
 import functools
 import hashlib
-import itertools
 import os
 import types
 from collections.abc import Callable, Iterator
@@ -40,6 +42,8 @@ from pathlib import Path
 
 import numba as nb
 from numba.core import caching
+
+from solvers import jit_locks
 
 __all__ = [
     "CACHE_ROOTS",
@@ -51,7 +55,6 @@ __all__ = [
     "dependency_files",
     "dependency_stamp",
     "kernel_log",
-    "locked_save",
     "parallel_kernel",
     "parallel_pending",
 ]
@@ -191,53 +194,7 @@ def _install_locator() -> None:
 
 _install_locator()
 
-_NUMBA_SAVE = caching.IndexDataCacheFile.save
-
-
-@contextlib.contextmanager
-def _exclusive(path: str) -> Iterator[None]:
-    """Hold an exclusive ``flock`` on ``path`` (created if missing); no lock where ``fcntl``
-    is missing (Windows) or the file cannot be opened (numba's own behaviour then)."""
-    try:
-        import fcntl
-
-        f = open(path, "ab")  # noqa: SIM115 (closed below, after the unlock)
-    except (ImportError, OSError):
-        yield
-        return
-    try:
-        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
-        yield
-    finally:
-        f.close()  # closing the file releases the lock
-
-
-def locked_save(self: caching.IndexDataCacheFile, key: object, data: object) -> None:
-    """``numba.core.caching.IndexDataCacheFile.save`` made safe for processes that compile
-    the same function at once (``pytest -n 2``, ``psdesign warmup --jobs 2``, study workers).
-
-    numba reads the index, picks the first free data-file number, writes the index, then the
-    data file, with no lock: two processes saving two signatures of one function both pick
-    number 1, and the index can end up naming a data file that holds the *other* signature's
-    code (loaded later without a type check; numba issue 10128 is the same race for gufuncs).
-    Here the read-pick-write runs under an exclusive lock on ``<index>.lock`` and the data file
-    is written before the index names it, so a reader without the lock sees either no entry or
-    a complete file of its own signature.
-    """
-    with _exclusive(self._index_path + ".lock"):
-        overloads = self._load_index()
-        name = overloads.get(key)
-        if name is not None:  # same key: same signature, replace its file
-            self._save_data(name, data)
-            return
-        used = set(overloads.values())
-        name = next(n for n in map(self._data_name, itertools.count(1)) if n not in used)
-        self._save_data(name, data)
-        overloads[key] = name
-        self._save_index(overloads)
-
-
-caching.IndexDataCacheFile.save = locked_save
+jit_locks.install()
 
 COMPILE_PARALLEL_ABOVE = 10_000_000
 """First-argument size (about grid cells) from which a parallel kernel that is not in the cache

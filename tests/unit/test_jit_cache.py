@@ -6,15 +6,21 @@ from __future__ import annotations
 
 import ast
 import importlib
+import json
+import os
 import re
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numba
 import pytest
-from numba.core import caching
+from numba.core import caching, dispatcher
 
 import solvers.jit as jit
+import solvers.jit_locks as jit_locks
 
 _HELPER = "import numba\n\n\n@numba.njit(inline='always')\ndef bump(x):\n    return x + {inc}\n"
 _USER = (
@@ -80,6 +86,7 @@ def test_stamp_covers_imported_kernel_sources(monkeypatch):
     }
     assert deps == {
         "solvers/jit.py",
+        "solvers/jit_locks.py",
         "solvers/voxel/kernels.py",
         "solvers/voxel/lanczos.py",
         "solvers/voxel/memory.py",
@@ -189,9 +196,9 @@ def _racing_saves(tmp_path: Path, monkeypatch) -> caching.IndexDataCacheFile:
 
 
 def test_concurrent_saves_of_one_function_keep_both_signatures(tmp_path, monkeypatch):
-    """``jit.locked_save`` (installed by importing :mod:`solvers.jit`): two processes that
+    """``jit_locks.locked_save`` (installed by importing :mod:`solvers.jit`): two processes that
     compile two signatures of one kernel at once (``pytest -n 2``) each find their own code."""
-    assert caching.IndexDataCacheFile.save is jit.locked_save
+    assert caching.IndexDataCacheFile.save is jit_locks.locked_save
     reader = _racing_saves(tmp_path, monkeypatch)
     assert reader.load("sig-a") == "code of sig-a"
     assert reader.load("sig-b") == "code of sig-b"
@@ -201,7 +208,274 @@ def test_numba_unlocked_save_loses_a_signature(tmp_path, monkeypatch):
     """The race itself, with numba's own ``save``: both writers take data file 1 and the
     second index write drops the first signature (with other timings the index names the
     other signature's file)."""
-    monkeypatch.setattr(caching.IndexDataCacheFile, "save", jit._NUMBA_SAVE)
+    monkeypatch.setattr(caching.IndexDataCacheFile, "save", jit_locks._NUMBA_SAVE)
     reader = _racing_saves(tmp_path, monkeypatch)
     assert reader.load("sig-a") is None
     assert reader.load("sig-b") == "code of sig-b"
+
+
+# --- one compile per signature across processes (solvers.jit_locks.locked_compile) ---------
+
+_LOCKPKG = """import numba
+
+import solvers.jit  # noqa: F401
+
+
+@numba.njit(cache=True)
+def h(x):
+    return x + 1
+
+
+@numba.njit(cache=True)
+def g(x):
+    return h(x) * 2
+
+
+@numba.njit(cache=True)
+def f(x):
+    return g(x) + h(x)
+
+
+@numba.njit
+def plain(x):
+    return x - 1
+"""
+
+_WORKER = '''import json, os, sys, time
+from pathlib import Path
+
+import solvers.jit_locks as jl
+import lockpkg  # imports solvers.jit: installs the lock
+from numba.core import dispatcher, event
+
+if sys.argv[3] == "unlocked":
+    dispatcher.Dispatcher.compile = jl._NUMBA_COMPILE
+
+compiled = []
+
+
+class Slow(event.Listener):
+    """Count this package's compiles; make each one last 0.4 s longer, so two processes that
+    start together overlap whatever the machine's load."""
+
+    def on_start(self, ev):
+        if ev.data["dispatcher"].py_func.__module__ == "lockpkg":
+            compiled.append(ev.data["dispatcher"].py_func.__name__)
+            time.sleep(0.4)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", Slow())
+Path(sys.argv[1] + ".ready." + str(os.getpid())).touch()
+while not os.path.exists(sys.argv[1]):
+    time.sleep(0.002)
+value = getattr(lockpkg, sys.argv[2])(3)
+print(json.dumps({"value": value, "compiled": compiled}))
+'''
+
+_VALUES = {"f": 12, "g": 8, "h": 4}  # f(3) = 2 (3 + 1) + (3 + 1), g(3) = 2 (3 + 1), h(3) = 4
+
+
+@pytest.fixture
+def lock_root(tmp_path):
+    (tmp_path / "lockpkg.py").write_text(_LOCKPKG)
+    (tmp_path / "worker.py").write_text(_WORKER)
+    return tmp_path
+
+
+def _env(root: Path, **extra: str) -> dict[str, str]:
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(jit._REPO), str(root)])
+    env["NUMBA_CACHE_DIR"] = str(root / "numba_cache")
+    env["NUMBA_NUM_THREADS"] = "1"
+    env.pop("NUMBA_DISABLE_JIT", None)
+    env.update(extra)
+    return env
+
+
+def _race(root: Path, entries: tuple[str, ...], mode: str = "locked") -> list[dict]:
+    """Start one process per entry point, release them together on a cold cache, and return
+    what each printed (value, names of the functions it compiled)."""
+
+    go = root / "go"
+    procs = [
+        subprocess.Popen(
+            [sys.executable, str(root / "worker.py"), str(go), entry, mode],
+            env=_env(root),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for entry in entries
+    ]
+    deadline = time.monotonic() + 120
+    while len(list(root.glob("go.ready.*"))) < len(procs):
+        assert time.monotonic() < deadline, "workers did not start"
+        assert all(p.poll() is None for p in procs), [p.communicate() for p in procs]
+        time.sleep(0.01)
+    go.touch()
+    out = []
+    for p in procs:
+        stdout, stderr = p.communicate(timeout=120)  # a deadlock fails here
+        assert p.returncode == 0, stderr
+        out.append(json.loads(stdout.strip().splitlines()[-1]))
+    return out
+
+
+def test_compile_is_locked_on_import():
+    assert dispatcher.Dispatcher.compile is jit_locks.locked_compile
+    assert caching.IndexDataCacheFile.save is jit_locks.locked_save
+
+
+@pytest.mark.parametrize(
+    "entries",
+    [
+        ("f", "f"),
+        ("g", "f"),
+        pytest.param(("h", "f"), marks=pytest.mark.slow),
+        pytest.param(("f", "h"), marks=pytest.mark.slow),
+    ],
+)
+def test_two_processes_compile_each_signature_once(lock_root, entries):
+    """Two processes need one call graph (f -> g -> h) at once on an empty cache: every function
+    is compiled by exactly one of them (the other waits for the lock and loads it from the
+    cache), whichever end of the graph each starts from, without a deadlock.  Without the lock
+    ("f", "f") and ("g", "f") compile f, g, h / g, h twice (checked: they fail with numba's own
+    ``compile``); from h the other process finds h saved before it gets there either way."""
+    out = _race(lock_root, entries)
+    assert [o["value"] for o in out] == [_VALUES[e] for e in entries]
+    names = [n for o in out for n in o["compiled"]]
+    assert sorted(names) == ["f", "g", "h"], out
+
+
+def test_without_the_compile_lock_both_processes_compile(lock_root):
+    """The waste itself, with numba's own ``compile``: both processes compile all three."""
+    out = _race(lock_root, ("f", "f"), mode="unlocked")
+    assert [o["value"] for o in out] == [12, 12]
+    assert sorted(n for o in out for n in o["compiled"]) == ["f", "f", "g", "g", "h", "h"]
+
+
+@pytest.mark.slow
+def test_after_the_race_the_cache_serves_both(lock_root):
+    """A third process finds all three in the disk cache (what the waiting process loaded was
+    saved completely)."""
+    _race(lock_root, ("f", "f"))
+    (lock_root / "go").unlink()
+    for ready in lock_root.glob("go.ready.*"):
+        ready.unlink()
+    assert _race(lock_root, ("f",)) == [{"value": 12, "compiled": []}]
+
+
+def test_recursive_function_does_not_wait_for_itself(tmp_path, monkeypatch):
+    """A self-recursive cached function compiles under its own lock (numba types the
+    recursion without re-entering ``compile``; a re-entry would count depth, see below)."""
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "recpkg.py").write_text(
+        "import numba\n\nimport solvers.jit  # noqa: F401\n\n\n@numba.njit(cache=True)\n"
+        "def fact(n):\n    if n <= 1:\n        return 1\n    return n * fact(n - 1)\n"
+    )
+    monkeypatch.delitem(sys.modules, "recpkg", raising=False)
+    from numba.core import config
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))
+    t0 = time.monotonic()
+    assert importlib.import_module("recpkg").fact(5) == 120  # 5!
+    assert time.monotonic() - t0 < 60
+    monkeypatch.delitem(sys.modules, "recpkg")
+
+
+def _hold(path: Path, seconds: float) -> subprocess.Popen:
+    """Another process that holds ``file_lock(path)`` for ``seconds`` (prints 'held')."""
+
+    code = (
+        "import sys, time\nimport solvers.jit_locks as jl\n"
+        f"with jl.file_lock({str(path)!r}) as ok:\n"
+        "    print('held' if ok else 'free', flush=True)\n"
+        f"    time.sleep({seconds})\n"
+    )
+    p = subprocess.Popen(
+        [sys.executable, "-c", code], env=_env(path.parent), stdout=subprocess.PIPE, text=True
+    )
+    assert p.stdout.readline().strip() == "held"
+    return p
+
+
+def test_lock_is_reentrant_in_one_process_and_exclusive_across(tmp_path):
+    """A process re-entering a lock it holds does not block itself (``flock`` on a second
+    descriptor would); another process waits while any depth is held."""
+
+    path = str(tmp_path / "x.lock")
+    with jit_locks.file_lock(path, wait_s=1) as outer:
+        t0 = time.monotonic()
+        with jit_locks.file_lock(path, wait_s=1) as inner:
+            assert outer and inner
+        assert time.monotonic() - t0 < 0.5  # no wait for itself
+        assert jit_locks._held()[path][1] == 1
+        other = _try_lock_elsewhere(tmp_path / "x.lock")
+        assert other == "free"  # still held after the inner block: the other did not get it
+    assert path not in jit_locks._held()
+    assert _try_lock_elsewhere(tmp_path / "x.lock") == "held"
+
+
+def _try_lock_elsewhere(path: Path) -> str:
+    """'held' if another process gets ``path``'s lock within 0.3 s, else 'free'."""
+
+    code = (
+        "import solvers.jit_locks as jl\n"
+        f"with jl.file_lock({str(path)!r}, wait_s=0.3) as ok:\n"
+        "    print('held' if ok else 'free')\n"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code], env=_env(path.parent), capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stderr
+    return run.stdout.strip()
+
+
+def test_a_killed_holder_releases_the_lock(tmp_path):
+    """``kill -9`` of the process holding a compile lock frees it for the waiter (the kernel
+    drops a dead process's ``flock``); a waiter past its deadline goes on unlocked."""
+
+    path = tmp_path / "y.lock"
+    holder = _hold(path, 60)
+    try:
+        t0 = time.monotonic()
+        with jit_locks.file_lock(str(path), wait_s=0.3) as ok:
+            assert not ok  # deadline passed: the block runs without the lock
+        assert 0.3 <= time.monotonic() - t0 < 5
+        holder.send_signal(signal.SIGKILL)
+        holder.wait(timeout=10)
+        with jit_locks.file_lock(str(path), wait_s=5) as ok:
+            assert ok
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_uncached_functions_and_disabled_jit_are_unaffected(lock_root):
+    """No lock file for a dispatcher without ``cache=True``; with ``NUMBA_DISABLE_JIT`` the
+    functions are plain Python (no dispatcher, no cache directory)."""
+
+    sys.path.insert(0, str(lock_root))
+    try:
+        lockpkg = importlib.import_module("lockpkg")
+        assert jit_locks.compile_lock_path(lockpkg.plain, (numba.int64,)) is None
+        assert lockpkg.plain(3) == 2
+    finally:
+        sys.path.remove(str(lock_root))
+        sys.modules.pop("lockpkg", None)
+    code = "import lockpkg\nprint(lockpkg.f(3), type(lockpkg.f).__name__)"
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        env=_env(lock_root, NUMBA_DISABLE_JIT="1"),
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["12", "function"]
+    assert not (lock_root / "numba_cache").exists()
