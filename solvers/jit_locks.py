@@ -16,10 +16,10 @@ process):
   read-pick-write under an exclusive lock per function, data written before the index names it
   (numba issue 10128: two unlocked saves can leave an index naming another signature's code).
 
-**Lock key: one per signature** (the function's cache file name plus a hash of the argument
-types and the target machine). A per-function key would make a process that needs
-``prolong_jacobi``'s uint8 signature wait 33 s for another process compiling its sub-voxel one,
-which it does not need.
+**Lock key: one per signature** (the function's cache file name plus a hash of the argument types
+and the target machine).  A per-function key would make a process that needs ``prolong_jacobi``'s
+uint8 signature wait (12 s of CPU, more under load) for another process compiling its sub-voxel
+one, which it does not need.
 
 **Nested compiles.** Compiling a function compiles the functions it calls (numba's typing calls
 ``Dispatcher.compile`` of each callee), so a process holds the locks of one path down the call
@@ -62,8 +62,9 @@ __all__ = [
 
 COMPILE_WAIT_S = 900.0
 """Longest wait (s) for another process's compile of one signature before compiling anyway.  The
-largest single compile is about 34 s (``prolong_jacobi``, sub-voxel, idle); a process waits for
-the compile of a whole call tree (a caller and the callees it compiles), minutes under load."""
+largest single compiles take 12-15 s of CPU alone (``prolong_jacobi``) and 30-90 s of wall in a
+busy test run; a process may wait for a whole call tree (a caller and the callees it compiles),
+minutes under load (``benchmarks/RESULTS.md``, suite16)."""
 
 _POLL_S = (0.01, 0.02, 0.05, 0.1)
 """Poll intervals while another process holds a lock (then the last one, repeated)."""
@@ -74,6 +75,7 @@ thread of the process must wait like another process (its own descriptor's ``flo
 
 
 def _held() -> dict[str, tuple[object, int]]:
+    """This thread's registry of held lock files (see :data:`_LOCAL`)."""
     held = getattr(_LOCAL, "held", None)
     if held is None:
         held = _LOCAL.held = {}
@@ -84,7 +86,7 @@ _NUMBA_SAVE = caching.IndexDataCacheFile.save
 _NUMBA_COMPILE = dispatcher.Dispatcher.compile
 
 
-def _acquire(f: object, path: str, wait_s: float) -> bool:
+def _acquire(f: object, wait_s: float) -> bool:
     """Take an exclusive ``flock`` on the open file ``f``; False after ``wait_s`` seconds."""
     import fcntl
 
@@ -127,7 +129,7 @@ def file_lock(path: str, wait_s: float = COMPILE_WAIT_S) -> Iterator[bool]:
         yield False
         return
     try:
-        locked = _acquire(f, path, wait_s)
+        locked = _acquire(f, wait_s)
         if locked:
             registry[path] = (f, 1)
         try:
@@ -140,8 +142,9 @@ def file_lock(path: str, wait_s: float = COMPILE_WAIT_S) -> Iterator[bool]:
 
 
 def compile_lock_path(disp: dispatcher.Dispatcher, sig: object) -> str | None:
-    """Lock file for compiling ``sig`` of ``disp`` (``<index>.<key hash>.lock`` next to the
-    cache index), or None if ``disp`` has no enabled on-disk cache."""
+    """Lock file for compiling ``sig`` of ``disp`` (``<cache file base>.<hash>.lock`` next to
+    the cache index; the hash of the argument types and the target machine), or None if
+    ``disp`` has no enabled on-disk cache."""
     cache = getattr(disp, "_cache", None)
     cache_file = getattr(cache, "_cache_file", None)
     if cache_file is None or not getattr(cache, "_enabled", False):
