@@ -389,17 +389,25 @@ def test_recursive_function_does_not_wait_for_itself(tmp_path, monkeypatch):
     monkeypatch.delitem(sys.modules, "recpkg")
 
 
+def _lock_script(path: Path, wait_s: float, hold_s: float = 0.0) -> list[str]:
+    """Command of another process that takes ``file_lock(path)`` (waiting up to ``wait_s``),
+    prints 'held' or 'free' (lock not obtained), then keeps it for ``hold_s`` seconds."""
+    code = (
+        "import time\nimport solvers.jit_locks as jl\n"
+        f"with jl.file_lock({str(path)!r}, wait_s={wait_s}) as ok:\n"
+        "    print('held' if ok else 'free', flush=True)\n"
+        f"    time.sleep({hold_s})\n"
+    )
+    return [sys.executable, "-c", code]
+
+
 def _hold(path: Path, seconds: float) -> subprocess.Popen:
     """Another process that holds ``file_lock(path)`` for ``seconds`` (prints 'held')."""
-
-    code = (
-        "import sys, time\nimport solvers.jit_locks as jl\n"
-        f"with jl.file_lock({str(path)!r}) as ok:\n"
-        "    print('held' if ok else 'free', flush=True)\n"
-        f"    time.sleep({seconds})\n"
-    )
     p = subprocess.Popen(
-        [sys.executable, "-c", code], env=_env(path.parent), stdout=subprocess.PIPE, text=True
+        _lock_script(path, jit_locks.COMPILE_WAIT_S, seconds),
+        env=_env(path.parent),
+        stdout=subprocess.PIPE,
+        text=True,
     )
     assert p.stdout.readline().strip() == "held"
     return p
@@ -424,14 +432,8 @@ def test_lock_is_reentrant_in_one_process_and_exclusive_across(tmp_path):
 
 def _try_lock_elsewhere(path: Path) -> str:
     """'held' if another process gets ``path``'s lock within 0.3 s, else 'free'."""
-
-    code = (
-        "import solvers.jit_locks as jl\n"
-        f"with jl.file_lock({str(path)!r}, wait_s=0.3) as ok:\n"
-        "    print('held' if ok else 'free')\n"
-    )
     run = subprocess.run(
-        [sys.executable, "-c", code], env=_env(path.parent), capture_output=True, text=True
+        _lock_script(path, 0.3), env=_env(path.parent), capture_output=True, text=True
     )
     assert run.returncode == 0, run.stderr
     return run.stdout.strip()
