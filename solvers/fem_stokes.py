@@ -239,21 +239,8 @@ def _as_names(value, arg: str) -> tuple[str, ...]:
     raise ValueError(f"{arg} must be a tag name or a sequence of tag names, got {value!r}")
 
 
-def _validate(
-    points,
-    tets,
-    facet_tags,
-    inlet,
-    outlet,
-    noslip,
-    slip,
-    p_inlet,
-    p_outlet,
-    viscosity,
-    element,
-    tol,
-    max_iter,
-):
+def _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter):
+    """Checks shared by both solvers (one-line ``ValueError`` messages naming the argument)."""
     points = np.asarray(points, dtype=np.float64)
     tets = np.asarray(tets)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 4:
@@ -268,6 +255,17 @@ def _validate(
         raise ValueError(f"tets: vertex indices must lie in [0, {len(points) - 1}]")
     if not isinstance(facet_tags, Mapping):
         raise ValueError("facet_tags must be a dict {tag name: (k, 3) int array}")
+    if not (np.isfinite(viscosity) and viscosity > 0):
+        raise ValueError(f"viscosity must be > 0 (Pa s), got {viscosity}")
+    if not (0 < tol < 1):
+        raise ValueError(f"tol must lie in (0, 1), got {tol}")
+    if int(max_iter) < 1:
+        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
+    return points, tets.astype(np.int64)
+
+
+def _check_tags(facet_tags, n_points, inlet, outlet, noslip, slip):
+    """Tag arrays as int64 (k, 3) and the boundary roles; each tag has at most one role."""
     tags = {}
     for name, tri in facet_tags.items():
         tri = np.asarray(tri)
@@ -275,14 +273,15 @@ def _validate(
             tri = np.zeros((0, 3), dtype=np.int64)
         if tri.ndim != 2 or tri.shape[1] != 3 or not np.issubdtype(tri.dtype, np.integer):
             raise ValueError(f"facet_tags[{name!r}] must be a (k, 3) integer array")
-        if len(tri) and (tri.min() < 0 or tri.max() >= len(points)):
+        if len(tri) and (tri.min() < 0 or tri.max() >= n_points):
             raise ValueError(
-                f"facet_tags[{name!r}]: vertex indices must lie in [0, {len(points) - 1}]"
+                f"facet_tags[{name!r}]: vertex indices must lie in [0, {n_points - 1}]"
             )
         tags[name] = tri.astype(np.int64)
     noslip = _as_names(noslip, "noslip")
     slip = _as_names(slip, "slip")
-    for arg, names in (
+    roles = {}
+    for role, names in (
         ("inlet", (inlet,)),
         ("outlet", (outlet,)),
         ("noslip", noslip),
@@ -290,13 +289,12 @@ def _validate(
     ):
         for n in names:
             if n not in tags:
-                raise ValueError(f"{arg}: tag {n!r} is not in facet_tags (have {sorted(tags)})")
+                raise ValueError(f"{role}: tag {n!r} is not in facet_tags (have {sorted(tags)})")
     if inlet == outlet:
         raise ValueError(f"inlet and outlet must be different tags, both are {inlet!r}")
     for n in (inlet, outlet):
         if len(tags[n]) == 0:
             raise ValueError(f"facet_tags[{n!r}] is empty: the {n} needs at least one facet")
-    roles = {}
     for role, names in (
         ("inlet", (inlet,)),
         ("outlet", (outlet,)),
@@ -307,20 +305,203 @@ def _validate(
             if n in roles and roles[n] != role:
                 raise ValueError(f"tag {n!r} is given two roles: {roles[n]} and {role}")
             roles[n] = role
+    return tags, noslip, slip
+
+
+def _check_drive(p_inlet, p_outlet, element):
     for name, val in (("p_inlet", p_inlet), ("p_outlet", p_outlet)):
         if not np.isfinite(val):
             raise ValueError(f"{name} must be finite, got {val}")
     if p_inlet == p_outlet:
         raise ValueError(f"p_inlet must differ from p_outlet (both {p_inlet}); no flow to solve")
-    if not (np.isfinite(viscosity) and viscosity > 0):
-        raise ValueError(f"viscosity must be > 0 (Pa s), got {viscosity}")
     if element not in ELEMENTS:
         raise ValueError(f"element must be one of {ELEMENTS}, got {element!r}")
-    if not (0 < tol < 1):
-        raise ValueError(f"tol must lie in (0, 1), got {tol}")
-    if int(max_iter) < 1:
-        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
-    return points, tets.astype(np.int64), tags, noslip, slip
+
+
+def _check_solver(amg, krylov):
+    if amg not in ("sa", "rs"):
+        raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
+    if krylov not in KRYLOV:
+        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
+
+
+def _check_memory(n_points, n_tets, element, max_memory_gb, force) -> float:
+    """The up-front memory estimate (GB); :class:`MemoryLimitError` above the limit."""
+    est = estimate_memory_gb(n_points, n_tets, element)
+    limit = default_limit_gb() if max_memory_gb is None else float(max_memory_gb)
+    if est > limit and not force:
+        raise MemoryLimitError(
+            f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
+            f"({n_tets} tets, {n_points} points); coarsen the mesh or pass force=True"
+        )
+    return est
+
+
+def _connected_part(n_points, tets, tags, inlet, outlet):
+    """Tets of the parts touching inlet or outlet (others carry no flow, floating pressure).
+
+    Returns ``(keep, used, old2new)``: the kept tets, the vertices they use and the map from
+    input to kept vertex numbers (-1 for dropped ones).
+    """
+    _, labels = vertex_components(n_points, tets)
+    c_in = np.unique(labels[tags[inlet][:, 0]])
+    c_out = np.unique(labels[tags[outlet][:, 0]])
+    if len(np.intersect1d(c_in, c_out)) == 0:
+        raise DisconnectedDomainError(
+            "disconnected pore space: no connected part of the mesh touches both the inlet "
+            f"({inlet!r}) and the outlet ({outlet!r})"
+        )
+    keep = np.isin(labels[tets[:, 0]], np.union1d(c_in, c_out))
+    used = np.unique(tets[keep])
+    old2new = np.full(n_points, -1, dtype=np.int64)
+    old2new[used] = np.arange(len(used))
+    return keep, used, old2new
+
+
+def _scaled_points(points, tets):
+    """Coordinates in units of the mean edge length, from the lowest corner.
+
+    Scaled lengths keep the tolerances independent of the SI magnitudes. Returns
+    ``(x, origin, length)``.
+    """
+    origin = points.min(axis=0)
+    e = points[tets[:, 1]] - points[tets[:, 0]]
+    length = float(np.sqrt((e * e).sum(axis=1)).mean())
+    if not length > 0:
+        raise ValueError("points: the mesh has zero extent (degenerate tetrahedra)")
+    return (points - origin) / length, origin, length
+
+
+def _refuse_flat(x, tets):
+    a, b, c, d = (x[tets[:, i]] for i in range(4))
+    vol6 = np.abs(np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a))
+    n_flat = int((vol6 <= 1e-12 * vol6.mean()).sum())
+    if n_flat:
+        raise ValueError(f"tets: {n_flat} degenerate (zero-volume) tetrahedra; fix the mesh")
+
+
+def _tag_facets(mesh, tags, old2new) -> dict[str, np.ndarray]:
+    """Facet indices of each tag's triangles (on the kept vertices); all must be boundary."""
+    boundary = mesh.f2t[1] == -1
+    tag_facets: dict[str, np.ndarray] = {}
+    for name, tri in tags.items():
+        tri_new = old2new[tri]
+        tri_new = tri_new[(tri_new >= 0).all(axis=1)]
+        idx = match_rows(mesh.facets.T, tri_new)
+        bad = (idx < 0) | ~boundary[np.maximum(idx, 0)]
+        if np.any(bad):
+            raise BoundaryTagError(
+                f"facet_tags[{name!r}]: {int(bad.sum())} of {len(idx)} triangles are not "
+                "boundary facets of tets"
+            )
+        tag_facets[name] = np.unique(idx)
+    return tag_facets
+
+
+def _free_velocity_dofs(mesh, x, dofs2, n2, tag_facets, noslip, slip):
+    """Free P2 dofs per velocity component and the normal axis of each slip tag.
+
+    No-slip: the ``noslip`` tags and every untagged boundary facet (all three components);
+    slip: the normal component on the tag's flat face.
+    """
+    probe = assembly.CellBasis(mesh, ElementTetP2(), intorder=2, elements=np.array([0]), dofs=dofs2)
+    all_bnd = np.nonzero(mesh.f2t[1] == -1)[0]
+    tagged = np.unique(np.concatenate([f for f in tag_facets.values()] + [np.zeros(0, int)]))
+    untagged = np.setdiff1d(all_bnd, tagged)
+    ns_facets = np.unique(np.concatenate([tag_facets[n] for n in noslip] + [untagged]))
+    fixed_all = probe.get_dofs(facets=ns_facets).all() if len(ns_facets) else np.zeros(0, int)
+    fixed = [fixed_all, fixed_all, fixed_all]
+    slip_axes = {}
+    for name in slip:
+        f = tag_facets[name]
+        if len(f) == 0:
+            continue
+        ax = slip_axis(x, mesh.facets[:, f].T, name)
+        slip_axes[name] = ax
+        fixed[ax] = np.union1d(fixed[ax], probe.get_dofs(facets=f).all())
+    free = []
+    for c in range(3):
+        mask = np.ones(n2, dtype=bool)
+        mask[fixed[c]] = False
+        free.append(np.nonzero(mask)[0])
+    return free, slip_axes
+
+
+def _reduced_blocks(L, free):
+    """Velocity blocks on each component's free dofs (shared when the free sets are equal)."""
+    A_red = []
+    for c in range(3):
+        same = next((j for j in range(c) if np.array_equal(free[j], free[c])), None)
+        A_red.append(A_red[same] if same is not None else L[free[c]][:, free[c]].tocsr())
+    return A_red
+
+
+def _assemble_pressure_driven(mesh, inlet_facets, outlet_facets, pin, pout, free):
+    """Reduced saddle system and right-hand side for the scaled inlet/outlet pressures."""
+    L, D, m_lumped = assembly.assemble_volume(mesh)
+    g_in = assembly.assemble_normal_load(mesh, inlet_facets)
+    g_out = assembly.assemble_normal_load(mesh, outlet_facets)
+    rhs_full = -(pin * g_in + pout * g_out)
+    del g_in, g_out
+    A_red = _reduced_blocks(L, free)
+    del L
+    D_red = [D[c][:, free[c]].tocsr() for c in range(3)]
+    del D
+    b = np.concatenate([rhs_full[c][free[c]] for c in range(3)] + [np.zeros(len(m_lumped))])
+    return SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0), b
+
+
+def _solve_system(system, b, *, tol, max_iter, direct_max_dofs, amg, krylov, progress):
+    """Sparse LU for small systems, else the preconditioned Krylov solver.
+
+    Returns ``(info, wall seconds, CPU seconds)``.
+    """
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    if system.n <= direct_max_dofs:
+        info = solve_direct(system, b, tol)
+    else:
+        with single_thread_blas():  # short vectors: BLAS threads cost
+            info = solve_iterative(
+                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
+            )
+    return info, time.perf_counter() - t0, time.process_time() - c0
+
+
+@dataclass(frozen=True)
+class _Scales:
+    """Scaled-to-SI factors of one solve: x_SI = origin + length x, u_SI = u_scale u, ..."""
+
+    origin: np.ndarray
+    length: float
+    u_scale: float
+    p_scale: float
+    viscosity: float
+
+
+def _result(info, *, mesh, dofs2, u, p, scales, t_start, est, **fields) -> StokesResult:
+    """The :class:`StokesResult` of a finished solve; ``fields`` are the solver's own."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
+    state = {"mesh": mesh, "dofs2": dofs2, "u": u, "p": p}
+    state.update(
+        origin=scales.origin,
+        length=scales.length,
+        u_scale=scales.u_scale,
+        p_scale=scales.p_scale,
+        viscosity=float(scales.viscosity),
+    )
+    return StokesResult(
+        converged=info.converged,
+        iterations=info.iterations,
+        residual=info.residual,
+        n_dofs=int(len(info.x)),
+        wall_time_s=time.perf_counter() - t_start,
+        peak_memory_gb=peak,
+        memory_estimate_gb=est,
+        method=info.method,
+        _state=state,
+        **fields,
+    )
 
 
 def solve_stokes(
@@ -405,217 +586,75 @@ def solve_stokes(
         and outlet.
     """
     t_start = time.perf_counter()
-    points, tets, tags, noslip, slip = _validate(
-        points,
-        tets,
-        facet_tags,
-        inlet,
-        outlet,
-        noslip,
-        slip,
-        p_inlet,
-        p_outlet,
-        viscosity,
-        element,
-        tol,
-        max_iter,
-    )
-    if amg not in ("sa", "rs"):
-        raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
-    if krylov not in KRYLOV:
-        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
-    n_in_points = len(points)
+    points, tets = _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter)
+    tags, noslip, slip = _check_tags(facet_tags, len(points), inlet, outlet, noslip, slip)
+    _check_drive(p_inlet, p_outlet, element)
+    _check_solver(amg, krylov)
+    est = _check_memory(len(points), len(tets), element, max_memory_gb, force)
 
-    est = estimate_memory_gb(len(points), len(tets), element)
-    limit = default_limit_gb() if max_memory_gb is None else float(max_memory_gb)
-    if est > limit and not force:
-        raise MemoryLimitError(
-            f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
-            f"({len(tets)} tets, {len(points)} points); coarsen the mesh or pass force=True"
-        )
-
-    # --- connectivity: drop parts that touch neither inlet nor outlet (floating pressure) ---
-    _, labels = vertex_components(len(points), tets)
-    c_in = np.unique(labels[tags[inlet][:, 0]])
-    c_out = np.unique(labels[tags[outlet][:, 0]])
-    if len(np.intersect1d(c_in, c_out)) == 0:
-        raise DisconnectedDomainError(
-            "disconnected pore space: no connected part of the mesh touches both the inlet "
-            f"({inlet!r}) and the outlet ({outlet!r})"
-        )
-    keep = np.isin(labels[tets[:, 0]], np.union1d(c_in, c_out))
-    n_removed = int((~keep).sum())
-    tets_k = tets[keep]
-    used = np.unique(tets_k)
-    old2new = np.full(len(points), -1, dtype=np.int64)
-    old2new[used] = np.arange(len(used))
-    tets_k = old2new[tets_k]
-
-    # --- scaling ---
-    origin = points[used].min(axis=0)
-    e = points[tets[keep][:, 1]] - points[tets[keep][:, 0]]
-    length = float(np.sqrt((e * e).sum(axis=1)).mean())
-    if not length > 0:
-        raise ValueError("points: the mesh has zero extent (degenerate tetrahedra)")
-    x = (points[used] - origin) / length
-    a, b_, c, d = (x[tets_k[:, i]] for i in range(4))
-    vol6 = np.abs(np.einsum("ij,ij->i", np.cross(b_ - a, c - a), d - a))
-    n_flat = int((vol6 <= 1e-12 * vol6.mean()).sum())
-    if n_flat:
-        raise ValueError(f"tets: {n_flat} degenerate (zero-volume) tetrahedra; fix the mesh")
-    del a, b_, c, d, vol6
+    keep, used, old2new = _connected_part(len(points), tets, tags, inlet, outlet)
+    tets_k = old2new[tets[keep]]
+    x, origin, length = _scaled_points(points[used], tets_k)
+    _refuse_flat(x, tets_k)
     p_scale = max(abs(p_inlet), abs(p_outlet))
-    pin, pout = p_inlet / p_scale, p_outlet / p_scale
-    u_scale = p_scale * length / viscosity
+    scales = _Scales(origin, length, p_scale * length / viscosity, p_scale, viscosity)
 
     mesh = assembly.make_mesh(x, tets_k)
     dofs2, n2 = assembly.p2_dofs(mesh)
-    probe = assembly.CellBasis(mesh, ElementTetP2(), intorder=2, elements=np.array([0]), dofs=dofs2)
-    boundary = mesh.f2t[1] == -1
+    tag_facets = _tag_facets(mesh, tags, old2new)
+    free, slip_axes = _free_velocity_dofs(mesh, x, dofs2, n2, tag_facets, noslip, slip)
 
-    # --- tags -> facet indices ---
-    tag_facets: dict[str, np.ndarray] = {}
-    facets_sorted = mesh.facets.T
-    for name, tri in tags.items():
-        tri_new = old2new[tri]
-        tri_new = tri_new[(tri_new >= 0).all(axis=1)]
-        idx = match_rows(facets_sorted, tri_new)
-        bad = (idx < 0) | ~boundary[np.maximum(idx, 0)]
-        if np.any(bad):
-            raise BoundaryTagError(
-                f"facet_tags[{name!r}]: {int(bad.sum())} of {len(idx)} triangles are not "
-                "boundary facets of tets"
-            )
-        tag_facets[name] = np.unique(idx)
-
-    all_bnd = np.nonzero(boundary)[0]
-    tagged = np.unique(np.concatenate([f for f in tag_facets.values()] + [np.zeros(0, int)]))
-    untagged = np.setdiff1d(all_bnd, tagged)
-    ns_facets = np.unique(np.concatenate([tag_facets[n] for n in noslip] + [untagged]))
-
-    fixed_all = probe.get_dofs(facets=ns_facets).all() if len(ns_facets) else np.zeros(0, int)
-    fixed = [fixed_all, fixed_all, fixed_all]
-    slip_axes = {}
-    for name in slip:
-        f = tag_facets[name]
-        if len(f) == 0:
-            continue
-        ax = slip_axis(x, mesh.facets[:, f].T, name)
-        slip_axes[name] = ax
-        fixed[ax] = np.union1d(fixed[ax], probe.get_dofs(facets=f).all())
-    free = []
-    for c in range(3):
-        mask = np.ones(n2, dtype=bool)
-        mask[fixed[c]] = False
-        free.append(np.nonzero(mask)[0])
-
-    # --- assembly ---
     t0 = time.perf_counter()
-    L, D, m_lumped = assembly.assemble_volume(mesh)
-    g_in = assembly.assemble_normal_load(mesh, tag_facets[inlet])
-    g_out = assembly.assemble_normal_load(mesh, tag_facets[outlet])
-    rhs_full = -(pin * g_in + pout * g_out)
-    del g_in, g_out
-    A_red = []
-    for c in range(3):
-        same = next((j for j in range(c) if np.array_equal(free[j], free[c])), None)
-        A_red.append(A_red[same] if same is not None else L[free[c]][:, free[c]].tocsr())
-    del L
-    D_red = [D[c][:, free[c]].tocsr() for c in range(3)]
-    del D
-    system = SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0)
-    b = np.concatenate([rhs_full[c][free[c]] for c in range(3)] + [np.zeros(len(m_lumped))])
+    system, b = _assemble_pressure_driven(
+        mesh, tag_facets[inlet], tag_facets[outlet], p_inlet / p_scale, p_outlet / p_scale, free
+    )
     t_asm = time.perf_counter() - t0
+    info, t_solve, c_solve = _solve_system(
+        system,
+        b,
+        tol=tol,
+        max_iter=max_iter,
+        direct_max_dofs=direct_max_dofs,
+        amg=amg,
+        krylov=krylov,
+        progress=progress,
+    )
+    del system
 
-    # --- solve ---
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    if system.n <= direct_max_dofs:
-        info = solve_direct(system, b, tol)
-    else:
-        with single_thread_blas():  # short vectors: BLAS threads cost
-            info = solve_iterative(
-                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
-            )
-    t_solve = time.perf_counter() - t0
-    c_solve = time.process_time() - c0
-    del system, A_red, D_red
-
-    # --- post-processing ---
     t0 = time.perf_counter()
     parts = np.split(info.x, np.cumsum([len(f) for f in free]))
     u = np.zeros((3, n2))
     for c in range(3):
         u[c, free[c]] = parts[c]
     p = parts[3]
-    q_scale = u_scale * length**2
+    q_scale = scales.u_scale * length**2
     flux = {name: assembly.facet_flux(mesh, f, u) * q_scale for name, f in tag_facets.items()}
     q_in, q_out = flux[inlet], flux[outlet]
-    imbalance = abs(q_in + q_out) / abs(q_in) if q_in != 0 else float("inf")
-
-    velocity = np.zeros((n_in_points, 3))
-    velocity[used] = u[:, : len(used)].T * u_scale
-    pressure = np.full(n_in_points, np.nan)
+    velocity = np.zeros((len(points), 3))
+    velocity[used] = u[:, : len(used)].T * scales.u_scale
+    pressure = np.full(len(points), np.nan)
     pressure[used] = p * p_scale
     t_post = time.perf_counter() - t0
-
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
-    return StokesResult(
+    return _result(
+        info,
+        mesh=mesh,
+        dofs2=dofs2,
+        u=u,
+        p=p,
+        scales=scales,
+        t_start=t_start,
+        est=est,
         flux=flux,
-        flux_imbalance=float(imbalance),
-        converged=info.converged,
-        iterations=info.iterations,
-        residual=info.residual,
-        n_dofs=int(len(info.x)),
+        flux_imbalance=float(abs(q_in + q_out) / abs(q_in) if q_in != 0 else float("inf")),
         n_tets=int(len(tets_k)),
         n_points=int(len(used)),
-        n_tets_removed=n_removed,
-        wall_time_s=time.perf_counter() - t_start,
-        peak_memory_gb=peak,
-        memory_estimate_gb=est,
+        n_tets_removed=int((~keep).sum()),
         velocity=velocity,
         pressure=pressure,
-        method=info.method,
         element=element,
         slip_axes=slip_axes,
         timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
-        _state={
-            "mesh": mesh,
-            "dofs2": dofs2,
-            "u": u,
-            "p": p,
-            "origin": origin,
-            "length": length,
-            "u_scale": u_scale,
-            "p_scale": p_scale,
-            "viscosity": float(viscosity),
-        },
     )
-
-
-def _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter):
-    """Validation shared by :func:`solve_stokes_periodic` (one-line ``ValueError`` messages)."""
-    points = np.asarray(points, dtype=np.float64)
-    tets = np.asarray(tets)
-    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 4:
-        raise ValueError(f"points must be an (n, 3) array with n >= 4, got shape {points.shape}")
-    if not np.all(np.isfinite(points)):
-        raise ValueError("points must be finite")
-    if tets.ndim != 2 or tets.shape[1] != 4 or len(tets) < 1:
-        raise ValueError(f"tets must be an (m, 4) integer array with m >= 1, got {tets.shape}")
-    if not np.issubdtype(tets.dtype, np.integer):
-        raise ValueError(f"tets must be integer, got dtype {tets.dtype}")
-    if tets.min() < 0 or tets.max() >= len(points):
-        raise ValueError(f"tets: vertex indices must lie in [0, {len(points) - 1}]")
-    if not isinstance(facet_tags, Mapping):
-        raise ValueError("facet_tags must be a dict {tag name: (k, 3) int array}")
-    if not (np.isfinite(viscosity) and viscosity > 0):
-        raise ValueError(f"viscosity must be > 0 (Pa s), got {viscosity}")
-    if not (0 < tol < 1):
-        raise ValueError(f"tol must lie in (0, 1), got {tol}")
-    if int(max_iter) < 1:
-        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
-    return points, tets.astype(np.int64)
 
 
 def solve_stokes_periodic(
@@ -692,50 +731,36 @@ def solve_stokes_periodic(
         )
     if axis not in periodic_axes:
         raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
-    if amg not in ("sa", "rs"):
-        raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
-    if krylov not in KRYLOV:
-        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
+    _check_solver(amg, krylov)
     slip = _as_names(slip, "slip")
     tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in (facet_tags or {}).items()}
     for n in slip:
         if n not in tags:
             raise ValueError(f"slip: tag {n!r} is not in facet_tags (have {sorted(tags)})")
-    est = estimate_memory_gb(len(points), len(tets))
-    limit = default_limit_gb() if max_memory_gb is None else float(max_memory_gb)
-    if est > limit and not force:
-        raise MemoryLimitError(
-            f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
-            f"({len(tets)} tets, {len(points)} points); coarsen the mesh or pass force=True"
-        )
+    est = _check_memory(len(points), len(tets), ELEMENTS[0], max_memory_gb, force)
     used = np.unique(tets)
     if len(used) != len(points):
         raise ValueError(f"points: {len(points) - len(used)} vertices belong to no tetrahedron")
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    e = points[tets[:, 1]] - points[tets[:, 0]]
-    length = float(np.sqrt((e * e).sum(axis=1)).mean())
-    x = (points - lo) / length
+    x, lo, length = _scaled_points(points, tets)
+    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
+    scales = _Scales(lo, length, u_scale, pressure_gradient * length, viscosity)
     mesh = assembly.make_mesh(x, tets)
     dofs2, n2 = assembly.p2_dofs(mesh)
     boundary = mesh.f2t[1] == -1
-    constraints = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
-    P2, P1k, free, slip_axes = constraints
+    P2, P1k, free, slip_axes = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
     t0 = time.perf_counter()
     system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis)
-    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
     t_asm = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    if system.n <= direct_max_dofs:
-        info = solve_direct(system, b, tol)
-    else:
-        with single_thread_blas():  # short vectors: BLAS threads cost
-            info = solve_iterative(
-                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
-            )
-    t_solve = time.perf_counter() - t0
-    c_solve = time.process_time() - c0
+    info, t_solve, c_solve = _solve_system(
+        system,
+        b,
+        tol=tol,
+        max_iter=max_iter,
+        direct_max_dofs=direct_max_dofs,
+        amg=amg,
+        krylov=krylov,
+        progress=progress,
+    )
     del system
 
     t0 = time.perf_counter()
@@ -744,52 +769,42 @@ def solve_stokes_periodic(
     for c in range(3):
         u[c] = Pf[c] @ parts[c]
     p = P1k @ parts[3]
-    box = np.prod(hi - lo)
-    mean_u = np.array([load @ u[c] for c in range(3)]) * u_scale * length**3 / box
+    box = np.prod(points.max(axis=0) - lo)
+    mean_u = np.array([load @ u[c] for c in range(3)]) * scales.u_scale * length**3 / box
+    flux = _face_fluxes(mesh, x, boundary, u, axis, scales.u_scale * length**2)
+    q0, q1 = flux[f"{'xyz'[axis]}0"], flux[f"{'xyz'[axis]}1"]
+    t_post = time.perf_counter() - t0
+    return _result(
+        info,
+        mesh=mesh,
+        dofs2=dofs2,
+        u=u,
+        p=p,
+        scales=scales,
+        t_start=t_start,
+        est=est,
+        flux=flux,
+        flux_imbalance=float(abs(q0 + q1) / abs(q0) if q0 != 0 else float("inf")),
+        n_tets=int(len(tets)),
+        n_points=int(len(points)),
+        n_tets_removed=0,
+        velocity=(u[:, : len(points)].T * scales.u_scale).copy(),
+        pressure=p * scales.p_scale,
+        slip_axes=slip_axes,
+        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
+        mean_velocity=mean_u,
+    )
+
+
+def _face_fluxes(mesh, x, boundary, u, axis, q_scale) -> dict[str, float]:
+    """Flow rates (outward normal) through the two box faces normal to ``axis``."""
     bfac = np.nonzero(boundary)[0]
     tri = mesh.facets[:, bfac].T
     flux = {}
     for side, val in (("0", x[:, axis].min()), ("1", x[:, axis].max())):
         on = np.all(np.abs(x[tri][:, :, axis] - val) <= 1e-7 * float(x.max()), axis=1)
-        flux[f"{'xyz'[axis]}{side}"] = assembly.facet_flux(mesh, bfac[on], u) * u_scale * length**2
-    q0, q1 = flux[f"{'xyz'[axis]}0"], flux[f"{'xyz'[axis]}1"]
-    imbalance = abs(q0 + q1) / abs(q0) if q0 != 0 else float("inf")
-    p_scale = pressure_gradient * length
-    velocity = (u[:, : len(points)].T * u_scale).copy()
-    pressure = p * p_scale
-    t_post = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
-    return StokesResult(
-        flux=flux,
-        flux_imbalance=float(imbalance),
-        converged=info.converged,
-        iterations=info.iterations,
-        residual=info.residual,
-        n_dofs=int(len(info.x)),
-        n_tets=int(len(tets)),
-        n_points=int(len(points)),
-        n_tets_removed=0,
-        wall_time_s=time.perf_counter() - t_start,
-        peak_memory_gb=peak,
-        memory_estimate_gb=est,
-        velocity=velocity,
-        pressure=pressure,
-        method=info.method,
-        slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
-        mean_velocity=mean_u,
-        _state={
-            "mesh": mesh,
-            "dofs2": dofs2,
-            "u": u,
-            "p": p,
-            "origin": lo,
-            "length": length,
-            "u_scale": u_scale,
-            "p_scale": p_scale,
-            "viscosity": float(viscosity),
-        },
-    )
+        flux[f"{'xyz'[axis]}{side}"] = assembly.facet_flux(mesh, bfac[on], u) * q_scale
+    return flux
 
 
 def _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary):
@@ -854,10 +869,7 @@ def _assemble_periodic(mesh, P2, P1k, free, axis):
     Lp = (P2.T @ L @ P2).tocsr()
     del L
     Pf = [P2[:, free[c]].tocsr() for c in range(3)]
-    A_red = []
-    for c in range(3):
-        same = next((j for j in range(c) if np.array_equal(free[j], free[c])), None)
-        A_red.append(A_red[same] if same is not None else Lp[free[c]][:, free[c]].tocsr())
+    A_red = _reduced_blocks(Lp, free)
     del Lp
     D_red = [(P1k.T @ D[c] @ Pf[c]).tocsr() for c in range(3)]
     m_red = np.asarray(P1k.T @ m_lumped).ravel()
