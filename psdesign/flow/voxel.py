@@ -171,12 +171,7 @@ def permeability_voxel(
             f"K_{name}: image input has no analytic surface: wall_treatment = 'staircase' "
             "(first-order walls on the voxel faces)"
         )
-    spacing = fields.grid.spacing
-    if not np.allclose(spacing, spacing[0], rtol=1e-9):
-        raise ValueError(
-            "the voxel route needs cubic voxels; make rve.size a multiple of rve.voxel"
-        )
-    h = float(spacing[0])
+    h = _cubic_voxel(fields)
     cpd = cells_per_diameter(rve, h)
     if cpd is not None and cpd < MIN_CELLS_PER_DIAMETER:
         warnings.warn(
@@ -186,42 +181,79 @@ def permeability_voxel(
             stacklevel=2,
         )
     t0 = time.perf_counter()
-    mu = float(flow["viscosity"])
-    kw: dict = {"bc": bc}
-    if flow.get("tol") is not None:
-        kw["tol"] = float(flow["tol"])
-    if wall == "subvoxel":
-        kw["distance"] = fields.distance
-    plan, solve = None, fields
-    if bc == "permeameter":
-        plan = plan_copies(flow, rve, fields, ax)  # m copies along the flow (psdesign.flow.stack)
-        solve = stack_fields(fields, ax, plan.copies)
-        if wall == "subvoxel":
-            kw["distance"] = solve.distance
-        aux = float(flow.get("aux_length", 0.2)) / plan.copies  # reservoirs: one copy's aux
-        kw["aux_length"] = aux
-        kw["sides"] = flow.get("sides", "slip")
-        n_d = solve.solid.shape[ax]
-        n_tot = n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
-        kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
+    plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
     res = solve_voxel_stokes(
         solve.solid,
         h,
         name,
-        viscosity=mu,
+        viscosity=float(flow["viscosity"]),
         periodic_treatment=flow.get("periodic_treatment", "periodic"),
         progress=progress,
         return_velocity=capture is not None,
         return_pressure=capture is not None,
         **kw,
     )
+    periods = plan.copies * plan.periods if plan is not None else 1
+    out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
+    if res.serial_fallback:  # slower than it could be: say so where the user looks
+        notes.append(f"K_{name}: voxel solve {res.thread_note}")
+    if plan is not None and plan.note:
+        notes.append(plan.note)
+    if bc == "periodic" and out["periodic_treatment"] == "periodic":
+        notes.extend(_seam_notes(name, rve, fields))
+    if notes:
+        out["warnings"] = notes
+    if bc == "permeameter":
+        out |= plan.as_dict() | _permeameter_drops(res, flow, periods)
+    if capture is not None:
+        capture("voxel_flow", solution=res, result=out, fields=solve, flow=flow)
+    return out
+
+
+def _cubic_voxel(fields: VoxelFields) -> float:
+    spacing = fields.grid.spacing
+    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+        raise ValueError(
+            "the voxel route needs cubic voxels; make rve.size a multiple of rve.voxel"
+        )
+    return float(spacing[0])
+
+
+def _solve_setup(flow, rve, fields, ax, h, bc, wall):
+    """``(plan, grid, solver keywords)``: the copies stacked along the flow for the permeameter
+    (:mod:`psdesign.flow.stack`; ``plan`` None for the periodic bc) and what the solver needs
+    beyond the grid."""
+    kw: dict = {"bc": bc}
+    if flow.get("tol") is not None:
+        kw["tol"] = float(flow["tol"])
+    if wall == "subvoxel":
+        kw["distance"] = fields.distance
+    if bc != "permeameter":
+        return None, fields, kw
+    plan = plan_copies(flow, rve, fields, ax)  # m copies along the flow
+    solve = stack_fields(fields, ax, plan.copies)
+    if wall == "subvoxel":
+        kw["distance"] = solve.distance
+    aux = float(flow.get("aux_length", 0.2)) / plan.copies  # reservoirs: one copy's aux
+    kw["aux_length"] = aux
+    kw["sides"] = flow.get("sides", "slip")
+    n_d = solve.solid.shape[ax]
+    n_tot = n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
+    kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
+    return plan, solve, kw
+
+
+def _result(res, fields, direction, bc, flow, periods, cpd, t0) -> dict:
+    """The result of one solve (``direction`` = (name, axis); the key order is the JSON's)."""
+    name, ax = direction
     column = column_of(res)
     if bc == "periodic":
         k = float(column[ax])
     else:
-        k = permeameter_k(res, periods := plan.copies * plan.periods)
+        k = permeameter_k(res, periods)
         column = column * (k / column[ax])
-    out = {
+    mismatch = face_mismatch(fields.solid)
+    return {
         "permeability_m2": k,
         "permeability_column_m2": column.tolist(),
         "direction": name,
@@ -236,7 +268,7 @@ def permeability_voxel(
         "iterations": int(res.iterations),
         "flux_imbalance": float(res.flux_imbalance),
         "message": res.message,
-        "face_mismatch": (mismatch := face_mismatch(fields.solid)),
+        "face_mismatch": mismatch,
         "geometry_periodic": bool(max(mismatch) < 0.01),
         "periodic_treatment": flow.get("periodic_treatment", "periodic"),
         "flow_rate_m3_s": float(res.flow_rate),
@@ -246,25 +278,18 @@ def permeability_voxel(
         "threads_used": int(res.threads_used),
         "thread_note": res.thread_note,
     }
-    if res.serial_fallback:  # slower than it could be: say so where the user looks
-        notes.append(f"K_{name}: voxel solve {res.thread_note}")
-    if plan is not None and plan.note:
-        notes.append(plan.note)
-    if bc == "periodic" and out["periodic_treatment"] == "periodic":
-        notes.extend(_seam_notes(name, rve, fields))
-    if notes:
-        out["warnings"] = notes
-    if bc == "permeameter":
-        out |= plan.as_dict() | {
-            "sides": res.sides,
-            "aux_length": float(flow.get("aux_length", 0.2)),
-            "pressure_drop_applied_pa": float(res.applied_pressure_drop),
-            "pressure_drop_rve_pa": rve_drop(res, periods),
-            "pressure_drop_faces_pa": float(res.rve_pressure_drop),
-            "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile, periods),
-            "rve_length_m": float(res.rve_length),
-            "pressure_drop_definition": "windowed-dissipation",
-        }
-    if capture is not None:
-        capture("voxel_flow", solution=res, result=out, fields=solve, flow=flow)
-    return out
+
+
+def _permeameter_drops(res, flow: dict, periods: int) -> dict:
+    """The permeameter's reservoir set-up and the pressure drops (the defining one and the
+    diagnostics)."""
+    return {
+        "sides": res.sides,
+        "aux_length": float(flow.get("aux_length", 0.2)),
+        "pressure_drop_applied_pa": float(res.applied_pressure_drop),
+        "pressure_drop_rve_pa": rve_drop(res, periods),
+        "pressure_drop_faces_pa": float(res.rve_pressure_drop),
+        "pressure_drop_plane_window_pa": windowed_drop(res.rve_plane_pressure_profile, periods),
+        "rve_length_m": float(res.rve_length),
+        "pressure_drop_definition": "windowed-dissipation",
+    }
