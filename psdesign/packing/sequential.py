@@ -246,52 +246,93 @@ def place_sequential(
         Re-orientation range of that second, out-of-bounds pass (``max_rotation_deg`` is
         the bound of the first); a fiber placed in the second pass counts as exceeded.
     """
+    opts = _Options(
+        gap=gap,
+        max_rotation_deg=max_rotation_deg,
+        orientation_tries=orientation_tries,
+        on_reject=on_reject,
+        area=area,
+        stop_solid=stop_solid,
+        max_consecutive_rejects=max_consecutive_rejects,
+        max_shift_z=max_shift_z,
+        max_ejections=max_ejections,
+        max_shift=max_shift,
+        exceed=exceed,
+        exceed_rotation_deg=exceed_rotation_deg,
+    )
     t0 = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    n = len(st)
-    if n == 0:
+    if len(st) == 0:
         return PlacementResult(
             st.copy(), np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), 0, 0.0
         )
-    dmin_all = float(st.diameter.min())
-    step = dmin_all / 4.0 if step is None else step
-    T = torus_offsets(step)
-    k_grid = max(2, int(np.ceil(1.0 / step)))
-    tidx = (np.round(T * k_grid).astype(np.int64) + k_grid // 2) % k_grid
-    cut = float(st.diameter.max()) + max(gap, 0.0)
-    piece = max(0.5 * cut, 0.005)
-    out = st.copy()
-    old: Pieces | None = None
-    tested = 0
-    box_volume = float(np.prod(hi - lo))
-    placed: list[int] = []
-    rejected: list[int] = []
-    contrib: dict[int, float] = {}
-    ejected = np.zeros(n, np.int64)
-    ejected_in_bounds = np.zeros(n, np.int64)
-    exceeded: set[int] = set()
-    streak = 0
+    placer = _Placer(st, lo, hi, opts, step, seed)
+    placer.run()
+    return placer.result(time.perf_counter() - t0)
 
-    def bounds(bounded: bool):
-        return (max_shift_z, max_shift if bounded else None)
 
-    stopped = False
+@dataclass(frozen=True)
+class _Options:
+    """The knobs of :func:`place_sequential` (documented there)."""
 
-    def add_old(idx) -> None:
-        nonlocal old
+    gap: float
+    max_rotation_deg: float
+    orientation_tries: int
+    on_reject: str
+    area: np.ndarray | None
+    stop_solid: float | None
+    max_consecutive_rejects: int | None
+    max_shift_z: float | None
+    max_ejections: int
+    max_shift: float | None
+    exceed: bool
+    exceed_rotation_deg: float
+
+
+class _Placer:
+    """The state of one sequential placement: placed pieces, queue, budgets, counters."""
+
+    def __init__(self, st: FiberState, lo, hi, opts: _Options, step: float | None, seed: int):
+        self.st, self.lo, self.hi, self.opts = st, lo, hi, opts
+        self.rng = np.random.default_rng(seed)
+        n = len(st)
+        step = float(st.diameter.min()) / 4.0 if step is None else step
+        self.T = torus_offsets(step)
+        self.k_grid = max(2, int(np.ceil(1.0 / step)))
+        self.tidx = (
+            np.round(self.T * self.k_grid).astype(np.int64) + self.k_grid // 2
+        ) % self.k_grid
+        cut = float(st.diameter.max()) + max(opts.gap, 0.0)
+        self.piece = max(0.5 * cut, 0.005)
+        self.out = st.copy()
+        self.old: Pieces | None = None
+        self.tested = 0
+        self.box_volume = float(np.prod(hi - lo))
+        self.placed: list[int] = []
+        self.rejected: list[int] = []
+        self.contrib: dict[int, float] = {}
+        self.ejected = np.zeros(n, np.int64)
+        self.ejected_in_bounds = np.zeros(n, np.int64)
+        self.exceeded: set[int] = set()
+        self.stopped = False
+
+    def bounds(self, bounded: bool):
+        return (self.opts.max_shift_z, self.opts.max_shift if bounded else None)
+
+    def add_old(self, idx) -> None:
         idx = np.atleast_1d(idx)
-        pc = pieces_for(out.subset(idx), lo, hi, gap, piece)
+        pc = pieces_for(self.out.subset(idx), self.lo, self.hi, self.opts.gap, self.piece)
         pc.fiber = idx[pc.fiber]
-        if area is not None:
-            lengths = carrier_lengths(out.subset(idx), lo, hi)
-            for k, v in zip(idx, area[idx] * lengths / box_volume, strict=True):
-                contrib[int(k)] = float(v)
-        old = pc if old is None else _concat_pieces(old, pc)
+        if self.opts.area is not None:
+            lengths = carrier_lengths(self.out.subset(idx), self.lo, self.hi)
+            share = self.opts.area[idx] * lengths / self.box_volume
+            for k, v in zip(idx, share, strict=True):
+                self.contrib[int(k)] = float(v)
+        self.old = pc if self.old is None else _concat_pieces(self.old, pc)
 
-    def remove_old(idx: np.ndarray) -> None:
-        nonlocal old
+    def remove_old(self, idx: np.ndarray) -> None:
+        old = self.old
         keep = ~np.isin(old.fiber, idx)
-        old = Pieces(
+        self.old = Pieces(
             a=old.a[keep],
             b=old.b[keep],
             fiber=old.fiber[keep],
@@ -302,100 +343,127 @@ def place_sequential(
             copy_fiber=old.copy_fiber,
         )
         for k in idx:
-            contrib.pop(int(k), None)
-            placed.remove(int(k))
+            self.contrib.pop(int(k), None)
+            self.placed.remove(int(k))
 
-    def accept(i: int, c_new: np.ndarray, trial: FiberState) -> None:
+    def accept(self, i: int, c_new: np.ndarray, trial: FiberState) -> None:
+        out = self.out
         out.center[i] = c_new
         out.theta[i], out.omega[i] = trial.theta[0], trial.omega[0]
         out.frames[i] = trial.frames[0]
-        placed.append(i)
-        add_old(i)
+        self.placed.append(i)
+        self.add_old(i)
 
-    fixed_idx = np.flatnonzero(st.fixed)
-    if len(fixed_idx):
-        placed.extend(int(k) for k in fixed_idx)
-        add_old(fixed_idx)
-    queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
-    while queue:
-        if stop_solid is not None and sum(contrib.values()) >= stop_solid:
-            stopped = True
-            break
-        if max_consecutive_rejects is not None and streak >= max_consecutive_rejects:
-            break
-        i = queue.popleft()
-        found = None
-        base = st.subset([i])
-        # tries: the drawn orientation (bent fibers also with their bend phase moved by
-        # quarter wavelengths along the axis), then random re-orientations
+    def tries(self, base: FiberState, bounded: bool) -> list:
+        """The drawn orientation (bent fibers also with their bend phase moved by quarter
+        wavelengths along the axis), then random re-orientations within the pass's range."""
         tries0 = [(0.0, 0.0, 0.0)]
         if base.u[0] != 0.0:
             tries0 += [(0.0, 0.0, q / base.f[0]) for q in (0.25, 0.5, 0.75)]
+        o = self.opts
+        lim = o.max_rotation_deg if bounded else max(o.max_rotation_deg, o.exceed_rotation_deg)
+        if lim <= 0:
+            return tries0
+        return tries0 + [
+            (self.rng.uniform(-lim, lim), self.rng.uniform(-lim, lim), 0.0)
+            for _ in range(o.orientation_tries)
+        ]
 
-        def tries_for(bounded: bool, tries0=tries0):
-            lim = max_rotation_deg if bounded else max(max_rotation_deg, exceed_rotation_deg)
-            if lim <= 0:
-                return tries0
-            return tries0 + [
-                (rng.uniform(-lim, lim), rng.uniform(-lim, lim), 0.0)
-                for _ in range(orientation_tries)
-            ]
-
-        passes = (
-            [True, False] if exceed and (max_shift is not None or exceed_rotation_deg) else [True]
-        )
+    def place_one(self, i: int, queue: deque):
+        """A position for fiber ``i`` (``(centre, trial)``) or None; may eject blockers."""
+        o = self.opts
+        base = self.st.subset([i])
+        bounded_pass = o.exceed and (o.max_shift is not None or o.exceed_rotation_deg)
+        passes = [True, False] if bounded_pass else [True]
         for bounded in passes:
-            tries = tries_for(bounded)
             found, n_tried = _search(
-                tries, base, old, out.diameter, gap, T, k_grid, tidx, bounds(bounded)
+                self.tries(base, bounded),
+                base,
+                self.old,
+                self.out.diameter,
+                o.gap,
+                self.T,
+                self.k_grid,
+                self.tidx,
+                self.bounds(bounded),
             )
-            tested += len(T) * n_tried
+            self.tested += len(self.T) * n_tried
             # eject the fewest placed fibers that block a position (they are re-queued);
             # ejections within the bounds have their own budget (half), so they never use up
             # the last pass's
             last = bounded == passes[-1]
-            count = ejected if last else ejected_in_bounds
-            budget = max_ejections if last else max_ejections // 2
+            count = self.ejected if last else self.ejected_in_bounds
+            budget = o.max_ejections if last else o.max_ejections // 2
             if found is None and budget > 0:
                 c_new, blockers = _least_blocked(
-                    base, old, out.diameter, st.fixed, gap, T, bounds(bounded), k_grid, tidx
+                    base,
+                    self.old,
+                    self.out.diameter,
+                    self.st.fixed,
+                    o.gap,
+                    self.T,
+                    self.bounds(bounded),
+                    self.k_grid,
+                    self.tidx,
                 )
                 if c_new is not None and np.all(count[blockers] < budget):
                     count[blockers] += 1
-                    remove_old(blockers)
+                    self.remove_old(blockers)
                     queue.extendleft(int(b) for b in blockers[::-1])
                     found = (c_new, base)
             if found is not None:
                 if not bounded:
-                    exceeded.add(i)
+                    self.exceeded.add(i)
                 else:
-                    exceeded.discard(i)
-                break
-        if found is None:
-            rejected.append(i)
-            streak += 1
-            if on_reject == "raise":
-                break
-            continue
+                    self.exceeded.discard(i)
+                return found
+        return None
+
+    def run(self) -> None:
+        o, st = self.opts, self.st
+        fixed_idx = np.flatnonzero(st.fixed)
+        if len(fixed_idx):
+            self.placed.extend(int(k) for k in fixed_idx)
+            self.add_old(fixed_idx)
+        queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
         streak = 0
-        accept(i, *found)
-    keep = np.array(placed, dtype=np.int64)
-    final = out.subset(keep)
-    shift = final.center - st.center[keep]
-    cosang = np.abs(np.einsum("ij,ij->i", final.direction, st.direction[keep]))
-    return PlacementResult(
-        state=final,
-        placed=keep,
-        rejected=np.array(rejected, dtype=np.int64),
-        shift=shift,
-        rotation_deg=np.degrees(np.arccos(np.clip(cosang, 0.0, 1.0))),
-        candidates_tested=tested,
-        wall_time_s=time.perf_counter() - t0,
-        solid=sum(contrib.values()),
-        reached_stop=stopped or (stop_solid is not None and sum(contrib.values()) >= stop_solid),
-        n_ejections=int(ejected.sum() + ejected_in_bounds.sum()),
-        exceeded=np.array(sorted(k for k in exceeded if k in set(placed)), dtype=np.int64),
-    )
+        while queue:
+            if o.stop_solid is not None and sum(self.contrib.values()) >= o.stop_solid:
+                self.stopped = True
+                break
+            if o.max_consecutive_rejects is not None and streak >= o.max_consecutive_rejects:
+                break
+            i = queue.popleft()
+            found = self.place_one(i, queue)
+            if found is None:
+                self.rejected.append(i)
+                streak += 1
+                if o.on_reject == "raise":
+                    break
+                continue
+            streak = 0
+            self.accept(i, *found)
+
+    def result(self, wall_time_s: float) -> PlacementResult:
+        st, stop_solid = self.st, self.opts.stop_solid
+        keep = np.array(self.placed, dtype=np.int64)
+        final = self.out.subset(keep)
+        cosang = np.abs(np.einsum("ij,ij->i", final.direction, st.direction[keep]))
+        solid = sum(self.contrib.values())
+        placed = set(self.placed)
+        return PlacementResult(
+            state=final,
+            placed=keep,
+            rejected=np.array(self.rejected, dtype=np.int64),
+            shift=final.center - st.center[keep],
+            rotation_deg=np.degrees(np.arccos(np.clip(cosang, 0.0, 1.0))),
+            candidates_tested=self.tested,
+            wall_time_s=wall_time_s,
+            solid=solid,
+            reached_stop=self.stopped or (stop_solid is not None and solid >= stop_solid),
+            n_ejections=int(self.ejected.sum() + self.ejected_in_bounds.sum()),
+            exceeded=np.array(sorted(k for k in self.exceeded if k in placed), dtype=np.int64),
+        )
 
 
 def _allowed(T: np.ndarray, l1: np.ndarray, l2: np.ndarray, limits) -> np.ndarray:
