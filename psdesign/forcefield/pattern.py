@@ -166,93 +166,20 @@ def pattern_search(
         def map_fun(xs: list[np.ndarray]) -> list[float]:
             return [fun(x) for x in xs]
 
+    polls = _Poller(lo, hi, map_fun, evaluator, batch, max_evals)
     width = hi - lo
-    free = np.flatnonzero(width > 0)
-    cache: dict[tuple, float] = {}
-    used: set[tuple] = set()  # points whose value the search examined
-    running: set[tuple] = set()  # points with the evaluator
-    n_done = 0  # evaluations performed
-
-    def key(z: np.ndarray) -> tuple:
-        return tuple(np.round(z, 12))
-
-    def to_x(z: np.ndarray) -> np.ndarray:
-        x = lo + z * width
-        x[width == 0] = lo[width == 0]
-        return x
-
-    def store(k: tuple, v: float) -> None:
-        nonlocal n_done
-        v = float(v)
-        cache[k] = v if np.isfinite(v) else np.inf
-        n_done += 1
-
-    def evaluate(zs: list[np.ndarray]) -> None:
-        """Evaluate the points not yet cached (in one ``map_fun`` call)."""
-        new = list({key(z): z for z in zs if key(z) not in cache}.items())
-        if new:
-            for (k, _), v in zip(new, map_fun([to_x(z) for _, z in new]), strict=True):
-                store(k, v)
-
-    def collect(block: bool) -> None:
-        for k, v in evaluator.collect(block):
-            running.discard(k)
-            store(k, v)
-
-    def room() -> int:
-        return np.inf if max_evals is None else max_evals - n_done - len(running)
-
-    def poll(trials: list[tuple[int, np.ndarray]]) -> int | None:
-        """Examine ``trials`` in order; index of the first improving one (None: none, or
-        the evaluation limit stopped the poll)."""
-        pos, nxt = 0, 0
-        while pos < len(trials):
-            k_pos = key(trials[pos][1])
-            if k_pos in cache:
-                used.add(k_pos)
-                if cache[k_pos] < fz:
-                    return pos
-                pos += 1
-                continue
-            if evaluator is None:
-                # groups of ``batch`` points not yet cached, in poll order
-                end, fresh = pos, set()
-                lim = min(batch, room())
-                while end < len(trials) and (len(fresh) < lim or key(trials[end][1]) in cache):
-                    if key(trials[end][1]) not in cache:
-                        fresh.add(key(trials[end][1]))
-                    end += 1
-                if not fresh:  # evaluation limit reached
-                    return None
-                evaluate([t for _, t in trials[pos:end]])
-                continue
-            nxt = max(nxt, pos)
-            while evaluator.free() > 0 and nxt < len(trials) and room() > 0:
-                k = key(trials[nxt][1])
-                if k not in cache and k not in running:
-                    evaluator.submit(k, to_x(trials[nxt][1]))
-                    running.add(k)
-                nxt += 1
-            if k_pos not in running and not running:  # evaluation limit reached
-                return None
-            collect(block=True)
-        return None
-
     z = np.where(width > 0, (x0 - lo) / np.where(width > 0, width, 1.0), 0.0)
-    fz = np.inf
-    if poll([(0, z)]) is None and key(z) not in cache:  # pragma: no cover
-        raise RuntimeError("the start point could not be evaluated")
-    fz = cache[key(z)]
-    dirs = [(i, s) for i in free for s in (1.0, -1.0)]
+    if polls.poll([(0, z)], np.inf) is None and polls.key(z) not in polls.cache:
+        raise RuntimeError("the start point could not be evaluated")  # pragma: no cover
+    fz = polls.cache[polls.key(z)]
+    dirs = [(i, s) for i in np.flatnonzero(width > 0) for s in (1.0, -1.0)]
     history: list[dict] = []
-    converged, message, it = False, "", 0
-    if free.size == 0:
-        converged, message = True, "no free variables"
+    converged, message, it = not dirs, "no free variables" if not dirs else "", 0
     while not converged:
         if it >= max_iter:
             message = f"stopped on the iteration limit (max_iter={max_iter})"
             break
-        if max_evals is not None and n_done >= max_evals:
+        if max_evals is not None and polls.n_done >= max_evals:
             message = f"stopped on the evaluation limit (max_evals={max_evals})"
             break
         it += 1
@@ -262,27 +189,120 @@ def pattern_search(
             trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
             if trial[i] != z[i]:
                 trials.append((k, trial))
-        hit = poll(trials)
-        success = hit is not None
-        if success:
+        hit = polls.poll(trials, fz)
+        if hit is not None:
             k, z = trials[hit]
-            fz = cache[key(z)]
+            fz = polls.cache[polls.key(z)]
             dirs.insert(0, dirs.pop(k))  # poll this direction first next time
-        step = min(step * expand, max_step) if success else step * contract
-        entry = {"iter": it, "n_evals": len(used), "fun": fz, "step": step}
+        step = min(step * expand, max_step) if hit is not None else step * contract
+        entry = {"iter": it, "n_evals": len(polls.used), "fun": fz, "step": step}
         history.append(entry)
         if callback is not None:
             callback(entry)
         if step < min_step:
             converged, message = True, f"mesh size below min_step={min_step}"
-    x = lo + z * width
     return PatternSearchResult(
-        x=x,
+        x=lo + z * width,
         fun=fz,
         n_iter=it,
-        n_evals=len(used),
+        n_evals=len(polls.used),
         converged=converged,
         message=message,
         history=history,
-        n_speculative=n_done - len(used),
+        n_speculative=polls.n_done - len(polls.used),
     )
+
+
+class _Poller:
+    """Evaluations of one pattern search in unit coordinates: the value cache, the points the
+    search examined (``used``), those with the evaluator (``running``), and the poll."""
+
+    def __init__(self, lo, hi, map_fun, evaluator, batch: int, max_evals: int | None):
+        self.lo, self.width = lo, hi - lo
+        self.map_fun, self.evaluator = map_fun, evaluator
+        self.batch, self.max_evals = batch, max_evals
+        self.cache: dict[tuple, float] = {}
+        self.used: set[tuple] = set()
+        self.running: set[tuple] = set()
+        self.n_done = 0  # evaluations performed
+
+    @staticmethod
+    def key(z: np.ndarray) -> tuple:
+        return tuple(np.round(z, 12))
+
+    def to_x(self, z: np.ndarray) -> np.ndarray:
+        x = self.lo + z * self.width
+        x[self.width == 0] = self.lo[self.width == 0]
+        return x
+
+    def store(self, k: tuple, v: float) -> None:
+        v = float(v)
+        self.cache[k] = v if np.isfinite(v) else np.inf
+        self.n_done += 1
+
+    def evaluate(self, zs: list[np.ndarray]) -> None:
+        """Evaluate the points not yet cached (in one ``map_fun`` call)."""
+        key = self.key
+        new = list({key(z): z for z in zs if key(z) not in self.cache}.items())
+        if new:
+            values = self.map_fun([self.to_x(z) for _, z in new])
+            for (k, _), v in zip(new, values, strict=True):
+                self.store(k, v)
+
+    def collect(self, block: bool) -> None:
+        for k, v in self.evaluator.collect(block):
+            self.running.discard(k)
+            self.store(k, v)
+
+    def room(self) -> float:
+        if self.max_evals is None:
+            return np.inf
+        return self.max_evals - self.n_done - len(self.running)
+
+    def poll(self, trials: list[tuple[int, np.ndarray]], fz: float) -> int | None:
+        """Examine ``trials`` in order; index of the first one below ``fz`` (None: none, or
+        the evaluation limit stopped the poll)."""
+        pos, nxt = 0, 0
+        while pos < len(trials):
+            k_pos = self.key(trials[pos][1])
+            if k_pos in self.cache:
+                self.used.add(k_pos)
+                if self.cache[k_pos] < fz:
+                    return pos
+                pos += 1
+                continue
+            if self.evaluator is None:
+                if not self._evaluate_group(trials, pos):  # evaluation limit reached
+                    return None
+                continue
+            nxt = self._submit(trials, max(nxt, pos))
+            if k_pos not in self.running and not self.running:  # evaluation limit reached
+                return None
+            self.collect(block=True)
+        return None
+
+    def _evaluate_group(self, trials, pos: int) -> bool:
+        """Evaluate the next ``batch`` uncached trials from ``pos`` on, in poll order; False
+        when the evaluation limit leaves no room."""
+        key, cache = self.key, self.cache
+        end, fresh = pos, set()
+        lim = min(self.batch, self.room())
+        while end < len(trials) and (len(fresh) < lim or key(trials[end][1]) in cache):
+            if key(trials[end][1]) not in cache:
+                fresh.add(key(trials[end][1]))
+            end += 1
+        if not fresh:
+            return False
+        self.evaluate([t for _, t in trials[pos:end]])
+        return True
+
+    def _submit(self, trials, nxt: int) -> int:
+        """Give every free worker the next trial in order that is neither cached nor
+        running; the index of the next trial to submit."""
+        while self.evaluator.free() > 0 and nxt < len(trials) and self.room() > 0:
+            k = self.key(trials[nxt][1])
+            if k not in self.cache and k not in self.running:
+                self.evaluator.submit(k, self.to_x(trials[nxt][1]))
+                self.running.add(k)
+            nxt += 1
+        return nxt
