@@ -383,8 +383,16 @@ def _stats(x: np.ndarray) -> dict:
 # ------------------------------------------------------------------- the methods
 def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
     """Sequential minimal-shift placement, with porosity targeting by measured correction."""
+    kw = _fast_options(gs, gap)
+    if gs.n_fibers is not None:
+        return _fast_count(gs, size, lo, hi, fixed, measure, kw)
+    return _fast_porosity(gs, size, lo, hi, fixed, measure, kw)
+
+
+def _fast_options(gs, gap: float) -> dict:
+    """:func:`place_sequential` keywords from ``[intersections]`` (normalized lengths)."""
     opts = gs.options
-    kw = dict(
+    return dict(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
         max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
@@ -396,37 +404,48 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
         exceed=bool(opts.get("exceed_bounds", True)),
         exceed_rotation_deg=float(opts.get("exceed_rotation_deg", 5.0)),
     )
-    t0 = time.perf_counter()
-    if gs.n_fibers is not None:
-        drawn = draw_fibers(gs, gs.seed, gs.n_fibers, size)
-        full = FiberState.concat(fixed, drawn) if fixed is not None else drawn
-        res = place_sequential(full, lo, hi, on_reject="raise", **kw)
-        if len(res.rejected):
-            vf = measure(res.state.subset(~res.state.fixed))
-            raise GenerationError(
-                f"generator.n_fibers: no intersection-free place for fiber "
-                f"{int(res.rejected[0]) - (len(fixed) if fixed else 0)} of {gs.n_fibers} "
-                f"(jammed at porosity {vf.porosity:.4f}); lower n_fibers, widen the "
-                f"orientation range or allow intersections.max_rotation_deg",
-                vf.porosity,
-            )
-        st = res.state.subset(~res.state.fixed)
-        n_fx = len(fixed) if fixed is not None else 0
-        drawn = drawn.subset(res.placed[res.placed >= n_fx] - n_fx)  # placement order
-        vf = measure(st)
-        return (
-            st,
-            drawn,
-            {
-                "n_rejected": 0,
-                "fields": vf,
-                "placement_time_s": res.wall_time_s,
-                "candidates_tested": res.candidates_tested,
-                "n_ejections": res.n_ejections,
-                "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
-            },
+
+
+def _fast_count(gs, size, lo, hi, fixed, measure, kw):
+    """``generator.n_fibers`` fibers placed without intersections, or a GenerationError."""
+    drawn = draw_fibers(gs, gs.seed, gs.n_fibers, size)
+    full = FiberState.concat(fixed, drawn) if fixed is not None else drawn
+    res = place_sequential(full, lo, hi, on_reject="raise", **kw)
+    if len(res.rejected):
+        vf = measure(res.state.subset(~res.state.fixed))
+        raise GenerationError(
+            f"generator.n_fibers: no intersection-free place for fiber "
+            f"{int(res.rejected[0]) - (len(fixed) if fixed else 0)} of {gs.n_fibers} "
+            f"(jammed at porosity {vf.porosity:.4f}); lower n_fibers, widen the "
+            f"orientation range or allow intersections.max_rotation_deg",
+            vf.porosity,
         )
-    # porosity target: draw a generous pool once (reproducible), place until the solid target
+    st = res.state.subset(~res.state.fixed)
+    n_fx = len(fixed) if fixed is not None else 0
+    drawn = drawn.subset(res.placed[res.placed >= n_fx] - n_fx)  # placement order
+    vf = measure(st)
+    return (
+        st,
+        drawn,
+        {
+            "n_rejected": 0,
+            "fields": vf,
+            "placement_time_s": res.wall_time_s,
+            "candidates_tested": res.candidates_tested,
+            "n_ejections": res.n_ejections,
+            "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
+        },
+    )
+
+
+def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
+    """Fibers placed until the measured porosity meets ``generator.porosity``.
+
+    A generous pool is drawn once (reproducible) and placed until the predicted solid
+    fraction reaches the goal; the goal is corrected by the measured minus predicted solid
+    for up to six rounds, and the prefix closest to the target is kept.
+    """
+    t0 = time.perf_counter()
     target_solid = 1.0 - gs.porosity
     probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
     mean_area = float(np.mean(_areas(probe)))
