@@ -35,7 +35,8 @@ def sobol_indices(s: Surrogate, n: int = 1024, seed: int = 0) -> pd.DataFrame:
     """Sobol S1, ST and their 95 % confidence half-widths per parameter.
 
     ``n`` is the base sample size (a power of two); the surrogate is evaluated
-    ``n * (2 d + 2)`` times. For log outputs the indices are of ``log10(output)``.
+    ``n * (2 d + 2)`` times. For log outputs the indices are of ``log10(output)``. The same
+    ``seed`` gives the same indices and intervals (the sample and SALib's bootstrap).
     """
     from SALib.analyze import sobol
     from SALib.sample import sobol as sobol_sample
@@ -43,7 +44,9 @@ def sobol_indices(s: Surrogate, n: int = 1024, seed: int = 0) -> pd.DataFrame:
     prob = _problem(s)
     u = sobol_sample.sample(prob, n, calc_second_order=True, seed=seed)
     y = _model_output(s, _unscale(s, u))
-    r = sobol.analyze(prob, y, calc_second_order=True, seed=seed)
+    # SALib seeds its bootstrap only for a truthy seed (`if seed:`): seed 0 would leave the
+    # confidence intervals to numpy's unseeded generator, different on every run
+    r = sobol.analyze(prob, y, calc_second_order=True, seed=seed + 1)
     return pd.DataFrame(
         {
             "parameter": s.params,
