@@ -200,9 +200,6 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
 def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
     its relative uncertainty), fitted here from the finished cases."""
-    import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
-
     from psdesign.analysis.sensitivity import sobol_indices
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
@@ -223,117 +220,127 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     order = num
     if len(num) >= 2:
         sob = sobol_indices(s, n=256)
-        fig = go.Figure(
-            [
-                go.Bar(
-                    x=sob["parameter"],
-                    y=sob["S1"],
-                    name="first order S1",
-                    error_y={"type": "data", "array": sob["S1_conf"]},
-                ),
-                go.Bar(
-                    x=sob["parameter"],
-                    y=sob["ST"],
-                    name="total ST",
-                    error_y={"type": "data", "array": sob["ST_conf"]},
-                ),
-            ]
-        )
-        fig.update_layout(
-            title=f"Sobol indices of log10 {c} (95 % CI)",
-            barmode="group",
-            height=360,
-            yaxis_range=[0, 1.05],
-            margin={"l": 60, "r": 10, "t": 40, "b": 50},
-        )
-        parts.append(figure_html(fig, "psd-sobol"))
+        parts.append(figure_html(_sobol_figure(sob, c), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
-    a = order[0]
-    b = order[1] if len(order) > 1 else None
-    mid = [(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)]
-    ga = np.linspace(s.low[num.index(a)], s.high[num.index(a)], 30)
-    if b is None:
-        x = np.tile(mid, (len(ga), 1))
-        x[:, num.index(a)] = ga
-        m, sd = s.predict(x)
-        fig = go.Figure(
-            [
-                go.Scatter(x=ga, y=m + 2 * sd, line={"width": 0}, showlegend=False),
-                go.Scatter(
-                    x=ga,
-                    y=np.maximum(m - 2 * sd, m * 1e-3),
-                    fill="tonexty",
-                    line={"width": 0},
-                    name="+-2 std",
-                ),
-                go.Scatter(x=ga, y=m, name="GP mean"),
-                go.Scatter(x=ok[a], y=ok[c], mode="markers", name="cases"),
-            ]
-        )
-        fig.update_layout(
-            title=f"Surrogate of {c} vs {a}",
-            height=380,
-            xaxis_title=a,
-            yaxis_title="K (m²)",
-            yaxis_type="log",
-            yaxis_exponentformat="e",
-        )
+    if len(order) == 1:
+        fig = _surface_1d(s, ok, num, order[0], c)
         parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
     else:
-        gb = np.linspace(s.low[num.index(b)], s.high[num.index(b)], 30)
-        A, B = np.meshgrid(ga, gb)
-        x = np.tile(mid, (A.size, 1))
-        x[:, num.index(a)], x[:, num.index(b)] = A.ravel(), B.ravel()
-        m, sd = s.predict(x)
-        fig = make_subplots(
-            rows=1,
-            cols=2,
-            subplot_titles=(f"log10 {c} (GP mean)", "relative uncertainty (std / mean)"),
-        )
-        fig.add_trace(
-            go.Contour(
-                x=ga,
-                y=gb,
-                z=np.log10(m).reshape(A.shape),
-                colorbar={"x": 0.43, "len": 0.9, "thickness": 12},
-            ),
-            1,
-            1,
-        )
-        fig.add_trace(
-            go.Contour(
-                x=ga,
-                y=gb,
-                z=(sd / m).reshape(A.shape),
-                colorscale="Greys",
-                colorbar={"len": 0.9, "thickness": 12},
-            ),
-            1,
-            2,
-        )
-        for col in (1, 2):
-            fig.add_trace(
-                go.Scatter(
-                    x=ok[a],
-                    y=ok[b],
-                    mode="markers",
-                    showlegend=False,
-                    marker={"color": "red", "size": 6},
-                ),
-                1,
-                col,
-            )
-        fig.update_layout(
-            title="Response surface (others at mid-range)",
-            height=420,
-            xaxis_title=a,
-            yaxis_title=b,
-            xaxis2_title=a,
-        )
-        parts.append(figure_html(fig, "psd-surface"))
+        parts.append(figure_html(_surface_2d(s, ok, num, order[:2], c), "psd-surface"))
     return (
         parts[0]
         + '<div class="psd-grid">'
         + "".join(f"<div>{x}</div>" for x in parts[1:])
         + "</div>"
     )
+
+
+def _sobol_figure(sob: pd.DataFrame, c: str):
+    """Grouped bars of the first-order and total Sobol indices with their 95 % intervals."""
+    import plotly.graph_objects as go
+
+    bars = [
+        go.Bar(
+            x=sob["parameter"],
+            y=sob[col],
+            name=name,
+            error_y={"type": "data", "array": sob[f"{col}_conf"]},
+        )
+        for col, name in (("S1", "first order S1"), ("ST", "total ST"))
+    ]
+    fig = go.Figure(bars)
+    fig.update_layout(
+        title=f"Sobol indices of log10 {c} (95 % CI)",
+        barmode="group",
+        height=360,
+        yaxis_range=[0, 1.05],
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
+
+
+def _axis_grid(s, num: list[str], name: str) -> np.ndarray:
+    return np.linspace(s.low[num.index(name)], s.high[num.index(name)], 30)
+
+
+def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
+    """GP mean of K along the one parameter, +-2 std band, and the cases."""
+    import plotly.graph_objects as go
+
+    ga = _axis_grid(s, num, a)
+    x = np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (len(ga), 1))
+    x[:, num.index(a)] = ga
+    m, sd = s.predict(x)
+    fig = go.Figure(
+        [
+            go.Scatter(x=ga, y=m + 2 * sd, line={"width": 0}, showlegend=False),
+            go.Scatter(
+                x=ga,
+                y=np.maximum(m - 2 * sd, m * 1e-3),
+                fill="tonexty",
+                line={"width": 0},
+                name="+-2 std",
+            ),
+            go.Scatter(x=ga, y=m, name="GP mean"),
+            go.Scatter(x=ok[a], y=ok[c], mode="markers", name="cases"),
+        ]
+    )
+    fig.update_layout(
+        title=f"Surrogate of {c} vs {a}",
+        height=380,
+        xaxis_title=a,
+        yaxis_title="K (m²)",
+        yaxis_type="log",
+        yaxis_exponentformat="e",
+    )
+    return fig
+
+
+def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
+    """Contours of log10 K (GP mean) and of std / mean over two parameters, the others at
+    mid-range, with the cases marked."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    a, b = pair
+    ga, gb = _axis_grid(s, num, a), _axis_grid(s, num, b)
+    A, B = np.meshgrid(ga, gb)
+    x = np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (A.size, 1))
+    x[:, num.index(a)], x[:, num.index(b)] = A.ravel(), B.ravel()
+    m, sd = s.predict(x)
+    fig = make_subplots(
+        rows=1,
+        cols=2,
+        subplot_titles=(f"log10 {c} (GP mean)", "relative uncertainty (std / mean)"),
+    )
+    bar = {"len": 0.9, "thickness": 12}
+    fig.add_trace(
+        go.Contour(x=ga, y=gb, z=np.log10(m).reshape(A.shape), colorbar={"x": 0.43, **bar}),
+        1,
+        1,
+    )
+    fig.add_trace(
+        go.Contour(x=ga, y=gb, z=(sd / m).reshape(A.shape), colorscale="Greys", colorbar=bar),
+        1,
+        2,
+    )
+    for col in (1, 2):
+        fig.add_trace(
+            go.Scatter(
+                x=ok[a],
+                y=ok[b],
+                mode="markers",
+                showlegend=False,
+                marker={"color": "red", "size": 6},
+            ),
+            1,
+            col,
+        )
+    fig.update_layout(
+        title="Response surface (others at mid-range)",
+        height=420,
+        xaxis_title=a,
+        yaxis_title=b,
+        xaxis2_title=a,
+    )
+    return fig
