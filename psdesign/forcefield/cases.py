@@ -433,86 +433,8 @@ def six_fiber_problem(
     if weave_sign not in (-1, 1):
         raise ValueError(f"weave_sign must be -1 or 1, got {weave_sign}")
     t0 = SIX_TRANSLATIONS[0, :2]
-
-    def tie(name: str, var: str, a: float = 1.0, b: float = 0.0) -> Tie:
-        return Tie(name, var, a, b, init[name] - rng[name], init[name] + rng[name])
-
-    param = Parametrization(
-        free=("mu1", "mu3", "mu4", "kappa1", "u1", "tx", "ty"),
-        ties=(
-            tie("mu1", "mu1"),
-            tie("mu2", "mu1", b=-1.0),
-            tie("mu3", "mu3"),
-            tie("mu4", "mu4"),
-            tie("mu5", "mu4"),
-            tie("kappa1", "kappa1"),
-            tie("kappa2", "kappa1"),
-            tie("kappa3", "kappa1", a=3.0),
-            tie("kappa4", "kappa1"),
-            tie("kappa5", "kappa1"),
-            tie("f", "kappa1", a=1.5),
-            tie("u1", "u1"),
-            tie("u2", "u1", a=-1.0),
-            Tie("tx", "tx", low=t0[0] - t_range, high=t0[0] + t_range),
-            Tie("ty", "ty", low=t0[1] - t_range, high=t0[1] + t_range),
-        ),
-    )
-    spacing = WOVEN_SPACING
-    shift = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # t_x = 0.45 -> layer at z = 1/2
-    t_ref = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # translation of the shared shapes
-
-    def build(p: dict, margin: float) -> list[PSField]:
-        if p["f"] <= 0:
-            raise ValueError(f"f must be positive, got {p['f']}")
-        lat, out_half = woven_half_widths(p, isovalue)
-        amp = abs(p["u1"]) / (2 * np.pi * p["kappa1"])
-        out = []
-        bases = {u: _woven_base(p, u) for u in (p["u1"], p["u2"], -p["u1"], -p["u2"])}
-        # every fiber is a rigid copy of the fiber along x at t_ref with the same u: its
-        # tube quadrature is computed once per u (SharedTube, tube.shared_fiber_sample)
-        period = 1.0 / p["kappa2"]
-        rad = 1.5 * float(np.hypot(lat, out_half + amp) + margin)
-        lat_ref = 1.0 - (t_ref[1] + 0.5 / p["kappa2"])
-        out_ref = t_ref[0] + 0.5 / p["kappa1"] - shift[0]
-        box_ref = _axis_box(0, lat_ref, lat + margin, out_ref, out_half + amp + margin)
-        local = {
-            u: PSField(_place_translated(b, t_ref, R_ALONG_X, shift), isovalue, box_ref)
-            for u, b in bases.items()
-        }
-        sets = (
-            (R_ALONG_X, SIX_TRANSLATIONS, 0),
-            (R_ALONG_Y, np.array([[p["tx"], p["ty"] + i * spacing, 0.0] for i in range(3)]), 1),
-        )
-        n = 0
-        for R, trans, axis in sets:
-            for t in trans:
-                u = p["u1"] if n % 2 == 0 else p["u2"]
-                if n >= 3:
-                    u = -weave_sign * u  # n = 3, 4, 5 -> weave_sign * (u1, u2, u1)
-                n += 1
-                model = _place_translated(bases[u], t, R, shift)
-                yc = t[1] + 0.5 / p["kappa2"]  # canonical lateral centre
-                lat_c = 1.0 - yc if axis == 0 else yc
-                out_c = t[0] + 0.5 / p["kappa1"] - shift[0]
-                Q = Q_Y_FROM_X if axis == 1 else np.eye(3)
-                offset = CENTRE - Q @ CENTRE + R @ (t - t_ref)
-                sign = 1.0 if axis == 0 else -1.0  # local copy index of world copy k
-                tubes, shared, los, his = [], [], [], []
-                for k in (-1, 0, 1):  # lateral periodic copies that enter the cube
-                    lc = lat_c + k * period
-                    if lc + lat + margin <= 0.0 or lc - lat - margin >= 1.0:
-                        continue
-                    lo, hi = _axis_box(axis, lc, lat + margin, out_c, out_half + amp + margin)
-                    los.append(lo)
-                    his.append(hi)
-                    point = np.full(3, 0.5)
-                    point[1 - axis], point[2] = lc, out_c
-                    tubes.append(Tube(point, axis, rad))
-                    loc = Tube(np.array([0.5, lat_ref + sign * k * period, out_ref]), 0, rad)
-                    shared.append(SharedTube(local[u], loc, Q, offset))
-                box = (np.min(los, axis=0), np.max(his, axis=0))
-                out.append(PSField(model, isovalue, box, tubes=tuple(tubes), shared=tuple(shared)))
-        return out
+    param = _six_fiber_parametrization(init, rng, t_range)
+    build = _SixFiberBuild(isovalue, weave_sign)
 
     start = {k: v for k, v in init.items()}
     start.update(tx=float(t0[0]), ty=float(t0[1]))
@@ -535,3 +457,128 @@ def six_fiber_problem(
         f"3 kappa1 = {start['kappa3']:.4g}, 1.5 kappa1 = {start['f']:.4g}"
     ] + prob.notes
     return prob
+
+
+def _six_fiber_parametrization(init: dict, rng: dict, t_range: float) -> Parametrization:
+    """Sec. 6.2's seven free variables and the ties of the other Table II parameters."""
+    t0 = SIX_TRANSLATIONS[0, :2]
+
+    def tie(name: str, var: str, a: float = 1.0, b: float = 0.0) -> Tie:
+        return Tie(name, var, a, b, init[name] - rng[name], init[name] + rng[name])
+
+    return Parametrization(
+        free=("mu1", "mu3", "mu4", "kappa1", "u1", "tx", "ty"),
+        ties=(
+            tie("mu1", "mu1"),
+            tie("mu2", "mu1", b=-1.0),
+            tie("mu3", "mu3"),
+            tie("mu4", "mu4"),
+            tie("mu5", "mu4"),
+            tie("kappa1", "kappa1"),
+            tie("kappa2", "kappa1"),
+            tie("kappa3", "kappa1", a=3.0),
+            tie("kappa4", "kappa1"),
+            tie("kappa5", "kappa1"),
+            tie("f", "kappa1", a=1.5),
+            tie("u1", "u1"),
+            tie("u2", "u1", a=-1.0),
+            Tie("tx", "tx", low=t0[0] - t_range, high=t0[0] + t_range),
+            Tie("ty", "ty", low=t0[1] - t_range, high=t0[1] + t_range),
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class _SixFiberBuild:
+    """``build(params, margin) -> list[PSField]`` of the six-fiber problem.
+
+    Every fiber is a rigid copy of the fiber along x at ``T_REF`` with the same u: its tube
+    quadrature is computed once per u (SharedTube, tube.shared_fiber_sample).
+    """
+
+    isovalue: float
+    weave_sign: int
+
+    SHIFT = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # t_x = 0.45 -> layer at z = 1/2
+    T_REF = np.array([SIX_TRANSLATIONS[0, 0], 0.0, 0.0])  # translation of the shared shapes
+
+    def __call__(self, p: dict, margin: float) -> list[PSField]:
+        if p["f"] <= 0:
+            raise ValueError(f"f must be positive, got {p['f']}")
+        lat, out_half = woven_half_widths(p, self.isovalue)
+        amp = abs(p["u1"]) / (2 * np.pi * p["kappa1"])
+        geo = _SixGeometry(
+            lat=lat,
+            out=out_half + amp,
+            margin=margin,
+            period=1.0 / p["kappa2"],
+            rad=1.5 * float(np.hypot(lat, out_half + amp) + margin),
+            lat_ref=1.0 - (self.T_REF[1] + 0.5 / p["kappa2"]),
+            out_ref=self.T_REF[0] + 0.5 / p["kappa1"] - self.SHIFT[0],
+        )
+        bases = {u: _woven_base(p, u) for u in (p["u1"], p["u2"], -p["u1"], -p["u2"])}
+        box_ref = _axis_box(0, geo.lat_ref, lat + margin, geo.out_ref, geo.out + margin)
+        local = {
+            u: PSField(
+                _place_translated(b, self.T_REF, R_ALONG_X, self.SHIFT), self.isovalue, box_ref
+            )
+            for u, b in bases.items()
+        }
+        sets = (
+            (R_ALONG_X, SIX_TRANSLATIONS, 0),
+            (
+                R_ALONG_Y,
+                np.array([[p["tx"], p["ty"] + i * WOVEN_SPACING, 0.0] for i in range(3)]),
+                1,
+            ),
+        )
+        out, n = [], 0
+        for R, trans, axis in sets:
+            for t in trans:
+                u = p["u1"] if n % 2 == 0 else p["u2"]
+                if n >= 3:
+                    u = -self.weave_sign * u  # n = 3, 4, 5 -> weave_sign * (u1, u2, u1)
+                n += 1
+                model = _place_translated(bases[u], t, R, self.SHIFT)
+                out.append(self._fiber(model, local[u], t, R, axis, p, geo))
+        return out
+
+    def _fiber(self, model, local: PSField, t, R, axis: int, p: dict, geo) -> PSField:
+        """One fiber's field with its lateral periodic copies that enter the cube."""
+        yc = t[1] + 0.5 / p["kappa2"]  # canonical lateral centre
+        lat_c = 1.0 - yc if axis == 0 else yc
+        out_c = t[0] + 0.5 / p["kappa1"] - self.SHIFT[0]
+        Q = Q_Y_FROM_X if axis == 1 else np.eye(3)
+        offset = CENTRE - Q @ CENTRE + R @ (t - self.T_REF)
+        sign = 1.0 if axis == 0 else -1.0  # local copy index of world copy k
+        tubes, shared, los, his = [], [], [], []
+        for k in (-1, 0, 1):
+            lc = lat_c + k * geo.period
+            if lc + geo.lat + geo.margin <= 0.0 or lc - geo.lat - geo.margin >= 1.0:
+                continue
+            lo, hi = _axis_box(axis, lc, geo.lat + geo.margin, out_c, geo.out + geo.margin)
+            los.append(lo)
+            his.append(hi)
+            point = np.full(3, 0.5)
+            point[1 - axis], point[2] = lc, out_c
+            tubes.append(Tube(point, axis, geo.rad))
+            loc = Tube(
+                np.array([0.5, geo.lat_ref + sign * k * geo.period, geo.out_ref]), 0, geo.rad
+            )
+            shared.append(SharedTube(local, loc, Q, offset))
+        box = (np.min(los, axis=0), np.max(his, axis=0))
+        return PSField(model, self.isovalue, box, tubes=tuple(tubes), shared=tuple(shared))
+
+
+@dataclass(frozen=True)
+class _SixGeometry:
+    """Sizes of one six-fiber build (unit cube): half-widths lateral / out of plane (with the
+    bend amplitude), margin, lateral period, tube radius, and the shared fiber's centre."""
+
+    lat: float
+    out: float
+    margin: float
+    period: float
+    rad: float
+    lat_ref: float
+    out_ref: float
