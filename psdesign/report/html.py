@@ -357,6 +357,63 @@ def build_html(out_dir: str | Path) -> str:
         c for c in df.columns if "." in c and not c.startswith("result.")
     ]
     name = study.get("name", out.name)
+    meta = _meta_table(df, study, runs, params, name)
+
+    perm_uri, perm_note = _perm_figure(df, study)
+    perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
+
+    sens = sensitivity_table(df, params)
+    sens_html = (
+        _table(sens)
+        if len(sens)
+        else '<p class="note">Not enough varying numeric parameters or results.</p>'
+    )
+    me_html = ""
+    if study.get("design") == "full-factorial":
+        me = main_effects(df, params)
+        if len(me):
+            me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
+
+    conv_table, conv_uri, n_flag = _convergence(df)
+    conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
+
+    row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
+    results_html = _table(df, row_cls)
+
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>psdesign study report: {_esc(name)}</title>
+<style>{CSS}{INTERACTIVE_CSS}</style>
+{head_scripts()}</head><body>
+<h1>Study report: {_esc(name)}</h1>
+<h2>Study</h2><table class="meta">{meta}</table>
+{unit_selector()}
+<h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
+x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
+<h2>Outputs vs design parameters</h2>
+<p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
+(summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
+{_safe(parameter_plots, df, params)}
+<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params)}
+<h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
+<h2>Sensitivity</h2>
+<p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
+least squares on standardized variables) of each numeric parameter against porosity and
+log10 K, over cases with status ok.</p>{sens_html}{me_html}
+<h2>Sample RVEs</h2>{_previews(df, out, params)}
+{_field_pictures(df, out, params)}
+<h2>Solver convergence</h2>
+<p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged
+or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>
+{conv_fig}{conv_table}
+<h2>Results</h2>{results_html}
+<h2>References</h2>{_references()}
+</body></html>
+"""
+
+
+def _meta_table(df: pd.DataFrame, study: dict, runs: dict, params: list[str], name: str) -> str:
+    """The study's description, status counts, runs, machine and versions as table rows."""
     counts = df["status"].value_counts().to_dict() if "status" in df else {}
     run_list = runs.get("runs", [])
     last = run_list[-1] if run_list else {}
@@ -388,30 +445,12 @@ def build_html(out_dir: str | Path) -> str:
         ("versions", ", ".join(f"{k} {v}" for k, v in _versions().items())),
         ("report written", _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")),
     ]
-    meta = "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in meta_rows)
+    return "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in meta_rows)
 
-    perm_uri, perm_note = _perm_figure(df, study)
-    perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
 
-    sens = sensitivity_table(df, params)
-    sens_html = (
-        _table(sens)
-        if len(sens)
-        else '<p class="note">Not enough varying numeric parameters or results.</p>'
-    )
-    me_html = ""
-    if study.get("design") == "full-factorial":
-        me = main_effects(df, params)
-        if len(me):
-            me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
-
-    conv_table, conv_uri, n_flag = _convergence(df)
-    conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
-
-    row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
-    results_html = _table(df, row_cls)
-
-    refs = (
+def _references() -> str:
+    """The published models and data the report's curves and lines come from."""
+    return (
         "<ol>"
         "<li>Tomadakis-Sotirchos: M. M. Tomadakis, S. V. Sotirchos, Ordinary and transition "
         "regime diffusion in random fiber structures, AIChE J. 39 (1993) 397-412; "
@@ -429,37 +468,6 @@ def build_html(out_dir: str | Path) -> str:
         "Sources 162 (2006) 228-238 (Toray 090 through-plane 8.3e-12 m^2).</li>"
         "</ol>"
     )
-
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8">
-<title>psdesign study report: {_esc(name)}</title>
-<style>{CSS}{INTERACTIVE_CSS}</style>
-{head_scripts()}</head><body>
-<h1>Study report: {_esc(name)}</h1>
-<h2>Study</h2><table class="meta">{meta}</table>
-{unit_selector()}
-<h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
-x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
-<h2>Outputs vs design parameters</h2>
-<p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
-(summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
-{_safe(parameter_plots, df, params)}
-<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params)}
-<h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
-<h2>Sensitivity</h2>
-<p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
-least squares on standardized variables) of each numeric parameter against porosity and
-log10 K, over cases with status ok.</p>{sens_html}{me_html}
-<h2>Sample RVEs</h2>{_previews(df, out, params)}
-{_field_pictures(df, out, params)}
-<h2>Solver convergence</h2>
-<p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged
-or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g}.</p>
-{conv_fig}{conv_table}
-<h2>Results</h2>{results_html}
-<h2>References</h2>{refs}
-</body></html>
-"""
 
 
 def write_report(out_dir: str | Path) -> Path:
