@@ -318,13 +318,6 @@ def _check_drive(p_inlet, p_outlet, element):
         raise ValueError(f"element must be one of {ELEMENTS}, got {element!r}")
 
 
-def _check_solver(amg, krylov):
-    if amg not in ("sa", "rs"):
-        raise ValueError(f"amg must be 'sa' or 'rs', got {amg!r}")
-    if krylov not in KRYLOV:
-        raise ValueError(f"krylov must be one of {KRYLOV}, got {krylov!r}")
-
-
 def _check_memory(n_points, n_tets, element, max_memory_gb, force) -> float:
     """The up-front memory estimate (GB); :class:`MemoryLimitError` above the limit."""
     est = estimate_memory_gb(n_points, n_tets, element)
@@ -451,19 +444,43 @@ def _assemble_pressure_driven(mesh, inlet_facets, outlet_facets, pin, pout, free
     return SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0), b
 
 
-def _solve_system(system, b, *, tol, max_iter, direct_max_dofs, amg, krylov, progress):
+@dataclass(frozen=True)
+class _SolverOptions:
+    """How the linear system is solved (the keywords of both solvers; checked on creation)."""
+
+    tol: float
+    max_iter: int
+    direct_max_dofs: int
+    amg: str
+    krylov: str
+    progress: Callable[[int, float], None] | None
+
+    def __post_init__(self) -> None:
+        if self.amg not in ("sa", "rs"):
+            raise ValueError(f"amg must be 'sa' or 'rs', got {self.amg!r}")
+        if self.krylov not in KRYLOV:
+            raise ValueError(f"krylov must be one of {KRYLOV}, got {self.krylov!r}")
+
+
+def _solve_system(system, b, opts: _SolverOptions):
     """Sparse LU for small systems, else the preconditioned Krylov solver.
 
     Returns ``(info, wall seconds, CPU seconds)``.
     """
     t0 = time.perf_counter()
     c0 = time.process_time()
-    if system.n <= direct_max_dofs:
-        info = solve_direct(system, b, tol)
+    if system.n <= opts.direct_max_dofs:
+        info = solve_direct(system, b, opts.tol)
     else:
         with single_thread_blas():  # short vectors: BLAS threads cost
             info = solve_iterative(
-                system, b, tol=tol, max_iter=max_iter, amg=amg, krylov=krylov, callback=progress
+                system,
+                b,
+                tol=opts.tol,
+                max_iter=opts.max_iter,
+                amg=opts.amg,
+                krylov=opts.krylov,
+                callback=opts.progress,
             )
     return info, time.perf_counter() - t0, time.process_time() - c0
 
@@ -589,7 +606,7 @@ def solve_stokes(
     points, tets = _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter)
     tags, noslip, slip = _check_tags(facet_tags, len(points), inlet, outlet, noslip, slip)
     _check_drive(p_inlet, p_outlet, element)
-    _check_solver(amg, krylov)
+    solver = _SolverOptions(tol, max_iter, direct_max_dofs, amg, krylov, progress)
     est = _check_memory(len(points), len(tets), element, max_memory_gb, force)
 
     keep, used, old2new = _connected_part(len(points), tets, tags, inlet, outlet)
@@ -609,16 +626,7 @@ def solve_stokes(
         mesh, tag_facets[inlet], tag_facets[outlet], p_inlet / p_scale, p_outlet / p_scale, free
     )
     t_asm = time.perf_counter() - t0
-    info, t_solve, c_solve = _solve_system(
-        system,
-        b,
-        tol=tol,
-        max_iter=max_iter,
-        direct_max_dofs=direct_max_dofs,
-        amg=amg,
-        krylov=krylov,
-        progress=progress,
-    )
+    info, t_solve, c_solve = _solve_system(system, b, solver)
     del system
 
     t0 = time.perf_counter()
@@ -731,7 +739,7 @@ def solve_stokes_periodic(
         )
     if axis not in periodic_axes:
         raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
-    _check_solver(amg, krylov)
+    solver = _SolverOptions(tol, max_iter, direct_max_dofs, amg, krylov, progress)
     slip = _as_names(slip, "slip")
     tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in (facet_tags or {}).items()}
     for n in slip:
@@ -751,16 +759,7 @@ def solve_stokes_periodic(
     t0 = time.perf_counter()
     system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis)
     t_asm = time.perf_counter() - t0
-    info, t_solve, c_solve = _solve_system(
-        system,
-        b,
-        tol=tol,
-        max_iter=max_iter,
-        direct_max_dofs=direct_max_dofs,
-        amg=amg,
-        krylov=krylov,
-        progress=progress,
-    )
+    info, t_solve, c_solve = _solve_system(system, b, solver)
     del system
 
     t0 = time.perf_counter()
