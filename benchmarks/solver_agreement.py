@@ -644,9 +644,10 @@ def run_hexwindow(args) -> None:
         path = _hex_cache(phi, n, cells)
         if path.exists() and not args.force:
             continue
-        t0 = time.perf_counter()
+        t0, load = time.perf_counter(), _load()
         rec = solve("hex", "across", phi, n, "permeameter", cells)
         rec |= {"phi": phi, "n": n, "cells": cells, "wall_s": time.perf_counter() - t0}
+        rec |= {"load_1min": load, "load_1min_end": _load()}
         rec["perm_vs_periodic"] = rec["k"] / rec["k_periodic"] - 1
         _write_cache(path, rec)
 
@@ -668,7 +669,9 @@ def render_hexwindow() -> list[str]:
             f"{_pct(r['perm_vs_periodic'])} | {_pct(r['k_periodic'] / r['exact'] - 1)} | "
             f"{100 * r['bar']:.2f} % |"
         )
-    return lines
+    recs = [json.loads(_hex_cache(*k).read_text()) for k in HEX_WINDOW if _hex_cache(*k).exists()]
+    blocks = solve_blocks([r | {"route": "voxel"} for r in recs], key="route")
+    return [*lines, "", "Solved (UTC): " + "; ".join(blocks) + "."]
 
 
 # ------------------------------------------------------------------------------- render
@@ -754,6 +757,30 @@ def _verdict(fem: dict, vox: dict) -> tuple[str, str, str]:
     return _pct(d), f"{100 * bars:.1f} %", verdict
 
 
+def _when(r: dict) -> str:
+    """When a row was solved (a reused row: when its source was), or '-'."""
+    return r.get("date", "-") if r and ("k_m2" in r or "error" in r) else "-"
+
+
+def _load_range(rows: list[dict]) -> str:
+    """Range of the 1-minute load averages recorded at the start and end of ``rows``."""
+    x = [r[k] for r in rows for k in ("load_1min", "load_1min_end") if r.get(k) is not None]
+    return f"{min(x):.1f}-{max(x):.1f}" if x else "not recorded"
+
+
+def solve_blocks(rows: list[dict], key: str = "solver") -> list[str]:
+    """One line per (``key``, day) block of solved rows: time span, row count, load range."""
+    blocks: dict = {}
+    for r in rows:
+        if "date" in r and "reused_from" not in r:
+            blocks.setdefault((str(r.get(key)), r["date"][:10]), []).append(r)
+    out = []
+    for (k, day), rs in sorted(blocks.items()):
+        t = sorted(r["date"][11:] for r in rs)
+        out.append(f"{k} {day} {t[0]}-{t[-1]} ({len(rs)} rows, load {_load_range(rs)} on 2 cores)")
+    return out
+
+
 def _copies(r: dict) -> str:
     """The permeameter definition a row used: copies of the RVE between the reservoirs."""
     if not r or "k_m2" not in r:
@@ -766,8 +793,9 @@ def render_specs() -> list[str]:
     builds, solves = _spec_rows()
     lines = [
         "| spec | case | box (um) / voxel (um) / voxels per d | changed (why) | bc | K FEM (m^2) "
-        "| FEM bar | K voxel (m^2) | voxel bar | FEM / voxel - 1 | combined bar | verdict |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| FEM bar | K voxel (m^2) | voxel bar | FEM / voxel - 1 | combined bar | verdict | "
+        "solved (UTC) FEM / voxel |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     counts = {"agree (<= 2 %)": 0, "inside combined bar": 0, "**outside combined bar**": 0}
     copied = 0  #: rows with both K that repeat another spec's solve (same RVE and [flow])
@@ -812,7 +840,7 @@ def render_specs() -> list[str]:
             bc_cell = bc if bc == "periodic" else f"{bc} ({_copies(fem)} / {_copies(vox)})"
             lines.append(
                 f"| {spec} | {case} | {geo} | {changed} | {bc_cell} | {kf} | {bf} | {kv} | {bv} | "
-                f"{diff} | {bars} | {verdict} |"
+                f"{diff} | {bars} | {verdict} | {_when(fem)} / {_when(vox)} |"
             )
     lines += [
         "",
@@ -820,6 +848,11 @@ def render_specs() -> list[str]:
         + ", ".join(f"{v} {k.strip('*')}" for k, v in counts.items() if not k.startswith("n/a"))
         + f" ({copied} of them repeat another spec's solve: same RVE and [flow])"
         + ". 'not run' = not solved in the sessions' machine time (load 6-38 on 2 cores).",
+        "",
+        "Solved (UTC, by route and day; reused rows not counted): "
+        + "; ".join(solve_blocks(list(solves.values())))
+        + ". "
+        + RESOLVED_NOTE,
     ]
     return lines
 
@@ -863,6 +896,26 @@ PERMEAMETER_NOTE = (
 )
 
 
+#: Which rows were solved again after the sub-voxel fix, and why (session 17, agree17).
+RESOLVED_NOTE = (
+    "The voxel rows solved before 6fe9f8d (2026-12-01 21:05 UTC, 'voxel sub-voxel walls: release "
+    "a cut cell with a single weighted face', a voxel-route change: the FEM rows are not "
+    "touched) were solved again on 2026-12-03 by agree17 (one thread, `nice -n 19`; `python "
+    "benchmarks/solver_agreement.py specs --only S --bc B --solvers voxel --force`): every "
+    "periodic voxel row and the stacked voxel rows of fig15_bent, fig17_beta_z, "
+    "fig18_exponential, rev_toray and table3/bent; the specs sharing table3's RVE reuse its "
+    "new periodic solve. The other voxel rows (stacked, 2026-12-02 and 2026-12-03) were "
+    "solved on trees that contain 6fe9f8d (git ancestry of their cache commits). The voxel K "
+    "rose by 0.10-0.26 % on the random specs (0.01 % on three_rods, 0.00 % on "
+    "validation_cylinders); one verdict changed: rev_toray stacked, -1.91 % -> **-2.08 %**, now "
+    "inside the combined bar (32.9 %) rather than within 2 % (one copy: not periodic along z; "
+    "entrance/exit residual 13 %, in the FEM bar). Its FEM row is current: solved again as a "
+    "probe (`... probe studies/rev_toray.toml --solver fem --voxel 8.333333333333333e-07`, "
+    "2026-12-03 11:13-11:15 UTC, load 4.3-4.6, 52 s CPU) it gives 5.9823e-12 again (same 166 697 "
+    "tets, same bar 16.3 %)."
+)
+
+
 def _spec_loads() -> str:
     loads = [
         x
@@ -875,10 +928,9 @@ def _spec_loads() -> str:
 
 def render(_args=None) -> None:
     rows = [json.loads(s) for s in RUNS.read_text().splitlines() if s.strip()]
-    arrays = [r for r in rows if r["part"] == "arrays"]
-    loads = [r["load_1min"] for r in arrays if "load_1min" in r]
-    load = f"{min(loads):.1f}-{max(loads):.1f}" if loads else "?"
-    dates = sorted(r["date"] for r in arrays)
+    arrays = _latest(
+        [r for r in rows if r["part"] == "arrays"], lambda r: (r["case"], r["phi"], r["solver"])
+    )
     text = [
         "# Solver agreement: FEM vs voxel on the same RVE and boundary condition",
         "",
@@ -895,9 +947,12 @@ def render(_args=None) -> None:
         "",
         "## Cylinder arrays at default settings (bc = periodic)",
         "",
-        f"Run {dates[0] if dates else '?'} to {dates[-1] if dates else '?'} (machine load "
-        f"average {load} on 2 cores); periodic rows, so the later permeameter changes do not "
-        "touch them. One cell of spacing 40 um as a thin periodic slab (4 voxels thick; both "
+        "Solved (UTC): " + "; ".join(solve_blocks(list(arrays.values()))) + ". Periodic rows, "
+        "so the later permeameter changes do not touch them; the voxel rows were solved again "
+        "after the sub-voxel fix 6fe9f8d (2026-12-01 21:05 UTC), which moved them (`python "
+        "benchmarks/solver_agreement.py arrays --solvers voxel`, one thread, `nice -n 19`; "
+        "the FEM rows are the first run's). One cell of spacing 40 um as a thin periodic slab "
+        "(4 voxels thick; both "
         "flows are two-dimensional), cylinders along z; 'along' = flow along z, 'across' = "
         "along x. Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
         "settings: FEM lattice step `max(2 voxel, min(min(size) / 30, D / 3))` = 2 voxels (the "
@@ -1070,9 +1125,12 @@ QUICKSTART = (
 #: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7); re-run at the fiber-relative
 #: default step (session 7).
 FIG15 = (
-    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -1.30 %** "
-    "at the fiber-relative default lattice step (K FEM 4.0258e-11, voxel 4.0789e-11; FEM bar "
-    "3.7 %). The default step is now `max(2 voxel, min(min(size) / 30, D / 3))` "
+    "**fig15_bent, permeameter (one copy: not periodic along z): FEM / voxel - 1 = -1.40 %** "
+    "at the fiber-relative default lattice step (K FEM 4.0258e-11, voxel 4.0831e-11; FEM bar "
+    "3.7 %; the voxel K solved again after the sub-voxel fix 6fe9f8d, 2026-12-03 11:02 UTC, "
+    "agree17; before it 4.0789e-11, -1.30 %; the figures below up to 'Every other' are "
+    "against that earlier voxel K). The default step is now "
+    "`max(2 voxel, min(min(size) / 30, D / 3))` "
     "(`psdesign.meshing.options.default_lattice_step`), 2.33 um here: 528 315 tets, 2.4 cells "
     "per D, 208 s user, 3.51 GiB max RSS, 11:06 wall at load 5.7-8.8 (2026-12-02 04:22-04:33 "
     "UTC; `python benchmarks/solver_agreement.py specs --only fig15_bent --bc "
@@ -1082,9 +1140,11 @@ FIG15 = (
     "4.0197e-11, -1.45 % (session 4, 431 231 tets, 138 s CPU, 2.9 GB). The same generator "
     "family in a 50 um box (table3, bent rows: 1.67 um step, 3.4 cells per D) agrees within "
     "0.6 %. The two other rows whose step the new rule changes (100 um, D = 7 um) were re-run "
-    "the same way: fig17_beta_z -0.26 % (K FEM 2.5319e-11, 524 563 tets, bar 6.5 %, status "
+    "the same way: fig17_beta_z -0.26 % (-0.36 % against the voxel K after 6fe9f8d; K FEM "
+    "2.5319e-11, 524 563 tets, bar 6.5 %, status "
     "ok; at 3.33 um -0.18 %, bar 28.3 %, untrustworthy; 232 s user, 3.57 GiB, 04:55-05:05 UTC "
-    "at load 5.9 -> 4.6) and fig18_exponential -1.17 % (K FEM 3.9639e-11, 527 235 tets, bar "
+    "at load 5.9 -> 4.6) and fig18_exponential -1.17 % (-1.28 % after 6fe9f8d; K FEM "
+    "3.9639e-11, 527 235 tets, bar "
     "8.2 %; at 3.33 um -1.29 %, bar 10.6 %; 200 s user, 3.19 GiB, 05:05-05:11 at load 4.5 "
     "-> 3.2). Every other FEM row's step is unchanged by the new rule (50 um cubes, or D / 3 "
     "above min(size) / 30)."
@@ -1131,9 +1191,16 @@ FEM_FIELD = (
 WOVEN_AND_RANDOM = (
     "**Periodic random RVEs and the woven cell** (slow tests, `python -m pytest -m slow -s "
     "tests/validation/test_solver_agreement.py -k random_periodic`; FEM on the 1 um field at "
-    "its default step of 2 um, voxel route at 0.5 um). In x (never measured before): "
-    "straight -0.46 % (K FEM 1.8069e-11, voxel 1.8153e-11), bent -0.67 % (1.8403e-11, "
-    "1.8526e-11), load 11, 2026-12-01 15:01. Woven cell (period 30 um, yarns 4.3 um thick: "
+    "its default step of 2 um, voxel route at 0.5 um). Seed 1, solved again after the "
+    "sub-voxel fix 6fe9f8d (2026-12-03 10:51-11:01 UTC, agree17: `_random_pair` of the test "
+    "module, one thread, `nice -n 19`, load 5.4-7.0 on 2 cores): through-plane straight "
+    "**-1.23 %** (K FEM 6.5895e-12, voxel 6.6718e-12), bent **-1.30 %** (7.6627e-12, "
+    "7.7635e-12); in x straight **-0.49 %** (1.8071e-11, 1.8161e-11), bent **-0.58 %** "
+    "(1.8423e-11, 1.8531e-11). Before the fix (load 11, 2026-12-01 15:01) through-plane "
+    "-1.13 % / -1.31 %, in x -0.46 % (K FEM 1.8069e-11, voxel 1.8153e-11) / -0.67 % "
+    "(1.8403e-11, 1.8526e-11): the voxel K rose 0.05-0.15 % with the fix, the FEM K moved "
+    "0.01-0.11 % with the FEM's own-field change (`psdesign/flow/fem_field.py`). Woven cell "
+    "(period 30 um, yarns 4.3 um thick: "
     "8.6 voxels at 0.5 um): +1.30 % through-plane (K FEM 1.5796e-12, voxel 1.5593e-12), "
     "+1.83 % in x (4.1151e-11, 4.0412e-11), load 11-21, 15:01-15:14 (both xpassed: the xfail "
     "is removed, the test stays slow, 712 s for the two). The earlier -2.94 % had the voxel "
@@ -1232,9 +1299,12 @@ WOVEN_STACK = (
     " says so (`psdesign.flow.stack.end_planes`); the old 'triangles differ' and '957 vs 958 "
     "vertices' errors were a mesher asymmetry (flat tets next to a face dropped on one face o"
     "f a pair only), now fixed by construction: a periodic bent RVE (seed 3) that failed that"
-    " way meshes and agrees with the voxel route, -1.43 % through-plane (K FEM 6.6785e-12, vo"
-    "xel 6.7755e-12). The table3 straight RVE solved wrapped as it is (before the refusal) ga"
-    "ve FEM 5.5350e-12 vs voxel (0.5 um) 5.4406e-12, +1.73 %."
+    " way meshes and agrees with the voxel route, **-1.57 %** through-plane (K FEM 6.6785e-12, "
+    "voxel 6.7849e-12; 2026-12-03 10:51-10:55 UTC, agree17, one thread, load 5.4-5.9; before "
+    "the sub-voxel fix 6fe9f8d: voxel 6.7755e-12, -1.43 %; the FEM K is the same to 5 digits). "
+    "The table3 straight RVE solved wrapped as it is (before the refusal, and before 6fe9f8d) "
+    "gave FEM 5.5350e-12 vs voxel (0.5 um) 5.4406e-12, +1.73 % (not solved again: the FEM now "
+    "refuses that geometry)."
 )
 
 

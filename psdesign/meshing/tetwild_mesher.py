@@ -206,6 +206,11 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
     phi_end, phi_dev = np.abs(phi_wall), np.abs(phi_wall + wall_shift)
     n = len(phi_wall)
     s = f.scale
+    # set aside as many of the largest deviations as vertices were left where fTetWild put
+    # them (projection withdrawn, volume shift frozen): the largest of the rest bounds the
+    # deviation of every vertex that was snapped and shifted
+    left = proj.get("n_wall_projection_withdrawn", 0) + n_frozen
+    snapped = np.sort(phi_dev)[: max(n - left, 0)]
     return pts, {
         "wall_shift_m": wall_shift * s,
         "n_wall_vertices_frozen": n_frozen,
@@ -218,6 +223,7 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
         # projection), ~0 with it except for withdrawn vertices
         "wall_phi_dev_p99_m": float(np.percentile(phi_dev, 99)) * s if n else 0.0,
         "wall_phi_dev_mean_m": float(phi_dev.mean()) * s if n else 0.0,
+        "wall_phi_dev_snapped_max_m": float(snapped.max(initial=0.0)) * s,
     }
 
 

@@ -115,21 +115,38 @@ def test_drop_slivers_removes_few_pinned_inverted_tets_only():
 
 def test_pytetwild_wall_vertices_lie_on_the_field_surface(rve_mesh):
     """``project_walls``: the curved-wall vertices sit on the zero set of the interpolated field,
-    moved by the one common volume shift: the 99th percentile of |phi + wall_shift| is below 5 %
-    of the fTetWild envelope (measured 0.03). The default boundary (vertices anywhere within
-    the envelope, the ``rve_mesh`` fixture) fails that bar (measured 0.55-0.69 envelopes)."""
+    moved by the one common volume shift ``s``.
+
+    Bars from what fTetWild guarantees: its boundary lies anywhere within its envelope
+    ``epsilon`` (``epsilon_rel`` times the box diagonal, ``psdesign.meshing``) of the input
+    surface, so a vertex left where fTetWild put it (projection withdrawn, shift frozen: at most
+    2 % here) may be up to ``epsilon + |s|`` off; those are set aside
+    (``wall_phi_dev_snapped_max_m``). A snapped vertex is on the zero set and then moved by
+    ``s`` along its mesh normal ``n``: ``|phi + s| = |s| |1 - n . grad phi| + O(s^2 / R)``, a
+    fraction of ``|s|`` set by the normal's tilt and the interpolated field's gradient error
+    (measured at most 0.19 |s| in 12 runs: 0.032-0.047 epsilon); bar ``0.5 |s|``. The shift is
+    within the envelope (the only freedom fTetWild had; measured 0.25 epsilon). The default
+    boundary (no projection, the ``rve_mesh`` fixture) is 0.65-1.0 epsilon off on the same
+    statistic (3 runs), 5-8 times the bar. The former bar, the 99th percentile below 5 % of
+    the envelope, flaked (8.1 % once under load): with more than 1 % of the vertices withdrawn
+    the 99th percentile is one of them, anywhere within the envelope."""
     d, _ = fibers()
     pm = mesh_pore_space(
         d, VOX, (L, L, L), "z", mesher="pytetwild", edge_length_fac=0.08, project_walls=True
     )
     q = pm.quality
     envelope = q["epsilon_rel"] * float(np.linalg.norm([L, L, 1.4 * L]))
+    shift = abs(q["wall_shift_m"])
     assert q["wall_projection"] and q["n_wall_projected"] > 100
-    assert q["n_wall_projection_withdrawn"] <= 0.02 * q["n_wall_projected"]
+    left = q["n_wall_projection_withdrawn"] + q["n_wall_vertices_frozen"]
+    assert left <= 0.02 * (q["n_wall_projected"] + q["n_wall_projection_withdrawn"])
     assert q["wall_phi_p99_before_m"] > 0.3 * envelope  # fTetWild's scatter, before
-    assert q["wall_phi_dev_p99_m"] < 0.05 * envelope
+    assert 0.05 * envelope < shift <= envelope
+    assert q["wall_phi_dev_snapped_max_m"] <= 0.5 * shift
+    assert q["wall_phi_max_m"] <= 1.5 * envelope  # the vertices set aside: within the envelope
     old = rve_mesh[0].quality
-    assert not old["wall_projection"] and old["wall_phi_dev_p99_m"] > 0.05 * envelope
+    assert not old["wall_projection"]
+    assert old["wall_phi_dev_snapped_max_m"] > 0.5 * abs(old["wall_shift_m"])
     # the volume correction still holds the analytic pore volume with the projected walls
     assert abs(q["pore_volume_rel_diff"]) < 1e-4
 

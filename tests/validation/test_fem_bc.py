@@ -132,9 +132,18 @@ def test_permeameter_along_array_matches_periodic_two_cells():
     assert 4 < per["cells_per_diameter"] < 8
 
 
+#: (kind, phi, step, cells) of the slow sweep; along 0.3 at STEP with 2 cells is the default
+#: test above (the same two solves, a superset of these asserts), so it is not solved twice
+BC_SWEEP = [
+    (kind, phi, step, n)
+    for kind, phi, step in (("along", 0.3, STEP), ("across", 0.2, 2e-6))
+    for n in (2, 3, 4, 5)
+    if (kind, phi, step, n) != ("along", 0.3, STEP, 2)
+]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("n", [2, 3, 4, 5])
-@pytest.mark.parametrize("kind, phi, step", [("along", 0.3, 4e-6), ("across", 0.2, 2e-6)])
+@pytest.mark.parametrize(("kind", "phi", "step", "n"), BC_SWEEP)
 def test_permeameter_matches_periodic_for_2_to_5_cells(kind, phi, step, n):
     """The 1 % bar of issue 12 item 2: permeameter vs the periodic K at the same lattice
     (measured: along <= 0.3 %, across <= 0.7 %, largest at 2 cells). Against the published
