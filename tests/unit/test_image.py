@@ -70,4 +70,4 @@ def test_signed_distance_of_a_sphere() -> None:
     assert np.abs(d - exact)[near].max() < 1.0
     f = image_fields(rho <= r, h)
     assert f.porosity == pytest.approx(1 - np.count_nonzero(rho <= r) / n**3)
-    assert np.allclose(f.grid.spacing, h) and f.grid.shape == (n, n, n)
+    assert np.allclose(f.grid.spacing, h, atol=0) and f.grid.shape == (n, n, n)

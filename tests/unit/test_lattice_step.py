@@ -37,17 +37,25 @@ def test_default_step_rule():
     """Box-relative without a fiber diameter (an image), fiber-relative with one, the smaller of
     the two, and never below two voxels."""
     assert (LATTICE_CELLS_PER_BOX, LATTICE_CELLS_PER_DIAMETER) == (30.0, 3.0)
-    assert default_lattice_step(0.5e-6, BOX) == pytest.approx(100e-6 / 30, rel=1e-12)  # 3.33 um
-    assert default_lattice_step(0.5e-6, BOX, D) == pytest.approx(7e-6 / 3, rel=1e-12)  # 2.33 um
+    assert default_lattice_step(0.5e-6, BOX) == pytest.approx(
+        100e-6 / 30, rel=1e-12, abs=0
+    )  # 3.33 um
+    assert default_lattice_step(0.5e-6, BOX, D) == pytest.approx(
+        7e-6 / 3, rel=1e-12, abs=0
+    )  # 2.33 um
     assert default_lattice_step(0.5e-6, BOX, None) == default_lattice_step(0.5e-6, BOX)
     # a 50 um box: the box term (1.67 um) is the finer one, as before
-    assert default_lattice_step(0.5e-6, [50e-6] * 3, D) == pytest.approx(50e-6 / 30, rel=1e-12)
+    assert default_lattice_step(0.5e-6, [50e-6] * 3, D) == pytest.approx(
+        50e-6 / 30, rel=1e-12, abs=0
+    )
     # the same material in a 200 um box keeps 2.33 um (the old rule gave 6.67 um)
-    assert default_lattice_step(0.5e-6, [200e-6] * 3, D) == pytest.approx(7e-6 / 3, rel=1e-12)
+    assert default_lattice_step(0.5e-6, [200e-6] * 3, D) == pytest.approx(
+        7e-6 / 3, rel=1e-12, abs=0
+    )
     # the smallest edge counts: a 100 x 100 x 40 um sheet, 1.33 um
     assert default_lattice_step(0.5e-6, [100e-6, 100e-6, 40e-6], D) == pytest.approx(40e-6 / 30)
     # two voxels bound it from below: a 1.5 um voxel gives 3 um
-    assert default_lattice_step(1.5e-6, BOX, D) == pytest.approx(3e-6, rel=1e-12)
+    assert default_lattice_step(1.5e-6, BOX, D) == pytest.approx(3e-6, rel=1e-12, abs=0)
 
 
 def _fits_between(fine_gib: float, coarse_gib: float) -> float:
@@ -68,7 +76,7 @@ def test_budget_fallback(monkeypatch):
     assert need_coarse < need_fine
 
     monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
-    assert budget.fem_lattice_step(*args) == (pytest.approx(fine, rel=1e-12), None)
+    assert budget.fem_lattice_step(*args) == (pytest.approx(fine, rel=1e-12, abs=0), None)
 
     # a budget of exactly the estimate at 2.8 um: the fallback lands on 2.8 um (to 1e-3)
     want = 2.8e-6
@@ -82,7 +90,7 @@ def test_budget_fallback(monkeypatch):
 
     # neither fits: the box-relative step, no note
     monkeypatch.setattr(budget, "machine_memory", lambda: 0.5 * need_coarse)
-    assert budget.fem_lattice_step(*args) == (pytest.approx(coarse, rel=1e-12), None)
+    assert budget.fem_lattice_step(*args) == (pytest.approx(coarse, rel=1e-12, abs=0), None)
     # no fiber diameter (an image): the box-relative step whatever the budget
     monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
     assert budget.fem_lattice_step(BOX, 0.5e-6, None, 1, 0.2, 0.8)[0] == pytest.approx(coarse)
@@ -117,7 +125,7 @@ def test_spec_grid_step_is_the_budget_step(monkeypatch):
     monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
     flow = {"solver": "fem", "aux_length": 0.2}
     step, note = spec_grid_step(flow, 0.5e-6, BOX, D, 1, 0.8)
-    assert step == {"lattice_step": pytest.approx(7e-6 / 3, rel=1e-12)} and note is None
+    assert step == {"lattice_step": pytest.approx(7e-6 / 3, rel=1e-12, abs=0)} and note is None
     assert spec_grid_step({**flow, "lattice_step": 3e-6}, 0.5e-6, BOX, D) == ({}, None)
     assert spec_grid_step({**flow, "mesher": "pytetwild"}, 0.5e-6, BOX, D) == ({}, None)
     assert spec_grid_step(flow, 0.5e-6, BOX, None)[0]["lattice_step"] == pytest.approx(100e-6 / 30)

@@ -83,7 +83,7 @@ def test_inlet_outlet_area_is_face_minus_circle(through_x):
     for name in ("inlet", "outlet"):
         assert through_x.tag_area(name) == pytest.approx(exact, rel=0.01)
     for name in ("side_y0", "side_y1", "side_z0", "side_z1"):
-        assert through_x.tag_area(name) == pytest.approx(L * L, rel=1e-9)
+        assert through_x.tag_area(name) == pytest.approx(L * L, rel=1e-9, abs=0)
     assert set(through_x.facet_tags) == {
         "inlet",
         "outlet",
@@ -99,7 +99,7 @@ def test_inlet_outlet_area_is_face_minus_circle(through_x):
 
 def test_volume_equals_exact_pore_volume(through_x):
     exact = L**3 - np.pi * R**2 * L
-    assert through_x.volume() == pytest.approx(exact, rel=0.01)
+    assert through_x.volume() == pytest.approx(exact, rel=0.01, abs=0)
     assert through_x.quality["pore_centroid_fraction"] > 0.99
     assert abs(through_x.quality["volume_rel_error"]) < 0.02
     assert through_x.porous_region == (0.0, L)
@@ -116,7 +116,7 @@ def test_tags_cover_boundary_exactly_once_and_outward(through_x):
     p = pm.points
     a, b, c = p[tagged[:, 0]], p[tagged[:, 1]], p[tagged[:, 2]]
     enclosed = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
-    assert enclosed == pytest.approx(pm.volume(), rel=1e-9)
+    assert enclosed == pytest.approx(pm.volume(), rel=1e-9, abs=0)
     assert np.abs(np.cross(b - a, c - a).sum(axis=0)).max() < 1e-9 * L * L
     assert (tet_volumes(p, pm.tets) > 0).all()
 
@@ -142,10 +142,10 @@ def test_crossing_cylinders_volume_steinmetz_and_aux(crossing_z):
     pm = crossing_z
     solid = 2 * np.pi * R**2 * L - 16 * R**3 / 3  # two cylinders minus their Steinmetz overlap
     exact = 1.4 * L**3 - solid
-    assert pm.volume() == pytest.approx(exact, rel=0.01)
+    assert pm.volume() == pytest.approx(exact, rel=0.01, abs=0)
     # auxiliary zones: inlet/outlet are full faces at -0.2 L and 1.2 L
-    assert pm.tag_area("inlet") == pytest.approx(L * L, rel=1e-9)
-    assert pm.tag_area("outlet") == pytest.approx(L * L, rel=1e-9)
+    assert pm.tag_area("inlet") == pytest.approx(L * L, rel=1e-9, abs=0)
+    assert pm.tag_area("outlet") == pytest.approx(L * L, rel=1e-9, abs=0)
     assert pm.bounds[0][2] == pytest.approx(-0.2 * L) and pm.bounds[1][2] == pytest.approx(1.2 * L)
     # each side face is cut by one cylinder end: 1.4 L^2 - pi R^2
     for name in ("side_x0", "side_x1", "side_y0", "side_y1"):
@@ -176,8 +176,8 @@ def test_solid_surface_is_outward(monkeypatch):
     v, f = surface_mod.fiber_solid_surface(d, VOX)
     assert surface_mod.signed_volume(v, f) > 0
     surf = surface_mod.pore_surface(d, VOX, np.array([L, L, L]), 2, 0.2)
-    assert surf.solid_volume == pytest.approx(np.pi * R**2 * L, rel=0.01)
-    assert surf.volume == pytest.approx(1.4 * L**3 - np.pi * R**2 * L, rel=0.01)
+    assert surf.solid_volume == pytest.approx(np.pi * R**2 * L, rel=0.01, abs=0)
+    assert surf.volume == pytest.approx(1.4 * L**3 - np.pi * R**2 * L, rel=0.01, abs=0)
 
 
 def test_disconnected_pore_space_raises():
@@ -285,7 +285,7 @@ def test_vtu_and_gmsh_roundtrip(exported):
     assert len(s.cells_dict["triangle"]) == sum(len(f) for f in pm.facet_tags.values())
     meta = json.loads(paths["json"].read_text())
     assert meta["n_tets"] == len(pm.tets)
-    assert meta["tags"]["inlet"]["area_m2"] == pytest.approx(pm.tag_area("inlet"))
+    assert meta["tags"]["inlet"]["area_m2"] == pytest.approx(pm.tag_area("inlet"), rel=1e-6, abs=0)
 
 
 def test_fluent_file_has_named_zones(exported):
@@ -425,12 +425,12 @@ def test_pytetwild_volume_matched_to_analytic(through_x, crossing_z):
     exact_x = L**3 - np.pi * R**2 * L
     q = through_x.quality
     assert abs(q["pore_volume_rel_diff"]) < 1e-4
-    assert q["analytic_pore_volume_m3"] == pytest.approx(exact_x, rel=5e-4)
-    assert through_x.volume() == pytest.approx(exact_x, rel=1e-3)  # measured -1.2e-4
+    assert q["analytic_pore_volume_m3"] == pytest.approx(exact_x, rel=5e-4, abs=0)
+    assert through_x.volume() == pytest.approx(exact_x, rel=1e-3, abs=0)  # measured -1.2e-4
     exact_z = L**3 - (2 * np.pi * R**2 * L - 16 * R**3 / 3)
     qz = crossing_z.quality
     assert abs(qz["pore_volume_rel_diff"]) < 1e-4
-    assert qz["pore_volume_m3"] == pytest.approx(exact_z, rel=1e-3)
+    assert qz["pore_volume_m3"] == pytest.approx(exact_z, rel=1e-3, abs=0)
     raw = mesh_tw(
         cylinder(0, 0.5 * L, 0.5 * L), VOX, (L, L, L), "x", aux_length=0.0,
         edge_length_fac=0.1, match_volume=False,

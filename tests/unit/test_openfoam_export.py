@@ -46,7 +46,7 @@ def test_case_uses_spec_viscosity_and_density(tmp_path):
     flow = {"viscosity": 2.0e-3, "density": 800.0, "pressure_drop": 40.0}
     case = export_mesh(_duct(4), tmp_path, formats=("openfoam",), flow=flow)["openfoam"]
     nu = _value((case / "constant" / "transportProperties").read_text(), "nu")
-    assert nu == pytest.approx(2.0e-3 / 800.0, rel=1e-9)
+    assert nu == pytest.approx(2.0e-3 / 800.0, rel=1e-9, abs=0)
     p = (case / "0" / "p").read_text()
     inlet = float(re.search(r"inlet\s*\{[^}]*uniform ([-+0-9.eE]+);", p).group(1))
     assert inlet == pytest.approx(40.0 / 800.0, rel=1e-9)  # kinematic pressure p / rho
@@ -59,7 +59,7 @@ def test_case_default_density_keeps_air(tmp_path):
         "openfoam"
     ]
     nu = _value((case / "constant" / "transportProperties").read_text(), "nu")
-    assert nu == pytest.approx(1.8e-5 / 1.2, rel=1e-9)
+    assert nu == pytest.approx(1.8e-5 / 1.2, rel=1e-9, abs=0)
 
 
 def test_function_objects_sample_patches_and_rve_planes(tmp_path):
@@ -70,7 +70,7 @@ def test_function_objects_sample_patches_and_rve_planes(tmp_path):
         assert re.search(rf"^\s+{name}\s*$", ctrl, re.M), name
     pts = re.findall(r"point \(([^)]*)\); normal \(0 0 1\)", ctrl)
     zs = sorted(float(p.split()[2]) for p in pts)
-    assert zs == pytest.approx(list(pm.porous_region), rel=1e-12)
+    assert zs == pytest.approx(list(pm.porous_region), rel=1e-12, abs=0)
     allrun = case / "Allrun"
     assert allrun.stat().st_mode & 0o111
     text = allrun.read_text()
@@ -85,7 +85,9 @@ def test_permeability_formula_is_darcy():
     # Darcy: K = mu Q L / (A dp) with dp = rho * kinematic drop
     q, ps, pe = 3e-12, 0.7, 0.1
     k = openfoam_permeability(c, q, ps, pe)
-    assert k == pytest.approx(1.8e-5 * q * (0.5 * 2 * A) / (A * A * 1.2 * (ps - pe)), rel=1e-12)
+    assert k == pytest.approx(
+        1.8e-5 * q * (0.5 * 2 * A) / (A * A * 1.2 * (ps - pe)), rel=1e-12, abs=0
+    )
 
 
 @pytest.mark.slow

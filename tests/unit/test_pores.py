@@ -103,7 +103,7 @@ def test_porosity_profile_of_layers():
     prof = porosity_profile(_fields(dist), "z")
     expect = np.r_[np.zeros(5), np.ones(5), np.full(10, 0.5)]
     assert np.allclose(prof["porosity"], expect)
-    assert prof["position_m"][0] == pytest.approx(0.5 * H)
+    assert prof["position_m"][0] == pytest.approx(0.5 * H, rel=1e-6, abs=0)
 
 
 def test_orientation_tensor():

@@ -80,7 +80,9 @@ def test_one_voxel_default_for_spec_and_generator():
     # (voxel solver: the FEM's stacked permeameter of this box, 2.4 M tets at the default
     # lattice step, is over a 24 GB machine's budget)
     doc = with_(doc, "flow.solver", "voxel")
-    assert parse_rve(with_(doc, "rve.size", [50e-6, 100e-6, 200e-6]))[1] == pytest.approx(0.5e-6)
+    assert parse_rve(with_(doc, "rve.size", [50e-6, 100e-6, 200e-6]))[1] == pytest.approx(
+        0.5e-6, rel=1e-6, abs=0
+    )
 
 
 @pytest.mark.parametrize(

@@ -68,14 +68,14 @@ def test_default_envelope_is_a_fraction_of_the_fiber_diameter():
     opts = MeshOptions.from_flow({"mesher": "pytetwild"}, fiber_diameter=D).replace(surface_step=2)
     assert ENVELOPE_PER_DIAMETER == pytest.approx(1.0 / 28.0)
     for voxel in (0.25e-6, 0.5e-6, 1e-6):
-        assert envelope_rel(voxel, opts, diag) * diag == pytest.approx(0.25e-6, rel=1e-12)
+        assert envelope_rel(voxel, opts, diag) * diag == pytest.approx(0.25e-6, rel=1e-12, abs=0)
     assert envelope_rel(0.5e-6, opts, diag) == pytest.approx(0.0012563, rel=1e-4)
     # the old rule, half a marching-cubes step (2 x 0.5 um): twice the new envelope here
     coarse = opts.replace(edge_length_fac=0.03)
     assert ENVELOPE_PER_STEP == 0.5
-    assert envelope_rel(0.5e-6, coarse, diag) * diag == pytest.approx(0.5e-6, rel=1e-12)
+    assert envelope_rel(0.5e-6, coarse, diag) * diag == pytest.approx(0.5e-6, rel=1e-12, abs=0)
     plain = MeshOptions(mesher="pytetwild", surface_step=3)
-    assert envelope_rel(1e-6, plain, diag) * diag == pytest.approx(1.5e-6, rel=1e-12)
+    assert envelope_rel(1e-6, plain, diag) * diag == pytest.approx(1.5e-6, rel=1e-12, abs=0)
     assert envelope_rel(0.5e-6, opts.replace(epsilon=0.004), diag) == 0.004
 
 

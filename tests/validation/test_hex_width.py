@@ -31,11 +31,11 @@ def _hex_across_error(n: int, width: int | None = None, phi: float = 0.2) -> flo
 
 def test_hex_width_rounding() -> None:
     assert hex_width_voxels(40) == 69
-    assert hex_width_error(40) == pytest.approx(69 / (40 * math.sqrt(3)) - 1, rel=1e-12)
+    assert hex_width_error(40) == pytest.approx(69 / (40 * math.sqrt(3)) - 1, rel=1e-12, abs=0)
     assert hex_width_error(40) < -4e-3  # the stretched builder cell at 40 voxels per spacing
     assert all(abs(hex_width_error(n)) < 2e-4 for n in HEX_NEAR_WHOLE)
     spec = array_spec("hex", 0.2, 40, width_voxels=70)
-    assert spec["rve"]["size"][1] == pytest.approx(70 * 40e-6 / 40, rel=1e-12)
+    assert spec["rve"]["size"][1] == pytest.approx(70 * 40e-6 / 40, rel=1e-12, abs=0)
 
 
 def test_hex_across_within_1_percent_at_41_voxels() -> None:

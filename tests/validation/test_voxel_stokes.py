@@ -47,7 +47,7 @@ def test_poiseuille_channel_matches_discrete_closed_form(h_fluid: int) -> None:
     phi = h_fluid / (h_fluid + 2)
     exact = phi * ((h_fluid * h) ** 2 / 12 + h**2 / 6)
     assert res.converged
-    assert column_of(res)[2] == pytest.approx(exact, rel=1e-6)
+    assert column_of(res)[2] == pytest.approx(exact, rel=1e-6, abs=0)
     assert abs(column_of(res)[0]) < 1e-6 * exact and abs(column_of(res)[1]) < 1e-6 * exact
     assert res.porosity == pytest.approx(phi)
 
@@ -257,7 +257,10 @@ def _toray_check(solid: np.ndarray, direction: int, tol: float) -> None:
     work = rhs[:nvel] @ u
     dissipation = u @ (k_mat[:nvel, :nvel] @ u)
     assert dissipation == pytest.approx(work, rel=10 * tol)
-    assert column_of(res)[direction] == pytest.approx(work / solid.size * h**2, rel=1e-12)
+    # K from the solver's mean velocity vs K from the returned field's work: equal up to the
+    # round-off of the two reductions, measured 4.0e-9 (toray_like 48, x). The former rel=1e-12
+    # held only through approx's default abs=1e-12 (10 % of this K of 1e-11 m^2; approx17)
+    assert column_of(res)[direction] == pytest.approx(work / solid.size * h**2, rel=1e-7, abs=0)
 
 
 def test_toray_like_48_with_7_voxel_fibres_converges() -> None:
