@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import approx_guard
 import pytest
+
+approx_guard.install()  # a stated rel bar is the enforced one (approx_guard's docstring)
 
 TESTS_DIR = Path(__file__).resolve().parent
 REPO_ROOT = TESTS_DIR.parent
