@@ -47,10 +47,12 @@ zero-divisor check (and exception path) in the vectorised loops; no kernel divid
 _HELPER = {"fastmath": True, "nogil": True, "error_model": "numpy"}
 """Options of the helpers the kernels call (:data:`_OPTS` without the disk cache): plain
 ``@njit`` functions, compiled once per signature and inlined by LLVM when the kernel is linked
-(the optimized kernels contain no call to them), with the kernels' floating-point and error
-semantics.  ``inline="always"`` (numba inlining the helper's IR at every call site, recursively,
-before type inference) gave the same machine code but was 59-69 % of each kernel's compile time
-(``benchmarks/RESULTS.md``, suite16 item 3 and compile17).  A helper must keep the options of
+(no call to them is left in the optimized serial kernels), with the kernels' floating-point and
+error semantics.  ``inline="always"`` (numba inlining the helper's IR at every call site,
+recursively, before type inference) gave bitwise the same outputs at the same speed but was
+59-69 % of each kernel's compile time (``benchmarks/RESULTS.md``, suite16 item 3 and
+compile17).  Helpers with loops that LLVM does not inline (the row and plane helpers) stay
+``inline="always"``: they have few call sites.  A helper must keep the options of
 every kernel that calls it: :func:`_stencil`, also called by an exact (not ``fastmath``) kernel
 of :mod:`solvers.voxel.cutfaces`, stays ``inline="always"``."""
 
