@@ -9,8 +9,10 @@ Usage::
 
 Set ``NUMBA_CACHE_DIR`` to an empty directory first (the script refuses a non-empty one unless
 ``--allow-warm``).  Prints one line per (kernel, signature): exclusive seconds (its own compile,
-without nested compiles of the jitted helpers it calls), inclusive seconds, and the totals with
-the process CPU time.
+without nested compiles of the jitted helpers it calls), inclusive seconds, CPU and wall (run it
+with ``NUMBA_NUM_THREADS=1`` so that numba's idle OpenMP threads add no CPU), and the totals
+with the process CPU time.  A helper that is not inlined (plain ``@nb.njit``) is compiled once
+per signature in its own event, so its row shows what the kernels that call it no longer pay.
 
 ``speed``: CPU ms per MINRES iteration of this tree and of ``OLD_TREE`` (a checkout of another
 commit) side by side, one thread, alternating, each run in its own process
@@ -57,13 +59,15 @@ def profile(mode: str) -> dict:
 
     class Listener(event.Listener):
         def on_start(self, ev):
-            stack.append([time.perf_counter(), 0.0])
+            stack.append([time.perf_counter(), 0.0, time.process_time(), 0.0])
 
         def on_end(self, ev):
-            t0, child = stack.pop()
+            t0, child, c0, cchild = stack.pop()
             dt = time.perf_counter() - t0
+            dc = time.process_time() - c0
             if stack:
                 stack[-1][1] += dt
+                stack[-1][3] += dc
             disp = ev.data["dispatcher"]
             rows.append(
                 {
@@ -71,6 +75,8 @@ def profile(mode: str) -> dict:
                     "sig": _sig(ev.data),
                     "incl_s": dt,
                     "excl_s": dt - child,
+                    "incl_cpu_s": dc,
+                    "excl_cpu_s": dc - cchild,
                 }
             )
 
@@ -273,22 +279,28 @@ def main(argv: list[str] | None = None) -> int:
         print("set NUMBA_CACHE_DIR to an empty directory (or --allow-warm)", file=sys.stderr)
         return 2
     res = profile(args.mode)
-    rows = sorted(res["rows"], key=lambda r: -r["excl_s"])
+    rows = sorted(res["rows"], key=lambda r: -r["excl_cpu_s"])
+    print("exclusive CPU s, inclusive CPU s, exclusive wall s, kernel (signature):")
     for r in rows:
-        if r["excl_s"] >= 0.2:
-            print(f"{r['excl_s']:7.2f} {r['incl_s']:7.2f}  {r['kernel']}  ({r['sig']})")
+        if r["excl_cpu_s"] >= 0.2:
+            print(
+                f"{r['excl_cpu_s']:7.2f} {r['incl_cpu_s']:7.2f} {r['excl_s']:7.2f}  "
+                f"{r['kernel']}  ({r['sig']})"
+            )
     per: dict[str, float] = {}
     for r in rows:
-        per[r["kernel"]] = per.get(r["kernel"], 0.0) + r["excl_s"]
-    print("per kernel (exclusive s, number of signatures):")
+        per[r["kernel"]] = per.get(r["kernel"], 0.0) + r["excl_cpu_s"]
+    print("per kernel (exclusive CPU s, number of signatures):")
     for k, v in sorted(per.items(), key=lambda kv: -kv[1]):
         n = sum(1 for r in rows if r["kernel"] == k)
         if v >= 0.2:
             print(f"{v:7.2f}  {n}  {k}")
     tot = sum(r["excl_s"] for r in rows)
+    tot_cpu = sum(r["excl_cpu_s"] for r in rows)
     print(
         f"mode {res['mode']}: wall {res['wall_s']:.1f} s, CPU {res['cpu_s']:.1f} s, "
-        f"compile events {tot:.1f} s over {len(rows)} compiles, max RSS {res['maxrss_mb']:.0f} MB"
+        f"compile events {tot:.1f} s wall / {tot_cpu:.1f} s CPU over {len(rows)} compiles, "
+        f"max RSS {res['maxrss_mb']:.0f} MB, load {os.getloadavg()[0]:.1f}"
     )
     if args.out:
         args.out.write_text(json.dumps(res, indent=1))
