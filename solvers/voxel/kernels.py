@@ -44,25 +44,13 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero."""
 
-_HELPER = {"fastmath": True, "nogil": True, "error_model": "numpy"}
-"""Options of the helpers the kernels call (:data:`_OPTS` without the disk cache): plain
-``@njit`` functions, compiled once per signature and inlined by LLVM when the kernel is linked
-(no call to them is left in the optimized serial kernels), with the kernels' floating-point and
-error semantics.  ``inline="always"`` (numba inlining the helper's IR at every call site,
-recursively, before type inference) gave bitwise the same outputs at the same speed but was
-59-69 % of each kernel's compile time (``benchmarks/RESULTS.md``, suite16 item 3 and
-compile17).  Helpers with loops that LLVM does not inline (the row and plane helpers) stay
-``inline="always"``: they have few call sites.  A helper must keep the options of
-every kernel that calls it: :func:`_stencil`, also called by an exact (not ``fastmath``) kernel
-of :mod:`solvers.voxel.cutfaces`, stays ``inline="always"``."""
 
-
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _up(i, n):
     return i + 1 if i + 1 < n else 0
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _dn(i, n):
     return i - 1 if i > 0 else n - 1
 
@@ -79,13 +67,13 @@ def unit_couplings(nz: int) -> np.ndarray:
     return np.ones((3, 1, 1, nz + 1), np.uint8)
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _unit(d, cx):
     """True when ``cx`` is the stand-in of :func:`unit_couplings` (its row is one longer)."""
     return cx.shape[2] != d.shape[2]
 
 
-@nb.njit(inline="always")  # also inlined into cutfaces' exact (not fastmath) residual
+@nb.njit(inline="always")
 def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings (float64
     arithmetic for any dtype of ``x``)."""
@@ -135,13 +123,13 @@ def _fetch(a, i, j):
         simd.prefetch_row(a[_up(i, nx), jj - ny])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _ends(nz):
     """Number of k-boundary points handled by the scalar (wrapping) stencil: k = 0 and nz - 1."""
     return 1 if nz == 1 else 2
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _on(dk):
     """1 on an active unknown (``dk != 0``), else 0, as float32: masks are applied by
     multiplying with it, after every operand is loaded.  A conditional expression
@@ -203,7 +191,7 @@ def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
         out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _u(q):
     """``q`` as an unsigned index: numba adds no negative-index wrap-around test, which kept LLVM
     from vectorising the flat loops (:func:`_jacobi_flat`; 8x slower, band12)."""
@@ -315,7 +303,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             _sum_row(acc, fz, out)
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _damping(dk, om):
     """``om / dk`` in float32 (``om``: the float32 damping factor; 1 stands in for an inactive
     ``dk == 0``, whose result the caller discards).  A float32 division: the float64 one cost
@@ -346,7 +334,7 @@ BLOCK = 64
 """Cells per prefetch step of the flat sweeps (one 64-byte line of uint8 ``d``)."""
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _jacobi_cell(fd, fx, fb, q, c, sm, om):
     """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views: ``d, b`` at
     ``q``, the iterate at ``c``): the expression of :func:`_stencil_rows_unit` and
@@ -355,7 +343,7 @@ def _jacobi_cell(fd, fx, fb, q, c, sm, om):
     return (fx[c] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _residual_cell(fd, fx, fb, q, sm):
     """One cell of ``b - A x`` from its neighbours' sum ``sm`` (0 on an inactive unknown): the
     expression of :func:`_stencil_rows_unit` and :func:`residual_restrict`'s row in one."""
@@ -363,7 +351,7 @@ def _residual_cell(fd, fx, fb, q, sm):
     return (fb[q] - ax) * _on(fd[q])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _fetch_lines(a, q, step):
     """Prefetch the lines of :data:`BLOCK` entries of the 1-D array ``a`` from index ``q``: one
     prefetch per ``step`` entries (a literal at the call: 16 for float32, 64 for uint8, one
@@ -375,20 +363,20 @@ def _fetch_lines(a, q, step):
         simd.prefetch_at(a, q + _u(r))
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _wrap_rows(ny):
     """Rows of a plane whose y-neighbours wrap, which a flat sweep does apart: 0 and ``ny - 1``
     (one row when ``ny == 1``)."""
     return 1 if ny == 1 else 2
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _wrap_row(r, ny):
     """``j`` of the ``r``-th row of :func:`_wrap_rows`."""
     return 0 if r == 0 else ny - 1
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
     """The six neighbours' sum of cell ``(j, k)`` of the plane at ``x0[b0:]`` (its neighbour
     planes at ``xm[bm:], xp[bp:]``), periodic along y and k; the order of the flat loops."""
@@ -567,7 +555,7 @@ def _zero_row(dr, br, omega, out):
         out[k] = br[k] * _damping(dr[k], om) * _on(dr[k])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _chunk(t, nt, n):
     """Range ``[lo, hi)`` of the ``t``-th of ``nt`` equal chunks of ``range(n)``."""
     return t * n // nt, (t + 1) * n // nt
@@ -580,7 +568,7 @@ def _zero_plane(d, b, i, omega, out):
         _zero_row(d[i, j], b[i, j], omega, out[j])
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _fetch_ahead(fa, fb, i, j):
     """Prefetch row ``j`` of plane ``i + 2`` of ``fa`` and ``fb`` (periodic), the plane the
     next step of :func:`jacobi2_zero` (``d, b``) reads from memory, while this plane's sweep
@@ -779,7 +767,7 @@ def scale_dot(r, c, z):
     return part.sum()
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _children(ic, f, nc, n):
     lo = ic * f
     hi = n if ic == nc - 1 else lo + f

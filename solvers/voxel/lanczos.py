@@ -55,9 +55,6 @@ from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
-_HELPER = {"fastmath": True, "nogil": True}
-"""Options of this module's helpers: :data:`_OPTS` without the disk cache (plain ``@njit``,
-inlined by LLVM at link time; see :data:`solvers.voxel.kernels._HELPER`)."""
 
 
 @nb.njit(inline="always")
@@ -196,13 +193,13 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
     return s_y
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _lanczos_value(v, s, c1, yo, upd):
     """``s v - c1 yo`` (``yo`` unused unless ``upd``: it may hold garbage when ``c1 == 0``)."""
     return s * v - c1 * yo if upd else s * v
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _momentum_value(dk, xc, sm, pc, plo):
     """One momentum row entry of the staircase operator with unit couplings: the stencil of
     :func:`solvers.voxel.kernels._stencil_rows_unit` from the neighbours' sum ``sm`` plus the
@@ -288,7 +285,7 @@ def _momentum_ends(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved):
             fy[c] = _lanczos_value(v, s, c1, saved[2 * j + e], upd)
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _save_ends(fy, c0, ny, nz, saved):
     """``saved[2 j + e]`` = the entry of the plane at ``fy[c0:]`` at the ``e``-th k-end of row
     ``j`` (k = 0, nz - 1)."""
@@ -591,7 +588,7 @@ class Solution:
         return x
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _quantise_row(row, m, q, t, e):
     """Store ``row`` (largest magnitude ``m``) as ``q[t] * e[t]`` (float32 ``q``: as is)."""
     if q.itemsize == 4:
@@ -609,7 +606,7 @@ def _quantise_row(row, m, q, t, e):
             q[t, k] = 0
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _lo_max(lo):
     """Largest magnitude of the solution's integer extension ``lo`` (int8, int16 or int32)."""
     if lo.itemsize == 1:
@@ -775,7 +772,7 @@ class Packing:
         unpack_planes(packed, sc, *self.masks, self.start, out, False)
 
 
-@nb.njit(**_HELPER)
+@nb.njit(inline="always")
 def _count(mr):
     """Non-zero entries of the row ``mr``."""
     c = 0
