@@ -499,14 +499,7 @@ class _Scales:
 def _result(info, *, mesh, dofs2, u, p, scales, t_start, est, **fields) -> StokesResult:
     """The :class:`StokesResult` of a finished solve; ``fields`` are the solver's own."""
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
-    state = {"mesh": mesh, "dofs2": dofs2, "u": u, "p": p}
-    state.update(
-        origin=scales.origin,
-        length=scales.length,
-        u_scale=scales.u_scale,
-        p_scale=scales.p_scale,
-        viscosity=float(scales.viscosity),
-    )
+    state = {"mesh": mesh, "dofs2": dofs2, "u": u, "p": p, **vars(scales)}
     return StokesResult(
         converged=info.converged,
         iterations=info.iterations,
@@ -614,7 +607,7 @@ def solve_stokes(
     x, origin, length = _scaled_points(points[used], tets_k)
     _refuse_flat(x, tets_k)
     p_scale = max(abs(p_inlet), abs(p_outlet))
-    scales = _Scales(origin, length, p_scale * length / viscosity, p_scale, viscosity)
+    scales = _Scales(origin, length, p_scale * length / viscosity, p_scale, float(viscosity))
 
     mesh = assembly.make_mesh(x, tets_k)
     dofs2, n2 = assembly.p2_dofs(mesh)
@@ -751,7 +744,7 @@ def solve_stokes_periodic(
         raise ValueError(f"points: {len(points) - len(used)} vertices belong to no tetrahedron")
     x, lo, length = _scaled_points(points, tets)
     u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
-    scales = _Scales(lo, length, u_scale, pressure_gradient * length, viscosity)
+    scales = _Scales(lo, length, u_scale, pressure_gradient * length, float(viscosity))
     mesh = assembly.make_mesh(x, tets)
     dofs2, n2 = assembly.p2_dofs(mesh)
     boundary = mesh.f2t[1] == -1

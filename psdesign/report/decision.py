@@ -263,12 +263,17 @@ def _axis_grid(s, num: list[str], name: str) -> np.ndarray:
     return np.linspace(s.low[num.index(name)], s.high[num.index(name)], 30)
 
 
+def _at_mid_range(s, n: int) -> np.ndarray:
+    """``n`` surrogate inputs, every parameter at the middle of its range."""
+    return np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (n, 1))
+
+
 def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     """GP mean of K along the one parameter, +-2 std band, and the cases."""
     import plotly.graph_objects as go
 
     ga = _axis_grid(s, num, a)
-    x = np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (len(ga), 1))
+    x = _at_mid_range(s, len(ga))
     x[:, num.index(a)] = ga
     m, sd = s.predict(x)
     fig = go.Figure(
@@ -305,7 +310,7 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
     a, b = pair
     ga, gb = _axis_grid(s, num, a), _axis_grid(s, num, b)
     A, B = np.meshgrid(ga, gb)
-    x = np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (A.size, 1))
+    x = _at_mid_range(s, A.size)
     x[:, num.index(a)], x[:, num.index(b)] = A.ravel(), B.ravel()
     m, sd = s.predict(x)
     fig = make_subplots(
