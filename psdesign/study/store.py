@@ -43,6 +43,8 @@ __all__ = [
 #: Columns that vary from run to run (excluded when comparing tables for reproducibility).
 TIMING_COLUMNS = ("started_at", "finished_at", "host", "pid", "wall_time_s", "runner_overhead_s")
 LEADING = ("case_id", "index")
+#: Permeability tensor columns, row-major (k_xx, k_xy, ..., k_zz).
+TENSOR_KEYS = tuple(f"k_{a}{b}_m2" for a in "xyz" for b in "xyz")
 RESULT_ORDER = (
     "seed",
     "status",
@@ -51,27 +53,8 @@ RESULT_ORDER = (
     "k_x_m2",
     "k_y_m2",
     "k_z_m2",
-    "k_xx_m2",
-    "k_xy_m2",
-    "k_xz_m2",
-    "k_yx_m2",
-    "k_yy_m2",
-    "k_yz_m2",
-    "k_zx_m2",
-    "k_zy_m2",
-    "k_zz_m2",
+    *TENSOR_KEYS,
     "n_fibers",
-)
-TENSOR_KEYS = (
-    "k_xx_m2",
-    "k_xy_m2",
-    "k_xz_m2",
-    "k_yx_m2",
-    "k_yy_m2",
-    "k_yz_m2",
-    "k_zx_m2",
-    "k_zy_m2",
-    "k_zz_m2",
 )
 _SAFE_ID = re.compile(r"^[A-Za-z0-9_.-]+$")
 
