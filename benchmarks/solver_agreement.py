@@ -1225,7 +1225,12 @@ QUICKSTART = (
     "`psdesign study run studies/quickstart.toml` (one thread, `nice -n 5`, with the `auto` "
     "lengthening: its porosity-0.90 case now takes 3 copies) 62 s user at 3 um (load 4.4-5.9), "
     "101 s user at 2.33 um (load 5.6-6.3); 44-52 s before the lengthening (`benchmarks/"
-    "RESULTS.md`)."
+    "RESULTS.md`). **The rest is the voxel route's grid** (session 18, agree18, as on rev_toray "
+    "below): on the row's RVE and plan (2 copies) its K is 9.6535e-12 / 9.5833e-12 / "
+    "9.5519e-12 at 0.833 / 0.625 / 0.5 um (`... probe studies/quickstart.toml --solver voxel "
+    "--voxel V`, 2026-12-03 14:40-14:43 UTC, load 6.7-7.9, one thread, 15 / 27 s CPU): observed "
+    "order 2.1, limit about 9.500e-12, so the row's voxel K is +1.6 % above its limit, the FEM "
+    "at its 2.33 um step -0.12 % below it, and FEM 1.67 um / voxel 0.5 um is -0.33 %."
 )
 
 #: The second row above 2 % (session 4, 19:11-19:15 UTC, load 6-7); re-run at the fiber-relative
