@@ -344,8 +344,12 @@ def auto_lengthen(
     window term is above the threshold (:func:`psdesign.flow.stack.next_auto_copies`) and the
     longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`).
 
-    Returns the final result and the ``[flow]`` table it was solved with (copies pinned, for
-    the error bar's second resolution). An ``"auto"`` result gets ``permeameter_auto``: the
+    Returns the final result and the ``[flow]`` table it was solved with, its copies pinned to
+    the final solve's for the error bar's second resolution, also when ``"auto"`` did not
+    lengthen: re-planned on the coarser grid, ``"auto"`` could stack a different sample (the
+    end-plane test is in voxels of the grid, :data:`psdesign.flow.stack.SEAM_TOL_VOXELS`:
+    rev_toray's RVE at 0.833 um is one copy, at the 1.67 um of its coarse grid two, and the bar
+    compared the two samples). An ``"auto"`` result gets ``permeameter_auto``: the
     copies, K and window term of each solve and why it stopped; a stop with the window term
     still above the threshold adds a warning naming ``flow.permeameter_copies``. ``capture``
     (a :class:`_FinalCapture` from :func:`permeability`) has each superseded solve's fields
@@ -380,6 +384,7 @@ def auto_lengthen(
         res = route_result(rve, fields, direction, flow, solver, progress, capture)
     if why == "fixed":
         return res, flow
+    flow = {**flow, "permeameter_copies": done}
     res["permeameter_auto"] = {"tries": tries, "stopped": why}
     if reason is not None:
         res.setdefault("warnings", []).append(

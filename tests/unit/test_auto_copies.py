@@ -115,6 +115,33 @@ def test_below_the_threshold_one_solve(monkeypatch):
     }
 
 
+@pytest.mark.parametrize(("periodic", "copies"), [(True, 2), (False, 1)])
+def test_coarse_solve_gets_the_final_copies_without_lengthening(monkeypatch, periodic, copies):
+    """``"auto"`` stopped at its first solve (window term converged, or one copy of a geometry
+    that is not periodic along the flow): the error bar's coarse solve is pinned to that solve's
+    copies, not re-planned on the coarser grid. Re-planned, rev_toray's RVE (end planes 0.46 um
+    apart: 0.55 voxel at 0.833 um, one copy; 0.28 voxel on the 1.67 um coarse grid, two copies)
+    had its bar from two different samples (docs/solver-agreement.md)."""
+    calls: list = []
+    stub = _stub({2: 0.0042}, "voxel", calls)
+
+    def route(*args, **kwargs):
+        res = stub(*args, **kwargs)
+        if not periodic:
+            res |= {"geometry_periodic_along_flow": False, "permeameter_copies": 1}
+        return res
+
+    monkeypatch.setattr(perm, "route_result", route)
+    rve = _rve()
+    flow = {"bc": "permeameter", "aux_length": 0.2}
+    first = perm.route_result(rve, None, "z", flow, "voxel")
+    res, used = perm.auto_lengthen(rve, rve.voxelize(2e-6), "z", flow, "voxel", first)
+    assert len(calls) == 1
+    assert res["permeameter_auto"]["stopped"] == ("converged" if periodic else "not periodic")
+    assert used["permeameter_copies"] == copies
+    assert flow.get("permeameter_copies") is None  # the caller's table is not changed
+
+
 def test_explicit_copies_are_kept(monkeypatch):
     res, used, calls = _run(monkeypatch, FEM_WINDOW, flow={"permeameter_copies": 2})
     assert len(calls) == 1 and "permeameter_auto" not in res and used["permeameter_copies"] == 2
