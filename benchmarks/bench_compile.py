@@ -20,8 +20,9 @@ commit) side by side, one thread, alternating, each run in its own process
 ``OLD_TREE/../numba_cache_{old,new}``: warmed by a first untimed run), and the ratio new / old.
 Under load it is noisy (separate processes; kernels that did not change differed by 10-20 %).
 
-``kernels``: the finest-level multigrid kernels, ``stokes_lanczos`` and ``symmlq_step`` of git
-revision ``REV`` (its ``kernels.py`` and ``lanczos.py``, imported as copies) and of this tree in
+``kernels``: the finest-level multigrid kernels, ``stokes_lanczos``, ``symmlq_step`` and
+``pressure_block_code`` of git revision ``REV`` (its ``simd.py``, ``kernels.py``, ``lanczos.py``
+and ``schur.py``, imported as copies) and of this tree in
 one process, on the same arrays of the Toray-like ``N^3`` staircase operator, timed interleaved
 (the serial twins and CPU time with ``NUMBA_NUM_THREADS=1``, else the parallel kernels and wall
 time); checks whether both give bitwise the same output and prints best and median ratios new /
@@ -134,8 +135,10 @@ def speed(old: Path, sizes: list[int], its: int, reps: int) -> None:
 
 
 def _old_modules(rev: str):
-    """Import ``solvers/voxel/kernels.py`` and ``lanczos.py`` of git revision ``rev`` as the
-    modules ``old_kernels`` and ``old_lanczos`` (copies in a temporary directory)."""
+    """Import ``solvers/voxel/simd.py``, ``kernels.py``, ``lanczos.py`` and ``schur.py`` of git
+    revision ``rev`` as the modules ``old_simd``, ``old_kernels``, ``old_lanczos`` and
+    ``old_schur`` (copies in a temporary directory, importing one another); returns the last
+    three."""
     import importlib
     import tempfile
 
@@ -143,20 +146,20 @@ def _old_modules(rev: str):
     tmp = Path(tempfile.mkdtemp(prefix="old_kernels_"))
 
     def show(path: str) -> str:
-        return subprocess.run(
+        src = subprocess.run(
             ["git", "-C", str(repo), "show", f"{rev}:{path}"],
             capture_output=True,
             text=True,
             check=True,
         ).stdout
+        src = src.replace("from solvers.voxel import simd", "import old_simd as simd")
+        src = src.replace("from solvers.voxel import kernels as kr", "import old_kernels as kr")
+        return src.replace("from solvers.voxel.kernels import", "from old_kernels import")
 
-    (tmp / "old_kernels.py").write_text(show("solvers/voxel/kernels.py"))
-    lz_src = show("solvers/voxel/lanczos.py").replace(
-        "from solvers.voxel.kernels import", "from old_kernels import"
-    )
-    (tmp / "old_lanczos.py").write_text(lz_src)
+    for name in ("simd", "kernels", "lanczos", "schur"):
+        (tmp / f"old_{name}.py").write_text(show(f"solvers/voxel/{name}.py"))
     sys.path.insert(0, str(tmp))
-    return importlib.import_module("old_kernels"), importlib.import_module("old_lanczos")
+    return tuple(importlib.import_module(f"old_{name}") for name in ("kernels", "lanczos", "schur"))
 
 
 def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
@@ -170,8 +173,9 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
     import solvers.voxel_stokes as vs
     from solvers.voxel import kernels as kr
     from solvers.voxel import lanczos as lz
+    from solvers.voxel import schur
 
-    ok, ol = _old_modules(rev)
+    ok, ol, osc = _old_modules(rev)
     nth = numba.get_num_threads()
     mode = "serial" if nth == 1 else "parallel"
     clock = time.process_time if nth == 1 else time.perf_counter
@@ -189,8 +193,13 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
     sol.extend()
     w0 = rng.standard_normal(pk.size).astype(np.float32)
     masks = (*pk.masks, pk.start)
+    # the staircase pressure block: scale codes of the operator, a coarse field on 4^3 blocks
+    code = schur.schur_code(list(op.d), 1e-4)
+    pc = tuple(max(1, min(schur.BLOCK, m)) for m in op.fluid.shape)
+    pshape = tuple(m // f for m, f in zip(op.fluid.shape, pc, strict=True))
+    pxc = rng.standard_normal(pshape).astype(np.float32)
 
-    def cases(m, mz, out, rc, y, w):
+    def cases(m, mz, ms, out, rc, y, w):
         return {
             "jacobi": lambda: (getattr(m.jacobi, mode)(l0.d, *c, x, b, out, 0.9), out),
             "jacobi2_zero": lambda: (
@@ -215,15 +224,21 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
                 ),
                 w,
             ),
+            "pressure_block_code": lambda: (
+                getattr(ms.pressure_block_code, mode)(
+                    code, schur.CODE_TABLE, op.fluid, big_x[3], pxc, *pc, 0.6, y[3]
+                ),
+                y[3],
+            ),
         }
 
     runs, ys, ws, sols = {}, {}, {}, {}
-    for key, (m, mz) in {"old": (ok, ol), "new": (kr, lz)}.items():
+    for key, (m, mz, ms) in {"old": (ok, ol, osc), "new": (kr, lz, schur)}.items():
         ys[key] = big_y.copy()
         ws[key] = w0.copy()
         sols[id(ws[key])] = (sol.hi.copy(), sol.lo.copy(), sol.scale.copy())
         runs[key] = cases(
-            m, mz, np.zeros_like(x), np.zeros(l1.d.shape, np.float32), ys[key], ws[key]
+            m, mz, ms, np.zeros_like(x), np.zeros(l1.d.shape, np.float32), ys[key], ws[key]
         )
     for name in runs["old"]:
         outs = []

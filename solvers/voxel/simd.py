@@ -16,6 +16,15 @@ band11).
 ``code_scale16``: the staircase pressure scales of 16 one-byte codes from 16 mantissas held in a
 register (a permute) and an exponent add, bit-identical to the table look-up, which LLVM
 compiled into a gather (a third of :func:`solvers.voxel.schur.pressure_block_code`'s time).
+
+Both were written for AVX-512 (one ``vcompressps`` / ``vpermd`` on a 16-lane register).  Without
+AVX-512 (e.g. AVX2 on Zen 3) LLVM lowers those 16-lane forms to scalar code: the compress to one
+test, branch and store per lane, the permute to 16 loads from a stack copy of the table
+(``code_scale16`` 3.0 ns and ``compress16`` 1.7 ns per entry in L2 on a Zen 3 core).  There they
+are written as two 8-lane halves instead (:data:`WIDE`): the look-up as two 8-lane register
+permutes and a blend by bit 3 of the index (``vpermd``, ``vblendvps``: 0.31 ns per entry), the
+compress as an 8-lane permute by indices from a 256-entry table of the mask byte and a full
+8-lane store (0.33 ns per entry); the same values (``benchmarks/RESULTS.md``, band18).
 """
 
 from __future__ import annotations
@@ -29,13 +38,63 @@ from numba.extending import intrinsic
 WIDTH = 16
 """Entries per :func:`compress16` call."""
 
+HALF = 8
+"""Lanes of the 256-bit halves of the forms without AVX-512."""
+
+WIDE: bool | None = None
+"""Lower :func:`compress16` and :func:`code_scale16` as 16-lane (AVX-512) forms (True) or as two
+8-lane halves (False); None: as the target CPU of numba's code generator has ``avx512f`` or not.
+Read when a calling function is compiled (the tests set it to compile both forms on one host;
+numba's cache is keyed on the CPU and its features, so a cached kernel matches its host)."""
+
+
+def _wide(context) -> bool:
+    """:data:`WIDE`, or whether numba's target CPU has AVX-512 (``avx512f``)."""
+    if WIDE is not None:
+        return bool(WIDE)
+    features = getattr(context.codegen(), "_tm_features", "") or ""
+    return "+avx512f" in features.split(",")
+
+
+def _half(builder, vec, h: int):
+    """Lanes ``8 h .. 8 h + 7`` of a 16-lane vector."""
+    lanes = ir.Constant(ir.VectorType(ir.IntType(32), HALF), [h * HALF + q for q in range(HALF)])
+    return builder.shuffle_vector(vec, ir.Constant(vec.type, None), lanes)
+
+
+def _permute(builder, src, idx):
+    """``src[idx[l]]`` in lane ``l`` (``idx`` in range, any vector width): written lane by lane
+    from the vector registers, which LLVM turns into one register permute where the CPU has one
+    for the width (``vpermd`` / ``vpermps`` on AVX2 for 8 lanes, on AVX-512 for 16)."""
+    i32 = ir.IntType(32)
+    out = ir.Constant(src.type, None)
+    for lane in range(idx.type.count):
+        e = builder.extract_element(idx, ir.Constant(i32, lane))
+        out = builder.insert_element(out, builder.extract_element(src, e), ir.Constant(i32, lane))
+    return out
+
+
+def _compress_table() -> list[int]:
+    """For each 8-bit mask, the lanes of its set bits in order, 4 bits per lane (lane ``q`` of
+    the packed vector in bits ``4 q .. 4 q + 2``)."""
+    table = []
+    for m in range(256):
+        lanes = [q for q in range(HALF) if m >> q & 1]
+        table.append(sum(lane << (4 * q) for q, lane in enumerate(lanes)))
+    return table
+
+
+_COMPRESS_TABLE = _compress_table()
+
 
 @intrinsic
 def compress16(typingctx, src, mask, dst, k, c):
     """``dst[c : c + n] = src[k : k + 16][mask[k : k + 16] != 0]``; returns ``n`` (int64).
 
     ``src``, ``dst``: 1-D contiguous float32 arrays; ``mask``: 1-D contiguous uint8 or float32;
-    the caller keeps ``k + 16 <= len(src)`` and ``c + n <= len(dst)`` (no bounds checks)."""
+    the caller keeps ``k + 16 <= len(src)`` and ``c + 16 <= len(dst)`` (no bounds checks; the
+    form without AVX-512 stores whole 8-lane halves, so ``dst[c + n : c + 16]`` may be
+    overwritten with other entries of ``src``)."""
     for arr in (src, mask, dst):
         if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout in "CA"):
             raise TypingError("compress16 takes 1-D arrays")
@@ -50,28 +109,69 @@ def compress16(typingctx, src, mask, dst, k, c):
         sa = context.make_array(signature.args[0])(context, builder, src_v)
         ma = context.make_array(signature.args[1])(context, builder, mask_v)
         da = context.make_array(signature.args[2])(context, builder, dst_v)
-        f32 = ir.FloatType()
-        vf = ir.VectorType(f32, WIDTH)
-        sv = builder.load(builder.bitcast(builder.gep(sa.data, [k_v]), vf.as_pointer()), align=1)
-        mp = builder.gep(ma.data, [k_v])
-        if signature.args[1].dtype == types.uint8:
-            vb = ir.VectorType(ir.IntType(8), WIDTH)
-            mv = builder.load(builder.bitcast(mp, vb.as_pointer()), align=1)
-            on = builder.icmp_unsigned("!=", mv, ir.Constant(vb, None))
-        else:
-            mv = builder.load(builder.bitcast(mp, vf.as_pointer()), align=1)
-            on = builder.fcmp_unordered("!=", mv, ir.Constant(vf, None))
-        mod = builder.module
-        store_ty = ir.FunctionType(
-            ir.VoidType(), [vf, f32.as_pointer(), ir.VectorType(ir.IntType(1), WIDTH)]
-        )
-        store = cgutils.get_or_insert_function(mod, store_ty, "llvm.masked.compressstore.v16f32")
-        builder.call(store, [sv, builder.gep(da.data, [c_v]), on])
-        i16 = ir.IntType(16)
-        popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i16, [i16]), "llvm.ctpop.i16")
-        return builder.zext(builder.call(popcnt, [builder.bitcast(on, i16)]), ir.IntType(64))
+        byte = signature.args[1].dtype == types.uint8
+        if _wide(context):
+            return _compress_wide(builder, sa.data, ma.data, da.data, k_v, c_v, byte)
+        return _compress_halves(builder, sa.data, ma.data, da.data, k_v, c_v, byte)
 
     return sig, codegen
+
+
+def _active(builder, mp, lanes: int, byte: bool):
+    """``mask[0 : lanes] != 0`` from the pointer ``mp`` (uint8 or float32 mask)."""
+    if byte:
+        vb = ir.VectorType(ir.IntType(8), lanes)
+        mv = builder.load(builder.bitcast(mp, vb.as_pointer()), align=1)
+        return builder.icmp_unsigned("!=", mv, ir.Constant(vb, None))
+    vf = ir.VectorType(ir.FloatType(), lanes)
+    mv = builder.load(builder.bitcast(mp, vf.as_pointer()), align=1)
+    return builder.fcmp_unordered("!=", mv, ir.Constant(vf, None))
+
+
+def _compress_wide(builder, src, mask, dst, k, c, byte: bool):
+    """:func:`compress16` as one ``llvm.masked.compressstore`` (``vcompressps`` on AVX-512)."""
+    f32 = ir.FloatType()
+    vf = ir.VectorType(f32, WIDTH)
+    sv = builder.load(builder.bitcast(builder.gep(src, [k]), vf.as_pointer()), align=1)
+    on = _active(builder, builder.gep(mask, [k]), WIDTH, byte)
+    mod = builder.module
+    store_ty = ir.FunctionType(
+        ir.VoidType(), [vf, f32.as_pointer(), ir.VectorType(ir.IntType(1), WIDTH)]
+    )
+    store = cgutils.get_or_insert_function(mod, store_ty, "llvm.masked.compressstore.v16f32")
+    builder.call(store, [sv, builder.gep(dst, [c]), on])
+    i16 = ir.IntType(16)
+    popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i16, [i16]), "llvm.ctpop.i16")
+    return builder.zext(builder.call(popcnt, [builder.bitcast(on, i16)]), ir.IntType(64))
+
+
+def _compress_halves(builder, src, mask, dst, k, c, byte: bool):
+    """:func:`compress16` as two 8-lane halves: the mask byte picks the packed lanes' sources
+    from :data:`_COMPRESS_TABLE`, one register permute packs them, a full 8-lane store writes
+    them at the count so far."""
+    i8, i32 = ir.IntType(8), ir.IntType(32)
+    v8f = ir.VectorType(ir.FloatType(), HALF)
+    v8i = ir.VectorType(i32, HALF)
+    mod = builder.module
+    table_ty = ir.ArrayType(i32, len(_COMPRESS_TABLE))
+    table = cgutils.global_constant(
+        mod, "psdesign_compress8_table", ir.Constant(table_ty, _COMPRESS_TABLE)
+    )
+    shifts = ir.Constant(v8i, [4 * q for q in range(HALF)])
+    popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i8, [i8]), "llvm.ctpop.i8")
+    at = c
+    for h in range(2):
+        off = builder.add(k, ir.Constant(k.type, h * HALF))
+        sv = builder.load(builder.bitcast(builder.gep(src, [off]), v8f.as_pointer()), align=1)
+        bits = builder.bitcast(_active(builder, builder.gep(mask, [off]), HALF, byte), i8)
+        entry = builder.load(builder.gep(table, [ir.Constant(i32, 0), builder.zext(bits, i32)]))
+        idx = builder.and_(
+            builder.lshr(_splat(builder, entry, HALF), shifts), ir.Constant(v8i, [7] * HALF)
+        )
+        out = builder.bitcast(builder.gep(dst, [at]), v8f.as_pointer())
+        builder.store(_permute(builder, sv, idx), out, align=1)
+        at = builder.add(at, builder.zext(builder.call(popcnt, [bits]), at.type))
+    return builder.sub(at, c)
 
 
 LINE = 64
@@ -141,7 +241,8 @@ def code_scale16(typingctx, code, k, mant, shift, out):
     code[k : k + 16]``: the power of two is added to the float32 exponent bits, so the result is
     exactly the product (no rounding; the caller keeps it a normal float32).  The 16-entry
     look-up is written lane by lane on a vector register, which LLVM compiles into one register
-    permute where the CPU has one (``vpermd`` with AVX-512) instead of a gather from memory.
+    permute where the CPU has one (``vpermd`` with AVX-512) instead of a gather from memory;
+    without AVX-512 (:data:`WIDE`) as two 8-lane permutes per half blended by bit 3 of the code.
 
     ``code``: 1-D contiguous uint8; ``mant``: 16 float32; ``out``: 1-D contiguous float32; the
     caller keeps ``k + 16 <= len(code)`` and ``len(out)`` (no bounds checks)."""
@@ -166,14 +267,21 @@ def code_scale16(typingctx, code, k, mant, shift, out):
         c = builder.zext(builder.load(cp, align=1), vi32)
         idx = builder.and_(c, ir.Constant(vi32, [15] * WIDTH))
         table = builder.load(builder.bitcast(ma.data, vf.as_pointer()), align=1)
-        # lane l takes table[idx[l]]: LLVM turns this into one register permute (vpermd on
-        # AVX-512) instead of a gather from memory
-        val = ir.Constant(vf, None)
-        for lane in range(WIDTH):
-            e = builder.extract_element(idx, ir.Constant(i32, lane))
-            val = builder.insert_element(
-                val, builder.extract_element(table, e), ir.Constant(i32, lane)
-            )
+        if _wide(context):  # lane l takes table[idx[l]]: one vpermd on AVX-512
+            val = _permute(builder, table, idx)
+        else:  # two 8-lane permutes per half, blended by bit 3 of the index
+            v8 = ir.VectorType(i32, HALF)
+            lo, hi = _half(builder, table, 0), _half(builder, table, 1)
+            halves = []
+            for h in range(2):
+                ih = _half(builder, idx, h)
+                i7 = builder.and_(ih, ir.Constant(v8, [7] * HALF))
+                up = builder.and_(ih, ir.Constant(v8, [HALF] * HALF))
+                upper = builder.icmp_unsigned("!=", up, ir.Constant(v8, None))
+                pick = builder.select(upper, _permute(builder, hi, i7), _permute(builder, lo, i7))
+                halves.append(pick)
+            whole = ir.Constant(vi32, list(range(WIDTH)))
+            val = builder.shuffle_vector(halves[0], halves[1], whole)
         sh = builder.trunc(shift_v, i32)
         expo = builder.add(builder.lshr(c, ir.Constant(vi32, [4] * WIDTH)), _splat(builder, sh))
         bits = builder.add(
@@ -186,8 +294,8 @@ def code_scale16(typingctx, code, k, mant, shift, out):
     return sig, codegen
 
 
-def _splat(builder, scalar):
-    """A vector of :data:`WIDTH` copies of an i32 ``scalar``."""
-    vty = ir.VectorType(scalar.type, WIDTH)
+def _splat(builder, scalar, lanes: int = WIDTH):
+    """A vector of ``lanes`` copies of an i32 ``scalar``."""
+    vty = ir.VectorType(scalar.type, lanes)
     one = builder.insert_element(ir.Constant(vty, None), scalar, ir.Constant(ir.IntType(32), 0))
-    return builder.shuffle_vector(one, ir.Constant(vty, None), ir.Constant(vty, [0] * WIDTH))
+    return builder.shuffle_vector(one, ir.Constant(vty, None), ir.Constant(vty, [0] * lanes))

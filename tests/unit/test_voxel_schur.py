@@ -207,13 +207,18 @@ def test_block_sum_and_pressure_block_match_numpy(shape: tuple[int, int, int]) -
     assert dot == pytest.approx(float(np.dot(r.ravel().astype(np.float64), z.ravel())))
 
 
-def test_code_scales_sixteen_at_a_time_equal_the_table() -> None:
+@pytest.mark.parametrize("wide", [True, False])
+def test_code_scales_sixteen_at_a_time_equal_the_table(wide, monkeypatch) -> None:
     """band11: ``simd.code_scale16`` (16 mantissas in a register, the power of two added to the
     float32 exponent) gives exactly ``CODE_TABLE[c] = float32(2^((c - 32) / 16))`` for all 256
-    codes (the exact bound: bit-identical scales, so the preconditioner is unchanged)."""
+    codes (the exact bound: bit-identical scales, so the preconditioner is unchanged), in both
+    forms (``wide``: one 16-lane permute, AVX-512; else band18's two 8-lane permutes per half
+    and a blend, the form without AVX-512)."""
     import numba as nb
 
     from solvers.voxel import simd
+
+    monkeypatch.setattr(simd, "WIDE", wide)
 
     @nb.njit(cache=False)
     def scales(code, mant, out):
