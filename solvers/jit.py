@@ -50,6 +50,7 @@ __all__ = [
     "COMPILE_PARALLEL_ABOVE",
     "DependencyLocator",
     "KernelLog",
+    "SerialHelpers",
     "TwinKernel",
     "WARMUP_NOTE",
     "dependency_files",
@@ -246,6 +247,93 @@ def kernel_log() -> Iterator[KernelLog]:
         _LOGS.remove(log)
 
 
+_SERIAL_VARIANT: dict[object, object] = {}
+"""Inline dispatcher -> its variant in the serial twins (every :class:`SerialHelpers`)."""
+
+
+def _copy(fn: Callable, glb: dict, qualname: str | None = None) -> types.FunctionType:
+    """``fn`` as a new function object over the globals ``glb`` (named ``qualname``)."""
+    out = types.FunctionType(fn.__code__, glb, fn.__name__, fn.__defaults__, fn.__closure__)
+    out.__qualname__ = qualname or fn.__qualname__
+    out.__doc__ = fn.__doc__
+    out.__module__ = fn.__module__
+    return out
+
+
+class SerialHelpers:
+    """The helpers of one kernel module, compiled one way for the parallel kernels and another
+    for the serial twins (:class:`TwinKernel` ``helpers=``).
+
+    The module's names keep numba's ``inline="always"`` helpers and its plain ``@njit`` slab
+    functions: the parallel kernels compile exactly as without this class.  The serial twins
+    are compiled over :attr:`ns`, a copy of the module's globals (:meth:`seal`) in which
+
+    - a :meth:`leaf` (a one-line helper with many call sites) is a plain ``@njit(**plain)``
+      function: compiled once per signature and inlined by LLVM, instead of numba inlining its
+      IR at every call site, recursively, which was 59-69 % of a kernel's compile time
+      (``benchmarks/RESULTS.md``, suite16 and compile17);
+    - an :meth:`inline` helper (the row and plane helpers, with few call sites) is still
+      ``inline="always"``, over :attr:`ns`, so the leaves it calls are the plain ones;
+    - a :meth:`slab` (a cached ``@njit`` function a kernel calls per plane) is a second cached
+      dispatcher over :attr:`ns` (``<name>__serial``).
+
+    Why not everywhere: a call to a plain helper in a loop keeps numba's reference-count
+    pruning from removing the increments and decrements of the row views around it, and LLVM
+    inlines the call only later, so the increments stay in the row loops (compile18: the
+    optimized IR of ``lap_residual``'s serial twin had 22 ``NRT_incref`` calls, none with
+    ``inline="always"``).  On one thread they cost nothing measurable (compile17); in a
+    parallel kernel every thread updates the same arrays' counts, and the default two-thread
+    path at 64^3 with a competitor took 1.12-1.33x the one-thread time (issue 16 item 1 bar
+    1.1x; ``benchmarks/RESULTS.md``, session 17).  Results are bitwise those of the inline
+    helpers."""
+
+    def __init__(self, **plain: object) -> None:
+        self.ns: dict = {}
+        self._plain = plain
+        self._serial: dict[str, object] = {}
+
+    def leaf(self, fn: Callable) -> Callable:
+        """Decorator: ``fn`` inline in the module, a plain ``@njit`` function over :attr:`ns`
+        in :attr:`ns` (the leaves it calls are plain too)."""
+        inline = nb.njit(inline="always")(fn)
+        self._add(fn.__name__, inline, nb.njit(**self._plain)(_copy(fn, self.ns)))
+        return inline
+
+    def inline(self, fn: Callable) -> Callable:
+        """Decorator: ``fn`` inline in the module and in :attr:`ns` (over :attr:`ns`)."""
+        inline = nb.njit(inline="always")(fn)
+        self._add(fn.__name__, inline, nb.njit(inline="always")(_copy(fn, self.ns)))
+        return inline
+
+    def slab(self, **opts: object) -> Callable[[Callable], Callable]:
+        """Decorator: ``@njit(**opts)`` in the module; a second ``@njit(**opts)`` dispatcher
+        over :attr:`ns`, named ``<qualname>__serial`` (numba names its cache files after it)."""
+
+        def wrap(fn: Callable) -> Callable:
+            disp = nb.njit(**opts)(fn)
+            twin = _copy(fn, self.ns, f"{fn.__qualname__}__serial")
+            self._add(fn.__name__, disp, nb.njit(**opts)(twin))
+            return disp
+
+        return wrap
+
+    def _add(self, name: str, module_disp: object, serial_disp: object) -> None:
+        self._serial[name] = serial_disp
+        _SERIAL_VARIANT[module_disp] = serial_disp
+
+    def seal(self, module_globals: dict) -> None:
+        """Fill :attr:`ns` from the module's globals (call it once, at the end of the module):
+        every helper of any :class:`SerialHelpers` (also one imported from another module) by
+        its serial variant."""
+        self.ns.clear()
+        for name, value in module_globals.items():
+            try:
+                self.ns[name] = _SERIAL_VARIANT.get(value, value)
+            except TypeError:  # unhashable global
+                self.ns[name] = value
+        self.ns.update(self._serial)
+
+
 class TwinKernel:
     """A parallel and a serial numba dispatcher of one Python function.
 
@@ -260,19 +348,21 @@ class TwinKernel:
     functions).
     """
 
-    def __init__(self, fn: Callable, serial_below: int = 0, **opts: object) -> None:
+    def __init__(
+        self,
+        fn: Callable,
+        serial_below: int = 0,
+        helpers: SerialHelpers | None = None,
+        **opts: object,
+    ) -> None:
         self.py_func = fn
         self.serial_below = int(serial_below)
         self.parallel = nb.njit(parallel=True, **opts)(fn)
         # a copy of the function under its own qualified name: numba names its cache files
-        # after ``__qualname__`` and does not key them on the ``parallel`` flag
-        twin = types.FunctionType(
-            fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__, fn.__closure__
-        )
-        twin.__qualname__ = f"{fn.__qualname__}__serial"
-        twin.__doc__ = fn.__doc__
-        twin.__module__ = fn.__module__
-        self.serial = nb.njit(**opts)(twin)
+        # after ``__qualname__`` and does not key them on the ``parallel`` flag; over the
+        # serial helpers' globals if given
+        glb = fn.__globals__ if helpers is None else helpers.ns
+        self.serial = nb.njit(**opts)(_copy(fn, glb, f"{fn.__qualname__}__serial"))
         self._ready: dict[tuple, bool] = {}
         functools.update_wrapper(self, fn)
 
@@ -316,12 +406,15 @@ class TwinKernel:
         return f"<TwinKernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
 
 
-def parallel_kernel(serial_below: int = 0, **opts: object) -> Callable[[Callable], TwinKernel]:
+def parallel_kernel(
+    serial_below: int = 0, helpers: SerialHelpers | None = None, **opts: object
+) -> Callable[[Callable], TwinKernel]:
     """Decorator: ``@parallel_kernel(cache=True, fastmath=True)`` in place of
     ``@numba.njit(parallel=True, cache=True, fastmath=True)`` (see :class:`TwinKernel`);
-    ``serial_below``: first-argument size below which the serial twin runs."""
+    ``serial_below``: first-argument size below which the serial twin runs; ``helpers``: the
+    module's :class:`SerialHelpers`, whose variants the serial twin calls."""
 
     def wrap(fn: Callable) -> TwinKernel:
-        return TwinKernel(fn, serial_below=serial_below, **opts)
+        return TwinKernel(fn, serial_below=serial_below, helpers=helpers, **opts)
 
     return wrap

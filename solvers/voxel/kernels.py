@@ -25,7 +25,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import parallel_kernel
+from solvers.jit import SerialHelpers, parallel_kernel
 from solvers.voxel import simd
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True, "error_model": "numpy"}
@@ -44,13 +44,21 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero."""
 
+_SERIAL = SerialHelpers(fastmath=True, nogil=True, error_model="numpy")
+"""The helpers' variants in the serial twins (:class:`solvers.jit.SerialHelpers`): the
+one-line ``leaf`` helpers are plain ``@njit`` functions there, with the kernels' options
+(:data:`_OPTS` without the disk cache: the same fast-math flags and error model as when they
+are inlined), so the serial twins compile in a fraction of the time; the parallel kernels
+inline every helper as before.  Results are bitwise the same (``benchmarks/RESULTS.md``,
+compile17 and compile18)."""
 
-@nb.njit(inline="always")
+
+@_SERIAL.leaf
 def _up(i, n):
     return i + 1 if i + 1 < n else 0
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _dn(i, n):
     return i - 1 if i > 0 else n - 1
 
@@ -67,13 +75,13 @@ def unit_couplings(nz: int) -> np.ndarray:
     return np.ones((3, 1, 1, nz + 1), np.uint8)
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _unit(d, cx):
     """True when ``cx`` is the stand-in of :func:`unit_couplings` (its row is one longer)."""
     return cx.shape[2] != d.shape[2]
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _stencil(d, cx, cy, cz, x, i, j, k, nx, ny, nz):
     """(A x) at (i, j, k) for a 7-point operator with lower-neighbour couplings (float64
     arithmetic for any dtype of ``x``)."""
@@ -109,7 +117,7 @@ AHEAD = 4
 memory (:func:`_fetch`)."""
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _fetch(a, i, j):
     """Prefetch row ``(i, j + AHEAD)`` of ``a`` (the next plane's row when past the last one):
     the row loops stalled on the first load of each row stream from memory (a quarter of the
@@ -123,13 +131,13 @@ def _fetch(a, i, j):
         simd.prefetch_row(a[_up(i, nx), jj - ny])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _ends(nz):
     """Number of k-boundary points handled by the scalar (wrapping) stencil: k = 0 and nz - 1."""
     return 1 if nz == 1 else 2
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _on(dk):
     """1 on an active unknown (``dk != 0``), else 0, as float32: masks are applied by
     multiplying with it, after every operand is loaded.  A conditional expression
@@ -140,7 +148,7 @@ def _on(dk):
     return np.float32(dk != 0)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
     """out[:] = (A x) on one row along k from 1-D row views (0 where ``dr == 0``).
 
@@ -174,7 +182,7 @@ def _stencil_rows(dr, cxr, cxp, cyr, cyp, czr, xr, xim, xip, xjm, xjp, out):
         out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
     """:func:`_stencil_rows` with every coupling 1 (:func:`unit_couplings`): the six
     neighbours are summed without the multiplications by a row of ones (the same float32 sum,
@@ -191,14 +199,14 @@ def _stencil_rows_unit(dr, xr, xim, xip, xjm, xjp, out):
         out[k] = (dr[k] * xr[k] - s) * _on(dr[k])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _u(q):
     """``q`` as an unsigned index: numba adds no negative-index wrap-around test, which kept LLVM
     from vectorising the flat loops (:func:`_jacobi_flat`; 8x slower, band12)."""
     return np.uint64(q)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _apply_row(d, cx, cy, cz, x, i, j, out):
     """out[:] = (A x)[i, j, :] (0 on inactive unknowns) for one row along k
     (:func:`_stencil_rows` on the row views of ``x`` around row ``(i, j)``)."""
@@ -222,7 +230,7 @@ def _apply_row(d, cx, cy, cz, x, i, j, out):
         )  # fmt: skip
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _residual_row(d, cx, cy, cz, x, b, i, j, out):
     """out[:] = (b - A x)[i, j, :] (0 on inactive unknowns) for one row along k."""
     _apply_row(d, cx, cy, cz, x, i, j, out)
@@ -232,7 +240,7 @@ def _residual_row(d, cx, cy, cz, x, b, i, j, out):
         out[k] = (br[k] - out[k]) * _on(dr[k])
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def lap_residual(d, cx, cy, cz, x, b, r):
     """r = b - A x (0 on inactive unknowns), row-vectorised."""
     nx, ny, nz = d.shape
@@ -241,7 +249,7 @@ def lap_residual(d, cx, cy, cz, x, b, r):
             _residual_row(d, cx, cy, cz, x, b, i, j, r[i, j])
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _sum_row(row, fz, out):
     """out[kc] += sum of ``row`` over the k-children of coarse cell kc (aggregation by ``fz``
     along k; an odd length puts the last cell in the last aggregate)."""
@@ -257,7 +265,7 @@ def _sum_row(row, fz, out):
             out[min(k // fz, ncz - 1)] += row[k]
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
 
@@ -303,7 +311,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
             _sum_row(acc, fz, out)
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _damping(dk, om):
     """``om / dk`` in float32 (``om``: the float32 damping factor; 1 stands in for an inactive
     ``dk == 0``, whose result the caller discards).  A float32 division: the float64 one cost
@@ -313,7 +321,7 @@ def _damping(dk, om):
     return om / np.float32(dk if dk != 0 else 1)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _jacobi_row(dr, xr, br, ax, omega, out):
     """out = xr + (br - ax) omega / dr on one row (float32; 0 where ``dr == 0``; ``ax`` = (A x)
     row); returns the float64 sum of ``br * out`` (the preconditioned dot product of the row)."""
@@ -334,7 +342,7 @@ BLOCK = 64
 """Cells per prefetch step of the flat sweeps (one 64-byte line of uint8 ``d``)."""
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _jacobi_cell(fd, fx, fb, q, c, sm, om):
     """One cell of the Jacobi update from its neighbours' sum ``sm`` (flat views: ``d, b`` at
     ``q``, the iterate at ``c``): the expression of :func:`_stencil_rows_unit` and
@@ -343,7 +351,7 @@ def _jacobi_cell(fd, fx, fb, q, c, sm, om):
     return (fx[c] + (fb[q] - ax) * _damping(fd[q], om)) * _on(fd[q])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _residual_cell(fd, fx, fb, q, sm):
     """One cell of ``b - A x`` from its neighbours' sum ``sm`` (0 on an inactive unknown): the
     expression of :func:`_stencil_rows_unit` and :func:`residual_restrict`'s row in one."""
@@ -351,7 +359,7 @@ def _residual_cell(fd, fx, fb, q, sm):
     return (fb[q] - ax) * _on(fd[q])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _fetch_lines(a, q, step):
     """Prefetch the lines of :data:`BLOCK` entries of the 1-D array ``a`` from index ``q``: one
     prefetch per ``step`` entries (a literal at the call: 16 for float32, 64 for uint8, one
@@ -363,20 +371,20 @@ def _fetch_lines(a, q, step):
         simd.prefetch_at(a, q + _u(r))
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _wrap_rows(ny):
     """Rows of a plane whose y-neighbours wrap, which a flat sweep does apart: 0 and ``ny - 1``
     (one row when ``ny == 1``)."""
     return 1 if ny == 1 else 2
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _wrap_row(r, ny):
     """``j`` of the ``r``-th row of :func:`_wrap_rows`."""
     return 0 if r == 0 else ny - 1
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
     """The six neighbours' sum of cell ``(j, k)`` of the plane at ``x0[b0:]`` (its neighbour
     planes at ``xm[bm:], xp[bp:]``), periodic along y and k; the order of the flat loops."""
@@ -388,7 +396,7 @@ def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
     return xm[bm + t] + xp[bp + t] + x0[jm] + x0[jp] + x0[km] + x0[kp]
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _plane_dot(fx, fy, c0, pl):
     """Float64 ``x . y`` over the ``pl`` entries from flat offset ``c0`` (a plane just written:
     from cache)."""
@@ -398,7 +406,7 @@ def _plane_dot(fx, fy, c0, pl):
     return acc
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
     """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
     ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
@@ -455,7 +463,7 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
     return _plane_dot(fb, fo, base, pl) if dot else 0.0
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _residual_flat(d, x, b, i, rp):
     """``rp`` (flat, ``ny nz`` entries) = plane ``i`` of ``b - A x`` (unit couplings): the flat
     prefetching loop of :func:`_jacobi_flat` with :func:`_residual_cell`."""
@@ -502,7 +510,7 @@ def _residual_flat(d, x, b, i, rp):
             )
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised; with unit
     couplings one flat prefetching loop per plane, :func:`_jacobi_flat`).
@@ -537,7 +545,7 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     return acc.sum()
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def jacobi_zero(d, b, x, omega):
     """First Jacobi sweep from a zero guess: ``x = omega D^-1 b``."""
     nx, ny, nz = d.shape
@@ -546,7 +554,7 @@ def jacobi_zero(d, b, x, omega):
             _zero_row(d[i, j], b[i, j], omega, x[i, j])
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _zero_row(dr, br, omega, out):
     """out = br omega / dr (float32, :func:`_damping`; 0 where ``dr == 0``): one row of the first
     Jacobi sweep from 0."""
@@ -555,20 +563,20 @@ def _zero_row(dr, br, omega, out):
         out[k] = br[k] * _damping(dr[k], om) * _on(dr[k])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _chunk(t, nt, n):
     """Range ``[lo, hi)`` of the ``t``-th of ``nt`` equal chunks of ``range(n)``."""
     return t * n // nt, (t + 1) * n // nt
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _zero_plane(d, b, i, omega, out):
     """out[j, :] = omega b[i, j, :] / d[i, j, :]: plane ``i`` of the first sweep from zero."""
     for j in range(d.shape[1]):
         _zero_row(d[i, j], b[i, j], omega, out[j])
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _fetch_ahead(fa, fb, i, j):
     """Prefetch row ``j`` of plane ``i + 2`` of ``fa`` and ``fb`` (periodic), the plane the
     next step of :func:`jacobi2_zero` (``d, b``) reads from memory, while this plane's sweep
@@ -583,7 +591,7 @@ def _fetch_ahead(fa, fb, i, j):
     simd.prefetch_row(fb[i2, j])
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
     p0, pp``: flat buffers of ``ny nz`` entries) into ``xnew[i]``; returns the plane's ``b .
@@ -628,7 +636,7 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     return s
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     """Two damped Jacobi sweeps from a zero guess in one pass over the grid.
 
@@ -655,7 +663,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
             pm, p0, pp = p0, pp, pm
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _expand_row(cr, fz, nz, alpha, ex):
     """``ex[k] = alpha cr[k // fz]`` (float64; the last coarse cell takes the remainder): a
     coarse row expanded to the fine row length (pairwise stores for ``fz = 2``), so that the
@@ -674,7 +682,7 @@ def _expand_row(cr, fz, nz, alpha, ex):
             ex[k] = alpha * cr[min(k // fz, ncz - 1)]
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
     """out[j, :] = plane ``i`` of ``x + alpha P xc`` (on active unknowns; ``x`` elsewhere);
     ``ex``: float64 work row, the expanded coarse row (:func:`_expand_row`), formed once per
@@ -697,7 +705,7 @@ def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
             orow[k] = xr[k] + ex[k] * _on(dr[k])
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchunks):
     """Coarse correction and the first post-smoothing sweep in one pass over the grid.
 
@@ -729,7 +737,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     return acc.sum()
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def copy_dot(r, z):
     """z = r (identity pressure block); returns ``r . z`` (float64) from the same pass."""
     fr = r.reshape(-1, r.shape[-1])
@@ -747,7 +755,7 @@ def copy_dot(r, z):
     return part.sum()
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def scale_dot(r, c, z):
     """z = r * c (diagonal pressure block); returns ``r . z`` (float64) from the same pass."""
     fr = r.reshape(-1, r.shape[-1])
@@ -767,14 +775,14 @@ def scale_dot(r, c, z):
     return part.sum()
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _children(ic, f, nc, n):
     lo = ic * f
     hi = n if ic == nc - 1 else lo + f
     return lo, hi
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def restrict_sum(r, fx, fy, fz, rc):
     """Coarse right-hand side = sum of the fine residual over each aggregate (R = P^T)."""
     nx, ny, nz = r.shape
@@ -790,7 +798,7 @@ def restrict_sum(r, fx, fy, fz, rc):
                     _sum_row(r[i, j], fz, out)
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def prolong_add(d, xc, fx, fy, fz, alpha, x):
     """x += alpha * (piecewise-constant interpolation of xc) on active fine unknowns."""
     nx, ny, nz = d.shape
@@ -813,7 +821,7 @@ def prolong_add(d, xc, fx, fy, fz, alpha, x):
                         xr[k] += alpha * cr[min(k // fz, ncz - 1)]
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
     """Galerkin coarse operator P^T A P for piecewise-constant aggregation (box aggregates).
 
@@ -824,7 +832,7 @@ def galerkin(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc):
         _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, np.int64(ic))
 
 
-@nb.njit(**_OPTS)
+@_SERIAL.slab(**_OPTS)
 def _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, ic):
     """Coarse plane ``ic`` of :func:`galerkin` (12 parameters: the kernel's and ``ic``)."""
     nx, ny, nz = d.shape
@@ -860,7 +868,7 @@ def _galerkin_slab(d, cx, cy, cz, fx, fy, fz, dc, cxc, cyc, czc, ic):
             czc[ic, jc, kc] = ez
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
     """r = f - K x in float64 arithmetic (r may be float32) for the symmetric MAC Stokes
     matrix ``K`` of the module docstring (staircase walls: every face weight 1; the sub-voxel
@@ -877,7 +885,7 @@ def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
     return acc.sum(), accf.sum()
 
 
-@nb.njit(**_OPTS)
+@_SERIAL.slab(**_OPTS)
 def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, x, gdir, r, i):
     """Plane ``i`` of :func:`stokes_residual`; returns its ``(||r||^2, ||f||^2)`` (11
     parameters: the kernel's and ``i``)."""
@@ -937,7 +945,7 @@ def _stokes_residual_slab(du, dv, dw, cu, cv, cw, fluid, x, gdir, r, i):
     return s2, f2
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def dot(a, b):
     """Float64 dot product of two equally shaped C-contiguous arrays (any float dtype).
 
@@ -955,3 +963,6 @@ def dot(a, b):
             s += np.float64(ra[t]) * np.float64(rb[t])
         part[row] = s
     return part.sum()
+
+
+_SERIAL.seal(globals())

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import parallel_kernel
+from solvers.jit import SerialHelpers, parallel_kernel
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
 from solvers.voxel.kernels import BLOCK as FLAT_BLOCK
@@ -55,9 +55,13 @@ from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
+_SERIAL = SerialHelpers(fastmath=True, nogil=True)
+"""The helpers' variants in the serial twins: :data:`_OPTS` without the disk cache for the
+plain leaves (see :data:`solvers.voxel.kernels._SERIAL`); the helpers imported from
+:mod:`solvers.voxel.kernels` take their serial variants from there."""
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _combine(row, s, c1, yr, xr):
     """``yr <- s row - c1 yr`` (``yr`` not read when ``c1 == 0``: it may hold garbage);
     returns the float64 sum of ``xr * yr_new``."""
@@ -75,7 +79,7 @@ def _combine(row, s, c1, yr, xr):
     return acc
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     """One momentum row of :func:`stokes_lanczos`: ``row = (A q)[i, j, :]`` (the stencil of
     :func:`solvers.voxel.kernels._stencil_rows`, 0 on inactive faces), then in one loop the
@@ -115,7 +119,7 @@ def _momentum_lanczos(d, c, q, pr, plow, shift, i, j, s, c1, yr, row):
     return acc
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _fetch_momentum(d, q, ya, i, ip, j):
     """Prefetch the rows of a momentum equation's streams a few j ahead: the diagonal, the
     component's next plane and the output (kernels._fetch)."""
@@ -124,7 +128,7 @@ def _fetch_momentum(d, q, ya, i, ip, j):
     _fetch(ya, i, j)
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     """``y <- s K x - c1 y`` in place for the MAC Stokes matrix of
     :mod:`solvers.voxel.kernels` (staircase); returns ``x . y_new`` (float64).
@@ -141,7 +145,7 @@ def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     return acc.sum()
 
 
-@nb.njit(**_OPTS)
+@_SERIAL.slab(**_OPTS)
 def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos`; returns its ``x . y_new`` (12 parameters: the
     kernel's and ``i``)."""
@@ -193,13 +197,13 @@ def _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, i):
     return s_y
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _lanczos_value(v, s, c1, yo, upd):
     """``s v - c1 yo`` (``yo`` unused unless ``upd``: it may hold garbage when ``c1 == 0``)."""
     return s * v - c1 * yo if upd else s * v
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _momentum_value(dk, xc, sm, pc, plo):
     """One momentum row entry of the staircase operator with unit couplings: the stencil of
     :func:`solvers.voxel.kernels._stencil_rows_unit` from the neighbours' sum ``sm`` plus the
@@ -207,7 +211,7 @@ def _momentum_value(dk, xc, sm, pc, plo):
     return (dk * xc - sm) * _on(dk) + (pc - plo) * _on(dk)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _momentum_flat(fd, fx, fy, q0, c0, xm, xp, p0, pb, ny, nz, s, c1, pf):
     """The interior rows (``1 <= j <= ny - 2``) of one momentum component of
     :func:`_lanczos_flat_slab` as one flat loop over the plane (flat offsets: ``q0`` the plane
@@ -238,7 +242,7 @@ def _momentum_flat(fd, fx, fy, q0, c0, xm, xp, p0, pb, ny, nz, s, c1, pf):
         t0 = t1
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _momentum_wraps(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1):
     """The rows 0 and ``ny - 1`` of :func:`_momentum_flat`'s plane (their y-neighbours wrap;
     the lower pressure of component ``a == 1`` too), vectorised along ``1 <= k <= nz - 2``."""
@@ -266,7 +270,7 @@ def _momentum_wraps(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1):
             fy[c] = _lanczos_value(v, s, c1, fy[c], upd)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _momentum_ends(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved):
     """The k-ends of every row of :func:`_momentum_flat`'s plane with their periodic
     neighbours; ``saved[2 j + e]``: the entry of ``y`` there before the flat loop overwrote it
@@ -285,7 +289,7 @@ def _momentum_ends(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved):
             fy[c] = _lanczos_value(v, s, c1, saved[2 * j + e], upd)
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _save_ends(fy, c0, ny, nz, saved):
     """``saved[2 j + e]`` = the entry of the plane at ``fy[c0:]`` at the ``e``-th k-end of row
     ``j`` (k = 0, nz - 1)."""
@@ -294,7 +298,7 @@ def _save_ends(fy, c0, ny, nz, saved):
             saved[2 * j + e] = fy[c0 + _u(j * nz + (0 if e == 0 else nz - 1))]
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _momentum_plane(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved, pf):
     """Plane ``c0`` of momentum component ``a`` of :func:`_lanczos_flat_slab`; returns its
     ``x . y_new``."""
@@ -305,7 +309,7 @@ def _momentum_plane(fd, fx, fy, q0, c0, xm, xp, p0, pb, a, ny, nz, s, c1, saved,
     return _plane_dot(fx, fy, c0, _u(ny * nz))
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _continuity_plane(ff, fx, fy, q0, uu, uip, vv, ww, p0, ny, nz, s, c1, saved):
     """Plane ``p0`` of the continuity rows of :func:`_lanczos_flat_slab` (the divergence of the
     velocity planes at ``uu, uip`` (``u`` planes ``i, i + 1``), ``vv, ww``); returns its ``x .
@@ -352,7 +356,7 @@ def _continuity_plane(ff, fx, fy, q0, uu, uip, vv, ww, p0, ny, nz, s, c1, saved)
     return _plane_dot(fx, fy, p0, pl)
 
 
-@nb.njit(**_OPTS)
+@_SERIAL.slab(**_OPTS)
 def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos` when every component has
     :func:`solvers.voxel.kernels.unit_couplings` (the staircase's periodic grids): each
@@ -588,7 +592,7 @@ class Solution:
         return x
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _quantise_row(row, m, q, t, e):
     """Store ``row`` (largest magnitude ``m``) as ``q[t] * e[t]`` (float32 ``q``: as is)."""
     if q.itemsize == 4:
@@ -606,7 +610,7 @@ def _quantise_row(row, m, q, t, e):
             q[t, k] = 0
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _lo_max(lo):
     """Largest magnitude of the solution's integer extension ``lo`` (int8, int16 or int32)."""
     if lo.itemsize == 1:
@@ -619,7 +623,7 @@ ROWS_PER_TASK = 64
 row allocated per task, not per row)."""
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _solution_row(hr, lr, sc, cu, r0, lmax):
     """``x += cu r0`` on one row of the solution: ``hr`` alone (``lr`` empty), or ``hr + lr sc``
     updated in float64 and split again into float32 ``hr`` and the integer ``lr`` (``sc`` a
@@ -638,7 +642,7 @@ def _solution_row(hr, lr, sc, cu, r0, lmax):
             hr[k] += cu * np.float64(r0[k])
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
     """``u1 <- s z - a1 u1 - a0 u`` (the next unscaled MINRES direction) and ``x += cx u``
     (the previous direction's solution update) in one pass.
@@ -685,7 +689,7 @@ def minres_direction(z, s, q1, e1, a1, q0, e0, a0, xh, xl, xs, cx):
                 _quantise_row(row, m, f1, t, e1)
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def add_direction(xh, xl, xs, c, q, e):
     """``x += c u`` for a row-scaled int16 direction ``u = q * e`` and the solution of
     :func:`minres_direction` (``xh``, or ``xh + xl * xs[field]`` when ``xl`` is not empty)."""
@@ -702,7 +706,7 @@ def add_direction(xh, xl, xs, c, q, e):
         _solution_row(fh[t], lr, xs[t // per], c * e[t], fq[t], lmax)
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def subtract_sq(r, y):
     """``r -= y`` (flat, parallel); returns the float64 ``||r||^2`` of the result."""
     m = r.shape[0] * r.shape[1]  # one partial sum per plane (per row: 1 B per cell at 32^3)
@@ -722,7 +726,7 @@ def subtract_sq(r, y):
     return part.sum()
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def add_scaled(x, c, u):
     """``x += c u`` (flat, parallel; any float dtypes, e.g. float64 ``x`` and float32 ``u``)."""
     fx = x.ravel()
@@ -772,7 +776,7 @@ class Packing:
         unpack_planes(packed, sc, *self.masks, self.start, out, False)
 
 
-@nb.njit(inline="always")
+@_SERIAL.leaf
 def _count(mr):
     """Non-zero entries of the row ``mr``."""
     c = 0
@@ -781,7 +785,7 @@ def _count(mr):
     return c
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _unpack_row(mr, packed, p, sc, out, add):
     """Row ``out`` from the packed entries from ``p`` on (active where ``mr != 0``, scaled by
     ``sc``; added to ``out`` if ``add``, else written with zeros elsewhere); returns the next
@@ -799,7 +803,7 @@ def _unpack_row(mr, packed, p, sc, out, add):
     return p
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def unpack_planes(packed, scale, du, dv, dw, fluid, start, out, add):
     """``out[a]`` (``+=`` if ``add``) from the packed entries of field ``a`` (:class:`Packing`:
     plane offsets ``start``) times ``scale`` (one per field, or one per row of the four
@@ -822,7 +826,7 @@ def unpack_planes(packed, scale, du, dv, dw, fluid, start, out, add):
                 p = _unpack_row(fluid[i, j], packed, p, sc, out[a, i, j], add)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _row_absmax(packed, p, n):
     m = 0.0
     for k in range(p, p + n):
@@ -830,7 +834,7 @@ def _row_absmax(packed, p, n):
     return m
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def packed_row_absmax(packed, du, dv, dw, fluid, start, out):
     """``out[row]``: the largest magnitude of the packed entries of each row (``4 nx ny``
     rows, 0 for a row without entries)."""
@@ -859,7 +863,7 @@ def direction24_value(wt: np.ndarray, wm: np.ndarray) -> np.ndarray:
     return bits.view(np.float32)
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _gather(mr, zr, zc):
     """The entries of ``zr`` where ``mr != 0`` into ``zc``; returns how many.  Sixteen at a time
     by :func:`solvers.voxel.simd.compress16` (the scalar loop below, which LLVM does not
@@ -876,7 +880,7 @@ def _gather(mr, zr, zc):
     return c
 
 
-@nb.njit(inline="always")
+@_SERIAL.inline
 def _packed_row(mr, zr, s, wt, wm, h, lo, p, cs, sn, zeta, sc, lmax, zc, row, wrow, bits):
     """:func:`symmlq_step` on one row from packed entry ``p`` on: ``mr`` the row's activity,
     ``wt, wm, h, lo`` the packed direction and solution (``lo`` empty: the solution is ``h``
@@ -915,7 +919,7 @@ def _packed_row(mr, zr, s, wt, wm, h, lo, p, cs, sn, zeta, sc, lmax, zc, row, wr
     return q
 
 
-@parallel_kernel(**_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start):
     """One SYMMLQ rotation of the direction ``w`` (:func:`solvers.voxel_stokes._symmlq`'s
     ``w-bar``) with the Lanczos vector ``v = s z``: ``x += zeta (cs w + sn v)`` (the finished
@@ -953,3 +957,6 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
             else:
                 p = _packed_row(fluid[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax,
                                 zc, row, wrow, bits)  # fmt: skip
+
+
+_SERIAL.seal(globals())
