@@ -268,8 +268,9 @@ class SerialHelpers:
     functions: the parallel kernels compile exactly as without this class.  The serial twins
     are compiled over :attr:`ns`, a copy of the module's globals (:meth:`seal`) in which
 
-    - a :meth:`leaf` (a one-line helper with many call sites) is a plain ``@njit(**plain)``
-      function: compiled once per signature and inlined by LLVM, instead of numba inlining its
+    - a :meth:`leaf` (a one-line helper with many call sites) is a plain ``@njit`` function
+      with the kernels' options (``opts``, the disk cache left out): compiled once per
+      signature and inlined by LLVM, instead of numba inlining its
       IR at every call site, recursively, which was 59-69 % of a kernel's compile time
       (``benchmarks/RESULTS.md``, suite16 and compile17);
     - an :meth:`inline` helper (the row and plane helpers, with few call sites) is still
@@ -287,9 +288,11 @@ class SerialHelpers:
     1.1x; ``benchmarks/RESULTS.md``, session 17).  Results are bitwise those of the inline
     helpers."""
 
-    def __init__(self, **plain: object) -> None:
+    def __init__(self, **opts: object) -> None:
         self.ns: dict = {}
-        self._plain = plain
+        # the kernels' options for the plain leaves, without the disk cache: a leaf keeps its
+        # helper's qualified name, under which numba would file the inline helper's cache too
+        self._plain = {k: v for k, v in opts.items() if k != "cache"}
         self._serial: dict[str, object] = {}
 
     def leaf(self, fn: Callable) -> Callable:

@@ -44,7 +44,7 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero."""
 
-_SERIAL = SerialHelpers(fastmath=True, nogil=True, error_model="numpy")
+_SERIAL = SerialHelpers(**_OPTS)
 """The helpers' variants in the serial twins (:class:`solvers.jit.SerialHelpers`): the
 one-line ``leaf`` helpers are plain ``@njit`` functions there, with the kernels' options
 (:data:`_OPTS` without the disk cache: the same fast-math flags and error model as when they

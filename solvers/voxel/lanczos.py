@@ -55,7 +55,7 @@ from solvers.voxel.memory import DIRECTION_BITS
 from solvers.voxel.memory import TIGHT_TOL_BELOW as LO32_BELOW
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True}
-_SERIAL = SerialHelpers(fastmath=True, nogil=True)
+_SERIAL = SerialHelpers(**_OPTS)
 """The helpers' variants in the serial twins: :data:`_OPTS` without the disk cache for the
 plain leaves (see :data:`solvers.voxel.kernels._SERIAL`); the helpers imported from
 :mod:`solvers.voxel.kernels` take their serial variants from there."""
