@@ -110,6 +110,20 @@ def test_invalid_study_names_key(tmp_path, study, params, key):
     assert "\n" not in msg
 
 
+def test_invalid_base_value_that_every_case_overrides_is_refused(tmp_path):
+    """A base value no case uses is still what the reader takes for the baseline: porosity 1.85
+    (a typo for 0.85) beside a porosity sweep is refused by name, before any work (session 18
+    found it ran, rc 0); the same file with a valid base value loads."""
+    p = write_study(tmp_path, 'design = "full-factorial"', '"generator.porosity" = [0.7, 0.8]')
+    p.write_text(p.read_text().replace("porosity = 0.8", "porosity = 1.85", 1))
+    with pytest.raises(StudyError, match=r"^base\.generator\.porosity: must be < 1") as ei:
+        load_study(p)
+    assert "\n" not in str(ei.value)
+    p.write_text(p.read_text().replace("porosity = 1.85", "porosity = 0.85", 1))
+    cases = expand_design(load_study(p))
+    assert [c.spec["generator"]["porosity"] for c in cases] == [0.7, 0.8]
+
+
 def test_unknown_path_lists_known_keys_and_known_optional_key_accepted(tmp_path):
     p = write_study(tmp_path, 'design = "full-factorial"', '"flow.viscosityy" = [1e-5]')
     with pytest.raises(StudyError, match="flow.viscosity"):
