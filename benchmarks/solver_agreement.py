@@ -559,8 +559,8 @@ def _probe_cache(args) -> Path:
     parts += [f"c{copies}", f"s{step}"]
     if args.aux_length is not None:  # absent from older probes' names: the [flow] default
         parts.append(f"a{args.aux_length:g}")
-    if args.seam_tol is not None:  # in diameters since session 19 (voxels before: "seam1")
-        parts.append(f"seamd{args.seam_tol:g}")
+    if args.seam_tol is not None:  # a fraction of L since session 19 (voxels before: "seam1")
+        parts.append(f"seamL{args.seam_tol:g}")
     return CACHE / ("probe__" + "__".join(parts) + ".json")
 
 
@@ -600,9 +600,9 @@ def run_probe(args) -> None:
     if args.seam_tol is not None:  # diagnostic: stack across a seam the product refuses
         from psdesign.flow import stack
 
-        stack.SEAM_TOL_DIAMETERS = args.seam_tol
+        stack.SEAM_TOL_LENGTH = args.seam_tol
     row = {"part": "probe", "spec": args.spec, "solver": args.solver, "bc": args.bc}
-    row |= {"aux_length": flow.get("aux_length"), "seam_tol_diameters": args.seam_tol}
+    row |= {"aux_length": flow.get("aux_length"), "seam_tol_length": args.seam_tol}
     row |= {"voxel_m": args.voxel, "copies_asked": args.copies or "auto"}
     row |= {"lattice_step_asked_m": args.lattice_step, "load_1min": _load()}
     mirrored = args.bc == "mirrored"
@@ -683,8 +683,8 @@ def render_refinement(spec: str) -> list[str]:
         est = r.get("error_estimate") or {}
         step = r.get("lattice_step_m")
         seam = r.get("seam_tol_voxels")  # the probes of session 18: in voxels of the grid
-        seam = f"{seam:g} voxel" if seam is not None else r.get("seam_tol_diameters")
-        seam = f"{seam:g} d" if isinstance(seam, float) else seam
+        seam = f"{seam:g} voxel" if seam is not None else r.get("seam_tol_length")
+        seam = f"{100 * seam:g} % of L" if isinstance(seam, float) else seam
         lines.append(
             f"| {r['solver']} | {r['voxel_m'] * 1e6:.4g} | {r.get('permeameter_copies') or 1} | "
             f"{r.get('aux_length') or 0.2:g} | {'' if seam is None else seam} | "
@@ -1542,9 +1542,9 @@ def main(argv: list[str] | None = None) -> int:
         "--seam-tol",
         type=float,
         default=None,
-        help="diagnostic: end planes within this fraction of the thinnest fiber diameter count "
-        "as periodic (product: psdesign.flow.stack.SEAM_TOL_DIAMETERS), so --copies 2 stacks "
-        "across a seam it refuses",
+        help="diagnostic: end planes within this fraction of the RVE's length count as periodic "
+        "(product: psdesign.flow.stack.SEAM_TOL_LENGTH), so --copies 2 stacks across a seam it "
+        "refuses",
     )
     v.add_argument("--force", action="store_true")
     h = sub.add_parser("hexwindow")
