@@ -72,9 +72,8 @@ SAMPLE_SEED = 12345
 #: Toray-like RVEs with a slab cut out): K falls by 1.2-1.9 % per 1 % of the length cut, on 60,
 #: 50 and 100 um cubes alike (``benchmarks/RESULTS.md``, seam19). At 2 % the stack is at most
 #: about 4 % low (less where not every fiber reaches the largest gap), below the bars of these
-#: RVEs and far from the
-#: one copy it replaces (10 % high on rev_toray, -36 to +88 % on the RVEs of
-#: ``docs/permeability.md``). A tilted PS fiber is periodic along z only to
+#: RVEs and far from the one copy it replaces (10 % high on rev_toray, -36 to +88 % on the RVEs
+#: of ``docs/permeability.md``). A tilted PS fiber is periodic along z only to
 #: ``L (1 - cos(theta))`` (its copies are one period apart across its own axis): 0.33 um at 6 deg
 #: in 60 um; measured by the field near the surface, rev_toray's 60 um RVE differs by 0.46 um
 #: (0.77 % of L), the quickstart's 50 um RVE by 0.25 um (0.50 %).
@@ -127,7 +126,7 @@ def _has_analytic(rve: RVE | None, fields: VoxelFields) -> bool:
     return rve is not None and bool(rve.fibers) and bool(fields.analytic_distance)
 
 
-def reference_diameter(rve: RVE, fields: VoxelFields, axis: int) -> float:
+def _reference_diameter(rve: RVE, fields: VoxelFields, axis: int) -> float:
     """The length (m) that sets which points are near the surface
     (:data:`NEAR_SURFACE_DIAMETERS`): the thinnest fiber diameter
     (:func:`psdesign.meshing.options.thinnest_fiber_diameter`), else
@@ -182,7 +181,7 @@ def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
     layers, :func:`_voxel_periods`)."""
     name = "xyz"[axis]
     if _has_analytic(rve, fields):
-        d = reference_diameter(rve, fields, axis)
+        d = _reference_diameter(rve, fields, axis)
         length = float(rve.size[axis])
         p = _analytic_points(rve)
         lo, hi = p.copy(), p.copy()
@@ -222,7 +221,7 @@ def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, i
     field(s + L / k)`` (1 if none)."""
     if not end_planes(rve, fields, axis).periodic:
         return False, 1
-    d = reference_diameter(rve, fields, axis)
+    d = _reference_diameter(rve, fields, axis)
     length = float(rve.size[axis])
     p = _analytic_points(rve)
     base = rve.union_field(p)
