@@ -75,8 +75,8 @@ SAMPLE_SEED = 12345
 #: RVEs and far from the one copy it replaces (10 % high on rev_toray, -36 to +88 % on the RVEs
 #: of ``docs/permeability.md``). A tilted PS fiber is periodic along z only to
 #: ``L (1 - cos(theta))`` (its copies are one period apart across its own axis): 0.33 um at 6 deg
-#: in 60 um; measured by the field near the surface, rev_toray's 60 um RVE differs by 0.46 um
-#: (0.77 % of L), the quickstart's 50 um RVE by 0.25 um (0.50 %).
+#: in 60 um; measured by the field near the surface, rev_toray's 60 um RVE differs by 0.47 um
+#: (0.78 % of L), the quickstart's 50 um RVE by 0.24 um (0.48 %).
 SEAM_TOL_LENGTH = 0.02
 #: Sub-periods (``field(s) = field(s + L / k)``) need a much closer match: a false "two periods"
 #: would skip the stack; arrays match to rounding.
