@@ -985,7 +985,8 @@ PERMEAMETER_NOTE = (
     "(`REFINED`, session 18): a stacked row above 2 % whose refinement table shows the miss is "
     "discretisation, solved again on the same build with the voxel route on a finer grid and "
     "the FEM at a finer lattice step on the row's field, the `auto` plan unchanged (rev_toray; "
-    "the stacked row stays with its verdict)."
+    "the stacked row stays with its verdict; since session 19 both are two copies and the "
+    "stacked row is within 2 % too, the refined row is kept as the resolved pair)."
 )
 
 
