@@ -346,10 +346,12 @@ def auto_lengthen(
 
     Returns the final result and the ``[flow]`` table it was solved with, its copies pinned to
     the final solve's for the error bar's second resolution, also when ``"auto"`` did not
-    lengthen: re-planned on the coarser grid, ``"auto"`` could stack a different sample (the
-    end-plane test is in voxels of the grid, :data:`psdesign.flow.stack.SEAM_TOL_VOXELS`:
-    rev_toray's RVE at 0.833 um is one copy, at the 1.67 um of its coarse grid two, and the bar
-    compared the two samples). An ``"auto"`` result gets ``permeameter_auto``: the
+    lengthen: re-planned on the coarser grid, ``"auto"`` could stack a different sample (until
+    session 19 the end-plane test was in voxels of the grid: rev_toray's RVE at 0.833 um was one
+    copy, at the 1.67 um of its coarse grid two, and the bar compared the two samples; the
+    tolerance is now a length of the geometry, :data:`psdesign.flow.stack.SEAM_TOL_DIAMETERS`,
+    and the pin keeps the bar's two solves one sample whatever the test). An ``"auto"`` result
+    gets ``permeameter_auto``: the
     copies, K and window term of each solve and why it stopped; a stop with the window term
     still above the threshold adds a warning naming ``flow.permeameter_copies``. ``capture``
     (a :class:`_FinalCapture` from :func:`permeability`) has each superseded solve's fields

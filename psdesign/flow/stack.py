@@ -14,10 +14,12 @@ The stack is built on the voxel grid (distance field and fiber counts tiled alon
 both routes use: the voxel solver directly, the tet mesher through the distance field. The
 reservoirs keep their length (``aux_length`` times one copy's length).
 
-Rule of ``"auto"`` (:func:`plan_copies`): 2 when the geometry is periodic along the flow axis and
-one copy holds fewer than two periods of it; 1 when one copy already holds two or more (arrays of
-two or more cells: nothing to gain); 1 with a warning when the geometry is not periodic along the
-axis (the permeameter K is then the sample's, entrance layers included).
+Rule of ``"auto"`` (:func:`plan_copies`): 2 when the geometry is periodic along the flow axis (its
+end planes differ by at most :data:`SEAM_TOL_LENGTH` of its length there: a property of the
+geometry, the same on every grid) and one copy holds fewer than two periods of it; 1 when one copy
+already holds two or more (arrays of two or more cells: nothing to gain); 1 with a warning when the
+geometry is not periodic along the axis (the permeameter K is then the sample's, entrance layers
+included).
 
 Then the sample length (:func:`next_auto_copies`, applied by :func:`psdesign.flow.permeability.
 permeability`): while the solve's window term (``error_estimate.window``, the entrance/exit
@@ -60,17 +62,30 @@ MAX_SUB_PERIODS = 8
 #: Points sampled to compare the analytic field at ``s`` and ``s + L / k`` (seeded).
 SAMPLE_POINTS = 4000
 SAMPLE_SEED = 12345
-#: End planes whose analytic fields differ by at most this times the voxel edge near the surface
-#: (within :data:`NEAR_SURFACE_VOXELS`) are the same surface to the grid's resolution: the seam of
-#: the stack then has a step below the staircase's own half voxel. Measured: the quickstart's
-#: Toray-like RVE (straight fibres tilted +-5 deg, fast intersection removal) differs by 0.25
-#: voxel between z = 0 and z = L (no sample point changes phase), by 20 voxels along x and y.
-SEAM_TOL_VOXELS = 0.5
+#: End planes whose analytic fields differ near the surface by at most this fraction of the RVE's
+#: length along the axis are periodic enough to stack. A length of the geometry, not a fraction of
+#: the voxel, so the plan (and K) does not change with ``rve.voxel`` (until session 19 the
+#: tolerance was half a voxel: rev_toray's 60 um RVE, end planes 0.46 um apart, was two copies at
+#: 1 um and one at 0.9 um and finer, and its K moved by 10 %). Why relative to the length: the
+#: seam acts like a slab of the gap's thickness cut out of every period, and K moves with the
+#: fraction cut. Measured (``benchmarks/seam_gap.py``, voxel route, periodic, in-plane
+#: Toray-like RVEs with a slab cut out): K falls by 1.2-1.9 % per 1 % of the length cut, on 60,
+#: 50 and 100 um cubes alike (``benchmarks/RESULTS.md``, seam19). At 2 % the stack is at most
+#: about 4 % low (less where not every fiber reaches the largest gap), below the bars of these
+#: RVEs and far from the one copy it replaces (10 % high on rev_toray, -36 to +88 % on the RVEs
+#: of ``docs/permeability.md``). A tilted PS fiber is periodic along z only to
+#: ``L (1 - cos(theta))`` (its copies are one period apart across its own axis): 0.33 um at 6 deg
+#: in 60 um; measured by the field near the surface, rev_toray's 60 um RVE differs by 0.47 um
+#: (0.78 % of L), the quickstart's 50 um RVE by 0.24 um (0.48 %).
+SEAM_TOL_LENGTH = 0.02
 #: Sub-periods (``field(s) = field(s + L / k)``) need a much closer match: a false "two periods"
 #: would skip the stack; arrays match to rounding.
-SUB_PERIOD_TOL_VOXELS = 1e-2
-#: Points within this many voxels of the surface (on either side) are compared.
-NEAR_SURFACE_VOXELS = 2.0
+SUB_PERIOD_TOL_LENGTH = 1e-4
+#: Points within this fraction of the thinnest fiber diameter of the surface (on either side) are
+#: compared (two voxels at the product's 8 voxels per diameter).
+NEAR_SURFACE_DIAMETERS = 0.25
+#: Reference length of an RVE whose fibers carry no diameter: this many voxels.
+FALLBACK_DIAMETER_VOXELS = 8.0
 
 
 @dataclass(frozen=True)
@@ -111,9 +126,21 @@ def _has_analytic(rve: RVE | None, fields: VoxelFields) -> bool:
     return rve is not None and bool(rve.fibers) and bool(fields.analytic_distance)
 
 
-def _surface_gap(a: np.ndarray, b: np.ndarray, h: float) -> float:
-    """Largest ``|a - b|`` (m) over the points near the surface in either field."""
-    near = np.minimum(np.abs(a), np.abs(b)) <= NEAR_SURFACE_VOXELS * h
+def _reference_diameter(rve: RVE, fields: VoxelFields, axis: int) -> float:
+    """The length (m) that sets which points are near the surface
+    (:data:`NEAR_SURFACE_DIAMETERS`): the thinnest fiber diameter
+    (:func:`psdesign.meshing.options.thinnest_fiber_diameter`), else
+    :data:`FALLBACK_DIAMETER_VOXELS` voxels along ``axis``."""
+    from psdesign.meshing.options import thinnest_fiber_diameter
+
+    d = thinnest_fiber_diameter(rve)
+    return float(d) if d else FALLBACK_DIAMETER_VOXELS * float(fields.grid.spacing[axis])
+
+
+def _surface_gap(a: np.ndarray, b: np.ndarray, d: float) -> float:
+    """Largest ``|a - b|`` (m) over the points near the surface in either field (within
+    :data:`NEAR_SURFACE_DIAMETERS` of ``d``)."""
+    near = np.minimum(np.abs(a), np.abs(b)) <= NEAR_SURFACE_DIAMETERS * d
     diff = np.abs(a - b)
     return float(diff[near].max()) if near.any() else float(diff.max())
 
@@ -127,7 +154,8 @@ class EndPlanes:
     axis : str
         ``"x"``, ``"y"`` or ``"z"``.
     periodic : bool
-        The end planes match (:data:`SEAM_TOL_VOXELS` near the surface, or the voxel seam test).
+        The end planes match (:data:`SEAM_TOL_LENGTH` near the surface, or the voxel seam
+        test).
     check : str
         ``"analytic"`` or ``"voxel"`` (:func:`periodicity`).
     detail : str
@@ -147,21 +175,24 @@ def _analytic_points(rve: RVE) -> np.ndarray:
 
 def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
     """Compare the geometry on the two end planes along ``axis``: the analytic union field near
-    the surface where the RVE has one (largest difference against :data:`SEAM_TOL_VOXELS`
-    voxels), else the voxel layers (the seam against the worst step between neighbouring
+    the surface where the RVE has one (largest difference against :data:`SEAM_TOL_LENGTH`
+    of the RVE's length along the axis: a length of the geometry, so the answer does not depend
+    on the grid), else the voxel layers (the seam against the worst step between neighbouring
     layers, :func:`_voxel_periods`)."""
     name = "xyz"[axis]
     if _has_analytic(rve, fields):
-        h = float(fields.grid.spacing[axis])
+        d = _reference_diameter(rve, fields, axis)
+        length = float(rve.size[axis])
         p = _analytic_points(rve)
         lo, hi = p.copy(), p.copy()
-        lo[:, axis], hi[:, axis] = 0.0, float(rve.size[axis])
-        gap = _surface_gap(rve.union_field(lo), rve.union_field(hi), h)
+        lo[:, axis], hi[:, axis] = 0.0, length
+        gap = _surface_gap(rve.union_field(lo), rve.union_field(hi), d)
         detail = (
-            f"the fiber surfaces at {name} = 0 and {name} = L differ by up to {gap / h:.3g} "
-            f"voxels, allowed {SEAM_TOL_VOXELS:g}"
+            f"the fiber surfaces at {name} = 0 and {name} = L differ by up to "
+            f"{gap * 1e6:.3g} um, {100 * gap / length:.3g} % of L = {length * 1e6:.3g} um, "
+            f"allowed {100 * SEAM_TOL_LENGTH:g} %"
         )
-        return EndPlanes(name, gap <= SEAM_TOL_VOXELS * h, "analytic", detail)
+        return EndPlanes(name, gap <= SEAM_TOL_LENGTH * length, "analytic", detail)
     solid = fields.solid
     n = solid.shape[axis]
     steps = [np.mean(np.take(solid, i, axis) != np.take(solid, i + 1, axis)) for i in range(n - 1)]
@@ -190,7 +221,7 @@ def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, i
     field(s + L / k)`` (1 if none)."""
     if not end_planes(rve, fields, axis).periodic:
         return False, 1
-    h = float(fields.grid.spacing[axis])
+    d = _reference_diameter(rve, fields, axis)
     length = float(rve.size[axis])
     p = _analytic_points(rve)
     base = rve.union_field(p)
@@ -198,7 +229,7 @@ def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, i
     for k in range(2, MAX_SUB_PERIODS + 1):
         q = p.copy()
         q[:, axis] = (p[:, axis] + length / k) % length
-        if _surface_gap(rve.union_field(q), base, h) <= SUB_PERIOD_TOL_VOXELS * h:
+        if _surface_gap(rve.union_field(q), base, d) <= SUB_PERIOD_TOL_LENGTH * length:
             found = k
     return True, found
 
@@ -222,7 +253,7 @@ def _voxel_periods(fields: VoxelFields, axis: int) -> tuple[bool, int]:
 def periodicity(rve: RVE | None, fields: VoxelFields, axis: int) -> tuple[bool, int, str]:
     """``(periodic, periods_per_copy, check)`` of the geometry along ``axis``: from the analytic
     union field where the RVE has one (the field on the two end planes, sampled at seeded
-    points near the surface, :data:`SEAM_TOL_VOXELS`), else from the voxel grid
+    points near the surface, :data:`SEAM_TOL_LENGTH`), else from the voxel grid
     (:func:`_voxel_periods`)."""
     if _has_analytic(rve, fields):
         periodic, periods = _analytic_periods(rve, fields, axis)

@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from psdesign.errors import SpecError
-from psdesign.flow.stack import periodicity, plan_copies, stack_fields, stacked_flow
+from psdesign.flow.stack import (
+    SEAM_TOL_LENGTH,
+    end_planes,
+    periodicity,
+    plan_copies,
+    stack_fields,
+    stacked_flow,
+)
 from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
 from psdesign.image.fields import ImageFields, image_fields
@@ -64,6 +71,40 @@ def test_not_periodic_gives_one_copy_and_a_warning_and_refuses_a_stack():
         plan_copies({"permeameter_copies": 2}, rve, fields, 2)
     assert plan_copies({"permeameter_copies": 1}, rve, fields, 2).copies == 1
     assert plan_copies({"permeameter_copies": 3}, rve, fields, 0).copies == 3
+
+
+def _tilted(tilt: float) -> RVE:
+    """A 10 um cylinder along ``(tilt, 0, 1)`` in a 40 um cube: it enters z = 0 and leaves z = L
+    ``tilt L`` apart along x, so the fiber surfaces on the two end planes differ by up to
+    ``tilt L / sqrt(1 + tilt^2)`` (its distance across its own axis; independent truth)."""
+    return _cylinders([L4] * 3, [[L4 / 2] * 3], diameter=10e-6, direction=(tilt, 0, 1))
+
+
+L4 = 40e-6
+
+
+@pytest.mark.parametrize(
+    ("tilt", "periodic"),
+    # end planes 0.60 um apart (1.5 % of L): half a voxel lies between 0.6 voxel at 1 um and 0.3 at
+    # 2 um, so the old half-voxel rule stacked it on the coarse grid only; 1.20 um (3 % of L): 0.3
+    # voxel at 4 um, the old rule stacked it there only
+    [(0.015, True), (0.03, False)],
+)
+def test_the_plan_does_not_depend_on_the_grid(tilt, periodic):
+    """The end-plane tolerance is a length of the geometry (``SEAM_TOL_LENGTH`` of the RVE's
+    length along the flow), not a fraction of the voxel: the same RVE gets the same plan on
+    every grid (issue 12: K must not jump with ``rve.voxel``)."""
+    rve = _tilted(tilt)
+    gap = tilt * L4 / np.hypot(1.0, tilt)
+    assert (gap <= SEAM_TOL_LENGTH * L4) == periodic  # the cases bracket the tolerance
+    for voxel in (1e-6, 2e-6, 4e-6):
+        fields = rve.voxelize(voxel)
+        ends = end_planes(rve, fields, 2)
+        measured = float(ends.detail.split("up to ")[1].split(" um")[0]) * 1e-6
+        assert measured == pytest.approx(gap, rel=0.05), voxel  # the sampled maximum
+        plan = plan_copies({"permeameter_copies": "auto"}, rve, fields, 2)
+        assert (plan.periodic, plan.copies) == ((True, 2) if periodic else (False, 1)), voxel
+        assert (plan.note is None) == periodic
 
 
 def test_voxel_check_on_images():

@@ -102,8 +102,8 @@ def test_bad_bc_raises() -> None:
 @pytest.mark.parametrize(("direction", "periodic"), [([0, 0, 1], True), ([0.3, 0, 1], False)])
 def test_periodic_bc_on_a_non_periodic_geometry_says_so(direction, periodic) -> None:
     """A cylinder along z is periodic in the cube; tilted by 0.3 it enters z = 0 and leaves
-    z = L 12 um apart (5.75 voxels of 2 um; psdesign.flow.stack.end_planes), so the periodic
-    solve is of the wrapped grid's seams too, and the result must say so."""
+    z = L 12 um apart (11.5 um across its axis, 29 % of L; psdesign.flow.stack.end_planes), so
+    the periodic solve is of the wrapped grid's seams too, and the result must say so."""
     s = validate_spec(
         {
             "rve": {"size": [L] * 3, "voxel": 2e-6},
@@ -124,4 +124,4 @@ def test_periodic_bc_on_a_non_periodic_geometry_says_so(direction, periodic) -> 
     seams = [w for w in out["warnings"] if "not periodic" in w]
     assert (not seams) == periodic
     if not periodic:
-        assert "faces normal to x, z" in seams[0] and "5.75 voxels" in seams[0]
+        assert "faces normal to x, z" in seams[0] and "11.5 um, 28.7 % of L" in seams[0]
