@@ -3,7 +3,7 @@
 The estimate (derivation in ``docs/permeability.md``) is
 
     e = max(F_s |K_h - K_H| / (r^p - 1),  C (h / R)^q) / |K_h|  +  e_window  +  e_solver
-        + e_field
+        + e_field  +  e_seam
 
 * ``K_h`` is the result, ``K_H`` a second, cheaper solve of the same problem on a grid (voxel
   route) or lattice (tet route) ``r`` times coarser (``r`` close to 2);
@@ -24,7 +24,9 @@ The estimate (derivation in ``docs/permeability.md``) is
 * ``e_solver = max(residual, flux_imbalance)``: the algebraic error of the flow rate;
 * ``e_field`` (tet route, a field with fewer than 8 voxels across the thinnest fiber, e.g. one
   the memory cap kept coarse): the under-count of thin fibers by the mesh's volume target
-  (:func:`psdesign.flow.fem_field.field_rel_error`); 0 on a resolved field.
+  (:func:`psdesign.flow.fem_field.field_rel_error`); 0 on a resolved field;
+* ``e_seam`` (stacked permeameter): ``C_S g / L``, the seam where two copies of an RVE whose end
+  planes differ by up to ``g`` meet (:data:`SEAM_SLOPE`); 0 for one copy and exact periodicity.
 
 The floor's order ``q`` and constant ``C`` depend on the scheme (:data:`FLOOR`); the sub-voxel
 floor and ``C_W`` are calibrated on a set of square cylinder arrays (``benchmarks/
@@ -44,6 +46,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+#: ``C_S`` of the seam term ``C_S g / L``: K of in-plane Toray-like RVEs with a slab of
+#: thickness ``g`` cut out of every period falls by 1.2-1.9 % per 1 % of the length ``L`` cut, on
+#: 60, 50 and 100 um cubes (``benchmarks/seam_gap.py``; ``benchmarks/RESULTS.md``, seam19); the
+#: largest slope is taken. A seam's mismatch is at most the gap ``g`` at every fibre, so the
+#: cut slab bounds it.
+SEAM_SLOPE = 1.9
 #: Fewer voxels / mesh cells across the thinnest fiber diameter than this draws a warning
 #: (random fiber RVEs reach ~1 % at 8 voxels per diameter, ``benchmarks/RESULTS.md``).
 MIN_CELLS_PER_DIAMETER = 8.0
@@ -101,6 +109,7 @@ class ErrorEstimate:
     coarse_failure: str | None = None
     window: float = 0.0
     field: float = 0.0
+    seam: float = 0.0
 
     def as_dict(self) -> dict:
         """JSON-ready dict (``permeability_rel_error`` is the headline value)."""
@@ -114,6 +123,7 @@ class ErrorEstimate:
                 "solver": self.solver,
                 "window": self.window,
                 "field": self.field,
+                "seam": self.seam,
                 "order": self.order,
                 "ratio": self.ratio,
                 "permeability_coarse_m2": self.k_coarse,
@@ -384,8 +394,23 @@ def estimate_with(
         FLOOR.get(scheme) if scheme else None,
         window_of(result),
     )
-    field = _field_term(result)
-    return replace(est, coarse_failure=failure, rel_error=est.rel_error + field, field=field)
+    field, seam = _field_term(result), seam_rel_error(result)
+    return replace(
+        est, coarse_failure=failure, rel_error=est.rel_error + field + seam, field=field, seam=seam
+    )
+
+
+def seam_rel_error(result: dict) -> float:
+    """The seam term ``C_S g / L`` (:data:`SEAM_SLOPE`) of a stacked permeameter ``result``
+    (its ``seam_gap_fraction`` ``g / L``, :mod:`psdesign.flow.stack`; 0 without one).
+
+    >>> round(seam_rel_error({"seam_gap_fraction": 0.0078}), 6)
+    0.01482
+    >>> seam_rel_error({"permeability_m2": 1.0})
+    0.0
+    """
+    g = result.get("seam_gap_fraction")
+    return SEAM_SLOPE * float(g) if g is not None and np.isfinite(g) else 0.0
 
 
 def _field_term(result: dict) -> float:

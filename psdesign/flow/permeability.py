@@ -349,7 +349,7 @@ def auto_lengthen(
     lengthen: re-planned on the coarser grid, ``"auto"`` could stack a different sample (until
     session 19 the end-plane test was in voxels of the grid: rev_toray's RVE at 0.833 um was one
     copy, at the 1.67 um of its coarse grid two, and the bar compared the two samples; the
-    tolerance is now a length of the geometry, :data:`psdesign.flow.stack.SEAM_TOL_DIAMETERS`,
+    tolerance is now a length of the geometry, :data:`psdesign.flow.stack.SEAM_TOL_LENGTH`,
     and the pin keeps the bar's two solves one sample whatever the test). An ``"auto"`` result
     gets ``permeameter_auto``: the
     copies, K and window term of each solve and why it stopped; a stop with the window term

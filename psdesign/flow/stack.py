@@ -104,6 +104,10 @@ class StackPlan:
         ``"analytic"`` (the RVE's union field) or ``"voxel"`` (the grid: images).
     note : str or None
         Warning text (``"auto"`` on a geometry that is not periodic along the axis).
+    seam_gap_fraction : float
+        The end planes' mismatch as a fraction of the RVE's length (:attr:`EndPlanes.
+        gap_fraction`) where copies meet at a seam (``copies >= 2``), else 0: the error bar's
+        seam term (:func:`psdesign.flow.error.seam_rel_error`).
     """
 
     copies: int
@@ -111,6 +115,7 @@ class StackPlan:
     periods: int
     check: str
     note: str | None = None
+    seam_gap_fraction: float = 0.0
 
     def as_dict(self) -> dict:
         """JSON keys of a permeameter result."""
@@ -119,6 +124,7 @@ class StackPlan:
             "geometry_periodic_along_flow": self.periodic,
             "periods_per_copy": self.periods,
             "periodicity_check": self.check,
+            "seam_gap_fraction": self.seam_gap_fraction,
         }
 
 
@@ -160,12 +166,17 @@ class EndPlanes:
         ``"analytic"`` or ``"voxel"`` (:func:`periodicity`).
     detail : str
         The measurement, for messages.
+    gap_fraction : float
+        The largest difference of the fiber surfaces on the two planes as a fraction of the RVE's
+        length along the axis (analytic check; 0 for the voxel check, whose seam is at most as
+        rough as any layer inside).
     """
 
     axis: str
     periodic: bool
     check: str
     detail: str
+    gap_fraction: float = 0.0
 
 
 def _analytic_points(rve: RVE) -> np.ndarray:
@@ -192,7 +203,7 @@ def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
             f"{gap * 1e6:.3g} um, {100 * gap / length:.3g} % of L = {length * 1e6:.3g} um, "
             f"allowed {100 * SEAM_TOL_LENGTH:g} %"
         )
-        return EndPlanes(name, gap <= SEAM_TOL_LENGTH * length, "analytic", detail)
+        return EndPlanes(name, gap <= SEAM_TOL_LENGTH * length, "analytic", detail, gap / length)
     solid = fields.solid
     n = solid.shape[axis]
     steps = [np.mean(np.take(solid, i, axis) != np.take(solid, i + 1, axis)) for i in range(n - 1)]
@@ -293,7 +304,7 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
     if want == "auto":
         if periodic:
             copies = AUTO_COPIES if periods < 2 else 1
-            return StackPlan(copies, True, periods, check)
+            return StackPlan(copies, True, periods, check, None, _seam(rve, fields, axis, copies))
         note = (
             f"K_{name}: the geometry is not periodic along {name} (its end planes differ), so the "
             "permeameter cannot stack copies: K is this sample's, its entrance layers included "
@@ -306,7 +317,12 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
             f"{want} copies need a geometry periodic along {name} (its end planes differ); "
             "allowed here: 1 or 'auto'",
         )
-    return StackPlan(want, periodic, periods, check)
+    return StackPlan(want, periodic, periods, check, None, _seam(rve, fields, axis, want))
+
+
+def _seam(rve: RVE | None, fields: VoxelFields, axis: int, copies: int) -> float:
+    """:attr:`StackPlan.seam_gap_fraction` of a stack of ``copies``."""
+    return end_planes(rve, fields, axis).gap_fraction if copies >= 2 else 0.0
 
 
 def next_auto_copies(requested: object, result: dict, window: float) -> tuple[int | None, str]:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from psdesign.errors import SpecError
+from psdesign.flow.error import SEAM_SLOPE, seam_rel_error
 from psdesign.flow.stack import (
     SEAM_TOL_LENGTH,
     end_planes,
@@ -105,6 +106,11 @@ def test_the_plan_does_not_depend_on_the_grid(tilt, periodic):
         plan = plan_copies({"permeameter_copies": "auto"}, rve, fields, 2)
         assert (plan.periodic, plan.copies) == ((True, 2) if periodic else (False, 1)), voxel
         assert (plan.note is None) == periodic
+        # the stack carries its seam into the error bar (psdesign.flow.error.seam_rel_error)
+        assert ends.gap_fraction == pytest.approx(gap / L4, rel=0.05)
+        seam = plan.as_dict()["seam_gap_fraction"]
+        assert seam == (pytest.approx(gap / L4, rel=0.05) if periodic else 0.0)
+        assert seam_rel_error(plan.as_dict()) == pytest.approx(SEAM_SLOPE * seam, abs=0)
 
 
 def test_voxel_check_on_images():
