@@ -12,7 +12,7 @@ the real solves use, in separate processes so the compilation runs on all cores:
   :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells on more than one thread), then a
   48^3 pass whose fine grid runs in parallel and whose coarse levels run the serial twins, as a
   real multi-thread solve does; skipped when numba has one thread only.  It runs in two
-  processes that make the same solves in opposite orders (:data:`_PROCESSES`), so that both
+  processes that make the same solves in different orders (:data:`_PROCESSES`), so that both
   cores compile parallel kernels once the serial task is done.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
@@ -40,9 +40,9 @@ __all__ = ["TASKS", "warmup"]
 
 TASKS = ("serial", "parallel")
 
-_PROCESSES = {"serial": ("serial",), "parallel": ("parallel", "parallel-reverse")}
+_PROCESSES = {"serial": ("serial",), "parallel": ("parallel", "parallel-b")}
 """The processes of each task.  ``parallel`` runs in two that make the same solves
-(:func:`_parallel_plan`) in opposite orders: each compiles the signatures it meets first and
+(:func:`_parallel_plan`) in different orders: each compiles the signatures it meets first and
 loads the others from the cache (a signature another process is compiling waits for it,
 :mod:`solvers.jit_locks`), so on two cores the second core compiles parallel kernels once the
 serial task is done instead of idling (the parallel task alone was 835 of 848 s of a cold
@@ -95,7 +95,7 @@ def _task(mode: str) -> tuple[str, float]:
     # them (after the 16^3 pass alone a 100^3 solve compiled 5 kernels, ~19 s)
     fine = built.voxelize(spec["rve"]["voxel"] / 3)
     grids = {"coarse": fields, "fine": fine}
-    for grid, threshold, solve in _parallel_plan(int(fine.solid.size), mode == "parallel-reverse"):
+    for grid, threshold, solve in _parallel_plan(int(fine.solid.size), mode == "parallel-b"):
         vthreads.PARALLEL_MIN_CELLS = threshold
         _solve(built, grids[grid], spec, solve)
     return mode, time.perf_counter() - t0
@@ -116,22 +116,27 @@ _SOLVES: tuple[tuple[str, str, str | float], ...] = (
 boundary conditions, both wall treatments, the three solution storages, the Laplace solves."""
 
 
-def _parallel_plan(fine_cells: int, reverse: bool = False) -> list[tuple[str, int, tuple]]:
+def _parallel_plan(fine_cells: int, second: bool = False) -> list[tuple[str, int, tuple]]:
     """The steps of a ``parallel`` process: ``(grid, PARALLEL_MIN_CELLS, solve)`` with
     ``grid`` ``"coarse"`` (the 16^3 grid) or ``"fine"`` (48^3, ``fine_cells`` cells) and
     ``solve`` one of :data:`_SOLVES`.
 
     Three passes: every solve on the 16^3 grid with every level parallel, on the 48^3 grid with
     every level parallel, then on the 48^3 grid with its fine level parallel and the coarse
-    levels on the serial twins (as a real multi-thread solve).  ``reverse``: the same steps in
-    the opposite order, the second process of the task (:data:`_PROCESSES`).
+    levels on the serial twins (as a real multi-thread solve).  ``second``: the order of the
+    task's second process (:data:`_PROCESSES`), which starts when the serial task ends: the
+    Stokes solves before the Laplace solves and the 48^3 grid before the 16^3 grid, so that it
+    first compiles what the first process reaches last (the 48^3 grid's coarse levels) and meets
+    the Laplace kernels, which the first process compiles early, last.
     """
     steps = [
         (grid, threshold, solve)
         for grid, threshold in (("coarse", 0), ("fine", 0), ("fine", int(fine_cells)))
         for solve in _SOLVES
     ]
-    return steps[::-1] if reverse else steps
+    if second:  # a stable sort: the passes keep their order within each group
+        steps.sort(key=lambda st: (st[2][0] == "laplace", st[0] == "coarse"))
+    return steps
 
 
 def _solve(built, fields, spec: dict, solve: tuple) -> None:
@@ -184,7 +189,7 @@ def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str,
     Returns
     -------
     dict
-        Process (``serial``, ``parallel``, ``parallel-reverse``) -> seconds it took,
+        Process (``serial``, ``parallel``, ``parallel-b``) -> seconds it took,
         ``"total"`` -> wall time.
     """
     import numba
