@@ -11,7 +11,9 @@ the real solves use, in separate processes so the compilation runs on all cores:
 * ``parallel``: the ``parallel=True`` kernels (grids from
   :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` cells on more than one thread), then a
   48^3 pass whose fine grid runs in parallel and whose coarse levels run the serial twins, as a
-  real multi-thread solve does; skipped when numba has one thread only.
+  real multi-thread solve does; skipped when numba has one thread only.  It runs in two
+  processes that make the same solves in different orders (:data:`_PROCESSES`), so that both
+  cores compile parallel kernels once the serial task is done.
 
 Each task covers the voxel Stokes routes (periodic and permeameter, sub-voxel and staircase
 walls at the default tolerance, whose later Krylov cycles store the solution and direction in
@@ -38,6 +40,15 @@ __all__ = ["TASKS", "warmup"]
 
 TASKS = ("serial", "parallel")
 
+_PROCESSES = {"serial": ("serial",), "parallel": ("parallel", "parallel-b")}
+"""The processes of each task.  ``parallel`` runs in two that make the same solves
+(:func:`_parallel_plan`) in different orders: each compiles the signatures it meets first and
+loads the others from the cache (a signature another process is compiling waits for it,
+:mod:`solvers.jit_locks`), so on two cores the second core compiles parallel kernels once the
+serial task is done instead of idling (the parallel task alone was 835 of 848 s of a cold
+warmup on a 2-core AVX2 host; ``benchmarks/RESULTS.md``, compile19).  Either process alone
+compiles everything its task needs."""
+
 #: a 16^3 grid with two crossing rods: percolating, analytic distance (sub-voxel walls)
 _SPEC = {
     "rve": {"size": [32e-6, 32e-6, 32e-6], "voxel": 2e-6},
@@ -49,7 +60,8 @@ _SPEC = {
 
 
 def _task(mode: str) -> tuple[str, float]:
-    """Compile (or load) every kernel of one mode; returns ``(mode, seconds)``."""
+    """Compile (or load) every kernel of one process of :data:`_PROCESSES`; returns ``(mode,
+    seconds)``."""
     import warnings
 
     import numba
@@ -72,35 +84,73 @@ def _task(mode: str) -> tuple[str, float]:
     spec = validate_spec(_SPEC)
     built = build_rve(spec)
     fields = built.voxelize(spec["rve"]["voxel"])
-    _solves(built, fields, spec)
     if mode == "serial":
+        for solve in _SOLVES:
+            _solve(built, fields, spec, solve)
         _forcefield()
-    else:
-        # a real multi-thread solve also meets Galerkin levels of float32 diagonals with
-        # one-byte couplings, in parallel (a 400^3 solve's 200^3 and 100^3 levels) and on the
-        # serial twins (its small coarse levels): the 16^3 grid has none, the 48^3 grid has
-        # them (after the 16^3 pass alone a 100^3 solve compiled 5 kernels, ~19 s)
-        fine = built.voxelize(spec["rve"]["voxel"] / 3)
-        for threshold in (0, int(fine.solid.size)):
-            vthreads.PARALLEL_MIN_CELLS = threshold
-            _solves(built, fine, spec)
+        return mode, time.perf_counter() - t0
+    # a real multi-thread solve also meets Galerkin levels of float32 diagonals with
+    # one-byte couplings, in parallel (a 400^3 solve's 200^3 and 100^3 levels) and on the
+    # serial twins (its small coarse levels): the 16^3 grid has none, the 48^3 grid has
+    # them (after the 16^3 pass alone a 100^3 solve compiled 5 kernels, ~19 s)
+    fine = built.voxelize(spec["rve"]["voxel"] / 3)
+    grids = {"coarse": fields, "fine": fine}
+    for grid, threshold, solve in _parallel_plan(int(fine.solid.size), mode == "parallel-b"):
+        vthreads.PARALLEL_MIN_CELLS = threshold
+        _solve(built, grids[grid], spec, solve)
     return mode, time.perf_counter() - t0
 
 
-def _solves(built, fields, spec: dict) -> None:
-    """The voxel Stokes and Laplace solves of one warm-up pass (both boundary conditions, both
-    wall treatments, the three solution storages)."""
+_SOLVES: tuple[tuple[str, str, str | float], ...] = (
+    ("stokes", "periodic", "subvoxel"),
+    ("stokes", "periodic", "staircase"),
+    ("laplace", "periodic", ""),
+    ("stokes", "permeameter", "subvoxel"),
+    ("stokes", "permeameter", "staircase"),
+    ("laplace", "permeameter", ""),
+    # the int32- and int16-extension Krylov variants (the default 1e-6: int8)
+    ("tol", "periodic", 1e-8),
+    ("tol", "periodic", 5e-7),
+)
+"""The voxel solves of one warm-up pass: ``(kind, bc, wall treatment or tolerance)``; both
+boundary conditions, both wall treatments, the three solution storages, the Laplace solves."""
+
+
+def _parallel_plan(fine_cells: int, second: bool = False) -> list[tuple[str, int, tuple]]:
+    """The steps of a ``parallel`` process: ``(grid, PARALLEL_MIN_CELLS, solve)`` with
+    ``grid`` ``"coarse"`` (the 16^3 grid) or ``"fine"`` (48^3, ``fine_cells`` cells) and
+    ``solve`` one of :data:`_SOLVES`.
+
+    Three passes: every solve on the 16^3 grid with every level parallel, on the 48^3 grid with
+    every level parallel, then on the 48^3 grid with its fine level parallel and the coarse
+    levels on the serial twins (as a real multi-thread solve).  ``second``: the order of the
+    task's second process (:data:`_PROCESSES`), which starts when the serial task ends: the
+    Stokes solves before the Laplace solves and the 48^3 grid before the 16^3 grid, so that it
+    first compiles what the first process reaches last (the 48^3 grid's coarse levels) and meets
+    the Laplace kernels, which the first process compiles early, last.
+    """
+    steps = [
+        (grid, threshold, solve)
+        for grid, threshold in (("coarse", 0), ("fine", 0), ("fine", int(fine_cells)))
+        for solve in _SOLVES
+    ]
+    if second:  # a stable sort: the passes keep their order within each group
+        steps.sort(key=lambda st: (st[2][0] == "laplace", st[0] == "coarse"))
+    return steps
+
+
+def _solve(built, fields, spec: dict, solve: tuple) -> None:
+    """Run one of :data:`_SOLVES` on ``fields`` (flow along z)."""
     from psdesign.flow.permeability import route_result
     from psdesign.transport.diffusivity import relative_diffusivity
 
-    for bc in ("periodic", "permeameter"):
-        for wall in ("subvoxel", "staircase"):
-            flow = {**spec["flow"], "solver": "voxel", "bc": bc, "wall_treatment": wall}
-            route_result(built.rve, fields, "z", flow, "voxel")
+    kind, bc, arg = solve
+    if kind == "laplace":
         relative_diffusivity(fields, "z", {"bc": bc})
-    for tol in (1e-8, 5e-7):  # the int32- and int16-extension Krylov variants (1e-6: int8)
-        flow = {**spec["flow"], "solver": "voxel", "bc": "periodic", "tol": tol}
-        route_result(built.rve, fields, "z", flow, "voxel")
+        return
+    flow = {**spec["flow"], "solver": "voxel", "bc": bc}
+    flow.update({"wall_treatment": arg} if kind == "stokes" else {"tol": arg})
+    route_result(built.rve, fields, "z", flow, "voxel")
 
 
 def _forcefield() -> None:
@@ -121,20 +171,26 @@ def _forcefield() -> None:
     lens_candidates(np.zeros((3, 3, 3)))  # the lens guard of fields without a slope bound
 
 
+def _processes(tasks: tuple[str, ...]) -> tuple[str, ...]:
+    """The worker processes that run ``tasks`` (:data:`_PROCESSES`), in start order."""
+    return tuple(p for t in tasks for p in _PROCESSES[t])
+
+
 def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str, float]:
-    """Compile the kernels into numba's cache, one process per task.
+    """Compile the kernels into numba's cache, one process per entry of :data:`_PROCESSES`.
 
     Parameters
     ----------
     tasks
         Subset of :data:`TASKS`.
     jobs
-        Processes at once (default: the number of CPUs, at most ``len(tasks)``).
+        Processes at once (default: the number of CPUs, at most the number of processes).
 
     Returns
     -------
     dict
-        Task -> seconds it took (its process), ``"total"`` -> wall time.
+        Process (``serial``, ``parallel``, ``parallel-b``) -> seconds it took,
+        ``"total"`` -> wall time.
     """
     import numba
 
@@ -143,9 +199,10 @@ def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str,
         raise ValueError(f"warmup tasks {bad}: allowed {', '.join(TASKS)}")
     if numba.config.NUMBA_NUM_THREADS < 2:
         tasks = tuple(t for t in tasks if t != "parallel")
+    procs = _processes(tasks)
     t0 = time.perf_counter()
-    n = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    n = max(1, min(jobs or os.cpu_count() or 1, len(procs)))
     with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
-        out = dict(pool.map(_task, tasks))
+        out = dict(pool.map(_task, procs))
     out["total"] = time.perf_counter() - t0
     return out

@@ -1,0 +1,84 @@
+"""``psdesign warmup`` runs its ``parallel`` task in two processes that make the same solves in
+different orders (``psdesign.warmup._PROCESSES``, ``_parallel_plan``).
+
+Why: on two cores the parallel task alone was 835 of the 848 s of a cold warmup (session 18
+lead, ``benchmarks/RESULTS.md``) while the second core idled after the 195 s serial task; a
+second process making the same solves in another order (the 48^3 grid first, the Laplace solves
+last) compiles the signatures the first one reaches late (``solvers.jit_locks``: one compile
+per signature, the other process loads it). Each process alone must still make every solve,
+else a kernel signature would be left to the user's first solve. No compile here: the plan is
+data, and the pool is replaced by an in-process map.
+"""
+
+from __future__ import annotations
+
+import numba
+import pytest
+
+from psdesign import warmup
+
+# the eight solves of one pass, written out by hand (both boundary conditions, both wall
+# treatments, the Laplace solves, the two tolerances of the longer Krylov storages)
+SOLVES = [
+    ("stokes", "periodic", "subvoxel"),
+    ("stokes", "periodic", "staircase"),
+    ("laplace", "periodic", ""),
+    ("stokes", "permeameter", "subvoxel"),
+    ("stokes", "permeameter", "staircase"),
+    ("laplace", "permeameter", ""),
+    ("tol", "periodic", 1e-8),
+    ("tol", "periodic", 5e-7),
+]
+
+
+def test_parallel_plan_is_three_passes_in_two_orders():
+    fine = 48**3
+    plan = warmup._parallel_plan(fine)
+    assert len(plan) == 24
+    assert plan[:8] == [("coarse", 0, s) for s in SOLVES]  # 16^3, every level parallel
+    assert plan[8:16] == [("fine", 0, s) for s in SOLVES]  # 48^3, every level parallel
+    # 48^3 with the fine level parallel and the coarse levels on the serial twins
+    assert plan[16:] == [("fine", 110592, s) for s in SOLVES]
+    second = warmup._parallel_plan(fine, second=True)
+    assert sorted(second, key=str) == sorted(plan, key=str)  # the same steps
+    stokes = [s for s in SOLVES if s[0] != "laplace"]
+    laplace = [s for s in SOLVES if s[0] == "laplace"]
+    assert second == (
+        [("fine", 0, s) for s in stokes]
+        + [("fine", 110592, s) for s in stokes]
+        + [("coarse", 0, s) for s in stokes]
+        + [("fine", 0, s) for s in laplace]
+        + [("fine", 110592, s) for s in laplace]
+        + [("coarse", 0, s) for s in laplace]
+    )
+
+
+def test_parallel_task_runs_in_two_processes(monkeypatch):
+    assert warmup._processes(("serial", "parallel")) == ("serial", "parallel", "parallel-b")
+    assert warmup._processes(("parallel",)) == ("parallel", "parallel-b")
+    assert warmup._processes(("serial",)) == ("serial",)
+
+    seen: dict = {}
+
+    class InProcessPool:
+        def __init__(self, max_workers, mp_context):
+            seen["workers"] = max_workers
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def map(self, fn, items):
+            seen["modes"] = list(items)
+            return [(m, float(i)) for i, m in enumerate(seen["modes"])]
+
+    monkeypatch.setattr(warmup, "ProcessPoolExecutor", InProcessPool)
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread: the parallel task is left out")
+    out = warmup.warmup(jobs=2)
+    assert seen == {"workers": 2, "modes": ["serial", "parallel", "parallel-b"]}
+    assert (out["serial"], out["parallel"], out["parallel-b"]) == (0.0, 1.0, 2.0)
+    warmup.warmup(("parallel",), jobs=8)  # at most one worker per process
+    assert seen == {"workers": 2, "modes": ["parallel", "parallel-b"]}
