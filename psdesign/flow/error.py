@@ -25,8 +25,9 @@ The estimate (derivation in ``docs/permeability.md``) is
 * ``e_field`` (tet route, a field with fewer than 8 voxels across the thinnest fiber, e.g. one
   the memory cap kept coarse): the under-count of thin fibers by the mesh's volume target
   (:func:`psdesign.flow.fem_field.field_rel_error`); 0 on a resolved field;
-* ``e_seam`` (stacked permeameter): ``C_S g / L``, the seam where two copies of an RVE whose end
-  planes differ by up to ``g`` meet (:data:`SEAM_SLOPE`); 0 for one copy and exact periodicity.
+* ``e_seam`` (stacked permeameter, periodic BC): ``C_S g / L``, the seam where two copies of an
+  RVE whose end planes differ by up to ``g`` meet, or where the periodic wrap joins the RVE to
+  itself (:data:`SEAM_SLOPE`); 0 for one copy and exact periodicity.
 
 The floor's order ``q`` and constant ``C`` depend on the scheme (:data:`FLOOR`); the sub-voxel
 floor and ``C_W`` are calibrated on a set of square cylinder arrays (``benchmarks/

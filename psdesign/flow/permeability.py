@@ -31,7 +31,9 @@ from collections.abc import Callable
 import numpy as np
 
 from psdesign.flow import error as err
+from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
+from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
 
@@ -121,7 +123,19 @@ def route_result(
         res["bc"] = got
     if bc is not None and got != bc:
         raise _refuse(solver, bc, got)
+    if got == "periodic" and rve is not None:
+        res["seam_gap_fraction"] = _periodic_seam(rve, fields, direction)
     return res
+
+
+def _periodic_seam(rve: RVE, fields: VoxelFields, direction: str | int) -> float:
+    """The wrap's seam along the flow (:attr:`psdesign.flow.stack.EndPlanes.gap_fraction`) when
+    the end planes match within :data:`psdesign.flow.stack.SEAM_TOL_LENGTH`, for the error bar's
+    seam term (:func:`psdesign.flow.error.seam_rel_error`): a periodic solve joins the RVE to
+    itself there as the stack joins two copies; beyond the tolerance the result already warns
+    that it is of the wrapped grid, seams included, and the term is left out."""
+    ends = end_planes(rve, fields, axis_of(direction)[1])
+    return ends.gap_fraction if ends.periodic else 0.0
 
 
 def _fem_step(res: dict, fields: VoxelFields, rve: RVE, flow: dict) -> float:

@@ -7,6 +7,7 @@ import pytest
 
 from psdesign.errors import SpecError
 from psdesign.flow.error import SEAM_SLOPE, seam_rel_error
+from psdesign.flow.permeability import _periodic_seam
 from psdesign.flow.stack import (
     SEAM_TOL_LENGTH,
     end_planes,
@@ -111,6 +112,8 @@ def test_the_plan_does_not_depend_on_the_grid(tilt, periodic):
         seam = plan.as_dict()["seam_gap_fraction"]
         assert seam == (pytest.approx(gap / L4, rel=0.05) if periodic else 0.0)
         assert seam_rel_error(plan.as_dict()) == pytest.approx(SEAM_SLOPE * seam, abs=0)
+        # the periodic BC's wrap joins the RVE to itself at the same seam
+        assert _periodic_seam(rve, fields, "z") == seam
 
 
 def test_voxel_check_on_images():
