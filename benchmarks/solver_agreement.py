@@ -1292,9 +1292,11 @@ REV_TORAY_SEAM19 = (
     "voxel row would be 3.7266e-11 (two copies, bar 4.3 %; 2026-12-03 17:13-17:16 UTC, load "
     "5.8-6.3, 60 s CPU) against 2.5410e-11 for one copy (+47 %: its fibres are denser at "
     "mid-height, where the one-copy window weighs most; its periodic voxel K is 3.3253e-11). "
-    "Its FEM row at two copies (about 1.05 M tets) was not solved for machine time and memory, "
-    "so both of its rows stay the one-copy solve of session 18 (the old plan) until they are "
-    "solved again together."
+    "Both of its stacked rows were solved again at two copies by the lead (2026-12-03 18:51-18:58 "
+    "UTC, idle, load 0.5-1.1, two threads; `python benchmarks/solver_agreement.py specs --force "
+    "--only fig17_beta_z --bc permeameter-stacked --solvers voxel fem`): voxel 3.7266e-11 (bar "
+    "5.1 %, the seam term included), FEM 3.7164e-11 (749 046 tets, bar 2.6 %, 393 s, 5.45 GB "
+    "peak): FEM / voxel - 1 = -0.27 %."
 )
 
 #: rev_toray, the row that crossed 2 % with the sub-voxel fix (session 17); measured in session 18
