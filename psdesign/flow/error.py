@@ -402,8 +402,9 @@ def estimate_with(
 
 
 def seam_rel_error(result: dict) -> float:
-    """The seam term ``C_S g / L`` (:data:`SEAM_SLOPE`) of a stacked permeameter ``result``
-    (its ``seam_gap_fraction`` ``g / L``, :mod:`psdesign.flow.stack`; 0 without one).
+    """The seam term ``C_S g / L`` (:data:`SEAM_SLOPE`) of a stacked-permeameter or periodic
+    ``result`` (its ``seam_gap_fraction`` ``g / L``: :class:`psdesign.flow.stack.StackPlan`,
+    or the periodic wrap's, :func:`psdesign.flow.permeability.route_result`; 0 without one).
 
     >>> round(seam_rel_error({"seam_gap_fraction": 0.0078}), 6)
     0.01482

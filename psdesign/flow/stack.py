@@ -227,11 +227,9 @@ def unmatched_faces(rve: RVE | None, fields: VoxelFields) -> str:
     return f"faces normal to {axes} do not match ({details})"
 
 
-def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, int]:
-    """Periodic along ``axis`` (:func:`end_planes`) and the largest ``k`` with ``field(s) =
-    field(s + L / k)`` (1 if none)."""
-    if not end_planes(rve, fields, axis).periodic:
-        return False, 1
+def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> int:
+    """The largest ``k`` with ``field(s) = field(s + L / k)`` along ``axis`` (1 if none), from
+    the RVE's analytic union field."""
     d = _reference_diameter(rve, fields, axis)
     length = float(rve.size[axis])
     p = _analytic_points(rve)
@@ -242,35 +240,37 @@ def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> tuple[bool, i
         q[:, axis] = (p[:, axis] + length / k) % length
         if _surface_gap(rve.union_field(q), base, d) <= SUB_PERIOD_TOL_LENGTH * length:
             found = k
-    return True, found
+    return found
 
 
-def _voxel_periods(fields: VoxelFields, axis: int) -> tuple[bool, int]:
-    """The same from the grid: the seam between the last and the first layer changes no more
-    voxels than the worst step between neighbouring layers inside (:func:`end_planes`);
-    sub-periods by rolling the solid by ``n / k`` layers (``k`` dividing ``n``; an image's
-    distance is not periodic)."""
-    if not end_planes(None, fields, axis).periodic:
-        return False, 1
+def _voxel_periods(fields: VoxelFields, axis: int) -> int:
+    """The same from the grid: sub-periods by rolling the solid by ``n / k`` layers (``k``
+    dividing ``n``; an image's distance is not periodic)."""
     solid = fields.solid
     n = solid.shape[axis]
     found = 1
     for k in range(2, MAX_SUB_PERIODS + 1):
         if n % k == 0 and np.array_equal(np.roll(solid, n // k, axis=axis), solid):
             found = k
-    return True, found
+    return found
 
 
-def periodicity(rve: RVE | None, fields: VoxelFields, axis: int) -> tuple[bool, int, str]:
-    """``(periodic, periods_per_copy, check)`` of the geometry along ``axis``: from the analytic
-    union field where the RVE has one (the field on the two end planes, sampled at seeded
-    points near the surface, :data:`SEAM_TOL_LENGTH`), else from the voxel grid
-    (:func:`_voxel_periods`)."""
-    if _has_analytic(rve, fields):
-        periodic, periods = _analytic_periods(rve, fields, axis)
-        return periodic, periods, "analytic"
-    periodic, periods = _voxel_periods(fields, axis)
-    return periodic, periods, "voxel"
+def periodicity(rve: RVE | None, fields: VoxelFields, axis: int) -> tuple[bool, int, str, float]:
+    """``(periodic, periods_per_copy, check, gap_fraction)`` of the geometry along ``axis``:
+    whether the end planes match (:func:`end_planes`: the analytic union field near the surface
+    where the RVE has one, :data:`SEAM_TOL_LENGTH`, else the voxel layers, the seam against the
+    worst step between neighbouring layers inside), the sub-periods within one copy
+    (:func:`_analytic_periods`, :func:`_voxel_periods`; 1 when not periodic), ``"analytic"`` or
+    ``"voxel"``, and the end planes' mismatch as a fraction of the length
+    (:attr:`EndPlanes.gap_fraction`)."""
+    ends = end_planes(rve, fields, axis)
+    if not ends.periodic:
+        return False, 1, ends.check, ends.gap_fraction
+    if ends.check == "analytic":
+        periods = _analytic_periods(rve, fields, axis)
+    else:
+        periods = _voxel_periods(fields, axis)
+    return True, periods, ends.check, ends.gap_fraction
 
 
 def parse_copies(value: object) -> int | str:
@@ -299,12 +299,12 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
         copies would meet at a seam of mismatched fibres).
     """
     want = parse_copies(flow.get("permeameter_copies"))
-    periodic, periods, check = periodicity(rve, fields, axis)
+    periodic, periods, check, gap = periodicity(rve, fields, axis)
     name = "xyz"[axis]
     if want == "auto":
         if periodic:
             copies = AUTO_COPIES if periods < 2 else 1
-            return StackPlan(copies, True, periods, check, None, _seam(rve, fields, axis, copies))
+            return StackPlan(copies, True, periods, check, None, gap if copies >= 2 else 0.0)
         note = (
             f"K_{name}: the geometry is not periodic along {name} (its end planes differ), so the "
             "permeameter cannot stack copies: K is this sample's, its entrance layers included "
@@ -317,12 +317,7 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
             f"{want} copies need a geometry periodic along {name} (its end planes differ); "
             "allowed here: 1 or 'auto'",
         )
-    return StackPlan(want, periodic, periods, check, None, _seam(rve, fields, axis, want))
-
-
-def _seam(rve: RVE | None, fields: VoxelFields, axis: int, copies: int) -> float:
-    """:attr:`StackPlan.seam_gap_fraction` of a stack of ``copies``."""
-    return end_planes(rve, fields, axis).gap_fraction if copies >= 2 else 0.0
+    return StackPlan(want, periodic, periods, check, None, gap if want >= 2 else 0.0)
 
 
 def next_auto_copies(requested: object, result: dict, window: float) -> tuple[int | None, str]:
