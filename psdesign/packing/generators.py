@@ -253,18 +253,7 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
     lo, hi = np.zeros(3), size / period
     explicit = list(explicit)
     if "generator" not in spec:
-        rve = RVE(size, explicit, period=period)
-        vf = rve.voxelize(voxel)
-        report = {
-            "method": "none",
-            "n_fibers": 0,
-            "n_explicit": len(explicit),
-            "porosity": vf.porosity,
-            "omega_after": vf.intersection_volume_fraction,
-            "voxel_m": voxel,
-            "wall_time_s": {"total": time.perf_counter() - t_start},
-        }
-        return GenerationResult(explicit, rve, report, vf)
+        return _explicit_only(size, voxel, period, explicit, t_start)
     gs = parse_generator(spec, size, period)
     rng = np.random.default_rng(gs.seed)
     supported = [fb for fb in explicit if fb.shape in ("rod", "cylinder", "bent-rod")]
@@ -288,6 +277,53 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         st, drawn, info = _none(gs, rng, size, measure)
     times["generate_and_remove"] = time.perf_counter() - t0 - times.get("voxelize", 0.0)
     vf = info.pop("fields")
+    _check_reached(gs, vf, info, others)
+    vf_before = measure(drawn)
+    fibers = explicit + st.to_fibers()
+    rve = RVE(size, fibers, period=period)
+    both = FiberState.concat(fixed, st) if fixed is not None else st
+    report = {
+        "method": gs.method,
+        "kind": gs.kind,
+        "seed": gs.seed,
+        "n_fibers": len(st),
+        "n_explicit": len(explicit),
+        "target_porosity": gs.porosity,
+        "porosity": vf.porosity,
+        "porosity_tolerance": gs.tolerance,
+        "porosity_before": vf_before.porosity,
+        "omega_before": vf_before.intersection_volume_fraction,
+        "omega_after": vf.intersection_volume_fraction,
+        **_placement_stats(drawn, st, both, lo, hi, period),
+        "min_gap_m": gs.min_gap,
+        "voxel_m": voxel,
+        "grid_shape": list(vf.grid.shape),
+        **{k: v for k, v in info.items() if k not in ("closest", "why")},
+    }
+    times["total"] = time.perf_counter() - t_start
+    report["wall_time_s"] = {k: round(v, 3) for k, v in times.items()}
+    return GenerationResult(fibers, rve, report, vf)
+
+
+def _explicit_only(size, voxel: float, period: float, explicit: list, t_start: float):
+    """The :class:`GenerationResult` of a spec without a ``[generator]``: its explicit fibers."""
+    rve = RVE(size, explicit, period=period)
+    vf = rve.voxelize(voxel)
+    report = {
+        "method": "none",
+        "n_fibers": 0,
+        "n_explicit": len(explicit),
+        "porosity": vf.porosity,
+        "omega_after": vf.intersection_volume_fraction,
+        "voxel_m": voxel,
+        "wall_time_s": {"total": time.perf_counter() - t_start},
+    }
+    return GenerationResult(explicit, rve, report, vf)
+
+
+def _check_reached(gs: GeneratorSpec, vf: VoxelFields, info: dict, others: list) -> None:
+    """Raise :class:`GenerationError` when the porosity target was missed or ``fast`` left
+    overlap on the voxel grid (the closest porosity reached in the message)."""
     achieved = vf.porosity
     omega_after = vf.intersection_volume_fraction
     if gs.porosity is not None and abs(achieved - gs.porosity) > gs.tolerance + 1e-12:
@@ -304,27 +340,17 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
             f"{sorted({fb.shape for fb in others})})",
             achieved,
         )
-    vf_before = measure(drawn)
-    fibers = explicit + st.to_fibers()
-    rve = RVE(size, fibers, period=period)
+
+
+def _placement_stats(drawn, st, both, lo, hi, period: float) -> dict:
+    """The report's overlap, orientation and motion statistics of the drawn state ``drawn``
+    and the final ``st`` (``both``: with the fixed explicit fibers), lengths in metres."""
     disp = st.center - drawn.center
     d0, d1 = drawn.direction, st.direction
     disp_perp = disp - np.einsum("ij,ij->i", disp, d0)[:, None] * d0
     dist = np.linalg.norm(disp_perp, axis=1) * period
     rot = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", d0, d1)), 0, 1)))
-    both = FiberState.concat(fixed, st) if fixed is not None else st
-    report = {
-        "method": gs.method,
-        "kind": gs.kind,
-        "seed": gs.seed,
-        "n_fibers": len(st),
-        "n_explicit": len(explicit),
-        "target_porosity": gs.porosity,
-        "porosity": achieved,
-        "porosity_tolerance": gs.tolerance,
-        "porosity_before": vf_before.porosity,
-        "omega_before": vf_before.intersection_volume_fraction,
-        "omega_after": omega_after,
+    return {
         "omega_analytic_before": analytic_omega(drawn, lo, hi) if len(drawn) else 0.0,
         "omega_analytic_after": analytic_omega(both, lo, hi) if len(both) else 0.0,
         "orientation_tensor_before": orientation_tensor(drawn).round(6).tolist(),
@@ -337,14 +363,7 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         "rotation_deg": _stats(rot),
         "orientation_deg": {"before": _angle_stats(drawn), "after": _angle_stats(st)},
         "min_clearance_m": (clearance(both, lo, hi) * period) if len(both) > 1 else None,
-        "min_gap_m": gs.min_gap,
-        "voxel_m": voxel,
-        "grid_shape": list(vf.grid.shape),
-        **{k: v for k, v in info.items() if k not in ("closest", "why")},
     }
-    times["total"] = time.perf_counter() - t_start
-    report["wall_time_s"] = {k: round(v, 3) for k, v in times.items()}
-    return GenerationResult(fibers, rve, report, vf)
 
 
 def _stats_ms(x: np.ndarray) -> dict:
