@@ -203,23 +203,29 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
     return "failed", None, res["error"]
 
 
-#: Result keys whose False value marks a case as untrustworthy (prefix match with ``_``).
+#: Result keys whose False value marks a case as untrustworthy: the key itself, with a
+#: suffix (``converged_z``) or as the last part of a column name (``diffusivity_z_converged``).
 TRUST_FLAGS = ("converged", "trusted", "trustworthy")
+
+
+def _is_key(k: str, name: str) -> bool:
+    return k == name or k.startswith(name + "_") or k.endswith("_" + name)
 
 
 def untrusted_reason(results: dict) -> str | None:
     """Why a case's results cannot be trusted, or None.
 
-    A case is ``not_converged`` when any ``converged``/``converged_*`` (or ``trusted*``,
-    ``trustworthy*``) result is False, or a ``status``/``status_*`` result is a string other
-    than ``"ok"``/``"converged"``.
+    A case is ``not_converged`` when any ``converged`` / ``converged_*`` / ``*_converged`` (or
+    ``trusted``, ``trustworthy`` in the same forms) result is False, or a ``status`` /
+    ``status_*`` / ``*_status`` result (e.g. ``k_z_status``) is a string other than
+    ``"ok"``/``"converged"``.
     """
     bad = []
     for k, v in results.items():
-        flag = any(k == f or k.startswith(f + "_") for f in TRUST_FLAGS)
+        flag = any(_is_key(k, f) for f in TRUST_FLAGS)
         if flag and v is False:
             bad.append(f"{k}=False")
-        elif (k == "status" or k.startswith("status_")) and isinstance(v, str):
+        elif _is_key(k, "status") and isinstance(v, str):
             if v.strip().lower() not in ("ok", "converged"):
                 bad.append(f"{k}={v}")
     if not bad:
