@@ -8,22 +8,19 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.io.newfile import check_new_file, write_new_file
     from psdesign.transport.load import load_case
     from psdesign.transport.study_outputs import pore_report
 
     t0 = time.perf_counter()
-    case = load_case(args.spec)
-    tr = dict(case.transport)
-    if args.n_radii:
-        tr["n_radii"] = args.n_radii
-    if args.axis:
-        tr["thickness_axis"] = args.axis
-    out = pore_report(case.rve, case.fields, tr)
+    plot = None if args.plot is None else check_new_file(args.plot, "--plot")
+    case = load_case(args.spec, {"n_radii": args.n_radii, "thickness_axis": args.axis})
+    out = pore_report(case.rve, case.fields, case.transport)
     out["wall_time_s"] = time.perf_counter() - t0
-    if args.plot:
+    if plot is not None:
         from psdesign.report.transport import pore_figure
 
-        out["plot"] = str(pore_figure(out, args.plot))
+        out["plot"] = str(write_new_file(plot, "--plot", lambda tmp: pore_figure(out, tmp)))
     if args.json:
         print(json.dumps(out, default=float))
     else:
@@ -42,8 +39,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Register ``pores``."""
     p = sub.add_parser("pores", help="pore size distribution, intrusion, surface, orientation")
     p.add_argument("spec")
-    p.add_argument("--n-radii", type=int, default=None, help="radii of the scan (16)")
+    p.add_argument(
+        "--n-radii",
+        type=int,
+        default=None,
+        help="radii of the scan (transport.n_radii, 4-200, default 16)",
+    )
     p.add_argument("--axis", choices=("x", "y", "z"), default=None, help="through-plane axis")
-    p.add_argument("--plot", default=None, help="write the size / intrusion plot to this PNG")
+    p.add_argument(
+        "--plot",
+        default=None,
+        help="write the size / intrusion plot to this new PNG file (an existing path is "
+        "refused: psdesign never overwrites a file it may not have written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd)
