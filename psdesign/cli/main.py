@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Sequence
 
 from psdesign.cli.progress import activate
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, show_warning_one_line
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
 COMMANDS = (
@@ -45,15 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"psdesign: warning: {' '.join(str(message).split())}", file=sys.stderr)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    warnings.showwarning = _show_warning  # one line per warning
+    warnings.showwarning = show_warning_one_line  # one line per warning
     try:
         with activate(quiet=bool(getattr(args, "quiet", False))):  # progress on stderr
             return int(args.func(args) or 0)

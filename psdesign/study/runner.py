@@ -203,7 +203,13 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
 
 
 def _init_worker(parent_pid: int) -> None:
-    """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle."""
+    """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle;
+    warnings one line each, as in the runner (the case records them in its results)."""
+    import warnings
+
+    from psdesign.errors import show_warning_one_line
+
+    warnings.showwarning = show_warning_one_line
     ignore_sigint()
     watch_parent(parent_pid)
 

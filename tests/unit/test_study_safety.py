@@ -203,6 +203,27 @@ def untrustworthy_case(spec, outputs, solver, workdir):
     return out
 
 
+def warning_case(spec, outputs, solver, workdir):
+    import warnings
+
+    warnings.warn("K_z: only 6.0 voxels across\n the fiber", UserWarning, stacklevel=1)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def test_worker_warnings_are_one_line(tmp_path, capfd):
+    """Product rule: one line per message, never Python's two-line warning with the source
+    file and the code line (main: a pool worker printed ``.../x.py:12: UserWarning: ...`` and
+    ``  warnings.warn(...)``)."""
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    df = run_study(
+        p, tmp_path / "out", workers=1, case_fn=warning_case, progress=False, report=False
+    )
+    assert df["status"].tolist() == ["ok"]
+    err = capfd.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert lines == ["psdesign: warning: K_z: only 6.0 voxels across the fiber"], err
+
+
 def test_untrustworthy_k_is_not_recorded_ok(tmp_path):
     p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
     df = run_study(
