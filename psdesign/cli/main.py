@@ -70,9 +70,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("psdesign: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM during a study run (Terminated)
+        from psdesign.study.interrupt import Terminated
+
+        term = isinstance(exc, Terminated)
+        print(f"psdesign: {'terminated' if term else 'interrupted'}", file=sys.stderr)
+        return 143 if term else 130
 
 
 if __name__ == "__main__":

@@ -146,6 +146,7 @@ def _cluster(args: argparse.Namespace):
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
+    from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import run_study, scheduler_security
     from psdesign.study.store import StorageError
     from psdesign.study.studyfile import StudyError
@@ -171,6 +172,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return _fail(str(exc), 2)
     except StorageError as exc:
         return _fail(str(exc), 1)
+    except Terminated:
+        return _fail("terminated; finished cases are saved, rerun the command to resume", 143)
     except KeyboardInterrupt:
         return _fail("interrupted; finished cases are saved, rerun the command to resume", 130)
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)

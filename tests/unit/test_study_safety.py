@@ -352,6 +352,39 @@ def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
     assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
 
 
+def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
+    """``kill PID`` / ``timeout`` / a batch system's cancel send SIGTERM. Rules: never a
+    traceback, nothing half-written, the folder resumable. On main the runner died at once
+    (exit -15, Python's multi-line resource_tracker warning) and left ``OUT/.lock`` behind,
+    which a run from another host refuses until deleted by hand."""
+    import psutil
+
+    proc, p, out, flag = _start_runner(tmp_path, None)
+    procs: list = []
+    try:
+        _wait_for_sleepers(proc, out, 2)
+        procs = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
+        assert len(procs) >= 3
+        os.kill(proc.pid, signal.SIGTERM)
+        gone, alive = psutil.wait_procs(procs, timeout=5.0)
+        assert not alive, [a.pid for a in alive]
+        err = proc.stderr.read().decode()
+        (runner,) = [g for g in gone if g.pid == proc.pid]
+        assert runner.returncode == 143, err
+        assert "terminated" in err and "rerun the command to resume" in err
+        assert "Traceback" not in err and "leaked" not in err
+    finally:
+        for k in procs:
+            try:
+                k.kill()
+            except psutil.Error:
+                pass
+    assert not (out / ".lock").exists()
+    flag.unlink()
+    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
+    assert len(df) == 4 and (df["status"] == "ok").all()
+
+
 def test_interrupt_stops_only_processes_started_during_the_run():
     from psdesign.study.interrupt import stop_on_interrupt
 
@@ -359,6 +392,7 @@ def test_interrupt_stops_only_processes_started_during_the_run():
     before = subprocess.Popen(sleep)
     during = None
     handler = signal.getsignal(signal.SIGINT)  # whatever the caller had (other tests may set one)
+    term_handler = signal.getsignal(signal.SIGTERM)
     try:
         with pytest.raises(KeyboardInterrupt), stop_on_interrupt():
             during = subprocess.Popen(sleep)
@@ -366,6 +400,7 @@ def test_interrupt_stops_only_processes_started_during_the_run():
         during.wait(timeout=5)  # stopped (reaped by psutil: no exit status to check)
         assert before.poll() is None  # the caller's own child is left alone
         assert signal.getsignal(signal.SIGINT) is handler  # restored
+        assert signal.getsignal(signal.SIGTERM) is term_handler
     finally:
         for proc in (before, during):
             if proc is not None and proc.poll() is None:
