@@ -116,3 +116,36 @@ def test_pores_plot_new_file_written_and_no_temp_left(spec, tmp_path, capsys):
     assert main(["pores", str(spec), "--plot", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pores.png", "spec.toml"]
+
+
+# main: `warmup --jobs 0` ran with the default (`jobs or cpu_count`) and `--jobs -2` with one
+# process, silently.
+@pytest.mark.parametrize("value", ["0", "-2", "65"])
+def test_warmup_jobs_out_of_range_refused_before_compiling(capsys, monkeypatch, value):
+    def warmup(*a, **k):
+        raise AssertionError("compiled before the arguments were checked")
+
+    monkeypatch.setattr("psdesign.warmup.warmup", warmup)
+    assert main(["warmup", "--jobs", value]) == 2
+    err = _one_line_error(capsys)
+    assert "--jobs" in err and "[1, 64]" in err and value in err
+
+
+# main: with NUMBA_NUM_THREADS=1 the start line said "compiling ... (serial, parallel)" and the
+# parallel task was then skipped without a word ("warmup done ... (serial N s)").
+def test_warmup_says_when_the_parallel_kernels_are_skipped(capsys, monkeypatch):
+    import numba
+
+    asked = []
+
+    def warmup(tasks, jobs=None):
+        asked.append(tasks)
+        return {t: 1.0 for t in tasks} | {"total": 1.0}
+
+    monkeypatch.setattr("psdesign.warmup.warmup", warmup)
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    assert main(["warmup"]) == 0
+    err = capsys.readouterr().err
+    assert asked == [("serial",)]
+    assert "parallel kernels are not compiled" in err
+    assert "(serial)" in err and "(serial, parallel)" not in err
