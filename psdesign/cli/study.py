@@ -181,6 +181,16 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
     """0 when every case is ``ok`` (or ``not_converged`` and allowed), else 1 (one line why)."""
+    from psdesign.study.worker import untrustworthy_count
+
+    n_untrusted = untrustworthy_count(df) if len(df) else 0
+    if n_untrusted:
+        print(
+            f"psdesign: warning: {n_untrusted} ok case(s) have a K flagged untrustworthy "
+            "(k_<d>_status: error bar above 20 % or fewer than 8 cells per fiber diameter; "
+            "k_<d>_rel_error gives the bar); their K are kept",
+            file=sys.stderr,
+        )
     status = df["status"] if len(df) else []
     n_nc = int((status == "not_converged").sum()) if len(df) else 0
     n_bad = int(((status != "ok") & (status != "not_converged")).sum()) if len(df) else 0
