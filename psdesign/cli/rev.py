@@ -8,7 +8,7 @@ import sys
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
-    from psdesign.analysis.rev import rev_study
+    from psdesign.analysis.rev import RevFailed, rev_study
 
     try:
         res = rev_study(
@@ -26,6 +26,9 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
+    except RevFailed as exc:
+        print(f"psdesign: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
     if args.json:
         print(
             json.dumps(
@@ -55,10 +58,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
     p.add_argument("spec", help="RVE spec with a [generator] table")
     p.add_argument("--sizes", type=float, nargs="+", required=True, help="cube edges in metres")
-    p.add_argument("--seeds", type=int, default=3, help="seeds per size (>= 2, default 3)")
+    p.add_argument("--seeds", type=int, default=3, help="seeds per size (2-1000, default 3)")
     p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
     p.add_argument("--solver", choices=("voxel", "fem"), default="voxel")
-    p.add_argument("--directions", default="xyz", help="subset of xyz (default xyz)")
+    p.add_argument(
+        "--directions", default="xyz", help="subset of xyz, each axis once (default xyz)"
+    )
     p.add_argument("--tol", type=float, default=0.1, help="relative CI half-width (default 0.1)")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--quiet", action="store_true")
