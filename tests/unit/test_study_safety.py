@@ -592,3 +592,26 @@ def test_tls_scheduler_end_to_end(tmp_path, capsys):
     cols = ["case_id", "status", "k_x_m2", "k_z_m2"]
     pd.testing.assert_frame_equal(a[cols], b[cols])
     assert "warning" not in capsys.readouterr().err
+
+
+def test_absurd_local_worker_count_and_nan_timeout_refused_before_work(tmp_path, capsys):
+    """Rule: bad input exits 2 in one line naming the key and the range, before any work.
+    main: ``--workers 100000`` was accepted (the pool is capped only at the number of cases: a
+    1000-case study would start 1000 processes of up to GBs each), and ``timeout_s=nan`` passed
+    the Python API's ``<= 0`` check."""
+    from psdesign.cli.study import main
+    from psdesign.study.runner import max_local_workers
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "out"
+    n = max_local_workers() + 1
+    args = ["study", "run", str(p), "-o", str(out), "--quiet", "--case-fn", "study_cases:fake_case"]
+    assert main([*args, "--workers", str(n)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"workers: at most {max_local_workers()} processes" in err and str(n) in err
+    assert not out.exists()
+    with pytest.raises(StudyError, match=r"^timeout: must be a number > 0"):
+        run_study(p, out, workers=0, case_fn=fake_case, timeout_s=float("nan"))
+    assert not out.exists()
+    assert max_local_workers() >= 64
