@@ -205,7 +205,7 @@ def check_output_dir(
             if not anc.is_dir():
                 what = "an existing file" if anc == resolved else f"inside the file {anc}"
                 raise OutputError(
-                    option, f"{resolved} is {what}; -o takes a folder, give a new folder name"
+                    option, f"{resolved} is {what}; {option} takes a folder, give a new folder name"
                 )
             break
     if not resolved.exists():

@@ -149,3 +149,16 @@ def test_warmup_says_when_the_parallel_kernels_are_skipped(capsys, monkeypatch):
     assert asked == [("serial",)]
     assert "parallel kernels are not compiled" in err
     assert "(serial)" in err and "(serial, parallel)" not in err
+
+
+# main: "psdesign: error: --fields: .../afile is an existing file; -o takes a folder" (the option
+# the user gave is --fields).
+@pytest.mark.parametrize("command", ["permeability", "diffusivity"])
+def test_fields_under_a_file_names_the_option_it_came_from(spec, tmp_path, capsys, command):
+    (tmp_path / "afile").write_text("keep")
+    for target in (tmp_path / "afile", tmp_path / "afile" / "sub"):
+        assert main([command, str(spec), "--fields", str(target), "--quiet"]) == 2
+        err = _one_line_error(capsys)
+        assert err.startswith("psdesign: error: --fields: ") and "--fields takes a folder" in err
+        assert "-o takes" not in err
+    assert (tmp_path / "afile").read_text() == "keep"
