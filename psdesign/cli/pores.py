@@ -26,11 +26,14 @@ def _cmd(args: argparse.Namespace) -> int:
     else:
         print(
             f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
-            f"d90 {out['pore_d90_m']:.3e} m  (step {out['bin_width_m']:.1e} m)"
+            f"d90 {out['pore_d90_m']:.3e} m  (step {out['bin_width_m']:.1e} m, rel. error "
+            f"{out['rel_error']:.1e})  breakthrough diameter "
+            f"{out['breakthrough_diameter_m']:.3e} m"
+            + ("" if out.get("converged", True) else "  (NOT CONVERGED)")
         )
         print(
-            f"specific surface {out['specific_surface_m-1']:.4e} 1/m  porosity "
-            f"{out['porosity']:.4f}  breakthrough diameter {out['breakthrough_diameter_m']:.3e} m"
+            f"specific surface {out['specific_surface_m-1']:.4e} 1/m  rel. error "
+            f"{out['specific_surface_rel_error']:.1e}  porosity {out['porosity']:.4f}"
         )
     return 0
 

@@ -162,3 +162,15 @@ def test_fields_under_a_file_names_the_option_it_came_from(spec, tmp_path, capsy
         assert err.startswith("psdesign: error: --fields: ") and "--fields takes a folder" in err
         assert "-o takes" not in err
     assert (tmp_path / "afile").read_text() == "keep"
+
+
+# main: the text output of `pores` printed d10/d50/d90 and S_v without the error estimates its
+# JSON carries (rule: every number printed carries its error estimate).
+def test_pores_text_prints_the_error_estimates(spec, capsys):
+    assert main(["pores", str(spec), "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert main(["pores", str(spec)]) == 0
+    text = capsys.readouterr().out
+    assert f"rel. error {js['rel_error']:.1e}" in text
+    assert f"rel. error {js['specific_surface_rel_error']:.1e}" in text
+    assert js["converged"] is True and "NOT CONVERGED" not in text
