@@ -44,7 +44,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from psdesign.analysis.surrogate import load_study_surrogates, parse_point
+    from psdesign.analysis.surrogate import load_study_surrogates, outside_range, parse_point
 
     try:
         models = load_study_surrogates(args.out)
@@ -52,20 +52,31 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         for name, m in models.items():
             x = parse_point(args.at, m.params)
             mean, std = m.predict(x[None, :])
+            outside = outside_range(m, x)
             out[name] = {
                 "mean": float(mean[0]),
                 "std": float(std[0]),
                 "cv_rel_error": m.cv_rel_error,
+                "status": "extrapolated" if outside else "ok",
+                "outside": outside,
             }
     except (FileNotFoundError, ValueError) as exc:
-        return _fail(str(exc))
+        return _fail(" ".join(str(exc).split()))
+    outside = list(dict.fromkeys(o for r in out.values() for o in r["outside"]))
+    if outside:
+        print(
+            f"psdesign: warning: extrapolating beyond the fitted cases ({'; '.join(outside)}); "
+            "the predictions are not trustworthy",
+            file=sys.stderr,
+        )
     if args.json:
         print(json.dumps(out))
     else:
         for name, r in out.items():
+            flag = "  (EXTRAPOLATED)" if r["outside"] else ""
             print(
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
-                f"{100 * r['cv_rel_error']:.2g} %)"
+                f"{100 * r['cv_rel_error']:.2g} %){flag}"
             )
     return 0
 

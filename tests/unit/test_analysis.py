@@ -139,6 +139,41 @@ def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
     assert "unknown parameter 'generator.porsity'" in err and len(err.strip().splitlines()) == 1
 
 
+def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsys) -> None:
+    """main (audit20): ``--at generator.porosity=nan`` ended in scikit-learn's six-line NaN
+    message, a parameter given twice silently took the last value, and a point far outside the
+    fitted range (porosity 5 for a 0.7-0.9 design: predicted porosity 3.6) printed as any
+    other prediction. Rules: one line naming the key; an untrustworthy number says so."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    for at, msg in [
+        ("generator.porosity=nan", "--at: generator.porosity must be a finite number, got 'nan'"),
+        ("generator.porosity=inf", "--at: generator.porosity must be a finite number"),
+        ("generator.porosity=0.8,generator.porosity=0.7", "generator.porosity given twice"),
+    ]:
+        assert main(["study", "predict", str(out), "--at", at]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("psdesign: error: ") and msg in err[0], err
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8", "--json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["k_z_m2"]["status"] == "ok" and cap.err == ""
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["k_z_m2"]
+    assert r["status"] == "extrapolated"
+    assert r["outside"] == ["generator.porosity = 0.95 outside [0.7, 0.9]"]
+    assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 0
+    assert "(EXTRAPOLATED)" in capsys.readouterr().out
+
+
 def test_optimize_finds_a_hidden_target_in_under_half_a_factorial(tmp_path, capsys) -> None:
     # hidden design: porosity 0.83, diameter 7.7 um; the fake solver's k_z is 2x Kozeny-Carman
     target = 2.0 * kc_truth(0.83, 7.7e-6)
