@@ -230,3 +230,50 @@ def test_optimize_refuses_list_parameters_and_bad_targets(tmp_path, capsys) -> N
     assert main([*base, "--target", "k_z_m2~1e-12"]) == 2
     assert "--target: expected OUTPUT=VALUE" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "msg"),
+    [
+        (["--budget", "-1"], "argument --budget: design points: an integer in [1, 10000], got -1"),
+        (["--budget", "0"], "argument --budget: design points: an integer in [1, 10000], got 0"),
+        (["--batch", "0"], "argument --batch: points per round: an integer in [1, 1000], got 0"),
+        (["--seed", "-1"], "argument --seed: seed: an integer in [0, 4294967294], got -1"),
+    ],
+)
+def test_optimize_bad_numbers_one_line_before_work(tmp_path, capsys, args, msg) -> None:
+    """main (audit20): --budget -1 gave numpy's 'negative dimensions are not allowed', 0 'the
+    design is empty', --batch 0 ran and ended in a wrong '--target ... not an output', --seed -1
+    'expected non-negative integer': none named the option or its range."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=5e-12", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"psdesign: error: {msg}"]
+    assert not out.exists()
+
+
+def always_failing_case(spec, outputs, solver, workdir):
+    raise RuntimeError("mesh failed")
+
+
+def test_optimize_with_every_case_failed_says_why(tmp_path, capsys) -> None:
+    """main: every case failing gave "--target: 'k_z_m2' is not an output of this study;
+    outputs: " (an empty list) instead of the cases' error."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    args = ["study", "optimize", str(p), "-o", str(tmp_path / "out"), "--quiet", "--workers"]
+    args += ["0", "--target", "k_z_m2=5e-12", "--case-fn", "test_analysis:always_failing_case"]
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("NOT MET: 0 of 4 case(s) finished ok, fewer than 3; cannot fit")
+    assert "(first error: RuntimeError: mesh failed)" in out
