@@ -249,8 +249,15 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
     path = Path(out_dir) / SURROGATE_FILE
     if not path.is_file():
         raise FileNotFoundError(f"{out_dir}: no {SURROGATE_FILE}; run `psdesign study fit` first")
-    doc = json.loads(path.read_text())
-    return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+    try:
+        doc = json.loads(path.read_text())
+        return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:  # also UnicodeDecodeError
+        msg = " ".join(str(exc).split())
+        raise ValueError(
+            f"{path}: not a surrogate file psdesign wrote ({type(exc).__name__}: {msg}); "
+            "run `psdesign study fit` again"
+        ) from None
 
 
 def parse_point(text: str, params: list[str]) -> np.ndarray:

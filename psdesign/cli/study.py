@@ -205,6 +205,8 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
+    import pandas as pd
+
     from psdesign.report import ReportError, write_report
     from psdesign.study.store import StorageError
 
@@ -212,6 +214,9 @@ def cmd_study_report(args: argparse.Namespace) -> int:
         path = write_report(args.out)
     except ReportError as exc:
         return _fail(str(exc), 2)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        msg = " ".join(str(exc).split())
+        return _fail(f"out_dir: {args.out}/results.csv is unreadable ({msg}); rerun the study", 2)
     except StorageError as exc:
         return _fail(str(exc), 1)
     print(path)

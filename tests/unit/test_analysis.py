@@ -277,3 +277,25 @@ def test_optimize_with_every_case_failed_says_why(tmp_path, capsys) -> None:
     out = capsys.readouterr().out
     assert out.startswith("NOT MET: 0 of 4 case(s) finished ok, fewer than 3; cannot fit")
     assert "(first error: RuntimeError: mesh failed)" in out
+
+
+def test_corrupt_surrogate_and_results_files_are_named(tmp_path, capsys) -> None:
+    """main: a damaged surrogate.json gave 'psdesign: error: Expecting value: line 1 column 1
+    (char 0)' and a damaged results.csv 'Error tokenizing data. C error: ...': one line but
+    naming no file (rule: the line names the key)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    for junk in (b"\x00\x01", b"{bad", b'{"models": 3}'):
+        (out / "surrogate.json").write_bytes(junk)
+        assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "surrogate.json: not a surrogate file" in err[0], err
+    (out / "results.csv").write_text('garbage,"\n')
+    assert main(["study", "report", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "results.csv is unreadable" in err[0], err
