@@ -42,6 +42,8 @@ def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     from psdesign.schema.transport import validate_transport
 
     p = Path(path)
+    if p.is_dir():
+        raise SpecError("spec", f"{p} is a folder; give a TOML file")
     if not p.is_file():
         raise SpecError("spec", f"file not found: {p}")
     try:

@@ -174,3 +174,24 @@ def test_pores_text_prints_the_error_estimates(spec, capsys):
     assert f"rel. error {js['rel_error']:.1e}" in text
     assert f"rel. error {js['specific_surface_rel_error']:.1e}" in text
     assert js["converged"] is True and "NOT CONVERGED" not in text
+
+
+# main: "spec: file not found: adir" for a folder given as the spec (the path exists).
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["generate", "{d}", "-o", "{o}"],
+        ["pores", "{d}"],
+        ["permeability", "{d}"],
+        ["study", "run", "{d}", "-o", "{o}"],
+        ["forcefield", "{d}", "-o", "{o}"],
+    ],
+)
+def test_a_folder_given_as_the_spec_is_named_a_folder(tmp_path, capsys, argv):
+    d = tmp_path / "specs"
+    d.mkdir()
+    o = tmp_path / "out"
+    assert main([a.format(d=d, o=o) for a in argv]) == 2
+    err = _one_line_error(capsys)
+    assert f"{d} is a folder; give a TOML file" in err
+    assert not o.exists()
