@@ -130,6 +130,9 @@ def optimize_study(
     from psdesign.study.runner import run_study
     from psdesign.study.studyfile import load_study
 
+    for key, v, hi in (("budget", budget, 10_000), ("batch", batch, 1000)):
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
+            raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
     study = load_study(study_path)
     bounds = _bounds(study)
     names = list(bounds)

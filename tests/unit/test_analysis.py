@@ -299,3 +299,20 @@ def test_corrupt_surrogate_and_results_files_are_named(tmp_path, capsys) -> None
     assert main(["study", "report", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "results.csv is unreadable" in err[0], err
+
+
+def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
+    """main: optimize_study(batch=0) added no point per round and looped forever."""
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    t = [Target.parse("k_z_m2=5e-12")]
+    for kw in ({"batch": 0}, {"budget": -1}, {"batch": 1.5}):
+        with pytest.raises(ValueError, match=r"^--(batch|budget): an integer in \[1, "):
+            optimize_study(p, tmp_path / "out", t, case_fn=fake_case, workers=0, **kw)
+    assert not (tmp_path / "out").exists()
