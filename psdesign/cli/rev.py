@@ -29,6 +29,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     except RevFailed as exc:
         print(f"psdesign: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
+    _warn_untrustworthy(args.out)
     if args.json:
         print(
             json.dumps(
@@ -51,6 +52,24 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     else:
         print(f"REV: {res.rev_size_m * 1e6:g} um (95 % CI half-width below {100 * res.tol:g} %)")
     return 0
+
+
+def _warn_untrustworthy(out: str) -> None:
+    """One warning line when some case's K is flagged untrustworthy (k_<d>_status)."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from psdesign.study.worker import untrustworthy_count
+
+    n = untrustworthy_count(pd.read_csv(Path(out) / "results.csv"))
+    if n:
+        print(
+            f"psdesign: warning: {n} case(s) have a K flagged untrustworthy (k_<d>_status in "
+            f"{out}/results.csv: error bar above 20 % or fewer than 8 cells per fiber diameter); "
+            "the intervals below include them",
+            file=sys.stderr,
+        )
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -115,3 +115,31 @@ def test_rev_with_no_ok_case_is_one_line_exit_1(tmp_path, capsys, monkeypatch) -
     assert len(err) == 1, err
     assert err[0].startswith("psdesign: error: rev: no case finished ok (2 case(s): failed 2)")
     assert "RuntimeError: mesh failed" in err[0] and "results.csv" in err[0]
+
+
+def untrustworthy_rev_case(spec, outputs, solver, workdir):
+    from study_cases import rev_case
+
+    out = rev_case(spec, outputs, solver, workdir)
+    out["k_z_status"] = "untrustworthy" if int(spec["generator"]["seed"]) == 1 else "ok"
+    return out
+
+
+def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) -> None:
+    """main: the rev lines print each size's CI of K with no word that a case's K is flagged
+    untrustworthy (rule: a result that is not trustworthy says so)."""
+    from psdesign.study import runner
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    real = runner.run_study
+
+    def run_flagged(study, out_dir, **kw):
+        return real(study, out_dir, **{**kw, "case_fn": untrustworthy_rev_case, "workers": 0})
+
+    monkeypatch.setattr(runner, "run_study", run_flagged)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
+    assert main([*args, "--directions", "z"]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "untrustworthy" in ln]
+    assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")
