@@ -70,6 +70,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # writing or reading failed past the checks (disk, permissions)
+        if os.environ.get("PSDESIGN_DEBUG"):
+            raise
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"psdesign: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM during a study run (Terminated)
         from psdesign.study.interrupt import Terminated
 

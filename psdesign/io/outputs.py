@@ -207,6 +207,8 @@ def check_output_dir(
                 raise OutputError(
                     option, f"{resolved} is {what}; {option} takes a folder, give a new folder name"
                 )
+            if not os.access(anc, os.W_OK | os.X_OK):
+                raise OutputError(option, f"cannot write into {anc} (permission denied)")
             break
     if not resolved.exists():
         return OutputDir(resolved, option, command, frozenset(), False)

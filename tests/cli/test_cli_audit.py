@@ -195,3 +195,33 @@ def test_a_folder_given_as_the_spec_is_named_a_folder(tmp_path, capsys, argv):
     err = _one_line_error(capsys)
     assert f"{d} is a folder; give a TOML file" in err
     assert not o.exists()
+
+
+# main: `generate -o /proc/x` (a folder that cannot be written, also as root) ended in a
+# FileNotFoundError traceback after the work; a folder the user may not write was not checked.
+def test_unwritable_output_parent_refused_before_work(spec, tmp_path, capsys, monkeypatch):
+    import os
+
+    import psdesign.io.outputs as outputs
+
+    real = os.access
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    monkeypatch.setattr(outputs.os, "access", lambda p, m: real(p, m) and p != locked)
+    out = locked / "new"
+    assert main(["generate", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert f"-o: cannot write into {locked} (permission denied)" in err
+    assert not out.exists()
+
+
+def test_os_error_while_writing_is_one_line(spec, tmp_path, capsys, monkeypatch):
+    import psdesign.io.outputs as outputs
+
+    def mkdtemp(*a, **k):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "out" / ".psdesign-x"))
+
+    monkeypatch.setattr(outputs.tempfile, "mkdtemp", mkdtemp)
+    assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"psdesign: error: {tmp_path / 'out' / '.psdesign-x'}: Permission denied"]
