@@ -186,6 +186,8 @@ def check_output_dir(
     OutputError
         One line naming the option, the folder and the rule.
     """
+    if not str(path).strip():
+        raise OutputError(option, "empty folder name; give a new folder name")
     raw = Path(path).expanduser()
     if raw.is_symlink() and not raw.exists():
         raise OutputError(

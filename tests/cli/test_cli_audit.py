@@ -225,3 +225,19 @@ def test_os_error_while_writing_is_one_line(spec, tmp_path, capsys, monkeypatch)
     assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"psdesign: error: {tmp_path / 'out' / '.psdesign-x'}: Permission denied"]
+
+
+# main: `-o ""` and `--fields ""` meant the current folder (Path("") is "."): in an empty
+# working folder psdesign wrote its files there.
+@pytest.mark.parametrize(
+    "argv",
+    [["generate", "{s}", "-o", "", "--quiet"], ["diffusivity", "{s}", "--fields", "", "--quiet"]],
+)
+def test_empty_output_name_refused(spec, tmp_path, capsys, monkeypatch, argv):
+    work = tmp_path / "empty_cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert main([a.format(s=spec) for a in argv]) == 2
+    err = _one_line_error(capsys)
+    assert "empty folder name" in err
+    assert list(work.iterdir()) == []
