@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 
 class SpecError(ValueError):
     """A bad value in a spec or study file.
@@ -18,3 +20,10 @@ class SpecError(ValueError):
         self.key = key
         self.message = message
         super().__init__(f"{key}: {message}")
+
+
+def show_warning_one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` replacement: ``psdesign: warning: <message>`` on one line of
+    stderr (no source file, no code line). Installed by the ``psdesign`` command and in the
+    study runner's worker processes."""
+    print(f"psdesign: warning: {' '.join(str(message).split())}", file=file or sys.stderr)

@@ -93,6 +93,11 @@ def _score(row: dict, targets: list[Target]) -> float:
     return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
 
 
+def _first_error(df) -> str:
+    errors = df["error"].dropna().astype(str) if "error" in df else []
+    return f" (first error: {errors.iloc[0]})" if len(errors) else ""
+
+
 def optimize_study(
     study_path: str | Path,
     out_dir: str | Path,
@@ -125,6 +130,9 @@ def optimize_study(
     from psdesign.study.runner import run_study
     from psdesign.study.studyfile import load_study
 
+    for key, v, hi in (("budget", budget, 10_000), ("batch", batch, 1000)):
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
+            raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
     study = load_study(study_path)
     bounds = _bounds(study)
     names = list(bounds)
@@ -143,7 +151,7 @@ def optimize_study(
         rounds += 1
         ok = df[df["status"] == "ok"] if "status" in df else df
         for t in targets:
-            if t.output not in df.columns:
+            if len(ok) and t.output not in df.columns:
                 raise ValueError(
                     f"--target: {t.output!r} is not an output of this study; outputs: "
                     + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
@@ -165,7 +173,8 @@ def optimize_study(
             msg = (
                 f"budget of {budget} design points spent"
                 if len(points) >= budget
-                else "fewer than 3 finished cases; cannot fit"
+                else f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
+                + _first_error(df)
             )
             return OptimizeResult(
                 False,

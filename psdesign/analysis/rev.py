@@ -18,6 +18,13 @@ import pandas as pd
 
 from psdesign.analysis.replicates import replicate_summary
 
+#: Most seeds per size (as for a study file's ``seeds``).
+MAX_SEEDS = 1000
+
+
+class RevFailed(RuntimeError):
+    """No case of the REV study finished ``ok``: there is nothing to summarize."""
+
 
 @dataclass
 class RevResult:
@@ -73,8 +80,14 @@ def rev_study(
         raise ValueError(f"--sizes: need edge lengths > 0 in metres, got {sizes}")
     if not isinstance(seeds, int) or seeds < 2:
         raise ValueError(f"--seeds: need >= 2 seeds for a confidence interval, got {seeds}")
+    if seeds > MAX_SEEDS:
+        raise ValueError(f"--seeds: need 2..{MAX_SEEDS} seeds, got {seeds}")
     if not 0 < tol < 1:
         raise ValueError(f"--tol: must be in (0, 1), got {tol}")
+    if not directions or set(directions) - set("xyz") or len(set(directions)) < len(directions):
+        raise ValueError(
+            f"--directions: a subset of xyz, each axis once (e.g. z or xz), got {directions!r}"
+        )
     spec = load_spec(spec_path)
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
@@ -95,6 +108,14 @@ def rev_study(
         description=f"REV check of {spec_path}: sizes {sizes} m, {seeds} seeds",
     )
     df = run_study(study, out_dir, **run_kw)
+    if not (df["status"] == "ok").any():
+        first = df["error"].dropna().astype(str)
+        why = f"; first error: {first.iloc[0]}" if len(first) else ""
+        raise RevFailed(
+            f"rev: no case finished ok ({len(df)} case(s): "
+            f"{', '.join(f'{k} {v}' for k, v in df['status'].value_counts().items())}){why}; "
+            f"see {Path(out_dir) / 'results.csv'}"
+        )
     df["size_m"] = df["rve.size.0"]
     table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
     names = ["porosity", *[f"k_{d}_m2" for d in directions]]

@@ -249,8 +249,15 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
     path = Path(out_dir) / SURROGATE_FILE
     if not path.is_file():
         raise FileNotFoundError(f"{out_dir}: no {SURROGATE_FILE}; run `psdesign study fit` first")
-    doc = json.loads(path.read_text())
-    return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+    try:
+        doc = json.loads(path.read_text())
+        return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:  # also UnicodeDecodeError
+        msg = " ".join(str(exc).split())
+        raise ValueError(
+            f"{path}: not a surrogate file psdesign wrote ({type(exc).__name__}: {msg}); "
+            "run `psdesign study fit` again"
+        ) from None
 
 
 def parse_point(text: str, params: list[str]) -> np.ndarray:
@@ -263,11 +270,25 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
         key = key.strip()
         if key not in params:
             raise ValueError(f"--at: unknown parameter {key!r}; allowed: {', '.join(params)}")
+        if key in values:
+            raise ValueError(f"--at: {key} given twice; give each parameter once")
         try:
             values[key] = float(val)
         except ValueError:
             raise ValueError(f"--at: {key} must be a number, got {val!r}") from None
+        if not math.isfinite(values[key]):
+            raise ValueError(f"--at: {key} must be a finite number, got {val.strip()!r}")
     missing = [p for p in params if p not in values]
     if missing:
         raise ValueError(f"--at: missing {', '.join(missing)}")
     return np.array([values[p] for p in params])
+
+
+def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
+    """The parameters of point ``x`` (``s.params`` order) outside the range the surrogate was
+    fitted on, as ``"name = v outside [low, high]"``; empty inside."""
+    return [
+        f"{p} = {v:g} outside [{lo:g}, {hi:g}]"
+        for p, v, lo, hi in zip(s.params, np.asarray(x, float), s.low, s.high, strict=True)
+        if not lo <= v <= hi
+    ]

@@ -20,12 +20,8 @@ def _cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "conductivity", dirs) as writer:
-        case = load_case(args.spec)
+        case = load_case(args.spec, {"bc": args.bc, "insulating_phase": args.insulating})
         tr = dict(case.transport)
-        if args.bc:
-            tr["bc"] = args.bc
-        if args.insulating:
-            tr["insulating_phase"] = args.insulating
         results = [
             effective_conductivity(
                 case.fields,

@@ -44,12 +44,8 @@ def _cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "diffusivity", dirs) as writer:
-        case = load_case(args.spec)
+        case = load_case(args.spec, {"bc": args.bc, "tol": args.tol})
         tr = dict(case.transport)
-        if args.bc:
-            tr["bc"] = args.bc
-        if args.tol:
-            tr["tol"] = args.tol
         out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0
     return emit("diffusivity", out, results, args.json, _line)
@@ -76,7 +72,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="periodic (homogenized tensor) or fixed inlet/outlet with insulated sides "
         "(default: the spec's transport.bc, periodic)",
     )
-    p.add_argument("--tol", type=float, default=None, help="CG relative residual (1e-8)")
+    p.add_argument(
+        "--tol",
+        type=float,
+        default=None,
+        help="CG relative residual (transport.tol, in (0, 1), default 1e-8)",
+    )
     p.add_argument(
         "--fields",
         metavar="OUT/",

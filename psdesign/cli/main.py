@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Sequence
 
 from psdesign.cli.progress import activate
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, show_warning_one_line
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
 COMMANDS = (
@@ -45,15 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"psdesign: warning: {' '.join(str(message).split())}", file=sys.stderr)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    warnings.showwarning = _show_warning  # one line per warning
+    warnings.showwarning = show_warning_one_line  # one line per warning
     try:
         with activate(quiet=bool(getattr(args, "quiet", False))):  # progress on stderr
             return int(args.func(args) or 0)
@@ -74,9 +70,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("psdesign: interrupted", file=sys.stderr)
-        return 130
+    except OSError as exc:  # writing or reading failed past the checks (disk, permissions)
+        if os.environ.get("PSDESIGN_DEBUG"):
+            raise
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"psdesign: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM during a study run (Terminated)
+        from psdesign.study.interrupt import Terminated
+
+        term = isinstance(exc, Terminated)
+        print(f"psdesign: {'terminated' if term else 'interrupted'}", file=sys.stderr)
+        return 143 if term else 130
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import sys
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
-    from psdesign.analysis.rev import rev_study
+    from psdesign.analysis.rev import RevFailed, rev_study
 
     try:
         res = rev_study(
@@ -26,6 +26,10 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
         return 2
+    except RevFailed as exc:
+        print(f"psdesign: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    _warn_untrustworthy(args.out)
     if args.json:
         print(
             json.dumps(
@@ -50,15 +54,35 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warn_untrustworthy(out: str) -> None:
+    """One warning line when some case's K is flagged untrustworthy (k_<d>_status)."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from psdesign.study.worker import untrustworthy_count
+
+    n = untrustworthy_count(pd.read_csv(Path(out) / "results.csv"))
+    if n:
+        print(
+            f"psdesign: warning: {n} case(s) have a K flagged untrustworthy (k_<d>_status in "
+            f"{out}/results.csv: error bar above 20 % or fewer than 8 cells per fiber diameter); "
+            "the intervals below include them",
+            file=sys.stderr,
+        )
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``rev``."""
     p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
     p.add_argument("spec", help="RVE spec with a [generator] table")
     p.add_argument("--sizes", type=float, nargs="+", required=True, help="cube edges in metres")
-    p.add_argument("--seeds", type=int, default=3, help="seeds per size (>= 2, default 3)")
+    p.add_argument("--seeds", type=int, default=3, help="seeds per size (2-1000, default 3)")
     p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
     p.add_argument("--solver", choices=("voxel", "fem"), default="voxel")
-    p.add_argument("--directions", default="xyz", help="subset of xyz (default xyz)")
+    p.add_argument(
+        "--directions", default="xyz", help="subset of xyz, each axis once (default xyz)"
+    )
     p.add_argument("--tol", type=float, default=0.1, help="relative CI half-width (default 0.1)")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--quiet", action="store_true")

@@ -146,6 +146,7 @@ def _cluster(args: argparse.Namespace):
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
+    from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import run_study, scheduler_security
     from psdesign.study.store import StorageError
     from psdesign.study.studyfile import StudyError
@@ -171,6 +172,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return _fail(str(exc), 2)
     except StorageError as exc:
         return _fail(str(exc), 1)
+    except Terminated:
+        return _fail("terminated; finished cases are saved, rerun the command to resume", 143)
     except KeyboardInterrupt:
         return _fail("interrupted; finished cases are saved, rerun the command to resume", 130)
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
@@ -178,6 +181,16 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
     """0 when every case is ``ok`` (or ``not_converged`` and allowed), else 1 (one line why)."""
+    from psdesign.study.worker import untrustworthy_count
+
+    n_untrusted = untrustworthy_count(df) if len(df) else 0
+    if n_untrusted:
+        print(
+            f"psdesign: warning: {n_untrusted} ok case(s) have a K flagged untrustworthy "
+            "(k_<d>_status: error bar above 20 % or fewer than 8 cells per fiber diameter; "
+            "k_<d>_rel_error gives the bar); their K are kept",
+            file=sys.stderr,
+        )
     status = df["status"] if len(df) else []
     n_nc = int((status == "not_converged").sum()) if len(df) else 0
     n_bad = int(((status != "ok") & (status != "not_converged")).sum()) if len(df) else 0
@@ -192,6 +205,8 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
+    import pandas as pd
+
     from psdesign.report import ReportError, write_report
     from psdesign.study.store import StorageError
 
@@ -199,6 +214,9 @@ def cmd_study_report(args: argparse.Namespace) -> int:
         path = write_report(args.out)
     except ReportError as exc:
         return _fail(str(exc), 2)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        msg = " ".join(str(exc).split())
+        return _fail(f"out_dir: {args.out}/results.csv is unreadable ({msg}); rerun the study", 2)
     except StorageError as exc:
         return _fail(str(exc), 1)
     print(path)

@@ -6,6 +6,26 @@ import argparse
 import json
 import sys
 
+#: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
+MAX_SEED = 2**32 - 2
+
+
+def int_in(lo: int, hi: int, what: str):
+    """An argparse ``type``: an integer in ``[lo, hi]``, else one line naming the range."""
+
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{what}: an integer in [{lo}, {hi}], got {text!r}"
+            ) from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{what}: an integer in [{lo}, {hi}], got {v}")
+        return v
+
+    return parse
+
 
 def _fail(msg: str, code: int = 2) -> int:
     print(f"psdesign: error: {msg}", file=sys.stderr)
@@ -44,7 +64,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from psdesign.analysis.surrogate import load_study_surrogates, parse_point
+    from psdesign.analysis.surrogate import load_study_surrogates, outside_range, parse_point
 
     try:
         models = load_study_surrogates(args.out)
@@ -52,20 +72,31 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         for name, m in models.items():
             x = parse_point(args.at, m.params)
             mean, std = m.predict(x[None, :])
+            outside = outside_range(m, x)
             out[name] = {
                 "mean": float(mean[0]),
                 "std": float(std[0]),
                 "cv_rel_error": m.cv_rel_error,
+                "status": "extrapolated" if outside else "ok",
+                "outside": outside,
             }
     except (FileNotFoundError, ValueError) as exc:
-        return _fail(str(exc))
+        return _fail(" ".join(str(exc).split()))
+    outside = list(dict.fromkeys(o for r in out.values() for o in r["outside"]))
+    if outside:
+        print(
+            f"psdesign: warning: extrapolating beyond the fitted cases ({'; '.join(outside)}); "
+            "the predictions are not trustworthy",
+            file=sys.stderr,
+        )
     if args.json:
         print(json.dumps(out))
     else:
         for name, r in out.items():
+            flag = "  (EXTRAPOLATED)" if r["outside"] else ""
             print(
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
-                f"{100 * r['cv_rel_error']:.2g} %)"
+                f"{100 * r['cv_rel_error']:.2g} %){flag}"
             )
     return 0
 
@@ -160,7 +191,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     sens.add_argument("out", help="study output folder (after `study fit`)")
     sens.add_argument("--method", choices=("sobol", "morris"), default="sobol")
     sens.add_argument("--outputs", nargs="*", default=None)
-    sens.add_argument("--seed", type=int, default=0)
+    sens.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
     sens.add_argument("--json", action="store_true")
     sens.set_defaults(func=_cmd_sensitivity)
 
@@ -175,9 +206,19 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         required=True,
         help='"OUTPUT=VALUE[+-P%%]", "OUTPUT>=VALUE" or "OUTPUT<=VALUE" (repeat for more)',
     )
-    opt.add_argument("--budget", type=int, default=20, help="maximum design points (default 20)")
-    opt.add_argument("--batch", type=int, default=1, help="points per round (default 1)")
-    opt.add_argument("--seed", type=int, default=0)
+    opt.add_argument(
+        "--budget",
+        type=int_in(1, 10_000, "design points"),
+        default=20,
+        help="maximum design points, 1-10000 (default 20)",
+    )
+    opt.add_argument(
+        "--batch",
+        type=int_in(1, 1000, "points per round"),
+        default=1,
+        help="points per round, 1-1000 (default 1)",
+    )
+    opt.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
     opt.add_argument("--workers", type=int, default=1)
     opt.add_argument("--scheduler", default=None, help="Dask scheduler address, or 'local'")
     opt.add_argument("--quiet", action="store_true")

@@ -8,9 +8,22 @@ import sys
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
+    import numba
+
+    from psdesign.errors import SpecError
     from psdesign.warmup import TASKS, warmup
 
+    if args.jobs is not None and not 1 <= args.jobs <= 64:
+        raise SpecError("--jobs", f"processes must be an integer in [1, 64], got {args.jobs}")
     tasks = tuple(args.only) if args.only else TASKS
+    if "parallel" in tasks and numba.config.NUMBA_NUM_THREADS < 2:
+        tasks = tuple(t for t in tasks if t != "parallel")
+        if not args.quiet:
+            print(
+                "psdesign: warmup: NUMBA_NUM_THREADS=1, the parallel kernels are not compiled "
+                "(they are never used with one thread)",
+                file=sys.stderr,
+            )
     if not args.quiet:
         print(
             f"psdesign: compiling the numba kernels ({', '.join(tasks)}) into the cache; "
@@ -29,6 +42,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Register ``warmup``."""
     p = sub.add_parser("warmup", help="compile the numba kernels once (after install)")
     p.add_argument("--only", nargs="+", choices=("serial", "parallel"), default=None)
-    p.add_argument("--jobs", type=int, default=None, help="processes (default: CPUs)")
+    p.add_argument("--jobs", type=int, default=None, help="processes, 1-64 (default: CPUs)")
     p.add_argument("--quiet", action="store_true", help="no messages on stderr")
     p.set_defaults(func=_cmd_warmup)

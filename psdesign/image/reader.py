@@ -169,6 +169,38 @@ def read_labels(src: ImageSource) -> np.ndarray:
     return data
 
 
+def _check_segmented(labels: np.ndarray) -> None:
+    """The default "every nonzero voxel is solid" on an image that does not look segmented:
+    non-integer values are refused (``image.threshold``), more than two grey levels in an
+    8 / 16-bit image are warned about (a labelled image of several phases or of single fibers
+    is fine, a grey-value scan is not)."""
+    import warnings
+
+    if labels.dtype.kind == "f":
+        finite = labels[np.isfinite(labels)]
+        if finite.size != labels.size or np.any(finite != np.round(finite)):
+            raise ValueError(
+                "image.threshold: the image holds non-integer (or non-finite) values, not "
+                "labels: a grey-value scan? (allowed: a segmented image, or threshold = V: "
+                "solid where the value >= V)"
+            )
+        return
+    if labels.dtype.kind in "ub" and labels.dtype.itemsize <= 2:
+        flat = labels.reshape(-1)
+        sample = flat[:: max(1, flat.size >> 24)]  # at most ~16 M voxels: no copy of a big scan
+        counts = np.bincount(sample.astype(np.int64), minlength=2)
+        levels = int(np.count_nonzero(counts))
+        if levels > 2:
+            solid = 1.0 - counts[0] / sample.size
+            warnings.warn(
+                f"image: {levels} distinct values and neither solid_label nor threshold: every "
+                f"nonzero voxel is taken as solid (solid fraction {solid:.4f}); if this is a "
+                "grey-value scan, segment it or give image.threshold",
+                UserWarning,
+                stacklevel=3,
+            )
+
+
 def solid_mask(
     labels: np.ndarray, solid: int | tuple[int, ...] | str, threshold: float | None = None
 ) -> np.ndarray:
@@ -180,6 +212,7 @@ def solid_mask(
             raise ValueError(
                 f"image.solid_label: a label, a list of labels or 'nonzero', got {solid!r}"
             )
+        _check_segmented(labels)
         return labels != 0
     values = (solid,) if isinstance(solid, int) else tuple(solid)
     mask = np.isin(labels, values)

@@ -186,6 +186,8 @@ def check_output_dir(
     OutputError
         One line naming the option, the folder and the rule.
     """
+    if not str(path).strip():
+        raise OutputError(option, "empty folder name; give a new folder name")
     raw = Path(path).expanduser()
     if raw.is_symlink() and not raw.exists():
         raise OutputError(
@@ -205,8 +207,10 @@ def check_output_dir(
             if not anc.is_dir():
                 what = "an existing file" if anc == resolved else f"inside the file {anc}"
                 raise OutputError(
-                    option, f"{resolved} is {what}; -o takes a folder, give a new folder name"
+                    option, f"{resolved} is {what}; {option} takes a folder, give a new folder name"
                 )
+            if not os.access(anc, os.W_OK | os.X_OK):
+                raise OutputError(option, f"cannot write into {anc} (permission denied)")
             break
     if not resolved.exists():
         return OutputDir(resolved, option, command, frozenset(), False)

@@ -59,6 +59,8 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
 
     p = Path(path)
     try:
+        if p.is_dir():
+            raise bad(f"{p} is a folder; give a TOML file")
         if not p.is_file():
             raise bad(f"file not found: {p}")
         if p.stat().st_size > MAX_FILE_BYTES:

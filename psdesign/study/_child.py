@@ -16,10 +16,14 @@ from pathlib import Path
 
 def main(argv: list[str]) -> int:
     """Run one case; returns the exit status (0 when a result was written)."""
+    import warnings
+
+    from psdesign.errors import show_warning_one_line
     from psdesign.study.casefn import load_case_fn, watch_parent
     from psdesign.study.exchange import read_job, write_result
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runner decides when a case stops
+    warnings.showwarning = show_warning_one_line  # one line per warning in case.log
     workdir = Path(argv[0])
     if len(argv) > 1:
         watch_parent(int(argv[1]))

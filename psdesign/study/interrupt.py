@@ -1,8 +1,11 @@
-"""Ctrl-C for the study runner: stop everything within seconds, leave a resumable folder.
+"""Ctrl-C (and SIGTERM) for the study runner: stop everything within seconds, leave a
+resumable folder.
 
 The first SIGINT (Ctrl-C, to the runner alone or to its whole process group as a terminal sends
 it) raises :class:`KeyboardInterrupt` in the runner; further SIGINTs while it stops are ignored,
 so a second quick Ctrl-C can no longer break the clean-up half-way and leave workers running.
+SIGTERM (``kill PID``, ``timeout``, ``scancel``) takes the same way out and raises
+:class:`Terminated`, so the lock ``OUT/.lock`` is released as well.
 On the way out every process the runner started (pool workers, per-case child processes, a
 local Dask cluster; child processes that existed before the run are left alone) is sent
 SIGTERM and, if still alive after :data:`GRACE_S`, SIGKILL.  Case records are written
@@ -17,10 +20,15 @@ import sys
 import threading
 from collections.abc import Iterator
 
-__all__ = ["GRACE_S", "ignore_sigint", "stop_children", "stop_on_interrupt"]
+__all__ = ["GRACE_S", "Terminated", "ignore_sigint", "stop_children", "stop_on_interrupt"]
 
 GRACE_S = 1.5
 """Seconds between SIGTERM and SIGKILL for the runner's child processes."""
+
+
+class Terminated(KeyboardInterrupt):  # noqa: N818 - a KeyboardInterrupt, caught as one
+    """SIGTERM (``kill``, ``timeout``, a batch system cancelling the job) during a run: stops
+    the run as Ctrl-C does; the command exits with status 143 (128 + SIGTERM)."""
 
 
 def ignore_sigint() -> None:
@@ -92,8 +100,10 @@ def _on_sigint(signum, frame) -> None:  # noqa: ARG001
     if _STATE["hit"]:
         return  # already stopping; the clean-up is bounded by GRACE_S
     _STATE["hit"] = True
-    print("psdesign: interrupted; stopping workers ...", file=sys.stderr, flush=True)
-    raise KeyboardInterrupt
+    term = signum == signal.SIGTERM
+    what = "terminated (SIGTERM)" if term else "interrupted"
+    print(f"psdesign: {what}; stopping workers ...", file=sys.stderr, flush=True)
+    raise Terminated if term else KeyboardInterrupt
 
 
 @contextlib.contextmanager
@@ -111,6 +121,7 @@ def stop_on_interrupt() -> Iterator[None]:
         _STATE["hit"] = False
         _STATE["before"] = _children_now()
         previous = signal.signal(signal.SIGINT, _on_sigint)
+        previous_term = signal.signal(signal.SIGTERM, _on_sigint)
     _STATE["depth"] += 1
     try:
         yield
@@ -122,3 +133,4 @@ def stop_on_interrupt() -> Iterator[None]:
         _STATE["depth"] -= 1
         if outer:
             signal.signal(signal.SIGINT, previous)
+            signal.signal(signal.SIGTERM, previous_term)

@@ -202,8 +202,20 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
         ex.shutdown(wait=True)
 
 
+def max_local_workers() -> int:
+    """Most worker processes a study may start on this machine: 4 per CPU, at least 64 (each
+    case can take GBs; more processes than that only thrash)."""
+    return max(64, 4 * (os.cpu_count() or 1))
+
+
 def _init_worker(parent_pid: int) -> None:
-    """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle."""
+    """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle;
+    warnings one line each, as in the runner (the case records them in its results)."""
+    import warnings
+
+    from psdesign.errors import show_warning_one_line
+
+    warnings.showwarning = show_warning_one_line
     ignore_sigint()
     watch_parent(parent_pid)
 
@@ -587,7 +599,17 @@ def run_study(
         study = load_study(study)
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
         raise StudyError(f"workers: must be an integer >= 0, got {workers!r}")
-    if timeout_s is not None and (not isinstance(timeout_s, int | float) or timeout_s <= 0):
+    local = scheduler is None or scheduler == "local"
+    if local and workers > max_local_workers():
+        raise StudyError(
+            f"workers: at most {max_local_workers()} processes on this machine (4 per CPU, at "
+            f"least 64), got {workers}; use --scheduler or --cluster for more"
+        )
+    if timeout_s is not None and (
+        isinstance(timeout_s, bool)
+        or not isinstance(timeout_s, int | float)
+        or not timeout_s > 0  # also NaN
+    ):
         raise StudyError(f"timeout: must be a number > 0 (seconds), got {timeout_s!r}")
     timeout = float(timeout_s) if timeout_s is not None else study.timeout_s
     if case_fn is None:

@@ -203,28 +203,49 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
     return "failed", None, res["error"]
 
 
-#: Result keys whose False value marks a case as untrustworthy (prefix match with ``_``).
+#: Result keys whose False value marks a case ``not_converged``: the key itself, with a
+#: suffix (``converged_z``) or as the last part of a column name (``diffusivity_z_converged``).
 TRUST_FLAGS = ("converged", "trusted", "trustworthy")
+
+
+def _is_key(k: str, name: str) -> bool:
+    return k == name or k.startswith(name + "_") or k.endswith("_" + name)
 
 
 def untrusted_reason(results: dict) -> str | None:
     """Why a case's results cannot be trusted, or None.
 
-    A case is ``not_converged`` when any ``converged``/``converged_*`` (or ``trusted*``,
-    ``trustworthy*``) result is False, or a ``status``/``status_*`` result is a string other
-    than ``"ok"``/``"converged"``.
+    A case is ``not_converged`` when any ``converged`` / ``converged_*`` / ``*_converged`` (or
+    ``trusted``, ``trustworthy`` in the same forms) result is False, or a ``status`` /
+    ``status_*`` result is a string other than ``"ok"``/``"converged"``, or a ``*_status``
+    result is ``"not_converged"``. A K whose ``k_<d>_status`` is ``"untrustworthy"`` (error
+    bar above 20 % or < 8 cells per fiber diameter) keeps the case ``ok``: its status column
+    says so beside the number and the command counts those cases
+    (:func:`untrustworthy_count`).
     """
     bad = []
     for k, v in results.items():
-        flag = any(k == f or k.startswith(f + "_") for f in TRUST_FLAGS)
+        flag = any(_is_key(k, f) for f in TRUST_FLAGS)
         if flag and v is False:
             bad.append(f"{k}=False")
         elif (k == "status" or k.startswith("status_")) and isinstance(v, str):
             if v.strip().lower() not in ("ok", "converged"):
                 bad.append(f"{k}={v}")
+        elif k.endswith("_status") and v == "not_converged":
+            bad.append(f"{k}={v}")
     if not bad:
         return None
     return "not converged or flagged: " + ", ".join(sorted(bad))
+
+
+def untrustworthy_count(df) -> int:
+    """Cases of a results table with ``status == "ok"`` and some ``k_<d>_status`` equal to
+    ``"untrustworthy"``."""
+    cols = [c for c in getattr(df, "columns", []) if c.startswith("k_") and c.endswith("_status")]
+    if not cols or "status" not in df.columns:
+        return 0
+    flagged = (df[cols] == "untrustworthy").any(axis=1)
+    return int((flagged & (df["status"] == "ok")).sum())
 
 
 def run_case_inline(payload: dict, workdir: Path) -> dict:

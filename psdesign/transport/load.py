@@ -17,13 +17,21 @@ class TransportCase:
     fields: VoxelFields
 
 
-def load_case(path: str) -> TransportCase:
+def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     """Load and validate a spec file, build the RVE and voxelize it at ``rve.voxel``.
+
+    Parameters
+    ----------
+    path : str
+        The spec file.
+    overrides : dict, optional
+        ``[transport]`` keys given on the command line (``None`` values are ignored); they
+        replace the spec's and are validated with it, before the RVE is built.
 
     Raises
     ------
     SpecError
-        A bad key anywhere in the spec (the ``[transport]`` table included).
+        A bad key anywhere in the spec or in ``overrides`` (``transport.<key>``).
     """
     import tomllib
     from pathlib import Path
@@ -34,6 +42,8 @@ def load_case(path: str) -> TransportCase:
     from psdesign.schema.transport import validate_transport
 
     p = Path(path)
+    if p.is_dir():
+        raise SpecError("spec", f"{p} is a folder; give a TOML file")
     if not p.is_file():
         raise SpecError("spec", f"file not found: {p}")
     try:
@@ -41,6 +51,9 @@ def load_case(path: str) -> TransportCase:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SpecError("spec", f"not valid TOML: {exc}") from None
     transport = validate_transport(raw)
+    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    if given:
+        transport = validate_transport({"transport": {**transport, **given}})
     rest = {k: v for k, v in raw.items() if k != "transport"}
     spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
     spec["transport"] = transport

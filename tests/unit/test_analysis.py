@@ -139,6 +139,41 @@ def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
     assert "unknown parameter 'generator.porsity'" in err and len(err.strip().splitlines()) == 1
 
 
+def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsys) -> None:
+    """main (audit20): ``--at generator.porosity=nan`` ended in scikit-learn's six-line NaN
+    message, a parameter given twice silently took the last value, and a point far outside the
+    fitted range (porosity 5 for a 0.7-0.9 design: predicted porosity 3.6) printed as any
+    other prediction. Rules: one line naming the key; an untrustworthy number says so."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    for at, msg in [
+        ("generator.porosity=nan", "--at: generator.porosity must be a finite number, got 'nan'"),
+        ("generator.porosity=inf", "--at: generator.porosity must be a finite number"),
+        ("generator.porosity=0.8,generator.porosity=0.7", "generator.porosity given twice"),
+    ]:
+        assert main(["study", "predict", str(out), "--at", at]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("psdesign: error: ") and msg in err[0], err
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8", "--json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["k_z_m2"]["status"] == "ok" and cap.err == ""
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["k_z_m2"]
+    assert r["status"] == "extrapolated"
+    assert r["outside"] == ["generator.porosity = 0.95 outside [0.7, 0.9]"]
+    assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 0
+    assert "(EXTRAPOLATED)" in capsys.readouterr().out
+
+
 def test_optimize_finds_a_hidden_target_in_under_half_a_factorial(tmp_path, capsys) -> None:
     # hidden design: porosity 0.83, diameter 7.7 um; the fake solver's k_z is 2x Kozeny-Carman
     target = 2.0 * kc_truth(0.83, 7.7e-6)
@@ -195,3 +230,89 @@ def test_optimize_refuses_list_parameters_and_bad_targets(tmp_path, capsys) -> N
     assert main([*base, "--target", "k_z_m2~1e-12"]) == 2
     assert "--target: expected OUTPUT=VALUE" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "msg"),
+    [
+        (["--budget", "-1"], "argument --budget: design points: an integer in [1, 10000], got -1"),
+        (["--budget", "0"], "argument --budget: design points: an integer in [1, 10000], got 0"),
+        (["--batch", "0"], "argument --batch: points per round: an integer in [1, 1000], got 0"),
+        (["--seed", "-1"], "argument --seed: seed: an integer in [0, 4294967294], got -1"),
+    ],
+)
+def test_optimize_bad_numbers_one_line_before_work(tmp_path, capsys, args, msg) -> None:
+    """main (audit20): --budget -1 gave numpy's 'negative dimensions are not allowed', 0 'the
+    design is empty', --batch 0 ran and ended in a wrong '--target ... not an output', --seed -1
+    'expected non-negative integer': none named the option or its range."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=5e-12", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"psdesign: error: {msg}"]
+    assert not out.exists()
+
+
+def always_failing_case(spec, outputs, solver, workdir):
+    raise RuntimeError("mesh failed")
+
+
+def test_optimize_with_every_case_failed_says_why(tmp_path, capsys) -> None:
+    """main: every case failing gave "--target: 'k_z_m2' is not an output of this study;
+    outputs: " (an empty list) instead of the cases' error."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    args = ["study", "optimize", str(p), "-o", str(tmp_path / "out"), "--quiet", "--workers"]
+    args += ["0", "--target", "k_z_m2=5e-12", "--case-fn", "test_analysis:always_failing_case"]
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("NOT MET: 0 of 4 case(s) finished ok, fewer than 3; cannot fit")
+    assert "(first error: RuntimeError: mesh failed)" in out
+
+
+def test_corrupt_surrogate_and_results_files_are_named(tmp_path, capsys) -> None:
+    """main: a damaged surrogate.json gave 'psdesign: error: Expecting value: line 1 column 1
+    (char 0)' and a damaged results.csv 'Error tokenizing data. C error: ...': one line but
+    naming no file (rule: the line names the key)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    for junk in (b"\x00\x01", b"{bad", b'{"models": 3}'):
+        (out / "surrogate.json").write_bytes(junk)
+        assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "surrogate.json: not a surrogate file" in err[0], err
+    (out / "results.csv").write_text('garbage,"\n')
+    assert main(["study", "report", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "results.csv is unreadable" in err[0], err
+
+
+def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
+    """main: optimize_study(batch=0) added no point per round and looped forever."""
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    t = [Target.parse("k_z_m2=5e-12")]
+    for kw in ({"batch": 0}, {"budget": -1}, {"batch": 1.5}):
+        with pytest.raises(ValueError, match=r"^--(batch|budget): an integer in \[1, "):
+            optimize_study(p, tmp_path / "out", t, case_fn=fake_case, workers=0, **kw)
+    assert not (tmp_path / "out").exists()

@@ -71,3 +71,37 @@ def test_signed_distance_of_a_sphere() -> None:
     f = image_fields(rho <= r, h)
     assert f.porosity == pytest.approx(1 - np.count_nonzero(rho <= r) / n**3)
     assert np.allclose(f.grid.spacing, h, atol=0) and f.grid.shape == (n, n, n)
+
+
+def test_unsegmented_images_are_not_silently_taken_as_solid(tmp_path) -> None:
+    """docs/images.md: psdesign expects a segmented image. On main a grey-value scan with the
+    default solid_label ("every nonzero voxel is solid") gave porosity ~0 without a word, and a
+    float image with values in (0, 1) was "every voxel is solid" (audit20)."""
+    rng = np.random.default_rng(7)
+    grey = rng.integers(0, 256, (8, 8, 8)).astype(np.uint8)
+    np.save(tmp_path / "grey.npy", grey)
+    with pytest.warns(UserWarning, match=r"image: \d+ distinct values .* image\.threshold"):
+        read_image(ImageSource(tmp_path / "grey.npy", voxel=1e-6))
+    # the same scan with a threshold is segmented as asked: no warning, solid where >= 128
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = read_image(ImageSource(tmp_path / "grey.npy", voxel=1e-6, threshold=128))
+    assert np.array_equal(got, grey >= 128)
+    # several labels with solid_label, and a 0/1 image, stay silent
+    labels = (grey % 3).astype(np.uint8)
+    np.save(tmp_path / "labels.npy", labels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = read_image(ImageSource(tmp_path / "labels.npy", voxel=1e-6, solid=(1, 2)))
+        assert np.array_equal(got, labels > 0)
+        np.save(tmp_path / "bin.npy", (grey > 100).astype(np.uint8))
+        read_image(ImageSource(tmp_path / "bin.npy", voxel=1e-6))
+    np.save(tmp_path / "f.npy", rng.random((8, 8, 8)).astype(np.float32))
+    with pytest.raises(ValueError, match=r"^image\.threshold: .*non-integer"):
+        read_image(ImageSource(tmp_path / "f.npy", voxel=1e-6))
+    ok = rng.random((8, 8, 8)).astype(np.float32)
+    assert read_image(ImageSource(tmp_path / "f.npy", voxel=1e-6, threshold=0.5)).any()
+    np.save(tmp_path / "f01.npy", (ok > 0.5).astype(np.float64))  # 0.0 / 1.0: labels
+    assert np.array_equal(read_image(ImageSource(tmp_path / "f01.npy", voxel=1e-6)), ok > 0.5)

@@ -70,3 +70,76 @@ def test_rev_cli_bad_input(tmp_path, capsys) -> None:
     assert main(["rev", str(spec), "--sizes", "-1", "-o", str(tmp_path / "o")]) == 2
     assert "--sizes" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "key"),
+    [
+        (["--directions", "q"], "--directions"),  # main: every case failed 'unknown output k_q'
+        (["--directions", "xx"], "--directions"),  # main: duplicate outputs
+        (["--directions", ""], "--directions"),
+        (["--seeds", "1001"], "--seeds"),  # main: ran 100000 seeds (study files stop at 1000)
+    ],
+)
+def test_rev_cli_bad_directions_and_seeds_before_work(tmp_path, capsys, args, key) -> None:
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "o"
+    assert main(["rev", str(spec), "--sizes", "30e-6", "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(f"psdesign: error: {key}:"), err
+    assert not out.exists()
+
+
+def failing_case(spec, outputs, solver, workdir):
+    raise RuntimeError("mesh failed")
+
+
+def test_rev_with_no_ok_case_is_one_line_exit_1(tmp_path, capsys, monkeypatch) -> None:
+    """main: when every case failed, ``psdesign rev`` ended in a pandas KeyError traceback
+    ('size_m'). Rule: never a traceback; a failed run says so in one line, exit 1."""
+    from psdesign.study import runner
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    real = runner.run_study
+
+    def run_failing(study, out_dir, **kw):
+        return real(study, out_dir, **{**kw, "case_fn": failing_case, "workers": 0})
+
+    monkeypatch.setattr(runner, "run_study", run_failing)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "2", "-o", str(out), "--quiet"]
+    assert main(args) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith("psdesign: error: rev: no case finished ok (2 case(s): failed 2)")
+    assert "RuntimeError: mesh failed" in err[0] and "results.csv" in err[0]
+
+
+def untrustworthy_rev_case(spec, outputs, solver, workdir):
+    from study_cases import rev_case
+
+    out = rev_case(spec, outputs, solver, workdir)
+    out["k_z_status"] = "untrustworthy" if int(spec["generator"]["seed"]) == 1 else "ok"
+    return out
+
+
+def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) -> None:
+    """main: the rev lines print each size's CI of K with no word that a case's K is flagged
+    untrustworthy (rule: a result that is not trustworthy says so)."""
+    from psdesign.study import runner
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    real = runner.run_study
+
+    def run_flagged(study, out_dir, **kw):
+        return real(study, out_dir, **{**kw, "case_fn": untrustworthy_rev_case, "workers": 0})
+
+    monkeypatch.setattr(runner, "run_study", run_flagged)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
+    assert main([*args, "--directions", "z"]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "untrustworthy" in ln]
+    assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")

@@ -178,6 +178,86 @@ def test_untrusted_reason():
     assert "trusted=False" in untrusted_reason({"trusted": False})
 
 
+def test_untrusted_reason_reads_the_columns_run_case_writes():
+    """Product rule: a result that is not converged says so in its status. The transport
+    outputs write ``diffusivity_<d>_converged`` / ``conductivity_<d>_converged``; before audit20
+    only the ``converged_*`` prefix matched, so an unconverged Laplace solve was recorded
+    ``ok``. ``k_<d>_status = "untrustworthy"`` keeps the case ok (the shipped voxel studies run
+    at 7 voxels per fiber diameter, below the 8 of that flag) but is counted."""
+    ok = {"k_z_m2": 1e-11, "k_z_status": "ok", "converged_z": True}
+    assert untrusted_reason(ok) is None
+    assert untrusted_reason({**ok, "diffusivity_z_converged": True}) is None
+    got = untrusted_reason({**ok, "diffusivity_x_converged": False})
+    assert "diffusivity_x_converged=False" in got
+    got = untrusted_reason({**ok, "conductivity_y_converged": False})
+    assert "conductivity_y_converged=False" in got
+    assert "k_z_status=not_converged" in untrusted_reason({**ok, "k_z_status": "not_converged"})
+    assert untrusted_reason({**ok, "k_z_status": "untrustworthy"}) is None
+    assert untrusted_reason({"k_z_status": None}) is None  # a failed case has no K
+
+
+def untrustworthy_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    out["k_z_status"] = "untrustworthy" if spec["generator"]["porosity"] == 0.8 else "ok"
+    return out
+
+
+def test_untrustworthy_k_is_counted_in_one_line(tmp_path, capsys):
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    args = ["study", "run", str(p), "-o", str(tmp_path / "out"), "--quiet", "--no-report"]
+    assert main([*args, "--case-fn", "test_study_safety:untrustworthy_case"]) == 0
+    err = capsys.readouterr().err
+    assert "1 ok case(s) have a K flagged untrustworthy" in err
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    assert df["status"].tolist() == ["ok", "ok"]
+    assert df["k_z_status"].tolist() == ["ok", "untrustworthy"]
+
+
+def warning_case(spec, outputs, solver, workdir):
+    import warnings
+
+    warnings.warn("K_z: only 6.0 voxels across\n the fiber", UserWarning, stacklevel=1)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def test_worker_warnings_are_one_line(tmp_path, capfd):
+    """Product rule: one line per message, never Python's two-line warning with the source
+    file and the code line (main: a pool worker printed ``.../x.py:12: UserWarning: ...`` and
+    ``  warnings.warn(...)``)."""
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    df = run_study(
+        p, tmp_path / "out", workers=1, case_fn=warning_case, progress=False, report=False
+    )
+    assert df["status"].tolist() == ["ok"]
+    err = capfd.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert lines == ["psdesign: warning: K_z: only 6.0 voxels across the fiber"], err
+
+
+def unconverged_transport_case(spec, outputs, solver, workdir):
+    out = fake_case(spec, outputs, solver, workdir)
+    out["diffusivity_z_converged"] = spec["generator"]["porosity"] != 0.8
+    return out
+
+
+def test_unconverged_transport_output_is_not_recorded_ok(tmp_path):
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    df = run_study(
+        p,
+        tmp_path / "out",
+        workers=0,
+        case_fn=unconverged_transport_case,
+        progress=False,
+        report=False,
+    )
+    st = dict(zip(df["generator.porosity"], df["status"], strict=True))
+    assert st == {0.7: "ok", 0.8: "not_converged"}
+    err = df[df["status"] == "not_converged"]["error"].iloc[0]
+    assert "diffusivity_z_converged=False" in err
+
+
 def test_not_converged_status_resume_retry_and_exit_code(tmp_path, capsys):
     from psdesign.cli.study import main
 
@@ -296,6 +376,39 @@ def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
     assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
 
 
+def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
+    """``kill PID`` / ``timeout`` / a batch system's cancel send SIGTERM. Rules: never a
+    traceback, nothing half-written, the folder resumable. On main the runner died at once
+    (exit -15, Python's multi-line resource_tracker warning) and left ``OUT/.lock`` behind,
+    which a run from another host refuses until deleted by hand."""
+    import psutil
+
+    proc, p, out, flag = _start_runner(tmp_path, None)
+    procs: list = []
+    try:
+        _wait_for_sleepers(proc, out, 2)
+        procs = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
+        assert len(procs) >= 3
+        os.kill(proc.pid, signal.SIGTERM)
+        gone, alive = psutil.wait_procs(procs, timeout=5.0)
+        assert not alive, [a.pid for a in alive]
+        err = proc.stderr.read().decode()
+        (runner,) = [g for g in gone if g.pid == proc.pid]
+        assert runner.returncode == 143, err
+        assert "terminated" in err and "rerun the command to resume" in err
+        assert "Traceback" not in err and "leaked" not in err
+    finally:
+        for k in procs:
+            try:
+                k.kill()
+            except psutil.Error:
+                pass
+    assert not (out / ".lock").exists()
+    flag.unlink()
+    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
+    assert len(df) == 4 and (df["status"] == "ok").all()
+
+
 def test_interrupt_stops_only_processes_started_during_the_run():
     from psdesign.study.interrupt import stop_on_interrupt
 
@@ -303,6 +416,7 @@ def test_interrupt_stops_only_processes_started_during_the_run():
     before = subprocess.Popen(sleep)
     during = None
     handler = signal.getsignal(signal.SIGINT)  # whatever the caller had (other tests may set one)
+    term_handler = signal.getsignal(signal.SIGTERM)
     try:
         with pytest.raises(KeyboardInterrupt), stop_on_interrupt():
             during = subprocess.Popen(sleep)
@@ -310,6 +424,7 @@ def test_interrupt_stops_only_processes_started_during_the_run():
         during.wait(timeout=5)  # stopped (reaped by psutil: no exit status to check)
         assert before.poll() is None  # the caller's own child is left alone
         assert signal.getsignal(signal.SIGINT) is handler  # restored
+        assert signal.getsignal(signal.SIGTERM) is term_handler
     finally:
         for proc in (before, during):
             if proc is not None and proc.poll() is None:
@@ -477,3 +592,26 @@ def test_tls_scheduler_end_to_end(tmp_path, capsys):
     cols = ["case_id", "status", "k_x_m2", "k_z_m2"]
     pd.testing.assert_frame_equal(a[cols], b[cols])
     assert "warning" not in capsys.readouterr().err
+
+
+def test_absurd_local_worker_count_and_nan_timeout_refused_before_work(tmp_path, capsys):
+    """Rule: bad input exits 2 in one line naming the key and the range, before any work.
+    main: ``--workers 100000`` was accepted (the pool is capped only at the number of cases: a
+    1000-case study would start 1000 processes of up to GBs each), and ``timeout_s=nan`` passed
+    the Python API's ``<= 0`` check."""
+    from psdesign.cli.study import main
+    from psdesign.study.runner import max_local_workers
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "out"
+    n = max_local_workers() + 1
+    args = ["study", "run", str(p), "-o", str(out), "--quiet", "--case-fn", "study_cases:fake_case"]
+    assert main([*args, "--workers", str(n)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"workers: at most {max_local_workers()} processes" in err and str(n) in err
+    assert not out.exists()
+    with pytest.raises(StudyError, match=r"^timeout: must be a number > 0"):
+        run_study(p, out, workers=0, case_fn=fake_case, timeout_s=float("nan"))
+    assert not out.exists()
+    assert max_local_workers() >= 64
