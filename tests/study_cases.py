@@ -80,6 +80,16 @@ def mixed_status_case(spec, outputs, solver, workdir):
     return out
 
 
+def untrusted_case(spec, outputs, solver, workdir):
+    """Every K untrustworthy (as a periodic solve of a non-periodic RVE is); the case is ok."""
+    out = fake_case(spec, outputs, solver, workdir)
+    for a in "xyz":
+        if f"k_{a}_m2" in out:
+            out[f"k_{a}_status"] = "untrustworthy"
+            out[f"warnings_{a}"] = f"K_{a}: bc = 'periodic' on a geometry that is not periodic"
+    return out
+
+
 def sleepy_case(spec, outputs, solver, workdir):
     (workdir / "pid.txt").write_text(str(os.getpid()))
     if spec["generator"]["porosity"] == 0.9:

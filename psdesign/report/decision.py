@@ -120,13 +120,11 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
     if not num:
         return '<p class="note">No numeric design parameter to plot against.</p>'
     summary = replicate_summary(ok, params)
-    kcols = [c for c in K_DIRECTIONS if f"{c}_mean" in summary]
-    others = [
-        c[:-5]
-        for c in summary.columns
-        if c.endswith("_mean") and c[:-5].startswith(OTHER_OUTPUT_PREFIXES)
-    ]
-    parts = []
+    # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
+    has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
+    kcols = [c for c in K_DIRECTIONS if c in has]
+    others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES)]
+    parts = [] if kcols or not any(c in df for c in K_DIRECTIONS) else [NO_TRUSTED_K]
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
         groups, mode = _line_groups(summary.iloc[order], p, num)
@@ -161,6 +159,9 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
 
 
+NO_TRUSTED_K = (
+    '<p class="note">No K to plot: every K value is not ok (see the red box at the top).</p>'
+)
 #: Axis titles (with units) of the non-K outputs that are not self-describing.
 OUTPUT_LABELS = {"porosity": "porosity (-)", "anisotropy": "anisotropy K_in-plane / K_z (-)"}
 COLORS = ("#636efa", "#ef553b", "#00cc96", "#ab63fa")

@@ -193,17 +193,18 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         y, err = k / scale, _k_error(df, c, k / scale)
         good = _direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
         bad = ~_direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
-        ax.errorbar(
-            eps_all[good],
-            y[good],
-            yerr=None if err is None else err[good],
-            fmt=markers[c],
-            ms=6,
-            color=colors[c],
-            capsize=2,
-            alpha=0.8,
-            label=f"{DIRECTIONS[c]} (this study)",
-        )
+        if good.any():
+            ax.errorbar(
+                eps_all[good],
+                y[good],
+                yerr=None if err is None else err[good],
+                fmt=markers[c],
+                ms=6,
+                color=colors[c],
+                capsize=2,
+                alpha=0.8,
+                label=f"{DIRECTIONS[c]} (this study)",
+            )
         if bad.any():
             n_bad += int(bad.sum())
             ax.errorbar(
@@ -491,7 +492,8 @@ def _status_banner(df: pd.DataFrame) -> str:
         f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '
         f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as red "
         "open markers in the porosity-permeability plot (when they have a K) and highlighted "
-        "in the tables below; the reason is in the <code>error</code> column.</p>"
+        "in the tables below; the reason is in the <code>error</code> column (cases) or the "
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns (K).</p>"
     )
 
 

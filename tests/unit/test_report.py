@@ -8,7 +8,14 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
-from study_cases import FAC_PARAMS, FACTORIAL, failing_case, mixed_status_case, write_study
+from study_cases import (
+    FAC_PARAMS,
+    FACTORIAL,
+    failing_case,
+    mixed_status_case,
+    untrusted_case,
+    write_study,
+)
 
 from psdesign.report import (
     ReportError,
@@ -247,3 +254,15 @@ def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
     assert bar.title.text.startswith("log10 K")
     assert fig.layout.yaxis.title.text == "generator.diameter (m)"
     assert fig.layout.xaxis2.title.text == "generator.porosity (-)"
+
+
+def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=untrusted_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "24 K value(s) of ok cases not ok" in html  # 12 cases x (K_x, K_z)
+    assert "24 K value(s) that are not ok (red open markers)" in html
+    assert "No K to plot: every K value is not ok" in html
+    assert 'id="psd-k-generator.porosity"' not in html  # no empty K frame
+    assert 'id="psd-porosity-generator.porosity"' in html  # porosity is still plotted
+    assert "warnings_x" in html
