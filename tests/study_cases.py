@@ -66,6 +66,7 @@ def mixed_status_case(spec, outputs, solver, workdir):
     if eps == 0.7:
         raise RuntimeError("mesh failed")
     out = fake_case(spec, outputs, solver, workdir)
+    out["fields_png"] = out["preview_png"]  # as with [study] fields = true
     for a in "xyz":
         if f"k_{a}_m2" in out:
             out[f"k_{a}_rel_error"] = 0.02

@@ -368,7 +368,8 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         "with streamlines, and pressure. The VTU/VTI files for ParaView are in the case's "
         "<code>fields/</code> folder (fields.json lists the arrays and units).</p>"
     )
-    return "<h2>Flow fields</h2>" + note + gallery_html(items)
+    # its own id: the page script finds a gallery by id (a second "psd-thumbs" never loaded)
+    return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields")
 
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:

@@ -266,3 +266,15 @@ def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
     assert 'id="psd-k-generator.porosity"' not in html  # no empty K frame
     assert 'id="psd-porosity-generator.porosity"' in html  # porosity is still plotted
     assert "warnings_x" in html
+
+
+def test_report_element_ids_are_unique_and_both_galleries_page(mixed_report):
+    _, html = mixed_report
+    markup = re.sub(r"<script\b[^>]*>.*?</script>", "", html, flags=re.I | re.S)
+    ids = re.findall(r'\bid="([^"]+)"', markup)
+    assert len(ids) == len(set(ids)), sorted(i for i in set(ids) if ids.count(i) > 1)
+    # previews and flow-field pictures: two galleries, each paged by its own id
+    for gid in ("psd-thumbs", "psd-fields"):
+        gallery = re.search(rf'<div class="psd-gallery" id="{gid}"[^>]*>(.*?)</div>', markup)
+        assert gallery is not None and gallery.group(1).count("<figure>") == 8, gid
+        assert f"psdPage('{gid}'" in markup
