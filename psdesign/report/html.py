@@ -298,6 +298,7 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     if fcols:
         import matplotlib.pyplot as plt
+        from matplotlib.ticker import MaxNLocator
 
         fig, ax = plt.subplots(figsize=(7, 3))
         x = np.arange(len(df))
@@ -305,6 +306,7 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
             v = pd.to_numeric(df[c], errors="coerce").abs()
             ax.semilogy(x, v.where(v > 0), "o", ms=3, label=c)
         ax.axhline(FLUX_IMBALANCE_FLAG, color="r", lw=0.8, ls="--", label="flag threshold")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("case index")
         ax.set_ylabel("|flux imbalance| (relative)")
         ax.legend(fontsize=7)
@@ -369,7 +371,7 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         "<code>fields/</code> folder (fields.json lists the arrays and units).</p>"
     )
     # its own id: the page script finds a gallery by id (a second "psd-thumbs" never loaded)
-    return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields")
+    return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields", width=640)
 
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:

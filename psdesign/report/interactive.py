@@ -102,10 +102,13 @@ def _title_below_modebar(fig) -> None:
     )
 
 
-def gallery_html(items: list[tuple[str, str]], gallery_id: str = "psd-thumbs") -> str:
-    """Paged thumbnails; ``items`` are ``(data_uri, caption)``. Images load when shown."""
+def gallery_html(
+    items: list[tuple[str, str]], gallery_id: str = "psd-thumbs", width: int = 300
+) -> str:
+    """Paged thumbnails ``width`` px wide; ``items`` are ``(data_uri, caption)``. Images load
+    when shown; ``gallery_id`` must be unique in the page."""
     figs = "".join(
-        f'<figure><img data-src="{uri}" alt="{html.escape(cap)}" width="300">'
+        f'<figure><img data-src="{uri}" alt="{html.escape(cap)}" width="{width}">'
         f"<figcaption>{html.escape(cap)}</figcaption></figure>"
         for uri, cap in items
     )
