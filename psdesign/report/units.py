@@ -1,4 +1,5 @@
-"""Permeability units the report can show (the data stay in m^2; SI in every file)."""
+"""Permeability units the report can show (the data stay in m^2; SI in every file), and the
+unit of each study parameter (from the schema's range text) for axis titles and legends."""
 
 from __future__ import annotations
 
