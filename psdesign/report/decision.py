@@ -253,6 +253,8 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
     note = (
         '<p class="note">Parallel lines in the interaction plot mean the two parameters act '
         "independently on log K; crossing or fanning lines mean they interact.</p>"
+        if len(parts) > 1
+        else ""
     )
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>" + note
 

@@ -36,6 +36,10 @@ from psdesign.report.sensitivity import main_effects, sensitivity_table
 __all__ = ["ReportError", "build_html", "write_report"]
 
 FLUX_IMBALANCE_FLAG = 1e-2
+SENS_BLANK_NOTE = (
+    '<p class="note">A blank Spearman or SRC cell is not defined: fewer than 3 cases (SRC: more '
+    "cases than parameters + 1), or the parameter or the response is constant over them.</p>"
+)
 MAX_TABLE_ROWS = 2000
 DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
 
@@ -429,7 +433,7 @@ def build_html(out_dir: str | Path) -> str:
 
     sens = sensitivity_table(trusted(df), params)
     sens_html = (
-        _table(sens)
+        _table(sens) + SENS_BLANK_NOTE
         if len(sens)
         else '<p class="note">Not enough varying numeric parameters or results.</p>'
     )

@@ -278,3 +278,15 @@ def test_report_element_ids_are_unique_and_both_galleries_page(mixed_report):
         gallery = re.search(rf'<div class="psd-gallery" id="{gid}"[^>]*>(.*?)</div>', markup)
         assert gallery is not None and gallery.group(1).count("<figure>") == 8, gid
         assert f"psdPage('{gid}'" in markup
+
+
+def test_two_case_study_explains_its_blank_cells_and_draws_no_interaction_note(tmp_path):
+    # the quickstart's shape: one parameter at two levels, one seed
+    study = FACTORIAL.replace("seeds = [1, 2]", "seeds = [1]")
+    p = write_study(tmp_path, study, '"generator.porosity" = [0.8, 0.9]')
+    run_study(p, tmp_path / "out", workers=0, case_fn=mixed_status_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    sens = html.split("<h2>Sensitivity</h2>", 1)[1].split("<h2>", 1)[0]
+    assert re.search(r"<td>generator.porosity</td><td>porosity</td><td></td><td></td>", sens)
+    assert "A blank Spearman or SRC cell is not defined: fewer than 3 cases" in sens
+    assert "Parallel lines in the interaction plot" not in html  # there is none
