@@ -28,6 +28,8 @@ OTHER_OUTPUT_PREFIXES = (
 )
 #: Fewest finished cases to fit a surrogate in the report.
 MIN_CASES_SURROGATE = 6
+#: Cross-validated relative error of the surrogate above which the report calls it unreliable.
+SURROGATE_WEAK = 0.2
 #: Levels above which a parameter is binned (quartiles) for main-effect plots.
 MAX_LEVELS = 6
 #: Most combinations of the other parameters drawn as separate lines in a parameter plot.
@@ -266,18 +268,28 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
-    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
-    if len(ok) < MIN_CASES_SURROGATE or not num or not kcols:
+    # the K with the most trusted values (z first on a tie); fit, range and markers are
+    # those cases only (a case whose K is not ok must not look like a data point)
+    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+    if c is not None:
+        ok = ok[ok[c] > 0]
+    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
+    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
         return (
             f'<p class="note">A surrogate needs at least {MIN_CASES_SURROGATE} finished '
-            "cases, a varying numeric parameter and K.</p>"
+            "cases with a trusted K and a varying numeric parameter.</p>"
         )
-    c = kcols[0]
     s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    weak = ""
+    if not s.cv_rel_error <= SURROGATE_WEAK:
+        weak = (
+            f" <b>Above {100 * SURROGATE_WEAK:.0f} %: the surface and the Sobol indices are "
+            "not reliable; more cases (or fewer parameters) are needed.</b>"
+        )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '
-        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.</p>"
+        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.{weak}</p>"
     ]
     order = num
     if len(num) >= 2:

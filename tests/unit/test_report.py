@@ -290,3 +290,16 @@ def test_two_case_study_explains_its_blank_cells_and_draws_no_interaction_note(t
     assert re.search(r"<td>generator.porosity</td><td>porosity</td><td></td><td></td>", sens)
     assert "A blank Spearman or SRC cell is not defined: fewer than 3 cases" in sens
     assert "Parallel lines in the interaction plot" not in html  # there is none
+
+
+def test_surrogate_uses_only_cases_with_a_trusted_k(mixed_report):
+    df, html = mixed_report
+    # K_x is trusted in 6 cases (porosity 0.8 and 0.9 seed 1), K_z in 4 (porosity 0.8 only):
+    # the surrogate takes K_x and its 6 cases; K_z's would extrapolate from one porosity
+    assert (
+        "Gaussian-process surrogate of k_x_m2 over generator.porosity, generator.diameter " in html
+    )
+    assert "from 6 cases" in html
+    # six cases on the corners of a 2 x 2 design: leave-one-out cannot predict a corner
+    cv = float(re.search(r"from 6 cases; cross-validated error ([0-9.]+) %", html).group(1))
+    assert cv > 20 and "Above 20 %: the surface and the Sobol indices are not reliable" in html
