@@ -77,17 +77,18 @@ class PermeabilityResult:
         )
 
     def _repr_html_(self) -> str:
-        err = "n/a" if self.rel_error is None else f"&plusmn; {100 * self.rel_error:.2g} %"
+        from psdesign.notebook import plus_minus, result_html
+
         rows = [
             ("direction", self.direction),
             ("K (m<sup>2</sup>)", f"{self.permeability_m2:.4e}"),
-            ("error estimate", err),
-            ("status", self.status),
+            ("error estimate", plus_minus(self.rel_error)),
+            ("converged", str(self.converged)),
             ("solver / bc", f"{self.solver} / {self.bc}"),
-            ("porosity", f"{self.porosity:.4f}"),
+            ("porosity (-)", f"{self.porosity:.4f}"),
         ]
-        body = "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in rows)
-        return f"<table>{body}</table>"
+        notes = self.details.get("warnings") or []
+        return result_html("PermeabilityResult", rows, self.status, list(notes))
 
 
 class Material:

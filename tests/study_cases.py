@@ -57,6 +57,40 @@ def failing_case(spec, outputs, solver, workdir):
     return fake_case(spec, outputs, solver, workdir)
 
 
+def mixed_status_case(spec, outputs, solver, workdir):
+    """A fake case with every status a real study shows: porosity 0.7 fails, 0.9 with seed 2 does
+    not converge along z, and 0.9 with seed 1 gives an untrustworthy K_z (a 30 % error bar, the
+    case itself stays ``ok``); the rest are ``ok`` with a 2 % bar."""
+    g = spec["generator"]
+    eps = float(g["porosity"])
+    if eps == 0.7:
+        raise RuntimeError("mesh failed")
+    out = fake_case(spec, outputs, solver, workdir)
+    out["fields_png"] = out["preview_png"]  # as with [study] fields = true
+    for a in "xyz":
+        if f"k_{a}_m2" in out:
+            out[f"k_{a}_rel_error"] = 0.02
+            out[f"k_{a}_status"] = "ok"
+    if eps == 0.9 and "k_z_m2" in out:
+        if g["seed"] == 2:
+            out["converged_z"] = False
+            out["k_z_status"] = "not_converged"
+        else:
+            out["k_z_rel_error"] = 0.3
+            out["k_z_status"] = "untrustworthy"
+    return out
+
+
+def untrusted_case(spec, outputs, solver, workdir):
+    """Every K untrustworthy (as a periodic solve of a non-periodic RVE is); the case is ok."""
+    out = fake_case(spec, outputs, solver, workdir)
+    for a in "xyz":
+        if f"k_{a}_m2" in out:
+            out[f"k_{a}_status"] = "untrustworthy"
+            out[f"warnings_{a}"] = f"K_{a}: bc = 'periodic' on a geometry that is not periodic"
+    return out
+
+
 def sleepy_case(spec, outputs, solver, workdir):
     (workdir / "pid.txt").write_text(str(os.getpid()))
     if spec["generator"]["porosity"] == 0.9:

@@ -47,6 +47,20 @@ def field_files(kind: str, directions: Iterable[str], solver: str = "voxel") -> 
     return names
 
 
+#: Keys of a solve's result copied into ``fields.json``: what a ParaView user needs to know
+#: whether to trust the field (the status and why).
+RESULT_KEYS = (
+    "permeability_m2",
+    "permeability_rel_error",
+    "solver",
+    "bc",
+    "status",
+    "converged",
+    "warnings",
+    "flow_rate_m3_s",
+)
+
+
 class FieldWriter:
     """A ``capture`` callable for the solvers' routes that writes each solve's fields.
 
@@ -140,11 +154,7 @@ class FieldWriter:
             s = dict(s)
             res = s.pop("result", None)
             if res is not None:
-                s["result"] = {
-                    k: res.get(k)
-                    for k in ("permeability_m2", "solver", "bc", "status", "flow_rate_m3_s")
-                    if k in res
-                }
+                s["result"] = {k: res.get(k) for k in RESULT_KEYS if k in res}
             solves.append(s)
         return {
             "solves": solves,

@@ -13,6 +13,7 @@ import pandas as pd
 from psdesign.analysis.columns import numeric_parameters
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.report.interactive import figure_html
+from psdesign.report.units import parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
 #: Other outputs plotted against the parameters when present.
@@ -27,12 +28,68 @@ OTHER_OUTPUT_PREFIXES = (
 )
 #: Fewest finished cases to fit a surrogate in the report.
 MIN_CASES_SURROGATE = 6
+#: Cross-validated relative error of the surrogate above which the report calls it unreliable.
+SURROGATE_WEAK = 0.2
 #: Levels above which a parameter is binned (quartiles) for main-effect plots.
 MAX_LEVELS = 6
+#: Most combinations of the other parameters drawn as separate lines in a parameter plot.
+MAX_LINE_GROUPS = 4
+DASHES = ("solid", "dash", "dot", "dashdot")
+#: Horizontal gap (fraction of the width) between the response surface's two panels: room
+#: for the first panel's colour bar and the second panel's tick labels.
+SURFACE_GAP = 0.3
 
 
-def _ok(df: pd.DataFrame) -> pd.DataFrame:
-    return df[df["status"] == "ok"].copy() if "status" in df else df.copy()
+def param_axis(p: str) -> dict:
+    """Plotly axis settings of a design parameter: title with its unit, and SI-prefixed ticks
+    that carry the unit (``6μm``) when it has one."""
+    unit = parameter_unit(p)
+    axis: dict = {"title": {"text": parameter_label(p)}}
+    if unit and unit not in ("-", "deg"):
+        axis.update(exponentformat="SI", ticksuffix=unit)
+    return axis
+
+
+def _value(p: str, v) -> str:
+    unit = parameter_unit(p)
+    return f"{float(v):.4g}" + (f" {unit}" if unit and unit != "-" else "")
+
+
+def _line_groups(s: pd.DataFrame, p: str, num: list[str]) -> tuple[list, str]:
+    """Rows of ``s`` split by the levels of the other numeric parameters, and the plot mode.
+
+    Points are joined by lines only within one combination of the other parameters (a line
+    across different diameters would draw a zig-zag that is no trend); scattered designs and
+    many combinations give markers only.
+    """
+    others = [q for q in num if q != p]
+    if not others:
+        return [("", s)], "markers+lines" if s[p].nunique() > 1 else "markers"
+    groups = list(s.groupby(others, sort=True))
+    if len(groups) > MAX_LINE_GROUPS or all(len(g) < 2 for _, g in groups):
+        return [("", s)], "markers"
+    out = []
+    for key, g in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        out.append(
+            (", ".join(f"{q} = {_value(q, v)}" for q, v in zip(others, key, strict=True)), g)
+        )
+    return out, "markers+lines"
+
+
+def trusted(df: pd.DataFrame) -> pd.DataFrame:
+    """The ``ok`` cases, with each K whose own status (``k_x_status``: ``untrustworthy``,
+    ``not_converged``) is not ok set to NaN: what the means, fits and sensitivity use."""
+    out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
+    for c in K_DIRECTIONS:
+        st = out.get(f"{c[:3]}_status")
+        if c in out and st is not None:
+            bad = st.notna() & (st.astype(str) != "ok")
+            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
+    return out
+
+
+_ok = trusted
 
 
 def add_anisotropy(df: pd.DataFrame) -> pd.DataFrame:
@@ -65,36 +122,23 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
     if not num:
         return '<p class="note">No numeric design parameter to plot against.</p>'
     summary = replicate_summary(ok, params)
-    kcols = [c for c in K_DIRECTIONS if f"{c}_mean" in summary]
-    others = [
-        c[:-5]
-        for c in summary.columns
-        if c.endswith("_mean") and c[:-5].startswith(OTHER_OUTPUT_PREFIXES)
-    ]
-    parts = []
+    # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
+    has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
+    kcols = [c for c in K_DIRECTIONS if c in has]
+    others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES)]
+    parts = [] if kcols or not any(c in df for c in K_DIRECTIONS) else [NO_TRUSTED_K]
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
-        s = summary.iloc[order]
-        # lines join the levels of a one-parameter or factorial design; scattered designs
-        # (other parameters vary between neighbours) show markers only
-        mode = "markers+lines" if len(num) == 1 or s[p].nunique() <= MAX_LEVELS else "markers"
+        groups, mode = _line_groups(summary.iloc[order], p, num)
         if kcols:
             fig = go.Figure()
-            for c in kcols:
-                e = _err(s, c)
-                fig.add_trace(
-                    go.Scatter(
-                        x=s[p],
-                        y=_nan_none(s[f"{c}_mean"]),
-                        mode=mode,
-                        name=K_DIRECTIONS[c],
-                        error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
-                    )
-                )
+            for i, c in enumerate(kcols):
+                for j, (label, g) in enumerate(groups):
+                    fig.add_trace(_mean_trace(g, p, c, mode, K_DIRECTIONS[c], label, i, j))
             fig.update_layout(
                 title=f"K vs {p} (mean of replicates, 95 % CI)",
                 height=360,
-                xaxis_title=p,
+                xaxis=param_axis(p),
                 yaxis_title="K (m²)",
                 yaxis_type="log",
                 yaxis_exponentformat="e",
@@ -102,25 +146,43 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
             )
             parts.append(figure_html(fig, f"psd-k-{p}", k_axis="yaxis", k_label="K"))
         for c in others:
-            e = _err(s, c)
             fig = go.Figure(
-                go.Scatter(
-                    x=s[p],
-                    y=_nan_none(s[f"{c}_mean"]),
-                    mode=mode,
-                    name=c,
-                    error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
-                )
+                [_mean_trace(g, p, c, mode, c, label, 0, j) for j, (label, g) in enumerate(groups)]
             )
             fig.update_layout(
                 title=f"{c} vs {p}",
                 height=320,
-                xaxis_title=p,
-                yaxis_title=c,
+                xaxis=param_axis(p),
+                yaxis_title=OUTPUT_LABELS.get(c, c),
+                showlegend=len(groups) > 1,
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
+
+
+NO_TRUSTED_K = (
+    '<p class="note">No K to plot: every K value is not ok (see the red box at the top).</p>'
+)
+#: Axis titles (with units) of the non-K outputs that are not self-describing.
+OUTPUT_LABELS = {"porosity": "porosity (-)", "anisotropy": "anisotropy K_in-plane / K_z (-)"}
+COLORS = ("#636efa", "#ef553b", "#00cc96", "#ab63fa")
+
+
+def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: str, i, j):
+    """One line of replicate means of output ``c`` against ``p``, 95 % CI bars; colour by
+    output (``i``), dash by the other parameters' combination (``j``)."""
+    import plotly.graph_objects as go
+
+    e = _err(g, c)
+    return go.Scatter(
+        x=g[p],
+        y=_nan_none(g[f"{c}_mean"]),
+        mode=mode,
+        name=f"{name}, {group}" if group else name,
+        line={"color": COLORS[i % len(COLORS)], "dash": DASHES[j % len(DASHES)]},
+        error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
+    )
 
 
 def _levels(x: pd.Series) -> pd.Series:
@@ -179,20 +241,22 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
                     x=list(tab.index),
                     y=tab[lvl].to_list(),
                     mode="markers+lines",
-                    name=f"{b} = {lvl:.4g}",
+                    name=f"{b} = {_value(b, lvl)}",
                 )
             )
         fig.update_layout(
             title=f"Interaction {a} x {b}: mean log10 {c}",
             height=380,
-            xaxis_title=a,
-            yaxis_title=f"log10 {c}",
+            xaxis=param_axis(a),
+            yaxis_title=f"log10 {c} (K in m²)",
             margin={"l": 60, "r": 10, "t": 40, "b": 50},
         )
         parts.append(figure_html(fig, "psd-interaction"))
     note = (
         '<p class="note">Parallel lines in the interaction plot mean the two parameters act '
         "independently on log K; crossing or fanning lines mean they interact.</p>"
+        if len(parts) > 1
+        else ""
     )
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>" + note
 
@@ -204,18 +268,28 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
-    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
-    if len(ok) < MIN_CASES_SURROGATE or not num or not kcols:
+    # the K with the most trusted values (z first on a tie); fit, range and markers are
+    # those cases only (a case whose K is not ok must not look like a data point)
+    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+    if c is not None:
+        ok = ok[ok[c] > 0]
+    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
+    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
         return (
             f'<p class="note">A surrogate needs at least {MIN_CASES_SURROGATE} finished '
-            "cases, a varying numeric parameter and K.</p>"
+            "cases with a trusted K and a varying numeric parameter.</p>"
         )
-    c = kcols[0]
     s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    weak = ""
+    if not s.cv_rel_error <= SURROGATE_WEAK:
+        weak = (
+            f" <b>Above {100 * SURROGATE_WEAK:.0f} %: the surface and the Sobol indices are "
+            "not reliable; more cases (or fewer parameters) are needed.</b>"
+        )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '
-        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.</p>"
+        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.{weak}</p>"
     ]
     order = num
     if len(num) >= 2:
@@ -254,6 +328,7 @@ def _sobol_figure(sob: pd.DataFrame, c: str):
         barmode="group",
         height=360,
         yaxis_range=[0, 1.05],
+        yaxis_title="Sobol index (-)",
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
     )
     return fig
@@ -293,7 +368,7 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     fig.update_layout(
         title=f"Surrogate of {c} vs {a}",
         height=380,
-        xaxis_title=a,
+        xaxis=param_axis(a),
         yaxis_title="K (m²)",
         yaxis_type="log",
         yaxis_exponentformat="e",
@@ -317,15 +392,25 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
         rows=1,
         cols=2,
         subplot_titles=(f"log10 {c} (GP mean)", "relative uncertainty (std / mean)"),
+        horizontal_spacing=SURFACE_GAP,
     )
-    bar = {"len": 0.9, "thickness": 12}
+    # each colour bar right of its own panel: the first one in the gap between the panels
+    bar = {"len": 0.9, "thickness": 10, "xanchor": "left", "xpad": 4}
+    left_bar = {"x": (1 - SURFACE_GAP) / 2 + 0.01, "title": {"text": "log10 K<br>(m²)"}}
     fig.add_trace(
-        go.Contour(x=ga, y=gb, z=np.log10(m).reshape(A.shape), colorbar={"x": 0.43, **bar}),
+        go.Contour(x=ga, y=gb, z=np.log10(m).reshape(A.shape), colorbar={**left_bar, **bar}),
         1,
         1,
     )
+    right_bar = {"x": 1.01, "title": {"text": "std /<br>mean (-)"}}
     fig.add_trace(
-        go.Contour(x=ga, y=gb, z=(sd / m).reshape(A.shape), colorscale="Greys", colorbar=bar),
+        go.Contour(
+            x=ga,
+            y=gb,
+            z=(sd / m).reshape(A.shape),
+            colorscale="Greys",
+            colorbar={**right_bar, **bar},
+        ),
         1,
         2,
     )
@@ -342,10 +427,13 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
             col,
         )
     fig.update_layout(
-        title="Response surface (others at mid-range)",
-        height=420,
-        xaxis_title=a,
-        yaxis_title=b,
-        xaxis2_title=a,
+        title={"text": "Response surface (others at mid-range)", "y": 0.97, "x": 0.02},
+        title_font_size=14,
+        height=440,
+        margin={"l": 70, "r": 60, "t": 90, "b": 60},
+        xaxis=param_axis(a),
+        yaxis=param_axis(b),
+        xaxis2=param_axis(a),
+        yaxis2={k: v for k, v in param_axis(b).items() if k != "title"},
     )
     return fig

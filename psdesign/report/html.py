@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
+from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots, trusted
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.references import (
@@ -36,6 +36,10 @@ from psdesign.report.sensitivity import main_effects, sensitivity_table
 __all__ = ["ReportError", "build_html", "write_report"]
 
 FLUX_IMBALANCE_FLAG = 1e-2
+SENS_BLANK_NOTE = (
+    '<p class="note">A blank Spearman or SRC cell is not defined: fewer than 3 cases (SRC: more '
+    "cases than parameters + 1), or the parameter or the response is constant over them.</p>"
+)
 MAX_TABLE_ROWS = 2000
 DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
 
@@ -44,7 +48,7 @@ body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;mar
 color:#222;max-width:1400px}
 h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
 table{border-collapse:collapse;font-size:.82em;margin:.5em 0}
-th,td{border:1px solid #ddd;padding:.2em .5em;text-align:right}
+th,td{border:1px solid #ddd;padding:.2em .5em;text-align:right;white-space:nowrap}
 th{background:#f3f3f3;position:sticky;top:0}
 tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
 .scroll{max-height:32em;overflow:auto;border:1px solid #eee}
@@ -52,6 +56,7 @@ tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
 figure{display:inline-block;margin:.5em;vertical-align:top}
 figcaption{font-size:.8em;color:#555;max-width:320px}
 .note{color:#555;font-size:.9em}
+.alert{background:#ffe3e3;border-left:4px solid #c00;padding:.4em .8em;max-width:1100px}
 """
 
 
@@ -150,57 +155,115 @@ def _porosity(df: pd.DataFrame) -> pd.Series | None:
     return None
 
 
+def _direction_ok(df: pd.DataFrame, c: str) -> pd.Series:
+    """Rows whose case is ``ok`` and whose K along ``c``'s direction is ``ok`` (or unrated)."""
+    ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
+    st = df.get(f"{c[:3]}_status")  # k_x_status
+    if st is not None:
+        ok &= st.isna() | (st.astype(str) == "ok")
+    return ok
+
+
+def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
+    """Absolute error bar of K from its relative one (``k_x_rel_error``), or None."""
+    rel = df.get(f"{c[:3]}_rel_error")
+    if rel is None:
+        return None
+    e = (pd.to_numeric(rel, errors="coerce") * k).to_numpy(dtype=float)
+    return e if np.isfinite(e).any() else None
+
+
 def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
+    """Porosity vs K with error bars and the reference curves; K that is not ok (the case
+    not converged, or this direction untrustworthy) drawn as red open markers."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    ok = df[df["status"] == "ok"] if "status" in df else df
-    eps = _porosity(ok)
-    kcols = [c for c in DIRECTIONS if c in ok and pd.to_numeric(ok[c], errors="coerce").gt(0).any()]
-    if eps is None or not kcols:
+    eps_all = _porosity(df)
+    kcols = [c for c in DIRECTIONS if c in df and pd.to_numeric(df[c], errors="coerce").gt(0).any()]
+    if eps_all is None or not kcols:
         return None, "No porosity/permeability results to plot."
-    r_rows, r0 = _fiber_radius(ok, study)
-    normalize = r_rows is not None and r_rows.nunique() > 1
+    r_all, r0 = _fiber_radius(df, study)
+    normalize = r_all is not None and r_all.nunique() > 1
     fig, ax = plt.subplots(figsize=(7, 4.8))
     markers = {"k_x_m2": "o", "k_y_m2": "s", "k_z_m2": "^"}
+    colors = {"k_x_m2": "C0", "k_y_m2": "C2", "k_z_m2": "C1"}
+    n_bad = 0
     for c in kcols:
-        k = pd.to_numeric(ok[c], errors="coerce")
-        y = k / r_rows**2 if normalize else k
-        ax.scatter(eps, y, marker=markers[c], label=f"{DIRECTIONS[c]} (this study)", alpha=0.8)
-    note = ""
-    if r0:
-        lo = max(TS_EPS_P + 0.02, float(np.nanmin(eps)) - 0.05)
-        hi = min(0.98, float(np.nanmax(eps)) + 0.05)
-        e = np.linspace(lo, hi, 200)
-        rr = 1.0 if normalize else r0
-        ax.plot(
-            e,
-            tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE),
-            "k-",
-            label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
+        k = pd.to_numeric(df[c], errors="coerce")
+        scale = r_all**2 if normalize else 1.0
+        y, err = k / scale, _k_error(df, c, k / scale)
+        good = _direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        bad = ~_direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        if good.any():
+            ax.errorbar(
+                eps_all[good],
+                y[good],
+                yerr=None if err is None else err[good],
+                fmt=markers[c],
+                ms=6,
+                color=colors[c],
+                capsize=2,
+                alpha=0.8,
+                label=f"{DIRECTIONS[c]} (this study)",
+            )
+        if bad.any():
+            n_bad += int(bad.sum())
+            ax.errorbar(
+                eps_all[bad],
+                y[bad],
+                yerr=None if err is None else err[bad],
+                fmt=markers[c],
+                ms=9,
+                mfc="none",
+                mec="red",
+                ecolor="red",
+                capsize=2,
+                label=f"{DIRECTIONS[c]}: NOT ok (not converged / untrustworthy)",
+            )
+    notes = [_reference_curves(ax, eps_all, r0, normalize)]
+    if n_bad:
+        notes.append(
+            f"{n_bad} K value(s) that are not ok (red open markers) are left out of the "
+            "fits and sensitivity."
         )
-        ax.plot(
-            e,
-            tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE),
-            "k--",
-            label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})",
-        )
-        ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
-        note = (
-            f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
-            if not normalize
-            else "Diameter varies: permeability shown as K / r^2."
-        )
-    else:
-        note = "No fiber diameter in the spec: reference curves omitted."
+    n_failed = int((df["status"] == "failed").sum()) if "status" in df else 0
+    if n_failed:
+        notes.append(f"{n_failed} failed case(s) have no K and are not plotted.")
     ax.set_yscale("log")
-    ax.set_xlabel("porosity")
-    ax.set_ylabel("K / r^2 (-)" if normalize else "permeability K (m^2)")
+    ax.set_xlabel("porosity (-)")
+    ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
-    return _png(fig), note
+    return _png(fig), " ".join(n for n in notes if n)
+
+
+def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> str:
+    """Tomadakis-Sotirchos and Kozeny-Carman curves over the porosity range; the caption."""
+    if not r0:
+        return "No fiber diameter in the spec: reference curves omitted."
+    lo = max(TS_EPS_P + 0.02, float(np.nanmin(eps)) - 0.05)
+    hi = min(0.98, float(np.nanmax(eps)) + 0.05)
+    e = np.linspace(lo, hi, 200)
+    rr = 1.0 if normalize else r0
+    ax.plot(
+        e,
+        tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE),
+        "k-",
+        label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
+    )
+    ax.plot(
+        e,
+        tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE),
+        "k--",
+        label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})",
+    )
+    ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
+    if normalize:
+        return "Diameter varies: permeability shown as K / r^2."
+    return f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
 
 
 def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
@@ -239,6 +302,7 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     if fcols:
         import matplotlib.pyplot as plt
+        from matplotlib.ticker import MaxNLocator
 
         fig, ax = plt.subplots(figsize=(7, 3))
         x = np.arange(len(df))
@@ -246,6 +310,7 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
             v = pd.to_numeric(df[c], errors="coerce").abs()
             ax.semilogy(x, v.where(v > 0), "o", ms=3, label=c)
         ax.axhline(FLUX_IMBALANCE_FLAG, color="r", lw=0.8, ls="--", label="flag threshold")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("case index")
         ax.set_ylabel("|flux imbalance| (relative)")
         ax.legend(fontsize=7)
@@ -263,17 +328,19 @@ def _k_table(df: pd.DataFrame) -> str:
         return ""
     classes = []
     for _, row in df.iterrows():
-        out = {"case_id": row.get("case_id", "")}
-        flag = False
+        case_status = row.get("status", "ok")
+        case_status = "ok" if pd.isna(case_status) else str(case_status)
+        out = {"case_id": row.get("case_id", ""), "case status": case_status}
+        flag = case_status != "ok"
         for d in dirs:
             k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
             e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
             txt = "" if pd.isna(k) else f"{k:.4g}"
             if pd.notna(e):
-                txt += f" +- {100 * e:.1f} %"
+                txt += f" ± {100 * e:.1f} %"
             out[f"K_{d} (m^2)"] = txt
             st = row.get(f"k_{d}_status")
-            out[f"status_{d}"] = "" if pd.isna(st) else st
+            out[f"status_{d}"] = (case_status if case_status != "ok" else "") if pd.isna(st) else st
             out[f"bc_{d}"] = row.get(f"bc_{d}", "")
             flag |= isinstance(st, str) and st != "ok"
         rows.append(out)
@@ -281,7 +348,8 @@ def _k_table(df: pd.DataFrame) -> str:
     note = (
         '<p class="note">Error bar: two-grid discretization estimate (a second solve at about '
         "twice the step) with a resolution floor, plus the solver residual "
-        "(docs/permeability.md). Highlighted: a status other than ok.</p>"
+        "(docs/permeability.md). Highlighted: a case or a direction whose status is not ok "
+        "(failed, not_converged, untrustworthy).</p>"
     )
     return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
 
@@ -306,7 +374,8 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         "with streamlines, and pressure. The VTU/VTI files for ParaView are in the case's "
         "<code>fields/</code> folder (fields.json lists the arrays and units).</p>"
     )
-    return "<h2>Flow fields</h2>" + note + gallery_html(items)
+    # its own id: the page script finds a gallery by id (a second "psd-thumbs" never loaded)
+    return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields", width=640)
 
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
@@ -362,15 +431,15 @@ def build_html(out_dir: str | Path) -> str:
     perm_uri, perm_note = _perm_figure(df, study)
     perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
 
-    sens = sensitivity_table(df, params)
+    sens = sensitivity_table(trusted(df), params)
     sens_html = (
-        _table(sens)
+        _table(sens) + SENS_BLANK_NOTE
         if len(sens)
         else '<p class="note">Not enough varying numeric parameters or results.</p>'
     )
     me_html = ""
     if study.get("design") == "full-factorial":
-        me = main_effects(df, params)
+        me = main_effects(trusted(df), params)
         if len(me):
             me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
 
@@ -386,7 +455,7 @@ def build_html(out_dir: str | Path) -> str:
 <style>{CSS}{INTERACTIVE_CSS}</style>
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
-<h2>Study</h2><table class="meta">{meta}</table>
+{_status_banner(df)}<h2>Study</h2><table class="meta">{meta}</table>
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
@@ -410,6 +479,29 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 <h2>References</h2>{_references()}
 </body></html>
 """
+
+
+def _status_banner(df: pd.DataFrame) -> str:
+    """A red box at the top when any case or any K is not ok: how many, and where they show."""
+    status = df["status"].fillna("") if "status" in df else pd.Series([""] * len(df))
+    counts = status[status != "ok"].value_counts().to_dict()
+    untrusted = 0
+    for d in "xyz":
+        st = df.get(f"k_{d}_status")
+        if st is not None:
+            untrusted += int(((status == "ok") & st.notna() & (st.astype(str) != "ok")).sum())
+    if not counts and not untrusted:
+        return ""
+    parts = [f"{v} {_esc(k or 'unknown')}" for k, v in sorted(counts.items())]
+    if untrusted:
+        parts.append(f"{untrusted} K value(s) of ok cases not ok (k_*_status)")
+    return (
+        f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '
+        f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as red "
+        "open markers in the porosity-permeability plot (when they have a K) and highlighted "
+        "in the tables below; the reason is in the <code>error</code> column (cases) or the "
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns (K).</p>"
+    )
 
 
 def _meta_table(df: pd.DataFrame, study: dict, runs: dict, params: list[str], name: str) -> str:

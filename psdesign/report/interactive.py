@@ -14,6 +14,8 @@ ASSETS = Path(__file__).resolve().parent / "assets"
 
 #: Width of every figure (px); fixed so that figures render the same in every browser.
 FIGURE_WIDTH = 640
+#: Top margin (px) of a titled figure: the tool bar above, the title below it.
+TITLE_MARGIN = 64
 #: Thumbnails per page of the gallery.
 THUMBS_PER_PAGE = 24
 
@@ -56,6 +58,7 @@ def figure_html(fig, div_id: str, k_axis: str | None = None, k_label: str = "K")
     With ``k_axis`` (``"yaxis"``), the figure's y data are K in m^2 and follow the unit selector.
     """
     fig.update_layout(autosize=False, width=FIGURE_WIDTH)
+    _title_below_modebar(fig)
     div = fig.to_html(
         full_html=False,
         include_plotlyjs=False,
@@ -85,10 +88,27 @@ def figure_html(fig, div_id: str, k_axis: str | None = None, k_label: str = "K")
     )
 
 
-def gallery_html(items: list[tuple[str, str]], gallery_id: str = "psd-thumbs") -> str:
-    """Paged thumbnails; ``items`` are ``(data_uri, caption)``. Images load when shown."""
+def _title_below_modebar(fig) -> None:
+    """Put the title just above the plot area, below Plotly's tool bar (which sits in the
+    figure's top right corner and otherwise covers the end of a long title)."""
+    title = fig.layout.title
+    if not (title and title.text) or fig.layout.annotations:
+        return  # subplot titles are annotations at the same height: their figure sets margins
+    top = fig.layout.margin.t if fig.layout.margin.t is not None else 80
+    fig.update_layout(
+        title={"yref": "paper", "y": 1.0, "yanchor": "bottom", "pad": {"b": 10}},
+        title_font_size=14,
+        margin_t=max(top, TITLE_MARGIN),
+    )
+
+
+def gallery_html(
+    items: list[tuple[str, str]], gallery_id: str = "psd-thumbs", width: int = 300
+) -> str:
+    """Paged thumbnails ``width`` px wide; ``items`` are ``(data_uri, caption)``. Images load
+    when shown; ``gallery_id`` must be unique in the page."""
     figs = "".join(
-        f'<figure><img data-src="{uri}" alt="{html.escape(cap)}" width="300">'
+        f'<figure><img data-src="{uri}" alt="{html.escape(cap)}" width="{width}">'
         f"<figcaption>{html.escape(cap)}</figcaption></figure>"
         for uri, cap in items
     )

@@ -58,16 +58,18 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
         src: dict[str, float] = {}
         if xs and n > len(xs) + 1:
             X = np.column_stack([xs[p][mask].to_numpy() for p in xs])
-            Xs = (X - X.mean(0)) / X.std(0)
             yv = y[mask].to_numpy(dtype=float)
-            if yv.std() > 0:
+            # a parameter constant over the rows with this response has no SRC (and would
+            # put NaN into the least squares)
+            if yv.std() > 0 and (X.std(0) > 0).all():
+                Xs = (X - X.mean(0)) / X.std(0)
                 ys = (yv - yv.mean()) / yv.std()
                 coef, *_ = np.linalg.lstsq(Xs, ys, rcond=None)
                 src = dict(zip(xs, coef, strict=True))
         for p, x in xs.items():
             m = x.notna() & y.notna()
             rho = np.nan
-            if m.sum() > 2 and y[m].nunique() > 1:
+            if m.sum() > 2 and y[m].nunique() > 1 and x[m].nunique() > 1:
                 rho = float(spearmanr(x[m], y[m]).statistic)
             rows.append(
                 {

@@ -1,7 +1,64 @@
-"""Permeability units the report can show (the data stay in m^2; SI in every file)."""
+"""Permeability units the report can show (the data stay in m^2; SI in every file), and the
+unit of each study parameter (from the schema's range text) for axis titles and legends."""
 
 from __future__ import annotations
+
+import re
+from functools import lru_cache
 
 #: Factor from m^2 to each display unit (1 darcy = 9.869233e-13 m^2).
 K_UNITS = {"m2": 1.0, "um2": 1e12, "darcy": 1.0 / 9.869233e-13}
 K_UNIT_LABELS = {"m2": "m²", "um2": "µm²", "darcy": "darcy"}
+
+
+#: Units of study parameters the schema's range text does not spell as a unit word.
+_SUFFIX_UNITS = (
+    ("_m2_s", "m²/s"),
+    ("_gb", "GB"),
+    ("_n_m", "N/m"),
+    ("_deg", "deg"),
+    ("_m", "m"),
+    ("_s", "s"),
+)
+_TEXT_UNITS = (
+    (r"\bmetres\b|(?:\d|\]|0) m\b", "m"),
+    (r"\bdegrees\b", "deg"),
+    (r"^Pa s\b", "Pa s"),
+    (r"\bPa in\b", "Pa"),
+    (r"kg/m\^3", "kg/m³"),
+    (r"\bseconds\b", "s"),
+    (r"\bfraction\b", "-"),
+)
+
+
+@lru_cache(maxsize=1)
+def _allowed() -> dict[str, str]:
+    """Dotted spec key -> the schema's allowed-range text (imported on first use)."""
+    from psdesign.schema.keys import key_rows
+
+    return {k: a for rows in key_rows().values() for k, _, a in rows}
+
+
+def parameter_unit(key: str) -> str:
+    """The SI unit of a study parameter (a dotted spec key), ``"-"`` for a fraction, or ``""``.
+
+    Read from the schema's range text (``docs/spec-keys.md``: "metres", "degrees", "Pa s",
+    "[1e-9, 1] m", ...) and from unit suffixes of key names (``_m``, ``_deg``, ``_m2_s``).
+    """
+    if key.endswith("porosity"):
+        return "-"
+    leaf = key.rsplit(".", 1)[-1]
+    for suffix, unit in _SUFFIX_UNITS:
+        if leaf.endswith(suffix):
+            return unit
+    text = _allowed().get(key, "")
+    for pattern, unit in _TEXT_UNITS:
+        if re.search(pattern, text):
+            return unit
+    return ""
+
+
+def parameter_label(key: str) -> str:
+    """``key (unit)`` for axis titles and legends; the bare key when the unit is unknown."""
+    unit = parameter_unit(key)
+    return f"{key} ({unit})" if unit else key

@@ -12,7 +12,7 @@ bounds (Hashin & Shtrikman, J. Appl. Phys. 33, 3125, 1962), which bind an isotro
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from functools import partial
 
 import numpy as np
@@ -29,7 +29,7 @@ class ConductivityResult:
     direction: str
     bc: str
     effective_conductivity: float
-    conductivity_column: list[float]
+    conductivity_column: list[float] = field(repr=False)
     solid_conductivity: float
     fluid_conductivity: float
     insulating_phase: str
@@ -47,6 +47,35 @@ class ConductivityResult:
     message: str
     n_cells: int
     wall_time_s: float
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"blocked"`` (the conducting phase does not percolate) or
+        ``"not_converged"``."""
+        if self.blocked:
+            return "blocked"
+        return "ok" if self.converged else "not_converged"
+
+    def _repr_html_(self) -> str:
+        from psdesign.notebook import plus_minus, result_html
+
+        lo, hi = self.hashin_shtrikman_bounds
+        rows = [
+            ("direction", self.direction),
+            (
+                "effective conductivity",
+                f"{self.effective_conductivity:.4g} {plus_minus(self.rel_error)}",
+            ),
+            (
+                "solid / fluid conductivity",
+                f"{self.solid_conductivity:.4g} / {self.fluid_conductivity:.4g}",
+            ),
+            ("Hashin-Shtrikman bounds", f"[{lo:.4g}, {hi:.4g}]"),
+            ("porosity (-)", f"{self.porosity:.4f}"),
+            ("bc", self.bc),
+        ]
+        note = "conductivities in the units of the phase conductivities (e.g. S/m or W/(m K))"
+        return result_html("ConductivityResult", rows, self.status, [self.message, note])
 
     def to_dict(self) -> dict:
         """Plain dict (JSON-ready)."""

@@ -24,7 +24,7 @@ None (infinite).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from functools import partial
 
 import numpy as np
@@ -43,7 +43,7 @@ class DiffusivityResult:
     relative_diffusivity: float
     tortuosity_factor: float | None
     porosity: float
-    relative_diffusivity_column: list[float]
+    relative_diffusivity_column: list[float] = field(repr=False)
     converged: bool
     residual: float
     iterations: int
@@ -59,6 +59,30 @@ class DiffusivityResult:
     mean_pore_diameter_m: float | None = None
     knudsen_number: float | None = None
     effective_diffusivity_transition_m2_s: float | None = None
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"blocked"`` (no pore path) or ``"not_converged"``."""
+        if self.blocked:
+            return "blocked"
+        return "ok" if self.converged else "not_converged"
+
+    def _repr_html_(self) -> str:
+        from psdesign.notebook import plus_minus, result_html
+
+        tau = self.tortuosity_factor
+        rows = [
+            ("direction", self.direction),
+            (
+                "D<sub>eff</sub> / D (-)",
+                f"{self.relative_diffusivity:.4g} {plus_minus(self.rel_error)}",
+            ),
+            ("tortuosity factor (-)", "n/a" if tau is None else f"{tau:.4g}"),
+            ("D<sub>eff</sub> (m<sup>2</sup>/s)", f"{self.effective_diffusivity_m2_s:.4e}"),
+            ("porosity (-)", f"{self.porosity:.4f}"),
+            ("bc", self.bc),
+        ]
+        return result_html("DiffusivityResult", rows, self.status, [self.message])
 
     def to_dict(self) -> dict:
         """Plain dict (JSON-ready)."""

@@ -78,6 +78,10 @@ def test_voxel_periodic_vti_names_units_and_mean_velocity(voxel_runs):
         "flow_x.vti",
     ]
     assert index["regions"] == tags.REGION_IDS and index["boundary_tags"] == tags.TAG_IDS
+    # the index says whether to trust the field: status, convergence and the solve's warnings
+    (solve,) = index["solves"]
+    for key in ("permeability_m2", "status", "converged", "warnings"):
+        assert solve["result"][key] == res[key], key
     grid = pv.read(out / "flow_x.vti")
     assert tuple(d - 1 for d in grid.dimensions) == (24, 12, 16)
     assert grid.spacing == pytest.approx((H, H, H))

@@ -8,7 +8,7 @@ import shutil
 import subprocess
 
 import pytest
-from study_cases import fake_case, write_study
+from study_cases import FAC_PARAMS, FACTORIAL, fake_case, mixed_status_case, write_study
 
 from psdesign.study import run_study
 
@@ -63,3 +63,16 @@ def test_unit_selector_converts_k_to_darcy(report) -> None:
     assert cells
     for m2, shown in cells:
         assert float(shown) == pytest.approx(float(m2) / 9.869233e-13, rel=1e-3)
+
+
+def test_flow_field_pictures_load_next_to_the_previews(tmp_path) -> None:
+    # both galleries page on load: every picture of their first page gets its src (the flow
+    # fields' gallery shared the previews' id and its pictures stayed broken)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=mixed_status_case, progress=False)
+    dom = _chromium("--dump-dom", (tmp_path / "out" / "report.html").as_uri()).stdout
+    for gid in ("psd-thumbs", "psd-fields"):
+        gallery = re.search(rf'<div class="psd-gallery" id="{gid}"[^>]*>(.*?)</div>', dom, re.S)
+        assert gallery is not None, gid
+        imgs = re.findall(r"<img\b[^>]*>", gallery.group(1))
+        assert len(imgs) == 8 and all(' src="data:image/png' in i for i in imgs), gid

@@ -95,3 +95,66 @@ def test_unguarded_script_fails_with_one_line(tmp_path) -> None:
     assert proc.returncode != 0
     assert 'if __name__ == "__main__":' in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_permeability_result_html_marks_a_status_that_is_not_ok() -> None:
+    d = {"direction": "x", "permeability_m2": 3e-12, "converged": True, "status": "untrustworthy"}
+    d |= {"permeability_rel_error": 0.3, "warnings": ["error bar 30 % above the 20 % limit"]}
+    page = PermeabilityResult.from_dict(d)._repr_html_()
+    assert "background:#c00" in page and ">untrustworthy</span>" in page
+    assert "&plusmn; 30 %" in page and "error bar 30 % above the 20 % limit" in page
+    ok = PermeabilityResult.from_dict({**d, "status": "ok", "warnings": []})._repr_html_()
+    assert "background:#c00" not in ok and ">ok</span>" in ok
+
+
+def _transport_fields() -> dict:
+    return {
+        "direction": "z",
+        "bc": "periodic",
+        "porosity": 0.8,
+        "converged": False,
+        "residual": 1e-3,
+        "iterations": 500,
+        "flux_imbalance": 1e-3,
+        "rel_error": 0.05,
+        "error_method": "two-grid",
+        "blocked": False,
+        "message": "maximum iterations reached",
+        "n_cells": 8000,
+        "wall_time_s": 0.1,
+    }
+
+
+def test_transport_results_have_short_repr_and_html_with_units() -> None:
+    from psdesign.transport.conductivity import ConductivityResult
+    from psdesign.transport.diffusivity import DiffusivityResult
+
+    column = [0.5] * 200  # one value per slice: kept out of the repr
+    common = _transport_fields()
+    dr = DiffusivityResult(
+        relative_diffusivity=0.61,
+        tortuosity_factor=1.31,
+        relative_diffusivity_column=column,
+        bulk_diffusivity_m2_s=2e-5,
+        effective_diffusivity_m2_s=1.22e-5,
+        **common,
+    )
+    assert len(repr(dr)) < 700 and "0.5, 0.5" not in repr(dr)
+    assert dr.to_dict()["relative_diffusivity_column"] == column
+    page = dr._repr_html_()
+    assert dr.status == "not_converged" and ">not_converged</span>" in page
+    assert "m<sup>2</sup>/s" in page and "1.2200e-05" in page and "&plusmn; 5 %" in page
+    cr = ConductivityResult(
+        effective_conductivity=12.0,
+        conductivity_column=column,
+        solid_conductivity=100.0,
+        fluid_conductivity=0.03,
+        insulating_phase="none",
+        solid_fraction=0.2,
+        wiener_bounds=[0.04, 20.0],
+        hashin_shtrikman_bounds=[5.0, 14.0],
+        **{**common, "converged": True, "message": "converged"},
+    )
+    assert len(repr(cr)) < 700 and "0.5, 0.5" not in repr(cr)
+    page = cr._repr_html_()
+    assert cr.status == "ok" and ">ok</span>" in page and "[5, 14]" in page

@@ -46,3 +46,17 @@ def test_python_block_runs(name, code, monkeypatch) -> None:
         [sys.executable, "-c", script], cwd=REPO_ROOT, capture_output=True, text=True, timeout=600
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+def test_guarded_lines_name_only_what_psdesign_has() -> None:
+    # the lines under a main guard are compiled, not run: check the names they take from
+    # psdesign exist (a renamed function would otherwise pass here and fail for the reader)
+    import psdesign
+
+    used = {name for _, code in (p.values for p in BLOCKS) for name in _psdesign_names(code)}
+    assert "run_study" in used and "write_report" in used
+    assert not [n for n in used if not hasattr(psdesign, n)]
+
+
+def _psdesign_names(code: str) -> set[str]:
+    return set(re.findall(r"\bpsdesign\.(\w+)\(", code))

@@ -8,7 +8,14 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
-from study_cases import FAC_PARAMS, FACTORIAL, failing_case, write_study
+from study_cases import (
+    FAC_PARAMS,
+    FACTORIAL,
+    failing_case,
+    mixed_status_case,
+    untrusted_case,
+    write_study,
+)
 
 from psdesign.report import (
     ReportError,
@@ -107,3 +114,192 @@ def test_report_is_self_contained(tmp_path):
 def test_report_without_results(tmp_path):
     with pytest.raises(ReportError, match="^out_dir: no results.csv"):
         write_report(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def mixed_report(tmp_path_factory):
+    """The factorial fake study (porosity 0.7 / 0.8 / 0.9 x diameter 6 / 8 um x seeds 1, 2)
+    with every status: 0.7 fails (4 cases), 0.9 seed 2 does not converge along z (2 cases),
+    0.9 seed 1 is ok with an untrustworthy K_z (2 cases), 0.8 is ok (4 cases)."""
+    tmp = tmp_path_factory.mktemp("mixed")
+    p = write_study(tmp, FACTORIAL, FAC_PARAMS)
+    df = run_study(p, tmp / "out", workers=0, case_fn=mixed_status_case, progress=False)
+    return df, (tmp / "out" / "report.html").read_text()
+
+
+def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
+    df, html = mixed_report
+    assert (df["status"] == "failed").sum() == 4 and (df["status"] == "not_converged").sum() == 2
+    # a red box at the top says how many and where they show
+    alert = re.search(r'<p class="alert" id="psd-status-alert">(.*?)</p>', html, flags=re.S)
+    assert alert is not None
+    assert "4 failed" in alert.group(1) and "2 not_converged" in alert.group(1)
+    assert "2 K value(s) of ok cases not ok" in alert.group(1) and "of 12 cases" in alert.group(1)
+    # the error-bar table: failed cases are highlighted and say failed (they used to be blank)
+    table = html.split("<h3>Permeability with error bars</h3>", 1)[1].split("</table>", 1)[0]
+    for cid in df.loc[df["status"] == "failed", "case_id"]:
+        assert re.search(rf'<tr class="flag"><td>{cid}</td><td>failed</td>', table), cid
+    untrusted = df[(df["status"] == "ok") & (df["k_z_status"] == "untrustworthy")]
+    assert len(untrusted) == 2
+    for cid in untrusted["case_id"]:
+        assert re.search(rf'<tr class="flag"><td>{cid}</td><td>ok</td>', table), cid
+    assert table.count("± 30.0 %") == 2 and table.count("± 2.0 %") == 14
+    # the porosity-permeability plot: 2 not-converged cases x 2 directions + 2 untrustworthy K_z
+    assert "6 K value(s) that are not ok (red open markers)" in html
+    assert "4 failed case(s) have no K and are not plotted." in html
+
+
+def test_untrustworthy_k_is_left_out_of_means_fits_and_sensitivity(mixed_report):
+    from psdesign.report.decision import trusted
+
+    df, html = mixed_report
+    t = trusted(df)
+    assert len(t) == 6  # the ok cases
+    assert t["k_z_m2"].notna().sum() == 4 and t["k_x_m2"].notna().sum() == 6
+    # sensitivity over what is trusted: n = 4 for K_z (porosity 0.8 only), 6 for K_x; porosity
+    # is constant over the K_z rows, so no SRC (it used to fail the whole report: NaN in lstsq)
+    s = sensitivity_table(t, ["generator.porosity", "generator.diameter"])
+    s = s.set_index(["parameter", "response"])
+    assert s.loc[("generator.porosity", "log10 k_z_m2"), "n"] == 4
+    assert s.loc[("generator.porosity", "log10 k_x_m2"), "n"] == 6
+    assert np.isnan(s.loc[("generator.porosity", "log10 k_z_m2"), "src"])
+    # K_x = kc_truth * noise: log K rises with porosity and diameter
+    assert s.loc[("generator.porosity", "log10 k_x_m2"), "spearman"] > 0.8
+
+
+def test_sensitivity_with_a_parameter_constant_on_a_response():
+    # b varies over the table but not over the rows that have k_z: no SRC, no exception
+    df = pd.DataFrame(
+        {
+            "a": [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+            "b": [1.0, 1.0, 1.0, 1.0, 2.0, 2.0],
+            "k_z_m2": [1e-12, 2e-12, 3e-12, 4e-12, np.nan, np.nan],
+            "status": "ok",
+        }
+    )
+    s = sensitivity_table(df, ["a", "b"]).set_index(["parameter", "response"])
+    assert s.loc[("a", "log10 k_z_m2"), "spearman"] == pytest.approx(1.0)
+    assert np.isnan(s.loc[("b", "log10 k_z_m2"), "spearman"])
+    assert np.isnan(s.loc[("a", "log10 k_z_m2"), "src"])
+
+
+def test_parameter_units_follow_the_schema():
+    from psdesign.report.units import parameter_label, parameter_unit
+    from psdesign.schema.keys import key_rows
+
+    # the schema's range text (docs/spec-keys.md) names the unit of these keys
+    rows = {k: a for table in key_rows().values() for k, _, a in table}
+    assert rows["generator.diameter"].startswith("metres")
+    for key, unit in [
+        ("generator.diameter", "m"),
+        ("rve.size", "m"),
+        ("rve.voxel", "m"),
+        ("intersections.min_gap", "m"),
+        ("flow.lattice_step", "m"),
+        ("image.voxel_size", "m"),
+        ("generator.theta", "deg"),
+        ("flow.viscosity", "Pa s"),
+        ("flow.pressure_drop", "Pa"),
+        ("flow.density", "kg/m³"),
+        ("generator.porosity", "-"),
+        ("flow.aux_length", "-"),
+        ("transport.bulk_diffusivity_m2_s", "m²/s"),
+        ("generator.n_fibers", ""),
+    ]:
+        assert parameter_unit(key) == unit, key
+    for key, text in rows.items():
+        if text.startswith("metres"):
+            assert parameter_unit(key) == "m", key
+        if text.startswith("degrees"):
+            assert parameter_unit(key) == "deg", key
+    assert parameter_label("generator.diameter") == "generator.diameter (m)"
+    assert parameter_label("generator.n_fibers") == "generator.n_fibers"
+
+
+def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
+    from psdesign.analysis.replicates import replicate_summary
+    from psdesign.report.decision import _line_groups, trusted
+
+    df, html = mixed_report
+    # axis titles and legends carry the units; SI-prefixed ticks carry metres (6μm)
+    assert '"title":{"text":"generator.diameter (m)"}' in html
+    assert '"ticksuffix":"m"' in html and '"exponentformat":"SI"' in html
+    assert '"name":"x (in-plane), generator.diameter = 6e-06 m"' in html
+    assert "porosity (-)" in html
+    # a line joins the porosity levels of one diameter only (it used to zig-zag through both)
+    params = ["generator.porosity", "generator.diameter"]
+    summary = replicate_summary(trusted(df), params)
+    groups, mode = _line_groups(summary, "generator.porosity", params)
+    assert mode == "markers+lines" and len(groups) == 2
+    for _, g in groups:
+        assert g["generator.porosity"].is_unique and g["generator.diameter"].nunique() == 1
+    # titles sit below Plotly's tool bar
+    assert '"yref":"paper"' in html and '"yanchor":"bottom"' in html
+
+
+def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+    from psdesign.report.decision import SURFACE_GAP, _surface_2d, trusted
+
+    df, _ = mixed_report
+    ok = trusted(df)
+    ok = ok[ok["k_x_m2"].notna()]
+    num = ["generator.porosity", "generator.diameter"]
+    s = fit_surrogate(ok, "k_x_m2", num, parameter_bounds(ok, num, {}))
+    fig = _surface_2d(s, ok, num, num, "k_x_m2")
+    left, right = fig.layout.xaxis.domain, fig.layout.xaxis2.domain
+    assert right[0] - left[1] == pytest.approx(SURFACE_GAP) and SURFACE_GAP >= 0.25
+    bar = fig.data[0].colorbar
+    assert left[1] < bar.x < left[1] + 0.05 and bar.xanchor == "left"
+    assert bar.title.text.startswith("log10 K")
+    assert fig.layout.yaxis.title.text == "generator.diameter (m)"
+    assert fig.layout.xaxis2.title.text == "generator.porosity (-)"
+
+
+def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=untrusted_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "24 K value(s) of ok cases not ok" in html  # 12 cases x (K_x, K_z)
+    assert "24 K value(s) that are not ok (red open markers)" in html
+    assert "No K to plot: every K value is not ok" in html
+    assert 'id="psd-k-generator.porosity"' not in html  # no empty K frame
+    assert 'id="psd-porosity-generator.porosity"' in html  # porosity is still plotted
+    assert "warnings_x" in html
+
+
+def test_report_element_ids_are_unique_and_both_galleries_page(mixed_report):
+    _, html = mixed_report
+    markup = re.sub(r"<script\b[^>]*>.*?</script>", "", html, flags=re.I | re.S)
+    ids = re.findall(r'\bid="([^"]+)"', markup)
+    assert len(ids) == len(set(ids)), sorted(i for i in set(ids) if ids.count(i) > 1)
+    # previews and flow-field pictures: two galleries, each paged by its own id
+    for gid in ("psd-thumbs", "psd-fields"):
+        gallery = re.search(rf'<div class="psd-gallery" id="{gid}"[^>]*>(.*?)</div>', markup)
+        assert gallery is not None and gallery.group(1).count("<figure>") == 8, gid
+        assert f"psdPage('{gid}'" in markup
+
+
+def test_two_case_study_explains_its_blank_cells_and_draws_no_interaction_note(tmp_path):
+    # the quickstart's shape: one parameter at two levels, one seed
+    study = FACTORIAL.replace("seeds = [1, 2]", "seeds = [1]")
+    p = write_study(tmp_path, study, '"generator.porosity" = [0.8, 0.9]')
+    run_study(p, tmp_path / "out", workers=0, case_fn=mixed_status_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    sens = html.split("<h2>Sensitivity</h2>", 1)[1].split("<h2>", 1)[0]
+    assert re.search(r"<td>generator.porosity</td><td>porosity</td><td></td><td></td>", sens)
+    assert "A blank Spearman or SRC cell is not defined: fewer than 3 cases" in sens
+    assert "Parallel lines in the interaction plot" not in html  # there is none
+
+
+def test_surrogate_uses_only_cases_with_a_trusted_k(mixed_report):
+    df, html = mixed_report
+    # K_x is trusted in 6 cases (porosity 0.8 and 0.9 seed 1), K_z in 4 (porosity 0.8 only):
+    # the surrogate takes K_x and its 6 cases; K_z's would extrapolate from one porosity
+    assert (
+        "Gaussian-process surrogate of k_x_m2 over generator.porosity, generator.diameter " in html
+    )
+    assert "from 6 cases" in html
+    # six cases on the corners of a 2 x 2 design: leave-one-out cannot predict a corner
+    cv = float(re.search(r"from 6 cases; cross-validated error ([0-9.]+) %", html).group(1))
+    assert cv > 20 and "Above 20 %: the surface and the Sobol indices are not reliable" in html

@@ -1,0 +1,40 @@
+"""HTML tables for results shown in a notebook (``_repr_html_``): one row per quantity with
+its unit, and a status that stands out when it is not ok."""
+
+from __future__ import annotations
+
+import html
+
+__all__ = ["result_html"]
+
+_STATUS_STYLE = {
+    True: "color:#060;font-weight:bold",
+    False: "color:#fff;background:#c00;font-weight:bold;padding:0 .4em",
+}
+
+
+def result_html(title: str, rows: list[tuple[str, str]], status: str, notes: list[str]) -> str:
+    """A small HTML table: ``title``, the ``(label, value)`` rows (labels carry the units),
+    the ``status`` (red when it is not ``"ok"``) and ``notes`` (warnings) under it."""
+    body = "".join(
+        f'<tr><th style="text-align:left">{label}</th><td style="text-align:left">{value}</td></tr>'
+        for label, value in rows
+    )
+    style = _STATUS_STYLE[status == "ok"]
+    body += (
+        '<tr><th style="text-align:left">status</th>'
+        f'<td style="text-align:left"><span style="{style}">{html.escape(status)}</span></td></tr>'
+    )
+    warn = "".join(f"<li>{html.escape(str(n))}</li>" for n in notes if n)
+    return (
+        f"<div><b>{html.escape(title)}</b><table>{body}</table>"
+        + (f"<ul>{warn}</ul>" if warn else "")
+        + "</div>"
+    )
+
+
+def plus_minus(rel_error: float | None) -> str:
+    """``&plusmn; 2.3 %`` or ``n/a``."""
+    if rel_error is None:
+        return "n/a"
+    return f"&plusmn; {100 * rel_error:.2g} %"
