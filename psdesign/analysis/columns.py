@@ -9,6 +9,29 @@ import pandas as pd
 
 #: Columns that describe a case, not a result.
 CASE_COLUMNS = ("case_id", "index", "seed", "status", "error")
+#: Permeability columns of a results table and their own status columns (``ok``,
+#: ``untrustworthy``: error bar above 20 % or < 8 cells per fiber diameter, ``not_converged``).
+K_STATUS_COLUMNS = {"k_x_m2": "k_x_status", "k_y_m2": "k_y_status", "k_z_m2": "k_z_status"}
+
+
+def trusted(df: pd.DataFrame) -> pd.DataFrame:
+    """The ``ok`` cases of a results table, with each K whose own status (``k_x_status``) is
+    not ``ok`` set to NaN: what summaries, fits, the optimizer and the report use.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_m2": [1.0, 2.0, 3.0],
+    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
+    >>> trusted(df)["k_z_m2"].tolist()
+    [1.0, nan]
+    """
+    out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
+    for c, sc in K_STATUS_COLUMNS.items():
+        st = out.get(sc)
+        if c in out and st is not None:
+            bad = st.notna() & (st.astype(str) != "ok")
+            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
+    return out
 
 
 def study_parameters(out_dir: str | Path) -> dict[str, dict]:

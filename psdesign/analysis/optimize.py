@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.analysis.columns import trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
 from psdesign.analysis.targets import Target
 
@@ -149,7 +150,7 @@ def optimize_study(
         st = dataclasses.replace(study, design="csv", csv_rows=rows, n_samples=None)
         df = run_study(st, out_dir, report=False, **run_kw)
         rounds += 1
-        ok = df[df["status"] == "ok"] if "status" in df else df
+        ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
         for t in targets:
             if len(ok) and t.output not in df.columns:
                 raise ValueError(

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import output_columns
+from psdesign.analysis.columns import output_columns, trusted
 
 
 def t_quantile_975(dof: int) -> float:
@@ -38,8 +38,9 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     Returns
     -------
     DataFrame
-        The parameter columns, ``n`` and for every numeric output ``X``: ``X_mean``,
-        ``X_std`` (sample, ddof 1), ``X_ci95_low``, ``X_ci95_high``.
+        The parameter columns, ``n`` (cases) and for every numeric output ``X``: ``X_n`` (its
+        finite values), ``X_mean``, ``X_std`` (sample, ddof 1), ``X_ci95_low``,
+        ``X_ci95_high``.
 
     Examples
     --------
@@ -65,6 +66,7 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
             std = float(x.std(ddof=1)) if n > 1 else math.nan
             half = t_quantile_975(n - 1) * std / math.sqrt(n) if n > 1 else math.nan
             row |= {
+                f"{c}_n": n,
                 f"{c}_mean": mean,
                 f"{c}_std": std,
                 f"{c}_ci95_low": mean - half,
@@ -75,11 +77,14 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
 
 
 def write_summary(out_dir: str | Path, df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
-    """Write ``OUT/summary.csv`` and ``OUT/summary.parquet`` atomically; returns the table."""
+    """Write ``OUT/summary.csv`` and ``OUT/summary.parquet`` atomically; returns the table.
+
+    The statistics are over the trusted values (:func:`psdesign.analysis.columns.trusted`),
+    as in the report; ``X_n`` counts them per output."""
     from psdesign.study.store import atomic_write_bytes
 
     out = Path(out_dir)
-    summary = replicate_summary(df, params)
+    summary = replicate_summary(trusted(df), params)
     atomic_write_bytes(out / "summary.csv", summary.to_csv(index=False).encode())
     try:
         import io

@@ -18,7 +18,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import numeric_parameters, output_columns, study_parameters
+from psdesign.analysis.columns import (
+    numeric_parameters,
+    output_columns,
+    study_parameters,
+    trusted,
+)
 
 SURROGATE_FILE = "surrogate.json"
 
@@ -182,10 +187,15 @@ def _cross_validate(s: Surrogate) -> tuple[float, float]:
 
 
 def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict) -> Surrogate:
-    """Fit one output of a results table; ``bounds[p] = (low, high, log)``."""
-    ok = df[(df["status"] == "ok") & df[output].notna()] if "status" in df else df
+    """Fit one output of a results table; ``bounds[p] = (low, high, log)``. Only trusted
+    values are fitted (:func:`psdesign.analysis.columns.trusted`: ``ok`` cases, a K whose own
+    status is ``untrustworthy`` or ``not_converged`` left out)."""
+    ok = trusted(df)
+    ok = ok[ok[output].notna()]
     if len(ok) < 3:
-        raise ValueError(f"{output}: need at least 3 finished cases to fit, got {len(ok)}")
+        raise ValueError(
+            f"{output}: need at least 3 finished cases with a trusted value to fit, got {len(ok)}"
+        )
     y = ok[output].to_numpy(float)
     log_out = bool(np.all(y > 0) and y.max() / y.min() > 3.0)
     s = Surrogate(

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import numeric_parameters
+from psdesign.analysis.columns import numeric_parameters, trusted
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.report.interactive import figure_html
 from psdesign.report.units import parameter_label, parameter_unit
@@ -75,18 +75,6 @@ def _line_groups(s: pd.DataFrame, p: str, num: list[str]) -> tuple[list, str]:
             (", ".join(f"{q} = {_value(q, v)}" for q, v in zip(others, key, strict=True)), g)
         )
     return out, "markers+lines"
-
-
-def trusted(df: pd.DataFrame) -> pd.DataFrame:
-    """The ``ok`` cases, with each K whose own status (``k_x_status``: ``untrustworthy``,
-    ``not_converged``) is not ok set to NaN: what the means, fits and sensitivity use."""
-    out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
-    for c in K_DIRECTIONS:
-        st = out.get(f"{c[:3]}_status")
-        if c in out and st is not None:
-            bad = st.notna() & (st.astype(str) != "ok")
-            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
-    return out
 
 
 _ok = trusted

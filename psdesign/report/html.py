@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots, trusted
+from psdesign.analysis.columns import trusted
+from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.references import (

@@ -42,6 +42,34 @@ def test_replicate_summary_student_t_interval() -> None:
     assert "seed_mean" not in s.columns
 
 
+
+def test_summary_and_fit_leave_out_an_untrustworthy_k(tmp_path) -> None:
+    """A K whose own status is not ok (``k_z_status``: error bar > 20 % or < 8 cells per
+    diameter) counts in neither ``summary.csv`` nor a surrogate, as in the report (the case
+    stays ``ok``: its other outputs are used). Truth: means and counts by hand."""
+    from psdesign.analysis.replicates import write_summary
+
+    df = pd.DataFrame(
+        {
+            "p": [1.0, 1.0, 1.0, 2.0, 3.0, 4.0],
+            "status": ["ok"] * 6,
+            "porosity": [0.8, 0.8, 0.8, 0.7, 0.6, 0.5],
+            "k_z_m2": [1.0, 3.0, 1000.0, 2.0, 3.0, 4.0],
+            "k_z_status": ["ok", "ok", "untrustworthy", "ok", "ok", "not_converged"],
+        }
+    )
+    s = write_summary(tmp_path, df, ["p"]).set_index("p")
+    assert s.loc[1.0, "n"] == 3 and s.loc[1.0, "porosity_n"] == 3
+    assert s.loc[1.0, "k_z_m2_n"] == 2 and s.loc[1.0, "k_z_m2_mean"] == pytest.approx(2.0)
+    assert s.loc[4.0, "k_z_m2_n"] == 0 and math.isnan(s.loc[4.0, "k_z_m2_mean"])
+    on_disk = pd.read_csv(tmp_path / "summary.csv").set_index("p")
+    assert on_disk.loc[1.0, "k_z_m2_mean"] == pytest.approx(2.0)
+    fit = fit_surrogate(df, "k_z_m2", ["p"], {"p": (1.0, 4.0, False)})
+    assert sorted(fit.y) == [1.0, 2.0, 3.0, 3.0]  # the 1000 and the not-converged 4 left out
+    with pytest.raises(ValueError, match="trusted value"):
+        fit_surrogate(df[df["p"] > 1.5], "k_z_m2", ["p"], {"p": (1.0, 4.0, False)})
+
+
 def _fit(f, n=40, seed=0) -> Surrogate:
     x = np.random.default_rng(seed).random((n, 2))
     df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "y": f(x[:, 0], x[:, 1])})

@@ -150,7 +150,7 @@ def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
 
 
 def test_untrustworthy_k_is_left_out_of_means_fits_and_sensitivity(mixed_report):
-    from psdesign.report.decision import trusted
+    from psdesign.analysis.columns import trusted
 
     df, html = mixed_report
     t = trusted(df)
@@ -218,7 +218,8 @@ def test_parameter_units_follow_the_schema():
 
 def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
     from psdesign.analysis.replicates import replicate_summary
-    from psdesign.report.decision import _line_groups, trusted
+    from psdesign.analysis.columns import trusted
+    from psdesign.report.decision import _line_groups
 
     df, html = mixed_report
     # axis titles and legends carry the units; SI-prefixed ticks carry metres (6μm)
@@ -239,7 +240,8 @@ def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
 
 def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
-    from psdesign.report.decision import SURFACE_GAP, _surface_2d, trusted
+    from psdesign.analysis.columns import trusted
+    from psdesign.report.decision import SURFACE_GAP, _surface_2d
 
     df, _ = mixed_report
     ok = trusted(df)
