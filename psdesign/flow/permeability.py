@@ -26,6 +26,7 @@ The dispatcher :func:`permeability` adds what every route's result needs to be t
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -34,7 +35,7 @@ from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.stack import end_planes
-from psdesign.flow.voxel import face_mismatch, permeability_voxel
+from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
 
 __all__ = [
@@ -169,9 +170,10 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
 
         def run() -> tuple[float, float]:
             coarse = rve.voxelize(h_coarse)
-            return float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"]), (
-                ratio
-            )
+            with warnings.catch_warnings():  # the coarse grid's own resolution is not the user's
+                warnings.simplefilter("ignore", ResolutionWarning)
+                k = float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"])
+            return k, ratio
 
         return run
     step = _fem_step(res, fields, rve, flow)

@@ -125,3 +125,17 @@ def test_periodic_bc_on_a_non_periodic_geometry_says_so(direction, periodic) -> 
     assert (not seams) == periodic
     if not periodic:
         assert "faces normal to x, z" in seams[0] and "11.5 um, 28.7 % of L" in seams[0]
+
+
+def test_error_bar_coarse_grid_does_not_warn_the_user() -> None:
+    """The error bar's second solve runs on a grid twice as coarse (5 voxels per diameter here);
+    the ResolutionWarning is about the user's grid (10 per diameter: none), not that one."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = _route(1e-6, 1)
+    assert res["cells_per_diameter"] == pytest.approx(10.0)
+    assert res["error_estimate"]["ratio"] == pytest.approx(2.0)  # the coarse solve ran
+    assert res["error_estimate"]["permeability_coarse_m2"] > 0
+    assert not [w for w in caught if issubclass(w.category, ResolutionWarning)]
