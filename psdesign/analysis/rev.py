@@ -34,7 +34,8 @@ class RevResult:
     ----------
     table : DataFrame
         One row per size: ``size_m``, ``n`` and per output ``X_mean``, ``X_std``,
-        ``X_ci95_low``, ``X_ci95_high``, ``X_ci_rel`` (half-width / |mean|).
+        ``X_ci95_low``, ``X_ci95_high``, ``X_ci_rel`` (half-width / |mean|), and ``status``
+        (``"ok"``, or which K of the size are not ok by their own ``k_<d>_status``).
     rev_size_m : float or None
         Smallest edge whose (and every larger edge's) relative CI half-width is below ``tol``
         for every output; None when no size reaches it.
@@ -134,6 +135,7 @@ def rev_study(
         ],
     ]
     table = table[keep]
+    table["status"] = _size_status(df, table["size_m"], directions)
     k_cols = [f"{c}_ci_rel" for c in names if c != "porosity" and f"{c}_ci_rel" in table]
     ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
     rev = None
@@ -150,3 +152,19 @@ def rev_study(
         {"rev_size_m": rev, "tol": tol, "outputs": names, "table": table.to_dict(orient="records")},
     )
     return RevResult(table, rev, tol, names)
+
+
+def _size_status(df: pd.DataFrame, sizes: pd.Series, directions) -> list[str]:
+    """Per size: ``"ok"``, or which K of its ``ok`` cases are not (``k_<d>_status``: e.g.
+    ``"untrustworthy: k_z 2 of 3"``). Those K stay in the size's statistics (the REV is about
+    their scatter); this column says they cannot be trusted one by one."""
+    out = []
+    for size in sizes:
+        rows = df[(df["size_m"] == size) & (df["status"] == "ok")]
+        bad = []
+        for d in directions:
+            st = rows.get(f"k_{d}_status")
+            if st is not None and (n := int((st.notna() & (st.astype(str) != "ok")).sum())):
+                bad.append(f"k_{d} {n} of {len(rows)}")
+        out.append("ok" if not bad else "untrustworthy: " + ", ".join(bad))
+    return out

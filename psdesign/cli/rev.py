@@ -46,6 +46,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         for c in res.outputs:
             if f"{c}_mean" in row and c != "porosity":
                 parts.append(f"{c} {row[f'{c}_mean']:.3e} +- {100 * row[f'{c}_ci_rel']:.1f} %")
+        parts.append(str(row.get("status", "ok")))
         print("  ".join(parts))
     if res.rev_size_m is None:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")

@@ -141,5 +141,12 @@ def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) ->
     out = tmp_path / "o"
     args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
     assert main([*args, "--directions", "z"]) == 0
-    err = [ln for ln in capsys.readouterr().err.splitlines() if "untrustworthy" in ln]
+    got = capsys.readouterr()
+    err = [ln for ln in got.err.splitlines() if "untrustworthy" in ln]
     assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")
+    # the size's line, rev.csv and rev.json name it too (one of the 3 seeds' K_z)
+    assert [ln for ln in got.out.splitlines() if "um (n=" in ln][0].endswith(
+        "untrustworthy: k_z 1 of 3"
+    )
+    doc = json.loads((out / "rev.json").read_text())
+    assert doc["table"][0]["status"] == "untrustworthy: k_z 1 of 3"
