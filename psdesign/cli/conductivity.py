@@ -22,6 +22,8 @@ def _cmd(args: argparse.Namespace) -> int:
     with fields_folder(args.fields, "conductivity", dirs) as writer:
         case = load_case(args.spec, {"bc": args.bc, "insulating_phase": args.insulating})
         tr = dict(case.transport)
+        if args.unit is not None:
+            tr["conductivity_unit"] = args.unit
         results = [
             effective_conductivity(
                 case.fields,
@@ -35,6 +37,7 @@ def _cmd(args: argparse.Namespace) -> int:
             for d in dirs
         ]
     out = combine(results, tr["bc"], case.fields.porosity, ("effective_conductivity",))
+    out["conductivity_unit"] = results[0]["conductivity_unit"]
     if len(results) > 1 and tr["bc"] == "periodic":
         out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
     out["wall_time_s"] = time.perf_counter() - t0
@@ -42,9 +45,10 @@ def _cmd(args: argparse.Namespace) -> int:
 
 
 def _line(r: dict) -> str:
+    u = r["conductivity_unit"]
     return (
-        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g}  (solid "
-        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g})  bc {r['bc']}  "
+        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g} {u}  (solid "
+        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g} {u})  bc {r['bc']}  "
         f"rel. error {r['rel_error']:.1e}"
     )
 
@@ -56,6 +60,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
     p.add_argument("--solid", type=float, default=None, help="solid (fibre) conductivity, > 0")
     p.add_argument("--fluid", type=float, default=None, help="fluid (pore) conductivity, > 0")
+    p.add_argument(
+        "--unit",
+        choices=("W/(m K)", "S/m"),
+        default=None,
+        help="unit of --solid / --fluid and of the result (default: the spec's "
+        "transport.conductivity_unit, W/(m K))",
+    )
     p.add_argument(
         "--insulating",
         choices=("none", "solid", "fluid"),

@@ -36,6 +36,9 @@ class TransportSpec(BaseModel):
         Gas mean free path, m (default air at 25 C, 1 atm: 68 nm; 0 switches Knudsen off).
     solid_conductivity, fluid_conductivity : float
         Phase conductivities (W/m/K or S/m), > 0 (defaults: carbon fibre 120, air 0.026).
+    conductivity_unit : {"W/(m K)", "S/m"}
+        The unit of both phase conductivities, and so of the effective one (default thermal,
+        W/(m K), as the defaults above).
     insulating_phase : {"none", "solid", "fluid"}
         Treat one phase as a perfect insulator (conductivity exactly 0).
     thickness_axis : {"x", "y", "z"}
@@ -56,6 +59,7 @@ class TransportSpec(BaseModel):
     mean_free_path_m: float = Field(6.8e-8, ge=0.0, lt=1.0)
     solid_conductivity: float = Field(120.0, gt=0.0, lt=1e12)
     fluid_conductivity: float = Field(0.026, gt=0.0, lt=1e12)
+    conductivity_unit: Literal["W/(m K)", "S/m"] = "W/(m K)"
     insulating_phase: Literal["none", "solid", "fluid"] = "none"
     thickness_axis: Literal["x", "y", "z"] = "z"
     n_radii: int = Field(16, ge=4, le=200)

@@ -7,7 +7,7 @@ Layout of an output folder ``OUT``::
     OUT/cases/<case_id>/      the case's working folder (previews, logs)
     OUT/results.csv           consolidated table, one row per finished case, design order
     OUT/results.parquet       the same table in Parquet
-    OUT/summary.csv           one row per design point: mean, std, 95 % CI, n of every trusted output
+    OUT/summary.csv           one row per design point: mean, std, 95 % CI, n of trusted outputs
     OUT/run.json              run history (start/end, workers, scheduler, machine)
 
 Per-case records are the source of truth; the tables are rebuilt from them.  Every file is

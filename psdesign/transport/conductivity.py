@@ -47,6 +47,7 @@ class ConductivityResult:
     message: str
     n_cells: int
     wall_time_s: float
+    conductivity_unit: str = "W/(m K)"
 
     @property
     def status(self) -> str:
@@ -60,22 +61,22 @@ class ConductivityResult:
         from psdesign.notebook import plus_minus, result_html
 
         lo, hi = self.hashin_shtrikman_bounds
+        u = self.conductivity_unit
         rows = [
             ("direction", self.direction),
             (
-                "effective conductivity",
+                f"effective conductivity ({u})",
                 f"{self.effective_conductivity:.4g} {plus_minus(self.rel_error)}",
             ),
             (
-                "solid / fluid conductivity",
+                f"solid / fluid conductivity ({u})",
                 f"{self.solid_conductivity:.4g} / {self.fluid_conductivity:.4g}",
             ),
-            ("Hashin-Shtrikman bounds", f"[{lo:.4g}, {hi:.4g}]"),
+            (f"Hashin-Shtrikman bounds ({u})", f"[{lo:.4g}, {hi:.4g}]"),
             ("porosity (-)", f"{self.porosity:.4f}"),
             ("bc", self.bc),
         ]
-        note = "conductivities in the units of the phase conductivities (e.g. S/m or W/(m K))"
-        return result_html("ConductivityResult", rows, self.status, [self.message, note])
+        return result_html("ConductivityResult", rows, self.status, [self.message])
 
     def to_dict(self) -> dict:
         """Plain dict (JSON-ready)."""
@@ -177,4 +178,5 @@ def effective_conductivity(
         message=eff.message,
         n_cells=eff.n_cells,
         wall_time_s=eff.wall_time_s,
+        conductivity_unit=tr["conductivity_unit"],
     )

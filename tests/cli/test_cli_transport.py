@@ -51,6 +51,27 @@ def test_conductivity_json_and_bad_value(spec, capsys):
     assert "--solid" in capsys.readouterr().err
 
 
+def test_conductivity_names_its_unit(spec, capsys):
+    """The effective conductivity is in the unit of the phase conductivities: the JSON, the
+    text line and the notebook table say which (rule: SI units named in every output)."""
+    from psdesign.transport.conductivity import effective_conductivity
+    from psdesign.transport.load import load_case
+
+    assert main(["conductivity", str(spec), "--direction", "all", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["conductivity_unit"] == "W/(m K)"  # the thermal defaults (fibre 120, air 0.026)
+    assert {r["conductivity_unit"] for r in out["results"]} == {"W/(m K)"}
+    assert main(["conductivity", str(spec), "--solid", "1e4", "--fluid", "1", "--unit", "S/m"]) == 0
+    line = capsys.readouterr().out
+    assert line.startswith("sigma_eff_z = ") and " S/m  (solid 10000, fluid 1 S/m)" in line
+    with pytest.raises(SystemExit) as bad:  # argparse: one usage line, exit 2
+        main(["conductivity", str(spec), "--unit", "K"])
+    assert bad.value.code == 2
+    case = load_case(str(spec), {})
+    res = effective_conductivity(case.fields, "z", 10.0, 1.0, {"conductivity_unit": "S/m"})
+    assert res.conductivity_unit == "S/m" and "effective conductivity (S/m)" in res._repr_html_()
+
+
 def test_bad_transport_key_exits_2(tmp_path, capsys):
     p = tmp_path / "bad.toml"
     p.write_text(SPEC.replace('error_estimate = "residual"', "fluid_conductivity = -1"))

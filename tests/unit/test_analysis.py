@@ -42,7 +42,6 @@ def test_replicate_summary_student_t_interval() -> None:
     assert "seed_mean" not in s.columns
 
 
-
 def test_summary_and_fit_leave_out_an_untrustworthy_k(tmp_path) -> None:
     """A K whose own status is not ok (``k_z_status``: error bar > 20 % or < 8 cells per
     diameter) counts in neither ``summary.csv`` nor a surrogate, as in the report (the case

@@ -217,8 +217,8 @@ def test_parameter_units_follow_the_schema():
 
 
 def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
-    from psdesign.analysis.replicates import replicate_summary
     from psdesign.analysis.columns import trusted
+    from psdesign.analysis.replicates import replicate_summary
     from psdesign.report.decision import _line_groups
 
     df, html = mixed_report
@@ -239,8 +239,8 @@ def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
 
 
 def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
-    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
     from psdesign.analysis.columns import trusted
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
     from psdesign.report.decision import SURFACE_GAP, _surface_2d
 
     df, _ = mixed_report
