@@ -115,8 +115,10 @@ def slice_picture(
     for ax in axes:
         ax.set_xlabel(f"{names[across]} (um)")
         ax.set_ylabel(f"{names[flow_axis]} (um)")
-    fig.suptitle(title or f"mid-plane {names[normal]} slice")
+    where = f"mid-plane {names[normal]} = {float(probe.origin[normal]) * 1e6:.4g} um"
+    full = f"{title} ({where})" if title else f"{where} slice"
+    fig.suptitle(full)
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, metadata={"Title": full})  # the plane also in the PNG's text
     plt.close(fig)
     return path

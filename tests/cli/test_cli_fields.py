@@ -6,6 +6,7 @@ drop, mean flux = effective property)."""
 from __future__ import annotations
 
 import json
+import re
 
 import meshio
 import numpy as np
@@ -84,6 +85,11 @@ def test_voxel_periodic_vti_names_units_and_mean_velocity(voxel_runs):
         assert solve["result"][key] == res[key], key
     grid = pv.read(out / "flow_x.vti")
     assert tuple(d - 1 for d in grid.dimensions) == (24, 12, 16)
+    # the picture says which plane it shows (title and the PNG's text): a mid-plane through x
+    from PIL import Image
+
+    title = Image.open(out / "flow_x.png").text["Title"]
+    assert re.search(r"mid-plane (y = 6|z = 8) um", title), title
     assert grid.spacing == pytest.approx((H, H, H))
     for name in ("velocity_m_per_s", "pressure_Pa", "solid", "zone"):
         assert name in grid.cell_data
