@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from psdesign.cli import progress
 from psdesign.cli.progress import add_force_argument
 
 FORCEFIELD_FILES = ("rve.json", "history.csv", "before.png", "after.png")
@@ -38,13 +39,14 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
             }
         )
     )
+    # warnings on stderr: stdout stays one JSON object
     if summary["at_bound"]:
-        print(
-            f"psdesign: warning: optimum on the bound of {', '.join(summary['at_bound'])} "
+        progress.warning(
+            f"optimum on the bound of {', '.join(summary['at_bound'])} "
             "(a constrained stop, not converged); widen the ranges or read it as such"
         )
     elif not summary["converged"]:
-        print(f"psdesign: warning: {summary['message']}; wrote the best point found")
+        progress.warning(f"{summary['message']}; wrote the best point found")
     return 0
 
 
@@ -58,5 +60,6 @@ def register(subparsers) -> None:
     p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--no-pictures", action="store_true", help="skip before.png / after.png")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_force_argument(p)
     p.set_defaults(func=_cmd_forcefield)

@@ -56,4 +56,5 @@ def register(sub: argparse._SubParsersAction) -> None:
         "refused: psdesign never overwrites a file it may not have written)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd)

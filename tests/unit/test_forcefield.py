@@ -478,9 +478,11 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
         "[forcefield.two_fiber]\nseed = 2\n"
     )
     out = tmp_path / "out"
-    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures"]) == 0
-    printed = capsys.readouterr().out
-    assert "iteration limit" in printed
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    got = capsys.readouterr()
+    assert "iteration limit" in json.loads(got.out)["message"]  # stdout: one JSON object
+    (warn,) = got.err.splitlines()  # the not-converged warning, on stderr even with --quiet
+    assert warn.startswith("psdesign: warning: optimum on the bound of f, u")
     rve = json.loads((out / "rve.json").read_text())
     assert rve["converged"] is False and len(rve["fibers"]) == 2
     m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
