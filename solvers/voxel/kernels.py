@@ -608,10 +608,10 @@ def _ring(s):
 
 
 @_SERIAL.inline
-def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
-    """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
-    p0, pp``: flat buffers of ``ny nz`` entries) into ``xnew[i]``; returns the plane's ``b .
-    xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
+def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb):
+    """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (rows
+    ``rm, r0, rp`` of ``buf``, ``3 x ny nz``: :func:`_ring`) into ``xnew[i]``; returns the
+    plane's ``b . xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
     With unit couplings (the finest level) the sweep is the flat prefetching loop of
@@ -621,21 +621,25 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     nx, ny, nz = d.shape
     if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
         pl = _u(ny * nz)
-        zero = _u(0)
         ahead = _u(_up(_up(i, nx), nx)) * pl  # the next plane step's d, b (plane i + 2)
         fd, fbb, fo, om = simd.flat(d), simd.flat(b), simd.flat(xnew), np.float32(omega)
+        # the three planes as one array at three offsets, as jacobi passes the grid: the row
+        # ends then compile to the same sums as jacobi's (as three arrays they did not, and
+        # the V-cycle's sweeps differed by an ulp at k = nz - 1, band20)
+        fp = simd.flat(buf)
+        o0, om_, op = _u(r0) * pl, _u(rm) * pl, _u(rp) * pl
         if fa is None:  # compiled out where the caller passes arrays
             return _jacobi_flat(
-                fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+                fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
                 None, ahead, None,
             )  # fmt: skip
         return _jacobi_flat(
-            fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+            fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
             simd.flat(fb), ahead, simd.flat(fa),
         )  # fmt: skip
-    pm2 = pm.reshape((ny, nz))
-    p02 = p0.reshape((ny, nz))
-    pp2 = pp.reshape((ny, nz))
+    pm2 = buf[rm].reshape((ny, nz))
+    p02 = buf[r0].reshape((ny, nz))
+    pp2 = buf[rp].reshape((ny, nz))
     ip = _up(i, nx)
     row = blk
     s = 0.0
@@ -674,7 +678,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
-            _jacobi_plane(d, cx, cy, cz, buf[rm], buf[r0], buf[rp], b, i, omega, blk, xnew, d, b)
+            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b)
 
 
 @_SERIAL.inline
@@ -744,9 +748,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
-            s += _jacobi_plane(
-                d, cx, cy, cz, buf[rm], buf[r0], buf[rp], b, i, omega, blk, xnew, None, None
-            )
+            s += _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None)
         acc[t] = s
     return acc.sum()
 
