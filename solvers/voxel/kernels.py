@@ -43,11 +43,14 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero.
-The four finest-level multigrid kernels are compiled with ``noalias=True``
+``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` are compiled with ``noalias=True``
 (:class:`solvers.jit.NoAliasCompiler`; their callers never pass an output that overlaps an
 input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM then drops the run-time
-overlap checks it put in front of every 64-cell block of the flat sweeps (0.90-0.95x their
-one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20)."""
+overlap checks it put in front of every 64-cell block of the flat sweeps (0.91-0.93x their
+one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three must stay bitwise one
+operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``), which is why
+``jacobi``'s row loops hide the arguments behind a reshape and ``residual_restrict`` (whose
+flat loop kept its checks: its output is a local buffer) is compiled without it."""
 
 _SERIAL = SerialHelpers(**_OPTS)
 """The helpers' variants in the serial twins (:class:`solvers.jit.SerialHelpers`): the
@@ -270,7 +273,7 @@ def _sum_row(row, fz, out):
             out[min(k // fz, ncz - 1)] += row[k]
 
 
-@parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
+@parallel_kernel(helpers=_SERIAL, **_OPTS)
 def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
     """rc = P^T (b - A x): the fine residual summed over each aggregate, without storing it.
 
@@ -538,14 +541,24 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
                 fx, bp + _u(PREFETCH), None,
             )  # fmt: skip
         return acc.sum()
+    # stored couplings (coarse levels): the arrays through numba's reshape, whose run-time call
+    # hides from LLVM that they are the noalias arguments, so that these row loops compile as
+    # without noalias, to bitwise the values of jacobi2_zero's and prolong_jacobi's sweeps (the
+    # V-cycle's symmetry; with noalias their vectorisation changed by an ulp, band20)
+    dd, xx, bb, xo = (
+        d.reshape(d.shape),
+        x.reshape(x.shape),
+        b.reshape(b.shape),
+        xnew.reshape(nx, ny, nz),
+    )
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
         s = 0.0
         for j in range(ny):
             # no prefetch (kernels._fetch) here: -8 % CPU in the parallel twin, but its serial
             # twin (one-thread solves, coarse levels) ran 1.7x slower with it (band11)
-            _apply_row(d, cx, cy, cz, x, i, j, row)
-            s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
+            _apply_row(dd, cx, cy, cz, xx, i, j, row)
+            s += _jacobi_row(dd[i, j], xx[i, j], bb[i, j], row, omega, xo[i, j])
         acc[i] = s
     return acc.sum()
 

@@ -482,35 +482,35 @@ def _sweep_starts(d, f, x, xc, b):
 
 
 @pytest.mark.parametrize("shape", [(6, 23, 4), (5, 9, 16)])
-def test_fused_sweeps_are_bitwise_jacobis_with_unit_couplings(shape, chunks) -> None:
-    """band20: on the finest level (unit couplings, the flat sweeps) the fused passes must give
-    *bitwise* the values of ``jacobi_zero`` + ``jacobi`` and ``prolong_add`` + ``jacobi``, not
-    only to round-off: MINRES needs a symmetric preconditioner, i.e. every smoothing sweep of
-    the V-cycle the same operator.  A variant of the three-plane buffers compiled with
-    ``noalias`` summed the row ends ``k = nz - 1`` in another order (an ulp off ``jacobi`` on
-    ~3 % of the cells at ``nz = 4``) and took up to 5 more MINRES iterations on small array
-    cases (``benchmarks/RESULTS.md``, band20)."""
+def test_fused_sweeps_are_bitwise_jacobis(shape, chunks) -> None:
+    """band20: with unit couplings (the flat sweeps) and stored ones (the row loops) the fused
+    passes must give *bitwise* the values of ``jacobi_zero`` + ``jacobi`` and ``prolong_add`` +
+    ``jacobi``, not only to round-off: MINRES needs a symmetric preconditioner, i.e. every
+    smoothing sweep of the V-cycle the same operator.  Variants compiled with ``noalias`` summed
+    the row ends ``k = nz - 1`` in another order (three plane arrays) or vectorised
+    ``jacobi``'s row loops differently (an ulp off on 3-5 % of the cells) and took up to 5
+    more MINRES iterations on small array cases (``benchmarks/RESULTS.md``, band20)."""
     rng = np.random.default_rng(5)
-    d, _ = mg.component_operator(_fluid(shape, seed=3), 0)
-    unit = kr.unit_couplings(shape[2])
+    d, c = mg.component_operator(_fluid(shape, seed=3), 0)
     b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
-    x1 = np.empty(shape, np.float32)
-    ref = np.empty(shape, np.float32)
-    kr.jacobi_zero(d, b, x1, 0.9)
-    kr.jacobi(d, *unit, x1, b, ref, 0.9)
-    out = np.full(shape, np.nan, np.float32)
-    kr.jacobi2_zero(d, *unit, b, out, 0.9, chunks)
-    assert np.array_equal(out, ref)
     f = tuple(2 if n >= 4 else 1 for n in shape)
     xc = rng.standard_normal(tuple(n // m for n, m in zip(shape, f, strict=True)))
     xc = xc.astype(np.float32)
     x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
-    xp = x.copy()
-    kr.prolong_add(d, xc, *f, 1.6, xp)
-    kr.jacobi(d, *unit, xp, b, ref, 0.9)
-    kr.prolong_jacobi(d, *unit, x, xc, *f, 1.6, b, out, 0.9, chunks)
-    assert np.array_equal(out, ref)
-    assert np.abs(ref).max() > 0.1  # not a trivial comparison
+    for cc in (kr.unit_couplings(shape[2]), c):  # the flat sweeps, the row loops
+        x1 = np.empty(shape, np.float32)
+        ref = np.empty(shape, np.float32)
+        kr.jacobi_zero(d, b, x1, 0.9)
+        kr.jacobi(d, *cc, x1, b, ref, 0.9)
+        out = np.full(shape, np.nan, np.float32)
+        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
+        assert np.array_equal(out, ref)
+        xp = x.copy()
+        kr.prolong_add(d, xc, *f, 1.6, xp)
+        kr.jacobi(d, *cc, xp, b, ref, 0.9)
+        kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
+        assert np.array_equal(out, ref)
+        assert np.abs(ref).max() > 0.1  # not a trivial comparison
 
 
 def test_flat_is_a_view_of_every_entry() -> None:
