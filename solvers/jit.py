@@ -41,7 +41,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numba as nb
-from numba.core import caching
+from numba.core import caching, compiler
 
 from solvers import jit_locks
 
@@ -50,6 +50,7 @@ __all__ = [
     "COMPILE_PARALLEL_ABOVE",
     "DependencyLocator",
     "KernelLog",
+    "NoAliasCompiler",
     "SerialHelpers",
     "TwinKernel",
     "WARMUP_NOTE",
@@ -337,6 +338,25 @@ class SerialHelpers:
         self.ns.update(self._serial)
 
 
+class NoAliasCompiler(compiler.Compiler):
+    """numba's default compiler with its ``noalias`` flag set: every pointer argument of the
+    compiled function (an array's data among them) is marked ``noalias`` in LLVM, the promise
+    that memory written through one argument is not read or written through another during
+    the call.  LLVM then knows a kernel's output does not overlap its inputs and vectorises its
+    loops without the run-time overlap checks it otherwise emits in front of each vectorised
+    loop (re-done per block in the flat sweeps: ``benchmarks/RESULTS.md``, band20).  numba
+    sets the same flag on a ``prange`` loop's gufunc when it finds no aliasing among its
+    arrays; this sets it for the whole kernel and its serial twin.  Only for kernels whose
+    callers never pass an output that overlaps an input (:func:`parallel_kernel`
+    ``noalias=True``); read-only arguments may share memory (the flag only constrains memory
+    that is written)."""
+
+    def __init__(self, typingctx, targetctx, library, args, return_type, flags, locals):
+        flags = flags.copy()
+        flags.noalias = True
+        super().__init__(typingctx, targetctx, library, args, return_type, flags, locals)
+
+
 class TwinKernel:
     """A parallel and a serial numba dispatcher of one Python function.
 
@@ -356,10 +376,13 @@ class TwinKernel:
         fn: Callable,
         serial_below: int = 0,
         helpers: SerialHelpers | None = None,
+        noalias: bool = False,
         **opts: object,
     ) -> None:
         self.py_func = fn
         self.serial_below = int(serial_below)
+        if noalias:
+            opts = {**opts, "pipeline_class": NoAliasCompiler}
         self.parallel = nb.njit(parallel=True, **opts)(fn)
         # a copy of the function under its own qualified name: numba names its cache files
         # after ``__qualname__`` and does not key them on the ``parallel`` flag; over the
@@ -410,14 +433,19 @@ class TwinKernel:
 
 
 def parallel_kernel(
-    serial_below: int = 0, helpers: SerialHelpers | None = None, **opts: object
+    serial_below: int = 0,
+    helpers: SerialHelpers | None = None,
+    noalias: bool = False,
+    **opts: object,
 ) -> Callable[[Callable], TwinKernel]:
     """Decorator: ``@parallel_kernel(cache=True, fastmath=True)`` in place of
     ``@numba.njit(parallel=True, cache=True, fastmath=True)`` (see :class:`TwinKernel`);
     ``serial_below``: first-argument size below which the serial twin runs; ``helpers``: the
-    module's :class:`SerialHelpers`, whose variants the serial twin calls."""
+    module's :class:`SerialHelpers`, whose variants the serial twin calls; ``noalias``: compile
+    both with :class:`NoAliasCompiler` (no argument the kernel writes may overlap another
+    argument)."""
 
     def wrap(fn: Callable) -> TwinKernel:
-        return TwinKernel(fn, serial_below=serial_below, helpers=helpers, **opts)
+        return TwinKernel(fn, serial_below=serial_below, helpers=helpers, noalias=noalias, **opts)
 
     return wrap

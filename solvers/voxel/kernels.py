@@ -42,7 +42,15 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 ``lap_residual``) keep their body inside the ``prange`` loop: split the same way they ran
 1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
-zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero."""
+zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero.
+``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` are compiled with ``noalias=True``
+(:class:`solvers.jit.NoAliasCompiler`; their callers never pass an output that overlaps an
+input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM then drops the run-time
+overlap checks it put in front of every 64-cell block of the flat sweeps (0.91-0.93x their
+one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three must stay bitwise one
+operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``), which is why
+``jacobi``'s row loops hide the arguments behind a reshape and ``residual_restrict`` (whose
+flat loop kept its checks: its output is a local buffer) is compiled without it."""
 
 _SERIAL = SerialHelpers(**_OPTS)
 """The helpers' variants in the serial twins (:class:`solvers.jit.SerialHelpers`): the
@@ -287,7 +295,7 @@ def residual_restrict(d, cx, cy, cz, x, b, fx, fy, fz, rc):
         planes = np.empty((i1 - i0 if unit else 0, ny, nz), dtype=rc.dtype)
         if unit:
             for i in range(i0, i1):
-                _residual_flat(d, x, b, i, planes[i - i0].reshape(-1))
+                _residual_flat(d, x, b, i, simd.flat(planes[i - i0]))
         for jc in range(ncy):
             j0, j1 = _children(jc, fy, ncy, ny)
             # the residual rows of the aggregate row are added into one float64 row as they are
@@ -468,9 +476,9 @@ def _residual_flat(d, x, b, i, rp):
     """``rp`` (flat, ``ny nz`` entries) = plane ``i`` of ``b - A x`` (unit couplings): the flat
     prefetching loop of :func:`_jacobi_flat` with :func:`_residual_cell`."""
     nx, ny, nz = d.shape
-    fd = d.reshape(-1)
-    fx = x.reshape(-1)
-    fb = b.reshape(-1)
+    fd = simd.flat(d)
+    fx = simd.flat(x)
+    fb = simd.flat(b)
     pl = _u(ny * nz)
     base = _u(i) * pl
     bm = _u(_dn(i, nx)) * pl
@@ -510,7 +518,7 @@ def _residual_flat(d, x, b, i, rp):
             )
 
 
-@parallel_kernel(helpers=_SERIAL, **_OPTS)
+@parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
 def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised; with unit
     couplings one flat prefetching loop per plane, :func:`_jacobi_flat`).
@@ -523,24 +531,34 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     if _unit(d, cx):
         om = np.float32(omega)
         pl = _u(ny * nz)
-        fx = x.reshape(-1)
+        fx = simd.flat(x)
         for i in nb.prange(nx):
             base = _u(i) * pl
             bp = _u(_up(i, nx)) * pl
             acc[i] = _jacobi_flat(
-                d.reshape(-1), b.reshape(-1), xnew.reshape(-1), base,
+                simd.flat(d), simd.flat(b), simd.flat(xnew), base,
                 fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
                 fx, bp + _u(PREFETCH), None,
             )  # fmt: skip
         return acc.sum()
+    # stored couplings (coarse levels): the arrays through numba's reshape, whose run-time call
+    # hides from LLVM that they are the noalias arguments, so that these row loops compile as
+    # without noalias, to bitwise the values of jacobi2_zero's and prolong_jacobi's sweeps (the
+    # V-cycle's symmetry; with noalias their vectorisation changed by an ulp, band20)
+    dd, xx, bb, xo = (
+        d.reshape(d.shape),
+        x.reshape(x.shape),
+        b.reshape(b.shape),
+        xnew.reshape(nx, ny, nz),
+    )
     for i in nb.prange(nx):
         row = np.empty(nz, dtype=xnew.dtype)
         s = 0.0
         for j in range(ny):
             # no prefetch (kernels._fetch) here: -8 % CPU in the parallel twin, but its serial
             # twin (one-thread solves, coarse levels) ran 1.7x slower with it (band11)
-            _apply_row(d, cx, cy, cz, x, i, j, row)
-            s += _jacobi_row(d[i, j], x[i, j], b[i, j], row, omega, xnew[i, j])
+            _apply_row(dd, cx, cy, cz, xx, i, j, row)
+            s += _jacobi_row(dd[i, j], xx[i, j], bb[i, j], row, omega, xo[i, j])
         acc[i] = s
     return acc.sum()
 
@@ -591,11 +609,22 @@ def _fetch_ahead(fa, fb, i, j):
     simd.prefetch_row(fb[i2, j])
 
 
+@_SERIAL.leaf
+def _ring(s):
+    """Rows of the three-plane buffer of :func:`jacobi2_zero` and :func:`prolong_jacobi` that
+    hold the planes ``i - 1, i, i + 1`` at step ``s = i - lo`` of a chunk (rows 0 and 1 hold
+    planes ``lo - 1, lo`` before the first step; each step fills the third).  One buffer
+    indexed by row, not three arrays swapped per step: the swapped arrays reached the sweep's
+    loop through LLVM phi nodes, through which it could not tell them from the output, so
+    every block of the flat loop kept its run-time overlap checks (band20)."""
+    return s % 3, (s + 1) % 3, (s + 2) % 3
+
+
 @_SERIAL.inline
-def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
-    """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (``pm,
-    p0, pp``: flat buffers of ``ny nz`` entries) into ``xnew[i]``; returns the plane's ``b .
-    xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
+def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb):
+    """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (rows
+    ``rm, r0, rp`` of ``buf``, ``3 x ny nz``: :func:`_ring`) into ``xnew[i]``; returns the
+    plane's ``b . xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
     With unit couplings (the finest level) the sweep is the flat prefetching loop of
@@ -605,21 +634,25 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     nx, ny, nz = d.shape
     if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
         pl = _u(ny * nz)
-        zero = _u(0)
         ahead = _u(_up(_up(i, nx), nx)) * pl  # the next plane step's d, b (plane i + 2)
-        fd, fbb, fo, om = d.reshape(-1), b.reshape(-1), xnew.reshape(-1), np.float32(omega)
+        fd, fbb, fo, om = simd.flat(d), simd.flat(b), simd.flat(xnew), np.float32(omega)
+        # the three planes as one array at three offsets, as jacobi passes the grid: the row
+        # ends then compile to the same sums as jacobi's (as three arrays they did not, and
+        # the V-cycle's sweeps differed by an ulp at k = nz - 1, band20)
+        fp = simd.flat(buf)
+        o0, om_, op = _u(r0) * pl, _u(rm) * pl, _u(rp) * pl
         if fa is None:  # compiled out where the caller passes arrays
             return _jacobi_flat(
-                fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
+                fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
                 None, ahead, None,
             )  # fmt: skip
         return _jacobi_flat(
-            fd, fbb, fo, _u(i) * pl, p0, zero, pm, zero, pp, zero, ny, nz, om, True,
-            fb.reshape(-1), ahead, fa.reshape(-1),
+            fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
+            simd.flat(fb), ahead, simd.flat(fa),
         )  # fmt: skip
-    pm2 = pm.reshape((ny, nz))
-    p02 = p0.reshape((ny, nz))
-    pp2 = pp.reshape((ny, nz))
+    pm2 = buf[rm].reshape((ny, nz))
+    p02 = buf[r0].reshape((ny, nz))
+    pp2 = buf[rp].reshape((ny, nz))
     ip = _up(i, nx)
     row = blk
     s = 0.0
@@ -636,7 +669,7 @@ def _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, fa, fb):
     return s
 
 
-@parallel_kernel(helpers=_SERIAL, **_OPTS)
+@parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
 def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     """Two damped Jacobi sweeps from a zero guess in one pass over the grid.
 
@@ -651,16 +684,14 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     nt = max(1, min(nchunks, nx))
     for t in nb.prange(nt):
         lo, hi = _chunk(t, nt, nx)
-        pm = np.empty(ny * nz, dtype=xnew.dtype)
-        p0 = np.empty(ny * nz, dtype=xnew.dtype)
-        pp = np.empty(ny * nz, dtype=xnew.dtype)
+        buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
         blk = np.empty(nz, dtype=xnew.dtype)
-        _zero_plane(d, b, _dn(lo, nx), omega, pm.reshape((ny, nz)))
-        _zero_plane(d, b, lo, omega, p0.reshape((ny, nz)))
+        _zero_plane(d, b, _dn(lo, nx), omega, buf[0].reshape((ny, nz)))
+        _zero_plane(d, b, lo, omega, buf[1].reshape((ny, nz)))
         for i in range(lo, hi):
-            _zero_plane(d, b, _up(i, nx), omega, pp.reshape((ny, nz)))
-            _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, d, b)
-            pm, p0, pp = p0, pp, pm
+            rm, r0, rp = _ring(i - lo)
+            _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
+            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b)
 
 
 @_SERIAL.inline
@@ -705,7 +736,7 @@ def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
             orow[k] = xr[k] + ex[k] * _on(dr[k])
 
 
-@parallel_kernel(helpers=_SERIAL, **_OPTS)
+@parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
 def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchunks):
     """Coarse correction and the first post-smoothing sweep in one pass over the grid.
 
@@ -721,18 +752,16 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     acc = np.zeros(nt)
     for t in nb.prange(nt):
         lo, hi = _chunk(t, nt, nx)
-        pm = np.empty(ny * nz, dtype=xnew.dtype)
-        p0 = np.empty(ny * nz, dtype=xnew.dtype)
-        pp = np.empty(ny * nz, dtype=xnew.dtype)
+        buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
         blk = np.empty(nz, dtype=xnew.dtype)
         ex = np.empty(nz, dtype=np.float64)
-        _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, pm.reshape((ny, nz)), ex)
-        _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, p0.reshape((ny, nz)), ex)
+        _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, buf[0].reshape((ny, nz)), ex)
+        _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, buf[1].reshape((ny, nz)), ex)
         s = 0.0
         for i in range(lo, hi):
-            _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, pp.reshape((ny, nz)), ex)
-            s += _jacobi_plane(d, cx, cy, cz, pm, p0, pp, b, i, omega, blk, xnew, None, None)
-            pm, p0, pp = p0, pp, pm
+            rm, r0, rp = _ring(i - lo)
+            _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
+            s += _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None)
         acc[t] = s
     return acc.sum()
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import SerialHelpers, parallel_kernel
+from solvers.jit import NoAliasCompiler, SerialHelpers, parallel_kernel
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
 from solvers.voxel.kernels import BLOCK as FLAT_BLOCK
@@ -356,7 +356,7 @@ def _continuity_plane(ff, fx, fy, q0, uu, uip, vv, ww, p0, ny, nz, s, c1, saved)
     return _plane_dot(fx, fy, p0, pl)
 
 
-@_SERIAL.slab(**_OPTS)
+@_SERIAL.slab(pipeline_class=NoAliasCompiler, **_OPTS)
 def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos` when every component has
     :func:`solvers.voxel.kernels.unit_couplings` (the staircase's periodic grids): each
@@ -367,8 +367,8 @@ def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     band15).  The same expressions, so the same values up to float32 round-off (fastmath may
     contract them differently)."""
     nx, ny, nz = fluid.shape
-    fx = x.reshape(-1)
-    fy = y.reshape(-1)
+    fx = simd.flat(x)
+    fy = simd.flat(y)
     pl = _u(ny * nz)
     n3 = _u(nx) * pl
     q0 = _u(i) * pl
@@ -377,19 +377,19 @@ def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     p0 = _u(3) * n3 + q0
     saved = np.empty(2 * ny, dtype=y.dtype)
     s_y = _momentum_plane(
-        du.reshape(-1), fx, fy, q0, q0, qm, qp, p0, _u(3) * n3 + qm, 0, ny, nz, s, c1, saved, fx
+        simd.flat(du), fx, fy, q0, q0, qm, qp, p0, _u(3) * n3 + qm, 0, ny, nz, s, c1, saved, fx
     )
     s_y += _momentum_plane(
-        dv.reshape(-1), fx, fy, q0, n3 + q0, n3 + qm, n3 + qp, p0, p0 - _u(nz), 1, ny, nz, s, c1,
+        simd.flat(dv), fx, fy, q0, n3 + q0, n3 + qm, n3 + qp, p0, p0 - _u(nz), 1, ny, nz, s, c1,
         saved, None,
     )  # fmt: skip
     w0 = _u(2) * n3
     s_y += _momentum_plane(
-        dw.reshape(-1), fx, fy, q0, w0 + q0, w0 + qm, w0 + qp, p0, p0 - _u(1), 2, ny, nz, s, c1,
+        simd.flat(dw), fx, fy, q0, w0 + q0, w0 + qm, w0 + qp, p0, p0 - _u(1), 2, ny, nz, s, c1,
         saved, None,
     )  # fmt: skip
     s_y += _continuity_plane(
-        fluid.reshape(-1), fx, fy, q0, q0, qp, n3 + q0, w0 + q0, p0, ny, nz, s, c1, saved
+        simd.flat(fluid), fx, fy, q0, q0, qp, n3 + q0, w0 + q0, p0, ny, nz, s, c1, saved
     )
     return s_y
 

@@ -33,7 +33,9 @@ from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.core.errors import TypingError
+from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
+from numba.np.arrayobj import populate_array
 
 WIDTH = 16
 """Entries per :func:`compress16` call."""
@@ -231,6 +233,33 @@ def prefetch_at(typingctx, arr, q):
         fn = cgutils.get_or_insert_function(builder.module, fty, "llvm.prefetch.p0i8")
         builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
         return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def flat(typingctx, arr):
+    """The C-contiguous array ``arr`` as a 1-D view of all its entries (``arr.reshape(-1)``
+    without numba's run-time reshape call).  numba's ``reshape`` passes the new array's
+    structure to a C helper (``numba_attempt_nocopy_reshape``), after which LLVM reloads the
+    data pointer from memory and can no longer trace it to the kernel's argument: a
+    ``noalias`` argument (:class:`solvers.jit.NoAliasCompiler`) then does not spare the
+    vectorised loops their run-time overlap checks.  Here the view is built from the
+    argument's own values (data pointer, meminfo, size), so the pointer stays the argument's."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C"):
+        raise TypingError("flat takes a C-contiguous array")
+    rty = arr.copy(ndim=1, layout="C")
+    sig = rty(arr)
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        ary = context.make_array(aty)(context, builder, args[0])
+        out = context.make_array(signature.return_type)(context, builder)
+        populate_array(
+            out, data=ary.data, shape=[ary.nitems], strides=[ary.itemsize],
+            itemsize=ary.itemsize, meminfo=ary.meminfo, parent=ary.parent,
+        )  # fmt: skip
+        return impl_ret_borrowed(context, builder, signature.return_type, out._getvalue())
 
     return sig, codegen
 

@@ -479,3 +479,59 @@ def _sweep_starts(d, f, x, xc, b):
     x_pro = np.where(d > 0, x + 1.6 * xc[idx].astype(np.float64), 0.0)
     x1 = np.where(d > 0, 0.9 * b / np.where(d > 0, d, 1).astype(np.float64), 0.0)
     return x_pro, x1
+
+
+@pytest.mark.parametrize("shape", [(6, 23, 4), (5, 9, 16)])
+def test_fused_sweeps_are_bitwise_jacobis(shape, chunks) -> None:
+    """band20: with unit couplings (the flat sweeps) and stored ones (the row loops) the fused
+    passes must give *bitwise* the values of ``jacobi_zero`` + ``jacobi`` and ``prolong_add`` +
+    ``jacobi``, not only to round-off: MINRES needs a symmetric preconditioner, i.e. every
+    smoothing sweep of the V-cycle the same operator.  Variants compiled with ``noalias`` summed
+    the row ends ``k = nz - 1`` in another order (three plane arrays) or vectorised
+    ``jacobi``'s row loops differently (an ulp off on 3-5 % of the cells) and took up to 5
+    more MINRES iterations on small array cases (``benchmarks/RESULTS.md``, band20)."""
+    rng = np.random.default_rng(5)
+    d, c = mg.component_operator(_fluid(shape, seed=3), 0)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    xc = rng.standard_normal(tuple(n // m for n, m in zip(shape, f, strict=True)))
+    xc = xc.astype(np.float32)
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    for cc in (kr.unit_couplings(shape[2]), c):  # the flat sweeps, the row loops
+        x1 = np.empty(shape, np.float32)
+        ref = np.empty(shape, np.float32)
+        kr.jacobi_zero(d, b, x1, 0.9)
+        kr.jacobi(d, *cc, x1, b, ref, 0.9)
+        out = np.full(shape, np.nan, np.float32)
+        kr.jacobi2_zero(d, *cc, b, out, 0.9, chunks)
+        assert np.array_equal(out, ref)
+        xp = x.copy()
+        kr.prolong_add(d, xc, *f, 1.6, xp)
+        kr.jacobi(d, *cc, xp, b, ref, 0.9)
+        kr.prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
+        assert np.array_equal(out, ref)
+        assert np.abs(ref).max() > 0.1  # not a trivial comparison
+
+
+def test_flat_is_a_view_of_every_entry() -> None:
+    """``simd.flat``: the 1-D view ``reshape(-1)`` gives (numpy's own, the independent truth),
+    sharing the array's memory (a write through it lands in the array), and typing fails for an
+    array that is not C-contiguous."""
+    from numba.core.errors import TypingError
+
+    from solvers.voxel import simd
+
+    @numba.njit(cache=False)
+    def through_flat(a, q, v):
+        f = simd.flat(a)
+        f[q] = v
+        return f.copy()
+
+    a = np.arange(60, dtype=np.float32).reshape(3, 4, 5)
+    got = through_flat(a, 37, -1.0)
+    want = np.arange(60, dtype=np.float32)
+    want[37] = -1.0
+    assert got.shape == (60,) and np.array_equal(got, want)
+    assert a[1, 3, 2] == -1.0  # entry 37 of the C order
+    with pytest.raises(TypingError):
+        through_flat(a[:, :, ::2], 0, 0.0)
