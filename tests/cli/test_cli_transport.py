@@ -5,23 +5,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from cylinder_spec import CYLINDER_SPEC as SPEC
 
 from psdesign.cli.main import main
-
-SPEC = """
-[rve]
-size = [20e-6, 20e-6, 20e-6]
-voxel = 1e-6
-
-[[fibers]]
-shape = "cylinder"
-diameter = 8e-6
-center = [10e-6, 10e-6, 10e-6]
-direction = [0, 0, 1]
-
-[transport]
-error_estimate = "residual"
-"""
 
 
 @pytest.fixture()
