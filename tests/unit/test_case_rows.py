@@ -43,6 +43,6 @@ def test_report_k_table_shows_bar_and_flags():
         }
     )
     html = _k_table(df)
-    assert "1e-11 +- 3.1 %" in html and "2e-11 +- 50.0 %" in html
+    assert "1e-11 ± 3.1 %" in html and "2e-11 ± 50.0 %" in html
     assert html.count('class="flag"') == 1
     assert _k_table(df.drop(columns=["k_z_rel_error"])) == ""  # old tables: no section
