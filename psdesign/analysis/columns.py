@@ -26,12 +26,25 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     [1.0, nan]
     """
     out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
-    for c, sc in K_STATUS_COLUMNS.items():
-        st = out.get(sc)
-        if c in out and st is not None:
-            bad = st.notna() & (st.astype(str) != "ok")
-            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
+    for c in K_STATUS_COLUMNS:
+        if c in out:
+            out[c] = pd.to_numeric(out[c], errors="coerce").mask(k_not_ok(out, c))
     return out
+
+
+def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
+    """Rows whose K in ``k_column`` (``k_x_m2``) has its own status (``k_x_status``) and it is
+    not ``ok``; False where the table has no such status (an unrated K)."""
+    st = df.get(K_STATUS_COLUMNS[k_column])
+    if st is None:
+        return pd.Series(False, index=df.index)
+    return st.notna() & (st.astype(str) != "ok")
+
+
+def first_error(df: pd.DataFrame) -> str:
+    """``" (first error: ...)"`` from a results table's ``error`` column, or ``""``."""
+    errors = df["error"].dropna().astype(str) if "error" in df else []
+    return f" (first error: {errors.iloc[0]})" if len(errors) else ""
 
 
 def study_parameters(out_dir: str | Path) -> dict[str, dict]:

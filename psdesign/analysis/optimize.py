@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from psdesign.analysis.columns import trusted
+from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
-from psdesign.analysis.targets import Target
+from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target
 
 
 @dataclass
@@ -94,11 +94,6 @@ def _score(row: dict, targets: list[Target]) -> float:
     return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
 
 
-def _first_error(df) -> str:
-    errors = df["error"].dropna().astype(str) if "error" in df else []
-    return f" (first error: {errors.iloc[0]})" if len(errors) else ""
-
-
 def optimize_study(
     study_path: str | Path,
     out_dir: str | Path,
@@ -131,7 +126,7 @@ def optimize_study(
     from psdesign.study.runner import run_study
     from psdesign.study.studyfile import load_study
 
-    for key, v, hi in (("budget", budget, 10_000), ("batch", batch, 1000)):
+    for key, v, hi in (("budget", budget, MAX_BUDGET), ("batch", batch, MAX_BATCH)):
         if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
             raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
     study = load_study(study_path)
@@ -175,7 +170,7 @@ def optimize_study(
                 f"budget of {budget} design points spent"
                 if len(points) >= budget
                 else f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
-                + _first_error(df)
+                + first_error(df)
             )
             return OptimizeResult(
                 False,

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from psdesign.analysis.columns import first_error, k_not_ok
 from psdesign.analysis.replicates import replicate_summary
 
 #: Most seeds per size (as for a study file's ``seeds``).
@@ -110,12 +111,10 @@ def rev_study(
     )
     df = run_study(study, out_dir, **run_kw)
     if not (df["status"] == "ok").any():
-        first = df["error"].dropna().astype(str)
-        why = f"; first error: {first.iloc[0]}" if len(first) else ""
         raise RevFailed(
             f"rev: no case finished ok ({len(df)} case(s): "
-            f"{', '.join(f'{k} {v}' for k, v in df['status'].value_counts().items())}){why}; "
-            f"see {Path(out_dir) / 'results.csv'}"
+            f"{', '.join(f'{k} {v}' for k, v in df['status'].value_counts().items())})"
+            f"{first_error(df)}; see {Path(out_dir) / 'results.csv'}"
         )
     df["size_m"] = df["rve.size.0"]
     table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
@@ -163,8 +162,7 @@ def _size_status(df: pd.DataFrame, sizes: pd.Series, directions) -> list[str]:
         rows = df[(df["size_m"] == size) & (df["status"] == "ok")]
         bad = []
         for d in directions:
-            st = rows.get(f"k_{d}_status")
-            if st is not None and (n := int((st.notna() & (st.astype(str) != "ok")).sum())):
+            if n := int(k_not_ok(rows, f"k_{d}_m2").sum()):
                 bad.append(f"k_{d} {n} of {len(rows)}")
         out.append("ok" if not bad else "untrustworthy: " + ", ".join(bad))
     return out

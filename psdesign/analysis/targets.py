@@ -6,6 +6,12 @@ import math
 import re
 from dataclasses import dataclass
 
+#: Most design points of one optimization, and per round (``--budget``, ``--batch``; here, in
+#: the light module of ``study optimize``, so the command line checks them without importing
+#: the optimizer).
+MAX_BUDGET = 10_000
+MAX_BATCH = 1000
+
 _TARGET = re.compile(
     r"^\s*([A-Za-z0-9_.\-]+)\s*(>=|<=|=)\s*([^\s]+?)\s*(?:\+-\s*([0-9.eE+-]+)\s*%)?\s*$"
 )

@@ -20,10 +20,9 @@ def _cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "conductivity", dirs) as writer:
-        case = load_case(args.spec, {"bc": args.bc, "insulating_phase": args.insulating})
+        given = {"bc": args.bc, "insulating_phase": args.insulating, "conductivity_unit": args.unit}
+        case = load_case(args.spec, given)
         tr = dict(case.transport)
-        if args.unit is not None:
-            tr["conductivity_unit"] = args.unit
         results = [
             effective_conductivity(
                 case.fields,

@@ -169,6 +169,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
 
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
+    from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
+
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
     fit.add_argument(
@@ -208,15 +210,15 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     )
     opt.add_argument(
         "--budget",
-        type=int_in(1, 10_000, "design points"),
+        type=int_in(1, MAX_BUDGET, "design points"),
         default=20,
-        help="maximum design points, 1-10000 (default 20)",
+        help=f"maximum design points, 1-{MAX_BUDGET} (default 20)",
     )
     opt.add_argument(
         "--batch",
-        type=int_in(1, 1000, "points per round"),
+        type=int_in(1, MAX_BATCH, "points per round"),
         default=1,
-        help="points per round, 1-1000 (default 1)",
+        help=f"points per round, 1-{MAX_BATCH} (default 1)",
     )
     opt.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
     opt.add_argument("--workers", type=int, default=1)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import trusted
+from psdesign.analysis.columns import K_STATUS_COLUMNS, k_not_ok, trusted
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -159,10 +159,7 @@ def _porosity(df: pd.DataFrame) -> pd.Series | None:
 def _direction_ok(df: pd.DataFrame, c: str) -> pd.Series:
     """Rows whose case is ``ok`` and whose K along ``c``'s direction is ``ok`` (or unrated)."""
     ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
-    st = df.get(f"{c[:3]}_status")  # k_x_status
-    if st is not None:
-        ok &= st.isna() | (st.astype(str) == "ok")
-    return ok
+    return ok & ~k_not_ok(df, c)
 
 
 def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
@@ -486,11 +483,7 @@ def _status_banner(df: pd.DataFrame) -> str:
     """A red box at the top when any case or any K is not ok: how many, and where they show."""
     status = df["status"].fillna("") if "status" in df else pd.Series([""] * len(df))
     counts = status[status != "ok"].value_counts().to_dict()
-    untrusted = 0
-    for d in "xyz":
-        st = df.get(f"k_{d}_status")
-        if st is not None:
-            untrusted += int(((status == "ok") & st.notna() & (st.astype(str) != "ok")).sum())
+    untrusted = sum(int(((status == "ok") & k_not_ok(df, c)).sum()) for c in K_STATUS_COLUMNS)
     if not counts and not untrusted:
         return ""
     parts = [f"{v} {_esc(k or 'unknown')}" for k, v in sorted(counts.items())]
