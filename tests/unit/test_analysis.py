@@ -150,11 +150,11 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
     assert len(load_study_surrogates(out)) == 2
 
 
-def _six_case_study(tmp_path):
-    """A finished 6-case Latin-hypercube porosity study of the fake solver (no fit yet)."""
+def _lhs_study(tmp_path, n: int):
+    """A finished ``n``-case Latin-hypercube porosity study of the fake solver (no fit yet)."""
     p = write_study(
         tmp_path,
-        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        f'design = "latin-hypercube"\nn_samples = {n}\nseeds = [1]\noutputs = ["k_z"]',
         '"generator.porosity" = {low = 0.7, high = 0.9}',
     )
     out = tmp_path / "out"
@@ -163,7 +163,7 @@ def _six_case_study(tmp_path):
 
 
 def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
-    out = _six_case_study(tmp_path)
+    out = _lhs_study(tmp_path, 6)
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2
     assert "study fit" in capsys.readouterr().err
     assert main(["study", "fit", str(out)]) == 0
@@ -177,7 +177,7 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     message, a parameter given twice silently took the last value, and a point far outside the
     fitted range (porosity 5 for a 0.7-0.9 design: predicted porosity 3.6) printed as any
     other prediction. Rules: one line naming the key; an untrustworthy number says so."""
-    out = _six_case_study(tmp_path)
+    out = _lhs_study(tmp_path, 6)
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
     for at, msg in [
@@ -310,13 +310,7 @@ def test_corrupt_surrogate_and_results_files_are_named(tmp_path, capsys) -> None
     """main: a damaged surrogate.json gave 'psdesign: error: Expecting value: line 1 column 1
     (char 0)' and a damaged results.csv 'Error tokenizing data. C error: ...': one line but
     naming no file (rule: the line names the key)."""
-    p = write_study(
-        tmp_path,
-        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}',
-    )
-    out = tmp_path / "out"
-    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    out = _lhs_study(tmp_path, 4)
     for junk in (b"\x00\x01", b"{bad", b'{"models": 3}'):
         (out / "surrogate.json").write_bytes(junk)
         assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2

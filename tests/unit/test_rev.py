@@ -95,19 +95,25 @@ def failing_case(spec, outputs, solver, workdir):
     raise RuntimeError("mesh failed")
 
 
-def test_rev_with_no_ok_case_is_one_line_exit_1(tmp_path, capsys, monkeypatch) -> None:
-    """main: when every case failed, ``psdesign rev`` ended in a pandas KeyError traceback
-    ('size_m'). Rule: never a traceback; a failed run says so in one line, exit 1."""
+def _spec_with_cases(tmp_path, monkeypatch, case_fn):
+    """The REV spec file, with the study runner's cases run in this process by ``case_fn``."""
     from psdesign.study import runner
 
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC)
     real = runner.run_study
 
-    def run_failing(study, out_dir, **kw):
-        return real(study, out_dir, **{**kw, "case_fn": failing_case, "workers": 0})
+    def run_with(study, out_dir, **kw):
+        return real(study, out_dir, **{**kw, "case_fn": case_fn, "workers": 0})
 
-    monkeypatch.setattr(runner, "run_study", run_failing)
+    monkeypatch.setattr(runner, "run_study", run_with)
+    return spec
+
+
+def test_rev_with_no_ok_case_is_one_line_exit_1(tmp_path, capsys, monkeypatch) -> None:
+    """main: when every case failed, ``psdesign rev`` ended in a pandas KeyError traceback
+    ('size_m'). Rule: never a traceback; a failed run says so in one line, exit 1."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, failing_case)
     out = tmp_path / "o"
     args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "2", "-o", str(out), "--quiet"]
     assert main(args) == 1
@@ -128,16 +134,7 @@ def untrustworthy_rev_case(spec, outputs, solver, workdir):
 def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) -> None:
     """main: the rev lines print each size's CI of K with no word that a case's K is flagged
     untrustworthy (rule: a result that is not trustworthy says so)."""
-    from psdesign.study import runner
-
-    spec = tmp_path / "s.toml"
-    spec.write_text(SPEC)
-    real = runner.run_study
-
-    def run_flagged(study, out_dir, **kw):
-        return real(study, out_dir, **{**kw, "case_fn": untrustworthy_rev_case, "workers": 0})
-
-    monkeypatch.setattr(runner, "run_study", run_flagged)
+    spec = _spec_with_cases(tmp_path, monkeypatch, untrustworthy_rev_case)
     out = tmp_path / "o"
     args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
     assert main([*args, "--directions", "z"]) == 0

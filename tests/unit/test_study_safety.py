@@ -328,6 +328,28 @@ def _wait_for_sleepers(proc, out: Path, n: int, limit_s: float = 60.0) -> None:
     raise AssertionError("cases did not start")
 
 
+def _kill_all(procs) -> None:
+    """Kill what a stop test left alive (clean-up; the test's assertions come before)."""
+    import psutil
+
+    for k in procs:
+        try:
+            k.kill()
+        except psutil.Error:
+            pass
+
+
+def _resumes(p, out, flag) -> None:
+    """The stopped run left no lock and resumes: the cases finished before are kept, and the
+    rest run (the flag that held them is removed)."""
+    assert not (out / ".lock").exists()
+    done_before = {f.name for f in (out / "cases").glob("*.json")}
+    flag.unlink()
+    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
+    assert len(df) == 4 and (df["status"] == "ok").all()
+    assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
+
+
 @pytest.mark.parametrize(
     ("target", "times", "timeout"),
     [
@@ -363,17 +385,8 @@ def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
         assert runner.returncode == 130, err
         assert "rerun the command to resume" in err and "Traceback" not in err
     finally:
-        for k in procs:
-            try:
-                k.kill()
-            except psutil.Error:
-                pass
-    assert not (out / ".lock").exists()
-    done_before = {f.name for f in (out / "cases").glob("*.json")}
-    flag.unlink()
-    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
-    assert len(df) == 4 and (df["status"] == "ok").all()
-    assert done_before <= {f.name for f in (out / "cases").glob("*.json")}
+        _kill_all(procs)
+    _resumes(p, out, flag)
 
 
 def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
@@ -398,15 +411,8 @@ def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
         assert "terminated" in err and "rerun the command to resume" in err
         assert "Traceback" not in err and "leaked" not in err
     finally:
-        for k in procs:
-            try:
-                k.kill()
-            except psutil.Error:
-                pass
-    assert not (out / ".lock").exists()
-    flag.unlink()
-    df = run_study(p, out, workers=0, case_fn=slow_unless_flag_case, progress=False, report=False)
-    assert len(df) == 4 and (df["status"] == "ok").all()
+        _kill_all(procs)
+    _resumes(p, out, flag)
 
 
 def test_interrupt_stops_only_processes_started_during_the_run():
