@@ -381,9 +381,9 @@ class TwinKernel:
     ) -> None:
         self.py_func = fn
         self.serial_below = int(serial_below)
-        if noalias:
-            opts = {**opts, "pipeline_class": NoAliasCompiler}
         self.parallel = nb.njit(parallel=True, **opts)(fn)
+        if noalias:  # the serial twin only: in the parallel twins it broke bitwise equality
+            opts = {**opts, "pipeline_class": NoAliasCompiler}
         # a copy of the function under its own qualified name: numba names its cache files
         # after ``__qualname__`` and does not key them on the ``parallel`` flag; over the
         # serial helpers' globals if given
@@ -442,8 +442,11 @@ def parallel_kernel(
     ``@numba.njit(parallel=True, cache=True, fastmath=True)`` (see :class:`TwinKernel`);
     ``serial_below``: first-argument size below which the serial twin runs; ``helpers``: the
     module's :class:`SerialHelpers`, whose variants the serial twin calls; ``noalias``: compile
-    both with :class:`NoAliasCompiler` (no argument the kernel writes may overlap another
-    argument)."""
+    the serial twin with :class:`NoAliasCompiler` (no argument the kernel writes may overlap
+    another argument).  Not the parallel twin: there it made ``jacobi`` and the fused sweeps
+    (``jacobi2_zero``, ``prolong_jacobi``) differ by an ulp, so the V-cycle of a two-thread
+    solve after ``psdesign warmup`` was no longer one symmetric operator (session 20 review;
+    ``tests/unit/test_voxel_kernels.py``)."""
 
     def wrap(fn: Callable) -> TwinKernel:
         return TwinKernel(fn, serial_below=serial_below, helpers=helpers, noalias=noalias, **opts)
