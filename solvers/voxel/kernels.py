@@ -44,11 +44,12 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero.
 ``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` are compiled with ``noalias=True``
-(:class:`solvers.jit.NoAliasCompiler`; their callers never pass an output that overlaps an
-input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM then drops the run-time
-overlap checks it put in front of every 64-cell block of the flat sweeps (0.91-0.93x their
-one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three must stay bitwise one
-operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``), which is why
+(:class:`solvers.jit.NoAliasCompiler`, serial twins only; their callers never pass an output
+that overlaps an input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM then
+drops the run-time overlap checks it put in front of every 64-cell block of the flat sweeps
+(0.91-0.93x their one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three
+must stay bitwise one operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``),
+which is why
 ``jacobi``'s row loops hide the arguments behind a reshape and ``residual_restrict`` (whose
 flat loop kept its checks: its output is a local buffer) is compiled without it."""
 
