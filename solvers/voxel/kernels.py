@@ -49,8 +49,8 @@ that overlaps an input) and take flat views with :func:`solvers.voxel.simd.flat`
 drops the run-time overlap checks it put in front of every 64-cell block of the flat sweeps
 (0.91-0.93x their one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three
 must stay bitwise one operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``),
-which is why
-``jacobi``'s row loops hide the arguments behind a reshape and ``residual_restrict`` (whose
+which is why ``jacobi``'s row loops hide the arguments behind a reshape and
+``residual_restrict`` (whose
 flat loop kept its checks: its output is a local buffer) is compiled without it."""
 
 _SERIAL = SerialHelpers(**_OPTS)
