@@ -389,9 +389,11 @@ def test_ctrl_c_stops_runner_and_workers_and_leaves_resumable_folder(
     _resumes(p, out, flag)
 
 
-def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
-    """``kill PID`` / ``timeout`` / a batch system's cancel send SIGTERM. Rules: never a
-    traceback, nothing half-written, the folder resumable. On main the runner died at once
+@pytest.mark.parametrize("target", ["runner", pytest.param("group", marks=pytest.mark.slow)])
+def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path, target):
+    """``kill PID`` / ``timeout`` / a batch system's cancel send SIGTERM, to the runner or (Slurm's
+    ``scancel``, ``kill -TERM -PGID``) to the whole process group, workers included. Rules: never
+    a traceback, nothing half-written, the folder resumable. On main the runner died at once
     (exit -15, Python's multi-line resource_tracker warning) and left ``OUT/.lock`` behind,
     which a run from another host refuses until deleted by hand."""
     import psutil
@@ -402,7 +404,10 @@ def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path):
         _wait_for_sleepers(proc, out, 2)
         procs = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
         assert len(procs) >= 3
-        os.kill(proc.pid, signal.SIGTERM)
+        if target == "group":
+            os.killpg(proc.pid, signal.SIGTERM)
+        else:
+            os.kill(proc.pid, signal.SIGTERM)
         gone, alive = psutil.wait_procs(procs, timeout=5.0)
         assert not alive, [a.pid for a in alive]
         err = proc.stderr.read().decode()
