@@ -7,6 +7,7 @@ Usage::
     python benchmarks/penalty_scatter.py across LAM LOGC A MODE [N,N,...]
     python benchmarks/penalty_scatter.py diffuse-calibrate LAM
     python benchmarks/penalty_scatter.py diffuse along|across LAM LOGC SE C [N,N,...] [SHIFTS]
+    python benchmarks/penalty_scatter.py diffuse-closed LAM LOGC SE C CONCAVE
 
 The voxel solver's cut-face wall (:mod:`solvers.voxel.boundary`) makes K depend on where the
 grid nodes sit next to the wall: 0.01-0.1 % scatter over sub-voxel shifts at 24-64 voxels per
@@ -33,6 +34,9 @@ forcing into the solid). A smooth profile sampled on the grid barely depends on 
   wall's curvature (``kappa = 1 / r`` here, the Laplacian of the distance). ``K = mean(eps u)``.
   ``diffuse-calibrate``: ``LOGC`` and ``SE`` from plane Poiseuille flow as above (the curvature
   coefficient ``C`` is not calibrated there: 3 was read off the along table at 32 / 64 voxels).
+  ``diffuse-closed``: the along model against closed forms, Poiseuille flow in a pipe (a concave
+  wall) and axial flow in an annulus ``b = 3 a`` (a convex and a concave wall); ``CONCAVE`` 1
+  applies the curvature shift on concave walls too, 0 on convex walls only.
 
 Direct sparse solves (scipy); seconds per row at these sizes.
 """
@@ -224,6 +228,42 @@ def diffuse_across(phi, n, shift, lam, logc, se, c) -> float:
     return (eu * x[:nn]).mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
 
 
+def closed_form_error(a: float, b: float, shift, lam, logc, se, c, concave: float) -> float:
+    """Relative flux error of axial flow in an annulus ``a < r < b`` (voxels; ``a`` = 0: a
+    pipe), diffuse-domain along model."""
+    n = int(2 * b + 12)
+    cx, cy = n / 2 + shift[0], n / 2 + shift[1]
+
+    def dist_kappa(x, y):
+        r = np.maximum(np.hypot(x - cx, y - cy), 1e-9)
+        inner, outer = (r - a if a > 0 else np.inf + 0 * r), b - r
+        return np.minimum(inner, outer), np.where(inner < outer, 1.0 / r, -concave / r)
+
+    def eps(x, y):
+        s, k = dist_kappa(x, y)
+        return fluid_fraction(s, lam, se + c * lam**2 * k).ravel()
+
+    i, j = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
+    lap = _weighted_laplacian(n, eps(i, j + 0.5), eps(i + 0.5, j))
+    e = eps(i + 0.5, j + 0.5)
+    drag = np.minimum(np.exp(-dist_kappa(i + 0.5, j + 0.5)[0] / lam + logc), 1e12).ravel()
+    u = spla.spsolve((lap + sp.diags(drag)).tocsc(), e)
+    exact = np.pi / 8 * (b**4 - a**4 - ((b * b - a * a) ** 2 / np.log(b / a) if a > 0 else 0.0))
+    return (e * u).sum() / exact - 1.0
+
+
+def _closed_tables(lam, logc, se, c, concave) -> None:
+    shifts = np.random.default_rng(3).random((4, 2))
+    for label, radii in (
+        ("pipe R", [(0, r) for r in (5, 10, 20, 40)]),
+        ("annulus a", [(a, 3 * a) for a in (4, 8, 16, 32)]),
+    ):
+        for a, b in radii:
+            e = [closed_form_error(a, b, sh, lam, logc, se, c, concave) for sh in shifts]
+            sd = 100 * np.std(e, ddof=1)
+            print(f"{label} {a or b}: mean {100 * np.mean(e):+.4f} %, sd {sd:.4f} %", flush=True)
+
+
 def _table(fn, ns, offsets) -> None:
     for phi in (0.1, 0.3, 0.5):
         for n in ns:
@@ -237,13 +277,23 @@ def _table(fn, ns, offsets) -> None:
 
 def main(argv: list[str]) -> int:
     """Dispatch on the first argument (module docstring)."""
-    if not argv or argv[0] not in ("calibrate", "along", "across", "diffuse-calibrate", "diffuse"):
+    if not argv or argv[0] not in (
+        "calibrate",
+        "along",
+        "across",
+        "diffuse-calibrate",
+        "diffuse",
+        "diffuse-closed",
+    ):
         print(__doc__.split("\n\n")[1])
         return 2
     if argv[0] == "diffuse-calibrate":
         lam = float(argv[1])
         logc, se = diffuse_calibrate(lam)
         print(f"LAM {lam}: LOGC {logc:.8f}, SE {se:.8f}")
+        return 0
+    if argv[0] == "diffuse-closed":
+        _closed_tables(*(float(v) for v in argv[1:6]))
         return 0
     if argv[0] == "diffuse":
         fn = diffuse_along if argv[1] == "along" else diffuse_across
