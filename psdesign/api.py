@@ -91,6 +91,33 @@ class PermeabilityResult:
         return result_html("PermeabilityResult", rows, self.status, list(notes))
 
 
+def _direction(direction: Any) -> str:
+    """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
+    from psdesign.errors import SpecError
+    from psdesign.flow.darcy import axis_of
+
+    try:
+        return axis_of(direction)[0]
+    except (ValueError, TypeError):
+        raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
+
+
+def _flow_table(spec_flow: dict, given: dict) -> dict:
+    """The spec's ``[flow]`` table with the keywords ``given`` to a method, validated by the
+    schema like a spec file's table (``SpecError`` naming ``flow.<key>`` and its range: an
+    unknown or misspelled keyword is refused, not ignored)."""
+    from pydantic import ValidationError
+
+    from psdesign.schema.errors import spec_error
+    from psdesign.schema.flow import FlowTable
+
+    try:
+        checked = FlowTable.model_validate(given)
+    except ValidationError as exc:
+        raise spec_error(exc, FlowTable, prefix="flow") from None
+    return {**spec_flow, **{key: getattr(checked, key) for key in given}}
+
+
 class Material:
     """An RVE built from a spec: geometry, voxel fields on demand, properties on request.
 
@@ -147,11 +174,14 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.flow.permeability import permeability
 
-        table = dict(self.spec["flow"])
-        table.update(flow)
+        direction = _direction(direction)
+        given = dict(flow)
+        if solver is not None:
+            given["solver"] = solver
         if bc is not None:
-            table["bc"] = bc
-        route = solver or table.get("solver", "fem")
+            given["bc"] = bc
+        table = _flow_table(self.spec["flow"], given)
+        route = table["solver"]
         with fields_folder(fields, "permeability", [direction], route) as writer:
             result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
         return PermeabilityResult.from_dict(result)
@@ -163,6 +193,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.diffusivity import relative_diffusivity
 
+        direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         with fields_folder(fields, "diffusivity", [direction]) as writer:
             return relative_diffusivity(self.fields, direction, table, capture=writer)
@@ -181,6 +212,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.conductivity import effective_conductivity
 
+        direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         with fields_folder(fields, "conductivity", [direction]) as writer:
             return effective_conductivity(
@@ -278,7 +310,9 @@ def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
     from psdesign.study import StudyError
     from psdesign.study import run_study as _run
 
-    if workers and _unguarded_call_in_main_script("run_study"):
+    # a bad ``workers`` (negative, not an int) is the runner's one-line error, not this one
+    real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+    if real and _unguarded_call_in_main_script("run_study"):
         raise StudyError(
             "run_study: called at the top level of a script with worker processes; put the "
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '

@@ -44,7 +44,7 @@ def source_of(table: dict, voxel: float | None = None) -> ImageSource:
 def header_shape(src: ImageSource) -> tuple[int, int, int]:
     """Voxel counts (x, y, z) of the stored image before the crop, read from its header
     where the format has one (TIFF, NumPy, raw ``shape``); a VTI file is read whole."""
-    from psdesign.image.reader import _read_raw, _read_stored
+    from psdesign.image.reader import _read_stored, raw_layout
 
     ext = src.ext
     order = src.axis_order or ("zyx" if ext in (".tif", ".tiff", ".raw") else "xyz")
@@ -67,7 +67,10 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
                 f"image.path: cannot read {Path(src.path).name} as .npy: {exc}"
             ) from None
     elif ext == ".raw":
-        return tuple(int(n) for n in _read_raw(src).shape)
+        raw_layout(src)  # shape x dtype = the file's size; the voxels are not read
+        if sorted(order) != ["x", "y", "z"]:
+            raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
+        return tuple(int(n) for n in src.shape)
     else:
         return tuple(int(n) for n in _read_stored(src).shape)
     if len(stored) != 3:

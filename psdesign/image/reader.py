@@ -83,7 +83,9 @@ def _to_xyz(data: np.ndarray, order: str) -> np.ndarray:
     return data.transpose([order.index(a) for a in "xyz"])
 
 
-def _read_raw(src: ImageSource) -> np.ndarray:
+def raw_layout(src: ImageSource) -> tuple[np.dtype, int]:
+    """Element type and voxel count of a raw image, checked against the file's size (nothing
+    is read: the schema learns a raw image's extent before the memory budget)."""
     if src.shape is None:
         raise ValueError("image.shape: required for a raw image ([nx, ny, nz])")
     if src.dtype not in RAW_DTYPES:
@@ -96,6 +98,11 @@ def _read_raw(src: ImageSource) -> np.ndarray:
             f"image.shape: {list(src.shape)} x {dt.itemsize} bytes = {n * dt.itemsize} bytes, "
             f"but {Path(src.path).name} has {size} bytes"
         )
+    return dt, n
+
+
+def _read_raw(src: ImageSource) -> np.ndarray:
+    dt, n = raw_layout(src)
     data = np.fromfile(src.path, dtype=dt, count=n)
     order = src.axis_order or "zyx"
     stored = [src.shape["xyz".index(a)] for a in order] if sorted(order) == list("xyz") else [n]

@@ -196,3 +196,24 @@ def test_voxel_size_key_wins_over_the_file_with_a_warning(img_dir) -> None:
     with pytest.warns(ImageWarning, match="image.voxel_size"):
         spec = load_spec(write_spec(img_dir, body))
     assert spec["rve"]["voxel"] == 1e-6 and spec["rve"]["size"] == pytest.approx([32e-6] * 3)
+
+
+def test_huge_raw_image_is_refused_by_the_budget_without_reading_it(tmp_path, monkeypatch):
+    # docs/images.md: an image over the memory budget is refused before any work, naming
+    # image.crop. On main the schema read the whole raw file to learn its shape (25 GiB for
+    # 3000^3 uint8) and a MemoryError came out as "spec: cannot validate (MemoryError):
+    # nested too deeply or numbers too large". A sparse file: no disk is used.
+    n = 3000
+    big = tmp_path / "big.raw"
+    with open(big, "wb") as f:
+        f.truncate(n**3)
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("the raw voxels were read")
+
+    monkeypatch.setattr(np, "fromfile", no_read)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n], dtype="uint8")
+    assert info.value.key == "image.crop" and "GiB" in info.value.message
+    with pytest.raises(SpecError, match=r"image\.shape: .* bytes"):  # the size is still checked
+        psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n + 1], dtype="uint8")
