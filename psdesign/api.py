@@ -182,7 +182,7 @@ class Material:
             given["bc"] = bc
         table = _flow_table(self.spec["flow"], given)
         route = table["solver"]
-        with fields_folder(fields, "permeability", [direction], route) as writer:
+        with fields_folder(fields, "permeability", [direction], route, option="fields") as writer:
             result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
         return PermeabilityResult.from_dict(result)
 
@@ -195,7 +195,7 @@ class Material:
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "diffusivity", [direction]) as writer:
+        with fields_folder(fields, "diffusivity", [direction], option="fields") as writer:
             return relative_diffusivity(self.fields, direction, table, capture=writer)
 
     def conductivity(
@@ -214,7 +214,7 @@ class Material:
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "conductivity", [direction]) as writer:
+        with fields_folder(fields, "conductivity", [direction], option="fields") as writer:
             return effective_conductivity(
                 self.fields, direction, solid, fluid, table, capture=writer
             )

@@ -261,3 +261,23 @@ def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> N
         with pytest.raises(StudyError, match=r"workers: must be an integer >= 0"):
             psdesign.run_study("studies/quickstart.toml", tmp_path / "o", workers=bad)
     assert not (tmp_path / "o").exists()
+
+
+def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkeypatch) -> None:
+    # a notebook user passed fields=...; main's message named '--fields' and advised '--force',
+    # neither of which exists in the Python API. The user's folder stays untouched.
+    import psdesign.flow.permeability as perm
+    from psdesign.io.outputs import OutputError
+
+    monkeypatch.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    m = psdesign.build(_one_cylinder())
+    for call in (m.permeability, m.diffusivity):
+        with pytest.raises(OutputError) as info:
+            call("z", fields=mine)
+        assert info.value.key == "fields" and "--" not in info.value.message
+        assert "non-empty folder psdesign did not create" in info.value.message
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    assert (mine / "notes.txt").read_text() == "keep"
