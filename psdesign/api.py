@@ -219,6 +219,19 @@ class Material:
                 self.fields, direction, solid, fluid, table, capture=writer
             )
 
+    def pores(self, **transport: Any) -> dict:
+        """Pore sizes, intrusion curve, specific surface, porosity profile and (for fibers)
+        orientation tensor: the dict ``psdesign pores --json`` prints (keys carry their SI
+        unit: ``pore_d50_m``, ``specific_surface_m-1``, ...; ``rel_error`` and
+        ``specific_surface_rel_error`` are the error estimates). Keywords (``n_radii``,
+        ``thickness_axis``, ``surface_tension_n_m``, ``contact_angle_deg``) override the spec's
+        ``[transport]`` table and are validated with it (``SpecError`` naming the key)."""
+        from psdesign.schema.transport import validate_transport
+        from psdesign.transport.study_outputs import pore_report
+
+        table = validate_transport({"transport": {**self.spec.get("transport", {}), **transport}})
+        return pore_report(self.rve, self.fields, table)
+
     def __repr__(self) -> str:
         size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)
         if "image" in self.spec:

@@ -281,3 +281,20 @@ def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkey
         assert "non-empty folder psdesign did not create" in info.value.message
     assert [p.name for p in mine.iterdir()] == ["notes.txt"]
     assert (mine / "notes.txt").read_text() == "keep"
+
+
+def test_material_pores_is_the_pores_command(monkeypatch) -> None:
+    # every command has its Material method (README: "every command and from_image take it");
+    # main had permeability / diffusivity / conductivity but no pores. Independent truth: the
+    # specific surface of one z-cylinder, S_v = pi D L / V = pi 8e-6 / (20e-6)^2 = 62832 1/m.
+    m = psdesign.build(_one_cylinder())
+    out = m.pores(n_radii=8)
+    exact = math.pi * 8e-6 / 20e-6**2
+    assert out["specific_surface_m-1"] == pytest.approx(exact, rel=0.03)
+    assert abs(out["specific_surface_m-1"] / exact - 1) <= max(
+        out["specific_surface_rel_error"], 0.01
+    )
+    assert out["porosity"] == pytest.approx(m.porosity, rel=1e-12)
+    assert 0 < out["pore_d10_m"] <= out["pore_d50_m"] <= out["pore_d90_m"] < 20e-6
+    with pytest.raises(psdesign.SpecError, match=r"transport\.n_radii"):
+        m.pores(n_radii=0)
