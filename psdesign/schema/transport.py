@@ -54,7 +54,7 @@ class TransportSpec(Table):
     bc: Literal["periodic", "permeameter"] = Field(
         "periodic", description="periodic | permeameter (default periodic)"
     )
-    tol: number(gt=0.0, lt=1.0) = Field(
+    tol: number(gt=0, lt=1) = Field(
         1e-8, description="relative residual of the CG solve in (0, 1) (default 1e-8)"
     )
     max_iter: integer(ge=1, le=100_000) = Field(
@@ -63,16 +63,16 @@ class TransportSpec(Table):
     error_estimate: Literal["resolution", "residual"] = Field(
         "resolution", description="resolution | residual (default resolution)"
     )
-    bulk_diffusivity_m2_s: number(gt=0.0, lt=1.0) = Field(
+    bulk_diffusivity_m2_s: number(gt=0, lt=1) = Field(
         2.0e-5, description="m^2/s in (0, 1) (default 2.0e-5, O2 in air at 25 C)"
     )
-    mean_free_path_m: number(ge=0.0, lt=1.0) = Field(
+    mean_free_path_m: number(ge=0, lt=1) = Field(
         6.8e-8, description="metres in [0, 1) (default 6.8e-8, air; 0 switches Knudsen off)"
     )
-    solid_conductivity: number(gt=0.0, lt=1e12) = Field(
+    solid_conductivity: number(gt=0, lt=1e12) = Field(
         120.0, description="in conductivity_unit, in (0, 1e12) (default 120, carbon fibre)"
     )
-    fluid_conductivity: number(gt=0.0, lt=1e12) = Field(
+    fluid_conductivity: number(gt=0, lt=1e12) = Field(
         0.026, description="in conductivity_unit, in (0, 1e12) (default 0.026, air)"
     )
     conductivity_unit: Literal["W/(m K)", "S/m"] = Field(
@@ -87,10 +87,10 @@ class TransportSpec(Table):
     n_radii: integer(ge=4, le=200) = Field(
         16, description="radii of the local-thickness scan in [4, 200] (default 16)"
     )
-    surface_tension_n_m: number(gt=0.0, lt=10.0) = Field(
+    surface_tension_n_m: number(gt=0, lt=10) = Field(
         0.485, description="N/m in (0, 10) (default 0.485, mercury)"
     )
-    contact_angle_deg: number(gt=90.0, le=180.0) = Field(
+    contact_angle_deg: number(gt=90, le=180) = Field(
         140.0, description="degrees in (90, 180] (default 140, mercury)"
     )
 
