@@ -217,3 +217,21 @@ def test_huge_raw_image_is_refused_by_the_budget_without_reading_it(tmp_path, mo
     assert info.value.key == "image.crop" and "GiB" in info.value.message
     with pytest.raises(SpecError, match=r"image\.shape: .* bytes"):  # the size is still checked
         psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n + 1], dtype="uint8")
+
+
+def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
+    # a single 2-D slice (a common mistake: one TIFF page instead of the stack) was refused as
+    # "image.crop: the image is [16, 16, 1] voxels" with no crop in the spec
+    import tifffile
+
+    page = np.zeros((16, 16), np.uint8)
+    page[4:12, 4:12] = 1
+    tifffile.imwrite(tmp_path / "slice.tif", page)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "slice.tif", voxel_size=1e-6)
+    assert info.value.key == "image.path" and "2-D image" in info.value.message
+    assert "at least 4 voxels per axis" in info.value.message
+    with pytest.raises(SpecError, match=r"image\.crop: the image is \[16, 16, 1\]"):
+        psdesign.from_image(
+            tmp_path / "slice.tif", voxel_size=1e-6, crop=[[0, 16], [0, 16], [0, 1]]
+        )
