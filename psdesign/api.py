@@ -23,9 +23,18 @@ __all__ = ["Material", "PermeabilityResult", "build", "from_image", "load_spec",
 
 
 def load_spec(path: str | Path) -> dict:
-    """Read and validate an RVE spec file (TOML); raises ``SpecError`` naming the key."""
+    """Read and validate an RVE spec file (TOML); raises ``SpecError`` naming the key.
+
+    A spec dict is validated by :func:`build` (or ``psdesign.validate_spec``), not here."""
+    from psdesign.errors import SpecError
     from psdesign.schema.spec import load_spec as _load
 
+    if not isinstance(path, str | Path):
+        raise SpecError(
+            "spec",
+            f"load_spec takes a file name (str or Path), got {type(path).__name__}; "
+            "give a dict to psdesign.build or psdesign.validate_spec",
+        )
     return _load(path)
 
 

@@ -298,3 +298,10 @@ def test_material_pores_is_the_pores_command(monkeypatch) -> None:
     assert 0 < out["pore_d10_m"] <= out["pore_d50_m"] <= out["pore_d90_m"] < 20e-6
     with pytest.raises(psdesign.SpecError, match=r"transport\.n_radii"):
         m.pores(n_radii=0)
+
+
+def test_load_spec_of_a_dict_says_where_a_dict_goes() -> None:
+    # main: "TypeError: expected str, bytes or os.PathLike object, not dict" from pathlib
+    for bad in ({"rve": {}}, None, 3):
+        with pytest.raises(psdesign.SpecError, match=r"^spec: load_spec takes a file name"):
+            psdesign.load_spec(bad)

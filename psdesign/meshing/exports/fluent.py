@@ -46,7 +46,8 @@ def _hex_rows(rows: np.ndarray) -> str:
 def write_fluent(pm: PoreMesh, path: Path, flow: dict | None = None) -> Path:
     """Write ``pm`` as a Fluent 3-D ASCII mesh with zones fluid/interior/<tag names>; the side
     zones are ``symmetry`` with ``flow.sides = "slip"`` (default), ``wall`` with ``"noslip"``."""
-    side = "wall" if (flow or {}).get("sides", "slip") == "noslip" else "symmetry"
+    noslip = (flow or {}).get("sides", "slip") == "noslip"
+    side = "wall" if noslip else "symmetry"  # format keywords
     patches = {k: v for k, v in pm.facet_tags.items() if len(v)}
     topo = face_topology(pm.points, pm.tets, patches)
     n_nodes, n_cells, n_faces = len(pm.points), len(pm.tets), len(topo.faces)

@@ -70,7 +70,8 @@ def openfoam_patches(pm: PoreMesh) -> dict[str, np.ndarray]:
 def side_type(flow: dict | None) -> str:
     """OpenFOAM patch type of the lateral box faces: ``symmetry`` for ``flow.sides = "slip"``
     (the default), ``wall`` for ``"noslip"``."""
-    return "wall" if (flow or {}).get("sides", "slip") == "noslip" else "symmetry"
+    noslip = (flow or {}).get("sides", "slip") == "noslip"
+    return "wall" if noslip else "symmetry"  # format keywords
 
 
 def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTopology:
