@@ -215,6 +215,7 @@ def test_huge_raw_image_is_refused_by_the_budget_without_reading_it(tmp_path, mo
     with pytest.raises(SpecError) as info:
         psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n], dtype="uint8")
     assert info.value.key == "image.crop" and "GiB" in info.value.message
+    assert "(allowed: a crop of at most" in info.value.message  # not a voxel size: it is fixed
     with pytest.raises(SpecError, match=r"image\.shape: .* bytes"):  # the size is still checked
         psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n + 1], dtype="uint8")
 
