@@ -236,3 +236,34 @@ def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
         psdesign.from_image(
             tmp_path / "slice.tif", voxel_size=1e-6, crop=[[0, 16], [0, 16], [0, 1]]
         )
+
+
+def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
+    # a VTI image was read whole (twice) to learn its extent and voxel size, so the memory
+    # budget came after the read; a field file (first array a velocity) gave
+    # "image.cannot reshape array of size 24000 into shape (20,20,20)"
+    import pyvista as pv
+
+    grid = pv.ImageData(dimensions=(6, 6, 6), spacing=(1e-6, 1e-6, 1e-6))
+    labels = np.zeros(125, np.uint8)
+    labels[:40] = 1
+    grid.cell_data["solid"] = labels
+    small = tmp_path / "small.vti"
+    grid.save(small, binary=False)
+    text = small.read_text().replace('"0 5 0 5 0 5"', '"0 3000 0 3000 0 3000"')
+    (tmp_path / "huge.vti").write_text(text)  # the header says 3000^3 cells; the data do not
+    monkeypatch.setattr(pv, "read", lambda *a, **k: pytest.fail("the voxels were read"))
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "huge.vti")
+    assert info.value.key == "image.crop" and "3000x3000x3000" in info.value.message
+    monkeypatch.undo()
+    m = psdesign.from_image(small)  # voxel size from the spacing, one label array
+    assert m.spec["rve"]["voxel"] == pytest.approx(1e-6, rel=1e-12) and m.porosity == pytest.approx(
+        85 / 125, rel=1e-12
+    )
+    grid.cell_data.clear()
+    grid.cell_data["velocity"] = np.ones((125, 3))
+    grid.cell_data["solid"] = labels
+    grid.save(tmp_path / "field.vti")
+    with pytest.raises(SpecError, match=r"image\.path: the first array .*'velocity', has 3 comp"):
+        psdesign.from_image(tmp_path / "field.vti")
