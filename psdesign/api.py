@@ -23,9 +23,18 @@ __all__ = ["Material", "PermeabilityResult", "build", "from_image", "load_spec",
 
 
 def load_spec(path: str | Path) -> dict:
-    """Read and validate an RVE spec file (TOML); raises ``SpecError`` naming the key."""
+    """Read and validate an RVE spec file (TOML); raises ``SpecError`` naming the key.
+
+    A spec dict is validated by :func:`build` (or ``psdesign.validate_spec``), not here."""
+    from psdesign.errors import SpecError
     from psdesign.schema.spec import load_spec as _load
 
+    if not isinstance(path, str | Path):
+        raise SpecError(
+            "spec",
+            f"load_spec takes a file name (str or Path), got {type(path).__name__}; "
+            "give a dict to psdesign.build or psdesign.validate_spec",
+        )
     return _load(path)
 
 
@@ -91,6 +100,33 @@ class PermeabilityResult:
         return result_html("PermeabilityResult", rows, self.status, list(notes))
 
 
+def _direction(direction: Any) -> str:
+    """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
+    from psdesign.errors import SpecError
+    from psdesign.flow.darcy import axis_of
+
+    try:
+        return axis_of(direction)[0]
+    except (ValueError, TypeError):
+        raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
+
+
+def _flow_table(spec_flow: dict, given: dict) -> dict:
+    """The spec's ``[flow]`` table with the keywords ``given`` to a method, validated by the
+    schema like a spec file's table (``SpecError`` naming ``flow.<key>`` and its range: an
+    unknown or misspelled keyword is refused, not ignored)."""
+    from pydantic import ValidationError
+
+    from psdesign.schema.errors import spec_error
+    from psdesign.schema.flow import FlowTable
+
+    try:
+        checked = FlowTable.model_validate(given)
+    except ValidationError as exc:
+        raise spec_error(exc, FlowTable, prefix="flow") from None
+    return {**spec_flow, **{key: getattr(checked, key) for key in given}}
+
+
 class Material:
     """An RVE built from a spec: geometry, voxel fields on demand, properties on request.
 
@@ -147,12 +183,15 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.flow.permeability import permeability
 
-        table = dict(self.spec["flow"])
-        table.update(flow)
+        direction = _direction(direction)
+        given = dict(flow)
+        if solver is not None:
+            given["solver"] = solver
         if bc is not None:
-            table["bc"] = bc
-        route = solver or table.get("solver", "fem")
-        with fields_folder(fields, "permeability", [direction], route) as writer:
+            given["bc"] = bc
+        table = _flow_table(self.spec["flow"], given)
+        route = table["solver"]
+        with fields_folder(fields, "permeability", [direction], route, option="fields") as writer:
             result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
         return PermeabilityResult.from_dict(result)
 
@@ -163,8 +202,9 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.diffusivity import relative_diffusivity
 
+        direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "diffusivity", [direction]) as writer:
+        with fields_folder(fields, "diffusivity", [direction], option="fields") as writer:
             return relative_diffusivity(self.fields, direction, table, capture=writer)
 
     def conductivity(
@@ -181,11 +221,25 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.conductivity import effective_conductivity
 
+        direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "conductivity", [direction]) as writer:
+        with fields_folder(fields, "conductivity", [direction], option="fields") as writer:
             return effective_conductivity(
                 self.fields, direction, solid, fluid, table, capture=writer
             )
+
+    def pores(self, **transport: Any) -> dict:
+        """Pore sizes, intrusion curve, specific surface, porosity profile and (for fibers)
+        orientation tensor: the dict ``psdesign pores --json`` prints (keys carry their SI
+        unit: ``pore_d50_m``, ``specific_surface_m-1``, ...; ``rel_error`` and
+        ``specific_surface_rel_error`` are the error estimates). Keywords (``n_radii``,
+        ``thickness_axis``, ``surface_tension_n_m``, ``contact_angle_deg``) override the spec's
+        ``[transport]`` table and are validated with it (``SpecError`` naming the key)."""
+        from psdesign.schema.transport import validate_transport
+        from psdesign.transport.study_outputs import pore_report
+
+        table = validate_transport({"transport": {**self.spec.get("transport", {}), **transport}})
+        return pore_report(self.rve, self.fields, table)
 
     def __repr__(self) -> str:
         size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)
@@ -278,7 +332,9 @@ def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
     from psdesign.study import StudyError
     from psdesign.study import run_study as _run
 
-    if workers and _unguarded_call_in_main_script("run_study"):
+    # a bad ``workers`` (negative, not an int) is the runner's one-line error, not this one
+    real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+    if real and _unguarded_call_in_main_script("run_study"):
         raise StudyError(
             "run_study: called at the top level of a script with worker processes; put the "
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '

@@ -176,15 +176,20 @@ class FieldWriter:
 
 
 def fields_folder(
-    path: str | Path | None, kind: str, directions: Iterable[str], solver: str = "voxel"
+    path: str | Path | None,
+    kind: str,
+    directions: Iterable[str],
+    solver: str = "voxel",
+    option: str = "--fields",
 ):
     """:func:`fields_output` for the ``--fields`` option of the command ``kind``
     ("permeability", "diffusivity", "conductivity"), or a null context (yielding None) when
-    ``path`` is None."""
+    ``path`` is None. ``option``: the name the messages give (``fields`` for the keyword of
+    the Python API's methods)."""
     if path is None:
         return contextlib.nullcontext(None)
     expected = field_files(kind, directions, solver)
-    return fields_output(path, f"{kind} --fields", expected)
+    return fields_output(path, f"{kind} {option}", expected, option=option)
 
 
 @contextlib.contextmanager

@@ -43,8 +43,8 @@ def source_of(table: dict, voxel: float | None = None) -> ImageSource:
 
 def header_shape(src: ImageSource) -> tuple[int, int, int]:
     """Voxel counts (x, y, z) of the stored image before the crop, read from its header
-    where the format has one (TIFF, NumPy, raw ``shape``); a VTI file is read whole."""
-    from psdesign.image.reader import _read_raw, _read_stored
+    where the format has one (TIFF, NumPy, raw ``shape``, the VTI header); nothing is read."""
+    from psdesign.image.reader import raw_layout, vti_header
 
     ext = src.ext
     order = src.axis_order or ("zyx" if ext in (".tif", ".tiff", ".raw") else "xyz")
@@ -67,9 +67,12 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
                 f"image.path: cannot read {Path(src.path).name} as .npy: {exc}"
             ) from None
     elif ext == ".raw":
-        return tuple(int(n) for n in _read_raw(src).shape)
-    else:
-        return tuple(int(n) for n in _read_stored(src).shape)
+        raw_layout(src)  # shape x dtype = the file's size; the voxels are not read
+        if sorted(order) != ["x", "y", "z"]:
+            raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
+        return tuple(int(n) for n in src.shape)
+    else:  # vti: the header's extent (the data are read after the memory budget)
+        return tuple(int(n) for n in vti_header(Path(src.path))[0])
     if len(stored) != 3:
         raise ValueError(f"image.path: expected a 3-D image, got shape {list(stored)}")
     return tuple(int(stored[order.index(a)]) for a in "xyz")

@@ -83,7 +83,9 @@ def _to_xyz(data: np.ndarray, order: str) -> np.ndarray:
     return data.transpose([order.index(a) for a in "xyz"])
 
 
-def _read_raw(src: ImageSource) -> np.ndarray:
+def raw_layout(src: ImageSource) -> tuple[np.dtype, int]:
+    """Element type and voxel count of a raw image, checked against the file's size (nothing
+    is read: the schema learns a raw image's extent before the memory budget)."""
     if src.shape is None:
         raise ValueError("image.shape: required for a raw image ([nx, ny, nz])")
     if src.dtype not in RAW_DTYPES:
@@ -96,10 +98,40 @@ def _read_raw(src: ImageSource) -> np.ndarray:
             f"image.shape: {list(src.shape)} x {dt.itemsize} bytes = {n * dt.itemsize} bytes, "
             f"but {Path(src.path).name} has {size} bytes"
         )
+    return dt, n
+
+
+def _read_raw(src: ImageSource) -> np.ndarray:
+    dt, n = raw_layout(src)
     data = np.fromfile(src.path, dtype=dt, count=n)
     order = src.axis_order or "zyx"
     stored = [src.shape["xyz".index(a)] for a in order] if sorted(order) == list("xyz") else [n]
     return _to_xyz(data.reshape(stored), order)
+
+
+def vti_header(path: Path) -> tuple[tuple[int, int, int], tuple[float, float, float]]:
+    """Voxel counts ``(nx, ny, nz)`` of the first array :func:`_read_vti` takes and the
+    spacing, from the VTI file's header (VTK's ``UpdateInformation``: no data is read, so the
+    memory budget can refuse a huge image first)."""
+    from vtkmodules.vtkCommonDataModel import vtkDataObject
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    reader = vtkXMLImageDataReader()
+    if not reader.CanReadFile(str(path)):
+        raise ValueError(f"image.path: cannot read {Path(path).name} as VTK image data (.vti)")
+    reader.SetFileName(str(path))
+    reader.UpdateInformation()
+    info = reader.GetOutputInformation(0)
+    ext = info.Get(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
+    spacing = info.Get(vtkDataObject.SPACING())
+    if ext is None or spacing is None:
+        raise ValueError(f"image.path: cannot read the header of {Path(path).name}")
+    if not reader.GetNumberOfPointArrays() and not reader.GetNumberOfCellArrays():
+        raise ValueError(f"image.path: {Path(path).name} holds no data array")
+    points = tuple(int(ext[2 * a + 1] - ext[2 * a] + 1) for a in range(3))
+    cells = points if reader.GetNumberOfPointArrays() else tuple(max(1, n - 1) for n in points)
+    return cells, tuple(float(h) for h in spacing)
 
 
 def _read_vti(path: Path) -> np.ndarray:
@@ -115,6 +147,11 @@ def _read_vti(path: Path) -> np.ndarray:
     else:
         dims = tuple(max(1, d - 1) for d in img.dimensions)
         data = np.asarray(img.cell_data[arrays[0]])
+    if data.ndim != 1:  # e.g. a velocity field: the image must be one label per voxel
+        raise ValueError(
+            f"image.path: the first array of {path.name}, {arrays[0]!r}, has "
+            f"{data.shape[1]} components; give a file whose first array is the label image"
+        )
     return data.reshape(dims, order="F")
 
 
@@ -259,9 +296,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
             )
         return float(xy)
     if ext == ".vti":
-        import pyvista as pv
-
-        h = np.asarray(pv.read(str(path)).spacing, float)
+        h = np.asarray(vti_header(path)[1], float)
         if not np.allclose(h, h[0], rtol=1e-6):
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()})"

@@ -225,7 +225,8 @@ def check_output_dir(
         raise OutputError(
             option,
             f"{resolved} is a non-empty folder psdesign did not create ({shown}); "
-            "give a new or empty folder, or --force to add psdesign's files beside them",
+            "give a new or empty folder"
+            + (", or --force to add psdesign's files beside them" if option[:1] == "-" else ""),
         )
     out = OutputDir(resolved, option, command, frozenset(owned), True)
     for rel in expected:

@@ -147,16 +147,20 @@ def check_grid(
             f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
             f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
             f"is {budget / 2**30:.3g} GiB (half the machine)",
-            f"1, or bc = 'periodic', or a coarser {key}",
+            f"1, or bc = 'periodic', or a {'smaller' if key == 'image.crop' else 'coarser'} {key}",
         )
     vmin = voxel * (need / budget) ** (1 / 3)
     per = need / n
+    allowed = f"voxel >= {vmin:.3g} m"
+    if key == "image.crop":  # an image's voxel is fixed: the crop is what the user can change
+        most = budget / per
+        allowed = f"a crop of at most {most:.3g} voxels (about {int(most ** (1 / 3))}^3)"
     raise fail(
         key,
         f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each with solver {solver!r}"
         f"{f', {copies} copies stacked' if copies > 1 else ''}) needs about "
         f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
-        f"voxel >= {vmin:.3g} m",
+        allowed,
     )
 
 

@@ -148,7 +148,14 @@ class ImageTable(Table):
                 "give voxel_size in metres",
             )
         if min(shape) < 4:
-            raise fail("crop", f"the image is {list(shape)} voxels", "at least 4 voxels per axis")
+            if self.crop is not None:
+                raise fail(
+                    "crop", f"the image is {list(shape)} voxels", "at least 4 voxels per axis"
+                )
+            flat = " (a 2-D image: give the 3-D stack)" if min(stored) == 1 else ""
+            raise fail(
+                "path", f"{path.name} is {list(stored)} voxels{flat}", "at least 4 voxels per axis"
+            )
         if in_file is not None and abs(voxel - in_file) > 1e-3 * in_file:
             warnings.warn(
                 f"image.voxel_size: {voxel:g} m is used; {path.name} says {in_file:g} m",

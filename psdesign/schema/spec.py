@@ -124,7 +124,7 @@ def validate_spec(data: dict, base: str | Path | None = None) -> dict:
     """
     doc = validate_document(data, base)
     skip = ("rve", "fibers", "flow", "image")
-    spec = {k: copy.deepcopy(v) for k, v in data.items() if k not in skip}
+    spec = {k: _plain(copy.deepcopy(v)) for k, v in data.items() if k not in skip}
     period = doc.rve.period if doc.rve is not None else None
     spec["rve"] = {"size": list(doc.size), "voxel": doc.voxel, "period": period}
     spec["fibers"] = [fb.to_spec() for fb in doc.fibers]
@@ -133,6 +133,18 @@ def validate_spec(data: dict, base: str | Path | None = None) -> dict:
         spec["image"] = doc.image.to_spec()
         spec["flow"].setdefault("wall_treatment", "staircase")
     return spec
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with NumPy scalars and arrays (a notebook's spec dict) as Python numbers and
+    lists, so that the validated spec is plain JSON data like a TOML file's."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray | np.generic):
+        return _plain(value.tolist()) if isinstance(value, np.ndarray) else value.item()
+    return value
 
 
 def explicit_fibers(spec: dict) -> list[Fiber]:

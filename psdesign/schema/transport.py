@@ -10,12 +10,14 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import Field, ValidationError
 
 from psdesign.errors import SpecError
+from psdesign.schema.errors import spec_error
+from psdesign.schema.types import Table, integer, number
 
 
-class TransportSpec(BaseModel):
+class TransportSpec(Table):
     """Keys of ``[transport]`` (SI units).
 
     Attributes
@@ -49,32 +51,48 @@ class TransportSpec(BaseModel):
         Intrusion fluid (default mercury: 0.485 N/m, 140 deg) for the Washburn pressure.
     """
 
-    model_config = ConfigDict(extra="forbid")
-
-    bc: Literal["periodic", "permeameter"] = "periodic"
-    tol: float = Field(1e-8, gt=0.0, lt=1.0)
-    max_iter: int = Field(2000, ge=1, le=100_000)
-    error_estimate: Literal["resolution", "residual"] = "resolution"
-    bulk_diffusivity_m2_s: float = Field(2.0e-5, gt=0.0, lt=1.0)
-    mean_free_path_m: float = Field(6.8e-8, ge=0.0, lt=1.0)
-    solid_conductivity: float = Field(120.0, gt=0.0, lt=1e12)
-    fluid_conductivity: float = Field(0.026, gt=0.0, lt=1e12)
-    conductivity_unit: Literal["W/(m K)", "S/m"] = "W/(m K)"
-    insulating_phase: Literal["none", "solid", "fluid"] = "none"
-    thickness_axis: Literal["x", "y", "z"] = "z"
-    n_radii: int = Field(16, ge=4, le=200)
-    surface_tension_n_m: float = Field(0.485, gt=0.0, lt=10.0)
-    contact_angle_deg: float = Field(140.0, gt=90.0, le=180.0)
-
-
-def _one_line(exc: ValidationError) -> SpecError:
-    err = exc.errors()[0]
-    loc = ".".join(str(p) for p in err["loc"])
-    key = f"transport.{loc}" if loc else "transport"
-    if err["type"] == "extra_forbidden":
-        allowed = ", ".join(TransportSpec.model_fields)
-        return SpecError(key, f"unknown key; allowed: {allowed}")
-    return SpecError(key, f"{err['msg']}, got {err.get('input')!r}")
+    bc: Literal["periodic", "permeameter"] = Field(
+        "periodic", description="periodic | permeameter (default periodic)"
+    )
+    tol: number(gt=0, lt=1) = Field(
+        1e-8, description="relative residual of the CG solve in (0, 1) (default 1e-8)"
+    )
+    max_iter: integer(ge=1, le=100_000) = Field(
+        2000, description="CG iteration cap in [1, 100000] (default 2000)"
+    )
+    error_estimate: Literal["resolution", "residual"] = Field(
+        "resolution", description="resolution | residual (default resolution)"
+    )
+    bulk_diffusivity_m2_s: number(gt=0, lt=1) = Field(
+        2.0e-5, description="m^2/s in (0, 1) (default 2.0e-5, O2 in air at 25 C)"
+    )
+    mean_free_path_m: number(ge=0, lt=1) = Field(
+        6.8e-8, description="metres in [0, 1) (default 6.8e-8, air; 0 switches Knudsen off)"
+    )
+    solid_conductivity: number(gt=0, lt=1e12) = Field(
+        120.0, description="in conductivity_unit, in (0, 1e12) (default 120, carbon fibre)"
+    )
+    fluid_conductivity: number(gt=0, lt=1e12) = Field(
+        0.026, description="in conductivity_unit, in (0, 1e12) (default 0.026, air)"
+    )
+    conductivity_unit: Literal["W/(m K)", "S/m"] = Field(
+        "W/(m K)", description="W/(m K) | S/m (default W/(m K))"
+    )
+    insulating_phase: Literal["none", "solid", "fluid"] = Field(
+        "none", description="none | solid | fluid (default none)"
+    )
+    thickness_axis: Literal["x", "y", "z"] = Field(
+        "z", description="x | y | z: through-plane axis (default z)"
+    )
+    n_radii: integer(ge=4, le=200) = Field(
+        16, description="radii of the local-thickness scan in [4, 200] (default 16)"
+    )
+    surface_tension_n_m: number(gt=0, lt=10) = Field(
+        0.485, description="N/m in (0, 10) (default 0.485, mercury)"
+    )
+    contact_angle_deg: number(gt=90, le=180) = Field(
+        140.0, description="degrees in (90, 180] (default 140, mercury)"
+    )
 
 
 def validate_transport(spec: dict | None) -> dict:
@@ -96,7 +114,7 @@ def validate_transport(spec: dict | None) -> dict:
     try:
         return TransportSpec(**table).model_dump()
     except ValidationError as exc:
-        raise _one_line(exc) from None
+        raise spec_error(exc, TransportSpec, prefix="transport") from None
 
 
 def check_conductivity(value: float, key: str) -> float:

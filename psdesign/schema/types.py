@@ -9,6 +9,7 @@ or :func:`integer` (a true integer, not a bool, optional bounds); the bounds are
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Annotated, Any, ClassVar
 
 import annotated_types as at
@@ -34,8 +35,15 @@ def fail(key: str, message: str, allowed: str = "") -> PydanticCustomError:
     )
 
 
+def _is_bool(value: Any) -> bool:
+    """``True`` / ``False`` and NumPy's bools (a NumPy bool is no ``numbers.Number``)."""
+    return isinstance(value, bool) or type(value).__name__ in ("bool_", "bool")
+
+
 def _finite(value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    # numbers.Real: Python ints and floats and NumPy's scalars (np.float32(1e-6) from a
+    # notebook is a number; a TOML file never holds one)
+    if _is_bool(value) or not isinstance(value, numbers.Real):
         raise PydanticCustomError(
             "number_type", "must be a number, got {got}", {"got": short(value)}
         )
@@ -53,11 +61,12 @@ def _finite(value: Any) -> float:
 
 
 def _int(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
+    # numbers.Integral: Python ints and NumPy's integer scalars (np.int64 from np.arange)
+    if _is_bool(value) or not isinstance(value, numbers.Integral):
         raise PydanticCustomError(
             "int_type", "must be an integer, got {got}", {"got": short(value)}
         )
-    return value
+    return int(value)
 
 
 def number(

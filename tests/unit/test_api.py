@@ -158,3 +158,150 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
     assert len(repr(cr)) < 700 and "0.5, 0.5" not in repr(cr)
     page = cr._repr_html_()
     assert cr.status == "ok" and ">ok</span>" in page and "[5, 14]" in page
+
+
+def _one_cylinder() -> dict:
+    # 20 um cube, 1 um voxels, one z-cylinder of 8 um: builds in well under a second
+    return {
+        "rve": {"size": [20e-6, 20e-6, 20e-6], "voxel": 1e-6},
+        "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+        "flow": {"solver": "voxel"},
+    }
+
+
+@pytest.mark.parametrize(
+    ("call", "key", "text"),
+    [
+        (lambda m: m.permeability("z", viscosty=1e-5), "flow.viscosty", "did you mean 'viscosity'"),
+        (lambda m: m.permeability("z", viscosity=-1.0), "flow.viscosity", "(allowed: Pa s in (0"),
+        (lambda m: m.permeability("z", viscosity=math.nan), "flow.viscosity", "finite"),
+        (lambda m: m.permeability("z", solver="lbm"), "flow.solver", "fem, voxel"),
+        (lambda m: m.permeability("z", bc="foo"), "flow.bc", "permeameter, periodic"),
+        (lambda m: m.permeability("w"), "direction", "'x', 'y' or 'z'"),
+        (lambda m: m.permeability(None), "direction", "'x', 'y' or 'z'"),
+        (lambda m: m.diffusivity("q"), "direction", "'x', 'y' or 'z'"),
+        (lambda m: m.conductivity("xy", solid=1.0, fluid=0.1), "direction", "'x', 'y' or 'z'"),
+    ],
+)
+def test_method_keywords_are_checked_like_the_spec_file(monkeypatch, call, key, text) -> None:
+    # common.md: bad input is one error naming the key and the allowed range; a Python call
+    # gets the product's SpecError, as the spec file and the CLI do. On main a misspelled
+    # [flow] keyword was silently dropped (the solve ran with the spec's viscosity), a negative
+    # viscosity failed deep in the voxel solver and a bad direction was a bare ValueError.
+    import psdesign.flow.permeability as perm
+    import psdesign.transport.conductivity as cond
+    import psdesign.transport.diffusivity as diff
+
+    def solved(*args, **kwargs):
+        raise AssertionError("the call reached the solver")
+
+    monkeypatch.setattr(perm, "permeability", solved)
+    monkeypatch.setattr(diff, "relative_diffusivity", solved)
+    monkeypatch.setattr(cond, "effective_conductivity", solved)
+    m = psdesign.build(_one_cylinder())
+    with pytest.raises(psdesign.SpecError) as info:
+        call(m)
+    assert info.value.key == key and text in info.value.message
+
+
+def test_method_keywords_reach_the_solver_validated(monkeypatch) -> None:
+    import psdesign.flow.permeability as perm
+
+    seen = {}
+
+    def fake(rve, fields, direction, table, route, capture=None):
+        seen.update(table=table, route=route, direction=direction)
+        return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
+
+    monkeypatch.setattr(perm, "permeability", fake)
+    m = psdesign.build(_one_cylinder())
+    r = m.permeability(2, bc="permeameter", viscosity=1e-3)  # an axis index is accepted
+    assert seen["direction"] == "z" and r.direction == "z" and seen["route"] == "voxel"
+    assert seen["table"]["viscosity"] == 1e-3 and seen["table"]["bc"] == "permeameter"
+    m.permeability("x", solver="fem")
+    assert seen["route"] == "fem" and seen["table"]["solver"] == "fem"
+
+
+def test_numpy_numbers_in_a_spec_dict_are_numbers() -> None:
+    # a notebook computes spec values with NumPy (np.float32, np.int64 from np.arange):
+    # they are numbers, validated like Python's, and the validated spec is plain JSON data
+    import json
+
+    import numpy as np
+
+    plain = {
+        "rve": {"size": [30e-6, 30e-6, 30e-6], "voxel": 1e-6},
+        "generator": {"kind": "straight", "n_fibers": 3, "diameter": 6e-6, "seed": 1},
+    }
+    numpy_spec = {
+        "rve": {"size": np.full(3, 30e-6), "voxel": np.float32(1e-6)},
+        "generator": {
+            "kind": "straight",
+            "n_fibers": np.int64(3),
+            "diameter": np.float64(6e-6),
+            "seed": np.arange(2)[1],
+        },
+    }
+    a, b = psdesign.build(plain), psdesign.build(numpy_spec)
+    json.dumps(b.spec)  # raised TypeError (np.int64) before
+    assert b.spec["rve"]["voxel"] == pytest.approx(1e-6, rel=1e-7)  # float32's own rounding
+    assert b.porosity == pytest.approx(a.porosity, rel=1e-12)
+    with pytest.raises(psdesign.SpecError, match=r"rve\.voxel: must be a number"):
+        psdesign.build({**plain, "rve": {"size": [30e-6] * 3, "voxel": np.bool_(True)}})
+
+
+def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> None:
+    # from a script's top level, workers=-1 was answered with the main-guard message (which
+    # told the user to pass workers=0); it is the runner's one line naming `workers`
+    import psdesign.api as api
+    from psdesign.study import StudyError
+
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    for bad in (-1, "2", 1.5):
+        with pytest.raises(StudyError, match=r"workers: must be an integer >= 0"):
+            psdesign.run_study("studies/quickstart.toml", tmp_path / "o", workers=bad)
+    assert not (tmp_path / "o").exists()
+
+
+def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkeypatch) -> None:
+    # a notebook user passed fields=...; main's message named '--fields' and advised '--force',
+    # neither of which exists in the Python API. The user's folder stays untouched.
+    import psdesign.flow.permeability as perm
+    from psdesign.io.outputs import OutputError
+
+    monkeypatch.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    m = psdesign.build(_one_cylinder())
+    for call in (m.permeability, m.diffusivity):
+        with pytest.raises(OutputError) as info:
+            call("z", fields=mine)
+        assert info.value.key == "fields" and "--" not in info.value.message
+        assert "non-empty folder psdesign did not create" in info.value.message
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    assert (mine / "notes.txt").read_text() == "keep"
+
+
+def test_material_pores_is_the_pores_command(monkeypatch) -> None:
+    # every command has its Material method (README: "every command and from_image take it");
+    # main had permeability / diffusivity / conductivity but no pores. Independent truth: the
+    # specific surface of one z-cylinder, S_v = pi D L / V = pi 8e-6 / (20e-6)^2 = 62832 1/m.
+    m = psdesign.build(_one_cylinder())
+    out = m.pores(n_radii=8)
+    exact = math.pi * 8e-6 / 20e-6**2
+    assert out["specific_surface_m-1"] == pytest.approx(exact, rel=0.03)
+    assert abs(out["specific_surface_m-1"] / exact - 1) <= max(
+        out["specific_surface_rel_error"], 0.01
+    )
+    assert out["porosity"] == pytest.approx(m.porosity, rel=1e-12)
+    assert 0 < out["pore_d10_m"] <= out["pore_d50_m"] <= out["pore_d90_m"] < 20e-6
+    with pytest.raises(psdesign.SpecError, match=r"transport\.n_radii"):
+        m.pores(n_radii=0)
+
+
+def test_load_spec_of_a_dict_says_where_a_dict_goes() -> None:
+    # main: "TypeError: expected str, bytes or os.PathLike object, not dict" from pathlib
+    for bad in ({"rve": {}}, None, 3):
+        with pytest.raises(psdesign.SpecError, match=r"^spec: load_spec takes a file name"):
+            psdesign.load_spec(bad)

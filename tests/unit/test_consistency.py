@@ -88,3 +88,36 @@ def test_forcefield_names_match_the_force_field_code():
 
     assert schema_ff.SIX_NAMES == SIX_NAMES
     assert schema_ff.SURFACE_TERMS == SURFACE_TERMS
+
+
+def test_every_documented_key_states_what_is_allowed():
+    # docs/spec-keys.md is what a user reads for a key's range; main's [transport] rows had an
+    # empty 'allowed' column (the table's fields had no descriptions)
+    rows = re.findall(r"^\| `([^`]+)` \| [^|]* \|([^|\n]*)\|$", DOC.read_text(), re.M)
+    assert len(rows) == len(documented_keys())
+    assert [key for key, allowed in rows if not allowed.strip()] == []
+
+
+def test_transport_numbers_are_checked_like_every_other_table():
+    # the [transport] table took strings ("1e-6") and whole floats for integers (pydantic's
+    # lax mode) where every other table refuses them, and said "Input should be less than 1,
+    # got nan" for a NaN, without the allowed range
+    import math
+
+    import pytest
+
+    from psdesign.errors import SpecError
+    from psdesign.schema.transport import validate_transport
+
+    for table, key, text in [
+        ({"tol": "1e-6"}, "transport.tol", "must be a number"),
+        ({"tol": math.nan}, "transport.tol", "must be a finite number"),
+        ({"n_radii": 16.0}, "transport.n_radii", "must be an integer"),
+        ({"max_iter": True}, "transport.max_iter", "must be an integer"),
+        ({"tool": 1e-6}, "transport.tool", "did you mean 'tol'"),
+    ]:
+        with pytest.raises(SpecError) as info:
+            validate_transport({"transport": table})
+        assert info.value.key == key and text in info.value.message
+        assert "allowed" in info.value.message
+    assert validate_transport({"transport": {"tol": 1e-6, "n_radii": 8}})["n_radii"] == 8

@@ -196,3 +196,74 @@ def test_voxel_size_key_wins_over_the_file_with_a_warning(img_dir) -> None:
     with pytest.warns(ImageWarning, match="image.voxel_size"):
         spec = load_spec(write_spec(img_dir, body))
     assert spec["rve"]["voxel"] == 1e-6 and spec["rve"]["size"] == pytest.approx([32e-6] * 3)
+
+
+def test_huge_raw_image_is_refused_by_the_budget_without_reading_it(tmp_path, monkeypatch):
+    # docs/images.md: an image over the memory budget is refused before any work, naming
+    # image.crop. On main the schema read the whole raw file to learn its shape (25 GiB for
+    # 3000^3 uint8) and a MemoryError came out as "spec: cannot validate (MemoryError):
+    # nested too deeply or numbers too large". A sparse file: no disk is used.
+    n = 3000
+    big = tmp_path / "big.raw"
+    with open(big, "wb") as f:
+        f.truncate(n**3)
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("the raw voxels were read")
+
+    monkeypatch.setattr(np, "fromfile", no_read)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n], dtype="uint8")
+    assert info.value.key == "image.crop" and "GiB" in info.value.message
+    assert "(allowed: a crop of at most" in info.value.message  # not a voxel size: it is fixed
+    with pytest.raises(SpecError, match=r"image\.shape: .* bytes"):  # the size is still checked
+        psdesign.from_image(big, voxel_size=1e-6, shape=[n, n, n + 1], dtype="uint8")
+
+
+def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
+    # a single 2-D slice (a common mistake: one TIFF page instead of the stack) was refused as
+    # "image.crop: the image is [16, 16, 1] voxels" with no crop in the spec
+    import tifffile
+
+    page = np.zeros((16, 16), np.uint8)
+    page[4:12, 4:12] = 1
+    tifffile.imwrite(tmp_path / "slice.tif", page)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "slice.tif", voxel_size=1e-6)
+    assert info.value.key == "image.path" and "2-D image" in info.value.message
+    assert "at least 4 voxels per axis" in info.value.message
+    with pytest.raises(SpecError, match=r"image\.crop: the image is \[16, 16, 1\]"):
+        psdesign.from_image(
+            tmp_path / "slice.tif", voxel_size=1e-6, crop=[[0, 16], [0, 16], [0, 1]]
+        )
+
+
+def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
+    # a VTI image was read whole (twice) to learn its extent and voxel size, so the memory
+    # budget came after the read; a field file (first array a velocity) gave
+    # "image.cannot reshape array of size 24000 into shape (20,20,20)"
+    import pyvista as pv
+
+    grid = pv.ImageData(dimensions=(6, 6, 6), spacing=(1e-6, 1e-6, 1e-6))
+    labels = np.zeros(125, np.uint8)
+    labels[:40] = 1
+    grid.cell_data["solid"] = labels
+    small = tmp_path / "small.vti"
+    grid.save(small, binary=False)
+    text = small.read_text().replace('"0 5 0 5 0 5"', '"0 3000 0 3000 0 3000"')
+    (tmp_path / "huge.vti").write_text(text)  # the header says 3000^3 cells; the data do not
+    monkeypatch.setattr(pv, "read", lambda *a, **k: pytest.fail("the voxels were read"))
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "huge.vti")
+    assert info.value.key == "image.crop" and "3000x3000x3000" in info.value.message
+    monkeypatch.undo()
+    m = psdesign.from_image(small)  # voxel size from the spacing, one label array
+    assert m.spec["rve"]["voxel"] == pytest.approx(1e-6, rel=1e-12) and m.porosity == pytest.approx(
+        85 / 125, rel=1e-12
+    )
+    grid.cell_data.clear()
+    grid.cell_data["velocity"] = np.ones((125, 3))
+    grid.cell_data["solid"] = labels
+    grid.save(tmp_path / "field.vti")
+    with pytest.raises(SpecError, match=r"image\.path: the first array .*'velocity', has 3 comp"):
+        psdesign.from_image(tmp_path / "field.vti")

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from psdesign.meshing import surface as surface_mod
+from psdesign.meshing import tags as T
 from psdesign.meshing.pore_mesh import (
     MeshFailedError,
     MeshInputError,
@@ -349,16 +350,18 @@ def test_openfoam_polymesh_consistent(exported):
     np.add.at(closed, neigh, -fa[:ni])
     assert np.abs(closed).max() < 1e-9 * L * L
     boundary = (poly / "boundary").read_text()
+    # the patches are the boundary tags (api21: were 'walls' and one merged 'sides')
+    sides = [t for t in T.SIDES if len(pm.facet_tags.get(t, []))]
     for patch, kind in [
-        ("inlet", "patch"),
-        ("outlet", "patch"),
-        ("walls", "wall"),
-        ("sides", "symmetry"),
+        (T.INLET, "patch"),
+        (T.OUTLET, "patch"),
+        (T.WALL, "wall"),
+        *[(s, "symmetry") for s in sides],
     ]:
-        assert re.search(rf"{patch}\s*\{{\s*type\s+{kind};", boundary)
+        assert re.search(rf"\b{patch}\s*\{{\s*type\s+{kind};", boundary)
     n_faces = dict(re.findall(r"(\w+)\s*\{[^}]*?nFaces\s+(\d+);", boundary))
-    assert int(n_faces["inlet"]) == len(pm.facet_tags["inlet"])
-    assert int(n_faces["walls"]) == len(pm.facet_tags["wall"])
+    for tag in (T.INLET, T.WALL, *sides):
+        assert int(n_faces[tag]) == len(pm.facet_tags[tag])
     for f in ("system/controlDict", "system/fvSchemes", "system/fvSolution", "0/U", "0/p"):
         assert (paths["openfoam"] / f).exists()
 

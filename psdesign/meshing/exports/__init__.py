@@ -50,11 +50,12 @@ def write_json(pm: PoreMesh, out: Path) -> Path:
     return writer(pm, out)
 
 
-def _write_fluent(pm: PoreMesh, out: Path) -> dict[str, Path]:
-    """``pore_fluent.msh``: ANSYS Fluent ASCII with named boundary zones."""
+def _write_fluent(pm: PoreMesh, out: Path, flow: dict | None = None) -> dict[str, Path]:
+    """``pore_fluent.msh``: ANSYS Fluent ASCII with named boundary zones (sides typed by the
+    spec's ``flow.sides``)."""
     from psdesign.meshing.exports.fluent import write_fluent
 
-    return {"fluent": write_fluent(pm, out / "pore_fluent.msh")}
+    return {"fluent": write_fluent(pm, out / "pore_fluent.msh", flow=flow)}
 
 
 def _write_openfoam(pm: PoreMesh, out: Path, flow: dict | None = None) -> dict[str, Path]:
@@ -104,7 +105,7 @@ def export_mesh(
         surface), ``openfoam`` (case folder ``openfoam/`` for simpleFoam).
     flow
         The spec's ``[flow]`` table, passed to the writers that take a ``flow`` argument
-        (``openfoam``: viscosity, density, pressure drop).
+        (``openfoam``: viscosity, density, pressure drop, sides; ``fluent``: sides).
 
     Returns
     -------

@@ -43,8 +43,11 @@ def _hex_rows(rows: np.ndarray) -> str:
     return buf.getvalue()
 
 
-def write_fluent(pm: PoreMesh, path: Path) -> Path:
-    """Write ``pm`` as a Fluent 3-D ASCII mesh with zones fluid/interior/<tag names>."""
+def write_fluent(pm: PoreMesh, path: Path, flow: dict | None = None) -> Path:
+    """Write ``pm`` as a Fluent 3-D ASCII mesh with zones fluid/interior/<tag names>; the side
+    zones are ``symmetry`` with ``flow.sides = "slip"`` (default), ``wall`` with ``"noslip"``."""
+    noslip = (flow or {}).get("sides", "slip") == "noslip"
+    side = "wall" if noslip else "symmetry"  # format keywords
     patches = {k: v for k, v in pm.facet_tags.items() if len(v)}
     topo = face_topology(pm.points, pm.tets, patches)
     n_nodes, n_cells, n_faces = len(pm.points), len(pm.tets), len(topo.faces)
@@ -64,7 +67,7 @@ def write_fluent(pm: PoreMesh, path: Path) -> Path:
     out.write("))\n")
     zone_id = 4
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
-        ztype = ZONE_TYPE.get(name, "symmetry")
+        ztype = ZONE_TYPE.get(name, side)
         sl = slice(start, start + size)
         # boundary faces are stored outward; reverse so that the normal points into c0
         tri = topo.faces[sl][:, ::-1] + 1

@@ -1,13 +1,15 @@
 """Ready-to-run OpenFOAM case (constant/polyMesh, system/, 0/, ``Allrun``) for simpleFoam.
 
-Patches: ``inlet`` and ``outlet`` (fixed kinematic pressure), ``walls`` (no-slip fiber
-surfaces) and ``sides`` (the four lateral faces, ``symmetry``). The case uses the spec's
+Patches: the boundary tags of :mod:`psdesign.meshing.tags`, as in every other export:
+``inlet`` and ``outlet`` (fixed kinematic pressure), ``wall`` (no-slip fiber surfaces) and
+``side_x0`` ... (the lateral box faces: ``symmetry`` with ``flow.sides = "slip"``, no-slip walls
+with ``"noslip"``, as psdesign's own solve treats them). The case uses the spec's
 viscosity and density (``nu = flow.viscosity / flow.density``, kinematic pressure drop
 ``flow.pressure_drop / flow.density``). Its function objects sample the area-averaged pressure
 on the inlet and outlet patches and on the two RVE planes (cutting planes at the ends of
 ``porous_region``) and the flux through the inlet and outlet. ``./Allrun`` runs ``checkMesh``
 (or, with ``./Allrun gmsh``, converts ``../pore.msh`` with ``gmshToFoam`` and types its
-``wall`` patch as a wall and the sides as symmetry planes), ``simpleFoam``, and prints K by
+``wall`` patch as a wall and the sides as ``flow.sides`` says), ``simpleFoam``, and prints K by
 the plain RVE-plane definition ``K = mu Q L / (A (p_start - p_end))``, the one psdesign reports
 as ``pressure_drop_faces_pa`` (see :func:`openfoam_permeability`).
 """
@@ -52,19 +54,29 @@ def _write_array(path: Path, header: str, rows: np.ndarray, fmt: str) -> None:
 
 
 def openfoam_patches(pm: PoreMesh) -> dict[str, np.ndarray]:
-    """OpenFOAM patch name -> boundary triangles (sides merged into one patch)."""
+    """OpenFOAM patch name -> boundary triangles: one patch per boundary tag that has faces,
+    named as the tag (:data:`psdesign.meshing.tags.BOUNDARY_TAGS` order; inlet, outlet and
+    wall always)."""
     tags = pm.facet_tags
-    sides = [v for k, v in tags.items() if T.is_side(k) and len(v)]
+    empty = np.zeros((0, 3), dtype=np.int64)
+    keep = (T.INLET, T.OUTLET, T.WALL)
     return {
-        T.INLET: tags[T.INLET],
-        T.OUTLET: tags[T.OUTLET],
-        "walls": tags[T.WALL],
-        "sides": np.concatenate(sides) if sides else np.zeros((0, 3), dtype=np.int64),
+        name: tags.get(name, empty)
+        for name in T.BOUNDARY_TAGS
+        if name in keep or len(tags.get(name, empty))
     }
 
 
-def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
-    """Write points/faces/owner/neighbour/boundary into ``poly``; returns the topology."""
+def side_type(flow: dict | None) -> str:
+    """OpenFOAM patch type of the lateral box faces: ``symmetry`` for ``flow.sides = "slip"``
+    (the default), ``wall`` for ``"noslip"``."""
+    noslip = (flow or {}).get("sides", "slip") == "noslip"
+    return "wall" if noslip else "symmetry"  # format keywords
+
+
+def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTopology:
+    """Write points/faces/owner/neighbour/boundary into ``poly``; returns the topology.
+    ``flow.sides`` types the side patches (:func:`side_type`)."""
     poly.mkdir(parents=True, exist_ok=True)
     topo = face_topology(pm.points, pm.tets, openfoam_patches(pm))
     loc = "constant/polyMesh"
@@ -85,14 +97,10 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
         topo.neighbour[:, None],
         "%d",
     )
-    types = {
-        T.INLET: "patch",
-        T.OUTLET: "patch",
-        "walls": "wall",  # format keyword
-        "sides": "symmetry",
-    }
+    types = {T.INLET: "patch", T.OUTLET: "patch", T.WALL: "wall"}  # values: format keywords
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
+        types.setdefault(name, side_type(flow))
         is_wall = types[name] == "wall"  # format keyword, not a tag
         extra = "        inGroups    List<word> 1(wall);\n" if is_wall else ""
         lines.append(
@@ -107,19 +115,26 @@ def write_polymesh(pm: PoreMesh, poly: Path) -> FaceTopology:
 #: Density used when the spec has no ``flow.density`` (air at 20 C, kg/m^3).
 DEFAULT_DENSITY = 1.2
 
-_PATCH_BC = {
-    # regex keys: the direct polyMesh names (walls, sides) and gmshToFoam's (wall, side_x0...)
-    "p": (
-        "    inlet  {{ type fixedValue; value uniform {p_inlet:.10g}; }}\n"
-        "    outlet {{ type fixedValue; value uniform 0; }}\n"
-        '    "walls?" {{ type zeroGradient; }}\n    "sides?.*" {{ type symmetry; }}\n'
-    ),
-    "U": (
-        "    inlet  { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
-        "    outlet { type pressureInletOutletVelocity; value uniform (0 0 0); }\n"
-        '    "walls?" { type noSlip; }\n    "sides?.*" { type symmetry; }\n'
-    ),
-}
+
+def _patch_bc(field: str, p_inlet: float, flow: dict | None) -> str:
+    """``boundaryField`` entries of ``0/p`` or ``0/U``. The keys are the tag names of
+    :mod:`psdesign.meshing.tags` (the direct polyMesh and gmshToFoam name the patches alike);
+    the sides follow ``flow.sides`` (symmetry planes for slip, no-slip walls)."""
+    sides = f'"{T.SIDE_PREFIX}.*"'
+    slip = side_type(flow) == "symmetry"
+    if field == "p":
+        side = "symmetry" if slip else "zeroGradient"
+        return (
+            f"    {T.INLET}  {{ type fixedValue; value uniform {p_inlet:.10g}; }}\n"
+            f"    {T.OUTLET} {{ type fixedValue; value uniform 0; }}\n"
+            f"    {T.WALL} {{ type zeroGradient; }}\n    {sides} {{ type {side}; }}\n"
+        )
+    inout = "type pressureInletOutletVelocity; value uniform (0 0 0);"
+    side = "symmetry" if slip else "noSlip"
+    return (
+        f"    {T.INLET}  {{ {inout} }}\n    {T.OUTLET} {{ {inout} }}\n"
+        f"    {T.WALL} {{ type noSlip; }}\n    {sides} {{ type {side}; }}\n"
+    )
 
 
 _FV_SCHEMES = _header("dictionary", "fvSchemes", "system") + (
@@ -246,7 +261,7 @@ _ALLRUN = r"""#!/bin/sh
 # here. Compare this K with psdesign's plain RVE-face K: mu Q L / (A pressure_drop_faces_pa).
 #
 # Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
-#        ./Allrun gmsh     (convert ../pore.msh with gmshToFoam, wall -> wall, sides -> symmetry)
+#        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
 cd "${0%/*}" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
@@ -273,18 +288,20 @@ awk -v q="$Q" -v ps="$PS" -v pe="$PE" -v pi="$PI" -v po="$PO" \
 }'
 """
 
-_CHANGE_DICT = """dictionaryReplacement
-{
-    boundary
-    {
-        wall { type wall; inGroups List<word> 1(wall); }
-        "side_.*" { type symmetry; inGroups List<word> 1(symmetry); }
-    }
-}
-"""
+
+def _change_dict(flow: dict | None) -> str:
+    """``changeDictionaryDict`` of the gmsh route: gmshToFoam makes every physical surface a
+    plain patch; type the wall and the sides (``flow.sides``) as the direct polyMesh does."""
+    side = side_type(flow)
+    return (
+        "dictionaryReplacement\n{\n    boundary\n    {\n"
+        f"        {T.WALL} {{ type wall; inGroups List<word> 1(wall); }}\n"
+        f'        "{T.SIDE_PREFIX}.*" {{ type {side}; inGroups List<word> 1({side}); }}\n'
+        "    }\n}\n"
+    )
 
 
-def _write_allrun(case: Path, c: dict[str, float]) -> None:
+def _write_allrun(case: Path, c: dict[str, float], flow: dict | None = None) -> None:
     text = _ALLRUN
     for key, val in (
         ("@NU@", c["nu"]),
@@ -298,7 +315,7 @@ def _write_allrun(case: Path, c: dict[str, float]) -> None:
     path.write_text(text)
     path.chmod(0o755)
     (case / "system" / "changeDictionaryDict").write_text(
-        _header("dictionary", "changeDictionaryDict", "system") + _CHANGE_DICT
+        _header("dictionary", "changeDictionaryDict", "system") + _change_dict(flow)
     )
 
 
@@ -338,7 +355,7 @@ def write_openfoam_case(
         c["rho"] = c["mu"] / c["nu"]
     if p_inlet is not None:
         c["p_inlet"] = float(p_inlet)
-    write_polymesh(pm, case / "constant" / "polyMesh")
+    write_polymesh(pm, case / "constant" / "polyMesh", flow)
     (case / "system").mkdir(parents=True, exist_ok=True)
     (case / "0").mkdir(parents=True, exist_ok=True)
     const = case / "constant"
@@ -362,10 +379,10 @@ def write_openfoam_case(
             _header(cls, name, "0")
             + f"dimensions      {dim};\n\ninternalField   uniform {init};\n\n"
             + "boundaryField\n{\n"
-            + (_PATCH_BC[name].format(p_inlet=c["p_inlet"]) if name == "p" else _PATCH_BC[name])
+            + _patch_bc(name, c["p_inlet"], flow)
             + "}\n"
         )
-    _write_allrun(case, c)
+    _write_allrun(case, c, flow)
     lo, hi = pm.porous_region
     (case / "README.txt").write_text(
         "psdesign pore-space case for simpleFoam (laminar, creeping flow). Run ./Allrun.\n"
@@ -376,6 +393,10 @@ def write_openfoam_case(
         "Permeability (printed by ./Allrun): K = nu * Q * L / (A * dp), Q = outlet flux\n"
         "(sum phi), A = RVE face area, L = RVE length, dp = kinematic pressure drop between the\n"
         "RVE planes (postProcessing/pRveStart, pRveEnd: cutting-plane area averages).\n"
-        "Sides are 'symmetry' (slip); change to noSlip in 0/U for walled sides.\n"
+        + (
+            "Sides (side_*) are symmetry planes (flow.sides = slip).\n"
+            if side_type(flow) == "symmetry"
+            else "Sides (side_*) are no-slip walls (flow.sides = noslip).\n"
+        )
     )
     return case
