@@ -10,12 +10,11 @@ import numpy as np
 from psdesign.flow.permeability import permeability
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
-from psdesign.schema.study import FIELDS_FLAG
+from psdesign.schema.study import FIELDS_FLAG, OUTPUTS
 from psdesign.study.stages import mark_stage
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
 
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
-OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 
 
 def _field_writer(workdir: Path):
