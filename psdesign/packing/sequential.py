@@ -307,6 +307,10 @@ class _Placer:
         self.old: Pieces | None = None
         self.tested = 0
         self.box_volume = float(np.prod(hi - lo))
+        # along an edge shorter than one period the box holds only part of the lattice torus:
+        # a shift that moves a fiber's centre out there can take it out of the box altogether
+        short = (np.asarray(hi, float) - np.asarray(lo, float)) < 1.0 - 1e-9
+        self.keep = (np.asarray(lo, float), np.asarray(hi, float), short) if short.any() else None
         self.placed: list[int] = []
         self.rejected: list[int] = []
         self.contrib: dict[int, float] = {}
@@ -316,7 +320,7 @@ class _Placer:
         self.stopped = False
 
     def bounds(self, bounded: bool):
-        return (self.opts.max_shift_z, self.opts.max_shift if bounded else None)
+        return (self.opts.max_shift_z, self.opts.max_shift if bounded else None, self.keep)
 
     def add_old(self, idx) -> None:
         idx = np.atleast_1d(idx)
@@ -466,14 +470,27 @@ class _Placer:
         )
 
 
-def _allowed(T: np.ndarray, l1: np.ndarray, l2: np.ndarray, limits) -> np.ndarray:
-    """Shifts of ``T`` within the move bounds ``limits = (max_shift_z, max_shift)``."""
-    max_z, max_len = limits
+def _allowed(T: np.ndarray, l1: np.ndarray, l2: np.ndarray, limits, c0: np.ndarray) -> np.ndarray:
+    """Shifts of ``T`` within the move bounds ``limits = (max_shift_z, max_shift, keep)``.
+
+    ``keep = (lo, hi, short)`` (or None): along the box edges shorter than one period
+    (``short``) the shifted centre ``c0 + t1 l1 + t2 l2`` must stay inside ``[lo, hi]`` (or
+    no further out than the drawn centre ``c0``). There the box holds only part of the
+    lattice torus, and the nearest free shift was often one that moved the fiber out of the
+    box: it then counted as placed but added no solid (a 100 x 100 x 50 um box at porosity
+    0.85 ran out of fibers with 17 of its first 40 outside).
+    """
+    max_z, max_len, keep = limits
     ok = np.ones(len(T), bool)
     if max_z is not None:
         ok &= np.abs(T[:, 0] * l1[2] + T[:, 1] * l2[2]) <= max_z + 1e-12
     if max_len is not None:
         ok &= np.hypot(T[:, 0], T[:, 1]) <= max_len + 1e-12
+    if keep is not None:
+        lo, hi, short = keep
+        c = c0 + T[:, :1] * l1 + T[:, 1:] * l2
+        inside = (c >= np.minimum(lo, c0) - 1e-12) & (c <= np.maximum(hi, c0) + 1e-12)
+        ok &= np.all(inside | ~short, axis=1)
     return ok
 
 
@@ -489,7 +506,7 @@ def _search(tries, base: FiberState, old, old_d, gap, T, k_grid, tidx, limits):
         trial.center[0] += ds * trial.frames[0, 0]
         l1, l2 = trial.frames[0, 1], trial.frames[0, 2]
         free = _free_shift_raster(trial, old, old_d, gap, k_grid)
-        ok = free[tidx[:, 0], tidx[:, 1]] & _allowed(T, l1, l2, limits)
+        ok = free[tidx[:, 0], tidx[:, 1]] & _allowed(T, l1, l2, limits, base.center[0])
         if np.any(ok):
             k = int(np.argmax(ok))
             return (trial.center[0] + T[k, 0] * l1 + T[k, 1] * l2, trial), n_tried
@@ -534,7 +551,7 @@ def _least_blocked(
     weight = np.where(fixed[owner], 1 << 30, 1).astype(np.int64)
     _count_capsules(count, stamp, A * k, B * k, lim * k, owner.astype(np.int64), weight)
     cnt = count[tidx[:, 0], tidx[:, 1]]
-    cnt = np.where(_allowed(T, l1, l2, limits), cnt, np.iinfo(np.int64).max)
+    cnt = np.where(_allowed(T, l1, l2, limits, c), cnt, np.iinfo(np.int64).max)
     j = int(np.argmin(cnt))  # first minimum = nearest
     if cnt[j] >= 1 << 30:
         return None, None

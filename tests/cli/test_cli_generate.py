@@ -57,7 +57,7 @@ def test_same_spec_gives_identical_outputs(tmp_path):
     spec = write(tmp_path, SPEC.format(d="20e-6"))
     for name in ("a", "b"):
         assert main(["generate", str(spec), "-o", str(tmp_path / name), "--no-preview"]) == 0
-    for f in ("rve.json", "field.vti", "medial_axes.csv"):
+    for f in ("rve.json", "field.vti", "medial_axes.csv", "medial_axes.json", "fibers.stl"):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
