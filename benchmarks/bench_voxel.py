@@ -644,16 +644,17 @@ def _warm_parallel() -> None:
     twins when the parallel kernels are not in numba's cache yet, which would time one thread
     under the name of two; the warm-up solve is on a grid above the one-thread threshold."""
     import solvers.jit as jit
+    from solvers.voxel import threads as vthreads
 
-    before = jit.COMPILE_PARALLEL_ABOVE
-    jit.COMPILE_PARALLEL_ABOVE = 0
+    before = jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS
+    jit.COMPILE_PARALLEL_ABOVE = vthreads.SOLVE_PARALLEL_MIN_CELLS = 0
     try:
         warm = np.zeros((48, 48, 48), dtype=bool)
         warm[:, :4, :] = True
         warm[:4, :, :] = True
         solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
     finally:
-        jit.COMPILE_PARALLEL_ABOVE = before
+        jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS = before
 
 
 def thread_case(n: int, its: int, min_cells: int | None = None) -> None:
@@ -661,14 +662,15 @@ def thread_case(n: int, its: int, min_cells: int | None = None) -> None:
     ``solve_voxel_stokes`` (at most ``its`` MINRES iterations; 0 = to convergence), split into
     the set-up (``_setup_grid``: operator build and multigrid set-up; ``percolates``), the
     iterations (``_solve_core``) and the rest (checks, result).  ``min_cells`` replaces the
-    per-level threshold :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS`."""
+    per-level threshold :data:`solvers.voxel.threads.PARALLEL_MIN_CELLS` and the solve's
+    :data:`~solvers.voxel.threads.SOLVE_PARALLEL_MIN_CELLS`."""
     if os.environ.pop("_SPIN", None):
         os.environ.pop("OMP_WAIT_POLICY", None)  # before the first parallel region
     from solvers import voxel_stokes as vs
     from solvers.voxel import threads as vthreads
 
-    if min_cells is not None:
-        vthreads.PARALLEL_MIN_CELLS = min_cells
+    if min_cells is not None:  # both thresholds: the sweep sets where two threads start
+        vthreads.PARALLEL_MIN_CELLS = vthreads.SOLVE_PARALLEL_MIN_CELLS = min_cells
     _warm_parallel()
     if n > 64:  # warm the parallel generation kernel outside the timing
         _rasterise(8, np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]), 0.1, np.zeros((8,) * 3, bool))

@@ -79,6 +79,7 @@ def _task(mode: str) -> tuple[str, float]:
     else:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
         vthreads.PARALLEL_MIN_CELLS = 0  # all grids and levels parallel
+        vthreads.SOLVE_PARALLEL_MIN_CELLS = 0
         jit.COMPILE_PARALLEL_ABOVE = 0  # compile the parallel kernels, not their twins
         raster.rasterize_copy.serial_below = 0
     spec = validate_spec(_SPEC)

@@ -783,9 +783,9 @@ def _check_memory(
 @contextmanager
 def _threads(n_cells: int):
     """numba threads for a solve on ``n_cells`` cells (:func:`solvers.voxel.threads.
-    level_threads`); yields ``(threads, available)``."""
+    solve_threads`); yields ``(threads, available)``."""
     old = numba.get_num_threads()
-    numba.set_num_threads(n := vthreads.level_threads(n_cells, old))
+    numba.set_num_threads(n := vthreads.solve_threads(n_cells, old))
     try:
         yield n, old
     finally:

@@ -27,6 +27,16 @@ for small grids, so the tiny grids of tests and screening and the coarse multigr
 on one thread."""
 
 
+SOLVE_PARALLEL_MIN_CELLS = 300_000
+"""A solve whose grid has fewer cells runs every level on one thread, even where a level has
+``PARALLEL_MIN_CELLS`` or more.  Measured (``python benchmarks/bench_voxel.py threads 64``,
+session 21, ``benchmarks/RESULTS.md``): with one CPU-bound competitor a 64^3 solve (262 k
+cells) with its fine level on two threads took 1.16-1.59x its one-thread time in three runs,
+and 0.96x on an idle machine; the work per parallel region there is too small to pay the
+wake-ups.  A 200^3 solve keeps its 125 k-cell level parallel (1.36-1.46x faster than one
+thread idle, against 1.24-1.25x with that level serial)."""
+
+
 def passive_wait() -> None:
     """Make idle OpenMP threads sleep instead of spin (``OMP_WAIT_POLICY=PASSIVE``) unless the
     user chose otherwise.  Must run before the first numba parallel region of the process (the
@@ -38,6 +48,18 @@ def level_threads(n_cells: int, available: int) -> int:
     """Numba threads for a grid (or multigrid level) of ``n_cells`` cells: all ``available``
     from ``PARALLEL_MIN_CELLS`` cells up, else one."""
     return available if n_cells >= PARALLEL_MIN_CELLS else 1
+
+
+def solve_threads(n_cells: int, available: int) -> int:
+    """Numba threads for a whole solve on a grid of ``n_cells`` cells: one below
+    :data:`SOLVE_PARALLEL_MIN_CELLS` (and below ``PARALLEL_MIN_CELLS``), else
+    :func:`level_threads`' count."""
+    return available if n_cells >= solve_min_cells() else 1
+
+
+def solve_min_cells() -> int:
+    """The smallest grid a solve runs on more than one thread (the larger threshold)."""
+    return max(SOLVE_PARALLEL_MIN_CELLS, PARALLEL_MIN_CELLS)
 
 
 def thread_use(
@@ -52,7 +74,7 @@ def thread_use(
     if threads == 1:
         if available == 1:
             return 1, ""
-        return 1, f"ran on 1 of {available} threads: grid below {PARALLEL_MIN_CELLS} cells"
+        return 1, f"ran on 1 of {available} threads: grid below {solve_min_cells()} cells"
     if not fallback:
         return threads, ""
     from solvers.jit import WARMUP_NOTE  # numba is not imported with this module

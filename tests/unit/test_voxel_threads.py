@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from solvers.voxel import multigrid as mg
-from solvers.voxel.threads import PARALLEL_MIN_CELLS, level_threads
+from solvers.voxel.threads import PARALLEL_MIN_CELLS, level_threads, solve_min_cells, solve_threads
 
 
 def _wait_policy(env_value: str | None) -> str:
@@ -32,6 +32,16 @@ def test_small_levels_run_on_one_thread() -> None:
     assert level_threads(PARALLEL_MIN_CELLS - 1, 8) == 1
     assert level_threads(PARALLEL_MIN_CELLS, 8) == 8
     assert level_threads(10**9, 1) == 1
+
+
+def test_small_solves_run_on_one_thread() -> None:
+    """A 64^3 solve with one competing process ran 1.16-1.59x its one-thread time on two
+    threads (issue 16 item 1, session 21, benchmarks/RESULTS.md): it runs on one; 100^3 on
+    all."""
+    assert solve_threads(64**3, 2) == 1
+    assert solve_threads(100**3, 2) == 2
+    assert solve_threads(100**3, 1) == 1
+    assert solve_min_cells() >= PARALLEL_MIN_CELLS
 
 
 def test_vcycle_restores_the_callers_thread_count() -> None:
@@ -70,6 +80,7 @@ def test_result_states_the_threads_its_kernels_ran_on(case: str, monkeypatch) ->
     monkeypatch.setattr(numba, "set_num_threads", lambda n: threads.__setitem__(0, n))
     if case != "small_grid":
         monkeypatch.setattr(vthreads, "PARALLEL_MIN_CELLS", 0)
+        monkeypatch.setattr(vthreads, "SOLVE_PARALLEL_MIN_CELLS", 0)
     monkeypatch.setattr(jit.TwinKernel, "_parallel_ready", lambda self, args: case == "compiled")
     for kernel in _twin_kernels():
         monkeypatch.setattr(kernel, "parallel", kernel.serial)
@@ -85,7 +96,7 @@ def test_result_states_the_threads_its_kernels_ran_on(case: str, monkeypatch) ->
         assert (res.threads_used, res.thread_note, res.serial_fallback) == (2, "", ())
     else:
         assert res.threads_used == 1 and res.serial_fallback == ()
-        assert res.thread_note == f"ran on 1 of 2 threads: grid below {PARALLEL_MIN_CELLS} cells"
+        assert res.thread_note == f"ran on 1 of 2 threads: grid below {solve_min_cells()} cells"
 
 
 def test_partly_compiled_kernels_are_named() -> None:
