@@ -23,11 +23,18 @@ A = 20e-6  # duct side (m)
 
 def _duct(n: int = 8, length: float = 2 * A) -> PoreMesh:
     """Square duct along z: lateral faces are no-slip walls (tagged ``wall``), no aux zones."""
+    duct = _box(n, length)
+    tags = duct.facet_tags
+    walls = [tags.pop(k) for k in list(tags) if k.startswith("side_")]
+    tags["wall"] = np.concatenate([tags["wall"], *walls])
+    return duct
+
+
+def _box(n: int = 4, length: float = 2 * A) -> PoreMesh:
+    """A box along z with its four side faces tagged side_x0 ... (as the pore mesher tags)."""
     lo, hi = (0.0, 0.0, 0.0), (A, A, length)
     pts, tets = box_mesh(lo, hi, (n, n, 2 * n))
     tags = tag_box_boundary(pts, tets, lo, hi, flow_axis=2)
-    walls = [tags.pop(k) for k in list(tags) if k.startswith("side_")]
-    tags["wall"] = np.concatenate([tags["wall"], *walls])
     return PoreMesh(
         points=pts,
         tets=tets,
@@ -103,21 +110,6 @@ def test_allrun_k_matches_square_duct(tmp_path):
     ).stdout
     k = float(re.search(r"K_rve_planes = ([-+0-9.eE]+)", out).group(1))
     assert k == pytest.approx(0.0351443 * A * A, rel=0.05)
-
-
-def _box(n: int = 4) -> PoreMesh:
-    """A box along z with its four side faces tagged side_x0 ... (as the pore mesher tags)."""
-    lo, hi = (0.0, 0.0, 0.0), (A, A, 2 * A)
-    pts, tets = box_mesh(lo, hi, (n, n, 2 * n))
-    tags = tag_box_boundary(pts, tets, lo, hi, flow_axis=2)
-    return PoreMesh(
-        points=pts,
-        tets=tets,
-        facet_tags=tags,
-        direction="z",
-        porous_region=(0.5 * A, 1.5 * A),
-        bounds=np.array([lo, hi]),
-    )
 
 
 def _patches(case) -> dict[str, str]:
