@@ -52,8 +52,8 @@ def level_threads(n_cells: int, available: int) -> int:
 
 def solve_threads(n_cells: int, available: int) -> int:
     """Numba threads for a whole solve on a grid of ``n_cells`` cells: one below
-    :data:`SOLVE_PARALLEL_MIN_CELLS` (and below ``PARALLEL_MIN_CELLS``), else
-    :func:`level_threads`' count."""
+    :func:`solve_min_cells`, else all ``available`` (each level then takes
+    :func:`level_threads`' count)."""
     return available if n_cells >= solve_min_cells() else 1
 
 
