@@ -211,6 +211,11 @@ def draw_fibers(gs: GeneratorSpec, seed: int, n: int, size: np.ndarray) -> Fiber
     )
 
 
+def _probe(gs: GeneratorSpec, size: np.ndarray) -> FiberState:
+    """256 fibers drawn like the RVE's, from their own seed, to estimate a fiber count."""
+    return draw_fibers(gs, gs.seed + 10_000, 256, size)
+
+
 def _solid_per_fiber(probe: FiberState, lo: np.ndarray, hi: np.ndarray) -> float:
     """Expected solid volume fraction one drawn fiber adds (normalized), for fiber counts.
 
@@ -495,7 +500,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
     """
     t0 = time.perf_counter()
     target_solid = 1.0 - gs.porosity
-    probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+    probe = _probe(gs, size)
     mean_area = float(np.mean(_areas(probe)))
     n_pool = min(gs.max_fibers, int(np.ceil(2.0 * target_solid / mean_area)) + 50)
     pool = draw_fibers(gs, gs.seed, n_pool, size)
@@ -636,7 +641,7 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
     if gs.n_fibers is not None:
         n = gs.n_fibers
     else:
-        probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+        probe = _probe(gs, size)
         n = max(1, int(round((1.0 - gs.porosity) / _solid_per_fiber(probe, lo, hi))))
     pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 4 * n + 50), size)
     kw = dict(
@@ -728,7 +733,7 @@ def _none(gs, rng, size, lo, hi, measure):
     if gs.n_fibers is not None:
         st = draw_fibers(gs, gs.seed, gs.n_fibers, size)
         return st, st, {"fields": measure(st), "n_rejected": 0}
-    probe = draw_fibers(gs, gs.seed + 10_000, 256, size)
+    probe = _probe(gs, size)
     a = _solid_per_fiber(probe, lo, hi)
     # Boolean model: porosity = exp(-n a) for random lines of density n per unit area
     n = max(1, int(round(-np.log(gs.porosity) / a)))
