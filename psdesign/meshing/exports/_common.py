@@ -18,3 +18,11 @@ def boundary(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray, list[str]]:
     tris = np.concatenate([pm.facet_tags[k] for k in names]).astype(np.int64)
     ids = np.concatenate([np.full(len(pm.facet_tags[k]), TAG_IDS[k]) for k in names])
     return tris, ids, names
+
+
+def side_type(flow: dict | None) -> str:
+    """Boundary type of the lateral box faces in the OpenFOAM and Fluent exports: ``symmetry``
+    for ``flow.sides = "slip"`` (the default), ``wall`` for ``"noslip"`` (the same keywords in
+    both formats)."""
+    noslip = (flow or {}).get("sides", "slip") == "noslip"
+    return "wall" if noslip else "symmetry"  # format keywords

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.meshing import tags as T
+from psdesign.meshing.exports._common import side_type
 from psdesign.meshing.topology import face_topology
 
 if TYPE_CHECKING:
@@ -46,8 +47,7 @@ def _hex_rows(rows: np.ndarray) -> str:
 def write_fluent(pm: PoreMesh, path: Path, flow: dict | None = None) -> Path:
     """Write ``pm`` as a Fluent 3-D ASCII mesh with zones fluid/interior/<tag names>; the side
     zones are ``symmetry`` with ``flow.sides = "slip"`` (default), ``wall`` with ``"noslip"``."""
-    noslip = (flow or {}).get("sides", "slip") == "noslip"
-    side = "wall" if noslip else "symmetry"  # format keywords
+    side = side_type(flow)
     patches = {k: v for k, v in pm.facet_tags.items() if len(v)}
     topo = face_topology(pm.points, pm.tets, patches)
     n_nodes, n_cells, n_faces = len(pm.points), len(pm.tets), len(topo.faces)

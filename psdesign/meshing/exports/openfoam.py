@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.meshing import tags as T
+from psdesign.meshing.exports._common import side_type
 from psdesign.meshing.topology import FaceTopology, face_topology
 
 if TYPE_CHECKING:
@@ -65,13 +66,6 @@ def openfoam_patches(pm: PoreMesh) -> dict[str, np.ndarray]:
         for name in T.BOUNDARY_TAGS
         if name in keep or len(tags.get(name, empty))
     }
-
-
-def side_type(flow: dict | None) -> str:
-    """OpenFOAM patch type of the lateral box faces: ``symmetry`` for ``flow.sides = "slip"``
-    (the default), ``wall`` for ``"noslip"``."""
-    noslip = (flow or {}).get("sides", "slip") == "noslip"
-    return "wall" if noslip else "symmetry"  # format keywords
 
 
 def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTopology:
