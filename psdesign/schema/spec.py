@@ -143,7 +143,7 @@ def _plain(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [_plain(v) for v in value]
     if isinstance(value, np.ndarray | np.generic):
-        return _plain(value.tolist()) if isinstance(value, np.ndarray) else value.item()
+        return value.tolist()  # Python numbers, nested lists for an array
     return value
 
 
