@@ -73,35 +73,53 @@ def _periodic_diff(n: int) -> sp.csr_matrix:
     return d.tocsr()
 
 
+def _channel_distance(width: float, x0: float) -> np.ndarray:
+    """Signed distance (> 0 in the fluid) at the points ``x0 + i`` of a periodic 1-D grid of
+    ``width + 20`` voxels whose fluid is ``[0, width)``."""
+    n = int(round(width + 20.0))
+    x = np.mod(np.arange(n) + x0, float(n))
+    return np.where(x < width, np.minimum(x, width - x), -np.minimum(x - width, n - x))
+
+
 def channel_error(width: float, shift: float, lam: float, logc: float, a: float) -> float:
     """Relative flux error of plane Poiseuille flow between walls ``width`` voxels apart."""
-    n = int(round(width + 20.0))
-    x = np.mod(np.arange(n) + 0.5 + shift, float(n))
-    s = np.where(x < width, np.minimum(x, width - x), -np.minimum(x - width, n - x))
-    drag, f = profiles(s, lam, logc, a)
-    d = _periodic_diff(n)
+    drag, f = profiles(_channel_distance(width, 0.5 + shift), lam, logc, a)
+    d = _periodic_diff(len(drag))
     u = spla.spsolve((d.T @ d + sp.diags(drag)).tocsc(), f)
     return u.sum() / (width**3 / 12.0) - 1.0
 
 
-def _mean_channel(width, lam, logc, a, m=16):
-    return float(np.mean([channel_error(width, t, lam, logc, a) for t in np.arange(m) / m]))
+def _mean_channel(error, width: float, p, m: int = 16) -> float:
+    """Mean of ``error(width, shift, *p)`` over ``m`` sub-voxel shifts."""
+    return float(np.mean([error(width, t, *p) for t in np.arange(m) / m]))
+
+
+def _calibrate(error, lam: float, guess) -> tuple[float, float]:
+    """The two wall parameters after ``lam`` zeroing ``error``'s mean at W = 160 and 640."""
+
+    def g(p):
+        return [1e4 * _mean_channel(error, w, (lam, *p)) for w in (160.0, 640.0)]
+
+    first, second = fsolve(g, guess, xtol=1e-12)
+    return float(first), float(second)
 
 
 def calibrate(lam: float) -> tuple[float, float]:
-    """``(LOGC, A)`` zeroing the mean channel error at W = 160 and 640."""
+    """``(LOGC, A)`` of the drag wall (:func:`channel_error`)."""
+    return _calibrate(channel_error, lam, [0.29 - 1.43 * (lam - 0.5) / 0.5, 2.2])
 
-    def g(p):
-        return [1e4 * _mean_channel(160.0, lam, *p), 1e4 * _mean_channel(640.0, lam, *p)]
 
-    logc, a = fsolve(g, [0.29 - 1.43 * (lam - 0.5) / 0.5, 2.2], xtol=1e-12)
-    return float(logc), float(a)
+def _saddle(au, av, gx, gy, pressure_diag, rhs_u) -> np.ndarray:
+    """The x-face velocities of the 2-D MAC Stokes system ``[[Au, 0, -Gx], [0, Av, -Gy],
+    [-Gx^T, -Gy^T, P]]`` (``gx``, ``gy``: the pressure difference per face) driven by the body
+    force ``rhs_u`` on the x faces."""
+    nn = len(rhs_u)
+    mat = sp.bmat([[au, None, -gx], [None, av, -gy], [-gx.T, -gy.T, pressure_diag]]).tocsc()
+    return spla.spsolve(mat, np.concatenate([rhs_u, np.zeros(2 * nn)]))[:nn]
 
 
 def _laplacian(n: int) -> sp.csr_matrix:
-    d = _periodic_diff(n)
-    t, eye = d.T @ d, sp.identity(n)
-    return (sp.kron(t, eye) + sp.kron(eye, t)).tocsr()
+    return _weighted_laplacian(n, np.ones(n * n), np.ones(n * n)).tocsr()
 
 
 def along(phi: float, n: int, shift, lam: float, logc: float, a: float) -> float:
@@ -120,19 +138,18 @@ def across(phi: float, n: int, shift, lam: float, logc: float, a: float, mode: s
     du, fu = profiles(geo(i, j + 0.5), lam, logc, a)  # x faces
     dv, fv = profiles(geo(i + 0.5, j), lam, logc, a)  # y faces
     d, eye, nn = _periodic_diff(n), sp.identity(n), n * n
-    gx, gy = sp.kron(d, eye), sp.kron(eye, d)
     wu, wv = (fu.ravel(), fv.ravel()) if mode == "weighted" else (np.ones(nn), np.ones(nn))
-    wu, wv = sp.diags(wu), sp.diags(wv)
+    gx, gy = sp.diags(wu) @ sp.kron(d, eye), sp.diags(wv) @ sp.kron(eye, d)
     lap = _laplacian(n)
-    mat = sp.bmat(
-        [
-            [lap + sp.diags(du.ravel()), None, -wu @ gx.T],
-            [None, lap + sp.diags(dv.ravel()), -wv @ gy.T],
-            [-gx @ wu, -gy @ wv, -1e-11 * sp.identity(nn)],  # the pressure's constant mode
-        ]
-    ).tocsc()
-    x = spla.spsolve(mat, np.concatenate([fu.ravel(), np.zeros(2 * nn)]))
-    return x[:nn].mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
+    u = _saddle(
+        lap + sp.diags(du.ravel()),
+        lap + sp.diags(dv.ravel()),
+        gx,
+        gy,
+        -1e-11 * sp.identity(nn),  # the pressure's constant mode
+        fu.ravel(),
+    )
+    return u.mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
 
 
 def fluid_fraction(s: np.ndarray, lam: float, se: float) -> np.ndarray:
@@ -142,14 +159,8 @@ def fluid_fraction(s: np.ndarray, lam: float, se: float) -> np.ndarray:
 
 def diffuse_channel_error(width: float, shift: float, lam: float, logc: float, se: float) -> float:
     """Relative flux error of plane Poiseuille flow, diffuse-domain wall."""
-    n = int(round(width + 20.0))
-
-    def dist(x):
-        x = np.mod(x, float(n))
-        return np.where(x < width, np.minimum(x, width - x), -np.minimum(x - width, n - x))
-
-    s, s_mid = dist(np.arange(n) + 0.5 + shift), dist(np.arange(n) + shift)
-    d = _periodic_diff(n)
+    s, s_mid = _channel_distance(width, 0.5 + shift), _channel_distance(width, shift)
+    d = _periodic_diff(len(s))
     drag = np.minimum(np.exp(-s / lam + logc), 1e12)
     mat = d.T @ sp.diags(fluid_fraction(s_mid, lam, se)) @ d + sp.diags(drag)
     eps = fluid_fraction(s, lam, se)
@@ -158,15 +169,8 @@ def diffuse_channel_error(width: float, shift: float, lam: float, logc: float, s
 
 
 def diffuse_calibrate(lam: float) -> tuple[float, float]:
-    """``(LOGC, SE)`` zeroing the mean diffuse channel error at W = 160 and 640."""
-
-    def mean(w, p):
-        return np.mean([diffuse_channel_error(w, t, lam, *p) for t in np.arange(16) / 16])
-
-    logc, se = fsolve(
-        lambda p: [1e4 * mean(160.0, p), 1e4 * mean(640.0, p)], [-0.5, 0.0], xtol=1e-12
-    )
-    return float(logc), float(se)
+    """``(LOGC, SE)`` of the diffuse wall (:func:`diffuse_channel_error`)."""
+    return _calibrate(diffuse_channel_error, lam, [-0.5, 0.0])
 
 
 class _Diffuse:
@@ -215,17 +219,15 @@ def diffuse_across(phi, n, shift, lam, logc, se, c) -> float:
     gx, gy = sp.diags(eu) @ sp.kron(d, eye), sp.diags(ev) @ sp.kron(eye, d)
     live = (abs(gx).T @ np.ones(nn) + abs(gy).T @ np.ones(nn)) > 1e-9
     keep = sp.diags(live * 1.0)
-    gx, gy = gx @ keep, gy @ keep
-    pin = sp.diags(np.where(live, -1e-11, 1.0))
-    mat = sp.bmat(
-        [
-            [au + sp.diags(w.drag(i, j + 0.5)), None, -gx],
-            [None, av + sp.diags(w.drag(i + 0.5, j)), -gy],
-            [-gx.T, -gy.T, pin],
-        ]
-    ).tocsc()
-    x = spla.spsolve(mat, np.concatenate([eu, np.zeros(2 * nn)]))
-    return (eu * x[:nn]).mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
+    u = _saddle(
+        au + sp.diags(w.drag(i, j + 0.5)),
+        av + sp.diags(w.drag(i + 0.5, j)),
+        gx @ keep,
+        gy @ keep,
+        sp.diags(np.where(live, -1e-11, 1.0)),
+        eu,
+    )
+    return (eu * u).mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
 
 
 def closed_form_error(a: float, b: float, shift, lam, logc, se, c, concave: float) -> float:
@@ -306,7 +308,7 @@ def main(argv: list[str]) -> int:
     if argv[0] == "calibrate":
         logc, a = calibrate(lam)
         errs = [
-            f"W {w:.0f}: {100 * _mean_channel(w, lam, logc, a):+.6f} %"
+            f"W {w:.0f}: {100 * _mean_channel(channel_error, w, (lam, logc, a)):+.6f} %"
             for w in (20, 40, 80, 160, 320, 640)
         ]
         print(f"LAM {lam}: LOGC {logc:.8f}, A {a:.8f}; {', '.join(errs)}")
