@@ -12,6 +12,9 @@ Usage::
     python benchmarks/penalty_scatter.py wall along|across WALL OVERLAP [PHI,...] [N,...] [SHIFTS]
     python benchmarks/penalty_scatter.py wall-closed WALL CONCAVE
     python benchmarks/penalty_scatter.py wall-stokes WALL
+    python benchmarks/penalty_scatter.py wall-curvature WALL
+    python benchmarks/penalty_scatter.py wall-radial
+    python benchmarks/penalty_scatter.py wall-gap WALL
 
 The voxel solver's cut-face wall (:mod:`solvers.voxel.boundary`) makes K depend on where the
 grid nodes sit next to the wall: 0.01-0.1 % scatter over sub-voxel shifts at 24-64 voxels per
@@ -63,6 +66,12 @@ forcing into the solid). A smooth profile sampled on the grid barely depends on 
   ``wall-closed``: pipe and annulus (``diffuse-closed``) for this wall, the curvature shift on
   concave walls too if ``CONCAVE`` is 1. ``wall-stokes``: plane Poiseuille flow between oblique
   walls in the MAC Stokes model (the across model) against the scalar model.
+  ``wall-curvature``: the ``C`` that zeroes the pipe (R = 20, 40, 80) and the annulus
+  (a = 16, 32; both walls shifted), each from its errors at ``C`` = 0 and 3. ``wall-radial``:
+  the same in the continuum limit (:func:`radial_curvature`, 1-D radial finite volumes that
+  resolve the layer), where ``C`` is a property of the profile, not of the grid. ``wall-gap``:
+  narrow plane channels (W = 5-40 voxels, 16 shifts) with the nearest wall's layer and with
+  both walls' (``pair``).
 
 Direct sparse solves (scipy); seconds per row at these sizes.
 """
@@ -224,12 +233,22 @@ def fluid_fraction(s: np.ndarray, lam: float, se: float) -> np.ndarray:
     return Wall("logistic", lam, 0.0, se).eps(s)
 
 
-def wall_channel_error(width: float, shift: float, wall: Wall) -> float:
-    """Relative flux error of plane Poiseuille flow between walls ``width`` voxels apart."""
-    s, s_mid = _channel_distance(width, 0.5 + shift), _channel_distance(width, shift)
-    d = _periodic_diff(len(s))
-    mat = d.T @ sp.diags(wall.eps(s_mid)) @ d + sp.diags(wall.drag(s))
-    eps = wall.eps(s)
+def wall_channel_error(width: float, shift: float, wall: Wall, pair: bool = False) -> float:
+    """Relative flux error of plane Poiseuille flow between walls ``width`` voxels apart;
+    ``pair``: each wall has its own layer (fluid fractions multiplied, drags added) instead of
+    the nearest wall's only."""
+
+    def walls(x0):
+        n = int(round(width + 20.0))
+        x = np.mod(np.arange(n) + x0, float(n))
+        x = np.where(x >= width + (n - width) / 2.0, x - n, x)  # the solid slab split in two
+        return (x, width - x) if pair else (_channel_distance(width, x0),)
+
+    cells, faces = walls(0.5 + shift), walls(shift)
+    d = _periodic_diff(len(cells[0]))
+    drag = np.sum([wall.drag(s) for s in cells], axis=0)
+    mat = d.T @ sp.diags(np.prod([wall.eps(s) for s in faces], axis=0)) @ d + sp.diags(drag)
+    eps = np.prod([wall.eps(s) for s in cells], axis=0)
     u = spla.spsolve(mat.tocsc(), eps)
     return (eps * u).sum() / (width**3 / 12.0) - 1.0
 
@@ -501,6 +520,108 @@ def _wall_calibration(kind: str, lam: float) -> None:
         print(f"normal ({p}, {q}), channel error (%) at W = {', '.join(errs)}", flush=True)
 
 
+def _radial_solve(r_lo, r_hi, dist_kappa, metric, wall: Wall, h: float) -> float:
+    """``int eps u J dr`` of ``-(1/J)(J eps u')' + D u = eps`` on ``[r_lo, r_hi]`` (finite
+    volumes of width ``h``, no flux through the ends; ``J = metric(r)``); the drag in units of
+    ``1 / LAM^2`` (:func:`radial_curvature`)."""
+    m = int(round((r_hi - r_lo) / h))
+    rc, rf = r_lo + (np.arange(m) + 0.5) * h, r_lo + np.arange(m + 1) * h
+    (s, k), (sf, kf) = dist_kappa(rc), dist_kappa(rf)
+    ef = wall.eps(sf, kf) * metric(rf)
+    ef[0] = ef[-1] = 0.0
+    ec, jc = wall.eps(s, k), metric(rc)
+    drag = np.minimum(np.exp(wall.logc - s / wall.lam) / wall.lam**2, 1e14)
+    off = -ef[1:-1] / h**2
+    mat = sp.diags([(ef[:-1] + ef[1:]) / h**2 + drag * jc, off, off], [0, 1, -1]).tocsc()
+    return float(np.sum(ec * spla.spsolve(mat, ec * jc) * jc) * h)
+
+
+def radial_curvature() -> None:
+    """The continuum limit of the curvature coefficient ``C``: the logistic wall with ``LAM``
+    = 1 resolved by 16 finite volumes per ``LAM`` in 1-D (plane channel: ``LOGC``, ``SE`` from
+    W = 200 and 800; pipe and annulus ``b = 3 a`` in radial coordinates), no grid anisotropy;
+    per radius the ``C`` that zeroes the error (from ``C`` = 0 and 3)."""
+    h, margin = 1.0 / 16, 12.0
+
+    def channel(width, logc, se):
+        def dk(r):
+            return np.minimum(r, width - r), 0.0 * r
+
+        flux = _radial_solve(
+            -margin, width + margin, dk, np.ones_like, Wall("logistic", 1.0, logc, se), h
+        )
+        return flux / (width**3 / 12.0) - 1.0
+
+    logc, se = fsolve(
+        lambda p: [1e4 * channel(w, *p) for w in (200.0, 800.0)], [0.0, -0.03], xtol=1e-12
+    )
+    print(f"continuum LAM 1: LOGC {logc:.6f}, SE {se:.6f}", flush=True)
+
+    def pipe(radius, c):
+        def dk(r):
+            return radius - r, -1.0 / np.maximum(r, 1e-12)
+
+        flux = _radial_solve(
+            0.0, radius + margin, dk, lambda r: r, Wall("logistic", 1.0, logc, se, c), h
+        )
+        return 2.0 * flux / (radius**4 / 8.0) - 1.0
+
+    def annulus(a, c):
+        b = 3.0 * a
+
+        def dk(r):
+            return np.minimum(r - a, b - r), np.where(r - a < b - r, 1.0, -1.0) / r
+
+        exact = (b**4 - a**4 - (b * b - a * a) ** 2 / np.log(b / a)) / 8.0
+        flux = _radial_solve(
+            a - margin, b + margin, dk, lambda r: r, Wall("logistic", 1.0, logc, se, c), h
+        )
+        return 2.0 * flux / exact - 1.0
+
+    for name, error, sizes in (
+        ("pipe R / LAM", pipe, (26.667, 53.333, 106.67, 400.0, 1600.0)),
+        ("annulus a / LAM", annulus, (21.333, 42.667, 400.0)),
+    ):
+        for size in sizes:
+            e0, e3 = error(size, 0.0), error(size, 3.0)
+            print(
+                f"{name} {size:g}: error {100 * e0:+.6f} % at C 0, {100 * e3:+.6f} % at C 3;"
+                f" zero at C {3 * e0 / (e0 - e3):.4f}",
+                flush=True,
+            )
+
+
+def _gap_table(wall: Wall) -> None:
+    """Narrow plane channels: the nearest wall's layer against both walls' (``pair``)."""
+    for width in (5, 6, 8, 10, 12, 16, 20, 40):
+        row = []
+        for pair in (False, True):
+            e = [wall_channel_error(width, t, wall, pair) for t in np.arange(16) / 16]
+            row.append(f"{100 * np.mean(e):+.4f} % (sd {100 * np.std(e, ddof=1):.4f})")
+        print(f"W {width}: nearest {row[0]}, pair {row[1]}", flush=True)
+
+
+def _curvature_fit(wall: Wall) -> None:
+    """The ``C`` that zeroes the mean error of the pipe and of the annulus ``b = 3 a`` (both walls
+    shifted), from the errors at ``C`` = 0 and 3 (the error is close to linear in ``C``)."""
+    shifts = np.random.default_rng(3).random((4, 2))
+    for a, b in ((0, 20), (0, 40), (0, 80), (16, 48), (32, 96)):
+        e0, e3 = (
+            np.mean([closed_form_error(a, b, sh, _with_c(wall, c), 1.0) for sh in shifts])
+            for c in (0.0, 3.0)
+        )
+        name = f"pipe R {b}" if a == 0 else f"annulus a {a}"
+        print(
+            f"{name}: error {100 * e0:+.5f} % at C 0, {100 * e3:+.5f} % at C 3; zero at C"
+            f" {3 * e0 / (e0 - e3):.3f}",
+            flush=True,
+        )
+
+
+def _with_c(wall: Wall, c: float) -> Wall:
+    return Wall(wall.kind, wall.lam, wall.logc, wall.se, c, wall.logc_d, wall.se_d)
+
+
 def _stokes_table(wall: Wall) -> None:
     for p, q in ((1, 0), (2, 1), (1, 1)):
         for period in (30, 60):
@@ -523,6 +644,15 @@ def _wall_main(argv: list[str]) -> int:
         return 0
     if argv[0] == "wall-closed":
         _closed_tables(parse_wall(argv[1]), float(argv[2]))
+        return 0
+    if argv[0] == "wall-curvature":
+        _curvature_fit(parse_wall(argv[1]))
+        return 0
+    if argv[0] == "wall-gap":
+        _gap_table(parse_wall(argv[1]))
+        return 0
+    if argv[0] == "wall-radial":
+        radial_curvature()
         return 0
     if argv[0] == "wall-stokes":
         _stokes_table(parse_wall(argv[1]))
@@ -549,6 +679,9 @@ def main(argv: list[str]) -> int:
         "wall",
         "wall-closed",
         "wall-stokes",
+        "wall-curvature",
+        "wall-radial",
+        "wall-gap",
     ):
         print("\n\n".join(__doc__.split("\n\n")[1:3]))
         return 2
