@@ -73,6 +73,11 @@ forcing into the solid). A smooth profile sampled on the grid barely depends on 
   narrow plane channels (W = 5-40 voxels, 16 shifts) with the nearest wall's layer and with
   both walls' (``pair``).
 
+  The wall that converges monotonically on the square arrays (phi 0.1-0.5, along and across,
+  24-96 voxels, every shift; ``benchmarks/RESULTS.md``, wall22): ``WALL`` =
+  ``logistic,0.75,-0.08385500,-0.00674740,-0.09675771,-0.01476628,2.55`` with ``OVERLAP``
+  ``pair``.
+
 Direct sparse solves (scipy); seconds per row at these sizes.
 """
 
@@ -228,11 +233,6 @@ class Wall:
         return np.minimum(np.exp(logc) * tail / np.maximum(f, 1e-300), 1e12)
 
 
-def fluid_fraction(s: np.ndarray, lam: float, se: float) -> np.ndarray:
-    """The logistic diffuse-domain fluid fraction ``eps(s)`` (module docstring)."""
-    return Wall("logistic", lam, 0.0, se).eps(s)
-
-
 def wall_channel_error(width: float, shift: float, wall: Wall, pair: bool = False) -> float:
     """Relative flux error of plane Poiseuille flow between walls ``width`` voxels apart;
     ``pair``: each wall has its own layer (fluid fractions multiplied, drags added) instead of
@@ -285,11 +285,6 @@ def oblique_channel_error(width: float, shift: float, wall: Wall, p: int = 1, q:
     eps = wall.eps(dist(tc), 0.0, a)
     u = spla.spsolve((mat + sp.diags(diag)).tocsc(), eps)
     return (eps * u).mean() / (width**3 / 12.0 / period) - 1.0
-
-
-def diffuse_channel_error(width: float, shift: float, lam: float, logc: float, se: float) -> float:
-    """:func:`wall_channel_error` of the logistic wall."""
-    return wall_channel_error(width, shift, Wall("logistic", lam, logc, se))
 
 
 def wall_calibrate(kind: str, lam: float, p: int = 1, q: int = 0) -> tuple[float, float]:
