@@ -15,6 +15,7 @@ Usage::
     python benchmarks/penalty_scatter.py wall-curvature WALL
     python benchmarks/penalty_scatter.py wall-radial
     python benchmarks/penalty_scatter.py wall-gap WALL
+    python benchmarks/penalty_scatter.py wall-normals PROFILE LAM
 
 The voxel solver's cut-face wall (:mod:`solvers.voxel.boundary`) makes K depend on where the
 grid nodes sit next to the wall: 0.01-0.1 % scatter over sub-voxel shifts at 24-64 voxels per
@@ -71,7 +72,10 @@ forcing into the solid). A smooth profile sampled on the grid barely depends on 
   the same in the continuum limit (:func:`radial_curvature`, 1-D radial finite volumes that
   resolve the layer), where ``C`` is a property of the profile, not of the grid. ``wall-gap``:
   narrow plane channels (W = 5-40 voxels, 16 shifts) with the nearest wall's layer and with
-  both walls' (``pair``).
+  both walls' (``pair``). ``wall-normals``: 3-D normals (the 1-D reduction with
+  ``k = p i + q j + r l``), each calibrated on its own against ``LOGC``, ``SE`` linear in
+  ``a = n_x^4 + n_y^4 + n_z^4`` through the axis and face-diagonal values. ``wall-radial`` also
+  runs a ball and a spherical shell (3-D), with ``kappa`` the Laplacian of the distance.
 
   The wall that converges monotonically on the square arrays (phi 0.1-0.5, along and across,
   24-96 voxels, every shift; ``benchmarks/RESULTS.md``, wall22): ``WALL`` =
@@ -253,28 +257,32 @@ def wall_channel_error(width: float, shift: float, wall: Wall, pair: bool = Fals
     return (eps * u).sum() / (width**3 / 12.0) - 1.0
 
 
-def oblique_channel_error(width: float, shift: float, wall: Wall, p: int = 1, q: int = 0) -> float:
+def oblique_channel_error(
+    width: float, shift: float, wall: Wall, p: int = 1, q: int = 0, r: int = 0
+) -> float:
     """Relative flux error of plane Poiseuille flow (the along model) between walls of normal
-    ``(p, q) / |(p, q)|`` (integers, coprime) ``width`` voxels apart on a 2-D grid.
+    ``(p, q, r) / |(p, q, r)|`` (integers >= 0, coprime; ``r`` = 0: a 2-D grid) ``width`` voxels
+    apart.
 
-    The discrete solution is constant along the walls, so it depends on ``k = p i + q j`` only:
-    a 1-D problem whose node ``k`` couples to ``k +- p`` (x faces) and ``k +- q`` (y faces).
-    ``(1, 0)`` is :func:`wall_channel_error`."""
-    r = float(np.hypot(p, q))
-    m = int(round((width + 20.0) * r))
-    period = m / r
+    The discrete solution is constant along the walls, so it depends on ``k = p i + q j + r l``
+    only: a 1-D problem whose node ``k`` couples to ``k +- p`` (x faces), ``k +- q`` (y faces)
+    and ``k +- r`` (z faces). ``(1, 0)`` is :func:`wall_channel_error`."""
+    steps = [c for c in (p, q, r) if c]
+    norm = float(np.sqrt(p * p + q * q + r * r))
+    m = int(round((width + 20.0) * norm))
+    period = m / norm
     k = np.arange(m)
 
     def dist(t):
         t = np.mod(t, period)
         return np.where(t < width, np.minimum(t, width - t), -np.minimum(t - width, period - t))
 
-    a = (p**4 + q**4) / r**4
-    tc = (k + 0.5 * (p + q)) / r + shift
+    a = (p**4 + q**4 + r**4) / norm**4
+    tc = (k + 0.5 * (p + q + r)) / norm + shift
     diag, rows, cols, vals = wall.drag(dist(tc), a), [], [], []
-    for step in {p, q} - {0} if p != q else {p}:
+    for step in steps:  # equal components add their couplings twice, as on the grid
         for sign in (1, -1):
-            weight = wall.eps(dist(tc + sign * step / (2.0 * r)), 0.0, a) * (2 if p == q else 1)
+            weight = wall.eps(dist(tc + sign * step / (2.0 * norm)), 0.0, a)
             diag = diag + weight
             rows.append(k)
             cols.append((k + sign * step) % m)
@@ -287,12 +295,14 @@ def oblique_channel_error(width: float, shift: float, wall: Wall, p: int = 1, q:
     return (eps * u).mean() / (width**3 / 12.0 / period) - 1.0
 
 
-def wall_calibrate(kind: str, lam: float, p: int = 1, q: int = 0) -> tuple[float, float]:
-    """``(LOGC, SE)`` of a diffuse wall of normal ``(p, q)`` from plane Poiseuille flow at W =
+def wall_calibrate(
+    kind: str, lam: float, p: int = 1, q: int = 0, r: int = 0
+) -> tuple[float, float]:
+    """``(LOGC, SE)`` of a diffuse wall of normal ``(p, q, r)`` from plane Poiseuille flow at W =
     160 and 640 (:func:`oblique_channel_error`)."""
 
     def error(width, shift, lam_, logc, se):
-        return oblique_channel_error(width, shift, Wall(kind, lam_, logc, se), p, q)
+        return oblique_channel_error(width, shift, Wall(kind, lam_, logc, se), p, q, r)
 
     return _calibrate(error, lam, [-0.5 if kind == "logistic" else 1.0, 0.0])
 
@@ -531,52 +541,70 @@ def _radial_solve(r_lo, r_hi, dist_kappa, metric, wall: Wall, h: float) -> float
     return float(np.sum(ec * spla.spsolve(mat, ec * jc) * jc) * h)
 
 
+def _radial_flux(lo, hi, dk, dim, wall, h=1.0 / 16) -> float:
+    """:func:`_radial_solve` with the metric ``r^(dim - 1)`` and 12 ``LAM`` of solid beyond each
+    wall (none below ``lo`` = 0 in 2-D and 3-D: the centre of a pipe or ball)."""
+    start = lo - 12.0 if lo > 0 or dim == 1 else 0.0
+    return _radial_solve(start, hi + 12.0, dk, lambda r: r ** (dim - 1), wall, h)
+
+
+def _radial_cases(logc: float, se: float):
+    """``(name, error(size, C), sizes)`` of the closed forms in radial coordinates (``LAM`` = 1):
+    Poiseuille flow in a pipe and in an annulus ``b = 3 a`` (2-D, ``kappa`` = 1 / r), and
+    ``-Laplace(u) = 1`` in a ball and a spherical shell ``b = 3 a`` (3-D, ``kappa`` = the
+    Laplacian of the distance = 2 / r, the sum of the two principal curvatures)."""
+
+    def hollow(radius, c, dim):
+        def dk(r):
+            return radius - r, -(dim - 1) / np.maximum(r, 1e-12)
+
+        flux = _radial_flux(0.0, radius, dk, dim, Wall("logistic", 1.0, logc, se, c))
+        exact = radius**4 / 16.0 if dim == 2 else radius**5 / 45.0
+        return flux / exact - 1.0
+
+    def shell(a, c, dim):
+        b = 3.0 * a
+
+        def dk(r):
+            return np.minimum(r - a, b - r), (dim - 1) * np.where(r - a < b - r, 1.0, -1.0) / r
+
+        if dim == 2:
+            exact = (b**4 - a**4 - (b * b - a * a) ** 2 / np.log(b / a)) / 16.0
+        else:  # u = -r^2 / 6 + A + B / r with u(a) = u(b) = 0
+            big_b = -(a + b) * a * b / 6.0
+            big_a = a * a / 6.0 - big_b / a
+            exact = (
+                -(b**5 - a**5) / 30.0 + big_a * (b**3 - a**3) / 3.0 + big_b * (b * b - a * a) / 2
+            )
+        flux = _radial_flux(a, b, dk, dim, Wall("logistic", 1.0, logc, se, c))
+        return flux / exact - 1.0
+
+    return (
+        ("pipe R / LAM", lambda x, c: hollow(x, c, 2), (26.667, 53.333, 106.67, 400.0, 1600.0)),
+        ("annulus a / LAM", lambda x, c: shell(x, c, 2), (21.333, 42.667, 400.0)),
+        ("ball R / LAM", lambda x, c: hollow(x, c, 3), (53.333, 106.67, 400.0, 1600.0)),
+        ("spherical shell a / LAM", lambda x, c: shell(x, c, 3), (42.667, 400.0)),
+    )
+
+
 def radial_curvature() -> None:
     """The continuum limit of the curvature coefficient ``C``: the logistic wall with ``LAM``
     = 1 resolved by 16 finite volumes per ``LAM`` in 1-D (plane channel: ``LOGC``, ``SE`` from
-    W = 200 and 800; pipe and annulus ``b = 3 a`` in radial coordinates), no grid anisotropy;
-    per radius the ``C`` that zeroes the error (from ``C`` = 0 and 3)."""
-    h, margin = 1.0 / 16, 12.0
+    W = 200 and 800; then :func:`_radial_cases`), no grid anisotropy; per size the ``C`` that
+    zeroes the error (from ``C`` = 0 and 3)."""
 
     def channel(width, logc, se):
         def dk(r):
             return np.minimum(r, width - r), 0.0 * r
 
-        flux = _radial_solve(
-            -margin, width + margin, dk, np.ones_like, Wall("logistic", 1.0, logc, se), h
-        )
+        flux = _radial_flux(0.0, width, dk, 1, Wall("logistic", 1.0, logc, se))
         return flux / (width**3 / 12.0) - 1.0
 
     logc, se = fsolve(
         lambda p: [1e4 * channel(w, *p) for w in (200.0, 800.0)], [0.0, -0.03], xtol=1e-12
     )
     print(f"continuum LAM 1: LOGC {logc:.6f}, SE {se:.6f}", flush=True)
-
-    def pipe(radius, c):
-        def dk(r):
-            return radius - r, -1.0 / np.maximum(r, 1e-12)
-
-        flux = _radial_solve(
-            0.0, radius + margin, dk, lambda r: r, Wall("logistic", 1.0, logc, se, c), h
-        )
-        return 2.0 * flux / (radius**4 / 8.0) - 1.0
-
-    def annulus(a, c):
-        b = 3.0 * a
-
-        def dk(r):
-            return np.minimum(r - a, b - r), np.where(r - a < b - r, 1.0, -1.0) / r
-
-        exact = (b**4 - a**4 - (b * b - a * a) ** 2 / np.log(b / a)) / 8.0
-        flux = _radial_solve(
-            a - margin, b + margin, dk, lambda r: r, Wall("logistic", 1.0, logc, se, c), h
-        )
-        return 2.0 * flux / exact - 1.0
-
-    for name, error, sizes in (
-        ("pipe R / LAM", pipe, (26.667, 53.333, 106.67, 400.0, 1600.0)),
-        ("annulus a / LAM", annulus, (21.333, 42.667, 400.0)),
-    ):
+    for name, error, sizes in _radial_cases(logc, se):
         for size in sizes:
             e0, e3 = error(size, 0.0), error(size, 3.0)
             print(
@@ -632,6 +660,24 @@ def _stokes_table(wall: Wall) -> None:
             )
 
 
+def _normals_check(kind: str, lam: float) -> None:
+    """Per 3-D normal: ``LOGC`` and ``SE`` calibrated for it against the values linear in
+    ``a = n_x^4 + n_y^4 + n_z^4`` through the (1, 0, 0) and (1, 1, 0) calibrations, and the
+    interpolated wall's channel error."""
+    axis, diag = wall_calibrate(kind, lam, 1, 0, 0), wall_calibrate(kind, lam, 1, 1, 0)
+    wall = Wall(kind, lam, axis[0], axis[1], 0.0, diag[0], diag[1])
+    for normal in ((1, 1, 1), (2, 1, 0), (2, 1, 1), (3, 2, 1), (2, 2, 1), (3, 1, 1)):
+        a = sum(c**4 for c in normal) / sum(c * c for c in normal) ** 2
+        logc, se = wall_calibrate(kind, lam, *normal)
+        lin = wall._at(a)
+        err = [100 * _mean_channel(oblique_channel_error, w, (wall, *normal)) for w in (40, 160)]
+        print(
+            f"normal {normal}, a {a:.4f}: LOGC {logc:.6f}, SE {se:.6f}; linear in a {lin[0]:.6f},"
+            f" {lin[1]:.6f}; interpolated wall at W 40 / 160: {err[0]:+.5f} / {err[1]:+.5f} %",
+            flush=True,
+        )
+
+
 def _wall_main(argv: list[str]) -> int:
     """The ``wall*`` subcommands (module docstring)."""
     if argv[0] == "wall-calibrate":
@@ -645,6 +691,9 @@ def _wall_main(argv: list[str]) -> int:
         return 0
     if argv[0] == "wall-gap":
         _gap_table(parse_wall(argv[1]))
+        return 0
+    if argv[0] == "wall-normals":
+        _normals_check(argv[1], float(argv[2]))
         return 0
     if argv[0] == "wall-radial":
         radial_curvature()
@@ -677,6 +726,7 @@ def main(argv: list[str]) -> int:
         "wall-curvature",
         "wall-radial",
         "wall-gap",
+        "wall-normals",
     ):
         print("\n\n".join(__doc__.split("\n\n")[1:3]))
         return 2
