@@ -329,6 +329,8 @@ def test_error_bar_covers_the_true_error_of_hexagonal_arrays():
                 if ratio == 0.0:
                     r = relative_diffusivity(fields, d, {"mean_free_path_m": 0.0})
                     value = r.relative_diffusivity
+                    # docs/transport.md: D_eff / D = porosity / tau (the tortuosity factor)
+                    assert r.tortuosity_factor * value == pytest.approx(fields.porosity, rel=1e-12)
                 else:
                     r = effective_conductivity(fields, d, ratio, 1.0, {})
                     value = r.effective_conductivity
