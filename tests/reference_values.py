@@ -151,6 +151,22 @@ def rayleigh_hexagonal(f: float, sigma: float) -> float:
     return 1.0 - 2.0 * f / (t + f - 0.075422 * f**6 / t)
 
 
+def rayleigh_simple_cubic(f: float, sigma: float) -> float:
+    """sigma_eff / sigma_matrix of a simple cubic array of spheres (volume fraction ``f``,
+    sphere / matrix ratio ``sigma``; inf = perfectly conducting): Rayleigh's formula (Lord
+    Rayleigh, Phil. Mag. 34, 481, 1892) ``1 + 3f / (A - f - 1.305 B f^(10/3))`` with
+    ``A = (sigma + 2) / (sigma - 1)``, ``B = (sigma - 1) / (sigma + 4/3)`` and the octupole
+    coefficient 1.305 of McKenzie, McPhedran & Derrick, Proc. R. Soc. Lond. A 362, 211 (1978).
+    The f^(10/3) term moves the result from Maxwell's by up to 0.5 % (insulating) and 2 %
+    (conducting, contrast 1000) at f = 0.3; the omitted terms are smaller by about f^(4/3)
+    (0.2 at f = 0.3), so the formula is good to ~0.1 % / ~0.4 % there and better below."""
+    if sigma == float("inf"):
+        a, b = 1.0, 1.0
+    else:
+        a, b = (sigma + 2.0) / (sigma - 1.0), (sigma - 1.0) / (sigma + 4.0 / 3.0)
+    return 1.0 + 3.0 * f / (a - f - 1.305 * b * f ** (10.0 / 3.0))
+
+
 #: Tomadakis & Sotirchos, AIChE J. 39, 397 (1993), bulk (molecular) diffusion in random fibre
 #: structures, ``D_eff / D = eps ((eps - eps_p) / (1 - eps_p))^alpha``: 2-D random (fibres in
 #: planes with random in-plane orientation, overlapping): percolation threshold eps_p = 0.11,

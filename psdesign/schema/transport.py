@@ -30,8 +30,9 @@ class TransportSpec(Table):
     max_iter : int
         Conjugate-gradient iteration cap.
     error_estimate : {"resolution", "residual"}
-        ``resolution``: a second solve on a grid twice as coarse (first-order estimate
-        ``|X_h - X_2h|``) combined with the flux imbalance; ``residual``: flux imbalance only.
+        ``resolution``: a second solve on a grid twice as coarse (``3 |X_h - X_2h| / X_h``,
+        at least the staircase floor) plus the flux imbalance; ``residual``: the staircase
+        floor doubled plus the flux imbalance (:mod:`psdesign.transport.effective`).
     bulk_diffusivity_m2_s : float
         Molecular (bulk) diffusivity of the gas, m^2/s (default O2 in air, 25 C: 2.0e-5).
     mean_free_path_m : float

@@ -8,8 +8,11 @@
   ``r`` (one distance transform of the seed complement per radius) and voxels first
   covered get the thickness ``2 r``.  Voxels never
   covered by a scanned radius get the smallest one.  The distribution is pore-volume
-  weighted; ``d10/d50/d90`` are the diameters below which 10/50/90 % of the pore volume lies,
-  resolved to the radius step (``bin_width_m``, the error estimate).
+  weighted; ``d10/d50/d90`` are the diameters below which 10/50/90 % of the pore volume lies.
+  Their error (``diameter_error_m``) is one-sided, low: the scan step (``bin_width_m``) plus
+  ``sqrt(3) h`` (:data:`CENTRE_OFFSET`), because the inscribed balls are centred on voxel
+  centres, up to ``sqrt(3) h / 2`` from a pore's true centre (a slit or cylinder pore whose
+  mid-plane or axis falls between voxel centres comes out one or ``sqrt(2)`` voxels narrow).
 * **Intrusion / capillary drainage** (as PoreSpy's ``porosimetry``): a non-wetting fluid
   enters from the inlet face (first layer along ``thickness_axis``); at radius ``r`` it fills
   the union of balls of radius ``r`` whose centres ``dt >= r`` are connected to the inlet
@@ -21,7 +24,8 @@
   voxel faces); the grid is padded by one wrapped layer so the surface between the last and
   the first voxel layer is counted once.  The error estimate compares with the same
   measurement on every second voxel (``|S_h - S_2h| / S_h``).
-* **Porosity profile** along ``thickness_axis`` (pore fraction per voxel layer).
+* **Porosity profile** along ``thickness_axis`` (pore fraction per voxel layer), with a bound
+  of each layer's error (the fraction of its voxels the surface crosses).
 * **Fibre orientation tensor** ``a_ij = sum_f w_f p_i p_j / sum_f w_f`` of the fibres' carrier
   directions ``p`` (Advani & Tucker, J. Rheol. 31, 751, 1987), weight ``w_f = d_f^2`` (volume
   per unit length).
@@ -57,6 +61,7 @@ class PoreSizeResult:
     breakthrough_diameter_m: float
     bin_width_m: float
     porosity: float
+    diameter_error_m: float = 0.0
     converged: bool = True
     rel_error: float = 0.0
     wall_time_s: float = 0.0
@@ -114,6 +119,13 @@ def _edt(mask: np.ndarray) -> np.ndarray:
         mask = mask.view(np.uint8)  # the same labels; edt runs faster on uint8 than on bool
     return _edt_lib.edt(mask, parallel=numba.get_num_threads())
 
+
+#: Diameter lost, in voxels, when a pore's true centre lies between voxel centres: the balls are
+#: centred on voxel centres, at most ``sqrt(3) / 2`` voxel from any point, so an inscribed radius
+#: is under-counted by up to that much (a slit whose mid-plane falls on a voxel face loses one
+#: voxel of width, a cylinder whose axis falls on a voxel edge ``sqrt(2)``, a sphere centred on a
+#: voxel corner ``sqrt(3)``; ``tests/unit/test_pores.py``).
+CENTRE_OFFSET = float(np.sqrt(3.0))
 
 #: A ball union is computed crop by crop (one box per seed cluster) while the boxes hold fewer
 #: voxels than this fraction of the grid; otherwise by one distance transform of the whole grid.
@@ -259,6 +271,7 @@ def pore_sizes(
     sat_arr = np.asarray(sat)
     hit = np.nonzero(sat_arr > 0)[0]
     step = float(2.0 * h * (radii[0] - radii[1])) if radii.size > 1 else 2.0 * h
+    bar = step + CENTRE_OFFSET * h
     return PoreSizeResult(
         diameters_m=d_bins.tolist(),
         volume_fraction=frac.tolist(),
@@ -274,7 +287,8 @@ def pore_sizes(
         breakthrough_diameter_m=float(2.0 * h * radii[hit[0]]) if hit.size else 0.0,
         bin_width_m=step,
         porosity=eps,
-        rel_error=float(step / q50) if q50 > 0 else 0.0,
+        diameter_error_m=bar,
+        rel_error=float(bar / q50) if q50 > 0 else 0.0,
         wall_time_s=time.perf_counter() - t0,
         thickness_axis=name,
     )
@@ -312,14 +326,31 @@ def specific_surface(fields: VoxelFields) -> SurfaceResult:
 
 
 def porosity_profile(fields: VoxelFields, axis: str | int = "z") -> dict:
-    """Pore fraction of each voxel layer along ``axis``: positions (m) and porosity."""
+    """Pore fraction of each voxel layer along ``axis``: positions (m), porosity and its error.
+
+    ``porosity_error`` bounds each layer's error against the layer's true (volume) pore
+    fraction: a voxel is counted by its centre, and only a voxel the surface crosses
+    (``|distance| < sqrt(3) h / 2`` on the analytic distance) can be counted wrongly, by at
+    most its whole volume; so the bound is the fraction of such voxels in the layer.  A
+    segmented image is its own geometry: 0.
+    """
     name, ax = axis_of(axis)
     pore = ~fields.solid
     other = tuple(b for b in range(3) if b != ax)
     prof = pore.mean(axis=other)
     h = float(fields.grid.spacing[ax])
     pos = (np.arange(prof.size) + 0.5) * h
-    return {"axis": name, "position_m": pos.tolist(), "porosity": prof.tolist()}
+    if fields.analytic_distance:
+        cut = np.abs(fields.distance) < 0.5 * np.sqrt(3.0) * float(fields.grid.spacing.max())
+        err = cut.mean(axis=other)
+    else:
+        err = np.zeros_like(prof)
+    return {
+        "axis": name,
+        "position_m": pos.tolist(),
+        "porosity": prof.tolist(),
+        "porosity_error": err.tolist(),
+    }
 
 
 def orientation_tensor(rve: RVE) -> dict:

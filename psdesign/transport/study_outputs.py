@@ -7,7 +7,8 @@ Output names (``[study] outputs``) and the row keys they add:
 * ``tortuosity_x|y|z``: ``tortuosity_<d>`` (porosity / relative diffusivity; empty if blocked);
 * ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
   ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``;
-* ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m);
+* ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m), with
+  ``pore_bin_width_m`` (the scan step) and ``pore_diameter_error_m`` (their one-sided error);
 * ``specific_surface_m-1``: marching-cubes surface per box volume (1/m).
 """
 
@@ -120,6 +121,7 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
             {"pore_d10_m": ps.pore_d10_m, "pore_d50_m": ps.pore_d50_m, "pore_d90_m": ps.pore_d90_m}
         )
         row["pore_bin_width_m"] = ps.bin_width_m
+        row["pore_diameter_error_m"] = ps.diameter_error_m
     if "specific_surface_m-1" in wanted:
         from psdesign.transport.pores import specific_surface
 
