@@ -205,7 +205,9 @@ class Material:
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         with fields_folder(fields, "diffusivity", [direction], option="fields") as writer:
-            return relative_diffusivity(self.fields, direction, table, capture=writer)
+            return relative_diffusivity(
+                self.fields, direction, table, capture=writer, cells_per_diameter=self._cpd()
+            )
 
     def conductivity(
         self,
@@ -225,8 +227,20 @@ class Material:
         table = {**self.spec.get("transport", {}), **transport}
         with fields_folder(fields, "conductivity", [direction], option="fields") as writer:
             return effective_conductivity(
-                self.fields, direction, solid, fluid, table, capture=writer
+                self.fields,
+                direction,
+                solid,
+                fluid,
+                table,
+                capture=writer,
+                cells_per_diameter=self._cpd(),
             )
+
+    def _cpd(self) -> float | None:
+        """Voxels across the thinnest fiber (None for an image)."""
+        from psdesign.flow.error import cells_per_diameter
+
+        return cells_per_diameter(self.rve, float(self.fields.grid.spacing[0]))
 
     def pores(self, **transport: Any) -> dict:
         """Pore sizes, intrusion curve, specific surface, porosity profile and (for fibers)

@@ -12,11 +12,20 @@ CASE_COLUMNS = ("case_id", "index", "seed", "status", "error")
 #: Permeability columns of a results table and their own status columns (``ok``,
 #: ``untrustworthy``: error bar above 20 % or < 8 cells per fiber diameter, ``not_converged``).
 K_STATUS_COLUMNS = {"k_x_m2": "k_x_status", "k_y_m2": "k_y_status", "k_z_m2": "k_z_status"}
+#: Every rated value column and its status column: K, and the transport values
+#: (:func:`psdesign.transport.effective.rating`; the tortuosity shares the diffusivity's).
+STATUS_COLUMNS = {
+    **K_STATUS_COLUMNS,
+    **{f"diffusivity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
+    **{f"tortuosity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
+    **{f"conductivity_{d}": f"conductivity_{d}_status" for d in "xyz"},
+}
 
 
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
-    """The ``ok`` cases of a results table, with each K whose own status (``k_x_status``) is
-    not ``ok`` set to NaN: what summaries, fits, the optimizer and the report use.
+    """The ``ok`` cases of a results table, with each rated value whose own status
+    (``k_x_status``, ``diffusivity_x_status``, ...: :data:`STATUS_COLUMNS`) is not ``ok`` set to
+    NaN: what summaries, fits, the optimizer and the report use.
 
     Examples
     --------
@@ -26,16 +35,17 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     [1.0, nan]
     """
     out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
-    for c in K_STATUS_COLUMNS:
+    for c in STATUS_COLUMNS:
         if c in out:
             out[c] = pd.to_numeric(out[c], errors="coerce").mask(k_not_ok(out, c))
     return out
 
 
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
-    """Rows whose K in ``k_column`` (``k_x_m2``) has its own status (``k_x_status``) and it is
-    not ``ok``; False where the table has no such status (an unrated K)."""
-    st = df.get(K_STATUS_COLUMNS[k_column])
+    """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) has its own status
+    (``k_x_status``, ``diffusivity_z_status``) and it is not ``ok``; False where the table has
+    no such status (an unrated value)."""
+    st = df.get(STATUS_COLUMNS[k_column])
     if st is None:
         return pd.Series(False, index=df.index)
     return st.notna() & (st.astype(str) != "ok")

@@ -32,6 +32,7 @@ def _cmd(args: argparse.Namespace) -> int:
                 tr,
                 progress=laplace_progress(args, d),
                 capture=writer,
+                cells_per_diameter=case.cells_per_diameter,
             ).to_dict()
             for d in dirs
         ]

@@ -13,7 +13,7 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
     from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
 
     if args.direction == "all" and tr["bc"] == "periodic":
-        out = diffusivity_tensor(case.fields, tr, capture=writer)
+        out = diffusivity_tensor(case.fields, tr, writer, case.cells_per_diameter)
         out["direction"] = "all"
         out["bc"] = "periodic"
         results = out["results"]
@@ -25,6 +25,7 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
                 tr,
                 progress=laplace_progress(args, d),
                 capture=writer,
+                cells_per_diameter=case.cells_per_diameter,
             ).to_dict()
             for d in dirs
         ]

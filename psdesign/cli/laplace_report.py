@@ -11,32 +11,41 @@ from collections.abc import Callable
 
 def combine(results: list[dict], bc: str, porosity: float, keys: tuple[str, ...]) -> dict:
     """One result as it is; several as ``{"direction": "all", ..., key: {d: value}}`` for each
-    of ``keys``, converged when all are.
+    of ``keys``, converged when all are, with the worst ``status`` and every warning.
 
-    >>> combine([{"direction": "x", "D": 0.5, "converged": True},
-    ...          {"direction": "z", "D": 0.4, "converged": False}], "periodic", 0.8, ("D",))["D"]
-    {'x': 0.5, 'z': 0.4}
+    >>> combine([{"direction": "x", "D": 0.5, "converged": True, "status": "ok"},
+    ...          {"direction": "z", "D": 0.4, "converged": False, "status": "not_converged"}],
+    ...         "periodic", 0.8, ("D",))["status"]
+    'not_converged'
     """
+    from psdesign.transport.effective import worst_status
+
     if len(results) == 1:
         return results[0]
     out = {"direction": "all", "bc": bc, "porosity": porosity, "results": results}
     for key in keys:
         out[key] = {r["direction"]: r[key] for r in results}
     out["converged"] = all(r["converged"] for r in results)
+    out["status"] = worst_status([r["status"] for r in results])
+    out["warnings"] = [w for r in results for w in r.get("warnings", [])]
     return out
 
 
 def emit(
     name: str, out: dict, results: list[dict], as_json: bool, line: Callable[[dict], str]
 ) -> int:
-    """Print the blocked directions' messages on stderr, then ``out`` as JSON or ``line(r)`` per
-    result on stdout (``(NOT CONVERGED)`` appended where it applies); 0 if converged, else 1."""
+    """Print the blocked directions' messages and every warning on stderr, then ``out`` as JSON
+    or ``line(r)`` per result on stdout with its ``[status]``; 0 if converged, else 1."""
+    from psdesign.cli.progress import warning
+
     for r in results:
         if r["blocked"]:
             print(f"psdesign: {name} {r['direction']}: {r['message']}", file=sys.stderr)
+        for w in r.get("warnings", []):
+            warning(w)
     if as_json:
         print(json.dumps(out, default=float))
     else:
         for r in results:
-            print(line(r) + ("" if r["converged"] else "  (NOT CONVERGED)"))
+            print(line(r) + f"  [{r['status']}]" + ("" if r["converged"] else "  (NOT CONVERGED)"))
     return 0 if out["converged"] else 1

@@ -186,9 +186,11 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     n_untrusted = untrustworthy_count(df) if len(df) else 0
     if n_untrusted:
         print(
-            f"psdesign: warning: {n_untrusted} ok case(s) have a K flagged untrustworthy "
-            "(k_<d>_status: error bar above 20 % or fewer than 8 cells per fiber diameter; "
-            "k_<d>_rel_error gives the bar); their K are kept",
+            f"psdesign: warning: {n_untrusted} ok case(s) have a K or transport value flagged "
+            "untrustworthy "
+            "(k_<d>_status, or a transport value's <name>_<d>_status: error bar above 20 % or "
+            "fewer than 8 cells per fiber diameter; <name>_<d>_rel_error gives the bar); "
+            "their values are kept",
             file=sys.stderr,
         )
     status = df["status"] if len(df) else []

@@ -346,18 +346,32 @@ def status_of(
         return "not_converged"
     if not np.isfinite(rel_error) or rel_error > UNTRUSTWORTHY_REL_ERROR:
         return "untrustworthy"
-    if cpd is not None and cpd < min_cpd:
+    if under_resolved(cpd, min_cpd):
         return "untrustworthy"
     return "ok"
 
 
-def resolution_warnings(cpd: float | None, solver: str, direction: str) -> list[str]:
-    """The under-resolution warning line(s) for a result."""
-    if cpd is None or cpd >= MIN_CELLS_PER_DIAMETER:
+def under_resolved(cpd: float | None, min_cpd: float = MIN_CELLS_PER_DIAMETER) -> bool:
+    """Fewer than ``min_cpd`` cells across the thinnest fiber, up to rounding: an 8 um fiber
+    in a 20 um box at 1 um voxels has 8 (its diameter is stored as a fraction of the period,
+    and ``(8e-6 / 20e-6) * 20e-6 / 1e-6`` is 7.999999999999999).
+
+    >>> under_resolved((8e-6 / 20e-6) * 20e-6 / 1e-6), under_resolved(7.99), under_resolved(None)
+    (False, True, False)
+    """
+    return cpd is not None and cpd < min_cpd * (1.0 - 1e-9)
+
+
+def resolution_warnings(
+    cpd: float | None, solver: str, direction: str, quantity: str = "K"
+) -> list[str]:
+    """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
+    line, ``K`` or a transport property's)."""
+    if not under_resolved(cpd):
         return []
     unit = "voxels" if solver == "voxel" else "mesh cells"
     return [
-        f"K_{direction}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
+        f"{quantity}_{direction}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
         f"(< {MIN_CELLS_PER_DIAMETER:g}); refine rve.voxel"
         + ("" if solver == "voxel" else " / flow.lattice_step")
     ]

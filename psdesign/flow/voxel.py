@@ -30,6 +30,7 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
+from psdesign.flow.error import under_resolved
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 
@@ -173,7 +174,7 @@ def permeability_voxel(
         )
     h = _cubic_voxel(fields)
     cpd = cells_per_diameter(rve, h)
-    if cpd is not None and cpd < MIN_CELLS_PER_DIAMETER:
+    if under_resolved(cpd, MIN_CELLS_PER_DIAMETER):
         warnings.warn(
             f"voxel grid has {cpd:.1f} voxels across the thinnest fiber diameter (< "
             f"{MIN_CELLS_PER_DIAMETER:g}): K may be off by several per cent; refine rve.voxel",

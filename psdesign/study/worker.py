@@ -239,9 +239,13 @@ def untrusted_reason(results: dict) -> str | None:
 
 
 def untrustworthy_count(df) -> int:
-    """Cases of a results table with ``status == "ok"`` and some ``k_<d>_status`` equal to
+    """Cases of a results table with ``status == "ok"`` and some value's own status
+    (``k_<d>_status``, ``diffusivity_<d>_status``, ``conductivity_<d>_status``) equal to
     ``"untrustworthy"``."""
-    cols = [c for c in getattr(df, "columns", []) if c.startswith("k_") and c.endswith("_status")]
+    from psdesign.analysis.columns import STATUS_COLUMNS
+
+    rated = set(STATUS_COLUMNS.values())
+    cols = [c for c in getattr(df, "columns", []) if c in rated]
     if not cols or "status" not in df.columns:
         return 0
     flagged = (df[cols] == "untrustworthy").any(axis=1)

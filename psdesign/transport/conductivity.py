@@ -19,7 +19,7 @@ import numpy as np
 
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
-from psdesign.transport.effective import solve_effective
+from psdesign.transport.effective import rating, solve_effective
 
 
 @dataclass
@@ -49,13 +49,22 @@ class ConductivityResult:
     wall_time_s: float
     conductivity_unit: str = "W/(m K)"
 
+    cells_per_diameter: float | None = None
+    warnings: list[str] = field(default_factory=list)
+
     @property
     def status(self) -> str:
-        """``"ok"``, ``"blocked"`` (the conducting phase does not percolate) or
-        ``"not_converged"``."""
-        if self.blocked:
-            return "blocked"
-        return "ok" if self.converged else "not_converged"
+        """``"ok"``, ``"blocked"`` (the conducting phase does not percolate),
+        ``"not_converged"`` or ``"untrustworthy"`` (error bar above 20 % or fewer than 8 voxels
+        across the thinnest fiber; :func:`psdesign.transport.effective.rating`)."""
+        return rating(
+            "sigma_eff",
+            self.direction,
+            self.blocked,
+            self.converged,
+            self.rel_error,
+            self.cells_per_diameter,
+        )[0]
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
@@ -76,12 +85,13 @@ class ConductivityResult:
             ("porosity (-)", f"{self.porosity:.4f}"),
             ("bc", self.bc),
         ]
-        return result_html("ConductivityResult", rows, self.status, [self.message])
+        return result_html("ConductivityResult", rows, self.status, [self.message, *self.warnings])
 
     def to_dict(self) -> dict:
-        """Plain dict (JSON-ready)."""
+        """Plain dict (JSON-ready), with its ``status``."""
         out = asdict(self)
         out["solver"] = "voxel-laplace"
+        out["status"] = self.status
         return out
 
 
@@ -119,6 +129,7 @@ def effective_conductivity(
     transport: dict | None = None,
     progress: Callable[[int, float], None] | None = None,
     capture: Callable[..., None] | None = None,
+    cells_per_diameter: float | None = None,
 ) -> ConductivityResult:
     """Effective conductivity of the voxelized RVE along one axis.
 
@@ -135,6 +146,9 @@ def effective_conductivity(
     capture : callable, optional
         Receives the potential field: ``capture("conductivity", solution=..., ...)``
         (e.g. a :class:`psdesign.fields.FieldWriter`).
+    cells_per_diameter : float, optional
+        Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
+        below 8 the result is ``untrustworthy`` and says why in ``warnings``.
 
     Raises
     ------
@@ -156,7 +170,7 @@ def effective_conductivity(
     cap = None if capture is None else partial(capture, "conductivity")
     eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=cap)
     fs = 1.0 - fields.porosity
-    return ConductivityResult(
+    out = ConductivityResult(
         direction=eff.direction,
         bc=eff.bc,
         effective_conductivity=max(eff.value, 0.0),
@@ -179,4 +193,9 @@ def effective_conductivity(
         n_cells=eff.n_cells,
         wall_time_s=eff.wall_time_s,
         conductivity_unit=tr["conductivity_unit"],
+        cells_per_diameter=cells_per_diameter,
     )
+    out.warnings = rating(
+        "sigma_eff", out.direction, out.blocked, out.converged, out.rel_error, cells_per_diameter
+    )[1]
+    return out

@@ -31,7 +31,7 @@ import numpy as np
 
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import validate_transport
-from psdesign.transport.effective import Effective, solve_effective
+from psdesign.transport.effective import Effective, rating, solve_effective, worst_status
 
 
 @dataclass
@@ -59,13 +59,22 @@ class DiffusivityResult:
     mean_pore_diameter_m: float | None = None
     knudsen_number: float | None = None
     effective_diffusivity_transition_m2_s: float | None = None
+    cells_per_diameter: float | None = None
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def status(self) -> str:
-        """``"ok"``, ``"blocked"`` (no pore path) or ``"not_converged"``."""
-        if self.blocked:
-            return "blocked"
-        return "ok" if self.converged else "not_converged"
+        """``"ok"``, ``"blocked"`` (no pore path), ``"not_converged"`` or ``"untrustworthy"``
+        (error bar above 20 % or fewer than 8 voxels across the thinnest fiber;
+        :func:`psdesign.transport.effective.rating`)."""
+        return rating(
+            "D_eff/D",
+            self.direction,
+            self.blocked,
+            self.converged,
+            self.rel_error,
+            self.cells_per_diameter,
+        )[0]
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
@@ -82,12 +91,13 @@ class DiffusivityResult:
             ("porosity (-)", f"{self.porosity:.4f}"),
             ("bc", self.bc),
         ]
-        return result_html("DiffusivityResult", rows, self.status, [self.message])
+        return result_html("DiffusivityResult", rows, self.status, [self.message, *self.warnings])
 
     def to_dict(self) -> dict:
-        """Plain dict (JSON-ready)."""
+        """Plain dict (JSON-ready), with its ``status``."""
         out = asdict(self)
         out["solver"] = "voxel-laplace"
+        out["status"] = self.status
         return out
 
 
@@ -116,7 +126,9 @@ def _pore_sigma(solid: np.ndarray) -> np.ndarray:
     return (~solid).astype(np.float32)
 
 
-def _result(eff: Effective, fields: VoxelFields, tr: dict, pore_d: float | None):
+def _result(
+    eff: Effective, fields: VoxelFields, tr: dict, pore_d: float | None, cpd: float | None
+) -> DiffusivityResult:
     eps = fields.porosity
     rel = max(eff.value, 0.0)
     tau = eps / rel if rel > 0 else None
@@ -140,7 +152,11 @@ def _result(eff: Effective, fields: VoxelFields, tr: dict, pore_d: float | None)
         wall_time_s=eff.wall_time_s,
         bulk_diffusivity_m2_s=bulk,
         effective_diffusivity_m2_s=bulk * rel,
+        cells_per_diameter=cpd,
     )
+    out.warnings = rating("D_eff/D", out.direction, out.blocked, out.converged, out.rel_error, cpd)[
+        1
+    ]
     if pore_d is not None and pore_d > 0:
         lam = float(tr["mean_free_path_m"])
         out.mean_pore_diameter_m = float(pore_d)
@@ -164,6 +180,7 @@ def relative_diffusivity(
     progress: Callable[[int, float], None] | None = None,
     pore_diameter: float | None = None,
     capture: Callable[..., None] | None = None,
+    cells_per_diameter: float | None = None,
 ) -> DiffusivityResult:
     """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along one axis.
 
@@ -182,17 +199,23 @@ def relative_diffusivity(
     capture : callable, optional
         Receives the concentration field: ``capture("diffusivity", solution=..., ...)``
         (e.g. a :class:`psdesign.fields.FieldWriter`).
+    cells_per_diameter : float, optional
+        Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
+        below 8 the result is ``untrustworthy`` and says why in ``warnings``.
     """
     tr = validate_transport({"transport": transport or {}})
     cap = None if capture is None else partial(capture, "diffusivity")
     eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=cap)
     if pore_diameter is None and tr["mean_free_path_m"] > 0:
         pore_diameter = mean_pore_diameter(fields)
-    return _result(eff, fields, tr, pore_diameter)
+    return _result(eff, fields, tr, pore_diameter, cells_per_diameter)
 
 
 def diffusivity_tensor(
-    fields: VoxelFields, transport: dict | None = None, capture: Callable[..., None] | None = None
+    fields: VoxelFields,
+    transport: dict | None = None,
+    capture: Callable[..., None] | None = None,
+    cells_per_diameter: float | None = None,
 ) -> dict:
     """Full relative-diffusivity tensor with periodic BC (three solves; ``capture`` as in
     :func:`relative_diffusivity`).
@@ -206,7 +229,15 @@ def diffusivity_tensor(
     tr = validate_transport({"transport": tr})
     pore_d = mean_pore_diameter(fields) if tr["mean_free_path_m"] > 0 else None
     results = [
-        relative_diffusivity(fields, d, tr, pore_diameter=pore_d, capture=capture) for d in "xyz"
+        relative_diffusivity(
+            fields,
+            d,
+            tr,
+            pore_diameter=pore_d,
+            capture=capture,
+            cells_per_diameter=cells_per_diameter,
+        )
+        for d in "xyz"
     ]
     tensor = np.column_stack([r.relative_diffusivity_column for r in results])
     sym = 0.5 * (tensor + tensor.T)
@@ -219,4 +250,6 @@ def diffusivity_tensor(
         "porosity": fields.porosity,
         "results": [r.to_dict() for r in results],
         "converged": all(r.converged for r in results),
+        "status": worst_status([r.status for r in results]),
+        "warnings": [w for r in results for w in r.warnings],
     }

@@ -21,6 +21,12 @@ The error estimate (``rel_error``) is built as the permeability's
   :data:`STAIRCASE_FLOOR`; with ``error_estimate = "residual"`` (no second grid) the floor
   alone, doubled, as for the permeability;
 * ``flux_imbalance`` between the planes (algebraic).
+
+Each value is rated like a permeability (:func:`psdesign.flow.error.status_of`): ``status`` is
+``"blocked"`` (no conducting path), ``"not_converged"``, ``"untrustworthy"`` (error bar above
+:data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` or fewer than
+:data:`psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels across the thinnest fiber) or
+``"ok"``, with one warning line per reason (:func:`rating`).
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
 from psdesign.flow.error import richardson_rel_error
 from psdesign.geometry.rve import VoxelFields
@@ -64,6 +71,49 @@ class Effective:
     wall_time_s: float
     coarse_value: float | None = None
     extra: dict = field(default_factory=dict)
+
+
+def rating(
+    quantity: str,
+    direction: str,
+    blocked: bool,
+    converged: bool,
+    rel_error: float,
+    cells_per_diameter: float | None,
+) -> tuple[str, list[str]]:
+    """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
+    ``direction`` (module docstring).
+
+    >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
+    'untrustworthy'
+    >>> rating("D_eff/D", "z", False, True, 0.05, 12.0)
+    ('ok', [])
+    """
+    if blocked:
+        return "blocked", []
+    name = f"{quantity}_{direction}"
+    warnings = err.resolution_warnings(cells_per_diameter, "voxel", direction, quantity)
+    if not converged:
+        warnings.append(f"{name}: solver did not converge")
+    if not rel_error <= err.UNTRUSTWORTHY_REL_ERROR:
+        warnings.append(
+            f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
+            f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
+        )
+    return err.status_of(converged, rel_error, cells_per_diameter), warnings
+
+
+STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
+"""Statuses from best to worst (:func:`worst_status`)."""
+
+
+def worst_status(statuses: list[str]) -> str:
+    """The worst of several values' statuses (:data:`STATUS_ORDER`).
+
+    >>> worst_status(["ok", "untrustworthy", "ok"])
+    'untrustworthy'
+    """
+    return max(statuses, key=STATUS_ORDER.index, default="ok")
 
 
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:

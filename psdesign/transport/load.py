@@ -16,6 +16,13 @@ class TransportCase:
     rve: RVE
     fields: VoxelFields
 
+    @property
+    def cells_per_diameter(self) -> float | None:
+        """Voxels across the thinnest fiber (None without fibers)."""
+        from psdesign.flow.error import cells_per_diameter
+
+        return cells_per_diameter(self.rve, float(self.fields.grid.spacing[0]))
+
 
 def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     """Load and validate a spec file, build the RVE and voxelize it at ``rve.voxel``.

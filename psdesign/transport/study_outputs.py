@@ -3,10 +3,11 @@
 Output names (``[study] outputs``) and the row keys they add:
 
 * ``diffusivity_x|y|z``: ``diffusivity_<d>`` (D_eff / D_bulk), ``diffusivity_<d>_rel_error``,
-  ``diffusivity_<d>_converged``;
+  ``diffusivity_<d>_converged``, ``diffusivity_<d>_status`` (``ok``, ``untrustworthy``,
+  ``not_converged``, ``blocked``: :func:`psdesign.transport.effective.rating`);
 * ``tortuosity_x|y|z``: ``tortuosity_<d>`` (porosity / relative diffusivity; empty if blocked);
 * ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
-  ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``;
+  ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``, ``conductivity_<d>_status``;
 * ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m), with
   ``pore_bin_width_m`` (the scan step) and ``pore_diameter_error_m`` (their one-sided error);
 * ``specific_surface_m-1``: marching-cubes surface per box volume (1/m).
@@ -91,27 +92,32 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
     wanted = [o for o in outputs if o in TRANSPORT_OUTPUTS]
     if not wanted:
         return {}
+    from psdesign.flow.error import cells_per_diameter
+
     tr = validate_transport(spec)
+    cpd = cells_per_diameter(rve, float(fields.grid.spacing[0]))
     row: dict = {}
     diff_dirs = sorted({o[-1] for o in wanted if o[:-1] in ("diffusivity_", "tortuosity_")})
     if diff_dirs:
         from psdesign.transport.diffusivity import relative_diffusivity
 
         for d in diff_dirs:
-            res = relative_diffusivity(fields, d, tr)
+            res = relative_diffusivity(fields, d, tr, cells_per_diameter=cpd)
             if f"diffusivity_{d}" in wanted or f"tortuosity_{d}" in wanted:
                 row[f"diffusivity_{d}"] = res.relative_diffusivity
                 row[f"diffusivity_{d}_rel_error"] = res.rel_error
                 row[f"diffusivity_{d}_converged"] = res.converged
+                row[f"diffusivity_{d}_status"] = res.status
                 row[f"tortuosity_{d}"] = res.tortuosity_factor
                 row[f"time_diffusivity_{d}_s"] = res.wall_time_s
     for d in sorted({o[-1] for o in wanted if o.startswith("conductivity_")}):
         from psdesign.transport.conductivity import effective_conductivity
 
-        res = effective_conductivity(fields, d, transport=tr)
+        res = effective_conductivity(fields, d, transport=tr, cells_per_diameter=cpd)
         row[f"conductivity_{d}"] = res.effective_conductivity
         row[f"conductivity_{d}_rel_error"] = res.rel_error
         row[f"conductivity_{d}_converged"] = res.converged
+        row[f"conductivity_{d}_status"] = res.status
         row[f"time_conductivity_{d}_s"] = res.wall_time_s
     if any(o.startswith("pore_d") for o in wanted):
         from psdesign.transport.pores import pore_sizes

@@ -119,3 +119,66 @@ def test_study_file_accepts_transport_outputs_and_run_case_fills_them(tmp_path):
     row = run_case(base, study.outputs, "voxel", tmp_path)
     assert row["diffusivity_z"] == pytest.approx(row["porosity"], rel=1e-6)
     assert row["tortuosity_x"] > 1.0 and row["specific_surface_m-1"] > 0
+
+
+def test_under_resolved_transport_values_are_untrustworthy(tmp_path, capsys):
+    """Product rule: a value that is not trustworthy says so in its status. The permeability's
+    rule (:func:`psdesign.flow.error.status_of`: fewer than 8 cells across the thinnest fiber
+    or an error bar above 20 %) applies to D_eff/D and sigma_eff too; session 22 found the
+    transport results rated only blocked / not_converged. The cylinder at 2 um voxels has 4
+    voxels across its 8 um diameter; at 1 um it has 8, the threshold (ok)."""
+    coarse = tmp_path / "coarse.toml"
+    coarse.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
+    assert main(["diffusivity", str(coarse), "--direction", "x", "--json"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["status"] == "untrustworthy" and out["cells_per_diameter"] == pytest.approx(4.0)
+    line = "D_eff/D_x: only 4.0 voxels across the thinnest fiber diameter (< 8); refine rve.voxel"
+    assert out["warnings"][0] == line and f"psdesign: warning: {line}" in cap.err
+    assert out["rel_error"] > 0.2 and out["warnings"][1].endswith("exceeds 20 %")
+    assert main(["conductivity", str(coarse), "--direction", "all"]) == 0  # converged: exit 0
+    cap = capsys.readouterr()
+    assert cap.out.count("[untrustworthy]") == 3 and cap.err.count("sigma_eff_") == 3
+    fine = tmp_path / "fine.toml"
+    fine.write_text(SPEC)
+    assert main(["diffusivity", str(fine), "--direction", "x", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cells_per_diameter"] == pytest.approx(8.0)
+    assert (out["status"], out["warnings"]) == ("ok", []) and out["rel_error"] < 0.2
+
+
+def test_rating_flags_a_large_bar_and_no_convergence():
+    from psdesign.transport.effective import rating
+
+    status, warnings = rating("sigma_eff", "y", False, True, 0.25, 12.0)
+    assert status == "untrustworthy" and warnings == [
+        "sigma_eff_y: estimated error 25.0 % exceeds 20 %"
+    ]
+    status, warnings = rating("D_eff/D", "z", False, False, 0.01, None)
+    assert status == "not_converged" and warnings == ["D_eff/D_z: solver did not converge"]
+    assert rating("D_eff/D", "z", True, False, float("nan"), 3.0) == ("blocked", [])
+    assert rating("D_eff/D", "z", False, True, float("nan"), None)[0] == "untrustworthy"
+
+
+def test_trusted_masks_untrustworthy_transport_values():
+    """Summaries, fits and the optimizer leave out a transport value whose own status is not
+    ok, as they do for K (``psdesign.analysis.columns.trusted``)."""
+    import pandas as pd
+
+    from psdesign.analysis.columns import trusted
+    from psdesign.study.worker import untrustworthy_count
+
+    df = pd.DataFrame(
+        {
+            "status": ["ok", "ok"],
+            "diffusivity_z": [0.5, 0.6],
+            "tortuosity_z": [1.6, 1.5],
+            "diffusivity_z_status": ["ok", "untrustworthy"],
+            "conductivity_x": [2.0, 3.0],
+            "conductivity_x_status": ["untrustworthy", "ok"],
+        }
+    )
+    t = trusted(df)
+    assert t["diffusivity_z"].tolist()[0] == 0.5 and pd.isna(t["diffusivity_z"].iloc[1])
+    assert pd.isna(t["tortuosity_z"].iloc[1]) and pd.isna(t["conductivity_x"].iloc[0])
+    assert untrustworthy_count(df) == 2

@@ -209,7 +209,7 @@ def test_untrustworthy_k_is_counted_in_one_line(tmp_path, capsys):
     args = ["study", "run", str(p), "-o", str(tmp_path / "out"), "--quiet", "--no-report"]
     assert main([*args, "--case-fn", "test_study_safety:untrustworthy_case"]) == 0
     err = capsys.readouterr().err
-    assert "1 ok case(s) have a K flagged untrustworthy" in err
+    assert "1 ok case(s) have a K or transport value flagged untrustworthy" in err
     df = pd.read_csv(tmp_path / "out" / "results.csv")
     assert df["status"].tolist() == ["ok", "ok"]
     assert df["k_z_status"].tolist() == ["ok", "untrustworthy"]
