@@ -78,10 +78,23 @@ def torus_offsets(step: float) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _mark_capsules(free, A, B, lim):  # pragma: no cover - compiled
-    """Clear the grid points (periodic, grid units) closer than lim[m] to segment A[m]B[m]."""
+    """Clear the grid points (periodic, grid units) closer than lim[m] to segment A[m]B[m].
+
+    A bent fiber's search brings ~20 000 capsules onto a 35 x 35 torus (each point under
+    ~1 300 of them), so most of the work was re-testing cleared points: rows with no free
+    point left are skipped, cleared points are not tested again, and the loop stops once
+    nothing is free. The test itself is unchanged, so the result is the same bit for bit.
+    """
     k = free.shape[0]
     half = k // 2
+    row_free = np.zeros(k, np.int64)
+    for ii in range(k):
+        for jj in range(k):
+            row_free[ii] += free[ii, jj]
+    n_free = row_free.sum()
     for m in range(A.shape[0]):
+        if n_free == 0:
+            return
         ax, ay, bx, by, r = A[m, 0], A[m, 1], B[m, 0], B[m, 1], lim[m]
         ex, ey = bx - ax, by - ay
         L2 = max(ex * ex + ey * ey, 1e-30)
@@ -90,15 +103,23 @@ def _mark_capsules(free, A, B, lim):  # pragma: no cover - compiled
         j0 = int(np.floor(min(ay, by) - r))
         j1 = int(np.ceil(max(ay, by) + r))
         for i in range(i0, i1 + 1):
+            ii = (i + half) % k
+            if row_free[ii] == 0:
+                continue
             px = i - ax
             for j in range(j0, j1 + 1):
+                jj = (j + half) % k
+                if not free[ii, jj]:
+                    continue
                 py = j - ay
                 t = (px * ex + py * ey) / L2
                 t = min(1.0, max(0.0, t))
                 dx = px - t * ex
                 dy = py - t * ey
                 if dx * dx + dy * dy < r * r:
-                    free[(i + half) % k, (j + half) % k] = False
+                    free[ii, jj] = False
+                    row_free[ii] -= 1
+                    n_free -= 1
 
 
 def _bent_capsules(trial: FiberState, old: Pieces, A, B, lim):
