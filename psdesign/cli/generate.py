@@ -98,7 +98,7 @@ def write_generate_outputs(
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(rve, fields, built.report)
-    summary["wall_time_s"] = {"build_and_voxelize": time.perf_counter() - t0}
+    summary["wall_time_s"] = {"build_and_voxelize": round(time.perf_counter() - t0, 3)}
     with staged_directory(target) as tmp:
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
@@ -121,7 +121,7 @@ def write_generate_outputs(
             voxel = float(fields.grid.spacing[0])
             write_tiff(fields.solid, tmp / GENERATE_FORMATS["tiff"], voxel)
             summary["tiff"] = tiff_description(voxel)
-        summary["wall_time_s"]["total"] = time.perf_counter() - t0
+        summary["wall_time_s"]["total"] = round(time.perf_counter() - t0, 3)
         write_json(tmp / "summary.json", summary)
     return summary
 

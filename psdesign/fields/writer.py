@@ -3,7 +3,10 @@ picture of each, and ``fields.json`` (the index: files, array names and units, t
 
 The folder follows the safe-output rules of :mod:`psdesign.io.outputs` (a user's non-psdesign
 folder is refused, nothing psdesign did not write is replaced) and appears atomically: the files
-are written into a temporary folder that is moved into place when the command succeeds.
+are written into a temporary folder that is moved into place when the command succeeds. A reused
+folder then holds only the new run's fields: the files the previous ``fields.json`` listed that
+the new run did not write are removed after the new files are in place, if the marker says
+psdesign wrote them; any other file is never touched.
 """
 
 from __future__ import annotations
@@ -199,10 +202,30 @@ def fields_output(
     """Check the fields folder now (:class:`psdesign.io.outputs.OutputError`, exit 2, before
     any solve), yield a :class:`FieldWriter` on a temporary folder, and move its files into
     place when the block succeeds (nothing is written if it fails)."""
-    from psdesign.io.outputs import check_output_dir, staged_output
+    from psdesign.io.outputs import check_output_dir, remove_owned_files, staged_output
 
     out = check_output_dir(path, option=option, command=command, expected=expected)
+    before = indexed_files(out.path / "fields.json") if out.exists else set()
     with staged_output(out) as tmp:
         writer = FieldWriter(tmp)
         yield writer
         writer.finish()
+        written = {p.name for p in tmp.iterdir()}
+    # only after the new set is in place: a failed run leaves the previous set whole
+    remove_owned_files(out.path, before - written)
+
+
+def indexed_files(path: Path) -> set[str]:
+    """The files a ``fields.json`` at ``path`` lists (its solves' files and pictures); an
+    empty set if there is none or it is not a psdesign index. Only plain names (no folders)."""
+    try:
+        index = json.loads(path.read_text())
+        solves = index["solves"]
+        names = set()
+        for s in solves:
+            names.update(s.get("files", []))
+            if s.get("picture"):
+                names.add(s["picture"])
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
+        return set()
+    return {n for n in names if isinstance(n, str) and n and Path(n).name == n and n != ".."}

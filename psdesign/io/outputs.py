@@ -38,6 +38,7 @@ __all__ = [
     "check_output_dir",
     "claim_output_dir",
     "is_psdesign_temp",
+    "remove_owned_files",
     "staged_output",
 ]
 
@@ -285,6 +286,29 @@ def claim_output_dir(out: OutputDir, files: Iterable[str]) -> OutputDir:
     owned = out.owned | set(files)
     _write_marker(out.path, out.command, owned)
     return OutputDir(out.path, out.option, out.command, frozenset(owned), True)
+
+
+def remove_owned_files(folder: Path, names: Iterable[str]) -> list[str]:
+    """Remove the files ``names`` (plain names in ``folder``) that psdesign wrote, as its
+    marker lists them, and drop them from the marker; returns the names removed.
+
+    Anything the marker does not list, a symbolic link or a folder is left alone: a file is
+    only removed if psdesign wrote it.
+    """
+    marker = read_marker(folder)
+    if marker is None:
+        return []
+    owned = set(marker["files"])
+    removed = []
+    for name in sorted(set(names)):
+        p = folder / name
+        if name not in owned or Path(name).name != name or p.is_symlink() or not p.is_file():
+            continue
+        p.unlink()
+        removed.append(name)
+    if removed:
+        _write_marker(folder, marker.get("command", ""), owned - set(removed))
+    return removed
 
 
 def _files_under(root: Path) -> list[str]:

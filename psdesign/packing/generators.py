@@ -483,7 +483,7 @@ def _fast_count(gs, size, lo, hi, fixed, measure, kw):
         {
             "n_rejected": 0,
             "fields": vf,
-            "placement_time_s": res.wall_time_s,
+            "placement_time_s": round(res.wall_time_s, 3),
             "candidates_tested": res.candidates_tested,
             "n_ejections": res.n_ejections,
             "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
@@ -594,7 +594,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
         "fields": vf,
         "closest": porosity,
         "why": why,
-        "placement_time_s": time.perf_counter() - t0,
+        "placement_time_s": round(time.perf_counter() - t0, 3),
         "bounds": _bounds_report(kw, gs.period, exceeded_counts),
     }
     return st, drawn, info

@@ -78,10 +78,23 @@ def torus_offsets(step: float) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _mark_capsules(free, A, B, lim):  # pragma: no cover - compiled
-    """Clear the grid points (periodic, grid units) closer than lim[m] to segment A[m]B[m]."""
+    """Clear the grid points (periodic, grid units) closer than lim[m] to segment A[m]B[m].
+
+    A bent fiber's search brings ~20 000 capsules onto a 35 x 35 torus (each point under
+    ~1 300 of them), so most of the work was re-testing cleared points: rows with no free
+    point left are skipped, cleared points are not tested again, and the loop stops once
+    nothing is free. The test itself is unchanged, so the result is the same bit for bit.
+    """
     k = free.shape[0]
     half = k // 2
+    row_free = np.zeros(k, np.int64)
+    for ii in range(k):
+        for jj in range(k):
+            row_free[ii] += free[ii, jj]
+    n_free = row_free.sum()
     for m in range(A.shape[0]):
+        if n_free == 0:
+            return
         ax, ay, bx, by, r = A[m, 0], A[m, 1], B[m, 0], B[m, 1], lim[m]
         ex, ey = bx - ax, by - ay
         L2 = max(ex * ex + ey * ey, 1e-30)
@@ -90,15 +103,23 @@ def _mark_capsules(free, A, B, lim):  # pragma: no cover - compiled
         j0 = int(np.floor(min(ay, by) - r))
         j1 = int(np.ceil(max(ay, by) + r))
         for i in range(i0, i1 + 1):
+            ii = (i + half) % k
+            if row_free[ii] == 0:
+                continue
             px = i - ax
             for j in range(j0, j1 + 1):
+                jj = (j + half) % k
+                if not free[ii, jj]:
+                    continue
                 py = j - ay
                 t = (px * ex + py * ey) / L2
                 t = min(1.0, max(0.0, t))
                 dx = px - t * ex
                 dy = py - t * ey
                 if dx * dx + dy * dy < r * r:
-                    free[(i + half) % k, (j + half) % k] = False
+                    free[ii, jj] = False
+                    row_free[ii] -= 1
+                    n_free -= 1
 
 
 def _bent_capsules(trial: FiberState, old: Pieces, A, B, lim):
@@ -117,29 +138,57 @@ def _bent_capsules(trial: FiberState, old: Pieces, A, B, lim):
     sa, sb = (old.a - c) @ d, (old.b - c) @ d
     smin, smax = np.minimum(sa, sb), np.maximum(sa, sb)
     width = min(0.5 * float(lim.min()), 1.0 / (12.0 * f))
-    m = np.maximum(1, np.ceil((smax - smin + 2 * lim) / width).astype(np.int64))
-    rep = np.repeat(np.arange(len(m)), m)
-    j = np.arange(len(rep)) - (np.cumsum(m) - m)[rep]
-    h = ((smax - smin + 2 * lim) / m)[rep]
-    s0 = smin[rep] - lim[rep] + j * h
-    s1 = s0 + h
-    g = np.maximum(0.0, np.maximum(s0 - smax[rep], smin[rep] - s1))
-    r = np.sqrt(np.clip(lim[rep] ** 2 - g**2, 0.0, None))
+    return _bent_capsule_rows(smin, smax, lim, A, B, old.fiber.astype(np.int64), u, f, ph, width)
+
+
+@numba.njit(cache=True)
+def _bent_capsule_rows(smin, smax, lim, A, B, fiber, u, f, ph, width):  # pragma: no cover
+    """The sub-interval capsules of :func:`_bent_capsules`, one loop per old piece (a numpy
+    version built ~20 arrays of ~20 000 rows per call: 40 % of a bent placement); every
+    value is computed by the same operations in the same order, so bit for bit the same."""
+    n = smin.shape[0]
+    m = np.empty(n, np.int64)
+    total = 0
+    for p in range(n):
+        m[p] = max(1, np.int64(np.ceil((smax[p] - smin[p] + 2 * lim[p]) / width)))
+        total += m[p]
+    A2 = np.empty((total, 2))
+    B2 = np.empty((total, 2))
+    R = np.empty(total)
+    owner = np.empty(total, np.int64)
     tp = 2 * np.pi
-    th0 = tp * f * (s0 + 0.5) + ph
-    th1 = tp * f * (s1 + 0.5) + ph
-    has_max = np.floor(th1 / tp) >= np.ceil(th0 / tp)
-    has_min = np.floor((th1 - np.pi) / tp) >= np.ceil((th0 - np.pi) / tp)
-    cmax = np.where(has_max, 1.0, np.maximum(np.cos(th0), np.cos(th1)))
-    cmin = np.where(has_min, -1.0, np.minimum(np.cos(th0), np.cos(th1)))
-    w1, w2 = -u * cmax / tp, -u * cmin / tp
-    wlo, whi = np.minimum(w1, w2), np.maximum(w1, w2)
-    keep = g < lim[rep]
-    shift = np.zeros((len(rep), 2))
-    shift[:, 0] = 0.5 * (wlo + whi)
-    A2 = (A[rep] - shift)[keep]
-    B2 = (B[rep] - shift)[keep]
-    return A2, B2, (r + 0.5 * (whi - wlo))[keep], old.fiber[rep][keep]
+    tpf = tp * f
+    q = 0
+    for p in range(n):
+        h = (smax[p] - smin[p] + 2 * lim[p]) / m[p]
+        for j in range(m[p]):
+            s0 = smin[p] - lim[p] + j * h
+            s1 = s0 + h
+            g = max(0.0, max(s0 - smax[p], smin[p] - s1))
+            if not g < lim[p]:
+                continue
+            r2 = lim[p] ** 2 - g**2
+            r = np.sqrt(r2 if r2 > 0.0 else 0.0)
+            th0 = tpf * (s0 + 0.5) + ph
+            th1 = tpf * (s1 + 0.5) + ph
+            c0, c1 = np.cos(th0), np.cos(th1)
+            if np.floor(th1 / tp) >= np.ceil(th0 / tp):
+                cmax = 1.0
+            else:
+                cmax = max(c0, c1)
+            if np.floor((th1 - np.pi) / tp) >= np.ceil((th0 - np.pi) / tp):
+                cmin = -1.0
+            else:
+                cmin = min(c0, c1)
+            w1, w2 = -u * cmax / tp, -u * cmin / tp
+            wlo, whi = min(w1, w2), max(w1, w2)
+            shift = 0.5 * (wlo + whi)
+            A2[q, 0], A2[q, 1] = A[p, 0] - shift, A[p, 1] - 0.0
+            B2[q, 0], B2[q, 1] = B[p, 0] - shift, B[p, 1] - 0.0
+            R[q] = r + 0.5 * (whi - wlo)
+            owner[q] = fiber[p]
+            q += 1
+    return A2[:q], B2[:q], R[:q], owner[:q]
 
 
 def _capsules(trial: FiberState, old: Pieces, old_d: np.ndarray, gap: float):

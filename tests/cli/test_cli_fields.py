@@ -234,6 +234,49 @@ def test_transport_fields_mean_flux_is_the_effective_property(tmp_path):
         assert (out / f"{cmd}_x.png").exists()
 
 
+def test_reused_fields_folder_holds_only_the_new_run_and_the_users_files(tmp_path):
+    """A second run into the same ``--fields`` folder removes psdesign's files the first
+    ``fields.json`` listed and the second did not write (a stale ``diffusivity_x.vti`` beside
+    ``diffusivity_y.vti`` would be read as this run's field; RESULTS "api21", found and not
+    fixed); a user's file in the folder, and a failed run, change nothing."""
+    from psdesign.fields.writer import fields_output
+    from psdesign.io.outputs import MARKER
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "f"
+    argv = ["diffusivity", str(spec), "--quiet", "--bc", "periodic", "--fields", str(out)]
+    assert main([*argv, "--direction", "x"]) == 0
+    first = {"fields.json", "diffusivity_x.vti", "diffusivity_x.png"}
+    assert {p.name for p in out.iterdir()} == first | {MARKER}
+    (out / "notes.txt").write_text("mine")  # the user's: never touched
+    (out / "diffusivity_x.png").rename(out / "renamed.png")  # the user's copy: kept
+
+    # a run that fails after writing leaves the previous set whole
+    with pytest.raises(RuntimeError), fields_output(out, "diffusivity --fields") as w:
+        (w.folder / "diffusivity_z.vti").write_text("half")
+        raise RuntimeError("solve failed")
+    assert (out / "diffusivity_x.vti").exists() and not (out / "diffusivity_z.vti").exists()
+
+    assert main([*argv, "--direction", "y"]) == 0
+    index = json.loads((out / "fields.json").read_text())
+    assert [s["files"] for s in index["solves"]] == [["diffusivity_y.vti"]]
+    names = {p.name for p in out.iterdir()}
+    # the old index's diffusivity_x.vti is gone (its png was already moved away by the
+    # user); notes.txt and renamed.png were never listed and stay
+    assert names == {
+        "fields.json",
+        "diffusivity_y.vti",
+        "diffusivity_y.png",
+        "notes.txt",
+        "renamed.png",
+        MARKER,
+    }
+    marker = json.loads((out / MARKER).read_text())
+    assert "diffusivity_x.vti" not in marker["files"]
+    assert (out / "notes.txt").read_text() == "mine"
+
+
 def test_fields_refuses_a_user_folder_before_solving(tmp_path, capsys):
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC)

@@ -61,6 +61,32 @@ def test_same_spec_gives_identical_outputs(tmp_path):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
+def test_summary_wall_times_are_rounded_to_milliseconds(tmp_path):
+    # every wall time in summary.json is rounded to 1 ms like generation.wall_time_s
+    # (placement_time_s and the top-level wall_time_s were not: RESULTS "geom21")
+    spec = write(
+        tmp_path,
+        '[rve]\nsize = [30e-6, 30e-6, 30e-6]\nvoxel = 1e-6\n[generator]\nkind = "straight"\n'
+        "porosity = 0.9\ndiameter = 5e-6\nseed = 1\nporosity_tolerance = 0.02\n"
+        '[intersections]\nmethod = "fast"\n',
+    )
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--no-preview", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    times = []
+
+    def walk(d, timed=False):
+        for k, v in d.items():
+            if isinstance(v, dict):
+                walk(v, timed or k == "wall_time_s")
+            elif timed or k.endswith("_time_s"):
+                times.append((k, v))
+
+    walk(summary)
+    assert {"placement_time_s", "total", "build_and_voxelize"} <= {k for k, _ in times}
+    assert [(k, v) for k, v in times if v != round(v, 3)] == []
+
+
 BAD_SPECS = [
     (SPEC.format(d="-7e-6"), "fibers[0].diameter"),
     (SPEC.format(d="0"), "fibers[0].diameter"),
