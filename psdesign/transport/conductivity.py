@@ -19,12 +19,14 @@ import numpy as np
 
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
-from psdesign.transport.effective import rating, solve_effective
+from psdesign.transport.effective import Rated, solve_effective
 
 
 @dataclass
-class ConductivityResult:
+class ConductivityResult(Rated):
     """Effective conductivity along one axis (units of the phase conductivities)."""
+
+    QUANTITY = "sigma_eff"
 
     direction: str
     bc: str
@@ -51,20 +53,6 @@ class ConductivityResult:
 
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
-
-    @property
-    def status(self) -> str:
-        """``"ok"``, ``"blocked"`` (the conducting phase does not percolate),
-        ``"not_converged"`` or ``"untrustworthy"`` (error bar above 20 % or fewer than 8 voxels
-        across the thinnest fiber; :func:`psdesign.transport.effective.rating`)."""
-        return rating(
-            "sigma_eff",
-            self.direction,
-            self.blocked,
-            self.converged,
-            self.rel_error,
-            self.cells_per_diameter,
-        )[0]
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
@@ -195,7 +183,5 @@ def effective_conductivity(
         conductivity_unit=tr["conductivity_unit"],
         cells_per_diameter=cells_per_diameter,
     )
-    out.warnings = rating(
-        "sigma_eff", out.direction, out.blocked, out.converged, out.rel_error, cells_per_diameter
-    )[1]
+    out.warnings = out.rating_warnings()
     return out

@@ -31,12 +31,14 @@ import numpy as np
 
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import validate_transport
-from psdesign.transport.effective import Effective, rating, solve_effective, worst_status
+from psdesign.transport.effective import Effective, Rated, solve_effective, worst_status
 
 
 @dataclass
-class DiffusivityResult:
+class DiffusivityResult(Rated):
     """Pore diffusion along one axis (SI units; see module docstring)."""
+
+    QUANTITY = "D_eff/D"
 
     direction: str
     bc: str
@@ -61,20 +63,6 @@ class DiffusivityResult:
     effective_diffusivity_transition_m2_s: float | None = None
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
-
-    @property
-    def status(self) -> str:
-        """``"ok"``, ``"blocked"`` (no pore path), ``"not_converged"`` or ``"untrustworthy"``
-        (error bar above 20 % or fewer than 8 voxels across the thinnest fiber;
-        :func:`psdesign.transport.effective.rating`)."""
-        return rating(
-            "D_eff/D",
-            self.direction,
-            self.blocked,
-            self.converged,
-            self.rel_error,
-            self.cells_per_diameter,
-        )[0]
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
@@ -154,9 +142,7 @@ def _result(
         effective_diffusivity_m2_s=bulk * rel,
         cells_per_diameter=cpd,
     )
-    out.warnings = rating("D_eff/D", out.direction, out.blocked, out.converged, out.rel_error, cpd)[
-        1
-    ]
+    out.warnings = out.rating_warnings()
     if pore_d is not None and pore_d > 0:
         lam = float(tr["mean_free_path_m"])
         out.mean_pore_diameter_m = float(pore_d)

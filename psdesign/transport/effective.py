@@ -103,6 +103,35 @@ def rating(
     return err.status_of(converged, rel_error, cells_per_diameter), warnings
 
 
+class Rated:
+    """The ``status`` of a result dataclass with ``direction``, ``blocked``, ``converged``,
+    ``rel_error`` and ``cells_per_diameter`` (:func:`rating`); ``QUANTITY`` names its value in
+    the warning lines."""
+
+    QUANTITY = "value"
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"blocked"`` (no conducting path), ``"not_converged"`` or
+        ``"untrustworthy"`` (error bar above 20 % or fewer than 8 voxels across the thinnest
+        fiber)."""
+        return self._rating()[0]
+
+    def rating_warnings(self) -> list[str]:
+        """One warning line per reason the value is not ``ok`` (:func:`rating`)."""
+        return self._rating()[1]
+
+    def _rating(self) -> tuple[str, list[str]]:
+        return rating(
+            self.QUANTITY,
+            self.direction,
+            self.blocked,
+            self.converged,
+            self.rel_error,
+            self.cells_per_diameter,
+        )
+
+
 STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
 """Statuses from best to worst (:func:`worst_status`)."""
 
