@@ -1,0 +1,352 @@
+"""The diffuse-domain wall in a 3-D staggered Stokes discretisation (issue 12 item 3, port step 1).
+
+Usage::
+
+    python benchmarks/diffuse3d.py extruded WALL [PHI] [N,...] [NZ,...]
+    python benchmarks/diffuse3d.py spheres WALL [C,...] [N,...] [SHIFTS]
+    python benchmarks/diffuse3d.py cutface [C,...] [N,...] [SHIFTS]
+    python benchmarks/diffuse3d.py iterations WALL C N
+
+``WALL`` is :func:`penalty_scatter.parse_wall`'s string; the wall that converges monotonically on
+the 2-D arrays (wall22) is ``logistic,0.75,-0.08385500,-0.00674740,-0.09675771,-0.01476628,2.55``,
+always with both nearest bodies' layers (``pair``: fluid fractions multiplied, drags added).
+
+The model (:func:`assemble`): a periodic ``nx x ny x nz`` grid, ``u``, ``v``, ``w`` on the x,
+y, z faces, ``p`` on the cells, every face an unknown (the solid too: the drag keeps no-slip).
+Per velocity component ``c`` the viscous operator is ``sum_d D_d^T diag(eps) D_d`` (no
+cross-component terms, as in the 2-D model), plus the drag ``D(s)`` on the diagonal; the
+pressure force, the flux (``div(eps u) = 0``) and the body force are weighted by ``eps`` at the
+face. ``eps`` of a viscous flux is sampled where that flux sits, midway between the two velocity
+nodes it couples: for ``d = c`` (``u`` to ``u`` along x) that is a cell centre; for ``d != c``
+it is the midpoint of a cell edge (``u`` to ``u`` along y: the edge along z at ``(i, j, k +
+1/2)``). This is the 2-D model's choice (its corner points are the 3-D edges seen end-on), so an
+extruded 2-D problem reproduces the 2-D model exactly, and it is where the flux's
+finite-volume face is: the weight is the fluid fraction of the surface the stress acts on,
+which in a staggered grid is centred on the edge. ``K = mean(eps u_f)`` per unit body force
+(``mu`` = 1, voxel units).
+
+* ``extruded``: cylinders along z (:class:`penalty_scatter._Diffuse` extruded over ``NZ``
+  cells) against the 2-D model (``penalty_scatter.wall_along`` / ``wall_across``): the
+  relative difference of K, along (force along z) and across (force along x), one shift.
+* ``spheres``: a simple cubic array of spheres (one per ``n^3`` box), force along x, against
+  Zick & Homsy (1982) (:data:`reference_values.ZICK_HOMSY_SIMPLE_CUBIC`); mean, sd, min, max
+  of the true error over ``SHIFTS`` sub-voxel shifts (seed 11, 3-D), and per solid fraction
+  the number of shifts whose ``|error|`` falls strictly with ``n``.
+* ``cutface``: the same table for the product's cut-face solver
+  (:func:`solvers.voxel_stokes.solve_voxel_stokes` with the exact distance, tol 1e-9).
+* ``iterations``: MINRES iterations of the assembled diffuse system with the block
+  preconditioner of :func:`solve` against the same preconditioner on the staircase
+  (eps 0 / 1, drag 0 / 1e6) at one shift.
+
+Solves: ``scipy.sparse.linalg.splu`` up to :data:`DIRECT_MAX` unknowns, above that MINRES with
+a block-diagonal preconditioner (smoothed-aggregation AMG V-cycles, pyamg, on each velocity
+block and on ``B diag(A)^-1 B^T``), relative residual 1e-10.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks"), str(ROOT)]
+
+from arrays import L  # noqa: E402
+from penalty_scatter import _Diffuse, parse_wall, wall_across, wall_along  # noqa: E402
+from reference_values import zick_homsy_k  # noqa: E402
+from validation_tables import reference_k  # noqa: E402
+
+#: Unknowns up to which the saddle system is factorised (splu); above, MINRES.
+DIRECT_MAX = 5_000
+#: 3-D sub-voxel shifts of the sphere centre (seed 11, as the 2-D tables' shifts).
+SHIFTS3 = [tuple(v) for v in np.random.default_rng(11).random((16, 3)).round(3)]
+
+
+def _diff(n: int) -> sp.csr_matrix:
+    """``(D x)_i = x_i - x_{i-1}``, periodic (zero for ``n`` = 1)."""
+    i = np.arange(n)
+    return (
+        sp.identity(n, format="csr") - sp.csr_matrix((np.ones(n), (i, (i - 1) % n)), (n, n))
+    ).tocsr()
+
+
+def _d(shape: tuple[int, int, int], axis: int) -> sp.csr_matrix:
+    """:func:`_diff` along ``axis`` of a C-ordered ``shape`` grid."""
+    mats = [sp.identity(m, format="csr") for m in shape]
+    mats[axis] = _diff(shape[axis])
+    return sp.kron(sp.kron(mats[0], mats[1]), mats[2], format="csr")
+
+
+def _points(shape, offset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coordinates (voxels) of the points ``(i, j, k) + offset`` of the grid."""
+    axes = [np.arange(m, dtype=float) + o for m, o in zip(shape, offset, strict=True)]
+    return np.meshgrid(*axes, indexing="ij")
+
+
+def assemble(shape, field, force_axis: int):
+    """The saddle matrix ``[[A, -G], [-G^T, P]]``, its right-hand side and per face component
+    ``(eps, A_c, G_c)``; ``field.eps(x, y, z)`` and ``field.drag(x, y, z)`` give the wall
+    (raveled arrays). Face ``c`` of cell ``(i, j, k)`` sits at ``(i + 1/2, j + 1/2, k + 1/2)
+    - e_c / 2``; the flux along ``d`` between it and face ``(i, j, k) - e_d`` at that point
+    ``- e_d / 2``. Pressure cells with no weighted face are pinned (``P`` = 1), the rest carry
+    ``-1e-11`` (the pressure's constant mode)."""
+    n = int(np.prod(shape))
+    diffs = [_d(shape, a) for a in range(3)]
+    blocks = []
+    for c in range(3):
+        face = np.full(3, 0.5)
+        face[c] = 0.0
+        lap = sp.csr_matrix((n, n))
+        for d in range(3):
+            at = face.copy()
+            at[d] -= 0.5
+            lap = lap + diffs[d].T @ sp.diags(field.eps(*_points(shape, at))) @ diffs[d]
+        eps = field.eps(*_points(shape, face))
+        a_c = (lap + sp.diags(field.drag(*_points(shape, face)))).tocsr()
+        blocks.append((eps, a_c, (sp.diags(eps) @ diffs[c]).tocsr()))
+    live = sum(abs(g).T @ np.ones(n) for _, _, g in blocks) > 1e-9
+    keep = sp.diags(live * 1.0)
+    pin = sp.diags(np.where(live, -1e-11, 1.0))
+    grads = [g @ keep for _, _, g in blocks]
+    mat = sp.bmat(
+        [
+            [blocks[0][1], None, None, -grads[0]],
+            [None, blocks[1][1], None, -grads[1]],
+            [None, None, blocks[2][1], -grads[2]],
+            [-grads[0].T, -grads[1].T, -grads[2].T, pin],
+        ],
+        format="csr",
+    )
+    rhs = np.concatenate([blocks[c][0] * (c == force_axis) for c in range(3)] + [np.zeros(n)])
+    return mat, rhs, blocks, live
+
+
+def _preconditioner(blocks, live, n: int):
+    """Block-diagonal SPD preconditioner: an AMG V-cycle per velocity block and one on the
+    pressure's ``B diag(A)^-1 B^T`` (pinned cells: identity)."""
+    import pyamg
+
+    cycles = [
+        pyamg.smoothed_aggregation_solver(a, symmetry="hermitian").aspreconditioner()
+        for _, a, _ in blocks
+    ]
+    schur = sum(g.T @ sp.diags(1.0 / a.diagonal()) @ g for _, a, g in blocks)
+    scale = float(schur.diagonal()[live].mean())
+    schur = (schur + sp.diags(np.where(live, 1e-8 * scale, 1.0))).tocsr()
+    pcyc = pyamg.smoothed_aggregation_solver(schur, symmetry="hermitian").aspreconditioner()
+
+    def apply(r):
+        out = np.empty_like(r)
+        for c in range(3):
+            out[c * n : (c + 1) * n] = cycles[c] @ r[c * n : (c + 1) * n]
+        out[3 * n :] = pcyc @ r[3 * n :]
+        return out
+
+    return spla.LinearOperator((4 * n, 4 * n), apply)
+
+
+def solve(shape, field, force_axis: int, method: str = "auto") -> tuple[float, int]:
+    """``K = mean(eps u_f)`` (voxel units) and the MINRES iterations (0: direct)."""
+    mat, rhs, blocks, live = assemble(shape, field, force_axis)
+    n = int(np.prod(shape))
+    if method == "direct" or (method == "auto" and 4 * n <= DIRECT_MAX):
+        x = spla.splu(mat.tocsc(), permc_spec="MMD_AT_PLUS_A").solve(rhs)
+        its = 0
+    else:
+        count = [0]
+
+        def tick(_):
+            count[0] += 1
+
+        x, info = spla.minres(
+            mat, rhs, M=_preconditioner(blocks, live, n), rtol=1e-10, maxiter=5000, callback=tick
+        )
+        if info != 0:
+            raise RuntimeError(f"MINRES did not converge (info {info})")
+        its = count[0]
+    u = x[force_axis * n : (force_axis + 1) * n]
+    return float(np.mean(blocks[force_axis][0] * u)), its
+
+
+class Extruded:
+    """A 2-D field (:class:`penalty_scatter._Diffuse`) extruded along z."""
+
+    def __init__(self, field2d) -> None:
+        self.f = field2d
+
+    def eps(self, x, y, z):
+        return np.broadcast_to(
+            self.f.eps(x[:, :, 0], y[:, :, 0])[:, None], (x[:, :, 0].size, x.shape[2])
+        ).ravel()
+
+    def drag(self, x, y, z):
+        return np.broadcast_to(
+            self.f.drag(x[:, :, 0], y[:, :, 0])[:, None], (x[:, :, 0].size, x.shape[2])
+        ).ravel()
+
+
+class Spheres:
+    """A simple cubic array of spheres, one per ``n^3`` box, centred at ``n / 2 + shift``,
+    solid fraction ``c``; per point the two nearest spheres (of the 27 periodic images) each
+    carry a wall (``pair``): signed distance ``r - a``, curvature ``kappa`` = the Laplacian of
+    the distance ``2 / r``, grid anisotropy ``n_x^4 + n_y^4 + n_z^4`` of the normal."""
+
+    def __init__(self, c: float, n: int, shift, wall) -> None:
+        self.n, self.wall = n, wall
+        self.radius = n * (3.0 * c / (4.0 * np.pi)) ** (1.0 / 3.0)
+        self.centre = n / 2.0 + np.asarray(shift, dtype=float)
+
+    def _walls(self, x, y, z):
+        rel = [p - c for p, c in zip((x, y, z), self.centre, strict=True)]
+        rel = [(d - self.n * np.round(d / self.n)).ravel() for d in rel]
+        images = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
+        dx = rel[0][None] + self.n * images[:, 0, None]
+        dy = rel[1][None] + self.n * images[:, 1, None]
+        dz = rel[2][None] + self.n * images[:, 2, None]
+        r = np.sqrt(dx * dx + dy * dy + dz * dz)
+        out = []
+        for k in np.argsort(r, axis=0)[:2]:
+            pick = [np.take_along_axis(v, k[None], 0)[0] for v in (dx, dy, dz)]
+            rk = np.maximum(np.take_along_axis(r, k[None], 0)[0], 1e-9)
+            aniso = (pick[0] ** 4 + pick[1] ** 4 + pick[2] ** 4) / rk**4
+            out.append((rk - self.radius, 2.0 / np.maximum(rk, 0.5), aniso))
+        return out
+
+    def eps(self, x, y, z):
+        return np.prod([self.wall.eps(*w) for w in self._walls(x, y, z)], axis=0)
+
+    def drag(self, x, y, z):
+        return np.sum([self.wall.drag(s, a) for s, _, a in self._walls(x, y, z)], axis=0)
+
+    def exact_k(self) -> float:
+        """Zick & Homsy's K in voxels^2: ``F = 6 pi mu a K* U`` per sphere balances the mean
+        pressure gradient over the box, so ``k = 2 a^2 / (9 c K*)``."""
+        c = 4.0 / 3.0 * np.pi * self.radius**3 / self.n**3
+        return 2.0 * self.radius**2 / (9.0 * c * zick_homsy_k(c))
+
+
+def extruded_check(wall, phi: float, n: int, nz: int) -> tuple[float, float]:
+    """Relative difference of K between the 3-D model on cylinders along z (``nz`` cells) and
+    the 2-D model, along and across, at one shift."""
+    shift = (0.13, 0.41)
+    out = []
+    for flow, axis, fn in (("along", 2, wall_along), ("across", 0, wall_across)):
+        field = Extruded(_Diffuse(phi, n, shift, wall, "pair"))
+        k3, _ = solve((n, n, nz), field, axis, "direct")
+        k2 = (fn(phi, n, shift, wall, "pair") + 1.0) * reference_k("square", flow, phi)
+        out.append(k3 * (L / n) ** 2 / k2 - 1.0)
+    return out[0], out[1]
+
+
+def cutface_k(c: float, n: int, shift) -> tuple[float, int]:
+    """K (voxels^2) of the product's cut-face solver on the spheres, and its iterations."""
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    geo = Spheres(c, n, shift, None)
+    x, y, z = _points((n, n, n), (0.5, 0.5, 0.5))
+    s = geo._walls(x, y, z)[0][0].reshape(n, n, n)
+    res = solve_voxel_stokes(s <= 0, 1.0, 0, distance=s.astype(np.float32), tol=1e-9)
+    if not res.converged:
+        raise RuntimeError("cut-face solve did not converge")
+    return float(res.mean_velocity[0] / res.pressure_gradient), int(res.iterations)
+
+
+def _table(fn, fracs, ns, shifts) -> None:
+    """Per solid fraction and resolution mean, sd, min, max of the true error over the shifts;
+    per solid fraction the number of shifts whose ``|error|`` falls strictly with ``n``."""
+    for c in fracs:
+        rows = []
+        for n in ns:
+            t0 = time.time()
+            res = [fn(c, n, sh) for sh in shifts]
+            e = np.array([r[0] for r in res])
+            its = [r[1] for r in res]
+            rows.append(e)
+            sd = 100 * e.std(ddof=1) if len(e) > 1 else 0.0
+            print(
+                f"c {c} n {n}: mean {100 * e.mean():+.4f} %, sd {sd:.4f} %, min"
+                f" {100 * e.min():+.4f}, max {100 * e.max():+.4f}; iterations {its};"
+                f" {time.time() - t0:.1f} s",
+                flush=True,
+            )
+        err = np.abs(np.array(rows))
+        mono = int(np.all(np.diff(err, axis=0) < 0, axis=0).sum())
+        print(f"c {c}: |error| strictly falling at {mono} / {len(shifts)} shifts", flush=True)
+
+
+class Staircase(Spheres):
+    """The same spheres as a staircase: ``eps`` 1 / 0 and drag 0 / 1e6 by the sign of the
+    nearest sphere's distance at each point (the preconditioner's reference problem)."""
+
+    def eps(self, x, y, z):
+        return (self._walls(x, y, z)[0][0] > 0).astype(float)
+
+    def drag(self, x, y, z):
+        return np.where(self._walls(x, y, z)[0][0] > 0, 0.0, 1e6)
+
+
+def _iterations(wall, c: float, n: int) -> int:
+    """MINRES iterations and wall time, diffuse wall against staircase, one shift."""
+    for name, geo in (
+        ("diffuse", Spheres(c, n, SHIFTS3[0], wall)),
+        ("staircase", Staircase(c, n, SHIFTS3[0], wall)),
+    ):
+        t0 = time.time()
+        kv, its = solve((n, n, n), geo, 0, "minres")
+        print(
+            f"{name} c {c} n {n}: K {kv:.8e} voxel^2, {its} MINRES iterations,"
+            f" {time.time() - t0:.1f} s",
+            flush=True,
+        )
+    return 0
+
+
+def main(argv: list[str]) -> int:
+    """Dispatch on the first argument (module docstring)."""
+    if not argv or argv[0] not in ("extruded", "spheres", "cutface", "iterations"):
+        print("\n\n".join(__doc__.split("\n\n")[1:2]))
+        return 2
+    if argv[0] == "extruded":
+        wall = parse_wall(argv[1])
+        phi = float(argv[2]) if len(argv) > 2 else 0.3
+        for n in [int(v) for v in (argv[3] if len(argv) > 3 else "24,32").split(",")]:
+            for nz in [int(v) for v in (argv[4] if len(argv) > 4 else "1,2,4").split(",")]:
+                along, across = extruded_check(wall, phi, n, nz)
+                print(
+                    f"phi {phi} n {n} nz {nz}: 3-D / 2-D - 1 along {along:+.3e}, across"
+                    f" {across:+.3e}",
+                    flush=True,
+                )
+        return 0
+    if argv[0] == "iterations":
+        return _iterations(parse_wall(argv[1]), float(argv[2]), int(argv[3]))
+    k = 1 if argv[0] == "spheres" else 0
+    fracs = [
+        float(v) for v in (argv[1 + k] if len(argv) > 1 + k else "0.064,0.125,0.216").split(",")
+    ]
+    ns = [int(v) for v in (argv[2 + k] if len(argv) > 2 + k else "16,20,24,32").split(",")]
+    shifts = SHIFTS3[: int(argv[3 + k]) if len(argv) > 3 + k else 4]
+    if argv[0] == "spheres":
+        wall = parse_wall(argv[1])
+
+        def fn(c, n, sh):
+            geo = Spheres(c, n, sh, wall)
+            kv, its = solve((n, n, n), geo, 0)
+            return kv / geo.exact_k() - 1.0, its
+    else:
+
+        def fn(c, n, sh):
+            kv, its = cutface_k(c, n, sh)
+            return kv / Spheres(c, n, sh, None).exact_k() - 1.0, its
+
+    _table(fn, fracs, ns, shifts)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
