@@ -56,7 +56,7 @@ import scipy.sparse.linalg as spla
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks"), str(ROOT)]
 
-from arrays import L  # noqa: E402
+from arrays import L, radius_of  # noqa: E402
 from penalty_scatter import _Diffuse, parse_wall, wall_across, wall_along  # noqa: E402
 from reference_values import zick_homsy_k  # noqa: E402
 from validation_tables import reference_k  # noqa: E402
@@ -88,7 +88,12 @@ def _points(shape, offset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.meshgrid(*axes, indexing="ij")
 
 
-def assemble(shape, field, force_axis: int):
+def _force(force) -> np.ndarray:
+    """A force axis (0, 1, 2) or a 3-vector as a 3-vector."""
+    return np.eye(3)[force] if np.ndim(force) == 0 else np.asarray(force, dtype=float)
+
+
+def assemble(shape, field, force):
     """The saddle matrix ``[[A, -G], [-G^T, P]]``, its right-hand side and per face component
     ``(eps, A_c, G_c)``; ``field.eps(x, y, z)`` and ``field.drag(x, y, z)`` give the wall
     (raveled arrays). Face ``c`` of cell ``(i, j, k)`` sits at ``(i + 1/2, j + 1/2, k + 1/2)
@@ -122,13 +127,16 @@ def assemble(shape, field, force_axis: int):
         ],
         format="csr",
     )
-    rhs = np.concatenate([blocks[c][0] * (c == force_axis) for c in range(3)] + [np.zeros(n)])
+    f = _force(force)
+    rhs = np.concatenate([blocks[c][0] * f[c] for c in range(3)] + [np.zeros(n)])
     return mat, rhs, blocks, live
 
 
-def _preconditioner(blocks, live, n: int):
-    """Block-diagonal SPD preconditioner: an AMG V-cycle per velocity block and one on the
-    pressure's ``B diag(A)^-1 B^T`` (pinned cells: identity)."""
+def _preconditioner(blocks, live, n: int, pressure: str = "amg"):
+    """Block-diagonal SPD preconditioner: an AMG V-cycle per velocity block; on the pressure
+    ``S = B diag(A)^-1 B^T`` (pinned cells: identity) either an AMG V-cycle (``amg``) or the
+    inverse of its diagonal (``diag``, the product's sub-voxel pressure scaling without its
+    coarse Darcy term)."""
     import pyamg
 
     cycles = [
@@ -138,7 +146,10 @@ def _preconditioner(blocks, live, n: int):
     schur = sum(g.T @ sp.diags(1.0 / a.diagonal()) @ g for _, a, g in blocks)
     scale = float(schur.diagonal()[live].mean())
     schur = (schur + sp.diags(np.where(live, 1e-8 * scale, 1.0))).tocsr()
-    pcyc = pyamg.smoothed_aggregation_solver(schur, symmetry="hermitian").aspreconditioner()
+    if pressure == "amg":
+        pcyc = pyamg.smoothed_aggregation_solver(schur, symmetry="hermitian").aspreconditioner()
+    else:
+        pcyc = sp.diags(1.0 / schur.diagonal())
 
     def apply(r):
         out = np.empty_like(r)
@@ -150,9 +161,12 @@ def _preconditioner(blocks, live, n: int):
     return spla.LinearOperator((4 * n, 4 * n), apply)
 
 
-def solve(shape, field, force_axis: int, method: str = "auto") -> tuple[float, int]:
-    """``K = mean(eps u_f)`` (voxel units) and the MINRES iterations (0: direct)."""
-    mat, rhs, blocks, live = assemble(shape, field, force_axis)
+def solve(shape, field, force, method: str = "auto", pressure: str = "amg") -> tuple[float, int]:
+    """``K = mean(eps u . f)`` (voxel units) under the body force ``f`` (an axis or a unit
+    3-vector) and the MINRES iterations (0: direct); ``method``
+    ``auto`` (direct up to :data:`DIRECT_MAX` unknowns), ``direct`` or ``minres``; ``pressure``
+    the preconditioner's pressure block (:func:`_preconditioner`)."""
+    mat, rhs, blocks, live = assemble(shape, field, force)
     n = int(np.prod(shape))
     if method == "direct" or (method == "auto" and 4 * n <= DIRECT_MAX):
         x = spla.splu(mat.tocsc(), permc_spec="MMD_AT_PLUS_A").solve(rhs)
@@ -164,13 +178,19 @@ def solve(shape, field, force_axis: int, method: str = "auto") -> tuple[float, i
             count[0] += 1
 
         x, info = spla.minres(
-            mat, rhs, M=_preconditioner(blocks, live, n), rtol=1e-10, maxiter=5000, callback=tick
+            mat,
+            rhs,
+            M=_preconditioner(blocks, live, n, pressure),
+            rtol=1e-10,
+            maxiter=20000,
+            callback=tick,
         )
         if info != 0:
             raise RuntimeError(f"MINRES did not converge (info {info})")
         its = count[0]
-    u = x[force_axis * n : (force_axis + 1) * n]
-    return float(np.mean(blocks[force_axis][0] * u)), its
+    f = _force(force)
+    flux = sum(f[c] * np.mean(blocks[c][0] * x[c * n : (c + 1) * n]) for c in range(3))
+    return float(flux), its
 
 
 class Extruded:
@@ -228,6 +248,80 @@ class Spheres:
         pressure gradient over the box, so ``k = 2 a^2 / (9 c K*)``."""
         c = 4.0 / 3.0 * np.pi * self.radius**3 / self.n**3
         return 2.0 * self.radius**2 / (9.0 * c * zick_homsy_k(c))
+
+
+class Tilted:
+    """A square array of cylinders along ``(3, 4, 0) / 5`` in a periodic ``15 k x 20 k x 12 k``
+    box: the box vectors project onto the plane across the axis as a square lattice of spacing
+    ``12 k`` (``(15 k, 0, 0) . (4, -3, 0) / 5 = 12 k``, ``(0, 20 k, 0)`` gives ``-12 k``,
+    ``(0, 0, 12 k)`` is across the axis), one cylinder per box. Per point the two nearest
+    cylinders each carry a wall (``pair``); the curvature is ``1 / r``; the anisotropy is that
+    of the 3-D normal ``(4 xi / 5, -3 xi / 5, eta) / r``, which lies in no grid plane."""
+
+    AXIS = (0.6, 0.8, 0.0)
+
+    def __init__(self, phi: float, k: int, shift, wall) -> None:
+        self.s, self.wall = 12 * k, wall
+        self.radius = radius_of(phi, "square", spacing=self.s)
+        self.shift = np.asarray(shift, dtype=float)
+
+    @staticmethod
+    def shape(k: int) -> tuple[int, int, int]:
+        return 15 * k, 20 * k, 12 * k
+
+    def _walls(self, x, y, z):
+        xi = (0.8 * x - 0.6 * y).ravel() - self.s / 2.0 - self.shift[0]
+        eta = z.ravel() - self.s / 2.0 - self.shift[1]
+        xi = xi - self.s * np.round(xi / self.s)
+        eta = eta - self.s * np.round(eta / self.s)
+        images = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)]
+        dxi = np.stack([xi + self.s * i for i, _ in images])
+        deta = np.stack([eta + self.s * j for _, j in images])
+        r = np.hypot(dxi, deta)
+        out = []
+        for pick in np.argsort(r, axis=0)[:2]:
+            a = np.take_along_axis(dxi, pick[None], 0)[0]
+            b = np.take_along_axis(deta, pick[None], 0)[0]
+            rk = np.maximum(np.hypot(a, b), 1e-9)
+            aniso = ((0.8 * a) ** 4 + (0.6 * a) ** 4 + b**4) / rk**4
+            out.append((rk - self.radius, 1.0 / np.maximum(rk, 0.5), aniso))
+        return out
+
+    eps = Spheres.eps
+    drag = Spheres.drag
+
+
+def tilted_error(phi: float, k: int, shift, wall, flow: str) -> tuple[float, int]:
+    """True error of K of the tilted array (:class:`Tilted`), ``flow`` ``along`` (force along
+    the axis) or ``across`` (force along z), against the published square-array value."""
+    geo = Tilted(phi, k, shift, wall)
+    kv, its = solve(Tilted.shape(k), geo, Tilted.AXIS if flow == "along" else 2)
+    return kv * (L / geo.s) ** 2 / reference_k("square", flow, phi) - 1.0, its
+
+
+def tilted_cutface(phi: float, k: int, shift) -> tuple[float, float, int]:
+    """The cut-face solver's true errors on the tilted array, along and across (``K_along``
+    from ``K_xx = K_along a_x^2 + K_across (1 - a_x^2)``), and its iterations (x and z)."""
+    from solvers.voxel_stokes import solve_voxel_stokes
+
+    shape = Tilted.shape(k)
+    geo = Tilted(phi, k, shift, None)
+    s = geo._walls(*_points(shape, (0.5, 0.5, 0.5)))[0][0].reshape(shape).astype(np.float32)
+    kk, its = [], 0
+    for axis in (0, 2):
+        res = solve_voxel_stokes(s <= 0, 1.0, axis, distance=s, tol=1e-9)
+        if not res.converged:
+            raise RuntimeError("cut-face solve did not converge")
+        kk.append(float(res.mean_velocity[axis] / res.pressure_gradient))
+        its += int(res.iterations)
+    across = kk[1]
+    along = (kk[0] - across * (1.0 - 0.36)) / 0.36
+    scale = (L / geo.s) ** 2
+    return (
+        along * scale / reference_k("square", "along", phi) - 1.0,
+        across * scale / reference_k("square", "across", phi) - 1.0,
+        its,
+    )
 
 
 def extruded_check(wall, phi: float, n: int, nz: int) -> tuple[float, float]:
@@ -291,24 +385,50 @@ class Staircase(Spheres):
 
 
 def _iterations(wall, c: float, n: int) -> int:
-    """MINRES iterations and wall time, diffuse wall against staircase, one shift."""
-    for name, geo in (
-        ("diffuse", Spheres(c, n, SHIFTS3[0], wall)),
-        ("staircase", Staircase(c, n, SHIFTS3[0], wall)),
-    ):
-        t0 = time.time()
-        kv, its = solve((n, n, n), geo, 0, "minres")
-        print(
-            f"{name} c {c} n {n}: K {kv:.8e} voxel^2, {its} MINRES iterations,"
-            f" {time.time() - t0:.1f} s",
-            flush=True,
-        )
+    """MINRES iterations and wall time, diffuse wall against staircase, one shift, with the
+    AMG and the diagonal pressure block."""
+    for pressure in ("amg", "diag"):
+        for name, geo in (
+            ("diffuse", Spheres(c, n, SHIFTS3[0], wall)),
+            ("staircase", Staircase(c, n, SHIFTS3[0], wall)),
+        ):
+            t0 = time.time()
+            kv, its = solve((n, n, n), geo, 0, "minres", pressure)
+            print(
+                f"{name} c {c} n {n} pressure block {pressure}: K {kv:.8e} voxel^2, {its} MINRES"
+                f" iterations, {time.time() - t0:.1f} s",
+                flush=True,
+            )
+    return 0
+
+
+def _tilted(argv: list[str]) -> int:
+    """``tilted WALL PHI K,...  SHIFTS``: the tilted array, diffuse wall along and across and
+    the cut-face solver, per ``k`` (``12 k`` voxels per spacing)."""
+    wall, phi = parse_wall(argv[0]), float(argv[1])
+    ks = [int(v) for v in argv[2].split(",")]
+    shifts = [tuple(float(x) for x in v) for v in np.random.default_rng(11).random((8, 2)).round(3)]
+    shifts = shifts[: int(argv[3]) if len(argv) > 3 else 2]
+    for k in ks:
+        for sh in shifts:
+            t0 = time.time()
+            cut = tilted_cutface(phi, k, sh)
+            t1 = time.time()
+            row = [tilted_error(phi, k, sh, wall, flow) for flow in ("along", "across")]
+            print(
+                f"phi {phi} {12 * k} voxels per spacing, shift {sh}: diffuse along"
+                f" {100 * row[0][0]:+.4f} %, across {100 * row[1][0]:+.4f} % (MINRES"
+                f" {row[0][1]}, {row[1][1]}; {time.time() - t1:.0f} s); cut-face along"
+                f" {100 * cut[0]:+.4f} %, across {100 * cut[1]:+.4f} % ({cut[2]} iterations,"
+                f" {t1 - t0:.0f} s)",
+                flush=True,
+            )
     return 0
 
 
 def main(argv: list[str]) -> int:
     """Dispatch on the first argument (module docstring)."""
-    if not argv or argv[0] not in ("extruded", "spheres", "cutface", "iterations"):
+    if not argv or argv[0] not in ("extruded", "spheres", "cutface", "iterations", "tilted"):
         print("\n\n".join(__doc__.split("\n\n")[1:2]))
         return 2
     if argv[0] == "extruded":
@@ -323,6 +443,8 @@ def main(argv: list[str]) -> int:
                     flush=True,
                 )
         return 0
+    if argv[0] == "tilted":
+        return _tilted(argv[1:])
     if argv[0] == "iterations":
         return _iterations(parse_wall(argv[1]), float(argv[2]), int(argv[3]))
     k = 1 if argv[0] == "spheres" else 0
