@@ -182,3 +182,30 @@ def tomadakis_sotirchos(eps: float, eps_p: float, alpha: float) -> float:
 
 
 # End of the transport block. ------------------------------------------------------------------
+
+
+# ----------------------------------------------------------------------------------------------
+# Simple cubic array of spheres (benchmarks/diffuse3d.py)
+# ----------------------------------------------------------------------------------------------
+
+#: Zick & Homsy (1982), "Stokes flow through periodic arrays of spheres", J. Fluid Mech. 115,
+#: 13-26, Table 2 (simple cubic): solid fraction c -> dimensionless drag K* with F = 6 pi mu a K*
+#: U per sphere (U the superficial velocity), so that the permeability is k = 2 a^2 / (9 c K*)
+#: (transcribed as in Basilisk's src/test/spheres.c).
+ZICK_HOMSY_SIMPLE_CUBIC = {
+    0.027: 2.008,
+    0.064: 2.810,
+    0.125: 4.292,
+    0.216: 7.442,
+    0.343: 15.4,
+    0.45: 28.1,
+    0.5236: 42.1,
+}
+
+
+def zick_homsy_k(c: float) -> float:
+    """Zick & Homsy's K* at a tabulated solid fraction ``c`` (within 1e-9)."""
+    for c_t, k in ZICK_HOMSY_SIMPLE_CUBIC.items():
+        if abs(c - c_t) < 1e-9:
+            return k
+    raise ValueError(f"c: Zick & Homsy tabulate {sorted(ZICK_HOMSY_SIMPLE_CUBIC)}, got {c}")
