@@ -111,7 +111,9 @@ def profiles(s: np.ndarray, lam: float, logc: float, a: float) -> tuple[np.ndarr
 
 
 def _periodic_diff(n: int) -> sp.csr_matrix:
-    """``(D x)_i = x_i - x_{i-1}`` with periodic wrap."""
+    """``(D x)_i = x_i - x_{i-1}`` with periodic wrap (0 on one point: its own neighbour)."""
+    if n == 1:
+        return sp.csr_matrix((1, 1))
     e = np.ones(n)
     d = sp.diags([e, -e[:-1]], [0, -1]).tolil()
     d[0, n - 1] = -1.0
