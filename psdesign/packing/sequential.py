@@ -183,8 +183,8 @@ def _bent_capsule_rows(smin, smax, lim, A, B, fiber, u, f, ph, width):  # pragma
             w1, w2 = -u * cmax / tp, -u * cmin / tp
             wlo, whi = min(w1, w2), max(w1, w2)
             shift = 0.5 * (wlo + whi)
-            A2[q, 0], A2[q, 1] = A[p, 0] - shift, A[p, 1] - 0.0
-            B2[q, 0], B2[q, 1] = B[p, 0] - shift, B[p, 1] - 0.0
+            A2[q, 0], A2[q, 1] = A[p, 0] - shift, A[p, 1]
+            B2[q, 0], B2[q, 1] = B[p, 0] - shift, B[p, 1]
             R[q] = r + 0.5 * (whi - wlo)
             owner[q] = fiber[p]
             q += 1
