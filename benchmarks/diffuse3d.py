@@ -12,8 +12,9 @@ Usage::
 the 2-D arrays (wall22) is ``logistic,0.75,-0.08385500,-0.00674740,-0.09675771,-0.01476628,2.55``,
 always with both nearest bodies' layers (``pair``: fluid fractions multiplied, drags added).
 
-The model (:func:`assemble`): a periodic ``nx x ny x nz`` grid, ``u``, ``v``, ``w`` on the x,
-y, z faces, ``p`` on the cells, every face an unknown (the solid too: the drag keeps no-slip).
+The model (:func:`assemble`; since dport23 the product's :mod:`solvers.voxel.diffuse_system`,
+the public solve :func:`solvers.voxel.diffuse.solve_diffuse_stokes`): a periodic
+``nx x ny x nz`` grid, ``u``, ``v``, ``w`` on the x, y, z faces, ``p`` on the cells, every face an unknown (the solid too: the drag keeps no-slip).
 Per velocity component ``c`` the viscous operator is ``sum_d D_d^T diag(eps) D_d`` (no
 cross-component terms, as in the 2-D model), plus the drag ``D(s)`` on the diagonal; the
 pressure force, the flux (``div(eps u) = 0``) and the body force are weighted by ``eps`` at the
@@ -36,7 +37,8 @@ which in a staggered grid is centred on the edge. ``K = mean(eps u_f)`` per unit
 * ``cutface``: the same table for the product's cut-face solver
   (:func:`solvers.voxel_stokes.solve_voxel_stokes` with the exact distance, tol 1e-9).
 * ``iterations``: MINRES iterations of the assembled diffuse system against the staircase
-  (eps 0 / 1, drag 0 / 1e6) at one shift, with either pressure block of :func:`_preconditioner`.
+  (eps 0 / 1, drag 0 / 1e6) at one shift, with either pressure block of
+  :func:`solvers.voxel.diffuse_system.preconditioner`.
 * ``tilted``: a square cylinder array along ``(3, 4, 0)`` (:class:`Tilted`; ``12 k`` voxels per
   spacing), along and across, diffuse wall and cut-face solver, against the published values.
 
@@ -54,7 +56,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,25 +66,14 @@ from penalty_scatter import _Diffuse, parse_wall, wall_across, wall_along  # noq
 from reference_values import zick_homsy_k  # noqa: E402
 from validation_tables import reference_k  # noqa: E402
 
+from solvers.voxel.diffuse import DiffuseGrid  # noqa: E402
+from solvers.voxel.diffuse_system import assemble as assemble_grid  # noqa: E402
+from solvers.voxel.diffuse_system import preconditioner  # noqa: E402
+
 #: Unknowns up to which the saddle system is factorised (splu); above, MINRES.
 DIRECT_MAX = 5_000
 #: 3-D sub-voxel shifts of the sphere centre (seed 11, as the 2-D tables' shifts).
 SHIFTS3 = [tuple(v) for v in np.random.default_rng(11).random((16, 3)).round(3)]
-
-
-def _diff(n: int) -> sp.csr_matrix:
-    """``(D x)_i = x_i - x_{i-1}``, periodic (zero for ``n`` = 1)."""
-    i = np.arange(n)
-    return (
-        sp.identity(n, format="csr") - sp.csr_matrix((np.ones(n), (i, (i - 1) % n)), (n, n))
-    ).tocsr()
-
-
-def _d(shape: tuple[int, int, int], axis: int) -> sp.csr_matrix:
-    """:func:`_diff` along ``axis`` of a C-ordered ``shape`` grid."""
-    mats = [sp.identity(m, format="csr") for m in shape]
-    mats[axis] = _diff(shape[axis])
-    return sp.kron(sp.kron(mats[0], mats[1]), mats[2], format="csr")
 
 
 def _points(shape, offset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -97,83 +87,42 @@ def _force(force) -> np.ndarray:
     return np.eye(3)[force] if np.ndim(force) == 0 else np.asarray(force, dtype=float)
 
 
-def assemble(shape, field, force):
-    """The saddle matrix ``[[A, -G], [-G^T, P]]``, its right-hand side and per face component
-    ``(eps, A_c, G_c)``; ``field.eps(x, y, z)`` and ``field.drag(x, y, z)`` give the wall
-    (raveled arrays). Face ``c`` of cell ``(i, j, k)`` sits at ``(i + 1/2, j + 1/2, k + 1/2)
-    - e_c / 2``; the flux along ``d`` between it and face ``(i, j, k) - e_d`` at that point
-    ``- e_d / 2``. Pressure cells with no weighted face are pinned (``P`` = 1), the rest carry
-    ``-1e-11`` (the pressure's constant mode)."""
-    n = int(np.prod(shape))
-    diffs = [_d(shape, a) for a in range(3)]
-    blocks = []
-    for c in range(3):
-        face = np.full(3, 0.5)
-        face[c] = 0.0
-        lap = sp.csr_matrix((n, n))
-        for d in range(3):
-            at = face.copy()
-            at[d] -= 0.5
-            lap = lap + diffs[d].T @ sp.diags(field.eps(*_points(shape, at))) @ diffs[d]
-        eps = field.eps(*_points(shape, face))
-        a_c = (lap + sp.diags(field.drag(*_points(shape, face)))).tocsr()
-        blocks.append((eps, a_c, (sp.diags(eps) @ diffs[c]).tocsr()))
-    live = sum(abs(g).T @ np.ones(n) for _, _, g in blocks) > 1e-9
-    keep = sp.diags(live * 1.0)
-    pin = sp.diags(np.where(live, -1e-11, 1.0))
-    grads = [g @ keep for _, _, g in blocks]
-    mat = sp.bmat(
-        [
-            [blocks[0][1], None, None, -grads[0]],
-            [None, blocks[1][1], None, -grads[1]],
-            [None, None, blocks[2][1], -grads[2]],
-            [-grads[0].T, -grads[1].T, -grads[2].T, pin],
-        ],
-        format="csr",
+def field_grid(shape, field) -> DiffuseGrid:
+    """``field.eps(x, y, z)`` and ``field.drag(x, y, z)`` (raveled arrays) at the points of a
+    :class:`solvers.voxel.diffuse.DiffuseGrid` (cell centres, faces, edges)."""
+
+    def at(fn, offset):
+        return fn(*_points(shape, offset)).reshape(shape)
+
+    faces = [tuple(0.0 if a == c else 0.5 for a in range(3)) for c in range(3)]
+    edges = [tuple(0.5 if a == e else 0.0 for a in range(3)) for e in range(3)]
+    return DiffuseGrid(
+        cell=at(field.eps, (0.5, 0.5, 0.5)),
+        face=np.stack([at(field.eps, f) for f in faces]),
+        edge=np.stack([at(field.eps, e) for e in edges]),
+        drag=np.stack([at(field.drag, f) for f in faces]),
     )
-    f = _force(force)
-    rhs = np.concatenate([blocks[c][0] * f[c] for c in range(3)] + [np.zeros(n)])
-    return mat, rhs, blocks, live
 
 
-def _preconditioner(blocks, live, n: int, pressure: str = "diag"):
-    """Block-diagonal SPD preconditioner: an AMG V-cycle per velocity block; on the pressure
-    ``S = B diag(A)^-1 B^T`` (pinned cells: identity) either an AMG V-cycle (``amg``) or the
-    inverse of its diagonal (``diag``, the product's sub-voxel pressure scaling without its
-    coarse Darcy term)."""
-    import pyamg
-
-    cycles = [
-        pyamg.smoothed_aggregation_solver(a, symmetry="hermitian").aspreconditioner()
-        for _, a, _ in blocks
-    ]
-    schur = sum(g.T @ sp.diags(1.0 / a.diagonal()) @ g for _, a, g in blocks)
-    scale = float(schur.diagonal()[live].mean())
-    schur = (schur + sp.diags(np.where(live, 1e-8 * scale, 1.0))).tocsr()
-    if pressure == "amg":
-        pcyc = pyamg.smoothed_aggregation_solver(schur, symmetry="hermitian").aspreconditioner()
-    else:
-        pcyc = sp.diags(1.0 / schur.diagonal())
-
-    def apply(r):
-        out = np.empty_like(r)
-        for c in range(3):
-            out[c * n : (c + 1) * n] = cycles[c] @ r[c * n : (c + 1) * n]
-        out[3 * n :] = pcyc @ r[3 * n :]
-        return out
-
-    return spla.LinearOperator((4 * n, 4 * n), apply)
+def assemble(shape, field, force):
+    """The saddle matrix ``[[A, -G], [-G^T, P]]``, its right-hand side, per face component
+    ``(eps, A_c, G_c)`` and the live pressure cells: :func:`solvers.voxel.diffuse_system.
+    assemble` of the field sampled by :func:`field_grid` (``field.eps(x, y, z)`` and
+    ``field.drag(x, y, z)`` give the wall as raveled arrays)."""
+    system = assemble_grid(field_grid(shape, field), _force(force))
+    return system.matrix(), system.rhs, system.blocks, system.live
 
 
 def solve(shape, field, force, method: str = "auto", pressure: str = "diag") -> tuple[float, int]:
     """``K = mean(eps u . f)`` (voxel units) under the body force ``f`` (an axis or a unit
     3-vector) and the MINRES iterations (0: direct); ``method``
-    ``auto`` (direct up to :data:`DIRECT_MAX` unknowns), ``direct`` or ``minres``; ``pressure``
-    the preconditioner's pressure block (:func:`_preconditioner`)."""
-    mat, rhs, blocks, live = assemble(shape, field, force)
-    n = int(np.prod(shape))
+    ``auto`` (direct up to :data:`DIRECT_MAX` unknowns), ``direct`` or ``minres`` (scipy's
+    MINRES, ``rtol`` 1e-10, one run: port22's figures); ``pressure`` the preconditioner's
+    pressure block (:func:`solvers.voxel.diffuse_system.preconditioner`)."""
+    system = assemble_grid(field_grid(shape, field), _force(force))
+    n = system.n
     if method == "direct" or (method == "auto" and 4 * n <= DIRECT_MAX):
-        x = spla.splu(mat.tocsc(), permc_spec="MMD_AT_PLUS_A").solve(rhs)
+        x = spla.splu(system.matrix().tocsc(), permc_spec="MMD_AT_PLUS_A").solve(system.rhs)
         its = 0
     else:
         count = [0]
@@ -182,9 +131,9 @@ def solve(shape, field, force, method: str = "auto", pressure: str = "diag") -> 
             count[0] += 1
 
         x, info = spla.minres(
-            mat,
-            rhs,
-            M=_preconditioner(blocks, live, n, pressure),
+            system.operator(),
+            system.rhs,
+            M=preconditioner(system, pressure),
             rtol=1e-10,
             maxiter=20000,
             callback=tick,
@@ -193,6 +142,7 @@ def solve(shape, field, force, method: str = "auto", pressure: str = "diag") -> 
             raise RuntimeError(f"MINRES did not converge (info {info})")
         its = count[0]
     f = _force(force)
+    blocks = system.blocks
     flux = sum(f[c] * np.mean(blocks[c][0] * x[c * n : (c + 1) * n]) for c in range(3))
     return float(flux), its
 

@@ -46,7 +46,8 @@ forcing into the solid). A smooth profile sampled on the grid barely depends on 
   wall) and axial flow in an annulus ``b = 3 a`` (a convex and a concave wall); ``CONCAVE`` 1
   applies the curvature shift on concave walls too, 0 on convex walls only.
 
-* ``wall*``: the diffuse-domain wall made to converge monotonically (session 22). ``WALL`` is
+* ``wall*``: the diffuse-domain wall made to converge monotonically (session 22; the profile is
+  :class:`solvers.voxel.diffuse_wall.WallProfile`, imported here as ``Wall``). ``WALL`` is
   ``PROFILE,LAM,LOGC,SE[,LOGC_D,SE_D[,C]]``: ``PROFILE`` ``logistic`` (the ``diffuse`` wall) or
   ``erf`` (a Gaussian tail; the drag is ``exp(LOGC) (1 - step) / step`` for both, which is
   ``exp(LOGC - s / LAM)`` for the logistic step). ``LOGC``, ``SE`` hold for a wall along a grid
@@ -94,7 +95,6 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import fsolve
-from scipy.special import erfc
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks"), str(ROOT)]
@@ -102,6 +102,9 @@ sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks"), str(ROOT)]
 from arrays import L, radius_of  # noqa: E402
 from validation_tables import reference_k  # noqa: E402
 from voxel_scatter import OFFSETS, Cylinder  # noqa: E402
+
+from solvers.voxel.diffuse_wall import WallProfile as Wall  # noqa: E402
+from solvers.voxel.diffuse_wall import parse_wall  # noqa: E402, F401 - the benchmarks' import
 
 
 def profiles(s: np.ndarray, lam: float, logc: float, a: float) -> tuple[np.ndarray, np.ndarray]:
@@ -197,46 +200,6 @@ def across(phi: float, n: int, shift, lam: float, logc: float, a: float, mode: s
         fu.ravel(),
     )
     return u.mean() * (L / n) ** 2 / reference_k("square", "across", phi) - 1.0
-
-
-class Wall:
-    """A diffuse-domain wall profile (module docstring).
-
-    ``kind`` ``logistic`` or ``erf``; width ``lam`` voxels; drag level ``logc`` and offset ``se``
-    for a wall along a grid axis, ``logc_d`` and ``se_d`` for a diagonal one (default: the axis
-    values), interpolated linearly in the grid anisotropy ``a = n_x^4 + n_y^4`` of the wall
-    normal (1 on an axis, 1/2 on a diagonal); ``c`` the curvature coefficient."""
-
-    def __init__(self, kind, lam, logc, se, c=0.0, logc_d=None, se_d=None) -> None:
-        if kind not in ("logistic", "erf"):
-            raise ValueError(f"profile must be logistic or erf, got {kind}")
-        self.kind, self.lam, self.logc, self.se, self.c = kind, lam, logc, se, c
-        self.logc_d = logc if logc_d is None else logc_d
-        self.se_d = se if se_d is None else se_d
-
-    def _at(self, a):
-        """``(logc, se)`` for the anisotropy ``a`` of the wall normal."""
-        t = 2.0 * (1.0 - np.asarray(a, dtype=float))  # 0 on an axis, 1 on a diagonal
-        return self.logc + t * (self.logc_d - self.logc), self.se + t * (self.se_d - self.se)
-
-    def step(self, s: np.ndarray) -> np.ndarray:
-        """The unshifted fluid fraction, 0 in the solid, 1 in the fluid."""
-        if self.kind == "erf":  # a Gaussian tail: exp(-s^2 / 2 lam^2)
-            return 0.5 * erfc(-s / (self.lam * np.sqrt(2.0)))
-        return 1.0 / (1.0 + np.exp(np.minimum(-s / self.lam, 60.0)))
-
-    def eps(self, s, kappa=0.0, a=1.0) -> np.ndarray:
-        """Fluid fraction, shifted by ``se(a) + c lam^2 kappa``."""
-        return self.step(s - self._at(a)[1] - self.c * self.lam**2 * kappa)
-
-    def drag(self, s, a=1.0) -> np.ndarray:
-        """``exp(logc(a)) (1 - step) / step``: ``exp(logc - s / lam)`` for the logistic profile."""
-        logc = self._at(a)[0]
-        if self.kind == "logistic":
-            return np.minimum(np.exp(-s / self.lam + logc), 1e12)
-        f = self.step(s)
-        tail = 0.5 * erfc(s / (self.lam * np.sqrt(2.0)))
-        return np.minimum(np.exp(logc) * tail / np.maximum(f, 1e-300), 1e12)
 
 
 def wall_channel_error(width: float, shift: float, wall: Wall, pair: bool = False) -> float:
@@ -504,15 +467,6 @@ def _table(fn, ns, offsets, phis=(0.1, 0.3, 0.5)) -> None:
             f" max |error| from 40 voxels {big:.4f} %",
             flush=True,
         )
-
-
-def parse_wall(text: str) -> Wall:
-    """``PROFILE,LAM,LOGC,SE[,LOGC_D,SE_D[,C]]`` (module docstring)."""
-    kind, *vals = text.split(",")
-    v = [float(x) for x in vals]
-    if len(v) == 3:
-        return Wall(kind, *v)
-    return Wall(kind, v[0], v[1], v[2], v[5] if len(v) > 5 else 0.0, v[3], v[4])
 
 
 def _wall_calibration(kind: str, lam: float) -> None:
