@@ -7,6 +7,7 @@ Usage::
     python benchmarks/diffuse3d.py spheres WALL [C,...] [N,...] [SHIFTS]
     python benchmarks/diffuse3d.py cutface [C,...] [N,...] [SHIFTS]
     python benchmarks/diffuse3d.py iterations WALL C N
+    python benchmarks/diffuse3d.py product WALL tilted|spheres PHI|C K|N [AXES] [TOL] [check]
 
 ``WALL`` is :func:`penalty_scatter.parse_wall`'s string; the wall that converges monotonically on
 the 2-D arrays (wall22) is ``logistic,0.75,-0.08385500,-0.00674740,-0.09675771,-0.01476628,2.55``,
@@ -14,7 +15,8 @@ always with both nearest bodies' layers (``pair``: fluid fractions multiplied, d
 
 The model (:func:`assemble`; since dport23 the product's :mod:`solvers.voxel.diffuse_system`,
 the public solve :func:`solvers.voxel.diffuse.solve_diffuse_stokes`): a periodic
-``nx x ny x nz`` grid, ``u``, ``v``, ``w`` on the x, y, z faces, ``p`` on the cells, every face an unknown (the solid too: the drag keeps no-slip).
+``nx x ny x nz`` grid, ``u``, ``v``, ``w`` on the x, y, z faces, ``p`` on the cells, every face
+an unknown (the solid too: the drag keeps no-slip).
 Per velocity component ``c`` the viscous operator is ``sum_d D_d^T diag(eps) D_d`` (no
 cross-component terms, as in the 2-D model), plus the drag ``D(s)`` on the diagonal; the
 pressure force, the flux (``div(eps u) = 0``) and the body force are weighted by ``eps`` at the
@@ -39,6 +41,10 @@ which in a staggered grid is centred on the edge. ``K = mean(eps u_f)`` per unit
 * ``iterations``: MINRES iterations of the assembled diffuse system against the staircase
   (eps 0 / 1, drag 0 / 1e6) at one shift, with either pressure block of
   :func:`solvers.voxel.diffuse_system.preconditioner`.
+* ``product``: the product's solver (:func:`solvers.voxel.diffuse.solve_diffuse_stokes`) on
+  the tilted array (``K``: ``12 K`` voxels per spacing) or the spheres (``N`` voxels per box)
+  through :meth:`solvers.voxel.diffuse.DiffuseGrid.sample`, per axis, with its cost
+  (:func:`_product`).
 * ``tilted``: a square cylinder array along ``(3, 4, 0)`` (:class:`Tilted`; ``12 k`` voxels per
   spacing), along and across, diffuse wall and cut-face solver, against the published values.
 
@@ -394,11 +400,87 @@ def _tilted(argv: list[str]) -> int:
     return 0
 
 
+def _product_geometry(wall, kind: str, size: float, n: int):
+    """``(shape, walls, exact)``: the tilted array (``size`` phi, ``n`` = k) or the simple
+    cubic spheres (``size`` c, ``n`` voxels per box), first seed-11 shift; ``exact(axis, K)``
+    the true error of the axis' K where it has one (across the tilted array; the spheres)."""
+    if kind == "tilted":
+        shift = tuple(np.random.default_rng(11).random((8, 2)).round(3)[0])
+        geo = Tilted(size, n, shift, wall)
+        scale = (L / geo.s) ** 2
+
+        def exact(axis, k):
+            if axis != 2:
+                return float("nan")
+            return k * scale / reference_k("square", "across", size) - 1.0
+
+        return Tilted.shape(n), geo, exact
+    geo = Spheres(size, n, SHIFTS3[0], wall)
+    return (n, n, n), geo, lambda axis, k: k / geo.exact_k() - 1.0
+
+
+def _product(argv: list[str]) -> int:
+    """``product WALL tilted|spheres PHI|C K|N [AXES] [TOL] [check]``: the product's solver
+    (:func:`solvers.voxel.diffuse.solve_diffuse_stokes` on :meth:`DiffuseGrid.sample`) per axis:
+    K (voxel^2), true error where known, MINRES iterations, true residual, times and the peak
+    RSS; with all of x, y, z on the tilted array also K along the axis ``f^T K f``; ``check``
+    runs :func:`solve` (this benchmark's scipy MINRES, ``rtol`` 1e-10) on the same field and
+    prints the relative difference of K."""
+    import resource
+
+    from solvers.voxel.diffuse import diffuse_memory_bytes, solve_diffuse_stokes
+
+    wall, kind, size, n = parse_wall(argv[0]), argv[1], float(argv[2]), int(argv[3])
+    axes = [int(a) for a in (argv[4] if len(argv) > 4 else "0,1,2").split(",")]
+    tol = float(argv[5]) if len(argv) > 5 else 1e-8
+    shape, geo, exact = _product_geometry(wall, kind, size, n)
+    cells = int(np.prod(shape))
+    t0 = time.time()
+    grid = DiffuseGrid.sample(shape, geo._walls, wall)
+    print(
+        f"{kind} {size} n {n}: grid {shape}, {cells} cells, sampled in {time.time() - t0:.1f} s;"
+        f" model {diffuse_memory_bytes(shape) / 1e9:.3f} GB",
+        flush=True,
+    )
+    kk = {}
+    for axis in axes:
+        res = solve_diffuse_stokes(grid, 1.0, axis, tol=tol)
+        kk[axis] = res.mean_velocity
+        print(
+            f"axis {axis}: K {res.mean_velocity[axis]:.12e} voxel^2, true error"
+            f" {100 * exact(axis, res.mean_velocity[axis]):+.4f} %, {res.iterations} MINRES"
+            f" iterations, residual {res.residual:.2e}, converged {res.converged},"
+            f" {res.wall_time_s:.1f} s, peak RSS {res.peak_memory_mb:.0f} MiB",
+            flush=True,
+        )
+    if kind == "tilted" and set(axes) >= {0, 1}:
+        along = 0.36 * kk[0][0] + 0.48 * (kk[0][1] + kk[1][0]) + 0.64 * kk[1][1]
+        err = along * (L / geo.s) ** 2 / reference_k("square", "along", size) - 1.0
+        print(f"along f^T K f {along:.12e} voxel^2, true error {100 * err:+.4f} %", flush=True)
+        kk["along"] = along
+    if "check" in argv[4:]:
+        for axis, force in ((2, 2), ("along", Tilted.AXIS)):
+            if axis in kk:
+                ref, its = solve(shape, geo, force)
+                got = kk[axis] if axis == "along" else kk[axis][axis]
+                print(
+                    f"{axis}: benchmark solve K {ref:.12e}, product / benchmark - 1 "
+                    f"{got / ref - 1.0:+.2e} ({its} iterations)",
+                    flush=True,
+                )
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
+    print(f"total {time.time() - t0:.1f} s, peak RSS {peak / 1e9:.3f} GB", flush=True)
+    return 0
+
+
 def main(argv: list[str]) -> int:
     """Dispatch on the first argument (module docstring)."""
-    if not argv or argv[0] not in ("extruded", "spheres", "cutface", "iterations", "tilted"):
+    names = ("extruded", "spheres", "cutface", "iterations", "tilted", "product")
+    if not argv or argv[0] not in names:
         print("\n\n".join(__doc__.split("\n\n")[1:3]))
         return 2
+    if argv[0] == "product":
+        return _product(argv[1:])
     if argv[0] == "extruded":
         wall = parse_wall(argv[1])
         phi = float(argv[2]) if len(argv) > 2 else 0.3

@@ -238,7 +238,8 @@ class VoxelFlowResult:
     bc : str
         ``"periodic"`` or ``"permeameter"``.
     wall_treatment : str
-        ``"subvoxel"`` (a signed distance was given) or ``"staircase"``.
+        ``"subvoxel"`` (a signed distance was given) or ``"staircase"``; ``"diffuse"`` from
+        :func:`solvers.voxel.diffuse.solve_diffuse_stokes`.
     sides : str or None
         Lateral walls of the permeameter ('slip' | 'noslip'); None for periodic.
     rve_slice : tuple of int

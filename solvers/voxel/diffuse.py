@@ -13,10 +13,13 @@ cylinder array tilted to the grid in 3-D (port22).  The error is negative and se
 is 3-6x the cut-face solver's (port22).
 
 Cost, honestly: the system is assembled (scipy sparse) and solved by MINRES with pyamg V-cycles
-(:mod:`solvers.voxel.diffuse_system`), periodic on all faces only: about
-:data:`BYTES_PER_CELL` bytes per cell (:func:`diffuse_memory_bytes`, 30x the cut-face solver's)
-and seconds to minutes per solve (``benchmarks/RESULTS.md``, dport23).  A solve that would not
-fit in the available memory is refused before anything is allocated.
+(:mod:`solvers.voxel.diffuse_system`), periodic on all faces only: about 1.7-1.8 kB per cell
+measured, :data:`BYTES_PER_CELL` = 2.1 kB counted (:func:`diffuse_memory_bytes`; 20x the
+cut-face solver's 99 B), so 11 M cells (224^3) fit in 24 GB; 70-95 MINRES iterations to
+``tol`` 1e-8, 0.24 s per iteration at 230 k cells on one core (about 1 us per cell and
+iteration, 25x the cut-face solver's 336 ms at 200^3 of issue 16); ``benchmarks/RESULTS.md``,
+dport23.  A solve that would not fit in the available memory is refused before anything is
+allocated.
 """
 
 from __future__ import annotations
@@ -170,13 +173,18 @@ def _sample_slab(walls, profile, shape, sl: slice, offset, with_drag: bool):
 # ------------------------------------------------------------------------------------------
 # memory
 
-BYTES_PER_CELL = 3000
-"""Peak bytes per cell of :func:`solve_diffuse_stokes` (grid, assembled blocks, pyamg
-hierarchies, MINRES vectors), fitted on measured peak RSS (``benchmarks/RESULTS.md``, dport23)."""
+BYTES_PER_CELL = 2100
+"""Peak bytes per cell of :func:`solve_diffuse_stokes` above the process's baseline, the
+caller's :class:`DiffuseGrid` (80 B) included: the assembled blocks, the three pyamg
+hierarchies, the MINRES vectors.  Fitted on the peak RSS (``/usr/bin/time -v``) of the tilted
+cylinder array at 24 / 36 / 48 voxels per spacing (28 800 / 97 200 / 230 400 cells; ``python
+benchmarks/diffuse3d.py product``): 1839 B per cell, intercept -8.7 MB, above the 3 600-cell
+run's 175 MiB.  2100 is that slope + 14 %; it is 16-33 % above the measured increments of
+all five grids measured (the spheres at 64^3 and 96^3: 1750 and 1681 B per cell;
+``benchmarks/RESULTS.md``, dport23)."""
 
 FIXED_BYTES = 0
-"""Bytes on top of :data:`BYTES_PER_CELL` per solve (the fit's intercept above the process's
-baseline)."""
+"""Bytes on top of :data:`BYTES_PER_CELL` per solve (the fit's intercept is -8.7 MB)."""
 
 
 def diffuse_memory_bytes(shape) -> int:
