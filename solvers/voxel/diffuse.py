@@ -296,6 +296,8 @@ def solve_diffuse_stokes(
     if not (np.isfinite(pressure_gradient) and pressure_gradient > 0):
         raise VoxelStokesError(f"pressure_gradient must be > 0 Pa/m, got {pressure_gradient!r}")
     shape = _check_grid(grid)
+    if not np.any(grid.face[d] > 1e-9):
+        raise VoxelStokesError(f"grid has no fluid: eps is 0 on every face along {'xyz'[d]!r}")
     _check_memory(shape)
     system = assemble(grid, np.eye(3)[d])
     x, info = minres_solve(system, tol, int(max_iter), progress)

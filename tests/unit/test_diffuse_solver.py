@@ -220,6 +220,12 @@ def test_memory_is_refused_up_front(monkeypatch) -> None:
         (lambda g: DiffuseGrid(g.cell, g.face, g.edge, -g.drag), r"grid.drag must be"),
         (lambda g: DiffuseGrid(g.cell, g.face > 0.5, g.edge, g.drag), r"grid.face must be a float"),
         (lambda g: DiffuseGrid(g.cell, 0 * g.face, g.edge, g.drag), r"no fluid"),
+        (
+            lambda g: DiffuseGrid(
+                g.cell, g.face * np.array([1, 0, 1])[:, None, None, None], g.edge, g.drag
+            ),
+            r"no fluid: eps is 0 on every face along 'y'",
+        ),
         (lambda g: g.cell, r"grid must be a DiffuseGrid"),
     ],
 )
