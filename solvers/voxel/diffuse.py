@@ -106,10 +106,10 @@ class DiffuseGrid:
             raveled): the nearest and the second-nearest wall at the points ``(x, y, z)`` (voxel
             coordinates, float64 arrays of one slab of whole x planes): signed distance (> 0 in
             the fluid), Laplacian of the distance (1 / voxel) and ``n_x^4 + n_y^4 + n_z^4`` of
-            the unit normal.  Points farther than
+            the unit normal.  Fluid points farther than
             :data:`solvers.voxel.diffuse_wall.REACH_VOXELS` from every wall may get any
-            distance at least that large.  Evaluated slab by slab along x so that memory stays
-            O(slab).
+            distance at least that large (eps 1 and drag 0 there to 1e-7); solid points need
+            their true distance.  Evaluated slab by slab along x so that memory stays O(slab).
         profile : WallProfile
             The wall profile (default: the calibrated :data:`DEFAULT_WALL`).
 
