@@ -488,6 +488,11 @@ def main(argv: list[str] | None = None) -> int:
         "straight / bent / woven RVEs, every shipped spec): "
         "[solver-agreement.md](solver-agreement.md) (`benchmarks/solver_agreement.py`).",
         "",
+        'The diffuse-domain wall (`flow.wall_treatment = "diffuse"`: monotone convergence) '
+        "against the same references, beside the default sub-voxel wall at every sub-voxel "
+        "shift: [validation-diffuse.md](validation-diffuse.md) "
+        "(`benchmarks/diffuse_validation.py`).",
+        "",
         *(["Cases the bar misses:", "", *miss_lines, ""] if misses else []),
         "## Cylinder arrays",
         *arrays,

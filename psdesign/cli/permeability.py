@@ -13,8 +13,13 @@ from psdesign.cli.progress import progress_printer, warning
 #: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel.threads.PARALLEL_MIN_CELLS``).
 VOXEL_SECONDS_PER_CELL = {1: 9.5e-6, 2: 5.4e-6}
 
+#: The same for ``flow.wall_treatment = "diffuse"`` (wall sampling, assembly, AMG set-up and
+#: 50-90 MINRES iterations): 7-10e-5 s per cell on grids of 2.6e4-2.1e5 cells, square arrays
+#: (``benchmarks/diffuse_validation_runs.jsonl``, 2026-12-04, the shared 2-core machine).
+DIFFUSE_SECONDS_PER_CELL = 9e-5
 
-def _announce_voxel(fields, direction: str) -> None:
+
+def _announce_voxel(fields, direction: str, wall: str | None) -> None:
     """Time and memory estimate of a voxel solve on stderr (before it starts)."""
     import numba
 
@@ -23,11 +28,12 @@ def _announce_voxel(fields, direction: str) -> None:
 
     cells = int(fields.solid.size)
     rate = VOXEL_SECONDS_PER_CELL[1 if numba.get_num_threads() == 1 else 2]
-    progress.estimate(
-        f"voxel solve {direction} ({cells:.3g} cells)",
-        rate * cells,
-        VOXEL_SOLVER_BYTES_PER_VOXEL * cells / 1e9,
-    )
+    need = VOXEL_SOLVER_BYTES_PER_VOXEL * cells
+    if wall == "diffuse":
+        from solvers.voxel.diffuse import diffuse_memory_bytes
+
+        rate, need = DIFFUSE_SECONDS_PER_CELL, diffuse_memory_bytes(fields.solid.shape)
+    progress.estimate(f"voxel solve {direction} ({cells:.3g} cells)", rate * cells, need / 1e9)
 
 
 def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str, capture):
@@ -35,7 +41,7 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     from psdesign.flow.permeability import permeability
 
     if solver == "voxel":
-        _announce_voxel(fields, direction)
+        _announce_voxel(fields, direction, flow.get("wall_treatment"))
     progress = None if args.quiet else progress_printer(direction)
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":
@@ -92,6 +98,26 @@ def _fields_folder(args: argparse.Namespace, directions: list[str], solver: str)
     return fields_folder(args.fields, "permeability", directions, solver)
 
 
+def _check_wall(flow: dict, solver: str, bc: str | None) -> None:
+    """The diffuse wall solves the periodic bc only: a ``--bc`` asking for the permeameter is
+    refused before any work (the spec's own ``flow.bc`` was checked when it was loaded)."""
+    from psdesign.errors import SpecError
+
+    if (
+        solver == "voxel"
+        and flow.get("wall_treatment") == "diffuse"
+        and bc
+        in (
+            "permeameter",
+            "both",
+        )
+    ):
+        raise SpecError(
+            "--bc",
+            f"{bc!r} with flow.wall_treatment = 'diffuse' (periodic only); allowed: periodic",
+        )
+
+
 def _cmd_permeability(args: argparse.Namespace) -> int:
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
@@ -103,6 +129,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     if args.bc in ("permeameter", "periodic"):
         flow["bc"] = args.bc
     solver = args.solver or flow["solver"]
+    _check_wall(flow, solver, args.bc)
     t0 = time.perf_counter()
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with _fields_folder(args, directions, solver) as writer:

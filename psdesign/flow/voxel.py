@@ -12,7 +12,8 @@ formed here, through :mod:`psdesign.flow.darcy` only:
   empty reservoirs of ``flow.aux_length`` x L with lateral walls ``flow.sides``.
 
 Walls are sub-voxel (from the RVE's analytic distance field) unless ``flow.wall_treatment =
-"staircase"``.
+"staircase"``; ``"diffuse"`` is the monotonically converging diffuse-domain wall
+(:mod:`psdesign.flow.diffuse`: periodic, straight cylinder / rod fibres, small grids).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from psdesign.geometry.rve import RVE, VoxelFields
 MIN_CELLS_PER_DIAMETER = 8.0
 
 BCS = ("periodic", "permeameter")
-WALL_TREATMENTS = ("subvoxel", "staircase")
+WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
 
 #: The ``flow.bc`` models this route applies.
 BC_MODELS = ("permeameter", "periodic")
@@ -182,18 +183,22 @@ def permeability_voxel(
             stacklevel=2,
         )
     t0 = time.perf_counter()
-    plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
-    res = solve_voxel_stokes(
-        solve.solid,
-        h,
-        name,
-        viscosity=float(flow["viscosity"]),
-        periodic_treatment=flow.get("periodic_treatment", "periodic"),
-        progress=progress,
-        return_velocity=capture is not None,
-        return_pressure=capture is not None,
-        **kw,
-    )
+    if wall == "diffuse":
+        plan, solve = None, fields
+        res = _diffuse(rve, fields, name, flow, h, progress, capture is not None)
+    else:
+        plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
+        res = solve_voxel_stokes(
+            solve.solid,
+            h,
+            name,
+            viscosity=float(flow["viscosity"]),
+            periodic_treatment=flow.get("periodic_treatment", "periodic"),
+            progress=progress,
+            return_velocity=capture is not None,
+            return_pressure=capture is not None,
+            **kw,
+        )
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
     if res.serial_fallback:  # slower than it could be: say so where the user looks
@@ -209,6 +214,19 @@ def permeability_voxel(
     if capture is not None:
         capture("voxel_flow", solution=res, result=out, fields=solve, flow=flow)
     return out
+
+
+def _diffuse(rve, fields, name, flow, h, progress, return_fields):
+    """The diffuse-wall solve (:mod:`psdesign.flow.diffuse`), refused with the reason where it
+    does not apply."""
+    from psdesign.flow import diffuse
+
+    why = diffuse.unsupported(
+        rve, fields, flow.get("bc") or "periodic", flow.get("periodic_treatment", "periodic")
+    )
+    if why is not None:
+        raise ValueError(f"flow.wall_treatment: {why}")
+    return diffuse.solve_diffuse(rve, fields, name, flow, h, progress, return_fields)
 
 
 def _cubic_voxel(fields: VoxelFields) -> float:

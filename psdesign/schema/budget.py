@@ -9,6 +9,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
   ``copies`` stacked copies of the RVE
   (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, its first
   solve) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
+* the diffuse wall (``flow.wall_treatment = "diffuse"``, periodic only): the assembled solve's
+  :func:`solvers.voxel.diffuse.diffuse_memory_bytes`;
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
 * FEM solver: :func:`solvers.fem.memory.estimate_memory_gb` (the estimate the solve checks) of
   the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`; the default
@@ -136,6 +138,12 @@ def check_grid(
     n = math.prod(shape)
     copies, aux = stack_of(flow)
     need = grid_bytes(n, solver, copies, aux)
+    if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
+        # The model of solvers.voxel.diffuse.diffuse_memory_bytes, written on floats: an absurd
+        # shape must reach the refusal below, not overflow int().
+        from solvers.voxel.diffuse import BYTES_PER_CELL, FIXED_BYTES
+
+        need = grid_bytes(n, "geometry") + FIXED_BYTES + BYTES_PER_CELL * float(n)
     budget = MEMORY_FRACTION * machine_memory()
     if need <= budget:
         return

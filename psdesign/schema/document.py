@@ -114,7 +114,69 @@ class SpecDocument(Table):
             )
         if self.generator is not None:
             self._check_generator(size, voxel, period)
+        if self.flow.wall_treatment == "diffuse":
+            self._check_diffuse()
         return self
+
+    def _check_diffuse(self) -> None:
+        """``flow.wall_treatment = "diffuse"`` (a voxel-solver wall; the FEM ignores it, as it
+        does ``subvoxel``): the periodic bc, straight cylinder or rod fibers only
+        (:mod:`psdesign.flow.diffuse`)."""
+        from psdesign.geometry.walls import SHAPES
+
+        allowed = "subvoxel | staircase"
+        flow = self.flow
+        if flow.bc not in (None, "periodic"):
+            raise fail(
+                "flow.wall_treatment", f"'diffuse' needs bc = 'periodic', not {flow.bc!r}", allowed
+            )
+        if flow.periodic_treatment not in (None, "periodic"):
+            raise fail(
+                "flow.wall_treatment",
+                f"'diffuse' needs periodic_treatment = 'periodic', not {flow.periodic_treatment!r}",
+                allowed,
+            )
+        if self.forcefield is not None:
+            raise fail("flow.wall_treatment", "'diffuse' with [forcefield] (bent fibers)", allowed)
+        if self.generator is not None:
+            # generated fibres lie at any angle: their copies do not repeat with the box, which
+            # the solver wraps (psdesign.geometry.walls.untiled_axis)
+            raise fail(
+                "flow.wall_treatment",
+                "'diffuse' with a [generator] (fibers at any angle do not repeat with the box)",
+                allowed,
+            )
+        for i, fb in enumerate(self.fibers):
+            if fb.shape not in SHAPES or (fb.u or 0.0) != 0.0:
+                raise fail(
+                    f"fibers[{i}].shape",
+                    f"{fb.shape!r}: flow.wall_treatment = 'diffuse' needs straight fibers of a "
+                    "closed-form wall distance",
+                    " | ".join(SHAPES),
+                )
+            self._check_diffuse_tiling(i, fb)
+
+    def _check_diffuse_tiling(self, i: int, fb) -> None:
+        """A fibre off the box axes needs its copies to repeat with the box the solver wraps
+        (:func:`psdesign.flow.diffuse.unsupported`); checked here on the fibre alone, the
+        other fibres' part when the RVE is built."""
+        import numpy as np
+
+        from psdesign.geometry.fibers import make_fiber
+        from psdesign.geometry.walls import along_box_axis, untiled_axis
+
+        size = np.asarray(self.rve.size, float)
+        period = self.rve.period or float(size.max())
+        fiber = make_fiber(fb.shape, 0.1, theta=fb.theta, omega=fb.omega, direction=fb.direction)
+        axis = untiled_axis(fiber, size / period)
+        if axis is not None and not along_box_axis(fiber):
+            raise fail(
+                f"fibers[{i}].direction",
+                f"its copies do not repeat with the box along {'xyz'[axis]}: "
+                "flow.wall_treatment = 'diffuse' needs fibers along the box axes, or a box whose "
+                "edges are whole periods (rve.period) of a tilted fiber's copies",
+                "a box axis",
+            )
 
     def _check_image(self) -> None:
         """An ``[image]`` spec: no fiber tables, ``[rve]`` consistent, memory, the voxels."""
@@ -144,10 +206,10 @@ class SpecDocument(Table):
                     f"{self.rve.voxel:g} m is not the image's voxel size",
                     f"{img.voxel:g} m",
                 )
-        if self.flow.wall_treatment == "subvoxel":
+        if self.flow.wall_treatment in ("subvoxel", "diffuse"):
             raise fail(
                 "flow.wall_treatment",
-                "'subvoxel' needs an analytic surface; an [image] has none",
+                f"{self.flow.wall_treatment!r} needs an analytic surface; an [image] has none",
                 "staircase",
             )
         budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop", flow=self.flow)

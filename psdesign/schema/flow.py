@@ -62,10 +62,11 @@ class FlowTable(Table):
         description="true | false: second solve at a coarser resolution for the error bar "
         "(default true)",
     )
-    wall_treatment: Literal["subvoxel", "staircase"] | None = Field(
+    wall_treatment: Literal["subvoxel", "staircase", "diffuse"] | None = Field(
         None,
-        description="subvoxel | staircase (voxel solver walls, default subvoxel where the "
-        "geometry has an analytic distance)",
+        description="subvoxel | staircase | diffuse (voxel solver walls, default subvoxel where "
+        "the geometry has an analytic distance; diffuse: converges monotonically, periodic bc, "
+        "straight cylinder/rod fibers, small grids)",
     )
     viscosity: number(gt=0, le=1e6) = Field(1.8e-5, description="Pa s in (0, 1e6] (default 1.8e-5)")
     density: number(gt=0, le=1e5) | None = Field(

@@ -498,7 +498,13 @@ def test_fused_sweeps_are_bitwise_jacobis(shape, chunks, twin) -> None:
     smoothing sweep of the V-cycle the same operator.  Variants compiled with ``noalias`` summed
     the row ends ``k = nz - 1`` in another order (three plane arrays) or vectorised
     ``jacobi``'s row loops differently (an ulp off on 3-5 % of the cells) and took up to 5
-    more MINRES iterations on small array cases (``benchmarks/RESULTS.md``, band20)."""
+    more MINRES iterations on small array cases (``benchmarks/RESULTS.md``, band20).
+
+    Where numba compiles for AVX-512 (16 float32 lanes) the stored-coupling row loops of rows
+    of 16 or more cells vectorise differently in the two kernels (measured on a host with
+    avx512f, session 23: 32 of 720 cells of shape (5, 9, 16) differ, by at most 3e-8 = 0.25 ulp
+    of the largest value; bitwise with ``NUMBA_CPU_FEATURES`` without avx512): there they must
+    agree to round-off (:func:`_agree`), everywhere else bitwise."""
     rng = np.random.default_rng(5)
     d, c = mg.component_operator(_fluid(shape, seed=3), 0)
     b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
@@ -517,13 +523,33 @@ def test_fused_sweeps_are_bitwise_jacobis(shape, chunks, twin) -> None:
         jacobi(d, *cc, x1, b, ref, 0.9)
         out = np.full(shape, np.nan, np.float32)
         jacobi2_zero(d, *cc, b, out, 0.9, chunks)
-        assert np.array_equal(out, ref)
+        _agree(out, ref, bitwise=cc is not c or shape[2] < 16 or not _numba_targets_avx512())
         xp = x.copy()
         prolong_add(d, xc, *f, 1.6, xp)
         jacobi(d, *cc, xp, b, ref, 0.9)
         prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, out, 0.9, chunks)
-        assert np.array_equal(out, ref)
+        _agree(out, ref, bitwise=cc is not c or shape[2] < 16 or not _numba_targets_avx512())
         assert np.abs(ref).max() > 0.1  # not a trivial comparison
+
+
+def _numba_targets_avx512() -> bool:
+    """Does numba compile for AVX-512 here (the host's features, or ``NUMBA_CPU_FEATURES``)?"""
+    from numba.core import config
+
+    if config.CPU_FEATURES is not None:
+        return "+avx512f" in config.CPU_FEATURES.split(",")
+    import llvmlite.binding as ll
+
+    return bool(ll.get_host_cpu_features().get("avx512f", False))
+
+
+def _agree(out: np.ndarray, ref: np.ndarray, bitwise: bool) -> None:
+    """Bitwise equal, or (``bitwise`` False) equal to 1 float32 ulp of the largest value."""
+    if bitwise:
+        assert np.array_equal(out, ref)
+    else:
+        tol = float(np.spacing(np.float32(np.abs(ref).max())))
+        np.testing.assert_allclose(out, ref, rtol=0, atol=tol)
 
 
 def test_flat_is_a_view_of_every_entry() -> None:

@@ -1,0 +1,96 @@
+"""The voxel route with the diffuse-domain wall (``flow.wall_treatment = "diffuse"``).
+
+The cut-face wall of the default voxel solve converges at second order on average but keeps a
+first-order scatter with how the surface cuts the grid, so K does not fall monotonically with
+the voxel size (issue 12 item 3; ``benchmarks/RESULTS.md`` wall22, port22). The diffuse wall
+replaces the sharp wall by a fluid fraction and a drag that vary smoothly over a few voxels
+across the surface, calibrated on closed-form flows (:mod:`solvers.voxel.diffuse_wall`): on
+cylinder arrays it converges strictly monotonically at every sub-voxel shift. It needs the true
+distance to the two nearest walls several voxels into the pore, which straight ``cylinder`` and
+``rod`` fibres have in closed form (:mod:`psdesign.geometry.walls`); other fibres, images and the
+permeameter boundary condition are refused (:func:`unsupported`). The solve is assembled
+(:func:`solvers.voxel.diffuse.solve_diffuse_stokes`), far more memory per voxel than the
+default solver's: a reference for small RVEs and arrays, not the production path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.walls import NearestWalls, along_box_axis, untiled_axis
+from psdesign.geometry.walls import unsupported as unsupported_geometry
+
+
+def unsupported(rve: RVE | None, fields: VoxelFields, bc: str, treatment: str) -> str | None:
+    """Why the diffuse wall cannot be used here (None when it can)."""
+    if rve is None or not fields.analytic_distance:
+        return "'diffuse' needs an analytic surface; an image has none (use 'staircase')"
+    if bc != "periodic":
+        return f"'diffuse' solves bc = 'periodic' only, not {bc!r}"
+    if treatment != "periodic":
+        return f"'diffuse' solves periodic_treatment = 'periodic' only, not {treatment!r}"
+    why = unsupported_geometry(rve)
+    if why is not None:
+        return why
+    box = rve.size / float(rve.period)
+    if any(untiled_axis(fb, box) is not None for fb in rve.fibers):
+        for i, fb in enumerate(rve.fibers):
+            if not along_box_axis(fb):
+                return (
+                    f"fiber {i} is not along a box axis, in a box whose edges are not whole "
+                    "periods of every fiber's copies: the wall distances of the box's tiled "
+                    "content are known for fibers along the box axes only"
+                )
+    return None
+
+
+def solve_diffuse(
+    rve: RVE,
+    fields: VoxelFields,
+    direction: str,
+    flow: dict,
+    voxel: float,
+    progress: Callable[[int, float], None] | None = None,
+    return_fields: bool = False,
+):
+    """One periodic solve with the diffuse wall along ``direction``; returns the solver's
+    :class:`solvers.voxel_stokes.VoxelFlowResult` (K is formed by the caller)."""
+    from solvers.voxel.diffuse import DiffuseGrid, solve_diffuse_stokes
+    from solvers.voxel.diffuse_wall import REACH_VOXELS
+
+    # walls beyond the layer's reach change no weight: not looked at (the sampling's cost)
+    walls = NearestWalls(rve, voxel, reach=REACH_VOXELS + 1.0)
+    _check_solid(walls, fields)
+    grid = DiffuseGrid.sample(fields.grid.shape, walls)
+    kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
+    return solve_diffuse_stokes(
+        grid,
+        voxel,
+        direction,
+        viscosity=float(flow["viscosity"]),
+        progress=progress,
+        return_velocity=return_fields,
+        **kw,
+    )
+
+
+def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:
+    """The walls enclose the voxel grid's solid: the sign of the nearest wall's distance at
+    every cell centre is the grid's (cells within 1e-6 voxel of a wall excepted). It fails where
+    the box's content does not tile into whole fibres (a fibre cut by a face along which the
+    copies do not repeat): the solver would see a geometry the walls do not describe."""
+    import numpy as np
+
+    nx, ny, nz = fields.grid.shape
+    yz = np.meshgrid(np.arange(ny) + 0.5, np.arange(nz) + 0.5, indexing="ij")
+    for i in range(nx):
+        (s, _, _), _ = walls(np.full(yz[0].shape, i + 0.5), *yz)
+        wrong = ((s < 0) != fields.solid[i]) & (np.abs(s) > 1e-6)
+        if wrong.any():
+            j, k = np.argwhere(wrong)[0]
+            raise ValueError(
+                f"flow.wall_treatment: 'diffuse' walls disagree with the voxel grid at cell "
+                f"({i}, {j}, {k}) ({int(wrong.sum())} cells of plane x = {i}): the box's content "
+                "does not tile into whole fibers across a face (use 'subvoxel')"
+            )
