@@ -17,9 +17,13 @@ VOXEL_SECONDS_PER_CELL = {1: 9.5e-6, 2: 5.4e-6}
 #: 50-90 MINRES iterations): 7-10e-5 s per cell on grids of 2.6e4-2.1e5 cells, square arrays
 #: (``benchmarks/diffuse_validation_runs.jsonl``, 2026-12-04, the shared 2-core machine).
 DIFFUSE_SECONDS_PER_CELL = 9e-5
+#: Plus the wall sampling per cell, fibre and box image (``psdesign.geometry.walls``): 1.3-4.1
+#: us measured (square array 64^2 x 40, one fibre; hexagonal cell at 56, 5 fibres x 3 images;
+#: 2026-12-04, idle), the larger kept.
+WALL_SECONDS_PER_CELL_AND_COPY = 4.5e-6
 
 
-def _announce_voxel(fields, direction: str, wall: str | None) -> None:
+def _announce_voxel(fields, direction: str, wall: str | None, rve) -> None:
     """Time and memory estimate of a voxel solve on stderr (before it starts)."""
     import numba
 
@@ -30,9 +34,12 @@ def _announce_voxel(fields, direction: str, wall: str | None) -> None:
     rate = VOXEL_SECONDS_PER_CELL[1 if numba.get_num_threads() == 1 else 2]
     need = VOXEL_SOLVER_BYTES_PER_VOXEL * cells
     if wall == "diffuse":
+        from psdesign.geometry.walls import box_shifts
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
-        rate, need = DIFFUSE_SECONDS_PER_CELL, diffuse_memory_bytes(fields.solid.shape)
+        copies = len(rve.fibers) * len(box_shifts(rve.fibers, rve.size / rve.period)[0])
+        rate = DIFFUSE_SECONDS_PER_CELL + WALL_SECONDS_PER_CELL_AND_COPY * copies
+        need = diffuse_memory_bytes(fields.solid.shape)
     progress.estimate(f"voxel solve {direction} ({cells:.3g} cells)", rate * cells, need / 1e9)
 
 
@@ -41,7 +48,7 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     from psdesign.flow.permeability import permeability
 
     if solver == "voxel":
-        _announce_voxel(fields, direction, flow.get("wall_treatment"))
+        _announce_voxel(fields, direction, flow.get("wall_treatment"), rve)
     progress = None if args.quiet else progress_printer(direction)
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":
@@ -98,24 +105,28 @@ def _fields_folder(args: argparse.Namespace, directions: list[str], solver: str)
     return fields_folder(args.fields, "permeability", directions, solver)
 
 
-def _check_wall(flow: dict, solver: str, bc: str | None) -> None:
-    """The diffuse wall solves the periodic bc only: a ``--bc`` asking for the permeameter is
-    refused before any work (the spec's own ``flow.bc`` was checked when it was loaded)."""
+def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -> None:
+    """What the diffuse wall cannot do, refused before any work: ``--bc permeameter|both``,
+    ``--fields`` (the assembled solve keeps no pressure field) and, when ``--solver voxel``
+    overrides a spec written for the FEM, the spec's own diffuse-wall checks."""
     from psdesign.errors import SpecError
+    from psdesign.schema.spec import validate_spec
 
-    if (
-        solver == "voxel"
-        and flow.get("wall_treatment") == "diffuse"
-        and bc
-        in (
-            "permeameter",
-            "both",
-        )
-    ):
+    if solver != "voxel" or flow.get("wall_treatment") != "diffuse":
+        return
+    if args.bc in ("permeameter", "both"):
         raise SpecError(
             "--bc",
-            f"{bc!r} with flow.wall_treatment = 'diffuse' (periodic only); allowed: periodic",
+            f"{args.bc!r} with flow.wall_treatment = 'diffuse' (periodic only); allowed: periodic",
         )
+    if args.fields:
+        raise SpecError(
+            "--fields",
+            "not with flow.wall_treatment = 'diffuse' (its assembled solve keeps no pressure "
+            "field); allowed: wall_treatment 'subvoxel' or no --fields",
+        )
+    if spec["flow"]["solver"] != "voxel":
+        validate_spec({**spec, "flow": {**spec["flow"], "solver": "voxel"}})
 
 
 def _cmd_permeability(args: argparse.Namespace) -> int:
@@ -129,7 +140,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     if args.bc in ("permeameter", "periodic"):
         flow["bc"] = args.bc
     solver = args.solver or flow["solver"]
-    _check_wall(flow, solver, args.bc)
+    _check_wall(spec, flow, solver, args)
     t0 = time.perf_counter()
     directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with _fields_folder(args, directions, solver) as writer:

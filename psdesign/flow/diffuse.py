@@ -17,31 +17,77 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.geometry.walls import NearestWalls, along_box_axis, untiled_axis
 from psdesign.geometry.walls import unsupported as unsupported_geometry
 
 
 def unsupported(rve: RVE | None, fields: VoxelFields, bc: str, treatment: str) -> str | None:
-    """Why the diffuse wall cannot be used here (None when it can)."""
+    """Why the diffuse wall cannot be used here (None when it can).
+
+    Parameters
+    ----------
+    rve : RVE or None
+        The RVE (None: an image).
+    fields : VoxelFields
+        Its voxel fields (``analytic_distance``, ``count``).
+    bc, treatment : str
+        ``flow.bc`` and ``flow.periodic_treatment`` as the route resolved them.
+
+    Returns
+    -------
+    str or None
+        The reason (without the key; the caller names ``flow.wall_treatment``).
+    """
     if rve is None or not fields.analytic_distance:
         return "'diffuse' needs an analytic surface; an image has none (use 'staircase')"
     if bc != "periodic":
         return f"'diffuse' solves bc = 'periodic' only, not {bc!r}"
     if treatment != "periodic":
         return f"'diffuse' solves periodic_treatment = 'periodic' only, not {treatment!r}"
-    why = unsupported_geometry(rve)
+    why = unsupported_geometry(rve) or untileable(rve.fibers, rve.size / float(rve.period))
     if why is not None:
         return why
-    box = rve.size / float(rve.period)
-    if any(untiled_axis(fb, box) is not None for fb in rve.fibers):
-        for i, fb in enumerate(rve.fibers):
-            if not along_box_axis(fb):
-                return (
-                    f"fiber {i} is not along a box axis, in a box whose edges are not whole "
-                    "periods of every fiber's copies: the wall distances of the box's tiled "
-                    "content are known for fibers along the box axes only"
-                )
+    overlap = int(np.count_nonzero(fields.count >= 2))
+    if overlap:
+        # the pair rule puts a layer on both walls of a gap; a wall buried in another fibre
+        # would still get one (K 20 % low on a fibre listed twice, review23)
+        return (
+            f"fibers overlap ({overlap} voxels inside two fibers): the wall model describes "
+            "walls facing each other across the pore, not one fiber inside another"
+        )
+    return None
+
+
+def untileable(fibers, box: np.ndarray) -> str | None:
+    """Why the walls of the box's tiled content are not known in closed form (None when they
+    are): some fibre's copies do not repeat with the box (:func:`psdesign.geometry.walls.
+    untiled_axis`) and some fibre is not along a box axis. The one rule, checked on a spec's
+    explicit fibres when it is loaded and on the built RVE.
+
+    Parameters
+    ----------
+    fibers : sequence of Fiber
+        The fibres (normalized coordinates).
+    box : ndarray (3,)
+        Box edges in PS periods.
+
+    Returns
+    -------
+    str or None
+        The reason, naming the fibre (``fiber i``).
+    """
+    if all(untiled_axis(fb, box) is None for fb in fibers):
+        return None
+    for i, fb in enumerate(fibers):
+        if not along_box_axis(fb):
+            return (
+                f"fiber {i} is not along a box axis, in a box whose edges are not whole "
+                "periods of every fiber's copies: the wall distances of the box's tiled "
+                "content are known for fibers along the box axes only"
+            )
     return None
 
 
@@ -54,8 +100,35 @@ def solve_diffuse(
     progress: Callable[[int, float], None] | None = None,
     return_fields: bool = False,
 ):
-    """One periodic solve with the diffuse wall along ``direction``; returns the solver's
-    :class:`solvers.voxel_stokes.VoxelFlowResult` (K is formed by the caller)."""
+    """One periodic solve with the diffuse wall along ``direction``.
+
+    Parameters
+    ----------
+    rve : RVE
+        The RVE (:func:`unsupported` returned None for it).
+    fields : VoxelFields
+        Its voxel fields at ``voxel``.
+    direction : str
+        ``"x"``, ``"y"`` or ``"z"``.
+    flow : dict
+        The ``[flow]`` table (``viscosity``; ``tol`` when set).
+    voxel : float
+        Voxel edge (m).
+    progress : callable, optional
+        ``progress(iteration, residual)``.
+    return_fields : bool
+        Keep the velocity field in the result.
+
+    Returns
+    -------
+    solvers.voxel_stokes.VoxelFlowResult
+        The solve (K is formed by the caller, :mod:`psdesign.flow.darcy`).
+
+    Raises
+    ------
+    ValueError
+        The walls disagree with the voxel grid (:func:`_check_solid`).
+    """
     from solvers.voxel.diffuse import DiffuseGrid, solve_diffuse_stokes
     from solvers.voxel.diffuse_wall import REACH_VOXELS
 
@@ -80,8 +153,6 @@ def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:
     every cell centre is the grid's (cells within 1e-6 voxel of a wall excepted). It fails where
     the box's content does not tile into whole fibres (a fibre cut by a face along which the
     copies do not repeat): the solver would see a geometry the walls do not describe."""
-    import numpy as np
-
     nx, ny, nz = fields.grid.shape
     yz = np.meshgrid(np.arange(ny) + 0.5, np.arange(nz) + 0.5, indexing="ij")
     for i in range(nx):

@@ -35,6 +35,9 @@ SHAPES = ("cylinder", "rod")
 #: Distance (voxels) reported for a wall not looked at (beyond ``reach``): farther than any
 #: wall layer reaches, finite so that the profile evaluates it to plain fluid.
 FAR = 1e9
+#: Stands in (periods) for a wall's axis coordinate along its own fibre in its identity: no
+#: point is that far, so fibres along different axes never share an identity.
+_AXIS_TAG = 1e6
 #: Newton steps for the rod's boundary radius (quadratic convergence from ``D / 2``: the
 #: boundary departs from the circle by < 1 % of ``D`` for ``D`` < 0.3 periods).
 _NEWTON_STEPS = 6
@@ -50,7 +53,18 @@ _RADIUS_BOUND = 0.6
 
 def unsupported(rve: RVE) -> str | None:
     """Why :class:`NearestWalls` cannot be put on ``rve`` (None when it can): a fibre of a shape
-    outside :data:`SHAPES`, or a bent fibre."""
+    outside :data:`SHAPES`, or a bent fibre.
+
+    Parameters
+    ----------
+    rve : RVE
+        The RVE.
+
+    Returns
+    -------
+    str or None
+        The reason, naming the fibre.
+    """
     if not rve.fibers:
         return "the RVE has no fibers"
     for i, fb in enumerate(rve.fibers):
@@ -71,13 +85,36 @@ def untiled_axis(fb: Fiber, box: np.ndarray) -> int | None:
     both lattice vectors are integers. A square array of one cell along x and y passes at any
     depth; a hexagonal cell (``sqrt(3) L`` wide, period the largest edge) or two cells of a
     square array (period 2 L, width L) do not: there :class:`NearestWalls` tiles the box's
-    content itself (:func:`box_shifts`)."""
+    content itself (:func:`box_shifts`).
+
+    Parameters
+    ----------
+    fb : Fiber
+        The fibre (normalized coordinates).
+    box : ndarray (3,)
+        Box edges in PS periods (``rve.size / rve.period``).
+
+    Returns
+    -------
+    int or None
+        0, 1 or 2 for x, y or z.
+    """
     axes = _untiled_axes(fb, box)
     return axes[0] if axes else None
 
 
 def along_box_axis(fb: Fiber) -> bool:
-    """Is the fibre's axis one of the box axes (to 1e-9)?"""
+    """Is the fibre's axis one of the box axes (to 1e-9)?
+
+    Parameters
+    ----------
+    fb : Fiber
+        The fibre.
+
+    Returns
+    -------
+    bool
+    """
     return bool(np.max(np.abs(fb.direction)) > 1.0 - 1e-9)
 
 
@@ -187,9 +224,10 @@ class NearestWalls:
             for k in self.shifts:
                 for a, b in _copy_offsets(fb, xi + k):
                     # the copy's axis (a point on it, periods) as the point sees it: the shift
-                    # undone; its coordinate along the fibre is any, so zeroed (the identity)
+                    # undone; its coordinate along the fibre is any, so replaced by a tag of
+                    # the axis (the identity: crossing fibres along x and z are two walls)
                     foot = xi - a[:, None] * fb.lattice[0] - b[:, None] * fb.lattice[1]
-                    foot[:, along] = 0.0
+                    foot[:, along] = _AXIS_TAG * (along + 1)
                     keep = np.hypot(a, b) < limit
                     if self.untiled:  # only copies the box holds: the solver tiles the box
                         held = foot + k
@@ -212,7 +250,22 @@ def box_shifts(fibers, box: np.ndarray) -> tuple[list[np.ndarray], tuple[int, ..
     the point and from its images one box edge away along each untiled axis (enough within a
     reach shorter than the box edge). That needs every fibre along a box axis; with any other,
     the copies themselves are the walls (:func:`psdesign.flow.diffuse.unsupported` refuses such
-    an RVE)."""
+    an RVE).
+
+    Parameters
+    ----------
+    fibers : sequence of Fiber
+        The RVE's fibres.
+    box : ndarray (3,)
+        Box edges in PS periods.
+
+    Returns
+    -------
+    shifts : list of ndarray (3,)
+        Shifts in periods (``[0, 0, 0]`` alone where the copies repeat with the box).
+    untiled : tuple of int
+        The axes the shifts run along.
+    """
     untiled = sorted({i for fb in fibers for i in _untiled_axes(fb, box)})
     if not all(along_box_axis(fb) for fb in fibers):
         untiled = []  # the copies themselves: a tilted fibre's tiled content has no closed form

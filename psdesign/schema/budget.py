@@ -139,11 +139,9 @@ def check_grid(
     copies, aux = stack_of(flow)
     need = grid_bytes(n, solver, copies, aux)
     if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
-        # The model of solvers.voxel.diffuse.diffuse_memory_bytes, written on floats: an absurd
-        # shape must reach the refusal below, not overflow int().
-        from solvers.voxel.diffuse import BYTES_PER_CELL, FIXED_BYTES
+        from solvers.voxel.diffuse import diffuse_memory_bytes
 
-        need = grid_bytes(n, "geometry") + FIXED_BYTES + BYTES_PER_CELL * float(n)
+        need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
     budget = MEMORY_FRACTION * machine_memory()
     if need <= budget:
         return

@@ -22,9 +22,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
-  memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`) within half
-  the machine's memory (psutil). A permeameter (`flow.bc`, or the FEM's default) counts its
-  stack: `flow.permeameter_copies` copies (`"auto"` counts 2, its first solve;
+  memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`, 2100 with
+  `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil). A permeameter
+  (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies (`"auto"` counts 2, its first solve;
   a longer stack it takes after a window term above 1 % is checked before it is solved) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
   solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
@@ -52,7 +52,13 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   `[forcefield]`; `[rve]` optional, and if given its `size` and `voxel` equal the image's; the
   file, its size (raw), the crop and the voxel size checked, then (within the memory budget)
   the voxels read: at least one pore and one solid voxel, at least 4 voxels per axis;
-  `flow.wall_treatment = "subvoxel"` refused (no analytic surface).
+  `flow.wall_treatment = "subvoxel"` or `"diffuse"` refused (no analytic surface).
+* `flow.wall_treatment = "diffuse"` (voxel solver; docs/permeability.md, "Voxel walls"):
+  `flow.bc` periodic, `flow.periodic_treatment` periodic, no `[forcefield]`, no `[generator]`;
+  every `fibers[i].shape` a straight `cylinder` or `rod`; where a fiber's copies do not repeat
+  with the box (edges not whole periods), every fiber along a box axis (`fibers[i].direction`).
+  On the command line `--bc permeameter|both` and `--fields` are refused with it. After the
+  build: overlapping fibers, or a fiber cut by a face the copies do not repeat across.
 * Studies: at most 1000 seeds, 10000 levels per parameter, 100000 cases; `n_samples` only
   with latin-hypercube / sobol; the base spec and every parameter level validated at load.
 """

@@ -114,7 +114,7 @@ class SpecDocument(Table):
             )
         if self.generator is not None:
             self._check_generator(size, voxel, period)
-        if self.flow.wall_treatment == "diffuse":
+        if self.flow.wall_treatment == "diffuse" and self.flow.solver == "voxel":
             self._check_diffuse()
         return self
 
@@ -154,27 +154,29 @@ class SpecDocument(Table):
                     "closed-form wall distance",
                     " | ".join(SHAPES),
                 )
-            self._check_diffuse_tiling(i, fb)
+        self._check_diffuse_tiling()
 
-    def _check_diffuse_tiling(self, i: int, fb) -> None:
-        """A fibre off the box axes needs its copies to repeat with the box the solver wraps
-        (:func:`psdesign.flow.diffuse.unsupported`); checked here on the fibre alone, the
-        other fibres' part when the RVE is built."""
+    def _check_diffuse_tiling(self) -> None:
+        """The explicit fibres' walls in the box the solver wraps are known in closed form
+        (:func:`psdesign.flow.diffuse.untileable`, the rule the route applies to the built
+        RVE)."""
         import numpy as np
 
+        from psdesign.flow.diffuse import untileable
         from psdesign.geometry.fibers import make_fiber
-        from psdesign.geometry.walls import along_box_axis, untiled_axis
 
         size = np.asarray(self.rve.size, float)
         period = self.rve.period or float(size.max())
-        fiber = make_fiber(fb.shape, 0.1, theta=fb.theta, omega=fb.omega, direction=fb.direction)
-        axis = untiled_axis(fiber, size / period)
-        if axis is not None and not along_box_axis(fiber):
+        fibers = [
+            make_fiber(fb.shape, 0.1, theta=fb.theta, omega=fb.omega, direction=fb.direction)
+            for fb in self.fibers
+        ]
+        why = untileable(fibers, size / period)
+        if why is not None:
+            i = int(why.split()[1])
             raise fail(
                 f"fibers[{i}].direction",
-                f"its copies do not repeat with the box along {'xyz'[axis]}: "
-                "flow.wall_treatment = 'diffuse' needs fibers along the box axes, or a box whose "
-                "edges are whole periods (rve.period) of a tilted fiber's copies",
+                f"{why} (flow.wall_treatment = 'diffuse')",
                 "a box axis",
             )
 

@@ -187,12 +187,13 @@ FIXED_BYTES = 0
 """Bytes on top of :data:`BYTES_PER_CELL` per solve (the fit's intercept is -8.7 MB)."""
 
 
-def diffuse_memory_bytes(shape) -> int:
+def diffuse_memory_bytes(shape) -> float:
     """Estimated peak memory (bytes) :func:`solve_diffuse_stokes` adds to the running process on
     a grid of ``shape`` cells, with the :class:`DiffuseGrid` the caller holds (module
-    :data:`BYTES_PER_CELL`, :data:`FIXED_BYTES`)."""
-    cells = float(np.prod([int(m) for m in shape]))
-    return int(FIXED_BYTES + BYTES_PER_CELL * cells)
+    :data:`BYTES_PER_CELL`, :data:`FIXED_BYTES`). On floats: an absurd shape (a spec's
+    memory check) gives a huge or infinite estimate, never an overflow."""
+    cells = float(np.prod([float(m) for m in shape]))
+    return FIXED_BYTES + BYTES_PER_CELL * cells
 
 
 def _check_memory(shape: tuple[int, int, int]) -> None:

@@ -183,10 +183,18 @@ def test_product_route_converges_monotonically_to_the_published_value() -> None:
     assert max(errs[2:]) < 0.01, errs
 
 
-@pytest.mark.parametrize("bc", ["permeameter", "both"])
-def test_cli_refuses_a_permeameter_bc_with_the_diffuse_wall(tmp_path, capsys, monkeypatch, bc):
-    """``psdesign permeability --bc permeameter|both`` on a diffuse-wall spec: exit 2, one line
-    naming ``--bc``, before the RVE is built."""
+@pytest.mark.parametrize(
+    ("extra", "key"),
+    [
+        (["--bc", "permeameter"], "--bc"),
+        (["--bc", "both"], "--bc"),
+        (["--fields", "OUT"], "--fields"),
+    ],
+)
+def test_cli_refuses_what_the_diffuse_wall_cannot_do(tmp_path, capsys, monkeypatch, extra, key):
+    """``psdesign permeability --bc permeameter|both`` or ``--fields`` (no pressure field) on a
+    diffuse-wall spec: exit 2, one line naming the option, before the RVE is built and without
+    creating the fields folder."""
     from psdesign.cli.main import main
 
     def build_rve(*a, **k):
@@ -195,9 +203,11 @@ def test_cli_refuses_a_permeameter_bc_with_the_diffuse_wall(tmp_path, capsys, mo
     monkeypatch.setattr("psdesign.packing.build.build_rve", build_rve)
     path = tmp_path / "s.toml"
     path.write_text(SPEC.format(shape="cylinder", extra="", flow=""))
-    assert main(["permeability", str(path), "--bc", bc]) == 2
+    extra = [str(tmp_path / e) if e == "OUT" else e for e in extra]
+    assert main(["permeability", str(path), *extra]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--bc" in err and "periodic" in err, err
+    assert len(err.splitlines()) == 1 and f"error: {key}:" in err, err
+    assert not (tmp_path / "OUT").exists()
 
 
 def test_spec_refuses_a_tilted_fibre_whose_copies_do_not_repeat_with_the_box(tmp_path):
@@ -242,3 +252,77 @@ def test_two_cells_of_an_array_give_the_one_cell_permeability(direction: str) ->
         )
         k.append(res["permeability_m2"])
     assert k[1] == pytest.approx(k[0], rel=1e-6)
+
+
+def _route(rve: RVE, h: float, direction: str, estimate: bool = False) -> dict:
+    from psdesign.flow.permeability import permeability
+
+    flow = {
+        "solver": "voxel",
+        "bc": "periodic",
+        "periodic_treatment": "periodic",
+        "wall_treatment": "diffuse",
+        "viscosity": 1.8e-5,
+    }
+    return permeability(rve, rve.voxelize(h), direction, flow, "voxel", error_estimate=estimate)
+
+
+def test_fibres_along_x_give_the_z_array_permeability() -> None:
+    """The square array turned onto x (fibres along x, the box's axes permuted) is the same
+    medium: K along x and across (y) equal the z array's along z and across (x) to the
+    solver's tolerance (the identity of walls along x, ``NearestWalls``'s ``along``)."""
+    rve_z, h = _array_rve(24, 0.3, (0.37, 0.21))
+    c = rve_z.fibers[0].center
+    fb = make_fiber(
+        "cylinder", rve_z.fibers[0].diameter, center=[c[2], c[0], c[1]], direction=[1, 0, 0]
+    )
+    rve_x = RVE([rve_z.size[2], rve_z.size[0], rve_z.size[1]], [fb], period=rve_z.period)
+    along = [_route(rve_z, h, "z")["permeability_m2"], _route(rve_x, h, "x")["permeability_m2"]]
+    across = [_route(rve_z, h, "x")["permeability_m2"], _route(rve_x, h, "y")["permeability_m2"]]
+    assert along[1] == pytest.approx(along[0], rel=1e-6)
+    assert across[1] == pytest.approx(across[0], rel=1e-6)
+
+
+def test_route_refuses_overlapping_fibres_and_a_fibre_cut_by_an_untiled_face() -> None:
+    """A fibre listed twice (its walls would both get a layer: K 20 % low, review23) and a
+    fibre crossing the face y = L of a box L wide along y whose PS period is 2 L (the solver's
+    tiling brings its cut part to y = 0, where its copies have nothing): both refused with a
+    reason, not solved."""
+    from psdesign.flow.diffuse import unsupported as route_unsupported
+
+    rve, h = _array_rve(24, 0.3, (0.0, 0.0))
+    twice = RVE(rve.size, [rve.fibers[0], rve.fibers[0]], period=rve.period)
+    assert "overlap" in route_unsupported(twice, twice.voxelize(h), "periodic", "periodic")
+    L = rve.period
+    cut = make_fiber("cylinder", 0.2, center=[0.5, 0.45, 0.05], direction=[0, 0, 1])
+    wide = RVE([2 * L, L, L / 6], [cut], period=2 * L)
+    with pytest.raises(ValueError, match="disagree with the voxel grid"):
+        _route(wide, L / 24, "x")
+
+
+def test_error_bar_floor_is_the_diffuse_law() -> None:
+    """The bar's floor on the diffuse route is ``3.2 (h / R)^2`` with ``R = sqrt(8 K /
+    porosity)`` (``psdesign.flow.error.FLOOR['diffuse']``), not the sub-voxel ``0.1 h / R``."""
+    rve, h = _array_rve(24, 0.3, (0.0, 0.0))
+    res = _route(rve, h, "z", estimate=True)
+    radius = np.sqrt(8 * res["permeability_m2"] / res["porosity"])
+    assert res["error_estimate"]["floor"] == pytest.approx(3.2 * (h / radius) ** 2, rel=1e-9)
+    assert res["error_estimate"]["order"] == 2
+
+
+def test_spec_memory_check_counts_the_assembled_solve(tmp_path) -> None:
+    """A grid the default solver fits (9.5e6 cells, ~1.1 GB) is refused with the diffuse wall's
+    2.1 kB per cell on a 24 GB machine's half (``psdesign.schema.budget``); the FEM ignores
+    the key, and with it the [generator] refusal."""
+    from psdesign.schema.spec import load_spec
+
+    path = tmp_path / "s.toml"
+    text = SPEC.format(shape="cylinder", extra="", flow="").replace(
+        "voxel = 2e-6", "voxel = 1.5e-7"
+    )
+    path.write_text(text)
+    with pytest.raises(SpecError) as info:
+        load_spec(path)
+    assert info.value.key == "rve.voxel" and "2116 B" in str(info.value)
+    path.write_text(text.replace('solver = "voxel"', 'solver = "fem"').replace("1.5e-7", "2e-6"))
+    assert load_spec(path)["flow"]["wall_treatment"] == "diffuse"
