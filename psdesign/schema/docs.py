@@ -24,7 +24,8 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
   memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`, 2100 with
   `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil). A permeameter
-  (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies (`"auto"` counts 2, its first solve;
+  (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
+  (`"auto"` counts 2, its first solve;
   a longer stack it takes after a window term above 1 % is checked before it is solved) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
   solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
