@@ -222,7 +222,7 @@ def _diffuse(rve, fields, name, flow, h, progress, return_fields):
     from psdesign.flow import diffuse
 
     why = diffuse.unsupported(
-        rve, fields, flow.get("bc") or "periodic", flow.get("periodic_treatment", "periodic")
+        rve, fields, flow.get("bc") or "periodic", flow.get("periodic_treatment") or "periodic"
     )
     if why is not None:
         raise ValueError(f"flow.wall_treatment: {why}")

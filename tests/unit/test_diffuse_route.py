@@ -134,17 +134,8 @@ def test_spec_refuses_what_the_diffuse_wall_cannot_solve(
 
 def _product_k(n: int, phi: float, shift: tuple[float, float], direction: str) -> float:
     """K of the extruded square array through the product's voxel route, diffuse wall."""
-    from psdesign.flow.voxel import permeability_voxel
-
     rve, h = _array_rve(n, phi, shift)
-    flow = {
-        "solver": "voxel",
-        "bc": "periodic",
-        "periodic_treatment": "periodic",
-        "wall_treatment": "diffuse",
-        "viscosity": 1.8e-5,
-    }
-    res = permeability_voxel(rve.voxelize(h), direction, flow, rve=rve)
+    res = _route(rve, h, direction)
     assert res["converged"]
     return res["permeability_m2"]
 
