@@ -51,18 +51,20 @@ def param_axis(p: str) -> dict:
 
 
 def _value(p: str, v) -> str:
+    if isinstance(v, str):  # a categorical level (flow.wall_treatment = "diffuse")
+        return v
     unit = parameter_unit(p)
     return f"{float(v):.4g}" + (f" {unit}" if unit and unit != "-" else "")
 
 
-def _line_groups(s: pd.DataFrame, p: str, num: list[str]) -> tuple[list, str]:
-    """Rows of ``s`` split by the levels of the other numeric parameters, and the plot mode.
+def _line_groups(s: pd.DataFrame, p: str, params: list[str]) -> tuple[list, str]:
+    """Rows of ``s`` split by the levels of the other parameters, and the plot mode.
 
-    Points are joined by lines only within one combination of the other parameters (a line
-    across different diameters would draw a zig-zag that is no trend); scattered designs and
-    many combinations give markers only.
+    Points are joined by lines only within one combination of the other parameters, numeric or
+    not (a line across different diameters, or across two wall models, would draw a zig-zag
+    that is no trend); scattered designs and many combinations give markers only.
     """
-    others = [q for q in num if q != p]
+    others = [q for q in params if q != p and q in s.columns]
     if not others:
         return [("", s)], "markers+lines" if s[p].nunique() > 1 else "markers"
     groups = list(s.groupby(others, sort=True))
@@ -117,7 +119,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
     parts = [] if kcols or not any(c in df for c in K_DIRECTIONS) else [NO_TRUSTED_K]
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
-        groups, mode = _line_groups(summary.iloc[order], p, num)
+        groups, mode = _line_groups(summary.iloc[order], p, params)
         if kcols:
             fig = go.Figure()
             for i, c in enumerate(kcols):

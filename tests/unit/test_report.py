@@ -238,6 +238,36 @@ def test_parameter_plots_label_units_and_join_only_like_points(mixed_report):
     assert '"yref":"paper"' in html and '"yanchor":"bottom"' in html
 
 
+def test_parameter_lines_are_split_by_a_categorical_parameter():
+    """A refinement study over ``rve.voxel`` x ``flow.wall_treatment`` (studies/voxel_walls.toml):
+    one line per wall model (it used to join the two models' means at each voxel size into one
+    zig-zag line), labelled by the level."""
+    from psdesign.report.decision import _line_groups, parameter_plots
+
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(4)],
+            "status": ["ok"] * 4,
+            "seed": [0] * 4,
+            "rve.voxel": [1e-6, 1e-6, 2e-6, 2e-6],
+            "flow.wall_treatment": ["diffuse", "subvoxel"] * 2,
+            "k_z_m2": [3.58e-11, 3.60e-11, 3.55e-11, 3.599e-11],
+            "k_z_status": ["ok"] * 4,
+        }
+    )
+    params = ["rve.voxel", "flow.wall_treatment"]
+    groups, mode = _line_groups(df, "rve.voxel", params)
+    assert mode == "markers+lines"
+    assert [label for label, _ in groups] == [
+        "flow.wall_treatment = diffuse",
+        "flow.wall_treatment = subvoxel",
+    ]
+    assert all(g["flow.wall_treatment"].nunique() == 1 for _, g in groups)
+    assert '"name":"z (through-plane), flow.wall_treatment = diffuse"' in parameter_plots(
+        df, params
+    )
+
+
 def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
     from psdesign.analysis.columns import trusted
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
