@@ -277,6 +277,12 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
             f" <b>Above {100 * SURROGATE_WEAK:.0f} %: the surface and the Sobol indices are "
             "not reliable; more cases (or fewer parameters) are needed.</b>"
         )
+    pooled = [p for p in params if p in ok and p not in num and ok[p].nunique() > 1]
+    if pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
+        weak += (
+            f" It pools the levels of {', '.join(pooled)} (not numeric, not an input of the "
+            "surrogate): compare the levels in the plots above."
+        )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '
         f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.{weak}</p>"

@@ -242,17 +242,17 @@ def test_parameter_lines_are_split_by_a_categorical_parameter():
     """A refinement study over ``rve.voxel`` x ``flow.wall_treatment`` (studies/voxel_walls.toml):
     one line per wall model (it used to join the two models' means at each voxel size into one
     zig-zag line), labelled by the level."""
-    from psdesign.report.decision import _line_groups, parameter_plots
+    from psdesign.report.decision import _line_groups, parameter_plots, surrogate_plots
 
     df = pd.DataFrame(
         {
-            "case_id": [f"c{i}" for i in range(4)],
-            "status": ["ok"] * 4,
-            "seed": [0] * 4,
-            "rve.voxel": [1e-6, 1e-6, 2e-6, 2e-6],
-            "flow.wall_treatment": ["diffuse", "subvoxel"] * 2,
-            "k_z_m2": [3.58e-11, 3.60e-11, 3.55e-11, 3.599e-11],
-            "k_z_status": ["ok"] * 4,
+            "case_id": [f"c{i}" for i in range(6)],
+            "status": ["ok"] * 6,
+            "seed": [0] * 6,
+            "rve.voxel": [1e-6, 1e-6, 1.5e-6, 1.5e-6, 2e-6, 2e-6],
+            "flow.wall_treatment": ["diffuse", "subvoxel"] * 3,
+            "k_z_m2": [3.58e-11, 3.60e-11, 3.57e-11, 3.598e-11, 3.55e-11, 3.599e-11],
+            "k_z_status": ["ok"] * 6,
         }
     )
     params = ["rve.voxel", "flow.wall_treatment"]
@@ -266,6 +266,8 @@ def test_parameter_lines_are_split_by_a_categorical_parameter():
     assert '"name":"z (through-plane), flow.wall_treatment = diffuse"' in parameter_plots(
         df, params
     )
+    # the surrogate takes numeric inputs only: the report says it pools the wall models
+    assert "pools the levels of flow.wall_treatment" in surrogate_plots(df, params, {})
 
 
 def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
