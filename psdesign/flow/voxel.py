@@ -226,7 +226,11 @@ def _diffuse(rve, fields, name, flow, h, progress, return_fields):
     )
     if why is not None:
         raise ValueError(f"flow.wall_treatment: {why}")
-    return diffuse.solve_diffuse(rve, fields, name, flow, h, progress, return_fields)
+    if return_fields:  # the assembled solve keeps no pressure: refused before it runs
+        raise ValueError(
+            "fields: not with flow.wall_treatment = 'diffuse' (its solve keeps no pressure field)"
+        )
+    return diffuse.solve_diffuse(rve, fields, name, flow, h, progress, False)
 
 
 def _cubic_voxel(fields: VoxelFields) -> float:

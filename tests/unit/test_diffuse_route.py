@@ -317,3 +317,16 @@ def test_spec_memory_check_counts_the_assembled_solve(tmp_path) -> None:
     assert info.value.key == "rve.voxel" and "2116 B" in str(info.value)
     path.write_text(text.replace('solver = "voxel"', 'solver = "fem"').replace("1.5e-7", "2e-6"))
     assert load_spec(path)["flow"]["wall_treatment"] == "diffuse"
+
+
+def test_api_refuses_fields_with_the_diffuse_wall_before_the_solve(tmp_path) -> None:
+    """``Material.permeability(fields=...)`` on a diffuse-wall spec: refused (no pressure field)
+    before the solve, and no fields folder is left behind (it used to fail after the solve)."""
+    import psdesign
+
+    path = tmp_path / "s.toml"
+    path.write_text(SPEC.format(shape="cylinder", extra="", flow=""))
+    material = psdesign.build(path)
+    with pytest.raises(ValueError, match="^fields: not with flow.wall_treatment = 'diffuse'"):
+        material.permeability("z", fields=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
