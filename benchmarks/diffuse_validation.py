@@ -39,9 +39,8 @@ sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks"), str(ROOT)]
 
 from arrays import L, array_spec  # noqa: E402
 from validation_tables import reference_k  # noqa: E402
+from voxel_convergence import solve_array  # noqa: E402
 
-from psdesign.flow.permeability import permeability  # noqa: E402
-from psdesign.packing.build import build_rve  # noqa: E402
 from psdesign.schema.spec import validate_spec  # noqa: E402
 
 RUNS = ROOT / "benchmarks" / "diffuse_validation_runs.jsonl"
@@ -79,26 +78,15 @@ def case_spec(kind: str, phi: float, n: int, shift: tuple[float, float], wall: s
 
 def solve(kind: str, flow: str, phi: float, n: int, shift, wall: str, bar: bool) -> dict:
     """One row: K, its error bar (when ``bar``), iterations, time."""
-    spec = case_spec(kind, phi, n, shift, wall)
-    built = build_rve(spec)
-    fields = built.voxelize(spec["rve"]["voxel"])
-    t0 = time.perf_counter()
-    res = permeability(
-        built.rve,
-        fields,
-        "x" if flow == "across" else "z",
-        spec["flow"],
-        "voxel",
-        error_estimate=bar,
-    )
+    res, shape, seconds = solve_array(case_spec(kind, phi, n, shift, wall), flow, bar)
     return {
         "k": res["permeability_m2"],
         "bar": res.get("permeability_rel_error") if bar else None,
         "status": res.get("status"),
         "iterations": res["iterations"],
         "converged": res["converged"],
-        "wall_time_s": round(time.perf_counter() - t0, 2),
-        "shape": list(fields.grid.shape),
+        "wall_time_s": round(seconds, 2),
+        "shape": shape,
     }
 
 

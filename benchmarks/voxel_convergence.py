@@ -40,11 +40,9 @@ WIDTH_CASES = [(40, 69), (40, 70), (41, 70), (41, 71), (41, 72), (30, 52), (52, 
 WIDTH_PHI = 0.2
 
 
-def solve_periodic(kind: str, flow: str, phi: float, n: int, wall: str, width: int | None) -> dict:
-    """K, iterations and wall time of one periodic voxel solve of the array (no error bar)."""
-    spec = array_spec(kind, phi, n, width_voxels=width)
-    spec["flow"] |= {"solver": "voxel", "bc": "periodic", "wall_treatment": wall}
-    spec = validate_spec(spec)
+def solve_array(spec: dict, flow: str, error_estimate: bool) -> tuple[dict, list[int], float]:
+    """One voxel solve of a validated array spec through the product route, across (x) or along
+    (z): the result, the grid's shape and the solve's wall time (s)."""
     built = build_rve(spec)
     fields = built.voxelize(spec["rve"]["voxel"])
     t0 = time.perf_counter()
@@ -54,14 +52,22 @@ def solve_periodic(kind: str, flow: str, phi: float, n: int, wall: str, width: i
         "x" if flow == "across" else "z",
         spec["flow"],
         "voxel",
-        error_estimate=False,
+        error_estimate=error_estimate,
     )
+    return res, list(fields.grid.shape), time.perf_counter() - t0
+
+
+def solve_periodic(kind: str, flow: str, phi: float, n: int, wall: str, width: int | None) -> dict:
+    """K, iterations and wall time of one periodic voxel solve of the array (no error bar)."""
+    spec = array_spec(kind, phi, n, width_voxels=width)
+    spec["flow"] |= {"solver": "voxel", "bc": "periodic", "wall_treatment": wall}
+    res, shape, seconds = solve_array(validate_spec(spec), flow, error_estimate=False)
     return {
         "k": res["permeability_m2"],
         "iterations": res["iterations"],
         "converged": res["converged"],
-        "wall_time_s": time.perf_counter() - t0,
-        "shape": res.get("grid_shape") or list(fields.grid.shape),
+        "wall_time_s": seconds,
+        "shape": res.get("grid_shape") or shape,
     }
 
 

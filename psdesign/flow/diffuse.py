@@ -47,9 +47,12 @@ def unsupported(rve: RVE | None, fields: VoxelFields, bc: str, treatment: str) -
         return f"'diffuse' solves bc = 'periodic' only, not {bc!r}"
     if treatment != "periodic":
         return f"'diffuse' solves periodic_treatment = 'periodic' only, not {treatment!r}"
-    why = unsupported_geometry(rve) or untileable(rve.fibers, rve.size / float(rve.period))
+    why = unsupported_geometry(rve)
     if why is not None:
         return why
+    i = untileable(rve.fibers, rve.size / float(rve.period))
+    if i is not None:
+        return f"fiber {i} {UNTILEABLE}"
     overlap = int(np.count_nonzero(fields.count >= 2))
     if overlap:
         # the pair rule puts a layer on both walls of a gap; a wall buried in another fibre
@@ -61,11 +64,12 @@ def unsupported(rve: RVE | None, fields: VoxelFields, bc: str, treatment: str) -
     return None
 
 
-def untileable(fibers, box: np.ndarray) -> str | None:
-    """Why the walls of the box's tiled content are not known in closed form (None when they
-    are): some fibre's copies do not repeat with the box (:func:`psdesign.geometry.walls.
-    untiled_axis`) and some fibre is not along a box axis. The one rule, checked on a spec's
-    explicit fibres when it is loaded and on the built RVE.
+def untileable(fibers, box: np.ndarray) -> int | None:
+    """The first fibre whose walls in the box's tiled content are not known in closed form
+    (None when every fibre's are): some fibre's copies do not repeat with the box
+    (:func:`psdesign.geometry.walls.untiled_axis`) and this fibre is not along a box axis. The
+    one rule, checked on a spec's explicit fibres when it is loaded and on the built RVE
+    (:data:`UNTILEABLE` says why).
 
     Parameters
     ----------
@@ -76,19 +80,20 @@ def untileable(fibers, box: np.ndarray) -> str | None:
 
     Returns
     -------
-    str or None
-        The reason, naming the fibre (``fiber i``).
+    int or None
+        The fibre's index.
     """
     if all(untiled_axis(fb, box) is None for fb in fibers):
         return None
-    for i, fb in enumerate(fibers):
-        if not along_box_axis(fb):
-            return (
-                f"fiber {i} is not along a box axis, in a box whose edges are not whole "
-                "periods of every fiber's copies: the wall distances of the box's tiled "
-                "content are known for fibers along the box axes only"
-            )
-    return None
+    return next((i for i, fb in enumerate(fibers) if not along_box_axis(fb)), None)
+
+
+#: Why a fibre :func:`untileable` names is refused.
+UNTILEABLE = (
+    "is not along a box axis, in a box whose edges are not whole periods of every fiber's "
+    "copies: the wall distances of the box's tiled content are known for fibers along the box "
+    "axes only"
+)
 
 
 def solve_diffuse(
@@ -98,7 +103,6 @@ def solve_diffuse(
     flow: dict,
     voxel: float,
     progress: Callable[[int, float], None] | None = None,
-    return_fields: bool = False,
 ):
     """One periodic solve with the diffuse wall along ``direction``.
 
@@ -116,8 +120,6 @@ def solve_diffuse(
         Voxel edge (m).
     progress : callable, optional
         ``progress(iteration, residual)``.
-    return_fields : bool
-        Keep the velocity field in the result.
 
     Returns
     -------
@@ -143,7 +145,6 @@ def solve_diffuse(
         direction,
         viscosity=float(flow["viscosity"]),
         progress=progress,
-        return_velocity=return_fields,
         **kw,
     )
 

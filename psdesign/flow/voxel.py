@@ -185,7 +185,7 @@ def permeability_voxel(
     t0 = time.perf_counter()
     if wall == "diffuse":
         plan, solve = None, fields
-        res = _diffuse(rve, fields, name, flow, h, progress, capture is not None)
+        res = _diffuse(rve, fields, name, flow, h, bc, progress, capture is not None)
     else:
         plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
         res = solve_voxel_stokes(
@@ -216,21 +216,20 @@ def permeability_voxel(
     return out
 
 
-def _diffuse(rve, fields, name, flow, h, progress, return_fields):
-    """The diffuse-wall solve (:mod:`psdesign.flow.diffuse`), refused with the reason where it
-    does not apply."""
+def _diffuse(rve, fields, name, flow, h, bc, progress, return_fields):
+    """The diffuse-wall solve (:mod:`psdesign.flow.diffuse`) with the route's resolved ``bc``,
+    refused with the reason where it does not apply."""
     from psdesign.flow import diffuse
 
-    why = diffuse.unsupported(
-        rve, fields, flow.get("bc") or "periodic", flow.get("periodic_treatment") or "periodic"
-    )
+    treatment = flow.get("periodic_treatment") or "periodic"
+    why = diffuse.unsupported(rve, fields, bc, treatment)
     if why is not None:
         raise ValueError(f"flow.wall_treatment: {why}")
     if return_fields:  # the assembled solve keeps no pressure: refused before it runs
         raise ValueError(
             "fields: not with flow.wall_treatment = 'diffuse' (its solve keeps no pressure field)"
         )
-    return diffuse.solve_diffuse(rve, fields, name, flow, h, progress, False)
+    return diffuse.solve_diffuse(rve, fields, name, flow, h, progress)
 
 
 def _cubic_voxel(fields: VoxelFields) -> float:

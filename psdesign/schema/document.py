@@ -162,7 +162,7 @@ class SpecDocument(Table):
         RVE)."""
         import numpy as np
 
-        from psdesign.flow.diffuse import untileable
+        from psdesign.flow.diffuse import UNTILEABLE, untileable
         from psdesign.geometry.fibers import make_fiber
 
         size = np.asarray(self.rve.size, float)
@@ -171,12 +171,11 @@ class SpecDocument(Table):
             make_fiber(fb.shape, 0.1, theta=fb.theta, omega=fb.omega, direction=fb.direction)
             for fb in self.fibers
         ]
-        why = untileable(fibers, size / period)
-        if why is not None:
-            i = int(why.split()[1])
+        i = untileable(fibers, size / period)
+        if i is not None:
             raise fail(
                 f"fibers[{i}].direction",
-                f"{why} (flow.wall_treatment = 'diffuse')",
+                f"fiber {i} {UNTILEABLE} (flow.wall_treatment = 'diffuse')",
                 "a box axis",
             )
 
