@@ -94,9 +94,8 @@ def compress16(typingctx, src, mask, dst, k, c):
     """``dst[c : c + n] = src[k : k + 16][mask[k : k + 16] != 0]``; returns ``n`` (int64).
 
     ``src``, ``dst``: 1-D contiguous float32 arrays; ``mask``: 1-D contiguous uint8 or float32;
-    the caller keeps ``k + 16 <= len(src)`` and ``c + 16 <= len(dst)`` (no bounds checks; the
-    form without AVX-512 stores whole 8-lane halves, so ``dst[c + n : c + 16]`` may be
-    overwritten with other entries of ``src``)."""
+    the caller keeps ``k + 16 <= len(src)`` and ``c + 16 <= len(dst)`` (no bounds checks; both
+    forms store whole registers, so ``dst[c + n : c + 16]`` may be overwritten)."""
     for arr in (src, mask, dst):
         if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout in "CA"):
             raise TypingError("compress16 takes 1-D arrays")
@@ -131,17 +130,22 @@ def _active(builder, mp, lanes: int, byte: bool):
 
 
 def _compress_wide(builder, src, mask, dst, k, c, byte: bool):
-    """:func:`compress16` as one ``llvm.masked.compressstore`` (``vcompressps`` on AVX-512)."""
+    """:func:`compress16` as a compress into a register (``llvm.experimental.vector.compress``:
+    ``vcompressps zmm{k}{z}, zmm`` on AVX-512) and one full 16-lane store at the count so far.
+    ``llvm.masked.compressstore`` (``vcompressps`` to memory) is microcoded on Zen 4: the gather
+    of :func:`solvers.voxel.lanczos.symmlq_step` took 60 ms of CPU per call at 200^3 with it,
+    ~11 ms with this form (``benchmarks/RESULTS.md``, session 25)."""
     f32 = ir.FloatType()
     vf = ir.VectorType(f32, WIDTH)
     sv = builder.load(builder.bitcast(builder.gep(src, [k]), vf.as_pointer()), align=1)
     on = _active(builder, builder.gep(mask, [k]), WIDTH, byte)
     mod = builder.module
-    store_ty = ir.FunctionType(
-        ir.VoidType(), [vf, f32.as_pointer(), ir.VectorType(ir.IntType(1), WIDTH)]
+    compress_ty = ir.FunctionType(vf, [vf, ir.VectorType(ir.IntType(1), WIDTH), vf])
+    compress = cgutils.get_or_insert_function(
+        mod, compress_ty, "llvm.experimental.vector.compress.v16f32"
     )
-    store = cgutils.get_or_insert_function(mod, store_ty, "llvm.masked.compressstore.v16f32")
-    builder.call(store, [sv, builder.gep(dst, [c]), on])
+    packed = builder.call(compress, [sv, on, ir.Constant(vf, None)])
+    builder.store(packed, builder.bitcast(builder.gep(dst, [c]), vf.as_pointer()), align=1)
     i16 = ir.IntType(16)
     popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i16, [i16]), "llvm.ctpop.i16")
     return builder.zext(builder.call(popcnt, [builder.bitcast(on, i16)]), ir.IntType(64))
