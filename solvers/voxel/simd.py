@@ -1,8 +1,8 @@
 """Vector instructions LLVM does not derive from a plain loop, as numba intrinsics.
 
 ``compress16``: the entries of 16 consecutive float32 values whose mask entry is non-zero, stored
-contiguously (``llvm.masked.compressstore``: one AVX-512 ``vcompressps`` where the CPU has it,
-scalar code that LLVM writes otherwise).  LLVM does not vectorise the compress loop ``zc[c] =
+contiguously (a compress into a register, ``vcompressps`` on AVX-512, and a whole-register store;
+the 8-lane halves below otherwise).  LLVM does not vectorise the compress loop ``zc[c] =
 zr[k]; c += m[k] != 0`` (each store address depends on the previous count): at 200^3 it took
 2.4 ms per field against 0.84 ms for a plain copy, about 6 ms of CPU per Krylov iteration in
 :func:`solvers.voxel.lanczos.symmlq_step` (``benchmarks/RESULTS.md``, vec10).
