@@ -130,8 +130,8 @@ def _active(builder, mp, lanes: int, byte: bool):
 
 
 def _compress_wide(builder, src, mask, dst, k, c, byte: bool):
-    """:func:`compress16` as a compress into a register (``llvm.experimental.vector.compress``:
-    ``vcompressps zmm{k}{z}, zmm`` on AVX-512) and one full 16-lane store at the count so far.
+    """:func:`compress16` as a compress into a register (``llvm.x86.avx512.mask.compress``:
+    ``vcompressps zmm{k}{z}, zmm``) and one full 16-lane store at the count so far.
     ``llvm.masked.compressstore`` (``vcompressps`` to memory) is microcoded on Zen 4: the gather
     of :func:`solvers.voxel.lanczos.symmlq_step` took 60 ms of CPU per call at 200^3 with it,
     ~11 ms with this form (``benchmarks/RESULTS.md``, session 25)."""
@@ -140,11 +140,13 @@ def _compress_wide(builder, src, mask, dst, k, c, byte: bool):
     sv = builder.load(builder.bitcast(builder.gep(src, [k]), vf.as_pointer()), align=1)
     on = _active(builder, builder.gep(mask, [k]), WIDTH, byte)
     mod = builder.module
-    compress_ty = ir.FunctionType(vf, [vf, ir.VectorType(ir.IntType(1), WIDTH), vf])
+    # the x86 intrinsic, not llvm.experimental.vector.compress: that one needs LLVM >= 19
+    # (llvmlite >= 0.45); this form is only compiled for an AVX-512 target
+    compress_ty = ir.FunctionType(vf, [vf, vf, ir.VectorType(ir.IntType(1), WIDTH)])
     compress = cgutils.get_or_insert_function(
-        mod, compress_ty, "llvm.experimental.vector.compress.v16f32"
+        mod, compress_ty, "llvm.x86.avx512.mask.compress.v16f32"
     )
-    packed = builder.call(compress, [sv, on, ir.Constant(vf, None)])
+    packed = builder.call(compress, [sv, ir.Constant(vf, None), on])
     builder.store(packed, builder.bitcast(builder.gep(dst, [c]), vf.as_pointer()), align=1)
     i16 = ir.IntType(16)
     popcnt = cgutils.get_or_insert_function(mod, ir.FunctionType(i16, [i16]), "llvm.ctpop.i16")
