@@ -137,11 +137,12 @@ def check_grid(
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
     copies, aux = stack_of(flow)
-    need = grid_bytes(n, solver, copies, aux)
     if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
         need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
+    else:
+        need = grid_bytes(n, solver, copies, aux)
     budget = MEMORY_FRACTION * machine_memory()
     if need <= budget:
         return
