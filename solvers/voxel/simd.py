@@ -133,8 +133,8 @@ def _compress_wide(builder, src, mask, dst, k, c, byte: bool):
     """:func:`compress16` as a compress into a register (``llvm.x86.avx512.mask.compress``:
     ``vcompressps zmm{k}{z}, zmm``) and one full 16-lane store at the count so far.
     ``llvm.masked.compressstore`` (``vcompressps`` to memory) is microcoded on Zen 4: the gather
-    of :func:`solvers.voxel.lanczos.symmlq_step` took 60 ms of CPU per call at 200^3 with it,
-    ~11 ms with this form (``benchmarks/RESULTS.md``, session 25)."""
+    of :func:`solvers.voxel.lanczos.symmlq_step` alone took 60 ms on one thread at 200^3 with
+    it, 24 ms with this form (``benchmarks/RESULTS.md``, session 25)."""
     f32 = ir.FloatType()
     vf = ir.VectorType(f32, WIDTH)
     sv = builder.load(builder.bitcast(builder.gep(src, [k]), vf.as_pointer()), align=1)
