@@ -262,13 +262,16 @@ def _vcycle_bytes(mg0, fused: bool = True) -> float:
     return total
 
 
-def iteration_bytes(op, fused: bool = True) -> float:
+def iteration_bytes(op, fused: bool = True, lo_bytes: int = 2) -> float:
     """Bytes one Krylov iteration must stream (the kernels of :func:`solvers.voxel_stokes._symmlq`
     or ``_minres`` by :data:`solvers.voxel.memory.KRYLOV` as they are fused now, each array read
     or written once per kernel; ``fused=False``: before the multigrid fusions, with the separate
-    preconditioned dot product, float32 directions and the float64 solution)."""
+    preconditioned dot product, float32 directions and the float64 solution).  ``lo_bytes``: the
+    width of the solution's extension (:class:`solvers.voxel.lanczos.Solution`: 1 for the int8
+    one of a tol >= 1e-6 SYMMLQ solve, which the timed iterations use; 2 for int16)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
+    sol = 4 * (4.0 + lo_bytes)  # the solution: float32 + its extension, 4 fields
     # the operator as stored: the unit_couplings stand-in (periodic grids) streams no couplings
     ops = sum((d.nbytes + c.nbytes) / n for d, c in zip(op.d, op.c, strict=True)) + 1.0
     if getattr(op, "cut", None) is not None:  # the cut faces, read once by each product
@@ -285,14 +288,14 @@ def iteration_bytes(op, fused: bool = True) -> float:
     from solvers.voxel import memory as vmem
 
     if fused and vmem.KRYLOV == "symmlq":  # z read; the packed w (float32) and x (float32 +
-        # int16 extension) read + written on the active unknowns (solvers.voxel.lanczos.Packing)
+        # extension) read + written on the active unknowns (solvers.voxel.lanczos.Packing)
         active = (sum(np.count_nonzero(d) for d in op.d) + np.count_nonzero(op.fluid)) / (4 * n)
         masks = sum(d.itemsize for d in op.d) + 1.0  # the activity of each row's entries
-        update = vec4 + masks + active * (2 * 16.0 + 2 * 24.0)
+        update = vec4 + masks + active * (2 * 16.0 + 2 * sol)
     elif fused:  # z read; w read, w1 read + written (memory.DIRECTION_BITS: float32 or int16 +
-        # a scale per 16); x = float32 + int16 extension read + written
+        # a scale per 16); x = float32 + extension read + written
         direction = 16.0 if vmem.DIRECTION_BITS == 32 else 9.0
-        update = vec4 + 3 * direction + 2 * 24.0
+        update = vec4 + 3 * direction + 2 * sol
     else:  # z, w read; w1 read + written (float32); x (float64) read + written
         update = 4 * vec4 + 2 * 32.0
     return n * (apply + lanczos + prec + dot + update)
@@ -511,23 +514,20 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     print(f"    rest (Python, coarse levels' LU and pressure cycle): {wall - kt:.2f} ms")
 
 
-def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 3) -> dict[str, float]:
+def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> dict[str, float]:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid
     (``subvoxel``: with its exact fibre distance, sub-voxel walls), and compare the iteration
     with the bytes it must stream over the measured triad bandwidth (printed; also returned:
     ``bytes_per_voxel``, ``ideal_ms``, ``iteration_ms``, ``ratio``, ``triad_before``,
     ``triad_after``).
 
-    The iteration is timed in ``batches`` runs of 20 iterations and the best batch is taken,
-    the STREAM convention the triad follows (best of 5); the median batch is printed and
-    returned too (``iteration_median_ms``, ``ratio_median``).
-
-    The triad is measured before the timings and again right after the timed iterations (best
-    of 5 each): the machine's memory bandwidth moves with the host's other tenants (bimodal in
-    time, 44-51 or 76-88 GB/s within one hour), so one reading can make the ratio look 1.8x
-    better or worse than it is.  The ratio (and every per-kernel ratio) is taken against the
-    higher of the two, the bandwidth the machine showed that minute; the ratio at the lower
-    one is printed beside it."""
+    The iteration is timed in ``batches`` runs of 20 iterations, each between two triad
+    measurements (:func:`paired_batches`): the machine's memory bandwidth moves with the host's
+    other tenants, so a batch is compared with the higher of the two triads beside it (the
+    bandwidth the machine showed that minute; the ratio at the lower one is printed beside it).
+    The best batch ratio is returned as ``ratio``, the median and the worst too
+    (``ratio_median``, ``ratio_worst``).  The per-kernel tables use the highest triad of the
+    run."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
     from solvers.voxel import lanczos as lz
@@ -563,21 +563,20 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 3) -> 
         e = lz.Solution(op.shape, work.packing)
         its = 20
         vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
-        e.extend()  # the solution of the second and later refinement cycles (48 bits)
-        walls, cpus = [], []
-        for _batch in range(batches):  # best of batches, as the triad is best of 5
-            t0 = time.perf_counter()
-            c0 = time.process_time()
-            vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
-            walls.append((time.perf_counter() - t0) / its * 1e3)
-            cpus.append((time.process_time() - c0) / its * 1e3)
-        best = int(np.argmin(walls))
-        rows["one MINRES iteration"] = walls[best]
-        rows["one MINRES iteration, median of the batches"] = float(np.median(walls))
-        rows["one MINRES iteration, CPU time (all threads)"] = cpus[best]
+        e.extend()  # the solution of later refinement cycles (int8 extension at tol 1e-6)
+        need = iteration_bytes(op, lo_bytes=e.lo.itemsize)
+        paired = paired_batches(
+            lambda: vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its), its, batches
+        )
+        ratios = [w / (need / max(tb, ta) * 1e3) for w, _c, tb, ta in paired]
+        best = int(np.argmin(ratios))
+        rows["one MINRES iteration"] = paired[best][0]
+        rows["one MINRES iteration, median of the batches"] = float(
+            np.median([p[0] for p in paired])
+        )
+        rows["one MINRES iteration, CPU time (all threads)"] = paired[best][1]
         bw_after = triad_bandwidth()
-        bw = max(bw_before, bw_after)
-        need = iteration_bytes(op)
+        bw = max([bw_before, bw_after] + [max(p[2], p[3]) for p in paired])
         before = iteration_bytes(op, fused=False)
         load = os.getloadavg()[0]
         print(f"kernels at {n}^3 ({nb.get_num_threads()} threads available, load {load:.1f}):")
@@ -594,26 +593,53 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 3) -> 
     ideal = need / bw * 1e3
     meas = rows["one MINRES iteration"]
     med = rows["one MINRES iteration, median of the batches"]
-    low = need / min(bw_before, bw_after) * 1e3
     print(
-        f"  triad bandwidth {bw / 1e9:.1f} GB/s (before {bw_before / 1e9:.1f}, after "
-        f"{bw_after / 1e9:.1f}); one MINRES iteration streams "
+        f"  triad bandwidth {bw / 1e9:.1f} GB/s, the highest of this run (before "
+        f"{bw_before / 1e9:.1f}, after {bw_after / 1e9:.1f}); one MINRES iteration streams "
         f"{need / solid.size:.0f} B per voxel (before the fusions {before / solid.size:.0f}) "
-        f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms, measured {meas:.1f} ms = "
-        f"{meas / ideal:.2f} x ideal ({meas / low:.2f} x at the lower triad); best of {batches} "
-        f"batches of {its}, median batch {med:.1f} ms = {med / ideal:.2f} x ideal",
+        f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms at it"
+    )
+    print("  each batch of iterations against the triad measured just before and after it:")
+    for w, c, tb, ta in paired:
+        print(
+            f"    {w:6.1f} ms (CPU {c:6.1f}), triad {tb / 1e9:4.1f} / {ta / 1e9:4.1f} GB/s: "
+            f"{w / (need / max(tb, ta) * 1e3):.2f} x ideal at the higher, "
+            f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower"
+        )
+    print(
+        f"  best batch {meas:.1f} ms = {ratios[best]:.2f} x its ideal; median batch ratio "
+        f"{float(np.median(ratios)):.2f} x, worst {max(ratios):.2f} x",
         flush=True,
     )
     return {
         "bytes_per_voxel": need / solid.size,
         "ideal_ms": ideal,
         "iteration_ms": meas,
-        "ratio": meas / ideal,
+        "ratio": ratios[best],
         "iteration_median_ms": med,
-        "ratio_median": med / ideal,
+        "ratio_median": float(np.median(ratios)),
+        "ratio_worst": max(ratios),
         "triad_before": bw_before,
         "triad_after": bw_after,
     }
+
+
+def paired_batches(run, its: int, batches: int) -> list[tuple[float, float, float, float]]:
+    """Time ``batches`` calls of ``run`` (``its`` Krylov iterations each), each between two triad
+    measurements (best of 3): per batch the wall and CPU ms per iteration and the triad before
+    and after it (B/s).  The host's bandwidth moves between two levels from minute to minute
+    (37-39 or 57-63 GB/s on this VM, with either wait policy, session 26), so a batch is only
+    compared with the bandwidth measured beside it."""
+    out = []
+    for _ in range(batches):
+        tb = triad_bandwidth(reps=3)
+        t0 = time.perf_counter()
+        c0 = time.process_time()
+        run()
+        wall = (time.perf_counter() - t0) / its * 1e3
+        cpu = (time.process_time() - c0) / its * 1e3
+        out.append((wall, cpu, tb, triad_bandwidth(reps=3)))
+    return out
 
 
 THREAD_MODES = {

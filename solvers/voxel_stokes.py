@@ -162,6 +162,7 @@ from solvers.voxel import threads as vthreads
 __all__ = [
     "VoxelFlowResult",
     "VoxelStokesError",
+    "check_percolates",
     "percolates",
     "richardson_extrapolate",
     "solve_voxel_stokes",
@@ -381,6 +382,17 @@ def percolates(solid: np.ndarray, direction: int) -> bool:
     return False
 
 
+def check_percolates(solid: np.ndarray, direction: int, what: str) -> None:
+    """Raise :class:`VoxelStokesError` unless the fluid of ``solid`` :func:`percolates` along
+    ``direction``: without a fluid path a solver would return the leak through its walls, a
+    tiny K that is no permeability.  ``what`` names the argument in the message."""
+    if not percolates(solid, direction):
+        raise VoxelStokesError(
+            f"{what} has no percolating fluid path along direction {'xyz'[direction]!r} "
+            "(periodic, face-connected fluid voxels)"
+        )
+
+
 def _apply_treatment(
     solid: np.ndarray, d: int, treatment: str, phi: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -524,11 +536,7 @@ def solve_voxel_stokes(
             solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides
         )
     vmem.release_free_heap()  # the set-up's freed temporaries (8 B per cell at 200^3)
-    if not percolates(setup.pop("blocked"), d):
-        raise VoxelStokesError(
-            f"solid has no percolating fluid path along direction {'xyz'[d]!r} "
-            "(periodic, face-connected fluid voxels)"
-        )
+    check_percolates(setup.pop("blocked"), d, "solid")
     # the solve holds no grid-sized geometry of its own from here on (the operator keeps what
     # it needs): the caller's arrays are freed now if the caller holds no reference either
     grid = setup.pop("grid")

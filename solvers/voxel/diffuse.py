@@ -39,6 +39,7 @@ from solvers.voxel_stokes import (
     VoxelStokesError,
     _check_direction,
     _check_options,
+    check_percolates,
 )
 
 __all__ = ["BYTES_PER_CELL", "DiffuseGrid", "diffuse_memory_bytes", "solve_diffuse_stokes"]
@@ -288,8 +289,9 @@ def solve_diffuse_stokes(
     Raises
     ------
     VoxelStokesError (ValueError)
-        A malformed grid (shapes, dtypes, eps outside [0, 1]), no fluid, an option out of
-        range, or a grid whose :func:`diffuse_memory_bytes` exceeds the available memory.
+        A malformed grid (shapes, dtypes, eps outside [0, 1]), no fluid, no percolating fluid
+        path along ``direction`` (cells with eps >= 0.5, face-connected, periodic), an option out
+        of range, or a grid whose :func:`diffuse_memory_bytes` exceeds the available memory.
     """
     t0 = time.perf_counter()
     d = _check_direction(direction)
@@ -299,6 +301,8 @@ def solve_diffuse_stokes(
     shape = _check_grid(grid)
     if not np.any(grid.face[d] > 1e-9):
         raise VoxelStokesError(f"grid has no fluid: eps is 0 on every face along {'xyz'[d]!r}")
+    # fluid = eps >= 1/2 at the cell centre, the sharp wall's side (the staircase grid's fluid)
+    check_percolates(grid.cell < 0.5, d, "grid (cells with eps >= 0.5)")
     _check_memory(shape)
     system = assemble(grid, np.eye(3)[d])
     x, info = minres_solve(system, tol, int(max_iter), progress)

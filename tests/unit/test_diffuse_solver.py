@@ -234,6 +234,18 @@ def test_bad_grid(change, match: str) -> None:
         solve_diffuse_stokes(change(_tiny_grid()), 1e-6, 1)
 
 
+def test_blocked_flow_is_refused() -> None:
+    """Plane walls across the flow leave no fluid path: the solve would return the leak through
+    the wall layers (eps > 0 inside them), a K that is no permeability, so it is refused as the
+    default voxel solver refuses a grid that does not percolate; along the walls it runs."""
+    walls, _ = channel(1, 0, 12, 6.0, 0.2)
+    grid = DiffuseGrid.sample((12, 1, 1), walls)
+    assert float(grid.face[0].min()) > 0.0  # the leak the solve would see
+    with pytest.raises(VoxelStokesError, match="no percolating fluid path along direction 'x'"):
+        solve_diffuse_stokes(grid, 1e-6, "x")
+    assert solve_diffuse_stokes(grid, 1e-6, "y", tol=1e-8).converged
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
