@@ -15,6 +15,7 @@ Usage::
     python benchmarks/bench_voxel.py threads 200 its=0 modes=default competitor=no \
         mincells=30000,300000        # full solves; 1 thread / default only; coarse thresholds
     python benchmarks/bench_voxel.py speedup 200     # idle check: both wall ratios + bandwidth
+    python benchmarks/bench_voxel.py sweep-cost      # one-thread ns per cell of the fine sweeps
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -834,6 +835,44 @@ def speedup(n: int = 200, reps: int = 1) -> None:
     subprocess.run([sys.executable, str(here), "kernels", str(n)], check=True)
 
 
+def sweep_cost(sizes: tuple[int, ...] = (64, 100, 200), reps: int = 20) -> None:
+    """One-thread cost per cell (ns, best of ``reps``) of the finest-level multigrid kernels
+    (serial twins, unit couplings, a random 80 % fluid operator) at each size: at 64^3-100^3
+    their arrays sit in the caches, so the figure is their arithmetic and loop overhead; at
+    200^3 they stream from memory.  Session 26: the same ns per cell from cache as from memory
+    within 1.5-1.7x, i.e. the sweeps are bound by their instructions as much as by bandwidth
+    (their bytes at the one-thread triad would take ~0.4 ns per cell)."""
+    for n in sizes:
+        cost = _sweep_cost_at(n, reps)
+        print(
+            f"  {n}^3, one thread, ns per cell: "
+            + ", ".join(f"{k} {v:.3f}" for k, v in cost.items())
+        )
+
+
+def _sweep_cost_at(n: int, reps: int) -> dict[str, float]:
+    """:func:`sweep_cost` at ``n^3``: ns per cell of each kernel."""
+    from solvers.voxel import kernels as kr
+
+    rng = np.random.default_rng(0)
+    d = np.where(rng.random((n, n, n)) < 0.8, 6, 0).astype(np.uint8)
+    cc = kr.unit_couplings(n)
+    x = (rng.random((n, n, n), dtype=np.float32) * (d > 0)).astype(np.float32)
+    b, out = x.copy(), np.empty_like(x)
+    xc = rng.random((n // 2,) * 3, dtype=np.float32)
+    rc = np.empty_like(xc)
+    calls = {
+        "jacobi": lambda: kr.jacobi.serial(d, *cc, x, b, out, 0.9),
+        "jacobi2_zero": lambda: kr.jacobi2_zero.serial(d, *cc, b, out, 0.9, 1),
+        "residual_restrict": lambda: kr.residual_restrict.serial(d, *cc, x, b, 2, 2, 2, rc),
+        "prolong_jacobi": lambda: kr.prolong_jacobi.serial(
+            d, *cc, x, xc, 2, 2, 2, 1.6, b, out, 0.9, 1
+        ),
+        "jacobi_zero (one row loop)": lambda: kr.jacobi_zero.serial(d, b, out, 0.9),
+    }
+    return {k: _best_ms(f, reps) * 1e6 / n**3 for k, f in calls.items()}
+
+
 def main(argv: list[str]) -> None:
     what = argv[1] if len(argv) > 1 else "puma"
     if what == "_threadcase":
@@ -851,6 +890,9 @@ def main(argv: list[str]) -> None:
             opts.get("competitor", "both"),
             cells,
         )
+        return
+    if what == "sweep-cost":
+        sweep_cost(tuple(int(a) for a in argv[2:]) or (64, 100, 200))
         return
     if what == "speedup":
         speedup(*[int(a) for a in argv[2:3]] or [200])
