@@ -838,10 +838,11 @@ def speedup(n: int = 200, reps: int = 1) -> None:
 def sweep_cost(sizes: tuple[int, ...] = (64, 100, 200), reps: int = 20) -> None:
     """One-thread cost per cell (ns, best of ``reps``) of the finest-level multigrid kernels
     (serial twins, unit couplings, a random 80 % fluid operator) at each size: at 64^3-100^3
-    their arrays sit in the caches, so the figure is their arithmetic and loop overhead; at
-    200^3 they stream from memory.  Session 26: the same ns per cell from cache as from memory
-    within 1.5-1.7x, i.e. the sweeps are bound by their instructions as much as by bandwidth
-    (their bytes at the one-thread triad would take ~0.4 ns per cell)."""
+    their arrays (3-13 MB) sit in L3, so the figure is mostly their instructions; at 200^3
+    they stream from memory.  Session 26: ``jacobi`` 0.52-0.60 ns per cell from L3, 0.83-0.87
+    from memory, where its 13 B per cell at the one-thread triad (33 GB/s) would take 0.39:
+    the sweeps are bound by their instructions as much as by bandwidth (a bare flat loop of
+    the same arithmetic, no row ends, no dot, no prefetch blocks: 0.29 from L3)."""
     for n in sizes:
         cost = _sweep_cost_at(n, reps)
         print(
