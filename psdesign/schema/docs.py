@@ -59,7 +59,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   every `fibers[i].shape` a straight `cylinder` or `rod`; where a fiber's copies do not repeat
   with the box (edges not whole periods), every fiber along a box axis (`fibers[i].direction`).
   On the command line `--bc permeameter|both` and `--fields` are refused with it. After the
-  build: overlapping fibers, or a fiber cut by a face the copies do not repeat across.
+  build: overlapping fibers, or a fiber cut by a face the copies do not repeat across; at the
+  solve, no fluid path along the direction (cells with eps >= 0.5, as the default voxel solver
+  refuses a grid that does not percolate: the solve would return the leak through the walls).
 * Studies: at most 1000 seeds, 10000 levels per parameter, 100000 cases; `n_samples` only
   with latin-hypercube / sobol; the base spec and every parameter level validated at load.
 """
