@@ -601,10 +601,10 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms at it"
     )
     print("  each batch of iterations against the triad measured just before and after it:")
-    for w, c, tb, ta in paired:
+    for (w, c, tb, ta), ratio in zip(paired, ratios, strict=True):
         print(
             f"    {w:6.1f} ms (CPU {c:6.1f}), triad {tb / 1e9:4.1f} / {ta / 1e9:4.1f} GB/s: "
-            f"{w / (need / max(tb, ta) * 1e3):.2f} x ideal at the higher, "
+            f"{ratio:.2f} x ideal at the higher, "
             f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower"
         )
     print(
@@ -629,7 +629,7 @@ def paired_batches(run, its: int, batches: int) -> list[tuple[float, float, floa
     """Time ``batches`` calls of ``run`` (``its`` Krylov iterations each), each between two triad
     measurements (best of 3): per batch the wall and CPU ms per iteration and the triad before
     and after it (B/s).  The host's bandwidth moves between two levels from minute to minute
-    (37-39 or 57-63 GB/s on this VM, with either wait policy, session 26), so a batch is only
+    (37-39 or 57-64 GB/s on this VM, under every wait policy, session 26), so a batch is only
     compared with the bandwidth measured beside it."""
     out = []
     for _ in range(batches):
