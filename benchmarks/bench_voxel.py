@@ -16,6 +16,7 @@ Usage::
         mincells=30000,300000        # full solves; 1 thread / default only; coarse thresholds
     python benchmarks/bench_voxel.py speedup 200     # idle check: both wall ratios + bandwidth
     python benchmarks/bench_voxel.py sweep-cost      # one-thread ns per cell of the fine sweeps
+    python benchmarks/bench_voxel.py sweep-vs-triad 200 25  # a sweep beside the triad's levels
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -874,6 +875,43 @@ def _sweep_cost_at(n: int, reps: int) -> dict[str, float]:
     return {k: _best_ms(f, reps) * 1e6 / n**3 for k, f in calls.items()}
 
 
+def sweep_vs_triad(n: int = 200, rounds: int = 25, reps: int = 5) -> None:
+    """Does a Jacobi sweep follow the two levels of the two-thread triad?  Per round: the triad
+    (best of 3), ``jacobi`` at ``n^3`` on the default threads and on one (best of ``reps``,
+    ns per cell; a random 80 % fluid component operator, unit couplings), the triad again.
+    Session 28 (``n = 200``): one thread 0.86-0.99 ns per cell at either level; two threads
+    0.52-0.62 (1.5-1.8x) beside a 35-45 GB/s triad, 0.43-0.49 (1.8-2.1x) beside 59-67 GB/s.
+    At the higher level the sweep scales with the threads, i.e. each thread is bound by its
+    own instructions and memory latency, not by the shared bandwidth."""
+    from solvers.voxel import kernels as kr
+    from solvers.voxel import multigrid as mg
+
+    rng = np.random.default_rng(0)
+    shape = (n, n, n)
+    d, _ = mg.component_operator(rng.random(shape) > 0.2, 0)
+    cc = kr.unit_couplings(n)
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b, out = x.copy(), np.empty_like(x)
+    avail = nb.get_num_threads()
+
+    def sweep(threads: int) -> float:
+        nb.set_num_threads(threads)
+        try:
+            return _best_ms(lambda: kr.jacobi(d, *cc, x, b, out, 0.9), reps) * 1e6 / n**3
+        finally:
+            nb.set_num_threads(avail)
+
+    sweep(1), sweep(avail)  # compile / load both twins
+    for _ in range(rounds):
+        before, two, one = triad_bandwidth(reps=3), sweep(avail), sweep(1)
+        after = triad_bandwidth(reps=3)
+        print(
+            f"  triad {before / 1e9:5.1f} / {after / 1e9:5.1f} GB/s; jacobi {n}^3, ns per cell: "
+            f"{avail} threads {two:.3f}, 1 thread {one:.3f} ({one / two:.2f}x)",
+            flush=True,
+        )
+
+
 def main(argv: list[str]) -> None:
     what = argv[1] if len(argv) > 1 else "puma"
     if what == "_threadcase":
@@ -897,6 +935,9 @@ def main(argv: list[str]) -> None:
         return
     if what == "speedup":
         speedup(*[int(a) for a in argv[2:3]] or [200])
+        return
+    if what == "sweep-vs-triad":
+        sweep_vs_triad(*[int(a) for a in argv[2:4]])
         return
     # warm-up: compile the numba kernels outside the timings
     warm = np.zeros((16, 16, 16), dtype=bool)
