@@ -683,22 +683,27 @@ def _warm_parallel() -> None:
     Grids below :data:`solvers.jit.COMPILE_PARALLEL_ABOVE` cells (200^3 is) run the serial
     twins when the parallel kernels are not in numba's cache yet, which would time one thread
     under the name of two; the warm-up solve is on a grid above the one-thread threshold.  A
-    second warm-up solve loads the serial twins, which a solve below
+    second warm-up solve with streaming sweeps compiles the kernels a grid of
+    :data:`solvers.voxel.kernels.STREAM_CELLS` cells or more runs on its finest level.  A
+    last warm-up solve loads the serial twins, which a solve below
     :func:`solvers.voxel.threads.solve_min_cells` runs even with two threads available: without
     it a 64^3 timing with two threads available paid their loading (~0.1 s, session 22), the
     one-thread timing did not."""
     import solvers.jit as jit
+    from solvers.voxel import kernels as kr
     from solvers.voxel import threads as vthreads
 
-    before = jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS
+    before = jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS, kr.STREAM_CELLS
     jit.COMPILE_PARALLEL_ABOVE = vthreads.SOLVE_PARALLEL_MIN_CELLS = 0
     try:
         warm = np.zeros((48, 48, 48), dtype=bool)
         warm[:, :4, :] = True
         warm[:4, :, :] = True
         solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
+        kr.STREAM_CELLS = 0  # the finest level's streaming sweeps (grids of 4 M cells or more)
+        solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
     finally:
-        jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS = before
+        jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS, kr.STREAM_CELLS = before
     solve_voxel_stokes(warm[:24, :24, :24], 1.0, "z", max_iter=3)  # the serial twins
 
 

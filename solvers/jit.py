@@ -416,7 +416,10 @@ class TwinKernel:
         ready = self._ready.get(key)
         if ready is None:
             d = self.parallel
-            sig = tuple(d.typeof_pyval(a) for a in args)
+            # the signature numba compiles for these arguments: a parameter left to its default
+            # is typed ``omitted(default=...)`` (without it a call that omits ``stream`` of the
+            # Jacobi sweeps never found their compiled parallel kernel and ran the serial twin)
+            sig = tuple(d.fold_argument_types(tuple(d.typeof_pyval(a) for a in args), {})[1])
             ready = sig in d.overloads
             if not ready:
                 try:  # numba's own lookup (Dispatcher.compile tries it before compiling)

@@ -532,6 +532,96 @@ def test_fused_sweeps_are_bitwise_jacobis(shape, chunks, twin) -> None:
         assert np.abs(ref).max() > 0.1  # not a trivial comparison
 
 
+@pytest.mark.parametrize(
+    "twin",
+    ["serial", pytest.param("parallel", marks=pytest.mark.slow)],  # as the fused sweeps' test
+)
+@pytest.mark.parametrize("shape", [(3, 40, 143), (4, 7, 16), (4, 2, 33), (3, 5, 1)])
+def test_streaming_sweeps(shape, twin) -> None:
+    """Session 28: with ``stream=True`` (the V-cycle passes it on grids of ``STREAM_CELLS`` cells
+    or more) the flat Jacobi sweeps form their output 512 cells at a time in an L1 buffer, redo
+    the row ends there and write whole cache lines with streaming stores (``simd.stream16``).
+    Rows of an odd length put the row ends and the line boundaries at every phase; planes of
+    two rows or rows of one cell have no flat loop.  Against the float64 numpy sweep to float32
+    round-off, inactive unknowns exactly 0, the returned dot that of the stored output, the
+    fused passes bitwise ``jacobi``'s (the V-cycle's symmetry) and the parallel twins bitwise the
+    serial ones; an output at a byte offset (no entry on a line boundary, where a streaming
+    store would fault) is written with plain stores."""
+    rng = np.random.default_rng(28)
+    d, c = mg.component_operator(_fluid(shape, seed=28), 0)
+    cc = kr.unit_couplings(shape[2])
+    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    b = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
+    ref = np.where(d > 0, x + 0.9 * (b - _numpy_apply(d, c, x)) / np.where(d > 0, d, 1), 0)
+    jacobi_zero, jacobi, jacobi2_zero, prolong_add, prolong_jacobi = (
+        getattr(k, twin)
+        for k in (kr.jacobi_zero, kr.jacobi, kr.jacobi2_zero, kr.prolong_add, kr.prolong_jacobi)
+    )
+    out = np.full(shape, np.nan, np.float32)
+    dot = jacobi(d, *cc, x, b, out, 0.9, True)
+    _close(out, ref)
+    assert np.all(out[d == 0] == 0.0)
+    exact = float(np.dot(b.ravel().astype(np.float64), out.ravel().astype(np.float64)))
+    assert dot == pytest.approx(exact, rel=1e-9)
+    if twin == "parallel":
+        again = np.full(shape, np.nan, np.float32)
+        kr.jacobi.serial(d, *cc, x, b, again, 0.9, True)
+        assert np.array_equal(out, again)
+    else:
+        raw = np.empty(out.nbytes + 1, np.uint8)
+        odd = raw[1:].view(np.float32).reshape(shape)  # 1 byte past an aligned start
+        jacobi(d, *cc, x, b, odd, 0.9, True)  # another compile (unaligned): not bitwise
+        _close(odd, ref)
+    x1 = np.empty(shape, np.float32)
+    jacobi_zero(d, b, x1, 0.9)
+    jacobi(d, *cc, x1, b, out, 0.9, True)
+    f = tuple(2 if n >= 4 else 1 for n in shape)
+    xc = rng.standard_normal(tuple(n // m for n, m in zip(shape, f, strict=True)))
+    xc = xc.astype(np.float32)
+    xp = x.copy()
+    prolong_add(d, xc, *f, 1.6, xp)
+    pro = np.empty(shape, np.float32)
+    jacobi(d, *cc, xp, b, pro, 0.9, True)
+    for chunks in (1, 2):
+        fused = np.full(shape, np.nan, np.float32)
+        jacobi2_zero(d, *cc, b, fused, 0.9, chunks, True)
+        assert np.array_equal(fused, out)
+        prolong_jacobi(d, *cc, x, xc, *f, 1.6, b, fused, 0.9, chunks, True)
+        assert np.array_equal(fused, pro)
+    assert np.abs(pro).max() > 0.1  # not a trivial comparison
+
+
+def test_vcycle_streams_on_large_grids(monkeypatch) -> None:
+    """The V-cycle passes ``stream`` to the finest level's sweeps from ``STREAM_CELLS`` cells
+    (here lowered to the test grid): it is then still a symmetric operator (``u . M v = v . M
+    u`` to round-off, MINRES needs it) and the plain V-cycle's to float32 round-off."""
+    shape = (12, 10, 18)
+    d, c = mg.component_operator(_fluid(shape, seed=7), 0)
+    rng = np.random.default_rng(7)
+    u, v = ((rng.standard_normal(shape) * (d > 0)).astype(np.float32) for _ in range(2))
+    seen = []
+    jacobi = kr.jacobi
+
+    def spy(*args):
+        seen.append((args[0].shape == shape, len(args)))  # finest level?, arguments
+        return jacobi(*args)
+
+    def vcycle(rhs):
+        out = np.empty(shape, np.float32)
+        mg.ScalarMG(d, kr.unit_couplings(shape[2]), max_coarse=64).apply(rhs, out)
+        return out.astype(np.float64)
+
+    plain = vcycle(u)
+    monkeypatch.setattr(kr, "STREAM_CELLS", 0)
+    monkeypatch.setattr(kr, "jacobi", spy)
+    mu, mv = vcycle(u), vcycle(v)
+    assert (True, 9) in seen and (False, 8) in seen  # finest with stream, coarse without
+    assert all(n == (9 if fine else 8) for fine, n in seen)
+    np.testing.assert_allclose(mu, plain, rtol=0, atol=1e-6 * np.abs(plain).max())
+    uv, vu = float(np.dot(u.ravel(), mv.ravel())), float(np.dot(v.ravel(), mu.ravel()))
+    assert uv == pytest.approx(vu, rel=1e-6)
+
+
 def _numba_targets_avx512() -> bool:
     """Does numba compile for AVX-512 here (the host's features, or ``NUMBA_CPU_FEATURES``)?"""
     from numba.core import config

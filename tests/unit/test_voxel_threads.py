@@ -106,3 +106,26 @@ def test_partly_compiled_kernels_are_named() -> None:
     assert n == 2 and note.startswith("1 kernels ran on 1 of 2 threads (jacobi): ")
     assert thread_use(1, 1, set(), set()) == (1, "")
     assert thread_use(2, 2, set(), {"jacobi"}) == (2, "")
+
+
+def _scaled_sum(x, scale=None):
+    """A parallel kernel with a parameter left to its default, as the Jacobi sweeps' ``stream``."""
+    acc = 0.0
+    for i in numba.prange(x.size):
+        acc += x[i]
+    return acc if scale is None else acc * scale
+
+
+def test_a_compiled_kernel_is_found_when_a_default_is_omitted() -> None:
+    """Session 28: numba compiles a call that omits a defaulted parameter under the signature
+    ``(..., omitted(default=None))``; ``TwinKernel`` looked it up without that entry, never found
+    the compiled parallel kernel and ran the serial twin (on a 200^3 solve the 100^3 level of
+    every V-cycle ran on one thread once the Jacobi sweeps had gained ``stream=None``)."""
+    from solvers.jit import TwinKernel
+
+    kern = TwinKernel(_scaled_sum)
+    x = np.ones(64)
+    assert not kern._parallel_ready((x,))
+    assert kern.parallel(x) == 64.0  # compiles it, as psdesign warmup does
+    kern._ready.clear()
+    assert kern._parallel_ready((x,)) and kern._parallel_ready((x, 2.0)) is False
