@@ -520,6 +520,21 @@ def _plane_dot(fx, fy, c0, pl):
 
 
 @_SERIAL.inline
+def _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, ny, nz, om):
+    """The cells ``1 .. nz - 2`` of row ``j`` of a plane of :func:`_jacobi_flat`, whose
+    y-neighbours wrap (:func:`_wrap_rows`), in one vector loop along k."""
+    one = _u(1)
+    rj = _u(j * nz)
+    rm = b0 + _u(_dn(j, ny) * nz)
+    rp = b0 + _u(_up(j, ny) * nz)
+    for k in range(one, _u(nz) - one):
+        t = rj + k
+        c = b0 + t
+        sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
+        fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+
+
+@_SERIAL.inline
 def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
     """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
     ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
@@ -558,15 +573,7 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
                 fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
             t0 = t1
     for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
-        j = _wrap_row(r, ny)
-        rj = _u(j * nz)
-        rm = b0 + _u(_dn(j, ny) * nz)
-        rp = b0 + _u(_up(j, ny) * nz)
-        for k in range(one, unz - one):
-            t = rj + k
-            c = b0 + t
-            sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
-            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+        _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, _wrap_row(r, ny), ny, nz, om)
     for j in range(ny):  # the two ends of every row: the periodic k-neighbours
         for e in range(_ends(nz)):
             k = 0 if e == 0 else nz - 1
@@ -578,33 +585,21 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
 
 @_SERIAL.inline
 def _jacobi_flat_stream(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
-    """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
-    ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
-    along x at ``xm[bm:], xp[bp:]`` (the grid itself, or plane buffers); returns the plane's
-    ``b . xnew`` if ``dot``, else 0.0.
+    """:func:`_jacobi_flat` (the same arguments and result) with streaming stores, for the
+    kernels' ``stream=True`` (grids of :data:`STREAM_CELLS` cells or more; a float32 output).
 
-    The interior rows (``1 <= j <= ny - 2``) are one flat loop over the plane (the stencil and
-    the update in one expression), in blocks of :data:`BLOCK` cells, each block prefetching the
-    lines :data:`PREFETCH` cells ahead in ``d, b`` (not the streamed output), and
-    the block at ``ea[eq + t], eb[eq + t]`` (the caller's next streams from memory: the
-    iterate's plane ``i + 1`` with ``eq`` that many cells ahead, or the plane two ahead; None:
-    none).  The row loops of the old sweeps issued their loads too slowly for the memory system
-    (a sweep of the grid ran 1.9x the one-thread triad time of its bytes; an ideal flat loop
-    with this prefetch 1.05x, without it 1.85x; ``benchmarks/RESULTS.md``, band14).
-
-    Session 27 (grids of :data:`STREAM_CELLS` cells or more): the loop writes
-    :data:`STORE_BLOCK` cells at a time into an L1 buffer; there the row ends it passed (whose
-    k-neighbours it read from the neighbouring rows) are redone with their periodic neighbours
-    (:func:`_jacobi_end`), the block's ``b . xnew`` is summed, and the block goes to ``fo`` by
-    streaming stores (:func:`_store_block`: a plain store reads the line it writes first).  In
-    :func:`_jacobi_flat_plain` the ends and the dot are passes over the plane after the loop,
-    from L2; one thread at 200^3 took
-    0.72 / 0.68 / 0.95 ns per cell in ``jacobi`` / ``jacobi2_zero`` / ``prolong_jacobi``
-    against 0.83 / 0.76 / 1.04 before (``benchmarks/RESULTS.md``, session 27).  The rows 0
-    and ``ny - 1`` (the y-wrap) have their own vector loops (:func:`_wrap_rows`; as scalar
-    cells they cost ~20 % of the sweep at 200^3), with plain stores.  Unsigned indices
-    (:func:`_u`): vectorised."""
-    if simd.line_phase(fo) == simd.LINE:  # at a byte offset: no entry starts a line
+    The flat loop (prefetching as :func:`_jacobi_flat` does, but not the streamed output)
+    writes :data:`STORE_BLOCK` cells at a time into an L1 buffer; there the row ends it passed
+    (whose k-neighbours it read from the neighbouring rows) are redone with their periodic
+    neighbours (:func:`_jacobi_end`), the block's ``b . xnew`` is summed, and the block goes to
+    ``fo`` by streaming stores (:func:`_store_block`: a plain store reads the line it writes
+    first).  :func:`_jacobi_flat` does the ends and the dot as passes over the plane after its
+    loop, from L2.  One thread at 200^3: ``jacobi`` / ``jacobi2_zero`` / ``prolong_jacobi``
+    0.74-0.83 / 0.64-0.70 / 0.93-0.98 ns per cell against 0.82 / 0.78 / 1.03
+    (``benchmarks/RESULTS.md``, session 28).  The rows 0 and ``ny - 1`` (the y-wrap) keep
+    their vector loops (:func:`_jacobi_wrap_row`) and plain stores.  An output at a byte
+    offset (no entry starts a cache line) takes :func:`_jacobi_flat`."""
+    if simd.line_phase(fo) == simd.LINE:
         return _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb)
     pl = _u(ny * nz)
     unz = _u(nz)
@@ -654,14 +649,7 @@ def _jacobi_flat_stream(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, do
         simd.store_fence()
     for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k, then their ends
         j = _wrap_row(r, ny)
-        rj = _u(j * nz)
-        rm = b0 + _u(_dn(j, ny) * nz)
-        rp = b0 + _u(_up(j, ny) * nz)
-        for k in range(one, unz - one):
-            t = rj + k
-            c = b0 + t
-            sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
-            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
+        _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, ny, nz, om)
         acc += _jacobi_ends(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, j + 1, ny, nz, om, dot)
     return acc
 
