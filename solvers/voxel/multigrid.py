@@ -120,6 +120,11 @@ class ScalarMG:
     ) -> None:
         if int(pre) < 1:
             raise ValueError(f"pre (Jacobi sweeps per half cycle) must be >= 1, got {pre!r}")
+        if c.shape[1:] != d.shape:  # the Galerkin product would read past the stand-in's row
+            raise ValueError(
+                f"c (couplings) must have shape (3, *d.shape) = (3, {', '.join(map(str, d.shape))})"
+                f", got {c.shape}: kernels.unit_couplings replaces them only after the set-up"
+            )
         self.pre = int(pre)
         self.omega = omega
         self.alpha = alpha

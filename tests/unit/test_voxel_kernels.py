@@ -134,6 +134,17 @@ def test_pre_smoothing_sweeps_must_be_positive() -> None:
         mg.ScalarMG(d, c, pre=0)
 
 
+def test_multigrid_refuses_the_unit_coupling_stand_in() -> None:
+    """Session 28: built on ``unit_couplings`` the Galerkin product read past its one row of
+    ones, and the V-cycle's values changed from process to process (|M u| 0.6-15.6 for one
+    ``u``); the solver swaps the stand-in in only after the set-up (``_drop_couplings``)."""
+    d, c = mg.component_operator(_fluid((6, 6, 6)), 0)
+    with pytest.raises(
+        ValueError, match=r"c \(couplings\) .* = \(3, 6, 6, 6\), got \(3, 1, 1, 7\)"
+    ):
+        mg.ScalarMG(d, kr.unit_couplings(6))
+
+
 @pytest.mark.parametrize("scaled", [False, True])
 def test_stokes_preconditioner_returns_r_dot_z(scaled: bool, monkeypatch) -> None:
     from solvers import voxel_stokes as vs
@@ -606,9 +617,12 @@ def test_vcycle_streams_on_large_grids(monkeypatch) -> None:
         seen.append((args[0].shape == shape, len(args)))  # finest level?, arguments
         return jacobi(*args)
 
+    cycle = mg.ScalarMG(d, c, max_coarse=64)  # the Galerkin levels need the real couplings
+    cycle.levels[0].c = kr.unit_couplings(shape[2])  # then the solver drops them
+
     def vcycle(rhs):
         out = np.empty(shape, np.float32)
-        mg.ScalarMG(d, kr.unit_couplings(shape[2]), max_coarse=64).apply(rhs, out)
+        cycle.apply(rhs, out)
         return out.astype(np.float64)
 
     plain = vcycle(u)
