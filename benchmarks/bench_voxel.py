@@ -17,7 +17,6 @@ Usage::
     python benchmarks/bench_voxel.py speedup 200     # idle check: both wall ratios + bandwidth
     python benchmarks/bench_voxel.py sweep-cost      # one-thread ns per cell of the fine sweeps
     python benchmarks/bench_voxel.py sweep-vs-triad 200 25  # a sweep beside the triad's levels
-    python benchmarks/bench_voxel.py stream-ab 200 10  # streaming vs plain sweeps, one process
 
 Run each case in its own process under ``/usr/bin/time -v`` for the peak memory, e.g.
 ``/usr/bin/time -v python benchmarks/bench_voxel.py toray 200``.
@@ -684,27 +683,22 @@ def _warm_parallel() -> None:
     Grids below :data:`solvers.jit.COMPILE_PARALLEL_ABOVE` cells (200^3 is) run the serial
     twins when the parallel kernels are not in numba's cache yet, which would time one thread
     under the name of two; the warm-up solve is on a grid above the one-thread threshold.  A
-    second warm-up solve with streaming sweeps compiles the kernels a grid of
-    :data:`solvers.voxel.kernels.STREAM_CELLS` cells or more runs on its finest level.  A
-    last warm-up solve loads the serial twins, which a solve below
+    second warm-up solve loads the serial twins, which a solve below
     :func:`solvers.voxel.threads.solve_min_cells` runs even with two threads available: without
     it a 64^3 timing with two threads available paid their loading (~0.1 s, session 22), the
     one-thread timing did not."""
     import solvers.jit as jit
-    from solvers.voxel import kernels as kr
     from solvers.voxel import threads as vthreads
 
-    before = jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS, kr.STREAM_CELLS
+    before = jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS
     jit.COMPILE_PARALLEL_ABOVE = vthreads.SOLVE_PARALLEL_MIN_CELLS = 0
     try:
         warm = np.zeros((48, 48, 48), dtype=bool)
         warm[:, :4, :] = True
         warm[:4, :, :] = True
         solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
-        kr.STREAM_CELLS = 0  # the finest level's streaming sweeps (grids of 4 M cells or more)
-        solve_voxel_stokes(warm, 1.0, "z", max_iter=3)
     finally:
-        jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS, kr.STREAM_CELLS = before
+        jit.COMPILE_PARALLEL_ABOVE, vthreads.SOLVE_PARALLEL_MIN_CELLS = before
     solve_voxel_stokes(warm[:24, :24, :24], 1.0, "z", max_iter=3)  # the serial twins
 
 
@@ -890,9 +884,14 @@ def sweep_vs_triad(n: int = 200, rounds: int = 25, reps: int = 5) -> None:
     1.8-2.1x) beside 50-67 GB/s.  At the higher level the sweep scales with the threads: each
     thread is then bound by its own instructions and memory latency, not the shared bandwidth."""
     from solvers.voxel import kernels as kr
+    from solvers.voxel import multigrid as mg
 
     _warm_parallel()  # else below COMPILE_PARALLEL_ABOVE "two threads" could be the serial twin
-    _, d, _, cc, x, b, out = _sweep_operands(n)
+    rng = np.random.default_rng(0)
+    d, _ = mg.component_operator(rng.random((n, n, n)) > 0.2, 0)
+    cc = kr.unit_couplings(n)
+    x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+    b, out = x.copy(), np.empty_like(x)
     avail = nb.get_num_threads()
 
     def sweep(threads: int) -> float:
@@ -909,68 +908,6 @@ def sweep_vs_triad(n: int = 200, rounds: int = 25, reps: int = 5) -> None:
         print(
             f"  triad {before / 1e9:5.1f} / {after / 1e9:5.1f} GB/s; jacobi {n}^3, ns per cell: "
             f"{avail} threads {two:.3f}, 1 thread {one:.3f} ({one / two:.2f}x)",
-            flush=True,
-        )
-
-
-def _sweep_operands(n: int) -> tuple:
-    """``rng, d, c, cc, x, b, out``: a random 80 % fluid component operator of ``n^3`` cells
-    (couplings ``c``, their stand-in ``cc``), an iterate and a right-hand side on its active
-    unknowns, an output."""
-    from solvers.voxel import kernels as kr
-    from solvers.voxel import multigrid as mg
-
-    rng = np.random.default_rng(0)
-    shape = (n, n, n)
-    d, c = mg.component_operator(rng.random(shape) > 0.2, 0)
-    x = (rng.standard_normal(shape) * (d > 0)).astype(np.float32)
-    return rng, d, c, kr.unit_couplings(n), x, x.copy(), np.empty_like(x)
-
-
-def stream_ab(n: int = 200, rounds: int = 10, reps: int = 5) -> None:
-    """The finest level's streaming Jacobi sweeps (``stream=True``, picked by the V-cycle from
-    :data:`solvers.voxel.kernels.STREAM_CELLS` cells) against the plain ones, alternating in
-    one process: per round the triad, one V-cycle of a random 80 % fluid component operator on
-    the default threads with each (best of ``reps``, ms), and the one-thread ns per cell of the
-    three sweeps with each.  Session 28 at 200^3: V-cycle 0.91-0.96x; one thread ``jacobi``
-    0.82 -> 0.74-0.83, ``jacobi2_zero`` 0.78 -> 0.64-0.70, ``prolong_jacobi`` 1.03 -> 0.93-0.98."""
-    from solvers.voxel import kernels as kr
-    from solvers.voxel import multigrid as mg
-
-    _warm_parallel()  # the plain and the streaming kernels, parallel ones too
-    rng, d, c, cc, x, b, out = _sweep_operands(n)
-    xc = rng.standard_normal((n // 2,) * 3).astype(np.float32)
-    cycle = mg.ScalarMG(d, c)  # the Galerkin levels need the real couplings
-    cycle.levels[0].c = cc  # then the solver drops them (voxel_stokes._drop_couplings)
-    del c
-    default = kr.STREAM_CELLS
-
-    def vcycle(cells: int) -> float:
-        kr.STREAM_CELLS = cells
-        try:
-            return _best_ms(lambda: cycle.apply(b, out), reps)
-        finally:
-            kr.STREAM_CELLS = default
-
-    def one_thread(st: tuple) -> str:
-        calls = {
-            "jacobi": lambda: kr.jacobi.serial(d, *cc, x, b, out, 0.9, *st),
-            "jacobi2_zero": lambda: kr.jacobi2_zero.serial(d, *cc, b, out, 0.9, 1, *st),
-            "prolong_jacobi": lambda: kr.prolong_jacobi.serial(
-                d, *cc, x, xc, 2, 2, 2, 1.6, b, out, 0.9, 1, *st
-            ),
-        }
-        return " ".join(f"{k} {_best_ms(f, reps) * 1e6 / n**3:.3f}" for k, f in calls.items())
-
-    plain, stream = 1 << 62, 0
-    vcycle(plain), vcycle(stream), one_thread(()), one_thread((True,))  # compile / load
-    for _ in range(rounds):
-        tri = triad_bandwidth(reps=3) / 1e9
-        ts, tp = vcycle(stream), vcycle(plain)
-        print(
-            f"  triad {tri:5.1f} GB/s; V-cycle {n}^3 streaming {ts:.2f} ms, plain {tp:.2f} ms "
-            f"({ts / tp:.2f}x); one thread, ns per cell: plain {one_thread(())} | streaming "
-            f"{one_thread((True,))}",
             flush=True,
         )
 
@@ -998,9 +935,6 @@ def main(argv: list[str]) -> None:
         return
     if what == "speedup":
         speedup(*[int(a) for a in argv[2:3]] or [200])
-        return
-    if what == "stream-ab":
-        stream_ab(*[int(a) for a in argv[2:4]])
         return
     if what == "sweep-vs-triad":
         sweep_vs_triad(*[int(a) for a in argv[2:4]])

@@ -88,7 +88,6 @@ def _task(mode: str) -> tuple[str, float]:
     if mode == "serial":
         for solve in _SOLVES:
             _solve(built, fields, spec, solve)
-        _streaming_solve(built, fields, spec)
         _forcefield()
         return mode, time.perf_counter() - t0
     # a real multi-thread solve also meets Galerkin levels of float32 diagonals with
@@ -100,24 +99,7 @@ def _task(mode: str) -> tuple[str, float]:
     for grid, threshold, solve in _parallel_plan(int(fine.solid.size), mode == "parallel-b"):
         vthreads.PARALLEL_MIN_CELLS = threshold
         _solve(built, grids[grid], spec, solve)
-    vthreads.PARALLEL_MIN_CELLS = int(fine.solid.size)  # the finest level parallel
-    _streaming_solve(built, fine, spec)
     return mode, time.perf_counter() - t0
-
-
-def _streaming_solve(built, fields, spec: dict) -> None:
-    """One Stokes solve whose finest level runs the streaming Jacobi sweeps (the kernels'
-    ``stream`` variant, which the V-cycle picks on grids of
-    :data:`solvers.voxel.kernels.STREAM_CELLS` cells or more: without it the first such solve
-    compiled them, and ran their serial twins below ``COMPILE_PARALLEL_ABOVE``)."""
-    import solvers.voxel.kernels as vk
-
-    before = vk.STREAM_CELLS
-    vk.STREAM_CELLS = 0
-    try:
-        _solve(built, fields, spec, _SOLVES[0])
-    finally:
-        vk.STREAM_CELLS = before
 
 
 _SOLVES: tuple[tuple[str, str, str | float], ...] = (

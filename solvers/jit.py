@@ -417,8 +417,8 @@ class TwinKernel:
         if ready is None:
             d = self.parallel
             # the signature numba compiles for these arguments: a parameter left to its default
-            # is typed ``omitted(default=...)`` (without it a call that omits ``stream`` of the
-            # Jacobi sweeps never found their compiled parallel kernel and ran the serial twin)
+            # is typed ``omitted(default=...)`` (without it a call that omits one never found its
+            # compiled parallel kernel and ran the serial twin; session 28's branch s28-stream)
             sig = tuple(d.fold_argument_types(tuple(d.typeof_pyval(a) for a in args), {})[1])
             ready = sig in d.overloads
             if not ready:

@@ -405,110 +405,6 @@ def _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz):
     return xm[bm + t] + xp[bp + t] + x0[jm] + x0[jp] + x0[km] + x0[kp]
 
 
-_STRICT = {"nnan", "ninf", "nsz"}
-"""Fast-math flags of the row-end cells (:func:`_jacobi_end`): no
-``reassoc``, ``contract``, ``arcp`` or ``afn``, so an end cell rounds the same wherever LLVM
-inlines it.  Under the kernels' full fast-math its sum was reassociated by the surrounding
-code: after the fast tests filled an empty numba cache the parallel ``prolong_jacobi`` and
-``jacobi`` differed by one ulp at the end of a y-wrap row (session 26), and the V-cycle's
-sweeps must be one operator bitwise.  Flags on instructions survive LLVM's inlining."""
-
-
-@nb.njit(fastmath=_STRICT, cache=True, nogil=True, error_model="numpy")
-def _jacobi_end(dq, xq, bq, n1, n2, n3, n4, n5, n6, om):
-    """The Jacobi update of one row-end cell from scalars: ``d, x, b`` of the cell, its six
-    neighbours in the order of the flat loops, the float32 damping ``om`` (IEEE float32
-    arithmetic, :data:`_STRICT`; scalars only, so no array reference counts in the parallel
-    kernels that call it; no branch: 0 on an inactive cell by a multiplication)."""
-    sm = n1 + n2 + n3 + n4 + n5 + n6
-    dk = np.float32(dq if dq != 0 else 1)
-    return (xq + (bq - (dk * xq - sm)) * (om / dk)) * np.float32(dq != 0)
-
-
-@_SERIAL.leaf
-def _k_sides(c, first, unz):
-    """Flat indices of the periodic k-neighbours of the row-end cell at ``c`` (``first``: its
-    ``k = 0``; a row of one cell is both ends, its own neighbour)."""
-    last = (not first) or unz == 1
-    km = c + unz - _u(1) if first else c - _u(1)
-    kp = c + _u(1) - unz if last else c + _u(1)
-    return km, kp
-
-
-@_SERIAL.leaf
-def _next_end(t, first, unz):
-    """The row end after the row end ``t`` of a flat sweep (``first``: ``t`` is a row's
-    ``k = 0``): ``k = nz - 1`` of the same row, then ``k = 0`` of the next one."""
-    if first and unz > 1:
-        return t + unz - _u(1), False
-    return t + _u(1), True
-
-
-STREAM_CELLS = 4_000_000
-"""Grids of at least this many cells (16 MB per float32 array, 159^3) get the output of the
-flat Jacobi sweeps written with streaming stores (:func:`_store_block`): it is read again only
-by the next kernel, after the whole grid, i.e. from memory, and a streaming store does not read
-the line it writes first.  Smaller grids keep plain stores: there the next kernel reads their
-output from the caches."""
-
-
-STORE_BLOCK = 512
-"""Cells a flat Jacobi sweep forms in an L1 buffer (2 KB) before it redoes their row ends, sums
-their ``b . xnew`` and stores them (:func:`_store_block`): per-block work amortised over
-several prefetch blocks (:data:`BLOCK`; at 64 it cost more than the streaming saved)."""
-
-
-@_SERIAL.inline
-def _block_dot(fb, q0, blk, n):
-    """Float64 ``b . xnew`` of a block: ``fb[q0 : q0 + n] . blk[:n]`` (both in L1)."""
-    acc = 0.0
-    for r in range(n):
-        acc += np.float64(fb[q0 + _u(r)]) * np.float64(blk[r])
-    return acc
-
-
-@_SERIAL.inline
-def _store_block(fo, q0, blk, n, phase):
-    """``fo[q0 : q0 + n] = blk[:n]``: the whole cache lines of it by streaming stores
-    (:func:`solvers.voxel.simd.stream16`; ``phase``: :func:`~solvers.voxel.simd.line_phase` of
-    ``fo``), the partial lines at its two ends by plain ones.  The blocks keep
-    the places of the flat loop's 64-cell blocks whatever the output's alignment: LLVM forms
-    the last cells of a loop that is not a multiple of 16 long by its scalar code, whose
-    float32 reciprocal rounds differently, and every sweep must be one operator bitwise."""
-    head = min((_u(simd.LINE) - (phase + q0) % _u(simd.LINE)) % _u(simd.LINE), _u(n))
-    for r in range(head):
-        fo[q0 + r] = blk[r]
-    while head + _u(simd.LINE) <= _u(n):
-        simd.stream16(fo, q0 + head, blk, head)
-        head += _u(simd.LINE)
-    for r in range(head, _u(n)):
-        fo[q0 + r] = blk[r]
-
-
-@_SERIAL.inline
-def _jacobi_ends(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j0, j1, ny, nz, om, dot):
-    """Redo the two ends of the rows ``j0 .. j1 - 1`` of the plane of :func:`_jacobi_flat` with
-    their periodic neighbours (:func:`_jacobi_end`); returns those rows' ``b . xnew`` if
-    ``dot``, else 0.0."""
-    unz = _u(nz)
-    for j in range(j0, j1):
-        rj = _u(j * nz)
-        rm = b0 + _u(_dn(j, ny) * nz)
-        rp = b0 + _u(_up(j, ny) * nz)
-        for e in range(_ends(nz)):
-            k = _u(0) if e == 0 else unz - _u(1)
-            t = rj + k
-            c = b0 + t
-            km, kp = _k_sides(c, e == 0, unz)
-            fo[base + t] = _jacobi_end(
-                fd[base + t], x0[c], fb[base + t], xm[bm + t], xp[bp + t], x0[rm + k],
-                x0[rp + k], x0[km], x0[kp], om,
-            )  # fmt: skip
-    if not dot or j1 <= j0:
-        return 0.0
-    return _plane_dot(fb, fo, base + _u(j0 * nz), _u((j1 - j0) * nz))
-
-
 @_SERIAL.inline
 def _plane_dot(fx, fy, c0, pl):
     """Float64 ``x . y`` over the ``pl`` entries from flat offset ``c0`` (a plane just written:
@@ -517,21 +413,6 @@ def _plane_dot(fx, fy, c0, pl):
     for q in range(c0, c0 + pl):
         acc += np.float64(fx[q]) * np.float64(fy[q])
     return acc
-
-
-@_SERIAL.inline
-def _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, ny, nz, om):
-    """The cells ``1 .. nz - 2`` of row ``j`` of a plane of :func:`_jacobi_flat`, whose
-    y-neighbours wrap (:func:`_wrap_rows`), in one vector loop along k."""
-    one = _u(1)
-    rj = _u(j * nz)
-    rm = b0 + _u(_dn(j, ny) * nz)
-    rp = b0 + _u(_up(j, ny) * nz)
-    for k in range(one, _u(nz) - one):
-        t = rj + k
-        c = b0 + t
-        sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
-        fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
 
 
 @_SERIAL.inline
@@ -573,7 +454,15 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
                 fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
             t0 = t1
     for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
-        _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, _wrap_row(r, ny), ny, nz, om)
+        j = _wrap_row(r, ny)
+        rj = _u(j * nz)
+        rm = b0 + _u(_dn(j, ny) * nz)
+        rp = b0 + _u(_up(j, ny) * nz)
+        for k in range(one, unz - one):
+            t = rj + k
+            c = b0 + t
+            sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
+            fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
     for j in range(ny):  # the two ends of every row: the periodic k-neighbours
         for e in range(_ends(nz)):
             k = 0 if e == 0 else nz - 1
@@ -581,77 +470,6 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
             sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
             fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
     return _plane_dot(fb, fo, base, pl) if dot else 0.0
-
-
-@_SERIAL.inline
-def _jacobi_flat_stream(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
-    """:func:`_jacobi_flat` (the same arguments and result) with streaming stores, for the
-    kernels' ``stream=True`` (grids of :data:`STREAM_CELLS` cells or more; a float32 output).
-
-    The flat loop (prefetching as :func:`_jacobi_flat` does, but not the streamed output)
-    writes :data:`STORE_BLOCK` cells at a time into an L1 buffer; there the row ends it passed
-    (whose k-neighbours it read from the neighbouring rows) are redone with their periodic
-    neighbours (:func:`_jacobi_end`), the block's ``b . xnew`` is summed, and the block goes to
-    ``fo`` by streaming stores (:func:`_store_block`: a plain store reads the line it writes
-    first).  :func:`_jacobi_flat` does the ends and the dot as passes over the plane after its
-    loop, from L2.  One thread at 200^3: ``jacobi`` / ``jacobi2_zero`` / ``prolong_jacobi``
-    0.74-0.83 / 0.64-0.70 / 0.93-0.98 ns per cell against 0.82 / 0.78 / 1.03
-    (``benchmarks/RESULTS.md``, session 28).  The rows 0 and ``ny - 1`` (the y-wrap) keep
-    their vector loops (:func:`_jacobi_wrap_row`) and plain stores.  An output at a byte
-    offset (no entry starts a cache line) takes :func:`_jacobi_flat`."""
-    if simd.line_phase(fo) == simd.LINE:
-        return _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb)
-    pl = _u(ny * nz)
-    unz = _u(nz)
-    one = _u(1)
-    acc = 0.0
-    if ny >= 3:
-        blk = np.empty(STORE_BLOCK, dtype=np.float32)
-        phase = simd.line_phase(fo)
-        t0 = unz
-        hi = pl - unz
-        nxt = unz  # the next row end the loop passes, and whether it is a row's k = 0
-        first = True
-        while t0 < hi:
-            t1 = min(t0 + _u(STORE_BLOCK), hi)
-            s0 = t0
-            while s0 < t1:
-                qa = base + s0 + _u(PREFETCH)
-                _fetch_lines(fb, qa, 16)
-                _fetch_lines(fd, qa, 64)
-                _fetch_lines(ea, eq + s0, 16)  # float32 (b, or x)
-                _fetch_lines(eb, eq + s0, 64)  # uint8 (d) or None
-                s1 = min(s0 + _u(BLOCK), t1)
-                for t in range(s0, s1):
-                    c = b0 + t
-                    sm = (
-                        xm[bm + t]
-                        + xp[bp + t]
-                        + x0[c - unz]
-                        + x0[c + unz]
-                        + x0[c - one]
-                        + x0[c + one]
-                    )
-                    blk[t - t0] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
-                s0 = s1
-            while nxt < t1:  # the block's row ends, with their periodic neighbours
-                c = b0 + nxt
-                km, kp = _k_sides(c, first, unz)
-                blk[nxt - t0] = _jacobi_end(
-                    fd[base + nxt], x0[c], fb[base + nxt], xm[bm + nxt], xp[bp + nxt],
-                    x0[c - unz], x0[c + unz], x0[km], x0[kp], om,
-                )  # fmt: skip
-                nxt, first = _next_end(nxt, first, unz)
-            if dot:
-                acc += _block_dot(fb, base + t0, blk, t1 - t0)
-            _store_block(fo, base + t0, blk, t1 - t0, phase)
-            t0 = t1
-        simd.store_fence()
-    for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k, then their ends
-        j = _wrap_row(r, ny)
-        _jacobi_wrap_row(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, ny, nz, om)
-        acc += _jacobi_ends(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, j, j + 1, ny, nz, om, dot)
-    return acc
 
 
 @_SERIAL.inline
@@ -702,7 +520,7 @@ def _residual_flat(d, x, b, i, rp):
 
 
 @parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
-def jacobi(d, cx, cy, cz, x, b, xnew, omega, stream=None):
+def jacobi(d, cx, cy, cz, x, b, xnew, omega):
     """One damped Jacobi sweep ``xnew = x + omega D^-1 (b - A x)`` (row-vectorised; with unit
     couplings one flat prefetching loop per plane, :func:`_jacobi_flat`).
 
@@ -718,18 +536,11 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega, stream=None):
         for i in nb.prange(nx):
             base = _u(i) * pl
             bp = _u(_up(i, nx)) * pl
-            if stream is None:  # pruned by numba where the caller passes no stream
-                acc[i] = _jacobi_flat(
-                    simd.flat(d), simd.flat(b), simd.flat(xnew), base,
-                    fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
-                    fx, bp + _u(PREFETCH), None,
-                )  # fmt: skip
-            else:
-                acc[i] = _jacobi_flat_stream(
-                    simd.flat(d), simd.flat(b), simd.flat(xnew), base,
-                    fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
-                    fx, bp + _u(PREFETCH), None,
-                )  # fmt: skip
+            acc[i] = _jacobi_flat(
+                simd.flat(d), simd.flat(b), simd.flat(xnew), base,
+                fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
+                fx, bp + _u(PREFETCH), None,
+            )  # fmt: skip
         return acc.sum()
     # stored couplings (coarse levels): the arrays through numba's reshape, whose run-time call
     # hides from LLVM that they are the noalias arguments, so that these row loops compile as
@@ -811,7 +622,7 @@ def _ring(s):
 
 
 @_SERIAL.inline
-def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb, stream):
+def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb):
     """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (rows
     ``rm, r0, rp`` of ``buf``, ``3 x ny nz``: :func:`_ring`) into ``xnew[i]``; returns the
     plane's ``b . xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
@@ -831,16 +642,6 @@ def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb
         # the V-cycle's sweeps differed by an ulp at k = nz - 1, band20)
         fp = simd.flat(buf)
         o0, om_, op = _u(r0) * pl, _u(rm) * pl, _u(rp) * pl
-        if stream is not None:  # pruned by numba where the kernel's caller passes none
-            if fa is None:
-                return _jacobi_flat_stream(
-                    fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
-                    None, ahead, None,
-                )  # fmt: skip
-            return _jacobi_flat_stream(
-                fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
-                simd.flat(fb), ahead, simd.flat(fa),
-            )  # fmt: skip
         if fa is None:  # compiled out where the caller passes arrays
             return _jacobi_flat(
                 fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
@@ -870,7 +671,7 @@ def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb
 
 
 @parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
-def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks, stream=None):
+def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     """Two damped Jacobi sweeps from a zero guess in one pass over the grid.
 
     ``x1 = omega D^-1 b`` (:func:`jacobi_zero`) is never stored in the grid: each thread walks
@@ -891,7 +692,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks, stream=None):
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
-            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b, stream)
+            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b)
 
 
 @_SERIAL.inline
@@ -937,7 +738,7 @@ def _prolong_plane(d, x, xc, i, fx, fy, fz, alpha, out, ex):
 
 
 @parallel_kernel(helpers=_SERIAL, noalias=True, **_OPTS)
-def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchunks, stream=None):
+def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchunks):
     """Coarse correction and the first post-smoothing sweep in one pass over the grid.
 
     ``x' = x + alpha P xc`` (:func:`prolong_add`) is never stored in the grid: each thread keeps
@@ -961,9 +762,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
-            s += _jacobi_plane(
-                d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None, stream
-            )
+            s += _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None)
         acc[t] = s
     return acc.sum()
 

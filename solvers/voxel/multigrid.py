@@ -79,16 +79,6 @@ def _kernel(kernel, nthr: int):
     return getattr(kernel, "serial", kernel) if nthr == 1 else kernel
 
 
-def _stream(lev: Level) -> tuple:
-    """The trailing ``stream`` argument of the Jacobi sweeps of ``lev``: ``(True,)`` on a level
-    of unit couplings (the finest) of :data:`~solvers.voxel.kernels.STREAM_CELLS` cells or more,
-    whose sweeps write their output with streaming stores, else ``()`` (the kernels' default,
-    compiled without that code).  One choice per level for all its sweeps: they must stay one
-    operator bitwise (the V-cycle's symmetry)."""
-    unit = lev.c.shape[-1] != lev.d.shape[-1]  # kernels.unit_couplings
-    return (True,) if unit and lev.d.size >= kr.STREAM_CELLS else ()
-
-
 @dataclass
 class Level:
     """One level: operator (diag, couplings), aggregation factors to the next level, work."""
@@ -190,15 +180,13 @@ class ScalarMG:
         """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass), on
         ``nthr`` threads (:func:`_kernel`)."""
         if self.pre >= 2:
-            _kernel(kr.jacobi2_zero, nthr)(
-                lev.d, *lev.c, lev.b, lev.x, self.omega, nthr, *_stream(lev)
-            )
+            _kernel(kr.jacobi2_zero, nthr)(lev.d, *lev.c, lev.b, lev.x, self.omega, nthr)
             rest = self.pre - 2
         else:
             _kernel(kr.jacobi_zero, nthr)(lev.d, lev.b, lev.x, self.omega)
             rest = self.pre - 1
         for _ in range(rest):
-            _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, lev.t, self.omega, *_stream(lev))
+            _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, lev.t, self.omega)
             lev.x, lev.t = lev.t, lev.x
 
     def _post_smooth(self, lev: Level, xc: np.ndarray, out: np.ndarray | None, nthr: int) -> float:
@@ -206,15 +194,14 @@ class ScalarMG:
         into the first), on ``nthr`` threads; the last sweep writes into ``out`` if given (the
         finest level: saves a copy) and its ``b . out`` is returned (0.0 without ``out``)."""
         dst = out if (out is not None and self.pre == 1) else lev.t
-        st = _stream(lev)
         dot = _kernel(kr.prolong_jacobi, nthr)(
-            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nthr, *st
+            lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nthr
         )
         if dst is lev.t:
             lev.x, lev.t = lev.t, lev.x
         for s in range(1, self.pre):
             dst = out if (out is not None and s == self.pre - 1) else lev.t
-            dot = _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, dst, self.omega, *st)
+            dot = _kernel(kr.jacobi, nthr)(lev.d, *lev.c, lev.x, lev.b, dst, self.omega)
             if dst is lev.t:
                 lev.x, lev.t = lev.t, lev.x
         return dot if out is not None else 0.0

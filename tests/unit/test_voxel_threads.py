@@ -119,8 +119,9 @@ def _scaled_sum(x, scale=None):
 def test_a_compiled_kernel_is_found_when_a_default_is_omitted() -> None:
     """Session 28: numba compiles a call that omits a defaulted parameter under the signature
     ``(..., omitted(default=None))``; ``TwinKernel`` looked it up without that entry, never found
-    the compiled parallel kernel and ran the serial twin (on a 200^3 solve the 100^3 level of
-    every V-cycle ran on one thread once the Jacobi sweeps had gained ``stream=None``)."""
+    the compiled parallel kernel and ran the serial twin (on branch s28-stream, where the Jacobi
+    sweeps had gained ``stream=None``, the 100^3 level of every V-cycle of a 200^3 solve ran on
+    one thread)."""
     from solvers.jit import TwinKernel
 
     kern = TwinKernel(_scaled_sum)
