@@ -109,7 +109,7 @@ def test_partly_compiled_kernels_are_named() -> None:
 
 
 def _scaled_sum(x, scale=None):
-    """A parallel kernel with a parameter left to its default, as the Jacobi sweeps' ``stream``."""
+    """A parallel kernel with a parameter left to its default (as ``stream`` on s28-stream)."""
     acc = 0.0
     for i in numba.prange(x.size):
         acc += x[i]
