@@ -1,0 +1,130 @@
+"""What bounds a finest-level Jacobi sweep on one core: the product's ``jacobi`` beside bare
+loops of the same arithmetic on the same arrays (issue 16, item 2).
+
+    python benchmarks/bench_sweep_floor.py [N] [ROUNDS]      # default 200 4
+
+Per round, ns per cell (best of 5), on one thread and then on all of numba's threads:
+
+* ``stream``: ``out = x + b + d``, the sweep's 13 bytes per cell with no stencil;
+* ``1d``, ``2d``, ``3d``: the bare flat sweep (``kernels._jacobi_cell``'s expression, no row
+  ends, no dot, no prefetch) with its six neighbours at +-1, +-1 and +-nz, and +-nz and +-nz ny:
+  the same loads and arithmetic, the neighbour rows from L1 in ``1d``/``2d`` and the neighbour
+  x-planes (160 KB apart at 200^3) from L2/L3 in ``3d``;
+* ``3d pairs``: ``3d`` for the x-planes ``i, i + 1`` in one loop (four plane streams for two
+  planes instead of six);
+* ``jacobi``: the product's sweep (row ends, wrap rows, the returned dot).
+
+Session 29 (200^3, 23:39, load 0.3-1.1; one thread / two threads): stream 0.44-0.46 /
+0.36-0.37, 1d 0.44 / 0.33-0.35, 2d 0.49-0.50 / 0.34-0.36, 3d 0.71-0.72 / 0.45-0.46, 3d pairs
+0.59 / 0.46-0.48, jacobi 0.88-0.94 / 0.63-0.65.  The arithmetic is cheap (1d runs at the
+stream's rate); the two extra x-plane streams cost the bare sweep ~0.25 ns per cell on one
+thread, and the product's row ends, wrap rows and dot another ~0.2 (``benchmarks/RESULTS.md``,
+session 29).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numba as nb
+import numpy as np
+
+from solvers.jit import NoAliasCompiler
+from solvers.voxel import kernels as kr
+from solvers.voxel import multigrid as mg
+
+_U = np.uint64
+_JIT = {"fastmath": True, "boundscheck": False, "error_model": "numpy"}
+
+
+@nb.njit(**_JIT)
+def _cell(fd, fx, fb, q, sm, om):
+    dd = fd[q]
+    on = np.float32(dd != 0)
+    ax = (dd * fx[q] - sm) * on
+    return (fx[q] + (fb[q] - ax) * (om / np.float32(dd if dd != 0 else 1))) * on
+
+
+@nb.njit(parallel=True, pipeline_class=NoAliasCompiler, **_JIT)
+def _bare(fd, fx, fb, fo, nx, far, near, om):
+    """The bare sweep over planes 2 .. nx - 3 with neighbours at +-1, +-near, +-far."""
+    pl = _U(fd.size // nx)
+    one = _U(1)
+    far, near = _U(far), _U(near)
+    for h in nb.prange(nx - 4):
+        base = _U(2 + h) * pl
+        for q in range(base, base + pl):
+            sm = fx[q - far] + fx[q + far] + fx[q - near] + fx[q + near] + fx[q - one] + fx[q + one]
+            fo[q] = _cell(fd, fx, fb, q, sm, om)
+    return 0.0
+
+
+@nb.njit(parallel=True, pipeline_class=NoAliasCompiler, **_JIT)
+def _pairs(fd, fx, fb, fo, nx, nz, om):
+    """``_bare`` in 3-D for two x-planes per loop."""
+    pl = _U(fd.size // nx)
+    one = _U(1)
+    unz = _U(nz)
+    for h in nb.prange((nx - 4) // 2):
+        base = _U(2 + 2 * h) * pl
+        for q in range(base, base + pl):
+            r = q + pl
+            s0 = fx[q - pl] + fx[r] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
+            s1 = fx[q] + fx[r + pl] + fx[r - unz] + fx[r + unz] + fx[r - one] + fx[r + one]
+            fo[q] = _cell(fd, fx, fb, q, s0, om)
+            fo[r] = _cell(fd, fx, fb, r, s1, om)
+    return 0.0
+
+
+@nb.njit(parallel=True, **_JIT)
+def _stream(fd, fx, fb, fo):
+    for q in nb.prange(fd.size):
+        fo[q] = fx[q] + fb[q] + np.float32(fd[q])
+
+
+def _best_ns(fn, cells: int, reps: int = 5) -> float:
+    best = float("inf")
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best * 1e9 / cells
+
+
+def main(n: int = 200, rounds: int = 4) -> None:
+    from bench_voxel import _warm_parallel
+
+    _warm_parallel()  # else on two threads below COMPILE_PARALLEL_ABOVE jacobi runs its twin
+    rng = np.random.default_rng(0)
+    d, _ = mg.component_operator(rng.random((n, n, n)) > 0.2, 0)
+    x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+    b, out = x.copy(), np.empty_like(x)
+    cc = kr.unit_couplings(n)
+    fd, fx, fb, fo = d.ravel(), x.ravel(), b.ravel(), out.ravel()
+    om = np.float32(0.9)
+    cases = {
+        "stream": lambda: _stream(fd, fx, fb, fo),
+        "1d": lambda: _bare(fd, fx, fb, fo, n, 1, 1, om),
+        "2d": lambda: _bare(fd, fx, fb, fo, n, n, n, om),
+        "3d": lambda: _bare(fd, fx, fb, fo, n, n * n, n, om),
+        "3d pairs": lambda: _pairs(fd, fx, fb, fo, n, n, om),
+        "jacobi": lambda: kr.jacobi(d, *cc, x, b, out, 0.9),
+    }
+    avail = nb.get_num_threads()
+    for threads in sorted({1, avail}):
+        nb.set_num_threads(threads)
+        for fn in cases.values():
+            fn()  # compile / load
+        for _ in range(rounds):
+            cells = {k: _best_ns(f, n**3) for k, f in cases.items()}
+            print(
+                f"{n}^3, {threads} thread(s), ns per cell: "
+                + ", ".join(f"{k} {v:.3f}" for k, v in cells.items()),
+                flush=True,
+            )
+    nb.set_num_threads(avail)
+
+
+if __name__ == "__main__":
+    main(*[int(a) for a in sys.argv[1:3]])
