@@ -25,25 +25,15 @@ session 29).
 from __future__ import annotations
 
 import sys
-import time
 
 import numba as nb
 import numpy as np
 
 from solvers.jit import NoAliasCompiler
 from solvers.voxel import kernels as kr
-from solvers.voxel import multigrid as mg
 
 _U = np.uint64
 _JIT = {"fastmath": True, "boundscheck": False, "error_model": "numpy"}
-
-
-@nb.njit(**_JIT)
-def _cell(fd, fx, fb, q, sm, om):
-    dd = fd[q]
-    on = np.float32(dd != 0)
-    ax = (dd * fx[q] - sm) * on
-    return (fx[q] + (fb[q] - ax) * (om / np.float32(dd if dd != 0 else 1))) * on
 
 
 @nb.njit(parallel=True, pipeline_class=NoAliasCompiler, **_JIT)
@@ -56,7 +46,7 @@ def _bare(fd, fx, fb, fo, nx, far, near, om):
         base = _U(2 + h) * pl
         for q in range(base, base + pl):
             sm = fx[q - far] + fx[q + far] + fx[q - near] + fx[q + near] + fx[q - one] + fx[q + one]
-            fo[q] = _cell(fd, fx, fb, q, sm, om)
+            fo[q] = kr._jacobi_cell(fd, fx, fb, q, q, sm, om)
     return 0.0
 
 
@@ -72,8 +62,8 @@ def _pairs(fd, fx, fb, fo, nx, nz, om):
             r = q + pl
             s0 = fx[q - pl] + fx[r] + fx[q - unz] + fx[q + unz] + fx[q - one] + fx[q + one]
             s1 = fx[q] + fx[r + pl] + fx[r - unz] + fx[r + unz] + fx[r - one] + fx[r + one]
-            fo[q] = _cell(fd, fx, fb, q, s0, om)
-            fo[r] = _cell(fd, fx, fb, r, s1, om)
+            fo[q] = kr._jacobi_cell(fd, fx, fb, q, q, s0, om)
+            fo[r] = kr._jacobi_cell(fd, fx, fb, r, r, s1, om)
     return 0.0
 
 
@@ -83,24 +73,11 @@ def _stream(fd, fx, fb, fo):
         fo[q] = fx[q] + fb[q] + np.float32(fd[q])
 
 
-def _best_ns(fn, cells: int, reps: int = 5) -> float:
-    best = float("inf")
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best * 1e9 / cells
-
-
 def main(n: int = 200, rounds: int = 4) -> None:
-    from bench_voxel import _warm_parallel
+    from bench_voxel import _best_ms, _warm_parallel, sweep_operands
 
     _warm_parallel()  # else on two threads below COMPILE_PARALLEL_ABOVE jacobi runs its twin
-    rng = np.random.default_rng(0)
-    d, _ = mg.component_operator(rng.random((n, n, n)) > 0.2, 0)
-    x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
-    b, out = x.copy(), np.empty_like(x)
-    cc = kr.unit_couplings(n)
+    d, cc, x, b, out = sweep_operands(n)
     fd, fx, fb, fo = d.ravel(), x.ravel(), b.ravel(), out.ravel()
     om = np.float32(0.9)
     cases = {
@@ -117,7 +94,7 @@ def main(n: int = 200, rounds: int = 4) -> None:
         for fn in cases.values():
             fn()  # compile / load
         for _ in range(rounds):
-            cells = {k: _best_ns(f, n**3) for k, f in cases.items()}
+            cells = {k: _best_ms(f, 5) * 1e6 / n**3 for k, f in cases.items()}
             print(
                 f"{n}^3, {threads} thread(s), ns per cell: "
                 + ", ".join(f"{k} {v:.3f}" for k, v in cells.items()),

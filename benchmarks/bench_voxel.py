@@ -875,6 +875,19 @@ def _sweep_cost_at(n: int, reps: int) -> dict[str, float]:
     return {k: _best_ms(f, reps) * 1e6 / n**3 for k, f in calls.items()}
 
 
+def sweep_operands(n: int):
+    """``d, couplings, x, b, out`` of one finest-level Jacobi sweep at ``n^3``: the component
+    operator of a random 80 % fluid grid (seed 0), its unit couplings, a random iterate (0 on
+    inactive unknowns), ``b = x`` and an output array."""
+    from solvers.voxel import kernels as kr
+    from solvers.voxel import multigrid as mg
+
+    rng = np.random.default_rng(0)
+    d, _ = mg.component_operator(rng.random((n, n, n)) > 0.2, 0)
+    x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
+    return d, kr.unit_couplings(n), x, x.copy(), np.empty_like(x)
+
+
 def sweep_vs_triad(n: int = 200, rounds: int = 25, reps: int = 5) -> None:
     """Does a Jacobi sweep follow the two levels of the two-thread triad?  Per round: the triad
     (best of 3), ``jacobi`` at ``n^3`` on the default threads and on one (best of ``reps``,
@@ -884,14 +897,9 @@ def sweep_vs_triad(n: int = 200, rounds: int = 25, reps: int = 5) -> None:
     1.8-2.1x) beside 50-67 GB/s.  At the higher level the sweep scales with the threads: each
     thread is then bound by its own instructions and memory latency, not the shared bandwidth."""
     from solvers.voxel import kernels as kr
-    from solvers.voxel import multigrid as mg
 
     _warm_parallel()  # else below COMPILE_PARALLEL_ABOVE "two threads" could be the serial twin
-    rng = np.random.default_rng(0)
-    d, _ = mg.component_operator(rng.random((n, n, n)) > 0.2, 0)
-    cc = kr.unit_couplings(n)
-    x = (rng.standard_normal(d.shape) * (d > 0)).astype(np.float32)
-    b, out = x.copy(), np.empty_like(x)
+    d, cc, x, b, out = sweep_operands(n)
     avail = nb.get_num_threads()
 
     def sweep(threads: int) -> float:
