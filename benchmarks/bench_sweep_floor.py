@@ -74,7 +74,7 @@ def _stream(fd, fx, fb, fo):
 
 
 def main(n: int = 200, rounds: int = 4) -> None:
-    from bench_voxel import _best_ms, _warm_parallel, sweep_operands
+    from bench_voxel import _best_ms, _warm_parallel, sweep_operands, triad_bandwidth
 
     _warm_parallel()  # else on two threads below COMPILE_PARALLEL_ABOVE jacobi runs its twin
     d, cc, x, b, out = sweep_operands(n)
@@ -88,16 +88,21 @@ def main(n: int = 200, rounds: int = 4) -> None:
         "3d pairs": lambda: _pairs(fd, fx, fb, fo, n, n, om),
         "jacobi": lambda: kr.jacobi(d, *cc, x, b, out, 0.9),
     }
+    sweep_bytes = fd.nbytes + fx.nbytes + fb.nbytes + fo.nbytes  # 13 B per cell, STREAM count
     avail = nb.get_num_threads()
     for threads in sorted({1, avail}):
         nb.set_num_threads(threads)
         for fn in cases.values():
             fn()  # compile / load
         for _ in range(rounds):
+            before = triad_bandwidth(reps=3)
             cells = {k: _best_ms(f, 5) * 1e6 / n**3 for k, f in cases.items()}
+            triad = max(before, triad_bandwidth(reps=3))
+            ideal = sweep_bytes / triad * 1e9 / n**3  # ns per cell at the triad beside it
             print(
-                f"{n}^3, {threads} thread(s), ns per cell: "
-                + ", ".join(f"{k} {v:.3f}" for k, v in cells.items()),
+                f"{n}^3, {threads} thread(s), triad {triad / 1e9:.1f} GB/s ({ideal:.3f} ns per "
+                "cell for its 13 B), ns per cell (x that): "
+                + ", ".join(f"{k} {v:.3f} ({v / ideal:.2f})" for k, v in cells.items()),
                 flush=True,
             )
     nb.set_num_threads(avail)

@@ -622,10 +622,12 @@ def _ring(s):
 
 
 @_SERIAL.inline
-def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb):
+def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb, dot):
     """Jacobi sweep of plane ``i`` from the planes ``i - 1, i, i + 1`` of the iterate (rows
     ``rm, r0, rp`` of ``buf``, ``3 x ny nz``: :func:`_ring`) into ``xnew[i]``; returns the
-    plane's ``b . xnew``.  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
+    plane's ``b . xnew`` (0.0 from the flat sweep if not ``dot``; the row loops always sum it:
+    without the sum LLVM vectorises them otherwise, and their values would move off
+    :func:`jacobi`'s).  ``blk``: work row of ``nz`` entries; ``fa, fb``: the arrays whose plane
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
     With unit couplings (the finest level) the sweep is the flat prefetching loop of
@@ -644,11 +646,11 @@ def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb
         o0, om_, op = _u(r0) * pl, _u(rm) * pl, _u(rp) * pl
         if fa is None:  # compiled out where the caller passes arrays
             return _jacobi_flat(
-                fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
+                fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, dot,
                 None, ahead, None,
             )  # fmt: skip
         return _jacobi_flat(
-            fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, True,
+            fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, dot,
             simd.flat(fb), ahead, simd.flat(fa),
         )  # fmt: skip
     pm2 = buf[rm].reshape((ny, nz))
@@ -692,7 +694,7 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
-            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b)
+            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b, False)
 
 
 @_SERIAL.inline
@@ -745,8 +747,12 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     the planes ``i - 1, i, i + 1`` of it in plane buffers while it walks its chunk of x-planes,
     and ``xnew = x' + omega D^-1 (b - A x')`` is formed from them (same values as
     :func:`prolong_add` + :func:`jacobi`; ``x`` is not modified).  Returns ``b . xnew``
-    (float64), as :func:`jacobi`; ``nchunks`` as for :func:`jacobi2_zero`.  (14 parameters: the
-    fine operator, both grids' vectors, the two methods' scalars and the chunk count.)
+    (float64) with stored couplings, 0.0 with unit couplings: the flat sweep of the finest level
+    does not sum it (the V-cycle uses no dot of this sweep with two or more post-smoothing
+    sweeps, its default; summing it made the sweep 1.13-1.15x slower at 200^3,
+    ``benchmarks/RESULTS.md``, session 30).  ``nchunks`` as for :func:`jacobi2_zero`.  (14
+    parameters: the fine operator, both grids' vectors, the two methods' scalars and the chunk
+    count.)
     """
     nx, ny, nz = d.shape
     nt = max(1, min(nchunks, nx))
@@ -762,7 +768,9 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
         for i in range(lo, hi):
             rm, r0, rp = _ring(i - lo)
             _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
-            s += _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None)
+            s += _jacobi_plane(
+                d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None, False
+            )
         acc[t] = s
     return acc.sum()
 

@@ -12,7 +12,8 @@ symmetric V-cycle per component:
   pre-smoothing sweeps from zero are one pass (:func:`~solvers.voxel.kernels.jacobi2_zero`),
   the coarse correction is fused into the first post-smoothing sweep
   (:func:`~solvers.voxel.kernels.prolong_jacobi`) and the last sweep returns ``b . out``, the
-  preconditioned dot product of MINRES, so no pass of the grid is spent on them;
+  preconditioned dot product of MINRES, so no pass of the grid is spent on them (with
+  ``pre = 1`` the dot takes a pass of its own);
 * the coarse correction is over-weighted by ``alpha`` (piecewise-constant aggregation makes the
   coarse operator about twice too stiff for smooth modes; cf. Braess 1995, Notay's AGMG);
 * the coarsest level (<= ``max_coarse`` unknowns) is solved by a sparse LU.
@@ -192,11 +193,15 @@ class ScalarMG:
     def _post_smooth(self, lev: Level, xc: np.ndarray, out: np.ndarray | None, nthr: int) -> float:
         """Coarse correction ``x += alpha P xc`` and ``pre`` Jacobi sweeps (the correction fused
         into the first), on ``nthr`` threads; the last sweep writes into ``out`` if given (the
-        finest level: saves a copy) and its ``b . out`` is returned (0.0 without ``out``)."""
+        finest level: saves a copy) and its ``b . out`` is returned (0.0 without ``out``): by
+        :func:`~solvers.voxel.kernels.jacobi` from the same pass, or with one sweep only
+        (``pre == 1``, :func:`~solvers.voxel.kernels.prolong_jacobi` sums no dot) by a pass of
+        its own."""
         dst = out if (out is not None and self.pre == 1) else lev.t
-        dot = _kernel(kr.prolong_jacobi, nthr)(
+        _kernel(kr.prolong_jacobi, nthr)(
             lev.d, *lev.c, lev.x, xc, *lev.f, self.alpha, lev.b, dst, self.omega, nthr
         )
+        dot = _kernel(kr.dot, nthr)(lev.b, dst) if dst is out else 0.0
         if dst is lev.t:
             lev.x, lev.t = lev.t, lev.x
         for s in range(1, self.pre):
