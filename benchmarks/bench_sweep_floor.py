@@ -3,7 +3,10 @@ loops of the same arithmetic on the same arrays (issue 16, item 2).
 
     python benchmarks/bench_sweep_floor.py [N] [ROUNDS]      # default 200 4
 
-Per round, ns per cell (best of 5), on one thread and then on all of numba's threads:
+Per round, ns per cell (best of 5), on one thread and then on all of numba's threads, each
+beside the triad measured just before and after the round on that many threads (the higher
+of the two) and as a multiple of the triad time of the sweep's 13 bytes per cell (the reading
+of issue 16's item 2):
 
 * ``stream``: ``out = x + b + d``, the sweep's 13 bytes per cell with no stencil;
 * ``1d``, ``2d``, ``3d``: the bare flat sweep (``kernels._jacobi_cell``'s expression, no row
@@ -19,7 +22,11 @@ Session 29 (200^3, 23:39, load 0.3-1.1; one thread / two threads): stream 0.44-0
 0.59 / 0.46-0.48, jacobi 0.88-0.94 / 0.63-0.65.  The arithmetic is cheap (1d runs at the
 stream's rate); the two extra x-plane streams cost the bare sweep ~0.25 ns per cell on one
 thread, and the product's row ends, wrap rows and dot another ~0.2 (``benchmarks/RESULTS.md``,
-session 29).
+session 29).  Session 30 (00:18-00:20, load 0.3, 60 rounds per thread count; two-thread
+triads 36-41 GB/s, the lower of the host's two levels): on two threads the stream ran at
+0.80-1.36x the triad time of its bytes (median 0.89), the bare 3-D sweep at 1.01-1.25x
+(median 1.11), two planes per loop 0.95-1.17x (1.02), the product's ``jacobi`` (f7a88d9)
+1.49-1.71x (1.60).
 """
 
 from __future__ import annotations
