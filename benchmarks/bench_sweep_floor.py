@@ -26,7 +26,9 @@ session 29).  Session 30 (00:18-00:20, load 0.3, 60 rounds per thread count; two
 triads 36-41 GB/s, the lower of the host's two levels): on two threads the stream ran at
 0.80-1.36x the triad time of its bytes (median 0.89), the bare 3-D sweep at 1.01-1.25x
 (median 1.11), two planes per loop 0.95-1.17x (1.02), the product's ``jacobi`` (f7a88d9)
-1.49-1.71x (1.60).
+1.49-1.71x (1.60).  Beside the higher level (01:32-01:38, load 1.2-1.3, 72 two-thread
+rounds at 58-71 GB/s): stream 0.85x (medians), 1d 1.05x, 2d 1.19x, 3d 1.65x (1.54-2.01x),
+3d pairs 1.32x, ``jacobi`` 2.27x: there even the bare 3-D sweep is above item 2's 1.4x.
 """
 
 from __future__ import annotations
