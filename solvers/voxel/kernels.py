@@ -749,10 +749,10 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     :func:`prolong_add` + :func:`jacobi`; ``x`` is not modified).  Returns ``b . xnew``
     (float64) with stored couplings, 0.0 with unit couplings: the flat sweep of the finest level
     does not sum it (the V-cycle uses no dot of this sweep with two or more post-smoothing
-    sweeps, its default; summing it made the sweep 1.13-1.15x slower at 200^3,
-    ``benchmarks/RESULTS.md``, session 30).  ``nchunks`` as for :func:`jacobi2_zero`.  (14
-    parameters: the fine operator, both grids' vectors, the two methods' scalars and the chunk
-    count.)
+    sweeps, its default; summing it made the sweep 1.14x slower at 200^3 on one thread,
+    1.10-1.17x on two, ``benchmarks/RESULTS.md``, session 30).  ``nchunks`` as for
+    :func:`jacobi2_zero`.  (14 parameters: the fine operator, both grids' vectors, the two
+    methods' scalars and the chunk count.)
     """
     nx, ny, nz = d.shape
     nt = max(1, min(nchunks, nx))
