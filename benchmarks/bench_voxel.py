@@ -566,6 +566,9 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         its = 20
         vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
         e.extend()  # the solution of later refinement cycles (int8 extension at tol 1e-6)
+        # compile / load the kernels of the extended solution here, not in the first batch
+        # (a stale numba cache made that batch 6x the others, session 31)
+        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
         need = iteration_bytes(op, lo_bytes=e.lo.itemsize)
         paired = paired_batches(
             lambda: vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its), its, batches
