@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field
 
-from psdesign.schema.types import Table, fail, number, short
+from psdesign.schema.types import Table, fail, flag, number, short
 
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
@@ -57,7 +57,7 @@ class FlowTable(Table):
         "holds fewer than two periods, else 1; a stack then takes one more, up to 4, while the "
         "window term is above 1 %)",
     )
-    error_estimate: bool | None = Field(
+    error_estimate: flag | None = Field(
         None,
         description="true | false: second solve at a coarser resolution for the error bar "
         "(default true)",

@@ -9,7 +9,7 @@ from pydantic import Field, model_validator
 
 from psdesign.schema.distributions import DistField, support
 from psdesign.schema.fibers import MAX_SLOPE
-from psdesign.schema.types import Table, fail, integer, number
+from psdesign.schema.types import Table, fail, flag, integer, number
 
 METHODS = ("none", "ga", "fast")
 DEFAULT_TOLERANCE = 0.005
@@ -125,7 +125,7 @@ class IntersectionsTable(Table):
     max_shift: number(gt=0) | None = Field(
         None, description="fast: largest move in metres > 0 (default 0.1 of the period, Sec. 7.1)"
     )
-    exceed_bounds: bool | None = Field(
+    exceed_bounds: flag | None = Field(
         None,
         description="true | false: fast may exceed the bounds when a fiber fits nowhere "
         "(default true; reported)",

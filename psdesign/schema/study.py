@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS
-from psdesign.schema.types import Table, fail, integer, number
+from psdesign.schema.types import Table, fail, flag, integer, number
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS
 
 DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
@@ -44,7 +44,7 @@ class StudyTable(Table):
         None, description="fem | voxel (default: base flow.solver, else fem)"
     )
     timeout_s: number(gt=0, le=1e7) | None = Field(None, description="seconds in (0, 1e7]")
-    fields: bool = Field(
+    fields: flag = Field(
         False,
         description="true | false (default false): each case writes its velocity and pressure "
         "fields (cases/<id>/fields/: VTU or VTI, PNG slice) and the report shows a case's "

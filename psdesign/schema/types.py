@@ -1,7 +1,8 @@
 """The one number validator and the shared field types of the schema.
 
 Every number of every table goes through :func:`number` (finite, not a bool, optional bounds)
-or :func:`integer` (a true integer, not a bool, optional bounds); the bounds are pydantic
+or :func:`integer` (a true integer, not a bool, optional bounds), every true / false key
+through :data:`flag` (a bool, not a string or a number); the bounds are pydantic
 ``annotated_types`` constraints, so the error carries them and
 :mod:`psdesign.schema.errors` turns them into ``(allowed: ...)``.
 """
@@ -16,7 +17,7 @@ import annotated_types as at
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
-__all__ = ["Table", "Vec3", "fail", "integer", "number", "short"]
+__all__ = ["Table", "Vec3", "fail", "flag", "integer", "number", "short"]
 
 
 def short(value: Any, limit: int = 60) -> str:
@@ -67,6 +68,20 @@ def _int(value: Any) -> int:
             "int_type", "must be an integer, got {got}", {"got": short(value)}
         )
     return int(value)
+
+
+def _flag(value: Any) -> bool:
+    # only TOML's true / false (and NumPy's bools from a notebook): pydantic's lax bool took
+    # "no", "off", 0 and 1, so a typo'd string silently became a setting
+    if not _is_bool(value):
+        raise PydanticCustomError(
+            "bool_type", "must be true or false, got {got}", {"got": short(value)}
+        )
+    return bool(value)
+
+
+#: A true / false key (strings and numbers refused, like bools are refused as numbers).
+flag = Annotated[bool, BeforeValidator(_flag)]
 
 
 def number(

@@ -140,6 +140,21 @@ def test_bad_value_names_the_key(path, value, key):
     assert "allowed" in err.message
 
 
+@pytest.mark.parametrize("path", ["flow.error_estimate", "intersections.exceed_bounds"])
+@pytest.mark.parametrize("value", ["no", "false", "off", "yes", 0, 1, 0.0])
+def test_true_false_keys_take_only_booleans(path, value):
+    """docs/spec-keys.md documents these keys as ``true | false``.  Pydantic's lax bool took
+    "no", "off", 0 and 1 (an audit in session 31 ran ``error_estimate = "no"`` without an
+    error), so a typo'd or quoted value silently chose a setting; numbers already refuse bools."""
+    err = spec_err(with_(SPEC, path, value))
+    assert err.key == path
+    assert "must be true or false" in err.message and "allowed" in err.message
+    for ok in (True, False):
+        got = validate_spec(with_(SPEC, path, ok))
+        table, key = path.split(".")
+        assert got[table][key] is ok
+
+
 def test_unknown_keys_suggest_the_closest():
     assert "did you mean 'viscosity'" in spec_err(with_(SPEC, "flow.viscosty", 1.0)).message
     assert "did you mean 'fibers'" in spec_err({**SPEC, "fibres": []}).message
@@ -301,6 +316,8 @@ def test_deep_nesting_in_a_valid_toml_is_one_line():
         ("study.timeout_s", "x", "study.timeout_s"),
         ("study.outputs", ["k_q"], "study.outputs"),
         ("study.workers", 3, "study.workers"),
+        ("study.fields", "off", "study.fields"),  # true | false only (session 31 audit)
+        ("study.fields", 1, "study.fields"),
         ("parameters.generator\\.porosity", {"low": 0.6, "high": 0.9, "levels": 1e9}, "levels"),
         ("parameters.generator\\.porosity", {"low": 0.6, "high": 0.9, "levels": 10**9}, "levels"),
         ("parameters.generator\\.layers", [1, 2], "generator.layers"),
