@@ -8,6 +8,7 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.cli.progress import warning
     from psdesign.io.newfile import check_new_file, write_new_file
     from psdesign.transport.load import load_case
     from psdesign.transport.study_outputs import pore_report
@@ -21,6 +22,8 @@ def _cmd(args: argparse.Namespace) -> int:
         from psdesign.report.transport import pore_figure
 
         out["plot"] = str(write_new_file(plot, "--plot", lambda tmp: pore_figure(out, tmp)))
+    for w in out["warnings"]:
+        warning(w)
     if args.json:
         print(json.dumps(out, default=float))
     else:
@@ -28,12 +31,13 @@ def _cmd(args: argparse.Namespace) -> int:
             f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
             f"d90 {out['pore_d90_m']:.3e} m  (step {out['bin_width_m']:.1e} m, rel. error "
             f"{out['rel_error']:.1e})  breakthrough diameter "
-            f"{out['breakthrough_diameter_m']:.3e} m"
+            f"{out['breakthrough_diameter_m']:.3e} m  [{out['pore_sizes_status']}]"
             + ("" if out.get("converged", True) else "  (NOT CONVERGED)")
         )
         print(
             f"specific surface {out['specific_surface_m-1']:.4e} 1/m  rel. error "
-            f"{out['specific_surface_rel_error']:.1e}  porosity {out['porosity']:.4f}"
+            f"{out['specific_surface_rel_error']:.1e}  porosity {out['porosity']:.4f}  "
+            f"[{out['specific_surface_status']}]"
         )
     return 0
 

@@ -375,12 +375,13 @@ def resolution_warnings(
     cpd: float | None, solver: str, direction: str, quantity: str = "K"
 ) -> list[str]:
     """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
-    line, ``K`` or a transport property's)."""
+    line, ``K`` or a transport property's; ``direction`` "" for a value without one)."""
     if not under_resolved(cpd):
         return []
     unit = "voxels" if solver == "voxel" else "mesh cells"
+    name = f"{quantity}_{direction}" if direction else quantity
     return [
-        f"{quantity}_{direction}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
+        f"{name}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
         f"(< {MIN_CELLS_PER_DIAMETER:g}); refine rve.voxel"
         + ("" if solver == "voxel" else " / flow.lattice_step")
     ]

@@ -82,7 +82,7 @@ def rating(
     cells_per_diameter: float | None,
 ) -> tuple[str, list[str]]:
     """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
-    ``direction`` (module docstring).
+    ``direction`` ("" for a value without one, e.g. the pore sizes; module docstring).
 
     >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
     'untrustworthy'
@@ -91,7 +91,7 @@ def rating(
     """
     if blocked:
         return "blocked", []
-    name = f"{quantity}_{direction}"
+    name = f"{quantity}_{direction}" if direction else quantity
     warnings = err.resolution_warnings(cells_per_diameter, "voxel", direction, quantity)
     if not converged:
         warnings.append(f"{name}: solver did not converge")

@@ -82,7 +82,33 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)
+    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0])))
     return out
+
+
+def _pore_rating(out: dict, rve: RVE | None, h: float) -> dict:
+    """``status`` (the worse of the two below) and ``warnings`` of a pore report, as a
+    transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
+    their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
+    also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
+    bars alone)."""
+    from psdesign.flow import error as err
+    from psdesign.transport.effective import rating, worst_status
+
+    cpd = None if rve is None else err.cells_per_diameter(rve, h)
+    # the resolution line once for both values, then each one's own error-bar line
+    warnings = err.resolution_warnings(cpd, "voxel", "", "pore sizes and S_v")
+    converged = bool(out.get("converged", True))
+    warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
+    warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
+    sizes = err.status_of(converged, out["rel_error"], cpd)
+    surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
+    return {
+        "pore_sizes_status": sizes,
+        "specific_surface_status": surface,
+        "status": worst_status([sizes, surface]),
+        "warnings": warnings,
+    }
 
 
 def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: dict) -> dict:

@@ -147,6 +147,34 @@ def test_under_resolved_transport_values_are_untrustworthy(tmp_path, capsys):
     assert (out["status"], out["warnings"]) == ("ok", []) and out["rel_error"] < 0.2
 
 
+def test_pores_carry_a_status_and_warnings(tmp_path, capsys):
+    """docs/transport.md: every value carries ``[status]``, each reason a line in ``warnings``
+    and on stderr. The session-31 audit found ``pores`` printing neither (a 5-voxel fiber and a
+    26 % bar, rc 0, no word). The cylinder at 2 um voxels: 4 voxels across its 8 um diameter,
+    so both the pore sizes and S_v are untrustworthy; at 1 um (8 across) they are rated by their
+    bars alone."""
+    coarse = tmp_path / "coarse.toml"
+    coarse.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
+    assert main(["pores", str(coarse), "--json"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["status"] == out["pore_sizes_status"] == "untrustworthy"
+    assert out["specific_surface_status"] == "untrustworthy"
+    line = "pore sizes and S_v: only 4.0 voxels across the thinnest fiber diameter (< 8); "
+    assert out["warnings"][0].startswith(line) and f"psdesign: warning: {line}" in cap.err
+    assert main(["pores", str(coarse)]) == 0
+    assert capsys.readouterr().out.count("[untrustworthy]") == 2
+    fine = tmp_path / "fine.toml"
+    fine.write_text(SPEC)
+    assert main(["pores", str(fine), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    bars = {"pore_sizes_status": out["rel_error"], "specific_surface_status": None}
+    bars["specific_surface_status"] = out["specific_surface_rel_error"]
+    for key, bar in bars.items():
+        assert out[key] == ("ok" if bar <= 0.2 else "untrustworthy")
+    assert not any("voxels across" in w for w in out["warnings"])
+
+
 def test_rating_flags_a_large_bar_and_no_convergence():
     from psdesign.transport.effective import rating
 
