@@ -8,7 +8,14 @@ import json
 from psdesign.cli import progress
 from psdesign.cli.progress import add_force_argument
 
-FORCEFIELD_FILES = ("rve.json", "history.csv", "before.png", "after.png")
+FORCEFIELD_FILES = (
+    "rve.json",
+    "history.csv",
+    "before.png",
+    "after.png",
+    "summary.json",
+    "summary_timings.json",
+)
 
 
 def _cmd_forcefield(args: argparse.Namespace) -> int:

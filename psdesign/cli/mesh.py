@@ -17,8 +17,9 @@ MESH_FORMATS = tuple(WRITERS)  # the export registry
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.flow.fem_field import fem_field, spec_grid_step
     from psdesign.image.fields import mesh_overrides
-    from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.atomic import staged_directory
     from psdesign.io.outputs import check_output_dir
+    from psdesign.io.timings import write_record
     from psdesign.meshing.exports.meshjson import mesh_summary
     from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
@@ -31,7 +32,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         if fmt not in WRITERS:
             raise SpecError("--format", f"unknown format {fmt!r}; allowed: {', '.join(WRITERS)}")
     target = check_output_dir(
-        args.output, force=args.force, command="mesh", expected=("mesh.json",)
+        args.output, force=args.force, command="mesh", expected=("mesh.json", "mesh_timings.json")
     )
     t0 = time.perf_counter()
     built = build_rve(spec)
@@ -68,7 +69,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         }
         summary = mesh_summary(pm)  # the tag tables: names -> ids, facets and areas per tag
         info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
-        write_json(tmp / "mesh.json", info)
+        write_record(tmp, "mesh.json", info)  # the wall time beside it
     print(
         json.dumps(
             {k: info[k] for k in ("direction", "porosity", "wall_time_s")}

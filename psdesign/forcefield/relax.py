@@ -358,6 +358,7 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     ``max_iter``, ``max_evals``, ``min_step``.
     """
     from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.timings import write_record
     from psdesign.packing.build import build_rve, rve_document
     from psdesign.packing.fiberset import FiberState as FS
 
@@ -418,9 +419,9 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "surface_term": "bending area",
     }
     with staged_directory(out_dir) as tmp:
-        write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": summary})
+        kept = write_record(tmp, "summary.json", summary)  # the wall time beside it
+        write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(relaxed_spec_toml(spec, others, res.state, period))
-        write_json(tmp / "summary.json", summary)
     return summary
 
 
@@ -435,6 +436,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     """
     from psdesign.forcefield.contact import field_summary, relax_rve_fields, relaxed_fibers_toml
     from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.timings import write_record
     from psdesign.packing.build import rve_document
 
     period = float(rve.period)
@@ -451,9 +453,9 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     summary = field_summary(res, period, kw, h_m)
     text = relaxed_fibers_toml(spec, relaxed.fibers, period)  # before writing: may refuse
     with staged_directory(out_dir) as tmp:
-        write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": summary})
+        kept = write_record(tmp, "summary.json", summary)  # the wall time beside it
+        write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(text)
-        write_json(tmp / "summary.json", summary)
     return summary
 
 

@@ -1,0 +1,61 @@
+"""Wall times apart from the results: a record file and its ``<stem>_timings.json``.
+
+The product's rule is that the same spec and seed give identical output files.  Wall times are
+the one thing a rerun changes, so a record (``summary.json`` of ``generate`` and
+``forcefield``, ``mesh.json``) is written without them and its timings go to a file beside it
+(``summary_timings.json``, ``mesh_timings.json``): two runs' folders then differ only there (and
+in the hidden ``.psdesign-output.json`` marker).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+
+def is_timing(key: str) -> bool:
+    """A wall-time key: ``wall_time_s`` or any ``*_time_s``.
+
+    >>> is_timing("wall_time_s"), is_timing("placement_time_s"), is_timing("time_limit_s")
+    (True, True, False)
+    """
+    return key.endswith("_time_s")
+
+
+def split_timings(record: dict) -> tuple[dict, dict]:
+    """``(record without its wall-time keys, those keys)``, nested dicts alike (a dict left
+    empty of timings is dropped from the second).
+
+    >>> split_timings({"porosity": 0.8, "wall_time_s": 1.2, "ga": {"n": 3, "placement_time_s": 4}})
+    ({'porosity': 0.8, 'ga': {'n': 3}}, {'wall_time_s': 1.2, 'ga': {'placement_time_s': 4}})
+    """
+    kept: dict[str, Any] = {}
+    times: dict[str, Any] = {}
+    for key, value in record.items():
+        if is_timing(str(key)):
+            times[key] = value
+        elif isinstance(value, dict):
+            kept[key], inner = split_timings(value)
+            if inner:
+                times[key] = inner
+        else:
+            kept[key] = value
+    return kept, times
+
+
+def timings_name(name: str) -> str:
+    """The timings file of record file ``name``: ``summary.json`` -> ``summary_timings.json``."""
+    path = Path(name)
+    return f"{path.stem}_timings{path.suffix}"
+
+
+def write_record(folder: Path, name: str, record: dict) -> dict:
+    """Write ``record`` to ``folder / name`` without its wall times and those to
+    :func:`timings_name` beside it (atomically, :func:`psdesign.io.atomic.write_json`);
+    returns the record as written."""
+    from psdesign.io.atomic import write_json
+
+    kept, times = split_timings(record)
+    write_json(folder / name, kept)
+    write_json(folder / timings_name(name), times)
+    return kept
