@@ -226,10 +226,16 @@ def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict])
 
 
 def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
-    """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``."""
-    from psdesign.study.store import atomic_write_json
+    """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``.
+
+    A ``surrogate.json`` that psdesign did not write (the folder's marker does not list it) is
+    never replaced: :class:`psdesign.io.outputs.OutputError` (a ``ValueError``) before the fit.
+    """
+    from psdesign.io.outputs import claim_output_dir
+    from psdesign.study.store import atomic_write_json, check_study_files
 
     out = Path(out_dir)
+    check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
     df = pd.read_csv(out / "results.csv")
     params = numeric_parameters(df, list(spec))
@@ -248,6 +254,7 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
         if name not in df.columns:
             raise ValueError(f"--outputs: {name!r} is not a column of results.csv")
         models[name] = fit_surrogate(df, name, params, bounds)
+    claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}
     )

@@ -209,12 +209,13 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     import pandas as pd
 
+    from psdesign.io.outputs import OutputError
     from psdesign.report import ReportError, write_report
     from psdesign.study.store import StorageError
 
     try:
         path = write_report(args.out)
-    except ReportError as exc:
+    except (ReportError, OutputError) as exc:
         return _fail(str(exc), 2)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         msg = " ".join(str(exc).split())

@@ -35,6 +35,7 @@ __all__ = [
     "TEMP_PREFIX",
     "OutputDir",
     "OutputError",
+    "check_added_files",
     "check_output_dir",
     "claim_output_dir",
     "is_psdesign_temp",
@@ -249,10 +250,56 @@ def _refuse_foreign(out: OutputDir, rel: str) -> None:
                 f"{p} is in the way and was not written by psdesign; nothing was changed"
             )
         if last and not out.owns(sub) and not (p.is_dir() and out.owns(sub + "/")):
+            even = ", even with --force" if out.option[:1] == "-" else ""
             raise out.fail(
-                f"{p} exists and was not written by psdesign; it is never replaced, even with "
-                "--force; move it away or choose another folder"
+                f"{p} exists and was not written by psdesign; it is never replaced{even}; "
+                "move it away or choose another folder"
             )
+
+
+def check_added_files(
+    folder: str | Path,
+    files: Iterable[str],
+    *,
+    command: str,
+    option: str = "out_dir",
+    legacy: Iterable[str] = (),
+    legacy_files: Iterable[str] = (),
+) -> OutputDir:
+    """Check that psdesign may add ``files`` to ``folder``, an existing folder given as input
+    (a study folder for ``study fit`` / ``study report``); nothing is created or changed.
+
+    The folder is the user's choice, so it need not be psdesign's (as with ``--force``), but a
+    file among ``files`` that exists and was not written by psdesign (the marker does not list
+    it) is refused, as by :func:`check_output_dir`.  Record the files with
+    :func:`claim_output_dir` just before writing them, so that the next run may replace them.
+    The marker keeps the command that made the folder (``study run``), else ``command``.
+
+    Parameters
+    ----------
+    legacy : iterable of str
+        As for :func:`check_output_dir`: names that identify a folder of an older psdesign
+        without a marker, which then owns ``files``.
+    legacy_files : iterable of str
+        The other files such a folder owns; they are recorded with ``files`` when the marker
+        is first written, so that the folder stays the older command's (a study resumes).
+
+    Raises
+    ------
+    OutputError
+        One line naming the file and the rule.
+    """
+    files = tuple(files)
+    out = check_output_dir(
+        folder, force=True, option=option, command=command, expected=files, legacy=legacy
+    )
+    marker = read_marker(out.path) if out.exists else None
+    owned = out.owned
+    if marker is None and owned:  # an older psdesign's folder
+        owned = owned | set(legacy_files)
+    if marker and marker.get("command"):
+        command = str(marker["command"])
+    return OutputDir(out.path, out.option, command, frozenset(owned), out.exists)
 
 
 def _write_marker(folder: Path, command: str, files: Iterable[str]) -> None:

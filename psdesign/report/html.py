@@ -578,11 +578,16 @@ def write_report(out_dir: str | Path) -> Path:
     ------
     ReportError
         If the folder holds no ``results.csv``.
+    psdesign.io.outputs.OutputError
+        If ``report.html`` exists and psdesign did not write it (it is never replaced).
     """
-    from psdesign.study.store import atomic_write_bytes
+    from psdesign.io.outputs import claim_output_dir
+    from psdesign.study.store import atomic_write_bytes, check_study_files
 
     out = Path(out_dir)
+    check_study_files(out, ["report.html"], "study report")
     text = build_html(out)
+    claim_output_dir(check_study_files(out, ["report.html"], "study report"), ["report.html"])
     path = out / "report.html"
     atomic_write_bytes(path, text.encode("utf-8"))
     return path

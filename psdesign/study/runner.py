@@ -31,15 +31,13 @@ from psdesign.study.design import Case, expand_design
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
 from psdesign.study.stages import StageWatcher
-from psdesign.study.store import CaseStore, StorageError
+from psdesign.study.store import STUDY_FILES, STUDY_LEGACY, CaseStore, StorageError
 from psdesign.study.studyfile import Study, StudyError, load_study
 from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
 
 __all__ = ["SchedulerError", "run_study"]
 
 CONNECT_TIMEOUT_S = 10.0
-#: What ``study run`` writes in its output folder (a trailing ``/``: a whole sub-folder).
-STUDY_FILES = ("study.json", "results.csv", "results.parquet", "run.json", "report.html", "cases/")
 _MAX_POOL_BREAKS = 2
 
 
@@ -622,7 +620,7 @@ def run_study(
         force=force,
         command="study run",
         expected=STUDY_FILES,
-        legacy=("study.json", "cases"),
+        legacy=STUDY_LEGACY,
     )
     out = target.path
     store = CaseStore(out)

@@ -8,6 +8,7 @@ Layout of an output folder ``OUT``::
     OUT/results.csv           consolidated table, one row per finished case, design order
     OUT/results.parquet       the same table in Parquet
     OUT/summary.csv           one row per design point: mean, std, 95 % CI, n of trusted outputs
+    OUT/summary.parquet       the same table in Parquet
     OUT/run.json              run history (start/end, workers, scheduler, machine)
 
 Per-case records are the source of truth; the tables are rebuilt from them.  Every file is
@@ -28,17 +29,49 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from psdesign.io.outputs import TEMP_PREFIX, is_psdesign_temp
+from psdesign.io.outputs import TEMP_PREFIX, OutputDir, check_added_files, is_psdesign_temp
 
 __all__ = [
+    "STUDY_FILES",
+    "STUDY_LEGACY",
     "CaseStore",
     "StorageError",
     "TIMING_COLUMNS",
     "atomic_write_bytes",
     "atomic_write_json",
+    "check_study_files",
     "is_timing_column",
     "records_to_frame",
 ]
+
+#: What ``study run`` writes in its output folder (a trailing ``/``: a whole sub-folder); checked
+#: before the run, then listed in the marker.
+STUDY_FILES = (
+    "study.json",
+    "results.csv",
+    "results.parquet",
+    "summary.csv",
+    "summary.parquet",
+    "run.json",
+    "report.html",
+    "cases/",
+)
+#: A study folder written by an older psdesign, before the marker: all of these exist.
+STUDY_LEGACY = ("study.json", "cases")
+
+
+def check_study_files(out_dir: str | Path, files: Iterable[str], command: str) -> OutputDir:
+    """Check that a command may add ``files`` to the study folder ``out_dir`` (``study fit``:
+    ``surrogate.json``, ``study report``: ``report.html``); nothing is changed.
+
+    A file psdesign did not write is never replaced
+    (:func:`psdesign.io.outputs.check_added_files`, :class:`~psdesign.io.outputs.OutputError`);
+    record the files with :func:`psdesign.io.outputs.claim_output_dir` just before writing.
+    """
+    return check_added_files(
+        out_dir, files, command=command, legacy=STUDY_LEGACY, legacy_files=STUDY_FILES
+    )
+
 
 #: Columns that vary from run to run (excluded when comparing tables for reproducibility).
 TIMING_COLUMNS = ("started_at", "finished_at", "host", "pid", "wall_time_s", "runner_overhead_s")

@@ -162,6 +162,60 @@ def _lhs_study(tmp_path, n: int):
     return out
 
 
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: "), err
+    return err[0]
+
+
+def test_fit_and_report_never_replace_a_users_file(tmp_path, capsys) -> None:
+    """audit (session 31): ``study fit`` replaced a user's ``surrogate.json`` in a finished study
+    folder and did not list its own in the marker. Rule: a file the marker does not list is
+    refused (exit 2, one line, left intact); psdesign's own is replaced by the next fit. The
+    same for ``study report`` and ``report.html``."""
+    out = _lhs_study(tmp_path, 6)
+    marker = out / ".psdesign-output.json"
+    mine = "my surrogate notes\n"
+    (out / "surrogate.json").write_text(mine)
+    assert main(["study", "fit", str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert "surrogate.json exists and was not written by psdesign" in line
+    assert (out / "surrogate.json").read_text() == mine
+    assert "surrogate.json" not in json.loads(marker.read_text())["files"]
+    (out / "surrogate.json").unlink()
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    assert set(json.loads(capsys.readouterr().out)) == {"porosity", "k_z_m2"}
+    assert "surrogate.json" in json.loads(marker.read_text())["files"]
+    assert json.loads(marker.read_text())["command"] == "study run"
+    # psdesign's own surrogate.json: a second fit replaces it
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0
+    capsys.readouterr()
+    assert list(load_study_surrogates(out)) == ["k_z_m2"]
+    # a user's report.html beside a study table the user copied (not a psdesign folder)
+    mine_dir = tmp_path / "mine"
+    mine_dir.mkdir()
+    for name in ("results.csv", "study.json"):
+        (mine_dir / name).write_bytes((out / name).read_bytes())
+    (mine_dir / "report.html").write_text("my report")
+    assert main(["study", "report", str(mine_dir)]) == 2
+    assert "report.html exists and was not written by psdesign" in _one_error_line(capsys)
+    assert (mine_dir / "report.html").read_text() == "my report"
+    assert sorted(f.name for f in mine_dir.iterdir()) == [
+        "report.html",
+        "results.csv",
+        "study.json",
+    ]
+    # a study folder of an older psdesign (no marker) stays the study's after fit and report
+    marker.unlink()
+    assert main(["study", "fit", str(out)]) == 0
+    assert main(["study", "report", str(out)]) == 0
+    assert {"report.html", "surrogate.json", "results.csv"} <= set(
+        json.loads(marker.read_text())["files"]
+    )
+    df = run_study(tmp_path / "s.toml", out, workers=0, case_fn=fake_case, progress=False)
+    assert len(df) == 6
+
+
 def test_predict_names_a_bad_point(tmp_path, capsys) -> None:
     out = _lhs_study(tmp_path, 6)
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 2

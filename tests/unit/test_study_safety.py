@@ -116,6 +116,29 @@ def test_study_output_folder_rules(tmp_path):
     assert len(again) == 12
 
 
+@pytest.mark.parametrize("name", ["summary.csv", "summary.parquet"])
+def test_user_summary_is_refused_even_with_force(tmp_path, name):
+    """audit (session 31): ``study run -o user --force`` replaced a user's ``summary.csv`` /
+    ``summary.parquet`` with the study's table, and the marker did not list them. Rule: refused
+    before the run (one line), the folder left byte-identical; psdesign's own are recorded."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    user = tmp_path / "user"
+    user.mkdir()
+    mine = b"my own summary\n\x00\xff"
+    (user / name).write_bytes(mine)
+    with pytest.raises(OutputError, match=f"{name} exists and was not written by psdesign"):
+        run_study(p, user, workers=0, case_fn=fake_case, progress=False, force=True)
+    assert [x.name for x in user.iterdir()] == [name] and (user / name).read_bytes() == mine
+    # psdesign's own summary files are listed in the marker: a rerun replaces them
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    files = json.loads((out / ".psdesign-output.json").read_text())["files"]
+    assert {"summary.csv", "summary.parquet"} <= set(files)
+    (out / "summary.csv").write_text("stale")
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(pd.read_csv(out / "summary.csv")) == 6
+
+
 # ----------------------------------------------------------------------------- no pickle
 
 
