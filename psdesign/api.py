@@ -256,11 +256,11 @@ class Material:
         return pore_report(self.rve, self.fields, table)
 
     def __repr__(self) -> str:
-        size = "x".join(f"{s * 1e6:g}" for s in self.rve.size)
+        size = " x ".join(f"{s:g}" for s in self.rve.size)  # metres: SI, as every output
         if "image" in self.spec:
             name = Path(self.spec["image"]["path"]).name
-            return f"Material({size} um, image {name}, voxel {self.spec['rve']['voxel']:.4g} m)"
-        return f"Material({size} um, {len(self.rve.fibers)} fibers)"
+            return f"Material({size} m, image {name}, voxel {self.spec['rve']['voxel']:.4g} m)"
+        return f"Material({size} m, {len(self.rve.fibers)} fibers)"
 
 
 def build(spec: dict | str | Path) -> Material:

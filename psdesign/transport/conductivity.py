@@ -22,7 +22,7 @@ from psdesign.schema.transport import check_conductivity, validate_transport
 from psdesign.transport.effective import Rated, solve_effective
 
 
-@dataclass
+@dataclass(repr=False)  # Rated.__repr__: the fields and the status
 class ConductivityResult(Rated):
     """Effective conductivity along one axis (units of the phase conductivities)."""
 

@@ -34,7 +34,7 @@ from psdesign.schema.transport import validate_transport
 from psdesign.transport.effective import Effective, Rated, solve_effective, worst_status
 
 
-@dataclass
+@dataclass(repr=False)  # Rated.__repr__: the fields and the status
 class DiffusivityResult(Rated):
     """Pore diffusion along one axis (SI units; see module docstring)."""
 

@@ -117,6 +117,14 @@ class Rated:
         fiber)."""
         return self._rating()[0]
 
+    def __repr__(self) -> str:
+        """The dataclass's fields and the ``status`` (a property, which the generated repr
+        left out: a notebook's plain output showed the error bar but not the rating)."""
+        from dataclasses import fields
+
+        shown = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.repr]
+        return f"{type(self).__name__}({', '.join(shown)}, status={self.status!r})"
+
     def rating_warnings(self) -> list[str]:
         """One warning line per reason the value is not ``ok`` (:func:`rating`)."""
         return self._rating()[1]

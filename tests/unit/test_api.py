@@ -44,7 +44,7 @@ def test_build_porosity_matches_the_exact_cylinder_area() -> None:
     m = psdesign.build(spec)
     exact = 1.0 - math.pi * 4e-6**2 / 20e-6**2
     assert m.porosity == pytest.approx(exact, abs=2e-3)
-    assert "1 fibers" in repr(m)
+    assert repr(m) == "Material(2e-05 x 2e-05 x 2e-05 m, 1 fibers)"  # SI, as every output
 
 
 def test_build_rejects_a_bad_spec_naming_the_key() -> None:
@@ -140,6 +140,8 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
         **common,
     )
     assert len(repr(dr)) < 700 and "0.5, 0.5" not in repr(dr)
+    # the plain repr carries the rating too (session 31: it showed rel_error, not status)
+    assert repr(dr).endswith("status='not_converged')")
     assert dr.to_dict()["relative_diffusivity_column"] == column
     page = dr._repr_html_()
     assert dr.status == "not_converged" and ">not_converged</span>" in page
@@ -156,6 +158,7 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
         **{**common, "converged": True, "message": "converged"},
     )
     assert len(repr(cr)) < 700 and "0.5, 0.5" not in repr(cr)
+    assert repr(cr).endswith("status='ok')")
     page = cr._repr_html_()
     assert cr.status == "ok" and ">ok</span>" in page and "[5, 14]" in page
 
