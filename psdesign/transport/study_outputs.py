@@ -82,16 +82,16 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)
-    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0])))
+    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0]), fields.solid.shape))
     return out
 
 
-def _pore_rating(out: dict, rve: RVE | None, h: float) -> dict:
+def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -> dict:
     """``status`` (the worse of the two below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
-    bars alone)."""
+    bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge."""
     from psdesign.flow import error as err
     from psdesign.transport.effective import rating, worst_status
 
@@ -103,6 +103,13 @@ def _pore_rating(out: dict, rve: RVE | None, h: float) -> dict:
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
     sizes = err.status_of(converged, out["rel_error"], cpd)
     surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
+    edge = h * min(shape)
+    if out["pore_d90_m"] > edge:  # no RVE for its pores (and the open faces inflate them)
+        warnings.append(
+            f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the RVE's smallest edge "
+            f"{edge:.3e} m (the faces are open: docs/transport.md); use a larger RVE"
+        )
+        sizes = "untrustworthy" if sizes == "ok" else sizes
     return {
         "pore_sizes_status": sizes,
         "specific_surface_status": surface,

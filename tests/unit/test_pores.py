@@ -213,3 +213,21 @@ def test_porosity_profile_across_a_cylinder_array_within_its_bound():
     err = np.array(prof["porosity_error"])
     assert np.all(np.abs(np.array(prof["porosity"]) - truth) <= err + 1e-3)
     assert err.mean() < 0.15 and np.abs(np.array(prof["porosity"]) - truth).max() > 0.005
+
+
+def test_pore_sizes_past_the_box_are_untrustworthy():
+    """A d90 above the RVE's smallest edge is no pore size of the material: the local thickness
+    stops at the box faces (docs/transport.md; the session-31 audit measured d90 = 134 um in
+    the 100 um three-rod cube, rated ok). Otherwise the rating is the error bars'."""
+    from psdesign.transport.study_outputs import _pore_rating
+
+    base = {"rel_error": 0.05, "specific_surface_rel_error": 0.01, "converged": True}
+    inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, (100, 120, 100))
+    assert (inside["status"], inside["warnings"]) == ("ok", [])
+    past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, (100, 120, 100))
+    assert past["pore_sizes_status"] == past["status"] == "untrustworthy"
+    assert past["specific_surface_status"] == "ok"
+    assert past["warnings"] == [
+        "pore sizes: d90 1.010e-04 m exceeds the RVE's smallest edge 1.000e-04 m (the faces "
+        "are open: docs/transport.md); use a larger RVE"
+    ]
