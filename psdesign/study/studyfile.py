@@ -214,9 +214,9 @@ def check_spec_path(base: dict, path: str, key: str) -> None:
     same = sorted(k for k in KNOWN_SPEC_KEYS if k.split(".")[0] == table and k.count(".") == 1)
     allowed = same or sorted(k for k in KNOWN_SPEC_KEYS if "." not in k)
     hint = did_you_mean(path, same or KNOWN_SPEC_KEYS)
-    raise _err(
+    raise _err(  # the hint ends the sentence: "...; did you mean 'x'?" (not "?:")
         key,
-        f"unknown parameter path {path!r}{hint}: not in the base spec and not a spec key "
+        f"unknown parameter path {path!r}: not in the base spec and not a spec key{hint} "
         f"(allowed: {', '.join(allowed)}, their sub-keys, or paths in the base spec)",
     )
 
