@@ -159,6 +159,7 @@ def check_output_dir(
     command: str = "",
     expected: Iterable[str] = (),
     legacy: Iterable[str] = (),
+    force_option: str | None = "--force",
 ) -> OutputDir:
     """Check that psdesign may write into ``path``; nothing is created or changed.
 
@@ -177,6 +178,10 @@ def check_output_dir(
     legacy : iterable of str
         Top-level names that identify an output folder written by an older psdesign without a
         marker (all must be present); such a folder is psdesign's and owns ``expected``.
+    force_option : str or None
+        The command's option that accepts a non-empty folder, named in the refusal of one;
+        None for a command without it (``--fields``, ``rev -o``): the message then names
+        only what the user can do.
 
     Returns
     -------
@@ -227,7 +232,11 @@ def check_output_dir(
             option,
             f"{resolved} is a non-empty folder psdesign did not create ({shown}); "
             "give a new or empty folder"
-            + (", or --force to add psdesign's files beside them" if option[:1] == "-" else ""),
+            + (
+                f", or {force_option} to add psdesign's files beside them"
+                if force_option and option[:1] == "-"
+                else ""
+            ),
         )
     out = OutputDir(resolved, option, command, frozenset(owned), True)
     for rel in expected:

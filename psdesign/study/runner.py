@@ -530,6 +530,19 @@ def validate_case_specs(cases: list[Case]) -> None:
             ) from exc
 
 
+def check_study_dir(out_dir: str | Path, force: bool = False, force_option: str | None = "--force"):
+    """:func:`psdesign.io.outputs.check_output_dir` for a study's output folder (``-o``);
+    ``force_option`` None for a command without ``--force`` (``rev``)."""
+    return check_output_dir(
+        out_dir,
+        force=force,
+        command="study run",
+        expected=STUDY_FILES,
+        legacy=("study.json", "cases"),
+        force_option=force_option,
+    )
+
+
 def run_study(
     study: str | Path | Study,
     out_dir: str | Path,
@@ -617,13 +630,7 @@ def run_study(
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
         validate_case_specs(cases)
-    target = check_output_dir(
-        out_dir,
-        force=force,
-        command="study run",
-        expected=STUDY_FILES,
-        legacy=("study.json", "cases"),
-    )
+    target = check_study_dir(out_dir, force=force)
     out = target.path
     store = CaseStore(out)
     param_names = list(study.parameters)
