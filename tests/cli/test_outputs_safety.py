@@ -5,6 +5,7 @@ any work starts."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -357,3 +358,28 @@ def test_force_hint_only_for_commands_that_have_force(tmp_path, spec, capsys):
         assert "non-empty folder psdesign did not create" in lines[0], (cmd, err)
         assert "give a new or empty folder" in lines[0] and "--force" not in lines[0], (cmd, err)
     assert sorted(p.name for p in user.iterdir()) == ["mine.txt"]
+
+
+def test_staging_folder_of_a_killed_run_is_removed_by_the_next_run(tmp_path, spec):
+    """SIGKILL (or a power cut) gives no chance to clean up: the next run for the same output
+    removes the staging folder a dead process of this machine left, and nothing else (a live
+    process's, another output's, another machine's, or an old one without a process id)."""
+    from psdesign.io.outputs import _host_tag
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    host = _host_tag()
+    names = {
+        "orphan": f".psdesign-out.{host}-{dead.pid}.abcd_123.tmp",
+        "live": f".psdesign-out.{host}-{os.getpid()}.efgh4567.tmp",
+        "other output": f".psdesign-out2.{host}-{dead.pid}.abcd1234.tmp",
+        "other host": f".psdesign-out.{'0' * 8 if host != '0' * 8 else '1' * 8}-{dead.pid}.x.tmp",
+        "no pid": ".psdesign-out.abcd1234.tmp",
+    }
+    for n in names.values():
+        (tmp_path / n).mkdir()
+        (tmp_path / n / "field.vti").write_text("partial")
+    assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview"]) == 0
+    left = {p.name for p in tmp_path.iterdir() if p.name.startswith(".psdesign-")}
+    assert left == set(names.values()) - {names["orphan"]}
+    assert (tmp_path / "out" / "rve.json").exists()
