@@ -50,8 +50,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = show_warning_one_line  # one line per warning
+    from psdesign.study.interrupt import terminate_as_interrupt
+
     try:
-        with activate(quiet=bool(getattr(args, "quiet", False))):  # progress on stderr
+        # SIGTERM (kill, timeout, a batch system's cancel) leaves as Ctrl-C does: staged
+        # outputs removed, one line, exit 143
+        with terminate_as_interrupt(), activate(quiet=bool(getattr(args, "quiet", False))):
             return int(args.func(args) or 0)
     except SpecError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
@@ -76,7 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"psdesign: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM during a study run (Terminated)
+    except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM (Terminated)
         from psdesign.study.interrupt import Terminated
 
         term = isinstance(exc, Terminated)

@@ -9,7 +9,9 @@ import sys
 
 def _cmd_rev(args: argparse.Namespace) -> int:
     from psdesign.analysis.rev import RevFailed, rev_study
+    from psdesign.study.runner import check_study_dir
 
+    check_study_dir(args.out, force_option=None)  # rev has no --force: the refusal names none
     try:
         res = rev_study(
             args.spec,

@@ -204,7 +204,9 @@ def fields_output(
     place when the block succeeds (nothing is written if it fails)."""
     from psdesign.io.outputs import check_output_dir, remove_owned_files, staged_output
 
-    out = check_output_dir(path, option=option, command=command, expected=expected)
+    out = check_output_dir(  # no --force for a fields folder
+        path, option=option, command=command, expected=expected, force_option=None
+    )
     before = indexed_files(out.path / "fields.json") if out.exists else set()
     with staged_output(out) as tmp:
         writer = FieldWriter(tmp)

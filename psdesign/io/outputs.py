@@ -20,9 +20,12 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import hashlib
 import json
 import os
+import re
 import shutil
+import socket
 import tempfile
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -160,6 +163,7 @@ def check_output_dir(
     command: str = "",
     expected: Iterable[str] = (),
     legacy: Iterable[str] = (),
+    force_option: str | None = "--force",
 ) -> OutputDir:
     """Check that psdesign may write into ``path``; nothing is created or changed.
 
@@ -178,6 +182,10 @@ def check_output_dir(
     legacy : iterable of str
         Top-level names that identify an output folder written by an older psdesign without a
         marker (all must be present); such a folder is psdesign's and owns ``expected``.
+    force_option : str or None
+        The command's option that accepts a non-empty folder, named in the refusal of one;
+        None for a command without it (``--fields``, ``rev -o``): the message then names
+        only what the user can do.
 
     Returns
     -------
@@ -228,7 +236,11 @@ def check_output_dir(
             option,
             f"{resolved} is a non-empty folder psdesign did not create ({shown}); "
             "give a new or empty folder"
-            + (", or --force to add psdesign's files beside them" if option[:1] == "-" else ""),
+            + (
+                f", or {force_option} to add psdesign's files beside them"
+                if force_option and option[:1] == "-"
+                else ""
+            ),
         )
     out = OutputDir(resolved, option, command, frozenset(owned), True)
     for rel in expected:
@@ -366,6 +378,53 @@ def _files_under(root: Path) -> list[str]:
     return sorted(rels)
 
 
+def _host_tag() -> str:
+    """8 hex digits naming this machine in staging-folder names (folders may be shared)."""
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+def _staging_prefix(name: str) -> str:
+    """``.psdesign-NAME.HOST-PID.``: whose staging folder it is, so that a later run can remove
+    it once that process is gone (killed with SIGKILL, power cut); a very long NAME keeps the
+    older ``.psdesign-NAME.`` (never removed by a later run) to stay within the name limit."""
+    if len(name) > 200:
+        return f"{TEMP_PREFIX}{name}."
+    return f"{TEMP_PREFIX}{name}.{_host_tag()}-{os.getpid()}."
+
+
+def _pid_gone(pid: int) -> bool:
+    if pid <= 0 or pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # another user's process (EPERM): alive
+        return False
+    return False
+
+
+def _remove_orphaned_staging(parent: Path, name: str) -> list[Path]:
+    """Remove the staging folders for output ``name`` in ``parent`` that a process of this
+    machine left when it was killed without a chance to clean up; returns them.
+
+    Only folders named exactly as :func:`staged_output` names them for ``name``, by this host,
+    whose process no longer exists; a live process's folder (or one from another machine, or
+    without a process id) is left alone.
+    """
+    pattern = re.compile(
+        re.escape(f"{TEMP_PREFIX}{name}.{_host_tag()}-") + r"([0-9]{1,10})\.[a-z0-9_]+\.tmp"
+    )
+    removed = []
+    with contextlib.suppress(OSError):
+        for p in parent.iterdir():
+            m = pattern.fullmatch(p.name)
+            if m and not p.is_symlink() and p.is_dir() and _pid_gone(int(m.group(1))):
+                shutil.rmtree(p, ignore_errors=True)
+                removed.append(p)
+    return removed
+
+
 @contextlib.contextmanager
 def staged_output(out: OutputDir) -> Iterator[Path]:
     """Yield a temporary folder; on success move its files into ``out.path``.
@@ -373,14 +432,17 @@ def staged_output(out: OutputDir) -> Iterator[Path]:
     A new folder appears with all its files at once.  Into an existing folder the files are
     moved one by one after checking that none of them would replace a file psdesign did not
     write (if one would, nothing is moved and :class:`OutputError` is raised).  On any
-    exception the temporary folder is removed and ``out.path`` is left as it was.
+    exception the temporary folder is removed and ``out.path`` is left as it was.  A staging
+    folder for the same output that a killed process (SIGKILL) of this machine left behind is
+    removed first (:func:`_remove_orphaned_staging`).
     """
     parent = out.path.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise out.fail(f"cannot create {parent}: {exc.strerror or exc}") from None
-    tmp = Path(tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{out.path.name}.", suffix=".tmp", dir=parent))
+    _remove_orphaned_staging(parent, out.path.name)
+    tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out.path.name), suffix=".tmp", dir=parent))
     tmp.chmod(0o755)
     try:
         yield tmp

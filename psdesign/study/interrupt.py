@@ -15,12 +15,20 @@ atomically, so the folder is resumable: rerunning the command resumes.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import sys
 import threading
 from collections.abc import Iterator
 
-__all__ = ["GRACE_S", "Terminated", "ignore_sigint", "stop_children", "stop_on_interrupt"]
+__all__ = [
+    "GRACE_S",
+    "Terminated",
+    "ignore_sigint",
+    "stop_children",
+    "stop_on_interrupt",
+    "terminate_as_interrupt",
+]
 
 GRACE_S = 1.5
 """Seconds between SIGTERM and SIGKILL for the runner's child processes."""
@@ -134,3 +142,75 @@ def stop_on_interrupt() -> Iterator[None]:
         if outer:
             signal.signal(signal.SIGINT, previous)
             signal.signal(signal.SIGTERM, previous_term)
+
+
+_TERM: dict = {"pid": None, "hit": False}
+
+
+def _on_sigterm(signum, frame) -> None:  # noqa: ARG001
+    if os.getpid() != _TERM["pid"]:  # a forked child that kept the handler: die as by default
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return
+    if _TERM["hit"]:
+        return  # already stopping: a second SIGTERM must not break the clean-up half-way
+    if _importing(frame):  # an exception inside a C extension's import (VTK) can segfault
+        timer = threading.Timer(0.05, _resend_sigterm)
+        timer.daemon = True
+        timer.start()  # ask again once the import is done
+        return
+    _TERM["hit"] = True
+    raise Terminated
+
+
+def _resend_sigterm() -> None:
+    if signal.getsignal(signal.SIGTERM) is _on_sigterm:  # still ours: not restored meanwhile
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _importing(frame) -> bool:
+    """True if ``frame`` runs inside an ``import`` (the import system's frames are below it)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _reset_sigterm_in_child() -> None:
+    """After ``fork``: a child (a forked worker pool) dies on SIGTERM as by default."""
+    with contextlib.suppress(ValueError, OSError):
+        if signal.getsignal(signal.SIGTERM) is _on_sigterm:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_reset_sigterm_in_child)
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Run the body with SIGTERM raising :class:`Terminated` (a :class:`KeyboardInterrupt`).
+
+    ``kill PID``, ``timeout`` or a batch system's cancel then leaves a command the way Ctrl-C
+    does: ``finally`` blocks run, so a staged output folder (``.psdesign-*.tmp``) is removed
+    and nothing half-written is left.  A SIGTERM that arrives during an ``import`` takes
+    effect when the import is done (an exception half-way through importing VTK crashed the
+    process with SIGSEGV, leaving the staging folder).  Further SIGTERMs while it stops are
+    ignored; forked child processes get the default action back.  Main thread only
+    (elsewhere a no-op); the previous handler is restored on the way out.
+    :func:`stop_on_interrupt` (a study run) installs its own handler inside and restores
+    this one after.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    saved = dict(_TERM)
+    _TERM.update(pid=os.getpid(), hit=False)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+        _TERM.update(saved)

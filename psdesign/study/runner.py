@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from psdesign.io.outputs import check_output_dir, claim_output_dir
+from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.study.casefn import watch_parent
 from psdesign.study.design import Case, expand_design
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
@@ -528,6 +528,21 @@ def validate_case_specs(cases: list[Case]) -> None:
             ) from exc
 
 
+def check_study_dir(
+    out_dir: str | Path, force: bool = False, force_option: str | None = "--force"
+) -> OutputDir:
+    """:func:`psdesign.io.outputs.check_output_dir` for a study's output folder (``-o``);
+    ``force_option`` None for a command without ``--force`` (``rev``)."""
+    return check_output_dir(
+        out_dir,
+        force=force,
+        command="study run",
+        expected=STUDY_FILES,
+        legacy=STUDY_LEGACY,
+        force_option=force_option,
+    )
+
+
 def run_study(
     study: str | Path | Study,
     out_dir: str | Path,
@@ -615,13 +630,7 @@ def run_study(
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
         validate_case_specs(cases)
-    target = check_output_dir(
-        out_dir,
-        force=force,
-        command="study run",
-        expected=STUDY_FILES,
-        legacy=STUDY_LEGACY,
-    )
+    target = check_study_dir(out_dir, force=force)
     out = target.path
     store = CaseStore(out)
     param_names = list(study.parameters)

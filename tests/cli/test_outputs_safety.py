@@ -5,6 +5,7 @@ any work starts."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -257,3 +258,128 @@ def test_corrupt_marker_is_not_trusted(tmp_path):
     with pytest.raises(OutputError, match="data.csv exists"):
         check_output_dir(out, force=True, expected=["data.csv"])
     assert not t.owns("data.csv")
+
+
+# ----------------------------------------------------------------------------- SIGTERM
+
+#: ``generate`` in a child process that stops inside the staged output (the staging folder
+#: holds rve.json, field.vti, ... and the medial axes are never written) until signalled.
+_HELD_GENERATE = """
+import sys, time
+import psdesign.packing.generators as g
+g.write_medial_axes = lambda *a, **k: time.sleep(120)
+from psdesign.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_removes_the_staging_folder_and_exits_143(tmp_path, spec):
+    """``kill PID`` (``timeout``, a batch system's cancel) during ``generate`` is handled like
+    Ctrl-C: the hidden staging folder ``.psdesign-OUT.*.tmp`` is removed, no output folder
+    appears, one line on stderr, exit 128 + 15.  It used to die at once (143, no message) and
+    leave the staging folder behind for ever."""
+    import signal
+    import time
+
+    out = tmp_path / "kill3"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _HELD_GENERATE, "generate", str(spec), "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        staging: list[Path] = []
+        while not any((s / "rve.json").exists() for s in staging):
+            assert proc.poll() is None, proc.stderr.read().decode()
+            assert time.monotonic() < deadline, "the staging folder did not appear"
+            time.sleep(0.05)
+            staging = list(tmp_path.glob(".psdesign-kill3.*.tmp"))
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    err = err.decode()
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines() == ["psdesign: terminated"], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["spec.toml"]
+
+
+def test_sigterm_handler_is_restored_and_forked_children_keep_the_default(tmp_path):
+    """In-process callers of ``main`` get their SIGTERM handler back; a process forked while
+    the handler is installed (the force field's worker pool) dies on SIGTERM as before."""
+    import os
+    import signal
+
+    from psdesign.study.interrupt import terminate_as_interrupt
+
+    before = signal.getsignal(signal.SIGTERM)
+    with terminate_as_interrupt():
+        assert signal.getsignal(signal.SIGTERM) is not before
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - the child
+            try:
+                ok = signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+            finally:
+                os._exit(0 if ok else 1)
+        _, status = os.waitpid(pid, 0)
+        assert os.waitstatus_to_exitcode(status) == 0
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+# ----------------------------------------------------------------------------- --force hint
+
+
+def test_force_hint_only_for_commands_that_have_force(tmp_path, spec, capsys):
+    """The refusal of a non-empty user folder names ``--force`` only where the command has
+    the option (``generate``); ``permeability``/``diffusivity --fields`` and ``rev -o`` have
+    none (``--force`` there is "unrecognized arguments")."""
+    user = tmp_path / "user4"
+    user.mkdir()
+    (user / "mine.txt").write_text("mine")
+    rc, err = run_cli(["generate", str(spec), "-o", str(user), "--no-preview"], capsys)
+    assert rc == 2 and "or --force to add psdesign's files beside them" in err, err
+    rev_spec = tmp_path / "gen.toml"
+    rev_spec.write_text(
+        '[rve]\nsize = [30e-6, 30e-6, 30e-6]\nvoxel = 3e-6\n[generator]\nkind = "straight"\n'
+        "porosity = 0.8\ndiameter = 7e-6\nseed = 1\n"
+    )
+    commands = [
+        ["permeability", str(spec), "--direction", "z", "--solver", "voxel", "--fields"],
+        ["diffusivity", str(spec), "--direction", "z", "--fields"],
+        ["rev", str(rev_spec), "--sizes", "30e-6", "--seeds", "2", "--quiet", "-o"],
+    ]
+    for cmd in commands:
+        rc, err = run_cli([*cmd, str(user)], capsys)
+        lines = err.strip().splitlines()
+        assert rc == 2 and len(lines) == 1, (cmd, err)
+        assert "non-empty folder psdesign did not create" in lines[0], (cmd, err)
+        assert "give a new or empty folder" in lines[0] and "--force" not in lines[0], (cmd, err)
+    assert sorted(p.name for p in user.iterdir()) == ["mine.txt"]
+
+
+def test_staging_folder_of_a_killed_run_is_removed_by_the_next_run(tmp_path, spec):
+    """SIGKILL (or a power cut) gives no chance to clean up: the next run for the same output
+    removes the staging folder a dead process of this machine left, and nothing else (a live
+    process's, another output's, another machine's, or an old one without a process id)."""
+    from psdesign.io.outputs import _host_tag
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    host = _host_tag()
+    names = {
+        "orphan": f".psdesign-out.{host}-{dead.pid}.abcd_123.tmp",
+        "live": f".psdesign-out.{host}-{os.getpid()}.efgh4567.tmp",
+        "other output": f".psdesign-out2.{host}-{dead.pid}.abcd1234.tmp",
+        "other host": f".psdesign-out.{'0' * 8 if host != '0' * 8 else '1' * 8}-{dead.pid}.x.tmp",
+        "no pid": ".psdesign-out.abcd1234.tmp",
+    }
+    for n in names.values():
+        (tmp_path / n).mkdir()
+        (tmp_path / n / "field.vti").write_text("partial")
+    assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview"]) == 0
+    left = {p.name for p in tmp_path.iterdir() if p.name.startswith(".psdesign-")}
+    assert left == set(names.values()) - {names["orphan"]}
+    assert (tmp_path / "out" / "rve.json").exists()
