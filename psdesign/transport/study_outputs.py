@@ -91,7 +91,8 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
-    bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge."""
+    bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge (a pore
+    larger than the RVE)."""
     from psdesign.flow import error as err
     from psdesign.transport.effective import rating, worst_status
 
@@ -104,10 +105,10 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     sizes = err.status_of(converged, out["rel_error"], cpd)
     surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
     edge = h * min(shape)
-    if out["pore_d90_m"] > edge:  # no RVE for its pores (and the open faces inflate them)
+    if out["pore_d90_m"] > edge:  # a pore larger than the RVE: it represents no material
         warnings.append(
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the RVE's smallest edge "
-            f"{edge:.3e} m (the faces are open: docs/transport.md); use a larger RVE"
+            f"{edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
         sizes = "untrustworthy" if sizes == "ok" else sizes
     return {
