@@ -14,7 +14,7 @@
   centres, up to ``sqrt(3) h / 2`` from a pore's true centre (a slit or cylinder pore whose
   mid-plane or axis falls between voxel centres comes out one or ``sqrt(2)`` voxels narrow).
   The RVE is periodic: the distance and the balls reach across its faces into the next
-  period (the grid is padded by ``2 r_max + 2`` periodic layers, :func:`_wrapped`).
+  period (the scan runs on the grid padded by ``r_max + 1`` periodic layers, :func:`_wrapped`).
 * **Intrusion / capillary drainage** (as PoreSpy's ``porosimetry``): a non-wetting fluid
   enters from the inlet face (first layer along ``thickness_axis``, a plane of the periodic
   medium); at radius ``r`` it fills the union of balls of radius ``r`` whose centres
@@ -281,13 +281,14 @@ def pore_sizes(
         raise ValueError("pores: the RVE has no pore voxel")
     # periodic: a ball may cross a face of the RVE into the next period (with open faces a
     # pore reaching a face grew past it: d90 134 um in the 100 um three-rod cube, session 31)
-    rmax = float(periodic_pore_distance(fields.distance, h).max())
+    dt = periodic_pore_distance(fields.distance, h)
+    rmax = float(dt.max())
     radii = np.unique(np.linspace(max(rmax, 1.0), min(1.0, rmax), n_radii))[::-1]
-    # every ball reaching the grid has its centre within rmax of it, and that centre's distance
-    # (<= rmax) is exact when its nearest solid is inside the padded grid: 2 rmax + 2 layers
-    dist, core = _wrapped(fields.distance, int(np.ceil(2.0 * rmax)) + 2)
-    lt, sat = _scan(_edt_pore(dist, h), dist > 0, radii, ax, core)
-    del dist
+    # every ball reaching the grid has its centre within rmax of it: rmax + 1 periodic layers
+    # of the (periodic) distance hold them all
+    dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1)
+    lt, sat = _scan(dt, dt > 0, radii, ax, core)
+    del dt
     idx = lt[pore]
     diam = 2.0 * h * radii[idx]
     d_bins = 2.0 * h * radii[::-1]
