@@ -383,7 +383,12 @@ def resolution_warnings(
     return [
         f"{name}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
         f"(< {MIN_CELLS_PER_DIAMETER:g}); refine rve.voxel"
-        + ("" if solver == "voxel" else " / flow.lattice_step")
+        + (
+            ""
+            if solver == "voxel"
+            else " / flow.lattice_step (a warning only: the body-fitted mesh's status follows "
+            "its error bar)"
+        )
     ]
 
 

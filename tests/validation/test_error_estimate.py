@@ -74,6 +74,23 @@ def test_under_resolved_fiber_warns_and_is_untrustworthy():
     assert res["error_estimate"]["method"] == "resolution_only"
 
 
+def test_resolution_warning_says_whether_it_rates():
+    """Below 8 cells per diameter the voxel route is untrustworthy, the tet route only warned
+    (its status follows its bar); the quickstart's rows read "ok" beside "only 2.4 mesh cells
+    ... refine", so the FEM line says it does not rate (session 31)."""
+    voxel = err.resolution_warnings(5.0, "voxel", "z")
+    fem = err.resolution_warnings(2.4, "fem", "z")
+    assert voxel == [
+        "K_z: only 5.0 voxels across the thinnest fiber diameter (< 8); refine rve.voxel"
+    ]
+    assert fem == [
+        "K_z: only 2.4 mesh cells across the thinnest fiber diameter (< 8); refine rve.voxel / "
+        "flow.lattice_step (a warning only: the body-fitted mesh's status follows its error bar)"
+    ]
+    assert err.status_of(True, 0.05, None) == "ok"  # what the tet route passes: no cpd
+    assert err.status_of(True, 0.05, 5.0) == "untrustworthy"
+
+
 def test_richardson_and_floor_closed_forms():
     # GCI: F_s |K_h - K_H| / ((r^p - 1) K_h)
     assert err.richardson_rel_error(1.0, 1.04, 2.0, 2) == pytest.approx(3 * 0.04 / 3)
