@@ -120,7 +120,9 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
         result[name] = table.to_dict(orient="records")
         if not args.json:
             print(f"{name} ({args.method}):")
-            print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+            # 4 significant digits: Morris' mu* and sigma carry the output's unit (a K's are
+            # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
+            print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     if args.json:
         print(json.dumps(result))
     return 0

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 from study_cases import fake_case, kc_truth, write_study
 
+from psdesign.analysis import sensitivity
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.analysis.sensitivity import morris_screening, sobol_indices
 from psdesign.analysis.surrogate import Surrogate, fit_surrogate, load_study_surrogates
@@ -119,7 +120,7 @@ def test_surrogate_json_round_trip_predicts_the_same() -> None:
     np.testing.assert_allclose(r.predict(x)[1], s.predict(x)[1], rtol=1e-6)
 
 
-def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
+def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> None:
     p = write_study(
         tmp_path,
         'design = "latin-hypercube"\nn_samples = 12\nseeds = [1, 2]\n'
@@ -148,6 +149,21 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys) -> None:
     # log10 K = 2 log10 d + f(eps): porosity over 0.7-0.9 moves K 12x, diameter 6-9 um 2.25x
     assert sob["generator.porosity"]["ST"] > 0.8 > sob["generator.diameter"]["ST"]
     assert len(load_study_surrogates(out)) == 2
+    # Morris' mu* is in the surrogate's output unit (m^2 for a K fitted without the log: the
+    # audit's 4.7e-12 printed as 0.000 with 3 fixed decimals, session 31); the text must show
+    # the JSON's value to 4 digits
+    assert main(["study", "sensitivity", str(out), "--method", "morris", "--json"]) == 0
+    mu = {r["parameter"]: r["mu_star"] for r in json.loads(capsys.readouterr().out)["k_z_m2"]}
+    assert mu["generator.porosity"] > 0
+    assert main(["study", "sensitivity", str(out), "--method", "morris"]) == 0
+    assert f"{mu['generator.porosity']:.4g}" in capsys.readouterr().out
+    tiny = pd.DataFrame(
+        {"parameter": ["p"], "mu_star": [4.73e-12], "mu_star_conf": [1e-13], "sigma": [2e-12]}
+    )
+    monkeypatch.setattr(sensitivity, "morris_screening", lambda s, seed=0: tiny)
+    assert main(["study", "sensitivity", str(out), "--method", "morris"]) == 0
+    text = capsys.readouterr().out
+    assert "4.73e-12" in text and "0.000" not in text
 
 
 def _lhs_study(tmp_path, n: int):
