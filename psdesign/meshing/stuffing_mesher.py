@@ -39,7 +39,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     timings: dict[str, float] = {}
     t = time.perf_counter()
     f = scaled_field(distance, voxel, size, direction, opts)
-    timings["gap_closing_s"] = time.perf_counter() - t
+    timings["gap_closing_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     box = f.size.copy()
     box[f.axis] *= 1.0 + 2.0 * opts.aux_length
@@ -71,7 +71,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
         offset = 0.0
         if opts.match_volume:
             offset, sm, n_match = match_volume(stuff, sm, target, f.axis)
-    timings["stuffing_s"] = time.perf_counter() - t
+    timings["stuffing_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     pts, tets, comp = keep_through_components(
         sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic
@@ -79,7 +79,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     bfaces, _, _ = face_structure(tets)
     tags = tag_faces(pts, bfaces, sm.lo, sm.hi, f.axis)
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
-    timings["tagging_s"] = time.perf_counter() - t
+    timings["tagging_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     quality = _quality(f, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts)
     quality.update(
@@ -87,7 +87,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
         n_volume_match_iterations=n_match,
         periodic_pairs={k: int(len(v)) for k, v in pairs.items()},
     )
-    timings["checks_s"] = time.perf_counter() - t
+    timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
          "lattice_step too coarse for the geometry?")  # fmt: skip

@@ -110,7 +110,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         int(opts.surface_step),
         opts.simplify_tol / f.scale,
     )
-    timings["surface_s"] = time.perf_counter() - t
+    timings["surface_time_s"] = time.perf_counter() - t
     diag = float(np.linalg.norm(surf.hi - surf.lo))
     eps_rel = min(envelope_rel(voxel, opts, diag * f.scale), 0.01)
     h = target_edge_length(size, axis, opts) / f.scale
@@ -126,7 +126,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         surf.verts, surf.faces, h_global, eps_rel, num_threads=opts.num_threads,
         options=opts.tetwild_options, sizing=sizing,
     )  # fmt: skip
-    timings["tetwild_s"] = time.perf_counter() - t
+    timings["tetwild_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     snap_tol = 2.0 * eps_rel * diag
     pts, tets, comp, n_untangled, n_flat, n_inv, max_move = _snap_and_clean(
@@ -134,7 +134,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     )
     bfaces, _, _ = face_structure(tets)
     tags = tag_faces(pts, bfaces, surf.lo, surf.hi, axis)
-    timings["tagging_s"] = time.perf_counter() - t
+    timings["tagging_time_s"] = time.perf_counter() - t
     aux_volume = float(np.prod(surf.hi - surf.lo)) - f.rve_volume
     pore_rve = f.analytic_closed if opts.volume_target == "analytic" else f.voxel_rve
     target = pore_rve + aux_volume - comp["removed_volume"]
@@ -159,7 +159,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         surface_step=int(opts.surface_step),
         **walls,
     )
-    timings["checks_s"] = time.perf_counter() - t
+    timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
          "the mesher lost or added pore (thin gaps? try a smaller epsilon/edge_length or a "
@@ -183,7 +183,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
 def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, opts, timings):
     """Wall projection (``opts.project_walls``) and the common-distance volume correction;
     returns the moved points and their quality keys (metres). ``timings`` gains
-    ``wall_projection_s`` and ``volume_match_s``. (Ten arguments: :func:`mesh_tetwild`'s
+    ``wall_projection_time_s`` and ``volume_match_time_s``. (Ten arguments: :func:`mesh_tetwild`'s
     intermediate state, passed from its one call site.)"""
     t = time.perf_counter()
     field = PoreField(
@@ -192,14 +192,14 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
     proj = {}
     if opts.project_walls:
         pts, proj = project_walls(pts, tets, tags[T.WALL], field, surf.lo, surf.hi, ends, max_move)
-    timings["wall_projection_s"] = time.perf_counter() - t
+    timings["wall_projection_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     wall_shift, n_frozen = 0.0, 0
     if opts.match_volume and opts.offset is None:
         pts, wall_shift, n_frozen = match_wall_volume(
             pts, tets, tags, surf.lo, surf.hi, target, max_move, planes=ends
         )
-    timings["volume_match_s"] = time.perf_counter() - t
+    timings["volume_match_time_s"] = time.perf_counter() - t
     # the field at the curved-wall vertices of the final mesh: the walls moved by ``wall_shift``
     # along their outward normals (into the solid), so on the surface phi = -wall_shift
     xw = pts[curved_wall_vertices(pts, tags[T.WALL], ends)]
