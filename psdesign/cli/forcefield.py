@@ -13,6 +13,7 @@ FORCEFIELD_FILES = (
     "history.csv",
     "before.png",
     "after.png",
+    "rve_timings.json",
     "summary.json",
     "summary_timings.json",
 )

@@ -144,7 +144,8 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
 
     Returns the summary written to ``rve.json``.
     """
-    from psdesign.io.atomic import staged_directory, write_json
+    from psdesign.io.atomic import staged_directory
+    from psdesign.io.timings import write_record
 
     if ff.get("case") == "relax":
         from psdesign.forcefield.relax import relax_spec
@@ -163,7 +164,7 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     summary = summarize(prob, res, wall)
     summary["workers"] = workers
     with staged_directory(out_dir) as tmp:
-        write_json(tmp / "rve.json", summary)
+        write_record(tmp, "rve.json", summary)  # its wall time in rve_timings.json
         write_history(tmp / "history.csv", res)
         if pictures:
             from psdesign.forcefield.render import render_fibers

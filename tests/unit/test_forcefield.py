@@ -490,6 +490,10 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     rows = (out / "history.csv").read_text().strip().splitlines()
     assert rows[0] == "iter,n_evals,U,step" and len(rows) == 4
     assert "paper_optimum" in rve and rve["paper_optimum"]["U"] > 0
+    # the wall time beside rve.json, not in it: two runs' rve.json are identical (session 31
+    # audit: they differed only in wall_time_s)
+    assert "wall_time_s" not in rve
+    assert json.loads((out / "rve_timings.json").read_text())["wall_time_s"] > 0
 
     bad = tmp_path / "bad.toml"
     bad.write_text('[forcefield]\ncase = "three-fiber"\n')
