@@ -26,6 +26,8 @@ from psdesign.analysis.columns import (
 )
 
 SURROGATE_FILE = "surrogate.json"
+#: Bounds of the Matern kernel's length scales (inputs scaled to [0, 1]).
+LENGTH_SCALE_BOUNDS = (1e-2, 1e2)
 
 
 def _box(low, high, log) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -105,7 +107,7 @@ class Surrogate:
         k = self.kernel
         kern = ConstantKernel(k.get("constant", 1.0), (1e-3, 1e3)) * Matern(
             length_scale=k.get("length_scale", [0.5] * len(self.params)),
-            length_scale_bounds=(1e-2, 1e2),
+            length_scale_bounds=LENGTH_SCALE_BOUNDS,
             nu=2.5,
         ) + WhiteKernel(k.get("noise", 1e-4), (1e-8, 1e0))
         return GaussianProcessRegressor(
@@ -133,6 +135,30 @@ class Surrogate:
                 "noise": float(kp["k2__noise_level"]),
             }
         self._gp = gp
+
+    def rating(self) -> tuple[str, list[str]]:
+        """``(status, warnings)`` of the fit: ``untrustworthy`` when its cross-validated error
+        is above :data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (the rule every value of
+        psdesign follows) or a length scale sits on its lower bound (the fit then interpolates
+        each case and is flat between them: predictions inside the range equal those far
+        outside it), else ``ok``."""
+        from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+
+        warnings = []
+        if not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
+            warnings.append(
+                f"{self.output}: cross-validated error {100 * self.cv_rel_error:.2g} % exceeds "
+                f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %"
+            )
+        low = LENGTH_SCALE_BOUNDS[0] * (1.0 + 1e-6)
+        for name, ls in zip(self.params, self.kernel.get("length_scale", []), strict=False):
+            if ls <= low:
+                warnings.append(
+                    f"{self.output}: the fit's length scale along {name} is on its lower bound "
+                    f"({LENGTH_SCALE_BOUNDS[0]:g} of the range): it follows no trend between the "
+                    "cases; run more cases"
+                )
+        return ("untrustworthy" if warnings else "ok"), warnings
 
     def predict(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
         """Mean and standard deviation at points ``x`` (n, n_params), original units.

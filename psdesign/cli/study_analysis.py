@@ -46,9 +46,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
+            "status": m.rating()[0],
+            "warnings": m.rating()[1],
         }
         for name, m in models.items()
     }
+    for r in rows.values():
+        for w in r["warnings"]:
+            print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
         print(json.dumps(rows))
     else:
@@ -57,7 +62,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             print(
                 f"{name}: GP over {', '.join(r['params'])} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.2g} % ({space}RMSE "
-                f"{r['cv_rmse']:.3g})"
+                f"{r['cv_rmse']:.3g})  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
     return 0
@@ -77,7 +82,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
                 "mean": float(mean[0]),
                 "std": float(std[0]),
                 "cv_rel_error": m.cv_rel_error,
-                "status": "extrapolated" if outside else "ok",
+                "status": "extrapolated" if outside else m.rating()[0],
                 "outside": outside,
             }
     except (FileNotFoundError, ValueError) as exc:
@@ -89,11 +94,18 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             "the predictions are not trustworthy",
             file=sys.stderr,
         )
+    untrusted = [n for n, r in out.items() if r["status"] == "untrustworthy"]
+    if untrusted:
+        print(
+            f"psdesign: warning: the surrogate of {', '.join(untrusted)} is untrustworthy "
+            "(`psdesign study fit` says why)",
+            file=sys.stderr,
+        )
     if args.json:
         print(json.dumps(out))
     else:
         for name, r in out.items():
-            flag = "  (EXTRAPOLATED)" if r["outside"] else ""
+            flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
             print(
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
                 f"{100 * r['cv_rel_error']:.2g} %){flag}"

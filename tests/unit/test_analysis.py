@@ -137,6 +137,7 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> Non
     assert main(["study", "fit", str(out), "--json"]) == 0
     fit = json.loads(capsys.readouterr().out)
     assert fit["k_z_m2"]["log_output"] and fit["k_z_m2"]["cv_rel_error"] < 0.05
+    assert (fit["k_z_m2"]["status"], fit["k_z_m2"]["warnings"]) == ("ok", [])
     assert "surrogate.json" in {f.name for f in out.iterdir()}
     at = "generator.porosity=0.8,generator.diameter=7.5e-6"
     assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
@@ -164,6 +165,36 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> Non
     assert main(["study", "sensitivity", str(out), "--method", "morris"]) == 0
     text = capsys.readouterr().out
     assert "4.73e-12" in text and "0.000" not in text
+
+
+@pytest.mark.parametrize(
+    "length_scale, cv, status, why",
+    [
+        (0.5, 0.05, "ok", None),
+        (0.5, 0.25, "untrustworthy", "cross-validated error 25 % exceeds 20 %"),
+        (0.01, 0.05, "untrustworthy", "length scale along a is on its lower bound"),
+    ],
+)
+def test_surrogate_rating(length_scale, cv, status, why) -> None:
+    """A fit is rated as every value is: a cross-validated error above 20 % is untrustworthy
+    (the session-31 audit's K fit at 25 % predicted with status "ok"), and so is a length
+    scale on its lower bound: the GP then interpolates the cases and is flat between them (the
+    audit's predictions at porosity 0.82, 0.84, 0.95 and 1.5 were identical)."""
+    s = Surrogate(
+        output="k_z_m2",
+        params=["a"],
+        low=[0.0],
+        high=[1.0],
+        log_params=[False],
+        log_output=True,
+        kernel={"constant": 1.0, "length_scale": [length_scale], "noise": 1e-4},
+        x=[[0.0], [1.0]],
+        y=[1e-12, 2e-12],
+        cv_rel_error=cv,
+    )
+    got, warnings = s.rating()
+    assert got == status
+    assert (warnings == []) if why is None else any(why in w for w in warnings)
 
 
 def _lhs_study(tmp_path, n: int):
