@@ -85,6 +85,21 @@ class PermeabilityResult:
             details=dict(d),
         )
 
+    def to_dict(self) -> dict:
+        """Plain dict (JSON-ready): the route's full record with this result's fields, the
+        inverse of :meth:`from_dict` (as the transport results' ``to_dict``)."""
+        return {
+            **self.details,
+            "direction": self.direction,
+            "permeability_m2": self.permeability_m2,
+            "converged": self.converged,
+            "status": self.status,
+            "permeability_rel_error": self.rel_error,
+            "solver": self.solver,
+            "bc": self.bc,
+            "porosity": self.porosity,
+        }
+
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
 

@@ -261,7 +261,7 @@ def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> 
     ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
     if normalize:
         return "Diameter varies: permeability shown as K / r^2."
-    return f"Reference curves for fiber radius r = {r0 * 1e6:.3g} um."
+    return f"Reference curves for fiber radius r = {r0:.3g} m."
 
 
 def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:

@@ -35,16 +35,16 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     import matplotlib.pyplot as plt
 
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.4))
-    d = np.asarray(pores["diameters_m"]) * 1e6
-    a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1.0)
+    d = np.asarray(pores["diameters_m"])  # metres, as every output
+    a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1e-6)
     for q in ("pore_d10_m", "pore_d50_m", "pore_d90_m"):
-        a.axvline(pores[q] * 1e6, color="k", lw=0.8, ls="--")
-    a.set_xlabel("local thickness diameter (um)")
+        a.axvline(pores[q], color="k", lw=0.8, ls="--")
+    a.set_xlabel("local thickness diameter (m)")
     a.set_ylabel("pore volume fraction")
-    b.plot(np.asarray(pores["intrusion_diameter_m"]) * 1e6, pores["intrusion_saturation"], "o-")
+    b.plot(np.asarray(pores["intrusion_diameter_m"]), pores["intrusion_saturation"], "o-")
     b.set_xscale("log")
     b.invert_xaxis()
-    b.set_xlabel("accessible diameter (um)")
+    b.set_xlabel("accessible diameter (m)")
     b.set_ylabel("non-wetting saturation")
     out = Path(path)
     out.write_bytes(_fig_png(fig))

@@ -66,6 +66,10 @@ def test_permeability_result_repr_and_html() -> None:
     assert r.status == "not_converged" and r.details["iterations"] == 3
     assert "1.25e-12" in repr(r) and "details" not in repr(r)
     assert "1.2500e-12" in r._repr_html_()
+    # to_dict, as the transport results have (session 31 audit: PermeabilityResult had none)
+    back = r.to_dict()
+    assert back["iterations"] == 3 and back["status"] == "not_converged"
+    assert PermeabilityResult.from_dict(back) == r
 
 
 @pytest.mark.parametrize(
