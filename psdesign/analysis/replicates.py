@@ -2,12 +2,14 @@
 
 Replicates are the cases that share every design parameter and differ in the seed. The 95 %
 confidence interval of the mean is Student's ``mean +- t_{0.975, n-1} s / sqrt(n)``; with one
-replicate the spread is unknown and the interval is NaN (said, not hidden).
+replicate the spread is unknown and the interval is NaN (said, not hidden). A permeability
+(``k_*_m2``, positive) has its lower bound clipped at 0 (:func:`positive_output`).
 """
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +25,21 @@ def t_quantile_975(dof: int) -> float:
     from scipy.stats import t
 
     return float(t.ppf(0.975, dof))
+
+
+#: Outputs that are positive by nature: the permeabilities ``k_<d>_m2`` and the tensor's
+#: diagonal ``k_<dd>_m2`` (an off-diagonal ``k_xy_m2`` may be negative).
+_POSITIVE = re.compile(r"^k_(x|y|z|xx|yy|zz)_m2$")
+
+
+def positive_output(column: str) -> bool:
+    """True for an output that must be positive (a permeability ``k_<d>_m2`` or a diagonal
+    tensor entry ``k_<dd>_m2``), whose 95 % CI lower bound :func:`replicate_summary` clips at 0.
+
+    >>> [positive_output(c) for c in ("k_z_m2", "k_xx_m2", "k_xy_m2", "porosity", "k_z_status")]
+    [True, True, False, False, False]
+    """
+    return bool(_POSITIVE.match(column))
 
 
 def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
@@ -41,6 +58,16 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
         The parameter columns, ``n`` (cases) and for every numeric output ``X``: ``X_n`` (its
         finite values), ``X_mean``, ``X_std`` (sample, ddof 1), ``X_ci95_low``,
         ``X_ci95_high``.
+
+    Notes
+    -----
+    The interval is Student's, ``mean +- t_{0.975, n-1} s / sqrt(n)``, the CI of the
+    arithmetic mean that ``X_mean`` reports. For a permeability ``k_<d>_m2`` (positive:
+    :func:`positive_output`) the lower bound is clipped at 0: with few seeds and a wide
+    spread (a small RVE) ``mean - half`` can fall below 0, a negative permeability. The
+    upper bound is kept, so ``X_ci95_high - X_mean`` is still the Student half-width. (The
+    CI of log K, exponentiated, would describe the geometric mean, not the ``X_mean`` beside
+    it.) Other outputs keep the symmetric interval.
 
     Examples
     --------
@@ -65,11 +92,14 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
             mean = float(x.mean()) if n else math.nan
             std = float(x.std(ddof=1)) if n > 1 else math.nan
             half = t_quantile_975(n - 1) * std / math.sqrt(n) if n > 1 else math.nan
+            low = mean - half
+            if positive_output(c) and low < 0:  # K > 0: never a negative bound
+                low = 0.0
             row |= {
                 f"{c}_n": n,
                 f"{c}_mean": mean,
                 f"{c}_std": std,
-                f"{c}_ci95_low": mean - half,
+                f"{c}_ci95_low": low,
                 f"{c}_ci95_high": mean + half,
             }
         rows.append(row)

@@ -5,7 +5,14 @@ resolution per fiber is the same; a generator ``n_fibers`` scales with the volum
 target stays), every size is built with ``seeds`` independent seeds through the study runner,
 and each output's mean, std and Student-t 95 % confidence interval are reported per size. The
 REV size is the smallest edge from which on every output's relative CI half-width stays below
-``tol``.
+``tol``. A size whose K CI half-width exceeds
+:data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (20 %) is ``untrustworthy``, as a single K
+with such an error bar is. A permeability's CI lower bound is clipped at 0
+(:func:`psdesign.analysis.replicates.replicate_summary`).
+
+Output folder: a study folder (``results.csv``, ``summary.csv``, ``cases/`` ...; no
+``report.html``) plus :data:`REV_FILES`; a user's own file of those names is refused before any
+work starts, and the marker lists them once written.
 """
 
 from __future__ import annotations
@@ -14,13 +21,34 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import first_error, k_not_ok
-from psdesign.analysis.replicates import replicate_summary
+from psdesign.analysis.replicates import replicate_summary, t_quantile_975
+from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
 #: Most seeds per size (as for a study file's ``seeds``).
 MAX_SEEDS = 1000
+#: What ``rev`` writes in its output folder beside the study's files.
+REV_FILES = ("rev.csv", "rev.json")
+
+
+def rev_folder_files() -> tuple[str, ...]:
+    """Every file ``rev`` writes in its output folder: the study's (no ``report.html``: rev
+    runs the study without a report) and :data:`REV_FILES`."""
+    from psdesign.study.store import STUDY_FILES
+
+    return (*(f for f in STUDY_FILES if f != "report.html"), *REV_FILES)
+
+
+def check_rev_dir(out_dir: str | Path):
+    """Check ``rev``'s output folder before any work (:func:`~psdesign.study.runner.
+    check_study_dir` with :func:`rev_folder_files`): a user's own ``rev.csv`` / ``rev.json``
+    (or ``results.csv`` ...) there is refused (:class:`psdesign.io.outputs.OutputError`)."""
+    from psdesign.study.runner import check_study_dir
+
+    return check_study_dir(out_dir, force_option=None, files=rev_folder_files())
 
 
 class RevFailed(RuntimeError):
@@ -35,8 +63,10 @@ class RevResult:
     ----------
     table : DataFrame
         One row per size: ``size_m``, ``n`` and per output ``X_mean``, ``X_std``,
-        ``X_ci95_low``, ``X_ci95_high``, ``X_ci_rel`` (half-width / |mean|), and ``status``
-        (``"ok"``, or which K of the size are not ok by their own ``k_<d>_status``).
+        ``X_ci95_low`` (clipped at 0 for K), ``X_ci95_high``, ``X_ci_rel`` (Student
+        half-width / |mean|), and ``status`` (``"ok"``, or ``"untrustworthy: ..."`` naming
+        which K of the size are not ok by their own ``k_<d>_status`` and which K's CI
+        half-width is above 20 %).
     rev_size_m : float or None
         Smallest edge whose (and every larger edge's) relative CI half-width is below ``tol``
         for every output; None when no size reaches it.
@@ -91,6 +121,7 @@ def rev_study(
             f"--directions: a subset of xyz, each axis once (e.g. z or xz), got {directions!r}"
         )
     spec = load_spec(spec_path)
+    check_rev_dir(out_dir)  # a user's rev.csv / rev.json: refused before hours of work
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
     rows = _rows(spec, sorted(sizes))
@@ -120,8 +151,10 @@ def rev_study(
     table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
     names = ["porosity", *[f"k_{d}_m2" for d in directions]]
     for c in names:
-        if f"{c}_mean" in table:
-            half = (table[f"{c}_ci95_high"] - table[f"{c}_ci95_low"]) / 2
+        if f"{c}_mean" in table:  # the Student half-width (a K's low bound is clipped at 0)
+            n = table[f"{c}_n"].to_numpy(dtype=int)
+            t = np.array([t_quantile_975(int(k) - 1) for k in n])
+            half = t * table[f"{c}_std"] / n.clip(min=1) ** 0.5
             table[f"{c}_ci_rel"] = half / table[f"{c}_mean"].abs()
     keep = [
         "size_m",
@@ -134,17 +167,19 @@ def rev_study(
         ],
     ]
     table = table[keep]
-    table["status"] = _size_status(df, table["size_m"], directions)
     k_cols = [f"{c}_ci_rel" for c in names if c != "porosity" and f"{c}_ci_rel" in table]
+    table["status"] = _size_status(df, table, directions)
     ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
     rev = None
     for i in range(len(ok)):
         if ok[i:].all():
             rev = float(table["size_m"].iloc[i])
             break
+    from psdesign.io.outputs import claim_output_dir
     from psdesign.study.store import atomic_write_bytes, atomic_write_json
 
     out = Path(out_dir)
+    claim_output_dir(check_rev_dir(out), REV_FILES)  # listed in the marker: ours to replace
     atomic_write_bytes(out / "rev.csv", table.to_csv(index=False).encode())
     atomic_write_json(
         out / "rev.json",
@@ -153,16 +188,32 @@ def rev_study(
     return RevResult(table, rev, tol, names)
 
 
-def _size_status(df: pd.DataFrame, sizes: pd.Series, directions) -> list[str]:
-    """Per size: ``"ok"``, or which K of its ``ok`` cases are not (``k_<d>_status``: e.g.
-    ``"untrustworthy: k_z 2 of 3"``). Those K stay in the size's statistics (the REV is about
-    their scatter); this column says they cannot be trusted one by one."""
+def _size_status(df: pd.DataFrame, table: pd.DataFrame, directions) -> list[str]:
+    """Per size: ``"ok"``, or ``"untrustworthy: ..."`` naming
+
+    * which K of its ``ok`` cases are not ok by their own ``k_<d>_status`` (e.g. ``k_z 2 of
+      3``): those K stay in the size's statistics (the REV is about their scatter), this says
+      they cannot be trusted one by one;
+    * which K's 95 % CI half-width is above :data:`UNTRUSTWORTHY_REL_ERROR` (e.g. ``k_z CI
+      above 20 % (n=2)``) or unknown: the size's mean K is then no trustworthy number,
+      as a single K with such an error bar is not.
+    """
     out = []
-    for size in sizes:
+    for _, row in table.iterrows():
+        size = row["size_m"]
         rows = df[(df["size_m"] == size) & (df["status"] == "ok")]
         bad = []
         for d in directions:
             if n := int(k_not_ok(rows, f"k_{d}_m2").sum()):
                 bad.append(f"k_{d} {n} of {len(rows)}")
+        for d in directions:
+            rel = row.get(f"k_{d}_m2_ci_rel", math.nan)
+            if not rel <= UNTRUSTWORTHY_REL_ERROR:  # also NaN: no spread known
+                n = int(row.get(f"k_{d}_m2_n", row["n"]))
+                bad.append(
+                    f"k_{d} CI above {100 * UNTRUSTWORTHY_REL_ERROR:g} % (n={n})"
+                    if math.isfinite(rel)
+                    else f"k_{d} CI unknown (n={n})"
+                )
         out.append("ok" if not bad else "untrustworthy: " + ", ".join(bad))
     return out

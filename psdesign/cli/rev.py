@@ -8,10 +8,10 @@ import sys
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
-    from psdesign.analysis.rev import RevFailed, rev_study
-    from psdesign.study.runner import check_study_dir
+    from psdesign.analysis.rev import RevFailed, check_rev_dir, rev_study
 
-    check_study_dir(args.out, force_option=None)  # rev has no --force: the refusal names none
+    # rev has no --force: the refusal names none; a user's rev.csv / rev.json is refused now
+    check_rev_dir(args.out)
     try:
         res = rev_study(
             args.spec,
@@ -44,7 +44,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         )
         return 0
     for _, row in res.table.iterrows():
-        parts = [f"{row['size_m'] * 1e6:g} um (n={int(row['n'])})"]
+        parts = [f"{row['size_m']:.4g} m (n={int(row['n'])})"]
         for c in res.outputs:
             if f"{c}_mean" in row and c != "porosity":
                 parts.append(f"{c} {row[f'{c}_mean']:.3e} +- {100 * row[f'{c}_ci_rel']:.1f} %")
@@ -53,7 +53,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     if res.rev_size_m is None:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
     else:
-        print(f"REV: {res.rev_size_m * 1e6:g} um (95 % CI half-width below {100 * res.tol:g} %)")
+        print(f"REV: {res.rev_size_m:.4g} m (95 % CI half-width below {100 * res.tol:g} %)")
     return 0
 
 

@@ -95,7 +95,8 @@ def add_anisotropy(df: pd.DataFrame) -> pd.DataFrame:
 def _err(summary: pd.DataFrame, c: str) -> np.ndarray | None:
     if f"{c}_ci95_high" not in summary:
         return None
-    half = (summary[f"{c}_ci95_high"] - summary[f"{c}_ci95_low"]) / 2
+    # the upper half-width: a K's lower bound is clipped at 0 (replicate_summary)
+    half = summary[f"{c}_ci95_high"] - summary[f"{c}_mean"]
     return half.to_numpy(dtype=float)
 
 

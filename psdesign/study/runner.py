@@ -17,7 +17,7 @@ import platform
 import socket
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -529,15 +529,20 @@ def validate_case_specs(cases: list[Case]) -> None:
 
 
 def check_study_dir(
-    out_dir: str | Path, force: bool = False, force_option: str | None = "--force"
+    out_dir: str | Path,
+    force: bool = False,
+    force_option: str | None = "--force",
+    files: Iterable[str] = STUDY_FILES,
 ) -> OutputDir:
     """:func:`psdesign.io.outputs.check_output_dir` for a study's output folder (``-o``);
-    ``force_option`` None for a command without ``--force`` (``rev``)."""
+    ``force_option`` None for a command without ``--force`` (``rev``); ``files`` what the
+    command will write there (``rev``: also ``rev.csv``, ``rev.json``), each refused now if it
+    exists and psdesign did not write it."""
     return check_output_dir(
         out_dir,
         force=force,
         command="study run",
-        expected=STUDY_FILES,
+        expected=tuple(files),
         legacy=STUDY_LEGACY,
         force_option=force_option,
     )
@@ -651,7 +656,9 @@ def run_study(
         with stop_on_interrupt():
             if scheduler:
                 client, cluster = connect_scheduler(scheduler, workers, security=security)
-            _claim(target)  # the folder and its marker; nothing is deleted before the lock
+            # the folder and its marker (report.html only when written); nothing is deleted
+            # before the lock
+            _claim(target, STUDY_FILES if report else _files_without_report())
             store.prepare()
             with _run_lock(out), stop_on_interrupt():  # workers stop before the lock goes
                 store.remove_stale_temp()
@@ -663,9 +670,13 @@ def run_study(
             cluster.close(timeout=5)
 
 
-def _claim(target) -> None:
+def _files_without_report() -> tuple[str, ...]:
+    return tuple(f for f in STUDY_FILES if f != "report.html")
+
+
+def _claim(target, files) -> None:
     try:
-        claim_output_dir(target, STUDY_FILES)
+        claim_output_dir(target, files)
     except OSError as exc:
         raise StorageError(
             exc.errno, f"cannot write {target.path}: {exc.strerror or exc}; nothing was changed"

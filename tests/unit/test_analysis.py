@@ -438,3 +438,28 @@ def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
         with pytest.raises(ValueError, match=r"^--(batch|budget): an integer in \[1, "):
             optimize_study(p, tmp_path / "out", t, case_fn=fake_case, workers=0, **kw)
     assert not (tmp_path / "out").exists()
+
+
+def test_k_ci_lower_bound_never_negative() -> None:
+    """audit (session 31): the Student-t CI of K over two seeds a factor 10 apart had a
+    negative lower bound (summary.csv, rev.csv). K > 0: its lower bound is clipped at 0, the
+    upper bound stays Student's; porosity and an off-diagonal k_xy_m2 keep the symmetric CI."""
+    from psdesign.analysis.replicates import replicate_summary, t_quantile_975
+
+    k = [1e-13, 3e-12, 2e-11]
+    df = pd.DataFrame(
+        {
+            "a": 1,
+            "status": "ok",
+            "k_z_m2": k,
+            "k_xx_m2": [1e-12, 1e-11, 2e-13],
+            "k_xy_m2": [-1e-12, 1e-12, 2e-12],
+            "porosity": [0.1, 0.9, 0.5],
+        }
+    )
+    s = replicate_summary(df, ["a"]).iloc[0]
+    half = t_quantile_975(2) * np.std(k, ddof=1) / np.sqrt(3)
+    assert np.mean(k) - half < 0  # the Student bound would be a negative permeability
+    assert s["k_z_m2_ci95_low"] == 0.0 and s["k_xx_m2_ci95_low"] == 0.0
+    assert s["k_z_m2_ci95_high"] == pytest.approx(np.mean(k) + half, rel=1e-12)
+    assert s["k_xy_m2_ci95_low"] < 0 and s["porosity_ci95_low"] < 0  # not positive by nature

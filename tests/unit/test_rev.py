@@ -142,8 +142,82 @@ def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) ->
     err = [ln for ln in got.err.splitlines() if "untrustworthy" in ln]
     assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")
     # the size's line, rev.csv and rev.json name it too (one of the 3 seeds' K_z)
-    assert [ln for ln in got.out.splitlines() if "um (n=" in ln][0].endswith(
-        "untrustworthy: k_z 1 of 3"
-    )
+    line = [ln for ln in got.out.splitlines() if " m (n=" in ln][0]
+    assert "untrustworthy: k_z 1 of 3" in line, line
     doc = json.loads((out / "rev.json").read_text())
-    assert doc["table"][0]["status"] == "untrustworthy: k_z 1 of 3"
+    assert doc["table"][0]["status"].startswith("untrustworthy: k_z 1 of 3")
+
+
+def wide_rev_case(spec, outputs, solver, workdir):
+    """K of two seeds a factor 10 apart at the small size (a 100 %+ CI with n = 2), 1 % apart
+    at the large one; every K is ok by its own error bar."""
+    edge = float(spec["rve"]["size"][0])
+    seed = int(spec["generator"]["seed"])
+    k = (1e-12 if seed == 1 else 1e-11) if edge < 35e-6 else (5e-12 if seed == 1 else 5.05e-12)
+    return {"porosity": 0.8, "n_fibers": 10, "k_z_m2": k, "converged_z": True, "k_z_status": "ok"}
+
+
+def test_rev_prints_si_sizes_untrustworthy_wide_ci_and_no_negative_k(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """audit (session 31): ``rev --sizes 32e-6 40e-6 --seeds 2`` printed ``32 um (n=2) k_z_m2
+    1.259e-11 +- 103.0 % ok`` (a size in um; ``ok`` beside a CI above the 20 % untrustworthy
+    threshold), rev.json gave k_z_m2_ci95_low < 0 (a negative permeability), and the marker
+    listed report.html (not written) but not rev.csv / rev.json. Rules: SI, a status that says
+    when a number is not trustworthy, K > 0, the marker lists exactly what psdesign wrote."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, wide_rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "32e-6", "40e-6", "--seeds", "2", "-o", str(out)]
+    assert main([*args, "--quiet", "--directions", "z"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    small = [ln for ln in lines if ln.startswith("3.2e-05 m (n=2)")]
+    large = [ln for ln in lines if ln.startswith("4e-05 m (n=2)")]
+    assert len(small) == 1 and len(large) == 1, lines
+    assert not any(" um" in ln for ln in lines), lines
+    # a 1040 % CI: not ok, says why; the 1 % CI size is ok
+    assert small[0].endswith("+- 1039.6 %  untrustworthy: k_z CI above 20 % (n=2)"), small[0]
+    assert large[0].endswith("  ok"), large[0]
+    assert lines[-1].startswith("REV: 4e-05 m"), lines
+    for table in (
+        pd.read_csv(out / "rev.csv"),
+        pd.DataFrame(json.loads((out / "rev.json").read_text())["table"]),
+    ):
+        assert table["size_m"].tolist() == [32e-6, 40e-6]
+        assert not [c for c in table.columns if "um" in c.split("_")], table.columns
+        assert (table["k_z_m2_ci95_low"] >= 0).all(), table["k_z_m2_ci95_low"]
+        assert (
+            table["status"].iloc[0].startswith("untrustworthy") and table["status"].iloc[1] == "ok"
+        )
+    summary = pd.read_csv(out / "summary.csv")
+    assert (summary["k_z_m2_ci95_low"] >= 0).all(), summary["k_z_m2_ci95_low"]
+    # the marker lists what rev wrote, and nothing it did not
+    files = set(json.loads((out / ".psdesign-output.json").read_text())["files"])
+    assert {"rev.csv", "rev.json", "results.csv", "summary.csv"} <= files
+    assert "report.html" not in files and not (out / "report.html").exists()
+    assert all((out / f.rstrip("/")).exists() for f in files), files
+
+
+@pytest.mark.parametrize("name", ["rev.csv", "rev.json"])
+def test_rev_refuses_a_users_rev_file_before_work(tmp_path, capsys, monkeypatch, name) -> None:
+    """audit (session 31): rev replaced a user's own rev.csv / rev.json in a psdesign folder
+    (the marker never listed them). Rule: refused before any case runs, the file untouched."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, wide_rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "32e-6", "--seeds", "2", "-o", str(out), "--quiet"]
+    assert main([*args, "--directions", "z"]) == 0
+    assert main([*args, "--directions", "z"]) == 0  # psdesign's own: replaced on a rerun
+    user = tmp_path / "user"
+    user.mkdir()
+    for f in out.iterdir():  # a psdesign folder (marker and all) holding the user's file
+        if f.is_file() and f.name not in ("rev.csv", "rev.json"):
+            (user / f.name).write_bytes(f.read_bytes())
+    marker = json.loads((user / ".psdesign-output.json").read_text())
+    marker["files"] = [f for f in marker["files"] if f not in ("rev.csv", "rev.json")]
+    (user / ".psdesign-output.json").write_text(json.dumps(marker))
+    (user / name).write_text("mine")
+    capsys.readouterr()
+    u_args = ["rev", str(spec), "--sizes", "40e-6", "--seeds", "2", "-o", str(user), "--quiet"]
+    assert main([*u_args, "--directions", "z"]) == 2
+    err = capsys.readouterr().err
+    assert f"{name} exists and was not written by psdesign" in err, err
+    assert (user / name).read_text() == "mine" and not (user / "cases").exists()
