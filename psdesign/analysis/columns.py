@@ -21,6 +21,48 @@ STATUS_COLUMNS = {
     **{f"conductivity_{d}": f"conductivity_{d}_status" for d in "xyz"},
 }
 
+#: The relative error column of each value that has one (the tortuosity, porosity / D_eff/D
+#: with the porosity a voxel count, carries the diffusivity's).
+REL_ERROR_COLUMNS = {
+    **{f"k_{d}_m2": f"k_{d}_rel_error" for d in "xyz"},
+    **{f"diffusivity_{d}": f"diffusivity_{d}_rel_error" for d in "xyz"},
+    **{f"tortuosity_{d}": f"diffusivity_{d}_rel_error" for d in "xyz"},
+    **{f"conductivity_{d}": f"conductivity_{d}_rel_error" for d in "xyz"},
+    "specific_surface_m-1": "specific_surface_rel_error",
+}
+
+
+def error_bar(row: dict, column: str) -> tuple[float | None, str]:
+    """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
+    ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; a pore diameter's
+    ``pore_diameter_error_m`` over the value). The status is ``"unrated"`` where the table rates
+    nothing (the porosity, a voxel count), ``"no trusted value"`` where the value is missing.
+
+    >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
+    (0.118, 'ok')
+    """
+
+    def num(v) -> float | None:
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            return None
+        return v if v == v else None
+
+    y = num(row.get(column))
+    if y is None:
+        return None, "no trusted value"
+    if column in REL_ERROR_COLUMNS:
+        rel = num(row.get(REL_ERROR_COLUMNS[column]))
+    elif column.startswith("pore_d") and num(row.get("pore_diameter_error_m")) is not None:
+        rel = num(row["pore_diameter_error_m"]) / abs(y) if y else None
+    else:
+        rel = None
+    status = row.get(STATUS_COLUMNS.get(column, ""))
+    if not isinstance(status, str) or not status:
+        status = "unrated"
+    return rel, status
+
 
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
     """The ``ok`` cases of a results table, with each rated value whose own status

@@ -22,7 +22,7 @@ import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
-from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target
+from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target, check_targets
 
 
 @dataclass
@@ -131,6 +131,7 @@ def optimize_study(
             raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
     study = load_study(study_path)
     bounds = _bounds(study)
+    check_targets(targets, study.outputs)  # names and ranges: before any case or folder
     names = list(bounds)
     b = [bounds[n] for n in names]
     d = len(names)
@@ -168,6 +169,7 @@ def optimize_study(
         if len(points) >= budget or len(ok) < 3:
             msg = (
                 f"budget of {budget} design points spent"
+                + ("" if recs else f", no case finished ok{first_error(df)}")
                 if len(points) >= budget
                 else f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
                 + first_error(df)

@@ -13,8 +13,86 @@ MAX_BUDGET = 10_000
 MAX_BATCH = 1000
 
 _TARGET = re.compile(
-    r"^\s*([A-Za-z0-9_.\-]+)\s*(>=|<=|=)\s*([^\s]+?)\s*(?:\+-\s*([0-9.eE+-]+)\s*%)?\s*$"
+    r"^\s*([A-Za-z0-9_.\-]+)\s*(>=|<=|=)\s*([^\s]+?)\s*(?:\+-\s*(\S*?)\s*(%?))?\s*$"
 )
+_PERCENT = "tolerance must be a percentage like +-5%"
+
+#: The physical range of each result column whose range is certain:
+#: ``column -> (low, low_open, high, high_open, what)`` (a target value outside can never be
+#: met). K (m^2) is > 0; porosity and D_eff/D are fractions; the rest are >= 0 or > 0.
+_POSITIVE_K = "a permeability target must be > 0 (m^2)"
+RANGES: dict[str, tuple[float, bool, float, bool, str]] = {
+    "porosity": (0.0, False, 1.0, False, "porosity targets must be in [0, 1]"),
+    **{f"k_{d}_m2": (0.0, True, math.inf, False, _POSITIVE_K) for d in "xyz"},
+    **{f"k_{d}{d}_m2": (0.0, True, math.inf, False, _POSITIVE_K) for d in "xyz"},
+    **{
+        f"diffusivity_{d}": (
+            0.0,
+            False,
+            1.0,
+            False,
+            "a relative diffusivity D_eff/D target must be in [0, 1]",
+        )
+        for d in "xyz"
+    },
+    **{
+        f"tortuosity_{d}": (0.0, True, math.inf, False, "a tortuosity target must be > 0")
+        for d in "xyz"
+    },
+    **{
+        f"conductivity_{d}": (0.0, False, math.inf, False, "a conductivity target must be >= 0")
+        for d in "xyz"
+    },
+    **{
+        f"pore_d{q}_m": (0.0, False, math.inf, False, "a pore diameter target must be >= 0 (m)")
+        for q in (10, 50, 90)
+    },
+    "specific_surface_m-1": (
+        0.0,
+        False,
+        math.inf,
+        False,
+        "a specific surface target must be >= 0 (1/m)",
+    ),
+}
+
+
+def target_columns(outputs: list[str]) -> list[str]:
+    """The result columns a study with these ``[study] outputs`` writes that a target may name
+    (:func:`psdesign.study.case.run_case`; porosity is always written).
+
+    >>> target_columns(["porosity", "k_z", "tortuosity_x"])
+    ['porosity', 'k_z_m2', 'diffusivity_x', 'tortuosity_x']
+    """
+    cols = ["porosity"]
+    for o in outputs:
+        if o in ("k_x", "k_y", "k_z"):
+            cols.append(f"{o}_m2")
+        elif o == "k_tensor":
+            cols += [f"k_{d}_m2" for d in "xyz"] + [f"k_{a}{b}_m2" for a in "xyz" for b in "xyz"]
+        elif o[:-1] in ("diffusivity_", "tortuosity_"):  # the case writes both
+            cols += [f"diffusivity_{o[-1]}", f"tortuosity_{o[-1]}"]
+        elif o.startswith("pore_d"):  # the case writes the three
+            cols += ["pore_d10_m", "pore_d50_m", "pore_d90_m"]
+        elif o != "fields":
+            cols.append(o)
+    return list(dict.fromkeys(cols))
+
+
+def check_targets(targets: list[Target], outputs: list[str]) -> None:
+    """Refuse (one-line ``ValueError``) a target on a column this study does not write, or one
+    whose value lies outside the column's physical range (:data:`RANGES`): before any case."""
+    from psdesign.schema.errors import did_you_mean
+
+    cols = target_columns(outputs)
+    for t in targets:
+        if t.output not in cols:
+            raise ValueError(
+                f"--target: {t.output!r} is not an output of this study"
+                f"{did_you_mean(t.output, cols)} (outputs: {', '.join(cols)})"
+            )
+        t.check_range()
+
 
 #: Relative tolerance of an equality target when none is given.
 DEFAULT_TOLERANCE = 0.05
@@ -52,19 +130,60 @@ class Target:
                 "--target: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE, "
                 f"got {text!r}"
             )
-        name, op, val, tol = m.groups()
+        name, op, val, tol, pct = m.groups()
         try:
             value = float(val)
         except ValueError:
             raise ValueError(f"--target: {name} value must be a number, got {val!r}") from None
         if not math.isfinite(value):
             raise ValueError(f"--target: {name} value must be finite, got {val!r}")
-        tolerance = DEFAULT_TOLERANCE if tol is None else float(tol) / 100.0
+        if tol is None:
+            tolerance = DEFAULT_TOLERANCE
+        else:
+            try:
+                tolerance = float(tol) / 100.0
+            except ValueError:
+                tolerance = math.nan
+            if not pct or not math.isfinite(tolerance):
+                raise ValueError(f"--target: {name} {_PERCENT}, got '+-{tol}{pct}'")
         if op == "=" and not 0 < tolerance < 1:
             raise ValueError(f"--target: {name} tolerance must be in (0, 100) %, got {tol}%")
         if op == "=" and value == 0:
             raise ValueError(f"--target: {name}=0 has no relative tolerance; use <= or >=")
-        return cls(name, op, value, tolerance)
+        target = cls(name, op, value, tolerance)
+        target.check_range()
+        return target
+
+    def check_range(self) -> None:
+        """Refuse (one-line ``ValueError``) a value outside the output's physical range
+        (:data:`RANGES`): such a target can never be met."""
+        if self.output not in RANGES:
+            return
+        lo, lo_open, hi, hi_open, what = RANGES[self.output]
+        below = self.value <= lo if lo_open else self.value < lo
+        above = self.value >= hi if hi_open else self.value > hi
+        if below or above:
+            raise ValueError(
+                f"--target: {self.output}{self.op}{self.value:g} can never be met: {what}"
+            )
+
+    def bounds(self) -> tuple[float, float]:
+        """The values that meet the target, as ``(low, high)``."""
+        if self.op == ">=":
+            return self.value, math.inf
+        if self.op == "<=":
+            return -math.inf, self.value
+        half = self.tolerance * abs(self.value)
+        return self.value - half, self.value + half
+
+    def within_bar(self, y: float, rel_error: float | None) -> bool:
+        """Whether the error bar ``y +- rel_error |y|`` overlaps the values that meet the
+        target (the measurement cannot tell met from missed)."""
+        if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
+            return False
+        lo, hi = self.bounds()
+        half = abs(rel_error * y)
+        return y - half <= hi and lo <= y + half
 
     def met(self, y: float) -> bool:
         """Whether a measured value meets the target."""

@@ -140,6 +140,48 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     return 0
 
 
+def _target_report(t, best: dict) -> dict:
+    """One target against the closest case: measured value, its error bar and status."""
+    from psdesign.analysis.columns import error_bar
+
+    try:
+        y = float(best.get(t.output, float("nan")))
+    except (TypeError, ValueError):
+        y = float("nan")
+    rel, status = error_bar(best, t.output)
+    inside = False
+    if y == y and rel is not None:
+        lo, hi = t.bounds()
+        inside = lo <= y - abs(rel * y) and y + abs(rel * y) <= hi
+    return {
+        "target": str(t),
+        "output": t.output,
+        "measured": y if y == y else None,
+        "rel_error": rel,
+        "status": status,
+        "met": t.met(y),
+        "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
+        "error_bar_inside_target": inside,
+    }
+
+
+def _measured_text(r: dict) -> str:
+    """``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
+    if r["measured"] is None:
+        return f"no measured value [{r['status']}] (missed)"
+    bar = (
+        f" +- {100 * r['rel_error']:.3g} %"
+        if r["rel_error"] is not None
+        else " (no error estimate)"
+    )
+    verdict = "met" if r["met"] else "missed"
+    if r["target_within_error_bar"] and not r["met"]:
+        verdict += "; the target lies within the measurement's error bar"
+    elif r["met"] and r["rel_error"] is not None and not r["error_bar_inside_target"]:
+        verdict += "; the error bar reaches outside the target"
+    return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"
+
+
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
@@ -161,11 +203,13 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         )
     except (StudyError, ValueError) as exc:
         return _fail(str(exc))
+    targets_out = [_target_report(t, res.best) for t in targets]
     summary = {
         "met": res.met,
         "message": res.message,
         "n_points": res.n_points,
         "rounds": res.rounds,
+        "targets": targets_out,
         "best": res.best,
         "history": res.history,
     }
@@ -173,11 +217,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(json.dumps(summary, default=str))
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
-        for t in targets:
-            y = res.best.get(t.output, float("nan"))
-            print(f"  {t}: measured {y:.4g} ({'met' if t.met(float(y)) else 'missed'})")
+        for r in targets_out:
+            print(f"  {r['target']}: {_measured_text(r)}")
         params = {k: v for k, v in res.best.items() if "." in k}
-        print("  at " + ", ".join(f"{k}={v:.4g}" for k, v in params.items()))
+        print("  at " + (", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"))
     return 0 if res.met else 1
 
 

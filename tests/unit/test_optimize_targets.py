@@ -1,0 +1,112 @@
+"""``study optimize`` targets: names and physical ranges checked before any case runs, the
+tolerance's ``%`` named, and each measured value printed with its own error bar and status.
+
+Truths: the study's outputs (``porosity``, ``k_z`` -> columns ``porosity``, ``k_z_m2``), K > 0
+and porosity in [0, 1] by definition, and a fake case whose ``k_z_rel_error`` is set by hand.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from study_cases import fake_case, write_study
+
+from psdesign.cli.main import main
+
+STUDY = 'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["porosity", "k_z"]'
+PARAMS = '"generator.porosity" = {low = 0.8, high = 0.88}'
+
+
+def barred_case(spec, outputs, solver, workdir):
+    """The auditor's case: K_z 1.077e-11 with its own 11.8 % error bar, rated ok."""
+    out = fake_case(spec, outputs, solver, workdir)
+    out.update({"k_z_m2": 1.077e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"})
+    return out
+
+
+def _argv(tmp_path, *targets: str) -> list[str]:
+    p = write_study(tmp_path, STUDY, PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "4"]
+    argv += ["--workers", "0", "--quiet", "--case-fn", "test_optimize_targets:barred_case"]
+    for t in targets:
+        argv += ["--target", t]
+    return argv
+
+
+def _one_line(capsys) -> str:
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: --target: "), err
+    assert cap.out == ""
+    return err[0]
+
+
+@pytest.mark.parametrize(
+    ("target", "msg"),
+    [
+        ("k_z=1e-11", "'k_z' is not an output of this study; did you mean 'k_z_m2'?"),
+        ("diffusivity_z=0.5", "'diffusivity_z' is not an output of this study"),
+    ],
+)
+def test_unknown_target_output_refused_before_any_case(
+    tmp_path, capsys, monkeypatch, target, msg
+) -> None:
+    """audit (s31): the name was checked only after the whole budget ran, leaving opt/ with
+    cases/ and results.csv behind."""
+    import psdesign.study.runner as runner
+
+    def no_run(*a, **k):
+        raise AssertionError("a case ran before the targets were checked")
+
+    monkeypatch.setattr(runner, "run_study", no_run)
+    assert main(_argv(tmp_path, target)) == 2
+    line = _one_line(capsys)
+    assert msg in line and "outputs: porosity, k_z_m2" in line, line
+    assert not (tmp_path / "opt").exists()
+
+
+@pytest.mark.parametrize(
+    ("target", "msg"),
+    [
+        ("k_z_m2=-1e-11", "k_z_m2=-1e-11 can never be met: a permeability target must be > 0"),
+        ("k_z_m2<=0", "k_z_m2<=0 can never be met: a permeability target must be > 0 (m^2)"),
+        ("porosity>=1.5", "porosity>=1.5 can never be met: porosity targets must be in [0, 1]"),
+        ("porosity=-0.2", "porosity=-0.2 can never be met: porosity targets must be in [0, 1]"),
+        ("k_z_m2=1e-11+-5", "k_z_m2 tolerance must be a percentage like +-5%, got '+-5'"),
+    ],
+)
+def test_impossible_or_malformed_targets_refused_up_front(tmp_path, capsys, target, msg) -> None:
+    """audit (s31): a negative K or porosity 1.5 spent the whole budget; ``+-5`` without ``%``
+    blamed the value ('value must be a number, got '1e-11+-5'')."""
+    assert main(_argv(tmp_path, target)) == 2
+    line = _one_line(capsys)
+    assert msg in line, line
+    assert not (tmp_path / "opt").exists()
+
+
+def test_a_relative_diffusivity_target_is_a_fraction() -> None:
+    from psdesign.analysis.targets import Target
+
+    with pytest.raises(ValueError, match=r"D_eff/D target must be in \[0, 1\]"):
+        Target.parse("diffusivity_z>=1.2")
+    assert Target.parse("diffusivity_z>=0.5").value == 0.5
+
+
+def test_measured_values_print_with_their_error_bar(tmp_path, capsys) -> None:
+    """audit (s31): 'k_z_m2=1.2e-11+-10%: measured 1.077e-11 (missed)' hid the case's own
+    11.8 % error bar, which holds the target band."""
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main(argv) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[1] == (
+        "  k_z_m2=1.2e-11+-10%: measured 1.077e-11 +- 11.8 % [ok] "
+        "(missed; the target lies within the measurement's error bar)"
+    ), out
+    assert out[2].startswith("  porosity>=0.5: measured 0.8") and "[unrated]" in out[2], out
+    assert main([*argv[:4], str(tmp_path / "opt2"), *argv[5:], "--json"]) == 1
+    res = json.loads(capsys.readouterr().out)
+    k = res["targets"][0]
+    assert k["output"] == "k_z_m2" and k["measured"] == pytest.approx(1.077e-11, rel=1e-12)
+    assert k["rel_error"] == pytest.approx(0.118, rel=1e-12) and k["status"] == "ok"
+    assert not k["met"] and k["target_within_error_bar"]
