@@ -63,7 +63,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "forcefield",
         help="bend and compress fibers by minimizing the empirical force field "
-        "(paper Sec. 6); writes rve.json, history.csv, before.png, after.png",
+        "(paper Sec. 6); the paper's cases write rve.json, history.csv, before.png, after.png; "
+        "case = relax writes relaxed.toml, rve.json, summary.json (docs/forcefield.md)",
     )
     p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
     p.add_argument("-o", "--output", required=True, help="output folder")
