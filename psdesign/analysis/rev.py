@@ -114,8 +114,8 @@ def rev_study(
         raise ValueError(f"--seeds: need >= 2 seeds for a confidence interval, got {seeds}")
     if seeds > MAX_SEEDS:
         raise ValueError(f"--seeds: need 2..{MAX_SEEDS} seeds, got {seeds}")
-    if not 0 < tol < 1:
-        raise ValueError(f"--tol: must be in (0, 1), got {tol}")
+    if not 0 < tol <= UNTRUSTWORTHY_REL_ERROR:  # a REV's mean K must itself be trustworthy
+        raise ValueError(f"--tol: must be in (0, {UNTRUSTWORTHY_REL_ERROR:g}], got {tol}")
     if not directions or set(directions) - set("xyz") or len(set(directions)) < len(directions):
         raise ValueError(
             f"--directions: a subset of xyz, each axis once (e.g. z or xz), got {directions!r}"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 
 
@@ -78,6 +79,9 @@ def _warn_untrustworthy(out: str) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``rev``."""
     p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
+    # argparse takes "-30e-6" for an option (its negative-number pattern has no exponent), so
+    # `--sizes -30e-6` ended in "expected at least one argument" instead of the range message
+    p._negative_number_matcher = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?$")
     p.add_argument("spec", help="RVE spec with a [generator] table")
     p.add_argument("--sizes", type=float, nargs="+", required=True, help="cube edges in metres")
     p.add_argument("--seeds", type=int, default=3, help="seeds per size (2-1000, default 3)")
@@ -86,7 +90,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--directions", default="xyz", help="subset of xyz, each axis once (default xyz)"
     )
-    p.add_argument("--tol", type=float, default=0.1, help="relative CI half-width (default 0.1)")
+    p.add_argument(
+        "--tol",
+        type=float,
+        default=0.1,
+        help="relative 95 %% CI half-width of K that makes a size the REV, in (0, 0.2] "
+        "(default 0.1; above 0.2 a K is untrustworthy)",
+    )
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--json", action="store_true")

@@ -69,6 +69,9 @@ def test_rev_cli_bad_input(tmp_path, capsys) -> None:
     assert "--seeds: need >= 2" in capsys.readouterr().err
     assert main(["rev", str(spec), "--sizes", "-1", "-o", str(tmp_path / "o")]) == 2
     assert "--sizes" in capsys.readouterr().err
+    # an exponent too: argparse took -30e-6 for an option ("expected at least one argument")
+    assert main(["rev", str(spec), "--sizes", "-30e-6", "-o", str(tmp_path / "o")]) == 2
+    assert "--sizes: need edge lengths > 0 in metres" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
 
@@ -79,6 +82,10 @@ def test_rev_cli_bad_input(tmp_path, capsys) -> None:
         (["--directions", "xx"], "--directions"),  # main: duplicate outputs
         (["--directions", ""], "--directions"),
         (["--seeds", "1001"], "--seeds"),  # main: ran 100000 seeds (study files stop at 1000)
+        # session 31: a tol above the 20 % of an untrustworthy K made a size the REV while its
+        # row said untrustworthy
+        (["--tol", "0.3"], "--tol"),
+        (["--tol", "0"], "--tol"),
     ],
 )
 def test_rev_cli_bad_directions_and_seeds_before_work(tmp_path, capsys, args, key) -> None:
