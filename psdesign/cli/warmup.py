@@ -40,8 +40,21 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``warmup``."""
-    p = sub.add_parser("warmup", help="compile the numba kernels once (after install)")
-    p.add_argument("--only", nargs="+", choices=("serial", "parallel"), default=None)
+    p = sub.add_parser(
+        "warmup",
+        help="compile the numba kernels once (after install)",
+        description="Compile every numba kernel signature the solvers use into numba's on-disk "
+        "cache, once after install (6-15 min on 2 cores, depending on the CPU and the load); "
+        "later runs load them in seconds. Without it the first solves compile what they use "
+        "and small grids run on one thread until the parallel kernels exist.",
+    )
+    p.add_argument(
+        "--only",
+        nargs="+",
+        choices=("serial", "parallel"),
+        default=None,
+        help="only the one-thread (serial) or the multi-thread (parallel) kernels (default both)",
+    )
     p.add_argument("--jobs", type=int, default=None, help="processes, 1-64 (default: CPUs)")
     p.add_argument("--quiet", action="store_true", help="no messages on stderr")
     p.set_defaults(func=_cmd_warmup)

@@ -169,6 +169,7 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing", copies: i
     -------
     FemField
     """
+    from psdesign.flow.error import under_resolved
     from psdesign.meshing.options import thinnest_fiber_diameter
 
     voxel = float(fields.grid.spacing[0])
@@ -185,7 +186,9 @@ def fem_field(rve: RVE, fields: VoxelFields, mesher: str = "stuffing", copies: i
             r = 1
     per_d = None if diameter is None else diameter / voxel
     term = 0.0
-    if per_d is not None and per_d < FIELD_VOXELS_PER_DIAMETER and fields.analytic_distance:
+    # up to rounding: an 8 um fiber in a 20 um box at 1 um has 7.999999999999998 voxels across
+    # (the diameter is stored as a fraction of the period), which drew "8.0 voxels (< 8)"
+    if under_resolved(per_d, FIELD_VOXELS_PER_DIAMETER) and fields.analytic_distance:
         term = field_rel_error(fields.distance, voxel)
     return FemField(fields, r, max(wanted, r), per_d, term)
 

@@ -125,5 +125,7 @@ def check_conductivity(value: float, key: str) -> float:
     except (TypeError, ValueError):
         raise SpecError(key, f"must be a number > 0, got {value!r}") from None
     if not (v > 0 and v < 1e12):
-        raise SpecError(key, f"must be > 0 and < 1e12 (use insulating_phase for 0), got {v:g}")
+        # name the way to say "0" where the user is: the CLI flag or the spec key
+        zero = "--insulating" if key.startswith("--") else "transport.insulating_phase"
+        raise SpecError(key, f"must be > 0 and < 1e12 (use {zero} for 0), got {v:g}")
     return v

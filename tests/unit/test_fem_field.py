@@ -70,6 +70,23 @@ def test_fine_enough_field_and_image_are_kept():
     assert fem_field(rve, img).fields is img
 
 
+def test_eight_voxels_up_to_rounding_add_no_field_term():
+    """An 8 um fiber in a 20 um box at 1 um has 7.999999999999998 voxels across (its diameter
+    is a fraction of the period): that is the threshold, not below it.  Before session 31 the
+    FEM added a field term to the bar and warned "8.0 voxels across (< 8)"."""
+    import tomllib
+
+    from cylinder_spec import CYLINDER_SPEC
+
+    import psdesign
+
+    m = psdesign.build(tomllib.loads(CYLINDER_SPEC))  # 20 um box, D = 8 um, 1 um voxels
+    own = fem_field(m.rve, m.fields)
+    assert own.voxels_per_diameter < 8.0  # 7.999999999999998: the voxel is 1.0000000000000002e-06
+    assert own.voxels_per_diameter == pytest.approx(8.0) and own.refinement == 1
+    assert own.rel_error == 0.0
+
+
 def test_woven_mesh_solid_fraction_independent_of_field_voxel():
     """30 um woven cell, periodic, the same 2 um lattice: the mesh's solid fraction on the 1 um
     spec grid equals the one on the 0.5 um grid and the analytic value (before the FEM sampled
