@@ -21,11 +21,10 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import first_error, k_not_ok
-from psdesign.analysis.replicates import replicate_summary, t_quantile_975
+from psdesign.analysis.replicates import replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
 #: Most seeds per size (as for a study file's ``seeds``).
@@ -37,9 +36,9 @@ REV_FILES = ("rev.csv", "rev.json")
 def rev_folder_files() -> tuple[str, ...]:
     """Every file ``rev`` writes in its output folder: the study's (no ``report.html``: rev
     runs the study without a report) and :data:`REV_FILES`."""
-    from psdesign.study.store import STUDY_FILES
+    from psdesign.study.store import STUDY_FILES_NO_REPORT
 
-    return (*(f for f in STUDY_FILES if f != "report.html"), *REV_FILES)
+    return (*STUDY_FILES_NO_REPORT, *REV_FILES)
 
 
 def check_rev_dir(out_dir: str | Path):
@@ -151,10 +150,8 @@ def rev_study(
     table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
     names = ["porosity", *[f"k_{d}_m2" for d in directions]]
     for c in names:
-        if f"{c}_mean" in table:  # the Student half-width (a K's low bound is clipped at 0)
-            n = table[f"{c}_n"].to_numpy(dtype=int)
-            t = np.array([t_quantile_975(int(k) - 1) for k in n])
-            half = t * table[f"{c}_std"] / n.clip(min=1) ** 0.5
+        if f"{c}_mean" in table:  # the Student half-width: the upper bound is never clipped
+            half = table[f"{c}_ci95_high"] - table[f"{c}_mean"]
             table[f"{c}_ci_rel"] = half / table[f"{c}_mean"].abs()
     keep = [
         "size_m",

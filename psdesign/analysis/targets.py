@@ -185,6 +185,14 @@ class Target:
         half = abs(rel_error * y)
         return y - half <= hi and lo <= y + half
 
+    def bar_inside(self, y: float, rel_error: float | None) -> bool:
+        """Whether the whole error bar ``y +- rel_error |y|`` meets the target."""
+        if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
+            return False
+        lo, hi = self.bounds()
+        half = abs(rel_error * y)
+        return lo <= y - half and y + half <= hi
+
     def met(self, y: float) -> bool:
         """Whether a measured value meets the target."""
         if not math.isfinite(y):

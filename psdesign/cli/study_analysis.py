@@ -39,18 +39,18 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         models = fit_study(args.out, args.outputs or None)
     except (FileNotFoundError, ValueError) as exc:
         return _fail(str(exc))
-    rows = {
-        name: {
+    rows = {}
+    for name, m in models.items():
+        status, warnings = m.rating()
+        rows[name] = {
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
-            "status": m.rating()[0],
-            "warnings": m.rating()[1],
+            "status": status,
+            "warnings": warnings,
         }
-        for name, m in models.items()
-    }
     for r in rows.values():
         for w in r["warnings"]:
             print(f"psdesign: warning: {w}", file=sys.stderr)
@@ -149,10 +149,6 @@ def _target_report(t, best: dict) -> dict:
     except (TypeError, ValueError):
         y = float("nan")
     rel, status = error_bar(best, t.output)
-    inside = False
-    if y == y and rel is not None:
-        lo, hi = t.bounds()
-        inside = lo <= y - abs(rel * y) and y + abs(rel * y) <= hi
     return {
         "target": str(t),
         "output": t.output,
@@ -161,7 +157,7 @@ def _target_report(t, best: dict) -> dict:
         "status": status,
         "met": t.met(y),
         "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
-        "error_bar_inside_target": inside,
+        "error_bar_inside_target": t.bar_inside(y, rel),
     }
 
 

@@ -31,7 +31,13 @@ from psdesign.study.design import Case, expand_design
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
 from psdesign.study.stages import StageWatcher
-from psdesign.study.store import STUDY_FILES, STUDY_LEGACY, CaseStore, StorageError
+from psdesign.study.store import (
+    STUDY_FILES,
+    STUDY_FILES_NO_REPORT,
+    STUDY_LEGACY,
+    CaseStore,
+    StorageError,
+)
 from psdesign.study.studyfile import Study, StudyError, load_study
 from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
 
@@ -658,7 +664,7 @@ def run_study(
                 client, cluster = connect_scheduler(scheduler, workers, security=security)
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock
-            _claim(target, STUDY_FILES if report else _files_without_report())
+            _claim(target, STUDY_FILES if report else STUDY_FILES_NO_REPORT)
             store.prepare()
             with _run_lock(out), stop_on_interrupt():  # workers stop before the lock goes
                 store.remove_stale_temp()
@@ -668,10 +674,6 @@ def run_study(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
-
-
-def _files_without_report() -> tuple[str, ...]:
-    return tuple(f for f in STUDY_FILES if f != "report.html")
 
 
 def _claim(target, files) -> None:

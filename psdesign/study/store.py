@@ -33,6 +33,7 @@ from psdesign.io.outputs import TEMP_PREFIX, OutputDir, check_added_files, is_ps
 
 __all__ = [
     "STUDY_FILES",
+    "STUDY_FILES_NO_REPORT",
     "STUDY_LEGACY",
     "CaseStore",
     "StorageError",
@@ -56,6 +57,8 @@ STUDY_FILES = (
     "report.html",
     "cases/",
 )
+#: :data:`STUDY_FILES` of a run without its report (``study run --no-report``, ``rev``).
+STUDY_FILES_NO_REPORT = tuple(f for f in STUDY_FILES if f != "report.html")
 #: A study folder written by an older psdesign, before the marker: all of these exist.
 STUDY_LEGACY = ("study.json", "cases")
 
