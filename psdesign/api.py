@@ -54,6 +54,9 @@ class PermeabilityResult:
         Estimated relative error of K (``permeability_rel_error``), when the route gives one.
     solver, bc : str
     porosity : float
+    porosity_error : float or None
+        Estimated absolute error of the voxel-count porosity
+        (:attr:`psdesign.geometry.rve.VoxelFields.porosity_error`).
     details : dict
         Everything the route returned (iterations, residual, flux imbalance, timings, ...).
     """
@@ -66,6 +69,7 @@ class PermeabilityResult:
     solver: str
     bc: str
     porosity: float
+    porosity_error: float | None = None
     details: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -82,6 +86,7 @@ class PermeabilityResult:
             solver=str(d.get("solver", "")),
             bc=str(d.get("bc", "")),
             porosity=float(d.get("porosity", float("nan"))),
+            porosity_error=None if d.get("porosity_error") is None else float(d["porosity_error"]),
             details=dict(d),
         )
 
@@ -98,9 +103,11 @@ class PermeabilityResult:
             "solver": self.solver,
             "bc": self.bc,
             "porosity": self.porosity,
+            "porosity_error": self.porosity_error,
         }
 
     def _repr_html_(self) -> str:
+        from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
         rows = [
@@ -109,7 +116,7 @@ class PermeabilityResult:
             ("error estimate", plus_minus(self.rel_error)),
             ("converged", str(self.converged)),
             ("solver / bc", f"{self.solver} / {self.bc}"),
-            ("porosity (-)", f"{self.porosity:.4f}"),
+            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
         ]
         notes = self.details.get("warnings") or []
         return result_html("PermeabilityResult", rows, self.status, list(notes))
@@ -179,6 +186,12 @@ class Material:
     def porosity(self) -> float:
         """Pore volume fraction on the voxel grid."""
         return self.fields.porosity
+
+    @property
+    def porosity_error(self) -> float:
+        """Estimated absolute error of :attr:`porosity` against the analytic surface's pore
+        fraction (0 for an image; :mod:`psdesign.geometry.porosity`)."""
+        return self.fields.porosity_error
 
     def permeability(
         self,

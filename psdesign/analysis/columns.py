@@ -19,6 +19,8 @@ STATUS_COLUMNS = {
     **{f"diffusivity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
     **{f"tortuosity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
     **{f"conductivity_{d}": f"conductivity_{d}_status" for d in "xyz"},
+    **{f"pore_d{q}_m": "pore_sizes_status" for q in (10, 50, 90)},
+    "specific_surface_m-1": "specific_surface_status",
 }
 
 #: The relative error column of each value that has one (the tortuosity, porosity / D_eff/D
@@ -30,16 +32,25 @@ REL_ERROR_COLUMNS = {
     **{f"conductivity_{d}": f"conductivity_{d}_rel_error" for d in "xyz"},
     "specific_surface_m-1": "specific_surface_rel_error",
 }
+#: The absolute error column of each value that has one instead.
+ABS_ERROR_COLUMNS = {
+    "porosity": "porosity_error",
+    **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
+}
 
 
 def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
-    ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; a pore diameter's
-    ``pore_diameter_error_m`` over the value). The status is ``"unrated"`` where the table rates
-    nothing (the porosity, a voxel count), ``"no trusted value"`` where the value is missing.
+    ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; the porosity's and a pore
+    diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A value with an error
+    but no status column (the porosity) is ``ok`` up to a 20 % bar and ``untrustworthy``
+    above; ``"unrated"`` where the table rates nothing, ``"no trusted value"`` where the value
+    is missing.
 
     >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
     (0.118, 'ok')
+    >>> error_bar({"porosity": 0.8, "porosity_error": 0.0004}, "porosity")
+    (0.0005, 'ok')
     """
 
     def num(v) -> float | None:
@@ -54,14 +65,18 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
         return None, "no trusted value"
     if column in REL_ERROR_COLUMNS:
         rel = num(row.get(REL_ERROR_COLUMNS[column]))
-    elif column.startswith("pore_d") and num(row.get("pore_diameter_error_m")) is not None:
-        rel = num(row["pore_diameter_error_m"]) / abs(y) if y else None
+    elif num(row.get(ABS_ERROR_COLUMNS.get(column, ""))) is not None:
+        rel = num(row[ABS_ERROR_COLUMNS[column]]) / abs(y) if y else None
     else:
         rel = None
     status = row.get(STATUS_COLUMNS.get(column, ""))
-    if not isinstance(status, str) or not status:
-        status = "unrated"
-    return rel, status
+    if isinstance(status, str) and status:
+        return rel, status
+    if rel is None:
+        return rel, "unrated"
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR  # a count: rated by its bar alone
+
+    return rel, "ok" if rel <= UNTRUSTWORTHY_REL_ERROR else "untrustworthy"
 
 
 def trusted(df: pd.DataFrame) -> pd.DataFrame:

@@ -24,7 +24,10 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     )
     print(
         json.dumps(
-            {k: summary[k] for k in ("porosity", "n_fibers", "intersection_volume_fraction")}
+            {
+                k: summary[k]
+                for k in ("porosity", "porosity_error", "n_fibers", "intersection_volume_fraction")
+            }
         )
     )
     return 0

@@ -61,6 +61,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         info = {
             "direction": args.direction,
             "porosity": fields.porosity,
+            "porosity_error": fields.porosity_error,
             "porous_region_m": list(pm.porous_region),
             "fem_field": own.as_dict(),
             "quality": pm.quality,
@@ -72,7 +73,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         write_record(tmp, "mesh.json", info)  # the wall time beside it
     print(
         json.dumps(
-            {k: info[k] for k in ("direction", "porosity", "wall_time_s")}
+            {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}
             | {"n_tets": pm.quality.get("n_tets")}
         )
     )

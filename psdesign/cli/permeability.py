@@ -6,8 +6,12 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from typing import TYPE_CHECKING
 
 from psdesign.cli.progress import progress_printer, warning
+
+if TYPE_CHECKING:
+    from psdesign.geometry.rve import VoxelFields
 
 #: Voxel Stokes solve time per grid cell, one thread and two (measured on the idle 2-core
 #: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel.threads.PARALLEL_MIN_CELLS``).
@@ -56,14 +60,15 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     return permeability(rve, fields, direction, flow, solver, progress, estimate, capture)
 
 
-def _combine(results: list[dict], solver: str, porosity: float) -> dict:
+def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
     import numpy as np
 
     worst = {"ok": 0, "untrustworthy": 1, "not_converged": 2}
     out = {
         "direction": "all",
         "solver": solver,
-        "porosity": porosity,
+        "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "results": results,
         "bc": results[0]["bc"],
         "converged": all(r["converged"] for r in results),
@@ -84,13 +89,16 @@ def _combine(results: list[dict], solver: str, porosity: float) -> dict:
 
 
 def _line(r: dict) -> str:
+    from psdesign.geometry.porosity import porosity_text
+
     err = r.get("permeability_rel_error")
     bar = f" +- {100 * err:.1f} %" if err is not None else ""
     sens = r.get("bc_sensitivity")
     extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
     return (
         f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2{bar}  [{r['status']}]  "
-        f"bc {r['bc']}  converged {str(r['converged']).lower()}  porosity {r['porosity']:.4f}  "
+        f"bc {r['bc']}  converged {str(r['converged']).lower()}  "
+        f"porosity {porosity_text(r['porosity'], r.get('porosity_error'))}  "
         f"solver {r['solver']}  flux imbalance {r['flux_imbalance']:.2e}{extra}"
     )
 
@@ -148,7 +156,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
         rve = built.rve
         fields = built.voxelize(spec["rve"]["voxel"])
         results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
-    out = results[0] if len(results) == 1 else _combine(results, solver, fields.porosity)
+    out = results[0] if len(results) == 1 else _combine(results, solver, fields)
     out["wall_time_s"] = time.perf_counter() - t0
     for w in dict.fromkeys(out.get("warnings", [])):
         warning(w)

@@ -9,6 +9,7 @@ import time
 
 def _cmd(args: argparse.Namespace) -> int:
     from psdesign.cli.progress import warning
+    from psdesign.geometry.porosity import porosity_text
     from psdesign.io.newfile import check_new_file, write_new_file
     from psdesign.transport.load import load_case
     from psdesign.transport.study_outputs import pore_report
@@ -36,7 +37,8 @@ def _cmd(args: argparse.Namespace) -> int:
         )
         print(
             f"specific surface {out['specific_surface_m-1']:.4e} 1/m  rel. error "
-            f"{out['specific_surface_rel_error']:.1e}  porosity {out['porosity']:.4f}  "
+            f"{out['specific_surface_rel_error']:.1e}  "
+            f"porosity {porosity_text(out['porosity'], out.get('porosity_error'))}  "
             f"[{out['specific_surface_status']}]"
         )
     return 0

@@ -234,6 +234,7 @@ def _common(res, mesh, rve, fields, name, flow, bc, t0, t_mesh) -> dict:
         "warnings": notes,
         "direction": name,
         "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "solver": "fem",
         "bc": bc,
         "element": res.element,

@@ -280,6 +280,7 @@ def _result(res, fields, direction, bc, flow, periods, cpd, t0) -> dict:
         "permeability_column_m2": column.tolist(),
         "direction": name,
         "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "solver": "voxel",
         "bc": bc,
         "wall_treatment": res.wall_treatment,

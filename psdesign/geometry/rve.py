@@ -19,6 +19,7 @@ the distance field holds the clip value (``margin`` metres, positive = pore).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
@@ -98,6 +99,18 @@ class VoxelFields:
     def porosity(self) -> float:
         """Pore volume fraction of the box."""
         return float(1.0 - np.count_nonzero(self.distance <= 0.0) / self.distance.size)
+
+    @cached_property
+    def porosity_error(self) -> float:
+        """Estimated absolute error of :attr:`porosity` (a voxel count) against the analytic
+        surface's pore fraction (:func:`psdesign.geometry.porosity.porosity_error`); 0 for a
+        segmented image, which is its own geometry."""
+        if not self.analytic_distance:
+            return 0.0
+        from psdesign.geometry.porosity import porosity_error
+
+        h = float(np.prod(self.grid.spacing) ** (1.0 / 3.0))
+        return porosity_error(self.distance, h, self.porosity)
 
     @property
     def intersection_volume_fraction(self) -> float:

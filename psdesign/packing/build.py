@@ -63,6 +63,7 @@ def summarize(rve: RVE, fields: VoxelFields, report: dict | None = None) -> dict
     """The summary.json content."""
     out = {
         "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "voxel_grid": fields.grid.to_dict(),

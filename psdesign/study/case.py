@@ -63,6 +63,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     fields = built.voxelize(spec["rve"]["voxel"])
     row: dict = {
         "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "time_geometry_s": time.perf_counter() - t0,

@@ -86,6 +86,7 @@ RESULT_ORDER = (
     "status",
     "error",
     "porosity",
+    "porosity_error",
     "k_x_m2",
     "k_y_m2",
     "k_z_m2",

@@ -9,8 +9,10 @@ Output names (``[study] outputs``) and the row keys they add:
 * ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
   ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``, ``conductivity_<d>_status``;
 * ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m), with
-  ``pore_bin_width_m`` (the scan step) and ``pore_diameter_error_m`` (their one-sided error);
-* ``specific_surface_m-1``: marching-cubes surface per box volume (1/m).
+  ``pore_bin_width_m`` (the scan step), ``pore_diameter_error_m`` (their one-sided error) and
+  ``pore_sizes_status`` (:func:`pore_sizes_status`, as ``psdesign pores`` rates them);
+* ``specific_surface_m-1``: marching-cubes surface per box volume (1/m), with
+  ``specific_surface_rel_error`` and ``specific_surface_status``.
 """
 
 from __future__ import annotations
@@ -79,11 +81,24 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         else "marching cubes on the image's voxel-face distance (not analytic: a segmented "
         "image has no sub-voxel surface)"
     )
+    out["porosity_error"] = fields.porosity_error
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)
     out.update(_pore_rating(out, rve, float(fields.grid.spacing[0]), fields.solid.shape))
     return out
+
+
+def pore_sizes_status(
+    converged: bool, rel_error: float, d90_m: float, cpd: float | None, edge_m: float
+) -> str:
+    """The pore sizes' status: by convergence, error bar and resolution
+    (:func:`psdesign.flow.error.status_of`), and ``untrustworthy`` when ``d90`` exceeds the
+    RVE's smallest edge ``edge_m`` (a pore larger than the RVE represents no material)."""
+    from psdesign.flow.error import status_of
+
+    status = status_of(converged, rel_error, cpd)
+    return "untrustworthy" if status == "ok" and d90_m > edge_m else status
 
 
 def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -> dict:
@@ -102,15 +117,14 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     converged = bool(out.get("converged", True))
     warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
-    sizes = err.status_of(converged, out["rel_error"], cpd)
-    surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
     edge = h * min(shape)
-    if out["pore_d90_m"] > edge:  # a pore larger than the RVE: it represents no material
+    sizes = pore_sizes_status(converged, out["rel_error"], out["pore_d90_m"], cpd, edge)
+    surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
+    if out["pore_d90_m"] > edge:
         warnings.append(
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the RVE's smallest edge "
             f"{edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
-        sizes = "untrustworthy" if sizes == "ok" else sizes
     return {
         "pore_sizes_status": sizes,
         "specific_surface_status": surface,
@@ -162,10 +176,16 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         )
         row["pore_bin_width_m"] = ps.bin_width_m
         row["pore_diameter_error_m"] = ps.diameter_error_m
+        edge = float(fields.grid.spacing[0]) * min(fields.solid.shape)
+        row["pore_sizes_status"] = pore_sizes_status(
+            ps.converged, ps.rel_error, ps.pore_d90_m, cpd, edge
+        )
     if "specific_surface_m-1" in wanted:
+        from psdesign.flow.error import status_of
         from psdesign.transport.pores import specific_surface
 
         sv = specific_surface(fields)
         row["specific_surface_m-1"] = sv.specific_surface_m_1
         row["specific_surface_rel_error"] = sv.rel_error
+        row["specific_surface_status"] = status_of(True, sv.rel_error, cpd)
     return row

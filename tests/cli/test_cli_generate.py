@@ -47,6 +47,9 @@ def test_generate_writes_every_output(tmp_path):
     # x-aligned rod of D = 0.2 periods: solid fraction = exact PS cross-section area
     assert 1 - summary["porosity"] == pytest.approx(rod_cross_section_area(0.2), rel=0.03)
     assert summary["n_fibers"] == 1 and summary["intersection_volume_fraction"] == 0
+    # the porosity's error estimate covers the count's true error (psdesign.geometry.porosity)
+    true = 1 - rod_cross_section_area(0.2)
+    assert abs(summary["porosity"] - true) <= summary["porosity_error"] < 0.01
     doc = json.loads((out / "rve.json").read_text())
     axis = np.array(doc["fibers"][0]["medial_axis_m"][0])
     np.testing.assert_allclose(axis[:, 1:], [[50.3e-6, 49.1e-6]] * 2, atol=1e-12)

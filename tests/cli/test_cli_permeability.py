@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -72,6 +73,8 @@ def test_text_line_carries_error_bar_status_and_bc(tmp_path, capsys):
     code, out, _ = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x")
     assert code == 0
     assert "+-" in out and "bc periodic" in out and "converged true" in out and "[" in out
+    # the porosity with its absolute error estimate (psdesign.geometry.porosity.porosity_text)
+    assert re.search(r"porosity 0\.\d{4} \+- \d\.\de-\d\d", out), out
 
 
 def test_unavailable_bc_exits_2_with_one_line(tmp_path, capsys, monkeypatch):

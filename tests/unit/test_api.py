@@ -44,6 +44,8 @@ def test_build_porosity_matches_the_exact_cylinder_area() -> None:
     m = psdesign.build(spec)
     exact = 1.0 - math.pi * 4e-6**2 / 20e-6**2
     assert m.porosity == pytest.approx(exact, abs=2e-3)
+    # its error estimate covers the count's true error (psdesign.geometry.porosity)
+    assert abs(m.porosity - exact) <= m.porosity_error < 2e-3
     assert repr(m) == "Material(2e-05 x 2e-05 x 2e-05 m, 1 fibers)"  # SI, as every output
 
 
@@ -60,12 +62,13 @@ def test_permeability_result_repr_and_html() -> None:
         "solver": "voxel",
         "bc": "periodic",
         "porosity": 0.8,
+        "porosity_error": 4.2e-4,
         "iterations": 3,
     }
     r = PermeabilityResult.from_dict(d)
     assert r.status == "not_converged" and r.details["iterations"] == 3
     assert "1.25e-12" in repr(r) and "details" not in repr(r)
-    assert "1.2500e-12" in r._repr_html_()
+    assert "1.2500e-12" in r._repr_html_() and "0.8000 +- 4.2e-04" in r._repr_html_()
     # to_dict, as the transport results have (session 31 audit: PermeabilityResult had none)
     back = r.to_dict()
     assert back["iterations"] == 3 and back["status"] == "not_converged"

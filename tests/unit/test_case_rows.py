@@ -46,3 +46,35 @@ def test_report_k_table_shows_bar_and_flags():
     assert "1e-11 ± 3.1 %" in html and "2e-11 ± 50.0 %" in html
     assert html.count('class="flag"') == 1
     assert _k_table(df.drop(columns=["k_z_rel_error"])) == ""  # old tables: no section
+
+
+def test_row_porosity_carries_its_error_and_status(tmp_path):
+    """The porosity column has its error estimate (a 10 um cylinder along z: solid fraction
+    pi 5^2 / 40^2 exactly) and the error bar rates it; before, the table rated nothing."""
+    import math
+
+    from psdesign.analysis.columns import error_bar
+
+    row = run_case(SPEC, ["porosity"], "voxel", tmp_path)
+    true = 1 - math.pi * 25 / 1600
+    assert abs(row["porosity"] - true) <= row["porosity_error"] < 0.02
+    rel, status = error_bar(row, "porosity")
+    assert (rel, status) == (pytest.approx(row["porosity_error"] / row["porosity"]), "ok")
+
+
+def test_row_pore_values_are_rated_as_pores_rates_them():
+    """A study row's pore sizes and S_v carry the status ``psdesign pores`` gives them: at
+    2 um voxels the 10 um cylinder has 5 voxels across (< 8), so both are untrustworthy and
+    ``trusted`` drops them (they were unrated and kept)."""
+    from psdesign.analysis.columns import trusted
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import validate_spec
+    from psdesign.transport.study_outputs import transport_outputs
+
+    spec = validate_spec(SPEC)
+    built = build_rve(spec)
+    fields = built.voxelize(spec["rve"]["voxel"])
+    row = transport_outputs(built.rve, fields, ["pore_d50_m", "specific_surface_m-1"], spec)
+    assert row["pore_sizes_status"] == row["specific_surface_status"] == "untrustworthy"
+    kept = trusted(pd.DataFrame([{"status": "ok", **row}]))
+    assert kept["pore_d50_m"].isna().all() and kept["specific_surface_m-1"].isna().all()
