@@ -84,14 +84,15 @@ def _combine(results: list[dict], solver: str, porosity: float) -> dict:
 
 
 def _line(r: dict) -> str:
-    err = r.get("permeability_rel_error")
-    bar = f" +- {100 * err:.1f} %" if err is not None else ""
+    from psdesign.cli.lines import error_bar, rating
+
     sens = r.get("bc_sensitivity")
     extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
     return (
-        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2{bar}  [{r['status']}]  "
-        f"bc {r['bc']}  converged {str(r['converged']).lower()}  porosity {r['porosity']:.4f}  "
-        f"solver {r['solver']}  flux imbalance {r['flux_imbalance']:.2e}{extra}"
+        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2"
+        f"{error_bar(r.get('permeability_rel_error'))}  {rating(r)}  porosity "
+        f"{r['porosity']:.4f}  solver {r['solver']}  flux imbalance "
+        f"{r['flux_imbalance']:.2e}{extra}"
     )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from cylinder_spec import CYLINDER_SPEC as SPEC
@@ -50,7 +51,8 @@ def test_conductivity_names_its_unit(spec, capsys):
     assert {r["conductivity_unit"] for r in out["results"]} == {"W/(m K)"}
     assert main(["conductivity", str(spec), "--solid", "1e4", "--fluid", "1", "--unit", "S/m"]) == 0
     line = capsys.readouterr().out
-    assert line.startswith("sigma_eff_z = ") and " S/m  (solid 10000, fluid 1 S/m)" in line
+    assert line.startswith("sigma_eff_z = ") and " S/m +- " in line
+    assert "(solid 10000, fluid 1 S/m)" in line
     with pytest.raises(SystemExit) as bad:  # argparse: one usage line, exit 2
         main(["conductivity", str(spec), "--unit", "K"])
     assert bad.value.code == 2
@@ -211,3 +213,35 @@ def test_trusted_masks_untrustworthy_transport_values():
     assert t["diffusivity_z"].tolist()[0] == 0.5 and pd.isna(t["diffusivity_z"].iloc[1])
     assert pd.isna(t["tortuosity_z"].iloc[1]) and pd.isna(t["conductivity_x"].iloc[0])
     assert untrustworthy_count(df) == 2
+
+
+# The session-31 audit: the transport lines printed `rel. error 1.0e-01  [ok]` but not the
+# convergence flag the permeability lines carry (`K_z = ... m^2 +- e %  [status]  bc B
+# converged true|false`; rule: every printed number carries its convergence flag).
+LINE = re.compile(r" \+- (\d+\.\d) %  \[(\w+)\]  bc (\w+)  converged (true|false)  ")
+
+
+@pytest.mark.parametrize("command", ["diffusivity", "conductivity"])
+def test_transport_lines_carry_bar_status_and_converged(spec, tmp_path, capsys, command):
+    assert main([command, str(spec), "--direction", "all", "--json", "--quiet"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["converged"] is True and [r["converged"] for r in js["results"]] == [True] * 3
+    assert main([command, str(spec), "--direction", "all", "--quiet"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 3
+    for line, r in zip(lines, js["results"], strict=True):
+        bar, status, bc, conv = LINE.search(line).groups()
+        assert (bar, status, bc, conv) == (f"{100 * r['rel_error']:.1f}", "ok", "periodic", "true")
+    # D_z of the straight pore is the porosity, sigma_z the parallel mean (closed forms)
+    eps = js["porosity"]
+    z = f"{eps:.4f}" if command == "diffusivity" else f"{120 * (1 - eps) + 0.026 * eps:.5g}"
+    assert lines[2].split(" = ")[1].startswith(z + " ")
+    # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 1
+    stopped = tmp_path / "stopped.toml"
+    stopped.write_text(SPEC.replace("[transport]", "[transport]\nmax_iter = 1"))
+    assert main([command, str(stopped), "--direction", "x", "--json", "--quiet"]) == 1
+    js = json.loads(capsys.readouterr().out)
+    assert js["converged"] is False and js["status"] == "not_converged"
+    assert main([command, str(stopped), "--direction", "x", "--quiet"]) == 1
+    line = capsys.readouterr().out
+    assert LINE.search(line).groups()[1:] == ("not_converged", "periodic", "false")
