@@ -17,6 +17,7 @@ from functools import partial
 
 import numpy as np
 
+from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
 from psdesign.transport.effective import Rated, solve_effective
@@ -132,8 +133,9 @@ def effective_conductivity(
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
     progress : callable, optional
     capture : callable, optional
-        Receives the potential field: ``capture("conductivity", solution=..., ...)``
-        (e.g. a :class:`psdesign.fields.FieldWriter`).
+        Receives the potential field and the final result once it is rated:
+        ``capture("conductivity", solution=..., result=dict, ...)`` (e.g. a
+        :class:`psdesign.fields.FieldWriter`).
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
         below 8 the result is ``untrustworthy`` and says why in ``warnings``.
@@ -155,8 +157,8 @@ def effective_conductivity(
     def sigma_of(mask: np.ndarray) -> np.ndarray:
         return np.where(mask, np.float32(ks), np.float32(kf))
 
-    cap = None if capture is None else partial(capture, "conductivity")
-    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=cap)
+    held = None if capture is None else HeldCapture(partial(capture, "conductivity"))
+    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=held)
     fs = 1.0 - fields.porosity
     out = ConductivityResult(
         direction=eff.direction,
@@ -184,4 +186,6 @@ def effective_conductivity(
         cells_per_diameter=cells_per_diameter,
     )
     out.warnings = out.rating_warnings()
+    if held is not None:
+        held.flush(result=out.to_dict())
     return out
