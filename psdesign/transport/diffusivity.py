@@ -32,7 +32,13 @@ import numpy as np
 from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import validate_transport
-from psdesign.transport.effective import Effective, Rated, solve_effective, worst_status
+from psdesign.transport.effective import (
+    Effective,
+    Rated,
+    solve_effective,
+    wiener_bounds,
+    worst_status,
+)
 
 
 @dataclass(repr=False)  # Rated.__repr__: the fields and the status
@@ -64,6 +70,11 @@ class DiffusivityResult(Rated):
     effective_diffusivity_transition_m2_s: float | None = None
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
+
+    def wiener(self) -> tuple[float, tuple[float, float]]:
+        """The value and its Wiener bounds ``[0, porosity]`` (pore 1, solid 0;
+        :meth:`Rated.wiener`)."""
+        return self.relative_diffusivity, wiener_bounds(1.0, 0.0, 1.0 - self.porosity)
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
