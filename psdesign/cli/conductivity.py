@@ -45,11 +45,13 @@ def _cmd(args: argparse.Namespace) -> int:
 
 
 def _line(r: dict) -> str:
+    from psdesign.cli.lines import error_bar, rating
+
     u = r["conductivity_unit"]
     return (
-        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g} {u}  (solid "
-        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g} {u})  bc {r['bc']}  "
-        f"rel. error {r['rel_error']:.1e}"
+        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g} {u}"
+        f"{error_bar(r['rel_error'])}  {rating(r)}  (solid {r['solid_conductivity']:g}, "
+        f"fluid {r['fluid_conductivity']:g} {u})"
     )
 
 

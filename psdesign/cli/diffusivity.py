@@ -53,11 +53,13 @@ def _cmd(args: argparse.Namespace) -> int:
 
 
 def _line(r: dict) -> str:
+    from psdesign.cli.lines import error_bar, rating
+
     tau = r["tortuosity_factor"]
     return (
-        f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}  tortuosity factor "
-        f"{'inf' if tau is None else f'{tau:.4f}'}  porosity {r['porosity']:.4f}  "
-        f"bc {r['bc']}  rel. error {r['rel_error']:.1e}"
+        f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}{error_bar(r['rel_error'])}  "
+        f"{rating(r)}  tortuosity factor {'inf' if tau is None else f'{tau:.4f}'}  "
+        f"porosity {r['porosity']:.4f}"
     )
 
 

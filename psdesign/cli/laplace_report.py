@@ -35,7 +35,8 @@ def emit(
     name: str, out: dict, results: list[dict], as_json: bool, line: Callable[[dict], str]
 ) -> int:
     """Print the blocked directions' messages and every warning on stderr, then ``out`` as JSON
-    or ``line(r)`` per result on stdout with its ``[status]``; 0 if converged, else 1."""
+    or ``line(r)`` per result on stdout (the line carries its error bar, ``[status]`` and
+    ``converged``: :mod:`psdesign.cli.lines`); 0 if converged, else 1."""
     from psdesign.cli.progress import warning
 
     for r in results:
@@ -47,5 +48,5 @@ def emit(
         print(json.dumps(out, default=float))
     else:
         for r in results:
-            print(line(r) + f"  [{r['status']}]" + ("" if r["converged"] else "  (NOT CONVERGED)"))
+            print(line(r))
     return 0 if out["converged"] else 1

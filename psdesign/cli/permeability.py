@@ -89,17 +89,16 @@ def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
 
 
 def _line(r: dict) -> str:
+    from psdesign.cli.lines import error_bar, rating
     from psdesign.geometry.porosity import porosity_text
 
-    err = r.get("permeability_rel_error")
-    bar = f" +- {100 * err:.1f} %" if err is not None else ""
     sens = r.get("bc_sensitivity")
     extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
     return (
-        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2{bar}  [{r['status']}]  "
-        f"bc {r['bc']}  converged {str(r['converged']).lower()}  "
-        f"porosity {porosity_text(r['porosity'], r.get('porosity_error'))}  "
-        f"solver {r['solver']}  flux imbalance {r['flux_imbalance']:.2e}{extra}"
+        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2"
+        f"{error_bar(r.get('permeability_rel_error'))}  {rating(r)}  porosity "
+        f"{porosity_text(r['porosity'], r.get('porosity_error'))}  solver {r['solver']}  "
+        f"flux imbalance {r['flux_imbalance']:.2e}{extra}"
     )
 
 

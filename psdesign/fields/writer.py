@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from psdesign.fields.tables import boundary_table, region_table
@@ -51,10 +51,16 @@ def field_files(kind: str, directions: Iterable[str], solver: str = "voxel") -> 
 
 
 #: Keys of a solve's result copied into ``fields.json``: what a ParaView user needs to know
-#: whether to trust the field (the status and why).
+#: whether to trust the field (the value, its error bar, the status and why); a flow solve has
+#: the ``permeability_*`` keys, a Laplace solve its value's and ``rel_error``.
 RESULT_KEYS = (
     "permeability_m2",
     "permeability_rel_error",
+    "relative_diffusivity",
+    "tortuosity_factor",
+    "effective_conductivity",
+    "conductivity_unit",
+    "rel_error",
     "solver",
     "bc",
     "status",
@@ -62,6 +68,31 @@ RESULT_KEYS = (
     "warnings",
     "flow_rate_m3_s",
 )
+
+
+class HeldCapture:
+    """Holds a solve's ``capture`` call until its result is final: the fields are written only
+    for the solve that is reported (a superseded one is :meth:`drop`-ped), and :meth:`flush`
+    can add what is known only after the solve (the result with its error bar and status).
+    """
+
+    def __init__(self, capture: Callable[..., None]) -> None:
+        self.capture = capture
+        self.call: tuple[tuple, dict] | None = None
+
+    def __call__(self, *args, **kwargs) -> None:
+        self.call = (args, kwargs)
+
+    def drop(self) -> None:
+        """Forget the held call (its solve is superseded)."""
+        self.call = None
+
+    def flush(self, **more) -> None:
+        """Pass the held call on to ``capture``, with the keywords ``more`` added."""
+        if self.call is not None:
+            args, kwargs = self.call
+            self.call = None
+            self.capture(*args, **{**kwargs, **more})
 
 
 class FieldWriter:
@@ -96,7 +127,7 @@ class FieldWriter:
         if kind in ("fem_flow", "voxel_flow"):
             self._flow(kind, solution, fields, result, extra)
         else:
-            self._laplace(kind, solution, fields, extra["conductivity"])
+            self._laplace(kind, solution, fields, extra["conductivity"], result)
 
     def _flow(self, kind, solution, fields, result, extra) -> None:
         from psdesign.fields.flow import fem_flow_grids, voxel_flow_grid
@@ -122,14 +153,16 @@ class FieldWriter:
         self._picture(entry, grid, axis, "velocity_m_per_s", "pressure_Pa", title)
         self.solves.append(entry)
 
-    def _laplace(self, kind, solution, fields, conductivity) -> None:
+    def _laplace(self, kind, solution, fields, conductivity, result) -> None:
         from psdesign.fields.laplace import laplace_grid
 
         d = "xyz"[int(solution.axis)]
         stem = self._stem(f"{kind}_{d}")
-        grid = laplace_grid(solution, conductivity, fields, kind, None)
+        grid = laplace_grid(solution, conductivity, fields, kind, result)
         grid.save(self.folder / f"{stem}.vti")
         entry = {"kind": kind, "stem": stem, "direction": d, "files": [f"{stem}.vti"]}
+        if result is not None:
+            entry["result"] = result
         entry["mean_flux_per_unit_gradient"] = [
             float(v) for v in solution.mean_flux / solution.gradient
         ]

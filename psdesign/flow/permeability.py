@@ -31,6 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from psdesign.fields.writer import HeldCapture
 from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
@@ -301,7 +302,7 @@ def permeability(
     """
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
-    final = None if capture is None else _FinalCapture(capture)
+    final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)
     if final is not None:
@@ -309,31 +310,6 @@ def permeability(
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
-
-
-class _FinalCapture:
-    """Holds a route's ``capture`` call until the solve is known to be the final one: a stack
-    that ``"auto"`` lengthens (:func:`auto_lengthen`) drops the superseded solve's fields before
-    solving again, so only the reported solve's fields reach ``capture`` (and no two solutions
-    are held at once)."""
-
-    def __init__(self, capture: Callable[..., None]) -> None:
-        self.capture = capture
-        self.call: tuple[tuple, dict] | None = None
-
-    def __call__(self, *args, **kwargs) -> None:
-        self.call = (args, kwargs)
-
-    def drop(self) -> None:
-        """Forget the held call (its solve is superseded)."""
-        self.call = None
-
-    def flush(self) -> None:
-        """Pass the held call on to ``capture``."""
-        if self.call is not None:
-            args, kwargs = self.call
-            self.call = None
-            self.capture(*args, **kwargs)
 
 
 def _longer_flow(flow: dict, res: dict, copies: int) -> dict:
@@ -370,7 +346,7 @@ def auto_lengthen(
     gets ``permeameter_auto``: the
     copies, K and window term of each solve and why it stopped; a stop with the window term
     still above the threshold adds a warning naming ``flow.permeameter_copies``. ``capture``
-    (a :class:`_FinalCapture` from :func:`permeability`) has each superseded solve's fields
+    (a :class:`HeldCapture` from :func:`permeability`) has each superseded solve's fields
     dropped before the next solve, so only the final solve's are written."""
     from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
     from psdesign.schema import budget
@@ -397,7 +373,7 @@ def auto_lengthen(
         if copies is None:
             break
         flow = _longer_flow(flow, res, copies)
-        if isinstance(capture, _FinalCapture):
+        if isinstance(capture, HeldCapture):
             capture.drop()
         res = route_result(rve, fields, direction, flow, solver, progress, capture)
     if why == "fixed":

@@ -5,8 +5,12 @@
 conductances, flux-conservative; contrasts up to 1e6 and beyond), or with one phase a perfect
 insulator (``insulating_phase``).  Through-plane is ``direction = thickness_axis`` (z by
 default), in-plane the other two.  Each result carries the rigorous per-direction Wiener
-bounds (arithmetic / harmonic means) and, for reference, the isotropic 3-D Hashin-Shtrikman
-bounds (Hashin & Shtrikman, J. Appl. Phys. 33, 3125, 1962), which bind an isotropic medium.
+bounds (arithmetic / harmonic means), which bind any direction of any medium: a value outside
+them by more than its error bar is ``untrustworthy`` with a warning (a wrong answer,
+:func:`psdesign.transport.effective.outside_wiener`).  For reference only it also carries the
+isotropic 3-D Hashin-Shtrikman bounds (Hashin & Shtrikman, J. Appl. Phys. 33, 3125, 1962),
+which bind only an isotropic medium: a fibrous medium is anisotropic (a straight fibre's axis
+reaches the parallel mean, above them), so they rate nothing.
 """
 
 from __future__ import annotations
@@ -17,9 +21,10 @@ from functools import partial
 
 import numpy as np
 
+from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
-from psdesign.transport.effective import Rated, solve_effective
+from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 
 
 @dataclass(repr=False)  # Rated.__repr__: the fields and the status
@@ -54,10 +59,16 @@ class ConductivityResult(Rated):
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
 
+    def wiener(self) -> tuple[float, tuple[float, float]]:
+        """The value and its Wiener bounds (:meth:`Rated.wiener`)."""
+        lo, hi = self.wiener_bounds
+        return self.effective_conductivity, (lo, hi)
+
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
 
         lo, hi = self.hashin_shtrikman_bounds
+        w_lo, w_hi = self.wiener_bounds
         u = self.conductivity_unit
         rows = [
             ("direction", self.direction),
@@ -69,7 +80,8 @@ class ConductivityResult(Rated):
                 f"solid / fluid conductivity ({u})",
                 f"{self.solid_conductivity:.4g} / {self.fluid_conductivity:.4g}",
             ),
-            (f"Hashin-Shtrikman bounds ({u})", f"[{lo:.4g}, {hi:.4g}]"),
+            (f"Wiener bounds, any direction ({u})", f"[{w_lo:.4g}, {w_hi:.4g}]"),
+            (f"Hashin-Shtrikman bounds, isotropic media only ({u})", f"[{lo:.4g}, {hi:.4g}]"),
             ("porosity (-)", f"{self.porosity:.4f}"),
             ("bc", self.bc),
         ]
@@ -101,14 +113,6 @@ def hashin_shtrikman(s1: float, s2: float, f2: float, dim: int = 3) -> tuple[flo
     return float(lower), float(upper)
 
 
-def wiener_bounds(s1: float, s2: float, f2: float) -> tuple[float, float]:
-    """Harmonic (series) and arithmetic (parallel) means: bounds for any direction."""
-    f1 = 1.0 - f2
-    upper = f1 * s1 + f2 * s2
-    lower = 0.0 if min(s1, s2) == 0 else 1.0 / (f1 / s1 + f2 / s2)
-    return float(lower), float(upper)
-
-
 def effective_conductivity(
     fields: VoxelFields,
     direction: str | int = "z",
@@ -132,8 +136,9 @@ def effective_conductivity(
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
     progress : callable, optional
     capture : callable, optional
-        Receives the potential field: ``capture("conductivity", solution=..., ...)``
-        (e.g. a :class:`psdesign.fields.FieldWriter`).
+        Receives the potential field and the final result once it is rated:
+        ``capture("conductivity", solution=..., result=dict, ...)`` (e.g. a
+        :class:`psdesign.fields.FieldWriter`).
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
         below 8 the result is ``untrustworthy`` and says why in ``warnings``.
@@ -155,8 +160,8 @@ def effective_conductivity(
     def sigma_of(mask: np.ndarray) -> np.ndarray:
         return np.where(mask, np.float32(ks), np.float32(kf))
 
-    cap = None if capture is None else partial(capture, "conductivity")
-    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=cap)
+    held = None if capture is None else HeldCapture(partial(capture, "conductivity"))
+    eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=held)
     fs = 1.0 - fields.porosity
     out = ConductivityResult(
         direction=eff.direction,
@@ -184,4 +189,6 @@ def effective_conductivity(
         cells_per_diameter=cells_per_diameter,
     )
     out.warnings = out.rating_warnings()
+    if held is not None:
+        held.flush(result=out.to_dict())
     return out

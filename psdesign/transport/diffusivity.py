@@ -29,9 +29,16 @@ from functools import partial
 
 import numpy as np
 
+from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import VoxelFields
 from psdesign.schema.transport import validate_transport
-from psdesign.transport.effective import Effective, Rated, solve_effective, worst_status
+from psdesign.transport.effective import (
+    Effective,
+    Rated,
+    solve_effective,
+    wiener_bounds,
+    worst_status,
+)
 
 
 @dataclass(repr=False)  # Rated.__repr__: the fields and the status
@@ -63,6 +70,11 @@ class DiffusivityResult(Rated):
     effective_diffusivity_transition_m2_s: float | None = None
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
+
+    def wiener(self) -> tuple[float, tuple[float, float]]:
+        """The value and its Wiener bounds ``[0, porosity]`` (pore 1, solid 0;
+        :meth:`Rated.wiener`)."""
+        return self.relative_diffusivity, wiener_bounds(1.0, 0.0, 1.0 - self.porosity)
 
     def _repr_html_(self) -> str:
         from psdesign.notebook import plus_minus, result_html
@@ -183,18 +195,22 @@ def relative_diffusivity(
     pore_diameter : float, optional
         Mean pore diameter for the Knudsen number (default ``4 eps / S_v``).
     capture : callable, optional
-        Receives the concentration field: ``capture("diffusivity", solution=..., ...)``
-        (e.g. a :class:`psdesign.fields.FieldWriter`).
+        Receives the concentration field and the final result once it is rated:
+        ``capture("diffusivity", solution=..., result=dict, ...)`` (e.g. a
+        :class:`psdesign.fields.FieldWriter`).
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
         below 8 the result is ``untrustworthy`` and says why in ``warnings``.
     """
     tr = validate_transport({"transport": transport or {}})
-    cap = None if capture is None else partial(capture, "diffusivity")
-    eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=cap)
+    held = None if capture is None else HeldCapture(partial(capture, "diffusivity"))
+    eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=held)
     if pore_diameter is None and tr["mean_free_path_m"] > 0:
         pore_diameter = mean_pore_diameter(fields)
-    return _result(eff, fields, tr, pore_diameter, cells_per_diameter)
+    out = _result(eff, fields, tr, pore_diameter, cells_per_diameter)
+    if held is not None:
+        held.flush(result=out.to_dict())
+    return out
 
 
 def diffusivity_tensor(

@@ -24,9 +24,10 @@ The error estimate (``rel_error``) is built as the permeability's
 
 Each value is rated like a permeability (:func:`psdesign.flow.error.status_of`): ``status`` is
 ``"blocked"`` (no conducting path), ``"not_converged"``, ``"untrustworthy"`` (error bar above
-:data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` or fewer than
-:data:`psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels across the thinnest fiber) or
-``"ok"``, with one warning line per reason (:func:`rating`).
+:data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
+:data:`psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels across the thinnest fiber, or a value
+outside its Wiener bounds by more than its error bar: :func:`outside_wiener`) or ``"ok"``, with
+one warning line per reason (:func:`rating`).
 """
 
 from __future__ import annotations
@@ -49,6 +50,10 @@ BC_NAMES = ("periodic", "permeameter")
 #: Perrins et al. 1979 and the parallel rule; ``benchmarks/RESULTS.md``, truth22) the largest
 #: ``|error| / (h S_f m)`` is 0.51; the floor alone covers every case.
 STAIRCASE_FLOOR = 0.55
+#: Relative slack of the Wiener check (:func:`outside_wiener`) beyond the error bar: the
+#: conductivity map is float32 (rounding 6e-8) and a straight-fibre value equals its bound (the
+#: parallel mean) up to the CG tolerance; measured 4e-12 above it on the one-cylinder cell.
+WIENER_ROUNDING = 1e-6
 
 
 @dataclass
@@ -73,6 +78,43 @@ class Effective:
     extra: dict = field(default_factory=dict)
 
 
+def wiener_bounds(s1: float, s2: float, f2: float) -> tuple[float, float]:
+    """Harmonic (series) and arithmetic (parallel) means of two phases (conductivity ``s1`` at
+    fraction ``1 - f2``, ``s2`` at ``f2``): ``(lower, upper)``, rigorous bounds of the effective
+    value along any direction of any arrangement, with any of the two boundary conditions.
+
+    >>> wiener_bounds(1.0, 0.0, 0.25)  # pores of a relative diffusivity: [0, porosity]
+    (0.0, 0.75)
+    """
+    f1 = 1.0 - f2
+    upper = f1 * s1 + f2 * s2
+    lower = 0.0 if min(s1, s2) == 0 else 1.0 / (f1 / s1 + f2 / s2)
+    return float(lower), float(upper)
+
+
+def outside_wiener(
+    name: str, value: float, rel_error: float, bounds: tuple[float, float]
+) -> str | None:
+    """The warning line of a value outside its Wiener bounds by more than its error bar
+    (``value * rel_error``, plus :data:`WIENER_ROUNDING` of the upper bound), else None: the
+    bounds bind every direction of every medium, so such a value is wrong, not imprecise.
+
+    >>> outside_wiener("sigma_eff_x", 5.0, 0.1, (1.0, 4.0))[:45]
+    'sigma_eff_x: 5 lies outside the Wiener bounds'
+    >>> outside_wiener("sigma_eff_x", 4.3, 0.1, (1.0, 4.0)) is None  # within its bar
+    True
+    """
+    lo, hi = bounds
+    slack = abs(value) * rel_error + WIENER_ROUNDING * abs(hi)
+    if not (value + slack < lo or value - slack > hi):
+        return None
+    return (
+        f"{name}: {value:.4g} lies outside the Wiener bounds [{lo:.4g}, {hi:.4g}] (the series "
+        f"and parallel means, which bind any direction) by more than its error bar "
+        f"({100 * rel_error:.1f} %): the value is wrong"
+    )
+
+
 def rating(
     quantity: str,
     direction: str,
@@ -80,14 +122,19 @@ def rating(
     converged: bool,
     rel_error: float,
     cells_per_diameter: float | None,
+    wiener: tuple[float, tuple[float, float]] | None = None,
 ) -> tuple[str, list[str]]:
     """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
     ``direction`` ("" for a value without one, e.g. the pore sizes; module docstring).
+    ``wiener``: ``(value, (lower, upper))`` to check against its Wiener bounds
+    (:func:`outside_wiener`; outside makes an ``ok`` value ``untrustworthy``).
 
     >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
     'untrustworthy'
     >>> rating("D_eff/D", "z", False, True, 0.05, 12.0)
     ('ok', [])
+    >>> rating("D_eff/D", "z", False, True, 0.05, 12.0, (0.9, (0.0, 0.8)))[0]
+    'untrustworthy'
     """
     if blocked:
         return "blocked", []
@@ -100,22 +147,32 @@ def rating(
             f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
             f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
         )
-    return err.status_of(converged, rel_error, cells_per_diameter), warnings
+    status = err.status_of(converged, rel_error, cells_per_diameter)
+    outside = None if wiener is None else outside_wiener(name, wiener[0], rel_error, wiener[1])
+    if outside is not None:
+        warnings.append(outside)
+        status = "untrustworthy" if status == "ok" else status
+    return status, warnings
 
 
 class Rated:
     """The ``status`` of a result dataclass with ``direction``, ``blocked``, ``converged``,
     ``rel_error`` and ``cells_per_diameter`` (:func:`rating`); ``QUANTITY`` names its value in
-    the warning lines."""
+    the warning lines, :meth:`wiener` gives its value and Wiener bounds."""
 
     QUANTITY = "value"
 
     @property
     def status(self) -> str:
         """``"ok"``, ``"blocked"`` (no conducting path), ``"not_converged"`` or
-        ``"untrustworthy"`` (error bar above 20 % or fewer than 8 voxels across the thinnest
-        fiber)."""
+        ``"untrustworthy"`` (error bar above 20 %, fewer than 8 voxels across the thinnest
+        fiber, or the value outside its Wiener bounds by more than its error bar)."""
         return self._rating()[0]
+
+    def wiener(self) -> tuple[float, tuple[float, float]] | None:
+        """``(value, (lower, upper))`` for the Wiener check (:func:`outside_wiener`); None
+        here (no check)."""
+        return None
 
     def __repr__(self) -> str:
         """The dataclass's fields and the ``status`` (a property, which the generated repr
@@ -137,6 +194,7 @@ class Rated:
             self.converged,
             self.rel_error,
             self.cells_per_diameter,
+            self.wiener(),
         )
 
 

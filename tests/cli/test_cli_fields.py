@@ -333,3 +333,36 @@ def test_mesh_exports_name_their_tags(tmp_path):
     assert {tags.TAG_IDS[tags.INLET], tags.TAG_IDS[tags.OUTLET], tags.TAG_IDS[tags.WALL]} <= present
     vol = pv.read(out / "pore.vtu")
     assert read_tables(vol.field_data)["regions"] == tags.REGION_IDS
+
+
+def test_transport_fields_json_carries_the_final_result(tmp_path):
+    """A Laplace solve's entry in ``fields.json`` carries the result block a flow entry does
+    (value, error bar, status, converged, warnings), with the values the command reports: the
+    session-31 audit found none (the field was captured before the error bar existed). The
+    diffusivity tensor route (``--direction all``, periodic) and one permeameter conductivity;
+    the 2 um cell has 5 voxels across its fibre, so the results are ``untrustworthy`` with
+    warnings, which the entries must carry too."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
+    runs = (
+        ("diffusivity", ["--direction", "all"], "relative_diffusivity"),
+        ("conductivity", ["--solid", "100", "--fluid", "1", "--bc", "permeameter"], None),
+    )
+    for cmd, extra, key in runs:
+        key = key or "effective_conductivity"
+        code, res = _run_json(spec, cmd, *extra, "--fields", str(tmp_path / cmd))
+        assert code == 0
+        results = res.get("results", [res])
+        solves = json.loads((tmp_path / cmd / "fields.json").read_text())["solves"]
+        assert [s["direction"] for s in solves] == [r["direction"] for r in results]
+        for s, r in zip(solves, results, strict=True):
+            block = s["result"]
+            assert block[key] == r[key] and block["rel_error"] == r["rel_error"] > 0
+            assert (block["status"], block["converged"]) == ("untrustworthy", True)
+            assert block["warnings"] == r["warnings"] and "voxels across" in block["warnings"][0]
+            assert block["bc"] == r["bc"] and block["solver"] == "voxel-laplace"
+            grid = pv.read(tmp_path / cmd / s["files"][0])
+            assert float(grid.field_data[key][0]) == pytest.approx(r[key], rel=1e-12)
+            assert _cells(grid, "flux_per_unit_gradient")["xyz".index(s["direction"])].mean() == (
+                pytest.approx(r[key], rel=1e-6)
+            )

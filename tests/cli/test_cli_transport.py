@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import re
 
+import numpy as np
 import pytest
 from cylinder_spec import CYLINDER_SPEC as SPEC
 
@@ -50,7 +52,8 @@ def test_conductivity_names_its_unit(spec, capsys):
     assert {r["conductivity_unit"] for r in out["results"]} == {"W/(m K)"}
     assert main(["conductivity", str(spec), "--solid", "1e4", "--fluid", "1", "--unit", "S/m"]) == 0
     line = capsys.readouterr().out
-    assert line.startswith("sigma_eff_z = ") and " S/m  (solid 10000, fluid 1 S/m)" in line
+    assert line.startswith("sigma_eff_z = ") and " S/m +- " in line
+    assert "(solid 10000, fluid 1 S/m)" in line
     with pytest.raises(SystemExit) as bad:  # argparse: one usage line, exit 2
         main(["conductivity", str(spec), "--unit", "K"])
     assert bad.value.code == 2
@@ -211,3 +214,95 @@ def test_trusted_masks_untrustworthy_transport_values():
     assert t["diffusivity_z"].tolist()[0] == 0.5 and pd.isna(t["diffusivity_z"].iloc[1])
     assert pd.isna(t["tortuosity_z"].iloc[1]) and pd.isna(t["conductivity_x"].iloc[0])
     assert untrustworthy_count(df) == 2
+
+
+# The session-31 audit: the transport lines printed `rel. error 1.0e-01  [ok]` but not the
+# convergence flag the permeability lines carry (`K_z = ... m^2 +- e %  [status]  bc B
+# converged true|false`; rule: every printed number carries its convergence flag).
+LINE = re.compile(r" \+- (\d+\.\d) %  \[(\w+)\]  bc (\w+)  converged (true|false)  ")
+
+
+@pytest.mark.parametrize("command", ["diffusivity", "conductivity"])
+def test_transport_lines_carry_bar_status_and_converged(spec, tmp_path, capsys, command):
+    assert main([command, str(spec), "--direction", "all", "--json", "--quiet"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["converged"] is True and [r["converged"] for r in js["results"]] == [True] * 3
+    assert main([command, str(spec), "--direction", "all", "--quiet"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 3
+    for line, r in zip(lines, js["results"], strict=True):
+        bar, status, bc, conv = LINE.search(line).groups()
+        assert (bar, status, bc, conv) == (f"{100 * r['rel_error']:.1f}", "ok", "periodic", "true")
+    # D_z of the straight pore is the porosity, sigma_z the parallel mean (closed forms)
+    eps = js["porosity"]
+    z = f"{eps:.4f}" if command == "diffusivity" else f"{120 * (1 - eps) + 0.026 * eps:.5g}"
+    assert lines[2].split(" = ")[1].startswith(z + " ")
+    # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 1
+    stopped = tmp_path / "stopped.toml"
+    stopped.write_text(SPEC.replace("[transport]", "[transport]\nmax_iter = 1"))
+    assert main([command, str(stopped), "--direction", "x", "--json", "--quiet"]) == 1
+    js = json.loads(capsys.readouterr().out)
+    assert js["converged"] is False and js["status"] == "not_converged"
+    assert main([command, str(stopped), "--direction", "x", "--quiet"]) == 1
+    line = capsys.readouterr().out
+    assert LINE.search(line).groups()[1:] == ("not_converged", "periodic", "false")
+
+
+def _outside_wiener(monkeypatch, module, factor):
+    """``module.solve_effective`` returning ``factor`` times the upper Wiener bound of the
+    cylinder cell (pores at 1, fibre at the solid's value) with a 5 % bar."""
+    import psdesign.transport.effective as effective
+
+    real = effective.solve_effective
+
+    def fake(sigma_of, fields, *args, **kwargs):
+        eff = real(sigma_of, fields, *args, **kwargs)
+        ks, kf = (float(v) for v in sigma_of(np.array([True, False])))
+        eps = fields.porosity
+        eff.value, eff.rel_error = factor * (eps * kf + (1 - eps) * ks), 0.05
+        return eff
+
+    monkeypatch.setattr(module, "solve_effective", fake)
+
+
+def test_a_value_outside_the_wiener_bounds_is_untrustworthy(spec, monkeypatch, capsys):
+    """The Wiener bounds (series / parallel means) bind any direction of any medium: a value
+    beyond them by more than its bar is a wrong answer, rated ``untrustworthy`` with a warning
+    (it was ``ok``). Within its bar of a bound it stays ``ok``."""
+    import psdesign.transport.conductivity as conductivity
+    import psdesign.transport.diffusivity as diffusivity
+
+    _outside_wiener(monkeypatch, conductivity, 1.3)  # 30 % above, bar 5 %
+    assert main(["conductivity", str(spec), "--solid", "10", "--fluid", "1", "--json"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    lo, hi = out["wiener_bounds"]
+    assert hi == pytest.approx(10 * out["solid_fraction"] + out["porosity"], rel=1e-12)
+    assert out["effective_conductivity"] == pytest.approx(1.3 * hi)
+    assert out["status"] == "untrustworthy" and "outside the Wiener bounds" in out["warnings"][0]
+    assert "psdesign: warning: sigma_eff_z: " in cap.err
+    _outside_wiener(monkeypatch, diffusivity, 1.3)  # D_eff/D above the porosity
+    assert main(["diffusivity", str(spec), "--quiet"]) == 0
+    assert "[untrustworthy]" in capsys.readouterr().out
+    _outside_wiener(monkeypatch, conductivity, 1.04)  # 4 % above, within the 5 % bar
+    assert main(["conductivity", str(spec), "--solid", "10", "--fluid", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["status"], out["warnings"]) == ("ok", [])
+
+
+def test_a_real_value_below_hashin_shtrikman_but_inside_wiener_is_ok(spec, capsys):
+    """Across the cylinder (air 0.026, fibre 120 W/(m K)) the value is below the isotropic 3-D
+    Hashin-Shtrikman lower bound, which does not bind this anisotropic cell, and inside the
+    Wiener bounds (computed here from the porosity): ``ok``, no warning. The HS bounds are
+    labelled isotropic-only where they are shown."""
+    from psdesign.transport.conductivity import effective_conductivity
+    from psdesign.transport.load import load_case
+
+    case = load_case(str(spec), {})
+    r = effective_conductivity(case.fields, "x", cells_per_diameter=case.cells_per_diameter)
+    eps, ks, kf = case.fields.porosity, 120.0, 0.026
+    lo, hi = 1 / (eps / kf + (1 - eps) / ks), eps * kf + (1 - eps) * ks
+    assert r.wiener_bounds == pytest.approx([lo, hi], rel=1e-12)
+    assert lo < r.effective_conductivity < r.hashin_shtrikman_bounds[0]
+    assert (r.status, r.warnings) == ("ok", [])
+    assert "Hashin-Shtrikman bounds, isotropic media only" in r._repr_html_()
