@@ -36,7 +36,7 @@ def _cmd(args: argparse.Namespace) -> int:
             ).to_dict()
             for d in dirs
         ]
-    out = combine(results, tr["bc"], case.fields.porosity, ("effective_conductivity",))
+    out = combine(results, tr["bc"], ("effective_conductivity",))
     out["conductivity_unit"] = results[0]["conductivity_unit"]
     if len(results) > 1 and tr["bc"] == "periodic":
         out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]

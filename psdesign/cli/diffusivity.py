@@ -32,7 +32,6 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
         out = combine(
             results,
             tr["bc"],
-            case.fields.porosity,
             ("relative_diffusivity", "tortuosity_factor"),
         )
     return out, results
@@ -54,12 +53,13 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def _line(r: dict) -> str:
     from psdesign.cli.lines import error_bar, rating
+    from psdesign.geometry.porosity import porosity_text
 
     tau = r["tortuosity_factor"]
     return (
         f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}{error_bar(r['rel_error'])}  "
         f"{rating(r)}  tortuosity factor {'inf' if tau is None else f'{tau:.4f}'}  "
-        f"porosity {r['porosity']:.4f}"
+        f"porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
     )
 
 

@@ -9,20 +9,27 @@ import sys
 from collections.abc import Callable
 
 
-def combine(results: list[dict], bc: str, porosity: float, keys: tuple[str, ...]) -> dict:
+def combine(results: list[dict], bc: str, keys: tuple[str, ...]) -> dict:
     """One result as it is; several as ``{"direction": "all", ..., key: {d: value}}`` for each
-    of ``keys``, converged when all are, with the worst ``status`` and every warning.
+    of ``keys``, converged when all are, with the worst ``status``, every warning and the
+    porosity (with its error) they share.
 
-    >>> combine([{"direction": "x", "D": 0.5, "converged": True, "status": "ok"},
+    >>> combine([{"direction": "x", "D": 0.5, "converged": True, "status": "ok", "porosity": 0.8},
     ...          {"direction": "z", "D": 0.4, "converged": False, "status": "not_converged"}],
-    ...         "periodic", 0.8, ("D",))["status"]
+    ...         "periodic", ("D",))["status"]
     'not_converged'
     """
     from psdesign.transport.effective import worst_status
 
     if len(results) == 1:
         return results[0]
-    out = {"direction": "all", "bc": bc, "porosity": porosity, "results": results}
+    out = {
+        "direction": "all",
+        "bc": bc,
+        "porosity": results[0].get("porosity"),
+        "porosity_error": results[0].get("porosity_error"),
+        "results": results,
+    }
     for key in keys:
         out[key] = {r["direction"]: r[key] for r in results}
     out["converged"] = all(r["converged"] for r in results)

@@ -42,6 +42,7 @@ class ConductivityResult(Rated):
     insulating_phase: str
     solid_fraction: float
     porosity: float
+    porosity_error: float  # absolute, of the voxel count (psdesign.geometry.porosity)
     wiener_bounds: list[float]
     hashin_shtrikman_bounds: list[float]
     converged: bool
@@ -65,6 +66,7 @@ class ConductivityResult(Rated):
         return self.effective_conductivity, (lo, hi)
 
     def _repr_html_(self) -> str:
+        from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
         lo, hi = self.hashin_shtrikman_bounds
@@ -82,7 +84,7 @@ class ConductivityResult(Rated):
             ),
             (f"Wiener bounds, any direction ({u})", f"[{w_lo:.4g}, {w_hi:.4g}]"),
             (f"Hashin-Shtrikman bounds, isotropic media only ({u})", f"[{lo:.4g}, {hi:.4g}]"),
-            ("porosity (-)", f"{self.porosity:.4f}"),
+            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
             ("bc", self.bc),
         ]
         return result_html("ConductivityResult", rows, self.status, [self.message, *self.warnings])
@@ -173,6 +175,7 @@ def effective_conductivity(
         insulating_phase=tr["insulating_phase"],
         solid_fraction=fs,
         porosity=fields.porosity,
+        porosity_error=fields.porosity_error,
         wiener_bounds=list(wiener_bounds(kf, ks, fs)),
         hashin_shtrikman_bounds=list(hashin_shtrikman(kf, ks, fs, 3)),
         converged=eff.converged,

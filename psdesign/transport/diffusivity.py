@@ -52,6 +52,7 @@ class DiffusivityResult(Rated):
     relative_diffusivity: float
     tortuosity_factor: float | None
     porosity: float
+    porosity_error: float  # absolute, of the voxel count (psdesign.geometry.porosity)
     relative_diffusivity_column: list[float] = field(repr=False)
     converged: bool
     residual: float
@@ -77,6 +78,7 @@ class DiffusivityResult(Rated):
         return self.relative_diffusivity, wiener_bounds(1.0, 0.0, 1.0 - self.porosity)
 
     def _repr_html_(self) -> str:
+        from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
         tau = self.tortuosity_factor
@@ -88,7 +90,7 @@ class DiffusivityResult(Rated):
             ),
             ("tortuosity factor (-)", "n/a" if tau is None else f"{tau:.4g}"),
             ("D<sub>eff</sub> (m<sup>2</sup>/s)", f"{self.effective_diffusivity_m2_s:.4e}"),
-            ("porosity (-)", f"{self.porosity:.4f}"),
+            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
             ("bc", self.bc),
         ]
         return result_html("DiffusivityResult", rows, self.status, [self.message, *self.warnings])
@@ -139,6 +141,7 @@ def _result(
         relative_diffusivity=rel,
         tortuosity_factor=tau,
         porosity=eps,
+        porosity_error=fields.porosity_error,
         relative_diffusivity_column=eff.column,
         converged=eff.converged,
         residual=eff.residual,
@@ -250,6 +253,7 @@ def diffusivity_tensor(
         "tortuosity_factor": {r.direction: r.tortuosity_factor for r in results},
         "relative_diffusivity": {r.direction: r.relative_diffusivity for r in results},
         "porosity": fields.porosity,
+        "porosity_error": fields.porosity_error,
         "results": [r.to_dict() for r in results],
         "converged": all(r.converged for r in results),
         "status": worst_status([r.status for r in results]),

@@ -237,6 +237,10 @@ def test_transport_lines_carry_bar_status_and_converged(spec, tmp_path, capsys, 
     eps = js["porosity"]
     z = f"{eps:.4f}" if command == "diffusivity" else f"{120 * (1 - eps) + 0.026 * eps:.5g}"
     assert lines[2].split(" = ")[1].startswith(z + " ")
+    # the porosity they share, with its error estimate (psdesign.geometry.porosity)
+    assert 0 < js["porosity_error"] < 0.01
+    if command == "diffusivity":
+        assert lines[0].endswith(f"porosity {eps:.4f} +- {js['porosity_error']:.1e}")
     # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 1
     stopped = tmp_path / "stopped.toml"
     stopped.write_text(SPEC.replace("[transport]", "[transport]\nmax_iter = 1"))

@@ -137,7 +137,7 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
     from psdesign.transport.diffusivity import DiffusivityResult
 
     column = [0.5] * 200  # one value per slice: kept out of the repr
-    common = _transport_fields()
+    common = _transport_fields() | {"porosity_error": 3.1e-4}
     dr = DiffusivityResult(
         relative_diffusivity=0.61,
         tortuosity_factor=1.31,
@@ -153,6 +153,7 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
     page = dr._repr_html_()
     assert dr.status == "not_converged" and ">not_converged</span>" in page
     assert "m<sup>2</sup>/s" in page and "1.2200e-05" in page and "&plusmn; 5 %" in page
+    assert "0.8000 +- 3.1e-04" in page  # the porosity with its error (psdesign.geometry.porosity)
     cr = ConductivityResult(
         effective_conductivity=12.0,
         conductivity_column=column,
