@@ -218,8 +218,13 @@ class VoxelFlowResult:
         ``None`` unless ``return_velocity=True``.
     pressure : np.ndarray or None
         ``(nx, ny, nz)`` float32 pressure at the cell centres (Pa) *without* the mean gradient
-        (the total pressure is ``pressure - pressure_gradient * x_direction``), 0 in solid
-        cells; ``None`` unless ``return_pressure=True``.
+        (the total pressure is ``pressure - pressure_gradient * x_direction``), 0 off
+        ``pressure_cells``; ``None`` unless ``return_pressure=True``.
+    pressure_cells : np.ndarray or None
+        ``(nx, ny, nz)`` bool: the cells that carry a pressure unknown and a mass balance (the
+        cells with an active face, :func:`solvers.voxel.boundary.pressure_cells`; with sub-voxel
+        walls these include cut cells whose centre lies in the solid, less the lone cells merged
+        into a neighbour); ``None`` unless ``return_pressure=True``.
     history : list of float
         True relative residual before the first and after each refinement cycle.
     periodic_treatment : str
@@ -284,6 +289,7 @@ class VoxelFlowResult:
     peak_memory_mb: float
     velocity: np.ndarray | None = None
     pressure: np.ndarray | None = None
+    pressure_cells: np.ndarray | None = None
     history: list[float] = field(default_factory=list)
     periodic_treatment: str = "periodic"
     flux_imbalance: float = float("nan")
@@ -689,6 +695,7 @@ def _result(
     shp = op.shape[1:]
     velocity = (x[:3] * vel_scale).astype(np.float32) if returns[0] else None
     pressure = (p * (g * h)).astype(np.float32) if returns[1] else None
+    cells = (op.fluid != 0) if returns[1] else None  # the mask or the scale code
     del x, flux_d
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return VoxelFlowResult(
@@ -707,6 +714,7 @@ def _result(
         peak_memory_mb=peak,
         velocity=velocity,
         pressure=pressure,
+        pressure_cells=cells,
         history=info["history"],
         periodic_treatment=treatment if bc == "periodic" else "periodic",
         flux_imbalance=imbalance,

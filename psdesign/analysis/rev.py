@@ -31,6 +31,8 @@ from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 MAX_SEEDS = 1000
 #: What ``rev`` writes in its output folder beside the study's files.
 REV_FILES = ("rev.csv", "rev.json")
+#: The command ``rev``'s output folder marker names (:mod:`psdesign.io.outputs`).
+REV_COMMAND = "rev"
 
 
 def rev_folder_files() -> tuple[str, ...]:
@@ -47,7 +49,9 @@ def check_rev_dir(out_dir: str | Path):
     (or ``results.csv`` ...) there is refused (:class:`psdesign.io.outputs.OutputError`)."""
     from psdesign.study.runner import check_study_dir
 
-    return check_study_dir(out_dir, force_option=None, files=rev_folder_files())
+    return check_study_dir(
+        out_dir, force_option=None, files=rev_folder_files(), command=REV_COMMAND
+    )
 
 
 class RevFailed(RuntimeError):
@@ -139,7 +143,7 @@ def rev_study(
         csv_rows=rows,
         description=f"REV check of {spec_path}: sizes {sizes} m, {seeds} seeds",
     )
-    df = run_study(study, out_dir, **run_kw)
+    df = run_study(study, out_dir, command=REV_COMMAND, **run_kw)
     if not (df["status"] == "ok").any():
         raise RevFailed(
             f"rev: no case finished ok ({len(df)} case(s): "

@@ -3,9 +3,17 @@ tet mesh as ``UnstructuredGrid`` (point data at the vertices).
 
 Arrays (SI units in the names): ``velocity_m_per_s`` (3-vector), ``velocity_magnitude_m_per_s``,
 ``pressure_Pa`` (the total pressure: the solvers' periodic fluctuation plus the mean gradient,
-0 at the outlet end of the solved domain; NaN where no pressure is defined), ``zone`` (region
-ids, :func:`psdesign.fields.tables.region_table`) and, on the voxel grid, ``solid`` (1 = fibre).
+shifted by a constant so that its mean over the outlet end of the solved domain is 0; NaN where
+no pressure is defined), ``zone`` (region ids, :func:`psdesign.fields.tables.region_table`) and,
+on the voxel grid, ``solid`` (1 = fibre) and ``pressure_cell`` (1 = the solver's pressure cell).
 
+* **Outlet reference**: voxel grid, the mean over the grid's outlet end plane (the faces between
+  two pressure cells, each the mean of its two cells; the plane is the periodic seam, so the
+  mean from the inlet side is the applied drop); tet mesh, the area-weighted mean over the
+  outlet triangles (:func:`face_mean`). Pointwise the outlet pressure varies about 0.
+* **Pressure cells**: ``pressure_Pa`` is NaN exactly where ``pressure_cell`` is 0. With
+  sub-voxel walls a cut cell whose centre lies in a fibre (``solid`` 1) but which has a face
+  in the fluid is a pressure cell: it carries the solved pressure of its fluid part.
 * **Voxel grid**: the solved grid (with the permeameter's empty reservoirs, so the RVE starts at
   the origin's ``+ n_aux`` cells; the origin is shifted by ``-n_aux`` voxels along the flow).
   The cell velocity is the mean of the superficial velocities on the cell's two faces normal to
@@ -21,6 +29,7 @@ import numpy as np
 
 from psdesign.fields.tables import add_tables, region_ids_along
 from psdesign.meshing import tags
+from psdesign.meshing.result import triangle_areas
 
 
 def _flat(a: np.ndarray) -> np.ndarray:
@@ -66,13 +75,51 @@ def _solved_solid(solution, fields, shape) -> np.ndarray:
     return (solution.pressure == 0) & ~np.any(solution.velocity != 0, axis=0)
 
 
+def voxel_total_pressure(
+    p: np.ndarray, cells: np.ndarray, d: int, h: float, gradient: float
+) -> np.ndarray:
+    """The written ``pressure_Pa`` of a voxel solve: the total pressure at the cell centres.
+
+    Parameters
+    ----------
+    p : np.ndarray
+        The solver's periodic pressure fluctuation (Pa, ``[x, y, z]``).
+    cells : np.ndarray
+        The solver's pressure cells (bool); the result is NaN elsewhere.
+    d : int
+        Flow axis.
+    h : float
+        Voxel size (m).
+    gradient : float
+        Driving mean pressure gradient (Pa/m, along ``+d``).
+
+    Returns
+    -------
+    np.ndarray
+        float32 ``p + gradient * (L - x_d) - p_out``: ``L`` the grid length along ``d`` and
+        ``p_out`` the mean of the fluctuation over the outlet end plane ``x_d = L`` (its faces
+        between two pressure cells, each face the mean of its two cells: the plane is the
+        periodic seam), so the total pressure's mean there is 0 and, approached from the inlet
+        side, ``gradient * L``.
+    """
+    last, first = np.take(p, -1, axis=d), np.take(p, 0, axis=d)
+    both = np.take(cells, -1, axis=d) & np.take(cells, 0, axis=d)
+    p_out = 0.5 * float(
+        np.mean(last[both], dtype=np.float64) + np.mean(first[both], dtype=np.float64)
+    )
+    x_c = (np.arange(p.shape[d]) + 0.5) * h
+    drop = gradient * (p.shape[d] * h - x_c) - p_out
+    total = p + drop.reshape([-1 if b == d else 1 for b in range(3)])
+    return np.where(cells, total, np.nan).astype(np.float32)
+
+
 def voxel_flow_grid(solution, fields, result: dict | None = None):
     """``pyvista.ImageData`` of a voxel Stokes solve (``return_velocity`` and
     ``return_pressure`` on); ``result`` (the route's dict) adds its K and drops as field data."""
     import pyvista as pv
 
     vel, p = solution.velocity, solution.pressure
-    if vel is None or p is None:
+    if vel is None or p is None or solution.pressure_cells is None:
         raise ValueError("fields: the voxel solve was run without its velocity and pressure")
     shape = p.shape
     d, h = int(solution.direction), float(solution.voxel_size)
@@ -82,10 +129,8 @@ def voxel_flow_grid(solution, fields, result: dict | None = None):
         q = vel[a] if weights is None else vel[a] * weights[a]
         cell[a] = 0.5 * (q + np.roll(q, -1, axis=a))
     solid = _solved_solid(solution, fields, shape)
-    x_c = (np.arange(shape[d]) + 0.5) * h
-    drop = solution.pressure_gradient * (shape[d] * h - x_c)
-    total = p + drop.reshape([-1 if b == d else 1 for b in range(3)])
-    total = np.where(solid & (p == 0), np.nan, total).astype(np.float32)
+    cells = np.asarray(solution.pressure_cells, bool)
+    total = voxel_total_pressure(p, cells, d, h, solution.pressure_gradient)
     i0, i1 = (int(v) for v in solution.rve_slice)
     origin = [0.0, 0.0, 0.0]
     origin[d] = -i0 * h
@@ -94,6 +139,7 @@ def voxel_flow_grid(solution, fields, result: dict | None = None):
     grid.cell_data["velocity_magnitude_m_per_s"] = _flat(np.sqrt((cell**2).sum(axis=0)))
     grid.cell_data["pressure_Pa"] = _flat(total)
     grid.cell_data["solid"] = _flat(solid.astype(np.uint8))
+    grid.cell_data["pressure_cell"] = _flat(cells.astype(np.uint8))
     zone = region_ids_along(shape[d], i0, i1).reshape([-1 if b == d else 1 for b in range(3)])
     grid.cell_data["zone"] = _flat(np.broadcast_to(zone, shape).astype(np.uint8))
     add_tables(grid)
@@ -118,6 +164,31 @@ def _add_result(grid, result: dict | None, viscosity: float) -> None:
             grid.field_data[name] = np.atleast_1d(np.asarray(result[key], float))
 
 
+def face_mean(points: np.ndarray, triangles: np.ndarray, values: np.ndarray) -> float:
+    """Area-weighted mean of a P1 (vertex) field over triangles.
+
+    Parameters
+    ----------
+    points : np.ndarray
+        ``(n, 3)`` vertex coordinates (m).
+    triangles : np.ndarray
+        ``(m, 3)`` vertex indices.
+    values : np.ndarray
+        ``(n,)`` vertex values; triangles with a NaN vertex are left out.
+
+    Returns
+    -------
+    float
+        ``sum_t A_t mean_t / sum_t A_t`` (the exact integral of the linear interpolant over the
+        area).
+    """
+    tri = np.asarray(triangles)
+    area = triangle_areas(np.asarray(points, float), tri)
+    mean = np.asarray(values, float)[tri].mean(axis=1)
+    ok = np.isfinite(mean)
+    return float((area[ok] * mean[ok]).sum() / area[ok].sum())
+
+
 def fem_flow_grids(
     solution,
     mesh,
@@ -128,7 +199,10 @@ def fem_flow_grids(
     """Volume and boundary ``pyvista.UnstructuredGrid`` of a tet-mesh Stokes solve.
 
     ``viscosity`` (Pa s) is recorded as field data; ``pressure_gradient`` (Pa/m, periodic
-    solves) is added back to the periodic pressure fluctuation along the flow axis. The
+    solves) is added back to the periodic pressure fluctuation along the flow axis, and the
+    pressure is shifted by a constant so that its area-weighted mean over the outlet triangles
+    is 0 (:func:`face_mean`: the outflow condition holds the traction weakly, so the solved P1
+    pressure there is 0 neither pointwise nor exactly in the mean). The
     boundary grid holds the tagged triangles with ``tag`` cell data (ids of
     :func:`psdesign.fields.tables.boundary_table`) and the same point data.
     """
@@ -142,6 +216,10 @@ def fem_flow_grids(
     if pressure_gradient:
         x = pts[:, mesh.axis]
         p = p + pressure_gradient * (x.max() - x)
+    tris, ids, _ = boundary(mesh)
+    outlet = tris[ids == tags.TAG_IDS[tags.OUTLET]]
+    if len(outlet):
+        p = p - face_mean(pts, outlet, p)
     point_data = {
         "velocity_m_per_s": vel,
         "velocity_magnitude_m_per_s": np.linalg.norm(vel, axis=1),
@@ -151,7 +229,6 @@ def fem_flow_grids(
     zone = np.vectorize(tags.REGION_IDS.get, otypes=[np.int32])(mesh.tet_regions())
     vol.cell_data["zone"] = zone
     vol.cell_data["region"] = np.full(len(mesh.tets), tags.FLUID_TAG, np.int32)
-    tris, ids, _ = boundary(mesh)
     bnd = pv.UnstructuredGrid({pv.CellType.TRIANGLE: tris}, pts)
     bnd.cell_data["tag"] = ids.astype(np.int32)
     for g in (vol, bnd):

@@ -22,11 +22,13 @@ from psdesign.fields.tables import boundary_table, region_table
 UNITS = {
     "velocity_m_per_s": "m/s (3-vector)",
     "velocity_magnitude_m_per_s": "m/s",
-    "pressure_Pa": "Pa (total pressure, 0 at the outlet end of the solved domain)",
+    "pressure_Pa": "Pa (total pressure; its mean over the outlet end of the solved domain is 0; "
+    "NaN where no pressure is solved: pressure_cell = 0 on the voxel grid)",
     "concentration_relative": "1 (1 at the inlet face, 0 at the outlet face)",
     "potential_relative": "1 (1 at the inlet face, 0 at the outlet face)",
     "flux_per_unit_gradient": "conductivity units (1 in the pore for diffusion) (3-vector)",
     "solid": "1 = fibre, 0 = pore",
+    "pressure_cell": "1 = a pressure cell of the voxel solver (pressure_Pa solved), 0 = none",
     "conductivity": "the phase conductivities as given",
     "zone": "region id (see regions)",
     "tag": "boundary tag id (see boundary_tags)",

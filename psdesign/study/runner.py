@@ -539,15 +539,16 @@ def check_study_dir(
     force: bool = False,
     force_option: str | None = "--force",
     files: Iterable[str] = STUDY_FILES,
+    command: str = "study run",
 ) -> OutputDir:
     """:func:`psdesign.io.outputs.check_output_dir` for a study's output folder (``-o``);
     ``force_option`` None for a command without ``--force`` (``rev``); ``files`` what the
     command will write there (``rev``: also ``rev.csv``, ``rev.json``), each refused now if it
-    exists and psdesign did not write it."""
+    exists and psdesign did not write it; ``command`` the command the folder's marker names."""
     return check_output_dir(
         out_dir,
         force=force,
-        command="study run",
+        command=command,
         expected=tuple(files),
         legacy=STUDY_LEGACY,
         force_option=force_option,
@@ -568,6 +569,7 @@ def run_study(
     force: bool = False,
     retry_not_converged: bool = False,
     security=None,
+    command: str = "study run",
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
 
@@ -604,6 +606,8 @@ def run_study(
         Re-run cases recorded as ``not_converged`` (otherwise they count as finished).
     security : distributed.security.Security, optional
         TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
+    command : str
+        The command the output folder's marker names (``psdesign rev`` runs its study here).
 
     Returns
     -------
@@ -641,7 +645,7 @@ def run_study(
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
         validate_case_specs(cases)
-    target = check_study_dir(out_dir, force=force)
+    target = check_study_dir(out_dir, force=force, command=command)
     out = target.path
     store = CaseStore(out)
     param_names = list(study.parameters)

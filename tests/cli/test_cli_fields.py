@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import re
+import tomllib
 
 import meshio
 import numpy as np
@@ -149,6 +150,64 @@ def test_voxel_permeameter_flux_and_pressure_drop(voxel_runs):
     )
 
 
+def _cylinder_pressure_cells(shape: tuple[int, int, int]) -> np.ndarray:
+    """The pressure cells docs/fields.md defines, from SPEC's analytic cylinder on the periodic
+    grid (not from the solver's arrays): the cells with a face whose centre lies in the fluid
+    (the mean of its two cells' signed distances > 0), less the cells left with a single such
+    face (merged into the neighbour, repeated until none is left)."""
+    x, _, z = np.meshgrid(*[np.arange(n) + 0.5 for n in shape], indexing="ij")
+    phi = np.hypot(x - 12.0, z - 8.0) - 5.0  # voxels (H = 1 um), > 0 in the pore
+    act = [phi + np.roll(phi, 1, axis=a) > 0 for a in range(3)]
+    cells = np.zeros(shape, bool)
+    for a in range(3):
+        cells |= act[a] | np.roll(act[a], -1, axis=a)
+    while True:
+        count = sum(act[a].astype(int) + np.roll(act[a], -1, axis=a) for a in range(3))
+        lone = cells & (count == 1)
+        if not lone.any():
+            return cells
+        for a in range(3):
+            act[a] &= ~(lone | np.roll(lone, 1, axis=a))
+        cells &= ~lone
+
+
+def test_voxel_pressure_is_nan_exactly_off_the_pressure_cells(voxel_runs):
+    """The audit (RESULTS, third audit) found fibre cells with a finite pressure_Pa where the
+    docs said NaN in fibres: they are the sub-voxel walls' cut cells with a fluid face, which
+    carry a solved pressure. ``pressure_cell`` says which cells do; NaN exactly elsewhere."""
+    out, res = voxel_runs["periodic"]
+    grid = pv.read(out / "flow_x.vti")
+    p = _cells(grid, "pressure_Pa")
+    solid = _cells(grid, "solid").astype(bool)
+    cell = _cells(grid, "pressure_cell").astype(bool)
+    truth = _cylinder_pressure_cells(p.shape)
+    # 3648 pore cells and 48 cut fibre cells (192 fibre cells with one fluid face are merged)
+    assert np.count_nonzero(truth) == 3696 and np.count_nonzero(truth & solid) == 48
+    assert np.array_equal(cell, truth) and res["n_cells"] == 3696  # the solver's count
+    assert np.count_nonzero(np.isnan(p)) == p.size - 3696 == 912
+    assert np.count_nonzero(solid & np.isfinite(p)) == 48
+    out, _ = voxel_runs["permeameter"]  # reservoirs and box walls: the same rule
+    grid = pv.read(out / "flow_x.vti")
+    nan = np.isnan(_cells(grid, "pressure_Pa"))
+    assert np.array_equal(nan, _cells(grid, "pressure_cell") == 0) and nan.sum() == 1824
+
+
+def test_voxel_pressure_mean_is_zero_on_the_outlet_end_plane(voxel_runs):
+    """pressure_Pa's mean over the grid's outlet end plane is 0 (docs/fields.md); the old field
+    had -0.0024 Pa there for a 1 Pa drop (the solver's pressure gauge)."""
+    out, res = voxel_runs["permeameter"]
+    p = _cells(grid := pv.read(out / "flow_x.vti"), "pressure_Pa").astype(float)
+    drop = res["pressure_drop_applied_pa"]
+    assert drop == pytest.approx(1.0)
+    assert int(grid.field_data["direction_axis"][0]) == 0
+    # the end plane is the periodic seam: across it the total pressure jumps by the drop
+    ok = np.isfinite(p[-1]) & np.isfinite(p[0])
+    assert abs(0.5 * (p[-1][ok] + p[0][ok] - drop).mean()) < 1e-7 * drop
+    # the outlet reservoir's last cell layer (the pressure is flat in the reservoir)
+    assert abs(np.nanmean(p[-1])) < 1e-6 * drop
+    assert np.nanmean(p[0]) == pytest.approx(drop, rel=1e-6)
+
+
 @pytest.fixture(scope="module")
 def fem_run(tmp_path_factory):
     import psdesign
@@ -160,6 +219,35 @@ def fem_run(tmp_path_factory):
     out = tmp / "fields"
     res = m.permeability("x", solver="fem", fields=out, error_estimate=False)
     return out, res.details
+
+
+@pytest.fixture(scope="module")
+def fem_periodic_run(tmp_path_factory):
+    import psdesign
+
+    out = tmp_path_factory.mktemp("fem_periodic") / "fields"
+    m = psdesign.build(tomllib.loads(SPEC))
+    res = m.permeability("x", solver="fem", bc="periodic", fields=out, error_estimate=False)
+    return out, res.details
+
+
+@pytest.mark.parametrize("run", ["fem_run", "fem_periodic_run"])
+def test_fem_pressure_area_mean_is_zero_on_the_outlet(run, request):
+    """pressure_Pa's area-weighted mean over the outlet triangles is 0 (docs/fields.md; the
+    integral by VTK's integrate_data, not psdesign's face_mean). The solver's own P1 pressure
+    there had mean -8.2e-6 Pa (permeameter: the outflow condition holds the traction weakly)
+    and -1.4e-6 Pa (periodic) for a 1 Pa drop; pointwise it still varies about 0."""
+    out, _ = request.getfixturevalue(run)
+    bnd = pv.read(out / "flow_x_boundary.vtu")
+    ids = np.nonzero(bnd.cell_data["tag"] == tags.TAG_IDS[tags.OUTLET])[0]
+    integ = bnd.extract_cells(ids).integrate_data()
+    p_out = float(integ.point_data["pressure_Pa"][0] / integ["Area"][0])
+    assert abs(p_out) < 1e-12  # Pa, for a drop of 1 Pa
+    ids = np.nonzero(bnd.cell_data["tag"] == tags.TAG_IDS[tags.INLET])[0]
+    integ = bnd.extract_cells(ids).integrate_data()
+    assert float(integ.point_data["pressure_Pa"][0] / integ["Area"][0]) == pytest.approx(
+        1.0, abs=1e-4
+    )
 
 
 def test_fem_vtu_tags_regions_and_inlet_outlet_flux(fem_run):

@@ -228,3 +228,22 @@ def test_rev_refuses_a_users_rev_file_before_work(tmp_path, capsys, monkeypatch,
     err = capsys.readouterr().err
     assert f"{name} exists and was not written by psdesign" in err, err
     assert (user / name).read_text() == "mine" and not (user / "cases").exists()
+
+
+@pytest.mark.parametrize("fails", [False, True])
+def test_rev_folder_marker_names_rev(tmp_path, monkeypatch, fails) -> None:
+    """The output folder's marker names the command that wrote it: ``rev``, not the ``study
+    run`` it runs its cases through (RESULTS, third audit); also when no case finished ok
+    (the marker is written before the cases run)."""
+    from study_cases import rev_case
+
+    from psdesign.io.outputs import MARKER
+
+    spec = _spec_with_cases(tmp_path, monkeypatch, failing_case if fails else rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "2", "-o", str(out), "--quiet"]
+    assert main([*args, "--directions", "z"]) == (1 if fails else 0)
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["command"] == "rev"
+    assert "results.csv" in marker["files"]
+    assert ("rev.json" in marker["files"]) == (not fails)
