@@ -55,10 +55,11 @@ def _line(r: dict) -> str:
     from psdesign.cli.lines import error_bar, rating
     from psdesign.geometry.porosity import porosity_text
 
-    tau = r["tortuosity_factor"]
+    tau = r["tortuosity_factor"]  # porosity / D: a count over D, so D's relative bar
+    tau_text = "inf" if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
     return (
         f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}{error_bar(r['rel_error'])}  "
-        f"{rating(r)}  tortuosity factor {'inf' if tau is None else f'{tau:.4f}'}  "
+        f"{rating(r)}  tortuosity factor {tau_text}  "
         f"porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
     )
 

@@ -6,18 +6,26 @@ from __future__ import annotations
 
 
 def error_bar(rel_error: float | None) -> str:
-    """`` +- 3.1 %`` after a value, or "" without an estimate.
+    """`` +- 3.1 %`` after a value, or "" without an estimate; a bar under 0.05 % keeps one
+    significant digit (it printed ``+- 0.0 %`` before session 32).
 
-    >>> error_bar(0.031), error_bar(None)
-    (' +- 3.1 %', '')
+    >>> error_bar(0.031), error_bar(None), error_bar(0.00004)
+    (' +- 3.1 %', '', ' +- 0.004 %')
     """
-    return "" if rel_error is None else f" +- {100 * rel_error:.1f} %"
+    if rel_error is None:
+        return ""
+    pct = 100 * rel_error
+    return f" +- {pct:.1f} %" if pct >= 0.05 or pct == 0 else f" +- {pct:.1g} %"
 
 
 def rating(r: dict) -> str:
-    """``[status]  bc B  converged true|false`` of a result dict.
+    """``[status]  bc B  converged true|false`` of a result dict (without ``bc`` where the
+    result has none: the pore scan).
 
     >>> rating({"status": "ok", "bc": "periodic", "converged": False})
     '[ok]  bc periodic  converged false'
+    >>> rating({"status": "ok", "converged": True})
+    '[ok]  converged true'
     """
-    return f"[{r['status']}]  bc {r['bc']}  converged {str(r['converged']).lower()}"
+    bc = f"  bc {r['bc']}" if "bc" in r else ""
+    return f"[{r['status']}]{bc}  converged {str(r['converged']).lower()}"

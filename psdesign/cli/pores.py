@@ -8,6 +8,7 @@ import time
 
 
 def _cmd(args: argparse.Namespace) -> int:
+    from psdesign.cli.lines import error_bar, rating
     from psdesign.cli.progress import warning
     from psdesign.geometry.porosity import porosity_text
     from psdesign.io.newfile import check_new_file, write_new_file
@@ -28,20 +29,30 @@ def _cmd(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, default=float))
     else:
+        print(_sizes_line(out))
         print(
-            f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
-            f"d90 {out['pore_d90_m']:.3e} m  (step {out['bin_width_m']:.1e} m, rel. error "
-            f"{out['rel_error']:.1e})  breakthrough diameter "
-            f"{out['breakthrough_diameter_m']:.3e} m  [{out['pore_sizes_status']}]"
-            + ("" if out.get("converged", True) else "  (NOT CONVERGED)")
-        )
-        print(
-            f"specific surface {out['specific_surface_m-1']:.4e} 1/m  rel. error "
-            f"{out['specific_surface_rel_error']:.1e}  "
-            f"porosity {porosity_text(out['porosity'], out.get('porosity_error'))}  "
-            f"[{out['specific_surface_status']}]"
+            f"specific surface {out['specific_surface_m-1']:.4e} 1/m"
+            f"{error_bar(out['specific_surface_rel_error'])}  "
+            f"{rating({'status': out['specific_surface_status'], 'converged': True})}  "
+            f"porosity {porosity_text(out['porosity'], out.get('porosity_error'))}"
         )
     return 0
+
+
+def _sizes_line(out: dict) -> str:
+    """The pore sizes' line: the three diameters and the breakthrough diameter (one scan, one
+    one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
+    measures low, so the true value lies up to the bar above), the rating, the scan step."""
+    from psdesign.cli.lines import rating
+
+    converged = bool(out.get("converged", True))
+    return (
+        f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
+        f"d90 {out['pore_d90_m']:.3e} m  breakthrough {out['breakthrough_diameter_m']:.3e} m, "
+        f"each +{out['diameter_error_m']:.1e}/-0 m  "
+        f"{rating({'status': out['pore_sizes_status'], 'converged': converged})}  "
+        f"(scan step {out['bin_width_m']:.1e} m)"
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -1,5 +1,6 @@
-"""Writing solver fields into a ``--fields`` folder: one file per solve as it finishes, a PNG
-picture of each, and ``fields.json`` (the index: files, array names and units, tag tables).
+"""Writing solver fields into a ``--fields`` folder: one file per solve (held until the solve
+is rated: after the coarse solve of its error bar, so its entry carries the final result), a
+PNG picture of each, and ``fields.json`` (the index: files, array names and units, tag tables).
 
 The folder follows the safe-output rules of :mod:`psdesign.io.outputs` (a user's non-psdesign
 folder is refused, nothing psdesign did not write is replaced) and appears atomically: the files

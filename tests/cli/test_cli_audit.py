@@ -151,15 +151,22 @@ def test_fields_under_a_file_names_the_option_it_came_from(spec, tmp_path, capsy
 
 
 # main: the text output of `pores` printed d10/d50/d90 and S_v without the error estimates its
-# JSON carries (rule: every number printed carries its error estimate).
+# JSON carries (rule: every number printed carries its error estimate). Session 32: in the
+# shape of the other commands' lines (psdesign.cli.lines): the bar after the values, then
+# `[status]  converged true|false` (it printed `rel. error 1.0e-01` and no flag), the pore
+# sizes with their one-sided absolute bar (the scan measures low) covering the breakthrough
+# diameter too, and the porosity with its error.
 def test_pores_text_prints_the_error_estimates(spec, capsys):
     assert main(["pores", str(spec), "--json"]) == 0
     js = json.loads(capsys.readouterr().out)
     assert main(["pores", str(spec)]) == 0
-    text = capsys.readouterr().out
-    assert f"rel. error {js['rel_error']:.1e}" in text
-    assert f"rel. error {js['specific_surface_rel_error']:.1e}" in text
-    assert js["converged"] is True and "NOT CONVERGED" not in text
+    sizes, surface = capsys.readouterr().out.splitlines()
+    assert f"breakthrough {js['breakthrough_diameter_m']:.3e} m, each " in sizes
+    assert f"each +{js['diameter_error_m']:.1e}/-0 m  [{js['pore_sizes_status']}]  " in sizes
+    assert "converged true" in sizes and js["converged"] is True
+    bar = f"+- {100 * js['specific_surface_rel_error']:.1f} %"
+    assert f"1/m {bar}  [{js['specific_surface_status']}]  converged true  " in surface
+    assert surface.endswith(f"porosity {js['porosity']:.4f} +- {js['porosity_error']:.1e}")
 
 
 # main: "spec: file not found: adir" for a folder given as the spec (the path exists).

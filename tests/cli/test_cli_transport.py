@@ -241,6 +241,10 @@ def test_transport_lines_carry_bar_status_and_converged(spec, tmp_path, capsys, 
     assert 0 < js["porosity_error"] < 0.01
     if command == "diffusivity":
         assert lines[0].endswith(f"porosity {eps:.4f} +- {js['porosity_error']:.1e}")
+        # the tortuosity factor (porosity / D, a count over D) with D's relative bar
+        r = js["results"][0]
+        tau = f"tortuosity factor {r['tortuosity_factor']:.4f} +- {100 * r['rel_error']:.1f} %"
+        assert tau in lines[0]
     # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 1
     stopped = tmp_path / "stopped.toml"
     stopped.write_text(SPEC.replace("[transport]", "[transport]\nmax_iter = 1"))
