@@ -3,19 +3,19 @@
 Replicates are the cases that share every design parameter and differ in the seed. The 95 %
 confidence interval of the mean is Student's ``mean +- t_{0.975, n-1} s / sqrt(n)``; with one
 replicate the spread is unknown and the interval is NaN (said, not hidden). A permeability
-(``k_*_m2``, positive) has its lower bound clipped at 0 (:func:`positive_output`).
+(positive) and every output with a physical lower bound has its lower bound clipped there
+(:func:`physical_floor`).
 """
 
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import output_columns, trusted
+from psdesign.analysis.columns import RANGES, output_columns, trusted
 
 
 def t_quantile_975(dof: int) -> float:
@@ -27,19 +27,17 @@ def t_quantile_975(dof: int) -> float:
     return float(t.ppf(0.975, dof))
 
 
-#: Outputs that are positive by nature: the permeabilities ``k_<d>_m2`` and the tensor's
-#: diagonal ``k_<dd>_m2`` (an off-diagonal ``k_xy_m2`` may be negative).
-_POSITIVE = re.compile(r"^k_(x|y|z|xx|yy|zz)_m2$")
+def physical_floor(column: str) -> float | None:
+    """The physical lower bound of an output (:data:`psdesign.analysis.columns.RANGES`: 0 for
+    K, its tensor's diagonal, porosity, D_eff/D, conductivity, pore sizes, S_v), where
+    :func:`replicate_summary` clips the 95 % CI's lower bound; None for an output without one
+    (an off-diagonal ``k_xy_m2`` may be negative).
 
-
-def positive_output(column: str) -> bool:
-    """True for an output that must be positive (a permeability ``k_<d>_m2`` or a diagonal
-    tensor entry ``k_<dd>_m2``), whose 95 % CI lower bound :func:`replicate_summary` clips at 0.
-
-    >>> [positive_output(c) for c in ("k_z_m2", "k_xx_m2", "k_xy_m2", "porosity", "k_z_status")]
-    [True, True, False, False, False]
+    >>> [physical_floor(c) for c in ("k_z_m2", "k_xx_m2", "k_xy_m2", "porosity", "k_z_status")]
+    [0.0, 0.0, None, 0.0, None]
     """
-    return bool(_POSITIVE.match(column))
+    rng = RANGES.get(column)
+    return None if rng is None else rng[0]
 
 
 def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
@@ -62,12 +60,13 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     Notes
     -----
     The interval is Student's, ``mean +- t_{0.975, n-1} s / sqrt(n)``, the CI of the
-    arithmetic mean that ``X_mean`` reports. For a permeability ``k_<d>_m2`` (positive:
-    :func:`positive_output`) the lower bound is clipped at 0: with few seeds and a wide
-    spread (a small RVE) ``mean - half`` can fall below 0, a negative permeability. The
-    upper bound is kept, so ``X_ci95_high - X_mean`` is still the Student half-width. (The
-    CI of log K, exponentiated, would describe the geometric mean, not the ``X_mean`` beside
-    it.) Other outputs keep the symmetric interval.
+    arithmetic mean that ``X_mean`` reports. Where the output has a physical lower bound
+    (:func:`physical_floor`: 0 for a permeability ``k_<d>_m2``, porosity, D_eff/D, ...) the
+    lower bound is clipped there: with few seeds and a wide spread (a small RVE) ``mean -
+    half`` can fall below 0, a negative permeability. The upper bound is kept, so
+    ``X_ci95_high - X_mean`` is still the Student half-width. (The CI of log K,
+    exponentiated, would describe the geometric mean, not the ``X_mean`` beside it.) Other
+    outputs (an off-diagonal ``k_xy_m2``) keep the symmetric interval.
 
     Examples
     --------
@@ -93,8 +92,9 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
             std = float(x.std(ddof=1)) if n > 1 else math.nan
             half = t_quantile_975(n - 1) * std / math.sqrt(n) if n > 1 else math.nan
             low = mean - half
-            if positive_output(c) and low < 0:  # K > 0: never a negative bound
-                low = 0.0
+            floor = physical_floor(c)
+            if floor is not None and low < floor:  # e.g. K > 0: never a negative bound
+                low = floor
             row |= {
                 f"{c}_n": n,
                 f"{c}_mean": mean,

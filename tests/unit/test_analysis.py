@@ -443,7 +443,9 @@ def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
 def test_k_ci_lower_bound_never_negative() -> None:
     """audit (session 31): the Student-t CI of K over two seeds a factor 10 apart had a
     negative lower bound (summary.csv, rev.csv). K > 0: its lower bound is clipped at 0, the
-    upper bound stays Student's; porosity and an off-diagonal k_xy_m2 keep the symmetric CI."""
+    upper bound stays Student's; an off-diagonal k_xy_m2 keeps the symmetric CI. Session 32:
+    every output with a physical lower bound (analysis.columns.RANGES, the one table the
+    optimizer's targets use) is clipped there: porosity and a conductivity at 0 too."""
     from psdesign.analysis.replicates import replicate_summary, t_quantile_975
 
     k = [1e-13, 3e-12, 2e-11]
@@ -455,6 +457,7 @@ def test_k_ci_lower_bound_never_negative() -> None:
             "k_xx_m2": [1e-12, 1e-11, 2e-13],
             "k_xy_m2": [-1e-12, 1e-12, 2e-12],
             "porosity": [0.1, 0.9, 0.5],
+            "conductivity_z": [0.01, 5.0, 0.02],
         }
     )
     s = replicate_summary(df, ["a"]).iloc[0]
@@ -462,4 +465,8 @@ def test_k_ci_lower_bound_never_negative() -> None:
     assert np.mean(k) - half < 0  # the Student bound would be a negative permeability
     assert s["k_z_m2_ci95_low"] == 0.0 and s["k_xx_m2_ci95_low"] == 0.0
     assert s["k_z_m2_ci95_high"] == pytest.approx(np.mean(k) + half, rel=1e-12)
-    assert s["k_xy_m2_ci95_low"] < 0 and s["porosity_ci95_low"] < 0  # not positive by nature
+    assert s["k_xy_m2_ci95_low"] < 0  # not positive by nature
+    assert s["porosity_ci95_low"] == 0.0 and s["conductivity_z_ci95_low"] == 0.0
+    assert s["porosity_ci95_high"] - s["porosity_mean"] == pytest.approx(
+        t_quantile_975(2) * np.std([0.1, 0.9, 0.5], ddof=1) / np.sqrt(3), rel=1e-12
+    )
