@@ -63,6 +63,42 @@ def tiff_description(voxel: float) -> dict:
     }
 
 
+def refuse_input_overwrite(spec: dict, folder: Path, files: tuple[str, ...]) -> None:
+    """Refuse to write ``files`` into ``folder`` when one of them is the spec's own image.
+
+    A ``rve.tif`` that psdesign wrote becomes the user's input once an ``[image]`` spec
+    reads it; ``--force`` replaces psdesign's files, and would replace that input (with
+    its crop, say), so it is refused before any work.
+
+    Parameters
+    ----------
+    spec : dict
+        The validated spec (its ``image.path`` is absolute).
+    folder : Path
+        The checked output folder (resolved).
+    files : tuple of str
+        The names the command writes into it.
+
+    Raises
+    ------
+    OutputError
+        One line naming ``-o`` and the file.
+    """
+    from psdesign.io.outputs import OutputError
+
+    image = (spec.get("image") or {}).get("path")
+    if image is None:
+        return
+    source = Path(image).resolve()
+    for name in files:
+        if (folder / name).resolve() == source:
+            raise OutputError(
+                "-o",
+                f"{folder / name} is this spec's image (image.path); psdesign never replaces "
+                "its input, even with --force; choose another folder",
+            )
+
+
 def write_generate_outputs(
     spec: dict,
     out_dir: str | Path,
@@ -98,6 +134,7 @@ def write_generate_outputs(
     target = check_output_dir(
         out_dir, force=force, command="generate", expected=GENERATE_FILES + extra
     )
+    refuse_input_overwrite(spec, target.path, GENERATE_FILES + extra)
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve

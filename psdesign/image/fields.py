@@ -2,10 +2,10 @@
 
 A segmented image has no analytic surface; the surface is put half-way between a solid and a
 pore voxel centre, and the signed distance (metres, > 0 in the pore) comes from two Euclidean
-distance transforms (scipy.ndimage): ``d = EDT(pore) - 1/2`` in the pore and
-``-(EDT(solid) - 1/2)`` in the solid, times the voxel size. This is what the mesher's level set
-and the transport solvers need; solvers that use the analytic distance for sub-voxel walls
-see ``wall_treatment = "staircase"`` for images.
+distance transforms (scipy.ndimage) of the periodic medium the image is one period of:
+``d = EDT(pore) - 1/2`` in the pore and ``-(EDT(solid) - 1/2)`` in the solid, times the voxel
+size. This is what the mesher's level set and the transport solvers need; solvers that use
+the analytic distance for sub-voxel walls see ``wall_treatment = "staircase"`` for images.
 """
 
 from __future__ import annotations
@@ -26,18 +26,47 @@ class ImageFields(VoxelFields):
     analytic_distance: ClassVar[bool] = False
 
 
-def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
-    """Signed distance (float32, metres) of a solid mask, positive in the pore."""
+def periodic_edt(mask: np.ndarray) -> np.ndarray:
+    """Euclidean distance (voxel centres, in voxels) of every True voxel to the nearest False
+    voxel of the periodic medium the image is one period of (the RVE is periodic: the
+    solvers and the pore-size scan wrap around its faces).
+
+    The transform with open faces bounds it from above (it sees fewer False voxels), so the
+    nearest False voxel lies within that bound, and never more than half a period away along
+    an axis: the mask padded by ``min(ceil(bound) + 1, n // 2 + 1)`` periodic layers holds it.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, 3-D
+        Must hold at least one False voxel.
+
+    Returns
+    -------
+    ndarray of float64, the shape of ``mask``
+    """
     from scipy.ndimage import distance_transform_edt
 
+    bound = float(distance_transform_edt(mask).max())
+    pad = [min(int(np.ceil(bound)) + 1, n // 2 + 1) for n in mask.shape]
+    wrapped = np.pad(mask, [(p, p) for p in pad], mode="wrap")
+    core = tuple(slice(p, p + n) for p, n in zip(pad, mask.shape, strict=True))
+    return distance_transform_edt(wrapped)[core]
+
+
+def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
+    """Signed distance (float32, metres) of a solid mask, positive in the pore.
+
+    Periodic (:func:`periodic_edt`), as the analytic distance of an RVE of fibers: a pore
+    voxel next to a face is as close to the solid across that face as the solvers see it.
+    """
     solid = np.asarray(solid, dtype=bool)
     d = np.empty(solid.shape, dtype=np.float32)
     pore = ~solid
     if pore.all() or solid.all():
         d.fill(np.float32(voxel * max(solid.shape)) * (1 if pore.all() else -1))
         return d
-    d[pore] = distance_transform_edt(pore)[pore] - 0.5
-    d[solid] = -(distance_transform_edt(solid)[solid] - 0.5)
+    d[pore] = periodic_edt(pore)[pore] - 0.5
+    d[solid] = -(periodic_edt(solid)[solid] - 0.5)
     return d * np.float32(voxel)
 
 

@@ -102,8 +102,9 @@ def raw_layout(src: ImageSource) -> tuple[np.dtype, int]:
 
 
 def _read_raw(src: ImageSource) -> np.ndarray:
+    """The raw file memory-mapped (indexed ``[x, y, z]``): a crop reads only its voxels."""
     dt, n = raw_layout(src)
-    data = np.fromfile(src.path, dtype=dt, count=n)
+    data = np.memmap(src.path, dtype=dt, mode="r", shape=(n,))
     order = src.axis_order or "zyx"
     stored = [src.shape["xyz".index(a)] for a in order] if sorted(order) == list("xyz") else [n]
     return _to_xyz(data.reshape(stored), order)
@@ -155,13 +156,24 @@ def _read_vti(path: Path) -> np.ndarray:
     return data.reshape(dims, order="F")
 
 
+def _tiff_array(path: Path) -> np.ndarray:
+    """The first series of a TIFF file, memory-mapped when it is stored uncompressed and
+    contiguous (a crop then reads only its voxels), else read."""
+    import tifffile
+
+    try:
+        return tifffile.memmap(path, mode="r")
+    except ValueError:  # compressed or tiled: not memory-mappable
+        return np.asarray(tifffile.imread(path))
+
+
 def _read_stored(src: ImageSource) -> np.ndarray:
+    """The stored values indexed ``[x, y, z]``; memory-mapped where the format allows it
+    (raw, NumPy, uncompressed TIFF), so that :func:`read_labels` copies only the crop."""
     path, ext = Path(src.path), src.ext
     if ext in (".tif", ".tiff"):
-        import tifffile
-
         try:
-            data = np.asarray(tifffile.imread(path))
+            data = _tiff_array(path)
         except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
             raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
         if data.ndim == 2:
@@ -171,7 +183,7 @@ def _read_stored(src: ImageSource) -> np.ndarray:
         return _to_xyz(data, src.axis_order or "zyx")
     if ext == ".npy":
         try:
-            data = np.load(path, allow_pickle=False)
+            data = np.load(path, mmap_mode="r", allow_pickle=False)
         except (ValueError, OSError) as exc:
             raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
         if data.ndim != 3:
@@ -203,6 +215,8 @@ def read_labels(src: ImageSource) -> np.ndarray:
                 )
             sl.append(slice(lo, hi))
         data = data[tuple(sl)]
+    if isinstance(data, np.memmap):
+        data = np.array(data)  # the crop in memory, the file closed
     return data
 
 

@@ -78,6 +78,7 @@ class ConductivityResult(Rated):
                 f"effective conductivity ({u})",
                 f"{self.effective_conductivity:.4g} {plus_minus(self.rel_error)}",
             ),
+            ("converged", str(self.converged)),
             (
                 f"solid / fluid conductivity ({u})",
                 f"{self.solid_conductivity:.4g} / {self.fluid_conductivity:.4g}",

@@ -88,8 +88,15 @@ class DiffusivityResult(Rated):
                 "D<sub>eff</sub> / D (-)",
                 f"{self.relative_diffusivity:.4g} {plus_minus(self.rel_error)}",
             ),
-            ("tortuosity factor (-)", "n/a" if tau is None else f"{tau:.4g}"),
-            ("D<sub>eff</sub> (m<sup>2</sup>/s)", f"{self.effective_diffusivity_m2_s:.4e}"),
+            (
+                "tortuosity factor (-)",
+                "n/a" if tau is None else f"{tau:.4g} {plus_minus(self.rel_error)}",
+            ),
+            (
+                "D<sub>eff</sub> (m<sup>2</sup>/s)",
+                f"{self.effective_diffusivity_m2_s:.4e} {plus_minus(self.rel_error)}",
+            ),
+            ("converged", str(self.converged)),
             ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
             ("bc", self.bc),
         ]

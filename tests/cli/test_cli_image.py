@@ -192,3 +192,21 @@ def test_bad_image_spec_exits_2_one_line_nothing_written(folder, capsys, body, k
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"psdesign: error: {key}:") and "\n" not in err
     assert not out.exists()
+
+
+def test_generate_never_replaces_the_specs_own_image(tmp_path, capsys) -> None:
+    """A psdesign-written ``rve.tif`` read back by an ``[image]`` spec with a crop, and
+    ``generate --force --format tiff`` into its folder: on main the 24^3 input was replaced by
+    its 8^3 crop (audit s32). The rule: a user's file is never overwritten; exit 2, one line
+    naming ``-o``, the input byte-identical."""
+    rods = spec_file(tmp_path, RODS, "rods.toml")
+    out = tmp_path / "out"
+    assert main(["generate", str(rods), "-o", str(out), "--format", "tiff", "--no-preview"]) == 0
+    before = (out / "rve.tif").read_bytes()
+    img = spec_file(tmp_path, '[image]\npath = "out/rve.tif"\ncrop = [[0, 8], [0, 8], [0, 8]]\n')
+    capsys.readouterr()
+    args = ["generate", str(img), "-o", str(out), "--format", "tiff", "--force", "--no-preview"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("psdesign: error: -o:") and "image.path" in err and "\n" not in err
+    assert (out / "rve.tif").read_bytes() == before

@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 
 import psdesign
@@ -316,3 +317,28 @@ def test_load_spec_of_a_dict_says_where_a_dict_goes() -> None:
     for bad in ({"rve": {}}, None, 3):
         with pytest.raises(psdesign.SpecError, match=r"^spec: load_spec takes a file name"):
             psdesign.load_spec(bad)
+
+
+def test_transport_html_carries_converged_and_error_bars_on_an_image(tmp_path) -> None:
+    """A notebook user sees every number with its convergence flag and error estimate
+    (PermeabilityResult's table has a "converged" row; the transport tables had none, and
+    D_eff and the tortuosity factor had no bar; audit s32). A layered image (plates of 4 of
+    20 voxels along y) has closed forms: along the plates D_eff / D = porosity = 0.8 and
+    tortuosity factor 1; across them the conductivity is the harmonic (series) mean
+    1 / (0.8 / 1 + 0.2 / 10) (the Wiener bounds are attained by a laminate: Wiener 1912)."""
+    import psdesign
+
+    solid = np.zeros((20, 20, 20), np.uint8)
+    solid[:, :4, :] = 1
+    np.save(tmp_path / "plates.npy", solid)
+    m = psdesign.from_image(tmp_path / "plates.npy", voxel_size=1e-6)
+    dr = m.diffusivity("x")
+    assert dr.relative_diffusivity == pytest.approx(0.8, rel=1e-9)
+    assert dr.tortuosity_factor == pytest.approx(1.0, rel=1e-9)
+    page = dr._repr_html_()
+    bar = f"&plusmn; {100 * dr.rel_error:.2g} %"
+    assert f'>converged</th><td style="text-align:left">{dr.converged}<' in page
+    assert f"1 {bar}<" in page and f"{dr.effective_diffusivity_m2_s:.4e} {bar}<" in page
+    cr = m.conductivity("y", solid=10.0, fluid=1.0)
+    assert cr.effective_conductivity == pytest.approx(1 / (0.8 / 1 + 0.2 / 10), rel=1e-6)
+    assert f'>converged</th><td style="text-align:left">{cr.converged}<' in cr._repr_html_()
