@@ -283,6 +283,29 @@ class Material:
         table = validate_transport({"transport": {**self.spec.get("transport", {}), **transport}})
         return pore_report(self.rve, self.fields, table)
 
+    def _repr_html_(self) -> str:
+        """The notebook's table: box, voxel grid, fibres (or image), the porosity with its
+        error estimate and its rating (a count: ``ok`` up to a 20 % bar, as in study tables)."""
+        from psdesign.analysis.columns import error_bar
+        from psdesign.geometry.porosity import porosity_text
+        from psdesign.notebook import result_html
+
+        grid = self.fields.grid
+        eps, err = self.porosity, self.porosity_error
+        source = (
+            ("image", Path(self.spec["image"]["path"]).name)
+            if "image" in self.spec
+            else ("fibers", str(len(self.rve.fibers)))
+        )
+        rows = [
+            ("box (m)", " x ".join(f"{s:.4g}" for s in self.rve.size)),
+            ("voxel grid", f"{' x '.join(map(str, grid.shape))} of {grid.spacing[0]:.4g} m"),
+            source,
+            ("porosity (-)", porosity_text(eps, err)),
+        ]
+        status = error_bar({"porosity": eps, "porosity_error": err}, "porosity")[1]
+        return result_html("Material", rows, status, [])
+
     def __repr__(self) -> str:
         size = " x ".join(f"{s:g}" for s in self.rve.size)  # metres: SI, as every output
         if "image" in self.spec:

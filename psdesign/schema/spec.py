@@ -105,7 +105,13 @@ def validate_document(data: Any, base: str | Path | None = None) -> SpecDocument
         return SpecDocument.model_validate(data, context={"base": base})
     except ValidationError as exc:
         raise spec_error(exc, SpecDocument) from None
-    except (RecursionError, OverflowError, MemoryError) as exc:
+    except MemoryError:
+        if "image" in data:  # the validator reads the image (its box and voxel)
+            raise SpecError(
+                "image.path", "the image does not fit in memory: read a part (image.crop)"
+            ) from None
+        raise SpecError("spec", "cannot validate: out of memory") from None
+    except (RecursionError, OverflowError) as exc:
         raise SpecError(
             "spec",
             f"cannot validate ({type(exc).__name__}): nested too deeply or numbers too large",

@@ -267,3 +267,18 @@ def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypat
     grid.save(tmp_path / "field.vti")
     with pytest.raises(SpecError, match=r"image\.path: the first array .*'velocity', has 3 comp"):
         psdesign.from_image(tmp_path / "field.vti")
+
+
+def test_out_of_memory_while_reading_an_image_names_image_path(monkeypatch):
+    """audit s32: a compressed TIFF is read whole; running out of memory there said "spec:
+    cannot validate (MemoryError): nested too deeply or numbers too large"."""
+    from psdesign.schema import spec as spec_mod
+
+    def oom(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(spec_mod.SpecDocument, "model_validate", oom)
+    with pytest.raises(SpecError) as info:
+        spec_mod.validate_document({"image": {"path": "scan.tif"}})
+    assert info.value.key == "image.path" and "image.crop" in info.value.message
+    assert "nested" not in info.value.message
