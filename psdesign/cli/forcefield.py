@@ -48,7 +48,11 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         )
     )
     # warnings on stderr: stdout stays one JSON object
-    if summary["at_bound"]:
+    if summary["status"] == "not_converged":
+        on = summary["at_bound"]
+        where = f" (on the bound of {', '.join(on)})" if on else ""
+        progress.warning(f"{summary['message']}, not converged; wrote the best point found{where}")
+    elif summary["at_bound"]:
         progress.warning(
             f"optimum on the bound of {', '.join(summary['at_bound'])} "
             "(a constrained stop, not converged); widen the ranges or read it as such"

@@ -6,12 +6,56 @@ import argparse
 import json
 import sys
 import time
+from pathlib import Path
 
 from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
-from psdesign.meshing.exports import WRITERS
+from psdesign.meshing.exports import OUTPUTS, WRITERS, output_names
 
 MESH_FORMATS = tuple(WRITERS)  # the export registry
+#: what every run writes besides the formats' files
+MESH_RECORDS = ("mesh.json", "mesh_timings.json")
+
+
+def _load_spec(path: str, mesher: str | None) -> dict:
+    """Read and validate the spec with ``--mesher`` already in its ``[flow]`` table, so that
+    the up-front checks (the pytetwild budget and edge, a periodic mesh) see the mesher that
+    will run, before the RVE is built."""
+    from psdesign.schema.spec import read_toml, validate_spec
+
+    data = read_toml(path)
+    flow = data.get("flow", {})
+    if mesher and isinstance(flow, dict):
+        data["flow"] = {**flow, "mesher": mesher}
+    return validate_spec(data, base=Path(path).parent)
+
+
+def _drop_stale_outputs(folder: Path, formats: tuple[str, ...]) -> list[str]:
+    """Remove the export files a previous run wrote into ``folder`` (as its marker lists them)
+    for formats this run did not write, so that no old mesh is left beside the new one.
+
+    Parameters
+    ----------
+    folder
+        The output folder, after this run's files are in place.
+    formats
+        The formats this run wrote.
+
+    Returns
+    -------
+    list of str
+        Relative paths removed.
+    """
+    from psdesign.io.outputs import remove_owned_files, remove_owned_tree
+
+    written = set(output_names(formats))
+    old = [n for n in output_names(tuple(OUTPUTS)) if n not in written]
+    removed = remove_owned_files(folder, [n for n in old if "/" not in n])
+    for sub in sorted(
+        {n.split("/")[0] for n in old if "/" in n} - {n.split("/")[0] for n in written}
+    ):
+        removed += remove_owned_tree(folder, sub)
+    return removed
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -24,22 +68,23 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.meshing.options import MeshOptions, thinnest_fiber_diameter
     from psdesign.meshing.pore_mesh import export_mesh, mesh_pore_space
     from psdesign.packing.build import build_rve
-    from psdesign.schema.spec import load_spec
 
-    spec = load_spec(args.spec)
-    flow = dict(spec["flow"])
     for fmt in args.format:
         if fmt not in WRITERS:
             raise SpecError("--format", f"unknown format {fmt!r}; allowed: {', '.join(WRITERS)}")
+    formats = tuple(dict.fromkeys(["vtu", *args.format]))
+    spec = _load_spec(args.spec, args.mesher)
+    flow = dict(spec["flow"])
     target = check_output_dir(
-        args.output, force=args.force, command="mesh", expected=("mesh.json", "mesh_timings.json")
+        args.output,
+        force=args.force,
+        command="mesh",
+        expected=(*MESH_RECORDS, *output_names(formats)),
     )
     t0 = time.perf_counter()
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
-    if args.mesher:
-        flow["mesher"] = args.mesher
     # the FEM's own field (psdesign.flow.fem_field): the mesh the fem route would make
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
     diameter = thinnest_fiber_diameter(rve)
@@ -57,7 +102,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra),
     )
     with staged_directory(target) as tmp:
-        files = export_mesh(pm, tmp, formats=tuple(dict.fromkeys(["vtu", *args.format])), flow=flow)
+        files = export_mesh(pm, tmp, formats=formats, flow=flow)
         info = {
             "direction": args.direction,
             "porosity": fields.porosity,
@@ -71,6 +116,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         summary = mesh_summary(pm)  # the tag tables: names -> ids, facets and areas per tag
         info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
         write_record(tmp, "mesh.json", info)  # the wall time beside it
+    _drop_stale_outputs(target.path, formats)
     print(
         json.dumps(
             {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}

@@ -54,6 +54,7 @@ class ContactRelaxResult:
     message: str
     n_evals: int
     wall_time_s: float
+    limit_stop: bool = False  # the search stopped on max_iter / max_evals
 
 
 def grid_points(lo: np.ndarray, hi: np.ndarray, h: float) -> np.ndarray:
@@ -304,6 +305,7 @@ def relax_contacts(
         message=res.message,
         n_evals=res.n_evals,
         wall_time_s=time.perf_counter() - t0,
+        limit_stop=not res.converged,
     )
 
 
@@ -401,12 +403,9 @@ def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):
 
 def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) -> dict:
     """The ``summary.json`` record of a field-route relaxation (lengths in metres)."""
-    if res.at_bound:
-        status = "at_bound"
-    elif res.min_gap_after < 0.0:
-        status = "contact_left"
-    else:
-        status = "converged" if res.converged else "not_converged"
+    from psdesign.forcefield.run import search_status
+
+    status = search_status(res.limit_stop, res.at_bound, res.min_gap_after < 0.0)
     return {
         "case": "relax",
         "route": "fields",

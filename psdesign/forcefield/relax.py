@@ -22,6 +22,7 @@ touch. The relaxed fibers are written as an explicit RVE spec that ``psdesign pe
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,6 +64,7 @@ class RelaxResult:
     x: np.ndarray | None = None
     n_contacts_before: int = 0
     n_contacts_after: int = 0
+    limit_stop: bool = False  # the search stopped on max_iter / max_evals
 
 
 def bending_area(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -312,41 +314,92 @@ def relax_fibers(
         x=res.x,
         n_contacts_before=n_before,
         n_contacts_after=n_after,
+        limit_stop=not res.converged,
     )
 
 
-def _num(tab: dict, key: str, default: float, lo: float, hi: float) -> float:
+def _num(tab: dict, key: str, default: float, lo: float, hi: float, integer: bool = False) -> float:
+    """``tab[key]`` (or ``default``), a number in ``[lo, hi]`` (an integer if ``integer``);
+    :class:`SpecError` naming ``forcefield.relax.<key>`` otherwise."""
     v = tab.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not lo <= v <= hi:
-        raise SpecError(f"forcefield.relax.{key}", f"must be a number in [{lo}, {hi}], got {v!r}")
+    kind = "an integer" if integer else "a number"
+    ok = not isinstance(v, bool) and isinstance(v, int if integer else int | float)
+    if not ok or not lo <= v <= hi:
+        raise SpecError(f"forcefield.relax.{key}", f"must be {kind} in [{lo:g}, {hi:g}], got {v!r}")
     return float(v)
+
+
+def _weights(options: dict) -> tuple[float, float, float]:
+    """``weights``: three finite numbers >= 0, not all zero (as the paper cases' weights; a
+    negative weight would reward overlap)."""
+    w = options.get("weights", [1e10, 1.0, 1.0])
+    ok = isinstance(w, list) and len(w) == 3
+    ok = ok and all(isinstance(v, int | float) and not isinstance(v, bool) for v in w)
+    ok = ok and all(math.isfinite(v) and v >= 0 for v in w) and any(v > 0 for v in w)
+    if not ok:
+        raise SpecError(
+            "forcefield.relax.weights",
+            f"must be three finite numbers >= 0, not all zero, got {w!r}",
+        )
+    return tuple(float(v) for v in w)
 
 
 def _search_options(options: dict, dmin: float, period: float) -> dict:
     """The pattern-search keys of ``[forcefield.relax]`` both relax routes share (move bounds in
     box units, penalty weights, iteration and evaluation limits), each checked against its range
     (:class:`SpecError` naming the key)."""
-    w = options.get("weights", [1e10, 1.0, 1.0])
-    if not (isinstance(w, list) and len(w) == 3 and all(isinstance(v, int | float) for v in w)):
-        raise SpecError("forcefield.relax.weights", f"must be three numbers, got {w!r}")
     return dict(
         max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
         u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
-        weights=tuple(float(v) for v in w),
-        max_iter=int(_num(options, "max_iter", 200, 1, 100000)),
-        max_evals=int(_num(options, "max_evals", 4000, 1, 1e7)),
+        weights=_weights(options),
+        max_iter=int(_num(options, "max_iter", 200, 1, 100000, integer=True)),
+        max_evals=int(_num(options, "max_evals", 4000, 1, 10**7, integer=True)),
         min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
     )
 
 
+def check_relax_table(options: object, period: float) -> None:
+    """Check a ``[forcefield.relax]`` table before any work (the RVE is not built yet).
+
+    Every key's type and range is checked here but the bounds that need the fibers (``grid``
+    and ``gap`` at most the thinnest diameter), which :func:`relax_spec` checks after building.
+
+    Parameters
+    ----------
+    options
+        The table as read from the spec.
+    period
+        Metres per PS period of the spec's RVE (``rve.period``, else the largest edge).
+
+    Raises
+    ------
+    SpecError
+        One line naming ``forcefield.relax.<key>`` and its allowed range.
+    """
+    if not isinstance(options, dict):
+        raise SpecError("forcefield.relax", "must be a table")
+    allowed = RELAX_KEYS | FIELD_ONLY_KEYS
+    bad = sorted(set(options) - allowed)
+    if bad:
+        raise SpecError(f"forcefield.relax.{bad[0]}", f"unknown key; allowed: {sorted(allowed)}")
+    _search_options(options, 0.0, period)
+    _num(options, "f", 1.0, 1e-3, 100.0)
+    if not isinstance(options.get("tie_bend", False), bool):
+        raise SpecError(
+            "forcefield.relax.tie_bend", f"must be true or false, got {options['tie_bend']!r}"
+        )
+    for key in ("grid", "gap"):
+        if key in options:
+            _num(options, key, 0.0, 0.0 if key == "gap" else 1e-300, period)
+
+
 def rod_status(res: RelaxResult) -> str:
-    """``at_bound`` (a free variable on its bound), ``contact_left`` (the search stopped with
-    an overlap left), else ``converged`` or ``not_converged`` (a limit stopped it)."""
-    if res.at_bound:
-        return "at_bound"
-    if res.omega_after > 0.0:
-        return "contact_left"
-    return "converged" if res.converged else "not_converged"
+    """``not_converged`` (a limit stopped the search), ``at_bound`` (a free variable on its
+    bound), ``contact_left`` (stopped with an overlap left) or ``converged``
+    (:func:`psdesign.forcefield.run.search_status`)."""
+    from psdesign.forcefield.run import search_status
+
+    return search_status(res.limit_stop, res.at_bound, res.omega_after > 0.0)
 
 
 def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:

@@ -84,8 +84,12 @@ def load_forcefield_spec(path: str | Path) -> dict:
         ff = data.get("forcefield") or {}
         if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
             raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
+        from psdesign.forcefield.relax import check_relax_table
+
         spec = {k: v for k, v in data.items() if k != "forcefield"}
-        validate_spec(spec)
+        valid = validate_spec(spec)
+        rve = valid["rve"]
+        check_relax_table(ff.get("relax", {}), rve["period"] or max(rve["size"]))
         return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     for key in data:
         if key != "forcefield":
@@ -186,10 +190,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     """JSON-ready record of an optimization run."""
     fields = prob.fields(res.x)
     at_bound = at_bounds(prob.param.free, res.x, prob.lower, prob.upper)
-    if at_bound:
-        status = "at_bound"
-    else:
-        status = "converged" if res.converged else "not_converged"
+    status = search_status(not res.converged, at_bound, False)
     out = {
         "case": prob.name,
         "surface_term": prob.surface,
@@ -229,6 +230,34 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
             "reported": prob.paper,
         }
     return out
+
+
+def search_status(limit_stop: bool, at_bound: list[str], contact_left: bool) -> str:
+    """Status of a force-field run: ``not_converged`` when the pattern search stopped on its
+    iteration or evaluation limit (its last point is no optimum, whatever bound it touches),
+    else ``at_bound`` (a constrained stop), ``contact_left`` (converged with an overlap left)
+    or ``converged``.
+
+    Parameters
+    ----------
+    limit_stop
+        The search hit ``max_iter`` or ``max_evals`` before its mesh size fell below
+        ``min_step``.
+    at_bound
+        Free variables on a bound of their box (:func:`at_bounds`).
+    contact_left
+        The final fibers still overlap (relax routes).
+
+    Returns
+    -------
+    str
+        ``not_converged``, ``at_bound``, ``contact_left`` or ``converged``.
+    """
+    if limit_stop:
+        return "not_converged"
+    if at_bound:
+        return "at_bound"
+    return "contact_left" if contact_left else "converged"
 
 
 def at_bounds(names, x, lower, upper, rel: float = 1e-6) -> list[str]:

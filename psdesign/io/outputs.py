@@ -43,6 +43,7 @@ __all__ = [
     "claim_output_dir",
     "is_psdesign_temp",
     "remove_owned_files",
+    "remove_owned_tree",
     "staged_output",
 ]
 
@@ -365,6 +366,36 @@ def remove_owned_files(folder: Path, names: Iterable[str]) -> list[str]:
             continue
         p.unlink()
         removed.append(name)
+    if removed:
+        _write_marker(folder, marker.get("command", ""), owned - set(removed))
+    return removed
+
+
+def remove_owned_tree(folder: Path, sub: str) -> list[str]:
+    """Remove the files under the sub-folder ``sub`` of ``folder`` that psdesign wrote (its
+    marker lists them), drop them from the marker and remove the folders left empty; returns
+    the relative paths removed.
+
+    As :func:`remove_owned_files`: a file the marker does not list, a symbolic link or a
+    folder that still holds anything else is left alone.
+    """
+    marker = read_marker(folder)
+    sub = sub.strip("/")
+    if marker is None or not sub or ".." in sub.split("/"):
+        return []
+    owned = set(marker["files"])
+    removed = []
+    for rel in sorted(r for r in owned if r.startswith(sub + "/")):
+        p = folder / rel
+        links = [folder / q for q in Path(rel).parents if q != Path(".")]
+        if p.is_symlink() or not p.is_file() or any(q.is_symlink() for q in links):
+            continue
+        p.unlink()
+        removed.append(rel)
+    for d in sorted({(folder / r).parent for r in removed}, key=lambda q: -len(q.parts)):
+        while d != folder and d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
+            d.rmdir()
+            d = d.parent
     if removed:
         _write_marker(folder, marker.get("command", ""), owned - set(removed))
     return removed

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field
+from pydantic import BeforeValidator, Field, model_validator
 
 from psdesign.schema.types import Table, fail, flag, number, short
 
@@ -102,6 +102,19 @@ class FlowTable(Table):
         "lattice cells (default: max(2 voxels, min(thinnest fiber diameter / 3, smallest edge "
         "/ 30)), coarsened up to max(2 voxels, smallest edge / 30) to fit the memory budget)",
     )
+
+    @model_validator(mode="after")
+    def _mesher_fits_bc(self) -> FlowTable:
+        """A periodic mesh (``bc = "periodic"``) is the stuffing mesher's only: pytetwild cannot
+        give matching opposite faces (:func:`psdesign.meshing.options._check` refuses it too,
+        but only after the RVE is built)."""
+        if self.bc == "periodic" and self.mesher == "pytetwild":
+            raise fail(
+                "mesher",
+                "pytetwild cannot mesh with bc = 'periodic' (no matching opposite faces)",
+                "stuffing with bc = 'periodic', or bc = 'permeameter'",
+            )
+        return self
 
     def to_spec(self) -> dict:
         """Defaults plus the keys given."""

@@ -92,3 +92,98 @@ def test_same_spec_gives_identical_mesh_files(tmp_path):
     assert_identical_folders(tmp_path / "a", tmp_path / "b", "mesh.json", "mesh_timings.json")
     timings = json.loads((tmp_path / "a" / "mesh_timings.json").read_text())
     assert "stuffing_time_s" in timings["quality"] and "wall_time_s" in timings
+
+
+def _tet_volume(path) -> float:
+    """Total volume of the tets of a mesh file read back with meshio."""
+    m = meshio.read(path)
+    pts, tets = m.points, m.cells_dict["tetra"]
+    a, b, c, d = (pts[tets[:, i]] for i in range(4))
+    return float(np.abs(np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)).sum() / 6)
+
+
+def _no_work(*args, **kwargs):
+    raise AssertionError("the RVE was built or meshed before the input was refused")
+
+
+def test_mesh_refuses_a_users_export_file_before_meshing(tmp_path, capsys, monkeypatch):
+    """With --force a user's own ``pore.msh`` (a name ``--format msh`` writes) is refused in one
+    line before any work (the builder and the mesher fail if called), and it is left as it was;
+    before the fix the check saw only mesh.json and the refusal came after meshing."""
+    import psdesign.meshing.pore_mesh as pore_mesh
+    import psdesign.packing.build as build
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m"
+    out.mkdir()
+    (out / "pore.msh").write_text("mine")
+    monkeypatch.setattr(build, "build_rve", _no_work)
+    monkeypatch.setattr(pore_mesh, "mesh_pore_space", _no_work)
+    assert main(["mesh", str(spec), "-o", str(out), "--force", "--format", "msh"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: -o:") and "pore.msh" in err[0]
+    assert (out / "pore.msh").read_text() == "mine"
+    assert sorted(p.name for p in out.iterdir()) == ["pore.msh"]
+
+
+def test_mesh_rerun_drops_the_previous_runs_other_exports(tmp_path):
+    """A second run into the same folder with fewer formats removes the exports of the first
+    run it did not rewrite (an old pore.msh or openfoam/ case would describe another mesh),
+    keeps a user's file, and the remaining pore.vtu holds the whole pore domain: the RVE's pore
+    volume L^3 - pi R^2 L plus the two empty auxiliary zones 2 * 0.25 L^3 (within 1 %)."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--format", "msh", "openfoam", "--quiet"]) == 0
+    assert (out / "pore.msh").is_file() and (out / "openfoam" / "0" / "p").is_file()
+    (out / "openfoam" / "notes.txt").write_text("mine")  # a user's file in psdesign's folder
+    assert main(["mesh", str(spec), "-o", str(out), "--quiet"]) == 0
+    assert not (out / "pore.msh").exists()
+    assert sorted(p.relative_to(out).as_posix() for p in (out / "openfoam").rglob("*")) == [
+        "openfoam/notes.txt"
+    ]
+    marker = json.loads((out / ".psdesign-output.json").read_text())
+    assert marker["files"] == ["mesh.json", "mesh_timings.json", "pore.vtu", "pore_boundary.vtu"]
+    L = 40e-6
+    exact = L**3 * (1 - np.pi * 25e-12 / L**2) + 2 * 0.25 * L**3
+    assert _tet_volume(out / "pore.vtu") == pytest.approx(exact, rel=0.01, abs=0)
+
+
+def test_mesh_output_names_are_the_files_the_writers_write(tmp_path):
+    """``OUTPUTS`` (what ``psdesign mesh`` checks and cleans up) lists exactly the files each
+    writer puts in the folder."""
+    from psdesign.meshing.exports import OUTPUTS, output_names
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m"
+    fmts = [f for f in OUTPUTS if f != "vtu"]
+    assert main(["mesh", str(spec), "-o", str(out), "--format", *fmts, "--quiet"]) == 0
+    files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    records = {".psdesign-output.json", "mesh.json", "mesh_timings.json"}
+    assert files - records == set(output_names(tuple(OUTPUTS)))
+
+
+@pytest.mark.parametrize(
+    ("flow", "key"),
+    [
+        ("edge_length = 5", "flow.edge_length"),  # fine for stuffing, > 1 for pytetwild
+        ('bc = "periodic"', "flow.mesher"),  # pytetwild has no periodic meshes
+    ],
+)
+def test_mesh_checks_the_mesher_option_before_building(tmp_path, capsys, monkeypatch, flow, key):
+    """``--mesher pytetwild`` is part of the up-front spec checks: a spec the stuffing mesher
+    takes but pytetwild cannot is refused in one line naming the key, before the RVE is built;
+    before the fix the option was applied after the build and the mesher refused it late
+    (``edge_length_fac must be in (0, 1]``, naming no spec key)."""
+    import psdesign.packing.build as build
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("[flow]\n", f"[flow]\n{flow}\n"))
+    monkeypatch.setattr(build, "build_rve", _no_work)
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--mesher", "pytetwild"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"psdesign: error: {key}:"), err
+    assert not out.exists()

@@ -482,9 +482,13 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     got = capsys.readouterr()
     assert "iteration limit" in json.loads(got.out)["message"]  # stdout: one JSON object
     (warn,) = got.err.splitlines()  # the not-converged warning, on stderr even with --quiet
-    assert warn.startswith("psdesign: warning: optimum on the bound of f, u")
+    # stopped on max_iter = 3 with f and u on their bounds: not an optimum, so the status and
+    # the warning say not converged (before: status "at_bound", "optimum on the bound of f, u")
+    assert warn.startswith("psdesign: warning: stopped on the iteration limit (max_iter=3), not")
+    assert warn.endswith("(on the bound of f, u)")
     rve = json.loads((out / "rve.json").read_text())
     assert rve["converged"] is False and len(rve["fibers"]) == 2
+    assert rve["status"] == "not_converged" and rve["at_bound"] == ["f", "u"]
     m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
     assert m.n_minor == 1 and m.u[0] == pytest.approx(rve["parameters"]["u1"])
     rows = (out / "history.csv").read_text().strip().splitlines()

@@ -76,6 +76,45 @@ WRITERS: dict[str, Writer] = {
 }
 
 
+_OPENFOAM_CASE = (
+    "Allrun",
+    "README.txt",
+    "0/U",
+    "0/p",
+    *(f"constant/polyMesh/{n}" for n in ("boundary", "faces", "neighbour", "owner", "points")),
+    "constant/momentumTransport",
+    "constant/transportProperties",
+    "constant/turbulenceProperties",
+    *(f"system/{n}" for n in ("changeDictionaryDict", "controlDict", "fvSchemes", "fvSolution")),
+)
+#: format name -> the files (relative POSIX paths) its writer puts in the output folder;
+#: ``psdesign mesh`` checks them before meshing and drops a previous run's that it did not rewrite
+OUTPUTS: dict[str, tuple[str, ...]] = {
+    "vtu": ("pore.vtu", "pore_boundary.vtu"),
+    "msh": ("pore.msh",),
+    "fluent": ("pore_fluent.msh",),
+    "stl": ("pore.stl",),
+    "openfoam": tuple(f"openfoam/{n}" for n in _OPENFOAM_CASE),
+}
+
+
+def output_names(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The files and folders the formats ``names`` write (:data:`OUTPUTS`; a format registered
+    with :func:`register_writer` and not listed there adds none).
+
+    Parameters
+    ----------
+    names
+        Format names from :data:`WRITERS`.
+
+    Returns
+    -------
+    tuple of str
+        Relative POSIX paths, in format order.
+    """
+    return tuple(n for fmt in names for n in OUTPUTS.get(fmt, ()))
+
+
 def formats() -> tuple[str, ...]:
     """Names of the registered formats."""
     return tuple(WRITERS)

@@ -1,0 +1,91 @@
+"""``psdesign forcefield`` on an RVE spec (the relax route): the ``[forcefield.relax]`` table is
+checked before any work, and a run stopped on its iteration limit says not converged."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from psdesign.cli import main
+
+D = 10e-6
+#: Two rods of diameter D crossing at right angles, their axes 3 um apart (< D: they overlap).
+RODS = f"""
+[rve]
+size = [1e-4, 1e-4, 1e-4]
+voxel = 1e-6
+[[fibers]]
+shape = "rod"
+diameter = {D}
+center = [50e-6, 50e-6, 50e-6]
+[[fibers]]
+shape = "rod"
+diameter = {D}
+center = [50e-6, 50e-6, 53e-6]
+omega = 90.0
+[forcefield.relax]
+max_shift = 10e-6
+"""
+
+
+def _no_build(*args, **kwargs):
+    raise AssertionError("the RVE was built before the [forcefield.relax] table was refused")
+
+
+@pytest.mark.parametrize(
+    ("line", "key"),
+    [
+        ("weights = [-1e10, 1.0, 1.0]", "weights"),  # was run: U = -1.8e8 rewarded the overlap
+        ("weights = [inf, 1.0, 1.0]", "weights"),  # was run: U = inf, a numpy warning
+        ("weights = [0.0, 0.0, 0.0]", "weights"),
+        ("max_iter = 2.5", "max_iter"),  # was run with max_iter = 2
+        ("max_evals = 1e3", "max_evals"),
+        ("u_max = 10", "u_max"),  # was refused only after the RVE was built
+        ("u_max = 0.3\nf = 0", "f"),
+        ("tie_bend = 1", "tie_bend"),
+        ("grid = -1e-6", "grid"),
+    ],
+)
+def test_relax_table_is_checked_before_any_work(tmp_path, capsys, monkeypatch, line, key):
+    import psdesign.packing.build as build
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(RODS + line + "\n")
+    monkeypatch.setattr(build, "build_rve", _no_build)
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"psdesign: error: forcefield.relax.{key}:"), err
+    assert not out.exists()
+
+
+def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys):
+    """Two polls: the first fiber moves to its bound (10 um) and the overlap is gone, but the
+    search stopped on ``max_iter``; the status is ``not_converged`` (it was ``at_bound``, which
+    the docs call a constrained optimum) and the warning names the limit and the bound.
+
+    Independent check of ``omega_analytic_after == 0``: two perpendicular cylinders of diameter
+    D are disjoint iff the distance between their axes, the offset along d1 x d2, is >= D."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(RODS + "max_iter = 2\n")
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    (warn,) = capsys.readouterr().err.strip().splitlines()
+    assert "iteration limit (max_iter=2), not converged" in warn and "on the bound of" in warn
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "not_converged" and summary["converged"] is False
+    assert summary["at_bound"] == ["t1[0]"]
+    fibers = [
+        block
+        for block in (out / "relaxed.toml").read_text().split("[[fibers]]")[1:]
+        if "shape" in block
+    ]
+    centers = [
+        np.array(json.loads(b.split("center = ")[1].splitlines()[0])) for b in fibers
+    ]  # rod 1 along x, rod 2 along y: their axes' distance is the z offset
+    gap = abs(centers[1][2] - centers[0][2])
+    assert gap == pytest.approx(13e-6, rel=1e-9)  # 3 um + the 10 um move on the bound
+    assert (gap >= D) == (summary["omega_analytic_after"] == 0.0)
+    assert summary["omega_analytic_before"] > 0.0  # 3 um < D at the start
