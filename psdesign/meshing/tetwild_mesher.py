@@ -16,6 +16,7 @@ pytetwild is *not* deterministic (same input, different meshes, even with one th
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
@@ -89,6 +90,17 @@ def envelope_rel(voxel: float, opts: MeshOptions, diag: float) -> float:
     return env / diag
 
 
+class NondeterministicMeshWarning(UserWarning):
+    """The mesh is not repeatable: pytetwild gives a different mesh on every call."""
+
+
+NONDETERMINISTIC = (
+    "pytetwild is not deterministic: the same spec gives a different mesh (and a K that moves "
+    "within its error bar) on every run; flow.mesher = 'stuffing' is deterministic (from Python, "
+    "mesh_pore_space(..., cache_dir=...) reuses a first mesh)"
+)
+
+
 def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
     """pytetwild pore mesh; arguments as :func:`~.pore_mesh.mesh_pore_space`."""
     axis = {"x": 0, "y": 1, "z": 2}[direction]
@@ -98,6 +110,8 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     cache_file, cached = cache.lookup(opts.cache_dir, distance, params)
     if cached is not None:
         return cached
+    if opts.cache_dir is None:  # rule: same spec -> same files; say where it cannot hold
+        warnings.warn(NONDETERMINISTIC, NondeterministicMeshWarning, stacklevel=2)
     timings: dict[str, float] = {}
     t = time.perf_counter()
     f = scaled_field(distance, voxel, size, direction, opts)
