@@ -10,7 +10,7 @@ from pathlib import Path
 
 from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
-from psdesign.meshing.exports import OUTPUTS, WRITERS, output_names
+from psdesign.meshing.exports import NO_PERIODIC, NO_PERIODIC_WHY, OUTPUTS, WRITERS, output_names
 
 MESH_FORMATS = tuple(WRITERS)  # the export registry
 #: what every run writes besides the formats' files
@@ -75,6 +75,8 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     formats = tuple(dict.fromkeys(["vtu", *args.format]))
     spec = _load_spec(args.spec, args.mesher)
     flow = dict(spec["flow"])
+    if flow.get("bc") == "periodic" and set(formats) & set(NO_PERIODIC):
+        raise SpecError("--format", NO_PERIODIC_WHY)
     target = check_output_dir(
         args.output,
         force=args.force,

@@ -187,3 +187,40 @@ def test_mesh_checks_the_mesher_option_before_building(tmp_path, capsys, monkeyp
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"psdesign: error: {key}:"), err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("fmt", ["openfoam", "fluent"])
+def test_periodic_mesh_is_not_exported_to_a_format_without_periodic_patches(
+    tmp_path, capsys, monkeypatch, fmt
+):
+    """audit s32: a periodic mesh's OpenFOAM / Fluent export wrote its side faces as symmetry
+    planes and its ends as a pressure inlet / outlet (no cyclic patches): a different flow
+    problem in a file that runs. Refused up front, one line naming --format, no folder."""
+    import psdesign.packing.build as build
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("aux_length = 0.25\n", 'bc = "periodic"\n'))
+    monkeypatch.setattr(build, "build_rve", _no_work)
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--format", fmt]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: --format: "), err
+    assert "periodic" in err[0] and not out.exists()
+
+
+def test_export_mesh_refuses_a_periodic_mesh_for_openfoam(tmp_path):
+    """The API route (export_mesh) refuses it too; vtu of the same mesh is written."""
+    from psdesign.meshing.errors import MeshInputError
+    from psdesign.meshing.exports import export_mesh
+    from psdesign.meshing.pore_mesh import mesh_pore_space
+
+    n, h = 12, 40e-6 / 12
+    c = (np.arange(n) + 0.5) * h
+    x, y = np.meshgrid(c, c, indexing="ij")
+    d2 = np.hypot(x - 20e-6, y - 20e-6) - 6e-6  # a cylinder along z, periodic
+    d = np.repeat(d2[:, :, None], n, axis=2)
+    pm = mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=5e-6)
+    assert pm.periodic
+    with pytest.raises(MeshInputError, match="no periodic"):
+        export_mesh(pm, tmp_path / "of", formats=("vtu", "openfoam"))
+    assert "vtu" in export_mesh(pm, tmp_path / "v", formats=("vtu",))

@@ -98,6 +98,17 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
 }
 
 
+#: Formats that set the boundary conditions and have no periodic (cyclic) patches: they would
+#: write the side faces of a periodic mesh as symmetry planes or walls and its ends as a
+#: pressure inlet / outlet, a different problem. Refused for a periodic mesh.
+NO_PERIODIC = ("fluent", "openfoam")
+NO_PERIODIC_WHY = (
+    "fluent and openfoam set the side faces as symmetry planes or walls and have no periodic "
+    "(cyclic) patches: not with a periodic mesh (flow.bc = 'periodic'); use flow.bc = "
+    "'permeameter', or vtu / msh, whose periodic faces keep matching vertices"
+)
+
+
 def output_names(names: tuple[str, ...]) -> tuple[str, ...]:
     """The files and folders the formats ``names`` write (:data:`OUTPUTS`; a format registered
     with :func:`register_writer` and not listed there adds none).
@@ -156,6 +167,8 @@ def export_mesh(
     bad = [f for f in formats if f not in WRITERS]
     if bad:
         raise MeshInputError(f"formats {bad} not supported; allowed: {', '.join(WRITERS)}")
+    if pm.periodic and set(formats) & set(NO_PERIODIC):
+        raise MeshInputError(NO_PERIODIC_WHY)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
