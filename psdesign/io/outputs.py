@@ -19,7 +19,6 @@ never remove a user's own ``*.tmp`` files.
 from __future__ import annotations
 
 import contextlib
-import datetime as _dt
 import hashlib
 import json
 import os
@@ -319,7 +318,6 @@ def _write_marker(folder: Path, command: str, files: Iterable[str]) -> None:
     data = {
         "psdesign_output": _MARKER_FORMAT,
         "command": command,
-        "updated_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "files": sorted(set(files)),
         "note": "written by psdesign: the files listed here may be replaced by psdesign",
     }
