@@ -173,6 +173,30 @@ def iterations(label: str, method: str) -> Callable[[int, float], None] | None:
     return _ACTIVE[-1].iterations(label, method) if _ACTIVE else None
 
 
+def search_progress(label: str) -> Callable[[dict], None] | None:
+    """Callback of a pattern search (:func:`psdesign.forcefield.pattern.pattern_search`'s
+    history entries): ``psdesign: <label>: N polls, E evaluations, U = u, mesh size s, T s``,
+    as often as iterative solves report; None without a printer."""
+    if not _ACTIVE:
+        return None
+    printer = _ACTIVE[-1]
+    t0 = time.perf_counter()
+    last = [float("-inf") if printer.tty else t0]
+
+    def report(entry: dict) -> None:
+        now = time.perf_counter()
+        if printer.quiet or now - last[0] < (0.2 if printer.tty else printer.every_s):
+            return
+        last[0] = now
+        printer._write(
+            f"psdesign: {label}: {entry['iter']} polls, {entry['n_evals']} evaluations, "
+            f"U = {entry['fun']:.6g}, mesh size {entry['step']:.1e}, {now - t0:.0f} s",
+            redraw=printer.tty,
+        )
+
+    return report
+
+
 def progress_printer(
     direction: str, every_s: float = 5.0, solve: str = "voxel solve", method: str = "MINRES"
 ) -> Callable[[int, float], None]:

@@ -286,9 +286,11 @@ def relax_fibers(
     lower = np.tile([-max_shift, -max_shift, -u_max], len(movable))
     upper = -lower
     u0 = model.energy(x0)
+    from psdesign.cli.progress import search_progress
+
     res = pattern_search(
         model.energy, x0, lower, upper, step=0.25, min_step=min_step, max_iter=max_iter,
-        max_evals=max_evals,
+        max_evals=max_evals, callback=search_progress(f"relax ({len(movable)} fibers)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds
 

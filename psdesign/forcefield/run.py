@@ -163,7 +163,12 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     v = _validated(ff)
     max_iter, min_step, step, workers = v.max_iter, v.min_step, v.step, v.workers
     t0 = time.perf_counter()
-    res = prob.solve(max_iter=max_iter, step=step, min_step=min_step, workers=workers)
+    from psdesign.cli.progress import search_progress
+
+    report = search_progress(f"force field {prob.name}")
+    res = prob.solve(
+        max_iter=max_iter, step=step, min_step=min_step, workers=workers, callback=report
+    )
     wall = time.perf_counter() - t0
     summary = summarize(prob, res, wall)
     summary["workers"] = workers
