@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import RANGES, output_columns, trusted
+from psdesign.analysis.columns import output_columns, trusted
+from psdesign.analysis.ranges import RANGES
 
 
 def t_quantile_975(dof: int) -> float:
@@ -28,7 +29,7 @@ def t_quantile_975(dof: int) -> float:
 
 
 def physical_floor(column: str) -> float | None:
-    """The physical lower bound of an output (:data:`psdesign.analysis.columns.RANGES`: 0 for
+    """The physical lower bound of an output (:data:`psdesign.analysis.ranges.RANGES`: 0 for
     K, its tensor's diagonal, porosity, D_eff/D, conductivity, pore sizes, S_v), where
     :func:`replicate_summary` clips the 95 % CI's lower bound; None for an output without one
     (an off-diagonal ``k_xy_m2`` may be negative).

@@ -6,7 +6,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from psdesign.analysis.columns import RANGES
+from psdesign.analysis.ranges import RANGES
 
 #: Most design points of one optimization, and per round (``--budget``, ``--batch``; here, in
 #: the light module of ``study optimize``, so the command line checks them without importing

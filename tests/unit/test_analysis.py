@@ -444,7 +444,7 @@ def test_k_ci_lower_bound_never_negative() -> None:
     """audit (session 31): the Student-t CI of K over two seeds a factor 10 apart had a
     negative lower bound (summary.csv, rev.csv). K > 0: its lower bound is clipped at 0, the
     upper bound stays Student's; an off-diagonal k_xy_m2 keeps the symmetric CI. Session 32:
-    every output with a physical lower bound (analysis.columns.RANGES, the one table the
+    every output with a physical lower bound (analysis.ranges.RANGES, the one table the
     optimizer's targets use) is clipped there: porosity and a conductivity at 0 too."""
     from psdesign.analysis.replicates import replicate_summary, t_quantile_975
 
