@@ -156,31 +156,52 @@ def _read_vti(path: Path) -> np.ndarray:
     return data.reshape(dims, order="F")
 
 
-def _tiff_array(path: Path) -> np.ndarray:
-    """The first series of a TIFF file, memory-mapped when it is stored uncompressed and
-    contiguous (a crop then reads only its voxels), else read."""
+def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
+    """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
+    were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
+    only its voxels); else, for a stack of pages, only those pages (decoded one at a time);
+    else read whole."""
     import tifffile
 
     try:
-        return tifffile.memmap(path, mode="r")
+        return tifffile.memmap(path, mode="r"), False
     except ValueError:  # compressed or tiled: not memory-mappable
-        return np.asarray(tifffile.imread(path))
+        pass
+    with tifffile.TiffFile(path) as tf:
+        series = tf.series[0]
+        stack = series.pages
+        if pages is None or len(series.shape) != 3 or len(stack) != series.shape[0]:
+            return np.asarray(series.asarray()), False
+        lo, hi = pages
+        if not 0 <= lo < hi <= len(stack):
+            return np.asarray(series.asarray()), False  # read_labels names the bad crop
+        return np.stack([stack[k].asarray() for k in range(lo, hi)]), True
 
 
-def _read_stored(src: ImageSource) -> np.ndarray:
-    """The stored values indexed ``[x, y, z]``; memory-mapped where the format allows it
-    (raw, NumPy, uncompressed TIFF), so that :func:`read_labels` copies only the crop."""
+def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
+    """The stored values indexed ``[x, y, z]`` and the crop still to apply to them;
+    memory-mapped where the format allows it (raw, NumPy, uncompressed TIFF), so that
+    :func:`read_labels` copies only the crop; a compressed TIFF stack decodes only the
+    crop's pages."""
     path, ext = Path(src.path), src.ext
     if ext in (".tif", ".tiff"):
+        order = src.axis_order or "zyx"
+        if sorted(order) != ["x", "y", "z"]:
+            raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
+        page_axis = "xyz".index(order[0])  # the stored axis of the pages, as an x/y/z axis
+        pages = None if src.crop is None else tuple(src.crop[page_axis])
         try:
-            data = _tiff_array(path)
+            data, sliced = _tiff_array(path, pages)
         except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
             raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
         if data.ndim == 2:
             data = data[None]
         if data.ndim != 3:
             raise ValueError(f"image.path: expected a 3-D stack, got shape {data.shape}")
-        return _to_xyz(data, src.axis_order or "zyx")
+        crop = src.crop
+        if sliced:  # the pages read are the crop's: the rest of it still to apply
+            crop = tuple((0, data.shape[0]) if ax == page_axis else c for ax, c in enumerate(crop))
+        return _to_xyz(data, order), crop
     if ext == ".npy":
         try:
             data = np.load(path, mmap_mode="r", allow_pickle=False)
@@ -188,10 +209,10 @@ def _read_stored(src: ImageSource) -> np.ndarray:
             raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
         if data.ndim != 3:
             raise ValueError(f"image.path: expected a 3-D array, got shape {data.shape}")
-        return _to_xyz(data, src.axis_order or "xyz")
+        return _to_xyz(data, src.axis_order or "xyz"), src.crop
     if ext == ".raw":
-        return _read_raw(src)
-    return _to_xyz(_read_vti(path), src.axis_order or "xyz")
+        return _read_raw(src), src.crop
+    return _to_xyz(_read_vti(path), src.axis_order or "xyz"), src.crop
 
 
 def read_labels(src: ImageSource) -> np.ndarray:
@@ -204,10 +225,10 @@ def read_labels(src: ImageSource) -> np.ndarray:
         )
     if not path.is_file():
         raise ValueError(f"image.path: file not found: {path}")
-    data = _read_stored(src)
-    if src.crop is not None:
+    data, crop = _read_stored(src)
+    if crop is not None:
         sl = []
-        for ax, (lo, hi) in enumerate(src.crop):
+        for ax, (lo, hi) in enumerate(crop):
             if not 0 <= lo < hi <= data.shape[ax]:
                 raise ValueError(
                     f"image.crop[{ax}]: must satisfy 0 <= lo < hi <= {data.shape[ax]}, "

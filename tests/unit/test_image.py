@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from psdesign.image.fields import image_fields, signed_distance
-from psdesign.image.reader import ImageSource, read_image
+from psdesign.image.reader import ImageSource, read_image, read_labels
 from psdesign.image.writer import write_tiff
 
 
@@ -152,3 +152,28 @@ def test_a_crop_of_a_huge_raw_image_reads_only_the_crop(tmp_path, monkeypatch) -
     )
     assert m.fields.grid.shape == (4, 4, 4)
     assert m.porosity == 0.5 and m.fields.solid[:2].all() and not m.fields.solid[2:].any()
+
+
+@pytest.mark.parametrize("order", ["zyx", "xyz", "yxz"])
+def test_a_crop_of_a_compressed_tiff_decodes_only_its_pages(tmp_path, monkeypatch, order) -> None:
+    """audit s32: a compressed (or tiled) TIFF is not memory-mappable and was decoded whole
+    before the crop (a CT stack of 2000 pages for a 200-page crop). Now only the crop's pages
+    are decoded, one at a time: the labels equal the crop of the whole array (the truth, read
+    by NumPy), for each axis order, and the whole series is never read."""
+    import tifffile
+
+    rng = np.random.default_rng(0)
+    stored = rng.integers(0, 3, size=(12, 9, 7), dtype=np.uint8)  # pages of 9 x 7
+    path = tmp_path / "scan.tif"
+    tifffile.imwrite(path, stored, compression="zlib")
+    crop = ((2, 6), (1, 5), (3, 7))  # x, y, z
+    xyz = stored.transpose([order.index(a) for a in "xyz"])
+    truth = xyz[2:6, 1:5, 3:7]
+
+    def whole(*args, **kwargs):
+        raise AssertionError("the whole series was decoded")
+
+    monkeypatch.setattr(tifffile.TiffPageSeries, "asarray", whole)
+    monkeypatch.setattr(tifffile, "imread", whole)
+    src = ImageSource(path, voxel=1e-6, solid=1, crop=crop, axis_order=order)
+    np.testing.assert_array_equal(read_labels(src), truth)
