@@ -189,13 +189,14 @@ def test_mesh_checks_the_mesher_option_before_building(tmp_path, capsys, monkeyp
     assert not out.exists()
 
 
-@pytest.mark.parametrize("fmt", ["openfoam", "fluent"])
+@pytest.mark.parametrize("fmt", ["fluent"])
 def test_periodic_mesh_is_not_exported_to_a_format_without_periodic_patches(
     tmp_path, capsys, monkeypatch, fmt
 ):
     """audit s32: a periodic mesh's OpenFOAM / Fluent export wrote its side faces as symmetry
     planes and its ends as a pressure inlet / outlet (no cyclic patches): a different flow
-    problem in a file that runs. Refused up front, one line naming --format, no folder."""
+    problem in a file that runs. Fluent is refused up front, one line naming --format, no
+    folder (OpenFOAM now writes cyclic patches: tests/unit/test_openfoam_periodic.py)."""
     import psdesign.packing.build as build
 
     spec = tmp_path / "s.toml"
@@ -208,7 +209,7 @@ def test_periodic_mesh_is_not_exported_to_a_format_without_periodic_patches(
     assert "periodic" in err[0] and not out.exists()
 
 
-def test_export_mesh_refuses_a_periodic_mesh_for_openfoam(tmp_path):
+def test_export_mesh_refuses_a_periodic_mesh_for_fluent(tmp_path):
     """The API route (export_mesh) refuses it too; vtu of the same mesh is written."""
     from psdesign.meshing.errors import MeshInputError
     from psdesign.meshing.exports import export_mesh
@@ -222,5 +223,5 @@ def test_export_mesh_refuses_a_periodic_mesh_for_openfoam(tmp_path):
     pm = mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=5e-6)
     assert pm.periodic
     with pytest.raises(MeshInputError, match="no periodic"):
-        export_mesh(pm, tmp_path / "of", formats=("vtu", "openfoam"))
+        export_mesh(pm, tmp_path / "of", formats=("vtu", "fluent"))
     assert "vtu" in export_mesh(pm, tmp_path / "v", formats=("vtu",))

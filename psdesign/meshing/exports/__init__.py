@@ -60,7 +60,12 @@ def _write_fluent(pm: PoreMesh, out: Path, flow: dict | None = None) -> dict[str
 
 def _write_openfoam(pm: PoreMesh, out: Path, flow: dict | None = None) -> dict[str, Path]:
     """``openfoam/``: a ready-to-run simpleFoam case (``Allrun``) with the spec's ``flow``
-    viscosity, density and pressure drop."""
+    viscosity, density and pressure drop; a periodic mesh's has cyclic patches and a pressure
+    jump (:mod:`psdesign.meshing.exports.openfoam_periodic`)."""
+    if pm.periodic:
+        from psdesign.meshing.exports.openfoam_periodic import write_periodic_case
+
+        return {"openfoam": write_periodic_case(pm, out / "openfoam", flow=flow)}
     from psdesign.meshing.exports.openfoam import write_openfoam_case
 
     return {"openfoam": write_openfoam_case(pm, out / "openfoam", flow=flow)}
@@ -98,14 +103,14 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
 }
 
 
-#: Formats that set the boundary conditions and have no periodic (cyclic) patches: they would
-#: write the side faces of a periodic mesh as symmetry planes or walls and its ends as a
-#: pressure inlet / outlet, a different problem. Refused for a periodic mesh.
-NO_PERIODIC = ("fluent", "openfoam")
+#: Formats that set the boundary conditions and have no periodic patches: they would write the
+#: side faces of a periodic mesh as symmetry planes or walls and its ends as a pressure inlet /
+#: outlet, a different problem. Refused for a periodic mesh (openfoam writes cyclic patches).
+NO_PERIODIC = ("fluent",)
 NO_PERIODIC_WHY = (
-    "fluent and openfoam set the side faces as symmetry planes or walls and have no periodic "
-    "(cyclic) patches: not with a periodic mesh (flow.bc = 'periodic'); use flow.bc = "
-    "'permeameter', or vtu / msh, whose periodic faces keep matching vertices"
+    "fluent sets the side faces as symmetry planes or walls and has no periodic zones here: "
+    "not with a periodic mesh (flow.bc = 'periodic'); use flow.bc = 'permeameter', or "
+    "openfoam (cyclic patches), vtu or msh (periodic faces with matching vertices)"
 )
 
 
