@@ -195,13 +195,14 @@ class Material:
 
     def permeability(
         self,
-        direction: str = "z",
+        direction: str | None = None,
         solver: str | None = None,
         bc: str | None = None,
         fields: str | Path | None = None,
         **flow: Any,
     ) -> PermeabilityResult:
-        """Permeability along ``direction`` ('x', 'y' or 'z').
+        """Permeability along ``direction`` ('x', 'y' or 'z'; default the spec's
+        ``flow.direction``, else 'z').
 
         ``solver`` ('fem' | 'voxel'), ``bc`` ('permeameter' | 'periodic') and any other
         ``[flow]`` key given as a keyword override the spec's ``[flow]`` table. ``fields``: a
@@ -209,9 +210,10 @@ class Material:
         and ``fields.json``; see :mod:`psdesign.fields`).
         """
         from psdesign.fields import fields_folder
+        from psdesign.flow.darcy import flow_direction
         from psdesign.flow.permeability import permeability
 
-        direction = _direction(direction)
+        direction = _direction(flow_direction(direction, self.spec["flow"]))
         given = dict(flow)
         if solver is not None:
             given["solver"] = solver

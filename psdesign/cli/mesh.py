@@ -59,6 +59,7 @@ def _drop_stale_outputs(folder: Path, formats: tuple[str, ...]) -> list[str]:
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
+    from psdesign.flow.darcy import flow_direction
     from psdesign.flow.fem_field import fem_field, spec_grid_step
     from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory
@@ -75,6 +76,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     formats = tuple(dict.fromkeys(["vtu", *args.format]))
     spec = _load_spec(args.spec, args.mesher)
     flow = dict(spec["flow"])
+    direction = flow_direction(args.direction, flow)
     if flow.get("bc") == "periodic" and set(formats) & set(NO_PERIODIC):
         raise SpecError("--format", NO_PERIODIC_WHY)
     target = check_output_dir(
@@ -100,13 +102,13 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         own.fields.distance,
         own.voxel,
         rve.size,
-        args.direction,
+        direction,
         MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra),
     )
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=formats, flow=flow)
         info = {
-            "direction": args.direction,
+            "direction": direction,
             "porosity": fields.porosity,
             "porosity_error": fields.porosity_error,
             "porous_region_m": list(pm.porous_region),
@@ -133,7 +135,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     mesh = sub.add_parser("mesh", help="tetrahedralize the pore space (with auxiliary zones)")
     mesh.add_argument("spec")
     mesh.add_argument("-o", "--output", required=True)
-    mesh.add_argument("--direction", choices=("x", "y", "z"), default="z")
+    mesh.add_argument(
+        "--direction",
+        choices=("x", "y", "z"),
+        default=None,
+        help="flow direction (default: the spec's flow.direction, else z)",
+    )
     mesh.add_argument(
         "--mesher",
         choices=("stuffing", "pytetwild"),

@@ -137,6 +137,7 @@ def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -
 
 
 def _cmd_permeability(args: argparse.Namespace) -> int:
+    from psdesign.flow.darcy import flow_direction
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
 
@@ -149,7 +150,8 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     solver = args.solver or flow["solver"]
     _check_wall(spec, flow, solver, args)
     t0 = time.perf_counter()
-    directions = ["x", "y", "z"] if args.direction == "all" else [args.direction]
+    direction = flow_direction(args.direction, flow)
+    directions = ["x", "y", "z"] if direction == "all" else [direction]
     with _fields_folder(args, directions, solver) as writer:
         built = build_rve(spec)
         rve = built.rve
@@ -171,7 +173,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Register ``permeability``."""
     perm = sub.add_parser("permeability", help="permeability by Darcy's law")
     perm.add_argument("spec")
-    perm.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
+    perm.add_argument(
+        "--direction",
+        choices=("x", "y", "z", "all"),
+        default=None,
+        help="flow direction (default: the spec's flow.direction, else z)",
+    )
     perm.add_argument("--solver", choices=("fem", "voxel"), default=None)
     perm.add_argument(
         "--sides",

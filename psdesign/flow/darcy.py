@@ -34,6 +34,18 @@ def axis_of(direction: str | int) -> tuple[str, int]:
     raise ValueError(f"direction must be 'x', 'y' or 'z', got {direction!r}")
 
 
+def flow_direction(given: str | None, flow: dict) -> str:
+    """The flow direction of a solve: ``given`` (a command's ``--direction``, a method's
+    keyword) or else the spec's ``flow.direction``, else ``"z"``.
+
+    >>> flow_direction(None, {"direction": "x"}), flow_direction("y", {"direction": "x"})
+    ('x', 'y')
+    >>> flow_direction(None, {})
+    'z'
+    """
+    return given or flow.get("direction") or "z"
+
+
 def darcy_permeability(
     flow_rate: float, viscosity: float, length: float, area: float, pressure_drop: float
 ) -> float:

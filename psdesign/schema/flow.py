@@ -77,7 +77,11 @@ class FlowTable(Table):
     aux_length: number(ge=0, le=2) = Field(
         0.2, description="inlet/outlet zone length, fraction of the RVE length in [0, 2]"
     )
-    direction: Literal["x", "y", "z"] | None = Field(None, description="x | y | z")
+    direction: Literal["x", "y", "z"] | None = Field(
+        None,
+        description="x | y | z: the flow direction of `permeability` and `mesh` without "
+        "--direction (default z)",
+    )
     sides: Literal["slip", "noslip"] = Field("slip", description="slip | noslip (default slip)")
     pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
     tol: number(gt=0, lt=1) | None = Field(None, description="relative tolerance in (0, 1)")

@@ -181,3 +181,27 @@ def test_all_directions_summarize_bar_status_and_bc(tmp_path, capsys):
     k = res["permeability_m2"]
     assert k["x"] == pytest.approx(k["y"], rel=1e-6, abs=0)
     assert np.asarray(res["tensor_m2"]).shape == (3, 3)
+
+
+def test_spec_flow_direction_is_the_default_direction(tmp_path, capsys):
+    """audit s32: ``flow.direction`` was accepted by the schema and used nowhere: a spec saying
+    ``direction = "x"`` was solved along z without a word. Now it is the default of
+    ``permeability`` and ``mesh`` (``--direction`` wins). The cylinder lies along z, so K_x
+    and K_z differ by far more than their bars (transverse vs parallel flow)."""
+    import psdesign
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("[flow]", '[flow]\ndirection = "x"'))
+    assert main(["permeability", str(spec), "--solver", "voxel", "--json", "--quiet"]) == 0
+    along_x = json.loads(capsys.readouterr().out)
+    assert along_x["direction"] == "x"
+    assert psdesign.build(str(spec)).permeability().direction == "x"
+    args = ["permeability", str(spec), "--solver", "voxel", "--json", "--quiet", "--direction"]
+    assert main([*args, "z"]) == 0
+    along_z = json.loads(capsys.readouterr().out)
+    assert (
+        along_z["direction"] == "z" and along_z["permeability_m2"] > 2 * along_x["permeability_m2"]
+    )
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--quiet"]) == 0
+    assert json.loads((out / "mesh.json").read_text())["direction"] == "x"

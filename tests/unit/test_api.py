@@ -193,7 +193,6 @@ def _one_cylinder() -> dict:
         (lambda m: m.permeability("z", solver="lbm"), "flow.solver", "fem, voxel"),
         (lambda m: m.permeability("z", bc="foo"), "flow.bc", "permeameter, periodic"),
         (lambda m: m.permeability("w"), "direction", "'x', 'y' or 'z'"),
-        (lambda m: m.permeability(None), "direction", "'x', 'y' or 'z'"),
         (lambda m: m.diffusivity("q"), "direction", "'x', 'y' or 'z'"),
         (lambda m: m.conductivity("xy", solid=1.0, fluid=0.1), "direction", "'x', 'y' or 'z'"),
     ],
