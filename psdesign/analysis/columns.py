@@ -35,6 +35,7 @@ REL_ERROR_COLUMNS = {
 #: The absolute error column of each value that has one instead.
 ABS_ERROR_COLUMNS = {
     "porosity": "porosity_error",
+    **{c: f"{c}_error" for c in ("intersection_volume_fraction", "omega_before", "omega_after")},
     **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
 }
 

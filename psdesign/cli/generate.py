@@ -26,7 +26,13 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         json.dumps(
             {
                 k: summary[k]
-                for k in ("porosity", "porosity_error", "n_fibers", "intersection_volume_fraction")
+                for k in (
+                    "porosity",
+                    "porosity_error",
+                    "n_fibers",
+                    "intersection_volume_fraction",
+                    "intersection_volume_fraction_error",
+                )
             }
         )
     )

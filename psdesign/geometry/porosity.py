@@ -1,4 +1,5 @@
-"""The error estimate of a voxel-count porosity.
+"""Error estimates of voxel-count volume fractions: the porosity, and the intersection
+volume fraction Omega (:func:`count_fraction_error`).
 
 A voxel is counted as pore by its centre, so the count errs by the partial volumes of the
 voxels the surface crosses.  Two independent quadratures of the same pore volume give the
@@ -56,6 +57,45 @@ def porosity_error(distance: np.ndarray, h: float, porosity: float) -> float:
         coarse = partial_volume_porosity(distance[::2, ::2, ::2], 2.0 * h)
         err += abs(fine - coarse)
     return float(err)
+
+
+#: Rounding spreads in :func:`count_fraction_error` (calibrated: see there).
+SPREADS = 2.5
+
+
+def count_fraction_error(mask: np.ndarray) -> float:
+    """Estimated absolute error of the volume fraction ``mask.mean()`` of a region counted by
+    voxel centres, without a distance to the region's surface (the intersection volume Omega:
+    inside two fibres at once)::
+
+        error = |f(h) - f(2 h)| + 2.5 sqrt(N_b / 12) / N
+
+    the change on the grid of every second voxel plus 2.5 times the spread of the centre
+    count's rounding: each of the ``N_b`` voxels on either side of the region's boundary
+    (6-neighbours, periodic) is counted whole or not at all, an error of its partial volume,
+    about uniform in [-1/2, 1/2] (variance 1/12). Calibrated on two perpendicular cylinders of
+    diameter 0.15-0.4 periods (their Steinmetz intersection ``16 r^3 / 3`` exactly), 16-48
+    voxels per period, 120 cases: covered the true error in 116 (97 %), a median 5.3x it (with
+    2 spreads 94 %; each term alone 72 % and 78 %; ``benchmarks/porosity_error_coverage.py
+    omega``).
+    A region that contains no voxel centre (a lens thinner than a voxel) gives 0 and is
+    missed by the count too.
+
+    >>> m = np.zeros((8, 8, 8), bool); m[2:6, 2:6, 2:6] = True
+    >>> round(count_fraction_error(m), 4)
+    0.0174
+    """
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        return 0.0
+    boundary = np.zeros_like(mask)
+    for ax in range(3):
+        step = mask != np.roll(mask, 1, axis=ax)  # voxel i differs from i - 1
+        boundary |= step
+        boundary |= np.roll(step, -1, axis=ax)  # ... and i - 1 from i
+    coarse = float(mask[::2, ::2, ::2].mean())
+    spread = SPREADS * np.sqrt(np.count_nonzero(boundary) / 12.0) / mask.size
+    return float(abs(mask.mean() - coarse) + spread)
 
 
 def porosity_text(porosity: float, error: float | None) -> str:

@@ -117,6 +117,14 @@ class VoxelFields:
         """Omega of Sec. 7.1 as a fraction of the box: voxels inside two or more fibers."""
         return float(np.count_nonzero(self.count >= 2) / self.count.size)
 
+    @cached_property
+    def intersection_error(self) -> float:
+        """Estimated absolute error of :attr:`intersection_volume_fraction`, a voxel count
+        (:func:`psdesign.geometry.porosity.count_fraction_error`)."""
+        from psdesign.geometry.porosity import count_fraction_error
+
+        return count_fraction_error(self.count >= 2)
+
 
 @dataclass
 class RVE:

@@ -66,6 +66,7 @@ def summarize(rve: RVE, fields: VoxelFields, report: dict | None = None) -> dict
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
+        "intersection_volume_fraction_error": fields.intersection_error,
         "voxel_grid": fields.grid.to_dict(),
         "size_m": rve.size.tolist(),
         "period_m": rve.period,

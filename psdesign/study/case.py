@@ -66,10 +66,17 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
+        "intersection_volume_fraction_error": fields.intersection_error,
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}
-    for key in ("target_porosity", "omega_before", "omega_after"):
+    for key in (
+        "target_porosity",
+        "omega_before",
+        "omega_before_error",
+        "omega_after",
+        "omega_after_error",
+    ):
         if key in gen:
             row[key] = gen[key]
     directions = [d for o, d in K_OUTPUTS.items() if o in outputs]

@@ -50,6 +50,7 @@ def test_generate_writes_every_output(tmp_path):
     # the porosity's error estimate covers the count's true error (psdesign.geometry.porosity)
     true = 1 - rod_cross_section_area(0.2)
     assert abs(summary["porosity"] - true) <= summary["porosity_error"] < 0.01
+    assert summary["intersection_volume_fraction_error"] == 0.0  # one fibre: nothing to miss
     doc = json.loads((out / "rve.json").read_text())
     axis = np.array(doc["fibers"][0]["medial_axis_m"][0])
     np.testing.assert_allclose(axis[:, 1:], [[50.3e-6, 49.1e-6]] * 2, atol=1e-12)
