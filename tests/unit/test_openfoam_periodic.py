@@ -24,13 +24,13 @@ L = 40e-6
 R = 8e-6
 
 
-def _cylinder_cell(n: int = 16, step: float = 4e-6):
+def _cylinder_cell(n: int = 16, step: float = 4e-6, periodic: bool = True):
     """A periodic mesh of one cylinder (radius R) along z in an L^3 cell."""
     h = L / n
     c = (np.arange(n) + 0.5) * h
     x, y = np.meshgrid(c, c, indexing="ij")
     d = np.repeat((np.hypot(x - L / 2, y - L / 2) - R)[:, :, None], n, axis=2)
-    return mesh_pore_space(d, h, (L,) * 3, "z", periodic=True, lattice_step=step)
+    return mesh_pore_space(d, h, (L,) * 3, "z", periodic=periodic, lattice_step=step)
 
 
 def _read(path, count_re=r"^(\d+)\n\(\n") -> list[str]:
@@ -114,3 +114,35 @@ def test_periodic_allrun_k_matches_drummond_tahir(tmp_path):
     assert k == pytest.approx(drummond_tahir_along_square(phi) * R**2, rel=0.10)
     flux = (case / "postProcessing" / "fluxInlet" / "0" / "surfaceFieldValue.dat").read_text()
     assert float(flux.splitlines()[-1].split()[1]) < 0  # into the box through the inlet
+
+
+def test_gmsh_export_links_the_periodic_faces(tmp_path):
+    """A periodic mesh's ``pore.msh`` carries Gmsh's ``$Periodic`` section (it had none: the
+    periodicity was lost): per axis the high face (slave) linked to the low face (master) by a
+    translation of one edge, and node pairs exactly one edge apart; meshio reads it back."""
+    import meshio
+
+    from psdesign.meshing.tags import TAG_IDS
+
+    pm = _cylinder_cell()
+    meshio_mesh = meshio.read(export_mesh(pm, tmp_path, formats=("msh",))["msh"])
+    links = meshio_mesh.gmsh_periodic
+    assert sorted(tags for _, tags, _, _ in links) == sorted(
+        [
+            (TAG_IDS["side_x1"], TAG_IDS["side_x0"]),
+            (TAG_IDS["side_y1"], TAG_IDS["side_y0"]),
+            (TAG_IDS["outlet"], TAG_IDS["inlet"]),
+        ]
+    )
+    pts = meshio_mesh.points
+    for dim, _, affine, pairs in links:
+        shift = np.asarray(affine, float).reshape(4, 4)[:3, 3]
+        assert dim == 2 and np.isclose(np.linalg.norm(shift), L)
+        np.testing.assert_allclose(
+            pts[pairs[:, 0]] - pts[pairs[:, 1]], np.broadcast_to(shift, (len(pairs), 3)), atol=1e-15
+        )
+    plain = _cylinder_cell(periodic=False)  # the permeameter mesh: no links
+    assert (
+        meshio.read(export_mesh(plain, tmp_path / "p", formats=("msh",))["msh"]).gmsh_periodic
+        is None
+    )

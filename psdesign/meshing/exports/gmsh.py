@@ -1,4 +1,5 @@
-"""Gmsh 2.2 ASCII writer with physical groups (boundary tag names + ``fluid``)."""
+"""Gmsh 2.2 ASCII writer with physical groups (boundary tag names + ``fluid``); a periodic
+mesh's opposite faces are linked in a ``$Periodic`` section (:func:`periodic_links`)."""
 
 from __future__ import annotations
 
@@ -27,6 +28,27 @@ def write_gmsh(pm: PoreMesh, out: Path) -> dict[str, Path]:
         [("triangle", tris), ("tetra", pm.tets)],
         cell_data={"gmsh:physical": [ids, tet_ids], "gmsh:geometrical": [ids, tet_ids]},
         field_data=field_data,
+        gmsh_periodic=periodic_links(pm) or None,
     )
     meshio.write(path, mesh, file_format="gmsh22", binary=False)
     return {"msh": path}
+
+
+def periodic_links(pm: PoreMesh) -> list:
+    """Gmsh's ``$Periodic`` entries of a periodic mesh (empty otherwise): per axis, the high
+    face (entity = its tag id, slave) linked to the low face (master) by a translation of one
+    box edge (``Affine``, the 4 x 4 matrix row by row), with the node pairs of
+    :attr:`~psdesign.meshing.result.PoreMesh.periodic_pairs` (slave, master)."""
+    from psdesign.meshing.tags import face_name
+
+    links = []
+    extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
+    for ax, name in enumerate("xyz"):
+        pairs = pm.periodic_pairs.get(name)
+        if pairs is None or not len(pairs):
+            continue
+        low, high = (face_name(ax, hi, pm.axis) for hi in (False, True))
+        affine = np.eye(4)
+        affine[ax, 3] = extent[ax]  # master (low) + edge = slave (high)
+        links.append((2, (TAG_IDS[high], TAG_IDS[low]), affine, pairs[:, ::-1]))
+    return links
