@@ -136,6 +136,26 @@ def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -
         validate_spec({**spec, "flow": {**spec["flow"], "solver": "voxel"}})
 
 
+def _check_route(flow: dict, solver: str, args: argparse.Namespace) -> None:
+    """What the chosen solver and bc would not apply, refused before the RVE is built:
+    ``--sides`` on a periodic solve (no side walls), ``flow.periodic_treatment`` mirror /
+    frame off the voxel periodic solve (:func:`psdesign.flow.permeability.check_route_keys`)."""
+    from psdesign.errors import SpecError
+    from psdesign.flow.permeability import NATIVE_BC, check_route_keys
+
+    bcs = (
+        ["permeameter", "periodic"] if args.bc == "both" else [flow.get("bc") or NATIVE_BC[solver]]
+    )
+    if args.sides and bcs == ["periodic"]:
+        raise SpecError(
+            "--sides",
+            f"the periodic bc (solver {solver!r}) has no side walls; give --bc permeameter "
+            "or --bc both, or no --sides",
+        )
+    for bc in bcs:
+        check_route_keys(flow, solver, bc)
+
+
 def _cmd_permeability(args: argparse.Namespace) -> int:
     from psdesign.flow.darcy import flow_direction
     from psdesign.packing.build import build_rve
@@ -149,6 +169,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
         flow["bc"] = args.bc
     solver = args.solver or flow["solver"]
     _check_wall(spec, flow, solver, args)
+    _check_route(flow, solver, args)
     t0 = time.perf_counter()
     direction = flow_direction(args.direction, flow)
     directions = ["x", "y", "z"] if direction == "all" else [direction]
@@ -184,7 +205,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--sides",
         choices=("slip", "noslip"),
         default=None,
-        help="lateral walls for the fem route (default: the spec's, slip)",
+        help="side walls of the permeameter, either solver (default: the spec's flow.sides, "
+        "slip); refused with the periodic bc, which has none",
     )
     perm.add_argument(
         "--bc",

@@ -41,6 +41,7 @@ from psdesign.geometry.rve import RVE, VoxelFields
 
 __all__ = [
     "BC_MODELS",
+    "check_route_keys",
     "BoundaryConditionUnavailable",
     "NATIVE_BC",
     "face_mismatch",
@@ -68,6 +69,61 @@ def _check(solver: str, bc: str | None) -> None:
         raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
     if bc is not None and bc not in BC_MODELS:
         raise ValueError(f"flow.bc must be 'permeameter' or 'periodic', got {bc!r}")
+
+
+def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
+    """Refuse a ``[flow]`` choice the route would not apply (a :class:`SpecError`, exit 2):
+    ``periodic_treatment`` mirror / frame is the voxel solver's periodic bc's only; the FEM
+    and the permeameters ignored it (and the voxel permeameter's result reported it).
+    ``bc`` is the model to be solved (default ``flow["bc"]``, else the solver's own).
+
+    >>> check_route_keys({"periodic_treatment": "mirror"}, "voxel")
+    >>> try:
+    ...     check_route_keys({"periodic_treatment": "mirror"}, "fem")
+    ... except ValueError as exc:
+    ...     print(exc.key)
+    flow.periodic_treatment
+    """
+    from psdesign.errors import SpecError
+
+    bc = bc or flow.get("bc") or NATIVE_BC.get(solver, "permeameter")
+    treatment = flow.get("periodic_treatment") or "periodic"
+    if treatment != "periodic" and (solver, bc) != ("voxel", "periodic"):
+        raise SpecError(
+            "flow.periodic_treatment",
+            f"{treatment!r} applies to the voxel solver's periodic bc only, not to solver "
+            f"{solver!r} with bc {bc!r}; allowed: periodic, or solver 'voxel' with bc 'periodic'",
+        )
+
+
+#: The permeameter's own ``[flow]`` keys and the values that mean "not asked for" (the
+#: schema's defaults): a periodic solve has no side walls, reservoirs or stack.
+PERMEAMETER_KEYS = {"sides": "slip", "aux_length": 0.2, "permeameter_copies": None}
+
+
+def unused_permeameter_keys(flow: dict, bc: str) -> str | None:
+    """The warning for permeameter keys set away from their defaults on a periodic solve,
+    or None.
+
+    >>> unused_permeameter_keys({"sides": "noslip", "aux_length": 0.2}, "periodic")[:33]
+    "flow.sides = 'noslip' is not used"
+    >>> unused_permeameter_keys({"sides": "noslip"}, "permeameter") is None
+    True
+    """
+    if bc != "periodic":
+        return None
+    given = [
+        f"flow.{k} = {flow[k]!r}"
+        for k, default in PERMEAMETER_KEYS.items()
+        if flow.get(k, default) != default
+    ]
+    if not given:
+        return None
+    verb = "is" if len(given) == 1 else "are"
+    return (
+        f"{', '.join(given)} {verb} not used: the periodic bc has no side walls, reservoirs or "
+        "stacked copies (it applies to bc = 'permeameter')"
+    )
 
 
 def supported_bc(solver: str) -> tuple[str, ...]:
@@ -113,6 +169,7 @@ def route_result(
     _check(solver, bc)
     if bc is not None and bc not in supported_bc(solver):
         raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
+    check_route_keys(flow, solver)
     if solver == "fem":
         res = permeability_fem(rve, fields, direction, flow, **_cap(capture))
     else:
@@ -309,7 +366,11 @@ def permeability(
         final.flush()
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
-    return with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
+    out = with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
+    unused = unused_permeameter_keys(flow, out["bc"])
+    if unused is not None:
+        out["warnings"].append(unused)
+    return out
 
 
 def _longer_flow(flow: dict, res: dict, copies: int) -> dict:

@@ -114,6 +114,12 @@ class SpecDocument(Table):
             )
         if self.generator is not None:
             self._check_generator(size, voxel, period)
+        elif self.intersections is not None:  # only the generator's fibers are moved
+            raise fail(
+                "intersections",
+                "only used with a [generator]: explicit [[fibers]] are placed as given",
+                "a [generator] table, or no [intersections]",
+            )
         if self.flow.wall_treatment == "diffuse" and self.flow.solver == "voxel":
             self._check_diffuse()
         return self

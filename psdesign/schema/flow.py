@@ -80,7 +80,7 @@ class FlowTable(Table):
     direction: Literal["x", "y", "z"] | None = Field(
         None,
         description="x | y | z: the flow direction of `permeability` and `mesh` without "
-        "--direction (default z)",
+        "--direction, and of a study without study.outputs (default z)",
     )
     sides: Literal["slip", "noslip"] = Field("slip", description="slip | noslip (default slip)")
     pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
@@ -95,7 +95,9 @@ class FlowTable(Table):
         None, description="fem solver memory cap, GB in (0, 1e5]"
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
-        None, description="periodic | mirror | frame (voxel solver, default periodic)"
+        None,
+        description="periodic | mirror | frame (voxel solver with bc periodic only, default "
+        "periodic)",
     )
     mesher: Literal["stuffing", "pytetwild"] = Field(
         "stuffing", description="stuffing | pytetwild (default stuffing)"
@@ -117,6 +119,22 @@ class FlowTable(Table):
                 "mesher",
                 "pytetwild cannot mesh with bc = 'periodic' (no matching opposite faces)",
                 "stuffing with bc = 'periodic', or bc = 'permeameter'",
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _treatment_fits_bc(self) -> FlowTable:
+        """``periodic_treatment`` mirror / frame is the voxel solver's periodic bc's: its
+        permeameter solved the grid between reservoirs as is and reported the treatment
+        (:func:`psdesign.flow.permeability.check_route_keys` refuses the FEM, and a
+        ``--solver`` / ``--bc`` given on the command line)."""
+        treatment = self.periodic_treatment or "periodic"
+        if treatment != "periodic" and self.solver == "voxel" and self.bc == "permeameter":
+            raise fail(
+                "periodic_treatment",
+                f"{treatment!r} applies to the voxel solver's periodic bc only; the permeameter "
+                "solves the grid between its reservoirs as it is",
+                "periodic with bc = 'permeameter', or bc = 'periodic'",
             )
         return self
 

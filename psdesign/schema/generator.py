@@ -16,6 +16,30 @@ DEFAULT_TOLERANCE = 0.005
 #: Hard cap of generated fibers (time budget: placement is O(n^2) candidate tests).
 MAX_FIBERS_CAP = 100_000
 _DIST = "a number or { dist = constant | uniform | normal | beta | exponential, ... }"
+#: ``[intersections]`` keys only one method reads (psdesign.packing.generators: ``_fast_options``,
+#: ``_ga``); ``none`` reads none of them. ``min_gap = 0`` (the default) is allowed with any method.
+METHOD_KEYS = {
+    "fast": (
+        "min_gap",
+        "max_rotation_deg",
+        "orientation_tries",
+        "step",
+        "max_shift_z",
+        "max_shift",
+        "exceed_bounds",
+        "exceed_rotation_deg",
+        "max_ejections",
+    ),
+    "ga": (
+        "population",
+        "generations",
+        "objective",
+        "ga_voxel",
+        "angle_range_deg",
+        "shift_range",
+        "time_limit_s",
+    ),
+}
 
 
 class Orientation(Table):
@@ -115,13 +139,19 @@ class IntersectionsTable(Table):
     """Intersection removal: none, the paper's GA, or fast sequential placement."""
 
     method: Literal["none", "ga", "fast"] = Field("none", description="none | ga | fast")
-    min_gap: number() = Field(0.0, description="metres in [-d_min / 2, period / 2) (default 0)")
-    max_rotation_deg: number(ge=0, le=360) | None = Field(None, description="degrees in [0, 360]")
-    orientation_tries: integer(ge=0, le=1000) | None = Field(
-        None, description="integer in [0, 1000]"
+    min_gap: number() = Field(
+        0.0, description="fast only: metres in [-d_min / 2, period / 2) (default 0)"
     )
-    step: number(gt=0) | None = Field(None, description="metres > 0, >= smallest edge / 1e4")
-    max_shift_z: number(gt=0) | None = Field(None, description="metres > 0")
+    max_rotation_deg: number(ge=0, le=360) | None = Field(
+        None, description="fast only: degrees in [0, 360]"
+    )
+    orientation_tries: integer(ge=0, le=1000) | None = Field(
+        None, description="fast only: integer in [0, 1000]"
+    )
+    step: number(gt=0) | None = Field(
+        None, description="fast only: metres > 0, >= smallest edge / 1e4"
+    )
+    max_shift_z: number(gt=0) | None = Field(None, description="fast only: metres > 0")
     max_shift: number(gt=0) | None = Field(
         None, description="fast: largest move in metres > 0 (default 0.1 of the period, Sec. 7.1)"
     )
@@ -135,7 +165,7 @@ class IntersectionsTable(Table):
         description="fast: rotation beyond the bounds, degrees in [0, 360] (default 5)",
     )
     max_ejections: integer(ge=0, le=10_000) | None = Field(
-        None, description="integer in [0, 10000]"
+        None, description="fast only: integer in [0, 10000]"
     )
     population: integer(ge=2, le=10_000) | None = Field(
         None, description="GA population, integer in [2, 10000] (default 24)"
@@ -143,12 +173,29 @@ class IntersectionsTable(Table):
     generations: integer(ge=2, le=100_000) | None = Field(
         None, description="GA generations, integer in [2, 100000] (default 40)"
     )
-    objective: Literal["analytic", "voxel"] | None = Field(None, description="analytic | voxel")
+    objective: Literal["analytic", "voxel"] | None = Field(
+        None, description="GA only: analytic | voxel"
+    )
     ga_voxel: number(gt=0) | None = Field(
-        None, description="metres > 0, GA voxel grid within the memory budget"
+        None, description="GA only: metres > 0, GA voxel grid within the memory budget"
     )
-    angle_range_deg: number(gt=0, le=360) | None = Field(None, description="degrees in (0, 360]")
-    shift_range: number(gt=0, le=1) | None = Field(None, description="fraction in (0, 1]")
+    angle_range_deg: number(gt=0, le=360) | None = Field(
+        None, description="GA only: degrees in (0, 360]"
+    )
+    shift_range: number(gt=0, le=1) | None = Field(None, description="GA only: fraction in (0, 1]")
     time_limit_s: number(gt=0, le=604_800) | None = Field(
-        None, description="seconds in (0, 604800] (one week)"
+        None, description="GA only: seconds in (0, 604800] (one week)"
     )
+
+    @model_validator(mode="after")
+    def _keys_of_method(self) -> IntersectionsTable:
+        """A key of one method refused with another: the other method never reads it (a GA
+        with ``min_gap = 3e-6`` placed the fibres as with none, and its report said 3e-6)."""
+        given = self.model_fields_set
+        for method, keys in METHOD_KEYS.items():
+            if self.method == method:
+                continue
+            for k in keys:
+                if k in given and getattr(self, k) is not None and (k != "min_gap" or self.min_gap):
+                    raise fail(k, f"only used with method = {method!r}", f"method = {method!r}")
+        return self

@@ -38,7 +38,9 @@ class StudyTable(Table):
         None, description=f"integer in [1, {MAX_SEEDS}] (seeds generator.seed + 0, 1, ...)"
     )
     outputs: Output | list[Output] = Field(
-        ["porosity", "k_z"], description=" | ".join(OUTPUTS) + " (a list)"
+        ["porosity", "k_z"],
+        description=" | ".join(OUTPUTS) + " (a list; default porosity and K along the base's "
+        "flow.direction, else k_z)",
     )
     solver: Literal["fem", "voxel"] | None = Field(
         None, description="fem | voxel (default: base flow.solver, else fem)"

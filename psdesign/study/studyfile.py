@@ -403,10 +403,12 @@ def _parse_study(data: dict, source: Path | None) -> Study:
             raise _err("base.generator.seed", f"must be an integer >= 0, got {short(s0)}")
         seeds = [s0 + i for i in range(reps)]
     outputs = [st.outputs] if isinstance(st.outputs, str) else list(st.outputs)
+    flow = base.get("flow") if isinstance(base.get("flow"), dict) else {}
+    if "outputs" not in st.model_fields_set and flow.get("direction") in ("x", "y"):
+        outputs = ["porosity", f"k_{flow['direction']}"]  # the base's direction, as permeability
     outputs = list(dict.fromkeys(outputs))
     if st.fields:
         outputs.append(FIELDS_FLAG)  # the case writes its fields (psdesign.study.case)
-    flow = base.get("flow") if isinstance(base.get("flow"), dict) else {}
     solver = st.solver or flow.get("solver", "fem")
     if solver not in SOLVERS:
         raise _err("base.flow.solver", f"got {short(solver)}; allowed: {', '.join(SOLVERS)}")
@@ -431,6 +433,21 @@ def _parse_study(data: dict, source: Path | None) -> Study:
     return study
 
 
+#: Spec keys a case never reads from its spec: the study's solver and its outputs' directions
+#: decide (a ``flow.direction = ["x", "z"]`` parameter solved K_z twice).
+NOT_PARAMETERS = {
+    "flow.solver": "a study solves with one solver: set study.solver (one study per solver)",
+    "flow.direction": "a study solves the directions of its outputs: list k_x / k_y / k_z "
+    "(or k_tensor) in study.outputs",
+}
+
+
+def _not_varied(path: str, key: str) -> None:
+    """Refuse a parameter (or CSV column) of :data:`NOT_PARAMETERS`."""
+    if path in NOT_PARAMETERS:
+        raise _err(key, f"not a study parameter: {NOT_PARAMETERS[path]}")
+
+
 def _parameters(
     data: dict, st: StudyTable, base: dict, root: Path, seeds: list[int]
 ) -> tuple[dict[str, ParamSpec], list[dict] | None]:
@@ -445,6 +462,7 @@ def _parameters(
         check_spec_path(base, path, key)
         if path == "generator.seed":
             raise _err(key, "vary seeds with study.seeds or study.replicates, not a parameter")
+        _not_varied(path, key)
         params[path] = _param_spec(path, value, key)
 
     csv_rows = None
@@ -459,6 +477,7 @@ def _parameters(
             if c == "seed":
                 continue
             check_spec_path(base, c, f"study.csv column {c!r}")
+            _not_varied(c, f"study.csv column {c!r}")
             if c not in params:
                 params[c] = ParamSpec(path=c, kind="values", values=())
         if "seed" in cols:
@@ -521,6 +540,7 @@ def check_study_specs(study: Study) -> None:
     ``parameters.PATH``. Errors that only arise from combinations are left to the runner's
     per-case check (``psdesign.study.runner.validate_case_specs``), which names the case.
     """
+    from psdesign.flow.permeability import check_route_keys
     from psdesign.study.design import apply_params
 
     first: dict = {}
@@ -531,6 +551,7 @@ def check_study_specs(study: Study) -> None:
         elif study.csv_rows:
             first[p.path] = study.csv_rows[0].get(p.path)
     seed = study.seeds[0] if study.seeds else None
+    solves_k = any(o.startswith("k_") for o in study.outputs)
 
     def check(point: dict) -> tuple[str, str] | None:
         spec = apply_params(study.base, point, seed)
@@ -539,7 +560,9 @@ def check_study_specs(study: Study) -> None:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpecWarning)
-                validate_spec(spec)
+                valid = validate_spec(spec)
+            if solves_k:  # a [flow] choice the study's solver would not apply
+                check_route_keys(valid["flow"], study.solver)
         except SpecError as exc:
             return exc.key, str(exc)
         return None
