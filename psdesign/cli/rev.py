@@ -86,7 +86,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sizes", type=float, nargs="+", required=True, help="cube edges in metres")
     p.add_argument("--seeds", type=int, default=3, help="seeds per size (2-1000, default 3)")
     p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
-    p.add_argument("--solver", choices=("voxel", "fem"), default="voxel")
+    p.add_argument(
+        "--solver",
+        choices=("voxel", "fem"),
+        default="voxel",
+        help="solver of every case (default voxel, whatever the spec's flow.solver: many sizes "
+        "and seeds; fem for the body-fitted check)",
+    )
     p.add_argument(
         "--directions", default="xyz", help="subset of xyz, each axis once (default xyz)"
     )

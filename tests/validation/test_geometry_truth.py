@@ -52,7 +52,8 @@ def _spec(size, method="fast", **gen):
     return {
         "rve": {"size": size, "voxel": 1e-6},
         "generator": g,
-        "intersections": {"method": method, "min_gap": 0.5e-6},
+        # min_gap is fast's key (the others never read it; refused since session 32)
+        "intersections": {"method": method, **({"min_gap": 0.5e-6} if method == "fast" else {})},
     }
 
 
