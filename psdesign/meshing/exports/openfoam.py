@@ -68,11 +68,10 @@ def openfoam_patches(pm: PoreMesh) -> dict[str, np.ndarray]:
     }
 
 
-def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTopology:
-    """Write points/faces/owner/neighbour/boundary into ``poly``; returns the topology.
-    ``flow.sides`` types the side patches (:func:`side_type`)."""
+def write_topology(pm: PoreMesh, topo: FaceTopology, poly: Path) -> None:
+    """``points``, ``faces``, ``owner`` and ``neighbour`` of a polyMesh (``boundary`` is the
+    caller's: patch types differ between the permeameter and the periodic case)."""
     poly.mkdir(parents=True, exist_ok=True)
-    topo = face_topology(pm.points, pm.tets, openfoam_patches(pm))
     loc = "constant/polyMesh"
     note = (
         f"nPoints:{len(pm.points)}  nCells:{len(pm.tets)}  nFaces:{len(topo.faces)}  "
@@ -91,6 +90,41 @@ def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTo
         topo.neighbour[:, None],
         "%d",
     )
+
+
+def write_constants_and_fields(case: Path, nu: float, boundary: dict[str, str]) -> None:
+    """``constant/`` (laminar, Newtonian ``nu``) and ``0/p``, ``0/U`` at rest with the
+    ``boundaryField`` entries ``boundary[name]`` (``"p"``, ``"U"``)."""
+    const = case / "constant"
+    (case / "0").mkdir(parents=True, exist_ok=True)
+    const.mkdir(parents=True, exist_ok=True)
+    (const / "transportProperties").write_text(
+        _header("dictionary", "transportProperties", "constant")
+        + f"transportModel  Newtonian;\n\nnu              {nu:.10g};\n"
+    )
+    for obj in ("turbulenceProperties", "momentumTransport"):
+        (const / obj).write_text(
+            _header("dictionary", obj, "constant") + "simulationType  laminar;\n"
+        )
+    for name, cls, dim, init in (
+        ("p", "volScalarField", "[0 2 -2 0 0 0 0]", "0"),
+        ("U", "volVectorField", "[0 1 -1 0 0 0 0]", "(0 0 0)"),
+    ):
+        (case / "0" / name).write_text(
+            _header(cls, name, "0")
+            + f"dimensions      {dim};\n\ninternalField   uniform {init};\n\n"
+            + "boundaryField\n{\n"
+            + boundary[name]
+            + "}\n"
+        )
+
+
+def write_polymesh(pm: PoreMesh, poly: Path, flow: dict | None = None) -> FaceTopology:
+    """Write points/faces/owner/neighbour/boundary into ``poly``; returns the topology.
+    ``flow.sides`` types the side patches (:func:`side_type`)."""
+    topo = face_topology(pm.points, pm.tets, openfoam_patches(pm))
+    write_topology(pm, topo, poly)
+    loc = "constant/polyMesh"
     types = {T.INLET: "patch", T.OUTLET: "patch", T.WALL: "wall"}  # values: format keywords
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
@@ -197,14 +231,28 @@ def _control_dict(pm: PoreMesh) -> str:
         + _plane_fo("pRveStart", a, pm.axis)
         + _plane_fo("pRveEnd", b, pm.axis)
     )
+    return control_dict(2000, 500, fos)
+
+
+def control_dict(end: int, every: int, functions: str) -> str:
+    """``system/controlDict`` of a steady simpleFoam run of ``end`` iterations, written every
+    ``every``, with the function objects ``functions``."""
     return (
         _header("dictionary", "controlDict", "system")
         + "application     simpleFoam;\nstartFrom       startTime;\nstartTime       0;\n"
-        "stopAt          endTime;\nendTime         2000;\ndeltaT          1;\n"
-        "writeControl    timeStep;\nwriteInterval   500;\npurgeWrite      1;\n"
+        f"stopAt          endTime;\nendTime         {end};\ndeltaT          1;\n"
+        f"writeControl    timeStep;\nwriteInterval   {every};\npurgeWrite      1;\n"
         "writeFormat     ascii;\nwritePrecision  10;\nrunTimeModifiable true;\n\n"
-        f"functions\n{{\n{fos}}}\n"
+        f"functions\n{{\n{functions}}}\n"
     )
+
+
+def write_script(path: Path, template: str, values: dict[str, float]) -> None:
+    """An executable script from ``template`` with each ``@KEY@`` replaced by its value."""
+    for key, val in values.items():
+        template = template.replace(f"@{key}@", f"{val:.12g}")
+    path.write_text(template)
+    path.chmod(0o755)
 
 
 def case_constants(pm: PoreMesh, flow: dict | None = None) -> dict[str, float]:
@@ -296,18 +344,8 @@ def _change_dict(flow: dict | None) -> str:
 
 
 def _write_allrun(case: Path, c: dict[str, float], flow: dict | None = None) -> None:
-    text = _ALLRUN
-    for key, val in (
-        ("@NU@", c["nu"]),
-        ("@RHO@", c["rho"]),
-        ("@L@", c["length"]),
-        ("@A@", c["area"]),
-        ("@LB@", c["box_length"]),
-    ):
-        text = text.replace(key, f"{val:.12g}")
-    path = case / "Allrun"
-    path.write_text(text)
-    path.chmod(0o755)
+    values = {"NU": c["nu"], "RHO": c["rho"], "L": c["length"], "A": c["area"]}
+    write_script(case / "Allrun", _ALLRUN, values | {"LB": c["box_length"]})
     (case / "system" / "changeDictionaryDict").write_text(
         _header("dictionary", "changeDictionaryDict", "system") + _change_dict(flow)
     )
@@ -351,31 +389,12 @@ def write_openfoam_case(
         c["p_inlet"] = float(p_inlet)
     write_polymesh(pm, case / "constant" / "polyMesh", flow)
     (case / "system").mkdir(parents=True, exist_ok=True)
-    (case / "0").mkdir(parents=True, exist_ok=True)
-    const = case / "constant"
-    (const / "transportProperties").write_text(
-        _header("dictionary", "transportProperties", "constant")
-        + f"transportModel  Newtonian;\n\nnu              {c['nu']:.10g};\n"
-    )
-    for obj in ("turbulenceProperties", "momentumTransport"):
-        (const / obj).write_text(
-            _header("dictionary", obj, "constant") + "simulationType  laminar;\n"
-        )
+    bcs = {f: _patch_bc(f, c["p_inlet"], flow) for f in ("p", "U")}
+    write_constants_and_fields(case, c["nu"], bcs)
     s = case / "system"
     (s / "controlDict").write_text(_control_dict(pm))
     (s / "fvSchemes").write_text(_FV_SCHEMES)
     (s / "fvSolution").write_text(_FV_SOLUTION)
-    for name, cls, dim, init in (
-        ("p", "volScalarField", "[0 2 -2 0 0 0 0]", "0"),
-        ("U", "volVectorField", "[0 1 -1 0 0 0 0]", "(0 0 0)"),
-    ):
-        (case / "0" / name).write_text(
-            _header(cls, name, "0")
-            + f"dimensions      {dim};\n\ninternalField   uniform {init};\n\n"
-            + "boundaryField\n{\n"
-            + _patch_bc(name, c["p_inlet"], flow)
-            + "}\n"
-        )
     _write_allrun(case, c, flow)
     lo, hi = pm.porous_region
     (case / "README.txt").write_text(

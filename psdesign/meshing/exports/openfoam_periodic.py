@@ -23,8 +23,11 @@ from psdesign.meshing.exports.openfoam import (
     _FV_SCHEMES,
     _header,
     _patch_fo,
-    _write_array,
     case_constants,
+    control_dict,
+    write_constants_and_fields,
+    write_script,
+    write_topology,
 )
 from psdesign.meshing.topology import FaceTopology, face_topology
 
@@ -105,21 +108,8 @@ def write_cyclic_polymesh(pm: PoreMesh, poly: Path) -> dict[str, int]:
         patches[high] = matched_faces(pm, low, high, ax)
     topo = face_topology(pm.points, pm.tets, patches)
     _couple_vertices(pm, topo)
+    write_topology(pm, topo, poly)
     loc = "constant/polyMesh"
-    note = f"nPoints:{len(pm.points)}  nCells:{len(pm.tets)}  nFaces:{len(topo.faces)}"
-    _write_array(
-        poly / "points", _header("vectorField", "points", loc), pm.points, "(%.12g %.12g %.12g)"
-    )
-    _write_array(poly / "faces", _header("faceList", "faces", loc), topo.faces, "3(%d %d %d)")
-    _write_array(
-        poly / "owner", _header("labelList", "owner", loc, note), topo.owner[:, None], "%d"
-    )
-    _write_array(
-        poly / "neighbour",
-        _header("labelList", "neighbour", loc, note),
-        topo.neighbour[:, None],
-        "%d",
-    )
     extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
     partner = {}
     for low, high, ax in cyclic_pairs(pm):
@@ -221,50 +211,15 @@ def write_periodic_case(pm: PoreMesh, case: Path, flow: dict | None = None) -> P
     case = Path(case)
     c = case_constants(pm, flow)
     write_cyclic_polymesh(pm, case / "constant" / "polyMesh")
-    const, system, zero = case / "constant", case / "system", case / "0"
+    write_constants_and_fields(case, c["nu"], _fields(c["p_inlet"]))
+    system = case / "system"
     system.mkdir(parents=True, exist_ok=True)
-    zero.mkdir(parents=True, exist_ok=True)
-    (const / "transportProperties").write_text(
-        _header("dictionary", "transportProperties", "constant")
-        + f"transportModel  Newtonian;\n\nnu              {c['nu']:.10g};\n"
-    )
-    for obj in ("turbulenceProperties", "momentumTransport"):
-        (const / obj).write_text(
-            _header("dictionary", obj, "constant") + "simulationType  laminar;\n"
-        )
-    (system / "controlDict").write_text(
-        _header("dictionary", "controlDict", "system")
-        + "application     simpleFoam;\nstartFrom       startTime;\nstartTime       0;\n"
-        "stopAt          endTime;\nendTime         4000;\ndeltaT          1;\n"
-        "writeControl    timeStep;\nwriteInterval   1000;\npurgeWrite      1;\n"
-        "writeFormat     ascii;\nwritePrecision  10;\nrunTimeModifiable true;\n\n"
-        f"functions\n{{\n{_patch_fo('fluxInlet', T.INLET, 'sum', 'phi')}}}\n"
-    )
+    flux = _patch_fo("fluxInlet", T.INLET, "sum", "phi")
+    (system / "controlDict").write_text(control_dict(4000, 1000, flux))
     (system / "fvSchemes").write_text(_FV_SCHEMES)
     (system / "fvSolution").write_text(_FV_SOLUTION)
-    bc = _fields(c["p_inlet"])
-    for name, cls, dim, init in (
-        ("p", "volScalarField", "[0 2 -2 0 0 0 0]", "0"),
-        ("U", "volVectorField", "[0 1 -1 0 0 0 0]", "(0 0 0)"),
-    ):
-        (zero / name).write_text(
-            _header(cls, name, "0")
-            + f"dimensions      {dim};\n\ninternalField   uniform {init};\n\n"
-            + "boundaryField\n{\n"
-            + bc[name]
-            + "}\n"
-        )
-    text = _ALLRUN
-    for key, val in (
-        ("@NU@", c["nu"]),
-        ("@RHO@", c["rho"]),
-        ("@L@", c["box_length"]),
-        ("@A@", c["area"]),
-        ("@DP@", c["p_inlet"]),
-    ):
-        text = text.replace(key, f"{val:.12g}")
-    (case / "Allrun").write_text(text)
-    (case / "Allrun").chmod(0o755)
+    values = {"NU": c["nu"], "RHO": c["rho"], "L": c["box_length"], "A": c["area"]}
+    write_script(case / "Allrun", _ALLRUN, values | {"DP": c["p_inlet"]})
     (system / "changeDictionaryDict").write_text(  # the file set of every openfoam export
         _header(
             "dictionary",
