@@ -286,14 +286,14 @@ class Material:
         return pore_report(self.rve, self.fields, table)
 
     def _repr_html_(self) -> str:
-        """The notebook's table: box, voxel grid, fibres (or image), the porosity with its
-        error estimate and its rating (a count: ``ok`` up to a 20 % bar, as in study tables)."""
+        """The notebook's table: box, voxel grid, fibres (or image) and, once the voxel fields
+        exist (a display does not voxelize), the porosity with its error estimate and its
+        rating (a count: ``ok`` up to a 20 % bar, as in study tables)."""
         from psdesign.analysis.columns import error_bar
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import result_html
 
-        grid = self.fields.grid
-        eps, err = self.porosity, self.porosity_error
+        grid = self.rve.grid(self.spec["rve"]["voxel"])
         source = (
             ("image", Path(self.spec["image"]["path"]).name)
             if "image" in self.spec
@@ -303,8 +303,12 @@ class Material:
             ("box (m)", " x ".join(f"{s:.4g}" for s in self.rve.size)),
             ("voxel grid", f"{' x '.join(map(str, grid.shape))} of {grid.spacing[0]:.4g} m"),
             source,
-            ("porosity (-)", porosity_text(eps, err)),
         ]
+        if self._fields is None:
+            rows.append(("porosity (-)", "not computed yet (m.porosity voxelizes)"))
+            return result_html("Material", rows, "unrated", [])
+        eps, err = self.porosity, self.porosity_error
+        rows.append(("porosity (-)", porosity_text(eps, err)))
         status = error_bar({"porosity": eps, "porosity_error": err}, "porosity")[1]
         return result_html("Material", rows, status, [])
 

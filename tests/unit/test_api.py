@@ -49,6 +49,7 @@ def test_build_porosity_matches_the_exact_cylinder_area() -> None:
     assert abs(m.porosity - exact) <= m.porosity_error < 2e-3
     assert repr(m) == "Material(2e-05 x 2e-05 x 2e-05 m, 1 fibers)"  # SI, as every output
     page = m._repr_html_()  # the notebook's table: the porosity with its bar and rating
+    assert "80 x 80 x 80" in psdesign.build(spec)._repr_html_()  # a display: no voxelization
     assert f"{m.porosity:.4f} +- {m.porosity_error:.1e}" in page and ">ok</span>" in page
     assert "80 x 80 x 80 of 2.5e-07 m" in page
 
