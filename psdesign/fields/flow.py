@@ -72,7 +72,13 @@ def _solved_solid(solution, fields, shape) -> np.ndarray:
         return solid
     if solution.periodic_treatment == "mirror":
         return np.concatenate([solid, np.flip(solid, axis=d)], axis=d)
-    return (solution.pressure == 0) & ~np.any(solution.velocity != 0, axis=0)
+    if solution.periodic_treatment == "frame":  # solvers.voxel_stokes._apply_treatment
+        pad = [(0, 0) if a == d else (0, 1) for a in range(3)]
+        return np.pad(solid, pad, constant_values=True)
+    raise ValueError(
+        f"fields: a solved grid {tuple(shape)} of treatment {solution.periodic_treatment!r} "
+        f"does not match the RVE's {solid.shape}"
+    )
 
 
 def voxel_total_pressure(

@@ -454,3 +454,29 @@ def test_transport_fields_json_carries_the_final_result(tmp_path):
             assert _cells(grid, "flux_per_unit_gradient")["xyz".index(s["direction"])].mean() == (
                 pytest.approx(r[key], rel=1e-6)
             )
+
+
+def test_frame_treatment_writes_the_solved_solid_with_its_frame(tmp_path):
+    """``periodic_treatment = "frame"`` solves the RVE with a one-voxel solid wall on its two
+    lateral high faces (solvers.voxel_stokes). The written ``solid`` was guessed from zero
+    pressure and velocity (audit s31/s32); now it is the RVE's solid, padded by that frame:
+    the frame cells all solid, the RVE block exactly the RVE's mask, every NaN pressure in a
+    cell off the solver's pressure cells."""
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("[flow]", '[flow]\nperiodic_treatment = "frame"'))
+    out = tmp_path / "f"
+    code, _ = _run_json(spec, "permeability", "--solver", "voxel", "--direction", "x",
+                        "--no-error-estimate", "--fields", str(out))  # fmt: skip
+    assert code == 0
+    grid = pv.read(out / "flow_x.vti")
+    solid = _cells(grid, "solid").astype(bool)
+    s = load_spec(spec)
+    rve_solid = build_rve(s).voxelize(s["rve"]["voxel"]).solid
+    assert solid.shape == (24, 13, 17)  # the frame on y and z, not along the flow
+    np.testing.assert_array_equal(solid[:, :12, :16], rve_solid)
+    assert solid[:, 12, :].all() and solid[:, :, 16].all()
+    nan = np.isnan(_cells(grid, "pressure_Pa"))
+    np.testing.assert_array_equal(nan, ~_cells(grid, "pressure_cell").astype(bool))
