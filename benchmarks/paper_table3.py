@@ -28,26 +28,6 @@ PAPER = {("straight", "z"): 8.07e-12, ("straight", "x"): 1.21e-11}
 PAPER.update({("bent", "z"): 7.8e-12, ("bent", "x"): 1.11e-11, ("woven", "z"): 2.55e-12})
 
 
-def local_thickness(pore: np.ndarray, voxel: float) -> np.ndarray:
-    """Local thickness (diameter of the largest inscribed ball covering each pore voxel).
-
-    The exact definition (Hildebrand and Ruegsegger 1997) by radius levels: a pore voxel has
-    thickness >= 2r if it lies within r of a voxel whose distance to the solid is >= r.
-    Each level is one Euclidean distance transform (scipy.ndimage). Returns metres.
-    """
-    from scipy.ndimage import distance_transform_edt
-
-    dist = distance_transform_edt(pore)
-    out = np.zeros(pore.shape, np.float32)
-    for r in np.arange(1.0, float(dist.max()) + 1.0, 1.0):
-        centres = dist >= r
-        if not centres.any():
-            break
-        reach = distance_transform_edt(~centres) <= r
-        out[reach & pore] = 2.0 * r
-    return out * voxel
-
-
 def clustering_cv(solid: np.ndarray, block: int) -> float:
     """Coefficient of variation of the solid fraction over cubic sub-blocks of ``block`` voxels."""
     n = [s // block for s in solid.shape]
@@ -56,20 +36,25 @@ def clustering_cv(solid: np.ndarray, block: int) -> float:
     return float(frac.std() / max(frac.mean(), 1e-12))
 
 
-def pore_statistics(solid: np.ndarray, voxel: float) -> dict:
-    """Pore-size (local thickness) percentiles and solid clustering of a voxel image."""
-    lt = local_thickness(~solid, voxel)[~solid]
-    d10, d50, d90 = np.percentile(lt, [10, 50, 90])
-    edges = np.arange(0.0, float(lt.max()) + 2 * voxel, 2 * voxel)
-    hist, _ = np.histogram(lt, edges)
+def pore_statistics(fields) -> dict:
+    """Pore-size percentiles (the product's local thickness, :func:`psdesign.transport.pores.
+    pore_sizes`: periodic, on the analytic distance, 32 radii) and solid clustering of an RVE's
+    voxel fields. Until session 32 this module had its own voxel-EDT local thickness with open
+    faces, a second definition of the same quantity; the records in
+    ``paper_table3*_runs.jsonl`` / ``paper_table3_geometry.jsonl`` before then come from it."""
+    from psdesign.transport.pores import pore_sizes
+
+    ps = pore_sizes(fields, n_radii=32)
+    voxel = float(fields.grid.spacing[0])
     return {
-        "pore_d10_m": float(d10),
-        "pore_d50_m": float(d50),
-        "pore_d90_m": float(d90),
-        "pore_mean_m": float(lt.mean()),
-        "pore_hist_edges_m": edges.tolist(),
-        "pore_hist_fraction": (hist / max(hist.sum(), 1)).tolist(),
-        "clustering_cv_20um": clustering_cv(solid, max(1, int(round(20e-6 / voxel)))),
+        "pore_d10_m": ps.pore_d10_m,
+        "pore_d50_m": ps.pore_d50_m,
+        "pore_d90_m": ps.pore_d90_m,
+        "pore_mean_m": ps.mean_diameter_m,
+        "pore_diameter_error_m": ps.diameter_error_m,
+        "pore_hist_diameters_m": ps.diameters_m,
+        "pore_hist_fraction": ps.volume_fraction,
+        "clustering_cv_20um": clustering_cv(fields.solid, max(1, int(round(20e-6 / voxel)))),
     }
 
 
@@ -147,7 +132,7 @@ def run_case(
             for k in ("porosity", "omega_after", "center_z_m", "rotation_deg", "displacement_m")
         },
     }
-    rec.update(pore_statistics(fields.solid, voxel))
+    rec.update(pore_statistics(fields))
     rec["solver"], rec["bc"], rec["size_m"] = solver, bc, float(built.rve.size[0])
     flow = {**spec["flow"], "solver": solver, "bc": bc}
     if lattice_step is not None:

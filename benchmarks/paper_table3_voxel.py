@@ -364,7 +364,7 @@ def geometry(a) -> int:
         rec.update(orientation_stats(built.rve))
         rec.update(clustering_stats(built.rve))
         rec.update(layering_stats(fields))
-        rec.update(t3.pore_statistics(fields.solid, a.voxel))
+        rec.update(t3.pore_statistics(fields))
         rec["clustering_cv_10um"] = t3.clustering_cv(
             fields.solid, max(1, int(round(10e-6 / a.voxel)))
         )
