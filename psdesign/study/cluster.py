@@ -13,9 +13,11 @@ Example (from a login node)::
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass, field
 
 CLUSTERS = ("slurm", "pbs")
+SUBMIT_COMMANDS = {"slurm": "sbatch", "pbs": "qsub"}  # what dask-jobqueue runs per job
 
 
 @dataclass(frozen=True)
@@ -50,9 +52,56 @@ class ClusterOptions:
             raise ValueError(f"--cluster: must be one of {', '.join(CLUSTERS)}, got {self.kind!r}")
         if not isinstance(self.cores, int) or self.cores < 1:
             raise ValueError(f"--cluster-cores: must be an integer >= 1, got {self.cores!r}")
-        parts = self.walltime.split(":")
-        if len(parts) != 3 or not all(p.isdigit() for p in parts):
-            raise ValueError(f"--cluster-walltime: expected HH:MM:SS, got {self.walltime!r}")
+        parts = self.walltime.split(":") if isinstance(self.walltime, str) else []
+        if (
+            len(parts) != 3
+            or not all(p.isdigit() for p in parts)
+            or int(parts[1]) > 59
+            or int(parts[2]) > 59
+            or not any(int(p) for p in parts)
+        ):
+            raise ValueError(
+                f"--cluster-walltime: expected HH:MM:SS (minutes and seconds 0-59, "
+                f"above 00:00:00), got {self.walltime!r}"
+            )
+        if memory_bytes(self.memory) is None:
+            raise ValueError(
+                f"--cluster-memory: expected a size > 0 such as 16GB or 500MB, got {self.memory!r}"
+            )
+
+    @property
+    def submit_command(self) -> str:
+        """The batch system's submit command (``sbatch`` or ``qsub``)."""
+        return SUBMIT_COMMANDS[self.kind]
+
+
+def memory_bytes(text) -> int | None:
+    """``text`` (``"16GB"``, ``"500 MB"``) in bytes, or None if it is not a size > 0."""
+    from dask.utils import parse_bytes
+
+    if not isinstance(text, str):
+        return None
+    try:
+        n = parse_bytes(text)
+    except (ValueError, TypeError):
+        return None
+    return n if n > 0 else None
+
+
+def check_submit_command(opts: ClusterOptions) -> None:
+    """Raise ValueError if the batch system's submit command is not on ``PATH``.
+
+    Without it dask-jobqueue only logs each failed submission and the study would wait
+    forever for workers that never come.
+    """
+    cmd = opts.submit_command
+    if shutil.which(cmd) is None:
+        raise ValueError(
+            f"--cluster {opts.kind}: the submit command {cmd!r} is not on PATH; run from a "
+            f"login node of the {opts.kind.upper()} cluster (psdesign.study.cluster.job_script "
+            "shows the job script each worker would be submitted with); nothing was run or "
+            "changed"
+        )
 
 
 def make_cluster(opts: ClusterOptions):

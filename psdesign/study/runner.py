@@ -384,10 +384,14 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         raise SchedulerError(f"--scheduler: dask.distributed is not installed ({exc})") from exc
     if timeout_s is None:
         timeout_s = CONNECT_TIMEOUT_S
-    from psdesign.study.cluster import ClusterOptions, make_cluster
+    from psdesign.study import cluster as cluster_mod
 
-    if isinstance(address, ClusterOptions):  # --cluster slurm|pbs: one batch job per worker
-        cluster = make_cluster(address)
+    if isinstance(address, cluster_mod.ClusterOptions):  # --cluster slurm|pbs: one job/worker
+        try:
+            cluster_mod.check_submit_command(address)
+        except ValueError as exc:
+            raise SchedulerError(str(exc)) from None
+        cluster = cluster_mod.make_cluster(address)
         cluster.scale(jobs=max(1, workers))
         return Client(cluster), cluster
     if address == "local":

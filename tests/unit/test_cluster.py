@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from psdesign.study.cluster import ClusterOptions, job_script
@@ -38,6 +40,11 @@ def test_pbs_job_script() -> None:
         ({"kind": "lsf"}, "--cluster"),
         ({"kind": "slurm", "cores": 0}, "--cluster-cores"),
         ({"kind": "pbs", "walltime": "2h"}, "--cluster-walltime"),
+        ({"kind": "pbs", "walltime": "01:75:00"}, "--cluster-walltime"),
+        ({"kind": "pbs", "walltime": "00:00:00"}, "--cluster-walltime"),
+        ({"kind": "slurm", "memory": "banana"}, "--cluster-memory"),
+        ({"kind": "slurm", "memory": "-5GB"}, "--cluster-memory"),
+        ({"kind": "slurm", "memory": "0"}, "--cluster-memory"),
     ],
 )
 def test_bad_cluster_options_name_the_flag(kw, key) -> None:
@@ -66,6 +73,7 @@ def test_study_runs_through_a_cluster_option(tmp_path, monkeypatch) -> None:
         return FakeSlurm(n_workers=0, threads_per_worker=1, processes=True, dashboard_address=None)
 
     monkeypatch.setattr(cluster_mod, "make_cluster", fake_make)
+    _fake_sbatch_on_path(tmp_path, monkeypatch)
     p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
     df = run_study(
         p,
@@ -77,3 +85,63 @@ def test_study_runs_through_a_cluster_option(tmp_path, monkeypatch) -> None:
         report=False,
     )
     assert scaled[0] == 2 and len(df) == 4 and set(df["status"]) == {"ok"}
+
+
+def _fake_sbatch_on_path(tmp_path, monkeypatch) -> None:
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    sbatch = bindir / "sbatch"
+    sbatch.write_text("#!/bin/sh\nexit 1\n")
+    sbatch.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}")
+
+
+@pytest.mark.parametrize(("kind", "cmd"), [("slurm", "sbatch"), ("pbs", "qsub")])
+def test_cluster_without_its_submit_command_is_refused_before_any_work(
+    tmp_path, monkeypatch, capsys, kind, cmd
+) -> None:
+    # no sbatch/qsub: dask-jobqueue only logged each failed submission (tracebacks) and the
+    # runner waited forever for workers, after writing study.json into the output folder
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+    from psdesign.study import cluster as cluster_mod
+
+    def must_not_submit(opts):
+        raise AssertionError("a batch cluster was started without its submit command")
+
+    monkeypatch.setattr(cluster_mod, "make_cluster", must_not_submit)
+    empty = tmp_path / "empty-bin"
+    empty.mkdir()
+    monkeypatch.setenv("PATH", str(empty))
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    rc = main(["study", "run", str(p), "-o", str(out), "--cluster", kind, "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and f"--cluster {kind}" in err and repr(cmd) in err
+    assert "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("flag", "value"),
+    [
+        ("--cluster-memory", "banana"),
+        ("--cluster-memory=-5GB", None),
+        ("--cluster-walltime", "1:99:00"),
+    ],
+)
+def test_cli_bad_cluster_resources_exit_2_naming_the_flag(tmp_path, capsys, flag, value) -> None:
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    extra = [flag] if value is None else [flag, value]
+    rc = main(["study", "run", str(p), "-o", str(out), "--cluster", "slurm", *extra])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1
+    assert err.startswith(f"psdesign: error: {flag.split('=')[0]}:")
+    assert not out.exists()
