@@ -31,7 +31,8 @@ class FaceTopology:
         return int(len(self.neighbour))
 
 
-def _keys(tri: np.ndarray, n: int) -> np.ndarray:
+def face_keys(tri: np.ndarray, n: int) -> np.ndarray:
+    """One integer per triangle, the same for any order of its vertices (``n`` points)."""
     s = np.sort(tri.astype(np.int64), axis=1)
     return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
 
@@ -46,7 +47,7 @@ def face_topology(
     nt = len(tets)
     allf = tets[:, TET_FACES].reshape(-1, 3)
     cell = np.repeat(np.arange(nt), 4)
-    key = _keys(allf, n)
+    key = face_keys(allf, n)
     order = np.argsort(key, kind="stable")
     ks = key[order]
     first = np.flatnonzero(ks[1:] == ks[:-1])
@@ -73,7 +74,7 @@ def face_topology(
     for name, tri in patches.items():
         if len(tri) == 0:
             continue
-        k = _keys(tri, n)
+        k = face_keys(tri, n)
         pos = np.searchsorted(bkey_sorted, k)
         pos = np.minimum(pos, len(bkey_sorted) - 1)
         if not (bkey_sorted[pos] == k).all():

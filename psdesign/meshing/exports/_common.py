@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from psdesign.meshing.tags import TAG_IDS
+from psdesign.meshing.tags import TAG_IDS, face_name
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
@@ -26,3 +26,18 @@ def side_type(flow: dict | None) -> str:
     both formats)."""
     noslip = (flow or {}).get("sides", "slip") == "noslip"
     return "wall" if noslip else "symmetry"  # format keywords
+
+
+def periodic_faces(pm: PoreMesh) -> list[tuple[str, str, int, np.ndarray, float]]:
+    """The linked box faces of a periodic mesh (empty otherwise), per axis with vertex pairs:
+    ``(low face tag, high face tag, axis, (k, 2) vertex pairs (low, high), box edge)`` from
+    :attr:`~psdesign.meshing.result.PoreMesh.periodic_pairs` (inlet / outlet along the flow)."""
+    extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
+    out = []
+    for ax, name in enumerate("xyz"):
+        pairs = pm.periodic_pairs.get(name)
+        if pairs is None or not len(pairs):
+            continue
+        low, high = (face_name(ax, hi, pm.axis) for hi in (False, True))
+        out.append((low, high, ax, pairs, float(extent[ax])))
+    return out

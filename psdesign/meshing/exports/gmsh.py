@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import meshio
 import numpy as np
 
-from psdesign.meshing.exports._common import boundary
+from psdesign.meshing.exports._common import boundary, periodic_faces
 from psdesign.meshing.tags import FLUID, FLUID_TAG, TAG_IDS
 
 if TYPE_CHECKING:
@@ -39,16 +39,9 @@ def periodic_links(pm: PoreMesh) -> list:
     face (entity = its tag id, slave) linked to the low face (master) by a translation of one
     box edge (``Affine``, the 4 x 4 matrix row by row), with the node pairs of
     :attr:`~psdesign.meshing.result.PoreMesh.periodic_pairs` (slave, master)."""
-    from psdesign.meshing.tags import face_name
-
     links = []
-    extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
-    for ax, name in enumerate("xyz"):
-        pairs = pm.periodic_pairs.get(name)
-        if pairs is None or not len(pairs):
-            continue
-        low, high = (face_name(ax, hi, pm.axis) for hi in (False, True))
+    for low, high, ax, pairs, edge in periodic_faces(pm):
         affine = np.eye(4)
-        affine[ax, 3] = extent[ax]  # master (low) + edge = slave (high)
+        affine[ax, 3] = edge  # master (low) + edge = slave (high)
         links.append((2, (TAG_IDS[high], TAG_IDS[low]), affine, pairs[:, ::-1]))
     return links

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.meshing import tags as T
+from psdesign.meshing.exports._common import periodic_faces
 from psdesign.meshing.exports.openfoam import (
     _FV_SCHEMES,
     _header,
@@ -29,92 +30,75 @@ from psdesign.meshing.exports.openfoam import (
     write_script,
     write_topology,
 )
-from psdesign.meshing.topology import FaceTopology, face_topology
+from psdesign.meshing.topology import FaceTopology, face_keys, face_topology
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
 
-AXES = "xyz"
+
+def _partner(n_points: int, pairs: np.ndarray) -> np.ndarray:
+    """Vertex index -> its partner on the high face (-1 off the low face)."""
+    partner = np.full(n_points, -1, dtype=np.int64)
+    partner[pairs[:, 0]] = pairs[:, 1]
+    return partner
 
 
-def cyclic_pairs(pm: PoreMesh) -> list[tuple[str, str, int]]:
-    """``(low patch, high patch, axis)`` of the three periodic directions: ``inlet`` /
-    ``outlet`` along the flow, ``side_<a>0`` / ``side_<a>1`` across it."""
-    out = []
-    for ax in range(3):
-        if ax == pm.axis:
-            out.append((T.INLET, T.OUTLET, ax))
-        else:
-            out.append((T.side_name(ax, False), T.side_name(ax, True), ax))
-    return out
-
-
-def matched_faces(pm: PoreMesh, low: str, high: str, ax: int) -> np.ndarray:
+def matched_faces(pm: PoreMesh, low: str, high: str, partner: np.ndarray) -> np.ndarray:
     """The ``high`` patch's triangles in the order of the ``low`` patch's: triangle ``i`` of
-    each is the same face, one period apart (the vertex pairs of ``periodic_pairs``).
+    each is the same face, one period apart (``partner``: :func:`_partner`).
 
     Raises
     ------
     ValueError
-        When a face has no partner (not a periodic mesh along ``ax``).
+        When a face has no partner (not a periodic mesh along that axis).
     """
-    pairs = pm.periodic_pairs[AXES[ax]]
-    partner = np.full(len(pm.points), -1, dtype=np.int64)
-    partner[pairs[:, 0]] = pairs[:, 1]
     lo_tri, hi_tri = pm.facet_tags[low], pm.facet_tags[high]
     mapped = partner[lo_tri]
     if (mapped < 0).any() or len(lo_tri) != len(hi_tri):
         raise ValueError(f"{low} / {high}: the faces are not periodic partners")
-    n = len(pm.points)
-
-    def key(tri: np.ndarray) -> np.ndarray:
-        s = np.sort(tri.astype(np.int64), axis=1)
-        return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
-
-    want, have = key(mapped), key(hi_tri)
+    want, have = face_keys(mapped, len(pm.points)), face_keys(hi_tri, len(pm.points))
     order = np.argsort(have)
-    pos = np.searchsorted(have[order], want)
-    pos = np.minimum(pos, len(have) - 1)
+    pos = np.minimum(np.searchsorted(have[order], want), len(have) - 1)
     if not (have[order][pos] == want).all():
         raise ValueError(f"{low} / {high}: the faces are not periodic partners")
     return hi_tri[order[pos]]
 
 
-def _couple_vertices(pm: PoreMesh, topo: FaceTopology) -> None:
-    """Write each high face as its low partner's vertices, translated, in reverse order from
-    the same 0th vertex: OpenFOAM's convention for coupled faces (checkMesh: "0th or
+def _couple_vertices(topo: FaceTopology, low: str, high: str, partner: np.ndarray) -> None:
+    """Write each ``high`` face as its ``low`` partner's vertices, translated, in reverse order
+    from the same 0th vertex: OpenFOAM's convention for coupled faces (checkMesh: "0th or
     consecutive vertex not opposite their coupled equivalent" otherwise). Reversed, the
     partner's normal points out of the high face's own cell."""
     start = dict(zip(topo.patch_names, topo.patch_start, strict=True))
     size = dict(zip(topo.patch_names, topo.patch_size, strict=True))
-    for low, high, ax in cyclic_pairs(pm):
-        pairs = pm.periodic_pairs[AXES[ax]]
-        partner = np.full(len(pm.points), -1, dtype=np.int64)
-        partner[pairs[:, 0]] = pairs[:, 1]
-        a = topo.faces[start[low] : start[low] + size[low]]
-        b = slice(start[high], start[high] + size[high])
-        mapped = partner[a][:, [0, 2, 1]]
-        if not np.array_equal(np.sort(mapped, axis=1), np.sort(topo.faces[b], axis=1)):
-            raise ValueError(f"{low} / {high}: the faces are not periodic partners")
-        topo.faces[b] = mapped
+    a = topo.faces[start[low] : start[low] + size[low]]
+    b = slice(start[high], start[high] + size[high])
+    mapped = partner[a][:, [0, 2, 1]]
+    if not np.array_equal(np.sort(mapped, axis=1), np.sort(topo.faces[b], axis=1)):
+        raise ValueError(f"{low} / {high}: the faces are not periodic partners")
+    topo.faces[b] = mapped
 
 
 def write_cyclic_polymesh(pm: PoreMesh, poly: Path) -> dict[str, int]:
-    """points/faces/owner/neighbour/boundary with the cyclic patches; returns nFaces per patch."""
-    poly.mkdir(parents=True, exist_ok=True)
+    """points/faces/owner/neighbour/boundary with the cyclic patches (the three pairs of
+    :func:`~psdesign.meshing.exports._common.periodic_faces`); returns nFaces per patch."""
+    links = periodic_faces(pm)
+    if len(links) != 3:
+        raise ValueError("the OpenFOAM periodic case needs a mesh periodic along x, y and z")
+    partners = {low: _partner(len(pm.points), pairs) for low, _, _, pairs, _ in links}
     patches = {T.WALL: pm.facet_tags[T.WALL]}
-    for low, high, ax in cyclic_pairs(pm):
+    for low, high, _, _, _ in links:
         patches[low] = pm.facet_tags[low]
-        patches[high] = matched_faces(pm, low, high, ax)
+        patches[high] = matched_faces(pm, low, high, partners[low])
     topo = face_topology(pm.points, pm.tets, patches)
-    _couple_vertices(pm, topo)
+    for low, high, _, _, _ in links:
+        _couple_vertices(topo, low, high, partners[low])
     write_topology(pm, topo, poly)
     loc = "constant/polyMesh"
-    extent = np.ptp(np.asarray(pm.bounds, dtype=float), axis=0)
     partner = {}
-    for low, high, ax in cyclic_pairs(pm):
+    for low, high, ax, _, edge in links:
         sep = np.zeros(3)
-        sep[ax] = extent[ax]
+        sep[ax] = edge
         partner[low], partner[high] = (high, sep), (low, -sep)
     lines = [_header("polyBoundaryMesh", "boundary", loc), f"{len(topo.patch_names)}\n(\n"]
     for name, start, size in zip(topo.patch_names, topo.patch_start, topo.patch_size, strict=True):
