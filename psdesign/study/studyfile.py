@@ -404,8 +404,11 @@ def _parse_study(data: dict, source: Path | None) -> Study:
         seeds = [s0 + i for i in range(reps)]
     outputs = [st.outputs] if isinstance(st.outputs, str) else list(st.outputs)
     flow = base.get("flow") if isinstance(base.get("flow"), dict) else {}
-    if "outputs" not in st.model_fields_set and flow.get("direction") in ("x", "y"):
-        outputs = ["porosity", f"k_{flow['direction']}"]  # the base's direction, as permeability
+    from psdesign.flow.darcy import flow_direction
+
+    default = flow_direction(None, flow)  # the base's direction, as `permeability` takes it
+    if "outputs" not in st.model_fields_set and default in ("x", "y", "z"):
+        outputs = ["porosity", f"k_{default}"]
     outputs = list(dict.fromkeys(outputs))
     if st.fields:
         outputs.append(FIELDS_FLAG)  # the case writes its fields (psdesign.study.case)
