@@ -356,17 +356,7 @@ def remove_owned_files(folder: Path, names: Iterable[str]) -> list[str]:
     marker = read_marker(folder)
     if marker is None:
         return []
-    owned = set(marker["files"])
-    removed = []
-    for name in sorted(set(names)):
-        p = folder / name
-        if name not in owned or Path(name).name != name or p.is_symlink() or not p.is_file():
-            continue
-        p.unlink()
-        removed.append(name)
-    if removed:
-        _write_marker(folder, marker.get("command", ""), owned - set(removed))
-    return removed
+    return _remove_owned(folder, marker, sorted(n for n in set(names) if Path(n).name == n))
 
 
 def remove_owned_tree(folder: Path, sub: str) -> list[str]:
@@ -381,19 +371,32 @@ def remove_owned_tree(folder: Path, sub: str) -> list[str]:
     sub = sub.strip("/")
     if marker is None or not sub or ".." in sub.split("/"):
         return []
-    owned = set(marker["files"])
-    removed = []
-    for rel in sorted(r for r in owned if r.startswith(sub + "/")):
-        p = folder / rel
-        links = [folder / q for q in Path(rel).parents if q != Path(".")]
-        if p.is_symlink() or not p.is_file() or any(q.is_symlink() for q in links):
-            continue
-        p.unlink()
-        removed.append(rel)
+    rels = sorted(r for r in marker["files"] if r.startswith(sub + "/"))
+    removed = _remove_owned(folder, marker, rels)
     for d in sorted({(folder / r).parent for r in removed}, key=lambda q: -len(q.parts)):
         while d != folder and d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
             d.rmdir()
             d = d.parent
+    return removed
+
+
+def _remove_owned(folder: Path, marker: dict, rels: list[str]) -> list[str]:
+    """Remove the files ``rels`` (relative paths) that the ``marker`` lists as psdesign's and
+    that are regular files reached through no symbolic link; drop them from the marker."""
+    owned = set(marker["files"])
+    removed = []
+    for rel in rels:
+        p = folder / rel
+        links = [folder / q for q in Path(rel).parents if q != Path(".")]
+        if (
+            rel not in owned
+            or p.is_symlink()
+            or not p.is_file()
+            or any(q.is_symlink() for q in links)
+        ):
+            continue
+        p.unlink()
+        removed.append(rel)
     if removed:
         _write_marker(folder, marker.get("command", ""), owned - set(removed))
     return removed
