@@ -80,21 +80,25 @@ class Printer:
 
     def iterations(self, label: str, method: str) -> Callable[[int, float], None]:
         """Callback ``report(iterations, residual)`` of one iterative solve."""
+        return self.throttled(
+            lambda s, n, residual: (
+                f"psdesign: {label}: {n} {method} iterations, residual {residual:.1e}, {s:.0f} s"
+            )
+        )
+
+    def throttled(self, line: Callable[..., str]) -> Callable[..., None]:
+        """Callback ``report(*args)`` writing ``line(elapsed_s, *args)``: on a terminal one
+        redrawn line at most every 0.2 s (the first at once), else a plain line every
+        ``every_s``."""
         t0 = time.perf_counter()
         last = [float("-inf") if self.tty else t0]  # a terminal line is drawn at once
 
-        def report(n: int, residual: float) -> None:
+        def report(*args) -> None:
             now = time.perf_counter()
-            if self.quiet or (not self.tty and now - last[0] < self.every_s):
-                return
-            if self.tty and now - last[0] < 0.2:
+            if self.quiet or now - last[0] < (0.2 if self.tty else self.every_s):
                 return
             last[0] = now
-            self._write(
-                f"psdesign: {label}: {n} {method} iterations, residual {residual:.1e}, "
-                f"{now - t0:.0f} s",
-                redraw=self.tty,
-            )
+            self._write(line(now - t0, *args), redraw=self.tty)
 
         return report
 
@@ -179,22 +183,12 @@ def search_progress(label: str) -> Callable[[dict], None] | None:
     as often as iterative solves report; None without a printer."""
     if not _ACTIVE:
         return None
-    printer = _ACTIVE[-1]
-    t0 = time.perf_counter()
-    last = [float("-inf") if printer.tty else t0]
-
-    def report(entry: dict) -> None:
-        now = time.perf_counter()
-        if printer.quiet or now - last[0] < (0.2 if printer.tty else printer.every_s):
-            return
-        last[0] = now
-        printer._write(
-            f"psdesign: {label}: {entry['iter']} polls, {entry['n_evals']} evaluations, "
-            f"U = {entry['fun']:.6g}, mesh size {entry['step']:.1e}, {now - t0:.0f} s",
-            redraw=printer.tty,
+    return _ACTIVE[-1].throttled(
+        lambda s, e: (
+            f"psdesign: {label}: {e['iter']} polls, {e['n_evals']} evaluations, "
+            f"U = {e['fun']:.6g}, mesh size {e['step']:.1e}, {s:.0f} s"
         )
-
-    return report
+    )
 
 
 def progress_printer(
