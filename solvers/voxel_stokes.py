@@ -399,9 +399,12 @@ def check_percolates(solid: np.ndarray, direction: int, what: str) -> None:
         )
 
 
-def _apply_treatment(
+def apply_treatment(
     solid: np.ndarray, d: int, treatment: str, phi: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """The solved grid of a periodic solve (and its distance ``phi``): the grid itself
+    (``periodic``), with its mirror image along ``d`` (``mirror``) or a one-voxel solid frame
+    on the high faces across ``d`` (``frame``)."""
     if treatment == "periodic":
         return solid, phi
     if treatment == "mirror":
@@ -592,7 +595,7 @@ def _setup_grid(
         pad = [(0, 1) if b != d else (0, 0) for b in range(3)]
         blocked = np.pad(grid, pad, constant_values=True)
     else:
-        grid, phi = _apply_treatment(solid, d, treatment, phi)
+        grid, phi = apply_treatment(solid, d, treatment, phi)
         rve = (0, n_d)
         blocked = grid
     op = _Stokes.build(grid, phi, walls, d, rve if bc == "permeameter" else None)

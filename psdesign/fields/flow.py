@@ -68,13 +68,11 @@ def _solved_solid(solution, fields, shape) -> np.ndarray:
         i0 = int(solution.rve_slice[0])
         pad[d] = (i0, shape[d] - solid.shape[d] - i0)
         return np.pad(solid, pad, constant_values=False)
-    if solid.shape == tuple(shape):
-        return solid
-    if solution.periodic_treatment == "mirror":
-        return np.concatenate([solid, np.flip(solid, axis=d)], axis=d)
-    if solution.periodic_treatment == "frame":  # solvers.voxel_stokes._apply_treatment
-        pad = [(0, 0) if a == d else (0, 1) for a in range(3)]
-        return np.pad(solid, pad, constant_values=True)
+    from solvers.voxel_stokes import apply_treatment
+
+    grid = apply_treatment(solid, d, solution.periodic_treatment)[0]  # as the solver built it
+    if grid.shape == tuple(shape):
+        return grid
     raise ValueError(
         f"fields: a solved grid {tuple(shape)} of treatment {solution.periodic_treatment!r} "
         f"does not match the RVE's {solid.shape}"
