@@ -38,6 +38,7 @@ from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pr
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.schema.flow import NATIVE_BC, TREATMENT_ALLOWED, treatment_refusal
 
 __all__ = [
     "BC_MODELS",
@@ -56,7 +57,6 @@ __all__ = [
 #: The boundary-condition models of ``flow.bc``.
 BC_MODELS = ("permeameter", "periodic")
 #: Each route's behaviour when ``flow.bc`` is absent.
-NATIVE_BC = {"fem": "permeameter", "voxel": "periodic"}
 SOLVERS = ("fem", "voxel")
 
 
@@ -86,14 +86,9 @@ def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
     """
     from psdesign.errors import SpecError
 
-    bc = bc or flow.get("bc") or NATIVE_BC.get(solver, "permeameter")
-    treatment = flow.get("periodic_treatment") or "periodic"
-    if treatment != "periodic" and (solver, bc) != ("voxel", "periodic"):
-        raise SpecError(
-            "flow.periodic_treatment",
-            f"{treatment!r} applies to the voxel solver's periodic bc only, not to solver "
-            f"{solver!r} with bc {bc!r}; allowed: periodic, or solver 'voxel' with bc 'periodic'",
-        )
+    why = treatment_refusal(flow.get("periodic_treatment"), solver, bc or flow.get("bc"))
+    if why:
+        raise SpecError("flow.periodic_treatment", f"{why}; allowed: {TREATMENT_ALLOWED}")
 
 
 #: The permeameter's own ``[flow]`` keys and the values that mean "not asked for" (the

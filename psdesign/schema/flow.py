@@ -30,6 +30,37 @@ def _copies(value: Any) -> Any:
     )
 
 
+#: The boundary-condition model each solver applies when ``flow.bc`` is not given.
+NATIVE_BC = {"fem": "permeameter", "voxel": "periodic"}
+
+
+def treatment_refusal(treatment: str | None, solver: str, bc: str | None) -> str | None:
+    """Why ``flow.periodic_treatment`` cannot apply to ``solver`` with ``bc``, or None.
+
+    Mirror / frame are the voxel solver's periodic bc's: the FEM and both permeameters ignored
+    them (and the voxel permeameter's result reported the treatment). ``bc`` None is the
+    solver's own (:data:`NATIVE_BC`). The one rule behind the schema's refusal and the
+    route's (:func:`psdesign.flow.permeability.check_route_keys`).
+
+    >>> treatment_refusal("mirror", "voxel", None) is None
+    True
+    >>> treatment_refusal("frame", "fem", None)[:48]
+    "'frame' applies to the voxel solver's periodic b"
+    """
+    treatment = treatment or "periodic"
+    bc = bc or NATIVE_BC.get(solver, "permeameter")
+    if treatment == "periodic" or (solver, bc) == ("voxel", "periodic"):
+        return None
+    return (
+        f"{treatment!r} applies to the voxel solver's periodic bc only, not to solver "
+        f"{solver!r} with bc {bc!r}"
+    )
+
+
+#: What :func:`treatment_refusal`'s message allows.
+TREATMENT_ALLOWED = "periodic, or solver 'voxel' with bc 'periodic'"
+
+
 #: Defaults filled into every validated spec (other keys appear only when given).
 DEFAULT_FLOW = {
     "solver": "fem",
@@ -124,18 +155,14 @@ class FlowTable(Table):
 
     @model_validator(mode="after")
     def _treatment_fits_bc(self) -> FlowTable:
-        """``periodic_treatment`` mirror / frame is the voxel solver's periodic bc's: its
-        permeameter solved the grid between reservoirs as is and reported the treatment
-        (:func:`psdesign.flow.permeability.check_route_keys` refuses the FEM, and a
-        ``--solver`` / ``--bc`` given on the command line)."""
-        treatment = self.periodic_treatment or "periodic"
-        if treatment != "periodic" and self.solver == "voxel" and self.bc == "permeameter":
-            raise fail(
-                "periodic_treatment",
-                f"{treatment!r} applies to the voxel solver's periodic bc only; the permeameter "
-                "solves the grid between its reservoirs as it is",
-                "periodic with bc = 'permeameter', or bc = 'periodic'",
-            )
+        """``periodic_treatment`` mirror / frame with a route the spec itself names (``solver``
+        or ``bc`` given) that would not apply it. Without either, the command line's
+        ``--solver`` / ``--bc`` decide, checked by the route before the RVE is built."""
+        if not {"solver", "bc"} & self.model_fields_set:
+            return self
+        why = treatment_refusal(self.periodic_treatment, self.solver, self.bc)
+        if why:
+            raise fail("periodic_treatment", why, TREATMENT_ALLOWED)
         return self
 
     def to_spec(self) -> dict:

@@ -93,6 +93,26 @@ def test_mirror_with_the_voxel_permeameter_is_refused_by_the_schema():
 
 
 @pytest.mark.parametrize(
+    "route",
+    [{"solver": "fem"}, {"bc": "permeameter"}, {"solver": "fem", "bc": "periodic"}],
+)
+def test_schema_and_route_refuse_the_same_named_routes(route):
+    """One rule (``schema.flow.treatment_refusal``): a spec naming a route that ignores the
+    treatment is refused at load as the route refuses it at the solve (the schema let
+    ``solver = "fem"`` with ``mirror`` through before, and the route refused it later)."""
+    flow = {**route, "periodic_treatment": "mirror"}
+    assert _key({**ROD, "flow": flow}) == "flow.periodic_treatment"
+    with pytest.raises(SpecError, match="voxel solver's periodic bc only"):
+        check_route_keys(flow, route.get("solver", "fem"))
+
+
+@pytest.mark.parametrize("route", [{}, {"solver": "voxel"}, {"bc": "periodic", "solver": "voxel"}])
+def test_schema_leaves_an_unnamed_or_fitting_route_to_the_command_line(route):
+    """Without ``solver`` / ``bc`` the spec's treatment is for ``--solver voxel``."""
+    validate_spec({**ROD, "flow": {**route, "periodic_treatment": "frame"}})
+
+
+@pytest.mark.parametrize(
     ("solver", "bc"), [("fem", None), ("fem", "periodic"), ("voxel", "permeameter")]
 )
 def test_mirror_off_the_voxel_periodic_solve_is_refused_by_the_route(solver, bc):
