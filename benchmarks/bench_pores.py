@@ -46,7 +46,7 @@ def _reference_scan(dt, pore, radii, inlet_axis):
         if not seeds.any():
             sat.append(0.0)
             continue
-        cov = pores._edt(~seeds) <= r
+        cov = pores.edt(~seeds) <= r
         lab, n = ndimage.label(seeds)
         inlet = np.unique(np.take(lab, 0, axis=inlet_axis))
         inlet = inlet[inlet > 0]
@@ -57,7 +57,7 @@ def _reference_scan(dt, pore, radii, inlet_axis):
         else:
             lut = np.zeros(n + 1, bool)
             lut[inlet] = True
-            inv = pores._edt(~lut[lab]) <= r
+            inv = pores.edt(~lut[lab]) <= r
         lt[cov & pore & (lt < 0)] = i
         if inv is not None:
             invaded |= inv & pore

@@ -2,7 +2,8 @@
 
 A segmented image has no analytic surface; the surface is put half-way between a solid and a
 pore voxel centre, and the signed distance (metres, > 0 in the pore) comes from two Euclidean
-distance transforms (scipy.ndimage) of the periodic medium the image is one period of:
+distance transforms (:func:`psdesign.geometry.edt.periodic_edt`) of the periodic medium the
+image is one period of:
 ``d = EDT(pore) - 1/2`` in the pore and ``-(EDT(solid) - 1/2)`` in the solid, times the voxel
 size. This is what the mesher's level set and the transport solvers need; solvers that use
 the analytic distance for sub-voxel walls see ``wall_treatment = "staircase"`` for images.
@@ -15,6 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from psdesign.geometry.edt import periodic_edt
 from psdesign.geometry.rve import VoxelFields, VoxelGrid
 
 
@@ -24,33 +26,6 @@ class ImageFields(VoxelFields):
     not from an analytic surface, so walls are staircase and volumes are voxel counts."""
 
     analytic_distance: ClassVar[bool] = False
-
-
-def periodic_edt(mask: np.ndarray) -> np.ndarray:
-    """Euclidean distance (voxel centres, in voxels) of every True voxel to the nearest False
-    voxel of the periodic medium the image is one period of (the RVE is periodic: the
-    solvers and the pore-size scan wrap around its faces).
-
-    The transform with open faces bounds it from above (it sees fewer False voxels), so the
-    nearest False voxel lies within that bound, and never more than half a period away along
-    an axis: the mask padded by ``min(ceil(bound) + 1, n // 2 + 1)`` periodic layers holds it.
-
-    Parameters
-    ----------
-    mask : ndarray of bool, 3-D
-        Must hold at least one False voxel.
-
-    Returns
-    -------
-    ndarray of float64, the shape of ``mask``
-    """
-    from scipy.ndimage import distance_transform_edt
-
-    bound = float(distance_transform_edt(mask).max())
-    pad = [min(int(np.ceil(bound)) + 1, n // 2 + 1) for n in mask.shape]
-    wrapped = np.pad(mask, [(p, p) for p in pad], mode="wrap")
-    core = tuple(slice(p, p + n) for p, n in zip(pad, mask.shape, strict=True))
-    return distance_transform_edt(wrapped)[core]
 
 
 def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
@@ -65,9 +40,16 @@ def signed_distance(solid: np.ndarray, voxel: float) -> np.ndarray:
     if pore.all() or solid.all():
         d.fill(np.float32(voxel * max(solid.shape)) * (1 if pore.all() else -1))
         return d
-    d[pore] = periodic_edt(pore)[pore] - 0.5
-    d[solid] = -(periodic_edt(solid)[solid] - 0.5)
-    return d * np.float32(voxel)
+    # in place, one transform held at a time: the fields' peak is a few bytes per voxel
+    d = periodic_edt(pore)
+    d -= np.float32(0.5)
+    inside = periodic_edt(solid)
+    inside -= np.float32(0.5)
+    np.negative(inside, out=inside)
+    np.copyto(d, inside, where=solid)
+    del inside
+    d *= np.float32(voxel)
+    return d
 
 
 def image_fields(

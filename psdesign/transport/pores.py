@@ -2,7 +2,7 @@
 
 * **Local thickness** (pore size distribution, Hildebrand & Ruegsegger, J. Microsc. 185, 67,
   1997): the diameter of the largest inscribed sphere containing each pore voxel.  The
-  Euclidean distance map ``dt`` (:func:`scipy.ndimage.distance_transform_edt`, minus half a
+  Euclidean distance map ``dt`` (:func:`psdesign.geometry.edt.periodic_edt`, minus half a
   voxel so that it measures to the voxel *faces* of the solid) is scanned over ``n_radii``
   radii ``r`` from its maximum down: the seeds ``dt >= r`` are dilated by a ball of radius
   ``r`` (one distance transform of the seed complement per radius) and voxels first
@@ -42,6 +42,7 @@ import numpy as np
 from scipy import ndimage
 
 from psdesign.flow.darcy import axis_of
+from psdesign.geometry.edt import edt, periodic_edt
 from psdesign.geometry.rve import RVE, VoxelFields
 
 
@@ -86,8 +87,9 @@ class SurfaceResult:
     extra: dict = field(default_factory=dict)
 
 
-def _edt_pore(distance: np.ndarray, h: float) -> np.ndarray:
-    """Distance (voxels) from pore voxel centres to the solid surface.
+def _edt_pore(distance: np.ndarray, h: float, transform=edt) -> np.ndarray:
+    """Distance (voxels) from pore voxel centres to the solid surface (``transform`` of the
+    pore mask: :func:`~psdesign.geometry.edt.edt` with open faces, or the periodic one).
 
     The signed distance field is used where it is below its clip value (the narrow band of
     the rasterizer: exact surface, sub-voxel); farther out the Euclidean distance to the
@@ -97,7 +99,7 @@ def _edt_pore(distance: np.ndarray, h: float) -> np.ndarray:
     clip = float(distance.max())
     if pore.all():
         return np.maximum(distance / h, 0.5 * min(pore.shape)).astype(np.float32)
-    dt = _edt(pore).astype(np.float32)
+    dt = transform(pore).astype(np.float32, copy=False)
     dt[pore] -= 0.5
     analytic = (distance / h).astype(np.float32)
     far = distance >= clip
@@ -115,27 +117,8 @@ def _wrapped(distance: np.ndarray, pad: int) -> tuple[np.ndarray, tuple[slice, .
 
 def periodic_pore_distance(distance: np.ndarray, h: float) -> np.ndarray:
     """:func:`_edt_pore` of the periodic medium: the distance to the nearest solid of any
-    periodic image.  The open-faced transform bounds it from above (it sees less solid), so
-    the nearest solid of every voxel lies within that bound and a grid padded by it holds it."""
-    bound = float(_edt_pore(distance, h).max())
-    dt, core = _wrapped(distance, int(np.ceil(bound)) + 1)
-    return _edt_pore(dt, h)[core]
-
-
-def _edt(mask: np.ndarray) -> np.ndarray:
-    """Euclidean distance (voxels) of every True voxel to the nearest False one: the
-    multi-threaded ``edt`` library (Silversmith, seung-lab; also PoreSpy's) when installed,
-    else :func:`scipy.ndimage.distance_transform_edt`."""
-    try:
-        import edt as _edt_lib
-    except ImportError:  # pragma: no cover - optional accelerator
-        return ndimage.distance_transform_edt(mask)
-    import numba
-
-    mask = np.ascontiguousarray(mask)
-    if mask.dtype == bool:
-        mask = mask.view(np.uint8)  # the same labels; edt runs faster on uint8 than on bool
-    return _edt_lib.edt(mask, parallel=numba.get_num_threads())
+    periodic image (:func:`~psdesign.geometry.edt.periodic_edt`)."""
+    return _edt_pore(distance, h, periodic_edt)
 
 
 #: Diameter lost, in voxels, when a pore's true centre lies between voxel centres: the balls are
@@ -204,11 +187,11 @@ def _ball_union(lab: np.ndarray, boxes: list, ids: np.ndarray, r: float) -> np.n
     ]
     crops = _merge_boxes(crops)
     if sum(map(_volume, crops)) >= CROP_FRACTION * lab.size:
-        return _edt(~lut[lab]) <= r
+        return edt(~lut[lab]) <= r
     out = np.zeros(lab.shape, bool)
     for crop in crops:
         sl = tuple(slice(lo, hi) for lo, hi in crop)
-        out[sl] |= _edt(~lut[lab[sl]]) <= r
+        out[sl] |= edt(~lut[lab[sl]]) <= r
     return out
 
 

@@ -136,7 +136,7 @@ def test_cropped_ball_unions_equal_the_whole_grid_transform():
             lut = np.zeros(n + 1, bool)
             lut[part] = True
             for r in (1.0, 3.5, 8.0):
-                whole = pores._edt(~lut[lab]) <= r
+                whole = pores.edt(~lut[lab]) <= r
                 np.testing.assert_array_equal(pores._ball_union(lab, boxes, part, r), whole)
 
 
