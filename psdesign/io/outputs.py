@@ -68,7 +68,8 @@ class OutputDir:
     option : str
         Name of the command-line option, for messages (``-o``).
     command : str
-        The command writing it (recorded in the marker).
+        The command that made the folder, recorded in the marker: an existing marker's, else
+        the one writing it now (a ``study run`` resuming a ``rev`` folder keeps ``rev``).
     owned : frozenset of str
         Relative POSIX paths psdesign wrote here earlier (from the marker); an entry ending in
         ``/`` owns a whole sub-folder.
@@ -242,6 +243,8 @@ def check_output_dir(
                 else ""
             ),
         )
+    if marker and marker.get("command"):  # the marker names the command that made the folder
+        command = str(marker["command"])
     out = OutputDir(resolved, option, command, frozenset(owned), True)
     for rel in expected:
         _refuse_foreign(out, rel.rstrip("/"))
@@ -305,13 +308,10 @@ def check_added_files(
     out = check_output_dir(
         folder, force=True, option=option, command=command, expected=files, legacy=legacy
     )
-    marker = read_marker(out.path) if out.exists else None
     owned = out.owned
-    if marker is None and owned:  # an older psdesign's folder
+    if out.exists and owned and read_marker(out.path) is None:  # an older psdesign's folder
         owned = owned | set(legacy_files)
-    if marker and marker.get("command"):
-        command = str(marker["command"])
-    return OutputDir(out.path, out.option, command, frozenset(owned), out.exists)
+    return OutputDir(out.path, out.option, out.command, frozenset(owned), out.exists)
 
 
 def _write_marker(folder: Path, command: str, files: Iterable[str]) -> None:

@@ -232,6 +232,22 @@ def test_helper_never_replaces_a_foreign_file_found_at_commit(tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".psdesign-")]
 
 
+def test_marker_keeps_the_command_that_made_the_folder(tmp_path):
+    """A ``study run`` resuming a ``rev`` folder (or any command adding to another's folder)
+    relabelled its marker with its own command (session 32's runner audit); the marker
+    names the folder's maker, as ``study fit`` / ``report`` already kept ``study run``."""
+    out = tmp_path / "o"
+    claim_output_dir(check_output_dir(out, command="rev"), ["rev.json"])
+    resumed = check_output_dir(out, force=True, command="study run")
+    assert resumed.command == "rev"
+    claim_output_dir(resumed, ["results.csv"])
+    with staged_output(check_output_dir(out, force=True, command="study run")) as tmp:
+        (tmp / "report.html").write_text("r")
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["command"] == "rev"
+    assert {"rev.json", "results.csv", "report.html"} <= set(marker["files"])
+
+
 def test_helper_owns_subfolders_and_refuses_symlinks_in_the_way(tmp_path):
     out = tmp_path / "o"
     with staged_output(check_output_dir(out, command="t")) as tmp:
