@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import contextlib
-import tempfile
-
 import numpy as np
-import pytetwild
 from scipy import sparse
 from scipy.sparse import csgraph
 
 from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError
 from psdesign.meshing.options import TETWILD_OPTIONS
+from psdesign.meshing.tetwild_process import tetrahedralize_isolated
 
 # outward faces of a positively oriented tet (a, b, c, d)
 TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
@@ -27,7 +24,8 @@ def tetrahedralize(
     options: dict | None = None,
     sizing: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Run pytetwild (fTetWild) on a closed surface; tets returned positively oriented.
+    """Run pytetwild (fTetWild) on a closed surface, in a child process
+    (:mod:`.tetwild_process`); tets returned positively oriented.
 
     ``options`` may set pytetwild's ``stop_energy``, ``num_opt_iter``, ``coarsen``, ``simplify``;
     ``sizing`` is a background mesh ``(points, tets, target edge length per point)`` (pytetwild's
@@ -45,18 +43,18 @@ def tetrahedralize(
         raise MeshInputError(
             f"tetwild_options {sorted(bad)} not supported; allowed: {sorted(TETWILD_OPTIONS)}"
         )
-    # pytetwild writes a scratch file (__tracked_surface.stl) into the working directory
-    with tempfile.TemporaryDirectory() as scratch, contextlib.chdir(scratch):
-        pts, tets = pytetwild.tetrahedralize(
-            np.array(verts, dtype=np.float64, order="C"),  # writeable copies: nanobind rejects
-            np.array(faces, dtype=np.int32, order="C"),  # read-only buffers
+    pts, tets = tetrahedralize_isolated(
+        verts,
+        faces,
+        dict(
             edge_length_abs=float(edge_length_abs),
             epsilon=float(epsilon),
             optimize=True,  # optimize=False produced broken meshes in the trial of issue 5
             num_threads=int(num_threads),
             quiet=True,
             **options,
-        )
+        ),
+    )
     tets = np.asarray(tets, dtype=np.int64)
     if len(tets) == 0:
         raise MeshFailedError("pytetwild returned no tetrahedra (surface too small or degenerate)")

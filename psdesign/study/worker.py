@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from psdesign.io.atomic import json_default
+from psdesign.io.child_env import child_env
 from psdesign.study.casefn import DEFAULT_CASE_FN, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
@@ -98,15 +99,6 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
 
 
-def _child_env() -> dict:
-    env = dict(os.environ)
-    paths = [p for p in sys.path if p]
-    if env.get("PYTHONPATH"):
-        paths.append(env["PYTHONPATH"])
-    env["PYTHONPATH"] = os.pathsep.join(dict.fromkeys(paths))
-    return env
-
-
 def _kill_group(proc: subprocess.Popen) -> None:
     try:
         os.killpg(proc.pid, signal.SIGKILL)
@@ -170,7 +162,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
             stdout=log,
             stderr=log,
             stdin=subprocess.PIPE,
-            env=_child_env(),
+            env=child_env(),
             start_new_session=True,
         )
         try:
