@@ -113,6 +113,19 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     return 0
 
 
+def _surrogate_flag(model) -> tuple[str, str]:
+    """``(status, "surrogate cross-validated error 3.1 %")`` of a fitted surrogate; an
+    untrustworthy one is also said on stderr (its indices describe the fit, not the study)."""
+    status, _ = model.rating()
+    if status != "ok":
+        print(
+            f"psdesign: warning: the surrogate of {model.output} is {status} (`psdesign study "
+            "fit` says why): its sensitivity indices are not reliable",
+            file=sys.stderr,
+        )
+    return status, f"surrogate cross-validated error {100 * model.cv_rel_error:.3g} %"
+
+
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
     from psdesign.analysis.sensitivity import morris_screening, sobol_indices
     from psdesign.analysis.surrogate import load_study_surrogates
@@ -129,9 +142,13 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     for name in names:
         fn = sobol_indices if args.method == "sobol" else morris_screening
         table = fn(models[name], seed=args.seed)
-        result[name] = table.to_dict(orient="records")
+        status, cv_text = _surrogate_flag(models[name])
+        # each row carries the trust of the surrogate its index was computed from
+        trust = {"surrogate_status": status, "surrogate_cv_rel_error": models[name].cv_rel_error}
+        result[name] = [r | trust for r in table.to_dict(orient="records")]
         if not args.json:
-            print(f"{name} ({args.method}):")
+            space = "log10 " if models[name].log_output else ""
+            print(f"{name} ({args.method}, of {space}{name}; {cv_text}) [{status}]:")
             # 4 significant digits: Morris' mu* and sigma carry the output's unit (a K's are
             # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
             print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))

@@ -164,7 +164,8 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> Non
     monkeypatch.setattr(sensitivity, "morris_screening", lambda s, seed=0: tiny)
     assert main(["study", "sensitivity", str(out), "--method", "morris"]) == 0
     text = capsys.readouterr().out
-    assert "4.73e-12" in text and "0.000" not in text
+    rows = [line for line in text.splitlines() if line.split()[0] == "p"]  # the table rows
+    assert rows and all("4.73e-12" in r and "0.000" not in r for r in rows)
 
 
 @pytest.mark.parametrize(
@@ -506,3 +507,25 @@ def test_cross_validated_error_is_the_error_at_new_design_points() -> None:
         assert 0.5 * true <= s.cv_rmse <= 3.0 * true, (s.cv_rmse, true)
     # replicating each point adds no information about new points: same quoted error
     assert two.cv_rmse == pytest.approx(one.cv_rmse, rel=0.2)
+
+
+def test_sensitivity_says_when_its_surrogate_is_untrustworthy(tmp_path, capsys) -> None:
+    """Audit (session 33): ``study sensitivity`` printed Sobol indices and Morris mu* of a
+    surrogate that ``study fit`` rated untrustworthy with no flag: every printed number
+    carries the status and error of what it came from."""
+    good = _fit(lambda a, b: 10 + 3 * a + b)
+    bad = Surrogate.from_dict(good.to_dict() | {"output": "bad", "cv_rel_error": 0.5})
+    doc = {"version": 1, "models": {"good": good.to_dict(), "bad": bad.to_dict()}}
+    (tmp_path / "surrogate.json").write_text(json.dumps(doc))
+    for method in ("sobol", "morris"):
+        assert main(["study", "sensitivity", str(tmp_path), "--method", method]) == 0
+        cap = capsys.readouterr()
+        heads = [line for line in cap.out.splitlines() if line.startswith(("good", "bad"))]
+        assert "[ok]" in heads[0]
+        assert "[untrustworthy]" in heads[1] and "error 50 %" in heads[1]
+        assert "surrogate of bad is untrustworthy" in cap.err and "good" not in cap.err
+        assert main(["study", "sensitivity", str(tmp_path), "--method", method, "--json"]) == 0
+        rows = json.loads(capsys.readouterr().out)
+        assert {r["surrogate_status"] for r in rows["bad"]} == {"untrustworthy"}
+        assert {r["surrogate_status"] for r in rows["good"]} == {"ok"}
+        assert rows["bad"][0]["surrogate_cv_rel_error"] == 0.5
