@@ -289,18 +289,22 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
     if not params:
         raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
     bounds = parameter_bounds(df, params, spec)
+    allowed = output_columns(df, params)
     names = outputs or [
         c
-        for c in output_columns(df, params)
+        for c in allowed
         if c == "porosity"
         or c.endswith("_m2")
         or c.startswith(("diffusivity_", "tortuosity_", "conductivity_"))
     ]
-    models = {}
+    # every name before any fit; a design parameter, the seed or a text column is no output
     for name in names:
-        if name not in df.columns:
-            raise ValueError(f"--outputs: {name!r} is not a column of results.csv")
-        models[name] = fit_surrogate(df, name, params, bounds)
+        if name not in allowed:
+            raise ValueError(
+                f"--outputs: {name!r} is not a numeric output of results.csv; "
+                f"allowed: {', '.join(allowed)}"
+            )
+    models = {name: fit_surrogate(df, name, params, bounds) for name in names}
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}

@@ -529,3 +529,16 @@ def test_sensitivity_says_when_its_surrogate_is_untrustworthy(tmp_path, capsys) 
         assert {r["surrogate_status"] for r in rows["bad"]} == {"untrustworthy"}
         assert {r["surrogate_status"] for r in rows["good"]} == {"ok"}
         assert rows["bad"][0]["surrogate_cv_rel_error"] == 0.5
+
+
+@pytest.mark.parametrize("name", ["seed", "generator.porosity", "solver_used", "k_z_mm2"])
+def test_fit_refuses_a_column_that_is_no_output(tmp_path, capsys, name) -> None:
+    """Audit (session 33): ``study fit --outputs seed`` (or a design parameter) fitted a GP
+    of the seed over the design, exit 0; a text column ended in pandas' float conversion
+    message. One line naming --outputs and the allowed columns, nothing written."""
+    out = _lhs_study(tmp_path, 6)
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2", name]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"psdesign: error: --outputs: {name!r} is not")
+    assert "allowed: porosity, k_z_m2" in err[0]
+    assert not (out / "surrogate.json").exists()
