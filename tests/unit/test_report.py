@@ -337,3 +337,26 @@ def test_surrogate_uses_only_cases_with_a_trusted_k(mixed_report):
     # six cases on the corners of a 2 x 2 design: leave-one-out cannot predict a corner
     cv = float(re.search(r"from 6 cases; cross-validated error ([0-9.]+) %", html).group(1))
     assert cv > 20 and "Above 20 %: the surface and the Sobol indices are not reliable" in html
+
+
+def test_report_is_byte_identical_from_the_same_folder(tmp_path, monkeypatch):
+    """Audit (session 33): the metadata table stamped the clock time of writing, so
+    ``psdesign study report OUT`` twice on one folder gave two different files. The report is
+    a function of the folder: here the clock moves a day on every reading."""
+    import datetime
+
+    class MovingClock(datetime.datetime):
+        calls = 0
+
+        @classmethod
+        def now(cls, tz=None):
+            cls.calls += 1
+            return datetime.datetime(2030, 1, 1, tzinfo=tz) + datetime.timedelta(days=cls.calls)
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=mixed_status_case, progress=False, report=False)
+    monkeypatch.setattr(datetime, "datetime", MovingClock)
+    first = write_report(out).read_bytes()
+    second = write_report(out).read_bytes()
+    assert first == second
