@@ -233,7 +233,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         for r in targets_out:
             print(f"  {r['target']}: {_measured_text(r)}")
         params = {k: v for k, v in res.best.items() if "." in k}
-        print("  at " + (", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"))
+        at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
+        n = res.best.get("replicates", 0)
+        print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
     return 0 if res.met else 1
 
 
