@@ -272,6 +272,23 @@ def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict])
     return out
 
 
+def _check_parameter_cells(df: pd.DataFrame, params: list[str]) -> None:
+    """Refuse (one-line ``ValueError``) a numeric parameter column with empty cells.
+
+    The runner writes every parameter of every case; a hole comes from an edited table, and
+    :func:`~psdesign.analysis.columns.numeric_parameters` would quietly drop the whole
+    parameter from the fit (a 2-parameter study fitted over 1, its error unexplained).
+    """
+    for p in params:
+        if p in df.columns and pd.api.types.is_numeric_dtype(df[p]) and df[p].isna().any():
+            rows = [int(i) + 2 for i in np.flatnonzero(df[p].isna())]  # + header, 1-based
+            raise ValueError(
+                f"results.csv: parameter {p} is empty on line(s) "
+                f"{', '.join(map(str, rows[:5]))}{' ...' if len(rows) > 5 else ''}; every "
+                "case needs a number (the runner writes one; was the table edited?)"
+            )
+
+
 def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
     """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``.
 
@@ -285,6 +302,7 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
     check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
     df = pd.read_csv(out / "results.csv")
+    _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:
         raise ValueError(f"{out}: the study has no numeric design parameter to fit over")

@@ -542,3 +542,24 @@ def test_fit_refuses_a_column_that_is_no_output(tmp_path, capsys, name) -> None:
     assert len(err) == 1 and err[0].startswith(f"psdesign: error: --outputs: {name!r} is not")
     assert "allowed: porosity, k_z_m2" in err[0]
     assert not (out / "surrogate.json").exists()
+
+
+def test_fit_refuses_an_empty_parameter_cell(tmp_path, capsys) -> None:
+    """Audit (session 33): one emptied ``generator.diameter`` cell of results.csv made
+    ``study fit`` drop the diameter from the fit without a word (a GP over porosity alone,
+    exit 0). One line naming the parameter and the line of the table, nothing written."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 8\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    df = pd.read_csv(out / "results.csv")
+    df.loc[2, "generator.diameter"] = math.nan  # line 4 of the file
+    df.to_csv(out / "results.csv", index=False)
+    assert main(["study", "fit", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "parameter generator.diameter is empty on line(s) 4;" in err[0]
+    assert not (out / "surrogate.json").exists()
