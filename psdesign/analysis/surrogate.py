@@ -148,7 +148,7 @@ class Surrogate:
         warnings = []
         if not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
             warnings.append(
-                f"{self.output}: cross-validated error {100 * self.cv_rel_error:.2g} % exceeds "
+                f"{self.output}: cross-validated error {100 * self.cv_rel_error:.3g} % exceeds "
                 f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %"
             )
         low = LENGTH_SCALE_BOUNDS[0] * (1.0 + 1e-6)

@@ -61,7 +61,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             space = "log10 " if r["log_output"] else ""
             print(
                 f"{name}: GP over {', '.join(r['params'])} from {r['n_cases']} cases, "
-                f"cross-validated error {100 * r['cv_rel_error']:.2g} % ({space}RMSE "
+                f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
                 f"{r['cv_rmse']:.3g})  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
@@ -108,7 +108,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
             print(
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
-                f"{100 * r['cv_rel_error']:.2g} %){flag}"
+                f"{100 * r['cv_rel_error']:.3g} %){flag}"
             )
     return 0
 

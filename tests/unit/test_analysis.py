@@ -173,6 +173,8 @@ def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> Non
     [
         (0.5, 0.05, "ok", None),
         (0.5, 0.25, "untrustworthy", "cross-validated error 25 % exceeds 20 %"),
+        # audit (session 33): 2 digits printed 20.4 % as "20 % exceeds 20 %"
+        (0.5, 0.204, "untrustworthy", "cross-validated error 20.4 % exceeds 20 %"),
         (0.01, 0.05, "untrustworthy", "length scale along a is on its lower bound"),
     ],
 )
