@@ -7,8 +7,8 @@ already run) with the highest probability of meeting every target under the surr
 (product over targets of the Gaussian probability, in log10 space for log outputs). The new
 points are appended as CSV rows of the same study, so the runner (local pool or Dask) skips
 what is done and a stopped optimization resumes. It stops when a finished case meets every
-target by its measured value, or when ``budget`` design points have run, and then reports the
-closest case.
+target by its measured value (every seed of a design point: :func:`worst_replicates`), or when
+``budget`` design points have run, and then reports the closest case.
 """
 
 from __future__ import annotations
@@ -34,7 +34,9 @@ class OptimizeResult:
     met : bool
         A finished case meets every target.
     best : dict
-        Parameters and outputs of the case closest to the targets (sum of relative misses).
+        Parameters and outputs of the case closest to the targets (sum of relative misses):
+        the worst seed of the best design point (:func:`worst_replicates`), with
+        ``replicates``, the number of its trusted cases.
     n_points : int
         Design points run (each once per study seed).
     rounds : int
@@ -92,6 +94,32 @@ def _probability(models: dict, targets: list[Target], x: np.ndarray) -> np.ndarr
 
 def _score(row: dict, targets: list[Target]) -> float:
     return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
+
+
+def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) -> list[dict]:
+    """The worst case of each design point: its replicate (seed) farthest from the targets.
+
+    A design meets the targets only if every seed it was run with does: one lucky seed of an
+    RVE whose K scatters between seeds is no design. Replicates without a trusted value
+    (NaN after :func:`~psdesign.analysis.columns.trusted`) say nothing about the point and
+    are passed over while another replicate has one.
+
+    Examples
+    --------
+    >>> t = [Target("k", "<=", 2.0)]
+    >>> recs = [{"a": 1, "k": 1.0}, {"a": 1, "k": 3.0}, {"a": 2, "k": 1.5}, {"a": 2, "k": math.nan}]
+    >>> [r["k"] for r in worst_replicates(recs, ["a"], t)]
+    [3.0, 1.5]
+    """
+    points: dict[tuple, list[dict]] = {}
+    for r in recs:
+        points.setdefault(tuple(r[n] for n in names), []).append(r)
+    out = []
+    for group in points.values():
+        scored = [(_score(r, targets), i) for i, r in enumerate(group)]
+        finite = [si for si in scored if math.isfinite(si[0])] or scored
+        out.append(group[max(finite)[1]] | {"replicates": len(group)})
+    return out
 
 
 def optimize_study(
@@ -153,7 +181,7 @@ def optimize_study(
                     f"--target: {t.output!r} is not an output of this study; outputs: "
                     + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
                 )
-        recs = ok.to_dict(orient="records")
+        recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
         best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
         best_miss = _score(best, targets) if best else math.inf
         history.append({"round": rounds, "n_points": len(points), "best_miss": best_miss})

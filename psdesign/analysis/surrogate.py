@@ -5,7 +5,8 @@ strictly positive outputs spanning more than a factor of 3 (permeabilities) are 
 log10. The kernel is ``C * Matern(nu=2.5, one length scale per parameter) + White`` with
 ``normalize_y``; its fitted hyper-parameters and the training data are saved as JSON (portable,
 no pickle), and :meth:`Surrogate.from_dict` rebuilds the same predictor by refitting with the
-optimizer off. The cross-validated error (k-fold, k = min(5, n)) is stored with each model.
+optimizer off. The cross-validated error (k-fold over design points, k = min(5, points);
+replicates of a point share a fold) is stored with each model.
 """
 
 from __future__ import annotations
@@ -147,7 +148,7 @@ class Surrogate:
         warnings = []
         if not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
             warnings.append(
-                f"{self.output}: cross-validated error {100 * self.cv_rel_error:.2g} % exceeds "
+                f"{self.output}: cross-validated error {100 * self.cv_rel_error:.3g} % exceeds "
                 f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %"
             )
         low = LENGTH_SCALE_BOUNDS[0] * (1.0 + 1e-6)
@@ -184,14 +185,34 @@ class Surrogate:
         return cls(**{k: v for k, v in d.items() if k != "_gp"})
 
 
+def design_point_folds(x: np.ndarray, k_max: int = 5) -> tuple[np.ndarray, int]:
+    """Cross-validation fold of each row of ``x`` (n, d), and the number of folds.
+
+    Rows with the same design point (replicates that differ only in the seed) share a fold:
+    a held-out case whose replicate stays in the training set is predicted from its own
+    twin, and the error quoted is then the seed-to-seed scatter, not the error at a new
+    design (a 2-seed study quoted 1 % where the real error at new points was 17 %). Points are
+    numbered in order of first appearance and dealt round-robin into ``min(k_max, points)``
+    folds (a one-seed study keeps its row-by-row folds).
+
+    Examples
+    --------
+    >>> design_point_folds(np.array([[0.0], [0.0], [1.0], [1.0], [2.0]]), k_max=2)
+    (array([0, 0, 1, 1, 0]), 2)
+    """
+    _, first, point = np.unique(x, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=int)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    k = min(k_max, len(first))
+    return rank[np.ravel(point)] % max(k, 1), k
+
+
 def _cross_validate(s: Surrogate) -> tuple[float, float]:
     x, y = np.asarray(s.x, float), np.asarray(s.y, float)
-    n = len(y)
-    k = min(5, n)
+    folds, k = design_point_folds(x)
     if k < 2:
         return math.nan, math.nan
-    folds = np.arange(n) % k
-    err = np.empty(n)
+    err = np.empty(len(y))
     for f in range(k):
         test = folds == f
         sub = Surrogate(
@@ -251,6 +272,23 @@ def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict])
     return out
 
 
+def _check_parameter_cells(df: pd.DataFrame, params: list[str]) -> None:
+    """Refuse (one-line ``ValueError``) a numeric parameter column with empty cells.
+
+    The runner writes every parameter of every case; a hole comes from an edited table, and
+    :func:`~psdesign.analysis.columns.numeric_parameters` would quietly drop the whole
+    parameter from the fit (a 2-parameter study fitted over 1, its error unexplained).
+    """
+    for p in params:
+        if p in df.columns and pd.api.types.is_numeric_dtype(df[p]) and df[p].isna().any():
+            rows = [int(i) + 2 for i in np.flatnonzero(df[p].isna())]  # + header, 1-based
+            raise ValueError(
+                f"results.csv: parameter {p} is empty on line(s) "
+                f"{', '.join(map(str, rows[:5]))}{' ...' if len(rows) > 5 else ''}; every "
+                "case needs a number (the runner writes one; was the table edited?)"
+            )
+
+
 def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
     """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``.
 
@@ -264,22 +302,27 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
     check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
     df = pd.read_csv(out / "results.csv")
+    _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:
         raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
     bounds = parameter_bounds(df, params, spec)
+    allowed = output_columns(df, params)
     names = outputs or [
         c
-        for c in output_columns(df, params)
+        for c in allowed
         if c == "porosity"
         or c.endswith("_m2")
         or c.startswith(("diffusivity_", "tortuosity_", "conductivity_"))
     ]
-    models = {}
+    # every name before any fit; a design parameter, the seed or a text column is no output
     for name in names:
-        if name not in df.columns:
-            raise ValueError(f"--outputs: {name!r} is not a column of results.csv")
-        models[name] = fit_surrogate(df, name, params, bounds)
+        if name not in allowed:
+            raise ValueError(
+                f"--outputs: {name!r} is not a numeric output of results.csv; "
+                f"allowed: {', '.join(allowed)}"
+            )
+    models = {name: fit_surrogate(df, name, params, bounds) for name in names}
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}

@@ -61,7 +61,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             space = "log10 " if r["log_output"] else ""
             print(
                 f"{name}: GP over {', '.join(r['params'])} from {r['n_cases']} cases, "
-                f"cross-validated error {100 * r['cv_rel_error']:.2g} % ({space}RMSE "
+                f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
                 f"{r['cv_rmse']:.3g})  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
@@ -108,9 +108,22 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
             print(
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
-                f"{100 * r['cv_rel_error']:.2g} %){flag}"
+                f"{100 * r['cv_rel_error']:.3g} %){flag}"
             )
     return 0
+
+
+def _surrogate_flag(model) -> tuple[str, str]:
+    """``(status, "surrogate cross-validated error 3.1 %")`` of a fitted surrogate; an
+    untrustworthy one is also said on stderr (its indices describe the fit, not the study)."""
+    status, _ = model.rating()
+    if status != "ok":
+        print(
+            f"psdesign: warning: the surrogate of {model.output} is {status} (`psdesign study "
+            "fit` says why): its sensitivity indices are not reliable",
+            file=sys.stderr,
+        )
+    return status, f"surrogate cross-validated error {100 * model.cv_rel_error:.3g} %"
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
@@ -129,9 +142,13 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     for name in names:
         fn = sobol_indices if args.method == "sobol" else morris_screening
         table = fn(models[name], seed=args.seed)
-        result[name] = table.to_dict(orient="records")
+        status, cv_text = _surrogate_flag(models[name])
+        # each row carries the trust of the surrogate its index was computed from
+        trust = {"surrogate_status": status, "surrogate_cv_rel_error": models[name].cv_rel_error}
+        result[name] = [r | trust for r in table.to_dict(orient="records")]
         if not args.json:
-            print(f"{name} ({args.method}):")
+            space = "log10 " if models[name].log_output else ""
+            print(f"{name} ({args.method}, of {space}{name}; {cv_text}) [{status}]:")
             # 4 significant digits: Morris' mu* and sigma carry the output's unit (a K's are
             # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
             print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
@@ -216,7 +233,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         for r in targets_out:
             print(f"  {r['target']}: {_measured_text(r)}")
         params = {k: v for k, v in res.best.items() if "." in k}
-        print("  at " + (", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"))
+        at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
+        n = res.best.get("replicates", 0)
+        print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
     return 0 if res.met else 1
 
 

@@ -5,6 +5,7 @@ surrogate's response surface with its uncertainty, and Sobol indices (interactiv
 
 from __future__ import annotations
 
+import html
 import math
 
 import numpy as np
@@ -28,8 +29,6 @@ OTHER_OUTPUT_PREFIXES = (
 )
 #: Fewest finished cases to fit a surrogate in the report.
 MIN_CASES_SURROGATE = 6
-#: Cross-validated relative error of the surrogate above which the report calls it unreliable.
-SURROGATE_WEAK = 0.2
 #: Levels above which a parameter is binned (quartiles) for main-effect plots.
 MAX_LEVELS = 6
 #: Most combinations of the other parameters drawn as separate lines in a parameter plot.
@@ -272,10 +271,12 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
             "cases with a trusted K and a varying numeric parameter.</p>"
         )
     s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    # the rating `study fit` prints (cross-validated error and length scales), not a second rule
+    status, why = s.rating()
     weak = ""
-    if not s.cv_rel_error <= SURROGATE_WEAK:
+    if status != "ok":
         weak = (
-            f" <b>Above {100 * SURROGATE_WEAK:.0f} %: the surface and the Sobol indices are "
+            f" <b>[{status}] {html.escape('; '.join(why))}: the surface and the Sobol indices are "
             "not reliable; more cases (or fewer parameters) are needed.</b>"
         )
     pooled = [p for p in params if p in ok and p not in num and ok[p].nunique() > 1]
@@ -286,12 +287,13 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '
-        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.2g} %.{weak}</p>"
+        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.3g} % "
+        f"[{status}].{weak}</p>"
     ]
     order = num
     if len(num) >= 2:
         sob = sobol_indices(s, n=256)
-        parts.append(figure_html(_sobol_figure(sob, c), "psd-sobol"))
+        parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
     if len(order) == 1:
         fig = _surface_1d(s, ok, num, order[0], c)
@@ -306,7 +308,7 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     )
 
 
-def _sobol_figure(sob: pd.DataFrame, c: str):
+def _sobol_figure(sob: pd.DataFrame, c: str, log_output: bool = True):
     """Grouped bars of the first-order and total Sobol indices with their 95 % intervals."""
     import plotly.graph_objects as go
 
@@ -321,7 +323,8 @@ def _sobol_figure(sob: pd.DataFrame, c: str):
     ]
     fig = go.Figure(bars)
     fig.update_layout(
-        title=f"Sobol indices of log10 {c} (95 % CI)",
+        # the surrogate models log10 K only when K spans more than a factor 3
+        title=f"Sobol indices of {'log10 ' if log_output else ''}{c} (95 % CI)",
         barmode="group",
         height=360,
         yaxis_range=[0, 1.05],

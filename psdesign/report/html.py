@@ -7,7 +7,6 @@ URIs.  The file loads no external resource and opens offline.
 from __future__ import annotations
 
 import base64
-import datetime as _dt
 import html
 import io
 import json
@@ -529,7 +528,7 @@ def _meta_table(df: pd.DataFrame, study: dict, runs: dict, params: list[str], na
         ("case function", last.get("case_fn", "")),
         ("machine", ", ".join(f"{k}={v}" for k, v in machine.items())),
         ("versions", ", ".join(f"{k} {v}" for k, v in _versions().items())),
-        ("report written", _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")),
+        # no clock time of writing: the same study folder gives a byte-identical report
     ]
     return "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in meta_rows)
 

@@ -336,4 +336,49 @@ def test_surrogate_uses_only_cases_with_a_trusted_k(mixed_report):
     assert "from 6 cases" in html
     # six cases on the corners of a 2 x 2 design: leave-one-out cannot predict a corner
     cv = float(re.search(r"from 6 cases; cross-validated error ([0-9.]+) %", html).group(1))
-    assert cv > 20 and "Above 20 %: the surface and the Sobol indices are not reliable" in html
+    assert cv > 20 and "[untrustworthy] k_x_m2: cross-validated error" in html
+    assert "exceeds 20 %" in html and "the Sobol indices are not reliable" in html
+
+
+def test_report_is_byte_identical_from_the_same_folder(tmp_path, monkeypatch):
+    """Audit (session 33): the metadata table stamped the clock time of writing, so
+    ``psdesign study report OUT`` twice on one folder gave two different files. The report is
+    a function of the folder: here the clock moves a day on every reading."""
+    import datetime
+
+    class MovingClock(datetime.datetime):
+        calls = 0
+
+        @classmethod
+        def now(cls, tz=None):
+            cls.calls += 1
+            return datetime.datetime(2030, 1, 1, tzinfo=tz) + datetime.timedelta(days=cls.calls)
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=mixed_status_case, progress=False, report=False)
+    monkeypatch.setattr(datetime, "datetime", MovingClock)
+    first = write_report(out).read_bytes()
+    second = write_report(out).read_bytes()
+    assert first == second
+
+
+def test_report_surrogate_carries_the_fit_rating_and_the_modelled_output(monkeypatch):
+    """Audit (session 33): the report judged its surrogate by its own 20 % rule on the
+    cross-validated error alone (a length scale on its bound, untrustworthy in ``study fit``,
+    passed unflagged), printed no status, and titled the Sobol bars "of log10 K" also when
+    the fit models K itself (K spanning less than a factor 3)."""
+    from psdesign.analysis.surrogate import Surrogate
+    from psdesign.report.decision import surrogate_plots
+
+    x = np.random.default_rng(3).random((12, 2))
+    k = 1e-11 * (1 + 0.5 * x[:, 0] + 0.2 * x[:, 1])  # 1.0-1.7e-11: modelled linearly
+    df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "k_z_m2": k})
+    text = surrogate_plots(df, ["a", "b"], {})
+    assert "Sobol indices of k_z_m2 (95 % CI)" in text and "of log10 k_z_m2" not in text
+    assert "[ok]" in text and "not reliable" not in text
+    why = "k_z_m2: the fit's length scale along a is on its lower bound"
+    monkeypatch.setattr(Surrogate, "rating", lambda self: ("untrustworthy", [why]))
+    text = surrogate_plots(df, ["a", "b"], {})
+    assert "[untrustworthy]" in text and why.replace("'", "&#x27;") in text
+    assert "not reliable" in text
