@@ -80,7 +80,8 @@ def _probability(models: dict, targets: list[Target], x: np.ndarray) -> np.ndarr
         s = models[t.output]
         m, sd = s._gp.predict(s._scale(x), return_std=True)  # modelled space
         sd = np.maximum(sd, 1e-12)
-        tr = (lambda v: math.log10(v)) if s.log_output else (lambda v: v)
+        # a log-modelled output is > 0: a bound at or below 0 is always (>=) or never (<=) met
+        tr = (lambda v: math.log10(v) if v > 0 else -math.inf) if s.log_output else (lambda v: v)
         if t.op == ">=":
             prob *= norm.sf(tr(t.value), m, sd)
         elif t.op == "<=":

@@ -141,3 +141,23 @@ def test_a_design_meets_a_target_only_with_every_seed(tmp_path, capsys) -> None:
     eps = best["generator.porosity"]
     seed1 = 2.0 * kc_truth(eps, 7e-6)
     assert best["k_z_m2"] == pytest.approx(seed1 * (1.3 if best["seed"] == 2 else 1.0))
+
+
+@pytest.mark.parametrize(("op", "expected"), [(">=", 1.0), ("<=", 0.0)])
+def test_a_zero_bound_on_a_log_modelled_output_is_certain(op, expected) -> None:
+    """A target's physical range allows 0 for D_eff/D (``diffusivity_z<=0``); a surrogate of
+    an output spanning more than 3x models log10 of it, where 0 is -inf: the target is then
+    always (>=) or never (<=) met, not ``math domain error`` (design-loop audit, s33)."""
+    import numpy as np
+    import pandas as pd
+
+    from psdesign.analysis.optimize import _probability
+    from psdesign.analysis.surrogate import fit_surrogate
+    from psdesign.analysis.targets import Target
+
+    p = np.linspace(0.0, 1.0, 8)
+    df = pd.DataFrame({"status": ["ok"] * 8, "p": p, "diffusivity_z": 0.02 * 10 ** (1.5 * p)})
+    s = fit_surrogate(df, "diffusivity_z", ["p"], {"p": (0.0, 1.0, False)})
+    assert s.log_output
+    prob = _probability({"diffusivity_z": s}, [Target("diffusivity_z", op, 0.0)], p[:, None])
+    np.testing.assert_allclose(prob, expected)
