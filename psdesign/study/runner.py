@@ -391,9 +391,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             cluster_mod.check_submit_command(address)
         except ValueError as exc:
             raise SchedulerError(str(exc)) from None
-        cluster = cluster_mod.make_cluster(address)
-        cluster.scale(jobs=max(1, workers))
-        return Client(cluster), cluster
+        return _start_batch_cluster(address, workers, Client)
     if address == "local":
         cluster = LocalCluster(
             n_workers=max(1, workers),
@@ -451,6 +449,30 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             "nothing was run or changed"
         ) from None
     return client, None
+
+
+def _start_batch_cluster(opts, workers: int, client_cls):
+    """Submit ``workers`` batch jobs and wait for the first worker (``--cluster-wait``).
+
+    A refused submission (bad partition, account) or no worker in time: the jobs are cancelled
+    and one :class:`SchedulerError` line is raised, before the output folder is touched.
+    """
+    from psdesign.study import cluster as cluster_mod
+
+    cluster = cluster_mod.make_cluster(opts)
+    client = None
+    try:
+        cluster.scale(jobs=max(1, workers))
+        client = client_cls(cluster)
+        cluster_mod.wait_for_first_worker(client, cluster, opts)
+    except BaseException as exc:
+        if client is not None:
+            client.close(timeout=5)
+        cluster.close(timeout=5)
+        if isinstance(exc, ValueError):
+            raise SchedulerError(str(exc)) from None
+        raise
+    return client, cluster
 
 
 def _run_dask(client, payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
@@ -669,6 +691,7 @@ def run_study(
     try:
         with stop_on_interrupt():
             if scheduler:
+                _say_waiting(scheduler, workers, progress)
                 client, cluster = connect_scheduler(scheduler, workers, security=security)
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock
@@ -682,6 +705,17 @@ def run_study(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+
+
+def _say_waiting(scheduler, workers: int, progress: bool) -> None:
+    """One line while batch jobs queue: the wait can be long and the folder is not yet made."""
+    wait_s = getattr(scheduler, "wait_s", None)
+    if progress and wait_s is not None:
+        print(
+            f"[study] submitting {max(1, workers)} {scheduler.submit_command} job(s); waiting up "
+            f"to {wait_s:g} s for the first worker (--cluster-wait)",
+            file=sys.stderr,
+        )
 
 
 def _claim(target, files) -> None:
