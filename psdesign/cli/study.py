@@ -77,6 +77,12 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument("--cluster-walltime", default="01:00:00", help="HH:MM:SS per job")
     run.add_argument("--cluster-queue", default=None, help="partition / queue")
     run.add_argument("--cluster-account", default=None, help="project account")
+    run.add_argument(
+        "--cluster-wait",
+        default=None,
+        help="seconds to wait for the first worker job to connect before stopping "
+        "(default 600; a refused submission stops at once)",
+    )
     run.add_argument("--tls-ca-file", default=None, help="CA certificate for a tls:// scheduler")
     run.add_argument("--tls-cert", default=None, help="client certificate for a tls:// scheduler")
     run.add_argument("--tls-key", default=None, help="client private key for a tls:// scheduler")
@@ -138,9 +144,20 @@ def _cluster(args: argparse.Namespace):
             walltime=args.cluster_walltime,
             queue=args.cluster_queue,
             account=args.cluster_account,
+            **_cluster_wait(args.cluster_wait),
         )
     except ValueError as exc:
         raise StudyError(str(exc)) from None
+
+
+def _cluster_wait(text: str | None) -> dict:
+    """``--cluster-wait`` as ClusterOptions' ``wait_s`` (a non-number is refused there)."""
+    if text is None:
+        return {}
+    try:
+        return {"wait_s": float(text)}
+    except ValueError:
+        return {"wait_s": text}
 
 
 def cmd_study_run(args: argparse.Namespace) -> int:

@@ -13,11 +13,16 @@ Example (from a login node)::
 
 from __future__ import annotations
 
+import math
+import re
 import shutil
+import time
 from dataclasses import dataclass, field
 
 CLUSTERS = ("slurm", "pbs")
 SUBMIT_COMMANDS = {"slurm": "sbatch", "pbs": "qsub"}  # what dask-jobqueue runs per job
+DEFAULT_WAIT_S = 600.0
+"""Default ``--cluster-wait``: seconds to wait for the first worker job to connect."""
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,9 @@ class ClusterOptions:
         Partition/queue and project account.
     job_extra : tuple of str
         Extra scheduler directives (e.g. ``"--constraint=ib"``).
+    wait_s : float
+        ``--cluster-wait``: seconds to wait for the first worker to connect before the run
+        stops (a job still queued after that is cancelled).
     """
 
     kind: str
@@ -46,6 +54,7 @@ class ClusterOptions:
     queue: str | None = None
     account: str | None = None
     job_extra: tuple[str, ...] = field(default_factory=tuple)
+    wait_s: float = DEFAULT_WAIT_S
 
     def __post_init__(self) -> None:
         if self.kind not in CLUSTERS:
@@ -68,6 +77,9 @@ class ClusterOptions:
             raise ValueError(
                 f"--cluster-memory: expected a size > 0 such as 16GB or 500MB, got {self.memory!r}"
             )
+        w = self.wait_s
+        if isinstance(w, bool) or not isinstance(w, int | float) or not 0 < w < math.inf:
+            raise ValueError(f"--cluster-wait: expected seconds > 0 (finite), got {w!r}")
 
     @property
     def submit_command(self) -> str:
@@ -114,7 +126,7 @@ def make_cluster(opts: ClusterOptions):
     }
     prologue = [f"export {k}={v}" for k, v in threads.items()]
     cls = SLURMCluster if opts.kind == "slurm" else PBSCluster
-    extra = {"job_extra_directives": list(opts.job_extra)}
+    extra = {"job_extra_directives": list(opts.job_extra), "job_cls": _watched_job(cls.job_cls)}
     return cls(
         cores=opts.cores,
         processes=1,
@@ -135,3 +147,71 @@ def job_script(opts: ClusterOptions) -> str:
         return cluster.job_script()
     finally:
         cluster.close()
+
+
+def _watched_job(job_cls: type) -> type:
+    """``job_cls`` whose failed submission is recorded (``submit_error``) instead of raised.
+
+    dask-jobqueue only logs a failed ``sbatch``/``qsub`` (a traceback on stderr) and leaves
+    the job half-made, so the cluster cannot even be closed; recorded, the runner can stop
+    with the batch system's own words (:func:`wait_for_first_worker`).
+    """
+    from distributed.core import Status
+
+    class WatchedJob(job_cls):
+        submit_error: str | None = None
+
+        async def start(self) -> None:
+            try:
+                await super().start()
+            except Exception as exc:  # noqa: BLE001 - any refusal: say it, do not hang
+                self.submit_error = submit_error_text(str(exc))
+                self.status = Status.running  # a job that never ran: nothing to cancel
+
+        async def close(self) -> None:
+            if self.submit_error is None:
+                await super().close()
+            self.status = Status.closed
+
+    WatchedJob.__name__ = WatchedJob.__qualname__ = f"Watched{job_cls.__name__}"
+    return WatchedJob
+
+
+def submit_error_text(message: str, limit: int = 300) -> str:
+    """One line from dask-jobqueue's failed-command message: exit code and the stderr text."""
+    code = re.search(r"Exit code:\s*(-?\d+)", message)
+    _, sep, err = message.partition("stderr:")
+    text = " ".join((err if sep else message).split()) or "no error text"
+    text = text if len(text) <= limit else text[: limit - 3] + "..."
+    return f"exit {code.group(1)}: {text}" if code else text
+
+
+def submit_errors(cluster) -> list[str]:
+    """The recorded submission errors of ``cluster``'s jobs (see :func:`make_cluster`)."""
+    jobs = list(getattr(cluster, "workers", {}).values())
+    return [e for e in (getattr(j, "submit_error", None) for j in jobs) if e]
+
+
+def wait_for_first_worker(client, cluster, opts: ClusterOptions, poll_s: float = 0.2) -> None:
+    """Return once a worker has connected; raise ValueError (one line) if none can come.
+
+    Stops at once when every job's submission failed, else after ``opts.wait_s`` seconds.
+    """
+    deadline = time.monotonic() + opts.wait_s
+    n_jobs = max(1, len(getattr(cluster, "worker_spec", {}) or {}))
+    cmd = opts.submit_command
+    while not client.scheduler_info().get("workers"):
+        errors = submit_errors(cluster)
+        if len(errors) >= n_jobs:
+            raise ValueError(
+                f"--cluster {opts.kind}: {cmd} refused the job(s) ({errors[0]}); check "
+                "--cluster-queue/--cluster-account/--cluster-* options; nothing was run or changed"
+            )
+        if time.monotonic() >= deadline:
+            why = f"; {cmd} said: {errors[0]}" if errors else ""
+            raise ValueError(
+                f"--cluster-wait: no worker connected within {opts.wait_s:g} s of submitting "
+                f"{n_jobs} {cmd} job(s){why}; queued jobs are cancelled; allow longer with "
+                "--cluster-wait SECONDS; nothing was run or changed"
+            )
+        time.sleep(poll_s)

@@ -7,15 +7,25 @@ import hashlib
 import itertools
 import json
 import math
+import re
 import warnings
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from psdesign.study.studyfile import ParamSpec, Study, StudyError
 
-__all__ = ["Case", "apply_params", "case_hash", "expand_design", "design_points"]
+__all__ = [
+    "Case",
+    "apply_params",
+    "case_hash",
+    "content_hash",
+    "design_points",
+    "expand_design",
+    "match_finished",
+]
 
 MAX_CASES = 1_000_000
 
@@ -28,8 +38,9 @@ class Case:
     ----------
     case_id : str
         ``c<index:04d>-<8 hex>``; the hex part is a hash of the full case spec, outputs and
-        solver, so it is stable across runs and changes when anything that affects the result
-        changes.
+        solver (:func:`content_hash`), which changes when anything that affects the result
+        changes.  The index part is the position when the case first ran: on resume a case
+        keeps the id of the finished record with its hash (:func:`match_finished`).
     index : int
         Position in the design (rows of the results table are in this order).
     params : dict
@@ -215,3 +226,52 @@ def expand_design(study: Study) -> list[Case]:
     if len(set(ids)) != len(ids):  # pragma: no cover - index prefix makes ids unique
         raise StudyError("parameters: duplicate case ids")
     return cases
+
+
+_ID = re.compile(r"^c(\d+)-([0-9a-f]{8})$")
+
+
+def content_hash(case_id: str) -> str | None:
+    """The content-hash part of a case id (``c0007-3fa2b91c`` -> ``3fa2b91c``), or None."""
+    m = _ID.match(case_id)
+    return m.group(2) if m else None
+
+
+def match_finished(cases: list[Case], finished_ids: Iterable[str]) -> list[Case]:
+    """``cases`` with each one's id replaced by a finished record's id of the same content.
+
+    The index in an id is the case's position when it ran; dropping a seed or a level moves
+    later cases, so an identical case (same hash) would otherwise look new and be re-run.
+    An exact id match wins; among records of equal hash (duplicate contents) the earliest
+    position goes first.  A fresh id can never equal a record's id: that record would match.
+
+    Parameters
+    ----------
+    cases : list of Case
+        The design, from :func:`expand_design`.
+    finished_ids : iterable of str
+        Ids of the records in the output folder.
+
+    Returns
+    -------
+    list of Case
+        Same order, index, params and spec; only ``case_id`` may differ.
+    """
+    finished = set(finished_ids)
+    exact = {c.case_id for c in cases} & finished
+    spare: dict[str, list[str]] = {}
+    for rid in sorted(finished - exact, key=_position):
+        if (h := content_hash(rid)) is not None:
+            spare.setdefault(h, []).append(rid)
+    out = []
+    for c in cases:
+        pool = [] if c.case_id in exact else spare.get(content_hash(c.case_id) or "", [])
+        out.append(replace(c, case_id=pool.pop(0)) if pool else c)
+    if len({c.case_id for c in out}) != len(out):  # pragma: no cover - see above
+        raise StudyError("parameters: duplicate case ids after matching finished records")
+    return out
+
+
+def _position(case_id: str) -> tuple[int, str]:
+    m = _ID.match(case_id)
+    return (int(m.group(1)) if m else -1, case_id)

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -45,6 +48,9 @@ def test_pbs_job_script() -> None:
         ({"kind": "slurm", "memory": "banana"}, "--cluster-memory"),
         ({"kind": "slurm", "memory": "-5GB"}, "--cluster-memory"),
         ({"kind": "slurm", "memory": "0"}, "--cluster-memory"),
+        ({"kind": "slurm", "wait_s": 0}, "--cluster-wait"),
+        ({"kind": "slurm", "wait_s": float("inf")}, "--cluster-wait"),
+        ({"kind": "slurm", "wait_s": "soon"}, "--cluster-wait"),
     ],
 )
 def test_bad_cluster_options_name_the_flag(kw, key) -> None:
@@ -87,13 +93,77 @@ def test_study_runs_through_a_cluster_option(tmp_path, monkeypatch) -> None:
     assert scaled[0] == 2 and len(df) == 4 and set(df["status"]) == {"ok"}
 
 
-def _fake_sbatch_on_path(tmp_path, monkeypatch) -> None:
+def _fake_sbatch_on_path(tmp_path, monkeypatch, **scripts: str) -> Path:
+    """Fake batch commands (``sbatch`` exits 1 unless given) first on PATH; returns the folder."""
     bindir = tmp_path / "bin"
     bindir.mkdir()
-    sbatch = bindir / "sbatch"
-    sbatch.write_text("#!/bin/sh\nexit 1\n")
-    sbatch.chmod(0o755)
+    for name, body in {"sbatch": "exit 1\n", **scripts}.items():
+        (bindir / name).write_text("#!/bin/sh\n" + body)
+        (bindir / name).chmod(0o755)
     monkeypatch.setenv("PATH", f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}")
+    return bindir
+
+
+def _folder_state(out: Path) -> dict[str, bytes]:
+    return {str(f.relative_to(out)): f.read_bytes() for f in sorted(out.rglob("*")) if f.is_file()}
+
+
+def test_refused_submission_stops_with_sbatchs_words_and_keeps_the_study(
+    tmp_path, monkeypatch
+) -> None:
+    """A refused sbatch (bad partition) was only logged by dask-jobqueue and the runner waited
+    for workers forever (here: the subprocess timeout); now one line with sbatch's error text,
+    exit 2, at once (well before the 600 s default wait), and the resumable folder untouched."""
+    from study_cases import FACTORIAL, TESTS_DIR, fake_case, write_study
+
+    from psdesign.study import run_study
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    (out / "cases" / f"{df['case_id'][1]}.json").unlink()  # one case left to run
+    before = _folder_state(out)
+    _fake_sbatch_on_path(
+        tmp_path,
+        monkeypatch,
+        sbatch="echo 'sbatch: error: invalid partition specified: nosuch' >&2\nexit 1\n",
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR.parent), str(TESTS_DIR)])}
+    cmd = [sys.executable, "-m", "psdesign", "study", "run", str(p), "-o", str(out)]
+    cmd += ["--cluster", "slurm", "--cluster-queue", "nosuch", "--quiet", "--no-report"]
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
+    assert "sbatch" in proc.stderr and "invalid partition specified: nosuch" in proc.stderr
+    assert _folder_state(out) == before
+
+
+def test_no_worker_within_cluster_wait_stops_and_cancels_the_job(
+    tmp_path, monkeypatch, capsys
+) -> None:
+    """sbatch accepts the job but no worker ever connects (queue stuck): the runner waited
+    forever; now it stops after --cluster-wait seconds, cancels the job (scancel 4242), exits 2
+    with one line naming --cluster-wait, and creates no output folder."""
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+
+    bindir = _fake_sbatch_on_path(
+        tmp_path,
+        monkeypatch,
+        sbatch="echo 'Submitted batch job 4242'\n",
+        scancel=f'echo "$@" >> "{tmp_path}/scancel.txt"\n',
+    )
+    assert bindir.is_dir()
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    argv = ["study", "run", str(p), "-o", str(out), "--cluster", "slurm", "--quiet"]
+    rc = main([*argv, "--cluster-wait", "1.5"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("psdesign: error: --cluster-wait: no worker connected within 1.5 s")
+    assert (tmp_path / "scancel.txt").read_text().split() == ["4242"]
+    assert not out.exists()
 
 
 @pytest.mark.parametrize(("kind", "cmd"), [("slurm", "sbatch"), ("pbs", "qsub")])
@@ -130,6 +200,9 @@ def test_cluster_without_its_submit_command_is_refused_before_any_work(
         ("--cluster-memory", "banana"),
         ("--cluster-memory=-5GB", None),
         ("--cluster-walltime", "1:99:00"),
+        ("--cluster-wait", "0"),
+        ("--cluster-wait", "soon"),
+        ("--cluster-wait", "nan"),
     ],
 )
 def test_cli_bad_cluster_resources_exit_2_naming_the_flag(tmp_path, capsys, flag, value) -> None:

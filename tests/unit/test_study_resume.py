@@ -1,0 +1,128 @@
+"""Resume by content, and results tables rebuilt at a bounded rate (study runner)."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+from study_cases import FAC_PARAMS, FACTORIAL, fake_case, write_study
+
+from psdesign.study import is_timing_column, run_study
+from psdesign.study import runner as runner_mod
+from psdesign.study import store as store_mod
+from psdesign.study.design import content_hash, expand_design, match_finished
+from psdesign.study.progress import Progress
+from psdesign.study.studyfile import load_study
+
+
+def _calls(out, case_id: str) -> int:
+    return len((out / "cases" / case_id / "calls.txt").read_text().split())
+
+
+def _all_calls(out) -> int:
+    """Runs of the case function over every working folder (a re-run under a new id too)."""
+    return sum(len(f.read_text().split()) for f in (out / "cases").glob("*/calls.txt"))
+
+
+def _content(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows keyed by case_id without the position and the timings (they legitimately move)."""
+    keep = [c for c in df.columns if not is_timing_column(c) and c != "index"]
+    return df[keep].set_index("case_id").sort_index()
+
+
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [
+        ("seeds = [1, 2]", "seeds = [2]"),  # a seed dropped: every later case moves
+        ('"generator.porosity" = [0.7, 0.8, 0.9]', '"generator.porosity" = [0.8, 0.9]'),
+    ],
+)
+def test_dropping_a_seed_or_level_reruns_no_identical_case(tmp_path, old, new):
+    """Ids were ``c<index>-<hash>`` matched whole: dropping a seed or level moved the later,
+    identical cases to new indices and the resume re-ran them (calls.txt counted 2).  Now a
+    finished record of the same content hash is reused, the table keeps design order."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    full = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    text = p.read_text()
+    assert old in text
+    p.write_text(text.replace(old, new))
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert 0 < len(df) < len(full) and list(df["index"]) == list(range(len(df)))
+    assert _all_calls(out) == len(full)  # nothing re-run
+    assert all(_calls(out, c) == 1 for c in df["case_id"])
+    moved = df.merge(full[["case_id", "index"]], on="case_id", suffixes=("", "_before"))
+    assert len(moved) == len(df) and (moved["index"] != moved["index_before"]).any()
+    pd.testing.assert_frame_equal(_content(df), _content(full).loc[_content(df).index])
+    design = json.loads((out / "study.json").read_text())["cases"]
+    assert [c["case_id"] for c in design] == list(df["case_id"])
+    assert pd.read_csv(out / "results.csv")["case_id"].tolist() == df["case_id"].tolist()
+    # the level or seed back: only its cases run, the others keep their records
+    p.write_text(text)
+    again = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    pd.testing.assert_frame_equal(_content(again), _content(full))
+    assert _all_calls(out) == len(full)
+
+
+def test_match_finished_keeps_exact_ids_and_pairs_duplicates_in_order(tmp_path):
+    """Exact ids first; equal hashes go to the earliest finished record, one record per case."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    cases = expand_design(load_study(p))
+    h = content_hash(cases[5].case_id)
+    assert h is not None and content_hash("garbage") is None
+    records = {cases[0].case_id, f"c0009-{h}", f"c0012-{h}"}
+    got = match_finished(cases, records)
+    assert got[0].case_id == cases[0].case_id and got[5].case_id == f"c0009-{h}"
+    assert [c.index for c in got] == [c.index for c in cases]
+    assert [c.case_id for c in got[6:]] == [c.case_id for c in cases[6:]]
+
+
+def _count_table_writes(monkeypatch) -> list[int]:
+    writes: list[int] = []
+    real = store_mod.CaseStore.write_tables
+
+    def counting(self, records, param_names):
+        records = list(records)
+        writes.append(len(records))
+        return real(self, records, param_names)
+
+    monkeypatch.setattr(store_mod.CaseStore, "write_tables", counting)
+    return writes
+
+
+def test_tables_rebuilt_at_a_bounded_rate_and_complete_at_the_end(tmp_path, monkeypatch):
+    """results.csv/.parquet were rebuilt after every case (12 cases: 13 rebuilds, quadratic in
+    the number of cases); now within one interval the first case's and the final rebuild."""
+    monkeypatch.setattr(runner_mod, "TABLE_INTERVAL_S", 3600.0, raising=False)
+    writes = _count_table_writes(monkeypatch)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert writes == [1, 12]
+    assert sorted(pd.read_csv(out / "results.csv")["case_id"]) == sorted(df["case_id"])
+    assert len(pd.read_parquet(out / "results.parquet")) == 12
+
+
+def test_interrupted_run_leaves_tables_with_every_finished_case(tmp_path, monkeypatch):
+    """Ctrl-C after 5 cases: the tables hold exactly the 5 recorded cases (rebuilt at the first
+    case and on the interrupt, instead of after every case)."""
+    monkeypatch.setattr(runner_mod, "TABLE_INTERVAL_S", 3600.0, raising=False)
+    writes = _count_table_writes(monkeypatch)
+    real_update = Progress.update
+
+    def interrupt_after_5(self, *a, **kw):
+        real_update(self, *a, **kw)
+        if self.done >= 5:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Progress, "update", interrupt_after_5)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    recorded = sorted(f.stem for f in (out / "cases").glob("*.json"))
+    assert len(recorded) == 5 and writes == [1, 5]
+    assert sorted(pd.read_csv(out / "results.csv")["case_id"]) == recorded
+    assert sorted(pd.read_parquet(out / "results.parquet")["case_id"]) == recorded
+    assert not list(out.glob("*.tmp"))
