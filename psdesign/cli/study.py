@@ -80,8 +80,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument(
         "--cluster-wait",
         default=None,
-        help="seconds to wait for the first worker job to connect before stopping "
-        "(default 600; a refused submission stops at once)",
+        help="seconds to wait for the first worker job to connect, and later without any "
+        "worker, before stopping (default 600; a refused submission stops at once)",
     )
     run.add_argument("--tls-ca-file", default=None, help="CA certificate for a tls:// scheduler")
     run.add_argument("--tls-cert", default=None, help="client certificate for a tls:// scheduler")
@@ -164,7 +164,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
     from psdesign.study.interrupt import Terminated
-    from psdesign.study.runner import run_study, scheduler_security
+    from psdesign.study.runner import WorkersLost, run_study, scheduler_security
     from psdesign.study.store import StorageError
     from psdesign.study.studyfile import StudyError
 
@@ -187,7 +187,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         )
     except (StudyError, SpecError) as exc:
         return _fail(str(exc), 2)
-    except StorageError as exc:
+    except (StorageError, WorkersLost) as exc:
         return _fail(str(exc), 1)
     except Terminated:
         return _fail("terminated; finished cases are saved, rerun the command to resume", 143)

@@ -42,7 +42,7 @@ from psdesign.study.store import (
 from psdesign.study.studyfile import Study, StudyError, load_study
 from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
 
-__all__ = ["SchedulerError", "run_study"]
+__all__ = ["SchedulerError", "WorkersLost", "run_study"]
 
 CONNECT_TIMEOUT_S = 10.0
 _MAX_POOL_BREAKS = 2
@@ -50,6 +50,18 @@ _MAX_POOL_BREAKS = 2
 
 class SchedulerError(StudyError):
     """The Dask scheduler given with ``--scheduler`` does not answer."""
+
+
+class WorkersLost(RuntimeError):
+    """No Dask worker for :data:`NO_WORKER_WAIT_S` (or ``--cluster-wait``) seconds while cases
+    wait: batch jobs past their walltime, a scheduler whose workers all left. The finished
+    cases are saved; rerunning the command resumes."""
+
+
+NO_WORKER_WAIT_S = 600.0
+"""Seconds a Dask run waits with no worker at all before it stops (:class:`WorkersLost`);
+``--cluster`` runs take ``--cluster-wait``."""
+_POLL_S = 0.5
 
 
 def _now() -> str:
@@ -476,7 +488,15 @@ def _start_batch_cluster(opts, workers: int, client_cls):
     return client, cluster
 
 
-def _run_dask(client, payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
+def _run_dask(
+    client,
+    payloads: list[dict],
+    on_done: Callable[[dict, dict], None],
+    no_worker_s: float = NO_WORKER_WAIT_S,
+) -> None:
+    """Submit the cases to ``client`` and record each as it finishes; stop with
+    :class:`WorkersLost` after ``no_worker_s`` seconds without any worker (dask would keep
+    the cases queued for ever)."""
     from distributed import as_completed
 
     futs = {}
@@ -488,17 +508,41 @@ def _run_dask(client, payloads: list[dict], on_done: Callable[[dict, dict], None
             key=f"psdesign-case-{p['case_id']}-{os.getpid()}-{time.monotonic_ns()}",
         )
         futs[f] = p
+    done = as_completed(list(futs))
+    alone_since = None
     try:
-        for fut in as_completed(list(futs)):
-            p = futs[fut]
-            try:
-                rec = fut.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker
-                rec = _failed(p, f"dask: {type(exc).__name__}: {' '.join(str(exc).split())}")
-            on_done(p, rec)
+        while not done.is_empty():
+            batch = done.next_batch(block=False)
+            if not batch:
+                alone_since = _check_workers(client, alone_since, no_worker_s, done.count())
+                time.sleep(_POLL_S)
+                continue
+            for fut in batch:
+                p = futs[fut]
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker
+                    rec = _failed(p, f"dask: {type(exc).__name__}: {' '.join(str(exc).split())}")
+                on_done(p, rec)
     except BaseException:
         client.cancel(list(futs))
         raise
+
+
+def _check_workers(client, alone_since: float | None, limit_s: float, waiting: int):
+    """When the scheduler has had no worker for ``limit_s`` seconds, raise
+    :class:`WorkersLost`; returns the time the workers went (None while there are some)."""
+    if client.scheduler_info(n_workers=1).get("workers"):
+        return None
+    now = time.monotonic()
+    alone_since = now if alone_since is None else alone_since
+    if now - alone_since >= limit_s:
+        raise WorkersLost(
+            f"no Dask worker for {limit_s:g} s while {waiting} case(s) wait (batch jobs past "
+            "their walltime? workers stopped?); finished cases are saved, rerun the command "
+            "to resume"
+        )
+    return alone_since
 
 
 def _failed(payload: dict, error: str) -> dict:
@@ -812,7 +856,7 @@ def _run_locked(
     tables = TableWriter(store, records, param_names, TABLE_INTERVAL_S)
     with watcher, tables.flushed_on_error():
         if payloads and client is not None:
-            _run_dask(client, payloads, on_done)
+            _run_dask(client, payloads, on_done, getattr(scheduler, "wait_s", NO_WORKER_WAIT_S))
         elif payloads and workers == 0:
             _run_inline(payloads, on_done)
         elif payloads:

@@ -800,3 +800,49 @@ def test_real_pipeline_end_to_end(tmp_path):
     assert abs(diff) <= bar, (diff, bar)
     html = (tmp_path / "out" / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= 3  # plot + 2 previews
+
+
+def slow_case(spec, outputs, solver, workdir):
+    """:func:`fake_case` after a second: a case still running when its worker leaves."""
+    import time as _time
+
+    _time.sleep(1.0)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkeypatch):
+    """Batch jobs past their walltime leave the scheduler without workers; dask keeps the
+    cases queued, and the run waited for ever (runner audit, s32). Now it stops after
+    ``NO_WORKER_WAIT_S`` with :class:`WorkersLost`, the finished cases in the records and
+    the tables, and a rerun on a live scheduler runs only the rest."""
+    import threading
+
+    from distributed import LocalCluster
+
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "NO_WORKER_WAIT_S", 1.0)
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:  # fmt: skip
+
+        def leave_after_first_case():
+            while not list((out / "cases").glob("*.json")):
+                time.sleep(0.05)
+            cluster.scale(0)
+
+        threading.Thread(target=leave_after_first_case, daemon=True).start()
+        with pytest.raises(runner.WorkersLost, match="no Dask worker for 1 s"):
+            runner.run_study(
+                p, out, scheduler=cluster.scheduler_address, case_fn=slow_case,
+                progress=False, report=False,
+            )  # fmt: skip
+    done = {f.stem for f in (out / "cases").glob("*.json")}
+    table = pd.read_csv(out / "results.csv")
+    assert 1 <= len(done) < len(expand_design(load_study(p)))
+    assert set(table["case_id"]) == done
+    rest = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(rest) == len(expand_design(load_study(p)))
