@@ -24,8 +24,8 @@ from psdesign.flow.permeability import (
 from psdesign.geometry.rve import RVE, VoxelFields
 
 #: Warn when ``bc_sensitivity`` exceeds this plus the two results' error bars: beyond the
-#: discretization, a face effect of 5 % is a systematic error of the size of the seed scatter
-#: of K in a small RVE (11 % in a 40 um Toray-like cube, docs/validation.md), so the RVE size,
+#: discretization, a face effect of 5 % is a systematic error comparable to the seed scatter
+#: of K in a small RVE (17-19 % in a 40 um Toray-like cube, docs/validation.md), so the RVE size,
 #: not the material, starts to set K (docs/permeability.md).
 BC_SENSITIVITY_WARN = 0.05
 

@@ -49,6 +49,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 * `generator.n_fibers` <= `generator.max_fibers`, and (fast/ga) the fibers' volume below the
   densest packing; the fiber count a porosity needs <= `max_fibers`.
 * GA work `population x generations x fibers` <= 5e9.
+* `[forcefield.relax]`: only in an RVE spec given to `psdesign forcefield` (then the only
+  `[forcefield]` key); its keys and ranges are checked by
+  `psdesign/forcefield/relax.py` (`check_relax_table`) and listed in docs/forcefield.md.
 * `[image]` (docs/images.md): no `[[fibers]]`, `[generator]`, `[intersections]` or
   `[forcefield]`; `[rve]` optional, and if given its `size` and `voxel` equal the image's; the
   file, its size (raw), the crop and the voxel size checked, then (within the memory budget)

@@ -62,6 +62,23 @@ def _psdesign_names(code: str) -> set[str]:
     return set(re.findall(r"\bpsdesign\.(\w+)\(", code))
 
 
+def test_package_docstring_example_names_exist() -> None:
+    # the public-API example in psdesign/__init__.py's docstring is a literal block, not a
+    # doctest (it would build, solve and run a study): its names and files must still exist
+    import psdesign
+    from psdesign.api import Material
+
+    doc = psdesign.__doc__
+    used = _psdesign_names(doc)
+    assert {"load_spec", "build", "from_image", "run_study"} <= used
+    assert not [n for n in used if not hasattr(psdesign, n)]
+    methods = set(re.findall(r"\bm\.(\w+)\b", doc))
+    assert "permeability" in methods
+    assert not [n for n in methods if not hasattr(Material, n)]
+    for path in re.findall(r'"(studies/[\w/.]+\.toml)"', doc):
+        assert (REPO_ROOT / path).is_file(), path
+
+
 def test_docstring_examples_run() -> None:
     # task api21: the docstring examples (>>> lines) of psdesign and solvers run and print what
     # they say they return (a guard: the default suite does not run --doctest-modules)
