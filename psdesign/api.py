@@ -394,11 +394,14 @@ def _unguarded_call_in_main_script(name: str) -> bool:
     return False
 
 
-def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
+def run_study(study: str | Path | dict, out_dir: str | Path, workers: int = 1, **kwargs: Any):
     """Run (or resume) a study; see :func:`psdesign.study.runner.run_study` for the arguments.
 
-    With ``workers >= 1`` (worker processes), a call from a script must sit under
-    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
+    ``study`` is a study file or its tables as a dict (as :func:`build` takes a spec). With
+    ``workers >= 1`` (worker processes), a call from a script must sit under
+    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error. A
+    refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
+    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``.
     """
     from psdesign.study import StudyError
     from psdesign.study import run_study as _run
@@ -411,4 +414,5 @@ def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
             "workers=0"
         )
+    kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
     return _run(study, out_dir, workers=workers, **kwargs)

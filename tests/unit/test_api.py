@@ -345,3 +345,74 @@ def test_transport_html_carries_converged_and_error_bars_on_an_image(tmp_path) -
     cr = m.conductivity("y", solid=10.0, fluid=1.0)
     assert cr.effective_conductivity == pytest.approx(1 / (0.8 / 1 + 0.2 / 10), rel=1e-6)
     assert f'>converged</th><td style="text-align:left">{cr.converged}<' in cr._repr_html_()
+
+
+def _tiny_study() -> dict:
+    """Two straight-fiber cases on a 10^3 grid, porosity only (about a second in-process)."""
+    return {
+        "base": {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "generator": {"kind": "straight", "n_fibers": 2, "diameter": 6e-6, "seed": 1},
+            "flow": {"solver": "voxel"},
+        },
+        "study": {"name": "tiny", "seeds": [1], "outputs": ["porosity"], "solver": "voxel"},
+        "parameters": {"generator.diameter": [5e-6, 6e-6]},
+    }
+
+
+def test_run_study_takes_a_study_dict_as_build_takes_a_spec_dict(tmp_path) -> None:
+    # build() takes a spec dict or file; run_study / load_study took only a file: a dict gave
+    # pathlib's "TypeError: expected str, bytes or os.PathLike object, not dict" (audit s33).
+    # Independent truth: each case's porosity is what build() gives for that case's spec.
+    import copy
+
+    from toml_writer import dumps
+
+    study = _tiny_study()
+    given = copy.deepcopy(study)
+    quiet = {"workers": 0, "report": False, "progress": False}
+    df = psdesign.run_study(study, tmp_path / "d", **quiet)
+    assert study == given  # the caller's dict is not changed
+    (tmp_path / "s.toml").write_text(dumps(study))
+    from_file = psdesign.run_study(tmp_path / "s.toml", tmp_path / "f", **quiet)
+    assert list(df["case_id"]) == list(from_file["case_id"])
+    for diameter, porosity in zip(df["generator.diameter"], df["porosity"], strict=True):
+        spec = copy.deepcopy(study["base"])
+        spec["generator"]["diameter"] = float(diameter)
+        assert porosity == pytest.approx(psdesign.build(spec).porosity, abs=1e-12)
+    assert psdesign.load_study(study).parameters.keys() == {"generator.diameter"}
+    for bad in (None, 3, [study]):
+        with pytest.raises(psdesign.StudyError, match=r"^study: must be a study file name"):
+            psdesign.run_study(bad, tmp_path / "x", **quiet)
+    assert not (tmp_path / "x").exists()
+
+
+def test_output_folder_refusals_name_the_api_keywords(tmp_path) -> None:
+    # run_study(out_dir=...) refused a user's folder with "-o: ... or --force to add ...", and
+    # fields="/" with "even with --force": options the Python API does not have (its keywords
+    # are out_dir and force=True). A folder name of the wrong type was pathlib's TypeError.
+    from toml_writer import dumps
+
+    import psdesign.flow.permeability as perm
+
+    study = tmp_path / "s.toml"
+    study.write_text(dumps(_tiny_study()))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    quiet = {"workers": 0, "report": False, "progress": False}
+    with pytest.raises(psdesign.OutputError) as info:
+        psdesign.run_study(study, mine, **quiet)
+    assert info.value.key == "out_dir" and "--" not in info.value.message
+    assert info.value.message.endswith("or force=True to add psdesign's files beside them")
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    with pytest.raises(psdesign.OutputError, match=r"^out_dir: must be a folder name \(str or"):
+        psdesign.run_study(study, 3, **quiet)
+    m = psdesign.build(_one_cylinder())
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+        with pytest.raises(psdesign.OutputError) as info:
+            m.permeability("z", fields="/")
+        assert info.value.key == "fields" and "force" not in info.value.message
+        with pytest.raises(psdesign.OutputError, match=r"^fields: must be a folder name"):
+            m.permeability("z", fields=3)
