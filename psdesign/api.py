@@ -16,6 +16,7 @@ from __future__ import annotations
 import ast
 import sys
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -124,10 +125,14 @@ class PermeabilityResult:
 
 def _direction(direction: Any) -> str:
     """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
+    import numpy as np
+
     from psdesign.errors import SpecError
     from psdesign.flow.darcy import axis_of
 
     try:
+        if isinstance(direction, bool | np.bool_):  # True == 1 would pass as axis 'y'
+            raise TypeError(direction)
         return axis_of(direction)[0]
     except (ValueError, TypeError):
         raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
@@ -357,14 +362,22 @@ def from_image(
     Material
         Validated like a spec with an ``[image]`` table (``SpecError`` naming the key).
     """
+    from psdesign.errors import SpecError
+
+    if not isinstance(path, str | PathLike):  # str() of an array made a page-long message
+        raise SpecError(
+            "image.path",
+            f"from_image takes a file name (str or Path), got {type(path).__name__}; "
+            "save an array with numpy.save and give that .npy file",
+        )
     table: dict[str, Any] = {"path": str(path), **image}
     if voxel_size is not None:
         table["voxel_size"] = voxel_size
     if solid_label is not None:
         table["solid_label"] = solid_label
     spec: dict[str, Any] = {"image": table}
-    if flow:
-        spec["flow"] = dict(flow)
+    if flow is not None:  # not a dict: the spec's one-line "flow: must be a table"
+        spec["flow"] = dict(flow) if isinstance(flow, dict) else flow
     return build(spec)
 
 

@@ -416,3 +416,38 @@ def test_output_folder_refusals_name_the_api_keywords(tmp_path) -> None:
         assert info.value.key == "fields" and "force" not in info.value.message
         with pytest.raises(psdesign.OutputError, match=r"^fields: must be a folder name"):
             m.permeability("z", fields=3)
+
+
+def test_axis_index_zero_is_x_and_a_bool_is_no_axis(monkeypatch) -> None:
+    # m.permeability(0) solved along z and labelled the result 'z' (`given or default` took
+    # the axis index 0 for "not given"); True passed as axis 1 ('y') (audit s33)
+    import psdesign.flow.permeability as perm
+
+    seen = []
+
+    def fake(rve, fields, direction, table, route, capture=None):
+        seen.append(direction)
+        return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
+
+    monkeypatch.setattr(perm, "permeability", fake)
+    m = psdesign.build(_one_cylinder())
+    assert [m.permeability(d).direction for d in (0, np.int64(0), 1, "x")] == ["x", "x", "y", "x"]
+    assert seen == ["x", "x", "y", "x"]
+    for bad in (True, np.bool_(False)):
+        with pytest.raises(psdesign.SpecError, match=r"^direction: must be 'x', 'y' or 'z'"):
+            m.permeability(bad)
+        with pytest.raises(psdesign.SpecError, match=r"^direction: must be 'x', 'y' or 'z'"):
+            m.diffusivity(bad)
+    assert len(seen) == 4
+
+
+def test_from_image_wrong_types_are_one_spec_error(tmp_path) -> None:
+    # an array for the path gave "image.format: cannot tell the format of '[[[0. 0. ..." (the
+    # whole array printed), flow="voxel" a bare ValueError from dict() (audit s33)
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.from_image(np.zeros((8, 8, 8), np.uint8), voxel_size=1e-6)
+    assert info.value.key == "image.path" and "got ndarray" in info.value.message
+    assert len(str(info.value)) < 200
+    np.save(tmp_path / "a.npy", np.zeros((8, 8, 8), np.uint8))
+    with pytest.raises(psdesign.SpecError, match=r"^flow: must be a table, got 'voxel'"):
+        psdesign.from_image(tmp_path / "a.npy", voxel_size=1e-6, flow="voxel")
