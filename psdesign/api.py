@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import ast
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -154,6 +156,22 @@ def _flow_table(spec_flow: dict, given: dict) -> dict:
     return {**spec_flow, **{key: getattr(checked, key) for key in given}}
 
 
+@contextmanager
+def _progress(
+    on: bool, direction: str, solve: str = "voxel solve", method: str = "MINRES"
+) -> Iterator[Callable[[int, float], None] | None]:
+    """The iteration callback of a solve when ``on`` (the CLI's progress lines on stderr:
+    stages, estimates, iterations with their residual; plain lines in a notebook), else None.
+    The printer is active only for the block, so nothing stays switched on after the call."""
+    if not on:
+        yield None
+        return
+    from psdesign.cli.progress import activate, progress_printer
+
+    with activate():
+        yield progress_printer(direction, solve=solve, method=method)
+
+
 class Material:
     """An RVE built from a spec: geometry, voxel fields on demand, properties on request.
 
@@ -204,6 +222,7 @@ class Material:
         solver: str | None = None,
         bc: str | None = None,
         fields: str | Path | None = None,
+        progress: bool = False,
         **flow: Any,
     ) -> PermeabilityResult:
         """Permeability along ``direction`` ('x', 'y' or 'z'; default the spec's
@@ -212,7 +231,8 @@ class Material:
         ``solver`` ('fem' | 'voxel'), ``bc`` ('permeameter' | 'periodic') and any other
         ``[flow]`` key given as a keyword override the spec's ``[flow]`` table. ``fields``: a
         folder for the velocity and pressure fields (``flow_<d>.vti`` or ``.vtu``, a PNG slice
-        and ``fields.json``; see :mod:`psdesign.fields`).
+        and ``fields.json``; see :mod:`psdesign.fields`). ``progress=True``: progress lines on
+        stderr (meshing stages, solver iterations and residual), as the command prints them.
         """
         from psdesign.fields import fields_folder
         from psdesign.flow.darcy import flow_direction
@@ -226,22 +246,39 @@ class Material:
             given["bc"] = bc
         table = _flow_table(self.spec["flow"], given)
         route = table["solver"]
-        with fields_folder(fields, "permeability", [direction], route, option="fields") as writer:
-            result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
+        folder = fields_folder(fields, "permeability", [direction], route, option="fields")
+        method = "GMRES" if route == "fem" else "MINRES"
+        with folder as writer, _progress(progress, direction, f"{route} solve", method) as report:
+            result = permeability(
+                self.rve, self.fields, direction, table, route, progress=report, capture=writer
+            )
         return PermeabilityResult.from_dict(result)
 
-    def diffusivity(self, direction: str = "z", fields: str | Path | None = None, **transport: Any):
+    def diffusivity(
+        self,
+        direction: str = "z",
+        fields: str | Path | None = None,
+        progress: bool = False,
+        **transport: Any,
+    ):
         """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along ``direction``
         (a :class:`~psdesign.transport.diffusivity.DiffusivityResult`); keywords override the
-        spec's ``[transport]`` table; ``fields``: a folder for the concentration field."""
+        spec's ``[transport]`` table; ``fields``: a folder for the concentration field;
+        ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.transport.diffusivity import relative_diffusivity
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "diffusivity", [direction], option="fields") as writer:
+        folder = fields_folder(fields, "diffusivity", [direction], option="fields")
+        with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return relative_diffusivity(
-                self.fields, direction, table, capture=writer, cells_per_diameter=self._cpd()
+                self.fields,
+                direction,
+                table,
+                progress=report,
+                capture=writer,
+                cells_per_diameter=self._cpd(),
             )
 
     def conductivity(
@@ -250,23 +287,26 @@ class Material:
         solid: float | None = None,
         fluid: float | None = None,
         fields: str | Path | None = None,
+        progress: bool = False,
         **transport: Any,
     ):
         """Effective conductivity along ``direction`` with phase conductivities ``solid`` and
         ``fluid`` (a :class:`~psdesign.transport.conductivity.ConductivityResult`); ``fields``:
-        a folder for the potential field."""
+        a folder for the potential field; ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.transport.conductivity import effective_conductivity
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "conductivity", [direction], option="fields") as writer:
+        folder = fields_folder(fields, "conductivity", [direction], option="fields")
+        with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return effective_conductivity(
                 self.fields,
                 direction,
                 solid,
                 fluid,
                 table,
+                progress=report,
                 capture=writer,
                 cells_per_diameter=self._cpd(),
             )

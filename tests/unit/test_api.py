@@ -224,7 +224,7 @@ def test_method_keywords_reach_the_solver_validated(monkeypatch) -> None:
 
     seen = {}
 
-    def fake(rve, fields, direction, table, route, capture=None):
+    def fake(rve, fields, direction, table, route, progress=None, capture=None):
         seen.update(table=table, route=route, direction=direction)
         return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
 
@@ -425,7 +425,7 @@ def test_axis_index_zero_is_x_and_a_bool_is_no_axis(monkeypatch) -> None:
 
     seen = []
 
-    def fake(rve, fields, direction, table, route, capture=None):
+    def fake(rve, fields, direction, table, route, progress=None, capture=None):
         seen.append(direction)
         return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
 
@@ -451,3 +451,35 @@ def test_from_image_wrong_types_are_one_spec_error(tmp_path) -> None:
     np.save(tmp_path / "a.npy", np.zeros((8, 8, 8), np.uint8))
     with pytest.raises(psdesign.SpecError, match=r"^flow: must be a table, got 'voxel'"):
         psdesign.from_image(tmp_path / "a.npy", voxel_size=1e-6, flow="voxel")
+
+
+def test_progress_keyword_reports_on_stderr_and_leaves_nothing_on(monkeypatch, capsys) -> None:
+    # the CLI prints stages and solver iterations; the API had no way to ask for them (a
+    # minutes-long FEM solve in a notebook was silent). progress=True activates the same
+    # printer for the call only; the default stays silent (audit s33).
+    import psdesign.cli.progress as prog
+    import psdesign.flow.permeability as perm
+    import psdesign.transport.diffusivity as diff
+
+    seen = []
+
+    def fake_perm(rve, fields, direction, table, route, progress=None, capture=None):
+        seen.append((callable(progress), prog.active() is not None))
+        prog.stage("solving")  # as the library's stages do
+        return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
+
+    def fake_diff(fields, direction, table, progress=None, **kwargs):
+        seen.append((callable(progress), prog.active() is not None))
+        raise KeyboardInterrupt  # the printer is switched off on the way out, too
+
+    monkeypatch.setattr(perm, "permeability", fake_perm)
+    monkeypatch.setattr(diff, "relative_diffusivity", fake_diff)
+    m = psdesign.build(_one_cylinder())
+    m.permeability("z")
+    assert seen.pop() == (False, False) and capsys.readouterr().err == ""
+    m.permeability("z", progress=True)
+    assert seen.pop() == (True, True) and prog.active() is None
+    assert "psdesign: solving (" in capsys.readouterr().err
+    with pytest.raises(KeyboardInterrupt):
+        m.diffusivity("z", progress=True)
+    assert seen.pop() == (True, True) and prog.active() is None
