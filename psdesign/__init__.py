@@ -32,6 +32,8 @@ _LAZY = {
     "PermeabilityResult": "psdesign.api",
     "validate_spec": "psdesign.schema.spec",
     "SpecError": "psdesign.errors",
+    "StudyError": "psdesign.study",
+    "OutputError": "psdesign.io.outputs",
     "RVE": "psdesign.geometry.rve",
     "GeneralizedPS": "psdesign.geometry.model",
     "make_fiber": "psdesign.geometry.fibers",

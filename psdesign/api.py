@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import ast
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -124,10 +127,14 @@ class PermeabilityResult:
 
 def _direction(direction: Any) -> str:
     """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
+    import numpy as np
+
     from psdesign.errors import SpecError
     from psdesign.flow.darcy import axis_of
 
     try:
+        if isinstance(direction, bool | np.bool_):  # True == 1 would pass as axis 'y'
+            raise TypeError(direction)
         return axis_of(direction)[0]
     except (ValueError, TypeError):
         raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
@@ -147,6 +154,22 @@ def _flow_table(spec_flow: dict, given: dict) -> dict:
     except ValidationError as exc:
         raise spec_error(exc, FlowTable, prefix="flow") from None
     return {**spec_flow, **{key: getattr(checked, key) for key in given}}
+
+
+@contextmanager
+def _progress(
+    on: bool, direction: str, solve: str = "voxel solve", method: str = "MINRES"
+) -> Iterator[Callable[[int, float], None] | None]:
+    """The iteration callback of a solve when ``on`` (the CLI's progress lines on stderr:
+    stages, estimates, iterations with their residual; plain lines in a notebook), else None.
+    The printer is active only for the block, so nothing stays switched on after the call."""
+    if not on:
+        yield None
+        return
+    from psdesign.cli.progress import activate, progress_printer
+
+    with activate():
+        yield progress_printer(direction, solve=solve, method=method)
 
 
 class Material:
@@ -199,6 +222,7 @@ class Material:
         solver: str | None = None,
         bc: str | None = None,
         fields: str | Path | None = None,
+        progress: bool = False,
         **flow: Any,
     ) -> PermeabilityResult:
         """Permeability along ``direction`` ('x', 'y' or 'z'; default the spec's
@@ -207,7 +231,8 @@ class Material:
         ``solver`` ('fem' | 'voxel'), ``bc`` ('permeameter' | 'periodic') and any other
         ``[flow]`` key given as a keyword override the spec's ``[flow]`` table. ``fields``: a
         folder for the velocity and pressure fields (``flow_<d>.vti`` or ``.vtu``, a PNG slice
-        and ``fields.json``; see :mod:`psdesign.fields`).
+        and ``fields.json``; see :mod:`psdesign.fields`). ``progress=True``: progress lines on
+        stderr (meshing stages, solver iterations and residual), as the command prints them.
         """
         from psdesign.fields import fields_folder
         from psdesign.flow.darcy import flow_direction
@@ -221,22 +246,39 @@ class Material:
             given["bc"] = bc
         table = _flow_table(self.spec["flow"], given)
         route = table["solver"]
-        with fields_folder(fields, "permeability", [direction], route, option="fields") as writer:
-            result = permeability(self.rve, self.fields, direction, table, route, capture=writer)
+        folder = fields_folder(fields, "permeability", [direction], route, option="fields")
+        method = "GMRES" if route == "fem" else "MINRES"
+        with folder as writer, _progress(progress, direction, f"{route} solve", method) as report:
+            result = permeability(
+                self.rve, self.fields, direction, table, route, progress=report, capture=writer
+            )
         return PermeabilityResult.from_dict(result)
 
-    def diffusivity(self, direction: str = "z", fields: str | Path | None = None, **transport: Any):
+    def diffusivity(
+        self,
+        direction: str = "z",
+        fields: str | Path | None = None,
+        progress: bool = False,
+        **transport: Any,
+    ):
         """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along ``direction``
         (a :class:`~psdesign.transport.diffusivity.DiffusivityResult`); keywords override the
-        spec's ``[transport]`` table; ``fields``: a folder for the concentration field."""
+        spec's ``[transport]`` table; ``fields``: a folder for the concentration field;
+        ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.transport.diffusivity import relative_diffusivity
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "diffusivity", [direction], option="fields") as writer:
+        folder = fields_folder(fields, "diffusivity", [direction], option="fields")
+        with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return relative_diffusivity(
-                self.fields, direction, table, capture=writer, cells_per_diameter=self._cpd()
+                self.fields,
+                direction,
+                table,
+                progress=report,
+                capture=writer,
+                cells_per_diameter=self._cpd(),
             )
 
     def conductivity(
@@ -245,23 +287,26 @@ class Material:
         solid: float | None = None,
         fluid: float | None = None,
         fields: str | Path | None = None,
+        progress: bool = False,
         **transport: Any,
     ):
         """Effective conductivity along ``direction`` with phase conductivities ``solid`` and
         ``fluid`` (a :class:`~psdesign.transport.conductivity.ConductivityResult`); ``fields``:
-        a folder for the potential field."""
+        a folder for the potential field; ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.transport.conductivity import effective_conductivity
 
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
-        with fields_folder(fields, "conductivity", [direction], option="fields") as writer:
+        folder = fields_folder(fields, "conductivity", [direction], option="fields")
+        with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return effective_conductivity(
                 self.fields,
                 direction,
                 solid,
                 fluid,
                 table,
+                progress=report,
                 capture=writer,
                 cells_per_diameter=self._cpd(),
             )
@@ -357,14 +402,22 @@ def from_image(
     Material
         Validated like a spec with an ``[image]`` table (``SpecError`` naming the key).
     """
+    from psdesign.errors import SpecError
+
+    if not isinstance(path, str | PathLike):  # str() of an array made a page-long message
+        raise SpecError(
+            "image.path",
+            f"from_image takes a file name (str or Path), got {type(path).__name__}; "
+            "save an array with numpy.save and give that .npy file",
+        )
     table: dict[str, Any] = {"path": str(path), **image}
     if voxel_size is not None:
         table["voxel_size"] = voxel_size
     if solid_label is not None:
         table["solid_label"] = solid_label
     spec: dict[str, Any] = {"image": table}
-    if flow:
-        spec["flow"] = dict(flow)
+    if flow is not None:  # not a dict: the spec's one-line "flow: must be a table"
+        spec["flow"] = dict(flow) if isinstance(flow, dict) else flow
     return build(spec)
 
 
@@ -394,11 +447,14 @@ def _unguarded_call_in_main_script(name: str) -> bool:
     return False
 
 
-def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
+def run_study(study: str | Path | dict, out_dir: str | Path, workers: int = 1, **kwargs: Any):
     """Run (or resume) a study; see :func:`psdesign.study.runner.run_study` for the arguments.
 
-    With ``workers >= 1`` (worker processes), a call from a script must sit under
-    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
+    ``study`` is a study file or its tables as a dict (as :func:`build` takes a spec). With
+    ``workers >= 1`` (worker processes), a call from a script must sit under
+    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error. A
+    refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
+    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``.
     """
     from psdesign.study import StudyError
     from psdesign.study import run_study as _run
@@ -411,4 +467,5 @@ def run_study(study, out_dir, workers: int = 1, **kwargs: Any):
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
             "workers=0"
         )
+    kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
     return _run(study, out_dir, workers=workers, **kwargs)

@@ -34,7 +34,7 @@ def axis_of(direction: str | int) -> tuple[str, int]:
     raise ValueError(f"direction must be 'x', 'y' or 'z', got {direction!r}")
 
 
-def flow_direction(given: str | None, flow: dict) -> str:
+def flow_direction(given: str | int | None, flow: dict) -> str | int:
     """The flow direction of a solve: ``given`` (a command's ``--direction``, a method's
     keyword) or else the spec's ``flow.direction``, else ``"z"``.
 
@@ -43,7 +43,9 @@ def flow_direction(given: str | None, flow: dict) -> str:
     >>> flow_direction(None, {})
     'z'
     """
-    return given or flow.get("direction") or "z"
+    if given is not None:  # not `given or ...`: the axis index 0 ('x') is falsy
+        return given
+    return flow.get("direction") or "z"
 
 
 def darcy_permeability(

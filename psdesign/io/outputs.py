@@ -197,6 +197,8 @@ def check_output_dir(
     OutputError
         One line naming the option, the folder and the rule.
     """
+    if not isinstance(path, str | os.PathLike):  # pathlib's TypeError named no option
+        raise OutputError(option, f"must be a folder name (str or Path), got {type(path).__name__}")
     if not str(path).strip():
         raise OutputError(option, "empty folder name; give a new folder name")
     raw = Path(path).expanduser()
@@ -211,7 +213,10 @@ def check_output_dir(
     if why is not None:
         raise OutputError(
             option,
-            f"refusing to write into {why} ({resolved}), even with --force; give a new folder name",
+            f"refusing to write into {why} ({resolved})"
+            # only a command that has the force option can be told it would not help
+            + (f", even with {force_option}" if force_option else "")
+            + "; give a new folder name",
         )
     for anc in [resolved, *resolved.parents]:
         if anc.exists():
@@ -237,11 +242,7 @@ def check_output_dir(
             option,
             f"{resolved} is a non-empty folder psdesign did not create ({shown}); "
             "give a new or empty folder"
-            + (
-                f", or {force_option} to add psdesign's files beside them"
-                if force_option and option[:1] == "-"
-                else ""
-            ),
+            + (f", or {force_option} to add psdesign's files beside them" if force_option else ""),
         )
     if marker and marker.get("command"):  # the marker names the command that made the folder
         command = str(marker["command"])

@@ -611,14 +611,17 @@ def check_study_dir(
     force_option: str | None = "--force",
     files: Iterable[str] = STUDY_FILES,
     command: str = "study run",
+    option: str = "-o",
 ) -> OutputDir:
     """:func:`psdesign.io.outputs.check_output_dir` for a study's output folder (``-o``);
     ``force_option`` None for a command without ``--force`` (``rev``); ``files`` what the
     command will write there (``rev``: also ``rev.csv``, ``rev.json``), each refused now if it
-    exists and psdesign did not write it; ``command`` the command the folder's marker names."""
+    exists and psdesign did not write it; ``command`` the command the folder's marker names;
+    ``option`` the name messages give the folder (``out_dir`` in the Python API)."""
     return check_output_dir(
         out_dir,
         force=force,
+        option=option,
         command=command,
         expected=tuple(files),
         legacy=STUDY_LEGACY,
@@ -641,6 +644,7 @@ def run_study(
     retry_not_converged: bool = False,
     security=None,
     command: str = "study run",
+    out_option: tuple[str, str | None] = ("-o", "--force"),
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
 
@@ -648,8 +652,8 @@ def run_study(
 
     Parameters
     ----------
-    study : str, Path or Study
-        A study file or a loaded :class:`Study`.
+    study : str, Path, dict or Study
+        A study file, its tables as a dict, or a loaded :class:`Study`.
     out_dir : str or Path
         Output folder (created; an existing one is resumed).
     workers : int
@@ -679,6 +683,9 @@ def run_study(
         TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
+    out_option : (str, str or None)
+        How messages name ``out_dir`` and ``force``: the CLI's ``("-o", "--force")``, the
+        Python API's ``("out_dir", "force=True")``.
 
     Returns
     -------
@@ -716,7 +723,10 @@ def run_study(
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
         validate_case_specs(cases)
-    target = check_study_dir(out_dir, force=force, command=command)
+    option, force_option = out_option
+    target = check_study_dir(
+        out_dir, force=force, force_option=force_option, command=command, option=option
+    )
     out = target.path
     store = CaseStore(out)
     param_names = list(study.parameters)

@@ -12,6 +12,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -597,13 +598,14 @@ def _check_overridden_base_values(study: Study, first: dict, check: Callable) ->
             raise _err(f"base.{bad[0]}", bad[1].partition(": ")[2])
 
 
-def load_study(path: str | Path) -> Study:
-    """Read and validate a study TOML file.
+def load_study(path: str | Path | dict) -> Study:
+    """Read and validate a study TOML file (or a study given as a dict).
 
     Parameters
     ----------
-    path : str or Path
-        The study file.
+    path : str, Path or dict
+        The study file, or its tables as a dict (what :func:`tomllib.load` returns; relative
+        ``base`` / ``csv`` paths then resolve against the current folder).
 
     Returns
     -------
@@ -612,9 +614,15 @@ def load_study(path: str | Path) -> Study:
     Raises
     ------
     StudyError
-        File missing, too large, not UTF-8, TOML syntax error, or any invalid key (one line
-        naming it).
+        File missing, too large, not UTF-8, TOML syntax error, not a file name or dict, or any
+        invalid key (one line naming it).
     """
+    if isinstance(path, dict):  # a notebook builds the study in Python, as a spec for build()
+        return parse_study(path)
+    if not isinstance(path, str | PathLike):  # pathlib's TypeError named no key
+        raise _err(
+            "study", f"must be a study file name (str or Path) or a dict, got {type(path).__name__}"
+        )
     p = Path(path)
     try:
         data = read_toml(p, key="study", error=SpecError)

@@ -224,7 +224,7 @@ def test_method_keywords_reach_the_solver_validated(monkeypatch) -> None:
 
     seen = {}
 
-    def fake(rve, fields, direction, table, route, capture=None):
+    def fake(rve, fields, direction, table, route, progress=None, capture=None):
         seen.update(table=table, route=route, direction=direction)
         return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
 
@@ -345,3 +345,141 @@ def test_transport_html_carries_converged_and_error_bars_on_an_image(tmp_path) -
     cr = m.conductivity("y", solid=10.0, fluid=1.0)
     assert cr.effective_conductivity == pytest.approx(1 / (0.8 / 1 + 0.2 / 10), rel=1e-6)
     assert f'>converged</th><td style="text-align:left">{cr.converged}<' in cr._repr_html_()
+
+
+def _tiny_study() -> dict:
+    """Two straight-fiber cases on a 10^3 grid, porosity only (about a second in-process)."""
+    return {
+        "base": {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "generator": {"kind": "straight", "n_fibers": 2, "diameter": 6e-6, "seed": 1},
+            "flow": {"solver": "voxel"},
+        },
+        "study": {"name": "tiny", "seeds": [1], "outputs": ["porosity"], "solver": "voxel"},
+        "parameters": {"generator.diameter": [5e-6, 6e-6]},
+    }
+
+
+def test_run_study_takes_a_study_dict_as_build_takes_a_spec_dict(tmp_path) -> None:
+    # build() takes a spec dict or file; run_study / load_study took only a file: a dict gave
+    # pathlib's "TypeError: expected str, bytes or os.PathLike object, not dict" (audit s33).
+    # Independent truth: each case's porosity is what build() gives for that case's spec.
+    import copy
+
+    from toml_writer import dumps
+
+    study = _tiny_study()
+    given = copy.deepcopy(study)
+    quiet = {"workers": 0, "report": False, "progress": False}
+    df = psdesign.run_study(study, tmp_path / "d", **quiet)
+    assert study == given  # the caller's dict is not changed
+    (tmp_path / "s.toml").write_text(dumps(study))
+    from_file = psdesign.run_study(tmp_path / "s.toml", tmp_path / "f", **quiet)
+    assert list(df["case_id"]) == list(from_file["case_id"])
+    for diameter, porosity in zip(df["generator.diameter"], df["porosity"], strict=True):
+        spec = copy.deepcopy(study["base"])
+        spec["generator"]["diameter"] = float(diameter)
+        assert porosity == pytest.approx(psdesign.build(spec).porosity, abs=1e-12)
+    assert psdesign.load_study(study).parameters.keys() == {"generator.diameter"}
+    for bad in (None, 3, [study]):
+        with pytest.raises(psdesign.StudyError, match=r"^study: must be a study file name"):
+            psdesign.run_study(bad, tmp_path / "x", **quiet)
+    assert not (tmp_path / "x").exists()
+
+
+def test_output_folder_refusals_name_the_api_keywords(tmp_path) -> None:
+    # run_study(out_dir=...) refused a user's folder with "-o: ... or --force to add ...", and
+    # fields="/" with "even with --force": options the Python API does not have (its keywords
+    # are out_dir and force=True). A folder name of the wrong type was pathlib's TypeError.
+    from toml_writer import dumps
+
+    import psdesign.flow.permeability as perm
+
+    study = tmp_path / "s.toml"
+    study.write_text(dumps(_tiny_study()))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    quiet = {"workers": 0, "report": False, "progress": False}
+    with pytest.raises(psdesign.OutputError) as info:
+        psdesign.run_study(study, mine, **quiet)
+    assert info.value.key == "out_dir" and "--" not in info.value.message
+    assert info.value.message.endswith("or force=True to add psdesign's files beside them")
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    with pytest.raises(psdesign.OutputError, match=r"^out_dir: must be a folder name \(str or"):
+        psdesign.run_study(study, 3, **quiet)
+    m = psdesign.build(_one_cylinder())
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+        with pytest.raises(psdesign.OutputError) as info:
+            m.permeability("z", fields="/")
+        assert info.value.key == "fields" and "force" not in info.value.message
+        with pytest.raises(psdesign.OutputError, match=r"^fields: must be a folder name"):
+            m.permeability("z", fields=3)
+
+
+def test_axis_index_zero_is_x_and_a_bool_is_no_axis(monkeypatch) -> None:
+    # m.permeability(0) solved along z and labelled the result 'z' (`given or default` took
+    # the axis index 0 for "not given"); True passed as axis 1 ('y') (audit s33)
+    import psdesign.flow.permeability as perm
+
+    seen = []
+
+    def fake(rve, fields, direction, table, route, progress=None, capture=None):
+        seen.append(direction)
+        return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
+
+    monkeypatch.setattr(perm, "permeability", fake)
+    m = psdesign.build(_one_cylinder())
+    assert [m.permeability(d).direction for d in (0, np.int64(0), 1, "x")] == ["x", "x", "y", "x"]
+    assert seen == ["x", "x", "y", "x"]
+    for bad in (True, np.bool_(False)):
+        with pytest.raises(psdesign.SpecError, match=r"^direction: must be 'x', 'y' or 'z'"):
+            m.permeability(bad)
+        with pytest.raises(psdesign.SpecError, match=r"^direction: must be 'x', 'y' or 'z'"):
+            m.diffusivity(bad)
+    assert len(seen) == 4
+
+
+def test_from_image_wrong_types_are_one_spec_error(tmp_path) -> None:
+    # an array for the path gave "image.format: cannot tell the format of '[[[0. 0. ..." (the
+    # whole array printed), flow="voxel" a bare ValueError from dict() (audit s33)
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.from_image(np.zeros((8, 8, 8), np.uint8), voxel_size=1e-6)
+    assert info.value.key == "image.path" and "got ndarray" in info.value.message
+    assert len(str(info.value)) < 200
+    np.save(tmp_path / "a.npy", np.zeros((8, 8, 8), np.uint8))
+    with pytest.raises(psdesign.SpecError, match=r"^flow: must be a table, got 'voxel'"):
+        psdesign.from_image(tmp_path / "a.npy", voxel_size=1e-6, flow="voxel")
+
+
+def test_progress_keyword_reports_on_stderr_and_leaves_nothing_on(monkeypatch, capsys) -> None:
+    # the CLI prints stages and solver iterations; the API had no way to ask for them (a
+    # minutes-long FEM solve in a notebook was silent). progress=True activates the same
+    # printer for the call only; the default stays silent (audit s33).
+    import psdesign.cli.progress as prog
+    import psdesign.flow.permeability as perm
+    import psdesign.transport.diffusivity as diff
+
+    seen = []
+
+    def fake_perm(rve, fields, direction, table, route, progress=None, capture=None):
+        seen.append((callable(progress), prog.active() is not None))
+        prog.stage("solving")  # as the library's stages do
+        return {"direction": direction, "permeability_m2": 1e-12, "converged": True}
+
+    def fake_diff(fields, direction, table, progress=None, **kwargs):
+        seen.append((callable(progress), prog.active() is not None))
+        raise KeyboardInterrupt  # the printer is switched off on the way out, too
+
+    monkeypatch.setattr(perm, "permeability", fake_perm)
+    monkeypatch.setattr(diff, "relative_diffusivity", fake_diff)
+    m = psdesign.build(_one_cylinder())
+    m.permeability("z")
+    assert seen.pop() == (False, False) and capsys.readouterr().err == ""
+    m.permeability("z", progress=True)
+    assert seen.pop() == (True, True) and prog.active() is None
+    assert "psdesign: solving (" in capsys.readouterr().err
+    with pytest.raises(KeyboardInterrupt):
+        m.diffusivity("z", progress=True)
+    assert seen.pop() == (True, True) and prog.active() is None
