@@ -14,7 +14,9 @@ result dict of the route stays in ``details``.
 from __future__ import annotations
 
 import ast
+import functools
 import sys
+import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -172,6 +174,28 @@ def _progress(
         yield progress_printer(direction, solve=solve, method=method)
 
 
+def _warns_at_caller(method: Callable) -> Callable:
+    """Re-issue the warnings a call raises at the caller's line.
+
+    Raised deep inside psdesign, a warning (``ResolutionWarning``: too few voxels across a
+    fiber) pointed at psdesign's own line, and Python's default filter shows a warning once
+    per line: a second under-resolved material in a notebook printed nothing.
+    """
+
+    @functools.wraps(method)
+    def call(*args: Any, **kwargs: Any) -> Any:
+        caught: list = []
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                return method(*args, **kwargs)
+        finally:  # the user's own filters decide now ("error" raises at their line)
+            for w in caught:
+                warnings.warn(w.message, w.category, stacklevel=2)
+
+    return call
+
+
 class Material:
     """An RVE built from a spec: geometry, voxel fields on demand, properties on request.
 
@@ -216,6 +240,7 @@ class Material:
         fraction (0 for an image; :mod:`psdesign.geometry.porosity`)."""
         return self.fields.porosity_error
 
+    @_warns_at_caller
     def permeability(
         self,
         direction: str | None = None,
@@ -254,6 +279,7 @@ class Material:
             )
         return PermeabilityResult.from_dict(result)
 
+    @_warns_at_caller
     def diffusivity(
         self,
         direction: str = "z",
@@ -281,6 +307,7 @@ class Material:
                 cells_per_diameter=self._cpd(),
             )
 
+    @_warns_at_caller
     def conductivity(
         self,
         direction: str = "z",
@@ -317,6 +344,7 @@ class Material:
 
         return cells_per_diameter(self.rve, float(self.fields.grid.spacing[0]))
 
+    @_warns_at_caller
     def pores(self, **transport: Any) -> dict:
         """Pore sizes, intrusion curve, specific surface, porosity profile and (for fibers)
         orientation tensor: the dict ``psdesign pores --json`` prints (keys carry their SI
@@ -365,6 +393,7 @@ class Material:
         return f"Material({size} m, {len(self.rve.fibers)} fibers)"
 
 
+@_warns_at_caller
 def build(spec: dict | str | Path) -> Material:
     """Build a material from a spec dict or a spec file; the spec is validated first."""
     from psdesign.schema.spec import validate_spec
@@ -373,6 +402,7 @@ def build(spec: dict | str | Path) -> Material:
     return Material(spec)
 
 
+@_warns_at_caller
 def from_image(
     path: str | Path,
     voxel_size: float | None = None,
