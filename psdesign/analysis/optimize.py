@@ -97,6 +97,34 @@ def _score(row: dict, targets: list[Target]) -> float:
     return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
 
 
+def seed_scatter_note(recs: list[dict], names: list[str], best: dict, targets: list[Target]) -> str:
+    """Why no design may meet an ``=`` target: the seeds of the closest design point spread
+    wider than the target's band (one RVE realization to the next), or ``""``.
+
+    >>> t = [Target("k", "=", 1.0, tolerance=0.05)]
+    >>> recs = [{"a": 1, "k": 0.9}, {"a": 1, "k": 1.2}]
+    >>> seed_scatter_note(recs, ["a"], recs[1], t)[:60]
+    '; its seeds differ by 29 % in k, wider than the target band '
+    """
+    if not best:
+        return ""
+    same = [r for r in recs if all(r.get(n) == best.get(n) for n in names)]
+    for t in targets:
+        values = [
+            float(r[t.output]) for r in same if math.isfinite(float(r.get(t.output, math.nan)))
+        ]
+        if t.op != "=" or len(values) < 2:
+            continue
+        spread = (max(values) - min(values)) / abs(np.mean(values))
+        if spread > 2.0 * t.tolerance:
+            return (
+                f"; its seeds differ by {100 * spread:.2g} % in {t.output}, wider than the target "
+                f"band (+-{100 * t.tolerance:.3g} %): no design meets it for every seed; widen "
+                "the tolerance, or a larger rve.size lowers the seed-to-seed scatter"
+            )
+    return ""
+
+
 def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) -> list[dict]:
     """The worst case of each design point: its replicate (seed) farthest from the targets.
 
@@ -209,7 +237,8 @@ def optimize_study(
                 len(points),
                 rounds,
                 history,
-                f"{msg}; closest case misses by {best_miss:.3g} (relative)",
+                f"{msg}; closest case misses by {best_miss:.3g} (relative)"
+                + seed_scatter_note(ok.to_dict(orient="records"), names, best, targets),
             )
         models = {
             t.output: fit_surrogate(ok, t.output, names, bounds)
