@@ -335,12 +335,27 @@ def _sobol_figure(sob: pd.DataFrame, c: str, log_output: bool = True):
 
 
 def _axis_grid(s, num: list[str], name: str) -> np.ndarray:
-    return np.linspace(s.low[num.index(name)], s.high[num.index(name)], 30)
+    """30 values over a parameter's range: evenly on its design scale (log-spaced for a
+    ``loguniform`` one, as its cases were drawn and its surrogate input is scaled)."""
+    i = num.index(name)
+    if s.log_params[i]:
+        return np.geomspace(s.low[i], s.high[i], 30)
+    return np.linspace(s.low[i], s.high[i], 30)
 
 
 def _at_mid_range(s, n: int) -> np.ndarray:
-    """``n`` surrogate inputs, every parameter at the middle of its range."""
-    return np.tile([(lo + hi) / 2 for lo, hi in zip(s.low, s.high, strict=True)], (n, 1))
+    """``n`` surrogate inputs, every parameter at the middle of its range on its design
+    scale (the geometric middle for a ``loguniform`` one).
+
+    >>> from types import SimpleNamespace as S
+    >>> _at_mid_range(S(low=[1.0, 1e-6], high=[3.0, 1e-4], log_params=[False, True]), 1)
+    array([[2.e+00, 1.e-05]])
+    """
+    mids = [
+        np.sqrt(lo * hi) if log else (lo + hi) / 2
+        for lo, hi, log in zip(s.low, s.high, s.log_params, strict=True)
+    ]
+    return np.tile(mids, (n, 1))
 
 
 def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):

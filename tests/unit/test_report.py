@@ -382,3 +382,20 @@ def test_report_surrogate_carries_the_fit_rating_and_the_modelled_output(monkeyp
     text = surrogate_plots(df, ["a", "b"], {})
     assert "[untrustworthy]" in text and why.replace("'", "&#x27;") in text
     assert "not reliable" in text
+
+
+def test_surfaces_of_a_loguniform_parameter_are_on_its_log_scale():
+    """A ``loguniform`` parameter's cases are drawn, and its surrogate input scaled, on a log
+    scale; the report's surfaces gridded it linearly and held it at the arithmetic middle
+    (1e-6 .. 1e-4: 5.05e-5, where no case lies; design-loop audit, s33)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from psdesign.report.decision import _at_mid_range, _axis_grid
+
+    s = SimpleNamespace(low=[0.5, 1e-6], high=[0.9, 1e-4], log_params=[False, True])
+    g = _axis_grid(s, ["porosity", "d"], "d")
+    np.testing.assert_allclose(g[1:] / g[:-1], (1e-4 / 1e-6) ** (1 / 29))
+    np.testing.assert_allclose(np.diff(_axis_grid(s, ["porosity", "d"], "porosity")), 0.4 / 29)
+    np.testing.assert_allclose(_at_mid_range(s, 2), [[0.7, 1e-5], [0.7, 1e-5]])
