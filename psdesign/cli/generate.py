@@ -152,6 +152,7 @@ def write_generate_outputs(
         img = distance_image(fields.distance, fields.grid.spacing)
         img.point_data["fiber_count"] = fields.count.ravel(order="F")
         img.save(str(tmp / "field.vti"))
+        del img  # its copies of the fields: not held through the surface and the preview
         surf = fiber_surface(fields.distance, fields.grid.spacing)
         if surf.n_points:
             surf.save(str(tmp / "fibers.stl"))
@@ -162,6 +163,7 @@ def write_generate_outputs(
                 fields.grid.spacing,
                 tmp / "preview.png",
                 title=f"porosity {fields.porosity:.4f}, {len(rve.fibers)} fibers",
+                surface=surf,
             )
         if "tiff" in formats:
             from psdesign.image.writer import write_tiff

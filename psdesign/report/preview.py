@@ -62,6 +62,7 @@ def render_preview(
     path: str | Path,
     title: str = "",
     window_size: tuple[int, int] = (900, 700),
+    surface=None,
 ) -> Path:
     """Render the fibers (and the RVE box outline) to a PNG off-screen.
 
@@ -73,13 +74,17 @@ def render_preview(
         Voxel edges in metres.
     path : path
         PNG to write.
+    surface : pyvista.PolyData, optional
+        :func:`fiber_surface` of ``distance``, when the caller already made it (``generate``
+        writes it as ``fibers.stl``): contouring a large grid twice doubled the time and the
+        peak memory of the two.
     """
     os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
     import pyvista as pv
 
     pv.OFF_SCREEN = True
     _quiet_vtk()
-    surf = fiber_surface(distance, spacing)
+    surf = fiber_surface(distance, spacing) if surface is None else surface
     scale = 1e6  # show micrometres
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
     plotter.set_background("white")
