@@ -61,6 +61,15 @@ def volume_report(mesh_volume: float, analytic: float, voxel: float, scale3: flo
     }
 
 
+def removed_components(comp: dict, scale: float) -> dict:
+    """The pore components the mesher dropped (isolated pockets), as ``PoreMesh.quality``
+    reports them: the counts as they are and their volume in m^3 as ``removed_volume_m3``
+    (``comp``: the record of :func:`psdesign.meshing.tetra.keep_through_components`, its
+    volume in scaled units of ``scale`` metres)."""
+    kept = {k: v for k, v in comp.items() if k != "removed_volume"}
+    return {**kept, "removed_volume_m3": float(comp["removed_volume"]) * scale**3}
+
+
 def mesh_quality(
     f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: float, inverted: str, periodic=False
 ):
@@ -99,8 +108,7 @@ def mesh_quality(
         "pore_centroid_fraction": pore_frac,
         "pore_centroid_volume_fraction": pore_frac_vol,
         "n_closed_gap_voxels": f.n_closed,
-        **comp,
-        "removed_volume": comp["removed_volume"] * s**3,
+        **removed_components(comp, s),
     }
     return report, mesh_vol, porosity_voxel
 

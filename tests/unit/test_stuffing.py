@@ -188,7 +188,9 @@ def test_isolated_pocket_removed():
     pm = mesh(d, "x", step=1.0)
     assert pm.quality["n_removed_components"] == 1
     inner = 4 / 3 * np.pi * (0.25 * L) ** 3
-    assert pm.quality["removed_volume"] == pytest.approx(inner, rel=0.05, abs=0)
+    # in m^3 and named so (it was "removed_volume", the only unit-less length-cubed key)
+    assert "removed_volume" not in pm.quality
+    assert pm.quality["removed_volume_m3"] == pytest.approx(inner, rel=0.05, abs=0)
 
 
 def test_bad_input():
