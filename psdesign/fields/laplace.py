@@ -48,6 +48,22 @@ def _face_flux(t: np.ndarray, sigma: np.ndarray, axis: int, b: int, fixed: bool)
     return np.concatenate([flux, np.expand_dims(out, b)], axis=b)
 
 
+def conductivity_unit(kind: str, result: dict | None) -> str:
+    """The unit of the ``conductivity``, ``flux_per_unit_gradient`` and
+    ``effective_conductivity`` arrays of a Laplace field file: ``"1"`` for diffusivity (relative
+    to the bulk diffusivity, 1 in the pore), else the result's ``conductivity_unit`` (SI,
+    ``W/(m K)`` or ``S/m``: the unit the phase conductivities were given in).
+
+    >>> conductivity_unit("diffusivity", None)
+    '1'
+    >>> conductivity_unit("conductivity", {"conductivity_unit": "S/m"})
+    'S/m'
+    """
+    if kind == "diffusivity":
+        return "1"
+    return str((result or {}).get("conductivity_unit", "W/(m K)"))
+
+
 def laplace_grid(solution, conductivity: np.ndarray, fields, kind: str, result: dict | None):
     """``pyvista.ImageData`` of a :func:`solvers.transport.solve_laplace` solution.
 
@@ -91,6 +107,7 @@ def laplace_grid(solution, conductivity: np.ndarray, fields, kind: str, result: 
     grid.field_data["mean_flux_per_unit_gradient"] = np.asarray(
         solution.mean_flux / solution.gradient, float
     )
+    grid.field_data["conductivity_unit"] = np.array([conductivity_unit(kind, result)])
     if result:
         key = "relative_diffusivity" if kind == "diffusivity" else "effective_conductivity"
         if key in result:

@@ -27,10 +27,11 @@ UNITS = {
     "NaN where no pressure is solved: pressure_cell = 0 on the voxel grid)",
     "concentration_relative": "1 (1 at the inlet face, 0 at the outlet face)",
     "potential_relative": "1 (1 at the inlet face, 0 at the outlet face)",
-    "flux_per_unit_gradient": "conductivity units (1 in the pore for diffusion) (3-vector)",
+    "flux_per_unit_gradient": "conductivity_unit (1 in the pore for diffusion) (3-vector)",
     "solid": "1 = fibre, 0 = pore",
     "pressure_cell": "1 = a pressure cell of the voxel solver (pressure_Pa solved), 0 = none",
-    "conductivity": "the phase conductivities as given",
+    "conductivity": "conductivity_unit: the phase conductivities as given",
+    "conductivity_unit": "field data: the unit of the two arrays above (1 for diffusivity)",
     "zone": "region id (see regions)",
     "tag": "boundary tag id (see boundary_tags)",
 }

@@ -290,7 +290,11 @@ def test_transport_fields_mean_flux_is_the_effective_property(tmp_path):
     spec.write_text(SPEC)
     for cmd, extra, key in (
         ("diffusivity", ["--bc", "periodic"], "relative_diffusivity"),
-        ("conductivity", ["--solid", "100", "--fluid", "1", "--bc", "permeameter"], None),
+        (
+            "conductivity",
+            ["--solid", "100", "--fluid", "1", "--bc", "permeameter", "--unit", "S/m"],
+            None,
+        ),
     ):
         out = tmp_path / cmd
         buf = io.StringIO()
@@ -314,6 +318,9 @@ def test_transport_fields_mean_flux_is_the_effective_property(tmp_path):
         flux = _cells(grid, "flux_per_unit_gradient")
         value = res[key or "effective_conductivity"]
         assert flux[0].mean() == pytest.approx(value, rel=1e-6)
+        # the file says the unit of its conductivity / flux arrays (they had none)
+        unit = "1" if cmd == "diffusivity" else "S/m"
+        assert str(grid.field_data["conductivity_unit"][0]) == unit
         pot = _cells(
             grid, "concentration_relative" if cmd == "diffusivity" else "potential_relative"
         )
