@@ -37,6 +37,19 @@ def _finish_fields(writer) -> dict:
     return out
 
 
+def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
+    """The size of a K solve as a count named by what it counts: ``n_dofs_<d>`` (FEM) or
+    ``n_cells_<d>`` (voxel route's fluid cells). It was ``size_<d>``, which reads as the RVE's
+    edge in metres beside ``rve.size``.
+
+    >>> solve_size_columns("z", {"n_cells": 7262})
+    {'n_cells_z': 7262}
+    """
+    return {
+        f"{key}_{direction}": int(result[key]) for key in ("n_dofs", "n_cells") if key in result
+    }
+
+
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
     """Run one case and return a flat dict of results (SI units).
 
@@ -101,7 +114,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         row[f"iterations_{d}"] = res["iterations"]
         row[f"flux_imbalance_{d}"] = res["flux_imbalance"]
         row[f"time_solve_{d}_s"] = res["wall_time_s"]
-        row[f"size_{d}"] = res.get("n_dofs", res.get("n_cells"))
+        row.update(solve_size_columns(d, res))
         if "permeability_column_m2" in res:
             columns[d] = res["permeability_column_m2"]
     if "k_tensor" in outputs and len(columns) == 3:

@@ -30,6 +30,8 @@ def test_run_case_row_has_bc_error_bar_status(tmp_path):
     assert row["cells_per_diameter_x"] == pytest.approx(5.0)  # 10 um / 2 um
     assert row["k_x_status"] == "untrustworthy"  # < 8 voxels across the fiber
     assert "across the thinnest fiber" in row["warnings_x"]
+    # the solve's size is a count named so (it was size_x: read as the RVE edge in metres)
+    assert "size_x" not in row and 0 < row["n_cells_x"] <= 20**3
 
 
 def test_report_k_table_shows_bar_and_flags():
