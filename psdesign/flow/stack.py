@@ -200,7 +200,7 @@ def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
         gap = _surface_gap(rve.union_field(lo), rve.union_field(hi), d)
         detail = (
             f"the fiber surfaces at {name} = 0 and {name} = L differ by up to "
-            f"{gap * 1e6:.3g} um, {100 * gap / length:.3g} % of L = {length * 1e6:.3g} um, "
+            f"{gap:.3g} m, {100 * gap / length:.3g} % of L = {length:.3g} m, "
             f"allowed {100 * SEAM_TOL_LENGTH:g} %"
         )
         return EndPlanes(name, gap <= SEAM_TOL_LENGTH * length, "analytic", detail, gap / length)

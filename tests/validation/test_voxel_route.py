@@ -124,7 +124,7 @@ def test_periodic_bc_on_a_non_periodic_geometry_says_so(direction, periodic) -> 
     seams = [w for w in out["warnings"] if "not periodic" in w]
     assert (not seams) == periodic
     if not periodic:
-        assert "faces normal to x, z" in seams[0] and "11.5 um, 28.7 % of L" in seams[0]
+        assert "faces normal to x, z" in seams[0] and "1.15e-05 m, 28.7 % of L" in seams[0]
 
 
 def test_error_bar_coarse_grid_does_not_warn_the_user() -> None:
