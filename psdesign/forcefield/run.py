@@ -62,6 +62,14 @@ DEFAULT_SURFACE = "area"
 _TOP = set(ForceFieldTable.model_fields)
 
 
+#: What the numbers of a paper case's rve.json and history.csv are: the paper's Sec. 6 cases have
+#: no physical period, so no SI length exists to write (an RVE spec's relax route writes metres).
+PAPER_UNITS = (
+    "dimensionless: the paper's unit cell (lengths and the quadrature step h in periods; U, its "
+    "terms and the weights in the paper's normalized units)"
+)
+
+
 def _validated(ff: dict) -> ForceFieldTable:
     try:
         return ForceFieldTable.model_validate(ff)
@@ -198,6 +206,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     status = search_status(not res.converged, at_bound, False)
     out = {
         "case": prob.name,
+        "units": PAPER_UNITS,
         "surface_term": prob.surface,
         "weights": prob.weights.tolist(),
         "quadrature": {"h": prob.h, "n_s": prob.n_s, "n_theta": prob.n_theta},

@@ -488,6 +488,8 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     assert warn.endswith("(on the bound of f, u)")
     rve = json.loads((out / "rve.json").read_text())
     assert rve["converged"] is False and len(rve["fibers"]) == 2
+    # the unit cell has no SI length: the file says its numbers are dimensionless (it did not)
+    assert rve["units"].startswith("dimensionless: the paper's unit cell")
     assert rve["status"] == "not_converged" and rve["at_bound"] == ["f", "u"]
     m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
     assert m.n_minor == 1 and m.u[0] == pytest.approx(rve["parameters"]["u1"])
