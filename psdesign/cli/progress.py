@@ -124,20 +124,27 @@ _ACTIVE: list[Printer] = []
 @contextmanager
 def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Printer]:
     """Make a :class:`Printer` the target of :func:`stage`, :func:`estimate`, :func:`iterations`
-    for the duration of the block (the CLI wraps each command in it)."""
+    for the duration of the block (the CLI wraps each command in it).
+
+    The closing note (kernels that ran on one thread) is printed only when the block ends
+    normally: after Ctrl-C, SIGTERM or an error the command's one line
+    (``psdesign: interrupted``) must stay the only one."""
     printer = Printer(quiet=quiet, stream=stream)
     _ACTIVE.append(printer)
     before = _pending_kernels()
     try:
         yield printer
-    finally:
+    except BaseException:  # Ctrl-C, SIGTERM, an error: its one line is the last word
         _ACTIVE.remove(printer)
-        if _pending_kernels() - before:  # this command ran kernels on one thread
-            from solvers.jit import WARMUP_NOTE
-
-            if not any(WARMUP_NOTE in w for w in printer.warned):  # not said already
-                printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
         printer.close()
+        raise
+    _ACTIVE.remove(printer)
+    if _pending_kernels() - before:  # this command ran kernels on one thread
+        from solvers.jit import WARMUP_NOTE
+
+        if not any(WARMUP_NOTE in w for w in printer.warned):  # not said already
+            printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
+    printer.close()
 
 
 def _pending_kernels() -> set[str]:
