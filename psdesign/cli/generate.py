@@ -147,6 +147,9 @@ def write_generate_outputs(
     fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(rve, fields, built.report)
     summary["wall_time_s"] = {"build_and_voxelize": round(time.perf_counter() - t0, 3)}
+    from psdesign.cli import progress
+
+    progress.stage(f"writing {target.path.name}: rve.json, field.vti, fibers.stl")
     with staged_directory(target) as tmp:
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
@@ -157,6 +160,7 @@ def write_generate_outputs(
             surf.save(str(tmp / "fibers.stl"))
         write_medial_axes(rve, tmp)
         if preview:
+            progress.stage("rendering preview.png")
             render_preview(
                 fields.distance,
                 fields.grid.spacing,

@@ -25,6 +25,7 @@ __all__ = [
     "laplace_progress",
     "progress_printer",
     "stage",
+    "throttled",
     "warning",
 ]
 
@@ -182,6 +183,13 @@ def estimate(what: str, seconds: float | None = None, memory_gb: float | None = 
 def iterations(label: str, method: str) -> Callable[[int, float], None] | None:
     """Iteration callback of the active printer, or None without one."""
     return _ACTIVE[-1].iterations(label, method) if _ACTIVE else None
+
+
+def throttled(line: Callable[..., str]) -> Callable[..., None] | None:
+    """The active printer's :meth:`Printer.throttled` callback ``report(*args)`` writing
+    ``line(elapsed_s, *args)`` (the progress of a long loop: fibers placed, radii scanned), or
+    None without a printer (library use, tests)."""
+    return _ACTIVE[-1].throttled(line) if _ACTIVE else None
 
 
 def search_progress(label: str) -> Callable[[dict], None] | None:
