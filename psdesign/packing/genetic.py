@@ -148,7 +148,12 @@ def genetic(
     gen = 0
     from psdesign.cli import progress
 
-    report = progress.iterations("fiber placement", "GA generation")
+    report = progress.throttled(
+        lambda s, g, best: (
+            f"psdesign: fiber placement (GA): generation {g} of {generations}, "
+            f"overlap {best:.2e} ({objective}), {s:.0f} s"
+        )
+    )
     for _ in range(generations):
         if fit.min() <= 0.0:
             break

@@ -105,3 +105,18 @@ def test_generate_and_pores_name_their_long_stages(tmp_path, capsys):
     assert main(["generate", str(path), "-o", str(tmp_path / "b"), "--no-preview", "--quiet"]) == 0
     assert main(["pores", str(path), "--n-radii", "4", "--quiet"]) == 0
     assert "psdesign: " not in capsys.readouterr().err.replace("psdesign: warning", "")
+
+
+def test_ga_reports_generation_of_total(tmp_path):
+    """The GA's line says which generation of how many and names its objective (it said
+    ``14 GA generation iterations, residual 8.2e-03``: no total, and no residual in a GA)."""
+    from psdesign.packing.generators import build_fibers
+    from psdesign.schema.spec import load_spec
+
+    path = tmp_path / "ga.toml"
+    path.write_text(
+        SPEC.replace('method = "fast"', 'method = "ga"\ngenerations = 3\npopulation = 4')
+    )
+    lines = _lines(lambda: build_fibers(load_spec(path)))
+    ga = [ln for ln in lines if ln.startswith("psdesign: fiber placement (GA): generation ")]
+    assert ga and " of 3, overlap " in ga[-1] and "(analytic)" in ga[-1], lines
