@@ -120,3 +120,63 @@ def test_ga_reports_generation_of_total(tmp_path):
     lines = _lines(lambda: build_fibers(load_spec(path)))
     ga = [ln for ln in lines if ln.startswith("psdesign: fiber placement (GA): generation ")]
     assert ga and " of 3, overlap " in ga[-1] and "(analytic)" in ga[-1], lines
+
+
+def test_ctrl_c_during_the_preview_render_is_not_lost(tmp_path, monkeypatch):
+    """A Ctrl-C that lands in pyvista's smooth-shading algorithm (a Python VTK algorithm run
+    by the render) was swallowed by VTK (an error dump on stderr) and ``generate`` finished
+    with exit 0; it is now raised once the render returns."""
+    import signal
+
+    import numpy as np
+    from pyvista.plotting.utilities import algorithms
+
+    from psdesign.report.preview import render_preview
+
+    original = algorithms.SmoothShadingAlgorithm.RequestData
+    hits = []
+
+    def interrupted(self, *args):
+        hits.append(1)
+        signal.raise_signal(signal.SIGINT)  # Ctrl-C while VTK runs the Python algorithm
+        return original(self, *args)
+
+    monkeypatch.setattr(algorithms.SmoothShadingAlgorithm, "RequestData", interrupted)
+    x = np.linspace(-1.0, 1.0, 12)
+    distance = np.sqrt(x[:, None, None] ** 2 + x[None, :, None] ** 2 + 0 * x) - 0.5
+    with pytest.raises(KeyboardInterrupt):
+        render_preview(distance, np.full(3, 1e-6), tmp_path / "p.png")
+    assert hits
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_large_preview_is_rendered_from_a_coarser_grid(tmp_path, monkeypatch):
+    """The preview of a 200^3 field is drawn from every second point (the full render took
+    6-12 s, all of which an interrupt waits for)."""
+    import numpy as np
+
+    from psdesign.report import preview
+
+    seen = []
+    original = preview.fiber_surface
+    monkeypatch.setattr(
+        preview, "fiber_surface", lambda d, h: seen.append(d.shape) or original(d, h)
+    )
+    distance = np.ones((200, 150, 40), np.float32)
+    preview.render_preview(distance, np.full(3, 1e-6), tmp_path / "p.png")
+    assert seen == [(100, 75, 20)]
+
+
+def test_held_signals_deliver_sigterm_after_the_body():
+    """``held_signals``: a SIGTERM during the body is raised after it as
+    :class:`Terminated` (the command's SIGTERM handler is back in place)."""
+    import signal
+
+    from psdesign.study.interrupt import Terminated, held_signals, terminate_as_interrupt
+
+    done = []
+    with pytest.raises(Terminated), terminate_as_interrupt():
+        with held_signals():
+            signal.raise_signal(signal.SIGTERM)
+            done.append(1)  # the body runs to its end
+    assert done == [1]
