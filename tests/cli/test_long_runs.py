@@ -180,3 +180,44 @@ def test_held_signals_deliver_sigterm_after_the_body():
             signal.raise_signal(signal.SIGTERM)
             done.append(1)  # the body runs to its end
     assert done == [1]
+
+
+def test_field_relax_reports_its_polls():
+    """``forcefield`` on woven / compressed fibers (``studies/forcefield_woven.toml``: over
+    2 minutes without a line) reports the pattern search's polls as the rod route does."""
+    import numpy as np
+
+    from psdesign.forcefield.contact import relax_contacts
+    from psdesign.geometry.fibers import woven_cell
+
+    cell = woven_cell("z", 1)
+    pair = [cell[0], cell[4]]  # a warp and a weft crossing
+    lines = _lines(
+        lambda: relax_contacts(
+            pair, np.zeros(3), np.ones(3), h=0.04, max_shift=0.05, u_max=0.4, max_evals=60
+        )
+    )
+    polls = [ln for ln in lines if ln.startswith("psdesign: relax (2 fibers, contacts on a grid)")]
+    assert polls and " polls, " in polls[-1] and " evaluations, U = " in polls[-1], lines
+
+
+def test_ctrl_c_during_the_force_field_pictures_is_not_lost(tmp_path, monkeypatch):
+    """As the preview: ``forcefield``'s before.png / after.png render ran pyvista's
+    smooth-shading algorithm, where VTK swallowed a Ctrl-C."""
+    import signal
+
+    from pyvista.plotting.utilities import algorithms
+
+    from psdesign.forcefield import two_fiber_problem
+    from psdesign.forcefield.render import render_fibers
+
+    original = algorithms.SmoothShadingAlgorithm.RequestData
+
+    def interrupted(self, *args):
+        signal.raise_signal(signal.SIGINT)
+        return original(self, *args)
+
+    monkeypatch.setattr(algorithms.SmoothShadingAlgorithm, "RequestData", interrupted)
+    prob = two_fiber_problem(f0=1.7)
+    with pytest.raises(KeyboardInterrupt):
+        render_fibers(prob.fields(prob.x0), tmp_path / "p.png", h=0.05)
