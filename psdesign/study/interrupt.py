@@ -110,9 +110,17 @@ def _on_sigint(signum, frame) -> None:  # noqa: ARG001
         return  # already stopping; the clean-up is bounded by GRACE_S
     _STATE["hit"] = True
     term = signum == signal.SIGTERM
-    what = "terminated (SIGTERM)" if term else "interrupted"
-    print(f"psdesign: {what}; stopping workers ...", file=sys.stderr, flush=True)
+    if _cli_command() is None:  # library use: say why the run stops; a command says it once
+        what = "terminated (SIGTERM)" if term else "interrupted"
+        print(f"psdesign: {what}; stopping workers ...", file=sys.stderr, flush=True)
     raise Terminated if term else KeyboardInterrupt
+
+
+def _cli_command():
+    """The running command's progress printer, or None (library use): the ``psdesign``
+    command prints its one line (``psdesign: interrupted``) on the way out."""
+    progress = sys.modules.get("psdesign.cli.progress")
+    return progress.active() if progress is not None else None
 
 
 @contextlib.contextmanager

@@ -221,3 +221,24 @@ def test_ctrl_c_during_the_force_field_pictures_is_not_lost(tmp_path, monkeypatc
     prob = two_fiber_problem(f0=1.7)
     with pytest.raises(KeyboardInterrupt):
         render_fibers(prob.fields(prob.x0), tmp_path / "p.png", h=0.05)
+
+
+def test_study_interrupt_leaves_one_line(monkeypatch, capsys):
+    """``rev`` / ``study run``: Ctrl-C printed ``psdesign: interrupted; stopping workers ...``
+    and then ``psdesign: interrupted``; the command's line is now the only one (library use,
+    without a command, still gets the notice)."""
+    import signal
+
+    import psdesign.cli.pores as pores
+    from psdesign.study.interrupt import stop_on_interrupt
+
+    def run(args):
+        with stop_on_interrupt():
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(pores, "_cmd", run)
+    assert main(["pores", "spec.toml"]) == 130
+    assert capsys.readouterr().err.splitlines() == ["psdesign: interrupted"]
+    with pytest.raises(KeyboardInterrupt):
+        run(None)
+    assert capsys.readouterr().err.splitlines() == ["psdesign: interrupted; stopping workers ..."]
