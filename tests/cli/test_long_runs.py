@@ -107,19 +107,38 @@ def test_generate_and_pores_name_their_long_stages(tmp_path, capsys):
     assert "psdesign: " not in capsys.readouterr().err.replace("psdesign: warning", "")
 
 
-def test_ga_reports_generation_of_total(tmp_path):
-    """The GA's line says which generation of how many and names its objective (it said
-    ``14 GA generation iterations, residual 8.2e-03``: no total, and no residual in a GA)."""
-    from psdesign.packing.generators import build_fibers
+def test_ga_reports_generation_of_total(tmp_path, monkeypatch):
+    """The GA's line says which round and generation of how many and names its objective (it
+    said ``14 GA generation iterations, residual 8.2e-03``); one throttled callback serves
+    every porosity round (a new one per round printed nothing when rounds took < 5 s)."""
+    from psdesign.packing import generators
     from psdesign.schema.spec import load_spec
 
     path = tmp_path / "ga.toml"
     path.write_text(
-        SPEC.replace('method = "fast"', 'method = "ga"\ngenerations = 3\npopulation = 4')
+        SPEC.replace("seed = 1", "seed = 1\nporosity_tolerance = 1e-6").replace(
+            'method = "fast"', 'method = "ga"\ngenerations = 3\npopulation = 4'
+        )
     )
-    lines = _lines(lambda: build_fibers(load_spec(path)))
-    ga = [ln for ln in lines if ln.startswith("psdesign: fiber placement (GA): generation ")]
-    assert ga and " of 3, overlap " in ga[-1] and "(analytic)" in ga[-1], lines
+    reports = []
+    real = generators.genetic
+
+    def spy(*args, **kw):
+        reports.append(kw.get("report"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(generators, "genetic", spy)
+    spec = load_spec(path)
+
+    def build():
+        with pytest.raises(generators.GenerationError):  # 1e-6 is out of reach: every round
+            generators.build_fibers(spec)
+
+    lines = _lines(build)
+    assert len(reports) > 1 and reports[0] is not None
+    assert all(r is reports[0] for r in reports)
+    ga = [ln for ln in lines if ln.startswith("psdesign: fiber placement (GA round 1): generation")]
+    assert ga and " of 3, overlap " in ga[0] and "(analytic)" in ga[0], lines
 
 
 def test_ctrl_c_during_the_preview_render_is_not_lost(tmp_path, monkeypatch):
