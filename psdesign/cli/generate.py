@@ -131,7 +131,12 @@ def write_generate_outputs(
     from psdesign.io.timings import write_record
     from psdesign.packing.build import build_rve, rve_document, summarize
     from psdesign.packing.generators import write_medial_axes
-    from psdesign.report.preview import distance_image, fiber_surface, render_preview
+    from psdesign.report.preview import (
+        distance_image,
+        fiber_surface,
+        render_preview,
+        write_stl,
+    )
 
     for fmt in formats:
         if fmt not in GENERATE_FORMATS:
@@ -157,7 +162,7 @@ def write_generate_outputs(
         img.save(str(tmp / "field.vti"))
         surf = fiber_surface(fields.distance, fields.grid.spacing)
         if surf.n_points:
-            surf.save(str(tmp / "fibers.stl"))
+            write_stl(surf, tmp / "fibers.stl")  # in blocks: a Ctrl-C waits for one
         write_medial_axes(rve, tmp)
         if preview:
             progress.stage("rendering preview.png")

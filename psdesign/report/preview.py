@@ -56,6 +56,39 @@ def fiber_surface(distance: np.ndarray, spacing: np.ndarray):
     return surf.triangulate().clean().flip_faces()
 
 
+STL_CHUNK = 250_000
+"""Triangles per block of :func:`write_stl` (a Ctrl-C waits for one block at most)."""
+
+_STL_RECORD = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
+def write_stl(surf, path: str | Path) -> None:
+    """Write a triangle surface (:func:`fiber_surface`) as binary STL, block by block.
+
+    The same file as VTK's binary STL writer (unit facet normals from the vertex order,
+    float32 coordinates), written in blocks of :data:`STL_CHUNK` triangles: VTK wrote the
+    136 MB ``fibers.stl`` of a 200^3 field in one 3 s C call, which a Ctrl-C had to wait for.
+    """
+    faces = np.asarray(surf.faces).reshape(-1, 4)
+    if len(faces) and not np.all(faces[:, 0] == 3):
+        raise ValueError("write_stl: the surface must be triangles")
+    tri = faces[:, 1:]
+    pts = np.asarray(surf.points, dtype=np.float64)
+    header = b"psdesign binary STL (fibers, metres)".ljust(80, b" ")
+    with open(path, "wb") as f:
+        f.write(header)
+        f.write(np.uint32(len(tri)).tobytes())
+        for i in range(0, len(tri), STL_CHUNK):
+            v = pts[tri[i : i + STL_CHUNK]]
+            n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+            norm = np.linalg.norm(n, axis=1, keepdims=True)
+            n = np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+            block = np.zeros(len(v), _STL_RECORD)
+            block["normal"] = n
+            block["vertices"] = v
+            f.write(block.tobytes())
+
+
 PREVIEW_POINTS = 128
 """Grid points along the longest edge of the field a preview is rendered from (a finer field
 is sampled every k-th point): a 900 x 700 picture shows no finer detail, and the render of the
