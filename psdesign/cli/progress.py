@@ -20,6 +20,7 @@ __all__ = [
     "Printer",
     "activate",
     "active",
+    "compiling",
     "estimate",
     "iterations",
     "laplace_progress",
@@ -190,6 +191,28 @@ def throttled(line: Callable[..., str]) -> Callable[..., None] | None:
     ``line(elapsed_s, *args)`` (the progress of a long loop: fibers placed, radii scanned), or
     None without a printer (library use, tests)."""
     return _ACTIVE[-1].throttled(line) if _ACTIVE else None
+
+
+def compiling(name: str) -> None:
+    """A numba kernel compile started (:mod:`solvers.jit`'s listener): once per command the
+    line ``psdesign: compiling numba kernels ...`` (a cold start compiled for up to 100 s
+    before the first progress line), then a throttled count; no-op without a printer."""
+    if not _ACTIVE:
+        return
+    printer = _ACTIVE[-1]
+    state = printer.__dict__.setdefault("_compiles", [0, None])
+    if state[1] is None:
+        printer.stage(
+            "compiling numba kernels (once after an install or a change; `psdesign warmup` "
+            "compiles them ahead)"
+        )
+        state[1] = printer.throttled(
+            lambda s, n, kernel: (
+                f"psdesign: compiling numba kernels: {n} so far ({kernel}), {s:.0f} s"
+            )
+        )
+    state[0] += 1
+    state[1](state[0], name)
 
 
 def search_progress(label: str) -> Callable[[dict], None] | None:

@@ -321,3 +321,26 @@ def test_stl_is_written_in_blocks_as_vtk_writes_it(tmp_path, monkeypatch):
     b = np.frombuffer(vtk_bytes[84:], preview._STL_RECORD)
     np.testing.assert_array_equal(a["vertices"], b["vertices"])
     np.testing.assert_allclose(a["normal"], b["normal"], atol=1e-6)
+
+
+def test_a_kernel_compile_is_announced():
+    """A numba compile (a cold start: up to 100 s before the voxel solve's first line) says
+    so, once per command; without a command nothing is printed."""
+    import numba as nb
+
+    import solvers.jit  # noqa: F401 - installs the compile listener
+
+    @nb.njit
+    def _fresh(x):
+        return x + 1
+
+    lines = _lines(lambda: _fresh(1))
+    assert lines[0].startswith("psdesign: compiling numba kernels (once after an install"), lines
+    assert sum("compiling numba kernels (" in ln for ln in lines) == 1
+    assert any("compiling numba kernels: 1 so far (" in ln for ln in lines), lines
+
+    @nb.njit
+    def _other(x):
+        return x + 2
+
+    _other(1)  # no printer: silent (capsys is not needed: nothing may fail)
