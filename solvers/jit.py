@@ -36,12 +36,14 @@ import contextlib
 import functools
 import hashlib
 import os
+import sys
 import types
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numba as nb
 from numba.core import caching, compiler
+from numba.core import event as numba_event
 
 from solvers import jit_locks
 
@@ -197,6 +199,32 @@ def _install_locator() -> None:
 _install_locator()
 
 jit_locks.install()
+
+
+class _CompileListener(numba_event.Listener):
+    """Tells the running ``psdesign`` command that a kernel compile started (a cold start
+    compiles for up to a minute or two before the first progress line): through
+    :func:`psdesign.cli.progress.compiling` when that module is loaded, else nothing."""
+
+    def on_start(self, event) -> None:
+        progress = sys.modules.get("psdesign.cli.progress")
+        if progress is None:
+            return
+        data = event.data or {}
+        fn = getattr(data.get("dispatcher"), "py_func", None)
+        progress.compiling(getattr(fn, "__qualname__", "kernel"))
+
+    def on_end(self, event) -> None:
+        pass
+
+
+def _install_compile_listener() -> None:
+    """Register :class:`_CompileListener` with numba's events (once per process)."""
+    if not any(isinstance(x, _CompileListener) for x in numba_event._registered["numba:compile"]):
+        numba_event.register("numba:compile", _CompileListener())
+
+
+_install_compile_listener()
 
 COMPILE_PARALLEL_ABOVE = 10_000_000
 """First-argument size (about grid cells) from which a parallel kernel that is not in the cache

@@ -131,7 +131,12 @@ def write_generate_outputs(
     from psdesign.io.timings import write_record
     from psdesign.packing.build import build_rve, rve_document, summarize
     from psdesign.packing.generators import write_medial_axes
-    from psdesign.report.preview import distance_image, fiber_surface, render_preview
+    from psdesign.report.preview import (
+        distance_image,
+        fiber_surface,
+        render_preview,
+        write_stl,
+    )
 
     for fmt in formats:
         if fmt not in GENERATE_FORMATS:
@@ -147,6 +152,9 @@ def write_generate_outputs(
     fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(rve, fields, built.report)
     summary["wall_time_s"] = {"build_and_voxelize": round(time.perf_counter() - t0, 3)}
+    from psdesign.cli import progress
+
+    progress.stage(f"writing {target.path.name}: rve.json, field.vti, fibers.stl")
     with staged_directory(target) as tmp:
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
@@ -155,9 +163,10 @@ def write_generate_outputs(
         del img  # its copies of the fields: not held through the surface and the preview
         surf = fiber_surface(fields.distance, fields.grid.spacing)
         if surf.n_points:
-            surf.save(str(tmp / "fibers.stl"))
+            write_stl(surf, tmp / "fibers.stl")  # in blocks: a Ctrl-C waits for one
         write_medial_axes(rve, tmp)
         if preview:
+            progress.stage("rendering preview.png")
             render_preview(
                 fields.distance,
                 fields.grid.spacing,

@@ -20,11 +20,13 @@ __all__ = [
     "Printer",
     "activate",
     "active",
+    "compiling",
     "estimate",
     "iterations",
     "laplace_progress",
     "progress_printer",
     "stage",
+    "throttled",
     "warning",
 ]
 
@@ -124,20 +126,27 @@ _ACTIVE: list[Printer] = []
 @contextmanager
 def activate(quiet: bool = False, stream: TextIO | None = None) -> Iterator[Printer]:
     """Make a :class:`Printer` the target of :func:`stage`, :func:`estimate`, :func:`iterations`
-    for the duration of the block (the CLI wraps each command in it)."""
+    for the duration of the block (the CLI wraps each command in it).
+
+    The closing note (kernels that ran on one thread) is printed only when the block ends
+    normally: after Ctrl-C, SIGTERM or an error the command's one line
+    (``psdesign: interrupted``) must stay the only one."""
     printer = Printer(quiet=quiet, stream=stream)
     _ACTIVE.append(printer)
     before = _pending_kernels()
     try:
         yield printer
-    finally:
+    except BaseException:  # Ctrl-C, SIGTERM, an error: its one line is the last word
         _ACTIVE.remove(printer)
-        if _pending_kernels() - before:  # this command ran kernels on one thread
-            from solvers.jit import WARMUP_NOTE
-
-            if not any(WARMUP_NOTE in w for w in printer.warned):  # not said already
-                printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
         printer.close()
+        raise
+    _ACTIVE.remove(printer)
+    if _pending_kernels() - before:  # this command ran kernels on one thread
+        from solvers.jit import WARMUP_NOTE
+
+        if not any(WARMUP_NOTE in w for w in printer.warned):  # not said already
+            printer.stage(f"numba kernels ran on one thread: {WARMUP_NOTE}")
+    printer.close()
 
 
 def _pending_kernels() -> set[str]:
@@ -175,6 +184,35 @@ def estimate(what: str, seconds: float | None = None, memory_gb: float | None = 
 def iterations(label: str, method: str) -> Callable[[int, float], None] | None:
     """Iteration callback of the active printer, or None without one."""
     return _ACTIVE[-1].iterations(label, method) if _ACTIVE else None
+
+
+def throttled(line: Callable[..., str]) -> Callable[..., None] | None:
+    """The active printer's :meth:`Printer.throttled` callback ``report(*args)`` writing
+    ``line(elapsed_s, *args)`` (the progress of a long loop: fibers placed, radii scanned), or
+    None without a printer (library use, tests)."""
+    return _ACTIVE[-1].throttled(line) if _ACTIVE else None
+
+
+def compiling(name: str) -> None:
+    """A numba kernel compile started (:mod:`solvers.jit`'s listener): once per command the
+    line ``psdesign: compiling numba kernels ...`` (a cold start compiled for up to 100 s
+    before the first progress line), then a throttled count; no-op without a printer."""
+    if not _ACTIVE:
+        return
+    printer = _ACTIVE[-1]
+    state = printer.__dict__.setdefault("_compiles", [0, None])
+    if state[1] is None:
+        printer.stage(
+            "compiling numba kernels (once after an install or a change; `psdesign warmup` "
+            "compiles them ahead)"
+        )
+        state[1] = printer.throttled(
+            lambda s, n, kernel: (
+                f"psdesign: compiling numba kernels: {n} so far ({kernel}), {s:.0f} s"
+            )
+        )
+    state[0] += 1
+    state[1](state[0], name)
 
 
 def search_progress(label: str) -> Callable[[dict], None] | None:

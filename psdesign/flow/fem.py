@@ -369,6 +369,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         tol=float(flow.get("tol") or 1e-6),
         max_memory_gb=flow.get("max_memory_gb"),
         progress=progress.iterations(f"FEM solve {name}", "GMRES"),
+        stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
     )
     u = np.asarray(res.mean_velocity, dtype=float)
     col = darcy_column(u, mu, grad)
@@ -403,6 +404,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods: int = 1
         tol=float(flow.get("tol") or 1e-6),
         max_memory_gb=flow.get("max_memory_gb"),
         progress=progress.iterations(f"FEM solve {name}", "GMRES"),
+        stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
     )
     start, end = mesh.porous_region
     q = abs(res.flux[tags.OUTLET])

@@ -280,9 +280,12 @@ def relax_contacts(
             "no contacts", 0, time.perf_counter() - t0,
         )  # fmt: skip
     u0 = prob.energy(x0)
+    from psdesign.cli.progress import search_progress
+
     res = pattern_search(
         prob.energy, x0, prob.lower, prob.upper, step=0.25, min_step=min_step,
         max_iter=max_iter, max_evals=max_evals,
+        callback=search_progress(f"relax ({len(prob.movable)} fibers, contacts on a grid)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds
 

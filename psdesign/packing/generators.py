@@ -31,6 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
+from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
     analytic_omega,
@@ -664,8 +665,11 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
     best = None
     info: dict = {"ga": []}
     st = pool.subset(np.arange(n))
+    rounds = [1]
+    report = ga_progress(kw["generations"], kw["objective"], rounds)
     for _round in range(4):
-        res = genetic(st, lo, hi, size / period, seed=gs.seed + _round, **kw)
+        rounds[0] = _round + 1
+        res = genetic(st, lo, hi, size / period, seed=gs.seed + _round, report=report, **kw)
         vf = measure(res.state)
         info["ga"].append(
             {

@@ -10,6 +10,7 @@ paper).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -66,6 +67,27 @@ class GAResult:
     history: list = field(default_factory=list)
 
 
+def ga_progress(
+    generations: int, objective: str, rounds: list[int] | None = None
+) -> Callable[[int, float], None] | None:
+    """Throttled ``report(generation, best)`` of a GA on the command's printer (None without
+    one): ``psdesign: fiber placement (GA): generation g of G, overlap O (objective), T s``.
+    One callback for several GA runs (the porosity rounds; ``rounds[0]`` is the current one,
+    named in the line) keeps the throttle across them: a new one per round printed nothing
+    in a GA of rounds shorter than the throttle's 5 s."""
+    from psdesign.cli import progress
+
+    def label() -> str:
+        return "GA" if rounds is None else f"GA round {rounds[0]}"
+
+    return progress.throttled(
+        lambda s, g, best: (
+            f"psdesign: fiber placement ({label()}): generation {g} of {generations}, "
+            f"overlap {best:.2e} ({objective}), {s:.0f} s"
+        )
+    )
+
+
 def genetic(
     st: FiberState,
     lo: np.ndarray,
@@ -82,6 +104,7 @@ def genetic(
     voxel: float | None = None,
     seed: int = 0,
     time_limit_s: float | None = None,
+    report: Callable[[int, float], None] | None = None,
 ) -> GAResult:
     """Real-coded genetic algorithm over the Sec. 7.1 adjustments (paper Eq. 9).
 
@@ -146,9 +169,8 @@ def genetic(
     f_init = float(fit[0])
     history = [float(fit.min())]
     gen = 0
-    from psdesign.cli import progress
-
-    report = progress.iterations("fiber placement", "GA generation")
+    if report is None:
+        report = ga_progress(generations, objective)
     for _ in range(generations):
         if fit.min() <= 0.0:
             break

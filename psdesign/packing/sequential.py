@@ -480,7 +480,10 @@ class _Placer:
             self.add_old(fixed_idx)
         queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
         streak = 0
+        report = _placement_progress(len(queue), o.stop_solid)
         while queue:
+            if report is not None:
+                report(len(self.placed) - len(fixed_idx), sum(self.contrib.values()))
             if o.stop_solid is not None and sum(self.contrib.values()) >= o.stop_solid:
                 self.stopped = True
                 break
@@ -517,6 +520,24 @@ class _Placer:
             n_ejections=int(self.ejected.sum() + self.ejected_in_bounds.sum()),
             exceeded=np.array(sorted(k for k in self.exceeded if k in placed), dtype=np.int64),
         )
+
+
+def _placement_progress(n_fibers: int, stop_solid: float | None):
+    """Throttled progress of a placement on the command's printer (None without one):
+    ``psdesign: fiber placement: N placed, solid fraction S of GOAL, T s`` (``N of M placed``
+    without a solid goal)."""
+    from psdesign.cli import progress
+
+    if stop_solid is None:
+        return progress.throttled(
+            lambda s, n, solid: f"psdesign: fiber placement: {n} of {n_fibers} placed, {s:.0f} s"
+        )
+    return progress.throttled(
+        lambda s, n, solid: (
+            f"psdesign: fiber placement: {n} placed, solid fraction {solid:.3f} of "
+            f"{stop_solid:.3f}, {s:.0f} s"
+        )
+    )
 
 
 def _allowed(T: np.ndarray, l1: np.ndarray, l2: np.ndarray, limits, c0: np.ndarray) -> np.ndarray:

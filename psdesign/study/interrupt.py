@@ -24,6 +24,7 @@ from collections.abc import Iterator
 __all__ = [
     "GRACE_S",
     "Terminated",
+    "held_signals",
     "ignore_sigint",
     "stop_children",
     "stop_on_interrupt",
@@ -109,9 +110,17 @@ def _on_sigint(signum, frame) -> None:  # noqa: ARG001
         return  # already stopping; the clean-up is bounded by GRACE_S
     _STATE["hit"] = True
     term = signum == signal.SIGTERM
-    what = "terminated (SIGTERM)" if term else "interrupted"
-    print(f"psdesign: {what}; stopping workers ...", file=sys.stderr, flush=True)
+    if _cli_command() is None:  # library use: say why the run stops; a command says it once
+        what = "terminated (SIGTERM)" if term else "interrupted"
+        print(f"psdesign: {what}; stopping workers ...", file=sys.stderr, flush=True)
     raise Terminated if term else KeyboardInterrupt
+
+
+def _cli_command():
+    """The running command's progress printer, or None (library use): the ``psdesign``
+    command prints its one line (``psdesign: interrupted``) on the way out."""
+    progress = sys.modules.get("psdesign.cli.progress")
+    return progress.active() if progress is not None else None
 
 
 @contextlib.contextmanager
@@ -214,3 +223,34 @@ def terminate_as_interrupt() -> Iterator[None]:
     finally:
         signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
         _TERM.update(saved)
+
+
+@contextlib.contextmanager
+def held_signals() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM during the body and deliver them when it ends.
+
+    For C code that calls back into Python and swallows the exceptions raised there: a VTK
+    render (pyvista's smooth shading runs as a Python VTK algorithm; a Ctrl-C raised inside it
+    was printed as a VTK error dump and lost, and ``generate`` went on and exited 0).  The
+    signal is re-raised (:func:`signal.raise_signal`) with the previous handlers back in place,
+    so it takes its usual way out (``psdesign: interrupted``, exit 130) once the body returns.
+    Keep such bodies short: the interrupt waits for them.  Main thread only (elsewhere a no-op).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum, frame) -> None:  # noqa: ARG001
+        held.append(signum)
+
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in previous:
+        signal.signal(sig, hold)
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+        if held:
+            signal.raise_signal(held[0])

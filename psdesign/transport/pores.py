@@ -195,6 +195,18 @@ def _ball_union(lab: np.ndarray, boxes: list, ids: np.ndarray, r: float) -> np.n
     return out
 
 
+def _scan_progress(n_radii: int):
+    """Throttled progress of the radius scan on the command's printer (None without one):
+    ``psdesign: pore scan: radius I of N (R voxels), T s``."""
+    from psdesign.cli import progress
+
+    return progress.throttled(
+        lambda s, i, r: (
+            f"psdesign: pore scan: radius {i + 1} of {n_radii} ({r:.1f} voxels), {s:.0f} s"
+        )
+    )
+
+
 def _scan(dt, pore, radii, inlet_axis, core):
     """Local thickness (index of the radius per voxel, -1 = none) and intrusion saturation of
     the grid ``core`` (slices) inside the padded grid of ``dt, pore``.
@@ -209,7 +221,10 @@ def _scan(dt, pore, radii, inlet_axis, core):
     npore = max(int(np.count_nonzero(pore[core])), 1)
     invaded = np.zeros(dt.shape, bool)
     face = core[inlet_axis].start  # the inlet layer in the padded grid
+    report = _scan_progress(len(radii))
     for i, r in enumerate(radii):
+        if report is not None:
+            report(i, r)
         seeds = dt >= r
         if not seeds.any():
             sat.append(0.0)

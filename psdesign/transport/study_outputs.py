@@ -56,6 +56,7 @@ TRANSPORT_OUTPUTS = (
 def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     """Everything ``psdesign pores`` prints: size distribution, intrusion, surface, profile,
     orientation tensor (when ``rve`` is given)."""
+    from psdesign.cli import progress
     from psdesign.transport.pores import (
         orientation_tensor,
         pore_sizes,
@@ -63,6 +64,7 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         specific_surface,
     )
 
+    progress.stage(f"pore sizes: scanning {int(transport['n_radii'])} radii")
     ps = pore_sizes(
         fields,
         n_radii=int(transport["n_radii"]),
@@ -70,6 +72,7 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         surface_tension=float(transport["surface_tension_n_m"]),
         contact_angle_deg=float(transport["contact_angle_deg"]),
     )
+    progress.stage("specific surface (marching cubes)")
     sv = specific_surface(fields)
     out = ps.to_dict()
     out["specific_surface_m-1"] = sv.specific_surface_m_1

@@ -301,7 +301,8 @@ def test_sigterm_removes_the_staging_folder_and_exits_143(tmp_path, spec):
 
     out = tmp_path / "kill3"
     proc = subprocess.Popen(
-        [sys.executable, "-c", _HELD_GENERATE, "generate", str(spec), "-o", str(out)],
+        # --quiet: no progress lines (``writing kill3: ...``), the one line is all of stderr
+        [sys.executable, "-c", _HELD_GENERATE, "generate", str(spec), "-o", str(out), "--quiet"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
