@@ -219,8 +219,13 @@ class _CompileListener(numba_event.Listener):
 
 
 def _install_compile_listener() -> None:
-    """Register :class:`_CompileListener` with numba's events (once per process)."""
-    if not any(isinstance(x, _CompileListener) for x in numba_event._registered["numba:compile"]):
+    """Register :class:`_CompileListener` with numba's events (once per process); a numba
+    without the event registry only loses the announcement."""
+    try:
+        registered = numba_event._registered["numba:compile"]
+    except (AttributeError, KeyError, TypeError):  # pragma: no cover - another numba
+        return
+    if not any(isinstance(x, _CompileListener) for x in registered):
         numba_event.register("numba:compile", _CompileListener())
 
 
