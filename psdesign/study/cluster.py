@@ -116,9 +116,30 @@ def check_submit_command(opts: ClusterOptions) -> None:
         )
 
 
+def _import_jobqueue():
+    """``dask_jobqueue``, imported with the process's SIGINT handler kept.
+
+    Its ``runner`` module replaces the handler on import with ``lambda *_: sys.exit()``: a
+    Ctrl-C in ``study run --cluster`` then left as a bare ``SystemExit`` (exit 0, no
+    "interrupted" line, the tables not flushed) instead of psdesign's ``KeyboardInterrupt``.
+    """
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGINT) if main else None
+    try:
+        import dask_jobqueue
+    finally:
+        if main and before is not None:
+            signal.signal(signal.SIGINT, before)
+    return dask_jobqueue
+
+
 def make_cluster(opts: ClusterOptions):
     """A dask-jobqueue cluster (not yet scaled) for ``opts``."""
-    from dask_jobqueue import PBSCluster, SLURMCluster
+    jobqueue = _import_jobqueue()
+    PBSCluster, SLURMCluster = jobqueue.PBSCluster, jobqueue.SLURMCluster  # noqa: N806
 
     threads = {
         k: str(opts.cores)

@@ -141,7 +141,18 @@ def test_ga_reports_generation_of_total(tmp_path, monkeypatch):
     assert ga and " of 3, overlap " in ga[0] and "(analytic)" in ga[0], lines
 
 
-def test_ctrl_c_during_the_preview_render_is_not_lost(tmp_path, monkeypatch):
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler for the test (another test file of this worker may have
+    imported a library that replaced it, e.g. dask_jobqueue), restored afterwards."""
+    import signal
+
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+def test_ctrl_c_during_the_preview_render_is_not_lost(tmp_path, monkeypatch, python_sigint):
     """A Ctrl-C that lands in pyvista's smooth-shading algorithm (a Python VTK algorithm run
     by the render) was swallowed by VTK (an error dump on stderr) and ``generate`` finished
     with exit 0; it is now raised once the render returns."""
@@ -220,7 +231,7 @@ def test_field_relax_reports_its_polls():
     assert polls and " polls, " in polls[-1] and " evaluations, U = " in polls[-1], lines
 
 
-def test_ctrl_c_during_the_force_field_pictures_is_not_lost(tmp_path, monkeypatch):
+def test_ctrl_c_during_the_force_field_pictures_is_not_lost(tmp_path, monkeypatch, python_sigint):
     """As the preview: ``forcefield``'s before.png / after.png render ran pyvista's
     smooth-shading algorithm, where VTK swallowed a Ctrl-C."""
     import signal

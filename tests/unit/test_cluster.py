@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +12,26 @@ import pytest
 
 from psdesign.study.cluster import ClusterOptions, job_script
 
+_sigint = signal.getsignal(signal.SIGINT)
 pytest.importorskip("dask_jobqueue")
+# dask_jobqueue's import replaces the SIGINT handler with sys.exit(): the other test files of
+# this worker process keep Python's (psdesign.study.cluster._import_jobqueue keeps it too)
+signal.signal(signal.SIGINT, _sigint)
+
+
+def test_importing_jobqueue_keeps_the_sigint_handler() -> None:
+    """``dask_jobqueue.runner`` installs ``lambda *_: sys.exit()`` for SIGINT on import, so a
+    Ctrl-C in ``study run --cluster`` became a bare SystemExit (exit 0, no "interrupted"
+    line); psdesign imports it with the handler kept (a fresh interpreter: the import
+    happens once)."""
+    code = (
+        "import signal\n"
+        "from psdesign.study.cluster import _import_jobqueue\n"
+        "_import_jobqueue()\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True", out.stderr
 
 
 def test_slurm_job_script_carries_the_resources() -> None:
