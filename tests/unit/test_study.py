@@ -815,6 +815,7 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
     cases queued, and the run waited for ever (runner audit, s32). Now it stops after
     ``NO_WORKER_WAIT_S`` with :class:`WorkersLost`, the finished cases in the records and
     the tables, and a rerun on a live scheduler runs only the rest."""
+    import faulthandler
     import threading
 
     from distributed import LocalCluster
@@ -822,6 +823,8 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
     import psdesign.study.runner as runner
 
     monkeypatch.setattr(runner, "NO_WORKER_WAIT_S", 1.0)
+    # a broken watchdog waits for ever: end this process (a failure) rather than the CI run
+    faulthandler.dump_traceback_later(120, exit=True)
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     out = tmp_path / "out"
     with LocalCluster(
@@ -844,5 +847,6 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
     table = pd.read_csv(out / "results.csv")
     assert 1 <= len(done) < len(expand_design(load_study(p)))
     assert set(table["case_id"]) == done
+    faulthandler.cancel_dump_traceback_later()
     rest = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
     assert len(rest) == len(expand_design(load_study(p)))
