@@ -129,14 +129,10 @@ class PermeabilityResult:
 
 def _direction(direction: Any) -> str:
     """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
-    import numpy as np
-
     from psdesign.errors import SpecError
     from psdesign.flow.darcy import axis_of
 
     try:
-        if isinstance(direction, bool | np.bool_):  # True == 1 would pass as axis 'y'
-            raise TypeError(direction)
         return axis_of(direction)[0]
     except (ValueError, TypeError):
         raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None

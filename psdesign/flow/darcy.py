@@ -27,9 +27,11 @@ def axis_of(direction: str | int) -> tuple[str, int]:
     >>> axis_of("y")
     ('y', 1)
     """
-    if isinstance(direction, int | np.integer) and 0 <= int(direction) <= 2:
-        return "xyz"[int(direction)], int(direction)
-    if direction in AXES:
+    # a bool is an int (True == 1) but no axis
+    if isinstance(direction, int | np.integer) and not isinstance(direction, bool):
+        if 0 <= int(direction) <= 2:
+            return "xyz"[int(direction)], int(direction)
+    elif direction in AXES:
         return str(direction), AXES[direction]
     raise ValueError(f"direction must be 'x', 'y' or 'z', got {direction!r}")
 
