@@ -481,10 +481,12 @@ class _Placer:
         queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
         streak = 0
         report = _placement_progress(len(queue), o.stop_solid)
+        track = report is not None or o.stop_solid is not None
         while queue:
+            solid = sum(self.contrib.values()) if track else 0.0  # once for both uses
             if report is not None:
-                report(len(self.placed) - len(fixed_idx), sum(self.contrib.values()))
-            if o.stop_solid is not None and sum(self.contrib.values()) >= o.stop_solid:
+                report(len(self.placed) - len(fixed_idx), solid)
+            if o.stop_solid is not None and solid >= o.stop_solid:
                 self.stopped = True
                 break
             if o.max_consecutive_rejects is not None and streak >= o.max_consecutive_rejects:
