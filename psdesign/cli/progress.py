@@ -54,6 +54,8 @@ class Printer:
         self.t0 = time.perf_counter()
         self._open = False  # a redrawn (unterminated) line is on the terminal
         self.warned: list[str] = []  # warnings printed by :func:`warning` during the command
+        self.compiles = 0  # numba compiles started during the command (:meth:`compiling`)
+        self._compile_report: Callable[..., None] | None = None
 
     def _write(self, text: str, redraw: bool = False) -> None:
         if self.quiet:
@@ -103,6 +105,22 @@ class Printer:
             self._write(line(now - t0, *args), redraw=self.tty)
 
         return report
+
+    def compiling(self, name: str) -> None:
+        """A numba kernel compile started: the first says so in one stage line, the rest
+        are counted on a throttled line."""
+        if self._compile_report is None:
+            self.stage(
+                "compiling numba kernels (once after an install or a change; `psdesign warmup` "
+                "compiles them ahead)"
+            )
+            self._compile_report = self.throttled(
+                lambda s, n, kernel: (
+                    f"psdesign: compiling numba kernels: {n} so far ({kernel}), {s:.0f} s"
+                )
+            )
+        self.compiles += 1
+        self._compile_report(self.compiles, name)
 
     def close(self) -> None:
         """End a redrawn line."""
@@ -196,23 +214,10 @@ def throttled(line: Callable[..., str]) -> Callable[..., None] | None:
 def compiling(name: str) -> None:
     """A numba kernel compile started (:mod:`solvers.jit`'s listener): once per command the
     line ``psdesign: compiling numba kernels ...`` (a cold start compiled for up to 100 s
-    before the first progress line), then a throttled count; no-op without a printer."""
-    if not _ACTIVE:
-        return
-    printer = _ACTIVE[-1]
-    state = printer.__dict__.setdefault("_compiles", [0, None])
-    if state[1] is None:
-        printer.stage(
-            "compiling numba kernels (once after an install or a change; `psdesign warmup` "
-            "compiles them ahead)"
-        )
-        state[1] = printer.throttled(
-            lambda s, n, kernel: (
-                f"psdesign: compiling numba kernels: {n} so far ({kernel}), {s:.0f} s"
-            )
-        )
-    state[0] += 1
-    state[1](state[0], name)
+    before the first progress line), then a throttled count (:meth:`Printer.compiling`);
+    no-op without a printer."""
+    if _ACTIVE:
+        _ACTIVE[-1].compiling(name)
 
 
 def search_progress(label: str) -> Callable[[dict], None] | None:
