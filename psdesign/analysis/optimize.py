@@ -97,6 +97,18 @@ def _score(row: dict, targets: list[Target]) -> float:
     return sum(t.miss(float(row.get(t.output, math.nan))) for t in targets)
 
 
+def design_points(recs: list[dict], names: list[str]) -> dict[tuple, list[dict]]:
+    """The records grouped by design point (their values of ``names``): a point's seeds.
+
+    >>> list(design_points([{"a": 1, "s": 1}, {"a": 2, "s": 1}, {"a": 1, "s": 2}], ["a"]))
+    [(1,), (2,)]
+    """
+    points: dict[tuple, list[dict]] = {}
+    for r in recs:
+        points.setdefault(tuple(r[n] for n in names), []).append(r)
+    return points
+
+
 def seed_scatter_note(recs: list[dict], names: list[str], best: dict, targets: list[Target]) -> str:
     """Why no design may meet an ``=`` target: the seeds of the closest design point spread
     wider than the target's band (one RVE realization to the next), or ``""``.
@@ -108,7 +120,7 @@ def seed_scatter_note(recs: list[dict], names: list[str], best: dict, targets: l
     """
     if not best:
         return ""
-    same = [r for r in recs if all(r.get(n) == best.get(n) for n in names)]
+    same = design_points(recs, names).get(tuple(best[n] for n in names), [])
     for t in targets:
         values = [
             float(r[t.output]) for r in same if math.isfinite(float(r.get(t.output, math.nan)))
@@ -140,11 +152,8 @@ def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) 
     >>> [r["k"] for r in worst_replicates(recs, ["a"], t)]
     [3.0, 1.5]
     """
-    points: dict[tuple, list[dict]] = {}
-    for r in recs:
-        points.setdefault(tuple(r[n] for n in names), []).append(r)
     out = []
-    for group in points.values():
+    for group in design_points(recs, names).values():
         scored = [(_score(r, targets), i) for i, r in enumerate(group)]
         finite = [si for si in scored if math.isfinite(si[0])] or scored
         out.append(group[max(finite)[1]] | {"replicates": len(group)})
