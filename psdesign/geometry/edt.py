@@ -31,12 +31,7 @@ def edt(mask: np.ndarray) -> np.ndarray:
     >>> edt(np.array([[False, True, True, True]]))
     array([[0., 1., 2., 3.]], dtype=float32)
     """
-    try:
-        import edt as _edt_lib
-    except ImportError:  # pragma: no cover - a declared dependency; scipy is the fallback
-        from scipy import ndimage
-
-        return ndimage.distance_transform_edt(mask).astype(np.float32)
+    import edt as _edt_lib  # a declared dependency (pyproject)
 
     mask = np.ascontiguousarray(mask)
     if mask.dtype == bool:
