@@ -3,7 +3,10 @@ and Morris elementary effects, both with SALib.
 
 The indices are those of the surrogate's mean over the parameter box (uniform in the scaled
 inputs, i.e. log-uniform for log-scaled parameters). Confidence intervals are SALib's bootstrap
-95 % intervals.
+95 % intervals. A parameter that held one value in every fitted case
+(:meth:`~psdesign.analysis.surrogate.Surrogate.fixed_inputs`) is held at that value and gets
+no index: the cases say nothing about it (varied over its box, the GP's prior alone once made
+such a parameter the "most influential" one, S1 0.59, of a study that never changed it).
 """
 
 from __future__ import annotations
@@ -14,16 +17,35 @@ import pandas as pd
 from psdesign.analysis.surrogate import Surrogate, from_unit
 
 
+def _varied(s: Surrogate) -> list[str]:
+    """The parameters whose indices are computed (those not fixed in the fitted cases)."""
+    fixed = s.fixed_inputs()
+    names = [p for p in s.params if p not in fixed]
+    if not names:
+        raise ValueError(
+            f"{s.output}: no design parameter varied among the fitted cases "
+            f"({', '.join(f'{p} = {v:g}' for p, v in fixed.items())}); no sensitivity to compute"
+        )
+    return names
+
+
 def _problem(s: Surrogate) -> dict:
-    return {
-        "num_vars": len(s.params),
-        "names": list(s.params),
-        "bounds": [[0.0, 1.0]] * len(s.params),
-    }
+    names = _varied(s)
+    return {"num_vars": len(names), "names": names, "bounds": [[0.0, 1.0]] * len(names)}
 
 
 def _unscale(s: Surrogate, u: np.ndarray) -> np.ndarray:
-    return from_unit(u, s.low, s.high, s.log_params)
+    """Surrogate inputs (all of ``s.params``) from unit samples of the varied parameters;
+    the fixed ones at their value."""
+    fixed = s.fixed_inputs()
+    x = np.empty((len(u), len(s.params)))
+    cols = [i for i, p in enumerate(s.params) if p not in fixed]
+    pick = [[s.low[i] for i in cols], [s.high[i] for i in cols], [s.log_params[i] for i in cols]]
+    x[:, cols] = from_unit(u, *pick)
+    for i, p in enumerate(s.params):
+        if p in fixed:
+            x[:, i] = fixed[p]
+    return x
 
 
 def _model_output(s: Surrogate, x: np.ndarray) -> np.ndarray:
@@ -49,7 +71,7 @@ def sobol_indices(s: Surrogate, n: int = 1024, seed: int = 0) -> pd.DataFrame:
     r = sobol.analyze(prob, y, calc_second_order=True, seed=seed + 1)
     return pd.DataFrame(
         {
-            "parameter": s.params,
+            "parameter": prob["names"],
             "S1": r["S1"],
             "S1_conf": r["S1_conf"],
             "ST": r["ST"],
@@ -69,7 +91,7 @@ def morris_screening(s: Surrogate, trajectories: int = 50, seed: int = 0) -> pd.
     r = morris.analyze(prob, u, y, num_levels=4, seed=seed)
     return pd.DataFrame(
         {
-            "parameter": s.params,
+            "parameter": prob["names"],
             "mu_star": r["mu_star"],
             "mu_star_conf": r["mu_star_conf"],
             "sigma": r["sigma"],

@@ -46,8 +46,10 @@ def to_unit(x: np.ndarray, low, high, log) -> np.ndarray:
 
 
 def from_unit(u: np.ndarray, low, high, log) -> np.ndarray:
-    """Inverse of :func:`to_unit`."""
+    """Inverse of :func:`to_unit`; a degenerate range (``low == high``) maps every ``u`` to
+    ``low`` (never outside the range)."""
     lo, span, lg = _box(low, high, log)
+    span = np.where(np.asarray(high, float) > np.asarray(low, float), span, 0.0)
     x = lo + np.asarray(u, dtype=float) * span
     return np.where(lg, 10.0**x, x)
 
@@ -90,6 +92,16 @@ class Surrogate:
     cv_rmse: float = math.nan
     cv_rel_error: float = math.nan
     _gp: object = field(default=None, repr=False, compare=False)
+
+    def fixed_inputs(self) -> dict[str, float]:
+        """Parameters that held one value in every fitted case, ``{name: value}``.
+
+        The cases say nothing about how the output moves with them: no sensitivity index is
+        computed for them (:mod:`psdesign.analysis.sensitivity`), and a prediction at another
+        value is an extrapolation (:func:`outside_range`).
+        """
+        x = np.asarray(self.x, dtype=float).reshape(-1, len(self.params))
+        return {p: float(x[0, i]) for i, p in enumerate(self.params) if np.ptp(x[:, i]) == 0}
 
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:

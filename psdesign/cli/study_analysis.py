@@ -48,6 +48,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
+            "fixed_params": m.fixed_inputs(),
             "status": status,
             "warnings": warnings,
         }
@@ -59,8 +60,11 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     else:
         for name, r in rows.items():
             space = "log10 " if r["log_output"] else ""
+            fixed = r["fixed_params"]
+            over = ", ".join(p for p in r["params"] if p not in fixed) or "no varied parameter"
+            held = "".join(f" ({p} = {v:g} in every case)" for p, v in fixed.items())
             print(
-                f"{name}: GP over {', '.join(r['params'])} from {r['n_cases']} cases, "
+                f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
                 f"{r['cv_rmse']:.3g})  [{r['status']}]"
             )
@@ -141,7 +145,16 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     result = {}
     for name in names:
         fn = sobol_indices if args.method == "sobol" else morris_screening
-        table = fn(models[name], seed=args.seed)
+        try:
+            table = fn(models[name], seed=args.seed)
+        except ValueError as exc:  # no parameter varied among the fitted cases
+            return _fail(str(exc))
+        for p, v in models[name].fixed_inputs().items():
+            print(
+                f"psdesign: note: {name}: {p} was {v:g} in every fitted case; no index "
+                "(the cases say nothing about it)",
+                file=sys.stderr,
+            )
         status, cv_text = _surrogate_flag(models[name])
         # each row carries the trust of the surrogate its index was computed from
         trust = {"surrogate_status": status, "surrogate_cv_rel_error": models[name].cv_rel_error}

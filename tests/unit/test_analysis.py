@@ -565,3 +565,54 @@ def test_fit_refuses_an_empty_parameter_cell(tmp_path, capsys) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "parameter generator.diameter is empty on line(s) 4;" in err[0]
     assert not (out / "surrogate.json").exists()
+
+
+def test_a_parameter_fixed_in_every_case_gets_no_sensitivity_index() -> None:
+    """Truth: the cases depend on ``a`` alone and ``b`` is 5 in every case, so over what the
+    cases span S1_a = ST_a = 1 (Saltelli's Primer, Sec. 4: a function of one input). Before,
+    ``b`` was varied over [5, 6] where the GP had no data and its prior alone made it the
+    "most influential" parameter (S1_b 0.91, S1_a 0.09 on this very data)."""
+    a = np.random.default_rng(0).uniform(0.7, 0.9, 12)
+    df = pd.DataFrame({"a": a, "b": 5.0, "status": "ok", "K": 1e-11 * np.exp(5 * a)})
+    bounds = {"a": (0.7, 0.9, False), "b": (5.0, 5.0, False)}
+    s = fit_surrogate(df, "K", ["a", "b"], bounds)
+    assert s.fixed_inputs() == {"b": 5.0}
+    t = sobol_indices(s, n=256).set_index("parameter")
+    assert list(t.index) == ["a"]
+    assert t.loc["a", "S1"] == pytest.approx(1.0, abs=0.05)
+    assert t.loc["a", "ST"] == pytest.approx(1.0, abs=0.05)
+    assert list(morris_screening(s)["parameter"]) == ["a"]
+    only_b = fit_surrogate(df.assign(a=0.8), "K", ["a", "b"], bounds)
+    with pytest.raises(ValueError, match="no design parameter varied"):
+        sobol_indices(only_b, n=64)
+
+
+def test_from_unit_keeps_a_degenerate_range_at_its_value() -> None:
+    """A range with low == high maps every unit value to low (it mapped u to low + u)."""
+    from psdesign.analysis.surrogate import from_unit
+
+    x = from_unit(np.array([[0.0, 0.5], [1.0, 0.25]]), [5.0, 1e-6], [5.0, 1e-4], [False, True])
+    np.testing.assert_allclose(x, [[5.0, 1e-5], [5.0, np.sqrt(1e-5 * 1e-6)]], rtol=1e-12)
+
+
+def test_study_sensitivity_leaves_out_a_parameter_held_fixed(tmp_path, capsys) -> None:
+    """A study whose diameter is one value (``[7.5e-6]``): `study fit` says it was held,
+    `study sensitivity` gives porosity the whole variance (the fake solver's K varies with
+    porosity alone here) and says why diameter has no row."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 8\nseeds = [1]\n'
+        'outputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n"generator.diameter" = [7.5e-6]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    fit = json.loads(capsys.readouterr().out)
+    assert fit["k_z_m2"]["fixed_params"] == {"generator.diameter": 7.5e-6}
+    assert main(["study", "sensitivity", str(out), "--outputs", "k_z_m2", "--json"]) == 0
+    got = capsys.readouterr()
+    rows = json.loads(got.out)["k_z_m2"]
+    assert [r["parameter"] for r in rows] == ["generator.porosity"]
+    assert rows[0]["ST"] == pytest.approx(1.0, abs=0.05)
+    assert "generator.diameter was 7.5e-06 in every fitted case" in got.err
