@@ -112,6 +112,39 @@ def test_allrun_k_matches_square_duct(tmp_path):
     assert k == pytest.approx(0.0351443 * A * A, rel=0.05)
 
 
+@pytest.mark.skipif(
+    any(shutil.which(tool) is None for tool in ("simpleFoam", "gmshToFoam", "changeDictionary")),
+    reason="OpenFOAM (simpleFoam, gmshToFoam, changeDictionary) not installed",
+)
+@pytest.mark.parametrize(("sides", "side_type"), [("slip", "symmetry"), ("noslip", "wall")])
+def test_allrun_gmsh_route_types_the_patches_and_gives_the_polymesh_k(tmp_path, sides, side_type):
+    """``./Allrun gmsh`` (README: gmshToFoam on ``pore.msh``, ``wall`` typed as a wall patch,
+    the sides as ``flow.sides``) solves the same problem as ``./Allrun`` on psdesign's polyMesh:
+    the same patch types, the same K. Truth: Debian's OpenFOAM 1912 itself. Its
+    changeDictionary reads the replacements at the top level of changeDictionaryDict
+    (``/usr/share/openfoam/etc/caseDicts/annotated/changeDictionaryDict``); the dictionary held
+    them only inside ``dictionaryReplacement`` (the OpenFOAM.org layout), so every patch stayed
+    a plain ``patch`` and simpleFoam refused the slip sides' ``symmetry`` conditions."""
+    channel = _box(4)  # one no-slip wall (side_x0 re-tagged), three sides
+    tags = channel.facet_tags
+    tags["wall"] = np.concatenate([tags["wall"], tags.pop("side_x0")])
+    out = export_mesh(channel, tmp_path, formats=("openfoam", "msh"), flow={"sides": sides})
+    case = out["openfoam"]
+    allrun = case / "Allrun"
+    k = {}
+    for route in ("", "gmsh"):
+        run = subprocess.run(
+            [str(allrun), *([route] if route else [])], capture_output=True, text=True, timeout=600
+        )
+        assert run.returncode == 0, (route, run.stdout)
+        k[route] = float(re.search(r"K_rve_planes = ([-+0-9.eE]+)", run.stdout).group(1))
+        boundary = (case / "constant" / "polyMesh" / "boundary").read_text()
+        patches = dict(re.findall(r"^    (\w+)\n    \{\n\s+type\s+(\w+);", boundary, re.M))
+        assert patches["wall"] == "wall", route
+        assert {patches[s] for s in patches if s.startswith("side_")} == {side_type}, route
+    assert k["gmsh"] == pytest.approx(k[""], rel=1e-6)
+
+
 def _patches(case) -> dict[str, str]:
     text = (case / "constant" / "polyMesh" / "boundary").read_text()
     return dict(re.findall(r"^    (\w+)\n    \{\n        type        (\w+);", text, re.M))
