@@ -304,7 +304,7 @@ _ALLRUN = r"""#!/bin/sh
 #
 # Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
 #        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
-cd "${0%/*}" || exit 1
+cd "$(dirname "$0")" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
 fi
