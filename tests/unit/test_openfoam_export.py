@@ -45,6 +45,14 @@ def _box(n: int = 4, length: float = 2 * A) -> PoreMesh:
     )
 
 
+def _channel() -> PoreMesh:
+    """A box with one no-slip wall (``side_x0`` re-tagged ``wall``) and three sides."""
+    channel = _box(4)
+    tags = channel.facet_tags
+    tags["wall"] = np.concatenate([tags["wall"], tags.pop("side_x0")])
+    return channel
+
+
 def _value(text: str, key: str) -> float:
     return float(re.search(rf"^{key}\s+([-+0-9.eE]+);", text, re.M).group(1))
 
@@ -110,6 +118,61 @@ def test_allrun_k_matches_square_duct(tmp_path):
     ).stdout
     k = float(re.search(r"K_rve_planes = ([-+0-9.eE]+)", out).group(1))
     assert k == pytest.approx(0.0351443 * A * A, rel=0.05)
+
+
+@pytest.mark.skipif(
+    any(shutil.which(tool) is None for tool in ("simpleFoam", "gmshToFoam", "changeDictionary")),
+    reason="OpenFOAM (simpleFoam, gmshToFoam, changeDictionary) not installed",
+)
+@pytest.mark.parametrize(("sides", "side_type"), [("slip", "symmetry"), ("noslip", "wall")])
+def test_allrun_gmsh_route_types_the_patches_and_gives_the_polymesh_k(tmp_path, sides, side_type):
+    """``./Allrun gmsh`` (README: gmshToFoam on ``pore.msh``, ``wall`` typed as a wall patch,
+    the sides as ``flow.sides``) solves the same problem as ``./Allrun`` on psdesign's polyMesh:
+    the same patch types, the same K. Truth: Debian's OpenFOAM 1912 itself. Its
+    changeDictionary reads the replacements at the top level of changeDictionaryDict
+    (``/usr/share/openfoam/etc/caseDicts/annotated/changeDictionaryDict``); the dictionary held
+    them only inside ``dictionaryReplacement`` (the OpenFOAM.org layout), so every patch stayed
+    a plain ``patch`` and simpleFoam refused the slip sides' ``symmetry`` conditions."""
+    out = export_mesh(_channel(), tmp_path, formats=("openfoam", "msh"), flow={"sides": sides})
+    case = out["openfoam"]
+    allrun = case / "Allrun"
+    k = {}
+    for route in ("", "gmsh"):
+        run = subprocess.run(
+            [str(allrun), *([route] if route else [])], capture_output=True, text=True, timeout=600
+        )
+        assert run.returncode == 0, (route, run.stdout)
+        k[route] = float(re.search(r"K_rve_planes = ([-+0-9.eE]+)", run.stdout).group(1))
+        boundary = (case / "constant" / "polyMesh" / "boundary").read_text()
+        patches = dict(re.findall(r"^    (\w+)\n    \{\n\s+type\s+(\w+);", boundary, re.M))
+        assert patches["wall"] == "wall", route
+        assert {patches[s] for s in patches if s.startswith("side_")} == {side_type}, route
+    assert k["gmsh"] == pytest.approx(k[""], rel=1e-6)
+
+
+@pytest.mark.skipif(
+    shutil.which("simpleFoam") is None, reason="OpenFOAM (simpleFoam) not installed"
+)
+@pytest.mark.parametrize("periodic", [False, True])
+def test_allrun_runs_as_sh_allrun_inside_the_case(tmp_path, periodic):
+    """``sh Allrun`` in the case folder (``$0`` without a slash) runs the case like ``./Allrun``:
+    the script's ``cd "${0%/*}"`` left ``Allrun`` itself, and the shell stopped with ``cd: can't
+    cd to Allrun`` before any OpenFOAM tool ran. Truth: POSIX sh parameter expansion (``%/*``
+    removes nothing from a name without ``/``) and Debian's OpenFOAM 1912 running the case."""
+    if periodic:
+        from psdesign.meshing.pore_mesh import mesh_pore_space
+
+        n, h = 8, 5e-6  # one cylinder along z, radius 8 um, in a periodic 40 um cell
+        c = (np.arange(n) + 0.5) * h
+        x, y = np.meshgrid(c, c, indexing="ij")
+        d = np.repeat((np.hypot(x - 20e-6, y - 20e-6) - 8e-6)[:, :, None], n, axis=2)
+        pm = mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=8e-6)
+    else:
+        pm = _channel()
+    case = export_mesh(pm, tmp_path, formats=("openfoam",))["openfoam"]
+    run = subprocess.run(["sh", "Allrun"], cwd=case, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert re.search(r"^K_(rve_planes|periodic) = [-+0-9.eE]+ m\^2$", run.stdout, re.M)
 
 
 def _patches(case) -> dict[str, str]:

@@ -304,7 +304,7 @@ _ALLRUN = r"""#!/bin/sh
 #
 # Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
 #        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
-cd "${0%/*}" || exit 1
+cd "$(dirname "$0")" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
 fi
@@ -333,14 +333,24 @@ awk -v q="$Q" -v ps="$PS" -v pe="$PE" -v pi="$PI" -v po="$PO" \
 
 def _change_dict(flow: dict | None) -> str:
     """``changeDictionaryDict`` of the gmsh route: gmshToFoam makes every physical surface a
-    plain patch; type the wall and the sides (``flow.sides``) as the direct polyMesh does."""
+    plain patch; type the wall and the sides (``flow.sides``) as the direct polyMesh does.
+
+    The ``boundary`` replacement is written twice: at the top level, where OpenFOAM.com's
+    ``changeDictionary`` (Debian's ``openfoam`` 1912) reads it (``etc/caseDicts/annotated/
+    changeDictionaryDict``), and inside ``dictionaryReplacement``, where the older OpenFOAM.org
+    releases read it. Each reads its own and passes over the other (1912 warns that no field
+    ``dictionaryReplacement`` exists). Only the wrapped one was written: 1912 left every patch
+    a plain ``patch`` and simpleFoam refused the ``symmetry`` sides (``./Allrun gmsh`` failed
+    with the default ``flow.sides = "slip"``)."""
     side = side_type(flow)
-    return (
-        "dictionaryReplacement\n{\n    boundary\n    {\n"
-        f"        {T.WALL} {{ type wall; inGroups List<word> 1(wall); }}\n"
-        f'        "{T.SIDE_PREFIX}.*" {{ type {side}; inGroups List<word> 1({side}); }}\n'
-        "    }\n}\n"
+    boundary = (
+        "boundary\n{\n"
+        f"    {T.WALL} {{ type wall; inGroups List<word> 1(wall); }}\n"
+        f'    "{T.SIDE_PREFIX}.*" {{ type {side}; inGroups List<word> 1({side}); }}\n'
+        "}\n"
     )
+    wrapped = "".join(f"    {line}\n" for line in boundary.splitlines())
+    return boundary + "\ndictionaryReplacement\n{\n" + wrapped + "}\n"
 
 
 def _write_allrun(case: Path, c: dict[str, float], flow: dict | None = None) -> None:

@@ -158,7 +158,7 @@ _ALLRUN = r"""#!/bin/sh
 #   K = nu Q L / (A dp): Q = |flux through the inlet patch| (m^3/s), L = box length along the
 #   flow, A = box cross-section, dp = the kinematic pressure jump across the cyclic inlet/outlet
 #   pair (the mean gradient dp / L of psdesign's periodic solve); nu = mu / rho.
-cd "${0%/*}" || exit 1
+cd "$(dirname "$0")" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
 fi
