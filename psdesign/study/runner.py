@@ -28,6 +28,7 @@ import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.study.casefn import watch_parent
+from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
@@ -53,14 +54,11 @@ class SchedulerError(StudyError):
 
 
 class WorkersLost(RuntimeError):
-    """No Dask worker for :data:`NO_WORKER_WAIT_S` (or ``--cluster-wait``) seconds while cases
-    wait: batch jobs past their walltime, a scheduler whose workers all left. The finished
-    cases are saved; rerunning the command resumes."""
+    """No Dask worker for ``--cluster-wait`` seconds (``run_study``'s ``worker_wait_s``) while
+    cases wait: batch jobs past their walltime, a scheduler whose workers all left or never
+    came. The finished cases are saved; rerunning the command resumes."""
 
 
-NO_WORKER_WAIT_S = 600.0
-"""Seconds a Dask run waits with no worker at all before it stops (:class:`WorkersLost`);
-``--cluster`` runs take ``--cluster-wait``."""
 _POLL_S = 0.5
 
 
@@ -492,7 +490,7 @@ def _run_dask(
     client,
     payloads: list[dict],
     on_done: Callable[[dict, dict], None],
-    no_worker_s: float = NO_WORKER_WAIT_S,
+    no_worker_s: float = DEFAULT_WAIT_S,
 ) -> None:
     """Submit the cases to ``client`` and record each as it finishes; stop with
     :class:`WorkersLost` after ``no_worker_s`` seconds without any worker (dask would keep
@@ -539,8 +537,8 @@ def _check_workers(client, alone_since: float | None, limit_s: float, waiting: i
     if now - alone_since >= limit_s:
         raise WorkersLost(
             f"no Dask worker for {limit_s:g} s while {waiting} case(s) wait (batch jobs past "
-            "their walltime? workers stopped?); finished cases are saved, rerun the command "
-            "to resume"
+            "their walltime? workers stopped or never started?); finished cases are saved, "
+            "rerun the command to resume (--cluster-wait SECONDS to wait longer)"
         )
     return alone_since
 
@@ -643,6 +641,7 @@ def run_study(
     force: bool = False,
     retry_not_converged: bool = False,
     security=None,
+    worker_wait_s: float | None = None,
     command: str = "study run",
     out_option: tuple[str, str | None] = ("-o", "--force"),
 ) -> pd.DataFrame:
@@ -681,6 +680,10 @@ def run_study(
         Re-run cases recorded as ``not_converged`` (otherwise they count as finished).
     security : distributed.security.Security, optional
         TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
+    worker_wait_s : float, optional
+        ``--cluster-wait``: seconds a Dask run waits while the scheduler has no worker at all
+        before it stops with :class:`WorkersLost`; default a ``ClusterOptions`` scheduler's
+        ``wait_s``, else :data:`psdesign.study.cluster.DEFAULT_WAIT_S` (600).
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
     out_option : (str, str or None)
@@ -739,6 +742,7 @@ def run_study(
         retry_failed,
         retry_not_converged,
         report,
+        _worker_wait(scheduler, worker_wait_s),
     )
 
     # connect first: a dead scheduler must not touch the output folder
@@ -760,6 +764,16 @@ def run_study(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+
+
+def _worker_wait(scheduler, worker_wait_s: float | None) -> float:
+    """``worker_wait_s`` checked (StudyError naming ``--cluster-wait``), or its default."""
+    if worker_wait_s is None:
+        return getattr(scheduler, "wait_s", DEFAULT_WAIT_S)
+    try:
+        return check_wait_s(worker_wait_s)
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
 
 
 def _say_waiting(scheduler, workers: int, progress: bool) -> None:
@@ -792,6 +806,7 @@ class _RunOptions:
     retry_failed: bool
     retry_not_converged: bool
     report: bool
+    worker_wait_s: float
 
 
 def _run_locked(
@@ -866,7 +881,7 @@ def _run_locked(
     tables = TableWriter(store, records, param_names, TABLE_INTERVAL_S)
     with watcher, tables.flushed_on_error():
         if payloads and client is not None:
-            _run_dask(client, payloads, on_done, getattr(scheduler, "wait_s", NO_WORKER_WAIT_S))
+            _run_dask(client, payloads, on_done, opts.worker_wait_s)
         elif payloads and workers == 0:
             _run_inline(payloads, on_done)
         elif payloads:
