@@ -818,18 +818,25 @@ def _run_locked(
     opts: _RunOptions,
 ) -> pd.DataFrame:
     workers, scheduler, case_fn = opts.workers, opts.scheduler, opts.case_fn
+    by_id = {c.case_id: c for c in cases}
     progress, timeout, report = opts.progress, opts.timeout, opts.report
     out = store.out
     t_start = time.perf_counter()
     started = _now()
     loaded = store.load_records()
-    # a case already finished at another position (a seed or level dropped) keeps its record
-    cases = match_finished(cases, loaded)
+    # a case finished at another position (a seed or level dropped) keeps its record and
+    # folder under the id it ran with; its id in the tables is the design's
+    stored = match_finished(cases, loaded)
+    key = {c.case_id: stored.get(c.case_id, c.case_id) for c in cases}
     store.write_json(
         "study.json",
-        {"study": study.to_dict(), "n_cases": len(cases), "cases": [c.to_dict() for c in cases]},
+        {
+            "study": study.to_dict(),
+            "n_cases": len(cases),
+            "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
+        },
     )
-    records = {c.case_id: _at(loaded[c.case_id], c) for c in cases if c.case_id in loaded}
+    records = {c: _at(loaded[r], by_id[c]) for c, r in stored.items()}
     skip = {"ok"} if opts.retry_failed else {"ok", "failed", "timeout"}
     if not opts.retry_not_converged:
         skip.add("not_converged")
@@ -846,12 +853,10 @@ def _run_locked(
         f"{len(todo)} to run on {backend} -> {out}"
     )
 
-    by_id = {c.case_id: c for c in cases}
-
     def on_done(payload: dict, rec: dict) -> None:
         c = by_id[payload["case_id"]]
         full = {
-            "case_id": c.case_id,
+            "case_id": key[c.case_id],
             "index": c.index,
             "params": c.params,
             "seed": c.seed,
@@ -859,7 +864,7 @@ def _run_locked(
         }
         watcher.done(c.case_id)
         store.write_record(full)  # raises StorageError: stop, earlier rows intact
-        records[c.case_id] = full
+        records[c.case_id] = _at(full, c)
         tables.changed()
         prog.update(c.case_id, full["status"], full.get("wall_time_s"), full.get("error"))
 
@@ -869,7 +874,7 @@ def _run_locked(
             "spec": c.spec,
             "outputs": list(study.outputs),
             "solver": study.solver,
-            "workdir": str(store.workdir(c.case_id)),
+            "workdir": str(store.workdir(key[c.case_id])),
             "out_dir": str(out),
             "case_fn": case_fn,
             "timeout_s": timeout,
@@ -917,8 +922,15 @@ def _run_locked(
 
 
 def _at(record: dict, case: Case) -> dict:
-    """``record`` placed at ``case``'s position in the current design (rows in design order)."""
-    return {**record, "index": case.index, "params": case.params, "seed": case.seed}
+    """``record`` as ``case`` of the current design: its id and position (rows in design
+    order), whatever id the record is stored under."""
+    return {
+        **record,
+        "case_id": case.case_id,
+        "index": case.index,
+        "params": case.params,
+        "seed": case.seed,
+    }
 
 
 TABLE_INTERVAL_S = 5.0
