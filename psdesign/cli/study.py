@@ -172,9 +172,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
     from psdesign.study.interrupt import Terminated
-    from psdesign.study.runner import WorkersLost, run_study, scheduler_security
+    from psdesign.study.runner import SchedulerError, WorkersLost, run_study, scheduler_security
     from psdesign.study.store import StorageError
-    from psdesign.study.studyfile import StudyError
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
@@ -195,7 +194,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             security=security,
             worker_wait_s=wait_s,
         )
-    except (StudyError, SpecError) as exc:
+    except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
         return _fail(str(exc), 2)
     except (StorageError, WorkersLost) as exc:
         return _fail(str(exc), 1)

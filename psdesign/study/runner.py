@@ -49,8 +49,12 @@ CONNECT_TIMEOUT_S = 10.0
 _MAX_POOL_BREAKS = 2
 
 
-class SchedulerError(StudyError):
-    """The Dask scheduler given with ``--scheduler`` does not answer."""
+class SchedulerError(RuntimeError):
+    """The Dask scheduler (``--scheduler``) or batch cluster (``--cluster``) cannot be used:
+    it does not answer or is not Dask, dask.distributed or the submit command is missing,
+    the jobs are refused or no worker connects in time.  Raised before the output folder is
+    touched (the CLI exits 2).  Bad scheduler options (a malformed address, missing TLS
+    files) are :class:`StudyError`."""
 
 
 class WorkersLost(RuntimeError):
@@ -255,7 +259,7 @@ def _host_port(address: str) -> tuple[str, str, int]:
     host, sep, port = rest.rpartition(":")
     host = host.strip("[]")
     if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise SchedulerError(
+        raise StudyError(
             f"--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT or 'local', "
             f"got {address!r}"
         )
@@ -350,7 +354,7 @@ def scheduler_security(
 
     Raises
     ------
-    SchedulerError
+    StudyError
         A file is missing or only some of the three are given.
     """
     given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
@@ -358,10 +362,10 @@ def scheduler_security(
         return None
     missing = [k for k, v in given.items() if not v]
     if missing:
-        raise SchedulerError(f"{missing[0]}: required with the other --tls-* options")
+        raise StudyError(f"{missing[0]}: required with the other --tls-* options")
     for k, v in given.items():
         if not Path(v).is_file():
-            raise SchedulerError(f"{k}: no such file {v}")
+            raise StudyError(f"{k}: no such file {v}")
     from distributed.security import Security
 
     return Security(
@@ -383,10 +387,11 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
 
     Raises
     ------
+    StudyError
+        If the address is malformed or the TLS options do not fit its scheme.
     SchedulerError
-        If dask.distributed is missing, the address is malformed, nothing answers at
-        ``address`` within ``timeout_s`` (default :data:`CONNECT_TIMEOUT_S`) or the peer is
-        not a Dask scheduler.
+        If dask.distributed is missing, nothing answers at ``address`` within ``timeout_s``
+        (default :data:`CONNECT_TIMEOUT_S`) or the peer is not a Dask scheduler.
     """
     try:
         import dask
@@ -412,12 +417,12 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         )
         return Client(cluster), cluster
     if "://" not in address:
-        raise SchedulerError(
+        raise StudyError(
             f"--scheduler: expected an address like tcp://HOST:PORT or 'local', got {address!r}"
         )
     scheme, host, _port = _host_port(address)
     if scheme not in ("tcp", "tls"):
-        raise SchedulerError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
+        raise StudyError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
     ssl_context = None
     if scheme == "tls":
         from distributed.security import Security
@@ -425,14 +430,14 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         sec = security if security is not None else Security()
         ssl_context = sec.get_connection_args("client").get("ssl_context")
         if ssl_context is None:
-            raise SchedulerError(
+            raise StudyError(
                 "--scheduler: tls:// needs --tls-ca-file, --tls-cert and --tls-key "
                 "(or dask config distributed.comm.tls.*)"
             )
         security = sec
     else:
         if security is not None:
-            raise SchedulerError(
+            raise StudyError(
                 f"--tls-ca-file: TLS options given but {address} is plain tcp://; use tls://"
             )
         if not _is_loopback(host):
@@ -698,7 +703,9 @@ def run_study(
     Raises
     ------
     StudyError
-        Invalid study or arguments; :class:`SchedulerError` if the scheduler does not answer.
+        Invalid study or arguments (a :class:`psdesign.errors.SpecError`).
+    SchedulerError
+        The scheduler or batch cluster cannot be used (does not answer, no worker in time).
     psdesign.io.outputs.OutputError
         ``out_dir`` is refused (``/``, home, a file, a non-empty folder of the user's).
     StorageError

@@ -561,7 +561,7 @@ def test_scheduler_not_answering_is_clear_and_harmless(tmp_path, monkeypatch):
     ):
         run_study(p, out, scheduler="tcp://127.0.0.1:9", case_fn=fake_case, progress=False)
     assert {f: f.read_bytes() for f in out.rglob("*") if f.is_file()} == snapshot
-    with pytest.raises(SchedulerError, match="tcp://HOST:PORT"):
+    with pytest.raises(StudyError, match="tcp://HOST:PORT"):  # a bad address: bad input
         run_study(p, out, scheduler="127.0.0.1:9", case_fn=fake_case, progress=False)
 
 
