@@ -355,3 +355,20 @@ def test_a_kernel_compile_is_announced():
         return x + 2
 
     _other(1)  # no printer: silent (capsys is not needed: nothing may fail)
+
+
+def test_laplace_cg_reports_every_iteration():
+    """The Laplace CG called ``progress`` every 10 iterations (a solve of 9 said nothing);
+    now every iteration, as the voxel solver (``solvers.progress.PROGRESS_EVERY``), the
+    printer throttling the lines."""
+    import numpy as np
+
+    from solvers.transport import solve_laplace
+
+    sigma = np.ones((16, 8, 8))
+    sigma[5:9, 2:6, :] = 1e-3
+    calls: list[tuple[int, float]] = []
+    res = solve_laplace(sigma, 0, "fixed", progress=lambda *a: calls.append(a))
+    assert 1 < res.iterations < 10
+    assert [i for i, _ in calls] == list(range(1, res.iterations + 1))
+    assert [r for _, r in calls] == res.history[1:]
