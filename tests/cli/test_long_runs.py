@@ -401,3 +401,41 @@ def test_laplace_cg_reports_every_iteration():
     assert 1 < res.iterations < 10
     assert [i for i, _ in calls] == list(range(1, res.iterations + 1))
     assert [r for _, r in calls] == res.history[1:]
+
+
+def test_stuffing_counts_its_steps_and_passes():
+    """The lattice mesher said "meshing" and "mesh: N tets" only, with up to seven stuffing
+    passes (volume matching) between; each pass now counts its steps to the total, on one
+    throttled line naming the pass, and the mesh does not change; the component and quality
+    steps after the passes are named."""
+    import numpy as np
+
+    from psdesign.meshing.pore_mesh import mesh_pore_space
+    from psdesign.meshing.stuffing import STUFFING_STEPS, stuff_pore_space
+
+    n, side = 16, 16e-6
+    c = (np.arange(n) + 0.5) * side / n
+    x, y, _ = np.meshgrid(c, c, c, indexing="ij")
+    d = np.sqrt((x - side / 2) ** 2 + (y - side / 2) ** 2) - 0.3 * side
+    args = (d, side / n, (side,) * 3, 2, 0.2, 2 * side / n)
+    calls: list[tuple[int, int]] = []
+    sm = stuff_pore_space(*args, progress=lambda *a: calls.append(a))
+    assert calls == [(k, STUFFING_STEPS) for k in range(1, STUFFING_STEPS + 1)]
+    ref = stuff_pore_space(*args)
+    np.testing.assert_array_equal(sm.tets, ref.tets)
+    np.testing.assert_array_equal(sm.points, ref.points)
+    lines = _lines(
+        lambda: mesh_pore_space(
+            d, side / n, (side,) * 3, "z", mesher="stuffing", lattice_step=2 * side / n,
+            min_gap_voxels=0,
+        )
+    )  # fmt: skip
+    steps = [ln.rpartition(", ")[0] for ln in lines if "stuffing pass" in ln]  # no time
+    assert steps[:STUFFING_STEPS] == [
+        f"psdesign: stuffing pass 1: {k}/{STUFFING_STEPS} steps"
+        for k in range(1, STUFFING_STEPS + 1)
+    ]
+    assert "psdesign: stuffing pass 2: 1/5 steps" in steps  # volume matching
+    # then two vectorized steps as long as the passes (12 s and 18 s at 5 M tets) say so
+    assert any("through-flow components and tags" in ln for ln in lines)
+    assert any(ln.startswith("psdesign: mesh: quality checks") for ln in lines)
