@@ -150,6 +150,7 @@ import numpy as np
 from scipy import ndimage
 
 from solvers import jit
+from solvers.progress import PROGRESS_EVERY
 from solvers.voxel import boundary as bd
 from solvers.voxel import cutfaces as cf
 from solvers.voxel import kernels as kr
@@ -1292,10 +1293,6 @@ def krylov_run(
     run = _symmlq if work.w is not None else _minres
     return run(op, b, x, work, rtol, maxit, report)
 
-
-PROGRESS_EVERY = 1
-"""Krylov iterations between two progress reports: every one, the caller's printer throttles
-(25 left 13 s without a line at 200^3 on a loaded machine, over a minute at 400^3)."""
 
 INNER_RTOL_FLOOR = 1e-5
 """Smallest relative reduction asked of one float32 Krylov run: the first refinement cycle runs

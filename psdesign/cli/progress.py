@@ -21,6 +21,7 @@ __all__ = [
     "activate",
     "active",
     "compiling",
+    "counted",
     "estimate",
     "iterations",
     "laplace_progress",
@@ -88,6 +89,13 @@ class Printer:
             lambda s, n, residual: (
                 f"psdesign: {label}: {n} {method} iterations, residual {residual:.1e}, {s:.0f} s"
             )
+        )
+
+    def counted(self, label: str, unit: str) -> Callable[[int, int], None]:
+        """Callback ``report(done, total)`` of counted work (elements assembled, steps of a
+        mesher): ``psdesign: <label>: <done>/<total> <unit>, <elapsed> s``, throttled."""
+        return self.throttled(
+            lambda s, done, total: f"psdesign: {label}: {done}/{total} {unit}, {s:.0f} s"
         )
 
     def throttled(self, line: Callable[..., str]) -> Callable[..., None]:
@@ -202,6 +210,12 @@ def estimate(what: str, seconds: float | None = None, memory_gb: float | None = 
 def iterations(label: str, method: str) -> Callable[[int, float], None] | None:
     """Iteration callback of the active printer, or None without one."""
     return _ACTIVE[-1].iterations(label, method) if _ACTIVE else None
+
+
+def counted(label: str, unit: str) -> Callable[[int, int], None] | None:
+    """The active printer's :meth:`Printer.counted` callback ``report(done, total)``, or None
+    without a printer (library use, tests)."""
+    return _ACTIVE[-1].counted(label, unit) if _ACTIVE else None
 
 
 def throttled(line: Callable[..., str]) -> Callable[..., None] | None:

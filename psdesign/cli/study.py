@@ -80,8 +80,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument(
         "--cluster-wait",
         default=None,
-        help="seconds to wait for the first worker job to connect, and later without any "
-        "worker, before stopping (default 600; a refused submission stops at once)",
+        help="seconds a --cluster or --scheduler run waits for a worker (the first batch job "
+        "to connect, or any worker once all have left) before stopping (default 600; a "
+        "refused submission stops at once)",
     )
     run.add_argument("--tls-ca-file", default=None, help="CA certificate for a tls:// scheduler")
     run.add_argument("--tls-cert", default=None, help="client certificate for a tls:// scheduler")
@@ -126,7 +127,7 @@ def _fail(msg: str, code: int) -> int:
     return code
 
 
-def _cluster(args: argparse.Namespace):
+def _cluster(args: argparse.Namespace, wait_s: float | None):
     """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None."""
     from psdesign.study.studyfile import StudyError
 
@@ -144,33 +145,40 @@ def _cluster(args: argparse.Namespace):
             walltime=args.cluster_walltime,
             queue=args.cluster_queue,
             account=args.cluster_account,
-            **_cluster_wait(args.cluster_wait),
+            **({} if wait_s is None else {"wait_s": wait_s}),
         )
     except ValueError as exc:
         raise StudyError(str(exc)) from None
 
 
-def _cluster_wait(text: str | None) -> dict:
-    """``--cluster-wait`` as ClusterOptions' ``wait_s`` (a non-number is refused there)."""
+def _cluster_wait(text: str | None) -> float | None:
+    """``--cluster-wait`` in seconds (None: the default); StudyError for a bad value."""
+    from psdesign.study.cluster import check_wait_s
+    from psdesign.study.studyfile import StudyError
+
     if text is None:
-        return {}
+        return None
     try:
-        return {"wait_s": float(text)}
+        value = float(text)
     except ValueError:
-        return {"wait_s": text}
+        value = text  # refused, quoted, by check_wait_s
+    try:
+        return check_wait_s(value)
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
 
 
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
     from psdesign.study.interrupt import Terminated
-    from psdesign.study.runner import WorkersLost, run_study, scheduler_security
+    from psdesign.study.runner import SchedulerError, WorkersLost, run_study, scheduler_security
     from psdesign.study.store import StorageError
-    from psdesign.study.studyfile import StudyError
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
-        scheduler = _cluster(args) or args.scheduler
+        wait_s = _cluster_wait(args.cluster_wait)
+        scheduler = _cluster(args, wait_s) or args.scheduler
         df = run_study(
             args.study,
             args.out,
@@ -184,8 +192,9 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             force=args.force,
             retry_not_converged=args.retry_not_converged,
             security=security,
+            worker_wait_s=wait_s,
         )
-    except (StudyError, SpecError) as exc:
+    except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
         return _fail(str(exc), 2)
     except (StorageError, WorkersLost) as exc:
         return _fail(str(exc), 1)

@@ -211,7 +211,7 @@ def _measured_text(r: dict) -> str:
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
-    from psdesign.study.studyfile import StudyError
+    from psdesign.study.runner import SchedulerError
 
     try:
         targets = [Target.parse(t) for t in args.target]
@@ -227,7 +227,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             case_fn=args.case_fn,
             progress=not args.quiet,
         )
-    except (StudyError, ValueError) as exc:
+    except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return _fail(str(exc))
     targets_out = [_target_report(t, res.best) for t in targets]
     summary = {

@@ -370,6 +370,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         max_memory_gb=flow.get("max_memory_gb"),
         progress=progress.iterations(f"FEM solve {name}", "GMRES"),
         stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
+        assembly_progress=progress.counted(f"FEM solve {name}: assembling", "elements"),
     )
     u = np.asarray(res.mean_velocity, dtype=float)
     col = darcy_column(u, mu, grad)
@@ -405,6 +406,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods: int = 1
         max_memory_gb=flow.get("max_memory_gb"),
         progress=progress.iterations(f"FEM solve {name}", "GMRES"),
         stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
+        assembly_progress=progress.counted(f"FEM solve {name}: assembling", "elements"),
     )
     start, end = mesh.porous_region
     q = abs(res.flux[tags.OUTLET])

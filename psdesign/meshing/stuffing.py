@@ -38,6 +38,7 @@ the fiber radius.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import permutations
 
@@ -57,6 +58,10 @@ _REGULA_FALSI_ITERS = 6
 #: a cut at t = 1.8e-5 on a box edge left face y1 with 668 vertices against 670 on y0).
 PERIODIC_CUT_MARGIN = 1e-2
 _MAX_UNWARP_ROUNDS = 8
+#: Steps of one :func:`stuff_pore_space` pass counted by its ``progress`` callback: the
+#: lattice and its field values; the cut points and warp candidates; the active lattice tets;
+#: the clipping with its unwarping rounds; the compaction of the vertices.
+STUFFING_STEPS = 5
 
 
 @dataclass
@@ -517,6 +522,7 @@ def stuff_pore_space(
     offset: float = 0.0,
     slab_factor: float = 1.0,
     periodic: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> StuffedMesh:
     """Tet mesh of ``{phi >= 0}`` in the box with auxiliary slabs by lattice stuffing.
 
@@ -546,6 +552,9 @@ def stuff_pore_space(
         Periodic box: the field is interpolated with wrap-around and warping is undone on
         both vertices of a periodic pair together, so opposite faces carry the same vertices
         and triangles (up to the translation by the box side).
+    progress
+        ``progress(steps_done, STUFFING_STEPS)`` after each step of the pass (the last call
+        with ``steps_done == STUFFING_STEPS``); the caller throttles what it prints.
 
     Returns
     -------
@@ -563,16 +572,22 @@ def stuff_pore_space(
     size = np.asarray(size, dtype=float)
     _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic)
     clip = aux_length > 0
+    step = _step_counter(progress)
     fn = PoreField(distance, voxel, size, axis, clip, offset, periodic=periodic)
     lat = _Lattice.build(fn, size, axis, aux_length, h, slab_factor)
+    step()
     cuts = _cut_points(fn, lat)
     warp_v, warp_c = _warp_candidates(lat, cuts, alpha, clip, size[axis])
+    step()
     tets_lat, slab = _active_tets(lat, warp_v)
+    step()
     twin = _periodic_keys(lat.shape) if periodic else None
     out, allpts, counts = _clip_with_unwarping(fn, lat, cuts, warp_v, warp_c, tets_lat, slab, twin)
+    step()
     used = np.unique(out)
     remap = np.full(len(allpts), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
+    step()
     report = {
         "lattice_shape": list(lat.shape),
         "lattice_step": [float(np.diff(c).mean()) for c in lat.coords],
@@ -582,6 +597,18 @@ def stuff_pore_space(
         **counts,
     }
     return StuffedMesh(allpts[used], remap[out], lat.lo, lat.hi, np.zeros(3), size.copy(), report)
+
+
+def _step_counter(progress: Callable[[int, int], None] | None) -> Callable[[], None]:
+    """``step()``: one more of the :data:`STUFFING_STEPS` done, said to ``progress``."""
+    done = [0]
+
+    def step() -> None:
+        done[0] += 1
+        if progress is not None:
+            progress(done[0], STUFFING_STEPS)
+
+    return step
 
 
 def _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic) -> None:

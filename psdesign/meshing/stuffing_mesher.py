@@ -28,6 +28,8 @@ _MATCH_MAX_ITER = 6
 
 def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
     """Lattice ("stuffing") pore mesh; arguments as :func:`~.pore_mesh.mesh_pore_space`."""
+    from psdesign.cli import progress
+
     step = opts.lattice_step
     if step is None:
         step = default_lattice_step(voxel, size, opts.fiber_diameter)
@@ -47,6 +49,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     pore_rve = f.analytic_closed if opts.volume_target == "analytic" else f.voxel_rve
     target = pore_rve + aux_volume
     h_s = step / f.scale
+    counted = _pass_progress()
 
     def stuff(offset: float):
         return stuff_pore_space(
@@ -60,6 +63,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
             offset=offset,
             slab_factor=opts.slab_factor,
             periodic=opts.periodic,
+            progress=counted(),
         )
 
     n_match = 0
@@ -73,6 +77,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
             offset, sm, n_match = match_volume(stuff, sm, target, f.axis)
     timings["stuffing_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
+    progress.stage(f"mesh: {len(sm.tets)} tets stuffed; through-flow components and tags")
     pts, tets, comp = keep_through_components(
         sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic
     )
@@ -81,6 +86,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
     timings["tagging_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
+    progress.stage("mesh: quality checks")
     quality = _quality(f, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts)
     quality.update(
         level_offset_m=offset * f.scale,
@@ -106,6 +112,25 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     pm.quality["wall_time_s"] = time.perf_counter() - t0
     cache.save(cache_file, pm)
     return pm
+
+
+def _pass_progress():
+    """``counted()``: the ``progress`` callback of the next stuffing pass (volume matching
+    makes up to ``1 + _MATCH_MAX_ITER``), one throttled line ``psdesign: stuffing pass K:
+    N/5 steps, T s`` for all; None without a printer."""
+    from psdesign.cli import progress
+
+    report = progress.throttled(
+        lambda s, k, done, total: f"psdesign: stuffing pass {k}: {done}/{total} steps, {s:.0f} s"
+    )
+    passes = [0]
+
+    def counted():
+        passes[0] += 1
+        k = passes[0]
+        return None if report is None else (lambda done, total: report(k, done, total))
+
+    return counted
 
 
 def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volume, opts) -> dict:

@@ -22,7 +22,30 @@ from dataclasses import dataclass, field
 CLUSTERS = ("slurm", "pbs")
 SUBMIT_COMMANDS = {"slurm": "sbatch", "pbs": "qsub"}  # what dask-jobqueue runs per job
 DEFAULT_WAIT_S = 600.0
-"""Default ``--cluster-wait``: seconds to wait for the first worker job to connect."""
+"""Default ``--cluster-wait``: seconds a Dask run (``--cluster`` or ``--scheduler``) waits
+for a worker (the first batch job to connect, or any worker once all have left)."""
+
+
+def check_wait_s(value) -> float:
+    """``value`` as ``--cluster-wait`` seconds.
+
+    Parameters
+    ----------
+    value : float
+        Seconds; a finite number > 0.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        One line naming ``--cluster-wait`` and its range.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+        raise ValueError(f"--cluster-wait: expected seconds > 0 (finite), got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -44,7 +67,8 @@ class ClusterOptions:
         Extra scheduler directives (e.g. ``"--constraint=ib"``).
     wait_s : float
         ``--cluster-wait``: seconds to wait for the first worker to connect before the run
-        stops (a job still queued after that is cancelled).
+        stops (a job still queued after that is cancelled); ``run_study``'s
+        ``worker_wait_s`` defaults to it.
     """
 
     kind: str
@@ -77,9 +101,7 @@ class ClusterOptions:
             raise ValueError(
                 f"--cluster-memory: expected a size > 0 such as 16GB or 500MB, got {self.memory!r}"
             )
-        w = self.wait_s
-        if isinstance(w, bool) or not isinstance(w, int | float) or not 0 < w < math.inf:
-            raise ValueError(f"--cluster-wait: expected seconds > 0 (finite), got {w!r}")
+        check_wait_s(self.wait_s)
 
     @property
     def submit_command(self) -> str:

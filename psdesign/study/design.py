@@ -10,7 +10,7 @@ import math
 import re
 import warnings
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,8 +39,9 @@ class Case:
     case_id : str
         ``c<index:04d>-<8 hex>``; the hex part is a hash of the full case spec, outputs and
         solver (:func:`content_hash`), which changes when anything that affects the result
-        changes.  The index part is the position when the case first ran: on resume a case
-        keeps the id of the finished record with its hash (:func:`match_finished`).
+        changes.  The index part is the position in the design, so the ids depend only on
+        the study; a resumed case finished at another position keeps its record under the id
+        it ran with (:func:`match_finished`).
     index : int
         Position in the design (rows of the results table are in this order).
     params : dict
@@ -237,13 +238,14 @@ def content_hash(case_id: str) -> str | None:
     return m.group(2) if m else None
 
 
-def match_finished(cases: list[Case], finished_ids: Iterable[str]) -> list[Case]:
-    """``cases`` with each one's id replaced by a finished record's id of the same content.
+def match_finished(cases: list[Case], finished_ids: Iterable[str]) -> dict[str, str]:
+    """The finished record of each case: a record id of the same content, if any.
 
-    The index in an id is the case's position when it ran; dropping a seed or a level moves
+    A record is stored under the id its case ran with; dropping a seed or a level moves
     later cases, so an identical case (same hash) would otherwise look new and be re-run.
     An exact id match wins; among records of equal hash (duplicate contents) the earliest
-    position goes first.  A fresh id can never equal a record's id: that record would match.
+    position goes first.  A case's id can never equal another case's record id: that
+    record would match it exactly.
 
     Parameters
     ----------
@@ -254,8 +256,9 @@ def match_finished(cases: list[Case], finished_ids: Iterable[str]) -> list[Case]
 
     Returns
     -------
-    list of Case
-        Same order, index, params and spec; only ``case_id`` may differ.
+    dict
+        Case id -> the id of its record (the case's own id or a moved one's), for the cases
+        with a finished record; each record is used once.
     """
     finished = set(finished_ids)
     exact = {c.case_id for c in cases} & finished
@@ -263,12 +266,11 @@ def match_finished(cases: list[Case], finished_ids: Iterable[str]) -> list[Case]
     for rid in sorted(finished - exact, key=_position):
         if (h := content_hash(rid)) is not None:
             spare.setdefault(h, []).append(rid)
-    out = []
+    out = {c: c for c in exact}
     for c in cases:
         pool = [] if c.case_id in exact else spare.get(content_hash(c.case_id) or "", [])
-        out.append(replace(c, case_id=pool.pop(0)) if pool else c)
-    if len({c.case_id for c in out}) != len(out):  # pragma: no cover - see above
-        raise StudyError("parameters: duplicate case ids after matching finished records")
+        if pool:
+            out[c.case_id] = pool.pop(0)
     return out
 
 

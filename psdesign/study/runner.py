@@ -28,6 +28,7 @@ import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.study.casefn import watch_parent
+from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
@@ -48,19 +49,20 @@ CONNECT_TIMEOUT_S = 10.0
 _MAX_POOL_BREAKS = 2
 
 
-class SchedulerError(StudyError):
-    """The Dask scheduler given with ``--scheduler`` does not answer."""
+class SchedulerError(RuntimeError):
+    """The Dask scheduler (``--scheduler``) or batch cluster (``--cluster``) cannot be used:
+    it does not answer or is not Dask, dask.distributed or the submit command is missing,
+    the jobs are refused or no worker connects in time.  Raised before the output folder is
+    touched (the CLI exits 2).  Bad scheduler options (a malformed address, missing TLS
+    files) are :class:`StudyError`."""
 
 
 class WorkersLost(RuntimeError):
-    """No Dask worker for :data:`NO_WORKER_WAIT_S` (or ``--cluster-wait``) seconds while cases
-    wait: batch jobs past their walltime, a scheduler whose workers all left. The finished
-    cases are saved; rerunning the command resumes."""
+    """No Dask worker for ``--cluster-wait`` seconds (``run_study``'s ``worker_wait_s``) while
+    cases wait: batch jobs past their walltime, a scheduler whose workers all left or never
+    came. The finished cases are saved; rerunning the command resumes."""
 
 
-NO_WORKER_WAIT_S = 600.0
-"""Seconds a Dask run waits with no worker at all before it stops (:class:`WorkersLost`);
-``--cluster`` runs take ``--cluster-wait``."""
 _POLL_S = 0.5
 
 
@@ -257,7 +259,7 @@ def _host_port(address: str) -> tuple[str, str, int]:
     host, sep, port = rest.rpartition(":")
     host = host.strip("[]")
     if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise SchedulerError(
+        raise StudyError(
             f"--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT or 'local', "
             f"got {address!r}"
         )
@@ -352,7 +354,7 @@ def scheduler_security(
 
     Raises
     ------
-    SchedulerError
+    StudyError
         A file is missing or only some of the three are given.
     """
     given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
@@ -360,10 +362,10 @@ def scheduler_security(
         return None
     missing = [k for k, v in given.items() if not v]
     if missing:
-        raise SchedulerError(f"{missing[0]}: required with the other --tls-* options")
+        raise StudyError(f"{missing[0]}: required with the other --tls-* options")
     for k, v in given.items():
         if not Path(v).is_file():
-            raise SchedulerError(f"{k}: no such file {v}")
+            raise StudyError(f"{k}: no such file {v}")
     from distributed.security import Security
 
     return Security(
@@ -385,10 +387,11 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
 
     Raises
     ------
+    StudyError
+        If the address is malformed or the TLS options do not fit its scheme.
     SchedulerError
-        If dask.distributed is missing, the address is malformed, nothing answers at
-        ``address`` within ``timeout_s`` (default :data:`CONNECT_TIMEOUT_S`) or the peer is
-        not a Dask scheduler.
+        If dask.distributed is missing, nothing answers at ``address`` within ``timeout_s``
+        (default :data:`CONNECT_TIMEOUT_S`) or the peer is not a Dask scheduler.
     """
     try:
         import dask
@@ -414,12 +417,12 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         )
         return Client(cluster), cluster
     if "://" not in address:
-        raise SchedulerError(
+        raise StudyError(
             f"--scheduler: expected an address like tcp://HOST:PORT or 'local', got {address!r}"
         )
     scheme, host, _port = _host_port(address)
     if scheme not in ("tcp", "tls"):
-        raise SchedulerError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
+        raise StudyError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
     ssl_context = None
     if scheme == "tls":
         from distributed.security import Security
@@ -427,14 +430,14 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         sec = security if security is not None else Security()
         ssl_context = sec.get_connection_args("client").get("ssl_context")
         if ssl_context is None:
-            raise SchedulerError(
+            raise StudyError(
                 "--scheduler: tls:// needs --tls-ca-file, --tls-cert and --tls-key "
                 "(or dask config distributed.comm.tls.*)"
             )
         security = sec
     else:
         if security is not None:
-            raise SchedulerError(
+            raise StudyError(
                 f"--tls-ca-file: TLS options given but {address} is plain tcp://; use tls://"
             )
         if not _is_loopback(host):
@@ -492,7 +495,7 @@ def _run_dask(
     client,
     payloads: list[dict],
     on_done: Callable[[dict, dict], None],
-    no_worker_s: float = NO_WORKER_WAIT_S,
+    no_worker_s: float = DEFAULT_WAIT_S,
 ) -> None:
     """Submit the cases to ``client`` and record each as it finishes; stop with
     :class:`WorkersLost` after ``no_worker_s`` seconds without any worker (dask would keep
@@ -539,8 +542,8 @@ def _check_workers(client, alone_since: float | None, limit_s: float, waiting: i
     if now - alone_since >= limit_s:
         raise WorkersLost(
             f"no Dask worker for {limit_s:g} s while {waiting} case(s) wait (batch jobs past "
-            "their walltime? workers stopped?); finished cases are saved, rerun the command "
-            "to resume"
+            "their walltime? workers stopped or never started?); finished cases are saved, "
+            "rerun the command to resume (--cluster-wait SECONDS to wait longer)"
         )
     return alone_since
 
@@ -643,6 +646,7 @@ def run_study(
     force: bool = False,
     retry_not_converged: bool = False,
     security=None,
+    worker_wait_s: float | None = None,
     command: str = "study run",
     out_option: tuple[str, str | None] = ("-o", "--force"),
 ) -> pd.DataFrame:
@@ -681,6 +685,10 @@ def run_study(
         Re-run cases recorded as ``not_converged`` (otherwise they count as finished).
     security : distributed.security.Security, optional
         TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
+    worker_wait_s : float, optional
+        ``--cluster-wait``: seconds a Dask run waits while the scheduler has no worker at all
+        before it stops with :class:`WorkersLost`; default a ``ClusterOptions`` scheduler's
+        ``wait_s``, else :data:`psdesign.study.cluster.DEFAULT_WAIT_S` (600).
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
     out_option : (str, str or None)
@@ -695,7 +703,9 @@ def run_study(
     Raises
     ------
     StudyError
-        Invalid study or arguments; :class:`SchedulerError` if the scheduler does not answer.
+        Invalid study or arguments (a :class:`psdesign.errors.SpecError`).
+    SchedulerError
+        The scheduler or batch cluster cannot be used (does not answer, no worker in time).
     psdesign.io.outputs.OutputError
         ``out_dir`` is refused (``/``, home, a file, a non-empty folder of the user's).
     StorageError
@@ -739,6 +749,7 @@ def run_study(
         retry_failed,
         retry_not_converged,
         report,
+        _worker_wait(scheduler, worker_wait_s),
     )
 
     # connect first: a dead scheduler must not touch the output folder
@@ -760,6 +771,16 @@ def run_study(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+
+
+def _worker_wait(scheduler, worker_wait_s: float | None) -> float:
+    """``worker_wait_s`` checked (StudyError naming ``--cluster-wait``), or its default."""
+    if worker_wait_s is None:
+        return getattr(scheduler, "wait_s", DEFAULT_WAIT_S)
+    try:
+        return check_wait_s(worker_wait_s)
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
 
 
 def _say_waiting(scheduler, workers: int, progress: bool) -> None:
@@ -792,6 +813,7 @@ class _RunOptions:
     retry_failed: bool
     retry_not_converged: bool
     report: bool
+    worker_wait_s: float
 
 
 def _run_locked(
@@ -803,18 +825,25 @@ def _run_locked(
     opts: _RunOptions,
 ) -> pd.DataFrame:
     workers, scheduler, case_fn = opts.workers, opts.scheduler, opts.case_fn
+    by_id = {c.case_id: c for c in cases}
     progress, timeout, report = opts.progress, opts.timeout, opts.report
     out = store.out
     t_start = time.perf_counter()
     started = _now()
     loaded = store.load_records()
-    # a case already finished at another position (a seed or level dropped) keeps its record
-    cases = match_finished(cases, loaded)
+    # a case finished at another position (a seed or level dropped) keeps its record and
+    # folder under the id it ran with; its id in the tables is the design's
+    stored = match_finished(cases, loaded)
+    key = {c.case_id: stored.get(c.case_id, c.case_id) for c in cases}
     store.write_json(
         "study.json",
-        {"study": study.to_dict(), "n_cases": len(cases), "cases": [c.to_dict() for c in cases]},
+        {
+            "study": study.to_dict(),
+            "n_cases": len(cases),
+            "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
+        },
     )
-    records = {c.case_id: _at(loaded[c.case_id], c) for c in cases if c.case_id in loaded}
+    records = {c: _at(loaded[r], by_id[c]) for c, r in stored.items()}
     skip = {"ok"} if opts.retry_failed else {"ok", "failed", "timeout"}
     if not opts.retry_not_converged:
         skip.add("not_converged")
@@ -831,12 +860,10 @@ def _run_locked(
         f"{len(todo)} to run on {backend} -> {out}"
     )
 
-    by_id = {c.case_id: c for c in cases}
-
     def on_done(payload: dict, rec: dict) -> None:
         c = by_id[payload["case_id"]]
         full = {
-            "case_id": c.case_id,
+            "case_id": key[c.case_id],
             "index": c.index,
             "params": c.params,
             "seed": c.seed,
@@ -844,7 +871,7 @@ def _run_locked(
         }
         watcher.done(c.case_id)
         store.write_record(full)  # raises StorageError: stop, earlier rows intact
-        records[c.case_id] = full
+        records[c.case_id] = _at(full, c)
         tables.changed()
         prog.update(c.case_id, full["status"], full.get("wall_time_s"), full.get("error"))
 
@@ -854,7 +881,7 @@ def _run_locked(
             "spec": c.spec,
             "outputs": list(study.outputs),
             "solver": study.solver,
-            "workdir": str(store.workdir(c.case_id)),
+            "workdir": str(store.workdir(key[c.case_id])),
             "out_dir": str(out),
             "case_fn": case_fn,
             "timeout_s": timeout,
@@ -866,7 +893,7 @@ def _run_locked(
     tables = TableWriter(store, records, param_names, TABLE_INTERVAL_S)
     with watcher, tables.flushed_on_error():
         if payloads and client is not None:
-            _run_dask(client, payloads, on_done, getattr(scheduler, "wait_s", NO_WORKER_WAIT_S))
+            _run_dask(client, payloads, on_done, opts.worker_wait_s)
         elif payloads and workers == 0:
             _run_inline(payloads, on_done)
         elif payloads:
@@ -902,8 +929,15 @@ def _run_locked(
 
 
 def _at(record: dict, case: Case) -> dict:
-    """``record`` placed at ``case``'s position in the current design (rows in design order)."""
-    return {**record, "index": case.index, "params": case.params, "seed": case.seed}
+    """``record`` as ``case`` of the current design: its id and position (rows in design
+    order), whatever id the record is stored under."""
+    return {
+        **record,
+        "case_id": case.case_id,
+        "index": case.index,
+        "params": case.params,
+        "seed": case.seed,
+    }
 
 
 TABLE_INTERVAL_S = 5.0

@@ -59,8 +59,25 @@ VALUE_TYPES = ("float", "int")
 KNOWN_SPEC_KEYS: frozenset[str] = frozenset(spec_paths())
 
 
-class StudyError(ValueError):
-    """Invalid study file or study argument (the CLI maps it to exit status 2)."""
+class StudyError(SpecError):
+    """Invalid study file or study argument: bad input (the CLI maps it to exit status 2).
+
+    A :class:`~psdesign.errors.SpecError`, so ``except psdesign.SpecError`` catches every
+    bad-input error of specs and studies alike.  A study that cannot run (the scheduler does
+    not answer, no worker) raises other errors (``SchedulerError``, ``WorkersLost``).
+
+    Parameters
+    ----------
+    message : str
+        ``"key: what is wrong"``: ``key`` (before the first ``": "``; ``"study"`` if there
+        is none) becomes :attr:`key`, the rest :attr:`message`.
+    """
+
+    def __init__(self, message: str) -> None:
+        key, sep, rest = message.partition(": ")
+        if not sep:
+            key, rest = "study", message
+        super().__init__(key, rest)
 
 
 @dataclass(frozen=True)

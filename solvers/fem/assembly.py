@@ -15,6 +15,8 @@ default for P2 would use a much larger rule and memory.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 from skfem import (
@@ -66,7 +68,11 @@ def p2_dofs(mesh: MeshTet):
     return basis.dofs, basis.N
 
 
-def assemble_volume(mesh: MeshTet, chunk: int = 100_000):
+def assemble_volume(
+    mesh: MeshTet,
+    chunk: int = 100_000,
+    progress: Callable[[int, int], None] | None = None,
+):
     """Scalar P2 Laplacian, the three P1 x P2 derivative blocks and the lumped P1 mass.
 
     Parameters
@@ -74,6 +80,9 @@ def assemble_volume(mesh: MeshTet, chunk: int = 100_000):
     mesh : MeshTet
     chunk : int
         Elements per assembly batch (bounds the temporary COO memory).
+    progress : callable, optional
+        ``progress(elements_done, n_elements)`` after each batch (the last call with
+        ``elements_done == n_elements``); the caller throttles what it prints.
 
     Returns
     -------
@@ -102,6 +111,8 @@ def assemble_volume(mesh: MeshTet, chunk: int = 100_000):
         mc = np.asarray(asm(_mass, pb).sum(axis=1)).ravel()
         m_lumped = mc if m_lumped is None else m_lumped + mc
         del vb, pb
+        if progress is not None:
+            progress(int(idx[-1]) + 1, n_el)
     L.sum_duplicates()
     L.eliminate_zeros()
     return L, D, m_lumped

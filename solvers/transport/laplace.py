@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from solvers.progress import PROGRESS_EVERY
 from solvers.transport import kernels as tk
 
 BCS = ("periodic", "fixed", "permeameter")
@@ -194,7 +195,8 @@ def solve_laplace(
     max_iter : int
         CG iteration cap (``converged=False`` past it).
     progress : callable, optional
-        ``progress(iteration, relative_residual)`` every 10 iterations.
+        ``progress(iteration, relative_residual)`` every ``PROGRESS_EVERY`` iterations
+        (:mod:`solvers.progress`: every one; the caller throttles what it prints).
 
     Returns
     -------
@@ -306,7 +308,7 @@ def _pcg(d, c, rhs, fixed, tol, max_iter, progress):
         its += 1
         res = float(np.sqrt(rr)) / bnorm
         hist.append(res)
-        if progress is not None and its % 10 == 0:
+        if progress is not None and its % PROGRESS_EVERY == 0:
             progress(its, res)
         if res <= tol:
             break

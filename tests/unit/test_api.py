@@ -505,3 +505,32 @@ def test_warnings_point_at_the_callers_line_and_repeat_per_material():
     ours = [w for w in caught if issubclass(w.category, ResolutionWarning)]
     assert len(ours) == 2, [str(w.message) for w in caught]
     assert {w.filename for w in ours} == {__file__}
+
+
+def test_study_file_errors_are_spec_errors_and_scheduler_failures_are_not(tmp_path) -> None:
+    """``except psdesign.SpecError`` missed study-file errors (StudyError was a bare
+    ValueError); now every bad study input is a SpecError with its key, while a scheduler
+    that does not answer (a runtime failure, not bad input) is not one."""
+    import pickle
+
+    from study_cases import FAC_PARAMS, FACTORIAL, write_study
+
+    from psdesign.study import SchedulerError
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[study]\nname = "b"\ndesign = "taguchi"\n')
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.load_study(bad)
+    assert isinstance(info.value, psdesign.StudyError) and info.value.key == "study.design"
+    assert str(info.value).startswith("study.design: ") and info.value.message in str(info.value)
+    again = pickle.loads(pickle.dumps(info.value))  # workers send errors back pickled
+    assert type(again) is psdesign.StudyError and str(again) == str(info.value)
+    good = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    with pytest.raises(psdesign.SpecError, match="^workers: must be an integer"):
+        psdesign.run_study(good, tmp_path / "o", workers=-1)
+    with pytest.raises(psdesign.SpecError, match="^--scheduler: expected an address"):
+        psdesign.run_study(good, tmp_path / "o", scheduler="127.0.0.1:9")
+    with pytest.raises(SchedulerError, match="no Dask scheduler answers") as down:
+        psdesign.run_study(good, tmp_path / "o", scheduler="tcp://127.0.0.1:9")
+    assert not isinstance(down.value, psdesign.SpecError | ValueError)
+    assert not (tmp_path / "o").exists()

@@ -561,7 +561,7 @@ def test_scheduler_not_answering_is_clear_and_harmless(tmp_path, monkeypatch):
     ):
         run_study(p, out, scheduler="tcp://127.0.0.1:9", case_fn=fake_case, progress=False)
     assert {f: f.read_bytes() for f in out.rglob("*") if f.is_file()} == snapshot
-    with pytest.raises(SchedulerError, match="tcp://HOST:PORT"):
+    with pytest.raises(StudyError, match="tcp://HOST:PORT"):  # a bad address: bad input
         run_study(p, out, scheduler="127.0.0.1:9", case_fn=fake_case, progress=False)
 
 
@@ -810,11 +810,11 @@ def slow_case(spec, outputs, solver, workdir):
     return fake_case(spec, outputs, solver, workdir)
 
 
-def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkeypatch):
+def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path):
     """Batch jobs past their walltime leave the scheduler without workers; dask keeps the
     cases queued, and the run waited for ever (runner audit, s32). Now it stops after
-    ``NO_WORKER_WAIT_S`` with :class:`WorkersLost`, the finished cases in the records and
-    the tables, and a rerun on a live scheduler runs only the rest."""
+    ``worker_wait_s`` (``--cluster-wait``) with :class:`WorkersLost`, the finished cases in
+    the records and the tables, and a rerun on a live scheduler runs only the rest."""
     import faulthandler
     import threading
 
@@ -822,7 +822,6 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
 
     import psdesign.study.runner as runner
 
-    monkeypatch.setattr(runner, "NO_WORKER_WAIT_S", 1.0)
     # a broken watchdog waits for ever: end this process (a failure) rather than the CI run
     faulthandler.dump_traceback_later(120, exit=True)
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
@@ -841,7 +840,7 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
         with pytest.raises(runner.WorkersLost, match="no Dask worker for 1 s"):
             runner.run_study(
                 p, out, scheduler=cluster.scheduler_address, case_fn=slow_case,
-                progress=False, report=False,
+                progress=False, report=False, worker_wait_s=1.0,
             )  # fmt: skip
     done = {f.stem for f in (out / "cases").glob("*.json")}
     table = pd.read_csv(out / "results.csv")
@@ -850,3 +849,52 @@ def test_a_run_whose_workers_all_left_stops_and_keeps_its_cases(tmp_path, monkey
     faulthandler.cancel_dump_traceback_later()
     rest = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
     assert len(rest) == len(expand_design(load_study(p)))
+
+
+def test_cluster_wait_governs_a_scheduler_run_that_never_has_a_worker(tmp_path, capsys):
+    """``--scheduler`` to a scheduler with no worker waited a fixed 600 s (NO_WORKER_WAIT_S;
+    --cluster-wait was for --cluster only). Now --cluster-wait governs it: one line, exit 1,
+    within seconds of the wait; the folder resumes with the same command."""
+    import faulthandler
+
+    from distributed import LocalCluster
+
+    from psdesign.cli.study import main
+
+    faulthandler.dump_traceback_later(90, exit=True, file=sys.__stderr__)  # not the old 600 s
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    with LocalCluster(
+        n_workers=0, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:  # fmt: skip
+        argv = ["study", "run", str(p), "-o", str(out), "--quiet", "--no-report"]
+        t0 = time.monotonic()
+        rc = main([*argv, "--scheduler", cluster.scheduler_address, "--cluster-wait", "1.5"])
+        elapsed = time.monotonic() - t0
+    faulthandler.cancel_dump_traceback_later()
+    err = capsys.readouterr().err
+    assert rc == 1 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith("psdesign: error: no Dask worker for 1.5 s") and "--cluster-wait" in err
+    assert 1.5 <= elapsed < 30, elapsed
+    assert not list((out / "cases").glob("*.json"))
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "inf", "nan", "soon"])
+def test_a_bad_cluster_wait_with_scheduler_exits_2_naming_it(tmp_path, capsys, value):
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    argv = ["study", "run", str(p), "-o", str(out), "--scheduler", "tcp://127.0.0.1:9"]
+    rc = main([*argv, "--cluster-wait", value])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --cluster-wait: expected seconds > 0 (finite)")
+    assert not out.exists()
+
+
+def test_run_study_refuses_a_bad_worker_wait(tmp_path):
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
+        run_study(p, tmp_path / "out", scheduler="tcp://127.0.0.1:9", worker_wait_s=0)
+    assert not (tmp_path / "out").exists()

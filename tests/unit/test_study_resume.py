@@ -6,7 +6,7 @@ import json
 
 import pandas as pd
 import pytest
-from study_cases import FAC_PARAMS, FACTORIAL, fake_case, write_study
+from study_cases import FAC_PARAMS, FACTORIAL, failing_case, fake_case, write_study
 
 from psdesign.study import is_timing_column, run_study
 from psdesign.study import runner as runner_mod
@@ -31,6 +31,11 @@ def _content(df: pd.DataFrame) -> pd.DataFrame:
     return df[keep].set_index("case_id").sort_index()
 
 
+def _stored_as(out) -> list[str]:
+    """The id each case of the last run's design is stored under (study.json)."""
+    return [c["stored_as"] for c in json.loads((out / "study.json").read_text())["cases"]]
+
+
 @pytest.mark.parametrize(
     ("old", "new"),
     [
@@ -51,10 +56,13 @@ def test_dropping_a_seed_or_level_reruns_no_identical_case(tmp_path, old, new):
     df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
     assert 0 < len(df) < len(full) and list(df["index"]) == list(range(len(df)))
     assert _all_calls(out) == len(full)  # nothing re-run
-    assert all(_calls(out, c) == 1 for c in df["case_id"])
-    moved = df.merge(full[["case_id", "index"]], on="case_id", suffixes=("", "_before"))
-    assert len(moved) == len(df) and (moved["index"] != moved["index_before"]).any()
-    pd.testing.assert_frame_equal(_content(df), _content(full).loc[_content(df).index])
+    stored = _stored_as(out)
+    assert all(_calls(out, c) == 1 for c in stored)
+    assert set(stored) <= set(full["case_id"]) and stored != list(df["case_id"])  # moved
+    by_run = full.set_index("case_id").loc[stored].reset_index()
+    pd.testing.assert_frame_equal(
+        _content(df.assign(case_id=stored)), _content(by_run), check_like=True
+    )
     design = json.loads((out / "study.json").read_text())["cases"]
     assert [c["case_id"] for c in design] == list(df["case_id"])
     assert pd.read_csv(out / "results.csv")["case_id"].tolist() == df["case_id"].tolist()
@@ -73,9 +81,35 @@ def test_match_finished_keeps_exact_ids_and_pairs_duplicates_in_order(tmp_path):
     assert h is not None and content_hash("garbage") is None
     records = {cases[0].case_id, f"c0009-{h}", f"c0012-{h}"}
     got = match_finished(cases, records)
-    assert got[0].case_id == cases[0].case_id and got[5].case_id == f"c0009-{h}"
-    assert [c.index for c in got] == [c.index for c in cases]
-    assert [c.case_id for c in got[6:]] == [c.case_id for c in cases[6:]]
+    assert got == {cases[0].case_id: cases[0].case_id, cases[5].case_id: f"c0009-{h}"}
+
+
+def test_a_resumed_run_has_the_case_ids_of_a_fresh_run(tmp_path):
+    """A resumed case kept the id (index) where it first ran, so dropping a level gave other
+    ids than a fresh run of the same design.  Now the ids (tables, study.json) are the
+    design's; the moved records and folders stay, untouched, under the id they ran with
+    (study.json ``stored_as``), nothing is re-run, and a failed moved case retried is
+    re-recorded under its own record, not beside it."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=failing_case, progress=False, report=False)
+    before = {f.name: f.read_bytes() for f in (out / "cases").glob("*.json")}
+    text = p.read_text()
+    p.write_text(text.replace("[0.7, 0.8, 0.9]", "[0.8, 0.9]"))
+    kw = {"workers": 0, "progress": False, "report": False}
+    resumed = run_study(p, out, case_fn=failing_case, **kw)
+    fresh = run_study(p, tmp_path / "fresh", case_fn=failing_case, **kw)
+    assert list(resumed["case_id"]) == list(fresh["case_id"])
+    assert pd.read_csv(out / "results.csv")["case_id"].tolist() == list(fresh["case_id"])
+    drop = ["preview_png", "error"]  # paths into each folder; tracebacks name them
+    pd.testing.assert_frame_equal(
+        _content(resumed).drop(columns=drop), _content(fresh).drop(columns=drop)
+    )
+    assert {f.name: f.read_bytes() for f in (out / "cases").glob("*.json")} == before
+    assert _all_calls(out) == len(before) - (resumed["status"] == "failed").sum()
+    again = run_study(p, out, case_fn=fake_case, retry_failed=True, **kw)
+    assert list(again["case_id"]) == list(fresh["case_id"]) and set(again["status"]) == {"ok"}
+    assert sorted(f.name for f in (out / "cases").glob("*.json")) == sorted(before)
 
 
 def _count_table_writes(monkeypatch) -> list[int]:

@@ -533,11 +533,12 @@ def test_plain_tcp_to_another_machine_warns_one_line(tmp_path, monkeypatch, caps
 
 
 def test_tls_options_are_checked(tmp_path):
-    with pytest.raises(SchedulerError, match="^--tls-cert: required"):
+    # bad options are bad input (StudyError, a SpecError), not a scheduler failure
+    with pytest.raises(StudyError, match="^--tls-cert: required"):
         runner_mod.scheduler_security(tls_ca_file=str(tmp_path / "ca.pem"))
-    with pytest.raises(SchedulerError, match="^--tls-ca-file: no such file"):
+    with pytest.raises(StudyError, match="^--tls-ca-file: no such file"):
         runner_mod.scheduler_security(str(tmp_path / "a"), str(tmp_path / "b"), str(tmp_path / "c"))
-    with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
+    with pytest.raises(StudyError, match="tls:// needs --tls-ca-file"):
         runner_mod.connect_scheduler("tls://127.0.0.1:9", 1)
     assert runner_mod.scheduler_security() is None
 
@@ -612,7 +613,7 @@ def test_tls_scheduler_end_to_end(tmp_path, capsys):
     ) as cluster:
         addr = cluster.scheduler_address
         assert addr.startswith("tls://127.0.0.1:")
-        with pytest.raises(SchedulerError, match="tls:// needs --tls-ca-file"):
+        with pytest.raises(StudyError, match="tls:// needs --tls-ca-file"):
             run_study(p, tmp_path / "b", scheduler=addr, case_fn=fake_case, progress=False)
         b = run_study(
             p,
