@@ -151,13 +151,20 @@ def _cluster(args: argparse.Namespace, wait_s: float | None):
         raise StudyError(str(exc)) from None
 
 
-def _cluster_wait(text: str | None) -> float | None:
-    """``--cluster-wait`` in seconds (None: the default); StudyError for a bad value."""
+def _cluster_wait(args: argparse.Namespace) -> float | None:
+    """``--cluster-wait`` in seconds (None: the default); StudyError for a bad value, or for
+    one given to a run without ``--cluster`` or ``--scheduler`` (it would do nothing)."""
     from psdesign.study.cluster import check_wait_s
     from psdesign.study.studyfile import StudyError
 
+    text = args.cluster_wait
     if text is None:
         return None
+    if not (args.cluster or args.scheduler):
+        raise StudyError(
+            "--cluster-wait: only with --cluster or --scheduler (a run on local workers has "
+            "no worker to wait for)"
+        )
     try:
         value = float(text)
     except ValueError:
@@ -177,7 +184,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
-        wait_s = _cluster_wait(args.cluster_wait)
+        wait_s = _cluster_wait(args)
         scheduler = _cluster(args, wait_s) or args.scheduler
         df = run_study(
             args.study,

@@ -211,7 +211,7 @@ def _measured_text(r: dict) -> str:
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
-    from psdesign.study.runner import SchedulerError
+    from psdesign.study.runner import SchedulerError, WorkersLost
 
     try:
         targets = [Target.parse(t) for t in args.target]
@@ -229,6 +229,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return _fail(str(exc))
+    except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
+        return _fail(str(exc), 1)
     targets_out = [_target_report(t, res.best) for t in targets]
     summary = {
         "met": res.met,

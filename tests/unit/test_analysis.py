@@ -616,3 +616,23 @@ def test_study_sensitivity_leaves_out_a_parameter_held_fixed(tmp_path, capsys) -
     assert [r["parameter"] for r in rows] == ["generator.porosity"]
     assert rows[0]["ST"] == pytest.approx(1.0, abs=0.05)
     assert "generator.diameter was 7.5e-06 in every fitted case" in got.err
+
+
+def test_optimize_stops_with_one_line_when_its_workers_are_lost(tmp_path, capsys, monkeypatch):
+    """As `study run` (exit 1, one line, finished cases kept): `study optimize` let lost Dask
+    workers (runner.WorkersLost, a RuntimeError) end in a traceback."""
+    from psdesign.study import runner
+
+    def lost(*a, **k):
+        raise runner.WorkersLost("no Dask worker for 600 s while 4 case(s) wait")
+
+    monkeypatch.setattr(runner, "run_study", lost)
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    args = ["study", "optimize", str(p), "-o", str(tmp_path / "out"), "--quiet", "--workers"]
+    assert main([*args, "0", "--target", "k_z_m2=5e-12"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["psdesign: error: no Dask worker for 600 s while 4 case(s) wait"]

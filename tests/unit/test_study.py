@@ -893,6 +893,20 @@ def test_a_bad_cluster_wait_with_scheduler_exits_2_naming_it(tmp_path, capsys, v
     assert not out.exists()
 
 
+def test_cluster_wait_without_cluster_or_scheduler_is_refused(tmp_path, capsys):
+    """A run on local workers has no worker to wait for: --cluster-wait did nothing, silently
+    (a user who meant to pass --scheduler learnt nothing). One line, exit 2, no folder."""
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    rc = main(["study", "run", str(p), "-o", str(out), "--cluster-wait", "30"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --cluster-wait: only with --cluster or --scheduler")
+    assert not out.exists()
+
+
 def test_run_study_refuses_a_bad_worker_wait(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
