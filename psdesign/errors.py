@@ -21,6 +21,20 @@ class SpecError(ValueError):
         self.message = message
         super().__init__(f"{key}: {message}")
 
+    def __reduce__(self):
+        # pickled by its state, not by ``args`` (the one joined line, which ``__init__``
+        # does not take): a SpecError raised in a study worker process reached the parent
+        # as "TypeError: missing 1 required positional argument"
+        return _restore, (type(self), dict(self.__dict__), self.args)
+
+
+def _restore(cls: type, state: dict, args: tuple) -> SpecError:
+    """A :class:`SpecError` (or subclass) from its pickled state, without ``__init__``."""
+    err = cls.__new__(cls)
+    ValueError.__init__(err, *args)
+    err.__dict__.update(state)
+    return err
+
 
 def show_warning_one_line(message, category, filename, lineno, file=None, line=None) -> None:
     """``warnings.showwarning`` replacement: ``psdesign: warning: <message>`` on one line of
