@@ -78,10 +78,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     timings["stuffing_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     progress.stage(f"mesh: {len(sm.tets)} tets stuffed; through-flow components and tags")
-    pts, tets, comp = keep_through_components(
+    pts, tets, comp, bfaces = keep_through_components(
         sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic
     )
-    bfaces, _, _ = face_structure(tets)
     tags = tag_faces(pts, bfaces, sm.lo, sm.hi, f.axis)
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
     timings["tagging_time_s"] = time.perf_counter() - t

@@ -248,12 +248,15 @@ def keep_through_components(
     axis: int,
     tol: float,
     any_face: bool = False,
-) -> tuple[np.ndarray, np.ndarray, dict]:
+) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """Drop tet components that touch neither inlet nor outlet; fail if none spans both.
 
     With ``any_face`` (periodic meshes) only components touching no box face at all are
     dropped (a pocket cut by a lateral face continues through its periodic image).
-    Returns the filtered (points, tets) (vertices renumbered) and a report dict.
+    Returns the filtered (points, tets) (vertices renumbered), a report dict and the
+    boundary faces of the filtered mesh: exactly ``face_structure(tets)[0]`` (whole
+    components are dropped, so no new boundary face appears, and the renumbering keeps the
+    faces' order), which callers need and which took a second face pass (4.6 s at 5.2 M tets).
     """
     bfaces, btet, pairs = face_structure(tets)
     labels = components(len(tets), pairs)
@@ -291,9 +294,9 @@ def keep_through_components(
         "removed_volume": float(comp_vol[~keep_comp].sum()),
     }
     if keep.all():
-        return points, tets, report
+        return points, tets, report, bfaces
     tets = tets[keep]
     used = np.unique(tets)
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
-    return points[used], remap[tets], report
+    return points[used], remap[tets], report, remap[bfaces[keep[btet]]].astype(tets.dtype)

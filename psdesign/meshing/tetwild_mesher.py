@@ -250,8 +250,7 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
 def _snap_and_clean(pts, tets, surf, axis, snap_tol):
     """Drop dead components, snap box faces, repair flattened tets, drop flat slivers (and a
     few unrepairable inverted ones: ``n_dropped_inverted_tets``)."""
-    pts, tets, comp = keep_through_components(pts, tets, surf.lo, surf.hi, axis, snap_tol)
-    bfaces, _, _ = face_structure(tets)
+    pts, tets, comp, bfaces = keep_through_components(pts, tets, surf.lo, surf.hi, axis, snap_tol)
     pts, max_move = snap_to_planes(pts, bfaces, surf.lo, surf.hi, snap_tol)
     pts, n_untangled = untangle_near_planes(pts, tets, surf.lo, surf.hi, 2.0 * snap_tol)
     pts, tets, n_flat, n_inv = drop_slivers(pts, tets, surf.lo, surf.hi)

@@ -440,3 +440,25 @@ def test_pytetwild_volume_matched_to_analytic(through_x, crossing_z):
     )  # fmt: skip
     assert raw.quality["pore_volume_rel_diff"] > 2e-3  # measured +4.1e-3 without the correction
     assert raw.quality["wall_shift_m"] == 0.0 and q["wall_shift_m"] < 0
+
+
+def test_through_components_return_the_kept_meshs_boundary_faces() -> None:
+    """``keep_through_components`` hands back the boundary faces of the mesh it keeps (the
+    meshers took a second face pass for them, 4.6 s at 5.2 M tets). Truth: ``face_structure``
+    of the kept tets, exactly (same faces, orientation and order), with a pocket dropped and
+    with nothing dropped."""
+    from meshes import box_mesh
+
+    from psdesign.meshing.tetra import face_structure, keep_through_components
+
+    through = box_mesh([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], (2, 2, 3))
+    pocket = box_mesh([2.0, 0.2, 0.3], [2.5, 0.7, 0.6], (1, 2, 1))  # touches neither end
+    pts = np.vstack([through[0], pocket[0]])
+    tets = np.vstack([through[1], pocket[1] + len(through[0])])
+    lo, hi = np.zeros(3), np.array([3.0, 1.0, 1.0])
+    kept_pts, kept, report, bfaces = keep_through_components(pts, tets, lo, hi, 2, 1e-12)
+    assert report["n_removed_components"] == 1 and len(kept) == len(through[1])
+    np.testing.assert_array_equal(bfaces, face_structure(kept)[0])
+    np.testing.assert_array_equal(kept_pts, through[0])
+    *_, all_faces = keep_through_components(*through, lo, hi, 2, 1e-12)
+    np.testing.assert_array_equal(all_faces, face_structure(through[1])[0])
