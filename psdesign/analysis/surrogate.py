@@ -383,10 +383,15 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
 
 
 def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
-    """The parameters of point ``x`` (``s.params`` order) outside the range the surrogate was
-    fitted on, as ``"name = v outside [low, high]"``; empty inside."""
-    return [
-        f"{p} = {v:g} outside [{lo:g}, {hi:g}]"
-        for p, v, lo, hi in zip(s.params, np.asarray(x, float), s.low, s.high, strict=True)
-        if not lo <= v <= hi
-    ]
+    """The parameters of point ``x`` (``s.params`` order) outside what the surrogate was
+    fitted on, as ``"name = v outside [low, high]"`` or, for a parameter held at one value in
+    every fitted case (:meth:`Surrogate.fixed_inputs`; a ``levels = 1`` parameter keeps its
+    ``[low, high]`` bounds), ``"name = v, every fitted case had v0"``; empty inside."""
+    fixed = s.fixed_inputs()
+    out = []
+    for p, v, lo, hi in zip(s.params, np.asarray(x, float), s.low, s.high, strict=True):
+        if not lo <= v <= hi:
+            out.append(f"{p} = {v:g} outside [{lo:g}, {hi:g}]")
+        elif p in fixed and not math.isclose(v, fixed[p], rel_tol=1e-9, abs_tol=0.0):
+            out.append(f"{p} = {v:g}, every fitted case had {fixed[p]:g}")
+    return out

@@ -616,3 +616,35 @@ def test_study_sensitivity_leaves_out_a_parameter_held_fixed(tmp_path, capsys) -
     assert [r["parameter"] for r in rows] == ["generator.porosity"]
     assert rows[0]["ST"] == pytest.approx(1.0, abs=0.05)
     assert "generator.diameter was 7.5e-06 in every fitted case" in got.err
+
+
+def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
+    tmp_path, capsys
+) -> None:
+    """A ``levels = 1`` parameter keeps its ``{low, high}`` bounds (6-9 um) but every case sits
+    at its middle, (6 + 9) / 2 = 7.5 um (hand value). Predicting at 8.5 um is a guess the cases
+    cannot back: it must say ``extrapolated``. Before, it printed "porosity = 0.8 +- 1.6" with
+    no flag at all (8.5 um lies inside [6, 9] um)."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = {low = 0.7, high = 0.9, levels = 4}\n'
+        '"generator.diameter" = {low = 6e-6, high = 9e-6, levels = 1}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["porosity"]["fixed_params"] == {
+        "generator.diameter": pytest.approx(7.5e-6, rel=1e-12)
+    }
+    at = "generator.porosity=0.8,generator.diameter=8.5e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["porosity"]
+    assert r["status"] == "extrapolated"
+    assert r["outside"] == ["generator.diameter = 8.5e-06, every fitted case had 7.5e-06"]
+    assert "extrapolating" in cap.err
+    at = "generator.porosity=0.8,generator.diameter=7.5e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["porosity"]
+    assert r["status"] == "ok" and r["mean"] == pytest.approx(0.8, abs=1e-3)  # the fake's eps
