@@ -51,7 +51,9 @@ def from_unit(u: np.ndarray, low, high, log) -> np.ndarray:
     lo, span, lg = _box(low, high, log)
     span = np.where(np.asarray(high, float) > np.asarray(low, float), span, 0.0)
     x = lo + np.asarray(u, dtype=float) * span
-    return np.where(lg, 10.0**x, x)
+    # 10**x only where log: a linear parameter of 1000-5000 (an int) overflowed in the unused
+    # branch and printed numpy's "overflow encountered in power" to the user
+    return np.where(lg, 10.0 ** np.where(lg, x, 0.0), x)
 
 
 @dataclass

@@ -648,3 +648,18 @@ def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
     assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
     r = json.loads(capsys.readouterr().out)["porosity"]
     assert r["status"] == "ok" and r["mean"] == pytest.approx(0.8, abs=1e-3)  # the fake's eps
+
+
+def test_from_unit_of_a_large_linear_range_warns_nothing() -> None:
+    """A linear parameter of 1000-5000 (``generator.max_fibers``, an int) next to a log one:
+    the values are ``low + u (high - low)`` and ``10**(log10 low + u decades)`` (hand values).
+    Before, the linear one was also raised to 10**x (and discarded): `study sensitivity`
+    printed numpy's "psdesign: warning: overflow encountered in power"."""
+    import warnings
+
+    from psdesign.analysis.surrogate import from_unit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x = from_unit(np.array([[0.5, 0.5], [1.0, 0.0]]), [1000, 1e-6], [5000, 1e-4], [0, 1])
+    np.testing.assert_allclose(x, [[3000.0, 1e-5], [5000.0, 1e-6]], rtol=1e-12)
