@@ -7,6 +7,9 @@ inputs, i.e. log-uniform for log-scaled parameters). Confidence intervals are SA
 (:meth:`~psdesign.analysis.surrogate.Surrogate.fixed_inputs`) is held at that value and gets
 no index: the cases say nothing about it (varied over its box, the GP's prior alone once made
 such a parameter the "most influential" one, S1 0.59, of a study that never changed it).
+No index at all is computed (:func:`no_indices_reason`) for an output that did not vary beyond
+the fit's error (:meth:`~psdesign.analysis.surrogate.Surrogate.flat_output`: the indices would
+be those of noise, S_T 0.92 of a constant).
 """
 
 from __future__ import annotations
@@ -20,16 +23,23 @@ from psdesign.analysis.surrogate import Surrogate, from_unit
 def _varied(s: Surrogate) -> list[str]:
     """The parameters whose indices are computed (those not fixed in the fitted cases)."""
     fixed = s.fixed_inputs()
-    names = [p for p in s.params if p not in fixed]
+    return [p for p in s.params if p not in fixed]
+
+
+def no_indices_reason(s: Surrogate) -> str:
+    """Why no sensitivity index of ``s`` means anything: no parameter varied, the
+    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or ``""``."""
+    names = _varied(s)
     if not names:
-        raise ValueError(
-            f"{s.output}: no design parameter varied among the fitted cases "
-            f"({', '.join(f'{p} = {v:g}' for p, v in fixed.items())}); no sensitivity to compute"
-        )
-    return names
+        held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())
+        return f"no design parameter varied among the fitted cases ({held})"
+    return s.flat_output()
 
 
 def _problem(s: Surrogate) -> dict:
+    why = no_indices_reason(s)
+    if why:
+        raise ValueError(f"{s.output}: no sensitivity indices: {why}")
     names = _varied(s)
     return {"num_vars": len(names), "names": names, "bounds": [[0.0, 1.0]] * len(names)}
 

@@ -105,6 +105,29 @@ class Surrogate:
         x = np.asarray(self.x, dtype=float).reshape(-1, len(self.params))
         return {p: float(x[0, i]) for i, p in enumerate(self.params) if np.ptp(x[:, i]) == 0}
 
+    def flat_output(self) -> str:
+        """Why the fitted cases show no variation of the output to rank parameters by, or
+        ``""``.
+
+        The output held one value in every fitted case, or it varied no more than the fit's
+        cross-validated error (RMSE >= the cases' standard deviation, in the modelled space:
+        the fit predicts a design it has not seen no better than the cases' mean, Q^2 <= 0).
+        Sensitivity indices of such a fit are those of its noise (:mod:`~psdesign.analysis.
+        sensitivity` computes none).
+        """
+        y = self._target(np.asarray(self.y, dtype=float))
+        if np.ptp(y) == 0:
+            return f"{self.output} = {self.y[0]:g} in every fitted case"
+        spread = float(np.std(y))
+        if not self.cv_rmse < spread:
+            space = "log10 " if self.log_output else ""
+            return (
+                f"{self.output} varies no more than the fit's cross-validated error "
+                f"({space}std {spread:.3g} over the cases, RMSE {self.cv_rmse:.3g}): "
+                "constant to within noise"
+            )
+        return ""
+
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float).reshape(-1, len(self.params))

@@ -131,7 +131,7 @@ def _surrogate_flag(model) -> tuple[str, str]:
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
-    from psdesign.analysis.sensitivity import morris_screening, sobol_indices
+    from psdesign.analysis.sensitivity import morris_screening, no_indices_reason, sobol_indices
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
@@ -143,12 +143,16 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     if unknown:
         return _fail(f"--outputs: no surrogate for {unknown[0]!r}; fitted: {', '.join(models)}")
     result = {}
+    skipped = []
     for name in names:
+        why = no_indices_reason(models[name])
+        if why:  # said in our words (SALib's raw warnings on a constant output, before)
+            print(f"psdesign: note: {name}: no sensitivity indices: {why}", file=sys.stderr)
+            skipped.append(f"{name}: {why}")
+            result[name] = []
+            continue
         fn = sobol_indices if args.method == "sobol" else morris_screening
-        try:
-            table = fn(models[name], seed=args.seed)
-        except ValueError as exc:  # no parameter varied among the fitted cases
-            return _fail(str(exc))
+        table = fn(models[name], seed=args.seed)
         for p, v in models[name].fixed_inputs().items():
             print(
                 f"psdesign: note: {name}: {p} was {v:g} in every fitted case; no index "
@@ -165,6 +169,8 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             # 4 significant digits: Morris' mu* and sigma carry the output's unit (a K's are
             # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
             print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    if len(skipped) == len(names):
+        return _fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
         print(json.dumps(result))
     return 0

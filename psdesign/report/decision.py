@@ -254,7 +254,7 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
 def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
     its relative uncertainty), fitted here from the finished cases."""
-    from psdesign.analysis.sensitivity import sobol_indices
+    from psdesign.analysis.sensitivity import no_indices_reason, sobol_indices
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
@@ -291,7 +291,10 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         f"[{status}].{weak}</p>"
     ]
     order = num
-    if len(num) >= 2:
+    why = no_indices_reason(s) if len(num) >= 2 else ""
+    if why:  # the rule `study sensitivity` follows: no bars of noise or of entangled inputs
+        parts[0] += f'<p class="note">Sobol indices not shown: {html.escape(why)}.</p>'
+    elif len(num) >= 2:
         sob = sobol_indices(s, n=256)
         parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])

@@ -663,3 +663,53 @@ def test_from_unit_of_a_large_linear_range_warns_nothing() -> None:
         warnings.simplefilter("error")
         x = from_unit(np.array([[0.5, 0.5], [1.0, 0.0]]), [1000, 1e-6], [5000, 1e-4], [0, 1])
     np.testing.assert_allclose(x, [[3000.0, 1e-5], [5000.0, 1e-6]], rtol=1e-12)
+
+
+def test_an_output_constant_to_noise_gets_no_sensitivity_index() -> None:
+    """Truth: ``y = 0.8 + 1e-9 N(0, 1)`` depends on neither ``a`` nor ``b`` (by construction);
+    ranking the two by influence on it is ranking noise. Before, the fit rated ``ok``
+    (cross-validated error 1.3e-9 relative) and Sobol printed S_T(b) = 0.92, S_T(a) = 0.73;
+    an exactly constant output gave S = 0 under SALib's raw "Constant values encountered"."""
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, 1, 20), rng.uniform(0, 1, 20)
+    bounds = {"a": (0, 1, False), "b": (0, 1, False)}
+    noisy = pd.DataFrame({"a": a, "b": b, "status": "ok", "y": 0.8 + 1e-9 * rng.normal(size=20)})
+    s = fit_surrogate(noisy, "y", ["a", "b"], bounds)
+    assert "constant to within noise" in s.flat_output()
+    with pytest.raises(ValueError, match="no sensitivity indices: y varies no more than"):
+        sobol_indices(s, n=64)
+    flat = fit_surrogate(noisy.assign(y=0.8), "y", ["a", "b"], bounds)
+    assert flat.flat_output() == "y = 0.8 in every fitted case"
+    with pytest.raises(ValueError, match="y = 0.8 in every fitted case"):
+        morris_screening(flat)
+    # a real trend stays: y = 10 + 3 a + b gives S_a = 9 / 10 (Saltelli's Primer, Sec. 4)
+    trend = fit_surrogate(noisy.assign(y=10 + 3 * a + b), "y", ["a", "b"], bounds)
+    assert trend.flat_output() == ""
+    t = sobol_indices(trend, n=256).set_index("parameter")
+    assert t.loc["a", "S1"] == pytest.approx(0.9, abs=0.05)
+
+
+def test_study_sensitivity_says_a_constant_output_in_its_own_words(tmp_path, capsys) -> None:
+    """Only the diameter varies: the porosity output is 0.8 in every case (the fake solver
+    returns its input porosity) and gets no index, said once in psdesign's words (no SALib
+    warning); K still gets its indices: one varied parameter, S_T = 1 (Saltelli's Primer)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 8\nseeds = [1]\n'
+        'outputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}\n"generator.porosity" = [0.8]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["study", "sensitivity", str(out), "--json"]) == 0
+    got = capsys.readouterr()
+    res = json.loads(got.out)
+    assert res["porosity"] == []
+    assert [r["parameter"] for r in res["k_z_m2"]] == ["generator.diameter"]
+    assert res["k_z_m2"][0]["ST"] == pytest.approx(1.0, abs=0.05)
+    assert "porosity: no sensitivity indices: porosity = 0.8 in every fitted case" in got.err
+    assert "Constant values" not in got.err
+    assert main(["study", "sensitivity", str(out), "--outputs", "porosity"]) == 2
+    assert "no sensitivity indices for any output" in capsys.readouterr().err

@@ -399,3 +399,17 @@ def test_surfaces_of_a_loguniform_parameter_are_on_its_log_scale():
     np.testing.assert_allclose(g[1:] / g[:-1], (1e-4 / 1e-6) ** (1 / 29))
     np.testing.assert_allclose(np.diff(_axis_grid(s, ["porosity", "d"], "porosity")), 0.4 / 29)
     np.testing.assert_allclose(_at_mid_range(s, 2), [[0.7, 1e-5], [0.7, 1e-5]])
+
+
+def test_report_draws_no_sobol_bars_of_a_k_constant_to_noise():
+    """K = 1e-11 (1 + 1e-9 N(0, 1)) depends on neither parameter (by construction): the
+    report must not draw Sobol bars of its noise, and must say why they are missing (it drew
+    bars, S_T up to 0.9, before)."""
+    from psdesign.report.decision import surrogate_plots
+
+    rng = np.random.default_rng(0)
+    x = rng.random((12, 2))
+    k = 1e-11 * (1 + 1e-9 * rng.standard_normal(12))
+    df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "k_z_m2": k})
+    text = surrogate_plots(df, ["a", "b"], {})
+    assert "psd-sobol" not in text and "Sobol indices not shown: k_z_m2 varies no more" in text
