@@ -9,15 +9,23 @@ no index: the cases say nothing about it (varied over its box, the GP's prior al
 such a parameter the "most influential" one, S1 0.59, of a study that never changed it).
 No index at all is computed (:func:`no_indices_reason`) for an output that did not vary beyond
 the fit's error (:meth:`~psdesign.analysis.surrogate.Surrogate.flat_output`: the indices would
-be those of noise, S_T 0.92 of a constant).
+be those of noise, S_T 0.92 of a constant), nor when two parameters moved together over the
+fitted cases (a csv design with b = 2 a: the cases cannot tell their effects apart, yet the
+GP split them 0.50 / 0.50 over a box the cases never filled).
 """
 
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.surrogate import Surrogate, from_unit
+from psdesign.analysis.surrogate import Surrogate, from_unit, to_unit
+
+#: Correlation (Pearson, of the scaled inputs over the fitted design points) of two parameters
+#: above which the cases cannot tell their effects apart.
+MAX_INPUT_CORRELATION = 0.99
 
 
 def _varied(s: Surrogate) -> list[str]:
@@ -26,14 +34,31 @@ def _varied(s: Surrogate) -> list[str]:
     return [p for p in s.params if p not in fixed]
 
 
+def _entangled(s: Surrogate, names: list[str]) -> str:
+    """``"a and b moved together ..."`` for the first pair of ``names`` whose scaled values
+    over the fitted design points correlate beyond :data:`MAX_INPUT_CORRELATION`, or ``""``."""
+    u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
+    for a, b in combinations(names, 2):
+        r = float(np.corrcoef(u[:, s.params.index(a)], u[:, s.params.index(b)])[0, 1])
+        if abs(r) > MAX_INPUT_CORRELATION:
+            return (
+                f"{a} and {b} moved together over the fitted cases (correlation {r:.3f}): the "
+                "cases cannot tell their effects apart; vary them independently (e.g. a "
+                "latin-hypercube design)"
+            )
+    return ""
+
+
 def no_indices_reason(s: Surrogate) -> str:
     """Why no sensitivity index of ``s`` means anything: no parameter varied, the
-    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or ``""``."""
+    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or two
+    parameters moved together (:data:`MAX_INPUT_CORRELATION`); ``""`` when they mean
+    something."""
     names = _varied(s)
     if not names:
         held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())
         return f"no design parameter varied among the fitted cases ({held})"
-    return s.flat_output()
+    return s.flat_output() or _entangled(s, names)
 
 
 def _problem(s: Surrogate) -> dict:
