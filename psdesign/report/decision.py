@@ -109,8 +109,10 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
 
     ok = add_anisotropy(_ok(df))
     num = numeric_parameters(ok, params)
+    held = _held_note([p for p in num if ok[p].nunique() == 1], ok)
+    num = [p for p in num if ok[p].nunique() > 1]  # one x value is no trend: no frame of it
     if not num:
-        return '<p class="note">No numeric design parameter to plot against.</p>'
+        return held or '<p class="note">No numeric design parameter to plot against.</p>'
     summary = replicate_summary(ok, params)
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
@@ -148,7 +150,20 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
-    return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
+    grid = '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
+    return held + grid
+
+
+def _held_note(held: list[str], ok: pd.DataFrame) -> str:
+    """A note naming the parameters that had one value in every plotted case (not plotted
+    against), or ``""``."""
+    if not held:
+        return ""
+    vals = ", ".join(f"{p} = {_value(p, ok[p].iloc[0])}" for p in held)
+    return (
+        f'<p class="note">Not plotted against (one value in every case with a trusted '
+        f"output): {html.escape(vals)}.</p>"
+    )
 
 
 NO_TRUSTED_K = (

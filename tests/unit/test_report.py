@@ -12,6 +12,7 @@ from study_cases import (
     FAC_PARAMS,
     FACTORIAL,
     failing_case,
+    fake_case,
     mixed_status_case,
     untrusted_case,
     write_study,
@@ -413,3 +414,21 @@ def test_report_draws_no_sobol_bars_of_a_k_constant_to_noise():
     df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "k_z_m2": k})
     text = surrogate_plots(df, ["a", "b"], {})
     assert "psd-sobol" not in text and "Sobol indices not shown: k_z_m2 varies no more" in text
+
+
+def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
+    """``generator.porosity = [0.8]``: every case has porosity 0.8 (the design, by hand), so a
+    "K vs generator.porosity" frame is one x value, no trend; it was drawn (with its porosity
+    output twin). Now the report names the held parameter and plots against the diameter
+    only."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["porosity", "k_z"]',
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}\n"generator.porosity" = [0.8]',
+    )
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "K vs generator.diameter" in html and "porosity vs generator.diameter" in html
+    assert "vs generator.porosity" not in html
+    assert "Not plotted against (one value in every case with a trusted output): " in html
+    assert "output): generator.porosity = 0.8.</p>" in html
