@@ -13,7 +13,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import numeric_parameters, trusted
 from psdesign.analysis.replicates import replicate_summary
-from psdesign.report.interactive import figure_html
+from psdesign.report.interactive import figure_html, number_axis
 from psdesign.report.units import parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -40,13 +40,10 @@ SURFACE_GAP = 0.3
 
 
 def param_axis(p: str) -> dict:
-    """Plotly axis settings of a design parameter: title with its unit, and SI-prefixed ticks
-    that carry the unit (``6μm``) when it has one."""
-    unit = parameter_unit(p)
-    axis: dict = {"title": {"text": parameter_label(p)}}
-    if unit and unit not in ("-", "deg"):
-        axis.update(exponentformat="SI", ticksuffix=unit)
-    return axis
+    """Plotly axis settings of a design parameter: title with its unit, and the ticks of
+    :func:`~psdesign.report.interactive.number_axis` (SI-prefixed with the unit, ``6μm``, or
+    plain / exponent numbers for a dimensionless one)."""
+    return {"title": {"text": parameter_label(p)}, **number_axis(parameter_unit(p))}
 
 
 def _value(p: str, v) -> str:
@@ -133,7 +130,6 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
                 xaxis=param_axis(p),
                 yaxis_title="K (m²)",
                 yaxis_type="log",
-                yaxis_exponentformat="e",
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
             parts.append(figure_html(fig, f"psd-k-{p}", k_axis="yaxis", k_label="K"))
@@ -404,7 +400,6 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
         xaxis=param_axis(a),
         yaxis_title="K (m²)",
         yaxis_type="log",
-        yaxis_exponentformat="e",
     )
     return fig
 

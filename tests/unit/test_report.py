@@ -432,3 +432,47 @@ def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
     assert "vs generator.porosity" not in html
     assert "Not plotted against (one value in every case with a trusted output): " in html
     assert "output): generator.porosity = 0.8.</p>" in html
+
+
+def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
+    """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
+    layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
+    on a dimensionless axis (porosity_error; seen in a real browser). Every axis and colour
+    bar of the report's figures must tick ``"e"`` numbers (0.0065, 6.5e-4) unless it carries
+    a unit with its SI prefix (``6µm``)."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+
+    def keep(fig, *args, **kw):
+        out = real(fig, *args, **kw)
+        figs.append(fig)
+        return out
+
+    monkeypatch.setattr(decision, "figure_html", keep)
+    rng = np.random.default_rng(2)
+    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "porosity_error": 6.5e-4 + 1e-5 * eps,
+            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
+        }
+    )
+    params = ["generator.porosity", "generator.diameter"]
+    decision.parameter_plots(df, params)
+    decision.effect_plots(df, params)
+    decision.surrogate_plots(df, params, {})
+    formats = []
+    for fig in figs:
+        for ax in [*fig.select_xaxes(), *fig.select_yaxes()]:
+            formats.append((ax.exponentformat, ax.ticksuffix))
+        formats += [(t.colorbar.exponentformat, None) for t in fig.data if hasattr(t, "colorbar")]
+    assert len(figs) >= 8 and ("SI", "m") in formats  # the diameter's axes: 6µm
+    assert set(formats) == {("e", None), ("SI", "m")}, set(formats)
+    err = [f for f in figs if f.layout.title.text == "porosity_error vs generator.porosity"]
+    assert err and err[0].layout.yaxis.exponentformat == "e"
