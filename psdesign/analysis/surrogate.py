@@ -198,15 +198,30 @@ class Surrogate:
                 )
         return ("untrustworthy" if warnings else "ok"), warnings
 
+    def predict_modelled(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and standard deviation at points ``x`` in the modelled space (log10 for log
+        outputs).
+
+        An output that held one value ``y0`` in every case has its std scaled by ``|y0|``
+        (1 for 0): scikit-learn's ``normalize_y`` divides by the cases' std and, that being 0,
+        by 1, so the std came out in absolute units of the output (K = 1e-11 m^2 in every
+        case was predicted ``1e-11 +- 1.1e-4`` m^2).
+        """
+        if self._gp is None:
+            self._fit()
+        m, s = self._gp.predict(self._scale(np.asarray(x, dtype=float)), return_std=True)
+        y = self._target(np.asarray(self.y, dtype=float))
+        if np.ptp(y) == 0:
+            s = s * (abs(float(y[0])) or 1.0)
+        return m, s
+
     def predict(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
         """Mean and standard deviation at points ``x`` (n, n_params), original units.
 
         For log outputs the mean is ``10**m`` (the median) and the std is that of the
         log-normal, ``10**m * sqrt(exp(s^2 ln(10)^2) - 1)``.
         """
-        if self._gp is None:
-            self._fit()
-        m, s = self._gp.predict(self._scale(np.asarray(x, dtype=float)), return_std=True)
+        m, s = self.predict_modelled(x)
         if not self.log_output:
             return m, s
         ln10 = math.log(10.0)

@@ -740,3 +740,18 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     assert f"k_z_m2: no sensitivity indices: {why} (correlation 1.000)" in capsys.readouterr().err
     html = (out / "report.html").read_text()
     assert "psd-sobol" not in html and f"Sobol indices not shown: {why}" in html
+
+
+def test_prediction_of_an_output_constant_in_every_case_has_an_error_bar_at_its_scale() -> None:
+    """K = 1e-11 m^2 in all 8 cases (hand-built): the prediction between them is 1e-11 with a
+    bar far below it (the GP's noise floor, 1e-4 of the scale). Before, scikit-learn's
+    ``normalize_y`` (std 0 replaced by 1) gave the bar in absolute units: 1e-11 +- 1.1e-4 m^2,
+    seven decades above the value; the optimizer's probabilities used the same std."""
+    a = np.linspace(0, 1, 8)
+    for y0 in (1e-11, -5.0):
+        df = pd.DataFrame({"a": a, "status": "ok", "y": y0})
+        s = fit_surrogate(df, "y", ["a"], {"a": (0, 1, False)})
+        m, sd = s.predict(np.array([[0.5], [a[2]]]))
+        np.testing.assert_allclose(m, y0, rtol=1e-12)
+        assert np.all(sd <= 1e-3 * abs(y0)) and np.all(sd > 0)
+        assert s.predict_modelled(np.array([[0.5]]))[1][0] == pytest.approx(sd[0], rel=1e-12)
