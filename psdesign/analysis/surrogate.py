@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import (
+    distinct_realizations,
     numeric_parameters,
     output_columns,
     study_parameters,
@@ -289,7 +290,7 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     """Fit one output of a results table; ``bounds[p] = (low, high, log)``. Only trusted
     values are fitted (:func:`psdesign.analysis.columns.trusted`: ``ok`` cases, a K whose own
     status is ``untrustworthy`` or ``not_converged`` left out)."""
-    ok = trusted(df)
+    ok = distinct_realizations(trusted(df), params)
     ok = ok[ok[output].notna()]
     if len(ok) < 3:
         raise ValueError(

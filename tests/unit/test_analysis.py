@@ -755,3 +755,33 @@ def test_prediction_of_an_output_constant_in_every_case_has_an_error_bar_at_its_
         np.testing.assert_allclose(m, y0, rtol=1e-12)
         assert np.all(sd <= 1e-3 * abs(y0)) and np.all(sd > 0)
         assert s.predict_modelled(np.array([[0.5]]))[1][0] == pytest.approx(sd[0], rel=1e-12)
+
+
+def test_a_design_point_listed_twice_with_one_seed_is_one_realization(tmp_path) -> None:
+    """A csv design lists porosity 0.7 twice, seed 1 both times: the same RVE computed
+    twice, one realization. Truth (Student): n = 1 gives no interval (NaN), and the
+    summary's n must be 1. Before: n = 2, std 0 and a 95 % CI of zero width
+    [4.685e-12, 4.685e-12], claiming K exact where the seeds scatter (1 % in this fake)."""
+    from psdesign.analysis.replicates import write_summary
+
+    pd.DataFrame({"generator.porosity": [0.7, 0.7, 0.8], "generator.diameter": 7e-6}).to_csv(
+        tmp_path / "pts.csv", index=False
+    )
+    p = write_study(
+        tmp_path,
+        'design = "csv"\ncsv = "pts.csv"\nseeds = [1, 2]\noutputs = ["k_z"]\nsolver = "voxel"',
+        "",
+    )
+    df = run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(df) == 6  # the runner ran the listed point twice per seed
+    params = ["generator.porosity", "generator.diameter"]
+    s = write_summary(tmp_path / "out", df, params).set_index("generator.porosity")
+    assert s.loc[0.7, "n"] == 2 and s.loc[0.7, "k_z_m2_n"] == 2  # seeds 1 and 2, once each
+    seeds = df[df["generator.porosity"] == 0.7].drop_duplicates("seed")["k_z_m2"]
+    assert s.loc[0.7, "k_z_m2_std"] == pytest.approx(seeds.std(ddof=1), rel=1e-12)
+    one = write_summary(tmp_path / "out", df[df["seed"] == 1], params).set_index(
+        "generator.porosity"
+    )
+    assert one.loc[0.7, "n"] == 1 and math.isnan(one.loc[0.7, "k_z_m2_ci95_low"])
+    bounds = {params[0]: (0.7, 0.8, False), params[1]: (7e-6, 7e-6, False)}
+    assert len(fit_surrogate(df, "k_z_m2", params, bounds).y) == 4  # 2 points x 2 seeds
