@@ -314,14 +314,25 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     return s
 
 
+def log_parameters(spec: dict[str, dict]) -> set[str]:
+    """The ``loguniform`` parameters of a study's ``parameters`` table: drawn, fitted (scaled
+    in log10) and plotted on a log scale.
+
+    >>> sorted(log_parameters({"a": {"dist": "loguniform"}, "b": {"dist": "uniform"}, "c": {}}))
+    ['a']
+    """
+    return {p for p, info in spec.items() if (info or {}).get("dist") == "loguniform"}
+
+
 def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict]) -> dict:
     out = {}
+    logs = log_parameters(spec)
     for p in params:
         info = spec.get(p, {})
         lo, hi = info.get("low"), info.get("high")
         if lo is None or hi is None:
             lo, hi = float(df[p].min()), float(df[p].max())
-        out[p] = (lo, hi, info.get("dist") == "loguniform")
+        out[p] = (lo, hi, p in logs)
     return out
 
 

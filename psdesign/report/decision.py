@@ -39,11 +39,14 @@ DASHES = ("solid", "dash", "dot", "dashdot")
 SURFACE_GAP = 0.3
 
 
-def param_axis(p: str) -> dict:
-    """Plotly axis settings of a design parameter: title with its unit, and the ticks of
+def param_axis(p: str, log: bool = False) -> dict:
+    """Plotly axis settings of a design parameter: title with its unit, the ticks of
     :func:`~psdesign.report.interactive.number_axis` (SI-prefixed with the unit, ``6μm``, or
-    plain / exponent numbers for a dimensionless one)."""
-    return {"title": {"text": parameter_label(p)}, **number_axis(parameter_unit(p))}
+    plain / exponent numbers for a dimensionless one), and a log axis for a ``loguniform``
+    one (``log``; on a linear axis a 1e-7 to 1e-3 m range put 3/4 of its cases in the first
+    1 % of the width)."""
+    axis = {"title": {"text": parameter_label(p)}, **number_axis(parameter_unit(p))}
+    return axis | ({"type": "log"} if log else {})
 
 
 def _value(p: str, v) -> str:
@@ -100,9 +103,14 @@ def _nan_none(a) -> list:
     return [None if (v is None or not math.isfinite(float(v))) else float(v) for v in a]
 
 
-def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
-    """Every output against each numeric design parameter, replicate means with 95 % CI bars."""
+def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
+    """Every output against each numeric design parameter, replicate means with 95 % CI bars
+    (``loguniform`` parameters of ``study`` on a log axis)."""
     import plotly.graph_objects as go
+
+    from psdesign.analysis.surrogate import log_parameters
+
+    logs = log_parameters((study or {}).get("parameters") or {})
 
     ok = add_anisotropy(_ok(df))
     num = numeric_parameters(ok, params)
@@ -127,7 +135,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
             fig.update_layout(
                 title=f"K vs {p} (mean of replicates, 95 % CI)",
                 height=360,
-                xaxis=param_axis(p),
+                xaxis=param_axis(p, p in logs),
                 yaxis_title="K (m²)",
                 yaxis_type="log",
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
@@ -140,7 +148,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
             fig.update_layout(
                 title=f"{c} vs {p}",
                 height=320,
-                xaxis=param_axis(p),
+                xaxis=param_axis(p, p in logs),
                 yaxis_title=OUTPUT_LABELS.get(c, c),
                 showlegend=len(groups) > 1,
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
@@ -194,10 +202,13 @@ def _levels(x: pd.Series) -> pd.Series:
     return x.groupby(bins).transform("median")  # each bin named by its median value
 
 
-def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
+def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
     """Main effects (mean log10 K per level) and the two-factor interaction of the first two
-    numeric parameters (lines of one parameter's levels over the other's)."""
+    numeric parameters (lines of one parameter's levels over the other's; a ``loguniform``
+    one of ``study`` on a log axis)."""
     import plotly.graph_objects as go
+
+    from psdesign.analysis.surrogate import log_parameters
 
     ok = _ok(df)
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
@@ -248,7 +259,7 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
         fig.update_layout(
             title=f"Interaction {a} x {b}: mean log10 {c}",
             height=380,
-            xaxis=param_axis(a),
+            xaxis=param_axis(a, a in log_parameters((study or {}).get("parameters") or {})),
             yaxis_title=f"log10 {c} (K in m²)",
             margin={"l": 60, "r": 10, "t": 40, "b": 50},
         )
@@ -397,7 +408,7 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     fig.update_layout(
         title=f"Surrogate of {c} vs {a}",
         height=380,
-        xaxis=param_axis(a),
+        xaxis=param_axis(a, s.log_params[num.index(a)]),
         yaxis_title="K (m²)",
         yaxis_type="log",
     )
@@ -411,6 +422,7 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
     from plotly.subplots import make_subplots
 
     a, b = pair
+    log_a, log_b = s.log_params[num.index(a)], s.log_params[num.index(b)]
     ga, gb = _axis_grid(s, num, a), _axis_grid(s, num, b)
     A, B = np.meshgrid(ga, gb)
     x = _at_mid_range(s, A.size)
@@ -459,9 +471,9 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
         title_font_size=14,
         height=440,
         margin={"l": 70, "r": 60, "t": 90, "b": 60},
-        xaxis=param_axis(a),
-        yaxis=param_axis(b),
-        xaxis2=param_axis(a),
-        yaxis2={k: v for k, v in param_axis(b).items() if k != "title"},
+        xaxis=param_axis(a, log_a),
+        yaxis=param_axis(b, log_b),
+        xaxis2=param_axis(a, log_a),
+        yaxis2={k: v for k, v in param_axis(b, log_b).items() if k != "title"},
     )
     return fig

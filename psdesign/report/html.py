@@ -459,8 +459,8 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_tabl
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
 (summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
-{_safe(parameter_plots, df, params)}
-<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params)}
+{_safe(parameter_plots, df, params, study)}
+<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}
 <h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
 <h2>Sensitivity</h2>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear

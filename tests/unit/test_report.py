@@ -476,3 +476,44 @@ def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
     assert set(formats) == {("e", None), ("SI", "m")}, set(formats)
     err = [f for f in figs if f.layout.title.text == "porosity_error vs generator.porosity"]
     assert err and err[0].layout.yaxis.exponentformat == "e"
+
+
+def test_a_loguniform_parameter_is_plotted_on_a_log_axis(monkeypatch):
+    """A ``loguniform`` diameter of 1e-7 to 1e-3 m: its cases are spread evenly in log10 d,
+    so on a linear axis d = 1e-5 (the log middle) sits at (1e-5 - 1e-7) / (1e-3 - 1e-7) =
+    0.99 % of the width (hand value) and 3/4 of the cases crowd the first 1 %. Every frame
+    over it (outputs vs it, the surrogate's surfaces) must use a log axis; the porosity's
+    stays linear."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    rng = np.random.default_rng(4)
+    eps, d = rng.uniform(0.7, 0.9, 12), 10 ** rng.uniform(-7, -3, 12)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
+        }
+    )
+    params = ["generator.porosity", "generator.diameter"]
+    spec = {
+        "generator.porosity": {"low": 0.7, "high": 0.9},
+        "generator.diameter": {"low": 1e-7, "high": 1e-3, "dist": "loguniform"},
+    }
+    decision.parameter_plots(df, params, {"parameters": spec})
+    decision.effect_plots(df, params, {"parameters": spec})
+    decision.surrogate_plots(df, params, {"parameters": spec})
+    kinds = {}
+    for fig in figs:
+        for ax in [*fig.select_xaxes(), *fig.select_yaxes()]:
+            title = ax.title.text or ""
+            if title.startswith("generator."):
+                kinds.setdefault(title, set()).add(ax.type)
+    assert kinds["generator.diameter (m)"] == {"log"}
+    assert kinds["generator.porosity (-)"] == {None}
