@@ -184,7 +184,12 @@ class Surrogate:
         from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
         warnings = []
-        if not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
+        if math.isnan(self.cv_rel_error):
+            warnings.append(
+                f"{self.output}: no cross-validated error: every fitted case is at one design "
+                "point (nothing to hold out); vary a parameter"
+            )
+        elif not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
             warnings.append(
                 f"{self.output}: cross-validated error {100 * self.cv_rel_error:.3g} % exceeds "
                 f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %"
@@ -235,7 +240,13 @@ class Surrogate:
 
     @classmethod
     def from_dict(cls, d: dict) -> Surrogate:
-        return cls(**{k: v for k, v in d.items() if k != "_gp"})
+        """The surrogate :meth:`to_dict` saved; a cross-validated error saved as ``null`` (JSON
+        has no NaN: no error could be computed) reads back as NaN."""
+        s = cls(**{k: v for k, v in d.items() if k != "_gp"})
+        s.cv_rmse, s.cv_rel_error = (
+            math.nan if v is None else v for v in (s.cv_rmse, s.cv_rel_error)
+        )
+        return s
 
 
 def design_point_folds(x: np.ndarray, k_max: int = 5) -> tuple[np.ndarray, int]:

@@ -785,3 +785,28 @@ def test_a_design_point_listed_twice_with_one_seed_is_one_realization(tmp_path) 
     assert one.loc[0.7, "n"] == 1 and math.isnan(one.loc[0.7, "k_z_m2_ci95_low"])
     bounds = {params[0]: (0.7, 0.8, False), params[1]: (7e-6, 7e-6, False)}
     assert len(fit_surrogate(df, "k_z_m2", params, bounds).y) == 4  # 2 points x 2 seeds
+
+
+def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
+    tmp_path, capsys
+) -> None:
+    """Four seeds of one design point: no fold to hold out, so no cross-validated error
+    (saved as JSON null). Before, `study predict` died in a TypeError traceback (None <= 0.2)
+    and `study fit` said "cross-validated error nan % exceeds 20 %". Truth: the prediction
+    at the point is the seeds' mean (by hand from results.csv) within the seed scatter."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3, 4]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.8]\n"generator.diameter" = [7e-6]',
+    )
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "k_z_m2: no cross-validated error: every fitted case is at one design point" in err
+    assert "nan %" not in err
+    at = "generator.porosity=0.8,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert r["status"] == "untrustworthy"
+    assert r["mean"] == pytest.approx(df["k_z_m2"].mean(), rel=0.01)
