@@ -293,7 +293,13 @@ def _cross_validate(s: Surrogate) -> tuple[float, float]:
         m, _ = sub.predict(x[test])
         err[test] = s._target(m) - s._target(y[test])
     rmse = float(np.sqrt(np.mean(err**2)))
-    rel = 10.0**rmse - 1.0 if s.log_output else rmse / float(np.mean(np.abs(y)))
+    scale = float(np.mean(np.abs(y)))
+    if s.log_output:
+        rel = 10.0**rmse - 1.0
+    elif scale > 0:
+        rel = rmse / scale
+    else:  # 0 in every case (an off-diagonal K of a symmetric geometry): ZeroDivisionError
+        rel = 0.0 if rmse == 0 else math.inf
     return rmse, float(rel)
 
 

@@ -810,3 +810,15 @@ def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
     r = json.loads(capsys.readouterr().out)["k_z_m2"]
     assert r["status"] == "untrustworthy"
     assert r["mean"] == pytest.approx(df["k_z_m2"].mean(), rel=0.01)
+
+
+def test_an_output_zero_in_every_case_fits(tmp_path) -> None:
+    """An off-diagonal ``k_xy_m2`` that is 0 in every case (a geometry symmetric about the
+    flow axes): the fit predicts 0 and its cross-validated error is 0 (hand values). Before,
+    `study fit` died in a ZeroDivisionError traceback (RMSE / mean |y| = 0 / 0)."""
+    a = np.linspace(0.7, 0.9, 6)
+    df = pd.DataFrame({"a": a, "status": "ok", "k_xy_m2": 0.0})
+    s = fit_surrogate(df, "k_xy_m2", ["a"], {"a": (0.7, 0.9, False)})
+    assert (s.cv_rmse, s.cv_rel_error) == (0.0, 0.0)
+    assert s.predict(np.array([[0.8]]))[0][0] == 0.0
+    assert s.flat_output() == "k_xy_m2 = 0 in every fitted case"
