@@ -32,6 +32,15 @@ def _fail(msg: str, code: int = 2) -> int:
     return code
 
 
+def _print_json(obj) -> None:
+    """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
+    ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
+    token, which JSON has not: ``jq`` and JavaScript refuse the whole output)."""
+    from psdesign.study.store import _jsonable
+
+    print(json.dumps(_jsonable(obj), allow_nan=False, default=str))
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
@@ -56,7 +65,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         for w in r["warnings"]:
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
-        print(json.dumps(rows))
+        _print_json(rows)
     else:
         for name, r in rows.items():
             space = "log10 " if r["log_output"] else ""
@@ -106,7 +115,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.json:
-        print(json.dumps(out))
+        _print_json(out)
     else:
         for name, r in out.items():
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
@@ -172,7 +181,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     if len(skipped) == len(names):
         return _fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
-        print(json.dumps(result))
+        _print_json(result)
     return 0
 
 
@@ -246,7 +255,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "history": res.history,
     }
     if args.json:
-        print(json.dumps(summary, default=str))
+        _print_json(summary)
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:

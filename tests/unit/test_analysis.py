@@ -822,3 +822,26 @@ def test_an_output_zero_in_every_case_fits(tmp_path) -> None:
     assert (s.cv_rmse, s.cv_rel_error) == (0.0, 0.0)
     assert s.predict(np.array([[0.8]]))[0][0] == 0.0
     assert s.flat_output() == "k_xy_m2 = 0 in every fitted case"
+
+
+def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
+    """One design point (three seeds) has no cross-validated error: RFC 8259 JSON has no NaN,
+    so `study fit --json` and `study predict --json` must print null there (as the study's
+    own files do). Before, they printed the token NaN, which jq and JavaScript refuse."""
+
+    def strict(text: str):
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"non-JSON token {c}"))
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.8]\n"generator.diameter" = [7e-6]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    fit = strict(capsys.readouterr().out)["k_z_m2"]
+    assert fit["cv_rel_error"] is None and fit["cv_rmse"] is None
+    at = "generator.porosity=0.8,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert strict(capsys.readouterr().out)["k_z_m2"]["cv_rel_error"] is None
