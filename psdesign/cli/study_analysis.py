@@ -71,7 +71,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             space = "log10 " if r["log_output"] else ""
             fixed = r["fixed_params"]
             over = ", ".join(p for p in r["params"] if p not in fixed) or "no varied parameter"
-            held = "".join(f" ({p} = {v:g} in every case)" for p, v in fixed.items())
+            held = ", ".join(f"{p} = {v:g}" for p, v in fixed.items())
+            held = f" ({held} in every case)" if held else ""
             print(
                 f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "

@@ -805,6 +805,11 @@ def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
     err = capsys.readouterr().err
     assert "k_z_m2: no cross-validated error: every fitted case is at one design point" in err
     assert "nan %" not in err
+    # both held parameters in one parenthesis (it printed "(... in every case) (... in every
+    # case)")
+    assert main(["study", "fit", str(out)]) == 0
+    held = "(generator.porosity = 0.8, generator.diameter = 7e-06 in every case)"
+    assert f"k_z_m2: GP over no varied parameter {held} from 4 cases" in capsys.readouterr().out
     at = "generator.porosity=0.8,generator.diameter=7e-6"
     assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
     r = json.loads(capsys.readouterr().out)["k_z_m2"]
