@@ -34,19 +34,30 @@ def _varied(s: Surrogate) -> list[str]:
     return [p for p in s.params if p not in fixed]
 
 
-def _entangled(s: Surrogate, names: list[str]) -> str:
-    """``"a and b moved together ..."`` for the first pair of ``names`` whose scaled values
-    over the fitted design points correlate beyond :data:`MAX_INPUT_CORRELATION`, or ``""``."""
-    u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
-    for a, b in combinations(names, 2):
-        r = float(np.corrcoef(u[:, s.params.index(a)], u[:, s.params.index(b)])[0, 1])
+def entangled(x: np.ndarray, names: list[str]) -> str:
+    """``"a and b moved together ..."`` for the first pair of columns of ``x`` (cases x
+    parameters, named ``names``) whose Pearson correlation exceeds
+    :data:`MAX_INPUT_CORRELATION`, or ``""``: the cases cannot tell those two effects apart
+    (by Sobol index or by regression coefficient).
+
+    >>> entangled(np.array([[1.0, 2.0], [2.0, 4.0], [3.0, 6.1]]), ["a", "b"])[:43]
+    'a and b moved together over the cases (corr'
+    """
+    for i, j in combinations(range(len(names)), 2):
+        r = float(np.corrcoef(x[:, i], x[:, j])[0, 1])
         if abs(r) > MAX_INPUT_CORRELATION:
             return (
-                f"{a} and {b} moved together over the fitted cases (correlation {r:.3f}): the "
-                "cases cannot tell their effects apart; vary them independently (e.g. a "
-                "latin-hypercube design)"
+                f"{names[i]} and {names[j]} moved together over the cases (correlation "
+                f"{r:.3f}): the cases cannot tell their effects apart; vary them "
+                "independently (e.g. a latin-hypercube design)"
             )
     return ""
+
+
+def _entangled(s: Surrogate, names: list[str]) -> str:
+    """:func:`entangled` over the fitted design points (scaled inputs) of ``names``."""
+    u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
+    return entangled(u[:, [s.params.index(p) for p in names]], names)
 
 
 def no_indices_reason(s: Surrogate) -> str:

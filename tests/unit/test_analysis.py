@@ -736,7 +736,7 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
     assert main(["study", "sensitivity", str(out), "--outputs", "k_z_m2"]) == 2
-    why = "generator.porosity and generator.diameter moved together over the fitted cases"
+    why = "generator.porosity and generator.diameter moved together over the cases"
     assert f"k_z_m2: no sensitivity indices: {why} (correlation 1.000)" in capsys.readouterr().err
     html = (out / "report.html").read_text()
     assert "psd-sobol" not in html and f"Sobol indices not shown: {why}" in html

@@ -517,3 +517,23 @@ def test_a_loguniform_parameter_is_plotted_on_a_log_axis(monkeypatch):
                 kinds.setdefault(title, set()).add(ax.type)
     assert kinds["generator.diameter (m)"] == {"log"}
     assert kinds["generator.porosity (-)"] == {None}
+
+
+def test_src_of_two_parameters_that_moved_together_is_blank():
+    """A design with diameter = 1e-5 * porosity (a csv study) and the output porosity = the
+    porosity parameter (the fake solver returns it): by construction SRC_porosity = 1 and
+    SRC_diameter = 0, but no regression on these cases can tell them apart (the two columns
+    are one). Least squares split it 0.50 / 0.50; the SRC cells must be blank (NaN), the
+    Spearman ones stay (each parameter's rank correlation is 1, hand value)."""
+    eps = np.linspace(0.7, 0.9, 8)
+    df = pd.DataFrame(
+        {"a": eps, "d": 1e-5 * eps, "status": "ok", "porosity": eps, "k_z_m2": 1e-11 * eps}
+    )
+    t = sensitivity_table(df, ["a", "d"])
+    assert t["src"].isna().all()
+    np.testing.assert_allclose(t["spearman"], 1.0)
+    # independent columns keep their SRC: porosity = a exactly, so SRC_a = 1, SRC_d = 0
+    df["d"] = np.random.default_rng(0).permutation(df["d"].to_numpy())
+    t = sensitivity_table(df, ["a", "d"]).set_index(["response", "parameter"])
+    assert t.loc[("porosity", "a"), "src"] == pytest.approx(1.0, abs=1e-9)
+    assert t.loc[("porosity", "d"), "src"] == pytest.approx(0.0, abs=1e-9)
