@@ -208,6 +208,7 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
     one of ``study`` on a log axis)."""
     import plotly.graph_objects as go
 
+    from psdesign.analysis.sensitivity import entangled
     from psdesign.analysis.surrogate import log_parameters
 
     ok = _ok(df)
@@ -241,28 +242,10 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
     )
     parts.append(figure_html(fig, "psd-main-effects"))
-    if len(num) >= 2:
-        a, b = num[0], num[1]
-        la, lb = _levels(ok[a].astype(float)), _levels(ok[b].astype(float))
-        c = "k_z_m2" if "k_z_m2" in kcols else kcols[0]
-        fig = go.Figure()
-        tab = y[c].groupby([la.to_numpy(), lb.to_numpy()]).mean().unstack()
-        for lvl in tab.columns:
-            fig.add_trace(
-                go.Scatter(
-                    x=list(tab.index),
-                    y=tab[lvl].to_list(),
-                    mode="markers+lines",
-                    name=f"{b} = {_value(b, lvl)}",
-                )
-            )
-        fig.update_layout(
-            title=f"Interaction {a} x {b}: mean log10 {c}",
-            height=380,
-            xaxis=param_axis(a, a in log_parameters((study or {}).get("parameters") or {})),
-            yaxis_title=f"log10 {c} (K in m²)",
-            margin={"l": 60, "r": 10, "t": 40, "b": 50},
-        )
+    tangled = entangled(ok[num[:2]].to_numpy(dtype=float), num[:2]) if len(num) >= 2 else ""
+    if len(num) >= 2 and not tangled:
+        logs = log_parameters((study or {}).get("parameters") or {})
+        fig = _interaction_figure(ok, y, kcols, num[0], num[1], num[0] in logs)
         parts.append(figure_html(fig, "psd-interaction"))
     note = (
         '<p class="note">Parallel lines in the interaction plot mean the two parameters act '
@@ -270,7 +253,36 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
         if len(parts) > 1
         else ""
     )
+    if tangled:  # one line of points, no lines of levels: no interaction to read
+        note = f'<p class="note">Interaction not shown: {html.escape(tangled)}.</p>'
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>" + note
+
+
+def _interaction_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols: list[str], a, b, log_a: bool):
+    """Lines of mean log10 K over ``a``'s levels, one per level of ``b``."""
+    import plotly.graph_objects as go
+
+    la, lb = _levels(ok[a].astype(float)), _levels(ok[b].astype(float))
+    c = "k_z_m2" if "k_z_m2" in kcols else kcols[0]
+    fig = go.Figure()
+    tab = y[c].groupby([la.to_numpy(), lb.to_numpy()]).mean().unstack()
+    for lvl in tab.columns:
+        fig.add_trace(
+            go.Scatter(
+                x=list(tab.index),
+                y=tab[lvl].to_list(),
+                mode="markers+lines",
+                name=f"{b} = {_value(b, lvl)}",
+            )
+        )
+    fig.update_layout(
+        title=f"Interaction {a} x {b}: mean log10 {c}",
+        height=380,
+        xaxis=param_axis(a, log_a),
+        yaxis_title=f"log10 {c} (K in m²)",
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
 
 
 def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:

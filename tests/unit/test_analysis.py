@@ -720,7 +720,7 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     apart. Over the box (porosity 0.7-0.9, diameter 7-9 um) the fake solver's log10 K =
     2 log10 d + log10(eps^3 / (1 - eps)^2) + c has S_diameter = 0.030 (closed form: the
     variance of each term over its uniform range); the GP split them 0.50 / 0.50. No index,
-    said why, in `study sensitivity` and in the report."""
+    said why, in `study sensitivity` and in the report (nor its interaction plot)."""
     eps = np.linspace(0.7, 0.9, 8)
     pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
         tmp_path / "pts.csv", index=False
@@ -740,6 +740,8 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     assert f"k_z_m2: no sensitivity indices: {why} (correlation 1.000)" in capsys.readouterr().err
     html = (out / "report.html").read_text()
     assert "psd-sobol" not in html and f"Sobol indices not shown: {why}" in html
+    # nor an interaction plot: one line of points, read as "parallel lines" (s34 audit)
+    assert "psd-interaction" not in html and f"Interaction not shown: {why}" in html
 
 
 def test_prediction_of_an_output_constant_in_every_case_has_an_error_bar_at_its_scale() -> None:
