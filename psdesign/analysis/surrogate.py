@@ -451,6 +451,30 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
     return np.array([values[p] for p in params])
 
 
+def wide_prediction(s: Surrogate, mean: float, std: float) -> str:
+    """Why a prediction inside the fitted range is untrustworthy by its own error bar, or
+    ``""``: the GP's std at the point exceeds
+    :data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` of the predicted value (the rule every
+    value of psdesign follows). Inside the box the cases may still not pin a point down: two
+    parameters that moved together leave the plane off their line unknown (a csv design with
+    diameter = 1e-5 porosity predicted K 2.18e-11 +- 482 % at a corner, status ``ok``, where
+    the truth is 7.7e-12).
+
+    >>> from types import SimpleNamespace as S
+    >>> wide_prediction(S(output="k"), 1.0, 0.1), wide_prediction(S(output="k"), 1.0, 4.8)[:33]
+    ('', 'k: its error bar here is 480 % of')
+    """
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+
+    rel = std / abs(mean) if mean else math.inf
+    if rel <= UNTRUSTWORTHY_REL_ERROR:
+        return ""
+    return (
+        f"{s.output}: its error bar here is {100 * rel:.3g} % of the value (GP std), above "
+        f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %: the cases do not pin this point down"
+    )
+
+
 def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
     """The parameters of point ``x`` (``s.params`` order) outside what the surrogate was
     fitted on, as ``"name = v outside [low, high]"`` or, for a parameter held at one value in

@@ -82,25 +82,40 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _predict_one(m, at: str) -> tuple[dict, str]:
+    """One surrogate's prediction at ``--at`` with its status (``extrapolated`` outside the
+    fitted cases, else the fit's rating, ``untrustworthy`` also when the point's own error bar
+    is too wide: :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is
+    returned too)."""
+    from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
+
+    x = parse_point(at, m.params)
+    mean, std = (float(v[0]) for v in m.predict(x[None, :]))
+    outside = outside_range(m, x)
+    status = "extrapolated" if outside else m.rating()[0]
+    wide = wide_prediction(m, mean, std) if status == "ok" else ""
+    row = {
+        "mean": mean,
+        "std": std,
+        "cv_rel_error": m.cv_rel_error,
+        "status": "untrustworthy" if wide else status,
+        "outside": outside,
+    }
+    return row, wide
+
+
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from psdesign.analysis.surrogate import load_study_surrogates, outside_range, parse_point
+    from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
         models = load_study_surrogates(args.out)
-        out = {}
-        for name, m in models.items():
-            x = parse_point(args.at, m.params)
-            mean, std = m.predict(x[None, :])
-            outside = outside_range(m, x)
-            out[name] = {
-                "mean": float(mean[0]),
-                "std": float(std[0]),
-                "cv_rel_error": m.cv_rel_error,
-                "status": "extrapolated" if outside else m.rating()[0],
-                "outside": outside,
-            }
+        rows = {name: _predict_one(m, args.at) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
         return _fail(" ".join(str(exc).split()))
+    out = {name: row for name, (row, _) in rows.items()}
+    wide = [w for _, w in rows.values() if w]
+    for w in wide:
+        print(f"psdesign: warning: {w}", file=sys.stderr)
     outside = list(dict.fromkeys(o for r in out.values() for o in r["outside"]))
     if outside:
         print(
@@ -108,7 +123,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             "the predictions are not trustworthy",
             file=sys.stderr,
         )
-    untrusted = [n for n, r in out.items() if r["status"] == "untrustworthy"]
+    untrusted = [n for n, (r, w) in rows.items() if r["status"] == "untrustworthy" and not w]
     if untrusted:
         print(
             f"psdesign: warning: the surrogate of {', '.join(untrusted)} is untrustworthy "

@@ -720,7 +720,8 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     apart. Over the box (porosity 0.7-0.9, diameter 7-9 um) the fake solver's log10 K =
     2 log10 d + log10(eps^3 / (1 - eps)^2) + c has S_diameter = 0.030 (closed form: the
     variance of each term over its uniform range); the GP split them 0.50 / 0.50. No index,
-    said why, in `study sensitivity` and in the report (nor its interaction plot)."""
+    said why, in `study sensitivity` and in the report (nor its interaction plot); `study
+    predict` off the cases' line is untrustworthy by its own error bar."""
     eps = np.linspace(0.7, 0.9, 8)
     pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
         tmp_path / "pts.csv", index=False
@@ -742,6 +743,18 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     assert "psd-sobol" not in html and f"Sobol indices not shown: {why}" in html
     # nor an interaction plot: one line of points, read as "parallel lines" (s34 audit)
     assert "psd-interaction" not in html and f"Interaction not shown: {why}" in html
+    # off their line the cases pin nothing down: at the corner (0.7, 9 um) the GP said
+    # 2.18e-11 +- 482 %, status "ok", where the fake solver gives 2 KC = 7.72e-12
+    at = "generator.porosity=0.7,generator.diameter=9e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["k_z_m2"]
+    assert abs(r["mean"] / (2 * kc_truth(0.7, 9e-6)) - 1) > 0.2  # the point it cannot know
+    assert r["status"] == "untrustworthy" and "k_z_m2: its error bar here is" in cap.err
+    at = "generator.porosity=0.8,generator.diameter=8e-6"  # on the cases' line
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert r["status"] == "ok" and r["mean"] == pytest.approx(2 * kc_truth(0.8, 8e-6), rel=0.02)
 
 
 def test_prediction_of_an_output_constant_in_every_case_has_an_error_bar_at_its_scale() -> None:
