@@ -99,6 +99,22 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def distinct_realizations(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
+    """The rows of a results table less those that repeat an earlier row's design point and
+    ``seed``: the same parameters and seed build the same RVE, so a design point listed twice
+    (a csv design) is one realization computed twice, not two replicates (its spread would
+    read 0 and its 95 % CI zero width).
+
+    >>> df = pd.DataFrame({"a": [1, 1, 1], "seed": [1, 1, 2], "k": [2.0, 2.0, 3.0]})
+    >>> distinct_realizations(df, ["a"])["k"].tolist()
+    [2.0, 3.0]
+    """
+    keys = [c for c in [*params, "seed"] if c in df.columns]
+    if "seed" not in keys:
+        return df
+    return df[~df.duplicated(subset=keys, keep="first")]
+
+
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) has its own status
     (``k_x_status``, ``diffusivity_z_status``) and it is not ``ok``; False where the table has

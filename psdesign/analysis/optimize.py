@@ -78,7 +78,7 @@ def _probability(models: dict, targets: list[Target], x: np.ndarray) -> np.ndarr
     prob = np.ones(len(x))
     for t in targets:
         s = models[t.output]
-        m, sd = s._gp.predict(s._scale(x), return_std=True)  # modelled space
+        m, sd = s.predict_modelled(x)
         sd = np.maximum(sd, 1e-12)
         # a log-modelled output is > 0: a bound at or below 0 is always (>=) or never (<=) met
         tr = (lambda v: math.log10(v) if v > 0 else -math.inf) if s.log_output else (lambda v: v)

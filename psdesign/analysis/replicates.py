@@ -1,6 +1,8 @@
 """Statistics over replicates: one row per design point with mean, std, 95 % CI and n.
 
-Replicates are the cases that share every design parameter and differ in the seed. The 95 %
+Replicates are the cases that share every design parameter and differ in the seed (a point
+listed twice with the same seed is one realization: :func:`~psdesign.analysis.columns.
+distinct_realizations`). The 95 %
 confidence interval of the mean is Student's ``mean +- t_{0.975, n-1} s / sqrt(n)``; with one
 replicate the spread is unknown and the interval is NaN (said, not hidden). A permeability
 (positive) and every output with a physical lower bound has its lower bound clipped there
@@ -15,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import output_columns, trusted
+from psdesign.analysis.columns import distinct_realizations, output_columns, trusted
 from psdesign.analysis.ranges import RANGES
 
 
@@ -77,6 +79,7 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     [[1.0, 2.0, 2.0, 1.4142135623730951], [2.0, 1.0, 5.0, nan]]
     """
     ok = df[df["status"] == "ok"] if "status" in df.columns else df
+    ok = distinct_realizations(ok, params)
     outputs = output_columns(ok, params)
     keys = [p for p in params if p in ok.columns]
     rows = []

@@ -7,29 +7,75 @@ inputs, i.e. log-uniform for log-scaled parameters). Confidence intervals are SA
 (:meth:`~psdesign.analysis.surrogate.Surrogate.fixed_inputs`) is held at that value and gets
 no index: the cases say nothing about it (varied over its box, the GP's prior alone once made
 such a parameter the "most influential" one, S1 0.59, of a study that never changed it).
+No index at all is computed (:func:`no_indices_reason`) for an output that did not vary beyond
+the fit's error (:meth:`~psdesign.analysis.surrogate.Surrogate.flat_output`: the indices would
+be those of noise, S_T 0.92 of a constant), nor when two parameters moved together over the
+fitted cases (a csv design with b = 2 a: the cases cannot tell their effects apart, yet the
+GP split them 0.50 / 0.50 over a box the cases never filled).
 """
 
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.surrogate import Surrogate, from_unit
+from psdesign.analysis.surrogate import Surrogate, from_unit, to_unit
+
+#: Correlation (Pearson, of the scaled inputs over the fitted design points) of two parameters
+#: above which the cases cannot tell their effects apart.
+MAX_INPUT_CORRELATION = 0.99
 
 
 def _varied(s: Surrogate) -> list[str]:
     """The parameters whose indices are computed (those not fixed in the fitted cases)."""
     fixed = s.fixed_inputs()
-    names = [p for p in s.params if p not in fixed]
+    return [p for p in s.params if p not in fixed]
+
+
+def entangled(x: np.ndarray, names: list[str]) -> str:
+    """``"a and b moved together ..."`` for the first pair of columns of ``x`` (cases x
+    parameters, named ``names``) whose Pearson correlation exceeds
+    :data:`MAX_INPUT_CORRELATION`, or ``""``: the cases cannot tell those two effects apart
+    (by Sobol index or by regression coefficient).
+
+    >>> entangled(np.array([[1.0, 2.0], [2.0, 4.0], [3.0, 6.1]]), ["a", "b"])[:43]
+    'a and b moved together over the cases (corr'
+    """
+    for i, j in combinations(range(len(names)), 2):
+        r = float(np.corrcoef(x[:, i], x[:, j])[0, 1])
+        if abs(r) > MAX_INPUT_CORRELATION:
+            return (
+                f"{names[i]} and {names[j]} moved together over the cases (correlation "
+                f"{r:.3f}): the cases cannot tell their effects apart; vary them "
+                "independently (e.g. a latin-hypercube design)"
+            )
+    return ""
+
+
+def _entangled(s: Surrogate, names: list[str]) -> str:
+    """:func:`entangled` over the fitted design points (scaled inputs) of ``names``."""
+    u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
+    return entangled(u[:, [s.params.index(p) for p in names]], names)
+
+
+def no_indices_reason(s: Surrogate) -> str:
+    """Why no sensitivity index of ``s`` means anything: no parameter varied, the
+    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or two
+    parameters moved together (:data:`MAX_INPUT_CORRELATION`); ``""`` when they mean
+    something."""
+    names = _varied(s)
     if not names:
-        raise ValueError(
-            f"{s.output}: no design parameter varied among the fitted cases "
-            f"({', '.join(f'{p} = {v:g}' for p, v in fixed.items())}); no sensitivity to compute"
-        )
-    return names
+        held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())
+        return f"no design parameter varied among the fitted cases ({held})"
+    return s.flat_output() or _entangled(s, names)
 
 
 def _problem(s: Surrogate) -> dict:
+    why = no_indices_reason(s)
+    if why:
+        raise ValueError(f"{s.output}: no sensitivity indices: {why}")
     names = _varied(s)
     return {"num_vars": len(names), "names": names, "bounds": [[0.0, 1.0]] * len(names)}
 

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import (
+    distinct_realizations,
     numeric_parameters,
     output_columns,
     study_parameters,
@@ -51,7 +52,9 @@ def from_unit(u: np.ndarray, low, high, log) -> np.ndarray:
     lo, span, lg = _box(low, high, log)
     span = np.where(np.asarray(high, float) > np.asarray(low, float), span, 0.0)
     x = lo + np.asarray(u, dtype=float) * span
-    return np.where(lg, 10.0**x, x)
+    # 10**x only where log: a linear parameter of 1000-5000 (an int) overflowed in the unused
+    # branch and printed numpy's "overflow encountered in power" to the user
+    return np.where(lg, 10.0 ** np.where(lg, x, 0.0), x)
 
 
 @dataclass
@@ -102,6 +105,29 @@ class Surrogate:
         """
         x = np.asarray(self.x, dtype=float).reshape(-1, len(self.params))
         return {p: float(x[0, i]) for i, p in enumerate(self.params) if np.ptp(x[:, i]) == 0}
+
+    def flat_output(self) -> str:
+        """Why the fitted cases show no variation of the output to rank parameters by, or
+        ``""``.
+
+        The output held one value in every fitted case, or it varied no more than the fit's
+        cross-validated error (RMSE >= the cases' standard deviation, in the modelled space:
+        the fit predicts a design it has not seen no better than the cases' mean, Q^2 <= 0).
+        Sensitivity indices of such a fit are those of its noise (:mod:`~psdesign.analysis.
+        sensitivity` computes none).
+        """
+        y = self._target(np.asarray(self.y, dtype=float))
+        if np.ptp(y) == 0:
+            return f"{self.output} = {self.y[0]:g} in every fitted case"
+        spread = float(np.std(y))
+        if not self.cv_rmse < spread:
+            space = "log10 " if self.log_output else ""
+            return (
+                f"{self.output} varies no more than the fit's cross-validated error "
+                f"({space}std {spread:.3g} over the cases, RMSE {self.cv_rmse:.3g}): "
+                "constant to within noise"
+            )
+        return ""
 
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:
@@ -158,7 +184,12 @@ class Surrogate:
         from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
         warnings = []
-        if not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
+        if math.isnan(self.cv_rel_error):
+            warnings.append(
+                f"{self.output}: no cross-validated error: every fitted case is at one design "
+                "point (nothing to hold out); vary a parameter"
+            )
+        elif not self.cv_rel_error <= UNTRUSTWORTHY_REL_ERROR:
             warnings.append(
                 f"{self.output}: cross-validated error {100 * self.cv_rel_error:.3g} % exceeds "
                 f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %"
@@ -173,15 +204,30 @@ class Surrogate:
                 )
         return ("untrustworthy" if warnings else "ok"), warnings
 
+    def predict_modelled(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and standard deviation at points ``x`` in the modelled space (log10 for log
+        outputs).
+
+        An output that held one value ``y0`` in every case has its std scaled by ``|y0|``
+        (1 for 0): scikit-learn's ``normalize_y`` divides by the cases' std and, that being 0,
+        by 1, so the std came out in absolute units of the output (K = 1e-11 m^2 in every
+        case was predicted ``1e-11 +- 1.1e-4`` m^2).
+        """
+        if self._gp is None:
+            self._fit()
+        m, s = self._gp.predict(self._scale(np.asarray(x, dtype=float)), return_std=True)
+        y = self._target(np.asarray(self.y, dtype=float))
+        if np.ptp(y) == 0:
+            s = s * (abs(float(y[0])) or 1.0)
+        return m, s
+
     def predict(self, x: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
         """Mean and standard deviation at points ``x`` (n, n_params), original units.
 
         For log outputs the mean is ``10**m`` (the median) and the std is that of the
         log-normal, ``10**m * sqrt(exp(s^2 ln(10)^2) - 1)``.
         """
-        if self._gp is None:
-            self._fit()
-        m, s = self._gp.predict(self._scale(np.asarray(x, dtype=float)), return_std=True)
+        m, s = self.predict_modelled(x)
         if not self.log_output:
             return m, s
         ln10 = math.log(10.0)
@@ -194,7 +240,13 @@ class Surrogate:
 
     @classmethod
     def from_dict(cls, d: dict) -> Surrogate:
-        return cls(**{k: v for k, v in d.items() if k != "_gp"})
+        """The surrogate :meth:`to_dict` saved; a cross-validated error saved as ``null`` (JSON
+        has no NaN: no error could be computed) reads back as NaN."""
+        s = cls(**{k: v for k, v in d.items() if k != "_gp"})
+        s.cv_rmse, s.cv_rel_error = (
+            math.nan if v is None else v for v in (s.cv_rmse, s.cv_rel_error)
+        )
+        return s
 
 
 def design_point_folds(x: np.ndarray, k_max: int = 5) -> tuple[np.ndarray, int]:
@@ -241,7 +293,13 @@ def _cross_validate(s: Surrogate) -> tuple[float, float]:
         m, _ = sub.predict(x[test])
         err[test] = s._target(m) - s._target(y[test])
     rmse = float(np.sqrt(np.mean(err**2)))
-    rel = 10.0**rmse - 1.0 if s.log_output else rmse / float(np.mean(np.abs(y)))
+    scale = float(np.mean(np.abs(y)))
+    if s.log_output:
+        rel = 10.0**rmse - 1.0
+    elif scale > 0:
+        rel = rmse / scale
+    else:  # 0 in every case (an off-diagonal K of a symmetric geometry): ZeroDivisionError
+        rel = 0.0 if rmse == 0 else math.inf
     return rmse, float(rel)
 
 
@@ -249,7 +307,7 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     """Fit one output of a results table; ``bounds[p] = (low, high, log)``. Only trusted
     values are fitted (:func:`psdesign.analysis.columns.trusted`: ``ok`` cases, a K whose own
     status is ``untrustworthy`` or ``not_converged`` left out)."""
-    ok = trusted(df)
+    ok = distinct_realizations(trusted(df), params)
     ok = ok[ok[output].notna()]
     if len(ok) < 3:
         raise ValueError(
@@ -273,14 +331,25 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     return s
 
 
+def log_parameters(spec: dict[str, dict]) -> set[str]:
+    """The ``loguniform`` parameters of a study's ``parameters`` table: drawn, fitted (scaled
+    in log10) and plotted on a log scale.
+
+    >>> sorted(log_parameters({"a": {"dist": "loguniform"}, "b": {"dist": "uniform"}, "c": {}}))
+    ['a']
+    """
+    return {p for p, info in spec.items() if (info or {}).get("dist") == "loguniform"}
+
+
 def parameter_bounds(df: pd.DataFrame, params: list[str], spec: dict[str, dict]) -> dict:
     out = {}
+    logs = log_parameters(spec)
     for p in params:
         info = spec.get(p, {})
         lo, hi = info.get("low"), info.get("high")
         if lo is None or hi is None:
             lo, hi = float(df[p].min()), float(df[p].max())
-        out[p] = (lo, hi, info.get("dist") == "loguniform")
+        out[p] = (lo, hi, p in logs)
     return out
 
 
@@ -382,11 +451,40 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
     return np.array([values[p] for p in params])
 
 
+def wide_prediction(s: Surrogate, mean: float, std: float) -> str:
+    """Why a prediction inside the fitted range is untrustworthy by its own error bar, or
+    ``""``: the GP's std at the point exceeds
+    :data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` of the predicted value (the rule every
+    value of psdesign follows). Inside the box the cases may still not pin a point down: two
+    parameters that moved together leave the plane off their line unknown (a csv design with
+    diameter = 1e-5 porosity predicted K 2.18e-11 +- 482 % at a corner, status ``ok``, where
+    the truth is 7.7e-12).
+
+    >>> from types import SimpleNamespace as S
+    >>> wide_prediction(S(output="k"), 1.0, 0.1), wide_prediction(S(output="k"), 1.0, 4.8)[:33]
+    ('', 'k: its error bar here is 480 % of')
+    """
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+
+    rel = std / abs(mean) if mean else math.inf
+    if rel <= UNTRUSTWORTHY_REL_ERROR:
+        return ""
+    return (
+        f"{s.output}: its error bar here is {100 * rel:.3g} % of the value (GP std), above "
+        f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %: the cases do not pin this point down"
+    )
+
+
 def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
-    """The parameters of point ``x`` (``s.params`` order) outside the range the surrogate was
-    fitted on, as ``"name = v outside [low, high]"``; empty inside."""
-    return [
-        f"{p} = {v:g} outside [{lo:g}, {hi:g}]"
-        for p, v, lo, hi in zip(s.params, np.asarray(x, float), s.low, s.high, strict=True)
-        if not lo <= v <= hi
-    ]
+    """The parameters of point ``x`` (``s.params`` order) outside what the surrogate was
+    fitted on, as ``"name = v outside [low, high]"`` or, for a parameter held at one value in
+    every fitted case (:meth:`Surrogate.fixed_inputs`; a ``levels = 1`` parameter keeps its
+    ``[low, high]`` bounds), ``"name = v, every fitted case had v0"``; empty inside."""
+    fixed = s.fixed_inputs()
+    out = []
+    for p, v, lo, hi in zip(s.params, np.asarray(x, float), s.low, s.high, strict=True):
+        if not lo <= v <= hi:
+            out.append(f"{p} = {v:g} outside [{lo:g}, {hi:g}]")
+        elif p in fixed and not math.isclose(v, fixed[p], rel_tol=1e-9, abs_tol=0.0):
+            out.append(f"{p} = {v:g}, every fitted case had {fixed[p]:g}")
+    return out

@@ -32,6 +32,15 @@ def _fail(msg: str, code: int = 2) -> int:
     return code
 
 
+def _print_json(obj) -> None:
+    """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
+    ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
+    token, which JSON has not: ``jq`` and JavaScript refuse the whole output)."""
+    from psdesign.study.store import _jsonable
+
+    print(json.dumps(_jsonable(obj), allow_nan=False, default=str))
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
@@ -56,13 +65,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         for w in r["warnings"]:
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
-        print(json.dumps(rows))
+        _print_json(rows)
     else:
         for name, r in rows.items():
             space = "log10 " if r["log_output"] else ""
             fixed = r["fixed_params"]
             over = ", ".join(p for p in r["params"] if p not in fixed) or "no varied parameter"
-            held = "".join(f" ({p} = {v:g} in every case)" for p, v in fixed.items())
+            held = ", ".join(f"{p} = {v:g}" for p, v in fixed.items())
+            held = f" ({held} in every case)" if held else ""
             print(
                 f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
@@ -72,25 +82,40 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _predict_one(m, at: str) -> tuple[dict, str]:
+    """One surrogate's prediction at ``--at`` with its status (``extrapolated`` outside the
+    fitted cases, else the fit's rating, ``untrustworthy`` also when the point's own error bar
+    is too wide: :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is
+    returned too)."""
+    from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
+
+    x = parse_point(at, m.params)
+    mean, std = (float(v[0]) for v in m.predict(x[None, :]))
+    outside = outside_range(m, x)
+    status = "extrapolated" if outside else m.rating()[0]
+    wide = wide_prediction(m, mean, std) if status == "ok" else ""
+    row = {
+        "mean": mean,
+        "std": std,
+        "cv_rel_error": m.cv_rel_error,
+        "status": "untrustworthy" if wide else status,
+        "outside": outside,
+    }
+    return row, wide
+
+
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from psdesign.analysis.surrogate import load_study_surrogates, outside_range, parse_point
+    from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
         models = load_study_surrogates(args.out)
-        out = {}
-        for name, m in models.items():
-            x = parse_point(args.at, m.params)
-            mean, std = m.predict(x[None, :])
-            outside = outside_range(m, x)
-            out[name] = {
-                "mean": float(mean[0]),
-                "std": float(std[0]),
-                "cv_rel_error": m.cv_rel_error,
-                "status": "extrapolated" if outside else m.rating()[0],
-                "outside": outside,
-            }
+        rows = {name: _predict_one(m, args.at) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
         return _fail(" ".join(str(exc).split()))
+    out = {name: row for name, (row, _) in rows.items()}
+    wide = [w for _, w in rows.values() if w]
+    for w in wide:
+        print(f"psdesign: warning: {w}", file=sys.stderr)
     outside = list(dict.fromkeys(o for r in out.values() for o in r["outside"]))
     if outside:
         print(
@@ -98,7 +123,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             "the predictions are not trustworthy",
             file=sys.stderr,
         )
-    untrusted = [n for n, r in out.items() if r["status"] == "untrustworthy"]
+    untrusted = [n for n, (r, w) in rows.items() if r["status"] == "untrustworthy" and not w]
     if untrusted:
         print(
             f"psdesign: warning: the surrogate of {', '.join(untrusted)} is untrustworthy "
@@ -106,7 +131,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.json:
-        print(json.dumps(out))
+        _print_json(out)
     else:
         for name, r in out.items():
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
@@ -131,7 +156,7 @@ def _surrogate_flag(model) -> tuple[str, str]:
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
-    from psdesign.analysis.sensitivity import morris_screening, sobol_indices
+    from psdesign.analysis.sensitivity import morris_screening, no_indices_reason, sobol_indices
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
@@ -143,12 +168,16 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     if unknown:
         return _fail(f"--outputs: no surrogate for {unknown[0]!r}; fitted: {', '.join(models)}")
     result = {}
+    skipped = []
     for name in names:
+        why = no_indices_reason(models[name])
+        if why:  # said in our words (SALib's raw warnings on a constant output, before)
+            print(f"psdesign: note: {name}: no sensitivity indices: {why}", file=sys.stderr)
+            skipped.append(f"{name}: {why}")
+            result[name] = []
+            continue
         fn = sobol_indices if args.method == "sobol" else morris_screening
-        try:
-            table = fn(models[name], seed=args.seed)
-        except ValueError as exc:  # no parameter varied among the fitted cases
-            return _fail(str(exc))
+        table = fn(models[name], seed=args.seed)
         for p, v in models[name].fixed_inputs().items():
             print(
                 f"psdesign: note: {name}: {p} was {v:g} in every fitted case; no index "
@@ -165,8 +194,10 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             # 4 significant digits: Morris' mu* and sigma carry the output's unit (a K's are
             # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
             print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    if len(skipped) == len(names):
+        return _fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
-        print(json.dumps(result))
+        _print_json(result)
     return 0
 
 
@@ -242,7 +273,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "history": res.history,
     }
     if args.json:
-        print(json.dumps(summary, default=str))
+        _print_json(summary)
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:

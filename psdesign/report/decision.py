@@ -13,7 +13,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import numeric_parameters, trusted
 from psdesign.analysis.replicates import replicate_summary
-from psdesign.report.interactive import figure_html
+from psdesign.report.interactive import figure_html, number_axis
 from psdesign.report.units import parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -39,14 +39,14 @@ DASHES = ("solid", "dash", "dot", "dashdot")
 SURFACE_GAP = 0.3
 
 
-def param_axis(p: str) -> dict:
-    """Plotly axis settings of a design parameter: title with its unit, and SI-prefixed ticks
-    that carry the unit (``6μm``) when it has one."""
-    unit = parameter_unit(p)
-    axis: dict = {"title": {"text": parameter_label(p)}}
-    if unit and unit not in ("-", "deg"):
-        axis.update(exponentformat="SI", ticksuffix=unit)
-    return axis
+def param_axis(p: str, log: bool = False) -> dict:
+    """Plotly axis settings of a design parameter: title with its unit, the ticks of
+    :func:`~psdesign.report.interactive.number_axis` (SI-prefixed with the unit, ``6μm``, or
+    plain / exponent numbers for a dimensionless one), and a log axis for a ``loguniform``
+    one (``log``; on a linear axis a 1e-7 to 1e-3 m range put 3/4 of its cases in the first
+    1 % of the width)."""
+    axis = {"title": {"text": parameter_label(p)}, **number_axis(parameter_unit(p))}
+    return axis | ({"type": "log"} if log else {})
 
 
 def _value(p: str, v) -> str:
@@ -103,14 +103,21 @@ def _nan_none(a) -> list:
     return [None if (v is None or not math.isfinite(float(v))) else float(v) for v in a]
 
 
-def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
-    """Every output against each numeric design parameter, replicate means with 95 % CI bars."""
+def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
+    """Every output against each numeric design parameter, replicate means with 95 % CI bars
+    (``loguniform`` parameters of ``study`` on a log axis)."""
     import plotly.graph_objects as go
+
+    from psdesign.analysis.surrogate import log_parameters
+
+    logs = log_parameters((study or {}).get("parameters") or {})
 
     ok = add_anisotropy(_ok(df))
     num = numeric_parameters(ok, params)
+    held = _held_note([p for p in num if ok[p].nunique() == 1], ok)
+    num = [p for p in num if ok[p].nunique() > 1]  # one x value is no trend: no frame of it
     if not num:
-        return '<p class="note">No numeric design parameter to plot against.</p>'
+        return held or '<p class="note">No numeric design parameter to plot against.</p>'
     summary = replicate_summary(ok, params)
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
@@ -128,10 +135,9 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
             fig.update_layout(
                 title=f"K vs {p} (mean of replicates, 95 % CI)",
                 height=360,
-                xaxis=param_axis(p),
+                xaxis=param_axis(p, p in logs),
                 yaxis_title="K (m²)",
                 yaxis_type="log",
-                yaxis_exponentformat="e",
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
             parts.append(figure_html(fig, f"psd-k-{p}", k_axis="yaxis", k_label="K"))
@@ -142,13 +148,26 @@ def parameter_plots(df: pd.DataFrame, params: list[str]) -> str:
             fig.update_layout(
                 title=f"{c} vs {p}",
                 height=320,
-                xaxis=param_axis(p),
+                xaxis=param_axis(p, p in logs),
                 yaxis_title=OUTPUT_LABELS.get(c, c),
                 showlegend=len(groups) > 1,
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
-    return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
+    grid = '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
+    return held + grid
+
+
+def _held_note(held: list[str], ok: pd.DataFrame) -> str:
+    """A note naming the parameters that had one value in every plotted case (not plotted
+    against), or ``""``."""
+    if not held:
+        return ""
+    vals = ", ".join(f"{p} = {_value(p, ok[p].iloc[0])}" for p in held)
+    return (
+        f'<p class="note">Not plotted against (one value in every case with a trusted '
+        f"output): {html.escape(vals)}.</p>"
+    )
 
 
 NO_TRUSTED_K = (
@@ -183,10 +202,14 @@ def _levels(x: pd.Series) -> pd.Series:
     return x.groupby(bins).transform("median")  # each bin named by its median value
 
 
-def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
+def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
     """Main effects (mean log10 K per level) and the two-factor interaction of the first two
-    numeric parameters (lines of one parameter's levels over the other's)."""
+    numeric parameters (lines of one parameter's levels over the other's; a ``loguniform``
+    one of ``study`` on a log axis)."""
     import plotly.graph_objects as go
+
+    from psdesign.analysis.sensitivity import entangled
+    from psdesign.analysis.surrogate import log_parameters
 
     ok = _ok(df)
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
@@ -219,28 +242,10 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
     )
     parts.append(figure_html(fig, "psd-main-effects"))
-    if len(num) >= 2:
-        a, b = num[0], num[1]
-        la, lb = _levels(ok[a].astype(float)), _levels(ok[b].astype(float))
-        c = "k_z_m2" if "k_z_m2" in kcols else kcols[0]
-        fig = go.Figure()
-        tab = y[c].groupby([la.to_numpy(), lb.to_numpy()]).mean().unstack()
-        for lvl in tab.columns:
-            fig.add_trace(
-                go.Scatter(
-                    x=list(tab.index),
-                    y=tab[lvl].to_list(),
-                    mode="markers+lines",
-                    name=f"{b} = {_value(b, lvl)}",
-                )
-            )
-        fig.update_layout(
-            title=f"Interaction {a} x {b}: mean log10 {c}",
-            height=380,
-            xaxis=param_axis(a),
-            yaxis_title=f"log10 {c} (K in m²)",
-            margin={"l": 60, "r": 10, "t": 40, "b": 50},
-        )
+    tangled = entangled(ok[num[:2]].to_numpy(dtype=float), num[:2]) if len(num) >= 2 else ""
+    if len(num) >= 2 and not tangled:
+        logs = log_parameters((study or {}).get("parameters") or {})
+        fig = _interaction_figure(ok, y, kcols, num[0], num[1], num[0] in logs)
         parts.append(figure_html(fig, "psd-interaction"))
     note = (
         '<p class="note">Parallel lines in the interaction plot mean the two parameters act '
@@ -248,13 +253,42 @@ def effect_plots(df: pd.DataFrame, params: list[str]) -> str:
         if len(parts) > 1
         else ""
     )
+    if tangled:  # one line of points, no lines of levels: no interaction to read
+        note = f'<p class="note">Interaction not shown: {html.escape(tangled)}.</p>'
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>" + note
+
+
+def _interaction_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols: list[str], a, b, log_a: bool):
+    """Lines of mean log10 K over ``a``'s levels, one per level of ``b``."""
+    import plotly.graph_objects as go
+
+    la, lb = _levels(ok[a].astype(float)), _levels(ok[b].astype(float))
+    c = "k_z_m2" if "k_z_m2" in kcols else kcols[0]
+    fig = go.Figure()
+    tab = y[c].groupby([la.to_numpy(), lb.to_numpy()]).mean().unstack()
+    for lvl in tab.columns:
+        fig.add_trace(
+            go.Scatter(
+                x=list(tab.index),
+                y=tab[lvl].to_list(),
+                mode="markers+lines",
+                name=f"{b} = {_value(b, lvl)}",
+            )
+        )
+    fig.update_layout(
+        title=f"Interaction {a} x {b}: mean log10 {c}",
+        height=380,
+        xaxis=param_axis(a, log_a),
+        yaxis_title=f"log10 {c} (K in m²)",
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
 
 
 def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
     its relative uncertainty), fitted here from the finished cases."""
-    from psdesign.analysis.sensitivity import sobol_indices
+    from psdesign.analysis.sensitivity import no_indices_reason, sobol_indices
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
@@ -291,7 +325,10 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         f"[{status}].{weak}</p>"
     ]
     order = num
-    if len(num) >= 2:
+    why = no_indices_reason(s) if len(num) >= 2 else ""
+    if why:  # the rule `study sensitivity` follows: no bars of noise or of entangled inputs
+        parts[0] += f'<p class="note">Sobol indices not shown: {html.escape(why)}.</p>'
+    elif len(num) >= 2:
         sob = sobol_indices(s, n=256)
         parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
@@ -383,10 +420,9 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     fig.update_layout(
         title=f"Surrogate of {c} vs {a}",
         height=380,
-        xaxis=param_axis(a),
+        xaxis=param_axis(a, s.log_params[num.index(a)]),
         yaxis_title="K (m²)",
         yaxis_type="log",
-        yaxis_exponentformat="e",
     )
     return fig
 
@@ -398,6 +434,7 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
     from plotly.subplots import make_subplots
 
     a, b = pair
+    log_a, log_b = s.log_params[num.index(a)], s.log_params[num.index(b)]
     ga, gb = _axis_grid(s, num, a), _axis_grid(s, num, b)
     A, B = np.meshgrid(ga, gb)
     x = _at_mid_range(s, A.size)
@@ -446,9 +483,9 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
         title_font_size=14,
         height=440,
         margin={"l": 70, "r": 60, "t": 90, "b": 60},
-        xaxis=param_axis(a),
-        yaxis=param_axis(b),
-        xaxis2=param_axis(a),
-        yaxis2={k: v for k, v in param_axis(b).items() if k != "title"},
+        xaxis=param_axis(a, log_a),
+        yaxis=param_axis(b, log_b),
+        xaxis2=param_axis(a, log_a),
+        yaxis2={k: v for k, v in param_axis(b, log_b).items() if k != "title"},
     )
     return fig

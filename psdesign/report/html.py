@@ -38,7 +38,9 @@ __all__ = ["ReportError", "build_html", "write_report"]
 FLUX_IMBALANCE_FLAG = 1e-2
 SENS_BLANK_NOTE = (
     '<p class="note">A blank Spearman or SRC cell is not defined: fewer than 3 cases (SRC: more '
-    "cases than parameters + 1), or the parameter or the response is constant over them.</p>"
+    "cases than parameters + 1), the parameter or the response is constant over them, or (SRC) "
+    "two parameters moved together over them (correlation above 0.99: their effects cannot be "
+    "told apart).</p>"
 )
 MAX_TABLE_ROWS = 2000
 DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -459,8 +461,8 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_tabl
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
 (summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
-{_safe(parameter_plots, df, params)}
-<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params)}
+{_safe(parameter_plots, df, params, study)}
+<h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}
 <h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
 <h2>Sensitivity</h2>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear

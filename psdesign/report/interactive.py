@@ -52,11 +52,38 @@ def unit_selector() -> str:
     )
 
 
+def number_axis(unit: str = "") -> dict:
+    """Tick settings of a numeric Plotly axis or colour bar (the one definition of the report).
+
+    With a unit (``"m"``) the ticks carry it with an SI prefix (``6µm``); without one (``""``,
+    dimensionless ``"-"``, ``"deg"``) they are plain or exponent numbers (``0.0065``,
+    ``6.5e-4``). Plotly's default (``exponentformat = "B"``) printed a porosity error of
+    6.5e-4 as ``650µ``, a prefix that reads as a unit.
+    """
+    if unit and unit not in ("-", "deg"):
+        return {"exponentformat": "SI", "ticksuffix": unit}
+    return {"exponentformat": "e"}
+
+
+def _plain_numbers(fig) -> None:
+    """Give every axis and colour bar of ``fig`` whose tick format is unset
+    :func:`number_axis`'s plain-or-exponent numbers."""
+    for axis in [*fig.select_xaxes(), *fig.select_yaxes()]:
+        if axis.exponentformat is None:
+            axis.update(number_axis())
+    for trace in fig.data:
+        bar = getattr(trace, "colorbar", None)
+        if bar is not None and bar.exponentformat is None:
+            bar.update(number_axis())
+
+
 def figure_html(fig, div_id: str, k_axis: str | None = None, k_label: str = "K") -> str:
     """A Plotly figure as a ``<div>`` (no plotly.js; :func:`head_scripts` loads it once).
 
+    Axes and colour bars without a unit tick plain or exponent numbers (:func:`number_axis`).
     With ``k_axis`` (``"yaxis"``), the figure's y data are K in m^2 and follow the unit selector.
     """
+    _plain_numbers(fig)
     fig.update_layout(autosize=False, width=FIGURE_WIDTH)
     _title_below_modebar(fig)
     div = fig.to_html(

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from psdesign.analysis.sensitivity import entangled
+
 __all__ = ["main_effects", "response_columns", "sensitivity_table"]
 
 K_COLUMNS = ("k_x_m2", "k_y_m2", "k_z_m2")
@@ -60,8 +62,9 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
             X = np.column_stack([xs[p][mask].to_numpy() for p in xs])
             yv = y[mask].to_numpy(dtype=float)
             # a parameter constant over the rows with this response has no SRC (and would
-            # put NaN into the least squares)
-            if yv.std() > 0 and (X.std(0) > 0).all():
+            # put NaN into the least squares); nor have two that moved together (a csv design
+            # with b = 2 a: least squares split the effect 0.50 / 0.50, whatever the truth)
+            if yv.std() > 0 and (X.std(0) > 0).all() and not entangled(X, list(xs)):
                 Xs = (X - X.mean(0)) / X.std(0)
                 ys = (yv - yv.mean()) / yv.std()
                 coef, *_ = np.linalg.lstsq(Xs, ys, rcond=None)

@@ -636,3 +636,252 @@ def test_optimize_stops_with_one_line_when_its_workers_are_lost(tmp_path, capsys
     assert main([*args, "0", "--target", "k_z_m2=5e-12"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["psdesign: error: no Dask worker for 600 s while 4 case(s) wait"]
+
+
+def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
+    tmp_path, capsys
+) -> None:
+    """A ``levels = 1`` parameter keeps its ``{low, high}`` bounds (6-9 um) but every case sits
+    at its middle, (6 + 9) / 2 = 7.5 um (hand value). Predicting at 8.5 um is a guess the cases
+    cannot back: it must say ``extrapolated``. Before, it printed "porosity = 0.8 +- 1.6" with
+    no flag at all (8.5 um lies inside [6, 9] um)."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = {low = 0.7, high = 0.9, levels = 4}\n'
+        '"generator.diameter" = {low = 6e-6, high = 9e-6, levels = 1}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["porosity"]["fixed_params"] == {
+        "generator.diameter": pytest.approx(7.5e-6, rel=1e-12)
+    }
+    at = "generator.porosity=0.8,generator.diameter=8.5e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["porosity"]
+    assert r["status"] == "extrapolated"
+    assert r["outside"] == ["generator.diameter = 8.5e-06, every fitted case had 7.5e-06"]
+    assert "extrapolating" in cap.err
+    at = "generator.porosity=0.8,generator.diameter=7.5e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["porosity"]
+    assert r["status"] == "ok" and r["mean"] == pytest.approx(0.8, abs=1e-3)  # the fake's eps
+
+
+def test_from_unit_of_a_large_linear_range_warns_nothing() -> None:
+    """A linear parameter of 1000-5000 (``generator.max_fibers``, an int) next to a log one:
+    the values are ``low + u (high - low)`` and ``10**(log10 low + u decades)`` (hand values).
+    Before, the linear one was also raised to 10**x (and discarded): `study sensitivity`
+    printed numpy's "psdesign: warning: overflow encountered in power"."""
+    import warnings
+
+    from psdesign.analysis.surrogate import from_unit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x = from_unit(np.array([[0.5, 0.5], [1.0, 0.0]]), [1000, 1e-6], [5000, 1e-4], [0, 1])
+    np.testing.assert_allclose(x, [[3000.0, 1e-5], [5000.0, 1e-6]], rtol=1e-12)
+
+
+def test_an_output_constant_to_noise_gets_no_sensitivity_index() -> None:
+    """Truth: ``y = 0.8 + 1e-9 N(0, 1)`` depends on neither ``a`` nor ``b`` (by construction);
+    ranking the two by influence on it is ranking noise. Before, the fit rated ``ok``
+    (cross-validated error 1.3e-9 relative) and Sobol printed S_T(b) = 0.92, S_T(a) = 0.73;
+    an exactly constant output gave S = 0 under SALib's raw "Constant values encountered"."""
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, 1, 20), rng.uniform(0, 1, 20)
+    bounds = {"a": (0, 1, False), "b": (0, 1, False)}
+    noisy = pd.DataFrame({"a": a, "b": b, "status": "ok", "y": 0.8 + 1e-9 * rng.normal(size=20)})
+    s = fit_surrogate(noisy, "y", ["a", "b"], bounds)
+    assert "constant to within noise" in s.flat_output()
+    with pytest.raises(ValueError, match="no sensitivity indices: y varies no more than"):
+        sobol_indices(s, n=64)
+    flat = fit_surrogate(noisy.assign(y=0.8), "y", ["a", "b"], bounds)
+    assert flat.flat_output() == "y = 0.8 in every fitted case"
+    with pytest.raises(ValueError, match="y = 0.8 in every fitted case"):
+        morris_screening(flat)
+    # a real trend stays: y = 10 + 3 a + b gives S_a = 9 / 10 (Saltelli's Primer, Sec. 4)
+    trend = fit_surrogate(noisy.assign(y=10 + 3 * a + b), "y", ["a", "b"], bounds)
+    assert trend.flat_output() == ""
+    t = sobol_indices(trend, n=256).set_index("parameter")
+    assert t.loc["a", "S1"] == pytest.approx(0.9, abs=0.05)
+
+
+def test_study_sensitivity_says_a_constant_output_in_its_own_words(tmp_path, capsys) -> None:
+    """Only the diameter varies: the porosity output is 0.8 in every case (the fake solver
+    returns its input porosity) and gets no index, said once in psdesign's words (no SALib
+    warning); K still gets its indices: one varied parameter, S_T = 1 (Saltelli's Primer)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 8\nseeds = [1]\n'
+        'outputs = ["porosity", "k_z"]\nsolver = "voxel"',
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}\n"generator.porosity" = [0.8]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["study", "sensitivity", str(out), "--json"]) == 0
+    got = capsys.readouterr()
+    res = json.loads(got.out)
+    assert res["porosity"] == []
+    assert [r["parameter"] for r in res["k_z_m2"]] == ["generator.diameter"]
+    assert res["k_z_m2"][0]["ST"] == pytest.approx(1.0, abs=0.05)
+    assert "porosity: no sensitivity indices: porosity = 0.8 in every fitted case" in got.err
+    assert "Constant values" not in got.err
+    assert main(["study", "sensitivity", str(out), "--outputs", "porosity"]) == 2
+    assert "no sensitivity indices for any output" in capsys.readouterr().err
+
+
+def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsys) -> None:
+    """A csv design with diameter = 1e-5 * porosity: the cases cannot tell the two effects
+    apart. Over the box (porosity 0.7-0.9, diameter 7-9 um) the fake solver's log10 K =
+    2 log10 d + log10(eps^3 / (1 - eps)^2) + c has S_diameter = 0.030 (closed form: the
+    variance of each term over its uniform range); the GP split them 0.50 / 0.50. No index,
+    said why, in `study sensitivity` and in the report (nor its interaction plot); `study
+    predict` off the cases' line is untrustworthy by its own error bar."""
+    eps = np.linspace(0.7, 0.9, 8)
+    pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
+        tmp_path / "pts.csv", index=False
+    )
+    p = write_study(
+        tmp_path,
+        'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
+        'solver = "voxel"',
+        "",
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=True)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["study", "sensitivity", str(out), "--outputs", "k_z_m2"]) == 2
+    why = "generator.porosity and generator.diameter moved together over the cases"
+    assert f"k_z_m2: no sensitivity indices: {why} (correlation 1.000)" in capsys.readouterr().err
+    html = (out / "report.html").read_text()
+    assert "psd-sobol" not in html and f"Sobol indices not shown: {why}" in html
+    # nor an interaction plot: one line of points, read as "parallel lines" (s34 audit)
+    assert "psd-interaction" not in html and f"Interaction not shown: {why}" in html
+    # off their line the cases pin nothing down: at the corner (0.7, 9 um) the GP said
+    # 2.18e-11 +- 482 %, status "ok", where the fake solver gives 2 KC = 7.72e-12
+    at = "generator.porosity=0.7,generator.diameter=9e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)["k_z_m2"]
+    assert abs(r["mean"] / (2 * kc_truth(0.7, 9e-6)) - 1) > 0.2  # the point it cannot know
+    assert r["status"] == "untrustworthy" and "k_z_m2: its error bar here is" in cap.err
+    at = "generator.porosity=0.8,generator.diameter=8e-6"  # on the cases' line
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert r["status"] == "ok" and r["mean"] == pytest.approx(2 * kc_truth(0.8, 8e-6), rel=0.02)
+
+
+def test_prediction_of_an_output_constant_in_every_case_has_an_error_bar_at_its_scale() -> None:
+    """K = 1e-11 m^2 in all 8 cases (hand-built): the prediction between them is 1e-11 with a
+    bar far below it (the GP's noise floor, 1e-4 of the scale). Before, scikit-learn's
+    ``normalize_y`` (std 0 replaced by 1) gave the bar in absolute units: 1e-11 +- 1.1e-4 m^2,
+    seven decades above the value; the optimizer's probabilities used the same std."""
+    a = np.linspace(0, 1, 8)
+    for y0 in (1e-11, -5.0):
+        df = pd.DataFrame({"a": a, "status": "ok", "y": y0})
+        s = fit_surrogate(df, "y", ["a"], {"a": (0, 1, False)})
+        m, sd = s.predict(np.array([[0.5], [a[2]]]))
+        np.testing.assert_allclose(m, y0, rtol=1e-12)
+        assert np.all(sd <= 1e-3 * abs(y0)) and np.all(sd > 0)
+        assert s.predict_modelled(np.array([[0.5]]))[1][0] == pytest.approx(sd[0], rel=1e-12)
+
+
+def test_a_design_point_listed_twice_with_one_seed_is_one_realization(tmp_path) -> None:
+    """A csv design lists porosity 0.7 twice, seed 1 both times: the same RVE computed
+    twice, one realization. Truth (Student): n = 1 gives no interval (NaN), and the
+    summary's n must be 1. Before: n = 2, std 0 and a 95 % CI of zero width
+    [4.685e-12, 4.685e-12], claiming K exact where the seeds scatter (1 % in this fake)."""
+    from psdesign.analysis.replicates import write_summary
+
+    pd.DataFrame({"generator.porosity": [0.7, 0.7, 0.8], "generator.diameter": 7e-6}).to_csv(
+        tmp_path / "pts.csv", index=False
+    )
+    p = write_study(
+        tmp_path,
+        'design = "csv"\ncsv = "pts.csv"\nseeds = [1, 2]\noutputs = ["k_z"]\nsolver = "voxel"',
+        "",
+    )
+    df = run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False, report=False)
+    assert len(df) == 6  # the runner ran the listed point twice per seed
+    params = ["generator.porosity", "generator.diameter"]
+    s = write_summary(tmp_path / "out", df, params).set_index("generator.porosity")
+    assert s.loc[0.7, "n"] == 2 and s.loc[0.7, "k_z_m2_n"] == 2  # seeds 1 and 2, once each
+    seeds = df[df["generator.porosity"] == 0.7].drop_duplicates("seed")["k_z_m2"]
+    assert s.loc[0.7, "k_z_m2_std"] == pytest.approx(seeds.std(ddof=1), rel=1e-12)
+    one = write_summary(tmp_path / "out", df[df["seed"] == 1], params).set_index(
+        "generator.porosity"
+    )
+    assert one.loc[0.7, "n"] == 1 and math.isnan(one.loc[0.7, "k_z_m2_ci95_low"])
+    bounds = {params[0]: (0.7, 0.8, False), params[1]: (7e-6, 7e-6, False)}
+    assert len(fit_surrogate(df, "k_z_m2", params, bounds).y) == 4  # 2 points x 2 seeds
+
+
+def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
+    tmp_path, capsys
+) -> None:
+    """Four seeds of one design point: no fold to hold out, so no cross-validated error
+    (saved as JSON null). Before, `study predict` died in a TypeError traceback (None <= 0.2)
+    and `study fit` said "cross-validated error nan % exceeds 20 %". Truth: the prediction
+    at the point is the seeds' mean (by hand from results.csv) within the seed scatter."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3, 4]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.8]\n"generator.diameter" = [7e-6]',
+    )
+    out = tmp_path / "out"
+    df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "k_z_m2: no cross-validated error: every fitted case is at one design point" in err
+    assert "nan %" not in err
+    # both held parameters in one parenthesis (it printed "(... in every case) (... in every
+    # case)")
+    assert main(["study", "fit", str(out)]) == 0
+    held = "(generator.porosity = 0.8, generator.diameter = 7e-06 in every case)"
+    assert f"k_z_m2: GP over no varied parameter {held} from 4 cases" in capsys.readouterr().out
+    at = "generator.porosity=0.8,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert r["status"] == "untrustworthy"
+    assert r["mean"] == pytest.approx(df["k_z_m2"].mean(), rel=0.01)
+
+
+def test_an_output_zero_in_every_case_fits(tmp_path) -> None:
+    """An off-diagonal ``k_xy_m2`` that is 0 in every case (a geometry symmetric about the
+    flow axes): the fit predicts 0 and its cross-validated error is 0 (hand values). Before,
+    `study fit` died in a ZeroDivisionError traceback (RMSE / mean |y| = 0 / 0)."""
+    a = np.linspace(0.7, 0.9, 6)
+    df = pd.DataFrame({"a": a, "status": "ok", "k_xy_m2": 0.0})
+    s = fit_surrogate(df, "k_xy_m2", ["a"], {"a": (0.7, 0.9, False)})
+    assert (s.cv_rmse, s.cv_rel_error) == (0.0, 0.0)
+    assert s.predict(np.array([[0.8]]))[0][0] == 0.0
+    assert s.flat_output() == "k_xy_m2 = 0 in every fitted case"
+
+
+def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
+    """One design point (three seeds) has no cross-validated error: RFC 8259 JSON has no NaN,
+    so `study fit --json` and `study predict --json` must print null there (as the study's
+    own files do). Before, they printed the token NaN, which jq and JavaScript refuse."""
+
+    def strict(text: str):
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"non-JSON token {c}"))
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.8]\n"generator.diameter" = [7e-6]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    fit = strict(capsys.readouterr().out)["k_z_m2"]
+    assert fit["cv_rel_error"] is None and fit["cv_rmse"] is None
+    at = "generator.porosity=0.8,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert strict(capsys.readouterr().out)["k_z_m2"]["cv_rel_error"] is None

@@ -12,6 +12,7 @@ from study_cases import (
     FAC_PARAMS,
     FACTORIAL,
     failing_case,
+    fake_case,
     mixed_status_case,
     untrusted_case,
     write_study,
@@ -399,3 +400,140 @@ def test_surfaces_of_a_loguniform_parameter_are_on_its_log_scale():
     np.testing.assert_allclose(g[1:] / g[:-1], (1e-4 / 1e-6) ** (1 / 29))
     np.testing.assert_allclose(np.diff(_axis_grid(s, ["porosity", "d"], "porosity")), 0.4 / 29)
     np.testing.assert_allclose(_at_mid_range(s, 2), [[0.7, 1e-5], [0.7, 1e-5]])
+
+
+def test_report_draws_no_sobol_bars_of_a_k_constant_to_noise():
+    """K = 1e-11 (1 + 1e-9 N(0, 1)) depends on neither parameter (by construction): the
+    report must not draw Sobol bars of its noise, and must say why they are missing (it drew
+    bars, S_T up to 0.9, before)."""
+    from psdesign.report.decision import surrogate_plots
+
+    rng = np.random.default_rng(0)
+    x = rng.random((12, 2))
+    k = 1e-11 * (1 + 1e-9 * rng.standard_normal(12))
+    df = pd.DataFrame({"a": x[:, 0], "b": x[:, 1], "status": "ok", "k_z_m2": k})
+    text = surrogate_plots(df, ["a", "b"], {})
+    assert "psd-sobol" not in text and "Sobol indices not shown: k_z_m2 varies no more" in text
+
+
+def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
+    """``generator.porosity = [0.8]``: every case has porosity 0.8 (the design, by hand), so a
+    "K vs generator.porosity" frame is one x value, no trend; it was drawn (with its porosity
+    output twin). Now the report names the held parameter and plots against the diameter
+    only."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["porosity", "k_z"]',
+        '"generator.diameter" = {low = 6e-6, high = 9e-6}\n"generator.porosity" = [0.8]',
+    )
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "K vs generator.diameter" in html and "porosity vs generator.diameter" in html
+    assert "vs generator.porosity" not in html
+    assert "Not plotted against (one value in every case with a trusted output): " in html
+    assert "output): generator.porosity = 0.8.</p>" in html
+
+
+def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
+    """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
+    layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
+    on a dimensionless axis (porosity_error; seen in a real browser). Every axis and colour
+    bar of the report's figures must tick ``"e"`` numbers (0.0065, 6.5e-4) unless it carries
+    a unit with its SI prefix (``6µm``)."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+
+    def keep(fig, *args, **kw):
+        out = real(fig, *args, **kw)
+        figs.append(fig)
+        return out
+
+    monkeypatch.setattr(decision, "figure_html", keep)
+    rng = np.random.default_rng(2)
+    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "porosity_error": 6.5e-4 + 1e-5 * eps,
+            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
+        }
+    )
+    params = ["generator.porosity", "generator.diameter"]
+    decision.parameter_plots(df, params)
+    decision.effect_plots(df, params)
+    decision.surrogate_plots(df, params, {})
+    formats = []
+    for fig in figs:
+        for ax in [*fig.select_xaxes(), *fig.select_yaxes()]:
+            formats.append((ax.exponentformat, ax.ticksuffix))
+        formats += [(t.colorbar.exponentformat, None) for t in fig.data if hasattr(t, "colorbar")]
+    assert len(figs) >= 8 and ("SI", "m") in formats  # the diameter's axes: 6µm
+    assert set(formats) == {("e", None), ("SI", "m")}, set(formats)
+    err = [f for f in figs if f.layout.title.text == "porosity_error vs generator.porosity"]
+    assert err and err[0].layout.yaxis.exponentformat == "e"
+
+
+def test_a_loguniform_parameter_is_plotted_on_a_log_axis(monkeypatch):
+    """A ``loguniform`` diameter of 1e-7 to 1e-3 m: its cases are spread evenly in log10 d,
+    so on a linear axis d = 1e-5 (the log middle) sits at (1e-5 - 1e-7) / (1e-3 - 1e-7) =
+    0.99 % of the width (hand value) and 3/4 of the cases crowd the first 1 %. Every frame
+    over it (outputs vs it, the surrogate's surfaces) must use a log axis; the porosity's
+    stays linear."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    rng = np.random.default_rng(4)
+    eps, d = rng.uniform(0.7, 0.9, 12), 10 ** rng.uniform(-7, -3, 12)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
+        }
+    )
+    params = ["generator.porosity", "generator.diameter"]
+    spec = {
+        "generator.porosity": {"low": 0.7, "high": 0.9},
+        "generator.diameter": {"low": 1e-7, "high": 1e-3, "dist": "loguniform"},
+    }
+    decision.parameter_plots(df, params, {"parameters": spec})
+    decision.effect_plots(df, params, {"parameters": spec})
+    decision.surrogate_plots(df, params, {"parameters": spec})
+    kinds = {}
+    for fig in figs:
+        for ax in [*fig.select_xaxes(), *fig.select_yaxes()]:
+            title = ax.title.text or ""
+            if title.startswith("generator."):
+                kinds.setdefault(title, set()).add(ax.type)
+    assert kinds["generator.diameter (m)"] == {"log"}
+    assert kinds["generator.porosity (-)"] == {None}
+
+
+def test_src_of_two_parameters_that_moved_together_is_blank():
+    """A design with diameter = 1e-5 * porosity (a csv study) and the output porosity = the
+    porosity parameter (the fake solver returns it): by construction SRC_porosity = 1 and
+    SRC_diameter = 0, but no regression on these cases can tell them apart (the two columns
+    are one). Least squares split it 0.50 / 0.50; the SRC cells must be blank (NaN), the
+    Spearman ones stay (each parameter's rank correlation is 1, hand value)."""
+    eps = np.linspace(0.7, 0.9, 8)
+    df = pd.DataFrame(
+        {"a": eps, "d": 1e-5 * eps, "status": "ok", "porosity": eps, "k_z_m2": 1e-11 * eps}
+    )
+    t = sensitivity_table(df, ["a", "d"])
+    assert t["src"].isna().all()
+    np.testing.assert_allclose(t["spearman"], 1.0)
+    # independent columns keep their SRC: porosity = a exactly, so SRC_a = 1, SRC_d = 0
+    df["d"] = np.random.default_rng(0).permutation(df["d"].to_numpy())
+    t = sensitivity_table(df, ["a", "d"]).set_index(["response", "parameter"])
+    assert t.loc[("porosity", "a"), "src"] == pytest.approx(1.0, abs=1e-9)
+    assert t.loc[("porosity", "d"), "src"] == pytest.approx(0.0, abs=1e-9)
