@@ -6,12 +6,17 @@ Patches: the boundary tags of :mod:`psdesign.meshing.tags`, as in every other ex
 with ``"noslip"``, as psdesign's own solve treats them). The case uses the spec's
 viscosity and density (``nu = flow.viscosity / flow.density``, kinematic pressure drop
 ``flow.pressure_drop / flow.density``). Its function objects sample the area-averaged pressure
-on the inlet and outlet patches and on the two RVE planes (cutting planes at the ends of
-``porous_region``) and the flux through the inlet and outlet. ``./Allrun`` runs ``checkMesh``
-(or, with ``./Allrun gmsh``, converts ``../pore.msh`` with ``gmshToFoam`` and types its
-``wall`` patch as a wall and the sides as ``flow.sides`` says), ``simpleFoam``, and prints K by
-the plain RVE-plane definition ``K = mu Q L / (A (p_start - p_end))``, the one psdesign reports
-as ``pressure_drop_faces_pa`` (see :func:`openfoam_permeability`).
+on the inlet and outlet patches, on the two RVE planes (cutting planes at the ends of
+``porous_region``) and on :data:`PROFILE_LAYERS` + 1 equally spaced planes across the RVE, and
+the flux through the inlet and outlet. ``./Allrun`` runs ``checkMesh`` (or, with ``./Allrun
+gmsh``, converts ``../pore.msh`` with ``gmshToFoam`` and types its ``wall`` patch as a wall and
+the sides as ``flow.sides`` says), ``simpleFoam``, and prints ``K_windowed``: Darcy's K from
+the sin^2-windowed drop of the plane profile, psdesign's
+:func:`psdesign.flow.darcy.windowed_drop` (its ``pressure_drop_plane_window_pa``, the second
+estimator of the windowed-dissipation drop that defines its K). It also prints the plain
+``K_rve_planes = mu Q L / (A (p_start - p_end))`` (psdesign's ``pressure_drop_faces_pa``, see
+:func:`openfoam_permeability`), which is ill-posed where fibres end on an RVE plane: the plane
+average jumps there, and a cutting plane on a mesh node plane samples one side of it.
 """
 
 from __future__ import annotations
@@ -196,6 +201,9 @@ def _patch_fo(name: str, patch: str, operation: str, field: str) -> str:
 
 
 def _plane_fo(name: str, point: np.ndarray, axis: int) -> str:
+    # interpolate false: cell values (on a mesh node plane, the cells on one side of it).
+    # interpolate true (point-interpolated values) is unusable with Debian's OpenFOAM 1912:
+    # surfaceFieldValue then averaged garbage (p ~ 1e250 on the one-fibre case, session 34).
     normal = " ".join("1" if a == axis else "0" for a in range(3))
     pt = " ".join(f"{v:.12g}" for v in point)
     return (
@@ -221,6 +229,18 @@ def _rve_plane_points(pm: PoreMesh) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
+#: Layers of the plane-pressure profile across the RVE whose windowed drop ``./Allrun`` prints
+#: as ``K_windowed``: psdesign's :data:`psdesign.flow.fem.PLANE_PROFILE_LAYERS` (one period).
+PROFILE_LAYERS = 60
+
+
+def profile_plane_points(pm: PoreMesh, layers: int = PROFILE_LAYERS) -> np.ndarray:
+    """A point on each of the ``layers + 1`` equally spaced profile planes ``pProfile0`` ...
+    across the RVE (the first and last on the RVE planes)."""
+    a, b = _rve_plane_points(pm)
+    return a + np.linspace(0.0, 1.0, layers + 1)[:, None] * (b - a)
+
+
 def _control_dict(pm: PoreMesh) -> str:
     a, b = _rve_plane_points(pm)
     fos = (
@@ -230,6 +250,9 @@ def _control_dict(pm: PoreMesh) -> str:
         + _patch_fo("flux", T.OUTLET, "sum", "phi")
         + _plane_fo("pRveStart", a, pm.axis)
         + _plane_fo("pRveEnd", b, pm.axis)
+        + "".join(
+            _plane_fo(f"pProfile{k}", pt, pm.axis) for k, pt in enumerate(profile_plane_points(pm))
+        )
     )
     return control_dict(2000, 500, fos)
 
@@ -293,15 +316,20 @@ def openfoam_permeability(c: dict[str, float], q: float, p_start: float, p_end: 
 _ALLRUN = r"""#!/bin/sh
 # psdesign OpenFOAM case: checkMesh + simpleFoam, then K by Darcy's law.
 #
-# Definition of K (the one psdesign reproduces with the same plain definition):
-#   K = nu Q L / (A (p_start - p_end))
-#   Q  = |flux through the outlet| (sum of phi, m^3/s), A = RVE cross-section, L = RVE length,
-#   p_start, p_end = area-averaged kinematic pressure on the RVE planes (cutting planes at the
-#   ends of the RVE proper, auxiliary zones outside); nu = mu / rho.
-# psdesign's FEM permeameter reports K from the windowed dissipation (which removes entrance and
-# exit losses); that needs the velocity gradient weighted over the volume and is NOT reproduced
-# here. Compare this K with psdesign's plain RVE-face K: mu Q L / (A pressure_drop_faces_pa).
-#
+# K_windowed (compare with psdesign's reported K):
+#   K = nu Q L / (A dp_w), dp_w = n sum_k w_k (F_k - F_k+1) / sum_k w_k, w_k = sin^2(pi (k+1/2)/n)
+#   F_0 ... F_n = area-averaged kinematic pressure on n + 1 = @NP@ equally spaced planes across the
+#   RVE (pProfile0 ... ; the first and last on the RVE planes), Q = |flux through the outlet|
+#   (sum of phi, m^3/s), A = RVE cross-section, L = RVE length, nu = mu / rho.
+#   psdesign's windowed drop of its plane-pressure profile (psdesign.flow.darcy.windowed_drop,
+#   pressure_drop_plane_window_pa), the second estimator of its windowed-dissipation drop: the
+#   window vanishes at the RVE planes, so the entrance and exit losses drop out and so does
+#   the jump of the plane average there (a fibre crossing an RVE plane ends on it: the cut
+#   loses the fibre's end face from one side to the other).
+# K_rve_planes (plain): the same with dp = p_start - p_end, the averages on the RVE planes
+#   themselves (psdesign's pressure_drop_faces_pa). A cutting plane on a mesh node plane samples
+#   the cells on one side of it, and the average jumps across an RVE plane where fibres end:
+#   moving one plane by 1e-10 m moved this K by about 6 % on a 7 050-tet one-fibre mesh.
 # Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
 #        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
 cd "$(dirname "$0")" || exit 1
@@ -321,10 +349,19 @@ last() {
     tail -n 1 "$f" | awk '{print $2}'
 }
 Q=$(last flux); PS=$(last pRveStart); PE=$(last pRveEnd); PI=$(last pInlet); PO=$(last pOutlet)
-awk -v q="$Q" -v ps="$PS" -v pe="$PE" -v pi="$PI" -v po="$PO" \
+PROF=""; k=0
+while [ "$k" -lt @NP@ ]; do PROF="$PROF $(last "pProfile$k")"; k=$((k + 1)); done
+awk -v q="$Q" -v ps="$PS" -v pe="$PE" -v pi="$PI" -v po="$PO" -v prof="$PROF" \
     -v nu=@NU@ -v rho=@RHO@ -v L=@L@ -v A=@A@ -v LB=@LB@ 'BEGIN {
     if (q < 0) q = -q
+    n = split(prof, f, " ") - 1; sw = 0; s = 0
+    for (k = 0; k < n; k++) {
+        w = sin(atan2(0, -1) * (k + 0.5) / n)^2; sw += w; s += w * (f[k+1] - f[k+2])
+    }
+    dw = n * s / sw
     printf "Q = %.6e m^3/s  dp_rve = %.6e Pa  dp_patches = %.6e Pa\n", q, rho*(ps-pe), rho*(pi-po)
+    printf "dp_windowed = %.6e Pa\n", rho*dw
+    printf "K_windowed = %.6e m^2\n", nu*q*L/(A*dw)
     printf "K_rve_planes = %.6e m^2\n", nu*q*L/(A*(ps-pe))
     printf "K_patches (whole box incl. auxiliary zones) = %.6e m^2\n", nu*q*LB/(A*(pi-po))
 }'
@@ -355,7 +392,8 @@ def _change_dict(flow: dict | None) -> str:
 
 def _write_allrun(case: Path, c: dict[str, float], flow: dict | None = None) -> None:
     values = {"NU": c["nu"], "RHO": c["rho"], "L": c["length"], "A": c["area"]}
-    write_script(case / "Allrun", _ALLRUN, values | {"LB": c["box_length"]})
+    extra = {"LB": c["box_length"], "NP": PROFILE_LAYERS + 1}
+    write_script(case / "Allrun", _ALLRUN, values | extra)
     (case / "system" / "changeDictionaryDict").write_text(
         _header("dictionary", "changeDictionaryDict", "system") + _change_dict(flow)
     )
@@ -414,8 +452,12 @@ def write_openfoam_case(
         f"mu = {c['mu']:.6g} Pa s, rho = {c['rho']:.6g} kg/m^3, nu = {c['nu']:.6g} m^2/s; inlet "
         f"kinematic pressure {c['p_inlet']:.6g} m^2/s^2, outlet 0.\n"
         "Permeability (printed by ./Allrun): K = nu * Q * L / (A * dp), Q = outlet flux\n"
-        "(sum phi), A = RVE face area, L = RVE length, dp = kinematic pressure drop between the\n"
-        "RVE planes (postProcessing/pRveStart, pRveEnd: cutting-plane area averages).\n"
+        "(sum phi), A = RVE face area, L = RVE length. K_windowed (compare with psdesign's K):\n"
+        "dp = sin^2-windowed drop of the area-averaged kinematic pressure on "
+        f"{PROFILE_LAYERS + 1} planes\n"
+        "across the RVE (postProcessing/pProfile*), psdesign's windowed_drop. K_rve_planes:\n"
+        "dp between the RVE planes themselves (pRveStart, pRveEnd; sensitive to the side of\n"
+        "a plane its cut samples where fibres end on it).\n"
         + (
             "Sides (side_*) are symmetry planes (flow.sides = slip).\n"
             if side_type(flow) == "symmetry"
