@@ -30,13 +30,17 @@ def _positive_int(text: str) -> int:
     return v
 
 
-def _positive_float(text: str) -> float:
+def _timeout_seconds(text: str) -> float:
+    """``--timeout``: seconds in (0, MAX_TIMEOUT_S], the range of ``study.timeout_s``."""
+    from psdesign.schema.budget import MAX_TIMEOUT_S
+
+    what = f"expected seconds > 0 and <= {MAX_TIMEOUT_S:.0f} (as study.timeout_s), got"
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {v}")
+        raise argparse.ArgumentTypeError(f"{what} {text!r}") from None
+    if not 0 < v <= MAX_TIMEOUT_S:  # also NaN and inf
+        raise argparse.ArgumentTypeError(f"{what} {v}")
     return v
 
 
@@ -88,7 +92,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument("--tls-key", default=None, help="client private key for a tls:// scheduler")
     run.add_argument(
         "--timeout",
-        type=_positive_float,
+        type=_timeout_seconds,
         default=None,
         help="per-case time limit in seconds (overrides study.timeout_s)",
     )

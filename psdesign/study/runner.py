@@ -27,6 +27,7 @@ from pathlib import Path
 import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
+from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.casefn import watch_parent
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
@@ -714,10 +715,16 @@ def run_study(
     if timeout_s is not None and (
         isinstance(timeout_s, bool)
         or not isinstance(timeout_s, int | float)
-        or not timeout_s > 0  # also NaN
+        or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
     ):
-        raise StudyError(f"timeout: must be a number > 0 (seconds), got {timeout_s!r}")
+        raise StudyError(
+            f"timeout: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
+            f"study.timeout_s), got {timeout_s!r}"
+        )
     timeout = float(timeout_s) if timeout_s is not None else study.timeout_s
+    _check_run_arguments(
+        scheduler, case_fn, progress, retry_failed, report, force, retry_not_converged
+    )
     if case_fn is None:
         case_fn = DEFAULT_CASE_FN
     cases = expand_design(study)
@@ -760,6 +767,37 @@ def run_study(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+
+
+def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
+    """The other arguments of :func:`run_study`, before any work: each flag a bool (a string
+    such as ``report="no"`` was taken as true), ``scheduler`` an address or the CLI's
+    :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
+    TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
+    folder was made)."""
+    import numpy as np
+
+    from psdesign.study.casefn import load_case_fn
+    from psdesign.study.cluster import ClusterOptions
+
+    names = ("progress", "retry_failed", "report", "force", "retry_not_converged")
+    for name, value in zip(names, flags, strict=True):
+        if not isinstance(value, bool | np.bool_):
+            raise StudyError(f"{name}: must be True or False, got {value!r}")
+    if scheduler is not None and not isinstance(scheduler, str | ClusterOptions):
+        raise StudyError(
+            "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
+            f"got {type(scheduler).__name__}"
+        )
+    if case_fn is not None:
+        try:
+            load_case_fn(case_fn)
+        except (ImportError, AttributeError, ValueError) as exc:
+            msg = " ".join(str(exc).split())
+            raise StudyError(
+                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
+                "importable 'module:function'"
+            ) from None
 
 
 def _say_waiting(scheduler, workers: int, progress: bool) -> None:
