@@ -45,7 +45,11 @@ METHOD_KEYS = {
 class Orientation(Table):
     """Schulz et al. (2007) orientation density."""
 
-    anisotropy: number(gt=0) = Field(1.0, description="beta > 0 (1 = isotropic)")
+    # beta^2 overflows above ~1e154 (the sampled directions were NaN and the build failed
+    # with "R must be a 3x3 orthogonal matrix"); 1e6 is already a flat in-plane layer
+    anisotropy: number(gt=0, le=1e6) = Field(
+        1.0, description="beta in (0, 1e6] (1 = isotropic, large = in-plane)"
+    )
 
 
 class GeneratorTable(Table):
