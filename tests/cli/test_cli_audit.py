@@ -234,3 +234,90 @@ def test_empty_output_name_refused(spec, tmp_path, capsys, monkeypatch, argv):
     err = _one_line_error(capsys)
     assert "empty folder name" in err
     assert list(work.iterdir()) == []
+
+
+# session 34 fuzz: `study run --timeout inf` (or 1e300) was accepted and ran the cases without
+# a limit, while the study file's study.timeout_s allows (0, 1e7]: one rule, two ranges.
+@pytest.mark.parametrize("value", ["inf", "1e300", "2e7"])
+def test_study_run_timeout_beyond_the_study_files_range_refused(spec, tmp_path, capsys, value):
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity"]\n'
+        '[parameters]\n"flow.viscosity" = [1e-5]\n'
+    )
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "run", str(study), "-o", str(out), "--quiet", "--timeout", value])
+    assert exc.value.code == 2
+    err = _one_line_error(capsys)
+    assert "--timeout" in err and "<= 10000000" in err and "study.timeout_s" in err
+    assert not out.exists()
+
+
+REV_SPEC = """
+[rve]
+size = [50e-6, 50e-6, 50e-6]
+voxel = 1e-6
+
+[generator]
+porosity = 0.85
+diameter = 7e-6
+"""
+
+
+# session 34 fuzz: `rev --sizes 30e-6 30e-6` ran the same size twice; `--sizes 2` or `1e-9`
+# was refused (after seconds of case expansion) as "parameters: case c0000-... (rve.size.0=2.0,
+# ...) gives a bad spec", naming a study file the user never wrote instead of --sizes.
+@pytest.mark.parametrize(
+    ("sizes", "text"),
+    [
+        (["30e-6", "30e-6"], "each edge length once"),
+        (["2"], "at 2 m, rve.size[0]: must be <= 1.0"),
+        (["1e-9"], "at 1e-09 m, rve.voxel"),
+        (["40e-6", "1"], "at 1 m, rve.voxel"),
+    ],
+)
+def test_rev_sizes_refused_naming_sizes_before_work(tmp_path, capsys, monkeypatch, sizes, text):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    spec = tmp_path / "gen.toml"
+    spec.write_text(REV_SPEC)
+    out = tmp_path / "out"
+    assert main(["rev", str(spec), "--sizes", *sizes, "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --sizes: ") and text in err, err
+    assert "parameters" not in err and not out.exists()
+
+
+# session 34 fuzz: an [image] path that does not exist and has no known extension, or that is
+# a folder (path = "" is the spec's own folder), was refused as "image.format: cannot tell the
+# format of 'scan'": the key named was not the one that is wrong.
+@pytest.mark.parametrize(
+    ("path", "text"), [("scan", "file not found"), ("", "is a folder"), ("sub", "is a folder")]
+)
+def test_image_path_missing_or_a_folder_names_image_path(tmp_path, capsys, no_build, path, text):
+    (tmp_path / "sub").mkdir()
+    spec = tmp_path / "img.toml"
+    spec.write_text(f'[image]\npath = "{path}"\nvoxel_size = 1e-6\n')
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: image.path: ") and text in err, err
+    assert not out.exists()
+
+
+# session 34 fuzz: generator.orientation = {anisotropy = 1e300} passed the schema (beta > 0);
+# beta^2 overflowed, the sampled directions were NaN and the build ended, after the work had
+# started, in "R must be a 3x3 orthogonal matrix" (no key named).
+@pytest.mark.parametrize("beta", ["1e300", "2e6"])
+def test_orientation_anisotropy_beyond_its_range_refused_before_work(
+    tmp_path, capsys, no_build, beta
+):
+    spec = tmp_path / "gen.toml"
+    spec.write_text(REV_SPEC + f"orientation = {{anisotropy = {beta}}}\n")
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: generator.orientation.anisotropy: must be <= ")
+    assert "(0, 1e6]" in err and not out.exists()

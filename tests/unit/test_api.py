@@ -505,3 +505,41 @@ def test_warnings_point_at_the_callers_line_and_repeat_per_material():
     ours = [w for w in caught if issubclass(w.category, ResolutionWarning)]
     assert len(ours) == 2, [str(w.message) for w in caught]
     assert {w.filename for w in ours} == {__file__}
+
+
+def test_run_study_arguments_checked_before_the_output_folder(tmp_path) -> None:
+    # session 34 fuzz: timeout_s=inf (or 1e300) was accepted though study.timeout_s allows
+    # (0, 1e7]; report="no" was taken as true (a report written); scheduler=3 failed inside the
+    # connection with a TypeError; a misspelled case_fn made the output folder and then failed
+    # every case. Each is now one StudyError naming the keyword, and nothing is created.
+    quiet = {"workers": 0, "report": False, "progress": False}
+    out = tmp_path / "o"
+    cases = [
+        ({"timeout_s": math.inf}, r"^timeout: must be a number > 0 and <= 10000000"),
+        ({"timeout_s": 1e300}, r"^timeout: must be a number > 0 and <= 10000000"),
+        ({"report": "no"}, r"^report: must be True or False, got 'no'"),
+        ({"force": 1}, r"^force: must be True or False"),
+        ({"retry_failed": "yes"}, r"^retry_failed: must be True or False"),
+        ({"scheduler": 3}, r"^scheduler: must be an address .* got int"),
+        ({"case_fn": "nope_module_x:run"}, r"^case_fn: cannot load 'nope_module_x:run'"),
+        ({"case_fn": 3}, r"^case_fn: cannot load 3"),
+    ]
+    for kwargs, match in cases:
+        with pytest.raises(psdesign.StudyError, match=match):
+            psdesign.run_study(_tiny_study(), out, **{**quiet, **kwargs})
+        assert not out.exists()
+
+
+def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:
+    # session 34 fuzz: m.conductivity(solid=True) solved with a solid of 1.0 and solid="2"
+    # with 2.0 (float() of a bool and of a string); from_image(<a folder>) was refused as
+    # "image.format: cannot tell the format of ...", not naming the path.
+    m = psdesign.build(_one_cylinder())
+    for bad in (True, "2", np.bool_(True)):
+        with pytest.raises(psdesign.SpecError) as info:
+            m.conductivity("z", solid=bad, fluid=0.1)
+        assert info.value.key == "transport.solid_conductivity", str(info.value)
+        assert "must be a number > 0 and < 1e12" in info.value.message
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.from_image(tmp_path, voxel_size=1e-6)
+    assert info.value.key == "image.path" and "is a folder" in info.value.message
