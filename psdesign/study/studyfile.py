@@ -8,6 +8,7 @@ A study file holds a base RVE spec, a ``[study]`` table (design, seeds, outputs,
 from __future__ import annotations
 
 import copy
+import json
 import math
 import warnings
 from collections.abc import Callable
@@ -247,6 +248,16 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
             raise _err(key, "empty list of values; give at least one value")
         if len(value) > MAX_LEVELS:
             raise _err(key, f"{len(value)} levels (allowed: at most {MAX_LEVELS})")
+        seen: set[str] = set()
+        for v in value:  # a level twice is the same case twice (same spec, same seeds)
+            text = json.dumps(v, sort_keys=True, default=str)
+            if text in seen:
+                raise _err(
+                    key,
+                    f"level {short(v)} given twice (allowed: distinct values; repeat a case "
+                    "with study.seeds or study.replicates)",
+                )
+            seen.add(text)
         return ParamSpec(path=path, kind="values", values=tuple(value))
     if isinstance(value, dict):
         keys = set(value)
@@ -467,6 +478,10 @@ def _parameters(
         if path == "generator.seed":
             raise _err(key, "vary seeds with study.seeds or study.replicates, not a parameter")
         _not_varied(path, key)
+        if path in params:  # "flow.viscosity" = [...] and flow.viscosity = [...]: TOML keeps both
+            raise _err(
+                key, "given twice (a quoted and a dotted key name the same path); give it once"
+            )
         params[path] = _param_spec(path, value, key)
 
     csv_rows = None
