@@ -321,3 +321,48 @@ def test_orientation_anisotropy_beyond_its_range_refused_before_work(
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: generator.orientation.anisotropy: must be <= ")
     assert "(0, 1e6]" in err and not out.exists()
+
+
+# session 34 fuzz: diffusivity / conductivity / pores read the spec with a reader of their own:
+# an unreadable spec was "psdesign: error: .../spec.toml: Permission denied" with exit 1 (the
+# other commands: exit 2 naming `spec`), and the 10 MiB size limit was not applied before reading.
+@pytest.mark.parametrize("command", ["diffusivity", "conductivity", "pores"])
+def test_unreadable_spec_is_bad_input_for_the_transport_commands(
+    spec, capsys, monkeypatch, no_build, command
+):
+    import pathlib
+
+    real_bytes, real_text = pathlib.Path.read_bytes, pathlib.Path.read_text
+
+    def denied(self):
+        if self.name == "spec.toml":
+            raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", lambda p: denied(p) or real_bytes(p))
+    monkeypatch.setattr(pathlib.Path, "read_text", lambda p, *a, **k: denied(p) or real_text(p))
+    assert main([command, str(spec), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err == f"psdesign: error: spec: cannot read {spec}: Permission denied"
+
+
+STUDY_HEAD = 'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity"]\n[parameters]\n'
+
+
+# session 34 fuzz: a parameter given twice, once quoted and once dotted (TOML keeps both), ran
+# the second one and dropped the first without a word; a level given twice ran the same case
+# (same spec, same seeds) twice.
+@pytest.mark.parametrize(
+    ("params", "text"),
+    [
+        ('"flow.viscosity" = [1e-5]\nflow.viscosity = [2e-5, 3e-5]\n', "given twice (a quoted"),
+        ('"flow.viscosity" = [1e-5, 2e-5, 1e-5]\n', "level 1e-05 given twice"),
+    ],
+)
+def test_study_parameter_or_level_given_twice_refused(spec, tmp_path, capsys, params, text):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + params)
+    out = tmp_path / "out"
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: parameters.flow.viscosity: ") and text in err, err
+    assert not out.exists()
