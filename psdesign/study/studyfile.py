@@ -506,9 +506,11 @@ def _parameters(
                     row["seed"] = int(s)
                 elif not isinstance(row["seed"], int):
                     raise _err("study.csv", f"row {i + 1}: seed must be an integer, got {s!r}")
+        _check_nesting([c for c in cols if c != "seed"], "study.csv column ")
     else:
         if not params:
             raise _err("parameters", "no parameters to vary; the design would be empty")
+        _check_nesting(list(params), "parameters.")
         if st.design == "full-factorial":
             for p in params.values():
                 if p.kind == "bounds" and p.levels is None:
@@ -518,6 +520,21 @@ def _parameters(
                     )
         _check_design_size(st, params, seeds)
     return params, csv_rows
+
+
+def _check_nesting(paths: list[str], where: str) -> None:
+    """Refuse a path set before a parameter that holds it (``"rve.voxel"`` listed before
+    ``"rve"``): the cases set parameters in this order, so each level of the outer table
+    replaced the inner value and no case used it (identical cases under different labels)."""
+    for i, inner in enumerate(paths):
+        for outer in paths[i + 1 :]:
+            if _under(inner, outer):
+                raise _err(
+                    f"{where}{inner}",
+                    f"lies inside {outer!r}, which comes after it: each level of {outer!r} "
+                    f"would replace it and no case would use it (allowed: {inner!r} after "
+                    f"{outer!r}, or only one of them)",
+                )
 
 
 def _check_design_size(st: StudyTable, params: dict[str, ParamSpec], seeds: list[int]) -> None:

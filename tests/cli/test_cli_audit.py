@@ -366,3 +366,22 @@ def test_study_parameter_or_level_given_twice_refused(spec, tmp_path, capsys, pa
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: parameters.flow.viscosity: ") and text in err, err
     assert not out.exists()
+
+
+# session 34 fuzz: "rve.voxel" = [5e-7, 1e-6] listed before "rve" = [{size = ..., voxel = 1e-6}]
+# ran two identical cases (same hash) labelled rve.voxel 5e-7 and 1e-6: the cases set the
+# parameters in file order, so each rve level replaced the voxel. After it, it is an override.
+def test_study_parameter_listed_before_the_table_holding_it_refused(spec, tmp_path, capsys):
+    rve = '"rve" = [{size = [20e-6, 20e-6, 20e-6], voxel = 1e-6}]\n'
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + '"rve.voxel" = [5e-7, 1e-6]\n' + rve)
+    out = tmp_path / "out"
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: parameters.rve.voxel: lies inside 'rve', which ")
+    assert not out.exists()
+    from psdesign.study import expand_design, load_study
+
+    study.write_text(STUDY_HEAD + rve + '"rve.voxel" = [5e-7, 1e-6]\n')  # after it: applied
+    voxels = [c.spec["rve"]["voxel"] for c in expand_design(load_study(study))]
+    assert voxels == [5e-7, 1e-6]
