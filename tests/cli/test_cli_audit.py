@@ -385,3 +385,28 @@ def test_study_parameter_listed_before_the_table_holding_it_refused(spec, tmp_pa
     study.write_text(STUDY_HEAD + rve + '"rve.voxel" = [5e-7, 1e-6]\n')  # after it: applied
     voxels = [c.spec["rve"]["voxel"] for c in expand_design(load_study(study))]
     assert voxels == [5e-7, 1e-6]
+
+
+# session 34 fuzz: `study optimize --target k_z_m2=1e-12 --target k_z_m2=2e-12` (or >= 2e-12 with
+# <= 1e-12) was accepted and spent the whole budget on targets no value meets together.
+@pytest.mark.parametrize(
+    "targets", [["k_z_m2=1e-12", "k_z_m2=2e-12"], ["k_z_m2>=2e-12", "k_z_m2<=1e-12"]]
+)
+def test_optimize_targets_that_exclude_each_other_refused(
+    spec, tmp_path, capsys, monkeypatch, targets
+):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("a case ran"))
+    study = tmp_path / "opt.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "o"\noutputs = ["porosity", "k_z"]\n'
+        'design = "latin-hypercube"\nn_samples = 2\n[parameters]\n'
+        '"flow.viscosity" = {low = 1e-5, high = 2e-5}\n'
+    )
+    out = tmp_path / "out"
+    argv = ["study", "optimize", str(study), "-o", str(out), "--quiet"]
+    assert main([*argv, *(a for t in targets for a in ("--target", t))]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --target: ") and "can never both be met" in err
+    assert not out.exists()
