@@ -76,9 +76,13 @@ def register(subparsers) -> argparse.ArgumentParser:
         default=None,
         help="submit one batch job per worker (dask-jobqueue; see docs/study-files.md)",
     )
-    run.add_argument("--cluster-cores", type=_positive_int, default=2, help="cores per job")
-    run.add_argument("--cluster-memory", default="8GB", help="memory per job (default 8GB)")
-    run.add_argument("--cluster-walltime", default="01:00:00", help="HH:MM:SS per job")
+    # the --cluster-* defaults are ClusterOptions'; None here tells "not given" (refused
+    # without --cluster, which alone uses them)
+    run.add_argument(
+        "--cluster-cores", type=_positive_int, default=None, help="cores per job (default 2)"
+    )
+    run.add_argument("--cluster-memory", default=None, help="memory per job (default 8GB)")
+    run.add_argument("--cluster-walltime", default=None, help="HH:MM:SS per job (default 01:00:00)")
     run.add_argument("--cluster-queue", default=None, help="partition / queue")
     run.add_argument("--cluster-account", default=None, help="project account")
     run.add_argument(
@@ -134,22 +138,27 @@ def _cluster(args: argparse.Namespace):
     """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None."""
     from psdesign.study.studyfile import StudyError
 
+    resources = {
+        "cores": args.cluster_cores,
+        "memory": args.cluster_memory,
+        "walltime": args.cluster_walltime,
+        "queue": args.cluster_queue,
+        "account": args.cluster_account,
+        "wait": args.cluster_wait,
+    }
+    given = {k: v for k, v in resources.items() if v is not None}
     if not args.cluster:
+        if given:  # they were ignored: the cases ran on this machine
+            flag = f"--cluster-{next(iter(given))}"
+            raise StudyError(f"{flag}: only with --cluster slurm|pbs; add --cluster or drop {flag}")
         return None
     if args.scheduler:
         raise StudyError("--cluster: give either --cluster or --scheduler, not both")
     from psdesign.study.cluster import ClusterOptions
 
+    wait = given.pop("wait", None)
     try:
-        return ClusterOptions(
-            args.cluster,
-            cores=args.cluster_cores,
-            memory=args.cluster_memory,
-            walltime=args.cluster_walltime,
-            queue=args.cluster_queue,
-            account=args.cluster_account,
-            **_cluster_wait(args.cluster_wait),
-        )
+        return ClusterOptions(args.cluster, **given, **_cluster_wait(wait))
     except ValueError as exc:
         raise StudyError(str(exc)) from None
 
@@ -174,6 +183,9 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
+        if security is not None and not str(args.scheduler or "").startswith("tls://"):
+            # they were ignored: only a tls:// scheduler uses them
+            raise StudyError("--tls-ca-file: only with --scheduler tls://HOST:PORT")
         scheduler = _cluster(args) or args.scheduler
         df = run_study(
             args.study,

@@ -410,3 +410,40 @@ def test_optimize_targets_that_exclude_each_other_refused(
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: --target: ") and "can never both be met" in err
     assert not out.exists()
+
+
+# session 34 fuzz: `study run --cluster-cores 4` (any --cluster-* without --cluster) and the
+# three --tls-* files without a tls:// scheduler were ignored without a word: the cases ran on
+# this machine, unencrypted or not, as if the options had not been given.
+@pytest.mark.parametrize(
+    ("extra", "flag"),
+    [
+        (["--cluster-cores", "4"], "--cluster-cores"),
+        (["--cluster-memory", "16GB"], "--cluster-memory"),
+        (["--cluster-walltime", "02:00:00"], "--cluster-walltime"),
+        (["--cluster-queue", "gpu"], "--cluster-queue"),
+        (["--cluster-account", "p1"], "--cluster-account"),
+        (["--cluster-wait", "60"], "--cluster-wait"),
+        (["--tls-ca-file", "{ca}", "--tls-cert", "{ca}", "--tls-key", "{ca}"], "--tls-ca-file"),
+        (
+            ["--scheduler", "tcp://127.0.0.1:8786", "--tls-ca-file", "{ca}", "--tls-cert", "{ca}"]
+            + ["--tls-key", "{ca}"],
+            "--tls-ca-file",
+        ),
+    ],
+)
+def test_study_run_options_that_would_be_ignored_refused(
+    spec, tmp_path, capsys, monkeypatch, extra, flag
+):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    (tmp_path / "ca.pem").write_text("x")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + '"flow.viscosity" = [1e-5]\n')
+    out = tmp_path / "out"
+    extra = [a.format(ca=tmp_path / "ca.pem") for a in extra]
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet", *extra]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith(f"psdesign: error: {flag}: only with "), err
+    assert not out.exists()
