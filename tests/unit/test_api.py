@@ -543,3 +543,18 @@ def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> Non
     with pytest.raises(psdesign.SpecError) as info:
         psdesign.from_image(tmp_path, voxel_size=1e-6)
     assert info.value.key == "image.path" and "is a folder" in info.value.message
+
+
+def test_expand_design_and_write_report_take_what_run_study_takes(tmp_path) -> None:
+    # session 34 fuzz: psdesign.expand_design(3) was an AttributeError ('int' object has no
+    # attribute 'parameters') and a study dict was refused the same way; write_report(3) was
+    # pathlib's TypeError. Now a dict or file is loaded as run_study loads it, and a bad type
+    # is the one-line error naming the argument.
+    study = _tiny_study()
+    cases = psdesign.expand_design(study)
+    assert [c.params["generator.diameter"] for c in cases] == [5e-6, 6e-6]
+    with pytest.raises(psdesign.StudyError, match=r"^study: must be a study file name"):
+        psdesign.expand_design(3)
+    for bad in (3, None):
+        with pytest.raises(psdesign.OutputError, match=r"^out_dir: must be a folder name"):
+            psdesign.write_report(bad)
