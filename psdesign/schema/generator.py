@@ -8,7 +8,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.schema.distributions import DistField, support
-from psdesign.schema.fibers import MAX_SLOPE
+from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, flag, integer, number
 
 METHODS = ("none", "ga", "fast")
@@ -119,7 +119,7 @@ class GeneratorTable(Table):
                     "[-360, 360]",
                 )
         if self.kind == "bent":
-            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= 1000:
+            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
                 lo, hi = support(self.f)
                 raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
             if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:

@@ -447,3 +447,30 @@ def test_study_run_options_that_would_be_ignored_refused(
     err = _one_line_error(capsys)
     assert err.startswith(f"psdesign: error: {flag}: only with "), err
     assert not out.exists()
+
+
+# session 34 fuzz: the two-fiber case took f0 = 1e300 (overflow warnings, rve.json with
+# f = 1e300) and any u_range: the bend rules of every fiber (f <= 1000 bends per period,
+# |u| f <= 10, psdesign.schema.fibers) did not hold for the force field's fibers.
+@pytest.mark.parametrize(
+    ("line", "key", "text"),
+    [
+        ("f0 = 1e300", "f0", "must be <= 1000"),
+        ("f0 = 999.5", "f_range", "f0 + f_range = 1000.5"),
+        ("u_range = 1e300", "u_range", "must be <= 10"),
+        ("f0 = 4.0\nu_range = 3.0", "u_range", "u_range x (f0 + f_range) = 15"),
+    ],
+)
+def test_two_fiber_bends_beyond_the_fiber_rules_refused(
+    tmp_path, capsys, monkeypatch, line, key, text
+):
+    import psdesign.forcefield.run as run
+
+    monkeypatch.setattr(run, "run_forcefield", lambda *a, **k: pytest.fail("the search ran"))
+    spec = tmp_path / "ff.toml"
+    spec.write_text(f'[forcefield]\ncase = "two-fiber"\n[forcefield.two_fiber]\n{line}\n')
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith(f"psdesign: error: forcefield.two_fiber.{key}: ") and text in err, err
+    assert not out.exists()
