@@ -789,6 +789,11 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
             "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
             f"got {type(scheduler).__name__}"
         )
+    if isinstance(scheduler, str) and not scheduler.strip():  # ran on the local pool
+        raise StudyError(
+            f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
+            "'local', or leave it out for the local process pool"
+        )
     if case_fn is not None:
         try:
             load_case_fn(case_fn)

@@ -474,3 +474,25 @@ def test_two_fiber_bends_beyond_the_fiber_rules_refused(
     err = _one_line_error(capsys)
     assert err.startswith(f"psdesign: error: forcefield.two_fiber.{key}: ") and text in err, err
     assert not out.exists()
+
+
+# session 34 fuzz: `study run --scheduler ""` (an empty shell variable) ran the cases on the
+# local process pool, as if no scheduler had been given.
+@pytest.mark.parametrize("command", ["run", "optimize"])
+def test_empty_scheduler_address_refused(spec, tmp_path, capsys, monkeypatch, command):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "_claim", lambda *a, **k: pytest.fail("the folder was claimed"))
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity", "k_z"]\n'
+        'design = "latin-hypercube"\nn_samples = 2\n[parameters]\n'
+        '"flow.viscosity" = {low = 1e-5, high = 2e-5}\n'
+    )
+    out = tmp_path / "out"
+    extra = ["--target", "k_z_m2>=1e-12"] if command == "optimize" else []
+    argv = ["study", command, str(study), "-o", str(out), "--quiet", "--scheduler", "", *extra]
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --scheduler: empty ('')"), err
+    assert not out.exists()
