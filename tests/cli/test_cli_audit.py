@@ -496,3 +496,36 @@ def test_empty_scheduler_address_refused(spec, tmp_path, capsys, monkeypatch, co
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: --scheduler: empty ('')"), err
     assert not out.exists()
+
+
+BIG_FEM = """
+[rve]
+size = [1e-3, 1e-3, 1e-3]
+voxel = 2e-6
+
+[[fibers]]
+shape = "cylinder"
+diameter = 1e-4
+direction = [0, 0, 1]
+
+[flow]
+solver = "fem"
+bc = "periodic"
+"""
+
+
+# session 34 fuzz: the spec was checked against the budget of its own flow.solver only, so
+# `permeability --solver voxel` on a spec written for the FEM (a 500^3 grid: 1.25e8 cells of
+# 132 B, 15.4 GiB, over half a 24 GiB machine) passed and started building the RVE; the same
+# spec with flow.solver = "voxel" was refused up front.
+def test_permeability_solver_override_checked_against_its_budget(
+    tmp_path, capsys, monkeypatch, no_build
+):
+    import psdesign.schema.budget as budget
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    spec = tmp_path / "big.toml"
+    spec.write_text(BIG_FEM)
+    assert main(["permeability", str(spec), "--solver", "voxel", "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: rve.voxel: a 500x500x500 grid ") and "'voxel'" in err
