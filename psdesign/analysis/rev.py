@@ -84,9 +84,10 @@ class RevResult:
     outputs: list[str] = field(default_factory=list)
 
 
-def _check_sizes(spec: dict, rows: list[dict]) -> None:
-    """Validate the spec at each size of ``rows`` (:func:`_rows`) before any work: an edge
-    outside ``rve.size``'s range, or a grid beyond the memory budget at the spec's voxel, is
+def _check_sizes(spec: dict, rows: list[dict], solver: str) -> None:
+    """Validate the spec at each size of ``rows`` (:func:`_rows`), with the solver the cases
+    run (``--solver``, not the spec's flow.solver), before any work: an edge outside
+    ``rve.size``'s range, or a grid beyond that solver's memory budget at the spec's voxel, is
     refused naming ``--sizes`` (the study's own check named ``parameters`` and a case id)."""
     from psdesign.errors import SpecError
     from psdesign.schema.spec import validate_spec
@@ -94,6 +95,7 @@ def _check_sizes(spec: dict, rows: list[dict]) -> None:
     for row in rows:
         sized = copy.deepcopy(spec)
         sized["rve"]["size"] = [row[f"rve.size.{i}"] for i in range(3)]
+        sized["flow"] = {**sized["flow"], "solver": solver}
         if "generator.n_fibers" in row:
             sized["generator"]["n_fibers"] = row["generator.n_fibers"]
         try:
@@ -149,7 +151,7 @@ def rev_study(
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
     rows = _rows(spec, sorted(sizes))
-    _check_sizes(spec, rows)
+    _check_sizes(spec, rows, solver)
     params = {
         k: ParamSpec(path=k, kind="values", values=tuple(r[k] for r in rows)) for k in rows[0]
     }

@@ -578,8 +578,10 @@ def _machine() -> dict:
     return info
 
 
-def validate_case_specs(cases: list[Case]) -> None:
-    """Check every case spec with the spec validators of the pipeline (before running).
+def validate_case_specs(cases: list[Case], solver: str | None = None) -> None:
+    """Check every case spec with the spec validators of the pipeline (before running), with
+    ``solver`` (the study's, which the cases run) in its ``[flow]`` table when given: the
+    memory budget depends on it.
 
     Raises
     ------
@@ -596,7 +598,10 @@ def validate_case_specs(cases: list[Case]) -> None:
         parse_generator = None
     for c in cases:
         try:
-            spec = validate_spec(c.spec)
+            spec = c.spec
+            if solver is not None and isinstance(spec.get("flow"), dict):
+                spec = {**spec, "flow": {**spec["flow"], "solver": solver}}
+            spec = validate_spec(spec)
             if parse_generator is not None and "generator" in spec:
                 parse_generator(spec, np.asarray(spec["rve"]["size"], dtype=float))
         except ValueError as exc:
@@ -729,7 +734,7 @@ def run_study(
         case_fn = DEFAULT_CASE_FN
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
-        validate_case_specs(cases)
+        validate_case_specs(cases, study.solver)
     option, force_option = out_option
     target = check_study_dir(
         out_dir, force=force, force_option=force_option, command=command, option=option

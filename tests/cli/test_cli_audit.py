@@ -529,3 +529,26 @@ def test_permeability_solver_override_checked_against_its_budget(
     assert main(["permeability", str(spec), "--solver", "voxel", "--quiet"]) == 2
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: rve.voxel: a 500x500x500 grid ") and "'voxel'" in err
+
+
+# session 34 fuzz: rev's cases run with --solver (default voxel) but its sizes were validated
+# with the spec's flow.solver: on a FEM spec a 500 um cube at 1 um (15.4 GiB of voxel solve on
+# a 24 GiB machine) passed and the study started.
+def test_rev_sizes_checked_against_the_budget_of_the_solver_the_cases_run(
+    tmp_path, capsys, monkeypatch
+):
+    import psdesign.schema.budget as budget
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    spec = tmp_path / "gen.toml"
+    spec.write_text(
+        "[rve]\nsize = [5e-4, 5e-4, 5e-4]\nvoxel = 1e-6\n[generator]\nporosity = 0.9\n"
+        'diameter = 2e-5\n[flow]\nsolver = "fem"\nbc = "periodic"\nlattice_step = 2e-5\n'
+    )
+    out = tmp_path / "out"
+    assert main(["rev", str(spec), "--sizes", "4e-4", "5e-4", "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --sizes: at 0.0005 m, rve.voxel: a 500x500x500 grid")
+    assert "solver 'voxel'" in err and not out.exists()
