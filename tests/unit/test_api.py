@@ -558,3 +558,17 @@ def test_expand_design_and_write_report_take_what_run_study_takes(tmp_path) -> N
     for bad in (3, None):
         with pytest.raises(psdesign.OutputError, match=r"^out_dir: must be a folder name"):
             psdesign.write_report(bad)
+
+
+def test_progress_keyword_is_a_flag(monkeypatch) -> None:
+    # session 34 fuzz: m.diffusivity("z", progress="no") printed the progress lines (any
+    # non-empty string was true); a flag is now True or False, NumPy's too
+    import psdesign.flow.permeability as perm
+
+    monkeypatch.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+    m = psdesign.build(_one_cylinder())
+    for call in (m.permeability, m.diffusivity, m.conductivity):
+        for bad in ("no", 1, None):
+            with pytest.raises(psdesign.SpecError, match=r"^progress: must be True or False"):
+                call("z", progress=bad)
+    assert m.diffusivity("z", progress=np.bool_(False)).converged
