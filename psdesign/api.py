@@ -138,6 +138,16 @@ def _direction(direction: Any) -> str:
         raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
 
 
+def _progress_flag(progress: Any) -> bool:
+    """``progress``: True or False, also NumPy's (``progress="no"`` printed the progress)."""
+    from psdesign.errors import SpecError
+    from psdesign.schema.types import _is_bool
+
+    if not _is_bool(progress):
+        raise SpecError("progress", f"must be True or False, got {progress!r}")
+    return bool(progress)
+
+
 def _flow_table(spec_flow: dict, given: dict) -> dict:
     """The spec's ``[flow]`` table with the keywords ``given`` to a method, validated by the
     schema like a spec file's table (``SpecError`` naming ``flow.<key>`` and its range: an
@@ -259,6 +269,7 @@ class Material:
         from psdesign.flow.darcy import flow_direction
         from psdesign.flow.permeability import permeability
 
+        progress = _progress_flag(progress)
         direction = _direction(flow_direction(direction, self.spec["flow"]))
         given = dict(flow)
         if solver is not None:
@@ -290,6 +301,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.diffusivity import relative_diffusivity
 
+        progress = _progress_flag(progress)
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         folder = fields_folder(fields, "diffusivity", [direction], option="fields")
@@ -319,6 +331,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.transport.conductivity import effective_conductivity
 
+        progress = _progress_flag(progress)
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         folder = fields_folder(fields, "conductivity", [direction], option="fields")

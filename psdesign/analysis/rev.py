@@ -17,6 +17,7 @@ work starts, and the marker lists them once written.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,6 +84,26 @@ class RevResult:
     outputs: list[str] = field(default_factory=list)
 
 
+def _check_sizes(spec: dict, rows: list[dict], solver: str) -> None:
+    """Validate the spec at each size of ``rows`` (:func:`_rows`), with the solver the cases
+    run (``--solver``, not the spec's flow.solver), before any work: an edge outside
+    ``rve.size``'s range, or a grid beyond that solver's memory budget at the spec's voxel, is
+    refused naming ``--sizes`` (the study's own check named ``parameters`` and a case id)."""
+    from psdesign.errors import SpecError
+    from psdesign.schema.spec import validate_spec
+
+    for row in rows:
+        sized = copy.deepcopy(spec)
+        sized["rve"]["size"] = [row[f"rve.size.{i}"] for i in range(3)]
+        sized["flow"] = {**sized["flow"], "solver": solver}
+        if "generator.n_fibers" in row:
+            sized["generator"]["n_fibers"] = row["generator.n_fibers"]
+        try:
+            validate_spec(sized)
+        except SpecError as exc:
+            raise SpecError("--sizes", f"at {row['rve.size.0']:g} m, {exc}") from None
+
+
 def _rows(spec: dict, sizes: list[float]) -> list[dict]:
     base = [float(s) for s in spec["rve"]["size"]]
     n_fib = (spec.get("generator") or {}).get("n_fibers")
@@ -113,6 +134,8 @@ def rev_study(
 
     if not sizes or any(not (s > 0 and math.isfinite(s)) for s in sizes):
         raise ValueError(f"--sizes: need edge lengths > 0 in metres, got {sizes}")
+    if len(set(sizes)) < len(sizes):
+        raise ValueError(f"--sizes: each edge length once, got {sizes}")
     if not isinstance(seeds, int) or seeds < 2:
         raise ValueError(f"--seeds: need >= 2 seeds for a confidence interval, got {seeds}")
     if seeds > MAX_SEEDS:
@@ -128,6 +151,7 @@ def rev_study(
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
     rows = _rows(spec, sorted(sizes))
+    _check_sizes(spec, rows, solver)
     params = {
         k: ParamSpec(path=k, kind="values", values=tuple(r[k] for r in rows)) for k in rows[0]
     }

@@ -55,6 +55,15 @@ def check_targets(targets: list[Target], outputs: list[str]) -> None:
                 f"{did_you_mean(t.output, cols)} (outputs: {', '.join(cols)})"
             )
         t.check_range()
+    for i, a in enumerate(targets):  # targets on one output that no value meets together
+        for b in targets[i + 1 :]:
+            if a.output == b.output:
+                (lo_a, hi_a), (lo_b, hi_b) = a.bounds(), b.bounds()
+                if max(lo_a, lo_b) > min(hi_a, hi_b):
+                    raise ValueError(
+                        f"--target: {a} and {b} can never both be met (no value of "
+                        f"{a.output} meets both); give targets on one output that overlap"
+                    )
 
 
 #: Relative tolerance of an equality target when none is given.

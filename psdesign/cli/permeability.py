@@ -113,11 +113,11 @@ def _fields_folder(args: argparse.Namespace, directions: list[str], solver: str)
 
 
 def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -> None:
-    """What the diffuse wall cannot do, refused before any work: ``--bc permeameter|both``,
-    ``--fields`` (the assembled solve keeps no pressure field) and, when ``--solver voxel``
-    overrides a spec written for the FEM, the spec's own diffuse-wall checks."""
+    """What the diffuse wall cannot do, refused before any work: ``--bc permeameter|both`` and
+    ``--fields`` (the assembled solve keeps no pressure field); when ``--solver voxel``
+    overrides a spec written for the FEM, :func:`_check_overrides` applies the spec's own
+    diffuse-wall checks."""
     from psdesign.errors import SpecError
-    from psdesign.schema.spec import validate_spec
 
     if solver != "voxel" or flow.get("wall_treatment") != "diffuse":
         return
@@ -132,8 +132,22 @@ def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -
             "not with flow.wall_treatment = 'diffuse' (its assembled solve keeps no pressure "
             "field); allowed: wall_treatment 'subvoxel' or no --fields",
         )
-    if spec["flow"]["solver"] != "voxel":
-        validate_spec({**spec, "flow": {**spec["flow"], "solver": "voxel"}})
+
+
+def _check_overrides(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -> None:
+    """The spec validated again with the command line's solver, bc and sides, before the RVE
+    is built: the memory budget and the route's own checks depend on them (``--solver voxel``
+    on a spec written for the FEM skipped the voxel solver's budget, and a 15 GiB solve
+    started building)."""
+    from psdesign.schema.spec import validate_spec
+
+    bcs = ["permeameter", "periodic"] if args.bc == "both" else [flow.get("bc")]
+    for bc in bcs:
+        table = {**flow, "solver": solver}
+        if bc is not None:
+            table["bc"] = bc
+        if table != spec["flow"]:
+            validate_spec({**spec, "flow": table})
 
 
 def _check_route(flow: dict, solver: str, args: argparse.Namespace) -> None:
@@ -170,6 +184,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     solver = args.solver or flow["solver"]
     _check_wall(spec, flow, solver, args)
     _check_route(flow, solver, args)
+    _check_overrides(spec, flow, solver, args)
     t0 = time.perf_counter()
     direction = flow_direction(args.direction, flow)
     directions = ["x", "y", "z"] if direction == "all" else [direction]

@@ -30,13 +30,17 @@ def _positive_int(text: str) -> int:
     return v
 
 
-def _positive_float(text: str) -> float:
+def _timeout_seconds(text: str) -> float:
+    """``--timeout``: seconds in (0, MAX_TIMEOUT_S], the range of ``study.timeout_s``."""
+    from psdesign.schema.budget import MAX_TIMEOUT_S
+
+    what = f"expected seconds > 0 and <= {MAX_TIMEOUT_S:.0f} (as study.timeout_s), got"
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {v}")
+        raise argparse.ArgumentTypeError(f"{what} {text!r}") from None
+    if not 0 < v <= MAX_TIMEOUT_S:  # also NaN and inf
+        raise argparse.ArgumentTypeError(f"{what} {v}")
     return v
 
 
@@ -72,9 +76,13 @@ def register(subparsers) -> argparse.ArgumentParser:
         default=None,
         help="submit one batch job per worker (dask-jobqueue; see docs/study-files.md)",
     )
-    run.add_argument("--cluster-cores", type=_positive_int, default=2, help="cores per job")
-    run.add_argument("--cluster-memory", default="8GB", help="memory per job (default 8GB)")
-    run.add_argument("--cluster-walltime", default="01:00:00", help="HH:MM:SS per job")
+    # the --cluster-* defaults are ClusterOptions'; None here tells "not given" (refused
+    # without --cluster, which alone uses them)
+    run.add_argument(
+        "--cluster-cores", type=_positive_int, default=None, help="cores per job (default 2)"
+    )
+    run.add_argument("--cluster-memory", default=None, help="memory per job (default 8GB)")
+    run.add_argument("--cluster-walltime", default=None, help="HH:MM:SS per job (default 01:00:00)")
     run.add_argument("--cluster-queue", default=None, help="partition / queue")
     run.add_argument("--cluster-account", default=None, help="project account")
     run.add_argument(
@@ -89,7 +97,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.add_argument("--tls-key", default=None, help="client private key for a tls:// scheduler")
     run.add_argument(
         "--timeout",
-        type=_positive_float,
+        type=_timeout_seconds,
         default=None,
         help="per-case time limit in seconds (overrides study.timeout_s)",
     )
@@ -128,10 +136,22 @@ def _fail(msg: str, code: int) -> int:
 
 
 def _cluster(args: argparse.Namespace, wait_s: float | None):
-    """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None."""
+    """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None
+    (``wait_s``: ``--cluster-wait``, checked by :func:`_cluster_wait`)."""
     from psdesign.study.studyfile import StudyError
 
+    resources = {
+        "cores": args.cluster_cores,
+        "memory": args.cluster_memory,
+        "walltime": args.cluster_walltime,
+        "queue": args.cluster_queue,
+        "account": args.cluster_account,
+    }
+    given = {k: v for k, v in resources.items() if v is not None}
     if not args.cluster:
+        if given:  # they were ignored: the cases ran on this machine
+            flag = f"--cluster-{next(iter(given))}"
+            raise StudyError(f"{flag}: only with --cluster slurm|pbs; add --cluster or drop {flag}")
         return None
     if args.scheduler:
         raise StudyError("--cluster: give either --cluster or --scheduler, not both")
@@ -139,13 +159,7 @@ def _cluster(args: argparse.Namespace, wait_s: float | None):
 
     try:
         return ClusterOptions(
-            args.cluster,
-            cores=args.cluster_cores,
-            memory=args.cluster_memory,
-            walltime=args.cluster_walltime,
-            queue=args.cluster_queue,
-            account=args.cluster_account,
-            **({} if wait_s is None else {"wait_s": wait_s}),
+            args.cluster, **given, **({} if wait_s is None else {"wait_s": wait_s})
         )
     except ValueError as exc:
         raise StudyError(str(exc)) from None
@@ -181,9 +195,13 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import SchedulerError, WorkersLost, run_study, scheduler_security
     from psdesign.study.store import StorageError
+    from psdesign.study.studyfile import StudyError
 
     try:
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
+        if security is not None and not str(args.scheduler or "").startswith("tls://"):
+            # they were ignored: only a tls:// scheduler uses them
+            raise StudyError("--tls-ca-file: only with --scheduler tls://HOST:PORT")
         wait_s = _cluster_wait(args)
         scheduler = _cluster(args, wait_s) or args.scheduler
         df = run_study(

@@ -395,6 +395,30 @@ def check_relax_table(options: object, period: float) -> None:
             _num(options, key, 0.0, 0.0 if key == "gap" else 1e-300, period)
 
 
+def check_relax_route(spec: dict, options: dict) -> None:
+    """What the fibers of a validated spec decide, refused before the RVE is built (a
+    generator's placement can take minutes): no fibers at all (an ``[image]``), and the
+    field-route keys (``grid``, ``gap``, ``tie_bend``) when every fiber is a rod or bent rod
+    (explicit ``rod`` / ``bent-rod``, or a ``[generator]``'s), whose centre lines are relaxed.
+
+    Raises
+    ------
+    SpecError
+        Naming ``fibers`` or ``forcefield.relax.<key>``.
+    """
+    shapes = {fb["shape"] for fb in spec.get("fibers", [])}
+    if "generator" in spec:
+        shapes.add("rod")  # straight -> rod, bent -> bent-rod: both relaxed as centre lines
+    if not shapes:
+        raise SpecError("fibers", "the force field relaxes fibers; this spec has none")
+    field_only = sorted(set(options) & FIELD_ONLY_KEYS)
+    if field_only and shapes <= {"rod", "bent-rod"}:
+        raise SpecError(
+            f"forcefield.relax.{field_only[0]}",
+            "only used for woven / compressed fibers (rods are relaxed by their centre lines)",
+        )
+
+
 def rod_status(res: RelaxResult) -> str:
     """``not_converged`` (a limit stopped the search), ``at_bound`` (a free variable on its
     bound), ``contact_left`` (stopped with an overlap left) or ``converged``
@@ -421,16 +445,11 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     bad = sorted(set(options) - allowed)
     if bad:
         raise SpecError(f"forcefield.relax.{bad[0]}", f"unknown key; allowed: {sorted(allowed)}")
+    check_relax_route(spec, options)
     built = build_rve(spec)
     rve = built.rve
     if any(fb.shape not in ("rod", "bent-rod") for fb in rve.fibers):
         return relax_spec_fields(spec, rve, options, out_dir)
-    field_only = sorted(set(options) & FIELD_ONLY_KEYS)
-    if field_only:
-        raise SpecError(
-            f"forcefield.relax.{field_only[0]}",
-            "only used for woven / compressed fibers (rods are relaxed by their centre lines)",
-        )
     fibers = [fb for fb in rve.fibers if fb.shape in ("rod", "bent-rod")]
     if not fibers:
         raise SpecError("fibers", "the force field relaxes rod and bent-rod fibers; none found")

@@ -92,12 +92,13 @@ def load_forcefield_spec(path: str | Path) -> dict:
         ff = data.get("forcefield") or {}
         if not isinstance(ff, dict) or sorted(set(ff) - {"relax"}):
             raise SpecError("forcefield", "in an RVE spec [forcefield] takes only a relax table")
-        from psdesign.forcefield.relax import check_relax_table
+        from psdesign.forcefield.relax import check_relax_route, check_relax_table
 
         spec = {k: v for k, v in data.items() if k != "forcefield"}
-        valid = validate_spec(spec)
+        valid = validate_spec(spec, base=Path(path).parent)  # [image] paths: from its folder
         rve = valid["rve"]
         check_relax_table(ff.get("relax", {}), rve["period"] or max(rve["size"]))
+        check_relax_route(valid, ff.get("relax", {}))
         return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     for key in data:
         if key != "forcefield":

@@ -156,6 +156,13 @@ def _user_entries(folder: Path) -> list[str]:
     return sorted(names)
 
 
+def check_folder_name(path: object, option: str) -> None:
+    """Refuse a folder argument that is not a name (``str`` or ``Path``): pathlib's TypeError
+    named no option (:class:`OutputError` naming ``option``)."""
+    if not isinstance(path, str | os.PathLike):
+        raise OutputError(option, f"must be a folder name (str or Path), got {type(path).__name__}")
+
+
 def check_output_dir(
     path: str | Path,
     *,
@@ -197,8 +204,7 @@ def check_output_dir(
     OutputError
         One line naming the option, the folder and the rule.
     """
-    if not isinstance(path, str | os.PathLike):  # pathlib's TypeError named no option
-        raise OutputError(option, f"must be a folder name (str or Path), got {type(path).__name__}")
+    check_folder_name(path, option)
     if not str(path).strip():
         raise OutputError(option, "empty folder name; give a new folder name")
     raw = Path(path).expanduser()

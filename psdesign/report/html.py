@@ -582,9 +582,10 @@ def write_report(out_dir: str | Path) -> Path:
     psdesign.io.outputs.OutputError
         If ``report.html`` exists and psdesign did not write it (it is never replaced).
     """
-    from psdesign.io.outputs import claim_output_dir
+    from psdesign.io.outputs import check_folder_name, claim_output_dir
     from psdesign.study.store import atomic_write_bytes, check_study_files
 
+    check_folder_name(out_dir, "out_dir")
     out = Path(out_dir)
     check_study_files(out, ["report.html"], "study report")
     text = build_html(out)

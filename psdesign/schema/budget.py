@@ -58,6 +58,8 @@ MAX_GA_WORK = 5e9
 MAX_CASES = 100_000
 MAX_SEEDS = 1000
 MAX_LEVELS = 10_000
+#: Per-case time limit: ``study.timeout_s``, ``study run --timeout``, ``run_study(timeout_s=)``.
+MAX_TIMEOUT_S = 1e7
 
 
 def machine_memory() -> float:

@@ -17,6 +17,8 @@ Angle = number(ge=-360, le=360)
 BENT_FIXED_SHAPES = ("woven", "compressed-bent")
 #: Largest bend slope amplitude ``|u| f`` (Eq. 16; the paper's fibers have u f <= 3).
 MAX_SLOPE = 10.0
+#: Most bends per period ``f`` (fibers, generator, the force field's two-fiber case).
+MAX_BENDS = 1000
 
 
 class FiberTable(Table):
@@ -41,7 +43,7 @@ class FiberTable(Table):
         description="bent-rod minor moment in [-10, 10]; woven, compressed-bent: the bend "
         "moment (default: the equation's)",
     )
-    f: number(gt=0, le=1000) = Field(
+    f: number(gt=0, le=MAX_BENDS) = Field(
         1.0, description="bends per period in (0, 1000], with |u| f <= 10"
     )
     isovalue: number() | None = Field(None, description="finite number (default: the shape's)")

@@ -6,6 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, integer, number
 
 Weight = number(ge=0)
@@ -36,9 +37,30 @@ class TwoFiber(Table):
     mu: number(ge=0) = Field(4.5, description="number >= 0 (default 4.5)")
     constant: number() = Field(0.0, description="finite number (default 0)")
     seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0")
-    f0: number(ge=1e-6) | None = Field(None, description="number >= 1e-6 (default: drawn)")
-    f_range: number(ge=0) = Field(1.0, description="number >= 0 (default 1)")
-    u_range: number(ge=0) = Field(0.2, description="number >= 0 (default 0.2)")
+    f0: number(ge=1e-6, le=MAX_BENDS) | None = Field(
+        None, description="bends per period in [1e-6, 1000] (default: drawn in [1, 2])"
+    )
+    f_range: number(ge=0, le=MAX_BENDS) = Field(
+        1.0, description="number >= 0, f0 + f_range <= 1000 (default 1)"
+    )
+    u_range: number(ge=0, le=MAX_SLOPE) = Field(
+        0.2, description="number in [0, 10], u_range x (f0 + f_range) <= 10 (default 0.2)"
+    )
+
+    @model_validator(mode="after")
+    def _check_bends(self) -> TwoFiber:
+        # the fibers' rules (psdesign.schema.fibers): f <= 1000 bends per period, |u| f <= 10;
+        # f0 = 1e300 ran with overflow warnings and wrote f = 1e300
+        f_max = (2.0 if self.f0 is None else self.f0) + self.f_range  # a drawn f0 is <= 2
+        if f_max > MAX_BENDS:
+            raise fail("f_range", f"f0 + f_range = {f_max:g}", f"f0 + f_range <= {MAX_BENDS}")
+        if self.u_range * f_max > MAX_SLOPE:
+            raise fail(
+                "u_range",
+                f"bend slope u_range x (f0 + f_range) = {self.u_range * f_max:g}",
+                f"<= {MAX_SLOPE:g}",
+            )
+        return self
 
 
 _SIX = Literal[tuple(SIX_NAMES)]  # type: ignore[valid-type]

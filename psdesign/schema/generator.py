@@ -8,7 +8,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.schema.distributions import DistField, support
-from psdesign.schema.fibers import MAX_SLOPE
+from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, flag, integer, number
 
 METHODS = ("none", "ga", "fast")
@@ -45,7 +45,11 @@ METHOD_KEYS = {
 class Orientation(Table):
     """Schulz et al. (2007) orientation density."""
 
-    anisotropy: number(gt=0) = Field(1.0, description="beta > 0 (1 = isotropic)")
+    # beta^2 overflows above ~1e154 (the sampled directions were NaN and the build failed
+    # with "R must be a 3x3 orthogonal matrix"); 1e6 is already a flat in-plane layer
+    anisotropy: number(gt=0, le=1e6) = Field(
+        1.0, description="beta in (0, 1e6] (1 = isotropic, large = in-plane)"
+    )
 
 
 class GeneratorTable(Table):
@@ -115,7 +119,7 @@ class GeneratorTable(Table):
                     "[-360, 360]",
                 )
         if self.kind == "bent":
-            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= 1000:
+            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
                 lo, hi = support(self.f)
                 raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
             if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:

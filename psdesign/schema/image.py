@@ -110,13 +110,16 @@ class ImageTable(Table):
         base = Path((info.context or {}).get("base") or Path.cwd())
         path = Path(self.path).expanduser()
         path = (path if path.is_absolute() else base / path).resolve()
+        # the file first: a missing file or a folder is the path's fault, not the format's
+        if path.is_dir():
+            raise fail("path", f"{path} is a folder", "an existing image file")
+        if not path.is_file():
+            raise fail("path", f"file not found: {path}", "an existing image file")
         fmt = self.format or path.suffix.lower().lstrip(".")
         if fmt not in ("tif", "tiff", "raw", "npy", "vti"):
             raise fail(
                 "format", f"cannot tell the format of {path.name!r}", "tif | tiff | raw | npy | vti"
             )
-        if not path.is_file():
-            raise fail("path", f"file not found: {path}", "an existing image file")
         if fmt != "raw":
             for key in RAW_ONLY:
                 if key in self.model_fields_set:

@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS
+from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS, MAX_TIMEOUT_S
 from psdesign.schema.types import Table, fail, flag, integer, number
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS
 
@@ -45,7 +45,9 @@ class StudyTable(Table):
     solver: Literal["fem", "voxel"] | None = Field(
         None, description="fem | voxel (default: base flow.solver, else fem)"
     )
-    timeout_s: number(gt=0, le=1e7) | None = Field(None, description="seconds in (0, 1e7]")
+    timeout_s: number(gt=0, le=MAX_TIMEOUT_S) | None = Field(
+        None, description="seconds in (0, 1e7]"
+    )
     fields: flag = Field(
         False,
         description="true | false (default false): each case writes its velocity and pressure "

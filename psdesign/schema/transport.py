@@ -14,7 +14,7 @@ from pydantic import Field, ValidationError
 
 from psdesign.errors import SpecError
 from psdesign.schema.errors import spec_error
-from psdesign.schema.types import Table, integer, number
+from psdesign.schema.types import Table, _is_bool, integer, number
 
 
 class TransportSpec(Table):
@@ -120,6 +120,9 @@ def validate_transport(spec: dict | None) -> dict:
 
 def check_conductivity(value: float, key: str) -> float:
     """A conductivity given outside the spec (CLI): finite and > 0, else SpecError naming key."""
+    # a bool or a string is no number (float(True) is 1.0, float("2") 2.0: the API took both)
+    if isinstance(value, str | bytes) or _is_bool(value):
+        raise SpecError(key, f"must be a number > 0 and < 1e12, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):

@@ -195,7 +195,9 @@ def expand_design(study: Study) -> list[Case]:
 
     Parameters
     ----------
-    study : Study
+    study : Study, str, Path or dict
+        A loaded study, or what :func:`~psdesign.study.studyfile.load_study` takes (a study
+        file or its tables), as :func:`~psdesign.study.runner.run_study` does.
 
     Returns
     -------
@@ -206,8 +208,12 @@ def expand_design(study: Study) -> list[Case]:
     Raises
     ------
     StudyError
-        If the design is empty or too large.
+        If the study is invalid (an int gave an AttributeError), the design empty or too large.
     """
+    if not isinstance(study, Study):
+        from psdesign.study.studyfile import load_study
+
+        study = load_study(study)
     cases: list[Case] = []
     for pt in design_points(study):
         if "seed" in pt:

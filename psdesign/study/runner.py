@@ -27,6 +27,7 @@ from pathlib import Path
 import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
+from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.casefn import watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s
 from psdesign.study.design import Case, expand_design, match_finished
@@ -580,8 +581,10 @@ def _machine() -> dict:
     return info
 
 
-def validate_case_specs(cases: list[Case]) -> None:
-    """Check every case spec with the spec validators of the pipeline (before running).
+def validate_case_specs(cases: list[Case], solver: str | None = None) -> None:
+    """Check every case spec with the spec validators of the pipeline (before running), with
+    ``solver`` (the study's, which the cases run) in its ``[flow]`` table when given: the
+    memory budget depends on it.
 
     Raises
     ------
@@ -598,7 +601,10 @@ def validate_case_specs(cases: list[Case]) -> None:
         parse_generator = None
     for c in cases:
         try:
-            spec = validate_spec(c.spec)
+            spec = c.spec
+            if solver is not None and isinstance(spec.get("flow"), dict):
+                spec = {**spec, "flow": {**spec["flow"], "solver": solver}}
+            spec = validate_spec(spec)
             if parse_generator is not None and "generator" in spec:
                 parse_generator(spec, np.asarray(spec["rve"]["size"], dtype=float))
         except ValueError as exc:
@@ -724,15 +730,21 @@ def run_study(
     if timeout_s is not None and (
         isinstance(timeout_s, bool)
         or not isinstance(timeout_s, int | float)
-        or not timeout_s > 0  # also NaN
+        or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
     ):
-        raise StudyError(f"timeout: must be a number > 0 (seconds), got {timeout_s!r}")
+        raise StudyError(
+            f"timeout: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
+            f"study.timeout_s), got {timeout_s!r}"
+        )
     timeout = float(timeout_s) if timeout_s is not None else study.timeout_s
+    _check_run_arguments(
+        scheduler, case_fn, progress, retry_failed, report, force, retry_not_converged
+    )
     if case_fn is None:
         case_fn = DEFAULT_CASE_FN
     cases = expand_design(study)
     if case_fn == DEFAULT_CASE_FN:
-        validate_case_specs(cases)
+        validate_case_specs(cases, study.solver)
     option, force_option = out_option
     target = check_study_dir(
         out_dir, force=force, force_option=force_option, command=command, option=option
@@ -781,6 +793,42 @@ def _worker_wait(scheduler, worker_wait_s: float | None) -> float:
         return check_wait_s(worker_wait_s)
     except ValueError as exc:
         raise StudyError(str(exc)) from None
+
+
+def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
+    """The other arguments of :func:`run_study`, before any work: each flag a bool (a string
+    such as ``report="no"`` was taken as true), ``scheduler`` an address or the CLI's
+    :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
+    TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
+    folder was made)."""
+    import numpy as np
+
+    from psdesign.study.casefn import load_case_fn
+    from psdesign.study.cluster import ClusterOptions
+
+    names = ("progress", "retry_failed", "report", "force", "retry_not_converged")
+    for name, value in zip(names, flags, strict=True):
+        if not isinstance(value, bool | np.bool_):
+            raise StudyError(f"{name}: must be True or False, got {value!r}")
+    if scheduler is not None and not isinstance(scheduler, str | ClusterOptions):
+        raise StudyError(
+            "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
+            f"got {type(scheduler).__name__}"
+        )
+    if isinstance(scheduler, str) and not scheduler.strip():  # ran on the local pool
+        raise StudyError(
+            f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
+            "'local', or leave it out for the local process pool"
+        )
+    if case_fn is not None:
+        try:
+            load_case_fn(case_fn)
+        except (ImportError, AttributeError, ValueError) as exc:
+            msg = " ".join(str(exc).split())
+            raise StudyError(
+                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
+                "importable 'module:function'"
+            ) from None
 
 
 def _say_waiting(scheduler, workers: int, progress: bool) -> None:

@@ -8,6 +8,7 @@ A study file holds a base RVE spec, a ``[study]`` table (design, seeds, outputs,
 from __future__ import annotations
 
 import copy
+import json
 import math
 import warnings
 from collections.abc import Callable
@@ -264,6 +265,16 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
             raise _err(key, "empty list of values; give at least one value")
         if len(value) > MAX_LEVELS:
             raise _err(key, f"{len(value)} levels (allowed: at most {MAX_LEVELS})")
+        seen: set[str] = set()
+        for v in value:  # a level twice is the same case twice (same spec, same seeds)
+            text = json.dumps(v, sort_keys=True, default=str)
+            if text in seen:
+                raise _err(
+                    key,
+                    f"level {short(v)} given twice (allowed: distinct values; repeat a case "
+                    "with study.seeds or study.replicates)",
+                )
+            seen.add(text)
         return ParamSpec(path=path, kind="values", values=tuple(value))
     if isinstance(value, dict):
         keys = set(value)
@@ -484,6 +495,10 @@ def _parameters(
         if path == "generator.seed":
             raise _err(key, "vary seeds with study.seeds or study.replicates, not a parameter")
         _not_varied(path, key)
+        if path in params:  # "flow.viscosity" = [...] and flow.viscosity = [...]: TOML keeps both
+            raise _err(
+                key, "given twice (a quoted and a dotted key name the same path); give it once"
+            )
         params[path] = _param_spec(path, value, key)
 
     csv_rows = None
@@ -508,9 +523,11 @@ def _parameters(
                     row["seed"] = int(s)
                 elif not isinstance(row["seed"], int):
                     raise _err("study.csv", f"row {i + 1}: seed must be an integer, got {s!r}")
+        _check_nesting([c for c in cols if c != "seed"], "study.csv column ")
     else:
         if not params:
             raise _err("parameters", "no parameters to vary; the design would be empty")
+        _check_nesting(list(params), "parameters.")
         if st.design == "full-factorial":
             for p in params.values():
                 if p.kind == "bounds" and p.levels is None:
@@ -520,6 +537,21 @@ def _parameters(
                     )
         _check_design_size(st, params, seeds)
     return params, csv_rows
+
+
+def _check_nesting(paths: list[str], where: str) -> None:
+    """Refuse a path set before a parameter that holds it (``"rve.voxel"`` listed before
+    ``"rve"``): the cases set parameters in this order, so each level of the outer table
+    replaced the inner value and no case used it (identical cases under different labels)."""
+    for i, inner in enumerate(paths):
+        for outer in paths[i + 1 :]:
+            if _under(inner, outer):
+                raise _err(
+                    f"{where}{inner}",
+                    f"lies inside {outer!r}, which comes after it: each level of {outer!r} "
+                    f"would replace it and no case would use it (allowed: {inner!r} after "
+                    f"{outer!r}, or only one of them)",
+                )
 
 
 def _check_design_size(st: StudyTable, params: dict[str, ParamSpec], seeds: list[int]) -> None:

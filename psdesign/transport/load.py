@@ -40,23 +40,16 @@ def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     SpecError
         A bad key anywhere in the spec or in ``overrides`` (``transport.<key>``).
     """
-    import tomllib
     from pathlib import Path
 
-    from psdesign.errors import SpecError
     from psdesign.packing.build import build_rve
-    from psdesign.schema.spec import load_spec, validate_spec
+    from psdesign.schema.spec import load_spec, read_toml, validate_spec
     from psdesign.schema.transport import validate_transport
 
     p = Path(path)
-    if p.is_dir():
-        raise SpecError("spec", f"{p} is a folder; give a TOML file")
-    if not p.is_file():
-        raise SpecError("spec", f"file not found: {p}")
-    try:
-        raw = tomllib.loads(p.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SpecError("spec", f"not valid TOML: {exc}") from None
+    # the one reader of spec files: a folder, a missing or unreadable file, one over the size
+    # limit, not UTF-8, bad TOML (an unreadable file was an OSError, exit 1)
+    raw = read_toml(p)
     transport = validate_transport(raw)
     given = {k: v for k, v in (overrides or {}).items() if v is not None}
     if given:

@@ -234,3 +234,321 @@ def test_empty_output_name_refused(spec, tmp_path, capsys, monkeypatch, argv):
     err = _one_line_error(capsys)
     assert "empty folder name" in err
     assert list(work.iterdir()) == []
+
+
+# session 34 fuzz: `study run --timeout inf` (or 1e300) was accepted and ran the cases without
+# a limit, while the study file's study.timeout_s allows (0, 1e7]: one rule, two ranges.
+@pytest.mark.parametrize("value", ["inf", "1e300", "2e7"])
+def test_study_run_timeout_beyond_the_study_files_range_refused(spec, tmp_path, capsys, value):
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity"]\n'
+        '[parameters]\n"flow.viscosity" = [1e-5]\n'
+    )
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "run", str(study), "-o", str(out), "--quiet", "--timeout", value])
+    assert exc.value.code == 2
+    err = _one_line_error(capsys)
+    assert "--timeout" in err and "<= 10000000" in err and "study.timeout_s" in err
+    assert not out.exists()
+
+
+REV_SPEC = """
+[rve]
+size = [50e-6, 50e-6, 50e-6]
+voxel = 1e-6
+
+[generator]
+porosity = 0.85
+diameter = 7e-6
+"""
+
+
+# session 34 fuzz: `rev --sizes 30e-6 30e-6` ran the same size twice; `--sizes 2` or `1e-9`
+# was refused (after seconds of case expansion) as "parameters: case c0000-... (rve.size.0=2.0,
+# ...) gives a bad spec", naming a study file the user never wrote instead of --sizes.
+@pytest.mark.parametrize(
+    ("sizes", "text"),
+    [
+        (["30e-6", "30e-6"], "each edge length once"),
+        (["2"], "at 2 m, rve.size[0]: must be <= 1.0"),
+        (["1e-9"], "at 1e-09 m, rve.voxel"),
+        (["40e-6", "1"], "at 1 m, rve.voxel"),
+    ],
+)
+def test_rev_sizes_refused_naming_sizes_before_work(tmp_path, capsys, monkeypatch, sizes, text):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    spec = tmp_path / "gen.toml"
+    spec.write_text(REV_SPEC)
+    out = tmp_path / "out"
+    assert main(["rev", str(spec), "--sizes", *sizes, "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --sizes: ") and text in err, err
+    assert "parameters" not in err and not out.exists()
+
+
+# session 34 fuzz: an [image] path that does not exist and has no known extension, or that is
+# a folder (path = "" is the spec's own folder), was refused as "image.format: cannot tell the
+# format of 'scan'": the key named was not the one that is wrong.
+@pytest.mark.parametrize(
+    ("path", "text"), [("scan", "file not found"), ("", "is a folder"), ("sub", "is a folder")]
+)
+def test_image_path_missing_or_a_folder_names_image_path(tmp_path, capsys, no_build, path, text):
+    (tmp_path / "sub").mkdir()
+    spec = tmp_path / "img.toml"
+    spec.write_text(f'[image]\npath = "{path}"\nvoxel_size = 1e-6\n')
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: image.path: ") and text in err, err
+    assert not out.exists()
+
+
+# session 34 fuzz: generator.orientation = {anisotropy = 1e300} passed the schema (beta > 0);
+# beta^2 overflowed, the sampled directions were NaN and the build ended, after the work had
+# started, in "R must be a 3x3 orthogonal matrix" (no key named).
+@pytest.mark.parametrize("beta", ["1e300", "2e6"])
+def test_orientation_anisotropy_beyond_its_range_refused_before_work(
+    tmp_path, capsys, no_build, beta
+):
+    spec = tmp_path / "gen.toml"
+    spec.write_text(REV_SPEC + f"orientation = {{anisotropy = {beta}}}\n")
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: generator.orientation.anisotropy: must be <= ")
+    assert "(0, 1e6]" in err and not out.exists()
+
+
+# session 34 fuzz: diffusivity / conductivity / pores read the spec with a reader of their own:
+# an unreadable spec was "psdesign: error: .../spec.toml: Permission denied" with exit 1 (the
+# other commands: exit 2 naming `spec`), and the 10 MiB size limit was not applied before reading.
+@pytest.mark.parametrize("command", ["diffusivity", "conductivity", "pores"])
+def test_unreadable_spec_is_bad_input_for_the_transport_commands(
+    spec, capsys, monkeypatch, no_build, command
+):
+    import pathlib
+
+    real_bytes, real_text = pathlib.Path.read_bytes, pathlib.Path.read_text
+
+    def denied(self):
+        if self.name == "spec.toml":
+            raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", lambda p: denied(p) or real_bytes(p))
+    monkeypatch.setattr(pathlib.Path, "read_text", lambda p, *a, **k: denied(p) or real_text(p))
+    assert main([command, str(spec), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err == f"psdesign: error: spec: cannot read {spec}: Permission denied"
+
+
+STUDY_HEAD = 'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity"]\n[parameters]\n'
+
+
+# session 34 fuzz: a parameter given twice, once quoted and once dotted (TOML keeps both), ran
+# the second one and dropped the first without a word; a level given twice ran the same case
+# (same spec, same seeds) twice.
+@pytest.mark.parametrize(
+    ("params", "text"),
+    [
+        ('"flow.viscosity" = [1e-5]\nflow.viscosity = [2e-5, 3e-5]\n', "given twice (a quoted"),
+        ('"flow.viscosity" = [1e-5, 2e-5, 1e-5]\n', "level 1e-05 given twice"),
+    ],
+)
+def test_study_parameter_or_level_given_twice_refused(spec, tmp_path, capsys, params, text):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + params)
+    out = tmp_path / "out"
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: parameters.flow.viscosity: ") and text in err, err
+    assert not out.exists()
+
+
+# session 34 fuzz: "rve.voxel" = [5e-7, 1e-6] listed before "rve" = [{size = ..., voxel = 1e-6}]
+# ran two identical cases (same hash) labelled rve.voxel 5e-7 and 1e-6: the cases set the
+# parameters in file order, so each rve level replaced the voxel. After it, it is an override.
+def test_study_parameter_listed_before_the_table_holding_it_refused(spec, tmp_path, capsys):
+    rve = '"rve" = [{size = [20e-6, 20e-6, 20e-6], voxel = 1e-6}]\n'
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + '"rve.voxel" = [5e-7, 1e-6]\n' + rve)
+    out = tmp_path / "out"
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: parameters.rve.voxel: lies inside 'rve', which ")
+    assert not out.exists()
+    from psdesign.study import expand_design, load_study
+
+    study.write_text(STUDY_HEAD + rve + '"rve.voxel" = [5e-7, 1e-6]\n')  # after it: applied
+    voxels = [c.spec["rve"]["voxel"] for c in expand_design(load_study(study))]
+    assert voxels == [5e-7, 1e-6]
+
+
+# session 34 fuzz: `study optimize --target k_z_m2=1e-12 --target k_z_m2=2e-12` (or >= 2e-12 with
+# <= 1e-12) was accepted and spent the whole budget on targets no value meets together.
+@pytest.mark.parametrize(
+    "targets", [["k_z_m2=1e-12", "k_z_m2=2e-12"], ["k_z_m2>=2e-12", "k_z_m2<=1e-12"]]
+)
+def test_optimize_targets_that_exclude_each_other_refused(
+    spec, tmp_path, capsys, monkeypatch, targets
+):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("a case ran"))
+    study = tmp_path / "opt.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "o"\noutputs = ["porosity", "k_z"]\n'
+        'design = "latin-hypercube"\nn_samples = 2\n[parameters]\n'
+        '"flow.viscosity" = {low = 1e-5, high = 2e-5}\n'
+    )
+    out = tmp_path / "out"
+    argv = ["study", "optimize", str(study), "-o", str(out), "--quiet"]
+    assert main([*argv, *(a for t in targets for a in ("--target", t))]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --target: ") and "can never both be met" in err
+    assert not out.exists()
+
+
+# session 34 fuzz: `study run --cluster-cores 4` (any --cluster-* without --cluster) and the
+# three --tls-* files without a tls:// scheduler were ignored without a word: the cases ran on
+# this machine, unencrypted or not, as if the options had not been given.
+@pytest.mark.parametrize(
+    ("extra", "flag"),
+    [
+        (["--cluster-cores", "4"], "--cluster-cores"),
+        (["--cluster-memory", "16GB"], "--cluster-memory"),
+        (["--cluster-walltime", "02:00:00"], "--cluster-walltime"),
+        (["--cluster-queue", "gpu"], "--cluster-queue"),
+        (["--cluster-account", "p1"], "--cluster-account"),
+        (["--cluster-wait", "60"], "--cluster-wait"),
+        (["--tls-ca-file", "{ca}", "--tls-cert", "{ca}", "--tls-key", "{ca}"], "--tls-ca-file"),
+        (
+            ["--scheduler", "tcp://127.0.0.1:8786", "--tls-ca-file", "{ca}", "--tls-cert", "{ca}"]
+            + ["--tls-key", "{ca}"],
+            "--tls-ca-file",
+        ),
+    ],
+)
+def test_study_run_options_that_would_be_ignored_refused(
+    spec, tmp_path, capsys, monkeypatch, extra, flag
+):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    (tmp_path / "ca.pem").write_text("x")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY_HEAD + '"flow.viscosity" = [1e-5]\n')
+    out = tmp_path / "out"
+    extra = [a.format(ca=tmp_path / "ca.pem") for a in extra]
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet", *extra]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith(f"psdesign: error: {flag}: only with "), err
+    assert not out.exists()
+
+
+# session 34 fuzz: the two-fiber case took f0 = 1e300 (overflow warnings, rve.json with
+# f = 1e300) and any u_range: the bend rules of every fiber (f <= 1000 bends per period,
+# |u| f <= 10, psdesign.schema.fibers) did not hold for the force field's fibers.
+@pytest.mark.parametrize(
+    ("line", "key", "text"),
+    [
+        ("f0 = 1e300", "f0", "must be <= 1000"),
+        ("f0 = 999.5", "f_range", "f0 + f_range = 1000.5"),
+        ("u_range = 1e300", "u_range", "must be <= 10"),
+        ("f0 = 4.0\nu_range = 3.0", "u_range", "u_range x (f0 + f_range) = 15"),
+    ],
+)
+def test_two_fiber_bends_beyond_the_fiber_rules_refused(
+    tmp_path, capsys, monkeypatch, line, key, text
+):
+    import psdesign.forcefield.run as run
+
+    monkeypatch.setattr(run, "run_forcefield", lambda *a, **k: pytest.fail("the search ran"))
+    spec = tmp_path / "ff.toml"
+    spec.write_text(f'[forcefield]\ncase = "two-fiber"\n[forcefield.two_fiber]\n{line}\n')
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith(f"psdesign: error: forcefield.two_fiber.{key}: ") and text in err, err
+    assert not out.exists()
+
+
+# session 34 fuzz: `study run --scheduler ""` (an empty shell variable) ran the cases on the
+# local process pool, as if no scheduler had been given.
+@pytest.mark.parametrize("command", ["run", "optimize"])
+def test_empty_scheduler_address_refused(spec, tmp_path, capsys, monkeypatch, command):
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(runner, "_claim", lambda *a, **k: pytest.fail("the folder was claimed"))
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "spec.toml"\n[study]\nname = "s"\noutputs = ["porosity", "k_z"]\n'
+        'design = "latin-hypercube"\nn_samples = 2\n[parameters]\n'
+        '"flow.viscosity" = {low = 1e-5, high = 2e-5}\n'
+    )
+    out = tmp_path / "out"
+    extra = ["--target", "k_z_m2>=1e-12"] if command == "optimize" else []
+    argv = ["study", command, str(study), "-o", str(out), "--quiet", "--scheduler", "", *extra]
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --scheduler: empty ('')"), err
+    assert not out.exists()
+
+
+BIG_FEM = """
+[rve]
+size = [1e-3, 1e-3, 1e-3]
+voxel = 2e-6
+
+[[fibers]]
+shape = "cylinder"
+diameter = 1e-4
+direction = [0, 0, 1]
+
+[flow]
+solver = "fem"
+bc = "periodic"
+"""
+
+
+# session 34 fuzz: the spec was checked against the budget of its own flow.solver only, so
+# `permeability --solver voxel` on a spec written for the FEM (a 500^3 grid: 1.25e8 cells of
+# 132 B, 15.4 GiB, over half a 24 GiB machine) passed and started building the RVE; the same
+# spec with flow.solver = "voxel" was refused up front.
+def test_permeability_solver_override_checked_against_its_budget(
+    tmp_path, capsys, monkeypatch, no_build
+):
+    import psdesign.schema.budget as budget
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    spec = tmp_path / "big.toml"
+    spec.write_text(BIG_FEM)
+    assert main(["permeability", str(spec), "--solver", "voxel", "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: rve.voxel: a 500x500x500 grid ") and "'voxel'" in err
+
+
+# session 34 fuzz: rev's cases run with --solver (default voxel) but its sizes were validated
+# with the spec's flow.solver: on a FEM spec a 500 um cube at 1 um (15.4 GiB of voxel solve on
+# a 24 GiB machine) passed and the study started.
+def test_rev_sizes_checked_against_the_budget_of_the_solver_the_cases_run(
+    tmp_path, capsys, monkeypatch
+):
+    import psdesign.schema.budget as budget
+    import psdesign.study.runner as runner
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    monkeypatch.setattr(runner, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    spec = tmp_path / "gen.toml"
+    spec.write_text(
+        "[rve]\nsize = [5e-4, 5e-4, 5e-4]\nvoxel = 1e-6\n[generator]\nporosity = 0.9\n"
+        'diameter = 2e-5\n[flow]\nsolver = "fem"\nbc = "periodic"\nlattice_step = 2e-5\n'
+    )
+    out = tmp_path / "out"
+    assert main(["rev", str(spec), "--sizes", "4e-4", "5e-4", "-o", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --sizes: at 0.0005 m, rve.voxel: a 500x500x500 grid")
+    assert "solver 'voxel'" in err and not out.exists()

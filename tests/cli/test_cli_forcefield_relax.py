@@ -61,6 +61,49 @@ def test_relax_table_is_checked_before_any_work(tmp_path, capsys, monkeypatch, l
     assert not out.exists()
 
 
+GENERATED = """
+[rve]
+size = [60e-6, 60e-6, 60e-6]
+voxel = 1e-6
+[generator]
+porosity = 0.85
+diameter = 7e-6
+"""
+
+
+# session 34 fuzz: `grid` / `gap` / `tie_bend` (field-route keys) on rods, and an [image] spec
+# (no fibers), were refused only after the RVE was built: a generator's placement first ran.
+@pytest.mark.parametrize(
+    ("spec_text", "key", "text"),
+    [
+        (RODS + "grid = 1e-6\n", "forcefield.relax.grid", "only used for woven / compressed"),
+        (GENERATED + "[forcefield.relax]\ngap = 1e-6\n", "forcefield.relax.gap", "only used"),
+        (
+            GENERATED + "[forcefield.relax]\ntie_bend = true\n",
+            "forcefield.relax.tie_bend",
+            "only used",
+        ),
+        ('[image]\npath = "a.npy"\nvoxel_size = 1e-6\n', "fibers", "this spec has none"),
+    ],
+)
+def test_relax_route_refusals_before_the_build(tmp_path, capsys, monkeypatch, spec_text, key, text):
+    import psdesign.packing.build as build
+
+    a = np.zeros((8, 8, 8), np.uint8)
+    a[2:5] = 1
+    np.save(tmp_path / "a.npy", a)
+    spec = tmp_path / "s.toml"
+    spec.write_text(
+        spec_text + ("[rve]\nsize = [8e-6, 8e-6, 8e-6]\n" if "image" in spec_text else "")
+    )
+    monkeypatch.setattr(build, "build_rve", _no_build)
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"psdesign: error: {key}: ") and text in err[0], err
+    assert not out.exists()
+
+
 def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys):
     """Two polls: the first fiber moves to its bound (10 um) and the overlap is gone, but the
     search stopped on ``max_iter``; the status is ``not_converged`` (it was ``at_bound``, which

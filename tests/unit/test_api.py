@@ -550,3 +550,70 @@ def test_spec_errors_survive_pickling() -> None:
         back = pickle.loads(pickle.dumps(err))
         assert type(back) is type(err) and str(back) == str(err)
         assert (back.key, back.message) == (err.key, err.message)
+
+
+def test_run_study_arguments_checked_before_the_output_folder(tmp_path) -> None:
+    # session 34 fuzz: timeout_s=inf (or 1e300) was accepted though study.timeout_s allows
+    # (0, 1e7]; report="no" was taken as true (a report written); scheduler=3 failed inside the
+    # connection with a TypeError; a misspelled case_fn made the output folder and then failed
+    # every case. Each is now one StudyError naming the keyword, and nothing is created.
+    quiet = {"workers": 0, "report": False, "progress": False}
+    out = tmp_path / "o"
+    cases = [
+        ({"timeout_s": math.inf}, r"^timeout: must be a number > 0 and <= 10000000"),
+        ({"timeout_s": 1e300}, r"^timeout: must be a number > 0 and <= 10000000"),
+        ({"report": "no"}, r"^report: must be True or False, got 'no'"),
+        ({"force": 1}, r"^force: must be True or False"),
+        ({"retry_failed": "yes"}, r"^retry_failed: must be True or False"),
+        ({"scheduler": 3}, r"^scheduler: must be an address .* got int"),
+        ({"case_fn": "nope_module_x:run"}, r"^case_fn: cannot load 'nope_module_x:run'"),
+        ({"case_fn": 3}, r"^case_fn: cannot load 3"),
+    ]
+    for kwargs, match in cases:
+        with pytest.raises(psdesign.StudyError, match=match):
+            psdesign.run_study(_tiny_study(), out, **{**quiet, **kwargs})
+        assert not out.exists()
+
+
+def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:
+    # session 34 fuzz: m.conductivity(solid=True) solved with a solid of 1.0 and solid="2"
+    # with 2.0 (float() of a bool and of a string); from_image(<a folder>) was refused as
+    # "image.format: cannot tell the format of ...", not naming the path.
+    m = psdesign.build(_one_cylinder())
+    for bad in (True, "2", np.bool_(True)):
+        with pytest.raises(psdesign.SpecError) as info:
+            m.conductivity("z", solid=bad, fluid=0.1)
+        assert info.value.key == "transport.solid_conductivity", str(info.value)
+        assert "must be a number > 0 and < 1e12" in info.value.message
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.from_image(tmp_path, voxel_size=1e-6)
+    assert info.value.key == "image.path" and "is a folder" in info.value.message
+
+
+def test_expand_design_and_write_report_take_what_run_study_takes(tmp_path) -> None:
+    # session 34 fuzz: psdesign.expand_design(3) was an AttributeError ('int' object has no
+    # attribute 'parameters') and a study dict was refused the same way; write_report(3) was
+    # pathlib's TypeError. Now a dict or file is loaded as run_study loads it, and a bad type
+    # is the one-line error naming the argument.
+    study = _tiny_study()
+    cases = psdesign.expand_design(study)
+    assert [c.params["generator.diameter"] for c in cases] == [5e-6, 6e-6]
+    with pytest.raises(psdesign.StudyError, match=r"^study: must be a study file name"):
+        psdesign.expand_design(3)
+    for bad in (3, None):
+        with pytest.raises(psdesign.OutputError, match=r"^out_dir: must be a folder name"):
+            psdesign.write_report(bad)
+
+
+def test_progress_keyword_is_a_flag(monkeypatch) -> None:
+    # session 34 fuzz: m.diffusivity("z", progress="no") printed the progress lines (any
+    # non-empty string was true); a flag is now True or False, NumPy's too
+    import psdesign.flow.permeability as perm
+
+    monkeypatch.setattr(perm, "permeability", lambda *a, **k: pytest.fail("solved"))
+    m = psdesign.build(_one_cylinder())
+    for call in (m.permeability, m.diffusivity, m.conductivity):
+        for bad in ("no", 1, None):
+            with pytest.raises(psdesign.SpecError, match=r"^progress: must be True or False"):
+                call("z", progress=bad)
+    assert m.diffusivity("z", progress=np.bool_(False)).converged
