@@ -165,6 +165,7 @@ fi
 set -e
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
+@CONVERGED@
 f=$(ls -d postProcessing/fluxInlet/*/ | tail -n 1)surfaceFieldValue.dat
 Q=$(tail -n 1 "$f" | awk '{print $2}')
 awk -v q="$Q" -v nu=@NU@ -v rho=@RHO@ -v L=@L@ -v A=@A@ -v dp=@DP@ 'BEGIN {
