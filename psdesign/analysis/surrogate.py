@@ -370,8 +370,16 @@ def _check_parameter_cells(df: pd.DataFrame, params: list[str]) -> None:
             )
 
 
-def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
+def fit_study(
+    out_dir: str | Path,
+    outputs: list[str] | None = None,
+    skipped: dict[str, str] | None = None,
+) -> dict[str, Surrogate]:
     """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``.
+
+    Every output that can be fitted is: one that cannot (fewer than 3 trusted values) is left
+    out and its reason (``"k_z_m2: need at least 3 ..."``) put in ``skipped[name]``; a
+    ``ValueError`` naming every reason when no output can be fitted (nothing is written).
 
     A ``surrogate.json`` that psdesign did not write (the folder's marker does not list it) is
     never replaced: :class:`psdesign.io.outputs.OutputError` (a ``ValueError``) before the fit.
@@ -403,7 +411,16 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
                 f"--outputs: {name!r} is not a numeric output of results.csv; "
                 f"allowed: {', '.join(allowed)}"
             )
-    models = {name: fit_surrogate(df, name, params, bounds) for name in names}
+    models, reasons = {}, {}
+    for name in names:
+        try:
+            models[name] = fit_surrogate(df, name, params, bounds)
+        except ValueError as exc:
+            reasons[name] = " ".join(str(exc).split())
+    if skipped is not None:
+        skipped.update(reasons)
+    if not models:
+        raise ValueError(f"{out}: no output could be fitted ({'; '.join(reasons.values())})")
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}

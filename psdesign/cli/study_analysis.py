@@ -44,10 +44,13 @@ def _print_json(obj) -> None:
 def _cmd_fit(args: argparse.Namespace) -> int:
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
+    skipped: dict[str, str] = {}
     try:
-        models = fit_study(args.out, args.outputs or None)
+        models = fit_study(args.out, args.outputs or None, skipped)
     except (FileNotFoundError, ValueError) as exc:
         return _fail(str(exc))
+    for reason in skipped.values():  # "k_z_m2: need at least 3 ..."
+        print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
     for name, m in models.items():
         status, warnings = m.rating()
