@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Collection
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -444,8 +445,18 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
         ) from None
 
 
-def parse_point(text: str, params: list[str]) -> np.ndarray:
-    """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order."""
+def parse_point(text: str, params: list[str], ints: Collection[str] = ()) -> np.ndarray:
+    """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order.
+
+    A parameter in ``ints`` (``type = "int"`` in the study) must be a whole number:
+
+    >>> parse_point("n=12.0", ["n"], ints={"n"})
+    array([12.])
+    >>> parse_point("n=12.5", ["n"], ints={"n"})
+    Traceback (most recent call last):
+    ...
+    ValueError: --at: n must be an integer (type = "int" in the study), got '12.5'
+    """
     values: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
         key, sep, val = item.partition("=")
@@ -462,6 +473,10 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
             raise ValueError(f"--at: {key} must be a number, got {val!r}") from None
         if not math.isfinite(values[key]):
             raise ValueError(f"--at: {key} must be a finite number, got {val.strip()!r}")
+        if key in ints and not values[key].is_integer():
+            raise ValueError(
+                f'--at: {key} must be an integer (type = "int" in the study), got {val.strip()!r}'
+            )
     missing = [p for p in params if p not in values]
     if missing:
         raise ValueError(f"--at: missing {', '.join(missing)}")

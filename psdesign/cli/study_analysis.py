@@ -85,14 +85,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _predict_one(m, at: str) -> tuple[dict, str]:
+def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its status (``extrapolated`` outside the
     fitted cases, else the fit's rating, ``untrustworthy`` also when the point's own error bar
     is too wide: :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is
     returned too)."""
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
-    x = parse_point(at, m.params)
+    x = parse_point(at, m.params, ints)
     mean, std = (float(v[0]) for v in m.predict(x[None, :]))
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
@@ -108,11 +108,15 @@ def _predict_one(m, at: str) -> tuple[dict, str]:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
+    from psdesign.analysis.columns import study_parameters
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
         models = load_study_surrogates(args.out)
-        rows = {name: _predict_one(m, args.at) for name, m in models.items()}
+        ints = frozenset(
+            p for p, info in study_parameters(args.out).items() if (info or {}).get("type") == "int"
+        )
+        rows = {name: _predict_one(m, args.at, ints) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
         return _fail(" ".join(str(exc).split()))
     out = {name: row for name, (row, _) in rows.items()}

@@ -594,6 +594,32 @@ def test_fit_fits_every_output_it_can_and_names_the_one_it_skips(tmp_path, capsy
     assert list(load_study_surrogates(out)) == ["porosity"]
 
 
+def test_predict_refuses_a_fraction_for_an_int_parameter(tmp_path, capsys) -> None:
+    """Audit (session 34): ``study predict --at generator.n_fibers=12.5`` of a study whose
+    n_fibers has ``type = "int"`` printed a prediction at 12.5 fibers, no flag (no case can
+    have half a fiber). Rule: one line naming --at and the parameter; 12.0 and 30 are whole
+    numbers and predict (exit 0)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.n_fibers" = {low = 10, high = 50, type = "int"}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    at = "generator.porosity=0.8,generator.n_fibers=12.5"
+    assert main(["study", "predict", str(out), "--at", at]) == 2
+    assert _one_error_line(capsys).endswith(
+        "--at: generator.n_fibers must be an integer (type = \"int\" in the study), got '12.5'"
+    )
+    for n in ("12.0", "30"):
+        at = f"generator.porosity=0.8,generator.n_fibers={n}"
+        assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+        capsys.readouterr()
+
+
 def test_a_parameter_fixed_in_every_case_gets_no_sensitivity_index() -> None:
     """Truth: the cases depend on ``a`` alone and ``b`` is 5 in every case, so over what the
     cases span S1_a = ST_a = 1 (Saltelli's Primer, Sec. 4: a function of one input). Before,
