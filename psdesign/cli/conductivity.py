@@ -21,7 +21,8 @@ def _cmd(args: argparse.Namespace) -> int:
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "conductivity", dirs) as writer:
         given = {"bc": args.bc, "insulating_phase": args.insulating, "conductivity_unit": args.unit}
-        case = load_case(args.spec, given)
+        flags = {"bc": "--bc", "insulating_phase": "--insulating", "conductivity_unit": "--unit"}
+        case = load_case(args.spec, given, flags)
         tr = dict(case.transport)
         results = [
             effective_conductivity(

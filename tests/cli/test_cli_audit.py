@@ -48,7 +48,8 @@ def _one_line_error(capsys) -> str:
 def test_pores_n_radii_out_of_range_refused_before_work(spec, capsys, no_build, value):
     assert main(["pores", str(spec), "--n-radii", value]) == 2
     err = _one_line_error(capsys)
-    assert "transport.n_radii" in err and value in err
+    # the option typed and its key (audit s34: it named only transport.n_radii)
+    assert "psdesign: error: --n-radii (transport.n_radii): " in err and value in err
 
 
 # main: `diffusivity --tol 0` ran with the default 1e-8 (`if args.tol:`); -1 was refused only
@@ -57,7 +58,15 @@ def test_pores_n_radii_out_of_range_refused_before_work(spec, capsys, no_build, 
 def test_diffusivity_tol_out_of_range_refused_before_work(spec, capsys, no_build, value):
     assert main(["diffusivity", str(spec), "--tol", value]) == 2
     err = _one_line_error(capsys)
-    assert "transport.tol" in err
+    assert "psdesign: error: --tol (transport.tol): " in err  # the option typed (audit s34)
+
+
+def test_a_bad_tol_in_the_spec_is_named_by_its_key(tmp_path, capsys, no_build):
+    """The spec's own bad value is not the option's: it keeps its key alone."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SPEC.replace("[transport]\n", "[transport]\ntol = 2.0\n"))
+    assert main(["diffusivity", str(bad)]) == 2
+    assert _one_line_error(capsys).startswith("psdesign: error: transport.tol: ")
 
 
 def test_cli_overrides_reach_the_solver(spec, capsys):
