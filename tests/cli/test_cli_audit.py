@@ -561,3 +561,26 @@ def test_rev_sizes_checked_against_the_budget_of_the_solver_the_cases_run(
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: --sizes: at 0.0005 m, rve.voxel: a 500x500x500 grid")
     assert "solver 'voxel'" in err and not out.exists()
+
+
+@pytest.mark.parametrize(
+    "args,where",
+    [
+        (["--insulating", "solid", "--solid", "1"], "--solid: --insulating solid makes the solid"),
+        (["--insulating", "fluid", "--fluid", "2"], "--fluid: --insulating fluid makes the fluid"),
+    ],
+)
+def test_conductivity_refuses_a_value_for_the_insulating_phase(spec, capsys, no_build, args, where):
+    """Audit (session 34): ``conductivity --insulating solid --solid 1`` ignored the 1 (the
+    help: --insulating makes that phase a perfect insulator, conductivity 0) and printed sigma
+    of an insulating solid. One line naming both options, before the build."""
+    assert main(["conductivity", str(spec), *args]) == 2
+    err = _one_line_error(capsys)
+    assert where in err and "--insulating none" in err
+
+
+def test_conductivity_refuses_a_value_for_the_spec_s_insulating_phase(tmp_path, capsys, no_build):
+    bad = tmp_path / "ins.toml"
+    bad.write_text(SPEC.replace("[transport]\n", '[transport]\ninsulating_phase = "solid"\n'))
+    assert main(["conductivity", str(bad), "--solid", "1"]) == 2
+    assert 'transport.insulating_phase = "solid"' in _one_line_error(capsys)
