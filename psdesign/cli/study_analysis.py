@@ -249,9 +249,10 @@ def _measured_text(r: dict) -> str:
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
-    from psdesign.study.runner import SchedulerError, WorkersLost
+    from psdesign.study.runner import SchedulerError, WorkersLost, check_workers
 
     try:
+        check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
         targets = [Target.parse(t) for t in args.target]
         res = optimize_study(
             args.study,

@@ -584,3 +584,38 @@ def test_conductivity_refuses_a_value_for_the_spec_s_insulating_phase(tmp_path, 
     bad.write_text(SPEC.replace("[transport]\n", '[transport]\ninsulating_phase = "solid"\n'))
     assert main(["conductivity", str(bad), "--solid", "1"]) == 2
     assert 'transport.insulating_phase = "solid"' in _one_line_error(capsys)
+
+
+def _optimize_study(tmp_path):
+    p = tmp_path / "opt.toml"
+    p.write_text(
+        f'[study]\nbase = "{tmp_path / "spec.toml"}"\ndesign = "latin-hypercube"\n'
+        'n_samples = 4\nseeds = [1]\noutputs = ["k_z"]\n\n[parameters]\n'
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+    )
+    return p
+
+
+@pytest.mark.parametrize(
+    "cmd,value",
+    [("rev", "-1"), ("rev", "100000"), ("optimize", "-1"), ("optimize", "100000")]
+    + [("run", "100000")],  # study run refuses -1 in argparse ("argument --workers: ...")
+)
+def test_workers_errors_name_the_option(spec, tmp_path, capsys, no_build, cmd, value):
+    """Audit (session 34): ``rev --workers -1`` and ``study optimize --workers -1`` (and
+    100000, above the local cap max_local_workers()) said "workers: ..." where the user typed
+    --workers. The same values are refused (the runner's rule), now naming --workers, before
+    any work (no output folder)."""
+    out = tmp_path / "out"
+    argv = {
+        "rev": ["rev", str(spec), "--sizes", "2e-5", "-o", str(out)],
+        "optimize": ["study", "optimize", str(_optimize_study(tmp_path)), "-o", str(out)],
+        "run": ["study", "run", str(_optimize_study(tmp_path)), "-o", str(out)],
+    }[cmd]
+    if cmd == "optimize":
+        argv += ["--target", "k_z_m2=5e-12"]
+    assert main([*argv, "--quiet", "--workers", value]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --workers: "), err
+    assert value in err
+    assert not out.exists()
