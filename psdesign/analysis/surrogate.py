@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Collection
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -370,8 +371,16 @@ def _check_parameter_cells(df: pd.DataFrame, params: list[str]) -> None:
             )
 
 
-def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str, Surrogate]:
+def fit_study(
+    out_dir: str | Path,
+    outputs: list[str] | None = None,
+    skipped: dict[str, str] | None = None,
+) -> dict[str, Surrogate]:
     """Fit a surrogate per output of ``OUT/results.csv`` and save ``OUT/surrogate.json``.
+
+    Every output that can be fitted is: one that cannot (fewer than 3 trusted values) is left
+    out and its reason (``"k_z_m2: need at least 3 ..."``) put in ``skipped[name]``; a
+    ``ValueError`` naming every reason when no output can be fitted (nothing is written).
 
     A ``surrogate.json`` that psdesign did not write (the folder's marker does not list it) is
     never replaced: :class:`psdesign.io.outputs.OutputError` (a ``ValueError``) before the fit.
@@ -403,7 +412,16 @@ def fit_study(out_dir: str | Path, outputs: list[str] | None = None) -> dict[str
                 f"--outputs: {name!r} is not a numeric output of results.csv; "
                 f"allowed: {', '.join(allowed)}"
             )
-    models = {name: fit_surrogate(df, name, params, bounds) for name in names}
+    models, reasons = {}, {}
+    for name in names:
+        try:
+            models[name] = fit_surrogate(df, name, params, bounds)
+        except ValueError as exc:
+            reasons[name] = " ".join(str(exc).split())
+    if skipped is not None:
+        skipped.update(reasons)
+    if not models:
+        raise ValueError(f"{out}: no output could be fitted ({'; '.join(reasons.values())})")
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}
@@ -427,8 +445,18 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
         ) from None
 
 
-def parse_point(text: str, params: list[str]) -> np.ndarray:
-    """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order."""
+def parse_point(text: str, params: list[str], ints: Collection[str] = ()) -> np.ndarray:
+    """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order.
+
+    A parameter in ``ints`` (``type = "int"`` in the study) must be a whole number:
+
+    >>> parse_point("n=12.0", ["n"], ints={"n"})
+    array([12.])
+    >>> parse_point("n=12.5", ["n"], ints={"n"})
+    Traceback (most recent call last):
+    ...
+    ValueError: --at: n must be an integer (type = "int" in the study), got '12.5'
+    """
     values: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
         key, sep, val = item.partition("=")
@@ -445,6 +473,10 @@ def parse_point(text: str, params: list[str]) -> np.ndarray:
             raise ValueError(f"--at: {key} must be a number, got {val!r}") from None
         if not math.isfinite(values[key]):
             raise ValueError(f"--at: {key} must be a finite number, got {val.strip()!r}")
+        if key in ints and not values[key].is_integer():
+            raise ValueError(
+                f'--at: {key} must be an integer (type = "int" in the study), got {val.strip()!r}'
+            )
     missing = [p for p in params if p not in values]
     if missing:
         raise ValueError(f"--at: missing {', '.join(missing)}")

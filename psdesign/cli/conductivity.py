@@ -17,11 +17,13 @@ def _cmd(args: argparse.Namespace) -> int:
 
     solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
     fluid = None if args.fluid is None else check_conductivity(args.fluid, "--fluid")
+    _check_insulating(args)
     t0 = time.perf_counter()
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "conductivity", dirs) as writer:
         given = {"bc": args.bc, "insulating_phase": args.insulating, "conductivity_unit": args.unit}
-        case = load_case(args.spec, given)
+        flags = {"bc": "--bc", "insulating_phase": "--insulating", "conductivity_unit": "--unit"}
+        case = load_case(args.spec, given, flags)
         tr = dict(case.transport)
         results = [
             effective_conductivity(
@@ -42,6 +44,32 @@ def _cmd(args: argparse.Namespace) -> int:
         out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
     out["wall_time_s"] = time.perf_counter() - t0
     return emit("conductivity", out, results, args.json, _line)
+
+
+def _check_insulating(args: argparse.Namespace) -> None:
+    """Refuse ``--solid`` / ``--fluid`` for the phase made a perfect insulator (conductivity
+    0) by ``--insulating`` or, without it, by the spec's ``transport.insulating_phase``: the
+    value would be ignored. Before any work (the spec's table is read, nothing built)."""
+    from pathlib import Path
+
+    from psdesign.errors import SpecError
+    from psdesign.schema.spec import read_toml
+    from psdesign.schema.transport import validate_transport
+
+    given = [f for f, v in (("solid", args.solid), ("fluid", args.fluid)) if v is not None]
+    if not given:
+        return
+    if args.insulating is not None:
+        phase, where = args.insulating, f"--insulating {args.insulating}"
+    else:
+        phase = validate_transport(read_toml(Path(args.spec)))["insulating_phase"]
+        where = f'the spec\'s transport.insulating_phase = "{phase}"'
+    if phase in given:
+        raise SpecError(
+            f"--{phase}",
+            f"{where} makes the {phase} a perfect insulator (conductivity 0), so --{phase} "
+            f"would be ignored; give one of them (--insulating none to use --{phase})",
+        )
 
 
 def _line(r: dict) -> str:
@@ -73,7 +101,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--insulating",
         choices=("none", "solid", "fluid"),
         default=None,
-        help="treat one phase as a perfect insulator",
+        help="treat one phase as a perfect insulator (conductivity 0; its --solid / "
+        "--fluid is then refused)",
     )
     p.add_argument("--bc", choices=("periodic", "permeameter"), default=None)
     p.add_argument(

@@ -44,7 +44,9 @@ def _cmd(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     dirs = ["x", "y", "z"] if args.direction == "all" else [args.direction]
     with fields_folder(args.fields, "diffusivity", dirs) as writer:
-        case = load_case(args.spec, {"bc": args.bc, "tol": args.tol})
+        case = load_case(
+            args.spec, {"bc": args.bc, "tol": args.tol}, {"bc": "--bc", "tol": "--tol"}
+        )
         tr = dict(case.transport)
         out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0

@@ -139,15 +139,14 @@ def _check_overrides(spec: dict, flow: dict, solver: str, args: argparse.Namespa
     is built: the memory budget and the route's own checks depend on them (``--solver voxel``
     on a spec written for the FEM skipped the voxel solver's budget, and a 15 GiB solve
     started building)."""
-    from psdesign.schema.spec import validate_spec
+    from psdesign.schema.spec import check_flow_override
 
     bcs = ["permeameter", "periodic"] if args.bc == "both" else [flow.get("bc")]
     for bc in bcs:
         table = {**flow, "solver": solver}
         if bc is not None:
             table["bc"] = bc
-        if table != spec["flow"]:
-            validate_spec({**spec, "flow": table})
+        check_flow_override(spec, table)
 
 
 def _check_route(flow: dict, solver: str, args: argparse.Namespace) -> None:

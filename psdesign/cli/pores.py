@@ -17,7 +17,11 @@ def _cmd(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     plot = None if args.plot is None else check_new_file(args.plot, "--plot")
-    case = load_case(args.spec, {"n_radii": args.n_radii, "thickness_axis": args.axis})
+    case = load_case(
+        args.spec,
+        {"n_radii": args.n_radii, "thickness_axis": args.axis},
+        {"n_radii": "--n-radii", "thickness_axis": "--axis"},
+    )
     out = pore_report(case.rve, case.fields, case.transport)
     out["wall_time_s"] = time.perf_counter() - t0
     if plot is not None:

@@ -10,10 +10,12 @@ import sys
 
 def _cmd_rev(args: argparse.Namespace) -> int:
     from psdesign.analysis.rev import RevFailed, check_rev_dir, rev_study
+    from psdesign.study.runner import check_workers
 
     # rev has no --force: the refusal names none; a user's rev.csv / rev.json is refused now
     check_rev_dir(args.out)
     try:
+        check_workers(args.workers, what="--workers")  # the runner's rule, named as typed
         res = rev_study(
             args.spec,
             args.sizes,

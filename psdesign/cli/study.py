@@ -193,11 +193,21 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
     from psdesign.study.interrupt import Terminated
-    from psdesign.study.runner import SchedulerError, WorkersLost, run_study, scheduler_security
+    from psdesign.study.runner import (
+        SchedulerError,
+        WorkersLost,
+        check_workers,
+        run_study,
+        scheduler_security,
+    )
     from psdesign.study.store import StorageError
     from psdesign.study.studyfile import StudyError
 
     try:
+        # the runner's cap on local workers, named as typed (a --cluster's are not local)
+        check_workers(
+            args.workers, args.scheduler or ("cluster" if args.cluster else None), "--workers"
+        )
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
         if security is not None and not str(args.scheduler or "").startswith("tls://"):
             # they were ignored: only a tls:// scheduler uses them

@@ -44,10 +44,13 @@ def _print_json(obj) -> None:
 def _cmd_fit(args: argparse.Namespace) -> int:
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
+    skipped: dict[str, str] = {}
     try:
-        models = fit_study(args.out, args.outputs or None)
+        models = fit_study(args.out, args.outputs or None, skipped)
     except (FileNotFoundError, ValueError) as exc:
         return _fail(str(exc))
+    for reason in skipped.values():  # "k_z_m2: need at least 3 ..."
+        print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
     for name, m in models.items():
         status, warnings = m.rating()
@@ -82,14 +85,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _predict_one(m, at: str) -> tuple[dict, str]:
+def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its status (``extrapolated`` outside the
     fitted cases, else the fit's rating, ``untrustworthy`` also when the point's own error bar
     is too wide: :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is
     returned too)."""
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
-    x = parse_point(at, m.params)
+    x = parse_point(at, m.params, ints)
     mean, std = (float(v[0]) for v in m.predict(x[None, :]))
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
@@ -105,11 +108,15 @@ def _predict_one(m, at: str) -> tuple[dict, str]:
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
+    from psdesign.analysis.columns import study_parameters
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
         models = load_study_surrogates(args.out)
-        rows = {name: _predict_one(m, args.at) for name, m in models.items()}
+        ints = frozenset(
+            p for p, info in study_parameters(args.out).items() if (info or {}).get("type") == "int"
+        )
+        rows = {name: _predict_one(m, args.at, ints) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
         return _fail(" ".join(str(exc).split()))
     out = {name: row for name, (row, _) in rows.items()}
@@ -242,9 +249,10 @@ def _measured_text(r: dict) -> str:
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
-    from psdesign.study.runner import SchedulerError, WorkersLost
+    from psdesign.study.runner import SchedulerError, WorkersLost, check_workers
 
     try:
+        check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
         targets = [Target.parse(t) for t in args.target]
         res = optimize_study(
             args.study,

@@ -141,6 +141,16 @@ def validate_spec(data: dict, base: str | Path | None = None) -> dict:
     return spec
 
 
+def check_flow_override(spec: dict, flow: dict) -> None:
+    """Validate ``spec`` again with the ``[flow]`` table ``flow`` (its own with a caller's
+    overrides: ``--solver`` / ``--bc`` / ``--sides``, or ``Material.permeability``'s keywords)
+    when it differs from the spec's, before any work: the memory budget and the route's own
+    checks depend on the solver and bc (a spec written for the FEM with ``solver = "voxel"``
+    given skipped the voxel solver's budget, and a 15 GiB solve started). ``SpecError``."""
+    if flow != spec["flow"]:
+        validate_spec({**spec, "flow": flow})
+
+
 def _plain(value: Any) -> Any:
     """``value`` with NumPy scalars and arrays (a notebook's spec dict) as Python numbers and
     lists, so that the validated spec is plain JSON data like a TOML file's."""

@@ -228,6 +228,20 @@ def max_local_workers() -> int:
     return max(64, 4 * (os.cpu_count() or 1))
 
 
+def check_workers(workers, scheduler=None, what: str = "workers") -> None:
+    """The one rule of a study's worker count: an integer >= 0, and on this machine (no
+    ``scheduler`` or ``"local"``) at most :func:`max_local_workers`; else a one-line
+    :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+        raise StudyError(f"{what}: must be an integer >= 0, got {workers!r}")
+    local = scheduler is None or scheduler == "local"
+    if local and workers > max_local_workers():
+        raise StudyError(
+            f"{what}: at most {max_local_workers()} processes on this machine (4 per CPU, at "
+            f"least 64), got {workers}; use --scheduler or --cluster for more"
+        )
+
+
 def _init_worker(parent_pid: int) -> None:
     """Pool-worker start-up: exit when the runner dies; Ctrl-C is the runner's to handle;
     warnings one line each, as in the runner (the case records them in its results)."""
@@ -719,14 +733,7 @@ def run_study(
     """
     if not isinstance(study, Study):
         study = load_study(study)
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
-        raise StudyError(f"workers: must be an integer >= 0, got {workers!r}")
-    local = scheduler is None or scheduler == "local"
-    if local and workers > max_local_workers():
-        raise StudyError(
-            f"workers: at most {max_local_workers()} processes on this machine (4 per CPU, at "
-            f"least 64), got {workers}; use --scheduler or --cluster for more"
-        )
+    check_workers(workers, scheduler)
     if timeout_s is not None and (
         isinstance(timeout_s, bool)
         or not isinstance(timeout_s, int | float)

@@ -24,7 +24,9 @@ class TransportCase:
         return cells_per_diameter(self.rve, float(self.fields.grid.spacing[0]))
 
 
-def load_case(path: str, overrides: dict | None = None) -> TransportCase:
+def load_case(
+    path: str, overrides: dict | None = None, flags: dict[str, str] | None = None
+) -> TransportCase:
     """Load and validate a spec file, build the RVE and voxelize it at ``rve.voxel``.
 
     Parameters
@@ -34,6 +36,9 @@ def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     overrides : dict, optional
         ``[transport]`` keys given on the command line (``None`` values are ignored); they
         replace the spec's and are validated with it, before the RVE is built.
+    flags : dict, optional
+        The command-line option of each override key (``{"tol": "--tol"}``): a bad override
+        is named by the option the user typed and its key, ``--tol (transport.tol): ...``.
 
     Raises
     ------
@@ -42,6 +47,7 @@ def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     """
     from pathlib import Path
 
+    from psdesign.errors import SpecError
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec, read_toml, validate_spec
     from psdesign.schema.transport import validate_transport
@@ -53,7 +59,13 @@ def load_case(path: str, overrides: dict | None = None) -> TransportCase:
     transport = validate_transport(raw)
     given = {k: v for k, v in (overrides or {}).items() if v is not None}
     if given:
-        transport = validate_transport({"transport": {**transport, **given}})
+        try:
+            transport = validate_transport({"transport": {**transport, **given}})
+        except SpecError as exc:
+            key = exc.key.removeprefix("transport.")
+            if key not in given or key not in (flags or {}):
+                raise
+            raise SpecError(f"{flags[key]} ({exc.key})", exc.message) from None
     rest = {k: v for k, v in raw.items() if k != "transport"}
     spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
     spec["transport"] = transport

@@ -48,7 +48,8 @@ def _one_line_error(capsys) -> str:
 def test_pores_n_radii_out_of_range_refused_before_work(spec, capsys, no_build, value):
     assert main(["pores", str(spec), "--n-radii", value]) == 2
     err = _one_line_error(capsys)
-    assert "transport.n_radii" in err and value in err
+    # the option typed and its key (audit s34: it named only transport.n_radii)
+    assert "psdesign: error: --n-radii (transport.n_radii): " in err and value in err
 
 
 # main: `diffusivity --tol 0` ran with the default 1e-8 (`if args.tol:`); -1 was refused only
@@ -57,7 +58,15 @@ def test_pores_n_radii_out_of_range_refused_before_work(spec, capsys, no_build, 
 def test_diffusivity_tol_out_of_range_refused_before_work(spec, capsys, no_build, value):
     assert main(["diffusivity", str(spec), "--tol", value]) == 2
     err = _one_line_error(capsys)
-    assert "transport.tol" in err
+    assert "psdesign: error: --tol (transport.tol): " in err  # the option typed (audit s34)
+
+
+def test_a_bad_tol_in_the_spec_is_named_by_its_key(tmp_path, capsys, no_build):
+    """The spec's own bad value is not the option's: it keeps its key alone."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SPEC.replace("[transport]\n", "[transport]\ntol = 2.0\n"))
+    assert main(["diffusivity", str(bad)]) == 2
+    assert _one_line_error(capsys).startswith("psdesign: error: transport.tol: ")
 
 
 def test_cli_overrides_reach_the_solver(spec, capsys):
@@ -552,3 +561,61 @@ def test_rev_sizes_checked_against_the_budget_of_the_solver_the_cases_run(
     err = _one_line_error(capsys)
     assert err.startswith("psdesign: error: --sizes: at 0.0005 m, rve.voxel: a 500x500x500 grid")
     assert "solver 'voxel'" in err and not out.exists()
+
+
+@pytest.mark.parametrize(
+    "args,where",
+    [
+        (["--insulating", "solid", "--solid", "1"], "--solid: --insulating solid makes the solid"),
+        (["--insulating", "fluid", "--fluid", "2"], "--fluid: --insulating fluid makes the fluid"),
+    ],
+)
+def test_conductivity_refuses_a_value_for_the_insulating_phase(spec, capsys, no_build, args, where):
+    """Audit (session 34): ``conductivity --insulating solid --solid 1`` ignored the 1 (the
+    help: --insulating makes that phase a perfect insulator, conductivity 0) and printed sigma
+    of an insulating solid. One line naming both options, before the build."""
+    assert main(["conductivity", str(spec), *args]) == 2
+    err = _one_line_error(capsys)
+    assert where in err and "--insulating none" in err
+
+
+def test_conductivity_refuses_a_value_for_the_spec_s_insulating_phase(tmp_path, capsys, no_build):
+    bad = tmp_path / "ins.toml"
+    bad.write_text(SPEC.replace("[transport]\n", '[transport]\ninsulating_phase = "solid"\n'))
+    assert main(["conductivity", str(bad), "--solid", "1"]) == 2
+    assert 'transport.insulating_phase = "solid"' in _one_line_error(capsys)
+
+
+def _optimize_study(tmp_path):
+    p = tmp_path / "opt.toml"
+    p.write_text(
+        f'[study]\nbase = "{tmp_path / "spec.toml"}"\ndesign = "latin-hypercube"\n'
+        'n_samples = 4\nseeds = [1]\noutputs = ["k_z"]\n\n[parameters]\n'
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+    )
+    return p
+
+
+@pytest.mark.parametrize(
+    "cmd,value",
+    [("rev", "-1"), ("rev", "100000"), ("optimize", "-1"), ("optimize", "100000")]
+    + [("run", "100000")],  # study run refuses -1 in argparse ("argument --workers: ...")
+)
+def test_workers_errors_name_the_option(spec, tmp_path, capsys, no_build, cmd, value):
+    """Audit (session 34): ``rev --workers -1`` and ``study optimize --workers -1`` (and
+    100000, above the local cap max_local_workers()) said "workers: ..." where the user typed
+    --workers. The same values are refused (the runner's rule), now naming --workers, before
+    any work (no output folder)."""
+    out = tmp_path / "out"
+    argv = {
+        "rev": ["rev", str(spec), "--sizes", "2e-5", "-o", str(out)],
+        "optimize": ["study", "optimize", str(_optimize_study(tmp_path)), "-o", str(out)],
+        "run": ["study", "run", str(_optimize_study(tmp_path)), "-o", str(out)],
+    }[cmd]
+    if cmd == "optimize":
+        argv += ["--target", "k_z_m2=5e-12"]
+    assert main([*argv, "--quiet", "--workers", value]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("psdesign: error: --workers: "), err
+    assert value in err
+    assert not out.exists()

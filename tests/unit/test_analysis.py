@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from study_cases import fake_case, kc_truth, write_study
+from study_cases import fake_case, kc_truth, untrusted_case, write_study
 
 from psdesign.analysis import sensitivity
 from psdesign.analysis.replicates import replicate_summary
@@ -565,6 +565,59 @@ def test_fit_refuses_an_empty_parameter_cell(tmp_path, capsys) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "parameter generator.diameter is empty on line(s) 4;" in err[0]
     assert not (out / "surrogate.json").exists()
+
+
+def test_fit_fits_every_output_it_can_and_names_the_one_it_skips(tmp_path, capsys) -> None:
+    """Audit (session 34): ``study fit`` stopped at the first output with fewer than 3 trusted
+    values (every K_z untrustworthy: ``untrusted_case``) and fitted none of the others (exit 2,
+    porosity not fitted). Truth: porosity has 6 trusted values (fits), K_z has 0 (the case
+    count by hand); one stderr line names the skipped output, exit 0; exit 2 only when every
+    output asked for is unfittable, nothing written then."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=untrusted_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 2
+    line = _one_error_line(capsys)
+    assert "no output could be fitted" in line and "k_z_m2: need at least 3" in line
+    assert not (out / "surrogate.json").exists()
+    assert main(["study", "fit", str(out), "--json"]) == 0
+    cap = capsys.readouterr()
+    assert list(json.loads(cap.out)) == ["porosity"]
+    assert cap.err.strip().splitlines() == [
+        "psdesign: warning: not fitted: k_z_m2: need at least 3 finished cases with a "
+        "trusted value to fit, got 0"
+    ]
+    assert list(load_study_surrogates(out)) == ["porosity"]
+
+
+def test_predict_refuses_a_fraction_for_an_int_parameter(tmp_path, capsys) -> None:
+    """Audit (session 34): ``study predict --at generator.n_fibers=12.5`` of a study whose
+    n_fibers has ``type = "int"`` printed a prediction at 12.5 fibers, no flag (no case can
+    have half a fiber). Rule: one line naming --at and the parameter; 12.0 and 30 are whole
+    numbers and predict (exit 0)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.n_fibers" = {low = 10, high = 50, type = "int"}',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    at = "generator.porosity=0.8,generator.n_fibers=12.5"
+    assert main(["study", "predict", str(out), "--at", at]) == 2
+    assert _one_error_line(capsys).endswith(
+        "--at: generator.n_fibers must be an integer (type = \"int\" in the study), got '12.5'"
+    )
+    for n in ("12.0", "30"):
+        at = f"generator.porosity=0.8,generator.n_fibers={n}"
+        assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+        capsys.readouterr()
 
 
 def test_a_parameter_fixed_in_every_case_gets_no_sensitivity_index() -> None:

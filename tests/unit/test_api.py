@@ -617,3 +617,26 @@ def test_progress_keyword_is_a_flag(monkeypatch) -> None:
             with pytest.raises(psdesign.SpecError, match=r"^progress: must be True or False"):
                 call("z", progress=bad)
     assert m.diffusivity("z", progress=np.bool_(False)).converged
+
+
+def test_permeability_solver_keyword_checked_against_its_budget(monkeypatch) -> None:
+    """Audit (session 34), the API twin of the CLI's 507243d: ``Material.permeability(
+    solver="voxel")`` on a spec written for the FEM skipped the voxel solver's memory budget.
+    Truth (as the CLI test): a 1 mm cube at 2 um voxels is a 500^3 grid, 1.25e8 cells of 132 B
+    = 15.4 GiB, over half of a 24 GiB machine: refused naming rve.voxel, before voxelizing."""
+    import psdesign.schema.budget as budget
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24 * 2**30)
+    spec = {
+        "rve": {"size": [1e-3, 1e-3, 1e-3], "voxel": 2e-6},
+        "fibers": [{"shape": "cylinder", "diameter": 1e-4, "direction": [0, 0, 1]}],
+        "flow": {"solver": "fem", "bc": "periodic"},
+    }
+    m = psdesign.build(spec)
+
+    def voxelize(*a, **k):
+        raise AssertionError("voxelized before the budget was checked")
+
+    monkeypatch.setattr(m._built, "voxelize", voxelize)
+    with pytest.raises(psdesign.SpecError, match=r"^rve\.voxel: a 500x500x500 grid .*'voxel'"):
+        m.permeability(solver="voxel")
