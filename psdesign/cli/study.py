@@ -257,6 +257,12 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     status = df["status"] if len(df) else []
     n_nc = int((status == "not_converged").sum()) if len(df) else 0
     n_bad = int(((status != "ok") & (status != "not_converged")).sum()) if len(df) else 0
+    if n_bad:
+        print(
+            f"psdesign: {n_bad} case(s) failed or timed out (their error in results.csv, the "
+            "traceback in cases/<stored_as>/error.txt); --retry-failed to re-run them",
+            file=sys.stderr,
+        )
     if n_nc and not allow_not_converged:
         print(
             f"psdesign: {n_nc} case(s) not_converged (a solve did not converge or was flagged); "

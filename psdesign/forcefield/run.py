@@ -86,7 +86,7 @@ def load_forcefield_spec(path: str | Path) -> dict:
     holds the options.
     """
     data = read_toml(path)
-    if "rve" in data:  # an RVE spec: relax its fiber set (psdesign.forcefield.relax)
+    if "rve" in data or "image" in data:  # an RVE spec ([rve] is optional beside [image])
         from psdesign.schema.spec import validate_spec
 
         ff = data.get("forcefield") or {}

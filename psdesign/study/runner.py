@@ -418,10 +418,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
     from psdesign.study import cluster as cluster_mod
 
     if isinstance(address, cluster_mod.ClusterOptions):  # --cluster slurm|pbs: one job/worker
-        try:
-            cluster_mod.check_submit_command(address)
-        except ValueError as exc:
-            raise SchedulerError(str(exc)) from None
+        _check_submit_command(address)
         return _start_batch_cluster(address, workers, Client)
     if address == "local":
         cluster = LocalCluster(
@@ -776,6 +773,7 @@ def run_study(
     try:
         with stop_on_interrupt():
             if scheduler:
+                _check_submit_command(scheduler)  # before the "submitting" line
                 _say_waiting(scheduler, workers, progress)
                 client, cluster = connect_scheduler(scheduler, workers, security=security)
             # the folder and its marker (report.html only when written); nothing is deleted
@@ -836,6 +834,18 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
                 f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
                 "importable 'module:function'"
             ) from None
+
+
+def _check_submit_command(scheduler) -> None:
+    """For ``--cluster``: the batch system's submit command is on ``PATH`` (SchedulerError
+    naming the option otherwise); nothing for a ``--scheduler`` address."""
+    from psdesign.study import cluster as cluster_mod
+
+    if isinstance(scheduler, cluster_mod.ClusterOptions):
+        try:
+            cluster_mod.check_submit_command(scheduler)
+        except ValueError as exc:
+            raise SchedulerError(str(exc)) from None
 
 
 def _say_waiting(scheduler, workers: int, progress: bool) -> None:

@@ -104,6 +104,21 @@ def test_relax_route_refusals_before_the_build(tmp_path, capsys, monkeypatch, sp
     assert not out.exists()
 
 
+def test_image_spec_without_rve_is_refused_as_an_rve_spec(tmp_path, capsys) -> None:
+    # [rve] may be left out beside [image] (docs/images.md); such a spec was read as a paper
+    # case and refused with "image: unknown table (allowed: forcefield)"
+    a = np.zeros((8, 8, 8), np.uint8)
+    a[2:5] = 1
+    np.save(tmp_path / "a.npy", a)
+    spec = tmp_path / "s.toml"
+    spec.write_text('[image]\npath = "a.npy"\nvoxel_size = 1e-6\n')
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: fibers: "), err
+    assert "this spec has none" in err[0] and not out.exists()
+
+
 def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys):
     """Two polls: the first fiber moves to its bound (10 um) and the overlap is gone, but the
     search stopped on ``max_iter``; the status is ``not_converged`` (it was ``at_bound``, which

@@ -217,6 +217,28 @@ def test_cluster_without_its_submit_command_is_refused_before_any_work(
     assert not out.exists()
 
 
+def test_cluster_without_its_submit_command_says_one_line_also_with_progress(
+    tmp_path, monkeypatch, capsys
+) -> None:
+    # without --quiet the runner printed "[study] submitting 1 sbatch job(s); waiting up to
+    # 600 s for the first worker" before finding that sbatch is not on PATH: nothing was
+    # submitted, and the refusal was two lines (docs/study-files.md: one line)
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+
+    empty = tmp_path / "empty-bin"
+    empty.mkdir()
+    monkeypatch.setenv("PATH", str(empty))
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    rc = main(["study", "run", str(p), "-o", str(out), "--cluster", "slurm"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --cluster slurm: the submit command 'sbatch'")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(
     ("flag", "value"),
     [

@@ -337,6 +337,23 @@ def test_pool_workers_share_the_cpus(tmp_path, monkeypatch):
     assert set(df["numba_threads"]) == {1}
 
 
+def test_cli_failed_cases_say_one_line_and_exit_1(tmp_path, capsys):
+    # docs/study-files.md: exit 1 when a case failed, "one stderr line says so"; with --quiet
+    # a failed (or timed-out) case left exit 1 and nothing on stderr (only not_converged
+    # cases had their line)
+    from psdesign.cli import main
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    args = ["study", "run", str(p), "-o", str(out), "--quiet", "--no-report"]
+    rc = main([*args, "--case-fn", "study_cases:failing_case"])
+    err = capsys.readouterr().err
+    assert rc == 1 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: 2 case(s) failed or timed out") and "--retry-failed" in err
+    assert main([*args, "--case-fn", "study_cases:fake_case", "--retry-failed"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_failed_case_recorded_and_retry(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     out = tmp_path / "out"
