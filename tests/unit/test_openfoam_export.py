@@ -235,6 +235,20 @@ def _k(out: str, name: str) -> float:
     return float(found.group(1))
 
 
+def _allrun_with_stub_tools(case, bin_dir, simplefoam_body: str):
+    """``sh Allrun`` in ``case`` with stub ``checkMesh`` (does nothing) and ``simpleFoam``
+    (runs ``simplefoam_body``: writes the sampled values, maybe a log line) in ``bin_dir``."""
+    for tool, body in (("checkMesh", ""), ("simpleFoam", simplefoam_body)):
+        (bin_dir / tool).write_text("#!/bin/sh\n" + body)
+        (bin_dir / tool).chmod(0o755)
+    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(bin_dir.parent)}
+    run = subprocess.run(
+        ["sh", "Allrun"], cwd=case, env=env, capture_output=True, text=True, timeout=60
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run
+
+
 def test_allrun_windowed_k_is_psdesigns_windowed_drop(tmp_path):
     """``K_windowed``: the Allrun's awk applies psdesign's own windowed drop
     (:func:`psdesign.flow.darcy.windowed_drop`, one period) to the sampled plane profile. Stub
@@ -264,14 +278,7 @@ def test_allrun_windowed_k_is_psdesigns_windowed_drop(tmp_path):
         f"> postProcessing/{k}/0/surfaceFieldValue.dat\n"
         for k, v in values.items()
     )
-    for tool, body in (("checkMesh", ""), ("simpleFoam", lines)):
-        (bin_dir / tool).write_text("#!/bin/sh\n" + body)
-        (bin_dir / tool).chmod(0o755)
-    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(tmp_path)}
-    run = subprocess.run(
-        ["sh", "Allrun"], cwd=case, env=env, capture_output=True, text=True, timeout=60
-    )
-    assert run.returncode == 0, run.stdout + run.stderr
+    run = _allrun_with_stub_tools(case, bin_dir, lines)
     c = case_constants(pm, flow)
     k_product = openfoam_permeability(c, 3e-12, windowed_drop(profile), 0.0)
     assert _k(run.stdout, "K_windowed") == pytest.approx(k_product, rel=2e-6, abs=0)
@@ -362,14 +369,7 @@ def test_allrun_says_whether_simplefoam_converged(tmp_path, periodic, converged)
     said = "echo 'SIMPLE solution converged in 258 iterations'\n" if converged else ""
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
-    for tool, body in (("checkMesh", ""), ("simpleFoam", said + lines)):
-        (bin_dir / tool).write_text("#!/bin/sh\n" + body)
-        (bin_dir / tool).chmod(0o755)
-    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(tmp_path)}
-    run = subprocess.run(
-        ["sh", "Allrun"], cwd=case, env=env, capture_output=True, text=True, timeout=60
-    )
-    assert run.returncode == 0, run.stdout + run.stderr
+    run = _allrun_with_stub_tools(case, bin_dir, said + lines)
     flag = [line for line in run.stdout.splitlines() if line.startswith("converged: ")]
     want = "yes (SIMPLE residualControl met in 258 iterations)" if converged else "NO ("
     assert len(flag) == 1 and flag[0].startswith(f"converged: {want}"), run.stdout
