@@ -36,9 +36,9 @@ def _print_json(obj) -> None:
     """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
     ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
     token, which JSON has not: ``jq`` and JavaScript refuse the whole output)."""
-    from psdesign.study.store import _jsonable
+    from psdesign.study.store import jsonable
 
-    print(json.dumps(_jsonable(obj), allow_nan=False, default=str))
+    print(json.dumps(jsonable(obj), allow_nan=False, default=str))
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:

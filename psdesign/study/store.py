@@ -145,13 +145,19 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     _fsync_dir(path.parent)
 
 
-def _jsonable(v: Any) -> Any:
+def jsonable(v: Any) -> Any:
+    """``v`` as plain JSON data: NumPy scalars and arrays as numbers and lists, paths as text,
+    NaN as ``None`` (JSON has no NaN) and infinities as ``"inf"`` / ``"-inf"``.
+
+    >>> jsonable({"k": np.float32(2.5), "e": float("nan"), "a": np.arange(2)})
+    {'k': 2.5, 'e': None, 'a': [0, 1]}
+    """
     if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
+        return {str(k): jsonable(x) for k, x in v.items()}
     if isinstance(v, list | tuple):
-        return [_jsonable(x) for x in v]
+        return [jsonable(x) for x in v]
     if isinstance(v, np.ndarray):
-        return _jsonable(v.tolist())
+        return jsonable(v.tolist())
     if isinstance(v, np.generic):
         return v.item()
     if isinstance(v, Path):
@@ -163,7 +169,7 @@ def _jsonable(v: Any) -> Any:
 
 def atomic_write_json(path: Path, obj: Any) -> None:
     """Atomically write ``obj`` as indented JSON (numpy values converted)."""
-    text = json.dumps(_jsonable(obj), indent=1, sort_keys=False, allow_nan=False)
+    text = json.dumps(jsonable(obj), indent=1, sort_keys=False, allow_nan=False)
     atomic_write_bytes(Path(path), text.encode())
 
 
@@ -171,7 +177,7 @@ def _cell(v: Any) -> Any:
     """Table cell: scalars as they are, anything else as compact JSON text."""
     if v is None or isinstance(v, bool | int | float | str):
         return v
-    return json.dumps(_jsonable(v), sort_keys=True, separators=(",", ":"))
+    return json.dumps(jsonable(v), sort_keys=True, separators=(",", ":"))
 
 
 def records_to_frame(records: Iterable[dict], param_names: list[str]) -> pd.DataFrame:
