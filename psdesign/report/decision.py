@@ -373,11 +373,12 @@ def _sobol_figure(sob: pd.DataFrame, c: str, log_output: bool = True):
 
 def _axis_grid(s, num: list[str], name: str) -> np.ndarray:
     """30 values over a parameter's range: evenly on its design scale (log-spaced for a
-    ``loguniform`` one, as its cases were drawn and its surrogate input is scaled)."""
+    ``loguniform`` one, as its cases were drawn and its surrogate input is scaled), by the
+    surrogate's own mapping (:func:`~psdesign.analysis.surrogate.from_unit`)."""
+    from psdesign.analysis.surrogate import from_unit
+
     i = num.index(name)
-    if s.log_params[i]:
-        return np.geomspace(s.low[i], s.high[i], 30)
-    return np.linspace(s.low[i], s.high[i], 30)
+    return from_unit(np.linspace(0.0, 1.0, 30), s.low[i], s.high[i], s.log_params[i])
 
 
 def _at_mid_range(s, n: int) -> np.ndarray:
@@ -388,10 +389,9 @@ def _at_mid_range(s, n: int) -> np.ndarray:
     >>> _at_mid_range(S(low=[1.0, 1e-6], high=[3.0, 1e-4], log_params=[False, True]), 1)
     array([[2.e+00, 1.e-05]])
     """
-    mids = [
-        np.sqrt(lo * hi) if log else (lo + hi) / 2
-        for lo, hi, log in zip(s.low, s.high, s.log_params, strict=True)
-    ]
+    from psdesign.analysis.surrogate import from_unit
+
+    mids = from_unit(np.full(len(s.low), 0.5), s.low, s.high, s.log_params)
     return np.tile(mids, (n, 1))
 
 
