@@ -82,15 +82,10 @@ def _problem(s: Surrogate) -> dict:
 
 def _unscale(s: Surrogate, u: np.ndarray) -> np.ndarray:
     """Surrogate inputs (all of ``s.params``) from unit samples of the varied parameters;
-    the fixed ones at their value."""
-    fixed = s.fixed_inputs()
-    x = np.empty((len(u), len(s.params)))
-    cols = [i for i, p in enumerate(s.params) if p not in fixed]
-    pick = [[s.low[i] for i in cols], [s.high[i] for i in cols], [s.log_params[i] for i in cols]]
-    x[:, cols] = from_unit(u, *pick)
-    for i, p in enumerate(s.params):
-        if p in fixed:
-            x[:, i] = fixed[p]
+    the fixed ones at their value (a fitted case's, which every case shares)."""
+    cols = [s.params.index(p) for p in _varied(s)]
+    x = np.tile(np.asarray(s.x, dtype=float)[0], (len(u), 1))
+    x[:, cols] = from_unit(u, *([v[i] for i in cols] for v in (s.low, s.high, s.log_params)))
     return x
 
 
