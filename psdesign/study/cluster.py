@@ -235,6 +235,13 @@ def submit_errors(cluster) -> list[str]:
     return [e for e in (getattr(j, "submit_error", None) for j in jobs) if e]
 
 
+def has_worker(client) -> bool:
+    """Whether the Dask scheduler of ``client`` has a worker now (asks for one worker's
+    record only): the one check of the first-worker wait and of the runner's watch for a run
+    whose workers all left."""
+    return bool(client.scheduler_info(n_workers=1).get("workers"))
+
+
 def wait_for_first_worker(client, cluster, opts: ClusterOptions, poll_s: float = 0.2) -> None:
     """Return once a worker has connected; raise ValueError (one line) if none can come.
 
@@ -243,7 +250,7 @@ def wait_for_first_worker(client, cluster, opts: ClusterOptions, poll_s: float =
     deadline = time.monotonic() + opts.wait_s
     n_jobs = max(1, len(getattr(cluster, "worker_spec", {}) or {}))
     cmd = opts.submit_command
-    while not client.scheduler_info().get("workers"):
+    while not has_worker(client):
         errors = submit_errors(cluster)
         if len(errors) >= n_jobs:
             raise ValueError(

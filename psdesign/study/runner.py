@@ -29,7 +29,7 @@ import pandas as pd
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.casefn import watch_parent
-from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s
+from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.progress import Progress
@@ -547,7 +547,7 @@ def _run_dask(
 def _check_workers(client, alone_since: float | None, limit_s: float, waiting: int):
     """When the scheduler has had no worker for ``limit_s`` seconds, raise
     :class:`WorkersLost`; returns the time the workers went (None while there are some)."""
-    if client.scheduler_info(n_workers=1).get("workers"):
+    if has_worker(client):
         return None
     now = time.monotonic()
     alone_since = now if alone_since is None else alone_since
