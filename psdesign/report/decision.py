@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import numeric_parameters, trusted
+from psdesign.analysis.columns import distinct_realizations, numeric_parameters, trusted
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
 from psdesign.report.units import parameter_label, parameter_unit
@@ -203,15 +203,15 @@ def _levels(x: pd.Series) -> pd.Series:
 
 
 def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
-    """Main effects (mean log10 K per level) and the two-factor interaction of the first two
-    numeric parameters (lines of one parameter's levels over the other's; a ``loguniform``
-    one of ``study`` on a log axis)."""
+    """Main effects (mean log10 K per level, each distinct realization counted once) and the
+    two-factor interaction of the first two numeric parameters (lines of one parameter's
+    levels over the other's; a ``loguniform`` one of ``study`` on a log axis)."""
     import plotly.graph_objects as go
 
     from psdesign.analysis.sensitivity import entangled
     from psdesign.analysis.surrogate import log_parameters
 
-    ok = _ok(df)
+    ok = distinct_realizations(_ok(df), params)  # a design point listed twice is one case
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     kcols = [c for c in K_DIRECTIONS if c in ok and (ok[c] > 0).any()]
     if not num or not kcols:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from psdesign.analysis.columns import distinct_realizations
 from psdesign.analysis.sensitivity import entangled
 
 __all__ = ["main_effects", "response_columns", "sensitivity_table"]
@@ -35,7 +36,9 @@ def _numeric(s: pd.Series) -> pd.Series | None:
 
 
 def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
-    """Spearman rank correlation and SRC of each numeric parameter vs each response.
+    """Spearman rank correlation and SRC of each numeric parameter vs each response, over
+    the distinct realizations (:func:`~psdesign.analysis.columns.distinct_realizations`: a
+    design point listed twice with the same seed counts once).
 
     The SRC is the coefficient of the least-squares fit of the standardized response on all
     standardized numeric parameters (computed when there are more rows than parameters + 1).
@@ -48,6 +51,7 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     from scipy.stats import spearmanr
 
     ok = df[df["status"] == "ok"] if "status" in df else df
+    ok = distinct_realizations(ok, params)  # a design point listed twice is one case
     responses = response_columns(ok)
     xs = {p: _numeric(ok[p]) for p in params if p in ok}
     xs = {p: x for p, x in xs.items() if x is not None}
@@ -87,7 +91,8 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
 
 
 def main_effects(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
-    """Mean of each response at each level of each parameter (factorial designs).
+    """Mean of each response at each level of each parameter (factorial designs), each
+    distinct realization counted once.
 
     Returns
     -------
@@ -95,6 +100,7 @@ def main_effects(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
         Columns ``parameter``, ``level``, ``n`` and one mean column per response.
     """
     ok = df[df["status"] == "ok"] if "status" in df else df
+    ok = distinct_realizations(ok, params)  # a design point listed twice is one case
     responses = response_columns(ok)
     if not responses:
         return pd.DataFrame()

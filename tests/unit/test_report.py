@@ -537,3 +537,51 @@ def test_src_of_two_parameters_that_moved_together_is_blank():
     t = sensitivity_table(df, ["a", "d"]).set_index(["response", "parameter"])
     assert t.loc[("porosity", "a"), "src"] == pytest.approx(1.0, abs=1e-9)
     assert t.loc[("porosity", "d"), "src"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_design_point_listed_twice_counts_once_in_spearman_and_main_effects(monkeypatch):
+    """A csv design listing a = 5 twice with the same seed (two case labels, one RVE: the
+    same spec and seed build the same case) is one realization: the report's Spearman table,
+    main-effects table and main-effects plot counted it twice (session 34 notes). Truth: the
+    five distinct cases, k = (1, 3, 2, 5, 4) e-12 over a = 1..5, rank correlation
+    1 - 6 * 4 / (5 * 24) = 0.8 by hand (scipy.stats.spearmanr on them agrees; with the copy
+    scipy gives 0.7647). Main effects of b: b = 1 at a = 1, 3, 5, mean log10 k =
+    log10(8e-36) / 3 = -11.699 (the copy drew it to -11.624).
+    """
+    from scipy.stats import spearmanr
+
+    from psdesign.report import decision
+
+    a = [1.0, 2.0, 3.0, 4.0, 5.0, 5.0]
+    k = [1e-12, 3e-12, 2e-12, 5e-12, 4e-12, 4e-12]
+    b = [1.0, 2.0, 1.0, 2.0, 1.0, 1.0]  # a second parameter, so main effects pool over a
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(6)],
+            "a": a,
+            "b": b,
+            "seed": 7,
+            "status": "ok",
+            "k_z_m2": k,
+        }
+    )
+    want = spearmanr(a[:5], np.log10(k[:5])).statistic
+    assert want == pytest.approx(0.8, abs=1e-12)
+    assert spearmanr(a, np.log10(k)).statistic != pytest.approx(want, abs=1e-3)  # it matters
+    s = sensitivity_table(df, ["a", "b"]).set_index(["parameter", "response"])
+    assert s.loc[("a", "log10 k_z_m2"), "spearman"] == pytest.approx(want, abs=1e-12)
+    assert s.loc[("a", "log10 k_z_m2"), "n"] == 5
+    # b = 1 at a = 1, 3, 5: mean log10 k over the three distinct cases (the copy drew it
+    # towards log10 4e-12)
+    me = main_effects(df, ["a", "b"]).set_index(["parameter", "level"])
+    want_b1 = np.mean(np.log10([1e-12, 2e-12, 4e-12]))
+    assert me.loc[("b", "1.0"), "mean log10 k_z_m2"] == pytest.approx(want_b1, abs=1e-12)
+    assert me.loc[("b", "1.0"), "n"] == 3 and me.loc[("a", "5.0"), "n"] == 1
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *x, **kw: (figs.append(fig), real(fig, *x, **kw))[1]
+    )
+    decision.effect_plots(df, ["a", "b"])
+    line = [t for t in figs[0].data if t.name == "b: k_z_m2"][0]
+    assert line.y[0] == pytest.approx(want_b1, abs=1e-12)
