@@ -274,3 +274,25 @@ FORCE_HELP = (
 def add_force_argument(parser) -> None:
     """Add ``--force`` (see :mod:`psdesign.io.outputs`) to a sub-command parser."""
     parser.add_argument("--force", action="store_true", help=FORCE_HELP)
+
+
+#: ``--workers`` of ``study run``, ``study optimize`` and ``rev``: one rule
+#: (:func:`psdesign.study.runner.check_workers`), one help.
+WORKERS_HELP = (
+    "worker processes on this machine, 0 to 4 per CPU (at least 64); 0 runs the cases one "
+    "after another in this process, with no worker process"
+)
+
+
+def add_workers_argument(parser, scheduler: bool, cluster: bool = False) -> None:
+    """Add ``--workers N`` to a sub-command parser, its help with the ``--scheduler`` (and
+    ``--cluster``) meaning when the command has them; the value is checked by
+    :func:`psdesign.study.runner.check_workers` (one line naming ``--workers``)."""
+    text = WORKERS_HELP
+    if scheduler:
+        text += (
+            f"; with --scheduler local{' (or --cluster)' if cluster else ''} the number of "
+            f"Dask workers{' (batch jobs)' if cluster else ''}, ignored by a remote scheduler; "
+            "1 or more with any scheduler"
+        )
+    parser.add_argument("--workers", type=int, default=1, help=text + " (default 1)")

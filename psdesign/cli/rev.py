@@ -80,6 +80,8 @@ def _warn_untrustworthy(out: str) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``rev``."""
+    from psdesign.cli.progress import add_workers_argument
+
     p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
     # argparse takes "-30e-6" for an option (its negative-number pattern has no exponent), so
     # `--sizes -30e-6` ended in "expected at least one argument" instead of the range message
@@ -105,7 +107,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="relative 95 %% CI half-width of K that makes a size the REV, in (0, 0.2] "
         "(default 0.1; above 0.2 a K is untrustworthy)",
     )
-    p.add_argument("--workers", type=int, default=1)
+    add_workers_argument(p, scheduler=False)
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_rev)

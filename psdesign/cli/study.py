@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from psdesign.cli.progress import add_force_argument
+from psdesign.cli.progress import add_force_argument, add_workers_argument
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
 
@@ -60,9 +60,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run (or resume) a study file")
     run.add_argument("study", help="study TOML file")
     run.add_argument("-o", "--out", required=True, help="output folder (resumed if it exists)")
-    run.add_argument(
-        "--workers", type=_positive_int, default=1, help="local worker processes (default 1)"
-    )
+    add_workers_argument(run, scheduler=True, cluster=True)
     run.add_argument(
         "--scheduler",
         default=None,

@@ -296,6 +296,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
+    from psdesign.cli.progress import add_workers_argument
 
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
@@ -347,7 +348,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         help=f"points per round, 1-{MAX_BATCH} (default 1)",
     )
     opt.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
-    opt.add_argument("--workers", type=int, default=1)
+    add_workers_argument(opt, scheduler=True)
     opt.add_argument("--scheduler", default=None, help="Dask scheduler address, or 'local'")
     opt.add_argument("--quiet", action="store_true")
     opt.add_argument("--json", action="store_true")

@@ -229,11 +229,21 @@ def max_local_workers() -> int:
 
 
 def check_workers(workers, scheduler=None, what: str = "workers") -> None:
-    """The one rule of a study's worker count: an integer >= 0, and on this machine (no
-    ``scheduler`` or ``"local"``) at most :func:`max_local_workers`; else a one-line
+    """The one rule of a study's worker count (``study run``, ``study optimize``, ``rev`` and
+    :func:`run_study`): an integer >= 0, where 0 runs the cases in this process; on this
+    machine (no ``scheduler`` or ``"local"``) at most :func:`max_local_workers`; with a
+    scheduler or a batch cluster (``scheduler`` given) at least 1, as there is no "this
+    process" there (a local Dask cluster of 0 workers started one). Else a one-line
     :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
-        raise StudyError(f"{what}: must be an integer >= 0, got {workers!r}")
+        raise StudyError(
+            f"{what}: must be an integer >= 0 (0: the cases in this process), got {workers!r}"
+        )
+    if scheduler is not None and workers == 0:
+        raise StudyError(
+            f"{what}: 0 runs the cases in this process, which a Dask scheduler or batch "
+            "cluster does not; give 1 or more (Dask workers or batch jobs), got 0"
+        )
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
         raise StudyError(
@@ -679,7 +689,8 @@ def run_study(
         Output folder (created; an existing one is resumed).
     workers : int
         Local worker processes (>= 1); ``0`` runs the cases in this process (debugging).  With a
-        scheduler ``"local"`` it is the number of Dask workers; ignored for a remote scheduler.
+        scheduler ``"local"`` it is the number of Dask workers; ignored for a remote scheduler
+        (>= 1 with any scheduler: :func:`check_workers`).
     scheduler : str, optional
         ``tcp://HOST:PORT`` of a Dask scheduler, or ``"local"`` for a local Dask cluster.
         Default: the local process pool.

@@ -599,7 +599,7 @@ def _optimize_study(tmp_path):
 @pytest.mark.parametrize(
     "cmd,value",
     [("rev", "-1"), ("rev", "100000"), ("optimize", "-1"), ("optimize", "100000")]
-    + [("run", "100000")],  # study run refuses -1 in argparse ("argument --workers: ...")
+    + [("run", "-1"), ("run", "100000")],
 )
 def test_workers_errors_name_the_option(spec, tmp_path, capsys, no_build, cmd, value):
     """Audit (session 34): ``rev --workers -1`` and ``study optimize --workers -1`` (and
@@ -619,3 +619,60 @@ def test_workers_errors_name_the_option(spec, tmp_path, capsys, no_build, cmd, v
     assert err.startswith("psdesign: error: --workers: "), err
     assert value in err
     assert not out.exists()
+
+
+class _Reached(Exception):
+    """Raised by a stand-in for the study: the command accepted its --workers."""
+
+
+@pytest.mark.parametrize("cmd", ["run", "optimize", "rev"])
+def test_workers_0_is_one_rule_in_this_process(tmp_path, capsys, monkeypatch, cmd):
+    """Session 34 notes: ``study run --workers 0`` was refused ("argument --workers: expected
+    an integer >= 1"), while ``rev`` and ``study optimize`` accepted it and ran the cases in
+    this process (the runner's ``workers == 0``: no pool). One rule now (docs/study-files.md
+    "Running"): 0 runs the cases in this process in all three; beside a scheduler it means
+    nothing (a local Dask cluster of 0 workers started 1) and is refused in one line naming
+    --workers and the range, before any work (no output folder, no dask started)."""
+    from study_cases import write_study
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    seen = {}
+
+    def stand_in(*a, workers, **kw):
+        seen["workers"] = workers
+        raise _Reached
+
+    monkeypatch.setattr("psdesign.analysis.rev.rev_study", stand_in)
+    monkeypatch.setattr("psdesign.analysis.optimize.optimize_study", stand_in)
+
+    def argv(out, *extra):
+        return {
+            "rev": ["rev", str(spec), "--sizes", "2e-5"],
+            "optimize": ["study", "optimize", str(p), "--target", "k_z_m2=5e-12"],
+            "run": ["study", "run", str(p), "--no-report"],
+        }[cmd] + ["-o", str(out), "--quiet", "--workers", "0", *extra]
+
+    out = tmp_path / "out"
+    if cmd == "run":  # a real run on the fake solver: every case done here, none in a pool
+        assert main(argv(out, "--case-fn", "study_cases:fake_case")) == 0, capsys.readouterr()
+        last = json.loads((out / "run.json").read_text())["runs"][-1]
+        assert last["workers"] == 0 and last["status_counts"] == {"ok": 4}, last
+    else:
+        with pytest.raises(_Reached):
+            main(argv(out))
+        assert seen["workers"] == 0
+    schedulers = {"rev": [], "optimize": [["--scheduler", "local"]]}.get(
+        cmd, [["--scheduler", "local"], ["--cluster", "slurm"]]
+    )
+    for extra in schedulers:
+        assert main(argv(tmp_path / "sched", *extra)) == 2
+        err = _one_line_error(capsys)
+        assert err.startswith("psdesign: error: --workers: 0 runs the cases in this process"), err
+        assert "give 1 or more" in err
+        assert not (tmp_path / "sched").exists()
