@@ -741,7 +741,6 @@ def run_study(
     """
     if not isinstance(study, Study):
         study = load_study(study)
-    check_workers(workers, scheduler)
     if timeout_s is not None and (
         isinstance(timeout_s, bool)
         or not isinstance(timeout_s, int | float)
@@ -755,6 +754,7 @@ def run_study(
     _check_run_arguments(
         scheduler, case_fn, progress, retry_failed, report, force, retry_not_converged
     )
+    check_workers(workers, scheduler)  # after the scheduler's type: 0 is refused beside one
     if case_fn is None:
         case_fn = DEFAULT_CASE_FN
     cases = expand_design(study)
