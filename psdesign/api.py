@@ -331,11 +331,12 @@ class Material:
         ``fluid`` (a :class:`~psdesign.transport.conductivity.ConductivityResult`); ``fields``:
         a folder for the potential field; ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
-        from psdesign.transport.conductivity import effective_conductivity
+        from psdesign.transport.conductivity import effective_conductivity, transport_table
 
         progress = _progress_flag(progress)
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
+        transport_table(solid, fluid, table)  # refused before the voxels are computed
         folder = fields_folder(fields, "conductivity", [direction], option="fields")
         with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return effective_conductivity(

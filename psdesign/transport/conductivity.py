@@ -116,6 +116,44 @@ def hashin_shtrikman(s1: float, s2: float, f2: float, dim: int = 3) -> tuple[flo
     return float(lower), float(upper)
 
 
+def transport_table(
+    solid: float | None = None, fluid: float | None = None, transport: dict | None = None
+) -> dict:
+    """The validated ``[transport]`` table of a conductivity solve: ``transport`` with the
+    phase conductivities ``solid`` / ``fluid`` (keywords, > 0) in it.
+
+    Raises
+    ------
+    SpecError
+        A conductivity <= 0 (naming its key); a bad ``[transport]`` key; a ``solid`` (or
+        ``fluid``) for the phase ``insulating_phase`` makes a perfect insulator (conductivity
+        0: the value would be ignored), naming the keyword.
+
+    Examples
+    --------
+    >>> transport_table(fluid=2.0, transport={"insulating_phase": "solid"})["fluid_conductivity"]
+    2.0
+    """
+    from psdesign.errors import SpecError
+
+    tr = dict(transport or {})
+    if solid is not None:
+        tr["solid_conductivity"] = check_conductivity(solid, "transport.solid_conductivity")
+    if fluid is not None:
+        tr["fluid_conductivity"] = check_conductivity(fluid, "transport.fluid_conductivity")
+    tr = validate_transport({"transport": tr})
+    phase = tr["insulating_phase"]
+    value = {"solid": solid, "fluid": fluid}.get(phase)
+    if value is not None:
+        raise SpecError(
+            phase,
+            f'insulating_phase = "{phase}" makes the {phase} a perfect insulator (conductivity '
+            f"0), so {phase} = {value!r} would be ignored; give one of them "
+            f'(insulating_phase = "none" to use {phase})',
+        )
+    return tr
+
+
 def effective_conductivity(
     fields: VoxelFields,
     direction: str | int = "z",
@@ -149,14 +187,10 @@ def effective_conductivity(
     Raises
     ------
     SpecError
-        A conductivity <= 0 (naming the key).
+        A conductivity <= 0 (naming the key), or a ``solid`` / ``fluid`` value for the
+        ``insulating_phase`` (:func:`transport_table`).
     """
-    tr = dict(transport or {})
-    if solid is not None:
-        tr["solid_conductivity"] = check_conductivity(solid, "transport.solid_conductivity")
-    if fluid is not None:
-        tr["fluid_conductivity"] = check_conductivity(fluid, "transport.fluid_conductivity")
-    tr = validate_transport({"transport": tr})
+    tr = transport_table(solid, fluid, transport)
     ks = 0.0 if tr["insulating_phase"] == "solid" else tr["solid_conductivity"]
     kf = 0.0 if tr["insulating_phase"] == "fluid" else tr["fluid_conductivity"]
 

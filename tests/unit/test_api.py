@@ -640,3 +640,48 @@ def test_permeability_solver_keyword_checked_against_its_budget(monkeypatch) -> 
     monkeypatch.setattr(m._built, "voxelize", voxelize)
     with pytest.raises(psdesign.SpecError, match=r"^rve\.voxel: a 500x500x500 grid .*'voxel'"):
         m.permeability(solver="voxel")
+
+
+@pytest.mark.parametrize(
+    ("keywords", "spec_phase", "key"),
+    [
+        ({"solid": 1.0, "insulating_phase": "solid"}, None, "solid"),
+        ({"fluid": 2.0, "solid": 5.0, "insulating_phase": "fluid"}, None, "fluid"),
+        ({"solid": 1.0}, "solid", "solid"),  # the spec's insulating_phase
+    ],
+)
+def test_conductivity_refuses_a_value_for_the_insulating_phase(
+    monkeypatch, keywords, spec_phase, key
+) -> None:
+    """Session 34 notes: ``m.conductivity(solid=1, insulating_phase="solid")`` (and
+    ``effective_conductivity(fields, solid=1, transport={"insulating_phase": "solid"})``)
+    solved with the solid at 0 and the 1 ignored, while the CLI refuses ``--insulating solid
+    --solid 1``. A SpecError naming the keyword, before the voxels are computed."""
+    import psdesign.transport.conductivity as cond
+    from psdesign.transport.conductivity import effective_conductivity
+
+    monkeypatch.setattr(cond, "solve_effective", lambda *a, **k: pytest.fail("solved"))
+    spec = _one_cylinder()
+    if spec_phase:
+        spec["transport"] = {"insulating_phase": spec_phase}
+    m = psdesign.build(spec)
+    with pytest.raises(psdesign.SpecError) as info:
+        m.conductivity("z", **keywords)
+    assert info.value.key == key, str(info.value)
+    assert f'insulating_phase = "{key}" makes the {key} a perfect insulator' in str(info.value)
+    assert m._fields is None  # refused before the voxelization
+    table = {k: v for k, v in keywords.items() if k == "insulating_phase"}
+    table |= spec.get("transport", {})
+    values = {k: v for k, v in keywords.items() if k in ("solid", "fluid")}
+    with pytest.raises(psdesign.SpecError, match=f"^{key}: insulating_phase"):
+        effective_conductivity(m.fields, "z", transport=table, **values)
+
+
+def test_conductivity_with_an_insulating_solid_is_the_fluid_through_the_pore() -> None:
+    """The value of the other phase is used: one z-cylinder, solid insulating, fluid 2.0:
+    along the cylinder the straight pore carries sigma_eff = 2.0 * porosity exactly (the
+    parallel, Wiener upper mean, attained by any medium uniform along the axis)."""
+    m = psdesign.build(_one_cylinder())
+    r = m.conductivity("z", fluid=2.0, insulating_phase="solid")
+    assert r.solid_conductivity == 0.0 and r.fluid_conductivity == 2.0
+    assert r.effective_conductivity == pytest.approx(2.0 * m.porosity, rel=1e-6)

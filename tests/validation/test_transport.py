@@ -196,7 +196,10 @@ def test_random_medium_tensor_within_trace_bounds(random_fibres, ratio):
 
 def test_insulating_phase_equals_pore_diffusivity(random_fibres):
     fields = fields_from_solid(random_fibres, 1e-6)
-    a = effective_conductivity(fields, "z", 1.0, 2.0, {**RES, "insulating_phase": "solid"})
+    # no solid value: an insulating solid's would be refused (session 34 notes: it was ignored)
+    a = effective_conductivity(
+        fields, "z", fluid=2.0, transport={**RES, "insulating_phase": "solid"}
+    )
     b = relative_diffusivity(fields, "z", RES, pore_diameter=1e-6)
     assert a.effective_conductivity == pytest.approx(2.0 * b.relative_diffusivity, rel=1e-6)
 
