@@ -6,9 +6,12 @@ and runs the ``batch`` candidates (from a seeded Sobol set of 2048 points, away 
 already run) with the highest probability of meeting every target under the surrogates
 (product over targets of the Gaussian probability, in log10 space for log outputs). The new
 points are appended as CSV rows of the same study, so the runner (local pool or Dask) skips
-what is done and a stopped optimization resumes. It stops when a finished case meets every
-target by its measured value (every seed of a design point: :func:`worst_replicates`), or when
-``budget`` design points have run, and then reports the closest case.
+what is done and a stopped optimization resumes. An int parameter is rounded: a candidate
+that rounds onto a design point already taken is passed over for the next one (one design
+is never run twice), and a box of int parameters whose every point has run ends the search.
+It stops when a finished case meets every target by its measured value (every seed of a
+design point: :func:`worst_replicates`), or when ``budget`` design points have run, and then
+reports the closest case.
 """
 
 from __future__ import annotations
@@ -70,6 +73,44 @@ def _from_unit(u: np.ndarray, b: list[tuple[float, float, bool]], study) -> np.n
         if p.value_type == "int":
             x[:, j] = np.round(x[:, j])
     return x
+
+
+def _box_points(study, b: list[tuple[float, float, bool]]) -> float:
+    """How many distinct design points the parameter box holds: the product of the int
+    parameters' whole numbers (rounded ends, as :func:`_from_unit` rounds), ``inf`` when a
+    parameter is a float.
+
+    >>> from types import SimpleNamespace as P
+    >>> st = P(parameters={"a": P(value_type="int"), "b": P(value_type="int")})
+    >>> _box_points(st, [(10, 11, False), (1, 3, False)])
+    6
+    """
+    n = 1
+    for (lo, hi, _), p in zip(b, study.parameters.values(), strict=True):
+        if p.value_type != "int":
+            return math.inf
+        n *= max(1, int(np.round(hi)) - int(np.round(lo)) + 1)
+    return n
+
+
+def _new_points(x: np.ndarray, order, seen: set, n: int) -> list[list[float]]:
+    """Up to ``n`` rows of ``x`` taken in ``order``, each a design point not in ``seen`` (run,
+    pending or taken before; ``seen`` is updated): two candidates an int parameter rounds to
+    one point are one design, not two runs of the budget.
+
+    >>> seen = {(1.0,)}
+    >>> _new_points(np.array([[1.0], [2.0], [2.0], [3.0]]), range(4), seen, 5)
+    [[2.0], [3.0]]
+    """
+    out = []
+    for i in order:
+        if len(out) >= n:
+            break
+        key = tuple(float(v) for v in x[i])
+        if key not in seen:
+            seen.add(key)
+            out.append(list(key))
+    return out
 
 
 def _probability(models: dict, targets: list[Target], x: np.ndarray) -> np.ndarray:
@@ -203,8 +244,15 @@ def optimize_study(
     d = len(names)
     n0 = min(budget, 2 * d + 2)
     u0 = qmc.LatinHypercube(d=d, seed=seed).random(n0)
-    points = _from_unit(u0, b, study).tolist()
     cand_u = qmc.Sobol(d=d, scramble=True, seed=seed + 1).random(2048)
+    # candidates as the design points they run (int parameters rounded) and in the unit box
+    cand_x = _from_unit(cand_u, b, study)
+    cand_xu = to_unit(cand_x, *zip(*b, strict=True))
+    seen: set[tuple] = set()
+    points = _new_points(_from_unit(u0, b, study), range(n0), seen, n0)
+    # LHS points an int parameter rounded together: topped up by the first new candidates
+    points += _new_points(cand_x, range(len(cand_x)), seen, n0 - len(points))
+    space = _box_points(study, b)
     history: list[dict] = []
     rounds = 0
     while True:
@@ -232,14 +280,34 @@ def optimize_study(
                 history,
                 f"met every target after {len(points)} design points",
             )
-        if len(points) >= budget or len(ok) < 3:
-            msg = (
-                f"budget of {budget} design points spent"
-                + ("" if recs else f", no case finished ok{first_error(df)}")
-                if len(points) >= budget
-                else f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
-                + first_error(df)
-            )
+        new: list[list[float]] = []
+        if len(points) < min(budget, space) and len(ok) >= 3:
+            models = {
+                t.output: fit_surrogate(ok, t.output, names, bounds)
+                for t in {t.output: t for t in targets}.values()
+            }
+            done_u = to_unit(np.asarray(points, float), *zip(*b, strict=True))
+            dist = np.linalg.norm(cand_xu[:, None, :] - done_u[None, :, :], axis=2)
+            far = np.min(dist, axis=1) > 0.02  # also drops a candidate rounded onto a run point
+            pool = cand_x[far]
+            order = np.argsort(-_probability(models, targets, pool), kind="stable")
+            new = _new_points(pool, order, seen, min(batch, budget - len(points)))
+        if not new:
+            if len(points) >= budget:
+                msg = f"budget of {budget} design points spent" + (
+                    "" if recs else f", no case finished ok{first_error(df)}"
+                )
+            elif len(points) >= space:  # int parameters only: a small box, all run
+                msg = (
+                    f"every design point of the parameter box has run ({len(points)}; its int "
+                    "parameters hold no other)"
+                    + ("" if recs else f", no case finished ok{first_error(df)}")
+                )
+            elif len(ok) >= 3:  # every candidate rounds onto a point that has run
+                msg = f"no candidate left that is a new design point ({len(points)} run)"
+            else:
+                msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
+                msg += first_error(df)
             return OptimizeResult(
                 False,
                 best,
@@ -249,13 +317,4 @@ def optimize_study(
                 f"{msg}; closest case misses by {best_miss:.3g} (relative)"
                 + seed_scatter_note(ok.to_dict(orient="records"), names, best, targets),
             )
-        models = {
-            t.output: fit_surrogate(ok, t.output, names, bounds)
-            for t in {t.output: t for t in targets}.values()
-        }
-        done_u = to_unit(np.asarray(points, float), *zip(*b, strict=True))
-        far = np.min(np.linalg.norm(cand_u[:, None, :] - done_u[None, :, :], axis=2), axis=1) > 0.02
-        pool = cand_u[far]
-        prob = _probability(models, targets, _from_unit(pool, b, study))
-        pick = pool[np.argsort(-prob, kind="stable")[: min(batch, budget - len(points))]]
-        points.extend(_from_unit(pick, b, study).tolist())
+        points.extend(new)

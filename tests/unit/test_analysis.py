@@ -938,3 +938,51 @@ def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
     at = "generator.porosity=0.8,generator.diameter=7e-6"
     assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
     assert strict(capsys.readouterr().out)["k_z_m2"]["cv_rel_error"] is None
+
+
+def n_fibers_case(spec, outputs, solver, workdir):
+    """The fake case with K = 1e-12 m^2 x generator.n_fibers (an int parameter)."""
+    out = fake_case(spec, outputs, solver, workdir)
+    out["k_z_m2"] = 1e-12 * spec["generator"]["n_fibers"]
+    return out
+
+
+@pytest.mark.parametrize(
+    ("params", "grid"),
+    [
+        ('"generator.n_fibers" = {low = 10, high = 11, type = "int"}', [(10,), (11,)]),
+        (
+            '"generator.n_fibers" = {low = 10, high = 11, type = "int"}\n'
+            '"generator.max_fibers" = {low = 100, high = 102, type = "int"}',
+            [(a, b) for a in (10, 11) for b in (100, 101, 102)],
+        ),
+    ],
+)
+def test_optimize_never_runs_a_design_point_twice(tmp_path, params, grid) -> None:
+    """Session 34 notes: ``study optimize`` rounds an int parameter after drawing, so two
+    candidates became one design point and the budget ran it twice: a 2-level parameter
+    (4 initial LHS points on 2 whole numbers) then crashed in the fit ("need at least 3
+    finished cases", the duplicates being one realization), and on a 2 x 3 box a budget of 10
+    ran (10, 101) six times and 4 of the 6 points. Truth by hand: the box holds exactly the
+    whole-number grid, so the search runs each of its points once and stops, saying so."""
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        params,
+    )
+    t = [Target.parse("k_z_m2=1e-10")]  # above every K of the box (at most 1.1e-11): never met
+    res = optimize_study(
+        p, tmp_path / "out", t, budget=10, case_fn=n_fibers_case, workers=0, progress=False
+    )
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    cols = [c for c in df.columns if c.startswith("generator.")]
+    run = [tuple(int(v) for v in row) for row in df[cols].itertuples(index=False)]
+    assert sorted(run) == sorted(grid)  # each whole-number point once, no other
+    assert res.n_points == len(grid) and not res.met
+    assert res.message.startswith(
+        f"every design point of the parameter box has run ({len(grid)}; "
+    ), res.message
+    assert res.best["k_z_m2"] == pytest.approx(1.1e-11)  # n_fibers = 11, the closest
