@@ -54,8 +54,9 @@ def entangled(x: np.ndarray, names: list[str]) -> str:
     return ""
 
 
-def _entangled(s: Surrogate, names: list[str]) -> str:
-    """:func:`entangled` over the fitted design points (scaled inputs) of ``names``."""
+def entangled_inputs(s: Surrogate, names: list[str]) -> str:
+    """:func:`entangled` over the fitted design points (scaled inputs) of ``names``: the
+    rule of :func:`no_indices_reason`, also the report's for its response surface."""
     u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
     return entangled(u[:, [s.params.index(p) for p in names]], names)
 
@@ -69,7 +70,7 @@ def no_indices_reason(s: Surrogate) -> str:
     if not names:
         held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())
         return f"no design parameter varied among the fitted cases ({held})"
-    return s.flat_output() or _entangled(s, names)
+    return s.flat_output() or entangled_inputs(s, names)
 
 
 def _problem(s: Surrogate) -> dict:

@@ -287,8 +287,10 @@ def _interaction_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols: list[str], a, 
 
 def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
-    its relative uncertainty), fitted here from the finished cases."""
-    from psdesign.analysis.sensitivity import no_indices_reason, sobol_indices
+    its relative uncertainty), fitted here from the finished cases; no surface over two
+    parameters that moved together (a note says why: :func:`~psdesign.analysis.sensitivity.
+    entangled_inputs`, the rule that gives them no Sobol index)."""
+    from psdesign.analysis.sensitivity import entangled_inputs, no_indices_reason, sobol_indices
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
@@ -332,9 +334,12 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         sob = sobol_indices(s, n=256)
         parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
+    tangled = entangled_inputs(s, order[:2]) if len(order) >= 2 else ""
     if len(order) == 1:
         fig = _surface_1d(s, ok, num, order[0], c)
         parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
+    elif tangled:  # the sensitivity rule: a surface over a pair the cases never separated
+        parts.append(f'<p class="note">Response surface not shown: {html.escape(tangled)}.</p>')
     else:
         parts.append(figure_html(_surface_2d(s, ok, num, order[:2], c), "psd-surface"))
     return (

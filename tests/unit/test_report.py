@@ -585,3 +585,35 @@ def test_a_design_point_listed_twice_counts_once_in_spearman_and_main_effects(mo
     decision.effect_plots(df, ["a", "b"])
     line = [t for t in figs[0].data if t.name == "b: k_z_m2"][0]
     assert line.y[0] == pytest.approx(want_b1, abs=1e-12)
+
+
+def test_no_response_surface_over_two_parameters_that_moved_together(tmp_path):
+    """Session 34 notes: a csv study with diameter = 1e-5 * porosity (b = 2a in kind: the
+    cases lie on one line of the box) got no Sobol indices (``no_indices_reason``: the cases
+    cannot tell the two effects apart) but a 2-D surface over those two parameters, a GP
+    surface over a box the cases never filled. The same rule now gives no surface either,
+    and one sentence where it would be. Truth: the two columns are one (correlation 1 by
+    construction)."""
+    eps = np.linspace(0.7, 0.9, 8)
+    pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
+        tmp_path / "pts.csv", index=False
+    )
+    p = write_study(
+        tmp_path,
+        'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
+        'solver = "voxel"',
+        "",
+    )
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    why = "generator.porosity and generator.diameter moved together over the cases"
+    assert "psd-surface" not in html
+    assert f'<p class="note">Response surface not shown: {why} (correlation 1.000)' in html
+    # two independent parameters keep their surface (the same cases, diameter shuffled)
+    from psdesign.report.decision import surrogate_plots
+
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    params = ["generator.porosity", "generator.diameter"]
+    df["generator.diameter"] = np.random.default_rng(1).permutation(df["generator.diameter"])
+    text = surrogate_plots(df, params, {})
+    assert "psd-surface" in text and "Response surface not shown" not in text
