@@ -28,6 +28,27 @@ class SpecError(ValueError):
         return _restore, (type(self), dict(self.__dict__), self.args)
 
 
+class StudyError(SpecError):
+    """Invalid study file or study argument: bad input (the CLI maps it to exit status 2).
+
+    A :class:`~psdesign.errors.SpecError`, so ``except psdesign.SpecError`` catches every
+    bad-input error of specs and studies alike.  A study that cannot run (the scheduler does
+    not answer, no worker) raises other errors (``SchedulerError``, ``WorkersLost``).
+
+    Parameters
+    ----------
+    message : str
+        ``"key: what is wrong"``: ``key`` (before the first ``": "``; ``"study"`` if there
+        is none) becomes :attr:`key`, the rest :attr:`message`.
+    """
+
+    def __init__(self, message: str) -> None:
+        key, sep, rest = message.partition(": ")
+        if not sep:
+            key, rest = "study", message
+        super().__init__(key, rest)
+
+
 def _restore(cls: type, state: dict, args: tuple) -> SpecError:
     """A :class:`SpecError` (or subclass) from its pickled state, without ``__init__``."""
     err = cls.__new__(cls)

@@ -190,9 +190,15 @@ def _cluster_wait(args: argparse.Namespace) -> float | None:
 def cmd_study_run(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study run``; returns the exit status."""
     from psdesign.errors import SpecError
+    from psdesign.study.address import SchedulerError, check_scheduler_address
+
+    try:  # a typo in the address refused before the seconds of the imports below and dask's
+        if args.scheduler:
+            check_scheduler_address(args.scheduler)
+    except (SpecError, SchedulerError) as exc:
+        return _fail(str(exc), 2)
     from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import (
-        SchedulerError,
         WorkersLost,
         check_workers,
         run_study,

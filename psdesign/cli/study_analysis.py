@@ -247,9 +247,16 @@ def _measured_text(r: dict) -> str:
 
 
 def _cmd_optimize(args: argparse.Namespace) -> int:
+    from psdesign.study.address import SchedulerError, check_scheduler_address
+
+    try:  # a typo in the address refused before the seconds of the imports below and dask's
+        if args.scheduler:
+            check_scheduler_address(args.scheduler)
+    except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
+        return _fail(str(exc))
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
-    from psdesign.study.runner import SchedulerError, WorkersLost, check_workers
+    from psdesign.study.runner import WorkersLost, check_workers
 
     try:
         check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed

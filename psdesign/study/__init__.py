@@ -34,7 +34,7 @@ __all__ = [
 _LAZY = {
     "Case": "design",
     "expand_design": "design",
-    "SchedulerError": "runner",
+    "SchedulerError": "address",
     "run_study": "runner",
     "WorkersLost": "runner",
     "StorageError": "store",

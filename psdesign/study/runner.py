@@ -28,6 +28,7 @@ import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.schema.budget import MAX_TIMEOUT_S
+from psdesign.study.address import SchedulerError, check_scheduler_address, host_port
 from psdesign.study.casefn import watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
@@ -48,14 +49,6 @@ __all__ = ["SchedulerError", "WorkersLost", "run_study"]
 
 CONNECT_TIMEOUT_S = 10.0
 _MAX_POOL_BREAKS = 2
-
-
-class SchedulerError(RuntimeError):
-    """The Dask scheduler (``--scheduler``) or batch cluster (``--cluster``) cannot be used:
-    it does not answer or is not Dask, dask.distributed or the submit command is missing,
-    the jobs are refused or no worker connects in time.  Raised before the output folder is
-    touched (the CLI exits 2).  Bad scheduler options (a malformed address, missing TLS
-    files) are :class:`StudyError`."""
 
 
 class WorkersLost(RuntimeError):
@@ -279,18 +272,6 @@ def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> 
         on_done(p, execute_case(p))
 
 
-def _host_port(address: str) -> tuple[str, str, int]:
-    scheme, _, rest = address.partition("://")
-    host, sep, port = rest.rpartition(":")
-    host = host.strip("[]")
-    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise StudyError(
-            f"--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT or 'local', "
-            f"got {address!r}"
-        )
-    return scheme, host, int(port)
-
-
 def _is_loopback(host: str) -> bool:
     import ipaddress
 
@@ -334,7 +315,7 @@ def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
     """
     import struct
 
-    _scheme, host, port = _host_port(address)
+    _scheme, host, port = host_port(address)
     where = f"--scheduler: {address}"
     try:
         raw = socket.create_connection((host, port), timeout=timeout_s)
@@ -418,6 +399,8 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         If dask.distributed is missing, nothing answers at ``address`` within ``timeout_s``
         (default :data:`CONNECT_TIMEOUT_S`) or the peer is not a Dask scheduler.
     """
+    if isinstance(address, str):
+        check_scheduler_address(address)  # form and host, before the seconds of dask's import
     try:
         import dask
         from distributed import Client, LocalCluster
@@ -438,13 +421,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             dashboard_address=None,
         )
         return Client(cluster), cluster
-    if "://" not in address:
-        raise StudyError(
-            f"--scheduler: expected an address like tcp://HOST:PORT or 'local', got {address!r}"
-        )
-    scheme, host, _port = _host_port(address)
-    if scheme not in ("tcp", "tls"):
-        raise StudyError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
+    scheme, host, _port = host_port(address)  # a tcp:// or tls:// address (checked above)
     ssl_context = None
     if scheme == "tls":
         from distributed.security import Security
@@ -836,6 +813,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
             f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
             "'local', or leave it out for the local process pool"
         )
+    if isinstance(scheduler, str):
+        check_scheduler_address(scheduler)  # before the case function's imports and dask's
     if case_fn is not None:
         try:
             load_case_fn(case_fn)

@@ -19,7 +19,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, StudyError  # StudyError: re-exported (light module)
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS
 from psdesign.schema.errors import did_you_mean, first_error
 from psdesign.schema.keys import spec_paths
@@ -58,27 +58,6 @@ VALUE_TYPES = ("float", "int")
 #: ``rve``, ``generator``, ``intersections`` and ``flow`` tables of the schema (derived from
 #: :mod:`psdesign.schema`, see :func:`psdesign.schema.keys.spec_paths`).
 KNOWN_SPEC_KEYS: frozenset[str] = frozenset(spec_paths())
-
-
-class StudyError(SpecError):
-    """Invalid study file or study argument: bad input (the CLI maps it to exit status 2).
-
-    A :class:`~psdesign.errors.SpecError`, so ``except psdesign.SpecError`` catches every
-    bad-input error of specs and studies alike.  A study that cannot run (the scheduler does
-    not answer, no worker) raises other errors (``SchedulerError``, ``WorkersLost``).
-
-    Parameters
-    ----------
-    message : str
-        ``"key: what is wrong"``: ``key`` (before the first ``": "``; ``"study"`` if there
-        is none) becomes :attr:`key`, the rest :attr:`message`.
-    """
-
-    def __init__(self, message: str) -> None:
-        key, sep, rest = message.partition(": ")
-        if not sep:
-            key, rest = "study", message
-        super().__init__(key, rest)
 
 
 @dataclass(frozen=True)

@@ -650,3 +650,63 @@ def test_absurd_local_worker_count_and_nan_timeout_refused_before_work(tmp_path,
         run_study(p, out, workers=0, case_fn=fake_case, timeout_s=float("nan"))
     assert not out.exists()
     assert max_local_workers() >= 64
+
+
+@pytest.mark.parametrize("cmd", ["run", "optimize"])
+@pytest.mark.parametrize(
+    ("address", "line"),
+    [
+        ("bogus", "--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT "),
+        ("tcp://bogus.invalid:8786", "--scheduler: the host of tcp://bogus.invalid:8786 does not "),
+        ("ftp://host:1", "--scheduler: scheme ftp:// not supported; use tcp:// or tls://"),
+    ],
+)
+def test_a_bad_scheduler_address_is_refused_before_dask_is_imported(
+    tmp_path, cmd, address, line
+) -> None:
+    """Session 34 notes: ``--scheduler bogus`` took 5-10 s to refuse under load (13 s at load
+    16): dask, pandas and the study runner were imported first. Now the address's form and
+    its host (``.invalid`` never resolves: RFC 6761) are checked first, one line, exit 2; a
+    fresh interpreter lists which heavy modules the refusal imported: none (no timing). A
+    host that resolves but does not answer keeps the probe's 10 s wait (test_api:
+    ``tcp://127.0.0.1:9``, "no Dask scheduler answers")."""
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "out"
+    argv = {
+        "run": ["study", "run", str(p), "-o", str(out)],
+        "optimize": ["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=1e-11"],
+    }[cmd] + ["--scheduler", address, "--quiet"]
+    code = (
+        "import sys\nfrom psdesign.cli.main import main\n"
+        f"status = main({argv!r})\n"
+        "heavy = [m for m in ('dask', 'distributed', 'pandas', 'numpy') if m in sys.modules]\n"
+        "print(status, heavy)"
+    )
+    path = [str(TESTS_DIR.parent), os.environ.get("PYTHONPATH", "")]  # this checkout's psdesign
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path)}
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env
+    )
+    assert run.stdout.strip() == "2 []", (run.stdout, run.stderr)
+    err = run.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"psdesign: error: {line}"), err
+    assert not out.exists()
+
+
+def test_a_host_name_service_that_hangs_is_refused_after_its_timeout(monkeypatch) -> None:
+    """``socket.getaddrinfo`` has no timeout: a name service that never answers is given
+    ``timeout_s`` and the address refused, naming --scheduler (a stand-in lookup that blocks
+    until the test ends)."""
+    from psdesign.study import address
+
+    release = threading.Event()
+    monkeypatch.setattr(address.socket, "getaddrinfo", lambda *a, **k: release.wait(60))
+    try:
+        with pytest.raises(SchedulerError) as info:
+            address.check_scheduler_address("tls://slow.example:8786", timeout_s=0.2)
+    finally:
+        release.set()
+    assert str(info.value).startswith(
+        "--scheduler: the host of tls://slow.example:8786 does not resolve (no answer from "
+        "the name service within 0.2 s)"
+    )
