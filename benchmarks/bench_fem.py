@@ -73,14 +73,20 @@ def k_transverse_sa(a: float, phi: float) -> float:
 def run_cylinders(n: int, tol: float = 1e-8) -> dict:
     from meshes import cylinder_transverse_row
 
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     t0 = time.perf_counter()
     n_z = max(1, n // 4)
     pts, tets, tags = cylinder_transverse_row(SPACING, RADIUS, 3, n, n, n_z=n_z)
     t_mesh = time.perf_counter() - t0
     depth = pts[:, 2].max()
-    res = solve_stokes(pts, tets, tags, slip=("side_y0", "side_y1", "side_z0", "side_z1"), tol=tol)
+    res = solve_stokes(
+        pts,
+        tets,
+        tags,
+        slip=("side_y0", "side_y1", "side_z0", "side_z1"),
+        options=StokesOptions(tol=tol),
+    )
     means = [res.plane_mean(0, xp, n=64)[0] for xp in (SPACING, 2 * SPACING)]
     grad = (means[0] - means[1]) / SPACING
     k = res.flux["outlet"] / (SPACING / 2 * depth) / grad
@@ -122,7 +128,7 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     import pytetwild
     from meshes import snap_to_box, tag_box_boundary
 
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     t0 = time.perf_counter()
     v, f, porosity = fiber_surface()
@@ -146,7 +152,13 @@ def run_fibers(fac: float, tol: float = 1e-8, refine: int = 0) -> dict:
     tags = tag_box_boundary(p, t, (0, 0, 0), (1, 1, 1), 2)
     t_mesh = time.perf_counter() - t0
     rss_mesh = _rss_gb()
-    res = solve_stokes(p, t, tags, slip=("side_x0", "side_x1", "side_y0", "side_y1"), tol=tol)
+    res = solve_stokes(
+        p,
+        t,
+        tags,
+        slip=("side_x0", "side_x1", "side_y0", "side_y1"),
+        options=StokesOptions(tol=tol),
+    )
     k = res.flux["outlet"] * 1.0 / (1.0 * 1.0)  # K = mu Q L / (A dp), mu = dp = L = A = 1
     size = f"{fac}/r{refine}" if refine else fac
     return dict(
@@ -211,7 +223,7 @@ def run_toray(
     657 k-unknown case: ``lattice_step`` 10 / 3 um, the default before session 7)."""
     from psdesign.flow.fem import rve_window
     from psdesign.meshing import tags as T
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     t0 = time.perf_counter()
     rve, flow, pm = toray_mesh(voxel, lattice_step=lattice_step)
@@ -228,8 +240,7 @@ def run_toray(
         viscosity=mu,
         noslip=[T.WALL],
         slip=sides,
-        tol=tol,
-        krylov=krylov,
+        options=StokesOptions(tol=tol, krylov=krylov),
     )
     start, end = pm.porous_region
     q = abs(res.flux[T.OUTLET])

@@ -28,6 +28,7 @@ _LAZY = {
     "from_image": "psdesign.api",
     "load_spec": "psdesign.api",
     "run_study": "psdesign.api",
+    "RunOptions": "psdesign.study",
     "Material": "psdesign.api",
     "PermeabilityResult": "psdesign.api",
     "validate_spec": "psdesign.schema.spec",

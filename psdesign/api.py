@@ -22,7 +22,10 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from psdesign.study.options import RunOptions
 
 __all__ = ["Material", "PermeabilityResult", "build", "from_image", "load_spec", "run_study"]
 
@@ -489,18 +492,22 @@ def _unguarded_call_in_main_script(name: str) -> bool:
     return False
 
 
-def run_study(study: str | Path | dict, out_dir: str | Path, workers: int = 1, **kwargs: Any):
+def run_study(
+    study: str | Path | dict, out_dir: str | Path, options: RunOptions | None = None, **kwargs: Any
+):
     """Run (or resume) a study; see :func:`psdesign.study.runner.run_study` for the arguments.
 
-    ``study`` is a study file or its tables as a dict (as :func:`build` takes a spec). With
-    ``workers >= 1`` (worker processes), a call from a script must sit under
-    ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error. A
-    refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
+    ``study`` is a study file or its tables as a dict (as :func:`build` takes a spec);
+    ``options`` a :class:`psdesign.study.RunOptions`, or its fields as keywords
+    (``workers=2``). With ``workers >= 1`` (worker processes), a call from a script must sit
+    under ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
+    A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
     (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``.
     """
-    from psdesign.study import StudyError
+    from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run
 
+    workers = kwargs.get("workers", options.workers if isinstance(options, RunOptions) else 1)
     # a bad ``workers`` (negative, not an int) is the runner's one-line error, not this one
     real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
     if real and _unguarded_call_in_main_script("run_study"):
@@ -510,4 +517,4 @@ def run_study(study: str | Path | dict, out_dir: str | Path, workers: int = 1, *
             "workers=0"
         )
     kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
-    return _run(study, out_dir, workers=workers, **kwargs)
+    return _run(study, out_dir, options, **kwargs)

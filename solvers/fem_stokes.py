@@ -38,13 +38,14 @@ from skfem import ElementTetP2
 from solvers.blas_threads import single_thread_blas
 from solvers.fem import assembly
 from solvers.fem.boundary import BoundaryTagError, match_rows, slip_axis, vertex_components
-from solvers.fem.linsolve import KRYLOV, SaddleSystem, solve_direct, solve_iterative
+from solvers.fem.linsolve import SaddleSystem, solve_direct, solve_iterative
 from solvers.fem.memory import (
     ELEMENTS,
     MemoryLimitError,
     default_limit_gb,
     estimate_memory_gb,
 )
+from solvers.fem.options import StokesOptions
 from solvers.fem.periodic import (
     PeriodicMeshError,
     face_partners,
@@ -56,6 +57,7 @@ from solvers.fem.probe import PointLocator, p2_weights
 __all__ = [
     "solve_stokes",
     "solve_stokes_periodic",
+    "StokesOptions",
     "PeriodicMeshError",
     "StokesResult",
     "estimate_memory_gb",
@@ -239,7 +241,7 @@ def _as_names(value, arg: str) -> tuple[str, ...]:
     raise ValueError(f"{arg} must be a tag name or a sequence of tag names, got {value!r}")
 
 
-def _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter):
+def _check_mesh(points, tets, facet_tags, viscosity):
     """Checks shared by both solvers (one-line ``ValueError`` messages naming the argument)."""
     points = np.asarray(points, dtype=np.float64)
     tets = np.asarray(tets)
@@ -257,10 +259,6 @@ def _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter):
         raise ValueError("facet_tags must be a dict {tag name: (k, 3) int array}")
     if not (np.isfinite(viscosity) and viscosity > 0):
         raise ValueError(f"viscosity must be > 0 (Pa s), got {viscosity}")
-    if not (0 < tol < 1):
-        raise ValueError(f"tol must lie in (0, 1), got {tol}")
-    if int(max_iter) < 1:
-        raise ValueError(f"max_iter must be >= 1, got {max_iter}")
     return points, tets.astype(np.int64)
 
 
@@ -318,11 +316,11 @@ def _check_drive(p_inlet, p_outlet, element):
         raise ValueError(f"element must be one of {ELEMENTS}, got {element!r}")
 
 
-def _check_memory(n_points, n_tets, element, max_memory_gb, force) -> float:
+def _check_memory(n_points, n_tets, element, opts: StokesOptions) -> float:
     """The up-front memory estimate (GB); :class:`MemoryLimitError` above the limit."""
     est = estimate_memory_gb(n_points, n_tets, element)
-    limit = default_limit_gb() if max_memory_gb is None else float(max_memory_gb)
-    if est > limit and not force:
+    limit = default_limit_gb() if opts.max_memory_gb is None else float(opts.max_memory_gb)
+    if est > limit and not opts.force:
         raise MemoryLimitError(
             f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
             f"({n_tets} tets, {n_points} points); coarsen the mesh or pass force=True"
@@ -445,22 +443,13 @@ def _assemble_pressure_driven(mesh, inlet_facets, outlet_facets, pin, pout, free
     return SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0), b
 
 
-@dataclass(frozen=True)
-class _SolverOptions:
-    """How the linear system is solved (the keywords of both solvers; checked on creation)."""
-
-    tol: float
-    max_iter: int
-    direct_max_dofs: int
-    amg: str
-    krylov: str
-    progress: Callable[[int, float], None] | None
-
-    def __post_init__(self) -> None:
-        if self.amg not in ("sa", "rs"):
-            raise ValueError(f"amg must be 'sa' or 'rs', got {self.amg!r}")
-        if self.krylov not in KRYLOV:
-            raise ValueError(f"krylov must be one of {KRYLOV}, got {self.krylov!r}")
+def _options(options: StokesOptions | None) -> StokesOptions:
+    """``options`` or the defaults; anything else is refused in one line."""
+    if options is None:
+        return StokesOptions()
+    if not isinstance(options, StokesOptions):
+        raise ValueError(f"options must be a StokesOptions, got {type(options).__name__}")
+    return options
 
 
 def _say(stage: Callable[[str], None] | None, message: str) -> None:
@@ -468,18 +457,29 @@ def _say(stage: Callable[[str], None] | None, message: str) -> None:
         stage(message)
 
 
-def _solve_stage(system, opts: _SolverOptions) -> str:
+def _p2_mesh(x, tets, opts: StokesOptions):
+    """The scikit-fem mesh of the scaled tets and its P2 numbering ``(mesh, dofs2, n2)``: the
+    first step of the assembly (announced to ``opts.stage``)."""
+    _say(opts.stage, "assembling the system")
+    mesh = assembly.make_mesh(x, tets)
+    dofs2, n2 = assembly.p2_dofs(mesh)
+    return mesh, dofs2, n2
+
+
+def _solve_stage(system, opts: StokesOptions) -> str:
     """What :func:`_solve_system` does first, for the ``stage`` callback."""
     if system.n <= opts.direct_max_dofs:
         return f"sparse LU of {system.n} unknowns"
     return f"preconditioner set-up ({opts.amg.upper()} AMG), then {opts.krylov.upper()}"
 
 
-def _solve_system(system, b, opts: _SolverOptions):
-    """Sparse LU for small systems, else the preconditioned Krylov solver.
+def _solve_system(system, b, opts: StokesOptions):
+    """Sparse LU for small systems, else the preconditioned Krylov solver (announced to
+    ``opts.stage`` first).
 
     Returns ``(info, wall seconds, CPU seconds)``.
     """
+    _say(opts.stage, _solve_stage(system, opts))
     t0 = time.perf_counter()
     c0 = time.process_time()
     if system.n <= opts.direct_max_dofs:
@@ -509,10 +509,17 @@ class _Scales:
     viscosity: float
 
 
-def _result(info, *, mesh, dofs2, u, p, scales, t_start, est, **fields) -> StokesResult:
-    """The :class:`StokesResult` of a finished solve; ``fields`` are the solver's own."""
+def _result(
+    info, *, mesh, dofs2, u, p, scales, t_start, est, balance, timings, **fields
+) -> StokesResult:
+    """The :class:`StokesResult` of a finished solve; ``fields`` are the solver's own.
+
+    ``balance``: the two ``flux`` names whose relative sum is ``flux_imbalance``; ``timings``:
+    the assembly, solve (wall, CPU) and post-processing seconds.
+    """
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9
     state = {"mesh": mesh, "dofs2": dofs2, "u": u, "p": p, **vars(scales)}
+    q_a, q_b = (fields["flux"][name] for name in balance)
     return StokesResult(
         converged=info.converged,
         iterations=info.iterations,
@@ -522,6 +529,8 @@ def _result(info, *, mesh, dofs2, u, p, scales, t_start, est, **fields) -> Stoke
         peak_memory_gb=peak,
         memory_estimate_gb=est,
         method=info.method,
+        flux_imbalance=float(abs(q_a + q_b) / abs(q_a) if q_a != 0 else float("inf")),
+        timings=dict(zip(("assembly", "solve", "solve_cpu", "post"), timings, strict=True)),
         _state=state,
         **fields,
     )
@@ -540,16 +549,7 @@ def solve_stokes(
     noslip: Iterable[str] = ("wall",),
     slip: Iterable[str] = (),
     element: str = "taylor-hood",
-    tol: float = 1e-8,
-    max_iter: int = 2000,
-    max_memory_gb: float | None = None,
-    force: bool = False,
-    direct_max_dofs: int = 8_000,
-    amg: str = "sa",
-    krylov: str = "gmres",
-    progress: Callable[[int, float], None] | None = None,
-    stage: Callable[[str], None] | None = None,
-    assembly_progress: Callable[[int, int], None] | None = None,
+    options: StokesOptions | None = None,
 ) -> StokesResult:
     """Solve steady Stokes flow driven by prescribed inlet/outlet pressures.
 
@@ -574,36 +574,8 @@ def solve_stokes(
         Tags that are flat axis-aligned symmetry planes: u.n = 0, tangential traction free.
     element : {"taylor-hood"}
         P2 velocity / P1 pressure.
-    tol : float
-        Relative residual ``||b - K x|| / ||b||`` of the (scaled) linear system to reach.
-    max_iter : int
-        Maximum MINRES iterations.
-    max_memory_gb : float, optional
-        Refuse the solve if :func:`estimate_memory_gb` exceeds this (default: 80 % of the
-        available RAM).
-    force : bool
-        Solve even if the estimate exceeds the limit.
-    direct_max_dofs : int
-        Systems with at most this many unknowns use a sparse LU instead of MINRES (measured on
-        this machine: SuperLU needs 7 s for 12.6 k and 84 s for 31 k unknowns of an
-        unstructured P2-P1 mesh, MINRES 3 s for the 31 k).
-    amg : {"sa", "rs"}
-        pyamg smoothed aggregation or Ruge-Stuben for the velocity blocks.
-    krylov : {"gmres", "minres"}
-        GMRES with the block-triangular preconditioner (default; stores up to
-        :data:`solvers.fem.linsolve.DEFAULT_RESTART` Krylov vectors) or MINRES with the
-        block-diagonal one (no stored basis, about 3x more iterations).
-    progress : callable, optional
-        ``progress(iteration, relative_residual)`` after each Krylov iteration (GMRES: its
-        recurrence value of ``||b - K x|| / ||b||``, equal to the true one up to rounding;
-        MINRES: NaN). Not called by the direct solver.
-    stage : callable, optional
-        ``stage(message)`` at the start of the long steps before the first iteration
-        (assembly, then the preconditioner's set-up and the solve): 17 s at 1.4 M unknowns.
-    assembly_progress : callable, optional
-        ``assembly_progress(elements_done, n_elements)`` after each element batch of the
-        volume assembly (14 s of those 17 s at 1.4 M unknowns), the last call with
-        ``elements_done == n_elements``.
+    options : StokesOptions, optional
+        How it is solved: tolerance, linear solver, memory guard, progress callbacks.
 
     Returns
     -------
@@ -618,53 +590,31 @@ def solve_stokes(
         and outlet.
     """
     t_start = time.perf_counter()
-    points, tets = _check_mesh(points, tets, facet_tags, viscosity, tol, max_iter)
+    opts = _options(options)
+    points, tets = _check_mesh(points, tets, facet_tags, viscosity)
     tags, noslip, slip = _check_tags(facet_tags, len(points), inlet, outlet, noslip, slip)
     _check_drive(p_inlet, p_outlet, element)
-    solver = _SolverOptions(tol, max_iter, direct_max_dofs, amg, krylov, progress)
-    est = _check_memory(len(points), len(tets), element, max_memory_gb, force)
+    est = _check_memory(len(points), len(tets), element, opts)
 
     keep, used, old2new = _connected_part(len(points), tets, tags, inlet, outlet)
     tets_k = old2new[tets[keep]]
-    x, origin, length = _scaled_points(points[used], tets_k)
-    _refuse_flat(x, tets_k)
-    p_scale = max(abs(p_inlet), abs(p_outlet))
-    scales = _Scales(origin, length, p_scale * length / viscosity, p_scale, float(viscosity))
-
-    _say(stage, "assembling the system")
-    mesh = assembly.make_mesh(x, tets_k)
-    dofs2, n2 = assembly.p2_dofs(mesh)
+    x, scales = _scaled_pressure_driven(points[used], tets_k, p_inlet, p_outlet, viscosity)
+    mesh, dofs2, n2 = _p2_mesh(x, tets_k, opts)
     tag_facets = _tag_facets(mesh, tags, old2new)
     free, slip_axes = _free_velocity_dofs(mesh, x, dofs2, n2, tag_facets, noslip, slip)
 
     t0 = time.perf_counter()
+    drive = (p_inlet / scales.p_scale, p_outlet / scales.p_scale)
     system, b = _assemble_pressure_driven(
-        mesh,
-        tag_facets[inlet],
-        tag_facets[outlet],
-        p_inlet / p_scale,
-        p_outlet / p_scale,
-        free,
-        assembly_progress,
+        mesh, tag_facets[inlet], tag_facets[outlet], *drive, free, opts.assembly_progress
     )
     t_asm = time.perf_counter() - t0
-    _say(stage, _solve_stage(system, solver))
-    info, t_solve, c_solve = _solve_system(system, b, solver)
+    info, t_solve, c_solve = _solve_system(system, b, opts)
     del system
 
     t0 = time.perf_counter()
-    parts = np.split(info.x, np.cumsum([len(f) for f in free]))
-    u = np.zeros((3, n2))
-    for c in range(3):
-        u[c, free[c]] = parts[c]
-    p = parts[3]
-    q_scale = scales.u_scale * length**2
-    flux = {name: assembly.facet_flux(mesh, f, u) * q_scale for name, f in tag_facets.items()}
-    q_in, q_out = flux[inlet], flux[outlet]
-    velocity = np.zeros((len(points), 3))
-    velocity[used] = u[:, : len(used)].T * scales.u_scale
-    pressure = np.full(len(points), np.nan)
-    pressure[used] = p * p_scale
+    u, p = _unpack(info.x, free, n2)
+    flux, velocity, pressure = _on_vertices(mesh, u, p, tag_facets, scales, used, len(points))
     t_post = time.perf_counter() - t0
     return _result(
         info,
@@ -675,8 +625,9 @@ def solve_stokes(
         scales=scales,
         t_start=t_start,
         est=est,
+        balance=(inlet, outlet),
+        timings=(t_asm, t_solve, c_solve, t_post),
         flux=flux,
-        flux_imbalance=float(abs(q_in + q_out) / abs(q_in) if q_in != 0 else float("inf")),
         n_tets=int(len(tets_k)),
         n_points=int(len(used)),
         n_tets_removed=int((~keep).sum()),
@@ -684,8 +635,37 @@ def solve_stokes(
         pressure=pressure,
         element=element,
         slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
     )
+
+
+def _scaled_pressure_driven(points, tets, p_inlet, p_outlet, viscosity):
+    """Scaled coordinates of the kept mesh (degenerate tets refused) and its
+    :class:`_Scales` (pressure by max(|p_inlet|, |p_outlet|))."""
+    x, origin, length = _scaled_points(points, tets)
+    _refuse_flat(x, tets)
+    p_scale = max(abs(p_inlet), abs(p_outlet))
+    return x, _Scales(origin, length, p_scale * length / viscosity, p_scale, float(viscosity))
+
+
+def _unpack(x, free, n2) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled ``(u (3, n2), p)`` from the solution vector (zero on the fixed velocity dofs)."""
+    parts = np.split(x, np.cumsum([len(f) for f in free]))
+    u = np.zeros((3, n2))
+    for c in range(3):
+        u[c, free[c]] = parts[c]
+    return u, parts[3]
+
+
+def _on_vertices(mesh, u, p, tag_facets, scales, used, n_points):
+    """SI ``(flux per tag, velocity (n_points, 3), pressure)`` of the scaled solution; the
+    vertices of removed parts (not in ``used``) get zero velocity and NaN pressure."""
+    q_scale = scales.u_scale * scales.length**2
+    flux = {name: assembly.facet_flux(mesh, f, u) * q_scale for name, f in tag_facets.items()}
+    velocity = np.zeros((n_points, 3))
+    velocity[used] = u[:, : len(used)].T * scales.u_scale
+    pressure = np.full(n_points, np.nan)
+    pressure[used] = p * scales.p_scale
+    return flux, velocity, pressure
 
 
 def solve_stokes_periodic(
@@ -698,16 +678,7 @@ def solve_stokes_periodic(
     viscosity: float = 1.0,
     periodic_axes: Iterable[int] = (0, 1, 2),
     slip: Iterable[str] = (),
-    tol: float = 1e-8,
-    max_iter: int = 2000,
-    max_memory_gb: float | None = None,
-    force: bool = False,
-    direct_max_dofs: int = 8_000,
-    amg: str = "sa",
-    krylov: str = "gmres",
-    progress: Callable[[int, float], None] | None = None,
-    stage: Callable[[str], None] | None = None,
-    assembly_progress: Callable[[int, int], None] | None = None,
+    options: StokesOptions | None = None,
 ) -> StokesResult:
     """Stokes flow periodic across opposite box faces, driven by a mean pressure gradient.
 
@@ -734,9 +705,8 @@ def solve_stokes_periodic(
         Axes whose face pairs are identified (default all three).
     slip : sequence of str
         Tags of flat faces normal to a non-periodic axis with a symmetry condition.
-    tol, max_iter, max_memory_gb, force, direct_max_dofs, amg, krylov, progress, stage,
-    assembly_progress
-        As in :func:`solve_stokes`.
+    options : StokesOptions, optional
+        How it is solved, as in :func:`solve_stokes`.
 
     Returns
     -------
@@ -753,7 +723,76 @@ def solve_stokes_periodic(
         Bad arguments, no no-slip facets (the periodic velocity would be undetermined).
     """
     t_start = time.perf_counter()
-    points, tets = _check_mesh(points, tets, facet_tags or {}, viscosity, tol, max_iter)
+    opts = _options(options)
+    points, tets = _check_mesh(points, tets, facet_tags or {}, viscosity)
+    periodic_axes, slip, tags = _check_periodic(
+        axis, pressure_gradient, periodic_axes, slip, facet_tags or {}
+    )
+    est = _check_memory(len(points), len(tets), ELEMENTS[0], opts)
+    x, scales = _scaled_periodic(points, tets, pressure_gradient, viscosity)
+    lo, length = scales.origin, scales.length
+    mesh, dofs2, n2 = _p2_mesh(x, tets, opts)
+    boundary = mesh.f2t[1] == -1
+    P2, P1k, free, slip_axes = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
+    t0 = time.perf_counter()
+    system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis, opts.assembly_progress)
+    t_asm = time.perf_counter() - t0
+    info, t_solve, c_solve = _solve_system(system, b, opts)
+    del system
+
+    t0 = time.perf_counter()
+    u, p = _unpack_periodic(info.x, free, Pf, P1k, n2)
+    box = np.prod(points.max(axis=0) - lo)
+    mean_u = np.array([load @ u[c] for c in range(3)]) * scales.u_scale * length**3 / box
+    flux = _face_fluxes(mesh, x, boundary, u, axis, scales.u_scale * length**2)
+    t_post = time.perf_counter() - t0
+    return _result(
+        info,
+        mesh=mesh,
+        dofs2=dofs2,
+        u=u,
+        p=p,
+        scales=scales,
+        t_start=t_start,
+        est=est,
+        balance=(f"{'xyz'[axis]}0", f"{'xyz'[axis]}1"),
+        timings=(t_asm, t_solve, c_solve, t_post),
+        flux=flux,
+        n_tets=int(len(tets)),
+        n_points=int(len(points)),
+        n_tets_removed=0,
+        velocity=(u[:, : len(points)].T * scales.u_scale).copy(),
+        pressure=p * scales.p_scale,
+        slip_axes=slip_axes,
+        mean_velocity=mean_u,
+    )
+
+
+def _scaled_periodic(points, tets, pressure_gradient, viscosity):
+    """Scaled coordinates (every vertex in a tet) and :class:`_Scales` with G = 1, mu = 1."""
+    used = np.unique(tets)
+    if len(used) != len(points):
+        raise ValueError(f"points: {len(points) - len(used)} vertices belong to no tetrahedron")
+    x, lo, length = _scaled_points(points, tets)
+    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
+    return x, _Scales(lo, length, u_scale, pressure_gradient * length, float(viscosity))
+
+
+def _unpack_periodic(x, free, Pf, P1k, n2) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled ``(u (3, n2), p)`` on all P2 / P1 nodes from the free master unknowns."""
+    parts = np.split(x, np.cumsum([len(f) for f in free]))
+    u = np.zeros((3, n2))
+    for c in range(3):
+        u[c] = Pf[c] @ parts[c]
+    return u, P1k @ parts[3]
+
+
+def _check_periodic(axis, pressure_gradient, periodic_axes, slip, facet_tags):
+    """The periodic solve's own arguments checked (one-line ``ValueError`` naming each).
+
+    Returns ``(periodic_axes, slip, tags)``: the sorted axes, the slip tag names and the tag
+    arrays as int64 (k, 3).
+    """
     if axis not in (0, 1, 2):
         raise ValueError(f"axis must be 0, 1 or 2, got {axis}")
     if not (np.isfinite(pressure_gradient) and pressure_gradient > 0):
@@ -765,62 +804,12 @@ def solve_stokes_periodic(
         )
     if axis not in periodic_axes:
         raise ValueError(f"axis {axis} must be one of the periodic_axes {periodic_axes}")
-    solver = _SolverOptions(tol, max_iter, direct_max_dofs, amg, krylov, progress)
     slip = _as_names(slip, "slip")
-    tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in (facet_tags or {}).items()}
+    tags = {k: np.asarray(v, dtype=np.int64).reshape(-1, 3) for k, v in facet_tags.items()}
     for n in slip:
         if n not in tags:
             raise ValueError(f"slip: tag {n!r} is not in facet_tags (have {sorted(tags)})")
-    est = _check_memory(len(points), len(tets), ELEMENTS[0], max_memory_gb, force)
-    used = np.unique(tets)
-    if len(used) != len(points):
-        raise ValueError(f"points: {len(points) - len(used)} vertices belong to no tetrahedron")
-    x, lo, length = _scaled_points(points, tets)
-    u_scale = pressure_gradient * length**2 / viscosity  # scaled G = 1, mu = 1
-    scales = _Scales(lo, length, u_scale, pressure_gradient * length, float(viscosity))
-    _say(stage, "assembling the system")
-    mesh = assembly.make_mesh(x, tets)
-    dofs2, n2 = assembly.p2_dofs(mesh)
-    boundary = mesh.f2t[1] == -1
-    P2, P1k, free, slip_axes = _periodic_constraints(mesh, x, tags, slip, periodic_axes, boundary)
-    t0 = time.perf_counter()
-    system, b, Pf, load = _assemble_periodic(mesh, P2, P1k, free, axis, assembly_progress)
-    t_asm = time.perf_counter() - t0
-    _say(stage, _solve_stage(system, solver))
-    info, t_solve, c_solve = _solve_system(system, b, solver)
-    del system
-
-    t0 = time.perf_counter()
-    parts = np.split(info.x, np.cumsum([len(f) for f in free]))
-    u = np.zeros((3, n2))
-    for c in range(3):
-        u[c] = Pf[c] @ parts[c]
-    p = P1k @ parts[3]
-    box = np.prod(points.max(axis=0) - lo)
-    mean_u = np.array([load @ u[c] for c in range(3)]) * scales.u_scale * length**3 / box
-    flux = _face_fluxes(mesh, x, boundary, u, axis, scales.u_scale * length**2)
-    q0, q1 = flux[f"{'xyz'[axis]}0"], flux[f"{'xyz'[axis]}1"]
-    t_post = time.perf_counter() - t0
-    return _result(
-        info,
-        mesh=mesh,
-        dofs2=dofs2,
-        u=u,
-        p=p,
-        scales=scales,
-        t_start=t_start,
-        est=est,
-        flux=flux,
-        flux_imbalance=float(abs(q0 + q1) / abs(q0) if q0 != 0 else float("inf")),
-        n_tets=int(len(tets)),
-        n_points=int(len(points)),
-        n_tets_removed=0,
-        velocity=(u[:, : len(points)].T * scales.u_scale).copy(),
-        pressure=p * scales.p_scale,
-        slip_axes=slip_axes,
-        timings={"assembly": t_asm, "solve": t_solve, "solve_cpu": c_solve, "post": t_post},
-        mean_velocity=mean_u,
-    )
+    return periodic_axes, slip, tags
 
 
 def _face_fluxes(mesh, x, boundary, u, axis, q_scale) -> dict[str, float]:

@@ -353,6 +353,20 @@ def _announce(mesh, name: str) -> None:
     )
 
 
+def _solver_options(flow: dict, name: str):
+    """The FEM solve's :class:`~solvers.fem.options.StokesOptions` from the ``[flow]`` table
+    (``tol``, ``max_memory_gb``) with the CLI's progress lines for ``K_<name>``."""
+    from solvers.fem.options import StokesOptions
+
+    return StokesOptions(
+        tol=float(flow.get("tol") or 1e-6),
+        max_memory_gb=flow.get("max_memory_gb"),
+        progress=progress.iterations(f"FEM solve {name}", "GMRES"),
+        stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
+        assembly_progress=progress.counted(f"FEM solve {name}: assembling", "elements"),
+    )
+
+
 def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     from solvers.fem_stokes import solve_stokes_periodic
 
@@ -366,11 +380,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
         axis=ax,
         pressure_gradient=grad,
         viscosity=mu,
-        tol=float(flow.get("tol") or 1e-6),
-        max_memory_gb=flow.get("max_memory_gb"),
-        progress=progress.iterations(f"FEM solve {name}", "GMRES"),
-        stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
-        assembly_progress=progress.counted(f"FEM solve {name}: assembling", "elements"),
+        options=_solver_options(flow, name),
     )
     u = np.asarray(res.mean_velocity, dtype=float)
     col = darcy_column(u, mu, grad)
@@ -402,11 +412,7 @@ def _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods: int = 1
         viscosity=mu,
         noslip=noslip,
         slip=slip,
-        tol=float(flow.get("tol") or 1e-6),
-        max_memory_gb=flow.get("max_memory_gb"),
-        progress=progress.iterations(f"FEM solve {name}", "GMRES"),
-        stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),
-        assembly_progress=progress.counted(f"FEM solve {name}: assembling", "elements"),
+        options=_solver_options(flow, name),
     )
     start, end = mesh.porous_region
     q = abs(res.flux[tags.OUTLET])

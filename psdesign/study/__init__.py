@@ -4,7 +4,8 @@ Public API
 ----------
 load_study(path) -> Study
 expand_design(study) -> list[Case]
-run_study(study, out_dir, workers=1, scheduler=None, case_fn=None, progress=True, ...)
+run_study(study, out_dir, options=None, **fields) -> pandas.DataFrame
+RunOptions(workers=1, scheduler=None, case_fn=None, progress=True, ...)   (how a study runs)
 write_report(out_dir) -> Path          (from :mod:`psdesign.report`)
 
 Names are imported lazily so that the per-case child process (``psdesign.study._child``)
@@ -19,6 +20,7 @@ from pathlib import Path
 __all__ = [
     "KNOWN_SPEC_KEYS",
     "Case",
+    "RunOptions",
     "SchedulerError",
     "StorageError",
     "Study",
@@ -33,6 +35,7 @@ __all__ = [
 
 _LAZY = {
     "Case": "design",
+    "RunOptions": "options",
     "expand_design": "design",
     "SchedulerError": "address",
     "run_study": "runner",

@@ -21,18 +21,20 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import fields as fields_of
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
-from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.address import SchedulerError, check_scheduler_address, host_port
 from psdesign.study.casefn import watch_parent
-from psdesign.study.cluster import DEFAULT_WAIT_S, check_wait_s, has_worker
+from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
+from psdesign.study.options import RunOptions
 from psdesign.study.progress import Progress
 from psdesign.study.stages import StageWatcher
 from psdesign.study.store import (
@@ -639,24 +641,13 @@ def check_study_dir(
 def run_study(
     study: str | Path | Study,
     out_dir: str | Path,
-    workers: int = 1,
-    scheduler: str | None = None,
-    case_fn: Callable | str | None = None,
-    progress: bool = True,
-    timeout_s: float | None = None,
-    retry_failed: bool = False,
-    report: bool = True,
+    options: RunOptions | None = None,
     *,
-    force: bool = False,
-    retry_not_converged: bool = False,
-    security=None,
-    worker_wait_s: float | None = None,
     command: str = "study run",
     out_option: tuple[str, str | None] = ("-o", "--force"),
+    **fields: Any,
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
-
-    The parameters mirror the options of ``psdesign study run`` one to one (hence their number).
 
     Parameters
     ----------
@@ -664,41 +655,18 @@ def run_study(
         A study file, its tables as a dict, or a loaded :class:`Study`.
     out_dir : str or Path
         Output folder (created; an existing one is resumed).
-    workers : int
-        Local worker processes (>= 1); ``0`` runs the cases in this process (debugging).  With a
-        scheduler ``"local"`` it is the number of Dask workers; ignored for a remote scheduler
-        (>= 1 with any scheduler: :func:`check_workers`).
-    scheduler : str, optional
-        ``tcp://HOST:PORT`` of a Dask scheduler, or ``"local"`` for a local Dask cluster.
-        Default: the local process pool.
-    case_fn : callable or str, optional
-        ``case_fn(spec, outputs, solver, workdir) -> dict``; a module-level function (it is
-        pickled to workers) or ``"module:function"``.  Default ``psdesign.study.case:run_case``.
-    progress : bool
-        Progress bar (TTY) or log lines on stderr.
-    timeout_s : float, optional
-        Per-case time limit in seconds (overrides ``study.timeout_s``); cases over it are killed
-        and recorded with status ``"timeout"``.
-    retry_failed : bool
-        Re-run cases recorded as ``failed`` or ``timeout`` (``ok`` cases are always skipped).
-    report : bool
-        Write ``OUT/report.html`` at the end.
-    force : bool
-        Accept a non-empty ``out_dir`` psdesign did not create (``--force``); a file psdesign
-        did not write is still never replaced (:mod:`psdesign.io.outputs`).
-    retry_not_converged : bool
-        Re-run cases recorded as ``not_converged`` (otherwise they count as finished).
-    security : distributed.security.Security, optional
-        TLS settings for a remote ``tls://`` scheduler (see :func:`connect_scheduler`).
-    worker_wait_s : float, optional
-        ``--cluster-wait``: seconds a Dask run waits while the scheduler has no worker at all
-        before it stops with :class:`WorkersLost`; default a ``ClusterOptions`` scheduler's
-        ``wait_s``, else :data:`psdesign.study.cluster.DEFAULT_WAIT_S` (600).
+    options : RunOptions, optional
+        Workers or scheduler, case function, time limit, retries, report, ``force``
+        (default ``RunOptions()``: one local worker).
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
     out_option : (str, str or None)
         How messages name ``out_dir`` and ``force``: the CLI's ``("-o", "--force")``, the
         Python API's ``("out_dir", "force=True")``.
+    **fields
+        :class:`RunOptions` fields as keywords, e.g. ``run_study(study, out, workers=2)``: the
+        same as ``run_study(study, out, RunOptions(workers=2))`` (over ``options``' own
+        values when both are given).
 
     Returns
     -------
@@ -708,7 +676,7 @@ def run_study(
     Raises
     ------
     StudyError
-        Invalid study or arguments (a :class:`psdesign.errors.SpecError`).
+        Invalid study or options (a :class:`psdesign.errors.SpecError`).
     SchedulerError
         The scheduler or batch cluster cannot be used (does not answer, no worker in time).
     psdesign.io.outputs.OutputError
@@ -716,114 +684,64 @@ def run_study(
     StorageError
         Writing results failed (disk full, permissions); records written so far are intact.
     """
+    unknown = [k for k in fields if k not in _OPTION_FIELDS]
+    if unknown:  # as Python words it for a keyword the signature does not have
+        raise TypeError(f"run_study() got an unexpected keyword argument {unknown[0]!r}")
     if not isinstance(study, Study):
         study = load_study(study)
-    if timeout_s is not None and (
-        isinstance(timeout_s, bool)
-        or not isinstance(timeout_s, int | float)
-        or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
-    ):
-        raise StudyError(
-            f"timeout: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
-            f"study.timeout_s), got {timeout_s!r}"
-        )
-    timeout = float(timeout_s) if timeout_s is not None else study.timeout_s
-    _check_run_arguments(
-        scheduler, case_fn, progress, retry_failed, report, force, retry_not_converged
-    )
-    check_workers(workers, scheduler)  # after the scheduler's type: 0 is refused beside one
-    if case_fn is None:
-        case_fn = DEFAULT_CASE_FN
+    opts = _run_options(options, fields)
     cases = expand_design(study)
-    if case_fn == DEFAULT_CASE_FN:
+    if opts.case_function() == DEFAULT_CASE_FN:
         validate_case_specs(cases, study.solver)
     option, force_option = out_option
     target = check_study_dir(
-        out_dir, force=force, force_option=force_option, command=command, option=option
+        out_dir, force=opts.force, force_option=force_option, command=command, option=option
     )
-    out = target.path
-    store = CaseStore(out)
-    param_names = list(study.parameters)
-    opts = _RunOptions(
-        workers,
-        scheduler,
-        case_fn,
-        progress,
-        timeout,
-        retry_failed,
-        retry_not_converged,
-        report,
-        _worker_wait(scheduler, worker_wait_s),
-    )
+    return _connect_and_run(study, cases, target, opts)
 
-    # connect first: a dead scheduler must not touch the output folder
+
+_OPTION_FIELDS = frozenset(f.name for f in fields_of(RunOptions))
+
+
+def _run_options(options: RunOptions | None, fields: dict) -> RunOptions:
+    """``options`` (default ``RunOptions()``) with the keyword ``fields`` over it."""
+    if options is None:
+        return RunOptions(**fields)
+    if not isinstance(options, RunOptions):
+        raise StudyError(
+            f"options: must be a psdesign.study.RunOptions, got {type(options).__name__} "
+            "(workers, scheduler, ... are keywords: run_study(study, out_dir, workers=2))"
+        )
+    return replace(options, **fields) if fields else options
+
+
+def _connect_and_run(study: Study, cases: list[Case], target, opts: RunOptions) -> pd.DataFrame:
+    """Connect to the scheduler, claim and lock the output folder, run the cases.
+
+    The scheduler is connected first: a dead one must not touch the output folder.
+    """
+    store = CaseStore(target.path)
     client = cluster = None
     try:
         with stop_on_interrupt():
-            if scheduler:
-                _check_submit_command(scheduler)  # before the "submitting" line
-                _say_waiting(scheduler, workers, progress)
-                client, cluster = connect_scheduler(scheduler, workers, security=security)
+            if opts.scheduler:
+                _check_submit_command(opts.scheduler)  # before the "submitting" line
+                _say_waiting(opts.scheduler, opts.workers, opts.progress)
+                client, cluster = connect_scheduler(
+                    opts.scheduler, opts.workers, security=opts.security
+                )
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock
-            _claim(target, STUDY_FILES if report else STUDY_FILES_NO_REPORT)
+            _claim(target, STUDY_FILES if opts.report else STUDY_FILES_NO_REPORT)
             store.prepare()
-            with _run_lock(out), stop_on_interrupt():  # workers stop before the lock goes
+            with _run_lock(target.path), stop_on_interrupt():  # workers stop before the lock
                 store.remove_stale_temp()
-                return _run_locked(study, cases, store, param_names, client, opts)
+                return _run_locked(study, cases, store, list(study.parameters), client, opts)
     finally:
         if client is not None:
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
-
-
-def _worker_wait(scheduler, worker_wait_s: float | None) -> float:
-    """``worker_wait_s`` checked (StudyError naming ``--cluster-wait``), or its default."""
-    if worker_wait_s is None:
-        return getattr(scheduler, "wait_s", DEFAULT_WAIT_S)
-    try:
-        return check_wait_s(worker_wait_s)
-    except ValueError as exc:
-        raise StudyError(str(exc)) from None
-
-
-def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
-    """The other arguments of :func:`run_study`, before any work: each flag a bool (a string
-    such as ``report="no"`` was taken as true), ``scheduler`` an address or the CLI's
-    :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
-    TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
-    folder was made)."""
-    import numpy as np
-
-    from psdesign.study.casefn import load_case_fn
-    from psdesign.study.cluster import ClusterOptions
-
-    names = ("progress", "retry_failed", "report", "force", "retry_not_converged")
-    for name, value in zip(names, flags, strict=True):
-        if not isinstance(value, bool | np.bool_):
-            raise StudyError(f"{name}: must be True or False, got {value!r}")
-    if scheduler is not None and not isinstance(scheduler, str | ClusterOptions):
-        raise StudyError(
-            "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
-            f"got {type(scheduler).__name__}"
-        )
-    if isinstance(scheduler, str) and not scheduler.strip():  # ran on the local pool
-        raise StudyError(
-            f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
-            "'local', or leave it out for the local process pool"
-        )
-    if isinstance(scheduler, str):
-        check_scheduler_address(scheduler)  # before the case function's imports and dask's
-    if case_fn is not None:
-        try:
-            load_case_fn(case_fn)
-        except (ImportError, AttributeError, ValueError) as exc:
-            msg = " ".join(str(exc).split())
-            raise StudyError(
-                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
-                "importable 'module:function'"
-            ) from None
 
 
 def _check_submit_command(scheduler) -> None:
@@ -858,61 +776,28 @@ def _claim(target, files) -> None:
         ) from exc
 
 
-@dataclass(frozen=True)
-class _RunOptions:
-    workers: int
-    scheduler: str | None
-    case_fn: Callable | str
-    progress: bool
-    timeout: float | None
-    retry_failed: bool
-    retry_not_converged: bool
-    report: bool
-    worker_wait_s: float
-
-
 def _run_locked(
     study: Study,
     cases: list[Case],
     store: CaseStore,
     param_names: list[str],
     client,
-    opts: _RunOptions,
+    opts: RunOptions,
 ) -> pd.DataFrame:
-    workers, scheduler, case_fn = opts.workers, opts.scheduler, opts.case_fn
+    """Run the cases still to do (the output folder claimed and locked), then write the
+    tables, the run's entry in ``runs.json`` and the report."""
     by_id = {c.case_id: c for c in cases}
-    progress, timeout, report = opts.progress, opts.timeout, opts.report
+    timeout = opts.timeout_s if opts.timeout_s is not None else study.timeout_s
     out = store.out
     t_start = time.perf_counter()
     started = _now()
-    loaded = store.load_records()
-    # a case finished at another position (a seed or level dropped) keeps its record and
-    # folder under the id it ran with; its id in the tables is the design's
-    stored = match_finished(cases, loaded)
-    key = {c.case_id: stored.get(c.case_id, c.case_id) for c in cases}
-    store.write_json(
-        "study.json",
-        {
-            "study": study.to_dict(),
-            "n_cases": len(cases),
-            "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
-        },
-    )
-    records = {c: _at(loaded[r], by_id[c]) for c, r in stored.items()}
-    skip = {"ok"} if opts.retry_failed else {"ok", "failed", "timeout"}
-    if not opts.retry_not_converged:
-        skip.add("not_converged")
-    todo = [c for c in cases if records.get(c.case_id, {}).get("status") not in skip]
+    key, records = _stored_records(study, cases, store, by_id)
+    todo = _todo(cases, records, opts)
 
-    prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=progress)
-    backend = (
-        f"dask {scheduler}"
-        if scheduler
-        else ("in-process" if workers == 0 else f"{workers} local worker(s)")
-    )
+    prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=opts.progress)
     prog.start(
         f"[study] {study.name}: {len(cases)} cases, {len(cases) - len(todo)} already done, "
-        f"{len(todo)} to run on {backend} -> {out}"
+        f"{len(todo)} to run on {_backend(opts)} -> {out}"
     )
 
     def on_done(payload: dict, rec: dict) -> None:
@@ -930,57 +815,108 @@ def _run_locked(
         tables.changed()
         prog.update(c.case_id, full["status"], full.get("wall_time_s"), full.get("error"))
 
-    payloads = [
-        {
-            "case_id": c.case_id,
-            "spec": c.spec,
-            "outputs": list(study.outputs),
-            "solver": study.solver,
-            "workdir": str(store.workdir(key[c.case_id])),
-            "out_dir": str(out),
-            "case_fn": case_fn,
-            "timeout_s": timeout,
-        }
-        for c in todo
-    ]
+    payloads = _payloads(study, todo, store, key, opts.case_function(), timeout)
     # each running case's stage (generate -> solve K_d -> transport -> preview) every 15 s
-    watcher = StageWatcher({p["case_id"]: Path(p["workdir"]) for p in payloads} if progress else {})
+    watch = {p["case_id"]: Path(p["workdir"]) for p in payloads} if opts.progress else {}
+    watcher = StageWatcher(watch)
     tables = TableWriter(store, records, param_names, TABLE_INTERVAL_S)
     with watcher, tables.flushed_on_error():
-        if payloads and client is not None:
-            _run_dask(client, payloads, on_done, opts.worker_wait_s)
-        elif payloads and workers == 0:
-            _run_inline(payloads, on_done)
-        elif payloads:
-            _run_pool(payloads, min(workers, len(payloads)), on_done)
+        _dispatch(client, payloads, on_done, opts)
 
     df = tables.flush()
     counts = df["status"].value_counts().to_dict() if len(df) else {}
-    _append_run(
-        store,
-        {
-            "started_at": started,
-            "finished_at": _now(),
-            "wall_time_s": time.perf_counter() - t_start,
-            "workers": workers,
-            "scheduler": None if scheduler is None else str(scheduler),
-            "timeout_s": timeout,
-            "n_cases": len(cases),
-            "n_run": len(payloads),
-            "status_counts": {str(k): int(v) for k, v in counts.items()},
-            "case_fn": case_fn
-            if isinstance(case_fn, str)
-            else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
-            "machine": _machine(),
-        },
-    )
-    if report:
+    times = {
+        "started_at": started,
+        "finished_at": _now(),
+        "wall_time_s": time.perf_counter() - t_start,
+    }
+    _append_run(store, _run_entry(times, opts, timeout, len(cases), len(payloads), counts))
+    if opts.report:
         _write_report(out)
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
     prog.finish(
         f"[study] done in {time.perf_counter() - t_start:.1f} s: {summary} -> {out / 'results.csv'}"
     )
     return df
+
+
+def _stored_records(study: Study, cases: list[Case], store: CaseStore, by_id: dict):
+    """Write ``study.json`` and return ``(key, records)``: the id each case is stored under
+    and the finished records, as cases of the current design."""
+    loaded = store.load_records()
+    # a case finished at another position (a seed or level dropped) keeps its record and
+    # folder under the id it ran with; its id in the tables is the design's
+    stored = match_finished(cases, loaded)
+    key = {c.case_id: stored.get(c.case_id, c.case_id) for c in cases}
+    store.write_json(
+        "study.json",
+        {
+            "study": study.to_dict(),
+            "n_cases": len(cases),
+            "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
+        },
+    )
+    return key, {c: _at(loaded[r], by_id[c]) for c, r in stored.items()}
+
+
+def _todo(cases: list[Case], records: dict, opts: RunOptions) -> list[Case]:
+    """The cases to run: no record, or one ``opts`` says to retry."""
+    skip = {"ok"} if opts.retry_failed else {"ok", "failed", "timeout"}
+    if not opts.retry_not_converged:
+        skip.add("not_converged")
+    return [c for c in cases if records.get(c.case_id, {}).get("status") not in skip]
+
+
+def _backend(opts: RunOptions) -> str:
+    """Where the cases run, for the start line."""
+    if opts.scheduler:
+        return f"dask {opts.scheduler}"
+    return "in-process" if opts.workers == 0 else f"{opts.workers} local worker(s)"
+
+
+def _payloads(study: Study, todo: list[Case], store: CaseStore, key: dict, case_fn, timeout):
+    """What a worker needs to run each case of ``todo``."""
+    return [
+        {
+            "case_id": c.case_id,
+            "spec": c.spec,
+            "outputs": list(study.outputs),
+            "solver": study.solver,
+            "workdir": str(store.workdir(key[c.case_id])),
+            "out_dir": str(store.out),
+            "case_fn": case_fn,
+            "timeout_s": timeout,
+        }
+        for c in todo
+    ]
+
+
+def _dispatch(client, payloads: list[dict], on_done, opts: RunOptions) -> None:
+    """Run ``payloads`` on the Dask ``client``, in this process or on the local pool."""
+    if payloads and client is not None:
+        _run_dask(client, payloads, on_done, opts.wait_s())
+    elif payloads and opts.workers == 0:
+        _run_inline(payloads, on_done)
+    elif payloads:
+        _run_pool(payloads, min(opts.workers, len(payloads)), on_done)
+
+
+def _run_entry(times: dict, opts: RunOptions, timeout, n_cases: int, n_run: int, counts) -> dict:
+    """This run's entry in ``runs.json``: ``times`` (started, finished, wall time) first."""
+    case_fn = opts.case_function()
+    return {
+        **times,
+        "workers": opts.workers,
+        "scheduler": None if opts.scheduler is None else str(opts.scheduler),
+        "timeout_s": timeout,
+        "n_cases": n_cases,
+        "n_run": n_run,
+        "status_counts": {str(k): int(v) for k, v in counts.items()},
+        "case_fn": case_fn
+        if isinstance(case_fn, str)
+        else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+        "machine": _machine(),
+    }
 
 
 def _at(record: dict, case: Case) -> dict:

@@ -296,14 +296,16 @@ def test_fem_solve_names_its_steps_before_the_first_iteration():
     estimate and the first GMRES line without a word; ``stage`` names them."""
     from meshes import box_mesh, tag_box_boundary
 
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     lo, hi = (0.0, 0.0, 0.0), (1.0, 1.0, 2.0)
     pts, tets = box_mesh(lo, hi, (3, 3, 6))
     tags = tag_box_boundary(pts, tets, lo, hi, flow_axis=2)
     noslip = [k for k in tags if k.startswith("side_")]
     said: list[str] = []
-    solve_stokes(pts, tets, tags, noslip=noslip, direct_max_dofs=0, stage=said.append)
+    solve_stokes(
+        pts, tets, tags, noslip=noslip, options=StokesOptions(direct_max_dofs=0, stage=said.append)
+    )
     assert said == ["assembling the system", "preconditioner set-up (SA AMG), then GMRES"]
 
 
@@ -365,7 +367,7 @@ def test_fem_assembly_counts_its_elements():
     from meshes import box_mesh, tag_box_boundary
 
     from solvers.fem import assembly
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     lo, hi = (0.0, 0.0, 0.0), (1.0, 1.0, 2.0)
     pts, tets = box_mesh(lo, hi, (3, 3, 6))
@@ -380,7 +382,13 @@ def test_fem_assembly_counts_its_elements():
     tags = tag_box_boundary(pts, tets, lo, hi, flow_axis=2)
     noslip = [k for k in tags if k.startswith("side_")]
     said: list[tuple[int, int]] = []
-    solve_stokes(pts, tets, tags, noslip=noslip, assembly_progress=lambda *a: said.append(a))
+    solve_stokes(
+        pts,
+        tets,
+        tags,
+        noslip=noslip,
+        options=StokesOptions(assembly_progress=lambda *a: said.append(a)),
+    )
     assert said == [(n, n)]
     (line,) = _lines(lambda: pr.counted("FEM solve z: assembling", "elements")(n, n))
     assert line.startswith(f"psdesign: FEM solve z: assembling: {n}/{n} elements, ")

@@ -7,6 +7,7 @@ import io
 import json
 import subprocess
 import sys
+from dataclasses import replace
 
 import numba as nb
 import numpy as np
@@ -113,15 +114,17 @@ def test_mesh_stages_on_stderr(tmp_path, capsys):
 def test_fem_gmres_reports_progress():
     """The FEM solver's progress hook: called after every GMRES iteration with its residual,
     which falls to the solver's final residual; the solution does not change."""
-    from solvers.fem_stokes import solve_stokes
+    from solvers.fem_stokes import StokesOptions, solve_stokes
 
     lo, hi = (0.0, 0.0, 0.0), (1.0, 1.0, 2.0)
     pts, tets = box_mesh(lo, hi, (3, 3, 6))
     tags = tag_box_boundary(pts, tets, lo, hi, flow_axis=2)
-    kw = dict(noslip=[k for k in tags if k.startswith("side_")], direct_max_dofs=0, tol=1e-8)
-    ref = solve_stokes(pts, tets, tags, **kw)
+    noslip = [k for k in tags if k.startswith("side_")]
+    opts = StokesOptions(direct_max_dofs=0, tol=1e-8)
+    ref = solve_stokes(pts, tets, tags, noslip=noslip, options=opts)
     calls: list[tuple[int, float]] = []
-    res = solve_stokes(pts, tets, tags, progress=lambda n, r: calls.append((n, r)), **kw)
+    hooked = replace(opts, progress=lambda n, r: calls.append((n, r)))
+    res = solve_stokes(pts, tets, tags, noslip=noslip, options=hooked)
     assert len(calls) == res.iterations
     assert [n for n, _ in calls] == list(range(1, res.iterations + 1))
     assert calls[-1][1] == pytest.approx(res.residual, rel=1e-6, abs=0)

@@ -929,3 +929,61 @@ def test_run_study_refuses_a_bad_worker_wait(tmp_path):
     with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
         run_study(p, tmp_path / "out", scheduler="tcp://127.0.0.1:9", worker_wait_s=0)
     assert not (tmp_path / "out").exists()
+
+
+# ----------------------------------------------------------------------------- RunOptions
+
+
+def test_run_options_are_one_object_checked_on_creation():
+    """The run's options are a RunOptions, each checked once when it is made (the messages
+    run_study gave for its keywords), and the keywords of run_study are its fields."""
+    from psdesign.study import RunOptions
+
+    opts = RunOptions(workers=0, timeout_s=60, case_fn=fake_case, progress=False)
+    assert opts.timeout_s == 60.0 and isinstance(opts.timeout_s, float)
+    assert opts.wait_s() == 600.0  # DEFAULT_WAIT_S: no --cluster-wait, no ClusterOptions
+    assert RunOptions().case_function() == "psdesign.study.case:run_case"
+    for bad, match in (
+        ({"workers": -1}, r"workers: must be an integer >= 0 \(0: the cases in this process\), got -1"),
+        ({"timeout_s": 0}, r"timeout: must be a number > 0 and <= 10000000 \(seconds"),
+        ({"report": "no"}, "report: must be True or False, got 'no'"),
+        ({"scheduler": 3}, "scheduler: must be an address tcp://HOST:PORT"),
+        ({"case_fn": "nope:nothing"}, "case_fn: cannot load 'nope:nothing'"),
+        ({"worker_wait_s": 0}, r"--cluster-wait: expected seconds > 0 \(finite\), got 0"),
+    ):
+        with pytest.raises(StudyError, match=match):
+            RunOptions(**bad)
+
+
+def test_run_study_with_options_is_the_keyword_run(tmp_path):
+    """run_study(study, out, RunOptions(...)) runs as the same keywords do; keywords given
+    beside an options object replace its fields."""
+    from psdesign.study import RunOptions
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    kw = dict(workers=0, case_fn=fake_case, progress=False, report=False)
+    a = run_study(p, tmp_path / "a", **kw)
+    b = run_study(p, tmp_path / "b", RunOptions(**kw))
+    c = run_study(p, tmp_path / "c", RunOptions(**{**kw, "report": True}), report=False)
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(b))
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(c))
+    assert not (tmp_path / "c" / "report.html").exists()
+    runs = json.loads((tmp_path / "b" / "run.json").read_text())["runs"]
+    assert runs[0]["workers"] == 0 and runs[0]["case_fn"].endswith("study_cases:fake_case")
+
+
+def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
+    """A third positional argument was ``workers`` (run_study(s, out, 0) ran in-process);
+    now it is the options: anything else is one line naming it, before any folder, and an
+    unknown keyword is Python's own TypeError."""
+    import psdesign
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    for call in (run_study, psdesign.run_study):
+        with pytest.raises(
+            StudyError, match="options: must be a psdesign.study.RunOptions, got int"
+        ):
+            call(p, tmp_path / "out", 0, case_fn=fake_case, progress=False, report=False)
+        with pytest.raises(TypeError, match="unexpected keyword argument 'worker'"):
+            call(p, tmp_path / "out", worker=2)
+    assert not (tmp_path / "out").exists()

@@ -14,7 +14,12 @@ import pytest
 from fem_arrays import array_k
 from meshes import box_mesh, tag_box_boundary
 
-from solvers.fem_stokes import PeriodicMeshError, solve_stokes, solve_stokes_periodic
+from solvers.fem_stokes import (
+    PeriodicMeshError,
+    StokesOptions,
+    solve_stokes,
+    solve_stokes_periodic,
+)
 
 W, H, LZ = 1e-5, 2e-5, 3e-5
 MU, G = 1.8e-5, 7.0
@@ -35,9 +40,7 @@ def test_periodic_plane_poiseuille_exact(direct_max_dofs, krylov):
         pressure_gradient=G,
         viscosity=MU,
         periodic_axes=(0, 2),
-        tol=1e-10,
-        direct_max_dofs=direct_max_dofs,
-        krylov=krylov,
+        options=StokesOptions(tol=1e-10, direct_max_dofs=direct_max_dofs, krylov=krylov),
     )
     assert res.converged
     assert res.method == ("direct" if direct_max_dofs else f"{krylov}+amg-sa")
@@ -97,7 +100,7 @@ def test_permeameter_dissipation_is_the_power_input():
         viscosity=MU,
         noslip=("side_y0", "side_y1"),
         slip=("side_x0", "side_x1"),
-        tol=1e-11,
+        options=StokesOptions(tol=1e-11),
     )
     power = res.flux["outlet"] * 5.0
     assert res.dissipation() == pytest.approx(power, rel=1e-9, abs=0)

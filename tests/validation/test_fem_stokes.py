@@ -37,6 +37,7 @@ from solvers.fem_stokes import (
     BoundaryTagError,
     DisconnectedDomainError,
     MemoryLimitError,
+    StokesOptions,
     estimate_memory_gb,
     solve_stokes,
     solve_stokes_periodic,
@@ -82,9 +83,7 @@ def test_plane_poiseuille_exact_in_si_units(direct_max_dofs, krylov):
         viscosity=mu,
         noslip=("side_y0", "side_y1"),
         slip=("side_x0", "side_x1"),
-        tol=1e-11,
-        direct_max_dofs=direct_max_dofs,
-        krylov=krylov,
+        options=StokesOptions(tol=1e-11, direct_max_dofs=direct_max_dofs, krylov=krylov),
     )
     assert res.converged and res.residual <= 1e-11
     assert res.method == ("direct" if direct_max_dofs else f"{krylov}+amg-sa")
@@ -154,7 +153,7 @@ def test_square_duct_fine_minres():
     q_exact = duct_flow_rate(a, a, 1.0, 1.0)
     pts, tets = box_mesh((-a, -a, 0), (a, a, 1.0), (16, 16, 4))
     tags = tag_box_boundary(pts, tets, (-a, -a, 0), (a, a, 1.0), 2)
-    res = solve_stokes(pts, tets, tags, noslip=SIDES_XY, direct_max_dofs=0)
+    res = solve_stokes(pts, tets, tags, noslip=SIDES_XY, options=StokesOptions(direct_max_dofs=0))
     assert res.converged
     assert abs(res.flux["outlet"] / q_exact - 1) < 3e-5
 
@@ -165,10 +164,11 @@ SPACING = 1.0
 RADIUS = float(np.sqrt(PHI / np.pi))
 
 
-def _parallel_k(n_theta, n_r, n_z=1, **kw):
+def _parallel_k(n_theta, n_r, n_z=1, **knobs):
     length = 0.25
     pts, tets, tags = cylinder_parallel_cell(SPACING, RADIUS, length, n_theta, n_r, n_z)
-    res = solve_stokes(pts, tets, tags, slip=SIDES_XY, noslip=("wall",), **kw)
+    opts = StokesOptions(**knobs)
+    res = solve_stokes(pts, tets, tags, slip=SIDES_XY, noslip=("wall",), options=opts)
     area = (SPACING / 2) ** 2
     return res.flux["outlet"] * length / (area * 1.0), res
 
@@ -206,7 +206,7 @@ def test_transverse_square_array_sangani_acrivos():
         tags,
         slip=("side_y0", "side_y1", "side_z0", "side_z1"),
         noslip=("wall",),
-        direct_max_dofs=10**6,
+        options=StokesOptions(direct_max_dofs=10**6),
     )
     means = [res.plane_mean(0, xp, n=48)[0] for xp in (SPACING, 2 * SPACING)]
     grad = (means[0] - means[1]) / SPACING
@@ -300,8 +300,10 @@ def test_memory_estimate_and_refusal():
     pts, tets = box_mesh((0, 0, 0), (1, 1, 1), (2, 2, 2))
     tags = tag_box_boundary(pts, tets, (0, 0, 0), (1, 1, 1), 2)
     with pytest.raises(MemoryLimitError, match=r"estimated memory .* exceeds max_memory_gb"):
-        solve_stokes(pts, tets, tags, noslip=SIDES_XY, max_memory_gb=1e-3)
-    res = solve_stokes(pts, tets, tags, noslip=SIDES_XY, max_memory_gb=1e-3, force=True)
+        solve_stokes(pts, tets, tags, noslip=SIDES_XY, options=StokesOptions(max_memory_gb=1e-3))
+    res = solve_stokes(
+        pts, tets, tags, noslip=SIDES_XY, options=StokesOptions(max_memory_gb=1e-3, force=True)
+    )
     assert res.converged and res.memory_estimate_gb > 1e-3
 
 
@@ -362,10 +364,8 @@ def test_slip_on_curved_wall_is_refused():
         ({"noslip": ("missing",)}, "noslip: tag 'missing'"),
         ({"slip": ("side_x0",), "noslip": ("side_x0",)}, "two roles"),
         ({"element": "mini"}, "element"),
-        ({"tol": 0.0}, "tol"),
-        ({"max_iter": 0}, "max_iter"),
-        ({"amg": "ilu"}, "amg"),
         ({"inlet": "outlet"}, "different"),
+        ({"options": {"tol": 1e-6}}, "options must be a StokesOptions, got dict"),
     ],
 )
 def test_bad_arguments(kwargs, match):
@@ -408,10 +408,12 @@ def test_block_triangular_gmres_iteration_bound():
             tets,
             tags,
             slip=slip,
-            tol=1e-8,
-            direct_max_dofs=0,
-            krylov=kr,
-            progress=(lambda i, r: seen.append((i, r))) if kr == "gmres" else None,
+            options=StokesOptions(
+                tol=1e-8,
+                direct_max_dofs=0,
+                krylov=kr,
+                progress=(lambda i, r: seen.append((i, r))) if kr == "gmres" else None,
+            ),
         )
         for kr in ("gmres", "minres")
     }
@@ -423,10 +425,32 @@ def test_block_triangular_gmres_iteration_bound():
     assert seen[-1][1] <= 1e-8 < seen[0][1]
 
 
-def test_unknown_krylov_is_refused():
-    pts, tets = box_mesh((0, 0, 0), (1, 1, 1), (2, 2, 2))
-    tags = tag_box_boundary(pts, tets, (0, 0, 0), (1, 1, 1), 2)
-    with pytest.raises(ValueError, match="krylov must be one of"):
-        solve_stokes(pts, tets, tags, krylov="cg")
-    with pytest.raises(ValueError, match="krylov must be one of"):
-        solve_stokes_periodic(pts, tets, axis=2, periodic_axes=(0, 2), krylov="cg")
+@pytest.mark.parametrize(
+    "knobs, match",
+    [
+        ({"tol": 0.0}, r"tol must lie in \(0, 1\), got 0.0"),
+        ({"tol": 1.0}, r"tol must lie in \(0, 1\), got 1.0"),
+        ({"tol": float("nan")}, r"tol must lie in \(0, 1\), got nan"),
+        ({"max_iter": 0}, "max_iter must be >= 1, got 0"),
+        ({"amg": "ilu"}, "amg must be 'sa' or 'rs', got 'ilu'"),
+        ({"krylov": "cg"}, r"krylov must be one of \('gmres', 'minres'\), got 'cg'"),
+    ],
+)
+def test_bad_solver_options_are_refused_on_creation(knobs, match):
+    """One check of the solver settings for both solvers: StokesOptions refuses them, in one
+    line naming the field and its range, before any mesh is looked at."""
+    with pytest.raises(ValueError, match=match):
+        StokesOptions(**knobs)
+
+
+def test_both_solvers_take_the_same_options():
+    """The periodic solve reads the same StokesOptions as the pressure-driven one: the Krylov
+    method, the direct-solver threshold and the stage callback."""
+    pts, tets = box_mesh((0, 0, 0), (1, 1, 1), (3, 4, 5))
+    said: list[str] = []
+    opts = StokesOptions(direct_max_dofs=0, krylov="minres", amg="rs", stage=said.append)
+    res = solve_stokes_periodic(pts, tets, axis=2, periodic_axes=(0, 2), options=opts)
+    assert res.method == "minres+amg-rs" and res.converged
+    assert said == ["assembling the system", "preconditioner set-up (RS AMG), then MINRES"]
+    with pytest.raises(ValueError, match="options must be a StokesOptions, got dict"):
+        solve_stokes_periodic(pts, tets, axis=2, periodic_axes=(0, 2), options={"tol": 1e-6})

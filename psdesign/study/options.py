@@ -1,0 +1,167 @@
+"""How a study runs: workers or scheduler, the case function, time limits, retries, report.
+
+:class:`RunOptions` holds the options of ``psdesign study run`` for
+:func:`psdesign.study.runner.run_study`; each is checked once, on creation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from psdesign.schema.budget import MAX_TIMEOUT_S
+from psdesign.study.address import check_scheduler_address
+from psdesign.study.casefn import DEFAULT_CASE_FN
+from psdesign.study.cluster import DEFAULT_WAIT_S, ClusterOptions, check_wait_s
+from psdesign.study.studyfile import StudyError
+
+__all__ = ["RunOptions"]
+
+_FLAGS = ("progress", "retry_failed", "report", "force", "retry_not_converged")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """The options of a study run (``psdesign study run``'s, one to one).
+
+    Attributes
+    ----------
+    workers : int
+        Local worker processes; ``0`` runs the cases in this process (debugging).  With a
+        scheduler ``"local"`` it is the number of Dask workers; ignored for a remote scheduler
+        (>= 1 with any scheduler: :func:`psdesign.study.runner.check_workers`).  Default 1.
+    scheduler : str or ClusterOptions, optional
+        ``tcp://HOST:PORT`` / ``tls://HOST:PORT`` of a Dask scheduler, ``"local"`` for a local
+        Dask cluster, or ``--cluster``'s :class:`~psdesign.study.cluster.ClusterOptions`.
+        Default None: the local process pool.
+    case_fn : callable or str, optional
+        ``case_fn(spec, outputs, solver, workdir) -> dict``; a module-level function (it is
+        pickled to workers) or ``"module:function"``.  Default None:
+        ``psdesign.study.case:run_case``.
+    progress : bool
+        Progress bar (TTY) or log lines on stderr; default True.
+    timeout_s : float, optional
+        Per-case time limit in seconds, in (0, ``MAX_TIMEOUT_S``] (overrides
+        ``study.timeout_s``, the default); cases over it are killed and recorded with status
+        ``"timeout"``.
+    retry_failed : bool
+        Re-run cases recorded as ``failed`` or ``timeout`` (``ok`` cases are always skipped);
+        default False.
+    retry_not_converged : bool
+        Re-run cases recorded as ``not_converged`` (otherwise they count as finished); default
+        False.
+    report : bool
+        Write ``OUT/report.html`` at the end; default True.
+    force : bool
+        Accept a non-empty output folder psdesign did not create (``--force``); a file psdesign
+        did not write is still never replaced (:mod:`psdesign.io.outputs`).  Default False.
+    security : distributed.security.Security, optional
+        TLS settings for a remote ``tls://`` scheduler (see
+        :func:`psdesign.study.runner.connect_scheduler`).
+    worker_wait_s : float, optional
+        ``--cluster-wait``: seconds (> 0, finite) a Dask run waits while the scheduler has no
+        worker at all before it stops with :class:`~psdesign.study.runner.WorkersLost`;
+        default (:meth:`wait_s`) a ``ClusterOptions`` scheduler's ``wait_s``, else
+        :data:`psdesign.study.cluster.DEFAULT_WAIT_S` (600).
+
+    Raises
+    ------
+    StudyError
+        On creation, one line naming the option and what it allows (a
+        :class:`psdesign.errors.SpecError`).
+
+    Examples
+    --------
+    >>> opts = RunOptions(workers=0, timeout_s=60, report=False)
+    >>> opts.timeout_s, opts.wait_s()
+    (60.0, 600.0)
+    >>> RunOptions(report="no")
+    Traceback (most recent call last):
+    ...
+    psdesign.study.studyfile.StudyError: report: must be True or False, got 'no'
+    """
+
+    workers: int = 1
+    scheduler: str | ClusterOptions | None = None
+    case_fn: Callable | str | None = None
+    progress: bool = True
+    timeout_s: float | None = None
+    retry_failed: bool = False
+    retry_not_converged: bool = False
+    report: bool = True
+    force: bool = False
+    security: Any = None
+    worker_wait_s: float | None = None
+
+    def __post_init__(self) -> None:
+        from psdesign.study.runner import check_workers  # the runner's rule (runner imports us)
+
+        if self.timeout_s is not None:
+            object.__setattr__(self, "timeout_s", _check_timeout(self.timeout_s))
+        _check_run_arguments(self.scheduler, self.case_fn, *(getattr(self, f) for f in _FLAGS))
+        check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
+        if self.worker_wait_s is not None:
+            try:
+                object.__setattr__(self, "worker_wait_s", check_wait_s(self.worker_wait_s))
+            except ValueError as exc:
+                raise StudyError(str(exc)) from None
+
+    def case_function(self) -> Callable | str:
+        """``case_fn`` or its default, ``DEFAULT_CASE_FN`` (``psdesign.study.case:run_case``)."""
+        return DEFAULT_CASE_FN if self.case_fn is None else self.case_fn
+
+    def wait_s(self) -> float:
+        """Seconds a Dask run waits with no worker: ``worker_wait_s`` or its default."""
+        if self.worker_wait_s is None:
+            return getattr(self.scheduler, "wait_s", DEFAULT_WAIT_S)
+        return self.worker_wait_s
+
+
+def _check_timeout(timeout_s) -> float:
+    if (
+        isinstance(timeout_s, bool)
+        or not isinstance(timeout_s, int | float)
+        or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
+    ):
+        raise StudyError(
+            f"timeout: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
+            f"study.timeout_s), got {timeout_s!r}"
+        )
+    return float(timeout_s)
+
+
+def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
+    """The other options, before any work: each flag a bool (a string such as ``report="no"``
+    was taken as true), ``scheduler`` an address or the CLI's
+    :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
+    TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
+    folder was made)."""
+    import numpy as np
+
+    from psdesign.study.casefn import load_case_fn
+
+    for name, value in zip(_FLAGS, flags, strict=True):
+        if not isinstance(value, bool | np.bool_):
+            raise StudyError(f"{name}: must be True or False, got {value!r}")
+    if scheduler is not None and not isinstance(scheduler, str | ClusterOptions):
+        raise StudyError(
+            "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
+            f"got {type(scheduler).__name__}"
+        )
+    if isinstance(scheduler, str) and not scheduler.strip():  # ran on the local pool
+        raise StudyError(
+            f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
+            "'local', or leave it out for the local process pool"
+        )
+    if isinstance(scheduler, str):
+        check_scheduler_address(scheduler)  # before the case function's imports and dask's
+    if case_fn is not None:
+        try:
+            load_case_fn(case_fn)
+        except (ImportError, AttributeError, ValueError) as exc:
+            msg = " ".join(str(exc).split())
+            raise StudyError(
+                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
+                "importable 'module:function'"
+            ) from None
