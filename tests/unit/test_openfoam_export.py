@@ -175,20 +175,22 @@ def test_allrun_runs_as_sh_allrun_inside_the_case(tmp_path, periodic):
     the script's ``cd "${0%/*}"`` left ``Allrun`` itself, and the shell stopped with ``cd: can't
     cd to Allrun`` before any OpenFOAM tool ran. Truth: POSIX sh parameter expansion (``%/*``
     removes nothing from a name without ``/``) and Debian's OpenFOAM 1912 running the case."""
-    if periodic:
-        from psdesign.meshing.pore_mesh import mesh_pore_space
-
-        n, h = 8, 5e-6  # one cylinder along z, radius 8 um, in a periodic 40 um cell
-        c = (np.arange(n) + 0.5) * h
-        x, y = np.meshgrid(c, c, indexing="ij")
-        d = np.repeat((np.hypot(x - 20e-6, y - 20e-6) - 8e-6)[:, :, None], n, axis=2)
-        pm = mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=8e-6)
-    else:
-        pm = _channel()
+    pm = _periodic_cell() if periodic else _channel()
     case = export_mesh(pm, tmp_path, formats=("openfoam",))["openfoam"]
     run = subprocess.run(["sh", "Allrun"], cwd=case, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout + run.stderr
     assert re.search(r"^K_(rve_planes|periodic) = [-+0-9.eE]+ m\^2$", run.stdout, re.M)
+
+
+def _periodic_cell() -> PoreMesh:
+    """One cylinder along z, radius 8 um, in a periodic 40 um cell (a coarse periodic mesh)."""
+    from psdesign.meshing.pore_mesh import mesh_pore_space
+
+    n, h = 8, 5e-6
+    c = (np.arange(n) + 0.5) * h
+    x, y = np.meshgrid(c, c, indexing="ij")
+    d = np.repeat((np.hypot(x - 20e-6, y - 20e-6) - 8e-6)[:, :, None], n, axis=2)
+    return mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=8e-6)
 
 
 def _patches(case) -> dict[str, str]:
@@ -379,6 +381,32 @@ def test_allrun_says_whether_simplefoam_converged(tmp_path, periodic, converged)
     want = "yes (SIMPLE residualControl met in 258 iterations)" if converged else "NO ("
     assert len(flag) == 1 and flag[0].startswith(f"converged: {want}"), run.stdout
     assert re.search(r"K_(periodic|windowed) = ", run.stdout), run.stdout
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_a_second_allrun_prints_its_own_k(tmp_path, periodic):
+    """Run the case twice (e.g. ``./Allrun`` then ``./Allrun tets``): OpenFOAM's function objects
+    then write ``surfaceFieldValue_0.dat`` beside the first run's ``surfaceFieldValue.dat``
+    (Debian's 1912, measured on a duct case, session 35), and the Allrun read the first run's
+    file, so the second run printed the first run's K. Stub tools: the second run's flux is
+    twice the first's, so its K must be twice as large."""
+    pm = _periodic_cell() if periodic else _duct(4)
+    case = export_mesh(pm, tmp_path, formats=("openfoam",))["openfoam"]
+    control = (case / "system" / "controlDict").read_text()
+    objects = re.findall(r"^    (\w+)\n    \{", control, flags=re.M)
+    k = []
+    for run, name in enumerate(("surfaceFieldValue.dat", "surfaceFieldValue_0.dat")):
+        lines = "".join(
+            f"mkdir -p postProcessing/{o}/0; printf '# t v\\n2000 "
+            f"{(1 + run) * 1e-12 if o.startswith('flux') else 0.5 - 0.01 * i}\\n' "
+            f"> postProcessing/{o}/0/{name}\n"
+            for i, o in enumerate(objects)
+        )
+        bin_dir = tmp_path / f"bin{run}"
+        bin_dir.mkdir()
+        out = _allrun_with_stub_tools(case, bin_dir, "sleep 1\n" + lines).stdout
+        k.append(_k(out, "K_periodic" if periodic else "K_windowed"))
+    assert k[1] == pytest.approx(2 * k[0], rel=1e-6, abs=0)
 
 
 @pytest.mark.slow

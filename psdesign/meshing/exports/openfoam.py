@@ -388,7 +388,8 @@ checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; 
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
 @CONVERGED@
 last() {
-    f=$(ls -d postProcessing/"$1"/*/ | tail -n 1)surfaceFieldValue.dat
+    # a re-run writes surfaceFieldValue_0.dat beside the earlier run's file: the newest one
+    f=$(ls -t "$(ls -d postProcessing/"$1"/*/ | tail -n 1)"surfaceFieldValue*.dat | head -n 1)
     tail -n 1 "$f" | awk '{print $2}'
 }
 Q=$(last flux); PS=$(last pRveStart); PE=$(last pRveEnd); PI=$(last pInlet); PO=$(last pOutlet)
