@@ -1,6 +1,6 @@
 """OpenFOAM (simpleFoam, Debian's openfoam package) vs psdesign's FEM on the same mesh.
 
-    python benchmarks/bench_openfoam.py [SPEC] [--voxel 2e-6]
+    python benchmarks/bench_openfoam.py [SPEC] [--voxel 2e-6] [--lattice-step H] [--tets]
     python benchmarks/bench_openfoam.py --periodic
 
 ``--periodic``: the periodic case instead (cyclic patches and a pressure jump,
@@ -15,7 +15,10 @@ psdesign's FEM permeameter. Two K each: the windowed one (OpenFOAM: the Allrun's
 its reported K, windowed dissipation, and its plane-pressure window estimator
 ``pressure_drop_plane_window_pa``, the same formula as the Allrun's) and the plain RVE-plane
 one ``K = mu Q L / (A (p_start - p_end))`` (psdesign: ``pressure_drop_faces_pa``), which jumps
-with the side of the RVE plane its cut samples where fibres end on the plane.
+with the side of the RVE plane its cut samples where fibres end on the plane. OpenFOAM solves
+on the polyhedral dual of the tets (the Allrun's default since session 35); ``--tets`` on the
+tets themselves (``./Allrun tets``), where its K moves away from the analytic value on
+refinement (docs/meshers.md). ``--lattice-step`` sets ``flow.lattice_step`` (the refinement).
 """
 
 from __future__ import annotations
@@ -38,6 +41,8 @@ def main() -> None:
     ap.add_argument("spec", nargs="?", default=str(ROOT / "studies/examples/three_rods.toml"))
     ap.add_argument("--voxel", type=float, default=2e-6)
     ap.add_argument("--periodic", action="store_true", help="the periodic cylinder cell")
+    ap.add_argument("--tets", action="store_true", help="OpenFOAM on the tets (./Allrun tets)")
+    ap.add_argument("--lattice-step", type=float, help="flow.lattice_step (m)")
     args = ap.parse_args()
     if args.periodic:
         periodic_cell()
@@ -52,6 +57,8 @@ def main() -> None:
 
     spec = load_spec(args.spec)
     spec["rve"]["voxel"] = args.voxel
+    if args.lattice_step:
+        spec["flow"]["lattice_step"] = args.lattice_step
     flow = dict(spec["flow"])
     built = build_rve(spec)
     fields = built.voxelize(args.voxel)
@@ -61,9 +68,13 @@ def main() -> None:
         case = export_mesh(pm, tmp, formats=("openfoam",), flow=flow)["openfoam"]
         t0 = time.perf_counter()
         out = subprocess.run(
-            ["sh", str(case / "Allrun")], capture_output=True, text=True, check=True
+            ["sh", str(case / "Allrun"), *(["tets"] if args.tets else [])],
+            capture_output=True,
+            text=True,
+            check=True,
         ).stdout
         t_of = time.perf_counter() - t0
+    print(next(line for line in out.splitlines() if line.startswith("converged: ")))
     k_of = float(re.search(r"K_rve_planes = ([-+0-9.eE]+)", out).group(1))
     kw_of = float(re.search(r"K_windowed = ([-+0-9.eE]+)", out).group(1))
     q_of = float(re.search(r"Q = ([-+0-9.eE]+)", out).group(1))
@@ -78,7 +89,8 @@ def main() -> None:
     k_plain = mu * q * length / (area * res["pressure_drop_faces_pa"])
     k_pw = mu * q * length / (area * res["pressure_drop_plane_window_pa"])
     k_rep = res["permeability_m2"]
-    print(f"{Path(args.spec).name} voxel {args.voxel:g}: {len(pm.tets)} tets")
+    cells = "tets" if args.tets else "polyhedral dual"
+    print(f"{Path(args.spec).name} voxel {args.voxel:g}: {len(pm.tets)} tets (OpenFOAM: {cells})")
     print(
         f"  OpenFOAM simpleFoam: Q = {q_of:.4e} m^3/s, "
         f"K windowed = {kw_of:.4e} m^2, K (RVE planes) = {k_of:.4e} m^2 ({t_of:.0f} s)"

@@ -8,9 +8,11 @@ viscosity and density (``nu = flow.viscosity / flow.density``, kinematic pressur
 ``flow.pressure_drop / flow.density``). Its function objects sample the area-averaged pressure
 on the inlet and outlet patches, on the two RVE planes (cutting planes at the ends of
 ``porous_region``) and on :data:`PROFILE_LAYERS` + 1 equally spaced planes across the RVE, and
-the flux through the inlet and outlet. ``./Allrun`` runs ``checkMesh`` (or, with ``./Allrun
-gmsh``, converts ``../pore.msh`` with ``gmshToFoam`` and types its ``wall`` patch as a wall and
-the sides as ``flow.sides`` says), ``simpleFoam``, and prints ``K_windowed``: Darcy's K from
+the flux through the inlet and outlet. ``./Allrun`` (with ``./Allrun gmsh``, after converting
+``../pore.msh`` with ``gmshToFoam`` and typing its ``wall`` patch as a wall and the sides as
+``flow.sides`` says) turns the tetrahedra into polyhedra with ``polyDualMesh`` (``./Allrun
+tets`` keeps them: on tets OpenFOAM's K moves away from the analytic value on refinement, see
+``docs/meshers.md``), runs ``checkMesh``, ``simpleFoam``, and prints ``K_windowed``: Darcy's K from
 the sin^2-windowed drop of the plane profile, psdesign's
 :func:`psdesign.flow.darcy.windowed_drop` (its ``pressure_drop_plane_window_pa``, the second
 estimator of the windowed-dissipation drop that defines its K). It also prints the plain
@@ -345,23 +347,49 @@ _ALLRUN = r"""#!/bin/sh
 #   themselves (psdesign's pressure_drop_faces_pa). A cutting plane on a mesh node plane samples
 #   the cells on one side of it, and the average jumps across an RVE plane where fibres end:
 #   moving one plane by 1e-10 m moved this K by about 6 % on a 7 050-tet one-fibre mesh.
-# Usage: ./Allrun          (the polyMesh written by psdesign; no conversion needed)
+# Cells: psdesign's tetrahedra are turned into polyhedra (polyDualMesh, one cell per mesh
+#   vertex) before simpleFoam. On the tets themselves OpenFOAM's K does not converge: one
+#   cylinder along z (Drummond & Tahir 2.0819e-10 m^2) gave -5.1 / -8.2 / -8.2 % at 7 050 /
+#   18 914 / 56 930 tets (linear interpolation to skewed tet faces is inconsistent); the dual
+#   of the same meshes gave +12.2 / +3.2 / +1.9 % (docs/meshers.md, session 35).
+# Usage: ./Allrun          (the polyMesh written by psdesign, as polyhedra)
 #        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
+#        ./Allrun tets     (psdesign's tetrahedra as they are; also ./Allrun gmsh tets)
+# psdesign's (or gmshToFoam's) tet mesh is kept in constant/polyMesh.tet: a second run starts
+# from it again.
 cd "$(dirname "$0")" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
 fi
 set -e
-if [ "$1" = gmsh ]; then
-    rm -rf constant/polyMesh
+route=polymesh; cells=dual
+for arg in "$@"; do
+    case $arg in
+        gmsh) route=gmsh ;;
+        tets) cells=tets ;;
+        *) echo "Allrun: unknown argument '$arg' (allowed: gmsh, tets)"; exit 2 ;;
+    esac
+done
+if [ "$route" = gmsh ]; then
+    rm -rf constant/polyMesh constant/polyMesh.tet
     gmshToFoam ../pore.msh > log.gmshToFoam 2>&1
     changeDictionary > log.changeDictionary 2>&1
 fi
+[ -d constant/polyMesh.tet ] || cp -r constant/polyMesh constant/polyMesh.tet
+rm -rf constant/polyMesh
+cp -r constant/polyMesh.tet constant/polyMesh
+if [ "$cells" = dual ]; then
+    polyDualMesh -overwrite 70 > log.polyDualMesh 2>&1 ||
+        { echo "polyDualMesh failed: see log.polyDualMesh"; exit 1; }
+    rm -f ./*.obj   # polyDualMesh's feature dumps
+fi
+echo "cells: $cells"
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
 @CONVERGED@
 last() {
-    f=$(ls -d postProcessing/"$1"/*/ | tail -n 1)surfaceFieldValue.dat
+    # a re-run writes surfaceFieldValue_0.dat beside the earlier run's file: the newest one
+    f=$(ls -t "$(ls -d postProcessing/"$1"/*/ | tail -n 1)"surfaceFieldValue*.dat | head -n 1)
     tail -n 1 "$f" | awk '{print $2}'
 }
 Q=$(last flux); PS=$(last pRveStart); PE=$(last pRveEnd); PI=$(last pInlet); PO=$(last pOutlet)
@@ -474,6 +502,8 @@ def write_openfoam_case(
         "across the RVE (postProcessing/pProfile*), psdesign's windowed_drop. K_rve_planes:\n"
         "dp between the RVE planes themselves (pRveStart, pRveEnd; sensitive to the side of\n"
         "a plane its cut samples where fibres end on it).\n"
+        "Cells: ./Allrun solves on the polyhedral dual of psdesign's tetrahedra (polyDualMesh;\n"
+        "the tets are kept in constant/polyMesh.tet); ./Allrun tets solves on the tets.\n"
         + (
             "Sides (side_*) are symmetry planes (flow.sides = slip).\n"
             if side_type(flow) == "symmetry"

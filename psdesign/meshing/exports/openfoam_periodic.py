@@ -166,7 +166,8 @@ set -e
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
 @CONVERGED@
-f=$(ls -d postProcessing/fluxInlet/*/ | tail -n 1)surfaceFieldValue.dat
+# a re-run writes surfaceFieldValue_0.dat beside the earlier run's file: the newest one
+f=$(ls -t "$(ls -d postProcessing/fluxInlet/*/ | tail -n 1)"surfaceFieldValue*.dat | head -n 1)
 Q=$(tail -n 1 "$f" | awk '{print $2}')
 awk -v q="$Q" -v nu=@NU@ -v rho=@RHO@ -v L=@L@ -v A=@A@ -v dp=@DP@ 'BEGIN {
     if (q < 0) q = -q
