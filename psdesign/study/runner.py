@@ -981,6 +981,7 @@ def _run_locked(
             "case_fn": case_fn
             if isinstance(case_fn, str)
             else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+            "study_file": None if study.source is None else str(study.source),
             "machine": _machine(),
         },
     )

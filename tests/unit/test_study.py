@@ -309,6 +309,29 @@ def test_pool_and_inline_give_same_table(tmp_path):
     assert len(set(b["pid"])) >= 1 and os.getpid() not in set(b["pid"])
 
 
+def test_study_json_does_not_depend_on_where_the_study_file_is(tmp_path):
+    """The same study file at two paths gives byte-identical study.json, results.csv (timing
+    columns aside) and case ids; the file's path is run metadata in run.json.  Session 35
+    audit (benchmarks/audit_reproducibility.py, way 'cwd+path'): study.json held the study
+    file's absolute path ("source"), so a copy of the study elsewhere gave another file."""
+    (tmp_path / "x").mkdir()
+    (tmp_path / "a" / "much" / "longer" / "folder").mkdir(parents=True)
+    p1 = write_study(tmp_path / "x", FACTORIAL, FAC_PARAMS)
+    p2 = write_study(tmp_path / "a" / "much" / "longer" / "folder", FACTORIAL, FAC_PARAMS)
+    kw = {"workers": 0, "case_fn": fake_case, "progress": False, "report": False}
+    a = run_study(p1, tmp_path / "o1", **kw)
+    b = run_study(p2, tmp_path / "o2", **kw)
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(b))
+    s1, s2 = (
+        (tmp_path / "o1" / "study.json").read_bytes(),
+        (tmp_path / "o2" / "study.json").read_bytes(),
+    )
+    assert s1 == s2
+    assert str(tmp_path).encode() not in s1
+    runs = [json.loads((tmp_path / o / "run.json").read_text())["runs"][-1] for o in ("o1", "o2")]
+    assert [r["study_file"] for r in runs] == [str(p1.resolve()), str(p2.resolve())]
+
+
 def thread_env_case(spec, outputs, solver, workdir):
     out = fake_case(spec, outputs, solver, workdir)
     out["numba_threads"] = int(os.environ.get("NUMBA_NUM_THREADS", "-1"))
