@@ -952,3 +952,38 @@ def test_run_study_refuses_a_bad_worker_wait(tmp_path):
     with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
         run_study(p, tmp_path / "out", scheduler="tcp://127.0.0.1:9", worker_wait_s=0)
     assert not (tmp_path / "out").exists()
+
+
+IMAGE_STUDY = """
+[base.image]
+path = "scan.npy"
+voxel_size = 1e-6
+
+[study]
+name = "img"
+design = "full-factorial"
+outputs = ["porosity"]
+solver = "voxel"
+
+[parameters]
+"flow.viscosity" = [1.0e-5, 2.0e-5]
+"""
+
+
+def test_image_study_case_ids_do_not_depend_on_the_folder(tmp_path):
+    """The same image study in two folders has the same case ids, and another image under
+    the same path another id.  Session 35 audit: the case hash held the image's resolved
+    absolute path, so a copy (or a moved project) ran every case under new ids."""
+    solid = np.zeros((12, 12, 12), dtype=np.uint8)
+    solid[4:8, 4:8, :] = 1
+    ids = []
+    for folder in (tmp_path / "x", tmp_path / "a" / "deeper" / "y"):
+        folder.mkdir(parents=True)
+        np.save(folder / "scan.npy", solid)
+        (folder / "study.toml").write_text(IMAGE_STUDY)
+        ids.append([c.case_id for c in expand_design(load_study(folder / "study.toml"))])
+    assert ids[0] == ids[1] and len(set(ids[0])) == 2
+    solid[0, 0, 0] = 1  # one voxel more: another input, another id
+    np.save(tmp_path / "x" / "scan.npy", solid)
+    other = [c.case_id for c in expand_design(load_study(tmp_path / "x" / "study.toml"))]
+    assert not set(other) & set(ids[0])
