@@ -344,7 +344,8 @@ def compare(ref: Path, other: Path) -> dict[str, str]:
 
 
 #: Keys of a command's ``--json`` line that describe the run, not the result: wall times, peak
-#: memory, and the threads a solve ran on (``threads_used`` / ``thread_note``).
+#: memory, and the threads a solve ran on (``threads_used`` / ``thread_note``); and the timing
+#: columns of a results row (``study optimize`` prints its best case's row).
 RUN_KEYS = ("wall_time_s", "timings_s", "peak_memory_gb", "threads_used", "thread_note")
 
 
@@ -353,7 +354,7 @@ def _strip_run_keys(v):
         return {
             k: _strip_run_keys(x)
             for k, x in v.items()
-            if k not in RUN_KEYS and not k.endswith("_time_s")
+            if k not in RUN_KEYS and not is_timing_column(k)  # a results row's timing columns
         }
     if isinstance(v, list):
         return [_strip_run_keys(x) for x in v]
