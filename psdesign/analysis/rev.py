@@ -165,7 +165,10 @@ def rev_study(
         outputs=outputs,
         solver=solver,
         csv_rows=rows,
-        description=f"REV check of {spec_path}: sizes {sizes} m, {seeds} seeds",
+        # the file's name, not the path as typed: study.json is the same from any cwd or copy;
+        # the path is run metadata (run.json's study_file)
+        description=f"REV check of {Path(spec_path).name}: sizes {sorted(sizes)} m, {seeds} seeds",
+        source=Path(spec_path).resolve(),
     )
     df = run_study(study, out_dir, command=REV_COMMAND, **run_kw)
     if not (df["status"] == "ok").any():

@@ -7,6 +7,7 @@ import hashlib
 import itertools
 import json
 import math
+import os
 import re
 import warnings
 from collections.abc import Iterable
@@ -103,10 +104,43 @@ def apply_params(base: dict, params: dict, seed: int | None = None) -> dict:
     return spec
 
 
+_DIGESTS: dict[tuple[str, int, int], str] = {}
+
+
+def file_digest(path: str) -> str | None:
+    """``"sha256:<hex>"`` of a file's bytes (cached per path, size and mtime), or None when it
+    cannot be read (the spec check names it later)."""
+    try:
+        st = os.stat(path)
+        key = (str(path), st.st_size, st.st_mtime_ns)
+        if key not in _DIGESTS:
+            with open(path, "rb") as fh:
+                _DIGESTS[key] = "sha256:" + hashlib.file_digest(fh, "sha256").hexdigest()
+        return _DIGESTS[key]
+    except OSError:
+        return None
+
+
+def _hashed_spec(spec: dict) -> dict:
+    """``spec`` as its case hash sees it: an ``[image]`` by its file's content, not its path.
+
+    The study resolves ``image.path`` to an absolute path, so hashing the path made every case
+    id (file names, the ``case_id`` column) depend on where the project folder lies (audit
+    s35: the same study and image copied to another folder ran under other ids, and a moved
+    project re-ran every case); the content also notices an image replaced in place."""
+    image = spec.get("image")
+    if not isinstance(image, dict) or not isinstance(image.get("path"), str):
+        return spec
+    digest = file_digest(image["path"])
+    if digest is None:
+        return spec
+    return {**spec, "image": {**image, "path": digest}}
+
+
 def case_hash(spec: dict, outputs: list[str], solver: str) -> str:
-    """8 hex digits identifying a case's full input."""
+    """8 hex digits identifying a case's full input (an image by its content, not its path)."""
     blob = json.dumps(
-        {"spec": spec, "outputs": list(outputs), "solver": solver},
+        {"spec": _hashed_spec(spec), "outputs": list(outputs), "solver": solver},
         sort_keys=True,
         separators=(",", ":"),
         default=str,

@@ -830,7 +830,7 @@ def _run_locked(
         "finished_at": _now(),
         "wall_time_s": time.perf_counter() - t_start,
     }
-    _append_run(store, _run_entry(times, opts, timeout, len(cases), len(payloads), counts))
+    _append_run(store, _run_entry(times, opts, timeout, len(cases), len(payloads), counts, study))
     if opts.report:
         _write_report(out)
     summary = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
@@ -901,8 +901,11 @@ def _dispatch(client, payloads: list[dict], on_done, opts: RunOptions) -> None:
         _run_pool(payloads, min(opts.workers, len(payloads)), on_done)
 
 
-def _run_entry(times: dict, opts: RunOptions, timeout, n_cases: int, n_run: int, counts) -> dict:
-    """This run's entry in ``runs.json``: ``times`` (started, finished, wall time) first."""
+def _run_entry(
+    times: dict, opts: RunOptions, timeout, n_cases: int, n_run: int, counts, study: Study
+) -> dict:
+    """This run's entry in ``runs.json``: ``times`` (started, finished, wall time) first, the
+    study file's path (``study_file``: run metadata, kept out of ``study.json``) last."""
     case_fn = opts.case_function()
     return {
         **times,
@@ -915,6 +918,7 @@ def _run_entry(times: dict, opts: RunOptions, timeout, n_cases: int, n_run: int,
         "case_fn": case_fn
         if isinstance(case_fn, str)
         else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+        "study_file": None if study.source is None else str(study.source),
         "machine": _machine(),
     }
 

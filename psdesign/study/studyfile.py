@@ -140,7 +140,9 @@ class Study:
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-friendly summary of the study (without the expanded cases)."""
+        """JSON-friendly summary of the study (without the expanded cases): what ``study.json``
+        holds, so nothing of where or when it ran; the study file's path is run metadata
+        (``run.json``'s ``study_file``)."""
         return {
             "name": self.name,
             "description": self.description,
@@ -164,7 +166,6 @@ class Study:
                 for p in self.parameters.values()
             },
             "base": self.base,
-            "source": str(self.source) if self.source else None,
         }
 
 

@@ -247,3 +247,25 @@ def test_rev_folder_marker_names_rev(tmp_path, monkeypatch, fails) -> None:
     assert marker["command"] == "rev"
     assert "results.csv" in marker["files"]
     assert ("rev.json" in marker["files"]) == (not fails)
+
+
+def test_rev_study_json_is_the_same_from_another_path_and_size_order(tmp_path, monkeypatch) -> None:
+    """Session 35 audit (benchmarks/audit_reproducibility.py): rev's study.json described the
+    study as 'REV check of <the spec path as typed>: sizes <as typed>', so the same spec and
+    sizes given by another path (another cwd, a copy) or in another order gave another file.
+    Now the file's name and the sorted sizes; the resolved path is run.json's study_file."""
+    (tmp_path / "a" / "b").mkdir(parents=True)
+    (tmp_path / "s.toml").write_text(SPEC)
+    (tmp_path / "a" / "b" / "s.toml").write_text(SPEC)
+    kw = {"directions": "z", "workers": 0, "case_fn": "study_cases:rev_case"}
+    kw.update(progress=False, report=False)
+    monkeypatch.chdir(tmp_path)
+    rev_study("s.toml", [30e-6, 60e-6], 2, tmp_path / "o1", **kw)
+    rev_study(tmp_path / "a" / "b" / "s.toml", [60e-6, 30e-6], 2, tmp_path / "o2", **kw)
+    s1, s2 = ((tmp_path / o / "study.json").read_bytes() for o in ("o1", "o2"))
+    assert s1 == s2
+    assert b"REV check of s.toml: sizes [3e-05, 6e-05] m, 2 seeds" in s1
+    for o, spec in (("o1", tmp_path / "s.toml"), ("o2", tmp_path / "a" / "b" / "s.toml")):
+        run = json.loads((tmp_path / o / "run.json").read_text())["runs"][-1]
+        assert run["study_file"] == str(spec.resolve())
+    assert (tmp_path / "o1" / "rev.csv").read_bytes() == (tmp_path / "o2" / "rev.csv").read_bytes()

@@ -309,6 +309,29 @@ def test_pool_and_inline_give_same_table(tmp_path):
     assert len(set(b["pid"])) >= 1 and os.getpid() not in set(b["pid"])
 
 
+def test_study_json_does_not_depend_on_where_the_study_file_is(tmp_path):
+    """The same study file at two paths gives byte-identical study.json, results.csv (timing
+    columns aside) and case ids; the file's path is run metadata in run.json.  Session 35
+    audit (benchmarks/audit_reproducibility.py, way 'cwd+path'): study.json held the study
+    file's absolute path ("source"), so a copy of the study elsewhere gave another file."""
+    (tmp_path / "x").mkdir()
+    (tmp_path / "a" / "much" / "longer" / "folder").mkdir(parents=True)
+    p1 = write_study(tmp_path / "x", FACTORIAL, FAC_PARAMS)
+    p2 = write_study(tmp_path / "a" / "much" / "longer" / "folder", FACTORIAL, FAC_PARAMS)
+    kw = {"workers": 0, "case_fn": fake_case, "progress": False, "report": False}
+    a = run_study(p1, tmp_path / "o1", **kw)
+    b = run_study(p2, tmp_path / "o2", **kw)
+    pd.testing.assert_frame_equal(drop_timing(a), drop_timing(b))
+    s1, s2 = (
+        (tmp_path / "o1" / "study.json").read_bytes(),
+        (tmp_path / "o2" / "study.json").read_bytes(),
+    )
+    assert s1 == s2
+    assert str(tmp_path).encode() not in s1
+    runs = [json.loads((tmp_path / o / "run.json").read_text())["runs"][-1] for o in ("o1", "o2")]
+    assert [r["study_file"] for r in runs] == [str(p1.resolve()), str(p2.resolve())]
+
+
 def thread_env_case(spec, outputs, solver, workdir):
     out = fake_case(spec, outputs, solver, workdir)
     out["numba_threads"] = int(os.environ.get("NUMBA_NUM_THREADS", "-1"))
@@ -944,7 +967,10 @@ def test_run_options_are_one_object_checked_on_creation():
     assert opts.wait_s() == 600.0  # DEFAULT_WAIT_S: no --cluster-wait, no ClusterOptions
     assert RunOptions().case_function() == "psdesign.study.case:run_case"
     for bad, match in (
-        ({"workers": -1}, r"workers: must be an integer >= 0 \(0: the cases in this process\), got -1"),
+        (
+            {"workers": -1},
+            r"workers: must be an integer >= 0 \(0: the cases in this process\), got -1",
+        ),
         ({"timeout_s": 0}, r"timeout: must be a number > 0 and <= 10000000 \(seconds"),
         ({"report": "no"}, "report: must be True or False, got 'no'"),
         ({"scheduler": 3}, "scheduler: must be an address tcp://HOST:PORT"),
@@ -987,3 +1013,38 @@ def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
         with pytest.raises(TypeError, match="unexpected keyword argument 'worker'"):
             call(p, tmp_path / "out", worker=2)
     assert not (tmp_path / "out").exists()
+
+
+IMAGE_STUDY = """
+[base.image]
+path = "scan.npy"
+voxel_size = 1e-6
+
+[study]
+name = "img"
+design = "full-factorial"
+outputs = ["porosity"]
+solver = "voxel"
+
+[parameters]
+"flow.viscosity" = [1.0e-5, 2.0e-5]
+"""
+
+
+def test_image_study_case_ids_do_not_depend_on_the_folder(tmp_path):
+    """The same image study in two folders has the same case ids, and another image under
+    the same path another id.  Session 35 audit: the case hash held the image's resolved
+    absolute path, so a copy (or a moved project) ran every case under new ids."""
+    solid = np.zeros((12, 12, 12), dtype=np.uint8)
+    solid[4:8, 4:8, :] = 1
+    ids = []
+    for folder in (tmp_path / "x", tmp_path / "a" / "deeper" / "y"):
+        folder.mkdir(parents=True)
+        np.save(folder / "scan.npy", solid)
+        (folder / "study.toml").write_text(IMAGE_STUDY)
+        ids.append([c.case_id for c in expand_design(load_study(folder / "study.toml"))])
+    assert ids[0] == ids[1] and len(set(ids[0])) == 2
+    solid[0, 0, 0] = 1  # one voxel more: another input, another id
+    np.save(tmp_path / "x" / "scan.npy", solid)
+    other = [c.case_id for c in expand_design(load_study(tmp_path / "x" / "study.toml"))]
+    assert not set(other) & set(ids[0])
