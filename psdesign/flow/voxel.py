@@ -201,8 +201,9 @@ def permeability_voxel(
         )
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
-    if res.serial_fallback:  # slower than it could be: say so where the user looks
-        notes.append(f"K_{name}: voxel solve {res.thread_note}")
+    # parallel kernels not compiled yet (res.serial_fallback) make a solve slower, not its
+    # result less true: said in ``thread_note`` and by the CLI's closing note, not in the
+    # result's warnings, which must not depend on the state of numba's cache
     if plan is not None and plan.note:
         notes.append(plan.note)
     if bc == "periodic" and out["periodic_treatment"] == "periodic":

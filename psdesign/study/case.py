@@ -109,6 +109,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
             row[f"permeameter_copies_{d}"] = res["permeameter_copies"]
         if res.get("warnings"):
             row[f"warnings_{d}"] = "; ".join(res["warnings"])
+        if res.get("thread_note"):  # run metadata: how it ran (is_timing_column)
+            row[f"thread_note_{d}"] = res["thread_note"]
         row[f"converged_{d}"] = res["converged"]
         row[f"residual_{d}"] = res["residual"]
         row[f"iterations_{d}"] = res["iterations"]

@@ -79,7 +79,7 @@ class RunOptions:
     >>> RunOptions(report="no")
     Traceback (most recent call last):
     ...
-    psdesign.study.studyfile.StudyError: report: must be True or False, got 'no'
+    psdesign.errors.StudyError: report: must be True or False, got 'no'
     """
 
     workers: int = 1

@@ -130,3 +130,47 @@ def test_a_compiled_kernel_is_found_when_a_default_is_omitted() -> None:
     assert kern.parallel(x) == 64.0  # compiles it, as psdesign warmup does
     kern._ready.clear()
     assert kern._parallel_ready((x,)) and kern._parallel_ready((x, 2.0)) is False
+
+
+def test_a_solve_on_uncompiled_kernels_gives_the_same_warnings(monkeypatch) -> None:
+    """Session 35 (reproducibility audit): a voxel solve whose parallel kernels were not in
+    numba's cache added "K_z: voxel solve ran on 1 of 2 threads: parallel kernels not compiled
+    yet ..." to the result's ``warnings``, so ``fields.json`` and a study's ``warnings_z``
+    column depended on the cache, not on the spec and seed.  The note is kept in
+    ``thread_note`` (run metadata: ``thread_note_z`` is a timing column of the study table);
+    the warnings are those of a solve on compiled kernels."""
+    import dataclasses
+
+    import solvers.voxel_stokes as vsm
+    from psdesign.flow import voxel as fv
+    from psdesign.geometry.fibers import make_fiber
+    from psdesign.geometry.rve import RVE
+    from psdesign.study.store import is_timing_column
+    from solvers.jit import WARMUP_NOTE
+
+    fib = make_fiber(
+        "cylinder", diameter=0.45, center=np.array([0.5, 0.5, 0.5]), theta=None, omega=None,
+        direction=[1, 0, 0], u=0.0, f=1.0, isovalue=None,
+    )  # fmt: skip
+    rve = RVE(size=np.full(3, 20e-6), fibers=[fib])
+    fields = rve.voxelize(1e-6)
+    real = vsm.solve_voxel_stokes
+    results = {}
+    for compiled in (True, False):
+        note = "" if compiled else f"ran on 1 of 2 threads: {WARMUP_NOTE}"
+        fallback = () if compiled else ("stokes_lanczos",)
+
+        def solve(*a, _note=note, _fallback=fallback, **k):
+            res = real(*a, **k)  # the real solve, then the cache state of a cold install
+            return dataclasses.replace(res, thread_note=_note, serial_fallback=_fallback)
+
+        monkeypatch.setattr(vsm, "solve_voxel_stokes", solve)
+        results[compiled] = fv.permeability_voxel(
+            fields, "y", {"bc": "periodic", "viscosity": 1e-3, "tol": 1e-6}, rve=rve
+        )
+    cold, warm = results[False], results[True]
+    assert cold["thread_note"].endswith(WARMUP_NOTE) and warm["thread_note"] == ""
+    assert cold.get("warnings") == warm.get("warnings")
+    assert not any(WARMUP_NOTE in w for w in cold.get("warnings", []))
+    assert cold["permeability_m2"] == warm["permeability_m2"]
+    assert is_timing_column("thread_note_y") and not is_timing_column("warnings_y")
