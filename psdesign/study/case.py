@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from psdesign.flow.permeability import permeability
+from psdesign.io.diskfull import is_disk_full
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
 from psdesign.schema.study import FIELDS_FLAG, OUTPUTS
@@ -137,7 +138,9 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
             fields.distance, fields.grid.spacing, workdir / "preview.png", window_size=(480, 400)
         )
         row["preview_png"] = str(png)
-    except Exception as exc:  # a picture must never fail a case
+    except Exception as exc:  # a picture must never fail a case; a full disk stops the run
+        if is_disk_full(exc):
+            raise
         row["preview_error"] = str(exc)
     row["time_total_s"] = time.perf_counter() - t0
     return row
