@@ -55,8 +55,8 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
     ):
         dataset.save(path)
     if caught.events:
+        code = _write_errno(path.parent)  # before the partial file's blocks are freed
         if path.is_file() and not path.is_symlink():
             path.unlink()
-        code = _write_errno(path.parent)
         raise OSError(code, f"{os.strerror(code)} (VTK could not write the file)", str(path))
     return path

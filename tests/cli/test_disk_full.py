@@ -83,10 +83,24 @@ def test_save_vtk_names_enospc_when_the_file_system_is_full(tmp_path, monkeypatc
     from psdesign.io import vtkfile
 
     full = os.statvfs_result((4096, 4096, 100, 0, 0, 10, 0, 0, 0, 255))  # no free block
-    monkeypatch.setattr(vtkfile.os, "statvfs", lambda _p: full)
-    (tmp_path / "a.vti").mkdir()
+    free = os.statvfs_result((4096, 4096, 100, 90, 90, 10, 0, 0, 0, 255))
+    target = tmp_path / "a.vti"
+    blocked = tmp_path / "blocked.vti"
+    blocked.mkdir()
+
+    class Truncating:
+        """Writes a partial file, then VTK fails (as its writer does on a full disk)."""
+
+        def save(self, path):
+            Path(path).write_bytes(b"<VTKFile")
+            _image().save(blocked)  # a real VTK writer failure
+
+    # the disk is full while the partial file is there; removing it frees its blocks (the
+    # first version asked after the removal and said EIO, seen on a 100 kB tmpfs)
+    monkeypatch.setattr(vtkfile.os, "statvfs", lambda _p: full if target.exists() else free)
     with pytest.raises(OSError, match="No space left on device") as info:
-        vtkfile.save_vtk(_image(), tmp_path / "a.vti")
+        vtkfile.save_vtk(Truncating(), target)
+    assert not target.exists()
     assert info.value.errno == errno.ENOSPC
 
 
