@@ -275,6 +275,8 @@ def execute_case(payload: dict) -> dict:
     status, results, error, disk_full = "failed", None, None, False
     try:
         workdir.mkdir(parents=True, exist_ok=True)
+        # an earlier attempt's traceback (a full disk, --retry-failed) is not this run's
+        (workdir / "error.txt").unlink(missing_ok=True)
         if payload.get("timeout_s"):
             status, raw, error = _run_in_child(payload, workdir)
         else:

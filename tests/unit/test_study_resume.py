@@ -202,6 +202,8 @@ def test_a_case_that_meets_a_full_disk_stops_the_run_and_runs_again_on_resume(tm
         p, tmp_path / "clean", workers=0, case_fn=fake_case, progress=False, report=False
     )
     assert (resumed["status"] == "ok").all() and len(resumed) == 12
+    # the full disk's traceback does not stay beside the case that then succeeded
+    assert list((out / "cases").glob("*/error.txt")) == []
     pd.testing.assert_frame_equal(_content(resumed), _content(clean))
 
 
