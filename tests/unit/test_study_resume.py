@@ -225,7 +225,8 @@ def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):
     from psdesign.report import preview
     from psdesign.study.case import run_case
 
-    def full(*_a, **_k):
+    def full(_distance, _spacing, path, **_k):
+        path.write_bytes(b"\x89PNG\r\n")  # the part written before the disk filled
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(preview, "render_preview", full)
@@ -236,3 +237,5 @@ def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):
     with pytest.raises(OSError) as info:
         run_case(spec, ["porosity"], "voxel", tmp_path)
     assert info.value.errno == errno.ENOSPC
+    # no truncated picture under its name (the old code drew straight into preview.png)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stage.txt"]
