@@ -177,7 +177,7 @@ def _csv_equal(a: Path, b: Path) -> bool:
 
 
 #: psdesign's working files in a study folder: a killed run may leave them; whole if parseable.
-WORKING = {".lock", "stage.txt", "error.txt"}
+WORKING = {".lock", "stage.txt", "stage.tmp", "error.txt"}
 
 
 def _rows_in_ref(p: Path, ref: Path) -> bool:
