@@ -7,6 +7,7 @@ is Kozeny-Carman (independent of psdesign).
 from __future__ import annotations
 
 import base64
+import errno
 import os
 import textwrap
 import time
@@ -89,6 +90,11 @@ def untrusted_case(spec, outputs, solver, workdir):
             out[f"k_{a}_status"] = "untrustworthy"
             out[f"warnings_{a}"] = f"K_{a}: bc = 'periodic' on a geometry that is not periodic"
     return out
+
+
+def disk_full_case(spec, outputs, solver, workdir):
+    """Every case meets a full disk (ENOSPC), as a case writing on a full tmpfs does."""
+    raise OSError(errno.ENOSPC, "No space left on device")
 
 
 def sleepy_case(spec, outputs, solver, workdir):

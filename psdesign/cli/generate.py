@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from psdesign.cli.progress import add_force_argument
+from psdesign.io.vtkfile import save_vtk
 
 
 def _cmd_generate(args: argparse.Namespace) -> int:
@@ -159,7 +160,7 @@ def write_generate_outputs(
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
         img.point_data["fiber_count"] = fields.count.ravel(order="F")
-        img.save(str(tmp / "field.vti"))
+        save_vtk(img, tmp / "field.vti")
         del img  # its copies of the fields: not held through the surface and the preview
         surf = fiber_surface(fields.distance, fields.grid.spacing)
         if surf.n_points:

@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from psdesign.fields.tables import boundary_table, region_table
+from psdesign.io.vtkfile import save_vtk
 
 #: Array names and units of every field file (also in ``fields.json``).
 UNITS = {
@@ -141,7 +142,7 @@ class FieldWriter:
         entry = {"kind": kind, "stem": stem, "direction": d, "result": result}
         if kind == "voxel_flow":
             grid = voxel_flow_grid(solution, fields, result)
-            grid.save(self.folder / f"{stem}.vti")
+            save_vtk(grid, self.folder / f"{stem}.vti")
             entry["files"] = [f"{stem}.vti"]
         else:
             flow = extra.get("flow") or {}
@@ -149,8 +150,8 @@ class FieldWriter:
             grid, bnd = fem_flow_grids(
                 solution, extra["mesh"], result, float(flow.get("viscosity", "nan")), grad or 0.0
             )
-            grid.save(self.folder / f"{stem}.vtu")
-            bnd.save(self.folder / f"{stem}_boundary.vtu")
+            save_vtk(grid, self.folder / f"{stem}.vtu")
+            save_vtk(bnd, self.folder / f"{stem}_boundary.vtu")
             entry["files"] = [f"{stem}.vtu", f"{stem}_boundary.vtu"]
         axis = "xyz".index(d)
         title = f"{result.get('solver', '')} {result.get('bc', '')}: flow along {d}"
@@ -163,7 +164,7 @@ class FieldWriter:
         d = "xyz"[int(solution.axis)]
         stem = self._stem(f"{kind}_{d}")
         grid = laplace_grid(solution, conductivity, fields, kind, result)
-        grid.save(self.folder / f"{stem}.vti")
+        save_vtk(grid, self.folder / f"{stem}.vti")
         entry = {"kind": kind, "stem": stem, "direction": d, "files": [f"{stem}.vti"]}
         if result is not None:
             entry["result"] = result

@@ -19,6 +19,7 @@ def main(argv: list[str]) -> int:
     import warnings
 
     from psdesign.errors import show_warning_one_line
+    from psdesign.io.diskfull import is_disk_full
     from psdesign.study.casefn import load_case_fn, watch_parent
     from psdesign.study.exchange import read_job, write_result
 
@@ -42,6 +43,8 @@ def main(argv: list[str]) -> int:
             "error": f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__,
             "traceback": traceback.format_exc(),
         }
+        if is_disk_full(exc):  # the runner stops the run; the case runs again on the resume
+            out["disk_full"] = True
     write_result(workdir, out)
     return 0
 

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
 import numpy as np
 
 from psdesign.flow.permeability import permeability
+from psdesign.io.diskfull import is_disk_full
+from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
 from psdesign.schema.spec import validate_spec
 from psdesign.schema.study import FIELDS_FLAG, OUTPUTS
@@ -132,14 +135,20 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     mark_stage(workdir, "preview picture")
+    # drawn under a temporary name and moved into place: a full disk leaves no truncated
+    # preview.png (the case is then run again)
+    tmp_png = workdir / f"{TEMP_PREFIX}preview.{os.getpid()}.png"
     try:
         from psdesign.report.preview import render_preview
 
-        png = render_preview(
-            fields.distance, fields.grid.spacing, workdir / "preview.png", window_size=(480, 400)
-        )
-        row["preview_png"] = str(png)
-    except Exception as exc:  # a picture must never fail a case
+        render_preview(fields.distance, fields.grid.spacing, tmp_png, window_size=(480, 400))
+        os.replace(tmp_png, workdir / "preview.png")
+        row["preview_png"] = str(workdir / "preview.png")
+    except Exception as exc:  # a picture must never fail a case; a full disk stops the run
+        if is_disk_full(exc):
+            raise
         row["preview_error"] = str(exc)
+    finally:
+        tmp_png.unlink(missing_ok=True)
     row["time_total_s"] = time.perf_counter() - t0
     return row

@@ -124,7 +124,8 @@ def read_result(workdir: Path) -> dict:
     Returns
     -------
     dict
-        ``{"ok": True, "results": dict}`` or ``{"ok": False, "error": str, "traceback": str}``.
+        ``{"ok": True, "results": dict}`` or ``{"ok": False, "error": str, "traceback": str}``
+        (with ``"disk_full": True`` when the case met a full disk).
 
     Raises
     ------
@@ -160,8 +161,10 @@ def read_result(workdir: Path) -> dict:
         finally:
             if npz is not None:
                 npz.close()
-    if set(res) != {"ok", "error", "traceback"} or not all(
-        isinstance(res[k], str) for k in ("error", "traceback")
+    if not {"ok", "error", "traceback"} <= set(res) <= {"ok", "error", "traceback", "disk_full"}:
+        raise CaseExchangeError(f"{jpath.name}: a failure needs 'error' and 'traceback' strings")
+    if not all(isinstance(res[k], str) for k in ("error", "traceback")) or not isinstance(
+        res.get("disk_full", False), bool
     ):
         raise CaseExchangeError(f"{jpath.name}: a failure needs 'error' and 'traceback' strings")
     return res

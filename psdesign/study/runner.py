@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import datetime as _dt
+import errno
 import json
 import multiprocessing
 import os
@@ -810,6 +811,12 @@ def _run_locked(
             **rec,
         }
         watcher.done(c.case_id)
+        if full.pop("disk_full", False):  # the disk, not the case: stop, resume runs it again
+            raise StorageError(
+                errno.ENOSPC,
+                f"case {key[c.case_id]} stopped, the disk is full ({full['error']}); it is not "
+                "recorded: free space and run the same command again to resume",
+            )
         store.write_record(full)  # raises StorageError: stop, earlier rows intact
         records[c.case_id] = _at(full, c)
         tables.changed()

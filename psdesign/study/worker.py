@@ -10,6 +10,7 @@ child process (``python -m psdesign.study._child``) in its own session, which is
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import math
 import os
@@ -27,6 +28,7 @@ import numpy as np
 
 from psdesign.io.atomic import json_default
 from psdesign.io.child_env import child_env
+from psdesign.io.diskfull import is_disk_full
 from psdesign.study.casefn import DEFAULT_CASE_FN, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
@@ -191,6 +193,8 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
         arrays.unlink(missing_ok=True)
     if res["ok"]:
         return "ok", res["results"], None
+    if res.get("disk_full"):
+        raise OSError(errno.ENOSPC, res["error"])
     (workdir / "error.txt").write_text(res["traceback"])
     return "failed", None, res["error"]
 
@@ -268,9 +272,11 @@ def execute_case(payload: dict) -> dict:
     t0 = time.perf_counter()
     started = _now()
     workdir = Path(payload["workdir"])
-    status, results, error = "failed", None, None
+    status, results, error, disk_full = "failed", None, None, False
     try:
         workdir.mkdir(parents=True, exist_ok=True)
+        # an earlier attempt's traceback (a full disk, --retry-failed) is not this run's
+        (workdir / "error.txt").unlink(missing_ok=True)
         if payload.get("timeout_s"):
             status, raw, error = _run_in_child(payload, workdir)
         else:
@@ -283,11 +289,12 @@ def execute_case(payload: dict) -> dict:
                 status, error = "not_converged", reason
     except Exception as exc:  # noqa: BLE001 - a failing case is data, not a crash
         status, results, error = "failed", None, _one_line(exc)
+        disk_full = is_disk_full(exc)
         try:
             (workdir / "error.txt").write_text(traceback.format_exc())
         except OSError:
             pass
-    return {
+    record = {
         "status": status,
         "error": error,
         "results": results or {},
@@ -297,3 +304,6 @@ def execute_case(payload: dict) -> dict:
         "host": socket.gethostname(),
         "pid": os.getpid(),
     }
+    if disk_full:  # not the case's failure: the runner stops and does not record it
+        record["disk_full"] = True
+    return record

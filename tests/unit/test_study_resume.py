@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
+import errno
 import json
 
 import pandas as pd
 import pytest
-from study_cases import FAC_PARAMS, FACTORIAL, failing_case, fake_case, write_study
+from study_cases import (
+    FAC_PARAMS,
+    FACTORIAL,
+    disk_full_case,
+    failing_case,
+    fake_case,
+    write_study,
+)
 
 from psdesign.study import is_timing_column, run_study
 from psdesign.study import runner as runner_mod
@@ -160,3 +168,74 @@ def test_interrupted_run_leaves_tables_with_every_finished_case(tmp_path, monkey
     assert sorted(pd.read_csv(out / "results.csv")["case_id"]) == recorded
     assert sorted(pd.read_parquet(out / "results.parquet")["case_id"]) == recorded
     assert not list(out.glob("*.tmp"))
+
+
+def _disk_full_once(flag):
+    """A case function whose first call for porosity 0.8 meets a full disk (as the preview
+    picture did on a 40 kB tmpfs, audit s35), later calls succeed."""
+
+    def case(spec, outputs, solver, workdir):
+        if spec["generator"]["porosity"] == 0.8 and not flag.exists():
+            flag.write_text("full once\n")
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return fake_case(spec, outputs, solver, workdir)
+
+    return case
+
+
+def test_a_case_that_meets_a_full_disk_stops_the_run_and_runs_again_on_resume(tmp_path):
+    """The old runner recorded the case as failed (the preview's ENOSPC even as ok, with a
+    preview_error and no picture), so a resume after freeing space kept the failure: the table
+    differed from an uninterrupted run's.  Now the run stops with a StorageError naming the
+    full disk, nothing of that case is recorded, and the resume equals a clean run."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    case = _disk_full_once(tmp_path / "flag")
+    with pytest.raises(store_mod.StorageError, match="disk is full") as info:
+        run_study(p, out, workers=0, case_fn=case, progress=False, report=False)
+    assert info.value.errno == errno.ENOSPC
+    recorded = [json.loads(f.read_text()) for f in (out / "cases").glob("*.json")]
+    assert all(r["status"] == "ok" for r in recorded)  # no failed record of the full disk
+    assert all("disk_full" not in r for r in recorded)
+    resumed = run_study(p, out, workers=0, case_fn=case, progress=False, report=False)
+    clean = run_study(
+        p, tmp_path / "clean", workers=0, case_fn=fake_case, progress=False, report=False
+    )
+    assert (resumed["status"] == "ok").all() and len(resumed) == 12
+    # the full disk's traceback does not stay beside the case that then succeeded
+    assert list((out / "cases").glob("*/error.txt")) == []
+    pd.testing.assert_frame_equal(_content(resumed), _content(clean))
+
+
+def test_disk_full_in_a_timed_case_child_stops_the_run_too(tmp_path):
+    """With a timeout the case runs in a child process: its ENOSPC reaches the runner as the
+    child's result, flagged, and stops the run the same way."""
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.8]\n')
+    out = tmp_path / "out"
+    with pytest.raises(store_mod.StorageError, match="disk is full"):
+        run_study(
+            p, out, workers=0, case_fn=disk_full_case, progress=False, report=False, timeout_s=60
+        )
+    assert list((out / "cases").glob("*.json")) == []
+
+
+def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):
+    """psdesign.study.case: a picture never fails a case, but a full disk is not the picture's
+    failure (the old code recorded ``preview_error`` and an ok case without its picture)."""
+    from psdesign.report import preview
+    from psdesign.study.case import run_case
+
+    def full(_distance, _spacing, path, **_k):
+        path.write_bytes(b"\x89PNG\r\n")  # the part written before the disk filled
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(preview, "render_preview", full)
+    spec = {
+        "rve": {"size": [12e-6, 12e-6, 12e-6], "voxel": 1e-6},
+        "fibers": [{"shape": "rod", "diameter": 4e-6, "center": [6e-6, 6e-6, 6e-6]}],
+    }
+    with pytest.raises(OSError) as info:
+        run_case(spec, ["porosity"], "voxel", tmp_path)
+    assert info.value.errno == errno.ENOSPC
+    # no truncated picture under its name (the old code drew straight into preview.png)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stage.txt"]

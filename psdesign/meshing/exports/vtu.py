@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdesign.io.vtkfile import save_vtk
 from psdesign.meshing.exports._common import boundary
 from psdesign.meshing.tags import FLUID_TAG, REGION_IDS
 
@@ -32,5 +33,5 @@ def write_vtu(pm: PoreMesh, out: Path) -> dict[str, Path]:
     bnd.cell_data["tag"] = np.asarray(ids, np.int64)
     for g, path in ((vol, p1), (bnd, p2)):
         add_tables(g, boundary=True)
-        g.save(path)
+        save_vtk(g, path)
     return {"vtu": p1, "vtu_boundary": p2}
