@@ -401,5 +401,19 @@ def test_periodic_faces_leave_no_slivers_where_a_fibre_crosses_them():
     assert rel.min() > 1e-3, rel.min()
     assert dihedral_angles(pm.points, pm.tets).min() > 3.0
     assert pm.quality["min_dihedral_deg"] > 3.0
+    assert pm.quality["min_volume_rel_median"] > 0.01  # mesh.json's sliver measure; was 7.0e-5
     k_dt = drummond_tahir_along_square(np.pi * radius**2 / edge**2) * radius**2
     assert res["permeability_m2"] == pytest.approx(k_dt, rel=0.015, abs=0)
+
+
+def test_quality_reports_the_smallest_tet_volume_over_the_median():
+    """``min_volume_rel_median`` (in ``mesh.json``'s quality): three corner tets of the unit
+    cube scaled by 1, 0.5 and 0.1 along x have volumes 1/6, 1/12 and 1/60 (exact), so the
+    smallest over the median is 0.2."""
+    from psdesign.meshing.quality import quality_report
+
+    corner = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    pts = np.concatenate([corner * [s, 1, 1] + [3 * i, 0, 0] for i, s in enumerate((1, 0.5, 0.1))])
+    tets = np.arange(12).reshape(3, 4)
+    assert tet_volumes(pts, tets) == pytest.approx([1 / 6, 1 / 12, 1 / 60], rel=1e-12)
+    assert quality_report(pts, tets)["min_volume_rel_median"] == pytest.approx(0.2, rel=1e-12)
