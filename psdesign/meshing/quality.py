@@ -45,7 +45,11 @@ def radius_ratio(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
 
 
 def quality_report(points: np.ndarray, tets: np.ndarray) -> dict[str, float]:
-    """Summary statistics: dihedral angles, radius ratio, volume ratio."""
+    """Summary statistics: dihedral angles, radius ratio, volume ratios.
+
+    ``min_volume_rel_median`` is the smallest tet volume over the median one: a sliver measure
+    that needs no mesh size (the one-fibre periodic cell at lattice step 4 um had 7.0e-5 with
+    slivers on its periodic faces, where OpenFOAM's K was +74 %; 0.022 without them)."""
     vol = tet_volumes(points, tets)
     dih = dihedral_angles(points, tets)
     rr = radius_ratio(points, tets)
@@ -57,5 +61,6 @@ def quality_report(points: np.ndarray, tets: np.ndarray) -> dict[str, float]:
         "mean_radius_ratio": float(rr.mean()),
         "p01_radius_ratio": float(np.percentile(rr, 1)),
         "max_volume_ratio": float(vol.max() / max(vol.min(), 1e-300)),
+        "min_volume_rel_median": float(vol.min() / max(float(np.median(vol)), 1e-300)),
         "n_inverted": int((vol <= 0).sum()),
     }
