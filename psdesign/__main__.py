@@ -1,7 +1,5 @@
 """``python -m psdesign``: the ``psdesign`` command."""
 
-import sys
+from psdesign.cli.main import console
 
-from psdesign.cli.main import main
-
-sys.exit(main())
+console()
