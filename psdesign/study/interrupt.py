@@ -61,6 +61,23 @@ def _children_now() -> set[tuple[int, float]]:
         return set()
 
 
+def _multiprocessing_helpers() -> set[int]:
+    """Pids of multiprocessing's own helper processes (the resource tracker, the fork server):
+    they exit with this process.  Killed with the workers, the tracker was relaunched and
+    printed a ``KeyError: '/mp-...'`` traceback for each semaphore the pool then released
+    (session 35's failure audit: 4 of 10 Ctrl-C of a two-worker ``study run``)."""
+    pids = set()
+    for module, obj, attr in (
+        ("multiprocessing.resource_tracker", "_resource_tracker", "_pid"),
+        ("multiprocessing.forkserver", "_forkserver", "_forkserver_pid"),
+    ):
+        mod = sys.modules.get(module)
+        pid = getattr(getattr(mod, obj, None), attr, None)
+        if isinstance(pid, int):
+            pids.add(pid)
+    return pids
+
+
 def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None = None) -> int:
     """Terminate the child processes of this one and all their descendants (SIGTERM, SIGKILL).
 
@@ -81,10 +98,11 @@ def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None 
     except ImportError:  # pragma: no cover - psutil is a dependency
         return 0
     keep = keep or set()
+    helpers = _multiprocessing_helpers()
     targets = []
     try:
         for child in psutil.Process().children():
-            if _key(child) in keep:
+            if _key(child) in keep or child.pid in helpers:
                 continue
             targets.append(child)
             with contextlib.suppress(psutil.Error):

@@ -710,3 +710,33 @@ def test_a_host_name_service_that_hangs_is_refused_after_its_timeout(monkeypatch
         "--scheduler: the host of tls://slow.example:8786 does not resolve (no answer from "
         "the name service within 0.2 s)"
     )
+
+
+def test_stopping_the_workers_leaves_multiprocessing_s_resource_tracker():
+    """Session 35's failure audit: Ctrl-C of a two-worker ``study run`` printed 3-5 tracebacks
+    ``KeyError: '/mp-...'`` after its one line in 4 of 10 trials.  ``stop_children`` killed
+    every child started during the run, multiprocessing's resource tracker too (it starts
+    with the pool's first semaphore); a relaunched tracker then met the pool's releases of
+    semaphores it never saw.  The tracker exits with this process by itself."""
+    import multiprocessing
+    import multiprocessing.resource_tracker as rt
+
+    import psutil
+
+    from psdesign.study.interrupt import _children_now, stop_children
+
+    before = _children_now()
+    ctx = multiprocessing.get_context("spawn")
+    lock = ctx.Lock()  # a named semaphore: the tracker runs (started here or earlier)
+    tracker = rt._resource_tracker._pid
+    assert tracker is not None and psutil.pid_exists(tracker)
+    worker = ctx.Process(target=time.sleep, args=(60,))
+    worker.start()
+    try:
+        stop_children(grace_s=5.0, keep=before - {(tracker, psutil.Process(tracker).create_time())})
+        assert not psutil.pid_exists(worker.pid)  # the worker was stopped (and reaped)
+        assert psutil.pid_exists(tracker) and psutil.Process(tracker).status() != "zombie"
+    finally:
+        if psutil.pid_exists(worker.pid):
+            worker.kill()
+        del lock
