@@ -326,11 +326,12 @@ def _start_runner(tmp_path: Path, timeout: float | None, workers: int = 2):
     out = tmp_path / "out"
     code = (
         f"import sys; sys.path[:0] = [{str(TESTS_DIR)!r}, {str(HERE)!r}]\n"
-        "from psdesign.cli.study import main\n"
-        f"sys.exit(main(['study', 'run', {str(p)!r}, '-o', {str(out)!r}, '--workers',"
+        # the process the psdesign command runs (console: Ctrl-C ignored once main returned)
+        "from psdesign.cli.main import console\n"
+        f"sys.argv = ['psdesign', 'study', 'run', {str(p)!r}, '-o', {str(out)!r}, '--workers',"
         f" '{workers}', '--no-report', '--case-fn', 'test_study_safety:slow_unless_flag_case']"
         + (f" + ['--timeout', '{timeout}']" if timeout else "")
-        + "))\n"
+        + "\nconsole()\n"
     )
     proc = subprocess.Popen(
         [sys.executable, "-c", code],
