@@ -386,7 +386,7 @@ def fit_study(
     never replaced: :class:`psdesign.io.outputs.OutputError` (a ``ValueError``) before the fit.
     """
     from psdesign.io.outputs import claim_output_dir
-    from psdesign.study.store import atomic_write_json, check_study_files
+    from psdesign.study.store import atomic_write_json, check_study_files, remove_dead_temp
 
     out = Path(out_dir)
     check_study_files(out, [SURROGATE_FILE], "study fit")
@@ -423,6 +423,7 @@ def fit_study(
     if not models:
         raise ValueError(f"{out}: no output could be fitted ({'; '.join(reasons.values())})")
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
+    remove_dead_temp(out / SURROGATE_FILE)
     atomic_write_json(
         out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}
     )

@@ -43,6 +43,7 @@ __all__ = [
     "check_study_files",
     "is_timing_column",
     "records_to_frame",
+    "remove_dead_temp",
 ]
 
 #: What ``study run`` writes in its output folder (a trailing ``/``: a whole sub-folder); checked
@@ -125,6 +126,35 @@ def _fsync_dir(path: Path) -> None:
         pass
     finally:
         os.close(fd)
+
+
+def remove_dead_temp(path: Path) -> list[Path]:
+    """Delete the temp files of :func:`atomic_write_bytes` for ``path`` that a killed process
+    left (``.psdesign-<name>.<pid>.tmp`` whose pid is not running here); a live writer's temp
+    stays.  For commands that write one file into a study folder without the run lock
+    (``study fit``: its killed write left ``.psdesign-surrogate.json.<pid>.tmp`` until the next
+    ``study run``, session 35's failure audit).
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    import psutil
+
+    path = Path(path)
+    removed = []
+    for tmp in path.parent.glob(f"{TEMP_PREFIX}{path.name}.*.tmp"):
+        pid = tmp.name[len(f"{TEMP_PREFIX}{path.name}.") : -len(".tmp")]
+        if not pid.isdigit() or int(pid) == os.getpid() or psutil.pid_exists(int(pid)):
+            continue
+        if tmp.is_file() and not tmp.is_symlink():
+            try:
+                tmp.unlink()
+                removed.append(tmp)
+            except OSError:
+                pass
+    return removed
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

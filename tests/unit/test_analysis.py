@@ -986,3 +986,28 @@ def test_optimize_never_runs_a_design_point_twice(tmp_path, params, grid) -> Non
         f"every design point of the parameter box has run ({len(grid)}; "
     ), res.message
     assert res.best["k_z_m2"] == pytest.approx(1.1e-11)  # n_fibers = 11, the closest
+
+
+def test_fit_removes_the_temp_file_a_killed_fit_left(tmp_path, capsys) -> None:
+    """Session 35's failure audit: ``study fit`` killed while writing left
+    ``.psdesign-surrogate.json.<pid>.tmp`` in the study folder; a later fit wrote its own
+    beside it and left the dead one (only ``study run`` removed it).  A fit removes a temp of
+    a process that is not running; a live writer's (here this test's own parent) stays."""
+    import os
+    import subprocess
+    import sys
+
+    out = _lhs_study(tmp_path, 6)
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # a pid that ran and is gone
+    dead = out / f".psdesign-surrogate.json.{gone.pid}.tmp"
+    dead.write_text('{"version": 1, "mod')  # a half-written surrogate
+    live = out / f".psdesign-surrogate.json.{os.getppid()}.tmp"
+    live.write_text("a running fit's")
+    user = out / "surrogate.json.1.tmp"  # not psdesign's name: never touched
+    user.write_text("mine")
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    assert not dead.exists()
+    assert live.read_text() == "a running fit's" and user.read_text() == "mine"
+    assert set(load_study_surrogates(out)) == {"porosity", "k_z_m2"}
