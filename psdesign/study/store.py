@@ -143,17 +143,28 @@ def remove_dead_temp(path: Path) -> list[Path]:
     import psutil
 
     path = Path(path)
+    prefix = f"{TEMP_PREFIX}{path.name}."
+    dead = []
+    for tmp in path.parent.glob(f"{prefix}*.tmp"):
+        pid = tmp.name[len(prefix) : -len(".tmp")]
+        if pid.isdigit() and int(pid) != os.getpid() and not psutil.pid_exists(int(pid)):
+            dead.append(tmp)
+    return _unlink_temps(dead)
+
+
+def _unlink_temps(paths) -> list[Path]:
+    """Unlink the psdesign temp files (``.psdesign-*.tmp``, regular files, not links) among
+    ``paths``; a user's ``*.tmp`` or one that cannot be removed is left.  Returns those
+    removed."""
     removed = []
-    for tmp in path.parent.glob(f"{TEMP_PREFIX}{path.name}.*.tmp"):
-        pid = tmp.name[len(f"{TEMP_PREFIX}{path.name}.") : -len(".tmp")]
-        if not pid.isdigit() or int(pid) == os.getpid() or psutil.pid_exists(int(pid)):
+    for tmp in paths:
+        if not is_psdesign_temp(tmp) or not tmp.is_file() or tmp.is_symlink():
             continue
-        if tmp.is_file() and not tmp.is_symlink():
-            try:
-                tmp.unlink()
-                removed.append(tmp)
-            except OSError:
-                pass
+        try:
+            tmp.unlink()
+            removed.append(tmp)
+        except OSError:
+            pass
     return removed
 
 
@@ -312,17 +323,13 @@ class CaseStore:
         list of Path
             The files removed.
         """
-        removed = []
-        for folder in (self.out, self.cases_dir):
-            for tmp in list(folder.glob(f"{TEMP_PREFIX}*.tmp")):
-                if not is_psdesign_temp(tmp) or not tmp.is_file() or tmp.is_symlink():
-                    continue
-                try:
-                    tmp.unlink()
-                    removed.append(tmp)
-                except OSError:
-                    pass
-        return removed
+        return _unlink_temps(
+            [
+                tmp
+                for folder in (self.out, self.cases_dir)
+                for tmp in folder.glob(f"{TEMP_PREFIX}*.tmp")
+            ]
+        )
 
     # -- records
     def load_records(self) -> dict[str, dict]:
