@@ -144,6 +144,24 @@ def write_study(tmp_path: Path, study: str, params: str, name="s.toml") -> Path:
     return p
 
 
+def write_entangled_study(tmp_path: Path) -> Path:
+    """A csv study whose two parameters move together (diameter = 1e-5 * porosity, 8 points
+    on porosity 0.7-0.9): its cases cannot tell the two effects apart."""
+    import numpy as np
+    import pandas as pd
+
+    eps = np.linspace(0.7, 0.9, 8)
+    pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
+        tmp_path / "pts.csv", index=False
+    )
+    return write_study(
+        tmp_path,
+        'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
+        'solver = "voxel"',
+        "",
+    )
+
+
 FACTORIAL = """
 name = "fac"
 design = "full-factorial"

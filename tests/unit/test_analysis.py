@@ -14,7 +14,13 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from study_cases import fake_case, kc_truth, untrusted_case, write_study
+from study_cases import (
+    fake_case,
+    kc_truth,
+    untrusted_case,
+    write_entangled_study,
+    write_study,
+)
 
 from psdesign.analysis import sensitivity
 from psdesign.analysis.replicates import replicate_summary
@@ -795,16 +801,7 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     variance of each term over its uniform range); the GP split them 0.50 / 0.50. No index,
     said why, in `study sensitivity` and in the report (nor its interaction plot); `study
     predict` off the cases' line is untrustworthy by its own error bar."""
-    eps = np.linspace(0.7, 0.9, 8)
-    pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
-        tmp_path / "pts.csv", index=False
-    )
-    p = write_study(
-        tmp_path,
-        'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
-        'solver = "voxel"',
-        "",
-    )
+    p = write_entangled_study(tmp_path)
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=True)
     assert main(["study", "fit", str(out)]) == 0

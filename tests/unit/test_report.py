@@ -15,6 +15,7 @@ from study_cases import (
     fake_case,
     mixed_status_case,
     untrusted_case,
+    write_entangled_study,
     write_study,
 )
 
@@ -594,16 +595,7 @@ def test_no_response_surface_over_two_parameters_that_moved_together(tmp_path):
     surface over a box the cases never filled. The same rule now gives no surface either,
     and one sentence where it would be. Truth: the two columns are one (correlation 1 by
     construction)."""
-    eps = np.linspace(0.7, 0.9, 8)
-    pd.DataFrame({"generator.porosity": eps, "generator.diameter": 1e-5 * eps}).to_csv(
-        tmp_path / "pts.csv", index=False
-    )
-    p = write_study(
-        tmp_path,
-        'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
-        'solver = "voxel"',
-        "",
-    )
+    p = write_entangled_study(tmp_path)
     run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
     html = (tmp_path / "out" / "report.html").read_text()
     why = "generator.porosity and generator.diameter moved together over the cases"
