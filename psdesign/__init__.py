@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import importlib
 
-from solvers.voxel.threads import passive_wait
+from solvers.voxel.threads import passive_wait, prefer_openmp
 
 passive_wait()  # before any numba parallel region: idle OpenMP threads sleep, never spin
+prefer_openmp()  # the layer the thread policy was measured on, also where libtbb is installed
 
 __version__ = "0.1.0"
 

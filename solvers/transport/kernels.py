@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
+from solvers.reduction import ordered_column_sums, ordered_sum
 
 _OPTS = {"cache": True, "fastmath": False, "nogil": True}
 
@@ -66,7 +67,7 @@ def apply_dot(d, cx, cy, cz, x, out):
                 o[k] = v
                 acc += v * xr[k]
         part[i] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(**_OPTS)
@@ -93,7 +94,7 @@ def update_xr(x, r, p, q, alpha, r32, d):
                 w = v / fd[t]
                 acc += w * w
         part[c] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(**_OPTS)
@@ -113,7 +114,7 @@ def dot_z(r, z32, z):
             fz[t] = v
             acc += fr[t] * v
         part[c] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(**_OPTS)
@@ -140,7 +141,7 @@ def dot_z32(r, z32):
         for t in range(c * step, min(n, (c + 1) * step)):
             acc += fr[t] * np.float64(f32[t])
         part[c] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(**_OPTS)
@@ -267,4 +268,4 @@ def face_fluxes(t, cx, cy, cz, axis, offset):
                     part[i, j] += fy
                 else:
                     part[i, k] += fz
-    return part.sum(axis=0), tot.sum(axis=0)
+    return ordered_column_sums(part), ordered_column_sums(tot)

@@ -32,6 +32,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import parallel_kernel
+from solvers.reduction import ordered_sum
 from solvers.voxel.kernels import _dn, _on, _stencil, _up
 from solvers.voxel.lanczos import _combine, _momentum_lanczos
 
@@ -278,7 +279,7 @@ def stokes_lanczos_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c
         acc[i] = _lanczos_cut_slab(
             du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c1, y, np.int64(i)
         )
-    return acc.sum()
+    return ordered_sum(acc)
 
 
 @nb.njit(inline="always")
@@ -358,7 +359,7 @@ def stokes_residual_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, gdi
         acc[i], accf[i] = _residual_cut_slab(
             du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, gdir, r, np.int64(i)
         )
-    return acc.sum(), accf.sum()
+    return ordered_sum(acc), ordered_sum(accf)
 
 
 @nb.njit(inline="always")

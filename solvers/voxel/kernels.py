@@ -26,6 +26,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import SerialHelpers, parallel_kernel
+from solvers.reduction import ordered_sum
 from solvers.voxel import simd
 
 _OPTS = {"cache": True, "fastmath": True, "nogil": True, "error_model": "numpy"}
@@ -541,7 +542,7 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
                 fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
                 fx, bp + _u(PREFETCH), None,
             )  # fmt: skip
-        return acc.sum()
+        return ordered_sum(acc)
     # stored couplings (coarse levels): the arrays through numba's reshape, whose run-time call
     # hides from LLVM that they are the noalias arguments, so that these row loops compile as
     # without noalias, to bitwise the values of jacobi2_zero's and prolong_jacobi's sweeps (the
@@ -561,7 +562,7 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
             _apply_row(dd, cx, cy, cz, xx, i, j, row)
             s += _jacobi_row(dd[i, j], xx[i, j], bb[i, j], row, omega, xo[i, j])
         acc[i] = s
-    return acc.sum()
+    return ordered_sum(acc)
 
 
 @parallel_kernel(helpers=_SERIAL, **_OPTS)
@@ -772,7 +773,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
                 d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None, False
             )
         acc[t] = s
-    return acc.sum()
+    return ordered_sum(acc)
 
 
 @parallel_kernel(helpers=_SERIAL, **_OPTS)
@@ -790,7 +791,7 @@ def copy_dot(r, z):
             o[t] = a[t]
             s += np.float64(a[t]) * np.float64(o[t])
         part[row] = s
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(helpers=_SERIAL, **_OPTS)
@@ -810,7 +811,7 @@ def scale_dot(r, c, z):
             o[t] = a[t] * sc[t]
             s += np.float64(a[t]) * np.float64(o[t])
         part[row] = s
-    return part.sum()
+    return ordered_sum(part)
 
 
 @_SERIAL.leaf
@@ -920,7 +921,7 @@ def stokes_residual(du, dv, dw, cu, cv, cw, fluid, x, gdir, r):
         acc[i], accf[i] = _stokes_residual_slab(
             du, dv, dw, cu, cv, cw, fluid, x, gdir, r, np.int64(i)
         )
-    return acc.sum(), accf.sum()
+    return ordered_sum(acc), ordered_sum(accf)
 
 
 @_SERIAL.slab(**_OPTS)
@@ -1000,7 +1001,7 @@ def dot(a, b):
         for t in range(n):
             s += np.float64(ra[t]) * np.float64(rb[t])
         part[row] = s
-    return part.sum()
+    return ordered_sum(part)
 
 
 _SERIAL.seal(globals())

@@ -32,6 +32,7 @@ import numba as nb
 import numpy as np
 
 from solvers.jit import NoAliasCompiler, SerialHelpers, parallel_kernel
+from solvers.reduction import ordered_sum
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
 from solvers.voxel.kernels import BLOCK as FLAT_BLOCK
@@ -142,7 +143,7 @@ def stokes_lanczos(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y):
     acc = np.zeros(nx)
     for i in nb.prange(nx):
         acc[i] = _lanczos_slab(du, dv, dw, cu, cv, cw, fluid, x, s, c1, y, np.int64(i))
-    return acc.sum()
+    return ordered_sum(acc)
 
 
 @_SERIAL.slab(**_OPTS)
@@ -723,7 +724,7 @@ def subtract_sq(r, y):
             rr[k] = val
             acc += np.float64(val) * np.float64(val)
         part[t] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @parallel_kernel(helpers=_SERIAL, **_OPTS)

@@ -79,6 +79,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from solvers.jit import parallel_kernel
+from solvers.reduction import ordered_sum
 from solvers.voxel import kernels as kr
 from solvers.voxel import multigrid as mg
 from solvers.voxel import simd
@@ -245,7 +246,7 @@ def pressure_block_code(code, table, fluid, r, xc, fx, fy, fz, weight, z):
                 sr[t] = table[cr[t]]
             acc += _block_row(r[i, j], sr, fluid[i, j], ex, z[i, j])
         part[i] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 CODE_STEPS = 16

@@ -78,6 +78,7 @@ from scipy.sparse.csgraph import connected_components
 
 from solvers.blas_threads import single_thread_blas
 from solvers.jit import parallel_kernel
+from solvers.reduction import ordered_sum
 from solvers.voxel import simd
 
 __all__ = ["JUNCTION", "MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
@@ -176,7 +177,7 @@ def thin_apply(cells, start, fstart, packed, width, r, z):
             c0 = start[p]
             acc += _piece_apply(cells, c0, start[p + 1] - c0, packed, fstart[p], r, z, x, y)
         part[t] = acc
-    return part.sum()
+    return ordered_sum(part)
 
 
 @nb.njit(inline="always")

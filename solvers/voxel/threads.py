@@ -9,6 +9,12 @@ threads``; ``benchmarks/RESULTS.md``):
   sleep) is therefore set as the default before any parallel region runs
   (:func:`passive_wait`, called on import of :mod:`psdesign` and :mod:`solvers`); a value set
   by the user is kept.
+* numba picks its threading layer at the first parallel region, TBB first when ``libtbb`` is
+  installed (Debian's ``openfoam`` package brings it, for one).  The thread policy here was
+  measured on OpenMP, so OpenMP comes first (:func:`prefer_openmp`; TBB, then numba's
+  workqueue where OpenMP is missing); a layer or order set by the user is kept.  The results do
+  not depend on the layer: every kernel's final sum has one order
+  (:func:`solvers.reduction.ordered_sum`).
 * A parallel region also costs a wake-up of every thread (a scheduler time slice on a busy
   machine), so grids or multigrid levels below ``PARALLEL_MIN_CELLS`` cells run on one thread
   (:func:`level_threads`); only the fine levels, where the work is, use all threads.
@@ -17,6 +23,7 @@ threads``; ``benchmarks/RESULTS.md``):
 from __future__ import annotations
 
 import os
+import sys
 
 PARALLEL_MIN_CELLS = 100_000
 """Grids (and multigrid levels) with fewer cells run the numba kernels on one thread.  Measured
@@ -42,6 +49,23 @@ def passive_wait() -> None:
     user chose otherwise.  Must run before the first numba parallel region of the process (the
     OpenMP runtime reads it when it starts)."""
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
+OPENMP_FIRST = ("omp", "tbb", "workqueue")
+"""numba's threading layers in the order psdesign prefers them (numba's own: TBB first)."""
+
+
+def prefer_openmp() -> None:
+    """Make numba try its OpenMP layer first (then TBB, then its workqueue) unless the user set
+    ``NUMBA_THREADING_LAYER`` or ``NUMBA_THREADING_LAYER_PRIORITY``.  Must run before the first
+    numba parallel region of the process (numba picks the layer then); works after ``import
+    numba`` too."""
+    if "NUMBA_THREADING_LAYER" in os.environ or "NUMBA_THREADING_LAYER_PRIORITY" in os.environ:
+        return
+    os.environ["NUMBA_THREADING_LAYER_PRIORITY"] = " ".join(OPENMP_FIRST)  # child processes
+    config = sys.modules.get("numba.core.config")
+    if config is not None:  # numba read the environment at its import
+        config.THREADING_LAYER_PRIORITY = list(OPENMP_FIRST)
 
 
 def level_threads(n_cells: int, available: int) -> int:

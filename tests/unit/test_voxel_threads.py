@@ -174,3 +174,134 @@ def test_a_solve_on_uncompiled_kernels_gives_the_same_warnings(monkeypatch) -> N
     assert not any(WARMUP_NOTE in w for w in cold.get("warnings", []))
     assert cold["permeability_m2"] == warm["permeability_m2"]
     assert is_timing_column("thread_note_y") and not is_timing_column("warnings_y")
+
+
+def _parfor_reductions(fn) -> list[str]:
+    """The numba parfor reductions in ``fn``'s source: a ``.sum()`` / ``np.sum`` call, or an
+    in-place update of a name that a ``prange`` loop body does not bind itself."""
+    import ast
+    import inspect
+    import textwrap
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            if node.func.attr == "sum":
+                found.append(f"line {node.lineno}: {ast.unparse(node)}")
+        is_prange = (
+            isinstance(node, ast.For)
+            and isinstance(node.iter, ast.Call)
+            and ast.unparse(node.iter.func).endswith("prange")
+        )
+        if is_prange:
+            bound = {
+                t.id
+                for n in ast.walk(node)
+                if isinstance(n, ast.Assign)
+                for t in n.targets
+                if isinstance(t, ast.Name)
+            }
+            for n in ast.walk(node):
+                if isinstance(n, ast.AugAssign) and isinstance(n.target, ast.Name):
+                    if n.target.id not in bound:
+                        found.append(f"line {n.lineno}: {ast.unparse(n)}")
+    return found
+
+
+def test_no_kernel_sum_depends_on_the_threading() -> None:
+    """Session 36: ``part.sum()`` at the end of a ``parallel=True`` kernel is a numba parfor
+    reduction, summed per thread in an order that depends on the threading layer and the
+    thread count (OpenMP on two threads: a different last bit on every call of 2 000+
+    partials; TBB: from call to call).  The 72^3 solve's true residual differed by one ulp
+    between one and two threads (session 35 reproducibility audit).  Every parallel kernel ends
+    with :func:`solvers.reduction.ordered_sum` instead; the scan must see the old form."""
+    import solvers.transport.kernels  # noqa: F401  (its kernels join the scan)
+    import solvers.voxel.cutfaces  # noqa: F401
+    import solvers.voxel.lanczos  # noqa: F401
+    import solvers.voxel.schur  # noqa: F401
+    import solvers.voxel.thin  # noqa: F401
+
+    kernels = _twin_kernels()
+    assert len(kernels) >= 30
+    found = {k.py_func.__qualname__: _parfor_reductions(k.py_func) for k in kernels}
+    assert {name: f for name, f in found.items() if f} == {}
+    assert _parfor_reductions(_scaled_sum) == ["line 5: acc += x[i]"]
+
+
+def test_a_kernel_sum_is_the_serial_twins_on_two_threads() -> None:
+    """Session 36 (see above): the float64 dot of a 4096-row float32 pair whose rows span 12
+    decades, parallel twin against serial twin, bitwise, five calls (before: OpenMP's two
+    partial sums, a different last bit)."""
+    from solvers.voxel import kernels as kr
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("one numba thread")
+    rng = np.random.default_rng(36)
+    scale = 10.0 ** rng.integers(-6, 7, (4096, 1))
+    a = (rng.standard_normal((4096, 16)) * scale).astype(np.float32)
+    b = np.ones_like(a)
+    serial = kr.dot.serial(a, b)
+    assert serial == pytest.approx(np.sum(a, dtype=np.float64), rel=1e-12)
+    assert [kr.dot.parallel(a, b) for _ in range(5)] == [serial] * 5
+
+
+def test_numba_runs_on_openmp_unless_the_user_chose(tmp_path) -> None:
+    """Session 36: numba takes TBB first where ``libtbb`` is installed (this machine got it with
+    Debian's ``openfoam``); the thread policy was measured on OpenMP.  ``import psdesign`` puts
+    OpenMP first, also after ``import numba``; a user's layer is kept."""
+    code = (
+        "import numba, psdesign, numpy as np\n"
+        "f = numba.njit(parallel=True)(lambda a: a.sum())\n"
+        "f(np.ones(8)); print(numba.threading_layer())\n"
+    )
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_THREADING_LAYER")}
+    try:
+        from numba.np.ufunc import omppool  # noqa: F401
+    except ImportError:
+        pytest.skip("numba's OpenMP layer is not available here")
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.stdout.strip() == "omp", run.stderr[-500:]
+    env["NUMBA_THREADING_LAYER"] = "workqueue"
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.stdout.strip() == "workqueue", run.stderr[-500:]
+
+
+def _rods(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Four periodic rods of radius 0.12 n crossing a cube of ``n`` cells: solid and signed
+    distance (cells; > 0 in the fluid)."""
+    g = np.arange(n) + 0.5
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    dist = np.full((n, n, n), np.inf)
+    for a, b, c0, c1 in [(x, y, 0.25, 0.3), (y, z, 0.7, 0.6), (z, x, 0.4, 0.8), (x, z, 0.8, 0.1)]:
+        da = (a - c0 * n + n / 2) % n - n / 2
+        db = (b - c1 * n + n / 2) % n - n / 2
+        dist = np.minimum(dist, np.hypot(da, db) - 0.12 * n)
+    return dist <= 0, dist
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("walls", ["staircase", "subvoxel"])
+def test_a_solve_is_bitwise_the_same_on_one_and_two_threads(walls: str, monkeypatch) -> None:
+    """Session 35's reproducibility audit: a 72^3 solve's true residual differed in its last bit
+    between one and two threads (``residual_<d>`` of a study, ``error_estimate.solver``).  A
+    374 k-cell grid (above ``SOLVE_PARALLEL_MIN_CELLS``) solved on one and on two threads: the
+    residual history, iterations and mean velocity bitwise equal, the second solve on two."""
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one numba thread")
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", 0)  # compile what a warm install runs
+    solid, dist = _rods(72)
+    distance = dist * 1e-6 if walls == "subvoxel" else None
+    runs = []
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        try:
+            res = vs.solve_voxel_stokes(solid, 1e-6, "z", tol=1e-6, distance=distance)
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        assert res.converged and res.threads_used == threads
+        runs.append((res.history, res.iterations, res.residual, res.mean_velocity.tolist()))
+    assert runs[0] == runs[1]
