@@ -33,19 +33,14 @@ def _links(x: np.ndarray, n: int) -> dict[tuple[int, int], float]:
 
 def _components(links: dict[tuple[int, int], float], n: int) -> list[list[int]]:
     """Connected components (two or more members, each sorted) of the graph of ``links``."""
-    parent = list(range(n))
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    def root(i: int) -> int:
-        while parent[i] != i:
-            i = parent[i]
-        return i
-
-    for i, j in links:
-        parent[root(j)] = root(i)
-    groups: dict[int, list[int]] = {}
-    for i in range(n):
-        groups.setdefault(root(i), []).append(i)
-    return [g for g in groups.values() if len(g) > 1]
+    rows, cols = zip(*links, strict=True) if links else ((), ())
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    groups = [np.flatnonzero(label == c).tolist() for c in np.unique(label)]
+    return sorted((g for g in groups if len(g) > 1), key=lambda g: g[0])
 
 
 def entangled_groups(x: np.ndarray, names: list[str]) -> list[list[str]]:

@@ -165,15 +165,13 @@ def remove_dead_temp(path: Path) -> list[Path]:
 def _written_before_start(tmp: Path, pid: int) -> bool:
     """``tmp`` was last written (:data:`PID_REUSE_MARGIN_S`) before process ``pid`` started:
     its writer was another process, gone, whose pid was reused.  False when the start cannot
-    be told (not Linux: the pid alone decides, as before)."""
-    from psdesign.study.pidstart import process_start_time
+    be told (no such process, or no access to it: the pid alone decides, as before)."""
+    import psutil
 
-    start = process_start_time(pid)
-    if start is None:
-        return False
     try:
+        start = psutil.Process(pid).create_time()
         return tmp.lstat().st_mtime < start - PID_REUSE_MARGIN_S
-    except OSError:
+    except (psutil.Error, OSError):
         return False
 
 
