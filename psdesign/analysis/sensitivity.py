@@ -9,23 +9,18 @@ no index: the cases say nothing about it (varied over its box, the GP's prior al
 such a parameter the "most influential" one, S1 0.59, of a study that never changed it).
 No index at all is computed (:func:`no_indices_reason`) for an output that did not vary beyond
 the fit's error (:meth:`~psdesign.analysis.surrogate.Surrogate.flat_output`: the indices would
-be those of noise, S_T 0.92 of a constant), nor when two parameters moved together over the
-fitted cases (a csv design with b = 2 a: the cases cannot tell their effects apart, yet the
-GP split them 0.50 / 0.50 over a box the cases never filled).
+be those of noise, S_T 0.92 of a constant), nor when parameters moved together over the
+fitted cases (:mod:`psdesign.analysis.entangled`; a csv design with b = 2 a: the cases cannot
+tell their effects apart, yet the GP split them 0.50 / 0.50 over a box the cases never filled).
 """
 
 from __future__ import annotations
 
-from itertools import combinations
-
 import numpy as np
 import pandas as pd
 
+from psdesign.analysis.entangled import entangled, tied_to_axes
 from psdesign.analysis.surrogate import Surrogate, from_unit, to_unit
-
-#: Correlation (Pearson, of the scaled inputs over the fitted design points) of two parameters
-#: above which the cases cannot tell their effects apart.
-MAX_INPUT_CORRELATION = 0.99
 
 
 def _varied(s: Surrogate) -> list[str]:
@@ -34,38 +29,32 @@ def _varied(s: Surrogate) -> list[str]:
     return [p for p in s.params if p not in fixed]
 
 
-def entangled(x: np.ndarray, names: list[str]) -> str:
-    """``"a and b moved together ..."`` for the first pair of columns of ``x`` (cases x
-    parameters, named ``names``) whose Pearson correlation exceeds
-    :data:`MAX_INPUT_CORRELATION`, or ``""``: the cases cannot tell those two effects apart
-    (by Sobol index or by regression coefficient).
-
-    >>> entangled(np.array([[1.0, 2.0], [2.0, 4.0], [3.0, 6.1]]), ["a", "b"])[:43]
-    'a and b moved together over the cases (corr'
-    """
-    for i, j in combinations(range(len(names)), 2):
-        r = float(np.corrcoef(x[:, i], x[:, j])[0, 1])
-        if abs(r) > MAX_INPUT_CORRELATION:
-            return (
-                f"{names[i]} and {names[j]} moved together over the cases (correlation "
-                f"{r:.3f}): the cases cannot tell their effects apart; vary them "
-                "independently (e.g. a latin-hypercube design)"
-            )
-    return ""
+def _unit_points(s: Surrogate) -> np.ndarray:
+    """The distinct fitted design points, scaled to the unit box (log10 where log-scaled)."""
+    return to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
 
 
-def entangled_inputs(s: Surrogate, names: list[str]) -> str:
-    """:func:`entangled` over the fitted design points (scaled inputs) of ``names``: the
-    rule of :func:`no_indices_reason`, also the report's for its response surface."""
-    u = to_unit(np.unique(np.asarray(s.x, dtype=float), axis=0), s.low, s.high, s.log_params)
-    return entangled(u[:, [s.params.index(p) for p in names]], names)
+def entangled_inputs(s: Surrogate, names: list[str], axes: list[str] | None = None) -> str:
+    """:func:`~psdesign.analysis.entangled.entangled` over the fitted design points (scaled
+    inputs) of ``names``: the rule of :func:`no_indices_reason`, also the report's for its
+    response surface over ``axes``."""
+    u = _unit_points(s)
+    return entangled(u[:, [s.params.index(p) for p in names]], names, axes)
+
+
+def tied_inputs(s: Surrogate, names: list[str], axes: list[str]) -> dict[str, tuple]:
+    """:func:`~psdesign.analysis.entangled.tied_to_axes` over the fitted design points of
+    ``names``, in scaled inputs (the unit box of :func:`~psdesign.analysis.surrogate.to_unit`):
+    how a figure over ``axes`` holds each parameter that moved with another."""
+    u = _unit_points(s)
+    return tied_to_axes(u[:, [s.params.index(p) for p in names]], names, axes)
 
 
 def no_indices_reason(s: Surrogate) -> str:
     """Why no sensitivity index of ``s`` means anything: no parameter varied, the
-    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or two
-    parameters moved together (:data:`MAX_INPUT_CORRELATION`); ``""`` when they mean
-    something."""
+    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or a group of
+    parameters moved together (:func:`~psdesign.analysis.entangled.entangled_groups`);
+    ``""`` when they mean something."""
     names = _varied(s)
     if not names:
         held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())

@@ -193,8 +193,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
     try:  # a typo in the address refused before the seconds of the imports below and dask's
-        if args.scheduler:
-            check_scheduler_address(args.scheduler)
+        if args.scheduler:  # checked: its host looked up here, once for the run
+            args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
         return _fail(str(exc), 2)
     from psdesign.study.interrupt import Terminated

@@ -208,7 +208,7 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
     levels over the other's; a ``loguniform`` one of ``study`` on a log axis)."""
     import plotly.graph_objects as go
 
-    from psdesign.analysis.sensitivity import entangled
+    from psdesign.analysis.entangled import entangled, tied_to_axes
     from psdesign.analysis.surrogate import log_parameters
 
     ok = distinct_realizations(_ok(df), params)  # a design point listed twice is one case
@@ -242,7 +242,9 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
     )
     parts.append(figure_html(fig, "psd-main-effects"))
-    tangled = entangled(ok[num[:2]].to_numpy(dtype=float), num[:2]) if len(num) >= 2 else ""
+    # the groups over every varied parameter (a and b linked through c = 3 a = 3 b are one line
+    # too); a third parameter that moved with one of the two moved with it in the cases shown
+    tangled = entangled(ok[num].to_numpy(dtype=float), num, num[:2]) if len(num) >= 2 else ""
     if len(num) >= 2 and not tangled:
         logs = log_parameters((study or {}).get("parameters") or {})
         fig = _interaction_figure(ok, y, kcols, num[0], num[1], num[0] in logs)
@@ -255,6 +257,15 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
     )
     if tangled:  # one line of points, no lines of levels: no interaction to read
         note = f'<p class="note">Interaction not shown: {html.escape(tangled)}.</p>'
+    elif len(parts) > 1:  # c = 3 a: the lines over a's levels are over c's as well
+        ties = tied_to_axes(ok[num].to_numpy(dtype=float), num, num[:2])
+        for p, (anchor, _, _) in ties.items():
+            if anchor in num[:2]:
+                note += (
+                    f'<p class="note">Interaction: {html.escape(p)} moved with '
+                    f"{html.escape(anchor)} in every case: the levels of {html.escape(anchor)} "
+                    f"are those of {html.escape(p)} too.</p>"
+                )
     return '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>" + note
 
 
@@ -289,8 +300,16 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
     its relative uncertainty), fitted here from the finished cases; no surface over two
     parameters that moved together (a note says why: :func:`~psdesign.analysis.sensitivity.
-    entangled_inputs`, the rule that gives them no Sobol index)."""
-    from psdesign.analysis.sensitivity import entangled_inputs, no_indices_reason, sobol_indices
+    entangled_inputs`, the rule that gives them no Sobol index); a third parameter that moved
+    with one of the two follows it on the surface as in the cases (:func:`~psdesign.analysis.
+    sensitivity.tied_inputs`), never held at mid-range apart from it."""
+    from psdesign.analysis.entangled import tied_note
+    from psdesign.analysis.sensitivity import (
+        entangled_inputs,
+        no_indices_reason,
+        sobol_indices,
+        tied_inputs,
+    )
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
@@ -334,14 +353,17 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         sob = sobol_indices(s, n=256)
         parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
-    tangled = entangled_inputs(s, order[:2]) if len(order) >= 2 else ""
+    tangled = entangled_inputs(s, num, order[:2]) if len(order) >= 2 else ""
     if len(order) == 1:
         fig = _surface_1d(s, ok, num, order[0], c)
         parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
     elif tangled:  # the sensitivity rule: a surface over a pair the cases never separated
         parts.append(f'<p class="note">Response surface not shown: {html.escape(tangled)}.</p>')
     else:
-        parts.append(figure_html(_surface_2d(s, ok, num, order[:2], c), "psd-surface"))
+        ties = tied_inputs(s, num, order[:2])
+        parts.append(figure_html(_surface_2d(s, ok, num, order[:2], c, ties), "psd-surface"))
+        if ties:  # c = 3 a held at mid-range while a moves: designs the cases never had
+            parts[0] += f'<p class="note">Response surface: {html.escape(tied_note(ties))}</p>'
     return (
         parts[0]
         + '<div class="psd-grid">'
@@ -400,6 +422,24 @@ def _at_mid_range(s, n: int) -> np.ndarray:
     return np.tile(mids, (n, 1))
 
 
+def _tie(s, num: list[str], x: np.ndarray, ties: dict) -> np.ndarray:
+    """``x`` (surrogate inputs) with each parameter of ``ties`` (``{name: (anchor, slope,
+    intercept)}`` in scaled inputs) set from its anchor's value, within its range.
+
+    >>> from types import SimpleNamespace as S
+    >>> s = S(low=[0.0, 0.0], high=[1.0, 3.0], log_params=[False, False])
+    >>> _tie(s, ["a", "c"], np.array([[0.2, 1.5], [0.9, 1.5]]), {"c": ("a", 1.0, 0.0)})
+    array([[0.2, 0.6],
+           [0.9, 2.7]])
+    """
+    from psdesign.analysis.surrogate import from_unit, to_unit
+
+    u = to_unit(x, s.low, s.high, s.log_params)
+    for p, (anchor, slope, icpt) in ties.items():
+        u[:, num.index(p)] = np.clip(icpt + slope * u[:, num.index(anchor)], 0.0, 1.0)
+    return from_unit(u, s.low, s.high, s.log_params)
+
+
 def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     """GP mean of K along the one parameter, +-2 std band, and the cases."""
     import plotly.graph_objects as go
@@ -432,9 +472,12 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     return fig
 
 
-def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
+def _surface_2d(
+    s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str, ties: dict | None = None
+):
     """Contours of log10 K (GP mean) and of std / mean over two parameters, the others at
-    mid-range, with the cases marked."""
+    mid-range, with the cases marked; a parameter of ``ties``
+    (:func:`~psdesign.analysis.sensitivity.tied_inputs`) follows its anchor as in the cases."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -444,7 +487,7 @@ def _surface_2d(s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str):
     A, B = np.meshgrid(ga, gb)
     x = _at_mid_range(s, A.size)
     x[:, num.index(a)], x[:, num.index(b)] = A.ravel(), B.ravel()
-    m, sd = s.predict(x)
+    m, sd = s.predict(_tie(s, num, x, ties or {}))
     fig = make_subplots(
         rows=1,
         cols=2,

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import distinct_realizations
-from psdesign.analysis.sensitivity import entangled
+from psdesign.analysis.entangled import entangled
 
 __all__ = ["main_effects", "response_columns", "sensitivity_table"]
 

@@ -100,6 +100,8 @@ class RunOptions:
         if self.timeout_s is not None:
             object.__setattr__(self, "timeout_s", _check_timeout(self.timeout_s))
         _check_run_arguments(self.scheduler, self.case_fn, *(getattr(self, f) for f in _FLAGS))
+        if isinstance(self.scheduler, str):  # the checked address: its host looked up once
+            object.__setattr__(self, "scheduler", check_scheduler_address(self.scheduler))
         check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
         if self.worker_wait_s is not None:
             try:
@@ -154,8 +156,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
             f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
             "'local', or leave it out for the local process pool"
         )
-    if isinstance(scheduler, str):
-        check_scheduler_address(scheduler)  # before the case function's imports and dask's
+    if isinstance(scheduler, str):  # before the case function's imports and dask's
+        check_scheduler_address(scheduler)  # (one already checked: no second lookup)
     if case_fn is not None:
         try:
             load_case_fn(case_fn)

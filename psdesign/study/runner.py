@@ -30,7 +30,12 @@ from typing import Any
 import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
-from psdesign.study.address import SchedulerError, check_scheduler_address, host_port
+from psdesign.study.address import (
+    SchedulerAddress,
+    SchedulerError,
+    check_scheduler_address,
+    host_port,
+)
 from psdesign.study.casefn import watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
@@ -275,13 +280,11 @@ def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> 
         on_done(p, execute_case(p))
 
 
-def _is_loopback(host: str) -> bool:
+def _is_loopback(address: SchedulerAddress) -> bool:
+    """Every address of the checked ``address``'s host is a loopback one."""
     import ipaddress
 
-    try:
-        infos = socket.getaddrinfo(host, None)
-    except OSError:
-        return False
+    infos = address.infos
     try:
         return bool(infos) and all(ipaddress.ip_address(i[4][0]).is_loopback for i in infos)
     except ValueError:  # pragma: no cover
@@ -303,6 +306,29 @@ def _recv_exact(sock, n: int) -> bytes:
     return bytes(buf)
 
 
+def _connect(infos, timeout_s: float) -> socket.socket:
+    """A TCP connection to the first of ``infos`` (``socket.getaddrinfo`` entries) that
+    accepts one: :func:`socket.create_connection` without its own name lookup.
+
+    >>> import socket
+    >>> _connect([], 1.0)
+    Traceback (most recent call last):
+    ...
+    OSError: no address to connect to
+    """
+    err: OSError = OSError("no address to connect to")
+    for family, kind, proto, _name, sockaddr in infos:
+        sock = socket.socket(family, kind, proto)
+        try:
+            sock.settimeout(timeout_s)
+            sock.connect(sockaddr)
+            return sock
+        except OSError as exc:
+            sock.close()
+            err = exc
+    raise err
+
+
 def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
     """Check that a Dask scheduler (not some other server) answers at ``address``.
 
@@ -318,10 +344,11 @@ def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
     """
     import struct
 
-    _scheme, host, port = host_port(address)
+    address = check_scheduler_address(address)  # its host's addresses (checked: no lookup)
+    _scheme, host, _port = host_port(address)
     where = f"--scheduler: {address}"
     try:
-        raw = socket.create_connection((host, port), timeout=timeout_s)
+        raw = _connect(address.infos, timeout_s)
     except OSError as exc:
         raise SchedulerError(
             f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
@@ -402,8 +429,8 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         If dask.distributed is missing, nothing answers at ``address`` within ``timeout_s``
         (default :data:`CONNECT_TIMEOUT_S`) or the peer is not a Dask scheduler.
     """
-    if isinstance(address, str):
-        check_scheduler_address(address)  # form and host, before the seconds of dask's import
+    if isinstance(address, str):  # form and host, before the seconds of dask's import
+        address = check_scheduler_address(address)  # one already checked: no second lookup
     try:
         import dask
         from distributed import Client, LocalCluster
@@ -424,7 +451,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             dashboard_address=None,
         )
         return Client(cluster), cluster
-    scheme, host, _port = host_port(address)  # a tcp:// or tls:// address (checked above)
+    scheme, _host, _port = host_port(address)  # a tcp:// or tls:// address (checked above)
     ssl_context = None
     if scheme == "tls":
         from distributed.security import Security
@@ -442,7 +469,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             raise StudyError(
                 f"--tls-ca-file: TLS options given but {address} is plain tcp://; use tls://"
             )
-        if not _is_loopback(host):
+        if not _is_loopback(address):
             print(
                 f"psdesign: warning: {address} is unencrypted and unauthenticated tcp:// to "
                 "another machine; use tls:// with --tls-ca-file/--tls-cert/--tls-key",

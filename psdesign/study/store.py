@@ -128,12 +128,19 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+#: Seconds a temp file's mtime must precede its pid's process start to be a dead writer's (the
+#: boot time the start is counted from is whole seconds).
+PID_REUSE_MARGIN_S = 2.0
+
+
 def remove_dead_temp(path: Path) -> list[Path]:
     """Delete the temp files of :func:`atomic_write_bytes` for ``path`` that a killed process
-    left (``.psdesign-<name>.<pid>.tmp`` whose pid is not running here); a live writer's temp
-    stays.  For commands that write one file into a study folder without the run lock
-    (``study fit``: its killed write left ``.psdesign-surrogate.json.<pid>.tmp`` until the next
-    ``study run``, session 35's failure audit).
+    left (``.psdesign-<name>.<pid>.tmp`` whose pid is not running here, or, on Linux, whose pid
+    a process started after the temp was last written now has: a reused pid); a live
+    writer's temp stays.  For commands that write one file into a study folder without the run
+    lock (``study fit``: its killed write left ``.psdesign-surrogate.json.<pid>.tmp`` until the
+    next ``study run``, session 35's failure audit; one whose pid was reused, as in a container
+    where each command gets the same small pid, stayed for good).
 
     Returns
     -------
@@ -147,9 +154,25 @@ def remove_dead_temp(path: Path) -> list[Path]:
     dead = []
     for tmp in path.parent.glob(f"{prefix}*.tmp"):
         pid = tmp.name[len(prefix) : -len(".tmp")]
-        if pid.isdigit() and int(pid) != os.getpid() and not psutil.pid_exists(int(pid)):
+        if pid.isdigit() and (
+            (int(pid) != os.getpid() and not psutil.pid_exists(int(pid)))
+            or _written_before_start(tmp, int(pid))
+        ):
             dead.append(tmp)
     return _unlink_temps(dead)
+
+
+def _written_before_start(tmp: Path, pid: int) -> bool:
+    """``tmp`` was last written (:data:`PID_REUSE_MARGIN_S`) before process ``pid`` started:
+    its writer was another process, gone, whose pid was reused.  False when the start cannot
+    be told (no such process, or no access to it: the pid alone decides, as before)."""
+    import psutil
+
+    try:
+        start = psutil.Process(pid).create_time()
+        return tmp.lstat().st_mtime < start - PID_REUSE_MARGIN_S
+    except (psutil.Error, OSError):
+        return False
 
 
 def _unlink_temps(paths) -> list[Path]:

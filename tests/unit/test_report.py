@@ -13,6 +13,7 @@ from study_cases import (
     FACTORIAL,
     failing_case,
     fake_case,
+    kc_truth,
     mixed_status_case,
     untrusted_case,
     write_entangled_study,
@@ -609,3 +610,44 @@ def test_no_response_surface_over_two_parameters_that_moved_together(tmp_path):
     df["generator.diameter"] = np.random.default_rng(1).permutation(df["generator.diameter"])
     text = surrogate_plots(df, params, {})
     assert "psd-surface" in text and "Response surface not shown" not in text
+
+
+def test_response_surface_keeps_a_third_parameter_tied_as_in_the_cases(tmp_path, monkeypatch):
+    """Session 35 notes: the entangled-pair rule saw pairs only. A csv study with porosity and
+    diameter free and flow.aux_length = 0.3 porosity (which the fake solver ignores) got a
+    surface over porosity and diameter with aux_length held at mid-range: designs the study
+    never had, where the GP (which gave aux_length part of porosity's effect) was up to 78 % off
+    at the ends of porosity. The groups rule (psdesign.analysis.entangled) lets aux_length
+    follow porosity as in the cases, and one sentence says so. Truth: the fake solver's
+    k_z = 2 Kozeny-Carman (tests/study_cases.py, independent of psdesign)."""
+    from psdesign.report import decision
+
+    rng = np.random.default_rng(3)
+    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    cols = {"generator.porosity": eps, "generator.diameter": d, "flow.aux_length": 0.3 * eps}
+    pd.DataFrame(cols).to_csv(tmp_path / "pts.csv", index=False)
+    study = 'design = "csv"\ncsv = "pts.csv"\nseeds = [1]\noutputs = ["porosity", "k_z"]\n'
+    p = write_study(tmp_path, study + 'solver = "voxel"', "")
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "psd-surface" in html and "psd-sobol" not in html  # the group has no Sobol index
+    assert (
+        "Response surface: flow.aux_length follows generator.porosity as in the cases (they "
+        "moved together), not held at mid-range" in html
+    )
+    assert (  # the interaction plot is of the cases themselves: shown, with the tie said
+        "psd-interaction" in html
+        and "Interaction: flow.aux_length moved with generator.porosity in every case" in html
+    )
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *x, **kw: (figs.append(fig), real(fig, *x, **kw))[1]
+    )
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    decision.surrogate_plots(df, list(cols), {})
+    mean = figs[-1].data[0]  # log10 K (GP mean) over porosity (x) and diameter (y)
+    E, D = np.meshgrid(np.asarray(mean.x), np.asarray(mean.y))
+    truth = np.log10(2 * kc_truth(E, D))
+    err = 10 ** np.abs(np.asarray(mean.z) - truth) - 1
+    assert err.max() < 0.05  # 1.0 % now; 78 % with aux_length held at mid-range

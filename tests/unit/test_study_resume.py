@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 
 import pandas as pd
 import pytest
@@ -239,3 +240,29 @@ def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):
     assert info.value.errno == errno.ENOSPC
     # no truncated picture under its name (the old code drew straight into preview.png)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["stage.txt"]
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="start times from Linux /proc")
+def test_a_dead_writer_s_temp_is_removed_when_its_pid_was_reused(tmp_path) -> None:
+    """Session 35 notes: ``remove_dead_temp`` trusted pids: the temp of a killed ``study fit``
+    whose pid a live process now has (in a container each command may get the same small pid)
+    stayed for good, and one carrying this process's own pid was never looked at. A temp last
+    written before its pid's process started is a dead writer's: removed; a live writer's,
+    written after its start, stays. Truth: the start times from psutil (its own reading,
+    independent of psdesign's ``/proc`` parsing)."""
+    import psutil
+
+    target = tmp_path / "surrogate.json"
+    init = psutil.Process(1).create_time()  # pid 1: alive for the whole test
+    me = psutil.Process().create_time()
+    old = tmp_path / ".psdesign-surrogate.json.1.tmp"
+    old.write_text('{"version": 1, "mod')  # a half-written surrogate of an earlier pid 1
+    os.utime(old, (init - 60, init - 60))
+    mine = tmp_path / f".psdesign-surrogate.json.{os.getpid()}.tmp"
+    mine.write_text("this process's write, under way")
+    assert store_mod.remove_dead_temp(target) == [old]
+    assert not old.exists() and mine.exists()
+    old.write_text("pid 1's write, under way")  # written now: after pid 1 started
+    assert store_mod.remove_dead_temp(target) == [] and old.exists() and mine.exists()
+    os.utime(mine, (me - 60, me - 60))  # this pid's name, written before this process began
+    assert store_mod.remove_dead_temp(target) == [mine] and old.exists()

@@ -713,6 +713,29 @@ def test_a_host_name_service_that_hangs_is_refused_after_its_timeout(monkeypatch
     )
 
 
+def test_a_scheduler_host_is_looked_up_once_per_run(tmp_path, monkeypatch, capsys) -> None:
+    """Session 35 notes: ``study run --scheduler tcp://localhost:1`` (nothing listens there)
+    looked localhost up five times: the CLI's check, RunOptions', connect_scheduler's, the
+    loopback test and the probe's connection (up to 5 s each with a slow name service). The
+    CLI's check now returns the address with its host's addresses (SchedulerAddress), which
+    the later checks, the loopback test and the probe use: one lookup. Truth: a counting
+    stand-in for ``socket.getaddrinfo``."""
+    from psdesign.cli.main import main
+
+    hosts: list[str] = []
+    real = socket.getaddrinfo
+    monkeypatch.setattr(
+        socket, "getaddrinfo", lambda host, *a, **k: (hosts.append(host), real(host, *a, **k))[1]
+    )
+    p, out = write_study(tmp_path, FACTORIAL, FAC_PARAMS), tmp_path / "out"
+    argv = ["study", "run", str(p), "--out", str(out), "--scheduler", "tcp://localhost:1"]
+    assert main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no Dask scheduler answers at tcp://localhost:1" in err[0], err
+    assert hosts == ["localhost"]
+    assert not out.exists()
+
+
 def test_stopping_the_workers_leaves_multiprocessing_s_resource_tracker():
     """Session 35's failure audit: Ctrl-C of a two-worker ``study run`` printed 3-5 tracebacks
     ``KeyError: '/mp-...'`` after its one line in 4 of 10 trials.  ``stop_children`` killed
