@@ -147,12 +147,12 @@ def _fields(drop: float) -> dict[str, str]:
 #: diverged on the fully periodic cell (continuity errors 1e33 by iteration 237, a 16^3 tet
 #: mesh of a cylinder array); this converged in 1486 iterations. No non-orthogonal
 #: correctors: on the polyhedral dual of the one-fibre cell (4 um, 1 363 cells) two of them
-#: diverged (floating point exception at iteration 272) and one diverged too (458), from the 5
-#: faces above 70 degrees, all on two half cells (1.9e-19 and 2.7e-19 m^3, the median 4e-17)
-#: where the fibre crosses the cyclic inlet / outlet: the explicit correction there grows
-#: with each corrector. Lagged to the next iteration instead (and damped by the relaxation), the
-#: same case converged in 694 iterations. On the tets the converged K is unchanged (the
-#: correction's fixed point is the same: 1.974614e-10 m^2 and 2 561 iterations either way).
+#: diverged (floating point exception at iteration 272) and one later (458), blowing up where
+#: the fibre crosses the cyclic inlet / outlet, at the dual's 5 faces above 70 degrees (two
+#: half cells of 1.9e-19 and 2.7e-19 m^3, the median 4e-17). Lagged to the next iteration
+#: instead (and damped by the relaxation), the same case converged in 694 iterations. On the
+#: tets the converged K is unchanged (the correction's fixed point is the same: 1.974614e-10
+#: m^2 and 2 561 iterations either way; benchmarks/RESULTS.md, session 36).
 _FV_SOLUTION = _header("dictionary", "fvSolution", "system") + (
     "solvers\n{\n    p\n    {\n        solver          GAMG;\n        smoother        "
     "GaussSeidel;\n        tolerance       1e-9;\n        relTol          0.05;\n    }\n"
