@@ -1,12 +1,14 @@
 """OpenFOAM (simpleFoam, Debian's openfoam package) vs psdesign's FEM on the same mesh.
 
     python benchmarks/bench_openfoam.py [SPEC] [--voxel 2e-6] [--lattice-step H] [--tets]
-    python benchmarks/bench_openfoam.py --periodic
+    python benchmarks/bench_openfoam.py --periodic [--lattice-step H] [--tets]
 
 ``--periodic``: the periodic case instead (cyclic patches and a pressure jump,
 :mod:`psdesign.meshing.exports.openfoam_periodic`) on one cylinder along z in a 40 um cell
-(radius 8 um, 2.5 um voxels, 4 um lattice), against psdesign's periodic FEM on the same mesh
-and Drummond & Tahir (1984)'s K along a square array.
+(radius 8 um, 2.5 um voxels, 4 um lattice unless ``--lattice-step``), against psdesign's
+periodic FEM on the same mesh and Drummond & Tahir (1984)'s K along a square array; OpenFOAM
+on the polyhedral dual (the periodic Allrun's default since session 36) or, with ``--tets``,
+on the tets.
 
 Meshes the RVE of ``SPEC`` (default the shipped ``studies/examples/three_rods.toml``, sampled
 at ``--voxel``), exports the OpenFOAM case, runs its ``Allrun`` and solves the same mesh with
@@ -45,7 +47,7 @@ def main() -> None:
     ap.add_argument("--lattice-step", type=float, help="flow.lattice_step (m)")
     args = ap.parse_args()
     if args.periodic:
-        periodic_cell()
+        periodic_cell(args.lattice_step or 4e-6, args.tets)
         return
 
     from psdesign.flow.fem import permeability_fem
@@ -106,9 +108,10 @@ def main() -> None:
     )
 
 
-def periodic_cell() -> None:
-    """The periodic case of one cylinder cell: OpenFOAM vs the FEM on the same mesh vs
-    Drummond & Tahir (printed)."""
+def periodic_cell(step: float, tets: bool) -> None:
+    """The periodic case of one cylinder cell at lattice step ``step`` (m): OpenFOAM (on the
+    tets with ``tets``, else on their polyhedral dual) vs the FEM on the same mesh vs Drummond
+    & Tahir (printed)."""
     import math
 
     from psdesign.flow.fem import permeability_fem
@@ -131,7 +134,7 @@ def periodic_cell() -> None:
                     "direction": [0, 0, 1],
                 }
             ],
-            "flow": {"bc": "periodic", "lattice_step": 4e-6, "solver": "fem"},
+            "flow": {"bc": "periodic", "lattice_step": step, "solver": "fem"},
         }
     )
     flow = dict(spec["flow"])
@@ -144,9 +147,14 @@ def periodic_cell() -> None:
         case = export_mesh(pm, tmp, formats=("openfoam",), flow=flow)["openfoam"]
         t0 = time.perf_counter()
         out = subprocess.run(
-            [str(case / "Allrun")], capture_output=True, text=True, check=True
+            [str(case / "Allrun"), *(["tets"] if tets else [])],
+            capture_output=True,
+            text=True,
+            check=True,
         ).stdout
         t_of = time.perf_counter() - t0
+        n_cells = re.search(r"^\s+cells:\s+(\d+)", (case / "log.checkMesh").read_text(), re.M)
+    print(next(line for line in out.splitlines() if line.startswith("converged: ")))
     k_of = float(re.search(r"K_periodic = ([-+0-9.eE]+)", out).group(1))
     t0 = time.perf_counter()
     res = permeability_fem(built.rve, fields, "z", flow)
@@ -158,7 +166,11 @@ def periodic_cell() -> None:
 
     k_dt = drummond_tahir_along_square(phi) * radius**2
     k_fem = res["permeability_m2"]
-    print(f"periodic cylinder cell (solid fraction {phi:.4f}): {len(pm.tets)} tets")
+    cells = "tets" if tets else f"polyhedral dual, {n_cells.group(1)} cells"
+    print(
+        f"periodic cylinder cell (solid fraction {phi:.4f}, lattice step {step:g} m): "
+        f"{len(pm.tets)} tets (OpenFOAM: {cells})"
+    )
     print(f"  Drummond & Tahir: K = {k_dt:.4e} m^2")
     print(f"  OpenFOAM simpleFoam: K = {k_of:.4e} m^2 ({k_of / k_dt - 1:+.1%}, {t_of:.0f} s)")
     print(f"  psdesign FEM:        K = {k_fem:.4e} m^2 ({k_fem / k_dt - 1:+.1%}, {t_fem:.0f} s)")

@@ -273,9 +273,9 @@ def control_dict(end: int, every: int, functions: str) -> str:
 
 
 def write_script(path: Path, template: str, values: dict[str, float]) -> None:
-    """An executable script from ``template`` with each ``@KEY@`` replaced by its value and
-    ``@CONVERGED@`` by :data:`CONVERGED_LINE`."""
-    template = template.replace("@CONVERGED@", CONVERGED_LINE)
+    """An executable script from ``template`` with each ``@KEY@`` replaced by its value,
+    ``@CONVERGED@`` by :data:`CONVERGED_LINE` and ``@CELLS@`` by :data:`CELLS_LINES`."""
+    template = template.replace("@CONVERGED@", CONVERGED_LINE).replace("@CELLS@\n", CELLS_LINES)
     for key, val in values.items():
         template = template.replace(f"@{key}@", f"{val:.12g}")
     path.write_text(template)
@@ -315,6 +315,22 @@ def openfoam_permeability(c: dict[str, float], q: float, p_start: float, p_end: 
     ``pressure_drop_faces_pa``).
     """
     return c["nu"] * abs(q) * c["length"] / (c["area"] * (p_start - p_end))
+
+
+CELLS_LINES = """[ -d constant/polyMesh.tet ] || cp -r constant/polyMesh constant/polyMesh.tet
+rm -rf constant/polyMesh
+cp -r constant/polyMesh.tet constant/polyMesh
+if [ "$cells" = dual ]; then
+    polyDualMesh -overwrite 70 > log.polyDualMesh 2>&1 ||
+        { echo "polyDualMesh failed: see log.polyDualMesh"; exit 1; }
+    rm -f ./*.obj   # polyDualMesh's feature dumps
+fi
+echo "cells: $cells"
+"""
+"""Shell lines of every Allrun before ``checkMesh``: psdesign's tets are kept in
+``constant/polyMesh.tet`` (a second run starts from them again) and, with ``$cells`` = ``dual``,
+turned into their polyhedral dual (``polyDualMesh``, feature angle 70 degrees: one cell per
+mesh vertex); ``$cells`` = ``tets`` solves on the tets themselves (docs/meshers.md)."""
 
 
 CONVERGED_LINE = r"""n=$(awk '/solution converged in/ {n = $5} END {print n}' log.simpleFoam)
@@ -375,15 +391,7 @@ if [ "$route" = gmsh ]; then
     gmshToFoam ../pore.msh > log.gmshToFoam 2>&1
     changeDictionary > log.changeDictionary 2>&1
 fi
-[ -d constant/polyMesh.tet ] || cp -r constant/polyMesh constant/polyMesh.tet
-rm -rf constant/polyMesh
-cp -r constant/polyMesh.tet constant/polyMesh
-if [ "$cells" = dual ]; then
-    polyDualMesh -overwrite 70 > log.polyDualMesh 2>&1 ||
-        { echo "polyDualMesh failed: see log.polyDualMesh"; exit 1; }
-    rm -f ./*.obj   # polyDualMesh's feature dumps
-fi
-echo "cells: $cells"
+@CELLS@
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
 @CONVERGED@

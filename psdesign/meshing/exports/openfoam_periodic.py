@@ -6,9 +6,13 @@ each pair listed in matching order (the periodic mesh has identical vertices on 
 :attr:`psdesign.meshing.result.PoreMesh.periodic_pairs`). The flow is driven by a ``fixedJump``
 of the kinematic pressure across the ``inlet`` / ``outlet`` pair (``flow.pressure_drop /
 flow.density`` over one RVE length: the mean gradient of psdesign's periodic solve); ``wall`` is
-no-slip. ``./Allrun`` runs ``checkMesh`` and ``simpleFoam`` and prints
+no-slip. ``./Allrun`` turns the tetrahedra into their polyhedral dual (``polyDualMesh``, as
+the permeameter case's Allrun: :data:`~psdesign.meshing.exports.openfoam.CELLS_LINES`;
+``./Allrun tets`` keeps them), runs ``checkMesh`` and ``simpleFoam`` and prints
 ``K = nu Q L / (A dp)`` with ``Q`` the flux through ``inlet``, ``L`` the box length along the
 flow, ``A`` its cross-section and ``dp`` the jump: the definition of psdesign's periodic K.
+On the tets OpenFOAM's K moves away from the analytic value on refinement, on the dual it
+converges to it (docs/meshers.md, session 36).
 """
 
 from __future__ import annotations
@@ -141,13 +145,20 @@ def _fields(drop: float) -> dict[str, str]:
 
 #: Plain SIMPLE with under-relaxation (U 0.7, p 0.3): the permeameter case's SIMPLEC at 0.9
 #: diverged on the fully periodic cell (continuity errors 1e33 by iteration 237, a 16^3 tet
-#: mesh of a cylinder array); this converged in 1486 iterations.
+#: mesh of a cylinder array); this converged in 1486 iterations. No non-orthogonal
+#: correctors: on the polyhedral dual of the one-fibre cell (4 um, 1 363 cells) two of them
+#: diverged (floating point exception at iteration 272) and one later (458), blowing up where
+#: the fibre crosses the cyclic inlet / outlet, at the dual's 5 faces above 70 degrees (two
+#: half cells of 1.9e-19 and 2.7e-19 m^3, the median 4e-17). Lagged to the next iteration
+#: instead (and damped by the relaxation), the same case converged in 694 iterations. On the
+#: tets the converged K is unchanged (the correction's fixed point is the same: 1.974614e-10
+#: m^2 and 2 561 iterations either way; benchmarks/RESULTS.md, session 36).
 _FV_SOLUTION = _header("dictionary", "fvSolution", "system") + (
     "solvers\n{\n    p\n    {\n        solver          GAMG;\n        smoother        "
     "GaussSeidel;\n        tolerance       1e-9;\n        relTol          0.05;\n    }\n"
     "    U\n    {\n        solver          smoothSolver;\n        smoother        "
     "symGaussSeidel;\n        tolerance       1e-11;\n        relTol          0.1;\n    }\n}\n"
-    "\nSIMPLE\n{\n    nNonOrthogonalCorrectors 2;\n    consistent      no;\n"
+    "\nSIMPLE\n{\n    nNonOrthogonalCorrectors 0;\n    consistent      no;\n"
     "    pRefCell        0;\n    pRefValue       0;\n"
     "    residualControl { p 1e-6; U 1e-7; }\n}\n\nrelaxationFactors\n{\n"
     "    equations { U 0.7; }\n    fields { p 0.3; }\n}\n"
@@ -158,11 +169,27 @@ _ALLRUN = r"""#!/bin/sh
 #   K = nu Q L / (A dp): Q = |flux through the inlet patch| (m^3/s), L = box length along the
 #   flow, A = box cross-section, dp = the kinematic pressure jump across the cyclic inlet/outlet
 #   pair (the mean gradient dp / L of psdesign's periodic solve); nu = mu / rho.
+# Cells: psdesign's tetrahedra are turned into polyhedra (polyDualMesh, one cell per mesh
+#   vertex; the cyclic faces stay matched) before simpleFoam. On the tets OpenFOAM's K does not
+#   converge: one cylinder along z (radius 5 um, 40 um cell, Drummond & Tahir 2.0819e-10 m^2)
+#   gave -5.2 / -7.8 % at 5 866 / 16 506 tets (4 / 2.83 um); the dual of the same meshes gave
+#   +9.0 / +3.4 / +2.3 % (1 363 / 3 574 / 9 499 cells, 2 um the third; docs/meshers.md).
+# Usage: ./Allrun          (the polyMesh written by psdesign, as polyhedra)
+#        ./Allrun tets     (psdesign's tetrahedra as they are)
+# psdesign's tet mesh is kept in constant/polyMesh.tet: a second run starts from it again.
 cd "$(dirname "$0")" || exit 1
 if [ -z "$WM_PROJECT_DIR" ] && [ -d /usr/share/openfoam ]; then
     export WM_PROJECT_DIR=/usr/share/openfoam   # Debian's openfoam package
 fi
 set -e
+cells=dual
+for arg in "$@"; do
+    case $arg in
+        tets) cells=tets ;;
+        *) echo "Allrun: unknown argument '$arg' (allowed: tets)"; exit 2 ;;
+    esac
+done
+@CELLS@
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
 simpleFoam > log.simpleFoam 2>&1 || { echo "simpleFoam failed: see log.simpleFoam"; exit 1; }
 @CONVERGED@
@@ -201,7 +228,8 @@ def write_periodic_case(pm: PoreMesh, case: Path, flow: dict | None = None) -> P
     system = case / "system"
     system.mkdir(parents=True, exist_ok=True)
     flux = _patch_fo("fluxInlet", T.INLET, "sum", "phi")
-    (system / "controlDict").write_text(control_dict(4000, 1000, flux))
+    # 6000 iterations: ./Allrun tets needs 4 534 on the one-fibre cell at 2.83 um (session 35)
+    (system / "controlDict").write_text(control_dict(6000, 1000, flux))
     (system / "fvSchemes").write_text(_FV_SCHEMES)
     (system / "fvSolution").write_text(_FV_SOLUTION)
     values = {"NU": c["nu"], "RHO": c["rho"], "L": c["box_length"], "A": c["area"]}
@@ -221,5 +249,7 @@ def write_periodic_case(pm: PoreMesh, case: Path, flow: dict | None = None) -> P
         f"kinematic pressure jumps by {c['p_inlet']:.6g} m^2/s^2 across inlet/outlet (over the\n"
         f"box length {c['box_length']:.6g} m); mu = {c['mu']:.6g} Pa s, rho = {c['rho']:.6g} "
         f"kg/m^3.\nK (printed by ./Allrun) = nu Q L / (A dp), Q = flux through the inlet patch.\n"
+        "Cells: ./Allrun solves on the polyhedral dual of psdesign's tetrahedra (polyDualMesh;\n"
+        "the tets are kept in constant/polyMesh.tet); ./Allrun tets solves on the tets.\n"
     )
     return case
