@@ -15,8 +15,7 @@ default solver's: a reference for small RVEs and arrays, not the production path
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 
 import numpy as np
 
@@ -132,6 +131,7 @@ def solve_diffuse(
     ValueError
         The walls disagree with the voxel grid (:func:`_check_solid`).
     """
+    from solvers.amg_seed import pyamg_seed
     from solvers.voxel.diffuse import DiffuseGrid, solve_diffuse_stokes
     from solvers.voxel.diffuse_wall import REACH_VOXELS
 
@@ -140,7 +140,7 @@ def solve_diffuse(
     _check_solid(walls, fields)
     grid = DiffuseGrid.sample(fields.grid.shape, walls)
     kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
-    with _seeded_global_rng():
+    with pyamg_seed():  # pyamg's random start vectors: the same K every run
         return solve_diffuse_stokes(
             grid,
             voxel,
@@ -149,30 +149,6 @@ def solve_diffuse(
             progress=progress,
             **kw,
         )
-
-
-#: Seed of NumPy's global generator while the diffuse system is set up and solved.
-AMG_SEED = 0
-
-
-@contextmanager
-def _seeded_global_rng() -> Iterator[None]:
-    """NumPy's global generator seeded with :data:`AMG_SEED` inside, the caller's state back
-    afterwards.
-
-    pyamg's smoothed aggregation estimates each level's spectral radius from a random start
-    vector drawn from ``np.random`` (``approximate_spectral_radius``), so the preconditioner,
-    the MINRES iterations and K's last digits changed from run to run (session 36: three runs
-    of one 40 x 40 x 30 um array gave 50 / 66 / 50 iterations, K differing at 5e-12 relative);
-    same spec, same result, and the caller's own random stream is left as it was.
-    """
-    # pyamg draws from the legacy global generator: that one has to be seeded
-    state = np.random.get_state()  # noqa: NPY002
-    np.random.seed(AMG_SEED)  # noqa: NPY002
-    try:
-        yield
-    finally:
-        np.random.set_state(state)  # noqa: NPY002
 
 
 def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:
