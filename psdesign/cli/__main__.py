@@ -1,7 +1,5 @@
-"""``python -m psdesign.cli``."""
+"""``python -m psdesign.cli``: the ``psdesign`` command, as ``python -m psdesign``."""
 
-import sys
+from psdesign.cli.main import console
 
-from psdesign.cli.main import main
-
-sys.exit(main())
+console()

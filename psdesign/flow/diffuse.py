@@ -131,6 +131,7 @@ def solve_diffuse(
     ValueError
         The walls disagree with the voxel grid (:func:`_check_solid`).
     """
+    from solvers.amg_seed import pyamg_seed
     from solvers.voxel.diffuse import DiffuseGrid, solve_diffuse_stokes
     from solvers.voxel.diffuse_wall import REACH_VOXELS
 
@@ -139,14 +140,15 @@ def solve_diffuse(
     _check_solid(walls, fields)
     grid = DiffuseGrid.sample(fields.grid.shape, walls)
     kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
-    return solve_diffuse_stokes(
-        grid,
-        voxel,
-        direction,
-        viscosity=float(flow["viscosity"]),
-        progress=progress,
-        **kw,
-    )
+    with pyamg_seed():  # pyamg's random start vectors: the same K every run
+        return solve_diffuse_stokes(
+            grid,
+            voxel,
+            direction,
+            viscosity=float(flow["viscosity"]),
+            progress=progress,
+            **kw,
+        )
 
 
 def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:

@@ -34,8 +34,6 @@ The operator is applied blockwise, never assembled as one matrix.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +41,8 @@ import pyamg
 import scipy.sparse as sp
 from scipy.linalg import solve_triangular
 from scipy.sparse.linalg import LinearOperator, minres, splu
+
+from solvers.amg_seed import pyamg_seed
 
 # MINRES' own stopping test uses a preconditioned-norm estimate; aiming below the requested
 # true-residual tolerance avoids restarts (each restart discards the Krylov space).
@@ -166,32 +166,10 @@ class VCycle:
         level.postsmoother(A, x, b)
 
 
-# Seed of numpy's global generator while pyamg builds a hierarchy (see _pyamg_seed).
-AMG_SEED = 0
-
-
-@contextmanager
-def _pyamg_seed() -> Iterator[None]:
-    """Fix numpy's global generator for pyamg, then give the caller's state back.
-
-    pyamg starts its spectral-radius estimates (the smoothed-aggregation prolongation smoother)
-    from ``np.random.rand`` without a seed, so two identical solves gave K differing in the 7th
-    to 9th digit and the output files differed (the product promises identical files for the
-    same spec and seed). The caller's random stream is left as it was.
-    """
-    # pyamg reads the legacy global generator, so that is the one to fix
-    state = np.random.get_state()  # noqa: NPY002
-    np.random.seed(AMG_SEED)  # noqa: NPY002
-    try:
-        yield
-    finally:
-        np.random.set_state(state)  # noqa: NPY002
-
-
 def _amg(A: sp.csr_matrix, kind: str):
     if kind not in ("sa", "rs"):
         raise ValueError(f"amg must be 'sa' or 'rs', got {kind!r}")
-    with _pyamg_seed():
+    with pyamg_seed():
         if kind == "sa":
             ml = pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=500)
         else:

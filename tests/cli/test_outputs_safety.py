@@ -437,3 +437,33 @@ def test_a_late_ctrl_c_while_python_shuts_down_is_ignored(tmp_path):
         f"psdesign: error: study: file not found: {tmp_path / 'no.toml'}"
     ]
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("module", ["psdesign", "psdesign.cli"])
+def test_a_late_ctrl_c_is_ignored_by_every_python_m_entry(tmp_path, module):
+    """``python -m psdesign`` and ``python -m psdesign.cli`` (docs/architecture.md lists
+    both; benchmarks/RESULTS.md's commands use the second) are the ``psdesign`` process too:
+    a SIGINT after the work, while Python shuts down, is ignored.  Session 36's docs walk:
+    ``python -m psdesign.cli`` still called ``main`` and printed the atexit
+    KeyboardInterrupt traceback the console script no longer does."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = tmp_path / "late_ctrl_c_m.py"
+    script.write_text(
+        "import atexit, os, runpy, signal, sys, time\n"
+        "atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(0.2)))\n"
+        f"sys.argv = ['psdesign', 'study', 'run', {str(tmp_path / 'no.toml')!r}, '-o', "
+        f"{str(tmp_path / 'out')!r}]\n"
+        f"runpy.run_module({module!r}, run_name='__main__', alter_sys=True)\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=root
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr and "KeyboardInterrupt" not in proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        f"psdesign: error: study: file not found: {tmp_path / 'no.toml'}"
+    ]

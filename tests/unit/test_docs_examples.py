@@ -96,3 +96,56 @@ def test_docstring_examples_run() -> None:
         name = ".".join(path.relative_to(REPO_ROOT).with_suffix("").parts)
         result = doctest.testmod(importlib.import_module(name), verbose=False)
         assert result.failed == 0, name
+
+
+def _subparsers(parser) -> dict:
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def _synopsis(command: str, text: str) -> str:
+    # the lines that show ``psdesign COMMAND ...`` and their continuation lines (indented,
+    # starting with ``[``), as in README's "Commands" block and docs/study-files.md's synopsis
+    lines, keep = [], False
+    for line in text.splitlines():
+        if f"psdesign {command} " in line:
+            lines.append(line)
+            keep = True
+        elif keep and line.strip().startswith("["):
+            lines.append(line)
+        else:
+            keep = False
+    return "\n".join(lines)
+
+
+def test_every_cli_option_is_in_its_command_synopsis() -> None:
+    # docs walk (session 36): `--help` had options no page named (generate --no-preview,
+    # study fit --outputs, study optimize --batch / --seed, study run --cluster-account, ...);
+    # every option of every command must appear in a `psdesign COMMAND ...` synopsis line
+    import argparse
+
+    from psdesign.cli.main import build_parser
+
+    text = "\n".join(p.read_text() for p in DOCS if p.name != "validation.md")
+    commands = {}
+    for name, sub in _subparsers(build_parser()).items():
+        nested = _subparsers(sub)
+        if nested:
+            commands |= {f"{name} {n}": p for n, p in nested.items()}
+        else:
+            commands[name] = sub
+    assert len(commands) >= 15
+    missing = []
+    for command, parser in sorted(commands.items()):
+        synopsis = _synopsis(command, text)
+        for action in parser._actions:
+            if action.help == argparse.SUPPRESS:  # hidden (e.g. the tests' --case-fn)
+                continue
+            flags = [s for s in action.option_strings if s not in ("-h", "--help")]
+            if flags and not any(re.search(rf"{re.escape(f)}\b", synopsis) for f in flags):
+                missing.append(f"psdesign {command} {flags[-1]}")
+    assert not missing, missing

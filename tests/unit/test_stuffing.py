@@ -309,7 +309,7 @@ def test_permeability_fem_with_stuffing_is_reproducible():
     r2 = permeability_fem(rve, fields, "x", flow)
     assert r1["converged"] and r1["mesh_quality"]["mesher"] == "stuffing"
     # identical meshes (see test_deterministic) and, since pyamg's random start vectors are
-    # seeded (solvers.fem.linsolve._pyamg_seed), the same K bit for bit; before, 1e-7 apart
+    # seeded (solvers.amg_seed.pyamg_seed), the same K bit for bit; before, 1e-7 apart
     assert r1["n_tets"] == r2["n_tets"]
     assert r1["permeability_m2"] == r2["permeability_m2"]
     assert r1["flux_imbalance"] < 1e-6
