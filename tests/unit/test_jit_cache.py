@@ -90,6 +90,7 @@ def test_stamp_covers_imported_kernel_sources(monkeypatch):
         "solvers/voxel/kernels.py",
         "solvers/voxel/lanczos.py",
         "solvers/voxel/memory.py",
+        "solvers/reduction.py",
         "solvers/voxel/simd.py",
     }
     before = jit.dependency_stamp(root / "solvers/voxel/lanczos.py")
