@@ -469,28 +469,10 @@ def test_allrun_k_converges_to_drummond_tahir_on_refinement(tmp_path):
     the same tets: -0.75 %, -0.31 %, +0.13 %."""
     from reference_values import drummond_tahir_along_square
 
-    from psdesign.flow.fem import permeability_fem
-    from psdesign.packing.build import build_rve
-    from psdesign.schema.spec import validate_spec
-
     radius, edge = 5e-6, 40e-6
     k_dt = drummond_tahir_along_square(np.pi * radius**2 / edge**2) * radius**2
-    err, cap = {}, {}
-    for step, n_tets in ((4e-6, 7050), (2.83e-6, 18914)):
-        spec = validate_spec(_ONE_FIBRE | {"flow": _ONE_FIBRE["flow"] | {"lattice_step": step}})
-        flow = dict(spec["flow"])
-        built = build_rve(spec)
-        permeability_fem(
-            built.rve, built.voxelize(1e-6), "z", flow, capture=lambda _, **kw: cap.update(kw)
-        )
-        assert len(cap["mesh"].tets) == n_tets
-        folder = tmp_path / f"{step:g}"
-        case = export_mesh(cap["mesh"], folder, formats=("openfoam",), flow=flow)["openfoam"]
-        out = subprocess.run(
-            ["sh", "Allrun"], cwd=case, capture_output=True, text=True, timeout=1800
-        )
-        assert out.returncode == 0, out.stdout + out.stderr
-        err[step] = (_k(out.stdout, "K_windowed") / k_dt - 1, out.stdout)
+    flow = _ONE_FIBRE["flow"]
+    err = _allrun_errors(tmp_path, {4e-6: 7050, 2.83e-6: 18914}, flow, "K_windowed", k_dt)
     assert abs(err[2.83e-6][0]) < 0.05, err
     assert abs(err[2.83e-6][0]) < abs(err[4e-6][0]), err
     assert all("converged: yes" in said for _, said in err.values()), err
@@ -512,27 +494,37 @@ def test_periodic_allrun_k_converges_to_drummond_tahir_on_refinement(tmp_path):
     with two non-orthogonal correctors diverged (floating point exception at iteration 272)."""
     from reference_values import drummond_tahir_along_square
 
+    radius, edge = 5e-6, 40e-6
+    k_dt = drummond_tahir_along_square(np.pi * radius**2 / edge**2) * radius**2
+    flow = {"bc": "periodic"}
+    err = _allrun_errors(tmp_path, {4e-6: 5866, 2.83e-6: 16506}, flow, "K_periodic", k_dt)
+    assert abs(err[2.83e-6][0]) < 0.05, err
+    assert abs(err[2.83e-6][0]) < abs(err[4e-6][0]), err
+    assert all("converged: yes" in said and "cells: dual" in said for _, said in err.values())
+
+
+def _allrun_errors(tmp_path, tets_at_step, flow, key, k_ref):
+    """``{lattice step: (K / k_ref - 1, Allrun's stdout)}``: the one-fibre RVE with ``flow`` at
+    each lattice step (its tet count checked), exported to OpenFOAM and run (``sh Allrun``),
+    ``key`` read from the output."""
     from psdesign.flow.fem import permeability_fem
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import validate_spec
 
-    radius, edge = 5e-6, 40e-6
-    k_dt = drummond_tahir_along_square(np.pi * radius**2 / edge**2) * radius**2
     err, cap = {}, {}
-    for step, n_tets in ((4e-6, 5866), (2.83e-6, 16506)):
-        spec = validate_spec(_ONE_FIBRE | {"flow": {"lattice_step": step, "bc": "periodic"}})
-        flow, built = dict(spec["flow"]), build_rve(spec)
+    for step, n_tets in tets_at_step.items():
+        spec = validate_spec(_ONE_FIBRE | {"flow": flow | {"lattice_step": step}})
+        built = build_rve(spec)
+        flow_used = dict(spec["flow"])
         permeability_fem(
-            built.rve, built.voxelize(1e-6), "z", flow, capture=lambda _, **kw: cap.update(kw)
+            built.rve, built.voxelize(1e-6), "z", flow_used, capture=lambda _, **kw: cap.update(kw)
         )
         assert len(cap["mesh"].tets) == n_tets
-        folder = tmp_path / f"{step:g}"
-        case = export_mesh(cap["mesh"], folder, formats=("openfoam",), flow=flow)["openfoam"]
+        out_dir = tmp_path / f"{step:g}"
+        case = export_mesh(cap["mesh"], out_dir, formats=("openfoam",), flow=flow_used)["openfoam"]
         out = subprocess.run(
             ["sh", "Allrun"], cwd=case, capture_output=True, text=True, timeout=1800
         )
         assert out.returncode == 0, out.stdout + out.stderr
-        err[step] = (_k(out.stdout, "K_periodic") / k_dt - 1, out.stdout)
-    assert abs(err[2.83e-6][0]) < 0.05, err
-    assert abs(err[2.83e-6][0]) < abs(err[4e-6][0]), err
-    assert all("converged: yes" in said and "cells: dual" in said for _, said in err.values())
+        err[step] = (_k(out.stdout, key) / k_ref - 1, out.stdout)
+    return err
