@@ -225,3 +225,25 @@ def test_export_mesh_refuses_a_periodic_mesh_for_fluent(tmp_path):
     with pytest.raises(MeshInputError, match="no periodic"):
         export_mesh(pm, tmp_path / "of", formats=("vtu", "fluent"))
     assert "vtu" in export_mesh(pm, tmp_path / "v", formats=("vtu",))
+
+
+def test_mesh_names_the_export_a_full_disk_stopped(tmp_path, capsys, monkeypatch):
+    # failure audit s36: meshio's gmsh writer fails on a full disk as its file is closed, an
+    # OSError with no file name: `mesh --format msh` on a 120 kB tmpfs said only "psdesign:
+    # error: No space left on device" (which file of the many?)
+    import errno
+    import os
+
+    def full_disk(path, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(meshio, "write", full_disk)
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--format", "msh", "--quiet"]) == 1
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: ") and line.endswith(
+        ": No space left on device (writing the msh export)"
+    ), line
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]

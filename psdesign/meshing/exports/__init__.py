@@ -7,7 +7,8 @@ format with :func:`register_writer`; ``psdesign mesh --format`` lists :data:`WRI
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -182,6 +183,21 @@ def export_mesh(
     for fmt in formats:
         writer = WRITERS[fmt]
         takes_flow = "flow" in inspect.signature(writer).parameters
-        written.update(writer(pm, out, flow=flow) if takes_flow else writer(pm, out))
-    written["json"] = write_json(pm, out)
+        with _naming_failed_write(out, fmt):
+            written.update(writer(pm, out, flow=flow) if takes_flow else writer(pm, out))
+    with _naming_failed_write(out, "mesh.json"):
+        written["json"] = write_json(pm, out)
     return written
+
+
+@contextlib.contextmanager
+def _naming_failed_write(out: Path, what: str) -> Iterator[None]:
+    """An ``OSError`` without a file name (meshio's ``open`` block failing as the file is
+    closed on a full disk) names the folder and the export: the CLI's one line said only "No
+    space left on device" (failure audit s36, ``mesh --format msh`` on a 120 kB tmpfs)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None or exc.errno is None:
+            raise
+        raise OSError(exc.errno, f"{exc.strerror} (writing the {what} export)", str(out)) from exc
