@@ -348,6 +348,40 @@ def test_sigterm_handler_is_restored_and_forked_children_keep_the_default(tmp_pa
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+def test_ctrl_c_during_an_import_waits_for_the_import(tmp_path, monkeypatch):
+    """Failure audit s36: a Ctrl-C half-way through importing VTK (pyvista's first import,
+    ``diffusivity --fields`` interrupted at 5.0-5.5 s) ended the process with SIGSEGV: no line,
+    exit -11, the staging folder left (2 of 8 trials).  Truth: a module that receives SIGINT
+    during its own import runs to its last line, and the KeyboardInterrupt comes after; with
+    Python's own handler (the previous code) the import stopped where the signal landed."""
+    import importlib
+    import signal
+    import time
+
+    from psdesign.study.interrupt import terminate_as_interrupt
+
+    (tmp_path / "slow_import_s36.py").write_text(
+        "import signal, time\n"
+        "signal.raise_signal(signal.SIGINT)\n"
+        "t = time.monotonic()\n"
+        "while time.monotonic() - t < 0.2:\n"
+        "    pass\n"
+        "done = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    before = signal.getsignal(signal.SIGINT)
+    finished = None
+    with terminate_as_interrupt(), pytest.raises(KeyboardInterrupt):
+        try:
+            importlib.import_module("slow_import_s36")
+        finally:
+            finished = getattr(sys.modules.get("slow_import_s36"), "done", False)
+        time.sleep(2)  # the deferred Ctrl-C arrives 50 ms after the import
+    sys.modules.pop("slow_import_s36", None)
+    assert finished is True
+    assert signal.getsignal(signal.SIGINT) is before  # restored
+
+
 # ----------------------------------------------------------------------------- --force hint
 
 
