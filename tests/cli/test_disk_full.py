@@ -209,3 +209,20 @@ def test_mesh_vtu_on_a_really_full_disk(tmp_path):
         assert os.listdir(disk) == []
     finally:
         subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_a_new_file_the_full_disk_stopped_is_named_and_not_left(tmp_path):
+    # failure audit s36: `pores --plot FILE` on an 8 / 40 kB tmpfs said only "psdesign: error:
+    # No space left on device" (matplotlib's PNG write raises with no file name)
+    from psdesign.io.newfile import write_new_file
+
+    target = tmp_path / "p.png"
+
+    def full_disk(tmp: Path) -> None:
+        tmp.write_bytes(b"\x89PNG partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with pytest.raises(OSError, match="No space left on device") as info:
+        write_new_file(target, "--plot", full_disk)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
+    assert list(tmp_path.iterdir()) == []  # neither the file nor its temporary
