@@ -205,11 +205,15 @@ def _on_sigint_cli(signum, frame) -> None:  # noqa: ARG001
 
 
 def _resend_later(signum: int, handler) -> None:
-    """Send ``signum`` to this process again in 50 ms (once the import is done), if
-    ``handler`` is still the one installed."""
+    """Send ``signum`` to this process again in 50 ms (once the import is done), if the
+    command (:func:`terminate_as_interrupt`) still runs or ``handler`` is still installed.
+
+    Not only while ``handler`` is: a study run or :func:`held_signals` replaces it right after
+    the imports, and the signal was dropped (``study optimize`` Ctrl-C'd at 1.5-2.5 s ran all
+    its cases; failure audit s36)."""
 
     def resend() -> None:
-        if signal.getsignal(signum) is handler:  # still ours: not restored meanwhile
+        if _TERM["pid"] == os.getpid() or signal.getsignal(signum) is handler:
             os.kill(os.getpid(), signum)
 
     timer = threading.Timer(0.05, resend)
