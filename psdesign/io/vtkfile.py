@@ -19,6 +19,10 @@ from typing import Any
 
 __all__ = ["save_vtk", "vtk_bytes"]
 
+#: Characters encoded and written at a time: the file is not held twice in memory as text and
+#: as bytes (VTK's text is the compressed, base64-encoded file: a fraction of the arrays).
+_CHUNK = 1 << 24
+
 
 def vtk_bytes(dataset: Any, suffix: str) -> bytes:
     """The file ``dataset.save(name + suffix)`` writes, made in memory.
@@ -40,6 +44,12 @@ def vtk_bytes(dataset: Any, suffix: str) -> bytes:
     OSError
         VTK reported an error (``EIO``); nothing reaches stderr.
     """
+    text = _vtk_text(dataset, suffix)
+    return text if isinstance(text, bytes) else text.encode("utf-8")
+
+
+def _vtk_text(dataset: Any, suffix: str) -> str | bytes:
+    """VTK's output string of :func:`vtk_bytes` (``str`` unless it is not UTF-8)."""
     import pyvista as pv
     from pyvista.core.utilities.observers import VtkErrorCatcher
 
@@ -58,7 +68,7 @@ def vtk_bytes(dataset: Any, suffix: str) -> bytes:
     text = vtk_writer.GetOutputString()
     if caught.events or not ok or not text:
         raise OSError(errno.EIO, f"{os.strerror(errno.EIO)} (VTK could not write the data)")
-    return text if isinstance(text, bytes) else text.encode("utf-8")
+    return text
 
 
 def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
@@ -82,10 +92,12 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
         a partial file is removed.
     """
     path = Path(path)
-    data = vtk_bytes(dataset, path.suffix.lower())
+    text = _vtk_text(dataset, path.suffix.lower())
     try:
         with open(path, "wb") as fh:
-            fh.write(data)
+            for i in range(0, len(text), _CHUNK):
+                part = text[i : i + _CHUNK]
+                fh.write(part if isinstance(part, bytes) else part.encode("utf-8"))
     except OSError as exc:
         if path.is_file() and not path.is_symlink():
             path.unlink()  # the partial file
