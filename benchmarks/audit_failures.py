@@ -463,10 +463,12 @@ def audit_kill(sc: Scenario, args, refs, trial: int, rng: random.Random) -> Row:
         text=True,
         start_new_session=True,
     )
+    sent = False
     try:
         proc.wait(timeout=delay)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, sig)
+        sent = True
     _o, err = proc.communicate(timeout=600)
     if sink is not subprocess.PIPE:
         sink.close()
@@ -480,7 +482,13 @@ def audit_kill(sc: Scenario, args, refs, trial: int, rng: random.Random) -> Row:
         row.lines = 1  # a SIGKILL prints nothing, by construction
     if proc.returncode not in sc.clean_rc:
         row.note = (err.strip().splitlines() or [""])[-1][:110]
-    row.partial = partial_files(out, sc.ref, early=True)
+    if not sent:
+        row.note = "(ended before the signal) " + row.note
+    elif sig == signal.SIGINT and proc.returncode in sc.clean_rc:
+        # lost, or landed after main returned (ignored by design): check by hand
+        row.note = "SIGINT without effect (lost, or after main returned) " + row.note
+        row.lines = 0  # not the one line of an interrupt
+        row.rc = -1000  # fails the check: the interrupt was ignored
     if sc.target == "stdout" and proc.returncode not in sc.clean_rc:
         row.partial = []  # the shell's file: a killed command's output is cut, by design
     time.sleep(0.2)  # let children of the killed group go
