@@ -20,6 +20,13 @@ Every scenario runs one psdesign command that writes.  Three modes:
     sudo python benchmarks/audit_failures.py --spec SPEC.toml --study STUDY.toml \
         --modes enospc kill refuse --scenarios generate study_run --trials 20 --seed 35
 
+Session 36 added the other writing commands: ``mesh_all`` (every export format),
+``forcefield_paper`` / ``forcefield_relax`` (``--ffspec``: a paper case, ``--relaxspec``: an
+RVE spec with ``[forcefield.relax]``), ``diffusivity_fields`` / ``conductivity_fields``,
+``permeability_json`` (stdout into a file on the full disk: the disk is filled first),
+``study_optimize`` (``--optstudy``: a study of ``{low, high}`` ranges; exit 1 = target not
+met is a complete run).  ``*_timings.json`` files carry wall times (whole, not equal).
+
 Prints one row per trial and a summary table per scenario and mode.  The clean run of each
 scenario is the reference (run once, in a plain folder).
 """
@@ -27,6 +34,7 @@ scenario is the reference (run once, in a plain folder).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
 import os
@@ -57,6 +65,12 @@ VOLATILE = {
 }
 
 
+def volatile(rel: str) -> bool:
+    """A file whose bytes carry times: ``VOLATILE`` or any ``*_timings.json``."""
+    name = Path(rel).name
+    return name in VOLATILE or name.endswith("_timings.json")
+
+
 @dataclass
 class Scenario:
     """One command: ``argv`` with ``{out}``, ``{spec}``, ``{study}`` placeholders."""
@@ -64,7 +78,8 @@ class Scenario:
     name: str
     argv: list[str]
     setup: str = ""  # "study": OUT starts as a copy of the clean study_run output
-    target: str = "dir"  # "file": {out} names a single new file
+    target: str = "dir"  # "file": {out} names a single new file; "stdout": stdout goes there
+    clean_rc: tuple[int, ...] = (0,)  # exit statuses of a complete run (optimize: 1 = not met)
     ref: Path | None = None
     ref_time: float = 0.0
 
@@ -81,6 +96,38 @@ SCENARIOS = {
     ),
     "pores_plot": Scenario(
         "pores_plot", ["pores", "{spec}", "--plot", "{out}", "--quiet"], target="file"
+    ),
+    # session 36: the writing commands session 35 did not drive
+    "mesh_all": Scenario(
+        "mesh_all",
+        ["mesh", "{spec}", "-o", "{out}", "--format", "vtu", "msh", "fluent", "stl", "openfoam"]
+        + ["--quiet"],
+    ),
+    "permeability_json": Scenario(
+        "permeability_json",
+        ["permeability", "{spec}", "--solver", "voxel", "--json", "--quiet"],
+        target="stdout",
+    ),
+    "diffusivity_fields": Scenario(
+        "diffusivity_fields",
+        ["diffusivity", "{spec}", "--fields", "{out}", "--json", "--quiet"],
+    ),
+    "conductivity_fields": Scenario(
+        "conductivity_fields",
+        ["conductivity", "{spec}", "--solid", "1", "--fluid", "0.1", "--fields", "{out}"]
+        + ["--json", "--quiet"],
+    ),
+    "forcefield_paper": Scenario(
+        "forcefield_paper", ["forcefield", "{ffspec}", "-o", "{out}", "--quiet"]
+    ),
+    "forcefield_relax": Scenario(
+        "forcefield_relax", ["forcefield", "{relaxspec}", "-o", "{out}", "--quiet"]
+    ),
+    "study_optimize": Scenario(
+        "study_optimize",
+        ["study", "optimize", "{optstudy}", "-o", "{out}", "--target", "k_z_m2>=1e-14"]
+        + ["--budget", "3", "--workers", "0", "--quiet"],
+        clean_rc=(0, 1),
     ),
     "study_run": Scenario("study_run", ["study", "run", "{study}", "-o", "{out}", "--quiet"]),
     "study_report": Scenario("study_report", ["study", "report", "{out}"], setup="study"),
@@ -105,6 +152,7 @@ class Row:
     prior_lost: list[str] = field(default_factory=list)
     rerun_ok: bool | None = None
     note: str = ""
+    clean_rc: tuple[int, ...] = (0,)
 
     @property
     def ok(self) -> bool:
@@ -116,7 +164,7 @@ class Row:
             and not self.partial
             and not self.prior_lost
             and self.rerun_ok is not False
-            and (self.rc == 0 or self.lines == 1)
+            and (self.rc in self.clean_rc or self.lines == 1)
         )
 
 
@@ -138,11 +186,26 @@ def umount() -> None:
 
 def argv_for(sc: Scenario, out: Path, args: argparse.Namespace) -> list[str]:
     subs = {"{out}": str(out), "{spec}": str(args.spec), "{study}": str(args.study)}
+    subs |= {f"{{{k}}}": str(getattr(args, k)) for k in ("ffspec", "relaxspec", "optstudy")}
     return [sys.executable, "-m", "psdesign", *[subs.get(a, a) for a in sc.argv]]
 
 
-def run(cmd: list[str], timeout: float = 1800) -> subprocess.CompletedProcess:
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+def out_name(sc: Scenario) -> str:
+    return {"file": "out.png", "stdout": "out.json"}.get(sc.target, "out")
+
+
+def run(
+    cmd: list[str], timeout: float = 1800, stdout: Path | None = None
+) -> subprocess.CompletedProcess:
+    """Run ``cmd``; ``stdout``: a file its standard output goes to (the shell's ``>``)."""
+    if stdout is None:
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    with open(stdout, "w") as fh:
+        return subprocess.run(cmd, stdout=fh, stderr=subprocess.PIPE, text=True, timeout=timeout)
+
+
+def run_sc(sc: Scenario, out: Path, args: argparse.Namespace) -> subprocess.CompletedProcess:
+    return run(argv_for(sc, out, args), stdout=out if sc.target == "stdout" else None)
 
 
 def files_of(root: Path) -> dict[str, str]:
@@ -175,6 +238,9 @@ def _csv_equal(a: Path, b: Path) -> bool:
     db = db.drop(columns=[c for c in drop if c in db.columns], errors="ignore")
     return da.equals(db)
 
+
+#: Scenarios whose output is a study folder: a stopped run holds a subset of the rows.
+STUDIES = ("study_run", "rev", "study_optimize")
 
 #: psdesign's working files in a study folder: a killed run may leave them; whole if parseable.
 WORKING = {".lock", "stage.txt", "stage.tmp", "error.txt"}
@@ -221,7 +287,7 @@ def whole(p: Path, ref: Path | None, early: bool = False) -> bool:
         return False
     # a working file of a stopped case (an error.txt the full disk left empty): removed when
     # the case runs again
-    return name in VOLATILE or (early and name in WORKING)
+    return volatile(name) or (early and name in WORKING)
 
 
 def partial_files(out: Path, ref: Path, early: bool = False) -> list[str]:
@@ -240,9 +306,24 @@ def partial_files(out: Path, ref: Path, early: bool = False) -> list[str]:
     return bad
 
 
+def _untimed(obj: object) -> object:
+    """A JSON value without its run-metadata keys (wall times, threads)."""
+    if isinstance(obj, dict):
+        return {k: _untimed(v) for k, v in obj.items() if "time" not in k and "thread" not in k}
+    if isinstance(obj, list):
+        return [_untimed(v) for v in obj]
+    return obj
+
+
 def same_as_ref(out: Path, ref: Path) -> bool:
     """The re-run's outputs equal the clean run's (volatile files: present and whole)."""
     if ref.is_file():
+        if out.is_file() and out.suffix == ".json":  # a command's --json stdout
+            try:
+                a, b = json.loads(out.read_text()), json.loads(ref.read_text())
+            except ValueError:
+                return False
+            return _untimed(a) == _untimed(b)
         return out.is_file() and out.read_bytes() == ref.read_bytes()
     a, b = files_of(out), files_of(ref)
     if set(a) != set(b):
@@ -252,8 +333,8 @@ def same_as_ref(out: Path, ref: Path) -> bool:
             continue
         if rel.endswith(".csv") and _csv_equal(out / rel, ref / rel):
             continue
-        if Path(rel).name in VOLATILE or rel.startswith("cases/"):
-            if whole(out / rel, None) or Path(rel).name in VOLATILE:
+        if volatile(rel) or rel.startswith("cases/"):
+            if whole(out / rel, None) or volatile(rel):
                 continue
         return False
     return True
@@ -263,13 +344,13 @@ def make_reference(sc: Scenario, args: argparse.Namespace, refs: dict[str, Scena
     base = WORK / "ref" / sc.name
     shutil.rmtree(base, ignore_errors=True)
     base.mkdir(parents=True)
-    out = base / ("out.png" if sc.target == "file" else "out")
+    out = base / out_name(sc)
     if sc.setup == "study":
         shutil.copytree(refs["study_run"].ref, out, symlinks=True)
     t0 = time.perf_counter()
-    p = run(argv_for(sc, out, args))
+    p = run_sc(sc, out, args)
     sc.ref_time = time.perf_counter() - t0
-    if p.returncode != 0:
+    if p.returncode not in sc.clean_rc:
         raise SystemExit(f"reference run of {sc.name} failed: {p.stderr.strip()[-400:]}")
     sc.ref = out
     print(f"# reference {sc.name}: {sc.ref_time:.1f} s, {len(files_of(out))} files", flush=True)
@@ -312,7 +393,7 @@ def audit_enospc(sc: Scenario, args, refs, size: str, prior: bool) -> Row:
     num = int(float(size[:-1]) * {"k": 1, "m": 1024}[size[-1]])
     mount(f"{num + extra}k")
     try:
-        out = MOUNT / ("out.png" if sc.target == "file" else "out")
+        out = MOUNT / out_name(sc)
         try:
             _prepare(sc, out, refs, prior)
         except OSError:
@@ -325,20 +406,27 @@ def audit_enospc(sc: Scenario, args, refs, size: str, prior: bool) -> Row:
                 False,
                 note="prior state does not fit",
             )
+        if sc.target == "stdout":  # a JSON line fits any size: the disk is filled first
+            with open(MOUNT / "filler", "wb", buffering=0) as fh, contextlib.suppress(OSError):
+                while True:
+                    fh.write(b"\0" * 4096)
         before = files_of(out) if out.exists() else {}
-        p = run(argv_for(sc, out, args))
+        p = run_sc(sc, out, args)
         n, tb = _lines(p.stderr)
         row = Row(sc.name, "enospc", f"{size}{' prior' if prior else ''}", p.returncode, n, tb)
-        if p.returncode != 0:
+        row.clean_rc = sc.clean_rc
+        if p.returncode not in sc.clean_rc or "psdesign: error" in p.stderr:
             row.note = (p.stderr.strip().splitlines() or [""])[-1][:110]
         row.leftovers = temps_under(MOUNT)
-        row.partial = partial_files(out, sc.ref, early=sc.name in ("study_run", "rev"))
-        if before and p.returncode != 0:
+        row.partial = partial_files(out, sc.ref, early=sc.name in STUDIES)
+        if sc.target == "stdout" and p.returncode != 0:
+            row.partial = []  # the shell's file: a failed command's output is cut, by design
+        if before and p.returncode not in sc.clean_rc:
             now = files_of(out) if out.exists() else {}
             row.prior_lost = [
                 r
                 for r, h in before.items()
-                if now.get(r) != h and Path(r).name not in VOLATILE and not r.endswith(".csv")
+                if now.get(r) != h and not volatile(r) and not r.endswith(".csv")
             ]
             row.prior_lost += [r for r in before if r not in now]
         if row.partial or row.prior_lost or row.leftovers:  # keep the evidence
@@ -346,8 +434,12 @@ def audit_enospc(sc: Scenario, args, refs, size: str, prior: bool) -> Row:
             shutil.rmtree(keep, ignore_errors=True)
             shutil.copytree(MOUNT, keep, symlinks=True)
         _sh("mount", "-o", "remount,size=64m", str(MOUNT))
-        p2 = run(argv_for(sc, out, args))
-        row.rerun_ok = p2.returncode == 0 and same_as_ref(out, sc.ref)
+        (MOUNT / "filler").unlink(missing_ok=True)
+        p2 = run_sc(sc, out, args)
+        if sc.target == "file" and p.returncode == 0:  # done; a new run refuses the file
+            row.rerun_ok = p2.returncode == 2 and same_as_ref(out, sc.ref)
+        else:
+            row.rerun_ok = p2.returncode in sc.clean_rc and same_as_ref(out, sc.ref)
         if not row.rerun_ok:
             row.note += f" | rerun rc={p2.returncode} {p2.stderr.strip()[-200:]}"
         return row
@@ -360,40 +452,53 @@ def audit_kill(sc: Scenario, args, refs, trial: int, rng: random.Random) -> Row:
     base = WORK / "kill" / sc.name / f"t{trial:03d}"
     shutil.rmtree(base, ignore_errors=True)
     base.mkdir(parents=True)
-    out = base / ("out.png" if sc.target == "file" else "out")
+    out = base / out_name(sc)
     _prepare(sc, out, refs, prior=False)
     delay = rng.uniform(0.3, max(1.0, sc.ref_time * args.kill_within))
+    sink = open(out, "w") if sc.target == "stdout" else subprocess.PIPE  # noqa: SIM115
     proc = subprocess.Popen(
         argv_for(sc, out, args),
-        stdout=subprocess.PIPE,
+        stdout=sink,
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
     )
+    sent = False
     try:
         proc.wait(timeout=delay)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, sig)
+        sent = True
     _o, err = proc.communicate(timeout=600)
+    if sink is not subprocess.PIPE:
+        sink.close()
     with_sig = f"{signal.Signals(sig).name} at {delay:.1f}s"
     n, tb = _lines(err)
     if sig == signal.SIGINT and proc.returncode not in (0,):
         # the progress lines are suppressed (--quiet): the last line must be the message
         pass
-    row = Row(sc.name, "kill", with_sig, proc.returncode, n, tb)
-    if proc.returncode != 0 and sig == signal.SIGKILL:
+    row = Row(sc.name, "kill", with_sig, proc.returncode, n, tb, clean_rc=sc.clean_rc)
+    if proc.returncode < 0 and sig == signal.SIGKILL:
         row.lines = 1  # a SIGKILL prints nothing, by construction
-    if proc.returncode != 0:
+    if proc.returncode not in sc.clean_rc:
         row.note = (err.strip().splitlines() or [""])[-1][:110]
-    row.partial = partial_files(out, sc.ref, early=True)
+    if not sent:
+        row.note = "(ended before the signal) " + row.note
+    elif sig == signal.SIGINT and proc.returncode in sc.clean_rc:
+        # lost, or landed after main returned (ignored by design): check by hand
+        row.note = "SIGINT without effect (lost, or after main returned) " + row.note
+        row.lines = 0  # not the one line of an interrupt
+        row.rc = -1000  # fails the check: the interrupt was ignored
+    if sc.target == "stdout" and proc.returncode not in sc.clean_rc:
+        row.partial = []  # the shell's file: a killed command's output is cut, by design
     time.sleep(0.2)  # let children of the killed group go
     # a re-run must complete and equal the clean run (temporaries of the killed run are the
     # re-run's to remove)
-    p2 = run(argv_for(sc, out, args))
+    p2 = run_sc(sc, out, args)
     if sc.target == "file" and p2.returncode == 2 and out.exists() and whole(out, sc.ref):
         row.rerun_ok = True  # the file was finished before the kill; a new run refuses it
     else:
-        row.rerun_ok = p2.returncode == 0 and same_as_ref(out, sc.ref)
+        row.rerun_ok = p2.returncode in sc.clean_rc and same_as_ref(out, sc.ref)
     row.leftovers = temps_under(base)
     if not row.rerun_ok:
         row.note += f" | rerun rc={p2.returncode} {p2.stderr.strip()[-300:]}"
@@ -404,7 +509,7 @@ def audit_refuse(sc: Scenario, args, refs, case: str) -> Row:
     base = WORK / "refuse" / sc.name / case
     shutil.rmtree(base, ignore_errors=True)
     base.mkdir(parents=True)
-    out = base / ("out.png" if sc.target == "file" else "out")
+    out = base / out_name(sc)
     if case == "readonly":  # a read-only file system (root ignores permission bits)
         mount("64m")
         base = MOUNT
@@ -432,7 +537,7 @@ def audit_refuse(sc: Scenario, args, refs, case: str) -> Row:
             out.mkdir()
             (out / "user_notes.txt").write_text("mine\n")
     before = files_of(out) if out.exists() else {}
-    p = run(argv_for(sc, out, args))
+    p = run_sc(sc, out, args)
     n, tb = _lines(p.stderr)
     row = Row(sc.name, "refuse", case, p.returncode, n, tb)
     row.note = (p.stderr.strip().splitlines() or [""])[-1][:110]
@@ -453,6 +558,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spec", type=Path, required=True)
     ap.add_argument("--study", type=Path, required=True)
+    ap.add_argument("--ffspec", type=Path, help="forcefield spec of a paper case (two-fiber)")
+    ap.add_argument("--relaxspec", type=Path, help="RVE spec with [forcefield.relax]")
+    ap.add_argument("--optstudy", type=Path, help="study of {low, high} ranges (optimize)")
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=list(SCENARIOS))
     ap.add_argument("--modes", nargs="+", default=["refuse", "enospc", "kill"])
     ap.add_argument("--sizes", nargs="+", default=["40k", "120k", "300k", "1m", "3m"])
@@ -469,7 +577,9 @@ def main() -> int:
     ap.add_argument("--work", type=Path, default=WORK, help="folder of the clean and killed runs")
     args = ap.parse_args()
     MOUNT, WORK = args.mount, args.work
-    args.spec, args.study = args.spec.resolve(), args.study.resolve()
+    for k in ("spec", "study", "ffspec", "relaxspec", "optstudy"):
+        if getattr(args, k) is not None:
+            setattr(args, k, getattr(args, k).resolve())
     rng = random.Random(args.seed)
     WORK.mkdir(parents=True, exist_ok=True)
     refs: dict[str, Scenario] = {}
@@ -485,11 +595,11 @@ def main() -> int:
             if name not in args.scenarios:
                 continue
             todo = []
-            if "refuse" in args.modes:
+            if "refuse" in args.modes and sc.target != "stdout":  # the shell opens stdout
                 todo += [("refuse", c) for c in ("readonly", "file", "user_files")]
             if "enospc" in args.modes:
                 todo += [("enospc", (s, False)) for s in args.sizes]
-                if args.prior:
+                if args.prior and sc.target == "dir":  # nothing is ever written over a file
                     todo += [("enospc", (s, True)) for s in args.sizes]
             if "kill" in args.modes:
                 todo += [("kill", t) for t in range(args.trials)]

@@ -9,8 +9,9 @@ the case runs again on the resume (audit s35).
 from __future__ import annotations
 
 import errno
+import os
 
-__all__ = ["DISK_FULL_ERRNOS", "is_disk_full"]
+__all__ = ["DISK_FULL_ERRNOS", "is_disk_full", "short_write_errno"]
 
 #: ``errno`` values of a full file system or an exhausted quota.
 DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
@@ -32,3 +33,18 @@ def is_disk_full(exc: BaseException | None) -> bool:
             return True
         exc = exc.__cause__ or exc.__context__
     return False
+
+
+def short_write_errno(folder: str | os.PathLike) -> int:
+    """The ``errno`` of a write that failed without one: ``ENOSPC`` if the file system of
+    ``folder`` has less than 64 KiB free, else ``EIO``.
+
+    numpy's ``tofile`` (meshio's binary STL writer) raises ``OSError("2550 requested and 1964
+    written")`` with no ``errno`` on a full disk (audit s36, ``mesh --format stl`` on a 1 MB
+    tmpfs).  Ask while the partial file still holds its blocks.
+    """
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return errno.EIO
+    return errno.ENOSPC if st.f_bavail * st.f_frsize < 65536 else errno.EIO

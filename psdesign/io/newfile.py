@@ -68,10 +68,21 @@ def write_new_file(path: Path, option: str, write: Callable[[Path], object]) -> 
     ------
     OutputError
         ``path`` was taken while the work ran.
+    OSError
+        ``write`` failed (a full disk); one without a file name names ``path`` (the CLI's one
+        line said only "No space left on device").
     """
     tmp = path.parent / f"{TEMP_PREFIX}{path.name}.{os.getpid()}.tmp"
     try:
-        write(tmp)
+        try:
+            write(tmp)
+        except OSError as exc:  # matplotlib's PNG on a full disk: no file name (audit s36)
+            if exc.filename is not None:
+                raise
+            from psdesign.io.diskfull import short_write_errno
+
+            code = exc.errno if exc.errno is not None else short_write_errno(path.parent)
+            raise OSError(code, os.strerror(code), str(path)) from exc
         try:
             os.link(tmp, path)  # fails if the name is taken: never replaces
         except FileExistsError:

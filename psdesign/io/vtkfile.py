@@ -2,8 +2,12 @@
 
 pyvista's ``DataObject.save`` ignores the VTK writer's failure: on a full disk it leaves a
 truncated file, returns normally and VTK prints some twenty lines of pipeline state on stderr
-(audit s35).  :func:`save_vtk` catches VTK's errors (nothing reaches stderr), removes the
-partial file and raises :class:`OSError`, which the CLI reports in one line (exit 1).
+(audit s35).  VTK's XML writer on a full disk may also crash the process: ``psdesign mesh``'s
+``pore.vtu`` on an 8 or 40 kB tmpfs ended in a segmentation fault or ``free(): invalid
+pointer`` (abort), no message and the staging folder left (audit s36).  :func:`save_vtk` has
+VTK write into memory (its errors caught, nothing on stderr) and writes the bytes with Python,
+whose failed write raises :class:`OSError` (``ENOSPC`` named); the partial file is removed and
+the CLI reports it in one line (exit 1).
 """
 
 from __future__ import annotations
@@ -13,16 +17,58 @@ import os
 from pathlib import Path
 from typing import Any
 
-__all__ = ["save_vtk"]
+__all__ = ["save_vtk", "vtk_bytes"]
+
+#: Characters encoded and written at a time: the file is not held twice in memory as text and
+#: as bytes (VTK's text is the compressed, base64-encoded file: a fraction of the arrays).
+_CHUNK = 1 << 24
 
 
-def _write_errno(folder: Path) -> int:
-    """ENOSPC when the file system of ``folder`` has no free block left, else EIO."""
-    try:
-        st = os.statvfs(folder)
-    except OSError:
-        return errno.EIO
-    return errno.ENOSPC if st.f_bavail * st.f_frsize < 65536 else errno.EIO
+def vtk_bytes(dataset: Any, suffix: str) -> bytes:
+    """The file ``dataset.save(name + suffix)`` writes, made in memory.
+
+    Parameters
+    ----------
+    dataset : pyvista.DataSet
+        What to write.
+    suffix : str
+        An XML VTK suffix of the dataset (``".vti"``, ``".vtu"``): pyvista's writer for it,
+        binary, zlib-compressed (``save``'s defaults).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    OSError
+        VTK reported an error (``EIO``); nothing reaches stderr.
+    """
+    text = _vtk_text(dataset, suffix)
+    return text if isinstance(text, bytes) else text.encode("utf-8")
+
+
+def _vtk_text(dataset: Any, suffix: str) -> str | bytes:
+    """VTK's output string of :func:`vtk_bytes` (``str`` unless it is not UTF-8)."""
+    import pyvista as pv
+    from pyvista.core.utilities.observers import VtkErrorCatcher
+
+    store = getattr(dataset, "_store_metadata", None)  # as save: complex arrays as field data
+    if store is not None:
+        store()
+    writer = type(dataset)._WRITERS[suffix]("memory" + suffix, dataset)
+    writer._apply_kwargs_safely(texture=None, data_format="binary", compression="zlib")
+    vtk_writer = writer.writer
+    vtk_writer.WriteToOutputStringOn()
+    with (
+        pv.vtk_verbosity("off"),
+        VtkErrorCatcher(raise_errors=False, send_to_logging=False) as caught,
+    ):
+        ok = vtk_writer.Write()
+    text = vtk_writer.GetOutputString()
+    if caught.events or not ok or not text:
+        raise OSError(errno.EIO, f"{os.strerror(errno.EIO)} (VTK could not write the data)")
+    return text
 
 
 def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
@@ -42,21 +88,20 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
     Raises
     ------
     OSError
-        VTK reported an error while writing (``ENOSPC`` if the disk is full, else ``EIO``);
-        the partial file (a regular file) is removed.
+        The write failed (``ENOSPC`` if the disk is full) or VTK reported an error (``EIO``);
+        a partial file is removed.
     """
-    import pyvista as pv
-    from pyvista.core.utilities.observers import VtkErrorCatcher
-
     path = Path(path)
-    with (
-        pv.vtk_verbosity("off"),
-        VtkErrorCatcher(raise_errors=False, send_to_logging=False) as caught,
-    ):
-        dataset.save(path)
-    if caught.events:
-        code = _write_errno(path.parent)  # before the partial file's blocks are freed
+    text = _vtk_text(dataset, path.suffix.lower())
+    try:
+        with open(path, "wb") as fh:
+            for i in range(0, len(text), _CHUNK):
+                part = text[i : i + _CHUNK]
+                fh.write(part if isinstance(part, bytes) else part.encode("utf-8"))
+    except OSError as exc:
         if path.is_file() and not path.is_symlink():
-            path.unlink()
-        raise OSError(code, f"{os.strerror(code)} (VTK could not write the file)", str(path))
+            path.unlink()  # the partial file
+        if exc.filename is None:
+            exc.filename = str(path)
+        raise
     return path

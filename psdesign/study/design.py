@@ -205,7 +205,10 @@ def design_points(study: Study) -> list[dict]:
             sampler = qmc.LatinHypercube(d=d, seed=study.design_seed)
             u = sampler.random(n)
         else:
-            sampler = qmc.Sobol(d=d, scramble=True, seed=study.design_seed)
+            from psdesign.study.interrupt import held_signals
+
+            with held_signals():  # a Ctrl-C in scipy's Cython set-up was lost (s36)
+                sampler = qmc.Sobol(d=d, scramble=True, seed=study.design_seed)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # balance warning for n != 2^m
                 u = sampler.random(n)

@@ -123,9 +123,12 @@ def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None 
 _STATE: dict = {"depth": 0, "hit": False, "before": set()}
 
 
-def _on_sigint(signum, frame) -> None:  # noqa: ARG001
+def _on_sigint(signum, frame) -> None:
     if _STATE["hit"]:
         return  # already stopping; the clean-up is bounded by GRACE_S
+    if _importing(frame):  # an exception inside a C extension's import (VTK) can segfault
+        _resend_later(signum, _on_sigint)
+        return
     _STATE["hit"] = True
     term = signum == signal.SIGTERM
     if _cli_command() is None:  # library use: say why the run stops; a command says it once
@@ -182,17 +185,40 @@ def _on_sigterm(signum, frame) -> None:  # noqa: ARG001
     if _TERM["hit"]:
         return  # already stopping: a second SIGTERM must not break the clean-up half-way
     if _importing(frame):  # an exception inside a C extension's import (VTK) can segfault
-        timer = threading.Timer(0.05, _resend_sigterm)
-        timer.daemon = True
-        timer.start()  # ask again once the import is done
+        _resend_later(signal.SIGTERM, _on_sigterm)
         return
     _TERM["hit"] = True
     raise Terminated
 
 
-def _resend_sigterm() -> None:
-    if signal.getsignal(signal.SIGTERM) is _on_sigterm:  # still ours: not restored meanwhile
-        os.kill(os.getpid(), signal.SIGTERM)
+def _on_sigint_cli(signum, frame) -> None:  # noqa: ARG001
+    """Ctrl-C in a command: :class:`KeyboardInterrupt`, as Python's own handler, but not
+    inside an ``import``: a KeyboardInterrupt half-way through importing VTK (pyvista's first
+    import, ``diffusivity --fields`` at 5 s) ended the process with SIGSEGV, no line and the
+    staging folder left (failure audit s36, 2 of 8 Ctrl-C at 5.0-5.5 s)."""
+    if os.getpid() != _TERM["pid"]:  # a forked child that kept the handler: Python's own
+        signal.default_int_handler(signum, frame)
+    if _importing(frame):
+        _resend_later(signal.SIGINT, _on_sigint_cli)
+        return
+    raise KeyboardInterrupt
+
+
+def _resend_later(signum: int, handler) -> None:
+    """Send ``signum`` to this process again in 50 ms (once the import is done), if the
+    command (:func:`terminate_as_interrupt`) still runs or ``handler`` is still installed.
+
+    Not only while ``handler`` is: a study run or :func:`held_signals` replaces it right after
+    the imports, and the signal was dropped (``study optimize`` Ctrl-C'd at 1.5-2.5 s ran all
+    its cases; failure audit s36)."""
+
+    def resend() -> None:
+        if _TERM["pid"] == os.getpid() or signal.getsignal(signum) is handler:
+            os.kill(os.getpid(), signum)
+
+    timer = threading.Timer(0.05, resend)
+    timer.daemon = True
+    timer.start()
 
 
 def _importing(frame) -> bool:
@@ -205,10 +231,13 @@ def _importing(frame) -> bool:
 
 
 def _reset_sigterm_in_child() -> None:
-    """After ``fork``: a child (a forked worker pool) dies on SIGTERM as by default."""
+    """After ``fork``: a child (a forked worker pool) dies on SIGTERM as by default and gets
+    Python's own SIGINT handler back."""
     with contextlib.suppress(ValueError, OSError):
         if signal.getsignal(signal.SIGTERM) is _on_sigterm:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        if signal.getsignal(signal.SIGINT) is _on_sigint_cli:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 if hasattr(os, "register_at_fork"):
@@ -223,9 +252,11 @@ def terminate_as_interrupt() -> Iterator[None]:
     does: ``finally`` blocks run, so a staged output folder (``.psdesign-*.tmp``) is removed
     and nothing half-written is left.  A SIGTERM that arrives during an ``import`` takes
     effect when the import is done (an exception half-way through importing VTK crashed the
-    process with SIGSEGV, leaving the staging folder).  Further SIGTERMs while it stops are
-    ignored; forked child processes get the default action back.  Main thread only
-    (elsewhere a no-op); the previous handler is restored on the way out.
+    process with SIGSEGV, leaving the staging folder), and so does a SIGINT (Ctrl-C), which
+    otherwise raises :class:`KeyboardInterrupt` as Python's own handler (when Python's handler
+    is the one in place).  Further SIGTERMs while it stops are ignored; forked child processes
+    get the default actions back.  Main thread only (elsewhere a no-op); the previous handlers
+    are restored on the way out.
     :func:`stop_on_interrupt` (a study run) installs its own handler inside and restores
     this one after.
     """
@@ -233,13 +264,18 @@ def terminate_as_interrupt() -> Iterator[None]:
         yield
         return
     previous = signal.getsignal(signal.SIGTERM)
+    previous_int = signal.getsignal(signal.SIGINT)
     saved = dict(_TERM)
     _TERM.update(pid=os.getpid(), hit=False)
     signal.signal(signal.SIGTERM, _on_sigterm)
+    if previous_int is signal.default_int_handler:  # not an ignored / a caller's own Ctrl-C
+        signal.signal(signal.SIGINT, _on_sigint_cli)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+        if signal.getsignal(signal.SIGINT) is _on_sigint_cli:
+            signal.signal(signal.SIGINT, previous_int)
         _TERM.update(saved)
 
 

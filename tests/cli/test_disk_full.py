@@ -60,7 +60,7 @@ def _image():
     return img
 
 
-def test_save_vtk_raises_when_vtk_cannot_write_and_prints_nothing(tmp_path, capfd):
+def test_save_vtk_raises_when_the_file_cannot_be_written_and_prints_nothing(tmp_path, capfd):
     # pyvista's save returned normally when the VTK writer failed (on a full disk it left the
     # truncated file) and VTK printed about twenty lines on stderr
     import pyvista as pv
@@ -68,10 +68,10 @@ def test_save_vtk_raises_when_vtk_cannot_write_and_prints_nothing(tmp_path, capf
     from psdesign.io.vtkfile import save_vtk
 
     target = tmp_path / "a.vti"
-    target.mkdir()  # VTK cannot open it for writing
+    target.mkdir()  # cannot be opened for writing
     with pytest.raises(OSError) as info:
         save_vtk(_image(), target)
-    assert info.value.errno in (errno.EIO, errno.ENOSPC) and info.value.filename == str(target)
+    assert info.value.filename == str(target)
     assert target.is_dir()  # only a regular file of the writer's is removed
     err = capfd.readouterr().err
     assert err == "", err
@@ -79,29 +79,50 @@ def test_save_vtk_raises_when_vtk_cannot_write_and_prints_nothing(tmp_path, capf
     assert pv.read(ok).n_points == 27000
 
 
-def test_save_vtk_names_enospc_when_the_file_system_is_full(tmp_path, monkeypatch):
+class _FullDisk:
+    """A file opened on a disk with ``room`` bytes left: the rest of a write fails ENOSPC."""
+
+    def __init__(self, path, room: int) -> None:
+        self._fh = open(path, "wb")  # noqa: SIM115 - closed by __exit__
+        self._room = room
+
+    def write(self, data: bytes) -> int:
+        self._fh.write(data[: self._room])
+        self._fh.flush()
+        if len(data) > self._room:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return len(data)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._fh.close()
+
+
+@pytest.mark.parametrize("suffix", [".vti", ".vtu"])
+def test_save_vtk_writes_with_python_so_a_full_disk_raises(tmp_path, monkeypatch, suffix):
+    # audit s36: VTK's XML writer on a full disk crashed the process (`psdesign mesh` on an
+    # 8 kB tmpfs: segmentation fault / "free(): invalid pointer", no message, the staging
+    # folder left). VTK now writes into memory and Python writes the file: ENOSPC raises.
+    # The old save_vtk let VTK write the file itself: this simulated full disk went unseen.
+    import pyvista as pv
+
     from psdesign.io import vtkfile
 
-    full = os.statvfs_result((4096, 4096, 100, 0, 0, 10, 0, 0, 0, 255))  # no free block
-    free = os.statvfs_result((4096, 4096, 100, 90, 90, 10, 0, 0, 0, 255))
-    target = tmp_path / "a.vti"
-    blocked = tmp_path / "blocked.vti"
-    blocked.mkdir()
-
-    class Truncating:
-        """Writes a partial file, then VTK fails (as its writer does on a full disk)."""
-
-        def save(self, path):
-            Path(path).write_bytes(b"<VTKFile")
-            _image().save(blocked)  # a real VTK writer failure
-
-    # the disk is full while the partial file is there; removing it frees its blocks (the
-    # first version asked after the removal and said EIO, seen on a 100 kB tmpfs)
-    monkeypatch.setattr(vtkfile.os, "statvfs", lambda _p: full if target.exists() else free)
+    data = _image() if suffix == ".vti" else _image().cast_to_unstructured_grid()
+    reference = tmp_path / f"ref{suffix}"
+    data.save(reference)  # pyvista's own file: save_vtk's is byte-equal
+    assert vtkfile.save_vtk(data, tmp_path / f"same{suffix}").read_bytes() == (
+        reference.read_bytes()
+    )
+    target = tmp_path / f"a{suffix}"
+    monkeypatch.setattr(vtkfile, "open", lambda p, mode="r": _FullDisk(p, room=1000), raising=False)
     with pytest.raises(OSError, match="No space left on device") as info:
-        vtkfile.save_vtk(Truncating(), target)
-    assert not target.exists()
-    assert info.value.errno == errno.ENOSPC
+        vtkfile.save_vtk(data, target)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
+    assert not target.exists()  # the partial file removed
+    assert pv.read(reference).n_points == 27000
 
 
 def test_generate_stops_with_one_line_when_field_vti_cannot_be_written(
@@ -161,3 +182,47 @@ def test_generate_on_a_really_full_disk(tmp_path):
         assert os.listdir(disk) == []
     finally:
         subprocess.run(["umount", str(disk)], check=True)
+
+
+@pytest.mark.skipif(
+    not sys.platform.startswith("linux") or os.geteuid() != 0 or not shutil.which("mount"),
+    reason="mounts a small tmpfs: Linux, root",
+)
+def test_mesh_vtu_on_a_really_full_disk(tmp_path):
+    # audit s36: the old code crashed in VTK's XML writer (exit -11 / -6, no line) and left its
+    # staging folder on the disk
+    spec = tmp_path / "spec.toml"
+    spec.write_text(RANDOM_SPEC)
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", str(disk)])
+    if mounted.returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        argv = ["mesh", str(spec), "-o", str(disk / "out"), "--format", "vtu", "--quiet"]
+        p = subprocess.run(
+            [sys.executable, "-m", "psdesign", *argv], capture_output=True, text=True
+        )
+        assert p.returncode == 1, p.stderr
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == 1 and "No space left on device" in lines[0], p.stderr
+        assert os.listdir(disk) == []
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_a_new_file_the_full_disk_stopped_is_named_and_not_left(tmp_path):
+    # failure audit s36: `pores --plot FILE` on an 8 / 40 kB tmpfs said only "psdesign: error:
+    # No space left on device" (matplotlib's PNG write raises with no file name)
+    from psdesign.io.newfile import write_new_file
+
+    target = tmp_path / "p.png"
+
+    def full_disk(tmp: Path) -> None:
+        tmp.write_bytes(b"\x89PNG partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with pytest.raises(OSError, match="No space left on device") as info:
+        write_new_file(target, "--plot", full_disk)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
+    assert list(tmp_path.iterdir()) == []  # neither the file nor its temporary

@@ -348,6 +348,115 @@ def test_sigterm_handler_is_restored_and_forked_children_keep_the_default(tmp_pa
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+def test_ctrl_c_during_an_import_waits_for_the_import(tmp_path, monkeypatch):
+    """Failure audit s36: a Ctrl-C half-way through importing VTK (pyvista's first import,
+    ``diffusivity --fields`` interrupted at 5.0-5.5 s) ended the process with SIGSEGV: no line,
+    exit -11, the staging folder left (2 of 8 trials).  Truth: a module that receives SIGINT
+    during its own import runs to its last line, and the KeyboardInterrupt comes after; with
+    Python's own handler (the previous code) the import stopped where the signal landed."""
+    import importlib
+    import signal
+    import time
+
+    from psdesign.study.interrupt import terminate_as_interrupt
+
+    (tmp_path / "slow_import_s36.py").write_text(
+        "import signal, time\n"
+        "signal.raise_signal(signal.SIGINT)\n"
+        "t = time.monotonic()\n"
+        "while time.monotonic() - t < 0.2:\n"
+        "    pass\n"
+        "done = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    before = signal.getsignal(signal.SIGINT)
+    finished = None
+    with terminate_as_interrupt(), pytest.raises(KeyboardInterrupt):
+        try:
+            importlib.import_module("slow_import_s36")
+        finally:
+            finished = getattr(sys.modules.get("slow_import_s36"), "done", False)
+        time.sleep(2)  # the deferred Ctrl-C arrives 50 ms after the import
+    sys.modules.pop("slow_import_s36", None)
+    assert finished is True
+    assert signal.getsignal(signal.SIGINT) is before  # restored
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_a_signal_held_for_an_import_survives_the_next_handler(tmp_path, monkeypatch, signame):
+    """Failure audit s36: the signal put off during an import was sent again only if the same
+    handler was still installed; a study run (``stop_on_interrupt``) installs its own right
+    after the imports, and the Ctrl-C / SIGTERM was dropped (``study optimize`` interrupted at
+    1.5-2.5 s ran all its cases, exit 1).  Truth: the run that follows the import stops."""
+    import importlib
+    import time
+
+    from psdesign.study.interrupt import stop_on_interrupt, terminate_as_interrupt
+
+    name = f"signal_import_s36_{signame.lower()}"
+    (tmp_path / f"{name}.py").write_text(
+        f"import signal\nsignal.raise_signal(signal.{signame})\ndone = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    stopped = False
+    with terminate_as_interrupt():
+        try:
+            importlib.import_module(name)
+            with stop_on_interrupt():  # the study run's handler, installed within 50 ms
+                t = time.monotonic()
+                while time.monotonic() - t < 2:
+                    time.sleep(0.01)
+        except KeyboardInterrupt:
+            stopped = True
+    sys.modules.pop(name, None)
+    assert stopped
+
+
+_SOBOL_CHILD = """
+import signal, sys
+import numpy.lib._npyio_impl as npyio
+
+read = npyio.NpzFile.__getitem__
+
+
+def ctrl_c_while_reading(self, key):  # Ctrl-C while scipy reads its Sobol direction numbers
+    signal.raise_signal(signal.SIGINT)
+    return read(self, key)
+
+
+npyio.NpzFile.__getitem__ = ctrl_c_while_reading
+from psdesign.study.design import design_points
+from psdesign.study.studyfile import load_study
+
+try:
+    design_points(load_study(sys.argv[1]))
+except KeyboardInterrupt:
+    sys.exit(3)
+sys.exit(4)
+"""
+
+
+def test_ctrl_c_while_scipy_sets_up_sobol_is_not_lost(tmp_path):
+    """Failure audit s36: `study optimize` interrupted at 1.5-4 s printed scipy's "Exception
+    ignored in: 'scipy.stats._sobol._initialize_v'" traceback, ran all its cases and exited 1
+    (not met): the KeyboardInterrupt raised inside scipy's Cython set-up of the Sobol
+    direction numbers is swallowed there.  Truth: the Ctrl-C reaches the caller (exit 3 here);
+    the previous code returned the design (exit 4)."""
+    study = tmp_path / "s.toml"
+    study.write_text(
+        "[base.rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n"
+        '[base.generator]\nkind = "straight"\nporosity = 0.85\ndiameter = 4e-6\n'
+        '[study]\nname = "s"\ndesign = "sobol"\nn_samples = 4\nseeds = [1]\n'
+        'outputs = ["porosity"]\n'
+        '[parameters]\n"generator.porosity" = {low = 0.8, high = 0.9}\n'
+    )
+    p = subprocess.run(
+        [sys.executable, "-c", _SOBOL_CHILD, str(study)], capture_output=True, text=True
+    )
+    assert p.returncode == 3, p.stderr[-2000:]
+    assert "Exception ignored" not in p.stderr
+
+
 # ----------------------------------------------------------------------------- --force hint
 
 

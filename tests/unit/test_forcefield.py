@@ -499,7 +499,11 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     # the wall time beside rve.json, not in it: two runs' rve.json are identical (session 31
     # audit: they differed only in wall_time_s)
     assert "wall_time_s" not in rve
-    assert json.loads((out / "rve_timings.json").read_text())["wall_time_s"] > 0
+    timings = json.loads((out / "rve_timings.json").read_text())
+    assert timings["wall_time_s"] > 0
+    # audit s36: rve.json held n_speculative, the poll points a worker was still running at an
+    # accepted step: 3 in the clean run, 2 in the re-run of the same spec (two workers)
+    assert "n_speculative" not in rve and timings["n_speculative"] >= 0
 
     bad = tmp_path / "bad.toml"
     bad.write_text('[forcefield]\ncase = "three-fiber"\n')

@@ -7,7 +7,9 @@ format with :func:`register_writer`; ``psdesign mesh --format`` lists :data:`WRI
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import os
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -182,6 +184,28 @@ def export_mesh(
     for fmt in formats:
         writer = WRITERS[fmt]
         takes_flow = "flow" in inspect.signature(writer).parameters
-        written.update(writer(pm, out, flow=flow) if takes_flow else writer(pm, out))
-    written["json"] = write_json(pm, out)
+        with _naming_failed_write(out, fmt):
+            written.update(writer(pm, out, flow=flow) if takes_flow else writer(pm, out))
+    with _naming_failed_write(out, "mesh.json"):
+        written["json"] = write_json(pm, out)
     return written
+
+
+@contextlib.contextmanager
+def _naming_failed_write(out: Path, what: str) -> Iterator[None]:
+    """An ``OSError`` without a file name names the folder and the export: meshio's ``open``
+    block failing as the file is closed on a full disk, the CLI's one line said only "No space
+    left on device" (failure audit s36, ``mesh --format msh`` on a 120 kB tmpfs); numpy's short
+    write (binary STL) has no ``errno`` either, it said "2550 requested and 1964 written" (1 MB
+    tmpfs): now ``ENOSPC`` if the disk is full (:func:`psdesign.io.diskfull.short_write_errno`).
+    """
+    from psdesign.io.diskfull import short_write_errno
+
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        code = exc.errno if exc.errno is not None else short_write_errno(out)
+        why = os.strerror(code)
+        raise OSError(code, f"{why} (writing the {what} export)", str(out)) from exc
