@@ -7,13 +7,17 @@ truncated file, returns normally and VTK prints some twenty lines of pipeline st
 pointer`` (abort), no message and the staging folder left (audit s36).  :func:`save_vtk` has
 VTK write into memory (its errors caught, nothing on stderr) and writes the bytes with Python,
 whose failed write raises :class:`OSError` (``ENOSPC`` named); the partial file is removed and
-the CLI reports it in one line (exit 1).
+the CLI reports it in one line (exit 1).  In memory the file is held twice (VTK's string and
+Python's copy: a 400^3 flow field's file is about a gigabyte), so where the disk has room for
+the dataset's uncompressed arrays twice over VTK streams the file itself, as pyvista's ``save``
+does (same bytes), its errors still caught.
 """
 
 from __future__ import annotations
 
 import errno
 import os
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +26,10 @@ __all__ = ["save_vtk", "vtk_bytes"]
 #: Characters encoded and written at a time: the file is not held twice in memory as text and
 #: as bytes (VTK's text is the compressed, base64-encoded file: a fraction of the arrays).
 _CHUNK = 1 << 24
+
+#: Free bytes on the target's file system, beyond twice the dataset's memory, from which VTK
+#: writes the file itself (streaming) rather than into memory.
+STREAM_MARGIN = 64 << 20
 
 
 def vtk_bytes(dataset: Any, suffix: str) -> bytes:
@@ -92,6 +100,8 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
         a partial file is removed.
     """
     path = Path(path)
+    if _free_bytes(path.parent) > 2 * dataset.actual_memory_size * 1024 + STREAM_MARGIN:
+        return _stream(dataset, path)
     text = _vtk_text(dataset, path.suffix.lower())
     try:
         with open(path, "wb") as fh:
@@ -99,9 +109,38 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
                 part = text[i : i + _CHUNK]
                 fh.write(part if isinstance(part, bytes) else part.encode("utf-8"))
     except OSError as exc:
-        if path.is_file() and not path.is_symlink():
-            path.unlink()  # the partial file
+        _remove_partial(path)
         if exc.filename is None:
             exc.filename = str(path)
         raise
     return path
+
+
+def _free_bytes(folder: Path) -> int:
+    """Free bytes on the file system of ``folder`` (0 if it cannot be told)."""
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return 0
+
+
+def _stream(dataset: Any, path: Path) -> Path:
+    """pyvista's ``save`` with VTK's errors caught (nothing on stderr): a failure raises."""
+    import pyvista as pv
+    from pyvista.core.utilities.observers import VtkErrorCatcher
+
+    with (
+        pv.vtk_verbosity("off"),
+        VtkErrorCatcher(raise_errors=False, send_to_logging=False) as caught,
+    ):
+        dataset.save(path)
+    if caught.events:
+        _remove_partial(path)
+        reason = f"{os.strerror(errno.EIO)} (VTK could not write the file)"
+        raise OSError(errno.EIO, reason, str(path))
+    return path
+
+
+def _remove_partial(path: Path) -> None:
+    if path.is_file() and not path.is_symlink():
+        path.unlink()

@@ -112,8 +112,12 @@ def test_save_vtk_writes_with_python_so_a_full_disk_raises(tmp_path, monkeypatch
 
     data = _image() if suffix == ".vti" else _image().cast_to_unstructured_grid()
     reference = tmp_path / f"ref{suffix}"
-    data.save(reference)  # pyvista's own file: save_vtk's is byte-equal
+    data.save(reference)  # pyvista's own file: save_vtk's is byte-equal, streamed or not
     assert vtkfile.save_vtk(data, tmp_path / f"same{suffix}").read_bytes() == (
+        reference.read_bytes()
+    )
+    monkeypatch.setattr(vtkfile, "_free_bytes", lambda folder: 1000)  # a nearly full disk
+    assert vtkfile.save_vtk(data, tmp_path / f"mem{suffix}").read_bytes() == (
         reference.read_bytes()
     )
     target = tmp_path / f"a{suffix}"
