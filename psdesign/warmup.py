@@ -205,7 +205,26 @@ def warmup(tasks: tuple[str, ...] = TASKS, jobs: int | None = None) -> dict[str,
     procs = _processes(tasks)
     t0 = time.perf_counter()
     n = max(1, min(jobs or os.cpu_count() or 1, len(procs)))
-    with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
-        out = dict(pool.map(_task, procs))
+    out = _run_pool(procs, n)
     out["total"] = time.perf_counter() - t0
+    return out
+
+
+def _run_pool(procs: tuple[str, ...], n: int) -> dict[str, float]:
+    """:func:`_task` of each of ``procs`` in ``n`` spawned processes.  On Ctrl-C or SIGTERM the
+    workers are terminated at once: leaving the pool waited for each worker's kernel compile to
+    end (a SIGINT to the process group was lost in LLVM's callbacks there), minutes on a cold
+    cache (session 36: Ctrl-C 30 s into a cold warmup, still compiling 3 min later).  numba
+    writes each cache file whole, so a killed compile leaves nothing broken."""
+    from psdesign.study.interrupt import _children_now, stop_children
+
+    before = _children_now()
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"))
+    try:
+        out = dict(pool.map(_task, procs))
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        stop_children(keep=before)
+        raise
+    pool.shutdown()
     return out

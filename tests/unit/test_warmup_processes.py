@@ -82,3 +82,59 @@ def test_parallel_task_runs_in_two_processes(monkeypatch):
     assert (out["serial"], out["parallel"], out["parallel-b"]) == (0.0, 1.0, 2.0)
     warmup.warmup(("parallel",), jobs=8)  # at most one worker per process
     assert seen == {"workers": 2, "modes": ["parallel", "parallel-b"]}
+
+
+_SLOW_TASK = """
+import signal, time
+
+
+def slow_task(mode):  # a kernel compile that takes minutes and loses the Ctrl-C in LLVM
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    time.sleep(600)
+    return mode, 600.0
+"""
+
+_WARMUP_CHILD = """
+import psutil, sys, time
+import psdesign.warmup as w
+import slow_task_s36
+
+w._task = slow_task_s36.slow_task
+try:
+    w.warmup(("serial",), jobs=1)
+except KeyboardInterrupt:
+    print("interrupted", len(psutil.Process().children()), flush=True)
+"""
+
+
+def test_ctrl_c_stops_the_warmup_workers_at_once(tmp_path):
+    """Session 36: Ctrl-C 30 s into a cold ``psdesign warmup`` left the pool waiting for its
+    workers' kernel compiles (the SIGINT they got with the process group was lost in LLVM's
+    callbacks): still compiling 3 min later.  Truth: ``warmup`` raises KeyboardInterrupt within
+    seconds of SIGINT while its worker is busy for 10 minutes, and no worker is left (only
+    multiprocessing's resource tracker may remain)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "slow_task_s36.py").write_text(_SLOW_TASK)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), *sys.path]))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _WARMUP_CHILD],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    time.sleep(3)  # the worker has started its task
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole group
+    try:
+        out, _ = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail("warmup still waited for its worker 2 min after Ctrl-C")
+    said, left = out.split()
+    assert said == "interrupted" and int(left) <= 1  # the resource tracker at most
