@@ -152,60 +152,25 @@ def test_generate_stops_with_one_line_when_field_vti_cannot_be_written(
     assert [p.name for p in tmp_path.iterdir()] == ["spec.toml"]  # staging folder removed
 
 
-@pytest.mark.skipif(
+_ROOT_MOUNT = pytest.mark.skipif(
     not sys.platform.startswith("linux") or os.geteuid() != 0 or not shutil.which("mount"),
     reason="mounts a small tmpfs: Linux, root",
 )
-def test_generate_on_a_really_full_disk(tmp_path):
-    # the old code: exit 1 but VTK's twenty lines of pipeline state before psdesign's line
-    spec = tmp_path / "spec.toml"
-    spec.write_text(RANDOM_SPEC)
+
+
+def _on_a_full_disk(tmp_path: Path, size: str, argv: list[str]) -> None:
+    """Run ``psdesign ARGV -o DISK/out --quiet`` with ``DISK`` a tmpfs of ``size``: exit 1,
+    one line naming the full disk, nothing left on the disk."""
     disk = tmp_path / "disk"
     disk.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=20k", "tmpfs", str(disk)])
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(disk)])
     if mounted.returncode != 0:
         pytest.skip("cannot mount a tmpfs here")
     try:
         p = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "psdesign",
-                "generate",
-                str(spec),
-                "-o",
-                str(disk / "out"),
-                "--quiet",
-            ],
+            [sys.executable, "-m", "psdesign", *argv, "-o", str(disk / "out"), "--quiet"],
             capture_output=True,
             text=True,
-        )
-        assert p.returncode == 1
-        lines = p.stderr.strip().splitlines()
-        assert len(lines) == 1 and "No space left on device" in lines[0], p.stderr
-        assert os.listdir(disk) == []
-    finally:
-        subprocess.run(["umount", str(disk)], check=True)
-
-
-@pytest.mark.skipif(
-    not sys.platform.startswith("linux") or os.geteuid() != 0 or not shutil.which("mount"),
-    reason="mounts a small tmpfs: Linux, root",
-)
-def test_mesh_vtu_on_a_really_full_disk(tmp_path):
-    # audit s36: the old code crashed in VTK's XML writer (exit -11 / -6, no line) and left its
-    # staging folder on the disk
-    spec = tmp_path / "spec.toml"
-    spec.write_text(RANDOM_SPEC)
-    disk = tmp_path / "disk"
-    disk.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", str(disk)])
-    if mounted.returncode != 0:
-        pytest.skip("cannot mount a tmpfs here")
-    try:
-        argv = ["mesh", str(spec), "-o", str(disk / "out"), "--format", "vtu", "--quiet"]
-        p = subprocess.run(
-            [sys.executable, "-m", "psdesign", *argv], capture_output=True, text=True
         )
         assert p.returncode == 1, p.stderr
         lines = p.stderr.strip().splitlines()
@@ -213,6 +178,23 @@ def test_mesh_vtu_on_a_really_full_disk(tmp_path):
         assert os.listdir(disk) == []
     finally:
         subprocess.run(["umount", str(disk)], check=True)
+
+
+@_ROOT_MOUNT
+def test_generate_on_a_really_full_disk(tmp_path):
+    # the old code: exit 1 but VTK's twenty lines of pipeline state before psdesign's line
+    spec = tmp_path / "spec.toml"
+    spec.write_text(RANDOM_SPEC)
+    _on_a_full_disk(tmp_path, "20k", ["generate", str(spec)])
+
+
+@_ROOT_MOUNT
+def test_mesh_vtu_on_a_really_full_disk(tmp_path):
+    # audit s36: the old code crashed in VTK's XML writer (exit -11 / -6, no line) and left its
+    # staging folder on the disk
+    spec = tmp_path / "spec.toml"
+    spec.write_text(RANDOM_SPEC)
+    _on_a_full_disk(tmp_path, "8k", ["mesh", str(spec), "--format", "vtu"])
 
 
 def test_a_new_file_the_full_disk_stopped_is_named_and_not_left(tmp_path):

@@ -555,31 +555,13 @@ def test_a_late_ctrl_c_while_python_shuts_down_is_ignored(tmp_path):
     message), in 4 of ~90 late Ctrl-C.  The process the console script starts (read from
     pyproject.toml, so this is what ``psdesign`` runs) ignores Ctrl-C once its outputs are
     complete: the exit status and the one line are the command's."""
-    import subprocess
-    import sys
     import tomllib
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
     entry = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]
     module, func = entry["psdesign"].split(":")
-    script = tmp_path / "late_ctrl_c.py"
-    script.write_text(
-        "import atexit, os, signal, sys, time\n"
-        "atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(0.2)))\n"
-        f"sys.argv = ['psdesign', 'study', 'run', {str(tmp_path / 'no.toml')!r}, '-o', "
-        f"{str(tmp_path / 'out')!r}]\n"
-        f"from {module} import {func}\n"
-        f"sys.exit({func}())\n"
-    )
-    proc = subprocess.run(
-        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=root
-    )
-    assert proc.returncode == 2, proc.stderr
-    assert "Traceback" not in proc.stderr and "KeyboardInterrupt" not in proc.stderr
-    assert proc.stderr.strip().splitlines() == [
-        f"psdesign: error: study: file not found: {tmp_path / 'no.toml'}"
-    ]
+    _late_ctrl_c(tmp_path, f"from {module} import {func}\nsys.exit({func}())\n")
     assert not (tmp_path / "out").exists()
 
 
@@ -590,18 +572,25 @@ def test_a_late_ctrl_c_is_ignored_by_every_python_m_entry(tmp_path, module):
     a SIGINT after the work, while Python shuts down, is ignored.  Session 36's docs walk:
     ``python -m psdesign.cli`` still called ``main`` and printed the atexit
     KeyboardInterrupt traceback the console script no longer does."""
+    run = f"import runpy\nrunpy.run_module({module!r}, run_name='__main__', alter_sys=True)\n"
+    _late_ctrl_c(tmp_path, run)
+
+
+def _late_ctrl_c(tmp_path, launch: str) -> None:
+    """Run ``launch`` (Python lines that start the psdesign command) on ``study run`` of a
+    missing file, with a SIGINT sent from an atexit callback: exit 2, the one line, no
+    traceback."""
     import subprocess
     import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
-    script = tmp_path / "late_ctrl_c_m.py"
+    script = tmp_path / "late_ctrl_c.py"
     script.write_text(
-        "import atexit, os, runpy, signal, sys, time\n"
+        "import atexit, os, signal, sys, time\n"
         "atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(0.2)))\n"
         f"sys.argv = ['psdesign', 'study', 'run', {str(tmp_path / 'no.toml')!r}, '-o', "
-        f"{str(tmp_path / 'out')!r}]\n"
-        f"runpy.run_module({module!r}, run_name='__main__', alter_sys=True)\n"
+        f"{str(tmp_path / 'out')!r}]\n" + launch
     )
     proc = subprocess.run(
         [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=root
