@@ -70,6 +70,9 @@ def test_parallel_task_runs_in_two_processes(monkeypatch):
         def __exit__(self, *exc):
             return False
 
+        def shutdown(self, wait=True, cancel_futures=False):
+            seen["shutdown"] = (wait, cancel_futures)
+
         def map(self, fn, items):
             seen["modes"] = list(items)
             return [(m, float(i)) for i, m in enumerate(seen["modes"])]
@@ -78,10 +81,14 @@ def test_parallel_task_runs_in_two_processes(monkeypatch):
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("numba has one thread: the parallel task is left out")
     out = warmup.warmup(jobs=2)
-    assert seen == {"workers": 2, "modes": ["serial", "parallel", "parallel-b"]}
+    assert seen == {
+        "workers": 2,
+        "modes": ["serial", "parallel", "parallel-b"],
+        "shutdown": (True, False),  # a finished pool waits for its workers
+    }
     assert (out["serial"], out["parallel"], out["parallel-b"]) == (0.0, 1.0, 2.0)
     warmup.warmup(("parallel",), jobs=8)  # at most one worker per process
-    assert seen == {"workers": 2, "modes": ["parallel", "parallel-b"]}
+    assert seen == {"workers": 2, "modes": ["parallel", "parallel-b"], "shutdown": (True, False)}
 
 
 _SLOW_TASK = """
