@@ -11,7 +11,7 @@ from __future__ import annotations
 import errno
 import os
 
-__all__ = ["DISK_FULL_ERRNOS", "is_disk_full", "short_write_errno"]
+__all__ = ["DISK_FULL_ERRNOS", "is_disk_full", "named_write_error", "short_write_errno"]
 
 #: ``errno`` values of a full file system or an exhausted quota.
 DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
@@ -48,3 +48,24 @@ def short_write_errno(folder: str | os.PathLike) -> int:
     except OSError:
         return errno.EIO
     return errno.ENOSPC if st.f_bavail * st.f_frsize < 65536 else errno.EIO
+
+
+def named_write_error(
+    exc: OSError, path: str | os.PathLike, folder: str | os.PathLike, what: str = ""
+) -> OSError:
+    """``exc`` if it names a file, else an :class:`OSError` naming ``path`` (``errno`` from
+    :func:`short_write_errno` of ``folder`` when ``exc`` has none; `` (what)`` after the
+    reason if given): the CLI's one line must say which file a full disk stopped (failure audit
+    s36: matplotlib's PNG and meshio's ``open`` block raise with no file name, numpy's short
+    write with no ``errno``).
+
+    >>> import errno
+    >>> e = named_write_error(OSError(errno.ENOSPC, "full"), "/tmp/x.png", "/tmp")
+    >>> (e.errno, e.filename)
+    (28, '/tmp/x.png')
+    """
+    if exc.filename is not None:
+        return exc
+    code = exc.errno if exc.errno is not None else short_write_errno(folder)
+    reason = os.strerror(code) + (f" ({what})" if what else "")
+    return OSError(code, reason, str(path))

@@ -77,12 +77,12 @@ def write_new_file(path: Path, option: str, write: Callable[[Path], object]) -> 
         try:
             write(tmp)
         except OSError as exc:  # matplotlib's PNG on a full disk: no file name (audit s36)
-            if exc.filename is not None:
-                raise
-            from psdesign.io.diskfull import short_write_errno
+            from psdesign.io.diskfull import named_write_error
 
-            code = exc.errno if exc.errno is not None else short_write_errno(path.parent)
-            raise OSError(code, os.strerror(code), str(path)) from exc
+            named = named_write_error(exc, path, path.parent)
+            if named is exc:
+                raise
+            raise named from exc
         try:
             os.link(tmp, path)  # fails if the name is taken: never replaces
         except FileExistsError:

@@ -8,7 +8,6 @@ format with :func:`register_writer`; ``psdesign mesh --format`` lists :data:`WRI
 from __future__ import annotations
 
 import contextlib
-import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -199,13 +198,12 @@ def _naming_failed_write(out: Path, what: str) -> Iterator[None]:
     write (binary STL) has no ``errno`` either, it said "2550 requested and 1964 written" (1 MB
     tmpfs): now ``ENOSPC`` if the disk is full (:func:`psdesign.io.diskfull.short_write_errno`).
     """
-    from psdesign.io.diskfull import short_write_errno
+    from psdesign.io.diskfull import named_write_error
 
     try:
         yield
     except OSError as exc:
-        if exc.filename is not None:
+        named = named_write_error(exc, out, out, f"writing the {what} export")
+        if named is exc:
             raise
-        code = exc.errno if exc.errno is not None else short_write_errno(out)
-        why = os.strerror(code)
-        raise OSError(code, f"{why} (writing the {what} export)", str(out)) from exc
+        raise named from exc
