@@ -99,9 +99,10 @@ class RunOptions:
 
         if self.timeout_s is not None:
             object.__setattr__(self, "timeout_s", _check_timeout(self.timeout_s))
-        _check_run_arguments(self.scheduler, self.case_fn, *(getattr(self, f) for f in _FLAGS))
-        if isinstance(self.scheduler, str):  # the checked address: its host looked up once
-            object.__setattr__(self, "scheduler", check_scheduler_address(self.scheduler))
+        scheduler = _check_run_arguments(
+            self.scheduler, self.case_fn, *(getattr(self, f) for f in _FLAGS)
+        )
+        object.__setattr__(self, "scheduler", scheduler)  # an address: its host looked up once
         check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
         if self.worker_wait_s is not None:
             try:
@@ -133,12 +134,13 @@ def _check_timeout(timeout_s) -> float:
     return float(timeout_s)
 
 
-def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
+def _check_run_arguments(scheduler, case_fn, *flags: object):
     """The other options, before any work: each flag a bool (a string such as ``report="no"``
     was taken as true), ``scheduler`` an address or the CLI's
     :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
     TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
-    folder was made)."""
+    folder was made).  Returns ``scheduler``, an address as checked
+    (:class:`~psdesign.study.address.SchedulerAddress`: its host looked up here, once)."""
     import numpy as np
 
     from psdesign.study.casefn import load_case_fn
@@ -157,7 +159,7 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
             "'local', or leave it out for the local process pool"
         )
     if isinstance(scheduler, str):  # before the case function's imports and dask's
-        check_scheduler_address(scheduler)  # (one already checked: no second lookup)
+        scheduler = check_scheduler_address(scheduler)  # (one already checked: no lookup)
     if case_fn is not None:
         try:
             load_case_fn(case_fn)
@@ -167,3 +169,4 @@ def _check_run_arguments(scheduler, case_fn, *flags: object) -> None:
                 f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
                 "importable 'module:function'"
             ) from None
+    return scheduler

@@ -734,6 +734,14 @@ def test_a_scheduler_host_is_looked_up_once_per_run(tmp_path, monkeypatch, capsy
     assert len(err) == 1 and "no Dask scheduler answers at tcp://localhost:1" in err[0], err
     assert hosts == ["localhost"]
     assert not out.exists()
+    # the API's entry (a plain str): RunOptions' two checks looked it up twice (session 36
+    # review); the checked address it keeps needs no lookup in connect_scheduler later
+    from psdesign.study.address import SchedulerAddress
+    from psdesign.study.options import RunOptions
+
+    hosts.clear()
+    opts = RunOptions(scheduler="tcp://localhost:1", workers=1)
+    assert hosts == ["localhost"] and isinstance(opts.scheduler, SchedulerAddress)
 
 
 def test_stopping_the_workers_leaves_multiprocessing_s_resource_tracker():
