@@ -126,7 +126,7 @@ _STATE: dict = {"depth": 0, "hit": False, "before": set()}
 def _on_sigint(signum, frame) -> None:
     if _STATE["hit"]:
         return  # already stopping; the clean-up is bounded by GRACE_S
-    if _importing(frame):  # an exception inside a C extension's import (VTK) can segfault
+    if _unsafe_to_raise(frame):  # inside an import (VTK: segfault) or an LLVM callback
         _resend_later(signum, _on_sigint)
         return
     _STATE["hit"] = True
@@ -184,7 +184,7 @@ def _on_sigterm(signum, frame) -> None:  # noqa: ARG001
         return
     if _TERM["hit"]:
         return  # already stopping: a second SIGTERM must not break the clean-up half-way
-    if _importing(frame):  # an exception inside a C extension's import (VTK) can segfault
+    if _unsafe_to_raise(frame):  # inside an import (VTK: segfault) or an LLVM callback
         _resend_later(signal.SIGTERM, _on_sigterm)
         return
     _TERM["hit"] = True
@@ -198,7 +198,7 @@ def _on_sigint_cli(signum, frame) -> None:  # noqa: ARG001
     staging folder left (failure audit s36, 2 of 8 Ctrl-C at 5.0-5.5 s)."""
     if os.getpid() != _TERM["pid"]:  # a forked child that kept the handler: Python's own
         signal.default_int_handler(signum, frame)
-    if _importing(frame):
+    if _unsafe_to_raise(frame):
         _resend_later(signal.SIGINT, _on_sigint_cli)
         return
     raise KeyboardInterrupt
@@ -221,7 +221,7 @@ def _resend_later(signum: int, handler) -> None:
     timer.start()
 
 
-def _importing(frame) -> bool:
+def _unsafe_to_raise(frame) -> bool:
     """True where raising would do harm, so the signal is sent again in 50 ms: ``frame`` runs
     inside an ``import`` (the import system's frames are below it), or inside llvmlite, whose
     Python code LLVM calls back from C while numba compiles a kernel.  A
