@@ -21,7 +21,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-__all__ = ["save_vtk", "vtk_bytes"]
+__all__ = ["save_vtk"]
 
 #: Characters encoded and written at a time: the file is not held twice in memory as text and
 #: as bytes (VTK's text is the compressed, base64-encoded file: a fraction of the arrays).
@@ -32,32 +32,11 @@ _CHUNK = 1 << 24
 STREAM_MARGIN = 64 << 20
 
 
-def vtk_bytes(dataset: Any, suffix: str) -> bytes:
-    """The file ``dataset.save(name + suffix)`` writes, made in memory.
-
-    Parameters
-    ----------
-    dataset : pyvista.DataSet
-        What to write.
-    suffix : str
-        An XML VTK suffix of the dataset (``".vti"``, ``".vtu"``): pyvista's writer for it,
-        binary, zlib-compressed (``save``'s defaults).
-
-    Returns
-    -------
-    bytes
-
-    Raises
-    ------
-    OSError
-        VTK reported an error (``EIO``); nothing reaches stderr.
-    """
-    text = _vtk_text(dataset, suffix)
-    return text if isinstance(text, bytes) else text.encode("utf-8")
-
-
 def _vtk_text(dataset: Any, suffix: str) -> str | bytes:
-    """VTK's output string of :func:`vtk_bytes` (``str`` unless it is not UTF-8)."""
+    """The file ``dataset.save(name + suffix)`` writes (pyvista's writer for the XML VTK
+    ``suffix``, binary, zlib-compressed: ``save``'s defaults), made in memory: VTK's output
+    string (``str`` unless it is not UTF-8).  VTK's errors raise :class:`OSError` (``EIO``);
+    nothing reaches stderr."""
     import pyvista as pv
     from pyvista.core.utilities.observers import VtkErrorCatcher
 
