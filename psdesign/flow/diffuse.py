@@ -131,7 +131,6 @@ def solve_diffuse(
     ValueError
         The walls disagree with the voxel grid (:func:`_check_solid`).
     """
-    from solvers.amg_seed import pyamg_seed
     from solvers.voxel.diffuse import DiffuseGrid, solve_diffuse_stokes
     from solvers.voxel.diffuse_wall import REACH_VOXELS
 
@@ -140,15 +139,14 @@ def solve_diffuse(
     _check_solid(walls, fields)
     grid = DiffuseGrid.sample(fields.grid.shape, walls)
     kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
-    with pyamg_seed():  # pyamg's random start vectors: the same K every run
-        return solve_diffuse_stokes(
-            grid,
-            voxel,
-            direction,
-            viscosity=float(flow["viscosity"]),
-            progress=progress,
-            **kw,
-        )
+    return solve_diffuse_stokes(
+        grid,
+        voxel,
+        direction,
+        viscosity=float(flow["viscosity"]),
+        progress=progress,
+        **kw,
+    )
 
 
 def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:

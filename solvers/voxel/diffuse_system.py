@@ -200,19 +200,24 @@ def preconditioner(system: DiffuseSystem, pressure: str = "diag") -> spla.Linear
     """Block-diagonal SPD preconditioner: an AMG V-cycle (pyamg smoothed aggregation) per
     velocity block; on the pressure ``S = G^T diag(A)^-1 G`` (pinned cells: identity) either its
     inverse diagonal (``diag``, the product's sub-voxel pressure scaling without its coarse
-    Darcy term) or an AMG V-cycle (``amg``, 4x the iterations: port22)."""
+    Darcy term) or an AMG V-cycle (``amg``, 4x the iterations: port22).  The hierarchies are
+    built with NumPy's global generator seeded (:func:`solvers.amg_seed.pyamg_seed`: pyamg's
+    random start vectors gave another K each run)."""
     import pyamg
 
+    from solvers.amg_seed import pyamg_seed
+
+    def amg(a):
+        return pyamg.smoothed_aggregation_solver(a, symmetry="hermitian").aspreconditioner()
+
     n = system.n
-    cycles = [
-        pyamg.smoothed_aggregation_solver(a, symmetry="hermitian").aspreconditioner()
-        for _, a, _ in system.blocks
-    ]
     sdiag = _schur_diagonal(system)
+    with pyamg_seed():
+        cycles = [amg(a) for _, a, _ in system.blocks]
+        if pressure == "amg":
+            schur = sum(g.T @ sp.diags(1.0 / a.diagonal()) @ g for _, a, g in system.blocks)
+            pcyc = amg((schur + sp.diags(sdiag - schur.diagonal())).tocsr())
     if pressure == "amg":
-        schur = sum(g.T @ sp.diags(1.0 / a.diagonal()) @ g for _, a, g in system.blocks)
-        schur = (schur + sp.diags(sdiag - schur.diagonal())).tocsr()
-        pcyc = pyamg.smoothed_aggregation_solver(schur, symmetry="hermitian").aspreconditioner()
 
         def press(r):
             return pcyc @ r

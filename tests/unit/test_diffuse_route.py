@@ -337,8 +337,9 @@ def test_diffuse_k_does_not_depend_on_numpys_global_random_state() -> None:
     """Same spec, same K, to the last bit: pyamg's smoothed aggregation starts its
     spectral-radius estimates from ``np.random`` vectors, so K, its iterations and residual
     changed from run to run (session 36's docs walk: ``studies/voxel_walls.toml`` twice gave
-    other K_x / K_z in every diffuse row, one row 66 against 50 MINRES iterations). The route
-    seeds the global generator for the solve and gives the caller's state back."""
+    other K_x / K_z in every diffuse row, one row 66 against 50 MINRES iterations). The solver
+    seeds the global generator while pyamg builds its hierarchies and gives the caller's state
+    back."""
     ks, draws = [], []
     for seed in (1, 2):
         np.random.seed(seed)  # noqa: NPY002 - the legacy global state pyamg reads
