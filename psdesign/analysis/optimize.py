@@ -46,6 +46,9 @@ class OptimizeResult:
     history : list of dict
         Per round: points added and the best miss so far.
     message : str
+    failed : bool
+        The search stopped on its cases' failures (no case, or fewer than three to fit,
+        finished ok), not on a spent budget: the command's exit status 1, not 3.
     """
 
     met: bool
@@ -54,6 +57,7 @@ class OptimizeResult:
     rounds: int
     history: list[dict] = field(default_factory=list)
     message: str = ""
+    failed: bool = False
 
 
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
@@ -301,6 +305,7 @@ def optimize_study(
             order = np.argsort(-_probability(models, targets, pool), kind="stable")
             new = _new_points(pool, order, seen, min(batch, budget - len(points)))
         if not new:
+            failed = not recs  # no case finished ok: the cases failed, not the search
             if len(points) >= budget:
                 msg = f"budget of {budget} design points spent" + (
                     "" if recs else f", no case finished ok{first_error(df)}"
@@ -316,6 +321,7 @@ def optimize_study(
             else:
                 msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
                 msg += first_error(df)
+                failed = True
             return OptimizeResult(
                 False,
                 best,
@@ -324,5 +330,6 @@ def optimize_study(
                 history,
                 f"{msg}; closest case misses by {best_miss:.3g} (relative)"
                 + seed_scatter_note(ok.to_dict(orient="records"), names, best, targets),
+                failed=failed,
             )
         points.extend(new)

@@ -6,6 +6,7 @@ import argparse
 import json
 
 from psdesign.cli import progress
+from psdesign.cli.exit_status import NOT_TRUSTED, OK
 from psdesign.cli.progress import add_force_argument
 
 FORCEFIELD_FILES = (
@@ -59,7 +60,8 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         )
     elif not summary["converged"]:
         progress.warning(f"{summary['message']}; wrote the best point found")
-    return 0
+    # a constrained optimum (at_bound) is a result; a search stopped early is not
+    return NOT_TRUSTED if summary["status"] == "not_converged" else OK
 
 
 def register(subparsers) -> None:

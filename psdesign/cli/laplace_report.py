@@ -8,6 +8,8 @@ import json
 import sys
 from collections.abc import Callable
 
+from psdesign.cli.exit_status import converged_status
+
 
 def combine(results: list[dict], bc: str, keys: tuple[str, ...]) -> dict:
     """One result as it is; several as ``{"direction": "all", ..., key: {d: value}}`` for each
@@ -43,7 +45,8 @@ def emit(
 ) -> int:
     """Print the blocked directions' messages and every warning on stderr, then ``out`` as JSON
     or ``line(r)`` per result on stdout (the line carries its error bar, ``[status]`` and
-    ``converged``: :mod:`psdesign.cli.lines`); 0 if converged, else 1."""
+    ``converged``: :mod:`psdesign.cli.lines`); 0 if converged, else 3
+    (:mod:`psdesign.cli.exit_status`)."""
     from psdesign.cli.progress import warning
 
     for r in results:
@@ -56,4 +59,4 @@ def emit(
     else:
         for r in results:
             print(line(r))
-    return 0 if out["converged"] else 1
+    return converged_status(out["converged"])

@@ -10,6 +10,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
+from psdesign.cli.exit_status import BAD_INPUT, FAILED, INTERRUPTED, TERMINATED
 from psdesign.cli.progress import activate
 from psdesign.errors import SpecError, show_warning_one_line
 
@@ -60,7 +61,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(args.func(args) or 0)
     except SpecError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
-        return 2
+        return BAD_INPUT
     except (RecursionError, OverflowError) as exc:  # input nested too deeply / numbers too large
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
@@ -69,24 +70,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             "large)",
             file=sys.stderr,
         )
-        return 2
+        return BAD_INPUT
     except ValueError as exc:  # bad input found past the spec (geometry, mesh, arguments)
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
         print(f"psdesign: error: {exc}", file=sys.stderr)
-        return 2
+        return BAD_INPUT
     except OSError as exc:  # writing or reading failed past the checks (disk, permissions)
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"psdesign: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return 1
+        return FAILED
     except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM (Terminated)
         from psdesign.study.interrupt import Terminated
 
         term = isinstance(exc, Terminated)
         print(f"psdesign: {'terminated' if term else 'interrupted'}", file=sys.stderr)
-        return 143 if term else 130
+        return TERMINATED if term else INTERRUPTED
 
 
 def console() -> None:

@@ -8,6 +8,7 @@ import json
 import time
 from typing import TYPE_CHECKING
 
+from psdesign.cli.exit_status import converged_status
 from psdesign.cli.progress import progress_printer, warning
 
 if TYPE_CHECKING:
@@ -201,7 +202,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     else:
         for r in results:
             print(_line(r))
-    return 0 if out["converged"] else 1
+    return converged_status(out["converged"])
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -7,6 +7,8 @@ import json
 import re
 import sys
 
+from psdesign.cli.exit_status import BAD_INPUT, FAILED
+
 
 def _cmd_rev(args: argparse.Namespace) -> int:
     from psdesign.analysis.rev import RevFailed, check_rev_dir, rev_study
@@ -30,10 +32,10 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         print(f"psdesign: error: {exc}", file=sys.stderr)
-        return 2
+        return BAD_INPUT
     except RevFailed as exc:
         print(f"psdesign: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 1
+        return FAILED
     _warn_untrustworthy(args.out)
     if args.json:
         print(

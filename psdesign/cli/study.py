@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from psdesign.cli.exit_status import BAD_INPUT, FAILED, INTERRUPTED, NOT_TRUSTED, OK, TERMINATED
 from psdesign.cli.progress import add_force_argument, add_workers_argument
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
@@ -196,7 +197,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         if args.scheduler:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
-        return _fail(str(exc), 2)
+        return _fail(str(exc), BAD_INPUT)
     from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import (
         WorkersLost,
@@ -234,18 +235,23 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             worker_wait_s=wait_s,
         )
     except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
-        return _fail(str(exc), 2)
+        return _fail(str(exc), BAD_INPUT)
     except (StorageError, WorkersLost) as exc:
-        return _fail(str(exc), 1)
+        return _fail(str(exc), FAILED)
     except Terminated:
-        return _fail("terminated; finished cases are saved, rerun the command to resume", 143)
+        return _fail(
+            "terminated; finished cases are saved, rerun the command to resume", TERMINATED
+        )
     except KeyboardInterrupt:
-        return _fail("interrupted; finished cases are saved, rerun the command to resume", 130)
+        return _fail(
+            "interrupted; finished cases are saved, rerun the command to resume", INTERRUPTED
+        )
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
 
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
-    """0 when every case is ``ok`` (or ``not_converged`` and allowed), else 1 (one line why)."""
+    """0 when every case is ``ok`` (or ``not_converged`` and allowed); 1 when a case failed or
+    timed out; else 3 (some ``not_converged``); one line why (:mod:`psdesign.cli.exit_status`)."""
     from psdesign.study.worker import untrustworthy_count
 
     n_untrusted = untrustworthy_count(df) if len(df) else 0
@@ -273,7 +279,9 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
             "--allow-not-converged to accept them, --retry-not-converged to re-run them",
             file=sys.stderr,
         )
-    return 1 if n_bad or (n_nc and not allow_not_converged) else 0
+    if n_bad:
+        return FAILED
+    return NOT_TRUSTED if n_nc and not allow_not_converged else OK
 
 
 def cmd_study_report(args: argparse.Namespace) -> int:
@@ -287,12 +295,14 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     try:
         path = write_report(args.out)
     except (ReportError, OutputError) as exc:
-        return _fail(str(exc), 2)
+        return _fail(str(exc), BAD_INPUT)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         msg = " ".join(str(exc).split())
-        return _fail(f"out_dir: {args.out}/results.csv is unreadable ({msg}); rerun the study", 2)
+        return _fail(
+            f"out_dir: {args.out}/results.csv is unreadable ({msg}); rerun the study", BAD_INPUT
+        )
     except StorageError as exc:
-        return _fail(str(exc), 1)
+        return _fail(str(exc), FAILED)
     print(path)
     return 0
 

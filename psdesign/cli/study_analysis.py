@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK
+
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
 MAX_SEED = 2**32 - 2
 
@@ -276,7 +278,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return _fail(str(exc))
     except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
-        return _fail(str(exc), 1)
+        return _fail(str(exc), FAILED)
     targets_out = [_target_report(t, res.best) for t in targets]
     summary = {
         "met": res.met,
@@ -297,7 +299,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
         print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
-    return 0 if res.met else 1
+    if res.met:
+        return OK
+    return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
 
 
 def register_study_commands(sub: argparse._SubParsersAction) -> None:

@@ -129,7 +129,8 @@ def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys)
     spec = tmp_path / "s.toml"
     spec.write_text(RODS + "max_iter = 2\n")
     out = tmp_path / "out"
-    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    # 3: written, not converged (exit_status.NOT_TRUSTED)
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
     (warn,) = capsys.readouterr().err.strip().splitlines()
     assert "iteration limit (max_iter=2), not converged" in warn and "on the bound of" in warn
     summary = json.loads((out / "summary.json").read_text())

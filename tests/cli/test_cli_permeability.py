@@ -206,3 +206,14 @@ def test_spec_flow_direction_is_the_default_direction(tmp_path, capsys):
     out = tmp_path / "m"
     assert main(["mesh", str(spec), "-o", str(out), "--quiet"]) == 0
     assert json.loads((out / "mesh.json").read_text())["direction"] == "x"
+
+
+def test_unconverged_solve_is_written_with_exit_3_not_1(tmp_path, capsys):
+    """A solve that stops on its iteration cap prints its K with [not_converged] and exits 3
+    (psdesign.cli.exit_status.NOT_TRUSTED); exit 1 is a run that could not finish (a full
+    disk). Before session 37 both were 1, so a script could not tell them apart."""
+    spec = SPEC + "tol = 1e-300\nerror_estimate = false\n"  # unreachable: the cap stops it
+    code, out, err = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x", spec=spec)
+    assert code == 3, err
+    assert "[not_converged]" in out and "converged false" in out
+    assert "did not converge" in err

@@ -245,13 +245,13 @@ def test_transport_lines_carry_bar_status_and_converged(spec, tmp_path, capsys, 
         r = js["results"][0]
         tau = f"tortuosity factor {r['tortuosity_factor']:.4f} +- {100 * r['rel_error']:.1f} %"
         assert tau in lines[0]
-    # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 1
+    # a solve stopped after one CG iteration: `converged false`, status not_converged, exit 3
     stopped = tmp_path / "stopped.toml"
     stopped.write_text(SPEC.replace("[transport]", "[transport]\nmax_iter = 1"))
-    assert main([command, str(stopped), "--direction", "x", "--json", "--quiet"]) == 1
+    assert main([command, str(stopped), "--direction", "x", "--json", "--quiet"]) == 3
     js = json.loads(capsys.readouterr().out)
     assert js["converged"] is False and js["status"] == "not_converged"
-    assert main([command, str(stopped), "--direction", "x", "--quiet"]) == 1
+    assert main([command, str(stopped), "--direction", "x", "--quiet"]) == 3
     line = capsys.readouterr().out
     assert LINE.search(line).groups()[1:] == ("not_converged", "periodic", "false")
 

@@ -478,7 +478,8 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
         "[forcefield.two_fiber]\nseed = 2\n"
     )
     out = tmp_path / "out"
-    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    # stopped early: written, exit 3 (exit_status.NOT_TRUSTED; it was 0)
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
     got = capsys.readouterr()
     assert "iteration limit" in json.loads(got.out)["message"]  # stdout: one JSON object
     (warn,) = got.err.splitlines()  # the not-converged warning, on stderr even with --quiet

@@ -287,7 +287,8 @@ def test_not_converged_status_resume_retry_and_exit_code(tmp_path, capsys):
     p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
     out = tmp_path / "out"
     args = ["study", "run", str(p), "-o", str(out), "--quiet", "--no-report", "--case-fn"]
-    assert main([*args, "test_study_safety:unconverged_case"]) == 1
+    # 3, not 1: the outputs are complete; 1 is a run that could not finish (exit_status)
+    assert main([*args, "test_study_safety:unconverged_case"]) == 3
     assert "1 case(s) not_converged" in capsys.readouterr().err
     df = pd.read_csv(out / "results.csv")
     st = dict(zip(df["generator.porosity"], df["status"], strict=True))
@@ -772,3 +773,21 @@ def test_stopping_the_workers_leaves_multiprocessing_s_resource_tracker():
         if psutil.pid_exists(worker.pid):
             worker.kill()
         del lock
+
+
+def test_study_exit_status_tells_failed_cases_from_unconverged_ones():
+    """exit_status: 1 when a case failed or timed out (the run could not give it), 3 when
+    every case finished but some is not_converged (outputs complete), 0 when those are
+    allowed; a failed case wins over an unconverged one. Before session 37 all three were 1."""
+    import pandas as pd
+
+    from psdesign.cli.study import study_exit_status
+
+    def status(*s, allow=False):
+        return study_exit_status(pd.DataFrame({"status": list(s)}), allow_not_converged=allow)
+
+    assert status("ok", "ok") == 0
+    assert status("ok", "not_converged") == 3
+    assert status("ok", "not_converged", allow=True) == 0
+    assert status("failed", "not_converged") == 1
+    assert status("timeout", "ok", allow=True) == 1
