@@ -205,6 +205,71 @@ def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) 
     return out
 
 
+def _check_counts(budget: int, batch: int) -> None:
+    for key, v, hi in (("budget", budget, MAX_BUDGET), ("batch", batch, MAX_BATCH)):
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
+            raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
+
+
+def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """2048 scrambled-Sobol candidates as the design points they run (int parameters
+    rounded) and in the unit box."""
+    from scipy.stats import qmc
+
+    # a Ctrl-C raised in scipy's Cython set-up of the Sobol direction numbers (its first use
+    # in the process: numpy reads them from an .npz) is printed as "Exception ignored" and
+    # lost: `study optimize` interrupted at 1.5-4 s ran all its cases and exited 1 (failure
+    # audit s36); held, it takes its usual way out once the set-up is done
+    from psdesign.study.interrupt import held_signals
+
+    with held_signals():
+        sobol = qmc.Sobol(d=len(b), scramble=True, seed=seed + 1)
+    cand_x = _from_unit(sobol.random(2048), b, study)
+    return cand_x, to_unit(cand_x, *zip(*b, strict=True))
+
+
+def _check_target_columns(targets: list[Target], ok, df) -> None:
+    for t in targets:
+        if len(ok) and t.output not in df.columns:
+            raise ValueError(
+                f"--target: {t.output!r} is not an output of this study; outputs: "
+                + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
+            )
+
+
+def _propose(ok, targets, bounds: dict, points: list, cands: tuple, seen: set, k: int) -> list:
+    """Up to ``k`` new design points: the candidates farthest from every run point (> 0.02 in
+    the unit box) ranked by the surrogates' probability of meeting every target."""
+    names = list(bounds)
+    b = [bounds[n] for n in names]
+    cand_x, cand_xu = cands
+    models = {
+        t.output: fit_surrogate(ok, t.output, names, bounds)
+        for t in {t.output: t for t in targets}.values()
+    }
+    done_u = to_unit(np.asarray(points, float), *zip(*b, strict=True))
+    dist = np.linalg.norm(cand_xu[:, None, :] - done_u[None, :, :], axis=2)
+    far = np.min(dist, axis=1) > 0.02  # also drops a candidate rounded onto a run point
+    pool = cand_x[far]
+    order = np.argsort(-_probability(models, targets, pool), kind="stable")
+    return _new_points(pool, order, seen, k)
+
+
+def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool):
+    """Why the search stops with no new point, and whether its cases failed (exit 1) rather
+    than the search ending (exit 3)."""
+    none_ok = "" if any_ok else f", no case finished ok{first_error(df)}"
+    if n_points >= budget:
+        return f"budget of {budget} design points spent" + none_ok, not any_ok
+    if n_points >= space:  # int parameters only: a small box, all run
+        msg = f"every design point of the parameter box has run ({n_points}; its int "
+        return msg + "parameters hold no other)" + none_ok, not any_ok
+    if len(ok) >= 3:  # every candidate rounds onto a point that has run
+        return f"no candidate left that is a new design point ({n_points} run)", not any_ok
+    msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
+    return msg + first_error(df), True
+
+
 def optimize_study(
     study_path: str | Path,
     out_dir: str | Path,
@@ -237,33 +302,19 @@ def optimize_study(
     from psdesign.study.runner import run_study
     from psdesign.study.studyfile import load_study
 
-    for key, v, hi in (("budget", budget, MAX_BUDGET), ("batch", batch, MAX_BATCH)):
-        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
-            raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
+    _check_counts(budget, batch)
     study = load_study(study_path)
     bounds = _bounds(study)
     check_targets(targets, study.outputs)  # names and ranges: before any case or folder
     names = list(bounds)
     b = [bounds[n] for n in names]
-    d = len(names)
-    n0 = min(budget, 2 * d + 2)
-    u0 = qmc.LatinHypercube(d=d, seed=seed).random(n0)
-    # a Ctrl-C raised in scipy's Cython set-up of the Sobol direction numbers (its first use
-    # in the process: numpy reads them from an .npz) is printed as "Exception ignored" and
-    # lost: `study optimize` interrupted at 1.5-4 s ran all its cases and exited 1 (failure
-    # audit s36); held, it takes its usual way out once the set-up is done
-    from psdesign.study.interrupt import held_signals
-
-    with held_signals():
-        sobol = qmc.Sobol(d=d, scramble=True, seed=seed + 1)
-    cand_u = sobol.random(2048)
-    # candidates as the design points they run (int parameters rounded) and in the unit box
-    cand_x = _from_unit(cand_u, b, study)
-    cand_xu = to_unit(cand_x, *zip(*b, strict=True))
+    n0 = min(budget, 2 * len(names) + 2)
+    u0 = qmc.LatinHypercube(d=len(names), seed=seed).random(n0)
+    cands = _sobol_candidates(study, b, seed)
     seen: set[tuple] = set()
     points = _new_points(_from_unit(u0, b, study), range(n0), seen, n0)
     # LHS points an int parameter rounded together: topped up by the first new candidates
-    points += _new_points(cand_x, range(len(cand_x)), seen, n0 - len(points))
+    points += _new_points(cands[0], range(len(cands[0])), seen, n0 - len(points))
     space = _box_points(study, b)
     history: list[dict] = []
     rounds = 0
@@ -273,63 +324,21 @@ def optimize_study(
         df = run_study(st, out_dir, report=False, **run_kw)
         rounds += 1
         ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
-        for t in targets:
-            if len(ok) and t.output not in df.columns:
-                raise ValueError(
-                    f"--target: {t.output!r} is not an output of this study; outputs: "
-                    + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
-                )
+        _check_target_columns(targets, ok, df)
         recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
         best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
         best_miss = _score(best, targets) if best else math.inf
         history.append({"round": rounds, "n_points": len(points), "best_miss": best_miss})
+        n = len(points)
         if best and best_miss == 0.0:
-            return OptimizeResult(
-                True,
-                best,
-                len(points),
-                rounds,
-                history,
-                f"met every target after {len(points)} design points",
-            )
+            msg = f"met every target after {n} design points"
+            return OptimizeResult(True, best, n, rounds, history, msg)
         new: list[list[float]] = []
-        if len(points) < min(budget, space) and len(ok) >= 3:
-            models = {
-                t.output: fit_surrogate(ok, t.output, names, bounds)
-                for t in {t.output: t for t in targets}.values()
-            }
-            done_u = to_unit(np.asarray(points, float), *zip(*b, strict=True))
-            dist = np.linalg.norm(cand_xu[:, None, :] - done_u[None, :, :], axis=2)
-            far = np.min(dist, axis=1) > 0.02  # also drops a candidate rounded onto a run point
-            pool = cand_x[far]
-            order = np.argsort(-_probability(models, targets, pool), kind="stable")
-            new = _new_points(pool, order, seen, min(batch, budget - len(points)))
+        if n < min(budget, space) and len(ok) >= 3:
+            new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
         if not new:
-            failed = not recs  # no case finished ok: the cases failed, not the search
-            if len(points) >= budget:
-                msg = f"budget of {budget} design points spent" + (
-                    "" if recs else f", no case finished ok{first_error(df)}"
-                )
-            elif len(points) >= space:  # int parameters only: a small box, all run
-                msg = (
-                    f"every design point of the parameter box has run ({len(points)}; its int "
-                    "parameters hold no other)"
-                    + ("" if recs else f", no case finished ok{first_error(df)}")
-                )
-            elif len(ok) >= 3:  # every candidate rounds onto a point that has run
-                msg = f"no candidate left that is a new design point ({len(points)} run)"
-            else:
-                msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
-                msg += first_error(df)
-                failed = True
-            return OptimizeResult(
-                False,
-                best,
-                len(points),
-                rounds,
-                history,
-                f"{msg}; closest case misses by {best_miss:.3g} (relative)"
-                + seed_scatter_note(ok.to_dict(orient="records"), names, best, targets),
-                failed=failed,
-            )
+            msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
+            msg += f"; closest case misses by {best_miss:.3g} (relative)"
+            msg += seed_scatter_note(ok.to_dict(orient="records"), names, best, targets)
+            return OptimizeResult(False, best, n, rounds, history, msg, failed=failed)
         points.extend(new)
