@@ -464,6 +464,28 @@ def _remove_orphaned_staging(parent: Path, name: str) -> list[Path]:
     return removed
 
 
+def _named_as_final(exc: OSError, tmp: Path, final: Path) -> OSError:
+    """``exc`` naming the file where it would have gone (``final / rel``) rather than inside the
+    staging folder ``tmp``, which is removed on the way out: the one line said
+    ``OUT/../.psdesign-out.HOST-PID.xyz.tmp/field.vti: No space left on device``, a path that no
+    longer exists (failure audits s35-s36).  Other errors are returned unchanged.
+
+    >>> import errno
+    >>> e = _named_as_final(OSError(errno.ENOSPC, "No space left on device", "/a/.s.tmp/f.vti"),
+    ...                     Path("/a/.s.tmp"), Path("/a/out"))
+    >>> (type(e).__name__, e.filename, e.strerror)
+    ('OSError', '/a/out/f.vti', 'No space left on device; nothing written')
+    """
+    if exc.filename is None:
+        return exc
+    try:
+        rel = Path(os.fsdecode(exc.filename)).relative_to(tmp)
+    except (TypeError, ValueError):  # a file outside the staging folder (an input, a cache)
+        return exc
+    reason = f"{exc.strerror or exc}; nothing written"
+    return OSError(exc.errno, reason, str(final / rel))
+
+
 @contextlib.contextmanager
 def staged_output(out: OutputDir) -> Iterator[Path]:
     """Yield a temporary folder; on success move its files into ``out.path``.
@@ -484,7 +506,10 @@ def staged_output(out: OutputDir) -> Iterator[Path]:
     tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out.path.name), suffix=".tmp", dir=parent))
     tmp.chmod(0o755)
     try:
-        yield tmp
+        try:
+            yield tmp
+        except OSError as exc:
+            raise _named_as_final(exc, tmp, out.path) from exc
         files = _files_under(tmp)
         if not out.path.exists() and not out.path.is_symlink():
             _write_marker(tmp, out.command, files)

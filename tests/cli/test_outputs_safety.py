@@ -265,6 +265,28 @@ def test_helper_owns_subfolders_and_refuses_symlinks_in_the_way(tmp_path):
     assert list(elsewhere.iterdir()) == []
 
 
+def test_a_failed_write_names_the_output_file_not_the_staging_folder(tmp_path):
+    """Failure audits s35-s36: `generate` on a full 200 kB tmpfs said 'psdesign: error:
+    DIR/.psdesign-out.HOST-PID.xyz.tmp/field.vti: No space left on device', a path removed on
+    the way out. The error names OUT/field.vti (where the file would have gone); an error about
+    a file outside the staging folder (an input) is left as it was."""
+    import errno
+
+    out = tmp_path / "o"
+    with pytest.raises(OSError) as info:
+        with staged_output(check_output_dir(out, command="t")) as tmp:
+            (tmp / "sub").mkdir()
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp / "sub" / "f.vti"))
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(out / "sub" / "f.vti")
+    assert info.value.strerror == "No space left on device; nothing written"
+    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == []
+    elsewhere = str(tmp_path / "input.toml")
+    with pytest.raises(FileNotFoundError) as info:
+        with staged_output(check_output_dir(out, command="t")):
+            raise FileNotFoundError(errno.ENOENT, "No such file or directory", elsewhere)
+    assert info.value.filename == elsewhere and info.value.strerror == "No such file or directory"
+
+
 def test_corrupt_marker_is_not_trusted(tmp_path):
     out = tmp_path / "o"
     out.mkdir()
