@@ -98,7 +98,14 @@ _SAFE_ID = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 
 class StorageError(OSError):
-    """Writing results failed (disk full, permissions ...); earlier results are intact."""
+    """Writing results failed (disk full, permissions ...); earlier results are intact.
+
+    >>> str(StorageError(28, "cannot write x.csv: No space left on device"))
+    'cannot write x.csv: No space left on device'
+    """
+
+    def __str__(self) -> str:  # the CLI's one line: no "[Errno 28] " before the message
+        return self.strerror or super().__str__()
 
 
 def is_timing_column(name: str) -> bool:
