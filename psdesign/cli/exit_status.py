@@ -31,6 +31,15 @@ INTERRUPTED = 130
 TERMINATED = 143
 
 
+#: The table in one paragraph: ``psdesign --help`` prints it below the commands.
+HELP = (
+    "exit status: 0 done, every result converged (and every target met); 1 could not finish "
+    "(disk full, permissions, a failed study case, lost workers); 2 bad input, refused before "
+    "any work; 3 finished with complete outputs, but a result did not converge or a target "
+    "was missed (read its status); 130 Ctrl-C; 143 SIGTERM"
+)
+
+
 def converged_status(converged: bool) -> int:
     """``OK`` for a converged result, ``NOT_TRUSTED`` for one written but not converged."""
     return OK if converged else NOT_TRUSTED

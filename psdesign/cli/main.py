@@ -11,6 +11,7 @@ import warnings
 from collections.abc import Sequence
 
 from psdesign.cli.exit_status import BAD_INPUT, FAILED, INTERRUPTED, TERMINATED
+from psdesign.cli.exit_status import HELP as EXIT_HELP
 from psdesign.cli.progress import activate
 from psdesign.errors import SpecError, show_warning_one_line
 
@@ -39,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="psdesign",
         description="Design fibrous porous media with generalized periodic-surface models.",
+        epilog=EXIT_HELP,
     )
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
