@@ -435,6 +435,115 @@ def replace_random_section(out: Path, full: bool) -> int:
     return 0
 
 
+#: Why and when the FEM periodic rows were solved again on their own (session 37, s37-valid):
+#: the header note of ``--replace-fem-periodic``. The run's dates come from the cache files.
+FEM_PERIODIC_WHY = (
+    "session 35 (a612f76, merged adc09bd 2026-12-05 12:54 UTC) let the stuffing mesher's "
+    "periodic face vertices move within their face, and these rows were solved before it; "
+    "the FEM permeameter meshes have no periodic faces and did not change (session 37), so "
+    "those rows and every voxel row keep their solves. The cache of the other rows "
+    "(`vcache15`, in /tmp) is gone, so the rest of the file is kept as it was, not "
+    "re-rendered. K moved by at most +0.016 % (hex along: 5.4115e-11 -> 5.4123e-11; the "
+    "others by +0.000 to +0.007 %, on the old rows' printed digits), no covered flag and no "
+    "summary figure but the worst FEM error (0.37 -> 0.36 %) changed; the iterations are "
+    "fewer than on 2026-12-03 (58 / 54 / 89 / 83 -> 46 / 41 / 49 / 40)"
+)
+FEM_PERIODIC_HEADING = "### fem, bc = periodic"
+
+
+def _table_rows(lines: list[str], heading: str) -> tuple[int, int]:
+    """``(first, end)`` line indices of the data rows of the table under ``heading``."""
+    if heading not in lines:
+        raise SystemExit(f"no section {heading!r}")
+    first = lines.index(heading) + 4  # blank, header, separator
+    end = first
+    while end < len(lines) and lines[end].startswith("| "):
+        end += 1
+    return first, end
+
+
+def _cells(row: str) -> list[str]:
+    return [c.strip() for c in row.strip().strip("|").split("|")]
+
+
+def _pct(cell: str) -> float:
+    return float(cell.removesuffix("%").strip()) / 100.0
+
+
+def _check_coverage_line(lines: list[str], old: list[str], new: list[str]) -> None:
+    """Refuse (SystemExit) unless the coverage line stays true with ``new`` rows for ``old``:
+    the same covered flags, and every replaced bar and |true error| on the same side of the
+    printed medians (the medians of the other rows' unrounded values are then unchanged)."""
+    import re
+
+    cov = next(ln for ln in lines if ln.startswith("**Coverage: "))
+    m = re.search(r"Median error bar ([0-9.]+) %, median \|true error\| ([0-9.]+) %", cov)
+    if m is None:
+        raise SystemExit("no medians in the coverage line")
+    med_bar, med_true = (float(g) / 100.0 for g in m.groups())
+    for a, b in zip(old, new, strict=True):
+        ca, cb = _cells(a), _cells(b)
+        if ca[0] != cb[0] or ca[5] != cb[5]:
+            raise SystemExit(f"row {ca[0]!r} -> {cb[0]!r}, covered {ca[5]} -> {cb[5]}: run all")
+        for col, med in ((3, med_bar), (2, med_true)):
+            va, vb = abs(_pct(ca[col])), abs(_pct(cb[col]))
+            if (va - med) * (vb - med) <= 0:
+                raise SystemExit(f"{cb[0]}: {ca[col]} -> {cb[col]} crosses a median: run all")
+
+
+def _fem_accuracy_line(lines: list[str]) -> str:
+    """The ``- fem:`` line of :func:`accuracy_summary` from the FEM tables' printed rows."""
+    rows = []
+    for bc in BC_MODELS:
+        first, end = _table_rows(lines, f"### fem, bc = {bc}")
+        for row in lines[first:end]:
+            c = _cells(row)
+            n = int(c[0].split(" voxels/L")[0].rsplit(" ", 1)[1])
+            if c[1].startswith(("n/a", "not run")) or n < RESOLVED_VOXELS:
+                continue
+            rows.append((f"fem {bc}: {c[0]}", _pct(c[2])))
+    worst = max(rows, key=lambda r: abs(r[1]))
+    within = sum(abs(t) <= 0.01 for _, t in rows)
+    return (
+        f"- fem: worst |true error| at >= {RESOLVED_VOXELS} voxels per spacing "
+        f"{100 * abs(worst[1]):.2f} % ({worst[0]}); {within} of {len(rows)} rows within 1 %."
+    )
+
+
+def replace_fem_periodic(out: Path, full: bool) -> int:
+    """Re-render only the ``fem, bc = periodic`` rows of ``out`` from ``CACHE`` (nothing solved;
+    rows solved with ``--only fem-periodic``), the FEM accuracy line from the FEM tables, and a
+    note under the file's first line (which rows, when, ``--load``, :data:`FEM_PERIODIC_WHY`);
+    every other line is kept. Refuses if the coverage line would change (run the whole file)."""
+    global CACHE_ONLY, ONLY
+    CACHE_ONLY, ONLY = True, {"fem-periodic"}
+    lines = out.read_text().split("\n")
+    first, end = _table_rows(lines, FEM_PERIODIC_HEADING)
+    fresh = "\n".join(array_tables(full)[0]).split("\n")  # HEADER is two lines
+    new_first, new_end = _table_rows(fresh, FEM_PERIODIC_HEADING)
+    new = fresh[new_first:new_end]
+    if any(NOT_RUN in row for row in new):
+        raise SystemExit(f"{CACHE}: a fem periodic row is not in the cache")
+    _check_coverage_line(lines, lines[first:end], new)
+    lines[first:end] = new
+    i = next(i for i, ln in enumerate(lines) if ln.startswith("- fem: worst |true error|"))
+    lines[i] = _fem_accuracy_line(lines)
+    span = _how(0.0).partition(" into")[0].removeprefix("rows solved ")
+    note = (
+        f"The {len(new)} fem, bc = periodic rows were re-solved on their own into `--cache "
+        f"{CACHE.name}` ({span}, load {LOAD}, one thread, `nice -n 19`; `--only fem-periodic`, "
+        f"then `--replace-fem-periodic`): {FEM_PERIODIC_WHY}."
+    )
+    old = [i for i, ln in enumerate(lines) if ln.startswith("The 4 fem, bc = periodic rows")]
+    if old:
+        lines[old[0]] = note
+    else:
+        lines[3:3] = ["", note]  # under the "Generated by" line
+    out.write_text("\n".join(lines))
+    print(f"wrote {out}: fem periodic rows from {CACHE}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the tables and write the markdown file."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -460,6 +569,12 @@ def main(argv: list[str] | None = None) -> int:
         help="re-render only the random family's section of --out from --cache (its rows "
         "solved with --only random-permeameter random-periodic); the rest of the file is kept",
     )
+    ap.add_argument(
+        "--replace-fem-periodic",
+        action="store_true",
+        help="re-render only the fem, bc = periodic rows of --out from --cache (solved with "
+        "--only fem-periodic) and the FEM accuracy line; the rest of the file is kept",
+    )
     args = ap.parse_args(argv)
     global CACHE, ONLY, CACHE_ONLY, REVERSE, LOAD
     LOAD = args.load or LOAD
@@ -469,6 +584,8 @@ def main(argv: list[str] | None = None) -> int:
     ONLY = None if args.only is None else set(args.only)
     if args.replace_random:
         return replace_random_section(Path(args.out), args.full)
+    if args.replace_fem_periodic:
+        return replace_fem_periodic(Path(args.out), args.full)
     t0 = time.perf_counter()
     arrays, cover = array_tables(args.full)
     rnd = random_family(args.full)
