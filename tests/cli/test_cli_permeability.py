@@ -206,3 +206,40 @@ def test_spec_flow_direction_is_the_default_direction(tmp_path, capsys):
     out = tmp_path / "m"
     assert main(["mesh", str(spec), "-o", str(out), "--quiet"]) == 0
     assert json.loads((out / "mesh.json").read_text())["direction"] == "x"
+
+
+def test_a_gap_closed_by_the_grid_is_refused_naming_rve_voxel(tmp_path, capsys):
+    """Session 37 edge audit: a square array across at solid fraction 0.75 (Sangani & Acrivos'
+    last tabulated point) has a gap L - D = 0.46 um (D = 2 L sqrt(0.75 / pi)), so it has a
+    path; at 0.5 um voxels the gap closes on the grid and the refusal named no key ("solid
+    has no percolating fluid path ..."). It names rve.voxel now: the user's key to change."""
+    l, phi, voxel = 20e-6, 0.75, 0.5e-6
+    d = float(2 * l * np.sqrt(phi / np.pi))
+    assert 0 < l - d < voxel  # the closed form: open, narrower than a voxel
+    spec = (
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = {voxel!r}\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
+        "direction = [0, 0, 1]\n"
+    )
+    code, out, err = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x", spec=spec)
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith("psdesign: error: rve.voxel: no fluid path along x on the 5e-07 m grid")
+    assert "(allowed: " in err
+
+
+def test_an_image_without_a_path_is_refused_naming_the_image(tmp_path, capsys):
+    """An image whose only pore is a channel along y has no path along x: no permeability
+    along x exists (the pore space is the image's own), said with the key ``image``."""
+    a = np.ones((8, 8, 8), np.uint8)
+    a[3:5, :, 3:5] = 0
+    np.save(tmp_path / "img.npy", a)
+    spec = '[image]\npath = "img.npy"\nvoxel_size = 1e-6\n'
+    code, out, err = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x", spec=spec)
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith("psdesign: error: image: the pore space has no path along x")
+    code, out, _ = _run(
+        tmp_path, capsys, "--solver", "voxel", "--direction", "y", "--json", spec=spec
+    )
+    assert code == 0 and json.loads(out)["permeability_m2"] > 0  # along the channel it runs
