@@ -222,6 +222,8 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
         h_coarse = float(fields.grid.size[0]) / shape[0]
 
         def run() -> tuple[float, float]:
+            from solvers.voxel_stokes import NoFluidPathError
+
             coarse = rve.voxelize(h_coarse)
             n_solid = int(np.count_nonzero(coarse.solid))
             if n_solid in (0, coarse.solid.size):
@@ -230,7 +232,12 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
                 )
             with warnings.catch_warnings():  # the coarse grid's own resolution is not the user's
                 warnings.simplefilter("ignore", ResolutionWarning)
-                k = float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"])
+                try:
+                    k = float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"])
+                except NoFluidPathError as exc:  # its line speaks of the user's grid or image
+                    raise ValueError(
+                        f"its {h_coarse:.3g} m grid has no fluid path along {res['direction']}"
+                    ) from exc
             return k, ratio
 
         return run
