@@ -174,6 +174,14 @@ CASES = [
         refuse="rve.voxel",
     ),
     Case(
+        "cyl_phi0.75_diff",
+        "cylinder phi=0.75 (gap 0.46um) at 0.5um voxel: diffusivity x (the grid closes the gap)",
+        lambda f: _cyl(_d_at(L20, 0.75), (L20,) * 3, 0.5e-6 / f),
+        cmd="diffusivity",
+        args=("--direction", "x"),
+        refine=(),
+    ),
+    Case(
         "cyl_phi0.75_fine",
         "cylinder phi=0.75 (gap 0.46um) at 0.25um voxel (gap 1.8 voxels), across (S&A)",
         lambda f: _cyl(_d_at(L20, 0.75), (L20,) * 3, 0.25e-6 / f),
@@ -506,6 +514,23 @@ CASES = [
         refine=(),
     ),
     Case(
+        "fem_cyl_phi0.75",
+        "FEM: cylinder phi=0.75 across (gap 0.46um) on a 1um field",
+        lambda f: _cyl(_d_at(L20, 0.75), (L20,) * 3, 1e-6),
+        args=("--solver", "fem", "--direction", "x"),
+        refine=(),
+        refuse="rve.voxel",
+    ),
+    Case(
+        "fem_cyl_phi0.75_fine",
+        "FEM: cylinder phi=0.75 across (gap 0.46um) on a 0.2um field (S&A)",
+        lambda f: _cyl(_d_at(L20, 0.75), (L20,) * 3, 0.2e-6),
+        args=("--solver", "fem", "--direction", "x"),
+        exact=_across(L20, _d_at(L20, 0.75)),
+        porosity=1 - 0.75,
+        refine=(),
+    ),
+    Case(
         "fem_cyl_along",
         "FEM: cylinder phi=0.1 along (D&T), permeameter",
         lambda f: _cyl(_d_at(L20, 0.1), (L20,) * 3, 1e-6),
@@ -589,6 +614,7 @@ def _run(case: Case, spec: Path, timeout: float) -> dict:
             bar=res.get("permeability_rel_error", res.get("rel_error")),
             porosity=res.get("porosity"),
             porosity_error=res.get("porosity_error"),
+            warnings=res.get("warnings"),
         )
     else:
         row["error_lines"] = [
@@ -661,6 +687,8 @@ def table(rows: list[dict]) -> str:
             status = ("clean refusal: " if r.get("clean_refusal") else "") + line
         else:
             status = _g(r.get("status"))
+            if r.get("status") == "blocked" and r.get("warnings"):
+                status += " + warning: refine rve.voxel"
         ref = f"{_g(r.get('k_ref'))} ({r['ref']})" if r.get("k_ref") else ""
         err = f"{100 * r['true_err']:+.1f} %" if r.get("true_err") is not None else ""
         bar = f"{100 * r['bar']:.2f} %" if isinstance(r.get("bar"), float) else ""
