@@ -162,6 +162,7 @@ from solvers.voxel import threads as vthreads
 
 __all__ = [
     "VoxelFlowResult",
+    "NoFluidPathError",
     "VoxelStokesError",
     "check_percolates",
     "percolates",
@@ -177,6 +178,10 @@ _SIDES = ("slip", "noslip")
 
 class VoxelStokesError(ValueError):
     """Bad input to the voxel Stokes solver."""
+
+
+class NoFluidPathError(VoxelStokesError):
+    """The fluid does not percolate along the flow direction (:func:`check_percolates`)."""
 
 
 @dataclass
@@ -394,7 +399,7 @@ def check_percolates(solid: np.ndarray, direction: int, what: str) -> None:
     ``direction``: without a fluid path a solver would return the leak through its walls, a
     tiny K that is no permeability.  ``what`` names the argument in the message."""
     if not percolates(solid, direction):
-        raise VoxelStokesError(
+        raise NoFluidPathError(
             f"{what} has no percolating fluid path along direction {'xyz'[direction]!r} "
             "(periodic, face-connected fluid voxels)"
         )

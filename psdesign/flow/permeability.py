@@ -222,10 +222,22 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
         h_coarse = float(fields.grid.size[0]) / shape[0]
 
         def run() -> tuple[float, float]:
+            from solvers.voxel_stokes import NoFluidPathError
+
             coarse = rve.voxelize(h_coarse)
+            n_solid = int(np.count_nonzero(coarse.solid))
+            if n_solid in (0, coarse.solid.size):
+                raise err.CoarseLostPhase(
+                    f"its {h_coarse:.3g} m grid has no {'solid' if n_solid == 0 else 'fluid'} voxel"
+                )
             with warnings.catch_warnings():  # the coarse grid's own resolution is not the user's
                 warnings.simplefilter("ignore", ResolutionWarning)
-                k = float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"])
+                try:
+                    k = float(route_result(rve, coarse, direction, flow, solver)["permeability_m2"])
+                except NoFluidPathError as exc:  # its line speaks of the user's grid or image
+                    raise ValueError(
+                        f"its {h_coarse:.3g} m grid has no fluid path along {res['direction']}"
+                    ) from exc
             return k, ratio
 
         return run
@@ -280,6 +292,12 @@ def with_error_estimate(
             f"K_{res['direction']}: no second resolution could be solved{why}; the error bar is "
             "the resolution floor alone"
         )
+    if est.coarse_lost_phase:
+        warnings.append(
+            f"K_{res['direction']}: a phase vanishes on the second resolution's coarser grid, so "
+            "its features are only a few voxels across here and the resolution floor does not "
+            "bound their error (untrustworthy): refine the grid (rve.voxel, or a finer image)"
+        )
     if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
         warnings.append(
             f"K_{res['direction']}: estimated error {100 * est.rel_error:.1f} % exceeds "
@@ -306,7 +324,10 @@ def with_error_estimate(
     # the staircase voxel route is unreliable below MIN_CELLS_PER_DIAMETER (status); the
     # body-fitted P2 tet route gets the warning, and its status follows the error bar
     res["status"] = err.status_of(
-        bool(res.get("converged", False)), est.rel_error, cpd if solver == "voxel" else None
+        bool(res.get("converged", False)),
+        est.rel_error,
+        cpd if solver == "voxel" else None,
+        coarse_lost_phase=est.coarse_lost_phase,
     )
     return res
 

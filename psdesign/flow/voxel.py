@@ -134,6 +134,30 @@ def _options(flow: dict) -> tuple[str, str]:
     return bc, wall
 
 
+def no_path_message(name: str, h: float, analytic: bool) -> str:
+    """The one line of a voxel solve refused for want of a fluid path along ``name``, naming
+    the key to change: ``rve.voxel`` where the surface is analytic (a gap narrower than about a
+    voxel closes on the grid: a square array across at solid fraction 0.75, gap 0.46 um, has
+    no path at 0.5 um voxels, and K within 15 % of Sangani & Acrivos at 0.25 um), ``image``
+    for a segmented image (its pore space is what it is).
+
+    >>> no_path_message("x", 5e-7, True)[:52]
+    'rve.voxel: no fluid path along x on the 5e-07 m grid'
+    """
+    if analytic:
+        return (
+            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected, "
+            "periodic fluid voxels): a gap under about a voxel closes on the grid (allowed: a "
+            f"voxel small enough to open the pore path; none if the pore space has no path "
+            f"along {name})"
+        )
+    return (
+        f"image: the pore space has no path along {name} (face-connected, periodic pore "
+        f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
+        "space joins the faces normal to the flow)"
+    )
+
+
 def permeability_voxel(
     fields: VoxelFields,
     direction: str | int,
@@ -162,7 +186,7 @@ def permeability_voxel(
     velocity and pressure fields and ``capture("voxel_flow", solution=..., result=...,
     fields=..., flow=...)`` is called after the solve (:mod:`psdesign.fields`).
     """
-    from solvers.voxel_stokes import solve_voxel_stokes
+    from solvers.voxel_stokes import NoFluidPathError, solve_voxel_stokes
 
     name, ax = axis_of(direction)
     bc, wall = _options(flow)
@@ -183,22 +207,25 @@ def permeability_voxel(
             stacklevel=2,
         )
     t0 = time.perf_counter()
-    if wall == "diffuse":
-        plan, solve = None, fields
-        res = _diffuse(rve, fields, name, flow, h, bc, progress, capture is not None)
-    else:
-        plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
-        res = solve_voxel_stokes(
-            solve.solid,
-            h,
-            name,
-            viscosity=float(flow["viscosity"]),
-            periodic_treatment=flow.get("periodic_treatment", "periodic"),
-            progress=progress,
-            return_velocity=capture is not None,
-            return_pressure=capture is not None,
-            **kw,
-        )
+    try:
+        if wall == "diffuse":
+            plan, solve = None, fields
+            res = _diffuse(rve, fields, name, flow, h, bc, progress, capture is not None)
+        else:
+            plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
+            res = solve_voxel_stokes(
+                solve.solid,
+                h,
+                name,
+                viscosity=float(flow["viscosity"]),
+                periodic_treatment=flow.get("periodic_treatment", "periodic"),
+                progress=progress,
+                return_velocity=capture is not None,
+                return_pressure=capture is not None,
+                **kw,
+            )
+    except NoFluidPathError as exc:
+        raise NoFluidPathError(no_path_message(name, h, fields.analytic_distance)) from exc
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
     # parallel kernels not compiled yet (res.serial_fallback) make a solve slower, not its

@@ -246,5 +246,8 @@ def check_voxel_connectivity(field: np.ndarray, axis: int, has_aux: bool) -> Non
     common = np.intersect1d(a[a > 0], b[b > 0])
     if len(common) == 0:
         raise PoreTopologyError(
-            "disconnected pore space: no pore path from the inlet to the outlet through the RVE"
+            "rve.voxel: disconnected pore space: no pore path from the inlet to the outlet on "
+            "the voxel field the mesh is built from, where pore gaps under about a voxel are "
+            "closed (allowed: a voxel fine enough to open the path, none if the RVE has no path; "
+            "an image's pore space has none at its resolution)"
         )

@@ -169,3 +169,44 @@ def test_ejection_places_every_fiber_and_reports_matching_rows():
     assert np.allclose(res.state.direction, st.direction[res.placed])
     vf = RVE([1e-4] * 3, res.state.to_fibers()).voxelize(1e-6)
     assert vf.intersection_volume_fraction == 0.0
+
+
+def test_fine_bends_are_cut_by_diameter_not_by_wave():
+    """Session 37 edge audit: at generator.f = 1000 (its upper end) every fiber copy was cut
+    into 8 pieces per bend, 8000 per period, and the contact search's pairs within a diameter
+    of a 50 um box's eight fibers filled 22.7 GB (killed by the kernel). Pieces are now no
+    shorter than D / 64, the chord's sag bounded by twice the amplitude, and contacts stay
+    exact: two copies of one bent axis translated by ``gap`` normal to its bend plane are
+    ``gap`` apart everywhere (the truth), so they touch iff ``gap < D`` (+ the sag slack)."""
+    from psdesign.packing.fiberset import build_pieces, find_contacts
+
+    d, u, f = 0.16, 0.01, 1000.0  # |u| f = 10, the largest allowed
+    amp = u / (2 * np.pi)
+    for gap, touch in ((0.95 * d, True), (d + 4 * amp + 0.01, False)):
+        one = FiberState(
+            diameter=np.full(1, d),
+            center=np.array([[0.5, 0.5, 0.5]]),
+            theta=np.zeros(1),
+            omega=np.zeros(1),
+            u=np.full(1, u),
+            f=np.full(1, f),
+            fixed=np.ones(1, bool),
+        )
+        normal = one.frames[0, 2]  # normal to the bend plane (direction, lattice1)
+        st = FiberState(
+            diameter=np.full(2, d),
+            center=np.array([[0.5, 0.5, 0.5], [0.5, 0.5, 0.5] + gap * normal]),
+            theta=np.zeros(2),
+            omega=np.zeros(2),
+            u=np.full(2, u),
+            f=np.full(2, f),
+            fixed=np.ones(2, bool),
+        )
+        pieces = build_pieces(st, LO, HI, 0.5 * d, 2 * d)
+        per_copy = np.bincount(pieces.copy) / pieces.copy_len
+        assert per_copy.max() <= 64 / d + 1  # was 8 f = 8000 per period
+        assert pieces.sag.max() <= 2 * amp + 1e-15
+        c = find_contacts(st, LO, HI, 0.0)
+        assert (len(c) > 0) == touch
+        if touch:
+            assert c.dist.min() == pytest.approx(gap, rel=1e-9)
