@@ -218,6 +218,7 @@ def test_unconverged_solve_is_written_with_exit_3_not_1(tmp_path, capsys):
     assert "[not_converged]" in out and "converged false" in out
     assert "did not converge" in err
 
+
 def test_a_gap_closed_by_the_grid_is_refused_naming_rve_voxel(tmp_path, capsys):
     """Session 37 edge audit: a square array across at solid fraction 0.75 (Sangani & Acrivos'
     last tabulated point) has a gap L - D = 0.46 um (D = 2 L sqrt(0.75 / pi)), so it has a
