@@ -219,19 +219,26 @@ def test_unconverged_solve_is_written_with_exit_3_not_1(tmp_path, capsys):
     assert "did not converge" in err
 
 
+def _gap_under_a_voxel(voxel: float) -> str:
+    """A square array across at solid fraction 0.75 (Sangani & Acrivos' last tabulated point)
+    in a 20 um cell: gap L - D = 0.46 um (D = 2 L sqrt(0.75 / pi)), open by the closed form and
+    narrower than ``voxel``."""
+    l, phi = 20e-6, 0.75
+    d = float(2 * l * np.sqrt(phi / np.pi))
+    assert 0 < l - d < voxel
+    return (
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = {voxel!r}\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
+        "direction = [0, 0, 1]\n"
+    )
+
+
 def test_a_gap_closed_by_the_grid_is_refused_naming_rve_voxel(tmp_path, capsys):
     """Session 37 edge audit: a square array across at solid fraction 0.75 (Sangani & Acrivos'
     last tabulated point) has a gap L - D = 0.46 um (D = 2 L sqrt(0.75 / pi)), so it has a
     path; at 0.5 um voxels the gap closes on the grid and the refusal named no key ("solid
     has no percolating fluid path ..."). It names rve.voxel now: the user's key to change."""
-    l, phi, voxel = 20e-6, 0.75, 0.5e-6
-    d = float(2 * l * np.sqrt(phi / np.pi))
-    assert 0 < l - d < voxel  # the closed form: open, narrower than a voxel
-    spec = (
-        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = {voxel!r}\n[[fibers]]\n"
-        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
-        "direction = [0, 0, 1]\n"
-    )
+    spec = _gap_under_a_voxel(0.5e-6)
     code, out, err = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x", spec=spec)
     assert code == 2 and out == "" and "Traceback" not in err
     assert err.count("\n") == 1
@@ -265,14 +272,7 @@ def test_the_fem_route_names_rve_voxel_when_the_field_closes_the_gap(tmp_path, c
     on a 1 um field: the mesher closes gaps under a voxel, and its refusal named no key
     ("disconnected pore space: ... through the RVE"). At 0.2 um voxels the FEM runs (K 3.3 %
     below Sangani & Acrivos; session 37 edge audit)."""
-    l, phi = 20e-6, 0.75
-    d = float(2 * l * np.sqrt(phi / np.pi))
-    assert 0 < l - d < 1e-6
-    spec = (
-        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = 1e-6\n[[fibers]]\n"
-        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
-        "direction = [0, 0, 1]\n"
-    )
+    spec = _gap_under_a_voxel(1e-6)
     code, out, err = _run(tmp_path, capsys, "--solver", "fem", "--direction", "x", spec=spec)
     assert code == 2 and out == "" and "Traceback" not in err
     assert err.count("\n") == 1

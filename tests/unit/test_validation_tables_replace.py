@@ -86,12 +86,19 @@ def _fill(mod, bars: tuple[float, ...]) -> None:
         mod._cached(f"fem periodic {name}", lambda res=res: res)
 
 
-def test_replaces_the_fem_periodic_rows_and_keeps_every_other_line(tmp_path: Path) -> None:
+def _doc_and_cache(tmp_path: Path, cache: str, bars: tuple[float, ...]):
+    """The script with its cache under ``tmp_path`` holding the four rows at ``bars``, and a
+    copy of :data:`DOC` to rewrite."""
     mod = _script()
-    mod.CACHE = tmp_path / "vcache37"
-    _fill(mod, (0.0065, 0.0031, 0.0074, 0.0043))
+    mod.CACHE = tmp_path / cache
+    _fill(mod, bars)
     out = tmp_path / "validation.md"
     out.write_text(DOC)
+    return mod, out
+
+
+def test_replaces_the_fem_periodic_rows_and_keeps_every_other_line(tmp_path: Path) -> None:
+    mod, out = _doc_and_cache(tmp_path, "vcache37", (0.0065, 0.0031, 0.0074, 0.0043))
     mod.LOAD = "2.2-3.5"
     assert mod.replace_fem_periodic(out, full=False) == 0
     old, new = DOC.split("\n"), out.read_text().split("\n")
@@ -125,11 +132,7 @@ def test_replaces_the_fem_periodic_rows_and_keeps_every_other_line(tmp_path: Pat
 
 def test_refuses_a_row_that_would_change_the_kept_coverage_line(tmp_path: Path) -> None:
     """A bar moved across the printed median (1.22 %) would change the median the file keeps."""
-    mod = _script()
-    mod.CACHE = tmp_path / "vcache"
-    _fill(mod, (0.0065, 0.0031, 0.0130, 0.0043))
-    out = tmp_path / "validation.md"
-    out.write_text(DOC)
+    mod, out = _doc_and_cache(tmp_path, "vcache", (0.0065, 0.0031, 0.0130, 0.0043))
     with pytest.raises(SystemExit, match="crosses a median"):
         mod.replace_fem_periodic(out, full=False)
     assert out.read_text() == DOC
