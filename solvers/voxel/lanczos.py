@@ -31,7 +31,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import NoAliasCompiler, SerialHelpers, parallel_kernel
+from solvers.jit import SerialHelpers, parallel_kernel
 from solvers.reduction import ordered_sum
 from solvers.voxel import memory as vmem
 from solvers.voxel import simd
@@ -357,7 +357,7 @@ def _continuity_plane(ff, fx, fy, q0, uu, uip, vv, ww, p0, ny, nz, s, c1, saved)
     return _plane_dot(fx, fy, p0, pl)
 
 
-@_SERIAL.slab(pipeline_class=NoAliasCompiler, **_OPTS)
+@_SERIAL.inline
 def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos` when every component has
     :func:`solvers.voxel.kernels.unit_couplings` (the staircase's periodic grids): each
@@ -366,7 +366,15 @@ def _lanczos_flat_slab(du, dv, dw, fluid, x, s, c1, y, i):
     ``x . y_new`` summed per plane from cache: 0.84-0.89x the one-thread CPU of the row loops
     of :func:`_lanczos_slab` at 200^3; 1.55x without the prefetch (``benchmarks/RESULTS.md``,
     band15).  The same expressions, so the same values up to float32 round-off (fastmath may
-    contract them differently)."""
+    contract them differently).
+
+    Inlined into :func:`_lanczos_slab` by numba, not a cached function of its own: as one, the
+    call from ``_lanczos_slab`` reached either its own compile or the copy linked into its
+    caller, whichever the process had loaded first, and the two differ in the last bits under
+    fastmath reassociation; a staircase solve's K and residual then depended on whether the
+    process had compiled the kernels (session 37: K 2.6e-11 apart, residual 5.3477e-07 vs
+    5.3271e-07).  Inlined, one code in every process; +12 s CPU on a cold compile of
+    :func:`stokes_lanczos`'s twins (61-62 -> 72-74 s), the product's speed unchanged."""
     nx, ny, nz = fluid.shape
     fx = simd.flat(x)
     fy = simd.flat(y)

@@ -391,3 +391,53 @@ def test_flat_lanczos_product_against_numpy(shape: tuple[int, int, int], twin: s
         assert np.abs(want).max() > 1.0
         assert np.abs(y - want).max() <= 1e-6 * np.abs(want).max()
         assert xy == pytest.approx(float(np.dot(x.ravel().astype(float), want.ravel())), rel=1e-6)
+
+
+_CACHE_STATE_CHILD = """
+import hashlib
+import numpy as np
+from solvers import voxel_stokes as vs
+from solvers.voxel import lanczos as lz
+g = np.indices((24, 24, 24)).astype(float)
+solid = ((g[0] - 12) ** 2 + (g[1] - 12) ** 2 < 25) | ((g[1] - 5) ** 2 + (g[2] - 18) ** 2 < 9)
+op = vs._Stokes.build(solid)  # periodic staircase: unit couplings, the flat Lanczos loop
+x = np.random.default_rng(0).standard_normal(op.shape).astype(np.float32)
+for a in range(3):
+    x[a] *= op.d[a] > 0
+x[3] *= op.fluid > 0
+out = []
+for twin in ("serial", "parallel"):
+    y = np.zeros_like(x)
+    dot = getattr(lz.stokes_lanczos, twin)(*op.d, *op.c, op.fluid, x, 0.7, 0.0, y)
+    out.append(hashlib.sha256(y.tobytes()).hexdigest()[:16] + " " + repr(dot))
+print(" | ".join(out))
+"""
+
+
+@pytest.mark.slow
+def test_staircase_product_is_bitwise_the_same_compiled_or_cached(tmp_path, repo_root) -> None:
+    """Session 37: the process that compiled ``stokes_lanczos`` and every later process, which
+    loads it from numba's cache, gave other last bits (a 32^3 Toray-like grid: y's hash and
+    the dot 308246.0391911829 vs 308246.039190907; a staircase K 2.6e-11 apart): the call
+    into the flat loop reached its own compile or the copy linked into its caller, whichever
+    the process had loaded first. Truth: one process compiling, the next loading, same bits."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "NUMBA_NUM_THREADS": "2"}
+    env["PYTHONPATH"] = str(repo_root)
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", _CACHE_STATE_CHILD],
+            env=env,
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        for _ in range(2)
+    ]
+    assert runs[0] == runs[1], runs
+    serial, parallel = runs[0].split(" | ")
+    assert serial == parallel  # the twins agree, as test_voxel_threads checks on their own
