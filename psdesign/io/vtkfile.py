@@ -21,6 +21,8 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from psdesign.io.diskfull import named_write_error, short_write_errno
+
 __all__ = ["save_vtk"]
 
 #: Characters encoded and written at a time: the file is not held twice in memory as text and
@@ -88,10 +90,11 @@ def save_vtk(dataset: Any, path: str | os.PathLike) -> Path:
                 part = text[i : i + _CHUNK]
                 fh.write(part if isinstance(part, bytes) else part.encode("utf-8"))
     except OSError as exc:
+        named = named_write_error(exc, path, path.parent)  # before the blocks are freed
         _remove_partial(path)
-        if exc.filename is None:
-            exc.filename = str(path)
-        raise
+        if named is exc:
+            raise
+        raise named from exc
     return path
 
 
@@ -114,9 +117,9 @@ def _stream(dataset: Any, path: Path) -> Path:
     ):
         dataset.save(path)
     if caught.events:
+        code = short_write_errno(path.parent)  # ENOSPC on a full disk: before the blocks go
         _remove_partial(path)
-        reason = f"{os.strerror(errno.EIO)} (VTK could not write the file)"
-        raise OSError(errno.EIO, reason, str(path))
+        raise OSError(code, f"{os.strerror(code)} (VTK could not write the file)", str(path))
     return path
 
 

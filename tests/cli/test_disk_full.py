@@ -79,6 +79,24 @@ def test_save_vtk_raises_when_the_file_cannot_be_written_and_prints_nothing(tmp_
     assert pv.read(ok).n_points == 27000
 
 
+def test_save_vtk_streaming_on_a_disk_that_filled_says_enospc(tmp_path, monkeypatch):
+    # session 37 review: where the disk had room, VTK streams the file itself, and its failure
+    # was always EIO; a disk another process filled meanwhile must read as full (ENOSPC), as
+    # session 35's save_vtk said and as the study runner needs to stop rather than record a
+    # failed case (diskfull.is_disk_full). Truth: the file system reports no free block.
+    from psdesign.io import diskfull, vtkfile
+
+    monkeypatch.setattr(vtkfile, "_free_bytes", lambda folder: 1 << 40)  # room: streamed
+    target = tmp_path / "a.vti"
+    target.mkdir()  # VTK cannot open it: its writer reports an error
+    full = os.statvfs_result((4096, 4096, 100, 0, 0, 10, 0, 0, 0, 255))  # no free block
+    monkeypatch.setattr(diskfull.os, "statvfs", lambda _p: full)
+    with pytest.raises(OSError, match="No space left on device") as info:
+        vtkfile.save_vtk(_image(), target)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
+    assert diskfull.is_disk_full(info.value) and target.is_dir()
+
+
 class _FullDisk:
     """A file opened on a disk with ``room`` bytes left: the rest of a write fails ENOSPC."""
 
