@@ -265,7 +265,7 @@ def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool)
         msg = f"every design point of the parameter box has run ({n_points}; its int "
         return msg + "parameters hold no other)" + none_ok, not any_ok
     if len(ok) >= 3:  # every candidate rounds onto a point that has run
-        return f"no candidate left that is a new design point ({n_points} run)", not any_ok
+        return f"no candidate left that is a new design point ({n_points} run)", False
     msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
     return msg + first_error(df), True
 

@@ -23,6 +23,8 @@ Before session 37, 3 was 1: a full disk and an unconverged solve looked the same
 
 from __future__ import annotations
 
+import sys
+
 OK = 0
 FAILED = 1
 BAD_INPUT = 2
@@ -43,3 +45,9 @@ HELP = (
 def converged_status(converged: bool) -> int:
     """``OK`` for a converged result, ``NOT_TRUSTED`` for one written but not converged."""
     return OK if converged else NOT_TRUSTED
+
+
+def fail(message: str, code: int = BAD_INPUT) -> int:
+    """Print ``psdesign: error: message`` (the one line on stderr) and return ``code``."""
+    print(f"psdesign: error: {message}", file=sys.stderr)
+    return code

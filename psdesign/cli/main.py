@@ -10,7 +10,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from psdesign.cli.exit_status import BAD_INPUT, FAILED, INTERRUPTED, TERMINATED
+from psdesign.cli.exit_status import FAILED, INTERRUPTED, TERMINATED, fail
 from psdesign.cli.exit_status import HELP as EXIT_HELP
 from psdesign.cli.progress import activate
 from psdesign.errors import SpecError, show_warning_one_line
@@ -62,28 +62,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         with terminate_as_interrupt(), activate(quiet=bool(getattr(args, "quiet", False))):
             return int(args.func(args) or 0)
     except SpecError as exc:
-        print(f"psdesign: error: {exc}", file=sys.stderr)
-        return BAD_INPUT
+        return fail(str(exc))
     except (RecursionError, OverflowError) as exc:  # input nested too deeply / numbers too large
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
-        print(
-            f"psdesign: error: input: {type(exc).__name__} (nested too deeply or numbers too "
-            "large)",
-            file=sys.stderr,
-        )
-        return BAD_INPUT
+        return fail(f"input: {type(exc).__name__} (nested too deeply or numbers too large)")
     except ValueError as exc:  # bad input found past the spec (geometry, mesh, arguments)
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
-        print(f"psdesign: error: {exc}", file=sys.stderr)
-        return BAD_INPUT
+        return fail(str(exc))
     except OSError as exc:  # writing or reading failed past the checks (disk, permissions)
         if os.environ.get("PSDESIGN_DEBUG"):
             raise
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"psdesign: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return FAILED
+        return fail(f"{where}{exc.strerror or exc}", FAILED)
     except KeyboardInterrupt as exc:  # Ctrl-C; SIGTERM (Terminated)
         from psdesign.study.interrupt import Terminated
 

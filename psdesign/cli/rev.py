@@ -7,7 +7,7 @@ import json
 import re
 import sys
 
-from psdesign.cli.exit_status import BAD_INPUT, FAILED
+from psdesign.cli.exit_status import FAILED, fail
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
@@ -31,11 +31,9 @@ def _cmd_rev(args: argparse.Namespace) -> int:
             report=False,
         )
     except ValueError as exc:
-        print(f"psdesign: error: {exc}", file=sys.stderr)
-        return BAD_INPUT
+        return fail(str(exc))
     except RevFailed as exc:
-        print(f"psdesign: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return FAILED
+        return fail(" ".join(str(exc).split()), FAILED)
     _warn_untrustworthy(args.out)
     if args.json:
         print(

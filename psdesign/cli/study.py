@@ -15,7 +15,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from psdesign.cli.exit_status import BAD_INPUT, FAILED, INTERRUPTED, NOT_TRUSTED, OK, TERMINATED
+from psdesign.cli.exit_status import (
+    BAD_INPUT,
+    FAILED,
+    INTERRUPTED,
+    NOT_TRUSTED,
+    OK,
+    TERMINATED,
+    fail,
+)
 from psdesign.cli.progress import add_force_argument, add_workers_argument
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
@@ -129,11 +137,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     return study
 
 
-def _fail(msg: str, code: int) -> int:
-    print(f"psdesign: error: {msg}", file=sys.stderr)
-    return code
-
-
 def _cluster(args: argparse.Namespace, wait_s: float | None):
     """The :class:`~psdesign.study.cluster.ClusterOptions` of ``--cluster``, or None
     (``wait_s``: ``--cluster-wait``, checked by :func:`_cluster_wait`)."""
@@ -197,7 +200,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         if args.scheduler:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
-        return _fail(str(exc), BAD_INPUT)
+        return fail(str(exc), BAD_INPUT)
     from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import (
         WorkersLost,
@@ -235,15 +238,13 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             worker_wait_s=wait_s,
         )
     except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
-        return _fail(str(exc), BAD_INPUT)
+        return fail(str(exc), BAD_INPUT)
     except (StorageError, WorkersLost) as exc:
-        return _fail(str(exc), FAILED)
+        return fail(str(exc), FAILED)
     except Terminated:
-        return _fail(
-            "terminated; finished cases are saved, rerun the command to resume", TERMINATED
-        )
+        return fail("terminated; finished cases are saved, rerun the command to resume", TERMINATED)
     except KeyboardInterrupt:
-        return _fail(
+        return fail(
             "interrupted; finished cases are saved, rerun the command to resume", INTERRUPTED
         )
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
@@ -295,14 +296,14 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     try:
         path = write_report(args.out)
     except (ReportError, OutputError) as exc:
-        return _fail(str(exc), BAD_INPUT)
+        return fail(str(exc), BAD_INPUT)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         msg = " ".join(str(exc).split())
-        return _fail(
+        return fail(
             f"out_dir: {args.out}/results.csv is unreadable ({msg}); rerun the study", BAD_INPUT
         )
     except StorageError as exc:
-        return _fail(str(exc), FAILED)
+        return fail(str(exc), FAILED)
     print(path)
     return 0
 

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
 MAX_SEED = 2**32 - 2
@@ -29,11 +29,6 @@ def int_in(lo: int, hi: int, what: str):
     return parse
 
 
-def _fail(msg: str, code: int = 2) -> int:
-    print(f"psdesign: error: {msg}", file=sys.stderr)
-    return code
-
-
 def _print_json(obj) -> None:
     """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
     ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
@@ -50,7 +45,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     try:
         models = fit_study(args.out, args.outputs or None, skipped)
     except (FileNotFoundError, ValueError) as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     for reason in skipped.values():  # "k_z_m2: need at least 3 ..."
         print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
@@ -120,7 +115,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         )
         rows = {name: _predict_one(m, args.at, ints) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
-        return _fail(" ".join(str(exc).split()))
+        return fail(" ".join(str(exc).split()))
     out = {name: row for name, (row, _) in rows.items()}
     wide = [w for _, w in rows.values() if w]
     for w in wide:
@@ -171,11 +166,11 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     try:
         models = load_study_surrogates(args.out)
     except (FileNotFoundError, ValueError) as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     names = args.outputs or list(models)
     unknown = [n for n in names if n not in models]
     if unknown:
-        return _fail(f"--outputs: no surrogate for {unknown[0]!r}; fitted: {', '.join(models)}")
+        return fail(f"--outputs: no surrogate for {unknown[0]!r}; fitted: {', '.join(models)}")
     result = {}
     skipped = []
     for name in names:
@@ -204,7 +199,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             # ~1e-12 m^2, which a fixed 3 decimals printed as 0.000)
             print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     if len(skipped) == len(names):
-        return _fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
+        return fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
         _print_json(result)
     return 0
@@ -255,7 +250,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         if args.scheduler:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
-        return _fail(str(exc))
+        return fail(str(exc))
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
     from psdesign.study.runner import WorkersLost, check_workers
@@ -276,9 +271,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             progress=not args.quiet,
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
-        return _fail(str(exc))
+        return fail(str(exc))
     except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
-        return _fail(str(exc), FAILED)
+        return fail(str(exc), FAILED)
     targets_out = [_target_report(t, res.best) for t in targets]
     summary = {
         "met": res.met,
