@@ -344,7 +344,12 @@ class SerialHelpers:
 
     def slab(self, **opts: object) -> Callable[[Callable], Callable]:
         """Decorator: ``@njit(**opts)`` in the module; a second ``@njit(**opts)`` dispatcher
-        over :attr:`ns`, named ``<qualname>__serial`` (numba names its cache files after it)."""
+        over :attr:`ns`, named ``<qualname>__serial`` (numba names its cache files after it).
+
+        A kernel may call a slab; a slab must not call another slab (make that one
+        :meth:`inline`): the call would reach the callee's own compile or its copy linked into
+        the caller, whichever a process loaded first, and under fastmath the two differ in
+        the last bits (session 37; ``tests/unit/test_voxel_threads.py`` scans for it)."""
 
         def wrap(fn: Callable) -> Callable:
             disp = nb.njit(**opts)(fn)

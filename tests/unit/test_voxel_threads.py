@@ -229,6 +229,50 @@ def test_no_kernel_sum_depends_on_the_threading() -> None:
     assert _parfor_reductions(_scaled_sum) == ["line 5: acc += x[i]"]
 
 
+def _compiled_on_their_own(root) -> dict[str, object]:
+    """Functions of ``solvers`` that numba compiles as functions of their own (``@X.slab(...)``,
+    ``@nb.njit(...)`` without ``inline``), by name: their AST nodes."""
+    import ast
+
+    def own(dec) -> bool:
+        if not isinstance(dec, ast.Call):
+            return False
+        f = dec.func
+        name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+        return name in ("slab", "njit") and not any(k.arg == "inline" for k in dec.keywords)
+
+    out = {}
+    for path in sorted((root / "solvers").rglob("*.py")):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.FunctionDef) and any(own(d) for d in node.decorator_list):
+                out[node.name] = node
+    return out
+
+
+def test_no_separately_compiled_function_calls_another(repo_root) -> None:
+    """Session 37: ``_lanczos_slab`` (a cached function of its own) called the flat loop
+    ``_lanczos_flat_slab`` (another): the call reached the flat loop's own compile or the copy
+    linked into its caller, whichever a process loaded first, and under fastmath the two gave
+    other last bits, so a staircase K depended on whether the process had compiled the kernels
+    (tests/unit/test_voxel_lanczos.py checks that case). A kernel calling its plane function
+    (``parallel_kernel`` -> slab) measured the same in every process; a plane function calling
+    another is the pair to avoid: make the callee ``inline``. The scan finds the old pair."""
+    import ast
+
+    funcs = _compiled_on_their_own(repo_root)
+    assert {"_lanczos_slab", "_galerkin_slab", "ordered_sum"} <= set(funcs)
+    pairs = sorted(
+        f"{name} -> {call.func.id}"
+        for name, node in funcs.items()
+        for call in ast.walk(node)
+        if isinstance(call, ast.Call)
+        and isinstance(call.func, ast.Name)
+        and call.func.id in funcs
+        and call.func.id != name
+    )
+    assert pairs == []
+
+
 def test_a_kernel_sum_is_the_serial_twins_on_two_threads() -> None:
     """Session 36 (see above): the float64 dot of a 4096-row float32 pair whose rows span 12
     decades, parallel twin against serial twin, bitwise, five calls (before: OpenMP's two
