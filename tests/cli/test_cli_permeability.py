@@ -278,3 +278,38 @@ def test_the_fem_route_names_rve_voxel_when_the_field_closes_the_gap(tmp_path, c
     assert err.count("\n") == 1
     assert err.startswith("psdesign: error: rve.voxel: disconnected pore space")
     assert "(allowed: " in err
+
+
+def test_the_tet_mesh_that_closes_a_gap_the_field_keeps_is_refused_naming_flow_lattice_step(
+    tmp_path, capsys
+):
+    """Session 38: the tet mesh's own component check (``tetra.keep_through_components``)
+    named no key ("disconnected pore space: no pore path from the inlet to the outlet (4 pore
+    components, none touches both)"). A square array across at solid fraction 0.6 (D = 2 L
+    sqrt(0.6 / pi) = 17.48 um in a 20 um cell: gap 2.52 um, 5 voxels of 0.5 um, so the voxel
+    field keeps the path), the fiber moved 1.3 um along y so the gap lies between two lattice
+    planes of an 8 um stuffing lattice, whose tets close it. The key that governs it is
+    flow.lattice_step: at 1 um the same RVE meshes (exit 0)."""
+    l = 20e-6
+    d = float(2 * l * np.sqrt(0.6 / np.pi))
+    assert l - d > 5 * 0.5e-6  # the voxel field's path
+    spec = (
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = 5e-7\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1.13e-5, 1e-5]\n'
+        "direction = [0, 0, 1]\n[flow]\nlattice_step = "
+    )
+    code, out, err = _run(
+        tmp_path, capsys, "--solver", "fem", "--direction", "x", spec=spec + "8e-6\n"
+    )
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith(
+        "psdesign: error: flow.lattice_step: disconnected pore space: the tet mesh has no pore "
+        "path from the inlet to the outlet"
+    )
+    assert "the lattice step 8e-06 m closes pore gaps" in err and "(allowed: " in err
+    path = tmp_path / "fine.toml"
+    path.write_text(spec + "1e-6\n")
+    out_dir = tmp_path / "mesh"
+    assert main(["mesh", str(path), "-o", str(out_dir), "--direction", "x", "--quiet"]) == 0
+    assert json.loads((out_dir / "mesh.json").read_text())["direction"] == "x"
