@@ -98,7 +98,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         "lattice_step too coarse for the geometry?")  # fmt: skip
+         f"flow.lattice_step: the lattice step {step:.3g} m may be too coarse for the geometry "
+         "(allowed: a smaller step, under about the fiber radius and the narrowest pore gap; "
+         "> 0 m, <= half the smallest edge, at most 5e7 lattice cells)")  # fmt: skip
     lo, hi = sm.lo * f.scale, sm.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,

@@ -183,8 +183,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         "the mesher lost or added pore (thin gaps? try a smaller epsilon/edge_length or a "
-         "larger min_gap_voxels)")  # fmt: skip
+         "flow.edge_length: the mesher lost or added pore (thin gaps?) (allowed: a smaller "
+         "edge_length, in [0.005, 1] of the box diagonal, or mesher = 'stuffing'; from Python "
+         "also a smaller epsilon or a larger min_gap_voxels)")  # fmt: skip
     lo, hi = surf.lo * f.scale, surf.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,
