@@ -114,17 +114,22 @@ def mesh_quality(
 
 
 def gate(quality: dict, volume_tol: float, min_pore_fraction: float, what: str, hint: str):
-    """Raise :class:`MeshFailedError` when the volume or pore-fraction checks fail."""
+    """Raise :class:`MeshFailedError` when the volume or pore-fraction checks fail.
+
+    ``hint`` is ``"key: what to change (allowed: ...)"``, the mesher's resolution key: the
+    refusal begins with that key (a spec's user reads which key to change and its range).
+    """
+    key, _, rest = hint.partition(": ")
     err = quality["volume_rel_error"]
     if abs(err) > volume_tol:
         raise MeshFailedError(
-            f"tet mesh volume {quality['mesh_volume_m3']:.4g} m^3 differs from the {what} "
-            f"{quality['volume_target_m3']:.4g} m^3 by {100 * err:.2f} % (> volume_tol = "
-            f"{100 * volume_tol:.2f} %): {hint}"
+            f"{key}: tet mesh volume {quality['mesh_volume_m3']:.4g} m^3 differs from the "
+            f"{what} {quality['volume_target_m3']:.4g} m^3 by {100 * err:.2f} % (> volume_tol "
+            f"= {100 * volume_tol:.2f} %): {rest}"
         )
     frac = quality["pore_centroid_fraction"]
     if frac < min_pore_fraction:
         raise MeshFailedError(
-            f"only {100 * frac:.2f} % of the RVE tet centroids lie in the pore "
-            f"(min_pore_fraction = {100 * min_pore_fraction:.1f} %): {hint}"
+            f"{key}: only {100 * frac:.2f} % of the RVE tet centroids lie in the pore "
+            f"(min_pore_fraction = {100 * min_pore_fraction:.1f} %): {rest}"
         )

@@ -79,8 +79,11 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     t = time.perf_counter()
     progress.stage(f"mesh: {len(sm.tets)} tets stuffed; through-flow components and tags")
     pts, tets, comp, bfaces = keep_through_components(
-        sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic
-    )
+        sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic,
+        refine=f"flow.lattice_step: the lattice step {step:.3g} m closes pore gaps "
+        "narrower than about a step (allowed: a smaller step, under about the narrowest gap of "
+        "the path; > 0 m, <= half the smallest edge, at most 5e7 lattice cells)",
+    )  # fmt: skip
     tags = tag_faces(pts, bfaces, sm.lo, sm.hi, f.axis)
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
     timings["tagging_time_s"] = time.perf_counter() - t
@@ -95,7 +98,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         "lattice_step too coarse for the geometry?")  # fmt: skip
+         f"flow.lattice_step: the lattice step {step:.3g} m may be too coarse for the geometry "
+         "(allowed: a smaller step, under about the fiber radius and the narrowest pore gap; "
+         "> 0 m, <= half the smallest edge, at most 5e7 lattice cells)")  # fmt: skip
     lo, hi = sm.lo * f.scale, sm.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,

@@ -240,6 +240,16 @@ def tag_faces(
     return tags
 
 
+#: The tet mesh's resolution keys, for :func:`keep_through_components`' refusal when its caller
+#: names no mesher: ``"key: what closes gaps (allowed: ...)"``.
+MESH_RESOLUTION = (
+    "flow.lattice_step: a tet mesh closes pore gaps narrower than about its step (allowed: a "
+    "smaller step, under about the narrowest gap of the path: flow.lattice_step > 0 m with "
+    "mesher = 'stuffing', flow.edge_length in [0.005, 1] of the box diagonal with mesher = "
+    "'pytetwild')"
+)
+
+
 def keep_through_components(
     points: np.ndarray,
     tets: np.ndarray,
@@ -248,11 +258,17 @@ def keep_through_components(
     axis: int,
     tol: float,
     any_face: bool = False,
+    refine: str = MESH_RESOLUTION,
 ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """Drop tet components that touch neither inlet nor outlet; fail if none spans both.
 
     With ``any_face`` (periodic meshes) only components touching no box face at all are
     dropped (a pocket cut by a lateral face continues through its periodic image).
+    ``refine`` begins the refusal when no component spans both: the key that sets the tet
+    mesh's resolution and its allowed range, ``"key: what closes gaps (allowed: ...)"`` (the
+    mesher's; default :data:`MESH_RESOLUTION`, both meshers' keys). The voxel field the mesh is
+    built from had a path (:func:`~psdesign.meshing.surface.check_voxel_connectivity` runs
+    first), so the mesh closed a gap narrower than about its step.
     Returns the filtered (points, tets) (vertices renumbered), a report dict and the
     boundary faces of the filtered mesh: exactly ``face_structure(tets)[0]`` (whole
     components are dropped, so no new boundary face appears, and the renumbering keeps the
@@ -275,9 +291,11 @@ def keep_through_components(
     if not touches_out.any():
         raise PoreTopologyError("the outlet face is fully blocked by solid: no pore at the outlet")
     if not (touches_in & touches_out).any():
+        key, _, rest = refine.partition(": ")
         raise PoreTopologyError(
-            "disconnected pore space: no pore path from the inlet to the outlet "
-            f"({ncomp} pore components, none touches both)"
+            f"{key}: disconnected pore space: the tet mesh has no pore path from the inlet to "
+            f"the outlet ({ncomp} pore components, none touches both) where its voxel field has "
+            f"one: {rest}"
         )
     keep_comp = touches_in | touches_out
     if any_face:

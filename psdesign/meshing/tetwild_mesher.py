@@ -65,6 +65,13 @@ _MAX_DROPPED_INVERTED = 20  # inverted slivers left after untangling that may be
 # issue 12 item 5 (the volume gate after the wall fit still checks the whole mesh)
 _MAX_DROPPED_VOLUME = 1e-3
 _WALL_NEWTON_STEPS = 3  # Newton steps of the wall projection onto the field's zero set
+#: What refines a pytetwild mesh that lost the pore path (the refusal of
+#: :func:`~psdesign.meshing.tetra.keep_through_components`).
+TETWILD_RESOLUTION = (
+    "flow.edge_length: fTetWild's edge and envelope close pore gaps narrower than about them "
+    "(allowed: a smaller edge_length, in [0.005, 1] of the box diagonal, the mesh within the "
+    "memory budget; or mesher = 'stuffing' with a fine flow.lattice_step)"
+)
 
 
 def default_surface_step(voxel: float, size: np.ndarray, axis: int, opts: MeshOptions) -> int:
@@ -176,8 +183,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         "the mesher lost or added pore (thin gaps? try a smaller epsilon/edge_length or a "
-         "larger min_gap_voxels)")  # fmt: skip
+         "flow.edge_length: the mesher lost or added pore (thin gaps?) (allowed: a smaller "
+         "edge_length, in [0.005, 1] of the box diagonal, or mesher = 'stuffing'; from Python "
+         "also a smaller epsilon or a larger min_gap_voxels)")  # fmt: skip
     lo, hi = surf.lo * f.scale, surf.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,
@@ -250,7 +258,9 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
 def _snap_and_clean(pts, tets, surf, axis, snap_tol):
     """Drop dead components, snap box faces, repair flattened tets, drop flat slivers (and a
     few unrepairable inverted ones: ``n_dropped_inverted_tets``)."""
-    pts, tets, comp, bfaces = keep_through_components(pts, tets, surf.lo, surf.hi, axis, snap_tol)
+    pts, tets, comp, bfaces = keep_through_components(
+        pts, tets, surf.lo, surf.hi, axis, snap_tol, refine=TETWILD_RESOLUTION
+    )
     pts, max_move = snap_to_planes(pts, bfaces, surf.lo, surf.hi, snap_tol)
     pts, n_untangled = untangle_near_planes(pts, tets, surf.lo, surf.hi, 2.0 * snap_tol)
     pts, tets, n_flat, n_inv = drop_slivers(pts, tets, surf.lo, surf.hi)

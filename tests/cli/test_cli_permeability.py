@@ -278,3 +278,58 @@ def test_the_fem_route_names_rve_voxel_when_the_field_closes_the_gap(tmp_path, c
     assert err.count("\n") == 1
     assert err.startswith("psdesign: error: rve.voxel: disconnected pore space")
     assert "(allowed: " in err
+
+
+def _gap_between_lattice_planes() -> str:
+    """A square array across at solid fraction 0.6 (D = 2 L sqrt(0.6 / pi) = 17.48 um in a
+    20 um cell: gap 2.52 um, 5 voxels of 0.5 um), the fiber moved 1.3 um along y so the gap
+    lies off the box faces; ends with ``lattice_step = `` (the caller adds the step)."""
+    l = 20e-6
+    d = float(2 * l * np.sqrt(0.6 / np.pi))
+    assert l - d > 5 * 0.5e-6  # the voxel field's path
+    return (
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = 5e-7\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1.13e-5, 1e-5]\n'
+        "direction = [0, 0, 1]\n[flow]\nlattice_step = "
+    )
+
+
+def test_the_tet_mesh_that_closes_a_gap_the_field_keeps_is_refused_naming_flow_lattice_step(
+    tmp_path, capsys
+):
+    """Session 38: the tet mesh's own component check (``tetra.keep_through_components``)
+    named no key ("disconnected pore space: no pore path from the inlet to the outlet (4 pore
+    components, none touches both)"). A square array across at solid fraction 0.6 (D = 2 L
+    sqrt(0.6 / pi) = 17.48 um in a 20 um cell: gap 2.52 um, 5 voxels of 0.5 um, so the voxel
+    field keeps the path), the fiber moved 1.3 um along y so the gap lies between two lattice
+    planes of an 8 um stuffing lattice, whose tets close it. The key that governs it is
+    flow.lattice_step: at 1 um the same RVE meshes (exit 0)."""
+    spec = _gap_between_lattice_planes()
+    code, out, err = _run(
+        tmp_path, capsys, "--solver", "fem", "--direction", "x", spec=spec + "8e-6\n"
+    )
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith(
+        "psdesign: error: flow.lattice_step: disconnected pore space: the tet mesh has no pore "
+        "path from the inlet to the outlet"
+    )
+    assert "the lattice step 8e-06 m closes pore gaps" in err and "(allowed: " in err
+    path = tmp_path / "fine.toml"
+    path.write_text(spec + "1e-6\n")
+    out_dir = tmp_path / "mesh"
+    assert main(["mesh", str(path), "-o", str(out_dir), "--direction", "x", "--quiet"]) == 0
+    assert json.loads((out_dir / "mesh.json").read_text())["direction"] == "x"
+
+
+def test_a_tet_mesh_that_misses_the_pore_is_refused_naming_flow_lattice_step(tmp_path, capsys):
+    """Session 38: the mesh gate's refusal named no key ("only 88.94 % of the RVE tet centroids
+    lie in the pore (min_pore_fraction = 97.0 %): lattice_step too coarse for the geometry?").
+    The RVE above on a 6 um lattice keeps its path but its tets leave the pore; at 1 um it
+    meshes (the previous test)."""
+    spec = _gap_between_lattice_planes() + "6e-6\n"
+    code, out, err = _run(tmp_path, capsys, "--solver", "fem", "--direction", "x", spec=spec)
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith("psdesign: error: flow.lattice_step: only ")
+    assert "the lattice step 6e-06 m may be too coarse" in err and "(allowed: " in err

@@ -210,3 +210,45 @@ def test_fine_bends_are_cut_by_diameter_not_by_wave():
         assert (len(c) > 0) == touch
         if touch:
             assert c.dist.min() == pytest.approx(gap, rel=1e-9)
+
+
+def test_fine_bends_give_capsules_a_diameter_apart_and_the_free_shifts_of_a_translated_copy():
+    """Session 38 (the edge audit's ``bent_fast_f_max``: generator.f = 1000, 6 fibers in a
+    50 um box, ``fast``: past 300 s, 3 of 6 placed in 31 s, in ``sequential``'s capsules):
+    each old piece's axial window was cut into sub-intervals of a twelfth of a bend,
+    ~3 800 capsules per piece, millions per search. Sub-intervals are now no shorter than
+    D / 64 (as the pieces, f70f707). Truth: the fiber's copy translated by t in its lattice
+    plane is between |t| - 2 amp and |t| away from it (triangle inequality: the axes differ
+    by t plus an axial step plus a bend offset of at most 2 amp along l1), so a shift with
+    periodic |t| < D - 2 amp must be blocked and one with |t| >= D + 4 amp (the sag slack of
+    the pieces, 2 amp, plus the capsules' sway, amp) must be free."""
+    from psdesign.packing.fiberset import MIN_PIECE_DIAMETERS, pieces_for
+    from psdesign.packing.sequential import _capsules, _free_shift_raster
+
+    d, u, f = 0.16, 0.01, 1000.0  # |u| f = 10, the largest allowed
+    amp = u / (2 * np.pi)
+    st = FiberState(
+        diameter=np.full(1, d),
+        center=np.array([[0.5, 0.5, 0.5]]),
+        theta=np.zeros(1),
+        omega=np.zeros(1),
+        u=np.full(1, u),
+        f=np.full(1, f),
+        fixed=np.ones(1, bool),
+    )
+    old = pieces_for(st, LO, HI, 0.0, 0.5 * d)  # as the placer: pieces of half a diameter
+    A, B, lim, owner = _capsules(st, old, st.diameter, 0.0)
+    window = (np.linalg.norm(old.b - old.a, axis=1).max() + 2 * lim.max()) / (
+        MIN_PIECE_DIAMETERS * d
+    )
+    assert len(A) <= len(old.a) * (window + 2)  # was 1 / (12 f) wide: ~30x as many
+    assert np.all(owner == 0)
+    k = 25  # the placer's grid: step D / 4
+    free = _free_shift_raster(st, old, st.diameter, 0.0, k)
+    g = (np.arange(k) - k // 2) / k
+    t1, t2 = np.meshgrid(g, g, indexing="ij")
+    per = np.hypot(t1 - np.round(t1), t2 - np.round(t2))  # nearest lattice copy
+    near, far = per < d - 2 * amp, per >= d + 4 * amp
+    assert near.sum() > 20 and far.sum() > 400
+    assert not free[near].any()
+    assert free[far].all()

@@ -462,3 +462,31 @@ def test_through_components_return_the_kept_meshs_boundary_faces() -> None:
     np.testing.assert_array_equal(kept_pts, through[0])
     *_, all_faces = keep_through_components(*through, lo, hi, 2, 1e-12)
     np.testing.assert_array_equal(all_faces, face_structure(through[1])[0])
+
+
+def test_a_tet_mesh_without_a_through_component_is_refused_naming_its_resolution_key() -> None:
+    """Session 38: the tet mesh's own component check named no key ("disconnected pore space:
+    no pore path from the inlet to the outlet (2 pore components, none touches both)"). Two
+    boxes along z, one on the inlet plane and one on the outlet plane, not touching: no
+    component spans both. A direct caller's refusal names flow.lattice_step (and the pytetwild
+    key) with the allowed range; a mesher's names its own key."""
+    from meshes import box_mesh
+
+    from psdesign.meshing.errors import PoreTopologyError
+    from psdesign.meshing.tetra import keep_through_components
+
+    inlet = box_mesh([0.0, 0.0, 0.0], [1.0, 1.0, 1.0], (1, 1, 1))
+    outlet = box_mesh([0.0, 0.0, 2.0], [1.0, 1.0, 3.0], (1, 1, 1))
+    pts = np.vstack([inlet[0], outlet[0]])
+    tets = np.vstack([inlet[1], outlet[1] + len(inlet[0])])
+    lo, hi = np.zeros(3), np.array([1.0, 1.0, 3.0])
+    with pytest.raises(PoreTopologyError) as exc:
+        keep_through_components(pts, tets, lo, hi, 2, 1e-12)
+    msg = str(exc.value)
+    assert msg.startswith("flow.lattice_step: disconnected pore space: the tet mesh has no pore")
+    assert "(2 pore components, none touches both)" in msg and "flow.edge_length in" in msg
+    assert "(allowed: " in msg and "\n" not in msg
+    from psdesign.meshing.tetwild_mesher import TETWILD_RESOLUTION
+
+    with pytest.raises(PoreTopologyError, match=r"^flow\.edge_length: disconnected .*allowed: "):
+        keep_through_components(pts, tets, lo, hi, 2, 1e-12, refine=TETWILD_RESOLUTION)
