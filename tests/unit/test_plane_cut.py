@@ -80,3 +80,15 @@ def test_clip_error_on_a_centred_circle_is_not_the_curvature_term() -> None:
         true = 1 - np.pi * (dvox / n) ** 2 / 4
         ratio = (partial_volume_porosity(f.distance, L / n) - true) / (-np.pi / (12 * n * n))
         assert abs(ratio - 1) > 0.5
+
+
+def test_slabs_do_not_change_the_sum(monkeypatch) -> None:
+    """The gradient reaches one plane past each slab: one-plane slabs give the whole grid's
+    value (a tilted PS rod, 48 voxels per period)."""
+    import psdesign.geometry.plane_cut as plane_cut
+
+    fb = make_fiber("rod", diameter=0.3, center=[0.43, 0.52, 0.5], direction=[0.2, 0.1, 1.0])
+    f = RVE(size=np.full(3, L), fibers=[fb]).voxelize(L / 48)
+    whole = plane_partial_porosity(f.distance, L / 48)
+    monkeypatch.setattr(plane_cut, "SLAB_VOXELS", 1)
+    assert plane_partial_porosity(f.distance, L / 48) == pytest.approx(whole, abs=1e-12)
