@@ -10,8 +10,10 @@ The error estimate (``rel_error``) is built as the permeability's
 
 * the two-grid term: with ``error_estimate = "resolution"``, a second solve on the grid
   coarsened by two (the signed distance averaged over 2x2x2 blocks, so the surface is
-  re-sampled, not eroded); the staircase error is first order, so ``X_h - X_2h`` estimates the
-  error of ``X_h``, times Roache's safety factor ``F_s = 3`` for two grids
+  re-sampled, not eroded; a segmented image, whose walls lie on voxel faces, gets each block's
+  columns along the drive in series and in parallel instead, :func:`coarsen_conductivity`);
+  the staircase error is first order, so ``X_h - X_2h`` estimates the error of ``X_h``, times
+  Roache's safety factor ``F_s = 3`` for two grids
   (:func:`psdesign.flow.error.richardson_rel_error`);
 * the staircase floor: the two grids can agree by chance (the staircase error of an ordered
   array changes sign with the resolution), so the bar is at least the change of the value when
@@ -245,6 +247,39 @@ def coarsen_solid(distance: np.ndarray) -> np.ndarray:
     return d <= 0.0
 
 
+def coarsen_conductivity(sigma: np.ndarray, axis: int) -> np.ndarray:
+    """Conductivity map of a segmented image on the grid coarsened by 2 (odd trailing layers
+    dropped), for a drive along ``axis``: each 2x2x2 block's four columns of two voxels along
+    the drive in series (harmonic mean), the columns in parallel (arithmetic mean), the lower
+    of Cardwell & Parsons' (1945) bounds of a block's effective conductivity (no conduction
+    across the drive inside the block).
+
+    An image's walls lie on voxel faces; a wall through the middle of a block is a fraction of
+    it here, where the sign of the block-mean distance (:func:`coarsen_solid`, right for a
+    re-sampled analytic surface) ties at half and goes solid, thinning a pore at every wall on
+    an odd voxel face. A straight channel along the drive keeps its area on the coarse grid at
+    any offset (its columns are uniform) and a wall across the drive stays closed (its columns
+    are in series); the plain block mean (both bounds' upper) bridged conducting inclusions
+    (session 38, ``benchmarks/image_coarse_grid.py``).
+
+    >>> s = np.zeros((4, 4, 4), np.float32); s[:, 1:3, 1:3] = 1  # a 2x2 channel off the blocks
+    >>> float(coarsen_conductivity(s, 0)[0].sum() * 4)  # its area in a cross-section
+    4.0
+    >>> w = np.ones((4, 4, 4), np.float32); w[1] = 0  # a wall across x, one voxel thick
+    >>> float(coarsen_conductivity(w, 0)[0].max())  # its coarse layer stays closed
+    0.0
+    """
+    n = [s - s % 2 for s in sigma.shape]
+    s = np.asarray(sigma[: n[0], : n[1], : n[2]], np.float64)
+    s = s.reshape(n[0] // 2, 2, n[1] // 2, 2, n[2] // 2, 2)
+    pair = 2 * axis + 1
+    a, b = np.take(s, 0, axis=pair), np.take(s, 1, axis=pair)
+    total = a + b
+    series = np.divide(2.0 * a * b, total, out=np.zeros_like(total), where=total > 0)
+    across = tuple(i if i < pair else i - 1 for i in (1, 3, 5) if i != pair)
+    return series.mean(axis=across).astype(np.float32)
+
+
 def face_surface(solid: np.ndarray) -> float:
     """Voxel faces between the phases per voxel (periodic wrap): ``h S_f``, the staircase
     surface per volume in units of ``1 / h``."""
@@ -294,10 +329,13 @@ def _discretization(
     floor = staircase_floor(fields.solid, sigma_s, sigma_f)
     if transport.get("error_estimate", "resolution") != "resolution":
         return 2.0 * floor, "staircase floor (doubled) + flux imbalance", None
-    coarse = coarsen_solid(fields.distance)
+    if getattr(fields, "analytic_distance", True):  # re-sample the fibers' surface
+        coarse = sigma_of(coarsen_solid(fields.distance))
+    else:  # a segmented image: walls on voxel faces, a block's columns in series
+        coarse = coarsen_conductivity(sigma_of(fields.solid), ax)
     if min(coarse.shape) < 4 or value <= 0:
         return 2.0 * floor, "staircase floor (doubled) + flux imbalance", None
-    rc = solve_laplace(sigma_of(coarse), ax, bc=bc, **kw)
+    rc = solve_laplace(coarse, ax, bc=bc, **kw)
     coarse_value = float(rc.mean_flux[ax] / rc.gradient)
     two_grid = richardson_rel_error(value, coarse_value, 2.0, 1)
     method = "max(two_grid F_s = 3, staircase floor) + flux imbalance"
