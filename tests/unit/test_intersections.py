@@ -32,6 +32,21 @@ def _random_state(n, d=0.07, seed=0, bent=False, fmax=10.0):
     )
 
 
+def _bent_z(centers, d, u, f):
+    """Bent fibers along z (theta = omega = 0), fixed, of diameter ``d``, at ``centers``."""
+    centers = np.atleast_2d(np.asarray(centers, float))
+    n = len(centers)
+    return FiberState(
+        diameter=np.full(n, d),
+        center=centers,
+        theta=np.zeros(n),
+        omega=np.zeros(n),
+        u=np.full(n, u),
+        f=np.full(n, f),
+        fixed=np.ones(n, bool),
+    )
+
+
 def _min_axis_distance(rve_fibers, lo, hi, n=400):
     """Brute force over densely resampled medial axes (Fiber.medial_axis, independent code)."""
     pts, owner = [], []
@@ -183,25 +198,9 @@ def test_fine_bends_are_cut_by_diameter_not_by_wave():
     d, u, f = 0.16, 0.01, 1000.0  # |u| f = 10, the largest allowed
     amp = u / (2 * np.pi)
     for gap, touch in ((0.95 * d, True), (d + 4 * amp + 0.01, False)):
-        one = FiberState(
-            diameter=np.full(1, d),
-            center=np.array([[0.5, 0.5, 0.5]]),
-            theta=np.zeros(1),
-            omega=np.zeros(1),
-            u=np.full(1, u),
-            f=np.full(1, f),
-            fixed=np.ones(1, bool),
-        )
+        one = _bent_z([0.5, 0.5, 0.5], d, u, f)
         normal = one.frames[0, 2]  # normal to the bend plane (direction, lattice1)
-        st = FiberState(
-            diameter=np.full(2, d),
-            center=np.array([[0.5, 0.5, 0.5], [0.5, 0.5, 0.5] + gap * normal]),
-            theta=np.zeros(2),
-            omega=np.zeros(2),
-            u=np.full(2, u),
-            f=np.full(2, f),
-            fixed=np.ones(2, bool),
-        )
+        st = _bent_z([[0.5, 0.5, 0.5], [0.5, 0.5, 0.5] + gap * normal], d, u, f)
         pieces = build_pieces(st, LO, HI, 0.5 * d, 2 * d)
         per_copy = np.bincount(pieces.copy) / pieces.copy_len
         assert per_copy.max() <= 64 / d + 1  # was 8 f = 8000 per period
@@ -227,15 +226,7 @@ def test_fine_bends_give_capsules_a_diameter_apart_and_the_free_shifts_of_a_tran
 
     d, u, f = 0.16, 0.01, 1000.0  # |u| f = 10, the largest allowed
     amp = u / (2 * np.pi)
-    st = FiberState(
-        diameter=np.full(1, d),
-        center=np.array([[0.5, 0.5, 0.5]]),
-        theta=np.zeros(1),
-        omega=np.zeros(1),
-        u=np.full(1, u),
-        f=np.full(1, f),
-        fixed=np.ones(1, bool),
-    )
+    st = _bent_z([0.5, 0.5, 0.5], d, u, f)
     old = pieces_for(st, LO, HI, 0.0, 0.5 * d)  # as the placer: pieces of half a diameter
     A, B, lim, owner = _capsules(st, old, st.diameter, 0.0)
     window = (np.linalg.norm(old.b - old.a, axis=1).max() + 2 * lim.max()) / (
