@@ -206,3 +206,31 @@ def test_the_bar_covers_a_duct_a_few_voxels_across(tmp_path, a, b, lo):
     assert true == pytest.approx({3: 0.278, 1: 2.557}[a], abs=0.005)
     assert true <= res.rel_error
     assert res.status == "untrustworthy"
+
+
+@pytest.mark.parametrize(
+    ("phi", "n", "wall", "true_error"),
+    [
+        (0.6, 24, "subvoxel", -0.059),
+        (0.5, 12, "subvoxel", -0.057),
+        (0.4, 12, "staircase", 0.475),
+        (0.6, 24, "staircase", 0.687),
+    ],
+)
+def test_a_narrow_gap_result_is_covered_or_not_ok(phi, n, wall, true_error):
+    """Near touching (square array across, Sangani & Acrivos 1982 Table 1; gap
+    ``L (1 - 2 sqrt(phi / pi))`` = 3.0 voxels at 0.6 and 24, 2.4 at 0.5 and 12, 3.4 at 0.4 and 12) K
+    goes as gap^2.5 and the gap's wall error dominates; the two grids round the gap each its own
+    way and agreed by chance. Before session 38 (s38-gaps) each of these was ``ok`` outside its
+    bar: -5.9 % in 5.0 %, -5.7 % in 4.8 %, +47.5 % in 19.9 %, +68.7 % in 16.8 %. The gap term
+    ``C_G h / g`` (``GAP``, calibrated on other resolutions and shifts) covers them or makes
+    them untrustworthy."""
+    spec = array_spec("square", phi, n)
+    spec["flow"] = {**spec["flow"], "wall_treatment": wall}
+    spec = validate_spec(spec)
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(spec["rve"]["voxel"]), "x", spec["flow"], "voxel")
+    true = res["permeability_m2"] / exact_k("square", "across", phi) - 1.0
+    assert true == pytest.approx(true_error, abs=0.002)
+    assert abs(true) <= res["permeability_rel_error"] or res["status"] != "ok"
+    assert res["error_estimate"]["gap"] > 0.0
