@@ -234,3 +234,20 @@ def test_a_narrow_gap_result_is_covered_or_not_ok(phi, n, wall, true_error):
     assert true == pytest.approx(true_error, abs=0.002)
     assert abs(true) <= res["permeability_rel_error"] or res["status"] != "ok"
     assert res["error_estimate"]["gap"] > 0.0
+
+
+def test_an_image_gets_no_gap_term_an_analytic_rve_does(tmp_path):
+    """The gap term bounds a wall the grid misplaces; a segmented image's walls are its voxel
+    faces (its thin channels have the thin-channel term): a 3-voxel slit through a 16^3 image
+    has no gap term, while the same slit between analytic walls would (throat 3 voxels)."""
+    img = np.ones((16, 16, 16), np.uint8)
+    img[:, 6:9, :] = 0
+    np.save(tmp_path / "slit.npy", img)
+    spec = validate_spec({"image": {"path": str(tmp_path / "slit.npy"), "voxel_size": 1e-6}})
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(1e-6), "x", spec["flow"], "voxel")
+    assert res["error_estimate"]["gap"] == 0.0 and res["error_estimate"]["throat_m"] is None
+    spec = validate_spec(array_spec("square", 0.6, 24))
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(spec["rve"]["voxel"]), "x", spec["flow"], "voxel")
+    assert res["error_estimate"]["throat_m"] / spec["rve"]["voxel"] == pytest.approx(2.5, abs=0.1)
