@@ -21,6 +21,13 @@ The estimate (derivation in ``docs/permeability.md``) is
   voxels across is second-order high with a large constant (a slit of ``w`` voxels
   ``K (1 + 2 / w^2)``), which the first-order floor does not bound where ``R`` is under about
   3 voxels;
+* on the voxel route (analytic RVEs) the floor is also at least the gap term ``C_G h / g``
+  (:data:`GAP`, :func:`gap_rel_error`), ``g`` the narrowest throat every flow path must pass
+  (twice the percolation radius of the wall distance plus the sampling allowance,
+  :mod:`psdesign.geometry.throat`, :func:`throat_width_voxels`): between
+  near-touching fibres ``K ~ g^2.5`` (lubrication), so a wall error ``delta`` in the gap moves K
+  by about ``2.5 delta / g`` and the two grids can agree by chance (each rounds the gap its own
+  way); ``R`` is no measure of ``g`` there;
 * ``e_window`` (permeameter only, routes that give a second estimator of the windowed drop):
   ``max(C_W |dp_alt / dp - 1|, C_R (R / L)^2)``, the entrance/exit residual of the
   windowed-dissipation drop ``dp``: the gap to a second windowed estimator ``dp_alt`` (the
@@ -101,6 +108,20 @@ FLOOR = {
 #: floor only where ``h / R > 0.29`` (``R`` under 3.4 voxels: a channel under about 4 voxels
 #: across), so resolved media keep their bar (session 38, ``benchmarks/thin_channel_bar.py``).
 THIN_CHANNEL = 1.5
+#: ``C_G`` of the gap term ``C_G h / g`` by wall scheme (:func:`gap_rel_error`; voxel route;
+#: session 38, ``benchmarks/narrow_gap_bar.py``). Calibrated on square cylinder arrays across
+#: at solid fractions 0.5, 0.6, 0.7, 0.75 (Sangani & Acrivos 1982), 10, 14, 20, 28, 40 voxels
+#: per spacing, lattice shifted by 0 and 1/2 voxel: the smallest ``C_G`` that leaves no ``ok``
+#: result outside its bar (covered, or the bar past :data:`UNTRUSTWORTHY_REL_ERROR`) is 0.154
+#: (sub-voxel: -5.8 % at 14 voxels, solid fraction 0.5, throat 2.3 voxels) and 0.603
+#: (staircase: +21.4 % at 28 voxels, 0.6, throat 3.0 voxels); rounded up by 30 %. The
+#: validation set (other resolutions and shifts, hexagonal arrays to 0.85, flow along) is in
+#: ``benchmarks/RESULTS.md``. ``diffuse`` and ``tet``: not measured, no term.
+GAP = {"subvoxel": 0.2, "staircase": 0.8}
+#: The throat width from the percolation radius ``r*`` of the voxel-centre wall distance:
+#: ``2 r* + GAP_SAMPLING`` voxels. The centres sample a gap's mid-line up to half a voxel off it,
+#: so ``2 r*`` lies between the gap less one voxel and the gap; the half voxel is the middle.
+GAP_SAMPLING = 0.5
 #: The thin-channel term's largest value, ``F_s`` times the whole value (reached at
 #: ``C_T x >= 3/4``, channels of about one voxel: a one-voxel slit is +200 %, a 1x1 duct
 #: +256 %): the two-grid bar's value when the second grid loses the result entirely.
@@ -156,6 +177,8 @@ class ErrorEstimate:
     field: float = 0.0
     seam: float = 0.0
     coarse_lost_phase: bool = False
+    gap: float = 0.0
+    throat: float | None = None
 
     def as_dict(self) -> dict:
         """JSON-ready dict (``permeability_rel_error`` is the headline value)."""
@@ -170,6 +193,8 @@ class ErrorEstimate:
                 "window": self.window,
                 "field": self.field,
                 "seam": self.seam,
+                "gap": self.gap,
+                "throat_m": self.throat,
                 "order": self.order,
                 "ratio": self.ratio,
                 "permeability_coarse_m2": self.k_coarse,
@@ -218,6 +243,29 @@ def thin_channel_rel_error(step: float, k: float, porosity: float) -> float:
     cx = THIN_CHANNEL * (step / r) ** 2
     cap = THIN_CHANNEL_CAP / (1.0 + THIN_CHANNEL_CAP)
     return THIN_CHANNEL_CAP if cx >= cap else float(cx / (1.0 - cx))
+
+
+def gap_rel_error(step: float, throat: float | None, scheme: str | None) -> float:
+    """The gap term ``C_G h / g`` (:data:`GAP`) at step ``h`` and throat width ``g`` (both m);
+    0 for a scheme without a constant or without a throat; infinite for a closed throat.
+
+    >>> round(gap_rel_error(1.0, 4.0, "subvoxel"), 12), gap_rel_error(1.0, 4.0, "tet")
+    (0.05, 0.0)
+    """
+    c = GAP.get(scheme or "")
+    if c is None or throat is None or not np.isfinite(throat):
+        return 0.0
+    return float(c * step / throat) if throat > 0 else float("inf")
+
+
+def throat_width_voxels(radius: float) -> float:
+    """Throat width (voxels) from the percolation radius ``r*`` (voxels): ``2 r* +``
+    :data:`GAP_SAMPLING`.
+
+    >>> throat_width_voxels(1.0)
+    2.5
+    """
+    return 2.0 * float(radius) + GAP_SAMPLING
 
 
 #: A permeameter K whose face-plane-drop value differs from the windowed one by more than this
@@ -333,11 +381,13 @@ def combine(
     floor_law: tuple[float, float] | None = None,
     window: float = 0.0,
     thin: bool = False,
+    gap: float = 0.0,
 ) -> ErrorEstimate:
     """The error bar of ``k`` from its optional coarse companion ``k_coarse`` (see module);
     ``floor_law = (q, C)`` (:data:`FLOOR`), ``window`` the permeameter's window term; ``thin``:
     the floor is at least the thin-channel term (staircase walls,
-    :func:`thin_channel_rel_error`)."""
+    :func:`thin_channel_rel_error`); ``gap``: the floor is at least this gap term
+    (:func:`gap_rel_error`, not doubled without a second resolution: a law of the geometry)."""
     floor = resolution_floor(step, k, porosity, order, floor_law)
     rich = None
     if k_coarse is not None and ratio is not None and np.isfinite(k_coarse) and k_coarse > 0:
@@ -349,6 +399,7 @@ def combine(
         method = "resolution_only"
     if thin:  # a closed form's law, not a fitted floor: not doubled
         floor = max(floor, thin_channel_rel_error(step, k, porosity))
+    floor = max(floor, gap)
     disc = max(floor, rich or 0.0)
     return ErrorEstimate(
         rel_error=float(disc + window + solver_error),
@@ -361,6 +412,7 @@ def combine(
         k_coarse=None if k_coarse is None else float(k_coarse),
         method=method,
         window=float(window),
+        gap=float(gap),
     )
 
 
@@ -462,13 +514,16 @@ def estimate_with(
     order: int,
     coarse: Callable[[], tuple[float, float]] | None,
     scheme: str | None = None,
+    throat: Callable[[], float] | None = None,
 ) -> ErrorEstimate:
     """Error bar of a route ``result`` (``permeability_m2``, ``porosity``, ``residual``,
     ``flux_imbalance``; a permeameter's ``pressure_drop_rve_pa`` and, if the route has it,
     ``pressure_drop_plane_window_pa`` for the window term); ``coarse()`` returns ``(k_coarse,
     ratio)``; if it raises (a coarse grid that does not percolate, a lattice too coarse to
     mesh), the resolution floor alone is used and the reason is kept in ``coarse_failure``.
-    ``scheme`` picks the floor law (:data:`FLOOR`; default by ``order``)."""
+    ``scheme`` picks the floor law (:data:`FLOOR`; default by ``order``). ``throat()``
+    returns the throat width along the flow (m, :func:`throat_width_voxels`), for the gap term
+    (:func:`gap_rel_error`; schemes in :data:`GAP` only)."""
     k_c = ratio = None
     failure = None
     lost = False
@@ -479,6 +534,7 @@ def estimate_with(
             k_c = ratio = None
             failure = f"{type(exc).__name__}: {exc}"
             lost = isinstance(exc, CoarseLostPhase)
+    g = float(throat()) if throat is not None and scheme in GAP else None
     est = combine(
         float(result["permeability_m2"]),
         float(result["porosity"]),
@@ -490,7 +546,9 @@ def estimate_with(
         FLOOR.get(scheme) if scheme else None,
         window_of(result),
         thin=scheme == "staircase",
+        gap=gap_rel_error(float(step), g, scheme),
     )
+    est = replace(est, throat=g)
     field, seam = _field_term(result), seam_rel_error(result)
     return replace(
         est,

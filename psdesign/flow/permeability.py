@@ -38,6 +38,7 @@ from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pr
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.throat import percolation_radius, wall_distance_voxels
 from psdesign.schema.flow import NATIVE_BC, TREATMENT_ALLOWED, treatment_refusal
 
 __all__ = [
@@ -258,6 +259,19 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
     return run_fem
 
 
+def _throat_fn(fields: VoxelFields, direction: str | int, step: float) -> Callable:
+    """The throat width (m) of ``fields`` along ``direction`` (:mod:`psdesign.geometry.throat`,
+    :func:`psdesign.flow.error.throat_width_voxels`), as a callable for
+    :func:`psdesign.flow.error.estimate_with`."""
+
+    def run() -> float:
+        wd = wall_distance_voxels(fields.distance, step, fields.analytic_distance)
+        r = percolation_radius(wd, axis_of(direction)[1])
+        return err.throat_width_voxels(r) * step
+
+    return run
+
+
 def with_error_estimate(
     rve: RVE,
     fields: VoxelFields,
@@ -277,7 +291,10 @@ def with_error_estimate(
     coarse = _coarse_fn(rve, fields, direction, flow, solver, res) if second_resolution else None
     t0 = time.perf_counter()
     scheme = str(res.get("wall_treatment", "staircase")) if solver == "voxel" else "tet"
-    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme)
+    # the gap term bounds a wall misplaced on the grid: an image's walls are its voxel faces
+    analytic = solver == "voxel" and fields.analytic_distance
+    throat = _throat_fn(fields, direction, step) if analytic else None
+    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat)
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))

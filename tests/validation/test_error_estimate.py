@@ -206,3 +206,48 @@ def test_the_bar_covers_a_duct_a_few_voxels_across(tmp_path, a, b, lo):
     assert true == pytest.approx({3: 0.278, 1: 2.557}[a], abs=0.005)
     assert true <= res.rel_error
     assert res.status == "untrustworthy"
+
+
+@pytest.mark.parametrize(
+    ("phi", "n", "wall", "true_error"),
+    [
+        (0.6, 24, "subvoxel", -0.059),
+        (0.5, 12, "subvoxel", -0.057),
+        (0.4, 12, "staircase", 0.475),
+        (0.6, 24, "staircase", 0.687),
+    ],
+)
+def test_a_narrow_gap_result_is_covered_or_not_ok(phi, n, wall, true_error):
+    """Near touching (square array across, Sangani & Acrivos 1982 Table 1; gap
+    ``L (1 - 2 sqrt(phi / pi))`` = 3.0 voxels at 0.6 and 24, 2.4 at 0.5 and 12, 3.4 at 0.4 and 12) K
+    goes as gap^2.5 and the gap's wall error dominates; the two grids round the gap each its own
+    way and agreed by chance. Before session 38 (s38-gaps) each of these was ``ok`` outside its
+    bar: -5.9 % in 5.0 %, -5.7 % in 4.8 %, +47.5 % in 19.9 %, +68.7 % in 16.8 %. The gap term
+    ``C_G h / g`` (``GAP``, calibrated on other resolutions and shifts) covers them or makes
+    them untrustworthy."""
+    spec = array_spec("square", phi, n)
+    spec["flow"] = {**spec["flow"], "wall_treatment": wall}
+    spec = validate_spec(spec)
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(spec["rve"]["voxel"]), "x", spec["flow"], "voxel")
+    true = res["permeability_m2"] / exact_k("square", "across", phi) - 1.0
+    assert true == pytest.approx(true_error, abs=0.002)
+    assert abs(true) <= res["permeability_rel_error"] or res["status"] != "ok"
+    assert res["error_estimate"]["gap"] > 0.0
+
+
+def test_an_image_gets_no_gap_term_an_analytic_rve_does(tmp_path):
+    """The gap term bounds a wall the grid misplaces; a segmented image's walls are its voxel
+    faces (its thin channels have the thin-channel term): a 3-voxel slit through a 16^3 image
+    has no gap term, while the same slit between analytic walls would (throat 3 voxels)."""
+    img = np.ones((16, 16, 16), np.uint8)
+    img[:, 6:9, :] = 0
+    np.save(tmp_path / "slit.npy", img)
+    spec = validate_spec({"image": {"path": str(tmp_path / "slit.npy"), "voxel_size": 1e-6}})
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(1e-6), "x", spec["flow"], "voxel")
+    assert res["error_estimate"]["gap"] == 0.0 and res["error_estimate"]["throat_m"] is None
+    spec = validate_spec(array_spec("square", 0.6, 24))
+    built = build_rve(spec)
+    res = permeability(built.rve, built.voxelize(spec["rve"]["voxel"]), "x", spec["flow"], "voxel")
+    assert res["error_estimate"]["throat_m"] / spec["rve"]["voxel"] == pytest.approx(2.5, abs=0.1)
