@@ -28,7 +28,9 @@ Each value is rated like a permeability (:func:`psdesign.flow.error.status_of`):
 ``"blocked"`` (no conducting path), ``"not_converged"``, ``"untrustworthy"`` (error bar above
 :data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
 :data:`psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels across the thinnest fiber, or a value
-outside its Wiener bounds by more than its error bar: :func:`outside_wiener`) or ``"ok"``, with
+outside its Wiener bounds by more than its error bar: :func:`outside_wiener`; or, on an
+analytic RVE, a conducting path that crosses a neck narrower than about a voxel:
+:mod:`psdesign.transport.necks`) or ``"ok"``, with
 one warning line per reason (:func:`rating`).
 """
 
@@ -78,6 +80,7 @@ class Effective:
     wall_time_s: float
     coarse_value: float | None = None
     extra: dict = field(default_factory=dict)
+    neck: str | None = None
 
 
 def wiener_bounds(s1: float, s2: float, f2: float) -> tuple[float, float]:
@@ -125,11 +128,15 @@ def rating(
     rel_error: float,
     cells_per_diameter: float | None,
     wiener: tuple[float, tuple[float, float]] | None = None,
+    neck: str | None = None,
 ) -> tuple[str, list[str]]:
     """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
     ``direction`` ("" for a value without one, e.g. the pore sizes; module docstring).
     ``wiener``: ``(value, (lower, upper))`` to check against its Wiener bounds
-    (:func:`outside_wiener`; outside makes an ``ok`` value ``untrustworthy``).
+    (:func:`outside_wiener`; outside makes an ``ok`` value ``untrustworthy``). ``neck``: the
+    warning of a conducting path through a neck narrower than about a voxel
+    (:func:`psdesign.transport.necks.neck_warning`), which makes an ``ok`` value
+    ``untrustworthy``.
 
     >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
     'untrustworthy'
@@ -151,9 +158,10 @@ def rating(
         )
     status = err.status_of(converged, rel_error, cells_per_diameter)
     outside = None if wiener is None else outside_wiener(name, wiener[0], rel_error, wiener[1])
-    if outside is not None:
-        warnings.append(outside)
-        status = "untrustworthy" if status == "ok" else status
+    for reason in (outside, None if neck is None else f"{name}: {neck}"):
+        if reason is not None:
+            warnings.append(reason)
+            status = "untrustworthy" if status == "ok" else status
     return status, warnings
 
 
@@ -212,6 +220,7 @@ class Rated:
             self.rel_error,
             self.cells_per_diameter,
             self.wiener(),
+            getattr(self, "unresolved_neck", None),
         )
 
 
@@ -342,6 +351,18 @@ def _discretization(
     return max(two_grid, floor), method, coarse_value
 
 
+def _neck(sigma_of: Callable[[np.ndarray], np.ndarray], fields: VoxelFields, ax: int) -> str | None:
+    """The narrow-neck warning of an analytic RVE's value (:mod:`psdesign.transport.necks`);
+    None for a segmented image, which is its own geometry (its walls are the voxel faces)."""
+    from psdesign.transport.necks import neck_warning
+
+    if not getattr(fields, "analytic_distance", True):
+        return None
+    sigma_s, sigma_f = (float(v) for v in sigma_of(np.array([True, False])))
+    h = float(fields.grid.spacing[0])
+    return neck_warning(fields.distance, h, sigma_s, sigma_f, ax)
+
+
 def solve_effective(
     sigma_of: Callable[[np.ndarray], np.ndarray],
     fields: VoxelFields,
@@ -387,11 +408,12 @@ def solve_effective(
     del sigma
     column = (res.mean_flux / res.gradient).tolist()
     value = float(column[ax])
-    discretization, method, coarse_value = 0.0, "flux_imbalance", None
+    discretization, method, coarse_value, neck = 0.0, "flux_imbalance", None, None
     if not res.blocked:
         discretization, method, coarse_value = _discretization(
             sigma_of, fields, ax, bc, kw, value, transport
         )
+        neck = _neck(sigma_of, fields, ax)
     rel_error = discretization + float(res.flux_imbalance)
     return Effective(
         direction=name,
@@ -409,4 +431,5 @@ def solve_effective(
         n_cells=int(np.prod(fields.grid.shape)),
         wall_time_s=time.perf_counter() - t0,
         coarse_value=coarse_value,
+        neck=neck,
     )
