@@ -315,6 +315,21 @@ def staircase_floor(solid: np.ndarray, sigma_solid: float, sigma_fluid: float) -
     return STAIRCASE_FLOOR * face_surface(solid) * min(parallel, series)
 
 
+def porosity_term(fields: VoxelFields, sigma_solid: float, sigma_fluid: float) -> float:
+    """Relative error of a value whose pore fraction is off by the voxel count's own bar
+    (``fields.porosity_error``, :mod:`psdesign.geometry.porosity`), at the parallel mean's
+    sensitivity ``|s_f - s_s| / s_arith`` (exact along straight fibres, where the value is the
+    parallel mean of the counted fractions): near-touching cylinders at a few voxels per
+    spacing count their corner pores wrong by more than the staircase floor allows (session 38,
+    square array at solid fraction 0.77, 16 voxels, along: ``D_eff / D`` -18.5 % against a
+    10.6 % bar). 0 for a segmented image (its count is exact)."""
+    eps = float(fields.porosity)
+    arith = eps * sigma_fluid + (1.0 - eps) * sigma_solid
+    if arith <= 0:
+        return 0.0
+    return abs(sigma_fluid - sigma_solid) / arith * float(getattr(fields, "porosity_error", 0.0))
+
+
 def check_bc(bc: str) -> str:
     """The bc name, or ValueError naming ``transport.bc``."""
     if bc not in BC_NAMES:
@@ -336,19 +351,20 @@ def _discretization(
 
     sigma_s, sigma_f = (float(v) for v in sigma_of(np.array([True, False])))
     floor = staircase_floor(fields.solid, sigma_s, sigma_f)
+    count = porosity_term(fields, sigma_s, sigma_f)
     if transport.get("error_estimate", "resolution") != "resolution":
-        return 2.0 * floor, "staircase floor (doubled) + flux imbalance", None
+        return max(2.0 * floor, count), "staircase floor (doubled) + flux imbalance", None
     if getattr(fields, "analytic_distance", True):  # re-sample the fibers' surface
         coarse = sigma_of(coarsen_solid(fields.distance))
     else:  # a segmented image: walls on voxel faces, a block's columns in series
         coarse = coarsen_conductivity(sigma_of(fields.solid), ax)
     if min(coarse.shape) < 4 or value <= 0:
-        return 2.0 * floor, "staircase floor (doubled) + flux imbalance", None
+        return max(2.0 * floor, count), "staircase floor (doubled) + flux imbalance", None
     rc = solve_laplace(coarse, ax, bc=bc, **kw)
     coarse_value = float(rc.mean_flux[ax] / rc.gradient)
     two_grid = richardson_rel_error(value, coarse_value, 2.0, 1)
-    method = "max(two_grid F_s = 3, staircase floor) + flux imbalance"
-    return max(two_grid, floor), method, coarse_value
+    method = "max(two_grid F_s = 3, staircase floor, porosity count) + flux imbalance"
+    return max(two_grid, floor, count), method, coarse_value
 
 
 def _neck(sigma_of: Callable[[np.ndarray], np.ndarray], fields: VoxelFields, ax: int) -> str | None:
