@@ -70,12 +70,13 @@ def neck_warning(
         return None
     move = NECK_MOVE * float(voxel)
     d = np.asarray(distance)
-    if sigma_solid > sigma_fluid:  # the solid conducts: percolates() tests the complement
-        on_grid, moved = percolates(d > 0, axis), percolates(d > -move, axis)
-        phase = "solid"
+    phase = "solid" if sigma_solid > sigma_fluid else "pore"
+    if phase == "solid":  # percolates(blocker) tests the blocker's complement
+        on_grid = percolates(d > 0, axis)
+        moved = on_grid and percolates(d > -move, axis)
     else:
-        on_grid, moved = percolates(d <= 0, axis), percolates(d <= move, axis)
-        phase = "pore"
+        on_grid = percolates(d <= 0, axis)
+        moved = on_grid and percolates(d <= move, axis)
     if not on_grid or moved:
         return None
     return (
