@@ -59,6 +59,9 @@ class ConductivityResult(Rated):
 
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
+    #: The warning of a conducting path through a neck narrower than about a voxel (None if
+    #: none; :mod:`psdesign.transport.necks`), which makes the value ``untrustworthy``.
+    unresolved_neck: str | None = None
 
     def wiener(self) -> tuple[float, tuple[float, float]]:
         """The value and its Wiener bounds (:meth:`Rated.wiener`)."""
@@ -225,6 +228,7 @@ def effective_conductivity(
         wall_time_s=eff.wall_time_s,
         conductivity_unit=tr["conductivity_unit"],
         cells_per_diameter=cells_per_diameter,
+        unresolved_neck=eff.neck,
     )
     out.warnings = out.rating_warnings()
     if held is not None:

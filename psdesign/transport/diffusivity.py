@@ -71,6 +71,9 @@ class DiffusivityResult(Rated):
     effective_diffusivity_transition_m2_s: float | None = None
     cells_per_diameter: float | None = None
     warnings: list[str] = field(default_factory=list)
+    #: The warning of a conducting path through a neck narrower than about a voxel (None if
+    #: none; :mod:`psdesign.transport.necks`), which makes the value ``untrustworthy``.
+    unresolved_neck: str | None = None
 
     def wiener(self) -> tuple[float, tuple[float, float]]:
         """The value and its Wiener bounds ``[0, porosity]`` (pore 1, solid 0;
@@ -163,6 +166,7 @@ def _result(
         bulk_diffusivity_m2_s=bulk,
         effective_diffusivity_m2_s=bulk * rel,
         cells_per_diameter=cpd,
+        unresolved_neck=eff.neck,
     )
     out.warnings = out.rating_warnings()
     if pore_d is not None and pore_d > 0:
