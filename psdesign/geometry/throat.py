@@ -9,16 +9,17 @@ there moves ``K`` by about ``2.5 delta / g``; :mod:`psdesign.flow.error`, ``gap`
 
 The wall distance is the analytic signed distance inside its narrow band (sub-voxel), and beyond
 the band, or for a segmented image, the periodic Euclidean transform of the voxel mask minus half
-a voxel (:func:`psdesign.geometry.edt.periodic_edt`). Connectivity: 6-neighbour, periodic across
-the faces parallel to the axis. ``r*`` is found by bisection on ``r`` (one labelling per step).
+a voxel (:func:`psdesign.geometry.edt.periodic_edt`). Connectivity: 6-neighbour, a path
+winding around the periodic box (:func:`percolates`). ``r*`` is found by bisection on ``r``
+(one labelling per step).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from psdesign.geometry.edt import periodic_edt
+from solvers.voxel_stokes import percolates as fluid_percolates
 
 
 def wall_distance_voxels(distance: np.ndarray, step: float, analytic: bool = True) -> np.ndarray:
@@ -55,35 +56,15 @@ def wall_distance_voxels(distance: np.ndarray, step: float, analytic: bool = Tru
 
 
 def percolates(mask: np.ndarray, axis: int) -> bool:
-    """Whether True voxels of ``mask`` connect its first and last planes along ``axis``
-    (6-neighbour, periodic across the faces parallel to ``axis``).
+    """Whether the True voxels of ``mask`` (face-connected) wind around the periodic box along
+    ``axis``: :func:`solvers.voxel_stokes.percolates` of the complement, the test the voxel
+    solver's own no-path refusal uses (one definition of a path).
 
     >>> m = np.zeros((4, 3, 3), bool); m[:, 0, 1] = True
     >>> percolates(m, 0), percolates(m, 1)
     (True, False)
     """
-    labels, n = ndimage.label(mask)
-    if n == 0:
-        return False
-    parent = np.arange(n + 1)
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for other in (a for a in range(3) if a != axis):
-        lo = np.take(labels, 0, axis=other).ravel()
-        hi = np.take(labels, -1, axis=other).ravel()
-        both = (lo > 0) & (hi > 0)
-        for a, b in np.unique(np.stack([lo[both], hi[both]], axis=1), axis=0):
-            ra, rb = root(int(a)), root(int(b))
-            if ra != rb:
-                parent[ra] = rb
-    first = {root(int(i)) for i in np.unique(np.take(labels, 0, axis=axis)) if i > 0}
-    last = {root(int(i)) for i in np.unique(np.take(labels, -1, axis=axis)) if i > 0}
-    return bool(first & last)
+    return fluid_percolates(~mask, axis)
 
 
 def percolation_radius(

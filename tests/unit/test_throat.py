@@ -33,14 +33,20 @@ def test_a_slit_of_w_voxels_has_a_throat_of_w_voxels_within_the_sampling(width, 
 
 
 def test_percolation_wraps_across_the_periodic_faces():
-    """A channel that leaves through y = n - 1 and comes back at y = 0 percolates along x only
-    through the periodic faces (6-neighbour labels joined across them)."""
+    """A channel that leaves through y = n - 1 and comes back at y = 0, and leaves through
+    x = n - 1 to come back at x = 0, winds around the periodic box along x only through the
+    periodic faces (the voxel solver's test, ``solvers.voxel_stokes.percolates``)."""
     m = np.zeros((6, 6, 1), bool)
     m[:3, 0, 0] = True
     m[2:, 5, 0] = True  # joined to the first half through the y faces at x = 2
+    # plane x = 0 reaches plane x = 5, but (5, 5) has no fluid neighbour across the x face:
+    # in the periodic medium that path is a dead end
+    assert not percolates(m, 0)
+    m[5, 0, 0] = True  # (5, 5) -y-> (5, 0) -x-> (0, 0): a loop once around x
     assert percolates(m, 0)
+    assert not percolates(m, 1)
     m[2, 0, 0] = False
-    m[2, 5, 0] = False  # now the halves meet nowhere
+    m[2, 5, 0] = False  # now the halves meet only across the x face: no loop
     assert not percolates(m, 0)
 
 
