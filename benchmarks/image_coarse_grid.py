@@ -19,7 +19,6 @@ the parallel rule). One JSON line per case with the bar of both rules, and a sum
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -29,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT))
 
-from transport_error_bar import cylinder_fields, sphere_fields, truth  # noqa: E402
+from transport_error_bar import collect, cylinder_fields, sphere_fields, truth  # noqa: E402
 
 from psdesign.geometry.rve import VoxelFields  # noqa: E402
 from psdesign.image.fields import image_fields  # noqa: E402
@@ -84,10 +83,7 @@ def cases():
 
 
 def main() -> None:
-    rows = []
-    for row in cases():
-        rows.append(row)
-        print(json.dumps(row), flush=True)
+    rows = collect(cases())
     for key in ("", "_old"):
         cov = sum(r["covered" + key] for r in rows)
         ratio = np.median([r["bar" + key] / max(abs(r["error"]), 1e-12) for r in rows])

@@ -109,11 +109,17 @@ def cases():
                         }  # fmt: skip
 
 
-def main() -> None:
+def collect(rows_of) -> list[dict]:
+    """The rows of the generator ``rows_of``, each printed as a JSON line as it comes."""
     rows = []
-    for row in cases():
+    for row in rows_of:
         rows.append(row)
         print(json.dumps(row), flush=True)
+    return rows
+
+
+def main() -> None:
+    rows = collect(cases())
     for name in ("calibration", "validation"):
         sel = [r for r in rows if r["set"] == name]
         ratio = np.median([r["bar"] / max(abs(r["error"]), 1e-12) for r in sel])
