@@ -118,7 +118,7 @@ THIN_CHANNEL = 1.5
 #: (staircase: +21.4 % at 28 voxels, 0.6, throat 3.0 voxels); rounded up by 30 %. The
 #: validation set (other resolutions and shifts, hexagonal arrays to 0.85, flow along) is in
 #: ``benchmarks/RESULTS.md``. ``diffuse`` and ``tet``: no term; measured near touching (square
-#: arrays across at 0.5-0.75, s38-femgap, ``narrow_gap_bar.py --set fem / fem2 / diffuse``)
+#: arrays across at 0.5-0.75, hexagonal at 0.7-0.8, s38-femgap, ``narrow_gap_bar.py``)
 #: every ``ok`` result is inside its bar: their floors ``C (h / R)^2`` grow as the gap closes.
 GAP = {"subvoxel": 0.2, "staircase": 0.8}
 #: The throat width from the percolation radius ``r*`` of the voxel-centre wall distance:
