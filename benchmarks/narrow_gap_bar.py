@@ -16,6 +16,12 @@ References:
   uncertainty (|K_4 - K_2| / 3) is printed;
 * square along: the Sparrow-Loeffler series (``tests/arrays.py``, ``along_array_k``).
 
+``--set fem`` / ``fem2`` / ``diffuse`` (session 38, helper s38-femgap): the tet route (its
+stuffing mesher, ``flow.lattice_step`` 12-48 cells per spacing, the field at 72 voxels per spacing
+or 2 voxels per lattice step; periodic and permeameter) and the diffuse wall (12-48 voxels, shifts
+0 and 1/4) on square arrays across at 0.5-0.75, rows with the bar's components (no gap term: these
+schemes have none), summarised by :func:`route_summary`.
+
 Each line: the case, K, reference, true error, the bar and its components, status, the throat
 ``g`` (voxels: twice the percolation radius, :mod:`psdesign.geometry.throat`) and ``R / h``.
 
@@ -55,6 +61,18 @@ VALIDATION = [
 DENSE = [("hex", "across", (0.8,), (32, 48), (0.0,))]
 #: resolved arrays (the session-5 validation grid of ``docs/validation.md``): the term must not
 #: widen these bars much
+#: the tet route (``--solver fem``, stuffing mesher) on square arrays across, near touching: the
+#: field at ``FEM_VOXELS`` voxels per spacing, the lattice at these cells per spacing, and the bc
+#: (session 38, helper s38-femgap); rows hold the bar's components
+FEM = [(0.5, 0.6, 0.7), (12, 18, 24), ("periodic",)]
+FEM_PERMEAMETER = [(0.5, 0.6, 0.7), (18,), ("permeameter",)]
+FEM_VOXELS = 72
+#: the same with the field at 2 voxels per lattice step (the default lattice step's relation,
+#: :func:`psdesign.meshing.options.default_lattice_step`), finer lattices and 0.75
+FEM_DEFAULT_FIELD = [(0.5, 0.6, 0.7, 0.75), (16, 24, 32, 48), ("periodic",)]
+FEM_DEFAULT_PERMEAMETER = [(0.6, 0.7, 0.75), (32,), ("permeameter",)]
+#: the diffuse wall (voxel route, periodic) on square arrays across near touching
+DIFFUSE = [("square", "across", (0.5, 0.6, 0.7), (12, 16, 24, 32, 48), (0.0, 0.25))]
 RESOLVED = [
     ("square", "across", (0.1, 0.2, 0.3, 0.4), (24, 48), (0.0,)),
     ("square", "along", (0.1, 0.2, 0.3, 0.4), (24, 48), (0.0,)),
@@ -157,10 +175,78 @@ def rows(sets, group, walls):
                         }  # fmt: skip
 
 
-def three_grid(phi: float = 0.8, n: int = 32) -> None:
+def route_rows(group: str):
+    """The tet route (``group`` "fem") or the diffuse wall ("diffuse") on square arrays across,
+    each row with the bar's components, the step, throat (m, the route's own voxel field) and
+    ``R``; no gap term is applied by these routes (session 38)."""
+    if group in ("fem", "fem2"):
+        sets = (
+            (FEM, FEM_PERMEAMETER)
+            if group == "fem"
+            else (FEM_DEFAULT_FIELD, FEM_DEFAULT_PERMEAMETER)
+        )
+        cases = [
+            (phi, FEM_VOXELS if group == "fem" else 2 * m, m, bc)
+            for phis, ms, bcs in sets
+            for phi in phis
+            for m in ms
+            for bc in bcs
+        ]
+    else:
+        cases = [
+            (phi, n, shift, "periodic")
+            for _, _, phis, ns, shifts in DIFFUSE
+            for phi in phis
+            for n in ns
+            for shift in shifts
+        ]
+    for phi, n, extra, bc in cases:
+        t0 = time.perf_counter()
+        spec = array_spec("square", phi, n)
+        h = L / n
+        flow = {**spec["flow"], "bc": bc}
+        if group != "diffuse":
+            flow["lattice_step"] = L / extra
+            case = {"set": group, "phi": phi, "voxels": n, "lattice_cells": extra, "bc": bc}
+        else:
+            for fb in spec["fibers"]:
+                c = fb["center"]
+                fb["center"] = [c[0] + extra * h, c[1] + extra * h, c[2]]
+            flow["wall_treatment"] = "diffuse"
+            case = {"set": "diffuse", "phi": phi, "n": n, "shift": extra, "bc": bc}
+        spec["flow"] = flow
+        try:
+            spec = validate_spec(spec)
+            built = build_rve(spec)
+            fields = built.voxelize(spec["rve"]["voxel"])
+            solver = "voxel" if group == "diffuse" else "fem"
+            res = permeability(built.rve, fields, "x", spec["flow"], solver)
+        except Exception as exc:  # noqa: BLE001 - a closed gap or a failed mesh is a row too
+            yield {**case, "refused": f"{type(exc).__name__}: {exc}"[:200]}
+            continue
+        step_v = float(fields.grid.spacing[0])
+        wd = wall_distance_voxels(fields.distance, step_v, fields.analytic_distance)
+        g = err.throat_width_voxels(percolation_radius(wd, 0)) * step_v
+        k, est = res["permeability_m2"], res["error_estimate"]
+        step = float((res.get("mesh_quality") or {}).get("lattice_step_m") or step_v)
+        k_true = exact_k("square", "across", phi)
+        yield {
+            **case, "k": k, "truth": k_true, "reference": "Sangani & Acrivos 1982 Table 1",
+            "error": k / k_true - 1.0, "bar": res["permeability_rel_error"],
+            "status": res["status"], "richardson": est["richardson"], "floor": est["floor"],
+            "window": est["window"], "solver": est["solver"], "field": est["field"],
+            "seam": est["seam"], "gap_term": est["gap"], "method": est["method"],
+            "coarse_failure": est["coarse_failure"], "step_m": step, "throat_m": g,
+            "R_m": err.flow_length_scale(k, res["porosity"]),
+            "gap_exact_m": (1 - 2 * radius_of(phi, "square")) * L,
+            "cells_per_diameter": res.get("cells_per_diameter"), "t_s": time.perf_counter() - t0,
+        }  # fmt: skip
+
+
+def three_grid(phi: float = 0.8, n: int = 32) -> float:
     """The hexagonal array at ``n``, ``2n`` and ``3n`` voxels per spacing (one stretched
     geometry, sub-voxel walls): K, bar and status of each, the observed order ``p`` from the three
-    and each one's error against the value extrapolated with it."""
+    and each one's error against the value extrapolated with it; returns that value."""
     w = hex_width_voxels(n)
     ks = []
     for f in (1, 2, 3):
@@ -176,6 +262,76 @@ def three_grid(phi: float = 0.8, n: int = 32) -> None:
     k = ks[0] + (ks[1] - ks[0]) / (1 - 2**-p)
     errs = ", ".join(f"{100 * (x / k - 1):+.1f} %" for x in ks)
     print(f"# observed order {p:.2f}, extrapolated K {k:.5e}; errors {errs}")
+    return k
+
+
+#: the tet route on hexagonal arrays across near touching: solid fractions, lattice cells per
+#: spacing; the field at 64 voxels per spacing, the geometry :func:`three_grid`'s at 32 voxels
+#: per spacing (its stretched width, 55 voxels of 32 per spacing: 110 of 64) and the reference
+#: its three-grid extrapolation
+FEM_HEX = [(0.7, 0.8), (24, 32)]  # 48: over the memory budget (1.1M tets, 15 GiB)
+
+
+def fem_hex_rows():
+    """Rows of the tet route on :data:`FEM_HEX` against the sub-voxel three-grid extrapolation
+    of the same (identically stretched) array."""
+    n0 = 32
+    w = hex_width_voxels(n0)
+    phis, ms = FEM_HEX
+    for phi in phis:
+        k_true = three_grid(phi, n0)
+        for m in ms:
+            t0 = time.perf_counter()
+            case = {"set": "fem_hex", "phi": phi, "voxels": 2 * n0, "lattice_cells": m,
+                    "bc": "periodic"}  # fmt: skip
+            spec = array_spec("hex", phi, 2 * n0, width_voxels=2 * w)
+            spec["flow"] = {**spec["flow"], "bc": "periodic", "lattice_step": L / m}
+            try:
+                spec = validate_spec(spec)
+                built = build_rve(spec)
+                fields = built.voxelize(spec["rve"]["voxel"])
+                res = permeability(built.rve, fields, "x", spec["flow"], "fem")
+            except Exception as exc:  # noqa: BLE001 - a failed mesh is a row too
+                yield {**case, "refused": f"{type(exc).__name__}: {exc}"[:200]}
+                continue
+            k, est = res["permeability_m2"], res["error_estimate"]
+            yield {
+                **case, "k": k, "truth": k_true,
+                "reference": "same array, sub-voxel, 32/64/96 voxels, extrapolated",
+                "error": k / k_true - 1.0, "bar": res["permeability_rel_error"],
+                "status": res["status"], "richardson": est["richardson"], "floor": est["floor"],
+                "window": est["window"], "solver": est["solver"], "field": est["field"],
+                "seam": est["seam"], "gap_term": est["gap"], "method": est["method"],
+                "coarse_failure": est["coarse_failure"],
+                "step_m": float(res["mesh_quality"]["lattice_step_m"]),
+                "throat_m": float("nan"), "R_m": err.flow_length_scale(k, res["porosity"]),
+                "t_s": time.perf_counter() - t0,
+            }  # fmt: skip
+
+
+def route_summary(rows: list[dict]) -> None:
+    """The fem / diffuse rows (:func:`route_rows`): per set and bc, cases solved (refused),
+    ``ok`` ones, ``ok`` ones outside their bar, the smallest and median bar / |error| of the
+    ``ok`` ones and their error range; untrustworthy ones with their error and bar."""
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault((r["set"], r["bc"]), []).append(r)
+    print("| set | bc | solved (refused) | ok | ok outside the bar | ok: bar / abs(error) min, "
+          "median | ok: error range | untrustworthy: error range |")  # fmt: skip
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for (group, bc), sel in groups.items():
+        done = [r for r in sel if "refused" not in r]
+        ok = [r for r in done if r["status"] == "ok"]
+        bad = [r for r in done if r["status"] != "ok"]
+        miss = [r for r in ok if abs(r["error"]) > r["bar"]]
+        q = [r["bar"] / max(abs(r["error"]), 1e-4) for r in ok] or [float("nan")]
+        e = [100 * r["error"] for r in ok] or [float("nan")]
+        eb = [100 * r["error"] for r in bad] or [float("nan")]
+        print(
+            f"| {group} | {bc} | {len(done)} ({len(sel) - len(done)}) | {len(ok)} | {len(miss)} | "
+            f"{min(q):.1f}, {statistics.median(q):.1f} | {min(e):+.2f} to {max(e):+.2f} % | "
+            f"{min(eb):+.2f} to {max(eb):+.2f} % |"
+        )
 
 
 def summary(rows: list[dict]) -> None:
@@ -219,19 +375,43 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument(
         "--set",
-        choices=("calibration", "validation", "resolved", "dense", "three_grid", "both"),
+        choices=(
+            "calibration",
+            "validation",
+            "resolved",
+            "dense",
+            "three_grid",
+            "fem",
+            "fem2",
+            "fem_hex",
+            "diffuse",
+            "both",
+        ),
         default="both",
     )
     ap.add_argument("--summary", nargs="+", help="print the tables of these JSON-lines files")
     args = ap.parse_args()
     if args.summary:
-        summary([json.loads(x) for f in args.summary for x in Path(f).read_text().splitlines()])
+        lines = [x for f in args.summary for x in Path(f).read_text().splitlines()]
+        got = [json.loads(x) for x in lines if not x.startswith("#")]  # three_grid's notes
+        for show, sel in ((summary, [r for r in got if "kind" in r]),
+                          (route_summary, [r for r in got if "kind" not in r])):  # fmt: skip
+            if sel:
+                show(sel)
         return 0
     sets = []
     if args.set in ("calibration", "both"):
         sets.append((CALIBRATION, "calibration"))
     if args.set in ("validation", "both"):
         sets.append((VALIDATION, "validation"))
+    if args.set == "fem_hex":
+        for row in fem_hex_rows():
+            print(json.dumps(row), flush=True)
+        return 0
+    if args.set in ("fem", "fem2", "diffuse"):
+        for row in route_rows(args.set):
+            print(json.dumps(row), flush=True)
+        return 0
     if args.set == "three_grid":
         three_grid()
         return 0

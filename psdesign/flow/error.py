@@ -27,7 +27,8 @@ The estimate (derivation in ``docs/permeability.md``) is
   :mod:`psdesign.geometry.throat`, :func:`throat_width_voxels`): between
   near-touching fibres ``K ~ g^2.5`` (lubrication), so a wall error ``delta`` in the gap moves K
   by about ``2.5 delta / g`` and the two grids can agree by chance (each rounds the gap its own
-  way); ``R`` is no measure of ``g`` there;
+  way); ``R`` is no measure of ``g`` there. Only where a throat limits the flow
+  (:func:`throat_limits`: narrower than the widest pore; not along straight fibres);
 * ``e_window`` (permeameter only, routes that give a second estimator of the windowed drop):
   ``max(C_W |dp_alt / dp - 1|, C_R (R / L)^2)``, the entrance/exit residual of the
   windowed-dissipation drop ``dp``: the gap to a second windowed estimator ``dp_alt`` (the
@@ -116,7 +117,9 @@ THIN_CHANNEL = 1.5
 #: (sub-voxel: -5.8 % at 14 voxels, solid fraction 0.5, throat 2.3 voxels) and 0.603
 #: (staircase: +21.4 % at 28 voxels, 0.6, throat 3.0 voxels); rounded up by 30 %. The
 #: validation set (other resolutions and shifts, hexagonal arrays to 0.85, flow along) is in
-#: ``benchmarks/RESULTS.md``. ``diffuse`` and ``tet``: not measured, no term.
+#: ``benchmarks/RESULTS.md``. ``diffuse`` and ``tet``: no term; measured near touching (square
+#: arrays across at 0.5-0.75, hexagonal at 0.7-0.8, s38-femgap, ``narrow_gap_bar.py``)
+#: every ``ok`` result is inside its bar: their floors ``C (h / R)^2`` grow as the gap closes.
 GAP = {"subvoxel": 0.2, "staircase": 0.8}
 #: The throat width from the percolation radius ``r*`` of the voxel-centre wall distance:
 #: ``2 r* + GAP_SAMPLING`` voxels. The centres sample a gap's mid-line up to half a voxel off it,
@@ -256,6 +259,21 @@ def gap_rel_error(step: float, throat: float | None, scheme: str | None) -> floa
     if c is None or throat is None or not np.isfinite(throat):
         return 0.0
     return float(c * step / throat) if throat > 0 else float("inf")
+
+
+def throat_limits(radius: float, widest: float) -> bool:
+    """Whether a throat of percolation radius ``r*`` limits the flow in a pore whose largest
+    wall distance is ``widest`` (both voxels): its width ``2 r* +`` :data:`GAP_SAMPLING` is
+    under the widest pore's ``2 widest``. Along straight fibres the flow runs through the widest
+    pore (``r*`` is the largest wall distance to the bisection's tolerance) and no throat
+    constricts it; across cylinders ``r*`` is the gap's half-width, 0.9-10 voxels under it
+    (session 38, helper s38-femgap, ``benchmarks/RESULTS.md``). A pore without a wall
+    (``widest`` infinite) has no throat.
+
+    >>> throat_limits(3.0, 5.0), throat_limits(4.95, 5.0), throat_limits(1.0, float("inf"))
+    (True, False, False)
+    """
+    return bool(np.isfinite(widest) and throat_width_voxels(radius) < 2.0 * float(widest))
 
 
 def throat_width_voxels(radius: float) -> float:
@@ -514,7 +532,7 @@ def estimate_with(
     order: int,
     coarse: Callable[[], tuple[float, float]] | None,
     scheme: str | None = None,
-    throat: Callable[[], float] | None = None,
+    throat: Callable[[], float | None] | None = None,
 ) -> ErrorEstimate:
     """Error bar of a route ``result`` (``permeability_m2``, ``porosity``, ``residual``,
     ``flux_imbalance``; a permeameter's ``pressure_drop_rve_pa`` and, if the route has it,
@@ -523,7 +541,8 @@ def estimate_with(
     mesh), the resolution floor alone is used and the reason is kept in ``coarse_failure``.
     ``scheme`` picks the floor law (:data:`FLOOR`; default by ``order``). ``throat()``
     returns the throat width along the flow (m, :func:`throat_width_voxels`), for the gap term
-    (:func:`gap_rel_error`; schemes in :data:`GAP` only)."""
+    (:func:`gap_rel_error`; schemes in :data:`GAP` only), or None where no throat limits the
+    flow (:func:`throat_limits`: no gap term)."""
     k_c = ratio = None
     failure = None
     lost = False
@@ -534,7 +553,8 @@ def estimate_with(
             k_c = ratio = None
             failure = f"{type(exc).__name__}: {exc}"
             lost = isinstance(exc, CoarseLostPhase)
-    g = float(throat()) if throat is not None and scheme in GAP else None
+    g = throat() if throat is not None and scheme in GAP else None
+    g = None if g is None else float(g)
     est = combine(
         float(result["permeability_m2"]),
         float(result["porosity"]),

@@ -262,11 +262,14 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
 def _throat_fn(fields: VoxelFields, direction: str | int, step: float) -> Callable:
     """The throat width (m) of ``fields`` along ``direction`` (:mod:`psdesign.geometry.throat`,
     :func:`psdesign.flow.error.throat_width_voxels`), as a callable for
-    :func:`psdesign.flow.error.estimate_with`."""
+    :func:`psdesign.flow.error.estimate_with`; None where no throat limits the flow
+    (:func:`psdesign.flow.error.throat_limits`, e.g. along straight fibres)."""
 
-    def run() -> float:
+    def run() -> float | None:
         wd = wall_distance_voxels(fields.distance, step, fields.analytic_distance)
         r = percolation_radius(wd, axis_of(direction)[1])
+        if not err.throat_limits(r, float(np.max(wd, initial=0.0))):
+            return None
         return err.throat_width_voxels(r) * step
 
     return run

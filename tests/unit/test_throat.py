@@ -86,3 +86,21 @@ def test_the_gap_term_widens_the_bar_only_where_it_exceeds_the_rest():
     assert narrow.gap == pytest.approx(err.GAP["subvoxel"] / 2)
     assert narrow.rel_error == pytest.approx(narrow.gap + no_gap.rel_error - no_gap.discretization)
     assert err.estimate_with(res, h, 2, None, "tet", lambda: 2 * h).gap == 0.0
+
+
+def test_a_straight_channel_has_no_throat_a_constricted_one_does():
+    """:func:`psdesign.flow.error.throat_limits`: along a straight slit (5 voxels, image walls)
+    the percolation radius is the largest wall distance, 2.5 voxels (the centre plane, half the
+    width), so no throat limits the flow; pinch the slit to 1 voxel over one x-plane and the
+    throat (2 r* + 1/2 = 1.5 voxels, r* 0.5) is under the widest pore's 5 voxels."""
+    d = _slit_image(5, 3)
+    wd = wall_distance_voxels(d, 1.0, analytic=False)
+    r, widest = percolation_radius(wd, 0), float(wd.max())
+    assert widest == pytest.approx(2.5) and r == pytest.approx(2.5, abs=0.05)
+    assert not err.throat_limits(r, widest)
+    d[5, 3:5, :] = -1.0
+    d[5, 6:8, :] = -1.0
+    wd = wall_distance_voxels(d, 1.0, analytic=False)
+    r = percolation_radius(wd, 0)
+    assert r == pytest.approx(0.5, abs=0.05)
+    assert err.throat_limits(r, float(wd.max()))
