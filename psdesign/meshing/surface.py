@@ -234,10 +234,14 @@ def check_voxel_connectivity(field: np.ndarray, axis: int, has_aux: bool) -> Non
     pore = field > 0
     first = np.take(pore, 0, axis=axis)
     last = np.take(pore, -1, axis=axis)
-    if not has_aux and not first.any():
-        raise PoreTopologyError("the inlet face is fully blocked by solid: no pore at the inlet")
-    if not has_aux and not last.any():
-        raise PoreTopologyError("the outlet face is fully blocked by solid: no pore at the outlet")
+    for face, plane in (("inlet", first), ("outlet", last)):
+        if not has_aux and not plane.any():
+            raise PoreTopologyError(
+                f"rve.voxel: the {face} face is fully blocked by solid on the voxel field the "
+                f"mesh is built from: no pore at the {face} (allowed: a voxel fine enough to "
+                "open a gap there, none if the RVE's face is solid; flow.aux_length > 0 adds "
+                "an open zone before the face)"
+            )
     labels, n = ndimage.label(pore, structure=np.ones((3, 3, 3), dtype=bool))
     if n == 0:
         raise PoreTopologyError("the pore space is empty: `distance` is <= 0 everywhere")

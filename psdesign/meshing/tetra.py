@@ -286,12 +286,14 @@ def keep_through_components(
     touches_out[labels[btet[at_out]]] = True
     vol = tet_volumes(points, tets)
     comp_vol = np.bincount(labels, weights=vol, minlength=ncomp)
-    if not touches_in.any():
-        raise PoreTopologyError("the inlet face is fully blocked by solid: no pore at the inlet")
-    if not touches_out.any():
-        raise PoreTopologyError("the outlet face is fully blocked by solid: no pore at the outlet")
+    key, _, rest = refine.partition(": ")
+    for face, touches in (("inlet", touches_in), ("outlet", touches_out)):
+        if not touches.any():
+            raise PoreTopologyError(
+                f"{key}: the tet mesh has no pore at the {face} face where its voxel field "
+                f"has one: {rest}"
+            )
     if not (touches_in & touches_out).any():
-        key, _, rest = refine.partition(": ")
         raise PoreTopologyError(
             f"{key}: disconnected pore space: the tet mesh has no pore path from the inlet to "
             f"the outlet ({ncomp} pore components, none touches both) where its voxel field has "

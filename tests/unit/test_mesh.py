@@ -193,8 +193,11 @@ def test_disconnected_pore_space_raises():
 def test_blocked_inlet_raises():
     x = grid()[0]
     d = x - 0.2 * L  # solid for x < 0.2 L, covers the whole inlet face
-    with pytest.raises(PoreTopologyError, match="inlet face is fully blocked"):
+    with pytest.raises(PoreTopologyError, match="^rve.voxel: the inlet face is fully blocked"):
         mesh_tw(d, VOX, (L, L, L), "x", aux_length=0.0)
+    # the outlet alike (solid for x > 0.8 L), naming the key and its allowed range
+    with pytest.raises(PoreTopologyError, match=r"^rve.voxel: the outlet face .*\(allowed: "):
+        surface_mod.check_voxel_connectivity(0.8 * L - x, 0, False)
 
 
 def test_all_solid_raises():
