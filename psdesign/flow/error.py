@@ -398,14 +398,13 @@ def combine(
     ratio: float | None = None,
     floor_law: tuple[float, float] | None = None,
     window: float = 0.0,
-    thin: bool = False,
-    gap: float = 0.0,
+    law_floor: float = 0.0,
 ) -> ErrorEstimate:
     """The error bar of ``k`` from its optional coarse companion ``k_coarse`` (see module);
-    ``floor_law = (q, C)`` (:data:`FLOOR`), ``window`` the permeameter's window term; ``thin``:
-    the floor is at least the thin-channel term (staircase walls,
-    :func:`thin_channel_rel_error`); ``gap``: the floor is at least this gap term
-    (:func:`gap_rel_error`, not doubled without a second resolution: a law of the geometry)."""
+    ``floor_law = (q, C)`` (:data:`FLOOR`), ``window`` the permeameter's window term;
+    ``law_floor``: the floor is at least this, a closed-form law of the geometry and not a
+    fitted floor, so not doubled without a second resolution (the thin-channel and gap terms,
+    :func:`thin_channel_rel_error`, :func:`gap_rel_error`)."""
     floor = resolution_floor(step, k, porosity, order, floor_law)
     rich = None
     if k_coarse is not None and ratio is not None and np.isfinite(k_coarse) and k_coarse > 0:
@@ -415,9 +414,7 @@ def combine(
         # no second resolution: the theoretical floor alone, doubled (no evidence it holds)
         floor *= 2.0
         method = "resolution_only"
-    if thin:  # a closed form's law, not a fitted floor: not doubled
-        floor = max(floor, thin_channel_rel_error(step, k, porosity))
-    floor = max(floor, gap)
+    floor = max(floor, law_floor)
     disc = max(floor, rich or 0.0)
     return ErrorEstimate(
         rel_error=float(disc + window + solver_error),
@@ -430,7 +427,6 @@ def combine(
         k_coarse=None if k_coarse is None else float(k_coarse),
         method=method,
         window=float(window),
-        gap=float(gap),
     )
 
 
@@ -555,8 +551,11 @@ def estimate_with(
             lost = isinstance(exc, CoarseLostPhase)
     g = throat() if throat is not None and scheme in GAP else None
     g = None if g is None else float(g)
+    k = float(result["permeability_m2"])
+    gap = gap_rel_error(float(step), g, scheme)
+    thin = thin_channel_rel_error(float(step), k, float(result["porosity"]))
     est = combine(
-        float(result["permeability_m2"]),
+        k,
         float(result["porosity"]),
         float(step),
         int(order),
@@ -565,10 +564,9 @@ def estimate_with(
         ratio,
         FLOOR.get(scheme) if scheme else None,
         window_of(result),
-        thin=scheme == "staircase",
-        gap=gap_rel_error(float(step), g, scheme),
+        law_floor=max(gap, thin if scheme == "staircase" else 0.0),
     )
-    est = replace(est, throat=g)
+    est = replace(est, gap=gap, throat=g)
     field, seam = _field_term(result), seam_rel_error(result)
     return replace(
         est,
