@@ -13,6 +13,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
+from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, PoreTopologyError
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -234,7 +235,7 @@ def check_voxel_connectivity(field: np.ndarray, axis: int, has_aux: bool) -> Non
     pore = field > 0
     first = np.take(pore, 0, axis=axis)
     last = np.take(pore, -1, axis=axis)
-    for face, plane in (("inlet", first), ("outlet", last)):
+    for face, plane in ((T.INLET, first), (T.OUTLET, last)):
         if not has_aux and not plane.any():
             raise PoreTopologyError(
                 f"rve.voxel: the {face} face is fully blocked by solid on the voxel field the "

@@ -287,7 +287,7 @@ def keep_through_components(
     vol = tet_volumes(points, tets)
     comp_vol = np.bincount(labels, weights=vol, minlength=ncomp)
     key, _, rest = refine.partition(": ")
-    for face, touches in (("inlet", touches_in), ("outlet", touches_out)):
+    for face, touches in ((T.INLET, touches_in), (T.OUTLET, touches_out)):
         if not touches.any():
             raise PoreTopologyError(
                 f"{key}: the tet mesh has no pore at the {face} face where its voxel field "
