@@ -67,13 +67,10 @@ def percolates(mask: np.ndarray, axis: int) -> bool:
     return fluid_percolates(~mask, axis)
 
 
-def percolation_radius(
-    wall_distance: np.ndarray, axis: int, tol: float = 0.05, cap: float | None = None
-) -> float:
+def percolation_radius(wall_distance: np.ndarray, axis: int, tol: float = 0.05) -> float:
     """The percolation radius ``r*`` (voxels) of ``wall_distance`` along ``axis``: the largest
     ``r`` (to ``tol`` voxels) with ``{wall_distance > r}`` percolating; 0 when the pore does not
-    percolate. With ``cap``, returns ``cap`` as soon as ``{wall_distance > cap}`` percolates (the
-    caller needs no more: one labelling on an open medium).
+    percolate.
 
     >>> d = np.zeros((8, 9, 1), np.float32); d[:, 3:6, :] = [[[0.5], [1.5], [0.5]]]
     >>> round(percolation_radius(d, 0), 1), percolation_radius(d, 1)
@@ -81,12 +78,8 @@ def percolation_radius(
     """
     if not percolates(wall_distance > 0.0, axis):
         return 0.0
-    if cap is not None and percolates(wall_distance > cap, axis):
-        return float(cap)
     lo, hi = 0.0, float(np.max(wall_distance[np.isfinite(wall_distance)], initial=0.0))
-    if cap is not None:
-        hi = min(hi, float(cap))
-    if not np.isfinite(hi) or hi <= 0.0:
+    if hi <= 0.0:
         return 0.0
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
