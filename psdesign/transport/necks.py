@@ -15,8 +15,8 @@ solid): if it winds around the periodic box along the drive on the voxel grid bu
 walls move inward by :data:`NECK_MOVE` voxels (the distance field is sub-voxel), its path
 crosses a neck (a gap the grid bridged, or a throat) narrower than about a voxel, and the value
 depends on how the grid sampled it. Such a value is rated ``untrustworthy`` with this warning
-(:func:`psdesign.transport.effective.rating`). Private to transport; the permeability has its
-own throat measure (the lead may merge the two).
+(:func:`psdesign.transport.effective.rating`). A path is the one the permeability's throat and
+the voxel solver's refusal use (:func:`psdesign.geometry.throat.percolates`).
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def neck_warning(
     >>> neck_warning(d, 1.0, 1000.0, 1.0, 1) is None  # along y the sheet is whole
     True
     """
-    from solvers.voxel_stokes import percolates
+    from psdesign.geometry.throat import percolates
 
     hi, lo = max(sigma_solid, sigma_fluid), min(sigma_solid, sigma_fluid)
     if hi <= 0 or (lo > 0 and hi < NECK_CONTRAST * lo):
@@ -71,12 +71,12 @@ def neck_warning(
     move = NECK_MOVE * float(voxel)
     d = np.asarray(distance)
     phase = "solid" if sigma_solid > sigma_fluid else "pore"
-    if phase == "solid":  # percolates(blocker) tests the blocker's complement
-        on_grid = percolates(d > 0, axis)
-        moved = on_grid and percolates(d > -move, axis)
-    else:
+    if phase == "solid":
         on_grid = percolates(d <= 0, axis)
-        moved = on_grid and percolates(d <= move, axis)
+        moved = on_grid and percolates(d <= -move, axis)
+    else:
+        on_grid = percolates(d > 0, axis)
+        moved = on_grid and percolates(d > move, axis)
     if not on_grid or moved:
         return None
     return (
