@@ -21,6 +21,7 @@ from psdesign.meshing.periodic import periodic_pairs
 from psdesign.meshing.result import PoreMesh
 from psdesign.meshing.stuffing import stuff_pore_space
 from psdesign.meshing.tetra import face_structure, keep_through_components, tag_faces, tet_volumes
+from psdesign.schema.flow import LATTICE_STEP_RANGE
 
 _MATCH_RTOL = 2e-4
 _MATCH_MAX_ITER = 6
@@ -82,7 +83,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
         sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic,
         refine=f"flow.lattice_step: the lattice step {step:.3g} m closes pore gaps "
         "narrower than about a step (allowed: a smaller step, under about the narrowest gap of "
-        "the path; > 0 m, <= half the smallest edge, at most 5e7 lattice cells)",
+        f"the path; {LATTICE_STEP_RANGE})",
     )  # fmt: skip
     tags = tag_faces(pts, bfaces, sm.lo, sm.hi, f.axis)
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
@@ -100,7 +101,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
          f"flow.lattice_step: the lattice step {step:.3g} m may be too coarse for the geometry "
          "(allowed: a smaller step, under about the fiber radius and the narrowest pore gap; "
-         "> 0 m, <= half the smallest edge, at most 5e7 lattice cells)")  # fmt: skip
+         f"{LATTICE_STEP_RANGE})")  # fmt: skip
     lo, hi = sm.lo * f.scale, sm.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,

@@ -10,6 +10,7 @@ from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError
 from psdesign.meshing.options import TETWILD_OPTIONS
 from psdesign.meshing.tetwild_process import tetrahedralize_isolated
+from psdesign.schema.flow import PYTETWILD_EDGE_RANGE
 
 # outward faces of a positively oriented tet (a, b, c, d)
 TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
@@ -245,7 +246,7 @@ def tag_faces(
 MESH_RESOLUTION = (
     "flow.lattice_step: a tet mesh closes pore gaps narrower than about its step (allowed: a "
     "smaller step, under about the narrowest gap of the path: flow.lattice_step > 0 m with "
-    "mesher = 'stuffing', flow.edge_length in [0.005, 1] of the box diagonal with mesher = "
+    f"mesher = 'stuffing', flow.edge_length {PYTETWILD_EDGE_RANGE} with mesher = "
     "'pytetwild')"
 )
 

@@ -50,6 +50,7 @@ from psdesign.meshing.tetra import (
     tetrahedralize,
     untangle_near_planes,
 )
+from psdesign.schema.flow import PYTETWILD_EDGE_RANGE
 
 # fTetWild envelope without a fiber-diameter edge (a plain field, an explicit edge): this
 # fraction of the marching-cubes step (options.ENVELOPE_PER_DIAMETER otherwise). 0.5, not 0.25:
@@ -69,7 +70,7 @@ _WALL_NEWTON_STEPS = 3  # Newton steps of the wall projection onto the field's z
 #: :func:`~psdesign.meshing.tetra.keep_through_components`).
 TETWILD_RESOLUTION = (
     "flow.edge_length: fTetWild's edge and envelope close pore gaps narrower than about them "
-    "(allowed: a smaller edge_length, in [0.005, 1] of the box diagonal, the mesh within the "
+    f"(allowed: a smaller edge_length, {PYTETWILD_EDGE_RANGE}, the mesh within the "
     "memory budget; or mesher = 'stuffing' with a fine flow.lattice_step)"
 )
 
@@ -184,7 +185,7 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
          "flow.edge_length: the mesher lost or added pore (thin gaps?) (allowed: a smaller "
-         "edge_length, in [0.005, 1] of the box diagonal, or mesher = 'stuffing'; from Python "
+         f"edge_length, {PYTETWILD_EDGE_RANGE}, or mesher = 'stuffing'; from Python "
          "also a smaller epsilon or a larger min_gap_voxels)")  # fmt: skip
     lo, hi = surf.lo * f.scale, surf.hi * f.scale
     pm = PoreMesh(

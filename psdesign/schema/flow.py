@@ -72,6 +72,13 @@ DEFAULT_FLOW = {
 }
 
 
+#: The allowed range of ``flow.lattice_step`` (the checks in :mod:`psdesign.schema.document`,
+#: :data:`psdesign.schema.budget.MAX_LATTICE_CELLS`), as the key's refusals print it.
+LATTICE_STEP_RANGE = "> 0 m, <= half the smallest edge, at most 5e7 lattice cells"
+#: The allowed range of ``flow.edge_length`` with ``mesher = "pytetwild"``, as refusals print it.
+PYTETWILD_EDGE_RANGE = "in [0.005, 1] of the box diagonal"
+
+
 class FlowTable(Table):
     """Stokes solve and boundary conditions."""
 
@@ -135,8 +142,8 @@ class FlowTable(Table):
     )
     lattice_step: number(gt=0) | None = Field(
         None,
-        description="stuffing lattice step > 0 m, <= half the smallest edge, at most 5e7 "
-        "lattice cells (default: max(2 voxels, min(thinnest fiber diameter / 3, smallest edge "
+        description=f"stuffing lattice step {LATTICE_STEP_RANGE} (default: max(2 voxels, "
+        "min(thinnest fiber diameter / 3, smallest edge "
         "/ 30)), coarsened up to max(2 voxels, smallest edge / 30) to fit the memory budget)",
     )
 
