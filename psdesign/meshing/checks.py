@@ -6,7 +6,7 @@ import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
 from psdesign.meshing import tags as T
-from psdesign.meshing.errors import MeshFailedError
+from psdesign.meshing.errors import MeshFailedError, Remedy
 from psdesign.meshing.result import PoreMesh, triangle_areas
 
 
@@ -113,13 +113,13 @@ def mesh_quality(
     return report, mesh_vol, porosity_voxel
 
 
-def gate(quality: dict, volume_tol: float, min_pore_fraction: float, what: str, hint: str):
+def gate(quality: dict, volume_tol: float, min_pore_fraction: float, what: str, remedy: Remedy):
     """Raise :class:`MeshFailedError` when the volume or pore-fraction checks fail.
 
-    ``hint`` is ``"key: what to change (allowed: ...)"``, the mesher's resolution key: the
-    refusal begins with that key (a spec's user reads which key to change and its range).
+    The refusal begins with ``remedy.key``, the mesher's resolution key, and ends with its
+    advice and allowed range (a spec's user reads which key to change and how).
     """
-    key, _, rest = hint.partition(": ")
+    key, rest = remedy
     err = quality["volume_rel_error"]
     if abs(err) > volume_tol:
         raise MeshFailedError(

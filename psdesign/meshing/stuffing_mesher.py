@@ -15,6 +15,7 @@ from psdesign.meshing.checks import (
     mesh_quality,
     restore_planes,
 )
+from psdesign.meshing.errors import Remedy
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions, default_lattice_step
 from psdesign.meshing.periodic import periodic_pairs
@@ -81,9 +82,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     progress.stage(f"mesh: {len(sm.tets)} tets stuffed; through-flow components and tags")
     pts, tets, comp, bfaces = keep_through_components(
         sm.points, sm.tets, sm.lo, sm.hi, f.axis, 0.0, any_face=opts.periodic,
-        refine=f"flow.lattice_step: the lattice step {step:.3g} m closes pore gaps "
-        "narrower than about a step (allowed: a smaller step, under about the narrowest gap of "
-        f"the path; {LATTICE_STEP_RANGE})",
+        refine=Remedy("flow.lattice_step", f"the lattice step {step:.3g} m closes pore gaps "
+                      "narrower than about a step (allowed: a smaller step, under about the "
+                      f"narrowest gap of the path; {LATTICE_STEP_RANGE})"),
     )  # fmt: skip
     tags = tag_faces(pts, bfaces, sm.lo, sm.hi, f.axis)
     pairs = periodic_pairs(pts, tags, f.axis) if opts.periodic else {}
@@ -99,9 +100,9 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         f"flow.lattice_step: the lattice step {step:.3g} m may be too coarse for the geometry "
-         "(allowed: a smaller step, under about the fiber radius and the narrowest pore gap; "
-         f"{LATTICE_STEP_RANGE})")  # fmt: skip
+         Remedy("flow.lattice_step", f"the lattice step {step:.3g} m may be too coarse for "
+                "the geometry (allowed: a smaller step, under about the fiber radius and the "
+                f"narrowest pore gap; {LATTICE_STEP_RANGE})"))  # fmt: skip
     lo, hi = sm.lo * f.scale, sm.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,

@@ -7,7 +7,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from psdesign.meshing import tags as T
-from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError
+from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError, Remedy
 from psdesign.meshing.options import TETWILD_OPTIONS
 from psdesign.meshing.tetwild_process import tetrahedralize_isolated
 from psdesign.schema.flow import PYTETWILD_EDGE_RANGE
@@ -242,12 +242,13 @@ def tag_faces(
 
 
 #: The tet mesh's resolution keys, for :func:`keep_through_components`' refusal when its caller
-#: names no mesher: ``"key: what closes gaps (allowed: ...)"``.
-MESH_RESOLUTION = (
-    "flow.lattice_step: a tet mesh closes pore gaps narrower than about its step (allowed: a "
+#: names no mesher.
+MESH_RESOLUTION = Remedy(
+    "flow.lattice_step",
+    "a tet mesh closes pore gaps narrower than about its step (allowed: a "
     "smaller step, under about the narrowest gap of the path: flow.lattice_step > 0 m with "
     f"mesher = 'stuffing', flow.edge_length {PYTETWILD_EDGE_RANGE} with mesher = "
-    "'pytetwild')"
+    "'pytetwild')",
 )
 
 
@@ -259,16 +260,16 @@ def keep_through_components(
     axis: int,
     tol: float,
     any_face: bool = False,
-    refine: str = MESH_RESOLUTION,
+    refine: Remedy = MESH_RESOLUTION,
 ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """Drop tet components that touch neither inlet nor outlet; fail if none spans both.
 
     With ``any_face`` (periodic meshes) only components touching no box face at all are
     dropped (a pocket cut by a lateral face continues through its periodic image).
-    ``refine`` begins the refusal when no component spans both: the key that sets the tet
-    mesh's resolution and its allowed range, ``"key: what closes gaps (allowed: ...)"`` (the
-    mesher's; default :data:`MESH_RESOLUTION`, both meshers' keys). The voxel field the mesh is
-    built from had a path (:func:`~psdesign.meshing.surface.check_voxel_connectivity` runs
+    ``refine`` is the refusal's key and advice when no component spans both: the key that
+    sets the tet mesh's resolution and its allowed range (the mesher's; default
+    :data:`MESH_RESOLUTION`, both meshers' keys). The voxel field the mesh is built from had
+    a path (:func:`~psdesign.meshing.surface.check_voxel_connectivity` runs
     first), so the mesh closed a gap narrower than about its step.
     Returns the filtered (points, tets) (vertices renumbered), a report dict and the
     boundary faces of the filtered mesh: exactly ``face_structure(tets)[0]`` (whole
@@ -287,7 +288,7 @@ def keep_through_components(
     touches_out[labels[btet[at_out]]] = True
     vol = tet_volumes(points, tets)
     comp_vol = np.bincount(labels, weights=vol, minlength=ncomp)
-    key, _, rest = refine.partition(": ")
+    key, rest = refine
     for face, touches in ((T.INLET, touches_in), (T.OUTLET, touches_out)):
         if not touches.any():
             raise PoreTopologyError(

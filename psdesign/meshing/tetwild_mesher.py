@@ -28,6 +28,7 @@ from psdesign.meshing.checks import (
     mesh_quality,
     restore_planes,
 )
+from psdesign.meshing.errors import Remedy
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import (  # the edge rule's names, re-exported here
     DEFAULT_EDGE_FAC,  # noqa: F401
@@ -68,10 +69,11 @@ _MAX_DROPPED_VOLUME = 1e-3
 _WALL_NEWTON_STEPS = 3  # Newton steps of the wall projection onto the field's zero set
 #: What refines a pytetwild mesh that lost the pore path (the refusal of
 #: :func:`~psdesign.meshing.tetra.keep_through_components`).
-TETWILD_RESOLUTION = (
-    "flow.edge_length: fTetWild's edge and envelope close pore gaps narrower than about them "
+TETWILD_RESOLUTION = Remedy(
+    "flow.edge_length",
+    "fTetWild's edge and envelope close pore gaps narrower than about them "
     f"(allowed: a smaller edge_length, {PYTETWILD_EDGE_RANGE}, the mesh within the "
-    "memory budget; or mesher = 'stuffing' with a fine flow.lattice_step)"
+    "memory budget; or mesher = 'stuffing' with a fine flow.lattice_step)",
 )
 
 
@@ -184,9 +186,9 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
     timings["checks_time_s"] = time.perf_counter() - t
     quality.update({k: round(v, 4) for k, v in timings.items()})
     gate(quality, opts.volume_tol, opts.min_pore_fraction, "target pore volume",
-         "flow.edge_length: the mesher lost or added pore (thin gaps?) (allowed: a smaller "
-         f"edge_length, {PYTETWILD_EDGE_RANGE}, or mesher = 'stuffing'; from Python "
-         "also a smaller epsilon or a larger min_gap_voxels)")  # fmt: skip
+         Remedy("flow.edge_length", "the mesher lost or added pore (thin gaps?) (allowed: a "
+                f"smaller edge_length, {PYTETWILD_EDGE_RANGE}, or mesher = 'stuffing'; from "
+                "Python also a smaller epsilon or a larger min_gap_voxels)"))  # fmt: skip
     lo, hi = surf.lo * f.scale, surf.hi * f.scale
     pm = PoreMesh(
         points=pts * f.scale,
