@@ -39,6 +39,9 @@ ABS_ERROR_COLUMNS = {
     **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
 }
 
+#: Every error column: an estimate of a value's error, not an output of its own.
+ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
+
 
 def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and

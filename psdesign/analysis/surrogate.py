@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import (
+    ERROR_COLUMNS,
     distinct_realizations,
     numeric_parameters,
     output_columns,
@@ -371,6 +372,27 @@ def _check_parameter_cells(df: pd.DataFrame, params: list[str]) -> None:
             )
 
 
+def default_fit_outputs(columns: list[str]) -> list[str]:
+    """The outputs ``study fit`` fits without ``--outputs``: porosity, K and the transport
+    values, not their error bars (:data:`~psdesign.analysis.columns.ERROR_COLUMNS`; a transport
+    study's ``diffusivity_z_rel_error`` was fitted as an output).
+
+    >>> default_fit_outputs(["porosity", "porosity_error", "k_z_m2", "k_z_rel_error",
+    ...                      "diffusivity_z", "diffusivity_z_rel_error", "n_fibers"])
+    ['porosity', 'k_z_m2', 'diffusivity_z']
+    """
+    return [
+        c
+        for c in columns
+        if c not in ERROR_COLUMNS
+        and (
+            c == "porosity"
+            or c.endswith("_m2")
+            or c.startswith(("diffusivity_", "tortuosity_", "conductivity_"))
+        )
+    ]
+
+
 def fit_study(
     out_dir: str | Path,
     outputs: list[str] | None = None,
@@ -398,13 +420,7 @@ def fit_study(
         raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
     bounds = parameter_bounds(df, params, spec)
     allowed = output_columns(df, params)
-    names = outputs or [
-        c
-        for c in allowed
-        if c == "porosity"
-        or c.endswith("_m2")
-        or c.startswith(("diffusivity_", "tortuosity_", "conductivity_"))
-    ]
+    names = outputs or default_fit_outputs(allowed)
     # every name before any fit; a design parameter, the seed or a text column is no output
     for name in names:
         if name not in allowed:

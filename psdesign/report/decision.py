@@ -1,6 +1,7 @@
 """Report sections that turn a study table into a design decision: outputs against each design
-parameter with replicate 95 % CIs, anisotropy, main effects and two-factor interactions, the
-surrogate's response surface with its uncertainty, and Sobol indices (interactive, Plotly).
+parameter with replicate 95 % CIs and numerical error bars, anisotropy, main effects and
+two-factor interactions, the surrogate's response surface with its uncertainty, and Sobol
+indices (interactive, Plotly).
 """
 
 from __future__ import annotations
@@ -11,7 +12,14 @@ import math
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import distinct_realizations, numeric_parameters, trusted
+from psdesign.analysis.columns import (
+    ABS_ERROR_COLUMNS,
+    ERROR_COLUMNS,
+    REL_ERROR_COLUMNS,
+    distinct_realizations,
+    numeric_parameters,
+    trusted,
+)
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
 from psdesign.report.units import parameter_label, parameter_unit
@@ -92,11 +100,34 @@ def add_anisotropy(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _err(summary: pd.DataFrame, c: str) -> np.ndarray | None:
+    """Half-width of the bar on each design point's mean of output ``c``: the 95 % CI of the
+    replicate mean (0 with one replicate) plus the mean of the cases' own numerical error bars
+    (:data:`~psdesign.analysis.columns.REL_ERROR_COLUMNS`, ``ABS_ERROR_COLUMNS``), added: a
+    discretization error is not averaged away by more seeds. None when ``c`` has neither.
+
+    >>> s = pd.DataFrame({"k_z_m2_mean": [2.0], "k_z_m2_ci95_high": [2.5],
+    ...                   "k_z_rel_error_mean": [0.1]})
+    >>> _err(s, "k_z_m2").tolist()
+    [0.7]
+    """
+    num = _numerical_half_width(summary, c)
     if f"{c}_ci95_high" not in summary:
-        return None
+        return num
     # the upper half-width: a K's lower bound is clipped at 0 (replicate_summary)
-    half = summary[f"{c}_ci95_high"] - summary[f"{c}_mean"]
-    return half.to_numpy(dtype=float)
+    half = (summary[f"{c}_ci95_high"] - summary[f"{c}_mean"]).to_numpy(dtype=float)
+    if num is None:
+        return half
+    return np.nan_to_num(half, nan=0.0) + num
+
+
+def _numerical_half_width(summary: pd.DataFrame, c: str) -> np.ndarray | None:
+    """The mean numerical error bar (absolute) of output ``c`` per design point, or None."""
+    if f"{REL_ERROR_COLUMNS.get(c)}_mean" in summary:
+        rel = summary[f"{REL_ERROR_COLUMNS[c]}_mean"].to_numpy(dtype=float)
+        return rel * np.abs(summary[f"{c}_mean"].to_numpy(dtype=float))
+    if f"{ABS_ERROR_COLUMNS.get(c)}_mean" in summary:
+        return summary[f"{ABS_ERROR_COLUMNS[c]}_mean"].to_numpy(dtype=float)
+    return None
 
 
 def _nan_none(a) -> list:
@@ -104,8 +135,9 @@ def _nan_none(a) -> list:
 
 
 def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
-    """Every output against each numeric design parameter, replicate means with 95 % CI bars
-    (``loguniform`` parameters of ``study`` on a log axis)."""
+    """Every output against each numeric design parameter: replicate means, bars of the 95 % CI
+    plus the numerical error bar (:func:`_err`); ``loguniform`` parameters of ``study`` on a
+    log axis."""
     import plotly.graph_objects as go
 
     from psdesign.analysis.surrogate import log_parameters
@@ -122,7 +154,8 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
     kcols = [c for c in K_DIRECTIONS if c in has]
-    others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES)]
+    # an error column is the bar of its value (drawn on it, :func:`_err`), not an output
+    others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS]
     parts = [] if kcols or not any(c in df for c in K_DIRECTIONS) else [NO_TRUSTED_K]
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
@@ -133,7 +166,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
                 for j, (label, g) in enumerate(groups):
                     fig.add_trace(_mean_trace(g, p, c, mode, K_DIRECTIONS[c], label, i, j))
             fig.update_layout(
-                title=f"K vs {p} (mean of replicates, 95 % CI)",
+                title=f"K vs {p} (mean of replicates; bar: 95 % CI + numerical error)",
                 height=360,
                 xaxis=param_axis(p, p in logs),
                 yaxis_title="K (m²)",
@@ -179,7 +212,7 @@ COLORS = ("#636efa", "#ef553b", "#00cc96", "#ab63fa")
 
 
 def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: str, i, j):
-    """One line of replicate means of output ``c`` against ``p``, 95 % CI bars; colour by
+    """One line of replicate means of output ``c`` against ``p``, bars of :func:`_err`; colour by
     output (``i``), dash by the other parameters' combination (``j``)."""
     import plotly.graph_objects as go
 

@@ -459,8 +459,9 @@ def build_html(out_dir: str | Path) -> str:
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
 <h2>Outputs vs design parameters</h2>
-<p class="note">Means over replicates (seeds) with Student-t 95 % confidence intervals
-(summary.csv); anisotropy = mean in-plane K / through-plane K.</p>
+<p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
+the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;
+anisotropy = mean in-plane K / through-plane K.</p>
 {_safe(parameter_plots, df, params, study)}
 <h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}
 <h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}

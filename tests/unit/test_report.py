@@ -439,7 +439,7 @@ def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
 def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
     """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
     layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
-    on a dimensionless axis (porosity_error; seen in a real browser). Every axis and colour
+    on a dimensionless axis (porosity_error then; seen in a real browser; here a D_eff/D). Every axis and colour
     bar of the report's figures must tick ``"e"`` numbers (0.0065, 6.5e-4) unless it carries
     a unit with its SI prefix (``6µm``)."""
     from psdesign.report import decision
@@ -461,7 +461,7 @@ def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
             "generator.diameter": d,
             "status": "ok",
             "porosity": eps,
-            "porosity_error": 6.5e-4 + 1e-5 * eps,
+            "diffusivity_z": 6.5e-4 + 1e-5 * eps,
             "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
         }
     )
@@ -476,7 +476,7 @@ def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
         formats += [(t.colorbar.exponentformat, None) for t in fig.data if hasattr(t, "colorbar")]
     assert len(figs) >= 8 and ("SI", "m") in formats  # the diameter's axes: 6µm
     assert set(formats) == {("e", None), ("SI", "m")}, set(formats)
-    err = [f for f in figs if f.layout.title.text == "porosity_error vs generator.porosity"]
+    err = [f for f in figs if f.layout.title.text == "diffusivity_z vs generator.porosity"]
     assert err and err[0].layout.yaxis.exponentformat == "e"
 
 
@@ -651,3 +651,46 @@ def test_response_surface_keeps_a_third_parameter_tied_as_in_the_cases(tmp_path,
     truth = np.log10(2 * kc_truth(E, D))
     err = 10 ** np.abs(np.asarray(mean.z) - truth) - 1
     assert err.max() < 0.05  # 1.0 % now; 78 % with aux_length held at mid-range
+
+
+def test_parameter_plots_draw_each_error_on_its_value_not_as_an_output(monkeypatch):
+    """The quickstart's report drew ``porosity_error vs generator.porosity`` as an output of its
+    own and K with no bar at all (one seed: no CI), while each case carried its numerical bar.
+    Now an error column is drawn only as its value's bar, and the bar on a design point's mean
+    is the 95 % CI of the replicate mean (Student, ``t_{0.975,2} = 4.302653`` for three seeds)
+    plus the mean of the cases' own bars (a discretization error is not averaged away)."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    k = [1.0e-11, 1.2e-11, 1.1e-11, 2.0e-11]  # three seeds at 0.8, one at 0.9
+    df = pd.DataFrame(
+        {
+            "generator.porosity": [0.8, 0.8, 0.8, 0.9],
+            "seed": [1, 2, 3, 1],
+            "status": "ok",
+            "porosity": [0.80, 0.81, 0.79, 0.9],
+            "porosity_error": [0.001, 0.002, 0.003, 0.004],
+            "k_z_m2": k,
+            "k_z_rel_error": [0.04, 0.05, 0.06, 0.03],
+            "k_z_status": "ok",
+            "diffusivity_z": [0.5, 0.52, 0.51, 0.6],
+            "diffusivity_z_rel_error": [0.01, 0.01, 0.01, 0.02],
+            "diffusivity_z_status": "ok",
+        }
+    )
+    decision.parameter_plots(df, ["generator.porosity"], None)
+    titles = [f.layout.title.text for f in figs]
+    assert not any("error" in t.split(" vs ")[0] for t in titles), titles
+    bars = {f.layout.title.text.split(" vs ")[0]: f.data[0].error_y.array for f in figs}
+    k_bar = next(v for t, v in bars.items() if t.startswith("K"))
+    ci = 4.302653 * np.std(k[:3], ddof=1) / np.sqrt(3)
+    assert k_bar[0] == pytest.approx(ci + 0.05 * 1.1e-11, rel=1e-6)
+    assert k_bar[1] == pytest.approx(0.03 * 2.0e-11, rel=1e-12)  # one seed: its own bar
+    ci_p = 4.302653 * np.std([0.80, 0.81, 0.79], ddof=1) / np.sqrt(3)
+    assert bars["porosity"][0] == pytest.approx(ci_p + 0.002, rel=1e-6)
+    assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
+    assert bars["diffusivity_z"][1] == pytest.approx(0.02 * 0.6, rel=1e-12)
