@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import K_STATUS_COLUMNS, k_not_ok, trusted
+from psdesign.analysis.columns import STATUS_COLUMNS, k_not_ok, trusted
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -32,6 +32,7 @@ from psdesign.report.references import (
     tomadakis_sotirchos,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
+from psdesign.report.transport import transport_figure
 
 __all__ = ["ReportError", "build_html", "write_report"]
 
@@ -429,6 +430,13 @@ def build_html(out_dir: str | Path) -> str:
 
     perm_uri, perm_note = _perm_figure(df, study)
     perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
+    diff_png, diff_note = transport_figure(df)
+    diff_html = (
+        f'<h2>Porosity vs diffusivity</h2><img src="data:image/png;base64,{diff_png}" '
+        f'alt="porosity vs relative diffusivity"><p class="note">{_esc(diff_note)}</p>'
+        if diff_png
+        else ""
+    )
 
     sens = sensitivity_table(trusted(df), params)
     sens_html = (
@@ -458,6 +466,7 @@ def build_html(out_dir: str | Path) -> str:
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
+{diff_html}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
 the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;
@@ -482,21 +491,31 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 
 
 def _status_banner(df: pd.DataFrame) -> str:
-    """A red box at the top when any case or any K is not ok: how many, and where they show."""
+    """A red box at the top when any case or any rated value (K, D_eff/D, ...) is not ok: how
+    many, and where they show."""
     status = df["status"].fillna("") if "status" in df else pd.Series([""] * len(df))
     counts = status[status != "ok"].value_counts().to_dict()
-    untrusted = sum(int(((status == "ok") & k_not_ok(df, c)).sum()) for c in K_STATUS_COLUMNS)
+    # one count per status column: the tortuosity shares the diffusivity's, d10-d90 one column
+    rated: dict[str, str] = {}
+    for c, st in STATUS_COLUMNS.items():
+        if c in df and st in df:
+            rated.setdefault(st, c)
+    bad = {st: int(((status == "ok") & k_not_ok(df, c)).sum()) for st, c in rated.items()}
+    untrusted = sum(bad.values())
     if not counts and not untrusted:
         return ""
     parts = [f"{v} {_esc(k or 'unknown')}" for k, v in sorted(counts.items())]
     if untrusted:
-        parts.append(f"{untrusted} K value(s) of ok cases not ok (k_*_status)")
+        cols = ", ".join(st for st, n in bad.items() if n)
+        parts.append(f"{untrusted} value(s) of ok cases not ok ({_esc(cols)})")
     return (
         f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '
         f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as red "
-        "open markers in the porosity-permeability plot (when they have a K) and highlighted "
-        "in the tables below; the reason is in the <code>error</code> column (cases) or the "
-        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns (K).</p>"
+        "open markers in the porosity-permeability and -diffusivity plots (when they have a "
+        "value) and highlighted "
+        "in the tables below; the reason is in the <code>error</code> column (cases), the "
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns (K) or the "
+        "<code>diffusivity_z_warnings</code>-like columns (transport values).</p>"
     )
 
 

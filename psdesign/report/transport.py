@@ -53,7 +53,13 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
 
 def transport_figure(df) -> tuple[str | None, str]:
     """Relative diffusivity vs porosity of a study table with the Tomadakis-Sotirchos curves;
-    ``(base64 png or None, caption)``."""
+    ``(base64 png or None, caption)``. Each value carries its error bar
+    (``diffusivity_<d>_rel_error``); a value whose case or own status is not ``ok`` is drawn
+    as a red open marker and counted in the caption, as the report's K figure does."""
+    import pandas as pd
+
+    from psdesign.analysis.columns import REL_ERROR_COLUMNS, k_not_ok
+
     cols = [c for c in ("diffusivity_x", "diffusivity_y", "diffusivity_z") if c in df.columns]
     if not cols or "porosity" not in df.columns:
         return None, ""
@@ -63,19 +69,44 @@ def transport_figure(df) -> tuple[str | None, str]:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5, 3.6))
-    for c in cols:
-        ax.plot(df["porosity"], df[c], "o", label=c)
-    eps = np.linspace(0.12, 0.99, 100)
+    eps = pd.to_numeric(df["porosity"], errors="coerce").to_numpy(dtype=float)
+    case_ok = (df["status"] == "ok").to_numpy() if "status" in df else np.ones(len(df), bool)
+    n_bad = 0
+    for i, c in enumerate(cols):
+        y = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
+        rel = df.get(REL_ERROR_COLUMNS[c])
+        err = None if rel is None else np.abs(pd.to_numeric(rel, errors="coerce").to_numpy() * y)
+        has = np.isfinite(y) & np.isfinite(eps)
+        good = has & case_ok & ~k_not_ok(df, c).to_numpy()
+        bad = has & ~good
+        if good.any():
+            ax.errorbar(eps[good], y[good], yerr=None if err is None else err[good],
+                        fmt="os^"[i], capsize=2, color=f"C{i}", label=c)  # fmt: skip
+        if bad.any():
+            ax.errorbar(eps[bad], y[bad], yerr=None if err is None else err[bad],
+                        fmt="os^"[i], capsize=2, **BAD_STYLE,
+                        label=f"{c}: NOT ok (not converged / untrustworthy)")  # fmt: skip
+        n_bad += int(bad.sum())
+    curve = np.linspace(0.12, 0.99, 100)
     ep, a_in, a_tp = TS_2D
     for alpha, name in ((a_in, "in-plane"), (a_tp, "through-plane")):
-        ax.plot(eps, eps * ((eps - ep) / (1 - ep)) ** alpha, "-", lw=1, label=f"T-S {name}")
+        ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, "-", lw=1, label=f"T-S {name}")
     ax.set_xlabel("porosity")
     ax.set_ylabel("D_eff / D_bulk")
     ax.legend(fontsize=7)
     png = base64.b64encode(_fig_png(fig)).decode()
     caption = (
-        "Relative diffusivity against porosity; lines: Tomadakis & Sotirchos (1993) for random "
-        "overlapping 2-D fibre structures (eps_p = 0.11, alpha = 0.521 in-plane, 0.785 "
-        "through-plane)."
+        "Relative diffusivity against porosity, bars: each value's error bar; lines: Tomadakis & "
+        "Sotirchos (1993) for random overlapping 2-D fibre structures (eps_p = 0.11, alpha = "
+        "0.521 in-plane, 0.785 through-plane)."
     )
+    if n_bad:
+        caption += (
+            f" {n_bad} value(s) that are not ok (red open markers) are left out of the fits and "
+            "sensitivity."
+        )
     return png, caption
+
+
+#: How a value that is not ``ok`` is drawn (the K figure's red open marker).
+BAD_STYLE = {"ms": 9, "mfc": "none", "mec": "red", "ecolor": "red", "color": "red"}

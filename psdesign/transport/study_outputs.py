@@ -159,6 +159,8 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
                 row[f"diffusivity_{d}_rel_error"] = res.rel_error
                 row[f"diffusivity_{d}_converged"] = res.converged
                 row[f"diffusivity_{d}_status"] = res.status
+                if res.warnings:  # why a value is not ok (a neck, too few voxels), as K's
+                    row[f"diffusivity_{d}_warnings"] = "; ".join(res.warnings)
                 row[f"tortuosity_{d}"] = res.tortuosity_factor
                 row[f"time_diffusivity_{d}_s"] = res.wall_time_s
     for d in sorted({o[-1] for o in wanted if o.startswith("conductivity_")}):
@@ -169,6 +171,8 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         row[f"conductivity_{d}_rel_error"] = res.rel_error
         row[f"conductivity_{d}_converged"] = res.converged
         row[f"conductivity_{d}_status"] = res.status
+        if res.warnings:
+            row[f"conductivity_{d}_warnings"] = "; ".join(res.warnings)
         row[f"time_conductivity_{d}_s"] = res.wall_time_s
     if any(o.startswith("pore_d") for o in wanted):
         from psdesign.transport.pores import pore_sizes

@@ -336,3 +336,33 @@ def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out)
     assert res["blocked"] and res["relative_diffusivity"] == 0.0 and res["status"] == "blocked"
     assert len(res["warnings"]) == 1 and "refine rve.voxel" in res["warnings"][0]
+
+
+def test_a_study_row_says_why_a_transport_value_is_not_ok(tmp_path):
+    """A study row carried ``diffusivity_z_status = untrustworthy`` but not the reason the
+    ``psdesign diffusivity`` command prints (K's rows carry theirs in ``warnings_z``). The
+    cylinder at 2 um voxels has 4 voxels across its 8 um diameter (under 8): the row now says
+    so, naming the key to refine; at 1 um the value is ok and has no warnings column."""
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import load_spec
+    from psdesign.transport.study_outputs import transport_outputs
+
+    coarse = tmp_path / "coarse.toml"
+    coarse.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
+    for path, voxel in ((coarse, 2e-6), (tmp_path / "fine.toml", 1e-6)):
+        if voxel == 1e-6:
+            path.write_text(SPEC)
+        s = load_spec(path)
+        built = build_rve(s)
+        row = transport_outputs(
+            built.rve, built.voxelize(voxel), ["diffusivity_z", "conductivity_z"], s
+        )
+        if voxel == 2e-6:
+            assert row["diffusivity_z_status"] == "untrustworthy"
+            assert row["diffusivity_z_warnings"].startswith(
+                "D_eff/D_z: only 4.0 voxels across the thinnest fiber diameter (< 8); refine "
+                "rve.voxel"
+            )
+            assert "rve.voxel" in row["conductivity_z_warnings"]
+        else:
+            assert row["diffusivity_z_status"] == "ok" and "diffusivity_z_warnings" not in row

@@ -137,7 +137,9 @@ def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
     alert = re.search(r'<p class="alert" id="psd-status-alert">(.*?)</p>', html, flags=re.S)
     assert alert is not None
     assert "4 failed" in alert.group(1) and "2 not_converged" in alert.group(1)
-    assert "2 K value(s) of ok cases not ok" in alert.group(1) and "of 12 cases" in alert.group(1)
+    assert "2 value(s) of ok cases not ok (k_z_status)" in alert.group(
+        1
+    ) and "of 12 cases" in alert.group(1)
     # the error-bar table: failed cases are highlighted and say failed (they used to be blank)
     table = html.split("<h3>Permeability with error bars</h3>", 1)[1].split("</table>", 1)[0]
     for cid in df.loc[df["status"] == "failed", "case_id"]:
@@ -297,7 +299,7 @@ def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     run_study(p, tmp_path / "out", workers=0, case_fn=untrusted_case, progress=False)
     html = (tmp_path / "out" / "report.html").read_text()
-    assert "24 K value(s) of ok cases not ok" in html  # 12 cases x (K_x, K_z)
+    assert "24 value(s) of ok cases not ok (k_x_status, k_z_status)" in html  # 12 x (K_x, K_z)
     assert "24 K value(s) that are not ok (red open markers)" in html
     assert "No K to plot: every K value is not ok" in html
     assert 'id="psd-k-generator.porosity"' not in html  # no empty K frame
@@ -439,9 +441,9 @@ def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
 def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
     """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
     layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
-    on a dimensionless axis (porosity_error then; seen in a real browser; here a D_eff/D). Every axis and colour
-    bar of the report's figures must tick ``"e"`` numbers (0.0065, 6.5e-4) unless it carries
-    a unit with its SI prefix (``6µm``)."""
+    on a dimensionless axis (porosity_error then; seen in a real browser; here a D_eff/D).
+    Every axis and colour bar of the report's figures must tick ``"e"`` numbers (0.0065,
+    6.5e-4) unless it carries a unit with its SI prefix (``6µm``)."""
     from psdesign.report import decision
 
     figs = []
@@ -694,3 +696,63 @@ def test_parameter_plots_draw_each_error_on_its_value_not_as_an_output(monkeypat
     assert bars["porosity"][0] == pytest.approx(ci_p + 0.002, rel=1e-6)
     assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
     assert bars["diffusivity_z"][1] == pytest.approx(0.02 * 0.6, rel=1e-12)
+
+
+def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
+    """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
+    300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
+    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is a red open marker
+    counted in the caption, as the K figure does."""
+    import matplotlib.axes
+
+    from psdesign.report.transport import transport_figure
+
+    calls = []
+    real = matplotlib.axes.Axes.errorbar
+    monkeypatch.setattr(
+        matplotlib.axes.Axes,
+        "errorbar",
+        lambda self, x, y, **kw: (calls.append((list(x), list(y), kw)), real(self, x, y, **kw))[1],
+    )
+    df = pd.DataFrame(
+        {
+            "status": ["ok", "ok", "ok", "failed"],
+            "porosity": [0.7, 0.8, 0.9, 0.85],
+            "diffusivity_z": [0.40, 0.55, 0.75, np.nan],
+            "diffusivity_z_rel_error": [0.05, 3.0, 0.02, np.nan],
+            "diffusivity_z_status": ["ok", "untrustworthy", "ok", None],
+        }
+    )
+    png, caption = transport_figure(df)
+    assert png and "1 value(s) that are not ok (red open markers)" in caption
+    (gx, gy, gkw), (bx, by, bkw) = calls
+    assert (gx, gy) == ([0.7, 0.9], [0.40, 0.75]) and bx == [0.8] and by == [0.55]
+    np.testing.assert_allclose(gkw["yerr"], [0.02, 0.015], rtol=1e-12)
+    np.testing.assert_allclose(bkw["yerr"], [1.65], rtol=1e-12)
+    assert bkw["mec"] == "red" and bkw["mfc"] == "none"
+
+
+def _transport_case(spec, outputs, solver, workdir):
+    """``fake_case`` with a D_eff/D per case: the Tomadakis-Sotirchos through-plane value
+    (eps ((eps - 0.11) / 0.89)^0.785); porosity 0.9 is ``untrustworthy`` (a 300 % bar at a
+    neck), the rest ``ok`` with a 2 % bar."""
+    out = fake_case(spec, outputs, solver, workdir)
+    eps = out["porosity"]
+    out["diffusivity_z"] = eps * ((eps - 0.11) / 0.89) ** 0.785
+    bad = eps == 0.9
+    out["diffusivity_z_rel_error"] = 3.0 if bad else 0.02
+    out["diffusivity_z_status"] = "untrustworthy" if bad else "ok"
+    return out
+
+
+def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp_path):
+    """The report's porosity-diffusivity figure (``report/transport.py``) was written but never
+    put in the report, and its red box counted only K values that are not ok: a study whose
+    D_eff/D was untrustworthy at porosity 0.9 (4 of 12 cases, K all ok) showed no box."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=_transport_case, progress=False)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert '<h2>Porosity vs diffusivity</h2><img src="data:image/png;base64,' in html
+    assert "4 value(s) that are not ok (red open markers)" in html
+    alert = re.search(r'<p class="alert" id="psd-status-alert">(.*?)</p>', html, flags=re.S)
+    assert alert and "4 value(s) of ok cases not ok (diffusivity_z_status)" in alert.group(1)
