@@ -89,8 +89,9 @@ def transport_figure(df) -> tuple[str | None, str]:
         n_bad += int(bad.sum())
     curve = np.linspace(0.12, 0.99, 100)
     ep, a_in, a_tp = TS_2D
-    for alpha, name in ((a_in, "in-plane"), (a_tp, "through-plane")):
-        ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, "-", lw=1, label=f"T-S {name}")
+    # black as the K figure's reference curves: the data keep the colours
+    for alpha, name, ls in ((a_tp, "through-plane", "k-"), (a_in, "in-plane", "k--")):
+        ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, ls, lw=1, label=f"T-S {name}")
     ax.set_xlabel("porosity")
     ax.set_ylabel("D_eff / D_bulk")
     ax.legend(fontsize=7)
