@@ -52,6 +52,7 @@ def no_path_message(
     axis: int,
     wall: str,
     rve=None,
+    periodic: bool = True,
 ) -> str:
     """The one line of a voxel solve refused for want of a fluid path along ``name``.
 
@@ -70,6 +71,10 @@ def no_path_message(
         ``flow.wall_treatment`` as solved (``"subvoxel"``, ``"staircase"``, ``"diffuse"``).
     rve : RVE, optional
         The RVE; with ``wall = "diffuse"`` its walls measure the gap the layers closed.
+    periodic : bool
+        Whether the refused grid was the periodic one (``bc`` and ``periodic_treatment``
+        periodic), the path the tests here look for; else (permeameter reservoirs, a mirrored
+        or framed grid) the line names ``rve.voxel`` without telling who closed the path.
 
     Returns
     -------
@@ -90,6 +95,12 @@ def no_path_message(
             f"image: the pore space has no path along {name} (face-connected, periodic pore "
             f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
             "space joins the faces normal to the flow)"
+        )
+    if not periodic:
+        return (
+            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected fluid "
+            "voxels): a gap under about a voxel closes on the grid (allowed: a voxel small "
+            f"enough to open the pore path; none if the pore space has no path along {name})"
         )
     d = np.asarray(distance) / float(h)
     if wall == "diffuse" and rve is not None and percolates(d > 0.0, axis):

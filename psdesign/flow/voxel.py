@@ -203,7 +203,9 @@ def permeability_voxel(
             )
     except NoFluidPathError as exc:
         distance = fields.distance if fields.analytic_distance else None
-        raise NoFluidPathError(no_path_message(name, h, distance, ax, wall, rve)) from exc
+        periodic = bc == "periodic" and (flow.get("periodic_treatment") or "periodic") == "periodic"
+        line = no_path_message(name, h, distance, ax, wall, rve, periodic)
+        raise NoFluidPathError(line) from exc
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
     # parallel kernels not compiled yet (res.serial_fallback) make a solve slower, not its

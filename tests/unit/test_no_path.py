@@ -95,6 +95,21 @@ def test_a_geometry_without_a_path_is_not_sent_to_refine_the_voxel(wall):
     assert "rve.voxel" not in str(info.value)
 
 
+def test_the_permeameter_line_does_not_claim_what_the_periodic_test_measured():
+    """The tests of who closed the path look for a periodic path; the permeameter's reservoirs
+    join any inlet and outlet voxels, so its refusal keeps the line naming rve.voxel."""
+    fibers = [
+        make_fiber("cylinder", 0.6, center=[0.5, y, 0.325], direction=[0, 0, 1])
+        for y in (0.25, 0.75)
+    ]
+    rve = RVE([L, L, 26e-6], fibers)
+    fields = rve.voxelize(2e-6)
+    flow = {"viscosity": 1.8e-5, "bc": "permeameter"}
+    with pytest.raises(NoFluidPathError) as info:
+        permeability_voxel(fields, "x", flow, rve=rve)
+    assert str(info.value).startswith("rve.voxel: no fluid path along x on the 2e-06 m grid")
+
+
 @pytest.mark.parametrize("phi", [0.76, 0.775, 0.785])
 @pytest.mark.parametrize("n", [8, 12, 16, 20, 24])
 def test_an_open_array_closed_by_the_grid_is_never_called_closed(phi, n):
