@@ -125,16 +125,23 @@ def no_path_message(
 def _diffuse_closed(name: str, h: float, rve, shape, axis: int) -> str:
     """The line of a gap the grid has open and the diffuse wall's layers close: the narrowest
     gap a path must pass, twice the percolation radius of the half-gap field
-    (:func:`psdesign.flow.diffuse.half_gap`, to :data:`R_TOL`), and the voxel that puts
-    :data:`DIFFUSE_GAP` voxels across it."""
+    (:func:`psdesign.flow.diffuse.half_gap`, to :data:`R_TOL`, or to a tenth, a hundredth of
+    it where the radius is under two tolerances: a gap of 0.03 voxel read as 0.1 asked for a
+    voxel under which it stayed closed), and the voxel that puts :data:`DIFFUSE_GAP` voxels
+    across it."""
     from psdesign.flow.diffuse import half_gap
     from psdesign.geometry.throat import percolation_radius
 
-    gap = 2.0 * percolation_radius(half_gap(rve, shape, h), axis, R_TOL)
-    gap = max(gap, 2.0 * R_TOL)  # the bisection's resolution
+    field = half_gap(rve, shape, h)
+    tol = R_TOL
+    radius = percolation_radius(field, axis, tol)
+    while radius < 2.0 * tol and tol > 1e-3:  # a gap of a few tolerances: bisect finer
+        tol /= 10.0
+        radius = percolation_radius(field, axis, tol)
+    gap = max(2.0 * radius, 2.0 * tol)  # the bisection's resolution
     return (
         f"rve.voxel: the diffuse wall closes the pore path along {name} on the {h:.3g} m grid, "
-        f"which has it open: its narrowest gap is {gap:.2f} voxels ({gap * h:.3g} m) and the "
+        f"which has it open: its narrowest gap is {gap:.3g} voxels ({gap * h:.3g} m) and the "
         "two walls' layers leave no cell with fluid fraction >= 1/2 across a gap under about 2 "
         f"voxels (allowed: rve.voxel <= {gap * h / DIFFUSE_GAP:.3g} m, {DIFFUSE_GAP:g} voxels "
         "across the gap, or flow.wall_treatment = 'subvoxel', which keeps it open)"

@@ -27,8 +27,11 @@ from psdesign.schema.spec import validate_spec
 from solvers.voxel_stokes import NoFluidPathError
 
 
-def _array(phi: float, n: int, wall: str):
+def _array(phi: float, n: int, wall: str, shift: float = 0.0):
     spec = array_spec("square", phi, n)
+    for fb in spec["fibers"]:  # the cylinders moved by ``shift`` voxel along x and y
+        c = fb["center"]
+        fb["center"] = [c[0] + shift * L / n, c[1] + shift * L / n, c[2]]
     spec["flow"] = {**spec["flow"], "wall_treatment": wall}
     spec = validate_spec(spec)
     built = build_rve(spec)
@@ -69,6 +72,25 @@ def test_a_gap_the_diffuse_wall_closes_is_said_so_with_the_voxel_that_opens_it()
     assert n_open > n
     rve2, fields2, _ = _array(phi, n_open, "diffuse")
     assert _diffuse_open(rve2, fields2)
+
+
+def test_a_gap_of_a_few_hundredths_of_a_voxel_is_read_to_its_width():
+    """Square array at 0.78, 12 voxels per spacing, the cylinders moved by half a voxel: gap
+    L (1 - 2 sqrt(0.78 / pi)) = 0.041 voxel, open on the grid (voxel centres on its midline).
+    The percolation radius's bisection to 0.05 voxel read it as 0.1 and asked for 300 voxels
+    per spacing, where the gap is 1.03 voxels and the layer still closes it (session 39); it
+    is read to 0.005 voxel now and the voxel asked for puts 2.5 voxels across the true gap."""
+    phi, n = 0.78, 12
+    rve, fields, flow = _array(phi, n, "diffuse", shift=0.5)
+    with pytest.raises(NoFluidPathError) as info:
+        permeability_voxel(fields, "x", flow, rve=rve)
+    line = str(info.value)
+    assert line.startswith("rve.voxel: the diffuse wall closes")
+    gap = (1.0 - 2.0 * math.sqrt(phi / math.pi)) * n  # 0.041 voxels
+    read = float(re.search(r"gap is ([\d.e+-]+) voxels", line).group(1))
+    assert abs(read - gap) < 0.005
+    voxel = float(re.search(r"rve\.voxel <= ([\d.e+-]+) m", line).group(1))
+    assert gap * (L / n) / voxel > 2.4
 
 
 def test_the_sub_voxel_wall_solves_the_gap_the_diffuse_wall_closes():
