@@ -166,3 +166,37 @@ def _check_solid(walls: NearestWalls, fields: VoxelFields) -> None:
                 f"({i}, {j}, {k}) ({int(wrong.sum())} cells of plane x = {i}): the box's content "
                 "does not tile into whole fibers across a face (use 'subvoxel')"
             )
+
+
+def half_gap(rve: RVE, shape: tuple[int, int, int], voxel: float) -> np.ndarray:
+    """Half the local gap between the two nearest walls, ``(s1 + s2) / 2`` (voxels), at every
+    pore voxel centre; 0 in the solid. Between two walls it reads the gap's width wherever the
+    centre sits across it (a wall distance reads half of it only on the midline), so the
+    percolation radius of this field (:func:`psdesign.geometry.throat.percolation_radius`) is
+    half the narrowest gap a path must pass, to within how the centres sample it along the
+    walls (square arrays across: 0-0.02 voxel wide, session 39). Walls beyond the diffuse
+    layer's reach read as far away (the gap is then no narrow one).
+
+    Parameters
+    ----------
+    rve : RVE
+        The RVE (:func:`unsupported` returned None for it).
+    shape : (nx, ny, nz)
+        Its voxel grid at ``voxel``.
+    voxel : float
+        Voxel edge (m).
+
+    Returns
+    -------
+    ndarray (nx, ny, nz)
+    """
+    from solvers.voxel.diffuse_wall import REACH_VOXELS
+
+    walls = NearestWalls(rve, voxel, reach=REACH_VOXELS + 1.0)
+    nx, ny, nz = shape
+    yz = np.meshgrid(np.arange(ny) + 0.5, np.arange(nz) + 0.5, indexing="ij")
+    out = np.zeros((nx, ny, nz))
+    for i in range(nx):
+        (s1, _, _), (s2, _, _) = walls(np.full(yz[0].shape, i + 0.5), *yz)
+        out[i] = np.where(s1 > 0, 0.5 * (s1 + s2), 0.0)
+    return out

@@ -32,6 +32,7 @@ from psdesign.flow.darcy import (
     windowed_drop,
 )
 from psdesign.flow.error import under_resolved
+from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 
@@ -134,30 +135,6 @@ def _options(flow: dict) -> tuple[str, str]:
     return bc, wall
 
 
-def no_path_message(name: str, h: float, analytic: bool) -> str:
-    """The one line of a voxel solve refused for want of a fluid path along ``name``, naming
-    the key to change: ``rve.voxel`` where the surface is analytic (a gap narrower than about a
-    voxel closes on the grid: a square array across at solid fraction 0.75, gap 0.46 um, has
-    no path at 0.5 um voxels, and K within 15 % of Sangani & Acrivos at 0.25 um), ``image``
-    for a segmented image (its pore space is what it is).
-
-    >>> no_path_message("x", 5e-7, True)[:52]
-    'rve.voxel: no fluid path along x on the 5e-07 m grid'
-    """
-    if analytic:
-        return (
-            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected, "
-            "periodic fluid voxels): a gap under about a voxel closes on the grid (allowed: a "
-            f"voxel small enough to open the pore path; none if the pore space has no path "
-            f"along {name})"
-        )
-    return (
-        f"image: the pore space has no path along {name} (face-connected, periodic pore "
-        f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
-        "space joins the faces normal to the flow)"
-    )
-
-
 def permeability_voxel(
     fields: VoxelFields,
     direction: str | int,
@@ -225,7 +202,10 @@ def permeability_voxel(
                 **kw,
             )
     except NoFluidPathError as exc:
-        raise NoFluidPathError(no_path_message(name, h, fields.analytic_distance)) from exc
+        distance = fields.distance if fields.analytic_distance else None
+        periodic = bc == "periodic" and (flow.get("periodic_treatment") or "periodic") == "periodic"
+        line = no_path_message(name, h, distance, ax, wall, rve, periodic)
+        raise NoFluidPathError(line) from exc
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
     # parallel kernels not compiled yet (res.serial_fallback) make a solve slower, not its

@@ -64,7 +64,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   On the command line `--bc permeameter|both` and `--fields` are refused with it. After the
   build: overlapping fibers, or a fiber cut by a face the copies do not repeat across; at the
   solve, no fluid path along the direction (cells with eps >= 0.5, as the default voxel solver
-  refuses a grid that does not percolate: the solve would return the leak through the walls).
+  refuses a grid that does not percolate: the solve would return the leak through the walls);
+  where the voxel grid has the gap open (a gap under about 2 voxels: the wall layers close
+  it), the line names `rve.voxel` with the voxel that opens it, and the `subvoxel` wall.
 * Studies: at most 1000 seeds, 10000 levels per parameter, 100000 cases; `n_samples` only
   with latin-hypercube / sobol; the base spec and every parameter level validated at load.
 """

@@ -246,6 +246,30 @@ def test_a_gap_closed_by_the_grid_is_refused_naming_rve_voxel(tmp_path, capsys):
     assert "(allowed: " in err
 
 
+def test_a_gap_the_diffuse_wall_closes_is_not_called_a_gap_under_a_voxel(tmp_path, capsys):
+    """Session 39: a square array across at solid fraction 0.7, 24 voxels per spacing, has the
+    gap L (1 - 2 sqrt(0.7 / pi)) = 1.34 voxels, open on the grid (the sub-voxel wall solves it);
+    the diffuse wall's layers close it and the refusal said 'a gap under about a voxel closes
+    on the grid'. It says the diffuse wall closed a gap the grid has open, and names the voxel
+    and the wall that open it."""
+    l, phi, n = 40e-6, 0.7, 24
+    d = float(2 * l * np.sqrt(phi / np.pi))
+    spec = (
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = {l / n!r}\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [2e-5, 2e-5, 2e-5]\n'
+        'direction = [0, 0, 1]\n[flow]\nwall_treatment = "diffuse"\n'
+    )
+    code, out, err = _run(tmp_path, capsys, "--solver", "voxel", "--direction", "x", spec=spec)
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith(
+        "psdesign: error: rve.voxel: the diffuse wall closes the pore path along x on the "
+        "1.67e-06 m grid, which has it open"
+    )
+    assert "a gap under about a voxel" not in err
+    assert "flow.wall_treatment = 'subvoxel'" in err
+
+
 def test_an_image_without_a_path_is_refused_naming_the_image(tmp_path, capsys):
     """An image whose only pore is a channel along y has no path along x: no permeability
     along x exists (the pore space is the image's own), said with the key ``image``."""

@@ -1,0 +1,148 @@
+"""Why a voxel solve found no fluid path along the flow, and the one line that says so.
+
+The voxel solvers refuse a grid without a fluid path (:func:`solvers.voxel_stokes.
+check_percolates`): the solve would return the leak through the walls, a tiny K that is no
+permeability. Who closed the path decides what the user must change, so for an RVE with an
+analytic surface the refusal looks at the signed distance ``d`` sampled at the voxel centres,
+with the one test of a path (:func:`psdesign.geometry.throat.percolates`):
+
+* **the diffuse wall closed a gap the grid has open** (``d > 0`` has a path, the cells with
+  fluid fraction ``eps >= 1/2`` have none): each wall's layer (logistic, width 0.75 voxel,
+  moved into the pore by the curvature term, :mod:`solvers.voxel.diffuse_wall`) and the pair
+  rule (fractions multiplied) hold ``eps`` under 1/2 across a gap under about 2 voxels. Square
+  arrays across (session 39, ``benchmarks/diffuse_closing_gap.py``): the layer closed every
+  gap up to 1.96 voxels it closed and left open every one from 1.70 up; solid fraction 0.7 is
+  closed up to 24 voxels per spacing (gap ``L (1 - 2 sqrt(0.7 / pi))`` = 1.34 voxels), where
+  the sub-voxel wall solves it. The line names ``rve.voxel`` with the gap's width (the
+  percolation radius of the half-gap field ``(s1 + s2) / 2`` of the two nearest walls,
+  :func:`psdesign.flow.diffuse.half_gap`: within 0.1 voxel of the exact gaps of those arrays)
+  and the voxel that puts :data:`DIFFUSE_GAP` voxels across it, and the sub-voxel wall;
+* **the grid closed a gap narrower than about a voxel** (``d > 0`` has no path,
+  ``d > -`` :data:`OPEN_MOVE` voxel has): the RVE may be open; ``rve.voxel`` is named;
+* **the RVE has no path** (``d > -`` :data:`OPEN_MOVE` voxel has none): the distance is
+  1-Lipschitz and a point is at most ``sqrt(3) / 2`` voxel from its voxel's centre, so every
+  voxel a continuous pore path crosses has ``d > -sqrt(3) / 2`` voxel and those voxels join
+  face to face: no path among them means none in the RVE, at any voxel size. The line says so
+  and names the fibres, not the voxel.
+
+A segmented image has no surface but its voxels: its pore space is what it is (``image``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: How far (voxels) the walls move back for the test of an RVE without a path: the largest
+#: distance of a point from its voxel's centre, ``sqrt(3) / 2`` (module docstring).
+OPEN_MOVE = math.sqrt(3.0) / 2.0
+#: Voxels across the narrowest gap that the line of a gap closed by the diffuse wall asks for:
+#: above the widest gap the layer closed on square arrays (1.96 voxels, session 39), with the
+#: gap's reading error (0.1 voxel) to spare.
+DIFFUSE_GAP = 2.5
+#: Tolerance (voxels) of the percolation radius's bisection here.
+R_TOL = 0.05
+
+
+def no_path_message(
+    name: str,
+    h: float,
+    distance: np.ndarray | None,
+    axis: int,
+    wall: str,
+    rve=None,
+    periodic: bool = True,
+) -> str:
+    """The one line of a voxel solve refused for want of a fluid path along ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The flow direction, ``"x"``, ``"y"`` or ``"z"``.
+    h : float
+        Voxel edge (m).
+    distance : ndarray or None
+        Signed distance (m, > 0 in the pore) of the RVE's analytic surface at the voxel centres;
+        None for a segmented image.
+    axis : int
+        The flow's axis.
+    wall : str
+        ``flow.wall_treatment`` as solved (``"subvoxel"``, ``"staircase"``, ``"diffuse"``).
+    rve : RVE, optional
+        The RVE; with ``wall = "diffuse"`` its walls measure the gap the layers closed.
+    periodic : bool
+        Whether the refused grid was the periodic one (``bc`` and ``periodic_treatment``
+        periodic), the path the tests here look for; else (permeameter reservoirs, a mirrored
+        or framed grid) the line names ``rve.voxel`` without telling who closed the path.
+
+    Returns
+    -------
+    str
+        The line, starting with the key to change (module docstring).
+
+    >>> d = np.full((6, 6, 6), 2e-6); d[3] = -0.4e-6  # a sheet across x, 0.4 voxel thick
+    >>> no_path_message("x", 1e-6, d, 0, "subvoxel")[:52]
+    'rve.voxel: no fluid path along x on the 1e-06 m grid'
+    >>> d[3] = -2e-6  # two voxels thick: closed at any voxel size
+    >>> no_path_message("x", 1e-6, d, 0, "subvoxel")[:42]
+    'fibers: the pore space has no path along x'
+    """
+    from psdesign.geometry.throat import percolates
+
+    if distance is None:
+        return (
+            f"image: the pore space has no path along {name} (face-connected, periodic pore "
+            f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
+            "space joins the faces normal to the flow)"
+        )
+    if not periodic:
+        return (
+            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected fluid "
+            "voxels): a gap under about a voxel closes on the grid (allowed: a voxel small "
+            f"enough to open the pore path; none if the pore space has no path along {name})"
+        )
+    d = np.asarray(distance) / float(h)
+    if wall == "diffuse" and rve is not None and percolates(d > 0.0, axis):
+        return _diffuse_closed(name, h, rve, d.shape, axis)
+    if not percolates(d > -OPEN_MOVE, axis):
+        return (
+            f"fibers: the pore space has no path along {name}: the fibers' surfaces close it "
+            f"(none on the {h:.3g} m grid even with the walls moved back by "
+            f"{OPEN_MOVE:.2f} voxel, farther than a voxel centre is from any point of its voxel), "
+            f"so there is no permeability along {name} at any voxel size (allowed: fibers that "
+            f"leave a pore path along {name})"
+        )
+    return (
+        f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected, "
+        "periodic fluid voxels): a gap under about a voxel closes on the grid, which the RVE's "
+        f"surface may leave open (it has a path once the walls move back by {OPEN_MOVE:.2f} "
+        "voxel) (allowed: a voxel small enough to open the pore path, a few voxels across "
+        "its narrowest gap)"
+    )
+
+
+def _diffuse_closed(name: str, h: float, rve, shape, axis: int) -> str:
+    """The line of a gap the grid has open and the diffuse wall's layers close: the narrowest
+    gap a path must pass, twice the percolation radius of the half-gap field
+    (:func:`psdesign.flow.diffuse.half_gap`, to :data:`R_TOL`, or to a tenth, a hundredth of
+    it where the radius is under two tolerances: a gap of 0.03 voxel read as 0.1 asked for a
+    voxel under which it stayed closed), and the voxel that puts :data:`DIFFUSE_GAP` voxels
+    across it."""
+    from psdesign.flow.diffuse import half_gap
+    from psdesign.geometry.throat import percolation_radius
+
+    field = half_gap(rve, shape, h)
+    tol = R_TOL
+    radius = percolation_radius(field, axis, tol)
+    while radius < 2.0 * tol and tol > 1e-3:  # a gap of a few tolerances: bisect finer
+        tol /= 10.0
+        radius = percolation_radius(field, axis, tol)
+    gap = max(2.0 * radius, 2.0 * tol)  # the bisection's resolution
+    return (
+        f"rve.voxel: the diffuse wall closes the pore path along {name} on the {h:.3g} m grid, "
+        f"which has it open: its narrowest gap is {gap:.3g} voxels ({gap * h:.3g} m) and the "
+        "two walls' layers leave no cell with fluid fraction >= 1/2 across a gap under about 2 "
+        f"voxels (allowed: rve.voxel <= {gap * h / DIFFUSE_GAP:.3g} m, {DIFFUSE_GAP:g} voxels "
+        "across the gap, or flow.wall_treatment = 'subvoxel', which keeps it open)"
+    )
