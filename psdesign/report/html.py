@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import STATUS_COLUMNS, k_not_ok, trusted
+from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trusted
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -354,6 +354,48 @@ def _k_table(df: pd.DataFrame) -> str:
     return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
 
 
+#: The values other than K that :func:`_values_table` lists with their bars, in this order.
+RATED_VALUES = ("porosity", *(c for c in STATUS_COLUMNS if not c.startswith("k_")))
+
+
+def _values_table(df: pd.DataFrame) -> str:
+    """Porosity and the transport values of each case with their error bars and statuses
+    (:func:`psdesign.analysis.columns.error_bar`): the porosity ``+-`` its absolute bar, the
+    others ``+-`` a relative one and ``[status]`` where it is not ok; "" when the study has
+    none of them with a bar."""
+    cols = [
+        c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
+    ]
+    if not any(error_bar(r, c)[0] is not None for _, r in df.iterrows() for c in cols):
+        return ""
+    rows, classes = [], []
+    for _, r in df.iterrows():
+        row = r.to_dict()
+        status = "ok" if pd.isna(row.get("status", "ok")) else str(row.get("status", "ok"))
+        out, flag = {"case_id": row.get("case_id", ""), "case status": status}, status != "ok"
+        for c in cols:
+            rel, st = error_bar(row, c)
+            v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
+            txt = "" if pd.isna(v) else f"{v:.4f}" if c == "porosity" else f"{v:.4g}"
+            if rel is not None and c == "porosity":  # porosity_text's digits
+                txt += f" ± {rel * abs(v):.1e}"
+            elif rel is not None:
+                txt += f" ± {100 * rel:.1f} %"
+            if txt and st not in ("ok", "unrated"):
+                txt += f" [{st}]"
+                flag = True
+            out[c] = txt
+        rows.append(out)
+        classes.append("flag" if flag else "")
+    note = (
+        '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
+        "quadratures, docs/geometry.md); transport values ± their relative error bar "
+        "(docs/transport.md), with their status where it is not ok (highlighted).</p>"
+    )
+    title = "Porosity and transport values" if len(cols) > 1 else "Porosity"
+    return f"<h3>{title} with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
+
+
 def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
     """The flow-field pictures of the cases that wrote one (``[study] fields = true``)."""
     if "fields_png" not in df:
@@ -466,7 +508,7 @@ def build_html(out_dir: str | Path) -> str:
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
-{diff_html}
+{diff_html}{_values_table(df)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
 the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;

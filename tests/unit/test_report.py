@@ -756,3 +756,10 @@ def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp
     assert "4 value(s) that are not ok (red open markers)" in html
     alert = re.search(r'<p class="alert" id="psd-status-alert">(.*?)</p>', html, flags=re.S)
     assert alert and "4 value(s) of ok cases not ok (diffusivity_z_status)" in alert.group(1)
+    # each case's D_eff/D with its bar and status: T-S at 0.8 is 0.8 (0.69 / 0.89)^0.785
+    table = html.split("<h3>Porosity and transport values with error bars</h3>", 1)[1]
+    table = table.split("</table>", 1)[0]
+    d08, d09 = (e * ((e - 0.11) / 0.89) ** 0.785 for e in (0.8, 0.9))
+    assert f"<td>{d08:.4g} ± 2.0 %</td>" in table
+    assert f"<td>{d09:.4g} ± 300.0 % [untrustworthy]</td>" in table
+    assert table.count('class="flag"') == 4  # the 4 untrustworthy cases (porosity 0.9)
