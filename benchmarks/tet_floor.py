@@ -250,6 +250,33 @@ def smallest_c(rows: list[dict], alone: bool = False) -> float:
     return float("inf")
 
 
+def diameter(row: dict) -> float:
+    """The row's fibre diameter ``D`` (m)."""
+    if row["set"] == "rve":
+        return 7e-6
+    return 2.0 * radius_of(row["phi"], KIND[row["kind"]], L)
+
+
+def what_if(rows: list[dict], c_r: float, c_d: float) -> None:
+    """A floor ``max(C_R (h / R)^2, C_D (h / D)^2)`` (not the product's; a proposal): the ``ok``
+    rows outside their bar with two lattices and alone, and the median bar / ``|error|``."""
+    counts, ratios = [0, 0], []
+    for r in rows:
+        fl = max(c_r * r["h_over_R"] ** 2, c_d * (r["step_m"] / diameter(r)) ** 2)
+        rest = r["solver"] + r["window"] + r["field"] + r["seam"]
+        for i, alone in enumerate((False, True)):
+            alone = alone or r["method"] == "resolution_only"
+            b = (2.0 * fl if alone else max(fl, r["richardson"] or 0.0)) + rest
+            ok = err.status_of(True, b, None) == "ok"
+            counts[i] += ok and abs(r["error"]) > b * (1 + 1e-12)
+            if i == 0 and ok:
+                ratios.append(b / max(abs(r["error"]), 1e-4))
+    med = sorted(ratios)[len(ratios) // 2] if ratios else float("nan")
+    print(f"# max({c_r:g} (h/R)^2, {c_d:g} (h/D)^2): ok rows outside their bar: {counts[0]} (two "
+          f"lattices), {counts[1]} (alone); median bar / abs(error) of {len(ratios)} ok rows "
+          f"{med:.1f}")  # fmt: skip
+
+
 def table(rows: list[dict], c: float) -> None:
     """One line per row at floor constant ``c``: the bar with two lattices and alone (doubled
     floor, no Richardson term), the ``C`` each needs to cover the row, and ``|error| / (h /
@@ -297,6 +324,8 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--set", choices=(*SETS, "rve"), default="calibration")
     ap.add_argument("--summary", nargs="+", help="print the table of these JSON-lines files")
+    ap.add_argument("--what-if", type=float, nargs=2, action="append", metavar=("C_R", "C_D"),
+                    help="with --summary: a floor max(C_R (h/R)^2, C_D (h/D)^2)")  # fmt: skip
     ap.add_argument("--lattice", type=float, nargs="+", help="only these cells per spacing")
     ap.add_argument("--c-new", type=float, default=None, help="trial floor constant")
     args = ap.parse_args()
@@ -332,6 +361,8 @@ def main() -> int:
                         )
         c_new = args.c_new if args.c_new is not None else err.FLOOR["tet"][1]
         table(rows, c_new)
+        for c_r, c_d in args.what_if or []:
+            what_if(done, c_r, c_d)
         for c in (c_new, c_new / 2):
             print(f"# C = {c:g}: ok rows outside their bar: {len(outside(done, c))} (two "
                   f"lattices), {len(outside(done, c, True))} (floor alone, doubled)")  # fmt: skip
