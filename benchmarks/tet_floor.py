@@ -73,7 +73,19 @@ DILUTE = [
     ("square", "across", (0.05, 0.1), (12, 20, 28), (0.25, 0.5)),
     ("square", "along", (0.05, 0.1), (12, 20, 28), (0.25, 0.5)),
 ]
-SETS = {"calibration": CALIBRATION, "validation": VALIDATION, "dilute": DILUTE}
+#: disjoint from all the above, for :func:`what_if`'s proposal: other fractions, lattices, shift
+PROPOSAL = [
+    ("square", "along", (0.075, 0.15, 0.25), (7, 9, 14), (0.15,)),
+    ("square", "across", (0.05, 0.1, 0.2), (9, 14), (0.15,)),
+    ("hex", "along", (0.05, 0.1), (20.5, 28), (0.0,)),
+    ("hex", "across", (0.05, 0.15), (20.5, 28), (0.0,)),
+]
+SETS = {
+    "calibration": CALIBRATION,
+    "validation": VALIDATION,
+    "dilute": DILUTE,
+    "proposal": PROPOSAL,
+}
 #: hexagonal lattices (cells per spacing) -> field voxels per spacing (near-whole widths)
 HEX_VOXELS = {20.5: 41, 28: 56}
 KIND = {"square": "square", "hex": "hexagonal"}
@@ -81,7 +93,7 @@ KIND = {"square": "square", "hex": "hexagonal"}
 #: stacked permeameter of 2 copies as the quickstart, through-plane; the generators do not build
 #: periodic RVEs): porosity, seed; lattice steps D / 3 (the default rule), D / 4, D / 5 on one
 #: field
-RVE_CASES = [(0.85, 1), (0.9, 1), (0.85, 2), (0.8, 1)]
+RVE_CASES = [(0.85, 1), (0.9, 1), (0.85, 2), (0.8, 1), (0.9, 2), (0.8, 2)]
 RVE_STEPS = (7e-6 / 3, 7e-6 / 4, 7e-6 / 5)
 RVE_VOXEL = 0.5e-6
 
