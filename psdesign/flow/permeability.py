@@ -297,7 +297,8 @@ def with_error_estimate(
     # the gap term bounds a wall misplaced on the grid: an image's walls are its voxel faces
     analytic = solver == "voxel" and fields.analytic_distance
     throat = _throat_fn(fields, direction, step) if analytic else None
-    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat)
+    diameter = err.min_fiber_diameter(rve)
+    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat, diameter)
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))

@@ -325,33 +325,55 @@ def _tet_array(kind: str, phi: float, voxels: int, cells: float, shift: float = 
     return res, res["permeability_m2"] / exact_k(kind, "across", phi) - 1.0
 
 
-def test_tet_floor_covers_a_chance_agreement_that_half_its_constant_would_miss():
-    """The tet floor ``C (h / R)^2`` (``FLOOR["tet"]``, C = 0.5) is what covers a dilute array
-    where the two lattices agree by chance (session 39, s39-tetfloor, ``benchmarks/
-    tet_floor.py``): the hexagonal array across at solid fraction 0.1 (Drummond & Tahir 1984,
-    the triangular array's series, ``reference_values.drummond_tahir_hex_transverse``), 41
-    voxels per spacing (cell width within 0.02 % of sqrt(3) L), lattice L / 20.5 (6.8 cells
-    per diameter, h / R = 0.088): true error -0.28 %, Richardson term 0.20 %, floor 0.39 %.
-    With C / 2 the bar (0.20 %) would miss it; the arrays that would allow a smaller C (solid
-    fractions 0.2-0.75: |error| / (h / R)^2 <= 0.14) have R under a fibre diameter, these have
-    R = 1.7 diameters."""
+def _r_term(res: dict) -> float:
+    """The flow term ``C_R (h / R)^2`` of a tet result's floor (``FLOOR["tet"]``)."""
+    q, c = err.FLOOR["tet"]
+    step = res["mesh_quality"]["lattice_step_m"]
+    return c * (step / err.flow_length_scale(res["permeability_m2"], res["porosity"])) ** q
+
+
+def test_tet_fibre_floor_covers_a_chance_agreement_the_flow_term_would_miss():
+    """The tet floor is ``max(0.2 (h / R)^2, 0.27 (h / D)^2)`` (session 39, s39-tetfloor,
+    ``benchmarks/tet_floor.py``): in a dilute array the error follows the fibre's resolution
+    ``h / D``, not the flow's. The hexagonal array across at solid fraction 0.1 (Drummond &
+    Tahir 1984, the triangular array's series, ``reference_values.drummond_tahir_hex_transverse``),
+    41 voxels per spacing (cell width within 0.02 % of sqrt(3) L), lattice L / 20.5 (6.8 cells
+    per diameter, h / R = 0.088) has its two lattices agree by chance: true error -0.28 %,
+    Richardson term 0.20 %; the flow term 0.2 (h / R)^2 = 0.16 % would miss it, the fibre term
+    0.27 / 6.8^2 = 0.58 % covers it."""
     res, true = _tet_array("hex", 0.1, 41, 20.5)
     est = res["error_estimate"]
     assert true == pytest.approx(-0.0028, abs=0.0005)
     assert est["method"] == "two_grid" and est["richardson"] < abs(true)  # chance agreement
     assert abs(true) <= res["permeability_rel_error"] and res["status"] == "ok"
-    assert est["floor"] / 2 + est["solver"] < abs(true)  # C / 2 would not cover it
+    assert _r_term(res) + est["solver"] < abs(true)  # the flow term alone would not cover it
+    assert est["floor"] == pytest.approx(0.27 / 6.8**2, rel=0.01)  # D / h = 6.8 lattice steps
 
 
-def test_tet_floor_alone_covers_a_dilute_array_without_a_second_lattice():
+def test_tet_fibre_floor_alone_covers_a_dilute_array_without_a_second_lattice():
     """``flow.error_estimate = false`` (or a coarse lattice that fails to mesh) leaves the tet
-    route the doubled floor ``2 C (h / R)^2`` alone (session 39, s39-tetfloor): the square
-    array across at solid fraction 0.05 (Sangani & Acrivos 1982 Table 1, L^2 / K = 15.56),
-    lattice L / 12 (3.0 cells per diameter, the default rule's D / 3) shifted by a quarter
-    step: true error -0.93 %, bar 1.29 %; with C / 2 it would be 0.65 %."""
+    route the doubled floor alone (session 39, s39-tetfloor): the square array across at solid
+    fraction 0.05 (Sangani & Acrivos 1982 Table 1, L^2 / K = 15.56), lattice L / 12 (3.0 cells
+    per diameter, the default rule's D / 3) shifted by a quarter step: true error -0.93 %; the
+    doubled flow term 2 x 0.2 (h / R)^2 = 0.52 % would miss it, the doubled fibre term 2 x 0.27 /
+    3^2 = 6.0 % covers it."""
     res, true = _tet_array("square", 0.05, 24, 12, shift=0.25, error_estimate=False)
     est = res["error_estimate"]
     assert true == pytest.approx(-0.0093, abs=0.001)
     assert est["method"] == "resolution_only"
     assert abs(true) <= res["permeability_rel_error"] and res["status"] == "ok"
-    assert est["floor"] / 2 + est["solver"] < abs(true)  # C / 2 would not cover it
+    assert 2 * _r_term(res) + est["solver"] < abs(true)  # the flow term alone would not
+
+
+def test_tet_floor_is_not_wider_than_the_dense_arrays_need():
+    """Where the flow length ``R`` is under a fibre diameter the one-term floor 0.5 (h / R)^2
+    was 3.3-310 times the tet error (session 39, s39-tetfloor: those arrays need at most
+    0.154). The square array across at solid fraction 0.4 (Sangani & Acrivos 1982 Table 1),
+    lattice L / 12 (h / R = 0.34): true error -0.19 %, old floor 5.66 %; now the flow term
+    0.2 (h / R)^2 = 2.3 % (the fibre term 0.27 (h / D)^2 = 0.37 %), still covering the error."""
+    res, true = _tet_array("square", 0.4, 24, 12)
+    est = res["error_estimate"]
+    assert true == pytest.approx(-0.0019, abs=0.0005)
+    assert abs(true) <= res["permeability_rel_error"] and res["status"] == "ok"
+    assert est["floor"] == pytest.approx(_r_term(res), rel=1e-9)
+    assert 0.02 < est["floor"] < 0.025  # 0.5 (h / R)^2 = 5.66 % before
