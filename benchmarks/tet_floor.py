@@ -371,8 +371,12 @@ def main() -> int:
                             f"#   {r['phi']}{_seed(r)}: reference K {r['truth']:.5e} m^2, "
                             f"its uncertainty {100 * r['truth_uncertainty']:.2f} %"
                         )
-        c_new = args.c_new if args.c_new is not None else err.FLOOR["tet"][1]
+        # the table and the C / 2 lines evaluate the one-term law C (h / R)^2 (before session
+        # 39's fibre floor: C = 0.5); the product's two-term law is the first what-if line above
+        c_new = args.c_new if args.c_new is not None else 0.5
         table(rows, c_new)
+        # the product's law (session 39 lead: FLOOR["tet"] with FIBER_FLOOR["tet"]) first
+        what_if(done, err.FLOOR["tet"][1], err.FIBER_FLOOR["tet"])
         for c_r, c_d in args.what_if or []:
             what_if(done, c_r, c_d)
         for c in (c_new, c_new / 2):
