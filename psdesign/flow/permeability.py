@@ -275,6 +275,20 @@ def _throat_fn(fields: VoxelFields, direction: str | int, step: float) -> Callab
     return run
 
 
+def floor_diameter(rve: RVE, fields: VoxelFields) -> float | None:
+    """The fibre diameter ``D`` of the fibre floor (:data:`psdesign.flow.error.FIBER_FLOOR`):
+    the thinnest fibre's; for a segmented image (no fibres) the solid's hydraulic diameter
+    ``4 (1 - eps) / S_v`` (marching cubes, :func:`psdesign.transport.pores.specific_surface`),
+    a cylinder's diameter exactly and a volume-weighted mean for several; None without solid."""
+    d = err.min_fiber_diameter(rve)
+    if d is not None or not fields.solid.any():
+        return d
+    from psdesign.transport.pores import specific_surface
+
+    sv = specific_surface(fields).specific_surface_m_1
+    return 4.0 * float(fields.solid.mean()) / sv if sv > 0 else None
+
+
 def with_error_estimate(
     rve: RVE,
     fields: VoxelFields,
@@ -297,7 +311,7 @@ def with_error_estimate(
     # the gap term bounds a wall misplaced on the grid: an image's walls are its voxel faces
     analytic = solver == "voxel" and fields.analytic_distance
     throat = _throat_fn(fields, direction, step) if analytic else None
-    diameter = err.min_fiber_diameter(rve)
+    diameter = floor_diameter(rve, fields) if scheme in err.FIBER_FLOOR else None
     est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat, diameter)
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
