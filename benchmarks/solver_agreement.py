@@ -1195,7 +1195,9 @@ def render(_args=None) -> None:
         "the FEM rows were solved again in session 36 after the stuffing mesher's periodic "
         "face vertices became movable (s35): the hex 0.4 rows moved by +0.02 / +0.03 %, the rest "
         "by at most 0.001 %, "
-        "`... arrays --solvers fem`). One cell of spacing 40 um as a thin periodic slab "
+        "`... arrays --solvers fem`; and again in session 39 for the tet route's two-term floor "
+        "`max(0.2 (h / R)^2, 0.27 (h / D)^2)`, which moved only their bars, K to 1e-8). One "
+        "cell of spacing 40 um as a thin periodic slab "
         "(4 voxels thick; both "
         "flows are two-dimensional), cylinders along z; 'along' = flow along z, 'across' = "
         "along x. Square: 40 voxels per spacing; hexagonal: 56 (cell 56 x 97 voxels). Default "
@@ -1209,6 +1211,12 @@ def render(_args=None) -> None:
         *render_arrays(rows),
         "",
         "## Shipped specs (first case of each study)",
+        "",
+        "The FEM bars of these rows are the product's before session 39 (their floor `0.5 (h / "
+        "R)^2`; now `max(0.2 (h / R)^2, 0.27 (h / D)^2)`, docs/permeability.md 'Tet floor'): "
+        "they were not solved again (35 min of FEM). K does not depend on the bar; at the "
+        "default `D / 3` step the new floor's fibre term is 3.0 % (the quickstart's RVEs had "
+        "3.04 % from the old one).",
         "",
         "Through-plane (z) K of every spec in `studies/` (a study: its first case) with both "
         f"routes and both models (machine load average {_spec_loads()} on 2 cores during the "
