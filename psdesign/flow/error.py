@@ -201,6 +201,7 @@ class ErrorEstimate:
     coarse_lost_phase: bool = False
     gap: float = 0.0
     throat: float | None = None
+    fiber: float = 0.0
 
     def as_dict(self) -> dict:
         """JSON-ready dict (``permeability_rel_error`` is the headline value)."""
@@ -217,6 +218,7 @@ class ErrorEstimate:
                 "seam": self.seam,
                 "gap": self.gap,
                 "throat_m": self.throat,
+                "fiber_floor": self.fiber,
                 "order": self.order,
                 "ratio": self.ratio,
                 "permeability_coarse_m2": self.k_coarse,
@@ -589,6 +591,7 @@ def estimate_with(
     g = None if g is None else float(g)
     k = float(result["permeability_m2"])
     gap = gap_rel_error(float(step), g, scheme)
+    fiber = fiber_floor(float(step), diameter, scheme)
     thin = thin_channel_rel_error(float(step), k, float(result["porosity"]))
     est = combine(
         k,
@@ -601,9 +604,9 @@ def estimate_with(
         FLOOR.get(scheme) if scheme else None,
         window_of(result),
         law_floor=max(gap, thin if scheme == "staircase" else 0.0),
-        fiber_floor=fiber_floor(float(step), diameter, scheme),
+        fiber_floor=fiber,
     )
-    est = replace(est, gap=gap, throat=g)
+    est = replace(est, gap=gap, throat=g, fiber=fiber)
     field, seam = _field_term(result), seam_rel_error(result)
     return replace(
         est,

@@ -348,6 +348,7 @@ def test_tet_fibre_floor_covers_a_chance_agreement_the_flow_term_would_miss():
     assert abs(true) <= res["permeability_rel_error"] and res["status"] == "ok"
     assert _r_term(res) + est["solver"] < abs(true)  # the flow term alone would not cover it
     assert est["floor"] == pytest.approx(0.27 / 6.8**2, rel=0.01)  # D / h = 6.8 lattice steps
+    assert est["fiber_floor"] == est["floor"]  # the JSON says which term set it
 
 
 def test_tet_fibre_floor_alone_covers_a_dilute_array_without_a_second_lattice():
