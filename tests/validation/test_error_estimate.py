@@ -20,13 +20,22 @@ CASES = [("square", "across", phi, n) for phi in (0.1, 0.2, 0.3, 0.4, 0.5) for n
 ]
 
 
+#: results of the plain solves (no keyword), by case: the tests below that read a case of CASES
+#: take the first test's solve (same spec, same code path, deterministic) instead of repeating it
+_SOLVED: dict[tuple[str, str, float, int], tuple[dict, float]] = {}
+
+
 def _solve(kind: str, flow: str, phi: float, n: int, **kw) -> tuple[dict, float]:
+    if not kw and (kind, flow, phi, n) in _SOLVED:
+        return _SOLVED[kind, flow, phi, n]
     spec = validate_spec(array_spec(kind, phi, n))
     built = build_rve(spec)
     fields = built.voxelize(spec["rve"]["voxel"])
     res = permeability(
         built.rve, fields, "x" if flow == "across" else "z", spec["flow"], "voxel", **kw
     )
+    if not kw:
+        _SOLVED[kind, flow, phi, n] = (res, exact_k(kind, flow, phi))
     return res, exact_k(kind, flow, phi)
 
 
