@@ -545,10 +545,15 @@ def under_resolved(cpd: float | None, min_cpd: float = MIN_CELLS_PER_DIAMETER) -
 
 
 def resolution_warnings(
-    cpd: float | None, solver: str, direction: str, quantity: str = "K"
+    cpd: float | None,
+    solver: str,
+    direction: str,
+    quantity: str = "K",
+    mesh_key: str = "flow.lattice_step",
 ) -> list[str]:
     """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
-    line, ``K`` or a transport property's; ``direction`` "" for a value without one)."""
+    line, ``K`` or a transport property's; ``direction`` "" for a value without one;
+    ``mesh_key``: the key that refines a tet mesh, ``flow.edge_length`` for pytetwild)."""
     if not under_resolved(cpd):
         return []
     unit = "voxels" if solver == "voxel" else "mesh cells"
@@ -559,7 +564,7 @@ def resolution_warnings(
         + (
             ""
             if solver == "voxel"
-            else " / flow.lattice_step (a warning only: the body-fitted mesh's status follows "
+            else f" / {mesh_key} (a warning only: the body-fitted mesh's status follows "
             "its error bar)"
         )
     ]

@@ -331,7 +331,8 @@ def with_error_estimate(
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
-    warnings += err.resolution_warnings(cpd, solver, res["direction"])
+    key = "flow.edge_length" if scheme == "tetwild" else "flow.lattice_step"
+    warnings += err.resolution_warnings(cpd, solver, res["direction"], mesh_key=key)
     if not res.get("converged", False):
         warnings.append(
             f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"

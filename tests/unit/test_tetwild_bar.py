@@ -98,3 +98,7 @@ def test_square_across_0p3_error_within_bar():
     # h is the mesh's edge (0.85 D = 21 um), not the 1.67 um box-relative lattice step
     assert res["mesh_quality"]["edge_length_m"] == pytest.approx(21.0e-6, rel=0.01)
     assert res["error_estimate"]["floor"] > 0.1
+    # the under-resolution line names the key that refines this mesh
+    lines = [w for w in res["warnings"] if "mesh cells across" in w]
+    assert lines and all("flow.edge_length" in w for w in lines)
+    assert not any("flow.lattice_step" in w for w in res["warnings"])
