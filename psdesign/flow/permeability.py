@@ -263,7 +263,9 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
     def coarser(ratio: float) -> dict:
         if not tetwild:
             return {**flow, "lattice_step": ratio * step}
-        if not fraction or ratio * fraction > 1.0:
+        if not fraction:  # a mesh cached before session 39 does not report it
+            raise ValueError(f"x{ratio:g}: the mesh does not report its edge fraction")
+        if ratio * fraction > 1.0:
             raise ValueError(f"x{ratio:g}: the edge would exceed the box diagonal")
         return {**flow, "edge_length": ratio * float(fraction)}
 

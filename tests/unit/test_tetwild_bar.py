@@ -102,3 +102,14 @@ def test_square_across_0p3_error_within_bar():
     lines = [w for w in res["warnings"] if "mesh cells across" in w]
     assert lines and all("flow.edge_length" in w for w in lines)
     assert not any("flow.lattice_step" in w for w in res["warnings"])
+
+
+def test_a_mesh_without_its_edge_fraction_says_so(monkeypatch):
+    """A pytetwild mesh cached before session 39 has no ``edge_length_fraction``: the coarse
+    solve is skipped with that reason (the bar falls back to the doubled floor)."""
+    res = _tetwild_result()
+    del res["mesh_quality"]["edge_length_fraction"]
+    monkeypatch.setattr(P, "route_result", lambda *a, **k: pytest.fail("no coarse solve"))
+    run = P._coarse_fn(_RVE(), _Fields(), "x", {"mesher": "pytetwild"}, "fem", res)
+    with pytest.raises(ValueError, match="does not report its edge fraction"):
+        run()
