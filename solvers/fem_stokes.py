@@ -439,8 +439,27 @@ def _assemble_pressure_driven(mesh, inlet_facets, outlet_facets, pin, pout, free
     del L
     D_red = [D[c][:, free[c]].tocsr() for c in range(3)]
     del D
+    p_keep = _coupled_pressure(D_red)
+    if not p_keep.all():
+        D_red = [d[p_keep] for d in D_red]
+        m_lumped = m_lumped[p_keep]
     b = np.concatenate([rhs_full[c][free[c]] for c in range(3)] + [np.zeros(len(m_lumped))])
-    return SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0), b
+    return SaddleSystem(A=A_red, D=D_red, m_lumped=m_lumped, viscosity=1.0), b, p_keep
+
+
+def _coupled_pressure(D_red: list) -> np.ndarray:
+    """Mask of the pressure vertices that meet a free velocity dof (a nonzero row of the
+    divergence blocks ``D_red``).
+
+    A vertex whose every tet has all its P2 velocity nodes fixed (e.g. a cap tet on a fibre
+    wall: three no-slip faces, the fourth vertex in no other tet, as pytetwild leaves on
+    square arrays at solid fraction 0.5) has a zero row: its pressure does not enter the
+    equations, and keeping it made the saddle matrix exactly singular ("Factor is exactly
+    singular" from SuperLU). Such vertices are left out of the solve (:func:`_unpack` gives
+    them their tets' mean pressure)."""
+    rows = sum(np.asarray(abs(d).sum(axis=1)).ravel() for d in D_red)
+    top = float(rows.max(initial=0.0))
+    return rows > 1e-12 * top if top > 0 else np.ones(len(rows), dtype=bool)
 
 
 def _options(options: StokesOptions | None) -> StokesOptions:
@@ -605,7 +624,7 @@ def solve_stokes(
 
     t0 = time.perf_counter()
     drive = (p_inlet / scales.p_scale, p_outlet / scales.p_scale)
-    system, b = _assemble_pressure_driven(
+    system, b, p_keep = _assemble_pressure_driven(
         mesh, tag_facets[inlet], tag_facets[outlet], *drive, free, opts.assembly_progress
     )
     t_asm = time.perf_counter() - t0
@@ -613,7 +632,7 @@ def solve_stokes(
     del system
 
     t0 = time.perf_counter()
-    u, p = _unpack(info.x, free, n2)
+    u, p = _unpack(info.x, free, n2, p_keep, tets_k)
     flux, velocity, pressure = _on_vertices(mesh, u, p, tag_facets, scales, used, len(points))
     t_post = time.perf_counter() - t0
     return _result(
@@ -647,13 +666,25 @@ def _scaled_pressure_driven(points, tets, p_inlet, p_outlet, viscosity):
     return x, _Scales(origin, length, p_scale * length / viscosity, p_scale, float(viscosity))
 
 
-def _unpack(x, free, n2) -> tuple[np.ndarray, np.ndarray]:
-    """Scaled ``(u (3, n2), p)`` from the solution vector (zero on the fixed velocity dofs)."""
+def _unpack(x, free, n2, p_keep=None, tets=None) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled ``(u (3, n2), p)`` from the solution vector (zero on the fixed velocity dofs);
+    the pressure vertices left out of the solve (not in ``p_keep``, :func:`_coupled_pressure`)
+    get the mean pressure of the solved vertices of their ``tets``."""
     parts = np.split(x, np.cumsum([len(f) for f in free]))
     u = np.zeros((3, n2))
     for c in range(3):
         u[c, free[c]] = parts[c]
-    return u, parts[3]
+    if p_keep is None or p_keep.all():
+        return u, parts[3]
+    p = np.zeros(len(p_keep))
+    p[p_keep] = parts[3]
+    solved = p_keep[tets]
+    total = np.bincount(tets.ravel(), (p[tets] * solved).sum(axis=1).repeat(4), len(p_keep))
+    count = np.bincount(tets.ravel(), solved.sum(axis=1).repeat(4), len(p_keep))
+    lone = ~p_keep
+    n_lone = int(lone.sum())
+    p[lone] = np.divide(total[lone], count[lone], out=np.zeros(n_lone), where=count[lone] > 0)
+    return u, p
 
 
 def _on_vertices(mesh, u, p, tag_facets, scales, used, n_points):

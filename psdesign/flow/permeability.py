@@ -193,10 +193,21 @@ def _periodic_seam(rve: RVE, fields: VoxelFields, direction: str | int) -> float
     return ends.gap_fraction if ends.periodic else 0.0
 
 
+def _tetwild_mesh(res: dict) -> bool:
+    """True for a pytetwild mesh (it reports its target edge and has no lattice)."""
+    q = res.get("mesh_quality") or {}
+    return not q.get("lattice_step_m") and bool(q.get("edge_length_m"))
+
+
 def _fem_step(res: dict, fields: VoxelFields, rve: RVE, flow: dict) -> float:
+    """The tet route's ``h``: the stuffing lattice's step, or pytetwild's target edge (what
+    that mesh resolves; the box-relative lattice step stood for it before session 39 and was
+    13x finer than the edge on one cell of a square array)."""
     q = res.get("mesh_quality") or {}
     if q.get("lattice_step_m"):
         return float(q["lattice_step_m"])
+    if _tetwild_mesh(res):
+        return float(q["edge_length_m"])
     if flow.get("lattice_step") is not None:
         return float(flow["lattice_step"])
     from psdesign.meshing.options import default_lattice_step
@@ -243,11 +254,29 @@ def _coarse_fn(rve, fields, direction, flow, solver, res):
 
         return run
     step = _fem_step(res, fields, rve, flow)
+    # pytetwild ignores the lattice step: coarsen its edge (and with it the surface step), a
+    # fraction of the meshed box's diagonal (flow.edge_length); the same edge gave a second mesh
+    # only as fine, whose spread was read as a Richardson term of ratio 2
+    fraction = (res.get("mesh_quality") or {}).get("edge_length_fraction")
+    tetwild = _tetwild_mesh(res)
+
+    def coarser(ratio: float) -> dict:
+        if not tetwild:
+            return {**flow, "lattice_step": ratio * step}
+        if not fraction:  # a mesh cached before session 39 does not report it
+            raise ValueError(f"x{ratio:g}: the mesh does not report its edge fraction")
+        if ratio * fraction > 1.0:
+            raise ValueError(f"x{ratio:g}: the edge would exceed the box diagonal")
+        return {**flow, "edge_length": ratio * float(fraction)}
 
     def run_fem() -> tuple[float, float]:
         failures = []
         for ratio in err.COARSE_RATIOS[:2]:  # 2, then 1.5 if the lattice is too coarse to mesh
-            f2 = {**flow, "lattice_step": ratio * step}
+            try:
+                f2 = coarser(ratio)
+            except ValueError as exc:
+                failures.append(str(exc))
+                continue
             try:
                 return float(route_result(rve, fields, direction, f2, solver)["permeability_m2"]), (
                     ratio
@@ -308,6 +337,8 @@ def with_error_estimate(
     coarse = _coarse_fn(rve, fields, direction, flow, solver, res) if second_resolution else None
     t0 = time.perf_counter()
     scheme = str(res.get("wall_treatment", "staircase")) if solver == "voxel" else "tet"
+    if solver == "fem" and _tetwild_mesh(res):
+        scheme = "tetwild"  # its own floor (flow.error, FLOOR): h is its edge, not a lattice
     # the gap term bounds a wall misplaced on the grid: an image's walls are its voxel faces
     analytic = solver == "voxel" and fields.analytic_distance
     throat = _throat_fn(fields, direction, step) if analytic else None
@@ -316,7 +347,8 @@ def with_error_estimate(
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
-    warnings += err.resolution_warnings(cpd, solver, res["direction"])
+    key = "flow.edge_length" if scheme == "tetwild" else "flow.lattice_step"
+    warnings += err.resolution_warnings(cpd, solver, res["direction"], mesh_key=key)
     if not res.get("converged", False):
         warnings.append(
             f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"

@@ -175,6 +175,8 @@ def mesh_tetwild(distance, voxel, size, direction, opts: MeshOptions, t0: float)
         n_dropped_flat_tets=n_flat,
         n_dropped_inverted_tets=n_inv,
         edge_length_m=h * f.scale,
+        # of the meshed box's diagonal (flow.edge_length's unit): the error bar's coarse mesh
+        edge_length_fraction=h / diag,
         fiber_diameter_m=opts.fiber_diameter,
         edge_length_per_diameter=(
             h * f.scale / opts.fiber_diameter if opts.fiber_diameter else None
