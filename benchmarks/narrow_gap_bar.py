@@ -106,6 +106,15 @@ def solve(kind, flow, phi, n, wall, shift, width_voxels=None, gap=True):
     return res, step, 2.0 * r, time.perf_counter() - t0
 
 
+def fem_solve(spec: dict, direction: str) -> dict:
+    """The tet route's result on ``spec`` (validated, built and voxelized here) along
+    ``direction``; raises what the route raises (a failed mesh is a row of its own)."""
+    spec = validate_spec(spec)
+    built = build_rve(spec)
+    fields = built.voxelize(spec["rve"]["voxel"])
+    return permeability(built.rve, fields, direction, spec["flow"], "fem")
+
+
 _HEX_REF: dict = {}
 CACHE = Path("/tmp/narrow_gap_hex_reference.json")
 
@@ -287,10 +296,7 @@ def fem_hex_rows():
             spec = array_spec("hex", phi, 2 * n0, width_voxels=2 * w)
             spec["flow"] = {**spec["flow"], "bc": "periodic", "lattice_step": L / m}
             try:
-                spec = validate_spec(spec)
-                built = build_rve(spec)
-                fields = built.voxelize(spec["rve"]["voxel"])
-                res = permeability(built.rve, fields, "x", spec["flow"], "fem")
+                res = fem_solve(spec, "x")
             except Exception as exc:  # noqa: BLE001 - a failed mesh is a row too
                 yield {**case, "refused": f"{type(exc).__name__}: {exc}"[:200]}
                 continue
