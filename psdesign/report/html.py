@@ -389,8 +389,14 @@ def _values_table(df: pd.DataFrame) -> str:
         classes.append("flag" if flag else "")
     note = (
         '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
-        "quadratures, docs/geometry.md); transport values ± their relative error bar "
-        "(docs/transport.md), with their status where it is not ok (highlighted).</p>"
+        "quadratures, docs/geometry.md)"
+        + (
+            "; transport values ± their relative error bar (docs/transport.md), with their "
+            "status where it is not ok (highlighted)"
+            if len(cols) > 1
+            else ""
+        )
+        + ".</p>"
     )
     title = "Porosity and transport values" if len(cols) > 1 else "Porosity"
     return f"<h3>{title} with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
