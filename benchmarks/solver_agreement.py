@@ -1212,11 +1212,10 @@ def render(_args=None) -> None:
         "",
         "## Shipped specs (first case of each study)",
         "",
-        "The FEM bars of these rows are the product's before session 39 (their floor `0.5 (h / "
-        "R)^2`; now `max(0.2 (h / R)^2, 0.27 (h / D)^2)`, docs/permeability.md 'Tet floor'): "
-        "they were not solved again (35 min of FEM). K does not depend on the bar; at the "
-        "default `D / 3` step the new floor's fibre term is 3.0 % (the quickstart's RVEs had "
-        "3.04 % from the old one).",
+        "The FEM rows were solved again in session 39 for the tet route's two-term floor "
+        "`max(0.2 (h / R)^2, 0.27 (h / D)^2)` (docs/permeability.md 'Tet floor'; `python "
+        "benchmarks/solver_agreement.py specs --solvers fem --force`, one thread, `nice -n 5`): "
+        "their K as before, their bars moved (e.g. table3's stacked row 3.05 -> 2.11 %).",
         "",
         "Through-plane (z) K of every spec in `studies/` (a study: its first case) with both "
         f"routes and both models (machine load average {_spec_loads()} on 2 cores during the "
