@@ -16,6 +16,10 @@ The estimate (derivation in ``docs/permeability.md``) is
   the radius of the Poiseuille tube with the same permeability and porosity, i.e. the flow's own
   length scale, and ``C_p`` is calibrated on cylinder arrays (``tests/validation/
   test_error_estimate.py`` checks that the bar covers the true error);
+* on the tet route (stuffing lattice) the floor is at least the fibre term ``0.27 (h / D)^2``
+  (:data:`FIBER_FLOOR`, :func:`fiber_floor`), ``D`` the thinnest fibre diameter: in dilute
+  media the error follows the fibre's resolution, not the flow's (``R`` several ``D``); a
+  pytetwild mesh has its own floor, ``h`` its edge (scheme ``tetwild`` of :data:`FLOOR`);
 * with staircase walls (walls on the voxel faces) the floor is at least the thin-channel term
   ``C_T x / (1 - C_T x)``, ``x = (h / R)^2`` (:func:`thin_channel_rel_error`): a channel a few
   voxels across is second-order high with a large constant (a slit of ``w`` voxels
