@@ -86,19 +86,26 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
     """The ``ok`` cases of a results table, with each rated value whose own status
     (``k_x_status``, ``diffusivity_x_status``, ...: :data:`STATUS_COLUMNS`) is not ``ok`` set to
-    NaN: what summaries, fits, the optimizer and the report use.
+    NaN, and its relative error with it (:data:`REL_ERROR_COLUMNS`: a mean bar must not hold
+    the 300 % of a value left out): what summaries, fits, the optimizer and the report use.
 
     Examples
     --------
     >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_m2": [1.0, 2.0, 3.0],
-    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
-    >>> trusted(df)["k_z_m2"].tolist()
-    [1.0, nan]
+    ...                    "k_z_status": ["ok", "untrustworthy", "ok"],
+    ...                    "k_z_rel_error": [0.02, 3.0, 0.02]})
+    >>> t = trusted(df)
+    >>> t["k_z_m2"].tolist(), t["k_z_rel_error"].tolist()
+    ([1.0, nan], [0.02, nan])
     """
     out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
     for c in STATUS_COLUMNS:
         if c in out:
-            out[c] = pd.to_numeric(out[c], errors="coerce").mask(k_not_ok(out, c))
+            bad = k_not_ok(out, c)
+            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
+            e = REL_ERROR_COLUMNS.get(c)
+            if e in out:  # its bar goes with it (the report's mean bar, summary.csv)
+                out[e] = pd.to_numeric(out[e], errors="coerce").mask(bad)
     return out
 
 
