@@ -135,6 +135,18 @@ def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     return st.notna() & (st.astype(str) != "ok")
 
 
+def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
+    """Rows whose case is ``ok`` and whose value in ``column`` (``k_x_m2``, ``diffusivity_z``,
+    ...) is ``ok`` by its own status, or unrated (:func:`k_not_ok`).
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_status": ["ok", "x", "ok"]})
+    >>> value_ok(df, "k_z_m2").tolist()
+    [True, False, False]
+    """
+    ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
+    return ok & ~k_not_ok(df, column)
+
+
 def first_error(df: pd.DataFrame) -> str:
     """``" (first error: ...)"`` from a results table's ``error`` column, or ``""``."""
     errors = df["error"].dropna().astype(str) if "error" in df else []

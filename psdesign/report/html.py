@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trusted
+from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trusted, value_ok
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -158,12 +158,6 @@ def _porosity(df: pd.DataFrame) -> pd.Series | None:
     return None
 
 
-def _direction_ok(df: pd.DataFrame, c: str) -> pd.Series:
-    """Rows whose case is ``ok`` and whose K along ``c``'s direction is ``ok`` (or unrated)."""
-    ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
-    return ok & ~k_not_ok(df, c)
-
-
 def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
     """Absolute error bar of K from its relative one (``k_x_rel_error``), or None."""
     rel = df.get(f"{c[:3]}_rel_error")
@@ -195,8 +189,8 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         k = pd.to_numeric(df[c], errors="coerce")
         scale = r_all**2 if normalize else 1.0
         y, err = k / scale, _k_error(df, c, k / scale)
-        good = _direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
-        bad = ~_direction_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        good = value_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        bad = ~value_ok(df, c).to_numpy() & (k > 0).to_numpy()
         if good.any():
             ax.errorbar(
                 eps_all[good],
@@ -366,15 +360,14 @@ def _values_table(df: pd.DataFrame) -> str:
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
-    if not any(error_bar(r, c)[0] is not None for _, r in df.iterrows() for c in cols):
-        return ""
-    rows, classes = [], []
+    rows, classes, any_bar = [], [], False
     for _, r in df.iterrows():
         row = r.to_dict()
         status = "ok" if pd.isna(row.get("status", "ok")) else str(row.get("status", "ok"))
         out, flag = {"case_id": row.get("case_id", ""), "case status": status}, status != "ok"
         for c in cols:
             rel, st = error_bar(row, c)
+            any_bar |= rel is not None
             v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
             txt = "" if pd.isna(v) else f"{v:.4f}" if c == "porosity" else f"{v:.4g}"
             if rel is not None and c == "porosity":  # porosity_text's digits
@@ -387,6 +380,8 @@ def _values_table(df: pd.DataFrame) -> str:
             out[c] = txt
         rows.append(out)
         classes.append("flag" if flag else "")
+    if not any_bar:
+        return ""
     note = (
         '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
         "quadratures, docs/geometry.md)"

@@ -58,7 +58,7 @@ def transport_figure(df) -> tuple[str | None, str]:
     as a red open marker and counted in the caption, as the report's K figure does."""
     import pandas as pd
 
-    from psdesign.analysis.columns import REL_ERROR_COLUMNS, k_not_ok
+    from psdesign.analysis.columns import REL_ERROR_COLUMNS, value_ok
 
     cols = [c for c in ("diffusivity_x", "diffusivity_y", "diffusivity_z") if c in df.columns]
     if not cols or "porosity" not in df.columns:
@@ -70,14 +70,13 @@ def transport_figure(df) -> tuple[str | None, str]:
 
     fig, ax = plt.subplots(figsize=(5, 3.6))
     eps = pd.to_numeric(df["porosity"], errors="coerce").to_numpy(dtype=float)
-    case_ok = (df["status"] == "ok").to_numpy() if "status" in df else np.ones(len(df), bool)
     n_bad = 0
     for i, c in enumerate(cols):
         y = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
         rel = df.get(REL_ERROR_COLUMNS[c])
         err = None if rel is None else np.abs(pd.to_numeric(rel, errors="coerce").to_numpy() * y)
         has = np.isfinite(y) & np.isfinite(eps)
-        good = has & case_ok & ~k_not_ok(df, c).to_numpy()
+        good = has & value_ok(df, c).to_numpy()
         bad = has & ~good
         if good.any():
             ax.errorbar(eps[good], y[good], yerr=None if err is None else err[good],
