@@ -291,9 +291,13 @@ def _report_equalized(ref: Path, other: Path) -> bytes | None:
         b = pd.read_csv(tmp / "results.csv")
         if list(a["case_id"]) != list(b["case_id"]):
             return None
+        # the reference's run metadata in its place; a metadata column only one run has (e.g.
+        # ``thread_note_z``: the other ran on one thread) is metadata too
+        b = b[[c for c in b.columns if not is_timing_column(c)]].copy()
         for c in a.columns:
-            if is_timing_column(c) and c in b.columns:
+            if is_timing_column(c):
                 b[c] = a[c]
+        b = b[[c for c in a.columns if c in b.columns] + [c for c in b.columns if c not in a]]
         (tmp / "results.csv").write_text(b.to_csv(index=False))
         shutil.copy(ref / "run.json", tmp / "run.json")
         return build_html(tmp).encode("utf-8")
