@@ -307,7 +307,11 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
     fit.add_argument(
-        "--outputs", nargs="*", default=None, help="columns to fit (default: K, porosity)"
+        "--outputs",
+        nargs="*",
+        default=None,
+        help="columns to fit (default: porosity, K and the transport values diffusivity_<d>, "
+        "tortuosity_<d>, conductivity_<d> the study has)",
     )
     fit.add_argument("--json", action="store_true")
     fit.set_defaults(func=_cmd_fit)
