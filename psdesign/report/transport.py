@@ -91,8 +91,8 @@ def transport_figure(df) -> tuple[str | None, str]:
     # black as the K figure's reference curves: the data keep the colours
     for alpha, name, ls in ((a_tp, "through-plane", "k-"), (a_in, "in-plane", "k--")):
         ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, ls, lw=1, label=f"T-S {name}")
-    ax.set_xlabel("porosity")
-    ax.set_ylabel("D_eff / D_bulk")
+    ax.set_xlabel("porosity (-)")
+    ax.set_ylabel("D_eff / D_bulk (-)")
     ax.legend(fontsize=7)
     png = base64.b64encode(_fig_png(fig)).decode()
     caption = (

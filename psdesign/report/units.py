@@ -62,3 +62,40 @@ def parameter_label(key: str) -> str:
     """``key (unit)`` for axis titles and legends; the bare key when the unit is unknown."""
     unit = parameter_unit(key)
     return f"{key} ({unit})" if unit else key
+
+
+def output_unit(column: str, study: dict | None = None) -> str:
+    """The SI unit of a study output column, ``"-"`` for a ratio, or ``""`` when unknown.
+
+    ``study`` (the ``[study]`` table of ``study.json``, with its ``base`` spec) gives the
+    conductivity's unit (``transport.conductivity_unit``, default ``W/(m K)``); a study that
+    varies that key has no one unit.
+
+    >>> [output_unit(c) for c in ("porosity", "k_z_m2", "diffusivity_z", "tortuosity_x",
+    ...                           "conductivity_y", "pore_d50_m", "specific_surface_m-1")]
+    ['-', 'm²', '-', '-', 'W/(m K)', 'm', '1/m']
+    >>> output_unit("conductivity_z", {"base": {"transport": {"conductivity_unit": "S/m"}}})
+    'S/m'
+    """
+    if column in ("porosity", "anisotropy") or column.startswith(("diffusivity_", "tortuosity_")):
+        return "-"
+    if column.startswith("conductivity_"):
+        study = study or {}
+        if "transport.conductivity_unit" in (study.get("parameters") or {}):
+            return ""
+        base = study.get("base") if isinstance(study.get("base"), dict) else {}
+        return str((base.get("transport") or {}).get("conductivity_unit", "W/(m K)"))
+    for suffix, unit in (("_m2", "m²"), ("_m-1", "1/m"), ("_m", "m")):
+        if column.endswith(suffix):
+            return unit
+    return ""
+
+
+def output_label(column: str, study: dict | None = None) -> str:
+    """An axis title for a study output: ``column (unit)``, with what a ratio is a ratio of
+    (``diffusivity_z: D_eff/D (-)``); the bare column when its unit is unknown."""
+    what = {"diffusivity": ": D_eff/D", "anisotropy": " K_in-plane / K_z"}.get(
+        column.split("_")[0], ""
+    )
+    unit = output_unit(column, study)
+    return f"{column}{what} ({unit})" if unit else column

@@ -763,3 +763,41 @@ def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp
     assert f"<td>{d08:.4g} ± 2.0 %</td>" in table
     assert f"<td>{d09:.4g} ± 300.0 % [untrustworthy]</td>" in table
     assert table.count('class="flag"') == 4  # the 4 untrustworthy cases (porosity 0.9)
+
+
+def test_every_output_frame_has_a_unit_on_its_axis(monkeypatch):
+    """Session 40 (new user's walk): on the inverse_design study's report the frames of
+    diffusivity_z and tortuosity_z against the parameters had bare column names as y titles
+    (no unit, where porosity read "porosity (-)" and K "K (m²)"). Every output frame's y title
+    must carry its unit; the conductivity's is the study's ``transport.conductivity_unit``."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    eps = np.linspace(0.75, 0.9, 6)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "status": "ok",
+            "porosity": eps,
+            "diffusivity_z": eps**1.5,
+            "tortuosity_z": eps / eps**1.5,
+            "conductivity_z": 3 * (1 - eps),
+            "pore_d50_m": 2e-5 * eps,
+            "specific_surface_m-1": 1e5 * (1 - eps),
+        }
+    )
+    study = {"base": {"transport": {"conductivity_unit": "S/m"}}}
+    decision.parameter_plots(df, ["generator.porosity"], study)
+    titles = {f.layout.title.text.split(" vs ")[0]: f.layout.yaxis.title.text for f in figs}
+    assert titles == {
+        "porosity": "porosity (-)",
+        "diffusivity_z": "diffusivity_z: D_eff/D (-)",
+        "tortuosity_z": "tortuosity_z (-)",
+        "conductivity_z": "conductivity_z (S/m)",
+        "pore_d50_m": "pore_d50_m (m)",
+        "specific_surface_m-1": "specific_surface_m-1 (1/m)",
+    }
