@@ -33,6 +33,7 @@ from psdesign.report.references import (
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
 from psdesign.report.transport import transport_figure
+from psdesign.report.units import output_label
 
 __all__ = ["ReportError", "build_html", "write_report"]
 
@@ -352,11 +353,12 @@ def _k_table(df: pd.DataFrame) -> str:
 RATED_VALUES = ("porosity", *(c for c in STATUS_COLUMNS if not c.startswith("k_")))
 
 
-def _values_table(df: pd.DataFrame) -> str:
+def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
     (:func:`psdesign.analysis.columns.error_bar`): the porosity ``+-`` its absolute bar, the
-    others ``+-`` a relative one and ``[status]`` where it is not ok; "" when the study has
-    none of them with a bar."""
+    others ``+-`` a relative one and ``[status]`` where it is not ok, under headings with
+    their units (:func:`psdesign.report.units.output_label`); "" when the study has none of
+    them with a bar."""
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
@@ -377,7 +379,7 @@ def _values_table(df: pd.DataFrame) -> str:
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"
                 flag = True
-            out[c] = txt
+            out[output_label(c, study)] = txt
         rows.append(out)
         classes.append("flag" if flag else "")
     if not any_bar:
@@ -509,7 +511,7 @@ def build_html(out_dir: str | Path) -> str:
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
-{diff_html}{_values_table(df)}
+{diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
 the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;

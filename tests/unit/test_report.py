@@ -763,6 +763,8 @@ def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp
     assert f"<td>{d08:.4g} ± 2.0 %</td>" in table
     assert f"<td>{d09:.4g} ± 300.0 % [untrustworthy]</td>" in table
     assert table.count('class="flag"') == 4  # the 4 untrustworthy cases (porosity 0.9)
+    # the headings carry the units (session 40: they were bare column names)
+    assert "<th>porosity (-)</th>" in table and "<th>diffusivity_z: D_eff/D (-)</th>" in table
 
 
 def test_every_output_frame_has_a_unit_on_its_axis(monkeypatch):
