@@ -803,3 +803,51 @@ def test_every_output_frame_has_a_unit_on_its_axis(monkeypatch):
         "pore_d50_m": "pore_d50_m (m)",
         "specific_surface_m-1": "specific_surface_m-1 (1/m)",
     }
+
+
+@pytest.mark.parametrize("decades", [1.0, 2.0, 3.0, 4.0])
+def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
+    """Session 40 (new user's walk): `psdesign pores --plot` of a 20 um box (intrusion
+    diameters 2e-6 to 2e-5 m, one decade) labelled every minor tick of the log axis, and
+    "4x10^-6" ran into "3x10^-6". No two drawn tick labels of either panel may overlap, and
+    the log axis keeps at least two labels; the axes name their units."""
+    from psdesign.report import transport
+
+    drawn = []
+
+    def capture(fig):
+        fig.canvas.draw()
+        drawn.append(fig)
+        return b""
+
+    monkeypatch.setattr(transport, "_fig_png", capture)
+    d = np.linspace(1e-6, 2e-5, 20)
+    pores = {
+        "diameters_m": d,
+        "volume_fraction": np.full(d.size, 1 / d.size),
+        "pore_d10_m": 3e-6,
+        "pore_d50_m": 1e-5,
+        "pore_d90_m": 1.8e-5,
+        "intrusion_diameter_m": np.geomspace(2e-5, 2e-5 / 10**decades, 14),
+        "intrusion_saturation": np.linspace(0.4, 1.0, 14),
+    }
+    transport.pore_figure(pores, tmp_path / "p.png")
+    (fig,) = drawn
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        assert "(m)" in ax.get_xlabel() and "(-)" in ax.get_ylabel()
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            labels = [
+                t
+                for tick, t in [
+                    (t, t.label1) for t in axis.get_major_ticks() + axis.get_minor_ticks()
+                ]
+                if t.get_visible() and t.get_text() and lo <= tick.get_loc() <= hi
+            ]
+            boxes = sorted(
+                (t.get_window_extent(renderer) for t in labels), key=lambda b: (b.x0, b.y0)
+            )
+            assert len(boxes) >= 2
+            for b0, b1 in zip(boxes[:-1], boxes[1:], strict=True):
+                assert not b0.overlaps(b1), [t.get_text() for t in labels]
