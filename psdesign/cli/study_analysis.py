@@ -258,6 +258,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     try:
         check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
         targets = [Target.parse(t) for t in args.target]
+        _check_outcome_files(args.out)  # a file of yours under these names: refused first
         res = optimize_study(
             args.study,
             args.out,
@@ -284,6 +285,12 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "best": res.best,
         "history": res.history,
     }
+    try:
+        _write_outcome(args.out, summary)
+    except ValueError as exc:  # OutputError: a file of yours appeared under one of the names
+        return fail(str(exc))
+    except OSError as exc:  # StorageError (disk full, permissions): the cases are saved
+        return fail(str(exc), FAILED)
     if args.json:
         _print_json(summary)
     else:
@@ -297,6 +304,38 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     if res.met:
         return OK
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
+
+
+#: The outcome of ``study optimize`` in its output folder (the ``--json`` object).
+OPTIMIZE_FILE = "optimize.json"
+#: The files ``study optimize`` adds to its study folder once the search ends.
+OUTCOME_FILES = (OPTIMIZE_FILE, "report.html")
+
+
+def _check_outcome_files(out: str) -> None:
+    """Refuse (``OutputError``, one line) an output folder where ``optimize.json`` or
+    ``report.html`` is a file psdesign did not write, before any case runs."""
+    from psdesign.study.store import check_study_files
+
+    check_study_files(out, OUTCOME_FILES, "study optimize")
+
+
+def _write_outcome(out: str, summary: dict) -> None:
+    """Keep the search's outcome in the folder: ``optimize.json`` (the ``--json`` object:
+    met, the best design point, each target's measured value with its bar and status, the
+    rounds) and the study's ``report.html`` over every case run (the printed lines alone were
+    lost with the terminal, and the folder had no report)."""
+    from pathlib import Path
+
+    from psdesign.io.outputs import claim_output_dir
+    from psdesign.report import write_report
+    from psdesign.study.store import atomic_write_bytes, check_study_files, jsonable
+
+    claim_output_dir(check_study_files(out, [OPTIMIZE_FILE], "study optimize"), [OPTIMIZE_FILE])
+    text = json.dumps(jsonable(summary), allow_nan=False, default=str, indent=1) + "\n"
+    atomic_write_bytes(Path(out) / OPTIMIZE_FILE, text.encode("utf-8"))
+    if (Path(out) / "results.csv").is_file():  # no case ran: nothing to report
+        write_report(out)
 
 
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
