@@ -851,3 +851,31 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
             assert len(boxes) >= 2
             for b0, b1 in zip(boxes[:-1], boxes[1:], strict=True):
                 assert not b0.overlaps(b1), [t.get_text() for t in labels]
+
+
+def test_an_explicit_fibers_diameter_as_parameter_normalizes_k(monkeypatch):
+    """Session 40 (new user's walk): a study over ``fibers.0.diameter`` (6, 8, 10 um; one
+    cylinder) drew K in m^2 against reference curves for the base fibre's r = 4 um, which hold
+    for the middle case only: the report normalized K by r^2 only when the parameter was
+    ``generator.diameter``. docs/study-files.md: ``K / r^2`` when the diameter varies. Truth:
+    each case's own r = d / 2 (K 2.117e-11 at d = 6 um plots at K / (3 um)^2 = 2.35)."""
+    from psdesign.report import html as report_html
+
+    drawn = []
+    monkeypatch.setattr(report_html, "_png", lambda fig: (drawn.append(fig), "")[1])
+    df = pd.DataFrame(
+        {
+            "fibers.0.diameter": [6e-6, 8e-6, 1e-5],
+            "status": "ok",
+            "porosity": [0.92, 0.874, 0.80],
+            "k_z_m2": [2.117e-11, 1.328e-11, 7.999e-12],
+            "k_z_status": "ok",
+        }
+    )
+    study = {"base": {"fibers": [{"shape": "cylinder", "diameter": 8e-6}]}}
+    _, note = report_html._perm_figure(df, study)
+    assert note.startswith("Diameter varies: permeability shown as K / r^2."), note
+    (ax,) = drawn[0].axes
+    y = [float(v) for line in ax.lines for v in line.get_ydata()]
+    for k, d in zip(df["k_z_m2"], df["fibers.0.diameter"], strict=True):
+        assert any(abs(v / (k / (d / 2) ** 2) - 1) < 1e-9 for v in y), (k, d)
