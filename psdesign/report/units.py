@@ -39,6 +39,24 @@ def _allowed() -> dict[str, str]:
     return {k: a for rows in key_rows().values() for k, _, a in rows}
 
 
+def _schema_key(key: str) -> str:
+    """The schema's name of a parameter path with list indices: ``fibers.0.diameter`` ->
+    ``fibers[].diameter`` (an element's key), ``rve.size.2`` -> ``rve.size`` (an element).
+
+    >>> _schema_key("fibers.0.diameter"), _schema_key("rve.size.2"), _schema_key("rve.voxel")
+    ('fibers[].diameter', 'rve.size', 'rve.voxel')
+    """
+    parts = key.split(".")
+    out: list[str] = []
+    for i, part in enumerate(parts):
+        if part.isdigit() and out:
+            if i < len(parts) - 1:
+                out[-1] += "[]"
+            continue
+        out.append(part)
+    return ".".join(out)
+
+
 def parameter_unit(key: str) -> str:
     """The SI unit of a study parameter (a dotted spec key), ``"-"`` for a fraction, or ``""``.
 
@@ -47,6 +65,7 @@ def parameter_unit(key: str) -> str:
     """
     if key.endswith("porosity"):
         return "-"
+    key = _schema_key(key)
     leaf = key.rsplit(".", 1)[-1]
     for suffix, unit in _SUFFIX_UNITS:
         if leaf.endswith(suffix):

@@ -879,3 +879,20 @@ def test_an_explicit_fibers_diameter_as_parameter_normalizes_k(monkeypatch):
     y = [float(v) for line in ax.lines for v in line.get_ydata()]
     for k, d in zip(df["k_z_m2"], df["fibers.0.diameter"], strict=True):
         assert any(abs(v / (k / (d / 2) ** 2) - 1) < 1e-9 for v in y), (k, d)
+
+
+def test_parameter_units_of_list_element_paths():
+    """Session 40 (new user's walk): a study over ``fibers.0.diameter`` had its axes titled
+    "fibers.0.diameter" with ticks 0.6e-5 ... 1e-5 and no unit, and docs/study-files.md's
+    own example ``rve.size.2`` had none either: the schema names them ``fibers[].diameter``
+    and ``rve.size`` (metres, docs/spec-keys.md)."""
+    from psdesign.report.units import parameter_label, parameter_unit
+
+    for key, unit in [
+        ("fibers.0.diameter", "m"),
+        ("fibers.12.theta", "deg"),
+        ("fibers.0.center.2", "m"),
+        ("rve.size.2", "m"),
+    ]:
+        assert parameter_unit(key) == unit, key
+    assert parameter_label("fibers.0.diameter") == "fibers.0.diameter (m)"
