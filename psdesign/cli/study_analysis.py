@@ -317,7 +317,7 @@ def _check_outcome_files(out: str) -> None:
     ``report.html`` is a file psdesign did not write, before any case runs."""
     from psdesign.study.store import check_study_files
 
-    check_study_files(out, OUTCOME_FILES, "study optimize")
+    check_study_files(out, OUTCOME_FILES, "study optimize", option="-o")
 
 
 def _write_outcome(out: str, summary: dict) -> None:
@@ -331,7 +331,8 @@ def _write_outcome(out: str, summary: dict) -> None:
     from psdesign.report import write_report
     from psdesign.study.store import atomic_write_bytes, check_study_files, jsonable
 
-    claim_output_dir(check_study_files(out, [OPTIMIZE_FILE], "study optimize"), [OPTIMIZE_FILE])
+    checked = check_study_files(out, [OPTIMIZE_FILE], "study optimize", option="-o")
+    claim_output_dir(checked, [OPTIMIZE_FILE])
     text = json.dumps(jsonable(summary), allow_nan=False, default=str, indent=1) + "\n"
     atomic_write_bytes(Path(out) / OPTIMIZE_FILE, text.encode("utf-8"))
     if (Path(out) / "results.csv").is_file():  # no case ran: nothing to report

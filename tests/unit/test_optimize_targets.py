@@ -186,5 +186,9 @@ def test_the_outcome_is_kept_in_the_folder_with_a_report(tmp_path, capsys) -> No
     assert main([*argv[:4], str(mine), *argv[5:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "report.html" in err[0], err
+    assert err[0].startswith("psdesign: error: -o: "), err  # the option as typed
     assert sorted(p.name for p in mine.iterdir()) == ["report.html"]
     assert (mine / "report.html").read_text() == "my notes"
+    assert main([*argv[:4], "/", *argv[5:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: -o: ") and "root" in err[0], err
