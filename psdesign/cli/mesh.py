@@ -79,6 +79,15 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     direction = flow_direction(args.direction, flow)
     if flow.get("bc") == "periodic" and set(formats) & set(NO_PERIODIC):
         raise SpecError("--format", NO_PERIODIC_WHY)
+    copies = flow.get("permeameter_copies")
+    if isinstance(copies, int) and copies > 1 and flow.get("bc") != "periodic":
+        # session 40: the stack was dropped without a word (docs/meshers.md)
+        print(
+            f"psdesign: warning: flow.permeameter_copies = {copies}: mesh writes one copy of "
+            "the RVE with its auxiliary zones; the copies are stacked by `psdesign "
+            "permeability` only (an export's K compares with its one-copy K)",
+            file=sys.stderr,
+        )
     target = check_output_dir(
         args.output,
         force=args.force,

@@ -7,7 +7,7 @@ import json
 import re
 import sys
 
-from psdesign.cli.exit_status import FAILED, fail
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
@@ -45,7 +45,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
                 }
             )
         )
-        return 0
+        return _cases_status(args.out)
     for _, row in res.table.iterrows():
         parts = [f"{row['size_m']:.4g} m (n={int(row['n'])})"]
         for c in res.outputs:
@@ -57,7 +57,36 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
     else:
         print(f"REV: {res.rev_size_m:.4g} m (95 % CI half-width below {100 * res.tol:g} %)")
-    return 0
+    return _cases_status(args.out)
+
+
+def _cases_status(out: str) -> int:
+    """The exit status of the table in :mod:`psdesign.cli.exit_status`, as ``study run`` gives
+    it: 1 when a case failed or timed out, else 3 when one did not converge, else 0; one
+    stderr line per kind naming ``results.csv`` (the sizes' rows leave those cases out)."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from psdesign.analysis.columns import first_error
+
+    df = pd.read_csv(Path(out) / "results.csv")
+    status = df["status"].astype(str)
+    bad = df[(status != "ok") & (status != "not_converged")]
+    n_nc = int((status == "not_converged").sum())
+    if len(bad):
+        print(
+            f"psdesign: {len(bad)} case(s) failed or timed out{first_error(bad)}; left out of "
+            f"the sizes' rows; see {out}/results.csv (tracebacks: cases/<id>/error.txt)",
+            file=sys.stderr,
+        )
+    if n_nc:
+        print(
+            f"psdesign: {n_nc} case(s) not_converged (a solve did not converge or was flagged; "
+            f"the error column of {out}/results.csv says which); left out of the sizes' rows",
+            file=sys.stderr,
+        )
+    return FAILED if len(bad) else NOT_TRUSTED if n_nc else OK
 
 
 def _warn_untrustworthy(out: str) -> None:

@@ -258,6 +258,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     try:
         check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
         targets = [Target.parse(t) for t in args.target]
+        _check_outcome_files(args.out)  # a file of yours under these names: refused first
         res = optimize_study(
             args.study,
             args.out,
@@ -284,6 +285,12 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "best": res.best,
         "history": res.history,
     }
+    try:
+        _write_outcome(args.out, summary)
+    except ValueError as exc:  # OutputError: a file of yours appeared under one of the names
+        return fail(str(exc))
+    except OSError as exc:  # StorageError (disk full, permissions): the cases are saved
+        return fail(str(exc), FAILED)
     if args.json:
         _print_json(summary)
     else:
@@ -299,6 +306,39 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
 
 
+#: The outcome of ``study optimize`` in its output folder (the ``--json`` object).
+OPTIMIZE_FILE = "optimize.json"
+#: The files ``study optimize`` adds to its study folder once the search ends.
+OUTCOME_FILES = (OPTIMIZE_FILE, "report.html")
+
+
+def _check_outcome_files(out: str) -> None:
+    """Refuse (``OutputError``, one line) an output folder where ``optimize.json`` or
+    ``report.html`` is a file psdesign did not write, before any case runs."""
+    from psdesign.study.store import check_study_files
+
+    check_study_files(out, OUTCOME_FILES, "study optimize", option="-o")
+
+
+def _write_outcome(out: str, summary: dict) -> None:
+    """Keep the search's outcome in the folder: ``optimize.json`` (the ``--json`` object:
+    met, the best design point, each target's measured value with its bar and status, the
+    rounds) and the study's ``report.html`` over every case run (the printed lines alone were
+    lost with the terminal, and the folder had no report)."""
+    from pathlib import Path
+
+    from psdesign.io.outputs import claim_output_dir
+    from psdesign.report import write_report
+    from psdesign.study.store import atomic_write_bytes, check_study_files, jsonable
+
+    checked = check_study_files(out, [OPTIMIZE_FILE], "study optimize", option="-o")
+    claim_output_dir(checked, [OPTIMIZE_FILE])
+    text = json.dumps(jsonable(summary), allow_nan=False, default=str, indent=1) + "\n"
+    atomic_write_bytes(Path(out) / OPTIMIZE_FILE, text.encode("utf-8"))
+    if (Path(out) / "results.csv").is_file():  # no case ran: nothing to report
+        write_report(out)
+
+
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
@@ -307,7 +347,11 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
     fit.add_argument(
-        "--outputs", nargs="*", default=None, help="columns to fit (default: K, porosity)"
+        "--outputs",
+        nargs="*",
+        default=None,
+        help="columns to fit (default: porosity, K and the transport values diffusivity_<d>, "
+        "tortuosity_<d>, conductivity_<d> the study has)",
     )
     fit.add_argument("--json", action="store_true")
     fit.set_defaults(func=_cmd_fit)

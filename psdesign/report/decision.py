@@ -22,7 +22,7 @@ from psdesign.analysis.columns import (
 )
 from psdesign.analysis.replicates import replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
-from psdesign.report.units import parameter_label, parameter_unit
+from psdesign.report.units import output_label, parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
 #: Other outputs plotted against the parameters when present.
@@ -182,7 +182,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
                 title=f"{c} vs {p}",
                 height=320,
                 xaxis=param_axis(p, p in logs),
-                yaxis_title=OUTPUT_LABELS.get(c, c),
+                yaxis_title=output_label(c, study),
                 showlegend=len(groups) > 1,
                 margin={"l": 60, "r": 10, "t": 40, "b": 50},
             )
@@ -206,8 +206,6 @@ def _held_note(held: list[str], ok: pd.DataFrame) -> str:
 NO_TRUSTED_K = (
     '<p class="note">No K to plot: every K value is not ok (see the red box at the top).</p>'
 )
-#: Axis titles (with units) of the non-K outputs that are not self-describing.
-OUTPUT_LABELS = {"porosity": "porosity (-)", "anisotropy": "anisotropy K_in-plane / K_z (-)"}
 COLORS = ("#636efa", "#ef553b", "#00cc96", "#ab63fa")
 
 

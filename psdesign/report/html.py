@@ -13,6 +13,7 @@ import json
 import math
 import mimetypes
 import platform
+import re
 import sys
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from psdesign.report.references import (
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
 from psdesign.report.transport import transport_figure
+from psdesign.report.units import output_label
 
 __all__ = ["ReportError", "build_html", "write_report"]
 
@@ -137,14 +139,35 @@ def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
 
 
 def _fiber_radius(df: pd.DataFrame, study: dict) -> tuple[pd.Series | None, float | None]:
-    """Per-row fiber radius if the diameter is a study parameter, else the base value."""
+    """Per-row fiber radius if the diameter is a study parameter (``generator.diameter``, or
+    ``fibers.<i>.diameter`` of an explicit fiber: the median of the row's fiber diameters),
+    else the base value.
+
+    >>> df = pd.DataFrame({"fibers.0.diameter": [6e-6, 1e-5]})
+    >>> base = {"base": {"fibers": [{"diameter": 8e-6}]}}
+    >>> r, r0 = _fiber_radius(df, base)
+    >>> r.tolist(), round(r0, 12)
+    ([3e-06, 5e-06], 4e-06)
+    """
     if "generator.diameter" in df:
         d = pd.to_numeric(df["generator.diameter"], errors="coerce")
         return d / 2.0, float(np.nanmedian(d)) / 2.0 if d.notna().any() else None
     d = (study.get("base") or {}).get("generator", {}).get("diameter")
+    fibers = (study.get("base") or {}).get("fibers") or []
+    ds = [f.get("diameter") if isinstance(f, dict) else None for f in fibers]
+    varied = {
+        int(m.group(1)): c
+        for c in df.columns
+        if (m := re.fullmatch(r"fibers\.(\d+)\.diameter", str(c))) and int(m.group(1)) < len(ds)
+    }
+    if d is None and varied:  # an explicit fiber's diameter is a parameter (session 40)
+        rows = np.array([[np.nan if v is None else float(v) for v in ds]] * len(df))
+        for i, c in varied.items():
+            rows[:, i] = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
+        per_row = pd.Series(np.nanmedian(rows, axis=1), index=df.index) / 2.0
+        return per_row, float(np.nanmedian(per_row)) if per_row.notna().any() else None
     if d is None:
-        fibers = (study.get("base") or {}).get("fibers") or []
-        ds = [f.get("diameter") for f in fibers if isinstance(f, dict) and f.get("diameter")]
+        ds = [float(v) for v in ds if v]
         d = float(np.median(ds)) if ds else None
     return None, (float(d) / 2.0 if d else None)
 
@@ -352,11 +375,12 @@ def _k_table(df: pd.DataFrame) -> str:
 RATED_VALUES = ("porosity", *(c for c in STATUS_COLUMNS if not c.startswith("k_")))
 
 
-def _values_table(df: pd.DataFrame) -> str:
+def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
     (:func:`psdesign.analysis.columns.error_bar`): the porosity ``+-`` its absolute bar, the
-    others ``+-`` a relative one and ``[status]`` where it is not ok; "" when the study has
-    none of them with a bar."""
+    others ``+-`` a relative one and ``[status]`` where it is not ok, under headings with
+    their units (:func:`psdesign.report.units.output_label`); "" when the study has none of
+    them with a bar."""
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
@@ -377,7 +401,7 @@ def _values_table(df: pd.DataFrame) -> str:
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"
                 flag = True
-            out[c] = txt
+            out[output_label(c, study)] = txt
         rows.append(out)
         classes.append("flag" if flag else "")
     if not any_bar:
@@ -509,7 +533,7 @@ def build_html(out_dir: str | Path) -> str:
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
-{diff_html}{_values_table(df)}
+{diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
 the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;

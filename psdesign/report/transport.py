@@ -27,6 +27,23 @@ def _fig_png(fig) -> bytes:
     return buf.getvalue()
 
 
+def _log_ticks(axis, values) -> None:
+    """Label a log axis over ``values`` at 1, 2 and 5 per decade (``2e-05``) when they span up
+    to two decades, else at the decades, and leave the other ticks bare: over less than a
+    decade matplotlib labels every minor tick (``4x10^-6`` and ``3x10^-6`` overlapped on the
+    intrusion curve of a 20 um box)."""
+    from matplotlib import ticker
+
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    span = float(np.log10(v.max() / v.min())) if v.size else 0.0
+    subs = (1.0, 2.0, 5.0) if span <= 2.0 else (1.0,)
+    axis.set_major_locator(ticker.LogLocator(base=10.0, subs=subs))
+    axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: f"{x:.0e}"))
+    axis.set_minor_locator(ticker.LogLocator(base=10.0, subs=np.arange(1.0, 10.0)))
+    axis.set_minor_formatter(ticker.NullFormatter())
+
+
 def pore_figure(pores: dict, path: str | Path) -> Path:
     """Pore size distribution (volume fraction per diameter) and intrusion curve, PNG."""
     import matplotlib
@@ -40,12 +57,14 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     for q in ("pore_d10_m", "pore_d50_m", "pore_d90_m"):
         a.axvline(pores[q], color="k", lw=0.8, ls="--")
     a.set_xlabel("local thickness diameter (m)")
-    a.set_ylabel("pore volume fraction")
-    b.plot(np.asarray(pores["intrusion_diameter_m"]), pores["intrusion_saturation"], "o-")
+    a.set_ylabel("pore volume fraction (-)")
+    dia = np.asarray(pores["intrusion_diameter_m"], dtype=float)
+    b.plot(dia, pores["intrusion_saturation"], "o-")
     b.set_xscale("log")
+    _log_ticks(b.xaxis, dia)
     b.invert_xaxis()
     b.set_xlabel("accessible diameter (m)")
-    b.set_ylabel("non-wetting saturation")
+    b.set_ylabel("non-wetting saturation (-)")
     out = Path(path)
     out.write_bytes(_fig_png(fig))
     return out
@@ -91,8 +110,8 @@ def transport_figure(df) -> tuple[str | None, str]:
     # black as the K figure's reference curves: the data keep the colours
     for alpha, name, ls in ((a_tp, "through-plane", "k-"), (a_in, "in-plane", "k--")):
         ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, ls, lw=1, label=f"T-S {name}")
-    ax.set_xlabel("porosity")
-    ax.set_ylabel("D_eff / D_bulk")
+    ax.set_xlabel("porosity (-)")
+    ax.set_ylabel("D_eff / D_bulk (-)")
     ax.legend(fontsize=7)
     png = base64.b64encode(_fig_png(fig)).decode()
     caption = (

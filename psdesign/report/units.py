@@ -39,6 +39,24 @@ def _allowed() -> dict[str, str]:
     return {k: a for rows in key_rows().values() for k, _, a in rows}
 
 
+def _schema_key(key: str) -> str:
+    """The schema's name of a parameter path with list indices: ``fibers.0.diameter`` ->
+    ``fibers[].diameter`` (an element's key), ``rve.size.2`` -> ``rve.size`` (an element).
+
+    >>> _schema_key("fibers.0.diameter"), _schema_key("rve.size.2"), _schema_key("rve.voxel")
+    ('fibers[].diameter', 'rve.size', 'rve.voxel')
+    """
+    parts = key.split(".")
+    out: list[str] = []
+    for i, part in enumerate(parts):
+        if part.isdigit() and out:
+            if i < len(parts) - 1:
+                out[-1] += "[]"
+            continue
+        out.append(part)
+    return ".".join(out)
+
+
 def parameter_unit(key: str) -> str:
     """The SI unit of a study parameter (a dotted spec key), ``"-"`` for a fraction, or ``""``.
 
@@ -47,6 +65,7 @@ def parameter_unit(key: str) -> str:
     """
     if key.endswith("porosity"):
         return "-"
+    key = _schema_key(key)
     leaf = key.rsplit(".", 1)[-1]
     for suffix, unit in _SUFFIX_UNITS:
         if leaf.endswith(suffix):
@@ -62,3 +81,40 @@ def parameter_label(key: str) -> str:
     """``key (unit)`` for axis titles and legends; the bare key when the unit is unknown."""
     unit = parameter_unit(key)
     return f"{key} ({unit})" if unit else key
+
+
+def output_unit(column: str, study: dict | None = None) -> str:
+    """The SI unit of a study output column, ``"-"`` for a ratio, or ``""`` when unknown.
+
+    ``study`` (the ``[study]`` table of ``study.json``, with its ``base`` spec) gives the
+    conductivity's unit (``transport.conductivity_unit``, default ``W/(m K)``); a study that
+    varies that key has no one unit.
+
+    >>> [output_unit(c) for c in ("porosity", "k_z_m2", "diffusivity_z", "tortuosity_x",
+    ...                           "conductivity_y", "pore_d50_m", "specific_surface_m-1")]
+    ['-', 'm²', '-', '-', 'W/(m K)', 'm', '1/m']
+    >>> output_unit("conductivity_z", {"base": {"transport": {"conductivity_unit": "S/m"}}})
+    'S/m'
+    """
+    if column in ("porosity", "anisotropy") or column.startswith(("diffusivity_", "tortuosity_")):
+        return "-"
+    if column.startswith("conductivity_"):
+        study = study or {}
+        if "transport.conductivity_unit" in (study.get("parameters") or {}):
+            return ""
+        base = study.get("base") if isinstance(study.get("base"), dict) else {}
+        return str((base.get("transport") or {}).get("conductivity_unit", "W/(m K)"))
+    for suffix, unit in (("_m2", "m²"), ("_m-1", "1/m"), ("_m", "m")):
+        if column.endswith(suffix):
+            return unit
+    return ""
+
+
+def output_label(column: str, study: dict | None = None) -> str:
+    """An axis title for a study output: ``column (unit)``, with what a ratio is a ratio of
+    (``diffusivity_z: D_eff/D (-)``); the bare column when its unit is unknown."""
+    what = {"diffusivity": ": D_eff/D", "anisotropy": " K_in-plane / K_z"}.get(
+        column.split("_")[0], ""
+    )
+    unit = output_unit(column, study)
+    return f"{column}{what} ({unit})" if unit else column

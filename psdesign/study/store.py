@@ -64,7 +64,9 @@ STUDY_FILES_NO_REPORT = tuple(f for f in STUDY_FILES if f != "report.html")
 STUDY_LEGACY = ("study.json", "cases")
 
 
-def check_study_files(out_dir: str | Path, files: Iterable[str], command: str) -> OutputDir:
+def check_study_files(
+    out_dir: str | Path, files: Iterable[str], command: str, option: str = "out_dir"
+) -> OutputDir:
     """Check that a command may add ``files`` to the study folder ``out_dir`` (``study fit``:
     ``surrogate.json``, ``study report``: ``report.html``); nothing is changed.
 
@@ -73,7 +75,12 @@ def check_study_files(out_dir: str | Path, files: Iterable[str], command: str) -
     record the files with :func:`psdesign.io.outputs.claim_output_dir` just before writing.
     """
     return check_added_files(
-        out_dir, files, command=command, legacy=STUDY_LEGACY, legacy_files=STUDY_FILES
+        out_dir,
+        files,
+        command=command,
+        option=option,
+        legacy=STUDY_LEGACY,
+        legacy_files=STUDY_FILES,
     )
 
 

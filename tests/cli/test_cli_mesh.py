@@ -274,3 +274,22 @@ def test_mesh_says_disk_full_when_a_short_write_has_no_errno(tmp_path, capsys, m
     assert line.endswith(f"{out}: {reason}"), line
     assert not out.exists()
     assert diskfull.short_write_errno(tmp_path) == errno.ENOSPC
+
+
+def test_mesh_says_it_meshes_one_copy_of_a_stacked_permeameter(tmp_path, capsys):
+    """Session 40 (new user's walk): with ``flow.permeameter_copies = 2`` `psdesign mesh`
+    meshed one copy (z from -aux to L + aux) without a word, so an OpenFOAM export compared
+    with the permeability command's 2-copy K. It says so in one warning line; the mesh is
+    one copy, as before (the pore volume: one RVE and two auxiliary zones)."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("aux_length = 0.25", "aux_length = 0.25\npermeameter_copies = 2"))
+    assert main(["mesh", str(spec), "-o", str(tmp_path / "m")]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "warning" in ln]
+    assert len(err) == 1 and "flow.permeameter_copies = 2" in err[0] and "one copy" in err[0]
+    z = meshio.read(tmp_path / "m" / "pore.vtu").points[:, 2]
+    L = 40e-6
+    assert z.min() == pytest.approx(-0.25 * L) and z.max() == pytest.approx(1.25 * L)
+    plain = tmp_path / "plain.toml"
+    plain.write_text(SPEC)
+    assert main(["mesh", str(plain), "-o", str(tmp_path / "p")]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -164,3 +164,24 @@ def test_every_exit_status_is_in_help_and_readme() -> None:
     for code in sorted(codes):
         assert re.search(rf"[:;] {code} \w", help_text), code
         assert f"**{code}**" in readme, code
+
+
+def test_study_fit_default_outputs_are_named_in_help_and_readme() -> None:
+    # session 40 (new user's walk): `study fit` on a transport study fitted diffusivity_z and
+    # tortuosity_z as well, where its --help and README said "default: K, porosity"
+    import argparse
+
+    from psdesign.analysis.surrogate import default_fit_outputs
+    from psdesign.cli.main import build_parser
+
+    fitted = default_fit_outputs(
+        ["porosity", "k_z_m2", "diffusivity_z", "tortuosity_z", "conductivity_z", "n_fibers"]
+    )
+    kinds = {c.split("_")[0] for c in fitted} - {"k"}  # porosity, diffusivity, ...
+    assert kinds == {"porosity", "diffusivity", "tortuosity", "conductivity"}
+    fit = _subparsers(_subparsers(build_parser())["study"])["fit"]
+    (outputs,) = [a for a in fit._actions if "--outputs" in a.option_strings]
+    assert outputs.help != argparse.SUPPRESS
+    readme = _synopsis("study fit", (REPO_ROOT / "README.md").read_text())
+    for text in (outputs.help, readme):
+        assert "K" in text and all(k in text for k in kinds), text

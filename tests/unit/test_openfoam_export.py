@@ -528,3 +528,18 @@ def _allrun_errors(tmp_path, tets_at_step, flow, key, k_ref):
         assert out.returncode == 0, out.stdout + out.stderr
         err[step] = (_k(out.stdout, key) / k_ref - 1, out.stdout)
     return err
+
+
+def test_the_case_says_which_psdesign_k_its_k_windowed_compares_with(tmp_path):
+    """Session 40 (new user's walk): the Allrun and README.txt said "K_windowed (compare with
+    psdesign's reported K)". The case is one copy of the RVE (``psdesign mesh`` does not stack
+    ``flow.permeameter_copies``), its K_windowed takes psdesign's plane-window drop, and the
+    reported K the windowed-dissipation drop on the 'auto' stack: on a 20 um box with one 8 um
+    fibre across z, OpenFOAM's K_windowed 8.32e-12 against the reported 1.311e-11 (3 copies),
+    where psdesign's one-copy drops give 7.24e-12 (plane window) and 9.14e-12. Both texts
+    must name the one-copy setting and the drop to compare with."""
+    case = export_mesh(_duct(4), tmp_path, formats=("openfoam",), flow={})["openfoam"]
+    for name in ("Allrun", "README.txt"):
+        text = " ".join((case / name).read_text().replace("#", " ").split())
+        assert "reported K)" not in text, name
+        assert "flow.permeameter_copies = 1" in text and "pressure_drop_plane_window_pa" in text

@@ -163,3 +163,32 @@ def test_a_zero_bound_on_a_log_modelled_output_is_certain(op, expected) -> None:
     assert s.log_output
     prob = _probability({"diffusivity_z": s}, [Target("diffusivity_z", op, 0.0)], p[:, None])
     np.testing.assert_allclose(prob, expected)
+
+
+def test_the_outcome_is_kept_in_the_folder_with_a_report(tmp_path, capsys) -> None:
+    """Session 40 (new user's walk): `study optimize` printed its decision (MET, the design
+    point, each target's measured value) and wrote no file of it and no report.html: the
+    folder held the cases alone. It keeps the --json object as optimize.json and writes the
+    report; a file of yours under either name is refused before any case runs."""
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main([*argv, "--json"]) == 3
+    printed = json.loads(capsys.readouterr().out)
+    out = tmp_path / "opt"
+    kept = json.loads((out / "optimize.json").read_text())
+    assert kept == printed and kept["met"] is False
+    assert kept["targets"][0]["measured"] == pytest.approx(1.077e-11, rel=1e-12)
+    assert "<h1>Study report: " in (out / "report.html").read_text()
+    assert main(argv) == 3  # a rerun replaces psdesign's own files
+    capsys.readouterr()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "report.html").write_text("my notes")
+    assert main([*argv[:4], str(mine), *argv[5:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "report.html" in err[0], err
+    assert err[0].startswith("psdesign: error: -o: "), err  # the option as typed
+    assert sorted(p.name for p in mine.iterdir()) == ["report.html"]
+    assert (mine / "report.html").read_text() == "my notes"
+    assert main([*argv[:4], "/", *argv[5:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: -o: ") and "root" in err[0], err

@@ -763,3 +763,136 @@ def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp
     assert f"<td>{d08:.4g} ± 2.0 %</td>" in table
     assert f"<td>{d09:.4g} ± 300.0 % [untrustworthy]</td>" in table
     assert table.count('class="flag"') == 4  # the 4 untrustworthy cases (porosity 0.9)
+    # the headings carry the units (session 40: they were bare column names)
+    assert "<th>porosity (-)</th>" in table and "<th>diffusivity_z: D_eff/D (-)</th>" in table
+
+
+def test_every_output_frame_has_a_unit_on_its_axis(monkeypatch):
+    """Session 40 (new user's walk): on the inverse_design study's report the frames of
+    diffusivity_z and tortuosity_z against the parameters had bare column names as y titles
+    (no unit, where porosity read "porosity (-)" and K "K (m²)"). Every output frame's y title
+    must carry its unit; the conductivity's is the study's ``transport.conductivity_unit``."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    eps = np.linspace(0.75, 0.9, 6)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "status": "ok",
+            "porosity": eps,
+            "diffusivity_z": eps**1.5,
+            "tortuosity_z": eps / eps**1.5,
+            "conductivity_z": 3 * (1 - eps),
+            "pore_d50_m": 2e-5 * eps,
+            "specific_surface_m-1": 1e5 * (1 - eps),
+        }
+    )
+    study = {"base": {"transport": {"conductivity_unit": "S/m"}}}
+    decision.parameter_plots(df, ["generator.porosity"], study)
+    titles = {f.layout.title.text.split(" vs ")[0]: f.layout.yaxis.title.text for f in figs}
+    assert titles == {
+        "porosity": "porosity (-)",
+        "diffusivity_z": "diffusivity_z: D_eff/D (-)",
+        "tortuosity_z": "tortuosity_z (-)",
+        "conductivity_z": "conductivity_z (S/m)",
+        "pore_d50_m": "pore_d50_m (m)",
+        "specific_surface_m-1": "specific_surface_m-1 (1/m)",
+    }
+
+
+@pytest.mark.parametrize("decades", [1.0, 2.0, 3.0, 4.0])
+def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
+    """Session 40 (new user's walk): `psdesign pores --plot` of a 20 um box (intrusion
+    diameters 2e-6 to 2e-5 m, one decade) labelled every minor tick of the log axis, and
+    "4x10^-6" ran into "3x10^-6". No two drawn tick labels of either panel may overlap, and
+    the log axis keeps at least two labels; the axes name their units."""
+    from psdesign.report import transport
+
+    drawn = []
+
+    def capture(fig):
+        fig.canvas.draw()
+        drawn.append(fig)
+        return b""
+
+    monkeypatch.setattr(transport, "_fig_png", capture)
+    d = np.linspace(1e-6, 2e-5, 20)
+    pores = {
+        "diameters_m": d,
+        "volume_fraction": np.full(d.size, 1 / d.size),
+        "pore_d10_m": 3e-6,
+        "pore_d50_m": 1e-5,
+        "pore_d90_m": 1.8e-5,
+        "intrusion_diameter_m": np.geomspace(2e-5, 2e-5 / 10**decades, 14),
+        "intrusion_saturation": np.linspace(0.4, 1.0, 14),
+    }
+    transport.pore_figure(pores, tmp_path / "p.png")
+    (fig,) = drawn
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        assert "(m)" in ax.get_xlabel() and "(-)" in ax.get_ylabel()
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            labels = [
+                t
+                for tick, t in [
+                    (t, t.label1) for t in axis.get_major_ticks() + axis.get_minor_ticks()
+                ]
+                if t.get_visible() and t.get_text() and lo <= tick.get_loc() <= hi
+            ]
+            boxes = sorted(
+                (t.get_window_extent(renderer) for t in labels), key=lambda b: (b.x0, b.y0)
+            )
+            assert len(boxes) >= 2
+            for b0, b1 in zip(boxes[:-1], boxes[1:], strict=True):
+                assert not b0.overlaps(b1), [t.get_text() for t in labels]
+
+
+def test_an_explicit_fibers_diameter_as_parameter_normalizes_k(monkeypatch):
+    """Session 40 (new user's walk): a study over ``fibers.0.diameter`` (6, 8, 10 um; one
+    cylinder) drew K in m^2 against reference curves for the base fibre's r = 4 um, which hold
+    for the middle case only: the report normalized K by r^2 only when the parameter was
+    ``generator.diameter``. docs/study-files.md: ``K / r^2`` when the diameter varies. Truth:
+    each case's own r = d / 2 (K 2.117e-11 at d = 6 um plots at K / (3 um)^2 = 2.35)."""
+    from psdesign.report import html as report_html
+
+    drawn = []
+    monkeypatch.setattr(report_html, "_png", lambda fig: (drawn.append(fig), "")[1])
+    df = pd.DataFrame(
+        {
+            "fibers.0.diameter": [6e-6, 8e-6, 1e-5],
+            "status": "ok",
+            "porosity": [0.92, 0.874, 0.80],
+            "k_z_m2": [2.117e-11, 1.328e-11, 7.999e-12],
+            "k_z_status": "ok",
+        }
+    )
+    study = {"base": {"fibers": [{"shape": "cylinder", "diameter": 8e-6}]}}
+    _, note = report_html._perm_figure(df, study)
+    assert note.startswith("Diameter varies: permeability shown as K / r^2."), note
+    (ax,) = drawn[0].axes
+    y = [float(v) for line in ax.lines for v in line.get_ydata()]
+    for k, d in zip(df["k_z_m2"], df["fibers.0.diameter"], strict=True):
+        assert any(abs(v / (k / (d / 2) ** 2) - 1) < 1e-9 for v in y), (k, d)
+
+
+def test_parameter_units_of_list_element_paths():
+    """Session 40 (new user's walk): a study over ``fibers.0.diameter`` had its axes titled
+    "fibers.0.diameter" with ticks 0.6e-5 ... 1e-5 and no unit, and docs/study-files.md's
+    own example ``rve.size.2`` had none either: the schema names them ``fibers[].diameter``
+    and ``rve.size`` (metres, docs/spec-keys.md)."""
+    from psdesign.report.units import parameter_label, parameter_unit
+
+    for key, unit in [
+        ("fibers.0.diameter", "m"),
+        ("fibers.12.theta", "deg"),
+        ("fibers.0.center.2", "m"),
+        ("rve.size.2", "m"),
+    ]:
+        assert parameter_unit(key) == unit, key
+    assert parameter_label("fibers.0.diameter") == "fibers.0.diameter (m)"

@@ -269,3 +269,36 @@ def test_rev_study_json_is_the_same_from_another_path_and_size_order(tmp_path, m
         run = json.loads((tmp_path / o / "run.json").read_text())["runs"][-1]
         assert run["study_file"] == str(spec.resolve())
     assert (tmp_path / "o1" / "rev.csv").read_bytes() == (tmp_path / "o2" / "rev.csv").read_bytes()
+
+
+def half_failing_rev_case(spec, outputs, solver, workdir):
+    """``rev_case`` for seed 2; seed 1 raises (a failed case) or, at 40 um, does not converge."""
+    from study_cases import rev_case
+
+    out = rev_case(spec, outputs, solver, workdir)
+    if int(spec["generator"]["seed"]) == 1:
+        if float(spec["rve"]["size"][0]) < 35e-6:
+            raise RuntimeError("mesh failed")
+        out["converged_z"] = False
+    return out
+
+
+def test_rev_exit_status_follows_the_table_for_failed_and_unconverged_cases(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Session 40 (new user's walk): README's exit statuses, 'the same for every command', give
+    1 for a failed study case and 3 for one that did not converge; `psdesign rev` exited 0
+    with one of its two seeds failed (its line read n=1) or not converged. It prints its table,
+    then one line per kind naming results.csv, and exits 1 (a case failed) or 3."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, half_failing_rev_case)
+    base = ["rev", str(spec), "--seeds", "2", "--directions", "z", "--quiet"]
+    assert main([*base, "--sizes", "30e-6", "40e-6", "-o", str(tmp_path / "a")]) == 1
+    got = capsys.readouterr()
+    assert " m (n=1)" in got.out  # the table is still printed
+    lines = got.err.strip().splitlines()
+    assert any("1 case(s) failed" in ln and "mesh failed" in ln for ln in lines), lines
+    assert any("1 case(s) not_converged" in ln and "results.csv" in ln for ln in lines), lines
+    assert main([*base, "--sizes", "40e-6", "-o", str(tmp_path / "b")]) == 3
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert [ln for ln in lines if "not_converged" in ln], lines
+    assert not [ln for ln in lines if "failed" in ln], lines

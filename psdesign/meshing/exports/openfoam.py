@@ -349,7 +349,9 @@ iterations"; a run that reaches ``endTime`` has no such line and its K is not fi
 _ALLRUN = r"""#!/bin/sh
 # psdesign OpenFOAM case: checkMesh + simpleFoam, then K by Darcy's law.
 #
-# K_windowed (compare with psdesign's reported K):
+# K_windowed (compare with psdesign's K of this one-copy case: flow.permeameter_copies = 1, its
+#   drop pressure_drop_plane_window_pa; the K psdesign reports by default takes the
+#   windowed-dissipation drop on the 'auto' stack of copies, another sample):
 #   K = nu Q L / (A dp_w), dp_w = n sum_k w_k (F_k - F_k+1) / sum_k w_k, w_k = sin^2(pi (k+1/2)/n)
 #   F_0 ... F_n = area-averaged kinematic pressure on n + 1 = @NP@ equally spaced planes across the
 #   RVE (pProfile0 ... ; the first and last on the RVE planes), Q = |flux through the outlet|
@@ -504,7 +506,10 @@ def write_openfoam_case(
         f"mu = {c['mu']:.6g} Pa s, rho = {c['rho']:.6g} kg/m^3, nu = {c['nu']:.6g} m^2/s; inlet "
         f"kinematic pressure {c['p_inlet']:.6g} m^2/s^2, outlet 0.\n"
         "Permeability (printed by ./Allrun): K = nu * Q * L / (A * dp), Q = outlet flux\n"
-        "(sum phi), A = RVE face area, L = RVE length. K_windowed (compare with psdesign's K):\n"
+        "(sum phi), A = RVE face area, L = RVE length. K_windowed (compare with psdesign's K\n"
+        "of this one-copy case: flow.permeameter_copies = 1, from its\n"
+        "pressure_drop_plane_window_pa; its default K takes the windowed-dissipation drop on\n"
+        "the 'auto' stack of copies):\n"
         "dp = sin^2-windowed drop of the area-averaged kinematic pressure on "
         f"{PROFILE_LAYERS + 1} planes\n"
         "across the RVE (postProcessing/pProfile*), psdesign's windowed_drop. K_rve_planes:\n"
