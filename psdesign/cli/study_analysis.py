@@ -329,11 +329,20 @@ def _write_outcome(out: str, summary: dict) -> None:
 
     from psdesign.io.outputs import claim_output_dir
     from psdesign.report import write_report
-    from psdesign.study.store import atomic_write_bytes, check_study_files, jsonable
+    from psdesign.study.store import (
+        atomic_write_bytes,
+        check_study_files,
+        is_timing_column,
+        jsonable,
+    )
 
     checked = check_study_files(out, [OPTIMIZE_FILE], "study optimize", option="-o")
     claim_output_dir(checked, [OPTIMIZE_FILE])
-    text = json.dumps(jsonable(summary), allow_nan=False, default=str, indent=1) + "\n"
+    # same study and seed -> the same file: the best case's run metadata (when, where, how long)
+    # stays in results.csv and the case record, as for every other output
+    best = {k: v for k, v in summary["best"].items() if not is_timing_column(k)}
+    text = json.dumps(jsonable({**summary, "best": best}), allow_nan=False, default=str, indent=1)
+    text += "\n"
     atomic_write_bytes(Path(out) / OPTIMIZE_FILE, text.encode("utf-8"))
     if (Path(out) / "results.csv").is_file():  # no case ran: nothing to report
         write_report(out)
