@@ -47,6 +47,27 @@ def converged_status(converged: bool) -> int:
     return OK if converged else NOT_TRUSTED
 
 
+def case_counts(df) -> tuple[int, int]:
+    """``(failed, not_converged)``: the study cases (rows of ``results.csv``) that failed or
+    timed out, and those that finished ``not_converged``.
+
+    >>> import pandas as pd
+    >>> case_counts(pd.DataFrame({"status": ["ok", "failed", "not_converged", "timeout"]}))
+    (2, 1)
+    """
+    if not len(df):
+        return 0, 0
+    status = df["status"].astype(str)
+    n_nc = int((status == "not_converged").sum())
+    return int((status != "ok").sum()) - n_nc, n_nc
+
+
+def cases_status(n_failed: int, n_not_converged: int) -> int:
+    """The exit status of a table of study cases: ``FAILED`` when one failed or timed out, else
+    ``NOT_TRUSTED`` when one did not converge, else ``OK``."""
+    return FAILED if n_failed else NOT_TRUSTED if n_not_converged else OK
+
+
 def fail(message: str, code: int = BAD_INPUT) -> int:
     """Print ``psdesign: error: message`` (the one line on stderr) and return ``code``."""
     print(f"psdesign: error: {message}", file=sys.stderr)

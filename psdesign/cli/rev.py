@@ -7,7 +7,7 @@ import json
 import re
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
+from psdesign.cli.exit_status import FAILED, case_counts, cases_status, fail
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
@@ -71,10 +71,9 @@ def _cases_status(out: str) -> int:
     from psdesign.analysis.columns import first_error
 
     df = pd.read_csv(Path(out) / "results.csv")
-    status = df["status"].astype(str)
-    bad = df[(status != "ok") & (status != "not_converged")]
-    n_nc = int((status == "not_converged").sum())
-    if len(bad):
+    n_bad, n_nc = case_counts(df)
+    bad = df[~df["status"].astype(str).isin(("ok", "not_converged"))]
+    if n_bad:
         print(
             f"psdesign: {len(bad)} case(s) failed or timed out{first_error(bad)}; left out of "
             f"the sizes' rows; see {out}/results.csv (tracebacks: cases/<id>/error.txt)",
@@ -86,7 +85,7 @@ def _cases_status(out: str) -> int:
             f"the error column of {out}/results.csv says which); left out of the sizes' rows",
             file=sys.stderr,
         )
-    return FAILED if len(bad) else NOT_TRUSTED if n_nc else OK
+    return cases_status(n_bad, n_nc)
 
 
 def _warn_untrustworthy(out: str) -> None:

@@ -19,9 +19,9 @@ from psdesign.cli.exit_status import (
     BAD_INPUT,
     FAILED,
     INTERRUPTED,
-    NOT_TRUSTED,
-    OK,
     TERMINATED,
+    case_counts,
+    cases_status,
     fail,
 )
 from psdesign.cli.progress import add_force_argument, add_workers_argument
@@ -265,9 +265,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
             "their values are kept",
             file=sys.stderr,
         )
-    status = df["status"] if len(df) else []
-    n_nc = int((status == "not_converged").sum()) if len(df) else 0
-    n_bad = int(((status != "ok") & (status != "not_converged")).sum()) if len(df) else 0
+    n_bad, n_nc = case_counts(df)
     if n_bad:
         print(
             f"psdesign: {n_bad} case(s) failed or timed out (their error in results.csv, the "
@@ -280,9 +278,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
             "--allow-not-converged to accept them, --retry-not-converged to re-run them",
             file=sys.stderr,
         )
-    if n_bad:
-        return FAILED
-    return NOT_TRUSTED if n_nc and not allow_not_converged else OK
+    return cases_status(n_bad, 0 if allow_not_converged else n_nc)
 
 
 def cmd_study_report(args: argparse.Namespace) -> int:
