@@ -129,6 +129,11 @@ FLOOR = {
 #: ``C_D`` of the fibre floor ``C_D (h / D)^2`` by scheme, ``D`` the thinnest fibre diameter: the
 #: resolution floor is at least this where the RVE has fibres (``tet``: see :data:`FLOOR`).
 FIBER_FLOOR = {"tet": 0.27}
+#: The fewest cells per fibre diameter :data:`FIBER_FLOOR` was calibrated down to (session 39:
+#: square across at 0.05 on 6 cells per spacing, 1.51 cells per diameter, -9.0 % inside its
+#: bar). Above it a bar with the fibre term covers the fibre's resolution, so the result gets no
+#: under-resolution warning (:func:`resolution_warnings`); below it, it does.
+FIBER_FLOOR_MIN_CELLS = 1.5
 #: ``C_T`` of the thin-channel term ``C_T x / (1 - C_T x)``, ``x = (h / R)^2``
 #: (:func:`thin_channel_rel_error`), staircase walls only. The voxel scheme's flow rate in a
 #: channel a few voxels across with walls on the voxel faces is second-order high: a slit of
@@ -556,17 +561,28 @@ def resolution_warnings(
     direction: str,
     quantity: str = "K",
     mesh_key: str = "flow.lattice_step",
+    fiber_floor: bool = False,
 ) -> list[str]:
     """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
     line, ``K`` or a transport property's; ``direction`` "" for a value without one;
-    ``mesh_key``: the key that refines a tet mesh, ``flow.edge_length`` for pytetwild)."""
-    if not under_resolved(cpd):
+    ``mesh_key``: the key that refines a tet mesh, ``flow.edge_length`` for pytetwild).
+    ``fiber_floor``: the result's bar has the fibre term (:func:`fiber_floor`), which covers
+    the fibre's resolution down to :data:`FIBER_FLOOR_MIN_CELLS`: a line only below that (the
+    quickstart's 2.4-3 cells per diameter drew "refine" beside an ``ok`` whose bar holds it).
+
+    >>> resolution_warnings(2.4, "fem", "z", fiber_floor=True)
+    []
+    >>> resolution_warnings(1.2, "fem", "z", fiber_floor=True)[0][:50]
+    'K_z: only 1.2 mesh cells across the thinnest fiber'
+    """
+    limit = FIBER_FLOOR_MIN_CELLS if fiber_floor else MIN_CELLS_PER_DIAMETER
+    if not under_resolved(cpd, limit):
         return []
     unit = "voxels" if solver == "voxel" else "mesh cells"
     name = f"{quantity}_{direction}" if direction else quantity
     return [
         f"{name}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
-        f"(< {MIN_CELLS_PER_DIAMETER:g}); refine rve.voxel"
+        f"(< {limit:g}); refine rve.voxel"
         + (
             ""
             if solver == "voxel"

@@ -348,7 +348,9 @@ def with_error_estimate(
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
     key = "flow.edge_length" if scheme == "tetwild" else "flow.lattice_step"
-    warnings += err.resolution_warnings(cpd, solver, res["direction"], mesh_key=key)
+    warnings += err.resolution_warnings(
+        cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0
+    )
     if not res.get("converged", False):
         warnings.append(
             f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"

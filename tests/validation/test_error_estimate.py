@@ -96,6 +96,13 @@ def test_resolution_warning_says_whether_it_rates():
         "K_z: only 2.4 mesh cells across the thinnest fiber diameter (< 8); refine rve.voxel / "
         "flow.lattice_step (a warning only: the body-fitted mesh's status follows its error bar)"
     ]
+    # session 40: a bar with the fibre term (tet route, fibres) covers the fibre's resolution
+    # down to 1.5 cells per diameter (session 39's calibration), so no "refine" line above it
+    assert err.resolution_warnings(2.4, "fem", "z", fiber_floor=True) == []
+    assert err.resolution_warnings(1.4, "fem", "z", fiber_floor=True) == [
+        "K_z: only 1.4 mesh cells across the thinnest fiber diameter (< 1.5); refine rve.voxel / "
+        "flow.lattice_step (a warning only: the body-fitted mesh's status follows its error bar)"
+    ]
     assert err.status_of(True, 0.05, None) == "ok"  # what the tet route passes: no cpd
     assert err.status_of(True, 0.05, 5.0) == "untrustworthy"
 

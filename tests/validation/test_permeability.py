@@ -71,6 +71,10 @@ def test_flow_along_cylinder_array_through_cli_json(tmp_path):
     ):
         assert key in out
     assert out["converged"] and out["flux_imbalance"] < 1e-4 and out["sides"] == "slip"
+    # 2.4 cells per diameter: the bar's fibre term holds the fibre's resolution (calibrated
+    # down to 1.5, psdesign.flow.error.FIBER_FLOOR_MIN_CELLS), so no "refine" line (session 40)
+    assert out["error_estimate"]["fiber_floor"] > 0
+    assert not [w for w in out["warnings"] if "across the thinnest fiber" in w], out["warnings"]
     a = 5e-6
     phi = np.pi * a**2 / (40e-6) ** 2
     exact = drummond_tahir_parallel(a, phi)
