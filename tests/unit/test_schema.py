@@ -339,6 +339,28 @@ def test_bad_study_names_the_key(path, value, key):
     assert key in study_err(doc)
 
 
+@pytest.mark.parametrize(
+    "design, level",
+    [
+        # the first level: 'base.rve.voxel: 1e-06 m gives under 2 voxels across the thinnest
+        # generated fiber' blamed the base, which is valid (its diameter is 7 um)
+        ({"design": "latin-hypercube", "n_samples": 4}, {"low": 1e-6, "high": 7e-6}),
+        # a later level: not refused by the study's check (left to the runner, naming a case)
+        ({}, [7e-6, 1e-6]),
+    ],
+)
+def test_a_level_that_breaks_another_key_is_named_as_the_parameter(design, level):
+    """session 40 (s40-fuzz): a ``generator.diameter`` level too thin for the base's
+    ``rve.voxel`` was reported as ``base.rve.voxel`` (the base is valid) or not by the study's
+    check at all. Rule: the line names the key the user must change, with its level."""
+    doc = copy.deepcopy(STUDY)
+    doc["study"] = {**doc["study"], **design}
+    doc["parameters"] = {"generator.diameter": level}
+    msg = study_err(doc)
+    assert msg.startswith("parameters.generator.diameter: level 1e-06 gives rve.voxel: "), msg
+    assert "(allowed: <= 5e-07 m)" in msg
+
+
 def test_factorial_size_is_refused_before_expansion():
     params = {"flow.viscosity": {"low": 1e-5, "high": 2e-5, "levels": 10_000}}
     params["flow.aux_length"] = {"low": 0.1, "high": 0.3, "levels": 10_000}
