@@ -401,6 +401,22 @@ def test_load_study_file_problems(tmp_path):
     assert len(load_study(p).seeds) == 2
 
 
+def test_a_byte_order_mark_is_skipped(tmp_path):
+    """session 40 (s40-fuzz): a spec or study saved with a UTF-8 byte-order mark (Windows
+    Notepad) was refused as 'TOML syntax error ...: Invalid statement (at line 1, column 1)',
+    a character the user cannot see. It reads as the same file without the mark."""
+    for name, doc, load in (("spec", SPEC, load_spec), ("study", STUDY, load_study)):
+        plain, marked = tmp_path / "plain" / f"{name}.toml", tmp_path / "bom" / f"{name}.toml"
+        for p in (plain, marked):
+            p.parent.mkdir(exist_ok=True)
+        plain.write_text(dumps(doc))
+        marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+        a, b = load(marked), load(plain)
+        if name == "study":  # the study remembers its file
+            a, b = a.to_dict(), b.to_dict()
+        assert a == b
+
+
 # ----------------------------------------------------------------------------- CLI
 
 
