@@ -61,6 +61,8 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
     try:
         if p.is_dir():
             raise bad(f"{p} is a folder; give a TOML file")
+        if p.exists() and not p.is_file():  # /dev/stdin, a pipe <(...), /dev/null
+            raise bad(f"{p} is not a regular file (a pipe or a device); give a TOML file")
         if not p.is_file():
             raise bad(f"file not found: {p}")
         if p.stat().st_size > MAX_FILE_BYTES:

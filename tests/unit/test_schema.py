@@ -417,6 +417,19 @@ def test_a_byte_order_mark_is_skipped(tmp_path):
         assert a == b
 
 
+def test_a_pipe_or_device_is_not_called_missing(tmp_path):
+    """session 40 (s40-fuzz): ``psdesign generate /dev/null`` or a pipe (``<(cat spec)``,
+    /dev/stdin) said 'spec: file not found: /dev/null': the file is there. It is named as what
+    it is (the spec is read from a regular file only)."""
+    import os
+
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    for path in (fifo, "/dev/null"):
+        with pytest.raises(SpecError, match="is not a regular file .a pipe or a device.; give a"):
+            load_spec(path)
+
+
 # ----------------------------------------------------------------------------- CLI
 
 
