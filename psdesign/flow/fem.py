@@ -321,6 +321,7 @@ def permeability_fem(
             res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods)
     except MemoryLimitError as exc:  # the solver's "... or pass force=True": no spec key
         raise memory_error(exc, mesh, flow.get("max_memory_gb")) from None
+    if plan is not None:
         out |= plan.as_dict()
         if plan.note:
             out["warnings"].append(plan.note)
