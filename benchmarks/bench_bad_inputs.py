@@ -1,5 +1,6 @@
-"""Time the CLI on the malformed inputs of issue 11: each must exit 2 with one line, write
-nothing, and finish well within 10 s (the time is mostly Python start-up and imports).
+"""Time the CLI on the malformed inputs of issue 11 and session 40's input audit: each must
+exit 2 with one line, write nothing, and finish well within 10 s (the time is mostly Python
+start-up and imports).
 
     python benchmarks/bench_bad_inputs.py          # one row per input, then a summary
 """
@@ -38,6 +39,13 @@ SPECS = {
     "nesting_5000": "x = " + "[" * 5000 + "]" * 5000 + "\n",
     "fibers_20000": "[rve]\nsize = [1e-4, 1e-4, 1e-4]\nvoxel = 4e-7\n"
     + "[[fibers]]\ndiameter = 1e-6\n" * 20000,
+    # session 40 (s40-fuzz)
+    "max_memory_1e-300": RVE + GEN + "[flow]\nmax_memory_gb = 1e-300\n",
+}
+#: Force-field specs (``psdesign forcefield``); session 40: the other case's table was ignored.
+FORCEFIELD = {
+    "six_fiber_table_two_case": '[forcefield]\ncase = "two-fiber"\n[forcefield.six_fiber]\n'
+    "t_range = 0.3\n",
 }
 STUDIES = {
     "levels_1e9": BASE + '[study]\n[parameters]\n"generator.porosity" = '
@@ -50,6 +58,9 @@ STUDIES = {
     "level_0.999": BASE + '[study]\n[parameters]\n"generator.porosity" = [0.8, 0.999]\n',
     "range_1e12": BASE + '[study]\n[parameters]\n"generator.porosity" = '
     "{start = 0.0, stop = 1.0, step = 1e-12}\n",
+    # session 40 (s40-fuzz): a level under 2 of the base's voxels (was blamed on base.rve.voxel)
+    "diameter_1um": BASE + '[study]\ndesign = "latin-hypercube"\nn_samples = 4\n'
+    '[parameters]\n"generator.diameter" = {low = 1e-6, high = 7e-6}\n',
 }
 
 
@@ -64,12 +75,19 @@ def run(args: list[str], out: Path) -> tuple[int, int, float, bool, str]:
 def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as d:
-        for name, text in {**SPECS, **{f"study:{k}": v for k, v in STUDIES.items()}}.items():
+        inputs = {
+            **SPECS,
+            **{f"study:{k}": v for k, v in STUDIES.items()},
+            **{f"forcefield:{k}": v for k, v in FORCEFIELD.items()},
+        }
+        for name, text in inputs.items():
             f = Path(d) / f"{name.replace(':', '_')}.toml"
             out = Path(d) / "out"
             f.write_text(text)
             cmd = ["study", "run", str(f), "-o", str(out), "--quiet"]
-            if not name.startswith("study:"):
+            if name.startswith("forcefield:"):
+                cmd = ["forcefield", str(f), "-o", str(out), "--no-pictures"]
+            elif not name.startswith("study:"):
                 cmd = ["generate", str(f), "-o", str(out)]
             rc, n, dt, wrote, first = run(cmd, out)
             rows.append((name, rc, n, dt, wrote))

@@ -321,10 +321,12 @@ def _check_memory(n_points, n_tets, element, opts: StokesOptions) -> float:
     est = estimate_memory_gb(n_points, n_tets, element)
     limit = default_limit_gb() if opts.max_memory_gb is None else float(opts.max_memory_gb)
     if est > limit and not opts.force:
-        raise MemoryLimitError(
-            f"estimated memory {est:.2f} GB exceeds max_memory_gb={limit:.2f} GB "
+        exc = MemoryLimitError(
+            f"estimated memory {est:.3g} GB exceeds max_memory_gb={limit:.3g} GB "
             f"({n_tets} tets, {n_points} points); coarsen the mesh or pass force=True"
         )
+        exc.estimate_gb, exc.limit_gb = est, limit
+        raise exc
     return est
 
 

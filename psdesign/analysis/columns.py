@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pandas as pd
@@ -158,9 +157,14 @@ def study_parameters(out_dir: str | Path) -> dict[str, dict]:
     path = Path(out_dir) / "study.json"
     if not path.is_file():
         raise FileNotFoundError(f"{out_dir}: no study.json; is this a study output folder?")
-    doc = json.loads(path.read_text())
+    from psdesign.study.readback import read_json_object
+
+    doc = read_json_object(path)
     study = doc.get("study", doc)
-    return dict(study.get("parameters", {}))
+    params = study.get("parameters", {}) if isinstance(study, dict) else None
+    if not isinstance(params, dict):
+        raise ValueError(f"out_dir: {path} is unreadable (no parameters table); rerun the study")
+    return dict(params)
 
 
 def numeric_parameters(df: pd.DataFrame, params: list[str]) -> list[str]:

@@ -408,12 +408,13 @@ def fit_study(
     never replaced: :class:`psdesign.io.outputs.OutputError` (a ``ValueError``) before the fit.
     """
     from psdesign.io.outputs import claim_output_dir
+    from psdesign.study.readback import read_results
     from psdesign.study.store import atomic_write_json, check_study_files, remove_dead_temp
 
     out = Path(out_dir)
     check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
-    df = pd.read_csv(out / "results.csv")
+    df = read_results(out)
     _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:

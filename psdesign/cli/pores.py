@@ -16,7 +16,7 @@ def _cmd(args: argparse.Namespace) -> int:
     from psdesign.transport.study_outputs import pore_report
 
     t0 = time.perf_counter()
-    plot = None if args.plot is None else check_new_file(args.plot, "--plot")
+    plot = None if args.plot is None else check_new_file(args.plot, "--plot", ".png")
     case = load_case(
         args.spec,
         {"n_radii": args.n_radii, "thickness_axis": args.axis},

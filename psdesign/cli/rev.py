@@ -90,13 +90,10 @@ def _cases_status(out: str) -> int:
 
 def _warn_untrustworthy(out: str) -> None:
     """One warning line when some case's K is flagged untrustworthy (k_<d>_status)."""
-    from pathlib import Path
-
-    import pandas as pd
-
+    from psdesign.study.readback import read_results
     from psdesign.study.worker import untrustworthy_count
 
-    n = untrustworthy_count(pd.read_csv(Path(out) / "results.csv"))
+    n = untrustworthy_count(read_results(out))
     if n:
         print(
             f"psdesign: warning: {n} case(s) have a K flagged untrustworthy (k_<d>_status in "

@@ -29,6 +29,7 @@ from dataclasses import replace
 import numpy as np
 
 from psdesign.cli import progress
+from psdesign.errors import SpecError
 from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-exported)
     axis_of,
     darcy_column,
@@ -47,6 +48,7 @@ from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatch
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
+from solvers.fem.memory import MemoryLimitError
 
 #: The ``flow.bc`` models this route applies.
 BC_MODELS = ("permeameter", "periodic")
@@ -311,11 +313,15 @@ def permeability_fem(
         start, end = mesh.porous_region
         plan = replace(plan, copies=max(1, round((end - start) / float(rve.size[ax]))))
     t_mesh = time.perf_counter() - t0
-    if plan is None:
-        res, out = _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
-    else:
-        periods = plan.copies * plan.periods  # of the structure in the sample: the window
-        res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods)
+    try:
+        if plan is None:
+            res, out = _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh)
+        else:
+            periods = plan.copies * plan.periods  # of the structure in the sample: the window
+            res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods)
+    except MemoryLimitError as exc:  # the solver's "... or pass force=True": no spec key
+        raise memory_error(exc, mesh, flow.get("max_memory_gb")) from None
+    if plan is not None:
         out |= plan.as_dict()
         if plan.note:
             out["warnings"].append(plan.note)
@@ -338,6 +344,21 @@ def permeability_fem(
 #: Rough FEM solve rate for the up-front estimate (s per unknown; measured: 31 k unknowns of
 #: an unstructured P2-P1 mesh in 3 s, the quickstart's ~200 k in 20-30 s on 2 cores).
 FEM_SECONDS_PER_UNKNOWN = 1.2e-4
+
+
+def memory_error(exc: MemoryLimitError, mesh, cap: float | None) -> SpecError:
+    """The solve's memory refusal as the spec's one line naming ``flow.max_memory_gb``
+    (``cap``; without it the limit is 80 % of the free memory), where the solver's line said
+    "pass force=True", no key of a spec or option of a command."""
+    if exc.estimate_gb is None:
+        return SpecError("flow.max_memory_gb", str(exc))
+    limit = "the cap" if cap is not None else "80 % of the free memory"
+    return SpecError(
+        "flow.max_memory_gb",
+        f"the FEM solve of {len(mesh.tets)} tets needs about {exc.estimate_gb:.3g} GB, over "
+        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or a coarser "
+        "flow.lattice_step)",
+    )
 
 
 def _announce(mesh, name: str) -> None:

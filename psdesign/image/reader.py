@@ -16,6 +16,9 @@ about (``image.path: ...``), so the spec validation can report it as a one-line 
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -156,6 +159,23 @@ def _read_vti(path: Path) -> np.ndarray:
     return data.reshape(dims, order="F")
 
 
+@contextmanager
+def tifffile_quiet() -> Iterator[None]:
+    """tifffile's own log lines silenced while psdesign reads a TIFF file.
+
+    On a damaged file tifffile logs a line (``<tifffile.TiffPages @...> invalid offset to
+    first page ...``) to stderr before it raises: a second line beside psdesign's one
+    ``image.path: cannot read ... as TIFF`` line (session 40's input audit).
+    """
+    log = logging.getLogger("tifffile")
+    level = log.level
+    log.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
+
+
 def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
     """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
     were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
@@ -191,7 +211,8 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         page_axis = "xyz".index(order[0])  # the stored axis of the pages, as an x/y/z axis
         pages = None if src.crop is None else tuple(src.crop[page_axis])
         try:
-            data, sliced = _tiff_array(path, pages)
+            with tifffile_quiet():
+                data, sliced = _tiff_array(path, pages)
         except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
             raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
         if data.ndim == 2:
@@ -313,7 +334,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
     if ext in (".tif", ".tiff"):
         import tifffile
 
-        with tifffile.TiffFile(path) as tf:
+        with tifffile_quiet(), tifffile.TiffFile(path) as tf:
             meta = tf.imagej_metadata or {}
             unit = _UNITS.get(str(meta.get("unit", "")).strip())
             tag = tf.pages[0].tags.get("XResolution")

@@ -28,7 +28,7 @@ def _refuse_taken(p: Path, option: str) -> None:
         )
 
 
-def check_new_file(path: str | os.PathLike, option: str) -> Path:
+def check_new_file(path: str | os.PathLike, option: str, suffix: str | None = None) -> Path:
     """The absolute path of a new output file, or :class:`OutputError` (exit 2) naming ``option``.
 
     Parameters
@@ -37,12 +37,15 @@ def check_new_file(path: str | os.PathLike, option: str) -> Path:
         The file the user asked for.
     option : str
         The command-line option, for the message (``--plot``).
+    suffix : str, optional
+        The one file type written (``".png"``): another name's suffix is refused (``--plot
+        p.pdf`` wrote PNG bytes into ``p.pdf``, a PDF no viewer opens).
 
     Raises
     ------
     OutputError
-        The path exists (file, folder, link), ends in a separator, or its folder is missing,
-        is a file or is not writable.
+        The path exists (file, folder, link), ends in a separator, has another suffix than
+        ``suffix``, or its folder is missing, is a file or is not writable.
     """
     text = os.fspath(path)
     if not text or text.endswith(os.sep):
@@ -57,6 +60,12 @@ def check_new_file(path: str | os.PathLike, option: str) -> Path:
         raise OutputError(option, f"folder {parent} does not exist; create it first")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(option, f"folder {parent} is not writable")
+    if suffix is not None and p.suffix.lower() != suffix:
+        raise OutputError(
+            option,
+            f"{p.name}: psdesign writes a {suffix[1:].upper()} picture (allowed: a new file "
+            f"name ending in {suffix})",
+        )
     return p
 
 

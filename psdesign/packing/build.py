@@ -46,10 +46,7 @@ def build_rve(spec: dict) -> BuiltRVE:
 
         gen = spec["generator"]
         t0 = time.perf_counter()
-        progress.stage(
-            f"generating the RVE ({gen.get('kind', '?')} fibers, target porosity "
-            f"{gen.get('porosity', '?')}, seed {gen.get('seed', '?')})"
-        )
+        progress.stage(f"generating the RVE ({_generator_text(gen)})")
         result = build_fibers(spec, explicit=fibers)
         progress.stage(
             f"RVE generated: {len(result.rve.fibers)} fibers in {time.perf_counter() - t0:.1f} s"
@@ -57,6 +54,22 @@ def build_rve(spec: dict) -> BuiltRVE:
         return BuiltRVE(rve=result.rve, report=dict(result.report), fields=result.fields)
     rve = RVE(size=np.asarray(rve_spec["size"]), fibers=fibers, period=rve_spec["period"])
     return BuiltRVE(rve=rve, report={"n_fibers": len(fibers)})
+
+
+def _generator_text(gen: dict) -> str:
+    """``straight fibers, target porosity 0.85, seed 1`` (or ``n_fibers 3``) of a validated
+    ``[generator]``, the schema's defaults for keys not given (the validated spec holds only
+    the keys given: the line said '? fibers, target porosity ?, seed ?' for an n_fibers
+    spec without kind and seed)."""
+    from psdesign.schema.generator import GeneratorTable
+
+    def value(key: str):
+        return gen[key] if key in gen else GeneratorTable.model_fields[key].default
+
+    target = (
+        f"target porosity {gen['porosity']}" if "porosity" in gen else f"n_fibers {gen['n_fibers']}"
+    )
+    return f"{value('kind')} fibers, {target}, seed {value('seed')}"
 
 
 def summarize(rve: RVE, fields: VoxelFields, report: dict | None = None) -> dict:

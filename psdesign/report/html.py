@@ -9,7 +9,6 @@ from __future__ import annotations
 import base64
 import html
 import io
-import json
 import math
 import mimetypes
 import platform
@@ -125,16 +124,17 @@ def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int =
 
 
 def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
-    csv = out / "results.csv"
-    if not csv.is_file():
+    from psdesign.study.readback import read_json_object, read_results
+
+    if not (out / "results.csv").is_file():
         raise ReportError(f"out_dir: no results.csv in {out}; run the study first")
-    df = pd.read_csv(csv)
+    df = read_results(out)
     study = {}
     if (out / "study.json").is_file():
-        study = json.loads((out / "study.json").read_text()).get("study", {})
+        study = read_json_object(out / "study.json").get("study", {})
     runs = {}
     if (out / "run.json").is_file():
-        runs = json.loads((out / "run.json").read_text())
+        runs = read_json_object(out / "run.json")
     return df, study, runs
 
 

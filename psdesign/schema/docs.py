@@ -37,7 +37,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   diameters; 30 with `flow.edge_length`, whose envelope is half the marching-cubes step, more
   for an edge coarser than 0.85 diameters; `psdesign/meshing/options.py`), refused naming
   `flow.edge_length`. A spec that fits
-  as one copy but not as the stack names `flow.permeameter_copies`.
+  as one copy but not as the stack names `flow.permeameter_copies`. With
+  `flow.max_memory_gb` (stuffing mesh) the same estimate over 1.25 x the cap is refused naming
+  it; the solve checks the cap again from the built mesh.
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.
 * `fibers[i].diameter` < the smallest edge and the period; at most 2000 explicit fibers.

@@ -130,7 +130,9 @@ class FlowTable(Table):
         "memory budget",
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
-        None, description="fem solver memory cap, GB in (0, 1e5]"
+        None,
+        description="fem solver memory cap, GB in (0, 1e5]; the FEM solve's estimated memory "
+        "within it",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
         None,

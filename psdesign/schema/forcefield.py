@@ -101,6 +101,10 @@ class ForceFieldTable(Table):
     def _check(self) -> ForceFieldTable:
         if not any(w > 0 for w in self.weights):
             raise fail("weights", "must not be all zero", "three numbers >= 0, not all zero")
+        # the other case's table was read and never used: its values had no effect
+        for table, case in (("two_fiber", "two-fiber"), ("six_fiber", "six-fiber")):
+            if getattr(self, table) is not None and self.case != case:
+                raise fail(table, f"only used with case = {case!r}", f"case = {case!r}")
         if not self.min_step < self.step:
             raise fail(
                 "min_step", f"must be below step={self.step}, got {self.min_step}", f"< {self.step}"

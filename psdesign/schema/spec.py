@@ -51,7 +51,7 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
     """Parse a TOML file; every problem is one ``error`` line (no traceback).
 
     Missing or unreadable file, over :data:`MAX_FILE_BYTES`, not UTF-8, TOML syntax,
-    nesting too deep for the parser.
+    nesting too deep for the parser. A leading UTF-8 byte-order mark is skipped.
     """
 
     def bad(msg: str) -> Exception:
@@ -61,11 +61,15 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
     try:
         if p.is_dir():
             raise bad(f"{p} is a folder; give a TOML file")
+        if p.exists() and not p.is_file():  # /dev/stdin, a pipe <(...), /dev/null
+            raise bad(f"{p} is not a regular file (a pipe or a device); give a TOML file")
         if not p.is_file():
             raise bad(f"file not found: {p}")
         if p.stat().st_size > MAX_FILE_BYTES:
             raise bad(f"{p} is {p.stat().st_size} bytes (allowed: at most {MAX_FILE_BYTES})")
-        text = p.read_bytes().decode("utf-8")
+        # a UTF-8 byte-order mark (Windows Notepad writes one) is no TOML: tomllib's "Invalid
+        # statement (at line 1, column 1)" pointed at a character the user cannot see
+        text = p.read_bytes().decode("utf-8").removeprefix("\ufeff")
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise bad(f"TOML syntax error in {p}: {exc}") from None

@@ -569,7 +569,9 @@ def check_study_specs(study: Study) -> None:
 
     The base is validated with the first level of every parameter applied; then each level of
     each parameter (up to 200 per parameter, the others at their first level). An error in a
-    key no parameter touches is reported as ``base.KEY``; a level whose own key is invalid as
+    key no parameter touches is reported as ``base.KEY``; a level whose own key is invalid, or
+    that alone over a valid base breaks another key (a diameter under 2 of the base's voxels;
+    beyond the first levels in a full factorial only, where the point checked is a case), as
     ``parameters.PATH``. Errors that only arise from combinations are left to the runner's
     per-case check (``psdesign.study.runner.validate_case_specs``), which names the case.
     """
@@ -600,14 +602,30 @@ def check_study_specs(study: Study) -> None:
             return exc.key, str(exc)
         return None
 
+    base_ok: list[bool] = []  # check({}) once, when first needed
+
+    def alone(path: str, v: Any) -> tuple[str, str] | None:
+        """The error of level ``v`` of ``path`` over a valid base (the other parameters at their
+        base values): a key the level does not touch (``rve.voxel`` against the thinnest
+        fiber) is then still this level's."""
+        if not base_ok:
+            base_ok.append(check({}) is None)
+        return check({path: v}) if base_ok[0] else None
+
     bad = check(first)
     if bad and not any(_under(bad[0], p) or _under(p, bad[0]) for p in study.parameters):
+        for path, v in first.items():
+            why = alone(path, v)
+            if why:
+                raise _err(f"parameters.{path}", f"level {short(v)} gives {why[1]}")
         raise _err(f"base.{bad[0]}", bad[1].partition(": ")[2])
     _check_overridden_base_values(study, first, check)
+    # in a full factorial the point checked is a case, refused by the runner if not here
+    factorial = study.design == "full-factorial"
     for p in study.parameters.values():
         for v in _levels_to_check(p)[:200]:
             bad = check({**first, p.path: v})
-            if bad and _under(bad[0], p.path):
+            if bad and (_under(bad[0], p.path) or factorial and alone(p.path, v)):
                 raise _err(f"parameters.{p.path}", f"level {short(v)} gives {bad[1]}")
 
 

@@ -34,7 +34,11 @@ KRYLOV_BYTES_PER_DOF = 8.0 * (DEFAULT_RESTART + 1)
 
 
 class MemoryLimitError(ValueError):
-    """The estimated memory of a solve exceeds the allowed limit."""
+    """The estimated memory of a solve exceeds the allowed limit (``estimate_gb`` and
+    ``limit_gb``, GB of 1e9 bytes, when the solve's check raised it)."""
+
+    estimate_gb: float | None = None
+    limit_gb: float | None = None
 
 
 def estimate_memory_gb(n_points: int, n_tets: int, element: str = "taylor-hood") -> float:

@@ -106,6 +106,18 @@ def test_pores_plot_bad_path_is_one_line_before_work(spec, tmp_path, capsys, no_
     assert list((tmp_path / "adir").iterdir()) == []
 
 
+# session 40 (s40-fuzz): `pores --plot p.pdf` (or p.txt, or p) wrote PNG bytes under that
+# name, exit 0: a PDF no viewer opens. The one type written is PNG: another name is refused.
+@pytest.mark.parametrize("name", ["p.pdf", "p.txt", "p", "p.png.jpg"])
+def test_pores_plot_other_than_png_is_refused_before_work(spec, tmp_path, capsys, no_build, name):
+    assert main(["pores", str(spec), "--plot", str(tmp_path / name)]) == 2
+    line = _one_line_error(capsys)
+    assert line.endswith(
+        f"--plot: {name}: psdesign writes a PNG picture (allowed: a new file name ending in .png)"
+    ), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["spec.toml"]
+
+
 def test_pores_plot_new_file_written_and_no_temp_left(spec, tmp_path, capsys):
     png = tmp_path / "pores.png"
     assert main(["pores", str(spec), "--plot", str(png)]) == 0

@@ -180,11 +180,18 @@ def test_study_on_an_image_spec(folder) -> None:
         ),
         ('[image]\npath = "fibres_32.tif"\ncrop = [[0, 40], [0, 8], [0, 8]]\n', "image.crop[0]"),
         ('[image]\npath = "fibres_32.tif"\nthreshold = 0\n', "image.threshold"),
+        # session 40: tifffile logged "<tifffile.TiffPages @...> invalid offset to first page"
+        # on stderr before psdesign's line (two lines)
+        ('[image]\npath = "bad.tif"\nvoxel_size = 1e-6\n', "image.path"),
+        ('[image]\npath = "bad.tif"\n', "image.path"),
     ],
 )
 @pytest.mark.parametrize("command", ["generate", "permeability", "mesh"])
-def test_bad_image_spec_exits_2_one_line_nothing_written(folder, capsys, body, key, command):
+def test_bad_image_spec_exits_2_one_line_nothing_written(
+    folder, capsys, caplog, body, key, command
+):
     (folder / "s.raw").write_bytes(bytes(64))
+    (folder / "bad.tif").write_bytes(b"II*\x00garbage" * 10)  # a TIFF header, then junk
     spec = spec_file(folder, body)
     out = folder / "out"
     args = [command, str(spec)] + (["-o", str(out)] if command != "permeability" else [])
@@ -192,6 +199,8 @@ def test_bad_image_spec_exits_2_one_line_nothing_written(folder, capsys, body, k
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"psdesign: error: {key}:") and "\n" not in err
     assert not out.exists()
+    # a library's log line is a second line on a terminal (pytest's log capture took it)
+    assert not [r.getMessage() for r in caplog.records if r.name.startswith("tifffile")]
 
 
 def test_generate_never_replaces_the_specs_own_image(tmp_path, capsys) -> None:

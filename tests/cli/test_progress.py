@@ -185,6 +185,17 @@ def test_generate_reports_generation_and_quiet_silences(tmp_path, capsys):
     assert f"RVE generated: {n} fibers in " in captured.err
     assert main(["generate", str(spec), "-o", str(tmp_path / "b"), "--quiet"]) == 0
     assert "generating" not in capsys.readouterr().err
+    # session 40 (s40-fuzz): without kind and seed, and with n_fibers, the line said
+    # 'generating the RVE (? fibers, target porosity ?, seed ?)'; the schema's defaults now
+    spec.write_text(
+        GEN_SPEC.replace('kind = "straight"\n', "")
+        .replace("seed = 1\n", "")
+        .replace("porosity = 0.85", "n_fibers = 3")
+    )
+    assert main(["generate", str(spec), "-o", str(tmp_path / "c"), "--no-preview"]) == 0
+    assert "psdesign: generating the RVE (straight fibers, n_fibers 3, seed 0)" in (
+        capsys.readouterr().err
+    )
 
 
 def test_warmup_note_is_said_once(monkeypatch, capsys):

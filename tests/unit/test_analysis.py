@@ -432,6 +432,32 @@ def test_corrupt_surrogate_and_results_files_are_named(tmp_path, capsys) -> None
     assert len(err) == 1 and "results.csv is unreadable" in err[0], err
 
 
+@pytest.mark.parametrize(
+    ("command", "name", "junk"),
+    [
+        ("fit", "results.csv", b""),  # 'psdesign: error: No columns to parse from file'
+        ("fit", "results.csv", b"\xff\xfe\x00junk"),  # "'utf-8' codec can't decode ..."
+        ("fit", "study.json", b"[1, 2]"),  # AttributeError traceback, exit 1
+        ("fit", "study.json", b'{"study": 3}'),  # AttributeError traceback, exit 1
+        ("report", "study.json", b"[1, 2]"),  # AttributeError traceback, exit 1
+        ("report", "run.json", b"junk"),  # 'psdesign: error: Expecting value: line 1 ...'
+        ("report", "run.json", b"\xff\xfe"),  # UnicodeDecodeError, no file named
+    ],
+)
+def test_a_damaged_study_file_is_one_line_naming_it(tmp_path, capsys, command, name, junk):
+    """session 40 (s40-fuzz): ``study fit`` on an empty or non-UTF-8 results.csv printed
+    pandas' message naming no file, and a study.json that was JSON but no object (a list, a
+    number under "study") ended in an AttributeError traceback (exit 1) in ``study fit`` and
+    ``study report``; a junk run.json made ``study report`` print the JSON decoder's message
+    alone. Rule: bad input is exit 2 and one line naming the file (psdesign.study.readback)."""
+    out = _lhs_study(tmp_path, 4)
+    (out / name).write_bytes(junk)
+    assert main(["study", command, str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert f"{out / name} is unreadable" in line, line
+    assert (out / name).read_bytes() == junk  # left as it was
+
+
 def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
     """main: optimize_study(batch=0) added no point per round and looped forever."""
     from psdesign.analysis.optimize import optimize_study

@@ -523,6 +523,30 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     assert "forcefield.workers" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("case", "table", "body"),
+    [("two-fiber", "six_fiber", "t_range = 0.3"), ("six-fiber", "two_fiber", "mu = 9.0")],
+)
+def test_the_other_cases_table_is_refused(tmp_path, capsys, case, table, body):
+    """session 40 (s40-fuzz): ``case = "two-fiber"`` with a ``[forcefield.six_fiber]`` table
+    ran (exit 0) and never read the table, so its values silently had no effect. Rule (as
+    ``generator.u`` without ``kind = "bent"``): a key only one case uses is refused for the
+    other, exit 2, one line naming it, nothing written."""
+    from psdesign.cli import main
+
+    spec = tmp_path / "ff.toml"
+    spec.write_text(f'[forcefield]\ncase = "{case}"\nmax_iter = 1\n[forcefield.{table}]\n{body}\n')
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    other = "six-fiber" if case == "two-fiber" else "two-fiber"
+    assert line == (
+        f"psdesign: error: forcefield.{table}: only used with case = '{other}' "
+        f"(allowed: case = '{other}')"
+    )
+    assert not out.exists()
+
+
 def test_broken_fiber_is_infeasible():
     """Moments too small for the isovalue: the fiber vanishes; the objective is +inf."""
     p = six_fiber_problem(n_s=32, n_theta=16)

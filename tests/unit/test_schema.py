@@ -339,6 +339,28 @@ def test_bad_study_names_the_key(path, value, key):
     assert key in study_err(doc)
 
 
+@pytest.mark.parametrize(
+    "design, level",
+    [
+        # the first level: 'base.rve.voxel: 1e-06 m gives under 2 voxels across the thinnest
+        # generated fiber' blamed the base, which is valid (its diameter is 7 um)
+        ({"design": "latin-hypercube", "n_samples": 4}, {"low": 1e-6, "high": 7e-6}),
+        # a later level: not refused by the study's check (left to the runner, naming a case)
+        ({}, [7e-6, 1e-6]),
+    ],
+)
+def test_a_level_that_breaks_another_key_is_named_as_the_parameter(design, level):
+    """session 40 (s40-fuzz): a ``generator.diameter`` level too thin for the base's
+    ``rve.voxel`` was reported as ``base.rve.voxel`` (the base is valid) or not by the study's
+    check at all. Rule: the line names the key the user must change, with its level."""
+    doc = copy.deepcopy(STUDY)
+    doc["study"] = {**doc["study"], **design}
+    doc["parameters"] = {"generator.diameter": level}
+    msg = study_err(doc)
+    assert msg.startswith("parameters.generator.diameter: level 1e-06 gives rve.voxel: "), msg
+    assert "(allowed: <= 5e-07 m)" in msg
+
+
 def test_factorial_size_is_refused_before_expansion():
     params = {"flow.viscosity": {"low": 1e-5, "high": 2e-5, "levels": 10_000}}
     params["flow.aux_length"] = {"low": 0.1, "high": 0.3, "levels": 10_000}
@@ -377,6 +399,35 @@ def test_load_study_file_problems(tmp_path):
     p.write_text(dumps(STUDY))
     assert tomllib.loads(p.read_text())["study"]["seeds"] == [1, 2]
     assert len(load_study(p).seeds) == 2
+
+
+def test_a_byte_order_mark_is_skipped(tmp_path):
+    """session 40 (s40-fuzz): a spec or study saved with a UTF-8 byte-order mark (Windows
+    Notepad) was refused as 'TOML syntax error ...: Invalid statement (at line 1, column 1)',
+    a character the user cannot see. It reads as the same file without the mark."""
+    for name, doc, load in (("spec", SPEC, load_spec), ("study", STUDY, load_study)):
+        plain, marked = tmp_path / "plain" / f"{name}.toml", tmp_path / "bom" / f"{name}.toml"
+        for p in (plain, marked):
+            p.parent.mkdir(exist_ok=True)
+        plain.write_text(dumps(doc))
+        marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+        a, b = load(marked), load(plain)
+        if name == "study":  # the study remembers its file
+            a, b = a.to_dict(), b.to_dict()
+        assert a == b
+
+
+def test_a_pipe_or_device_is_not_called_missing(tmp_path):
+    """session 40 (s40-fuzz): ``psdesign generate /dev/null`` or a pipe (``<(cat spec)``,
+    /dev/stdin) said 'spec: file not found: /dev/null': the file is there. It is named as what
+    it is (the spec is read from a regular file only)."""
+    import os
+
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    for path in (fifo, "/dev/null"):
+        with pytest.raises(SpecError, match="is not a regular file .a pipe or a device.; give a"):
+            load_spec(path)
 
 
 # ----------------------------------------------------------------------------- CLI

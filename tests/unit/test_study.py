@@ -736,12 +736,14 @@ def test_cli_exit_codes(tmp_path, capsys):
 def test_default_pipeline_specs_validated_before_running(tmp_path):
     pytest.importorskip("psdesign.study.case")
     # base has generator.porosity; varying n_fibers as well gives both -> the generator refuses
+    # (session 40: at load, naming the parameter, where the runner's per-case check named the
+    # first case: 'parameters: case c0000-... (generator.n_fibers=10, seed=1) gives a bad spec')
     p = write_study(tmp_path, 'design = "full-factorial"', '"generator.n_fibers" = [10, 20]')
     out = tmp_path / "out"
     with pytest.raises(
         StudyError,
-        match=r"^parameters: case c0000-\w+ \(generator.n_fibers=10, "
-        r"seed=1\) gives a bad spec: generator",
+        match=r"^parameters.generator.n_fibers: level 10 gives generator: give exactly one of "
+        r"porosity or n_fibers",
     ):
         run_study(p, out, progress=False)
     assert not out.exists()

@@ -156,6 +156,24 @@ def test_hexagonal_array_matches_rayleigh_perrins(f, ratio):
         assert lo - 1e-9 <= val <= hi + 1e-9
 
 
+@pytest.mark.parametrize("contrast", [1e9, 1e22])
+def test_isolated_conductors_at_any_contrast_are_not_blocked(contrast):
+    """session 40 (s40-fuzz): conducting cylinders (square array, f = 0.2) in a matrix 1e9 or
+    1e22 times less conducting read '0 [blocked]' with a warning to refine the voxel: the
+    periodic solve calls a flux under 1e-7 of the Wiener bound blocked. Two conducting phases
+    never block; the value is Rayleigh-Perrins' perfectly conducting array (reference_values).
+    """
+    inc = _disk_cell(48, 0.2)
+    fv = float(inc.mean())
+    fields = fields_from_solid(inc, 1e-6)
+    fluid = 1e-11
+    res = effective_conductivity(fields, "x", solid=fluid * contrast, fluid=fluid, transport=RES)
+    assert not res.blocked and res.status != "blocked"
+    assert res.effective_conductivity / fluid == pytest.approx(
+        rayleigh_square(fv, float("inf")), rel=TOL[0.2]
+    )
+
+
 def test_square_array_error_falls_with_refinement():
     """Staircase error of the insulating square array (f = 0.5) shrinks as the grid refines."""
     errs = []
