@@ -64,13 +64,10 @@ def _cases_status(out: str) -> int:
     """The exit status of the table in :mod:`psdesign.cli.exit_status`, as ``study run`` gives
     it: 1 when a case failed or timed out, else 3 when one did not converge, else 0; one
     stderr line per kind naming ``results.csv`` (the sizes' rows leave those cases out)."""
-    from pathlib import Path
-
-    import pandas as pd
-
     from psdesign.analysis.columns import first_error
+    from psdesign.study.readback import read_results
 
-    df = pd.read_csv(Path(out) / "results.csv")
+    df = read_results(out)
     n_bad, n_nc = case_counts(df)
     bad = df[~df["status"].astype(str).isin(("ok", "not_converged"))]
     if n_bad:
