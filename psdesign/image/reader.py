@@ -297,8 +297,26 @@ def _check_segmented(labels: np.ndarray) -> None:
 def solid_mask(
     labels: np.ndarray, solid: int | tuple[int, ...] | str, threshold: float | None = None
 ) -> np.ndarray:
-    """Boolean mask of the solid voxels (``threshold`` wins over ``solid``)."""
+    """Boolean mask of the solid voxels (``threshold`` wins over ``solid``).
+
+    A grey image with a NaN voxel is refused with a threshold (``NaN >= V`` is False, so the
+    voxel was taken as pore without a word):
+
+    >>> solid_mask(np.array([0.2, np.nan, 0.9]), "nonzero", threshold=0.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: image.threshold: 1 of the image's 3 voxels hold no grey value (NaN), first at index (1,); fill or crop them away (image.crop)
+    """
     if threshold is not None:
+        if labels.dtype.kind == "f":
+            bad = np.isnan(labels)
+            if bad.any():
+                first = tuple(int(i) for i in np.argwhere(bad)[0])
+                raise ValueError(
+                    f"image.threshold: {int(bad.sum())} of the image's {labels.size} voxels hold "
+                    f"no grey value (NaN), first at index {first}; fill or crop them away "
+                    "(image.crop)"
+                )
         return labels >= threshold
     if isinstance(solid, str):
         if solid != "nonzero":

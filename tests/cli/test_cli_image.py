@@ -184,6 +184,8 @@ def test_study_on_an_image_spec(folder) -> None:
         # on stderr before psdesign's line (two lines)
         ('[image]\npath = "bad.tif"\nvoxel_size = 1e-6\n', "image.path"),
         ('[image]\npath = "bad.tif"\n', "image.path"),
+        # session 40: a NaN voxel of a grey image was pore without a word (NaN >= V is False)
+        ('[image]\npath = "grey.npy"\nvoxel_size = 1e-6\nthreshold = 0.5\n', "image.threshold"),
     ],
 )
 @pytest.mark.parametrize("command", ["generate", "permeability", "mesh"])
@@ -192,6 +194,9 @@ def test_bad_image_spec_exits_2_one_line_nothing_written(
 ):
     (folder / "s.raw").write_bytes(bytes(64))
     (folder / "bad.tif").write_bytes(b"II*\x00garbage" * 10)  # a TIFF header, then junk
+    grey = np.linspace(0.0, 1.0, 8**3, dtype=np.float32).reshape(8, 8, 8)
+    grey[3, 4, 5] = np.nan
+    np.save(folder / "grey.npy", grey)
     spec = spec_file(folder, body)
     out = folder / "out"
     args = [command, str(spec)] + (["-o", str(out)] if command != "permeability" else [])
