@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from psdesign.analysis.columns import first_error, k_not_ok
-from psdesign.analysis.replicates import replicate_summary
+from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
 #: Most seeds per size (as for a study file's ``seeds``).
@@ -67,8 +67,9 @@ class RevResult:
     ----------
     table : DataFrame
         One row per size: ``size_m``, ``n`` and per output ``X_mean``, ``X_std``,
-        ``X_ci95_low`` (clipped at 0 for K), ``X_ci95_high``, ``X_ci_rel`` (Student
-        half-width / |mean|), and ``status`` (``"ok"``, or ``"untrustworthy: ..."`` naming
+        ``X_ci95_low``, ``X_ci95_high`` (clipped to the physical range: K >= 0, porosity in
+        [0, 1]), ``X_ci95_half`` (the Student half-width), ``X_ci_rel`` (``X_ci95_half`` /
+        |mean|), and ``status`` (``"ok"``, or ``"untrustworthy: ..."`` naming
         which K of the size are not ok by their own ``k_<d>_status`` and which K's CI
         half-width is above 20 %).
     rev_size_m : float or None
@@ -181,16 +182,15 @@ def rev_study(
     table = replicate_summary(df, ["size_m"]).sort_values("size_m").reset_index(drop=True)
     names = ["porosity", *[f"k_{d}_m2" for d in directions]]
     for c in names:
-        if f"{c}_mean" in table:  # the Student half-width: the upper bound is never clipped
-            half = table[f"{c}_ci95_high"] - table[f"{c}_mean"]
-            table[f"{c}_ci_rel"] = half / table[f"{c}_mean"].abs()
+        if f"{c}_mean" in table:  # the Student half-width (the interval itself is clipped)
+            table[f"{c}_ci_rel"] = ci95_half(table, c) / table[f"{c}_mean"].abs()
     keep = [
         "size_m",
         "n",
         *[
             f"{c}_{s}"
             for c in names
-            for s in ("mean", "std", "ci95_low", "ci95_high", "ci_rel")
+            for s in ("mean", "std", "ci95_low", "ci95_high", "ci95_half", "ci_rel")
             if f"{c}_{s}" in table
         ],
     ]

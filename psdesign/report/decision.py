@@ -20,7 +20,7 @@ from psdesign.analysis.columns import (
     numeric_parameters,
     trusted,
 )
-from psdesign.analysis.replicates import replicate_summary
+from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
 from psdesign.report.units import output_label, parameter_label, parameter_unit
 
@@ -105,16 +105,19 @@ def _err(summary: pd.DataFrame, c: str) -> np.ndarray | None:
     (:data:`~psdesign.analysis.columns.REL_ERROR_COLUMNS`, ``ABS_ERROR_COLUMNS``), added: a
     discretization error is not averaged away by more seeds. None when ``c`` has neither.
 
-    >>> s = pd.DataFrame({"k_z_m2_mean": [2.0], "k_z_m2_ci95_high": [2.5],
+    The CI's half-width is the table's ``X_ci95_half`` (:func:`~psdesign.analysis.replicates.
+    ci95_half`), not ``X_ci95_high - X_mean``: the interval is clipped to the physical range
+    (a porosity's upper bound at 1).
+
+    >>> s = pd.DataFrame({"k_z_m2_mean": [2.0], "k_z_m2_ci95_half": [0.5],
     ...                   "k_z_rel_error_mean": [0.1]})
     >>> _err(s, "k_z_m2").tolist()
     [0.7]
     """
     num = _numerical_half_width(summary, c)
-    if f"{c}_ci95_high" not in summary:
+    half = ci95_half(summary, c)
+    if half is None:
         return num
-    # the upper half-width: a K's lower bound is clipped at 0 (replicate_summary)
-    half = (summary[f"{c}_ci95_high"] - summary[f"{c}_mean"]).to_numpy(dtype=float)
     if num is None:
         return half
     return np.nan_to_num(half, nan=0.0) + num

@@ -535,8 +535,8 @@ def build_html(out_dir: str | Path) -> str:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
 {diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
-<p class="note">Means over replicates (seeds); bar: the Student-t 95 % confidence interval of
-the mean (summary.csv; none for one seed) plus the cases' mean numerical error bar;
+<p class="note">Means over replicates (seeds); bar: the Student-t 95 % half-width of the mean
+(summary.csv's X_ci95_half; none for one seed) plus the cases' mean numerical error bar;
 anisotropy = mean in-plane K / through-plane K.</p>
 {_safe(parameter_plots, df, params, study)}
 <h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}

@@ -502,9 +502,70 @@ def test_k_ci_lower_bound_never_negative() -> None:
     assert s["k_z_m2_ci95_high"] == pytest.approx(np.mean(k) + half, rel=1e-12)
     assert s["k_xy_m2_ci95_low"] < 0  # not positive by nature
     assert s["porosity_ci95_low"] == 0.0 and s["conductivity_z_ci95_low"] == 0.0
-    assert s["porosity_ci95_high"] - s["porosity_mean"] == pytest.approx(
+    # session 40: porosity's upper bound is clipped at 1 too; the half-width is its own column
+    assert s["porosity_ci95_high"] == 1.0
+    assert s["porosity_ci95_half"] == pytest.approx(
         t_quantile_975(2) * np.std([0.1, 0.9, 0.5], ddof=1) / np.sqrt(3), rel=1e-12
     )
+    assert s["k_z_m2_ci95_half"] == pytest.approx(half, rel=1e-12)
+
+
+#: Two-sided 95 % Student-t quantile for 1 degree of freedom (n = 2 seeds): t_{0.975, 1} =
+#: tan(0.475 pi) = 12.7062047361747 (closed form of the Cauchy distribution; the 12.706 of
+#: NIST/SEMATECH e-Handbook of Statistical Methods, Sec. 1.3.6.7.2, table of t critical values).
+T_975_1 = math.tan(0.475 * math.pi)
+
+
+def test_ci_near_one_stays_in_unit_interval_and_half_width_is_student() -> None:
+    """new user (session 40): summary.csv of a 30 um box with 2 seeds gave a porosity 95 % CI
+    up to 1.016, a porosity above 1; only the lower bound was clipped at the physical floor.
+    Rule: the interval lies in the physical range both ways (porosity and D_eff/D in [0, 1],
+    ``analysis.ranges.RANGES``) and the Student half-width ``t s / sqrt(n)`` is stored once,
+    unclipped, as ``X_ci95_half`` (NaN with one replicate)."""
+    assert T_975_1 == pytest.approx(12.706, abs=5e-4)
+    phi = [0.95, 0.99]  # mean 0.97, Student half 0.254: mean + half = 1.224
+    dz = [0.90, 0.985]
+    df = pd.DataFrame(
+        {
+            "a": [1, 1, 2],
+            "seed": [1, 2, 1],
+            "status": "ok",
+            "porosity": [*phi, 0.9],
+            "diffusivity_z": [*dz, 0.5],
+            "k_z_m2": [1e-12, 1.1e-12, 2e-12],
+        }
+    )
+    s = replicate_summary(df, ["a"]).set_index("a")
+    for c, x in (("porosity", phi), ("diffusivity_z", dz)):
+        half = T_975_1 * np.std(x, ddof=1) / math.sqrt(2)
+        assert np.mean(x) + half > 1  # the Student bound alone leaves the range
+        assert s.loc[1, f"{c}_ci95_half"] == pytest.approx(half, rel=1e-12)
+        assert s.loc[1, f"{c}_ci95_high"] == 1.0
+        assert s.loc[1, f"{c}_ci95_low"] == pytest.approx(np.mean(x) - half, rel=1e-12)
+        assert 0.0 <= s.loc[1, f"{c}_ci95_low"] <= s.loc[1, f"{c}_ci95_high"] <= 1.0
+        assert math.isnan(s.loc[2, f"{c}_ci95_half"])  # one replicate: no spread known
+    # K has no ceiling: its interval stays Student's where the floor is not reached
+    k_half = T_975_1 * np.std([1e-12, 1.1e-12], ddof=1) / math.sqrt(2)
+    assert s.loc[1, "k_z_m2_ci95_half"] == pytest.approx(k_half, rel=1e-12)
+    assert s.loc[1, "k_z_m2_ci95_high"] == pytest.approx(1.05e-12 + k_half, rel=1e-12)
+
+
+def test_ci95_half_of_an_older_summary_table() -> None:
+    """A summary table written before ``X_ci95_half`` (session 40) has ``X_std`` and ``X_n``:
+    the half-width is recomputed from them (Student, t_{0.975, 1} for n = 2), else it is
+    ``X_ci95_high - X_mean`` (its upper bound was never clipped then); no interval: None."""
+    from psdesign.analysis.replicates import ci95_half
+
+    df = pd.DataFrame({"a": [1, 1, 2], "status": "ok", "porosity": [0.95, 0.99, 0.9]})
+    new = replicate_summary(df, ["a"])
+    old = new.drop(columns=["porosity_ci95_half"])
+    got = ci95_half(old, "porosity")
+    assert got[0] == pytest.approx(T_975_1 * np.std([0.95, 0.99], ddof=1) / math.sqrt(2))
+    assert got[0] == pytest.approx(new["porosity_ci95_half"].iloc[0], rel=1e-12)
+    assert math.isnan(got[1])
+    bare = pd.DataFrame({"k_mean": [2.0], "k_ci95_high": [2.5]})
+    assert ci95_half(bare, "k").tolist() == [0.5]
+    assert ci95_half(bare, "porosity") is None
 
 
 def _replicated_fit(seeds: int, n_points: int = 20) -> tuple[Surrogate, float]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import math
 import re
 
 import numpy as np
@@ -696,6 +697,38 @@ def test_parameter_plots_draw_each_error_on_its_value_not_as_an_output(monkeypat
     assert bars["porosity"][0] == pytest.approx(ci_p + 0.002, rel=1e-6)
     assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
     assert bars["diffusivity_z"][1] == pytest.approx(0.02 * 0.6, rel=1e-12)
+
+
+def test_parameter_plots_bar_is_student_half_width_where_the_ci_is_clipped(monkeypatch):
+    """session 40: the 95 % CI of a porosity near 1 is clipped at 1 (summary.csv gave 1.016),
+    so ``high - mean`` is no longer the half-width; the report's bar reads the table's
+    ``X_ci95_half``: Student's ``t_{0.975, 1} s / sqrt(2)`` (t = tan(0.475 pi) = 12.706,
+    NIST/SEMATECH e-Handbook Sec. 1.3.6.7.2) plus the cases' mean numerical bar."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    phi = [0.95, 0.99]  # mean 0.97 + Student half 0.254 > 1: the interval is clipped
+    df = pd.DataFrame(
+        {
+            "generator.porosity": [0.95, 0.95, 0.99],
+            "seed": [1, 2, 1],
+            "status": "ok",
+            "porosity": [*phi, 0.99],
+            "porosity_error": [0.001, 0.003, 0.004],
+            "k_z_m2": [1e-11, 1.1e-11, 2e-11],
+            "k_z_rel_error": [0.04, 0.06, 0.03],
+            "k_z_status": "ok",
+        }
+    )
+    decision.parameter_plots(df, ["generator.porosity"], None)
+    bars = {f.layout.title.text.split(" vs ")[0]: f.data[0].error_y.array for f in figs}
+    half = math.tan(0.475 * math.pi) * np.std(phi, ddof=1) / math.sqrt(2)
+    assert bars["porosity"][0] == pytest.approx(half + 0.002, rel=1e-9)
+    assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
 
 
 def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):

@@ -302,3 +302,44 @@ def test_rev_exit_status_follows_the_table_for_failed_and_unconverged_cases(
     lines = capsys.readouterr().err.strip().splitlines()
     assert [ln for ln in lines if "not_converged" in ln], lines
     assert not [ln for ln in lines if "failed" in ln], lines
+
+
+def porous_rev_case(spec, outputs, solver, workdir):
+    """Two seeds with porosity 0.95 and 0.99 (a Student 95 % CI of 0.97 +- 0.254 with n = 2,
+    above 1 unclipped) and K 1 % apart; every K is ok by its own error bar."""
+    seed = int(spec["generator"]["seed"])
+    return {
+        "porosity": 0.95 if seed == 1 else 0.99,
+        "n_fibers": 10,
+        "k_z_m2": 5e-12 if seed == 1 else 5.05e-12,
+        "converged_z": True,
+        "k_z_status": "ok",
+    }
+
+
+def test_rev_porosity_ci_inside_unit_interval_ci_rel_from_student_half(
+    tmp_path, monkeypatch
+) -> None:
+    """new user (session 40): rev's table (and summary.csv) gave a porosity 95 % CI up to
+    1.016 for a 30 um box with 2 seeds. Rule: the interval stays in [0, 1]; the Student
+    half-width is the column ``X_ci95_half`` and ``X_ci_rel`` is it over |mean| (not the
+    clipped ``high - mean``). t_{0.975, 1} = tan(0.475 pi) = 12.706 (NIST/SEMATECH e-Handbook
+    Sec. 1.3.6.7.2)."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, porous_rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "2", "-o", str(out)]
+    assert main([*args, "--quiet", "--directions", "z"]) == 0
+    half = math.tan(0.475 * math.pi) * np.std([0.95, 0.99], ddof=1) / math.sqrt(2)
+    k_half = math.tan(0.475 * math.pi) * np.std([5e-12, 5.05e-12], ddof=1) / math.sqrt(2)
+    for table in (
+        pd.read_csv(out / "rev.csv"),
+        pd.DataFrame(json.loads((out / "rev.json").read_text())["table"]),
+        pd.read_csv(out / "summary.csv"),
+    ):
+        row = table.iloc[0]
+        assert row["porosity_ci95_high"] == 1.0 and 0 < row["porosity_ci95_low"] < 0.97
+        assert row["porosity_ci95_half"] == pytest.approx(half, rel=1e-9)
+        assert row["k_z_m2_ci95_half"] == pytest.approx(k_half, rel=1e-9)
+    row = pd.read_csv(out / "rev.csv").iloc[0]
+    assert row["porosity_ci_rel"] == pytest.approx(half / 0.97, rel=1e-9)  # 26 %, not 3 %
+    assert row["k_z_m2_ci_rel"] == pytest.approx(k_half / 5.025e-12, rel=1e-9)
