@@ -31,13 +31,10 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.error import under_resolved
+from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, under_resolved
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
-
-#: Fewer voxels than this across the thinnest fiber diameter triggers a :class:`ResolutionWarning`.
-MIN_CELLS_PER_DIAMETER = 8.0
 
 BCS = ("periodic", "permeameter")
 WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
