@@ -27,9 +27,8 @@ import pandas as pd
 from psdesign.analysis.columns import first_error, k_not_ok
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+from psdesign.schema.budget import MAX_SEEDS  # as for a study file's seeds
 
-#: Most seeds per size (as for a study file's ``seeds``).
-MAX_SEEDS = 1000
 #: What ``rev`` writes in its output folder beside the study's files.
 REV_FILES = ("rev.csv", "rev.json")
 #: The command ``rev``'s output folder marker names (:mod:`psdesign.io.outputs`).

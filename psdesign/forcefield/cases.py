@@ -53,6 +53,7 @@ from psdesign.forcefield.pattern import PatternSearchResult, pattern_search
 from psdesign.forcefield.potentials import SURFACE_TERMS, Potentials, check_weights, total_potential
 from psdesign.geometry.fibers import WOVEN_SPACING, woven_fiber_model
 from psdesign.geometry.model import GeneralizedPS
+from psdesign.schema.forcefield import SIX_NAMES
 
 CENTRE = np.array([0.5, 0.5, 0.5])
 DOMAIN = (np.zeros(3), np.ones(3))
@@ -61,21 +62,6 @@ R_ALONG_X = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
 R_ALONG_Y = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 PAPER_TWO_FIBER = {"f": 2.6733, "u1": 0.1896, "u2": -0.1896}
-SIX_NAMES = (
-    "mu1",
-    "mu2",
-    "mu3",
-    "mu4",
-    "mu5",
-    "kappa1",
-    "kappa2",
-    "kappa3",
-    "kappa4",
-    "kappa5",
-    "u1",
-    "u2",
-    "f",
-)
 TABLE_II_INITIAL = dict(
     zip(
         SIX_NAMES,

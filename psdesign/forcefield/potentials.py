@@ -39,8 +39,7 @@ import solvers.jit  # noqa: F401  (numba cache stamps cover the imported modules
 from psdesign.forcefield.fields import ImplicitField, PSField, packed_tables
 from psdesign.forcefield.kernels import deepest_point, lens_candidates, lens_minima, pair_max_grid
 from psdesign.forcefield.memo import FiberMemo, domain_key, fiber_key
-
-SURFACE_TERMS = ("gaussian", "area", "bending")
+from psdesign.schema.forcefield import SURFACE_TERMS
 
 
 @dataclass(frozen=True)

@@ -10,15 +10,14 @@ from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, integer, number
 
 Weight = number(ge=0)
-#: Free parameters of the six-fiber case (== ``psdesign.forcefield.cases.SIX_NAMES``; written
-#: out here so that validating a spec does not import the numba kernels, checked by
-#: ``tests/unit/test_consistency.py``).
+#: Free parameters of the six-fiber case, Table II's order (the force field code takes them from
+#: here: validating a spec imports no numba kernel).
 SIX_NAMES = (
     "mu1", "mu2", "mu3", "mu4", "mu5",
     "kappa1", "kappa2", "kappa3", "kappa4", "kappa5",
     "u1", "u2", "f",
 )  # fmt: skip
-#: Surface terms (== ``psdesign.forcefield.potentials.SURFACE_TERMS``).
+#: Surface terms of the potential (:mod:`psdesign.forcefield.potentials` takes them from here).
 SURFACE_TERMS = ("gaussian", "area", "bending")
 
 

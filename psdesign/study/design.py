@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from psdesign.schema.budget import MAX_CASES
 from psdesign.study.studyfile import ParamSpec, Study, StudyError
 
 __all__ = [
@@ -27,8 +28,6 @@ __all__ = [
     "expand_design",
     "match_finished",
 ]
-
-MAX_CASES = 1_000_000
 
 
 @dataclass(frozen=True)

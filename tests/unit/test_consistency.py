@@ -81,13 +81,15 @@ def test_study_parameter_paths_come_from_the_schema():
             assert head in _models(SpecDocument.model_fields[table].annotation)[0].model_fields
 
 
-def test_forcefield_names_match_the_force_field_code():
-    from psdesign.forcefield.cases import SIX_NAMES
-    from psdesign.forcefield.potentials import SURFACE_TERMS
+def test_forcefield_names_are_the_schemas_one_definition():
+    # session 40: the force field code took its own copies of the names (checked equal here);
+    # it now uses the schema's, and the paper's Table II tables are keyed by them
+    from psdesign.forcefield import cases, potentials
     from psdesign.schema import forcefield as schema_ff
 
-    assert schema_ff.SIX_NAMES == SIX_NAMES
-    assert schema_ff.SURFACE_TERMS == SURFACE_TERMS
+    assert cases.SIX_NAMES is schema_ff.SIX_NAMES
+    assert potentials.SURFACE_TERMS is schema_ff.SURFACE_TERMS
+    assert list(cases.TABLE_II_INITIAL) == list(schema_ff.SIX_NAMES) == list(cases.TABLE_II_RANGE)
 
 
 def test_every_documented_key_states_what_is_allowed():
