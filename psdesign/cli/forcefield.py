@@ -46,6 +46,9 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
                     "free_variables",
                 )
             }
+            # the paper cases' error bars (docs/forcefield.md): U's quadrature error and
+            # each free variable's +- (the relax routes' summaries do not carry them yet)
+            | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
         )
     )
     # warnings on stderr: stdout stays one JSON object

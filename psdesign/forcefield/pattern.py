@@ -58,6 +58,11 @@ class PatternSearchResult:
     message : str
     history : list of dict
         One entry per iteration: ``iter``, ``n_evals``, ``fun`` (best so far), ``step``.
+    poll_step : float
+        Mesh size (fraction of each variable's range) of the last poll: after a converged
+        stop every compass neighbour at this distance was no better, so it is the optimum's
+        uncertainty per variable (the final ``step`` is this times ``contract``, never
+        polled). NaN when no poll was made.
     """
 
     x: np.ndarray
@@ -68,6 +73,7 @@ class PatternSearchResult:
     message: str
     history: list[dict] = field(default_factory=list)
     n_speculative: int = 0
+    poll_step: float = float("nan")
 
 
 def check_bounds(x0, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,6 +181,7 @@ def pattern_search(
     dirs = [(i, s) for i in np.flatnonzero(width > 0) for s in (1.0, -1.0)]
     history: list[dict] = []
     converged, message, it = not dirs, "no free variables" if not dirs else "", 0
+    polled = float("nan")
     while not converged:
         if it >= max_iter:
             message = f"stopped on the iteration limit (max_iter={max_iter})"
@@ -189,7 +196,7 @@ def pattern_search(
             trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
             if trial[i] != z[i]:
                 trials.append((k, trial))
-        hit = polls.poll(trials, fz)
+        hit, polled = polls.poll(trials, fz), step
         if hit is not None:
             k, z = trials[hit]
             fz = polls.cache[polls.key(z)]
@@ -210,6 +217,7 @@ def pattern_search(
         message=message,
         history=history,
         n_speculative=polls.n_done - len(polls.used),
+        poll_step=polled,
     )
 
 

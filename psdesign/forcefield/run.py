@@ -205,6 +205,8 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     fields = prob.fields(res.x)
     at_bound = at_bounds(prob.param.free, res.x, prob.lower, prob.upper)
     status = search_status(not res.converged, at_bound, False)
+    pot = prob.potential(res.x)
+    err = prob.potential_error(res.x, fine=pot)  # one coarser evaluation: the quadrature bar
     out = {
         "case": prob.name,
         "units": PAPER_UNITS,
@@ -212,13 +214,20 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "weights": prob.weights.tolist(),
         "quadrature": {"h": prob.h, "n_s": prob.n_s, "n_theta": prob.n_theta},
         "free_variables": dict(zip(prob.param.free, map(float, res.x), strict=True)),
+        # +- the last poll's mesh: no compass neighbour that far was better (pattern.py)
+        "free_variables_error": {
+            n: float(res.poll_step * (b - a))
+            for n, a, b in zip(prob.param.free, prob.lower, prob.upper, strict=True)
+        },
         "bounds": {
             n: [float(a), float(b)]
             for n, a, b in zip(prob.param.free, prob.lower, prob.upper, strict=True)
         },
         "parameters": prob.params(res.x),
         "U": res.fun,
-        "potentials": prob.potential(res.x).to_dict(),
+        "U_error": err["U"],
+        "potentials": pot.to_dict(),
+        "potentials_error": err,
         "converged": res.converged and not at_bound,
         "status": status,
         "at_bound": at_bound,

@@ -492,6 +492,15 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     # the unit cell has no SI length: the file says its numbers are dimensionless (it did not)
     assert rve["units"].startswith("dimensionless: the paper's unit cell")
     assert rve["status"] == "not_converged" and rve["at_bound"] == ["f", "u"]
+    # session 40: the printed line and rve.json carry the error bars (they carried none):
+    # U's quadrature bar (h -> 2h, tube nodes halved) and each free variable's +- (the last
+    # poll's mesh times its range)
+    line = json.loads(got.out)
+    assert line["U_error"] == rve["U_error"] == rve["potentials_error"]["U"] > 0
+    assert set(rve["potentials_error"]) == set(rve["potentials"])
+    assert set(line["free_variables_error"]) == set(rve["free_variables"]) == {"f", "u"}
+    for n, (a, b) in rve["bounds"].items():  # a poll's mesh (<= max_step 0.5) times the range
+        assert 0 < line["free_variables_error"][n] <= 0.5 * (b - a)
     m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
     assert m.n_minor == 1 and m.u[0] == pytest.approx(rve["parameters"]["u1"])
     rows = (out / "history.csv").read_text().strip().splitlines()
@@ -745,3 +754,77 @@ def test_gaussian_fallback_for_lateral_cut_uses_curvature_not_zero():
     assert abs(reference) > 0.05
     assert fiber_gaussian_term(fld, dom, no_hessian) == pytest.approx(reference, rel=1e-12, abs=0)
     assert fiber_gaussian_term(fld, dom, with_hessian) == pytest.approx(reference, rel=1e-12, abs=0)
+
+
+# ------------------------------------------------------------------- error bars (s40)
+def test_poll_step_bounds_the_distance_to_the_minimum():
+    """The optimum's +- (``poll_step`` times the range): on a separable convex quadratic
+    (minimum known, off every mesh point) no compass neighbour at the last poll's distance
+    was better, so each variable lies within that bar of the true minimum. Before session 40
+    the result carried no such number (the bar of ``free_variables`` was not reported)."""
+    xs = np.array([0.31415, -0.27182, 0.5772])
+    f = lambda x: float(np.sum([1.0, 10.0, 0.1] * (np.asarray(x) - xs) ** 2))  # noqa: E731
+    lo, hi = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 3.0])
+    for min_step in (1e-2, 1e-3):
+        r = pattern_search(f, [0.0, 0.0, 0.0], lo, hi, min_step=min_step)
+        assert r.converged
+        # the last poll failed, then the mesh halved below min_step: poll_step = 2 x final
+        assert r.poll_step == pytest.approx(2 * r.history[-1]["step"])
+        assert min_step <= r.poll_step < 2 * min_step
+        bar = r.poll_step * (hi - lo)
+        assert np.all(np.abs(r.x - xs) <= bar)
+        assert np.any(np.abs(r.x - xs) > 0.05 * bar)  # the bar is not vacuous
+
+
+def test_quadrature_error_bar_covers_the_steinmetz_closed_form():
+    """U's volume term on two exact crossing cylinders r = 0.2 (I^V = 32 r^5 / 15, closed
+    form, docs/forcefield.md): the bar |I(h) - I(2h)| covers the true error at h = 0.02 to
+    0.0025 (measured bar / true 3.6, 8.4, 1.4, 4.1: not monotone, grid alignment)."""
+    from psdesign.forcefield.potentials import Potentials, quadrature_error
+
+    r, c = 0.2, np.full(3, 0.5)
+    a, b = Cylinder(c, r, 0), Cylinder(c, r, 1)
+    exact = 32 * r**5 / 15
+
+    def pot(h):
+        iv = volume_interaction(a, b, UNIT, h)
+        return Potentials(
+            U=1e10 * iv,
+            volume=iv,
+            surface_interaction=0.0,
+            surface=0.0,
+            area=0.0,
+            per_fiber_surface=(0.0, 0.0),
+        )
+
+    for h in (0.02, 0.01, 0.005, 0.0025):
+        fine = pot(h)
+        err = quadrature_error(fine, pot(2 * h), (1e10, 1.0, 1.0))
+        true = abs(fine.volume - exact)
+        assert true <= err["volume_interaction"] <= 30 * true
+        assert err["U"] == pytest.approx(1e10 * err["volume_interaction"])
+
+
+def test_two_fiber_error_bars_cover_a_4x_finer_quadrature():
+    """At the two-fiber optimum of the shipped spec (h = 0.005, 64 x 32 tube nodes) each bar
+    covers the distance to a 4x finer reference (h = 0.00125, 256 x 128); measured ratios
+    bar / true: U and the volume term 16.6 (second order, no Richardson division), the tube
+    terms >= 1e4 (spectral; the true error is round-off). The printed Gaussian term is 0 in
+    closed form (Gauss-Bonnet on a sheared tube): within round-off of it."""
+    prob = two_fiber_problem(h=0.005, n_s=64, n_theta=32, seed=5)
+    x = np.array([prob.lower[0], 0.2])  # the optimum (f and u on their bounds)
+    fine = prob.potential(x)
+    err = prob.potential_error(x, fine=fine)
+    ref = prob.potential(x, h=0.00125, n_s=256, n_theta=128)
+    for key, attr in (
+        ("U", "U"),
+        ("volume_interaction", "volume"),
+        ("area", "area"),
+        ("surface_interaction", "surface_interaction"),
+    ):
+        true = abs(getattr(fine, attr) - getattr(ref, attr))
+        assert true <= err[key], key
+    assert err["U"] <= 30 * abs(fine.U - ref.U)  # not vacuous: within 30x on the dominant term
+    assert abs(fine.surface) <= err["surface"] + 1e-12
+    assert set(err) == set(fine.to_dict()) and len(err["per_fiber_surface"]) == 2
+    assert prob.potential_error(x) == err  # same numbers with or without a passed fine value
