@@ -337,8 +337,14 @@ def solid_mask(
 
 
 def read_image(src: ImageSource) -> np.ndarray:
-    """The solid mask (bool, ``[x, y, z]``) of an image."""
-    return solid_mask(read_labels(src), src.solid, src.threshold)
+    """The solid mask (bool, ``[x, y, z]``, C order) of an image.
+
+    C order whatever the file's axis order: a transposed (Fortran-ordered) mask reached the
+    transport and distance kernels as a layout ``psdesign warmup`` does not compile, so the
+    first transport command on a cropped TIFF compiled four kernels again (~3 s CPU) and
+    ran them along strided lines (``benchmarks/RESULTS.md``, session 40).  A copy only when the
+    mask is not C-ordered already (1 byte per voxel, after the labels are freed)."""
+    return np.ascontiguousarray(solid_mask(read_labels(src), src.solid, src.threshold))
 
 
 def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:

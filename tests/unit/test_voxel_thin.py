@@ -59,6 +59,13 @@ def _schur_piece(faces: list[np.ndarray], piece: list[tuple[int, int, int]]) -> 
     return mat
 
 
+def _blocks(faces: list[np.ndarray], fluid: np.ndarray, dinv: np.ndarray, floor: float):
+    """:class:`solvers.voxel.thin.ThinBlocks` of the bool ``fluid`` given as the solver gives it,
+    its uint8 view (``voxel_stokes._Stokes.fluid``): a bool mask compiled the mask kernels for a
+    type no solve passes (benchmarks/RESULTS.md, session 40)."""
+    return thin.ThinBlocks(faces, fluid.view(np.uint8), dinv, floor)
+
+
 def _dinv(faces: list[np.ndarray]) -> np.ndarray:
     """``1 / (sum of the cell's face terms)``, floored: the pore-scale pressure block."""
     s2 = sum(q.astype(np.float64) + np.roll(q, -1, axis=a) for a, q in enumerate(faces))
@@ -97,7 +104,7 @@ def test_the_dead_end_tube_is_one_piece_solved_exactly(monkeypatch: pytest.Monke
     fluid, tube = _tube_grid(5)
     faces = _faces(fluid)
     dinv = _dinv(faces)
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     flat = sorted(np.ravel_multi_index(tuple(np.array(tube).T), fluid.shape))
     assert tb.n_cells == 5 and np.array_equal(np.sort(tb.cells), flat)
     lp = _schur_piece(faces, tube)
@@ -122,7 +129,7 @@ def test_the_tubes_slow_mode_is_mapped_to_one_and_the_others_keep_d() -> None:
     fluid, tube = _tube_grid(6)
     faces = _faces(fluid)
     dinv = _dinv(faces)
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     lp = _schur_piece(faces, tube)
     dp = np.diag(lp)
     theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
@@ -151,7 +158,7 @@ def test_a_short_dead_end_keeps_its_slow_mode(monkeypatch: pytest.MonkeyPatch) -
     dp = np.diag(lp)
     theta, vecs = np.linalg.eigh(lp / np.sqrt(np.outer(dp, dp)))
     assert thin.LOW <= theta[0] < thin.DEAD_END_LOW and (lp.sum(axis=1) > 1e-6 * dp).sum() == 1
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     assert tb.n_cells == 2
     v = vecs[:, 0] / np.sqrt(dp)
     r = np.zeros(fluid.shape, np.float32)
@@ -160,7 +167,7 @@ def test_a_short_dead_end_keeps_its_slow_mode(monkeypatch: pytest.MonkeyPatch) -
     z, _ = _block(tb, dinv, r)
     np.testing.assert_allclose([z[c] for c in tube], v, rtol=1e-4, atol=1e-5 * abs(v).max())
     monkeypatch.setattr(thin, "MOUTHS", 0)
-    assert thin.ThinBlocks(faces, fluid, dinv, FLOOR).n_cells == 0
+    assert _blocks(faces, fluid, dinv, FLOOR).n_cells == 0
 
 
 def test_the_kept_pieces_of_a_random_pore_space(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -171,10 +178,10 @@ def test_the_kept_pieces_of_a_random_pore_space(monkeypatch: pytest.MonkeyPatch)
     dinv = _dinv(faces)
     with monkeypatch.context() as m:
         m.setattr(thin, "LOW", np.inf)
-        every = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+        every = _blocks(faces, fluid, dinv, FLOOR)
     kept = _kept(faces, fluid, every)
     assert 0 < len(kept) < every.start.size - 1
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     np.testing.assert_array_equal(np.sort(tb.cells), np.sort(np.concatenate(kept)))
 
 
@@ -206,21 +213,21 @@ def test_a_wall_corner_column_keeps_the_diagonal(monkeypatch: pytest.MonkeyPatch
         theta = np.linalg.eigvalsh(lp / np.sqrt(np.outer(dp, dp)))
         np.testing.assert_allclose(theta, np.sort(want), rtol=1e-6)
         assert 0.4 < theta[0] < 0.6 and theta[0] > thin.LOW
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     assert tb.n_cells == 0 and tb.nbytes < 100  # every corner column keeps D
     r = np.zeros(fluid.shape, np.float32)
     r[fluid] = np.random.default_rng(3).standard_normal(int(fluid.sum()))
     z, _ = _block(tb, dinv, r)
     np.testing.assert_array_equal(z, dinv * r)
     monkeypatch.setattr(thin, "LOW", np.inf)  # the former rule: the four columns, exactly
-    assert thin.ThinBlocks(faces, fluid, dinv, FLOOR).n_cells == 4 * fluid.shape[2]
+    assert _blocks(faces, fluid, dinv, FLOOR).n_cells == 4 * fluid.shape[2]
 
 
 def test_an_enclosed_pocket_keeps_the_diagonal() -> None:
     fluid, _ = _tube_grid(3)
     fluid[1, 8:10, 1] = True  # two cells with no face to the rest: L_P singular
     faces = _faces(fluid)
-    tb = thin.ThinBlocks(faces, fluid, _dinv(faces), FLOOR)
+    tb = _blocks(faces, fluid, _dinv(faces), FLOOR)
     pocket = np.ravel_multi_index(([1, 1], [8, 9], [1, 1]), fluid.shape)
     assert not np.isin(pocket, tb.cells).any() and tb.n_cells == 3
 
@@ -242,12 +249,12 @@ def test_a_long_thin_region_is_cut_into_pieces_and_stays_spd(
     dinv = _dinv(faces)
     with monkeypatch.context() as m:
         m.setattr(thin, "LOW", np.inf)
-        every = thin.ThinBlocks(faces, fluid, dinv, FLOOR)  # every piece, the former rule
+        every = _blocks(faces, fluid, dinv, FLOOR)  # every piece, the former rule
     sizes = np.diff(every.start)
     assert sizes.max() <= thin.PIECE and every.n_cells == 4 * 64 - 8  # the throats: single cells
     if low is not None:
         monkeypatch.setattr(thin, "LOW", low)
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     # kept: exactly the pieces the rule keeps on the dense L_P (cell by cell)
     kept = _kept(faces, fluid, every)
     assert 0 < len(kept) < sizes.size or low == np.inf
@@ -342,7 +349,7 @@ def test_a_knot_of_thin_branches_joins_them_into_one_piece(
     fluid, tree = _knot_grid()
     faces = _faces(fluid)
     dinv = _dinv(faces)
-    tb = thin.ThinBlocks(faces, fluid, dinv, FLOOR)
+    tb = _blocks(faces, fluid, dinv, FLOOR)
     flat = np.array([np.ravel_multi_index(c, fluid.shape) for c in tree])
     knot = flat[3]
     lp = _schur_piece(faces, tree)
