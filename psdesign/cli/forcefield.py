@@ -46,8 +46,8 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
                     "free_variables",
                 )
             }
-            # the paper cases' error bars (docs/forcefield.md): U's quadrature error and
-            # each free variable's +- (the relax routes' summaries do not carry them yet)
+            # the error bars (docs/forcefield.md): U's quadrature error and each free
+            # variable's +- (paper cases and the rod relax route; not yet the field route)
             | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
         )
     )

@@ -31,6 +31,7 @@ import numpy as np
 
 from psdesign.errors import SpecError
 from psdesign.forcefield.pattern import pattern_search
+from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.packing.fiberset import (
     FiberState,
     build_pieces,
@@ -38,7 +39,7 @@ from psdesign.packing.fiberset import (
     find_contacts,
     segment_distance,
 )
-from psdesign.packing.genetic import analytic_omega, crossing_volume
+from psdesign.packing.genetic import GL_NODES, analytic_omega, crossing_volume
 
 RELAX_KEYS = {"max_shift", "u_max", "f", "weights", "max_iter", "max_evals", "min_step"}
 #: Keys of the field route (woven / compressed fibers, :mod:`psdesign.forcefield.contact`).
@@ -65,11 +66,46 @@ class RelaxResult:
     n_contacts_before: int = 0
     n_contacts_after: int = 0
     limit_stop: bool = False  # the search stopped on max_iter / max_evals
+    poll_step: float = float("nan")  # the last poll's mesh (PatternSearchResult.poll_step)
+    lower: np.ndarray | None = None  # the variables' bounds
+    upper: np.ndarray | None = None
 
 
 def bending_area(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Area added by bending, per fiber: ``pi D L (u f)^2 / 4`` (L: carrier length in box)."""
     return np.pi * st.diameter * carrier_lengths(st, lo, hi) * (st.u * st.f) ** 2 / 4.0
+
+
+def rod_potentials(st: FiberState, lo, hi, weights, n_gl: int = GL_NODES) -> Potentials:
+    """The relax route's U and its terms on the whole fiber set, as :class:`Potentials`.
+
+    ``volume`` is the analytic crossing-volume fraction (:func:`analytic_omega`, ``n_gl``
+    Gauss-Legendre nodes per crossing), ``surface`` the bending area (closed form),
+    ``surface_interaction`` 0 (not used for fiber sets); ``area`` is the fibers' lateral area
+    in the box, ``pi D L`` plus the bending area (normalized units).
+    """
+    w = np.asarray(weights, float)
+    bend = bending_area(st, lo, hi)
+    omega = analytic_omega(st, lo, hi, n_gl=n_gl)
+    area = float(np.sum(np.pi * st.diameter * carrier_lengths(st, lo, hi)) + bend.sum())
+    return Potentials(
+        U=float(w[0] * omega + w[2] * float(bend.sum())),
+        volume=omega,
+        surface_interaction=0.0,
+        surface=float(bend.sum()),
+        area=area,
+        per_fiber_surface=tuple(float(v) for v in bend),
+    )
+
+
+def rod_potential_error(st: FiberState, lo, hi, weights) -> tuple[Potentials, dict]:
+    """:func:`rod_potentials` and its quadrature bar: one coarser evaluation (``n_gl`` halved),
+    ``|fine - coarse|`` per term by :func:`psdesign.forcefield.potentials.quadrature_error`
+    (the paper cases' rule). Only the crossing volume has a quadrature; the bending area is
+    closed form (bar 0). Costs one :func:`analytic_omega` of the set."""
+    fine = rod_potentials(st, lo, hi, weights)
+    coarse = rod_potentials(st, lo, hi, weights, n_gl=GL_NODES // 2)
+    return fine, quadrature_error(fine, coarse, weights)
 
 
 class _RodEnergy:
@@ -270,8 +306,7 @@ def relax_fibers(
         Sec. 6 weights; w2 (surface interaction) is not used for fiber sets.
     """
     t0 = time.perf_counter()
-    st = st.copy()
-    st.f = np.where(st.u == 0.0, f_straight, st.f)
+    st = st_start(st, f_straight)
     c = find_contacts(st, lo, hi, 0.0)
     involved = np.unique(np.r_[c.i, c.j]) if len(c) else np.zeros(0, int)
     movable = np.array([k for k in involved if not st.fixed[k]], dtype=np.int64)
@@ -317,6 +352,9 @@ def relax_fibers(
         n_contacts_before=n_before,
         n_contacts_after=n_after,
         limit_stop=not res.converged,
+        poll_step=res.poll_step,
+        lower=lower,
+        upper=upper,
     )
 
 
@@ -470,6 +508,11 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     from psdesign.geometry.rve import RVE
 
     relaxed = RVE(rve.size, others + res.state.to_fibers(), period=period)
+    w = kw["weights"]
+    pot, err = rod_potential_error(res.state, lo, hi, w)  # one extra analytic_omega each
+    start_err = rod_potential_error(st_start(st, kw["f_straight"]), lo, hi, w)[1]["U"]
+    # +- the last poll's mesh times each range: no compass neighbour that far was better
+    poll = res.poll_step if len(res.movable) else 0.0
     summary = {
         "case": "relax",
         "n_fibers": len(st),
@@ -477,7 +520,10 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "omega_analytic_before": res.omega_before,
         "omega_analytic_after": res.omega_after,
         "U": res.U_after,
-        "start": {"U": res.U_before},
+        "U_error": err["U"],
+        "potentials": pot.to_dict(),
+        "potentials_error": err,
+        "start": {"U": res.U_before, "U_error": start_err},
         "n_contacts_before": res.n_contacts_before,
         "n_contacts_after": res.n_contacts_after,
         "converged": res.converged,
@@ -489,7 +535,18 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "message": res.message,
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
+        # in the units of "variables" (shifts in periods, u dimensionless)
+        "variables_error": {
+            n: float(poll * (b - a))
+            for n, a, b in zip(res.names, res.lower, res.upper, strict=True)
+        }
+        if res.x is not None and res.lower is not None
+        else {},
         "free_variables": {"max_shift_m": kw["max_shift"] * period, "u_max": kw["u_max"]},
+        "free_variables_error": {
+            "shift_m": float(poll * 2.0 * kw["max_shift"] * period),
+            "u": float(poll * 2.0 * kw["u_max"]),
+        },
         "surface_term": "bending area",
     }
     with staged_directory(out_dir) as tmp:
@@ -497,6 +554,13 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(relaxed_spec_toml(spec, others, res.state, period))
     return summary
+
+
+def st_start(st: FiberState, f_straight: float) -> FiberState:
+    """The fibers as :func:`relax_fibers` starts from them (straight ones given ``f``)."""
+    out = st.copy()
+    out.f = np.where(out.u == 0.0, f_straight, out.f)
+    return out
 
 
 def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> dict:

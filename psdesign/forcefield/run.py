@@ -236,7 +236,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "n_evals": res.n_evals,
         "n_speculative": res.n_speculative,
         "wall_time_s": wall,
-        "start": {"parameters": prob.params(prob.x0), **prob.potential(prob.x0).to_dict()},
+        "start": _with_error(prob, prob.x0),
         "notes": prob.notes,
         "fibers": [
             {"index": i + 1, "isovalue": f.isovalue, "ps_model": f.model.to_dict()}
@@ -246,14 +246,23 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     if prob.paper is not None:
         xp = prob.free_of(prob.paper)
         inside = bool(np.all((xp >= prob.lower - 1e-12) & (xp <= prob.upper + 1e-12)))
-        pot = prob.potential(xp)
         out["paper_optimum"] = {
-            "parameters": prob.params(xp),
-            **pot.to_dict(),
+            **_with_error(prob, xp),
             "inside_bounds": inside,
             "reported": prob.paper,
         }
     return out
+
+
+def _with_error(prob: ForceFieldProblem, x) -> dict:
+    """Parameters, potentials and U's quadrature bar at ``x`` (one extra, coarser evaluation:
+    :meth:`ForceFieldProblem.potential_error`)."""
+    pot = prob.potential(x)
+    return {
+        "parameters": prob.params(x),
+        **pot.to_dict(),
+        "U_error": prob.potential_error(x, fine=pot)["U"],
+    }
 
 
 def search_status(limit_stop: bool, at_bound: list[str], contact_left: bool) -> str:

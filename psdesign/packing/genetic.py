@@ -18,38 +18,48 @@ import numpy as np
 from psdesign.packing.fiberset import FiberState, find_contacts
 
 # ------------------------------------------------------------------- objectives
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+#: Gauss-Legendre nodes of :func:`crossing_volume`.
+GL_NODES = 8
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(GL_NODES)
 
 
-def crossing_volume(dist, ri, rj, sin_alpha, max_len: float = 1.0) -> np.ndarray:
+def crossing_volume(
+    dist, ri, rj, sin_alpha, max_len: float = 1.0, n_gl: int = GL_NODES
+) -> np.ndarray:
     """Intersection volume of two cylinders crossing at angle alpha, axes ``dist`` apart.
 
     ``V = int w_i(z) w_j(z) dz / sin(alpha)`` with chord widths ``w = 2 sqrt(r^2 - z^2)``
-    (exact for infinite cylinders; 16 r^3 / 3 for the Steinmetz solid). Near-parallel
-    pairs are capped by an overlap length ``max_len``.
+    (exact for infinite cylinders; 16 r^3 / 3 for the Steinmetz solid), by ``n_gl``-point
+    Gauss-Legendre quadrature (the force field's relax route evaluates it again at
+    ``n_gl // 2`` for its error bar). Near-parallel pairs are capped by an overlap length
+    ``max_len``.
     """
+    gl_x, gl_w = _GL_X, _GL_W
+    if n_gl != GL_NODES:
+        gl_x, gl_w = np.polynomial.legendre.leggauss(n_gl)
     dist, ri, rj = (np.asarray(v, float) for v in (dist, ri, rj))
     za = np.maximum(-ri, dist - rj)
     zb = np.minimum(ri, dist + rj)
     ok = zb > za
     half = 0.5 * (zb - za)
     mid = 0.5 * (zb + za)
-    z = mid[:, None] + half[:, None] * _GL_X[None, :]
+    z = mid[:, None] + half[:, None] * gl_x[None, :]
     wi = 2 * np.sqrt(np.clip(ri[:, None] ** 2 - z**2, 0, None))
     wj = 2 * np.sqrt(np.clip(rj[:, None] ** 2 - (z - dist[:, None]) ** 2, 0, None))
-    integral = half * np.sum(_GL_W * wi * wj, axis=1)
+    integral = half * np.sum(gl_w * wi * wj, axis=1)
     width = np.minimum(2 * ri, 2 * rj)
     s = np.maximum(np.abs(sin_alpha), width / max_len)
     return np.where(ok, integral / s, 0.0)
 
 
-def analytic_omega(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> float:
-    """Estimated intersection volume fraction of the box from the centre lines."""
+def analytic_omega(st: FiberState, lo: np.ndarray, hi: np.ndarray, n_gl: int = GL_NODES) -> float:
+    """Estimated intersection volume fraction of the box from the centre lines
+    (:func:`crossing_volume` with ``n_gl`` nodes per crossing)."""
     c = find_contacts(st, lo, hi, 0.0)
     if len(c) == 0:
         return 0.0
     sin_a = np.linalg.norm(np.cross(c.di, c.dj), axis=1)
-    v = crossing_volume(c.dist, 0.5 * st.diameter[c.i], 0.5 * st.diameter[c.j], sin_a)
+    v = crossing_volume(c.dist, 0.5 * st.diameter[c.i], 0.5 * st.diameter[c.j], sin_a, n_gl=n_gl)
     return float(v.sum() / np.prod(hi - lo))
 
 

@@ -506,6 +506,10 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     rows = (out / "history.csv").read_text().strip().splitlines()
     assert rows[0] == "iter,n_evals,U,step" and len(rows) == 4
     assert "paper_optimum" in rve and rve["paper_optimum"]["U"] > 0
+    # s40-relaxerr: the start and the paper's optimum carry U's bar too (they had none): the
+    # same rule, one coarser evaluation each (checked against a 4x finer quadrature above)
+    for block in (rve["start"], rve["paper_optimum"]):
+        assert 0 < block["U_error"] < 0.5 * block["U"]  # h = 0.01 here: 11 % at the start
     # the wall time beside rve.json, not in it: two runs' rve.json are identical (session 31
     # audit: they differed only in wall_time_s)
     assert "wall_time_s" not in rve
