@@ -47,7 +47,7 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
                 )
             }
             # the error bars (docs/forcefield.md): U's quadrature error and each free
-            # variable's +- (paper cases and the rod relax route; not yet the field route)
+            # variable's +- (paper cases, the rod and the field relax routes)
             | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
         )
     )

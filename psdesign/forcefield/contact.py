@@ -27,12 +27,16 @@ fiber, whose field alone is recomputed (one cached field per fiber and trial val
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from psdesign.forcefield.pattern import pattern_search
+from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.geometry.fibers import Fiber
+
+#: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
+FIELD_TERMS = ("U", "volume_interaction", "surface_interaction", "surface")
 
 
 @dataclass
@@ -55,6 +59,12 @@ class ContactRelaxResult:
     n_evals: int
     wall_time_s: float
     limit_stop: bool = False  # the search stopped on max_iter / max_evals
+    potentials: dict = field(default_factory=dict)  # FIELD_TERMS at the result
+    potentials_error: dict = field(default_factory=dict)  # their quadrature bars
+    U_before_error: float = 0.0
+    poll_step: float = 0.0  # the last poll's mesh (PatternSearchResult.poll_step)
+    lower: np.ndarray | None = None  # the variables' bounds
+    upper: np.ndarray | None = None
 
 
 def grid_points(lo: np.ndarray, hi: np.ndarray, h: float) -> np.ndarray:
@@ -223,6 +233,74 @@ class _Problem:
         ]
 
 
+def overlap_energy_at(fibers: list, pairs: list, points: np.ndarray, h: float, gap: float) -> float:
+    """The volume term of :class:`_Problem` (its ``pairs``) for ``fibers`` on another grid."""
+    used = sorted({k for i, j, _ in pairs for k in (i, j)})
+    phi = {k: fibers[k].field(points) for k in used}
+    total = 0.0
+    for i, j, _ in pairs:
+        d = np.maximum(gap - np.maximum(phi[i], phi[j]), 0.0)
+        total += float(d @ d)
+    return total * h**3
+
+
+def field_potentials(volume: float, surface: float, weights) -> Potentials:
+    """This route's U and terms as :class:`Potentials` (no area: 0, not computed)."""
+    w1, w3 = float(weights[0]), float(weights[2])
+    return Potentials(w1 * volume + w3 * surface, volume, 0.0, surface, 0.0, ())
+
+
+def refined_points(lo, hi, h: float, idx: np.ndarray, r: int = 2) -> tuple[np.ndarray, float]:
+    """The ``r**3`` sub-cell centres of the cells ``idx`` of :func:`grid_points` ``(lo, hi, h)``.
+
+    Returns the points, shape ``(len(idx) * r**3, 3)`` (each cell's children consecutive), and
+    the volume of one sub-cell (the true cell volume over ``r**3``, not ``(h / r)**3``).
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    n = np.array([max(2, int(np.ceil((b - a) / h))) for a, b in zip(lo, hi, strict=True)])
+    c = (hi - lo) / n
+    centres = grid_points(lo, hi, h)[idx]
+    k = (np.arange(r) + 0.5) / r - 0.5
+    off = np.stack(np.meshgrid(k, k, k, indexing="ij"), -1).reshape(-1, 3) * c
+    return (centres[:, None, :] + off[None]).reshape(-1, 3), float(np.prod(c)) / r**3
+
+
+def overlap_energy_refined(prob: _Problem, fibers: list, lo, hi, r: int = 2) -> float:
+    """The volume term of ``prob`` for ``fibers`` with every cell of its contact zone split
+    into ``r**3`` (step ``h / r``): a grid the search never evaluated. Costs the involved
+    fibers' fields at ``r**3`` times their contact-zone points."""
+    m = r**3
+    phi, vol = {}, 0.0
+    for k, ix in prob.local.items():
+        pts, vol = refined_points(lo, hi, prob.h, ix, r)
+        phi[k] = fibers[k].field(pts).reshape(len(ix), m)
+    total = 0.0
+    for i, j, _ in prob.pairs:
+        si, sj = prob.slots[(i, j)]
+        d = np.maximum(prob.gap - np.maximum(phi[i][si], phi[j][sj]), 0.0)
+        total += float(np.sum(d * d))
+    return total * vol
+
+
+def field_potential_error(prob: _Problem, x, fibers: list, lo, hi, weights) -> tuple[dict, dict]:
+    """U and its terms at ``x`` and their quadrature bar from a FINER check grid.
+
+    The volume term once more with every contact-zone cell split in 8 (step ``h / 2``), and
+    :func:`psdesign.forcefield.potentials.quadrature_error` with ``reference="finer"``:
+    ``FINER_SAFETY * |U(h) - U(h/2)|``. Not the paper cases' ``h -> 2 h`` rule: the search
+    fits the volume term to its own grid, so at its optimum ``|U(h) - U(2h)|`` under-covers
+    (benchmarks/RESULTS.md, Session 40). The change-of-shape term is closed form (bar 0).
+    ``fibers``: the fibers at ``x``. Costs about 8 evaluations of the volume term.
+    """
+    parts = prob.split(x)
+    surf = prob.change_energy(parts)
+    at_h = field_potentials(prob.overlap_energy(parts), surf, weights)
+    check = field_potentials(overlap_energy_refined(prob, fibers, lo, hi), surf, weights)
+    err = quadrature_error(at_h, check, weights, reference="finer")
+    full = at_h.to_dict()
+    return {k: full[k] for k in FIELD_TERMS}, {k: err[k] for k in FIELD_TERMS}
+
+
 def relax_contacts(
     fibers: list,
     lo: np.ndarray,
@@ -292,6 +370,8 @@ def relax_contacts(
     on = at_bounds(prob.names, res.x, prob.lower, prob.upper)
     final = prob.result_fibers(res.x)
     gap1 = min_pair_gap(final, pts)
+    pot, err = field_potential_error(prob, res.x, final, lo, hi, weights)
+    start_err = field_potential_error(prob, x0, list(fibers), lo, hi, weights)[1]["U"]
     return ContactRelaxResult(
         fibers=final,
         movable=prob.movable,
@@ -309,6 +389,12 @@ def relax_contacts(
         n_evals=res.n_evals,
         wall_time_s=time.perf_counter() - t0,
         limit_stop=not res.converged,
+        potentials=pot,
+        potentials_error=err,
+        U_before_error=start_err,
+        poll_step=res.poll_step,
+        lower=prob.lower,
+        upper=prob.upper,
     )
 
 
@@ -419,7 +505,10 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         "overlap_fraction_before": res.overlap_before,
         "overlap_fraction_after": res.overlap_after,
         "U": res.U_after,
-        "start": {"U": res.U_before},
+        "U_error": res.potentials_error.get("U", 0.0),
+        "potentials": res.potentials,
+        "potentials_error": res.potentials_error,
+        "start": {"U": res.U_before, "U_error": res.U_before_error},
         "converged": res.converged,
         "status": status,
         "at_bound": res.at_bound,
@@ -427,11 +516,22 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         "message": res.message,
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
+        # +- the last poll's mesh times each range (units of "variables": shifts in periods)
+        "variables_error": {
+            n: float(res.poll_step * (b - a))
+            for n, a, b in zip(res.names, res.lower, res.upper, strict=True)
+        }
+        if res.lower is not None
+        else {},
         "grid_m": h_m,
         "free_variables": {
             "max_shift_m": kw["max_shift"] * period,
             "u_max": kw["u_max"],
             "tie_bend": bool(kw.get("tie_bend", False)),
+        },
+        "free_variables_error": {
+            "shift_m": float(res.poll_step * 2.0 * kw["max_shift"] * period),
+            "u": float(res.poll_step * 2.0 * kw["u_max"]),
         },
         "surface_term": "change of shape (bend moment and shift)",
     }

@@ -445,7 +445,15 @@ class Potentials:
         }
 
 
-def quadrature_error(fine: Potentials, coarse: Potentials, weights) -> dict:
+#: Factor of a bar from a FINER reference (``reference="finer"``): Roache's safety factor
+#: F_s = 3 on the working value's two-grid estimate ``|U(h) - U(h/2)| r^p / (r^p - 1)`` with
+#: ``r = 2, p = 2`` (that value's own error is ~1/4 of ``h``'s), i.e. ``3 * 4/3 = 4``.
+FINER_SAFETY = 4.0
+
+
+def quadrature_error(
+    fine: Potentials, coarse: Potentials, weights, reference: str = "coarser"
+) -> dict:
     """Error bar of each term of ``fine`` from one evaluation at a coarser quadrature.
 
     Each term's bar is ``|fine - coarse|`` (no Richardson division: for a second-order rule
@@ -459,18 +467,28 @@ def quadrature_error(fine: Potentials, coarse: Potentials, weights) -> dict:
         The same fibers at the working quadrature and at the coarser one (``h -> 2 h``,
         ``n_s, n_theta`` halved: ``ForceFieldProblem.potential_error`` in ``cases.py``).
     weights : (w1, w2, w3)
+    reference : {"coarser", "finer"}
+        ``"finer"``: ``coarse`` is instead a FINER evaluation (``h -> h/2``; the field relax
+        route, ``contact.field_potential_error``) and ``fine`` the value reported; each bar is
+        then ``FINER_SAFETY * |fine - coarse|`` (Roache's F_s = 3 on the two-grid estimate).
 
     Returns
     -------
     dict
         The keys of :meth:`Potentials.to_dict`, each the bar of that value (>= 0).
     """
+    if reference not in ("coarser", "finer"):
+        raise ValueError(f"reference must be 'coarser' or 'finer', got {reference!r}")
+    s = FINER_SAFETY if reference == "finer" else 1.0
     w = check_weights(weights)
     a, b = fine.to_dict(), coarse.to_dict()
-    err = {k: abs(a[k] - b[k]) for k in ("volume_interaction", "surface_interaction", "surface")}
-    err["area"] = abs(fine.area - coarse.area)
+    err = {
+        k: s * abs(a[k] - b[k]) for k in ("volume_interaction", "surface_interaction", "surface")
+    }
+    err["area"] = s * abs(fine.area - coarse.area)
     err["per_fiber_surface"] = [
-        abs(x - y) for x, y in zip(fine.per_fiber_surface, coarse.per_fiber_surface, strict=True)
+        s * abs(x - y)
+        for x, y in zip(fine.per_fiber_surface, coarse.per_fiber_surface, strict=True)
     ]
     terms = (err["volume_interaction"], err["surface_interaction"], err["surface"])
     return {"U": float(np.dot(w, terms)), **err}
