@@ -233,17 +233,6 @@ class _Problem:
         ]
 
 
-def overlap_energy_at(fibers: list, pairs: list, points: np.ndarray, h: float, gap: float) -> float:
-    """The volume term of :class:`_Problem` (its ``pairs``) for ``fibers`` on another grid."""
-    used = sorted({k for i, j, _ in pairs for k in (i, j)})
-    phi = {k: fibers[k].field(points) for k in used}
-    total = 0.0
-    for i, j, _ in pairs:
-        d = np.maximum(gap - np.maximum(phi[i], phi[j]), 0.0)
-        total += float(d @ d)
-    return total * h**3
-
-
 def field_potentials(volume: float, surface: float, weights) -> Potentials:
     """This route's U and terms as :class:`Potentials` (no area: 0, not computed)."""
     w1, w3 = float(weights[0]), float(weights[2])
