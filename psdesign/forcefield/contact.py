@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from psdesign.forcefield.pattern import pattern_search
+from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.geometry.fibers import Fiber
 
@@ -481,6 +481,7 @@ def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):
 
 def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) -> dict:
     """The ``summary.json`` record of a field-route relaxation (lengths in metres)."""
+    from psdesign.forcefield.relax import free_variable_bars
     from psdesign.forcefield.run import search_status
 
     status = search_status(res.limit_stop, res.at_bound, res.min_gap_after < 0.0)
@@ -505,11 +506,8 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         "message": res.message,
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
-        # +- the last poll's mesh times each range (units of "variables": shifts in periods)
-        "variables_error": {
-            n: float(res.poll_step * (b - a))
-            for n, a, b in zip(res.names, res.lower, res.upper, strict=True)
-        }
+        # units of "variables": shifts in periods
+        "variables_error": poll_bars(res.names, res.lower, res.upper, res.poll_step)
         if res.lower is not None
         else {},
         "grid_m": h_m,
@@ -518,9 +516,6 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
             "u_max": kw["u_max"],
             "tie_bend": bool(kw.get("tie_bend", False)),
         },
-        "free_variables_error": {
-            "shift_m": float(res.poll_step * 2.0 * kw["max_shift"] * period),
-            "u": float(res.poll_step * 2.0 * kw["u_max"]),
-        },
+        "free_variables_error": free_variable_bars(res.poll_step, kw, period),
         "surface_term": "change of shape (bend moment and shift)",
     }

@@ -76,6 +76,17 @@ class PatternSearchResult:
     poll_step: float = float("nan")
 
 
+def poll_bars(names, lower, upper, poll_step: float) -> dict[str, float]:
+    """The +- of each variable of a pattern search's optimum: the last poll's mesh
+    (:attr:`PatternSearchResult.poll_step`, a fraction of each range) times the variable's
+    range ``upper - lower``; no compass neighbour that far was better.
+
+    >>> poll_bars(["a", "b"], [0.0, -1.0], [2.0, 1.0], 0.01)
+    {'a': 0.02, 'b': 0.02}
+    """
+    return {n: float(poll_step * (b - a)) for n, a, b in zip(names, lower, upper, strict=True)}
+
+
 def check_bounds(x0, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate a start point and bounds; returns float arrays."""
     x0 = np.atleast_1d(np.asarray(x0, float))

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from psdesign.errors import SpecError
-from psdesign.forcefield.pattern import pattern_search
+from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.packing.fiberset import (
     FiberState,
@@ -536,17 +536,11 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "n_evals": res.n_evals,
         "wall_time_s": res.wall_time_s,
         # in the units of "variables" (shifts in periods, u dimensionless)
-        "variables_error": {
-            n: float(poll * (b - a))
-            for n, a, b in zip(res.names, res.lower, res.upper, strict=True)
-        }
+        "variables_error": poll_bars(res.names, res.lower, res.upper, poll)
         if res.x is not None and res.lower is not None
         else {},
         "free_variables": {"max_shift_m": kw["max_shift"] * period, "u_max": kw["u_max"]},
-        "free_variables_error": {
-            "shift_m": float(poll * 2.0 * kw["max_shift"] * period),
-            "u": float(poll * 2.0 * kw["u_max"]),
-        },
+        "free_variables_error": free_variable_bars(poll, kw, period),
         "surface_term": "bending area",
     }
     with staged_directory(out_dir) as tmp:
@@ -554,6 +548,14 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(relaxed_spec_toml(spec, others, res.state, period))
     return summary
+
+
+def free_variable_bars(poll_step: float, kw: dict, period: float) -> dict[str, float]:
+    """The +- of a relaxation's shift (m) and bend moment: the last poll's mesh times their
+    ranges ``[-max_shift, max_shift]`` (periods) and ``[-u_max, u_max]``
+    (:func:`psdesign.forcefield.pattern.poll_bars`); both relax routes."""
+    s, u = kw["max_shift"] * period, kw["u_max"]
+    return poll_bars(("shift_m", "u"), (-s, -u), (s, u), poll_step)
 
 
 def st_start(st: FiberState, f_straight: float) -> FiberState:

@@ -49,7 +49,7 @@ from psdesign.forcefield.cases import (
     six_fiber_problem,
     two_fiber_problem,
 )
-from psdesign.forcefield.pattern import PatternSearchResult
+from psdesign.forcefield.pattern import PatternSearchResult, poll_bars
 from psdesign.schema.errors import did_you_mean, spec_error
 from psdesign.schema.forcefield import ForceFieldTable, SixFiber, TwoFiber
 from psdesign.schema.spec import read_toml
@@ -214,11 +214,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "weights": prob.weights.tolist(),
         "quadrature": {"h": prob.h, "n_s": prob.n_s, "n_theta": prob.n_theta},
         "free_variables": dict(zip(prob.param.free, map(float, res.x), strict=True)),
-        # +- the last poll's mesh: no compass neighbour that far was better (pattern.py)
-        "free_variables_error": {
-            n: float(res.poll_step * (b - a))
-            for n, a, b in zip(prob.param.free, prob.lower, prob.upper, strict=True)
-        },
+        "free_variables_error": poll_bars(prob.param.free, prob.lower, prob.upper, res.poll_step),
         "bounds": {
             n: [float(a), float(b)]
             for n, a, b in zip(prob.param.free, prob.lower, prob.upper, strict=True)
