@@ -39,7 +39,12 @@ from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.geometry.throat import percolation_radius, wall_distance_voxels
-from psdesign.schema.flow import NATIVE_BC, TREATMENT_ALLOWED, treatment_refusal
+from psdesign.schema.flow import (
+    NATIVE_BC,
+    TREATMENT_ALLOWED,
+    resolution_key,
+    treatment_refusal,
+)
 
 __all__ = [
     "BC_MODELS",
@@ -347,7 +352,11 @@ def with_error_estimate(
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
-    key = "flow.edge_length" if scheme == "tetwild" else "flow.lattice_step"
+    # the key of the route the user chose (flow.mesher); the mesh's own report only where the
+    # table names no mesher (a mesh cached before session 39 reports no edge: it named
+    # flow.lattice_step on the pytetwild route)
+    mesher = flow.get("mesher") or ("pytetwild" if scheme == "tetwild" else None)
+    key = resolution_key("fem", mesher)
     warnings += err.resolution_warnings(
         cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0
     )
