@@ -44,6 +44,7 @@ from psdesign.schema.flow import (
     TREATMENT_ALLOWED,
     resolution_key,
     treatment_refusal,
+    unread_mesher_key,
 )
 
 __all__ = [
@@ -461,9 +462,10 @@ def permeability(
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     out = with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
-    unused = unused_permeameter_keys(flow, out["bc"])
-    if unused is not None:
-        out["warnings"].append(unused)
+    unread = unread_mesher_key({**flow, "solver": solver})
+    for unused in (unused_permeameter_keys(flow, out["bc"]), unread):
+        if unused is not None:
+            out["warnings"].append(unused)
     return out
 
 

@@ -43,6 +43,10 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   pytetwild mesh's divided by 6 (its estimate is 1.03-4.5 x the meshes made; one copy for
   `"auto"`; `flow.edge_length`); the voxel solve's (one copy for `"auto"`; `rve.voxel`, or
   `image.crop`). The FEM solve checks the cap again from the built mesh.
+* Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
+  checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)
+  and `flow.edge_length` (pytetwild). The other mesher's key on an FEM solve is not used and
+  the result warns so.
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.
 * `fibers[i].diameter` < the smallest edge and the period; at most 2000 explicit fibers.

@@ -96,6 +96,29 @@ def resolution_key(solver: str, mesher: str | None = None) -> str:
     return RESOLUTION_KEY["voxel" if solver == "voxel" else mesher or "stuffing"]
 
 
+def unread_mesher_key(flow: dict) -> str | None:
+    """The warning for the other FEM mesher's resolution key set on an FEM solve, or None:
+    ``flow.edge_length`` with the stuffing mesher, ``flow.lattice_step`` with pytetwild (each
+    mesher reads only its own, :data:`RESOLUTION_KEY`; the value was ignored without a word).
+
+    >>> unread_mesher_key({"solver": "fem", "mesher": "stuffing", "edge_length": 0.005})[:48]
+    'flow.edge_length = 0.005 is not used: mesher stu'
+    >>> unread_mesher_key({"solver": "fem", "mesher": "pytetwild", "edge_length": 0.1}) is None
+    True
+    """
+    if flow.get("solver", "fem") != "fem":
+        return None
+    mesher = flow.get("mesher") or "stuffing"
+    other = "pytetwild" if mesher == "stuffing" else "stuffing"
+    name = RESOLUTION_KEY[other].removeprefix("flow.")
+    if flow.get(name) is None:
+        return None
+    return (
+        f"flow.{name} = {flow[name]!r} is not used: mesher {mesher} reads "
+        f"{RESOLUTION_KEY[mesher]} ({RESOLUTION_KEY[other]} is mesher {other}'s)"
+    )
+
+
 class FlowTable(Table):
     """Stokes solve and boundary conditions."""
 

@@ -157,3 +157,57 @@ def test_the_under_resolution_warning_names_the_route_key(mesher, key):
     out = P.with_error_estimate(_RVE(), _Fields(), "z", {"mesher": mesher}, "fem", res, False)
     (line,) = [w for w in out["warnings"] if "across the thinnest fiber" in w]
     assert f"refine rve.voxel / {key} (" in line, line
+
+
+@pytest.mark.parametrize(
+    "route, refused", [("pytetwild", False), ("stuffing", True), ("voxel", True)]
+)
+def test_a_lattice_step_is_checked_where_a_stuffing_mesh_reads_it(route, refused):
+    """A 1 nm lattice step (8e12 cells in the 20 um cube): pytetwild does not read it, and was
+    refused naming it; the stuffing route and a voxel spec (``psdesign mesh`` meshes it with
+    the stuffing mesher) still refuse it, and a pytetwild spec meshed with ``--mesher
+    stuffing`` is validated again with that mesher (psdesign/cli/mesh.py)."""
+    spec = _spec(route, 10.0)
+    spec["flow"]["lattice_step"] = 1e-9
+    if not refused:
+        validate_spec(spec)
+        spec["flow"]["mesher"] = "stuffing"  # what psdesign mesh --mesher stuffing validates
+    with pytest.raises(SpecError) as ei:
+        validate_spec(spec)
+    assert ei.value.key == "flow.lattice_step" and "8e+12 cells" in ei.value.message
+
+
+@pytest.mark.parametrize(
+    "mesher, key, value", [("stuffing", "edge_length", 0.005), ("pytetwild", "lattice_step", 1e-6)]
+)
+def test_the_other_meshers_key_is_named_as_unused(
+    mesher, key, value, tmp_path, capsys, monkeypatch
+):
+    """flow.edge_length on the stuffing route (or flow.lattice_step on pytetwild) was ignored
+    without a word (a 20 um cube with edge_length = 0.005 solved with the default lattice,
+    exit 0, no line): now a warning names it and the key the route reads."""
+
+    def route(rve, fields, direction, flow, solver, progress=None):
+        return {
+            "permeability_m2": 2e-11,
+            "direction": "z",
+            "porosity": 0.92,
+            "solver": solver,
+            "bc": "permeameter",
+            "converged": True,
+            "residual": 1e-9,
+            "iterations": 1,
+            "flux_imbalance": 1e-9,
+            "wall_time_s": 0.0,
+            "cells_per_diameter": 20.0,
+        }
+
+    monkeypatch.setattr(P, "route_result", route)
+    path = tmp_path / "s.toml"
+    flow = f'solver = "fem"\nmesher = "{mesher}"\n{key} = {value}\n'
+    path.write_text(ONE_FIBER.format(flow=flow, cap=10.0))
+    assert main(["permeability", str(path), "--quiet", "--no-error-estimate"]) == 0
+    err = capsys.readouterr().err
+    own = "flow.lattice_step" if mesher == "stuffing" else "flow.edge_length"
+    line = f"psdesign: warning: flow.{key} = {value!r} is not used: mesher {mesher} reads {own}"
+    assert line in err, err
