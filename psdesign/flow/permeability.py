@@ -491,7 +491,8 @@ def auto_lengthen(
 ) -> tuple[dict, dict]:
     """A ``permeameter_copies = "auto"`` permeameter solved again with one copy more while its
     window term is above the threshold (:func:`psdesign.flow.stack.next_auto_copies`) and the
-    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`).
+    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`) and
+    ``flow.max_memory_gb``.
 
     Returns the final result and the ``[flow]`` table it was solved with, its copies pinned to
     the final solve's for the error bar's second resolution, also when ``"auto"`` did not
@@ -521,11 +522,20 @@ def auto_lengthen(
             n = float(np.prod(fields.grid.shape))
             need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
             limit = budget.MEMORY_FRACTION * budget.machine_memory()
+            cap = flow.get("max_memory_gb")
             if need > limit:
                 why, copies = "budget", None
                 reason = (
                     f"{done + 1} would need about {need / 2**30:.3g} GiB; the budget is "
                     f"{limit / 2**30:.3g} GiB, half the machine"
+                )
+            elif cap is not None and need > float(cap) * 1e9:
+                # the FEM solve refused it after the first solve's work (exit 2, no K); the
+                # voxel route went over the cap without a word
+                why, copies = "max_memory_gb", None
+                reason = (
+                    f"{done + 1} would need about {need / 1e9:.3g} GB, over flow.max_memory_gb "
+                    f"= {float(cap):.3g} GB"
                 )
         if copies is None:
             break
