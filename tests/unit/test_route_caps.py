@@ -244,3 +244,18 @@ def test_the_wall_distance_is_transformed_once_per_grid(tmp_path, capsys, monkey
     del d
     gc.collect()
     assert throat._HELD == []
+
+
+def test_the_command_lines_solver_decides_the_checks(tmp_path, capsys):
+    """A spec written for the FEM with a 0.01 GB cap (its stuffing solve needs 0.391 GB) run
+    with ``--solver voxel`` (1.06e-3 GB) was refused by the FEM's check, naming
+    flow.lattice_step, a key of a route not taken; the spec is now validated with the chosen
+    solver, and the FEM run of the same spec is still refused."""
+    path = tmp_path / "s.toml"
+    path.write_text(ONE_FIBER.format(flow=ROUTES["stuffing"][0], cap=0.01))
+    args = ["permeability", str(path), "--quiet", "--no-error-estimate"]
+    assert main([*args, "--solver", "voxel"]) == 0
+    assert "solver voxel" in capsys.readouterr().out
+    assert main(args) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "flow.max_memory_gb" in line and line.endswith("a coarser flow.lattice_step)")
