@@ -41,6 +41,9 @@ SPECS = {
     + "[[fibers]]\ndiameter = 1e-6\n" * 20000,
     # session 40 (s40-fuzz)
     "max_memory_1e-300": RVE + GEN + "[flow]\nmax_memory_gb = 1e-300\n",
+    # session 41 (s41-routes): the cap on the pytetwild and voxel routes (was: meshed / solved)
+    "max_memory_1e-6_tetwild": RVE + GEN + '[flow]\nmesher = "pytetwild"\nmax_memory_gb = 1e-6\n',
+    "max_memory_1e-6_voxel": RVE + GEN + '[flow]\nsolver = "voxel"\nmax_memory_gb = 1e-6\n',
 }
 #: Force-field specs (``psdesign forcefield``); session 40: the other case's table was ignored.
 FORCEFIELD = {

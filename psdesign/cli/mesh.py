@@ -21,13 +21,9 @@ def _load_spec(path: str, mesher: str | None) -> dict:
     """Read and validate the spec with ``--mesher`` already in its ``[flow]`` table, so that
     the up-front checks (the pytetwild budget and edge, a periodic mesh) see the mesher that
     will run, before the RVE is built."""
-    from psdesign.schema.spec import read_toml, validate_spec
+    from psdesign.schema.spec import load_spec
 
-    data = read_toml(path)
-    flow = data.get("flow", {})
-    if mesher and isinstance(flow, dict):
-        data["flow"] = {**flow, "mesher": mesher}
-    return validate_spec(data, base=Path(path).parent)
+    return load_spec(path, {"mesher": mesher})
 
 
 def _drop_stale_outputs(folder: Path, formats: tuple[str, ...]) -> list[str]:

@@ -175,7 +175,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     from psdesign.packing.build import build_rve
     from psdesign.schema.spec import load_spec
 
-    spec = load_spec(args.spec)
+    spec = load_spec(args.spec, {"solver": args.solver})  # the chosen route's checks
     flow = dict(spec["flow"])
     if args.sides:
         flow["sides"] = args.sides

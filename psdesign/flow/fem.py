@@ -48,6 +48,7 @@ from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatch
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
+from psdesign.schema.flow import resolution_key
 from solvers.fem.memory import MemoryLimitError
 
 #: The ``flow.bc`` models this route applies.
@@ -320,7 +321,7 @@ def permeability_fem(
             periods = plan.copies * plan.periods  # of the structure in the sample: the window
             res, out = _permeameter(rve, fields, name, ax, flow, mesh, t0, t_mesh, periods)
     except MemoryLimitError as exc:  # the solver's "... or pass force=True": no spec key
-        raise memory_error(exc, mesh, flow.get("max_memory_gb")) from None
+        raise memory_error(exc, mesh, flow.get("max_memory_gb"), flow.get("mesher")) from None
     if plan is not None:
         out |= plan.as_dict()
         if plan.note:
@@ -346,18 +347,25 @@ def permeability_fem(
 FEM_SECONDS_PER_UNKNOWN = 1.2e-4
 
 
-def memory_error(exc: MemoryLimitError, mesh, cap: float | None) -> SpecError:
+def memory_error(
+    exc: MemoryLimitError, mesh, cap: float | None, mesher: str | None = None
+) -> SpecError:
     """The solve's memory refusal as the spec's one line naming ``flow.max_memory_gb``
     (``cap``; without it the limit is 80 % of the free memory), where the solver's line said
-    "pass force=True", no key of a spec or option of a command."""
+    "pass force=True", no key of a spec or option of a command. The coarser mesh it advises is
+    the key of the route's ``mesher`` (``flow.mesher``,
+    :func:`psdesign.schema.flow.resolution_key`): ``flow.edge_length`` for pytetwild, which
+    ignores the lattice step the line named before session 41."""
     if exc.estimate_gb is None:
         return SpecError("flow.max_memory_gb", str(exc))
     limit = "the cap" if cap is not None else "80 % of the free memory"
+    key = resolution_key("fem", mesher)
+    coarser = "a longer" if key == "flow.edge_length" else "a coarser"
     return SpecError(
         "flow.max_memory_gb",
         f"the FEM solve of {len(mesh.tets)} tets needs about {exc.estimate_gb:.3g} GB, over "
-        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or a coarser "
-        "flow.lattice_step)",
+        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or "
+        f"{coarser} {key})",
     )
 
 

@@ -38,8 +38,14 @@ from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pr
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
-from psdesign.geometry.throat import percolation_radius, wall_distance_voxels
-from psdesign.schema.flow import NATIVE_BC, TREATMENT_ALLOWED, treatment_refusal
+from psdesign.geometry.throat import held_wall_distance, percolation_radius
+from psdesign.schema.flow import (
+    NATIVE_BC,
+    TREATMENT_ALLOWED,
+    resolution_key,
+    treatment_refusal,
+    unread_mesher_key,
+)
 
 __all__ = [
     "BC_MODELS",
@@ -295,7 +301,7 @@ def _throat_fn(fields: VoxelFields, direction: str | int, step: float) -> Callab
     (:func:`psdesign.flow.error.throat_limits`, e.g. along straight fibres)."""
 
     def run() -> float | None:
-        wd = wall_distance_voxels(fields.distance, step, fields.analytic_distance)
+        wd = held_wall_distance(fields.distance, step, fields.analytic_distance)
         r = percolation_radius(wd, axis_of(direction)[1])
         if not err.throat_limits(r, float(np.max(wd, initial=0.0))):
             return None
@@ -347,7 +353,11 @@ def with_error_estimate(
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
-    key = "flow.edge_length" if scheme == "tetwild" else "flow.lattice_step"
+    # the key of the route the user chose (flow.mesher); the mesh's own report only where the
+    # table names no mesher (a mesh cached before session 39 reports no edge: it named
+    # flow.lattice_step on the pytetwild route)
+    mesher = flow.get("mesher") or ("pytetwild" if scheme == "tetwild" else None)
+    key = resolution_key("fem", mesher)
     warnings += err.resolution_warnings(
         cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0
     )
@@ -452,9 +462,10 @@ def permeability(
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     out = with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
-    unused = unused_permeameter_keys(flow, out["bc"])
-    if unused is not None:
-        out["warnings"].append(unused)
+    unread = unread_mesher_key({**flow, "solver": solver})
+    for unused in (unused_permeameter_keys(flow, out["bc"]), unread):
+        if unused is not None:
+            out["warnings"].append(unused)
     return out
 
 
@@ -480,7 +491,8 @@ def auto_lengthen(
 ) -> tuple[dict, dict]:
     """A ``permeameter_copies = "auto"`` permeameter solved again with one copy more while its
     window term is above the threshold (:func:`psdesign.flow.stack.next_auto_copies`) and the
-    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`).
+    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`) and
+    ``flow.max_memory_gb``.
 
     Returns the final result and the ``[flow]`` table it was solved with, its copies pinned to
     the final solve's for the error bar's second resolution, also when ``"auto"`` did not
@@ -510,11 +522,20 @@ def auto_lengthen(
             n = float(np.prod(fields.grid.shape))
             need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
             limit = budget.MEMORY_FRACTION * budget.machine_memory()
+            cap = flow.get("max_memory_gb")
             if need > limit:
                 why, copies = "budget", None
                 reason = (
                     f"{done + 1} would need about {need / 2**30:.3g} GiB; the budget is "
                     f"{limit / 2**30:.3g} GiB, half the machine"
+                )
+            elif cap is not None and need > float(cap) * 1e9:
+                # the FEM solve refused it after the first solve's work (exit 2, no K); the
+                # voxel route went over the cap without a word
+                why, copies = "max_memory_gb", None
+                reason = (
+                    f"{done + 1} would need about {need / 1e9:.3g} GB, over flow.max_memory_gb "
+                    f"= {float(cap):.3g} GB"
                 )
         if copies is None:
             break

@@ -126,9 +126,10 @@ def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int =
 def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
     from psdesign.study.readback import read_json_object, read_results
 
-    if not (out / "results.csv").is_file():
-        raise ReportError(f"out_dir: no results.csv in {out}; run the study first")
-    df = read_results(out)
+    try:  # the reader's check of results.csv (missing, empty, not CSV) is the one check
+        df = read_results(out)
+    except ValueError as exc:
+        raise ReportError(str(exc)) from None
     study = {}
     if (out / "study.json").is_file():
         study = read_json_object(out / "study.json").get("study", {})
@@ -665,7 +666,8 @@ def write_report(out_dir: str | Path) -> Path:
     Raises
     ------
     ReportError
-        If the folder holds no ``results.csv``.
+        If the folder holds no readable ``results.csv``
+        (:func:`psdesign.study.readback.read_results`' one line).
     psdesign.io.outputs.OutputError
         If ``report.html`` exists and psdesign did not write it (it is never replaced).
     """

@@ -16,6 +16,10 @@ Every check raises a schema error naming the key and the estimate. Figures:
   the stuffing mesh, whose size follows from the lattice (:func:`fem_mesh_size`; the default
   fiber-relative step is coarsened to fit, :func:`fem_lattice_step`); before it, the
   FEM's own field refined for thin fibers (:func:`fem_field_bytes`, at most about 1 GB);
+* ``flow.max_memory_gb``, on every route before any work (:func:`check_cap`, over it by
+  :data:`CAP_MARGIN`): the stuffing FEM's estimate (:func:`check_fem`), pytetwild's least mesh
+  (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`);
+  each refusal names the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
@@ -51,6 +55,15 @@ POINTS_PER_PORE_CELL = 1.5
 #: factor (the solve's own estimate from the built mesh refuses the rest): the estimate is
 #: within 5 % of the solve's (20 um cube, 6 um rod, 2 um step: 0.372 GB against 0.38 GB).
 CAP_MARGIN = 1.25
+#: pytetwild's mesh estimate (:func:`tetwild_mesh_size`, rounded up for the budget) over the
+#: mesh made, in tets: 1.03-1.06 on the Table III seeds (100 x 100 x 140 um); session 41
+#: (benchmarks/RESULTS.md): 2.60 and 2.64 for one 6 um fibre in a 20 and 30 um box (2 copies,
+#: default edge), 4.47 at edge_length 0.1, 1.42 and 1.16 for a 60 x 60 x 40 um generated
+#: paper (default edge, 0.06); vertices 1.19-4.05. ``flow.max_memory_gb`` is refused before
+#: meshing only when the estimate divided by this factor (the largest ratio, 4.47, with a third
+#: to spare) is over the cap; the solve's estimate from the built mesh refuses the rest, naming
+#: flow.edge_length.
+TETWILD_CAP_SAFETY = 6.0
 #: Periodic copies of one fiber in the box (a tiny period multiplies the work).
 MAX_COPIES = 1000
 MAX_EXPLICIT_FIBERS = 2000
@@ -98,6 +111,33 @@ def stack_of(flow) -> tuple[int, float]:
     copies = flow.permeameter_copies
     n = AUTO_PERMEAMETER_COPIES if copies in (None, "auto") else int(copies)
     return n, float(flow.aux_length)
+
+
+def least_stack_of(flow) -> tuple[int, float]:
+    """:func:`stack_of` with ``"auto"`` copies counted as one, the fewest a run stacks (it
+    takes two only for a periodic one-period RVE): what ``flow.max_memory_gb`` is checked
+    against on the pytetwild and voxel routes, so that no spec a run would fit is refused."""
+    copies, aux = stack_of(flow)
+    if flow is not None and flow.permeameter_copies in (None, "auto"):
+        copies = 1
+    return copies, aux
+
+
+def check_cap(flow, need: float, what: str, coarser: str, least: bool = False) -> None:
+    """Refuse ``need`` bytes (the route's estimate, ``what`` describes it) over
+    ``flow.max_memory_gb`` times :data:`CAP_MARGIN`, naming the key, the estimate and
+    ``coarser`` (the route's resolution key with its direction); ``least``: ``need`` is a
+    lower bound (the built mesh's estimate decides above it)."""
+    cap = getattr(flow, "max_memory_gb", None)
+    if cap is None or need <= CAP_MARGIN * cap * 1e9:
+        return
+    gb = f"{need / 1e9:.3g} GB"
+    raise fail(
+        "flow.max_memory_gb",
+        f"{what} needs {'at least' if least else 'about'} {gb}, over the cap of {cap:.3g} GB",
+        (f"over {gb} (the built mesh's estimate decides)" if least else f">= {gb}")
+        + f", or {coarser}",
+    )
 
 
 def solved_cells(n: float, copies: int, aux: float) -> float:
@@ -151,6 +191,8 @@ def check_grid(
         need = grid_bytes(n, solver, copies, aux)
     budget = MEMORY_FRACTION * machine_memory()
     if need <= budget:
+        if solver == "voxel":
+            _check_voxel_cap(shape, flow, key)
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     single = grid_bytes(n, solver, 1, aux)
@@ -175,6 +217,24 @@ def check_grid(
         f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
         allowed,
     )
+
+
+def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
+    """``flow.max_memory_gb`` on the voxel route: the grid's estimate (:func:`grid_bytes`, the
+    fewest stacked copies, :func:`least_stack_of`; the diffuse wall's assembled solve) over the
+    cap refuses the spec before the grid is built (the solver itself takes no cap)."""
+    if getattr(flow, "max_memory_gb", None) is None:
+        return
+    n = math.prod(shape)
+    dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
+    if getattr(flow, "wall_treatment", None) == "diffuse":
+        from solvers.voxel.diffuse import diffuse_memory_bytes
+
+        need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
+    else:
+        need = grid_bytes(n, "voxel", *least_stack_of(flow))
+    smaller = "a smaller image.crop" if key == "image.crop" else f"a coarser {key}"
+    check_cap(flow, need, f"the voxel solve of the {dims} grid", smaller)
 
 
 def fem_mesh_size(
@@ -307,16 +367,17 @@ def check_fem(
 
 
 def tetwild_mesh_size(
-    size: tuple[float, ...], flow, fiber_diameter: float | None
+    size: tuple[float, ...], flow, fiber_diameter: float | None, least: bool = False
 ) -> tuple[float, float, float]:
     """``(n_points, n_tets, edge)`` of the pytetwild mesh of a spec
     (:func:`psdesign.meshing.options.tetwild_mesh_size` of the box with the stack and its
     reservoirs, :func:`~psdesign.meshing.options.target_edge_length`, the shortest edge over
-    the possible flow axes when ``flow.direction`` is not given)."""
+    the possible flow axes when ``flow.direction`` is not given); ``least``: the fewest stacked
+    copies (:func:`least_stack_of`)."""
     from psdesign.meshing.options import MeshOptions, envelope_from_diameter, target_edge_length
     from psdesign.meshing.options import tetwild_mesh_size as estimate
 
-    copies, aux = stack_of(flow)
+    copies, aux = least_stack_of(flow) if least else stack_of(flow)
     if flow.edge_length is not None and flow.edge_length > 1.0:  # the mesher refuses it too
         raise fail(
             "flow.edge_length",
@@ -345,6 +406,13 @@ def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -
     total = estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
     budget = MEMORY_FRACTION * machine_memory()
     if total <= budget:
+        # the cap: the least mesh this spec can give (the estimate over its safety factor, one
+        # copy for "auto"); the longer edge is what shrinks it on this route
+        pts, tets, edge = tetwild_mesh_size(size, flow, fiber_diameter, least=True)
+        pts, tets = pts / TETWILD_CAP_SAFETY, tets / TETWILD_CAP_SAFETY
+        least = estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
+        what = f"the FEM solve of at least {tets:.3g} tets (pytetwild, edge {edge:.3g} m)"
+        check_cap(flow, least, what, "a longer flow.edge_length", least=True)
         return
     raise fail(
         "flow.edge_length",

@@ -38,8 +38,15 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   for an edge coarser than 0.85 diameters; `psdesign/meshing/options.py`), refused naming
   `flow.edge_length`. A spec that fits
   as one copy but not as the stack names `flow.permeameter_copies`. With
-  `flow.max_memory_gb` (stuffing mesh) the same estimate over 1.25 x the cap is refused naming
-  it; the solve checks the cap again from the built mesh.
+  `flow.max_memory_gb` every route's estimate over 1.25 x the cap is refused naming it and the
+  route's resolution key, before any work: the stuffing mesh's (`flow.lattice_step`); the
+  pytetwild mesh's divided by 6 (its estimate is 1.03-4.5 x the meshes made; one copy for
+  `"auto"`; `flow.edge_length`); the voxel solve's (one copy for `"auto"`; `rve.voxel`, or
+  `image.crop`). The FEM solve checks the cap again from the built mesh.
+* Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
+  checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)
+  and `flow.edge_length` (pytetwild). The other mesher's key on an FEM solve is not used and
+  the result warns so.
 * `rve.period`: at most 1000 periodic copies of a fiber in the box, at most 100 x the largest
   edge.
 * `fibers[i].diameter` < the smallest edge and the period; at most 2000 explicit fibers.

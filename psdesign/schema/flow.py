@@ -77,6 +77,46 @@ DEFAULT_FLOW = {
 LATTICE_STEP_RANGE = "> 0 m, <= half the smallest edge, at most 5e7 lattice cells"
 #: The allowed range of ``flow.edge_length`` with ``mesher = "pytetwild"``, as refusals print it.
 PYTETWILD_EDGE_RANGE = "in [0.005, 1] of the box diagonal"
+#: The key that sets each route's resolution, as refusals and warnings name it: the FEM's
+#: mesher's (``flow.mesher``) or the voxel grid's.
+RESOLUTION_KEY = {
+    "stuffing": "flow.lattice_step",
+    "pytetwild": "flow.edge_length",
+    "voxel": "rve.voxel",
+}
+
+
+def resolution_key(solver: str, mesher: str | None = None) -> str:
+    """The key that refines the route ``solver`` (and, for the FEM, ``mesher``, default
+    ``"stuffing"``) reads: what a refusal or warning on that route must name.
+
+    >>> resolution_key("fem", "pytetwild"), resolution_key("fem"), resolution_key("voxel")
+    ('flow.edge_length', 'flow.lattice_step', 'rve.voxel')
+    """
+    return RESOLUTION_KEY["voxel" if solver == "voxel" else mesher or "stuffing"]
+
+
+def unread_mesher_key(flow: dict) -> str | None:
+    """The warning for the other FEM mesher's resolution key set on an FEM solve, or None:
+    ``flow.edge_length`` with the stuffing mesher, ``flow.lattice_step`` with pytetwild (each
+    mesher reads only its own, :data:`RESOLUTION_KEY`; the value was ignored without a word).
+
+    >>> unread_mesher_key({"solver": "fem", "mesher": "stuffing", "edge_length": 0.005})[:48]
+    'flow.edge_length = 0.005 is not used: mesher stu'
+    >>> unread_mesher_key({"solver": "fem", "mesher": "pytetwild", "edge_length": 0.1}) is None
+    True
+    """
+    if flow.get("solver", "fem") != "fem":
+        return None
+    mesher = flow.get("mesher") or "stuffing"
+    other = "pytetwild" if mesher == "stuffing" else "stuffing"
+    name = RESOLUTION_KEY[other].removeprefix("flow.")
+    if flow.get(name) is None:
+        return None
+    return (
+        f"flow.{name} = {flow[name]!r} is not used: mesher {mesher} reads "
+        f"{RESOLUTION_KEY[mesher]} ({RESOLUTION_KEY[other]} is mesher {other}'s)"
+    )
 
 
 class FlowTable(Table):
@@ -131,8 +171,8 @@ class FlowTable(Table):
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None,
-        description="fem solver memory cap, GB in (0, 1e5]; the FEM solve's estimated memory "
-        "within it",
+        description="memory cap of the solve, GB in (0, 1e5]; either solver's estimated "
+        "memory within it, checked before any work (the FEM's again on the built mesh)",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
         None,

@@ -81,15 +81,24 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
         raise bad(f"cannot read {p}: {exc.strerror or exc}") from None
 
 
-def load_spec(path: str | Path) -> dict:
+def load_spec(path: str | Path, flow: dict | None = None) -> dict:
     """Read and validate an RVE spec file.
+
+    ``flow``: ``[flow]`` keys a command line chose (``--solver``, ``--mesher``), set before
+    the validation, so that the up-front checks are those of the route that will run (a spec
+    written for the FEM run with ``--solver voxel`` was refused by the FEM's checks, naming
+    FEM keys).
 
     Raises
     ------
     SpecError
         Missing or unreadable file, TOML syntax error, or a bad value.
     """
-    return validate_spec(read_toml(path), base=Path(path).parent)
+    data = read_toml(path)
+    chosen = {k: v for k, v in (flow or {}).items() if v is not None}
+    if chosen and isinstance(data.get("flow", {}), dict):
+        data["flow"] = {**data.get("flow", {}), **chosen}
+    return validate_spec(data, base=Path(path).parent)
 
 
 def validate_document(data: Any, base: str | Path | None = None) -> SpecDocument:

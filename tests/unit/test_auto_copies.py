@@ -195,3 +195,21 @@ def test_only_the_final_solves_fields_are_captured(monkeypatch):
     assert len(calls) == 3 and res["permeameter_copies"] == 4
     assert [(k, s) for k, s, _ in seen] == [("voxel_flow", "solution of 4 copies")]
     assert seen[0][2] is res
+
+
+@pytest.mark.parametrize("solver", ["voxel", "fem"])
+def test_the_memory_cap_stops_the_stack_too(monkeypatch, solver):
+    """session 41 (s41-routes): "auto" checked a longer stack against half the machine only.
+    Under flow.max_memory_gb the FEM's 3-copy solve refused the cap after the 2-copy solve's
+    work (exit 2, no K); the voxel route's went over it without a word. Now the stack stops
+    at the cap, names it and keeps the 2-copy result. The cap sits between the 2- and 3-copy
+    estimates (restack_bytes, the estimate each solve's own check uses)."""
+    first = {"solver": solver, "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
+    two = budget.restack_bytes(first, 2, 1000, 0.2)
+    three = budget.restack_bytes(first, 3, 1000, 0.2)
+    res, _, calls = _run(
+        monkeypatch, VOXEL_WINDOW, solver, {"max_memory_gb": 0.5 * (two + three) / 1e9}
+    )
+    assert len(calls) == 1 and res["permeameter_auto"]["stopped"] == "max_memory_gb"
+    (w,) = [w for w in res["warnings"] if "stopped at" in w]
+    assert "2 copies" in w and "over flow.max_memory_gb" in w and "flow.permeameter_copies" in w

@@ -120,6 +120,30 @@ def test_report_without_results(tmp_path):
         write_report(tmp_path)
 
 
+def test_results_csv_is_checked_once_by_the_reader(tmp_path, monkeypatch, capsys):
+    """session 41 (s41-routes): the report checked results.csv exists, then read_results
+    checked again with the same words: two checks of one file to keep in step. The reader's
+    is the one (its line decides); the user's line and exit status are unchanged, and an
+    unreadable results.csv is a ReportError too."""
+    from psdesign.cli import main
+    from psdesign.study import readback
+
+    assert main(["study", "report", str(tmp_path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == f"psdesign: error: out_dir: no results.csv in {tmp_path}; run the study first"
+    (tmp_path / "results.csv").write_bytes(b"")
+    with pytest.raises(ReportError, match="is unreadable"):
+        write_report(tmp_path)
+
+    def reader(out):
+        raise ValueError("out_dir: the reader's own check")
+
+    monkeypatch.setattr(readback, "read_results", reader)
+    (tmp_path / "results.csv").unlink()
+    with pytest.raises(ReportError, match="^out_dir: the reader's own check$"):
+        write_report(tmp_path)
+
+
 @pytest.fixture(scope="module")
 def mixed_report(tmp_path_factory):
     """The factorial fake study (porosity 0.7 / 0.8 / 0.9 x diameter 6 / 8 um x seeds 1, 2)

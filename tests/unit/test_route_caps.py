@@ -1,0 +1,261 @@
+"""``flow.max_memory_gb`` before any work on every route, and advice naming the route's key
+(session 41, helper s41-routes; benchmarks/RESULTS.md "Session 41: route-aware refusals").
+
+Before: the cap was checked up front for the stuffing mesh only. A pytetwild spec with
+``max_memory_gb = 1e-6`` placed its fibre and meshed (4-11 s) before the solve refused it,
+advising "a coarser flow.lattice_step", a key pytetwild ignores; the voxel route ignored the cap
+and solved. Truth for the voxel figures: the per-cell bytes counted and traced in
+``solvers/voxel/memory.py`` (20^3 cells x (16 B of fields + 107 B of the sub-voxel solver + 9 B
+of box-wall couplings) = 1.056e-3 GB); for pytetwild: meshes measured in session 41
+(:data:`MEASURED`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psdesign.cli.main import main
+from psdesign.errors import SpecError
+from psdesign.flow import fem
+from psdesign.flow import permeability as P
+from psdesign.meshing.options import tetwild_mesh_size
+from psdesign.schema import budget
+from psdesign.schema.spec import validate_spec
+from solvers.fem.memory import MemoryLimitError
+
+ONE_FIBER = (
+    "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n[[fibers]]\ndiameter = 6e-6\n"
+    "[flow]\n{flow}max_memory_gb = {cap}\n"
+)
+ROUTES = {
+    "pytetwild": ('solver = "fem"\nmesher = "pytetwild"\n', "a longer flow.edge_length"),
+    "voxel": ('solver = "voxel"\n', "a coarser rve.voxel"),
+    "stuffing": ('solver = "fem"\n', "a coarser flow.lattice_step"),
+}
+
+
+def _spec(route: str, cap: float) -> dict:
+    import tomllib
+
+    return tomllib.loads(ONE_FIBER.format(flow=ROUTES[route][0], cap=cap))
+
+
+@pytest.mark.parametrize("route", sorted(ROUTES))
+def test_a_tiny_cap_is_refused_before_the_rve_is_built_on_every_route(
+    route, tmp_path, capsys, monkeypatch
+):
+    """exit 2, one line naming flow.max_memory_gb, the estimate and the route's own key; no
+    fibre placed, no mesh, no solve, no --fields folder. Old code: pytetwild meshed, then named
+    flow.lattice_step; voxel solved (exit 0)."""
+    import psdesign.packing.build as build
+
+    def boom(*a, **k):
+        raise AssertionError("the RVE was built although the cap refuses the spec")
+
+    monkeypatch.setattr(build, "build_rve", boom)
+    path = tmp_path / "s.toml"
+    path.write_text(ONE_FIBER.format(flow=ROUTES[route][0], cap=1e-6))
+    out = tmp_path / "fields"
+    assert main(["permeability", str(path), "--fields", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: flow.max_memory_gb: the "), line
+    assert "over the cap of 1e-06 GB" in line and line.endswith(f", or {ROUTES[route][1]})")
+    assert not out.exists()
+
+
+def test_the_voxel_cap_is_the_voxel_solve_estimate():
+    """20^3 grid, periodic: grid_bytes = 8000 x (16 + 107 + 9) B = 1.056e-3 GB (fields,
+    sub-voxel solver, box-wall couplings). Refused only over 1.25 x the cap (the estimate is an
+    upper bound: traced 80-88 B per cell of solver against 107)."""
+    need = budget.grid_bytes(8000, "voxel")
+    assert need / 1e9 == pytest.approx(8000 * (16 + 107 + 9) / 1e9, rel=1e-12)
+    validate_spec(_spec("voxel", need / 1e9 / 1.25))  # at the margin: accepted
+    with pytest.raises(SpecError) as ei:
+        validate_spec(_spec("voxel", need / 1e9 / 1.26))
+    assert ei.value.key == "flow.max_memory_gb" and "20x20x20 grid" in ei.value.message
+    validate_spec(_spec("stuffing", 1.0))  # the FEM's own grid check takes no voxel cap
+
+
+#: pytetwild meshes made in session 41 (``calib_tw.py``, benchmarks/RESULTS.md): box volume
+#: meshed (copies plus reservoirs), target edge, fibre diameter, the fibre-diameter envelope,
+#: tets made. 20 and 30 um boxes of one 6 um fibre (2 copies, aux 0.2), the first also at
+#: edge_length 0.1; a 60 x 60 x 40 um straight generator paper, porosity 0.85, D 7 um (1 copy)
+#: at the default edge and at edge_length 0.06.
+MEASURED = [
+    (20e-6**3 * 2.4, 5.1e-6, 6e-6, True, 3067),
+    (30e-6 * 30e-6 * 20e-6 * 2.4, 5.1e-6, 6e-6, True, 6779),
+    (20e-6**3 * 2.4, 3.98e-6, 6e-6, False, 2046),
+    (60e-6 * 60e-6 * 40e-6 * 1.4, 5.95e-6, 7e-6, True, 36945),
+    (60e-6 * 60e-6 * 40e-6 * 1.4, 6.1e-6, 7e-6, False, 23735),
+]
+
+
+@pytest.mark.parametrize("box, edge, d, fine, made", MEASURED)
+def test_the_pytetwild_cap_counts_no_more_than_the_mesh_made(box, edge, d, fine, made):
+    """The estimate over its safety factor is under every measured mesh (estimate / made
+    1.16-4.47), so no spec a run would fit is refused before meshing."""
+    tets = tetwild_mesh_size(box, edge, d, fine)[1]
+    assert tets / budget.TETWILD_CAP_SAFETY < made < tets * 1.0
+
+
+def test_a_cap_between_the_least_mesh_and_the_made_one_waits_for_the_mesh():
+    """0.2 GB: over the least pytetwild mesh's 0.164 GB (x 1.25), so not refused up front."""
+    validate_spec(_spec("pytetwild", 0.2))
+
+
+class _Mesh:
+    tets = np.zeros((2672, 4), dtype=np.int64)
+
+
+@pytest.mark.parametrize(
+    "mesher, key",
+    [("pytetwild", "a longer flow.edge_length"), ("stuffing", "a coarser flow.lattice_step")],
+)
+def test_the_solve_refusal_names_the_route_key(mesher, key):
+    """The solve's own check on the built mesh (a pytetwild spec at a 0.18 GB cap: 2672 tets,
+    0.199 GB) named flow.lattice_step on every route."""
+    exc = MemoryLimitError("estimated memory 0.199 GB exceeds max_memory_gb=0.18 GB")
+    exc.estimate_gb, exc.limit_gb = 0.199, 0.18
+    err = fem.memory_error(exc, _Mesh(), 0.18, mesher)
+    assert err.key == "flow.max_memory_gb"
+    assert str(err).endswith(f"(allowed: >= 0.199 GB, or {key})"), str(err)
+
+
+class _Grid:
+    spacing = np.array([0.5e-6] * 3)
+    size = np.array([20e-6] * 3)
+
+
+class _Fields:
+    grid = _Grid()
+    solid = np.zeros((2, 2, 2), dtype=bool)
+
+
+class _RVE:
+    size = np.array([20e-6] * 3)
+    fibers: list = []
+
+
+@pytest.mark.parametrize(
+    "mesher, key", [("pytetwild", "flow.edge_length"), ("stuffing", "flow.lattice_step")]
+)
+def test_the_under_resolution_warning_names_the_route_key(mesher, key):
+    """A pytetwild result whose mesh reports no edge (cached before session 39) was read as a
+    lattice mesh: the warning said 'refine rve.voxel / flow.lattice_step'. The key is the one
+    flow.mesher reads."""
+    res = {
+        "permeability_m2": 1.5e-11,
+        "porosity": 0.7,
+        "direction": "z",
+        "converged": True,
+        "residual": 1e-9,
+        "flux_imbalance": 1e-9,
+        "cells_per_diameter": 1.2,
+        "mesh_quality": {},
+    }
+    out = P.with_error_estimate(_RVE(), _Fields(), "z", {"mesher": mesher}, "fem", res, False)
+    (line,) = [w for w in out["warnings"] if "across the thinnest fiber" in w]
+    assert f"refine rve.voxel / {key} (" in line, line
+
+
+@pytest.mark.parametrize(
+    "route, refused", [("pytetwild", False), ("stuffing", True), ("voxel", True)]
+)
+def test_a_lattice_step_is_checked_where_a_stuffing_mesh_reads_it(route, refused):
+    """A 1 nm lattice step (8e12 cells in the 20 um cube): pytetwild does not read it, and was
+    refused naming it; the stuffing route and a voxel spec (``psdesign mesh`` meshes it with
+    the stuffing mesher) still refuse it, and a pytetwild spec meshed with ``--mesher
+    stuffing`` is validated again with that mesher (psdesign/cli/mesh.py)."""
+    spec = _spec(route, 10.0)
+    spec["flow"]["lattice_step"] = 1e-9
+    if not refused:
+        validate_spec(spec)
+        spec["flow"]["mesher"] = "stuffing"  # what psdesign mesh --mesher stuffing validates
+    with pytest.raises(SpecError) as ei:
+        validate_spec(spec)
+    assert ei.value.key == "flow.lattice_step" and "8e+12 cells" in ei.value.message
+
+
+@pytest.mark.parametrize(
+    "mesher, key, value", [("stuffing", "edge_length", 0.005), ("pytetwild", "lattice_step", 1e-6)]
+)
+def test_the_other_meshers_key_is_named_as_unused(
+    mesher, key, value, tmp_path, capsys, monkeypatch
+):
+    """flow.edge_length on the stuffing route (or flow.lattice_step on pytetwild) was ignored
+    without a word (a 20 um cube with edge_length = 0.005 solved with the default lattice,
+    exit 0, no line): now a warning names it and the key the route reads."""
+
+    def route(rve, fields, direction, flow, solver, progress=None):
+        return {
+            "permeability_m2": 2e-11,
+            "direction": "z",
+            "porosity": 0.92,
+            "solver": solver,
+            "bc": "permeameter",
+            "converged": True,
+            "residual": 1e-9,
+            "iterations": 1,
+            "flux_imbalance": 1e-9,
+            "wall_time_s": 0.0,
+            "cells_per_diameter": 20.0,
+        }
+
+    monkeypatch.setattr(P, "route_result", route)
+    path = tmp_path / "s.toml"
+    flow = f'solver = "fem"\nmesher = "{mesher}"\n{key} = {value}\n'
+    path.write_text(ONE_FIBER.format(flow=flow, cap=10.0))
+    assert main(["permeability", str(path), "--quiet", "--no-error-estimate"]) == 0
+    err = capsys.readouterr().err
+    own = "flow.lattice_step" if mesher == "stuffing" else "flow.edge_length"
+    line = f"psdesign: warning: flow.{key} = {value!r} is not used: mesher {mesher} reads {own}"
+    assert line in err, err
+
+
+def test_the_wall_distance_is_transformed_once_per_grid(tmp_path, capsys, monkeypatch):
+    """``--direction all`` on the voxel route transformed the same grid's wall distance three
+    times (0.66-0.77 s each at 200^3, identical values): now once, the same values, and not
+    held once the grid is freed."""
+    import gc
+
+    from psdesign.geometry import throat
+
+    calls = []
+    edt = throat.periodic_edt
+    real = throat.wall_distance_voxels
+
+    def counted(*a, **k):
+        calls.append(1)
+        return edt(*a, **k)
+
+    monkeypatch.setattr(throat, "periodic_edt", counted)  # the transform, on either code
+    path = tmp_path / "s.toml"
+    path.write_text(ONE_FIBER.format(flow=ROUTES["voxel"][0], cap=10.0))
+    assert main(["permeability", str(path), "--direction", "all", "--quiet"]) == 0
+    assert "K_x" in capsys.readouterr().out
+    assert len(calls) == 1
+
+    d = np.linspace(-2e-6, 3e-6, 6 * 7 * 8, dtype=np.float32).reshape(6, 7, 8)
+    first = throat.held_wall_distance(d, 1e-6)
+    assert throat.held_wall_distance(d, 1e-6) is first and len(calls) == 2
+    assert np.array_equal(first, real(d, 1e-6)) and not first.flags.writeable
+    assert throat.held_wall_distance(d, 0.5e-6) is not first  # another step: computed again
+    del d
+    gc.collect()
+    assert throat._HELD == []
+
+
+def test_the_command_lines_solver_decides_the_checks(tmp_path, capsys):
+    """A spec written for the FEM with a 0.01 GB cap (its stuffing solve needs 0.391 GB) run
+    with ``--solver voxel`` (1.06e-3 GB) was refused by the FEM's check, naming
+    flow.lattice_step, a key of a route not taken; the spec is now validated with the chosen
+    solver, and the FEM run of the same spec is still refused."""
+    path = tmp_path / "s.toml"
+    path.write_text(ONE_FIBER.format(flow=ROUTES["stuffing"][0], cap=0.01))
+    args = ["permeability", str(path), "--quiet", "--no-error-estimate"]
+    assert main([*args, "--solver", "voxel"]) == 0
+    assert "solver voxel" in capsys.readouterr().out
+    assert main(args) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "flow.max_memory_gb" in line and line.endswith("a coarser flow.lattice_step)")
