@@ -33,7 +33,7 @@ import numpy as np
 
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
-from psdesign.geometry.fibers import Fiber
+from psdesign.geometry.fibers import Fiber, with_minor_moment
 
 #: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
 FIELD_TERMS = ("U", "volume_interaction", "surface_interaction", "surface")
@@ -82,13 +82,17 @@ def can_bend(fb: Fiber) -> bool:
 
 
 def moved_fiber(fb: Fiber, t1: float, t2: float, du: float = 0.0) -> Fiber:
-    """The fiber shifted by ``t1, t2`` along its two lattice vectors, bend moment ``u + du``."""
+    """The fiber shifted by ``t1, t2`` along its two lattice vectors, bend moment ``u + du``.
+
+    A bend change goes through :func:`psdesign.geometry.fibers.with_minor_moment`: the field
+    scale and diameter are re-measured for the new moment as ``make_fiber`` measures them,
+    so the search evaluates the field of the fiber ``relaxed.toml`` re-reads to (Session 41:
+    keeping the old scale had a re-read woven cell 1.4 um from contact where 2.2 um was
+    reported)."""
     t = t1 * fb.lattice[0] + t2 * fb.lattice[1]
-    model = fb.model
-    if du and model.n_minor:
-        model = model._replace(u=model.u + du)
-    model = model.translated(t)
-    return replace(fb, model=model, center=np.asarray(fb.center) + t, u=fb.u + du)
+    if du and can_bend(fb):
+        fb = with_minor_moment(fb, float(fb.model.u[0]) + du)
+    return replace(fb, model=fb.model.translated(t), center=np.asarray(fb.center) + t)
 
 
 def min_pair_gap(fibers: list, points: np.ndarray) -> float:

@@ -14,7 +14,8 @@ direction vector can be given.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -465,22 +466,18 @@ def make_fiber(
             canon = rod_model()
             u = 0.0 if shape != "bent-rod" else u
         grad = 8.0 * np.pi * np.sin(np.pi * diameter)
-        band = diameter / 2.0 + abs(u) / (2 * np.pi)
+        band = bent_rod_band(diameter, u)
         # minor phase along the placed axis: canonical z = s + 1/2 for s measured from centre
         extra = {"axis_offset": 0.5, "phase": 0.0}
     else:
-        canon = _FIXED_MODELS[shape]()
-        if minor_moment is not None:
-            if not canon.n_minor or not np.isfinite(minor_moment):
-                raise ValueError(f"{shape} has no bend term; u must be 0 (got {minor_moment})")
-            canon = canon._replace(u=[float(minor_moment)])
+        canon = _fixed_canonical(shape, minor_moment)
         iso = 0.0 if isovalue is None else float(isovalue)
         if canon.n_minor:
             u, f = float(canon.u[0]), float(canon.f[0])
             extra = {"axis_offset": 0.5, "phase": 2 * np.pi * f * float(canon.beta[0])}
         else:
             u, f = 0.0, 1.0
-        diameter, grad = _measure_fixed_shape(canon, iso)
+        diameter, grad = fixed_shape_scales(shape, u if canon.n_minor else None, iso)
         band = None
 
     model = canon.translated(-_CELL_CENTRE).rotated(R).translated(center)
@@ -501,6 +498,61 @@ def make_fiber(
         omega=omega if direction is None else None,
         extra=extra,
     )
+
+
+def bent_rod_band(diameter: float, u: float) -> float:
+    """Band radius of a (bent) rod: every solid point lies within it of the carrier axis."""
+    return float(diameter / 2.0 + abs(u) / (2 * np.pi))
+
+
+def _fixed_canonical(shape: str, minor_moment: float | None) -> GeneralizedPS:
+    """The canonical (z-axis) model of a fixed shape, its bend moment set to ``minor_moment``
+    (default: the equation's)."""
+    canon = _FIXED_MODELS[shape]()
+    if minor_moment is not None:
+        if not canon.n_minor or not np.isfinite(minor_moment):
+            raise ValueError(f"{shape} has no bend term; u must be 0 (got {minor_moment})")
+        canon = canon._replace(u=[float(minor_moment)])
+    return canon
+
+
+@lru_cache(maxsize=4096)
+def fixed_shape_scales(
+    shape: str, minor_moment: float | None, isovalue: float
+) -> tuple[float, float]:
+    """Nominal diameter and field scale (``grad_scale``) of a fixed shape, normalized.
+
+    The one measurement of them (:func:`_measure_fixed_shape` on the canonical model with
+    bend moment ``minor_moment``; None: the equation's): :func:`make_fiber`, the woven cell
+    and :func:`with_minor_moment` all take it from here, so a fiber re-bent by the force field
+    and the same fiber re-read from a spec have one field. Cached (about 10 ms a call).
+    """
+    return _measure_fixed_shape(_fixed_canonical(shape, minor_moment), float(isovalue))
+
+
+def with_minor_moment(fb: Fiber, u: float) -> Fiber:
+    """``fb`` with its bend moment set to ``u``, as :func:`make_fiber` builds it for ``u``.
+
+    The placed model's minor moment is replaced (an amplitude: placement does not change it);
+    a fixed shape's diameter and ``grad_scale`` are re-measured (:func:`fixed_shape_scales`),
+    a bent rod's band radius follows ``u``. So the field of the result is the field of the
+    fiber a spec with this ``u`` builds (to round-off), not the old field scale on a new solid.
+    For the fibers :func:`make_fiber` and :func:`woven_cell` build (the equations' own models,
+    as every spec does), not a fixed shape with other moments (the paper cases' own models).
+
+    Raises
+    ------
+    ValueError
+        If the fiber's model has no bend term.
+    """
+    if not fb.model.n_minor:
+        raise ValueError(f"a {fb.shape} fiber has no bend term")
+    u = float(u)
+    model = fb.model._replace(u=[u])
+    if fb.shape == "bent-rod":
+        return replace(fb, model=model, u=u, band_radius=bent_rod_band(fb.diameter, u))
+    diameter, grad = fixed_shape_scales(fb.shape, u, fb.isovalue)
+    return replace(fb, model=model, u=u, diameter=diameter, grad_scale=grad)
 
 
 def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float]:
@@ -582,7 +634,7 @@ def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
     """An Eq. (19) fiber (minor moment ``u``) turned by ``R`` and centred at ``center``."""
     base = woven_fiber_model(u=u, constant=-WOVEN_EQ19_ISOVALUE)
     model = base.translated(-_CELL_CENTRE).rotated(R).translated(center)
-    diameter, grad = _measure_fixed_shape(base, 0.0)
+    diameter, grad = fixed_shape_scales("woven", float(u), 0.0)  # base is make_fiber's woven
     return Fiber(
         shape="woven",
         model=model,
