@@ -307,3 +307,29 @@ def test_force_field_relaxes_any_spec_and_the_result_feeds_the_other_commands(tm
     # contact removed by bending and a small move: the solid is the two whole rods again
     whole = 1 - before.porosity + before.intersection_volume_fraction
     assert 1 - after.porosity == pytest.approx(whole, rel=0.02)
+
+
+def test_woven_relax_benchmark_prints_k_z_with_a_bar_that_covers_the_exact_value(tmp_path):
+    """``benchmarks/paper_woven_relax.py`` printed K_z with a convergence flag but no error bar
+    (``error_estimate=False``, bar dropped). Flow along a square array of cylinders (D = 10 um,
+    spacing 40 um, 1 um voxels): its K_z with the printed bar must cover Drummond & Tahir's
+    (1984, Int. J. Multiphase Flow 10:515, Eq. for flow parallel to a square array)
+    ``K = a^2 / (4 phi) (-ln phi - 1.476 + 2 phi - phi^2 / 2)``."""
+    import importlib.util
+
+    path = ROOT / "benchmarks" / "paper_woven_relax.py"
+    spec = importlib.util.spec_from_file_location("paper_woven_relax", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    toml = tmp_path / "array.toml"
+    toml.write_text(
+        "[rve]\nsize = [40e-6, 40e-6, 40e-6]\nvoxel = 1e-6\n\n[[fibers]]\nshape = 'cylinder'\n"
+        "diameter = 10e-6\ncenter = [20e-6, 20e-6, 20e-6]\ndirection = [0, 0, 1]\n\n"
+        "[flow]\nviscosity = 1.8e-5\n"
+    )
+    out = mod.measure(str(toml), 1e-6)
+    a, phi = 5e-6, np.pi * 25e-12 / 40e-6**2
+    exact = a * a / (4 * phi) * (-np.log(phi) - 1.476 + 2 * phi - 0.5 * phi**2)
+    assert out["converged"] and out["error_method"] == "two_grid"
+    assert 0.0 < out["k_z_rel_error"] < 0.1 and out["status"] == "ok"
+    assert abs(out["k_z_m2"] - exact) <= out["k_z_rel_error"] * out["k_z_m2"]
