@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import importlib
 
+from solvers.blas_threads import default_blas_threads
 from solvers.voxel.threads import passive_wait, prefer_openmp
 
 passive_wait()  # before any numba parallel region: idle OpenMP threads sleep, never spin
+default_blas_threads()  # BLAS on one thread unless the user set a *_NUM_THREADS variable
 prefer_openmp()  # the layer the thread policy was measured on, also where libtbb is installed
 
 __version__ = "0.1.0"
