@@ -17,12 +17,7 @@ from __future__ import annotations
 
 import importlib
 
-from solvers.blas_threads import default_blas_threads
-from solvers.voxel.threads import passive_wait, prefer_openmp
-
-passive_wait()  # before any numba parallel region: idle OpenMP threads sleep, never spin
-default_blas_threads()  # BLAS on one thread unless the user set a *_NUM_THREADS variable
-prefer_openmp()  # the layer the thread policy was measured on, also where libtbb is installed
+import solvers  # noqa: F401  (its import sets the process's thread policies, solvers/__init__.py)
 
 __version__ = "0.1.0"
 
