@@ -48,7 +48,7 @@ from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatch
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
 from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
-from psdesign.schema.flow import resolution_key
+from psdesign.schema.flow import coarser_advice, resolution_key
 from solvers.fem.memory import MemoryLimitError
 
 #: The ``flow.bc`` models this route applies.
@@ -359,13 +359,11 @@ def memory_error(
     if exc.estimate_gb is None:
         return SpecError("flow.max_memory_gb", str(exc))
     limit = "the cap" if cap is not None else "80 % of the free memory"
-    key = resolution_key("fem", mesher)
-    coarser = "a longer" if key == "flow.edge_length" else "a coarser"
+    advice = coarser_advice(resolution_key("fem", mesher))
     return SpecError(
         "flow.max_memory_gb",
         f"the FEM solve of {len(mesh.tets)} tets needs about {exc.estimate_gb:.3g} GB, over "
-        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or "
-        f"{coarser} {key})",
+        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or {advice})",
     )
 
 

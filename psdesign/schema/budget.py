@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 
-from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES
+from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES, coarser_advice, resolution_key
 from psdesign.schema.types import fail
 from solvers.voxel.memory import BYTES_PER_CELL, WALL_COUPLING_BYTES
 
@@ -233,8 +233,7 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
         need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
     else:
         need = grid_bytes(n, "voxel", *least_stack_of(flow))
-    smaller = "a smaller image.crop" if key == "image.crop" else f"a coarser {key}"
-    check_cap(flow, need, f"the voxel solve of the {dims} grid", smaller)
+    check_cap(flow, need, f"the voxel solve of the {dims} grid", coarser_advice(key))
 
 
 def fem_mesh_size(
@@ -343,17 +342,11 @@ def check_fem(
     check_fem_field(size, voxel, budget)
 
     total = fem_need_bytes(size, step, copies, aux, phi)
-    cap = getattr(flow, "max_memory_gb", None)
     if total <= budget:
-        if cap is not None and total > CAP_MARGIN * cap * 1e9:
-            # the solve's own check came after meshing: work, then 'pass force=True'
-            _, tets = fem_mesh_size(size, step, copies, aux, phi)
-            raise fail(
-                "flow.max_memory_gb",
-                f"the FEM solve of about {tets:.3g} tets (lattice step {step:.3g} m) needs "
-                f"about {total / 1e9:.3g} GB, over the cap of {cap:.3g} GB",
-                f">= {total / 1e9:.3g} GB, or a coarser flow.lattice_step",
-            )
+        # the solve's own check came after meshing: work, then 'pass force=True'
+        _, tets = fem_mesh_size(size, step, copies, aux, phi)
+        what = f"the FEM solve of about {tets:.3g} tets (lattice step {step:.3g} m)"
+        check_cap(flow, total, what, coarser_advice(resolution_key("fem", "stuffing")))
         return
     pts, tets = fem_mesh_size(size, step, copies, aux, phi)
     what = (
@@ -412,7 +405,8 @@ def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -
         pts, tets = pts / TETWILD_CAP_SAFETY, tets / TETWILD_CAP_SAFETY
         least = estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
         what = f"the FEM solve of at least {tets:.3g} tets (pytetwild, edge {edge:.3g} m)"
-        check_cap(flow, least, what, "a longer flow.edge_length", least=True)
+        advice = coarser_advice(resolution_key("fem", "pytetwild"))
+        check_cap(flow, least, what, advice, least=True)
         return
     raise fail(
         "flow.edge_length",

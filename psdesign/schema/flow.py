@@ -96,6 +96,19 @@ def resolution_key(solver: str, mesher: str | None = None) -> str:
     return RESOLUTION_KEY["voxel" if solver == "voxel" else mesher or "stuffing"]
 
 
+def coarser_advice(key: str) -> str:
+    """How a memory refusal words the cheaper resolution on ``key`` (a
+    :data:`RESOLUTION_KEY` value or ``image.crop``): a longer edge, a smaller crop, a coarser
+    step or voxel.
+
+    >>> coarser_advice("flow.edge_length"), coarser_advice("rve.voxel")
+    ('a longer flow.edge_length', 'a coarser rve.voxel')
+    """
+    return {"flow.edge_length": "a longer", "image.crop": "a smaller"}.get(key, "a coarser") + (
+        f" {key}"
+    )
+
+
 def unread_mesher_key(flow: dict) -> str | None:
     """The warning for the other FEM mesher's resolution key set on an FEM solve, or None:
     ``flow.edge_length`` with the stuffing mesher, ``flow.lattice_step`` with pytetwild (each
