@@ -38,7 +38,7 @@ from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pr
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
 from psdesign.geometry.rve import RVE, VoxelFields
-from psdesign.geometry.throat import held_wall_distance, percolation_radius
+from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
     TREATMENT_ALLOWED,
@@ -301,7 +301,7 @@ def _throat_fn(fields: VoxelFields, direction: str | int, step: float) -> Callab
     (:func:`psdesign.flow.error.throat_limits`, e.g. along straight fibres)."""
 
     def run() -> float | None:
-        wd = held_wall_distance(fields.distance, step, fields.analytic_distance)
+        wd = fields.wall_distance  # once per grid, whatever the direction
         r = percolation_radius(wd, axis_of(direction)[1])
         if not err.throat_limits(r, float(np.max(wd, initial=0.0))):
             return None

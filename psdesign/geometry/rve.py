@@ -101,6 +101,22 @@ class VoxelFields:
         return float(1.0 - np.count_nonzero(self.distance <= 0.0) / self.distance.size)
 
     @cached_property
+    def wall_distance(self) -> np.ndarray:
+        """Distance of each voxel centre to the wall, in voxels (float32, read-only;
+        :func:`psdesign.geometry.throat.wall_distance_voxels` at the grid's step): the throat
+        term of a voxel K's error bar along each axis reads it, so a ``--direction all`` solve
+        transforms the grid once (0.66-0.77 s and 32 MB at 200^3; session 41,
+        benchmarks/RESULTS.md). Held with the fields, 4 B per voxel: within the voxel route's
+        estimate (:data:`psdesign.schema.budget.VOXEL_SOLVER_BYTES_PER_VOXEL` counts 107 + 9 B
+        per cell, the traced peak is 80.7-87.9 B, solvers/voxel/memory.py)."""
+        from psdesign.geometry.throat import wall_distance_voxels
+
+        step = float(self.grid.spacing[0])
+        out = wall_distance_voxels(self.distance, step, self.analytic_distance)
+        out.flags.writeable = False
+        return out
+
+    @cached_property
     def porosity_error(self) -> float:
         """Estimated absolute error of :attr:`porosity` (a voxel count) against the analytic
         surface's pore fraction (:func:`psdesign.geometry.porosity.porosity_error`); 0 for a

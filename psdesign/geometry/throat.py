@@ -16,8 +16,6 @@ winding around the periodic box (:func:`percolates`). ``r*`` is found by bisecti
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from psdesign.geometry.edt import periodic_edt
@@ -55,39 +53,6 @@ def wall_distance_voxels(distance: np.ndarray, step: float, analytic: bool = Tru
         out[band] = d[band]
         out[~pore] = np.minimum(d[~pore], 0.0)
     return out
-
-
-#: The last :func:`held_wall_distance`: ``(weak reference to the distance array, step,
-#: analytic, wall distance)``; emptied when that distance array is freed.
-_HELD: list = []
-
-
-def held_wall_distance(distance: np.ndarray, step: float, analytic: bool = True) -> np.ndarray:
-    """:func:`wall_distance_voxels`, computed once per distance array: a ``--direction all``
-    solve's error bar asks for the same array's throat along each axis, and the transform is
-    the same each time (0.66-0.77 s and 32 MB at 200^3, identical values; session 41,
-    benchmarks/RESULTS.md). The result (float32, 4 B per voxel; read-only) is held while
-    ``distance`` lives, through the other directions' solves: within the voxel route's
-    estimate (:data:`psdesign.schema.budget.VOXEL_SOLVER_BYTES_PER_VOXEL` counts 107 + 9 B per
-    cell, the traced peak is 80.7-87.9 B, solvers/voxel/memory.py). Only the last array is
-    held; ``distance`` must not be changed in place while it is (a VoxelFields' is not).
-    """
-    if _HELD:
-        ref, held_step, held_analytic, out = _HELD[0]
-        if ref() is distance and held_step == step and held_analytic == analytic:
-            return out
-    out = wall_distance_voxels(distance, step, analytic)
-    out.flags.writeable = False
-    ref = weakref.ref(distance)
-    _HELD[:] = [(ref, step, analytic, out)]
-    weakref.finalize(distance, _drop, ref)
-    return out
-
-
-def _drop(ref: weakref.ref) -> None:
-    """Forget the held wall distance of the freed distance array ``ref`` referred to."""
-    if _HELD and _HELD[0][0] is ref:
-        _HELD.clear()
 
 
 def percolates(mask: np.ndarray, axis: int) -> bool:

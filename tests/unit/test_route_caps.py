@@ -218,8 +218,10 @@ def test_the_wall_distance_is_transformed_once_per_grid(tmp_path, capsys, monkey
     times (0.66-0.77 s each at 200^3, identical values): now once, the same values, and not
     held once the grid is freed."""
     import gc
+    import weakref
 
     from psdesign.geometry import throat
+    from psdesign.geometry.rve import VoxelFields, VoxelGrid
 
     calls = []
     edt = throat.periodic_edt
@@ -237,13 +239,15 @@ def test_the_wall_distance_is_transformed_once_per_grid(tmp_path, capsys, monkey
     assert len(calls) == 1
 
     d = np.linspace(-2e-6, 3e-6, 6 * 7 * 8, dtype=np.float32).reshape(6, 7, 8)
-    first = throat.held_wall_distance(d, 1e-6)
-    assert throat.held_wall_distance(d, 1e-6) is first and len(calls) == 2
+    grid = VoxelGrid.from_voxel(np.array([6e-6, 7e-6, 8e-6]), 1e-6)
+    fields = VoxelFields(distance=d, count=np.zeros(d.shape, np.uint8), grid=grid)
+    first = fields.wall_distance
+    assert fields.wall_distance is first and len(calls) == 2
     assert np.array_equal(first, real(d, 1e-6)) and not first.flags.writeable
-    assert throat.held_wall_distance(d, 0.5e-6) is not first  # another step: computed again
-    del d
+    held = weakref.ref(first)
+    del fields, first
     gc.collect()
-    assert throat._HELD == []
+    assert held() is None  # not held once the grid is freed
 
 
 def test_the_command_lines_solver_decides_the_checks(tmp_path, capsys):
