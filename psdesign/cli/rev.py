@@ -69,10 +69,10 @@ def _cases_status(out: str) -> int:
 
     df = read_results(out)
     n_bad, n_nc = case_counts(df)
-    bad = df[~df["status"].astype(str).isin(("ok", "not_converged"))]
     if n_bad:
+        bad = df[~df["status"].astype(str).isin(("ok", "not_converged"))]
         print(
-            f"psdesign: {len(bad)} case(s) failed or timed out{first_error(bad)}; left out of "
+            f"psdesign: {n_bad} case(s) failed or timed out{first_error(bad)}; left out of "
             f"the sizes' rows; see {out}/results.csv (tracebacks: cases/<id>/error.txt)",
             file=sys.stderr,
         )
