@@ -14,11 +14,15 @@ class SpecError(ValueError):
         Dotted path of the offending key, e.g. ``"fibers[2].diameter"``.
     message : str
         What is wrong and what is allowed.
+    names : tuple of str
+        Other spec keys ``message`` names as written (a memory refusal's ``"a coarser
+        rve.voxel"``): a study re-spells them as its file does, like ``key``.
     """
 
-    def __init__(self, key: str, message: str) -> None:
+    def __init__(self, key: str, message: str, names: tuple[str, ...] = ()) -> None:
         self.key = key
         self.message = message
+        self.names = tuple(names)
         super().__init__(f"{key}: {message}")
 
     def __reduce__(self):

@@ -123,11 +123,12 @@ def least_stack_of(flow) -> tuple[int, float]:
     return copies, aux
 
 
-def check_cap(flow, need: float, what: str, coarser: str, least: bool = False) -> None:
+def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> None:
     """Refuse ``need`` bytes (the route's estimate, ``what`` describes it) over
-    ``flow.max_memory_gb`` times :data:`CAP_MARGIN`, naming the key, the estimate and
-    ``coarser`` (the route's resolution key with its direction); ``least``: ``need`` is a
-    lower bound (the built mesh's estimate decides above it)."""
+    ``flow.max_memory_gb`` times :data:`CAP_MARGIN`, naming the key, the estimate and the
+    route's resolution ``key`` with its direction (:func:`~psdesign.schema.flow.coarser_advice`;
+    ``key`` is in the error's ``names``, so a study spells it as its file does);
+    ``least``: ``need`` is a lower bound (the built mesh's estimate decides above it)."""
     cap = getattr(flow, "max_memory_gb", None)
     if cap is None or need <= CAP_MARGIN * cap * 1e9:
         return
@@ -136,7 +137,8 @@ def check_cap(flow, need: float, what: str, coarser: str, least: bool = False) -
         "flow.max_memory_gb",
         f"{what} needs {'at least' if least else 'about'} {gb}, over the cap of {cap:.3g} GB",
         (f"over {gb} (the built mesh's estimate decides)" if least else f">= {gb}")
-        + f", or {coarser}",
+        + f", or {coarser_advice(key)}",
+        names=(key,),
     )
 
 
@@ -202,7 +204,8 @@ def check_grid(
             f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
             f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
             f"is {budget / 2**30:.3g} GiB (half the machine)",
-            f"1, or bc = 'periodic', or a {'smaller' if key == 'image.crop' else 'coarser'} {key}",
+            f"1, or bc = 'periodic', or {coarser_advice(key)}",
+            names=(key,),
         )
     vmin = voxel * (need / budget) ** (1 / 3)
     per = need / n
@@ -233,7 +236,7 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
         need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
     else:
         need = grid_bytes(n, "voxel", *least_stack_of(flow))
-    check_cap(flow, need, f"the voxel solve of the {dims} grid", coarser_advice(key))
+    check_cap(flow, need, f"the voxel solve of the {dims} grid", key)
 
 
 def fem_mesh_size(
@@ -346,7 +349,7 @@ def check_fem(
         # the solve's own check came after meshing: work, then 'pass force=True'
         _, tets = fem_mesh_size(size, step, copies, aux, phi)
         what = f"the FEM solve of about {tets:.3g} tets (lattice step {step:.3g} m)"
-        check_cap(flow, total, what, coarser_advice(resolution_key("fem", "stuffing")))
+        check_cap(flow, total, what, resolution_key("fem", "stuffing"))
         return
     pts, tets = fem_mesh_size(size, step, copies, aux, phi)
     what = (
@@ -405,8 +408,7 @@ def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -
         pts, tets = pts / TETWILD_CAP_SAFETY, tets / TETWILD_CAP_SAFETY
         least = estimate_memory_gb(max(4, int(pts)), max(1, int(tets))) * 1e9
         what = f"the FEM solve of at least {tets:.3g} tets (pytetwild, edge {edge:.3g} m)"
-        advice = coarser_advice(resolution_key("fem", "pytetwild"))
-        check_cap(flow, least, what, advice, least=True)
+        check_cap(flow, least, what, resolution_key("fem", "pytetwild"), least=True)
         return
     raise fail(
         "flow.edge_length",

@@ -128,11 +128,16 @@ def _message(err: dict, root: Any, loc: tuple) -> tuple[str, str]:
     return "", msg + (f" (allowed: {allowed})" if allowed else "")
 
 
+def _first(exc: ValidationError) -> dict:
+    """The most specific error of ``exc`` (a union reports one per member; the deepest
+    names the key)."""
+    errs = exc.errors(include_url=False)
+    return max(errs, key=lambda e: len(_clean_loc(tuple(e["loc"]))))
+
+
 def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str, str]:
     """(dotted key, one-line message) of the first error of ``exc``."""
-    errs = exc.errors(include_url=False)
-    # the most specific error (a union reports one per member; the deepest names the key)
-    err = max(errs, key=lambda e: len(_clean_loc(tuple(e["loc"]))))
+    err = _first(exc)
     loc = _clean_loc(tuple(err["loc"]))
     suffix, msg = _message(err, root, loc)
     key = dotted((prefix, *loc, *(suffix.split(".") if suffix else ())))
@@ -141,6 +146,8 @@ def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str,
 
 
 def spec_error(exc: ValidationError, root: Any, prefix: str = "") -> SpecError:
-    """A :class:`SpecError` for the first error of ``exc``."""
+    """A :class:`SpecError` for the first error of ``exc``, with the other keys its message
+    names (:func:`psdesign.schema.types.fail`'s ``names``) in ``.names``."""
     key, msg = first_error(exc, root, prefix)
-    return SpecError(key, msg)
+    ctx = _first(exc).get("ctx") or {}
+    return SpecError(key, msg, names=ctx.get("names", ()))

@@ -29,11 +29,15 @@ def short(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def fail(key: str, message: str, allowed: str = "") -> PydanticCustomError:
-    """A schema error at ``key`` (relative to the table validated) with an allowed range."""
-    return PydanticCustomError(
-        "psdesign", "{message}", {"key": key, "message": message, "allowed": allowed}
-    )
+def fail(
+    key: str, message: str, allowed: str = "", names: tuple[str, ...] = ()
+) -> PydanticCustomError:
+    """A schema error at ``key`` (relative to the table validated) with an allowed range;
+    ``names``: other spec keys (full dotted paths) the message or range names, as written in
+    it, so that a study can spell them as its own file does (``base.rve.voxel``,
+    :class:`~psdesign.errors.SpecError` ``.names``)."""
+    ctx = {"key": key, "message": message, "allowed": allowed, "names": tuple(names)}
+    return PydanticCustomError("psdesign", "{message}", ctx)
 
 
 def _is_bool(value: Any) -> bool:

@@ -10,8 +10,9 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -564,6 +565,35 @@ def _under(key: str, path: str) -> bool:
     return dotted == path or dotted.startswith(path + ".")
 
 
+def study_key(key: str, paths: Iterable[str]) -> str:
+    """How the study file spells the spec key ``key``, with parameters at ``paths``: the
+    parameter's own key (``parameters.rve.voxel``; a key inside a table parameter as
+    ``rve.voxel in parameters.rve``), else the base's (``base.rve.voxel``). The one rule for
+    the key a refusal names and for the keys its advice names.
+
+    >>> study_key("rve.voxel", ["rve.voxel"]), study_key("flow.edge_length", ["rve.voxel"])
+    ('parameters.rve.voxel', 'base.flow.edge_length')
+    >>> study_key("rve.voxel", ["rve"])
+    'rve.voxel in parameters.rve'
+    """
+    for path in paths:
+        if _under(key, path):
+            return f"parameters.{path}" if _under(path, key) else f"{key} in parameters.{path}"
+    for path in paths:
+        if _under(path, key):  # one element of a list key swept (image.crop.2)
+            return f"parameters.{path}"
+    return f"base.{key}"
+
+
+def _respell(message: str, names: Iterable[str], paths: Iterable[str]) -> str:
+    """``message`` with each spec key of ``names`` (:attr:`SpecError.names`, the keys its
+    advice names) written as :func:`study_key` spells it."""
+    for name in names:
+        pattern = rf"(?<![\w.\[]){re.escape(name)}(?![\w.\[])"
+        message = re.sub(pattern, lambda _m, n=name: study_key(n, list(paths)), message)
+    return message
+
+
 def check_study_specs(study: Study) -> None:
     """Validate the base spec and every parameter level against the schema, before any work.
 
@@ -572,8 +602,10 @@ def check_study_specs(study: Study) -> None:
     key no parameter touches is reported as ``base.KEY``; a level whose own key is invalid, or
     that alone over a valid base breaks another key (a diameter under 2 of the base's voxels;
     beyond the first levels in a full factorial only, where the point checked is a case), as
-    ``parameters.PATH``. Errors that only arise from combinations are left to the runner's
-    per-case check (``psdesign.study.runner.validate_case_specs``), which names the case.
+    ``parameters.PATH``; the keys the error's advice names (a memory refusal's "a coarser
+    rve.voxel") are spelled by the same rule (:func:`study_key`). Errors that only arise from
+    combinations are left to the runner's per-case check
+    (``psdesign.study.runner.validate_case_specs``), which names the case.
     """
     from psdesign.flow.permeability import check_route_keys
     from psdesign.study.design import apply_params
@@ -589,6 +621,8 @@ def check_study_specs(study: Study) -> None:
     solves_k = any(o.startswith("k_") for o in study.outputs)
 
     def check(point: dict) -> tuple[str, str] | None:
+        """``(key, "key: message")`` of the spec error at ``point``, the advice's keys
+        spelled as the study file does (:func:`_respell`), or None."""
         spec = apply_params(study.base, point, seed)
         if isinstance(spec.get("flow"), dict):
             spec["flow"] = {**spec["flow"], "solver": study.solver}
@@ -599,7 +633,7 @@ def check_study_specs(study: Study) -> None:
             if solves_k:  # a [flow] choice the study's solver would not apply
                 check_route_keys(valid["flow"], study.solver)
         except SpecError as exc:
-            return exc.key, str(exc)
+            return exc.key, f"{exc.key}: {_respell(exc.message, exc.names, study.parameters)}"
         return None
 
     base_ok: list[bool] = []  # check({}) once, when first needed

@@ -263,3 +263,47 @@ def test_the_command_lines_solver_decides_the_checks(tmp_path, capsys):
     assert main(args) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "flow.max_memory_gb" in line and line.endswith("a coarser flow.lattice_step)")
+
+
+#: Parameters swept in :func:`test_a_studys_cap_refusal_names_the_key_its_file_holds`: one that
+#: leaves the route's resolution key in the base, and the route's resolution key itself.
+SWEEPS = {
+    "voxel": ('"rve.voxel" = [1e-6, 0.8e-6]', "a coarser {}rve.voxel"),
+    "stuffing": ('"flow.lattice_step" = [2e-6, 1.5e-6]', "a coarser {}flow.lattice_step"),
+    "pytetwild": ('"flow.edge_length" = [0.2, 0.1]', "a longer {}flow.edge_length"),
+}
+
+
+@pytest.mark.parametrize("swept", [False, True])
+@pytest.mark.parametrize("route", sorted(ROUTES))
+def test_a_studys_cap_refusal_names_the_key_its_file_holds(route, swept, tmp_path, capsys):
+    """Session 42 (s42-fixes): a study whose base.flow.max_memory_gb is too small was refused
+    naming base.flow.max_memory_gb, but its advice named the spec's key ('a coarser
+    rve.voxel'), which a study file does not have. The advice now follows the refusal's own
+    rule: base.rve.voxel, or parameters.rve.voxel where a parameter sweeps it. Exit 2, one
+    line, no output folder."""
+    (tmp_path / "base.toml").write_text(ONE_FIBER.format(flow=ROUTES[route][0], cap=1e-6))
+    param, advice = SWEEPS[route] if swept else ('"flow.pressure_drop" = [1.0, 2.0]', "")
+    advice = advice or ROUTES[route][1].replace(" flow.", " {}flow.").replace(" rve.", " {}rve.")
+    solver = "voxel" if route == "voxel" else "fem"
+    (tmp_path / "study.toml").write_text(
+        f'base = "base.toml"\n[study]\nname = "cap"\noutputs = ["k_z"]\nsolver = "{solver}"\n'
+        f"seeds = [1]\n[parameters]\n{param}\n"
+    )
+    out = tmp_path / "out"
+    assert main(["study", "run", str(tmp_path / "study.toml"), "-o", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: base.flow.max_memory_gb: the "), line
+    want = advice.format("parameters." if swept else "base.")
+    assert line.endswith(f", or {want})"), line
+    assert not out.exists()
+
+
+def test_a_study_spells_a_key_inside_a_table_parameter_and_a_list_element():
+    """The rule behind the advice: a key a table parameter holds is that parameter's, one
+    element of a list key swept is the element's parameter, any other key the base's."""
+    from psdesign.study.studyfile import study_key
+
+    assert study_key("rve.voxel", ["rve"]) == "rve.voxel in parameters.rve"
+    assert study_key("image.crop", ["image.crop.2"]) == "parameters.image.crop.2"
+    assert study_key("flow.lattice_step", ["rve.voxel"]) == "base.flow.lattice_step"
