@@ -47,7 +47,11 @@ from psdesign.flow.fem_field import (
 from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.meshing import tags
-from psdesign.meshing.options import mesher_options  # noqa: F401 (moved; re-exported)
+from psdesign.meshing.options import (
+    mesher_options,  # noqa: F401 (moved; re-exported)
+    thinnest_fiber_diameter,
+)
+from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import coarser_advice, resolution_key
 from solvers.fem.memory import MemoryLimitError
 
@@ -307,6 +311,9 @@ def permeability_fem(
     own, note = None, None
     if mesh is None:  # the permeameter meshes plan.copies copies along the flow
         copies = plan.copies if plan is not None else 1
+        spacing, porosity = float(fields.grid.spacing[0]), float(fields.porosity)
+        d = thinnest_fiber_diameter(rve)
+        check_planned_stack(flow, "fem", copies, fields.grid.size, spacing, porosity, d)
         mesh, own, note = fem_mesh(rve, fields, name, flow, bc, copies)
         if note:
             progress.stage(f"K_{name}: {note}")

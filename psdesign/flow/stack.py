@@ -28,7 +28,9 @@ residual of the windowed drop, :func:`psdesign.flow.error.window_of`) is above
 ``"auto"`` solves again with one copy more, up to :data:`AUTO_MAX_COPIES` (only a stack of a
 one-period RVE: an array already holds whole periods), and only while the
 longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`; the up-front
-check counts the first solve's :data:`AUTO_COPIES`); where it stops above the threshold the
+budget counts the first solve's :data:`AUTO_COPIES`, the ``flow.max_memory_gb`` cap one copy and
+the planned copies before the stack is meshed or solved,
+:func:`psdesign.schema.budget.check_planned_stack`); where it stops above the threshold the
 result warns and names ``flow.permeameter_copies``. The error bar's second resolution is solved
 with the final copies. Measured (``docs/permeability.md``, "Two copies are not always enough"):
 three_rods (porosity 0.91, 20 um rods in a 100 um cube) has window terms of 10.0 / 1.9 / 0.4 %

@@ -35,6 +35,7 @@ from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, under_resolved
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.schema.budget import check_planned_stack
 
 BCS = ("periodic", "permeameter")
 WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
@@ -258,6 +259,8 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     if bc != "permeameter":
         return None, fields, kw
     plan = plan_copies(flow, rve, fields, ax)  # m copies along the flow
+    key = "rve.voxel" if fields.analytic_distance else "image.crop"
+    check_planned_stack(flow, "voxel", plan.copies, fields.grid.size, h, None, None, key)
     solve = stack_fields(fields, ax, plan.copies)
     if wall == "subvoxel":
         kw["distance"] = solve.distance

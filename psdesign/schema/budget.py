@@ -18,8 +18,11 @@ Every check raises a schema error naming the key and the estimate. Figures:
   FEM's own field refined for thin fibers (:func:`fem_field_bytes`, at most about 1 GB);
 * ``flow.max_memory_gb``, on every route before any work (:func:`check_cap`, over it by
   :data:`CAP_MARGIN`): the stuffing FEM's estimate (:func:`check_fem`), pytetwild's least mesh
-  (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`);
-  each refusal names the route's resolution key;
+  (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`),
+  each with ``"auto"`` counted as the one copy a non-periodic RVE stacks
+  (:func:`least_stack_of`); the stack ``"auto"`` plans once the RVE is built is checked the
+  same way before it is meshed or solved (:func:`check_planned_stack`); each refusal names
+  the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
@@ -31,7 +34,12 @@ from __future__ import annotations
 
 import math
 
-from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES, coarser_advice, resolution_key
+from psdesign.schema.flow import (
+    AUTO_PERMEAMETER_COPIES,
+    FlowTable,
+    coarser_advice,
+    resolution_key,
+)
 from psdesign.schema.types import fail
 from solvers.voxel.memory import BYTES_PER_CELL, WALL_COUPLING_BYTES
 
@@ -115,8 +123,10 @@ def stack_of(flow) -> tuple[int, float]:
 
 def least_stack_of(flow) -> tuple[int, float]:
     """:func:`stack_of` with ``"auto"`` copies counted as one, the fewest a run stacks (it
-    takes two only for a periodic one-period RVE): what ``flow.max_memory_gb`` is checked
-    against on the pytetwild and voxel routes, so that no spec a run would fit is refused."""
+    takes two only for a periodic one-period RVE, known once the RVE is built): what
+    ``flow.max_memory_gb`` is checked against up front on every route, so that no spec a run
+    would fit is refused; the stack ``"auto"`` plans is checked before it is stacked
+    (:func:`check_planned_stack`)."""
     copies, aux = stack_of(flow)
     if flow is not None and flow.permeameter_copies in (None, "auto"):
         copies = 1
@@ -140,6 +150,50 @@ def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> No
         + f", or {coarser_advice(key)}",
         names=(key,),
     )
+
+
+def check_planned_stack(
+    flow: dict,
+    solver: str,
+    copies: int,
+    size,
+    voxel: float,
+    porosity: float | None,
+    fiber_diameter: float | None,
+    key: str = "rve.voxel",
+) -> None:
+    """Refuse the first stack an ``"auto"`` permeameter planned (``copies``,
+    :func:`psdesign.flow.stack.plan_copies`) over ``flow.max_memory_gb``, with the up-front
+    check of the route (:func:`_check_voxel_cap`, :func:`check_fem`, the same estimate and
+    line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`), so a
+    periodic one-period RVE's two copies are checked here, after the RVE is built and before
+    the grid is stacked or meshed. ``flow``: the route's permeameter ``[flow]`` dict;
+    ``key``: the voxel route's resolution key (``image.crop`` for an image).
+
+    Raises
+    ------
+    SpecError
+        ``flow.max_memory_gb``, as the spec's check words it.
+    """
+    from pydantic_core import PydanticCustomError
+
+    from psdesign.schema.errors import fail_error
+
+    if flow.get("max_memory_gb") is None or copies <= 1:
+        return
+    if flow.get("permeameter_copies") not in (None, "auto"):
+        return  # counted as given up front
+    fields = {k: v for k, v in flow.items() if k in FlowTable.model_fields and v is not None}
+    pinned = {"solver": solver, "bc": "permeameter", "permeameter_copies": copies}
+    table = FlowTable.model_construct(**{**fields, **pinned})
+    size = tuple(float(s) for s in size)
+    try:
+        if solver == "voxel":
+            _check_voxel_cap(grid_shape(size, voxel), table, key)
+        else:
+            check_fem(size, voxel, table, porosity, fiber_diameter)
+    except PydanticCustomError as exc:
+        raise fail_error(exc) from None
 
 
 def solved_cells(n: float, copies: int, aux: float) -> float:
@@ -346,10 +400,16 @@ def check_fem(
 
     total = fem_need_bytes(size, step, copies, aux, phi)
     if total <= budget:
-        # the solve's own check came after meshing: work, then 'pass force=True'
-        _, tets = fem_mesh_size(size, step, copies, aux, phi)
+        # the solve's own check came after meshing: work, then 'pass force=True'. The cap
+        # counts the fewest copies a run stacks (an "auto" stack of two is checked once it is
+        # planned, check_planned_stack): the step is the one of that stack
+        least, _ = least_stack_of(flow)
+        if least != copies and flow.lattice_step is None:
+            step, _ = fem_lattice_step(size, voxel, fiber_diameter, least, aux, phi, budget)
+        _, tets = fem_mesh_size(size, step, least, aux, phi)
         what = f"the FEM solve of about {tets:.3g} tets (lattice step {step:.3g} m)"
-        check_cap(flow, total, what, resolution_key("fem", "stuffing"))
+        need = fem_need_bytes(size, step, least, aux, phi)
+        check_cap(flow, need, what, resolution_key("fem", "stuffing"))
         return
     pts, tets = fem_mesh_size(size, step, copies, aux, phi)
     what = (

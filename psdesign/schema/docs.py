@@ -40,9 +40,11 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   as one copy but not as the stack names `flow.permeameter_copies`. With
   `flow.max_memory_gb` every route's estimate over 1.25 x the cap is refused naming it and the
   route's resolution key, before any work: the stuffing mesh's (`flow.lattice_step`); the
-  pytetwild mesh's divided by 6 (its estimate is 1.03-4.5 x the meshes made; one copy for
-  `"auto"`; `flow.edge_length`); the voxel solve's (one copy for `"auto"`; `rve.voxel`, or
-  `image.crop`). The FEM solve checks the cap again from the built mesh.
+  pytetwild mesh's divided by 6 (its estimate is 1.03-4.5 x the meshes made;
+  `flow.edge_length`); the voxel solve's (`rve.voxel`, or `image.crop`). Each counts one copy
+  for `"auto"` (a non-periodic RVE stacks one); the stack `"auto"` plans (2 for a periodic
+  one-period RVE) is checked the same way once the RVE is built, before it is meshed or
+  solved (at the RVE's porosity). The FEM solve checks the cap again from the built mesh.
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
   checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)
   and `flow.edge_length` (pytetwild). The other mesher's key on an FEM solve is not used and

@@ -14,11 +14,12 @@ import typing
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import PydanticCustomError
 
 from psdesign.errors import SpecError
 from psdesign.schema.types import short
 
-__all__ = ["did_you_mean", "dotted", "field_allowed", "spec_error"]
+__all__ = ["did_you_mean", "dotted", "fail_error", "field_allowed", "spec_error"]
 
 _BOUND_TEXT = {"gt": "> {}", "ge": ">= {}", "lt": "< {}", "le": "<= {}"}
 
@@ -143,6 +144,15 @@ def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str,
     key = dotted((prefix, *loc, *(suffix.split(".") if suffix else ())))
     msg = " ".join(msg.split())  # one line
     return key or (prefix or "spec"), msg
+
+
+def fail_error(exc: PydanticCustomError) -> SpecError:
+    """The :class:`SpecError` of a :func:`psdesign.schema.types.fail` raised outside a
+    validation (a route's check with the schema's wording), the same line as
+    :func:`spec_error` gives it."""
+    ctx = exc.context or {}
+    key, msg = _message({"type": "psdesign", "ctx": ctx}, None, ())
+    return SpecError(key, " ".join(msg.split()), names=ctx.get("names", ()))
 
 
 def spec_error(exc: ValidationError, root: Any, prefix: str = "") -> SpecError:

@@ -11,8 +11,10 @@ from psdesign.schema.types import Table, fail, flag, number, short
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
 #: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
-#: the up-front memory budget counts them for every "auto" permeameter (psdesign.schema.budget; a
-#: longer stack "auto" takes after the first solve is checked before it is solved).
+#: the up-front memory budget (half the machine) counts them for every "auto" permeameter, the
+#: ``flow.max_memory_gb`` cap one copy, and the planned stack once the RVE is built
+#: (psdesign.schema.budget; a longer stack "auto" takes after the first solve is checked before
+#: it is solved).
 AUTO_PERMEAMETER_COPIES = 2
 
 

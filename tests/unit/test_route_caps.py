@@ -307,3 +307,61 @@ def test_a_study_spells_a_key_inside_a_table_parameter_and_a_list_element():
     assert study_key("rve.voxel", ["rve"]) == "rve.voxel in parameters.rve"
     assert study_key("image.crop", ["image.crop.2"]) == "parameters.image.crop.2"
     assert study_key("flow.lattice_step", ["rve.voxel"]) == "base.flow.lattice_step"
+
+
+#: One 6 um fibre along x at z = 7 um in a 20 um cube. With the default period (the box) its
+#: end planes along z match: periodic, one period per copy, so "auto" stacks 2 copies along z.
+#: With a 30 um period they differ (7 um and 13 um from the axis): not periodic, 1 copy.
+OFF_CENTRE = (
+    "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n{period}[[fibers]]\ndiameter = 6e-6\n"
+    "direction = [1, 0, 0]\ncenter = [10e-6, 10e-6, 7e-6]\n[flow]\n{flow}max_memory_gb = {cap}\n"
+)
+#: Caps between the one-copy and the two-copy need (session 42, benchmarks/RESULTS.md).
+#: Stuffing: up front 0.278 GB (1 copy, porosity counted 1) / 0.391 GB (2 copies); at the
+#: plan, porosity 0.929: 0.270 / 0.375 GB; the built meshes' solve estimates 0.278 GB (7340
+#: tets, 1 copy) and 0.376 GB (13160 tets, 2 copies). 0.29 GB: 1.25 x 0.29 = 0.3625 is over
+#: 0.278 and under 0.375, and the one-copy solve's 0.278 GB is under 0.29. Voxel (16 B of
+#: fields, 116 B of solver per solved cell, reservoirs 2 x 0.2 of one copy): 8000 x (16 + 116 x
+#: 1.4) B = 1.43e-3 GB for one copy, 8000 x (16 + 116 x 2.4) = 2.36e-3 GB for two; 1.8e-3 GB
+#: (x 1.25 = 2.25e-3).
+BETWEEN = {
+    "stuffing": ('solver = "fem"\n', 0.29),
+    "voxel": ('solver = "voxel"\nbc = "permeameter"\n', 1.8e-3),
+}
+
+
+@pytest.mark.parametrize("route", sorted(BETWEEN))
+def test_a_cap_between_one_and_two_copies_runs_where_auto_stacks_one(
+    route, tmp_path, capsys, monkeypatch
+):
+    """Session 42 (s42-fixes): the stuffing route's up-front cap counted "auto" as 2 copies on
+    every spec, so a cap between the one- and two-copy needs refused a non-periodic RVE (which
+    stacks one) before any work (exit 2, 'needs about 0.391 GB'); the run fits (solve estimate
+    0.278 GB, peak RSS 0.33 GB). Now it runs; the periodic one-period RVE, where "auto" stacks
+    two, is refused once the stack is planned, before it is meshed or solved. The voxel route
+    counted "auto" as one copy and, the solver taking no cap, solved the periodic RVE's two
+    copies over the cap (exit 0): now refused the same way."""
+    flow, cap = BETWEEN[route]
+    args = ["--direction", "z", "--quiet", "--no-error-estimate", "--json"]
+    path = tmp_path / "np.toml"
+    path.write_text(OFF_CENTRE.format(period="period = 30e-6\n", flow=flow, cap=cap))
+    assert main(["permeability", str(path), *args]) == 0
+    out = capsys.readouterr().out
+    assert '"permeameter_copies": 1' in out and '"geometry_periodic_along_flow": false' in out
+
+    from psdesign.flow import fem as fem_route
+    from solvers import voxel_stokes
+
+    def boom(*a, **k):
+        raise AssertionError("meshed or solved although the planned stack is over the cap")
+
+    monkeypatch.setattr(fem_route, "fem_mesh", boom)
+    monkeypatch.setattr(voxel_stokes, "solve_voxel_stokes", boom)
+    path = tmp_path / "p.toml"
+    path.write_text(OFF_CENTRE.format(period="", flow=flow, cap=cap))
+    fields = tmp_path / "fields"
+    assert main(["permeability", str(path), *args, "--fields", str(fields)]) == 2
+    (line,) = [x for x in capsys.readouterr().err.splitlines() if "error" in x]
+    assert line.startswith("psdesign: error: flow.max_memory_gb: the "), line
+    assert f"over the cap of {cap:.3g} GB" in line, line
+    assert not fields.exists()
