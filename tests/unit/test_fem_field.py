@@ -113,6 +113,9 @@ def test_woven_mesh_solid_fraction_independent_of_field_voxel():
     own = fem_field(rve, coarse, mesher="pytetwild")
     sens = 2.0 + 3.0 * s_w2 / (1.0 - s_w2)
     assert own.rel_error == pytest.approx(sens * (s_w1 - s_w2) / s_w2, rel=1e-9)
-    assert 0.05 < own.rel_error < 0.08  # measured 6.0 % (K on this field: +5.9 %)
-    assert fem_field(rve, fine).rel_error == 0.0  # 8.5 voxels: resolved
+    # measured 5.0 % (6.0 % with the field scale before session 42, grad_scale 11.91 -> 11.29:
+    # the distances are 5.5 % longer, the two-voxel kernel counts more of the yarns; K on this
+    # field, measured then: +5.9 %)
+    assert 0.04 < own.rel_error < 0.07
+    assert fem_field(rve, fine).rel_error == 0.0  # 9.6 voxels (8.5 before session 42): resolved
     assert field_rel_error(coarse.distance, 1e-6) == own.rel_error

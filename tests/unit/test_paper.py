@@ -149,7 +149,9 @@ def test_shipped_woven_sample_is_the_table_i_cell_filling_the_cube():
     spec = load_spec(ROOT / "studies" / "table3" / "woven.toml")
     rve = build_rve(spec).rve
     assert len(rve.fibers) == 18 and rve.period == pytest.approx(100e-6)
-    assert rve.fibers[0].diameter * rve.period == pytest.approx(14.2e-6, abs=0.1e-6)
+    # the mean width across the centre line (session 42; 14.2 um from chords off the bent axis
+    # before): 14.0 um through the fabric, 18.0 um across it (tests/unit/test_fixed_shape_diameter)
+    assert rve.fibers[0].diameter * rve.period == pytest.approx(16.0e-6, abs=0.1e-6)
     solid = rve.voxelize(2e-6).solid
     # fabric through the whole thickness (one layer filled only z = 36-64 um: 28 %)
     assert np.mean(solid.mean(axis=(0, 1)) > 0) > 0.8

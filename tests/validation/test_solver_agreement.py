@@ -234,7 +234,7 @@ def test_periodic_faces_of_bent_seed_3_match_and_agree():
     assert abs(_random_pair("bent", "z", "periodic", seed=3)) <= AGREE
 
 
-#: The shipped woven spec: the plain-weave cell of Eq. (19) at period 100 um (yarns 14.2 um thick),
+#: The shipped woven spec: the plain-weave cell of Eq. (19) at period 100 um (yarns 14 um thick),
 #: 3 layers per period, 100 um cube, voxel 1 um.
 WOVEN_SPEC = Path(__file__).resolve().parents[2] / "studies" / "table3" / "woven.toml"
 
