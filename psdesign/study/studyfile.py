@@ -568,8 +568,9 @@ def _under(key: str, path: str) -> bool:
 def study_key(key: str, paths: Iterable[str]) -> str:
     """How the study file spells the spec key ``key``, with parameters at ``paths``: the
     parameter's own key (``parameters.rve.voxel``; a key inside a table parameter as
-    ``rve.voxel in parameters.rve``), else the base's (``base.rve.voxel``). The one rule for
-    the key a refusal names and for the keys its advice names.
+    ``rve.voxel in parameters.rve``), else the base's (``base.rve.voxel``): the spelling
+    :func:`check_study_specs` gives a refused key (``base.KEY`` where no parameter touches
+    it, ``parameters.PATH`` where one does), for the keys a refusal's advice names.
 
     >>> study_key("rve.voxel", ["rve.voxel"]), study_key("flow.edge_length", ["rve.voxel"])
     ('parameters.rve.voxel', 'base.flow.edge_length')
