@@ -31,6 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
+from psdesign.packing.ga_settings import GASettings
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
@@ -650,7 +651,7 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         probe = _probe(gs, size)
         n = max(1, int(round((1.0 - gs.porosity) / _solid_per_fiber(probe, lo, hi))))
     pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 4 * n + 50), size)
-    kw = dict(
+    settings = GASettings(
         angle_range_deg=float(opts.get("angle_range_deg", 1.0)),
         shift_range=float(opts.get("shift_range", 0.1)),
         population=int(opts.get("population", 24)),
@@ -659,17 +660,14 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
         time_limit_s=opts.get("time_limit_s"),
     )
-    if gs.kind == "bent":
-        kw["u_range"] = (0.1, 0.3)
-        kw["f_range"] = (1.0, 10.0)
     best = None
     info: dict = {"ga": []}
     st = pool.subset(np.arange(n))
     rounds = [1]
-    report = ga_progress(kw["generations"], kw["objective"], rounds)
+    report = ga_progress(settings.generations, settings.objective, rounds)
     for _round in range(4):
         rounds[0] = _round + 1
-        res = genetic(st, lo, hi, size / period, seed=gs.seed + _round, report=report, **kw)
+        res = genetic(st, lo, hi, size / period, settings, seed=gs.seed + _round, report=report)
         vf = measure(res.state)
         info["ga"].append(
             {
@@ -710,14 +708,14 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
             "closest": vf.porosity,
             "why": "GA rounds exhausted",
             "n_rejected": 0,
-            "bounds": _ga_bounds_report(state, drawn, kw, size / period, period),
+            "bounds": _ga_bounds_report(state, drawn, settings, size / period, period),
         }
     )
     return state, drawn, info
 
 
 def _ga_bounds_report(
-    state: FiberState, drawn: FiberState, kw: dict, size_norm: np.ndarray, period: float
+    state: FiberState, drawn: FiberState, settings: GASettings, size_norm: np.ndarray, period: float
 ) -> dict:
     """The GA's move ranges and how many fibers ended outside them, measured from the drawn
     state: each round restarts from the previous round's result, so the moves of the fibers
@@ -725,12 +723,12 @@ def _ga_bounds_report(
     shift = np.abs(state.center - drawn.center) / np.asarray(size_norm)
     turn = np.maximum(np.abs(state.theta - drawn.theta), np.abs(state.omega - drawn.omega))
     tol = 1e-9
-    out = (shift.max(axis=1, initial=0.0) > kw["shift_range"] + tol) | (
-        turn > kw["angle_range_deg"] + tol
+    out = (shift.max(axis=1, initial=0.0) > settings.shift_range + tol) | (
+        turn > settings.angle_range_deg + tol
     )
     return {
-        "shift_range": kw["shift_range"],
-        "angle_range_deg": kw["angle_range_deg"],
+        "shift_range": settings.shift_range,
+        "angle_range_deg": settings.angle_range_deg,
         "max_shift_m": float(np.max(np.abs(state.center - drawn.center), initial=0.0) * period),
         "max_turn_deg": float(np.max(turn, initial=0.0)),
         **_bounds_status(int(np.count_nonzero(out))),

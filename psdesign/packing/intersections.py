@@ -43,6 +43,7 @@ from psdesign.packing.fiberset import (
     orientation_tensor,
     segment_distance,
 )
+from psdesign.packing.ga_settings import GASettings
 from psdesign.packing.genetic import GAResult, analytic_omega, crossing_volume, genetic
 from psdesign.packing.sequential import PlacementResult, place_sequential, torus_offsets
 
@@ -51,6 +52,7 @@ __all__ = [
     "Contacts",
     "FiberState",
     "GAResult",
+    "GASettings",
     "Pieces",
     "PlacementResult",
     "analytic_omega",

@@ -8,6 +8,7 @@ import pytest
 from psdesign.geometry.rve import RVE
 from psdesign.packing.intersections import (
     FiberState,
+    GASettings,
     analytic_omega,
     carrier_lengths,
     crossing_volume,
@@ -143,7 +144,7 @@ def test_fixed_fibers_are_not_moved():
 
 def test_ga_stays_in_adjustment_ranges_and_never_worsens():
     st = _random_state(10, seed=7)
-    res = genetic(st, LO, HI, np.ones(3), population=10, generations=5, seed=1)
+    res = genetic(st, LO, HI, np.ones(3), GASettings(population=10, generations=5), seed=1)
     assert res.objective_final <= res.objective_initial
     assert res.objective_initial > 0
     assert np.all(np.abs(res.state.theta - st.theta) <= 1.0 + 1e-9)
