@@ -57,6 +57,7 @@ from psdesign.forcefield.potentials import (
     quadrature_error,
     total_potential,
 )
+from psdesign.forcefield.search_settings import SearchSettings
 from psdesign.geometry.fibers import WOVEN_SPACING, woven_fiber_model
 from psdesign.geometry.model import GeneralizedPS
 from psdesign.schema.forcefield import SIX_NAMES
@@ -240,15 +241,12 @@ class ForceFieldProblem:
         """
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
-        kw = dict(
-            step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals, callback=callback
-        )
+        opt = SearchSettings(step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals)
+        args = (self.objective, self.x0, self.lower, self.upper, opt)
         if workers == 1 or "fork" not in mp.get_all_start_methods():
-            return pattern_search(self.objective, self.x0, self.lower, self.upper, **kw)
+            return pattern_search(*args, callback=callback)
         with WorkerPool(self.objective, workers) as pool:
-            return pattern_search(
-                self.objective, self.x0, self.lower, self.upper, evaluator=pool, **kw
-            )
+            return pattern_search(*args, callback=callback, evaluator=pool)
 
     def free_of(self, params: dict) -> np.ndarray:
         return self.param.free_from(params)

@@ -33,6 +33,7 @@ import numpy as np
 
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
+from psdesign.forcefield.search_settings import SearchSettings
 from psdesign.geometry.fibers import Fiber, with_minor_moment
 
 #: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
@@ -354,8 +355,8 @@ def relax_contacts(
     from psdesign.cli.progress import search_progress
 
     res = pattern_search(
-        prob.energy, x0, prob.lower, prob.upper, step=0.25, min_step=min_step,
-        max_iter=max_iter, max_evals=max_evals,
+        prob.energy, x0, prob.lower, prob.upper,
+        SearchSettings(step=0.25, min_step=min_step, max_iter=max_iter, max_evals=max_evals),
         callback=search_progress(f"relax ({len(prob.movable)} fibers, contacts on a grid)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds

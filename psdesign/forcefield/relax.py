@@ -32,6 +32,7 @@ import numpy as np
 from psdesign.errors import SpecError
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
+from psdesign.forcefield.search_settings import SearchSettings
 from psdesign.packing.fiberset import (
     FiberState,
     build_pieces,
@@ -324,8 +325,9 @@ def relax_fibers(
     from psdesign.cli.progress import search_progress
 
     res = pattern_search(
-        model.energy, x0, lower, upper, step=0.25, min_step=min_step, max_iter=max_iter,
-        max_evals=max_evals, callback=search_progress(f"relax ({len(movable)} fibers)"),
+        model.energy, x0, lower, upper,
+        SearchSettings(step=0.25, min_step=min_step, max_iter=max_iter, max_evals=max_evals),
+        callback=search_progress(f"relax ({len(movable)} fibers)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds
 
