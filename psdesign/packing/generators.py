@@ -510,101 +510,133 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
     probe = _probe(gs, size)
     mean_area = float(np.mean(_areas(probe)))
     n_pool = min(gs.max_fibers, int(np.ceil(2.0 * target_solid / mean_area)) + 50)
-    pool = draw_fibers(gs, gs.seed, n_pool, size)
-    areas = _areas(pool)
-    box_volume = float(np.prod(hi - lo))
-    n_fixed = len(fixed) if fixed is not None else 0
-    fixed_solid = 0.0
-    if fixed is not None:
-        fixed_solid = float(np.sum(_areas(fixed) * carrier_lengths(fixed, lo, hi))) / box_volume
-    placed = fixed  # explicit fibers first, then placed pool fibers in order
-    kept: list[int] = []  # pool index of each placed pool fiber
-    used = 0
+    run = _PoolPlacement(gs, size, lo, hi, fixed, kw, n_pool)
     bias = 0.0
     best = None
-    n_rejected = 0
-    n_ejections = 0
-    exceeded_counts: list[int] = []
-    why = "the measured porosity did not converge"
-    jammed = False
     for _round in range(6):
         goal = target_solid - bias
-        if fixed_solid + _solid(pool, kept, areas, lo, hi) < goal and used < n_pool and not jammed:
-            rest = pool.subset(np.arange(used, n_pool))
-            if placed is None:
-                full, full_area, nb = rest, areas[used:], 0
-            else:
-                full = FiberState.concat(_as_fixed(placed), rest)
-                full_area = np.r_[_areas(placed), areas[used:]]
-                nb = len(placed)
-            res = place_sequential(
-                full, lo, hi, area=full_area, stop_solid=goal, max_consecutive_rejects=40, **kw
-            )
-            new = [int(k) - nb for k in res.placed if k >= nb]
-            seen = new + [int(k) - nb for k in res.rejected]
-            kept += [used + k for k in new]
-            used += (max(seen) + 1) if seen else 0
-            n_rejected += len(res.rejected)
-            n_ejections += res.n_ejections
-            exceeded_counts.append(len(res.exceeded))
-            placed = res.state
-            placed.fixed[:] = np.arange(len(placed)) < n_fixed
-            if not res.reached_stop:
-                jammed = used < n_pool
-                why = (
-                    "packing jammed: 40 fibers in a row found no free place"
-                    if jammed
-                    else "fiber pool exhausted (raise generator.max_fibers)"
-                )
-        # the prefix of placed fibers whose predicted porosity is closest to the goal
-        mov = np.array(kept, int)
-        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
-        # a period a shift changes a tilted fiber's length in the box
-        lengths = (
-            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), lo, hi)
-            if len(mov)
-            else np.zeros(0)
-        )
-        cum = fixed_solid + np.r_[0.0, np.cumsum(areas[mov] * lengths) / box_volume]
-        k = int(np.argmin(np.abs(cum - goal)))
-        kept = kept[:k]
-        if placed is not None:
-            placed = placed.subset(np.arange(n_fixed + k))
-        st = (
-            placed.subset(np.arange(n_fixed, len(placed)))
-            if placed is not None
-            else pool.subset(np.zeros(0, int))
-        )
+        run.place_to(goal)
+        st, predicted = run.keep_closest(goal)
         vf = measure(st)
         if best is None or abs(vf.porosity - gs.porosity) < abs(best[0] - gs.porosity):
-            best = (vf.porosity, st, list(kept), vf)
+            best = (vf.porosity, st, list(run.kept), vf)
         err = vf.porosity - gs.porosity
         if abs(err) <= gs.tolerance:
             break
-        bias = (1.0 - vf.porosity) - cum[k]  # measured minus predicted solid
-        if err > 0 and not jammed and used >= n_pool < gs.max_fibers:
+        bias = (1.0 - vf.porosity) - predicted  # measured minus predicted solid
+        if err > 0 and not run.jammed and run.used >= run.n_pool < gs.max_fibers:
             # rejections used up the pool before a jam was detected: draw more (the first
             # n_pool draws are unchanged, so the placed fibers stay valid)
-            n_pool = min(gs.max_fibers, 2 * n_pool)
-            pool = draw_fibers(gs, gs.seed, n_pool, size)
-            areas = _areas(pool)
+            run.draw_more()
             continue
-        if err > 0 and (jammed or used >= n_pool):
+        if err > 0 and (run.jammed or run.used >= run.n_pool):
             break
     porosity, st, kept, vf = best
-    if not jammed and used < n_pool:
+    why = run.why
+    if not run.jammed and run.used < run.n_pool:
         why = _coarse_step(probe, lo, hi, gs.tolerance) or why
-    drawn = pool.subset(np.array(kept, int))
+    drawn = run.pool.subset(np.array(kept, int))
     info = {
-        "n_rejected": n_rejected,
-        "n_ejections": n_ejections,
+        "n_rejected": run.n_rejected,
+        "n_ejections": run.n_ejections,
         "fields": vf,
         "closest": porosity,
         "why": why,
         "placement_time_s": round(time.perf_counter() - t0, 3),
-        "bounds": _bounds_report(kw, gs.period, exceeded_counts),
+        "bounds": _bounds_report(kw, gs.period, run.exceeded_counts),
     }
     return st, drawn, info
+
+
+class _PoolPlacement:
+    """The rounds of ``fast`` porosity targeting on one drawn pool: the explicit fibers first,
+    then the pool's fibers placed in order (``placed``; ``kept`` their pool indices, ``used``
+    the pool fibers tried so far), and the counts the report gives."""
+
+    def __init__(self, gs, size, lo, hi, fixed, kw: dict, n_pool: int):
+        self.gs, self.size, self.lo, self.hi, self.kw = gs, size, lo, hi, kw
+        self.n_pool = n_pool
+        self.pool = draw_fibers(gs, gs.seed, n_pool, size)
+        self.areas = _areas(self.pool)
+        self.box_volume = float(np.prod(hi - lo))
+        self.n_fixed = len(fixed) if fixed is not None else 0
+        self.fixed_solid = 0.0
+        if fixed is not None:
+            solid = np.sum(_areas(fixed) * carrier_lengths(fixed, lo, hi))
+            self.fixed_solid = float(solid) / self.box_volume
+        self.placed = fixed  # explicit fibers first, then placed pool fibers in order
+        self.kept: list[int] = []  # pool index of each placed pool fiber
+        self.used = 0
+        self.n_rejected = 0
+        self.n_ejections = 0
+        self.exceeded_counts: list[int] = []
+        self.why = "the measured porosity did not converge"
+        self.jammed = False
+
+    def place_to(self, goal: float) -> None:
+        """Place further pool fibers until the predicted solid fraction reaches ``goal``
+        (nothing when it already does, the pool is used up or the packing jammed)."""
+        lo, hi, n_pool, used = self.lo, self.hi, self.n_pool, self.used
+        solid = self.fixed_solid + _solid(self.pool, self.kept, self.areas, lo, hi)
+        if not (solid < goal and used < n_pool and not self.jammed):
+            return
+        rest = self.pool.subset(np.arange(used, n_pool))
+        if self.placed is None:
+            full, full_area, nb = rest, self.areas[used:], 0
+        else:
+            full = FiberState.concat(_as_fixed(self.placed), rest)
+            full_area = np.r_[_areas(self.placed), self.areas[used:]]
+            nb = len(self.placed)
+        res = place_sequential(
+            full, lo, hi, area=full_area, stop_solid=goal, max_consecutive_rejects=40, **self.kw
+        )
+        new = [int(k) - nb for k in res.placed if k >= nb]
+        seen = new + [int(k) - nb for k in res.rejected]
+        self.kept += [used + k for k in new]
+        self.used += (max(seen) + 1) if seen else 0
+        self.n_rejected += len(res.rejected)
+        self.n_ejections += res.n_ejections
+        self.exceeded_counts.append(len(res.exceeded))
+        self.placed = res.state
+        self.placed.fixed[:] = np.arange(len(self.placed)) < self.n_fixed
+        if not res.reached_stop:
+            self.jammed = self.used < n_pool
+            self.why = (
+                "packing jammed: 40 fibers in a row found no free place"
+                if self.jammed
+                else "fiber pool exhausted (raise generator.max_fibers)"
+            )
+
+    def keep_closest(self, goal: float) -> tuple[FiberState, float]:
+        """Keep the prefix of placed fibers whose predicted solid fraction is closest to
+        ``goal``; the kept pool fibers and their predicted solid fraction."""
+        n_fixed, placed = self.n_fixed, self.placed
+        mov = np.array(self.kept, int)
+        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
+        # a period a shift changes a tilted fiber's length in the box
+        lengths = (
+            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
+            if len(mov)
+            else np.zeros(0)
+        )
+        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self.areas[mov] * lengths) / self.box_volume]
+        k = int(np.argmin(np.abs(cum - goal)))
+        self.kept = self.kept[:k]
+        if placed is not None:
+            self.placed = placed = placed.subset(np.arange(n_fixed + k))
+        st = (
+            placed.subset(np.arange(n_fixed, len(placed)))
+            if placed is not None
+            else self.pool.subset(np.zeros(0, int))
+        )
+        return st, cum[k]
+
+    def draw_more(self) -> None:
+        """Double the pool (at most ``generator.max_fibers``); its first draws are unchanged."""
+        gs = self.gs
+        self.n_pool = min(gs.max_fibers, 2 * self.n_pool)
+        self.pool = draw_fibers(gs, gs.seed, self.n_pool, self.size)
+        self.areas = _areas(self.pool)
 
 
 def _bounds_report(kw: dict, period: float, exceeded: list[int]) -> dict:
