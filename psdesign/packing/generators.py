@@ -22,7 +22,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +42,7 @@ from psdesign.packing.intersections import (
     orientation_tensor,
     place_sequential,
 )
+from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
 from psdesign.schema.generator import GeneratorTable as _GeneratorTable
@@ -443,21 +444,20 @@ def _stats(x: np.ndarray) -> dict:
 # ------------------------------------------------------------------- the methods
 def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
     """Sequential minimal-shift placement, with porosity targeting by measured correction."""
-    kw = _fast_options(gs, gap)
+    opts = _fast_options(gs, gap)
     if gs.n_fibers is not None:
-        return _fast_count(gs, size, lo, hi, fixed, measure, kw)
-    return _fast_porosity(gs, size, lo, hi, fixed, measure, kw)
+        return _fast_count(gs, size, lo, hi, fixed, measure, opts)
+    return _fast_porosity(gs, size, lo, hi, fixed, measure, opts)
 
 
-def _fast_options(gs, gap: float) -> dict:
-    """:func:`place_sequential` keywords from ``[intersections]`` (normalized lengths)."""
+def _fast_options(gs, gap: float) -> PlacementSettings:
+    """:func:`place_sequential`'s settings from ``[intersections]`` (normalized lengths)."""
     opts = gs.options
-    return dict(
+    return PlacementSettings(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
         max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
         orientation_tries=int(opts.get("orientation_tries", 4)),
-        seed=gs.seed,
         max_ejections=int(opts.get("max_ejections", 6)),
         max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
         max_shift=float(opts.get("max_shift", PAPER_MAX_SHIFT * gs.period)) / gs.period,
@@ -466,11 +466,11 @@ def _fast_options(gs, gap: float) -> dict:
     )
 
 
-def _fast_count(gs, size, lo, hi, fixed, measure, kw):
+def _fast_count(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
     """``generator.n_fibers`` fibers placed without intersections, or a GenerationError."""
     drawn = draw_fibers(gs, gs.seed, gs.n_fibers, size)
     full = FiberState.concat(fixed, drawn) if fixed is not None else drawn
-    res = place_sequential(full, lo, hi, on_reject="raise", **kw)
+    res = place_sequential(full, lo, hi, replace(opts, on_reject="raise"), seed=gs.seed)
     if len(res.rejected):
         vf = measure(res.state.subset(~res.state.fixed))
         raise GenerationError(
@@ -493,12 +493,12 @@ def _fast_count(gs, size, lo, hi, fixed, measure, kw):
             "placement_time_s": round(res.wall_time_s, 3),
             "candidates_tested": res.candidates_tested,
             "n_ejections": res.n_ejections,
-            "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
+            "bounds": _bounds_report(opts, gs.period, [len(res.exceeded)]),
         },
     )
 
 
-def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
+def _fast_porosity(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
     """Fibers placed until the measured porosity meets ``generator.porosity``.
 
     A generous pool is drawn once (reproducible) and placed until the predicted solid
@@ -510,7 +510,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
     probe = _probe(gs, size)
     mean_area = float(np.mean(_areas(probe)))
     n_pool = min(gs.max_fibers, int(np.ceil(2.0 * target_solid / mean_area)) + 50)
-    run = _PoolPlacement(gs, size, lo, hi, fixed, kw, n_pool)
+    run = _PoolPlacement(gs, size, lo, hi, fixed, opts, n_pool)
     bias = 0.0
     best = None
     for _round in range(6):
@@ -543,7 +543,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
         "closest": porosity,
         "why": why,
         "placement_time_s": round(time.perf_counter() - t0, 3),
-        "bounds": _bounds_report(kw, gs.period, run.exceeded_counts),
+        "bounds": _bounds_report(opts, gs.period, run.exceeded_counts),
     }
     return st, drawn, info
 
@@ -553,8 +553,9 @@ class _PoolPlacement:
     then the pool's fibers placed in order (``placed``; ``kept`` their pool indices, ``used``
     the pool fibers tried so far), and the counts the report gives."""
 
-    def __init__(self, gs, size, lo, hi, fixed, kw: dict, n_pool: int):
-        self.gs, self.size, self.lo, self.hi, self.kw = gs, size, lo, hi, kw
+    def __init__(self, gs, size, lo, hi, fixed, opts: PlacementSettings, n_pool: int):
+        self.gs, self.size, self.lo, self.hi = gs, size, lo, hi
+        self.opts = replace(opts, max_consecutive_rejects=40)
         self.n_pool = n_pool
         self.pool = draw_fibers(gs, gs.seed, n_pool, size)
         self.areas = _areas(self.pool)
@@ -588,7 +589,7 @@ class _PoolPlacement:
             full_area = np.r_[_areas(self.placed), self.areas[used:]]
             nb = len(self.placed)
         res = place_sequential(
-            full, lo, hi, area=full_area, stop_solid=goal, max_consecutive_rejects=40, **self.kw
+            full, lo, hi, self.opts, seed=self.gs.seed, area=full_area, stop_solid=goal
         )
         new = [int(k) - nb for k in res.placed if k >= nb]
         seen = new + [int(k) - nb for k in res.rejected]
@@ -639,15 +640,15 @@ class _PoolPlacement:
         self.areas = _areas(self.pool)
 
 
-def _bounds_report(kw: dict, period: float, exceeded: list[int]) -> dict:
+def _bounds_report(opts: PlacementSettings, period: float, exceeded: list[int]) -> dict:
     """Move bounds used by ``fast`` and how many placements had to exceed them."""
     n = int(sum(exceeded))
     return {
-        "max_shift_m": kw["max_shift"] * period if kw["max_shift"] is not None else None,
-        "max_shift_z_m": kw["max_shift_z"] * period if kw["max_shift_z"] is not None else None,
-        "max_rotation_deg": kw["max_rotation_deg"],
-        "exceed_bounds": kw["exceed"],
-        "exceed_rotation_deg": kw["exceed_rotation_deg"],
+        "max_shift_m": opts.max_shift * period if opts.max_shift is not None else None,
+        "max_shift_z_m": opts.max_shift_z * period if opts.max_shift_z is not None else None,
+        "max_rotation_deg": opts.max_rotation_deg,
+        "exceed_bounds": opts.exceed,
+        "exceed_rotation_deg": opts.exceed_rotation_deg,
         **_bounds_status(n),
     }
 

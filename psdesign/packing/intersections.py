@@ -45,6 +45,7 @@ from psdesign.packing.fiberset import (
 )
 from psdesign.packing.ga_settings import GASettings
 from psdesign.packing.genetic import GAResult, analytic_omega, crossing_volume, genetic
+from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.packing.sequential import PlacementResult, place_sequential, torus_offsets
 
 __all__ = [
@@ -55,6 +56,7 @@ __all__ = [
     "GASettings",
     "Pieces",
     "PlacementResult",
+    "PlacementSettings",
     "analytic_omega",
     "build_pieces",
     "carrier_lengths",
