@@ -280,6 +280,7 @@ def rod_half_width(mu: float, constant: float, isovalue: float) -> float:
 
 
 def two_fiber_problem(
+    *,
     isovalue: float = -8.82,
     mu: float = 4.5,
     constant: float = 0.0,
@@ -295,6 +296,8 @@ def two_fiber_problem(
     surface: str = "gaussian",
 ) -> ForceFieldProblem:
     """Sec. 6.1: two crossing bent rods; free variables ``f`` and ``u`` (u1 = u, u2 = -u).
+
+    (Thirteen parameters: the paper case's independent knobs, all keyword-only.)
 
     Parameters
     ----------
@@ -405,6 +408,7 @@ def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, flo
 
 
 def six_fiber_problem(
+    *,
     isovalue: float = -6.65,
     initial: dict | None = None,
     ranges: dict | None = None,
@@ -417,6 +421,8 @@ def six_fiber_problem(
     weave_sign: int = -1,
 ) -> ForceFieldProblem:
     """Sec. 6.2: six woven fibers; free mu1, mu3, mu4, kappa1, u1, t_x, t_y.
+
+    (Ten parameters: the paper case's independent knobs, all keyword-only.)
 
     Parameters
     ----------

@@ -23,17 +23,12 @@ from conftest import REPO_ROOT
 #: session 42 left; see benchmarks/RESULTS.md, "Session 42: function size and parameters").
 LEFT = {
     "psdesign/flow/error.py::combine",
-    "psdesign/forcefield/cases.py::two_fiber_problem",
-    "psdesign/forcefield/cases.py::six_fiber_problem",
     "psdesign/forcefield/contact.py::relax_contacts",
     "psdesign/forcefield/relax.py::relax_fibers",
-    "psdesign/geometry/fibers.py::make_fiber",
     "psdesign/meshing/checks.py::centroid_pore_fraction",
     "psdesign/meshing/checks.py::mesh_quality",
     "psdesign/meshing/stuffing.py::stuff_pore_space",
     "psdesign/meshing/tetwild_mesher.py::match_wall_volume",
-    "solvers/fem_stokes.py::solve_stokes",
-    "solvers/fem_stokes.py::solve_stokes_periodic",
 }
 
 #: A stated reason: one line of the docstring such as "(Nine parameters: ...)".
