@@ -61,3 +61,8 @@ class SearchSettings:
             )
         if self.max_iter < 1 or (self.max_evals is not None and self.max_evals < 1):
             raise ValueError("max_iter and max_evals must be >= 1")
+
+
+#: The relax routes' search (:func:`.relax.relax_fibers`, :func:`.contact.relax_contacts`):
+#: ``[forcefield.relax]``'s defaults of ``min_step``, ``max_iter`` and ``max_evals``.
+RELAX_SEARCH = SearchSettings(min_step=1e-3, max_iter=200, max_evals=4000)

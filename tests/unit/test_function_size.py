@@ -23,8 +23,6 @@ from conftest import REPO_ROOT
 #: session 42 left; see benchmarks/RESULTS.md, "Session 42: function size and parameters").
 LEFT = {
     "psdesign/flow/error.py::combine",
-    "psdesign/forcefield/contact.py::relax_contacts",
-    "psdesign/forcefield/relax.py::relax_fibers",
     "psdesign/meshing/checks.py::centroid_pore_fraction",
     "psdesign/meshing/checks.py::mesh_quality",
     "psdesign/meshing/stuffing.py::stuff_pore_space",
