@@ -61,7 +61,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
             f.axis,
             opts.aux_length,
             h_s,
-            opts.alpha,
+            alpha=opts.alpha,
             offset=offset,
             slab_factor=opts.slab_factor,
             periodic=opts.periodic,
