@@ -544,8 +544,8 @@ def replace_fem_periodic(out: Path, full: bool) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the tables and write the markdown file."""
+def _parser() -> argparse.ArgumentParser:
+    """The command line of :func:`main`."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", action="store_true", help="more solid fractions and resolutions")
     ap.add_argument("--out", default=str(ROOT / "docs" / "validation.md"))
@@ -575,7 +575,29 @@ def main(argv: list[str] | None = None) -> int:
         help="re-render only the fem, bc = periodic rows of --out from --cache (solved with "
         "--only fem-periodic) and the FEM accuracy line; the rest of the file is kept",
     )
-    args = ap.parse_args(argv)
+    return ap
+
+
+def _coverage(cover: list) -> tuple[int, list[float], list[float], list[str]]:
+    """Of the array results: how many the bar covers, the bars, the |true errors|, and one line
+    per result the bar misses."""
+    n_cov = sum(c[1] for c in cover)
+    misses = [c for c in cover if not c[1]]
+    bars = [c[3]["permeability_rel_error"] for c in cover]
+    trues = [abs(c[2]) for c in cover]
+    miss_lines = [
+        f"- {name}: true error {_fmt_pct(true)}, bar {100 * res['permeability_rel_error']:.2f} % "
+        f"(two-grid {_fmt_pct(res['error_estimate']['richardson'])}, floor "
+        f"{100 * res['error_estimate']['floor']:.2f} %, window "
+        f"{100 * (res['error_estimate'].get('window') or 0):.2f} %)"
+        for name, _, true, res, _ in misses
+    ]
+    return n_cov, bars, trues, miss_lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the tables and write the markdown file."""
+    args = _parser().parse_args(argv)
     global CACHE, ONLY, CACHE_ONLY, REVERSE, LOAD
     LOAD = args.load or LOAD
     REVERSE = args.reverse
@@ -599,18 +621,8 @@ def main(argv: list[str] | None = None) -> int:
     if ONLY is not None:
         print(f"solved {sorted(ONLY)} into {CACHE}; run without --only to write the file")
         return 0
-    n_cov = sum(c[1] for c in cover)
-    misses = [c for c in cover if not c[1]]
-    bars = [c[3]["permeability_rel_error"] for c in cover]
-    trues = [abs(c[2]) for c in cover]
+    n_cov, bars, trues, miss_lines = _coverage(cover)
     tight = float(np.median(bars) / max(np.median(trues), 1e-12))
-    miss_lines = [
-        f"- {name}: true error {_fmt_pct(true)}, bar {100 * res['permeability_rel_error']:.2f} % "
-        f"(two-grid {_fmt_pct(res['error_estimate']['richardson'])}, floor "
-        f"{100 * res['error_estimate']['floor']:.2f} %, window "
-        f"{100 * (res['error_estimate'].get('window') or 0):.2f} %)"
-        for name, _, true, res, _ in misses
-    ]
     text = [
         "# Validation: permeability and its error bar against published values",
         "",
@@ -648,7 +660,7 @@ def main(argv: list[str] | None = None) -> int:
         "shift: [validation-diffuse.md](validation-diffuse.md) "
         "(`benchmarks/diffuse_validation.py`).",
         "",
-        *(["Cases the bar misses:", "", *miss_lines, ""] if misses else []),
+        *(["Cases the bar misses:", "", *miss_lines, ""] if miss_lines else []),
         "## Cylinder arrays",
         *arrays,
         *accuracy_summary(cover),

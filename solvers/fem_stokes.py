@@ -574,6 +574,8 @@ def solve_stokes(
 ) -> StokesResult:
     """Solve steady Stokes flow driven by prescribed inlet/outlet pressures.
 
+    (Twelve parameters: the mesh, then independent boundary knobs, keyword-only, like scipy's.)
+
     Parameters
     ----------
     points : (n, 3) float array
@@ -616,7 +618,6 @@ def solve_stokes(
     tags, noslip, slip = _check_tags(facet_tags, len(points), inlet, outlet, noslip, slip)
     _check_drive(p_inlet, p_outlet, element)
     est = _check_memory(len(points), len(tets), element, opts)
-
     keep, used, old2new = _connected_part(len(points), tets, tags, inlet, outlet)
     tets_k = old2new[tets[keep]]
     x, scales = _scaled_pressure_driven(points[used], tets_k, p_inlet, p_outlet, viscosity)
@@ -632,7 +633,6 @@ def solve_stokes(
     t_asm = time.perf_counter() - t0
     info, t_solve, c_solve = _solve_system(system, b, opts)
     del system
-
     t0 = time.perf_counter()
     u, p = _unpack(info.x, free, n2, p_keep, tets_k)
     flux, velocity, pressure = _on_vertices(mesh, u, p, tag_facets, scales, used, len(points))
@@ -714,6 +714,8 @@ def solve_stokes_periodic(
     options: StokesOptions | None = None,
 ) -> StokesResult:
     """Stokes flow periodic across opposite box faces, driven by a mean pressure gradient.
+
+    (Nine parameters: the mesh, then independent knobs of the solve, keyword-only, like scipy's.)
 
     Solves ``-mu Laplace(u) + grad p' = G e_axis``, ``div u = 0`` for the periodic velocity and
     the periodic pressure fluctuation ``p'`` (total pressure ``p' - G x_axis``), with u = 0 on

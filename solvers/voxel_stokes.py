@@ -450,13 +450,13 @@ def solve_voxel_stokes(
     solid: np.ndarray,
     voxel_size: float,
     direction: str | int,
+    *,
     viscosity: float = 1.0,
     tol: float = 1e-6,
     max_iter: int = 2000,
     periodic_treatment: str = "periodic",
     return_velocity: bool = False,
     progress: Callable[[int, float], None] | None = None,
-    *,
     distance: np.ndarray | None = None,
     bc: str = "periodic",
     aux_length: float = 0.2,
@@ -466,8 +466,7 @@ def solve_voxel_stokes(
 ) -> VoxelFlowResult:
     """Solve Stokes flow on a voxel grid driven along ``direction``; return fields and fluxes.
 
-    (More than eight parameters: the first nine are the established API; the boundary-condition
-    and wall-treatment options are keyword-only.)
+    (Fifteen parameters: independent knobs of the solver, like scipy's, keyword-only after three.)
 
     Parameters
     ----------
@@ -531,19 +530,7 @@ def solve_voxel_stokes(
     d = _check_direction(direction)
     _check_options(voxel_size, viscosity, tol, max_iter, periodic_treatment, bc)
     distance = _check_distance(distance, solid)
-    if bc == "permeameter":
-        if sides not in _SIDES:
-            raise VoxelStokesError(f"sides must be one of {_SIDES}, got {sides!r}")
-        if not (np.isfinite(aux_length) and aux_length >= 0.0):
-            raise VoxelStokesError(f"aux_length must be >= 0 (fraction of L), got {aux_length!r}")
-    if not (np.isfinite(pressure_gradient) and pressure_gradient > 0):
-        raise VoxelStokesError(f"pressure_gradient must be > 0 Pa/m, got {pressure_gradient!r}")
-    phi0 = 1.0 - float(solid.mean())
-    if phi0 <= 0.0 or (phi0 >= 1.0 and bc == "periodic" and periodic_treatment != "frame"):
-        raise VoxelStokesError(
-            f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
-            "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
-        )
+    _check_drive(solid, bc, periodic_treatment, sides, aux_length, pressure_gradient)
     _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol)
     # the set-up's kernels follow the same thread policy as the solve (a small grid on one thread)
     with _threads(solid.size), jit.kernel_log() as setup_log:
@@ -551,32 +538,60 @@ def solve_voxel_stokes(
             solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides
         )
     vmem.release_free_heap()  # the set-up's freed temporaries (8 B per cell at 200^3)
-    check_percolates(setup.pop("blocked"), d, "solid")
+    _percolation_and_porosity(setup, d)
     # the solve holds no grid-sized geometry of its own from here on (the operator keeps what
     # it needs): the caller's arrays are freed now if the caller holds no reference either
+    del solid, distance
+    vmem.release_free_heap()
+    x, info = _solve_logged(setup["op"], d, tol, int(max_iter), progress, setup_log)
+    units = (voxel_size, viscosity, pressure_gradient)
+    return _result(x, info, setup, d, units, t0, (return_velocity, return_pressure))
+
+
+def _check_drive(
+    solid: np.ndarray, bc: str, treatment: str, sides: str, aux_length: float, g: float
+) -> None:
+    """Refuse the permeameter's options out of range, a pressure gradient ``g`` <= 0, and a
+    solid without fluid (or, periodic, without solid)."""
+    if bc == "permeameter":
+        if sides not in _SIDES:
+            raise VoxelStokesError(f"sides must be one of {_SIDES}, got {sides!r}")
+        if not (np.isfinite(aux_length) and aux_length >= 0.0):
+            raise VoxelStokesError(f"aux_length must be >= 0 (fraction of L), got {aux_length!r}")
+    if not (np.isfinite(g) and g > 0):
+        raise VoxelStokesError(f"pressure_gradient must be > 0 Pa/m, got {g!r}")
+    phi0 = 1.0 - float(solid.mean())
+    if phi0 <= 0.0 or (phi0 >= 1.0 and bc == "periodic" and treatment != "frame"):
+        raise VoxelStokesError(
+            f"solid has porosity {phi0:g}; it must be strictly between 0 and 1 "
+            "(no fluid, or no solid: a solid-free periodic box has unbounded permeability)"
+        )
+
+
+def _percolation_and_porosity(setup: dict, d: int) -> None:
+    """Refuse a solved grid without a fluid path along ``d``; store its porosity in ``setup``.
+    The grid and its blocked mask leave ``setup`` (freed here unless the caller holds them)."""
+    check_percolates(setup.pop("blocked"), d, "solid")
     grid = setup.pop("grid")
     setup["porosity"] = 1.0 - float(grid.mean())
-    del solid, distance, grid
-    vmem.release_free_heap()
-    with _threads(int(np.prod(setup["op"].shape[1:]))) as threads, jit.kernel_log() as log:
-        x, info = _solve_core(setup["op"], d, tol, int(max_iter), progress)
+
+
+def _solve_logged(
+    op: _Stokes,
+    d: int,
+    tol: float,
+    max_iter: int,
+    progress: Callable[[int, float], None] | None,
+    setup_log: jit.KernelLog,
+) -> tuple[np.ndarray, dict]:
+    """:func:`_solve_core` on the solve's threads; ``info`` gains the threads used and the
+    kernels that ran serially (the set-up's ``setup_log`` and the solve's)."""
+    with _threads(int(np.prod(op.shape[1:]))) as threads, jit.kernel_log() as log:
+        x, info = _solve_core(op, d, tol, max_iter, progress)
     fallback, parallel = log.fallback | setup_log.fallback, log.parallel | setup_log.parallel
     info["threads"] = vthreads.thread_use(*threads, fallback, parallel)
     info["fallback"] = tuple(sorted(fallback))
-    return _result(
-        x,
-        info,
-        setup,
-        d,
-        voxel_size,
-        viscosity,
-        pressure_gradient,
-        t0,
-        (return_velocity, return_pressure),
-        periodic_treatment,
-        bc,
-        sides,
-    )
+    return x, info
 
 
 def _setup_grid(
@@ -612,6 +627,9 @@ def _setup_grid(
         "rve": rve,
         "n_d": n_d,
         "wall_treatment": "staircase" if phi is None else "subvoxel",
+        "bc": bc,
+        "treatment": treatment,
+        "sides": sides,
     }
 
 
@@ -669,17 +687,16 @@ def _result(
     info: dict,
     setup: dict,
     d: int,
-    h: float,
-    mu: float,
-    g: float,
+    units: tuple[float, float, float],
     t0: float,
     returns: tuple[bool, bool],
-    treatment: str,
-    bc: str,
-    sides: str,
 ) -> VoxelFlowResult:
-    """Scale the voxel-unit solution (h = mu = G = 1) to SI fields and fluxes."""
+    """Scale the voxel-unit solution (h = mu = G = 1) to SI fields and fluxes: ``units`` is the
+    voxel size, the viscosity and the pressure gradient; ``setup`` the solved grid's
+    description (:func:`_setup_grid`) and ``returns`` which fields to return."""
     op = setup["op"]
+    h, mu, g = units
+    bc, treatment, sides = setup["bc"], setup["treatment"], setup["sides"]
     vel_scale = g * h * h / mu
     lat = tuple(b for b in range(3) if b != d)
     # the flux through a face is w_f q_f (cut-cell fluid fraction w_f; 1 for the staircase),

@@ -446,6 +446,7 @@ def combine(
     step: float,
     order: int,
     solver_error: float,
+    *,
     k_coarse: float | None = None,
     ratio: float | None = None,
     floor_law: tuple[float, float] | None = None,
@@ -453,7 +454,10 @@ def combine(
     law_floor: float = 0.0,
     fiber_floor: float = 0.0,
 ) -> ErrorEstimate:
-    """The error bar of ``k`` from its optional coarse companion ``k_coarse`` (see module);
+    """The error bar of ``k`` from its optional coarse companion ``k_coarse`` (see module).
+
+    (Eleven parameters: independent terms of the bar, keyword-only after the five every bar has.)
+
     ``floor_law = (q, C)`` (:data:`FLOOR`), ``window`` the permeameter's window term;
     ``law_floor``: the floor is at least this, a closed-form law of the geometry and not a
     fitted floor, so not doubled without a second resolution (the thin-channel and gap terms,
@@ -633,10 +637,10 @@ def estimate_with(
         float(step),
         int(order),
         solver_rel_error(result.get("residual", 0.0), result.get("flux_imbalance", 0.0)),
-        k_c,
-        ratio,
-        FLOOR.get(scheme) if scheme else None,
-        window_of(result),
+        k_coarse=k_c,
+        ratio=ratio,
+        floor_law=FLOOR.get(scheme) if scheme else None,
+        window=window_of(result),
         law_floor=max(gap, thin if scheme == "staircase" else 0.0),
         fiber_floor=fiber,
     )

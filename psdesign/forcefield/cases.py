@@ -57,6 +57,7 @@ from psdesign.forcefield.potentials import (
     quadrature_error,
     total_potential,
 )
+from psdesign.forcefield.search_settings import SearchSettings
 from psdesign.geometry.fibers import WOVEN_SPACING, woven_fiber_model
 from psdesign.geometry.model import GeneralizedPS
 from psdesign.schema.forcefield import SIX_NAMES
@@ -240,15 +241,12 @@ class ForceFieldProblem:
         """
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
-        kw = dict(
-            step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals, callback=callback
-        )
+        opt = SearchSettings(step=step, min_step=min_step, max_iter=max_iter, max_evals=max_evals)
+        args = (self.objective, self.x0, self.lower, self.upper, opt)
         if workers == 1 or "fork" not in mp.get_all_start_methods():
-            return pattern_search(self.objective, self.x0, self.lower, self.upper, **kw)
+            return pattern_search(*args, callback=callback)
         with WorkerPool(self.objective, workers) as pool:
-            return pattern_search(
-                self.objective, self.x0, self.lower, self.upper, evaluator=pool, **kw
-            )
+            return pattern_search(*args, callback=callback, evaluator=pool)
 
     def free_of(self, params: dict) -> np.ndarray:
         return self.param.free_from(params)
@@ -282,6 +280,7 @@ def rod_half_width(mu: float, constant: float, isovalue: float) -> float:
 
 
 def two_fiber_problem(
+    *,
     isovalue: float = -8.82,
     mu: float = 4.5,
     constant: float = 0.0,
@@ -297,6 +296,8 @@ def two_fiber_problem(
     surface: str = "gaussian",
 ) -> ForceFieldProblem:
     """Sec. 6.1: two crossing bent rods; free variables ``f`` and ``u`` (u1 = u, u2 = -u).
+
+    (Thirteen parameters: the paper case's independent knobs, all keyword-only.)
 
     Parameters
     ----------
@@ -407,6 +408,7 @@ def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, flo
 
 
 def six_fiber_problem(
+    *,
     isovalue: float = -6.65,
     initial: dict | None = None,
     ranges: dict | None = None,
@@ -419,6 +421,8 @@ def six_fiber_problem(
     weave_sign: int = -1,
 ) -> ForceFieldProblem:
     """Sec. 6.2: six woven fibers; free mu1, mu3, mu4, kappa1, u1, t_x, t_y.
+
+    (Ten parameters: the paper case's independent knobs, all keyword-only.)
 
     Parameters
     ----------

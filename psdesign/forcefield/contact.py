@@ -33,6 +33,7 @@ import numpy as np
 
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
+from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
 from psdesign.geometry.fibers import Fiber, with_minor_moment
 
 #: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
@@ -298,17 +299,18 @@ def relax_contacts(
     fibers: list,
     lo: np.ndarray,
     hi: np.ndarray,
+    *,
     h: float = 0.02,
     gap: float | None = None,
     max_shift: float = 0.05,
     u_max: float = 0.2,
     weights=(1e10, 1.0, 1.0),
-    max_iter: int = 200,
-    max_evals: int = 4000,
-    min_step: float = 1e-3,
+    search: SearchSettings = RELAX_SEARCH,
     tie_bend: bool = False,
 ) -> ContactRelaxResult:
     """Remove the contacts of an implicit fiber set by small shifts and bends (Sec. 6).
+
+    (Ten parameters: the fibers and box, then independent knobs of the relaxation, keyword-only.)
 
     Parameters
     ----------
@@ -327,8 +329,8 @@ def relax_contacts(
         Bound of the change of the bend moment (fibers with a bend term).
     weights : (w1, w2, w3)
         Sec. 6 weights; w2 (surface interaction) is not used for fiber sets.
-    max_iter, max_evals, min_step
-        Pattern-search limits.
+    search : SearchSettings
+        Pattern-search limits (default: :data:`.search_settings.RELAX_SEARCH`).
     tie_bend : bool
         One change of ``|u|`` for every fiber with a bend term (each keeps its sign), as the
         paper ties its woven yarns (Sec. 6.2); default: a change per fiber.
@@ -354,8 +356,8 @@ def relax_contacts(
     from psdesign.cli.progress import search_progress
 
     res = pattern_search(
-        prob.energy, x0, prob.lower, prob.upper, step=0.25, min_step=min_step,
-        max_iter=max_iter, max_evals=max_evals,
+        prob.energy, x0, prob.lower, prob.upper,
+        search,
         callback=search_progress(f"relax ({len(prob.movable)} fibers, contacts on a grid)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds

@@ -21,6 +21,8 @@ from typing import Protocol
 
 import numpy as np
 
+from psdesign.forcefield.search_settings import SearchSettings
+
 
 class Evaluator(Protocol):
     """Asynchronous evaluation of the objective (see :class:`.parallel.WorkerPool`)."""
@@ -112,20 +114,17 @@ def pattern_search(
     x0,
     lower,
     upper,
+    settings: SearchSettings | None = None,
     *,
-    step: float = 0.25,
-    min_step: float = 1e-4,
-    max_step: float = 0.5,
-    expand: float = 2.0,
-    contract: float = 0.5,
-    max_iter: int = 500,
-    max_evals: int | None = None,
     callback: Callable[[dict], None] | None = None,
     batch: int = 1,
     map_fun: Callable[[list[np.ndarray]], list[float]] | None = None,
     evaluator: Evaluator | None = None,
 ) -> PatternSearchResult:
     """Minimize ``fun`` over the box ``lower <= x <= upper`` by compass pattern search.
+
+    (Nine parameters: the problem, the search's settings, and the progress callback and the
+    three ways of evaluating, keyword-only.)
 
     Parameters
     ----------
@@ -135,18 +134,9 @@ def pattern_search(
         Start point (inside the bounds).
     lower, upper : array_like
         Bounds; a variable with ``lower == upper`` is held fixed.
-    step : float
-        Initial mesh size as a fraction of each variable's range.
-    min_step : float
-        Convergence: stop when the mesh size falls below this fraction.
-    max_step : float
-        Cap on the mesh size after expansions.
-    expand, contract : float
-        Mesh factors after a successful / failed poll (> 1 and in (0, 1)).
-    max_iter : int
-        Iteration (poll) limit; hitting it returns the best point with ``converged=False``.
-    max_evals : int, optional
-        Limit on objective evaluations, handled like ``max_iter``.
+    settings : SearchSettings, optional
+        Mesh sizes, mesh factors, iteration and evaluation limits (default:
+        ``SearchSettings()``).
     callback : callable, optional
         Called with each history entry.
     batch : int
@@ -168,14 +158,7 @@ def pattern_search(
         not called.
     """
     x0, lo, hi = check_bounds(x0, lower, upper)
-    if not (0 < min_step < step <= max_step):
-        raise ValueError(
-            f"need 0 < min_step < step <= max_step, got {min_step}, {step}, {max_step}"
-        )
-    if not (expand >= 1.0 and 0.0 < contract < 1.0):
-        raise ValueError(f"expand must be >= 1 and contract in (0, 1), got {expand}, {contract}")
-    if max_iter < 1 or (max_evals is not None and max_evals < 1):
-        raise ValueError("max_iter and max_evals must be >= 1")
+    opt = SearchSettings() if settings is None else settings
     if batch < 1:
         raise ValueError(f"batch must be >= 1, got {batch}")
     if map_fun is None:
@@ -183,42 +166,32 @@ def pattern_search(
         def map_fun(xs: list[np.ndarray]) -> list[float]:
             return [fun(x) for x in xs]
 
-    polls = _Poller(lo, hi, map_fun, evaluator, batch, max_evals)
+    polls = _Poller(lo, hi, map_fun, evaluator, batch, opt.max_evals)
     width = hi - lo
     z = np.where(width > 0, (x0 - lo) / np.where(width > 0, width, 1.0), 0.0)
-    if polls.poll([(0, z)], np.inf) is None and polls.key(z) not in polls.cache:
-        raise RuntimeError("the start point could not be evaluated")  # pragma: no cover
-    fz = polls.cache[polls.key(z)]
+    fz = _start_value(polls, z)
     dirs = [(i, s) for i in np.flatnonzero(width > 0) for s in (1.0, -1.0)]
     history: list[dict] = []
     converged, message, it = not dirs, "no free variables" if not dirs else "", 0
-    polled = float("nan")
+    step, polled = opt.step, float("nan")
     while not converged:
-        if it >= max_iter:
-            message = f"stopped on the iteration limit (max_iter={max_iter})"
-            break
-        if max_evals is not None and polls.n_done >= max_evals:
-            message = f"stopped on the evaluation limit (max_evals={max_evals})"
+        message = _limit_reached(it, polls.n_done, opt)
+        if message:
             break
         it += 1
-        trials = []
-        for k, (i, s) in enumerate(dirs):
-            trial = z.copy()
-            trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
-            if trial[i] != z[i]:
-                trials.append((k, trial))
+        trials = _compass_trials(z, dirs, step)
         hit, polled = polls.poll(trials, fz), step
         if hit is not None:
             k, z = trials[hit]
             fz = polls.cache[polls.key(z)]
             dirs.insert(0, dirs.pop(k))  # poll this direction first next time
-        step = min(step * expand, max_step) if hit is not None else step * contract
+        step = min(step * opt.expand, opt.max_step) if hit is not None else step * opt.contract
         entry = {"iter": it, "n_evals": len(polls.used), "fun": fz, "step": step}
         history.append(entry)
         if callback is not None:
             callback(entry)
-        if step < min_step:
-            converged, message = True, f"mesh size below min_step={min_step}"
+        if step < opt.min_step:
+            converged, message = True, f"mesh size below min_step={opt.min_step}"
     return PatternSearchResult(
         x=lo + z * width,
         fun=fz,
@@ -230,6 +203,36 @@ def pattern_search(
         n_speculative=polls.n_done - len(polls.used),
         poll_step=polled,
     )
+
+
+def _start_value(polls: _Poller, z: np.ndarray) -> float:
+    """The objective at the start point ``z`` (unit coordinates), evaluated through ``polls``."""
+    if polls.poll([(0, z)], np.inf) is None and polls.key(z) not in polls.cache:
+        raise RuntimeError("the start point could not be evaluated")  # pragma: no cover
+    return polls.cache[polls.key(z)]
+
+
+def _limit_reached(it: int, n_done: int, opt: SearchSettings) -> str:
+    """The stop message when the iteration or evaluation limit is used up, else ``""``."""
+    if it >= opt.max_iter:
+        return f"stopped on the iteration limit (max_iter={opt.max_iter})"
+    if opt.max_evals is not None and n_done >= opt.max_evals:
+        return f"stopped on the evaluation limit (max_evals={opt.max_evals})"
+    return ""
+
+
+def _compass_trials(
+    z: np.ndarray, dirs: list[tuple[int, float]], step: float
+) -> list[tuple[int, np.ndarray]]:
+    """The poll's trial points in direction order: ``z`` moved by ``step`` along each
+    direction, projected onto the unit box; a move the bound cancels is left out."""
+    trials = []
+    for k, (i, s) in enumerate(dirs):
+        trial = z.copy()
+        trial[i] = np.clip(trial[i] + s * step, 0.0, 1.0)
+        if trial[i] != z[i]:
+            trials.append((k, trial))
+    return trials
 
 
 class _Poller:

@@ -32,6 +32,7 @@ import numpy as np
 from psdesign.errors import SpecError
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
+from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
 from psdesign.packing.fiberset import (
     FiberState,
     build_pieces,
@@ -284,9 +285,7 @@ def relax_fibers(
     u_max: float = 0.3,
     f_straight: float = 1.0,
     weights=(1e10, 1.0, 1.0),
-    max_iter: int = 200,
-    max_evals: int = 4000,
-    min_step: float = 1e-3,
+    search: SearchSettings = RELAX_SEARCH,
 ) -> RelaxResult:
     """Minimize ``w1 Omega + w3 sum_j S_j`` over shifts and bends of the fibers in contact.
 
@@ -304,6 +303,8 @@ def relax_fibers(
         Minor scale given to straight fibers when they bend (waves per period).
     weights : (w1, w2, w3)
         Sec. 6 weights; w2 (surface interaction) is not used for fiber sets.
+    search : SearchSettings
+        Pattern-search limits (default: :data:`.search_settings.RELAX_SEARCH`).
     """
     t0 = time.perf_counter()
     st = st_start(st, f_straight)
@@ -324,8 +325,8 @@ def relax_fibers(
     from psdesign.cli.progress import search_progress
 
     res = pattern_search(
-        model.energy, x0, lower, upper, step=0.25, min_step=min_step, max_iter=max_iter,
-        max_evals=max_evals, callback=search_progress(f"relax ({len(movable)} fibers)"),
+        model.energy, x0, lower, upper,
+        search, callback=search_progress(f"relax ({len(movable)} fibers)"),
     )  # fmt: skip
     from psdesign.forcefield.run import at_bounds
 
@@ -392,9 +393,11 @@ def _search_options(options: dict, dmin: float, period: float) -> dict:
         max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
         u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
         weights=_weights(options),
-        max_iter=int(_num(options, "max_iter", 200, 1, 100000, integer=True)),
-        max_evals=int(_num(options, "max_evals", 4000, 1, 10**7, integer=True)),
-        min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
+        search=SearchSettings(
+            max_iter=int(_num(options, "max_iter", 200, 1, 100000, integer=True)),
+            max_evals=int(_num(options, "max_evals", 4000, 1, 10**7, integer=True)),
+            min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
+        ),
     )
 
 

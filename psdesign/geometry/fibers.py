@@ -407,6 +407,7 @@ def placement_rotation(
 def make_fiber(
     shape: str,
     diameter: float | None = None,
+    *,
     center=None,
     theta: float | None = None,
     omega: float | None = None,
@@ -418,6 +419,8 @@ def make_fiber(
     minor_moment: float | None = None,
 ) -> Fiber:
     """Build and place a fiber (all lengths normalized: one period = 1).
+
+    (Eleven parameters: independent placement and model knobs, keyword-only after two.)
 
     Parameters
     ----------

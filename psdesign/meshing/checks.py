@@ -24,12 +24,16 @@ def restore_planes(pm: PoreMesh, lo: np.ndarray, hi: np.ndarray) -> None:
                 pm.points[np.unique(f), ax] = value
 
 
-def centroid_pore_fraction(d_s, v_s, pts, tets, vol, axis, rve_lo, rve_hi, periodic=False):
+def centroid_pore_fraction(f, pts, tets, vol, rve_box, periodic=False):
     """Fraction (by count and by volume) of RVE tet centroids where interpolated distance > 0.
 
-    ``periodic``: the field wraps around the box faces, as the periodic mesh was made from
+    ``f`` is the :class:`psdesign.meshing.inputs.ScaledField` (its distance ``d``, voxel and
+    flow axis), ``rve_box`` the RVE's ``(lo, hi)`` in scaled units; ``periodic``: the field
+    wraps around the box faces, as the periodic mesh was made from
     (:class:`psdesign.meshing.stuffing.PoreField`); else it is extended constant beyond the outer
     voxel centres."""
+    d_s, v_s, axis = f.d, f.voxel, f.axis
+    rve_lo, rve_hi = rve_box
     cen = pts[tets].mean(axis=1)
     inside = (cen[:, axis] > rve_lo[axis]) & (cen[:, axis] < rve_hi[axis])
     if not inside.any():
@@ -71,9 +75,22 @@ def removed_components(comp: dict, scale: float) -> dict:
 
 
 def mesh_quality(
-    f, pts, tets, tags: dict, comp: dict, rve_box, aux_volume: float, inverted: str, periodic=False
+    f,
+    pts,
+    tets,
+    tags: dict,
+    comp: dict,
+    rve_box,
+    *,
+    aux_volume: float,
+    inverted: str,
+    periodic=False,
 ):
-    """The ``PoreMesh.quality`` keys both meshers report (lengths in metres): counts, tag areas,
+    """The ``PoreMesh.quality`` keys both meshers report (lengths in metres).
+
+    (Nine parameters: the field, the mesh and its box, then three independent knobs, keyword-only.)
+
+    Counts, tag areas,
     element quality, pore volumes and porosities, pore-centroid fractions and the removed
     components. ``f`` is the :class:`psdesign.meshing.inputs.ScaledField`, ``rve_box`` the
     RVE's ``(lo, hi)`` in scaled units; a mesh with inverted or flat tets raises
@@ -89,9 +106,7 @@ def mesh_quality(
     if qual["n_inverted"]:
         raise MeshFailedError(f"{qual['n_inverted']} tets are inverted or flat {inverted}")
     mesh_vol = float(vol.sum())
-    pore_frac, pore_frac_vol = centroid_pore_fraction(
-        f.d, f.voxel, pts, tets, vol, f.axis, rve_box[0], rve_box[1], periodic
-    )
+    pore_frac, pore_frac_vol = centroid_pore_fraction(f, pts, tets, vol, rve_box, periodic)
     porosity_voxel = float((f.d > 0).mean())
     voxel_rve = porosity_voxel * f.rve_volume
     report = {

@@ -518,6 +518,7 @@ def stuff_pore_space(
     axis: int,
     aux_length: float,
     h: float,
+    *,
     alpha: float = 0.3,
     offset: float = 0.0,
     slab_factor: float = 1.0,
@@ -525,6 +526,8 @@ def stuff_pore_space(
     progress: Callable[[int, int], None] | None = None,
 ) -> StuffedMesh:
     """Tet mesh of ``{phi >= 0}`` in the box with auxiliary slabs by lattice stuffing.
+
+    (Eleven parameters: the field, box and lattice step, then independent knobs, keyword-only.)
 
     Parameters
     ----------

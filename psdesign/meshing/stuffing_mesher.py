@@ -61,7 +61,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
             f.axis,
             opts.aux_length,
             h_s,
-            opts.alpha,
+            alpha=opts.alpha,
             offset=offset,
             slab_factor=opts.slab_factor,
             periodic=opts.periodic,
@@ -144,7 +144,15 @@ def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volu
     s = f.scale
     box = (sm.rve_lo, sm.rve_hi)
     common, mesh_vol, porosity_voxel = mesh_quality(
-        f, pts, tets, tags, comp, box, aux_volume, "after stuffing", opts.periodic
+        f,
+        pts,
+        tets,
+        tags,
+        comp,
+        box,
+        aux_volume=aux_volume,
+        inverted="after stuffing",
+        periodic=opts.periodic,
     )
     # isolated pockets removed by keep_through_components are part of the target pore volume
     vol_err = (mesh_vol + comp["removed_volume"]) / target - 1.0

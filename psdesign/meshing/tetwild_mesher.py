@@ -224,7 +224,7 @@ def _fit_walls(f: ScaledField, pts, tets, tags, surf, ends, max_move, target, op
     wall_shift, n_frozen = 0.0, 0
     if opts.match_volume and opts.offset is None:
         pts, wall_shift, n_frozen = match_wall_volume(
-            pts, tets, tags, surf.lo, surf.hi, target, max_move, planes=ends
+            pts, tets, tags, surf.lo, surf.hi, target, max_shift=max_move, planes=ends
         )
     timings["volume_match_time_s"] = time.perf_counter() - t
     # the field at the curved-wall vertices of the final mesh: the walls moved by ``wall_shift``
@@ -429,8 +429,12 @@ def wall_normals(pts, wall, lo, hi, planes=()) -> tuple[np.ndarray, np.ndarray]:
     return verts[ok], n[ok]
 
 
-def match_wall_volume(pts, tets, tags, lo, hi, target, max_shift, planes=(), rtol=1e-5, max_iter=8):
+def match_wall_volume(
+    pts, tets, tags, lo, hi, target, *, max_shift, planes=(), rtol=1e-5, max_iter=8
+):
     """Move the wall vertices along their outward normals by one distance to hit ``target``.
+
+    (Ten parameters: the mesh, its box and the target, then the secant's knobs, keyword-only.)
 
     The tet volume is a cubic in the shift; a secant iteration finds it. Wall vertices of tets
     that the move would invert (or make 10x smaller) keep their place; the shift is capped at
@@ -501,8 +505,8 @@ def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, surf, target, aux_vo
         tags,
         comp,
         (surf.rve_lo, surf.rve_hi),
-        aux_volume,
-        "after snapping the box faces; try a smaller epsilon",
+        aux_volume=aux_volume,
+        inverted="after snapping the box faces; try a smaller epsilon",
     )
     expected_voxel = porosity_voxel * f.rve_volume + aux_volume
     return {

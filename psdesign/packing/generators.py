@@ -22,7 +22,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
+from psdesign.packing.ga_settings import GASettings
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
@@ -41,6 +42,7 @@ from psdesign.packing.intersections import (
     orientation_tensor,
     place_sequential,
 )
+from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
 from psdesign.schema.generator import GeneratorTable as _GeneratorTable
@@ -442,21 +444,20 @@ def _stats(x: np.ndarray) -> dict:
 # ------------------------------------------------------------------- the methods
 def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
     """Sequential minimal-shift placement, with porosity targeting by measured correction."""
-    kw = _fast_options(gs, gap)
+    opts = _fast_options(gs, gap)
     if gs.n_fibers is not None:
-        return _fast_count(gs, size, lo, hi, fixed, measure, kw)
-    return _fast_porosity(gs, size, lo, hi, fixed, measure, kw)
+        return _fast_count(gs, size, lo, hi, fixed, measure, opts)
+    return _fast_porosity(gs, size, lo, hi, fixed, measure, opts)
 
 
-def _fast_options(gs, gap: float) -> dict:
-    """:func:`place_sequential` keywords from ``[intersections]`` (normalized lengths)."""
+def _fast_options(gs, gap: float) -> PlacementSettings:
+    """:func:`place_sequential`'s settings from ``[intersections]`` (normalized lengths)."""
     opts = gs.options
-    return dict(
+    return PlacementSettings(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
         max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
         orientation_tries=int(opts.get("orientation_tries", 4)),
-        seed=gs.seed,
         max_ejections=int(opts.get("max_ejections", 6)),
         max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
         max_shift=float(opts.get("max_shift", PAPER_MAX_SHIFT * gs.period)) / gs.period,
@@ -465,11 +466,11 @@ def _fast_options(gs, gap: float) -> dict:
     )
 
 
-def _fast_count(gs, size, lo, hi, fixed, measure, kw):
+def _fast_count(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
     """``generator.n_fibers`` fibers placed without intersections, or a GenerationError."""
     drawn = draw_fibers(gs, gs.seed, gs.n_fibers, size)
     full = FiberState.concat(fixed, drawn) if fixed is not None else drawn
-    res = place_sequential(full, lo, hi, on_reject="raise", **kw)
+    res = place_sequential(full, lo, hi, replace(opts, on_reject="raise"), seed=gs.seed)
     if len(res.rejected):
         vf = measure(res.state.subset(~res.state.fixed))
         raise GenerationError(
@@ -492,12 +493,12 @@ def _fast_count(gs, size, lo, hi, fixed, measure, kw):
             "placement_time_s": round(res.wall_time_s, 3),
             "candidates_tested": res.candidates_tested,
             "n_ejections": res.n_ejections,
-            "bounds": _bounds_report(kw, gs.period, [len(res.exceeded)]),
+            "bounds": _bounds_report(opts, gs.period, [len(res.exceeded)]),
         },
     )
 
 
-def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
+def _fast_porosity(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
     """Fibers placed until the measured porosity meets ``generator.porosity``.
 
     A generous pool is drawn once (reproducible) and placed until the predicted solid
@@ -509,112 +510,145 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, kw):
     probe = _probe(gs, size)
     mean_area = float(np.mean(_areas(probe)))
     n_pool = min(gs.max_fibers, int(np.ceil(2.0 * target_solid / mean_area)) + 50)
-    pool = draw_fibers(gs, gs.seed, n_pool, size)
-    areas = _areas(pool)
-    box_volume = float(np.prod(hi - lo))
-    n_fixed = len(fixed) if fixed is not None else 0
-    fixed_solid = 0.0
-    if fixed is not None:
-        fixed_solid = float(np.sum(_areas(fixed) * carrier_lengths(fixed, lo, hi))) / box_volume
-    placed = fixed  # explicit fibers first, then placed pool fibers in order
-    kept: list[int] = []  # pool index of each placed pool fiber
-    used = 0
+    run = _PoolPlacement(gs, size, lo, hi, fixed, opts, n_pool)
     bias = 0.0
     best = None
-    n_rejected = 0
-    n_ejections = 0
-    exceeded_counts: list[int] = []
-    why = "the measured porosity did not converge"
-    jammed = False
     for _round in range(6):
         goal = target_solid - bias
-        if fixed_solid + _solid(pool, kept, areas, lo, hi) < goal and used < n_pool and not jammed:
-            rest = pool.subset(np.arange(used, n_pool))
-            if placed is None:
-                full, full_area, nb = rest, areas[used:], 0
-            else:
-                full = FiberState.concat(_as_fixed(placed), rest)
-                full_area = np.r_[_areas(placed), areas[used:]]
-                nb = len(placed)
-            res = place_sequential(
-                full, lo, hi, area=full_area, stop_solid=goal, max_consecutive_rejects=40, **kw
-            )
-            new = [int(k) - nb for k in res.placed if k >= nb]
-            seen = new + [int(k) - nb for k in res.rejected]
-            kept += [used + k for k in new]
-            used += (max(seen) + 1) if seen else 0
-            n_rejected += len(res.rejected)
-            n_ejections += res.n_ejections
-            exceeded_counts.append(len(res.exceeded))
-            placed = res.state
-            placed.fixed[:] = np.arange(len(placed)) < n_fixed
-            if not res.reached_stop:
-                jammed = used < n_pool
-                why = (
-                    "packing jammed: 40 fibers in a row found no free place"
-                    if jammed
-                    else "fiber pool exhausted (raise generator.max_fibers)"
-                )
-        # the prefix of placed fibers whose predicted porosity is closest to the goal
-        mov = np.array(kept, int)
-        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
-        # a period a shift changes a tilted fiber's length in the box
-        lengths = (
-            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), lo, hi)
-            if len(mov)
-            else np.zeros(0)
-        )
-        cum = fixed_solid + np.r_[0.0, np.cumsum(areas[mov] * lengths) / box_volume]
-        k = int(np.argmin(np.abs(cum - goal)))
-        kept = kept[:k]
-        if placed is not None:
-            placed = placed.subset(np.arange(n_fixed + k))
-        st = (
-            placed.subset(np.arange(n_fixed, len(placed)))
-            if placed is not None
-            else pool.subset(np.zeros(0, int))
-        )
+        run.place_to(goal)
+        st, predicted = run.keep_closest(goal)
         vf = measure(st)
         if best is None or abs(vf.porosity - gs.porosity) < abs(best[0] - gs.porosity):
-            best = (vf.porosity, st, list(kept), vf)
+            best = (vf.porosity, st, list(run.kept), vf)
         err = vf.porosity - gs.porosity
         if abs(err) <= gs.tolerance:
             break
-        bias = (1.0 - vf.porosity) - cum[k]  # measured minus predicted solid
-        if err > 0 and not jammed and used >= n_pool < gs.max_fibers:
+        bias = (1.0 - vf.porosity) - predicted  # measured minus predicted solid
+        if err > 0 and not run.jammed and run.used >= run.n_pool < gs.max_fibers:
             # rejections used up the pool before a jam was detected: draw more (the first
             # n_pool draws are unchanged, so the placed fibers stay valid)
-            n_pool = min(gs.max_fibers, 2 * n_pool)
-            pool = draw_fibers(gs, gs.seed, n_pool, size)
-            areas = _areas(pool)
+            run.draw_more()
             continue
-        if err > 0 and (jammed or used >= n_pool):
+        if err > 0 and (run.jammed or run.used >= run.n_pool):
             break
     porosity, st, kept, vf = best
-    if not jammed and used < n_pool:
+    why = run.why
+    if not run.jammed and run.used < run.n_pool:
         why = _coarse_step(probe, lo, hi, gs.tolerance) or why
-    drawn = pool.subset(np.array(kept, int))
+    drawn = run.pool.subset(np.array(kept, int))
     info = {
-        "n_rejected": n_rejected,
-        "n_ejections": n_ejections,
+        "n_rejected": run.n_rejected,
+        "n_ejections": run.n_ejections,
         "fields": vf,
         "closest": porosity,
         "why": why,
         "placement_time_s": round(time.perf_counter() - t0, 3),
-        "bounds": _bounds_report(kw, gs.period, exceeded_counts),
+        "bounds": _bounds_report(opts, gs.period, run.exceeded_counts),
     }
     return st, drawn, info
 
 
-def _bounds_report(kw: dict, period: float, exceeded: list[int]) -> dict:
+class _PoolPlacement:
+    """The rounds of ``fast`` porosity targeting on one drawn pool: the explicit fibers first,
+    then the pool's fibers placed in order (``placed``; ``kept`` their pool indices, ``used``
+    the pool fibers tried so far), and the counts the report gives."""
+
+    def __init__(self, gs, size, lo, hi, fixed, opts: PlacementSettings, n_pool: int):
+        self.gs, self.size, self.lo, self.hi = gs, size, lo, hi
+        self.opts = replace(opts, max_consecutive_rejects=40)
+        self.n_pool = n_pool
+        self.pool = draw_fibers(gs, gs.seed, n_pool, size)
+        self.areas = _areas(self.pool)
+        self.box_volume = float(np.prod(hi - lo))
+        self.n_fixed = len(fixed) if fixed is not None else 0
+        self.fixed_solid = 0.0
+        if fixed is not None:
+            solid = np.sum(_areas(fixed) * carrier_lengths(fixed, lo, hi))
+            self.fixed_solid = float(solid) / self.box_volume
+        self.placed = fixed  # explicit fibers first, then placed pool fibers in order
+        self.kept: list[int] = []  # pool index of each placed pool fiber
+        self.used = 0
+        self.n_rejected = 0
+        self.n_ejections = 0
+        self.exceeded_counts: list[int] = []
+        self.why = "the measured porosity did not converge"
+        self.jammed = False
+
+    def place_to(self, goal: float) -> None:
+        """Place further pool fibers until the predicted solid fraction reaches ``goal``
+        (nothing when it already does, the pool is used up or the packing jammed)."""
+        lo, hi, n_pool, used = self.lo, self.hi, self.n_pool, self.used
+        solid = self.fixed_solid + _solid(self.pool, self.kept, self.areas, lo, hi)
+        if not (solid < goal and used < n_pool and not self.jammed):
+            return
+        rest = self.pool.subset(np.arange(used, n_pool))
+        if self.placed is None:
+            full, full_area, nb = rest, self.areas[used:], 0
+        else:
+            full = FiberState.concat(_as_fixed(self.placed), rest)
+            full_area = np.r_[_areas(self.placed), self.areas[used:]]
+            nb = len(self.placed)
+        res = place_sequential(
+            full, lo, hi, self.opts, seed=self.gs.seed, area=full_area, stop_solid=goal
+        )
+        new = [int(k) - nb for k in res.placed if k >= nb]
+        seen = new + [int(k) - nb for k in res.rejected]
+        self.kept += [used + k for k in new]
+        self.used += (max(seen) + 1) if seen else 0
+        self.n_rejected += len(res.rejected)
+        self.n_ejections += res.n_ejections
+        self.exceeded_counts.append(len(res.exceeded))
+        self.placed = res.state
+        self.placed.fixed[:] = np.arange(len(self.placed)) < self.n_fixed
+        if not res.reached_stop:
+            self.jammed = self.used < n_pool
+            self.why = (
+                "packing jammed: 40 fibers in a row found no free place"
+                if self.jammed
+                else "fiber pool exhausted (raise generator.max_fibers)"
+            )
+
+    def keep_closest(self, goal: float) -> tuple[FiberState, float]:
+        """Keep the prefix of placed fibers whose predicted solid fraction is closest to
+        ``goal``; the kept pool fibers and their predicted solid fraction."""
+        n_fixed, placed = self.n_fixed, self.placed
+        mov = np.array(self.kept, int)
+        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
+        # a period a shift changes a tilted fiber's length in the box
+        lengths = (
+            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
+            if len(mov)
+            else np.zeros(0)
+        )
+        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self.areas[mov] * lengths) / self.box_volume]
+        k = int(np.argmin(np.abs(cum - goal)))
+        self.kept = self.kept[:k]
+        if placed is not None:
+            self.placed = placed = placed.subset(np.arange(n_fixed + k))
+        st = (
+            placed.subset(np.arange(n_fixed, len(placed)))
+            if placed is not None
+            else self.pool.subset(np.zeros(0, int))
+        )
+        return st, cum[k]
+
+    def draw_more(self) -> None:
+        """Double the pool (at most ``generator.max_fibers``); its first draws are unchanged."""
+        gs = self.gs
+        self.n_pool = min(gs.max_fibers, 2 * self.n_pool)
+        self.pool = draw_fibers(gs, gs.seed, self.n_pool, self.size)
+        self.areas = _areas(self.pool)
+
+
+def _bounds_report(opts: PlacementSettings, period: float, exceeded: list[int]) -> dict:
     """Move bounds used by ``fast`` and how many placements had to exceed them."""
     n = int(sum(exceeded))
     return {
-        "max_shift_m": kw["max_shift"] * period if kw["max_shift"] is not None else None,
-        "max_shift_z_m": kw["max_shift_z"] * period if kw["max_shift_z"] is not None else None,
-        "max_rotation_deg": kw["max_rotation_deg"],
-        "exceed_bounds": kw["exceed"],
-        "exceed_rotation_deg": kw["exceed_rotation_deg"],
+        "max_shift_m": opts.max_shift * period if opts.max_shift is not None else None,
+        "max_shift_z_m": opts.max_shift_z * period if opts.max_shift_z is not None else None,
+        "max_rotation_deg": opts.max_rotation_deg,
+        "exceed_bounds": opts.exceed,
+        "exceed_rotation_deg": opts.exceed_rotation_deg,
         **_bounds_status(n),
     }
 
@@ -650,7 +684,7 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         probe = _probe(gs, size)
         n = max(1, int(round((1.0 - gs.porosity) / _solid_per_fiber(probe, lo, hi))))
     pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 4 * n + 50), size)
-    kw = dict(
+    settings = GASettings(
         angle_range_deg=float(opts.get("angle_range_deg", 1.0)),
         shift_range=float(opts.get("shift_range", 0.1)),
         population=int(opts.get("population", 24)),
@@ -659,17 +693,14 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
         time_limit_s=opts.get("time_limit_s"),
     )
-    if gs.kind == "bent":
-        kw["u_range"] = (0.1, 0.3)
-        kw["f_range"] = (1.0, 10.0)
     best = None
     info: dict = {"ga": []}
     st = pool.subset(np.arange(n))
     rounds = [1]
-    report = ga_progress(kw["generations"], kw["objective"], rounds)
+    report = ga_progress(settings.generations, settings.objective, rounds)
     for _round in range(4):
         rounds[0] = _round + 1
-        res = genetic(st, lo, hi, size / period, seed=gs.seed + _round, report=report, **kw)
+        res = genetic(st, lo, hi, size / period, settings, seed=gs.seed + _round, report=report)
         vf = measure(res.state)
         info["ga"].append(
             {
@@ -710,14 +741,14 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
             "closest": vf.porosity,
             "why": "GA rounds exhausted",
             "n_rejected": 0,
-            "bounds": _ga_bounds_report(state, drawn, kw, size / period, period),
+            "bounds": _ga_bounds_report(state, drawn, settings, size / period, period),
         }
     )
     return state, drawn, info
 
 
 def _ga_bounds_report(
-    state: FiberState, drawn: FiberState, kw: dict, size_norm: np.ndarray, period: float
+    state: FiberState, drawn: FiberState, settings: GASettings, size_norm: np.ndarray, period: float
 ) -> dict:
     """The GA's move ranges and how many fibers ended outside them, measured from the drawn
     state: each round restarts from the previous round's result, so the moves of the fibers
@@ -725,12 +756,12 @@ def _ga_bounds_report(
     shift = np.abs(state.center - drawn.center) / np.asarray(size_norm)
     turn = np.maximum(np.abs(state.theta - drawn.theta), np.abs(state.omega - drawn.omega))
     tol = 1e-9
-    out = (shift.max(axis=1, initial=0.0) > kw["shift_range"] + tol) | (
-        turn > kw["angle_range_deg"] + tol
+    out = (shift.max(axis=1, initial=0.0) > settings.shift_range + tol) | (
+        turn > settings.angle_range_deg + tol
     )
     return {
-        "shift_range": kw["shift_range"],
-        "angle_range_deg": kw["angle_range_deg"],
+        "shift_range": settings.shift_range,
+        "angle_range_deg": settings.angle_range_deg,
         "max_shift_m": float(np.max(np.abs(state.center - drawn.center), initial=0.0) * period),
         "max_turn_deg": float(np.max(turn, initial=0.0)),
         **_bounds_status(int(np.count_nonzero(out))),

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from psdesign.packing.fiberset import FiberState, find_contacts
+from psdesign.packing.ga_settings import GASettings
 
 # ------------------------------------------------------------------- objectives
 #: Gauss-Legendre nodes of :func:`crossing_volume`.
@@ -103,17 +104,9 @@ def genetic(
     lo: np.ndarray,
     hi: np.ndarray,
     size_norm: np.ndarray,
-    angle_range_deg: float = 1.0,
-    shift_range: float = 0.1,
-    u_range: tuple[float, float] = (0.1, 0.3),
-    f_range: tuple[float, float] = (1.0, 10.0),
-    population: int = 24,
-    generations: int = 40,
-    mutation_sigma: float = 0.15,
-    objective: str = "analytic",
-    voxel: float | None = None,
+    settings: GASettings | None = None,
+    *,
     seed: int = 0,
-    time_limit_s: float | None = None,
     report: Callable[[int, float], None] | None = None,
 ) -> GAResult:
     """Real-coded genetic algorithm over the Sec. 7.1 adjustments (paper Eq. 9).
@@ -125,54 +118,28 @@ def genetic(
 
     Parameters
     ----------
-    objective : {"analytic", "voxel"}
-        Omega from :func:`analytic_omega`, or the voxel count of Eq. (8) on a grid of
-        step ``voxel`` (normalized).
+    st : FiberState
+        The fibers; the fixed ones are not moved.
+    lo, hi : np.ndarray
+        The box (normalized).
+    size_norm : np.ndarray
+        The RVE edges in the normalized unit (the translation scale).
+    settings : GASettings, optional
+        Adjustment ranges, population, generations, mutation, objective, time limit
+        (default: ``GASettings()``).
+    seed : int
+        Seed of the GA's random generator (same seed, same result).
+    report : callable, optional
+        ``report(generation, best)`` after each generation (default: :func:`ga_progress`).
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
-    mov = np.flatnonzero(~st.fixed)
-    bent = st.u[mov] != 0.0
-    nm = len(mov)
-    G = 7  # theta, omega, tx, ty, tz, u, f  (u, f genes unused for straight fibers)
-
-    def decode(g: np.ndarray) -> FiberState:
-        s = st.copy()
-        g = g.reshape(nm, G)
-        s.theta[mov] = st.theta[mov] + angle_range_deg * g[:, 0]
-        s.omega[mov] = st.omega[mov] + angle_range_deg * g[:, 1]
-        s.center[mov] = st.center[mov] + shift_range * g[:, 2:5] * size_norm
-        if np.any(bent):
-            b = mov[bent]
-            s.u[b] = u_range[0] + (u_range[1] - u_range[0]) * 0.5 * (g[bent, 5] + 1)
-            s.f[b] = f_range[0] + (f_range[1] - f_range[0]) * 0.5 * (g[bent, 6] + 1)
-        s.refresh_frames()
-        return s
-
-    if objective == "voxel":
-        from psdesign.geometry.rve import RVE
-
-        if voxel is None:
-            raise ValueError("voxel objective needs a voxel step")
-
-        def cost(g: np.ndarray) -> float:
-            s = decode(g)
-            rve = RVE(hi - lo, s.to_fibers(), period=1.0)
-            return rve.voxelize(voxel).intersection_volume_fraction
-    elif objective == "analytic":
-
-        def cost(g: np.ndarray) -> float:
-            return analytic_omega(decode(g), lo, hi)
-    else:
-        raise ValueError(f"objective must be 'analytic' or 'voxel', got {objective!r}")
-
-    g0 = np.zeros((nm, G))
-    if np.any(bent):  # encode the drawn u, f as the starting genes
-        b = mov[bent]
-        g0[bent, 5] = np.clip(2 * (st.u[b] - u_range[0]) / (u_range[1] - u_range[0]) - 1, -1, 1)
-        g0[bent, 6] = np.clip(2 * (st.f[b] - f_range[0]) / (f_range[1] - f_range[0]) - 1, -1, 1)
-    g0 = g0.ravel()
-    pop = np.clip(g0 + rng.normal(0, 0.5, (population, nm * G)), -1, 1)
+    settings = GASettings() if settings is None else settings
+    genome = _Genome(st, size_norm, settings)
+    cost = _objective(genome, settings, lo, hi)
+    population = settings.population
+    g0 = genome.start()
+    pop = np.clip(g0 + rng.normal(0, 0.5, (population, g0.size)), -1, 1)
     pop[0] = g0
     fit = np.array([cost(g) for g in pop])
     evals = population
@@ -180,23 +147,11 @@ def genetic(
     history = [float(fit.min())]
     gen = 0
     if report is None:
-        report = ga_progress(generations, objective)
-    for _ in range(generations):
-        if fit.min() <= 0.0:
+        report = ga_progress(settings.generations, settings.objective)
+    for _ in range(settings.generations):
+        if fit.min() <= 0.0 or _out_of_time(t0, settings.time_limit_s):
             break
-        if time_limit_s is not None and time.perf_counter() - t0 > time_limit_s:
-            break
-        elite = np.argsort(fit)[:2]
-        children = [pop[e].copy() for e in elite]
-        while len(children) < population:
-            a, b = (min(rng.integers(0, population, 2), key=lambda k: fit[k]) for _ in range(2))
-            mask = np.repeat(rng.random(nm) < 0.5, G)
-            child = np.where(mask, pop[a], pop[b])
-            mut = rng.random(child.size) < max(1.0 / nm, 0.02)
-            child = np.clip(child + mut * rng.normal(0, mutation_sigma, child.size), -1, 1)
-            children.append(child)
-        pop = np.array(children)
-        fit = np.r_[fit[elite], [cost(g) for g in pop[2:]]]
+        pop, fit = _next_generation(pop, fit, rng, genome.n_movable, settings, cost)
         evals += population - 2
         gen += 1
         history.append(float(fit.min()))
@@ -204,7 +159,7 @@ def genetic(
             report(gen, history[-1])
     best = int(np.argmin(fit))
     return GAResult(
-        state=decode(pop[best]),
+        state=genome.decode(pop[best]),
         objective_initial=f_init,
         objective_final=float(fit[best]),
         generations=gen,
@@ -212,3 +167,99 @@ def genetic(
         wall_time_s=time.perf_counter() - t0,
         history=history,
     )
+
+
+#: Genes per movable fiber: theta, omega, tx, ty, tz, u, f (u, f unused for straight fibers).
+N_GENES = 7
+
+
+class _Genome:
+    """The genes of a fiber set's movable fibers (each in [-1, 1]) and the set they stand for."""
+
+    def __init__(self, st: FiberState, size_norm: np.ndarray, settings: GASettings):
+        self.st, self.size_norm, self.settings = st, size_norm, settings
+        self.mov = np.flatnonzero(~st.fixed)
+        self.bent = st.u[self.mov] != 0.0
+        self.n_movable = len(self.mov)
+
+    def decode(self, g: np.ndarray) -> FiberState:
+        """The fiber set of the genes ``g`` (flat, ``N_GENES`` per movable fiber)."""
+        st, mov, bent, opt = self.st, self.mov, self.bent, self.settings
+        s = st.copy()
+        g = g.reshape(self.n_movable, N_GENES)
+        s.theta[mov] = st.theta[mov] + opt.angle_range_deg * g[:, 0]
+        s.omega[mov] = st.omega[mov] + opt.angle_range_deg * g[:, 1]
+        s.center[mov] = st.center[mov] + opt.shift_range * g[:, 2:5] * self.size_norm
+        if np.any(bent):
+            b = mov[bent]
+            u_range, f_range = opt.u_range, opt.f_range
+            s.u[b] = u_range[0] + (u_range[1] - u_range[0]) * 0.5 * (g[bent, 5] + 1)
+            s.f[b] = f_range[0] + (f_range[1] - f_range[0]) * 0.5 * (g[bent, 6] + 1)
+        s.refresh_frames()
+        return s
+
+    def start(self) -> np.ndarray:
+        """The genes of the unchanged set (flat): zero adjustments, the drawn ``u``, ``f``."""
+        st, mov, bent = self.st, self.mov, self.bent
+        u_range, f_range = self.settings.u_range, self.settings.f_range
+        g0 = np.zeros((self.n_movable, N_GENES))
+        if np.any(bent):
+            b = mov[bent]
+            g0[bent, 5] = np.clip(2 * (st.u[b] - u_range[0]) / (u_range[1] - u_range[0]) - 1, -1, 1)
+            g0[bent, 6] = np.clip(2 * (st.f[b] - f_range[0]) / (f_range[1] - f_range[0]) - 1, -1, 1)
+        return g0.ravel()
+
+
+def _objective(
+    genome: _Genome, settings: GASettings, lo: np.ndarray, hi: np.ndarray
+) -> Callable[[np.ndarray], float]:
+    """Omega of the set a genome stands for: analytic, or counted on a voxel grid."""
+    if settings.objective == "voxel":
+        from psdesign.geometry.rve import RVE
+
+        voxel = settings.voxel
+        if voxel is None:
+            raise ValueError("voxel objective needs a voxel step")
+
+        def cost(g: np.ndarray) -> float:
+            s = genome.decode(g)
+            rve = RVE(hi - lo, s.to_fibers(), period=1.0)
+            return rve.voxelize(voxel).intersection_volume_fraction
+
+        return cost
+    if settings.objective == "analytic":
+
+        def cost(g: np.ndarray) -> float:
+            return analytic_omega(genome.decode(g), lo, hi)
+
+        return cost
+    raise ValueError(f"objective must be 'analytic' or 'voxel', got {settings.objective!r}")
+
+
+def _out_of_time(t0: float, time_limit_s: float | None) -> bool:
+    """True when a time limit is set and the run has used it up."""
+    return time_limit_s is not None and time.perf_counter() - t0 > time_limit_s
+
+
+def _next_generation(
+    pop: np.ndarray,
+    fit: np.ndarray,
+    rng: np.random.Generator,
+    nm: int,
+    settings: GASettings,
+    cost: Callable[[np.ndarray], float],
+) -> tuple[np.ndarray, np.ndarray]:
+    """One generation: the two best kept (elitism), the rest by tournament selection, uniform
+    crossover per fiber and Gaussian mutation; the new population and its objective values."""
+    population = settings.population
+    elite = np.argsort(fit)[:2]
+    children = [pop[e].copy() for e in elite]
+    while len(children) < population:
+        a, b = (min(rng.integers(0, population, 2), key=lambda k: fit[k]) for _ in range(2))
+        mask = np.repeat(rng.random(nm) < 0.5, N_GENES)
+        child = np.where(mask, pop[a], pop[b])
+        mut = rng.random(child.size) < max(1.0 / nm, 0.02)
+        child = np.clip(child + mut * rng.normal(0, settings.mutation_sigma, child.size), -1, 1)
+        children.append(child)
+    pop = np.array(children)
+    return pop, np.r_[fit[elite], [cost(g) for g in pop[2:]]]

@@ -43,7 +43,9 @@ from psdesign.packing.fiberset import (
     orientation_tensor,
     segment_distance,
 )
+from psdesign.packing.ga_settings import GASettings
 from psdesign.packing.genetic import GAResult, analytic_omega, crossing_volume, genetic
+from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.packing.sequential import PlacementResult, place_sequential, torus_offsets
 
 __all__ = [
@@ -51,8 +53,10 @@ __all__ = [
     "Contacts",
     "FiberState",
     "GAResult",
+    "GASettings",
     "Pieces",
     "PlacementResult",
+    "PlacementSettings",
     "analytic_omega",
     "build_pieces",
     "carrier_lengths",

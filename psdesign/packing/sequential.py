@@ -30,6 +30,7 @@ from psdesign.packing.fiberset import (
     carrier_lengths,
     pieces_for,
 )
+from psdesign.packing.placement_settings import PlacementSettings
 
 
 # ------------------------------------------------------------------ fast method
@@ -237,20 +238,11 @@ def place_sequential(
     st: FiberState,
     lo: np.ndarray,
     hi: np.ndarray,
-    gap: float = 0.0,
-    step: float | None = None,
-    max_rotation_deg: float = 0.0,
-    orientation_tries: int = 0,
+    settings: PlacementSettings | None = None,
+    *,
     seed: int = 0,
-    on_reject: str = "skip",
     area: np.ndarray | None = None,
     stop_solid: float | None = None,
-    max_consecutive_rejects: int | None = None,
-    max_shift_z: float | None = None,
-    max_ejections: int = 6,
-    max_shift: float | None = None,
-    exceed: bool = True,
-    exceed_rotation_deg: float = 0.0,
 ) -> PlacementResult:
     """Intersection-free fibers by sequential minimal shifts on the lattice torus.
 
@@ -274,87 +266,44 @@ def place_sequential(
         Drawn fibers (not modified).
     lo, hi : ndarray (3,)
         The box (normalized).
-    gap : float
-        Minimum surface gap (normalized); negative allows a contact overlap of ``-gap``.
-    step : float, optional
-        Grid step of the shift search (default: min diameter / 4).
-    on_reject : {"skip", "raise"}
-        What to do with a fiber that fits nowhere: leave it out, or stop and return the
-        fibers placed so far (``rejected`` then lists the first failure).
+    settings : PlacementSettings, optional
+        Gap, search grid, move bounds, re-orientations, ejections and stop rules (default:
+        ``PlacementSettings()``).
+    seed : int
+        Seed of the random re-orientations (same seed, same result).
     area, stop_solid : optional
         Cross-section area of each fiber (normalized); placement stops once the placed
         solid ``sum(area_i * carrier length_i in box) / box volume`` reaches ``stop_solid``.
-    max_consecutive_rejects : int, optional
-        Stop after this many fibers in a row found no place (the packing is jammed).
-    max_ejections : int
-        A fiber that fits nowhere may eject the placed fibers blocking its least blocked
-        position; they go back to the front of the queue. Each fiber can be ejected at
-        most this often (0 disables ejection).
-    max_shift_z : float, optional
-        Largest allowed z component of a shift (normalized), to keep a drawn through-plane
-        position distribution (e.g. beta z translations, Fig. 17); in-plane moves stay
-        free. Default: the whole lattice torus.
-    max_shift : float, optional
-        Move bound: largest shift length (normalized) a fiber may move from where it was
-        drawn (the paper's GA range is 0.1 of the RVE edge per component). Every fiber is
-        first placed within ``max_shift`` (re-orientations within ``max_rotation_deg``,
-        ejections included); only if that fails is it moved to the nearest free shift
-        beyond the bound (``exceed=True``, recorded in ``PlacementResult.exceeded``) or
-        rejected (``exceed=False``). Default: no bound.
-    exceed_rotation_deg : float
-        Re-orientation range of that second, out-of-bounds pass (``max_rotation_deg`` is
-        the bound of the first); a fiber placed in the second pass counts as exceeded.
     """
-    opts = _Options(
-        gap=gap,
-        max_rotation_deg=max_rotation_deg,
-        orientation_tries=orientation_tries,
-        on_reject=on_reject,
-        area=area,
-        stop_solid=stop_solid,
-        max_consecutive_rejects=max_consecutive_rejects,
-        max_shift_z=max_shift_z,
-        max_ejections=max_ejections,
-        max_shift=max_shift,
-        exceed=exceed,
-        exceed_rotation_deg=exceed_rotation_deg,
-    )
+    opts = PlacementSettings() if settings is None else settings
     t0 = time.perf_counter()
     if len(st) == 0:
         return PlacementResult(
             st.copy(), np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0), 0, 0.0
         )
-    placer = _Placer(st, lo, hi, opts, step, seed)
+    placer = _Placer(st, lo, hi, opts, seed, area, stop_solid)
     placer.run()
     return placer.result(time.perf_counter() - t0)
-
-
-@dataclass(frozen=True)
-class _Options:
-    """The knobs of :func:`place_sequential` (documented there)."""
-
-    gap: float
-    max_rotation_deg: float
-    orientation_tries: int
-    on_reject: str
-    area: np.ndarray | None
-    stop_solid: float | None
-    max_consecutive_rejects: int | None
-    max_shift_z: float | None
-    max_ejections: int
-    max_shift: float | None
-    exceed: bool
-    exceed_rotation_deg: float
 
 
 class _Placer:
     """The state of one sequential placement: placed pieces, queue, budgets, counters."""
 
-    def __init__(self, st: FiberState, lo, hi, opts: _Options, step: float | None, seed: int):
+    def __init__(
+        self,
+        st: FiberState,
+        lo,
+        hi,
+        opts: PlacementSettings,
+        seed: int,
+        area: np.ndarray | None,
+        stop_solid: float | None,
+    ):
         self.st, self.lo, self.hi, self.opts = st, lo, hi, opts
+        self.area, self.stop_solid = area, stop_solid
         self.rng = np.random.default_rng(seed)
         n = len(st)
-        step = float(st.diameter.min()) / 4.0 if step is None else step
+        step = float(st.diameter.min()) / 4.0 if opts.step is None else opts.step
         self.T = torus_offsets(step)
         self.k_grid = max(2, int(np.ceil(1.0 / step)))
         self.tidx = (
@@ -385,9 +334,9 @@ class _Placer:
         idx = np.atleast_1d(idx)
         pc = pieces_for(self.out.subset(idx), self.lo, self.hi, self.opts.gap, self.piece)
         pc.fiber = idx[pc.fiber]
-        if self.opts.area is not None:
+        if self.area is not None:
             lengths = carrier_lengths(self.out.subset(idx), self.lo, self.hi)
-            share = self.opts.area[idx] * lengths / self.box_volume
+            share = self.area[idx] * lengths / self.box_volume
             for k, v in zip(idx, share, strict=True):
                 self.contrib[int(k)] = float(v)
         self.old = pc if self.old is None else _concat_pieces(self.old, pc)
@@ -490,13 +439,13 @@ class _Placer:
             self.add_old(fixed_idx)
         queue = deque(int(k) for k in np.flatnonzero(~st.fixed))
         streak = 0
-        report = _placement_progress(len(queue), o.stop_solid)
-        track = report is not None or o.stop_solid is not None
+        report = _placement_progress(len(queue), self.stop_solid)
+        track = report is not None or self.stop_solid is not None
         while queue:
             solid = sum(self.contrib.values()) if track else 0.0  # once for both uses
             if report is not None:
                 report(len(self.placed) - len(fixed_idx), solid)
-            if o.stop_solid is not None and solid >= o.stop_solid:
+            if self.stop_solid is not None and solid >= self.stop_solid:
                 self.stopped = True
                 break
             if o.max_consecutive_rejects is not None and streak >= o.max_consecutive_rejects:
@@ -513,7 +462,7 @@ class _Placer:
             self.accept(i, *found)
 
     def result(self, wall_time_s: float) -> PlacementResult:
-        st, stop_solid = self.st, self.opts.stop_solid
+        st, stop_solid = self.st, self.stop_solid
         keep = np.array(self.placed, dtype=np.int64)
         final = self.out.subset(keep)
         cosang = np.abs(np.einsum("ij,ij->i", final.direction, st.direction[keep]))

@@ -215,16 +215,25 @@ def test_held_signals_deliver_sigterm_after_the_body():
 def test_field_relax_reports_its_polls():
     """``forcefield`` on woven / compressed fibers (``studies/forcefield_woven.toml``: over
     2 minutes without a line) reports the pattern search's polls as the rod route does."""
+    from dataclasses import replace
+
     import numpy as np
 
     from psdesign.forcefield.contact import relax_contacts
+    from psdesign.forcefield.search_settings import RELAX_SEARCH
     from psdesign.geometry.fibers import woven_cell
 
     cell = woven_cell("z", 1)
     pair = [cell[0], cell[4]]  # a warp and a weft crossing
     lines = _lines(
         lambda: relax_contacts(
-            pair, np.zeros(3), np.ones(3), h=0.04, max_shift=0.05, u_max=0.4, max_evals=60
+            pair,
+            np.zeros(3),
+            np.ones(3),
+            h=0.04,
+            max_shift=0.05,
+            u_max=0.4,
+            search=replace(RELAX_SEARCH, max_evals=60),
         )
     )
     polls = [ln for ln in lines if ln.startswith("psdesign: relax (2 fibers, contacts on a grid)")]

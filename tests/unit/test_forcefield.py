@@ -31,6 +31,7 @@ from psdesign.forcefield.potentials import (
     surface_term,
     volume_interaction,
 )
+from psdesign.forcefield.search_settings import SearchSettings
 from psdesign.forcefield.tube import gauss_bonnet_ends, tube_sample
 from psdesign.geometry.fibers import woven_model
 from psdesign.geometry.model import GeneralizedPS
@@ -303,7 +304,7 @@ def test_gaussian_term_of_two_fiber_rods_vanishes():
 # ------------------------------------------------------------------ pattern search
 def test_pattern_search_quadratic_with_bounds():
     f = lambda x: (x[0] - 0.3) ** 2 + 10 * (x[1] + 0.2) ** 2 + (x[2] - 5.0) ** 2  # noqa: E731
-    r = pattern_search(f, [0.0, 0.0, 0.0], [-1, -1, -1], [1, 1, 2], min_step=1e-7)
+    r = pattern_search(f, [0.0, 0.0, 0.0], [-1, -1, -1], [1, 1, 2], SearchSettings(min_step=1e-7))
     assert r.converged
     assert np.allclose(r.x, [0.3, -0.2, 2.0], atol=1e-6)  # third variable on its bound
     assert r.fun == pytest.approx(9.0, abs=1e-10)
@@ -311,9 +312,11 @@ def test_pattern_search_quadratic_with_bounds():
 
 def test_pattern_search_rosenbrock_and_iteration_limit():
     rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
-    r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-8, max_iter=20000)
+    r = pattern_search(
+        rosen, [-1.2, 1.0], [-2, -2], [2, 2], SearchSettings(min_step=1e-8, max_iter=20000)
+    )
     assert r.converged and np.allclose(r.x, [1, 1], atol=1e-3)
-    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], max_iter=5)
+    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], SearchSettings(max_iter=5))
     assert not short.converged and "iteration limit" in short.message
     assert short.fun == pytest.approx(rosen(short.x)) and short.fun < rosen([-1.2, 1.0])
     assert len(short.history) == 5
@@ -325,21 +328,30 @@ def test_batched_polling_keeps_the_iterates():
     from psdesign.forcefield.parallel import batch_map
 
     rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
-    ref = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6, max_iter=5000)
+    long = SearchSettings(min_step=1e-6, max_iter=5000)
+    ref = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], long)
     for batch in (2, 3):
-        r = pattern_search(
-            rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-6, max_iter=5000, batch=batch
-        )
+        r = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], long, batch=batch)
         assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter
         assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
         assert r.n_evals == ref.n_evals and r.n_speculative > 0
     with batch_map(rosen, 2) as pmap:
         r = pattern_search(
-            rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2, map_fun=pmap
+            rosen,
+            [-1.2, 1.0],
+            [-2, -2],
+            [2, 2],
+            SearchSettings(min_step=1e-3),
+            batch=2,
+            map_fun=pmap,
         )
-    short = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], min_step=1e-3, batch=2)
+    short = pattern_search(
+        rosen, [-1.2, 1.0], [-2, -2], [2, 2], SearchSettings(min_step=1e-3), batch=2
+    )
     assert np.array_equal(r.x, short.x) and r.n_evals == short.n_evals
-    capped = pattern_search(rosen, [-1.2, 1.0], [-2, -2], [2, 2], batch=3, max_evals=10)
+    capped = pattern_search(
+        rosen, [-1.2, 1.0], [-2, -2], [2, 2], SearchSettings(max_evals=10), batch=3
+    )
     assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
 
 
@@ -374,21 +386,22 @@ def test_asynchronous_polling_keeps_the_iterates():
 
     rosen = lambda x: (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2  # noqa: E731
     args = ([-1.2, 1.0], [-2, -2], [2, 2])
-    ref = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000)
+    long = SearchSettings(min_step=1e-6, max_iter=5000)
+    ref = pattern_search(rosen, *args, long)
     for slots, lifo in ((2, True), (3, False), (4, True)):
         ev = _ShuffledEvaluator(rosen, slots, lifo)
-        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=ev)
+        r = pattern_search(rosen, *args, long, evaluator=ev)
         assert np.array_equal(r.x, ref.x) and r.n_iter == ref.n_iter and r.fun == ref.fun
         assert [h["fun"] for h in r.history] == [h["fun"] for h in ref.history]
         assert [h["n_evals"] for h in r.history] == [h["n_evals"] for h in ref.history]
         assert r.n_evals == ref.n_evals and r.n_speculative > 0
         assert r.n_evals + r.n_speculative == ev.n
     capped = pattern_search(
-        rosen, *args, max_evals=10, evaluator=_ShuffledEvaluator(rosen, 3, True)
+        rosen, *args, SearchSettings(max_evals=10), evaluator=_ShuffledEvaluator(rosen, 3, True)
     )
     assert capped.n_evals + capped.n_speculative == 10 and not capped.converged
     with WorkerPool(rosen, 2) as pool:
-        r = pattern_search(rosen, *args, min_step=1e-6, max_iter=5000, evaluator=pool)
+        r = pattern_search(rosen, *args, long, evaluator=pool)
     assert np.array_equal(r.x, ref.x) and r.n_evals == ref.n_evals
 
 
@@ -421,6 +434,12 @@ def test_pattern_search_rejects_infeasible_bounds():
         pattern_search(lambda x: 0.0, [0.0], [1.0], [0.0])
     with pytest.raises(ValueError, match="outside its bounds"):
         pattern_search(lambda x: 0.0, [2.0], [0.0], [1.0])
+    with pytest.raises(ValueError, match="min_step < step"):
+        SearchSettings(step=0.1, min_step=0.2)
+    with pytest.raises(ValueError, match="contract in"):
+        SearchSettings(contract=1.0)
+    with pytest.raises(ValueError, match="max_evals must be >= 1"):
+        SearchSettings(max_evals=0)
 
 
 def test_parametrization_bounds_and_infeasible_constraints():
@@ -770,7 +789,7 @@ def test_poll_step_bounds_the_distance_to_the_minimum():
     f = lambda x: float(np.sum([1.0, 10.0, 0.1] * (np.asarray(x) - xs) ** 2))  # noqa: E731
     lo, hi = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 3.0])
     for min_step in (1e-2, 1e-3):
-        r = pattern_search(f, [0.0, 0.0, 0.0], lo, hi, min_step=min_step)
+        r = pattern_search(f, [0.0, 0.0, 0.0], lo, hi, SearchSettings(min_step=min_step))
         assert r.converged
         # the last poll failed, then the mesh halved below min_step: poll_step = 2 x final
         assert r.poll_step == pytest.approx(2 * r.history[-1]["step"])

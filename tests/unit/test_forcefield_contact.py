@@ -304,14 +304,17 @@ def test_relaxed_woven_cell_goes_through_mesher_and_solver(tmp_path, capsys):
 def test_tied_bend_is_one_change_of_u_shared_by_every_bending_yarn():
     """tie_bend: one variable |u| (Sec. 6.2's "same absolute value of minor moment u"); each
     yarn keeps its sign, the shifts stay per yarn."""
+    from dataclasses import replace
+
     from psdesign.forcefield.contact import relax_contacts
+    from psdesign.forcefield.search_settings import RELAX_SEARCH
     from psdesign.geometry.fibers import woven_cell
 
     cell = woven_cell("z", 1)
     pair = [cell[0], cell[4]]  # a warp (u = +0.41) and a weft (u = -0.41) crossing
     lo, hi = np.zeros(3), np.ones(3)
-    kw = dict(h=0.04, max_shift=0.05, u_max=0.4, max_evals=300)
-    free = relax_contacts(pair, lo, hi, **{**kw, "max_evals": 1})
+    kw = dict(h=0.04, max_shift=0.05, u_max=0.4, search=replace(RELAX_SEARCH, max_evals=300))
+    free = relax_contacts(pair, lo, hi, **{**kw, "search": replace(RELAX_SEARCH, max_evals=1)})
     tied = relax_contacts(pair, lo, hi, tie_bend=True, **kw)
     assert free.names == ["t1[0]", "t2[0]", "u[0]", "t1[1]", "t2[1]", "u[1]"]
     assert tied.names == ["t1[0]", "t2[0]", "t1[1]", "t2[1]", "|u|"]

@@ -257,6 +257,7 @@ def test_ga_bounds_report_counts_moves_added_over_rounds():
     """Two rounds of +-0.1 L each can move a fiber 0.16 L from its drawn place (measured on the
     Table III GA, docs/paper-reproduction.md 2.6): the report must count it against the drawn
     state, not the last round's start."""
+    from psdesign.packing.ga_settings import GASettings
     from psdesign.packing.generators import _ga_bounds_report, draw_fibers, parse_generator
 
     size = np.array([50e-6] * 3)
@@ -267,8 +268,8 @@ def test_ga_bounds_report_counts_moves_added_over_rounds():
     moved.center[0, 0] += 0.16 * size_norm[0]  # two rounds' worth along x
     moved.theta[1] += 0.5  # inside +-1 deg
     moved.omega[2] += 1.7  # two rounds' worth of turn
-    kw = {"shift_range": 0.1, "angle_range_deg": 1.0}
-    rep = _ga_bounds_report(moved, st0, kw, size_norm, gs.period)
+    settings = GASettings(shift_range=0.1, angle_range_deg=1.0)
+    rep = _ga_bounds_report(moved, st0, settings, size_norm, gs.period)
     assert rep["n_exceeded"] == 2 and rep["status"] == "exceeded_bounds"
     assert rep["max_shift_m"] == pytest.approx(0.16 * 50e-6)
     assert rep["max_turn_deg"] == pytest.approx(1.7)

@@ -8,6 +8,8 @@ import pytest
 from psdesign.geometry.rve import RVE
 from psdesign.packing.intersections import (
     FiberState,
+    GASettings,
+    PlacementSettings,
     analytic_omega,
     carrier_lengths,
     crossing_volume,
@@ -122,7 +124,7 @@ def test_fast_placement_zero_overlap_and_min_gap(bent):
     st = _random_state(25 if not bent else 18, seed=4, bent=bent, fmax=3.0)
     before = RVE([1e-4] * 3, st.to_fibers()).voxelize(1e-6)
     assert before.intersection_volume_fraction > 0  # the drawn set does intersect
-    res = place_sequential(st, LO, HI, gap=gap)
+    res = place_sequential(st, LO, HI, PlacementSettings(gap=gap))
     assert len(res.rejected) == 0 and len(res.state) == len(st)
     fibers = res.state.to_fibers()
     vf = RVE([1e-4] * 3, fibers).voxelize(1e-6)
@@ -143,7 +145,7 @@ def test_fixed_fibers_are_not_moved():
 
 def test_ga_stays_in_adjustment_ranges_and_never_worsens():
     st = _random_state(10, seed=7)
-    res = genetic(st, LO, HI, np.ones(3), population=10, generations=5, seed=1)
+    res = genetic(st, LO, HI, np.ones(3), GASettings(population=10, generations=5), seed=1)
     assert res.objective_final <= res.objective_initial
     assert res.objective_initial > 0
     assert np.all(np.abs(res.state.theta - st.theta) <= 1.0 + 1e-9)
@@ -165,7 +167,7 @@ def test_carrier_length_times_area_predicts_voxel_solid():
 
 def test_max_shift_z_bounds_the_through_plane_moves():
     st = _random_state(25, seed=8)
-    res = place_sequential(st, LO, HI, max_shift_z=0.05, on_reject="skip")
+    res = place_sequential(st, LO, HI, PlacementSettings(max_shift_z=0.05, on_reject="skip"))
     assert np.all(np.abs(res.shift[:, 2]) <= 0.05 + 1e-9)
     assert np.max(np.abs(res.shift[:, :2])) > 0.05  # in-plane moves stay free
     vf = RVE([1e-4] * 3, res.state.to_fibers()).voxelize(1e-6)
@@ -175,9 +177,9 @@ def test_max_shift_z_bounds_the_through_plane_moves():
 def test_ejection_places_every_fiber_and_reports_matching_rows():
     # dense enough that plain sequential placement rejects fibers
     st = _random_state(50, seed=1)
-    plain = place_sequential(st, LO, HI, max_ejections=0)
+    plain = place_sequential(st, LO, HI, PlacementSettings(max_ejections=0))
     assert len(plain.rejected) > 0
-    res = place_sequential(st, LO, HI, max_ejections=2)
+    res = place_sequential(st, LO, HI, PlacementSettings(max_ejections=2))
     assert len(res.rejected) < len(plain.rejected)
     # rows of state / shift refer to res.placed (placement order)
     assert np.allclose(res.state.center - st.center[res.placed], res.shift)

@@ -20,7 +20,7 @@ from psdesign.geometry.fibers import (
     woven_table_i,
 )
 from psdesign.geometry.rve import RVE
-from psdesign.packing.intersections import FiberState, place_sequential
+from psdesign.packing.intersections import FiberState, PlacementSettings, place_sequential
 
 ROOT = Path(__file__).resolve().parents[2]
 LO, HI = np.zeros(3), np.ones(3)
@@ -186,14 +186,14 @@ def _two_coincident(d=0.1):
 def test_move_bound_is_kept_when_feasible_and_exceeding_it_is_reported():
     # two coincident parallel fibers of diameter 0.1: the second must move >= 0.1
     st = _two_coincident()
-    loose = place_sequential(st, LO, HI, max_shift=0.2)
+    loose = place_sequential(st, LO, HI, PlacementSettings(max_shift=0.2))
     assert len(loose.exceeded) == 0 and len(loose.rejected) == 0
     moved = np.linalg.norm(loose.shift, axis=1)
     assert moved[0] == 0 and 0.1 - 1e-9 <= moved[1] <= 0.2
-    tight = place_sequential(st, LO, HI, max_shift=0.05)
+    tight = place_sequential(st, LO, HI, PlacementSettings(max_shift=0.05))
     assert tight.exceeded.tolist() == [1] and len(tight.rejected) == 0
     assert np.linalg.norm(tight.shift[1]) >= 0.1 - 1e-9
-    strict = place_sequential(st, LO, HI, max_shift=0.05, exceed=False)
+    strict = place_sequential(st, LO, HI, PlacementSettings(max_shift=0.05, exceed=False))
     assert strict.rejected.tolist() == [1] and len(strict.exceeded) == 0
 
 
@@ -209,7 +209,7 @@ def test_bounded_placement_moves_only_reported_fibers_beyond_the_bound():
         f=np.ones(n),
         fixed=np.zeros(n, bool),
     )
-    res = place_sequential(st, LO, HI, max_shift=0.05)
+    res = place_sequential(st, LO, HI, PlacementSettings(max_shift=0.05))
     moved = np.linalg.norm(res.shift, axis=1)
     out = np.isin(res.placed, res.exceeded)
     assert np.all(moved[~out] <= 0.05 + 1e-9)

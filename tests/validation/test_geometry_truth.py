@@ -15,6 +15,7 @@ from scipy import stats
 
 from psdesign.packing.fiberset import FiberState
 from psdesign.packing.generators import build_fibers
+from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.packing.sequential import place_sequential
 
 
@@ -92,7 +93,9 @@ def test_fast_keeps_every_fiber_in_a_box_thinner_than_a_period():
         f=np.ones(n),
         fixed=np.zeros(n, bool),
     )
-    res = place_sequential(st, lo, hi, gap=0.005, max_rotation_deg=1.0, orientation_tries=4)
+    res = place_sequential(
+        st, lo, hi, PlacementSettings(gap=0.005, max_rotation_deg=1.0, orientation_tries=4)
+    )
     assert len(res.rejected) == 0
     z = res.state.center[:, 2]  # x and y span a whole period: the copies cover them
     assert np.all((z >= 0.0) & (z <= 0.5))

@@ -1,0 +1,47 @@
+"""Settings of the ``ga`` intersection removal: the adjustment ranges and the GA's own knobs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class GASettings:
+    """What :func:`psdesign.packing.genetic.genetic` searches and how (paper Sec. 7.1, Eq. 9).
+
+    Attributes
+    ----------
+    angle_range_deg : float
+        theta and omega adjustments in ``+-angle_range_deg`` (degrees).
+    shift_range : float
+        Translation adjustments in ``+-shift_range`` of the RVE edge.
+    u_range, f_range : tuple of float
+        Absolute ``u`` and ``f`` of bent fibers (amplitude, frequency).
+    population, generations : int
+        Individuals per generation and generations at most.
+    mutation_sigma : float
+        Standard deviation of the Gaussian mutation of a gene (genes in [-1, 1]).
+    objective : {"analytic", "voxel"}
+        Omega from :func:`.genetic.analytic_omega`, or the voxel count of Eq. (8) on a grid of
+        step ``voxel`` (normalized; needed for ``"voxel"``).
+    voxel : float, optional
+    time_limit_s : float, optional
+        Wall time after which no further generation starts (seconds).
+
+    Examples
+    --------
+    >>> s = GASettings(population=10, generations=5)
+    >>> (s.population, s.generations, s.angle_range_deg, s.objective)
+    (10, 5, 1.0, 'analytic')
+    """
+
+    angle_range_deg: float = 1.0
+    shift_range: float = 0.1
+    u_range: tuple[float, float] = (0.1, 0.3)
+    f_range: tuple[float, float] = (1.0, 10.0)
+    population: int = 24
+    generations: int = 40
+    mutation_sigma: float = 0.15
+    objective: str = "analytic"
+    voxel: float | None = None
+    time_limit_s: float | None = None
