@@ -130,6 +130,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(default 0.1; above 0.2 a K is untrustworthy)",
     )
     add_workers_argument(p, scheduler=False)
-    p.add_argument("--quiet", action="store_true")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_rev)
