@@ -9,7 +9,7 @@ from typing import Any
 from pydantic import Field, model_validator
 
 from psdesign.schema import budget
-from psdesign.schema.distributions import support
+from psdesign.schema.distributions import support, support_text
 from psdesign.schema.fibers import FiberTable
 from psdesign.schema.flow import FlowTable
 from psdesign.schema.forcefield import ForceFieldTable
@@ -292,7 +292,7 @@ class SpecDocument(Table):
         if not (dlo > 0 and dhi < 0.5 * period):
             raise fail(
                 "generator.diameter",
-                f"the distribution allows [{dlo:g}, {dhi:g}] m (truncate with low/high)",
+                support_text(g.diameter, "m"),
                 f"(0, {0.5 * period:g}) m (half the period)",
             )
         if voxel > dlo / 2:

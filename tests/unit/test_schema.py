@@ -448,3 +448,27 @@ def test_cli_bad_spec_exit_2_one_line_nothing_written(tmp_path, capsys, cmd):
     # forcefield relaxes an RVE spec's fiber set, so it validates the same keys
     assert "flow.direction: got 'w'; allowed: x, y, z" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "path, value, key, said",
+    [
+        # a diameter in micrometres (the unit slip of a new user, session 42)
+        ("generator.diameter", 7, "generator.diameter", "got 7 m"),
+        ("generator.theta", 400.0, "generator.theta", "got 400 degrees"),
+        ("generator.tx", 3.0, "generator.tx", "got 3"),
+    ],
+)
+def test_an_out_of_range_number_is_said_as_given_not_as_a_distribution(path, value, key, said):
+    # before session 42 a plain number read "the distribution allows [7, 7] m (truncate with
+    # low/high)": a hint about distributions for a value that is none
+    err = spec_err(with_(SPEC, path, value))
+    assert err.key == key
+    assert said in str(err) and "distribution" not in str(err), str(err)
+
+
+def test_an_out_of_range_distribution_still_says_its_interval_and_how_to_narrow_it():
+    doc = with_(SPEC, "generator.diameter", {"dist": "normal", "mean": 7e-6, "std": 1e-6})
+    err = spec_err(doc)
+    assert err.key == "generator.diameter"
+    assert "the distribution allows [-inf, inf] m (truncate with low/high)" in str(err), str(err)
