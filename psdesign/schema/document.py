@@ -30,6 +30,10 @@ class SpecWarning(UserWarning):
     """A spec that is valid but likely to fail or to be slow (printed as one line)."""
 
 
+#: Top-level tables of a study file (psdesign.study.studyfile), none of which a spec has.
+STUDY_TABLES = frozenset({"base", "study", "parameters"})
+
+
 class SpecDocument(Table):
     """An RVE spec: ``[rve]``, ``[[fibers]]``, ``[generator]``, ``[intersections]``, ``[flow]``
     (or ``[image]`` instead of the fiber tables)."""
@@ -53,6 +57,13 @@ class SpecDocument(Table):
         if isinstance(data, dict) and isinstance(data.get("fibers"), dict):
             data = {**data, "fibers": [data["fibers"]]}
         if isinstance(data, dict) and "rve" not in data and "image" not in data:
+            if STUDY_TABLES & set(data):  # a study file given where a spec goes (session 42)
+                raise fail(
+                    "rve",
+                    "no [rve] table: this is a study file ([study] / [parameters] / [base.*] "
+                    "tables), not an RVE spec; run it with `psdesign study run FILE -o OUT`",
+                    "[rve] size = [x, y, z]",
+                )
             raise fail(
                 "rve",
                 "missing [rve] table with size = [x, y, z] in metres",

@@ -472,3 +472,29 @@ def test_an_out_of_range_distribution_still_says_its_interval_and_how_to_narrow_
     err = spec_err(doc)
     assert err.key == "generator.diameter"
     assert "the distribution allows [-inf, inf] m (truncate with low/high)" in str(err), str(err)
+
+
+def test_a_study_file_given_as_a_spec_says_so(tmp_path, capsys):
+    # session 42 (new user's walk): `psdesign permeability studies/quickstart.toml` answered
+    # "rve: missing [rve] table with size = [x, y, z] in metres" of a file that has one, under
+    # [base.rve]; the line now names the mix-up and the command that runs a study
+    err = spec_err(STUDY)
+    assert err.key == "rve"
+    assert "this is a study file" in str(err) and "psdesign study run" in str(err)
+    path = tmp_path / "sweep.toml"
+    path.write_text(dumps(STUDY))
+    assert main(["permeability", str(path), "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: rve: no [rve] table: this is a study file")
+    # a spec without [rve] that is no study keeps its plain line
+    assert "this is a study file" not in str(spec_err({"flow": {"solver": "voxel"}}))
+
+
+def test_a_spec_given_as_a_study_file_says_so():
+    # session 42: `psdesign study run spec.toml` answered "rve: unknown top-level key
+    # (allowed: base, study, parameters)"
+    msg = study_err(SPEC)
+    assert msg.startswith("study: this is an RVE spec") and 'base = "FILE"' in msg
+    assert "unknown top-level key" not in msg
+    # a study file with a stray table still gets the unknown-key line
+    assert "unknown top-level key" in study_err({**STUDY, "rve": SPEC["rve"]})
