@@ -64,6 +64,13 @@ class SpecDocument(Table):
                     "tables), not an RVE spec; run it with `psdesign study run FILE -o OUT`",
                     "[rve] size = [x, y, z]",
                 )
+            if "forcefield" in data:  # a paper case of Sec. 6 builds its own cell
+                raise fail(
+                    "rve",
+                    "no [rve] table: this is a force-field case spec ([forcefield] case = ...), "
+                    "not an RVE spec; run it with `psdesign forcefield FILE -o OUT`",
+                    "[rve] size = [x, y, z]",
+                )
             raise fail(
                 "rve",
                 "missing [rve] table with size = [x, y, z] in metres",

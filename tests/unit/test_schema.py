@@ -498,3 +498,11 @@ def test_a_spec_given_as_a_study_file_says_so():
     assert "unknown top-level key" not in msg
     # a study file with a stray table still gets the unknown-key line
     assert "unknown top-level key" in study_err({**STUDY, "rve": SPEC["rve"]})
+
+
+def test_a_force_field_case_given_as_a_spec_says_so():
+    # session 42: `psdesign permeability studies/forcefield_two_fiber.toml` answered "rve:
+    # missing [rve] table with size = [x, y, z] in metres"
+    err = spec_err({"forcefield": {"case": "two-fiber"}})
+    assert err.key == "rve"
+    assert "force-field case spec" in str(err) and "psdesign forcefield" in str(err)
