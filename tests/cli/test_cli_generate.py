@@ -182,3 +182,21 @@ def test_woven_cell_spec_expands_to_six_fibers(tmp_path):
     d = img.point_data["distance_m"].reshape(img.dimensions, order="F")
     solid_z = np.nonzero((d <= 0).any(axis=(0, 1)))[0]
     assert 0.2 * d.shape[2] < solid_z.min() and solid_z.max() < 0.8 * d.shape[2]
+
+
+def test_preview_title_gives_the_porosity_with_its_bar(tmp_path, monkeypatch):
+    # session 42 (new user's walk): preview.png's title read "porosity 0.8490, 10 fibers",
+    # the one number of generate's outputs printed without its error estimate
+    from psdesign.report import preview
+
+    titles = []
+    real = preview.render_preview
+    monkeypatch.setattr(
+        preview, "render_preview", lambda *a, **k: titles.append(k.get("title")) or real(*a, **k)
+    )
+    spec = write(tmp_path, SPEC.format(d="20e-6"))
+    assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--quiet"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (title,) = titles
+    bar = f"{summary['porosity']:.4f} +- {summary['porosity_error']:.1e}"
+    assert title == f"porosity {bar}, 1 fibers"
