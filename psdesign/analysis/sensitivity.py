@@ -51,15 +51,15 @@ def tied_inputs(s: Surrogate, names: list[str], axes: list[str]) -> dict[str, tu
 
 
 def no_indices_reason(s: Surrogate) -> str:
-    """Why no sensitivity index of ``s`` means anything: no parameter varied, the
-    output did not vary beyond the fit's error (:meth:`Surrogate.flat_output`), or a group of
-    parameters moved together (:func:`~psdesign.analysis.entangled.entangled_groups`);
-    ``""`` when they mean something."""
+    """Why no sensitivity index of ``s`` means anything: no parameter varied, two design
+    points only (:meth:`Surrogate.too_few_points`), the output did not vary beyond the fit's
+    error (:meth:`Surrogate.flat_output`), or a group of parameters moved together
+    (:func:`~psdesign.analysis.entangled.entangled_groups`); ``""`` when they mean something."""
     names = _varied(s)
     if not names:
         held = ", ".join(f"{p} = {v:g}" for p, v in s.fixed_inputs().items())
         return f"no design parameter varied among the fitted cases ({held})"
-    return s.flat_output() or entangled_inputs(s, names)
+    return s.too_few_points() or s.flat_output() or entangled_inputs(s, names)
 
 
 def _problem(s: Surrogate) -> dict:

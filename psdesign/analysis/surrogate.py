@@ -32,6 +32,9 @@ from psdesign.analysis.columns import (
 SURROGATE_FILE = "surrogate.json"
 #: Bounds of the Matern kernel's length scales (inputs scaled to [0, 1]).
 LENGTH_SCALE_BOUNDS = (1e-2, 1e2)
+#: Distinct design points a fit needs before its cross-validated error says anything: with
+#: two, each is predicted from the other alone (:meth:`Surrogate.too_few_points`).
+MIN_DESIGN_POINTS = 3
 
 
 def _box(low, high, log) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -107,6 +110,26 @@ class Surrogate:
         """
         x = np.asarray(self.x, dtype=float).reshape(-1, len(self.params))
         return {p: float(x[0, i]) for i, p in enumerate(self.params) if np.ptp(x[:, i]) == 0}
+
+    def too_few_points(self) -> str:
+        """Why the fitted cases cannot rate the fit: two design points (``""`` otherwise).
+
+        The cross-validation holds out the replicates of one design point and predicts them
+        from the other alone, which no fit can: its error is the output's change between the
+        two points, not noise. Before session 42 a two-level study (porosity 0.849 / 0.902
+        over three seeds each) read "follows no trend between the cases" and, in `study
+        sensitivity`, "varies no more than the fit's cross-validated error ... constant to
+        within noise". One design point has its own word (NaN error, :meth:`rating`).
+        """
+        x = np.asarray(self.x, dtype=float).reshape(-1, len(self.params))
+        n = len(np.unique(x, axis=0))
+        if not 1 < n < MIN_DESIGN_POINTS:
+            return ""
+        return (
+            f"only {n} design points among the fitted cases: the cross-validation predicts "
+            "the one held out from the other alone, so its error is the output's change "
+            f"between them, not the fit's; run {MIN_DESIGN_POINTS} or more levels"
+        )
 
     def flat_output(self) -> str:
         """Why the fitted cases show no variation of the output to rank parameters by, or
@@ -185,6 +208,9 @@ class Surrogate:
         outside it), else ``ok``."""
         from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
+        few = self.too_few_points()
+        if few:
+            return "untrustworthy", [f"{self.output}: {few}"]
         warnings = []
         if math.isnan(self.cv_rel_error):
             warnings.append(

@@ -86,10 +86,29 @@ def _line(r: dict) -> str:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``conductivity``."""
     p = sub.add_parser("conductivity", help="effective thermal / electrical conductivity")
-    p.add_argument("spec")
-    p.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
-    p.add_argument("--solid", type=float, default=None, help="solid (fibre) conductivity, > 0")
-    p.add_argument("--fluid", type=float, default=None, help="fluid (pore) conductivity, > 0")
+    p.add_argument(
+        "spec", help="RVE spec (TOML): [rve] + fibers / [generator], or an [image] table"
+    )
+    p.add_argument(
+        "--direction",
+        choices=("x", "y", "z", "all"),
+        default="z",
+        help="direction of the applied gradient (default z)",
+    )
+    p.add_argument(
+        "--solid",
+        type=float,
+        default=None,
+        help="solid (fibre) conductivity in --unit, > 0 (default: the spec's "
+        "transport.solid_conductivity, 120)",
+    )
+    p.add_argument(
+        "--fluid",
+        type=float,
+        default=None,
+        help="fluid (pore) conductivity in --unit, > 0 (default: the spec's "
+        "transport.fluid_conductivity, 0.026)",
+    )
     p.add_argument(
         "--unit",
         choices=("W/(m K)", "S/m"),
@@ -102,9 +121,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("none", "solid", "fluid"),
         default=None,
         help="treat one phase as a perfect insulator (conductivity 0; its --solid / "
-        "--fluid is then refused)",
+        "--fluid is then refused; default: the spec's transport.insulating_phase, none)",
     )
-    p.add_argument("--bc", choices=("periodic", "permeameter"), default=None)
+    p.add_argument(
+        "--bc",
+        choices=("periodic", "permeameter"),
+        default=None,
+        help="periodic (homogenized tensor) or fixed inlet/outlet with insulated sides "
+        "(default: the spec's transport.bc, periodic)",
+    )
     p.add_argument(
         "--fields",
         metavar="OUT/",

@@ -69,8 +69,15 @@ def _line(r: dict) -> str:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``diffusivity``."""
     p = sub.add_parser("diffusivity", help="effective diffusivity and tortuosity of the pores")
-    p.add_argument("spec")
-    p.add_argument("--direction", choices=("x", "y", "z", "all"), default="z")
+    p.add_argument(
+        "spec", help="RVE spec (TOML): [rve] + fibers / [generator], or an [image] table"
+    )
+    p.add_argument(
+        "--direction",
+        choices=("x", "y", "z", "all"),
+        default="z",
+        help="direction of the applied gradient (default z)",
+    )
     p.add_argument(
         "--bc",
         choices=("periodic", "permeameter"),

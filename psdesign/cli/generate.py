@@ -127,6 +127,7 @@ def write_generate_outputs(
         The summary.
     """
     from psdesign.errors import SpecError
+    from psdesign.geometry.porosity import porosity_text
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.io.timings import write_record
@@ -172,7 +173,9 @@ def write_generate_outputs(
                 fields.distance,
                 fields.grid.spacing,
                 tmp / "preview.png",
-                title=f"porosity {fields.porosity:.4f}, {len(rve.fibers)} fibers",
+                # the porosity with its bar, as every printed number (session 42: without)
+                title=f"porosity {porosity_text(fields.porosity, fields.porosity_error)}, "
+                f"{len(rve.fibers)} fibers",
                 surface=surf,
             )
         if "tiff" in formats:

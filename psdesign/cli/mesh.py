@@ -138,8 +138,10 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``mesh``."""
     mesh = sub.add_parser("mesh", help="tetrahedralize the pore space (with auxiliary zones)")
-    mesh.add_argument("spec")
-    mesh.add_argument("-o", "--output", required=True)
+    mesh.add_argument(
+        "spec", help="RVE spec (TOML): [rve] + fibers / [generator], or an [image] table"
+    )
+    mesh.add_argument("-o", "--output", required=True, help="output folder")
     mesh.add_argument(
         "--direction",
         choices=("x", "y", "z"),
@@ -157,7 +159,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         nargs="*",
         default=["vtu"],
         metavar="FMT",
-        help=f"extra formats (export registry): {', '.join(WRITERS)}",
+        help=f"extra formats (export registry): {', '.join(WRITERS)} (default: vtu only)",
     )
     add_force_argument(mesh)
     mesh.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

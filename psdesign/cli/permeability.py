@@ -208,14 +208,22 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``permeability``."""
     perm = sub.add_parser("permeability", help="permeability by Darcy's law")
-    perm.add_argument("spec")
+    perm.add_argument(
+        "spec", help="RVE spec (TOML): [rve] + fibers / [generator], or an [image] table"
+    )
     perm.add_argument(
         "--direction",
         choices=("x", "y", "z", "all"),
         default=None,
         help="flow direction (default: the spec's flow.direction, else z)",
     )
-    perm.add_argument("--solver", choices=("fem", "voxel"), default=None)
+    perm.add_argument(
+        "--solver",
+        choices=("fem", "voxel"),
+        default=None,
+        help="fem (tet mesh, Taylor-Hood) or voxel (MAC grid) (default: the spec's flow.solver, "
+        "else fem)",
+    )
     perm.add_argument(
         "--sides",
         choices=("slip", "noslip"),
@@ -239,8 +247,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--fields",
         metavar="OUT/",
         default=None,
-        help="write velocity and pressure fields (VTU on the tet mesh, VTI on the voxel grid), "
-        "a PNG slice and fields.json into this folder",
+        help="write velocity (m/s) and pressure (Pa) fields (VTU on the tet mesh, VTI on the voxel "
+        "grid), a PNG slice and fields.json into this folder",
     )
     perm.add_argument("--json", action="store_true", help="print one JSON object")
     perm.add_argument(

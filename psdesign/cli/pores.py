@@ -62,14 +62,21 @@ def _sizes_line(out: dict) -> str:
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``pores``."""
     p = sub.add_parser("pores", help="pore size distribution, intrusion, surface, orientation")
-    p.add_argument("spec")
+    p.add_argument(
+        "spec", help="RVE spec (TOML): [rve] + fibers / [generator], or an [image] table"
+    )
     p.add_argument(
         "--n-radii",
         type=int,
         default=None,
         help="radii of the scan (transport.n_radii, 4-200, default 16)",
     )
-    p.add_argument("--axis", choices=("x", "y", "z"), default=None, help="through-plane axis")
+    p.add_argument(
+        "--axis",
+        choices=("x", "y", "z"),
+        default=None,
+        help="through-plane axis (transport.thickness_axis, default z)",
+    )
     p.add_argument(
         "--plot",
         default=None,

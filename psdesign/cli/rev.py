@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import sys
 
@@ -50,7 +51,9 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         parts = [f"{row['size_m']:.4g} m (n={int(row['n'])})"]
         for c in res.outputs:
             if f"{c}_mean" in row and c != "porosity":
-                parts.append(f"{c} {row[f'{c}_mean']:.3e} +- {100 * row[f'{c}_ci_rel']:.1f} %")
+                rel = row[f"{c}_ci_rel"]  # NaN for one value: no interval ("+- nan %" before)
+                bar = "+- n/a (one value)" if math.isnan(rel) else f"+- {100 * rel:.1f} %"
+                parts.append(f"{c} {row[f'{c}_mean']:.3e} {bar}")
         parts.append(str(row.get("status", "ok")))
         print("  ".join(parts))
     if res.rev_size_m is None:
@@ -130,6 +133,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(default 0.1; above 0.2 a K is untrustworthy)",
     )
     add_workers_argument(p, scheduler=False)
-    p.add_argument("--quiet", action="store_true")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_rev)

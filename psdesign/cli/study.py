@@ -106,7 +106,7 @@ def register(subparsers) -> argparse.ArgumentParser:
         "--timeout",
         type=_timeout_seconds,
         default=None,
-        help="per-case time limit in seconds (overrides study.timeout_s)",
+        help="per-case time limit in seconds (default: the study's study.timeout_s, else none)",
     )
     run.add_argument(
         "--retry-failed", action="store_true", help="re-run cases recorded as failed or timeout"

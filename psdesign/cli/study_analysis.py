@@ -362,7 +362,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         help="columns to fit (default: porosity, K and the transport values diffusivity_<d>, "
         "tortuosity_<d>, conductivity_<d> the study has)",
     )
-    fit.add_argument("--json", action="store_true")
+    fit.add_argument("--json", action="store_true", help="print one JSON object")
     fit.set_defaults(func=_cmd_fit)
 
     pred = sub.add_parser("predict", help="predict outputs at a design point from the surrogates")
@@ -370,17 +370,32 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     pred.add_argument(
         "--at", required=True, help='e.g. "generator.porosity=0.82,generator.diameter=8e-6"'
     )
-    pred.add_argument("--json", action="store_true")
+    pred.add_argument("--json", action="store_true", help="print one JSON object")
     pred.set_defaults(func=_cmd_predict)
 
     sens = sub.add_parser(
         "sensitivity", help="Sobol indices or Morris screening from the surrogates"
     )
     sens.add_argument("out", help="study output folder (after `study fit`)")
-    sens.add_argument("--method", choices=("sobol", "morris"), default="sobol")
-    sens.add_argument("--outputs", nargs="*", default=None)
-    sens.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
-    sens.add_argument("--json", action="store_true")
+    sens.add_argument(
+        "--method",
+        choices=("sobol", "morris"),
+        default="sobol",
+        help="Sobol indices or Morris screening (default sobol)",
+    )
+    sens.add_argument(
+        "--outputs",
+        nargs="*",
+        default=None,
+        help="fitted columns to analyse (default: every output `study fit` fitted)",
+    )
+    sens.add_argument(
+        "--seed",
+        type=int_in(0, MAX_SEED, "seed"),
+        default=0,
+        help=f"seed of the sample drawn from the surrogates, 0-{MAX_SEED} (default 0)",
+    )
+    sens.add_argument("--json", action="store_true", help="print one JSON object")
     sens.set_defaults(func=_cmd_sensitivity)
 
     opt = sub.add_parser(
@@ -406,10 +421,19 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         default=1,
         help=f"points per round, 1-{MAX_BATCH} (default 1)",
     )
-    opt.add_argument("--seed", type=int_in(0, MAX_SEED, "seed"), default=0)
+    opt.add_argument(
+        "--seed",
+        type=int_in(0, MAX_SEED, "seed"),
+        default=0,
+        help=f"seed of the search's design points, 0-{MAX_SEED} (default 0)",
+    )
     add_workers_argument(opt, scheduler=True)
-    opt.add_argument("--scheduler", default=None, help="Dask scheduler address, or 'local'")
-    opt.add_argument("--quiet", action="store_true")
-    opt.add_argument("--json", action="store_true")
+    opt.add_argument(
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address, or 'local' (default: local process pool)",
+    )
+    opt.add_argument("--quiet", action="store_true", help="no progress output")
+    opt.add_argument("--json", action="store_true", help="print one JSON object")
     opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)
     opt.set_defaults(func=_cmd_optimize)

@@ -32,11 +32,15 @@ def is_timing(key: str) -> bool:
 
 
 def split_timings(record: dict) -> tuple[dict, dict]:
-    """``(record without its wall-time keys, those keys)``, nested dicts alike (a dict left
-    empty of timings is dropped from the second).
+    """``(record without its wall-time keys, those keys)``, nested dicts alike, also the dicts
+    of a list (one per GA round in ``generate``'s ``summary.json``: their ``wall_time_s`` made
+    the file differ between two runs of the same spec until session 42); a dict or list left
+    empty of timings is dropped from the second, a list's entries keep their positions.
 
     >>> split_timings({"porosity": 0.8, "wall_time_s": 1.2, "ga": {"n": 3, "placement_time_s": 4}})
     ({'porosity': 0.8, 'ga': {'n': 3}}, {'wall_time_s': 1.2, 'ga': {'placement_time_s': 4}})
+    >>> split_timings({"ga": [{"n": 10, "wall_time_s": 2.6}, {"n": 9, "wall_time_s": 3.9}]})
+    ({'ga': [{'n': 10}, {'n': 9}]}, {'ga': [{'wall_time_s': 2.6}, {'wall_time_s': 3.9}]})
     """
     kept: dict[str, Any] = {}
     times: dict[str, Any] = {}
@@ -47,6 +51,11 @@ def split_timings(record: dict) -> tuple[dict, dict]:
             kept[key], inner = split_timings(value)
             if inner:
                 times[key] = inner
+        elif isinstance(value, list) and any(isinstance(v, dict) for v in value):
+            pairs = [split_timings(v) if isinstance(v, dict) else (v, {}) for v in value]
+            kept[key] = [k for k, _ in pairs]
+            if any(t for _, t in pairs):
+                times[key] = [t for _, t in pairs]
         else:
             kept[key] = value
     return kept, times

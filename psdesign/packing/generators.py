@@ -57,18 +57,27 @@ PAPER_MAX_SHIFT = 0.1
 PAPER_MAX_ROTATION_DEG = 1.0
 
 
-class GenerationError(ValueError):
+class GenerationError(SpecError):
     """The generator could not build a valid RVE (e.g. an unreachable porosity).
 
-    Attributes
+    A :class:`~psdesign.errors.SpecError` naming the key to change (``generator.porosity``,
+    ``generator.n_fibers``, ``intersections.method``), as the CLI treats it (exit 2): until
+    session 42 it was a bare ``ValueError``, and a script's ``except psdesign.SpecError``
+    around ``psdesign.build`` (README: it "catches any bad input") let a porosity the seed
+    cannot reach through as a traceback.
+
+    Parameters
     ----------
+    message : str
+        ``"key: what happened"``; ``key`` becomes :attr:`key`.
     closest_porosity : float or None
         The porosity closest to the target that was reached (voxel measure).
     """
 
     def __init__(self, message: str, closest_porosity: float | None = None) -> None:
         self.closest_porosity = closest_porosity
-        super().__init__(message)
+        key, _, rest = message.partition(": ")
+        super().__init__(key, rest)
 
 
 @dataclass

@@ -45,7 +45,14 @@ def _log_ticks(axis, values) -> None:
 
 
 def pore_figure(pores: dict, path: str | Path) -> Path:
-    """Pore size distribution (volume fraction per diameter) and intrusion curve, PNG."""
+    """Pore size distribution (volume fraction per diameter) and intrusion curve, PNG.
+
+    The d10 / d50 / d90 lines are named in a legend with their values, each with its one-sided
+    error bar (``diameter_error_m``: the true diameter lies up to it above) shaded, and the
+    title gives the rating (``pore_sizes_status``, red when not ``ok``) as the printed line
+    does: until session 42 the picture had three unnamed dashed lines, no bar and no status
+    (an ``untrustworthy`` scan looked like an ``ok`` one).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -54,8 +61,20 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.4))
     d = np.asarray(pores["diameters_m"])  # metres, as every output
     a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1e-6)
-    for q in ("pore_d10_m", "pore_d50_m", "pore_d90_m"):
-        a.axvline(pores[q], color="k", lw=0.8, ls="--")
+    err = float(pores.get("diameter_error_m") or 0.0)
+    for q, ls in (("pore_d10_m", ":"), ("pore_d50_m", "--"), ("pore_d90_m", "-.")):
+        a.axvline(pores[q], color="k", lw=0.8, ls=ls, label=f"{q[5:8]} {pores[q]:.3g} m")
+        if err > 0:
+            a.axvspan(pores[q], pores[q] + err, color="k", alpha=0.12, lw=0)
+    a.legend(fontsize=7, loc="upper left")
+    status = str(pores.get("pore_sizes_status", pores.get("status", "")))
+    if status:
+        bar = f", each +{err:.1e}/-0 m (shaded)" if err > 0 else ""
+        fig.suptitle(
+            f"pore sizes [{status}]{bar}",
+            fontsize=9,
+            color="k" if status == "ok" else "tab:red",
+        )
     a.set_xlabel("local thickness diameter (m)")
     a.set_ylabel("pore volume fraction (-)")
     dia = np.asarray(pores["intrusion_diameter_m"], dtype=float)

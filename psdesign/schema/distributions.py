@@ -158,3 +158,18 @@ def support(value: Any) -> tuple[float, float]:
     lo = value.low if value.low is not None else defaults[0]
     hi = value.high if value.high is not None else defaults[1]
     return float(lo), float(hi)
+
+
+def support_text(value: Any, unit: str = "") -> str:
+    """What an out-of-range number or distribution gave, for its one-line error.
+
+    A plain number reads ``got 7 m``; a distribution the interval its samples may take,
+    with the way to narrow it (``the distribution allows [0, inf] m (truncate with
+    low/high)``): a constant read as a distribution before session 42 ("the distribution
+    allows [7, 7] m") hid a unit slip behind a hint about truncation.
+    """
+    lo, hi = support(value)
+    unit = f" {unit}" if unit else ""
+    if lo == hi:
+        return f"got {lo:g}{unit}"
+    return f"the distribution allows [{lo:g}, {hi:g}]{unit} (truncate with low/high)"

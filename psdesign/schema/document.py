@@ -9,7 +9,7 @@ from typing import Any
 from pydantic import Field, model_validator
 
 from psdesign.schema import budget
-from psdesign.schema.distributions import support
+from psdesign.schema.distributions import support, support_text
 from psdesign.schema.fibers import FiberTable
 from psdesign.schema.flow import FlowTable
 from psdesign.schema.forcefield import ForceFieldTable
@@ -28,6 +28,10 @@ FAST_JAM_POROSITY = 0.72
 
 class SpecWarning(UserWarning):
     """A spec that is valid but likely to fail or to be slow (printed as one line)."""
+
+
+#: Top-level tables of a study file (psdesign.study.studyfile), none of which a spec has.
+STUDY_TABLES = frozenset({"base", "study", "parameters"})
 
 
 class SpecDocument(Table):
@@ -53,6 +57,20 @@ class SpecDocument(Table):
         if isinstance(data, dict) and isinstance(data.get("fibers"), dict):
             data = {**data, "fibers": [data["fibers"]]}
         if isinstance(data, dict) and "rve" not in data and "image" not in data:
+            if STUDY_TABLES & set(data):  # a study file given where a spec goes (session 42)
+                raise fail(
+                    "rve",
+                    "no [rve] table: this is a study file ([study] / [parameters] / [base.*] "
+                    "tables), not an RVE spec; run it with `psdesign study run FILE -o OUT`",
+                    "[rve] size = [x, y, z]",
+                )
+            if "forcefield" in data:  # a paper case of Sec. 6 builds its own cell
+                raise fail(
+                    "rve",
+                    "no [rve] table: this is a force-field case spec ([forcefield] case = ...), "
+                    "not an RVE spec; run it with `psdesign forcefield FILE -o OUT`",
+                    "[rve] size = [x, y, z]",
+                )
             raise fail(
                 "rve",
                 "missing [rve] table with size = [x, y, z] in metres",
@@ -292,7 +310,7 @@ class SpecDocument(Table):
         if not (dlo > 0 and dhi < 0.5 * period):
             raise fail(
                 "generator.diameter",
-                f"the distribution allows [{dlo:g}, {dhi:g}] m (truncate with low/high)",
+                support_text(g.diameter, "m"),
                 f"(0, {0.5 * period:g}) m (half the period)",
             )
         if voxel > dlo / 2:

@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from psdesign.schema.distributions import DistField, support
+from psdesign.schema.distributions import DistField, support, support_text
 from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, flag, integer, number
 
@@ -109,19 +109,18 @@ class GeneratorTable(Table):
         for k in ("tx", "ty", "tz"):
             lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
             if lo < -1 or hi > 2:
-                raise fail(k, f"the distribution allows [{lo:g}, {hi:g}]", "[-1, 2]")
+                raise fail(k, support_text(getattr(self, k)), "[-1, 2]")
         for k in ("theta", "omega"):
             lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
             if lo < -360 or hi > 360:
                 raise fail(
                     k,
-                    f"the distribution allows [{lo:g}, {hi:g}] degrees (truncate with low/high)",
+                    support_text(getattr(self, k), "degrees"),
                     "[-360, 360]",
                 )
         if self.kind == "bent":
             if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
-                lo, hi = support(self.f)
-                raise fail("f", f"distribution allows [{lo:g}, {hi:g}]", "(0, 1000]")
+                raise fail("f", support_text(self.f), f"(0, {MAX_BENDS:g}]")
             if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
                 raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
             umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3

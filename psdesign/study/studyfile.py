@@ -389,6 +389,14 @@ def _parse_study(data: dict, source: Path | None) -> Study:
     if not isinstance(data, dict):
         raise _err("study", "the study file must be a TOML document")
     top_allowed = ("base", "study", "parameters")
+    if not set(top_allowed) & set(data) and {"rve", "image"} & set(data):
+        # an RVE spec given where a study goes (session 42: "rve: unknown top-level key")
+        raise _err(
+            "study",
+            "this is an RVE spec ([rve] / [image] table), not a study file: a study names it "
+            'as base = "FILE" beside its [study] and [parameters] tables (docs/study-files.md); '
+            "`psdesign permeability FILE` solves it alone",
+        )
     for k in data:
         if k not in top_allowed:
             raise _err(

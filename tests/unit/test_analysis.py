@@ -197,8 +197,8 @@ def test_surrogate_rating(length_scale, cv, status, why) -> None:
         log_params=[False],
         log_output=True,
         kernel={"constant": 1.0, "length_scale": [length_scale], "noise": 1e-4},
-        x=[[0.0], [1.0]],
-        y=[1e-12, 2e-12],
+        x=[[0.0], [0.5], [1.0]],  # three design points: two are rated by their count alone
+        y=[1e-12, 1.5e-12, 2e-12],
         cv_rel_error=cv,
     )
     got, warnings = s.rating()
@@ -1095,3 +1095,32 @@ def test_fit_removes_the_temp_file_a_killed_fit_left(tmp_path, capsys) -> None:
     assert not dead.exists()
     assert live.read_text() == "a running fit's" and user.read_text() == "mine"
     assert set(load_study_surrogates(out)) == {"porosity", "k_z_m2"}
+
+
+def test_two_design_points_are_said_to_be_too_few_not_a_flat_output() -> None:
+    """Truth: ``y = a`` plus a seed scatter of 0.003, at ``a`` = 0.85 and 0.9 (three seeds each,
+    session 42's walk: porosity against generator.porosity). The cross-validation holds out one
+    level and predicts it from the other alone, so its RMSE (0.05) is the change between them:
+    before, `study fit` said the fit "follows no trend between the cases" and `study
+    sensitivity` that porosity "varies no more than the fit's cross-validated error ...
+    constant to within noise", of an output that moves 17 times its scatter. A third level
+    gives a fit rated ok whose index of ``a`` is about 1."""
+    rng = np.random.default_rng(0)
+    bounds = {"a": (0.85, 0.9, False)}
+
+    def study(levels):
+        a = np.repeat(levels, 3)
+        return pd.DataFrame({"a": a, "status": "ok", "y": a + rng.normal(0, 0.003, len(a))})
+
+    two = fit_surrogate(study([0.85, 0.9]), "y", ["a"], bounds)
+    status, warnings = two.rating()
+    assert status == "untrustworthy"
+    assert warnings == [f"y: {two.too_few_points()}"] and "only 2 design points" in warnings[0]
+    assert not any("no trend" in w for w in warnings)
+    with pytest.raises(ValueError, match="no sensitivity indices: only 2 design points"):
+        sobol_indices(two, n=64)
+    three = fit_surrogate(study([0.85, 0.875, 0.9]), "y", ["a"], bounds)
+    assert three.too_few_points() == "" and three.rating()[0] == "ok"
+    table = sobol_indices(three, n=256)
+    assert list(table["parameter"]) == ["a"]
+    assert table["ST"].iloc[0] == pytest.approx(1.0, abs=0.05)

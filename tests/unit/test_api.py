@@ -685,3 +685,33 @@ def test_conductivity_with_an_insulating_solid_is_the_fluid_through_the_pore() -
     r = m.conductivity("z", fluid=2.0, insulating_phase="solid")
     assert r.solid_conductivity == 0.0 and r.fluid_conductivity == 2.0
     assert r.effective_conductivity == pytest.approx(2.0 * m.porosity, rel=1e-6)
+
+
+def test_an_unreachable_porosity_is_a_spec_error_naming_its_key() -> None:
+    """Session 42 (new user's walk): the quickstart's base at seed 2 cannot reach porosity
+    0.85 +- 0.005 in its 50 um box (one 7 um fibre moves it 0.015; closest 0.8418). The CLI
+    says so in one line, exit 2; `psdesign.build` raised a bare ValueError, which README's
+    `except psdesign.SpecError` ("catches any bad input") let through as a traceback."""
+    import pickle
+
+    spec = {
+        "rve": {"size": [50e-6] * 3, "voxel": 1e-6},
+        "generator": {
+            "kind": "straight",
+            "porosity": 0.85,
+            "diameter": 7e-6,
+            "seed": 2,
+            "theta": {"dist": "uniform", "low": -5.0, "high": 5.0},
+            "omega": {"dist": "uniform", "low": 0.0, "high": 180.0},
+        },
+        "intersections": {"method": "fast", "min_gap": 0.5e-6},
+    }
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.build(spec)
+    err = info.value
+    assert err.key == "generator.porosity"
+    assert str(err).startswith("generator.porosity: target 0.85 not reached within +-0.005")
+    assert err.closest_porosity == pytest.approx(0.8418, abs=5e-5)
+    back = pickle.loads(pickle.dumps(err))  # a study worker sends it to the parent
+    assert (type(back), str(back), back.key) == (type(err), str(err), err.key)
+    assert back.closest_porosity == err.closest_porosity

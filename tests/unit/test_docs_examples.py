@@ -185,3 +185,51 @@ def test_study_fit_default_outputs_are_named_in_help_and_readme() -> None:
     readme = _synopsis("study fit", (REPO_ROOT / "README.md").read_text())
     for text in (outputs.help, readme):
         assert "K" in text and all(k in text for k in kinds), text
+
+
+#: Options that take a value but have no default to state: an extra output written only
+#: when asked for, or a batch / TLS setting with nothing to fall back on.
+NO_DEFAULT_OPTIONS = {
+    "--fields",
+    "--plot",
+    "--format",  # generate: only tiff, added on request
+    "--cluster",
+    "--cluster-queue",
+    "--cluster-account",
+    "--tls-ca-file",
+    "--tls-cert",
+    "--tls-key",
+}
+
+
+def test_every_cli_option_says_what_it_is_and_its_default() -> None:
+    # session 42 (a new user's walk of `--help`): 21 arguments printed no help at all
+    # (`permeability --solver`, `diffusivity --direction`, `conductivity --bc`, every `spec`
+    # positional but rev's, `study sensitivity --method/--seed`, ...) and 7 options with a
+    # value named no default (`conductivity --solid`, `pores --axis`, `study run --timeout`, ...)
+    import argparse
+
+    from psdesign.cli.main import build_parser
+
+    commands = {}
+    for name, sub in _subparsers(build_parser()).items():
+        nested = _subparsers(sub)
+        commands |= {f"{name} {n}": p for n, p in nested.items()} if nested else {name: sub}
+    silent, no_default = [], []
+    for command, parser in sorted(commands.items()):
+        for action in parser._actions:
+            if isinstance(action, argparse._HelpAction) or action.help == argparse.SUPPRESS:
+                continue
+            flag = action.option_strings[-1] if action.option_strings else action.dest
+            if not (action.help or "").strip():
+                silent.append(f"{command} {flag}")
+            elif (
+                action.option_strings
+                and action.nargs != 0  # takes a value
+                and not action.required
+                and flag not in NO_DEFAULT_OPTIONS
+                and "default" not in action.help
+            ):
+                no_default.append(f"{command} {flag}")
+    assert not silent, silent
+    assert not no_default, no_default

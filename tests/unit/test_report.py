@@ -953,3 +953,44 @@ def test_parameter_units_of_list_element_paths():
     ]:
         assert parameter_unit(key) == unit, key
     assert parameter_label("fibers.0.diameter") == "fibers.0.diameter (m)"
+
+
+def test_pore_figure_names_the_diameters_their_bar_and_the_status(tmp_path, monkeypatch):
+    """Session 42 (new user's walk): `psdesign pores --plot` drew d10 / d50 / d90 as three
+    unnamed dashed lines, without their one-sided error bar or the scan's status, so an
+    untrustworthy scan (the line printed "[untrustworthy]", bar +2.7e-06/-0 m) looked like an
+    ok one. The picture now names each line with its value, shades [d, d + bar] and puts the
+    status in a red title."""
+    import matplotlib.colors as mcolors
+
+    from psdesign.report import transport
+
+    drawn = []
+    monkeypatch.setattr(transport, "_fig_png", lambda fig: drawn.append(fig) or b"")
+    d = np.linspace(1e-6, 2e-5, 20)
+    pores = {
+        "diameters_m": d,
+        "volume_fraction": np.full(d.size, 1 / d.size),
+        "pore_d10_m": 3e-6,
+        "pore_d50_m": 1e-5,
+        "pore_d90_m": 1.8e-5,
+        "diameter_error_m": 2.7e-6,
+        "pore_sizes_status": "untrustworthy",
+        "intrusion_diameter_m": np.geomspace(2e-5, 2e-6, 14),
+        "intrusion_saturation": np.linspace(0.4, 1.0, 14),
+    }
+    transport.pore_figure(pores, tmp_path / "p.png")
+    (fig,) = drawn
+    title = fig._suptitle
+    assert "[untrustworthy]" in title.get_text() and "+2.7e-06/-0 m" in title.get_text()
+    assert mcolors.same_color(title.get_color(), "tab:red")
+    sizes = fig.axes[0]
+    names = [t.get_text() for t in sizes.get_legend().get_texts()]
+    assert names == ["d10 3e-06 m", "d50 1e-05 m", "d90 1.8e-05 m"]
+    spans = sorted(
+        (p.get_x(), p.get_width())
+        for p in sizes.patches
+        if hasattr(p, "get_x") and p.get_alpha() == pytest.approx(0.12)
+    )
+    for (x, w), q in zip(spans, (3e-6, 1e-5, 1.8e-5), strict=True):
+        assert x == pytest.approx(q) and w == pytest.approx(2.7e-6)

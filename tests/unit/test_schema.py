@@ -448,3 +448,61 @@ def test_cli_bad_spec_exit_2_one_line_nothing_written(tmp_path, capsys, cmd):
     # forcefield relaxes an RVE spec's fiber set, so it validates the same keys
     assert "flow.direction: got 'w'; allowed: x, y, z" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "path, value, key, said",
+    [
+        # a diameter in micrometres (the unit slip of a new user, session 42)
+        ("generator.diameter", 7, "generator.diameter", "got 7 m"),
+        ("generator.theta", 400.0, "generator.theta", "got 400 degrees"),
+        ("generator.tx", 3.0, "generator.tx", "got 3"),
+    ],
+)
+def test_an_out_of_range_number_is_said_as_given_not_as_a_distribution(path, value, key, said):
+    # before session 42 a plain number read "the distribution allows [7, 7] m (truncate with
+    # low/high)": a hint about distributions for a value that is none
+    err = spec_err(with_(SPEC, path, value))
+    assert err.key == key
+    assert said in str(err) and "distribution" not in str(err), str(err)
+
+
+def test_an_out_of_range_distribution_still_says_its_interval_and_how_to_narrow_it():
+    doc = with_(SPEC, "generator.diameter", {"dist": "normal", "mean": 7e-6, "std": 1e-6})
+    err = spec_err(doc)
+    assert err.key == "generator.diameter"
+    assert "the distribution allows [-inf, inf] m (truncate with low/high)" in str(err), str(err)
+
+
+def test_a_study_file_given_as_a_spec_says_so(tmp_path, capsys):
+    # session 42 (new user's walk): `psdesign permeability studies/quickstart.toml` answered
+    # "rve: missing [rve] table with size = [x, y, z] in metres" of a file that has one, under
+    # [base.rve]; the line now names the mix-up and the command that runs a study
+    err = spec_err(STUDY)
+    assert err.key == "rve"
+    assert "this is a study file" in str(err) and "psdesign study run" in str(err)
+    path = tmp_path / "sweep.toml"
+    path.write_text(dumps(STUDY))
+    assert main(["permeability", str(path), "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: rve: no [rve] table: this is a study file")
+    # a spec without [rve] that is no study keeps its plain line
+    assert "this is a study file" not in str(spec_err({"flow": {"solver": "voxel"}}))
+
+
+def test_a_spec_given_as_a_study_file_says_so():
+    # session 42: `psdesign study run spec.toml` answered "rve: unknown top-level key
+    # (allowed: base, study, parameters)"
+    msg = study_err(SPEC)
+    assert msg.startswith("study: this is an RVE spec") and 'base = "FILE"' in msg
+    assert "unknown top-level key" not in msg
+    # a study file with a stray table still gets the unknown-key line
+    assert "unknown top-level key" in study_err({**STUDY, "rve": SPEC["rve"]})
+
+
+def test_a_force_field_case_given_as_a_spec_says_so():
+    # session 42: `psdesign permeability studies/forcefield_two_fiber.toml` answered "rve:
+    # missing [rve] table with size = [x, y, z] in metres"
+    err = spec_err({"forcefield": {"case": "two-fiber"}})
+    assert err.key == "rve"
+    assert "force-field case spec" in str(err) and "psdesign forcefield" in str(err)
