@@ -1372,7 +1372,9 @@ THREE_RODS_FINDINGS = (
 #: The stacked row that crossed 2 % when re-solved with the flat-top window (session 7).
 QUICKSTART = (
     "**quickstart, stacked permeameter (2 copies): FEM / voxel - 1 = -1.70 %** since session 8 "
-    "(K FEM 9.4890e-12, bar 3.7 %; voxel 9.6535e-12, bar 6.4 %): the spec's `flow.lattice_step` "
+    "(K FEM 9.4890e-12, bar 3.7 % then, 4.6 % in the table with session 39's tet floor; voxel "
+    "9.6535e-12, bar 6.4 % then, 7.4 % in the table with session 19's seam term): the spec's "
+    "`flow.lattice_step` "
     "went from 3e-6 to 2.33e-6 (3 lattice cells per fiber diameter, the default rule's D / 3). "
     "At 3e-6 (2.0 cells per D; 58 856 tets, bar 5.5 %) it was **-2.01 %**. Not the sample length "
     "(window terms 0.4-0.7 % FEM, 0.75 % voxel: `auto` keeps 2 copies). The FEM at finer steps "
@@ -1597,7 +1599,7 @@ WOVEN_AND_RANDOM = (
 WOVEN_STACK = (
     "**Woven, stacked permeameter (issue 12 item 1, engineer woven3): FEM / voxel - 1 = "
     "+1.69 %** on the shipped woven spec (`studies/table3/woven.toml`: the Eq. (19) cell at "
-    "period 100 um, yarns 14.2 um thick, 3 layers, 100 um cube), through the thickness, two "
+    "period 100 um, yarns 14 um thick, 3 layers, 100 um cube), through the thickness, two "
     "copies (6 layers), slip sides, both routes on the spec's 1 um field, the FEM at its "
     "default step of 3.33 um (4.3 steps across a yarn; 254 880 tets, 2.1 GB, 194 s wall): K "
     "FEM 5.9745e-12, voxel 5.8750e-12 (136 iterations; slow test "
