@@ -152,9 +152,12 @@ def run_one(
     rec["generate_s"] = gen_s
     rec["voxel_m"] = voxel
     rec["before"] = voxel_state(before, voxel)
-    if rc != 0:
+    if rc not in (0, 3):  # 3: finished, outputs complete, a search stopped on max_iter
         return rec
     s = json.loads((out / "summary.json").read_text())
+    timings = out / "summary_timings.json"  # wall times left summary.json in 6f450a3
+    if timings.exists():
+        s |= json.loads(timings.read_text())
     after = build_rve(load_spec(out / "relaxed.toml")).rve
     rec.update(
         route=s.get("route", "rods"),

@@ -213,13 +213,15 @@ def test_random_periodic_fem_and_voxel_agree(kind, direction):
     7.7635e-12), -0.58 % in x (1.8423e-11, 1.8531e-11); before it (load 11, 2026-12-01)
     -1.13 / -0.46 / -1.31 / -0.67 %; woven cell (yarns 4.3 um thick: 8.6 voxels at 0.5 um;
     the FEM samples its own 0.5 um field, psdesign.flow.fem_field, at a 1.5 um step,
-    WOVEN_CELL_STEP) +0.04 % through-plane (1.5480e-12, 1.5474e-12), +0.16 % in x
-    (4.0533e-11, 4.0469e-11), load 3-4,
-    2026-12-01 23:51-23:55 (the voxel figures of the main at 7a43228; against the earlier
-    1.5593e-12 / 4.0412e-11: -0.72 % / +0.30 %). Before the FEM sampled its own field it meshed
-    the 1 um grid at 2 um: +1.30 % through-plane (1.5796e-12), +1.83 % in x, a cancellation of
-    the field's error (the yarns' volume under-counted, K +5.9 % at 7a43228) and the lattice's
-    (-4.3 % on the 0.5 um field at 2 um)."""
+    WOVEN_CELL_STEP) +0.10 % through-plane (1.5490e-12, 1.5474e-12), +0.16 % in x
+    (4.0535e-11, 4.0469e-11), s42-paper 2026-12-06 05:37-05:40, load 6-7, with the woven
+    diameter measured across the bent centre line (0d49c9d; before it +0.04 %, 1.5480e-12, and
+    +0.16 %, 4.0533e-11, load 3-4, 2026-12-01 23:51-23:55; the voxel figures of the main at
+    7a43228; against the earlier 1.5593e-12 / 4.0412e-11: -0.66 % / +0.30 %). Before the FEM
+    sampled its own field it meshed the 1 um grid at 2 um: +1.30 % through-plane
+    (1.5796e-12), +1.83 % in x, a cancellation of the field's error (the yarns' volume
+    under-counted, K +5.9 % at 7a43228) and the lattice's (-4.3 % on the 0.5 um field at 2
+    um)."""
     assert abs(_random_pair(kind, direction, "periodic")) <= AGREE
 
 
@@ -256,17 +258,20 @@ def test_woven_stack_fem_and_voxel_agree():
     lattice step (3.33 um: 4.3 steps across a yarn) and voxel route (14 voxels across a yarn),
     both on the spec's 1 um field.
 
-    Measured (slow16, main 8ab1e27, load 3.5-5, 2026-12-03 08:04): stacked K FEM 5.9745e-12,
-    voxel 5.8750e-12, fem/voxel - 1 = +1.69 % (2026-12-01, before the sub-voxel fix 6fe9f8d:
-    voxel 5.8661e-12, +1.85 %). Both are resolved (one copy, the same K to 0.002 %): the FEM
-    moves -0.13 % from a 3.33 to a 2.5 um step and -0.32 % from the 1 to a 0.5 um field; the
+    Measured (s42-fixes, 2026-12-06 05:28-05:32, load 3-5, after 0d49c9d's woven diameter):
+    stacked K FEM 5.9802e-12, voxel 5.8750e-12, fem/voxel - 1 = +1.79 % (slow16, main 8ab1e27,
+    2026-12-03, before 0d49c9d: FEM 5.9745e-12, +1.69 %; 2026-12-01, before the sub-voxel fix
+    6fe9f8d: voxel 5.8661e-12, +1.85 %). Both are resolved (one copy, the same K to 0.05 %): the
+    FEM moves -0.28 % from a 3.33 to a 2.5 um step and -0.48 % from the 1 to a 0.5 um field; the
     voxel route 6.0101e-12 / 5.8750e-12 / 5.8532e-12 at 2 / 1 / 0.5 um (observed order 2.6,
-    limit about 5.849e-12), so the converged pair is +1.7 % apart (FEM on the 0.5 um field vs
-    voxel at 0.5 um: +1.70 %). The periodic woven cell of :func:`periodic_spec` cannot be
-    resolved by the FEM within the memory cap (docs/solver-agreement.md: yarns 4.3 um thick,
-    about 2 lattice steps across at 2 um; on the 0.5 um field the stacked FEM K moved +5.7 %
-    from a 2 to a 1.5 um step and -0.83 % to 1.25 um, +0.95 % against the voxel route there at
-    4.4 GB, not yet monotone), so the stacked comparison is asserted on the shipped cell."""
+    limit about 5.849e-12), so the converged pair is +1.6 % apart (FEM on the 0.5 um field vs
+    voxel at 0.5 um: +1.63 %; s42-paper, 2026-12-06). The periodic woven cell of
+    :func:`periodic_spec` cannot be resolved by the FEM within the memory cap
+    (docs/solver-agreement.md: yarns 4.2 um thick, about 2 lattice steps across at 2 um; on the
+    0.5 um field the stacked FEM K moved +5.7 % from a 2 to a 1.5 um step and -0.83 % to 1.25
+    um, +0.95 % against the voxel route there at 4.4 GB, not yet monotone; after 0d49c9d -1.06 %
+    from 1.5 to 1.25 um, +0.54 % against the stacked voxel K at 0.5 um, 4.3 GB), so the stacked
+    comparison is asserted on the shipped cell."""
     spec = woven_stack_spec()
     built = build_rve(spec)
     fields = built.voxelize(1e-6)
@@ -281,8 +286,9 @@ def test_woven_stack_same_field_agrees():
     """The periodic woven cell (:func:`periodic_spec`) stacked through the thickness with slip
     sides, both routes on the same 1 um field (FEM 1.6982e-12, voxel 1.7041e-12: -0.35 %, load
     9, 2026-12-01 18:20; at 7a43228 FEM 1.6983e-12, voxel 1.7089e-12: -0.62 %, load 3-4,
-    23:56). The stack, its seam and the windowed drop are the same in both (the
-    windowed, plane-window and face drops agree to 1e-4 of the applied drop in each). Against
+    23:56; since the woven diameter fix 0d49c9d FEM 1.6802e-12: -1.68 %, s42-fixes 2026-12-06).
+    The stack, its seam and the windowed drop are the same in both (the windowed, plane-window and
+    face drops agree to 1e-4 of the applied drop in each). Against
     the voxel route at 0.5 um (1.5597e-12) neither is resolved on this cell: the 1 um field
     carries the slip walls' and the thin yarns' sampling (docs/solver-agreement.md)."""
     from psdesign.flow.fem import _mesh
