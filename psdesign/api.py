@@ -186,6 +186,7 @@ def _progress(
 def _warns_at_caller(method: Callable) -> Callable:
     """Re-issue the warnings a call raises at the caller's line.
 
+    Bad input found past the spec is raised as a ``SpecError`` (:func:`_spec_errors`).
     Raised deep inside psdesign, a warning (``ResolutionWarning``: too few voxels across a
     fiber) pointed at psdesign's own line, and Python's default filter shows a warning once
     per line: a second under-resolved material in a notebook printed nothing.
@@ -197,12 +198,29 @@ def _warns_at_caller(method: Callable) -> Callable:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                return method(*args, **kwargs)
+                return _spec_errors(method, args, kwargs)
         finally:  # the user's own filters decide now ("error" raises at their line)
             for w in caught:
                 warnings.warn(w.message, w.category, stacklevel=2)
 
     return call
+
+
+def _spec_errors(method: Callable, args: tuple, kwargs: dict) -> Any:
+    """``method(*args, **kwargs)``, bad input found past the spec raised as a
+    :class:`~psdesign.errors.SpecError` (README: ``except psdesign.SpecError`` catches any bad
+    input) with the original as ``__cause__`` (:func:`psdesign.errors.as_spec_error`)."""
+    from psdesign.errors import SpecError, as_spec_error
+
+    try:
+        return method(*args, **kwargs)
+    except SpecError:
+        raise
+    except ValueError as exc:
+        err = as_spec_error(exc)
+        if err is None:
+            raise
+        raise err from exc
 
 
 class Material:

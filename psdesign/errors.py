@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 
 
@@ -66,3 +67,57 @@ def show_warning_one_line(message, category, filename, lineno, file=None, line=N
     stderr (no source file, no code line). Installed by the ``psdesign`` command and in the
     study runner's worker processes."""
     print(f"psdesign: warning: {' '.join(str(message).split())}", file=file or sys.stderr)
+
+
+#: Bad input found past the spec by modules that know nothing of :class:`SpecError`
+#: (``module``, class name, the key a line without one names).
+PAST_SPEC_ERRORS = (
+    ("solvers.fem.periodic", "PeriodicMeshError", "flow.bc"),
+    ("psdesign.meshing.errors", "PoreTopologyError", "rve.voxel"),
+    ("solvers.voxel_stokes", "NoFluidPathError", "rve.voxel"),
+)
+_TABLES = ("image", "fibers", "generator", "rve", "flow")
+_LEADING_KEY = re.compile(r"([A-Za-z_][\w.]*)(?: = [^:]*)?: ")
+
+
+def as_spec_error(exc: BaseException) -> SpecError | None:
+    """``exc`` as a :class:`SpecError` when it is bad input found past the spec, else None.
+
+    The mesher's ``PoreTopologyError`` and the solvers' ``PeriodicMeshError`` and
+    ``NoFluidPathError`` are plain ``ValueError``\\ s (``solvers/`` and ``meshing/`` know
+    nothing of psdesign's errors); the CLI exits 2 for them with their line. The returned
+    error has the same line (``str``) and as :attr:`SpecError.key` the spec key the line
+    begins with (``"flow.bc = 'periodic': ..."`` -> ``flow.bc``; ``"image: ..."`` ->
+    ``image``), else the key of :data:`PAST_SPEC_ERRORS`.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error raised.
+
+    Returns
+    -------
+    SpecError or None
+        The error to raise ``from exc``; None when ``exc`` is not one of those.
+
+    Examples
+    --------
+    >>> from psdesign.meshing.errors import PoreTopologyError
+    >>> err = as_spec_error(PoreTopologyError("rve.voxel: disconnected pore space"))
+    >>> err.key, str(err)
+    ('rve.voxel', 'rve.voxel: disconnected pore space')
+    >>> as_spec_error(ValueError("x")) is None
+    True
+    """
+    for module, name, default_key in PAST_SPEC_ERRORS:
+        cls = getattr(sys.modules.get(module), name, None)  # not imported: not raised
+        if cls is not None and isinstance(exc, cls):
+            line = str(exc)
+            match = _LEADING_KEY.match(line)
+            if match and "." not in match.group(1) and match.group(1) not in _TABLES:
+                match = None  # "periodic: face x1 ...": a solver's word, not a spec key
+            key = match.group(1) if match else default_key
+            err = SpecError(key, line[match.end() :] if match else line)
+            ValueError.__init__(err, line)  # its line as the CLI prints it
+            return err
+    return None

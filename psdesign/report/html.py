@@ -336,8 +336,9 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     return table, fig_uri, n_flag
 
 
-def _k_table(df: pd.DataFrame) -> str:
-    """K per direction with its error bar, status and boundary-condition model."""
+def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
+    """K per direction with its error bar, status (an ``untrustworthy`` one with its reason)
+    and boundary-condition model; ``solver``: the study's (``fem``: no voxel-count reason)."""
     rows = []
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
     if not any(f"k_{d}_rel_error" in df for d in dirs):
@@ -359,6 +360,8 @@ def _k_table(df: pd.DataFrame) -> str:
             out[f"K_{d} (m^2)"] = txt
             st = row.get(f"k_{d}_status")
             out[f"status_{d}"] = (case_status if case_status != "ok" else "") if pd.isna(st) else st
+            if st == "untrustworthy":  # the reason where the reader looks (session 42)
+                out[f"status_{d}"] = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
             out[f"bc_{d}"] = row.get(f"bc_{d}", "")
             flag |= isinstance(st, str) and st != "ok"
         rows.append(out)
@@ -370,6 +373,51 @@ def _k_table(df: pd.DataFrame) -> str:
         "(failed, not_converged, untrustworthy).</p>"
     )
     return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
+
+
+def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> str:
+    """Why the K of ``row`` along ``d`` is ``untrustworthy``, in a few words, from the row's
+    numbers as :func:`psdesign.flow.error.status_of` rates them: its error bar above
+    :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
+    :data:`~psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels per fiber diameter (only the
+    voxel route is rated on it: a FEM K is untrustworthy by its bar alone), else a phase lost
+    on the second resolution's grid (its line in ``warnings_<d>``).
+
+    Parameters
+    ----------
+    row : pandas.Series
+        A row of ``results.csv``.
+    d : str
+        The direction, ``"x"``, ``"y"`` or ``"z"``.
+    solver : str or None
+        The study's solver (``"fem"``: its K is not rated on voxels per diameter).
+
+    Returns
+    -------
+    str
+        E.g. ``"4.1 voxels per fiber diameter, need 8"``.
+
+    Examples
+    --------
+    >>> row = pd.Series({"k_z_rel_error": 0.115, "cells_per_diameter_z": 7.0})
+    >>> untrusted_k_reason(row, "z")
+    '7.0 voxels per fiber diameter, need 8'
+    >>> untrusted_k_reason(pd.Series({"k_z_rel_error": 0.31}), "z")
+    'error bar 31.0 % > 20 %'
+    """
+    from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, UNTRUSTWORTHY_REL_ERROR, under_resolved
+
+    def num(col: str) -> float:
+        return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
+
+    e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
+    why = []
+    if not math.isfinite(e) or e > UNTRUSTWORTHY_REL_ERROR:
+        bar = f"{100 * e:.1f} %" if math.isfinite(e) else "unknown"
+        why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
+    if solver != "fem" and math.isfinite(cpd) and under_resolved(cpd):
+        why.append(f"{cpd:.1f} voxels per fiber diameter, need {MIN_CELLS_PER_DIAMETER:g}")
+    return "; ".join(why) or f"a phase lost on the coarser grid (warnings_{d})"
 
 
 #: The values other than K that :func:`_values_table` lists with their bars, in this order.
@@ -523,6 +571,7 @@ def build_html(out_dir: str | Path) -> str:
 
     row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
     results_html = _table(df, row_cls)
+    k_html = _k_table(df, study.get("solver"))
 
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -533,7 +582,7 @@ def build_html(out_dir: str | Path) -> str:
 {_status_banner(df)}<h2>Study</h2><table class="meta">{meta}</table>
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
-x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{_k_table(df)}
+x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{k_html}
 {diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % half-width of the mean
@@ -581,8 +630,9 @@ def _status_banner(df: pd.DataFrame) -> str:
         f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as red "
         "open markers in the porosity-permeability and -diffusivity plots (when they have a "
         "value) and highlighted "
-        "in the tables below; the reason is in the <code>error</code> column (cases), the "
-        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns (K) or the "
+        "in the tables below; the reason is in the <code>error</code> column (cases), beside "
+        "each untrustworthy K's status in the Permeability table (more in the Results table's "
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns) or in the "
         "<code>diffusivity_z_warnings</code>-like columns (transport values).</p>"
     )
 

@@ -42,6 +42,7 @@ from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
 from psdesign.study.options import RunOptions
 from psdesign.study.progress import Progress
+from psdesign.study.sameness import check_same_study
 from psdesign.study.stages import StageWatcher
 from psdesign.study.store import (
     STUDY_FILES,
@@ -725,6 +726,7 @@ def run_study(
     target = check_study_dir(
         out_dir, force=opts.force, force_option=force_option, command=command, option=option
     )
+    check_same_study(study, target.path, option)  # another study's folder: refused, untouched
     return _connect_and_run(study, cases, target, opts)
 
 

@@ -20,6 +20,7 @@ import subprocess
 import sys
 import time
 import traceback
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -249,9 +250,35 @@ def untrustworthy_count(df) -> int:
 
 
 def run_case_inline(payload: dict, workdir: Path) -> dict:
-    """Call the case function in this process (no isolation, no timeout)."""
+    """Call the case function in this process (no isolation, no timeout); the warnings it
+    raises are shown once each, after it, naming the case (:func:`show_case_warnings`)."""
     fn = load_case_fn(payload["case_fn"])
-    return fn(payload["spec"], list(payload["outputs"]), payload["solver"], workdir)
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
+            return fn(payload["spec"], list(payload["outputs"]), payload["solver"], workdir)
+    finally:
+        show_case_warnings(caught, str(payload.get("case_id", "?")))
+
+
+def show_case_warnings(caught: list, case_id: str) -> None:
+    """Show each warning of ``caught`` once (the same text from another line or direction
+    too), as ``case <case_id>: <message>``: a study of many cases printed "voxel grid has 7.0
+    voxels ..." once per case with nothing saying which (session 42).
+
+    Parameters
+    ----------
+    caught : list of warnings.WarningMessage
+        What ``warnings.catch_warnings(record=True)`` recorded.
+    case_id : str
+        The case's id (``c0003-3fa2b91c``).
+    """
+    seen: set[tuple[type, str]] = set()
+    for w in caught:
+        text = " ".join(str(w.message).split())
+        if (w.category, text) not in seen:
+            seen.add((w.category, text))
+            warnings.showwarning(f"case {case_id}: {text}", w.category, w.filename, w.lineno)
 
 
 def execute_case(payload: dict) -> dict:

@@ -400,3 +400,21 @@ def test_a_memory_cap_just_below_the_fem_solve_names_the_key(tmp_path, capsys):
         "psdesign: error: flow.max_memory_gb: the FEM solve of 13360 tets needs about 0.38 GB, "
         "over the cap (0.35 GB) (allowed: >= 0.38 GB, or a coarser flow.lattice_step)"
     )
+
+
+def test_an_under_resolved_voxel_solve_says_so_in_one_line(tmp_path, capsys):
+    """Session 42's walkthrough (benchmarks/RESULTS.md): a voxel solve at 7 voxels per fiber
+    diameter printed "voxel grid has 7.0 voxels across ..." (the Python ResolutionWarning)
+    and "K_x: only 7.0 voxels across ..." (the result's line): one is printed now."""
+    spec = (
+        "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n[[fibers]]\n"
+        'shape = "cylinder"\ndiameter = 7e-6\ndirection = [0, 0, 1]\n'
+    )
+    args = ("--solver", "voxel", "--direction", "x", "--no-error-estimate")
+    code, out, err = _run(tmp_path, capsys, *args, spec=spec)
+    assert code == 0 and out.startswith("K_x = ")
+    lines = [ln for ln in err.splitlines() if "voxels across the thinnest fiber" in ln]
+    assert lines == [
+        "psdesign: warning: K_x: only 7.0 voxels across the thinnest fiber diameter (< 8); "
+        "refine rve.voxel"
+    ], err

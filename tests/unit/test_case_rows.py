@@ -80,3 +80,25 @@ def test_row_pore_values_are_rated_as_pores_rates_them():
     assert row["pore_sizes_status"] == row["specific_surface_status"] == "untrustworthy"
     kept = trusted(pd.DataFrame([{"status": "ok", **row}]))
     assert kept["pore_d50_m"].isna().all() and kept["specific_surface_m-1"].isna().all()
+
+
+def test_report_k_table_gives_the_reason_beside_untrustworthy(tmp_path):
+    """Session 42's walkthrough (benchmarks/RESULTS.md): the K table said 'untrustworthy' at
+    +-9-12 % without the reason, which sat far right in the Results table. A 10 um fiber on
+    2 um voxels has 10 / 2 = 5.0 voxels per diameter (< 8, the voxel route's rule)."""
+    row = run_case(SPEC, ["porosity", "k_x"], "voxel", tmp_path)
+    assert row["k_x_status"] == "untrustworthy" and row["k_x_rel_error"] <= 0.2
+    html = _k_table(pd.DataFrame([row]))  # solver unknown: rated as the voxel route
+    assert "untrustworthy: 5.0 voxels per fiber diameter, need 8" in html
+    bar = pd.DataFrame(
+        {
+            "case_id": ["b"],
+            "k_z_m2": [2e-11],
+            "k_z_rel_error": [0.5],
+            "k_z_status": ["untrustworthy"],
+        }
+    )
+    assert "untrustworthy: error bar 50.0 % &gt; 20 %" in _k_table(bar, "fem")
+    bar["cells_per_diameter_z"] = 3.0  # a FEM K is rated on its bar alone: no voxel count
+    assert "voxels per fiber" not in _k_table(bar, "fem")
+    assert "; 3.0 voxels per fiber diameter, need 8" in _k_table(bar, "voxel")

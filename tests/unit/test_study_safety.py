@@ -256,7 +256,48 @@ def test_worker_warnings_are_one_line(tmp_path, capfd):
     assert df["status"].tolist() == ["ok"]
     err = capfd.readouterr().err
     lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert lines == ["psdesign: warning: K_z: only 6.0 voxels across the fiber"], err
+    cid = df["case_id"].iloc[0]
+    assert lines == [f"psdesign: warning: case {cid}: K_z: only 6.0 voxels across the fiber"], err
+
+
+def resolution_case(spec, outputs, solver, workdir):
+    """The voxel route's ResolutionWarning, raised by each of two directions' solves."""
+    import warnings
+
+    from psdesign.flow.voxel import ResolutionWarning
+
+    msg = "voxel grid has 7.0 voxels across the thinnest fiber"
+    warnings.warn(msg, ResolutionWarning, stacklevel=1)  # the k_x solve
+    warnings.warn(msg, ResolutionWarning, stacklevel=1)  # the k_z solve (another line)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+@pytest.mark.parametrize("workers", [0, 1])
+def test_a_study_names_the_case_of_each_warning_once(tmp_path, capfd, workers):
+    """Session 42's walkthrough (benchmarks/RESULTS.md): a study printed "voxel grid has 7.0
+    voxels ..." once per case without saying which case; now one line per case with its id
+    (two solves of one case raising it: still one line)."""
+    import warnings
+
+    from psdesign.errors import show_warning_one_line
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    with warnings.catch_warnings():
+        warnings.showwarning = show_warning_one_line  # as the psdesign command installs it
+        df = run_study(
+            p,
+            tmp_path / "out",
+            workers=workers,
+            case_fn=resolution_case,
+            progress=False,
+            report=False,
+        )
+    err = capfd.readouterr().err
+    lines = sorted(ln for ln in err.splitlines() if "voxel grid has" in ln)
+    assert lines == sorted(
+        f"psdesign: warning: case {cid}: voxel grid has 7.0 voxels across the thinnest fiber"
+        for cid in df["case_id"]
+    ), err
 
 
 def unconverged_transport_case(spec, outputs, solver, workdir):

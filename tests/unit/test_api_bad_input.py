@@ -1,0 +1,98 @@
+"""Bad input found past the spec reaches the Python API as a ``SpecError``.
+
+README: "``except psdesign.SpecError`` catches any bad input". Session 42's walkthrough
+(benchmarks/RESULTS.md, "a new user's walkthrough") found three plain ``ValueError``\\ s
+through it, where the CLI exits 2 with their line: the mesher's ``PoreTopologyError``, the
+voxel solver's ``NoFluidPathError`` and the FEM's ``PeriodicMeshError``. Each now is a
+``SpecError`` with the key its line names, the same line, the original as ``__cause__``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import psdesign
+
+L = 20e-6
+#: a square array across at solid fraction 0.75: gap L - D = 0.46 um, under the 1 um voxel
+SQUARE_075 = {
+    "rve": {"size": [L, L, L], "voxel": 1e-6},
+    "fibers": [
+        {
+            "shape": "cylinder",
+            "diameter": float(2 * L * np.sqrt(0.75 / np.pi)),
+            "center": [1e-5, 1e-5, 1e-5],
+            "direction": [0, 0, 1],
+        }
+    ],
+}
+#: one fiber tilted across the box: its opposite faces differ (not periodic)
+TILTED = {
+    "rve": {"size": [L, L, L], "voxel": 1e-6},
+    "fibers": [
+        {
+            "shape": "cylinder",
+            "diameter": 5e-6,
+            "center": [1e-5, 1e-5, 1e-5],
+            "direction": [0.4, 0.2, 1],
+        }
+    ],
+}
+
+
+def _channel_image(tmp_path):
+    """Pore only in a channel along y: no path along x."""
+    a = np.ones((8, 8, 8), np.uint8)
+    a[3:5, :, 3:5] = 0
+    np.save(tmp_path / "img.npy", a)
+    return psdesign.from_image(tmp_path / "img.npy", voxel_size=1e-6)
+
+
+@pytest.mark.filterwarnings("ignore")
+@pytest.mark.parametrize(
+    ("make", "call", "key", "cause", "line"),
+    [
+        (
+            lambda _: psdesign.build(SQUARE_075),
+            lambda m: m.permeability("x", solver="fem"),
+            "rve.voxel",
+            "PoreTopologyError",
+            "rve.voxel: disconnected pore space",
+        ),
+        (
+            _channel_image,
+            lambda m: m.permeability("x", solver="voxel"),
+            "image",
+            "NoFluidPathError",
+            "image: the pore space has no path along x",
+        ),
+        (
+            lambda _: psdesign.build(TILTED),
+            lambda m: m.permeability("z", solver="fem", bc="periodic"),
+            "flow.bc",
+            "PeriodicMeshError",
+            "flow.bc = 'periodic': the geometry is not periodic",
+        ),
+    ],
+)
+def test_bad_input_past_the_spec_is_a_spec_error_naming_its_key(
+    tmp_path, make, call, key, cause, line
+):
+    material = make(tmp_path)
+    with pytest.raises(psdesign.SpecError) as info:
+        call(material)
+    err = info.value
+    assert err.key == key
+    assert str(err).startswith(line)  # the line the CLI prints (exit 2)
+    assert type(err.__cause__).__name__ == cause
+    assert str(err) == str(err.__cause__)
+
+
+def test_other_errors_are_left_as_they_are():
+    from psdesign.errors import as_spec_error
+    from psdesign.meshing.errors import MeshFailedError, PoreTopologyError
+
+    assert as_spec_error(MeshFailedError("pore volume exceeds the box volume")) is None
+    err = as_spec_error(PoreTopologyError("the pore space is empty: `distance` is <= 0"))
+    assert (err.key, str(err)) == ("rve.voxel", "the pore space is empty: `distance` is <= 0")
