@@ -76,6 +76,16 @@ class SpecDocument(Table):
                 "missing [rve] table with size = [x, y, z] in metres",
                 "[rve] size = [x, y, z]",
             )
+        ff = data.get("forcefield") if isinstance(data, dict) else None
+        if isinstance(ff, dict) and "relax" in ff:
+            # a relax spec given where a spec goes: "unknown key (allowed: case, ...)" until
+            # session 42's review, the keys of a paper case, not the command that takes it
+            raise fail(
+                "forcefield.relax",
+                "this RVE spec is one to relax: run `psdesign forcefield FILE -o OUT`, then give "
+                "OUT/relaxed.toml here",
+                "no [forcefield.relax] table in a spec given here",
+            )
         return data
 
     # ------------------------------------------------------------------ derived values
