@@ -102,7 +102,7 @@ def load_forcefield_spec(path: str | Path) -> dict:
         return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
     from psdesign.schema.document import STUDY_TABLES
 
-    if STUDY_TABLES & set(data):  # a study file given here ("base: unknown table" before)
+    if set(STUDY_TABLES) & set(data):  # a study file given here ("base: unknown table" before)
         raise SpecError(
             "forcefield",
             "no [forcefield] table: this is a study file ([study] / [parameters] / [base.*] "

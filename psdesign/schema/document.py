@@ -30,8 +30,9 @@ class SpecWarning(UserWarning):
     """A spec that is valid but likely to fail or to be slow (printed as one line)."""
 
 
-#: Top-level tables of a study file (psdesign.study.studyfile), none of which a spec has.
-STUDY_TABLES = frozenset({"base", "study", "parameters"})
+#: Top-level tables of a study file, none of which a spec has: the one list the study reader
+#: (psdesign.study.studyfile) allows and the spec readers name a mix-up by.
+STUDY_TABLES = ("base", "study", "parameters")
 
 
 class SpecDocument(Table):
@@ -57,7 +58,7 @@ class SpecDocument(Table):
         if isinstance(data, dict) and isinstance(data.get("fibers"), dict):
             data = {**data, "fibers": [data["fibers"]]}
         if isinstance(data, dict) and "rve" not in data and "image" not in data:
-            if STUDY_TABLES & set(data):  # a study file given where a spec goes (session 42)
+            if set(STUDY_TABLES) & set(data):  # a study file given where a spec goes
                 raise fail(
                     "rve",
                     "no [rve] table: this is a study file ([study] / [parameters] / [base.*] "

@@ -526,3 +526,16 @@ def test_a_relax_spec_given_as_a_spec_says_so(tmp_path, capsys):
     assert not out.exists()
     # the forcefield command itself still relaxes it (its table is read there, not here)
     assert main(["forcefield", str(path), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+
+
+def test_the_study_files_top_level_tables_have_one_definition():
+    # session 42 added the study file's tables to the spec reader (schema.document.STUDY_TABLES,
+    # to name a study file given as a spec) beside the study reader's own tuple of the same
+    # three names (studyfile._parse_study's top_allowed): one list now, read by both (review)
+    from psdesign.schema import document
+    from psdesign.study import studyfile
+
+    assert studyfile.STUDY_TABLES is document.STUDY_TABLES
+    assert study_err({**STUDY, "extra": {}}).startswith(
+        "extra: unknown top-level key (allowed: base, study, parameters)"
+    )
