@@ -395,7 +395,8 @@ def _parse_study(data: dict, source: Path | None) -> Study:
             "study",
             "this is an RVE spec ([rve] / [image] table), not a study file: a study names it "
             'as base = "FILE" beside its [study] and [parameters] tables (docs/study-files.md); '
-            "`psdesign permeability FILE` solves it alone",
+            "`psdesign permeability FILE` solves it alone (allowed: [study], [parameters] and "
+            'base = "FILE")',
         )
     for k in data:
         if k not in STUDY_TABLES:

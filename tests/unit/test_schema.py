@@ -496,6 +496,8 @@ def test_a_spec_given_as_a_study_file_says_so():
     msg = study_err(SPEC)
     assert msg.startswith("study: this is an RVE spec") and 'base = "FILE"' in msg
     assert "unknown top-level key" not in msg
+    # the rule's allowed part, as the other mix-up lines give it (review s42-review: none)
+    assert msg.endswith('(allowed: [study], [parameters] and base = "FILE")'), msg
     # a study file with a stray table still gets the unknown-key line
     assert "unknown top-level key" in study_err({**STUDY, "rve": SPEC["rve"]})
 
