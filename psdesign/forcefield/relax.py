@@ -389,14 +389,16 @@ def _search_options(options: dict, dmin: float, period: float) -> dict:
     """The pattern-search keys of ``[forcefield.relax]`` both relax routes share (move bounds in
     box units, penalty weights, iteration and evaluation limits), each checked against its range
     (:class:`SpecError` naming the key)."""
+    d = RELAX_SEARCH
     return dict(
         max_shift=_num(options, "max_shift", 0.5 * dmin, 0.0, 0.5 * period) / period,
         u_max=_num(options, "u_max", 0.3, 0.0, 3.0),
         weights=_weights(options),
+        # the defaults are RELAX_SEARCH's, the one place they are set (session 42 review)
         search=SearchSettings(
-            max_iter=int(_num(options, "max_iter", 200, 1, 100000, integer=True)),
-            max_evals=int(_num(options, "max_evals", 4000, 1, 10**7, integer=True)),
-            min_step=_num(options, "min_step", 1e-3, 1e-8, 0.1),
+            max_iter=int(_num(options, "max_iter", d.max_iter, 1, 100000, integer=True)),
+            max_evals=int(_num(options, "max_evals", d.max_evals, 1, 10**7, integer=True)),
+            min_step=_num(options, "min_step", d.min_step, 1e-8, 0.1),
         ),
     )
 

@@ -100,6 +100,15 @@ def load_forcefield_spec(path: str | Path) -> dict:
         check_relax_table(ff.get("relax", {}), rve["period"] or max(rve["size"]))
         check_relax_route(valid, ff.get("relax", {}))
         return {"case": "relax", "relax": ff.get("relax", {}), "spec": spec}
+    from psdesign.schema.document import STUDY_TABLES
+
+    if set(STUDY_TABLES) & set(data):  # a study file given here ("base: unknown table" before)
+        raise SpecError(
+            "forcefield",
+            "no [forcefield] table: this is a study file ([study] / [parameters] / [base.*] "
+            "tables), not a force-field spec; run it with `psdesign study run FILE -o OUT` "
+            "(allowed: [forcefield] case = ..., or an RVE spec with [rve] to relax)",
+        )
     for key in data:
         if key != "forcefield":
             raise SpecError(

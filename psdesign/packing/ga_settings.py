@@ -4,6 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+#: The paper's GA adjustment ranges (Sec. 7.1): translations +-0.1 of the RVE edge and rotations
+#: +-1 degree; also the default move bounds of the ``fast`` placement
+#: (:func:`psdesign.packing.generators._fast_options`).
+PAPER_MAX_SHIFT = 0.1
+PAPER_MAX_ROTATION_DEG = 1.0
+
 
 @dataclass(frozen=True)
 class GASettings:
@@ -35,8 +41,8 @@ class GASettings:
     (10, 5, 1.0, 'analytic')
     """
 
-    angle_range_deg: float = 1.0
-    shift_range: float = 0.1
+    angle_range_deg: float = PAPER_MAX_ROTATION_DEG
+    shift_range: float = PAPER_MAX_SHIFT
     u_range: tuple[float, float] = (0.1, 0.3)
     f_range: tuple[float, float] = (1.0, 10.0)
     population: int = 24

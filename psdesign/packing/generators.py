@@ -31,7 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
-from psdesign.packing.ga_settings import GASettings
+from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG, PAPER_MAX_SHIFT, GASettings
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
@@ -51,10 +51,6 @@ from psdesign.schema.spec import validate_document
 #: Keys of ``[generator]`` / ``[intersections]`` (derived from the schema).
 _GEN_KEYS = set(_GeneratorTable.model_fields)
 _INT_KEYS = set(IntersectionsTable.model_fields)
-#: Default move bounds of the ``fast`` placement: the paper's GA adjustment ranges (Sec. 7.1),
-#: translations +-0.1 of the RVE edge and rotations +-1 degree.
-PAPER_MAX_SHIFT = 0.1
-PAPER_MAX_ROTATION_DEG = 1.0
 
 
 class GenerationError(SpecError):
@@ -693,12 +689,13 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         probe = _probe(gs, size)
         n = max(1, int(round((1.0 - gs.porosity) / _solid_per_fiber(probe, lo, hi))))
     pool = draw_fibers(gs, gs.seed, min(gs.max_fibers, 4 * n + 50), size)
+    d = GASettings()  # the defaults, set there only
     settings = GASettings(
-        angle_range_deg=float(opts.get("angle_range_deg", 1.0)),
-        shift_range=float(opts.get("shift_range", 0.1)),
-        population=int(opts.get("population", 24)),
-        generations=int(opts.get("generations", 40)),
-        objective=opts.get("objective", "analytic"),
+        angle_range_deg=float(opts.get("angle_range_deg", d.angle_range_deg)),
+        shift_range=float(opts.get("shift_range", d.shift_range)),
+        population=int(opts.get("population", d.population)),
+        generations=int(opts.get("generations", d.generations)),
+        objective=opts.get("objective", d.objective),
         voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
         time_limit_s=opts.get("time_limit_s"),
     )

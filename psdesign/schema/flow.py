@@ -187,7 +187,8 @@ class FlowTable(Table):
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None,
         description="memory cap of the solve, GB in (0, 1e5]; either solver's estimated "
-        "memory within it, checked before any work (the FEM's again on the built mesh)",
+        'memory within it, checked before any work (an "auto" stack of two once the RVE '
+        "is built; the FEM's again on the built mesh)",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
         None,

@@ -22,6 +22,7 @@ from pydantic import ValidationError
 
 from psdesign.errors import SpecError, StudyError  # StudyError: re-exported (light module)
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS
+from psdesign.schema.document import STUDY_TABLES
 from psdesign.schema.errors import did_you_mean, first_error
 from psdesign.schema.keys import spec_paths
 from psdesign.schema.spec import SpecWarning, read_toml, validate_spec
@@ -388,21 +389,21 @@ def _read_base(data: dict, root: Path) -> dict:
 def _parse_study(data: dict, source: Path | None) -> Study:
     if not isinstance(data, dict):
         raise _err("study", "the study file must be a TOML document")
-    top_allowed = ("base", "study", "parameters")
-    if not set(top_allowed) & set(data) and {"rve", "image"} & set(data):
+    if not set(STUDY_TABLES) & set(data) and {"rve", "image"} & set(data):
         # an RVE spec given where a study goes (session 42: "rve: unknown top-level key")
         raise _err(
             "study",
             "this is an RVE spec ([rve] / [image] table), not a study file: a study names it "
             'as base = "FILE" beside its [study] and [parameters] tables (docs/study-files.md); '
-            "`psdesign permeability FILE` solves it alone",
+            "`psdesign permeability FILE` solves it alone (allowed: [study], [parameters] and "
+            'base = "FILE")',
         )
     for k in data:
-        if k not in top_allowed:
+        if k not in STUDY_TABLES:
             raise _err(
                 k,
-                f"unknown top-level key{did_you_mean(k, top_allowed)} (allowed: base, "
-                "study, parameters)",
+                f"unknown top-level key{did_you_mean(k, STUDY_TABLES)} (allowed: "
+                f"{', '.join(STUDY_TABLES)})",
             )
     root = source.parent if source is not None else Path.cwd()
     st_raw = data.get("study")

@@ -119,6 +119,21 @@ def test_image_spec_without_rve_is_refused_as_an_rve_spec(tmp_path, capsys) -> N
     assert "this spec has none" in err[0] and not out.exists()
 
 
+def test_a_study_file_given_to_forcefield_names_the_mix_up(tmp_path, capsys) -> None:
+    # session 42 named a study file given where an RVE spec goes (permeability, generate, mesh,
+    # ...) but not here: `psdesign forcefield studies/quickstart.toml` said "base: unknown
+    # table (allowed: forcefield)", a table to delete, though the command also takes RVE specs
+    from pathlib import Path
+
+    study = Path(__file__).resolve().parents[2] / "studies" / "quickstart.toml"
+    out = tmp_path / "out"
+    assert main(["forcefield", str(study), "-o", str(out), "--no-pictures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: forcefield: "), err
+    assert "this is a study file" in err[0] and "`psdesign study run FILE -o OUT`" in err[0]
+    assert not out.exists()
+
+
 def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys):
     """Two polls: the first fiber moves to its bound (10 um) and the overlap is gone, but the
     search stopped on ``max_iter``; the status is ``not_converged`` (it was ``at_bound``, which

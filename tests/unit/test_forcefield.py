@@ -867,3 +867,17 @@ def test_six_fiber_error_bars_cover_a_finer_quadrature():
     for key, attr in (("U", "U"), ("surface_interaction", "surface_interaction"), ("area", "area")):
         true = abs(getattr(fine, attr) - getattr(ref, attr))
         assert 1e-4 < true <= err[key] <= 30 * true, key
+
+
+def test_the_relax_tables_search_defaults_are_relax_search(monkeypatch):
+    """Session 42 made RELAX_SEARCH "[forcefield.relax]'s defaults" (relax_fibers and
+    relax_contacts take it), while the table's reader kept its own 200 / 4000 / 1e-3: two
+    places to change one default (review s42-review). The reader now takes them from it."""
+    from psdesign.forcefield import relax
+
+    assert relax._search_options({}, 1e-5, 1e-4)["search"] == relax.RELAX_SEARCH
+    other = SearchSettings(min_step=2e-3, max_iter=7, max_evals=11)
+    monkeypatch.setattr(relax, "RELAX_SEARCH", other)
+    assert relax._search_options({}, 1e-5, 1e-4)["search"] == other
+    given = relax._search_options({"max_iter": 9}, 1e-5, 1e-4)["search"]
+    assert (given.max_iter, given.max_evals, given.min_step) == (9, 11, 2e-3)

@@ -310,3 +310,34 @@ def test_draws_are_prefix_stable():
     a, b = draw_fibers(gs, 7, 10, size), draw_fibers(gs, 7, 50, size)
     for k in ("diameter", "center", "theta", "omega", "u", "f"):
         assert np.array_equal(getattr(a, k), getattr(b, k)[:10]), k
+
+
+def test_the_ga_methods_defaults_are_ga_settings(monkeypatch):
+    """Session 42 gave the GA its settings class (GASettings: ranges 1 degree / 0.1, population
+    24, 40 generations) while generators._ga kept its own literal fallbacks for every key the
+    spec leaves out, and the paper's ranges stood a third time in PAPER_MAX_SHIFT /
+    PAPER_MAX_ROTATION_DEG (review s42-review). _ga now falls back on GASettings' defaults."""
+    from dataclasses import dataclass
+
+    from psdesign.packing import ga_settings, generators
+
+    @dataclass(frozen=True)
+    class Other(ga_settings.GASettings):
+        angle_range_deg: float = 0.5
+        shift_range: float = 0.05
+        population: int = 7
+        generations: int = 3
+
+    seen = []
+
+    def capture(st, lo, hi, size_norm, settings, **kw):
+        seen.append(settings)
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(generators, "GASettings", Other)
+    monkeypatch.setattr(generators, "genetic", capture)
+    with pytest.raises(RuntimeError, match="captured"):
+        build_fibers(_spec(n_fibers=4, method="ga"))
+    (s,) = seen
+    assert (s.angle_range_deg, s.shift_range, s.population, s.generations) == (0.5, 0.05, 7, 3)
+    assert generators.PAPER_MAX_SHIFT is ga_settings.PAPER_MAX_SHIFT

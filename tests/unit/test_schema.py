@@ -496,6 +496,8 @@ def test_a_spec_given_as_a_study_file_says_so():
     msg = study_err(SPEC)
     assert msg.startswith("study: this is an RVE spec") and 'base = "FILE"' in msg
     assert "unknown top-level key" not in msg
+    # the rule's allowed part, as the other mix-up lines give it (review s42-review: none)
+    assert msg.endswith('(allowed: [study], [parameters] and base = "FILE")'), msg
     # a study file with a stray table still gets the unknown-key line
     assert "unknown top-level key" in study_err({**STUDY, "rve": SPEC["rve"]})
 
@@ -506,3 +508,36 @@ def test_a_force_field_case_given_as_a_spec_says_so():
     err = spec_err({"forcefield": {"case": "two-fiber"}})
     assert err.key == "rve"
     assert "force-field case spec" in str(err) and "psdesign forcefield" in str(err)
+
+
+def test_a_relax_spec_given_as_a_spec_says_so(tmp_path, capsys):
+    # session 42's review: `psdesign permeability studies/forcefield_woven.toml` (an RVE spec
+    # with [forcefield.relax], docs/spec-keys.md: only for `psdesign forcefield`) answered
+    # "forcefield.relax: unknown key (allowed: case, surface, weights, ...)", a paper case's
+    # keys; the line now names the command that relaxes it and the file the others take
+    doc = {**SPEC, "forcefield": {"relax": {"max_shift": 1e-6}}}
+    err = spec_err(doc)
+    assert err.key == "forcefield.relax"
+    assert "psdesign forcefield FILE -o OUT" in str(err) and "relaxed.toml" in str(err)
+    path = tmp_path / "relax.toml"
+    path.write_text(dumps(doc))
+    out = tmp_path / "out"
+    assert main(["generate", str(path), "-o", str(out), "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: forcefield.relax: this RVE spec is one to relax")
+    assert not out.exists()
+    # the forcefield command itself still relaxes it (its table is read there, not here)
+    assert main(["forcefield", str(path), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+
+
+def test_the_study_files_top_level_tables_have_one_definition():
+    # session 42 added the study file's tables to the spec reader (schema.document.STUDY_TABLES,
+    # to name a study file given as a spec) beside the study reader's own tuple of the same
+    # three names (studyfile._parse_study's top_allowed): one list now, read by both (review)
+    from psdesign.schema import document
+    from psdesign.study import studyfile
+
+    assert studyfile.STUDY_TABLES is document.STUDY_TABLES
+    assert study_err({**STUDY, "extra": {}}).startswith(
+        "extra: unknown top-level key (allowed: base, study, parameters)"
+    )
