@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from psdesign.study.readback import read_json_object
 from psdesign.study.store import jsonable
 from psdesign.study.studyfile import Study, StudyError
 
@@ -31,10 +32,10 @@ def stored_study(out_dir: str | Path) -> dict | None:
         ``name``, ``base``, ... as :meth:`Study.to_dict` wrote them.
     """
     try:
-        data = json.loads((Path(out_dir) / "study.json").read_text())
-    except (OSError, ValueError):
+        data = read_json_object(Path(out_dir) / "study.json")
+    except (OSError, ValueError):  # none, unreadable or not an object: not judged
         return None
-    table = data.get("study") if isinstance(data, dict) else None
+    table = data.get("study")
     return table if isinstance(table, dict) else None
 
 
