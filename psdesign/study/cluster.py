@@ -170,8 +170,19 @@ def make_cluster(opts: ClusterOptions):
     prologue = [f"export {k}={v}" for k, v in threads.items()]
     cls = SLURMCluster if opts.kind == "slurm" else PBSCluster
     extra = {"job_extra_directives": list(opts.job_extra), "job_cls": _watched_job(cls.job_cls)}
+    # one case at a time per job, its solver threads on all the job's cores: dask-jobqueue
+    # gives a worker cores / processes threads (cases at once), so the worker takes one core's
+    # thread and the batch system reserves opts.cores
+    if opts.kind == "slurm":
+        extra["job_cpu"] = opts.cores
+    else:
+        from dask.utils import parse_bytes
+        from dask_jobqueue.pbs import pbs_format_bytes_ceil
+
+        mem = pbs_format_bytes_ceil(parse_bytes(opts.memory))
+        extra["resource_spec"] = f"select=1:ncpus={opts.cores}:mem={mem}"
     return cls(
-        cores=opts.cores,
+        cores=1,
         processes=1,
         memory=opts.memory,
         walltime=opts.walltime,

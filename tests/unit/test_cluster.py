@@ -49,12 +49,15 @@ def test_slurm_job_script_carries_the_resources() -> None:
     assert "#SBATCH -p short" in s and "#SBATCH -A proj" in s
     assert "#SBATCH -t 02:00:00" in s and "#SBATCH --cpus-per-task=4" in s
     assert "#SBATCH --constraint=ib" in s
-    assert "export NUMBA_NUM_THREADS=4" in s and "--nthreads 4" in s.replace("=", " ")
+    # one case at a time on the job's 4 cores: a worker of 4 threads ran 4 cases at once, each
+    # with 4 solver threads (16 on 4 cores, session 42)
+    assert "export NUMBA_NUM_THREADS=4" in s and "--nthreads 1 " in s.replace("=", " ")
 
 
 def test_pbs_job_script() -> None:
     s = job_script(ClusterOptions("pbs", cores=2, memory="8GB", walltime="00:30:00", queue="q"))
     assert "#PBS -q q" in s and "#PBS -l walltime=00:30:00" in s and "ncpus=2" in s
+    assert "ncpus=2:mem=7630MB" in s and "--nthreads 1 " in s.replace("=", " ")
 
 
 @pytest.mark.parametrize(
