@@ -86,7 +86,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     # the --cluster-* defaults are ClusterOptions'; None here tells "not given" (refused
     # without --cluster, which alone uses them)
     run.add_argument(
-        "--cluster-cores", type=_positive_int, default=None, help="cores per job (default 2)"
+        "--cluster-cores",
+        type=_positive_int,
+        default=None,
+        help="cores per job, all for one case at a time (default 2)",
     )
     run.add_argument("--cluster-memory", default=None, help="memory per job (default 8GB)")
     run.add_argument("--cluster-walltime", default=None, help="HH:MM:SS per job (default 01:00:00)")
