@@ -67,6 +67,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from psdesign.geometry.rve import thinnest_fiber_diameter
+
 #: ``C_S`` of the seam term ``C_S g / L``: K of in-plane Toray-like RVEs with a slab of
 #: thickness ``g`` cut out of every period falls by 1.2-1.9 % per 1 % of the length ``L`` cut, on
 #: 60, 50 and 100 um cubes (``benchmarks/seam_gap.py``; ``benchmarks/RESULTS.md``, seam19); the
@@ -488,16 +490,9 @@ def combine(
     )
 
 
-def min_fiber_diameter(rve) -> float | None:
-    """Smallest nominal fiber diameter of ``rve`` in metres (``None`` without fibers)."""
-    d = [float(fb.diameter) * float(rve.period) for fb in getattr(rve, "fibers", [])]
-    d = [x for x in d if np.isfinite(x) and x > 0]
-    return min(d) if d else None
-
-
 def cells_per_diameter(rve, step: float) -> float | None:
     """Cells of edge ``step`` (m) across the thinnest fiber diameter of ``rve``."""
-    d = min_fiber_diameter(rve)
+    d = thinnest_fiber_diameter(rve)
     return None if d is None or not step > 0 else float(d / step)
 
 

@@ -37,7 +37,7 @@ from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, thinnest_fiber_diameter
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
@@ -315,7 +315,7 @@ def floor_diameter(rve: RVE, fields: VoxelFields) -> float | None:
     the thinnest fibre's; for a segmented image (no fibres) the solid's hydraulic diameter
     ``4 (1 - eps) / S_v`` (marching cubes, :func:`psdesign.transport.pores.specific_surface`),
     a cylinder's diameter exactly and a volume-weighted mean for several; None without solid."""
-    d = err.min_fiber_diameter(rve)
+    d = thinnest_fiber_diameter(rve)
     if d is not None or not fields.solid.any():
         return d
     from psdesign.transport.pores import specific_surface

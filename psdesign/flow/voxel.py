@@ -31,7 +31,7 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, under_resolved
+from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, cells_per_diameter, under_resolved
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields
@@ -111,14 +111,6 @@ def voxel_permeability_tensor(
         solve_voxel_stokes(solid, voxel_size, d, viscosity=viscosity, **kw) for d in range(3)
     ]
     return permeability_tensor([column_of(r) for r in results]), results
-
-
-def cells_per_diameter(rve: RVE | None, voxel: float) -> float | None:
-    """Voxels across the thinnest fiber diameter (None without fibers)."""
-    if rve is None or not rve.fibers:
-        return None
-    dmin = min(float(fb.diameter) for fb in rve.fibers) * float(rve.period)
-    return dmin / voxel
 
 
 def _options(flow: dict) -> tuple[str, str]:

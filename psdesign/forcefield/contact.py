@@ -35,6 +35,7 @@ from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
 from psdesign.geometry.fibers import Fiber, with_minor_moment
+from psdesign.geometry.rve import thinnest_fiber_diameter
 
 #: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
 FIELD_TERMS = ("U", "volume_interaction", "surface_interaction", "surface")
@@ -477,7 +478,7 @@ def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):
     from psdesign.geometry.rve import RVE
 
     period = float(rve.period)
-    dmin = min(float(fb.diameter) for fb in rve.fibers) * period
+    dmin = thinnest_fiber_diameter(rve)
     h = (grid_m if grid_m is not None else dmin / 5.0) / period
     gap = None if gap_m is None else gap_m / period
     lo, hi = rve.box_normalized

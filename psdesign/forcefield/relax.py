@@ -33,6 +33,7 @@ from psdesign.errors import SpecError
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
+from psdesign.geometry.rve import thinnest_fiber_diameter
 from psdesign.packing.fiberset import (
     FiberState,
     build_pieces,
@@ -585,7 +586,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     from psdesign.packing.build import rve_document
 
     period = float(rve.period)
-    dmin = min(float(fb.diameter) for fb in rve.fibers) * period
+    dmin = thinnest_fiber_diameter(rve)
     kw = _search_options(options, dmin, period)
     tie = options.get("tie_bend", False)
     if not isinstance(tie, bool):

@@ -30,6 +30,23 @@ from psdesign.geometry.fibers import Fiber
 BAND_MARGIN_VOXELS = 3
 
 
+def thinnest_fiber_diameter(rve) -> float | None:
+    """Thinnest nominal fiber diameter of ``rve`` in metres (``fiber.diameter * rve.period``),
+    or None without fibers (an image, or None): the one measure of a fiber RVE's resolution
+    (cells per diameter, the FEM's default lattice step, the force field's grid).
+
+    >>> from types import SimpleNamespace
+    >>> fibers = [SimpleNamespace(diameter=0.07), SimpleNamespace(diameter=0.05)]
+    >>> round(thinnest_fiber_diameter(SimpleNamespace(fibers=fibers, period=1e-4)), 12)
+    5e-06
+    >>> thinnest_fiber_diameter(None) is None
+    True
+    """
+    d = [float(getattr(fb, "diameter", 0) or 0) for fb in getattr(rve, "fibers", None) or ()]
+    d = [x for x in d if np.isfinite(x) and x > 0]
+    return min(d) * float(rve.period) if d else None
+
+
 @dataclass(frozen=True)
 class VoxelGrid:
     """Cell-centred voxel grid of a box ``[0, size]`` in metres.

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.geometry.rve import thinnest_fiber_diameter  # noqa: F401 (re-exported)
 from psdesign.meshing.errors import MeshInputError
 
 MESHERS = ("stuffing", "pytetwild")
@@ -19,17 +20,6 @@ VOLUME_TARGETS = ("analytic", "voxel")
 TETWILD_OPTIONS = ("stop_energy", "num_opt_iter", "coarsen", "simplify")
 # old keyword names of mesh_pore_space -> MeshOptions field
 _LEGACY_NAMES = {"stuffing_alpha": "alpha", "stuffing_slab_factor": "slab_factor"}
-
-
-def thinnest_fiber_diameter(rve) -> float | None:
-    """Thinnest fiber diameter of an RVE in metres (``fiber.diameter * rve.period``), or None
-    without fibers (an image)."""
-    diam = [
-        float(fb.diameter) * rve.period
-        for fb in getattr(rve, "fibers", ())
-        if getattr(fb, "diameter", 0)
-    ]
-    return min(diam) if diam else None
 
 
 #: Default stuffing lattice step: at most the smallest box edge over this many cells (the
