@@ -215,7 +215,7 @@ def test_every_cli_option_says_what_it_is_and_its_default() -> None:
     for name, sub in _subparsers(build_parser()).items():
         nested = _subparsers(sub)
         commands |= {f"{name} {n}": p for n, p in nested.items()} if nested else {name: sub}
-    silent, no_default = [], []
+    silent, no_default, wrong_default = [], [], []
     for command, parser in sorted(commands.items()):
         for action in parser._actions:
             if isinstance(action, argparse._HelpAction) or action.help == argparse.SUPPRESS:
@@ -223,6 +223,8 @@ def test_every_cli_option_says_what_it_is_and_its_default() -> None:
             flag = action.option_strings[-1] if action.option_strings else action.dest
             if not (action.help or "").strip():
                 silent.append(f"{command} {flag}")
+            elif _stated_default_differs(action):
+                wrong_default.append(f"{command} {flag}: {action.default!r}")
             elif (
                 action.option_strings
                 and action.nargs != 0  # takes a value
@@ -233,3 +235,18 @@ def test_every_cli_option_says_what_it_is_and_its_default() -> None:
                 no_default.append(f"{command} {flag}")
     assert not silent, silent
     assert not no_default, no_default
+    assert not wrong_default, wrong_default
+
+
+def _stated_default_differs(action) -> bool:
+    """An option whose parser default is a number or a word, and whose help does not print
+    that value (the help names a default, but not the one argparse uses)."""
+    import argparse
+
+    d = action.default
+    if not action.option_strings or action.nargs == 0 or isinstance(d, bool):
+        return False
+    if d is None or d == argparse.SUPPRESS or not isinstance(d, int | float | str):
+        return False
+    forms = {str(d), f"{d:g}"} if isinstance(d, int | float) else {str(d)}
+    return not any(f in action.help for f in forms)
