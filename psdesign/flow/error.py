@@ -536,11 +536,36 @@ def status_of(
     the second resolution's grid had no solid or no fluid voxel (:class:`CoarseLostPhase`)."""
     if not converged:
         return "not_converged"
+    return (
+        "untrustworthy"
+        if untrustworthy_reasons(rel_error, cpd, min_cpd, coarse_lost_phase)
+        else "ok"
+    )
+
+
+def untrustworthy_reasons(
+    rel_error: float,
+    cpd: float | None,
+    min_cpd: float = MIN_CELLS_PER_DIAMETER,
+    coarse_lost_phase: bool = False,
+) -> list[str]:
+    """Why a converged result is ``untrustworthy`` (:func:`status_of`), in a few words each;
+    empty when it is ``ok``.
+
+    >>> untrustworthy_reasons(0.115, 7.0), untrustworthy_reasons(0.31, None)
+    (['7.0 voxels per fiber diameter, need 8'], ['error bar 31.0 % > 20 %'])
+    >>> untrustworthy_reasons(0.05, 8.0)
+    []
+    """
+    why = []
     if not np.isfinite(rel_error) or rel_error > UNTRUSTWORTHY_REL_ERROR:
-        return "untrustworthy"
-    if under_resolved(cpd, min_cpd) or coarse_lost_phase:
-        return "untrustworthy"
-    return "ok"
+        bar = f"{100 * rel_error:.1f} %" if np.isfinite(rel_error) else "unknown"
+        why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
+    if under_resolved(cpd, min_cpd):
+        why.append(f"{cpd:.1f} voxels per fiber diameter, need {min_cpd:g}")
+    if coarse_lost_phase:
+        why.append("a phase lost on the coarser grid")
+    return why
 
 
 def under_resolved(cpd: float | None, min_cpd: float = MIN_CELLS_PER_DIAMETER) -> bool:

@@ -377,8 +377,8 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
 
 def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> str:
     """Why the K of ``row`` along ``d`` is ``untrustworthy``, in a few words, from the row's
-    numbers as :func:`psdesign.flow.error.status_of` rates them: its error bar above
-    :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
+    numbers by :func:`psdesign.flow.error.untrustworthy_reasons`, the rule of ``status_of``:
+    its error bar above :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
     :data:`~psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels per fiber diameter (only the
     voxel route is rated on it: a FEM K is untrustworthy by its bar alone), else a phase lost
     on the second resolution's grid (its line in ``warnings_<d>``).
@@ -405,18 +405,14 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     >>> untrusted_k_reason(pd.Series({"k_z_rel_error": 0.31}), "z")
     'error bar 31.0 % > 20 %'
     """
-    from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, UNTRUSTWORTHY_REL_ERROR, under_resolved
+    from psdesign.flow.error import untrustworthy_reasons
 
     def num(col: str) -> float:
         return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
 
     e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
-    why = []
-    if not math.isfinite(e) or e > UNTRUSTWORTHY_REL_ERROR:
-        bar = f"{100 * e:.1f} %" if math.isfinite(e) else "unknown"
-        why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
-    if solver != "fem" and math.isfinite(cpd) and under_resolved(cpd):
-        why.append(f"{cpd:.1f} voxels per fiber diameter, need {MIN_CELLS_PER_DIAMETER:g}")
+    rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
+    why = untrustworthy_reasons(e, rated_cpd)
     return "; ".join(why) or f"a phase lost on the coarser grid (warnings_{d})"
 
 
