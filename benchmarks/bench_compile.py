@@ -162,6 +162,29 @@ def _old_modules(rev: str):
     return tuple(importlib.import_module(f"old_{name}") for name in ("kernels", "lanczos", "schur"))
 
 
+def _time_old_and_new(runs: dict, reps: int, clock, label: str) -> None:
+    """Time each kernel of ``runs["old"]`` / ``runs["new"]`` alternately, ``reps`` rounds of three
+    calls, and print the best of each and the new / old ratios (best and median)."""
+    import numpy as np
+
+    tim = {name: {"old": [], "new": []} for name in runs["old"]}
+    for _ in range(reps):
+        for name in tim:
+            for key in ("old", "new"):
+                t = clock()
+                for _ in range(3):
+                    runs[key][name]()
+                tim[name][key].append((clock() - t) / 3 * 1e3)
+    for name, t in tim.items():
+        bo, bn = min(t["old"]), min(t["new"])
+        med = float(np.median(t["new"]) / np.median(t["old"]))
+        print(
+            f"{label} {name:18s} old {bo:7.2f} ms  new {bn:7.2f} ms (best of {reps}): "
+            f"new / old {bn / bo:.3f} best, {med:.3f} median",
+            flush=True,
+        )
+
+
 def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
     """See the module docstring (``kernels``)."""
     import numpy as np
@@ -251,22 +274,7 @@ def kernels_side_by_side(rev: str, n: int, reps: int = 7) -> None:
             outs.append((r, arr.copy()))
         same = outs[0][0] == outs[1][0] and np.array_equal(outs[0][1], outs[1][1])
         print(f"{name}: old and new bitwise equal: {same}", flush=True)
-    tim = {name: {"old": [], "new": []} for name in runs["old"]}
-    for _ in range(reps):
-        for name in tim:
-            for key in ("old", "new"):
-                t = clock()
-                for _ in range(3):
-                    runs[key][name]()
-                tim[name][key].append((clock() - t) / 3 * 1e3)
-    for name, t in tim.items():
-        bo, bn = min(t["old"]), min(t["new"])
-        med = float(np.median(t["new"]) / np.median(t["old"]))
-        print(
-            f"{n}^3 {mode} {name:18s} old {bo:7.2f} ms  new {bn:7.2f} ms (best of {reps}): "
-            f"new / old {bn / bo:.3f} best, {med:.3f} median",
-            flush=True,
-        )
+    _time_old_and_new(runs, reps, clock, f"{n}^3 {mode}")
     print(f"load {os.getloadavg()[0]:.1f}")
 
 

@@ -83,176 +83,109 @@ def _timed(fn):
     return time.perf_counter() - t0, la, res
 
 
+def _run(study: Path, out: Path, case: str, **kw):
+    """``run_study`` on a fake case function, quiet and without a report; timed."""
+    from psdesign.study import run_study
+
+    return _timed(
+        lambda: run_study(
+            study, out, case_fn=f"bench_study:{case}", progress=False, report=False, **kw
+        )
+    )
+
+
+def _overhead(tmp: Path, n_over: int) -> None:
+    """Measure 1: per-case runner overhead (pool, in-process, --timeout) and a resume."""
+    s = _study(tmp, n_over)
+    wall, la, _ = _run(s, tmp / "o1", "sleep_case", workers=1)
+    ov = (wall - n_over * SLEEP_S) / n_over
+    print(
+        f"[overhead] {n_over} cases x {SLEEP_S} s sleep, 1 worker: wall {wall:.2f} s, "
+        f"overhead {ov * 1e3:.0f} ms/case (incl. pool start-up; load {la:.2f})"
+    )
+    n_half = n_over // 2
+    wall_h, la_h, _ = _run(_study(tmp, n_half), tmp / "o1h", "sleep_case", workers=1)
+    marg = ((wall - wall_h) - (n_over - n_half) * SLEEP_S) / (n_over - n_half)
+    print(
+        f"[overhead] marginal per case (wall({n_over}) - wall({n_half}), pool start "
+        f"cancels): {marg * 1e3:.0f} ms/case (load {la_h:.2f})"
+    )
+    wall, la, _ = _run(s, tmp / "o1b", "sleep_case", workers=0)
+    ov0 = (wall - n_over * SLEEP_S) / n_over
+    print(
+        f"[overhead] same, in-process (workers=0): wall {wall:.2f} s, "
+        f"overhead {ov0 * 1e3:.0f} ms/case (storage only; load {la:.2f})"
+    )
+    wall, la, _ = _run(s, tmp / "o1c", "sleep_case", workers=1, timeout_s=60)
+    ovt = (wall - n_over * SLEEP_S) / n_over
+    print(
+        f"[overhead] same with --timeout (child process per case): wall {wall:.2f} s, "
+        f"overhead {ovt * 1e3:.0f} ms/case (load {la:.2f})"
+    )
+    wall, la, _ = _run(s, tmp / "o1", "sleep_case", workers=1)
+    print(f"[resume] rerun of the finished study (all skipped): {wall:.2f} s")
+
+
+def _scaling(tmp: Path, s8: Path) -> float:
+    """Measure 2: 8 CPU-bound cases on 1 and 2 workers; returns the 2-worker wall."""
+    w1, la1, df1 = _run(s8, tmp / "w1", "burn_case", workers=1)
+    w2, la2, df2 = _run(s8, tmp / "w2", "burn_case", workers=2)
+    print(
+        f"[scaling] 8 CPU-bound cases (~{df1['burn_time_s'].mean():.2f} s each alone): "
+        f"1 worker {w1:.2f} s (load {la1:.2f}), 2 workers {w2:.2f} s (load {la2:.2f}), "
+        f"speed-up {w1 / w2:.2f}x"
+    )
+    # busy fraction: time inside the case functions / (workers x wall); 1.0 = the runner
+    # keeps every worker busy (independent of how much CPU other users take)
+    print(
+        f"[scaling] busy fraction: 1 worker {df1['burn_time_s'].sum() / w1:.2f}, "
+        f"2 workers {df2['burn_time_s'].sum() / (2 * w2):.2f}; mean case time "
+        f"{df1['burn_time_s'].mean():.2f} s (1 worker) vs {df2['burn_time_s'].mean():.2f} s "
+        "(2 workers; > means the 2 cores were not free)"
+    )
+    return w2
+
+
+def _dask(tmp: Path, s8: Path, w2: float) -> None:
+    """Measure 3: the same cases on a local Dask cluster, started per run and already running."""
+    wd, lad, dfd = _run(s8, tmp / "dk", "burn_case", workers=2, scheduler="local")
+    print(
+        f"[dask] same 8 cases, LocalCluster 2 workers: {wd:.2f} s incl. cluster start "
+        f"(load {lad:.2f}); pool 2 workers {w2:.2f} s; ratio {wd / w2:.2f}; "
+        f"busy fraction {dfd['burn_time_s'].sum() / (2 * wd):.2f}"
+    )
+    from distributed import LocalCluster
+
+    t0 = time.perf_counter()
+    with LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:
+        t_start = time.perf_counter() - t0
+        wc, lac, dfc = _run(
+            s8, tmp / "dk2", "burn_case", workers=2, scheduler=cluster.scheduler_address
+        )
+    print(
+        f"[dask] same 8 cases on an already running cluster (tcp://, start took "
+        f"{t_start:.1f} s): {wc:.2f} s (load {lac:.2f}); ratio to pool {wc / w2:.2f}; "
+        f"busy fraction {dfc['burn_time_s'].sum() / (2 * wc):.2f}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="fewer cases")
     args = ap.parse_args()
-    from psdesign.study import run_study
-
-    n_over = 10 if args.quick else 20
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         print(f"machine: {os.cpu_count()} CPUs, python {sys.version.split()[0]}")
-
-        # 1. overhead
-        s = _study(tmp, n_over)
-        wall, la, _ = _timed(
-            lambda: run_study(
-                s,
-                tmp / "o1",
-                workers=1,
-                case_fn="bench_study:sleep_case",
-                progress=False,
-                report=False,
-            )
-        )
-        ov = (wall - n_over * SLEEP_S) / n_over
-        print(
-            f"[overhead] {n_over} cases x {SLEEP_S} s sleep, 1 worker: wall {wall:.2f} s, "
-            f"overhead {ov * 1e3:.0f} ms/case (incl. pool start-up; load {la:.2f})"
-        )
-        s_half = _study(tmp, n_over // 2)
-        wall_h, la_h, _ = _timed(
-            lambda: run_study(
-                s_half,
-                tmp / "o1h",
-                workers=1,
-                case_fn="bench_study:sleep_case",
-                progress=False,
-                report=False,
-            )
-        )
-        marg = ((wall - wall_h) - (n_over - n_over // 2) * SLEEP_S) / (n_over - n_over // 2)
-        print(
-            f"[overhead] marginal per case (wall({n_over}) - wall({n_over // 2}), pool start "
-            f"cancels): {marg * 1e3:.0f} ms/case (load {la_h:.2f})"
-        )
-        wall, la, _ = _timed(
-            lambda: run_study(
-                s,
-                tmp / "o1b",
-                workers=0,
-                case_fn="bench_study:sleep_case",
-                progress=False,
-                report=False,
-            )
-        )
-        ov0 = (wall - n_over * SLEEP_S) / n_over
-        print(
-            f"[overhead] same, in-process (workers=0): wall {wall:.2f} s, "
-            f"overhead {ov0 * 1e3:.0f} ms/case (storage only; load {la:.2f})"
-        )
-        wall, la, _ = _timed(
-            lambda: run_study(
-                s,
-                tmp / "o1c",
-                workers=1,
-                timeout_s=60,
-                case_fn="bench_study:sleep_case",
-                progress=False,
-                report=False,
-            )
-        )
-        ovt = (wall - n_over * SLEEP_S) / n_over
-        print(
-            f"[overhead] same with --timeout (child process per case): wall {wall:.2f} s, "
-            f"overhead {ovt * 1e3:.0f} ms/case (load {la:.2f})"
-        )
-        wall, la, _ = _timed(
-            lambda: run_study(
-                s,
-                tmp / "o1",
-                workers=1,
-                case_fn="bench_study:sleep_case",
-                progress=False,
-                report=False,
-            )
-        )
-        print(f"[resume] rerun of the finished study (all skipped): {wall:.2f} s")
-
-        # 2. scaling
+        _overhead(tmp, 10 if args.quick else 20)
         s8 = _study(tmp, 8)
-        w1, la1, df1 = _timed(
-            lambda: run_study(
-                s8,
-                tmp / "w1",
-                workers=1,
-                case_fn="bench_study:burn_case",
-                progress=False,
-                report=False,
-            )
-        )
-        w2, la2, df2 = _timed(
-            lambda: run_study(
-                s8,
-                tmp / "w2",
-                workers=2,
-                case_fn="bench_study:burn_case",
-                progress=False,
-                report=False,
-            )
-        )
-        print(
-            f"[scaling] 8 CPU-bound cases (~{df1['burn_time_s'].mean():.2f} s each alone): "
-            f"1 worker {w1:.2f} s (load {la1:.2f}), 2 workers {w2:.2f} s (load {la2:.2f}), "
-            f"speed-up {w1 / w2:.2f}x"
-        )
-        # busy fraction: time inside the case functions / (workers x wall); 1.0 = the runner
-        # keeps every worker busy (independent of how much CPU other users take)
-        print(
-            f"[scaling] busy fraction: 1 worker {df1['burn_time_s'].sum() / w1:.2f}, "
-            f"2 workers {df2['burn_time_s'].sum() / (2 * w2):.2f}; mean case time "
-            f"{df1['burn_time_s'].mean():.2f} s (1 worker) vs {df2['burn_time_s'].mean():.2f} s "
-            "(2 workers; > means the 2 cores were not free)"
-        )
-
-        # 3. dask
-        wd, lad, dfd = _timed(
-            lambda: run_study(
-                s8,
-                tmp / "dk",
-                workers=2,
-                scheduler="local",
-                case_fn="bench_study:burn_case",
-                progress=False,
-                report=False,
-            )
-        )
-        print(
-            f"[dask] same 8 cases, LocalCluster 2 workers: {wd:.2f} s incl. cluster start "
-            f"(load {lad:.2f}); pool 2 workers {w2:.2f} s; ratio {wd / w2:.2f}; "
-            f"busy fraction {dfd['burn_time_s'].sum() / (2 * wd):.2f}"
-        )
-
-        from distributed import LocalCluster
-
-        t0 = time.perf_counter()
-        with LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-        ) as cluster:
-            t_start = time.perf_counter() - t0
-            wc, lac, dfc = _timed(
-                lambda: run_study(
-                    s8,
-                    tmp / "dk2",
-                    workers=2,
-                    scheduler=cluster.scheduler_address,
-                    case_fn="bench_study:burn_case",
-                    progress=False,
-                    report=False,
-                )
-            )
-        print(
-            f"[dask] same 8 cases on an already running cluster (tcp://, start took "
-            f"{t_start:.1f} s): {wc:.2f} s (load {lac:.2f}); ratio to pool {wc / w2:.2f}; "
-            f"busy fraction {dfc['burn_time_s'].sum() / (2 * wc):.2f}"
-        )
-
-        # report time
+        w2 = _scaling(tmp, s8)
+        _dask(tmp, s8, w2)
         wr, _, _ = _timed(
             lambda: __import__("psdesign.report", fromlist=["x"]).write_report(tmp / "w2")
         )

@@ -516,6 +516,41 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     print(f"    rest (Python, coarse levels' LU and pressure cycle): {wall - kt:.2f} ms")
 
 
+def _print_iteration_summary(
+    pairs, paired, ratios, *, need, before, cells, bw, bw_before, bw_after
+) -> None:
+    """Print :func:`kernels`' fusion pairs and its iteration against the triad: the ideal at the
+    run's highest triad, then each batch at the triads beside it (keyword-only: the byte counts
+    and bandwidths are easy to swap)."""
+    ideal = need / bw * 1e3
+    best = int(np.argmin(ratios))
+    meas = paired[best][0]
+    for name, (t_sep, t_fused, c_sep, c_fused) in pairs.items():
+        print(
+            f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms wall "
+            f"(fused / separate {t_fused / t_sep:.2f}); CPU {c_sep:.1f} / {c_fused:.1f} ms "
+            f"({c_fused / c_sep:.2f})"
+        )
+    print(
+        f"  triad bandwidth {bw / 1e9:.1f} GB/s, the highest of this run (before "
+        f"{bw_before / 1e9:.1f}, after {bw_after / 1e9:.1f}); one MINRES iteration streams "
+        f"{need / cells:.0f} B per voxel (before the fusions {before / cells:.0f}) "
+        f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms at it"
+    )
+    print("  each batch of iterations against the triad measured just before and after it:")
+    for (w, c, tb, ta), ratio in zip(paired, ratios, strict=True):
+        print(
+            f"    {w:6.1f} ms (CPU {c:6.1f}), triad {tb / 1e9:4.1f} / {ta / 1e9:4.1f} GB/s: "
+            f"{ratio:.2f} x ideal at the higher, "
+            f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower"
+        )
+    print(
+        f"  best batch {meas:.1f} ms = {ratios[best]:.2f} x its ideal; median batch ratio "
+        f"{float(np.median(ratios)):.2f} x, worst {max(ratios):.2f} x",
+        flush=True,
+    )
+
+
 def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> dict[str, float]:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid
     (``subvoxel``: with its exact fibre distance, sub-voxel walls), and compare the iteration
@@ -589,32 +624,19 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
             print(f"  {name}: {val:.1f} ms")
         vcycle_breakdown(mg0, b, t, bw)
         iteration_breakdown(op, rhs, e, work, bw, its)
-    for name, (t_sep, t_fused, c_sep, c_fused) in pairs.items():
-        print(
-            f"  {name}: separate {t_sep:.1f} ms, fused {t_fused:.1f} ms wall "
-            f"(fused / separate {t_fused / t_sep:.2f}); CPU {c_sep:.1f} / {c_fused:.1f} ms "
-            f"({c_fused / c_sep:.2f})"
-        )
     ideal = need / bw * 1e3
     meas = rows["one MINRES iteration"]
     med = rows["one MINRES iteration, median of the batches"]
-    print(
-        f"  triad bandwidth {bw / 1e9:.1f} GB/s, the highest of this run (before "
-        f"{bw_before / 1e9:.1f}, after {bw_after / 1e9:.1f}); one MINRES iteration streams "
-        f"{need / solid.size:.0f} B per voxel (before the fusions {before / solid.size:.0f}) "
-        f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms at it"
-    )
-    print("  each batch of iterations against the triad measured just before and after it:")
-    for (w, c, tb, ta), ratio in zip(paired, ratios, strict=True):
-        print(
-            f"    {w:6.1f} ms (CPU {c:6.1f}), triad {tb / 1e9:4.1f} / {ta / 1e9:4.1f} GB/s: "
-            f"{ratio:.2f} x ideal at the higher, "
-            f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower"
-        )
-    print(
-        f"  best batch {meas:.1f} ms = {ratios[best]:.2f} x its ideal; median batch ratio "
-        f"{float(np.median(ratios)):.2f} x, worst {max(ratios):.2f} x",
-        flush=True,
+    _print_iteration_summary(
+        pairs,
+        paired,
+        ratios,
+        need=need,
+        before=before,
+        cells=solid.size,
+        bw=bw,
+        bw_before=bw_before,
+        bw_after=bw_after,
     )
     return {
         "bytes_per_voxel": need / solid.size,
