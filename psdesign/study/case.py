@@ -108,6 +108,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         row[f"k_{d}_status"] = res.get("status")
         row[f"bc_{d}"] = res.get("bc")
         row[f"cells_per_diameter_{d}"] = res.get("cells_per_diameter")
+        if "resolution_measure" in res:  # a non-round fiber's thin width (flow.permeability)
+            row[f"resolution_measure_{d}"] = res["resolution_measure"]
         if "permeameter_copies" in res:  # the stacked permeameter (psdesign.flow.stack)
             row[f"permeameter_copies_{d}"] = res["permeameter_copies"]
         if res.get("warnings"):
