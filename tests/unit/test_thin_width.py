@@ -117,3 +117,20 @@ def test_a_woven_grid_with_8_voxels_per_diameter_but_7_through_the_yarn_is_untru
     assert status_of(True, 0.05, cpd) == "untrustworthy"
     why = untrustworthy_reasons(0.05, cpd, measure=resolution_measure(rve))
     assert why == ["7.3 voxels per fiber thin width, need 8"]
+
+
+def test_the_voxel_route_rates_a_woven_grid_by_the_yarn_thickness():
+    """End to end (voxel route, periodic, with its error bar): the one-layer woven cell on the
+    52^3 grid is ``untrustworthy`` by resolution alone, and its warning and its
+    ``resolution_measure`` name the thin width (main: ``ok``, 8.3 voxels per fiber diameter)."""
+    from psdesign.flow.permeability import permeability
+
+    rve = RVE([1e-4] * 3, woven_cell())
+    flow = {"viscosity": 1.8e-5, "bc": "periodic"}
+    with pytest.warns(UserWarning, match="voxels across the thinnest fiber thin width"):
+        res = permeability(rve, rve.voxelize(1e-4 / 52), "z", flow, "voxel")
+    assert res["converged"] and res["permeability_rel_error"] < 0.2
+    assert res["status"] == "untrustworthy"
+    assert res["cells_per_diameter"] == pytest.approx(7.277, abs=2e-3)
+    assert res["resolution_measure"] == "fiber thin width"
+    assert any("7.3 voxels across the thinnest fiber thin width" in w for w in res["warnings"])
