@@ -17,7 +17,7 @@ The estimate (derivation in ``docs/permeability.md``) is
   length scale, and ``C_p`` is calibrated on cylinder arrays (``tests/validation/
   test_error_estimate.py`` checks that the bar covers the true error);
 * on the tet route (stuffing lattice) the floor is at least the fibre term ``0.27 (h / D)^2``
-  (:data:`FIBER_FLOOR`, :func:`fiber_floor`), ``D`` the thinnest fibre diameter: in dilute
+  (:data:`FIBER_FLOOR`, :func:`fiber_floor`), ``D`` the thinnest fibre width: in dilute
   media the error follows the fibre's resolution, not the flow's (``R`` several ``D``); a
   pytetwild mesh has its own floor, ``h`` its edge (scheme ``tetwild`` of :data:`FLOOR`);
 * with staircase walls (walls on the voxel faces) the floor is at least the thin-channel term
@@ -76,7 +76,8 @@ from psdesign.geometry.rve import thinnest_fiber_diameter
 #: cut slab bounds it.
 SEAM_SLOPE = 1.9
 #: Fewer voxels / mesh cells across the thinnest fiber diameter than this draws a warning
-#: (random fiber RVEs reach ~1 % at 8 voxels per diameter, ``benchmarks/RESULTS.md``).
+#: (random fiber RVEs reach ~1 % at 8 voxels per diameter, ``benchmarks/RESULTS.md``); a
+#: non-round fiber counts across its thin width (:func:`cells_per_diameter`).
 MIN_CELLS_PER_DIAMETER = 8.0
 #: Roache's factor of safety for a grid-convergence index from two grids.
 SAFETY_FACTOR = 3.0
