@@ -643,16 +643,19 @@ def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float
     directions perpendicular to the centre line, each by bisection to the surface on both
     sides (:func:`_section_widths`); the diameter is their mean, the field scale the mean
     surface gradient at their ends, the thin width the mean over the heights of the narrower
-    of the two (a section with one closed width counts that one). A straight shape (no bend
-    term): the cell centre and the x and y directions. A bent one: the centre
+    of the two (a section with one closed width counts that one). A shape centred on the cell's
+    axis (no bend term, ``psi`` stationary in x and y there, :func:`_centred_on_axis`): the
+    cell centre and the x and y directions. A bent one, or one whose section lies off the axis
+    (compressed-rod-a: centre near x = 0.44, wavering with z): the centre
     :func:`_section_centre` and the directions across the local tangent
     (:func:`_centre_tangent`): the x direction tilted with the bend and y. (Before session 42
     the bent shapes were measured like the straight ones: rays from the cell centre, which the
     bent centre line leaves, gave a chord off the axis and dropped the heights where the cell
     centre lies outside the fiber: the woven diameter fell 0.1302 at u = 0.46 and jumped to
-    0.1465 at 0.47.)
+    0.1465 at 0.47; before session 43 compressed-rod-a was measured from the cell centre,
+    0.5353 against 0.5475 across its own centre.)
     """
-    bent = bool(model.n_minor)
+    bent = bool(model.n_minor) or not _centred_on_axis(model)
     widths, thin, grads = [], [], []
     for z in np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False):
         if bent:
@@ -670,6 +673,14 @@ def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float
     if not widths:
         raise ValueError("isovalue gives no closed fiber cross-section around the cell centre")
     return float(np.mean(widths)), float(np.mean(grads)), float(np.mean(thin))
+
+
+def _centred_on_axis(model: GeneralizedPS) -> bool:
+    """Whether ``psi`` is stationary in x and y on the cell's axis at every height of
+    :data:`MEASURE_STATIONS` (to 1e-9: round-off), i.e. the axis is the sections' centre line."""
+    z = np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False)
+    axis = np.column_stack([np.full_like(z, 0.5), np.full_like(z, 0.5), z])
+    return bool(np.max(np.abs(model.gradient(axis)[:, :2])) < 1e-9)
 
 
 def _section_widths(

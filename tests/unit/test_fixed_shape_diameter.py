@@ -25,6 +25,9 @@ from psdesign.geometry.fibers import (
     _fixed_canonical,
     _measure_fixed_shape,
     fixed_shape_scales,
+    rod_diameter,
+    rod_isovalue,
+    rod_model,
 )
 
 
@@ -137,3 +140,51 @@ def test_straight_shapes_keep_their_measurement():
     straight = fixed_shape_scales("compressed-straight", None, 0.0)
     assert straight[0] == pytest.approx(0.16598882813590618, rel=1e-15)
     assert fixed_shape_scales("compressed-bent", 0.0, 0.0)[0] == pytest.approx(straight[0], 1e-9)
+
+
+@pytest.mark.parametrize("shift", [(0.07, -0.04), (-0.1, 0.0)])
+def test_a_straight_shape_off_the_axis_is_measured_across_its_own_centre(shift):
+    """The rod surface Eq. (4) moved off the cell's axis by ``shift`` (x, y) is measured across
+    its section's centre: its diameter is Eq. (5)'s ``1 - arccos((psi0 + 1) / 4) / pi`` (closed
+    form; 0.3 here) whatever the shift. Measured from the cell centre (before session 43, as
+    compressed-rod-a was, whose section centre lies near x = 0.44) the chords ran off the
+    centre: 0.2741 at (0.07, -0.04), 0.2579 at (-0.1, 0) (measured on main's code)."""
+    model = rod_model().translated(np.array([shift[0], shift[1], 0.0]))
+    iso = rod_isovalue(0.3)
+    d = _measure_fixed_shape(model, iso)[0]
+    assert d == pytest.approx(rod_diameter(iso), abs=2e-7)
+    assert d == pytest.approx(0.3, abs=2e-7)
+
+
+def test_compressed_rod_a_is_measured_across_its_section_centre():
+    """compressed-rod-a's y part ``4 cos(2 pi y) + cos(pi y / 6)`` is separable, so its section
+    centre's y is that part's minimum near 1/2 (a 1-D root, independent of the measurement)
+    and the width along y at each height is the interval where that part stays below minus
+    the rest of psi at the centre; the measured y widths (``_section_widths`` across the
+    centre) match those 1-D roots, and the diameter is 0.5471, not the cell-centre 0.5353."""
+    from scipy.optimize import brentq, minimize_scalar
+
+    from psdesign.geometry.fibers import (
+        MEASURE_STATIONS,
+        _centre_tangent,
+        _section_centre,
+        _section_widths,
+    )
+
+    model = _fixed_canonical("compressed-rod-a", None)
+
+    def g(y):
+        return 4 * np.cos(2 * np.pi * y) + np.cos(np.pi * y / 6)
+
+    yc = minimize_scalar(g, bounds=(0.3, 0.7), method="bounded", options={"xatol": 1e-12}).x
+    for z in np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False):
+        c = _section_centre(model, z)
+        assert c[1] == pytest.approx(yc, abs=1e-7)
+        t = _centre_tangent(model, c)
+        assert abs(t[1]) < 1e-6  # the centre line stays in its y plane
+        rest = model.evaluate(c[None])[0] - g(c[1])
+        lo = brentq(lambda y, r=rest: g(y) + r, 0.0, yc)
+        hi = brentq(lambda y, r=rest: g(y) + r, yc, 1.0)
+        (w,), _ = _section_widths(model, 0.0, c, (np.array([0.0, 1.0, 0.0]),))
+        assert w == pytest.approx(hi - lo, abs=1e-9)
+    assert fixed_shape_scales("compressed-rod-a", None, 0.0)[0] == pytest.approx(0.5471, abs=1e-4)
