@@ -17,7 +17,7 @@ The estimate (derivation in ``docs/permeability.md``) is
   length scale, and ``C_p`` is calibrated on cylinder arrays (``tests/validation/
   test_error_estimate.py`` checks that the bar covers the true error);
 * on the tet route (stuffing lattice) the floor is at least the fibre term ``0.27 (h / D)^2``
-  (:data:`FIBER_FLOOR`, :func:`fiber_floor`), ``D`` the thinnest fibre diameter: in dilute
+  (:data:`FIBER_FLOOR`, :func:`fiber_floor`), ``D`` the thinnest fibre width: in dilute
   media the error follows the fibre's resolution, not the flow's (``R`` several ``D``); a
   pytetwild mesh has its own floor, ``h`` its edge (scheme ``tetwild`` of :data:`FLOOR`);
 * with staircase walls (walls on the voxel faces) the floor is at least the thin-channel term
@@ -76,7 +76,8 @@ from psdesign.geometry.rve import thinnest_fiber_diameter
 #: cut slab bounds it.
 SEAM_SLOPE = 1.9
 #: Fewer voxels / mesh cells across the thinnest fiber diameter than this draws a warning
-#: (random fiber RVEs reach ~1 % at 8 voxels per diameter, ``benchmarks/RESULTS.md``).
+#: (random fiber RVEs reach ~1 % at 8 voxels per diameter, ``benchmarks/RESULTS.md``); a
+#: non-round fiber counts across its thin width (:func:`cells_per_diameter`).
 MIN_CELLS_PER_DIAMETER = 8.0
 #: Roache's factor of safety for a grid-convergence index from two grids.
 SAFETY_FACTOR = 3.0
@@ -491,7 +492,8 @@ def combine(
 
 
 def cells_per_diameter(rve, step: float) -> float | None:
-    """Cells of edge ``step`` (m) across the thinnest fiber diameter of ``rve``."""
+    """Cells of edge ``step`` (m) across the thinnest fiber width of ``rve``
+    (:func:`~psdesign.geometry.rve.thinnest_fiber_diameter`: a non-round fiber's thin width)."""
     d = thinnest_fiber_diameter(rve)
     return None if d is None or not step > 0 else float(d / step)
 
@@ -548,12 +550,16 @@ def untrustworthy_reasons(
     cpd: float | None,
     min_cpd: float = MIN_CELLS_PER_DIAMETER,
     coarse_lost_phase: bool = False,
+    measure: str = "fiber diameter",
 ) -> list[str]:
     """Why a converged result is ``untrustworthy`` (:func:`status_of`), in a few words each;
-    empty when it is ``ok``.
+    empty when it is ``ok``. ``measure``: what ``cpd`` counts cells across
+    (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
 
     >>> untrustworthy_reasons(0.115, 7.0), untrustworthy_reasons(0.31, None)
     (['7.0 voxels per fiber diameter, need 8'], ['error bar 31.0 % > 20 %'])
+    >>> untrustworthy_reasons(0.05, 7.0, measure="fiber thin width")
+    ['7.0 voxels per fiber thin width, need 8']
     >>> untrustworthy_reasons(0.05, 8.0)
     []
     """
@@ -562,7 +568,7 @@ def untrustworthy_reasons(
         bar = f"{100 * rel_error:.1f} %" if np.isfinite(rel_error) else "unknown"
         why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
     if under_resolved(cpd, min_cpd):
-        why.append(f"{cpd:.1f} voxels per fiber diameter, need {min_cpd:g}")
+        why.append(f"{cpd:.1f} voxels per {measure}, need {min_cpd:g}")
     if coarse_lost_phase:
         why.append("a phase lost on the coarser grid")
     return why
@@ -586,10 +592,12 @@ def resolution_warnings(
     quantity: str = "K",
     mesh_key: str = "flow.lattice_step",
     fiber_floor: bool = False,
+    measure: str = "fiber diameter",
 ) -> list[str]:
     """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
     line, ``K`` or a transport property's; ``direction`` "" for a value without one;
-    ``mesh_key``: the key that refines a tet mesh, ``flow.edge_length`` for pytetwild).
+    ``mesh_key``: the key that refines a tet mesh, ``flow.edge_length`` for pytetwild;
+    ``measure``: what ``cpd`` counts cells across, as :func:`untrustworthy_reasons`).
     ``fiber_floor``: the result's bar has the fibre term (:func:`fiber_floor`), which covers
     the fibre's resolution down to :data:`FIBER_FLOOR_MIN_CELLS`: a line only below that (the
     quickstart's 2.4-3 cells per diameter drew "refine" beside an ``ok`` whose bar holds it).
@@ -605,7 +613,7 @@ def resolution_warnings(
     unit = "voxels" if solver == "voxel" else "mesh cells"
     name = f"{quantity}_{direction}" if direction else quantity
     return [
-        f"{name}: only {cpd:.1f} {unit} across the thinnest fiber diameter "
+        f"{name}: only {cpd:.1f} {unit} across the thinnest {measure} "
         f"(< {limit:g}); refine rve.voxel"
         + (
             ""

@@ -37,7 +37,7 @@ from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
-from psdesign.geometry.rve import RVE, VoxelFields, thinnest_fiber_diameter
+from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure, thinnest_fiber_diameter
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
@@ -358,9 +358,12 @@ def with_error_estimate(
     # flow.lattice_step on the pytetwild route)
     mesher = flow.get("mesher") or ("pytetwild" if scheme == "tetwild" else None)
     key = resolution_key("fem", mesher)
+    measure = resolution_measure(rve)
     warnings += err.resolution_warnings(
-        cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0
+        cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0, measure=measure
     )
+    if measure != "fiber diameter":  # the words of the row's status reason (report.html)
+        res["resolution_measure"] = measure
     if not res.get("converged", False):
         warnings.append(
             f"K_{res['direction']}: solver did not converge (residual {res.get('residual', 0):.2e})"

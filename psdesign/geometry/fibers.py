@@ -261,6 +261,11 @@ class Fiber:
         None when unknown (the field is then evaluated everywhere).
     theta, omega : float
         Placement angles in degrees (Sec. 7.1), when placed that way.
+    thin_width : float or None
+        Thin width of a fixed shape's section, normalized (:func:`fixed_shape_thin_width`:
+        the narrower of its two widths across the centre line, averaged like
+        :attr:`diameter`; the woven yarn's thickness through the fabric). None: a round
+        section (rod, cylinder, bent rod), whose thin width is its diameter.
     """
 
     shape: str
@@ -277,6 +282,7 @@ class Fiber:
     band_radius: float | None = None
     theta: float | None = None
     omega: float | None = None
+    thin_width: float | None = None
     extra: dict = field(default_factory=dict)
 
     # ---------------------------------------------------------------- fields
@@ -353,10 +359,13 @@ class Fiber:
         return lines
 
     def to_dict(self, period: float) -> dict:
-        """JSON-ready description; lengths in metres (``period`` = metres per period)."""
+        """JSON-ready description; lengths in metres (``period`` = metres per period); a
+        non-round section adds ``thin_width_m`` (:attr:`thin_width`)."""
+        thin = {} if self.thin_width is None else {"thin_width_m": self.thin_width * period}
         return {
             "shape": self.shape,
             "diameter_m": self.diameter * period,
+            **thin,
             "center_m": (self.center * period).tolist(),
             "direction": self.direction.tolist(),
             "theta_deg": self.theta,
@@ -472,6 +481,7 @@ def make_fiber(
         band = bent_rod_band(diameter, u)
         # minor phase along the placed axis: canonical z = s + 1/2 for s measured from centre
         extra = {"axis_offset": 0.5, "phase": 0.0}
+        thin = None  # a round section: its diameter
     else:
         canon = _fixed_canonical(shape, minor_moment)
         iso = 0.0 if isovalue is None else float(isovalue)
@@ -481,6 +491,7 @@ def make_fiber(
         else:
             u, f = 0.0, 1.0
         diameter, grad = fixed_shape_scales(shape, u if canon.n_minor else None, iso)
+        thin = fixed_shape_thin_width(shape, u if canon.n_minor else None, iso)
         band = None
 
     model = canon.translated(-_CELL_CENTRE).rotated(R).translated(center)
@@ -499,6 +510,7 @@ def make_fiber(
         band_radius=band,
         theta=theta if direction is None else None,
         omega=omega if direction is None else None,
+        thin_width=thin,
         extra=extra,
     )
 
@@ -520,6 +532,15 @@ def _fixed_canonical(shape: str, minor_moment: float | None) -> GeneralizedPS:
 
 
 @lru_cache(maxsize=4096)
+def _fixed_shape_measures(
+    shape: str, minor_moment: float | None, isovalue: float
+) -> tuple[float, float, float]:
+    """Diameter, field scale and thin width of a fixed shape (:func:`_measure_fixed_shape`
+    on the canonical model with bend moment ``minor_moment``; None: the equation's). Cached
+    (about 8 ms a call for a straight shape, 33 ms for a bent one)."""
+    return _measure_fixed_shape(_fixed_canonical(shape, minor_moment), float(isovalue))
+
+
 def fixed_shape_scales(
     shape: str, minor_moment: float | None, isovalue: float
 ) -> tuple[float, float]:
@@ -528,10 +549,23 @@ def fixed_shape_scales(
     The one measurement of them (:func:`_measure_fixed_shape` on the canonical model with
     bend moment ``minor_moment``; None: the equation's): :func:`make_fiber`, the woven cell
     and :func:`with_minor_moment` all take it from here, so a fiber re-bent by the force field
-    and the same fiber re-read from a spec have one field. Cached (about 8 ms a call for a
-    straight shape, 33 ms for a bent one).
+    and the same fiber re-read from a spec have one field. Cached.
     """
-    return _measure_fixed_shape(_fixed_canonical(shape, minor_moment), float(isovalue))
+    diameter, grad, _ = _fixed_shape_measures(shape, minor_moment, float(isovalue))
+    return diameter, grad
+
+
+def fixed_shape_thin_width(shape: str, minor_moment: float | None, isovalue: float) -> float:
+    """Thin width of a fixed shape's section, normalized: at each measured height the
+    narrower of its two widths across the centre line, averaged over the heights like the
+    diameter (:func:`_measure_fixed_shape`, the same measurement, cached). The resolution
+    measure of a non-round fiber (:func:`psdesign.geometry.rve.thinnest_fiber_diameter`):
+    Eq. (19)'s woven yarn is 0.1399 thick (14.0 um at 100 um) beside its 0.1598 diameter.
+
+    >>> round(fixed_shape_thin_width("woven", None, 0.0), 4)
+    0.1399
+    """
+    return _fixed_shape_measures(shape, minor_moment, float(isovalue))[2]
 
 
 def with_minor_moment(fb: Fiber, u: float) -> Fiber:
@@ -556,7 +590,8 @@ def with_minor_moment(fb: Fiber, u: float) -> Fiber:
     if fb.shape == "bent-rod":
         return replace(fb, model=model, u=u, band_radius=bent_rod_band(fb.diameter, u))
     diameter, grad = fixed_shape_scales(fb.shape, u, fb.isovalue)
-    return replace(fb, model=model, u=u, diameter=diameter, grad_scale=grad)
+    thin = fixed_shape_thin_width(fb.shape, u, fb.isovalue)
+    return replace(fb, model=model, u=u, diameter=diameter, grad_scale=grad, thin_width=thin)
 
 
 #: Heights (z = k / 7) at which :func:`_measure_fixed_shape` takes a cross-section.
@@ -600,23 +635,28 @@ def _centre_tangent(model: GeneralizedPS, c: np.ndarray) -> np.ndarray:
     return t / np.linalg.norm(t)
 
 
-def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float]:
-    """Mean cross-section width and surface gradient of a canonical (z-axis) fixed shape.
+def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float, float]:
+    """Mean cross-section width, surface gradient and thin width of a canonical (z-axis)
+    fixed shape.
 
     At :data:`MEASURE_STATIONS` heights: the widths through the section's centre along two
     directions perpendicular to the centre line, each by bisection to the surface on both
-    sides, averaged with the surface gradients at their ends. A straight shape (no bend term):
-    the cell centre and the x and y directions. A bent one: the centre :func:`_section_centre`
-    and the directions across the local tangent (:func:`_centre_tangent`): the x direction
-    tilted with the bend and y. (Before session 42 the bent shapes were measured like the
-    straight ones: rays from the cell centre, which the bent centre line leaves, gave a chord
-    off the axis and dropped the heights where the cell centre lies outside the fiber: the
-    woven diameter fell 0.1302 at u = 0.46 and jumped to 0.1465 at 0.47.)
+    sides (:func:`_section_widths`); the diameter is their mean, the field scale the mean
+    surface gradient at their ends, the thin width the mean over the heights of the narrower
+    of the two (a section with one closed width counts that one). A shape centred on the cell's
+    axis (no bend term, ``psi`` stationary in x and y there, :func:`_centred_on_axis`): the
+    cell centre and the x and y directions. A bent one, or one whose section lies off the axis
+    (compressed-rod-a: centre near x = 0.44, wavering with z): the centre
+    :func:`_section_centre` and the directions across the local tangent
+    (:func:`_centre_tangent`): the x direction tilted with the bend and y. (Before session 42
+    the bent shapes were measured like the straight ones: rays from the cell centre, which the
+    bent centre line leaves, gave a chord off the axis and dropped the heights where the cell
+    centre lies outside the fiber: the woven diameter fell 0.1302 at u = 0.46 and jumped to
+    0.1465 at 0.47; before session 43 compressed-rod-a was measured from the cell centre,
+    0.5353 against 0.5475 across its own centre.)
     """
-    from scipy.optimize import brentq
-
-    bent = bool(model.n_minor)
-    widths, grads = [], []
+    bent = bool(model.n_minor) or not _centred_on_axis(model)
+    widths, thin, grads = [], [], []
     for z in np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False):
         if bent:
             c = _section_centre(model, z)
@@ -625,23 +665,48 @@ def _measure_fixed_shape(model: GeneralizedPS, iso: float) -> tuple[float, float
             c, t = np.array([0.5, 0.5, z]), _Z
         across = _X - t[0] * t
         across /= np.linalg.norm(across)
-        for e in (across, np.cross(t, across)):
-            ends = []
-            for sign in (-1.0, 1.0):
-
-                def g(s, e=e, sign=sign, c=c):
-                    return model.evaluate((c + sign * s * e)[None])[0] - iso
-
-                if g(0.0) > 0 or g(0.5) < 0:
-                    continue
-                s = brentq(g, 0.0, 0.5, xtol=1e-12)
-                ends.append(s)
-                grads.append(np.linalg.norm(model.gradient((c + sign * s * e)[None])[0]))
-            if len(ends) == 2:
-                widths.append(sum(ends))
+        w, g = _section_widths(model, iso, c, (across, np.cross(t, across)))
+        widths += w
+        grads += g
+        if w:
+            thin.append(min(w))
     if not widths:
         raise ValueError("isovalue gives no closed fiber cross-section around the cell centre")
-    return float(np.mean(widths)), float(np.mean(grads))
+    return float(np.mean(widths)), float(np.mean(grads)), float(np.mean(thin))
+
+
+def _centred_on_axis(model: GeneralizedPS) -> bool:
+    """Whether ``psi`` is stationary in x and y on the cell's axis at every height of
+    :data:`MEASURE_STATIONS` (to 1e-9: round-off), i.e. the axis is the sections' centre line."""
+    z = np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False)
+    axis = np.column_stack([np.full_like(z, 0.5), np.full_like(z, 0.5), z])
+    return bool(np.max(np.abs(model.gradient(axis)[:, :2])) < 1e-9)
+
+
+def _section_widths(
+    model: GeneralizedPS, iso: float, c: np.ndarray, directions: tuple
+) -> tuple[list[float], list[float]]:
+    """The section's widths through ``c`` along each of ``directions`` (bisection to the
+    surface on both sides; a direction whose ray starts outside or does not leave the solid
+    within half a period is skipped) and the surface gradient norms at the ends found."""
+    from scipy.optimize import brentq
+
+    widths, grads = [], []
+    for e in directions:
+        ends = []
+        for sign in (-1.0, 1.0):
+
+            def g(s, e=e, sign=sign):
+                return model.evaluate((c + sign * s * e)[None])[0] - iso
+
+            if g(0.0) > 0 or g(0.5) < 0:
+                continue
+            s = brentq(g, 0.0, 0.5, xtol=1e-12)
+            ends.append(s)
+            grads.append(np.linalg.norm(model.gradient((c + sign * s * e)[None])[0]))
+        if len(ends) == 2:
+            widths.append(sum(ends))
+    return widths, grads
 
 
 # -------------------------------------------------------------- woven cell (Table I)
@@ -704,6 +769,7 @@ def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
         f=float(WOVEN_EQ19["f"]),
         grad_scale=grad,
         band_radius=None,
+        thin_width=fixed_shape_thin_width("woven", float(u), 0.0),
         extra={"axis_offset": 0.5, "phase": -np.pi / 2},
     )
 

@@ -30,21 +30,53 @@ from psdesign.geometry.fibers import Fiber
 BAND_MARGIN_VOXELS = 3
 
 
+def _fiber_widths(rve) -> list[tuple[float, bool]]:
+    """(width, non-round) of each fiber of ``rve`` with a positive finite width, normalized:
+    its thin width (:attr:`psdesign.geometry.fibers.Fiber.thin_width`) where it has one, else
+    its diameter (a round section)."""
+    out = []
+    for fb in getattr(rve, "fibers", None) or ():
+        thin = getattr(fb, "thin_width", None)
+        w = float((getattr(fb, "diameter", 0) or 0) if thin is None else thin)
+        if np.isfinite(w) and w > 0:
+            out.append((w, thin is not None))
+    return out
+
+
 def thinnest_fiber_diameter(rve) -> float | None:
-    """Thinnest nominal fiber diameter of ``rve`` in metres (``fiber.diameter * rve.period``),
-    or None without fibers (an image, or None): the one measure of a fiber RVE's resolution
-    (cells per diameter, the FEM's default lattice step, the force field's grid).
+    """Thinnest fiber width of ``rve`` in metres, or None without fibers (an image, or None):
+    the one measure of a fiber RVE's resolution (cells per diameter, the FEM's default lattice
+    step, the force field's grid). A round fiber's width is its diameter; a non-round one's
+    (a fixed shape: woven, compressed) its thin width, not its nominal (mean) diameter: the
+    Eq. (19) woven yarn is 14.0 um thick, 16.0 um in diameter at a 100 um period, so a grid
+    with 7 voxels through it has 7, not 8, per width (session 43).
 
     >>> from types import SimpleNamespace
     >>> fibers = [SimpleNamespace(diameter=0.07), SimpleNamespace(diameter=0.05)]
     >>> round(thinnest_fiber_diameter(SimpleNamespace(fibers=fibers, period=1e-4)), 12)
     5e-06
+    >>> yarn = SimpleNamespace(diameter=0.16, thin_width=0.14)
+    >>> round(thinnest_fiber_diameter(SimpleNamespace(fibers=[yarn], period=1e-4)), 12)
+    1.4e-05
     >>> thinnest_fiber_diameter(None) is None
     True
     """
-    d = [float(getattr(fb, "diameter", 0) or 0) for fb in getattr(rve, "fibers", None) or ()]
-    d = [x for x in d if np.isfinite(x) and x > 0]
-    return min(d) * float(rve.period) if d else None
+    w = _fiber_widths(rve)
+    return min(w)[0] * float(rve.period) if w else None
+
+
+def resolution_measure(rve) -> str:
+    """The words for :func:`thinnest_fiber_diameter`'s measure in a status or warning line:
+    ``"fiber thin width"`` when the thinnest fiber width of ``rve`` is a non-round section's
+    thin width, else ``"fiber diameter"`` (round fibers, an image, None).
+
+    >>> from types import SimpleNamespace
+    >>> yarn = SimpleNamespace(diameter=0.16, thin_width=0.14)
+    >>> resolution_measure(SimpleNamespace(fibers=[yarn])), resolution_measure(None)
+    ('fiber thin width', 'fiber diameter')
+    """
+    w = _fiber_widths(rve)
+    return "fiber thin width" if w and min(w)[1] else "fiber diameter"
 
 
 @dataclass(frozen=True)

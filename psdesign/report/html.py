@@ -379,9 +379,10 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     """Why the K of ``row`` along ``d`` is ``untrustworthy``, in a few words, from the row's
     numbers by :func:`psdesign.flow.error.untrustworthy_reasons`, the rule of ``status_of``:
     its error bar above :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
-    :data:`~psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels per fiber diameter (only the
-    voxel route is rated on it: a FEM K is untrustworthy by its bar alone), else a phase lost
-    on the second resolution's grid (its line in ``warnings_<d>``).
+    :data:`~psdesign.flow.error.MIN_CELLS_PER_DIAMETER` voxels per fiber diameter (per thin
+    width where the row's ``resolution_measure_<d>`` says so; only the voxel route is rated on
+    it: a FEM K is untrustworthy by its bar alone), else a phase lost on the second
+    resolution's grid (its line in ``warnings_<d>``).
 
     Parameters
     ----------
@@ -404,6 +405,8 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     '7.0 voxels per fiber diameter, need 8'
     >>> untrusted_k_reason(pd.Series({"k_z_rel_error": 0.31}), "z")
     'error bar 31.0 % > 20 %'
+    >>> untrusted_k_reason(pd.Series({**row, "resolution_measure_z": "fiber thin width"}), "z")
+    '7.0 voxels per fiber thin width, need 8'
     """
     from psdesign.flow.error import untrustworthy_reasons
 
@@ -412,7 +415,9 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 
     e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
     rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
-    why = untrustworthy_reasons(e, rated_cpd)
+    measure = row.get(f"resolution_measure_{d}")
+    measure = measure if isinstance(measure, str) and measure else "fiber diameter"
+    why = untrustworthy_reasons(e, rated_cpd, measure=measure)
     return "; ".join(why) or f"a phase lost on the coarser grid (warnings_{d})"
 
 

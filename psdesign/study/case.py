@@ -40,6 +40,12 @@ def _finish_fields(writer) -> dict:
     return out
 
 
+#: Result keys a K solve has only sometimes, copied to ``<key>_<d>`` where it has them: the
+#: stacked permeameter's copies (:mod:`psdesign.flow.stack`), the measure of a non-round
+#: thinnest fiber (``"fiber thin width"``, :func:`psdesign.geometry.rve.resolution_measure`).
+OPTIONAL_K_COLUMNS = ("permeameter_copies", "resolution_measure")
+
+
 def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
     """The size of a K solve as a count named by what it counts: ``n_dofs_<d>`` (FEM) or
     ``n_cells_<d>`` (voxel route's fluid cells). It was ``size_<d>``, which reads as the RVE's
@@ -108,8 +114,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         row[f"k_{d}_status"] = res.get("status")
         row[f"bc_{d}"] = res.get("bc")
         row[f"cells_per_diameter_{d}"] = res.get("cells_per_diameter")
-        if "permeameter_copies" in res:  # the stacked permeameter (psdesign.flow.stack)
-            row[f"permeameter_copies_{d}"] = res["permeameter_copies"]
+        row |= {f"{k}_{d}": res[k] for k in OPTIONAL_K_COLUMNS if k in res}
         if res.get("warnings"):
             row[f"warnings_{d}"] = "; ".join(res["warnings"])
         if res.get("thread_note"):  # run metadata: how it ran (is_timing_column)

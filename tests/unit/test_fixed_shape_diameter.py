@@ -25,6 +25,9 @@ from psdesign.geometry.fibers import (
     _fixed_canonical,
     _measure_fixed_shape,
     fixed_shape_scales,
+    rod_diameter,
+    rod_isovalue,
+    rod_model,
 )
 
 
@@ -70,13 +73,14 @@ def test_a_bent_tube_measures_twice_its_radius(a):
     """Truth (1): 2r = 0.14 at any bend amplitude (the centre line's slope up to 0.63). The
     old chords gave 0.1373, 0.1274 and 0.1351 at a = 0.03, 0.06 and 0.1 (the y chord off the
     axis, the x chord along the slant, heights dropped); 0.14 at a = 0."""
-    d, _ = _measure_fixed_shape(_Tube(0.07, a), 0.0)
+    d, _, _ = _measure_fixed_shape(_Tube(0.07, a), 0.0)
     assert d == pytest.approx(0.14, abs=2e-6)
 
 
-def _grid_width(u: float) -> float:
-    """Truth (2): the woven fibre's mean width across its closed-form centre line at the
-    measurement's heights, by sampling psi on lines of points 2e-5 apart."""
+def _grid_widths(u: float) -> np.ndarray:
+    """Truth (2): the woven fibre's widths across its closed-form centre line at the
+    measurement's heights, by sampling psi on lines of points 2e-5 apart: one row per height,
+    (through the fabric, i.e. across the tangent in the bend plane; across it along y)."""
     model = _fixed_canonical("woven", u)
     f = WOVEN_EQ19["f"]
     s = np.arange(-0.25, 0.25 + 1e-12, 2e-5)
@@ -87,13 +91,20 @@ def _grid_width(u: float) -> float:
         t = np.array([u * f * np.sin(phase), 0.0, 1.0])  # d x_c / dz = u f sin(phase)
         t /= np.linalg.norm(t)
         across = np.array([t[2], 0.0, -t[0]])
+        row = []
         for e in (across, np.array([0.0, 1.0, 0.0])):
             inside = model.evaluate(c + s[:, None] * e) <= 0.0
             mid = len(s) // 2
             hi = mid + np.argmin(inside[mid:])  # first point outside on each side
             lo = mid - np.argmin(inside[mid::-1])
-            widths.append((hi - lo - 1) * 2e-5 + 2e-5)
-    return float(np.mean(widths))
+            row.append((hi - lo - 1) * 2e-5 + 2e-5)
+        widths.append(row)
+    return np.array(widths)
+
+
+def _grid_width(u: float) -> float:
+    """Truth (2): the mean of :func:`_grid_widths` (the diameter's definition)."""
+    return float(np.mean(_grid_widths(u)))
 
 
 @pytest.mark.parametrize("u", [0.0, 0.41, 0.45, 0.5, 0.65])
@@ -113,7 +124,8 @@ def test_the_measured_diameter_and_field_scale_are_smooth_in_u(shape):
     the diameter, which stepped +0.0163 at 0.46 -> 0.47 and +0.0263 at 0.60 -> 0.61, and
     0.028 for the woven field scale)."""
     us = np.round(np.arange(0.30, 0.7001, 0.01), 2)
-    d, g = np.array([_measure_fixed_shape(_fixed_canonical(shape, float(u)), 0.0) for u in us]).T
+    m = [_measure_fixed_shape(_fixed_canonical(shape, float(u)), 0.0) for u in us]
+    d, g, _ = np.array(m).T
     for values in (d, g):
         steps = np.diff(values)
         bend = steps[1:-1] - 0.5 * (steps[:-2] + steps[2:])
@@ -122,8 +134,57 @@ def test_the_measured_diameter_and_field_scale_are_smooth_in_u(shape):
 
 def test_straight_shapes_keep_their_measurement():
     """The straight fixed shapes are measured as before (cell centre, x and y): the same
-    numbers to the last digit, e.g. compressed-straight 0.16598882813590618, and the bent
+    numbers to round-off, e.g. compressed-straight 0.16598882813590618 (0.16598882813590624 on
+    the session 43 machine, main's code too: the last digit is the platform's), and the bent
     shapes at u = 0 give it too (their centre line is then the cell's axis)."""
     straight = fixed_shape_scales("compressed-straight", None, 0.0)
-    assert straight[0] == 0.16598882813590618
+    assert straight[0] == pytest.approx(0.16598882813590618, rel=1e-15)
     assert fixed_shape_scales("compressed-bent", 0.0, 0.0)[0] == pytest.approx(straight[0], 1e-9)
+
+
+@pytest.mark.parametrize("shift", [(0.07, -0.04), (-0.1, 0.0)])
+def test_a_straight_shape_off_the_axis_is_measured_across_its_own_centre(shift):
+    """The rod surface Eq. (4) moved off the cell's axis by ``shift`` (x, y) is measured across
+    its section's centre: its diameter is Eq. (5)'s ``1 - arccos((psi0 + 1) / 4) / pi`` (closed
+    form; 0.3 here) whatever the shift. Measured from the cell centre (before session 43, as
+    compressed-rod-a was, whose section centre lies near x = 0.44) the chords ran off the
+    centre: 0.2741 at (0.07, -0.04), 0.2579 at (-0.1, 0) (measured on main's code)."""
+    model = rod_model().translated(np.array([shift[0], shift[1], 0.0]))
+    iso = rod_isovalue(0.3)
+    d = _measure_fixed_shape(model, iso)[0]
+    assert d == pytest.approx(rod_diameter(iso), abs=2e-7)
+    assert d == pytest.approx(0.3, abs=2e-7)
+
+
+def test_compressed_rod_a_is_measured_across_its_section_centre():
+    """compressed-rod-a's y part ``4 cos(2 pi y) + cos(pi y / 6)`` is separable, so its section
+    centre's y is that part's minimum near 1/2 (a 1-D root, independent of the measurement)
+    and the width along y at each height is the interval where that part stays below minus
+    the rest of psi at the centre; the measured y widths (``_section_widths`` across the
+    centre) match those 1-D roots, and the diameter is 0.5471, not the cell-centre 0.5353."""
+    from scipy.optimize import brentq, minimize_scalar
+
+    from psdesign.geometry.fibers import (
+        MEASURE_STATIONS,
+        _centre_tangent,
+        _section_centre,
+        _section_widths,
+    )
+
+    model = _fixed_canonical("compressed-rod-a", None)
+
+    def g(y):
+        return 4 * np.cos(2 * np.pi * y) + np.cos(np.pi * y / 6)
+
+    yc = minimize_scalar(g, bounds=(0.3, 0.7), method="bounded", options={"xatol": 1e-12}).x
+    for z in np.linspace(0.0, 1.0, MEASURE_STATIONS, endpoint=False):
+        c = _section_centre(model, z)
+        assert c[1] == pytest.approx(yc, abs=1e-7)
+        t = _centre_tangent(model, c)
+        assert abs(t[1]) < 1e-6  # the centre line stays in its y plane
+        rest = model.evaluate(c[None])[0] - g(c[1])
+        lo = brentq(lambda y, r=rest: g(y) + r, 0.0, yc)
+        hi = brentq(lambda y, r=rest: g(y) + r, yc, 1.0)
+        (w,), _ = _section_widths(model, 0.0, c, (np.array([0.0, 1.0, 0.0]),))
+        assert w == pytest.approx(hi - lo, abs=1e-9)
+    assert fixed_shape_scales("compressed-rod-a", None, 0.0)[0] == pytest.approx(0.5471, abs=1e-4)

@@ -134,6 +134,38 @@ def test_woven_cell_is_a_plain_weave_every_weft_crosses_every_warp_on_its_other_
     assert np.all(side[:, 1:] == -side[:, :-1]) and np.all(side[1:] == -side[:-1])
 
 
+def test_woven_slot_bound_reads_the_crossings_vertical_thickness():
+    """docs/paper-reproduction.md's slot bound: 3 layers of crossing yarns fit the 1/3-period
+    slot only for ``2 t + 2 gap <= P / 3``, ``t`` the yarns' vertical thickness at the 9
+    crossings (both yarns' chords along the thickness axis, 5e-5 apart): 14.36-15.13 um at
+    P = 100 um, mean 14.66 um, so gap <= 2.0 um; the thinnest crossing is the yarn level at its
+    bend's extreme, where the vertical chord has the closed form ``1 - arccos(-0.9) / pi`` (the
+    x term ``4 cos(.) <= -3.6`` there: the y terms give -3 - 0.05 cos(6 pi z) + 6.55 at
+    cos(6 pi z) = -1). The thin width across the centre line (0.1399, session 43) is thinner
+    than every crossing: it is not the bound's ``t``."""
+    z = np.linspace(0.0, 1.0, 20001)
+    cell = woven_cell("z", 1)
+    warps, wefts = cell[:3], cell[3:]
+    chords = []
+    for wa in warps:
+        for we in wefts:
+            x, y = we.center[0] % 1.0, wa.center[1] % 1.0
+            pts = np.stack([np.full_like(z, x), np.full_like(z, y), z], -1)
+            for fb in (wa, we):
+                idx = np.flatnonzero(fb.psi(pts) <= 0)
+                runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+                chords += [(r[-1] - r[0] + 1) * (z[1] - z[0]) for r in runs]
+    chords = np.array(chords)
+    assert len(chords) == 18
+    assert chords.min() == pytest.approx(1 - np.arccos(-0.9) / np.pi, abs=2e-4)
+    assert chords.max() == pytest.approx(0.1512, abs=2e-4)
+    t = float(chords.mean())
+    assert t == pytest.approx(0.1466, abs=2e-4)
+    assert 100.0 * (1 / 6 - t) == pytest.approx(2.0, abs=0.05)  # um at P = 100 um
+    assert cell[0].thin_width == pytest.approx(0.1399, abs=1e-4)
+    assert cell[0].thin_width < chords.min()
+
+
 def test_woven_cell_paper_frame_is_the_same_cell_turned():
     n = 24
     a = RVE([1e-4] * 3, woven_cell("z")).voxelize(1e-4 / n).solid
