@@ -226,23 +226,6 @@ def _target_report(t, best: dict) -> dict:
     }
 
 
-def _measured_text(r: dict) -> str:
-    """``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
-    if r["measured"] is None:
-        return f"no measured value [{r['status']}] (missed)"
-    bar = (
-        f" +- {100 * r['rel_error']:.3g} %"
-        if r["rel_error"] is not None
-        else " (no error estimate)"
-    )
-    verdict = "met" if r["met"] else "missed"
-    if r["target_within_error_bar"] and not r["met"]:
-        verdict += "; the target lies within the measurement's error bar"
-    elif r["met"] and r["rel_error"] is not None and not r["error_bar_inside_target"]:
-        verdict += "; the error bar reaches outside the target"
-    return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"
-
-
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
@@ -252,7 +235,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
     from psdesign.analysis.optimize import optimize_study
-    from psdesign.analysis.targets import Target
+    from psdesign.analysis.targets import Target, measured_text
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
@@ -296,7 +279,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:
-            print(f"  {r['target']}: {_measured_text(r)}")
+            print(f"  {r['target']}: {measured_text(r)}")
         params = {k: v for k, v in res.best.items() if "." in k}
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)

@@ -167,6 +167,35 @@ def test_a_design_met_with_one_seed_says_its_scatter_is_unknown(tmp_path, capsys
     assert kept["message"] == res["message"]
 
 
+def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): the report.html `study optimize` writes showed the cases
+    alone: no target, no MET / NOT MET, no chosen design point (they were in optimize.json
+    and on the terminal only). It now opens with the outcome: the verdict and message, each
+    target's measured value with its own error bar and status (the printed line), the design
+    point with units and seed, and the rounds. A user's own optimize.json (not in the marker)
+    is not read as psdesign's verdict."""
+    from psdesign.report import build_html
+
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main([*argv, "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    out = tmp_path / "opt"
+    page = (out / "report.html").read_text()
+    assert "<h2>Design decision (study optimize)</h2>" in page
+    assert f"<b>NOT MET:</b> {res['message']}" in page
+    line = "measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within the measurement"
+    assert f"<th>k_z_m2=1.2e-11+-10%</th><td>{line}" in page
+    eps = res["best"]["generator.porosity"]
+    assert f"<th>generator.porosity</th><td>{eps:.4g}</td>" in page  # a fraction: no unit
+    assert f"<td>{res['best']['seed']} (its only seed)</td>" in page
+    assert page.count("<tr><td>") >= res["rounds"]  # one row per round
+    # a folder whose optimize.json is not psdesign's: no decision section
+    marker = json.loads((out / ".psdesign-output.json").read_text())
+    marker["files"] = [f for f in marker["files"] if f != "optimize.json"]
+    (out / ".psdesign-output.json").write_text(json.dumps(marker))
+    assert "Design decision" not in build_html(out)
+
+
 @pytest.mark.parametrize(("op", "expected"), [(">=", 1.0), ("<=", 0.0)])
 def test_a_zero_bound_on_a_log_modelled_output_is_certain(op, expected) -> None:
     """A target's physical range allows 0 for D_eff/D (``diffusivity_z<=0``); a surrogate of
