@@ -54,6 +54,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         rows[name] = {
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
+            "cv_level_rel_error": m.cv_level_rel_error,
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
@@ -73,10 +74,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             over = ", ".join(p for p in r["params"] if p not in fixed) or "no varied parameter"
             held = ", ".join(f"{p} = {v:g}" for p, v in fixed.items())
             held = f" ({held} in every case)" if held else ""
+            # a grid's design-point error is measured at its levels only; the inner-level one
+            # is an upper estimate of the error between them (surrogate.inner_level_error)
+            lv = r["cv_level_rel_error"]
+            lv = f", {100 * lv:.3g} % with each inner level held out" if lv == lv else ""
             print(
                 f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
-                f"{r['cv_rmse']:.3g})  [{r['status']}]"
+                f"{r['cv_rmse']:.3g}){lv}  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
     return 0
