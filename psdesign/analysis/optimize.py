@@ -27,6 +27,10 @@ from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
 from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target, check_targets
 
+#: The command an optimization's output folder marker names (it ran ``study run`` before
+#: session 43, which the marker said).
+OPTIMIZE_COMMAND = "study optimize"
+
 
 @dataclass
 class OptimizeResult:
@@ -343,7 +347,7 @@ def optimize_study(
     while True:
         rows = [dict(zip(names, p, strict=True)) for p in points]
         st = dataclasses.replace(study, design="csv", csv_rows=rows, n_samples=None)
-        df = run_study(st, out_dir, report=False, **run_kw)
+        df = run_study(st, out_dir, report=False, command=OPTIMIZE_COMMAND, **run_kw)
         rounds += 1
         ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
         _check_target_columns(targets, ok, df)

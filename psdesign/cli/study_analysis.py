@@ -258,6 +258,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             case_fn=args.case_fn,
             progress=not args.quiet,
+            force=args.force,
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
@@ -339,7 +340,7 @@ def _write_outcome(out: str, summary: dict) -> None:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
-    from psdesign.cli.progress import add_workers_argument
+    from psdesign.cli.progress import add_force_argument, add_workers_argument
 
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
@@ -421,6 +422,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="Dask scheduler address, or 'local' (default: local process pool)",
     )
+    add_force_argument(opt)  # the refusal of a non-empty folder names it, as study run's
     opt.add_argument("--quiet", action="store_true", help="no progress output")
     opt.add_argument("--json", action="store_true", help="print one JSON object")
     opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)

@@ -196,6 +196,27 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     assert "Design decision" not in build_html(out)
 
 
+def test_optimize_into_a_users_folder_takes_the_force_it_names(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): `study optimize -o DIR` on a folder holding the user's
+    notes.txt was refused with "... or --force to add psdesign's files beside them", an option
+    `study optimize` did not have (argparse: unrecognized arguments). It has it now, as
+    `study run`: the user's file is kept, and the folder's marker names `study optimize`
+    (it said `study run`, the runner it goes through)."""
+    user = tmp_path / "opt"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "or --force to add psdesign's files beside them" in err[0], err
+    assert sorted(p.name for p in user.iterdir()) == ["notes.txt"]
+    assert main([*argv, "--force"]) == 3  # the target missed: the search ran
+    assert (user / "notes.txt").read_text() == "mine"
+    marker = json.loads((user / ".psdesign-output.json").read_text())
+    assert marker["command"] == "study optimize" and "notes.txt" not in marker["files"]
+    assert {"optimize.json", "report.html", "results.csv"} <= set(marker["files"])
+
+
 @pytest.mark.parametrize(("op", "expected"), [(">=", 1.0), ("<=", 0.0)])
 def test_a_zero_bound_on_a_log_modelled_output_is_certain(op, expected) -> None:
     """A target's physical range allows 0 for D_eff/D (``diffusivity_z<=0``); a surrogate of
