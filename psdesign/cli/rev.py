@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
 
 from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, cases_status, fail
+from psdesign.cli.lines import print_json
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
@@ -36,15 +36,13 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     except RevFailed as exc:
         return fail(" ".join(str(exc).split()), FAILED)
     _warn_untrustworthy(args.out)
-    if args.json:
-        print(
-            json.dumps(
-                {
-                    "rev_size_m": res.rev_size_m,
-                    "tol": res.tol,
-                    "table": res.table.to_dict(orient="records"),
-                }
-            )
+    if args.json:  # strict JSON: a size with one trusted value has no CI (null, not NaN)
+        print_json(
+            {
+                "rev_size_m": res.rev_size_m,
+                "tol": res.tol,
+                "table": res.table.to_dict(orient="records"),
+            }
         )
         return _rev_status(args.out, res.rev_size_m)
     for _, row in res.table.iterrows():

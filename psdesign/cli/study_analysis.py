@@ -7,6 +7,7 @@ import json
 import sys
 
 from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
+from psdesign.cli.lines import print_json
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
 MAX_SEED = 2**32 - 2
@@ -27,15 +28,6 @@ def int_in(lo: int, hi: int, what: str):
         return v
 
     return parse
-
-
-def _print_json(obj) -> None:
-    """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
-    ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
-    token, which JSON has not: ``jq`` and JavaScript refuse the whole output)."""
-    from psdesign.study.store import jsonable
-
-    print(json.dumps(jsonable(obj), allow_nan=False, default=str))
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
@@ -66,7 +58,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         for w in r["warnings"]:
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
-        _print_json(rows)
+        print_json(rows)
     else:
         for name, r in rows.items():
             space = "log10 " if r["log_output"] else ""
@@ -140,7 +132,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.json:
-        _print_json(out)
+        print_json(out)
     else:
         for name, r in out.items():
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
@@ -206,7 +198,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     if len(skipped) == len(names):
         return fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
-        _print_json(result)
+        print_json(result)
     return 0
 
 
@@ -281,7 +273,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     except OSError as exc:  # StorageError (disk full, permissions): the cases are saved
         return fail(str(exc), FAILED)
     if args.json:
-        _print_json(summary)
+        print_json(summary)
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:

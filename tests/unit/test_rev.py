@@ -229,6 +229,35 @@ def test_rev_without_a_representative_size_exits_3(tmp_path, capsys, monkeypatch
         assert out.splitlines()[-1].startswith("REV: 4e-05 m"), out
 
 
+def seed_2_fails_case(spec, outputs, solver, workdir):
+    """rev_case, except that seed 2 fails: a size left with one trusted value (no CI)."""
+    from study_cases import rev_case
+
+    if int(spec["generator"]["seed"]) == 2:
+        raise RuntimeError("mesh failed")
+    return rev_case(spec, outputs, solver, workdir)
+
+
+def test_rev_json_is_strict_json_when_a_size_has_no_interval(tmp_path, capsys, monkeypatch):
+    """Walkthrough (session 43): with one of two seeds failed, ``rev --json`` printed
+    ``"k_z_m2_std": NaN, "k_z_m2_ci_rel": NaN`` (Python's token, no JSON: jq and JavaScript
+    refuse the whole object) while rev.json held null. Rule (docs/study-files.md): the
+    --json output is strict JSON, a value that does not exist is null."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, seed_2_fails_case)
+    args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "2", "--directions", "z"]
+    assert main([*args, "-o", str(tmp_path / "o"), "--quiet", "--json"]) == 1  # a case failed
+
+    def refuse(token):
+        raise ValueError(f"not JSON: {token}")
+
+    doc = json.loads(capsys.readouterr().out, parse_constant=refuse)
+    row = doc["table"][0]
+    assert row["n"] == 1 and row["k_z_m2_ci_rel"] is None and row["k_z_m2_std"] is None
+    assert row["k_z_m2_mean"] > 0 and row["status"] == "untrustworthy: k_z CI unknown (n=1)"
+    kept = json.loads((tmp_path / "o" / "rev.json").read_text(), parse_constant=refuse)
+    assert kept["table"] == doc["table"]
+
+
 @pytest.mark.parametrize("name", ["rev.csv", "rev.json"])
 def test_rev_refuses_a_users_rev_file_before_work(tmp_path, capsys, monkeypatch, name) -> None:
     """audit (session 31): rev replaced a user's own rev.csv / rev.json in a psdesign folder
