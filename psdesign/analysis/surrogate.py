@@ -159,6 +159,18 @@ class Surrogate:
             )
         return ""
 
+    def level_error_text(self) -> str:
+        """``", 30.2 % with each inner level held out"`` after the cross-validated error of a
+        grid design's fit (:func:`inner_level_error`), ``""`` where there is none: the words
+        of `study fit` and the report.
+
+        >>> from types import SimpleNamespace as S
+        >>> Surrogate.level_error_text(S(cv_level_rel_error=0.302))
+        ', 30.2 % with each inner level held out'
+        """
+        lv = self.cv_level_rel_error
+        return f", {100 * lv:.3g} % with each inner level held out" if lv == lv else ""
+
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float).reshape(-1, len(self.params))

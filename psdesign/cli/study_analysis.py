@@ -68,8 +68,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             held = f" ({held} in every case)" if held else ""
             # a grid's design-point error is measured at its levels only; the inner-level one
             # is an upper estimate of the error between them (surrogate.inner_level_error)
-            lv = r["cv_level_rel_error"]
-            lv = f", {100 * lv:.3g} % with each inner level held out" if lv == lv else ""
+            lv = models[name].level_error_text()
             print(
                 f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "

@@ -644,8 +644,9 @@ def test_a_grid_fit_quotes_its_error_between_levels_too(eps, diam, seeds, cv_bel
 
 
 def test_study_fit_prints_the_inner_level_error_of_a_grid(tmp_path, capsys) -> None:
-    """`study fit` prints and --json gives ``cv_level_rel_error`` (the 3 x 2 factorial of
-    study_cases on the Kozeny-Carman fake solver)."""
+    """`study fit` prints, --json gives and the report's surrogate note quotes
+    ``cv_level_rel_error`` (the 3 x 2 factorial of study_cases on the Kozeny-Carman fake
+    solver)."""
     out = tmp_path / "out"
     run_study(write_study(tmp_path, FACTORIAL, FAC_PARAMS), out, workers=0, case_fn=fake_case)
     assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0
@@ -654,6 +655,9 @@ def test_study_fit_prints_the_inner_level_error_of_a_grid(tmp_path, capsys) -> N
     assert main(["study", "fit", str(out), "--outputs", "k_z_m2", "--json"]) == 0
     row = json.loads(capsys.readouterr().out)["k_z_m2"]
     assert row["cv_level_rel_error"] > row["cv_rel_error"] > 0
+    from psdesign.report import build_html  # the report's surrogate note says it too
+
+    assert "% with each inner level held out [ok]" in build_html(out)
 
 
 def test_sobol_of_the_ishigami_function_through_the_surrogate() -> None:
