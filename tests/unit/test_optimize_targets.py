@@ -20,9 +20,11 @@ PARAMS = '"generator.porosity" = {low = 0.8, high = 0.88}'
 
 
 def barred_case(spec, outputs, solver, workdir):
-    """The auditor's case: K_z 1.077e-11 with its own 11.8 % error bar, rated ok."""
+    """The auditor's case: K_z 1.077e-11 with its own 11.8 % error bar, rated ok, and the
+    warning a periodic solve of a random (non-periodic) RVE carries."""
     out = fake_case(spec, outputs, solver, workdir)
     out.update({"k_z_m2": 1.077e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"})
+    out["warnings_z"] = "K_z: bc = 'periodic' on a geometry that is not periodic"
     return out
 
 
@@ -189,6 +191,9 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     assert f"<th>generator.porosity</th><td>{eps:.4g}</td>" in page  # a fraction: no unit
     assert f"<td>{res['best']['seed']} (its only seed)</td>" in page
     assert page.count("<tr><td>") >= res["rounds"]  # one row per round
+    # what the solve said about the chosen K is beside it (it was in the results table only)
+    warn = ">K_z: bc = &#x27;periodic&#x27; on a geometry that is not periodic</td>"
+    assert warn in page.split("<h3>Search rounds</h3>")[0]
     # a folder whose optimize.json is not psdesign's: no decision section
     marker = json.loads((out / ".psdesign-output.json").read_text())
     marker["files"] = [f for f in marker["files"] if f != "optimize.json"]
