@@ -190,3 +190,21 @@ class Target:
         if self.op == "=":
             return f"{self.output}={self.value:g}+-{100 * self.tolerance:g}%"
         return f"{self.output}{self.op}{self.value:g}"
+
+
+def measured_text(r: dict) -> str:
+    """One target's line of the ``study optimize`` outcome (a row of its ``targets``):
+    ``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
+    if r["measured"] is None:
+        return f"no measured value [{r['status']}] (missed)"
+    bar = (
+        f" +- {100 * r['rel_error']:.3g} %"
+        if r["rel_error"] is not None
+        else " (no error estimate)"
+    )
+    verdict = "met" if r["met"] else "missed"
+    if r["target_within_error_bar"] and not r["met"]:
+        verdict += "; the target lies within the measurement's error bar"
+    elif r["met"] and r["rel_error"] is not None and not r["error_bar_inside_target"]:
+        verdict += "; the error bar reaches outside the target"
+    return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"

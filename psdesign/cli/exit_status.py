@@ -9,7 +9,8 @@ code   name               meaning
                           study case, lost workers; the line names the file or the case
 2      ``BAD_INPUT``      a bad spec, argument or ``-o`` folder, refused before any work
 3      ``NOT_TRUSTED``    finished, outputs complete, but a result did not converge (its
-                          ``status`` says so) or ``study optimize`` missed its target
+                          ``status`` says so), ``study optimize`` missed its target or
+                          ``rev`` found no size within ``--tol``
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================

@@ -4,6 +4,8 @@ true|false``, so a reader finds the same words in the same place on every line."
 
 from __future__ import annotations
 
+import json
+
 
 def error_bar(rel_error: float | None) -> str:
     """`` +- 3.1 %`` after a value, or "" without an estimate; a bar under 0.05 % keeps one
@@ -29,3 +31,16 @@ def rating(r: dict) -> str:
     """
     bc = f"  bc {r['bc']}" if "bc" in r else ""
     return f"[{r['status']}]{bc}  converged {str(r['converged']).lower()}"
+
+
+def print_json(obj) -> None:
+    """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error, no CI of
+    one seed) as ``null``, as in the files a study writes (Python's ``json.dumps`` printed the
+    ``NaN`` token, which JSON has not: ``jq`` and JavaScript refuse the whole output).
+
+    >>> print_json({"a": float("nan"), "b": 1.5})
+    {"a": null, "b": 1.5}
+    """
+    from psdesign.study.store import jsonable
+
+    print(json.dumps(jsonable(obj), allow_nan=False, default=str))

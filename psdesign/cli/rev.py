@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
 
-from psdesign.cli.exit_status import FAILED, case_counts, cases_status, fail
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, cases_status, fail
+from psdesign.cli.lines import print_json
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
@@ -36,17 +36,15 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     except RevFailed as exc:
         return fail(" ".join(str(exc).split()), FAILED)
     _warn_untrustworthy(args.out)
-    if args.json:
-        print(
-            json.dumps(
-                {
-                    "rev_size_m": res.rev_size_m,
-                    "tol": res.tol,
-                    "table": res.table.to_dict(orient="records"),
-                }
-            )
+    if args.json:  # strict JSON: a size with one trusted value has no CI (null, not NaN)
+        print_json(
+            {
+                "rev_size_m": res.rev_size_m,
+                "tol": res.tol,
+                "table": res.table.to_dict(orient="records"),
+            }
         )
-        return _cases_status(args.out)
+        return _rev_status(args.out, res.rev_size_m)
     for _, row in res.table.iterrows():
         parts = [f"{row['size_m']:.4g} m (n={int(row['n'])})"]
         for c in res.outputs:
@@ -60,7 +58,17 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
     else:
         print(f"REV: {res.rev_size_m:.4g} m (95 % CI half-width below {100 * res.tol:g} %)")
-    return _cases_status(args.out)
+    return _rev_status(args.out, res.rev_size_m)
+
+
+def _rev_status(out: str, rev_size_m: float | None) -> int:
+    """The cases' exit status (:func:`_cases_status`), and ``NOT_TRUSTED`` (3) when every case
+    finished but no size reached the ``--tol`` CI: the answer the command was asked for is
+    "not representative", a missed target as ``study optimize``'s (exit 3). Until session 43
+    it exited 0, so ``psdesign rev ... && echo representative`` passed an RVE whose K
+    scattered 35 % between seeds."""
+    status = _cases_status(out)
+    return NOT_TRUSTED if status == OK and rev_size_m is None else status
 
 
 def _cases_status(out: str) -> int:

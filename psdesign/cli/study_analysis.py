@@ -7,6 +7,7 @@ import json
 import sys
 
 from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
+from psdesign.cli.lines import print_json
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
 MAX_SEED = 2**32 - 2
@@ -29,15 +30,6 @@ def int_in(lo: int, hi: int, what: str):
     return parse
 
 
-def _print_json(obj) -> None:
-    """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error) as
-    ``null``, as in the files a study writes (Python's ``json.dumps`` printed the ``NaN``
-    token, which JSON has not: ``jq`` and JavaScript refuse the whole output)."""
-    from psdesign.study.store import jsonable
-
-    print(json.dumps(jsonable(obj), allow_nan=False, default=str))
-
-
 def _cmd_fit(args: argparse.Namespace) -> int:
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
@@ -54,6 +46,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         rows[name] = {
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
+            "cv_level_rel_error": m.cv_level_rel_error,
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
@@ -65,7 +58,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         for w in r["warnings"]:
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
-        _print_json(rows)
+        print_json(rows)
     else:
         for name, r in rows.items():
             space = "log10 " if r["log_output"] else ""
@@ -73,10 +66,13 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             over = ", ".join(p for p in r["params"] if p not in fixed) or "no varied parameter"
             held = ", ".join(f"{p} = {v:g}" for p, v in fixed.items())
             held = f" ({held} in every case)" if held else ""
+            # a grid's design-point error is measured at its levels only; the inner-level one
+            # is an upper estimate of the error between them (surrogate.inner_level_error)
+            lv = models[name].level_error_text()
             print(
                 f"{name}: GP over {over}{held} from {r['n_cases']} cases, "
                 f"cross-validated error {100 * r['cv_rel_error']:.3g} % ({space}RMSE "
-                f"{r['cv_rmse']:.3g})  [{r['status']}]"
+                f"{r['cv_rmse']:.3g}){lv}  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
     return 0
@@ -135,7 +131,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.json:
-        _print_json(out)
+        print_json(out)
     else:
         for name, r in out.items():
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
@@ -201,7 +197,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     if len(skipped) == len(names):
         return fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
-        _print_json(result)
+        print_json(result)
     return 0
 
 
@@ -226,23 +222,6 @@ def _target_report(t, best: dict) -> dict:
     }
 
 
-def _measured_text(r: dict) -> str:
-    """``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
-    if r["measured"] is None:
-        return f"no measured value [{r['status']}] (missed)"
-    bar = (
-        f" +- {100 * r['rel_error']:.3g} %"
-        if r["rel_error"] is not None
-        else " (no error estimate)"
-    )
-    verdict = "met" if r["met"] else "missed"
-    if r["target_within_error_bar"] and not r["met"]:
-        verdict += "; the target lies within the measurement's error bar"
-    elif r["met"] and r["rel_error"] is not None and not r["error_bar_inside_target"]:
-        verdict += "; the error bar reaches outside the target"
-    return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"
-
-
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
@@ -252,7 +231,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
     from psdesign.analysis.optimize import optimize_study
-    from psdesign.analysis.targets import Target
+    from psdesign.analysis.targets import Target, measured_text
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
@@ -270,6 +249,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             case_fn=args.case_fn,
             progress=not args.quiet,
+            force=args.force,
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
@@ -292,11 +272,11 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     except OSError as exc:  # StorageError (disk full, permissions): the cases are saved
         return fail(str(exc), FAILED)
     if args.json:
-        _print_json(summary)
+        print_json(summary)
     else:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:
-            print(f"  {r['target']}: {_measured_text(r)}")
+            print(f"  {r['target']}: {measured_text(r)}")
         params = {k: v for k, v in res.best.items() if "." in k}
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
@@ -351,7 +331,7 @@ def _write_outcome(out: str, summary: dict) -> None:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
-    from psdesign.cli.progress import add_workers_argument
+    from psdesign.cli.progress import add_force_argument, add_workers_argument
 
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
@@ -433,6 +413,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="Dask scheduler address, or 'local' (default: local process pool)",
     )
+    add_force_argument(opt)  # the refusal of a non-empty folder names it, as study run's
     opt.add_argument("--quiet", action="store_true", help="no progress output")
     opt.add_argument("--json", action="store_true", help="print one JSON object")
     opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)

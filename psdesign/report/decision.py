@@ -376,8 +376,8 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '
-        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.3g} % "
-        f"[{status}].{weak}</p>"
+        f"{len(s.y)} cases; cross-validated error {100 * s.cv_rel_error:.3g} %"
+        f"{s.level_error_text()} [{status}].{weak}</p>"
     ]
     order = num
     why = no_indices_reason(s) if len(num) >= 2 else ""

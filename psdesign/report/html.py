@@ -23,6 +23,7 @@ from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trust
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
+from psdesign.report.outcome import optimize_section
 from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
@@ -581,6 +582,7 @@ def build_html(out_dir: str | Path) -> str:
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
 {_status_banner(df)}<h2>Study</h2><table class="meta">{meta}</table>
+{_safe(optimize_section, out)}
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:
 x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{k_html}

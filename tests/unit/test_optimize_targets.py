@@ -20,9 +20,11 @@ PARAMS = '"generator.porosity" = {low = 0.8, high = 0.88}'
 
 
 def barred_case(spec, outputs, solver, workdir):
-    """The auditor's case: K_z 1.077e-11 with its own 11.8 % error bar, rated ok."""
+    """The auditor's case: K_z 1.077e-11 with its own 11.8 % error bar, rated ok, and the
+    warning a periodic solve of a random (non-periodic) RVE carries."""
     out = fake_case(spec, outputs, solver, workdir)
     out.update({"k_z_m2": 1.077e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"})
+    out["warnings_z"] = "K_z: bc = 'periodic' on a geometry that is not periodic"
     return out
 
 
@@ -144,6 +146,80 @@ def test_a_design_meets_a_target_only_with_every_seed(tmp_path, capsys) -> None:
     assert best["k_z_m2"] == pytest.approx(seed1 * (1.3 if best["seed"] == 2 else 1.0))
     # and it says why: the seeds spread 0.3 / 1.15 = 26 %, wider than the 24 % band
     assert "its seeds differ by 26 % in k_z_m2, wider than the target band" in res["message"]
+
+
+@pytest.mark.parametrize("seeds", [[1], [1, 2]])
+def test_a_design_met_with_one_seed_says_its_scatter_is_unknown(tmp_path, capsys, seeds) -> None:
+    """Walkthrough (session 43): with ``seeds = [1]`` optimize printed "MET: met every target
+    after 6 design points" for K_z 6.487e-12 in a +-10 % band, with no word that one RVE
+    realization was all it had seen; two seeds of one design of the same 40 um box differed
+    by 6-53 % of their mean in K_z. Truth: the fake case's K_z = 2 KC(eps) (1 % seed noise)
+    meets a +-10 % band around 2 KC(0.84); with one seed the outcome says the scatter is
+    unknown, with two (both measured) it does not."""
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY.replace("seeds = [1]", f"seeds = {seeds}"), PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
+    argv += ["--workers", "0", "--quiet", "--json", "--target", f"k_z_m2={target:.6e}+-10%"]
+    argv += ["--case-fn", "study_cases:fake_case"]
+    code, res = main(argv), json.loads(capsys.readouterr().out)
+    assert (code, res["met"], res["best"]["replicates"]) == (0, True, len(seeds)), res
+    note = "how much k_z_m2 vary from one RVE realization (seed) to the next is unknown"
+    assert (note in res["message"]) == (len(seeds) == 1), res["message"]
+    kept = json.loads((tmp_path / "opt" / "optimize.json").read_text())
+    assert kept["message"] == res["message"]
+
+
+def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): the report.html `study optimize` writes showed the cases
+    alone: no target, no MET / NOT MET, no chosen design point (they were in optimize.json
+    and on the terminal only). It now opens with the outcome: the verdict and message, each
+    target's measured value with its own error bar and status (the printed line), the design
+    point with units and seed, and the rounds. A user's own optimize.json (not in the marker)
+    is not read as psdesign's verdict."""
+    from psdesign.report import build_html
+
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main([*argv, "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    out = tmp_path / "opt"
+    page = (out / "report.html").read_text()
+    assert "<h2>Design decision (study optimize)</h2>" in page
+    assert f"<b>NOT MET:</b> {res['message']}" in page
+    line = "measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within the measurement"
+    assert f"<th>k_z_m2=1.2e-11+-10%</th><td>{line}" in page
+    eps = res["best"]["generator.porosity"]
+    assert f"<th>generator.porosity</th><td>{eps:.4g}</td>" in page  # a fraction: no unit
+    assert f"<td>{res['best']['seed']} (its only seed)</td>" in page
+    assert page.count("<tr><td>") >= res["rounds"]  # one row per round
+    # what the solve said about the chosen K is beside it (it was in the results table only)
+    warn = ">K_z: bc = &#x27;periodic&#x27; on a geometry that is not periodic</td>"
+    assert warn in page.split("<h3>Search rounds</h3>")[0]
+    # a folder whose optimize.json is not psdesign's: no decision section
+    marker = json.loads((out / ".psdesign-output.json").read_text())
+    marker["files"] = [f for f in marker["files"] if f != "optimize.json"]
+    (out / ".psdesign-output.json").write_text(json.dumps(marker))
+    assert "Design decision" not in build_html(out)
+
+
+def test_optimize_into_a_users_folder_takes_the_force_it_names(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): `study optimize -o DIR` on a folder holding the user's
+    notes.txt was refused with "... or --force to add psdesign's files beside them", an option
+    `study optimize` did not have (argparse: unrecognized arguments). It has it now, as
+    `study run`: the user's file is kept, and the folder's marker names `study optimize`
+    (it said `study run`, the runner it goes through)."""
+    user = tmp_path / "opt"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%", "porosity>=0.5")
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "or --force to add psdesign's files beside them" in err[0], err
+    assert sorted(p.name for p in user.iterdir()) == ["notes.txt"]
+    assert main([*argv, "--force"]) == 3  # the target missed: the search ran
+    assert (user / "notes.txt").read_text() == "mine"
+    marker = json.loads((user / ".psdesign-output.json").read_text())
+    assert marker["command"] == "study optimize" and "notes.txt" not in marker["files"]
+    assert {"optimize.json", "report.html", "results.csv"} <= set(marker["files"])
 
 
 @pytest.mark.parametrize(("op", "expected"), [(">=", 1.0), ("<=", 0.0)])

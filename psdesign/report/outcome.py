@@ -1,0 +1,101 @@
+"""The report's decision section of a ``study optimize`` folder: did a design meet the targets,
+which one, each target's measured value with its error bar and status, and the search's rounds
+(from ``OUT/optimize.json``, the outcome the command keeps).
+
+Until session 43 the report of an optimize folder showed the cases alone: a reader could not
+tell from it what the targets were, whether they were met, or which design point won.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+from pathlib import Path
+
+from psdesign.analysis.targets import measured_text
+from psdesign.report.units import parameter_unit
+
+#: The outcome file ``study optimize`` writes (``psdesign.cli.study_analysis.OPTIMIZE_FILE``).
+OUTCOME_FILE = "optimize.json"
+
+
+def _esc(x) -> str:
+    return html.escape("" if x is None else str(x))
+
+
+def read_outcome(out: Path) -> dict | None:
+    """The ``study optimize`` outcome of a study folder, or ``None``: no ``optimize.json``, or
+    one psdesign did not write (the folder's marker does not list it: a user's own file of
+    that name is not read as the search's verdict)."""
+    from psdesign.io.outputs import read_marker
+
+    path = Path(out) / OUTCOME_FILE
+    marker = read_marker(Path(out)) or {}
+    if not path.is_file() or OUTCOME_FILE not in marker.get("files", []):
+        return None
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    if not isinstance(doc, dict) or not {"met", "message", "targets", "best"} <= set(doc):
+        raise ValueError(f"{OUTCOME_FILE} is not the outcome `study optimize` writes")
+    return doc
+
+
+def _design_point(best: dict) -> str:
+    """The chosen case's design parameters (with their units), seed and id, as table rows."""
+    rows = []
+    for k, v in best.items():
+        if "." not in k:  # design parameters are dotted spec paths
+            continue
+        unit = parameter_unit(k)
+        text = f"{v:.4g}" if isinstance(v, int | float) else str(v)
+        text += f" {unit}" if unit and unit != "-" else ""
+        rows.append(f"<tr><th>{_esc(k)}</th><td>{_esc(text)}</td></tr>")
+    seed, n = best.get("seed"), best.get("replicates")
+    if seed is not None:
+        which = f"its worst of {n} seeds" if isinstance(n, int) and n > 1 else "its only seed"
+        rows.append(f"<tr><th>seed</th><td>{_esc(seed)} ({which})</td></tr>")
+    if best.get("case_id"):
+        rows.append(f"<tr><th>case</th><td>{_esc(best['case_id'])}</td></tr>")
+    for k, v in best.items():  # what the solve said about this K (a periodic bc on a
+        if k.startswith("warnings_") and isinstance(v, str) and v:  # non-periodic RVE, ...)
+            wrap = ' style="white-space:normal;max-width:60em"'  # a sentence, not a number
+            rows.append(f"<tr><th>{_esc(k)}</th><td{wrap}>{_esc(v)}</td></tr>")
+    return "".join(rows)
+
+
+def _history(history: list) -> str:
+    rows = []
+    for h in history or []:
+        miss = h.get("best_miss")
+        miss = "" if not isinstance(miss, int | float) or not math.isfinite(miss) else f"{miss:.3g}"
+        rows.append(
+            f"<tr><td>{_esc(h.get('round'))}</td><td>{_esc(h.get('n_points'))}</td>"
+            f"<td>{_esc(miss)}</td></tr>"
+        )
+    head = "<tr><th>round</th><th>design points run</th><th>best miss (relative)</th></tr>"
+    return f'<table class="meta">{head}{"".join(rows)}</table>'
+
+
+def optimize_section(out: Path) -> str:
+    """The ``<h2>`` section of the search's outcome, or ``""`` when the folder has none."""
+    doc = read_outcome(out)
+    if doc is None:
+        return ""
+    met = bool(doc["met"])
+    verdict = "MET" if met else "NOT MET"
+    box = "note" if met else "alert"
+    rows = "".join(
+        f"<tr><th>{_esc(t.get('target'))}</th><td>{_esc(measured_text(t))}</td></tr>"
+        for t in doc["targets"]
+    )
+    return (
+        "<h2>Design decision (study optimize)</h2>"
+        f'<p class="{box}" id="psd-optimize"><b>{verdict}:</b> {_esc(doc["message"])}</p>'
+        '<p class="note">Each target against the chosen case, with the case\'s own error bar '
+        "and status (from optimize.json, the last <code>study optimize</code> in this "
+        "folder; a design point is met only when every seed's case meets every target, and "
+        "the case shown is its worst seed).</p>"
+        f'<table class="meta">{rows}</table>'
+        f'<h3>Design point</h3><table class="meta">{_design_point(doc["best"])}</table>'
+        f"<h3>Search rounds</h3>{_history(doc.get('history', []))}"
+    )
