@@ -176,6 +176,36 @@ def tifffile_quiet() -> Iterator[None]:
         log.setLevel(level)
 
 
+def tiff_shape(path: Path) -> tuple[int, ...]:
+    """The stored shape of a TIFF file's first series, from its header (no voxel is read);
+    a colour or multi-channel image is refused (``image.path``).
+
+    tifffile puts the colour samples of an RGB(A) image on an axis ``S`` and ImageJ's channels
+    on ``C``: read as voxels, a 2-D RGBA picture (16 x 16 x 4) became a 3-D image four voxels
+    thick whose colour channels were solved as slices (exit 0, a K of a structure nobody
+    gave), a 2-D RGB one was refused for its three "voxels" along x.
+    """
+    import tifffile
+
+    try:
+        with tifffile_quiet(), tifffile.TiffFile(path) as tf:
+            series = tf.series[0]
+            axes, shape = str(series.axes), tuple(int(n) for n in series.shape)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
+        raise ValueError(f"image.path: cannot read {Path(path).name} as TIFF: {exc}") from None
+    colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
+    if colour:
+        what = ", ".join(
+            f"{n} {'colour samples' if a == 'S' else 'channels'}" for a, n in colour.items()
+        )
+        raise ValueError(
+            f"image.path: {Path(path).name} is a colour or multi-channel image (axes {axes}, "
+            f"{what}); psdesign needs one label or grey value per voxel: save the "
+            "segmentation as a single-channel 8- or 16-bit stack (Fiji: Image > Type > 8-bit)"
+        )
+    return tuple(n for a, n in zip(axes, shape, strict=True) if a not in "SC")
+
+
 def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
     """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
     were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
@@ -210,6 +240,7 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
             raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
         page_axis = "xyz".index(order[0])  # the stored axis of the pages, as an x/y/z axis
         pages = None if src.crop is None else tuple(src.crop[page_axis])
+        tiff_shape(path)  # a colour image is refused before its pixels are read
         try:
             with tifffile_quiet():
                 data, sliced = _tiff_array(path, pages)

@@ -238,6 +238,32 @@ def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
         )
 
 
+@pytest.mark.parametrize(
+    "name, shape, kwargs, axes",
+    [
+        ("rgba.tif", (16, 16, 4), {"photometric": "rgb"}, "YXS"),  # a 2-D colour picture
+        ("rgb_stack.tif", (6, 16, 16, 3), {"photometric": "rgb"}, "YXS"),
+        ("channels.tif", (5, 16, 16), {"imagej": True, "metadata": {"axes": "CYX"}}, "CYX"),
+    ],
+)
+def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
+    tmp_path, name, shape, kwargs, axes
+):
+    # a 2-D RGBA picture was read as a 3-D image four voxels thick along x (its R, G, B and
+    # alpha as slices) and solved, exit 0 (session 43's CT walk-through); a 5-channel ImageJ
+    # image likewise with its channels as z slices. Both are one label image nobody gave.
+    import tifffile
+
+    data = np.zeros(shape, np.uint8)
+    data[..., 4:8, :] = 255
+    tifffile.imwrite(tmp_path / name, data, **kwargs)
+    spec = write_spec(tmp_path, f'[image]\npath = "{name}"\nvoxel_size = 1e-6\n')
+    with pytest.raises(SpecError) as info:
+        load_spec(spec)
+    assert info.value.key == "image.path"
+    assert "colour or multi-channel" in info.value.message and axes in info.value.message
+
+
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
     # a VTI image was read whole (twice) to learn its extent and voxel size, so the memory
     # budget came after the read; a field file (first array a velocity) gave
