@@ -111,8 +111,16 @@ class ImageTable(Table):
         path = Path(self.path).expanduser()
         path = (path if path.is_absolute() else base / path).resolve()
         # the file first: a missing file or a folder is the path's fault, not the format's
-        if path.is_dir():
-            raise fail("path", f"{path} is a folder", "an existing image file")
+        if path.is_dir() or (not path.exists() and any(c in path.name for c in "*?[")):
+            # a folder of slices (one TIFF per z) is the usual CT export: say how to stack it
+            raise fail(
+                "path",
+                f"{path} is a folder or a pattern, not one file: one file per slice is not "
+                "read; stack the slices into one multi-page TIFF (Fiji: File > Import > Image "
+                "Sequence, then Save As > Tiff; Python: tifffile.imwrite('stack.tif', "
+                "tifffile.imread(sorted(glob.glob('slices/*.tif')))))",
+                "an existing image file",
+            )
         if not path.is_file():
             raise fail("path", f"file not found: {path}", "an existing image file")
         fmt = self.format or path.suffix.lower().lstrip(".")

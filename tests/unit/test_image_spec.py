@@ -264,6 +264,33 @@ def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
     assert "colour or multi-channel" in info.value.message and axes in info.value.message
 
 
+@pytest.mark.parametrize("given", ["slices", "slices/slice_*.tif"])
+def test_a_folder_of_slices_is_refused_with_how_to_stack_it(tmp_path, given):
+    # one TIFF per z slice is a usual CT export; the folder was refused as "is a folder" and a
+    # pattern as "file not found", with no word of what psdesign reads instead. The recipe the
+    # message gives gives the stack psdesign reads (the same porosity as the slices).
+    import glob
+
+    import tifffile
+
+    (tmp_path / "slices").mkdir()
+    for k in range(6):
+        page = np.zeros((8, 8), np.uint8)
+        page[:, : 2 + k % 3] = 255
+        tifffile.imwrite(tmp_path / "slices" / f"slice_{k:03d}.tif", page)
+    spec = write_spec(tmp_path, f'[image]\npath = "{given}"\nvoxel_size = 1e-6\n')
+    with pytest.raises(SpecError) as info:
+        load_spec(spec)
+    assert info.value.key == "image.path"
+    assert "one file per slice is not read" in info.value.message
+    assert "multi-page TIFF" in info.value.message and "Image Sequence" in info.value.message
+    files = sorted(glob.glob(str(tmp_path / "slices" / "*.tif")))
+    tifffile.imwrite(tmp_path / "stack.tif", tifffile.imread(files))
+    stacked = psdesign.from_image(tmp_path / "stack.tif", voxel_size=1e-6)
+    assert stacked.spec["rve"]["size"] == pytest.approx([8e-6, 8e-6, 6e-6], rel=1e-12, abs=0)
+    assert stacked.porosity == pytest.approx(1 - 3 / 8, rel=1e-12, abs=0)
+
+
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
     # a VTI image was read whole (twice) to learn its extent and voxel size, so the memory
     # budget came after the read; a field file (first array a velocity) gave
