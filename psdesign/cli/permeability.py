@@ -31,8 +31,9 @@ DIFFUSE_SECONDS_PER_CELL = 9e-5
 WALL_SECONDS_PER_CELL_AND_COPY = 4.5e-6
 
 
-def _announce_voxel(fields, direction: str, wall: str | None, rve) -> None:
-    """Time and memory estimate of a voxel solve on stderr (before it starts)."""
+def announce_voxel(fields, direction: str, wall: str | None, rve) -> None:
+    """Time and memory estimate of a voxel solve on stderr (before it starts), on the active
+    printer (the command's; the API's with ``progress=True``)."""
     import numba
 
     from psdesign.cli import progress
@@ -56,7 +57,7 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     from psdesign.flow.permeability import permeability
 
     if solver == "voxel":
-        _announce_voxel(fields, direction, flow.get("wall_treatment"), rve)
+        announce_voxel(fields, direction, flow.get("wall_treatment"), rve)
     progress = None if args.quiet else progress_printer(direction)
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":
