@@ -307,7 +307,7 @@ class Material:
             if report is not None and route == "voxel":  # the command's estimate line, too
                 from psdesign.cli.permeability import announce_voxel
 
-                announce_voxel(self.fields, direction, table.get("wall_treatment"), self.rve)
+                announce_voxel(self.fields, direction, table, self.rve)
             result = permeability(
                 self.rve, self.fields, direction, table, route, progress=report, capture=writer
             )
