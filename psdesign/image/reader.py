@@ -27,17 +27,51 @@ import numpy as np
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
-#: Length units of ImageJ metadata, in metres.
+#: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
+#: its escaped "\\u00B5m", and the spellings other writers use; "microns" and "inch" read as
+#: "no voxel size" until session 43).
 _UNITS = {
     "nm": 1e-9,
+    "nanometer": 1e-9,
+    "nanometre": 1e-9,
     "um": 1e-6,
     "micron": 1e-6,
+    "microns": 1e-6,
+    "micrometer": 1e-6,
+    "micrometre": 1e-6,
     "\u00b5m": 1e-6,
-    "\\u00B5m": 1e-6,
+    "\u03bcm": 1e-6,
+    "\\u00b5m": 1e-6,
     "mm": 1e-3,
+    "millimeter": 1e-3,
+    "millimetre": 1e-3,
     "cm": 1e-2,
     "m": 1.0,
+    "inch": 0.0254,
 }
+#: ImageJ's word for "not calibrated".
+_NO_UNIT = ("", "pixel", "pixels")
+
+
+def tiff_unit(path: str | Path) -> str:
+    """The ImageJ ``unit`` of a TIFF file as written ('' without ImageJ metadata)."""
+    import tifffile
+
+    with tifffile_quiet(), tifffile.TiffFile(path) as tf:
+        return str((tf.imagej_metadata or {}).get("unit", "")).strip()
+
+
+def unknown_unit_note(path: str | Path, fmt: str | None = None) -> str:
+    """Why a TIFF file's calibration is not read: ``" (its ImageJ unit 'furlong' is not a
+    length psdesign reads: nm, um, micron, mm, cm, m, inch)"``, or '' (none, or not a TIFF)."""
+    ext = f".{fmt}" if fmt else Path(path).suffix.lower()
+    if ext not in (".tif", ".tiff"):
+        return ""
+    unit = tiff_unit(path)
+    if unit.lower() in _NO_UNIT or unit.lower() in _UNITS:
+        return ""
+    known = "nm, um, micron, mm, cm, m, inch"
+    return f" (its ImageJ unit {unit!r} is not a length psdesign reads: {known})"
 
 
 @dataclass(frozen=True)
@@ -392,7 +426,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
 
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
             meta = tf.imagej_metadata or {}
-            unit = _UNITS.get(str(meta.get("unit", "")).strip())
+            unit = _UNITS.get(str(meta.get("unit", "")).strip().lower())
             tag = tf.pages[0].tags.get("XResolution")
             if unit is None or tag is None:
                 return None

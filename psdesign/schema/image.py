@@ -147,9 +147,11 @@ class ImageTable(Table):
             key, _, msg = str(exc).partition(": ")
             raise fail(key.removeprefix("image."), msg) from None
         if voxel is None:
+            from psdesign.image.reader import unknown_unit_note
+
             raise fail(
                 "voxel_size",
-                f"required: {path.name} carries no voxel size",
+                f"required: {path.name} carries no voxel size{unknown_unit_note(path, fmt)}",
                 "voxel edge in [1e-9, 1e-2] m",
             )
         if not 1e-9 <= voxel <= 1e-2:

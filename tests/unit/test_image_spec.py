@@ -291,6 +291,39 @@ def test_a_folder_of_slices_is_refused_with_how_to_stack_it(tmp_path, given):
     assert stacked.porosity == pytest.approx(1 - 3 / 8, rel=1e-12, abs=0)
 
 
+@pytest.mark.parametrize(
+    "unit, voxel",
+    [("micron", 0.5e-6), ("microns", 0.5e-6), ("UM", 0.5e-6), ("\\u00B5m", 0.5e-6), ("mm", 0.5e-3)],
+)
+def test_imagej_unit_spellings_give_the_voxel_size(tmp_path, unit, voxel):
+    # session 43: "microns" (a writer's plural) and "UM" read as "carries no voxel size"; the
+    # lookup is now in lower case with the usual spellings (ImageJ's own "micron" and its
+    # escaped micro sign as before). 0.5 units per pixel in x, y and z.
+    import tifffile
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": unit, "spacing": 0.5, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 2.0), metadata=meta)
+    m = psdesign.from_image(tmp_path / "s.tif")
+    assert m.spec["rve"]["voxel"] == pytest.approx(voxel, rel=1e-12, abs=0)
+
+
+def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
+    # a calibrated file in a unit psdesign does not read was refused as "carries no voxel
+    # size", as an uncalibrated one: now the line names the unit and the ones it reads
+    import tifffile
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": "furlong", "spacing": 0.5, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 2.0), metadata=meta)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "s.tif")
+    assert info.value.key == "image.voxel_size" and "'furlong'" in info.value.message
+    assert psdesign.from_image(tmp_path / "s.tif", voxel_size=1e-6).spec["rve"]["voxel"] == 1e-6
+
+
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
     # a VTI image was read whole (twice) to learn its extent and voxel size, so the memory
     # budget came after the read; a field file (first array a velocity) gave
