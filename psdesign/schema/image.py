@@ -30,6 +30,23 @@ DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "flo
 RAW_ONLY = ("shape", "dtype", "byte_order")
 
 
+#: A voxel size read from a VTI file above this (m) is warned about: its spacing carries no
+#: unit and is read as metres (a TIFF's ImageJ unit is explicit), and CT software writes
+#: millimetres (3D Slicer) or micrometres; a fibre scan's voxels are 0.1-20 um. Spacing 1e-3
+#: (mm) for 1 um voxels gave K 1e6 times too large, 1.4333e-05 m^2 [ok], without a word
+#: (session 43).
+COARSE_FILE_VOXEL_M = 1e-4
+
+
+def coarse_file_voxel_note(name: str, voxel: float) -> str:
+    """The warning for a file's voxel size above :data:`COARSE_FILE_VOXEL_M`."""
+    return (
+        f"image.voxel_size: {name} gives voxels of {voxel:g} m (taken as metres; a VTI's "
+        f"spacing has no unit), over {COARSE_FILE_VOXEL_M:g} m: if the file's spacing is in mm "
+        "or um, give image.voxel_size in metres"
+    )
+
+
 class ImageWarning(UserWarning):
     """An image spec that is valid but probably not what was meant (one line)."""
 
@@ -175,6 +192,8 @@ class ImageTable(Table):
                 ImageWarning,
                 stacklevel=2,
             )
+        elif self.voxel_size is None and fmt == "vti" and voxel > COARSE_FILE_VOXEL_M:
+            warnings.warn(coarse_file_voxel_note(path.name, voxel), ImageWarning, stacklevel=2)
         self._voxel = float(voxel)
         self._shape = shape
         return self

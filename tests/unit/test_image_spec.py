@@ -189,6 +189,38 @@ def test_raw_spec_and_vti_voxel_size_from_the_file(tmp_path) -> None:
     assert spec["rve"]["size"] == pytest.approx([15e-6, 12.5e-6, 10e-6])
 
 
+def test_a_vti_spacing_in_millimetres_is_warned_about(tmp_path) -> None:
+    # session 43 (CT walk-through): a VTI's spacing has no unit and is read as metres; CT
+    # software writes mm (3D Slicer) or um. A slit of 1 um voxels exported with spacing 1e-3
+    # gave K = 1.4333e-05 m^2 [ok], 1e6 times the 1.4333e-11 of the same voxels, without a
+    # word. A file voxel over 100 um is now warned about (naming image.voxel_size); 1 um is not.
+    import warnings
+
+    import pyvista as pv
+
+    from psdesign.schema.image import ImageWarning
+
+    solid = np.zeros((8, 8, 6), np.uint8)
+    solid[:, :, :2] = 1
+    for spacing, warned in ((1e-3, True), (1e-6, False)):
+        img = pv.ImageData(dimensions=(9, 9, 7), spacing=(spacing,) * 3)
+        img.cell_data["labels"] = solid.ravel(order="F")
+        img.save(str(tmp_path / "s.vti"))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            spec = load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n'))
+        assert spec["rve"]["voxel"] == pytest.approx(spacing, rel=1e-12, abs=0)
+        said = [str(w.message) for w in caught if issubclass(w.category, ImageWarning)]
+        assert bool(said) == warned, said
+        if warned:
+            assert said[0].startswith("image.voxel_size: s.vti gives voxels of 0.001 m")
+            assert "in mm or um, give image.voxel_size in metres" in said[0]
+    with warnings.catch_warnings(record=True) as caught:  # the user's voxel_size: no guess
+        warnings.simplefilter("always")
+        load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\nvoxel_size = 1e-6\n'))
+    assert not any("gives voxels" in str(w.message) for w in caught)
+
+
 def test_voxel_size_key_wins_over_the_file_with_a_warning(img_dir) -> None:
     from psdesign.schema.image import ImageWarning
 
