@@ -28,8 +28,9 @@ FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 #: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
-#: its escaped "\\u00B5m", and the spellings other writers use; "microns" and "inch" read as
-#: "no voxel size" until session 43).
+#: its escaped "\\u00B5m", and the spellings other writers use; "microns" read as "no voxel
+#: size" until session 43). Not "inch": ImageJ's unit of a picture calibrated by its DPI tag
+#: (72 dpi: 0.35 mm "voxels"), never a scan's; it is named in the refusal instead.
 _UNITS = {
     "nm": 1e-9,
     "nanometer": 1e-9,
@@ -47,7 +48,6 @@ _UNITS = {
     "millimetre": 1e-3,
     "cm": 1e-2,
     "m": 1.0,
-    "inch": 0.0254,
 }
 #: ImageJ's word for "not calibrated".
 _NO_UNIT = ("", "pixel", "pixels")
@@ -63,14 +63,14 @@ def tiff_unit(path: str | Path) -> str:
 
 def unknown_unit_note(path: str | Path, fmt: str | None = None) -> str:
     """Why a TIFF file's calibration is not read: ``" (its ImageJ unit 'furlong' is not a
-    length psdesign reads: nm, um, micron, mm, cm, m, inch)"``, or '' (none, or not a TIFF)."""
+    length psdesign reads: nm, um, micron, mm, cm, m)"``, or '' (none, or not a TIFF)."""
     ext = f".{fmt}" if fmt else Path(path).suffix.lower()
     if ext not in (".tif", ".tiff"):
         return ""
     unit = tiff_unit(path)
     if unit.lower() in _NO_UNIT or unit.lower() in _UNITS:
         return ""
-    known = "nm, um, micron, mm, cm, m, inch"
+    known = "nm, um, micron, mm, cm, m"
     return f" (its ImageJ unit {unit!r} is not a length psdesign reads: {known})"
 
 

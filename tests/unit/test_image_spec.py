@@ -348,11 +348,13 @@ def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
 
     data = np.zeros((8, 8, 8), np.uint8)
     data[:, :, :3] = 255
-    meta = {"unit": "furlong", "spacing": 0.5, "axes": "ZYX"}
-    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 2.0), metadata=meta)
-    with pytest.raises(SpecError) as info:
-        psdesign.from_image(tmp_path / "s.tif")
-    assert info.value.key == "image.voxel_size" and "'furlong'" in info.value.message
+    for unit in ("furlong", "inch"):  # inch: ImageJ's unit of a 72-dpi picture, 0.35 mm
+        meta = {"unit": unit, "spacing": 1 / 72, "axes": "ZYX"}
+        res = (72.0, 72.0)
+        tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=res, metadata=meta)
+        with pytest.raises(SpecError) as info:
+            psdesign.from_image(tmp_path / "s.tif")
+        assert info.value.key == "image.voxel_size" and f"'{unit}'" in info.value.message
     assert psdesign.from_image(tmp_path / "s.tif", voxel_size=1e-6).spec["rve"]["voxel"] == 1e-6
 
 
