@@ -248,16 +248,17 @@ def test_the_tet_floor_of_an_image_takes_the_solids_hydraulic_diameter(tmp_path,
 
 
 @pytest.mark.parametrize(
-    "encoding", ["u8 solid 255", "u8 inverted, solid 0", "u16 threshold", "u8 slices cropped"]
+    "encoding",
+    ["u8 solid 255", "u8 inverted, solid 0", "u16 threshold", "u8 cropped from a wider scan"],
 )
 def test_slit_tiff_k_is_the_closed_form_in_every_encoding(tmp_path, encoding) -> None:
     """Plane Poiseuille flow through a TIFF slit (session 43's CT walk-through): gap h = 16 um
     between periodic plates, period H = 24 um, 1 um voxels; flow along the plates has the
     superficial K = h^3 / (12 H) = 1.4222e-11 m^2 (plane Poiseuille flow: mean velocity
-    h^2 G / (12 mu) in the gap, times the gap fraction h / H). The voxel route's staircase walls lie on the voxel faces here, so
-    the only error is the MAC grid's second-order one, +0.78 % at 16 cells across the gap
-    (measured 1.4333e-11), inside the printed bar (7.0 %); 8- and 16-bit, inverted labels,
-    a threshold and a crop give the same K to round-off."""
+    h^2 G / (12 mu) in the gap, times the gap fraction h / H). The voxel route's staircase
+    walls lie on the voxel faces here, so the only error is the MAC grid's second-order one,
+    +0.78 % at 16 cells across the gap (measured 1.4333e-11), inside the printed bar (7.0 %);
+    8- and 16-bit, inverted labels, a threshold and a crop give the same K to round-off."""
     import tifffile
 
     import psdesign
