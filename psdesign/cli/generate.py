@@ -11,6 +11,16 @@ from pathlib import Path
 from psdesign.cli.progress import add_force_argument
 from psdesign.io.vtkfile import save_vtk
 
+#: What ``field.vti``'s point arrays hold (docs/fields.md "generate's field.vti"), written
+#: beside them as string field data: until session 43 no file or page said which sign is solid.
+FIELD_VTI_MEANINGS = {
+    "distance_m": "signed distance to the solid surface in metres at the voxel centres: <= 0 "
+    "in the solid (the voxels the porosity counts as solid), > 0 in the pore, clipped in the "
+    "pore a few voxels from the surface; its contour at 0 is the surface (fibers.stl)",
+    "fiber_count": "fibres whose solid contains the voxel centre: 0 pore, 1 one fibre, 2 or "
+    "more an overlap (intersection_volume_fraction); an image's solid is 1",
+}
+
 
 def _cmd_generate(args: argparse.Namespace) -> int:
     from psdesign.schema.spec import load_spec
@@ -161,6 +171,8 @@ def write_generate_outputs(
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
         img.point_data["fiber_count"] = fields.count.ravel(order="F")
+        for name, meaning in FIELD_VTI_MEANINGS.items():  # ParaView's Information panel
+            img.field_data[f"{name}_meaning"] = [meaning]
         save_vtk(img, tmp / "field.vti")
         del img  # its copies of the fields: not held through the surface and the preview
         surf = fiber_surface(fields.distance, fields.grid.spacing)

@@ -31,14 +31,19 @@ DIFFUSE_SECONDS_PER_CELL = 9e-5
 WALL_SECONDS_PER_CELL_AND_COPY = 4.5e-6
 
 
-def _announce_voxel(fields, direction: str, wall: str | None, rve) -> None:
-    """Time and memory estimate of a voxel solve on stderr (before it starts)."""
+def announce_voxel(fields, direction: str, flow: dict, rve) -> None:
+    """Time and memory estimate of a voxel solve on stderr (before it starts), on the active
+    printer (the command's; the API's with ``progress=True``): the solved grid's cells, the
+    permeameter's stack and reservoirs included (``flow["bc"]``, default periodic)."""
     import numba
 
     from psdesign.cli import progress
+    from psdesign.flow.voxel import solved_cells
     from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
 
-    cells = int(fields.solid.size)
+    wall = flow.get("wall_treatment")
+    axis = "xyz".index(direction)
+    cells = solved_cells(flow, rve, fields, axis, flow.get("bc") or "periodic")
     rate = VOXEL_SECONDS_PER_CELL[1 if numba.get_num_threads() == 1 else 2]
     need = VOXEL_SOLVER_BYTES_PER_VOXEL * cells
     if wall == "diffuse":
@@ -51,12 +56,18 @@ def _announce_voxel(fields, direction: str, wall: str | None, rve) -> None:
     progress.estimate(f"voxel solve {direction} ({cells:.3g} cells)", rate * cells, need / 1e9)
 
 
+def _announced_bc(flow: dict, args: argparse.Namespace) -> dict:
+    """The flow table whose first solve the estimate describes: ``--bc both`` solves the
+    permeameter's (larger) grid too, so its estimate is the permeameter's."""
+    return {**flow, "bc": "permeameter"} if args.bc == "both" else flow
+
+
 def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str, capture):
     from psdesign.flow.compare import permeability_both_bc
     from psdesign.flow.permeability import permeability
 
     if solver == "voxel":
-        _announce_voxel(fields, direction, flow.get("wall_treatment"), rve)
+        announce_voxel(fields, direction, _announced_bc(flow, args), rve)
     progress = None if args.quiet else progress_printer(direction)
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":

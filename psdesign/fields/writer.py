@@ -204,7 +204,7 @@ class FieldWriter:
             "boundary_tags": boundary_table(),
             "warnings": self.warnings,
             "notes": [
-                "VTU (tet mesh): the P2 velocity at the P1 vertices, the P1 pressure",
+                "VTU (tet mesh): quadratic tets, P2 velocity at their 10 nodes, P1 pressure",
                 "VTI (voxel grid): cell data, spacing = voxel size in metres",
             ],
         }

@@ -259,10 +259,33 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     aux = float(flow.get("aux_length", 0.2)) / plan.copies  # reservoirs: one copy's aux
     kw["aux_length"] = aux
     kw["sides"] = flow.get("sides", "slip")
-    n_d = solve.solid.shape[ax]
-    n_tot = n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
+    n_tot = stack_length(solve.solid.shape[ax], aux)
     kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
     return plan, solve, kw
+
+
+def stack_length(n_d: int, aux: float) -> int:
+    """Cells along the flow of the permeameter's solved grid: the stack's ``n_d`` and an empty
+    reservoir of ``aux * n_d`` cells (at least one) on each side.
+
+    >>> stack_length(60, 0.2 / 3)
+    68
+    """
+    return n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
+
+
+def solved_cells(flow: dict, rve: RVE | None, fields: VoxelFields, ax: int, bc: str) -> int:
+    """Cells of the grid the voxel route solves first: the RVE's for the periodic bc, the
+    planned stack of copies with its two reservoirs for the permeameter (:func:`_solve_setup`;
+    an ``"auto"`` plan may add copies after this solve). For the estimate printed before it:
+    the RVE's count under-stated a 3-copy permeameter's grid 3.4 times (session 43)."""
+    cells = int(fields.solid.size)
+    if bc != "permeameter":
+        return cells
+    copies = plan_copies(flow, rve, fields, ax).copies
+    n = fields.solid.shape[ax]
+    aux = float(flow.get("aux_length", 0.2)) / copies
+    return cells // n * stack_length(n * copies, aux)
 
 
 def _result(res, fields, direction, bc, flow, periods, cpd, t0) -> dict:

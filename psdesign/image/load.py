@@ -44,20 +44,12 @@ def source_of(table: dict, voxel: float | None = None) -> ImageSource:
 def header_shape(src: ImageSource) -> tuple[int, int, int]:
     """Voxel counts (x, y, z) of the stored image before the crop, read from its header
     where the format has one (TIFF, NumPy, raw ``shape``, the VTI header); nothing is read."""
-    from psdesign.image.reader import raw_layout, tifffile_quiet, vti_header
+    from psdesign.image.reader import raw_layout, tiff_shape, vti_header
 
     ext = src.ext
     order = src.axis_order or ("zyx" if ext in (".tif", ".tiff", ".raw") else "xyz")
     if ext in (".tif", ".tiff"):
-        import tifffile
-
-        try:
-            with tifffile_quiet(), tifffile.TiffFile(src.path) as tf:
-                stored = tuple(tf.series[0].shape)
-        except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
-            raise ValueError(
-                f"image.path: cannot read {Path(src.path).name} as TIFF: {exc}"
-            ) from None
+        stored = tiff_shape(Path(src.path))
         stored = (1, *stored) if len(stored) == 2 else stored
     elif ext == ".npy":
         try:

@@ -27,17 +27,51 @@ import numpy as np
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
-#: Length units of ImageJ metadata, in metres.
+#: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
+#: its escaped "\\u00B5m", and the spellings other writers use; "microns" read as "no voxel
+#: size" until session 43). Not "inch": ImageJ's unit of a picture calibrated by its DPI tag
+#: (72 dpi: 0.35 mm "voxels"), never a scan's; it is named in the refusal instead.
 _UNITS = {
     "nm": 1e-9,
+    "nanometer": 1e-9,
+    "nanometre": 1e-9,
     "um": 1e-6,
     "micron": 1e-6,
+    "microns": 1e-6,
+    "micrometer": 1e-6,
+    "micrometre": 1e-6,
     "\u00b5m": 1e-6,
-    "\\u00B5m": 1e-6,
+    "\u03bcm": 1e-6,
+    "\\u00b5m": 1e-6,
     "mm": 1e-3,
+    "millimeter": 1e-3,
+    "millimetre": 1e-3,
     "cm": 1e-2,
     "m": 1.0,
 }
+#: ImageJ's word for "not calibrated".
+_NO_UNIT = ("", "pixel", "pixels")
+
+
+def tiff_unit(path: str | Path) -> str:
+    """The ImageJ ``unit`` of a TIFF file as written ('' without ImageJ metadata)."""
+    import tifffile
+
+    with tifffile_quiet(), tifffile.TiffFile(path) as tf:
+        return str((tf.imagej_metadata or {}).get("unit", "")).strip()
+
+
+def unknown_unit_note(path: str | Path, fmt: str | None = None) -> str:
+    """Why a TIFF file's calibration is not read: ``" (its ImageJ unit 'furlong' is not a
+    length psdesign reads: nm, um, micron, mm, cm, m)"``, or '' (none, or not a TIFF)."""
+    ext = f".{fmt}" if fmt else Path(path).suffix.lower()
+    if ext not in (".tif", ".tiff"):
+        return ""
+    unit = tiff_unit(path)
+    if unit.lower() in _NO_UNIT or unit.lower() in _UNITS:
+        return ""
+    known = "nm, um, micron, mm, cm, m"
+    return f" (its ImageJ unit {unit!r} is not a length psdesign reads: {known})"
 
 
 @dataclass(frozen=True)
@@ -176,6 +210,36 @@ def tifffile_quiet() -> Iterator[None]:
         log.setLevel(level)
 
 
+def tiff_shape(path: Path) -> tuple[int, ...]:
+    """The stored shape of a TIFF file's first series, from its header (no voxel is read);
+    a colour or multi-channel image is refused (``image.path``).
+
+    tifffile puts the colour samples of an RGB(A) image on an axis ``S`` and ImageJ's channels
+    on ``C``: read as voxels, a 2-D RGBA picture (16 x 16 x 4) became a 3-D image four voxels
+    thick whose colour channels were solved as slices (exit 0, a K of a structure nobody
+    gave), a 2-D RGB one was refused for its three "voxels" along x.
+    """
+    import tifffile
+
+    try:
+        with tifffile_quiet(), tifffile.TiffFile(path) as tf:
+            series = tf.series[0]
+            axes, shape = str(series.axes), tuple(int(n) for n in series.shape)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
+        raise ValueError(f"image.path: cannot read {Path(path).name} as TIFF: {exc}") from None
+    colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
+    if colour:
+        what = ", ".join(
+            f"{n} {'colour samples' if a == 'S' else 'channels'}" for a, n in colour.items()
+        )
+        raise ValueError(
+            f"image.path: {Path(path).name} is a colour or multi-channel image (axes {axes}, "
+            f"{what}); psdesign needs one label or grey value per voxel: save the "
+            "segmentation as a single-channel 8- or 16-bit stack (Fiji: Image > Type > 8-bit)"
+        )
+    return tuple(n for a, n in zip(axes, shape, strict=True) if a not in "SC")
+
+
 def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
     """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
     were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
@@ -210,6 +274,7 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
             raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
         page_axis = "xyz".index(order[0])  # the stored axis of the pages, as an x/y/z axis
         pages = None if src.crop is None else tuple(src.crop[page_axis])
+        tiff_shape(path)  # a colour image is refused before its pixels are read
         try:
             with tifffile_quiet():
                 data, sliced = _tiff_array(path, pages)
@@ -361,7 +426,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
 
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
             meta = tf.imagej_metadata or {}
-            unit = _UNITS.get(str(meta.get("unit", "")).strip())
+            unit = _UNITS.get(str(meta.get("unit", "")).strip().lower())
             tag = tf.pages[0].tags.get("XResolution")
             if unit is None or tag is None:
                 return None

@@ -30,6 +30,23 @@ DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "flo
 RAW_ONLY = ("shape", "dtype", "byte_order")
 
 
+#: A voxel size read from a VTI file above this (m) is warned about: its spacing carries no
+#: unit and is read as metres (a TIFF's ImageJ unit is explicit), and CT software writes
+#: millimetres (3D Slicer) or micrometres; a fibre scan's voxels are 0.1-20 um. Spacing 1e-3
+#: (mm) for 1 um voxels gave K 1e6 times too large, 1.4333e-05 m^2 [ok], without a word
+#: (session 43).
+COARSE_FILE_VOXEL_M = 1e-4
+
+
+def coarse_file_voxel_note(name: str, voxel: float) -> str:
+    """The warning for a file's voxel size above :data:`COARSE_FILE_VOXEL_M`."""
+    return (
+        f"image.voxel_size: {name} gives voxels of {voxel:g} m (taken as metres; a VTI's "
+        f"spacing has no unit), over {COARSE_FILE_VOXEL_M:g} m: if the file's spacing is in mm "
+        "or um, give image.voxel_size in metres"
+    )
+
+
 class ImageWarning(UserWarning):
     """An image spec that is valid but probably not what was meant (one line)."""
 
@@ -111,8 +128,16 @@ class ImageTable(Table):
         path = Path(self.path).expanduser()
         path = (path if path.is_absolute() else base / path).resolve()
         # the file first: a missing file or a folder is the path's fault, not the format's
-        if path.is_dir():
-            raise fail("path", f"{path} is a folder", "an existing image file")
+        if path.is_dir() or (not path.exists() and any(c in path.name for c in "*?[")):
+            # a folder of slices (one TIFF per z) is the usual CT export: say how to stack it
+            raise fail(
+                "path",
+                f"{path} is a folder or a pattern, not one file: one file per slice is not "
+                "read; stack the slices into one multi-page TIFF (Fiji: File > Import > Image "
+                "Sequence, then Save As > Tiff; Python: tifffile.imwrite('stack.tif', "
+                "tifffile.imread(sorted(glob.glob('slices/*.tif')))))",
+                "an existing image file",
+            )
         if not path.is_file():
             raise fail("path", f"file not found: {path}", "an existing image file")
         fmt = self.format or path.suffix.lower().lstrip(".")
@@ -139,9 +164,11 @@ class ImageTable(Table):
             key, _, msg = str(exc).partition(": ")
             raise fail(key.removeprefix("image."), msg) from None
         if voxel is None:
+            from psdesign.image.reader import unknown_unit_note
+
             raise fail(
                 "voxel_size",
-                f"required: {path.name} carries no voxel size",
+                f"required: {path.name} carries no voxel size{unknown_unit_note(path, fmt)}",
                 "voxel edge in [1e-9, 1e-2] m",
             )
         if not 1e-9 <= voxel <= 1e-2:
@@ -165,6 +192,8 @@ class ImageTable(Table):
                 ImageWarning,
                 stacklevel=2,
             )
+        elif self.voxel_size is None and fmt == "vti" and voxel > COARSE_FILE_VOXEL_M:
+            warnings.warn(coarse_file_voxel_note(path.name, voxel), ImageWarning, stacklevel=2)
         self._voxel = float(voxel)
         self._shape = shape
         return self

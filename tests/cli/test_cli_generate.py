@@ -184,6 +184,26 @@ def test_woven_cell_spec_expands_to_six_fibers(tmp_path):
     assert 0.2 * d.shape[2] < solid_z.min() and solid_z.max() < 0.8 * d.shape[2]
 
 
+def test_field_vti_says_which_sign_is_solid_and_it_is_the_porosity_s(tmp_path):
+    # session 43 (ParaView walk): field.vti's distance_m and fiber_count were described nowhere
+    # (no page, no field data): which sign is fibre had to be guessed. The file now says it,
+    # and what it says is checked against the porosity generate reports.
+    import pyvista as pv
+
+    spec = write(tmp_path, SPEC.format(d="20e-6"))
+    out = tmp_path / "out"
+    assert main(["generate", str(spec), "-o", str(out), "--no-preview", "--quiet"]) == 0
+    img = pv.read(out / "field.vti")
+    said = {k: str(img.field_data[k][0]) for k in img.field_data.keys()}
+    assert "<= 0 in the solid" in said["distance_m_meaning"]
+    assert "0 pore" in said["fiber_count_meaning"]
+    summary = json.loads((out / "summary.json").read_text())
+    d, n = img.point_data["distance_m"], img.point_data["fiber_count"]
+    assert 1 - np.count_nonzero(d <= 0) / d.size == summary["porosity"]
+    assert np.array_equal(d <= 0, n > 0)  # one fibre: its count is the solid
+    assert img.spacing == pytest.approx((2e-6,) * 3, rel=1e-12, abs=0)
+
+
 def test_preview_title_gives_the_porosity_with_its_bar(tmp_path, monkeypatch):
     # session 42 (new user's walk): preview.png's title read "porosity 0.8490, 10 fibers",
     # the one number of generate's outputs printed without its error estimate

@@ -418,3 +418,36 @@ def test_an_under_resolved_voxel_solve_says_so_in_one_line(tmp_path, capsys):
         "psdesign: warning: K_x: only 7.0 voxels across the thinnest fiber diameter (< 8); "
         "refine rve.voxel"
     ], err
+
+
+@pytest.mark.parametrize("bc", ["permeameter", "both"])
+def test_voxel_estimate_counts_the_cells_the_permeameter_solves(tmp_path, capsys, bc):
+    # session 43: the estimate printed before a voxel permeameter solve counted the RVE's cells
+    # (4.8e+03 here) where the solver's grid holds the two stacked copies and two reservoirs,
+    # so its time and memory were 2.4x low (3.4x for three copies). The count printed is now the
+    # grid's the --fields VTI holds (two fixed copies: "auto" may add a copy after the solve).
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC.replace("lattice_step = 2e-6", "permeameter_copies = 2"))
+    code = main(
+        [
+            "permeability",
+            str(spec),
+            "--direction",
+            "x",
+            "--solver",
+            "voxel",
+            "--bc",
+            bc,
+            "--no-error-estimate",
+            "--json",
+        ]
+        + (["--fields", str(tmp_path / "f")] if bc != "both" else [])
+    )
+    assert code == 0
+    line = re.search(r"voxel solve x \(([0-9.e+]+) cells\): estimated", capsys.readouterr().err)
+    n_x = 40 * 2 + 2 * 8  # two copies and 0.2 * 40 = 8 reservoir cells per side
+    assert float(line.group(1)) == pytest.approx(n_x * 40 * 12, rel=1e-3, abs=0)
+    if bc != "both":
+        import pyvista as pv
+
+        assert pv.read(tmp_path / "f" / "flow_x.vti").n_cells == n_x * 40 * 12

@@ -485,6 +485,19 @@ def test_progress_keyword_reports_on_stderr_and_leaves_nothing_on(monkeypatch, c
     assert seen.pop() == (True, True) and prog.active() is None
 
 
+def test_progress_true_prints_the_voxel_solves_estimate_as_the_command_does(capsys) -> None:
+    # session 43 (notebook walk): README promises "a time and memory estimate before each
+    # solve" with progress=True; `psdesign permeability --solver voxel` printed it, the API's
+    # voxel route printed only the throttled iteration lines (none for a short solve).
+    m = psdesign.build(_one_cylinder())
+    capsys.readouterr()
+    m.permeability("x", solver="voxel", error_estimate=False)
+    assert capsys.readouterr().err == ""  # silent by default
+    m.permeability("x", solver="voxel", error_estimate=False, progress=True)
+    cells = int(m.fields.solid.size)
+    assert f"psdesign: voxel solve x ({cells:.3g} cells): estimated ~" in capsys.readouterr().err
+
+
 def test_warnings_point_at_the_callers_line_and_repeat_per_material():
     """A ``ResolutionWarning`` raised inside psdesign pointed at psdesign's line, so Python's
     default filter showed it for the first under-resolved material only (API audit, s33);

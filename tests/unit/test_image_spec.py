@@ -189,6 +189,38 @@ def test_raw_spec_and_vti_voxel_size_from_the_file(tmp_path) -> None:
     assert spec["rve"]["size"] == pytest.approx([15e-6, 12.5e-6, 10e-6])
 
 
+def test_a_vti_spacing_in_millimetres_is_warned_about(tmp_path) -> None:
+    # session 43 (CT walk-through): a VTI's spacing has no unit and is read as metres; CT
+    # software writes mm (3D Slicer) or um. A slit of 1 um voxels exported with spacing 1e-3
+    # gave K = 1.4333e-05 m^2 [ok], 1e6 times the 1.4333e-11 of the same voxels, without a
+    # word. A file voxel over 100 um is now warned about (naming image.voxel_size); 1 um is not.
+    import warnings
+
+    import pyvista as pv
+
+    from psdesign.schema.image import ImageWarning
+
+    solid = np.zeros((8, 8, 6), np.uint8)
+    solid[:, :, :2] = 1
+    for spacing, warned in ((1e-3, True), (1e-6, False)):
+        img = pv.ImageData(dimensions=(9, 9, 7), spacing=(spacing,) * 3)
+        img.cell_data["labels"] = solid.ravel(order="F")
+        img.save(str(tmp_path / "s.vti"))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            spec = load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n'))
+        assert spec["rve"]["voxel"] == pytest.approx(spacing, rel=1e-12, abs=0)
+        said = [str(w.message) for w in caught if issubclass(w.category, ImageWarning)]
+        assert bool(said) == warned, said
+        if warned:
+            assert said[0].startswith("image.voxel_size: s.vti gives voxels of 0.001 m")
+            assert "in mm or um, give image.voxel_size in metres" in said[0]
+    with warnings.catch_warnings(record=True) as caught:  # the user's voxel_size: no guess
+        warnings.simplefilter("always")
+        load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\nvoxel_size = 1e-6\n'))
+    assert not any("gives voxels" in str(w.message) for w in caught)
+
+
 def test_voxel_size_key_wins_over_the_file_with_a_warning(img_dir) -> None:
     from psdesign.schema.image import ImageWarning
 
@@ -236,6 +268,94 @@ def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
         psdesign.from_image(
             tmp_path / "slice.tif", voxel_size=1e-6, crop=[[0, 16], [0, 16], [0, 1]]
         )
+
+
+@pytest.mark.parametrize(
+    "name, shape, kwargs, axes",
+    [
+        ("rgba.tif", (16, 16, 4), {"photometric": "rgb"}, "YXS"),  # a 2-D colour picture
+        ("rgb_stack.tif", (6, 16, 16, 3), {"photometric": "rgb"}, "YXS"),
+        ("channels.tif", (5, 16, 16), {"imagej": True, "metadata": {"axes": "CYX"}}, "CYX"),
+    ],
+)
+def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
+    tmp_path, name, shape, kwargs, axes
+):
+    # a 2-D RGBA picture was read as a 3-D image four voxels thick along x (its R, G, B and
+    # alpha as slices) and solved, exit 0 (session 43's CT walk-through); a 5-channel ImageJ
+    # image likewise with its channels as z slices. Both are one label image nobody gave.
+    import tifffile
+
+    data = np.zeros(shape, np.uint8)
+    data[..., 4:8, :] = 255
+    tifffile.imwrite(tmp_path / name, data, **kwargs)
+    spec = write_spec(tmp_path, f'[image]\npath = "{name}"\nvoxel_size = 1e-6\n')
+    with pytest.raises(SpecError) as info:
+        load_spec(spec)
+    assert info.value.key == "image.path"
+    assert "colour or multi-channel" in info.value.message and axes in info.value.message
+
+
+@pytest.mark.parametrize("given", ["slices", "slices/slice_*.tif"])
+def test_a_folder_of_slices_is_refused_with_how_to_stack_it(tmp_path, given):
+    # one TIFF per z slice is a usual CT export; the folder was refused as "is a folder" and a
+    # pattern as "file not found", with no word of what psdesign reads instead. The recipe the
+    # message gives gives the stack psdesign reads (the same porosity as the slices).
+    import glob
+
+    import tifffile
+
+    (tmp_path / "slices").mkdir()
+    for k in range(6):
+        page = np.zeros((8, 8), np.uint8)
+        page[:, : 2 + k % 3] = 255
+        tifffile.imwrite(tmp_path / "slices" / f"slice_{k:03d}.tif", page)
+    spec = write_spec(tmp_path, f'[image]\npath = "{given}"\nvoxel_size = 1e-6\n')
+    with pytest.raises(SpecError) as info:
+        load_spec(spec)
+    assert info.value.key == "image.path"
+    assert "one file per slice is not read" in info.value.message
+    assert "multi-page TIFF" in info.value.message and "Image Sequence" in info.value.message
+    files = sorted(glob.glob(str(tmp_path / "slices" / "*.tif")))
+    tifffile.imwrite(tmp_path / "stack.tif", tifffile.imread(files))
+    stacked = psdesign.from_image(tmp_path / "stack.tif", voxel_size=1e-6)
+    assert stacked.spec["rve"]["size"] == pytest.approx([8e-6, 8e-6, 6e-6], rel=1e-12, abs=0)
+    assert stacked.porosity == pytest.approx(1 - 3 / 8, rel=1e-12, abs=0)
+
+
+@pytest.mark.parametrize(
+    "unit, voxel",
+    [("micron", 0.5e-6), ("microns", 0.5e-6), ("UM", 0.5e-6), ("\\u00B5m", 0.5e-6), ("mm", 0.5e-3)],
+)
+def test_imagej_unit_spellings_give_the_voxel_size(tmp_path, unit, voxel):
+    # session 43: "microns" (a writer's plural) and "UM" read as "carries no voxel size"; the
+    # lookup is now in lower case with the usual spellings (ImageJ's own "micron" and its
+    # escaped micro sign as before). 0.5 units per pixel in x, y and z.
+    import tifffile
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": unit, "spacing": 0.5, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 2.0), metadata=meta)
+    m = psdesign.from_image(tmp_path / "s.tif")
+    assert m.spec["rve"]["voxel"] == pytest.approx(voxel, rel=1e-12, abs=0)
+
+
+def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
+    # a calibrated file in a unit psdesign does not read was refused as "carries no voxel
+    # size", as an uncalibrated one: now the line names the unit and the ones it reads
+    import tifffile
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    for unit in ("furlong", "inch"):  # inch: ImageJ's unit of a 72-dpi picture, 0.35 mm
+        meta = {"unit": unit, "spacing": 1 / 72, "axes": "ZYX"}
+        res = (72.0, 72.0)
+        tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=res, metadata=meta)
+        with pytest.raises(SpecError) as info:
+            psdesign.from_image(tmp_path / "s.tif")
+        assert info.value.key == "image.voxel_size" and f"'{unit}'" in info.value.message
+    assert psdesign.from_image(tmp_path / "s.tif", voxel_size=1e-6).spec["rve"]["voxel"] == 1e-6
 
 
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
