@@ -133,6 +133,18 @@ def least_stack_of(flow) -> tuple[int, float]:
     return copies, aux
 
 
+def fits_cap(cap_gb: float | None, need: float) -> bool:
+    """Does an estimate of ``need`` bytes fit ``flow.max_memory_gb = cap_gb`` (None: no cap)?
+    The one rule of every check made before the mesh or grid it estimates is built: at most
+    :data:`CAP_MARGIN` times the cap (the estimates are upper bounds; the FEM solve's own check
+    on the built mesh decides above the cap).
+
+    >>> fits_cap(1.0, 1.2e9), fits_cap(1.0, 1.3e9), fits_cap(None, 1e30)
+    (True, False, True)
+    """
+    return cap_gb is None or need <= CAP_MARGIN * float(cap_gb) * 1e9
+
+
 def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> None:
     """Refuse ``need`` bytes (the route's estimate, ``what`` describes it) over
     ``flow.max_memory_gb`` times :data:`CAP_MARGIN`, naming the key, the estimate and the
@@ -140,7 +152,7 @@ def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> No
     ``key`` is in the error's ``names``, so a study spells it as its file does);
     ``least``: ``need`` is a lower bound (the built mesh's estimate decides above it)."""
     cap = getattr(flow, "max_memory_gb", None)
-    if cap is None or need <= CAP_MARGIN * cap * 1e9:
+    if fits_cap(cap, need):
         return
     gb = f"{need / 1e9:.3g} GB"
     raise fail(
