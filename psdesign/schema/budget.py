@@ -19,10 +19,12 @@ Every check raises a schema error naming the key and the estimate. Figures:
 * ``flow.max_memory_gb``, on every route before any work (:func:`check_cap`, over it by
   :data:`CAP_MARGIN`): the stuffing FEM's estimate (:func:`check_fem`), pytetwild's least mesh
   (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`),
-  each with ``"auto"`` counted as the one copy a non-periodic RVE stacks
-  (:func:`least_stack_of`); the stack ``"auto"`` plans once the RVE is built is checked the
-  same way before it is meshed or solved (:func:`check_planned_stack`); each refusal names
-  the route's resolution key;
+  each with ``"auto"`` counted as the copies explicit fibers plan along ``flow.direction``
+  (``SpecDocument._planned_flow``, :func:`psdesign.flow.stack.spec_auto_copies`; the routes
+  pin the direction they solve, :func:`psdesign.schema.spec.check_directions`), else as the
+  one copy a non-periodic RVE stacks (:func:`least_stack_of`); there the stack ``"auto"``
+  plans once the RVE is built is checked the same way before it is meshed or solved
+  (:func:`check_planned_stack`); each refusal names the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
@@ -108,8 +110,10 @@ def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
 
 def stack_of(flow) -> tuple[int, float]:
     """``(copies, aux_length)`` of the solve a ``[flow]`` table asks for, at most: a permeameter
-    (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``:
-    :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a periodic one-period RVE) between
+    (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``
+    where the spec cannot tell its copies: :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a
+    periodic one-period RVE; a spec that can tell has the planned count here,
+    ``SpecDocument._planned_flow``) between
     reservoirs of ``aux_length`` times one copy; a periodic solve is one copy, no reservoirs."""
     if flow is None:
         return 1, 0.0
@@ -123,7 +127,8 @@ def stack_of(flow) -> tuple[int, float]:
 
 def least_stack_of(flow) -> tuple[int, float]:
     """:func:`stack_of` with ``"auto"`` copies counted as one, the fewest a run stacks (it
-    takes two only for a periodic one-period RVE, known once the RVE is built): what
+    takes two only for a periodic one-period RVE, known once the RVE is built where the spec
+    cannot tell; a spec that can has its planned count in place of ``"auto"``): what
     ``flow.max_memory_gb`` is checked against up front on every route, so that no spec a run
     would fit is refused; the stack ``"auto"`` plans is checked before it is stacked
     (:func:`check_planned_stack`)."""
@@ -177,10 +182,12 @@ def check_planned_stack(
     """Refuse the first stack an ``"auto"`` permeameter planned (``copies``,
     :func:`psdesign.flow.stack.plan_copies`) over ``flow.max_memory_gb``, with the up-front
     check of the route (:func:`_check_voxel_cap`, :func:`check_fem`, the same estimate and
-    line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`), so a
-    periodic one-period RVE's two copies are checked here, after the RVE is built and before
-    the grid is stacked or meshed. ``flow``: the route's permeameter ``[flow]`` dict;
-    ``key``: the voxel route's resolution key (``image.crop`` for an image).
+    line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`) where
+    the spec cannot tell its copies (a generated RVE, an image), so such a periodic one-period
+    RVE's two copies are checked here, after the RVE is built and before the grid is stacked
+    or meshed (explicit fibers were counted before any work and pass here again). ``flow``:
+    the route's permeameter ``[flow]`` dict; ``key``: the voxel route's resolution key
+    (``image.crop`` for an image).
 
     Raises
     ------
@@ -296,13 +303,16 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
         return
     n = math.prod(shape)
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
+    stacked = ""
     if getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
         need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
     else:
-        need = grid_bytes(n, "voxel", *least_stack_of(flow))
-    check_cap(flow, need, f"the voxel solve of the {dims} grid", key)
+        copies, aux = least_stack_of(flow)
+        need = grid_bytes(n, "voxel", copies, aux)
+        stacked = f" ({copies} copies stacked)" if copies > 1 else ""
+    check_cap(flow, need, f"the voxel solve of the {dims} grid{stacked}", key)
 
 
 def fem_mesh_size(

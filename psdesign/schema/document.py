@@ -120,7 +120,8 @@ class SpecDocument(Table):
                 f"<= {min(size) / 4:g} m",
             )
         budget.check_copies(size, period)
-        budget.check_grid(size, voxel, self.flow.solver, flow=self.flow)
+        flow = self._planned_flow(voxel)
+        budget.check_grid(size, voxel, flow.solver, flow=flow)
         # the stuffing lattice's own range: pytetwild does not read the key (its refusal named
         # a key the route ignores; psdesign mesh --mesher stuffing validates again)
         lattice = self.flow.lattice_step if self.flow.mesher == "stuffing" else None
@@ -134,7 +135,7 @@ class SpecDocument(Table):
             budget.check_cells("flow.lattice_step", size, lattice, budget.MAX_LATTICE_CELLS)
         if self.flow.solver == "fem":
             porosity = self.generator.porosity if self.generator is not None else None
-            budget.check_fem(size, voxel, self.flow, porosity, self._thinnest_diameter())
+            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -153,6 +154,31 @@ class SpecDocument(Table):
         if self.flow.wall_treatment == "diffuse" and self.flow.solver == "voxel":
             self._check_diffuse()
         return self
+
+    def _planned_flow(self, voxel: float) -> FlowTable:
+        """``[flow]`` as the memory checks count it: an ``"auto"`` permeameter along
+        ``flow.direction`` of explicit fibers alone stacks the copies their analytic field
+        plans (:func:`psdesign.flow.stack.spec_auto_copies`, the test the built RVE gets), so
+        both the machine budget and ``flow.max_memory_gb`` count those copies before any work;
+        a generated RVE or an image (known once built), or no direction (the routes pin the
+        one they solve, :func:`psdesign.schema.spec.check_directions`), keeps ``"auto"``
+        (:func:`~psdesign.schema.budget.stack_of`)."""
+        flow = self.flow
+        bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
+        auto = flow.permeameter_copies in (None, "auto") and bc == "permeameter"
+        if not auto or flow.direction is None or self.generator is not None or not self.fibers:
+            return flow
+        import numpy as np
+
+        from psdesign.flow.stack import spec_auto_copies
+        from psdesign.geometry.rve import RVE
+        from psdesign.schema.spec import explicit_fibers
+
+        rve_spec = {"size": list(self.rve.size), "period": self.rve.period}
+        fibers = explicit_fibers({"rve": rve_spec, "fibers": [f.to_spec() for f in self.fibers]})
+        rve = RVE(size=np.asarray(self.rve.size), fibers=fibers, period=self.rve.period)
+        copies = spec_auto_copies(rve, ["xyz".index(flow.direction)], voxel)
+        return flow.model_copy(update={"permeameter_copies": copies})
 
     def _check_diffuse(self) -> None:
         """``flow.wall_treatment = "diffuse"`` (a voxel-solver wall; the FEM ignores it, as it

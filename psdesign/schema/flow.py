@@ -11,10 +11,11 @@ from psdesign.schema.types import Table, fail, flag, number, short
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
 #: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
-#: the up-front memory budget (half the machine) counts them for every "auto" permeameter, the
-#: ``flow.max_memory_gb`` cap one copy, and the planned stack once the RVE is built
-#: (psdesign.schema.budget; a longer stack "auto" takes after the first solve is checked before
-#: it is solved).
+#: where the spec cannot tell the copies (a generated RVE, an image, no direction) the up-front
+#: memory budget (half the machine) counts these, the ``flow.max_memory_gb`` cap one copy, and
+#: the planned stack is checked once the RVE is built; explicit fibers along a direction count
+#: their planned copies in both (psdesign.schema.budget, SpecDocument._planned_flow; a longer
+#: stack "auto" takes after the first solve is checked before it is solved).
 AUTO_PERMEAMETER_COPIES = 2
 
 
@@ -187,8 +188,9 @@ class FlowTable(Table):
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None,
         description="memory cap of the solve, GB in (0, 1e5]; either solver's estimated "
-        'memory within it, checked before any work (an "auto" stack of two once the RVE '
-        "is built; the FEM's again on the built mesh)",
+        'memory within it, checked before any work (the copies an "auto" stack plans: of '
+        "explicit fibers before it, of a generated RVE or an image once built; the FEM's "
+        "again on the built mesh)",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
         None,

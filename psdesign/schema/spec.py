@@ -164,6 +164,19 @@ def check_flow_override(spec: dict, flow: dict) -> None:
         validate_spec({**spec, "flow": flow})
 
 
+def check_directions(spec: dict, flow: dict, directions) -> None:
+    """:func:`check_flow_override` with ``flow.direction`` pinned to each of ``directions``
+    (``"x"``, ``"y"``, ``"z"``), before any work: along a direction an ``"auto"``
+    permeameter of explicit fibers counts the copies it will stack
+    (``SpecDocument._planned_flow``; without a direction the spec cannot tell). Skipped for a
+    generated RVE or an image, whose copies are known once built (and whose validation reads
+    the image again). ``SpecError``."""
+    if "generator" in spec or "image" in spec:
+        return
+    for d in directions:
+        check_flow_override(spec, {**flow, "direction": d})
+
+
 def _plain(value: Any) -> Any:
     """``value`` with NumPy scalars and arrays (a notebook's spec dict) as Python numbers and
     lists, so that the validated spec is plain JSON data like a TOML file's."""

@@ -203,7 +203,8 @@ def test_the_memory_cap_stops_the_stack_too(monkeypatch, solver):
     Under flow.max_memory_gb the FEM's 3-copy solve refused the cap after the 2-copy solve's
     work (exit 2, no K); the voxel route's went over it without a word. Now the stack stops
     at the cap, names it and keeps the 2-copy result. The 3-copy estimate (restack_bytes, the
-    estimate each solve's own check uses) is over CAP_MARGIN times the cap (session 43: the rule of every cap check, budget.fits_cap)."""
+    estimate each solve's own check uses) is over CAP_MARGIN times the cap (session 43: the
+    rule of every cap check, budget.fits_cap)."""
     first = {"solver": solver, "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
     three = budget.restack_bytes(first, 3, 1000, 0.2)
     cap = 0.99 * three / budget.CAP_MARGIN  # bytes (the 2-copy solve is the stub's)

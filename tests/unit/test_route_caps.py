@@ -371,13 +371,14 @@ def test_the_caps_documented_text_says_when_the_auto_stack_is_checked():
     """Session 42 (s42-fixes) checks the stack "auto" plans (two copies of a periodic
     one-period RVE) once the RVE is built (test above), but the key's description, which
     docs/spec-keys.md's table and every out-of-range line print, still said 'checked before
-    any work' alone (review s42-review)."""
+    any work' alone (review s42-review). Session 43 counts explicit fibers' planned stack
+    before any work; the text says which stacks wait for the built RVE."""
     from pathlib import Path
 
     from psdesign.schema.flow import FlowTable
 
     text = FlowTable.model_fields["max_memory_gb"].description
-    assert 'an "auto" stack of two once the RVE is built' in text, text
+    assert "of a generated RVE or an image once built" in text, text
     table = (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text()
     (row,) = [ln for ln in table.splitlines() if ln.startswith("| `flow.max_memory_gb` |")]
     assert text in row
