@@ -43,6 +43,7 @@ from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
     TREATMENT_ALLOWED,
+    TREATMENT_NAMES,
     resolution_key,
     treatment_refusal,
     unread_mesher_key,
@@ -94,7 +95,9 @@ def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
     """
     why = treatment_refusal(flow.get("periodic_treatment"), solver, bc or flow.get("bc"))
     if why:
-        raise SpecError("flow.periodic_treatment", f"{why}; allowed: {TREATMENT_ALLOWED}")
+        raise SpecError(
+            "flow.periodic_treatment", f"{why}; allowed: {TREATMENT_ALLOWED}", TREATMENT_NAMES
+        )
 
 
 #: The permeameter's own ``[flow]`` keys and the values that mean "not asked for" (the

@@ -277,8 +277,8 @@ def check_grid(
             f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
             f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
             f"is {budget / 2**30:.3g} GiB (half the machine)",
-            f"1, or bc = 'periodic', or {coarser_advice(key)}",
-            names=(key,),
+            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}",
+            names=(key, "flow.bc"),
         )
     vmin = voxel * (need / budget) ** (1 / 3)
     per = need / n
@@ -440,8 +440,8 @@ def check_fem(
         "the machine)"
     )
     if copies > 1 and fem_need_bytes(size, step, 1, aux, phi) <= budget:
-        raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
-    raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
+        raise fail("flow.permeameter_copies", what, "1, or flow.bc = 'periodic'", ("flow.bc",))
+    raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size", ("rve.size",))
 
 
 def tetwild_mesh_size(
@@ -460,7 +460,8 @@ def tetwild_mesh_size(
         raise fail(
             "flow.edge_length",
             f"{flow.edge_length:g} of the box diagonal is longer than the box",
-            "(0, 1] with mesher = 'pytetwild'",
+            "(0, 1] with flow.mesher = 'pytetwild'",
+            names=("flow.mesher",),
         )
     opts = MeshOptions(
         mesher="pytetwild",
@@ -497,8 +498,9 @@ def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -
         f"the pytetwild mesh of about {tets:.3g} tets (edge {edge:.3g} m) needs about "
         f"{total / 2**30:.3g} GiB in the FEM; the budget is {budget / 2**30:.3g} GiB (half the "
         "machine)",
-        f"an edge about {(total / budget) ** (1 / 3):.2g} x longer, mesher = 'stuffing', or a "
-        "smaller rve.size",
+        f"an edge about {(total / budget) ** (1 / 3):.2g} x longer, flow.mesher = 'stuffing', or "
+        "a smaller rve.size",
+        names=("flow.mesher", "rve.size"),
     )
 
 

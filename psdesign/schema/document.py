@@ -190,13 +190,18 @@ class SpecDocument(Table):
         flow = self.flow
         if flow.bc not in (None, "periodic"):
             raise fail(
-                "flow.wall_treatment", f"'diffuse' needs bc = 'periodic', not {flow.bc!r}", allowed
+                "flow.wall_treatment",
+                f"'diffuse' needs flow.bc = 'periodic', not {flow.bc!r}",
+                allowed,
+                names=("flow.bc",),
             )
         if flow.periodic_treatment not in (None, "periodic"):
             raise fail(
                 "flow.wall_treatment",
-                f"'diffuse' needs periodic_treatment = 'periodic', not {flow.periodic_treatment!r}",
+                "'diffuse' needs flow.periodic_treatment = 'periodic', not "
+                f"{flow.periodic_treatment!r}",
                 allowed,
+                names=("flow.periodic_treatment",),
             )
         if self.forcefield is not None:
             raise fail("flow.wall_treatment", "'diffuse' with [forcefield] (bent fibers)", allowed)
@@ -215,6 +220,7 @@ class SpecDocument(Table):
                     f"{fb.shape!r}: flow.wall_treatment = 'diffuse' needs straight fibers of a "
                     "closed-form wall distance",
                     " | ".join(SHAPES),
+                    names=("flow.wall_treatment",),
                 )
         self._check_diffuse_tiling()
 
@@ -239,6 +245,7 @@ class SpecDocument(Table):
                 f"fibers[{i}].direction",
                 f"fiber {i} {UNTILEABLE} (flow.wall_treatment = 'diffuse')",
                 "a box axis",
+                names=("flow.wall_treatment",),
             )
 
     def _check_image(self) -> None:
@@ -381,8 +388,9 @@ class SpecDocument(Table):
         if n_est > g.max_fibers:
             raise fail(
                 "generator.porosity",
-                f"needs about {n_est:.0f} fibers, over max_fibers = {g.max_fibers}",
-                "a porosity reachable with max_fibers fibers",
+                f"needs about {n_est:.0f} fibers, over generator.max_fibers = {g.max_fibers}",
+                "a porosity reachable with generator.max_fibers fibers",
+                names=("generator.max_fibers",),
             )
         if inter.step is not None and inter.step < min(size) / 1e4:
             raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")

@@ -61,7 +61,9 @@ def treatment_refusal(treatment: str | None, solver: str, bc: str | None) -> str
 
 
 #: What :func:`treatment_refusal`'s message allows.
-TREATMENT_ALLOWED = "periodic, or solver 'voxel' with bc 'periodic'"
+TREATMENT_ALLOWED = "periodic, or solver 'voxel' with flow.bc = 'periodic'"
+#: The spec keys :data:`TREATMENT_ALLOWED` names (a study spells them as its file does).
+TREATMENT_NAMES = ("flow.bc",)
 
 
 #: Defaults filled into every validated spec (other keys appear only when given).
@@ -215,8 +217,9 @@ class FlowTable(Table):
         if self.bc == "periodic" and self.mesher == "pytetwild":
             raise fail(
                 "mesher",
-                "pytetwild cannot mesh with bc = 'periodic' (no matching opposite faces)",
-                "stuffing with bc = 'periodic', or bc = 'permeameter'",
+                "pytetwild cannot mesh with flow.bc = 'periodic' (no matching opposite faces)",
+                "stuffing with flow.bc = 'periodic', or flow.bc = 'permeameter'",
+                names=("flow.bc",),
             )
         return self
 
@@ -229,7 +232,7 @@ class FlowTable(Table):
             return self
         why = treatment_refusal(self.periodic_treatment, self.solver, self.bc)
         if why:
-            raise fail("periodic_treatment", why, TREATMENT_ALLOWED)
+            raise fail("periodic_treatment", why, TREATMENT_ALLOWED, TREATMENT_NAMES)
         return self
 
     def to_spec(self) -> dict:

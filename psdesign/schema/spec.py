@@ -121,7 +121,9 @@ def validate_document(data: Any, base: str | Path | None = None) -> SpecDocument
     except MemoryError:
         if "image" in data:  # the validator reads the image (its box and voxel)
             raise SpecError(
-                "image.path", "the image does not fit in memory: read a part (image.crop)"
+                "image.path",
+                "the image does not fit in memory: read a part (image.crop)",
+                names=("image.crop",),
             ) from None
         raise SpecError("spec", "cannot validate: out of memory") from None
     except (RecursionError, OverflowError) as exc:
