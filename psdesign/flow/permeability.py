@@ -583,12 +583,3 @@ def auto_lengthen(
             f"%; set flow.permeameter_copies (up to {MAX_COPIES}), or use bc = 'periodic'"
         )
     return res, flow
-    flow = {**flow, "permeameter_copies": done}
-    res["permeameter_auto"] = {"tries": tries, "stopped": why}
-    if reason is not None:
-        res.setdefault("warnings", []).append(
-            f"K_{res['direction']}: flow.permeameter_copies = 'auto' stopped at {done} copies "
-            f"({reason}) with the window term {100 * window:.1f} % above {100 * AUTO_WINDOW:g} "
-            f"%; set flow.permeameter_copies (up to {MAX_COPIES}), or use bc = 'periodic'"
-        )
-    return res, flow
