@@ -120,7 +120,7 @@ class SpecDocument(Table):
                 f"<= {min(size) / 4:g} m",
             )
         budget.check_copies(size, period)
-        flow = self._planned_flow(voxel)
+        flow = self._planned_flow(size, voxel)
         budget.check_grid(size, voxel, flow.solver, flow=flow)
         # the stuffing lattice's own range: pytetwild does not read the key (its refusal named
         # a key the route ignores; psdesign mesh --mesher stuffing validates again)
@@ -155,7 +155,20 @@ class SpecDocument(Table):
             self._check_diffuse()
         return self
 
-    def _planned_flow(self, voxel: float) -> FlowTable:
+    def _memory_fits(self, size, voxel: float, flow: FlowTable) -> bool:
+        """The memory checks of :meth:`_cross` pass with ``flow`` (a dry run, no error)."""
+        from pydantic_core import PydanticCustomError
+
+        try:
+            budget.check_grid(size, voxel, flow.solver, flow=flow)
+            if flow.solver == "fem":
+                porosity = self.generator.porosity if self.generator is not None else None
+                budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
+        except PydanticCustomError:
+            return False
+        return True
+
+    def _planned_flow(self, size, voxel: float) -> FlowTable:
         """``[flow]`` as the memory checks count it: an ``"auto"`` permeameter along
         ``flow.direction`` of explicit fibers alone stacks the copies their analytic field
         plans (:func:`psdesign.flow.stack.spec_auto_copies`, the test the built RVE gets), so
@@ -167,6 +180,11 @@ class SpecDocument(Table):
         bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
         auto = flow.permeameter_copies in (None, "auto") and bc == "permeameter"
         if not auto or flow.direction is None or self.generator is not None or not self.fibers:
+            return flow
+        two = flow.model_copy(update={"permeameter_copies": budget.AUTO_PERMEAMETER_COPIES})
+        if self._memory_fits(size, voxel, two):
+            # the most "auto" plans fits the budget and the cap: the plan changes no outcome
+            # (its analytic field costs 10-30 ms a direction, on every level a study checks)
             return flow
         import numpy as np
 

@@ -156,3 +156,17 @@ def test_a_generated_rve_keeps_the_after_build_check():
     spec["flow"]["direction"] = "z"
     validate_spec(spec)
     assert tomllib.loads(dumps(spec))  # plain TOML data
+
+
+def test_the_plan_is_made_only_where_it_can_change_the_outcome(monkeypatch):
+    """Where two copies (the most "auto" plans first) fit the budget and the cap, the analytic
+    field is not evaluated (10-30 ms a direction, on every level a study checks)."""
+    import psdesign.flow.stack as stack
+
+    def boom(*a, **k):
+        raise RuntimeError("planned although two copies fit")  # pydantic passes it on
+
+    monkeypatch.setattr(stack, "spec_auto_copies", boom)
+    validate_spec(_spec(cap=1.0) | {"flow": _spec(cap=1.0)["flow"] | {"direction": "z"}})
+    with pytest.raises(RuntimeError, match="planned although"):
+        validate_spec(_spec() | {"flow": _spec()["flow"] | {"direction": "z"}})
