@@ -28,7 +28,7 @@ residual of the windowed drop, :func:`psdesign.flow.error.window_of`) is above
 ``"auto"`` solves again with one copy more, up to :data:`AUTO_MAX_COPIES` (only a stack of a
 one-period RVE: an array already holds whole periods), and only while the
 longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`; up front
-both the budget and ``flow.max_memory_gb`` count the copies explicit fibers plan,
+both the budget and ``flow.max_memory_gb`` count the copies explicit fibers or an image plan,
 :func:`spec_auto_copies`; where only the built RVE tells, the budget counts the first solve's
 :data:`AUTO_COPIES`, the cap one copy and the planned copies before the stack is meshed or
 solved, :func:`psdesign.schema.budget.check_planned_stack`); where it stops above the threshold the
@@ -131,7 +131,17 @@ class StackPlan:
         }
 
 
-def _has_analytic(rve: RVE | None, fields: VoxelFields | float) -> bool:
+@dataclass(frozen=True)
+class SolidMask:
+    """An image's solid mask before its voxel fields are built: what the voxel seam test
+    reads (:func:`end_planes`, :func:`_voxel_periods`; the built fields' ``solid`` is this
+    mask, :func:`psdesign.image.fields.signed_distance`)."""
+
+    solid: np.ndarray
+    analytic_distance = False
+
+
+def _has_analytic(rve: RVE | None, fields: VoxelFields | SolidMask | float) -> bool:
     """The RVE has an analytic surface (fibers; ``fields`` a voxel size: the RVE alone, before
     its voxel fields are built, :func:`spec_auto_copies`)."""
     analytic = isinstance(fields, float) or bool(fields.analytic_distance)
@@ -194,7 +204,7 @@ def _analytic_points(rve: RVE) -> np.ndarray:
     return np.random.default_rng(SAMPLE_SEED).uniform(0.0, 1.0, (SAMPLE_POINTS, 3)) * size
 
 
-def end_planes(rve: RVE | None, fields: VoxelFields | float, axis: int) -> EndPlanes:
+def end_planes(rve: RVE | None, fields: VoxelFields | SolidMask | float, axis: int) -> EndPlanes:
     """Compare the geometry on the two end planes along ``axis``: the analytic union field near
     the surface where the RVE has one (largest difference against :data:`SEAM_TOL_LENGTH`
     of the RVE's length along the axis: a length of the geometry, so the answer does not depend
@@ -253,7 +263,7 @@ def _analytic_periods(rve: RVE, fields: VoxelFields | float, axis: int) -> int:
     return found
 
 
-def _voxel_periods(fields: VoxelFields, axis: int) -> int:
+def _voxel_periods(fields: VoxelFields | SolidMask, axis: int) -> int:
     """The same from the grid: sub-periods by rolling the solid by ``n / k`` layers (``k``
     dividing ``n``; an image's distance is not periodic)."""
     solid = fields.solid
@@ -266,7 +276,7 @@ def _voxel_periods(fields: VoxelFields, axis: int) -> int:
 
 
 def periodicity(
-    rve: RVE | None, fields: VoxelFields | float, axis: int
+    rve: RVE | None, fields: VoxelFields | SolidMask | float, axis: int
 ) -> tuple[bool, int, str, float]:
     """``(periodic, periods_per_copy, check, gap_fraction)`` of the geometry along ``axis``:
     whether the end planes match (:func:`end_planes`: the analytic union field near the surface
@@ -343,13 +353,14 @@ def auto_copies(periodic: bool, periods: int) -> int:
     return AUTO_COPIES if periodic and periods < 2 else 1
 
 
-def spec_auto_copies(rve: RVE, axes, voxel: float) -> int:
+def spec_auto_copies(rve: RVE | None, axes, voxel: float | SolidMask) -> int:
     """The most copies ``"auto"`` plans along ``axes`` (0, 1, 2) for an RVE of explicit fibers,
     known before its voxel fields are built: :func:`auto_copies` of :func:`periodicity` on the
     RVE's analytic field, the test :func:`plan_copies` applies to the built RVE (the same
     fibers, so the same answer); ``voxel`` (m) sets the near-surface band only for fibers
-    without a diameter. What the up-front memory checks count
-    (:func:`psdesign.schema.budget.stack_of`).
+    without a diameter. An image (``rve`` None, ``voxel`` its :class:`SolidMask`): the voxel
+    seam test on its mask. What the up-front memory checks count
+    (:func:`psdesign.schema.plan.planned_flow`).
 
     >>> from psdesign.geometry.fibers import make_fiber
     >>> rod = make_fiber("rod", 0.2, theta=0.0, omega=0.0)  # along x, one period per box
@@ -357,7 +368,8 @@ def spec_auto_copies(rve: RVE, axes, voxel: float) -> int:
     >>> spec_auto_copies(rve, [0], 1e-6), spec_auto_copies(rve, [2], 1e-6)
     (1, 2)
     """
-    return max(auto_copies(*periodicity(rve, float(voxel), a)[:2]) for a in axes)
+    fields = voxel if isinstance(voxel, SolidMask) else float(voxel)
+    return max(auto_copies(*periodicity(rve, fields, a)[:2]) for a in axes)
 
 
 def next_auto_copies(requested: object, result: dict, window: float) -> tuple[int | None, str]:

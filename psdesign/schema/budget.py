@@ -19,10 +19,10 @@ Every check raises a schema error naming the key and the estimate. Figures:
 * ``flow.max_memory_gb``, on every route before any work (:func:`check_cap`, over it by
   :data:`CAP_MARGIN`): the stuffing FEM's estimate (:func:`check_fem`), pytetwild's least mesh
   (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`),
-  each with ``"auto"`` counted as the copies explicit fibers plan along ``flow.direction``
-  (``SpecDocument._planned_flow``, :func:`psdesign.flow.stack.spec_auto_copies`; the routes
-  pin the direction they solve, :func:`psdesign.schema.spec.check_directions`), else as the
-  one copy a non-periodic RVE stacks (:func:`least_stack_of`); there the stack ``"auto"``
+  each with ``"auto"`` counted as the copies explicit fibers or an image plan along
+  ``flow.direction`` (:mod:`psdesign.schema.plan`; the routes pin the direction they solve,
+  :func:`psdesign.schema.spec.check_directions`), else as the one copy a non-periodic RVE
+  stacks (:func:`least_stack_of`); there (a generated RVE) the stack ``"auto"``
   plans once the RVE is built is checked the same way before it is meshed or solved
   (:func:`check_planned_stack`); each refusal names the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
@@ -113,7 +113,7 @@ def stack_of(flow) -> tuple[int, float]:
     (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``
     where the spec cannot tell its copies: :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a
     periodic one-period RVE; a spec that can tell has the planned count here,
-    ``SpecDocument._planned_flow``) between
+    :func:`psdesign.schema.plan.planned_flow`) between
     reservoirs of ``aux_length`` times one copy; a periodic solve is one copy, no reservoirs."""
     if flow is None:
         return 1, 0.0
@@ -183,9 +183,10 @@ def check_planned_stack(
     :func:`psdesign.flow.stack.plan_copies`) over ``flow.max_memory_gb``, with the up-front
     check of the route (:func:`_check_voxel_cap`, :func:`check_fem`, the same estimate and
     line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`) where
-    the spec cannot tell its copies (a generated RVE, an image), so such a periodic one-period
-    RVE's two copies are checked here, after the RVE is built and before the grid is stacked
-    or meshed (explicit fibers were counted before any work and pass here again). ``flow``:
+    the spec cannot tell its copies (a generated RVE, or no direction given), so such a
+    periodic one-period RVE's two copies are checked here, after the RVE is built and before
+    the grid is stacked or meshed (explicit fibers and images along a direction were counted
+    before any work, :mod:`psdesign.schema.plan`, and pass here again). ``flow``:
     the route's permeameter ``[flow]`` dict; ``key``: the voxel route's resolution key
     (``image.crop`` for an image).
 

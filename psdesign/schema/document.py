@@ -155,48 +155,60 @@ class SpecDocument(Table):
             self._check_diffuse()
         return self
 
-    def _memory_fits(self, size, voxel: float, flow: FlowTable) -> bool:
-        """The memory checks of :meth:`_cross` pass with ``flow`` (a dry run, no error)."""
-        from pydantic_core import PydanticCustomError
-
-        try:
-            budget.check_grid(size, voxel, flow.solver, flow=flow)
-            if flow.solver == "fem":
-                porosity = self.generator.porosity if self.generator is not None else None
-                budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
-        except PydanticCustomError:
-            return False
-        return True
+    def _fiber_memory(self, size, voxel: float, flow: FlowTable) -> None:
+        """The memory checks of a fiber spec at ``flow`` (the voxel grid's, the FEM's)."""
+        budget.check_grid(size, voxel, flow.solver, flow=flow)
+        if flow.solver == "fem":
+            porosity = self.generator.porosity if self.generator is not None else None
+            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
 
     def _planned_flow(self, size, voxel: float) -> FlowTable:
-        """``[flow]`` as the memory checks count it: an ``"auto"`` permeameter along
-        ``flow.direction`` of explicit fibers alone stacks the copies their analytic field
-        plans (:func:`psdesign.flow.stack.spec_auto_copies`, the test the built RVE gets), so
-        both the machine budget and ``flow.max_memory_gb`` count those copies before any work;
-        a generated RVE or an image (known once built), or no direction (the routes pin the
-        one they solve, :func:`psdesign.schema.spec.check_directions`), keeps ``"auto"``
-        (:func:`~psdesign.schema.budget.stack_of`)."""
-        flow = self.flow
-        bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
-        auto = flow.permeameter_copies in (None, "auto") and bc == "permeameter"
-        if not auto or flow.direction is None or self.generator is not None or not self.fibers:
-            return flow
-        two = flow.model_copy(update={"permeameter_copies": budget.AUTO_PERMEAMETER_COPIES})
-        if self._memory_fits(size, voxel, two):
-            # the most "auto" plans fits the budget and the cap: the plan changes no outcome
-            # (its analytic field costs 10-30 ms a direction, on every level a study checks)
-            return flow
-        import numpy as np
+        """``[flow]`` as the memory checks count it (:func:`psdesign.schema.plan.planned_flow`):
+        explicit fibers alone plan their copies from their analytic field
+        (:func:`psdesign.flow.stack.spec_auto_copies`); a generated RVE keeps ``"auto"``."""
+        from psdesign.schema.plan import planned_flow
 
-        from psdesign.flow.stack import spec_auto_copies
-        from psdesign.geometry.rve import RVE
-        from psdesign.schema.spec import explicit_fibers
+        if self.generator is not None or not self.fibers:
+            return self.flow
 
-        rve_spec = {"size": list(self.rve.size), "period": self.rve.period}
-        fibers = explicit_fibers({"rve": rve_spec, "fibers": [f.to_spec() for f in self.fibers]})
-        rve = RVE(size=np.asarray(self.rve.size), fibers=fibers, period=self.rve.period)
-        copies = spec_auto_copies(rve, ["xyz".index(flow.direction)], voxel)
-        return flow.model_copy(update={"permeameter_copies": copies})
+        def plan(axis: int) -> int:
+            import numpy as np
+
+            from psdesign.flow.stack import spec_auto_copies
+            from psdesign.geometry.rve import RVE
+            from psdesign.schema.spec import explicit_fibers
+
+            tables = {"rve": {"size": list(size), "period": self.rve.period}}
+            fibers = explicit_fibers({**tables, "fibers": [f.to_spec() for f in self.fibers]})
+            rve = RVE(size=np.asarray(size), fibers=fibers, period=self.rve.period)
+            return spec_auto_copies(rve, [axis], voxel)
+
+        return planned_flow(self.flow, lambda f: self._fiber_memory(size, voxel, f), plan)
+
+    def _image_memory(self, img, flow: FlowTable) -> None:
+        """The memory checks of an image spec at ``flow`` (the crop names the grid)."""
+        budget.check_grid(img.size, img.voxel, flow.solver, key="image.crop", flow=flow)
+        if flow.solver == "fem":
+            budget.check_fem(img.size, img.voxel, flow, None)
+
+    def _planned_image_flow(self, img) -> FlowTable:
+        """``[flow]`` as an image's memory checks count it: the copies its solid mask plans
+        (the voxel seam test the built image gets, :func:`psdesign.flow.stack.
+        spec_auto_copies`), read only where one copy fits and two do not
+        (:func:`psdesign.schema.plan.planned_flow`)."""
+        from psdesign.schema.plan import planned_flow
+
+        def plan(axis: int) -> int | None:
+            from psdesign.flow.stack import SolidMask, spec_auto_copies
+            from psdesign.image.load import load_mask, source_of
+
+            try:
+                mask = load_mask(source_of(img.to_spec()))
+            except ValueError:  # refused with its own line below
+                return None
+            return spec_auto_copies(None, [axis], SolidMask(mask))
+
+        return planned_flow(self.flow, lambda f: self._image_memory(img, f), plan)
 
     def _check_diffuse(self) -> None:
         """``flow.wall_treatment = "diffuse"`` (a voxel-solver wall; the FEM ignores it, as it
@@ -300,9 +312,7 @@ class SpecDocument(Table):
                 f"{self.flow.wall_treatment!r} needs an analytic surface; an [image] has none",
                 "staircase",
             )
-        budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop", flow=self.flow)
-        if self.flow.solver == "fem":
-            budget.check_fem(img.size, img.voxel, self.flow, None)
+        self._image_memory(img, self._planned_image_flow(img))
         try:
             solid = load_mask(source_of(img.to_spec()))
         except ValueError as exc:

@@ -11,11 +11,11 @@ from psdesign.schema.types import Table, fail, flag, number, short
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
 #: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
-#: where the spec cannot tell the copies (a generated RVE, an image, no direction) the up-front
-#: memory budget (half the machine) counts these, the ``flow.max_memory_gb`` cap one copy, and
-#: the planned stack is checked once the RVE is built; explicit fibers along a direction count
-#: their planned copies in both (psdesign.schema.budget, SpecDocument._planned_flow; a longer
-#: stack "auto" takes after the first solve is checked before it is solved).
+#: where the spec cannot tell the copies (a generated RVE, no direction) the up-front memory
+#: budget (half the machine) counts these, the ``flow.max_memory_gb`` cap one copy, and the
+#: planned stack is checked once the RVE is built; explicit fibers or an image along a
+#: direction count their planned copies in both (psdesign.schema.plan; a longer stack "auto"
+#: takes after the first solve is checked before it is solved).
 AUTO_PERMEAMETER_COPIES = 2
 
 
@@ -191,7 +191,7 @@ class FlowTable(Table):
         None,
         description="memory cap of the solve, GB in (0, 1e5]; either solver's estimated "
         'memory within it, checked before any work (the copies an "auto" stack plans: of '
-        "explicit fibers before it, of a generated RVE or an image once built; the FEM's "
+        "explicit fibers or an image before it, of a generated RVE once built; the FEM's "
         "again on the built mesh)",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(

@@ -169,11 +169,11 @@ def check_flow_override(spec: dict, flow: dict) -> None:
 def check_directions(spec: dict, flow: dict, directions) -> None:
     """:func:`check_flow_override` with ``flow.direction`` pinned to each of ``directions``
     (``"x"``, ``"y"``, ``"z"``), before any work: along a direction an ``"auto"``
-    permeameter of explicit fibers counts the copies it will stack
-    (``SpecDocument._planned_flow``; without a direction the spec cannot tell). Skipped for a
-    generated RVE or an image, whose copies are known once built (and whose validation reads
-    the image again). ``SpecError``."""
-    if "generator" in spec or "image" in spec:
+    permeameter of explicit fibers or of an image counts the copies it will stack
+    (:func:`psdesign.schema.plan.planned_flow`; without a direction the spec cannot tell; an
+    image's mask is read once, ``psdesign.image.load.load_mask`` keeps it). Skipped for a
+    generated RVE, whose copies are known once built. ``SpecError``."""
+    if "generator" in spec:
         return
     for d in directions:
         check_flow_override(spec, {**flow, "direction": d})

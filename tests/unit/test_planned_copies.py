@@ -170,3 +170,42 @@ def test_the_plan_is_made_only_where_it_can_change_the_outcome(monkeypatch):
     validate_spec(_spec(cap=1.0) | {"flow": _spec(cap=1.0)["flow"] | {"direction": "z"}})
     with pytest.raises(RuntimeError, match="planned although"):
         validate_spec(_spec() | {"flow": _spec()["flow"] | {"direction": "z"}})
+
+
+def _image_spec(tmp_path, solid, name: str) -> dict:
+    """A 20^3 voxel image at 1 um (``name``.npy, x y z; one file per mask: the mask cache
+    knows a file by its path, size and time), voxel route, "auto" permeameter along z."""
+    import numpy as np
+
+    path = tmp_path / f"{name}.npy"
+    np.save(path, np.asarray(solid, dtype=np.uint8))
+    flow = {"solver": "voxel", "bc": "permeameter", "max_memory_gb": CAP, "direction": "z"}
+    return {"image": {"path": str(path), "voxel_size": 1e-6}, "flow": flow}
+
+
+def test_an_image_plans_its_copies_from_its_mask(tmp_path):
+    """An image's copies are the voxel seam test's on its mask (flow.stack.end_planes: the
+    seam between the last and first layer against the worst step between neighbours inside),
+    which the schema reads anyway: a rod along x through the middle is periodic along z (two
+    copies, over the cap: refused naming image.crop's advice); a ramp whose solid grows by one
+    row a layer (steps of 1/20 of a layer, a seam of 19/20) is not (one copy, under the cap).
+    Old code: both passed up front (one copy counted; the rod refused once built)."""
+    import numpy as np
+
+    y, z = np.meshgrid(np.arange(20), np.arange(20), indexing="ij")
+    rod = np.broadcast_to(((y - 9.5) ** 2 + (z - 9.5) ** 2 <= 9)[None], (20, 20, 20))
+    with pytest.raises(SpecError) as ei:
+        validate_spec(_image_spec(tmp_path, rod, "rod"))
+    assert ei.value.key == "flow.max_memory_gb" and "2 copies stacked" in ei.value.message
+    assert ei.value.message.endswith("or a smaller image.crop)")
+    ramp = np.broadcast_to((y < z)[None], (20, 20, 20))
+    validate_spec(_image_spec(tmp_path, ramp, "ramp"))
+    # the built images plan the same copies (the one rule, flow.stack.plan_copies)
+    from psdesign.flow.stack import plan_copies
+    from psdesign.image.load import image_rve
+
+    for mask, copies, name in ((rod, 2, "rod"), (ramp, 1, "ramp")):
+        spec = _image_spec(tmp_path, mask, name)
+        del spec["flow"]["max_memory_gb"]
+        rve = image_rve(validate_spec(spec)["image"])
+        assert plan_copies({"permeameter_copies": "auto"}, rve, rve.image, 2).copies == copies

@@ -430,7 +430,7 @@ def test_the_caps_documented_text_says_when_the_auto_stack_is_checked():
     from psdesign.schema.flow import FlowTable
 
     text = FlowTable.model_fields["max_memory_gb"].description
-    assert "of a generated RVE or an image once built" in text, text
+    assert "of a generated RVE once built" in text, text
     table = (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text()
     (row,) = [ln for ln in table.splitlines() if ln.startswith("| `flow.max_memory_gb` |")]
     assert text in row
