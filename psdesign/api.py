@@ -289,7 +289,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.flow.darcy import flow_direction
         from psdesign.flow.permeability import permeability
-        from psdesign.schema.spec import check_flow_override
+        from psdesign.schema.spec import check_directions, check_flow_override
 
         progress = _progress_flag(progress)
         direction = _direction(flow_direction(direction, self.spec["flow"]))
@@ -300,6 +300,7 @@ class Material:
             given["bc"] = bc
         table = _flow_table(self.spec["flow"], given)
         check_flow_override(self.spec, table)  # the budget of this solver / bc, as the CLI
+        check_directions(self.spec, table, [direction])  # the copies "auto" stacks along it
         route = table["solver"]
         folder = fields_folder(fields, "permeability", [direction], route, option="fields")
         method = "GMRES" if route == "fem" else "MINRES"

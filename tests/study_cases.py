@@ -82,6 +82,24 @@ def mixed_status_case(spec, outputs, solver, workdir):
     return out
 
 
+def two_direction_case(spec, outputs, solver, workdir):
+    """A voxel case as a two-direction study row holds it: each K with its bar, bc and cells per
+    fiber diameter; porosity 0.9 at 5 voxels per diameter (untrustworthy, both directions, the
+    reason the longest status cell a report shows) and with a 25 % bar along z."""
+    out = fake_case(spec, outputs, solver, workdir)
+    eps = float(spec["generator"]["porosity"])
+    for a in "xyz":
+        if f"k_{a}_m2" in out:
+            out[f"k_{a}_rel_error"] = 0.04
+            out[f"k_{a}_status"] = "untrustworthy" if eps >= 0.9 else "ok"
+            out[f"bc_{a}"] = "permeameter"
+            out[f"cells_per_diameter_{a}"] = 5.0 if eps >= 0.9 else 9.0
+            out[f"permeameter_copies_{a}"] = 2
+    if eps >= 0.9 and "k_z_m2" in out:
+        out["k_z_rel_error"] = 0.25
+    return out
+
+
 def untrusted_case(spec, outputs, solver, workdir):
     """Every K untrustworthy (as a periodic solve of a non-periodic RVE is); the case is ok."""
     out = fake_case(spec, outputs, solver, workdir)

@@ -149,12 +149,15 @@ def _check_wall(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -
         )
 
 
-def _check_overrides(spec: dict, flow: dict, solver: str, args: argparse.Namespace) -> None:
-    """The spec validated again with the command line's solver, bc and sides, before the RVE
-    is built: the memory budget and the route's own checks depend on them (``--solver voxel``
-    on a spec written for the FEM skipped the voxel solver's budget, and a 15 GiB solve
-    started building)."""
-    from psdesign.schema.spec import check_flow_override
+def _check_overrides(
+    spec: dict, flow: dict, solver: str, args: argparse.Namespace, directions: list[str]
+) -> None:
+    """The spec validated again with the command line's solver, bc and sides, and each of
+    ``directions``, before the RVE is built: the memory budget and the route's own checks
+    depend on them (``--solver voxel`` on a spec written for the FEM skipped the voxel solver's
+    budget, and a 15 GiB solve started building; the two copies an ``"auto"`` permeameter of a
+    periodic RVE stacks were refused once it was built, session 43)."""
+    from psdesign.schema.spec import check_directions, check_flow_override
 
     bcs = ["permeameter", "periodic"] if args.bc == "both" else [flow.get("bc")]
     for bc in bcs:
@@ -162,6 +165,7 @@ def _check_overrides(spec: dict, flow: dict, solver: str, args: argparse.Namespa
         if bc is not None:
             table["bc"] = bc
         check_flow_override(spec, table)
+        check_directions(spec, table, directions)
 
 
 def _check_route(flow: dict, solver: str, args: argparse.Namespace) -> None:
@@ -210,10 +214,10 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     solver = args.solver or flow["solver"]
     _check_wall(spec, flow, solver, args)
     _check_route(flow, solver, args)
-    _check_overrides(spec, flow, solver, args)
-    t0 = time.perf_counter()
     direction = flow_direction(args.direction, flow)
     directions = ["x", "y", "z"] if direction == "all" else [direction]
+    _check_overrides(spec, flow, solver, args, directions)
+    t0 = time.perf_counter()
     with _fields_folder(args, directions, solver) as writer, _result_says_resolution():
         built = build_rve(spec)
         rve = built.rve

@@ -31,6 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from psdesign.errors import SpecError
 from psdesign.fields.writer import HeldCapture
 from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
@@ -42,6 +43,7 @@ from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
     TREATMENT_ALLOWED,
+    TREATMENT_NAMES,
     resolution_key,
     treatment_refusal,
     unread_mesher_key,
@@ -91,11 +93,11 @@ def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
     ...     print(exc.key)
     flow.periodic_treatment
     """
-    from psdesign.errors import SpecError
-
     why = treatment_refusal(flow.get("periodic_treatment"), solver, bc or flow.get("bc"))
     if why:
-        raise SpecError("flow.periodic_treatment", f"{why}; allowed: {TREATMENT_ALLOWED}")
+        raise SpecError(
+            "flow.periodic_treatment", f"{why}; allowed: {TREATMENT_ALLOWED}", TREATMENT_NAMES
+        )
 
 
 #: The permeameter's own ``[flow]`` keys and the values that mean "not asked for" (the
@@ -482,6 +484,49 @@ def _longer_flow(flow: dict, res: dict, copies: int) -> dict:
     return out
 
 
+def _restack_refusal(res: dict, copies: int, fields: VoxelFields, flow: dict) -> tuple:
+    """``(why, reason)`` when ``copies`` stacked do not fit (:func:`~psdesign.schema.budget.
+    restack_bytes` over half the machine, or not :func:`~psdesign.schema.budget.fits_cap`
+    ``flow.max_memory_gb``, the rule of every up-front cap check), else ``(None, None)``."""
+    from psdesign.schema import budget
+
+    n = float(np.prod(fields.grid.shape))
+    need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
+    limit = budget.MEMORY_FRACTION * budget.machine_memory()
+    cap = flow.get("max_memory_gb")
+    if need > limit:
+        return "budget", (
+            f"{copies} would need about {need / 2**30:.3g} GiB; the budget is "
+            f"{limit / 2**30:.3g} GiB, half the machine"
+        )
+    if not budget.fits_cap(cap, need):
+        # the FEM solve refused it after the first solve's work (exit 2, no K); the voxel
+        # route went over the cap without a word. Until session 43 this stopped at the cap
+        # itself while every other check allows budget.CAP_MARGIN over it
+        return "max_memory_gb", (
+            f"{copies} would need about {need / 1e9:.3g} GB, over flow.max_memory_gb "
+            f"= {float(cap):.3g} GB"
+        )
+    return None, None
+
+
+def _solve_longer(rve, fields, direction, flow, solver, progress, capture) -> dict | str:
+    """The longer stack's result, or the FEM solve's own ``flow.max_memory_gb`` refusal of
+    its built mesh as the reason to stop (an estimate within ``CAP_MARGIN`` of the cap let it
+    be meshed): the shorter stack's result and its held fields are kept."""
+    held = capture.call if isinstance(capture, HeldCapture) else None
+    if isinstance(capture, HeldCapture):
+        capture.drop()
+    try:
+        return route_result(rve, fields, direction, flow, solver, progress, capture)
+    except SpecError as exc:
+        if exc.key != "flow.max_memory_gb":
+            raise
+        if isinstance(capture, HeldCapture):
+            capture.call = held
+        return f"{flow['permeameter_copies']} were refused by the solve: {exc.message}"
+
+
 def auto_lengthen(
     rve: RVE,
     fields: VoxelFields,
@@ -494,8 +539,7 @@ def auto_lengthen(
 ) -> tuple[dict, dict]:
     """A ``permeameter_copies = "auto"`` permeameter solved again with one copy more while its
     window term is above the threshold (:func:`psdesign.flow.stack.next_auto_copies`) and the
-    longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`) and
-    ``flow.max_memory_gb``.
+    longer stack fits the memory budget and ``flow.max_memory_gb`` (:func:`_restack_refusal`).
 
     Returns the final result and the ``[flow]`` table it was solved with, its copies pinned to
     the final solve's for the error bar's second resolution, also when ``"auto"`` did not
@@ -510,7 +554,6 @@ def auto_lengthen(
     (a :class:`HeldCapture` from :func:`permeability`) has each superseded solve's fields
     dropped before the next solve, so only the final solve's are written."""
     from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
-    from psdesign.schema import budget
 
     requested, tries = flow.get("permeameter_copies"), []
     while True:
@@ -522,30 +565,16 @@ def auto_lengthen(
         copies, why = next_auto_copies(requested, res, window)
         reason = f"the most it stacks, {AUTO_MAX_COPIES}" if why == "max" else None
         if copies is not None:
-            n = float(np.prod(fields.grid.shape))
-            need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
-            limit = budget.MEMORY_FRACTION * budget.machine_memory()
-            cap = flow.get("max_memory_gb")
-            if need > limit:
-                why, copies = "budget", None
-                reason = (
-                    f"{done + 1} would need about {need / 2**30:.3g} GiB; the budget is "
-                    f"{limit / 2**30:.3g} GiB, half the machine"
-                )
-            elif cap is not None and need > float(cap) * 1e9:
-                # the FEM solve refused it after the first solve's work (exit 2, no K); the
-                # voxel route went over the cap without a word
-                why, copies = "max_memory_gb", None
-                reason = (
-                    f"{done + 1} would need about {need / 1e9:.3g} GB, over flow.max_memory_gb "
-                    f"= {float(cap):.3g} GB"
-                )
+            stop, reason = _restack_refusal(res, copies, fields, flow)
+            why, copies = (stop, None) if stop else (why, copies)
         if copies is None:
             break
-        flow = _longer_flow(flow, res, copies)
-        if isinstance(capture, HeldCapture):
-            capture.drop()
-        res = route_result(rve, fields, direction, flow, solver, progress, capture)
+        longer = _longer_flow(flow, res, copies)
+        got = _solve_longer(rve, fields, direction, longer, solver, progress, capture)
+        if isinstance(got, str):
+            why, reason = "max_memory_gb", got
+            break
+        res, flow = got, longer
     if why == "fixed":
         return res, flow
     flow = {**flow, "permeameter_copies": done}

@@ -27,10 +27,11 @@ residual of the windowed drop, :func:`psdesign.flow.error.window_of`) is above
 :data:`AUTO_WINDOW` (the product's ``WINDOW_WARN``, 1 %) on a geometry periodic along the flow,
 ``"auto"`` solves again with one copy more, up to :data:`AUTO_MAX_COPIES` (only a stack of a
 one-period RVE: an array already holds whole periods), and only while the
-longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`; the up-front
-budget counts the first solve's :data:`AUTO_COPIES`, the ``flow.max_memory_gb`` cap one copy and
-the planned copies before the stack is meshed or solved,
-:func:`psdesign.schema.budget.check_planned_stack`); where it stops above the threshold the
+longer stack fits the memory budget (:func:`psdesign.schema.budget.restack_bytes`; up front
+both the budget and ``flow.max_memory_gb`` count the copies explicit fibers or an image plan,
+:func:`spec_auto_copies`; where only the built RVE tells, the budget counts the first solve's
+:data:`AUTO_COPIES`, the cap one copy and the planned copies before the stack is meshed or
+solved, :func:`psdesign.schema.budget.check_planned_stack`); where it stops above the threshold the
 result warns and names ``flow.permeameter_copies``. The error bar's second resolution is solved
 with the final copies. Measured (``docs/permeability.md``, "Two copies are not always enough"):
 three_rods (porosity 0.91, 20 um rods in a 100 um cube) has window terms of 10.0 / 1.9 / 0.4 %
@@ -130,19 +131,36 @@ class StackPlan:
         }
 
 
-def _has_analytic(rve: RVE | None, fields: VoxelFields) -> bool:
-    return rve is not None and bool(rve.fibers) and bool(fields.analytic_distance)
+@dataclass(frozen=True)
+class SolidMask:
+    """An image's solid mask before its voxel fields are built: what the voxel seam test
+    reads (:func:`end_planes`, :func:`_voxel_periods`; the built fields' ``solid`` is this
+    mask, :func:`psdesign.image.fields.signed_distance`)."""
+
+    solid: np.ndarray
+    analytic_distance = False
 
 
-def _reference_diameter(rve: RVE, fields: VoxelFields, axis: int) -> float:
+def _has_analytic(rve: RVE | None, fields: VoxelFields | SolidMask | float) -> bool:
+    """The RVE has an analytic surface (fibers; ``fields`` a voxel size: the RVE alone, before
+    its voxel fields are built, :func:`spec_auto_copies`)."""
+    analytic = isinstance(fields, float) or bool(fields.analytic_distance)
+    return rve is not None and bool(rve.fibers) and analytic
+
+
+def _reference_diameter(rve: RVE, fields: VoxelFields | float, axis: int) -> float:
     """The length (m) that sets which points are near the surface
     (:data:`NEAR_SURFACE_DIAMETERS`): the thinnest fiber diameter
     (:func:`psdesign.meshing.options.thinnest_fiber_diameter`), else
-    :data:`FALLBACK_DIAMETER_VOXELS` voxels along ``axis``."""
+    :data:`FALLBACK_DIAMETER_VOXELS` voxels along ``axis`` (``fields``' grid, or a voxel size
+    in metres)."""
     from psdesign.meshing.options import thinnest_fiber_diameter
 
     d = thinnest_fiber_diameter(rve)
-    return float(d) if d else FALLBACK_DIAMETER_VOXELS * float(fields.grid.spacing[axis])
+    if d:
+        return float(d)
+    voxel = fields if isinstance(fields, float) else float(fields.grid.spacing[axis])
+    return FALLBACK_DIAMETER_VOXELS * voxel
 
 
 def _surface_gap(a: np.ndarray, b: np.ndarray, d: float) -> float:
@@ -186,7 +204,7 @@ def _analytic_points(rve: RVE) -> np.ndarray:
     return np.random.default_rng(SAMPLE_SEED).uniform(0.0, 1.0, (SAMPLE_POINTS, 3)) * size
 
 
-def end_planes(rve: RVE | None, fields: VoxelFields, axis: int) -> EndPlanes:
+def end_planes(rve: RVE | None, fields: VoxelFields | SolidMask | float, axis: int) -> EndPlanes:
     """Compare the geometry on the two end planes along ``axis``: the analytic union field near
     the surface where the RVE has one (largest difference against :data:`SEAM_TOL_LENGTH`
     of the RVE's length along the axis: a length of the geometry, so the answer does not depend
@@ -229,7 +247,7 @@ def unmatched_faces(rve: RVE | None, fields: VoxelFields) -> str:
     return f"faces normal to {axes} do not match ({details})"
 
 
-def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> int:
+def _analytic_periods(rve: RVE, fields: VoxelFields | float, axis: int) -> int:
     """The largest ``k`` with ``field(s) = field(s + L / k)`` along ``axis`` (1 if none), from
     the RVE's analytic union field."""
     d = _reference_diameter(rve, fields, axis)
@@ -245,7 +263,7 @@ def _analytic_periods(rve: RVE, fields: VoxelFields, axis: int) -> int:
     return found
 
 
-def _voxel_periods(fields: VoxelFields, axis: int) -> int:
+def _voxel_periods(fields: VoxelFields | SolidMask, axis: int) -> int:
     """The same from the grid: sub-periods by rolling the solid by ``n / k`` layers (``k``
     dividing ``n``; an image's distance is not periodic)."""
     solid = fields.solid
@@ -257,14 +275,17 @@ def _voxel_periods(fields: VoxelFields, axis: int) -> int:
     return found
 
 
-def periodicity(rve: RVE | None, fields: VoxelFields, axis: int) -> tuple[bool, int, str, float]:
+def periodicity(
+    rve: RVE | None, fields: VoxelFields | SolidMask | float, axis: int
+) -> tuple[bool, int, str, float]:
     """``(periodic, periods_per_copy, check, gap_fraction)`` of the geometry along ``axis``:
     whether the end planes match (:func:`end_planes`: the analytic union field near the surface
     where the RVE has one, :data:`SEAM_TOL_LENGTH`, else the voxel layers, the seam against the
     worst step between neighbouring layers inside), the sub-periods within one copy
     (:func:`_analytic_periods`, :func:`_voxel_periods`; 1 when not periodic), ``"analytic"`` or
     ``"voxel"``, and the end planes' mismatch as a fraction of the length
-    (:attr:`EndPlanes.gap_fraction`)."""
+    (:attr:`EndPlanes.gap_fraction`). ``fields`` a voxel size (m): the RVE's analytic field
+    alone, before its voxel fields are built (:func:`spec_auto_copies`)."""
     ends = end_planes(rve, fields, axis)
     if not ends.periodic:
         return False, 1, ends.check, ends.gap_fraction
@@ -305,7 +326,7 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
     name = "xyz"[axis]
     if want == "auto":
         if periodic:
-            copies = AUTO_COPIES if periods < 2 else 1
+            copies = auto_copies(periodic, periods)
             return StackPlan(copies, True, periods, check, None, gap if copies >= 2 else 0.0)
         note = (
             f"K_{name}: the geometry is not periodic along {name} (its end planes differ), so the "
@@ -320,6 +341,35 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
             "allowed here: 1 or 'auto'",
         )
     return StackPlan(want, periodic, periods, check, None, gap if want >= 2 else 0.0)
+
+
+def auto_copies(periodic: bool, periods: int) -> int:
+    """The copies ``"auto"`` stacks first (module doc): :data:`AUTO_COPIES` on a geometry
+    periodic along the flow with fewer than two periods in one copy, else 1.
+
+    >>> auto_copies(True, 1), auto_copies(True, 2), auto_copies(False, 1)
+    (2, 1, 1)
+    """
+    return AUTO_COPIES if periodic and periods < 2 else 1
+
+
+def spec_auto_copies(rve: RVE | None, axes, voxel: float | SolidMask) -> int:
+    """The most copies ``"auto"`` plans along ``axes`` (0, 1, 2) for an RVE of explicit fibers,
+    known before its voxel fields are built: :func:`auto_copies` of :func:`periodicity` on the
+    RVE's analytic field, the test :func:`plan_copies` applies to the built RVE (the same
+    fibers, so the same answer); ``voxel`` (m) sets the near-surface band only for fibers
+    without a diameter. An image (``rve`` None, ``voxel`` its :class:`SolidMask`): the voxel
+    seam test on its mask. What the up-front memory checks count
+    (:func:`psdesign.schema.plan.planned_flow`).
+
+    >>> from psdesign.geometry.fibers import make_fiber
+    >>> rod = make_fiber("rod", 0.2, theta=0.0, omega=0.0)  # along x, one period per box
+    >>> rve = RVE(np.full(3, 20e-6), [rod], period=20e-6)
+    >>> spec_auto_copies(rve, [0], 1e-6), spec_auto_copies(rve, [2], 1e-6)
+    (1, 2)
+    """
+    fields = voxel if isinstance(voxel, SolidMask) else float(voxel)
+    return max(auto_copies(*periodicity(rve, fields, a)[:2]) for a in axes)
 
 
 def next_auto_copies(requested: object, result: dict, window: float) -> tuple[int | None, str]:

@@ -57,6 +57,8 @@ th,td{border:1px solid #ddd;padding:.2em .5em;text-align:right;white-space:nowra
 th{background:#f3f3f3;position:sticky;top:0}
 tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
 .scroll{max-height:32em;overflow:auto;border:1px solid #eee}
+.ktable th,.ktable td{white-space:normal;text-align:left;max-width:26em}
+.ktable .kbc{color:#555;font-size:.9em}.ktable .kst{color:#a00}
 .meta td,.meta th{text-align:left}
 figure{display:inline-block;margin:.5em;vertical-align:top}
 figcaption{font-size:.8em;color:#555;max-width:320px}
@@ -106,18 +108,27 @@ def _cell(col: str, v) -> str:
     return f"<td>{_esc(_fmt(v))}</td>"
 
 
-def _table(df: pd.DataFrame, row_class: list[str] | None = None, max_rows: int = MAX_TABLE_ROWS):
+def _table(
+    df: pd.DataFrame,
+    row_class: list[str] | None = None,
+    max_rows: int = MAX_TABLE_ROWS,
+    raw: tuple[str, ...] = (),
+    table_class: str = "sortable",
+):
+    """A scrolling, sortable table of ``df``; the columns of ``raw`` hold HTML already
+    escaped (:func:`_k_cell`), the others values (:func:`_cell`)."""
     cols = list(df.columns)
     head = "".join(f"<th>{_esc(c)}</th>" for c in cols)
     body = []
     for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
         cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
-        body.append(f"<tr{cls}>" + "".join(_cell(c, row[c]) for c in cols) + "</tr>")
+        cells = (f"<td>{row[c]}</td>" if c in raw else _cell(c, row[c]) for c in cols)
+        body.append(f"<tr{cls}>" + "".join(cells) + "</tr>")
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
     return (
-        f'<div class="scroll"><table class="sortable"><thead><tr>{head}</tr></thead><tbody>'
+        f'<div class="scroll"><table class="{table_class}"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(body)
         + "</tbody></table></div>"
         + more
@@ -337,15 +348,40 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     return table, fig_uri, n_flag
 
 
+def _k_cell(k: float, e: float, bc: str, status: str) -> str:
+    """One K table cell: the value with its error bar, then (each on its own line) the
+    boundary condition when the column's header does not carry it and the status when it is
+    not ok, escaped HTML."""
+    txt = "" if pd.isna(k) else f"{k:.4g}"
+    if pd.notna(e):
+        txt += f" ± {100 * e:.1f} %"
+    parts = [_esc(txt)] if txt else []
+    if bc:
+        parts.append(f'<span class="kbc">{_esc(bc)}</span>')
+    if status and status != "ok":
+        parts.append(f'<span class="kst">{_esc(status)}</span>')
+    return "<br>".join(parts)
+
+
 def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     """K per direction with its error bar, status (an ``untrustworthy`` one with its reason)
-    and boundary-condition model; ``solver``: the study's (``fem``: no voxel-count reason)."""
+    and boundary-condition model; ``solver``: the study's (``fem``: no voxel-count reason).
+
+    One column per direction, its unit (and the bc, when every case has the same) in the
+    header, the bar, bc and a status that is not ok in the cell, wrapped: with a column each
+    for status and bc, two directions' reasons made the table 1601 px wide in a 1319 px box
+    at a 1400 px window (session 43, benchmarks/RESULTS.md)."""
     rows = []
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
     if not any(f"k_{d}_rel_error" in df for d in dirs):
         return ""
     if not dirs:
         return ""
+    one_bc = {}
+    for d in dirs:
+        bcs = df[f"bc_{d}"].dropna().astype(str).unique() if f"bc_{d}" in df else []
+        one_bc[d] = bcs[0] if len(bcs) == 1 else None
+    heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
     for _, row in df.iterrows():
         case_status = row.get("status", "ok")
@@ -355,15 +391,13 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         for d in dirs:
             k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
             e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
-            txt = "" if pd.isna(k) else f"{k:.4g}"
-            if pd.notna(e):
-                txt += f" ± {100 * e:.1f} %"
-            out[f"K_{d} (m^2)"] = txt
             st = row.get(f"k_{d}_status")
-            out[f"status_{d}"] = (case_status if case_status != "ok" else "") if pd.isna(st) else st
+            status = (case_status if case_status != "ok" else "") if pd.isna(st) else str(st)
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
-                out[f"status_{d}"] = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
-            out[f"bc_{d}"] = row.get(f"bc_{d}", "")
+                status = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
+            bc = row.get(f"bc_{d}", "")
+            bc = "" if one_bc[d] or pd.isna(bc) else str(bc)
+            out[heads[d]] = _k_cell(k, e, bc, status)
             flag |= isinstance(st, str) and st != "ok"
         rows.append(out)
         classes.append("flag" if flag else "")
@@ -371,9 +405,12 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         '<p class="note">Error bar: two-grid discretization estimate (a second solve at about '
         "twice the step) with a resolution floor, plus the solver residual "
         "(docs/permeability.md). Highlighted: a case or a direction whose status is not ok "
-        "(failed, not_converged, untrustworthy).</p>"
+        "(failed, not_converged, untrustworthy; the status under the K).</p>"
     )
-    return "<h3>Permeability with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
+    table = _table(
+        pd.DataFrame(rows), classes, raw=tuple(heads.values()), table_class="sortable ktable"
+    )
+    return "<h3>Permeability with error bars</h3>" + note + table
 
 
 def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> str:

@@ -19,10 +19,12 @@ Every check raises a schema error naming the key and the estimate. Figures:
 * ``flow.max_memory_gb``, on every route before any work (:func:`check_cap`, over it by
   :data:`CAP_MARGIN`): the stuffing FEM's estimate (:func:`check_fem`), pytetwild's least mesh
   (:data:`TETWILD_CAP_SAFETY`, :func:`check_tetwild`), the voxel grid's (:func:`check_grid`),
-  each with ``"auto"`` counted as the one copy a non-periodic RVE stacks
-  (:func:`least_stack_of`); the stack ``"auto"`` plans once the RVE is built is checked the
-  same way before it is meshed or solved (:func:`check_planned_stack`); each refusal names
-  the route's resolution key;
+  each with ``"auto"`` counted as the copies explicit fibers or an image plan along
+  ``flow.direction`` (:mod:`psdesign.schema.plan`; the routes pin the direction they solve,
+  :func:`psdesign.schema.spec.check_directions`), else as the one copy a non-periodic RVE
+  stacks (:func:`least_stack_of`); there (a generated RVE) the stack ``"auto"``
+  plans once the RVE is built is checked the same way before it is meshed or solved
+  (:func:`check_planned_stack`); each refusal names the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
@@ -108,8 +110,10 @@ def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
 
 def stack_of(flow) -> tuple[int, float]:
     """``(copies, aux_length)`` of the solve a ``[flow]`` table asks for, at most: a permeameter
-    (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``:
-    :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a periodic one-period RVE) between
+    (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``
+    where the spec cannot tell its copies: :data:`AUTO_PERMEAMETER_COPIES`, what it takes on a
+    periodic one-period RVE; a spec that can tell has the planned count here,
+    :func:`psdesign.schema.plan.planned_flow`) between
     reservoirs of ``aux_length`` times one copy; a periodic solve is one copy, no reservoirs."""
     if flow is None:
         return 1, 0.0
@@ -123,7 +127,8 @@ def stack_of(flow) -> tuple[int, float]:
 
 def least_stack_of(flow) -> tuple[int, float]:
     """:func:`stack_of` with ``"auto"`` copies counted as one, the fewest a run stacks (it
-    takes two only for a periodic one-period RVE, known once the RVE is built): what
+    takes two only for a periodic one-period RVE, known once the RVE is built where the spec
+    cannot tell; a spec that can has its planned count in place of ``"auto"``): what
     ``flow.max_memory_gb`` is checked against up front on every route, so that no spec a run
     would fit is refused; the stack ``"auto"`` plans is checked before it is stacked
     (:func:`check_planned_stack`)."""
@@ -133,6 +138,18 @@ def least_stack_of(flow) -> tuple[int, float]:
     return copies, aux
 
 
+def fits_cap(cap_gb: float | None, need: float) -> bool:
+    """Does an estimate of ``need`` bytes fit ``flow.max_memory_gb = cap_gb`` (None: no cap)?
+    The one rule of every check made before the mesh or grid it estimates is built: at most
+    :data:`CAP_MARGIN` times the cap (the estimates are upper bounds; the FEM solve's own check
+    on the built mesh decides above the cap).
+
+    >>> fits_cap(1.0, 1.2e9), fits_cap(1.0, 1.3e9), fits_cap(None, 1e30)
+    (True, False, True)
+    """
+    return cap_gb is None or need <= CAP_MARGIN * float(cap_gb) * 1e9
+
+
 def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> None:
     """Refuse ``need`` bytes (the route's estimate, ``what`` describes it) over
     ``flow.max_memory_gb`` times :data:`CAP_MARGIN`, naming the key, the estimate and the
@@ -140,7 +157,7 @@ def check_cap(flow, need: float, what: str, key: str, least: bool = False) -> No
     ``key`` is in the error's ``names``, so a study spells it as its file does);
     ``least``: ``need`` is a lower bound (the built mesh's estimate decides above it)."""
     cap = getattr(flow, "max_memory_gb", None)
-    if cap is None or need <= CAP_MARGIN * cap * 1e9:
+    if fits_cap(cap, need):
         return
     gb = f"{need / 1e9:.3g} GB"
     raise fail(
@@ -165,10 +182,13 @@ def check_planned_stack(
     """Refuse the first stack an ``"auto"`` permeameter planned (``copies``,
     :func:`psdesign.flow.stack.plan_copies`) over ``flow.max_memory_gb``, with the up-front
     check of the route (:func:`_check_voxel_cap`, :func:`check_fem`, the same estimate and
-    line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`), so a
+    line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`) where
+    the spec cannot tell its copies (a generated RVE, or no direction given), so such a
     periodic one-period RVE's two copies are checked here, after the RVE is built and before
-    the grid is stacked or meshed. ``flow``: the route's permeameter ``[flow]`` dict;
-    ``key``: the voxel route's resolution key (``image.crop`` for an image).
+    the grid is stacked or meshed (explicit fibers and images along a direction were counted
+    before any work, :mod:`psdesign.schema.plan`, and pass here again). ``flow``:
+    the route's permeameter ``[flow]`` dict; ``key``: the voxel route's resolution key
+    (``image.crop`` for an image).
 
     Raises
     ------
@@ -258,8 +278,8 @@ def check_grid(
             f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
             f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
             f"is {budget / 2**30:.3g} GiB (half the machine)",
-            f"1, or bc = 'periodic', or {coarser_advice(key)}",
-            names=(key,),
+            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}",
+            names=(key, "flow.bc"),
         )
     vmin = voxel * (need / budget) ** (1 / 3)
     per = need / n
@@ -284,13 +304,16 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
         return
     n = math.prod(shape)
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
+    stacked = ""
     if getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
         need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
     else:
-        need = grid_bytes(n, "voxel", *least_stack_of(flow))
-    check_cap(flow, need, f"the voxel solve of the {dims} grid", key)
+        copies, aux = least_stack_of(flow)
+        need = grid_bytes(n, "voxel", copies, aux)
+        stacked = f" ({copies} copies stacked)" if copies > 1 else ""
+    check_cap(flow, need, f"the voxel solve of the {dims} grid{stacked}", key)
 
 
 def fem_mesh_size(
@@ -418,8 +441,8 @@ def check_fem(
         "the machine)"
     )
     if copies > 1 and fem_need_bytes(size, step, 1, aux, phi) <= budget:
-        raise fail("flow.permeameter_copies", what, "1, or bc = 'periodic'")
-    raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size")
+        raise fail("flow.permeameter_copies", what, "1, or flow.bc = 'periodic'", ("flow.bc",))
+    raise fail("flow.lattice_step", what, "a coarser step, or a smaller rve.size", ("rve.size",))
 
 
 def tetwild_mesh_size(
@@ -438,7 +461,8 @@ def tetwild_mesh_size(
         raise fail(
             "flow.edge_length",
             f"{flow.edge_length:g} of the box diagonal is longer than the box",
-            "(0, 1] with mesher = 'pytetwild'",
+            "(0, 1] with flow.mesher = 'pytetwild'",
+            names=("flow.mesher",),
         )
     opts = MeshOptions(
         mesher="pytetwild",
@@ -475,8 +499,9 @@ def check_tetwild(size: tuple[float, ...], flow, fiber_diameter: float | None) -
         f"the pytetwild mesh of about {tets:.3g} tets (edge {edge:.3g} m) needs about "
         f"{total / 2**30:.3g} GiB in the FEM; the budget is {budget / 2**30:.3g} GiB (half the "
         "machine)",
-        f"an edge about {(total / budget) ** (1 / 3):.2g} x longer, mesher = 'stuffing', or a "
-        "smaller rve.size",
+        f"an edge about {(total / budget) ** (1 / 3):.2g} x longer, flow.mesher = 'stuffing', or "
+        "a smaller rve.size",
+        names=("flow.mesher", "rve.size"),
     )
 
 

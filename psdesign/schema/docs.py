@@ -25,7 +25,10 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`, 2100 with
   `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil). A permeameter
   (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
-  (`"auto"` counts 2, its first solve;
+  (`"auto"` counts the copies it will stack first where the spec tells: explicit fibers or an
+  image along the direction solved (their analytic end planes, the image's voxel seam: the test
+  the built RVE gets, 2 on a periodic one-period RVE, else 1); else 2, its most for a first
+  solve;
   a longer stack it takes after a window term above 1 % is checked before it is solved) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
   solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
@@ -41,9 +44,11 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   `flow.max_memory_gb` every route's estimate over 1.25 x the cap is refused naming it and the
   route's resolution key, before any work: the stuffing mesh's (`flow.lattice_step`); the
   pytetwild mesh's divided by 6 (its estimate is 1.03-4.5 x the meshes made;
-  `flow.edge_length`); the voxel solve's (`rve.voxel`, or `image.crop`). Each counts one copy
-  for `"auto"` (a non-periodic RVE stacks one); the stack `"auto"` plans (2 for a periodic
-  one-period RVE) is checked the same way once the RVE is built, before it is meshed or
+  `flow.edge_length`); the voxel solve's (`rve.voxel`, or `image.crop`). Each counts the
+  copies `"auto"` plans for explicit fibers or an image along the direction solved, as above
+  (every command, study case and `Material.permeability` pins its directions before any
+  work), else one (a generated RVE stacks one when not periodic along the flow); there the
+  stack `"auto"` plans is checked the same way once the RVE is built, before it is meshed or
   solved (at the RVE's porosity). The FEM solve checks the cap again from the built mesh.
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
   checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)

@@ -120,7 +120,8 @@ class SpecDocument(Table):
                 f"<= {min(size) / 4:g} m",
             )
         budget.check_copies(size, period)
-        budget.check_grid(size, voxel, self.flow.solver, flow=self.flow)
+        flow = self._planned_flow(size, voxel)
+        budget.check_grid(size, voxel, flow.solver, flow=flow)
         # the stuffing lattice's own range: pytetwild does not read the key (its refusal named
         # a key the route ignores; psdesign mesh --mesher stuffing validates again)
         lattice = self.flow.lattice_step if self.flow.mesher == "stuffing" else None
@@ -134,7 +135,7 @@ class SpecDocument(Table):
             budget.check_cells("flow.lattice_step", size, lattice, budget.MAX_LATTICE_CELLS)
         if self.flow.solver == "fem":
             porosity = self.generator.porosity if self.generator is not None else None
-            budget.check_fem(size, voxel, self.flow, porosity, self._thinnest_diameter())
+            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -154,6 +155,61 @@ class SpecDocument(Table):
             self._check_diffuse()
         return self
 
+    def _fiber_memory(self, size, voxel: float, flow: FlowTable) -> None:
+        """The memory checks of a fiber spec at ``flow`` (the voxel grid's, the FEM's)."""
+        budget.check_grid(size, voxel, flow.solver, flow=flow)
+        if flow.solver == "fem":
+            porosity = self.generator.porosity if self.generator is not None else None
+            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
+
+    def _planned_flow(self, size, voxel: float) -> FlowTable:
+        """``[flow]`` as the memory checks count it (:func:`psdesign.schema.plan.planned_flow`):
+        explicit fibers alone plan their copies from their analytic field
+        (:func:`psdesign.flow.stack.spec_auto_copies`); a generated RVE keeps ``"auto"``."""
+        from psdesign.schema.plan import planned_flow
+
+        if self.generator is not None or not self.fibers:
+            return self.flow
+
+        def plan(axis: int) -> int:
+            import numpy as np
+
+            from psdesign.flow.stack import spec_auto_copies
+            from psdesign.geometry.rve import RVE
+            from psdesign.schema.spec import explicit_fibers
+
+            tables = {"rve": {"size": list(size), "period": self.rve.period}}
+            fibers = explicit_fibers({**tables, "fibers": [f.to_spec() for f in self.fibers]})
+            rve = RVE(size=np.asarray(size), fibers=fibers, period=self.rve.period)
+            return spec_auto_copies(rve, [axis], voxel)
+
+        return planned_flow(self.flow, lambda f: self._fiber_memory(size, voxel, f), plan)
+
+    def _image_memory(self, img, flow: FlowTable) -> None:
+        """The memory checks of an image spec at ``flow`` (the crop names the grid)."""
+        budget.check_grid(img.size, img.voxel, flow.solver, key="image.crop", flow=flow)
+        if flow.solver == "fem":
+            budget.check_fem(img.size, img.voxel, flow, None)
+
+    def _planned_image_flow(self, img) -> FlowTable:
+        """``[flow]`` as an image's memory checks count it: the copies its solid mask plans
+        (the voxel seam test the built image gets, :func:`psdesign.flow.stack.
+        spec_auto_copies`), read only where one copy fits and two do not
+        (:func:`psdesign.schema.plan.planned_flow`)."""
+        from psdesign.schema.plan import planned_flow
+
+        def plan(axis: int) -> int | None:
+            from psdesign.flow.stack import SolidMask, spec_auto_copies
+            from psdesign.image.load import load_mask, source_of
+
+            try:
+                mask = load_mask(source_of(img.to_spec()))
+            except ValueError:  # refused with its own line below
+                return None
+            return spec_auto_copies(None, [axis], SolidMask(mask))
+
+        return planned_flow(self.flow, lambda f: self._image_memory(img, f), plan)
+
     def _check_diffuse(self) -> None:
         """``flow.wall_treatment = "diffuse"`` (a voxel-solver wall; the FEM ignores it, as it
         does ``subvoxel``): the periodic bc, straight cylinder or rod fibers only
@@ -164,13 +220,18 @@ class SpecDocument(Table):
         flow = self.flow
         if flow.bc not in (None, "periodic"):
             raise fail(
-                "flow.wall_treatment", f"'diffuse' needs bc = 'periodic', not {flow.bc!r}", allowed
+                "flow.wall_treatment",
+                f"'diffuse' needs flow.bc = 'periodic', not {flow.bc!r}",
+                allowed,
+                names=("flow.bc",),
             )
         if flow.periodic_treatment not in (None, "periodic"):
             raise fail(
                 "flow.wall_treatment",
-                f"'diffuse' needs periodic_treatment = 'periodic', not {flow.periodic_treatment!r}",
+                "'diffuse' needs flow.periodic_treatment = 'periodic', not "
+                f"{flow.periodic_treatment!r}",
                 allowed,
+                names=("flow.periodic_treatment",),
             )
         if self.forcefield is not None:
             raise fail("flow.wall_treatment", "'diffuse' with [forcefield] (bent fibers)", allowed)
@@ -189,6 +250,7 @@ class SpecDocument(Table):
                     f"{fb.shape!r}: flow.wall_treatment = 'diffuse' needs straight fibers of a "
                     "closed-form wall distance",
                     " | ".join(SHAPES),
+                    names=("flow.wall_treatment",),
                 )
         self._check_diffuse_tiling()
 
@@ -213,6 +275,7 @@ class SpecDocument(Table):
                 f"fibers[{i}].direction",
                 f"fiber {i} {UNTILEABLE} (flow.wall_treatment = 'diffuse')",
                 "a box axis",
+                names=("flow.wall_treatment",),
             )
 
     def _check_image(self) -> None:
@@ -249,9 +312,7 @@ class SpecDocument(Table):
                 f"{self.flow.wall_treatment!r} needs an analytic surface; an [image] has none",
                 "staircase",
             )
-        budget.check_grid(img.size, img.voxel, self.flow.solver, key="image.crop", flow=self.flow)
-        if self.flow.solver == "fem":
-            budget.check_fem(img.size, img.voxel, self.flow, None)
+        self._image_memory(img, self._planned_image_flow(img))
         try:
             solid = load_mask(source_of(img.to_spec()))
         except ValueError as exc:
@@ -355,8 +416,9 @@ class SpecDocument(Table):
         if n_est > g.max_fibers:
             raise fail(
                 "generator.porosity",
-                f"needs about {n_est:.0f} fibers, over max_fibers = {g.max_fibers}",
-                "a porosity reachable with max_fibers fibers",
+                f"needs about {n_est:.0f} fibers, over generator.max_fibers = {g.max_fibers}",
+                "a porosity reachable with generator.max_fibers fibers",
+                names=("generator.max_fibers",),
             )
         if inter.step is not None and inter.step < min(size) / 1e4:
             raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")

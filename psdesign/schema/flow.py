@@ -11,10 +11,11 @@ from psdesign.schema.types import Table, fail, flag, number, short
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
 #: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
-#: the up-front memory budget (half the machine) counts them for every "auto" permeameter, the
-#: ``flow.max_memory_gb`` cap one copy, and the planned stack once the RVE is built
-#: (psdesign.schema.budget; a longer stack "auto" takes after the first solve is checked before
-#: it is solved).
+#: where the spec cannot tell the copies (a generated RVE, no direction) the up-front memory
+#: budget (half the machine) counts these, the ``flow.max_memory_gb`` cap one copy, and the
+#: planned stack is checked once the RVE is built; explicit fibers or an image along a
+#: direction count their planned copies in both (psdesign.schema.plan; a longer stack "auto"
+#: takes after the first solve is checked before it is solved).
 AUTO_PERMEAMETER_COPIES = 2
 
 
@@ -60,7 +61,9 @@ def treatment_refusal(treatment: str | None, solver: str, bc: str | None) -> str
 
 
 #: What :func:`treatment_refusal`'s message allows.
-TREATMENT_ALLOWED = "periodic, or solver 'voxel' with bc 'periodic'"
+TREATMENT_ALLOWED = "periodic, or solver 'voxel' with flow.bc = 'periodic'"
+#: The spec keys :data:`TREATMENT_ALLOWED` names (a study spells them as its file does).
+TREATMENT_NAMES = ("flow.bc",)
 
 
 #: Defaults filled into every validated spec (other keys appear only when given).
@@ -187,8 +190,9 @@ class FlowTable(Table):
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
         None,
         description="memory cap of the solve, GB in (0, 1e5]; either solver's estimated "
-        'memory within it, checked before any work (an "auto" stack of two once the RVE '
-        "is built; the FEM's again on the built mesh)",
+        'memory within it, checked before any work (the copies an "auto" stack plans: of '
+        "explicit fibers or an image before it, of a generated RVE once built; the FEM's "
+        "again on the built mesh)",
     )
     periodic_treatment: Literal["periodic", "mirror", "frame"] | None = Field(
         None,
@@ -213,8 +217,9 @@ class FlowTable(Table):
         if self.bc == "periodic" and self.mesher == "pytetwild":
             raise fail(
                 "mesher",
-                "pytetwild cannot mesh with bc = 'periodic' (no matching opposite faces)",
-                "stuffing with bc = 'periodic', or bc = 'permeameter'",
+                "pytetwild cannot mesh with flow.bc = 'periodic' (no matching opposite faces)",
+                "stuffing with flow.bc = 'periodic', or flow.bc = 'permeameter'",
+                names=("flow.bc",),
             )
         return self
 
@@ -227,7 +232,7 @@ class FlowTable(Table):
             return self
         why = treatment_refusal(self.periodic_treatment, self.solver, self.bc)
         if why:
-            raise fail("periodic_treatment", why, TREATMENT_ALLOWED)
+            raise fail("periodic_treatment", why, TREATMENT_ALLOWED, TREATMENT_NAMES)
         return self
 
     def to_spec(self) -> dict:

@@ -200,5 +200,10 @@ class IntersectionsTable(Table):
                 continue
             for k in keys:
                 if k in given and getattr(self, k) is not None and (k != "min_gap" or self.min_gap):
-                    raise fail(k, f"only used with method = {method!r}", f"method = {method!r}")
+                    raise fail(
+                        k,
+                        f"only used with intersections.method = {method!r}",
+                        f"intersections.method = {method!r}",
+                        names=("intersections.method",),
+                    )
         return self

@@ -121,7 +121,9 @@ def validate_document(data: Any, base: str | Path | None = None) -> SpecDocument
     except MemoryError:
         if "image" in data:  # the validator reads the image (its box and voxel)
             raise SpecError(
-                "image.path", "the image does not fit in memory: read a part (image.crop)"
+                "image.path",
+                "the image does not fit in memory: read a part (image.crop)",
+                names=("image.crop",),
             ) from None
         raise SpecError("spec", "cannot validate: out of memory") from None
     except (RecursionError, OverflowError) as exc:
@@ -162,6 +164,19 @@ def check_flow_override(spec: dict, flow: dict) -> None:
     given skipped the voxel solver's budget, and a 15 GiB solve started). ``SpecError``."""
     if flow != spec["flow"]:
         validate_spec({**spec, "flow": flow})
+
+
+def check_directions(spec: dict, flow: dict, directions) -> None:
+    """:func:`check_flow_override` with ``flow.direction`` pinned to each of ``directions``
+    (``"x"``, ``"y"``, ``"z"``), before any work: along a direction an ``"auto"``
+    permeameter of explicit fibers or of an image counts the copies it will stack
+    (:func:`psdesign.schema.plan.planned_flow`; without a direction the spec cannot tell; an
+    image's mask is read once, ``psdesign.image.load.load_mask`` keeps it). Skipped for a
+    generated RVE, whose copies are known once built. ``SpecError``."""
+    if "generator" in spec:
+        return
+    for d in directions:
+        check_flow_override(spec, {**flow, "direction": d})
 
 
 def _plain(value: Any) -> Any:

@@ -17,6 +17,19 @@ OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 FIELDS_FLAG = "fields"
 SOLVERS = ("fem", "voxel")
 Output = Literal[OUTPUTS]  # type: ignore[valid-type]
+#: The K outputs of one direction each.
+K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
+
+
+def k_directions(outputs) -> list[str]:
+    """The flow directions a case with these outputs solves (``k_tensor``: all three).
+
+    >>> k_directions(["porosity", "k_z", "k_x"]), k_directions(["k_tensor"])
+    (['x', 'z'], ['x', 'y', 'z'])
+    """
+    if "k_tensor" in outputs:
+        return ["x", "y", "z"]
+    return [d for o, d in K_OUTPUTS.items() if o in outputs]
 
 
 class StudyTable(Table):

@@ -20,7 +20,7 @@ def main(argv: list[str]) -> int:
 
     from psdesign.errors import show_warning_one_line
     from psdesign.io.diskfull import is_disk_full
-    from psdesign.study.casefn import load_case_fn, watch_parent
+    from psdesign.study.casefn import watch_parent
     from psdesign.study.exchange import read_job, write_result
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runner decides when a case stops
@@ -30,11 +30,13 @@ def main(argv: list[str]) -> int:
         watch_parent(int(argv[1]))
     try:
         job = read_job(sys.stdin.buffer)
-        fn = load_case_fn(job["case_fn"])
         from psdesign.cli import progress
+        from psdesign.study.worker import run_case_inline
 
         with progress.activate(stream=sys.stderr):  # solver progress lines go to case.log
-            res = fn(job["spec"], list(job["outputs"]), job["solver"], Path(job["workdir"]))
+            # its warnings named by the case id, as every other route shows them (they were
+            # written to case.log without it until session 43)
+            res = run_case_inline(job, Path(job["workdir"]))
         out = {"ok": True, "results": res}
     except Exception as exc:  # noqa: BLE001 - reported to the parent
         msg = " ".join(str(exc).split())

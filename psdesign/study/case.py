@@ -12,12 +12,10 @@ from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
-from psdesign.schema.spec import validate_spec
-from psdesign.schema.study import FIELDS_FLAG, OUTPUTS
+from psdesign.schema.spec import check_directions, validate_spec
+from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions
 from psdesign.study.stages import mark_stage
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
-
-K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
 
 
 def _field_writer(workdir: Path):
@@ -79,6 +77,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     for o in outputs:
         if o not in OUTPUTS and o != FIELDS_FLAG:
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")
+    directions = k_directions(outputs)
+    check_directions(spec, {**spec["flow"], "solver": solver}, directions)  # before any work
     mark_stage(workdir, "generating the RVE")
     built = build_rve(spec)
     rve = built.rve
@@ -101,9 +101,6 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     ):
         if key in gen:
             row[key] = gen[key]
-    directions = [d for o, d in K_OUTPUTS.items() if o in outputs]
-    if "k_tensor" in outputs:
-        directions = ["x", "y", "z"]
     columns = {}
     writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:

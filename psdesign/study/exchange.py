@@ -43,14 +43,21 @@ def read_job(stream: BinaryIO) -> dict:
     Raises
     ------
     CaseExchangeError
-        If it is not ``{"case_fn": str, "spec": dict, "outputs": [str], "solver": str,
-        "workdir": str}``.
+        If it is not ``{"case_id": str, "case_fn": str, "spec": dict, "outputs": [str],
+        "solver": str, "workdir": str}``.
     """
     try:
         job = json.loads(stream.read().decode("utf-8"))
     except (ValueError, UnicodeDecodeError) as exc:
         raise CaseExchangeError(f"case job is not JSON: {exc}") from None
-    types = {"case_fn": str, "spec": dict, "outputs": list, "solver": str, "workdir": str}
+    types = {
+        "case_id": str,
+        "case_fn": str,
+        "spec": dict,
+        "outputs": list,
+        "solver": str,
+        "workdir": str,
+    }
     if not isinstance(job, dict) or set(job) != set(types):
         raise CaseExchangeError(f"case job must have exactly the keys {sorted(types)}")
     for k, t in types.items():

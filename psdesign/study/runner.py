@@ -30,6 +30,7 @@ from typing import Any
 import pandas as pd
 
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
+from psdesign.schema.study import k_directions
 from psdesign.study.address import (
     SchedulerAddress,
     SchedulerError,
@@ -610,10 +611,14 @@ def _machine() -> dict:
     return info
 
 
-def validate_case_specs(cases: list[Case], solver: str | None = None) -> None:
+def validate_case_specs(
+    cases: list[Case], solver: str | None = None, directions: list[str] = ()
+) -> None:
     """Check every case spec with the spec validators of the pipeline (before running), with
     ``solver`` (the study's, which the cases run) in its ``[flow]`` table when given: the
-    memory budget depends on it.
+    memory budget depends on it; and along each of ``directions`` (the K the cases solve:
+    the copies an ``"auto"`` permeameter of explicit fibers stacks,
+    :func:`psdesign.schema.spec.check_directions`).
 
     Raises
     ------
@@ -622,7 +627,7 @@ def validate_case_specs(cases: list[Case], solver: str | None = None) -> None:
     """
     import numpy as np
 
-    from psdesign.schema.spec import validate_spec
+    from psdesign.schema.spec import check_directions, validate_spec
 
     try:
         from psdesign.packing.generators import parse_generator
@@ -634,6 +639,7 @@ def validate_case_specs(cases: list[Case], solver: str | None = None) -> None:
             if solver is not None and isinstance(spec.get("flow"), dict):
                 spec = {**spec, "flow": {**spec["flow"], "solver": solver}}
             spec = validate_spec(spec)
+            check_directions(spec, spec["flow"], directions)
             if parse_generator is not None and "generator" in spec:
                 parse_generator(spec, np.asarray(spec["rve"]["size"], dtype=float))
         except ValueError as exc:
@@ -721,7 +727,7 @@ def run_study(
     opts = _run_options(options, fields)
     cases = expand_design(study)
     if opts.case_function() == DEFAULT_CASE_FN:
-        validate_case_specs(cases, study.solver)
+        validate_case_specs(cases, study.solver, k_directions(study.outputs))
     option, force_option = out_option
     target = check_study_dir(
         out_dir, force=opts.force, force_option=force_option, command=command, option=option

@@ -25,7 +25,7 @@ from psdesign.schema.budget import MAX_CASES, MAX_LEVELS
 from psdesign.schema.document import STUDY_TABLES
 from psdesign.schema.errors import did_you_mean, first_error
 from psdesign.schema.keys import spec_paths
-from psdesign.schema.spec import SpecWarning, read_toml, validate_spec
+from psdesign.schema.spec import SpecWarning, check_directions, read_toml, validate_spec
 from psdesign.schema.study import (
     DESIGNS,
     FIELDS_FLAG,
@@ -34,6 +34,7 @@ from psdesign.schema.study import (
     BoundsParam,
     RangeParam,
     StudyTable,
+    k_directions,
 )
 from psdesign.schema.types import short
 
@@ -629,6 +630,7 @@ def check_study_specs(study: Study) -> None:
             first[p.path] = study.csv_rows[0].get(p.path)
     seed = study.seeds[0] if study.seeds else None
     solves_k = any(o.startswith("k_") for o in study.outputs)
+    directions = k_directions(study.outputs)
 
     def check(point: dict) -> tuple[str, str] | None:
         """``(key, "key: message")`` of the spec error at ``point``, the advice's keys
@@ -640,6 +642,7 @@ def check_study_specs(study: Study) -> None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpecWarning)
                 valid = validate_spec(spec)
+                check_directions(valid, valid["flow"], directions)  # "auto"'s copies along them
             if solves_k:  # a [flow] choice the study's solver would not apply
                 check_route_keys(valid["flow"], study.solver)
         except SpecError as exc:

@@ -148,6 +148,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
     from psdesign.study.exchange import CaseExchangeError, read_result, result_paths
 
     job = {
+        "case_id": str(payload.get("case_id", "?")),  # its warnings in case.log name it
         "case_fn": case_fn_name(payload["case_fn"]),
         "spec": payload["spec"],
         "outputs": list(payload["outputs"]),
@@ -250,8 +251,9 @@ def untrustworthy_count(df) -> int:
 
 
 def run_case_inline(payload: dict, workdir: Path) -> dict:
-    """Call the case function in this process (no isolation, no timeout); the warnings it
-    raises are shown once each, after it, naming the case (:func:`show_case_warnings`)."""
+    """Call the case function in this process (no isolation, no timeout: a worker; with a
+    timeout the case's child process, :mod:`psdesign.study._child`); the warnings it raises
+    are shown once each, after it, naming the case (:func:`show_case_warnings`)."""
     fn = load_case_fn(payload["case_fn"])
     caught: list = []
     try:

@@ -361,16 +361,18 @@ def test_a_tet_mesh_that_misses_the_pore_is_refused_naming_flow_lattice_step(tmp
 
 #: A 20 um cube with one 6 um rod, FEM (stuffing at the default 2 um step): the solve's own
 #: estimate from the built mesh is 0.38 GB (13360 tets, 2 copies: the rod is periodic along z,
-#: one period). Before the RVE is built the spec counts "auto" as one copy (0.278 GB; a
-#: non-periodic RVE stacks one, session 42); the planned two copies are checked before the mesh
-#: at the RVE's porosity, 0.372 GB (the spec's 2-copy figure at porosity 1: 0.391 GB).
+#: one period). Before the RVE is built the spec counts the two copies "auto" stacks along z
+#: (session 43: planned from the rod's analytic field, psdesign.flow.stack.spec_auto_copies;
+#: session 42 counted one, 0.278 GB, and checked the two at the built RVE's porosity, 0.372 GB,
+#: once it was built) at porosity 1, as every up-front figure of explicit fibers: 0.391 GB; a
+#: cap under even one copy's 0.278 GB is refused by the spec's own check, before the direction.
 CAPPED = (
     "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n[[fibers]]\ndiameter = 6e-6\n"
     '[flow]\nsolver = "fem"\nmax_memory_gb = {cap}\n'
 )
 
 
-@pytest.mark.parametrize("cap, need", [(1e-300, "0.278"), (0.29, "0.372")])
+@pytest.mark.parametrize("cap, need", [(1e-300, "0.278"), (0.29, "0.391")])
 def test_a_memory_cap_far_below_the_fem_solve_is_refused_before_the_mesh(
     tmp_path, capsys, cap, need
 ):
@@ -378,8 +380,8 @@ def test_a_memory_cap_far_below_the_fem_solve_is_refused_before_the_mesh(
     mesh was built (2 s of progress lines), then the solve refused with 'estimated memory
     0.38 GB exceeds max_memory_gb=0.00 GB ...; coarsen the mesh or pass force=True': after
     work, naming no spec key and an option no command has. Rule: refused up front naming the
-    key and the range, when the spec's estimate is over the cap by the margin (budget.py): up
-    front for the one copy any run stacks, for the planned stack before the mesh."""
+    key and the range, when the spec's estimate is over the cap by the margin (budget.py), for
+    the copies "auto" plans, before the RVE is built."""
     spec = tmp_path / "s.toml"
     spec.write_text(CAPPED.format(cap=cap))
     assert main(["permeability", str(spec)]) == 2

@@ -202,14 +202,54 @@ def test_the_memory_cap_stops_the_stack_too(monkeypatch, solver):
     """session 41 (s41-routes): "auto" checked a longer stack against half the machine only.
     Under flow.max_memory_gb the FEM's 3-copy solve refused the cap after the 2-copy solve's
     work (exit 2, no K); the voxel route's went over it without a word. Now the stack stops
-    at the cap, names it and keeps the 2-copy result. The cap sits between the 2- and 3-copy
-    estimates (restack_bytes, the estimate each solve's own check uses)."""
+    at the cap, names it and keeps the 2-copy result. The 3-copy estimate (restack_bytes, the
+    estimate each solve's own check uses) is over CAP_MARGIN times the cap (session 43: the
+    rule of every cap check, budget.fits_cap)."""
     first = {"solver": solver, "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
-    two = budget.restack_bytes(first, 2, 1000, 0.2)
     three = budget.restack_bytes(first, 3, 1000, 0.2)
-    res, _, calls = _run(
-        monkeypatch, VOXEL_WINDOW, solver, {"max_memory_gb": 0.5 * (two + three) / 1e9}
-    )
+    cap = 0.99 * three / budget.CAP_MARGIN  # bytes (the 2-copy solve is the stub's)
+    res, _, calls = _run(monkeypatch, VOXEL_WINDOW, solver, {"max_memory_gb": cap / 1e9})
     assert len(calls) == 1 and res["permeameter_auto"]["stopped"] == "max_memory_gb"
     (w,) = [w for w in res["warnings"] if "stopped at" in w]
     assert "2 copies" in w and "over flow.max_memory_gb" in w and "flow.permeameter_copies" in w
+
+
+def test_a_stack_within_the_cap_margin_is_solved(monkeypatch):
+    """session 43: auto_lengthen stopped at 1.0 x flow.max_memory_gb while the up-front checks
+    (check_cap, check_planned_stack) allow CAP_MARGIN = 1.25 x; one rule now
+    (budget.fits_cap). The 3-copy voxel stack needs 1.1 x the cap: solved (old code: stopped at
+    2 copies with 'over flow.max_memory_gb'); at 1.3 x it stops, as check_cap refuses it."""
+    first = {"solver": "voxel", "permeameter_copies": 2}
+    three = budget.restack_bytes(first, 3, 1000, 0.2)
+    four = budget.restack_bytes(first, 4, 1000, 0.2)
+    res, _, calls = _run(monkeypatch, VOXEL_WINDOW, "voxel", {"max_memory_gb": three / 1.1 / 1e9})
+    assert four > budget.CAP_MARGIN * three / 1.1  # the fourth copy is over the margin
+    assert len(calls) == 2 and res["permeameter_copies"] == 3
+    assert res["permeameter_auto"]["stopped"] == "max_memory_gb"
+    res, _, calls = _run(monkeypatch, VOXEL_WINDOW, "voxel", {"max_memory_gb": three / 1.3 / 1e9})
+    assert len(calls) == 1 and res["permeameter_copies"] == 2
+
+
+def test_the_fem_solves_own_cap_refusal_keeps_the_shorter_stack(monkeypatch):
+    """An FEM stack whose estimate is within the margin is meshed; the solve's own check on the
+    built mesh (no margin, solvers.fem_stokes) may still refuse it: "auto" keeps the 2-copy
+    result and says why, instead of exit 2 with no K."""
+    from psdesign.errors import SpecError
+
+    calls: list = []
+    stub = _stub(FEM_WINDOW, "fem", calls)
+
+    def route(rve, fields, direction, flow, solver_, progress=None, capture=None):
+        if flow.get("permeameter_copies") == 3:
+            raise SpecError("flow.max_memory_gb", "estimated memory 0.2 GB exceeds 0.19 GB")
+        return stub(rve, fields, direction, flow, solver_, progress, capture)
+
+    monkeypatch.setattr(perm, "route_result", route)
+    rve = _rve()
+    flow = {"bc": "permeameter", "aux_length": 0.2}
+    first = perm.route_result(rve, None, "z", flow, "fem")
+    res, used = perm.auto_lengthen(rve, rve.voxelize(2e-6), "z", flow, "fem", first)
+    assert res["permeameter_copies"] == 2 and used["permeameter_copies"] == 2
+    assert res["permeameter_auto"]["stopped"] == "max_memory_gb"
+    (w,) = [w for w in res["warnings"] if "stopped at" in w]
+    assert "3 were refused by the solve" in w and "flow.permeameter_copies" in w

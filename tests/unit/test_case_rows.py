@@ -102,3 +102,44 @@ def test_report_k_table_gives_the_reason_beside_untrustworthy(tmp_path):
     bar["cells_per_diameter_z"] = 3.0  # a FEM K is rated on its bar alone: no voxel count
     assert "voxels per fiber" not in _k_table(bar, "fem")
     assert "; 3.0 voxels per fiber diameter, need 8" in _k_table(bar, "voxel")
+
+
+def test_report_k_table_has_one_wrapped_column_per_direction():
+    """Session 42 saw the K table scroll sideways at 1400 px with two flow directions: a
+    column each for K, status and bc per direction (8 columns; the two untrustworthy reasons
+    made it 1601 px in a 1319 px box, benchmarks/RESULTS.md session 43). Now one column per
+    direction, the unit and a bc every case shares in its header, the bar, a bc that differs
+    and a status that is not ok in the cell, and the table wraps (class ktable)."""
+    import re
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["a", "b"],
+            "status": ["ok", "ok"],
+            "k_x_m2": [1e-11, 2e-11],
+            "k_x_rel_error": [0.04, 0.04],
+            "k_x_status": ["ok", "untrustworthy"],
+            "cells_per_diameter_x": [9.0, 5.0],
+            "bc_x": ["permeameter", "permeameter"],
+            "k_z_m2": [3e-11, 4e-11],
+            "k_z_rel_error": [0.04, 0.25],
+            "k_z_status": ["ok", "untrustworthy"],
+            "cells_per_diameter_z": [9.0, 5.0],
+            "bc_z": ["periodic", "permeameter"],
+        }
+    )
+    html = _k_table(df, "voxel")
+    heads = re.findall(r"<th>(.*?)</th>", html)
+    assert heads == ["case_id", "case status", "K_x (m²), bc permeameter", "K_z (m²)"]
+    assert '<table class="sortable ktable">' in html
+    rows = re.findall(r"<tr[^>]*>(.*?)</tr>", html.split("<tbody>")[1])
+    cells = [re.findall(r"<td>(.*?)</td>", r) for r in rows]
+    assert cells[0][2:] == ["1e-11 ± 4.0 %", '3e-11 ± 4.0 %<br><span class="kbc">periodic</span>']
+    assert cells[1][2] == (
+        '2e-11 ± 4.0 %<br><span class="kst">untrustworthy: 5.0 voxels per fiber diameter, '
+        "need 8</span>"
+    )
+    assert cells[1][3].startswith('4e-11 ± 25.0 %<br><span class="kbc">permeameter</span><br>')
+    from psdesign.report.html import CSS
+
+    assert ".ktable th,.ktable td{white-space:normal" in CSS

@@ -299,6 +299,58 @@ def test_a_studys_cap_refusal_names_the_key_its_file_holds(route, swept, tmp_pat
     assert not out.exists()
 
 
+#: Study refusals whose advice names a second key (session 43): the base (a spec with one
+#: 6 um fibre, or a generated one), the parameter swept, and the line's ending with the second
+#: key spelled as the study file holds it.
+ADVICE = {
+    "mesher": (
+        '[flow]\nsolver = "fem"\nmesher = "pytetwild"\nbc = "periodic"\n',
+        '"flow.pressure_drop" = [1.0, 2.0]',
+        "base.flow.mesher: pytetwild cannot mesh with base.flow.bc = 'periodic' (no matching "
+        "opposite faces) (allowed: stuffing with base.flow.bc = 'periodic', or "
+        "base.flow.bc = 'permeameter')",
+    ),
+    "mesher swept": (
+        '[flow]\nsolver = "fem"\nmesher = "pytetwild"\n',
+        '"flow.bc" = ["periodic", "permeameter"]',
+        "parameters.flow.bc: level 'periodic' gives flow.mesher: pytetwild cannot mesh with "
+        "parameters.flow.bc = 'periodic' (no matching opposite faces) (allowed: stuffing with "
+        "parameters.flow.bc = 'periodic', or parameters.flow.bc = 'permeameter')",
+    ),
+    "method": (
+        "[[fibers]]\ndiameter = 6e-6\n[generator]\nn_fibers = 2\ndiameter = 6e-6\n"
+        '[intersections]\nmethod = "ga"\nmin_gap = 1e-6\n',
+        '"generator.n_fibers" = [2, 3]',
+        "base.intersections.min_gap: only used with base.intersections.method = 'fast' "
+        "(allowed: base.intersections.method = 'fast')",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(ADVICE))
+def test_a_studys_refusal_spells_its_advice_keys_as_its_file_does(case, tmp_path, capsys):
+    """Session 42 re-spelled a memory refusal's advice key (base.rve.voxel); the other
+    refusals' advice still named keys as a spec file holds them ('bc = 'periodic'', 'method =
+    'fast''), which a study file has as base.flow.bc or parameters.flow.bc. Exit 2, one line,
+    no output folder. Old code: 'cannot mesh with bc = 'periodic'', 'only used with method =
+    'fast''."""
+    base, param, want = ADVICE[case]
+    if "[[fibers]]" not in base:
+        base = "[[fibers]]\ndiameter = 6e-6\n" + base
+    (tmp_path / "base.toml").write_text(
+        "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n" + base
+    )
+    (tmp_path / "study.toml").write_text(
+        'base = "base.toml"\n[study]\nname = "advice"\noutputs = ["k_z"]\nsolver = "fem"\n'
+        f"seeds = [1]\n[parameters]\n{param}\n"
+    )
+    out = tmp_path / "out"
+    assert main(["study", "run", str(tmp_path / "study.toml"), "-o", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == f"psdesign: error: {want}"
+    assert not out.exists()
+
+
 def test_a_study_spells_a_key_inside_a_table_parameter_and_a_list_element():
     """The rule behind the advice: a key a table parameter holds is that parameter's, one
     element of a list key swept is the element's parameter, any other key the base's."""
@@ -371,13 +423,14 @@ def test_the_caps_documented_text_says_when_the_auto_stack_is_checked():
     """Session 42 (s42-fixes) checks the stack "auto" plans (two copies of a periodic
     one-period RVE) once the RVE is built (test above), but the key's description, which
     docs/spec-keys.md's table and every out-of-range line print, still said 'checked before
-    any work' alone (review s42-review)."""
+    any work' alone (review s42-review). Session 43 counts explicit fibers' planned stack
+    before any work; the text says which stacks wait for the built RVE."""
     from pathlib import Path
 
     from psdesign.schema.flow import FlowTable
 
     text = FlowTable.model_fields["max_memory_gb"].description
-    assert 'an "auto" stack of two once the RVE is built' in text, text
+    assert "of a generated RVE once built" in text, text
     table = (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text()
     (row,) = [ln for ln in table.splitlines() if ln.startswith("| `flow.max_memory_gb` |")]
     assert text in row

@@ -80,8 +80,8 @@ def test_generate_exits_2_on_a_ga_min_gap(tmp_path, capsys):
     assert main(["generate", str(spec), "-o", str(tmp_path / "out"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
-        "psdesign: error: intersections.min_gap: only used with method = 'fast' "
-        "(allowed: method = 'fast')"
+        "psdesign: error: intersections.min_gap: only used with intersections.method = 'fast' "
+        "(allowed: intersections.method = 'fast')"
     ]
     assert not (tmp_path / "out").exists()
 

@@ -260,6 +260,28 @@ def test_worker_warnings_are_one_line(tmp_path, capfd):
     assert lines == [f"psdesign: warning: case {cid}: K_z: only 6.0 voxels across the fiber"], err
 
 
+def test_a_timed_case_names_itself_in_its_warnings(tmp_path):
+    """--timeout runs each case in a child process whose stderr is the case's case.log: its
+    warnings were written there as ``psdesign: warning: K_z: ...`` without the case id (session
+    42 saw it; every other route prefixes it, show_case_warnings). Old code: the line had no
+    ``case <id>:``."""
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    df = run_study(
+        p,
+        tmp_path / "out",
+        workers=0,
+        case_fn=warning_case,
+        progress=False,
+        report=False,
+        timeout_s=120,
+    )
+    assert df["status"].tolist() == ["ok"]
+    cid = df["case_id"].iloc[0]
+    (log,) = (tmp_path / "out").rglob("case.log")
+    lines = [ln for ln in log.read_text().splitlines() if "warning" in ln]
+    assert lines == [f"psdesign: warning: case {cid}: K_z: only 6.0 voxels across the fiber"]
+
+
 def resolution_case(spec, outputs, solver, workdir):
     """The voxel route's ResolutionWarning, raised by each of two directions' solves."""
     import warnings

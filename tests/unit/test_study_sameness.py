@@ -64,3 +64,20 @@ def test_the_same_study_renamed_or_edited_still_resumes(tmp_path):
     edited = write_study(tmp_path, study, FAC_PARAMS, name="renamed.toml")
     edited.write_text(edited.read_text().replace(*OTHER_BASE))
     assert len(run_study(edited, out, **KW)) == n0
+
+
+def test_renamed_and_rebased_in_one_edit_is_refused_and_its_advice_resumes(tmp_path, capsys):
+    """Session 43's decision (benchmarks/RESULTS.md): a study renamed and re-based in one edit
+    cannot be told from another study, so the folder stays refused; the one line says both
+    ways on (another -o, or keep the stored name), and the second one resumes the folder."""
+    a = write_study(tmp_path, FACTORIAL, FAC_PARAMS, name="a.toml")
+    out = tmp_path / "out"
+    n0 = len(run_study(a, out, **KW))
+    b = write_study(tmp_path, FACTORIAL.replace('"fac"', '"fac2"'), FAC_PARAMS, name="a.toml")
+    b.write_text(b.read_text().replace(*OTHER_BASE))
+    code = main(["study", "run", str(b), "-o", str(out), "--case-fn", "study_cases:fake_case"])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "give another -o folder" in line
+    assert line.endswith('keep its name: name = "fac" in [study]'), line
+    b.write_text(b.read_text().replace('"fac2"', '"fac"'))  # the line's advice
+    assert len(run_study(b, out, **KW)) == n0

@@ -1,0 +1,67 @@
+"""The copies an ``"auto"`` permeameter will stack, planned from a spec before any work.
+
+``"auto"`` stacks 2 copies of a geometry periodic along the flow with one period per copy, else 1
+(:func:`psdesign.flow.stack.plan_copies`, on the built RVE). Where the spec holds the geometry
+(explicit fibers: their analytic field; an image: its solid mask, which the schema reads anyway)
+and the direction (``flow.direction``, which every route pins before any work:
+:func:`psdesign.schema.spec.check_directions`), the same test is run on it here
+(:func:`psdesign.flow.stack.spec_auto_copies`) and the memory checks count the planned copies, the
+machine budget and ``flow.max_memory_gb`` alike (:func:`psdesign.schema.budget.stack_of`). A
+generated RVE (its fibers are drawn when it is built) keeps ``"auto"``: the budget counts 2, the
+cap 1, and the planned stack is checked once it is built
+(:func:`psdesign.schema.budget.check_planned_stack`).
+
+The test runs only where it can change an outcome: when one copy fits and two do not (10-30 ms a
+direction on explicit fibers, a pass over the mask on an image).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from pydantic_core import PydanticCustomError
+
+from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES, FlowTable
+
+
+def _pinned(flow: FlowTable, copies: int) -> FlowTable:
+    return flow.model_copy(update={"permeameter_copies": copies})
+
+
+def _fits(checks: Callable[[FlowTable], None], flow: FlowTable) -> bool:
+    """``checks`` (the route's memory checks, raising a schema error) pass with ``flow``."""
+    try:
+        checks(flow)
+    except PydanticCustomError:
+        return False
+    return True
+
+
+def planned_flow(
+    flow: FlowTable,
+    checks: Callable[[FlowTable], None],
+    plan: Callable[[int], int | None],
+) -> FlowTable:
+    """``flow`` with ``"auto"`` copies replaced by ``plan(axis)`` (the copies the geometry
+    plans along ``flow.direction``; None: it cannot tell) where that can change the outcome of
+    ``checks``: an ``"auto"`` permeameter (``flow.bc``, or the FEM's default) along a given
+    direction whose one copy fits and two copies do not. Else ``flow`` itself.
+
+    Parameters
+    ----------
+    flow : FlowTable
+        The spec's ``[flow]`` table.
+    checks : callable
+        The memory checks of the spec's route at a ``[flow]`` table (a schema error over the
+        budget or the cap).
+    plan : callable
+        The copies ``"auto"`` plans along an axis (0, 1, 2), or None.
+    """
+    bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
+    auto = flow.permeameter_copies in (None, "auto") and bc == "permeameter"
+    if not auto or flow.direction is None:
+        return flow
+    if _fits(checks, _pinned(flow, AUTO_PERMEAMETER_COPIES)) or not _fits(checks, _pinned(flow, 1)):
+        return flow  # the plan changes no outcome
+    copies = plan("xyz".index(flow.direction))
+    return flow if copies is None else _pinned(flow, copies)
