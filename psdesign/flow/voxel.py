@@ -31,7 +31,12 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, cells_per_diameter, under_resolved
+from psdesign.flow.error import (
+    MIN_CELLS_PER_DIAMETER,
+    cells_per_diameter,
+    count_below,
+    under_resolved,
+)
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
@@ -168,7 +173,8 @@ def permeability_voxel(
     cpd = cells_per_diameter(rve, h)
     if under_resolved(cpd, MIN_CELLS_PER_DIAMETER):
         warnings.warn(
-            f"voxel grid has {cpd:.1f} voxels across the thinnest {resolution_measure(rve)} (< "
+            f"voxel grid has {count_below(cpd, MIN_CELLS_PER_DIAMETER)} voxels across the "
+            f"thinnest {resolution_measure(rve)} (< "
             f"{MIN_CELLS_PER_DIAMETER:g}): K may be off by several per cent; refine rve.voxel",
             ResolutionWarning,
             stacklevel=2,
