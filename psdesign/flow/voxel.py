@@ -220,6 +220,38 @@ def permeability_voxel(
     return out
 
 
+def refuse_without_path(
+    fields: VoxelFields, direction: str | int, flow: dict, rve: RVE | None = None
+) -> None:
+    """Refuse, before any work, a periodic voxel solve whose grid has no fluid path along
+    ``direction``: the solver's own test (:func:`solvers.voxel_stokes.percolates` of the grid
+    :func:`solvers.voxel_stokes.apply_treatment` makes, ``flow.periodic_treatment``), raised
+    with the route's line (:func:`psdesign.flow.no_path.no_path_message`). The caller runs it
+    before the time and memory estimate, so the refusal is the only line (an image without a
+    path printed the estimate first). The permeameter's stack and the diffuse wall's fluid
+    fractions are left to the solve's own test.
+
+    Raises
+    ------
+    solvers.voxel_stokes.NoFluidPathError
+        The pore space of the solved grid does not wind around the box along ``direction``.
+    """
+    from solvers.voxel_stokes import NoFluidPathError, apply_treatment, percolates
+
+    bc, wall = _options(flow)
+    if bc != "periodic" or wall == "diffuse":
+        return
+    treatment = flow.get("periodic_treatment") or "periodic"
+    name, ax = axis_of(direction)
+    if percolates(apply_treatment(fields.solid, ax, treatment)[0], ax):
+        return
+    distance = fields.distance if fields.analytic_distance else None
+    line = no_path_message(
+        name, _cubic_voxel(fields), distance, ax, wall, rve, treatment == "periodic"
+    )
+    raise NoFluidPathError(line)
+
+
 def _diffuse(rve, fields, name, flow, h, bc, progress, return_fields):
     """The diffuse-wall solve (:mod:`psdesign.flow.diffuse`) with the route's resolved ``bc``,
     refused with the reason where it does not apply."""
