@@ -176,6 +176,54 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
     assert cr.status == "ok" and ">ok</span>" in page and "[5, 14]" in page
 
 
+def test_transport_reprs_show_the_value_with_its_unit_bar_convergence_and_status() -> None:
+    """Session 43 (s43-polish item 5): the transport results' reprs listed every field (22
+    for the diffusivity: bounds, residual, timings, ...); the repr now shows what the
+    permeability result's does (direction, the value with its unit, the bar, convergence, bc,
+    status) and ``str`` the command's line; every field stays (``to_dict``)."""
+    from dataclasses import fields
+
+    from psdesign.transport.conductivity import ConductivityResult
+    from psdesign.transport.diffusivity import DiffusivityResult
+
+    common = _transport_fields() | {"porosity_error": 3.1e-4}
+    dr = DiffusivityResult(
+        relative_diffusivity=0.61,
+        tortuosity_factor=1.31,
+        relative_diffusivity_column=[0.61],
+        bulk_diffusivity_m2_s=2e-5,
+        effective_diffusivity_m2_s=1.22e-5,
+        **common,
+    )
+    assert repr(dr) == (
+        "DiffusivityResult(direction='z', relative_diffusivity=0.61, "
+        "effective_diffusivity_m2_s=1.22e-05, tortuosity_factor=1.31, rel_error=0.05, "
+        "converged=False, bc='periodic', status='not_converged')"
+    )
+    assert str(dr).startswith("D_eff/D_z = 0.6100 +- 5.0 %  [not_converged]  bc periodic")
+    assert len(fields(dr)) >= 22 and dr.to_dict()["n_cells"] == 8000
+    cr = ConductivityResult(
+        effective_conductivity=12.0,
+        conductivity_column=[12.0],
+        solid_conductivity=100.0,
+        fluid_conductivity=0.03,
+        insulating_phase="none",
+        solid_fraction=0.2,
+        wiener_bounds=[0.04, 20.0],
+        hashin_shtrikman_bounds=[5.0, 14.0],
+        **{**common, "converged": True, "message": "converged"},
+    )
+    assert repr(cr) == (
+        "ConductivityResult(direction='z', effective_conductivity=12.0, "
+        "conductivity_unit='W/(m K)', rel_error=0.05, converged=True, bc='periodic', "
+        "status='ok')"
+    )
+    assert str(cr) == (
+        "sigma_eff_z = 12 W/(m K) +- 5.0 %  [ok]  bc periodic  converged true  (solid 100, "
+        "fluid 0.03 W/(m K))"
+    )
+
+
 def _one_cylinder() -> dict:
     # 20 um cube, 1 um voxels, one z-cylinder of 8 um: builds in well under a second
     return {
