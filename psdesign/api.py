@@ -307,7 +307,9 @@ class Material:
         with folder as writer, _progress(progress, direction, f"{route} solve", method) as report:
             if report is not None and route == "voxel":  # the command's estimate line, too
                 from psdesign.cli.permeability import announce_voxel
+                from psdesign.flow.voxel import refuse_without_path
 
+                refuse_without_path(self.fields, direction, table, self.rve)  # before it
                 announce_voxel(self.fields, direction, table, self.rve)
             result = permeability(
                 self.rve, self.fields, direction, table, route, progress=report, capture=writer

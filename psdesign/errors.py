@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import re
 import sys
+import warnings
 
 
 class SpecError(ValueError):
@@ -67,6 +69,28 @@ def show_warning_one_line(message, category, filename, lineno, file=None, line=N
     stderr (no source file, no code line). Installed by the ``psdesign`` command and in the
     study runner's worker processes."""
     print(f"psdesign: warning: {' '.join(str(message).split())}", file=file or sys.stderr)
+
+
+#: The folder of the psdesign package: a frame whose file lies in it is psdesign's own.
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
+def warn_at_caller(message: str, category: type[Warning]) -> None:
+    """Issue a warning at the line of the first frame outside psdesign (the user's call, as
+    Python 3.12's ``skip_file_prefixes``), under the filters in force (``"error"`` raises
+    there), shown on every call (a fresh registry: Python's once-per-line would hide the second
+    study's line). A study's in-process case re-shows its warnings with this: they pointed at
+    psdesign's own line (``psdesign/flow/permeability.py:178: ResolutionWarning: case ...``)."""
+    frame = sys._getframe(1)
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR):
+        frame = frame.f_back
+    if frame is None:  # no caller outside psdesign (the command's own process)
+        filename, lineno, module_globals = "psdesign", 0, None
+    else:
+        filename, lineno, module_globals = frame.f_code.co_filename, frame.f_lineno, frame.f_globals
+    warnings.warn_explicit(
+        message, category, filename, lineno, registry={}, module_globals=module_globals
+    )
 
 
 #: Bad input found past the spec by modules that know nothing of :class:`SpecError`

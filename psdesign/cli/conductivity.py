@@ -43,7 +43,7 @@ def _cmd(args: argparse.Namespace) -> int:
     if len(results) > 1 and tr["bc"] == "periodic":
         out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
     out["wall_time_s"] = time.perf_counter() - t0
-    return emit("conductivity", out, results, args.json, _line)
+    return emit("conductivity", out, results, args.json, result_line)
 
 
 def _check_insulating(args: argparse.Namespace) -> None:
@@ -72,7 +72,8 @@ def _check_insulating(args: argparse.Namespace) -> None:
         )
 
 
-def _line(r: dict) -> str:
+def result_line(r: dict) -> str:
+    """The printed line of one conductivity result dict (``to_dict()``; its ``__str__``)."""
     from psdesign.cli.lines import error_bar, rating
 
     u = r["conductivity_unit"]

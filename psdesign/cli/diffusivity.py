@@ -50,10 +50,11 @@ def _cmd(args: argparse.Namespace) -> int:
         tr = dict(case.transport)
         out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0
-    return emit("diffusivity", out, results, args.json, _line)
+    return emit("diffusivity", out, results, args.json, result_line)
 
 
-def _line(r: dict) -> str:
+def result_line(r: dict) -> str:
+    """The printed line of one diffusivity result dict (``to_dict()``; its ``__str__``)."""
     from psdesign.cli.lines import error_bar, rating
     from psdesign.geometry.porosity import porosity_text
 

@@ -222,6 +222,11 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
         built = build_rve(spec)
         rve = built.rve
         fields = built.voxelize(spec["rve"]["voxel"])
+        if solver == "voxel":  # a grid without a path: its one line, before any estimate
+            from psdesign.flow.voxel import refuse_without_path
+
+            for d in directions:
+                refuse_without_path(fields, d, _announced_bc(flow, args), rve)
         results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
     out = results[0] if len(results) == 1 else _combine(results, solver, fields)
     out["wall_time_s"] = time.perf_counter() - t0

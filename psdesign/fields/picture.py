@@ -56,6 +56,17 @@ def _plane(dataset, flow_axis: int, n: int, normal: int):
     return pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
 
 
+#: Flow extent over the extent across above which the slice is drawn with the flow axis across
+#: the page and the two panels one above the other: a permeameter's stack (two or three copies
+#: and two reservoirs, 4.4 times as long as the 12 um across of the fields test's RVE) was two
+#: thin upright strips in a wide picture, about 15 % of it field (session 43).
+LONG_SLICE = 1.5
+#: Width (inches) of a panel's field when the panels are stacked, and the most a stacked
+#: picture may be tall (a very long slice gets thinner panels, not a taller picture).
+STACKED_FIELD_WIDTH_IN = 8.2
+STACKED_MAX_HEIGHT_IN = 9.0
+
+
 def slice_picture(
     dataset,
     path: str | Path,
@@ -67,13 +78,17 @@ def slice_picture(
 ) -> Path:
     """Write a PNG of the mid-plane slice (see module docstring); returns its path.
 
+    The flow axis is vertical and the panels side by side, or, for a slice longer than
+    :data:`LONG_SLICE` times its width (a permeameter's stack with its reservoirs), horizontal
+    with the panels one above the other, so that the field fills the picture.
+
     Parameters
     ----------
     dataset : pyvista dataset
         With the point or cell arrays ``vector`` (3 components) and ``scalar``.
     path : path of the PNG.
     flow_axis : int
-        The slice contains this axis (vertical in the picture) and the first other axis.
+        The slice contains this axis and the first other axis.
     vector, scalar : str
         Array names; each panel's colour bar is labelled with the name.
     """
@@ -90,31 +105,38 @@ def slice_picture(
     sca = np.asarray(probe.point_data[scalar], float)
     vec[~valid] = np.nan
     sca[~valid] = np.nan
-
-    def grid2(v: np.ndarray) -> np.ndarray:  # (flow, across) image, flow axis vertical
-        img = v.reshape(shape, order="F")
-        return img.T if across < flow_axis else img
-
-    mag = np.linalg.norm(vec, axis=1)
-    mag[~valid] = np.nan
     pts = np.asarray(probe.points)
     xs = np.unique(pts[:, across]) * 1e6
     ys = np.unique(pts[:, flow_axis]) * 1e6
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
-    ext = (xs[0], xs[-1], ys[0], ys[-1])
-    im0 = axes[0].imshow(grid2(mag), origin="lower", extent=ext, cmap="viridis", aspect="equal")
+    long = (ys[-1] - ys[0]) > LONG_SLICE * (xs[-1] - xs[0])
+
+    def grid2(v: np.ndarray) -> np.ndarray:  # the flow axis vertical, or horizontal if long
+        img = v.reshape(shape, order="F")
+        img = img.T if across < flow_axis else img  # (flow, across)
+        return img.T if long else img
+
+    names = "xyz"
+    h, v = (ys, xs) if long else (xs, ys)  # the picture's horizontal and vertical coordinates
+    labels = [f"{names[a]} (um)" for a in ((flow_axis, across) if long else (across, flow_axis))]
+    mag = np.linalg.norm(vec, axis=1)
+    mag[~valid] = np.nan
     u, w = grid2(vec[:, across]), grid2(vec[:, flow_axis])
+    fig, axes = _figure(plt, long, (ys[-1] - ys[0]) / max(xs[-1] - xs[0], 1e-30))
+    ext = (h[0], h[-1], v[0], v[-1])
+    im0 = axes[0].imshow(grid2(mag), origin="lower", extent=ext, cmap="viridis", aspect="equal")
     if np.isfinite(u).any() and np.nanmax(np.hypot(u, w)) > 0:
+        along, up = (w, u) if long else (u, w)
         axes[0].streamplot(
-            xs, ys, np.nan_to_num(u), np.nan_to_num(w), color="w", linewidth=0.6, density=1.2
+            h, v, np.nan_to_num(along), np.nan_to_num(up), color="w", linewidth=0.6, density=1.2
         )
     fig.colorbar(im0, ax=axes[0], label=f"|{vector}|")
     im1 = axes[1].imshow(grid2(sca), origin="lower", extent=ext, cmap="coolwarm", aspect="equal")
     fig.colorbar(im1, ax=axes[1], label=scalar)
-    names = "xyz"
     for ax in axes:
-        ax.set_xlabel(f"{names[across]} (um)")
-        ax.set_ylabel(f"{names[flow_axis]} (um)")
+        ax.set_xlim(h[0], h[-1])  # the streamlines' arrows widened the first panel's limits
+        ax.set_ylim(v[0], v[-1])
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
     where = f"mid-plane {names[normal]} = {float(probe.origin[normal]) * 1e6:.4g} um"
     full = f"{title} ({where})" if title else f"{where} slice"
     fig.suptitle(full)
@@ -122,3 +144,14 @@ def slice_picture(
     fig.savefig(path, dpi=110, metadata={"Title": full})  # the plane also in the PNG's text
     plt.close(fig)
     return path
+
+
+def _figure(plt, long: bool, length: float):
+    """The figure and its two panels: side by side (10 x 4.6 in), or for a ``long`` slice
+    (``length``: its flow extent over its extent across) one above the other, each
+    :data:`STACKED_FIELD_WIDTH_IN` wide and as tall as the slice's aspect makes it, the
+    picture at most :data:`STACKED_MAX_HEIGHT_IN` tall."""
+    if not long:
+        return plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
+    height = min(2.0 * STACKED_FIELD_WIDTH_IN / length + 1.6, STACKED_MAX_HEIGHT_IN)
+    return plt.subplots(2, 1, figsize=(10, height), constrained_layout=True)

@@ -568,10 +568,26 @@ def untrustworthy_reasons(
         bar = f"{100 * rel_error:.1f} %" if np.isfinite(rel_error) else "unknown"
         why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
     if under_resolved(cpd, min_cpd):
-        why.append(f"{cpd:.1f} voxels per {measure}, need {min_cpd:g}")
+        why.append(f"{count_below(cpd, min_cpd)} voxels per {measure}, need {min_cpd:g}")
     if coarse_lost_phase:
         why.append("a phase lost on the coarser grid")
     return why
+
+
+def count_below(count: float, limit: float) -> str:
+    """``count`` (a cell count under ``limit``) printed so the printed number is under ``limit``
+    too: one decimal, or two or three where rounding would reach the limit (7.99 cells under a
+    rule of 8 printed ``8.0`` read as a contradiction: "8.0 voxels per fiber diameter, need 8"),
+    truncated at three.
+
+    >>> count_below(7.0, 8), count_below(7.96, 8), count_below(7.99, 8), count_below(7.99999, 8)
+    ('7.0', '7.96', '7.99', '7.999')
+    """
+    for digits in (1, 2, 3):
+        text = f"{count:.{digits}f}"
+        if float(text) < limit:
+            return text
+    return f"{math.floor(count * 1000) / 1000:.3f}"
 
 
 def under_resolved(cpd: float | None, min_cpd: float = MIN_CELLS_PER_DIAMETER) -> bool:
@@ -613,7 +629,7 @@ def resolution_warnings(
     unit = "voxels" if solver == "voxel" else "mesh cells"
     name = f"{quantity}_{direction}" if direction else quantity
     return [
-        f"{name}: only {cpd:.1f} {unit} across the thinnest {measure} "
+        f"{name}: only {count_below(cpd, limit)} {unit} across the thinnest {measure} "
         f"(< {limit:g}); refine rve.voxel"
         + (
             ""

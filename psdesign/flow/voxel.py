@@ -31,7 +31,12 @@ from psdesign.flow.darcy import (
     permeability_tensor,
     windowed_drop,
 )
-from psdesign.flow.error import MIN_CELLS_PER_DIAMETER, cells_per_diameter, under_resolved
+from psdesign.flow.error import (
+    MIN_CELLS_PER_DIAMETER,
+    cells_per_diameter,
+    count_below,
+    under_resolved,
+)
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
@@ -168,7 +173,8 @@ def permeability_voxel(
     cpd = cells_per_diameter(rve, h)
     if under_resolved(cpd, MIN_CELLS_PER_DIAMETER):
         warnings.warn(
-            f"voxel grid has {cpd:.1f} voxels across the thinnest {resolution_measure(rve)} (< "
+            f"voxel grid has {count_below(cpd, MIN_CELLS_PER_DIAMETER)} voxels across the "
+            f"thinnest {resolution_measure(rve)} (< "
             f"{MIN_CELLS_PER_DIAMETER:g}): K may be off by several per cent; refine rve.voxel",
             ResolutionWarning,
             stacklevel=2,
@@ -212,6 +218,38 @@ def permeability_voxel(
     if capture is not None:
         capture("voxel_flow", solution=res, result=out, fields=solve, flow=flow)
     return out
+
+
+def refuse_without_path(
+    fields: VoxelFields, direction: str | int, flow: dict, rve: RVE | None = None
+) -> None:
+    """Refuse, before any work, a periodic voxel solve whose grid has no fluid path along
+    ``direction``: the solver's own test (:func:`solvers.voxel_stokes.percolates` of the grid
+    :func:`solvers.voxel_stokes.apply_treatment` makes, ``flow.periodic_treatment``), raised
+    with the route's line (:func:`psdesign.flow.no_path.no_path_message`). The caller runs it
+    before the time and memory estimate, so the refusal is the only line (an image without a
+    path printed the estimate first). The permeameter's stack and the diffuse wall's fluid
+    fractions are left to the solve's own test.
+
+    Raises
+    ------
+    solvers.voxel_stokes.NoFluidPathError
+        The pore space of the solved grid does not wind around the box along ``direction``.
+    """
+    from solvers.voxel_stokes import NoFluidPathError, apply_treatment, percolates
+
+    bc, wall = _options(flow)
+    if bc != "periodic" or wall == "diffuse":
+        return
+    treatment = flow.get("periodic_treatment") or "periodic"
+    name, ax = axis_of(direction)
+    if percolates(apply_treatment(fields.solid, ax, treatment)[0], ax):
+        return
+    distance = fields.distance if fields.analytic_distance else None
+    line = no_path_message(
+        name, _cubic_voxel(fields), distance, ax, wall, rve, treatment == "periodic"
+    )
+    raise NoFluidPathError(line)
 
 
 def _diffuse(rve, fields, name, flow, h, bc, progress, return_fields):

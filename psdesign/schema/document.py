@@ -332,16 +332,45 @@ class SpecDocument(Table):
             )
 
     def _thinnest_diameter(self) -> float | None:
-        """Thinnest fiber diameter in metres (explicit rods, the generator's lower bound), or
-        None (pytetwild's default edge follows it: the budget's mesh estimate)."""
+        """Thinnest fiber width in metres, the measure the run's default lattice step and
+        pytetwild edge follow (:func:`psdesign.geometry.rve.thinnest_fiber_diameter`): explicit
+        rods' diameters, fixed shapes' (woven, compressed) thin widths as the build makes them
+        (a few ms each, cached), the generator's lower bound; None without any. Before session
+        43 the fixed shapes were left out, so a woven cell tiled 3 x 3 (300 um box, 100 um
+        period) was budgeted at the box step 10 um instead of the run's 4.66 um."""
         diam = [
             float(fb.diameter)
             for fb in self.fibers
             if fb.diameter is not None and fb.shape in ("rod", "cylinder", "bent-rod")
         ]
+        fixed = self._fixed_shape_width()
+        if fixed is not None:
+            diam.append(fixed)
         if self.generator is not None:
             diam.append(float(support(self.generator.diameter)[0]))
         return min(diam) if diam else None
+
+    def _fixed_shape_width(self) -> float | None:
+        """The thinnest thin width (metres) of the explicit fixed-shape fibers, built as the run
+        builds them (:func:`psdesign.schema.spec.explicit_fibers`); None without any, or when
+        they do not build (the build names the key then)."""
+        from types import SimpleNamespace
+
+        from psdesign.errors import SpecError
+        from psdesign.geometry.rve import thinnest_fiber_diameter
+        from psdesign.schema.spec import explicit_fibers
+
+        tables = [
+            fb.to_spec() for fb in self.fibers if fb.shape not in ("rod", "cylinder", "bent-rod")
+        ]
+        if not tables:
+            return None
+        rve = {"size": list(self.rve.size), "period": self.rve.period}
+        try:
+            fibers = explicit_fibers({"rve": rve, "fibers": tables})
+        except SpecError:
+            return None
+        return thinnest_fiber_diameter(SimpleNamespace(fibers=fibers, period=self.period))
 
     def _check_fibers(self, size, voxel: float, period: float) -> None:
         if len(self.fibers) > budget.MAX_EXPLICIT_FIBERS:

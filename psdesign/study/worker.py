@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from psdesign.errors import warn_at_caller
 from psdesign.io.atomic import json_default
 from psdesign.io.child_env import child_env
 from psdesign.io.diskfull import is_disk_full
@@ -280,7 +281,7 @@ def show_case_warnings(caught: list, case_id: str) -> None:
         text = " ".join(str(w.message).split())
         if (w.category, text) not in seen:
             seen.add((w.category, text))
-            warnings.showwarning(f"case {case_id}: {text}", w.category, w.filename, w.lineno)
+            warn_at_caller(f"case {case_id}: {text}", w.category)
 
 
 def execute_case(payload: dict) -> dict:

@@ -35,11 +35,19 @@ from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 RESOLVED_CONTRAST = 1e6
 
 
-@dataclass(repr=False)  # Rated.__repr__: the fields and the status
+@dataclass(repr=False)  # Rated.__repr__: REPR_FIELDS and the status
 class ConductivityResult(Rated):
     """Effective conductivity along one axis (units of the phase conductivities)."""
 
     QUANTITY = "sigma_eff"
+    REPR_FIELDS = (
+        "direction",
+        "effective_conductivity",
+        "conductivity_unit",
+        "rel_error",
+        "converged",
+        "bc",
+    )
 
     direction: str
     bc: str
@@ -75,6 +83,13 @@ class ConductivityResult(Rated):
         """The value and its Wiener bounds (:meth:`Rated.wiener`)."""
         lo, hi = self.wiener_bounds
         return self.effective_conductivity, (lo, hi)
+
+    def __str__(self) -> str:
+        """The line ``psdesign conductivity`` prints (:func:`psdesign.cli.conductivity.
+        result_line`): value with its unit, error bar, status, convergence, phases."""
+        from psdesign.cli.conductivity import result_line
+
+        return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
         from psdesign.geometry.porosity import porosity_text

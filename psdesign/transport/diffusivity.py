@@ -41,11 +41,20 @@ from psdesign.transport.effective import (
 )
 
 
-@dataclass(repr=False)  # Rated.__repr__: the fields and the status
+@dataclass(repr=False)  # Rated.__repr__: REPR_FIELDS and the status
 class DiffusivityResult(Rated):
     """Pore diffusion along one axis (SI units; see module docstring)."""
 
     QUANTITY = "D_eff/D"
+    REPR_FIELDS = (
+        "direction",
+        "relative_diffusivity",
+        "effective_diffusivity_m2_s",
+        "tortuosity_factor",
+        "rel_error",
+        "converged",
+        "bc",
+    )
 
     direction: str
     bc: str
@@ -79,6 +88,13 @@ class DiffusivityResult(Rated):
         """The value and its Wiener bounds ``[0, porosity]`` (pore 1, solid 0;
         :meth:`Rated.wiener`)."""
         return self.relative_diffusivity, wiener_bounds(1.0, 0.0, 1.0 - self.porosity)
+
+    def __str__(self) -> str:
+        """The line ``psdesign diffusivity`` prints (:func:`psdesign.cli.diffusivity.
+        result_line`): value, error bar, status, convergence, tortuosity, porosity."""
+        from psdesign.cli.diffusivity import result_line
+
+        return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
         from psdesign.geometry.porosity import porosity_text

@@ -186,6 +186,10 @@ class Rated:
     the warning lines, :meth:`wiener` gives its value and Wiener bounds."""
 
     QUANTITY = "value"
+    #: The fields the short repr shows before the ``status``: the value (its unit in its name
+    #: or a unit field), the error bar, the convergence; every field stays an attribute and is
+    #: in ``to_dict()`` (the generated repr listed all 22, a page in a notebook).
+    REPR_FIELDS: tuple[str, ...] = ("direction", "rel_error", "converged", "bc")
 
     @property
     def status(self) -> str:
@@ -200,11 +204,9 @@ class Rated:
         return None
 
     def __repr__(self) -> str:
-        """The dataclass's fields and the ``status`` (a property, which the generated repr
-        left out: a notebook's plain output showed the error bar but not the rating)."""
-        from dataclasses import fields
-
-        shown = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.repr]
+        """:data:`REPR_FIELDS` and the ``status`` (a property, which the generated repr left
+        out: a notebook's plain output showed the error bar but not the rating)."""
+        shown = [f"{name}={getattr(self, name)!r}" for name in self.REPR_FIELDS]
         return f"{type(self).__name__}({', '.join(shown)}, status={self.status!r})"
 
     def rating_warnings(self) -> list[str]:

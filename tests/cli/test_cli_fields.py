@@ -282,6 +282,41 @@ def test_fem_vtu_tags_regions_and_inlet_outlet_flux(fem_run):
     assert (out / "flow_x.png").stat().st_size > 10_000
 
 
+def _field_layout(png) -> tuple[float, float, list[float]]:
+    """``(width / height, coloured share, spans)`` of a slice picture: a field pixel is
+    coloured (its channels differ by over 40 of 255; white, black and the grey text do not);
+    ``spans``: in the picture's top and bottom halves, the width the coloured pixels left of
+    the colour bars (the last 12 % of the width) span, as a share of the width."""
+    from PIL import Image
+
+    a = np.asarray(Image.open(png).convert("RGB"), float)
+    col = (a.max(axis=2) - a.min(axis=2)) > 40
+    n, m = col.shape
+    field = col[:, : int(0.88 * m)]
+    spans = []
+    for half in (field[: n // 2], field[n // 2 :]):
+        cols = np.flatnonzero(half.any(axis=0))
+        spans.append(float(cols[-1] - cols[0]) / m if cols.size else 0.0)
+    return m / n, float(col.mean()), spans
+
+
+def test_a_long_slice_is_drawn_across_the_picture(fem_run, fem_periodic_run):
+    """Session 43 (s43-polish item 6): the FEM permeameter's slice (two 24 um copies and two
+    reservoirs along x, 12 um across: 4.8 times as long as wide) was drawn as two upright
+    strips side by side, 8.7 % of the 1100 x 506 picture field, each half of the picture with
+    coloured pixels over 57 % of its width (both strips and a colour bar). A slice longer than
+    1.5 times its width is drawn with the flow axis across the page and the panels one above
+    the other: each panel spans the picture's width (over 75 %; 82 % measured), the field over
+    20 % of it (28 %), the picture 1.4-2.6 times as wide as tall. The periodic slice (24 x 16
+    um, 1.5 times) keeps the panels side by side (34 % field)."""
+    aspect, share, spans = _field_layout(fem_run[0] / "flow_x.png")
+    assert 1.4 <= aspect <= 2.6, aspect
+    assert share > 0.2, share
+    assert min(spans) > 0.75, spans
+    aspect, share, _ = _field_layout(fem_periodic_run[0] / "flow_x.png")
+    assert 1.4 <= aspect <= 2.6 and share > 0.2, (aspect, share)
+
+
 @pytest.mark.parametrize("run", ["fem_run", "fem_periodic_run"])
 def test_fem_vtu_flux_across_planes_is_the_solvers(run, request):
     """The flux of the written velocity across planes normal to the flow (ParaView's Slice +

@@ -291,6 +291,35 @@ def test_an_image_without_a_path_is_refused_naming_the_image(tmp_path, capsys):
     assert not any("no permeability" in w for w in res["warnings"])
 
 
+@pytest.mark.parametrize("direction", ["x", "all"])
+def test_an_image_without_a_path_is_refused_alone_before_the_estimate(tmp_path, capsys, direction):
+    """Session 43 (s43-polish item 3): without --quiet the voxel solve's time and memory
+    estimate ("psdesign: voxel solve x (512 cells): estimated ~0 s, ...") came before the
+    refusal; the brief asks for one line before any work. The grid's path is tested first
+    (the solver's own test), for every direction of ``all`` before any of them is solved; the
+    API with ``progress=True`` the same."""
+    import psdesign
+
+    a = np.ones((8, 8, 8), np.uint8)
+    a[3:5, :, 3:5] = 0  # the only pore: a channel along y
+    np.save(tmp_path / "img.npy", a)
+    (tmp_path / "s.toml").write_text('[image]\npath = "img.npy"\nvoxel_size = 1e-6\n')
+    code = main(
+        ["permeability", str(tmp_path / "s.toml"), "--solver", "voxel", "--direction", direction]
+    )
+    cap = capsys.readouterr()
+    assert code == 2 and cap.out == ""
+    assert cap.err.splitlines() == [
+        "psdesign: error: image: the pore space has no path along x (face-connected, periodic "
+        "pore voxels), so there is no permeability along x (allowed: an image whose pore space "
+        "joins the faces normal to the flow)"
+    ]
+    m = psdesign.build(str(tmp_path / "s.toml"))
+    with pytest.raises(ValueError, match="^image: the pore space has no path along x"):
+        m.permeability("x", solver="voxel", progress=True)
+    assert capsys.readouterr().err == ""
+
+
 def test_the_fem_route_names_rve_voxel_when_the_field_closes_the_gap(tmp_path, capsys):
     """The same square array at solid fraction 0.75 (gap 0.46 um, a path by the closed form)
     on a 1 um field: the mesher closes gaps under a voxel, and its refusal named no key

@@ -137,29 +137,26 @@ def _transport_fields() -> dict:
     }
 
 
-def test_transport_results_have_short_repr_and_html_with_units() -> None:
-    from psdesign.transport.conductivity import ConductivityResult
+def _diffusivity_result(column: list[float]):
+    """A not-converged diffusivity result of D_eff/D 0.61 +- 5 % (the values are the test's)."""
     from psdesign.transport.diffusivity import DiffusivityResult
 
-    column = [0.5] * 200  # one value per slice: kept out of the repr
-    common = _transport_fields() | {"porosity_error": 3.1e-4}
-    dr = DiffusivityResult(
+    return DiffusivityResult(
         relative_diffusivity=0.61,
         tortuosity_factor=1.31,
         relative_diffusivity_column=column,
         bulk_diffusivity_m2_s=2e-5,
         effective_diffusivity_m2_s=1.22e-5,
-        **common,
+        **_transport_fields(),
+        porosity_error=3.1e-4,
     )
-    assert len(repr(dr)) < 700 and "0.5, 0.5" not in repr(dr)
-    # the plain repr carries the rating too (session 31: it showed rel_error, not status)
-    assert repr(dr).endswith("status='not_converged')")
-    assert dr.to_dict()["relative_diffusivity_column"] == column
-    page = dr._repr_html_()
-    assert dr.status == "not_converged" and ">not_converged</span>" in page
-    assert "m<sup>2</sup>/s" in page and "1.2200e-05" in page and "&plusmn; 5 %" in page
-    assert "0.8000 +- 3.1e-04" in page  # the porosity with its error (psdesign.geometry.porosity)
-    cr = ConductivityResult(
+
+
+def _conductivity_result(column: list[float]):
+    """A converged conductivity result of 12 W/(m K) +- 5 %."""
+    from psdesign.transport.conductivity import ConductivityResult
+
+    return ConductivityResult(
         effective_conductivity=12.0,
         conductivity_column=column,
         solid_conductivity=100.0,
@@ -168,12 +165,54 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
         solid_fraction=0.2,
         wiener_bounds=[0.04, 20.0],
         hashin_shtrikman_bounds=[5.0, 14.0],
-        **{**common, "converged": True, "message": "converged"},
+        **{**_transport_fields(), "converged": True, "message": "converged"},
+        porosity_error=3.1e-4,
     )
+
+
+def test_transport_results_have_short_repr_and_html_with_units() -> None:
+    column = [0.5] * 200  # one value per slice: kept out of the repr
+    dr = _diffusivity_result(column)
+    assert len(repr(dr)) < 700 and "0.5, 0.5" not in repr(dr)
+    # the plain repr carries the rating too (session 31: it showed rel_error, not status)
+    assert repr(dr).endswith("status='not_converged')")
+    assert dr.to_dict()["relative_diffusivity_column"] == column
+    page = dr._repr_html_()
+    assert dr.status == "not_converged" and ">not_converged</span>" in page
+    assert "m<sup>2</sup>/s" in page and "1.2200e-05" in page and "&plusmn; 5 %" in page
+    assert "0.8000 +- 3.1e-04" in page  # the porosity with its error (psdesign.geometry.porosity)
+    cr = _conductivity_result(column)
     assert len(repr(cr)) < 700 and "0.5, 0.5" not in repr(cr)
     assert repr(cr).endswith("status='ok')")
     page = cr._repr_html_()
     assert cr.status == "ok" and ">ok</span>" in page and "[5, 14]" in page
+
+
+def test_transport_reprs_show_the_value_with_its_unit_bar_convergence_and_status() -> None:
+    """Session 43 (s43-polish item 5): the transport results' reprs listed every field (22
+    for the diffusivity: bounds, residual, timings, ...); the repr now shows what the
+    permeability result's does (direction, the value with its unit, the bar, convergence, bc,
+    status) and ``str`` the command's line; every field stays (``to_dict``)."""
+    from dataclasses import fields
+
+    dr = _diffusivity_result([0.61])
+    assert repr(dr) == (
+        "DiffusivityResult(direction='z', relative_diffusivity=0.61, "
+        "effective_diffusivity_m2_s=1.22e-05, tortuosity_factor=1.31, rel_error=0.05, "
+        "converged=False, bc='periodic', status='not_converged')"
+    )
+    assert str(dr).startswith("D_eff/D_z = 0.6100 +- 5.0 %  [not_converged]  bc periodic")
+    assert len(fields(dr)) >= 22 and dr.to_dict()["n_cells"] == 8000
+    cr = _conductivity_result([12.0])
+    assert repr(cr) == (
+        "ConductivityResult(direction='z', effective_conductivity=12.0, "
+        "conductivity_unit='W/(m K)', rel_error=0.05, converged=True, bc='periodic', "
+        "status='ok')"
+    )
+    assert str(cr) == (
+        "sigma_eff_z = 12 W/(m K) +- 5.0 %  [ok]  bc periodic  converged true  (solid 100, "
+        "fluid 0.03 W/(m K))"
+    )
 
 
 def _one_cylinder() -> dict:

@@ -155,3 +155,48 @@ def test_default_step_is_the_same_on_every_machine_of_the_reference_size(monkeyp
     monkeypatch.setattr(budget, "machine_memory", lambda: 16 * 2**30)
     small, note = budget.fem_lattice_step(*args)
     assert small > steps[0] and "8 GiB" in note
+
+
+def _budget_and_run_steps(monkeypatch, spec: dict) -> tuple[float, float]:
+    """The up-front budget's lattice step for the fewest copies a run stacks (the last step
+    ``check_fem`` plans, before an RVE exists) and the step the run's FEM route takes on the
+    built RVE (``spec_grid_step`` of ``thinnest_fiber_diameter``), on a 64 GiB machine."""
+    from psdesign.geometry.rve import thinnest_fiber_diameter
+    from psdesign.packing.build import build_rve
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**30)
+    planned = []
+    plan = budget.fem_lattice_step
+
+    def spy(*args, **kw):
+        planned.append(plan(*args, **kw)[0])
+        return plan(*args, **kw)
+
+    monkeypatch.setattr(budget, "fem_lattice_step", spy)
+    spec = validate_spec(spec)
+    budgeted = planned[-1]
+    rve = build_rve(spec).rve
+    size, voxel = spec["rve"]["size"], spec["rve"]["voxel"]
+    run, _ = spec_grid_step(spec["flow"], voxel, size, thinnest_fiber_diameter(rve), 1, None)
+    return budgeted, run["lattice_step"]
+
+
+@pytest.mark.parametrize("tiles", [1, 2])
+def test_the_budget_plans_a_woven_spec_at_the_step_its_run_takes(monkeypatch, tiles):
+    """Session 43 (s43-polish item 2): the spec-level thinnest width left fixed shapes out, so
+    a woven spec was budgeted at the box step. The shipped studies/table3/woven.toml (one 100 um
+    period) runs at the box step 3.33 um either way (box / 30 < 14.0 um / 3); tiled 2 x 2 x 2
+    (200 um box, 100 um period, 2 um voxels) the run takes the yarn's thin width 13.99 um / 3
+    = 4.66 um (tests/unit/test_thin_width.py's closed form), where main budgeted 6.67 um (box
+    / 30), under-counting the mesh 3 times. Now the budget's step equals the run's."""
+    import tomllib
+
+    from conftest import REPO_ROOT
+
+    spec = tomllib.loads((REPO_ROOT / "studies/table3/woven.toml").read_text())
+    if tiles > 1:
+        spec["rve"].update(size=[tiles * 100e-6] * 3, period=100e-6, voxel=2e-6)
+    planned, run = _budget_and_run_steps(monkeypatch, spec)
+    want = 100e-6 / 30 if tiles == 1 else 0.13994 * 100e-6 / 3
+    assert run == pytest.approx(want, rel=1e-4)
+    assert planned == pytest.approx(run, rel=1e-12)

@@ -322,6 +322,46 @@ def test_a_study_names_the_case_of_each_warning_once(tmp_path, capfd, workers):
     ), err
 
 
+def under_resolved_case(spec, outputs, solver, workdir):
+    """A real voxel solve through psdesign's route with 6 voxels across the fibre: the
+    ResolutionWarning is raised inside psdesign (at psdesign/flow/permeability.py's line)."""
+    from psdesign.flow.permeability import permeability
+    from psdesign.geometry.fibers import make_fiber
+    from psdesign.geometry.rve import RVE
+
+    rve = RVE([12e-6] * 3, [make_fiber("cylinder", 0.5, direction=[0, 0, 1])])
+    permeability(rve, rve.voxelize(1e-6), "x", {"viscosity": 1.8e-5}, "voxel", None, False)
+    return fake_case(spec, outputs, solver, workdir)
+
+
+def test_an_in_process_case_warning_points_at_the_callers_line(tmp_path):
+    """Session 43 (s43-polish item 4): with workers=0 a case's warnings were re-shown at the
+    line inside psdesign that raised them ("psdesign/flow/permeability.py:178:
+    ResolutionWarning: case c0000-...: voxel grid has 6.0 voxels ..."), not the user's call, as
+    the API's other calls do (test_api.py); now at this file's run_study line, with the case id,
+    and again on a second run from the same line."""
+    import warnings
+
+    from psdesign.flow.voxel import ResolutionWarning
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7]')
+    for out in ("out1", "out2"):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            df = run_study(
+                p,
+                tmp_path / out,
+                workers=0,
+                case_fn=under_resolved_case,
+                progress=False,
+                report=False,
+            )
+        ours = [w for w in caught if issubclass(w.category, ResolutionWarning)]
+        cid = df["case_id"].iloc[0]
+        assert len(ours) == 1 and ours[0].filename == __file__
+        assert str(ours[0].message).startswith(f"case {cid}: voxel grid has 6.0 voxels")
+
+
 def unconverged_transport_case(spec, outputs, solver, workdir):
     out = fake_case(spec, outputs, solver, workdir)
     out["diffusivity_z_converged"] = spec["generator"]["porosity"] != 0.8
