@@ -139,7 +139,9 @@ def _cmd_predict(args: argparse.Namespace) -> int:
                 f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
                 f"{100 * r['cv_rel_error']:.3g} %){flag}"
             )
-    return 0
+    # a printed prediction flagged extrapolated / untrustworthy is a result not to trust, as
+    # an unconverged solve (exit_status's table; it exited 0 before session 43)
+    return NOT_TRUSTED if any(r["status"] != "ok" for r in out.values()) else OK
 
 
 def _surrogate_flag(model) -> tuple[str, str]:

@@ -288,7 +288,10 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     """main (audit20): ``--at generator.porosity=nan`` ended in scikit-learn's six-line NaN
     message, a parameter given twice silently took the last value, and a point far outside the
     fitted range (porosity 5 for a 0.7-0.9 design: predicted porosity 3.6) printed as any
-    other prediction. Rules: one line naming the key; an untrustworthy number says so."""
+    other prediction. Rules: one line naming the key; an untrustworthy number says so.
+    Walkthrough (session 43): the EXTRAPOLATED prediction exited 0, as a trusted one; a
+    flagged prediction exits 3 now (exit_status: finished, a result not to trust), with
+    --json or without."""
     out = _lhs_study(tmp_path, 6)
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
@@ -303,13 +306,13 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8", "--json"]) == 0
     cap = capsys.readouterr()
     assert json.loads(cap.out)["k_z_m2"]["status"] == "ok" and cap.err == ""
-    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["k_z_m2"]
     assert r["status"] == "extrapolated"
     assert r["outside"] == ["generator.porosity = 0.95 outside [0.7, 0.9]"]
     assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
-    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 0
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 3
     assert "(EXTRAPOLATED)" in capsys.readouterr().out
 
 
@@ -882,14 +885,16 @@ def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
         "generator.diameter": pytest.approx(7.5e-6, rel=1e-12)
     }
     at = "generator.porosity=0.8,generator.diameter=8.5e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["porosity"]
     assert r["status"] == "extrapolated"
     assert r["outside"] == ["generator.diameter = 8.5e-06, every fitted case had 7.5e-06"]
     assert "extrapolating" in cap.err
     at = "generator.porosity=0.8,generator.diameter=7.5e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert (
+        main(["study", "predict", str(out), "--at", at, "--json"]) == 3
+    )  # k_z's fit: untrustworthy
     r = json.loads(capsys.readouterr().out)["porosity"]
     assert r["status"] == "ok" and r["mean"] == pytest.approx(0.8, abs=1e-3)  # the fake's eps
 
@@ -981,7 +986,7 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     # off their line the cases pin nothing down: at the corner (0.7, 9 um) the GP said
     # 2.18e-11 +- 482 %, status "ok", where the fake solver gives 2 KC = 7.72e-12
     at = "generator.porosity=0.7,generator.diameter=9e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["k_z_m2"]
     assert abs(r["mean"] / (2 * kc_truth(0.7, 9e-6)) - 1) > 0.2  # the point it cannot know
@@ -1065,7 +1070,7 @@ def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
     held = "(generator.porosity = 0.8, generator.diameter = 7e-06 in every case)"
     assert f"k_z_m2: GP over no varied parameter {held} from 4 cases" in capsys.readouterr().out
     at = "generator.porosity=0.8,generator.diameter=7e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     r = json.loads(capsys.readouterr().out)["k_z_m2"]
     assert r["status"] == "untrustworthy"
     assert r["mean"] == pytest.approx(df["k_z_m2"].mean(), rel=0.01)
@@ -1102,7 +1107,7 @@ def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
     fit = strict(capsys.readouterr().out)["k_z_m2"]
     assert fit["cv_rel_error"] is None and fit["cv_rmse"] is None
     at = "generator.porosity=0.8,generator.diameter=7e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # untrustworthy: exit 3
     assert strict(capsys.readouterr().out)["k_z_m2"]["cv_rel_error"] is None
 
 
