@@ -646,6 +646,55 @@ def test_a_grid_fit_quotes_its_error_between_levels_too(eps, diam, seeds, cv_bel
     assert math.isnan(lhs.cv_level_rel_error)
 
 
+def _kc_grid_fit(eps: list[float], diam: list[float], seeds: list[int]) -> Surrogate:
+    """A fit of K = 2 KC(eps, d) (study_cases.kc_truth) on a full factorial, each seed's 1 %
+    noise factor that of ``study_cases.fake_case`` (one per seed, as a study of it has)."""
+    x = np.array([(e, d) for e in eps for d in diam for _ in seeds])
+    noise = [1 + 0.01 * np.random.default_rng(s).standard_normal() for s in seeds]
+    y = 2.0 * kc_truth(x[:, 0], x[:, 1]) * np.tile(noise, len(x) // len(seeds))
+    df = pd.DataFrame({"e": x[:, 0], "d": x[:, 1], "k": y, "status": "ok"})
+    df["seed"] = np.tile(seeds, len(df) // len(seeds))
+    box = {"e": (min(eps), max(eps), False), "d": (min(diam), max(diam), False)}
+    return fit_surrogate(df, "k", ["e", "d"], box)
+
+
+@pytest.mark.parametrize(
+    ("eps", "diam", "seeds", "status"),
+    [
+        ([0.7, 0.75, 0.8, 0.85, 0.9], [6e-6, 7e-6, 8e-6], [1], "ok"),
+        ([0.7, 0.8, 0.9], [6e-6, 8e-6], [1, 2], "untrustworthy"),
+    ],
+)
+def test_a_predictions_bar_holds_the_truth_between_a_grids_levels(eps, diam, seeds, status):
+    """Walkthrough (session 43): ``study predict``'s bar was the GP std, which held the
+    Kozeny-Carman truth within 2 std at 43 % (5 x 3 levels) and 21 % (3 x 2, 2 seeds) of a
+    41 x 41 grid of the box; the fit's own hold-out errors (2.1 % and 30 % with each inner
+    level held out) were not used. Rule: the printed bar is never below the fit's measured
+    hold-out error, and a fit off by more than 20 % with inner levels held out rates its
+    predictions untrustworthy, with the reason. Truth: K = 2 KC(eps, d) (Carman 1937), noise
+    free, on an 11 x 11 grid inside the box (the 41 x 41 grid: 100 % within 2 bars, both)."""
+    from psdesign.cli.study_analysis import _predict_one
+
+    s = _kc_grid_fit(eps, diam, seeds)
+    rows = [
+        (_predict_one(s, f"e={e},d={d}"), 2.0 * kc_truth(e, d))
+        for e in np.linspace(min(eps), max(eps), 11)
+        for d in np.linspace(min(diam), max(diam), 11)
+    ]
+    err = np.array([abs(r["mean"] - truth) / truth for (r, _), truth in rows])
+    bar = np.array([r["std"] / truth for (r, _), truth in rows])
+    assert np.mean(err <= 2 * bar) >= 0.95, np.mean(err <= 2 * bar)
+    assert np.median(bar) <= 10 * err.max()  # honest, not wild: 2.1 % / 1.35 %, 30 % / 6.1 %
+    assert {r["status"] for (r, _), _ in rows} == {status}
+    why = {w for (_, w), _ in rows}
+    if status == "ok":
+        assert why == {""}
+    else:  # the reason, once per point, says which figure and what to do
+        (w,) = why
+        assert w.startswith("k: the fit's error with each inner level held out is 30"), w
+        assert w.endswith("run more levels"), w
+
+
 def test_study_fit_prints_the_inner_level_error_of_a_grid(tmp_path, capsys) -> None:
     """`study fit` prints, --json gives and the report's surrogate note quotes
     ``cv_level_rel_error`` (the 3 x 2 factorial of study_cases on the Kozeny-Carman fake
