@@ -168,7 +168,12 @@ def _surrogate_flag(model) -> tuple[str, str]:
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
-    from psdesign.analysis.sensitivity import morris_screening, no_indices_reason, sobol_indices
+    from psdesign.analysis.sensitivity import (
+        few_levels,
+        morris_screening,
+        no_indices_reason,
+        sobol_indices,
+    )
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
@@ -197,8 +202,15 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         status, cv_text = _surrogate_flag(models[name])
+        advice = few_levels(models[name])  # a 2 x 2 factorial: what to run, in one line
+        if advice:
+            print(f"psdesign: warning: {advice}", file=sys.stderr)
         # each row carries the trust of the surrogate its index was computed from
-        trust = {"surrogate_status": status, "surrogate_cv_rel_error": models[name].cv_rel_error}
+        trust = {
+            "surrogate_status": status,
+            "surrogate_cv_rel_error": models[name].cv_rel_error,
+            "advice": advice,
+        }
         result[name] = [r | trust for r in table.to_dict(orient="records")]
         if not args.json:
             space = "log10 " if models[name].log_output else ""

@@ -1260,3 +1260,48 @@ def test_two_design_points_are_said_to_be_too_few_not_a_flat_output() -> None:
     table = sobol_indices(three, n=256)
     assert list(table["parameter"]) == ["a"]
     assert table["ST"].iloc[0] == pytest.approx(1.0, abs=0.05)
+
+
+def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): a 2 x 2 factorial (porosity 0.7 / 0.9, diameter 6 / 8 um, 3
+    seeds; Kozeny-Carman fake solver) passed the two-design-point rule and printed Sobol
+    indices (S1 1.005 +- 0.30) under "[untrustworthy]", with nothing saying what to run: along
+    a two-level parameter the fit sees a straight line (its error between the levels is 129 %
+    RMS of the truth there). Rule: one line, the same words in `study sensitivity`'s text
+    (stderr), its --json (``advice`` per row) and the report's Sobol note."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.7, 0.9]\n"generator.diameter" = [6e-6, 8e-6]',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    words = (
+        "k_z_m2: generator.porosity, generator.diameter had 2 levels among the fitted cases, so "
+        "the indices see no curvature along them; run 3 or more levels per parameter"
+    )
+    assert main(["study", "sensitivity", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert f"psdesign: warning: {words}" in err, err
+    assert main(["study", "sensitivity", str(out), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert {r["advice"] for r in rows} == {words}
+    from psdesign.report import build_html
+
+    assert f"Sobol indices: {words}." in build_html(out)
+    # three levels of each: no advice (the 3 x 2 factorial of study_cases has 2 diameters)
+    three = tmp_path / "three"
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]\nsolver = "voxel"',
+        '"generator.porosity" = [0.7, 0.8, 0.9]\n"generator.diameter" = [6e-6, 7e-6, 8e-6]',
+        name="three.toml",
+    )
+    run_study(p, three, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(three)]) == 0
+    capsys.readouterr()
+    assert main(["study", "sensitivity", str(three), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert {r["advice"] for r in rows} == {""}
