@@ -279,7 +279,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         return fail(str(exc))
     except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
         return fail(str(exc), FAILED)
+    from psdesign.analysis.columns import case_warnings
+
     targets_out = [_target_report(t, res.best) for t in targets]
+    case = res.best.get("case_id")
     summary = {
         "met": res.met,
         "message": res.message,
@@ -287,6 +290,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "rounds": res.rounds,
         "targets": targets_out,
         "best": res.best,
+        # the chosen case's solver warnings, which were in results.csv only (session 43)
+        "warnings": [
+            {"case_id": case, "column": k, "warning": v} for k, v in case_warnings(res.best).items()
+        ],
         "history": res.history,
     }
     try:
@@ -305,6 +312,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
         print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
+        for w in summary["warnings"]:  # one line each: what the solve said about this K
+            print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
     if res.met:
         return OK
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
