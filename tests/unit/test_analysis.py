@@ -1262,6 +1262,17 @@ def test_two_design_points_are_said_to_be_too_few_not_a_flat_output() -> None:
     assert table["ST"].iloc[0] == pytest.approx(1.0, abs=0.05)
 
 
+def _fitted_factorial(tmp_path, name: str, eps: list, diam: list, seeds: list):
+    """A full factorial of the Kozeny-Carman fake case in ``tmp_path / name``, fitted."""
+    params = f'"generator.porosity" = {eps}\n"generator.diameter" = {diam}'
+    study = f'design = "full-factorial"\nseeds = {seeds}\noutputs = ["k_z"]\nsolver = "voxel"'
+    out = tmp_path / name
+    p = write_study(tmp_path, study, params, name=f"{name}.toml")
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    return out
+
+
 def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> None:
     """Walkthrough (session 43): a 2 x 2 factorial (porosity 0.7 / 0.9, diameter 6 / 8 um, 3
     seeds; Kozeny-Carman fake solver) passed the two-design-point rule and printed Sobol
@@ -1269,14 +1280,7 @@ def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> No
     a two-level parameter the fit sees a straight line (its error between the levels is 129 %
     RMS of the truth there). Rule: one line, the same words in `study sensitivity`'s text
     (stderr), its --json (``advice`` per row) and the report's Sobol note."""
-    p = write_study(
-        tmp_path,
-        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]\nsolver = "voxel"',
-        '"generator.porosity" = [0.7, 0.9]\n"generator.diameter" = [6e-6, 8e-6]',
-    )
-    out = tmp_path / "out"
-    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(out)]) == 0
+    out = _fitted_factorial(tmp_path, "out", [0.7, 0.9], [6e-6, 8e-6], [1, 2, 3])
     capsys.readouterr()
     words = (
         "k_z_m2: generator.porosity, generator.diameter had 2 levels among the fitted cases, so "
@@ -1292,15 +1296,7 @@ def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> No
 
     assert f"Sobol indices: {words}." in build_html(out)
     # three levels of each: no advice (the 3 x 2 factorial of study_cases has 2 diameters)
-    three = tmp_path / "three"
-    p = write_study(
-        tmp_path,
-        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]\nsolver = "voxel"',
-        '"generator.porosity" = [0.7, 0.8, 0.9]\n"generator.diameter" = [6e-6, 7e-6, 8e-6]',
-        name="three.toml",
-    )
-    run_study(p, three, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(three)]) == 0
+    three = _fitted_factorial(tmp_path, "three", [0.7, 0.8, 0.9], [6e-6, 7e-6, 8e-6], [1])
     capsys.readouterr()
     assert main(["study", "sensitivity", str(three), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["k_z_m2"]
