@@ -82,6 +82,17 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     return rel, "ok" if rel <= UNTRUSTWORTHY_REL_ERROR else "untrustworthy"
 
 
+def case_warnings(row: dict) -> dict[str, str]:
+    """The non-empty ``warnings_<d>`` cells of a case (what the solve said about its K, e.g. a
+    periodic bc on a non-periodic RVE), ``{column: text}``: the words `study optimize` prints
+    and the report's decision section shows beside the chosen case.
+
+    >>> case_warnings({"warnings_z": "K_z: bc = 'periodic' on ...", "warnings_x": "", "k": 1})
+    {'warnings_z': "K_z: bc = 'periodic' on ..."}
+    """
+    return {k: v for k, v in row.items() if k.startswith("warnings_") and isinstance(v, str) and v}
+
+
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
     """The ``ok`` cases of a results table, with each rated value whose own status
     (``k_x_status``, ``diffusivity_x_status``, ...: :data:`STATUS_COLUMNS`) is not ``ok`` set to

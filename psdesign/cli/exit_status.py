@@ -9,8 +9,9 @@ code   name               meaning
                           study case, lost workers; the line names the file or the case
 2      ``BAD_INPUT``      a bad spec, argument or ``-o`` folder, refused before any work
 3      ``NOT_TRUSTED``    finished, outputs complete, but a result did not converge (its
-                          ``status`` says so), ``study optimize`` missed its target or
-                          ``rev`` found no size within ``--tol``
+                          ``status`` says so), ``study optimize`` missed its target,
+                          ``rev`` found no size within ``--tol`` or a ``study predict``
+                          prediction is ``extrapolated`` or ``untrustworthy``
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================
@@ -38,8 +39,8 @@ TERMINATED = 143
 HELP = (
     "exit status: 0 done, every result converged (and every target met); 1 could not finish "
     "(disk full, permissions, a failed study case, lost workers); 2 bad input, refused before "
-    "any work; 3 finished with complete outputs, but a result did not converge or a target "
-    "was missed (read its status); 130 Ctrl-C; 143 SIGTERM"
+    "any work; 3 finished with complete outputs, but a result did not converge, a target "
+    "was missed or a prediction is not trusted (read its status); 130 Ctrl-C; 143 SIGTERM"
 )
 
 

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from psdesign.cli import progress
 from psdesign.cli.exit_status import NOT_TRUSTED, OK
+from psdesign.cli.lines import print_json
 from psdesign.cli.progress import add_force_argument
 
 FORCEFIELD_FILES = (
@@ -30,26 +30,13 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
     )
     ff = load_forcefield_spec(args.spec)
     summary = run_forcefield(ff, target, pictures=not args.no_pictures)
-    print(
-        json.dumps(
-            {
-                k: summary[k]
-                for k in (
-                    "case",
-                    "U",
-                    "converged",
-                    "status",
-                    "at_bound",
-                    "message",
-                    "n_evals",
-                    "wall_time_s",
-                    "free_variables",
-                )
-            }
-            # the error bars (docs/forcefield.md): U's quadrature error and each free
-            # variable's +- (paper cases, the rod and the field relax routes)
-            | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
-        )
+    keys = ("case", "U", "converged", "status", "at_bound", "message", "n_evals")
+    keys += ("wall_time_s", "free_variables")
+    print_json(  # strict JSON, as every --json
+        {k: summary[k] for k in keys}
+        # the error bars (docs/forcefield.md): U's quadrature error and each free
+        # variable's +- (paper cases, the rod and the field relax routes)
+        | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
     )
     # warnings on stderr: stdout stays one JSON object
     if summary["status"] == "not_converged":

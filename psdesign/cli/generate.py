@@ -4,10 +4,10 @@ medial axes and preview.png."""
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
+from psdesign.cli.lines import print_json
 from psdesign.cli.progress import add_force_argument
 from psdesign.io.vtkfile import save_vtk
 
@@ -33,20 +33,14 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         force=args.force,
         formats=tuple(args.format or ()),
     )
-    print(
-        json.dumps(
-            {
-                k: summary[k]
-                for k in (
-                    "porosity",
-                    "porosity_error",
-                    "n_fibers",
-                    "intersection_volume_fraction",
-                    "intersection_volume_fraction_error",
-                )
-            }
-        )
+    keys = (
+        "porosity",
+        "porosity_error",
+        "n_fibers",
+        "intersection_volume_fraction",
+        "intersection_volume_fraction_error",
     )
+    print_json({k: summary[k] for k in keys})  # strict JSON, as every --json
     return 0
 
 

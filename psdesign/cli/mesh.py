@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
+from psdesign.cli.lines import print_json
 from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
 from psdesign.meshing.exports import NO_PERIODIC, NO_PERIODIC_WHY, OUTPUTS, WRITERS, output_names
@@ -126,11 +126,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
         write_record(tmp, "mesh.json", info)  # the wall time beside it
     _drop_stale_outputs(target.path, formats)
-    print(
-        json.dumps(
-            {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}
-            | {"n_tets": pm.quality.get("n_tets")}
-        )
+    print_json(  # strict JSON, as every --json
+        {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}
+        | {"n_tets": pm.quality.get("n_tets")}
     )
     return 0
 

@@ -79,21 +79,32 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 
 def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
-    """One surrogate's prediction at ``--at`` with its status (``extrapolated`` outside the
-    fitted cases, else the fit's rating, ``untrustworthy`` also when the point's own error bar
-    is too wide: :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is
-    returned too)."""
+    """One surrogate's prediction at ``--at`` with its bar and status (``extrapolated``
+    outside the fitted cases, else the fit's rating, ``untrustworthy`` also when the fit's
+    error with inner levels held out or the point's own bar is too wide:
+    :func:`~psdesign.analysis.prediction.holdout_reason`,
+    :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is returned too).
+    ``std`` is the printed bar: the GP std, never below the fit's measured hold-out error
+    (:func:`~psdesign.analysis.prediction.holdout_bar`; the GP std alone held the truth within
+    2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
+    from psdesign.analysis.prediction import holdout_bar, holdout_error, holdout_reason
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
     x = parse_point(at, m.params, ints)
-    mean, std = (float(v[0]) for v in m.predict(x[None, :]))
+    mean, gp_std = (float(v[0]) for v in m.predict(x[None, :]))
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
-    wide = wide_prediction(m, mean, std) if status == "ok" else ""
+    wide = (holdout_reason(m) or wide_prediction(m, mean, gp_std)) if status == "ok" else ""
+    held, words = holdout_error(m)
+    bar = holdout_bar(m, mean)
     row = {
         "mean": mean,
-        "std": std,
+        "std": max(gp_std, bar),
+        "gp_std": gp_std,
+        "error_from": words if bar > gp_std else "GP std",
+        "holdout_rel_error": held,
         "cv_rel_error": m.cv_rel_error,
+        "cv_level_rel_error": m.cv_level_rel_error,
         "status": "untrustworthy" if wide else status,
         "outside": outside,
     }
@@ -133,13 +144,14 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
     else:
+        from psdesign.analysis.prediction import bar_text
+
         for name, r in out.items():
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
-            print(
-                f"{name} = {r['mean']:.4g} +- {r['std']:.2g} (GP std; cross-validated error "
-                f"{100 * r['cv_rel_error']:.3g} %){flag}"
-            )
-    return 0
+            print(f"{name} = {r['mean']:.4g} +- {r['std']:.2g} ({bar_text(r)}){flag}")
+    # a printed prediction flagged extrapolated / untrustworthy is a result not to trust, as
+    # an unconverged solve (exit_status's table; it exited 0 before session 43)
+    return NOT_TRUSTED if any(r["status"] != "ok" for r in out.values()) else OK
 
 
 def _surrogate_flag(model) -> tuple[str, str]:
@@ -156,7 +168,12 @@ def _surrogate_flag(model) -> tuple[str, str]:
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
-    from psdesign.analysis.sensitivity import morris_screening, no_indices_reason, sobol_indices
+    from psdesign.analysis.sensitivity import (
+        few_levels,
+        morris_screening,
+        no_indices_reason,
+        sobol_indices,
+    )
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
@@ -185,8 +202,15 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         status, cv_text = _surrogate_flag(models[name])
+        advice = few_levels(models[name])  # a 2 x 2 factorial: what to run, in one line
+        if advice:
+            print(f"psdesign: warning: {advice}", file=sys.stderr)
         # each row carries the trust of the surrogate its index was computed from
-        trust = {"surrogate_status": status, "surrogate_cv_rel_error": models[name].cv_rel_error}
+        trust = {
+            "surrogate_status": status,
+            "surrogate_cv_rel_error": models[name].cv_rel_error,
+            "advice": advice,
+        }
         result[name] = [r | trust for r in table.to_dict(orient="records")]
         if not args.json:
             space = "log10 " if models[name].log_output else ""
@@ -255,7 +279,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         return fail(str(exc))
     except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
         return fail(str(exc), FAILED)
+    from psdesign.analysis.columns import case_warnings
+
     targets_out = [_target_report(t, res.best) for t in targets]
+    case = res.best.get("case_id")
     summary = {
         "met": res.met,
         "message": res.message,
@@ -263,6 +290,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         "rounds": res.rounds,
         "targets": targets_out,
         "best": res.best,
+        # the chosen case's solver warnings, which were in results.csv only (session 43)
+        "warnings": [
+            {"case_id": case, "column": k, "warning": v} for k, v in case_warnings(res.best).items()
+        ],
         "history": res.history,
     }
     try:
@@ -281,6 +312,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
         print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
+        for w in summary["warnings"]:  # one line each: what the solve said about this K
+            print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
     if res.met:
         return OK
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed

@@ -340,6 +340,7 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     from psdesign.analysis.entangled import tied_note
     from psdesign.analysis.sensitivity import (
         entangled_inputs,
+        few_levels,
         no_indices_reason,
         sobol_indices,
         tied_inputs,
@@ -386,6 +387,8 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     elif len(num) >= 2:
         sob = sobol_indices(s, n=256)
         parts.append(figure_html(_sobol_figure(sob, c, s.log_output), "psd-sobol"))
+        if few_levels(s):  # the words of `study sensitivity`: what to run
+            parts[0] += f'<p class="note">Sobol indices: {html.escape(few_levels(s))}.</p>'
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
     tangled = entangled_inputs(s, num, order[:2]) if len(order) >= 2 else ""
     if len(order) == 1:

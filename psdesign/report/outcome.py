@@ -13,6 +13,7 @@ import json
 import math
 from pathlib import Path
 
+from psdesign.analysis.columns import case_warnings
 from psdesign.analysis.targets import measured_text
 from psdesign.report.units import parameter_unit
 
@@ -56,10 +57,10 @@ def _design_point(best: dict) -> str:
         rows.append(f"<tr><th>seed</th><td>{_esc(seed)} ({which})</td></tr>")
     if best.get("case_id"):
         rows.append(f"<tr><th>case</th><td>{_esc(best['case_id'])}</td></tr>")
-    for k, v in best.items():  # what the solve said about this K (a periodic bc on a
-        if k.startswith("warnings_") and isinstance(v, str) and v:  # non-periodic RVE, ...)
-            wrap = ' style="white-space:normal;max-width:60em"'  # a sentence, not a number
-            rows.append(f"<tr><th>{_esc(k)}</th><td{wrap}>{_esc(v)}</td></tr>")
+    # what the solve said about this K (a periodic bc on a non-periodic RVE, ...)
+    for k, v in case_warnings(best).items():
+        wrap = ' style="white-space:normal;max-width:60em"'  # a sentence, not a number
+        rows.append(f"<tr><th>{_esc(k)}</th><td{wrap}>{_esc(v)}</td></tr>")
     return "".join(rows)
 
 

@@ -236,8 +236,10 @@ def jsonable(v: Any) -> Any:
     """``v`` as plain JSON data: NumPy scalars and arrays as numbers and lists, paths as text,
     NaN as ``None`` (JSON has no NaN) and infinities as ``"inf"`` / ``"-inf"``.
 
-    >>> jsonable({"k": np.float32(2.5), "e": float("nan"), "a": np.arange(2)})
-    {'k': 2.5, 'e': None, 'a': [0, 1]}
+    >>> jsonable({"k": np.float32(2.5), "e": float("nan"), "a": np.arange(2), "n": np.nan})
+    {'k': 2.5, 'e': None, 'a': [0, 1], 'n': None}
+    >>> jsonable(np.float64("nan")), jsonable(np.float64("-inf"))
+    (None, '-inf')
     """
     if isinstance(v, dict):
         return {str(k): jsonable(x) for k, x in v.items()}
@@ -245,8 +247,8 @@ def jsonable(v: Any) -> Any:
         return [jsonable(x) for x in v]
     if isinstance(v, np.ndarray):
         return jsonable(v.tolist())
-    if isinstance(v, np.generic):
-        return v.item()
+    if isinstance(v, np.generic):  # np.float64(nan) too: its item() is a NaN float
+        return jsonable(v.item())
     if isinstance(v, Path):
         return str(v)
     if isinstance(v, float) and not math.isfinite(v):

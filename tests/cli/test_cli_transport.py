@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -366,3 +367,72 @@ def test_a_study_row_says_why_a_transport_value_is_not_ok(tmp_path):
             assert "rve.voxel" in row["conductivity_z_warnings"]
         else:
             assert row["diffusivity_z_status"] == "ok" and "diffusivity_z_warnings" not in row
+
+
+def _refuse(token):
+    raise ValueError(f"not JSON: {token}")
+
+
+NAN_PATCHES = {  # the command's compute step -> a result with a NaN (numpy's, as the solvers')
+    "permeability": (
+        "psdesign.cli.permeability._solve",
+        lambda *a, **k: {
+            "direction": "z",
+            "permeability_m2": 1e-12,
+            "permeability_rel_error": np.float64("nan"),  # e.g. no error estimate
+            "converged": True,
+            "status": "ok",
+            "warnings": [],
+        },
+    ),
+    "diffusivity": (
+        "psdesign.cli.diffusivity._solve",
+        lambda *a, **k: ({"relative_diffusivity": {"x": float("nan")}, "converged": True}, []),
+    ),
+    "conductivity": (  # the directions' solve, which the command combines
+        "psdesign.transport.conductivity.effective_conductivity",
+        lambda *a, **k: SimpleNamespace(
+            to_dict=lambda: {
+                "direction": "z",
+                "effective_conductivity": np.float64("nan"),
+                "conductivity_unit": "W/(m K)",
+                "blocked": False,
+                "converged": True,
+            }
+        ),
+    ),
+    "pores": (
+        "psdesign.transport.study_outputs.pore_report",
+        lambda *a, **k: {"mean_pore_diameter_m": float("nan"), "warnings": []},
+    ),
+}
+
+
+@pytest.mark.parametrize("command", sorted(NAN_PATCHES))
+def test_every_json_output_is_strict_json_with_a_nan(command, spec, monkeypatch, capsys):
+    """Session 43 (s43-loop2): ``permeability``, ``pores`` and the Laplace commands printed
+    ``--json`` with ``json.dumps(..., default=float)``: a value that does not exist (a NaN: no
+    error estimate, a missing direction) came out as the ``NaN`` token, which JSON has not (RFC
+    8259 Sec. 6; ``jq`` and JavaScript refuse the whole object). Rule (docs/study-files.md):
+    strict JSON, a missing value is null, through the one printer ``cli/lines.print_json``."""
+    target, fake = NAN_PATCHES[command]
+    monkeypatch.setattr(target, fake)
+    where = [] if command == "pores" else ["--direction", "z"]  # pores scans the whole RVE
+    assert main([command, str(spec), *where, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out, parse_constant=_refuse)
+    assert None in [v for v in doc.values() if not isinstance(v, dict)] + [
+        x for v in doc.values() if isinstance(v, dict) for x in v.values()
+    ]
+
+
+def test_print_json_turns_numpys_nan_into_null(capsys):
+    """``jsonable`` returned ``np.float64('nan').item()``, a NaN float, so the strict printer
+    raised ValueError (a traceback) on the solvers' own NaN instead of printing null."""
+    from psdesign.cli.lines import print_json
+
+    print_json({"k": np.float64("nan"), "e": np.float32("inf"), "n": np.int64(3)})
+    assert json.loads(capsys.readouterr().out, parse_constant=_refuse) == {
+        "k": None,
+        "e": "inf",
+        "n": 3,
+    }

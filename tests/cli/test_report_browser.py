@@ -78,11 +78,11 @@ def test_flow_field_pictures_load_next_to_the_previews(tmp_path) -> None:
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     run_study(p, tmp_path / "out", workers=0, case_fn=mixed_status_case, progress=False)
     dom = _chromium("--dump-dom", (tmp_path / "out" / "report.html").as_uri()).stdout
-    for gid in ("psd-thumbs", "psd-fields"):
+    for gid, mime in (("psd-thumbs", "jpeg"), ("psd-fields", "png")):  # previews: JPEG (s43)
         gallery = re.search(rf'<div class="psd-gallery" id="{gid}"[^>]*>(.*?)</div>', dom, re.S)
         assert gallery is not None, gid
         imgs = re.findall(r"<img\b[^>]*>", gallery.group(1))
-        assert len(imgs) == 8 and all(' src="data:image/png' in i for i in imgs), gid
+        assert len(imgs) == 8 and all(f' src="data:image/{mime}' in i for i in imgs), gid
 
 
 #: Written into a copy of the report: the K table's box, its scroll and client widths.

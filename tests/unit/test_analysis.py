@@ -288,7 +288,10 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     """main (audit20): ``--at generator.porosity=nan`` ended in scikit-learn's six-line NaN
     message, a parameter given twice silently took the last value, and a point far outside the
     fitted range (porosity 5 for a 0.7-0.9 design: predicted porosity 3.6) printed as any
-    other prediction. Rules: one line naming the key; an untrustworthy number says so."""
+    other prediction. Rules: one line naming the key; an untrustworthy number says so.
+    Walkthrough (session 43): the EXTRAPOLATED prediction exited 0, as a trusted one; a
+    flagged prediction exits 3 now (exit_status: finished, a result not to trust), with
+    --json or without."""
     out = _lhs_study(tmp_path, 6)
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
@@ -303,13 +306,13 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8", "--json"]) == 0
     cap = capsys.readouterr()
     assert json.loads(cap.out)["k_z_m2"]["status"] == "ok" and cap.err == ""
-    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95", "--json"]) == 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["k_z_m2"]
     assert r["status"] == "extrapolated"
     assert r["outside"] == ["generator.porosity = 0.95 outside [0.7, 0.9]"]
     assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
-    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 0
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 3
     assert "(EXTRAPOLATED)" in capsys.readouterr().out
 
 
@@ -643,6 +646,55 @@ def test_a_grid_fit_quotes_its_error_between_levels_too(eps, diam, seeds, cv_bel
     assert math.isnan(lhs.cv_level_rel_error)
 
 
+def _kc_grid_fit(eps: list[float], diam: list[float], seeds: list[int]) -> Surrogate:
+    """A fit of K = 2 KC(eps, d) (study_cases.kc_truth) on a full factorial, each seed's 1 %
+    noise factor that of ``study_cases.fake_case`` (one per seed, as a study of it has)."""
+    x = np.array([(e, d) for e in eps for d in diam for _ in seeds])
+    noise = [1 + 0.01 * np.random.default_rng(s).standard_normal() for s in seeds]
+    y = 2.0 * kc_truth(x[:, 0], x[:, 1]) * np.tile(noise, len(x) // len(seeds))
+    df = pd.DataFrame({"e": x[:, 0], "d": x[:, 1], "k": y, "status": "ok"})
+    df["seed"] = np.tile(seeds, len(df) // len(seeds))
+    box = {"e": (min(eps), max(eps), False), "d": (min(diam), max(diam), False)}
+    return fit_surrogate(df, "k", ["e", "d"], box)
+
+
+@pytest.mark.parametrize(
+    ("eps", "diam", "seeds", "status"),
+    [
+        ([0.7, 0.75, 0.8, 0.85, 0.9], [6e-6, 7e-6, 8e-6], [1], "ok"),
+        ([0.7, 0.8, 0.9], [6e-6, 8e-6], [1, 2], "untrustworthy"),
+    ],
+)
+def test_a_predictions_bar_holds_the_truth_between_a_grids_levels(eps, diam, seeds, status):
+    """Walkthrough (session 43): ``study predict``'s bar was the GP std, which held the
+    Kozeny-Carman truth within 2 std at 43 % (5 x 3 levels) and 21 % (3 x 2, 2 seeds) of a
+    41 x 41 grid of the box; the fit's own hold-out errors (2.1 % and 30 % with each inner
+    level held out) were not used. Rule: the printed bar is never below the fit's measured
+    hold-out error, and a fit off by more than 20 % with inner levels held out rates its
+    predictions untrustworthy, with the reason. Truth: K = 2 KC(eps, d) (Carman 1937), noise
+    free, on an 11 x 11 grid inside the box (the 41 x 41 grid: 100 % within 2 bars, both)."""
+    from psdesign.cli.study_analysis import _predict_one
+
+    s = _kc_grid_fit(eps, diam, seeds)
+    rows = [
+        (_predict_one(s, f"e={e},d={d}"), 2.0 * kc_truth(e, d))
+        for e in np.linspace(min(eps), max(eps), 11)
+        for d in np.linspace(min(diam), max(diam), 11)
+    ]
+    err = np.array([abs(r["mean"] - truth) / truth for (r, _), truth in rows])
+    bar = np.array([r["std"] / truth for (r, _), truth in rows])
+    assert np.mean(err <= 2 * bar) >= 0.95, np.mean(err <= 2 * bar)
+    assert np.median(bar) <= 10 * err.max()  # honest, not wild: 2.1 % / 1.35 %, 30 % / 6.1 %
+    assert {r["status"] for (r, _), _ in rows} == {status}
+    why = {w for (_, w), _ in rows}
+    if status == "ok":
+        assert why == {""}
+    else:  # the reason, once per point, says which figure and what to do
+        (w,) = why
+        assert w.startswith("k: the fit's error with each inner level held out is 30"), w
+        assert w.endswith("run more levels"), w
+
+
 def test_study_fit_prints_the_inner_level_error_of_a_grid(tmp_path, capsys) -> None:
     """`study fit` prints, --json gives and the report's surrogate note quotes
     ``cv_level_rel_error`` (the 3 x 2 factorial of study_cases on the Kozeny-Carman fake
@@ -882,14 +934,16 @@ def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
         "generator.diameter": pytest.approx(7.5e-6, rel=1e-12)
     }
     at = "generator.porosity=0.8,generator.diameter=8.5e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["porosity"]
     assert r["status"] == "extrapolated"
     assert r["outside"] == ["generator.diameter = 8.5e-06, every fitted case had 7.5e-06"]
     assert "extrapolating" in cap.err
     at = "generator.porosity=0.8,generator.diameter=7.5e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert (
+        main(["study", "predict", str(out), "--at", at, "--json"]) == 3
+    )  # k_z's fit: untrustworthy
     r = json.loads(capsys.readouterr().out)["porosity"]
     assert r["status"] == "ok" and r["mean"] == pytest.approx(0.8, abs=1e-3)  # the fake's eps
 
@@ -981,7 +1035,7 @@ def test_parameters_that_moved_together_get_no_sensitivity_index(tmp_path, capsy
     # off their line the cases pin nothing down: at the corner (0.7, 9 um) the GP said
     # 2.18e-11 +- 482 %, status "ok", where the fake solver gives 2 KC = 7.72e-12
     at = "generator.porosity=0.7,generator.diameter=9e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     cap = capsys.readouterr()
     r = json.loads(cap.out)["k_z_m2"]
     assert abs(r["mean"] / (2 * kc_truth(0.7, 9e-6)) - 1) > 0.2  # the point it cannot know
@@ -1065,7 +1119,7 @@ def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
     held = "(generator.porosity = 0.8, generator.diameter = 7e-06 in every case)"
     assert f"k_z_m2: GP over no varied parameter {held} from 4 cases" in capsys.readouterr().out
     at = "generator.porosity=0.8,generator.diameter=7e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # flagged: exit 3
     r = json.loads(capsys.readouterr().out)["k_z_m2"]
     assert r["status"] == "untrustworthy"
     assert r["mean"] == pytest.approx(df["k_z_m2"].mean(), rel=0.01)
@@ -1102,7 +1156,7 @@ def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
     fit = strict(capsys.readouterr().out)["k_z_m2"]
     assert fit["cv_rel_error"] is None and fit["cv_rmse"] is None
     at = "generator.porosity=0.8,generator.diameter=7e-6"
-    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0
+    assert main(["study", "predict", str(out), "--at", at, "--json"]) == 3  # untrustworthy: exit 3
     assert strict(capsys.readouterr().out)["k_z_m2"]["cv_rel_error"] is None
 
 
@@ -1206,3 +1260,44 @@ def test_two_design_points_are_said_to_be_too_few_not_a_flat_output() -> None:
     table = sobol_indices(three, n=256)
     assert list(table["parameter"]) == ["a"]
     assert table["ST"].iloc[0] == pytest.approx(1.0, abs=0.05)
+
+
+def _fitted_factorial(tmp_path, name: str, eps: list, diam: list, seeds: list):
+    """A full factorial of the Kozeny-Carman fake case in ``tmp_path / name``, fitted."""
+    params = f'"generator.porosity" = {eps}\n"generator.diameter" = {diam}'
+    study = f'design = "full-factorial"\nseeds = {seeds}\noutputs = ["k_z"]\nsolver = "voxel"'
+    out = tmp_path / name
+    p = write_study(tmp_path, study, params, name=f"{name}.toml")
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 0
+    return out
+
+
+def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): a 2 x 2 factorial (porosity 0.7 / 0.9, diameter 6 / 8 um, 3
+    seeds; Kozeny-Carman fake solver) passed the two-design-point rule and printed Sobol
+    indices (S1 1.005 +- 0.30) under "[untrustworthy]", with nothing saying what to run: along
+    a two-level parameter the fit sees a straight line (its error between the levels is 129 %
+    RMS of the truth there). Rule: one line, the same words in `study sensitivity`'s text
+    (stderr), its --json (``advice`` per row) and the report's Sobol note."""
+    out = _fitted_factorial(tmp_path, "out", [0.7, 0.9], [6e-6, 8e-6], [1, 2, 3])
+    capsys.readouterr()
+    words = (
+        "k_z_m2: generator.porosity, generator.diameter had 2 levels among the fitted cases, so "
+        "the indices see no curvature along them; run 3 or more levels per parameter"
+    )
+    assert main(["study", "sensitivity", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert f"psdesign: warning: {words}" in err, err
+    assert main(["study", "sensitivity", str(out), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert {r["advice"] for r in rows} == {words}
+    from psdesign.report import build_html
+
+    assert f"Sobol indices: {words}." in build_html(out)
+    # three levels of each: no advice (the 3 x 2 factorial of study_cases has 2 diameters)
+    three = _fitted_factorial(tmp_path, "three", [0.7, 0.8, 0.9], [6e-6, 7e-6, 8e-6], [1])
+    capsys.readouterr()
+    assert main(["study", "sensitivity", str(three), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert {r["advice"] for r in rows} == {""}

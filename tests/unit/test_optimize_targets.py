@@ -274,3 +274,23 @@ def test_the_outcome_is_kept_in_the_folder_with_a_report(tmp_path, capsys) -> No
     assert main([*argv[:4], "/", *argv[5:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("psdesign: error: -o: ") and "root" in err[0], err
+
+
+def test_the_printed_outcome_repeats_the_chosen_cases_solver_warnings(tmp_path, capsys) -> None:
+    """Walkthrough (session 43): the chosen K_z carried "bc = 'periodic' on a geometry that is
+    not periodic ..." (the wrapped grid's seams are part of that K) in results.csv, which the
+    report's decision shows, but the printed outcome and its --json did not. Rule: one line
+    per warning with the case id in the text, a ``warnings`` list in --json (optimize.json)."""
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%")
+    assert main(argv) == 3
+    out = capsys.readouterr().out.splitlines()
+    said = "K_z: bc = 'periodic' on a geometry that is not periodic"
+    lines = [x for x in out if x.startswith("  warning: case ")]
+    assert len(lines) == 1 and lines[0].endswith(f" (warnings_z): {said}"), out
+    assert main([*argv[:4], str(tmp_path / "opt2"), *argv[5:], "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    (w,) = res["warnings"]
+    assert w == {"case_id": res["best"]["case_id"], "column": "warnings_z", "warning": said}
+    assert lines[0] == f"  warning: case {w['case_id']} (warnings_z): {said}"  # same case
+    kept = json.loads((tmp_path / "opt2" / "optimize.json").read_text())
+    assert kept["warnings"] == res["warnings"]

@@ -843,7 +843,8 @@ def test_real_pipeline_end_to_end(tmp_path):
     )
     assert abs(diff) <= bar, (diff, bar)
     html = (tmp_path / "out" / "report.html").read_text()
-    assert html.count("data:image/png;base64,") >= 3  # plot + 2 previews
+    assert html.count("data:image/png;base64,") >= 1  # the K plot
+    assert html.count("data:image/jpeg;base64,") == 2  # the 2 previews (JPEG since session 43)
 
 
 def slow_case(spec, outputs, solver, workdir):

@@ -64,9 +64,15 @@ document.addEventListener('DOMContentLoaded', function () {
   document.querySelectorAll('table.sortable th').forEach(function (th) {
     th.addEventListener('click', function () { psdSort(th); });
   });
-  var sel = document.getElementById('psd-unit');
-  if (sel) { sel.addEventListener('change', function () { psdSetUnit(sel.value); }); }
-  var m = /unit=(\w+)/.exec(window.location.hash);  // report.html#unit=darcy
-  if (sel && m && window.PSD_UNITS[m[1]]) { sel.value = m[1]; psdSetUnit(m[1]); }
-  document.body.setAttribute('data-psd-ready', '1');
+  // the figures exist once plotly.js is unpacked and has drawn them (plotly_loader.js)
+  (window.PSD_PLOTLY || Promise.resolve()).then(function () {
+    var sel = document.getElementById('psd-unit');
+    if (sel) { sel.addEventListener('change', function () { psdSetUnit(sel.value); }); }
+    var m = /unit=(\w+)/.exec(window.location.hash);  // report.html#unit=darcy
+    if (sel && m && window.PSD_UNITS[m[1]]) { sel.value = m[1]; psdSetUnit(m[1]); }
+    document.body.setAttribute('data-psd-ready', '1');
+  }).catch(function (e) {
+    var box = document.getElementById('psd-js-errors');
+    if (box) { box.textContent += (e && e.message || 'error') + '\n'; }
+  });
 });

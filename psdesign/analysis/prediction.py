@@ -1,0 +1,87 @@
+"""The error bar and the rating of one surrogate prediction (``study predict``).
+
+The GP's own standard deviation is overconfident between a grid's levels: on Kozeny-Carman
+truth (3 porosities x 2 diameters, 2 seeds; 5 x 3 levels, 1 seed) it held the truth within two
+standard deviations at only 21 % / 42 % of a 41 x 41 grid of the box (session 43). A
+prediction's bar is therefore never smaller than what the fit measured by holding cases out:
+the cross-validated error and, on a grid, the error with each inner level held out
+(:func:`~psdesign.analysis.surrogate.inner_level_error`), and a prediction whose hold-out error
+exceeds :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` is ``untrustworthy``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from psdesign.analysis.surrogate import Surrogate
+
+#: The fit's hold-out errors, as :class:`~psdesign.analysis.surrogate.Surrogate` keeps them,
+#: and their words.
+HOLDOUT_ERRORS = (
+    ("cv_rel_error", "cross-validated error"),
+    ("cv_level_rel_error", "error with each inner level held out"),
+)
+
+
+def holdout_error(s: Surrogate) -> tuple[float, str]:
+    """The largest relative hold-out error the fit measured and its words, ``(nan, "")``
+    without one (one design point).
+
+    >>> from types import SimpleNamespace as S
+    >>> holdout_error(S(cv_rel_error=0.0065, cv_level_rel_error=0.30))
+    (0.3, 'error with each inner level held out')
+    >>> holdout_error(S(cv_rel_error=0.02, cv_level_rel_error=float("nan")))
+    (0.02, 'cross-validated error')
+    """
+    found = [(getattr(s, key), words) for key, words in HOLDOUT_ERRORS]
+    found = [(v, words) for v, words in found if v == v]  # NaN: not measured
+    return max(found) if found else (math.nan, "")
+
+
+def holdout_bar(s: Surrogate, mean: float) -> float:
+    """The fit's largest hold-out error (:func:`holdout_error`) at a prediction ``mean``, in
+    the output's unit (0 without one): relative to the value for a log-modelled output (its
+    relative error is ``10**rmse - 1``), to the cases' mean ``|y|`` otherwise (how
+    :func:`~psdesign.analysis.surrogate.fit_surrogate` made it relative)."""
+    rel, _ = holdout_error(s)
+    if rel != rel:
+        return 0.0
+    scale = abs(mean) if s.log_output else float(np.mean(np.abs(np.asarray(s.y, float))))
+    return rel * scale
+
+
+def holdout_reason(s: Surrogate) -> str:
+    """Why a prediction of ``s`` is untrustworthy by the fit's hold-out error between the
+    levels, or ``""``: the error with each inner level held out exceeds
+    :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (the cross-validated error is in
+    the fit's own rating, :meth:`~psdesign.analysis.surrogate.Surrogate.rating`)."""
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+
+    lv = s.cv_level_rel_error
+    if not lv > UNTRUSTWORTHY_REL_ERROR:  # NaN: no inner level
+        return ""
+    return (
+        f"{s.output}: the fit's error with each inner level held out is {100 * lv:.3g} %, above "
+        f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %: between the study's levels it may be off by "
+        "that much; run more levels"
+    )
+
+
+def bar_text(row: dict) -> str:
+    """What a prediction's ``+-`` is, after the value: the GP std, or the fit's hold-out
+    error where that is larger, then the cross-validated error.
+
+    >>> bar_text({"std": 0.3, "gp_std": 0.1, "error_from": "error with each inner level "
+    ...           "held out", "holdout_rel_error": 0.3, "cv_rel_error": 0.01})
+    "the fit's error with each inner level held out, 30 %; GP std 0.1; cross-validated error 1 %"
+    """
+    cv = row["cv_rel_error"]
+    cv = "no cross-validated error" if cv != cv else f"cross-validated error {100 * cv:.3g} %"
+    if row["error_from"] == "GP std":
+        return f"GP std; {cv}"
+    head = f"the fit's {row['error_from']}, {100 * row['holdout_rel_error']:.3g} %"
+    if row["error_from"] == "cross-validated error":
+        return f"{head}; GP std {row['gp_std']:.2g}"
+    return f"{head}; GP std {row['gp_std']:.2g}; {cv}"
