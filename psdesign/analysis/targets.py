@@ -192,8 +192,44 @@ class Target:
         return f"{self.output}{self.op}{self.value:g}"
 
 
+def target_report(t: Target, best: dict) -> dict:
+    """One target against the chosen case ``best`` (a row of a results table): the row of the
+    ``study optimize`` outcome's ``targets`` (``--json``, ``optimize.json``), with the
+    measured value, its own error bar and status
+    (:func:`psdesign.analysis.columns.error_bar`) and the verdicts :func:`measured_text` words.
+
+    >>> r = target_report(Target.parse("k_z_m2>=1e-11"), {"k_z_m2": 1.05e-11,
+    ...                   "k_z_rel_error": 0.1, "k_z_status": "ok"})
+    >>> measured_text(r)
+    'measured 1.05e-11 +- 10 % [ok] (met; the error bar reaches outside the target)'
+    """
+    from psdesign.analysis.columns import error_bar  # pandas: not on the CLI's start path
+
+    try:
+        y = float(best.get(t.output, float("nan")))
+    except (TypeError, ValueError):
+        y = float("nan")
+    rel, status = error_bar(best, t.output)
+    return {
+        "target": str(t),
+        "output": t.output,
+        "measured": y if y == y else None,
+        "rel_error": rel,
+        "status": status,
+        "met": t.met(y),
+        "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
+        "error_bar_inside_target": t.bar_inside(y, rel),
+    }
+
+
+#: The keys of a :func:`target_report` row that :func:`measured_text` reads.
+REPORT_KEYS = frozenset(
+    ("measured", "rel_error", "status", "met", "target_within_error_bar", "error_bar_inside_target")
+)
+
+
 def measured_text(r: dict) -> str:
-    """One target's line of the ``study optimize`` outcome (a row of its ``targets``):
+    """One target's line of the ``study optimize`` outcome (a :func:`target_report` row):
     ``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
     if r["measured"] is None:
         return f"no measured value [{r['status']}] (missed)"

@@ -4,8 +4,6 @@ true|false``, so a reader finds the same words in the same place on every line."
 
 from __future__ import annotations
 
-import json
-
 
 def error_bar(rel_error: float | None) -> str:
     """`` +- 3.1 %`` after a value, or "" without an estimate; a bar under 0.05 % keeps one
@@ -41,6 +39,6 @@ def print_json(obj) -> None:
     >>> print_json({"a": float("nan"), "b": 1.5})
     {"a": null, "b": 1.5}
     """
-    from psdesign.study.store import jsonable
+    from psdesign.study.store import json_text
 
-    print(json.dumps(jsonable(obj), allow_nan=False, default=str))
+    print(json_text(obj))

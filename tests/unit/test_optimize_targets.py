@@ -201,6 +201,77 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     assert "Design decision" not in build_html(out)
 
 
+def test_the_decision_of_an_earlier_search_is_not_shown_over_a_later_design(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Review (session 43): optimize.json is written when a search ends. A MET search, then a
+    second `study optimize` into the folder with another target and --seed, stopped by Ctrl-C
+    after its first round: study.json and results.csv hold the second search's 4 design
+    points, and the report still opened with the first search's "MET" and its chosen case,
+    which is no longer in the folder's design. Truth: the first search's chosen case id and
+    its n_points x seeds against the cases study.json lists. The report now says there is no
+    decision for this design; a finished search's own decision is shown (seeds [1], [1, 2]
+    in the tests above)."""
+    import psdesign.study.runner as runner
+    from psdesign.report import build_html
+
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY, PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
+    argv += ["--workers", "0", "--quiet", "--case-fn", "study_cases:fake_case"]
+    assert main([*argv, "--target", f"k_z_m2={target:.6e}+-10%"]) == 0
+    first = json.loads((tmp_path / "opt" / "optimize.json").read_text())
+    assert first["met"] and "<b>MET:</b>" in build_html(tmp_path / "opt")
+    real = runner.run_study
+
+    def ctrl_c_after_a_round(*args, **kwargs):
+        real(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "run_study", ctrl_c_after_a_round)
+    again = [*argv, "--target", "k_z_m2=1e-13+-1%", "--seed", "7"]
+    assert main(again) == 130
+    capsys.readouterr()
+    assert json.loads((tmp_path / "opt" / "optimize.json").read_text()) == first  # kept
+    design = json.loads((tmp_path / "opt" / "study.json").read_text())
+    assert first["best"]["case_id"] not in {c["case_id"] for c in design["cases"]}
+    page = build_html(tmp_path / "opt")
+    assert "<b>MET:</b>" not in page and "<h3>Design point</h3>" not in page
+    assert "<b>NO DECISION:</b> optimize.json holds the outcome of an earlier search" in page
+    assert f"its chosen case {first['best']['case_id']} is not in the folder" in page
+
+
+def test_a_cut_short_outcome_file_is_one_line_in_the_report(tmp_path, capsys) -> None:
+    """Review (session 43): an optimize.json whose target rows lack the keys the decision's
+    line reads (cut short, edited by hand) showed "Section not available: KeyError:
+    'measured'"; it is now the one line naming the file, and the rest of the report stands."""
+    from psdesign.report import build_html
+
+    assert main(_argv(tmp_path, "k_z_m2=1.2e-11+-10%")) == 3
+    capsys.readouterr()
+    path = tmp_path / "opt" / "optimize.json"
+    doc = json.loads(path.read_text())
+    doc["targets"] = [{"target": t["target"]} for t in doc["targets"]]
+    path.write_text(json.dumps(doc))
+    page = build_html(tmp_path / "opt")
+    assert "Section not available: ValueError: optimize.json is not the outcome" in page
+    assert "KeyError" not in page and "<h2>Porosity vs permeability</h2>" in page
+
+
+def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, capsys) -> None:
+    """Review (session 43): when every case's K_z is untrustworthy (study_cases.untrusted_case:
+    a periodic solve of a non-periodic RVE), no case has a distance to the target; the
+    outcome read "closest case misses by inf (relative)" on the terminal, in optimize.json
+    and in the report's decision. It now says no case has a trusted value of the output."""
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%")
+    argv[argv.index("test_optimize_targets:barred_case")] = "study_cases:untrusted_case"
+    assert main([*argv, "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    assert res["message"].endswith("; no case has a trusted value of k_z_m2"), res["message"]
+    assert "inf" not in res["message"]
+    assert res["targets"][0]["status"] == "no trusted value"
+
+
 def test_optimize_into_a_users_folder_takes_the_force_it_names(tmp_path, capsys) -> None:
     """Walkthrough (session 43): `study optimize -o DIR` on a folder holding the user's
     notes.txt was refused with "... or --force to add psdesign's files beside them", an option
