@@ -112,11 +112,14 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge (a pore
     larger than the RVE)."""
     from psdesign.flow import error as err
+    from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
 
     cpd = None if rve is None else err.cells_per_diameter(rve, h)
-    # the resolution line once for both values, then each one's own error-bar line
-    warnings = err.resolution_warnings(cpd, "voxel", "", "pore sizes and S_v")
+    # the resolution line once for both values, then each one's own error-bar line; it names
+    # what cpd counts across (a woven yarn's thin width, not its diameter: session 43)
+    measure = resolution_measure(rve)
+    warnings = err.resolution_warnings(cpd, "voxel", "", "pore sizes and S_v", measure=measure)
     converged = bool(out.get("converged", True))
     warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]

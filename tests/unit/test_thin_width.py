@@ -134,3 +134,18 @@ def test_the_voxel_route_rates_a_woven_grid_by_the_yarn_thickness():
     assert res["cells_per_diameter"] == pytest.approx(7.277, abs=2e-3)
     assert res["resolution_measure"] == "fiber thin width"
     assert any("7.3 voxels across the thinnest fiber thin width" in w for w in res["warnings"])
+
+
+def test_the_pore_report_names_the_thin_width_it_counts():
+    """Review (session 43): the pore report's resolution line counted voxels across the woven
+    yarn's thin width (since s43-thin) but still called it "the thinnest fiber diameter": on a
+    40^3 grid of the 100 um cell it read "only 5.6 voxels across the thinnest fiber diameter",
+    where the yarn's diameter has 0.1598 x 40 = 6.4 voxels and its thickness 0.1399 x 40 =
+    5.6 (truth (3) above). The line now says which width it counts, as K's does."""
+    from psdesign.schema.transport import validate_transport
+    from psdesign.transport.study_outputs import pore_report
+
+    rve = RVE([1e-4] * 3, woven_cell())
+    out = pore_report(rve, rve.voxelize(1e-4 / 40), validate_transport({}))
+    line = "pore sizes and S_v: only 5.6 voxels across the thinnest fiber thin width (< 8)"
+    assert [w for w in out["warnings"] if "voxels across" in w] == [f"{line}; refine rve.voxel"]
