@@ -410,6 +410,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     '7.0 voxels per fiber thin width, need 8'
     """
     from psdesign.flow.error import untrustworthy_reasons
+    from psdesign.geometry.rve import DIAMETER_MEASURE
 
     def num(col: str) -> float:
         return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
@@ -417,7 +418,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
     rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
     measure = row.get(f"resolution_measure_{d}")
-    measure = measure if isinstance(measure, str) and measure else "fiber diameter"
+    measure = measure if isinstance(measure, str) and measure else DIAMETER_MEASURE
     why = untrustworthy_reasons(e, rated_cpd, measure=measure)
     return "; ".join(why) or f"a phase lost on the coarser grid (warnings_{d})"
 

@@ -149,3 +149,51 @@ def test_the_pore_report_names_the_thin_width_it_counts():
     out = pore_report(rve, rve.voxelize(1e-4 / 40), validate_transport({}))
     line = "pore sizes and S_v: only 5.6 voxels across the thinnest fiber thin width (< 8)"
     assert [w for w in out["warnings"] if "voxels across" in w] == [f"{line}; refine rve.voxel"]
+
+
+WOVEN_40 = """[rve]
+size = [100e-6, 100e-6, 100e-6]
+voxel = 2.5e-6
+
+[[fibers]]
+shape = "woven-cell"
+thickness_axis = "z"
+layers = 1
+"""
+
+
+@pytest.mark.parametrize("route", ["cli diffusivity", "api conductivity", "study row"])
+def test_the_transport_values_name_the_thin_width_they_count(tmp_path, capsys, route):
+    """Review (session 43): D_eff/D's and sigma_eff's resolution warnings counted voxels across
+    the woven yarn's thin width (since s43-thin) but called it "the thinnest fiber diameter":
+    the one-layer Table I cell at 2.5 um voxels read "only 5.6 voxels across the thinnest
+    fiber diameter", where the yarn's diameter has 0.1598 x 40 = 6.4 voxels and its thickness
+    0.1399 x 40 = 5.6 (truth (3) above). Each route (command, Python API, study row) now
+    names the thin width, as K's line does; a round fiber's result keeps its keys."""
+    import dataclasses
+    import json
+
+    import psdesign
+    from psdesign.cli.main import main
+    from psdesign.geometry.rve import DIAMETER_MEASURE
+
+    line = "only 5.6 voxels across the thinnest fiber thin width (< 8); refine rve.voxel"
+    spec = tmp_path / "w.toml"
+    spec.write_text(WOVEN_40)
+    if route == "cli diffusivity":
+        assert main(["diffusivity", str(spec), "--direction", "z", "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["warnings"] == [f"D_eff/D_z: {line}"]
+        assert out["resolution_measure"] == "fiber thin width"
+        return
+    m = psdesign.build(psdesign.load_spec(spec))
+    if route == "api conductivity":
+        res = m.conductivity("z")
+        assert res.warnings == [f"sigma_eff_z: {line}"]
+        kept = dataclasses.replace(res, resolution_measure=DIAMETER_MEASURE).to_dict()
+        assert "resolution_measure" not in kept and res.to_dict()["resolution_measure"]
+        return
+    from psdesign.transport.study_outputs import transport_outputs
+
+    row = transport_outputs(m.rve, m.fields, ["diffusivity_z"], m.spec)
+    assert row["diffusivity_z_warnings"] == f"D_eff/D_z: {line}"
