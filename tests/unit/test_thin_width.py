@@ -197,3 +197,24 @@ def test_the_transport_values_name_the_thin_width_they_count(tmp_path, capsys, r
 
     row = transport_outputs(m.rve, m.fields, ["diffusivity_z"], m.spec)
     assert row["diffusivity_z_warnings"] == f"D_eff/D_z: {line}"
+
+
+@pytest.mark.parametrize(
+    "rod, thinnest, measure",
+    [
+        (0.12, 0.12, "fiber diameter"),  # the rod is thinner than the yarn's thickness
+        (0.15, 0.14, "fiber thin width"),  # thinner than the yarn's 0.16 diameter, not 0.14
+        (0.14, 0.14, "fiber diameter"),  # a tie: the round fiber's words
+    ],
+)
+def test_round_and_non_round_fibers_mixed(rod, thinnest, measure):
+    """Review (session 43): an RVE of rods (thin_width None) beside a yarn (diameter 0.16,
+    thin width 0.14 of the period) is measured by its thinnest width whichever kind it is,
+    and the words follow the fiber that sets it."""
+    fibers = [
+        SimpleNamespace(diameter=rod, thin_width=None),
+        SimpleNamespace(diameter=0.16, thin_width=0.14),
+    ]
+    rve = SimpleNamespace(fibers=fibers, period=1e-4)
+    assert thinnest_fiber_diameter(rve) == pytest.approx(thinnest * 1e-4, rel=1e-12)
+    assert resolution_measure(rve) == measure
