@@ -31,7 +31,7 @@ def rating(r: dict) -> str:
     return f"[{r['status']}]{bc}  converged {str(r['converged']).lower()}"
 
 
-def print_json(obj) -> None:
+def print_json(obj: object) -> None:
     """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error, no CI of
     one seed) as ``null``, as in the files a study writes (Python's ``json.dumps`` printed the
     ``NaN`` token, which JSON has not: ``jq`` and JavaScript refuse the whole output).
