@@ -208,6 +208,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
+    from psdesign.analysis.columns import is_design_parameter
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target, measured_text, target_report
     from psdesign.study.runner import WorkersLost, check_workers
@@ -255,7 +256,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:
             print(f"  {r['target']}: {measured_text(r)}")
-        params = {k: v for k, v in res.best.items() if "." in k}
+        params = {k: v for k, v in res.best.items() if is_design_parameter(k)}
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
         print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))

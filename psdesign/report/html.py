@@ -19,7 +19,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trusted, value_ok
+from psdesign.analysis.columns import (
+    STATUS_COLUMNS,
+    error_bar,
+    is_design_parameter,
+    k_not_ok,
+    trusted,
+    value_ok,
+)
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -542,7 +549,7 @@ def build_html(out_dir: str | Path) -> str:
     out = Path(out_dir)
     df, study, runs = _load(out)
     params = list((study.get("parameters") or {}).keys()) or [
-        c for c in df.columns if "." in c and not c.startswith("result.")
+        c for c in df.columns if is_design_parameter(c)
     ]
     name = study.get("name", out.name)
     meta = _meta_table(df, study, runs, params, name)

@@ -13,6 +13,7 @@ import json
 import math
 from pathlib import Path
 
+from psdesign.analysis.columns import is_design_parameter
 from psdesign.analysis.optimize import OPTIMIZE_FILE
 from psdesign.analysis.targets import REPORT_KEYS, measured_text
 from psdesign.report.units import parameter_unit
@@ -73,7 +74,7 @@ def _design_point(best: dict) -> str:
     """The chosen case's design parameters (with their units), seed and id, as table rows."""
     rows = []
     for k, v in best.items():
-        if "." not in k:  # design parameters are dotted spec paths
+        if not is_design_parameter(k):
             continue
         unit = parameter_unit(k)
         text = f"{v:.4g}" if isinstance(v, int | float) else str(v)

@@ -28,6 +28,14 @@ def barred_case(spec, outputs, solver, workdir):
     return out
 
 
+def noted_case(spec, outputs, solver, workdir):
+    """barred_case with a result named like a case column ("error"): the results table
+    keeps it as ``result.error`` (psdesign.study.store.records_to_frame)."""
+    out = barred_case(spec, outputs, solver, workdir)
+    out["error"] = "a note the case function returned"
+    return out
+
+
 def _argv(tmp_path, *targets: str) -> list[str]:
     p = write_study(tmp_path, STUDY, PARAMS)
     argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "4"]
@@ -276,6 +284,27 @@ def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, caps
     assert res["message"].endswith("; no case has a trusted value of k_z_m2"), res["message"]
     assert "inf" not in res["message"]
     assert res["targets"][0]["status"] == "no trusted value"
+
+
+def test_a_result_renamed_result_dot_is_no_design_parameter(tmp_path, capsys) -> None:
+    """Review (session 43): the optimize outcome took every dotted key of the chosen case for
+    a design parameter, so a result kept as ``result.error`` (a case function's "error",
+    renamed where it met the case column) was printed with ``{:.4g}``: after the whole search
+    and with optimize.json written, "psdesign: error: Unknown format code 'g' for object of
+    type 'str'" and exit 2, the status of bad input; the report's decision listed it as a
+    design parameter. One rule now (analysis.columns.is_design_parameter, as the report's
+    parameter fallback had it): the line and the decision show generator.porosity alone."""
+    from psdesign.report import build_html
+
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%")
+    argv[argv.index("test_optimize_targets:barred_case")] = "test_optimize_targets:noted_case"
+    assert main(argv) == 3
+    cap = capsys.readouterr()
+    at = [ln for ln in cap.out.splitlines() if ln.startswith("  at ")]
+    assert len(at) == 1 and at[0].startswith("  at generator.porosity=") and "result" not in at[0]
+    assert "Unknown format code" not in cap.err
+    point = build_html(tmp_path / "opt").split("<h3>Design point</h3>")[1].split("</table>")[0]
+    assert "<th>generator.porosity</th>" in point and "result.error" not in point
 
 
 def test_optimize_into_a_users_folder_takes_the_force_it_names(tmp_path, capsys) -> None:
