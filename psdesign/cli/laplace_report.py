@@ -4,11 +4,11 @@ direction, and the exit status."""
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Callable
 
 from psdesign.cli.exit_status import converged_status
+from psdesign.cli.lines import print_json
 
 
 def combine(results: list[dict], bc: str, keys: tuple[str, ...]) -> dict:
@@ -55,7 +55,7 @@ def emit(
         for w in r.get("warnings", []):
             warning(w)
     if as_json:
-        print(json.dumps(out, default=float))
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         for r in results:
             print(line(r))

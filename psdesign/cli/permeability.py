@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import time
 import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 from psdesign.cli.exit_status import converged_status
+from psdesign.cli.lines import print_json
 from psdesign.cli.progress import progress_printer, warning
 
 if TYPE_CHECKING:
@@ -213,7 +213,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     for w in dict.fromkeys(out.get("warnings", [])):
         warning(w)
     if args.json:
-        print(json.dumps(out, default=float))
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         for r in results:
             print(_line(r))

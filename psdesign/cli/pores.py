@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
+
+from psdesign.cli.lines import print_json
 
 
 def _cmd(args: argparse.Namespace) -> int:
@@ -31,7 +32,7 @@ def _cmd(args: argparse.Namespace) -> int:
     for w in out["warnings"]:
         warning(w)
     if args.json:
-        print(json.dumps(out, default=float))
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         print(_sizes_line(out))
         print(
