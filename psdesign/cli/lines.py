@@ -1,6 +1,7 @@
 """The parts every printed result line shares (``permeability``, ``diffusivity``,
 ``conductivity``): the error bar after the value, then its rating, ``[status]  bc B  converged
-true|false``, so a reader finds the same words in the same place on every line."""
+true|false``, so a reader finds the same words in the same place on every line; and the one
+printer of every command's ``--json`` object (:func:`print_json`, strict JSON)."""
 
 from __future__ import annotations
 
