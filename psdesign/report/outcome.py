@@ -94,10 +94,13 @@ def _design_point(best: dict) -> str:
 
 
 def _history(history: list) -> str:
+    """The rounds as a table; a round whose cases hold no trusted value of a target's output
+    has no closest miss (``optimize.json`` keeps it as ``"inf"``): "no trusted value"."""
     rows = []
     for h in history or []:
         miss = h.get("best_miss")
-        miss = "" if not isinstance(miss, int | float) or not math.isfinite(miss) else f"{miss:.3g}"
+        finite = isinstance(miss, int | float) and math.isfinite(miss)
+        miss = f"{miss:.3g}" if finite else "no trusted value"
         rows.append(
             f"<tr><td>{_esc(h.get('round'))}</td><td>{_esc(h.get('n_points'))}</td>"
             f"<td>{_esc(miss)}</td></tr>"

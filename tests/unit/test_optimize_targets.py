@@ -284,6 +284,10 @@ def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, caps
     assert res["message"].endswith("; no case has a trusted value of k_z_m2"), res["message"]
     assert "inf" not in res["message"]
     assert res["targets"][0]["status"] == "no trusted value"
+    from psdesign.report import build_html  # the decision's rounds: no "inf", no blank
+
+    rounds = build_html(tmp_path / "opt").split("<h3>Search rounds</h3>")[1].split("</table>")[0]
+    assert rounds.count("<td>no trusted value</td></tr>") == res["rounds"] >= 1, rounds
 
 
 def test_a_result_renamed_result_dot_is_no_design_parameter(tmp_path, capsys) -> None:
