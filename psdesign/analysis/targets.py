@@ -222,6 +222,22 @@ def target_report(t: Target, best: dict) -> dict:
     }
 
 
+def no_closest_case(rows: list[dict]) -> str:
+    """Why the outcome's design point is no closest one, or ``""``: the chosen case lacks a
+    measured value of some target (a :func:`target_report` row with ``measured`` None) only
+    when every case does (its miss is infinite, so every case's is: the search picks the least
+    miss), and the point shown is then the first one run (session 43 review).
+
+    >>> no_closest_case([{"measured": None}, {"measured": 0.8}])
+    "no case has a trusted value of every target's output: the first design point run"
+    >>> no_closest_case([{"measured": 1e-11}])
+    ''
+    """
+    if any(r.get("measured") is None for r in rows):
+        return "no case has a trusted value of every target's output: the first design point run"
+    return ""
+
+
 #: The keys of a :func:`target_report` row that :func:`measured_text` reads.
 REPORT_KEYS = frozenset(
     ("measured", "rel_error", "status", "met", "target_within_error_bar", "error_bar_inside_target")

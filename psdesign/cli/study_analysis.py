@@ -210,7 +210,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         return fail(str(exc))
     from psdesign.analysis.columns import is_design_parameter
     from psdesign.analysis.optimize import optimize_study
-    from psdesign.analysis.targets import Target, measured_text, target_report
+    from psdesign.analysis.targets import Target, measured_text, no_closest_case, target_report
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
@@ -259,7 +259,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         params = {k: v for k, v in res.best.items() if is_design_parameter(k)}
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
-        print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
+        why = no_closest_case(targets_out) or (f"the worst of its {n} seeds" if n > 1 else "")
+        print(f"  at {at}" + (f" ({why})" if why else ""))
     if res.met:
         return OK
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from psdesign.analysis.columns import is_design_parameter
 from psdesign.analysis.optimize import OPTIMIZE_FILE
-from psdesign.analysis.targets import REPORT_KEYS, measured_text
+from psdesign.analysis.targets import REPORT_KEYS, measured_text, no_closest_case
 from psdesign.report.units import parameter_unit
 
 
@@ -133,6 +133,8 @@ def optimize_section(out: Path) -> str:
         f"<tr><th>{_esc(t.get('target'))}</th><td>{_esc(measured_text(t))}</td></tr>"
         for t in doc["targets"]
     )
+    point_note = no_closest_case(doc["targets"])
+    point_note = f" ({point_note})" if point_note else ""
     return (
         "<h2>Design decision (study optimize)</h2>"
         f'<p class="{box}" id="psd-optimize"><b>{verdict}:</b> {_esc(doc["message"])}</p>'
@@ -141,6 +143,7 @@ def optimize_section(out: Path) -> str:
         "folder; a design point is met only when every seed's case meets every target, and "
         "the case shown is its worst seed).</p>"
         f'<table class="meta">{rows}</table>'
-        f'<h3>Design point</h3><table class="meta">{_design_point(doc["best"])}</table>'
+        f"<h3>Design point{_esc(point_note)}</h3>"
+        f'<table class="meta">{_design_point(doc["best"])}</table>'
         f"<h3>Search rounds</h3>{_history(doc.get('history', []))}"
     )

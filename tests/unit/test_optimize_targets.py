@@ -7,6 +7,7 @@ and porosity in [0, 1] by definition, and a fake case whose ``k_z_rel_error`` is
 
 from __future__ import annotations
 
+import html
 import json
 
 import pytest
@@ -286,8 +287,15 @@ def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, caps
     assert res["targets"][0]["status"] == "no trusted value"
     from psdesign.report import build_html  # the decision's rounds: no "inf", no blank
 
-    rounds = build_html(tmp_path / "opt").split("<h3>Search rounds</h3>")[1].split("</table>")[0]
+    page = build_html(tmp_path / "opt")
+    rounds = page.split("<h3>Search rounds</h3>")[1].split("</table>")[0]
     assert rounds.count("<td>no trusted value</td></tr>") == res["rounds"] >= 1, rounds
+    # the point shown is no closest one: every case misses by as much (the first run)
+    note = "no case has a trusted value of every target&#x27;s output: the first design point run"
+    assert f"<h3>Design point ({note})</h3>" in page
+    assert main(argv) == 3  # resumed: the printed line says it too
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "  at " in ln][0]
+    assert line.endswith(f"({html.unescape(note)})"), line
 
 
 def test_a_result_renamed_result_dot_is_no_design_parameter(tmp_path, capsys) -> None:
