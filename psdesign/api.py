@@ -329,6 +329,7 @@ class Material:
         spec's ``[transport]`` table; ``fields``: a folder for the concentration field;
         ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
+        from psdesign.geometry.rve import resolution_measure
         from psdesign.transport.diffusivity import relative_diffusivity
 
         progress = _progress_flag(progress)
@@ -343,6 +344,7 @@ class Material:
                 progress=report,
                 capture=writer,
                 cells_per_diameter=self._cpd(),
+                resolution_measure=resolution_measure(self.rve),
             )
 
     @_warns_at_caller
@@ -359,6 +361,7 @@ class Material:
         ``fluid`` (a :class:`~psdesign.transport.conductivity.ConductivityResult`); ``fields``:
         a folder for the potential field; ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
+        from psdesign.geometry.rve import resolution_measure
         from psdesign.transport.conductivity import effective_conductivity, transport_table
 
         progress = _progress_flag(progress)
@@ -376,6 +379,7 @@ class Material:
                 progress=report,
                 capture=writer,
                 cells_per_diameter=self._cpd(),
+                resolution_measure=resolution_measure(self.rve),
             )
 
     def _cpd(self) -> float | None:

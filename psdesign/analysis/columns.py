@@ -178,6 +178,18 @@ def study_parameters(out_dir: str | Path) -> dict[str, dict]:
     return dict(params)
 
 
+def is_design_parameter(name: str) -> bool:
+    """Whether a results-table column (or a key of one of its rows) is a design parameter: a
+    dotted spec path (``generator.porosity``), not a result that
+    :func:`psdesign.study.store.records_to_frame` renamed ``result.<key>`` because it met a
+    parameter's or a case column's name.
+
+    >>> [is_design_parameter(c) for c in ("generator.porosity", "result.seed", "k_z_m2")]
+    [True, False, False]
+    """
+    return "." in name and not name.startswith("result.")
+
+
 def numeric_parameters(df: pd.DataFrame, params: list[str]) -> list[str]:
     """Parameters whose every value is a finite number (whole-table levels are left out)."""
     out = []

@@ -30,6 +30,9 @@ from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target, check_targe
 #: The command an optimization's output folder marker names (it ran ``study run`` before
 #: session 43, which the marker said).
 OPTIMIZE_COMMAND = "study optimize"
+#: The file in the output folder that keeps the search's outcome (the ``--json`` object of
+#: ``study optimize``; read back by the report's decision section, :mod:`psdesign.report.outcome`).
+OPTIMIZE_FILE = "optimize.json"
 
 
 @dataclass
@@ -296,6 +299,22 @@ def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool)
     return msg + first_error(df), True
 
 
+def _closest_miss(best_miss: float, targets: list[Target]) -> str:
+    """How far the closest case is from the targets, for the NOT MET message; with no case
+    holding a trusted value of every target's output (all untrustworthy, failed) there is no
+    distance: it printed "closest case misses by inf (relative)" (session 43 review).
+
+    >>> t = [Target("k_z_m2", "=", 6e-12, tolerance=0.1)]
+    >>> _closest_miss(0.0689, t), _closest_miss(math.inf, t)
+    ('; closest case misses by 0.0689 (relative)', '; no case has a trusted value of k_z_m2')
+    """
+    if math.isfinite(best_miss):
+        return f"; closest case misses by {best_miss:.3g} (relative)"
+    return "; no case has a trusted value of " + " and ".join(
+        dict.fromkeys(t.output for t in targets)
+    )
+
+
 def optimize_study(
     study_path: str | Path,
     out_dir: str | Path,
@@ -364,7 +383,7 @@ def optimize_study(
             new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
         if not new:
             msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
-            msg += f"; closest case misses by {best_miss:.3g} (relative)"
+            msg += _closest_miss(best_miss, targets)
             msg += seed_scatter_note(ok.to_dict(orient="records"), names, best, targets)
             return OptimizeResult(False, best, n, rounds, history, msg, failed=failed)
         points.extend(new)

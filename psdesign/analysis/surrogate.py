@@ -370,7 +370,8 @@ def inner_level_error(s: Surrogate) -> float:
     there, 2.1 % on 5 x 3 levels (true error between levels 0.55 % RMS, 1.35 % at most): an
     upper estimate of the error between levels on these checks (session 43), not used in the
     rating (a fine 3-level fit would read untrustworthy). NaN when no parameter has an inner
-    level that two or more design points share (a latin hypercube).
+    level that two or more design points share (a latin hypercube; a 1-D design, whose inner
+    level is one design point, already held out by :func:`_cross_validate`).
     """
     x = np.asarray(s.x, float).reshape(-1, len(s.params))
     points = np.unique(x, axis=0)

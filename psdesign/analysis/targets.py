@@ -192,8 +192,60 @@ class Target:
         return f"{self.output}{self.op}{self.value:g}"
 
 
+def target_report(t: Target, best: dict) -> dict:
+    """One target against the chosen case ``best`` (a row of a results table): the row of the
+    ``study optimize`` outcome's ``targets`` (``--json``, ``optimize.json``), with the
+    measured value, its own error bar and status
+    (:func:`psdesign.analysis.columns.error_bar`) and the verdicts :func:`measured_text` words.
+
+    >>> r = target_report(Target.parse("k_z_m2>=1e-11"), {"k_z_m2": 1.05e-11,
+    ...                   "k_z_rel_error": 0.1, "k_z_status": "ok"})
+    >>> measured_text(r)
+    'measured 1.05e-11 +- 10 % [ok] (met; the error bar reaches outside the target)'
+    """
+    from psdesign.analysis.columns import error_bar  # pandas: not on the CLI's start path
+
+    try:
+        y = float(best.get(t.output, float("nan")))
+    except (TypeError, ValueError):
+        y = float("nan")
+    rel, status = error_bar(best, t.output)
+    return {
+        "target": str(t),
+        "output": t.output,
+        "measured": y if y == y else None,
+        "rel_error": rel,
+        "status": status,
+        "met": t.met(y),
+        "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
+        "error_bar_inside_target": t.bar_inside(y, rel),
+    }
+
+
+def no_closest_case(rows: list[dict]) -> str:
+    """Why the outcome's design point is no closest one, or ``""``: the chosen case lacks a
+    measured value of some target (a :func:`target_report` row with ``measured`` None) only
+    when every case does (its miss is infinite, so every case's is: the search picks the least
+    miss), and the point shown is then the first one run (session 43 review).
+
+    >>> no_closest_case([{"measured": None}, {"measured": 0.8}])
+    "no case has a trusted value of every target's output: the first design point run"
+    >>> no_closest_case([{"measured": 1e-11}])
+    ''
+    """
+    if any(r.get("measured") is None for r in rows):
+        return "no case has a trusted value of every target's output: the first design point run"
+    return ""
+
+
+#: The keys of a :func:`target_report` row that :func:`measured_text` reads.
+REPORT_KEYS = frozenset(
+    ("measured", "rel_error", "status", "met", "target_within_error_bar", "error_bar_inside_target")
+)
+
+
 def measured_text(r: dict) -> str:
-    """One target's line of the ``study optimize`` outcome (a row of its ``targets``):
+    """One target's line of the ``study optimize`` outcome (a :func:`target_report` row):
     ``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
     if r["measured"] is None:
         return f"no measured value [{r['status']}] (missed)"

@@ -35,6 +35,7 @@ def _cmd(args: argparse.Namespace) -> int:
                 progress=laplace_progress(args, d),
                 capture=writer,
                 cells_per_diameter=case.cells_per_diameter,
+                resolution_measure=case.resolution_measure,
             ).to_dict()
             for d in dirs
         ]

@@ -13,7 +13,8 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
     from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
 
     if args.direction == "all" and tr["bc"] == "periodic":
-        out = diffusivity_tensor(case.fields, tr, writer, case.cells_per_diameter)
+        cpd, measure = case.cells_per_diameter, case.resolution_measure
+        out = diffusivity_tensor(case.fields, tr, writer, cpd, measure)
         out["direction"] = "all"
         out["bc"] = "periodic"
         results = out["results"]
@@ -26,6 +27,7 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
                 progress=laplace_progress(args, d),
                 capture=writer,
                 cells_per_diameter=case.cells_per_diameter,
+                resolution_measure=case.resolution_measure,
             ).to_dict()
             for d in dirs
         ]

@@ -39,8 +39,9 @@ TERMINATED = 143
 HELP = (
     "exit status: 0 done, every result converged (and every target met); 1 could not finish "
     "(disk full, permissions, a failed study case, lost workers); 2 bad input, refused before "
-    "any work; 3 finished with complete outputs, but a result did not converge, a target "
-    "was missed or a prediction is not trusted (read its status); 130 Ctrl-C; 143 SIGTERM"
+    "any work; 3 finished with complete outputs, but a result did not converge, a study "
+    "optimize target was missed, no rev size was within --tol or a study prediction is not "
+    "trusted (read its status); 130 Ctrl-C; 143 SIGTERM"
 )
 
 

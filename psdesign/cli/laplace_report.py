@@ -55,7 +55,7 @@ def emit(
         for w in r.get("warnings", []):
             warning(w)
     if as_json:
-        print_json(out)  # strict: a NaN as null
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         for r in results:
             print(line(r))

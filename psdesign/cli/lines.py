@@ -1,10 +1,9 @@
 """The parts every printed result line shares (``permeability``, ``diffusivity``,
 ``conductivity``): the error bar after the value, then its rating, ``[status]  bc B  converged
-true|false``, so a reader finds the same words in the same place on every line."""
+true|false``, so a reader finds the same words in the same place on every line; and the one
+printer of every command's ``--json`` object (:func:`print_json`, strict JSON)."""
 
 from __future__ import annotations
-
-import json
 
 
 def error_bar(rel_error: float | None) -> str:
@@ -33,7 +32,7 @@ def rating(r: dict) -> str:
     return f"[{r['status']}]{bc}  converged {str(r['converged']).lower()}"
 
 
-def print_json(obj) -> None:
+def print_json(obj: object) -> None:
     """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error, no CI of
     one seed) as ``null``, as in the files a study writes (Python's ``json.dumps`` printed the
     ``NaN`` token, which JSON has not: ``jq`` and JavaScript refuse the whole output).
@@ -41,6 +40,6 @@ def print_json(obj) -> None:
     >>> print_json({"a": float("nan"), "b": 1.5})
     {"a": null, "b": 1.5}
     """
-    from psdesign.study.store import jsonable
+    from psdesign.study.store import json_text
 
-    print(json.dumps(jsonable(obj), allow_nan=False, default=str))
+    print(json_text(obj))

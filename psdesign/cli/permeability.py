@@ -233,7 +233,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     for w in dict.fromkeys(out.get("warnings", [])):
         warning(w)
     if args.json:
-        print_json(out)  # strict: a NaN as null
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         for r in results:
             print(_line(r))

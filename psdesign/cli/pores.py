@@ -32,7 +32,7 @@ def _cmd(args: argparse.Namespace) -> int:
     for w in out["warnings"]:
         warning(w)
     if args.json:
-        print_json(out)  # strict: a NaN as null
+        print_json(out)  # strict JSON: NaN as null (cli.lines)
     else:
         print(_sizes_line(out))
         print(

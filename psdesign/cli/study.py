@@ -6,8 +6,9 @@ The main CLI registers these with::
     register(subparsers)      # subparsers of the top-level parser
     ...
     args = parser.parse_args(argv)
-    return args.func(args)   # exit status: 0 ok, 1 failed / timeout / not_converged cases or
-                             # storage error, 2 bad input (also a refused -o), 130 Ctrl-C
+    return args.func(args)   # exit status (psdesign.cli.exit_status): 0 ok, 1 failed /
+                             # timeout cases or storage error, 2 bad input (also a refused
+                             # -o), 3 not_converged cases, 130 Ctrl-C
 """
 
 from __future__ import annotations

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
@@ -225,27 +224,6 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     return 0
 
 
-def _target_report(t, best: dict) -> dict:
-    """One target against the closest case: measured value, its error bar and status."""
-    from psdesign.analysis.columns import error_bar
-
-    try:
-        y = float(best.get(t.output, float("nan")))
-    except (TypeError, ValueError):
-        y = float("nan")
-    rel, status = error_bar(best, t.output)
-    return {
-        "target": str(t),
-        "output": t.output,
-        "measured": y if y == y else None,
-        "rel_error": rel,
-        "status": status,
-        "met": t.met(y),
-        "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
-        "error_bar_inside_target": t.bar_inside(y, rel),
-    }
-
-
 def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
@@ -254,8 +232,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
+    from psdesign.analysis.columns import is_design_parameter
     from psdesign.analysis.optimize import optimize_study
-    from psdesign.analysis.targets import Target, measured_text
+    from psdesign.analysis.targets import Target, measured_text, no_closest_case, target_report
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
@@ -281,7 +260,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         return fail(str(exc), FAILED)
     from psdesign.analysis.columns import case_warnings
 
-    targets_out = [_target_report(t, res.best) for t in targets]
+    targets_out = [target_report(t, res.best) for t in targets]
     case = res.best.get("case_id")
     summary = {
         "met": res.met,
@@ -308,10 +287,11 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
         for r in targets_out:
             print(f"  {r['target']}: {measured_text(r)}")
-        params = {k: v for k, v in res.best.items() if "." in k}
+        params = {k: v for k, v in res.best.items() if is_design_parameter(k)}
         at = ", ".join(f"{k}={v:.4g}" for k, v in params.items()) or "(no case)"
         n = res.best.get("replicates", 0)
-        print(f"  at {at}" + (f" (the worst of its {n} seeds)" if n > 1 else ""))
+        why = no_closest_case(targets_out) or (f"the worst of its {n} seeds" if n > 1 else "")
+        print(f"  at {at}" + (f" ({why})" if why else ""))
         for w in summary["warnings"]:  # one line each: what the solve said about this K
             print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
     if res.met:
@@ -319,18 +299,14 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
 
 
-#: The outcome of ``study optimize`` in its output folder (the ``--json`` object).
-OPTIMIZE_FILE = "optimize.json"
-#: The files ``study optimize`` adds to its study folder once the search ends.
-OUTCOME_FILES = (OPTIMIZE_FILE, "report.html")
-
-
 def _check_outcome_files(out: str) -> None:
     """Refuse (``OutputError``, one line) an output folder where ``optimize.json`` or
-    ``report.html`` is a file psdesign did not write, before any case runs."""
+    ``report.html`` is a file psdesign did not write, before any case runs: the files
+    ``study optimize`` adds to its study folder once the search ends."""
+    from psdesign.analysis.optimize import OPTIMIZE_FILE
     from psdesign.study.store import check_study_files
 
-    check_study_files(out, OUTCOME_FILES, "study optimize", option="-o")
+    check_study_files(out, (OPTIMIZE_FILE, "report.html"), "study optimize", option="-o")
 
 
 def _write_outcome(out: str, summary: dict) -> None:
@@ -340,13 +316,14 @@ def _write_outcome(out: str, summary: dict) -> None:
     lost with the terminal, and the folder had no report)."""
     from pathlib import Path
 
+    from psdesign.analysis.optimize import OPTIMIZE_FILE
     from psdesign.io.outputs import claim_output_dir
     from psdesign.report import write_report
     from psdesign.study.store import (
         atomic_write_bytes,
         check_study_files,
         is_timing_column,
-        jsonable,
+        json_text,
     )
 
     checked = check_study_files(out, [OPTIMIZE_FILE], "study optimize", option="-o")
@@ -354,8 +331,7 @@ def _write_outcome(out: str, summary: dict) -> None:
     # same study and seed -> the same file: the best case's run metadata (when, where, how long)
     # stays in results.csv and the case record, as for every other output
     best = {k: v for k, v in summary["best"].items() if not is_timing_column(k)}
-    text = json.dumps(jsonable({**summary, "best": best}), allow_nan=False, default=str, indent=1)
-    text += "\n"
+    text = json_text({**summary, "best": best}, indent=1) + "\n"
     atomic_write_bytes(Path(out) / OPTIMIZE_FILE, text.encode("utf-8"))
     if (Path(out) / "results.csv").is_file():  # no case ran: nothing to report
         write_report(out)

@@ -67,7 +67,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from psdesign.geometry.rve import thinnest_fiber_diameter
+from psdesign.geometry.rve import DIAMETER_MEASURE, thinnest_fiber_diameter
 
 #: ``C_S`` of the seam term ``C_S g / L``: K of in-plane Toray-like RVEs with a slab of
 #: thickness ``g`` cut out of every period falls by 1.2-1.9 % per 1 % of the length ``L`` cut, on
@@ -550,7 +550,7 @@ def untrustworthy_reasons(
     cpd: float | None,
     min_cpd: float = MIN_CELLS_PER_DIAMETER,
     coarse_lost_phase: bool = False,
-    measure: str = "fiber diameter",
+    measure: str = DIAMETER_MEASURE,
 ) -> list[str]:
     """Why a converged result is ``untrustworthy`` (:func:`status_of`), in a few words each;
     empty when it is ``ok``. ``measure``: what ``cpd`` counts cells across
@@ -608,7 +608,7 @@ def resolution_warnings(
     quantity: str = "K",
     mesh_key: str = "flow.lattice_step",
     fiber_floor: bool = False,
-    measure: str = "fiber diameter",
+    measure: str = DIAMETER_MEASURE,
 ) -> list[str]:
     """The under-resolution warning line(s) for a result (``quantity``: the value's name in the
     line, ``K`` or a transport property's; ``direction`` "" for a value without one;

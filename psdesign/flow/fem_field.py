@@ -10,10 +10,10 @@ across a fiber: at 4.3 voxels across the yarns of the 30 um woven cell the volum
 the solid fraction at 0.1075 against 0.1102 at 8.6 and 17 voxels, and the periodic FEM's K moves
 by 5.9 % at the same lattice (1.5674e-12 vs 1.4802e-12). The geometry is analytic, so the
 FEM samples it itself: at ``rve.voxel / r`` with the smallest integer ``r`` that gives
-:data:`FIELD_VOXELS_PER_DIAMETER` voxels across the thinnest fiber diameter (yarn width), capped
-at :data:`FIELD_MAX_VOXELS` voxels. A field that is already fine enough is used as it is (the
-mesh is then the one of earlier releases, bit for bit); an image has no analytic geometry and
-keeps its own grid (and the voxel-count volume target, :func:`psdesign.image.fields.
+:data:`FIELD_VOXELS_PER_DIAMETER` voxels across the thinnest fiber width (a yarn's thin
+width), capped at :data:`FIELD_MAX_VOXELS` voxels. A field that is already fine enough is used
+as it is (the mesh is then the one of earlier releases, bit for bit); an image has no analytic
+geometry and keeps its own grid (and the voxel-count volume target, :func:`psdesign.image.fields.
 mesh_overrides`).
 
 What a resolved field still moves (``benchmarks/RESULTS.md``): the woven cell -0.52 % from 8.5

@@ -38,7 +38,13 @@ from psdesign.flow.darcy import axis_of
 from psdesign.flow.fem import mesher_options, permeability_fem, plane_average_pressure
 from psdesign.flow.stack import end_planes
 from psdesign.flow.voxel import ResolutionWarning, face_mismatch, permeability_voxel
-from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure, thinnest_fiber_diameter
+from psdesign.geometry.rve import (
+    DIAMETER_MEASURE,
+    RVE,
+    VoxelFields,
+    resolution_measure,
+    thinnest_fiber_diameter,
+)
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
@@ -364,7 +370,7 @@ def with_error_estimate(
     warnings += err.resolution_warnings(
         cpd, solver, res["direction"], mesh_key=key, fiber_floor=est.fiber > 0.0, measure=measure
     )
-    if measure != "fiber diameter":  # the words of the row's status reason (report.html)
+    if measure != DIAMETER_MEASURE:  # the words of the row's status reason (report.html)
         res["resolution_measure"] = measure
     if not res.get("converged", False):
         warnings.append(

@@ -65,6 +65,12 @@ def thinnest_fiber_diameter(rve) -> float | None:
     return min(w)[0] * float(rve.period) if w else None
 
 
+#: The words of the resolution measure in status reasons and warnings: a round fiber's (rods,
+#: an image, no fibers) and a non-round fixed shape's (:func:`resolution_measure`).
+DIAMETER_MEASURE = "fiber diameter"
+THIN_WIDTH_MEASURE = "fiber thin width"
+
+
 def resolution_measure(rve) -> str:
     """The words for :func:`thinnest_fiber_diameter`'s measure in a status or warning line:
     ``"fiber thin width"`` when the thinnest fiber width of ``rve`` is a non-round section's
@@ -76,7 +82,7 @@ def resolution_measure(rve) -> str:
     ('fiber thin width', 'fiber diameter')
     """
     w = _fiber_widths(rve)
-    return "fiber thin width" if w and min(w)[1] else "fiber diameter"
+    return THIN_WIDTH_MEASURE if w and min(w)[1] else DIAMETER_MEASURE
 
 
 @dataclass(frozen=True)

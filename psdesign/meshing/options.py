@@ -39,7 +39,7 @@ def default_lattice_step(voxel: float, size, fiber_diameter: float | None = None
     """The stuffing mesher's lattice step when ``flow.lattice_step`` is not given.
 
     ``max(2 voxel, min(min(size) / LATTICE_CELLS_PER_BOX, D / LATTICE_CELLS_PER_DIAMETER))``
-    with ``D = fiber_diameter``, the thinnest fiber diameter (yarn width): 2.33 um for 7 um
+    with ``D = fiber_diameter``, the thinnest fiber width (a yarn's thin width): 2.33 um for 7 um
     fibers whatever the box, 3.33 um (the box term) for a 100 um image or plain field
     (``fiber_diameter`` None). The FEM route may coarsen it to fit the memory budget
     (:func:`psdesign.schema.budget.fem_lattice_step`).

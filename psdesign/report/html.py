@@ -19,7 +19,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import STATUS_COLUMNS, error_bar, k_not_ok, trusted, value_ok
+from psdesign.analysis.columns import (
+    STATUS_COLUMNS,
+    error_bar,
+    is_design_parameter,
+    k_not_ok,
+    trusted,
+    value_ok,
+)
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
@@ -472,6 +479,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     '7.0 voxels per fiber thin width, need 8'
     """
     from psdesign.flow.error import untrustworthy_reasons
+    from psdesign.geometry.rve import DIAMETER_MEASURE
 
     def num(col: str) -> float:
         return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
@@ -479,7 +487,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
     rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
     measure = row.get(f"resolution_measure_{d}")
-    measure = measure if isinstance(measure, str) and measure else "fiber diameter"
+    measure = measure if isinstance(measure, str) and measure else DIAMETER_MEASURE
     why = untrustworthy_reasons(e, rated_cpd, measure=measure)
     return "; ".join(why) or f"a phase lost on the coarser grid (warnings_{d})"
 
@@ -603,7 +611,7 @@ def build_html(out_dir: str | Path) -> str:
     out = Path(out_dir)
     df, study, runs = _load(out)
     params = list((study.get("parameters") or {}).keys()) or [
-        c for c in df.columns if "." in c and not c.startswith("result.")
+        c for c in df.columns if is_design_parameter(c)
     ]
     name = study.get("name", out.name)
     meta = _meta_table(df, study, runs, params, name)

@@ -13,12 +13,10 @@ import json
 import math
 from pathlib import Path
 
-from psdesign.analysis.columns import case_warnings
-from psdesign.analysis.targets import measured_text
+from psdesign.analysis.columns import case_warnings, is_design_parameter
+from psdesign.analysis.optimize import OPTIMIZE_FILE
+from psdesign.analysis.targets import REPORT_KEYS, measured_text, no_closest_case
 from psdesign.report.units import parameter_unit
-
-#: The outcome file ``study optimize`` writes (``psdesign.cli.study_analysis.OPTIMIZE_FILE``).
-OUTCOME_FILE = "optimize.json"
 
 
 def _esc(x) -> str:
@@ -31,21 +29,52 @@ def read_outcome(out: Path) -> dict | None:
     that name is not read as the search's verdict)."""
     from psdesign.io.outputs import read_marker
 
-    path = Path(out) / OUTCOME_FILE
+    path = Path(out) / OPTIMIZE_FILE
     marker = read_marker(Path(out)) or {}
-    if not path.is_file() or OUTCOME_FILE not in marker.get("files", []):
+    if not path.is_file() or OPTIMIZE_FILE not in marker.get("files", []):
         return None
     doc = json.loads(path.read_text(encoding="utf-8"))
-    if not isinstance(doc, dict) or not {"met", "message", "targets", "best"} <= set(doc):
-        raise ValueError(f"{OUTCOME_FILE} is not the outcome `study optimize` writes")
+    rows = doc.get("targets") if isinstance(doc, dict) else None
+    if (
+        not isinstance(doc, dict)
+        or not {"met", "message", "targets", "best"} <= set(doc)
+        or not isinstance(rows, list)
+        or not all(isinstance(r, dict) and REPORT_KEYS <= set(r) for r in rows)
+    ):  # cut short, edited, or another version's: said in one line, not a KeyError
+        raise ValueError(f"{OPTIMIZE_FILE} is not the outcome `study optimize` writes")
     return doc
+
+
+def stale_reason(out: Path, doc: dict) -> str:
+    """Why ``doc`` (the folder's ``optimize.json``) is not the outcome of the design the
+    folder now holds, or ``""``. ``optimize.json`` is written when a search ends; a later
+    ``study optimize`` (other targets, another ``--seed``) that was interrupted or failed, or
+    a ``study run`` of another design into the folder, rewrites ``study.json`` and the tables
+    but not it, so its verdict (e.g. MET) would stand over cases it never saw: the search's
+    last design had ``n_points`` x seeds cases and held its chosen case (session 43 review).
+    """
+    from psdesign.study.readback import read_json_object
+
+    path = Path(out) / "study.json"
+    if not path.is_file():
+        return ""
+    design = read_json_object(path)
+    cases = [c for c in design.get("cases") or [] if isinstance(c, dict)]
+    seeds = (design.get("study") or {}).get("seeds") or [None]
+    n, best = doc.get("n_points"), (doc.get("best") or {}).get("case_id")
+    if best and best not in {c.get("case_id") for c in cases}:
+        return f"its chosen case {best} is not in the folder's design"
+    if isinstance(n, int) and len(cases) != n * len(seeds):
+        seen = f"{n} design point(s) x {len(seeds)} seed(s)"
+        return f"it saw {seen}, the design now has {len(cases)} case(s)"
+    return ""
 
 
 def _design_point(best: dict) -> str:
     """The chosen case's design parameters (with their units), seed and id, as table rows."""
     rows = []
     for k, v in best.items():
-        if "." not in k:  # design parameters are dotted spec paths
+        if not is_design_parameter(k):
             continue
         unit = parameter_unit(k)
         text = f"{v:.4g}" if isinstance(v, int | float) else str(v)
@@ -65,10 +94,13 @@ def _design_point(best: dict) -> str:
 
 
 def _history(history: list) -> str:
+    """The rounds as a table; a round whose cases hold no trusted value of a target's output
+    has no closest miss (``optimize.json`` keeps it as ``"inf"``): "no trusted value"."""
     rows = []
     for h in history or []:
         miss = h.get("best_miss")
-        miss = "" if not isinstance(miss, int | float) or not math.isfinite(miss) else f"{miss:.3g}"
+        finite = isinstance(miss, int | float) and math.isfinite(miss)
+        miss = f"{miss:.3g}" if finite else "no trusted value"
         rows.append(
             f"<tr><td>{_esc(h.get('round'))}</td><td>{_esc(h.get('n_points'))}</td>"
             f"<td>{_esc(miss)}</td></tr>"
@@ -82,6 +114,18 @@ def optimize_section(out: Path) -> str:
     doc = read_outcome(out)
     if doc is None:
         return ""
+    stale = stale_reason(out, doc)
+    if stale:
+        was = "MET" if doc["met"] else "NOT MET"
+        targets = ", ".join(str(t.get("target")) for t in doc["targets"])
+        return (
+            "<h2>Design decision (study optimize)</h2>"
+            f'<p class="alert" id="psd-optimize"><b>NO DECISION:</b> {OPTIMIZE_FILE} holds '
+            f"the outcome of an earlier search ({_esc(was)} for {_esc(targets)}), not of this "
+            f"folder's design: {_esc(stale)} (a later <code>study optimize</code> did not "
+            "finish, or another design ran here). Run <code>study optimize</code> again to "
+            "finish the search.</p>"
+        )
     met = bool(doc["met"])
     verdict = "MET" if met else "NOT MET"
     box = "note" if met else "alert"
@@ -89,14 +133,17 @@ def optimize_section(out: Path) -> str:
         f"<tr><th>{_esc(t.get('target'))}</th><td>{_esc(measured_text(t))}</td></tr>"
         for t in doc["targets"]
     )
+    point_note = no_closest_case(doc["targets"])
+    point_note = f" ({point_note})" if point_note else ""
     return (
         "<h2>Design decision (study optimize)</h2>"
         f'<p class="{box}" id="psd-optimize"><b>{verdict}:</b> {_esc(doc["message"])}</p>'
         '<p class="note">Each target against the chosen case, with the case\'s own error bar '
-        "and status (from optimize.json, the last <code>study optimize</code> in this "
+        "and status (from optimize.json, the last finished <code>study optimize</code> in this "
         "folder; a design point is met only when every seed's case meets every target, and "
         "the case shown is its worst seed).</p>"
         f'<table class="meta">{rows}</table>'
-        f'<h3>Design point</h3><table class="meta">{_design_point(doc["best"])}</table>'
+        f"<h3>Design point{_esc(point_note)}</h3>"
+        f'<table class="meta">{_design_point(doc["best"])}</table>'
         f"<h3>Search rounds</h3>{_history(doc.get('history', []))}"
     )

@@ -184,7 +184,8 @@ class FlowTable(Table):
     edge_length: number(ge=0.005, le=10) | None = Field(
         None,
         description="pytetwild edge length, fraction of the box diagonal in [0.005, 10] "
-        "(default 0.85 thinnest-fiber diameters); at most 1 with pytetwild, its mesh within the "
+        "(default 0.85 thinnest fiber widths: a rod's diameter, a woven or compressed fiber's "
+        "thin width); at most 1 with pytetwild, its mesh within the "
         "memory budget",
     )
     max_memory_gb: number(gt=0, le=1e5) | None = Field(
@@ -205,7 +206,7 @@ class FlowTable(Table):
     lattice_step: number(gt=0) | None = Field(
         None,
         description=f"stuffing lattice step {LATTICE_STEP_RANGE} (default: max(2 voxels, "
-        "min(thinnest fiber diameter / 3, smallest edge "
+        "min(thinnest fiber width / 3, smallest edge "
         "/ 30)), coarsened up to max(2 voxels, smallest edge / 30) to fit the memory budget)",
     )
 

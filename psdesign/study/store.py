@@ -42,6 +42,7 @@ __all__ = [
     "atomic_write_json",
     "check_study_files",
     "is_timing_column",
+    "json_text",
     "records_to_frame",
     "remove_dead_temp",
 ]
@@ -254,6 +255,18 @@ def jsonable(v: Any) -> Any:
     if isinstance(v, float) and not math.isfinite(v):
         return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
     return v
+
+
+def json_text(obj: Any, indent: int | None = None) -> str:
+    """``obj`` as strict JSON text (:func:`jsonable`: NaN as ``null``, never Python's ``NaN``
+    token, which ``jq`` and JavaScript refuse; anything else not JSON as its text): what the
+    ``--json`` outputs print (:func:`psdesign.cli.lines.print_json`) and ``optimize.json``
+    holds.
+
+    >>> json_text({"a": float("nan"), "b": 1.5, "c": Path("x")})
+    '{"a": null, "b": 1.5, "c": "x"}'
+    """
+    return json.dumps(jsonable(obj), indent=indent, allow_nan=False, default=str)
 
 
 def atomic_write_json(path: Path, obj: Any) -> None:

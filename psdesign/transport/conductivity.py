@@ -16,13 +16,13 @@ reaches the parallel mean, above them), so they rate nothing.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
 
 from psdesign.fields.writer import HeldCapture
-from psdesign.geometry.rve import VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
 from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 
@@ -78,6 +78,9 @@ class ConductivityResult(Rated):
     #: The warning of a conducting path through a neck narrower than about a voxel (None if
     #: none; :mod:`psdesign.transport.necks`), which makes the value ``untrustworthy``.
     unresolved_neck: str | None = None
+    #: What ``cells_per_diameter`` counts voxels across (:func:`psdesign.geometry.rve.
+    #: resolution_measure`: ``"fiber thin width"`` for a woven or compressed fiber).
+    resolution_measure: str = DIAMETER_MEASURE
 
     def wiener(self) -> tuple[float, tuple[float, float]]:
         """The value and its Wiener bounds (:meth:`Rated.wiener`)."""
@@ -115,13 +118,6 @@ class ConductivityResult(Rated):
             ("bc", self.bc),
         ]
         return result_html("ConductivityResult", rows, self.status, [self.message, *self.warnings])
-
-    def to_dict(self) -> dict:
-        """Plain dict (JSON-ready), with its ``status``."""
-        out = asdict(self)
-        out["solver"] = "voxel-laplace"
-        out["status"] = self.status
-        return out
 
 
 def hashin_shtrikman(s1: float, s2: float, f2: float, dim: int = 3) -> tuple[float, float]:
@@ -186,11 +182,15 @@ def effective_conductivity(
     solid: float | None = None,
     fluid: float | None = None,
     transport: dict | None = None,
+    *,
     progress: Callable[[int, float], None] | None = None,
     capture: Callable[..., None] | None = None,
     cells_per_diameter: float | None = None,
+    resolution_measure: str = DIAMETER_MEASURE,
 ) -> ConductivityResult:
     """Effective conductivity of the voxelized RVE along one axis.
+
+    (Nine parameters: the field, axis and phases, then how the solve reports, keyword-only.)
 
     Parameters
     ----------
@@ -209,6 +209,9 @@ def effective_conductivity(
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
         below 8 the result is ``untrustworthy`` and says why in ``warnings``.
+    resolution_measure : str, optional
+        What ``cells_per_diameter`` counts across, named in that warning
+        (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
 
     Raises
     ------
@@ -265,6 +268,7 @@ def effective_conductivity(
         conductivity_unit=tr["conductivity_unit"],
         cells_per_diameter=cells_per_diameter,
         unresolved_neck=eff.neck,
+        resolution_measure=resolution_measure,
     )
     out.warnings = out.rating_warnings()
     if held is not None:

@@ -24,13 +24,13 @@ None (infinite).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
 
 from psdesign.fields.writer import HeldCapture
-from psdesign.geometry.rve import VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 from psdesign.schema.transport import validate_transport
 from psdesign.transport.effective import (
     Effective,
@@ -83,6 +83,9 @@ class DiffusivityResult(Rated):
     #: The warning of a conducting path through a neck narrower than about a voxel (None if
     #: none; :mod:`psdesign.transport.necks`), which makes the value ``untrustworthy``.
     unresolved_neck: str | None = None
+    #: What ``cells_per_diameter`` counts voxels across (:func:`psdesign.geometry.rve.
+    #: resolution_measure`: ``"fiber thin width"`` for a woven or compressed fiber).
+    resolution_measure: str = DIAMETER_MEASURE
 
     def wiener(self) -> tuple[float, tuple[float, float]]:
         """The value and its Wiener bounds ``[0, porosity]`` (pore 1, solid 0;
@@ -121,13 +124,6 @@ class DiffusivityResult(Rated):
         ]
         return result_html("DiffusivityResult", rows, self.status, [self.message, *self.warnings])
 
-    def to_dict(self) -> dict:
-        """Plain dict (JSON-ready), with its ``status``."""
-        out = asdict(self)
-        out["solver"] = "voxel-laplace"
-        out["status"] = self.status
-        return out
-
 
 def knudsen_number(mean_free_path: float, pore_diameter: float) -> float:
     """``Kn = lambda / d``."""
@@ -155,7 +151,12 @@ def _pore_sigma(solid: np.ndarray) -> np.ndarray:
 
 
 def _result(
-    eff: Effective, fields: VoxelFields, tr: dict, pore_d: float | None, cpd: float | None
+    eff: Effective,
+    fields: VoxelFields,
+    tr: dict,
+    pore_d: float | None,
+    cpd: float | None,
+    measure: str = DIAMETER_MEASURE,
 ) -> DiffusivityResult:
     eps = fields.porosity
     rel = max(eff.value, 0.0)
@@ -183,6 +184,7 @@ def _result(
         effective_diffusivity_m2_s=bulk * rel,
         cells_per_diameter=cpd,
         unresolved_neck=eff.neck,
+        resolution_measure=measure,
     )
     out.warnings = out.rating_warnings()
     if pore_d is not None and pore_d > 0:
@@ -209,6 +211,7 @@ def relative_diffusivity(
     pore_diameter: float | None = None,
     capture: Callable[..., None] | None = None,
     cells_per_diameter: float | None = None,
+    resolution_measure: str = DIAMETER_MEASURE,
 ) -> DiffusivityResult:
     """Relative diffusivity ``D_eff / D_bulk`` and tortuosity factor along one axis.
 
@@ -231,13 +234,16 @@ def relative_diffusivity(
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
         below 8 the result is ``untrustworthy`` and says why in ``warnings``.
+    resolution_measure : str, optional
+        What ``cells_per_diameter`` counts across, named in that warning
+        (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
     """
     tr = validate_transport({"transport": transport or {}})
     held = None if capture is None else HeldCapture(partial(capture, "diffusivity"))
     eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=held)
     if pore_diameter is None and tr["mean_free_path_m"] > 0:
         pore_diameter = mean_pore_diameter(fields)
-    out = _result(eff, fields, tr, pore_diameter, cells_per_diameter)
+    out = _result(eff, fields, tr, pore_diameter, cells_per_diameter, resolution_measure)
     if held is not None:
         held.flush(result=out.to_dict())
     return out
@@ -248,6 +254,7 @@ def diffusivity_tensor(
     transport: dict | None = None,
     capture: Callable[..., None] | None = None,
     cells_per_diameter: float | None = None,
+    resolution_measure: str = DIAMETER_MEASURE,
 ) -> dict:
     """Full relative-diffusivity tensor with periodic BC (three solves; ``capture`` as in
     :func:`relative_diffusivity`).
@@ -268,6 +275,7 @@ def diffusivity_tensor(
             pore_diameter=pore_d,
             capture=capture,
             cells_per_diameter=cells_per_diameter,
+            resolution_measure=resolution_measure,
         )
         for d in "xyz"
     ]

@@ -38,14 +38,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
 from psdesign.flow.error import richardson_rel_error
-from psdesign.geometry.rve import VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 
 BC_NAMES = ("periodic", "permeameter")
 #: ``C`` of the staircase floor ``C h S_f m``: on the calibration set (square
@@ -127,28 +127,39 @@ def rating(
     converged: bool,
     rel_error: float,
     cells_per_diameter: float | None,
+    *,
     wiener: tuple[float, tuple[float, float]] | None = None,
     neck: str | None = None,
+    measure: str = DIAMETER_MEASURE,
 ) -> tuple[str, list[str]]:
     """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
     ``direction`` ("" for a value without one, e.g. the pore sizes; module docstring).
+
+    (Nine parameters: the value's own numbers, then its optional checks, keyword-only.)
+
     ``wiener``: ``(value, (lower, upper))`` to check against its Wiener bounds
     (:func:`outside_wiener`; outside makes an ``ok`` value ``untrustworthy``). ``neck``: the
     warning of a conducting path through a neck narrower than about a voxel
     (:func:`psdesign.transport.necks.neck_warning`), which makes an ``ok`` value
-    ``untrustworthy``.
+    ``untrustworthy``. ``measure``: what ``cells_per_diameter`` counts voxels across
+    (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width), named in
+    the resolution warning as K's is.
 
     >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
     'untrustworthy'
     >>> rating("D_eff/D", "z", False, True, 0.05, 12.0)
     ('ok', [])
-    >>> rating("D_eff/D", "z", False, True, 0.05, 12.0, (0.9, (0.0, 0.8)))[0]
+    >>> rating("D_eff/D", "z", False, True, 0.05, 12.0, wiener=(0.9, (0.0, 0.8)))[0]
     'untrustworthy'
+    >>> rating("D_eff/D", "z", False, True, 0.05, 7.0, measure="fiber thin width")[1][0][:48]
+    'D_eff/D_z: only 7.0 voxels across the thinnest f'
     """
     name = f"{quantity}_{direction}" if direction else quantity
     if blocked:  # an image (no fiber diameter) is its own geometry: its block is exact
         return "blocked", [] if cells_per_diameter is None else [blocked_on_grid(name)]
-    warnings = err.resolution_warnings(cells_per_diameter, "voxel", direction, quantity)
+    warnings = err.resolution_warnings(
+        cells_per_diameter, "voxel", direction, quantity, measure=measure
+    )
     if not converged:
         warnings.append(f"{name}: solver did not converge")
     if not rel_error <= err.UNTRUSTWORTHY_REL_ERROR:
@@ -213,6 +224,16 @@ class Rated:
         """One warning line per reason the value is not ``ok`` (:func:`rating`)."""
         return self._rating()[1]
 
+    def to_dict(self) -> dict:
+        """Plain dict (JSON-ready), with its ``status``; ``resolution_measure`` only where it
+        is a non-round fiber's thin width (round fibers keep their keys, as K's result)."""
+        out = asdict(self)
+        if out.get("resolution_measure") == DIAMETER_MEASURE:
+            del out["resolution_measure"]
+        out["solver"] = "voxel-laplace"
+        out["status"] = self.status
+        return out
+
     def _rating(self) -> tuple[str, list[str]]:
         return rating(
             self.QUANTITY,
@@ -221,8 +242,9 @@ class Rated:
             self.converged,
             self.rel_error,
             self.cells_per_diameter,
-            self.wiener(),
-            getattr(self, "unresolved_neck", None),
+            wiener=self.wiener(),
+            neck=getattr(self, "unresolved_neck", None),
+            measure=getattr(self, "resolution_measure", DIAMETER_MEASURE),
         )
 
 

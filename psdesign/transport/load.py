@@ -23,6 +23,14 @@ class TransportCase:
 
         return cells_per_diameter(self.rve, float(self.fields.grid.spacing[0]))
 
+    @property
+    def resolution_measure(self) -> str:
+        """What :attr:`cells_per_diameter` counts across: ``"fiber thin width"`` for a woven
+        or compressed fiber (:func:`psdesign.geometry.rve.resolution_measure`)."""
+        from psdesign.geometry.rve import resolution_measure
+
+        return resolution_measure(self.rve)
+
 
 def load_case(
     path: str, overrides: dict | None = None, flags: dict[str, str] | None = None

@@ -17,7 +17,7 @@ Output names (``[study] outputs``) and the row keys they add:
 
 from __future__ import annotations
 
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
 
 #: Spec paths of the ``[transport]`` table a study parameter may vary.
 TRANSPORT_KEYS = tuple(
@@ -112,11 +112,14 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge (a pore
     larger than the RVE)."""
     from psdesign.flow import error as err
+    from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
 
     cpd = None if rve is None else err.cells_per_diameter(rve, h)
-    # the resolution line once for both values, then each one's own error-bar line
-    warnings = err.resolution_warnings(cpd, "voxel", "", "pore sizes and S_v")
+    # the resolution line once for both values, then each one's own error-bar line; it names
+    # what cpd counts across (a woven yarn's thin width, not its diameter: session 43)
+    measure = resolution_measure(rve)
+    warnings = err.resolution_warnings(cpd, "voxel", "", "pore sizes and S_v", measure=measure)
     converged = bool(out.get("converged", True))
     warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
@@ -147,13 +150,16 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
 
     tr = validate_transport(spec)
     cpd = cells_per_diameter(rve, float(fields.grid.spacing[0]))
+    measure = resolution_measure(rve)  # what cpd counts across, named in the warnings
     row: dict = {}
     diff_dirs = sorted({o[-1] for o in wanted if o[:-1] in ("diffusivity_", "tortuosity_")})
     if diff_dirs:
         from psdesign.transport.diffusivity import relative_diffusivity
 
         for d in diff_dirs:
-            res = relative_diffusivity(fields, d, tr, cells_per_diameter=cpd)
+            res = relative_diffusivity(
+                fields, d, tr, cells_per_diameter=cpd, resolution_measure=measure
+            )
             if f"diffusivity_{d}" in wanted or f"tortuosity_{d}" in wanted:
                 row[f"diffusivity_{d}"] = res.relative_diffusivity
                 row[f"diffusivity_{d}_rel_error"] = res.rel_error
@@ -166,7 +172,9 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
     for d in sorted({o[-1] for o in wanted if o.startswith("conductivity_")}):
         from psdesign.transport.conductivity import effective_conductivity
 
-        res = effective_conductivity(fields, d, transport=tr, cells_per_diameter=cpd)
+        res = effective_conductivity(
+            fields, d, transport=tr, cells_per_diameter=cpd, resolution_measure=measure
+        )
         row[f"conductivity_{d}"] = res.effective_conductivity
         row[f"conductivity_{d}_rel_error"] = res.rel_error
         row[f"conductivity_{d}_converged"] = res.converged

@@ -436,3 +436,25 @@ def test_print_json_turns_numpys_nan_into_null(capsys):
         "e": "inf",
         "n": 3,
     }
+
+
+def test_the_json_printers_print_strict_json(capsys):
+    """Review (session 43): s43-loop made ``study fit / predict / sensitivity / optimize`` and
+    ``rev`` print strict JSON through one printer (cli.lines.print_json), while
+    ``permeability``, ``pores``, ``diffusivity`` and ``conductivity`` kept their own
+    ``json.dumps(out, default=float)``, which prints a NaN (a value without an estimate) as
+    Python's ``NaN`` token: no JSON, ``jq`` and JavaScript refuse the whole object. They print
+    through the one printer now; a finite value prints as before."""
+    from psdesign.cli.laplace_report import emit
+
+    def refuse(token):
+        raise ValueError(f"not JSON: {token}")
+
+    out = {"converged": True, "rel_error": float("nan"), "value": 0.25, "warnings": []}
+    assert emit("diffusivity", out, [], True, str) == 0
+    assert json.loads(capsys.readouterr().out, parse_constant=refuse) == {
+        "converged": True,
+        "rel_error": None,
+        "value": 0.25,
+        "warnings": [],
+    }

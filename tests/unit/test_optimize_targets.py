@@ -7,6 +7,7 @@ and porosity in [0, 1] by definition, and a fake case whose ``k_z_rel_error`` is
 
 from __future__ import annotations
 
+import html
 import json
 
 import pytest
@@ -25,6 +26,14 @@ def barred_case(spec, outputs, solver, workdir):
     out = fake_case(spec, outputs, solver, workdir)
     out.update({"k_z_m2": 1.077e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"})
     out["warnings_z"] = "K_z: bc = 'periodic' on a geometry that is not periodic"
+    return out
+
+
+def noted_case(spec, outputs, solver, workdir):
+    """barred_case with a result named like a case column ("error"): the results table
+    keeps it as ``result.error`` (psdesign.study.store.records_to_frame)."""
+    out = barred_case(spec, outputs, solver, workdir)
+    out["error"] = "a note the case function returned"
     return out
 
 
@@ -190,7 +199,13 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     eps = res["best"]["generator.porosity"]
     assert f"<th>generator.porosity</th><td>{eps:.4g}</td>" in page  # a fraction: no unit
     assert f"<td>{res['best']['seed']} (its only seed)</td>" in page
-    assert page.count("<tr><td>") >= res["rounds"]  # one row per round
+    # one row per round (the page's other tables have rows too: counted in this one), each
+    # with the closest miss: every case measures 1.077e-11, so |1.077 - 1.2| / 1.2 - 10 %
+    rounds = page.split("<h3>Search rounds</h3>")[1].split("</table>")[0]
+    assert rounds.count("<tr><td>") == res["rounds"] == len(res["history"]) >= 1, rounds
+    miss = (1.2e-11 - 1.077e-11) / 1.2e-11 - 0.10
+    for h in res["history"]:
+        assert f"<tr><td>{h['round']}</td><td>{h['n_points']}</td><td>{miss:.3g}</td>" in rounds
     # what the solve said about the chosen K is beside it (it was in the results table only)
     warn = ">K_z: bc = &#x27;periodic&#x27; on a geometry that is not periodic</td>"
     assert warn in page.split("<h3>Search rounds</h3>")[0]
@@ -199,6 +214,109 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     marker["files"] = [f for f in marker["files"] if f != "optimize.json"]
     (out / ".psdesign-output.json").write_text(json.dumps(marker))
     assert "Design decision" not in build_html(out)
+
+
+def test_the_decision_of_an_earlier_search_is_not_shown_over_a_later_design(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Review (session 43): optimize.json is written when a search ends. A MET search, then a
+    second `study optimize` into the folder with another target and --seed, stopped by Ctrl-C
+    after its first round: study.json and results.csv hold the second search's 4 design
+    points, and the report still opened with the first search's "MET" and its chosen case,
+    which is no longer in the folder's design. Truth: the first search's chosen case id and
+    its n_points x seeds against the cases study.json lists. The report now says there is no
+    decision for this design; a finished search's own decision is shown (seeds [1], [1, 2]
+    in the tests above)."""
+    import psdesign.study.runner as runner
+    from psdesign.report import build_html
+
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY, PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
+    argv += ["--workers", "0", "--quiet", "--case-fn", "study_cases:fake_case"]
+    assert main([*argv, "--target", f"k_z_m2={target:.6e}+-10%"]) == 0
+    first = json.loads((tmp_path / "opt" / "optimize.json").read_text())
+    assert first["met"] and "<b>MET:</b>" in build_html(tmp_path / "opt")
+    real = runner.run_study
+
+    def ctrl_c_after_a_round(*args, **kwargs):
+        real(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "run_study", ctrl_c_after_a_round)
+    again = [*argv, "--target", "k_z_m2=1e-13+-1%", "--seed", "7"]
+    assert main(again) == 130
+    capsys.readouterr()
+    assert json.loads((tmp_path / "opt" / "optimize.json").read_text()) == first  # kept
+    design = json.loads((tmp_path / "opt" / "study.json").read_text())
+    assert first["best"]["case_id"] not in {c["case_id"] for c in design["cases"]}
+    page = build_html(tmp_path / "opt")
+    assert "<b>MET:</b>" not in page and "<h3>Design point</h3>" not in page
+    assert "<b>NO DECISION:</b> optimize.json holds the outcome of an earlier search" in page
+    assert f"its chosen case {first['best']['case_id']} is not in the folder" in page
+
+
+def test_a_cut_short_outcome_file_is_one_line_in_the_report(tmp_path, capsys) -> None:
+    """Review (session 43): an optimize.json whose target rows lack the keys the decision's
+    line reads (cut short, edited by hand) showed "Section not available: KeyError:
+    'measured'"; it is now the one line naming the file, and the rest of the report stands."""
+    from psdesign.report import build_html
+
+    assert main(_argv(tmp_path, "k_z_m2=1.2e-11+-10%")) == 3
+    capsys.readouterr()
+    path = tmp_path / "opt" / "optimize.json"
+    doc = json.loads(path.read_text())
+    doc["targets"] = [{"target": t["target"]} for t in doc["targets"]]
+    path.write_text(json.dumps(doc))
+    page = build_html(tmp_path / "opt")
+    assert "Section not available: ValueError: optimize.json is not the outcome" in page
+    assert "KeyError" not in page and "<h2>Porosity vs permeability</h2>" in page
+
+
+def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, capsys) -> None:
+    """Review (session 43): when every case's K_z is untrustworthy (study_cases.untrusted_case:
+    a periodic solve of a non-periodic RVE), no case has a distance to the target; the
+    outcome read "closest case misses by inf (relative)" on the terminal, in optimize.json
+    and in the report's decision. It now says no case has a trusted value of the output."""
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%")
+    argv[argv.index("test_optimize_targets:barred_case")] = "study_cases:untrusted_case"
+    assert main([*argv, "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    assert res["message"].endswith("; no case has a trusted value of k_z_m2"), res["message"]
+    assert "inf" not in res["message"]
+    assert res["targets"][0]["status"] == "no trusted value"
+    from psdesign.report import build_html  # the decision's rounds: no "inf", no blank
+
+    page = build_html(tmp_path / "opt")
+    rounds = page.split("<h3>Search rounds</h3>")[1].split("</table>")[0]
+    assert rounds.count("<td>no trusted value</td></tr>") == res["rounds"] >= 1, rounds
+    # the point shown is no closest one: every case misses by as much (the first run)
+    note = "no case has a trusted value of every target&#x27;s output: the first design point run"
+    assert f"<h3>Design point ({note})</h3>" in page
+    assert main(argv) == 3  # resumed: the printed line says it too
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "  at " in ln][0]
+    assert line.endswith(f"({html.unescape(note)})"), line
+
+
+def test_a_result_renamed_result_dot_is_no_design_parameter(tmp_path, capsys) -> None:
+    """Review (session 43): the optimize outcome took every dotted key of the chosen case for
+    a design parameter, so a result kept as ``result.error`` (a case function's "error",
+    renamed where it met the case column) was printed with ``{:.4g}``: after the whole search
+    and with optimize.json written, "psdesign: error: Unknown format code 'g' for object of
+    type 'str'" and exit 2, the status of bad input; the report's decision listed it as a
+    design parameter. One rule now (analysis.columns.is_design_parameter, as the report's
+    parameter fallback had it): the line and the decision show generator.porosity alone."""
+    from psdesign.report import build_html
+
+    argv = _argv(tmp_path, "k_z_m2=1.2e-11+-10%")
+    argv[argv.index("test_optimize_targets:barred_case")] = "test_optimize_targets:noted_case"
+    assert main(argv) == 3
+    cap = capsys.readouterr()
+    at = [ln for ln in cap.out.splitlines() if ln.startswith("  at ")]
+    assert len(at) == 1 and at[0].startswith("  at generator.porosity=") and "result" not in at[0]
+    assert "Unknown format code" not in cap.err
+    point = build_html(tmp_path / "opt").split("<h3>Design point</h3>")[1].split("</table>")[0]
+    assert "<th>generator.porosity</th>" in point and "result.error" not in point
 
 
 def test_optimize_into_a_users_folder_takes_the_force_it_names(tmp_path, capsys) -> None:

@@ -400,3 +400,14 @@ def test_rev_porosity_ci_inside_unit_interval_ci_rel_from_student_half(
     row = pd.read_csv(out / "rev.csv").iloc[0]
     assert row["porosity_ci_rel"] == pytest.approx(half / 0.97, rel=1e-9)  # 26 %, not 3 %
     assert row["k_z_m2_ci_rel"] == pytest.approx(k_half / 5.025e-12, rel=1e-9)
+
+
+def test_the_help_says_which_exit_status_a_rev_without_a_representative_size_gives(capsys):
+    """Review (session 43): rev exits 3 when no size reaches --tol (s43-loop), but
+    ``psdesign --help``'s exit-status paragraph named 3 for "a result did not converge or a
+    target was missed" only, a word rev's options do not use."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "3 finished with complete outputs" in text
+    assert "no rev size was within --tol" in text.split("3 finished")[1].split("; 130")[0]

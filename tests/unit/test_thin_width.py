@@ -134,3 +134,87 @@ def test_the_voxel_route_rates_a_woven_grid_by_the_yarn_thickness():
     assert res["cells_per_diameter"] == pytest.approx(7.277, abs=2e-3)
     assert res["resolution_measure"] == "fiber thin width"
     assert any("7.3 voxels across the thinnest fiber thin width" in w for w in res["warnings"])
+
+
+def test_the_pore_report_names_the_thin_width_it_counts():
+    """Review (session 43): the pore report's resolution line counted voxels across the woven
+    yarn's thin width (since s43-thin) but still called it "the thinnest fiber diameter": on a
+    40^3 grid of the 100 um cell it read "only 5.6 voxels across the thinnest fiber diameter",
+    where the yarn's diameter has 0.1598 x 40 = 6.4 voxels and its thickness 0.1399 x 40 =
+    5.6 (truth (3) above). The line now says which width it counts, as K's does."""
+    from psdesign.schema.transport import validate_transport
+    from psdesign.transport.study_outputs import pore_report
+
+    rve = RVE([1e-4] * 3, woven_cell())
+    out = pore_report(rve, rve.voxelize(1e-4 / 40), validate_transport({}))
+    line = "pore sizes and S_v: only 5.6 voxels across the thinnest fiber thin width (< 8)"
+    assert [w for w in out["warnings"] if "voxels across" in w] == [f"{line}; refine rve.voxel"]
+
+
+WOVEN_40 = """[rve]
+size = [100e-6, 100e-6, 100e-6]
+voxel = 2.5e-6
+
+[[fibers]]
+shape = "woven-cell"
+thickness_axis = "z"
+layers = 1
+"""
+
+
+@pytest.mark.parametrize("route", ["cli diffusivity", "api conductivity", "study row"])
+def test_the_transport_values_name_the_thin_width_they_count(tmp_path, capsys, route):
+    """Review (session 43): D_eff/D's and sigma_eff's resolution warnings counted voxels across
+    the woven yarn's thin width (since s43-thin) but called it "the thinnest fiber diameter":
+    the one-layer Table I cell at 2.5 um voxels read "only 5.6 voxels across the thinnest
+    fiber diameter", where the yarn's diameter has 0.1598 x 40 = 6.4 voxels and its thickness
+    0.1399 x 40 = 5.6 (truth (3) above). Each route (command, Python API, study row) now
+    names the thin width, as K's line does; a round fiber's result keeps its keys."""
+    import dataclasses
+    import json
+
+    import psdesign
+    from psdesign.cli.main import main
+    from psdesign.geometry.rve import DIAMETER_MEASURE
+
+    line = "only 5.6 voxels across the thinnest fiber thin width (< 8); refine rve.voxel"
+    spec = tmp_path / "w.toml"
+    spec.write_text(WOVEN_40)
+    if route == "cli diffusivity":
+        assert main(["diffusivity", str(spec), "--direction", "z", "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["warnings"] == [f"D_eff/D_z: {line}"]
+        assert out["resolution_measure"] == "fiber thin width"
+        return
+    m = psdesign.build(psdesign.load_spec(spec))
+    if route == "api conductivity":
+        res = m.conductivity("z")
+        assert res.warnings == [f"sigma_eff_z: {line}"]
+        kept = dataclasses.replace(res, resolution_measure=DIAMETER_MEASURE).to_dict()
+        assert "resolution_measure" not in kept and res.to_dict()["resolution_measure"]
+        return
+    from psdesign.transport.study_outputs import transport_outputs
+
+    row = transport_outputs(m.rve, m.fields, ["diffusivity_z"], m.spec)
+    assert row["diffusivity_z_warnings"] == f"D_eff/D_z: {line}"
+
+
+@pytest.mark.parametrize(
+    "rod, thinnest, measure",
+    [
+        (0.12, 0.12, "fiber diameter"),  # the rod is thinner than the yarn's thickness
+        (0.15, 0.14, "fiber thin width"),  # thinner than the yarn's 0.16 diameter, not 0.14
+        (0.14, 0.14, "fiber diameter"),  # a tie: the round fiber's words
+    ],
+)
+def test_round_and_non_round_fibers_mixed(rod, thinnest, measure):
+    """Review (session 43): an RVE of rods (thin_width None) beside a yarn (diameter 0.16,
+    thin width 0.14 of the period) is measured by its thinnest width whichever kind it is,
+    and the words follow the fiber that sets it."""
+    fibers = [
+        SimpleNamespace(diameter=rod, thin_width=None),
+        SimpleNamespace(diameter=0.16, thin_width=0.14),
+    ]
+    rve = SimpleNamespace(fibers=fibers, period=1e-4)
+    assert thinnest_fiber_diameter(rve) == pytest.approx(thinnest * 1e-4, rel=1e-12)
+    assert resolution_measure(rve) == measure
