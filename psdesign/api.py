@@ -305,10 +305,6 @@ class Material:
         folder = fields_folder(fields, "permeability", [direction], route, option="fields")
         method = "GMRES" if route == "fem" else "MINRES"
         with folder as writer, _progress(progress, direction, f"{route} solve", method) as report:
-            if report is not None and route == "voxel":  # the command's estimate line, too
-                from psdesign.cli.permeability import announce_voxel
-
-                announce_voxel(self.fields, direction, table, self.rve)
             result = permeability(
                 self.rve, self.fields, direction, table, route, progress=report, capture=writer
             )
