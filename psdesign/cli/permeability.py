@@ -236,6 +236,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     perm.add_argument("--json", action="store_true", help="print one JSON object")
     perm.add_argument(
-        "--quiet", action="store_true", help="no progress lines on stderr during long voxel solves"
+        "--quiet",
+        action="store_true",
+        help="no progress lines on stderr (meshing stages, each solve's time and memory "
+        "estimate, solver iterations); warnings and errors are still printed",
     )
     perm.set_defaults(func=_cmd_permeability)
