@@ -27,7 +27,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
   (`"auto"` counts the copies it will stack first where the spec tells: explicit fibers or an
   image along the direction solved (their analytic end planes, the image's voxel seam: the test
-  the built RVE gets, 2 on a periodic one-period RVE, else 1); else 2, its most for a first
+  the built RVE gets, 2 on a periodic one-period RVE, else 1; a spec checked alone, before a
+  command or study names the direction, counts the fewest over the three axes: its
+  `flow.direction` is a default the command line may override); else 2, its most for a first
   solve;
   a longer stack it takes after a window term above 1 % is checked before it is solved) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
