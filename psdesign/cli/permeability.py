@@ -18,6 +18,14 @@ if TYPE_CHECKING:
     from psdesign.geometry.rve import VoxelFields
 
 
+def _announced_bc(flow: dict, args: argparse.Namespace) -> dict:
+    """The flow table of the command's first solve: ``--bc both`` solves the permeameter's
+    grid first (:func:`psdesign.flow.compare.permeability_both_bc`). Kept for main's up-front
+    no-path check (session 43, s43-polish), which reads it; each solve's estimate is the
+    route's own now (:mod:`psdesign.flow.voxel_estimate`)."""
+    return {**flow, "bc": "permeameter"} if args.bc == "both" else flow
+
+
 def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, solver: str, capture):
     from psdesign.flow.compare import permeability_both_bc
     from psdesign.flow.permeability import permeability
