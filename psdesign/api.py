@@ -305,12 +305,10 @@ class Material:
         folder = fields_folder(fields, "permeability", [direction], route, option="fields")
         method = "GMRES" if route == "fem" else "MINRES"
         with folder as writer, _progress(progress, direction, f"{route} solve", method) as report:
-            if report is not None and route == "voxel":  # the command's estimate line, too
-                from psdesign.cli.permeability import announce_voxel
+            if report is not None and route == "voxel":  # no path: refused before the estimate
                 from psdesign.flow.voxel import refuse_without_path
 
-                refuse_without_path(self.fields, direction, table, self.rve)  # before it
-                announce_voxel(self.fields, direction, table, self.rve)
+                refuse_without_path(self.fields, direction, table, self.rve)
             result = permeability(
                 self.rve, self.fields, direction, table, route, progress=report, capture=writer
             )

@@ -166,8 +166,10 @@ __all__ = [
     "VoxelStokesError",
     "check_percolates",
     "percolates",
+    "reservoir_cells",
     "richardson_extrapolate",
     "solve_voxel_stokes",
+    "solved_shape",
 ]
 
 _AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
@@ -405,6 +407,40 @@ def check_percolates(solid: np.ndarray, direction: int, what: str) -> None:
         )
 
 
+def reservoir_cells(n_d: int, aux_length: float) -> int:
+    """Cells of each empty reservoir of a permeameter solve: ``aux_length`` times the sample's
+    ``n_d`` cells along the flow, rounded up, at least one.
+
+    >>> reservoir_cells(60, 0.2 / 3), reservoir_cells(5, 0.0)
+    (4, 1)
+    """
+    return max(1, int(np.ceil(aux_length * n_d - 1e-9)))
+
+
+def solved_shape(
+    shape: tuple[int, ...], d: int, bc: str, treatment: str = "periodic", aux_length: float = 0.2
+) -> tuple[int, ...]:
+    """The shape of the grid a solve of a ``shape`` sample holds (before any allocation): the
+    permeameter's two reservoirs (:func:`reservoir_cells`) along ``d``, else the periodic
+    treatment's (``mirror``: doubled along ``d``; ``frame``: one solid layer more across it).
+
+    >>> solved_shape((60, 10, 10), 0, "permeameter", aux_length=0.2)
+    (84, 10, 10)
+    >>> solved_shape((60, 10, 10), 0, "periodic", "mirror")
+    (120, 10, 10)
+    >>> solved_shape((6, 4, 4), 0, "periodic", "frame")
+    (6, 5, 5)
+    """
+    dims = [int(n) for n in shape]
+    if bc == "permeameter":
+        dims[d] += 2 * reservoir_cells(dims[d], aux_length)
+    elif treatment == "mirror":
+        dims[d] *= 2
+    elif treatment == "frame":
+        dims = [n + (b != d) for b, n in enumerate(dims)]
+    return tuple(dims)
+
+
 def apply_treatment(
     solid: np.ndarray, d: int, treatment: str, phi: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -609,7 +645,7 @@ def _setup_grid(
     n_d = solid.shape[d]
     walls: dict[int, str] = {}
     if bc == "permeameter":
-        n_aux = max(1, int(np.ceil(aux_length * n_d - 1e-9)))
+        n_aux = reservoir_cells(n_d, aux_length)
         grid, phi = bd.pad_reservoirs(solid, phi, d, n_aux)
         walls = {b: sides for b in range(3) if b != d}
         rve = (n_aux, n_aux + n_d)
@@ -804,14 +840,7 @@ def _check_memory(
 ) -> None:
     """Refuse, before any allocation, a solve whose estimated peak memory
     (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
-    dims = [float(n) for n in shape]
-    if bc == "permeameter":
-        dims[d] += 2 * max(1, int(np.ceil(aux_length * shape[d] - 1e-9)))
-    elif treatment == "mirror":
-        dims[d] *= 2
-    elif treatment == "frame":
-        dims = [n + (b != d) for b, n in enumerate(dims)]
-    cells = float(np.prod(dims))
+    cells = float(np.prod([float(n) for n in solved_shape(shape, d, bc, treatment, aux_length)]))
     kind = "subvoxel" if subvoxel else "staircase"
     need = vmem.solver_bytes(cells, kind, tol, walls=bc == "permeameter")
     avail = vmem.available_bytes()

@@ -17,48 +17,12 @@ from psdesign.cli.progress import progress_printer, warning
 if TYPE_CHECKING:
     from psdesign.geometry.rve import VoxelFields
 
-#: Voxel Stokes solve time per grid cell, one thread and two (measured on the idle 2-core
-#: machine: 100^3 in 9.5 s and 5.4 s, ``solvers.voxel.threads.PARALLEL_MIN_CELLS``).
-VOXEL_SECONDS_PER_CELL = {1: 9.5e-6, 2: 5.4e-6}
-
-#: The same for ``flow.wall_treatment = "diffuse"`` (wall sampling, assembly, AMG set-up and
-#: 50-90 MINRES iterations): 7-10e-5 s per cell on grids of 2.6e4-2.1e5 cells, square arrays
-#: (``benchmarks/diffuse_validation_runs.jsonl``, 2026-12-04, the shared 2-core machine).
-DIFFUSE_SECONDS_PER_CELL = 9e-5
-#: Plus the wall sampling per cell, fibre and box image (``psdesign.geometry.walls``): 1.3-4.1
-#: us measured (square array 64^2 x 40, one fibre; hexagonal cell at 56, 5 fibres x 3 images;
-#: 2026-12-04, idle), the larger kept.
-WALL_SECONDS_PER_CELL_AND_COPY = 4.5e-6
-
-
-def announce_voxel(fields, direction: str, flow: dict, rve) -> None:
-    """Time and memory estimate of a voxel solve on stderr (before it starts), on the active
-    printer (the command's; the API's with ``progress=True``): the solved grid's cells, the
-    permeameter's stack and reservoirs included (``flow["bc"]``, default periodic)."""
-    import numba
-
-    from psdesign.cli import progress
-    from psdesign.flow.voxel import solved_cells
-    from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
-
-    wall = flow.get("wall_treatment")
-    axis = "xyz".index(direction)
-    cells = solved_cells(flow, rve, fields, axis, flow.get("bc") or "periodic")
-    rate = VOXEL_SECONDS_PER_CELL[1 if numba.get_num_threads() == 1 else 2]
-    need = VOXEL_SOLVER_BYTES_PER_VOXEL * cells
-    if wall == "diffuse":
-        from psdesign.geometry.walls import box_shifts
-        from solvers.voxel.diffuse import diffuse_memory_bytes
-
-        copies = len(rve.fibers) * len(box_shifts(rve.fibers, rve.size / rve.period)[0])
-        rate = DIFFUSE_SECONDS_PER_CELL + WALL_SECONDS_PER_CELL_AND_COPY * copies
-        need = diffuse_memory_bytes(fields.solid.shape)
-    progress.estimate(f"voxel solve {direction} ({cells:.3g} cells)", rate * cells, need / 1e9)
-
 
 def _announced_bc(flow: dict, args: argparse.Namespace) -> dict:
-    """The flow table whose first solve the estimate describes: ``--bc both`` solves the
-    permeameter's (larger) grid too, so its estimate is the permeameter's."""
+    """The flow table of the command's first solve: ``--bc both`` solves the permeameter's
+    grid first (:func:`psdesign.flow.compare.permeability_both_bc`). Kept for main's up-front
+    no-path check (session 43, s43-polish), which reads it; each solve's estimate is the
+    route's own now (:mod:`psdesign.flow.voxel_estimate`)."""
     return {**flow, "bc": "permeameter"} if args.bc == "both" else flow
 
 
@@ -66,8 +30,6 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     from psdesign.flow.compare import permeability_both_bc
     from psdesign.flow.permeability import permeability
 
-    if solver == "voxel":
-        announce_voxel(fields, direction, _announced_bc(flow, args), rve)
     progress = None if args.quiet else progress_printer(direction)
     estimate = False if args.no_error_estimate else None
     if args.bc == "both":
@@ -287,6 +249,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     perm.add_argument("--json", action="store_true", help="print one JSON object")
     perm.add_argument(
-        "--quiet", action="store_true", help="no progress lines on stderr during long voxel solves"
+        "--quiet",
+        action="store_true",
+        help="no progress lines on stderr (meshing stages, each solve's time and memory "
+        "estimate, solver iterations); warnings and errors are still printed",
     )
     perm.set_defaults(func=_cmd_permeability)

@@ -516,7 +516,15 @@ def _restack_refusal(res: dict, copies: int, fields: VoxelFields, flow: dict) ->
     return None, None
 
 
-def _solve_longer(rve, fields, direction, flow, solver, progress, capture) -> dict | str:
+def _solve_longer(
+    rve: RVE,
+    fields: VoxelFields,
+    direction: str | int,
+    flow: dict,
+    solver: str,
+    progress: Callable[[int, float], None] | None,
+    capture: Callable[..., None] | None,
+) -> dict | str:
     """The longer stack's result, or the FEM solve's own ``flow.max_memory_gb`` refusal of
     its built mesh as the reason to stop (an estimate within ``CAP_MARGIN`` of the cap let it
     be meshed): the shorter stack's result and its held fields are kept."""

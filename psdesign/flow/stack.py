@@ -42,6 +42,7 @@ attempts are in the result's ``permeameter_auto`` (copies, K and window term of 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -353,7 +354,7 @@ def auto_copies(periodic: bool, periods: int) -> int:
     return AUTO_COPIES if periodic and periods < 2 else 1
 
 
-def spec_auto_copies(rve: RVE | None, axes, voxel: float | SolidMask) -> int:
+def spec_auto_copies(rve: RVE | None, axes: Iterable[int], voxel: float | SolidMask) -> int:
     """The most copies ``"auto"`` plans along ``axes`` (0, 1, 2) for an RVE of explicit fibers,
     known before its voxel fields are built: :func:`auto_copies` of :func:`periodicity` on the
     RVE's analytic field, the test :func:`plan_copies` applies to the built RVE (the same

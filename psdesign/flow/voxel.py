@@ -39,6 +39,7 @@ from psdesign.flow.error import (
 )
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
+from psdesign.flow.voxel_estimate import announce_voxel_solve
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
 from psdesign.schema.budget import check_planned_stack
 
@@ -158,7 +159,7 @@ def permeability_voxel(
     velocity and pressure fields and ``capture("voxel_flow", solution=..., result=...,
     fields=..., flow=...)`` is called after the solve (:mod:`psdesign.fields`).
     """
-    from solvers.voxel_stokes import NoFluidPathError, solve_voxel_stokes
+    from solvers.voxel_stokes import NoFluidPathError, solve_voxel_stokes, solved_shape
 
     name, ax = axis_of(direction)
     bc, wall = _options(flow)
@@ -186,6 +187,9 @@ def permeability_voxel(
             res = _diffuse(rve, fields, name, flow, h, bc, progress, capture is not None)
         else:
             plan, solve, kw = _solve_setup(flow, rve, fields, ax, h, bc, wall)
+            treatment = flow.get("periodic_treatment") or "periodic"
+            aux = kw.get("aux_length", 0.0)
+            announce_voxel_solve(name, solved_shape(solve.solid.shape, ax, bc, treatment, aux))
             res = solve_voxel_stokes(
                 solve.solid,
                 h,
@@ -265,6 +269,10 @@ def _diffuse(rve, fields, name, flow, h, bc, progress, return_fields):
         raise ValueError(
             "fields: not with flow.wall_treatment = 'diffuse' (its solve keeps no pressure field)"
         )
+    from psdesign.geometry.walls import box_shifts
+
+    images = len(rve.fibers) * len(box_shifts(rve.fibers, rve.size / rve.period)[0])
+    announce_voxel_solve(name, fields.solid.shape, diffuse_images=images)
     return diffuse.solve_diffuse(rve, fields, name, flow, h, progress)
 
 
@@ -288,6 +296,8 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
         kw["distance"] = fields.distance
     if bc != "permeameter":
         return None, fields, kw
+    from solvers.voxel_stokes import solved_shape
+
     plan = plan_copies(flow, rve, fields, ax)  # m copies along the flow
     key = "rve.voxel" if fields.analytic_distance else "image.crop"
     check_planned_stack(flow, "voxel", plan.copies, fields.grid.size, h, None, None, key)
@@ -297,33 +307,10 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     aux = float(flow.get("aux_length", 0.2)) / plan.copies  # reservoirs: one copy's aux
     kw["aux_length"] = aux
     kw["sides"] = flow.get("sides", "slip")
-    n_tot = stack_length(solve.solid.shape[ax], aux)
+    # the drop is over the whole solved length, reservoirs included (the solver's own rule)
+    n_tot = solved_shape(solve.solid.shape, ax, "permeameter", aux_length=aux)[ax]
     kw["pressure_gradient"] = float(flow.get("pressure_drop", 1.0)) / (n_tot * h)
     return plan, solve, kw
-
-
-def stack_length(n_d: int, aux: float) -> int:
-    """Cells along the flow of the permeameter's solved grid: the stack's ``n_d`` and an empty
-    reservoir of ``aux * n_d`` cells (at least one) on each side.
-
-    >>> stack_length(60, 0.2 / 3)
-    68
-    """
-    return n_d + 2 * max(1, int(np.ceil(aux * n_d - 1e-9)))
-
-
-def solved_cells(flow: dict, rve: RVE | None, fields: VoxelFields, ax: int, bc: str) -> int:
-    """Cells of the grid the voxel route solves first: the RVE's for the periodic bc, the
-    planned stack of copies with its two reservoirs for the permeameter (:func:`_solve_setup`;
-    an ``"auto"`` plan may add copies after this solve). For the estimate printed before it:
-    the RVE's count under-stated a 3-copy permeameter's grid 3.4 times (session 43)."""
-    cells = int(fields.solid.size)
-    if bc != "permeameter":
-        return cells
-    copies = plan_copies(flow, rve, fields, ax).copies
-    n = fields.solid.shape[ax]
-    aux = float(flow.get("aux_length", 0.2)) / copies
-    return cells // n * stack_length(n * copies, aux)
 
 
 def _result(res, fields, direction, bc, flow, periods, cpd, t0) -> dict:

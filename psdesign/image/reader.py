@@ -47,10 +47,29 @@ _UNITS = {
     "millimeter": 1e-3,
     "millimetre": 1e-3,
     "cm": 1e-2,
+    "centimeter": 1e-2,
+    "centimetre": 1e-2,
     "m": 1.0,
+    "meter": 1.0,
+    "metre": 1.0,
 }
 #: ImageJ's word for "not calibrated".
 _NO_UNIT = ("", "pixel", "pixels")
+
+
+def unit_metres(unit: str) -> float | None:
+    """Metres per ImageJ ``unit`` (any case, spaces around it, a word's plural "s": the
+    spellings writers use), or None where it is not a length psdesign reads. One rule for the
+    voxel size and the refusal's note (s43-iface read "microns" but not "micrometers" or
+    "meters", review2).
+
+    >>> unit_metres("Micrometers"), unit_metres(" UM "), unit_metres("meter"), unit_metres("ms")
+    (1e-06, 1e-06, 1.0, None)
+    """
+    u = str(unit).strip().lower()
+    if u not in _UNITS and len(u) > 3 and u.endswith("s"):  # not "ms": milliseconds
+        u = u[:-1]
+    return _UNITS.get(u)
 
 
 def tiff_unit(path: str | Path) -> str:
@@ -68,7 +87,7 @@ def unknown_unit_note(path: str | Path, fmt: str | None = None) -> str:
     if ext not in (".tif", ".tiff"):
         return ""
     unit = tiff_unit(path)
-    if unit.lower() in _NO_UNIT or unit.lower() in _UNITS:
+    if unit.lower() in _NO_UNIT or unit_metres(unit) is not None:
         return ""
     known = "nm, um, micron, mm, cm, m"
     return f" (its ImageJ unit {unit!r} is not a length psdesign reads: {known})"
@@ -426,19 +445,23 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
 
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
             meta = tf.imagej_metadata or {}
-            unit = _UNITS.get(str(meta.get("unit", "")).strip().lower())
-            tag = tf.pages[0].tags.get("XResolution")
-            if unit is None or tag is None:
+            unit = unit_metres(str(meta.get("unit", "")))
+            tags = tf.pages[0].tags
+            xtag, ytag = tags.get("XResolution"), tags.get("YResolution")
+            if unit is None or xtag is None:
                 return None
-            num, den = tag.value
+            num, den = xtag.value
             if not num or not den:
                 return None
             xy = den / num * unit
+            # y from its own tag (read as x's until review2: 0.5 x 1 um pixels gave 0.5 um cubes)
+            ynum, yden = ytag.value if ytag is not None else (num, den)
+            y = yden / ynum * unit if ynum and yden else xy
             z = float(meta.get("spacing", den / num)) * unit
-        if abs(z - xy) > 1e-6 * xy:
+        if abs(z - xy) > 1e-6 * xy or abs(y - xy) > 1e-6 * xy:
             raise ValueError(
-                f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, z {z:g} m); "
-                "resample to cubic voxels"
+                f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, y {y:g} m, "
+                f"z {z:g} m); resample to cubic voxels"
             )
         return float(xy)
     if ext == ".vti":

@@ -183,7 +183,7 @@ def check_planned_stack(
     :func:`psdesign.flow.stack.plan_copies`) over ``flow.max_memory_gb``, with the up-front
     check of the route (:func:`_check_voxel_cap`, :func:`check_fem`, the same estimate and
     line) at those copies: up front ``"auto"`` counts one copy (:func:`least_stack_of`) where
-    the spec cannot tell its copies (a generated RVE, or no direction given), so such a
+    the spec cannot tell its copies (a generated RVE), so such a
     periodic one-period RVE's two copies are checked here, after the RVE is built and before
     the grid is stacked or meshed (explicit fibers and images along a direction were counted
     before any work, :mod:`psdesign.schema.plan`, and pass here again). ``flow``:

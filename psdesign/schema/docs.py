@@ -27,12 +27,15 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
   (`"auto"` counts the copies it will stack first where the spec tells: explicit fibers or an
   image along the direction solved (their analytic end planes, the image's voxel seam: the test
-  the built RVE gets, 2 on a periodic one-period RVE, else 1); else 2, its most for a first
+  the built RVE gets, 2 on a periodic one-period RVE, else 1; a spec checked alone, before a
+  command or study names the direction, counts the fewest over the three axes: its
+  `flow.direction` is a default the command line may override); else 2, its most for a first
   solve;
   a longer stack it takes after a window term above 1 % is checked before it is solved) plus two
   reservoirs of `flow.aux_length` times one copy; with `flow.solver = "fem"` the Taylor-Hood
   solve's own estimate (`solvers/fem/memory.py`) of the stuffing mesh (6.5 tets and 1.5
-  vertices per lattice cell of pore, `generator.porosity` or 1) must fit too (without
+  vertices per lattice cell of pore, `generator.porosity`, the porosity of a stack `"auto"`
+  planned (below), or 1) must fit too (without
   `flow.lattice_step` the default step, the thinnest fiber diameter / 3, is coarsened to fit,
   never beyond `max(2 rve.voxel, min(size) / 30)`, which alone decides the refusal); with
   `flow.mesher = "pytetwild"` the mesh counted is pytetwild's (55 tets per cube of its target
@@ -47,7 +50,9 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   `flow.edge_length`); the voxel solve's (`rve.voxel`, or `image.crop`). Each counts the
   copies `"auto"` plans for explicit fibers or an image along the direction solved, as above
   (every command, study case and `Material.permeability` pins its directions before any
-  work), else one (a generated RVE stacks one when not periodic along the flow); there the
+  work; the FEM counts a planned stack at the image's porosity, or at an upper bound of the
+  fibers' sampled from their field at 50 000 points, not at 1), else one (a generated RVE
+  stacks one when not periodic along the flow); there the
   stack `"auto"` plans is checked the same way once the RVE is built, before it is meshed or
   solved (at the RVE's porosity). The FEM solve checks the cap again from the built mesh.
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is

@@ -26,6 +26,13 @@ MAX_CYLINDER_PACKING = math.pi / math.sqrt(12.0)
 FAST_JAM_POROSITY = 0.72
 
 
+def _stacked_porosity(flow: FlowTable, seen: dict) -> float | None:
+    """The geometry's porosity (``seen``, where the plan read it) when ``flow`` has a planned
+    stack of two or more copies, else None (the unplanned checks count as before)."""
+    copies = flow.permeameter_copies
+    return seen.get("porosity") if isinstance(copies, int) and copies >= 2 else None
+
+
 class SpecWarning(UserWarning):
     """A spec that is valid but likely to fail or to be slow (printed as one line)."""
 
@@ -120,7 +127,7 @@ class SpecDocument(Table):
                 f"<= {min(size) / 4:g} m",
             )
         budget.check_copies(size, period)
-        flow = self._planned_flow(size, voxel)
+        flow, planned_porosity = self._planned_flow(size, voxel)
         budget.check_grid(size, voxel, flow.solver, flow=flow)
         # the stuffing lattice's own range: pytetwild does not read the key (its refusal named
         # a key the route ignores; psdesign mesh --mesher stuffing validates again)
@@ -134,8 +141,7 @@ class SpecDocument(Table):
         if lattice is not None:
             budget.check_cells("flow.lattice_step", size, lattice, budget.MAX_LATTICE_CELLS)
         if self.flow.solver == "fem":
-            porosity = self.generator.porosity if self.generator is not None else None
-            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
+            self._fem_memory(size, voxel, flow, planned_porosity)
         self._check_fibers(size, voxel, period)
         if not self.fibers and self.generator is None:
             raise fail(
@@ -155,48 +161,70 @@ class SpecDocument(Table):
             self._check_diffuse()
         return self
 
-    def _fiber_memory(self, size, voxel: float, flow: FlowTable) -> None:
+    def _fem_memory(self, size, voxel: float, flow: FlowTable, porosity: float | None) -> None:
+        """The FEM's memory check of a fiber spec at ``flow``; ``porosity`` None: the
+        generator's target, else every lattice cell counted as pore."""
+        if porosity is None and self.generator is not None:
+            porosity = self.generator.porosity
+        budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
+
+    def _fiber_memory(self, size, voxel: float, flow: FlowTable, porosity=None) -> None:
         """The memory checks of a fiber spec at ``flow`` (the voxel grid's, the FEM's)."""
         budget.check_grid(size, voxel, flow.solver, flow=flow)
         if flow.solver == "fem":
-            porosity = self.generator.porosity if self.generator is not None else None
-            budget.check_fem(size, voxel, flow, porosity, self._thinnest_diameter())
+            self._fem_memory(size, voxel, flow, porosity)
 
-    def _planned_flow(self, size, voxel: float) -> FlowTable:
-        """``[flow]`` as the memory checks count it (:func:`psdesign.schema.plan.planned_flow`):
-        explicit fibers alone plan their copies from their analytic field
-        (:func:`psdesign.flow.stack.spec_auto_copies`); a generated RVE keeps ``"auto"``."""
+    def _planned_flow(self, size, voxel: float) -> tuple[FlowTable, float | None]:
+        """``[flow]`` as the memory checks count it (:func:`psdesign.schema.plan.planned_flow`),
+        and the porosity the FEM's check counts with it (None: as without a plan).
+
+        Explicit fibers alone plan their copies from their analytic field
+        (:func:`psdesign.flow.stack.spec_auto_copies`); a generated RVE keeps ``"auto"``. Where
+        the plan stacks two copies the FEM counts them at
+        :func:`psdesign.geometry.porosity.sampled_porosity_bound`, not at porosity 1: the check
+        of the built RVE counts them at its porosity (``check_planned_stack``), and porosity 1
+        refused up front a 0.59-porous stack it ran (2.04 GB counted against a 1.45 GB cap,
+        the solve 1.3 GB; session 43, review2)."""
         from psdesign.schema.plan import planned_flow
 
         if self.generator is not None or not self.fibers:
-            return self.flow
+            return self.flow, None
+        seen: dict = {}
 
         def plan(axis: int) -> int:
             import numpy as np
 
             from psdesign.flow.stack import spec_auto_copies
+            from psdesign.geometry.porosity import sampled_porosity_bound
             from psdesign.geometry.rve import RVE
             from psdesign.schema.spec import explicit_fibers
 
             tables = {"rve": {"size": list(size), "period": self.rve.period}}
             fibers = explicit_fibers({**tables, "fibers": [f.to_spec() for f in self.fibers]})
             rve = RVE(size=np.asarray(size), fibers=fibers, period=self.rve.period)
+            if self.flow.solver == "fem":
+                seen["porosity"] = sampled_porosity_bound(rve)
             return spec_auto_copies(rve, [axis], voxel)
 
-        return planned_flow(self.flow, lambda f: self._fiber_memory(size, voxel, f), plan)
+        flow = planned_flow(self.flow, lambda f: self._fiber_memory(size, voxel, f), plan)
+        return flow, _stacked_porosity(flow, seen)
 
-    def _image_memory(self, img, flow: FlowTable) -> None:
-        """The memory checks of an image spec at ``flow`` (the crop names the grid)."""
+    def _image_memory(self, img, flow: FlowTable, porosity: float | None = None) -> None:
+        """The memory checks of an image spec at ``flow`` (the crop names the grid;
+        ``porosity`` None: the FEM counts every lattice cell as pore)."""
         budget.check_grid(img.size, img.voxel, flow.solver, key="image.crop", flow=flow)
         if flow.solver == "fem":
-            budget.check_fem(img.size, img.voxel, flow, None)
+            budget.check_fem(img.size, img.voxel, flow, porosity)
 
-    def _planned_image_flow(self, img) -> FlowTable:
+    def _planned_image_flow(self, img) -> tuple[FlowTable, float | None]:
         """``[flow]`` as an image's memory checks count it: the copies its solid mask plans
         (the voxel seam test the built image gets, :func:`psdesign.flow.stack.
         spec_auto_copies`), read only where one copy fits and two do not
-        (:func:`psdesign.schema.plan.planned_flow`)."""
+        (:func:`psdesign.schema.plan.planned_flow`); and the mask's porosity, which the FEM
+        counts a planned stack at (the built image's, as ``check_planned_stack`` does)."""
         from psdesign.schema.plan import planned_flow
+
+        seen: dict = {}
 
         def plan(axis: int) -> int | None:
             from psdesign.flow.stack import SolidMask, spec_auto_copies
@@ -206,9 +234,11 @@ class SpecDocument(Table):
                 mask = load_mask(source_of(img.to_spec()))
             except ValueError:  # refused with its own line below
                 return None
+            seen["porosity"] = 1.0 - float(mask.sum()) / mask.size
             return spec_auto_copies(None, [axis], SolidMask(mask))
 
-        return planned_flow(self.flow, lambda f: self._image_memory(img, f), plan)
+        flow = planned_flow(self.flow, lambda f: self._image_memory(img, f), plan)
+        return flow, _stacked_porosity(flow, seen)
 
     def _check_diffuse(self) -> None:
         """``flow.wall_treatment = "diffuse"`` (a voxel-solver wall; the FEM ignores it, as it
@@ -312,7 +342,7 @@ class SpecDocument(Table):
                 f"{self.flow.wall_treatment!r} needs an analytic surface; an [image] has none",
                 "staircase",
             )
-        self._image_memory(img, self._planned_image_flow(img))
+        self._image_memory(img, *self._planned_image_flow(img))
         try:
             solid = load_mask(source_of(img.to_spec()))
         except ValueError as exc:

@@ -11,7 +11,7 @@ from psdesign.schema.types import Table, fail, flag, number, short
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
 MAX_PERMEAMETER_COPIES = 8
 #: Copies ``"auto"`` stacks first for a periodic one-period RVE (psdesign.flow.stack.AUTO_COPIES);
-#: where the spec cannot tell the copies (a generated RVE, no direction) the up-front memory
+#: where the spec cannot tell the copies (a generated RVE) the up-front memory
 #: budget (half the machine) counts these, the ``flow.max_memory_gb`` cap one copy, and the
 #: planned stack is checked once the RVE is built; explicit fibers or an image along a
 #: direction count their planned copies in both (psdesign.schema.plan; a longer stack "auto"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import tomllib
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -166,17 +167,35 @@ def check_flow_override(spec: dict, flow: dict) -> None:
         validate_spec({**spec, "flow": flow})
 
 
-def check_directions(spec: dict, flow: dict, directions) -> None:
+def check_directions(spec: dict, flow: dict, directions: Iterable[str]) -> None:
     """:func:`check_flow_override` with ``flow.direction`` pinned to each of ``directions``
     (``"x"``, ``"y"``, ``"z"``), before any work: along a direction an ``"auto"``
     permeameter of explicit fibers or of an image counts the copies it will stack
-    (:func:`psdesign.schema.plan.planned_flow`; without a direction the spec cannot tell; an
+    (:func:`psdesign.schema.plan.planned_flow`; alone the spec counts the fewest over the axes; an
     image's mask is read once, ``psdesign.image.load.load_mask`` keeps it). Skipped for a
-    generated RVE, whose copies are known once built. ``SpecError``."""
+    generated RVE, whose copies are known once built.
+
+    Parameters
+    ----------
+    spec : dict
+        A validated spec.
+    flow : dict
+        Its ``[flow]`` table as the route runs it (the command's or method's solver and bc).
+    directions : iterable of str
+        The directions the route solves.
+
+    Raises
+    ------
+    SpecError
+        The first check that fails, naming its key (a memory refusal of the planned stack).
+    """
+    from psdesign.schema.plan import pinned_direction
+
     if "generator" in spec:
         return
-    for d in directions:
-        check_flow_override(spec, {**flow, "direction": d})
+    with pinned_direction():  # plan along d, not the fewest copies over the axes
+        for d in directions:
+            validate_spec({**spec, "flow": {**flow, "direction": d}})
 
 
 def _plain(value: Any) -> Any:

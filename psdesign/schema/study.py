@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Literal
 
 from pydantic import Field, model_validator
@@ -21,7 +22,7 @@ Output = Literal[OUTPUTS]  # type: ignore[valid-type]
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
 
 
-def k_directions(outputs) -> list[str]:
+def k_directions(outputs: Iterable[str]) -> list[str]:
     """The flow directions a case with these outputs solves (``k_tensor``: all three).
 
     >>> k_directions(["porosity", "k_z", "k_x"]), k_directions(["k_tensor"])

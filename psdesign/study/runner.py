@@ -19,7 +19,7 @@ import platform
 import socket
 import sys
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import fields as fields_of
@@ -612,7 +612,7 @@ def _machine() -> dict:
 
 
 def validate_case_specs(
-    cases: list[Case], solver: str | None = None, directions: list[str] = ()
+    cases: list[Case], solver: str | None = None, directions: Sequence[str] = ()
 ) -> None:
     """Check every case spec with the spec validators of the pipeline (before running), with
     ``solver`` (the study's, which the cases run) in its ``[flow]`` table when given: the

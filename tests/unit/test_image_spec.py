@@ -325,7 +325,15 @@ def test_a_folder_of_slices_is_refused_with_how_to_stack_it(tmp_path, given):
 
 @pytest.mark.parametrize(
     "unit, voxel",
-    [("micron", 0.5e-6), ("microns", 0.5e-6), ("UM", 0.5e-6), ("\\u00B5m", 0.5e-6), ("mm", 0.5e-3)],
+    [
+        ("micron", 0.5e-6),
+        ("microns", 0.5e-6),
+        ("UM", 0.5e-6),
+        ("\\u00B5m", 0.5e-6),
+        ("mm", 0.5e-3),
+        ("micrometers", 0.5e-6),  # review2: the plurals of the words read as "no voxel size"
+        ("Millimeters", 0.5e-3),
+    ],
 )
 def test_imagej_unit_spellings_give_the_voxel_size(tmp_path, unit, voxel):
     # session 43: "microns" (a writer's plural) and "UM" read as "carries no voxel size"; the
@@ -348,7 +356,7 @@ def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
 
     data = np.zeros((8, 8, 8), np.uint8)
     data[:, :, :3] = 255
-    for unit in ("furlong", "inch"):  # inch: ImageJ's unit of a 72-dpi picture, 0.35 mm
+    for unit in ("furlong", "inch", "ms"):  # inch: ImageJ's unit of a 72-dpi picture, 0.35 mm
         meta = {"unit": unit, "spacing": 1 / 72, "axes": "ZYX"}
         res = (72.0, 72.0)
         tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=res, metadata=meta)
@@ -356,6 +364,23 @@ def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
             psdesign.from_image(tmp_path / "s.tif")
         assert info.value.key == "image.voxel_size" and f"'{unit}'" in info.value.message
     assert psdesign.from_image(tmp_path / "s.tif", voxel_size=1e-6).spec["rve"]["voxel"] == 1e-6
+
+
+def test_a_tiff_with_other_x_and_y_pixel_sizes_is_refused(tmp_path):
+    """ImageJ calibrates x and y by their own resolution tags; only x was read, so 0.5 x 1 um
+    pixels were taken as 0.5 um cubes (the box 4 x 8 um read as 4 x 4 um, K of another
+    material, exit 0). The docstring said x, y and z must agree; now y is checked too
+    (review2). Old code: voxel 5e-07."""
+    import tifffile
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": "um", "spacing": 0.5, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 1.0), metadata=meta)
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "s.tif")
+    assert info.value.key == "image.voxel_size"
+    assert "not cubic (x 5e-07 m, y 1e-06 m, z 5e-07 m)" in info.value.message
 
 
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
