@@ -18,11 +18,10 @@ if TYPE_CHECKING:
     from psdesign.geometry.rve import VoxelFields
 
 
-def _announced_bc(flow: dict, args: argparse.Namespace) -> dict:
-    """The flow table of the command's first solve: ``--bc both`` solves the permeameter's
-    grid first (:func:`psdesign.flow.compare.permeability_both_bc`). Kept for main's up-front
-    no-path check (session 43, s43-polish), which reads it; each solve's estimate is the
-    route's own now (:mod:`psdesign.flow.voxel_estimate`)."""
+def _first_solve_flow(flow: dict, args: argparse.Namespace) -> dict:
+    """The flow table of the command's first solve, which the up-front no-path check reads:
+    ``--bc both`` solves the permeameter's grid first
+    (:func:`psdesign.flow.compare.permeability_both_bc`)."""
     return {**flow, "bc": "permeameter"} if args.bc == "both" else flow
 
 
@@ -188,7 +187,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
             from psdesign.flow.voxel import refuse_without_path
 
             for d in directions:
-                refuse_without_path(fields, d, _announced_bc(flow, args), rve)
+                refuse_without_path(fields, d, _first_solve_flow(flow, args), rve)
         results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
     out = results[0] if len(results) == 1 else _combine(results, solver, fields)
     out["wall_time_s"] = time.perf_counter() - t0
