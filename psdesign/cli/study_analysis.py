@@ -86,7 +86,12 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     ``std`` is the printed bar: the GP std, never below the fit's measured hold-out error
     (:func:`~psdesign.analysis.prediction.holdout_bar`; the GP std alone held the truth within
     2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
-    from psdesign.analysis.prediction import holdout_bar, holdout_error, holdout_reason
+    from psdesign.analysis.prediction import (
+        holdout_bar,
+        holdout_error,
+        holdout_reason,
+        prediction_bar,
+    )
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
     x = parse_point(at, m.params, ints)
@@ -98,7 +103,7 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     bar = holdout_bar(m, mean)
     row = {
         "mean": mean,
-        "std": max(gp_std, bar),
+        "std": float(prediction_bar(m, mean, gp_std)),
         "gp_std": gp_std,
         "error_from": words if bar > gp_std else "GP std",
         "holdout_rel_error": held,
