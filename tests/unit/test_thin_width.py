@@ -218,3 +218,46 @@ def test_round_and_non_round_fibers_mixed(rod, thinnest, measure):
     rve = SimpleNamespace(fibers=fibers, period=1e-4)
     assert thinnest_fiber_diameter(rve) == pytest.approx(thinnest * 1e-4, rel=1e-12)
     assert resolution_measure(rve) == measure
+
+
+@pytest.mark.parametrize(("cap", "planned"), [(2.0, True), (10.0, False)])
+def test_explicit_fibers_are_built_once_per_validation(monkeypatch, cap, planned):
+    """Review (session 43): the "auto" copies plan and the FEM budget's thin width each built
+    a spec's explicit fibers, the budget on every memory check: a woven cell in a 100 um cube
+    (FEM, "auto" permeameter along z) was built 4 times at a cap of 2 GB (one copy fits, two
+    do not: the plan runs, and the spec is refused) and 2 times at 10 GB. Now once, and the
+    thin width the budget reads is the built RVE's (psdesign.geometry.rve.
+    thinnest_fiber_diameter of packing.build_rve: the run's own measure)."""
+    import psdesign.flow.stack as stack
+    import psdesign.schema.spec as spec_mod
+    from psdesign.errors import SpecError
+    from psdesign.geometry.rve import thinnest_fiber_diameter
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import validate_document, validate_spec
+
+    flow = {"solver": "fem", "bc": "permeameter", "direction": "z", "max_memory_gb": cap}
+    spec = {"rve": {"size": [1e-4] * 3, "voxel": 2e-6}, "fibers": [{"shape": "woven-cell"}]}
+    spec["flow"] = flow
+    calls = {"build": 0, "plan": 0}
+    real_build, real_plan = spec_mod.explicit_fibers, stack.spec_auto_copies
+
+    def counted(name, real):
+        def call(*a, **k):
+            calls[name] += 1
+            return real(*a, **k)
+
+        return call
+
+    monkeypatch.setattr(spec_mod, "explicit_fibers", counted("build", real_build))
+    monkeypatch.setattr(stack, "spec_auto_copies", counted("plan", real_plan))
+    if planned:
+        with pytest.raises(SpecError) as ei:
+            validate_document(spec)
+        assert ei.value.key == "flow.max_memory_gb" and "2.17e+05 tets" in ei.value.message
+        assert calls == {"build": 1, "plan": 1}
+        return
+    doc = validate_document(spec)
+    assert calls == {"build": 1, "plan": 0}
+    monkeypatch.setattr(spec_mod, "explicit_fibers", real_build)
+    run = thinnest_fiber_diameter(build_rve(validate_spec(spec)).rve)
+    assert doc._thinnest_diameter() == pytest.approx(run, rel=1e-12)
