@@ -251,11 +251,11 @@ def test_explicit_fibers_are_built_once_per_validation(monkeypatch, cap, planned
     monkeypatch.setattr(spec_mod, "explicit_fibers", counted("build", real_build))
     monkeypatch.setattr(stack, "spec_auto_copies", counted("plan", real_plan))
     if planned:  # refused at 2 GB counted at porosity 1; main's review2 counts the stack at
-        try:  # the RVE's sampled porosity and accepts it: either way one build, one plan
-            validate_document(spec)
+        try:  # the RVE's sampled porosity and accepts it, planning each direction it
+            validate_document(spec)  # checks: either way one build for every plan
         except SpecError as exc:
             assert exc.key == "flow.max_memory_gb", exc
-        assert calls == {"build": 1, "plan": 1}
+        assert calls["build"] == 1 and calls["plan"] >= 1, calls
         return
     doc = validate_document(spec)
     assert calls == {"build": 1, "plan": 0}
