@@ -358,7 +358,7 @@ class SpecDocument(Table):
         (:func:`psdesign.schema.spec.explicit_fibers`), or the ``SpecError`` naming the one
         that does not build: built once per document, for the ``"auto"`` copies plan and the
         FEM budget's thin width alike. Before session 43 each built them, and the budget on
-        every memory check: 2-4 builds of a woven cell per validation, 8-33 ms each."""
+        every memory check: 2-4 builds of a woven cell per validation."""
         from psdesign.errors import SpecError
         from psdesign.schema.spec import explicit_fibers
 
