@@ -20,12 +20,16 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
 from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target, check_targets
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: The command an optimization's output folder marker names (it ran ``study run`` before
 #: session 43, which the marker said).
@@ -56,6 +60,9 @@ class OptimizeResult:
     failed : bool
         The search stopped on its cases' failures (no case, or fewer than three to fit,
         finished ok), not on a spent budget: the command's exit status 1, not 3.
+    results : DataFrame or None
+        The folder's results table after the last round (every case of the search, with its
+        ``status``): the command counts its failed cases, as ``study run`` does.
     """
 
     met: bool
@@ -65,6 +72,7 @@ class OptimizeResult:
     history: list[dict] = field(default_factory=list)
     message: str = ""
     failed: bool = False
+    results: pd.DataFrame | None = None
 
 
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
@@ -377,7 +385,7 @@ def optimize_study(
         n = len(points)
         if best and best_miss == 0.0:
             msg = f"met every target after {n} design points" + single_seed_note(best, targets)
-            return OptimizeResult(True, best, n, rounds, history, msg)
+            return OptimizeResult(True, best, n, rounds, history, msg, results=df)
         new: list[list[float]] = []
         if n < min(budget, space) and len(ok) >= 3:
             new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
@@ -385,5 +393,5 @@ def optimize_study(
             msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
             msg += _closest_miss(best_miss, targets)
             msg += seed_scatter_note(ok.to_dict(orient="records"), names, best, targets)
-            return OptimizeResult(False, best, n, rounds, history, msg, failed=failed)
+            return OptimizeResult(False, best, n, rounds, history, msg, failed, df)
         points.extend(new)

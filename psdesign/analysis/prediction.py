@@ -40,16 +40,31 @@ def holdout_error(s: Surrogate) -> tuple[float, str]:
     return max(found) if found else (math.nan, "")
 
 
-def holdout_bar(s: Surrogate, mean: float) -> float:
-    """The fit's largest hold-out error (:func:`holdout_error`) at a prediction ``mean``, in
-    the output's unit (0 without one): relative to the value for a log-modelled output (its
-    relative error is ``10**rmse - 1``), to the cases' mean ``|y|`` otherwise (how
-    :func:`~psdesign.analysis.surrogate.fit_surrogate` made it relative)."""
+def holdout_bar(s: Surrogate, mean):
+    """The fit's largest hold-out error (:func:`holdout_error`) at a prediction ``mean`` (a
+    number or an array of them), in the output's unit (0 without one): relative to the value
+    for a log-modelled output (its relative error is ``10**rmse - 1``), to the cases' mean
+    ``|y|`` otherwise (how :func:`~psdesign.analysis.surrogate.fit_surrogate` made it
+    relative)."""
     rel, _ = holdout_error(s)
     if rel != rel:
-        return 0.0
-    scale = abs(mean) if s.log_output else float(np.mean(np.abs(np.asarray(s.y, float))))
+        return 0.0 * np.abs(mean)
+    scale = np.abs(mean) if s.log_output else float(np.mean(np.abs(np.asarray(s.y, float))))
     return rel * scale
+
+
+def prediction_bar(s: Surrogate, mean, gp_std):
+    """The bar of a prediction (a number, or arrays of them): the GP std ``gp_std``, never
+    below the fit's measured hold-out error (:func:`holdout_bar`), the one rule of
+    ``study predict``'s printed ``+-`` and the report's response surface (its band and its
+    relative uncertainty; the GP std alone, session 43).
+
+    >>> from types import SimpleNamespace as S
+    >>> s = S(cv_rel_error=0.02, cv_level_rel_error=0.3, log_output=True, y=[1.0])
+    >>> prediction_bar(s, np.array([2.0, 4.0]), np.array([1.0, 0.5])).tolist()
+    [1.0, 1.2]
+    """
+    return np.maximum(gp_std, holdout_bar(s, mean))
 
 
 def holdout_reason(s: Surrogate) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, fail
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, fail
 from psdesign.cli.lines import print_json
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
@@ -86,7 +86,12 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     ``std`` is the printed bar: the GP std, never below the fit's measured hold-out error
     (:func:`~psdesign.analysis.prediction.holdout_bar`; the GP std alone held the truth within
     2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
-    from psdesign.analysis.prediction import holdout_bar, holdout_error, holdout_reason
+    from psdesign.analysis.prediction import (
+        holdout_bar,
+        holdout_error,
+        holdout_reason,
+        prediction_bar,
+    )
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
     x = parse_point(at, m.params, ints)
@@ -98,7 +103,7 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     bar = holdout_bar(m, mean)
     row = {
         "mean": mean,
-        "std": max(gp_std, bar),
+        "std": float(prediction_bar(m, mean, gp_std)),
         "gp_std": gp_std,
         "error_from": words if bar > gp_std else "GP std",
         "holdout_rel_error": held,
@@ -262,9 +267,11 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
 
     targets_out = [target_report(t, res.best) for t in targets]
     case = res.best.get("case_id")
+    n_failed = case_counts(res.results)[0] if res.results is not None else 0
     summary = {
         "met": res.met,
         "message": res.message,
+        "n_failed_cases": n_failed,  # failed or timed out: exit 1 even when met (session 43)
         "n_points": res.n_points,
         "rounds": res.rounds,
         "targets": targets_out,
@@ -284,7 +291,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        print(f"{'MET' if res.met else 'NOT MET'}: {res.message}")
+        failed = f" ({n_failed} case(s) failed or timed out; see results.csv)" if n_failed else ""
+        print(f"{'MET' if res.met else 'NOT MET'}: {res.message}{failed}")
         for r in targets_out:
             print(f"  {r['target']}: {measured_text(r)}")
         params = {k: v for k, v in res.best.items() if is_design_parameter(k)}
@@ -294,9 +302,9 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(f"  at {at}" + (f" ({why})" if why else ""))
         for w in summary["warnings"]:  # one line each: what the solve said about this K
             print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
-    if res.met:
-        return OK
-    return FAILED if res.failed else NOT_TRUSTED  # cases that failed, or a target missed
+    if n_failed or res.failed:  # a failed case is exit 1, met or not, as in `study run`
+        return FAILED
+    return OK if res.met else NOT_TRUSTED
 
 
 def _check_outcome_files(out: str) -> None:

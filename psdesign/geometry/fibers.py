@@ -31,6 +31,8 @@ SHAPES = (
     "compressed-bent",
     "woven",
 )
+#: The shapes of a round section given by ``diameter``; the others are fixed shapes.
+ROUND_SHAPES = ("rod", "cylinder", "bent-rod")
 _CELL_CENTRE = np.array([0.5, 0.5, 0.5])
 _Z = np.array([0.0, 0.0, 1.0])
 _X = np.array([1.0, 0.0, 0.0])

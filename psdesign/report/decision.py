@@ -391,6 +391,8 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
             parts[0] += f'<p class="note">Sobol indices: {html.escape(few_levels(s))}.</p>'
         order = list(sob.sort_values("ST", ascending=False)["parameter"])
     tangled = entangled_inputs(s, num, order[:2]) if len(order) >= 2 else ""
+    if not tangled:  # a surface is drawn: what its band is
+        parts[0] += f'<p class="note">{html.escape(surface_band_note(s))}.</p>'
     if len(order) == 1:
         fig = _surface_1d(s, ok, num, order[0], c)
         parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
@@ -477,23 +479,42 @@ def _tie(s, num: list[str], x: np.ndarray, ties: dict) -> np.ndarray:
     return from_unit(u, s.low, s.high, s.log_params)
 
 
+def surface_band_note(s) -> str:
+    """The caption of the response surface's band: what its bar is (the bar ``study predict``
+    prints, :func:`~psdesign.analysis.prediction.prediction_bar`) and the fit's hold-out error
+    it is never below."""
+    from psdesign.analysis.prediction import holdout_error
+
+    rel, words = holdout_error(s)
+    held = f"the fit's {words}, {100 * rel:.3g} %" if rel == rel else "no hold-out error"
+    return (
+        "Response surface: its band (and relative uncertainty) is the bar study predict "
+        f"prints, the GP std never below {held} (the GP std alone is overconfident between "
+        "a grid's levels; before session 43 the band was +-2 GP std)"
+    )
+
+
 def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
-    """GP mean of K along the one parameter, +-2 std band, and the cases."""
+    """GP mean of K along the one parameter, a +-2 bar band (:func:`~psdesign.analysis.
+    prediction.prediction_bar`: the GP std, never below the fit's hold-out error), the cases."""
     import plotly.graph_objects as go
+
+    from psdesign.analysis.prediction import prediction_bar
 
     ga = _axis_grid(s, num, a)
     x = _at_mid_range(s, len(ga))
     x[:, num.index(a)] = ga
     m, sd = s.predict(x)
+    bar = prediction_bar(s, m, sd)
     fig = go.Figure(
         [
-            go.Scatter(x=ga, y=m + 2 * sd, line={"width": 0}, showlegend=False),
+            go.Scatter(x=ga, y=m + 2 * bar, line={"width": 0}, showlegend=False),
             go.Scatter(
                 x=ga,
-                y=np.maximum(m - 2 * sd, m * 1e-3),
+                y=np.maximum(m - 2 * bar, m * 1e-3),
                 fill="tonexty",
                 line={"width": 0},
-                name="+-2 std",
+                name="+-2 bar (GP std, >= hold-out error)",
             ),
             go.Scatter(x=ga, y=m, name="GP mean"),
             go.Scatter(x=ok[a], y=ok[c], mode="markers", name="cases"),
@@ -512,11 +533,14 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
 def _surface_2d(
     s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str, ties: dict | None = None
 ):
-    """Contours of log10 K (GP mean) and of std / mean over two parameters, the others at
-    mid-range, with the cases marked; a parameter of ``ties``
+    """Contours of log10 K (GP mean) and of bar / mean over two parameters (the bar of
+    :func:`~psdesign.analysis.prediction.prediction_bar`: the GP std, never below the fit's
+    hold-out error), the others at mid-range, with the cases marked; a parameter of ``ties``
     (:func:`~psdesign.analysis.sensitivity.tied_inputs`) follows its anchor as in the cases."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
+
+    from psdesign.analysis.prediction import prediction_bar
 
     a, b = pair
     log_a, log_b = s.log_params[num.index(a)], s.log_params[num.index(b)]
@@ -525,10 +549,11 @@ def _surface_2d(
     x = _at_mid_range(s, A.size)
     x[:, num.index(a)], x[:, num.index(b)] = A.ravel(), B.ravel()
     m, sd = s.predict(_tie(s, num, x, ties or {}))
+    err = prediction_bar(s, m, sd)
     fig = make_subplots(
         rows=1,
         cols=2,
-        subplot_titles=(f"log10 {c} (GP mean)", "relative uncertainty (std / mean)"),
+        subplot_titles=(f"log10 {c} (GP mean)", "relative uncertainty (bar / mean)"),
         horizontal_spacing=SURFACE_GAP,
     )
     # each colour bar right of its own panel: the first one in the gap between the panels
@@ -539,12 +564,12 @@ def _surface_2d(
         1,
         1,
     )
-    right_bar = {"x": 1.01, "title": {"text": "std /<br>mean (-)"}}
+    right_bar = {"x": 1.01, "title": {"text": "bar /<br>mean (-)"}}
     fig.add_trace(
         go.Contour(
             x=ga,
             y=gb,
-            z=(sd / m).reshape(A.shape),
+            z=(err / m).reshape(A.shape),
             colorscale="Greys",
             colorbar={**right_bar, **bar},
         ),

@@ -6,8 +6,9 @@ import math
 import warnings
 from typing import Any
 
-from pydantic import Field, model_validator
+from pydantic import Field, PrivateAttr, model_validator
 
+from psdesign.geometry.fibers import ROUND_SHAPES
 from psdesign.schema import budget
 from psdesign.schema.distributions import support, support_text
 from psdesign.schema.fibers import FiberTable
@@ -58,6 +59,8 @@ class SpecDocument(Table):
     image: ImageTable | None = Field(
         None, description="table (docs/images.md): a segmented voxel image as the RVE"
     )
+    #: The explicit fibers as built once for this document (:meth:`_built_fibers`).
+    _built: Any = PrivateAttr(default=None)
 
     @model_validator(mode="before")
     @classmethod
@@ -197,10 +200,10 @@ class SpecDocument(Table):
             from psdesign.flow.stack import spec_auto_copies
             from psdesign.geometry.porosity import sampled_porosity_bound
             from psdesign.geometry.rve import RVE
-            from psdesign.schema.spec import explicit_fibers
 
-            tables = {"rve": {"size": list(size), "period": self.rve.period}}
-            fibers = explicit_fibers({**tables, "fibers": [f.to_spec() for f in self.fibers]})
+            fibers = self._built_fibers()
+            if isinstance(fibers, Exception):  # the build's own line names the fiber
+                raise fibers
             rve = RVE(size=np.asarray(size), fibers=fibers, period=self.rve.period)
             if self.flow.solver == "fem":
                 seen["porosity"] = sampled_porosity_bound(rve)
@@ -371,7 +374,7 @@ class SpecDocument(Table):
         diam = [
             float(fb.diameter)
             for fb in self.fibers
-            if fb.diameter is not None and fb.shape in ("rod", "cylinder", "bent-rod")
+            if fb.diameter is not None and fb.shape in ROUND_SHAPES
         ]
         fixed = self._fixed_shape_width()
         if fixed is not None:
@@ -380,27 +383,39 @@ class SpecDocument(Table):
             diam.append(float(support(self.generator.diameter)[0]))
         return min(diam) if diam else None
 
-    def _fixed_shape_width(self) -> float | None:
-        """The thinnest thin width (metres) of the explicit fixed-shape fibers, built as the run
-        builds them (:func:`psdesign.schema.spec.explicit_fibers`); None without any, or when
-        they do not build (the build names the key then)."""
-        from types import SimpleNamespace
-
+    def _built_fibers(self) -> list | Exception:
+        """The explicit ``[[fibers]]`` built as the run builds them
+        (:func:`psdesign.schema.spec.explicit_fibers`), or the ``SpecError`` naming the one
+        that does not build: built once per document, for the ``"auto"`` copies plan and the
+        FEM budget's thin width alike. Before session 43 each built them, and the budget on
+        every memory check: 2-4 builds of a woven cell per validation."""
         from psdesign.errors import SpecError
-        from psdesign.geometry.rve import thinnest_fiber_diameter
         from psdesign.schema.spec import explicit_fibers
 
-        tables = [
-            fb.to_spec() for fb in self.fibers if fb.shape not in ("rod", "cylinder", "bent-rod")
-        ]
-        if not tables:
+        if self._built is None:
+            rve = {"size": list(self.rve.size), "period": self.rve.period}
+            try:
+                tables = [fb.to_spec() for fb in self.fibers]
+                self._built = explicit_fibers({"rve": rve, "fibers": tables})
+            except SpecError as exc:
+                self._built = exc
+        return self._built
+
+    def _fixed_shape_width(self) -> float | None:
+        """The thinnest thin width (metres) of the explicit fixed-shape fibers, built as the run
+        builds them (:meth:`_built_fibers`); None without any, or when the fibers do not build
+        (the build names the key then)."""
+        from types import SimpleNamespace
+
+        from psdesign.geometry.rve import thinnest_fiber_diameter
+
+        if all(fb.shape in ROUND_SHAPES for fb in self.fibers):
             return None
-        rve = {"size": list(self.rve.size), "period": self.rve.period}
-        try:
-            fibers = explicit_fibers({"rve": rve, "fibers": tables})
-        except SpecError:
+        built = self._built_fibers()
+        if isinstance(built, Exception):
             return None
-        return thinnest_fiber_diameter(SimpleNamespace(fibers=fibers, period=self.period))
+        fixed = [fb for fb in built if fb.shape not in ROUND_SHAPES]
+        return thinnest_fiber_diameter(SimpleNamespace(fibers=fixed, period=self.period))
 
     def _check_fibers(self, size, voxel: float, period: float) -> None:
         if len(self.fibers) > budget.MAX_EXPLICIT_FIBERS:
@@ -418,7 +433,7 @@ class SpecDocument(Table):
                         f"{c:g} m is far outside the box",
                         f"[{-size[k]:g}, {2 * size[k]:g}] m",
                     )
-            if fb.diameter is None or fb.shape not in ("rod", "cylinder", "bent-rod"):
+            if fb.diameter is None or fb.shape not in ROUND_SHAPES:
                 continue
             if fb.diameter >= limit:
                 raise fail(

@@ -1023,3 +1023,49 @@ def test_the_report_is_small_self_contained_and_unpacks_the_same_plotly(tmp_path
     assert html.count('<script type="text/psd-plot">') >= 4  # run once plotly is unpacked
     assert "data:image/jpeg;base64," in html  # the previews
     assert build_html(out) == html
+
+
+def test_response_surface_band_is_the_bar_study_predict_prints():
+    """Review (session 43): `study predict` prints a bar never smaller than the fit's measured
+    hold-out error (psdesign.analysis.prediction.holdout_bar), but the report's response
+    surface still drew +-2 GP std: on K_z = 2 Kozeny-Carman (tests/study_cases.py, 1 % seed
+    noise) at 5 porosity levels x 2 seeds the cross-validated error is 5.1 % and the GP std
+    about a tenth of that bar, so the band was ~10x narrower than the printed +-. Now the
+    band's half-width at each point is 2 x prediction_bar (GP std, never below holdout_bar),
+    the 2-D panel plots that bar / mean, and the caption says so."""
+    from psdesign.analysis.prediction import holdout_bar, holdout_error
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+    from psdesign.report.decision import _surface_1d, _surface_2d, surrogate_plots
+
+    eps = np.repeat([0.7, 0.75, 0.8, 0.85, 0.9], 2)
+    noise = 1 + 0.01 * np.random.default_rng(0).standard_normal(eps.size)
+    ok = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "k_z_m2": 2 * kc_truth(eps, 7e-6) * noise,
+            "status": "ok",
+            "seed": np.tile([1, 2], 5),
+            "case_id": [f"c{i}" for i in range(eps.size)],
+        }
+    )
+    num = ["generator.porosity"]
+    s = fit_surrogate(ok, "k_z_m2", num, parameter_bounds(ok, num, {}))
+    fig = _surface_1d(s, ok, num, num[0], "k_z_m2")
+    grid, mean = np.asarray(fig.data[2].x), np.asarray(fig.data[2].y)
+    half = (np.asarray(fig.data[0].y) - mean) / 2
+    _, gp_std = s.predict(grid[:, None])
+    held = holdout_bar(s, mean)
+    assert (held > 2 * gp_std).all()  # the premise: the hold-out error is the wider bar here
+    assert half == pytest.approx(held, rel=1e-12, abs=0)  # K ~ 1e-13 m^2: no abs slack
+    # two parameters: the right panel is bar / mean, i.e. the relative hold-out error here
+    ok["generator.diameter"] = np.tile([6e-6, 8e-6], 5)
+    two = ["generator.porosity", "generator.diameter"]
+    s2 = fit_surrogate(ok, "k_z_m2", two, parameter_bounds(ok, two, {}))
+    rel = np.asarray(_surface_2d(s2, ok, two, two, "k_z_m2").data[1].z)
+    assert rel.min() >= holdout_error(s2)[0] * (1 - 1e-12)
+    text = surrogate_plots(ok.drop(columns="generator.diameter"), num, {})
+    rel_pct = f"{100 * holdout_error(s)[0]:.3g} %"
+    assert (
+        "Response surface: its band (and relative uncertainty) is the bar study predict "
+        f"prints, the GP std never below the fit&#x27;s cross-validated error, {rel_pct}" in text
+    )

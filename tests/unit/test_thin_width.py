@@ -218,3 +218,47 @@ def test_round_and_non_round_fibers_mixed(rod, thinnest, measure):
     rve = SimpleNamespace(fibers=fibers, period=1e-4)
     assert thinnest_fiber_diameter(rve) == pytest.approx(thinnest * 1e-4, rel=1e-12)
     assert resolution_measure(rve) == measure
+
+
+@pytest.mark.parametrize(("cap", "planned"), [(2.0, True), (10.0, False)])
+def test_explicit_fibers_are_built_once_per_validation(monkeypatch, cap, planned):
+    """Review (session 43): the "auto" copies plan and the FEM budget's thin width each built
+    a spec's explicit fibers, the budget on every memory check: a woven cell in a 100 um cube
+    (FEM, "auto" permeameter along z) was built 4 times at a cap of 2 GB (one copy fits, two
+    do not: the plan runs) and 2 times at 10 GB. Now once, and the thin width the budget
+    reads is the built RVE's (psdesign.geometry.rve.thinnest_fiber_diameter of
+    packing.build_rve: the run's own measure)."""
+    import psdesign.flow.stack as stack
+    import psdesign.schema.spec as spec_mod
+    from psdesign.errors import SpecError
+    from psdesign.geometry.rve import thinnest_fiber_diameter
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import validate_document, validate_spec
+
+    flow = {"solver": "fem", "bc": "permeameter", "direction": "z", "max_memory_gb": cap}
+    spec = {"rve": {"size": [1e-4] * 3, "voxel": 2e-6}, "fibers": [{"shape": "woven-cell"}]}
+    spec["flow"] = flow
+    calls = {"build": 0, "plan": 0}
+    real_build, real_plan = spec_mod.explicit_fibers, stack.spec_auto_copies
+
+    def counted(name, real):
+        def call(*a, **k):
+            calls[name] += 1
+            return real(*a, **k)
+
+        return call
+
+    monkeypatch.setattr(spec_mod, "explicit_fibers", counted("build", real_build))
+    monkeypatch.setattr(stack, "spec_auto_copies", counted("plan", real_plan))
+    if planned:  # refused at 2 GB counted at porosity 1; main's review2 counts the stack at
+        try:  # the RVE's sampled porosity and accepts it, planning each direction it
+            validate_document(spec)  # checks: either way one build for every plan
+        except SpecError as exc:
+            assert exc.key == "flow.max_memory_gb", exc
+        assert calls["build"] == 1 and calls["plan"] >= 1, calls
+        return
+    doc = validate_document(spec)
+    assert calls == {"build": 1, "plan": 0}
+    monkeypatch.setattr(spec_mod, "explicit_fibers", real_build)
+    run = thinnest_fiber_diameter(build_rve(validate_spec(spec)).rve)
+    assert doc._thinnest_diameter() == pytest.approx(run, rel=1e-12)
