@@ -38,6 +38,7 @@ import math
 
 from psdesign.schema.flow import (
     AUTO_PERMEAMETER_COPIES,
+    NATIVE_BC,
     FlowTable,
     coarser_advice,
     resolution_key,
@@ -108,6 +109,12 @@ def grid_shape(size: tuple[float, ...], voxel: float) -> list[float]:
     return out
 
 
+def solved_bc(flow) -> str:
+    """The bc a ``[flow]`` table solves with: ``flow.bc``, else its solver's own
+    (:data:`psdesign.schema.flow.NATIVE_BC`; periodic without a solver)."""
+    return flow.bc or NATIVE_BC.get(flow.solver, "periodic")
+
+
 def stack_of(flow) -> tuple[int, float]:
     """``(copies, aux_length)`` of the solve a ``[flow]`` table asks for, at most: a permeameter
     (``flow.bc``, or the FEM's default) stacks ``flow.permeameter_copies`` copies (``"auto"``
@@ -117,8 +124,7 @@ def stack_of(flow) -> tuple[int, float]:
     reservoirs of ``aux_length`` times one copy; a periodic solve is one copy, no reservoirs."""
     if flow is None:
         return 1, 0.0
-    bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
-    if bc != "permeameter":
+    if solved_bc(flow) != "permeameter":
         return 1, 0.0
     copies = flow.permeameter_copies
     n = AUTO_PERMEAMETER_COPIES if copies in (None, "auto") else int(copies)

@@ -28,6 +28,7 @@ from contextvars import ContextVar
 
 from pydantic_core import PydanticCustomError
 
+from psdesign.schema.budget import solved_bc
 from psdesign.schema.flow import AUTO_PERMEAMETER_COPIES, FlowTable
 
 #: True while a route validates its spec along the direction it solves (:func:`pinned_direction`).
@@ -79,8 +80,7 @@ def planned_flow(
     plan : callable
         The copies ``"auto"`` plans along an axis (0, 1, 2), or None.
     """
-    bc = flow.bc or ("permeameter" if flow.solver == "fem" else "periodic")
-    auto = flow.permeameter_copies in (None, "auto") and bc == "permeameter"
+    auto = flow.permeameter_copies in (None, "auto") and solved_bc(flow) == "permeameter"
     if not auto:
         return flow
     if _fits(checks, _pinned(flow, AUTO_PERMEAMETER_COPIES)) or not _fits(checks, _pinned(flow, 1)):
