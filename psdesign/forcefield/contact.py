@@ -34,7 +34,7 @@ import numpy as np
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
-from psdesign.geometry.fibers import Fiber, with_minor_moment
+from psdesign.geometry.fibers import ROUND_SHAPES, Fiber, with_minor_moment
 from psdesign.geometry.rve import thinnest_fiber_diameter
 
 #: Keys of :meth:`Potentials.to_dict` this route has (no surface area is computed here).
@@ -427,7 +427,7 @@ def fiber_table_lines(fb: Fiber, period: float) -> list[str]:
     """The ``[[fibers]]`` TOML lines of one placed fiber (metres, degrees)."""
     theta, omega = placement_angles(fb)
     lines = ["[[fibers]]", f'shape = "{fb.shape}"']
-    if fb.shape in ("rod", "cylinder", "bent-rod"):
+    if fb.shape in ROUND_SHAPES:
         lines.append(f"diameter = {float(fb.diameter * period)!r}")
     lines.append(f"center = [{', '.join(repr(float(v * period)) for v in fb.center)}]")
     lines += [f"theta = {theta!r}", f"omega = {omega!r}"]
@@ -435,7 +435,7 @@ def fiber_table_lines(fb: Fiber, period: float) -> list[str]:
         lines += [f"u = {float(fb.u)!r}", f"f = {float(fb.f)!r}"]
     elif fb.model.n_minor:
         lines.append(f"u = {float(fb.model.u[0])!r}")
-    if fb.shape not in ("rod", "cylinder", "bent-rod") and fb.isovalue != 0.0:
+    if fb.shape not in ROUND_SHAPES and fb.isovalue != 0.0:
         lines.append(f"isovalue = {float(fb.isovalue)!r}")
     return lines
 

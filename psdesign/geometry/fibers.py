@@ -468,7 +468,7 @@ def make_fiber(
     lattice = np.array([R @ _X, R @ np.array([0.0, 1.0, 0.0])])
     extra: dict = {}
 
-    if shape in ("rod", "cylinder", "bent-rod"):
+    if shape in ROUND_SHAPES:
         if diameter is None or not np.isfinite(diameter) or not 0.0 < diameter < 1.0:
             raise ValueError(f"diameter must lie in (0, 1) periods, got {diameter}")
         iso = rod_isovalue(diameter)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from psdesign.errors import SpecError
-from psdesign.geometry.fibers import Fiber, rod_cross_section_area
+from psdesign.geometry.fibers import ROUND_SHAPES, Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
 from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG, PAPER_MAX_SHIFT, GASettings
@@ -298,9 +298,9 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         return _explicit_only(size, voxel, period, explicit, t_start)
     gs = parse_generator(spec, size, period)
     rng = np.random.default_rng(gs.seed)
-    supported = [fb for fb in explicit if fb.shape in ("rod", "cylinder", "bent-rod")]
+    supported = [fb for fb in explicit if fb.shape in ROUND_SHAPES]
     fixed = FiberState.from_fibers(supported, fixed=True) if supported else None
-    others = [fb for fb in explicit if fb.shape not in ("rod", "cylinder", "bent-rod")]
+    others = [fb for fb in explicit if fb.shape not in ROUND_SHAPES]
     gap = gs.min_gap / period
     times: dict = {}
 

@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from psdesign.geometry.fibers import SHAPES
+from psdesign.geometry.fibers import ROUND_SHAPES, SHAPES
 from psdesign.schema.types import Table, Vec3, fail, integer, number
 
 #: Shapes that expand to several fibers.
@@ -70,7 +70,7 @@ class FiberTable(Table):
         for key in ("thickness_axis", "layers", "layer_shift"):
             if getattr(self, key) is not None:
                 raise fail(key, "only used with shape = 'woven-cell'", "woven-cell")
-        if self.shape in ("rod", "cylinder", "bent-rod") and self.diameter is None:
+        if self.shape in ROUND_SHAPES and self.diameter is None:
             raise fail("diameter", "missing; give the fiber diameter in metres", "number > 0 m")
         if self.direction is not None:
             if "theta" in given or "omega" in given:
@@ -102,7 +102,7 @@ class FiberTable(Table):
                 "layer_shift": list(self.layer_shift or (0.0, 0.0)),
             }
         out: dict = {"shape": self.shape}
-        if self.diameter is not None and self.shape in ("rod", "cylinder", "bent-rod"):
+        if self.diameter is not None and self.shape in ROUND_SHAPES:
             out["diameter"] = self.diameter
         if self.center is not None:
             out["center"] = list(self.center)
