@@ -9,7 +9,6 @@ tell from it what the targets were, whether they were met, or which design point
 from __future__ import annotations
 
 import html
-import json
 import math
 from pathlib import Path
 
@@ -28,16 +27,16 @@ def read_outcome(out: Path) -> dict | None:
     one psdesign did not write (the folder's marker does not list it: a user's own file of
     that name is not read as the search's verdict)."""
     from psdesign.io.outputs import read_marker
+    from psdesign.study.readback import read_json_object
 
     path = Path(out) / OPTIMIZE_FILE
     marker = read_marker(Path(out)) or {}
     if not path.is_file() or OPTIMIZE_FILE not in marker.get("files", []):
         return None
-    doc = json.loads(path.read_text(encoding="utf-8"))
-    rows = doc.get("targets") if isinstance(doc, dict) else None
+    doc = read_json_object(path)  # not JSON, or not an object: one line naming the file
+    rows = doc.get("targets")
     if (
-        not isinstance(doc, dict)
-        or not {"met", "message", "targets", "best"} <= set(doc)
+        not {"met", "message", "targets", "best"} <= set(doc)
         or not isinstance(rows, list)
         or not all(isinstance(r, dict) and REPORT_KEYS <= set(r) for r in rows)
     ):  # cut short, edited, or another version's: said in one line, not a KeyError
