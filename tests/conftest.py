@@ -2,12 +2,16 @@
 
 This folder is on ``sys.path`` (pytest's rootdir conftest), so tests import the shared helpers
 by name: :mod:`reference_values` (published values with sources), :mod:`meshes` (small tagged
-tet meshes), :mod:`study_cases` (fake case functions that pickle to workers).
+tet meshes), :mod:`study_cases` (fake case functions that pickle to workers); and from here
+:func:`load_benchmark` (a ``benchmarks/`` script as a module).
 """
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 from pathlib import Path
+from types import ModuleType
 
 import approx_guard
 import pytest
@@ -18,6 +22,20 @@ approx_guard.install()  # a stated rel bar is the enforced one (approx_guard's d
 TESTS_DIR = Path(__file__).resolve().parent
 REPO_ROOT = TESTS_DIR.parent
 DATA_DIR = TESTS_DIR / "data"
+
+
+def load_benchmark(name: str) -> ModuleType:
+    """A fresh module object of ``benchmarks/<name>.py`` (the scripts are not a package).
+
+    ``benchmarks/`` goes on ``sys.path`` first: some scripts import their sibling modules.
+    """
+    folder = str(REPO_ROOT / "benchmarks")
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    spec = importlib.util.spec_from_file_location(name, f"{folder}/{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 @pytest.fixture(scope="session")

@@ -12,9 +12,10 @@ summary_timings.json, so that the same spec gives a byte-identical summary.json)
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
+
+from conftest import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -29,11 +30,7 @@ TWO_RODS = (
 
 
 def _script():
-    path = ROOT / "benchmarks" / "forcefield_specs.py"
-    spec = importlib.util.spec_from_file_location("forcefield_specs_script", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("forcefield_specs")
 
 
 def test_a_relax_stopped_on_max_iter_is_recorded_with_its_status_and_after_state(tmp_path):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_benchmark
 
 from psdesign.geometry.fibers import (
     WOVEN_EQ19,
@@ -349,12 +350,7 @@ def test_woven_relax_benchmark_prints_k_z_with_a_bar_that_covers_the_exact_value
     spacing 40 um, 1 um voxels): its K_z with the printed bar must cover Drummond & Tahir's
     (1984, Int. J. Multiphase Flow 10:515, Eq. for flow parallel to a square array)
     ``K = a^2 / (4 phi) (-ln phi - 1.476 + 2 phi - phi^2 / 2)``."""
-    import importlib.util
-
-    path = ROOT / "benchmarks" / "paper_woven_relax.py"
-    spec = importlib.util.spec_from_file_location("paper_woven_relax", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_benchmark("paper_woven_relax")
     toml = tmp_path / "array.toml"
     toml.write_text(
         "[rve]\nsize = [40e-6, 40e-6, 40e-6]\nvoxel = 1e-6\n\n[[fibers]]\nshape = 'cylinder'\n"

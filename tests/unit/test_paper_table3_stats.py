@@ -6,11 +6,11 @@ rods along x and along y (orientation tensor and in-plane angle), a tilted rod (
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_benchmark
 
 from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
@@ -20,11 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def stats():
-    path = ROOT / "benchmarks" / "paper_table3_voxel.py"
-    spec = importlib.util.spec_from_file_location("paper_table3_voxel", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("paper_table3_voxel")
 
 
 def _rve(fibers) -> RVE:

@@ -9,19 +9,15 @@ text back (session 42, helper s42-paper). The truth here is the committed page i
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
+
+from conftest import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "solver_agreement_render", ROOT / "benchmarks" / "solver_agreement.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("solver_agreement")
 
 
 def test_render_writes_the_committed_page_byte_for_byte(tmp_path, capsys) -> None:

@@ -11,23 +11,18 @@ on the same code says 'ok' (session 37, s37-agree).
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from conftest import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "solver_agreement_script", ROOT / "benchmarks" / "solver_agreement.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("solver_agreement")
 
 
 def _row(solver: str, cpd: float, bar: float) -> dict:

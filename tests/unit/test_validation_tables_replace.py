@@ -10,10 +10,10 @@ by hand to the stand-in results (K / reference - 1 from ``tests/arrays.py``'s re
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
+from conftest import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
 NAMES = (
@@ -62,16 +62,7 @@ Other text.
 
 
 def _script():
-    import sys
-
-    if str(ROOT / "benchmarks") not in sys.path:  # the script imports its sibling modules
-        sys.path.insert(0, str(ROOT / "benchmarks"))
-    spec = importlib.util.spec_from_file_location(
-        "validation_tables_script", ROOT / "benchmarks" / "validation_tables.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("validation_tables")
 
 
 def _fill(mod, bars: tuple[float, ...]) -> None:

@@ -3,18 +3,12 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
+from conftest import load_benchmark
 
 from solvers import voxel_stokes as vs
 
-_spec = importlib.util.spec_from_file_location(
-    "bench_voxel", Path(__file__).resolve().parents[2] / "benchmarks" / "bench_voxel.py"
-)
-bench_voxel = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(bench_voxel)
+bench_voxel = load_benchmark("bench_voxel")
 
 
 def test_schur_diagonal_is_one_away_from_walls() -> None:

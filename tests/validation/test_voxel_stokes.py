@@ -3,13 +3,13 @@ truth."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from conftest import load_benchmark
 from reference_values import PUMA_FIBRES_KZZ, PUMA_FIBRES_POROSITY
 
 from psdesign.flow.voxel import column_of, voxel_permeability_tensor
@@ -20,11 +20,7 @@ from solvers.voxel_stokes import (
 )
 
 BENCH = Path(__file__).resolve().parents[1] / "data"  # vendored peer geometry (data/README-puma.md)
-_spec = importlib.util.spec_from_file_location(
-    "bench_voxel", Path(__file__).resolve().parents[2] / "benchmarks" / "bench_voxel.py"
-)
-bench_voxel = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(bench_voxel)
+bench_voxel = load_benchmark("bench_voxel")
 toray_like = bench_voxel.toray_like
 
 # Sangani & Acrivos (1982), Int. J. Multiphase Flow 8, 193-206, Table 1 (square array, transverse
