@@ -165,10 +165,6 @@ def _ordered(entries: list[os.DirEntry]) -> list[Path]:
                 "slice shifts the geometry above it (allowed: consecutive numbers; crop with "
                 "image.crop instead of deleting slices)"
             )
-    if len(rows) < MIN_SLICES:
-        raise ValueError(
-            f"image.path: {len(rows)} slices (allowed: at least {MIN_SLICES}: 4 voxels per axis)"
-        )
     folder = Path(entries[0].path).parent
     return [folder / name for _, _, name in rows]
 
@@ -276,7 +272,11 @@ def slice_set(path: str | Path) -> SliceSet:
         _CACHE.move_to_end(key)
         return _CACHE[key]
     files = _ordered(entries)
-    first, z_spacing = _checked(files)
+    first, z_spacing = _checked(files)  # first: one stack given as a folder is named so
+    if len(files) < MIN_SLICES:
+        raise ValueError(
+            f"image.path: {len(files)} slices (allowed: at least {MIN_SLICES}: 4 voxels per axis)"
+        )
     out = SliceSet(path, tuple(files), first.shape, first.dtype, z_spacing)
     _CACHE[key] = out
     while len(_CACHE) > _CACHE_SIZE:

@@ -205,8 +205,8 @@ def test_checks_read_headers_only(tmp_path, monkeypatch) -> None:
 def test_voxel_size_from_the_first_slice_z_taken_equal_with_a_note(tmp_path) -> None:
     """Slices calibrated 0.5 um per pixel (ImageJ unit and X/Y resolution) give 0.5 um voxels;
     a slice stores no z spacing, so z is taken equal to x and y, and a warning says so. With
-    ``voxel_size`` given nothing is assumed (no warning); uncalibrated slices without it are
-    refused naming ``image.voxel_size``."""
+    ``voxel_size`` given nothing is assumed (no warning); uncalibrated slices without it, and
+    slices of 0.5 x 1 um pixels, are refused naming ``image.voxel_size``."""
     page = np.zeros((16, 16), np.uint8)
     page[:, :6] = 255
     write_slices(tmp_path / "cal", [page] * 6, resolution=(2.0, 2.0))
@@ -228,6 +228,12 @@ def test_voxel_size_from_the_first_slice_z_taken_equal_with_a_note(tmp_path) -> 
         and "raw (first slice s0.tif) carries no voxel size" in str(info.value)
     )
     assert psdesign.from_image(tmp_path / "raw", voxel_size=1e-6).porosity == 10 / 16
+    write_slices(tmp_path / "oblong", [page] * 6, resolution=(2.0, 1.0))  # 0.5 x 1 um pixels
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "oblong", solid_label=255)
+    assert info.value.key == "image.voxel_size" and "not cubic (x 5e-07 m, y 1e-06 m" in str(
+        info.value
+    )
 
 
 @pytest.mark.parametrize("compression", [None, "zlib"])
