@@ -6,7 +6,7 @@ checked slice files -> the (cropped) stack.
 slices are ordered by their number, the last run of digits in each name (``s2`` before
 ``s10``: ``sorted()`` puts ``s10`` first and would scramble the scan), and slice ``i`` is the
 z index ``i`` (the stored order ``zyx``: slices, rows, columns). Every check reads headers
-only (one ``TiffFile`` per slice, no pixel decoded: ~0.5 ms a slice), before any work:
+only (one ``TiffFile`` per slice, no pixel decoded: 0.6-1 ms a slice), before any work:
 
 * no matching file; fewer than :data:`MIN_SLICES` slices;
 * a name without a number, names of two patterns (two scans in one folder), a duplicate or a

@@ -96,6 +96,7 @@ def test_slices_give_the_stack_byte_for_byte_and_the_slit_k(tmp_path, capsys) ->
         m = psdesign.from_image(tmp_path / "slices", solid_label=255)
         truth = psdesign.from_image(tmp_path / "stack.tif", solid_label=255)
     assert np.array_equal(m.fields.solid, truth.fields.solid)
+    assert "slices" in m._repr_html_() and "image slices" in repr(m)  # the notebook's view
 
 
 def test_other_commands_and_generate_outputs_are_the_stacks(tmp_path, capsys) -> None:
@@ -182,6 +183,17 @@ def test_bad_slices_exit_2_one_line_naming_image_path(tmp_path, capsys, case, wo
     assert err.startswith("psdesign: error: image.path:") and "\n" not in err, err
     assert words in err, err
     assert not out.exists()
+
+
+def test_a_folder_with_another_format_names_image_format(tmp_path, capsys) -> None:
+    """A folder or pattern is read as TIFF slices: ``format = "raw"`` beside it is the key at
+    fault (exit 2, one line)."""
+    write_slices(tmp_path / "slices", slit())
+    args = ["permeability", str(spec(tmp_path, "slices", 'format = "raw"\n'))]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("psdesign: error: image.format: raw: a folder or pattern is read as")
+    assert "\n" not in err
 
 
 def test_checks_read_headers_only(tmp_path, monkeypatch) -> None:
