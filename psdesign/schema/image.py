@@ -9,7 +9,8 @@ size is known. :mod:`psdesign.schema.document` reads the voxels (after the memor
 and refuses an image without pore or without solid voxels.
 
 ``path`` is relative to the spec file's folder (the validation context ``base``; the current
-folder for a spec given as a dict).
+folder for a spec given as a dict). It may name a folder or pattern of 2-D TIFF slices, checked
+from their headers (:mod:`psdesign.image.slices`).
 """
 
 from __future__ import annotations
