@@ -101,8 +101,8 @@ def test_slices_give_the_stack_byte_for_byte_and_the_slit_k(tmp_path, capsys) ->
 
 def test_other_commands_and_generate_outputs_are_the_stacks(tmp_path, capsys) -> None:
     """pores, diffusivity and conductivity print the stack's numbers for the folder;
-    ``generate`` writes the same files twice (reproducible) and the stack's voxels; its
-    summary names the folder as ``image.path``."""
+    ``generate`` writes the same files twice (reproducible) and the stack's voxels, its
+    summary naming the folder as ``image.path``; ``mesh`` writes the stack's mesh files."""
     stack = slit()
     write_stack(tmp_path / "stack.tif", stack)
     write_slices(tmp_path / "slices", stack, name="recon_{k:04d}.tif")
@@ -120,6 +120,12 @@ def test_other_commands_and_generate_outputs_are_the_stacks(tmp_path, capsys) ->
     assert (tmp_path / "g1/field.vti").read_bytes() == (tmp_path / "g0/field.vti").read_bytes()
     summary = json.loads((tmp_path / "g1" / "summary.json").read_text())
     assert summary["generation"]["path"] == str(tmp_path / "slices")
+    flow_x = '[flow]\ndirection = "x"\n'  # along the plates: z has no pore path
+    for name, path in (("m0", "stack.tif"), ("m1", "slices")):
+        mesh_spec = spec(tmp_path, path, flow_x, f"{name}.toml")
+        assert main(["mesh", str(mesh_spec), "-o", str(tmp_path / name), "--quiet"]) == 0
+    for f in ("mesh.json", "pore.vtu", "pore_boundary.vtu"):
+        assert (tmp_path / "m1" / f).read_bytes() == (tmp_path / "m0" / f).read_bytes(), f
 
 
 def _bad(folder, case: str) -> str:
