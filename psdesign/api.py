@@ -457,7 +457,8 @@ def from_image(
     Parameters
     ----------
     path : str or Path
-        TIFF stack, raw, ``.npy`` or ``.vti`` file (relative to the current folder).
+        TIFF stack, raw, ``.npy`` or ``.vti`` file, or a folder or pattern (``"recon/*.tif"``)
+        of 2-D TIFF slices (relative to the current folder; docs/images.md).
     voxel_size : float, optional
         Voxel edge in metres; required unless the file carries it (TIFF ImageJ metadata,
         VTI spacing).

@@ -75,7 +75,8 @@ def tiff_description(voxel: float) -> dict:
 
 
 def refuse_input_overwrite(spec: dict, folder: Path, files: tuple[str, ...]) -> None:
-    """Refuse to write ``files`` into ``folder`` when one of them is the spec's own image.
+    """Refuse to write ``files`` into ``folder`` when one of them is the spec's own image
+    (or, for a folder or pattern of slices, would be read as one of its slices).
 
     A ``rve.tif`` that psdesign wrote becomes the user's input once an ``[image]`` spec
     reads it; ``--force`` replaces psdesign's files, and would replace that input (with
@@ -95,6 +96,7 @@ def refuse_input_overwrite(spec: dict, folder: Path, files: tuple[str, ...]) -> 
     OutputError
         One line naming ``-o`` and the file.
     """
+    from psdesign.image.slices import is_slice_member
     from psdesign.io.outputs import OutputError
 
     image = (spec.get("image") or {}).get("path")
@@ -102,11 +104,15 @@ def refuse_input_overwrite(spec: dict, folder: Path, files: tuple[str, ...]) -> 
         return
     source = Path(image).resolve()
     for name in files:
-        if (folder / name).resolve() == source:
+        target = (folder / name).resolve()
+        # into a folder of slices, a TIFF file would be read as one more slice next time
+        member = is_slice_member(source, target)
+        if target == source or member:
+            what = "would be one more slice of" if member else "is"
             raise OutputError(
                 "-o",
-                f"{folder / name} is this spec's image (image.path); psdesign never replaces "
-                "its input, even with --force; choose another folder",
+                f"{folder / name} {what} this spec's image (image.path); psdesign never "
+                "replaces or changes its input, even with --force; choose another folder",
             )
 
 

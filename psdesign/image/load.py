@@ -16,6 +16,7 @@ import numpy as np
 from psdesign.geometry.rve import BAND_MARGIN_VOXELS, RVE, VoxelFields, VoxelGrid
 from psdesign.image.fields import ImageFields, image_fields, resample
 from psdesign.image.reader import ImageSource, read_image
+from psdesign.image.slices import is_slice_path, signature, slice_set
 
 _CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
 _CACHE_SIZE = 2
@@ -48,7 +49,9 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
 
     ext = src.ext
     order = src.axis_order or ("zyx" if ext in (".tif", ".tiff", ".raw") else "xyz")
-    if ext in (".tif", ".tiff"):
+    if is_slice_path(src.path):
+        stored = slice_set(src.path).stored_shape
+    elif ext in (".tif", ".tiff"):
         stored = tiff_shape(Path(src.path))
         stored = (1, *stored) if len(stored) == 2 else stored
     elif ext == ".npy":
@@ -73,11 +76,14 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
 def load_mask(src: ImageSource) -> np.ndarray:
     """The solid mask (bool, ``[x, y, z]``) of ``src`` (cached; do not modify it)."""
     path = Path(src.path)
-    st = path.stat()
+    if is_slice_path(path):  # every slice's name, size and time: a slice replaced is seen
+        stamp: tuple = signature(path)
+    else:
+        st = path.stat()
+        stamp = (st.st_mtime_ns, st.st_size)
     key = (
         str(path.resolve()),
-        st.st_mtime_ns,
-        st.st_size,
+        stamp,
         src.solid,
         src.crop,
         src.shape,

@@ -1,7 +1,8 @@
 """Read a voxel image into a solid mask indexed ``[x, y, z]``.
 
 Formats (``format``, by default from the extension): ``tif``/``tiff`` stacks (tifffile;
-pages are z, rows y, columns x), ``npy`` (NumPy, indexed ``[x, y, z]`` as stored unless
+pages are z, rows y, columns x) and folders or patterns of 2-D TIFF slices (slice i is z
+index i, :mod:`psdesign.image.slices`), ``npy`` (NumPy, indexed ``[x, y, z]`` as stored unless
 ``axis_order`` says otherwise), ``raw`` (headerless; ``shape`` in x, y, z order, ``dtype``,
 ``byte_order``, C order with x fastest unless ``axis_order`` says otherwise) and ``vti`` (VTK
 image data, first point or cell array, ``[x, y, z]``). ``axis_order`` names the stored axes
@@ -23,6 +24,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from psdesign.image.slices import is_slice_path, read_slices, slice_set
 
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
@@ -86,7 +89,7 @@ def unknown_unit_note(path: str | Path, fmt: str | None = None) -> str:
     ext = f".{fmt}" if fmt else Path(path).suffix.lower()
     if ext not in (".tif", ".tiff"):
         return ""
-    unit = tiff_unit(path)
+    unit = tiff_unit(slice_set(path).first if is_slice_path(path) else path)
     if unit.lower() in _NO_UNIT or unit_metres(unit) is not None:
         return ""
     known = "nm, um, micron, mm, cm, m"
@@ -128,8 +131,11 @@ class ImageSource:
 
     @property
     def ext(self) -> str:
-        """The format as an extension (``".tif"``, ...)."""
-        return f".{self.format}" if self.format else Path(self.path).suffix.lower()
+        """The format as an extension (``".tif"``, ...; a folder or pattern of slices:
+        ``".tif"``)."""
+        if self.format:
+            return f".{self.format}"
+        return ".tif" if is_slice_path(self.path) else Path(self.path).suffix.lower()
 
 
 def _to_xyz(data: np.ndarray, order: str) -> np.ndarray:
@@ -246,13 +252,19 @@ def tiff_shape(path: Path) -> tuple[int, ...]:
             axes, shape = str(series.axes), tuple(int(n) for n in series.shape)
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
         raise ValueError(f"image.path: cannot read {Path(path).name} as TIFF: {exc}") from None
+    return plain_tiff_shape(Path(path).name, axes, shape)
+
+
+def plain_tiff_shape(name: str, axes: str, shape: tuple[int, ...]) -> tuple[int, ...]:
+    """A TIFF series' shape without its colour (``S``) and channel (``C``) axes of length 1;
+    a colour or multi-channel image is refused (``image.path``, naming ``name``)."""
     colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
     if colour:
         what = ", ".join(
             f"{n} {'colour samples' if a == 'S' else 'channels'}" for a, n in colour.items()
         )
         raise ValueError(
-            f"image.path: {Path(path).name} is a colour or multi-channel image (axes {axes}, "
+            f"image.path: {name} is a colour or multi-channel image (axes {axes}, "
             f"{what}); psdesign needs one label or grey value per voxel: save the "
             "segmentation as a single-channel 8- or 16-bit stack (Fiji: Image > Type > 8-bit)"
         )
@@ -281,6 +293,28 @@ def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.nd
         return np.stack([stack[k].asarray() for k in range(lo, hi)]), True
 
 
+def _read_slice_crop(src: ImageSource, order: str) -> np.ndarray:
+    """The crop of a folder or pattern of TIFF slices, stored axes (slices, rows, columns):
+    only the crop's slices, rows and columns are read."""
+    sset = slice_set(src.path)
+    if src.crop is None:
+        return read_slices(sset)
+    xyz = _crop_slices(src.crop, [sset.stored_shape[order.index(a)] for a in "xyz"])
+    return read_slices(sset, [(xyz["xyz".index(a)].start, xyz["xyz".index(a)].stop) for a in order])
+
+
+def _crop_slices(crop: tuple, shape) -> tuple[slice, ...]:
+    """The crop's index ranges as slices of an array of ``shape`` (x, y, z), checked."""
+    out = []
+    for ax, (lo, hi) in enumerate(crop):
+        if not 0 <= lo < hi <= shape[ax]:
+            raise ValueError(
+                f"image.crop[{ax}]: must satisfy 0 <= lo < hi <= {shape[ax]}, got [{lo}, {hi}]"
+            )
+        out.append(slice(lo, hi))
+    return tuple(out)
+
+
 def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
     """The stored values indexed ``[x, y, z]`` and the crop still to apply to them;
     memory-mapped where the format allows it (raw, NumPy, uncompressed TIFF), so that
@@ -291,6 +325,8 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         order = src.axis_order or "zyx"
         if sorted(order) != ["x", "y", "z"]:
             raise ValueError(f"image.axis_order: a permutation of 'xyz', got {order!r}")
+        if is_slice_path(path):
+            return _to_xyz(_read_slice_crop(src, order), order), None
         page_axis = "xyz".index(order[0])  # the stored axis of the pages, as an x/y/z axis
         pages = None if src.crop is None else tuple(src.crop[page_axis])
         tiff_shape(path)  # a colour image is refused before its pixels are read
@@ -328,19 +364,11 @@ def read_labels(src: ImageSource) -> np.ndarray:
             f"image.format: unknown format {src.ext!r}; allowed: "
             f"{', '.join(f.lstrip('.') for f in FORMATS)}"
         )
-    if not path.is_file():
+    if not path.is_file() and not is_slice_path(path):
         raise ValueError(f"image.path: file not found: {path}")
     data, crop = _read_stored(src)
     if crop is not None:
-        sl = []
-        for ax, (lo, hi) in enumerate(crop):
-            if not 0 <= lo < hi <= data.shape[ax]:
-                raise ValueError(
-                    f"image.crop[{ax}]: must satisfy 0 <= lo < hi <= {data.shape[ax]}, "
-                    f"got [{lo}, {hi}]"
-                )
-            sl.append(slice(lo, hi))
-        data = data[tuple(sl)]
+        data = data[_crop_slices(crop, data.shape)]
     if isinstance(data, np.memmap):
         data = np.array(data)  # the crop in memory, the file closed
     return data
@@ -435,11 +463,15 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
     """The voxel edge (metres) a file carries, or None.
 
     TIFF: the ImageJ ``unit`` with the X/Y resolution tags (pixels per unit) and the z
-    ``spacing``; x, y and z must agree to 1e-6 (cubic voxels). VTI: the ``spacing`` (taken as
-    metres, as psdesign writes it). Raw and NumPy files carry none.
+    ``spacing``; x, y and z must agree to 1e-6 (cubic voxels). A folder or pattern of TIFF
+    slices: its first slice's (the slices agree, :mod:`psdesign.image.slices`); a 2-D slice
+    stores no z spacing, and z is taken equal to x and y (the spec check says so). VTI: the
+    ``spacing`` (taken as metres, as psdesign writes it). Raw and NumPy files carry none.
     """
     path = Path(path)
     ext = f".{fmt}" if fmt else path.suffix.lower()
+    if is_slice_path(path):
+        path, ext = slice_set(path).first, ".tif"
     if ext in (".tif", ".tiff"):
         import tifffile
 

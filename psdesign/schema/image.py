@@ -9,7 +9,8 @@ size is known. :mod:`psdesign.schema.document` reads the voxels (after the memor
 and refuses an image without pore or without solid voxels.
 
 ``path`` is relative to the spec file's folder (the validation context ``base``; the current
-folder for a spec given as a dict).
+folder for a spec given as a dict). It may name a folder or pattern of 2-D TIFF slices, checked
+from their headers (:mod:`psdesign.image.slices`).
 """
 
 from __future__ import annotations
@@ -47,6 +48,10 @@ def coarse_file_voxel_note(name: str, voxel: float) -> str:
     )
 
 
+#: What ``image.path`` may name (docs/images.md).
+IMAGE_PATHS = "an existing image file, or a folder or pattern (slices/*.tif) of 2-D TIFF slices"
+
+
 class ImageWarning(UserWarning):
     """An image spec that is valid but probably not what was meant (one line)."""
 
@@ -54,14 +59,20 @@ class ImageWarning(UserWarning):
 class ImageTable(Table):
     """A segmented voxel image: file, voxel size, which values are solid, crop, axis order."""
 
-    path: str = Field(description="image file, relative to the spec file's folder (required)")
+    path: str = Field(
+        description="image file, or a folder or pattern (slices/*.tif) of 2-D TIFF slices, "
+        "relative to the spec file's folder (required)"
+    )
     format: Literal["tif", "tiff", "raw", "npy", "vti"] | None = Field(
-        None, description="tif | tiff | raw | npy | vti (default: from the file's extension)"
+        None,
+        description="tif | tiff | raw | npy | vti (default: from the file's extension; tif for "
+        "a folder or pattern of slices)",
     )
     voxel_size: number(ge=1e-9, le=1e-2) | None = Field(
         None,
         description="voxel edge in [1e-9, 1e-2] m (cubic voxels); required unless the file "
-        "carries it (TIFF ImageJ unit + resolution, VTI spacing in metres)",
+        "carries it (TIFF ImageJ unit + resolution; of TIFF slices the first slice's x/y, z "
+        "taken equal to them with a warning; VTI spacing in metres)",
     )
     solid_label: Label | list[Label] | None = Field(
         None,
@@ -123,28 +134,22 @@ class ImageTable(Table):
     def _check_file(self, info: ValidationInfo) -> ImageTable:
         from psdesign.image.load import header_shape, source_of
         from psdesign.image.reader import file_voxel_size
+        from psdesign.image.slices import is_slice_path, slice_set
 
         base = Path((info.context or {}).get("base") or Path.cwd())
         path = Path(self.path).expanduser()
         path = (path if path.is_absolute() else base / path).resolve()
-        # the file first: a missing file or a folder is the path's fault, not the format's
-        if path.is_dir() or (not path.exists() and any(c in path.name for c in "*?[")):
-            # a folder of slices (one TIFF per z) is the usual CT export: say how to stack it
-            raise fail(
-                "path",
-                f"{path} is a folder or a pattern, not one file: one file per slice is not "
-                "read; stack the slices into one multi-page TIFF (Fiji: File > Import > Image "
-                "Sequence, then Save As > Tiff; Python: tifffile.imwrite('stack.tif', "
-                "tifffile.imread(sorted(glob.glob('slices/*.tif')))))",
-                "an existing image file",
-            )
-        if not path.is_file():
-            raise fail("path", f"file not found: {path}", "an existing image file")
-        fmt = self.format or path.suffix.lower().lstrip(".")
+        # the file first: a missing file is the path's fault, not the format's
+        slices = is_slice_path(path)
+        if not slices and not path.is_file():
+            raise fail("path", f"file not found: {path}", IMAGE_PATHS)
+        fmt = self.format or ("tif" if slices else path.suffix.lower().lstrip("."))
         if fmt not in ("tif", "tiff", "raw", "npy", "vti"):
             raise fail(
                 "format", f"cannot tell the format of {path.name!r}", "tif | tiff | raw | npy | vti"
             )
+        if slices and fmt not in ("tif", "tiff"):
+            raise fail("format", f"{fmt}: a folder or pattern is read as TIFF slices", "tif")
         if fmt != "raw":
             for key in RAW_ONLY:
                 if key in self.model_fields_set:
@@ -153,7 +158,7 @@ class ImageTable(Table):
             raise fail("shape", "required for a raw image", "[nx, ny, nz]")
         if self.solid_label is not None and self.threshold is not None:
             raise fail("threshold", "give solid_label or threshold, not both", "one of them")
-        self._resolved = path
+        self._resolved, self._format = path, fmt
         src = source_of(self.to_spec(), voxel=1.0)
         try:
             stored = header_shape(src)
@@ -166,9 +171,12 @@ class ImageTable(Table):
         if voxel is None:
             from psdesign.image.reader import unknown_unit_note
 
+            name = (
+                f"{path.name} (first slice {slice_set(path).first.name})" if slices else path.name
+            )
             raise fail(
                 "voxel_size",
-                f"required: {path.name} carries no voxel size{unknown_unit_note(path, fmt)}",
+                f"required: {name} carries no voxel size{unknown_unit_note(path, fmt)}",
                 "voxel edge in [1e-9, 1e-2] m",
             )
         if not 1e-9 <= voxel <= 1e-2:
@@ -194,6 +202,14 @@ class ImageTable(Table):
             )
         elif self.voxel_size is None and fmt == "vti" and voxel > COARSE_FILE_VOXEL_M:
             warnings.warn(coarse_file_voxel_note(path.name, voxel), ImageWarning, stacklevel=2)
+        elif self.voxel_size is None and slices and not slice_set(path).z_spacing:
+            warnings.warn(
+                f"image.voxel_size: {voxel:g} m from {slice_set(path).first.name}'s x/y "
+                "calibration; a slice file stores no z spacing, so z is taken equal to x and y "
+                "(cubic voxels, as CT reconstructions are); give image.voxel_size to say so",
+                ImageWarning,
+                stacklevel=2,
+            )
         self._voxel = float(voxel)
         self._shape = shape
         return self
@@ -205,7 +221,7 @@ class ImageTable(Table):
         resolved = getattr(self, "_resolved", None)
         if resolved is not None:
             out["path"] = str(resolved)
-            out["format"] = self.format or resolved.suffix.lower().lstrip(".")
+            out["format"] = self._format
         if getattr(self, "_voxel", None) is not None:
             out["voxel_size"] = self._voxel
         if out.get("format") == "raw":

@@ -103,20 +103,28 @@ def apply_params(base: dict, params: dict, seed: int | None = None) -> dict:
     return spec
 
 
-_DIGESTS: dict[tuple[str, int, int], str] = {}
+_DIGESTS: dict[tuple, str] = {}
 
 
 def file_digest(path: str) -> str | None:
     """``"sha256:<hex>"`` of a file's bytes (cached per path, size and mtime), or None when it
-    cannot be read (the spec check names it later)."""
+    cannot be read (the spec check names it later). A folder or pattern of TIFF slices: of
+    its slices' bytes in slice order (:func:`psdesign.image.slices.slices_digest`)."""
+    from psdesign.image.slices import is_slice_path, signature, slices_digest
+
     try:
+        if is_slice_path(path):
+            key = (str(path), signature(path))
+            if key not in _DIGESTS:
+                _DIGESTS[key] = slices_digest(path)
+            return _DIGESTS[key]
         st = os.stat(path)
         key = (str(path), st.st_size, st.st_mtime_ns)
         if key not in _DIGESTS:
             with open(path, "rb") as fh:
                 _DIGESTS[key] = "sha256:" + hashlib.file_digest(fh, "sha256").hexdigest()
         return _DIGESTS[key]
-    except OSError:
+    except (OSError, ValueError):  # ValueError: slices refused (the spec check names it)
         return None
 
 
