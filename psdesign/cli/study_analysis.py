@@ -46,6 +46,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
             "cv_level_rel_error": m.cv_level_rel_error,
+            "cv_between_rel_error": m.cv_between_rel_error,
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
@@ -80,15 +81,16 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its bar and status (``extrapolated``
     outside the fitted cases, else the fit's rating, ``untrustworthy`` also when the fit's
-    error with inner levels held out or the point's own bar is too wide:
+    estimated error between its design points or the point's own bar is too wide:
     :func:`~psdesign.analysis.prediction.holdout_reason`,
     :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is returned too).
-    ``std`` is the printed bar: the GP std, never below the fit's measured hold-out error
-    (:func:`~psdesign.analysis.prediction.holdout_bar`; the GP std alone held the truth within
-    2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
+    ``std`` is the printed bar: the GP std, never below the fit's hold-out figure for where
+    the point is (:func:`~psdesign.analysis.prediction.holdout_bar`: between the design points
+    inside the box, the largest hold-out error outside it; the GP std alone held the truth
+    within 2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
     from psdesign.analysis.prediction import (
+        bar_error,
         holdout_bar,
-        holdout_error,
         holdout_reason,
         prediction_bar,
     )
@@ -99,16 +101,17 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
     wide = (holdout_reason(m) or wide_prediction(m, mean, gp_std)) if status == "ok" else ""
-    held, words = holdout_error(m)
-    bar = holdout_bar(m, mean)
+    held, words = bar_error(m, inside=not outside)
+    bar = holdout_bar(m, mean, inside=not outside)
     row = {
         "mean": mean,
-        "std": float(prediction_bar(m, mean, gp_std)),
+        "std": float(prediction_bar(m, mean, gp_std, inside=not outside)),
         "gp_std": gp_std,
         "error_from": words if bar > gp_std else "GP std",
         "holdout_rel_error": held,
         "cv_rel_error": m.cv_rel_error,
         "cv_level_rel_error": m.cv_level_rel_error,
+        "cv_between_rel_error": m.cv_between_rel_error,
         "status": "untrustworthy" if wide else status,
         "outside": outside,
     }
