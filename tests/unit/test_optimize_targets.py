@@ -421,6 +421,17 @@ def low_porosity_fails(spec, outputs, solver, workdir):
     return fake_case(spec, outputs, solver, workdir)
 
 
+def _met_search(tmp_path, case_fn: str) -> list[str]:
+    """``study optimize`` of ``STUDY`` into ``tmp_path / "opt"`` with ``case_fn`` (a function
+    of this file) toward the +-10 % band around K_z = 2 KC(0.84), which fake_case's K_z = 2
+    KC(eps) meets inside porosity [0.8, 0.88]."""
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY, PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
+    argv += ["--workers", "0", "--quiet", "--target", f"k_z_m2={target:.6e}+-10%"]
+    return [*argv, "--case-fn", f"test_optimize_targets:{case_fn}"]
+
+
 def test_a_met_search_with_a_failed_case_exits_1_and_says_so(tmp_path, capsys) -> None:
     """Review (session 43): `study optimize` exited 0 when its target was met although a case
     had failed, while `study run` and `rev` exit 1 for a failed case (the table of
@@ -428,11 +439,7 @@ def test_a_met_search_with_a_failed_case_exits_1_and_says_so(tmp_path, capsys) -
     the initial Latin hypercube of 4 points over porosity [0.8, 0.88] puts exactly one point
     in [0.8, 0.82), whose case raises; K_z = 2 KC(eps) meets the +-10 % band around 2 KC(0.84)
     (test above). The MET line stays, says 1 case failed, and the exit status is 1."""
-    target = 2.0 * kc_truth(0.84, 7e-6)
-    p = write_study(tmp_path, STUDY, PARAMS)
-    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
-    argv += ["--workers", "0", "--quiet", "--target", f"k_z_m2={target:.6e}+-10%"]
-    argv += ["--case-fn", "test_optimize_targets:low_porosity_fails"]
+    argv = _met_search(tmp_path, "low_porosity_fails")
     assert main(argv) == 1
     first = capsys.readouterr().out.splitlines()[0]
     assert first.startswith("MET: met every target after "), first
@@ -464,11 +471,7 @@ def test_a_met_search_with_an_unconverged_case_exits_3_as_study_run_would(tmp_pa
 
     from psdesign.cli.study import study_exit_status
 
-    target = 2.0 * kc_truth(0.84, 7e-6)
-    p = write_study(tmp_path, STUDY, PARAMS)
-    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
-    argv += ["--workers", "0", "--quiet", "--target", f"k_z_m2={target:.6e}+-10%"]
-    argv += ["--case-fn", "test_optimize_targets:low_porosity_unconverged"]
+    argv = _met_search(tmp_path, "low_porosity_unconverged")
     assert main(argv) == 3
     first = capsys.readouterr().out.splitlines()[0]
     df = pd.read_csv(tmp_path / "opt" / "results.csv")
