@@ -356,7 +356,7 @@ def optimize_study(
     from psdesign.study.studyfile import load_study
 
     _check_counts(budget, batch)
-    study = load_study(study_path)
+    study = load_study(study_path, run_kw.get("case_fn"))
     bounds = _bounds(study)
     check_targets(targets, study.outputs)  # names and ranges: before any case or folder
     names = list(bounds)

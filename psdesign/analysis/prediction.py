@@ -3,10 +3,18 @@
 The GP's own standard deviation is overconfident between a grid's levels: on Kozeny-Carman
 truth (3 porosities x 2 diameters, 2 seeds; 5 x 3 levels, 1 seed) it held the truth within two
 standard deviations at only 21 % / 42 % of a 41 x 41 grid of the box (session 43). A
-prediction's bar is therefore never smaller than what the fit measured by holding cases out:
-the cross-validated error and, on a grid, the error with each inner level held out
-(:func:`~psdesign.analysis.surrogate.inner_level_error`), and a prediction whose hold-out error
-exceeds :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` is ``untrustworthy``.
+prediction's bar is therefore never smaller than what the fit measured by holding cases out,
+and which figure depends on where the prediction is (session 44):
+
+* inside the fitted box, of a fit its own rating trusts: the estimated error between the
+  study's design points (:func:`~psdesign.analysis.surrogate.between_level_error`: the error
+  at the levels plus the inner-level error scaled to the study's spacing);
+* outside the box (``extrapolated``), or of a fit rated ``untrustworthy``: the largest
+  hold-out error the fit measured (:func:`holdout_error`: the cross-validated error and, on a
+  grid, the error with each inner level held out), the session-43 bar.
+
+A prediction inside whose between-level error exceeds
+:data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` is ``untrustworthy``.
 """
 
 from __future__ import annotations
@@ -40,22 +48,45 @@ def holdout_error(s: Surrogate) -> tuple[float, str]:
     return max(found) if found else (math.nan, "")
 
 
-def holdout_bar(s: Surrogate, mean):
-    """The fit's largest hold-out error (:func:`holdout_error`) at a prediction ``mean`` (a
-    number or an array of them), in the output's unit (0 without one): relative to the value
-    for a log-modelled output (its relative error is ``10**rmse - 1``), to the cases' mean
-    ``|y|`` otherwise (how :func:`~psdesign.analysis.surrogate.fit_surrogate` made it
-    relative)."""
-    rel, _ = holdout_error(s)
+#: The words of :func:`~psdesign.analysis.surrogate.between_level_error`'s figure.
+BETWEEN_WORDS = "estimated error between the study's design points"
+
+
+def bar_error(s: Surrogate, inside=True) -> tuple[float, str]:
+    """The relative hold-out figure a prediction's bar is never below, and its words: the
+    estimated error between the design points (``cv_between_rel_error``) for a prediction
+    ``inside`` the fitted box of a fit rated ``ok``, else the largest measured hold-out error
+    (:func:`holdout_error`: outside the box, an untrustworthy fit, or a surrogate.json
+    written before session 44).
+
+    >>> from types import SimpleNamespace as S
+    >>> s = S(cv_rel_error=0.0065, cv_level_rel_error=0.30, cv_between_rel_error=0.082,
+    ...       rating=lambda: ("ok", []))
+    >>> bar_error(s), bar_error(s, inside=False)[0]
+    ((0.082, "estimated error between the study's design points"), 0.3)
+    """
+    between = getattr(s, "cv_between_rel_error", math.nan)
+    if inside and between == between and s.rating()[0] == "ok":
+        return between, BETWEEN_WORDS
+    return holdout_error(s)
+
+
+def holdout_bar(s: Surrogate, mean, inside=True):
+    """The fit's hold-out figure (:func:`bar_error`) at a prediction ``mean`` (a number or an
+    array of them), in the output's unit (0 without one): relative to the value for a
+    log-modelled output (its relative error is ``10**rmse - 1``), to the cases' mean ``|y|``
+    otherwise (how :func:`~psdesign.analysis.surrogate.fit_surrogate` made it relative)."""
+    rel, _ = bar_error(s, inside)
     if rel != rel:
         return 0.0 * np.abs(mean)
     scale = np.abs(mean) if s.log_output else float(np.mean(np.abs(np.asarray(s.y, float))))
     return rel * scale
 
 
-def prediction_bar(s: Surrogate, mean, gp_std):
+def prediction_bar(s: Surrogate, mean, gp_std, inside=True):
     """The bar of a prediction (a number, or arrays of them): the GP std ``gp_std``, never
-    below the fit's measured hold-out error (:func:`holdout_bar`), the one rule of
+    below the fit's hold-out figure for where it is (:func:`holdout_bar`: between the design
+    points ``inside`` the fitted box, the largest hold-out error outside it), the one rule of
     ``study predict``'s printed ``+-`` and the report's response surface (its band and its
     relative uncertainty; the GP std alone, session 43).
 
@@ -64,21 +95,30 @@ def prediction_bar(s: Surrogate, mean, gp_std):
     >>> prediction_bar(s, np.array([2.0, 4.0]), np.array([1.0, 0.5])).tolist()
     [1.0, 1.2]
     """
-    return np.maximum(gp_std, holdout_bar(s, mean))
+    return np.maximum(gp_std, holdout_bar(s, mean, inside))
 
 
 def holdout_reason(s: Surrogate) -> str:
-    """Why a prediction of ``s`` is untrustworthy by the fit's hold-out error between the
-    levels, or ``""``: the error with each inner level held out exceeds
-    :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (the cross-validated error is in
-    the fit's own rating, :meth:`~psdesign.analysis.surrogate.Surrogate.rating`)."""
+    """Why a prediction of ``s`` inside its box is untrustworthy by the fit's estimated error
+    between the design points (the inner-level error in a surrogate.json written before
+    session 44), or ``""``: it exceeds :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`
+    (the cross-validated error is in the fit's own rating,
+    :meth:`~psdesign.analysis.surrogate.Surrogate.rating`)."""
     from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
-    lv = s.cv_level_rel_error
-    if not lv > UNTRUSTWORTHY_REL_ERROR:  # NaN: no inner level
+    between = getattr(s, "cv_between_rel_error", math.nan)
+    lv, words = (
+        (between, BETWEEN_WORDS)
+        if between == between
+        else (
+            s.cv_level_rel_error,
+            "error with each inner level held out",
+        )
+    )
+    if not lv > UNTRUSTWORTHY_REL_ERROR:  # NaN: no such figure
         return ""
     return (
-        f"{s.output}: the fit's error with each inner level held out is {100 * lv:.3g} %, above "
+        f"{s.output}: the fit's {words} is {100 * lv:.3g} %, above "
         f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %: between the study's levels it may be off by "
         "that much; run more levels"
     )

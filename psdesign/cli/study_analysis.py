@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, fail
+from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, cases_status, fail
 from psdesign.cli.lines import print_json
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
@@ -46,6 +46,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
             "cv_level_rel_error": m.cv_level_rel_error,
+            "cv_between_rel_error": m.cv_between_rel_error,
             "log_output": m.log_output,
             "n_cases": len(m.y),
             "params": m.params,
@@ -80,15 +81,16 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its bar and status (``extrapolated``
     outside the fitted cases, else the fit's rating, ``untrustworthy`` also when the fit's
-    error with inner levels held out or the point's own bar is too wide:
+    estimated error between its design points or the point's own bar is too wide:
     :func:`~psdesign.analysis.prediction.holdout_reason`,
     :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is returned too).
-    ``std`` is the printed bar: the GP std, never below the fit's measured hold-out error
-    (:func:`~psdesign.analysis.prediction.holdout_bar`; the GP std alone held the truth within
-    2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
+    ``std`` is the printed bar: the GP std, never below the fit's hold-out figure for where
+    the point is (:func:`~psdesign.analysis.prediction.holdout_bar`: between the design points
+    inside the box, the largest hold-out error outside it; the GP std alone held the truth
+    within 2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
     from psdesign.analysis.prediction import (
+        bar_error,
         holdout_bar,
-        holdout_error,
         holdout_reason,
         prediction_bar,
     )
@@ -99,16 +101,17 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
     wide = (holdout_reason(m) or wide_prediction(m, mean, gp_std)) if status == "ok" else ""
-    held, words = holdout_error(m)
-    bar = holdout_bar(m, mean)
+    held, words = bar_error(m, inside=not outside)
+    bar = holdout_bar(m, mean, inside=not outside)
     row = {
         "mean": mean,
-        "std": float(prediction_bar(m, mean, gp_std)),
+        "std": float(prediction_bar(m, mean, gp_std, inside=not outside)),
         "gp_std": gp_std,
         "error_from": words if bar > gp_std else "GP std",
         "holdout_rel_error": held,
         "cv_rel_error": m.cv_rel_error,
         "cv_level_rel_error": m.cv_level_rel_error,
+        "cv_between_rel_error": m.cv_between_rel_error,
         "status": "untrustworthy" if wide else status,
         "outside": outside,
     }
@@ -267,11 +270,12 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
 
     targets_out = [target_report(t, res.best) for t in targets]
     case = res.best.get("case_id")
-    n_failed = case_counts(res.results)[0] if res.results is not None else 0
+    n_failed, unconverged = _case_tally(res.results)
     summary = {
         "met": res.met,
         "message": res.message,
         "n_failed_cases": n_failed,  # failed or timed out: exit 1 even when met (session 43)
+        "not_converged_cases": unconverged,  # exit 3 even when met, as `study run` (s44)
         "n_points": res.n_points,
         "rounds": res.rounds,
         "targets": targets_out,
@@ -291,8 +295,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        failed = f" ({n_failed} case(s) failed or timed out; see results.csv)" if n_failed else ""
-        print(f"{'MET' if res.met else 'NOT MET'}: {res.message}{failed}")
+        print(f"{'MET' if res.met else 'NOT MET'}: {res.message}{_tally_text(summary)}")
         for r in targets_out:
             print(f"  {r['target']}: {measured_text(r)}")
         params = {k: v for k, v in res.best.items() if is_design_parameter(k)}
@@ -302,9 +305,34 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(f"  at {at}" + (f" ({why})" if why else ""))
         for w in summary["warnings"]:  # one line each: what the solve said about this K
             print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
-    if n_failed or res.failed:  # a failed case is exit 1, met or not, as in `study run`
-        return FAILED
-    return OK if res.met else NOT_TRUSTED
+    # every case it ran by `study run`'s table (a failed case 1, a not_converged one 3, met
+    # or not; before session 44 a not_converged case the search did not choose exited 0)
+    code = FAILED if res.failed else cases_status(n_failed, len(unconverged))
+    return NOT_TRUSTED if code == OK and not res.met else code
+
+
+def _case_tally(df) -> tuple[int, list[str]]:
+    """``(failed, not_converged ids)`` of the cases a search ran (``results.csv``'s rows):
+    the table ``study run`` decides its exit status by (:func:`~psdesign.cli.exit_status.
+    case_counts`), with the ids of the unconverged cases to name them."""
+    if df is None or not len(df):
+        return 0, []
+    n_failed = case_counts(df)[0]
+    return n_failed, df.loc[df["status"].astype(str) == "not_converged", "case_id"].tolist()
+
+
+def _tally_text(summary: dict) -> str:
+    """After the MET / NOT MET line: the cases that failed and those that did not converge.
+
+    >>> _tally_text({"n_failed_cases": 1, "not_converged_cases": ["c0002-ab", "c0005-cd"]})
+    ' (1 case(s) failed or timed out; 2 case(s) not_converged: c0002-ab, c0005-cd; see results.csv)'
+    >>> _tally_text({"n_failed_cases": 0, "not_converged_cases": []})
+    ''
+    """
+    n, nc = summary["n_failed_cases"], summary["not_converged_cases"]
+    parts = [f"{n} case(s) failed or timed out"] if n else []
+    parts += [f"{len(nc)} case(s) not_converged: {', '.join(nc)}"] if nc else []
+    return f" ({'; '.join(parts)}; see results.csv)" if parts else ""
 
 
 def _check_outcome_files(out: str) -> None:

@@ -481,11 +481,11 @@ def _tie(s, num: list[str], x: np.ndarray, ties: dict) -> np.ndarray:
 
 def surface_band_note(s) -> str:
     """The caption of the response surface's band: what its bar is (the bar ``study predict``
-    prints, :func:`~psdesign.analysis.prediction.prediction_bar`) and the fit's hold-out error
-    it is never below."""
-    from psdesign.analysis.prediction import holdout_error
+    prints, :func:`~psdesign.analysis.prediction.prediction_bar`) and the fit's hold-out figure
+    it is never below (inside the box: :func:`~psdesign.analysis.prediction.bar_error`)."""
+    from psdesign.analysis.prediction import bar_error
 
-    rel, words = holdout_error(s)
+    rel, words = bar_error(s)
     held = f"the fit's {words}, {100 * rel:.3g} %" if rel == rel else "no hold-out error"
     return (
         "Response surface: its band (and relative uncertainty) is the bar study predict "

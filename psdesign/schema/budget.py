@@ -35,6 +35,9 @@ Every check raises a schema error naming the key and the estimate. Figures:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 from psdesign.schema.flow import (
     AUTO_PERMEAMETER_COPIES,
@@ -88,6 +91,33 @@ MAX_SEEDS = 1000
 MAX_LEVELS = 10_000
 #: Per-case time limit: ``study.timeout_s``, ``study run --timeout``, ``run_study(timeout_s=)``.
 MAX_TIMEOUT_S = 1e7
+
+
+#: False while a spec is validated for a study whose case function is not psdesign's pipeline
+#: (:func:`unplanned_route`).
+_ROUTE_PLANNED: ContextVar[bool] = ContextVar("psdesign_route_planned", default=True)
+
+
+@contextmanager
+def unplanned_route() -> Iterator[None]:
+    """Validations inside plan no flow route: a study's own case function
+    (``run_study(case_fn=...)``) decides what it builds and solves, so its specs are held to
+    the schema's keys and to the memory of their voxel grid (:func:`check_grid` as geometry),
+    not to a solve psdesign would run: the voxel or FEM solver's estimate, a permeameter's
+    stacked copies, ``flow.max_memory_gb``, the stuffing lattice's cells. Before session 44 a
+    study of a custom case function that builds no permeameter was refused at load for the
+    2-copy FEM permeameter of its base spec ("a 1000x1000x1000 grid ... 2 copies stacked
+    needs about 14.9 GiB"), or for ``flow.max_memory_gb``, and never ran."""
+    token = _ROUTE_PLANNED.set(False)
+    try:
+        yield
+    finally:
+        _ROUTE_PLANNED.reset(token)
+
+
+def route_planned() -> bool:
+    """False inside :func:`unplanned_route`."""
+    return _ROUTE_PLANNED.get()
 
 
 def machine_memory() -> float:
@@ -261,7 +291,9 @@ def check_grid(
 ) -> None:
     """Refuse a voxel grid whose estimated memory (the permeameter's stack included,
     :func:`stack_of`) exceeds the budget; ``flow.permeameter_copies`` is named when one copy
-    would fit."""
+    would fit. Inside :func:`unplanned_route` the grid alone (``solver = "geometry"``)."""
+    if not route_planned():
+        solver, flow = "geometry", None
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
     copies, aux = stack_of(flow)
@@ -414,7 +446,10 @@ def check_fem(
     exceeds the budget; ``porosity`` None counts every lattice cell as pore. Without
     ``flow.lattice_step`` the step is :func:`fem_lattice_step`'s (``fiber_diameter``: the
     thinnest, in metres, or None), coarsened to fit where the box-relative step fits. With
-    ``flow.mesher = "pytetwild"`` the mesh is :func:`tetwild_mesh_size` instead."""
+    ``flow.mesher = "pytetwild"`` the mesh is :func:`tetwild_mesh_size` instead. Nothing
+    inside :func:`unplanned_route`."""
+    if not route_planned():
+        return
     if getattr(flow, "mesher", "stuffing") == "pytetwild":
         check_tetwild(size, flow, fiber_diameter)
         return

@@ -141,7 +141,7 @@ class SpecDocument(Table):
                 f"{lattice:g} m is over half the smallest edge",
                 f"<= {min(size) / 2:g} m",
             )
-        if lattice is not None:
+        if lattice is not None and budget.route_planned():
             budget.check_cells("flow.lattice_step", size, lattice, budget.MAX_LATTICE_CELLS)
         if self.flow.solver == "fem":
             self._fem_memory(size, voxel, flow, planned_porosity)

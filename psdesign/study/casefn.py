@@ -9,11 +9,27 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["DEFAULT_CASE_FN", "load_case_fn", "watch_parent"]
+__all__ = ["DEFAULT_CASE_FN", "load_case_fn", "runs_pipeline", "watch_parent"]
 
 DEFAULT_CASE_FN = "psdesign.study.case:run_case"
 #: Case functions renamed by a layout change; old study folders record the old names.
 RENAMED_CASE_FNS = {"psdesign.pipeline:run_case": DEFAULT_CASE_FN}
+
+
+def runs_pipeline(case_fn: Callable | str | None) -> bool:
+    """Is ``case_fn`` psdesign's own case function (None, its name, an old name of it, or the
+    function itself)? Only then does a study plan the route's memory and time before any work
+    (``psdesign.schema.budget.unplanned_route``) and check each case's spec as the pipeline
+    runs it; another case function builds and solves what it chooses.
+
+    >>> runs_pipeline(None), runs_pipeline("psdesign.pipeline:run_case"), runs_pipeline("m:f")
+    (True, True, False)
+    """
+    if case_fn is None:
+        return True
+    if not isinstance(case_fn, str):
+        case_fn = f"{getattr(case_fn, '__module__', '')}:{getattr(case_fn, '__qualname__', '')}"
+    return RENAMED_CASE_FNS.get(case_fn, case_fn) == DEFAULT_CASE_FN
 
 
 def load_case_fn(case_fn: Callable | str | None) -> Callable:

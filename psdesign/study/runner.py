@@ -37,7 +37,7 @@ from psdesign.study.address import (
     check_scheduler_address,
     host_port,
 )
-from psdesign.study.casefn import watch_parent
+from psdesign.study.casefn import runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
@@ -53,7 +53,7 @@ from psdesign.study.store import (
     StorageError,
 )
 from psdesign.study.studyfile import Study, StudyError, load_study
-from psdesign.study.worker import DEFAULT_CASE_FN, execute_case
+from psdesign.study.worker import execute_case
 
 __all__ = ["SchedulerError", "WorkersLost", "run_study"]
 
@@ -722,11 +722,11 @@ def run_study(
     unknown = [k for k in fields if k not in _OPTION_FIELDS]
     if unknown:  # as Python words it for a keyword the signature does not have
         raise TypeError(f"run_study() got an unexpected keyword argument {unknown[0]!r}")
-    if not isinstance(study, Study):
-        study = load_study(study)
     opts = _run_options(options, fields)
+    if not isinstance(study, Study):  # a case function of the user's: no route planned
+        study = load_study(study, opts.case_fn)
     cases = expand_design(study)
-    if opts.case_function() == DEFAULT_CASE_FN:
+    if runs_pipeline(opts.case_fn):
         validate_case_specs(cases, study.solver, k_directions(study.outputs))
     option, force_option = out_option
     target = check_study_dir(

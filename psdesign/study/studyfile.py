@@ -692,7 +692,7 @@ def _check_overridden_base_values(study: Study, first: dict, check: Callable) ->
             raise _err(f"base.{bad[0]}", bad[1].partition(": ")[2])
 
 
-def load_study(path: str | Path | dict) -> Study:
+def load_study(path: str | Path | dict, case_fn: Callable | str | None = None) -> Study:
     """Read and validate a study TOML file (or a study given as a dict).
 
     Parameters
@@ -700,6 +700,10 @@ def load_study(path: str | Path | dict) -> Study:
     path : str, Path or dict
         The study file, or its tables as a dict (what :func:`tomllib.load` returns; relative
         ``base`` / ``csv`` paths then resolve against the current folder).
+    case_fn : callable or str, optional
+        The case function the study will run with (``run_study``'s): psdesign's own (None)
+        has its route's memory planned before any work; another is held to the schema's keys
+        and its voxel grid's memory only (:func:`psdesign.schema.budget.unplanned_route`).
 
     Returns
     -------
@@ -711,6 +715,16 @@ def load_study(path: str | Path | dict) -> Study:
         File missing, too large, not UTF-8, TOML syntax error, not a file name or dict, or any
         invalid key (one line naming it).
     """
+    from contextlib import nullcontext
+
+    from psdesign.schema.budget import unplanned_route
+    from psdesign.study.casefn import runs_pipeline
+
+    with nullcontext() if runs_pipeline(case_fn) else unplanned_route():
+        return _load_study(path)
+
+
+def _load_study(path: str | Path | dict) -> Study:
     if isinstance(path, dict):  # a notebook builds the study in Python, as a spec for build()
         return parse_study(path)
     if not isinstance(path, str | PathLike):  # pathlib's TypeError named no key

@@ -421,6 +421,17 @@ def low_porosity_fails(spec, outputs, solver, workdir):
     return fake_case(spec, outputs, solver, workdir)
 
 
+def _met_search(tmp_path, case_fn: str) -> list[str]:
+    """``study optimize`` of ``STUDY`` into ``tmp_path / "opt"`` with ``case_fn`` (a function
+    of this file) toward the +-10 % band around K_z = 2 KC(0.84), which fake_case's K_z = 2
+    KC(eps) meets inside porosity [0.8, 0.88]."""
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY, PARAMS)
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
+    argv += ["--workers", "0", "--quiet", "--target", f"k_z_m2={target:.6e}+-10%"]
+    return [*argv, "--case-fn", f"test_optimize_targets:{case_fn}"]
+
+
 def test_a_met_search_with_a_failed_case_exits_1_and_says_so(tmp_path, capsys) -> None:
     """Review (session 43): `study optimize` exited 0 when its target was met although a case
     had failed, while `study run` and `rev` exit 1 for a failed case (the table of
@@ -428,14 +439,50 @@ def test_a_met_search_with_a_failed_case_exits_1_and_says_so(tmp_path, capsys) -
     the initial Latin hypercube of 4 points over porosity [0.8, 0.88] puts exactly one point
     in [0.8, 0.82), whose case raises; K_z = 2 KC(eps) meets the +-10 % band around 2 KC(0.84)
     (test above). The MET line stays, says 1 case failed, and the exit status is 1."""
-    target = 2.0 * kc_truth(0.84, 7e-6)
-    p = write_study(tmp_path, STUDY, PARAMS)
-    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "opt"), "--budget", "8"]
-    argv += ["--workers", "0", "--quiet", "--target", f"k_z_m2={target:.6e}+-10%"]
-    argv += ["--case-fn", "test_optimize_targets:low_porosity_fails"]
+    argv = _met_search(tmp_path, "low_porosity_fails")
     assert main(argv) == 1
     first = capsys.readouterr().out.splitlines()[0]
     assert first.startswith("MET: met every target after "), first
     assert first.endswith(" (1 case(s) failed or timed out; see results.csv)"), first
     kept = json.loads((tmp_path / "opt" / "optimize.json").read_text())
     assert (kept["met"], kept["n_failed_cases"]) == (True, 1)
+
+
+def low_porosity_unconverged(spec, outputs, solver, workdir):
+    """fake_case, except that the design point below porosity 0.82 does not converge along z
+    (its K_z is written, ``converged_z`` False: the case is ``not_converged``)."""
+    out = fake_case(spec, outputs, solver, workdir)
+    if float(spec["generator"]["porosity"]) < 0.82:
+        out["converged_z"] = False
+    return out
+
+
+def test_a_met_search_with_an_unconverged_case_exits_3_as_study_run_would(tmp_path, capsys):
+    """Session 43's note: `study optimize` decided its exit status by its failed cases and the
+    verdict alone, so a MET search exited 0 although a case it ran (and did not choose) was
+    ``not_converged``, where `study run` exits 3 for the same table of cases (the table of
+    psdesign/cli/exit_status.py: 3 "a result did not converge"). Truth: the initial Latin
+    hypercube of 4 points over porosity [0.8, 0.88] puts exactly one point in [0.8, 0.82)
+    (test_a_met_search_with_a_failed_case_exits_1_and_says_so), whose case does not converge;
+    K_z = 2 KC(eps) meets the +-10 % band around 2 KC(0.84). The MET line stays, names the
+    unconverged case, optimize.json lists it, and the exit status is `study run`'s for the
+    same results.csv: 3."""
+    import pandas as pd
+
+    from psdesign.cli.study import study_exit_status
+
+    argv = _met_search(tmp_path, "low_porosity_unconverged")
+    assert main(argv) == 3
+    first = capsys.readouterr().out.splitlines()[0]
+    df = pd.read_csv(tmp_path / "opt" / "results.csv")
+    (bad,) = df.loc[df["status"] == "not_converged", "case_id"]
+    assert first.startswith("MET: met every target after "), first
+    assert first.endswith(f" (1 case(s) not_converged: {bad}; see results.csv)"), first
+    kept = json.loads((tmp_path / "opt" / "optimize.json").read_text())
+    assert (kept["met"], kept["n_failed_cases"], kept["not_converged_cases"]) == (True, 0, [bad])
+    assert kept["best"]["case_id"] != bad
+    assert study_exit_status(df) == 3  # `study run`'s code for the same table
+    capsys.readouterr()
+    again = [*argv[:4], str(tmp_path / "opt2"), *argv[5:], "--json"]
+    assert main(again) == 3
+    assert json.loads(capsys.readouterr().out)["not_converged_cases"] == [bad]

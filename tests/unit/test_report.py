@@ -1032,8 +1032,10 @@ def test_response_surface_band_is_the_bar_study_predict_prints():
     noise) at 5 porosity levels x 2 seeds the cross-validated error is 5.1 % and the GP std
     about a tenth of that bar, so the band was ~10x narrower than the printed +-. Now the
     band's half-width at each point is 2 x prediction_bar (GP std, never below holdout_bar),
-    the 2-D panel plots that bar / mean, and the caption says so."""
-    from psdesign.analysis.prediction import holdout_bar, holdout_error
+    the 2-D panel plots that bar / mean, and the caption says so. Since session 44 the figure
+    inside the box is the estimated error between the design points (``bar_error``), the one
+    `study predict` prints there too."""
+    from psdesign.analysis.prediction import bar_error, holdout_bar
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
     from psdesign.report.decision import _surface_1d, _surface_2d, surrogate_plots
 
@@ -1055,17 +1057,19 @@ def test_response_surface_band_is_the_bar_study_predict_prints():
     half = (np.asarray(fig.data[0].y) - mean) / 2
     _, gp_std = s.predict(grid[:, None])
     held = holdout_bar(s, mean)
-    assert (held > 2 * gp_std).all()  # the premise: the hold-out error is the wider bar here
-    assert half == pytest.approx(held, rel=1e-12, abs=0)  # K ~ 1e-13 m^2: no abs slack
+    assert (held > gp_std).any()  # the premise: the hold-out figure is the wider bar somewhere
+    # K ~ 1e-13 m^2: no abs slack
+    assert half == pytest.approx(np.maximum(held, gp_std), rel=1e-12, abs=0)
     # two parameters: the right panel is bar / mean, i.e. the relative hold-out error here
     ok["generator.diameter"] = np.tile([6e-6, 8e-6], 5)
     two = ["generator.porosity", "generator.diameter"]
     s2 = fit_surrogate(ok, "k_z_m2", two, parameter_bounds(ok, two, {}))
     rel = np.asarray(_surface_2d(s2, ok, two, two, "k_z_m2").data[1].z)
-    assert rel.min() >= holdout_error(s2)[0] * (1 - 1e-12)
+    assert rel.min() >= bar_error(s2)[0] * (1 - 1e-12)
     text = surrogate_plots(ok.drop(columns="generator.diameter"), num, {})
-    rel_pct = f"{100 * holdout_error(s)[0]:.3g} %"
+    rel_pct = f"{100 * bar_error(s)[0]:.3g} %"
     assert (
         "Response surface: its band (and relative uncertainty) is the bar study predict "
-        f"prints, the GP std never below the fit&#x27;s cross-validated error, {rel_pct}" in text
+        "prints, the GP std never below the fit&#x27;s estimated error between the study&#x27;s "
+        f"design points, {rel_pct}" in text
     )

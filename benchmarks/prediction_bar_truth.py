@@ -1,0 +1,117 @@
+"""Coverage and width of ``study predict``'s bar against closed-form truth (session 44).
+
+Usage::
+
+    python benchmarks/prediction_bar_truth.py [--n 41]
+
+Fits K = 2 truth(eps, d) on small designs (full factorials with fake_case's one 1 % noise factor
+per seed, 1-D porosity sweeps, 12- and 20-point latin hypercubes with 1 % noise per case), then
+predicts through ``psdesign.cli.study_analysis._predict_one`` (the printed bar and status) on an
+n x n grid of the fitted box and compares with the noise-free truth: Kozeny-Carman with
+k_K = 5 (Carman 1937; ``tests/study_cases.kc_truth``) and Gebart's square array across the
+fibers (J. Compos. Mater. 26 (1992) 1100). One markdown row per design: the fit's hold-out
+figures, the true relative error (RMS / max), the share of points within 2 bars, the median bar
+and true error and their ratio, and the statuses printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from scipy.stats import qmc  # noqa: E402
+from study_cases import kc_truth  # noqa: E402
+
+from psdesign.analysis.surrogate import fit_surrogate  # noqa: E402
+from psdesign.cli.study_analysis import _predict_one  # noqa: E402
+
+D_1D = 7e-6
+GRIDS = (
+    ("3 x 2, 2 seeds", [0.7, 0.8, 0.9], [6e-6, 8e-6], [1, 2]),
+    ("5 x 3, 1 seed", [0.7, 0.75, 0.8, 0.85, 0.9], [6e-6, 7e-6, 8e-6], [1]),
+    ("3 x 3, 3 seeds", [0.7, 0.8, 0.9], [6e-6, 7e-6, 8e-6], [1, 2, 3]),
+    ("4 x 2, 2 seeds", [0.6, 0.7, 0.8, 0.9], [6e-6, 8e-6], [1, 2]),
+    ("1-D 5, 1 seed", [0.7, 0.75, 0.8, 0.85, 0.9], None, [1]),
+    ("1-D 3, 2 seeds", [0.7, 0.8, 0.9], None, [1, 2]),
+)
+
+
+def gebart(eps, d):
+    """Gebart (1992), square array, flow across the fibers."""
+    c1 = 16.0 / (9.0 * math.pi * math.sqrt(2.0))
+    return c1 * (np.sqrt((math.pi / 4.0) / (1.0 - eps)) - 1.0) ** 2.5 * (d / 2.0) ** 2
+
+
+def _fit(x: np.ndarray, y: np.ndarray, params: list[str]):
+    df = pd.DataFrame(x, columns=params).assign(k=y, status="ok")
+    return fit_surrogate(df, "k", params, {p: (df[p].min(), df[p].max(), False) for p in params})
+
+
+def grid_fit(truth, eps, diam, seeds):
+    params = ["e"] if diam is None else ["e", "d"]
+    x = np.array([(e, d)[: len(params)] for e in eps for d in (diam or [D_1D]) for _ in seeds])
+    noise = [1 + 0.01 * np.random.default_rng(s).standard_normal() for s in seeds]
+    d = x[:, 1] if diam else D_1D
+    return _fit(x, 2.0 * truth(x[:, 0], d) * np.tile(noise, len(x) // len(seeds)), params)
+
+
+def lhs_fit(truth, n_points):
+    u = qmc.LatinHypercube(d=2, seed=4).random(n_points)
+    x = np.c_[0.7 + 0.2 * u[:, 0], 6e-6 + 2e-6 * u[:, 1]]
+    noise = 1 + 0.01 * np.random.default_rng(5).standard_normal(n_points)
+    return _fit(x, 2.0 * truth(x[:, 0], x[:, 1]) * noise, ["e", "d"])
+
+
+def row(name: str, s, truth, n: int) -> str:
+    one = len(s.params) == 1
+    ds = [D_1D] if one else np.linspace(s.low[1], s.high[1], n)
+    err, bar, status = [], [], set()
+    for e in np.linspace(s.low[0], s.high[0], n):
+        for d in ds:
+            r, _ = _predict_one(s, f"e={e}" if one else f"e={e},d={d}")
+            k = 2.0 * truth(e, d)
+            err.append(abs(r["mean"] - k) / k)
+            bar.append(r["std"] / k)
+            status.add(r["status"])
+    err, bar = np.array(err), np.array(bar)
+    between = getattr(s, "cv_between_rel_error", math.nan)  # absent before session 44
+
+    def pct(v):
+        return f"{100 * v:.3g} %"
+
+    return (
+        f"| {name} | {pct(s.cv_rel_error)} | {pct(s.cv_level_rel_error)} | {pct(between)} | "
+        f"{pct(np.sqrt(np.mean(err**2)))} / {pct(err.max())} | {pct(np.mean(err <= 2 * bar))} | "
+        f"{pct(np.median(bar))} | {pct(np.median(err))} | {np.median(bar) / np.median(err):.3g} "
+        f"| {', '.join(sorted(status))} |"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=41, help="grid points per parameter")
+    n = ap.parse_args().n
+    warnings.simplefilter("ignore")
+    print(
+        "| design | CV error | inner-level error | between-points error | true error RMS / max "
+        "| within 2 bars | median bar | median true error | ratio | status |"
+    )
+    print("| --- " * 10 + "|")
+    for truth, tname in ((kc_truth, "KC"), (gebart, "Gebart")):
+        for name, eps, diam, seeds in GRIDS:
+            print(row(f"{tname} {name}", grid_fit(truth, eps, diam, seeds), truth, n))
+        for n_points in (12, 20):
+            print(row(f"{tname} LHS {n_points}", lhs_fit(truth, n_points), truth, n))
+
+
+if __name__ == "__main__":
+    main()
