@@ -382,3 +382,26 @@ def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
         and "[[2, 14]" in rows["image crop (x, y, z voxel ranges)"]
     )
     assert rows["image voxel size, shape"].startswith("not read now: ")
+
+
+def test_a_study_over_a_slice_folder_says_z_taken_equal_once(tmp_path) -> None:
+    """Slices calibrated in x/y only, no ``image.voxel_size``: the "z is taken equal to x and
+    y" warning is the spec's, the same for every case. A 3-case study printed it 8 times
+    (load_study's checks, validate_case_specs, each case; session 44): now once, from the
+    runner's check of the case specs (psdesign.study.worker.show_case_warnings, each text
+    once), with the 'always' filter so that no registry hides a repeat."""
+    write_slices(tmp_path / "slices", slit())
+    spec(tmp_path, "slices", NO_BAR, "img.toml")
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "img.toml"\n[study]\nname = "z1"\ndesign = "full-factorial"\n'
+        'outputs = ["porosity"]\nsolver = "voxel"\n'
+        '[parameters]\n"flow.viscosity" = [1.0e-5, 2.0e-5, 3.0e-5]\n'
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    assert len(df) == 3 and (df["status"] == "ok").all()
+    z_lines = [str(w.message) for w in caught if "z is taken equal to x and y" in str(w.message)]
+    assert len(z_lines) == 1, z_lines
+    assert z_lines[0].startswith("image.voxel_size: 1e-06 m from s0.tif's x/y calibration")
