@@ -159,6 +159,7 @@ from solvers.voxel import memory as vmem
 from solvers.voxel import multigrid as mg
 from solvers.voxel import schur, thin
 from solvers.voxel import threads as vthreads
+from solvers.voxel.memory import reservoir_cells, solved_shape
 
 __all__ = [
     "VoxelFlowResult",
@@ -405,40 +406,6 @@ def check_percolates(solid: np.ndarray, direction: int, what: str) -> None:
             f"{what} has no percolating fluid path along direction {'xyz'[direction]!r} "
             "(periodic, face-connected fluid voxels)"
         )
-
-
-def reservoir_cells(n_d: int, aux_length: float) -> int:
-    """Cells of each empty reservoir of a permeameter solve: ``aux_length`` times the sample's
-    ``n_d`` cells along the flow, rounded up, at least one.
-
-    >>> reservoir_cells(60, 0.2 / 3), reservoir_cells(5, 0.0)
-    (4, 1)
-    """
-    return max(1, int(np.ceil(aux_length * n_d - 1e-9)))
-
-
-def solved_shape(
-    shape: tuple[int, ...], d: int, bc: str, treatment: str = "periodic", aux_length: float = 0.2
-) -> tuple[int, ...]:
-    """The shape of the grid a solve of a ``shape`` sample holds (before any allocation): the
-    permeameter's two reservoirs (:func:`reservoir_cells`) along ``d``, else the periodic
-    treatment's (``mirror``: doubled along ``d``; ``frame``: one solid layer more across it).
-
-    >>> solved_shape((60, 10, 10), 0, "permeameter", aux_length=0.2)
-    (84, 10, 10)
-    >>> solved_shape((60, 10, 10), 0, "periodic", "mirror")
-    (120, 10, 10)
-    >>> solved_shape((6, 4, 4), 0, "periodic", "frame")
-    (6, 5, 5)
-    """
-    dims = [int(n) for n in shape]
-    if bc == "permeameter":
-        dims[d] += 2 * reservoir_cells(dims[d], aux_length)
-    elif treatment == "mirror":
-        dims[d] *= 2
-    elif treatment == "frame":
-        dims = [n + (b != d) for b, n in enumerate(dims)]
-    return tuple(dims)
 
 
 def apply_treatment(

@@ -57,6 +57,7 @@ def _drop_stale_outputs(folder: Path, formats: tuple[str, ...]) -> list[str]:
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.flow.darcy import flow_direction
     from psdesign.flow.fem_field import fem_field, spec_grid_step
+    from psdesign.flow.no_path import says_closed_pore_space
     from psdesign.image.fields import mesh_overrides
     from psdesign.io.atomic import staged_directory
     from psdesign.io.outputs import check_output_dir
@@ -103,13 +104,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     if note:
         print(f"psdesign mesh: {note}", file=sys.stderr)
     extra = mesh_overrides(fields) | step
-    pm = mesh_pore_space(
-        own.fields.distance,
-        own.voxel,
-        rve.size,
-        direction,
-        MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra),
-    )
+    opts = MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra)
+    with says_closed_pore_space(own.fields, direction, opts.periodic):  # permeability's line
+        pm = mesh_pore_space(own.fields.distance, own.voxel, rve.size, direction, opts)
     with staged_directory(target) as tmp:
         files = export_mesh(pm, tmp, formats=formats, flow=flow)
         info = {

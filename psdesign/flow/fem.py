@@ -152,6 +152,7 @@ def _mesh(
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
+    from psdesign.flow.no_path import says_closed_pore_space
     from psdesign.image.fields import mesh_overrides
 
     target = mesh_overrides(fields)  # an image: match the mesh to the voxel count
@@ -161,7 +162,8 @@ def _mesh(
     target |= step or {}
     if bc != "periodic":
         opts = MeshOptions.from_flow(flow, periodic=False, **target)
-        return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
+        with says_closed_pore_space(fields, name, periodic=False):
+            return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     from psdesign.meshing.errors import MeshFailedError
     from solvers.fem.periodic import PeriodicMeshError
 
@@ -169,7 +171,8 @@ def _mesh(
         _check_periodic_geometry(rve, fields)
     opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True, **target)
     try:
-        return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
+        with says_closed_pore_space(fields, name, periodic=True):
+            return mesh_pore_space(fields.distance, float(spacing[0]), size, name, opts)
     except MeshFailedError as exc:  # a check failed on the mesh of the wrapped field
         raise PeriodicMeshError(f"flow.bc = 'periodic': {exc}") from None
 

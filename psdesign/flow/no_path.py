@@ -31,6 +31,8 @@ A segmented image has no surface but its voxels: its pore space is what it is (`
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -91,11 +93,7 @@ def no_path_message(
     from psdesign.geometry.throat import percolates
 
     if distance is None:
-        return (
-            f"image: the pore space has no path along {name} (face-connected, periodic pore "
-            f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
-            "space joins the faces normal to the flow)"
-        )
+        return _image_line(name)
     if not periodic:
         return (
             f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected fluid "
@@ -106,13 +104,7 @@ def no_path_message(
     if wall == "diffuse" and rve is not None and percolates(d > 0.0, axis):
         return _diffuse_closed(name, h, rve, d.shape, axis)
     if not percolates(d > -OPEN_MOVE, axis):
-        return (
-            f"fibers: the pore space has no path along {name}: the fibers' surfaces close it "
-            f"(none on the {h:.3g} m grid even with the walls moved back by "
-            f"{OPEN_MOVE:.2f} voxel, farther than a voxel centre is from any point of its voxel), "
-            f"so there is no permeability along {name} at any voxel size (allowed: fibers that "
-            f"leave a pore path along {name})"
-        )
+        return _fibers_line(name, h)
     return (
         f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected, "
         "periodic fluid voxels): a gap under about a voxel closes on the grid, which the RVE's "
@@ -120,6 +112,95 @@ def no_path_message(
         "voxel) (allowed: a voxel small enough to open the pore path, a few voxels across "
         "its narrowest gap)"
     )
+
+
+def _image_line(name: str) -> str:
+    """The line of a segmented image whose pore voxels have no path along ``name``."""
+    return (
+        f"image: the pore space has no path along {name} (face-connected, periodic pore "
+        f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
+        "space joins the faces normal to the flow)"
+    )
+
+
+def _fibers_line(name: str, h: float) -> str:
+    """The line of an RVE whose surface closes every path along ``name`` (module docstring)."""
+    return (
+        f"fibers: the pore space has no path along {name}: the fibers' surfaces close it "
+        f"(none on the {h:.3g} m grid even with the walls moved back by "
+        f"{OPEN_MOVE:.2f} voxel, farther than a voxel centre is from any point of its voxel), "
+        f"so there is no permeability along {name} at any voxel size (allowed: fibers that "
+        f"leave a pore path along {name})"
+    )
+
+
+def closed_pore_space(
+    name: str, h: float, distance: np.ndarray | None, solid: np.ndarray, axis: int, periodic: bool
+) -> str | None:
+    """The line of a pore space that has no path along ``name`` whatever the grid or mesh:
+    an image's pore voxels (``distance`` None) or an RVE whose walls, moved back by
+    :data:`OPEN_MOVE` voxel, still close it (module docstring); None when it may have one.
+
+    The mesher refuses a pore space without an inlet-outlet path on the field it meshes (gaps
+    closed, :func:`psdesign.meshing.surface.check_voxel_connectivity`); this tells the user
+    when the image or the fibers are at fault, with the voxel route's line
+    (:func:`no_path_message`), not the mesh's resolution.
+
+    Parameters
+    ----------
+    name : str
+        The flow direction, ``"x"``, ``"y"`` or ``"z"``.
+    h : float
+        Voxel edge (m).
+    distance : ndarray or None
+        Signed distance (m, > 0 in the pore) at the voxel centres; None for a segmented image.
+    solid : ndarray of bool
+        The voxels' solid mask (used for an image).
+    axis : int
+        The flow's axis.
+    periodic : bool
+        A periodic mesh (a path must wind around the box); else the permeameter's fluid
+        zones before and after the RVE join its faces' pores (a path may enter and leave
+        anywhere on them).
+
+    Returns
+    -------
+    str or None
+
+    >>> solid = np.zeros((6, 4, 4), bool); solid[3] = True  # a plate across x
+    >>> closed_pore_space("x", 1e-6, None, solid, 0, False)[:44]
+    'image: the pore space has no path along x (f'
+    >>> closed_pore_space("y", 1e-6, None, solid, 1, True) is None
+    True
+    """
+    from psdesign.geometry.throat import percolates
+
+    pore = ~np.asarray(solid, bool) if distance is None else np.asarray(distance) / h > -OPEN_MOVE
+    if not periodic:  # one fluid layer each side: the reservoirs, joined across the wrap
+        pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
+        pore = np.pad(pore, pad, constant_values=True)
+    if percolates(pore, axis):
+        return None
+    return _image_line(name) if distance is None else _fibers_line(name, h)
+
+
+@contextmanager
+def says_closed_pore_space(fields, direction: str, periodic: bool) -> Iterator[None]:
+    """Run a mesher: its refusal for want of a pore path (``PoreTopologyError``) says the
+    image or the fibers are at fault where they are (:func:`closed_pore_space` of
+    ``fields``, a :class:`psdesign.geometry.rve.VoxelFields`), else is left as it is."""
+    from psdesign.meshing.errors import PoreTopologyError
+
+    try:
+        yield
+    except PoreTopologyError as exc:
+        axis = "xyz".index(direction)
+        distance = fields.distance if fields.analytic_distance else None
+        h = float(fields.grid.spacing[0])
+        line = closed_pore_space(direction, h, distance, fields.solid, axis, periodic)
+        if line is None:
+            raise
+        raise PoreTopologyError(line) from exc
 
 
 def _diffuse_closed(name: str, h: float, rve, shape, axis: int) -> str:

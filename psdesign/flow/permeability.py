@@ -496,8 +496,8 @@ def _restack_refusal(res: dict, copies: int, fields: VoxelFields, flow: dict) ->
     ``flow.max_memory_gb``, the rule of every up-front cap check), else ``(None, None)``."""
     from psdesign.schema import budget
 
-    n = float(np.prod(fields.grid.shape))
-    need = budget.restack_bytes(res, copies, n, float(flow.get("aux_length", 0.2)))
+    shape = [float(n) for n in fields.grid.shape]
+    need = budget.restack_bytes(res, copies, shape, float(flow.get("aux_length", 0.2)))
     limit = budget.MEMORY_FRACTION * budget.machine_memory()
     cap = flow.get("max_memory_gb")
     if need > limit:

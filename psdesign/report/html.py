@@ -614,7 +614,7 @@ def build_html(out_dir: str | Path) -> str:
         c for c in df.columns if is_design_parameter(c)
     ]
     name = study.get("name", out.name)
-    meta = _meta_table(df, study, runs, params, name)
+    meta = _meta_table(df, study, runs, params, name, out)
 
     perm_uri, perm_note = _perm_figure(df, study)
     perm_html = f'<img src="{perm_uri}" alt="porosity vs permeability">' if perm_uri else ""
@@ -710,8 +710,14 @@ def _status_banner(df: pd.DataFrame) -> str:
     )
 
 
-def _meta_table(df: pd.DataFrame, study: dict, runs: dict, params: list[str], name: str) -> str:
-    """The study's description, status counts, runs, machine and versions as table rows."""
+def _meta_table(
+    df: pd.DataFrame, study: dict, runs: dict, params: list[str], name: str, out: Path
+) -> str:
+    """The study's description, the image it solved (an image-based study,
+    :func:`psdesign.report.image_source.image_rows`), status counts, runs, machine and
+    versions as table rows."""
+    from psdesign.report.image_source import image_rows
+
     counts = df["status"].value_counts().to_dict() if "status" in df else {}
     run_list = runs.get("runs", [])
     last = run_list[-1] if run_list else {}
@@ -724,6 +730,7 @@ def _meta_table(df: pd.DataFrame, study: dict, runs: dict, params: list[str], na
         ("study", name),
         ("description", study.get("description", "")),
         ("design", study.get("design")),
+        *image_rows(study, out),
         ("cases", len(df)),
         ("status", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))),
         ("outputs", ", ".join(study.get("outputs", []))),

@@ -8,7 +8,10 @@ Every check raises a schema error naming the key and the estimate. Figures:
   larger figure, plus the box walls' couplings) per *solved* cell: a permeameter solves
   ``copies`` stacked copies of the RVE
   (``flow.permeameter_copies``; ``"auto"`` counts :data:`AUTO_PERMEAMETER_COPIES`, its first
-  solve) plus two reservoirs of ``flow.aux_length`` times one copy (:func:`solved_cells`);
+  solve) plus two reservoirs of ``flow.aux_length`` times one copy, each rounded up to whole
+  cells as the solver does (:func:`solved_cells`, through
+  :func:`solvers.voxel.memory.solved_shape`; until session 44 counted continuously: 1.4
+  cells for the 2 of a 7-cell sample at 0.2), or the periodic treatment's mirror or frame;
 * the diffuse wall (``flow.wall_treatment = "diffuse"``, periodic only): the assembled solve's
   :func:`solvers.voxel.diffuse.diffuse_memory_bytes`;
 * the stack's tiled fields, :data:`FIELD_BYTES_PER_VOXEL` per copy, held next to the RVE's;
@@ -35,7 +38,7 @@ Every check raises a schema error naming the key and the estimate. Figures:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 
@@ -252,32 +255,86 @@ def check_planned_stack(
         raise fail_error(exc) from None
 
 
-def solved_cells(n: float, copies: int, aux: float) -> float:
-    """Cells of the grid the voxel solver holds for an RVE of ``n`` voxels: ``copies`` copies
-    plus two reservoirs of ``aux`` times one copy (psdesign.flow.stack.stacked_flow)."""
-    return n * (copies + 2.0 * aux)
+def solved_cells(
+    shape: Sequence[float],
+    copies: int = 1,
+    aux: float | None = None,
+    treatment: str = "periodic",
+    axis: int | None = None,
+) -> float:
+    """Cells of the grid the voxel solver holds for an RVE grid of ``shape`` voxels:
+    ``copies`` stacked along the flow, then the solver's own count of what it adds
+    (:func:`solvers.voxel.memory.solved_shape`, one definition with the solve): a permeameter's
+    two reservoirs of ``aux`` times one copy (``aux`` None: periodic), each rounded up to whole
+    cells and at least one, or the periodic ``treatment``'s mirror or frame. Along ``axis``,
+    else the fewest over the three axes (any may be solved: refuse only what none of them
+    fits, as :func:`psdesign.schema.plan.planned_flow`). A shape too large to count cell by
+    cell: ``copies + 2 aux`` per voxel.
+
+    >>> solved_cells([7, 7, 7], 1, 0.2, axis=2)  # reservoirs of 2 cells each, not 1.4
+    539.0
+    >>> solved_cells([10, 10, 10], 2, 0.2), solved_cells([4, 4, 4], treatment="mirror")
+    (2400.0, 128.0)
+    """
+    from solvers.voxel.memory import solved_shape
+
+    dims = [float(n) for n in shape]
+    if not all(math.isfinite(n) and n < 1e12 for n in dims):
+        return math.prod(dims) * (copies + 2.0 * (aux or 0.0))
+    bc = "periodic" if aux is None else "permeameter"
+    counts = []
+    for a in range(3) if axis is None else (axis,):
+        stack = tuple(int(n) * (copies if b == a else 1) for b, n in enumerate(dims))
+        # the solver's reservoir: aux of one copy = aux / copies of the stack (flow.voxel)
+        solved = solved_shape(stack, a, bc, treatment, (aux or 0.0) / copies)
+        counts.append(float(math.prod(solved)))
+    return min(counts)
 
 
-def grid_bytes(n: float, solver: str, copies: int = 1, aux: float = 0.0) -> float:
-    """Estimated peak bytes of the voxel fields (and the voxel solver's grid) for ``n`` voxels."""
+def solve_of(flow, aux: float) -> dict:
+    """The :func:`solved_cells` keywords of a ``[flow]`` table (None: periodic): the
+    permeameter's ``aux`` (``aux_length`` from :func:`stack_of`), the periodic treatment,
+    and the axis of ``flow.direction`` where the route pinned it
+    (:func:`psdesign.schema.plan.solved_axis`)."""
+    from psdesign.schema.plan import solved_axis
+
+    if flow is None:
+        return {}
+    return {
+        "aux": aux if solved_bc(flow) == "permeameter" else None,
+        "treatment": getattr(flow, "periodic_treatment", None) or "periodic",
+        "axis": solved_axis(flow),
+    }
+
+
+def grid_bytes(
+    shape: Sequence[float], solver: str, copies: int = 1, solve: dict | None = None
+) -> float:
+    """Estimated peak bytes of the voxel fields (and the voxel solver's grid) of an RVE grid
+    of ``shape`` voxels, ``copies`` stacked; ``solve``: :func:`solved_cells`' keywords
+    (:func:`solve_of`; None: periodic)."""
+    n = math.prod(float(s) for s in shape)
     geometry = n * max(GEOMETRY_BYTES_PER_VOXEL, FIELD_BYTES_PER_VOXEL * (1 + copies))
     if solver != "voxel":
         return geometry
-    return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(n, copies, aux)
+    return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(shape, copies, **(solve or {}))
 
 
-def restack_bytes(result: dict, copies: int, n_voxels: float, aux: float) -> float:
+def restack_bytes(result: dict, copies: int, shape: Sequence[float], aux: float) -> float:
     """Estimated peak bytes of solving a permeameter ``result`` again with ``copies`` copies
     (``"auto"`` lengthening the sample, :func:`psdesign.flow.stack.next_auto_copies`). Voxel
-    route: :func:`grid_bytes` of the RVE's ``n_voxels`` with ``aux`` (``flow.aux_length``)
-    reservoirs; FEM: :func:`solvers.fem.memory.estimate_memory_gb` of the result's mesh scaled by
+    route: :func:`grid_bytes` of the RVE's grid ``shape`` with ``aux`` (``flow.aux_length``)
+    reservoirs along the result's ``direction``; FEM: :func:`solvers.fem.memory.estimate_memory_gb` of the result's mesh scaled by
     ``copies / permeameter_copies`` (the reservoirs keep their size: an upper bound).
 
-    >>> restack_bytes({"solver": "voxel"}, 3, 1000, 0.2) == grid_bytes(1000, "voxel", 3, 0.2)
+    >>> z = {"aux": 0.2, "axis": 2}
+    >>> restack_bytes({"solver": "voxel", "direction": "z"}, 3, [10] * 3, 0.2) == grid_bytes(
+    ...     [10] * 3, "voxel", 3, z)
     True
     """
     if result.get("solver") == "voxel":
-        return grid_bytes(n_voxels, "voxel", copies, aux)
+        axis = "xyz".index(result["direction"]) if result.get("direction") else None
+        return grid_bytes(shape, "voxel", copies, {"aux": aux, "axis": axis})
     from solvers.fem.memory import estimate_memory_gb
 
     scale = copies / max(1, int(result.get("permeameter_copies") or 1))
@@ -300,16 +357,16 @@ def check_grid(
     if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
-        need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
+        need = grid_bytes(shape, "geometry") + diffuse_memory_bytes(shape)
     else:
-        need = grid_bytes(n, solver, copies, aux)
+        need = grid_bytes(shape, solver, copies, solve_of(flow, aux))
     budget = MEMORY_FRACTION * machine_memory()
     if need <= budget:
         if solver == "voxel":
             _check_voxel_cap(shape, flow, key)
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
-    single = grid_bytes(n, solver, 1, aux)
+    single = grid_bytes(shape, solver, 1, solve_of(flow, aux))
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
@@ -340,16 +397,15 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
     cap refuses the spec before the grid is built (the solver itself takes no cap)."""
     if getattr(flow, "max_memory_gb", None) is None:
         return
-    n = math.prod(shape)
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     stacked = ""
     if getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
-        need = grid_bytes(n, "geometry") + diffuse_memory_bytes(shape)
+        need = grid_bytes(shape, "geometry") + diffuse_memory_bytes(shape)
     else:
         copies, aux = least_stack_of(flow)
-        need = grid_bytes(n, "voxel", copies, aux)
+        need = grid_bytes(shape, "voxel", copies, solve_of(flow, aux))
         stacked = f" ({copies} copies stacked)" if copies > 1 else ""
     check_cap(flow, need, f"the voxel solve of the {dims} grid{stacked}", key)
 

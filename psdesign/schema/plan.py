@@ -46,6 +46,14 @@ def pinned_direction() -> Iterator[None]:
         _PINNED.reset(token)
 
 
+def solved_axis(flow: FlowTable) -> int | None:
+    """The axis a route solves: ``flow.direction``'s inside :func:`pinned_direction`, else
+    None (any direction may be solved)."""
+    if flow.direction is not None and _PINNED.get():
+        return "xyz".index(flow.direction)
+    return None
+
+
 def _pinned(flow: FlowTable, copies: int) -> FlowTable:
     return flow.model_copy(update={"permeameter_copies": copies})
 

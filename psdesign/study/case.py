@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
+from psdesign.schema.image import ImageWarning
 from psdesign.schema.spec import check_directions, validate_spec
 from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions
 from psdesign.study.stages import mark_stage
@@ -73,7 +75,9 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         Folder for this case's files (a preview picture).
     """
     t0 = time.perf_counter()
-    spec = validate_spec(spec)
+    with warnings.catch_warnings():  # the run showed them once (validate_case_specs)
+        warnings.simplefilter("ignore", ImageWarning)
+        spec = validate_spec(spec)
     for o in outputs:
         if o not in OUTPUTS and o != FIELDS_FLAG:
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")

@@ -620,11 +620,31 @@ def validate_case_specs(
     the copies an ``"auto"`` permeameter of explicit fibers stacks,
     :func:`psdesign.schema.spec.check_directions`).
 
+    The image's warnings (:class:`psdesign.schema.image.ImageWarning`: "z is taken equal to
+    x and y" of a slice folder, a voxel size against the file's) are the specs', not a case's:
+    shown here once each for the study (:func:`psdesign.study.worker.show_case_warnings`), and
+    the default case function does not repeat them (a 3-case study over a slice folder printed
+    the z line 8 times, session 44).
+
     Raises
     ------
     StudyError
         Naming the first bad case, its parameters and the spec error.
     """
+    import warnings
+
+    from psdesign.study.worker import show_case_warnings
+
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
+            _validate_cases(cases, solver, directions)
+    finally:
+        show_case_warnings(caught, None)
+
+
+def _validate_cases(cases: list[Case], solver: str | None, directions: Sequence[str]) -> None:
+    """:func:`validate_case_specs`' checks, one case after the other."""
     import numpy as np
 
     from psdesign.schema.spec import check_directions, validate_spec

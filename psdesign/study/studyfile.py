@@ -24,6 +24,7 @@ from psdesign.errors import SpecError, StudyError  # StudyError: re-exported (li
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS
 from psdesign.schema.document import STUDY_TABLES
 from psdesign.schema.errors import did_you_mean, first_error
+from psdesign.schema.image import ImageWarning
 from psdesign.schema.keys import spec_paths
 from psdesign.schema.spec import SpecWarning, check_directions, read_toml, validate_spec
 from psdesign.schema.study import (
@@ -641,6 +642,7 @@ def check_study_specs(study: Study) -> None:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpecWarning)
+                warnings.simplefilter("ignore", ImageWarning)  # the run shows them once
                 valid = validate_spec(spec)
                 check_directions(valid, valid["flow"], directions)  # "auto"'s copies along them
             if solves_k:  # a [flow] choice the study's solver would not apply

@@ -264,24 +264,26 @@ def run_case_inline(payload: dict, workdir: Path) -> dict:
         show_case_warnings(caught, str(payload.get("case_id", "?")))
 
 
-def show_case_warnings(caught: list, case_id: str) -> None:
+def show_case_warnings(caught: list, case_id: str | None) -> None:
     """Show each warning of ``caught`` once (the same text from another line or direction
     too), as ``case <case_id>: <message>``: a study of many cases printed "voxel grid has 7.0
-    voxels ..." once per case with nothing saying which (session 42).
+    voxels ..." once per case with nothing saying which (session 42). ``case_id`` None: the
+    warnings of the whole study's specs, checked before its cases run
+    (:func:`psdesign.study.runner.validate_case_specs`), each text once, without a case.
 
     Parameters
     ----------
     caught : list of warnings.WarningMessage
         What ``warnings.catch_warnings(record=True)`` recorded.
-    case_id : str
-        The case's id (``c0003-3fa2b91c``).
+    case_id : str or None
+        The case's id (``c0003-3fa2b91c``), or None for the study's.
     """
     seen: set[tuple[type, str]] = set()
     for w in caught:
         text = " ".join(str(w.message).split())
         if (w.category, text) not in seen:
             seen.add((w.category, text))
-            warn_at_caller(f"case {case_id}: {text}", w.category)
+            warn_at_caller(text if case_id is None else f"case {case_id}: {text}", w.category)
 
 
 def execute_case(payload: dict) -> dict:

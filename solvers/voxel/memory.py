@@ -64,6 +64,8 @@ No numba and no numpy import here: :mod:`psdesign.schema.budget` uses it to refu
 
 from __future__ import annotations
 
+import math
+
 DIRECTION_BITS = 32
 """Storage of the MINRES directions (:class:`solvers.voxel.lanczos.Directions`) in the first
 refinement cycle: 32 (float32, 16 B per cell per direction) or 16 (int16 blocks, 9 B).
@@ -221,3 +223,39 @@ def available_bytes() -> float | None:
         return float(psutil.virtual_memory().available)
     except Exception:  # noqa: BLE001 - an estimate must never fail
         return None
+
+
+def reservoir_cells(n_d: int, aux_length: float) -> int:
+    """Cells of each empty reservoir of a permeameter solve: ``aux_length`` times the sample's
+    ``n_d`` cells along the flow, rounded up, at least one (here, beside the bytes per cell,
+    so that :mod:`psdesign.schema.budget` counts the cells the solve holds without importing
+    the solver).
+
+    >>> reservoir_cells(60, 0.2 / 3), reservoir_cells(5, 0.0)
+    (4, 1)
+    """
+    return max(1, math.ceil(aux_length * n_d - 1e-9))
+
+
+def solved_shape(
+    shape: tuple[int, ...], d: int, bc: str, treatment: str = "periodic", aux_length: float = 0.2
+) -> tuple[int, ...]:
+    """The shape of the grid a solve of a ``shape`` sample holds (before any allocation): the
+    permeameter's two reservoirs (:func:`reservoir_cells`) along ``d``, else the periodic
+    treatment's (``mirror``: doubled along ``d``; ``frame``: one solid layer more across it).
+
+    >>> solved_shape((60, 10, 10), 0, "permeameter", aux_length=0.2)
+    (84, 10, 10)
+    >>> solved_shape((60, 10, 10), 0, "periodic", "mirror")
+    (120, 10, 10)
+    >>> solved_shape((6, 4, 4), 0, "periodic", "frame")
+    (6, 5, 5)
+    """
+    dims = [int(n) for n in shape]
+    if bc == "permeameter":
+        dims[d] += 2 * reservoir_cells(dims[d], aux_length)
+    elif treatment == "mirror":
+        dims[d] *= 2
+    elif treatment == "frame":
+        dims = [n + (b != d) for b, n in enumerate(dims)]
+    return tuple(dims)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import random
+import re
 import shutil
 import warnings
 
@@ -343,3 +344,64 @@ def test_a_study_on_a_folder_of_slices(tmp_path) -> None:
     page[0, 0] = 255
     tifffile.imwrite(tmp_path / "b" / "slices" / "s7.tif", page, **IMAGEJ_UM)
     assert case(tmp_path / "a") != case(tmp_path / "b")
+
+
+def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
+    """The report of a study over a cropped folder of slices names the folder, its format,
+    the voxel size read from the slices' calibration (1 um, IMAGEJ_UM), the crop and the
+    cropped shape (12 x 16 x 24 voxels); until session 44 only study.json did. With the
+    folder moved away, the report still names the path and crop and says the rest is not
+    read (a report is never lost)."""
+    from psdesign.report.html import build_html
+
+    write_slices(tmp_path / "slices", slit())
+    crop = "crop = [[2, 14], [0, 16], [0, 24]]\n"
+    spec(tmp_path, "slices", crop + NO_BAR, "img.toml")
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "img.toml"\n[study]\nname = "sl"\ndesign = "full-factorial"\n'
+        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df = psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    assert df["porosity"].iloc[0] == pytest.approx(16 / 24, rel=1e-12, abs=0)
+    page = build_html(tmp_path / "out")
+    rows = dict(re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page))
+    assert rows["image"] == str(tmp_path / "slices")
+    assert rows["image format"] == "tif"
+    assert rows["image voxel size (m)"] == "1e-06 (from the file)"
+    assert rows["image crop (x, y, z voxel ranges)"] == "[[2, 14], [0, 16], [0, 24]]"
+    assert rows["image shape (voxels x, y, z)"].startswith("12 x 16 x 24 (box 1.2e-05 x")
+    shutil.move(tmp_path / "slices", tmp_path / "moved")
+    rows = dict(
+        re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", build_html(tmp_path / "out"))
+    )
+    assert (
+        rows["image"] == str(tmp_path / "slices")
+        and "[[2, 14]" in rows["image crop (x, y, z voxel ranges)"]
+    )
+    assert rows["image voxel size, shape"].startswith("not read now: ")
+
+
+def test_a_study_over_a_slice_folder_says_z_taken_equal_once(tmp_path) -> None:
+    """Slices calibrated in x/y only, no ``image.voxel_size``: the "z is taken equal to x and
+    y" warning is the spec's, the same for every case. A 3-case study printed it 8 times
+    (load_study's checks, validate_case_specs, each case; session 44): now once, from the
+    runner's check of the case specs (psdesign.study.worker.show_case_warnings, each text
+    once), with the 'always' filter so that no registry hides a repeat."""
+    write_slices(tmp_path / "slices", slit())
+    spec(tmp_path, "slices", NO_BAR, "img.toml")
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'base = "img.toml"\n[study]\nname = "z1"\ndesign = "full-factorial"\n'
+        'outputs = ["porosity"]\nsolver = "voxel"\n'
+        '[parameters]\n"flow.viscosity" = [1.0e-5, 2.0e-5, 3.0e-5]\n'
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    assert len(df) == 3 and (df["status"] == "ok").all()
+    z_lines = [str(w.message) for w in caught if "z is taken equal to x and y" in str(w.message)]
+    assert len(z_lines) == 1, z_lines
+    assert z_lines[0].startswith("image.voxel_size: 1e-06 m from s0.tif's x/y calibration")

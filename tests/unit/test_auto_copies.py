@@ -157,7 +157,7 @@ def test_max_copies_warns(monkeypatch):
 
 def test_budget_stops_and_names_the_key(monkeypatch):
     # the first solve fits; 3 copies of the 10^3 grid would not in a 1.5 x 2-copy budget
-    two = budget.grid_bytes(1000, "voxel", 2, 0.2)
+    two = budget.grid_bytes([10, 10, 10], "voxel", 2, {"aux": 0.2})
     monkeypatch.setattr(budget, "machine_memory", lambda: 2 * 1.2 * two)
     res, _, calls = _run(monkeypatch, VOXEL_WINDOW)
     assert len(calls) == 1 and res["permeameter_auto"]["stopped"] == "budget"
@@ -169,9 +169,11 @@ def test_restack_bytes_scales_the_fem_mesh():
     from solvers.fem.memory import estimate_memory_gb
 
     r = {"solver": "fem", "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
-    assert budget.restack_bytes(r, 3, 0, 0.2) == pytest.approx(estimate_memory_gb(1500, 7500) * 1e9)
-    assert budget.restack_bytes({"solver": "voxel"}, 4, 8000, 0.2) == pytest.approx(
-        budget.grid_bytes(8000, "voxel", 4, 0.2)
+    assert budget.restack_bytes(r, 3, [0, 0, 0], 0.2) == pytest.approx(
+        estimate_memory_gb(1500, 7500) * 1e9
+    )
+    assert budget.restack_bytes({"solver": "voxel"}, 4, [20] * 3, 0.2) == pytest.approx(
+        budget.grid_bytes([20] * 3, "voxel", 4, {"aux": 0.2})
     )
 
 
@@ -206,7 +208,7 @@ def test_the_memory_cap_stops_the_stack_too(monkeypatch, solver):
     estimate each solve's own check uses) is over CAP_MARGIN times the cap (session 43: the
     rule of every cap check, budget.fits_cap)."""
     first = {"solver": solver, "permeameter_copies": 2, "n_points": 1000, "n_tets": 5000}
-    three = budget.restack_bytes(first, 3, 1000, 0.2)
+    three = budget.restack_bytes(first, 3, [10] * 3, 0.2)
     cap = 0.99 * three / budget.CAP_MARGIN  # bytes (the 2-copy solve is the stub's)
     res, _, calls = _run(monkeypatch, VOXEL_WINDOW, solver, {"max_memory_gb": cap / 1e9})
     assert len(calls) == 1 and res["permeameter_auto"]["stopped"] == "max_memory_gb"
@@ -220,8 +222,8 @@ def test_a_stack_within_the_cap_margin_is_solved(monkeypatch):
     (budget.fits_cap). The 3-copy voxel stack needs 1.1 x the cap: solved (old code: stopped at
     2 copies with 'over flow.max_memory_gb'); at 1.3 x it stops, as check_cap refuses it."""
     first = {"solver": "voxel", "permeameter_copies": 2}
-    three = budget.restack_bytes(first, 3, 1000, 0.2)
-    four = budget.restack_bytes(first, 4, 1000, 0.2)
+    three = budget.restack_bytes(first, 3, [10] * 3, 0.2)
+    four = budget.restack_bytes(first, 4, [10] * 3, 0.2)
     res, _, calls = _run(monkeypatch, VOXEL_WINDOW, "voxel", {"max_memory_gb": three / 1.1 / 1e9})
     assert four > budget.CAP_MARGIN * three / 1.1  # the fourth copy is over the margin
     assert len(calls) == 2 and res["permeameter_copies"] == 3

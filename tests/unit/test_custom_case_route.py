@@ -40,7 +40,11 @@ def _study(tmp_path, study: str = STUDY):
 
 def test_the_premise():
     assert PERMEAMETER in BASE.replace(FLOW, PERMEAMETER)
-    assert grid_bytes(1e6, "voxel", 1, 0.0) < 1.25 * 0.2e9 < grid_bytes(1e6, "voxel", 3, 0.2)
+    assert (
+        grid_bytes([100] * 3, "voxel")
+        < 1.25 * 0.2e9
+        < grid_bytes([100] * 3, "voxel", 3, {"aux": 0.2})
+    )
 
 
 def test_a_custom_case_function_is_not_refused_for_a_permeameter_it_does_not_build(

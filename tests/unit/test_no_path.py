@@ -155,3 +155,63 @@ def test_an_image_without_a_path_names_the_image():
     line = no_path_message("y", 1e-6, None, 1, "staircase")
     assert line.startswith("image: the pore space has no path along y")
     assert np.isfinite(OPEN_MOVE)
+
+
+def _write_plates_across_z(folder) -> None:
+    """A segmented image (ImageJ TIFF, 1 um voxels, stored zyx) whose solid plate across z
+    (slices 10-13 of 24) closes every path along z; x and y stay open."""
+    import tifffile
+
+    stack = np.zeros((24, 12, 12), np.uint8)
+    stack[10:14] = 255
+    meta = {"unit": "um", "axes": "ZYX"}
+    tifffile.imwrite(folder / "plate.tif", stack, imagej=True, resolution=(1.0, 1.0), metadata=meta)
+    (folder / "spec.toml").write_text(
+        '[image]\npath = "plate.tif"\nsolid_label = 255\n[flow]\ndirection = "z"\n'
+    )
+
+
+def _refusal(capsys, *args) -> str:
+    from psdesign.cli.main import main
+
+    assert main(list(args)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psdesign: error: "), err
+    return err[0].removeprefix("psdesign: error: ")
+
+
+def test_mesh_and_the_fem_route_name_the_image_without_a_path_as_the_voxel_route_does(
+    tmp_path, capsys
+):
+    """An image closed across z (a solid plate): ``permeability --solver voxel`` names
+    ``image`` (no path in its voxels at all); ``mesh`` and ``permeability --solver fem`` said
+    ``rve.voxel: disconnected pore space ... a voxel fine enough to open the path`` (a key an
+    image spec does not have, a remedy that does not exist; session 44). Now all three print
+    the same one line, exit 2, and ``mesh`` leaves no output folder."""
+    _write_plates_across_z(tmp_path)
+    spec = str(tmp_path / "spec.toml")
+    voxel = _refusal(capsys, "permeability", spec, "--solver", "voxel", "--quiet")
+    assert voxel.startswith("image: the pore space has no path along z")
+    out = tmp_path / "mesh_out"
+    assert _refusal(capsys, "mesh", spec, "-o", str(out), "--quiet") == voxel
+    assert not out.exists()
+    assert _refusal(capsys, "permeability", spec, "--solver", "fem", "--quiet") == voxel
+
+
+def test_mesh_of_fibers_without_a_path_names_the_fibers(tmp_path, capsys):
+    """The two overlapping cylinders of the test above (closed along x by the fibres, at any
+    voxel): ``mesh`` (the permeameter's reservoirs included) names ``fibers``, not
+    ``rve.voxel``, with the voxel route's line."""
+    spec = tmp_path / "rods.toml"
+    rods = "".join(
+        f'[[fibers]]\nshape = "cylinder"\ndiameter = 24e-6\ncenter = [20e-6, {y}e-6, 13e-6]\n'
+        "direction = [0, 0, 1]\n"
+        for y in (10, 30)
+    )
+    spec.write_text(f"[rve]\nsize = [40e-6, 40e-6, 26e-6]\nvoxel = 2e-6\n{rods}")
+    line = _refusal(
+        capsys, "mesh", str(spec), "-o", str(tmp_path / "m"), "--direction", "x", "--quiet"
+    )
+    assert line.startswith("fibers: the pore space has no path along x")
+    assert "rve.voxel" not in line
+    assert not (tmp_path / "m").exists()

@@ -28,9 +28,9 @@ from psdesign.errors import SpecError
 from psdesign.schema import budget
 from psdesign.schema.spec import check_directions, validate_spec
 
-N = 20.0**3  # voxels of the 20 um cube at 1 um
-ONE = budget.grid_bytes(N, "voxel", 1, 0.2)
-TWO = budget.grid_bytes(N, "voxel", 2, 0.2)
+CUBE = [20, 20, 20]  # the grid of the 20 um cube at 1 um
+ONE = budget.grid_bytes(CUBE, "voxel", 1, {"aux": 0.2})
+TWO = budget.grid_bytes(CUBE, "voxel", 2, {"aux": 0.2})
 #: flow.max_memory_gb between one copy and two, the margin counted
 CAP = 0.5 * (ONE + TWO) / budget.CAP_MARGIN / 1e9
 
@@ -157,8 +157,8 @@ def test_the_machine_budget_counts_the_planned_copies(
     the RVE is built naming flow.permeameter_copies; the 30 um box, not periodic along z,
     stacks one copy and is accepted (old code: refused it for two copies)."""
     spec = _spec(None, size or (20e-6,) * 3, center)
-    n = N * (1.5 if size else 1.0)
-    one, two = (budget.grid_bytes(n, "voxel", c, 0.2) for c in (1, 2))
+    shape = [20, 20, 30] if size else CUBE
+    one, two = (budget.grid_bytes(shape, "voxel", c, {"aux": 0.2}) for c in (1, 2))
     monkeypatch.setattr(budget, "machine_memory", lambda: (one + two) / budget.MEMORY_FRACTION / 2)
     along_z = spec | {"flow": spec["flow"] | {"direction": "z"}}
     if planned == 1:

@@ -68,13 +68,39 @@ def test_the_voxel_cap_is_the_voxel_solve_estimate():
     """20^3 grid, periodic: grid_bytes = 8000 x (16 + 107 + 9) B = 1.056e-3 GB (fields,
     sub-voxel solver, box-wall couplings). Refused only over 1.25 x the cap (the estimate is an
     upper bound: traced 80-88 B per cell of solver against 107)."""
-    need = budget.grid_bytes(8000, "voxel")
+    need = budget.grid_bytes([20, 20, 20], "voxel")
     assert need / 1e9 == pytest.approx(8000 * (16 + 107 + 9) / 1e9, rel=1e-12)
     validate_spec(_spec("voxel", need / 1e9 / 1.25))  # at the margin: accepted
     with pytest.raises(SpecError) as ei:
         validate_spec(_spec("voxel", need / 1e9 / 1.26))
     assert ei.value.key == "flow.max_memory_gb" and "20x20x20 grid" in ei.value.message
     validate_spec(_spec("stuffing", 1.0))  # the FEM's own grid check takes no voxel cap
+
+
+def test_the_voxel_cap_counts_the_reservoir_cells_the_solver_rounds_up():
+    """A 7 um cube at 1 um, permeameter (one copy, aux_length 0.2): each reservoir is
+    ceil(0.2 x 7) = 2 whole cells (the solver's rule, solvers.voxel.memory.reservoir_cells: at
+    least one, rounded up), so the solve holds 7 x 7 x (7 + 2 x 2) = 539 cells, not the
+    7^3 x (1 + 2 x 0.2) = 480.2 the estimate counted until session 44 (12 % short). A cap
+    between the two estimates is refused now (old code accepted it); along x or y the same
+    cube holds the same count."""
+    b = budget.VOXEL_SOLVER_BYTES_PER_VOXEL
+    fields = 343 * budget.GEOMETRY_BYTES_PER_VOXEL  # 16 B, above 5 B x 2 tiled
+    need, old = fields + 539 * b, fields + 480.2 * b
+    doc = {
+        "rve": {"size": [7e-6] * 3, "voxel": 1e-6},
+        "fibers": [{"diameter": 3e-6}],
+        "flow": {"solver": "voxel", "bc": "permeameter", "permeameter_copies": 1},
+    }
+    cap = (need + old) / 2 / budget.CAP_MARGIN / 1e9
+    with pytest.raises(SpecError) as ei:
+        validate_spec(doc | {"flow": doc["flow"] | {"max_memory_gb": cap}})
+    assert ei.value.key == "flow.max_memory_gb" and "7x7x7 grid" in ei.value.message
+    validate_spec(doc | {"flow": doc["flow"] | {"max_memory_gb": 1.001 * need / 1.25e9}})
+    assert budget.CAP_MARGIN == 1.25
+    for axis in (None, 0, 2):
+        got = budget.grid_bytes([7, 7, 7], "voxel", 1, {"aux": 0.2, "axis": axis})
+        assert got == pytest.approx(need, rel=1e-12)
 
 
 #: pytetwild meshes made in session 41 (``calib_tw.py``, benchmarks/RESULTS.md): box volume

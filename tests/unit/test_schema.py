@@ -202,8 +202,8 @@ def test_memory_budget_counts_the_stacked_permeameter(monkeypatch, tmp_path, cap
     doc = with_(doc, "flow", {"solver": "voxel", "bc": "permeameter"})
     n = 230.0**3
     stack, one = n * (16 + b * 2.4), n * (16 + b * 1.4)
-    assert budget.grid_bytes(n, "voxel", 2, 0.2) == pytest.approx(stack)
-    assert budget.grid_bytes(n, "voxel", 1, 0.2) == pytest.approx(one)
+    assert budget.grid_bytes([230] * 3, "voxel", 2, {"aux": 0.2}) == pytest.approx(stack)
+    assert budget.grid_bytes([230] * 3, "voxel", 1, {"aux": 0.2}) == pytest.approx(one)
     assert one < 3 * 2**30 < stack  # the premise of the refusal below
     for copies in ("auto", 2, 3):
         err = spec_err(with_(doc, "flow.permeameter_copies", copies))
