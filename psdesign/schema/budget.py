@@ -324,7 +324,8 @@ def restack_bytes(result: dict, copies: int, shape: Sequence[float], aux: float)
     """Estimated peak bytes of solving a permeameter ``result`` again with ``copies`` copies
     (``"auto"`` lengthening the sample, :func:`psdesign.flow.stack.next_auto_copies`). Voxel
     route: :func:`grid_bytes` of the RVE's grid ``shape`` with ``aux`` (``flow.aux_length``)
-    reservoirs along the result's ``direction``; FEM: :func:`solvers.fem.memory.estimate_memory_gb` of the result's mesh scaled by
+    reservoirs along the result's ``direction``; FEM:
+    :func:`solvers.fem.memory.estimate_memory_gb` of the result's mesh scaled by
     ``copies / permeameter_copies`` (the reservoirs keep their size: an upper bound).
 
     >>> z = {"aux": 0.2, "axis": 2}
