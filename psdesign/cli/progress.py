@@ -276,6 +276,17 @@ def add_force_argument(parser) -> None:
     parser.add_argument("--force", action="store_true", help=FORCE_HELP)
 
 
+def add_allow_not_converged_argument(parser) -> None:
+    """Add ``--allow-not-converged`` to ``study run`` and ``study optimize``: their exit status
+    follows one table of cases (:func:`psdesign.cli.exit_status.cases_status`), so one flag
+    accepts the unconverged ones in both."""
+    parser.add_argument(
+        "--allow-not-converged",
+        action="store_true",
+        help="exit 0 even if some cases are not_converged (failed/timeout still exit 1)",
+    )
+
+
 #: ``--workers`` of ``study run``, ``study optimize`` and ``rev``: one rule
 #: (:func:`psdesign.study.runner.check_workers`), one help.
 WORKERS_HELP = (

@@ -25,7 +25,11 @@ from psdesign.cli.exit_status import (
     cases_status,
     fail,
 )
-from psdesign.cli.progress import add_force_argument, add_workers_argument
+from psdesign.cli.progress import (
+    add_allow_not_converged_argument,
+    add_force_argument,
+    add_workers_argument,
+)
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
 
@@ -120,11 +124,7 @@ def register(subparsers) -> argparse.ArgumentParser:
         action="store_true",
         help="re-run cases recorded as not_converged (otherwise they count as finished)",
     )
-    run.add_argument(
-        "--allow-not-converged",
-        action="store_true",
-        help="exit 0 even if some cases are not_converged (failed/timeout still exit 1)",
-    )
+    add_allow_not_converged_argument(run)
     add_force_argument(run)
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
     run.add_argument("--quiet", action="store_true", help="no progress output")

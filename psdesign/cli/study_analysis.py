@@ -307,7 +307,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
     # every case it ran by `study run`'s table (a failed case 1, a not_converged one 3, met
     # or not; before session 44 a not_converged case the search did not choose exited 0)
-    code = FAILED if res.failed else cases_status(n_failed, len(unconverged))
+    n_nc = 0 if args.allow_not_converged else len(unconverged)
+    code = FAILED if res.failed else cases_status(n_failed, n_nc)
     return NOT_TRUSTED if code == OK and not res.met else code
 
 
@@ -376,7 +377,11 @@ def _write_outcome(out: str, summary: dict) -> None:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
-    from psdesign.cli.progress import add_force_argument, add_workers_argument
+    from psdesign.cli.progress import (
+        add_allow_not_converged_argument,
+        add_force_argument,
+        add_workers_argument,
+    )
 
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
     fit.add_argument("out", help="study output folder")
@@ -458,6 +463,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="Dask scheduler address, or 'local' (default: local process pool)",
     )
+    add_allow_not_converged_argument(opt)
     add_force_argument(opt)  # the refusal of a non-empty folder names it, as study run's
     opt.add_argument("--quiet", action="store_true", help="no progress output")
     opt.add_argument("--json", action="store_true", help="print one JSON object")

@@ -486,3 +486,16 @@ def test_a_met_search_with_an_unconverged_case_exits_3_as_study_run_would(tmp_pa
     again = [*argv[:4], str(tmp_path / "opt2"), *argv[5:], "--json"]
     assert main(again) == 3
     assert json.loads(capsys.readouterr().out)["not_converged_cases"] == [bad]
+
+
+def test_allow_not_converged_accepts_the_unconverged_cases_of_a_met_search(tmp_path, capsys):
+    """`study run --allow-not-converged` exits 0 for a table whose only fault is unconverged
+    cases; `study optimize` follows the same table (test above: exit 3 without the flag) and
+    now takes the same flag (it had none before session 44: a designer could not accept a
+    met search's unconverged side case). A failed case still exits 1 with it."""
+    argv = _met_search(tmp_path, "low_porosity_unconverged")
+    assert main([*argv, "--allow-not-converged"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith("MET: ")
+    (tmp_path / "f").mkdir()
+    failing = _met_search(tmp_path / "f", "low_porosity_fails")
+    assert main([*failing, "--allow-not-converged"]) == 1
