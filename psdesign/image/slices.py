@@ -106,7 +106,8 @@ def _folder_pattern(path: Path) -> tuple[Path, str]:
 def _candidates(path: Path) -> list[os.DirEntry]:
     """The TIFF files of the folder, or of the pattern's folder matching its name."""
     folder, pattern = _folder_pattern(path)
-    if any(c in str(folder) for c in GLOB_CHARS):
+    # a folder that exists is taken by its name, brackets and all (``run[1]/``, ``scan[2]/*.tif``)
+    if not folder.is_dir() and any(c in str(folder) for c in GLOB_CHARS):
         raise ValueError(
             f"image.path: {path}: a pattern may only be in the file name (allowed: a folder, "
             "or folder/name_*.tif)"

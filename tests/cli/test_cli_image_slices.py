@@ -343,3 +343,18 @@ def test_a_study_on_a_folder_of_slices(tmp_path) -> None:
     page[0, 0] = 255
     tifffile.imwrite(tmp_path / "b" / "slices" / "s7.tif", page, **IMAGEJ_UM)
     assert case(tmp_path / "a") != case(tmp_path / "b")
+
+
+@pytest.mark.parametrize("path", ["run[1]", "run[1]/s*.tif"])
+def test_a_folder_named_with_brackets_is_read(tmp_path, path) -> None:
+    """A real folder named ``run[1]`` (a scanner's run number) holds the slices: it and a
+    pattern in it read the stack's voxels. Until the s44 review both were refused, exit 2
+    ("image.path: .../run[1]: a pattern may only be in the file name"): the glob check looked
+    at the folder's name without asking whether that folder exists."""
+    from psdesign.image.reader import ImageSource, read_labels
+
+    write_slices(tmp_path / "run[1]", slit())
+    write_stack(tmp_path / "stack.tif", slit())
+    got = read_labels(ImageSource(path=str(tmp_path / path), voxel=1e-6))
+    want = read_labels(ImageSource(path=str(tmp_path / "stack.tif"), voxel=1e-6))
+    assert got.shape == want.shape == (16, 16, 24) and np.array_equal(got, want)
