@@ -398,10 +398,13 @@ def _inner_level_errors(s: Surrogate) -> np.ndarray | None:
     """The held-out errors (modelled space) of :func:`inner_level_error`, None without."""
     x = np.asarray(s.x, float).reshape(-1, len(s.params))
     points = np.unique(x, axis=0)
+    # a parameter held at one level (``levels = 1``) adds no dimension: 5 porosities x 1
+    # diameter is a 1-D design (its inner levels one point each), as 5 porosities alone
+    varying = sum(len(np.unique(points[:, j])) > 1 for j in range(x.shape[1]))
     err: list[np.ndarray] = []
     for j in range(x.shape[1]):
         levels, counts = np.unique(points[:, j], return_counts=True)
-        if len(levels) < 3 or (counts[1:-1].max() < 2 and x.shape[1] > 1):
+        if len(levels) < 3 or (counts[1:-1].max() < 2 and varying > 1):
             continue
         err += [_held_out_errors(s, x[:, j] == v) for v in levels[1:-1]]
     return np.concatenate(err) if err else None
