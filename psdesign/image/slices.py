@@ -3,7 +3,8 @@ checked slice files -> the (cropped) stack.
 
 ``[image] path`` names a folder (every ``*.tif`` / ``*.tiff`` in it; other files and hidden
 ``.name`` files are ignored) or a pattern in the file name (``slices/recon_*.tif``). The
-slices are ordered by their number, the last run of digits in each name (``s2`` before
+slices are ordered by their number, the last run of digits in each name, or the one run
+that differs between names otherwise alike (``recon_0007_8bit``: ``0007``) (``s2`` before
 ``s10``: ``sorted()`` puts ``s10`` first and would scramble the scan), and slice ``i`` is the
 z index ``i`` (the stored order ``zyx``: slices, rows, columns). Every check reads headers
 only (one ``TiffFile`` per slice, no pixel decoded: 0.6-1 ms a slice), before any work:
@@ -39,6 +40,7 @@ SLICE_EXTS = (".tif", ".tiff")
 #: Fewest slices read (the image needs 4 voxels per axis).
 MIN_SLICES = 4
 _NUMBER = re.compile(r"(\d+)(\D*)$")
+_DIGITS = re.compile(r"(\d+)")
 _CACHE: OrderedDict[tuple, SliceSet] = OrderedDict()
 _CACHE_SIZE = 4
 
@@ -106,7 +108,8 @@ def _folder_pattern(path: Path) -> tuple[Path, str]:
 def _candidates(path: Path) -> list[os.DirEntry]:
     """The TIFF files of the folder, or of the pattern's folder matching its name."""
     folder, pattern = _folder_pattern(path)
-    if any(c in str(folder) for c in GLOB_CHARS):
+    # a folder that exists is taken by its name, brackets and all (``run[1]/``, ``scan[2]/*.tif``)
+    if not folder.is_dir() and any(c in str(folder) for c in GLOB_CHARS):
         raise ValueError(
             f"image.path: {path}: a pattern may only be in the file name (allowed: a folder, "
             "or folder/name_*.tif)"
@@ -131,19 +134,32 @@ def _candidates(path: Path) -> list[os.DirEntry]:
     return found
 
 
+def _numbering_run(stems: list[str]) -> int | None:
+    """Which run of digits numbers the slices, when it is not the last: names of one
+    skeleton (digits aside) whose values differ in that run alone (``recon_0007_8bit``: the
+    ``0007``; the last run, ``8``, is the same in every name). None: the last run."""
+    skeletons = {_DIGITS.sub("#", stem) for stem in stems}
+    if len(skeletons) != 1:
+        return None
+    values = np.array([[int(d) for d in _DIGITS.findall(stem)] for stem in stems])
+    varying = [j for j in range(values.shape[1]) if len(set(values[:, j])) > 1]
+    return varying[0] if len(varying) == 1 and varying[0] != values.shape[1] - 1 else None
+
+
 def _ordered(entries: list[os.DirEntry]) -> list[Path]:
     """The slices in the order of their numbers, refused when the numbering is not one run
     ``n0, n0 + 1, ...`` of names of one pattern."""
     rows = []
+    run = _numbering_run([os.path.splitext(e.name)[0] for e in entries])
     for e in entries:
         stem = os.path.splitext(e.name)[0]
-        m = _NUMBER.search(stem)
+        m = _NUMBER.search(stem) if run is None else list(_DIGITS.finditer(stem))[run]
         if m is None:
             raise ValueError(
                 f"image.path: {e.name} has no slice number (allowed: numbered slices, e.g. "
                 "recon_0000.tif, recon_0001.tif, ...; move other TIFF files out of the folder)"
             )
-        rows.append((int(m.group(1)), stem[: m.start()] + "#" + m.group(2), e.name))
+        rows.append((int(m.group(1)), stem[: m.start(1)] + "#" + stem[m.end(1) :], e.name))
     rows.sort()
     for _, template, name in rows:
         if template != rows[0][1]:

@@ -405,3 +405,37 @@ def test_a_study_over_a_slice_folder_says_z_taken_equal_once(tmp_path) -> None:
     z_lines = [str(w.message) for w in caught if "z is taken equal to x and y" in str(w.message)]
     assert len(z_lines) == 1, z_lines
     assert z_lines[0].startswith("image.voxel_size: 1e-06 m from s0.tif's x/y calibration")
+
+
+@pytest.mark.parametrize("path", ["run[1]", "run[1]/s*.tif"])
+def test_a_folder_named_with_brackets_is_read(tmp_path, path) -> None:
+    """A real folder named ``run[1]`` (a scanner's run number) holds the slices: it and a
+    pattern in it read the stack's voxels. Until the s44 review both were refused, exit 2
+    ("image.path: .../run[1]: a pattern may only be in the file name"): the glob check looked
+    at the folder's name without asking whether that folder exists."""
+    from psdesign.image.reader import ImageSource, read_labels
+
+    write_slices(tmp_path / "run[1]", slit())
+    write_stack(tmp_path / "stack.tif", slit())
+    got = read_labels(ImageSource(path=str(tmp_path / path), voxel=1e-6))
+    want = read_labels(ImageSource(path=str(tmp_path / "stack.tif"), voxel=1e-6))
+    assert got.shape == want.shape == (16, 16, 24) and np.array_equal(got, want)
+
+
+def test_the_slice_number_is_the_run_of_digits_that_changes(tmp_path) -> None:
+    """``recon_0000_8bit.tif ... recon_0023_8bit.tif`` (a converted export): the number is the
+    run that differs between the names, not the last (``8`` in every name). Until the s44
+    review the folder was refused as "named by two patterns ('recon_0000_#bit',
+    'recon_0001_#bit'): two scans in one folder?". Names written in shuffled order; the
+    labels equal the multi-page stack's. Two scans beside each other are still refused."""
+    from psdesign.image.reader import ImageSource, read_labels
+
+    order = random.Random(3).sample(range(24), 24)
+    write_slices(tmp_path / "bit", slit(), name="recon_{k:04d}_8bit.tif", order=order)
+    write_stack(tmp_path / "stack.tif", slit())
+    got = read_labels(ImageSource(path=str(tmp_path / "bit"), voxel=1e-6))
+    want = read_labels(ImageSource(path=str(tmp_path / "stack.tif"), voxel=1e-6))
+    assert np.array_equal(got, want)
+    write_slices(tmp_path / "bit", slit(), name="other_{k:04d}_8bit.tif")
+    with pytest.raises(ValueError, match="named by two patterns"):
+        read_labels(ImageSource(path=str(tmp_path / "bit"), voxel=1e-6))
