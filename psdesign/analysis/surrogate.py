@@ -165,16 +165,24 @@ class Surrogate:
         return ""
 
     def level_error_text(self) -> str:
-        """``", 30.2 % with each inner level held out"`` after the cross-validated error of a
-        grid design's fit (:func:`inner_level_error`), ``""`` where there is none: the words
-        of `study fit` and the report.
+        """``", 30.2 % with each inner level held out, 8.2 % estimated between the design
+        points"`` after the cross-validated error of a grid design's fit
+        (:func:`inner_level_error`, :func:`between_level_error`: the figure `study predict`'s
+        bar is never under inside the box, :func:`psdesign.analysis.prediction.holdout_bar`),
+        ``""`` where there is none: the words of `study fit` and the report.
 
         >>> from types import SimpleNamespace as S
-        >>> Surrogate.level_error_text(S(cv_level_rel_error=0.302))
-        ', 30.2 % with each inner level held out'
+        >>> Surrogate.level_error_text(S(cv_level_rel_error=0.302, cv_between_rel_error=0.082))
+        ', 30.2 % with each inner level held out, 8.2 % estimated between the design points'
+        >>> Surrogate.level_error_text(S(cv_level_rel_error=float("nan")))
+        ''
         """
         lv = self.cv_level_rel_error
-        return f", {100 * lv:.3g} % with each inner level held out" if lv == lv else ""
+        between = getattr(self, "cv_between_rel_error", math.nan)
+        text = f", {100 * lv:.3g} % with each inner level held out" if lv == lv else ""
+        if between == between:
+            text += f", {100 * between:.3g} % estimated between the design points"
+        return text
 
     # -------------------------------------------------------------- transforms
     def _scale(self, x: np.ndarray) -> np.ndarray:
