@@ -15,8 +15,13 @@ from types import ModuleType
 
 import approx_guard
 import pytest
+import worker_crash
 
 approx_guard.install()  # a stated rel bar is the enforced one (approx_guard's docstring)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    worker_crash.no_worker_restart(config)  # a crashed xdist worker ends the run, not hangs it
 
 
 TESTS_DIR = Path(__file__).resolve().parent
