@@ -370,7 +370,7 @@ def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     rows = dict(re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page))
     assert rows["image"] == str(tmp_path / "slices")
     assert rows["image format"] == "tif"
-    assert rows["image voxel size (m)"] == "1e-06 (from the file)"
+    assert rows["image voxel size (m)"] == f"1e-06 ({Z_TAKEN_EQUAL})"
     assert rows["image crop (x, y, z voxel ranges)"] == "[[2, 14], [0, 16], [0, 24]]"
     assert rows["image shape (voxels x, y, z)"].startswith("12 x 16 x 24 (box 1.2e-05 x")
     shutil.move(tmp_path / "slices", tmp_path / "moved")
@@ -405,3 +405,29 @@ def test_a_study_over_a_slice_folder_says_z_taken_equal_once(tmp_path) -> None:
     z_lines = [str(w.message) for w in caught if "z is taken equal to x and y" in str(w.message)]
     assert len(z_lines) == 1, z_lines
     assert z_lines[0].startswith("image.voxel_size: 1e-06 m from s0.tif's x/y calibration")
+
+
+#: The report's voxel-size source for slices calibrated in x/y only (the study's warning).
+Z_TAKEN_EQUAL = "x and y from the calibration of s0.tif; z taken equal: a slice stores no z spacing"
+
+
+def test_the_report_says_where_the_image_voxel_size_came_from(tmp_path) -> None:
+    """A slice folder calibrated in x/y only: the study warns "z is taken equal to x and y",
+    and the report's voxel-size row said "from the file" (session 44 review: the file stores
+    no z spacing). Now it says z was taken equal; a multi-page ImageJ stack (its spacing in
+    the file) says "from the file", a given ``image.voxel_size`` "given"."""
+    from psdesign.report.image_source import image_rows
+
+    write_slices(tmp_path / "slices", slit())
+    stack = tmp_path / "stack.tif"
+    meta = {"unit": "um", "spacing": 1.0, "axes": "ZYX"}
+    tifffile.imwrite(stack, slit(), imagej=True, resolution=(1.0, 1.0), metadata=meta)
+
+    def voxel_row(image: dict) -> str:
+        rows = dict(image_rows({"base": {"image": image | {"solid_label": 255}}}, tmp_path))
+        return rows["image voxel size (m)"]
+
+    assert voxel_row({"path": "slices"}) == f"1e-06 ({Z_TAKEN_EQUAL})"
+    assert voxel_row({"path": "stack.tif"}) == "1e-06 (from the file)"
+    given = voxel_row({"path": "slices", "voxel_size": 2e-6})
+    assert given == "2e-06 (given (image.voxel_size))"
