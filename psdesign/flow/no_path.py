@@ -161,7 +161,8 @@ def closed_pore_space(
     periodic : bool
         A periodic mesh (a path must wind around the box); else the permeameter's fluid
         zones before and after the RVE join its faces' pores (a path may enter and leave
-        anywhere on them).
+        anywhere on them) and its side walls close the box across the flow (a path that
+        winds around them in the periodic box is none).
 
     Returns
     -------
@@ -179,6 +180,10 @@ def closed_pore_space(
     if not periodic:  # one fluid layer each side: the reservoirs, joined across the wrap
         pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
         pore = np.pad(pore, pad, constant_values=True)
+        # the side walls: one solid layer across, so that no path winds around them (the voxel
+        # permeameter's grid, solvers.voxel_stokes._setup_grid's ``blocked``)
+        walls = [(0, 0) if a == axis else (0, 1) for a in range(3)]
+        pore = np.pad(pore, walls, constant_values=False)
     if percolates(pore, axis):
         return None
     return _image_line(name) if distance is None else _fibers_line(name, h)

@@ -13,6 +13,9 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+#: Why z is taken equal to x and y for slices (:func:`psdesign.schema.image` warns the same).
+NO_Z = "a slice stores no z spacing"
+
 
 def image_rows(study: dict, base: Path) -> list[tuple[str, str]]:
     """``(label, value)`` rows naming the image of ``study`` (``study.json``'s ``study``
@@ -57,7 +60,7 @@ def image_rows(study: dict, base: Path) -> list[tuple[str, str]]:
             image = validate_document({"image": table}, base).image
     except Exception as exc:  # noqa: BLE001 - a report is never lost to a moved image
         return [*rows, ("image voxel size, shape", f"not read now: {exc}")]
-    source = "given (image.voxel_size)" if table.get("voxel_size") else "from the file"
+    source = "given (image.voxel_size)" if table.get("voxel_size") else _file_source(image)
     nx, ny, nz = image.shape_xyz
     sx, sy, sz = image.size
     rows.insert(1, ("image format", str(image.to_spec()["format"])))
@@ -69,3 +72,16 @@ def image_rows(study: dict, base: Path) -> list[tuple[str, str]]:
         ),
     ]
     return rows
+
+
+def _file_source(image) -> str:
+    """Where a voxel size read from the image came from: the file, or, for TIFF slices
+    without a z spacing, the first slice's x/y calibration with z taken equal (the spec
+    check's warning; "from the file" would claim a z spacing no slice stores)."""
+    from psdesign.image.slices import is_slice_path, slice_set
+
+    path = Path(image.to_spec()["path"])
+    if is_slice_path(path) and not slice_set(path).z_spacing:
+        first = slice_set(path).first.name
+        return f"x and y from the calibration of {first}; z taken equal: {NO_Z}"
+    return "from the file"

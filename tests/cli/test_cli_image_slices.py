@@ -370,7 +370,7 @@ def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     rows = dict(re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page))
     assert rows["image"] == str(tmp_path / "slices")
     assert rows["image format"] == "tif"
-    assert rows["image voxel size (m)"] == "1e-06 (from the file)"
+    assert rows["image voxel size (m)"] == f"1e-06 ({Z_TAKEN_EQUAL})"
     assert rows["image crop (x, y, z voxel ranges)"] == "[[2, 14], [0, 16], [0, 24]]"
     assert rows["image shape (voxels x, y, z)"].startswith("12 x 16 x 24 (box 1.2e-05 x")
     shutil.move(tmp_path / "slices", tmp_path / "moved")
@@ -439,3 +439,29 @@ def test_the_slice_number_is_the_run_of_digits_that_changes(tmp_path) -> None:
     write_slices(tmp_path / "bit", slit(), name="other_{k:04d}_8bit.tif")
     with pytest.raises(ValueError, match="named by two patterns"):
         read_labels(ImageSource(path=str(tmp_path / "bit"), voxel=1e-6))
+
+
+#: The report's voxel-size source for slices calibrated in x/y only (the study's warning).
+Z_TAKEN_EQUAL = "x and y from the calibration of s0.tif; z taken equal: a slice stores no z spacing"
+
+
+def test_the_report_says_where_the_image_voxel_size_came_from(tmp_path) -> None:
+    """A slice folder calibrated in x/y only: the study warns "z is taken equal to x and y",
+    and the report's voxel-size row said "from the file" (session 44 review: the file stores
+    no z spacing). Now it says z was taken equal; a multi-page ImageJ stack (its spacing in
+    the file) says "from the file", a given ``image.voxel_size`` "given"."""
+    from psdesign.report.image_source import image_rows
+
+    write_slices(tmp_path / "slices", slit())
+    stack = tmp_path / "stack.tif"
+    meta = {"unit": "um", "spacing": 1.0, "axes": "ZYX"}
+    tifffile.imwrite(stack, slit(), imagej=True, resolution=(1.0, 1.0), metadata=meta)
+
+    def voxel_row(image: dict) -> str:
+        rows = dict(image_rows({"base": {"image": image | {"solid_label": 255}}}, tmp_path))
+        return rows["image voxel size (m)"]
+
+    assert voxel_row({"path": "slices"}) == f"1e-06 ({Z_TAKEN_EQUAL})"
+    assert voxel_row({"path": "stack.tif"}) == "1e-06 (from the file)"
+    given = voxel_row({"path": "slices", "voxel_size": 2e-6})
+    assert given == "2e-06 (given (image.voxel_size))"

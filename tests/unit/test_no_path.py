@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from arrays import L, array_distance, array_spec
 
-from psdesign.flow.no_path import OPEN_MOVE, no_path_message
+from psdesign.flow.no_path import OPEN_MOVE, closed_pore_space, no_path_message
 from psdesign.flow.voxel import permeability_voxel
 from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
@@ -215,3 +215,43 @@ def test_mesh_of_fibers_without_a_path_names_the_fibers(tmp_path, capsys):
     assert line.startswith("fibers: the pore space has no path along x")
     assert "rve.voxel" not in line
     assert not (tmp_path / "m").exists()
+
+
+def _channel_around_x() -> np.ndarray:
+    """Solid mask (z, y, x; 16^3) of one pore channel, three voxels wide, that climbs along z
+    while it moves along x: at slice z its pores are x = z + 8 ... z + 10 (mod 16), y 5-10.
+    Below z = 7 and above it the channel's pores meet only across the box's x faces: the
+    periodic box has a path along z, a permeameter (side walls) has none."""
+    solid = np.ones((16, 16, 16), bool)
+    for z in range(16):
+        solid[z, 5:11, [(z + dx) % 16 for dx in (8, 9, 10)]] = False
+    return solid
+
+
+def test_a_permeameter_whose_only_path_winds_around_its_side_walls_names_the_image(
+    tmp_path, capsys
+):
+    """The permeameter's side walls close the box across the flow: a path through the
+    periodic wrap across x is none for it. ``permeability --solver voxel --bc permeameter``
+    names ``image`` (its grid is walled, solvers.voxel_stokes._setup_grid); ``mesh`` and the
+    FEM permeameter named ``rve.voxel`` (a key an image spec has not) because
+    :func:`closed_pore_space` let the path wind around the walls (session 44 review)."""
+    import tifffile
+
+    solid = _channel_around_x()
+    xyz = np.transpose(solid, (2, 1, 0))
+    assert closed_pore_space("z", 1e-6, None, xyz, 2, True) is None  # the wrap is a path
+    line = closed_pore_space("z", 1e-6, None, xyz, 2, False)
+    assert line is not None and line.startswith("image: the pore space has no path along z")
+    meta = {"unit": "um", "axes": "ZYX"}
+    stack = np.where(solid, 255, 0).astype(np.uint8)
+    tifffile.imwrite(tmp_path / "w.tif", stack, imagej=True, resolution=(1.0, 1.0), metadata=meta)
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[image]\npath = "w.tif"\nsolid_label = 255\n[flow]\ndirection = "z"\n')
+    args = ("--solver", "voxel", "--bc", "permeameter", "--quiet")
+    voxel = _refusal(capsys, "permeability", str(spec), *args)
+    assert voxel == line
+    out = tmp_path / "mesh_out"
+    assert _refusal(capsys, "mesh", str(spec), "-o", str(out), "--quiet") == voxel
+    assert not out.exists()
+    assert _refusal(capsys, "permeability", str(spec), "--solver", "fem", "--quiet") == voxel
