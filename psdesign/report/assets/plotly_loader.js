@@ -7,10 +7,9 @@
 // run only then: Safari 15-16.3 and Firefox ESR 102 lack DecompressionStream. Plain ES5 and
 // promises (no async/await) so that an old browser reaches the message below, not a SyntaxError.
 (function () {
-  var CANNOT = 'this browser cannot unpack the report\'s interactive figures (it has neither ' +
-    'DecompressionStream nor typed arrays: Chrome 80, Firefox 113, Safari 16.4 or later unpack ' +
-    'them, older browsers with typed arrays through the report\'s own inflater); the tables and ' +
-    'pictures still hold every value';
+  var CANNOT = 'this browser cannot unpack the report\'s interactive figures (no ' +
+    'DecompressionStream, which Chrome 80, Firefox 113 and Safari 16.4 have, and the report\'s ' +
+    'own inflater needs typed arrays and ES2015); the tables and pictures still hold every value';
   var run = function (text) {  // a script element runs synchronously, in the global scope
     var s = document.createElement('script');
     s.text = text;
@@ -28,6 +27,7 @@
   };
   var inflate = function (bytes) {
     if (!window.psdInflate) { run(document.getElementById('psd-inflate').textContent); }
+    if (!window.psdInflate) { throw new Error(CANNOT); }  // it did not run here (ES2015 code)
     return Promise.resolve(window.psdInflate.strFromU8(window.psdInflate.gunzipSync(bytes)));
   };
   // both ways, for the browser test (tests/cli/test_report_browser.py): they unpack the same text
