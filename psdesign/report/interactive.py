@@ -44,15 +44,19 @@ def plotly_gz() -> str:
 
 def head_scripts() -> str:
     """``<script>`` blocks for the ``<head>``: plotly.js (inline, gzip + base64, unpacked by
-    the browser: ``assets/plotly_loader.js``) and the report's helpers."""
+    the browser: ``assets/plotly_loader.js``), the inflater the loader runs where the browser
+    has no ``DecompressionStream`` (``assets/fflate_gunzip.min.js``, inert text until then)
+    and the report's helpers."""
     units = (
         f"window.PSD_UNITS = {json.dumps(K_UNITS)};\n"
         f"window.PSD_UNIT_LABELS = {json.dumps(K_UNIT_LABELS)};\n"
     )
     helpers = (ASSETS / "report.js").read_text()
+    inflater = (ASSETS / "fflate_gunzip.min.js").read_text()
     loader = (ASSETS / "plotly_loader.js").read_text()
     return (
         f'<script type="application/gzip;base64" id="psd-plotly-gz">{plotly_gz()}</script>\n'
+        f'<script type="text/psd-inflate" id="psd-inflate">{inflater}</script>\n'
         f"<script>{units}{helpers}</script>\n<script>{loader}</script>"
     )
 

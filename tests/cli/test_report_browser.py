@@ -49,8 +49,14 @@ def report(tmp_path_factory):
     return tmp / "out" / "report.html"
 
 
-def test_report_renders_without_javascript_errors(report, tmp_path) -> None:
-    dom = _chromium("--dump-dom", report.as_uri()).stdout
+@pytest.fixture(scope="module")
+def report_dom(report) -> str:
+    """The report's DOM once chromium has run its scripts (one run for the tests that read it)."""
+    return _chromium("--dump-dom", report.as_uri()).stdout
+
+
+def test_report_renders_without_javascript_errors(report, report_dom, tmp_path) -> None:
+    dom = report_dom
     assert 'data-psd-ready="1"' in dom  # DOMContentLoaded handler ran to its end
     errors = re.search(r'<div id="psd-js-errors">(.*?)</div>', dom, flags=re.S)
     assert errors is not None and errors.group(1).strip() == ""
@@ -62,6 +68,85 @@ def test_report_renders_without_javascript_errors(report, tmp_path) -> None:
     _chromium(f"--screenshot={shot}", report.as_uri())
     assert shot.is_file() and shot.stat().st_size > 20_000
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+#: Put first in a copy of the report's <head>: the page runs as in a browser without
+#: DecompressionStream (Safari 15-16.3, Firefox ESR 102); the constructor is kept aside.
+NO_DECOMPRESSION_STREAM = (
+    "<script>window.PSD_KEPT_DS = window.DecompressionStream;"
+    " delete window.DecompressionStream;</script>"
+)
+#: Put last in that copy: once the figures are drawn, both ways unpack plotly.js again (the
+#: browser's own, put back, and the report's inflater); the body gets their lengths, equality.
+BOTH_WAYS = """<script>window.addEventListener('load', function () {
+  window.PSD_PLOTLY.then(function () {
+    window.DecompressionStream = window.PSD_KEPT_DS;
+    var g = window.PSD_GUNZIP, bytes = g.packed();
+    return Promise.all([g.native(bytes), g.inflate(bytes)]);
+  }).then(function (t) {
+    var both = t[0].length + ',' + t[1].length + ',' + (t[0] === t[1]);
+    document.body.setAttribute('data-psd-both', both);
+  }).catch(function (e) { document.body.setAttribute('data-psd-both', 'error: ' + e); });
+});</script>"""
+
+
+def _without(html: str, head_script: str, body_script: str = "") -> str:
+    """The report's page with ``head_script`` run before any of its own scripts."""
+    head = '<head><meta charset="utf-8">'
+    assert html.count(head) == 1
+    return html.replace(head, head + head_script).replace("</body>", body_script + "</body>")
+
+
+def _plots(dom: str) -> list[str]:
+    """The ids of the figures Plotly drew, in page order."""
+    return re.findall(r'<div id="([^"]+)" class="[^"]*js-plotly-plot', dom)
+
+
+def test_a_browser_without_decompression_stream_draws_every_figure(
+    report, report_dom, tmp_path
+) -> None:
+    """Session 44: plotly.js is inlined gzip-compressed (session 43) and main's loader unpacked
+    it with DecompressionStream alone; without it (Safari < 16.4, Firefox < 113) the report drew
+    no figure. Now the loader runs the inlined inflater (fflate's gunzip) there. Truth: the
+    same figures as with the browser's own unpacking (the same plotly SVG roots), the
+    inflater's text equal to DecompressionStream's and as long as plotly's own script (UTF-16
+    units, as JavaScript counts). On main's loader: no figure drawn, no PSD_GUNZIP."""
+    from plotly.offline import get_plotlyjs
+
+    page = tmp_path / "old_browser.html"
+    page.write_text(_without(report.read_text(), NO_DECOMPRESSION_STREAM, BOTH_WAYS))
+    dom = _chromium("--dump-dom", page.as_uri()).stdout
+    errors = re.search(r'<div id="psd-js-errors">(.*?)</div>', dom, flags=re.S)
+    assert errors is not None and errors.group(1).strip() == "", errors
+    assert 'data-psd-gunzip="inflate"' in dom and 'data-psd-gunzip="native"' in report_dom
+    assert len(_plots(report_dom)) >= 4 and _plots(dom) == _plots(report_dom)
+    assert dom.count('class="main-svg"') == report_dom.count('class="main-svg"')
+    both = re.search(r'data-psd-both="([^"]*)"', dom)
+    n = len(get_plotlyjs().encode("utf-16-le")) // 2
+    assert both is not None and both.group(1) == f"{n},{n},true", both
+
+
+def test_a_browser_that_cannot_unpack_says_so_and_shows_tables_and_pictures(
+    report, tmp_path
+) -> None:
+    """A browser with neither DecompressionStream nor typed arrays (the inflater's need) gets
+    one line saying why there are no figures; the tables (in the unit asked for) and the
+    preview pictures still show."""
+    page = tmp_path / "no_unpacking.html"
+    hide = "<script>delete window.DecompressionStream; delete window.Uint8Array;</script>"
+    page.write_text(_without(report.read_text(), hide))
+    dom = _chromium("--dump-dom", page.as_uri() + "#unit=darcy").stdout
+    errors = re.search(r'<div id="psd-js-errors">(.*?)</div>', dom, flags=re.S)
+    assert errors is not None
+    lines = errors.group(1).strip().splitlines()
+    assert len(lines) == 1 and "cannot unpack the report's interactive figures" in lines[0]
+    assert "tables and pictures still hold every value" in lines[0] and not _plots(dom)
+    cells = re.findall(r'<td data-m2="([^"]+)">([^<]*)</td>', dom)
+    assert cells
+    for m2, shown in cells:  # the unit selector still converts the tables
+        assert float(shown) == pytest.approx(float(m2) / 9.869233e-13, rel=1e-3)
+    gallery = re.search(r'<div class="psd-gallery" id="psd-thumbs"[^>]*>(.*?)</div>', dom, re.S)
+    assert gallery is not None and ' src="data:image/' in gallery.group(1)
 
 
 def test_unit_selector_converts_k_to_darcy(report) -> None:

@@ -1023,6 +1023,10 @@ def test_the_report_is_small_self_contained_and_unpacks_the_same_plotly(tmp_path
     assert html.count('<script type="text/psd-plot">') >= 4  # run once plotly is unpacked
     assert "data:image/jpeg;base64," in html  # the previews
     assert build_html(out) == html
+    # the inflater for browsers without DecompressionStream (session 44): once, inert text
+    # run by the loader only there, with its licence and version
+    assert html.count('<script type="text/psd-inflate" id="psd-inflate">') == 1
+    assert html.count("fflate 0.8.3") == 1 and "MIT License" in html
 
 
 def test_response_surface_band_is_the_bar_study_predict_prints():

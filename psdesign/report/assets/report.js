@@ -64,15 +64,16 @@ document.addEventListener('DOMContentLoaded', function () {
   document.querySelectorAll('table.sortable th').forEach(function (th) {
     th.addEventListener('click', function () { psdSort(th); });
   });
-  // the figures exist once plotly.js is unpacked and has drawn them (plotly_loader.js)
-  (window.PSD_PLOTLY || Promise.resolve()).then(function () {
+  // the figures exist once plotly.js is unpacked and has drawn them (plotly_loader.js); a
+  // browser that cannot unpack it says so, and its tables still follow the unit selector
+  (window.PSD_PLOTLY || Promise.resolve()).catch(function (e) {
+    var box = document.getElementById('psd-js-errors');
+    if (box) { box.textContent += (e && e.message || 'error') + '\n'; }
+  }).then(function () {
     var sel = document.getElementById('psd-unit');
     if (sel) { sel.addEventListener('change', function () { psdSetUnit(sel.value); }); }
     var m = /unit=(\w+)/.exec(window.location.hash);  // report.html#unit=darcy
     if (sel && m && window.PSD_UNITS[m[1]]) { sel.value = m[1]; psdSetUnit(m[1]); }
     document.body.setAttribute('data-psd-ready', '1');
-  }).catch(function (e) {
-    var box = document.getElementById('psd-js-errors');
-    if (box) { box.textContent += (e && e.message || 'error') + '\n'; }
   });
 });
