@@ -177,16 +177,27 @@ def closed_pore_space(
     from psdesign.geometry.throat import percolates
 
     pore = ~np.asarray(solid, bool) if distance is None else np.asarray(distance) / h > -OPEN_MOVE
-    if not periodic:  # one fluid layer each side: the reservoirs, joined across the wrap
-        pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
-        pore = np.pad(pore, pad, constant_values=True)
-        # the side walls: one solid layer across, so that no path winds around them (the voxel
-        # permeameter's grid, solvers.voxel_stokes._setup_grid's ``blocked``)
-        walls = [(0, 0) if a == axis else (0, 1) for a in range(3)]
-        pore = np.pad(pore, walls, constant_values=False)
+    if not periodic:
+        pore = permeameter_pore(pore, axis)
     if percolates(pore, axis):
         return None
     return _image_line(name) if distance is None else _fibers_line(name, h)
+
+
+def permeameter_pore(pore: np.ndarray, axis: int) -> np.ndarray:
+    """The pore mask of a permeameter's grid for the periodic path test
+    (:func:`solvers.voxel_stokes.percolates`): one fluid layer each side along ``axis`` (the
+    reservoirs, joined across the wrap; their depth does not change the path) and one solid
+    layer across it (the side walls, so that no path winds around them: the voxel
+    permeameter's grid, ``solvers.voxel_stokes._setup_grid``'s ``blocked``).
+
+    >>> permeameter_pore(np.ones((4, 3, 2), bool), 0).shape
+    (6, 4, 3)
+    """
+    pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
+    pore = np.pad(pore, pad, constant_values=True)
+    walls = [(0, 0) if a == axis else (0, 1) for a in range(3)]
+    return np.pad(pore, walls, constant_values=False)
 
 
 @contextmanager
