@@ -203,8 +203,8 @@ def permeability_voxel(
             )
     except NoFluidPathError as exc:
         distance = fields.distance if fields.analytic_distance else None
-        periodic = bc == "periodic" and (flow.get("periodic_treatment") or "periodic") == "periodic"
-        line = no_path_message(name, h, distance, ax, wall, rve, periodic)
+        grid = "permeameter" if bc == "permeameter" else flow.get("periodic_treatment")
+        line = no_path_message(name, h, distance, ax, wall, rve, grid or "periodic")
         raise NoFluidPathError(line) from exc
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
@@ -258,8 +258,8 @@ def refuse_without_path(
     if percolates(grid, ax):
         return
     distance = fields.distance if fields.analytic_distance else None
-    periodic = bc == "periodic" and treatment == "periodic"
-    line = no_path_message(name, _cubic_voxel(fields), distance, ax, wall, rve, periodic)
+    solved = "permeameter" if bc == "permeameter" else treatment
+    line = no_path_message(name, _cubic_voxel(fields), distance, ax, wall, rve, solved)
     raise NoFluidPathError(line)
 
 

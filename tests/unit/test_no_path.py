@@ -157,6 +157,33 @@ def test_an_image_without_a_path_names_the_image():
     assert np.isfinite(OPEN_MOVE)
 
 
+@pytest.mark.parametrize("bc", ["periodic", "permeameter"])
+def test_the_image_line_says_how_the_path_was_looked_for_on_each_route(tmp_path, capsys, bc):
+    """Session 44 (s44-review2, left): the image's line said "(face-connected, periodic pore
+    voxels)" also for a permeameter, whose side walls close the periodic wrap (a channel that
+    winds across x has a periodic path and none in the permeameter,
+    :func:`test_a_permeameter_whose_only_path_winds_around_its_side_walls_names_the_image`).
+    The bc is passed through :func:`no_path_message` / :func:`closed_pore_space` on the
+    voxel and FEM routes, one message function, so each says the test it made."""
+    words = {
+        "periodic": "(face-connected, periodic pore voxels)",
+        "permeameter": "(face-connected pore voxels between the reservoirs, inside the side walls)",
+    }[bc]
+    expected = (
+        f"image: the pore space has no path along z {words}, so there is no permeability "
+        "along z (allowed: an image whose pore space joins the faces normal to the flow)"
+    )
+    _write_plates_across_z(tmp_path)
+    spec = str(tmp_path / "spec.toml")
+    for solver in ("voxel", "fem"):
+        args = ("--solver", solver, "--bc", bc, "--quiet")
+        assert _refusal(capsys, "permeability", spec, *args) == expected
+    assert no_path_message("z", 1e-6, None, 2, "staircase", grid=bc) == expected
+    solid = np.zeros((6, 6, 6), bool)
+    solid[:, :, 3] = True
+    assert closed_pore_space("z", 1e-6, None, solid, 2, bc == "periodic") == expected
+
+
 def _write_plates_across_z(folder) -> None:
     """A segmented image (ImageJ TIFF, 1 um voxels, stored zyx) whose solid plate across z
     (slices 10-13 of 24) closes every path along z; x and y stay open."""
@@ -190,7 +217,8 @@ def test_mesh_and_the_fem_route_name_the_image_without_a_path_as_the_voxel_route
     the same one line, exit 2, and ``mesh`` leaves no output folder."""
     _write_plates_across_z(tmp_path)
     spec = str(tmp_path / "spec.toml")
-    voxel = _refusal(capsys, "permeability", spec, "--solver", "voxel", "--quiet")
+    args = ("--solver", "voxel", "--bc", "permeameter", "--quiet")  # the mesh's and FEM's bc
+    voxel = _refusal(capsys, "permeability", spec, *args)
     assert voxel.startswith("image: the pore space has no path along z")
     out = tmp_path / "mesh_out"
     assert _refusal(capsys, "mesh", spec, "-o", str(out), "--quiet") == voxel
