@@ -61,7 +61,9 @@ def test_a_custom_case_function_is_not_refused_for_a_permeameter_it_does_not_bui
     assert main([*argv, "-o", str(tmp_path / "own")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("psdesign: error: base.flow.max_memory_gb: "), err
-    assert "(3 copies stacked) needs about 0.414 GB" in err[0], err
+    assert (
+        "(3 copies stacked, counted along the least of x, y, z) needs about 0.414 GB" in err[0]
+    ), err
     assert not (tmp_path / "own").exists()
     out = tmp_path / "custom"
     assert main([*argv, "-o", str(out), "--case-fn", "study_cases:fake_case"]) == 0
