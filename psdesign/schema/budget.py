@@ -396,7 +396,10 @@ def check_grid(
 def _counted(solver: str, flow, aux: float) -> str:
     """What :func:`check_grid`'s estimate counted, for its refusal: the solver, and for the
     voxel solver's grid (reservoirs, mirror or frame) the direction it was counted along
-    (:func:`counted_axis`)."""
+    (:func:`counted_axis`); inside :func:`unplanned_route` the grid's own fields (it said
+    "with solver 'geometry'", no solver a user can set, until session 44)."""
+    if solver == "geometry":  # inside unplanned_route: no solver a user could set
+        return "for the voxel grid's own fields; a custom case function's solve is not counted"
     if solver == "voxel" and getattr(flow, "wall_treatment", None) != "diffuse":
         return f"with solver 'voxel', counted along {counted_axis(solve_of(flow, aux).get('axis'))}"
     return f"with solver {solver!r}"
