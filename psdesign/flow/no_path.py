@@ -54,7 +54,7 @@ def no_path_message(
     axis: int,
     wall: str,
     rve=None,
-    periodic: bool = True,
+    grid: str = "periodic",
 ) -> str:
     """The one line of a voxel solve refused for want of a fluid path along ``name``.
 
@@ -73,10 +73,11 @@ def no_path_message(
         ``flow.wall_treatment`` as solved (``"subvoxel"``, ``"staircase"``, ``"diffuse"``).
     rve : RVE, optional
         The RVE; with ``wall = "diffuse"`` its walls measure the gap the layers closed.
-    periodic : bool
-        Whether the refused grid was the periodic one (``bc`` and ``periodic_treatment``
-        periodic), the path the tests here look for; else (permeameter reservoirs, a mirrored
-        or framed grid) the line names ``rve.voxel`` without telling who closed the path.
+    grid : str
+        The refused grid, whose path test the line describes (:func:`path_test`):
+        ``"permeameter"`` (``bc``), else the periodic bc's ``periodic_treatment``
+        (``"periodic"``, ``"mirror"``, ``"frame"``). Only on the periodic one do the tests here
+        tell who closed the path; on the others an RVE's line names ``rve.voxel`` without it.
 
     Returns
     -------
@@ -93,11 +94,12 @@ def no_path_message(
     from psdesign.geometry.throat import percolates
 
     if distance is None:
-        return _image_line(name)
-    if not periodic:
+        return _image_line(name, grid)
+    if grid != "periodic":
         return (
-            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected fluid "
-            "voxels): a gap under about a voxel closes on the grid (allowed: a voxel small "
+            f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid "
+            f"({path_test(name, grid, 'fluid')}): a gap under about a voxel closes on the grid "
+            "(allowed: a voxel small "
             f"enough to open the pore path; none if the pore space has no path along {name})"
         )
     d = np.asarray(distance) / float(h)
@@ -114,12 +116,34 @@ def no_path_message(
     )
 
 
-def _image_line(name: str) -> str:
-    """The line of a segmented image whose pore voxels have no path along ``name``."""
+#: How each grid's path test looks for a path (:func:`path_test`; ``{what}``: pore or fluid,
+#: ``{name}``: the flow's axis).
+PATH_TESTS = {
+    "periodic": "face-connected, periodic {what} voxels",
+    "permeameter": "face-connected {what} voxels between the reservoirs, inside the side walls",
+    "mirror": "face-connected, periodic {what} voxels of the grid and its mirror along {name}",
+    "frame": "face-connected {what} voxels inside a solid frame across {name}, periodic",
+}
+
+
+def path_test(name: str, grid: str, what: str = "pore") -> str:
+    """How the path along ``name`` was looked for on ``grid`` (:func:`no_path_message`): the
+    words of the refusal, true for each route (until session 44 an image's line said
+    "periodic pore voxels" also for a permeameter, whose side walls close the wrap).
+
+    >>> path_test("z", "permeameter")
+    'face-connected pore voxels between the reservoirs, inside the side walls'
+    """
+    return PATH_TESTS[grid].format(what=what, name=name)
+
+
+def _image_line(name: str, grid: str) -> str:
+    """The line of a segmented image whose pore voxels have no path along ``name`` on
+    ``grid`` (:func:`path_test`)."""
     return (
-        f"image: the pore space has no path along {name} (face-connected, periodic pore "
-        f"voxels), so there is no permeability along {name} (allowed: an image whose pore "
-        "space joins the faces normal to the flow)"
+        f"image: the pore space has no path along {name} ({path_test(name, grid)}), so there "
+        f"is no permeability along {name} (allowed: an image whose pore space joins the faces "
+        "normal to the flow)"
     )
 
 
@@ -177,16 +201,31 @@ def closed_pore_space(
     from psdesign.geometry.throat import percolates
 
     pore = ~np.asarray(solid, bool) if distance is None else np.asarray(distance) / h > -OPEN_MOVE
-    if not periodic:  # one fluid layer each side: the reservoirs, joined across the wrap
-        pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
-        pore = np.pad(pore, pad, constant_values=True)
-        # the side walls: one solid layer across, so that no path winds around them (the voxel
-        # permeameter's grid, solvers.voxel_stokes._setup_grid's ``blocked``)
-        walls = [(0, 0) if a == axis else (0, 1) for a in range(3)]
-        pore = np.pad(pore, walls, constant_values=False)
+    if not periodic:
+        pore = permeameter_pore(pore, axis)
     if percolates(pore, axis):
         return None
-    return _image_line(name) if distance is None else _fibers_line(name, h)
+    return (
+        _image_line(name, "periodic" if periodic else "permeameter")
+        if distance is None
+        else _fibers_line(name, h)
+    )
+
+
+def permeameter_pore(pore: np.ndarray, axis: int) -> np.ndarray:
+    """The pore mask of a permeameter's grid for the periodic path test
+    (:func:`solvers.voxel_stokes.percolates`): one fluid layer each side along ``axis`` (the
+    reservoirs, joined across the wrap; their depth does not change the path) and one solid
+    layer across it (the side walls, so that no path winds around them: the voxel
+    permeameter's grid, ``solvers.voxel_stokes._setup_grid``'s ``blocked``).
+
+    >>> permeameter_pore(np.ones((4, 3, 2), bool), 0).shape
+    (6, 4, 3)
+    """
+    pad = [(1, 1) if a == axis else (0, 0) for a in range(3)]
+    pore = np.pad(pore, pad, constant_values=True)
+    walls = [(0, 0) if a == axis else (0, 1) for a in range(3)]
+    return np.pad(pore, walls, constant_values=False)
 
 
 @contextmanager

@@ -203,8 +203,8 @@ def permeability_voxel(
             )
     except NoFluidPathError as exc:
         distance = fields.distance if fields.analytic_distance else None
-        periodic = bc == "periodic" and (flow.get("periodic_treatment") or "periodic") == "periodic"
-        line = no_path_message(name, h, distance, ax, wall, rve, periodic)
+        grid = "permeameter" if bc == "permeameter" else flow.get("periodic_treatment")
+        line = no_path_message(name, h, distance, ax, wall, rve, grid or "periodic")
         raise NoFluidPathError(line) from exc
     periods = plan.copies * plan.periods if plan is not None else 1
     out = _result(res, fields, (name, ax), bc, flow, periods, cpd, t0)
@@ -227,32 +227,39 @@ def permeability_voxel(
 def refuse_without_path(
     fields: VoxelFields, direction: str | int, flow: dict, rve: RVE | None = None
 ) -> None:
-    """Refuse, before any work, a periodic voxel solve whose grid has no fluid path along
-    ``direction``: the solver's own test (:func:`solvers.voxel_stokes.percolates` of the grid
-    :func:`solvers.voxel_stokes.apply_treatment` makes, ``flow.periodic_treatment``), raised
-    with the route's line (:func:`psdesign.flow.no_path.no_path_message`). The caller runs it
-    before the time and memory estimate, so the refusal is the only line (an image without a
-    path printed the estimate first). The permeameter's stack and the diffuse wall's fluid
-    fractions are left to the solve's own test.
+    """Refuse, before any work, a voxel solve whose grid has no fluid path along
+    ``direction``: the solver's own test (:func:`solvers.voxel_stokes.percolates`) of the grid
+    it solves, the periodic one with its treatment (:func:`solvers.voxel_stokes.
+    apply_treatment`, ``flow.periodic_treatment``) or the permeameter's planned copies between
+    reservoirs and side walls (:func:`psdesign.flow.no_path.permeameter_pore`), raised with the
+    route's line (:func:`psdesign.flow.no_path.no_path_message`). The caller runs it before
+    the time and memory estimate, so the refusal is the only line (an image without a path
+    printed the estimate first: the periodic route until session 43, the permeameter until
+    session 44). The diffuse wall's fluid fractions are left to its solve's own test.
 
     Raises
     ------
     solvers.voxel_stokes.NoFluidPathError
-        The pore space of the solved grid does not wind around the box along ``direction``.
+        The pore space of the solved grid has no path along ``direction``.
     """
+    from psdesign.flow.no_path import permeameter_pore
     from solvers.voxel_stokes import NoFluidPathError, apply_treatment, percolates
 
     bc, wall = _options(flow)
-    if bc != "periodic" or wall == "diffuse":
+    if wall == "diffuse":
         return
     treatment = flow.get("periodic_treatment") or "periodic"
     name, ax = axis_of(direction)
-    if percolates(apply_treatment(fields.solid, ax, treatment)[0], ax):
+    if bc == "permeameter":
+        reps = [plan_copies(flow, rve, fields, ax).copies if a == ax else 1 for a in range(3)]
+        grid = ~permeameter_pore(~np.tile(fields.solid, reps), ax)
+    else:
+        grid = apply_treatment(fields.solid, ax, treatment)[0]
+    if percolates(grid, ax):
         return
     distance = fields.distance if fields.analytic_distance else None
-    line = no_path_message(
-        name, _cubic_voxel(fields), distance, ax, wall, rve, treatment == "periodic"
-    )
+    solved = "permeameter" if bc == "permeameter" else treatment
+    line = no_path_message(name, _cubic_voxel(fields), distance, ax, wall, rve, solved)
     raise NoFluidPathError(line)
 
 

@@ -368,10 +368,11 @@ def check_grid(
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     single = grid_bytes(shape, solver, 1, solve_of(flow, aux))
+    counted = _counted(solver, flow, aux)
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
-            f"{copies} copies of the {dims} grid stacked in the permeameter (solver {solver!r}) "
+            f"{copies} copies of the {dims} grid stacked in the permeameter ({counted}) "
             f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
             f"is {budget / 2**30:.3g} GiB (half the machine)",
             f"1, or flow.bc = 'periodic', or {coarser_advice(key)}",
@@ -385,11 +386,23 @@ def check_grid(
         allowed = f"a crop of at most {most:.3g} voxels (about {int(most ** (1 / 3))}^3)"
     raise fail(
         key,
-        f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each with solver {solver!r}"
+        f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each {counted}"
         f"{f', {copies} copies stacked' if copies > 1 else ''}) needs about "
         f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
         allowed,
     )
+
+
+def _counted(solver: str, flow, aux: float) -> str:
+    """What :func:`check_grid`'s estimate counted, for its refusal: the solver, and for the
+    voxel solver's grid (reservoirs, mirror or frame) the direction it was counted along
+    (:func:`counted_axis`); inside :func:`unplanned_route` the grid's own fields (it said
+    "with solver 'geometry'", no solver a user can set, until session 44)."""
+    if solver == "geometry":  # inside unplanned_route: no solver a user could set
+        return "for the voxel grid's own fields; a custom case function's solve is not counted"
+    if solver == "voxel" and getattr(flow, "wall_treatment", None) != "diffuse":
+        return f"with solver 'voxel', counted along {counted_axis(solve_of(flow, aux).get('axis'))}"
+    return f"with solver {solver!r}"
 
 
 def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
@@ -399,16 +412,29 @@ def _check_voxel_cap(shape: list[float], flow, key: str) -> None:
     if getattr(flow, "max_memory_gb", None) is None:
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
-    stacked = ""
+    stacked = ""  # the diffuse wall's count does not depend on the direction
     if getattr(flow, "wall_treatment", None) == "diffuse":
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
         need = grid_bytes(shape, "geometry") + diffuse_memory_bytes(shape)
     else:
         copies, aux = least_stack_of(flow)
-        need = grid_bytes(shape, "voxel", copies, solve_of(flow, aux))
-        stacked = f" ({copies} copies stacked)" if copies > 1 else ""
+        solve = solve_of(flow, aux)
+        need = grid_bytes(shape, "voxel", copies, solve)
+        along = f"counted along {counted_axis(solve['axis'])}"
+        stacked = f" ({copies} copies stacked, {along})" if copies > 1 else f" ({along})"
     check_cap(flow, need, f"the voxel solve of the {dims} grid{stacked}", key)
+
+
+def counted_axis(axis: int | None) -> str:
+    """The direction whose solved grid a voxel estimate counted (:func:`solved_cells`' axis),
+    for its refusal: a permeameter's reservoirs and a treatment's mirror or frame make the
+    count depend on it, so the same cap refuses z and accepts x (session 44).
+
+    >>> counted_axis(2), counted_axis(None)
+    ('z', 'the least of x, y, z')
+    """
+    return "the least of x, y, z" if axis is None else "xyz"[axis]
 
 
 def fem_mesh_size(

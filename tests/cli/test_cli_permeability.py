@@ -320,6 +320,32 @@ def test_an_image_without_a_path_is_refused_alone_before_the_estimate(tmp_path, 
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.parametrize("bc", ["permeameter", "both"])
+def test_a_permeameter_of_an_image_without_a_path_is_refused_alone_before_the_estimate(
+    tmp_path, capsys, bc
+):
+    """Session 44 (s44-review2, left): the permeameter route printed its estimate line
+    ("psdesign: voxel solve z (8.35e+03 cells): estimated ~0 s, ...") before the refusal, two
+    lines for one error: the up-front path test checked periodic solves only. Now the
+    permeameter's own grid (copies, reservoirs, side walls) is tested first; the API the same."""
+    import psdesign
+
+    a = np.zeros((8, 8, 8), np.uint8)
+    a[:, :, 3:5] = 1  # a solid plate across z (stored x, y, z): no path along z
+    np.save(tmp_path / "img.npy", a)
+    (tmp_path / "s.toml").write_text('[image]\npath = "img.npy"\nvoxel_size = 1e-6\n')
+    args = ["--solver", "voxel", "--direction", "z", "--bc", bc]
+    code = main(["permeability", str(tmp_path / "s.toml"), *args])
+    cap = capsys.readouterr()
+    assert code == 2 and cap.out == ""
+    assert len(cap.err.splitlines()) == 1, cap.err
+    assert cap.err.startswith("psdesign: error: image: the pore space has no path along z")
+    m = psdesign.build(str(tmp_path / "s.toml"))
+    with pytest.raises(ValueError, match="^image: the pore space has no path along z"):
+        m.permeability("z", solver="voxel", bc="permeameter", progress=True)
+    assert capsys.readouterr().err == ""
+
+
 def test_the_fem_route_names_rve_voxel_when_the_field_closes_the_gap(tmp_path, capsys):
     """The same square array at solid fraction 0.75 (gap 0.46 um, a path by the closed form)
     on a 1 um field: the mesher closes gaps under a voxel, and its refusal named no key

@@ -14,6 +14,7 @@ import pytest
 from study_cases import BASE, fake_case, kc_truth
 
 from psdesign.cli.main import main
+from psdesign.schema import budget
 from psdesign.schema.budget import grid_bytes
 from psdesign.study import load_study
 from psdesign.study.studyfile import StudyError
@@ -61,7 +62,9 @@ def test_a_custom_case_function_is_not_refused_for_a_permeameter_it_does_not_bui
     assert main([*argv, "-o", str(tmp_path / "own")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("psdesign: error: base.flow.max_memory_gb: "), err
-    assert "(3 copies stacked) needs about 0.414 GB" in err[0], err
+    assert (
+        "(3 copies stacked, counted along the least of x, y, z) needs about 0.414 GB" in err[0]
+    ), err
     assert not (tmp_path / "own").exists()
     out = tmp_path / "custom"
     assert main([*argv, "-o", str(out), "--case-fn", "study_cases:fake_case"]) == 0
@@ -97,3 +100,22 @@ def test_optimize_with_a_custom_case_function_plans_no_route(tmp_path, capsys):
     assert main([*argv, "-o", str(tmp_path / "own")]) == 2
     assert "base.flow.max_memory_gb" in capsys.readouterr().err
     assert main([*argv, "-o", str(tmp_path / "opt"), "--case-fn", "study_cases:fake_case"]) == 0
+
+
+def test_a_custom_case_functions_grid_refusal_names_no_solver_a_user_cannot_set(
+    tmp_path, monkeypatch
+):
+    """Inside a custom case function's study the grid alone is checked (16 B per voxel of
+    fields, budget.GEOMETRY_BYTES_PER_VOXEL): a 3000 um cube at 1 um, 2.7e10 voxels, 402 GiB.
+    Its line read "16 B each with solver 'geometry'" (session 44 review2), a solver no spec
+    can name; now it says what was counted, the voxel grid's own fields."""
+    big = BASE.replace("size = [100e-6, 100e-6, 100e-6]", "size = [3000e-6, 3000e-6, 3000e-6]")
+    p = tmp_path / "big.toml"
+    p.write_text(big + STUDY)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 24.0 * 2**30)  # any machine
+    with pytest.raises(StudyError) as ei:
+        load_study(p, case_fn=fake_case)
+    line = str(ei.value)
+    assert "(2.7e+10 voxels, 16 B each for the voxel grid's own fields; a custom case" in line
+    assert "solver" not in line, line
+    assert f"needs about {2.7e10 * 16 / 2**30:.3g} GiB" in line

@@ -157,6 +157,33 @@ def test_an_image_without_a_path_names_the_image():
     assert np.isfinite(OPEN_MOVE)
 
 
+@pytest.mark.parametrize("bc", ["periodic", "permeameter"])
+def test_the_image_line_says_how_the_path_was_looked_for_on_each_route(tmp_path, capsys, bc):
+    """Session 44 (s44-review2, left): the image's line said "(face-connected, periodic pore
+    voxels)" also for a permeameter, whose side walls close the periodic wrap (a channel that
+    winds across x has a periodic path and none in the permeameter,
+    :func:`test_a_permeameter_whose_only_path_winds_around_its_side_walls_names_the_image`).
+    The bc is passed through :func:`no_path_message` / :func:`closed_pore_space` on the
+    voxel and FEM routes, one message function, so each says the test it made."""
+    words = {
+        "periodic": "(face-connected, periodic pore voxels)",
+        "permeameter": "(face-connected pore voxels between the reservoirs, inside the side walls)",
+    }[bc]
+    expected = (
+        f"image: the pore space has no path along z {words}, so there is no permeability "
+        "along z (allowed: an image whose pore space joins the faces normal to the flow)"
+    )
+    _write_plates_across_z(tmp_path)
+    spec = str(tmp_path / "spec.toml")
+    for solver in ("voxel", "fem"):
+        args = ("--solver", solver, "--bc", bc, "--quiet")
+        assert _refusal(capsys, "permeability", spec, *args) == expected
+    assert no_path_message("z", 1e-6, None, 2, "staircase", grid=bc) == expected
+    solid = np.zeros((6, 6, 6), bool)
+    solid[:, :, 3] = True
+    assert closed_pore_space("z", 1e-6, None, solid, 2, bc == "periodic") == expected
+
+
 def _write_plates_across_z(folder) -> None:
     """A segmented image (ImageJ TIFF, 1 um voxels, stored zyx) whose solid plate across z
     (slices 10-13 of 24) closes every path along z; x and y stay open."""
@@ -190,7 +217,8 @@ def test_mesh_and_the_fem_route_name_the_image_without_a_path_as_the_voxel_route
     the same one line, exit 2, and ``mesh`` leaves no output folder."""
     _write_plates_across_z(tmp_path)
     spec = str(tmp_path / "spec.toml")
-    voxel = _refusal(capsys, "permeability", spec, "--solver", "voxel", "--quiet")
+    args = ("--solver", "voxel", "--bc", "permeameter", "--quiet")  # the mesh's and FEM's bc
+    voxel = _refusal(capsys, "permeability", spec, *args)
     assert voxel.startswith("image: the pore space has no path along z")
     out = tmp_path / "mesh_out"
     assert _refusal(capsys, "mesh", spec, "-o", str(out), "--quiet") == voxel
@@ -255,3 +283,66 @@ def test_a_permeameter_whose_only_path_winds_around_its_side_walls_names_the_ima
     assert _refusal(capsys, "mesh", str(spec), "-o", str(out), "--quiet") == voxel
     assert not out.exists()
     assert _refusal(capsys, "permeability", str(spec), "--solver", "fem", "--quiet") == voxel
+
+
+def test_the_periodic_mesh_counts_a_path_through_the_side_faces():
+    """The mesher's voxel test (26-connected) refused the channel above on the periodic route
+    ('rve.voxel: disconnected pore space', session 44 review2) while the voxel route solves it:
+    no piece touches both z faces, the path is through the x faces. The periodic test counts
+    the wrap (:func:`psdesign.meshing.winding.voxels_wind`), the permeameter's does not; and
+    every mask the voxel solver's face-connected test finds a path in, the 26-connected one
+    does too (it over-connects, so it never refuses a mesh the field has a path for)."""
+    from psdesign.meshing.errors import PoreTopologyError
+    from psdesign.meshing.surface import check_voxel_connectivity
+    from psdesign.meshing.winding import voxels_wind
+
+    field = np.where(np.transpose(_channel_around_x(), (2, 1, 0)), -1.0, 1.0)
+    check_voxel_connectivity(field, 2, False, periodic=True)
+    with pytest.raises(PoreTopologyError, match="disconnected pore space"):
+        check_voxel_connectivity(field, 2, False)
+    assert voxels_wind(field > 0, 2) and not voxels_wind(field > 0, 1)
+    rng = np.random.default_rng(44)
+    for _ in range(40):
+        pore = rng.random((6, 5, 4)) < 0.35
+        for axis in range(3):
+            assert voxels_wind(pore, axis) or not percolates(pore, axis)
+    # a diagonal step is a 26-connected path that no face-connected one has
+    diagonal = np.zeros((4, 4, 4), bool)
+    diagonal[0, 0, :2] = diagonal[1, 1, 2:] = True
+    assert voxels_wind(diagonal, 2) and not percolates(diagonal, 2)
+
+
+def test_the_periodic_fem_solves_the_path_through_the_side_faces(tmp_path, capsys):
+    """The periodic FEM pairs all three face pairs (meshing/periodic.py, solvers/fem/
+    periodic.py), so it can carry the channel's path through the x faces: ``permeability
+    --solver fem --bc periodic`` was refused by the mesher's voxel test and then by the tet
+    mesh's (no piece touches both the inlet and the outlet); now both count the wrap
+    (:func:`psdesign.meshing.winding.mesh_winds`) and the solve converges. Truth: the periodic
+    box is invariant under a shift: the channel shifted by 8 voxels in x (its wrap elsewhere)
+    gives the same K. The voxel route's staircase K of the same image (9.47e-15 m^2 at 1 um,
+    7.74e-15 and 6.47e-15 upsampled 2x, 4x) is not the FEM's (2.97e-14 m^2 at a 0.5 um
+    step): the FEM meshes the image's smoothed surface, which opens the channel's steps."""
+    import json
+
+    import tifffile
+
+    from psdesign.cli.main import main
+
+    meta = {"unit": "um", "axes": "ZYX"}
+    ks = []
+    for shift in (0, 8):
+        stack = np.where(np.roll(_channel_around_x(), shift, axis=2), 255, 0).astype(np.uint8)
+        name = f"w{shift}.tif"
+        tifffile.imwrite(tmp_path / name, stack, imagej=True, resolution=(1.0, 1.0), metadata=meta)
+        spec = tmp_path / f"s{shift}.toml"
+        spec.write_text(
+            f'[image]\npath = "{name}"\nsolid_label = 255\n[flow]\ndirection = "z"\n'
+            'bc = "periodic"\nlattice_step = 0.5e-6\n'
+        )
+        args = ["--solver", "fem", "--quiet", "--no-error-estimate", "--json"]
+        assert main(["permeability", str(spec), *args]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["converged"] and out["bc"] == "periodic"
+        ks.append(out["permeability_m2"])
+    assert 1e-15 < ks[0] < 1e-13
+    assert ks[1] == pytest.approx(ks[0], rel=1e-3)

@@ -93,7 +93,10 @@ def test_a_periodic_two_copy_stack_over_the_cap_is_refused_before_the_rve_is_bui
     assert main(["permeability", str(path), "--direction", "z"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith("psdesign: error: flow.max_memory_gb: the voxel solve of the ")
-    assert "20x20x20 grid (2 copies stacked)" in line and f"{TWO / 1e9:.3g} GB" in line
+    assert (
+        "20x20x20 grid (2 copies stacked, counted along z)" in line
+        and f"{TWO / 1e9:.3g} GB" in line
+    )
     assert main(["permeability", str(path), "--direction", "all"]) == 2  # z is among them
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 

@@ -460,3 +460,37 @@ def test_the_caps_documented_text_says_when_the_auto_stack_is_checked():
     table = (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text()
     (row,) = [ln for ln in table.splitlines() if ln.startswith("| `flow.max_memory_gb` |")]
     assert text in row
+
+
+def test_the_voxel_cap_refusal_names_the_direction_it_counted(tmp_path, capsys, monkeypatch):
+    """Since s44-polish the voxel estimate counts the grid of the direction solved (a
+    permeameter's whole-cell reservoirs): a 24 x 12 x 8 um box at 1 um holds 24x12x12 = 3456
+    cells along z and 34x12x8 = 3264 along x (spied on solvers.voxel_stokes._setup_grid,
+    benchmarks/RESULTS.md "Session 44 ... s44-review2"), so a cap between the two refuses z
+    and accepts x. The refusal said "the voxel solve of the 24x12x8 grid" for both (session
+    44 review2); it names the direction now, or the least of the three for a spec checked
+    alone (no direction pinned), and so does the budget's refusal of the grid."""
+    b = budget.VOXEL_SOLVER_BYTES_PER_VOXEL
+    fields = 2304 * budget.GEOMETRY_BYTES_PER_VOXEL
+    along_z, along_x = fields + 3456 * b, fields + 3264 * b
+    cap = (along_z + along_x) / 2 / budget.CAP_MARGIN / 1e9
+    text = (
+        "[rve]\nsize = [24e-6, 12e-6, 8e-6]\nvoxel = 1e-6\n[[fibers]]\ndiameter = 3e-6\n[flow]\n"
+        'solver = "voxel"\nbc = "permeameter"\npermeameter_copies = 1\n'
+    )
+    path = tmp_path / "s.toml"
+    path.write_text(text + f"max_memory_gb = {cap!r}\n")
+    for direction in ("z", "y"):
+        assert main(["permeability", str(path), "--quiet", "--direction", direction]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert f"the voxel solve of the 24x12x8 grid (counted along {direction}) needs" in line
+    import tomllib
+
+    doc = tomllib.loads(text + f"max_memory_gb = {0.9 * along_x / 1.25e9!r}\n")
+    with pytest.raises(SpecError) as ei:
+        validate_spec(doc)
+    assert "24x12x8 grid (counted along the least of x, y, z) needs" in ei.value.message
+    monkeypatch.setattr(budget, "machine_memory", lambda: 2 * fields)  # the budget's refusal
+    with pytest.raises(SpecError) as ei:
+        validate_spec(tomllib.loads(text))
+    assert "B each with solver 'voxel', counted along the least of x, y, z)" in ei.value.message
