@@ -84,7 +84,7 @@ def scaled_field(distance, voxel, size, direction, opts: MeshOptions) -> ScaledF
     scale = float(size.max())
     d_s, v_s, size_s = distance / scale, voxel / scale, size / scale
     closed, n_closed = close_narrow_gaps(d_s, v_s, opts.min_gap_voxels, periodic=opts.periodic)
-    check_voxel_connectivity(closed, axis, opts.aux_length > 0, opts.periodic)
+    check_voxel_connectivity(closed, axis, opts.aux_length > 0)
     analytic = analytic_pore_volume(d_s, v_s)
     analytic_closed = analytic_pore_volume(closed, v_s) if n_closed else analytic
     rve = float(np.prod(size_s))

@@ -15,7 +15,6 @@ from skimage import measure
 
 from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, PoreTopologyError
-from psdesign.meshing.winding import voxels_wind
 
 AXES = {"x": 0, "y": 1, "z": 2}
 _PAD_EDGE = 2  # replicated layers that carry the fiber solid beyond the box faces
@@ -227,16 +226,11 @@ def pore_surface(
     return PoreSurface(verts, faces, lo, hi, rve_lo, rve_hi, vol, float(solid_volume))
 
 
-def check_voxel_connectivity(
-    field: np.ndarray, axis: int, has_aux: bool, periodic: bool = False
-) -> None:
+def check_voxel_connectivity(field: np.ndarray, axis: int, has_aux: bool) -> None:
     """Fail early when the pore voxels (26-connected) have no inlet-to-outlet path.
 
     26-connectivity over-connects compared with the marching-cubes surface, so a missing path
     here means a missing path in the mesh too (the tet mesh is checked again afterwards).
-    ``periodic``: the periodic mesh's path, which may wind across the side faces
-    (:func:`psdesign.meshing.winding.voxels_wind`; until session 44 a path through the wrap
-    was refused here while the voxel route solved it).
     """
     pore = field > 0
     first = np.take(pore, 0, axis=axis)
@@ -255,7 +249,7 @@ def check_voxel_connectivity(
     a = np.unique(np.take(labels, 0, axis=axis))
     b = np.unique(np.take(labels, -1, axis=axis))
     common = np.intersect1d(a[a > 0], b[b > 0])
-    if len(common) == 0 and not (periodic and voxels_wind(pore, axis)):
+    if len(common) == 0:
         raise PoreTopologyError(
             "rve.voxel: disconnected pore space: no pore path from the inlet to the outlet on "
             "the voxel field the mesh is built from, where pore gaps under about a voxel are "

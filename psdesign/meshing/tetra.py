@@ -10,7 +10,6 @@ from psdesign.meshing import tags as T
 from psdesign.meshing.errors import MeshFailedError, MeshInputError, PoreTopologyError, Remedy
 from psdesign.meshing.options import TETWILD_OPTIONS
 from psdesign.meshing.tetwild_process import tetrahedralize_isolated
-from psdesign.meshing.winding import mesh_winds
 from psdesign.schema.flow import PYTETWILD_EDGE_RANGE
 
 # outward faces of a positively oriented tet (a, b, c, d)
@@ -253,14 +252,6 @@ MESH_RESOLUTION = Remedy(
 )
 
 
-def _vertex_piece(n_points: int, tets: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """The connected piece (``labels``, one per tet) of each vertex; -1 for a vertex in no
-    tet."""
-    out = np.full(n_points, -1, np.int64)
-    out[tets.ravel()] = np.repeat(labels, tets.shape[1])
-    return out
-
-
 def keep_through_components(
     points: np.ndarray,
     tets: np.ndarray,
@@ -304,9 +295,7 @@ def keep_through_components(
                 f"{key}: the tet mesh has no pore at the {face} face where its voxel field "
                 f"has one: {rest}"
             )
-    if not (touches_in & touches_out).any() and not (
-        any_face and mesh_winds(points, _vertex_piece(len(points), tets, labels), lo, hi, axis)
-    ):
+    if not (touches_in & touches_out).any():
         raise PoreTopologyError(
             f"{key}: disconnected pore space: the tet mesh has no pore path from the inlet to "
             f"the outlet ({ncomp} pore components, none touches both) where its voxel field has "
