@@ -536,15 +536,11 @@ def solve_voxel_stokes(
     _check_options(voxel_size, viscosity, tol, max_iter, periodic_treatment, bc)
     distance = _check_distance(distance, solid)
     _check_drive(solid, bc, periodic_treatment, sides, aux_length, pressure_gradient)
-    cells = _check_memory(
-        solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol
-    )
-    # the set-up's kernels follow the same thread policy as the solve (a small grid on one
-    # thread), counted on the grid they set up (the treatment's or the reservoirs' cells)
+    treat = periodic_treatment
+    cells = _check_memory(solid.shape, d, bc, treat, aux_length, distance is not None, tol)
+    # the set-up's kernels: the solve's thread policy, on the cells of the grid they set up
     with _threads(cells), jit.kernel_log() as setup_log:
-        setup = _setup_grid(
-            solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides
-        )
+        setup = _setup_grid(solid, distance, voxel_size, d, bc, treat, aux_length, sides)
     vmem.release_free_heap()  # the set-up's freed temporaries (8 B per cell at 200^3)
     _percolation_and_porosity(setup, d)
     # the solve holds no grid-sized geometry of its own from here on (the operator keeps what
