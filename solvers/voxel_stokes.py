@@ -138,7 +138,9 @@ planes normal to the flow.  For ``bc="periodic"``, ``K[:, j] = mu <u> / G``.
 
 from __future__ import annotations
 
+import math
 import resource
+import sys
 import time
 from collections import deque
 from collections.abc import Callable
@@ -534,12 +536,11 @@ def solve_voxel_stokes(
     _check_options(voxel_size, viscosity, tol, max_iter, periodic_treatment, bc)
     distance = _check_distance(distance, solid)
     _check_drive(solid, bc, periodic_treatment, sides, aux_length, pressure_gradient)
-    _check_memory(solid.shape, d, bc, periodic_treatment, aux_length, distance is not None, tol)
-    # the set-up's kernels follow the same thread policy as the solve (a small grid on one thread)
-    with _threads(solid.size), jit.kernel_log() as setup_log:
-        setup = _setup_grid(
-            solid, distance, voxel_size, d, bc, periodic_treatment, aux_length, sides
-        )
+    treat = periodic_treatment
+    cells = _check_memory(solid.shape, d, bc, treat, aux_length, distance is not None, tol)
+    # the set-up's kernels: the solve's thread policy, on the cells of the grid they set up
+    with _threads(cells), jit.kernel_log() as setup_log:
+        setup = _setup_grid(solid, distance, voxel_size, d, bc, treat, aux_length, sides)
     vmem.release_free_heap()  # the set-up's freed temporaries (8 B per cell at 200^3)
     _percolation_and_porosity(setup, d)
     # the solve holds no grid-sized geometry of its own from here on (the operator keeps what
@@ -804,10 +805,11 @@ def _check_memory(
     aux_length: float,
     subvoxel: bool,
     tol: float = 1e-6,
-) -> None:
+) -> int:
     """Refuse, before any allocation, a solve whose estimated peak memory
-    (:mod:`solvers.voxel.memory`) exceeds the memory available now."""
-    cells = float(np.prod([float(n) for n in solved_shape(shape, d, bc, treatment, aux_length)]))
+    (:mod:`solvers.voxel.memory`) exceeds the memory available now; return the solved grid's
+    cells."""
+    cells = math.prod(solved_shape(shape, d, bc, treatment, aux_length))
     kind = "subvoxel" if subvoxel else "staircase"
     need = vmem.solver_bytes(cells, kind, tol, walls=bc == "permeameter")
     avail = vmem.available_bytes()
@@ -817,17 +819,29 @@ def _check_memory(
             f"({need / cells:.0f} B per cell, {kind} walls); "
             f"{avail / 2**30:.3g} GiB are available: use a coarser voxel or a smaller RVE"
         )
+    return cells
 
 
 @contextmanager
 def _threads(n_cells: int):
     """numba threads for a solve on ``n_cells`` cells (:func:`solvers.voxel.threads.
-    solve_threads`); yields ``(threads, available)``."""
+    solve_threads`); yields ``(threads, available)``.
+
+    Inside the block the kernels whose parallel version is not compiled yet compile it (else
+    run their serial twin) by one rule for the whole grid: ``n_cells`` against
+    :data:`solvers.jit.COMPILE_PARALLEL_ABOVE`, not each kernel's first argument, which has 4
+    entries per cell for the 4-field vectors.  Per argument, a 120^3 mirror solve (3.4 M cells)
+    compiled five vector kernels on first use (58 s of its 95 s at load 3.5, 153 MB of its
+    peak RSS) and still ran its operator kernels on one thread (``benchmarks/RESULTS.md``,
+    session 44 mirror)."""
     old = numba.get_num_threads()
     numba.set_num_threads(n := vthreads.solve_threads(n_cells, old))
+    above = jit.COMPILE_PARALLEL_ABOVE
+    jit.COMPILE_PARALLEL_ABOVE = 0 if n_cells >= above else sys.maxsize
     try:
         yield n, old
     finally:
+        jit.COMPILE_PARALLEL_ABOVE = above
         numba.set_num_threads(old)
 
 

@@ -99,6 +99,41 @@ def test_result_states_the_threads_its_kernels_ran_on(case: str, monkeypatch) ->
         assert res.thread_note == f"ran on 1 of 2 threads: grid below {solve_min_cells()} cells"
 
 
+@pytest.mark.parametrize("above", [False, True])
+def test_a_solve_compiles_parallel_kernels_by_its_grid_cells(above: bool, monkeypatch) -> None:
+    """Session 44 (mirror): each kernel compiled its parallel version when its *first argument*
+    reached ``jit.COMPILE_PARALLEL_ABOVE`` elements, and a 4-field vector has 4 per cell: a
+    120^3 mirror solve (3.4 M cells, below the 10 M of the rule) compiled five vector kernels
+    on first use (58 s of its 95 s, 153 MB of peak RSS at load 3.5; ``benchmarks/RESULTS.md``)
+    and ran its operator kernels serially all the same.  Now the solved grid's cells decide
+    for every kernel of the solve: none compiles below the rule, all run parallel from it.
+    Two threads simulated and "compiling" gives the serial twin, as in the test above."""
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import threads as vthreads
+
+    threads = [2]
+    monkeypatch.setattr(numba, "get_num_threads", lambda: threads[0])
+    monkeypatch.setattr(numba, "set_num_threads", lambda n: threads.__setitem__(0, n))
+    monkeypatch.setattr(vthreads, "PARALLEL_MIN_CELLS", 0)
+    monkeypatch.setattr(vthreads, "SOLVE_PARALLEL_MIN_CELLS", 0)
+    monkeypatch.setattr(jit.TwinKernel, "_parallel_ready", lambda self, args: False)
+    for kernel in _twin_kernels():
+        monkeypatch.setattr(kernel, "parallel", kernel.serial)
+    solid = np.zeros((12, 12, 12), dtype=bool)
+    solid[:, 3:7, 3:7] = True  # a square rod along x, flow along y, mirrored: 12 x 24 x 12
+    cells = 12 * 24 * 12
+    # the rule at the solved grid's cells, or between them and the vectors' 4 per cell
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", cells if above else 2 * cells)
+    res = vs.solve_voxel_stokes(solid, 1e-6, "y", tol=1e-6, periodic_treatment="mirror")
+    assert res.converged and threads == [2] and jit.COMPILE_PARALLEL_ABOVE == (2 - above) * cells
+    if above:
+        assert (res.threads_used, res.thread_note, res.serial_fallback) == (2, "", ())
+    else:
+        assert res.threads_used == 1 and res.thread_note.startswith("ran on 1 of 2 threads")
+        assert {"stokes_lanczos", "symmlq_step"} <= set(res.serial_fallback)
+
+
 def test_partly_compiled_kernels_are_named() -> None:
     from solvers.voxel.threads import thread_use
 
