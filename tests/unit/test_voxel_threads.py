@@ -387,3 +387,63 @@ def test_a_solve_is_bitwise_the_same_on_one_and_two_threads(walls: str, monkeypa
         assert res.converged and res.threads_used == threads
         runs.append((res.history, res.iterations, res.residual, res.mean_velocity.tolist()))
     assert runs[0] == runs[1]
+
+
+def test_the_compile_rule_is_restored_when_a_solve_raises(monkeypatch) -> None:
+    """Session 44 review3: ``_threads`` sets ``jit.COMPILE_PARALLEL_ABOVE`` for the solve; an
+    exception inside the solve (here from the Krylov loop) must leave the module's rule as it
+    was, or every later solve of the process compiles (0) or never compiles (maxsize)."""
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("inside the solve")
+
+    monkeypatch.setattr(vs, "_solve_core", boom)
+    before = jit.COMPILE_PARALLEL_ABOVE
+    solid = np.zeros((8, 8, 8), dtype=bool)
+    solid[:, 2:5, 2:5] = True
+    with pytest.raises(RuntimeError, match="inside the solve"):
+        vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-4)
+    assert jit.COMPILE_PARALLEL_ABOVE == before
+
+
+def test_solves_in_two_threads_leave_the_compile_rule_as_it_was(monkeypatch) -> None:
+    """Session 44 review3: two solves in threads of one process (a dask worker started with
+    ``--nthreads 2``, an API user's thread pool) interleave their ``_threads`` blocks: on the
+    merged s44-mirror code the second block saved the first one's *mutated* rule (0 or
+    ``sys.maxsize``) as the one to restore and, exiting last, left it for the process: from
+    then on every grid compiled its parallel kernels (or none did).  Each block must decide
+    on the process's rule and the last one out restore it."""
+    import threading
+
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+
+    before = jit.COMPILE_PARALLEL_ABOVE
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", before)  # put back whatever happens
+    a_in, b_in, a_out = threading.Event(), threading.Event(), threading.Event()
+    seen: dict[str, int] = {}
+
+    def a() -> None:  # a large grid: the rule says compile
+        with vs._threads(before):
+            seen["a"] = jit.COMPILE_PARALLEL_ABOVE
+            a_in.set()
+            b_in.wait(10)
+        a_out.set()
+
+    def b() -> None:  # a small grid, entering while a is inside and leaving after it
+        a_in.wait(10)
+        with vs._threads(before - 1):
+            b_in.set()
+            a_out.wait(10)
+            seen["b"] = jit.COMPILE_PARALLEL_ABOVE
+
+    threads = [threading.Thread(target=a), threading.Thread(target=b)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(20)
+    assert seen["a"] == 0  # inside a's block its grid (at the rule) compiles
+    assert seen["b"] > before - 1  # b's grid, below the rule, does not compile
+    assert jit.COMPILE_PARALLEL_ABOVE == before
