@@ -368,7 +368,7 @@ def check_grid(
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     single = grid_bytes(shape, solver, 1, solve_of(flow, aux))
-    counted = _counted(solver, flow, aux)
+    counted = _counted(solver, flow, aux, key)
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
@@ -393,11 +393,18 @@ def check_grid(
     )
 
 
-def _counted(solver: str, flow, aux: float) -> str:
+def _counted(solver: str, flow, aux: float, key: str = "rve.voxel") -> str:
     """What :func:`check_grid`'s estimate counted, for its refusal: the solver, and for the
     voxel solver's grid (reservoirs, mirror or frame) the direction it was counted along
     (:func:`counted_axis`); inside :func:`unplanned_route` the grid's own fields (it said
-    "with solver 'geometry'", no solver a user can set, until session 44)."""
+    "with solver 'geometry'", no solver a user can set, until session 44); the GA's overlap
+    grid for ``intersections.ga_voxel`` (it said "with solver 'fem'" whatever the solver).
+
+    >>> _counted("fem", None, 0.2, "intersections.ga_voxel")
+    "for the GA's overlap grid"
+    """
+    if key == "intersections.ga_voxel":
+        return "for the GA's overlap grid"
     if solver == "geometry":  # inside unplanned_route: no solver a user could set
         return "for the voxel grid's own fields; a custom case function's solve is not counted"
     if solver == "voxel" and getattr(flow, "wall_treatment", None) != "diffuse":

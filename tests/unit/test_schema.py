@@ -140,6 +140,15 @@ def test_bad_value_names_the_key(path, value, key):
     assert "allowed" in err.message
 
 
+def test_the_ga_grid_refusal_says_what_it_counted():
+    """``intersections.ga_voxel``'s memory refusal said "with solver 'fem'" (check_grid's
+    solver argument, whatever [flow] solves; s44-left noticed): it counts the GA's overlap
+    grid, and says so."""
+    ga = with_(SPEC, "intersections.method", "ga")
+    err = spec_err(with_(ga, "intersections.ga_voxel", 1e-9))
+    assert "for the GA's overlap grid" in err.message and "solver" not in err.message
+
+
 @pytest.mark.parametrize("path", ["flow.error_estimate", "intersections.exceed_bounds"])
 @pytest.mark.parametrize("value", ["no", "false", "off", "yes", 0, 1, 0.0])
 def test_true_false_keys_take_only_booleans(path, value):
