@@ -224,6 +224,10 @@ def test_mesh_and_the_fem_route_name_the_image_without_a_path_as_the_voxel_route
     assert _refusal(capsys, "mesh", spec, "-o", str(out), "--quiet") == voxel
     assert not out.exists()
     assert _refusal(capsys, "permeability", spec, "--solver", "fem", "--quiet") == voxel
+    # without --quiet too: the image is tested before the mesher prints its progress line
+    # ("psdesign: meshing the pore space (stuffing, z)" came first until session 44)
+    assert _refusal(capsys, "permeability", spec, "--solver", "fem") == voxel
+    assert _refusal(capsys, "mesh", spec, "-o", str(out)) == voxel
 
 
 def test_mesh_of_fibers_without_a_path_names_the_fibers(tmp_path, capsys):
