@@ -240,8 +240,9 @@ def says_closed_pore_space(fields, direction: str, periodic: bool) -> Iterator[N
         distance = fields.distance if fields.analytic_distance else None
         h = float(fields.grid.spacing[0])
         said = closed_pore_space(direction, h, distance, fields.solid, axis, periodic)
-        if said is None and periodic and distance is None:
-            said = _wrap_only_line(direction, fields.solid, axis)
+        if said is None and periodic and distance is None:  # a path only through the wrap?
+            walled = closed_pore_space(direction, h, None, fields.solid, axis, periodic=False)
+            said = None if walled is None else _wrap_only_line(direction)
         return said
 
     # an image is tested before the mesher starts (one percolation of its voxels), so the
@@ -257,27 +258,17 @@ def says_closed_pore_space(fields, direction: str, periodic: bool) -> Iterator[N
         raise PoreTopologyError(said) from exc
 
 
-def _wrap_only_line(name: str, solid: np.ndarray, axis: int) -> str | None:
+def _wrap_only_line(name: str) -> str:
     """The line of an image whose only pore path along ``name`` winds through the box's side
-    faces (periodic, none with the side walls): the periodic mesher keeps the pieces that
-    join the two faces normal to the flow inside the box, so it refused such an image as
-    ``rve.voxel`` (a key an image has not), though the voxel route solves it. Meshing it
-    anyway (session 44, reverted as ee22dc1) gave a FEM K 3-5x the voxel route's, marked ok.
-    None when the image has a path inside the side walls too (the mesh's resolution is then
-    at fault, as its own line says).
+    faces (a periodic path, none inside the side walls: :func:`closed_pore_space` of both):
+    the periodic mesher keeps the pieces that join the two faces normal to the flow inside
+    the box, so it refused such an image as ``rve.voxel`` (a key an image has not), though
+    the voxel route solves it. Meshing it anyway (session 44, reverted as ee22dc1) gave a FEM
+    K 3-5x the voxel route's, marked ok.
 
-    >>> solid = np.ones((4, 4, 6), bool)
-    >>> for z in range(6):  # a channel stepping across x, through the wrap from x = 3 to 0
-    ...     solid[[(z + 3) % 4, (z + 4) % 4], 1, z] = False
-    >>> _wrap_only_line("z", solid, 2)[:50]
+    >>> _wrap_only_line("z")[:50]
     "image: the pore space's only path along z winds th"
-    >>> solid[:, 1, :] = False; _wrap_only_line("z", solid, 2) is None
-    True
     """
-    from psdesign.geometry.throat import percolates
-
-    if percolates(permeameter_pore(~np.asarray(solid, bool), axis), axis):
-        return None
     return (
         f"image: the pore space's only path along {name} winds through the box's side faces "
         "(periodic pore voxels; none inside them), which the FEM's mesh does not carry "
