@@ -346,6 +346,20 @@ def test_a_study_on_a_folder_of_slices(tmp_path) -> None:
     assert case(tmp_path / "a") != case(tmp_path / "b")
 
 
+def porosity_study(folder, path: str, extra: str = ""):
+    """Run a one-case porosity study (voxel solver, no report) of the image ``path`` in
+    ``folder`` (its spec ``img.toml`` with ``extra`` keys) into ``folder / "out"``."""
+    spec(folder, path, extra + NO_BAR, "img.toml")
+    study = folder / "study.toml"
+    study.write_text(
+        'base = "img.toml"\n[study]\nname = "sl"\ndesign = "full-factorial"\n'
+        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return psdesign.run_study(study, folder / "out", workers=0, progress=False, report=False)
+
+
 def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     """The report of a study over a cropped folder of slices names the folder, its format,
     the voxel size read from the slices' calibration (1 um, IMAGEJ_UM), the crop and the
@@ -355,16 +369,7 @@ def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     from psdesign.report.html import build_html
 
     write_slices(tmp_path / "slices", slit())
-    crop = "crop = [[2, 14], [0, 16], [0, 24]]\n"
-    spec(tmp_path, "slices", crop + NO_BAR, "img.toml")
-    study = tmp_path / "study.toml"
-    study.write_text(
-        'base = "img.toml"\n[study]\nname = "sl"\ndesign = "full-factorial"\n'
-        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
-    )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        df = psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    df = porosity_study(tmp_path, "slices", "crop = [[2, 14], [0, 16], [0, 24]]\n")
     assert df["porosity"].iloc[0] == pytest.approx(16 / 24, rel=1e-12, abs=0)
     rows = dict(re.findall(ROW, build_html(tmp_path / "out")))
     assert rows["image"] == str(tmp_path / "slices")
@@ -394,15 +399,7 @@ def test_a_study_report_shows_the_image_as_the_study_ran_it(tmp_path, capsys) ->
     (``image_header``); ``psdesign study report`` shows that. Fails on main's runner and
     image_source (the report showed 2e-06)."""
     write_stack(tmp_path / "scan.tif", slit())
-    spec(tmp_path, "scan.tif", NO_BAR, "img.toml")
-    study = tmp_path / "study.toml"
-    study.write_text(
-        'base = "img.toml"\n[study]\nname = "st"\ndesign = "full-factorial"\n'
-        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
-    )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    porosity_study(tmp_path, "scan.tif")
     small = slit()[::2, ::2, ::2]
     meta = {"unit": "um", "axes": "ZYX"}
     tifffile.imwrite(
