@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/prediction_bar_truth.py [--n 41]
+    python benchmarks/prediction_bar_truth.py [--n 41] [--lhs-sweep]
 
 Fits K = 2 truth(eps, d) on small designs (full factorials with fake_case's one 1 % noise factor
 per seed, 1-D porosity sweeps, 12- and 20-point latin hypercubes with 1 % noise per case), then
@@ -11,7 +11,11 @@ n x n grid of the fitted box and compares with the noise-free truth: Kozeny-Carm
 k_K = 5 (Carman 1937; ``tests/study_cases.kc_truth``) and Gebart's square array across the
 fibers (J. Compos. Mater. 26 (1992) 1100). One markdown row per design: the fit's hold-out
 figures, the true relative error (RMS / max), the share of points within 2 bars, the median bar
-and true error and their ratio, and the statuses printed.
+and true error and their ratio, and the statuses printed. ``--lhs-sweep`` adds 96 latin
+hypercubes (8, 12, 20, 30 points x design seeds 1-8 x Kozeny-Carman, Gebart and a linear,
+porosity-like truth with 0.01 % noise) on a 31 x 31 grid: how many hold the truth within 2 bars
+at under 95 % of the box, the least share, and the median of median bar / median true error
+(session 45).
 """
 
 from __future__ import annotations
@@ -64,11 +68,49 @@ def grid_fit(truth, eps, diam, seeds):
     return _fit(x, 2.0 * truth(x[:, 0], d) * np.tile(noise, len(x) // len(seeds)), params)
 
 
-def lhs_fit(truth, n_points):
-    u = qmc.LatinHypercube(d=2, seed=4).random(n_points)
+def linear(eps, d):
+    """A porosity-like output: linear in porosity, independent of the diameter."""
+    return 0.5 * eps + 0.0 * d
+
+
+def lhs_fit(truth, n_points, seed=4, noise=0.01):
+    u = qmc.LatinHypercube(d=2, seed=seed).random(n_points)
     x = np.c_[0.7 + 0.2 * u[:, 0], 6e-6 + 2e-6 * u[:, 1]]
-    noise = 1 + 0.01 * np.random.default_rng(5).standard_normal(n_points)
+    noise = 1 + noise * np.random.default_rng(seed + 1).standard_normal(n_points)
     return _fit(x, 2.0 * truth(x[:, 0], x[:, 1]) * noise, ["e", "d"])
+
+
+def coverage(s, truth, n: int) -> tuple[float, float]:
+    """Share of an n x n grid of the box with the truth within 2 bars, and median bar /
+    median true error."""
+    err, bar = [], []
+    for e in np.linspace(s.low[0], s.high[0], n):
+        for d in np.linspace(s.low[1], s.high[1], n):
+            r, _ = _predict_one(s, f"e={e},d={d}")
+            k = 2.0 * truth(e, d)
+            err.append(abs(r["mean"] - k) / k)
+            bar.append(r["std"] / k)
+    err, bar = np.array(err), np.array(bar)
+    return float(np.mean(err <= 2 * bar)), float(np.median(bar) / np.median(err))
+
+
+def lhs_sweep(n: int = 31) -> None:
+    """One line per truth and size: designs under 95 %, the least share, the median ratio."""
+    print("\n| LHS truth | points | designs rated ok | under 95 % | least share | median ratio |")
+    print("| --- " * 6 + "|")
+    for truth, tname, noise in (
+        (kc_truth, "KC", 0.01),
+        (gebart, "Gebart", 0.01),
+        (linear, "linear", 1e-4),
+    ):
+        for n_points in (8, 12, 20, 30):
+            fits = [lhs_fit(truth, n_points, seed, noise) for seed in range(1, 9)]
+            got = [coverage(s, truth, n) for s in fits if s.rating()[0] == "ok"]
+            share = np.array([c for c, _ in got])
+            print(
+                f"| {tname} | {n_points} | {len(got)} / 8 | {int(np.sum(share < 0.95))} | "
+                f"{100 * share.min():.3g} % | {np.median([r for _, r in got]):.3g} |"
+            )
 
 
 def row(name: str, s, truth, n: int) -> str:
@@ -99,7 +141,9 @@ def row(name: str, s, truth, n: int) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=41, help="grid points per parameter")
-    n = ap.parse_args().n
+    ap.add_argument("--lhs-sweep", action="store_true", help="add 96 latin hypercubes")
+    args = ap.parse_args()
+    n = args.n
     warnings.simplefilter("ignore")
     print(
         "| design | CV error | inner-level error | between-points error | true error RMS / max "
@@ -111,6 +155,8 @@ def main() -> None:
             print(row(f"{tname} {name}", grid_fit(truth, eps, diam, seeds), truth, n))
         for n_points in (12, 20):
             print(row(f"{tname} LHS {n_points}", lhs_fit(truth, n_points), truth, n))
+    if args.lhs_sweep:
+        lhs_sweep()
 
 
 if __name__ == "__main__":

@@ -23,14 +23,7 @@ import math
 
 import numpy as np
 
-from psdesign.analysis.surrogate import Surrogate
-
-#: The fit's hold-out errors, as :class:`~psdesign.analysis.surrogate.Surrogate` keeps them,
-#: and their words.
-HOLDOUT_ERRORS = (
-    ("cv_rel_error", "cross-validated error"),
-    ("cv_level_rel_error", "error with each inner level held out"),
-)
+from psdesign.analysis.surrogate import Surrogate, holdout_figure
 
 
 def holdout_error(s: Surrogate) -> tuple[float, str]:
@@ -43,13 +36,9 @@ def holdout_error(s: Surrogate) -> tuple[float, str]:
     >>> holdout_error(S(cv_rel_error=0.02, cv_level_rel_error=float("nan")))
     (0.02, 'cross-validated error')
     """
-    found = [(getattr(s, key), words) for key, words in HOLDOUT_ERRORS]
+    found = [holdout_figure(s, key) for key in ("cv_rel_error", "cv_level_rel_error")]
     found = [(v, words) for v, words in found if v == v]  # NaN: not measured
     return max(found) if found else (math.nan, "")
-
-
-#: The words of :func:`~psdesign.analysis.surrogate.between_level_error`'s figure.
-BETWEEN_WORDS = "estimated error between the study's design points"
 
 
 def bar_error(s: Surrogate, inside=True) -> tuple[float, str]:
@@ -65,9 +54,9 @@ def bar_error(s: Surrogate, inside=True) -> tuple[float, str]:
     >>> bar_error(s), bar_error(s, inside=False)[0]
     ((0.082, "estimated error between the study's design points"), 0.3)
     """
-    between = getattr(s, "cv_between_rel_error", math.nan)
-    if inside and between == between and s.rating()[0] == "ok":
-        return between, BETWEEN_WORDS
+    between = holdout_figure(s, "cv_between_rel_error")
+    if inside and between[0] == between[0] and s.rating()[0] == "ok":
+        return between
     return holdout_error(s)
 
 
@@ -106,15 +95,9 @@ def holdout_reason(s: Surrogate) -> str:
     :meth:`~psdesign.analysis.surrogate.Surrogate.rating`)."""
     from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
-    between = getattr(s, "cv_between_rel_error", math.nan)
-    lv, words = (
-        (between, BETWEEN_WORDS)
-        if between == between
-        else (
-            s.cv_level_rel_error,
-            "error with each inner level held out",
-        )
-    )
+    lv, words = holdout_figure(s, "cv_between_rel_error")
+    if lv != lv:  # a surrogate.json written before session 44
+        lv, words = holdout_figure(s, "cv_level_rel_error")
     if not lv > UNTRUSTWORTHY_REL_ERROR:  # NaN: no such figure
         return ""
     return (

@@ -168,6 +168,7 @@ def _table(
 
 
 def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
+    from psdesign.report.image_source import HEADER_KEY
     from psdesign.study.readback import read_json_object, read_results
 
     try:  # the reader's check of results.csv (missing, empty, not CSV) is the one check
@@ -176,7 +177,10 @@ def _load(out: Path) -> tuple[pd.DataFrame, dict, dict]:
         raise ReportError(str(exc)) from None
     study = {}
     if (out / "study.json").is_file():
-        study = read_json_object(out / "study.json").get("study", {})
+        doc = read_json_object(out / "study.json")
+        study = doc.get("study", {})
+        if HEADER_KEY in doc:  # the image's header as the run read it (image_source)
+            study = {**study, HEADER_KEY: doc[HEADER_KEY]}
     runs = {}
     if (out / "run.json").is_file():
         runs = read_json_object(out / "run.json")
@@ -716,7 +720,7 @@ def _meta_table(
     """The study's description, the image it solved (an image-based study,
     :func:`psdesign.report.image_source.image_rows`), status counts, runs, machine and
     versions as table rows."""
-    from psdesign.report.image_source import image_rows
+    from psdesign.report.image_source import HEADER_KEY, image_rows
 
     counts = df["status"].value_counts().to_dict() if "status" in df else {}
     run_list = runs.get("runs", [])
@@ -730,7 +734,7 @@ def _meta_table(
         ("study", name),
         ("description", study.get("description", "")),
         ("design", study.get("design")),
-        *image_rows(study, out),
+        *image_rows(study, out, study.get(HEADER_KEY)),
         ("cases", len(df)),
         ("status", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))),
         ("outputs", ", ".join(study.get("outputs", []))),

@@ -345,11 +345,19 @@ def restack_bytes(result: dict, copies: int, shape: Sequence[float], aux: float)
 
 
 def check_grid(
-    size: tuple[float, ...], voxel: float, solver: str, key: str = "rve.voxel", flow=None
+    size: tuple[float, ...],
+    voxel: float,
+    solver: str,
+    key: str = "rve.voxel",
+    flow=None,
+    counts: str = "",
 ) -> None:
     """Refuse a voxel grid whose estimated memory (the permeameter's stack included,
     :func:`stack_of`) exceeds the budget; ``flow.permeameter_copies`` is named when one copy
-    would fit. Inside :func:`unplanned_route` the grid alone (``solver = "geometry"``)."""
+    would fit. Inside :func:`unplanned_route` the grid alone (``solver = "geometry"``).
+    ``counts``: what the grid is, for the refusal, when it is no solve's
+    (``"for the GA's overlap grid"`` with ``solver = "geometry"``); ``""``: the solve's
+    words, :func:`_counted`."""
     if not route_planned():
         solver, flow = "geometry", None
     shape = grid_shape(size, voxel)
@@ -368,7 +376,7 @@ def check_grid(
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     single = grid_bytes(shape, solver, 1, solve_of(flow, aux))
-    counted = _counted(solver, flow, aux, key)
+    counted = counts or _counted(solver, flow, aux)
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
@@ -393,18 +401,17 @@ def check_grid(
     )
 
 
-def _counted(solver: str, flow, aux: float, key: str = "rve.voxel") -> str:
-    """What :func:`check_grid`'s estimate counted, for its refusal: the solver, and for the
-    voxel solver's grid (reservoirs, mirror or frame) the direction it was counted along
-    (:func:`counted_axis`); inside :func:`unplanned_route` the grid's own fields (it said
-    "with solver 'geometry'", no solver a user can set, until session 44); the GA's overlap
-    grid for ``intersections.ga_voxel`` (it said "with solver 'fem'" whatever the solver).
+def _counted(solver: str, flow, aux: float) -> str:
+    """What :func:`check_grid`'s estimate of a solve counted, for its refusal: the solver, and
+    for the voxel solver's grid (reservoirs, mirror or frame) the direction it was counted
+    along (:func:`counted_axis`); inside :func:`unplanned_route` the grid's own fields (it
+    said "with solver 'geometry'", no solver a user can set, until session 44). A grid that
+    is no solve's says what it is itself (:func:`check_grid`'s ``counts``: the GA's overlap
+    grid, which said "with solver 'fem'" whatever the solver until session 44).
 
-    >>> _counted("fem", None, 0.2, "intersections.ga_voxel")
-    "for the GA's overlap grid"
+    >>> _counted("fem", None, 0.2)
+    "with solver 'fem'"
     """
-    if key == "intersections.ga_voxel":
-        return "for the GA's overlap grid"
     if solver == "geometry":  # inside unplanned_route: no solver a user could set
         return "for the voxel grid's own fields; a custom case function's solve is not counted"
     if solver == "voxel" and getattr(flow, "wall_treatment", None) != "diffuse":

@@ -497,7 +497,13 @@ class SpecDocument(Table):
         if inter.step is not None and inter.step < min(size) / 1e4:
             raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")
         if inter.ga_voxel is not None:
-            budget.check_grid(size, inter.ga_voxel, "fem", key="intersections.ga_voxel")
+            budget.check_grid(
+                size,
+                inter.ga_voxel,
+                "geometry",  # the overlap grid's own fields: no solve runs on it
+                key="intersections.ga_voxel",
+                counts="for the GA's overlap grid",
+            )
         if inter.method == "ga":
             budget.check_ga(inter.population or 24, inter.generations or 40, n_est)
 

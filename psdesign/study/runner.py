@@ -910,14 +910,18 @@ def _stored_records(study: Study, cases: list[Case], store: CaseStore, by_id: di
     # folder under the id it ran with; its id in the tables is the design's
     stored = match_finished(cases, loaded)
     key = {c.case_id: stored.get(c.case_id, c.case_id) for c in cases}
-    store.write_json(
-        "study.json",
-        {
-            "study": study.to_dict(),
-            "n_cases": len(cases),
-            "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
-        },
-    )
+    table = study.to_dict()
+    doc = {
+        "study": table,
+        "n_cases": len(cases),
+        "cases": [{**c.to_dict(), "stored_as": key[c.case_id]} for c in cases],
+    }
+    from psdesign.report.image_source import HEADER_KEY, image_header
+
+    # what the report shows of the image, as the run read it (a file replaced since showed
+    # its own header in a report written later; session 45)
+    header = image_header(table, store.out)
+    store.write_json("study.json", doc if header is None else {**doc, HEADER_KEY: header})
     return key, {c: _at(loaded[r], by_id[c]) for c, r in stored.items()}
 
 

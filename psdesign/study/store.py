@@ -2,7 +2,8 @@
 
 Layout of an output folder ``OUT``::
 
-    OUT/study.json            expanded design (study settings + every case's params, seed, spec)
+    OUT/study.json            expanded design (study settings + every case's params, seed, spec;
+                              an image study's image_header as the run read it)
     OUT/cases/<case_id>.json  one record per finished case (written via temp file + os.replace)
     OUT/cases/<case_id>/      the case's working folder (previews, logs)
     OUT/results.csv           consolidated table, one row per finished case, design order

@@ -346,6 +346,20 @@ def test_a_study_on_a_folder_of_slices(tmp_path) -> None:
     assert case(tmp_path / "a") != case(tmp_path / "b")
 
 
+def porosity_study(folder, path: str, extra: str = ""):
+    """Run a one-case porosity study (voxel solver, no report) of the image ``path`` in
+    ``folder`` (its spec ``img.toml`` with ``extra`` keys) into ``folder / "out"``."""
+    spec(folder, path, extra + NO_BAR, "img.toml")
+    study = folder / "study.toml"
+    study.write_text(
+        'base = "img.toml"\n[study]\nname = "sl"\ndesign = "full-factorial"\n'
+        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return psdesign.run_study(study, folder / "out", workers=0, progress=False, report=False)
+
+
 def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     """The report of a study over a cropped folder of slices names the folder, its format,
     the voxel size read from the slices' calibration (1 um, IMAGEJ_UM), the crop and the
@@ -355,33 +369,48 @@ def test_a_study_report_names_the_image_it_solved(tmp_path) -> None:
     from psdesign.report.html import build_html
 
     write_slices(tmp_path / "slices", slit())
-    crop = "crop = [[2, 14], [0, 16], [0, 24]]\n"
-    spec(tmp_path, "slices", crop + NO_BAR, "img.toml")
-    study = tmp_path / "study.toml"
-    study.write_text(
-        'base = "img.toml"\n[study]\nname = "sl"\ndesign = "full-factorial"\n'
-        'outputs = ["porosity"]\nsolver = "voxel"\n[parameters]\n"flow.viscosity" = [1.0e-5]\n'
-    )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        df = psdesign.run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+    df = porosity_study(tmp_path, "slices", "crop = [[2, 14], [0, 16], [0, 24]]\n")
     assert df["porosity"].iloc[0] == pytest.approx(16 / 24, rel=1e-12, abs=0)
-    page = build_html(tmp_path / "out")
-    rows = dict(re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page))
+    rows = dict(re.findall(ROW, build_html(tmp_path / "out")))
     assert rows["image"] == str(tmp_path / "slices")
     assert rows["image format"] == "tif"
     assert rows["image voxel size (m)"] == f"1e-06 ({Z_TAKEN_EQUAL})"
     assert rows["image crop (x, y, z voxel ranges)"] == "[[2, 14], [0, 16], [0, 24]]"
     assert rows["image shape (voxels x, y, z)"].startswith("12 x 16 x 24 (box 1.2e-05 x")
     shutil.move(tmp_path / "slices", tmp_path / "moved")
-    rows = dict(
-        re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", build_html(tmp_path / "out"))
-    )
+    # the header as the run read it (study.json, session 45): the same rows, image moved
+    assert dict(re.findall(ROW, build_html(tmp_path / "out"))) == rows
+    doc = json.loads((tmp_path / "out" / "study.json").read_text())
+    doc.pop("image_header")  # a folder written before session 45: the header is read now
+    (tmp_path / "out" / "study.json").write_text(json.dumps(doc))
+    rows = dict(re.findall(ROW, build_html(tmp_path / "out")))
     assert (
         rows["image"] == str(tmp_path / "slices")
         and "[[2, 14]" in rows["image crop (x, y, z voxel ranges)"]
     )
     assert rows["image voxel size, shape"].startswith("not read now: ")
+
+
+def test_a_study_report_shows_the_image_as_the_study_ran_it(tmp_path, capsys) -> None:
+    """The report read the image's header when it was written, not when the study ran
+    (session 44 note): a stack replaced after the run by one of another voxel size (2 um, was
+    1 um) and shape (8 x 8 x 12, was 16 x 16 x 24) showed the new file's 2e-06 and 8 x 8 x 12
+    beside results computed on the old one. The run stores the header in study.json
+    (``image_header``); ``psdesign study report`` shows that. Fails on main's runner and
+    image_source (the report showed 2e-06)."""
+    write_stack(tmp_path / "scan.tif", slit())
+    porosity_study(tmp_path, "scan.tif")
+    small = slit()[::2, ::2, ::2]
+    meta = {"unit": "um", "axes": "ZYX"}
+    tifffile.imwrite(
+        tmp_path / "scan.tif", small, imagej=True, resolution=(0.5, 0.5), metadata=meta
+    )
+    assert main(["study", "report", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    rows = dict(re.findall(ROW, (tmp_path / "out" / "report.html").read_text()))
+    assert rows["image voxel size (m)"] == "1e-06 (from the file)", rows
+    assert rows["image shape (voxels x, y, z)"].startswith("16 x 16 x 24 (box 1.6e-05 x")
+    assert rows["image format"] == "tif"
 
 
 def test_a_study_over_a_slice_folder_says_z_taken_equal_once(tmp_path) -> None:
@@ -440,6 +469,9 @@ def test_the_slice_number_is_the_run_of_digits_that_changes(tmp_path) -> None:
     with pytest.raises(ValueError, match="named by two patterns"):
         read_labels(ImageSource(path=str(tmp_path / "bit"), voxel=1e-6))
 
+
+#: A row of the report's Study table: label, value.
+ROW = r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>"
 
 #: The report's voxel-size source for slices calibrated in x/y only (the study's warning).
 Z_TAKEN_EQUAL = "x and y from the calibration of s0.tif; z taken equal: a slice stores no z spacing"

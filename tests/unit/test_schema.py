@@ -149,6 +149,19 @@ def test_the_ga_grid_refusal_says_what_it_counted():
     assert "for the GA's overlap grid" in err.message and "solver" not in err.message
 
 
+def test_a_grid_that_is_no_solves_says_what_it_counts_itself():
+    """``budget._counted`` special-cased the key ``intersections.ga_voxel`` because the spec
+    check passed solver "fem" for the GA's overlap grid (session 45): the caller now says
+    what the grid is (``check_grid(..., counts=...)``), with no key special case. Main's
+    check_grid takes no ``counts`` (TypeError). The estimate is the geometry fields' (the
+    same bytes as with "fem": only the voxel solver adds its own grid)."""
+    from pydantic_core import PydanticCustomError
+
+    with pytest.raises(PydanticCustomError, match=r"B each for X's grid\) needs about"):
+        budget.check_grid((1e-3,) * 3, 1e-9, "geometry", key="some.key", counts="for X's grid")
+    assert budget.grid_bytes([10] * 3, "geometry") == budget.grid_bytes([10] * 3, "fem")
+
+
 @pytest.mark.parametrize("path", ["flow.error_estimate", "intersections.exceed_bounds"])
 @pytest.mark.parametrize("value", ["no", "false", "off", "yes", 0, 1, 0.0])
 def test_true_false_keys_take_only_booleans(path, value):
