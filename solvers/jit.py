@@ -27,12 +27,20 @@ under a file lock of that signature, so a second process that needs it (``pytest
 compiling it again; and the cache-file save runs under a lock per function, so processes saving
 signatures of one function at once cannot leave an index entry pointing at another signature's
 code.
+
+**One compile rule per solve, per thread.**  A kernel whose parallel version is not compiled yet
+compiles it on first use only for a large enough problem (:data:`COMPILE_PARALLEL_ABOVE`).
+Inside a :func:`compile_rule` block the solve's grid cells decide for every kernel of the solve;
+the block's cells live in a :class:`contextvars.ContextVar`, so solves that overlap in threads of
+one process (a dask worker with ``--nthreads 2``, a user's thread pool) each keep their own rule,
+and :func:`kernel_log` records each one's kernels apart.
 """
 
 from __future__ import annotations
 
 import ast
 import contextlib
+import contextvars
 import functools
 import hashlib
 import os
@@ -56,6 +64,8 @@ __all__ = [
     "SerialHelpers",
     "TwinKernel",
     "WARMUP_NOTE",
+    "compile_rule",
+    "compiles_parallel",
     "dependency_files",
     "dependency_stamp",
     "kernel_log",
@@ -232,15 +242,62 @@ def _install_compile_listener() -> None:
 _install_compile_listener()
 
 COMPILE_PARALLEL_ABOVE = 10_000_000
-"""First-argument size (about grid cells) from which a parallel kernel that is not in the cache
-is compiled on first use: on 2 cores two threads save about 40 % of a solve (100^3: 9.5 s ->
-5.4 s), which pays for the extra ~1-2 min of compiling only from a few hundred voxels per
-side. Smaller grids run the serial twin until ``psdesign warmup`` has compiled the parallel
-kernels, and the voxel solve's result says so (``threads_used``, ``thread_note``;
-:class:`KernelLog`).  Re-measured in clean12 (``benchmarks/RESULTS.md``, "Voxel solver
-hygiene"): the parallel set of one staircase route costs about 113 s CPU to compile against
-6-8 s saved by two threads on a 200^3 (8 M cells) solve at load 5-6 (about half the solve
-idle): kept."""
+"""Problem size from which a parallel kernel that is not in the cache is compiled on first use
+(:func:`compiles_parallel`: the solved grid's cells inside a :func:`compile_rule` block, else the
+kernel's first argument's elements); the process's rule, read at each decision (``psdesign
+warmup`` sets it to 0 to compile everything).  On 2 cores two threads save about 40 % of a
+solve (100^3: 9.5 s -> 5.4 s), which pays for the extra ~1-2 min of compiling only from a few
+hundred voxels per side. Smaller grids run the serial twin until ``psdesign warmup`` has
+compiled the parallel kernels, and the voxel solve's result says so (``threads_used``,
+``thread_note``; :class:`KernelLog`).  Re-measured in clean12 (``benchmarks/RESULTS.md``,
+"Voxel solver hygiene"): the parallel set of one staircase route costs about 113 s CPU to
+compile against 6-8 s saved by two threads on a 200^3 (8 M cells) solve at load 5-6 (about half
+the solve idle): kept."""
+
+_SOLVE_CELLS: contextvars.ContextVar[int | None] = contextvars.ContextVar(
+    "psdesign_solve_cells", default=None
+)
+"""Cells of the solve whose :func:`compile_rule` block is open in this context (thread), or
+None.  A ``ContextVar``, not a module global: until session 45 the voxel solve set
+:data:`COMPILE_PARALLEL_ABOVE` itself, and two solves overlapping in threads of one process
+shared the later one's decision (``benchmarks/RESULTS.md``, session 44 review3)."""
+
+
+@contextlib.contextmanager
+def compile_rule(n_cells: int) -> Iterator[None]:
+    """Decide by ``n_cells`` inside the block: every :class:`TwinKernel` called in it compiles
+    its missing parallel version if ``n_cells`` reaches :data:`COMPILE_PARALLEL_ABOVE`, whatever
+    the size of its own first argument (a solve's 4-field vectors have 4 entries per cell and
+    its diagonals 1: per argument, a 120^3 mirror solve compiled five vector kernels mid-solve
+    and ran its operator kernels serially; ``benchmarks/RESULTS.md``, session 44 mirror).
+
+    Parameters
+    ----------
+    n_cells : int
+        Cells of the grid the block solves (the solved grid: treated or with reservoirs).
+
+    Notes
+    -----
+    The rule holds in the calling thread (its ``contextvars`` context) only: a solve in another
+    thread keeps its own, and the process's rule is untouched, also when the block raises.
+    numba's worker threads are not Python threads and call no :class:`TwinKernel`; a Python
+    thread started inside the block starts without it unless it runs its work in
+    ``contextvars.copy_context().run``.
+    """
+    token = _SOLVE_CELLS.set(int(n_cells))
+    try:
+        yield
+    finally:
+        _SOLVE_CELLS.reset(token)
+
+
+def compiles_parallel(size: int) -> bool:
+    """Whether a :class:`TwinKernel` whose first argument has ``size`` elements compiles its
+    missing parallel version here: the cells of the open :func:`compile_rule` block (else
+    ``size``) against :data:`COMPILE_PARALLEL_ABOVE`."""
+    cells = _SOLVE_CELLS.get()
+    return (size if cells is None else cells) >= COMPILE_PARALLEL_ABOVE
+
 
 _PENDING: set[str] = set()
 
@@ -266,19 +323,24 @@ class KernelLog:
         self.fallback: set[str] = set()
 
 
-_LOGS: list[KernelLog] = []
+_LOG: contextvars.ContextVar[KernelLog | None] = contextvars.ContextVar(
+    "psdesign_kernel_log", default=None
+)
+"""The innermost open :func:`kernel_log` of this context (thread), or None."""
 
 
 @contextlib.contextmanager
 def kernel_log() -> Iterator[KernelLog]:
     """Record in a :class:`KernelLog` the twin kernels called inside the block (innermost block
-    only; for results that report the threads their solve really used)."""
+    of the calling thread only; for results that report the threads their solve really used).
+    Per thread as :func:`compile_rule`: until session 45 a process-wide stack, and two solves
+    overlapping in threads both logged into the later one's block."""
     log = KernelLog()
-    _LOGS.append(log)
+    token = _LOG.set(log)
     try:
         yield log
     finally:
-        _LOGS.remove(log)
+        _LOG.reset(token)
 
 
 _SERIAL_VARIANT: dict[object, object] = {}
@@ -402,11 +464,12 @@ class TwinKernel:
     (``numba.get_num_threads() == 1``) or when the first argument has fewer than
     ``serial_below`` elements.  Otherwise it runs :attr:`parallel` if that is already compiled
     for these argument types (in this process or in the on-disk cache, e.g. by
-    ``psdesign warmup``) or if the first argument has at least :data:`COMPILE_PARALLEL_ABOVE`
-    elements (a solve long enough to pay for compiling it); else the serial twin (one thread),
-    and :func:`parallel_pending` and an open :func:`kernel_log` say so.  Call it from Python
-    only (a jitted function cannot call it; jitted helpers stay plain ``numba.njit``
-    functions).
+    ``psdesign warmup``) or if :func:`compiles_parallel` says the problem is long enough to pay
+    for compiling it: inside a :func:`compile_rule` block (a voxel Stokes solve) its grid's
+    cells reach :data:`COMPILE_PARALLEL_ABOVE`, outside one the first argument's elements do;
+    else the serial twin (one thread), and :func:`parallel_pending` and the calling thread's
+    open :func:`kernel_log` say so.  Call it from Python only (a jitted function cannot call
+    it; jitted helpers stay plain ``numba.njit`` functions).
     """
 
     def __init__(
@@ -435,13 +498,14 @@ class TwinKernel:
         if nb.get_num_threads() == 1 or (self.serial_below and size < self.serial_below):
             return self.serial(*args)
         name = self.py_func.__qualname__
-        if size >= COMPILE_PARALLEL_ABOVE or self._parallel_ready(args):
-            if _LOGS:
-                _LOGS[-1].parallel.add(name)
+        log = _LOG.get()
+        if compiles_parallel(size) or self._parallel_ready(args):
+            if log is not None:
+                log.parallel.add(name)
             return self.parallel(*args)
         _PENDING.add(name)
-        if _LOGS:
-            _LOGS[-1].fallback.add(name)
+        if log is not None:
+            log.fallback.add(name)
         return self.serial(*args)
 
     def _parallel_ready(self, args: tuple) -> bool:

@@ -140,8 +140,6 @@ from __future__ import annotations
 
 import math
 import resource
-import sys
-import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -829,38 +827,21 @@ def _threads(n_cells: int):
     solve_threads`); yields ``(threads, available)``.
 
     Inside the block the kernels whose parallel version is not compiled yet compile it (else
-    run their serial twin) by one rule for the whole grid: ``n_cells`` against
-    :data:`solvers.jit.COMPILE_PARALLEL_ABOVE`, not each kernel's first argument, which has 4
-    entries per cell for the 4-field vectors.  Per argument, a 120^3 mirror solve (3.4 M cells)
-    compiled five vector kernels on first use (58 s of its 95 s at load 3.5, 153 MB of its
-    peak RSS) and still ran its operator kernels on one thread (``benchmarks/RESULTS.md``,
-    session 44 mirror).
-
-    The rule is a module global of :mod:`solvers.jit`: blocks open at once in threads of one
-    process (a dask worker with ``--nthreads 2``, a user's thread pool) each decide on the
-    process's rule as it was before the first of them, the latest one's decision holds while
-    they overlap, and the last one out puts the rule back (each restoring what it found left
-    the process compiling every grid, or none: session 44 review3)."""
+    run their serial twin) by one rule for the whole grid, :func:`solvers.jit.compile_rule`:
+    ``n_cells`` against :data:`solvers.jit.COMPILE_PARALLEL_ABOVE`, not each kernel's first
+    argument, which has 4 entries per cell for the 4-field vectors.  Per argument, a 120^3
+    mirror solve (3.4 M cells) compiled five vector kernels on first use (58 s of its 95 s at
+    load 3.5, 153 MB of its peak RSS) and still ran its operator kernels on one thread
+    (``benchmarks/RESULTS.md``, session 44 mirror).  The rule, as numba's thread count, holds
+    in the calling thread only: solves overlapping in threads of one process (a dask worker
+    with ``--nthreads 2``, a user's thread pool) each keep their own."""
     old = numba.get_num_threads()
     numba.set_num_threads(n := vthreads.solve_threads(n_cells, old))
-    with _RULE_LOCK:
-        if not _RULE_OPEN:
-            _RULE_OPEN.append(jit.COMPILE_PARALLEL_ABOVE)  # the process's rule
-        _RULE_OPEN.append(n_cells)
-        jit.COMPILE_PARALLEL_ABOVE = 0 if n_cells >= _RULE_OPEN[0] else sys.maxsize
     try:
-        yield n, old
+        with jit.compile_rule(n_cells):
+            yield n, old
     finally:
-        with _RULE_LOCK:
-            _RULE_OPEN.pop()
-            if len(_RULE_OPEN) == 1:
-                jit.COMPILE_PARALLEL_ABOVE = _RULE_OPEN.pop()
         numba.set_num_threads(old)
-
-
-_RULE_LOCK = threading.Lock()
-_RULE_OPEN: list[int] = []
-"""The process's compile rule (first) and the cells of each open :func:`_threads` block."""
 
 
 PRESSURE_SCALING = True

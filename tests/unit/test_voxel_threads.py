@@ -389,61 +389,165 @@ def test_a_solve_is_bitwise_the_same_on_one_and_two_threads(walls: str, monkeypa
     assert runs[0] == runs[1]
 
 
+def _rule_probe(x):
+    """The function of :func:`_probe` (never compiled)."""
+    return x
+
+
+def _probe(monkeypatch):
+    """A :class:`solvers.jit.TwinKernel` whose parallel version is not compiled: it returns
+    ``"parallel"`` where it would compile and run that version and ``"serial"`` where it runs
+    its twin. numba's two threads are simulated (the solver's ``set_num_threads`` does
+    nothing), so every decision is the compile rule's."""
+    from solvers import jit
+
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    monkeypatch.setattr(numba, "set_num_threads", lambda n: None)
+    monkeypatch.setattr(jit, "_PENDING", set())  # the probe's name stays out of the process's
+    kern = jit.TwinKernel(_rule_probe)
+    kern.parallel, kern.serial = (lambda x: "parallel"), (lambda x: "serial")
+    kern._parallel_ready = lambda args: False
+    return kern
+
+
 def test_the_compile_rule_is_restored_when_a_solve_raises(monkeypatch) -> None:
-    """Session 44 review3: ``_threads`` sets ``jit.COMPILE_PARALLEL_ABOVE`` for the solve; an
-    exception inside the solve (here from the Krylov loop) must leave the module's rule as it
-    was, or every later solve of the process compiles (0) or never compiles (maxsize)."""
+    """Session 44 review3: the solve's compile rule holds inside the solve only; an exception
+    inside it (here from the Krylov loop) must leave the process's rule as it was, or every
+    later call of the process compiles or never compiles. With the rule at 100 cells the
+    512-cell solve compiles; a 1-element call after it does not."""
     from solvers import jit
     from solvers import voxel_stokes as vs
 
+    probe = _probe(monkeypatch)
+    for kernel in _twin_kernels():
+        monkeypatch.setattr(kernel, "parallel", kernel.serial)
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", 100)
+    seen = []
+
     def boom(*args, **kwargs):
+        seen.append(probe(np.empty(1)))
         raise RuntimeError("inside the solve")
 
     monkeypatch.setattr(vs, "_solve_core", boom)
-    before = jit.COMPILE_PARALLEL_ABOVE
     solid = np.zeros((8, 8, 8), dtype=bool)
     solid[:, 2:5, 2:5] = True
     with pytest.raises(RuntimeError, match="inside the solve"):
         vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-4)
-    assert jit.COMPILE_PARALLEL_ABOVE == before
+    assert seen == ["parallel"]
+    assert probe(np.empty(1)) == "serial" and jit.COMPILE_PARALLEL_ABOVE == 100
 
 
-def test_solves_in_two_threads_leave_the_compile_rule_as_it_was(monkeypatch) -> None:
-    """Session 44 review3: two solves in threads of one process (a dask worker started with
-    ``--nthreads 2``, an API user's thread pool) interleave their ``_threads`` blocks: on the
-    merged s44-mirror code the second block saved the first one's *mutated* rule (0 or
-    ``sys.maxsize``) as the one to restore and, exiting last, left it for the process: from
-    then on every grid compiled its parallel kernels (or none did).  Each block must decide
-    on the process's rule and the last one out restore it."""
+def _in_threads(*targets) -> None:
+    """Run each target in its own thread; re-raise the first one's exception."""
+    import threading
+
+    errors: list[BaseException] = []
+
+    def run(fn):
+        try:
+            fn()
+        except BaseException as exc:  # noqa: BLE001 - handed to the test's thread
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run, args=(fn,)) for fn in targets]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert not any(t.is_alive() for t in threads), "a thread hung"
+    if errors:
+        raise errors[0]
+
+
+def test_solves_in_two_threads_each_keep_their_own_compile_rule(monkeypatch) -> None:
+    """Two solves in threads of one process (a dask worker started with ``--nthreads 2``, an
+    API user's thread pool) whose ``_threads`` blocks interleave (a in, b in, a out, b out).
+    Session 44 (review3) kept the rule a module global of ``solvers.jit`` that each block set:
+    while both were open the later one's decision held for both, so the large grid ``a`` ran
+    its serial twins once ``b`` was in (``solvers.jit`` session 45 reads each solve's cells
+    from a ``ContextVar``). Each block decides by its own grid; the process's rule is as it
+    was after both."""
     import threading
 
     from solvers import jit
     from solvers import voxel_stokes as vs
 
-    before = jit.COMPILE_PARALLEL_ABOVE
-    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", before)  # put back whatever happens
+    probe = _probe(monkeypatch)
+    rule = jit.COMPILE_PARALLEL_ABOVE
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", rule)  # put back whatever happens
     a_in, b_in, a_out = threading.Event(), threading.Event(), threading.Event()
-    seen: dict[str, int] = {}
+    x = np.empty(1)
+    seen: dict[str, list[str]] = {"a": [], "b": []}
 
-    def a() -> None:  # a large grid: the rule says compile
-        with vs._threads(before):
-            seen["a"] = jit.COMPILE_PARALLEL_ABOVE
+    def a() -> None:  # a grid at the rule: compiles
+        with vs._threads(rule):
+            seen["a"].append(probe(x))
             a_in.set()
-            b_in.wait(10)
+            assert b_in.wait(30)
+            seen["a"].append(probe(x))  # b's block is open too
         a_out.set()
 
-    def b() -> None:  # a small grid, entering while a is inside and leaving after it
-        a_in.wait(10)
-        with vs._threads(before - 1):
+    def b() -> None:  # a grid below the rule, entering while a is inside and leaving after it
+        assert a_in.wait(30)
+        with vs._threads(rule - 1):
             b_in.set()
-            a_out.wait(10)
-            seen["b"] = jit.COMPILE_PARALLEL_ABOVE
+            seen["b"].append(probe(x))
+            assert a_out.wait(30)
+            seen["b"].append(probe(x))
 
-    threads = [threading.Thread(target=a), threading.Thread(target=b)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(20)
-    assert seen["a"] == 0  # inside a's block its grid (at the rule) compiles
-    assert seen["b"] > before - 1  # b's grid, below the rule, does not compile
-    assert jit.COMPILE_PARALLEL_ABOVE == before
+    _in_threads(a, b)
+    assert seen == {"a": ["parallel"] * 2, "b": ["serial"] * 2}
+    assert probe(x) == "serial" and jit.COMPILE_PARALLEL_ABOVE == rule
+
+
+def _rod(n: int) -> np.ndarray:
+    """A square rod along x in a cube of ``n`` cells (flow along y)."""
+    solid = np.zeros((n, n, n), dtype=bool)
+    solid[:, n // 4 : n // 4 + n // 3, n // 4 : n // 4 + n // 3] = True
+    return solid
+
+
+def test_two_solves_overlapping_in_threads_each_report_their_own_kernels(monkeypatch) -> None:
+    """As above with whole solves, held inside their solve blocks together (a barrier in front
+    of the Krylov loop): a 16^3 grid above a rule of 3000 cells and a 12^3 grid below it. Each
+    ran and reported its own rule (on session 44's code the later block's rule held for both,
+    and both solves' kernels were logged in the later block's log: the large one said 1 of 2
+    threads, or the small one 2), and each result is bitwise the one it gives alone. Two
+    threads simulated, the parallel kernels' code is the serial twins' (as in
+    :func:`test_a_solve_compiles_parallel_kernels_by_its_grid_cells`)."""
+    import threading
+
+    from solvers import jit
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import threads as vthreads
+
+    _probe(monkeypatch)
+    monkeypatch.setattr(vthreads, "PARALLEL_MIN_CELLS", 0)
+    monkeypatch.setattr(vthreads, "SOLVE_PARALLEL_MIN_CELLS", 0)
+    monkeypatch.setattr(jit.TwinKernel, "_parallel_ready", lambda self, args: False)
+    for kernel in _twin_kernels():
+        monkeypatch.setattr(kernel, "parallel", kernel.serial)
+    monkeypatch.setattr(jit, "COMPILE_PARALLEL_ABOVE", 3000)
+    solids = {"large": _rod(16), "small": _rod(12)}
+
+    def solve(name: str):
+        return vs.solve_voxel_stokes(solids[name], 1e-6, "y", tol=1e-6)
+
+    alone = {name: solve(name) for name in solids}
+    core, together = vs._solve_core, threading.Barrier(2, timeout=60)
+
+    def both_inside(*args, **kwargs):
+        together.wait()
+        return core(*args, **kwargs)
+
+    monkeypatch.setattr(vs, "_solve_core", both_inside)
+    res: dict = {}
+    _in_threads(*[lambda n=name: res.__setitem__(n, solve(n)) for name in solids])
+    large, small = res["large"], res["small"]
+    assert (large.threads_used, large.thread_note, large.serial_fallback) == (2, "", ())
+    assert small.threads_used == 1 and small.thread_note.startswith("ran on 1 of 2 threads")
+    assert {"stokes_lanczos", "symmlq_step"} <= set(small.serial_fallback)
+    for name, r in res.items():
+        assert r.converged and alone[name].threads_used == r.threads_used
+        assert (r.history, r.iterations) == (alone[name].history, alone[name].iterations)
+        assert r.mean_velocity.tolist() == alone[name].mean_velocity.tolist()
