@@ -140,14 +140,15 @@ def untrustworthy_rev_case(spec, outputs, solver, workdir):
 
 def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) -> None:
     """main: the rev lines print each size's CI of K with no word that a case's K is flagged
-    untrustworthy (rule: a result that is not trustworthy says so)."""
+    untrustworthy (rule: a result that is not trustworthy says so). Since session 45 that
+    line is one of the exit-3 reasons (psdesign/cli/exit_status.py), after the table."""
     spec = _spec_with_cases(tmp_path, monkeypatch, untrustworthy_rev_case)
     out = tmp_path / "o"
     args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
     assert main([*args, "--directions", "z"]) == 3  # no REV at 10 %
     got = capsys.readouterr()
     err = [ln for ln in got.err.splitlines() if "untrustworthy" in ln]
-    assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")
+    assert len(err) == 1 and err[0].startswith("psdesign: 1 case(s) have a K flagged")
     # the size's line, rev.csv and rev.json name it too (one of the 3 seeds' K_z)
     line = [ln for ln in got.out.splitlines() if " m (n=" in ln][0]
     assert "untrustworthy: k_z 1 of 3" in line, line
