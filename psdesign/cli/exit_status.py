@@ -79,9 +79,10 @@ class CaseCounts(NamedTuple):
 
     #: failed or timed out (or with no status): the run could not give them
     failed: int
-    #: finished with a status other than ``ok`` (the runner writes ``not_converged``)
+    #: finished ``not_converged`` (what ``--allow-not-converged`` accepts, and only that)
     not_converged: int
     #: ``ok`` cases with a value whose own status is not ``ok`` (``untrustworthy``, ``blocked``)
+    #: and finished cases with any other status word (a table the runner did not write)
     flagged: int
 
 
@@ -92,20 +93,22 @@ def case_masks(df):
     an empty one (an unrated value) is not a flag.
 
     >>> import pandas as pd
-    >>> df = pd.DataFrame({"status": ["ok", "ok", "timeout", "not_converged"],
-    ...                    "k_z_status": ["ok", "untrustworthy", None, "ok"]})
-    >>> [m.tolist() for m in case_masks(df)]
-    [[False, False, True, False], [False, False, False, True], [False, True, False, False]]
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "timeout", "not_converged", "untrustworthy"],
+    ...                    "k_z_status": ["ok", "untrustworthy", None, "ok", None]})
+    >>> [m.tolist() for m in case_masks(df)]  # doctest: +NORMALIZE_WHITESPACE
+    [[False, False, True, False, False], [False, False, False, True, False],
+     [False, True, False, False, True]]
     """
     from psdesign.analysis.columns import STATUS_COLUMNS, k_not_ok
 
     status = df["status"]
     failed = status.isna() | status.astype(str).isin(NOT_FINISHED)
     ok = status.astype(str) == "ok"
-    flagged = ok & False
+    not_converged = status.astype(str) == "not_converged"
+    flagged = ~failed & ~ok & ~not_converged  # another status word: finished, not ok
     for value in STATUS_COLUMNS:  # k_not_ok: set and not "ok"
         flagged |= ok & k_not_ok(df, value)
-    return failed, ~failed & ~ok, flagged
+    return failed, not_converged, flagged
 
 
 def case_counts(df) -> CaseCounts:
@@ -122,9 +125,9 @@ def case_counts(df) -> CaseCounts:
 
 def cases_status(counts: CaseCounts, allow_not_converged: bool = False) -> int:
     """The exit status of a table of study cases: ``FAILED`` when one failed or timed out,
-    else ``NOT_TRUSTED`` when one finished but not ``ok`` (unless ``allow_not_converged``:
-    ``--allow-not-converged`` accepts those cases, and only those) or an ``ok`` case has a
-    flagged value, else ``OK``.
+    else ``NOT_TRUSTED`` when one is ``not_converged`` (unless ``allow_not_converged``:
+    ``--allow-not-converged`` accepts those cases, and only those) or flagged (a value not
+    ``ok``, another status word), else ``OK``.
 
     >>> cases_status(CaseCounts(0, 1, 0), allow_not_converged=True)
     0

@@ -921,7 +921,7 @@ def test_a_finished_case_that_is_not_to_be_trusted_exits_3_not_1():
         return study_exit_status(df, allow_not_converged=allow)
 
     assert code(["ok", "untrustworthy"]) == 3  # a case_fn's own status word: finished
-    assert code(["ok", "extrapolated"]) == 3
+    assert code(["ok", "extrapolated"], True) == 3  # the flag accepts not_converged only
     assert code(["ok", "ok"], k_z_status=["ok", "untrustworthy"]) == 3
     assert code(["ok", "ok"], diffusivity_z_status=["blocked", "ok"]) == 3
     assert code(["ok", "ok"], True, pore_sizes_status=["ok", "untrustworthy"]) == 3
