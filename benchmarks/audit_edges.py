@@ -5,7 +5,8 @@ Each case is one small spec at (or one step inside) the end of an allowed range,
 CLI as a user would (``python -m psdesign COMMAND SPEC ... --json``).  Checked per case:
 
 * a refusal: exit 2, one stderr line naming the expected key, no traceback, no output folder;
-* a run: exit 0, no traceback, a finite error bar > 0, and the status against independent truth:
+* a run: exit 0 (3 when its status is not ok: psdesign/cli/exit_status.py, session 45), no
+  traceback, a finite error bar > 0, and the status against independent truth:
   a closed form where the edge reduces to one (square cylinder arrays, Sangani & Acrivos 1982
   across, Drummond & Tahir 1984 along: ``tests/reference_values.py``), else the same design at
   a 2x (and 4x where cheap) finer voxel, an image upsampled 2x by voxel repetition (the same
@@ -578,6 +579,11 @@ def _cap_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP, MEMORY_CAP))
 
 
+#: The exit statuses of a run that printed its result: 3 when its status is not ok (since
+#: session 45, psdesign/cli/exit_status.py; an untrustworthy or blocked result exited 0).
+RUN_EXITS = (0, 3)
+
+
 def _run(case: Case, spec: Path, timeout: float) -> dict:
     cmd = [sys.executable, "-m", "psdesign", case.cmd, str(spec), *case.args, "--json"]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -594,7 +600,7 @@ def _run(case: Case, spec: Path, timeout: float) -> dict:
         "traceback": "Traceback" in p.stderr,
         "stderr_last": p.stderr.strip().splitlines()[-1] if p.stderr.strip() else "",
     }
-    if p.returncode == 0:
+    if p.returncode in RUN_EXITS:
         try:
             out = json.loads(p.stdout)
         except json.JSONDecodeError:
@@ -641,7 +647,7 @@ def audit(case: Case, work: Path, timeout: float) -> dict:
             and case.refuse in row["error_lines"][0]
         )
         return row
-    if row.get("exit") != 0 or row.get("k") is None:
+    if row.get("exit") not in RUN_EXITS or row.get("k") is None:
         return row
     if case.porosity is not None and row.get("porosity") is not None:
         row["porosity_exact"] = case.porosity
@@ -682,7 +688,7 @@ def table(rows: list[dict]) -> str:
     last = {r["case"]: r for r in rows}  # a case run again replaces its earlier row
     order = [c.name for c in CASES if c.name in last]
     for r in (last[n] for n in order):
-        if r.get("clean_refusal") is not None or r.get("exit") not in (0, None):
+        if r.get("clean_refusal") is not None or r.get("exit") not in (*RUN_EXITS, None):
             line = _g(r.get("stderr_last")).replace("psdesign: error: ", "")
             status = ("clean refusal: " if r.get("clean_refusal") else "") + line
         else:

@@ -4,28 +4,39 @@ result it should not trust (3) from a run that could not finish (1).
 =====  =================  ============================================================
 code   name               meaning
 =====  =================  ============================================================
-0      ``OK``             done; every result converged (and every target met)
+0      ``OK``             done; every result's ``status`` is ``ok`` (a force-field search's
+                          ``converged`` or ``at_bound``) and every target met
 1      ``FAILED``         could not finish: disk full, permissions, a failed or timed-out
                           study case, lost workers; the line names the file or the case
 2      ``BAD_INPUT``      a bad spec, argument or ``-o`` folder, refused before any work
-3      ``NOT_TRUSTED``    finished, outputs complete, but a result did not converge (its
-                          ``status`` says so), ``study optimize`` missed its target,
-                          ``rev`` found no size within ``--tol`` or a ``study predict``
-                          prediction is ``extrapolated`` or ``untrustworthy``
+3      ``NOT_TRUSTED``    finished, outputs complete, but a result's ``status`` is not
+                          ``ok`` (``not_converged``, ``untrustworthy``, ``blocked``,
+                          ``extrapolated``, ``contact_left``...: read it),
+                          ``study optimize`` missed its target or ``rev`` found no size
+                          within ``--tol``
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================
 
-Before session 37, 3 was 1: a full disk and an unconverged solve looked the same to a script.
+One rule decides 0 or 3 for every command (:func:`status_code`): a finished result is
+trusted when its ``status`` is in :data:`TRUSTED`. A study's table (``results.csv``) follows
+the same rule per case (:func:`case_counts`, :func:`cases_status`): a failed or timed-out
+case is 1, a case that finished with a status other than ``ok``, or an ``ok`` case with a
+value whose own status (``k_z_status``, ``diffusivity_x_status``...) is not ``ok``, is 3.
 
->>> from psdesign.cli.exit_status import NOT_TRUSTED, converged_status
->>> converged_status(True), converged_status(False) == NOT_TRUSTED
-(0, True)
+Before session 37, 3 was 1: a full disk and an unconverged solve looked the same to a script.
+Before session 45, 3 was a convergence flag only: ``permeability``, ``pores``, the transport
+commands and ``study run`` exited 0 on a converged result their own status called
+``untrustworthy``.
+
+>>> status_code("ok", "ok"), status_code("ok", "untrustworthy"), status_code("not_converged")
+(0, 3, 3)
 """
 
 from __future__ import annotations
 
 import sys
+from typing import NamedTuple
 
 OK = 0
 FAILED = 1
@@ -34,41 +45,100 @@ NOT_TRUSTED = 3
 INTERRUPTED = 130
 TERMINATED = 143
 
+#: The statuses of a result to trust: ``ok`` (every measured or predicted value) and a
+#: force-field search's ``converged`` and ``at_bound`` (:func:`psdesign.forcefield.run.
+#: search_status`: a converged search whose optimum lies on the box the spec set is the
+#: answer to the constrained problem it asked, a result since session 44). Every other status
+#: of a finished result exits ``NOT_TRUSTED``.
+TRUSTED = ("ok", "converged", "at_bound")
+#: A study case's status when the run could not give it (exit ``FAILED``).
+NOT_FINISHED = ("failed", "timeout")
 
 #: The table in one paragraph: ``psdesign --help`` prints it below the commands.
 HELP = (
-    "exit status: 0 done, every result converged (and every target met); 1 could not finish "
+    "exit status: 0 done, every result's status ok (and every target met); 1 could not finish "
     "(disk full, permissions, a failed study case, lost workers); 2 bad input, refused before "
-    "any work; 3 finished with complete outputs, but a result did not converge, a study "
-    "optimize target was missed, no rev size was within --tol or a study prediction is not "
-    "trusted (read its status); 130 Ctrl-C; 143 SIGTERM"
+    "any work; 3 finished with complete outputs, but a result's status is not ok "
+    "(not_converged, untrustworthy, blocked, extrapolated...: read it), a study optimize "
+    "target was missed or no rev size was within --tol; 130 Ctrl-C; 143 SIGTERM"
 )
 
 
-def converged_status(converged: bool) -> int:
-    """``OK`` for a converged result, ``NOT_TRUSTED`` for one written but not converged."""
-    return OK if converged else NOT_TRUSTED
+def status_code(*statuses: str | None) -> int:
+    """The exit status of finished results by their ``status``: ``OK`` when every one is in
+    :data:`TRUSTED`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+
+    >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
+    (0, 3, 3)
+    """
+    return OK if all(s in TRUSTED for s in statuses) else NOT_TRUSTED
 
 
-def case_counts(df) -> tuple[int, int]:
-    """``(failed, not_converged)``: the study cases (rows of ``results.csv``) that failed or
-    timed out, and those that finished ``not_converged``.
+class CaseCounts(NamedTuple):
+    """The cases of a study table by what they make the exit status (:func:`cases_status`)."""
+
+    #: failed or timed out (or with no status): the run could not give them
+    failed: int
+    #: finished ``not_converged`` (what ``--allow-not-converged`` accepts, and only that)
+    not_converged: int
+    #: ``ok`` cases with a value whose own status is not ``ok`` (``untrustworthy``, ``blocked``)
+    #: and finished cases with any other status word (a table the runner did not write)
+    flagged: int
+
+
+def case_masks(df):
+    """``(failed, not_converged, flagged)`` boolean Series over the rows of a results table
+    (:class:`CaseCounts` says which is which). A value's own status is its column in
+    :data:`psdesign.analysis.columns.STATUS_COLUMNS` (``k_z_status``, ``pore_sizes_status``...);
+    an empty one (an unrated value) is not a flag.
+
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "timeout", "not_converged", "untrustworthy"],
+    ...                    "k_z_status": ["ok", "untrustworthy", None, "ok", None]})
+    >>> [m.tolist() for m in case_masks(df)]  # doctest: +NORMALIZE_WHITESPACE
+    [[False, False, True, False, False], [False, False, False, True, False],
+     [False, True, False, False, True]]
+    """
+    from psdesign.analysis.columns import STATUS_COLUMNS, k_not_ok
+
+    status = df["status"]
+    failed = status.isna() | status.astype(str).isin(NOT_FINISHED)
+    ok = status.astype(str) == "ok"
+    not_converged = status.astype(str) == "not_converged"
+    flagged = ~failed & ~ok & ~not_converged  # another status word: finished, not ok
+    for value in STATUS_COLUMNS:  # k_not_ok: set and not "ok"
+        flagged |= ok & k_not_ok(df, value)
+    return failed, not_converged, flagged
+
+
+def case_counts(df) -> CaseCounts:
+    """The :class:`CaseCounts` of the study cases (rows of ``results.csv``).
 
     >>> import pandas as pd
     >>> case_counts(pd.DataFrame({"status": ["ok", "failed", "not_converged", "timeout"]}))
-    (2, 1)
+    CaseCounts(failed=2, not_converged=1, flagged=0)
     """
     if not len(df):
-        return 0, 0
-    status = df["status"].astype(str)
-    n_nc = int((status == "not_converged").sum())
-    return int((status != "ok").sum()) - n_nc, n_nc
+        return CaseCounts(0, 0, 0)
+    return CaseCounts(*(int(m.sum()) for m in case_masks(df)))
 
 
-def cases_status(n_failed: int, n_not_converged: int) -> int:
-    """The exit status of a table of study cases: ``FAILED`` when one failed or timed out, else
-    ``NOT_TRUSTED`` when one did not converge, else ``OK``."""
-    return FAILED if n_failed else NOT_TRUSTED if n_not_converged else OK
+def cases_status(counts: CaseCounts, allow_not_converged: bool = False) -> int:
+    """The exit status of a table of study cases: ``FAILED`` when one failed or timed out,
+    else ``NOT_TRUSTED`` when one is ``not_converged`` (unless ``allow_not_converged``:
+    ``--allow-not-converged`` accepts those cases, and only those) or flagged (a value not
+    ``ok``, another status word), else ``OK``.
+
+    >>> cases_status(CaseCounts(0, 1, 0), allow_not_converged=True)
+    0
+    >>> cases_status(CaseCounts(0, 1, 1), allow_not_converged=True)
+    3
+    """
+    if counts.failed:
+        return FAILED
+    if counts.flagged or (counts.not_converged and not allow_not_converged):
+        return NOT_TRUSTED
+    return OK
 
 
 def fail(message: str, code: int = BAD_INPUT) -> int:

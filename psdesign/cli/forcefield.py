@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from psdesign.cli import progress
-from psdesign.cli.exit_status import NOT_TRUSTED, OK
+from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
 from psdesign.cli.progress import add_force_argument
 
@@ -50,8 +50,9 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         )
     elif not summary["converged"]:
         progress.warning(f"{summary['message']}; wrote the best point found")
-    # a constrained optimum (at_bound) is a result; a search stopped early is not
-    return NOT_TRUSTED if summary["status"] == "not_converged" else OK
+    # a constrained optimum (at_bound) is a result; a search stopped early (not_converged) or
+    # one that left an overlap (contact_left, 0 until session 45) is written but exits 3
+    return status_code(summary["status"])
 
 
 def register(subparsers) -> None:

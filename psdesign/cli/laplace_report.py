@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 
-from psdesign.cli.exit_status import converged_status
+from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
 
 
@@ -45,8 +45,9 @@ def emit(
 ) -> int:
     """Print the blocked directions' messages and every warning on stderr, then ``out`` as JSON
     or ``line(r)`` per result on stdout (the line carries its error bar, ``[status]`` and
-    ``converged``: :mod:`psdesign.cli.lines`); 0 if converged, else 3
-    (:mod:`psdesign.cli.exit_status`)."""
+    ``converged``: :mod:`psdesign.cli.lines`); 0 when every result's status is ``ok``, else 3
+    (``untrustworthy``, ``not_converged``, ``blocked``: :func:`psdesign.cli.exit_status.
+    status_code`)."""
     from psdesign.cli.progress import warning
 
     for r in results:
@@ -59,4 +60,4 @@ def emit(
     else:
         for r in results:
             print(line(r))
-    return converged_status(out["converged"])
+    return status_code(*(r.get("status") for r in results))

@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
-from psdesign.cli.exit_status import converged_status
+from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
 from psdesign.cli.progress import progress_printer, warning
 
@@ -198,7 +198,23 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
     else:
         for r in results:
             print(_line(r))
-    return converged_status(out["converged"])
+    return status_code(*result_statuses(results))
+
+
+def result_statuses(results: list[dict]) -> list[str | None]:
+    """The ``status`` of every printed result: each direction's, and with ``--bc both`` that of
+    the other model too (its K is in the JSON and in ``bc_sensitivity``); a model that could
+    not be solved (``"n/a: ..."``, said in the warnings) has none.
+
+    >>> result_statuses([{"status": "ok", "bc_results": {"periodic": {"status": "ok"},
+    ...                                                 "permeameter": "n/a: no walls"}}])
+    ['ok', 'ok']
+    """
+    out = []
+    for r in results:
+        out.append(r.get("status"))
+        out += [m.get("status") for m in r.get("bc_results", {}).values() if isinstance(m, dict)]
+    return out
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
 
 
@@ -41,7 +42,9 @@ def _cmd(args: argparse.Namespace) -> int:
             f"{rating({'status': out['specific_surface_status'], 'converged': True})}  "
             f"porosity {porosity_text(out['porosity'], out.get('porosity_error'))}"
         )
-    return 0
+    # 3 when the pore sizes or S_v are not ok (``status``: the worse of the two); it exited 0
+    # with both untrustworthy until session 45
+    return status_code(out["status"])
 
 
 def _sizes_line(out: dict) -> str:

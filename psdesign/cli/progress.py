@@ -279,11 +279,14 @@ def add_force_argument(parser) -> None:
 def add_allow_not_converged_argument(parser) -> None:
     """Add ``--allow-not-converged`` to ``study run`` and ``study optimize``: their exit status
     follows one table of cases (:func:`psdesign.cli.exit_status.cases_status`), so one flag
-    accepts the unconverged ones in both."""
+    accepts the unconverged ones in both, and only those (its name: an ``ok`` case with a
+    value flagged ``untrustworthy`` or ``blocked`` still exits 3, session 45)."""
     parser.add_argument(
         "--allow-not-converged",
         action="store_true",
-        help="exit 0 even if some cases are not_converged (failed/timeout still exit 1)",
+        help="exit 0 even if some cases are not_converged (failed/timeout still exit 1; an ok "
+        "case with a value whose own status is not ok, e.g. k_z_status untrustworthy, still "
+        "exits 3)",
     )
 
 

@@ -7,7 +7,15 @@ import math
 import re
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, cases_status, fail
+from psdesign.cli.exit_status import (
+    FAILED,
+    NOT_TRUSTED,
+    OK,
+    case_counts,
+    case_masks,
+    cases_status,
+    fail,
+)
 from psdesign.cli.lines import print_json
 
 
@@ -35,7 +43,6 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         return fail(str(exc))
     except RevFailed as exc:
         return fail(" ".join(str(exc).split()), FAILED)
-    _warn_untrustworthy(args.out)
     if args.json:  # strict JSON: a size with one trusted value has no CI (null, not NaN)
         print_json(
             {
@@ -73,42 +80,37 @@ def _rev_status(out: str, rev_size_m: float | None) -> int:
 
 def _cases_status(out: str) -> int:
     """The exit status of the table in :mod:`psdesign.cli.exit_status`, as ``study run`` gives
-    it: 1 when a case failed or timed out, else 3 when one did not converge, else 0; one
-    stderr line per kind naming ``results.csv`` (the sizes' rows leave those cases out)."""
+    it: 1 when a case failed or timed out, else 3 when one did not converge or an ``ok`` case's
+    K is flagged (``k_<d>_status``; it exited 0 with a warning until session 45), else 0; one
+    stderr line per kind naming ``results.csv``."""
     from psdesign.analysis.columns import first_error
     from psdesign.study.readback import read_results
 
     df = read_results(out)
-    n_bad, n_nc = case_counts(df)
-    if n_bad:
-        bad = df[~df["status"].astype(str).isin(("ok", "not_converged"))]
+    counts = case_counts(df)
+    if counts.failed:
+        bad = df[case_masks(df)[0]]
         print(
-            f"psdesign: {n_bad} case(s) failed or timed out{first_error(bad)}; left out of "
-            f"the sizes' rows; see {out}/results.csv (tracebacks: cases/<id>/error.txt)",
+            f"psdesign: {counts.failed} case(s) failed or timed out{first_error(bad)}; "
+            f"left out of the sizes' rows; see {out}/results.csv (tracebacks: "
+            "cases/<id>/error.txt)",
             file=sys.stderr,
         )
-    if n_nc:
+    if counts.not_converged:
         print(
-            f"psdesign: {n_nc} case(s) not_converged (a solve did not converge or was flagged; "
-            f"the error column of {out}/results.csv says which); left out of the sizes' rows",
+            f"psdesign: {counts.not_converged} case(s) not_converged (a solve did not converge "
+            f"or was flagged; the error column of {out}/results.csv says which); left out of "
+            "the sizes' rows",
             file=sys.stderr,
         )
-    return cases_status(n_bad, n_nc)
-
-
-def _warn_untrustworthy(out: str) -> None:
-    """One warning line when some case's K is flagged untrustworthy (k_<d>_status)."""
-    from psdesign.study.readback import read_results
-    from psdesign.study.worker import untrustworthy_count
-
-    n = untrustworthy_count(read_results(out))
-    if n:
+    if counts.flagged:
         print(
-            f"psdesign: warning: {n} case(s) have a K flagged untrustworthy (k_<d>_status in "
-            f"{out}/results.csv: error bar above 20 % or fewer than 8 cells per fiber diameter); "
-            "the intervals below include them",
+            f"psdesign: {counts.flagged} case(s) have a K flagged untrustworthy (k_<d>_status "
+            f"in {out}/results.csv: error bar above 20 % or fewer than 8 cells per fiber "
+            "diameter); the sizes' intervals include them",
             file=sys.stderr,
         )
+    return cases_status(counts)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

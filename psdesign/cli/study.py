@@ -8,7 +8,7 @@ The main CLI registers these with::
     args = parser.parse_args(argv)
     return args.func(args)   # exit status (psdesign.cli.exit_status): 0 ok, 1 failed /
                              # timeout cases or storage error, 2 bad input (also a refused
-                             # -o), 3 not_converged cases, 130 Ctrl-C
+                             # -o), 3 not_converged cases or flagged values, 130 Ctrl-C
 """
 
 from __future__ import annotations
@@ -255,34 +255,35 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
-    """0 when every case is ``ok`` (or ``not_converged`` and allowed); 1 when a case failed or
-    timed out; else 3 (some ``not_converged``); one line why (:mod:`psdesign.cli.exit_status`)."""
-    from psdesign.study.worker import untrustworthy_count
-
-    n_untrusted = untrustworthy_count(df) if len(df) else 0
-    if n_untrusted:
+    """The exit status of a study's table (:func:`psdesign.cli.exit_status.cases_status`): 0
+    when every case and every value in it is ``ok`` (``not_converged`` cases allowed by the
+    flag); 1 when a case failed or timed out; else 3 (a ``not_converged`` case, or an ``ok``
+    case with a value flagged ``untrustworthy`` or ``blocked``); one line per kind why."""
+    counts = case_counts(df)
+    if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
         print(
-            f"psdesign: warning: {n_untrusted} ok case(s) have a K or transport value flagged "
-            "untrustworthy "
-            "(k_<d>_status, or a transport value's <name>_<d>_status: error bar above 20 % or "
-            "fewer than 8 cells per fiber diameter; <name>_<d>_rel_error gives the bar); "
-            "their values are kept",
+            f"psdesign: {counts.flagged} ok case(s) have a K or transport value whose own "
+            "status is not ok (k_<d>_status, <name>_<d>_status, pore_sizes_status, "
+            "specific_surface_status: untrustworthy = error bar above 20 % or fewer than 8 "
+            "cells per fiber diameter, blocked = no conducting path); their values are kept in "
+            "results.csv and left out of fits and summaries",
             file=sys.stderr,
         )
-    n_bad, n_nc = case_counts(df)
-    if n_bad:
+    if counts.failed:
         print(
-            f"psdesign: {n_bad} case(s) failed or timed out (their error in results.csv, the "
-            "traceback in cases/<stored_as>/error.txt); --retry-failed to re-run them",
+            f"psdesign: {counts.failed} case(s) failed or timed out (their error in "
+            "results.csv, the traceback in cases/<stored_as>/error.txt); --retry-failed to "
+            "re-run them",
             file=sys.stderr,
         )
-    if n_nc and not allow_not_converged:
+    if counts.not_converged and not allow_not_converged:
         print(
-            f"psdesign: {n_nc} case(s) not_converged (a solve did not converge or was flagged); "
-            "--allow-not-converged to accept them, --retry-not-converged to re-run them",
+            f"psdesign: {counts.not_converged} case(s) not_converged (a solve did not converge "
+            "or was flagged); --allow-not-converged to accept them, --retry-not-converged to "
+            "re-run them",
             file=sys.stderr,
         )
-    return cases_status(n_bad, 0 if allow_not_converged else n_nc)
+    return cases_status(counts, allow_not_converged)
 
 
 def cmd_study_report(args: argparse.Namespace) -> int:

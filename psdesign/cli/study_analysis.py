@@ -5,7 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 
-from psdesign.cli.exit_status import FAILED, NOT_TRUSTED, OK, case_counts, cases_status, fail
+from psdesign.cli.exit_status import (
+    FAILED,
+    NOT_TRUSTED,
+    OK,
+    CaseCounts,
+    case_masks,
+    cases_status,
+    fail,
+    status_code,
+)
 from psdesign.cli.lines import print_json
 
 #: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
@@ -75,7 +84,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
                 f"{r['cv_rmse']:.3g}){lv}  [{r['status']}]"
             )
         print(f"wrote {args.out}/{SURROGATE_FILE}")
-    return 0
+    # written either way; 3 when a surrogate is rated untrustworthy (0 until session 45)
+    return status_code(*(r["status"] for r in rows.values()))
 
 
 def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
@@ -157,8 +167,8 @@ def _cmd_predict(args: argparse.Namespace) -> int:
             flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
             print(f"{name} = {r['mean']:.4g} +- {r['std']:.2g} ({bar_text(r)}){flag}")
     # a printed prediction flagged extrapolated / untrustworthy is a result not to trust, as
-    # an unconverged solve (exit_status's table; it exited 0 before session 43)
-    return NOT_TRUSTED if any(r["status"] != "ok" for r in out.values()) else OK
+    # an unconverged solve (exit_status's rule; it exited 0 before session 43)
+    return status_code(*(r["status"] for r in out.values()))
 
 
 def _surrogate_flag(model) -> tuple[str, str]:
@@ -229,7 +239,8 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
         return fail(f"no sensitivity indices for any output ({'; '.join(skipped)})")
     if args.json:
         print_json(result)
-    return 0
+    # 3 when an index comes from a surrogate rated untrustworthy (0 until session 45)
+    return status_code(*(rows[0]["surrogate_status"] for rows in result.values() if rows))
 
 
 def _cmd_optimize(args: argparse.Namespace) -> int:
@@ -270,12 +281,13 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
 
     targets_out = [target_report(t, res.best) for t in targets]
     case = res.best.get("case_id")
-    n_failed, unconverged = _case_tally(res.results)
+    n_failed, unconverged, flagged = _case_tally(res.results)
     summary = {
         "met": res.met,
         "message": res.message,
         "n_failed_cases": n_failed,  # failed or timed out: exit 1 even when met (session 43)
         "not_converged_cases": unconverged,  # exit 3 even when met, as `study run` (s44)
+        "flagged_value_cases": flagged,  # an ok case with a value not ok: exit 3 too (s45)
         "n_points": res.n_points,
         "rounds": res.rounds,
         "targets": targets_out,
@@ -305,34 +317,42 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         print(f"  at {at}" + (f" ({why})" if why else ""))
         for w in summary["warnings"]:  # one line each: what the solve said about this K
             print(f"  warning: case {w['case_id']} ({w['column']}): {w['warning']}")
-    # every case it ran by `study run`'s table (a failed case 1, a not_converged one 3, met
-    # or not; before session 44 a not_converged case the search did not choose exited 0)
-    n_nc = 0 if args.allow_not_converged else len(unconverged)
-    code = FAILED if res.failed else cases_status(n_failed, n_nc)
+    # every case it ran by `study run`'s table (a failed case 1, a not_converged one or a
+    # flagged value 3, met or not; before session 44 a not_converged case the search did not
+    # choose exited 0, before session 45 a flagged value did)
+    counts = CaseCounts(n_failed, len(unconverged), len(flagged))
+    code = FAILED if res.failed else cases_status(counts, args.allow_not_converged)
     return NOT_TRUSTED if code == OK and not res.met else code
 
 
-def _case_tally(df) -> tuple[int, list[str]]:
-    """``(failed, not_converged ids)`` of the cases a search ran (``results.csv``'s rows):
-    the table ``study run`` decides its exit status by (:func:`~psdesign.cli.exit_status.
-    case_counts`), with the ids of the unconverged cases to name them."""
+def _case_tally(df) -> tuple[int, list[str], list[str]]:
+    """``(failed, not_converged ids, flagged ids)`` of the cases a search ran
+    (``results.csv``'s rows): the table ``study run`` decides its exit status by
+    (:func:`~psdesign.cli.exit_status.case_masks`), with the ids of the cases that make it 3
+    to name them (flagged: an ``ok`` case with a value whose own status is not ``ok``)."""
     if df is None or not len(df):
-        return 0, []
-    n_failed = case_counts(df)[0]
-    return n_failed, df.loc[df["status"].astype(str) == "not_converged", "case_id"].tolist()
+        return 0, [], []
+    failed, nc, flagged = case_masks(df)
+    return int(failed.sum()), df.loc[nc, "case_id"].tolist(), df.loc[flagged, "case_id"].tolist()
 
 
 def _tally_text(summary: dict) -> str:
-    """After the MET / NOT MET line: the cases that failed and those that did not converge.
+    """After the MET / NOT MET line: the cases that failed, those that did not converge and
+    the ``ok`` ones with a value flagged (its own status not ``ok``).
 
     >>> _tally_text({"n_failed_cases": 1, "not_converged_cases": ["c0002-ab", "c0005-cd"]})
     ' (1 case(s) failed or timed out; 2 case(s) not_converged: c0002-ab, c0005-cd; see results.csv)'
+    >>> _tally_text({"n_failed_cases": 0, "not_converged_cases": [],
+    ...              "flagged_value_cases": ["c0003-ef"]})
+    ' (1 case(s) with a value not ok: c0003-ef; see results.csv)'
     >>> _tally_text({"n_failed_cases": 0, "not_converged_cases": []})
     ''
     """
     n, nc = summary["n_failed_cases"], summary["not_converged_cases"]
+    fl = summary.get("flagged_value_cases", [])
     parts = [f"{n} case(s) failed or timed out"] if n else []
     parts += [f"{len(nc)} case(s) not_converged: {', '.join(nc)}"] if nc else []
+    parts += [f"{len(fl)} case(s) with a value not ok: {', '.join(fl)}"] if fl else []
     return f" ({'; '.join(parts)}; see results.csv)" if parts else ""
 
 

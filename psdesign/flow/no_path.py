@@ -76,8 +76,11 @@ def no_path_message(
     grid : str
         The refused grid, whose path test the line describes (:func:`path_test`):
         ``"permeameter"`` (``bc``), else the periodic bc's ``periodic_treatment``
-        (``"periodic"``, ``"mirror"``, ``"frame"``). Only on the periodic one do the tests here
-        tell who closed the path; on the others an RVE's line names ``rve.voxel`` without it.
+        (``"periodic"``, ``"mirror"``, ``"frame"``). On the periodic grid and the permeameter's
+        the tests here tell who closed the path (the permeameter's by :func:`closed_pore_space`
+        with its reservoirs and side walls: one copy closed closes any stack of them, since a
+        path across the stack crosses each copy from its inlet face to its outlet face); on
+        mirror and frame an RVE's line names ``rve.voxel`` without them.
 
     Returns
     -------
@@ -90,11 +93,17 @@ def no_path_message(
     >>> d[3] = -2e-6  # two voxels thick: closed at any voxel size
     >>> no_path_message("x", 1e-6, d, 0, "subvoxel")[:42]
     'fibers: the pore space has no path along x'
+    >>> no_path_message("x", 1e-6, d, 0, "subvoxel", grid="permeameter")[:42]
+    'fibers: the pore space has no path along x'
     """
     from psdesign.geometry.throat import percolates
 
     if distance is None:
         return _image_line(name, grid)
+    if grid == "permeameter":  # the fibers' line where they close it (until session 45: none)
+        said = closed_pore_space(name, h, distance, None, axis, periodic=False)
+        if said is not None:
+            return said
     if grid != "periodic":
         return (
             f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid "
@@ -159,7 +168,12 @@ def _fibers_line(name: str, h: float) -> str:
 
 
 def closed_pore_space(
-    name: str, h: float, distance: np.ndarray | None, solid: np.ndarray, axis: int, periodic: bool
+    name: str,
+    h: float,
+    distance: np.ndarray | None,
+    solid: np.ndarray | None,
+    axis: int,
+    periodic: bool,
 ) -> str | None:
     """The line of a pore space that has no path along ``name`` whatever the grid or mesh:
     an image's pore voxels (``distance`` None) or an RVE whose walls, moved back by
@@ -178,8 +192,8 @@ def closed_pore_space(
         Voxel edge (m).
     distance : ndarray or None
         Signed distance (m, > 0 in the pore) at the voxel centres; None for a segmented image.
-    solid : ndarray of bool
-        The voxels' solid mask (used for an image).
+    solid : ndarray of bool or None
+        The voxels' solid mask (read for an image only: None with a ``distance``).
     axis : int
         The flow's axis.
     periodic : bool

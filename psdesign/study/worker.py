@@ -219,36 +219,24 @@ def untrusted_reason(results: dict) -> str | None:
     ``status_*`` result is a string other than ``"ok"``/``"converged"``, or a ``*_status``
     result is ``"not_converged"``. A K whose ``k_<d>_status`` is ``"untrustworthy"`` (error
     bar above 20 % or < 8 cells per fiber diameter) keeps the case ``ok``: its status column
-    says so beside the number and the command counts those cases
-    (:func:`untrustworthy_count`).
+    says so beside the number, and ``study run`` counts those cases and exits 3
+    (:func:`psdesign.cli.exit_status.case_masks`).
     """
+    from psdesign.cli.exit_status import TRUSTED
+
     bad = []
     for k, v in results.items():
         flag = any(_is_key(k, f) for f in TRUST_FLAGS)
         if flag and v is False:
             bad.append(f"{k}=False")
         elif (k == "status" or k.startswith("status_")) and isinstance(v, str):
-            if v.strip().lower() not in ("ok", "converged"):
+            if v.strip().lower() not in TRUSTED:  # the exit rule's trusted statuses
                 bad.append(f"{k}={v}")
         elif k.endswith("_status") and v == "not_converged":
             bad.append(f"{k}={v}")
     if not bad:
         return None
     return "not converged or flagged: " + ", ".join(sorted(bad))
-
-
-def untrustworthy_count(df) -> int:
-    """Cases of a results table with ``status == "ok"`` and some value's own status
-    (``k_<d>_status``, ``diffusivity_<d>_status``, ``conductivity_<d>_status``) equal to
-    ``"untrustworthy"``."""
-    from psdesign.analysis.columns import STATUS_COLUMNS
-
-    rated = set(STATUS_COLUMNS.values())
-    cols = [c for c in getattr(df, "columns", []) if c in rated]
-    if not cols or "status" not in df.columns:
-        return 0
-    flagged = (df[cols] == "untrustworthy").any(axis=1)
-    return int((flagged & (df["status"] == "ok")).sum())
 
 
 def run_case_inline(payload: dict, workdir: Path) -> dict:

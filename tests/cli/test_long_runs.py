@@ -98,12 +98,12 @@ def test_generate_and_pores_name_their_long_stages(tmp_path, capsys):
     assert main(["generate", str(path), "-o", str(tmp_path / "a"), "--no-preview"]) == 0
     err = capsys.readouterr().err
     assert "psdesign: writing a: rve.json, field.vti, fibers.stl (" in err
-    assert main(["pores", str(path), "--n-radii", "4"]) == 0
+    assert main(["pores", str(path), "--n-radii", "4"]) in (0, 3)  # finished
     err = capsys.readouterr().err
     assert "psdesign: pore sizes: scanning 4 radii (" in err
     assert "psdesign: specific surface (marching cubes) (" in err
     assert main(["generate", str(path), "-o", str(tmp_path / "b"), "--no-preview", "--quiet"]) == 0
-    assert main(["pores", str(path), "--n-radii", "4", "--quiet"]) == 0
+    assert main(["pores", str(path), "--n-radii", "4", "--quiet"]) in (0, 3)
     assert "psdesign: " not in capsys.readouterr().err.replace("psdesign: warning", "")
 
 

@@ -847,19 +847,21 @@ def test_sobol_of_the_ishigami_function_through_the_surrogate() -> None:
 def test_sensitivity_says_when_its_surrogate_is_untrustworthy(tmp_path, capsys) -> None:
     """Audit (session 33): ``study sensitivity`` printed Sobol indices and Morris mu* of a
     surrogate that ``study fit`` rated untrustworthy with no flag: every printed number
-    carries the status and error of what it came from."""
+    carries the status and error of what it came from. Exit 3 (psdesign/cli/exit_status.py,
+    session 45: finished, but a result's status is not ok; 0 before, fails on main's
+    study_analysis.py)."""
     good = _fit(lambda a, b: 10 + 3 * a + b)
     bad = Surrogate.from_dict(good.to_dict() | {"output": "bad", "cv_rel_error": 0.5})
     doc = {"version": 1, "models": {"good": good.to_dict(), "bad": bad.to_dict()}}
     (tmp_path / "surrogate.json").write_text(json.dumps(doc))
     for method in ("sobol", "morris"):
-        assert main(["study", "sensitivity", str(tmp_path), "--method", method]) == 0
+        assert main(["study", "sensitivity", str(tmp_path), "--method", method]) == 3
         cap = capsys.readouterr()
         heads = [line for line in cap.out.splitlines() if line.startswith(("good", "bad"))]
         assert "[ok]" in heads[0]
         assert "[untrustworthy]" in heads[1] and "error 50 %" in heads[1]
         assert "surrogate of bad is untrustworthy" in cap.err and "good" not in cap.err
-        assert main(["study", "sensitivity", str(tmp_path), "--method", method, "--json"]) == 0
+        assert main(["study", "sensitivity", str(tmp_path), "--method", method, "--json"]) == 3
         rows = json.loads(capsys.readouterr().out)
         assert {r["surrogate_status"] for r in rows["bad"]} == {"untrustworthy"}
         assert {r["surrogate_status"] for r in rows["good"]} == {"ok"}
@@ -1039,7 +1041,7 @@ def test_predict_at_another_value_of_a_one_level_parameter_is_extrapolated(
     )
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(out), "--json"]) == 0
+    assert main(["study", "fit", str(out), "--json"]) == 3  # a surrogate untrustworthy
     assert json.loads(capsys.readouterr().out)["porosity"]["fixed_params"] == {
         "generator.diameter": pytest.approx(7.5e-6, rel=1e-12)
     }
@@ -1219,13 +1221,13 @@ def test_a_study_of_one_design_point_fits_and_predicts_without_a_traceback(
     )
     out = tmp_path / "out"
     df = run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(out)]) == 0
+    assert main(["study", "fit", str(out)]) == 3  # written, rated untrustworthy: exit 3
     err = capsys.readouterr().err
     assert "k_z_m2: no cross-validated error: every fitted case is at one design point" in err
     assert "nan %" not in err
     # both held parameters in one parenthesis (it printed "(... in every case) (... in every
     # case)")
-    assert main(["study", "fit", str(out)]) == 0
+    assert main(["study", "fit", str(out)]) == 3
     held = "(generator.porosity = 0.8, generator.diameter = 7e-06 in every case)"
     assert f"k_z_m2: GP over no varied parameter {held} from 4 cases" in capsys.readouterr().out
     at = "generator.porosity=0.8,generator.diameter=7e-6"
@@ -1262,7 +1264,7 @@ def test_study_json_output_is_strict_json(tmp_path, capsys) -> None:
     )
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(out), "--json"]) == 0
+    assert main(["study", "fit", str(out), "--json"]) == 3  # untrustworthy: exit 3
     fit = strict(capsys.readouterr().out)["k_z_m2"]
     assert fit["cv_rel_error"] is None and fit["cv_rmse"] is None
     at = "generator.porosity=0.8,generator.diameter=7e-6"
@@ -1372,14 +1374,15 @@ def test_two_design_points_are_said_to_be_too_few_not_a_flat_output() -> None:
     assert table["ST"].iloc[0] == pytest.approx(1.0, abs=0.05)
 
 
-def _fitted_factorial(tmp_path, name: str, eps: list, diam: list, seeds: list):
-    """A full factorial of the Kozeny-Carman fake case in ``tmp_path / name``, fitted."""
+def _fitted_factorial(tmp_path, name: str, eps: list, diam: list, seeds: list, code: int = 0):
+    """A full factorial of the Kozeny-Carman fake case in ``tmp_path / name``, fitted (``study
+    fit`` exits ``code``: 3 when a surrogate is untrustworthy)."""
     params = f'"generator.porosity" = {eps}\n"generator.diameter" = {diam}'
     study = f'design = "full-factorial"\nseeds = {seeds}\noutputs = ["k_z"]\nsolver = "voxel"'
     out = tmp_path / name
     p = write_study(tmp_path, study, params, name=f"{name}.toml")
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
-    assert main(["study", "fit", str(out)]) == 0
+    assert main(["study", "fit", str(out)]) == code
     return out
 
 
@@ -1390,16 +1393,16 @@ def test_a_two_by_two_factorial_says_to_run_three_levels(tmp_path, capsys) -> No
     a two-level parameter the fit sees a straight line (its error between the levels is 129 %
     RMS of the truth there). Rule: one line, the same words in `study sensitivity`'s text
     (stderr), its --json (``advice`` per row) and the report's Sobol note."""
-    out = _fitted_factorial(tmp_path, "out", [0.7, 0.9], [6e-6, 8e-6], [1, 2, 3])
+    out = _fitted_factorial(tmp_path, "out", [0.7, 0.9], [6e-6, 8e-6], [1, 2, 3], code=3)
     capsys.readouterr()
     words = (
         "k_z_m2: generator.porosity, generator.diameter had 2 levels among the fitted cases, so "
         "the indices see no curvature along them; run 3 or more levels per parameter"
     )
-    assert main(["study", "sensitivity", str(out)]) == 0
+    assert main(["study", "sensitivity", str(out)]) == 3  # of an untrustworthy surrogate
     err = capsys.readouterr().err.splitlines()
     assert f"psdesign: warning: {words}" in err, err
-    assert main(["study", "sensitivity", str(out), "--json"]) == 0
+    assert main(["study", "sensitivity", str(out), "--json"]) == 3
     rows = json.loads(capsys.readouterr().out)["k_z_m2"]
     assert {r["advice"] for r in rows} == {words}
     from psdesign.report import build_html

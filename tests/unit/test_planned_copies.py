@@ -121,7 +121,7 @@ def test_a_spec_whose_direction_is_over_the_cap_runs_along_another(tmp_path, cap
     path = tmp_path / "s.toml"
     path.write_text(dumps(spec))
     args = ["permeability", str(path), "--no-error-estimate", "--quiet", "--json"]
-    assert main([*args, "--direction", "x"]) == 0
+    assert main([*args, "--direction", "x"]) in (0, 3)  # finished (3: a status not ok, exit_status)
     assert '"permeameter_copies": 1' in capsys.readouterr().out
     assert main(args) == 2  # its own direction, z: refused before any work
     (line,) = capsys.readouterr().err.strip().splitlines()

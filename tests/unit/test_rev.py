@@ -140,14 +140,15 @@ def untrustworthy_rev_case(spec, outputs, solver, workdir):
 
 def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) -> None:
     """main: the rev lines print each size's CI of K with no word that a case's K is flagged
-    untrustworthy (rule: a result that is not trustworthy says so)."""
+    untrustworthy (rule: a result that is not trustworthy says so). Since session 45 that
+    line is one of the exit-3 reasons (psdesign/cli/exit_status.py), after the table."""
     spec = _spec_with_cases(tmp_path, monkeypatch, untrustworthy_rev_case)
     out = tmp_path / "o"
     args = ["rev", str(spec), "--sizes", "30e-6", "--seeds", "3", "-o", str(out), "--quiet"]
     assert main([*args, "--directions", "z"]) == 3  # no REV at 10 %
     got = capsys.readouterr()
     err = [ln for ln in got.err.splitlines() if "untrustworthy" in ln]
-    assert len(err) == 1 and err[0].startswith("psdesign: warning: 1 case(s) have a K flagged")
+    assert len(err) == 1 and err[0].startswith("psdesign: 1 case(s) have a K flagged")
     # the size's line, rev.csv and rev.json name it too (one of the 3 seeds' K_z)
     line = [ln for ln in got.out.splitlines() if " m (n=" in ln][0]
     assert "untrustworthy: k_z 1 of 3" in line, line
@@ -323,6 +324,32 @@ def test_rev_study_json_is_the_same_from_another_path_and_size_order(tmp_path, m
         run = json.loads((tmp_path / o / "run.json").read_text())["runs"][-1]
         assert run["study_file"] == str(spec.resolve())
     assert (tmp_path / "o1" / "rev.csv").read_bytes() == (tmp_path / "o2" / "rev.csv").read_bytes()
+
+
+def flagged_wide_rev_case(spec, outputs, solver, workdir):
+    """``wide_rev_case`` with seed 2's K at the large size rated untrustworthy by its own
+    status (its value unchanged, so the REV is still 40 um)."""
+    out = wide_rev_case(spec, outputs, solver, workdir)
+    if float(spec["rve"]["size"][0]) > 35e-6 and int(spec["generator"]["seed"]) == 2:
+        out["k_z_status"] = "untrustworthy"
+    return out
+
+
+def test_rev_with_a_flagged_k_exits_3_even_with_a_representative_size(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Rule (psdesign/cli/exit_status.py, session 45): a finished result whose status is not
+    ok exits 3, as ``study run`` exits for the same table. ``rev`` found its REV at 40 um from
+    two K, one of them ``untrustworthy`` (k_z_status), and exited 0 with a warning; now 3 with
+    the line among the exit reasons, the REV line unchanged. Fails on main's rev.py (0)."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, flagged_wide_rev_case)
+    args = ["rev", str(spec), "--seeds", "2", "--quiet", "--directions", "z"]
+    assert main([*args, "--sizes", "32e-6", "40e-6", "-o", str(tmp_path / "o")]) == 3
+    got = capsys.readouterr()
+    assert got.out.splitlines()[-1].startswith("REV: 4e-05 m"), got.out
+    err = got.err.strip().splitlines()
+    assert err == [ln for ln in err if ln.startswith("psdesign: 1 case(s) have a K flagged")], err
+    assert len(err) == 1
 
 
 def half_failing_rev_case(spec, outputs, solver, workdir):

@@ -260,7 +260,7 @@ def test_the_wall_distance_is_transformed_once_per_grid(tmp_path, capsys, monkey
     monkeypatch.setattr(throat, "periodic_edt", counted)  # the transform, on either code
     path = tmp_path / "s.toml"
     path.write_text(ONE_FIBER.format(flow=ROUTES["voxel"][0], cap=10.0))
-    assert main(["permeability", str(path), "--direction", "all", "--quiet"]) == 0
+    assert main(["permeability", str(path), "--direction", "all", "--quiet"]) in (0, 3)
     assert "K_x" in capsys.readouterr().out
     assert len(calls) == 1
 
@@ -284,7 +284,7 @@ def test_the_command_lines_solver_decides_the_checks(tmp_path, capsys):
     path = tmp_path / "s.toml"
     path.write_text(ONE_FIBER.format(flow=ROUTES["stuffing"][0], cap=0.01))
     args = ["permeability", str(path), "--quiet", "--no-error-estimate"]
-    assert main([*args, "--solver", "voxel"]) == 0
+    assert main([*args, "--solver", "voxel"]) in (0, 3)  # finished
     assert "solver voxel" in capsys.readouterr().out
     assert main(args) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
@@ -423,7 +423,7 @@ def test_a_cap_between_one_and_two_copies_runs_where_auto_stacks_one(
     args = ["--direction", "z", "--quiet", "--no-error-estimate", "--json"]
     path = tmp_path / "np.toml"
     path.write_text(OFF_CENTRE.format(period="period = 30e-6\n", flow=flow, cap=cap))
-    assert main(["permeability", str(path), *args]) == 0
+    assert main(["permeability", str(path), *args]) in (0, 3)  # finished
     out = capsys.readouterr().out
     assert '"permeameter_copies": 1' in out and '"geometry_periodic_along_flow": false' in out
 

@@ -225,14 +225,23 @@ def untrustworthy_case(spec, outputs, solver, workdir):
     return out
 
 
-def test_untrustworthy_k_is_counted_in_one_line(tmp_path, capsys):
+def test_untrustworthy_k_is_counted_in_one_line_and_exits_3(tmp_path, capsys):
+    """Rule (psdesign/cli/exit_status.py, session 45): 3 when a result finished with complete
+    outputs but its status is not ok. An ok case whose K the product rates ``untrustworthy``
+    (k_z_status) made ``study run`` exit 0 with a warning, so ``psdesign study run ... &&``
+    accepted it; now 3, one line counting it. ``--allow-not-converged`` accepts unconverged
+    cases only (its name): the flagged K still exits 3. Fails on main's exit_status.py/study.py
+    (0)."""
     from psdesign.cli.study import main
 
     p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
     args = ["study", "run", str(p), "-o", str(tmp_path / "out"), "--quiet", "--no-report"]
-    assert main([*args, "--case-fn", "test_study_safety:untrustworthy_case"]) == 0
+    assert main([*args, "--case-fn", "test_study_safety:untrustworthy_case"]) == 3
     err = capsys.readouterr().err
-    assert "1 ok case(s) have a K or transport value flagged untrustworthy" in err
+    assert "psdesign: 1 ok case(s) have a K or transport value whose own status is not ok" in err
+    assert len(err.strip().splitlines()) == 1
+    flag = [*args, "--case-fn", "test_study_safety:untrustworthy_case", "--allow-not-converged"]
+    assert main(flag) == 3  # resumed: both cases recorded, nothing re-run
     df = pd.read_csv(tmp_path / "out" / "results.csv")
     assert df["status"].tolist() == ["ok", "ok"]
     assert df["k_z_status"].tolist() == ["ok", "untrustworthy"]
@@ -894,3 +903,28 @@ def test_study_exit_status_tells_failed_cases_from_unconverged_ones():
     assert status("ok", "not_converged", allow=True) == 0
     assert status("failed", "not_converged") == 1
     assert status("timeout", "ok", allow=True) == 1
+
+
+def test_a_finished_case_that_is_not_to_be_trusted_exits_3_not_1():
+    """Rule (psdesign/cli/exit_status.py, session 45): 1 is a run that could not finish
+    (``failed``, ``timeout``), 3 a finished case with complete outputs whose status, or a value's
+    own status, is not ok. On main, ``case_counts`` counted every case status but ``ok`` and
+    ``not_converged`` as failed: a table with an ``untrustworthy`` case exited 1 ("could not
+    finish"); an ok case with ``k_z_status = untrustworthy`` or ``diffusivity_z_status =
+    blocked`` exited 0. Fails on main's exit_status.py and study.py (1, 1, 0, 0)."""
+    import pandas as pd
+
+    from psdesign.cli.study import study_exit_status
+
+    def code(status, allow=False, **values):
+        df = pd.DataFrame({"status": status, **values})
+        return study_exit_status(df, allow_not_converged=allow)
+
+    assert code(["ok", "untrustworthy"]) == 3  # a case_fn's own status word: finished
+    assert code(["ok", "extrapolated"], True) == 3  # the flag accepts not_converged only
+    assert code(["ok", "ok"], k_z_status=["ok", "untrustworthy"]) == 3
+    assert code(["ok", "ok"], diffusivity_z_status=["blocked", "ok"]) == 3
+    assert code(["ok", "ok"], True, pore_sizes_status=["ok", "untrustworthy"]) == 3
+    assert code(["ok", "failed"], k_z_status=["ok", None]) == 1  # a failed case has no K
+    assert code(["ok", "ok"], k_z_status=["ok", None]) == 0  # an unrated value is no flag
+    assert code(["ok", "ok"], k_z_status=["ok", "ok"]) == 0
