@@ -201,7 +201,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
     try:  # a typo in the address refused before the seconds of the imports below and dask's
-        if args.scheduler:  # checked: its host looked up here, once for the run
+        if args.scheduler is not None:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
         return fail(str(exc), BAD_INPUT)

@@ -236,7 +236,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
     try:  # a typo in the address refused before the seconds of the imports below and dask's
-        if args.scheduler:  # checked: its host looked up here, once for the run
+        if args.scheduler is not None:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))

@@ -954,7 +954,7 @@ def test_cluster_wait_without_cluster_or_scheduler_is_refused(tmp_path, capsys):
 
 def test_run_study_refuses_a_bad_worker_wait(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
-    with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
+    with pytest.raises(StudyError, match="^worker_wait_s: expected seconds > 0"):
         run_study(p, tmp_path / "out", scheduler="tcp://127.0.0.1:9", worker_wait_s=0)
     assert not (tmp_path / "out").exists()
 
@@ -976,11 +976,11 @@ def test_run_options_are_one_object_checked_on_creation():
             {"workers": -1},
             r"workers: must be an integer >= 0 \(0: the cases in this process\), got -1",
         ),
-        ({"timeout_s": 0}, r"timeout: must be a number > 0 and <= 10000000 \(seconds"),
+        ({"timeout_s": 0}, r"^timeout_s: must be a number > 0 and <= 10000000 \(seconds"),
         ({"report": "no"}, "report: must be True or False, got 'no'"),
         ({"scheduler": 3}, "scheduler: must be an address tcp://HOST:PORT"),
         ({"case_fn": "nope:nothing"}, "case_fn: cannot load 'nope:nothing'"),
-        ({"worker_wait_s": 0}, r"--cluster-wait: expected seconds > 0 \(finite\), got 0"),
+        ({"worker_wait_s": 0}, r"^worker_wait_s: expected seconds > 0 \(finite\), got 0"),
     ):
         with pytest.raises(StudyError, match=match):
             RunOptions(**bad)
