@@ -127,7 +127,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     add_allow_not_converged_argument(run)
     add_force_argument(run)
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
-    run.add_argument("--quiet", action="store_true", help="no progress output")
+    run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
     run.set_defaults(func=cmd_study_run)
 

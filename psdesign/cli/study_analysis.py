@@ -465,7 +465,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     )
     add_allow_not_converged_argument(opt)
     add_force_argument(opt)  # the refusal of a non-empty folder names it, as study run's
-    opt.add_argument("--quiet", action="store_true", help="no progress output")
+    opt.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     opt.add_argument("--json", action="store_true", help="print one JSON object")
     opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)
     opt.set_defaults(func=_cmd_optimize)

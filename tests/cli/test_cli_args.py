@@ -96,3 +96,29 @@ def test_a_stray_word_has_no_guess(capsys):
         "psdesign: error: unrecognized arguments: extra "
         "(psdesign generate --help lists the options)"
     )
+
+
+def _leaves(parser, prefix=""):
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _leaves(sub, f"{prefix} {name}".strip())
+            return
+    yield prefix, parser
+
+
+def test_quiet_reads_the_same_on_every_command():
+    # audit s45: `study run` and `study optimize` said "no progress output", the other commands
+    # "no progress lines on stderr" for the same switch (warmup prints messages, not progress)
+    from psdesign.cli.main import build_parser
+
+    helps = {
+        name: a.help
+        for name, p in _leaves(build_parser())
+        for a in p._actions
+        if "--quiet" in a.option_strings and name != "warmup"
+    }
+    assert {"study run", "study optimize", "generate", "rev"} <= set(helps)
+    assert all(h.startswith("no progress lines on stderr") for h in helps.values()), helps
