@@ -52,6 +52,16 @@ def fake_case(spec, outputs, solver, workdir):
     return out
 
 
+def fields_case(spec, outputs, solver, workdir):
+    """fake_case with the picture ``[study] fields = true`` adds (``fields/flow_z.png``), returned
+    as run_case returns it: an absolute path into the case's folder."""
+    out = fake_case(spec, outputs, solver, workdir)
+    (workdir / "fields").mkdir(exist_ok=True)
+    (workdir / "fields" / "flow_z.png").write_bytes(PNG_1PX)
+    out["fields_png"] = str(workdir / "fields" / "flow_z.png")
+    return out
+
+
 def failing_case(spec, outputs, solver, workdir):
     if spec["generator"]["porosity"] == 0.8:
         raise RuntimeError("mesh failed\nsecond line")

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 from psdesign.cli.exit_status import FAILED, INTERRUPTED, TERMINATED, fail
 from psdesign.cli.exit_status import HELP as EXIT_HELP
+from psdesign.cli.parser import Parser
 from psdesign.cli.progress import activate
 from psdesign.errors import SpecError, show_warning_one_line
 
@@ -30,19 +31,14 @@ COMMANDS = (
 )
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2
-        self.exit(2, f"psdesign: error: {message}\n")
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    parser = _Parser(
+    parser = Parser(
         prog="psdesign",
         description="Design fibrous porous media with generalized periodic-surface models.",
         epilog=EXIT_HELP,
     )
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
     for name in COMMANDS:
         importlib.import_module(f"psdesign.cli.{name}").register(sub)

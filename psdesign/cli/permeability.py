@@ -74,8 +74,34 @@ def _line(r: dict) -> str:
         f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2"
         f"{error_bar(r.get('permeability_rel_error'))}  {rating(r)}  porosity "
         f"{porosity_text(r['porosity'], r.get('porosity_error'))}  solver {r['solver']}  "
-        f"flux imbalance {r['flux_imbalance']:.2e}{extra}"
+        f"flux imbalance {r['flux_imbalance']:.2e}{extra}{_other_bc(r)}"
     )
+
+
+def _other_bc(r: dict) -> str:
+    """``--bc both``: the other model's K with its bar and rating, which the line compares
+    (until session 45 only ``--json`` had it), or why it is missing; "" otherwise.
+
+    >>> other = {"permeability_m2": 2e-11, "permeability_rel_error": 0.02, "status": "ok",
+    ...          "bc": "permeameter", "converged": True, "solver": "voxel"}
+    >>> r = {"bc": "periodic", "solver": "voxel", "bc_results": {"permeameter": other}}
+    >>> _other_bc(r)
+    '  (against K = 2.0000e-11 m^2 +- 2.0 %  [ok]  bc permeameter  converged true)'
+    """
+    from psdesign.cli.lines import error_bar, rating
+
+    others = {bc: o for bc, o in (r.get("bc_results") or {}).items() if bc != r.get("bc")}
+    parts = []
+    for bc, o in others.items():
+        if not isinstance(o, dict) or o.get("permeability_m2") is None:
+            parts.append(f"bc {bc}: {o}")  # "n/a: <why>"
+            continue
+        route = "" if o.get("solver") in (None, r.get("solver")) else f"  solver {o['solver']}"
+        parts.append(
+            f"against K = {o['permeability_m2']:.4e} m^2"
+            f"{error_bar(o.get('permeability_rel_error'))}  {rating(o)}{route}"
+        )
+    return "".join(f"  ({p})" for p in parts)
 
 
 def _fields_folder(args: argparse.Namespace, directions: list[str], solver: str):

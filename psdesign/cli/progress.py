@@ -293,8 +293,8 @@ def add_allow_not_converged_argument(parser) -> None:
 #: ``--workers`` of ``study run``, ``study optimize`` and ``rev``: one rule
 #: (:func:`psdesign.study.runner.check_workers`), one help.
 WORKERS_HELP = (
-    "worker processes on this machine, 0 to 4 per CPU (at least 64); 0 runs the cases one "
-    "after another in this process, with no worker process"
+    "worker processes on this machine, 0 to 64 or 4 per CPU, whichever is more; 0 runs the "
+    "cases one after another in this process, with no worker process"
 )
 
 

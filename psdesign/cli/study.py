@@ -127,7 +127,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     add_allow_not_converged_argument(run)
     add_force_argument(run)
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
-    run.add_argument("--quiet", action="store_true", help="no progress output")
+    run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
     run.set_defaults(func=cmd_study_run)
 
@@ -201,7 +201,7 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
     try:  # a typo in the address refused before the seconds of the imports below and dask's
-        if args.scheduler:  # checked: its host looked up here, once for the run
+        if args.scheduler is not None:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
         return fail(str(exc), BAD_INPUT)

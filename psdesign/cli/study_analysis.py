@@ -247,7 +247,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.address import SchedulerError, check_scheduler_address
 
     try:  # a typo in the address refused before the seconds of the imports below and dask's
-        if args.scheduler:  # checked: its host looked up here, once for the run
+        if args.scheduler is not None:  # checked: its host looked up here, once for the run
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
@@ -485,7 +485,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     )
     add_allow_not_converged_argument(opt)
     add_force_argument(opt)  # the refusal of a non-empty folder names it, as study run's
-    opt.add_argument("--quiet", action="store_true", help="no progress output")
+    opt.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     opt.add_argument("--json", action="store_true", help="print one JSON object")
     opt.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)
     opt.set_defaults(func=_cmd_optimize)

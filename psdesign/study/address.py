@@ -132,6 +132,11 @@ def check_scheduler_address(address: str, timeout_s: float = RESOLVE_TIMEOUT_S) 
     """
     if isinstance(address, SchedulerAddress):
         return address
+    if not address.strip():  # "" ran on the local pool
+        raise StudyError(
+            f"--scheduler: empty ({address!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
+            "'local', or leave it out for the local process pool"
+        )
     if address == "local":
         return address
     if "://" not in address:

@@ -20,6 +20,23 @@ __all__ = ["RunOptions"]
 
 _FLAGS = ("progress", "retry_failed", "report", "force", "retry_not_converged")
 
+#: Checks shared with the command line name its option; a keyword is named as the keyword.
+_KEYWORD_OF = {"--scheduler": "scheduler", "--cluster-wait": "worker_wait_s"}
+
+
+def _as_keyword(exc: Exception) -> StudyError:
+    """The line of a check shared with the command line, naming the keyword instead of the
+    option (``--cluster-wait: ...`` -> ``worker_wait_s: ...``): the key a caller gave.
+
+    >>> str(_as_keyword(ValueError("--cluster-wait: expected seconds > 0 (finite), got 0")))
+    'worker_wait_s: expected seconds > 0 (finite), got 0'
+    """
+    line = str(exc)
+    for option, keyword in _KEYWORD_OF.items():
+        if line.startswith(f"{option}: "):
+            line = keyword + line[len(option) :]
+    return StudyError(line)
+
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -108,7 +125,7 @@ class RunOptions:
             try:
                 object.__setattr__(self, "worker_wait_s", check_wait_s(self.worker_wait_s))
             except ValueError as exc:
-                raise StudyError(str(exc)) from None
+                raise _as_keyword(exc) from None
 
     def case_function(self) -> Callable | str:
         """``case_fn`` or its default, ``DEFAULT_CASE_FN`` (``psdesign.study.case:run_case``)."""
@@ -128,7 +145,7 @@ def _check_timeout(timeout_s) -> float:
         or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
     ):
         raise StudyError(
-            f"timeout: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
+            f"timeout_s: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
             f"study.timeout_s), got {timeout_s!r}"
         )
     return float(timeout_s)
@@ -153,13 +170,11 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
             "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "
             f"got {type(scheduler).__name__}"
         )
-    if isinstance(scheduler, str) and not scheduler.strip():  # ran on the local pool
-        raise StudyError(
-            f"--scheduler: empty ({scheduler!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
-            "'local', or leave it out for the local process pool"
-        )
     if isinstance(scheduler, str):  # before the case function's imports and dask's
-        scheduler = check_scheduler_address(scheduler)  # (one already checked: no lookup)
+        try:  # (one already checked: no lookup)
+            scheduler = check_scheduler_address(scheduler)
+        except StudyError as exc:
+            raise _as_keyword(exc) from None
     if case_fn is not None:
         try:
             load_case_fn(case_fn)

@@ -250,8 +250,8 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
         raise StudyError(
-            f"{what}: at most {max_local_workers()} processes on this machine (4 per CPU, at "
-            f"least 64), got {workers}; use --scheduler or --cluster for more"
+            f"{what}: at most {max_local_workers()} processes on this machine (64 or 4 per "
+            f"CPU, whichever is more), got {workers}; use --scheduler or --cluster for more"
         )
 
 

@@ -52,12 +52,22 @@ def _scalar(v: Any) -> Any:
     return v
 
 
+#: Result columns holding a picture a case wrote into its folder (the report reads them
+#: relative to the study folder; ``fields_png`` was absolute until session 45, so the same
+#: study in two folders gave two tables, and a moved folder lost its report's field pictures).
+PICTURE_COLUMNS = ("preview_png", "fields_png")
+
+
 def normalize_results(results: Any, out_dir: Path | None = None) -> dict:
     """Flatten a case function's result dict into JSON-friendly scalars.
 
     ``k_tensor_m2`` given as 9 values or a 3x3 array becomes ``k_xx_m2`` ... ``k_zz_m2``;
-    ``preview_png`` is stored relative to ``out_dir`` when it lies inside it; other arrays are
-    kept as lists.
+    The pictures (:data:`PICTURE_COLUMNS`: ``preview_png``, ``fields_png``) are stored relative
+    to ``out_dir`` when they lie inside it, so a table does not depend on where its folder is;
+    other arrays are kept as lists.
+
+    >>> normalize_results({"fields_png": "/o/cases/c0/fields/flow_z.png"}, Path("/o"))
+    {'fields_png': 'cases/c0/fields/flow_z.png'}
 
     Raises
     ------
@@ -77,7 +87,7 @@ def normalize_results(results: Any, out_dir: Path | None = None) -> dict:
                 for j, b in enumerate(_AXES):
                     out[f"k_{a}{b}_m2"] = float(arr[3 * i + j])
             continue
-        if k == "preview_png" and v is not None:
+        if k in PICTURE_COLUMNS and v is not None:
             p = Path(v)
             if out_dir is not None:
                 try:

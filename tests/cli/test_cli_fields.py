@@ -459,7 +459,7 @@ def test_study_fields_true_writes_case_fields_and_report_picture(tmp_path):
     df = run_study(study, out, workers=0, progress=False)
     assert (df["status"] == "ok").all()
     png = df["fields_png"].iloc[0]
-    folder = __import__("pathlib").Path(png).parent
+    folder = (out / png).parent  # relative to the study folder, as preview_png
     assert sorted(p.name for p in folder.iterdir()) == ["fields.json", "flow_x.png", "flow_x.vti"]
     grid = pv.read(folder / "flow_x.vti")
     u = _cells(grid, "velocity_m_per_s")

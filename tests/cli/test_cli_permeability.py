@@ -161,6 +161,22 @@ def test_bc_sensitivity_and_warning_when_both_models_exist(tmp_path, capsys, mon
     assert compare.BC_SENSITIVITY_WARN == 0.05
 
 
+def test_bc_both_prints_the_k_it_compares(tmp_path, capsys, monkeypatch):
+    # audit s45: the text line of `--bc both` printed one K and "bc_sensitivity 30.0 %": the
+    # other model's K, its bar and status were only in --json's bc_results
+    monkeypatch.setattr(
+        perm_mod, "route_result", _fake_route({"permeameter": 1.3, "periodic": 1.0})
+    )
+    code, out, err = _run(
+        tmp_path, capsys, "--bc", "both", "--no-error-estimate", "--direction", "x"
+    )
+    assert code == 0 and len(out.strip().splitlines()) == 1, out
+    head, other = out.split("  bc_sensitivity 30.0 %  (against ")
+    assert head.startswith("K_x = 1.3000e+00 m^2 +- ") and "bc permeameter" in head
+    assert other.startswith("K = 1.0000e+00 m^2 +- ")
+    assert other.rstrip().endswith("[ok]  bc periodic  converged true)"), other
+
+
 def test_flow_bc_reaches_the_route(monkeypatch):
     seen = {}
 

@@ -22,6 +22,7 @@ from study_cases import (
     crash_case,
     failing_case,
     fake_case,
+    fields_case,
     kc_truth,
     sleepy_case,
     slow_counting_case,
@@ -954,9 +955,34 @@ def test_cluster_wait_without_cluster_or_scheduler_is_refused(tmp_path, capsys):
 
 def test_run_study_refuses_a_bad_worker_wait(tmp_path):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
-    with pytest.raises(StudyError, match="--cluster-wait: expected seconds > 0"):
+    with pytest.raises(StudyError, match="^worker_wait_s: expected seconds > 0"):
         run_study(p, tmp_path / "out", scheduler="tcp://127.0.0.1:9", worker_wait_s=0)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_table_and_the_report_do_not_depend_on_the_folder(tmp_path):
+    """The same study and seeds give the same table apart from the timing columns
+    (docs/study-files.md), in any folder: audit s45 found ``fields_png`` ([study] fields =
+    true) stored as an absolute path (``preview_png`` was relative), so two folders gave two
+    tables, and a moved folder's report lost its "Flow fields" pictures."""
+    import shutil
+
+    from psdesign.report import write_report
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    tables = []
+    for name in ("a", "b"):
+        df = run_study(p, tmp_path / name, workers=0, case_fn=fields_case, progress=False)
+        tables.append(drop_timing(df))
+    pd.testing.assert_frame_equal(tables[0], tables[1])
+    pngs = tables[0]["fields_png"]
+    assert pngs.str.match(r"^cases/[^/]+/fields/flow_z\.png$").all(), pngs.tolist()
+    moved = tmp_path / "moved"
+    shutil.move(tmp_path / "a", moved)
+    (moved / "report.html").unlink()
+    write_report(moved)
+    html = (moved / "report.html").read_text()
+    assert "<h2>Flow fields</h2>" in html
 
 
 # ----------------------------------------------------------------------------- RunOptions
@@ -976,11 +1002,11 @@ def test_run_options_are_one_object_checked_on_creation():
             {"workers": -1},
             r"workers: must be an integer >= 0 \(0: the cases in this process\), got -1",
         ),
-        ({"timeout_s": 0}, r"timeout: must be a number > 0 and <= 10000000 \(seconds"),
+        ({"timeout_s": 0}, r"^timeout_s: must be a number > 0 and <= 10000000 \(seconds"),
         ({"report": "no"}, "report: must be True or False, got 'no'"),
         ({"scheduler": 3}, "scheduler: must be an address tcp://HOST:PORT"),
         ({"case_fn": "nope:nothing"}, "case_fn: cannot load 'nope:nothing'"),
-        ({"worker_wait_s": 0}, r"--cluster-wait: expected seconds > 0 \(finite\), got 0"),
+        ({"worker_wait_s": 0}, r"^worker_wait_s: expected seconds > 0 \(finite\), got 0"),
     ):
         with pytest.raises(StudyError, match=match):
             RunOptions(**bad)

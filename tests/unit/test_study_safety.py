@@ -760,7 +760,7 @@ def test_absurd_local_worker_count_and_nan_timeout_refused_before_work(tmp_path,
     assert len(err.splitlines()) == 1, err
     assert f"workers: at most {max_local_workers()} processes" in err and str(n) in err
     assert not out.exists()
-    with pytest.raises(StudyError, match=r"^timeout: must be a number > 0"):
+    with pytest.raises(StudyError, match=r"^timeout_s: must be a number > 0"):
         run_study(p, out, workers=0, case_fn=fake_case, timeout_s=float("nan"))
     assert not out.exists()
     assert max_local_workers() >= 64
