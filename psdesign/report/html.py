@@ -66,7 +66,7 @@ tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
 .scroll{max-height:32em;overflow:auto;border:1px solid #eee}
 .ktable th,.ktable td{white-space:normal;text-align:left;max-width:26em}
 .ktable .kbc{color:#555;font-size:.9em}.ktable .kst{color:#a00}
-.meta td,.meta th{text-align:left}
+.meta td,.meta th{text-align:left}.meta td{white-space:normal;overflow-wrap:anywhere}
 figure{display:inline-block;margin:.5em;vertical-align:top}
 figcaption{font-size:.8em;color:#555;max-width:320px}
 .note{color:#555;font-size:.9em}

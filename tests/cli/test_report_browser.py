@@ -206,3 +206,29 @@ def test_the_k_table_fits_a_1400_px_window_with_two_directions(tmp_path, outputs
     assert widths is not None, out[-2000:]
     scroll, client = map(int, widths.groups())
     assert 1000 < client and scroll <= client, (scroll, client)
+
+
+#: Written into a copy of the report: the page's scroll and client widths.
+PAGE_WIDTHS = """<script>window.addEventListener('load', function () {
+  var d = document.documentElement;
+  document.body.setAttribute('data-page', d.scrollWidth + ',' + d.clientWidth);
+});</script>"""
+
+
+def test_the_page_does_not_scroll_sideways_in_an_800_px_window(report, tmp_path) -> None:
+    """Session 45 looked at the report in an 800 px window: the Study table's one-line cells
+    (last run, machine, versions) made the page 1087 px wide in a 785 px one, the values cut
+    off at the window's edge. The layout, not the pixels: the page's scrollWidth is at most
+    its clientWidth (wide tables scroll inside their own boxes)."""
+    page = tmp_path / "measured.html"
+    page.write_text(report.read_text().replace("</body>", PAGE_WIDTHS + "</body>"))
+    out = subprocess.run(
+        [CHROMIUM, *FLAGS[:-1], "--window-size=800,900", "--dump-dom", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    ).stdout
+    widths = re.search(r'data-page="(\d+),(\d+)"', out)
+    assert widths is not None, out[-2000:]
+    scroll, client = map(int, widths.groups())
+    assert 700 < client and scroll <= client, (scroll, client)
