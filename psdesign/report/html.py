@@ -318,15 +318,19 @@ def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> 
         e,
         tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE),
         "k-",
-        label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
+        label=f"Tomadakis-Sotirchos 1993 [1], through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
     )
     ax.plot(
         e,
         tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE),
         "k--",
-        label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})",
+        label=f"Tomadakis-Sotirchos 1993 [1], in-plane (alpha={TS_ALPHA_IN_PLANE})",
     )
-    ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
+    # each label cites its entry of the References list (_references): session 45 found the
+    # legend naming the models without a source
+    ax.plot(
+        e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman 1937 [2] (k_K={KOZENY_CONSTANT:g})"
+    )
     if normalize:
         return "Diameter varies: permeability shown as K / r^2."
     return f"Reference curves for fiber radius r = {r0:.3g} m."

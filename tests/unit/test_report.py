@@ -1077,3 +1077,37 @@ def test_response_surface_band_is_the_bar_study_predict_prints():
         "prints, the GP std never below the fit&#x27;s estimated error between the study&#x27;s "
         f"design points, {rel_pct}" in text
     )
+
+
+def test_every_reference_curve_cites_its_entry_of_the_references(monkeypatch):
+    """Session 45 looked at the report as pictures: the legends named "Tomadakis-Sotirchos"
+    and "Kozeny-Carman" (the diffusivity figure "T-S") without a source, the References list
+    at the page's foot unlinked to them. Every reference curve of the porosity-permeability
+    and porosity-diffusivity figures now cites its numbered entry ("[1]"), and that entry names
+    the same model and year (Tomadakis & Sotirchos, AIChE J. 1993; Carman, Trans. Inst. Chem.
+    Eng. 1937)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from psdesign.report import html as report_html
+    from psdesign.report import transport
+
+    entries = re.findall(r"<li>(.*?)</li>", report_html._references(), flags=re.S)
+    fig, ax = plt.subplots()
+    report_html._reference_curves(ax, pd.Series([0.7, 0.9]), 3.5e-6, normalize=False)
+    labels = list(ax.get_legend_handles_labels()[1])
+    plt.close(fig)
+    figs = []
+    monkeypatch.setattr(transport, "_fig_png", lambda f: figs.append(f) or b"")
+    eps = np.array([0.7, 0.8, 0.9])
+    transport.transport_figure(pd.DataFrame({"porosity": eps, "diffusivity_z": eps**1.5}))
+    labels += [t for t in figs[0].axes[0].get_legend_handles_labels()[1] if "diffusivity" not in t]
+    assert len(labels) == 5, labels
+    for label in labels:
+        cited = re.search(r"(\w+)-(\w+) (\d{4}) \[(\d)\]", label)
+        assert cited, label
+        first, second, year, n = cited.groups()
+        entry = entries[int(n) - 1]
+        assert entry.startswith(f"{first}-{second}:") and f"({year})" in entry, (label, entry)
