@@ -1111,3 +1111,32 @@ def test_every_reference_curve_cites_its_entry_of_the_references(monkeypatch):
         first, second, year, n = cited.groups()
         entry = entries[int(n) - 1]
         assert entry.startswith(f"{first}-{second}:") and f"({year})" in entry, (label, entry)
+
+
+def test_the_report_opens_on_its_answer_the_trusted_k_range_and_where(mixed_report):
+    """Session 45 read the report as a person does: it opened on the run's metadata and the
+    answer (which design gives the most / least permeable medium) was 2-4 screens down.
+    "At a glance" now comes first, after the red box: per direction the highest and lowest
+    K over trusted values only, with its bar and design point. Truth: Kozeny-Carman
+    (``kc_truth``, the fake solver, times 1 + 0.5 i per direction and a 1 % noise); the
+    untrustworthy K_z at porosity 0.9 (higher than any trusted one) and the not-converged
+    cases must not be named."""
+    df, html = mixed_report
+    assert html.index('<h2 id="psd-glance">At a glance</h2>') < html.index("<h2>Study</h2>")
+    table = html.split('<h2 id="psd-glance">', 1)[1].split("</table>", 1)[0]
+    rows = {
+        r[0]: r[1:] for r in (re.findall(r"<td>(.*?)</td>", tr) for tr in table.split("<tr>")[2:])
+    }
+    expect = {  # direction: (highest at eps, d; lowest at eps, d; trusted of 12; factor)
+        "K_x (m²), in-plane": ((0.9, 8e-6), (0.8, 6e-6), 6, 1.0),
+        "K_z (m²), through-plane": ((0.8, 8e-6), (0.8, 6e-6), 4, 2.0),
+    }
+    assert set(rows) == set(expect)
+    for name, (hi, lo, n, factor) in expect.items():
+        cells = rows[name]
+        assert cells[2] == f"{n} of 12"
+        for cell, (eps, d) in zip(cells[:2], (hi, lo), strict=True):
+            k = float(cell.split(" ")[0])
+            assert k == pytest.approx(kc_truth(eps, d) * factor, rel=0.03), (name, cell)
+            assert "± 2.0 %" in cell  # the trusted values' bar (the untrusted one: 30 %)
+            assert f"generator.porosity={eps:g}, generator.diameter={d:g} (" in cell, cell
