@@ -1140,3 +1140,35 @@ def test_the_report_opens_on_its_answer_the_trusted_k_range_and_where(mixed_repo
             assert k == pytest.approx(kc_truth(eps, d) * factor, rel=0.03), (name, cell)
             assert "± 2.0 %" in cell  # the trusted values' bar (the untrusted one: 30 %)
             assert f"generator.porosity={eps:g}, generator.diameter={d:g} (" in cell, cell
+
+
+def test_every_log_axis_ticks_whole_numbers(monkeypatch):
+    """Session 45 looked at a 2-parameter voxel study's report: its K axes within about a
+    decade ticked "3", "2", "1e-11", "9", "8", ... (plotly's ``minorloglabels`` "small digits",
+    plotly.js reference: layout.yaxis.minorloglabels): digits that read as values of K. Every
+    log axis of the report's figures (K, a loguniform parameter) now ticks whole numbers
+    ("3e-11") at its minor ticks."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    rng = np.random.default_rng(3)
+    eps, d = rng.uniform(0.75, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    df = pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "k_z_m2": kc_truth(eps, d),
+        }
+    )
+    params = ["generator.porosity", "generator.diameter"]
+    decision.parameter_plots(df, params)
+    decision.surrogate_plots(df, params, {})
+    logs = [a for f in figs for a in [*f.select_xaxes(), *f.select_yaxes()] if a.type == "log"]
+    assert len(logs) >= 2, len(logs)  # K against each parameter
+    assert {a.minorloglabels for a in logs} == {"complete"}
