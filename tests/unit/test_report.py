@@ -1172,3 +1172,32 @@ def test_every_log_axis_ticks_whole_numbers(monkeypatch):
     logs = [a for f in figs for a in [*f.select_xaxes(), *f.select_yaxes()] if a.type == "log"]
     assert len(logs) >= 2, len(logs)  # K against each parameter
     assert {a.minorloglabels for a in logs} == {"complete"}
+
+
+def test_a_line_with_no_trusted_value_says_so_in_its_legend():
+    """Session 45: a 2-parameter voxel study whose 6 um fibers were all untrustworthy (7.6
+    voxels per diameter) drew 'K vs generator.porosity' with a legend entry
+    'z (through-plane), generator.diameter = 6e-06 m' and no line: the reader could not tell a
+    left-out series from a hidden one. Such an entry now ends ': no trusted value'; a line with
+    values keeps its name."""
+    from psdesign.report import decision
+
+    eps, d = np.repeat([0.75, 0.85, 0.9], 2), np.tile([6e-6, 8e-6], 3)
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(6)],
+            "seed": 1,
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "k_z_m2": kc_truth(eps, d),
+            "k_z_rel_error": 0.05,
+            "k_z_status": np.where(d < 7e-6, "untrustworthy", "ok"),
+        }
+    )
+    html = decision.parameter_plots(df, ["generator.porosity", "generator.diameter"])
+    names = set(re.findall(r'"name":"([^"]*)"', html))
+    assert "z (through-plane), generator.diameter = 6e-06 m: no trusted value" in names
+    assert "z (through-plane), generator.diameter = 8e-06 m" in names
+    assert sum(n.endswith(": no trusted value") for n in names) == 1
