@@ -80,8 +80,8 @@ def glance_section(df: pd.DataFrame, params: list[str]) -> str:
     return (
         '<h2 id="psd-glance">At a glance</h2><p class="note">The highest and the lowest '
         "permeability of each direction over the cases whose K is trusted (case and K status "
-        "ok; the others are counted in the red box above and marked in the tables below), "
-        "with its error bar and the design point that gave it.</p>"
+        "ok; any other is marked in the tables below), with its error bar and the design "
+        "point that gave it.</p>"
         f'<table class="meta glance"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(rows)
         + "</tbody></table>"
