@@ -465,6 +465,23 @@ def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
     assert "output): generator.porosity = 0.8.</p>" in html
 
 
+def _random_kc_study() -> pd.DataFrame:
+    """12 ok cases at random porosity (0.7-0.9) and diameter (6-9 um): K_z by Kozeny-Carman
+    (``kc_truth``), a D_eff/D of about 6.5e-4 (a small dimensionless output)."""
+    rng = np.random.default_rng(2)
+    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    return pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "diffusivity_z": 6.5e-4 + 1e-5 * eps,
+            "k_z_m2": kc_truth(eps, d),
+        }
+    )
+
+
 def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
     """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
     layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
@@ -482,18 +499,7 @@ def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
         return out
 
     monkeypatch.setattr(decision, "figure_html", keep)
-    rng = np.random.default_rng(2)
-    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
-    df = pd.DataFrame(
-        {
-            "generator.porosity": eps,
-            "generator.diameter": d,
-            "status": "ok",
-            "porosity": eps,
-            "diffusivity_z": 6.5e-4 + 1e-5 * eps,
-            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
-        }
-    )
+    df = _random_kc_study()
     params = ["generator.porosity", "generator.diameter"]
     decision.parameter_plots(df, params)
     decision.effect_plots(df, params)
@@ -1155,17 +1161,7 @@ def test_every_log_axis_ticks_whole_numbers(monkeypatch):
     monkeypatch.setattr(
         decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
     )
-    rng = np.random.default_rng(3)
-    eps, d = rng.uniform(0.75, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
-    df = pd.DataFrame(
-        {
-            "generator.porosity": eps,
-            "generator.diameter": d,
-            "status": "ok",
-            "porosity": eps,
-            "k_z_m2": kc_truth(eps, d),
-        }
-    )
+    df = _random_kc_study()
     params = ["generator.porosity", "generator.diameter"]
     decision.parameter_plots(df, params)
     decision.surrogate_plots(df, params, {})
