@@ -218,11 +218,15 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
     import plotly.graph_objects as go
 
     e = _err(g, c)
+    y = _nan_none(g[f"{c}_mean"])
+    label = f"{name}, {group}" if group else name
+    if all(v is None for v in y):  # a legend entry of an empty line said nothing (session 45)
+        label += ": no trusted value"
     return go.Scatter(
         x=g[p],
-        y=_nan_none(g[f"{c}_mean"]),
+        y=y,
         mode=mode,
-        name=f"{name}, {group}" if group else name,
+        name=label,
         line={"color": COLORS[i % len(COLORS)], "dash": DASHES[j % len(DASHES)]},
         error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
     )

@@ -28,6 +28,7 @@ from psdesign.analysis.columns import (
     value_ok,
 )
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
+from psdesign.report.glance import glance_section, k_text
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.outcome import optimize_section
@@ -66,7 +67,7 @@ tr.flag td{background:#ffe3e3}tr.warn td{background:#fff4d6}
 .scroll{max-height:32em;overflow:auto;border:1px solid #eee}
 .ktable th,.ktable td{white-space:normal;text-align:left;max-width:26em}
 .ktable .kbc{color:#555;font-size:.9em}.ktable .kst{color:#a00}
-.meta td,.meta th{text-align:left}
+.meta td,.meta th{text-align:left}.meta td{white-space:normal;overflow-wrap:break-word}
 figure{display:inline-block;margin:.5em;vertical-align:top}
 figcaption{font-size:.8em;color:#555;max-width:320px}
 .note{color:#555;font-size:.9em}
@@ -318,15 +319,19 @@ def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> 
         e,
         tomadakis_sotirchos(e, rr, TS_ALPHA_THROUGH_PLANE),
         "k-",
-        label=f"Tomadakis-Sotirchos through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
+        label=f"Tomadakis-Sotirchos 1993 [1], through-plane (alpha={TS_ALPHA_THROUGH_PLANE})",
     )
     ax.plot(
         e,
         tomadakis_sotirchos(e, rr, TS_ALPHA_IN_PLANE),
         "k--",
-        label=f"Tomadakis-Sotirchos in-plane (alpha={TS_ALPHA_IN_PLANE})",
+        label=f"Tomadakis-Sotirchos 1993 [1], in-plane (alpha={TS_ALPHA_IN_PLANE})",
     )
-    ax.plot(e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman (k_K={KOZENY_CONSTANT:g})")
+    # each label cites its entry of the References list (_references): session 45 found the
+    # legend naming the models without a source
+    ax.plot(
+        e, kozeny_carman(e, rr), "k:", label=f"Kozeny-Carman 1937 [2] (k_K={KOZENY_CONSTANT:g})"
+    )
     if normalize:
         return "Diameter varies: permeability shown as K / r^2."
     return f"Reference curves for fiber radius r = {r0:.3g} m."
@@ -388,9 +393,7 @@ def _k_cell(k: float, e: float, bc: str, status: str) -> str:
     """One K table cell: the value with its error bar, then (each on its own line) the
     boundary condition when the column's header does not carry it and the status when it is
     not ok, escaped HTML."""
-    txt = "" if pd.isna(k) else f"{k:.4g}"
-    if pd.notna(e):
-        txt += f" ± {100 * e:.1f} %"
+    txt = k_text(k, e)
     parts = [_esc(txt)] if txt else []
     if bc:
         parts.append(f'<span class="kbc">{_esc(bc)}</span>')
@@ -655,7 +658,8 @@ def build_html(out_dir: str | Path) -> str:
 <style>{CSS}{INTERACTIVE_CSS}</style>
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
-{_status_banner(df)}<h2>Study</h2><table class="meta">{meta}</table>
+{_status_banner(df)}{_safe(glance_section, df, params)}
+<h2>Study</h2><table class="meta">{meta}</table>
 {_safe(optimize_section, out)}
 {unit_selector()}
 <h2>Porosity vs permeability</h2>{perm_html}<p class="note">{_esc(perm_note)} Directions:

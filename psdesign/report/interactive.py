@@ -87,10 +87,15 @@ def number_axis(unit: str = "") -> dict:
 
 def _plain_numbers(fig) -> None:
     """Give every axis and colour bar of ``fig`` whose tick format is unset
-    :func:`number_axis`'s plain-or-exponent numbers."""
+    :func:`number_axis`'s plain-or-exponent numbers, and every log axis whole numbers at its
+    minor ticks."""
     for axis in [*fig.select_xaxes(), *fig.select_yaxes()]:
         if axis.exponentformat is None:
             axis.update(number_axis())
+        if axis.type == "log" and axis.minorloglabels is None:
+            # a K axis within a decade ticked "3", "2", "1e-11", "9", "8": digits that read
+            # as values (session 45); every tick a whole number: "3e-11"
+            axis.minorloglabels = "complete"
     for trace in fig.data:
         bar = getattr(trace, "colorbar", None)
         if bar is not None and bar.exponentformat is None:

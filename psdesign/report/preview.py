@@ -100,6 +100,19 @@ PREVIEW_ZOOM = 0.9
 """Camera zoom after the isometric reset: a margin of about a tenth around the RVE box."""
 
 
+def box_label(shape: tuple[int, ...], spacing: np.ndarray) -> str:
+    """The preview's scale: the RVE box's edge lengths in micrometres (a perspective view has
+    no one scale; the box outline beside these lengths gives the fibers' size).
+
+    >>> box_label((100, 100, 50), np.array([0.5e-6, 0.5e-6, 0.5e-6]))
+    'box 50 x 50 x 25 µm'
+    >>> box_label((120, 120, 120), np.full(3, 0.8333333333333333e-6))
+    'box 100 x 100 x 100 µm'
+    """
+    edges = [n * float(h) * 1e6 for n, h in zip(shape, spacing, strict=True)]
+    return "box " + " x ".join(f"{e:.3g}" for e in edges) + " µm"
+
+
 def render_preview(
     distance: np.ndarray,
     spacing: np.ndarray,
@@ -159,6 +172,10 @@ def render_preview(
         )
         plotter.add_mesh(box, style="wireframe", color="black", line_width=1)
         plotter.show_axes()
+        # the scale (session 45: no picture said how big its box was)
+        plotter.add_text(
+            box_label(shape, spacing), position="lower_right", font_size=12, color="black"
+        )
         if title:
             plotter.add_text(title, font_size=10, color="black")
         plotter.camera_position = "iso"  # the box's bounding sphere touches the view cone

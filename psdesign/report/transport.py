@@ -128,7 +128,13 @@ def transport_figure(df) -> tuple[str | None, str]:
     ep, a_in, a_tp = TS_2D
     # black as the K figure's reference curves: the data keep the colours
     for alpha, name, ls in ((a_tp, "through-plane", "k-"), (a_in, "in-plane", "k--")):
-        ax.plot(curve, curve * ((curve - ep) / (1 - ep)) ** alpha, ls, lw=1, label=f"T-S {name}")
+        ax.plot(
+            curve,
+            curve * ((curve - ep) / (1 - ep)) ** alpha,
+            ls,
+            lw=1,
+            label=f"Tomadakis-Sotirchos 1993 [1], {name}",
+        )
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("D_eff / D_bulk (-)")
     ax.legend(fontsize=7)

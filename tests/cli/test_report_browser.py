@@ -193,16 +193,40 @@ def test_the_k_table_fits_a_1400_px_window_with_two_directions(tmp_path, outputs
         '"generator.porosity" = [0.8, 0.9]',
     )
     run_study(p, tmp_path / "out", workers=0, case_fn=two_direction_case, progress=False)
-    page = tmp_path / "measured.html"
-    html = (tmp_path / "out" / "report.html").read_text()
-    page.write_text(html.replace("</body>", K_TABLE_WIDTHS + "</body>"))
+    scroll, client = _widths(tmp_path / "out" / "report.html", K_TABLE_WIDTHS, "kbox", 1400)
+    assert 1000 < client and scroll <= client, (scroll, client)
+
+
+def _widths(report, script: str, attr: str, window: int) -> tuple[int, int]:
+    """The two widths ``script`` (written into a copy of ``report``) sets as ``data-<attr>``
+    on the body, in a ``window`` px wide chromium."""
+    page = report.parent / "measured.html"
+    page.write_text(report.read_text().replace("</body>", script + "</body>"))
     out = subprocess.run(
-        [CHROMIUM, *FLAGS[:-1], "--window-size=1400,900", "--dump-dom", page.as_uri()],
+        [CHROMIUM, *FLAGS[:-1], f"--window-size={window},900", "--dump-dom", page.as_uri()],
         capture_output=True,
         text=True,
         timeout=120,
     ).stdout
-    widths = re.search(r'data-kbox="(\d+),(\d+)"', out)
+    widths = re.search(rf'data-{attr}="(\d+),(\d+)"', out)
     assert widths is not None, out[-2000:]
     scroll, client = map(int, widths.groups())
-    assert 1000 < client and scroll <= client, (scroll, client)
+    return scroll, client
+
+
+#: Written into a copy of the report: the page's scroll and client widths.
+PAGE_WIDTHS = """<script>window.addEventListener('load', function () {
+  var d = document.documentElement;
+  document.body.setAttribute('data-page', d.scrollWidth + ',' + d.clientWidth);
+});</script>"""
+
+
+def test_the_page_does_not_scroll_sideways_in_an_800_px_window(report, tmp_path) -> None:
+    """Session 45 looked at the report in an 800 px window: the Study table's one-line cells
+    (last run, machine, versions) made the page 1087 px wide in a 785 px one, the values cut
+    off at the window's edge. The layout, not the pixels: the page's scrollWidth is at most
+    its clientWidth (wide tables scroll inside their own boxes)."""
+    copy = tmp_path / "report.html"
+    copy.write_text(report.read_text())
+    scroll, client = _widths(copy, PAGE_WIDTHS, "page", 800)
+    assert 700 < client and scroll <= client, (scroll, client)

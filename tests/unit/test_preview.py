@@ -14,10 +14,16 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from psdesign.report.preview import render_preview
+from psdesign.report.preview import box_label, render_preview
 
 #: Pixels between the outline and the picture's edge, at least.
 MARGIN_PX = 5
+
+
+def _in_label(rows: np.ndarray, cols: np.ndarray, window: tuple[int, int]) -> np.ndarray:
+    """Pixels of the box-size label's corner (lower right, :func:`box_label`)."""
+    width, height = window
+    return (cols > 0.55 * width) & (rows > 0.9 * height)
 
 
 @pytest.mark.parametrize("window", [(900, 700), (480, 400)])
@@ -30,7 +36,23 @@ def test_preview_shows_the_whole_box(tmp_path, window, shape) -> None:
     rows, cols = np.nonzero(gray < 128)
     width, height = window
     axes_widget = (cols < 0.2 * width) & (rows > 0.75 * height)  # the x-y-z triad, lower left
-    rows, cols = rows[~axes_widget], cols[~axes_widget]
+    keep = ~axes_widget & ~_in_label(rows, cols, window)
+    rows, cols = rows[keep], cols[keep]
     assert len(rows) > 100  # the outline was drawn
     assert rows.min() >= MARGIN_PX and rows.max() < height - MARGIN_PX, (rows.min(), rows.max())
     assert cols.min() >= MARGIN_PX and cols.max() < width - MARGIN_PX, (cols.min(), cols.max())
+
+
+@pytest.mark.parametrize("window", [(900, 700), (480, 400)])
+def test_preview_carries_its_scale(tmp_path, window) -> None:
+    """The picture says how big its box is (session 45: no preview had a scale; an engineer
+    could not tell a 50 um box of 7 um fibers from a 1 mm one). Truth: the box's edges,
+    n * voxel, in micrometres, and dark text pixels in the label's corner, where the empty
+    box draws none (main's preview: 0 dark pixels there)."""
+    shape, h = (60, 60, 30), 0.8333333333333333e-6
+    assert box_label(shape, np.full(3, h)) == "box 50 x 50 x 25 µm"
+    distance = np.full(shape, 1e-6)
+    path = render_preview(distance, np.full(3, h), tmp_path / "p.png", window_size=window)
+    gray = np.asarray(Image.open(path).convert("L"))
+    rows, cols = np.nonzero(gray < 128)
+    assert _in_label(rows, cols, window).sum() > 50

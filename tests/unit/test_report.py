@@ -465,6 +465,23 @@ def test_report_draws_no_frame_over_a_parameter_that_never_varied(tmp_path):
     assert "output): generator.porosity = 0.8.</p>" in html
 
 
+def _random_kc_study() -> pd.DataFrame:
+    """12 ok cases at random porosity (0.7-0.9) and diameter (6-9 um): K_z by Kozeny-Carman
+    (``kc_truth``), a D_eff/D of about 6.5e-4 (a small dimensionless output)."""
+    rng = np.random.default_rng(2)
+    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
+    return pd.DataFrame(
+        {
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "diffusivity_z": 6.5e-4 + 1e-5 * eps,
+            "k_z_m2": kc_truth(eps, d),
+        }
+    )
+
+
 def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
     """Plotly's default tick format (``exponentformat = "B"``, plotly.js reference:
     layout.xaxis.exponentformat) writes 6.5e-4 as "650µ", an SI prefix that reads as a unit
@@ -482,18 +499,7 @@ def test_axes_without_a_unit_tick_plain_or_exponent_numbers(monkeypatch):
         return out
 
     monkeypatch.setattr(decision, "figure_html", keep)
-    rng = np.random.default_rng(2)
-    eps, d = rng.uniform(0.7, 0.9, 12), rng.uniform(6e-6, 9e-6, 12)
-    df = pd.DataFrame(
-        {
-            "generator.porosity": eps,
-            "generator.diameter": d,
-            "status": "ok",
-            "porosity": eps,
-            "diffusivity_z": 6.5e-4 + 1e-5 * eps,
-            "k_z_m2": (d / 2) ** 2 * eps**3 / (20 * (1 - eps) ** 2),
-        }
-    )
+    df = _random_kc_study()
     params = ["generator.porosity", "generator.diameter"]
     decision.parameter_plots(df, params)
     decision.effect_plots(df, params)
@@ -1077,3 +1083,117 @@ def test_response_surface_band_is_the_bar_study_predict_prints():
         "prints, the GP std never below the fit&#x27;s estimated error between the study&#x27;s "
         f"design points, {rel_pct}" in text
     )
+
+
+def test_every_reference_curve_cites_its_entry_of_the_references(monkeypatch):
+    """Session 45 looked at the report as pictures: the legends named "Tomadakis-Sotirchos"
+    and "Kozeny-Carman" (the diffusivity figure "T-S") without a source, the References list
+    at the page's foot unlinked to them. Every reference curve of the porosity-permeability
+    and porosity-diffusivity figures now cites its numbered entry ("[1]"), and that entry names
+    the same model and year (Tomadakis & Sotirchos, AIChE J. 1993; Carman, Trans. Inst. Chem.
+    Eng. 1937)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from psdesign.report import html as report_html
+    from psdesign.report import transport
+
+    entries = re.findall(r"<li>(.*?)</li>", report_html._references(), flags=re.S)
+    fig, ax = plt.subplots()
+    report_html._reference_curves(ax, pd.Series([0.7, 0.9]), 3.5e-6, normalize=False)
+    labels = list(ax.get_legend_handles_labels()[1])
+    plt.close(fig)
+    figs = []
+    monkeypatch.setattr(transport, "_fig_png", lambda f: figs.append(f) or b"")
+    eps = np.array([0.7, 0.8, 0.9])
+    transport.transport_figure(pd.DataFrame({"porosity": eps, "diffusivity_z": eps**1.5}))
+    labels += [t for t in figs[0].axes[0].get_legend_handles_labels()[1] if "diffusivity" not in t]
+    assert len(labels) == 5, labels
+    for label in labels:
+        cited = re.search(r"(\w+)-(\w+) (\d{4}) \[(\d)\]", label)
+        assert cited, label
+        first, second, year, n = cited.groups()
+        entry = entries[int(n) - 1]
+        assert entry.startswith(f"{first}-{second}:") and f"({year})" in entry, (label, entry)
+
+
+def test_the_report_opens_on_its_answer_the_trusted_k_range_and_where(mixed_report):
+    """Session 45 read the report as a person does: it opened on the run's metadata and the
+    answer (which design gives the most / least permeable medium) was 2-4 screens down.
+    "At a glance" now comes first, after the red box: per direction the highest and lowest
+    K over trusted values only, with its bar and design point. Truth: Kozeny-Carman
+    (``kc_truth``, the fake solver, times 1 + 0.5 i per direction and a 1 % noise); the
+    untrustworthy K_z at porosity 0.9 (higher than any trusted one) and the not-converged
+    cases must not be named."""
+    df, html = mixed_report
+    assert html.index('<h2 id="psd-glance">At a glance</h2>') < html.index("<h2>Study</h2>")
+    table = html.split('<h2 id="psd-glance">', 1)[1].split("</table>", 1)[0]
+    rows = {
+        r[0]: r[1:] for r in (re.findall(r"<td>(.*?)</td>", tr) for tr in table.split("<tr>")[2:])
+    }
+    expect = {  # direction: (highest at eps, d; lowest at eps, d; trusted of 12; factor)
+        "K_x (m²), in-plane": ((0.9, 8e-6), (0.8, 6e-6), 6, 1.0),
+        "K_z (m²), through-plane": ((0.8, 8e-6), (0.8, 6e-6), 4, 2.0),
+    }
+    assert set(rows) == set(expect)
+    for name, (hi, lo, n, factor) in expect.items():
+        cells = rows[name]
+        assert cells[2] == f"{n} of 12"
+        for cell, (eps, d) in zip(cells[:2], (hi, lo), strict=True):
+            k = float(cell.split(" ")[0])
+            assert k == pytest.approx(kc_truth(eps, d) * factor, rel=0.03), (name, cell)
+            assert "± 2.0 %" in cell  # the trusted values' bar (the untrusted one: 30 %)
+            assert f"generator.porosity={eps:g}, generator.diameter={d:g} (" in cell, cell
+
+
+def test_every_log_axis_ticks_whole_numbers(monkeypatch):
+    """Session 45 looked at a 2-parameter voxel study's report: its K axes within about a
+    decade ticked "3", "2", "1e-11", "9", "8", ... (plotly's ``minorloglabels`` "small digits",
+    plotly.js reference: layout.yaxis.minorloglabels): digits that read as values of K. Every
+    log axis of the report's figures (K, a loguniform parameter) now ticks whole numbers
+    ("3e-11") at its minor ticks."""
+    from psdesign.report import decision
+
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    df = _random_kc_study()
+    params = ["generator.porosity", "generator.diameter"]
+    decision.parameter_plots(df, params)
+    decision.surrogate_plots(df, params, {})
+    logs = [a for f in figs for a in [*f.select_xaxes(), *f.select_yaxes()] if a.type == "log"]
+    assert len(logs) >= 2, len(logs)  # K against each parameter
+    assert {a.minorloglabels for a in logs} == {"complete"}
+
+
+def test_a_line_with_no_trusted_value_says_so_in_its_legend():
+    """Session 45: a 2-parameter voxel study whose 6 um fibers were all untrustworthy (7.6
+    voxels per diameter) drew 'K vs generator.porosity' with a legend entry
+    'z (through-plane), generator.diameter = 6e-06 m' and no line: the reader could not tell a
+    left-out series from a hidden one. Such an entry now ends ': no trusted value'; a line with
+    values keeps its name."""
+    from psdesign.report import decision
+
+    eps, d = np.repeat([0.75, 0.85, 0.9], 2), np.tile([6e-6, 8e-6], 3)
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(6)],
+            "seed": 1,
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "status": "ok",
+            "porosity": eps,
+            "k_z_m2": kc_truth(eps, d),
+            "k_z_rel_error": 0.05,
+            "k_z_status": np.where(d < 7e-6, "untrustworthy", "ok"),
+        }
+    )
+    html = decision.parameter_plots(df, ["generator.porosity", "generator.diameter"])
+    names = set(re.findall(r'"name":"([^"]*)"', html))
+    assert "z (through-plane), generator.diameter = 6e-06 m: no trusted value" in names
+    assert "z (through-plane), generator.diameter = 8e-06 m" in names
+    assert sum(n.endswith(": no trusted value") for n in names) == 1
