@@ -252,13 +252,23 @@ STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
 """Statuses from best to worst (:func:`worst_status`)."""
 
 
-def worst_status(statuses: list[str]) -> str:
-    """The worst of several values' statuses (:data:`STATUS_ORDER`).
+def _rank(status: str | None) -> int:
+    # A word outside STATUS_ORDER (``extrapolated``, ``contact_left``, a missing status) ranks
+    # below every known one: nothing says it is better than ``blocked``, and the exit rule
+    # (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
+
+
+def worst_status(statuses: list[str | None]) -> str | None:
+    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: one
+    outside the order (or ``None``) is worse than ``blocked``; the first such one is returned.
 
     >>> worst_status(["ok", "untrustworthy", "ok"])
     'untrustworthy'
+    >>> worst_status(["ok", "blocked", "extrapolated", "not_converged"])
+    'extrapolated'
     """
-    return max(statuses, key=STATUS_ORDER.index, default="ok")
+    return max(statuses, key=_rank, default="ok")
 
 
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:
