@@ -15,24 +15,10 @@ import json
 
 import pytest
 from cylinder_spec import CYLINDER_SPEC as SPEC
+from printed_statuses import printed_statuses
 
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.main import main
-
-
-def _statuses(obj) -> list[str]:
-    """Every ``status`` / ``*_status`` string in a JSON document, at any depth."""
-    out = []
-    if isinstance(obj, dict):
-        for key, value in obj.items():
-            if (key == "status" or key.endswith("_status")) and isinstance(value, str):
-                out.append(value)
-            else:
-                out += _statuses(value)
-    elif isinstance(obj, list):
-        for value in obj:
-            out += _statuses(value)
-    return out
 
 
 @pytest.mark.parametrize(
@@ -50,7 +36,7 @@ def test_the_exit_status_is_the_rule_applied_to_the_printed_statuses(tmp_path, c
     spec.write_text(SPEC)
     got = main([argv[0], str(spec), *argv[1:], "--json", "--quiet"])
     out = json.loads(capsys.readouterr().out)
-    printed = _statuses(out)
+    printed = printed_statuses(out)
     assert printed, out  # every command prints its status
     assert got == status_code(*printed), (got, printed)
     if code is not None:
