@@ -7,7 +7,8 @@ import argparse
 import time
 from pathlib import Path
 
-from psdesign.cli.lines import print_json
+from psdesign.cli.exit_status import status_code
+from psdesign.cli.lines import print_json, with_porosity_status
 from psdesign.cli.progress import add_force_argument
 from psdesign.io.vtkfile import save_vtk
 
@@ -40,8 +41,9 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         "intersection_volume_fraction",
         "intersection_volume_fraction_error",
     )
-    print_json({k: summary[k] for k in keys})  # strict JSON, as every --json
-    return 0
+    out = with_porosity_status({k: summary[k] for k in keys})
+    print_json(out)  # strict JSON, as every --json
+    return status_code(out["porosity_status"])  # the one exit rule (cli.exit_status)
 
 
 GENERATE_FILES = (

@@ -32,6 +32,22 @@ def rating(r: dict) -> str:
     return f"[{r['status']}]{bc}  converged {str(r['converged']).lower()}"
 
 
+def with_porosity_status(out: dict) -> dict:
+    """``out`` with ``porosity_status``: the porosity's rating by its bar alone, as study
+    tables rate it (:func:`psdesign.analysis.columns.error_bar`: ``ok`` up to a 20 % bar), so
+    ``generate`` and ``mesh`` print their porosity with a status as every other number (until
+    session 45 with its error only).
+
+    >>> with_porosity_status({"porosity": 0.8, "porosity_error": 4e-4})["porosity_status"]
+    'ok'
+    >>> with_porosity_status({"porosity": 0.01, "porosity_error": 4e-3})["porosity_status"]
+    'untrustworthy'
+    """
+    from psdesign.analysis.columns import error_bar
+
+    return out | {"porosity_status": error_bar(out, "porosity")[1]}
+
+
 def print_json(obj: object) -> None:
     """Print ``obj`` as strict JSON: NaN (no value, e.g. no cross-validated error, no CI of
     one seed) as ``null``, as in the files a study writes (Python's ``json.dumps`` printed the

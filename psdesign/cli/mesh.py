@@ -7,7 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-from psdesign.cli.lines import print_json
+from psdesign.cli.exit_status import status_code
+from psdesign.cli.lines import print_json, with_porosity_status
 from psdesign.cli.progress import add_force_argument
 from psdesign.errors import SpecError
 from psdesign.meshing.exports import NO_PERIODIC, NO_PERIODIC_WHY, OUTPUTS, WRITERS, output_names
@@ -123,11 +124,11 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
         write_record(tmp, "mesh.json", info)  # the wall time beside it
     _drop_stale_outputs(target.path, formats)
-    print_json(  # strict JSON, as every --json
+    out = with_porosity_status(
         {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}
-        | {"n_tets": pm.quality.get("n_tets")}
     )
-    return 0
+    print_json(out | {"n_tets": pm.quality.get("n_tets")})  # strict JSON, as every --json
+    return status_code(out["porosity_status"])  # the one exit rule (cli.exit_status)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

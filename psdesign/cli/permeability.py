@@ -39,7 +39,8 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
 def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
     import numpy as np
 
-    worst = {"ok": 0, "untrustworthy": 1, "not_converged": 2}
+    from psdesign.transport.effective import worst_status
+
     out = {
         "direction": "all",
         "solver": solver,
@@ -49,7 +50,7 @@ def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
         "bc": results[0]["bc"],
         "converged": all(r["converged"] for r in results),
         "flux_imbalance": max(r["flux_imbalance"] for r in results),
-        "status": max((r["status"] for r in results), key=worst.get),
+        "status": worst_status([r.get("status") for r in results]),
         "warnings": [w for r in results for w in r.get("warnings", [])],
     }
     for key in ("permeability_m2", "permeability_rel_error"):

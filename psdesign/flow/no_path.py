@@ -80,7 +80,8 @@ def no_path_message(
         the tests here tell who closed the path (the permeameter's by :func:`closed_pore_space`
         with its reservoirs and side walls: one copy closed closes any stack of them, since a
         path across the stack crosses each copy from its inlet face to its outlet face); on
-        mirror and frame an RVE's line names ``rve.voxel`` without them.
+        mirror and frame an RVE's line names the fibers when its walls moved back by
+        :data:`OPEN_MOVE` voxel leave no path on that grid, else ``rve.voxel``.
 
     Returns
     -------
@@ -104,6 +105,9 @@ def no_path_message(
         said = closed_pore_space(name, h, distance, None, axis, periodic=False)
         if said is not None:
             return said
+    if grid in ("mirror", "frame"):  # the fibers' line where they close it (until s45: none)
+        if not _treated_path(np.asarray(distance) / float(h) > -OPEN_MOVE, axis, grid):
+            return _fibers_line(name, h)
     if grid != "periodic":
         return (
             f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid "
@@ -144,6 +148,16 @@ def path_test(name: str, grid: str, what: str = "pore") -> str:
     'face-connected pore voxels between the reservoirs, inside the side walls'
     """
     return PATH_TESTS[grid].format(what=what, name=name)
+
+
+def _treated_path(pore: np.ndarray, axis: int, grid: str) -> bool:
+    """Whether ``pore`` has a path along ``axis`` on the grid of a periodic solve with
+    ``flow.periodic_treatment = grid``: the solver's own grid (:func:`solvers.voxel_stokes.
+    apply_treatment`, the mirror image or the solid frame) and its own test of a path."""
+    from psdesign.geometry.throat import percolates
+    from solvers.voxel_stokes import apply_treatment
+
+    return percolates(~apply_treatment(~pore, axis, grid)[0], axis)
 
 
 def _image_line(name: str, grid: str) -> str:

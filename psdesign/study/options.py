@@ -75,7 +75,8 @@ class RunOptions:
         did not write is still never replaced (:mod:`psdesign.io.outputs`).  Default False.
     security : distributed.security.Security, optional
         TLS settings for a remote ``tls://`` scheduler (see
-        :func:`psdesign.study.runner.connect_scheduler`).
+        :func:`psdesign.study.runner.connect_scheduler`); refused without one, as the command
+        line refuses ``--tls-*``.
     worker_wait_s : float, optional
         ``--cluster-wait``: seconds (> 0, finite) a Dask run waits while the scheduler has no
         worker at all before it stops with :class:`~psdesign.study.runner.WorkersLost`;
@@ -121,6 +122,7 @@ class RunOptions:
         )
         object.__setattr__(self, "scheduler", scheduler)  # an address: its host looked up once
         check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
+        _check_security(self.security, self.scheduler)
         if self.worker_wait_s is not None:
             try:
                 object.__setattr__(self, "worker_wait_s", check_wait_s(self.worker_wait_s))
@@ -149,6 +151,33 @@ def _check_timeout(timeout_s) -> float:
             f"study.timeout_s), got {timeout_s!r}"
         )
     return float(timeout_s)
+
+
+def _check_security(security, scheduler) -> None:
+    """``security`` only with a ``tls://`` scheduler, and a ``distributed`` ``Security``: the
+    command line's rule for ``--tls-*`` (until session 45 the keyword was accepted and ignored
+    without one, so a caller believed the run was encrypted).
+
+    >>> _check_security(None, None)
+    >>> _check_security("zz", None)
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: security: only with a scheduler tls://HOST:PORT, got scheduler None
+    """
+    if security is None:
+        return
+    if not (isinstance(scheduler, str) and scheduler.startswith("tls://")):
+        shown = scheduler if isinstance(scheduler, str | None) else type(scheduler).__name__
+        raise StudyError(
+            f"security: only with a scheduler tls://HOST:PORT, got scheduler {shown!r}"
+        )
+    from distributed.security import Security
+
+    if not isinstance(security, Security):
+        raise StudyError(
+            "security: must be a distributed.security.Security (TLS files of the tls:// "
+            f"scheduler), got {type(security).__name__}"
+        )
 
 
 def _check_run_arguments(scheduler, case_fn, *flags: object):

@@ -24,7 +24,7 @@ import numpy as np
 from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
-from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
+from psdesign.transport.effective import Rated, blocked_on_grid, solve_effective, wiener_bounds
 
 #: The contrast a blocked two-phase solve is repeated at (:func:`effective_conductivity`): the
 #: periodic solve calls a flux under 1e-7 of the Wiener upper bound blocked
@@ -86,6 +86,16 @@ class ConductivityResult(Rated):
         """The value and its Wiener bounds (:meth:`Rated.wiener`)."""
         lo, hi = self.wiener_bounds
         return self.effective_conductivity, (lo, hi)
+
+    def _rating(self) -> tuple[str, list[str]]:
+        # With an insulating fluid the solid conducts: a block on the grid is a contact the
+        # grid broke, not a pore gap it closed (the warning :func:`rating` words for the pore).
+        status, warnings = super()._rating()
+        if self.insulating_phase == "fluid":
+            name = f"{self.QUANTITY}_{self.direction}"
+            pore = blocked_on_grid(name)
+            warnings = [blocked_on_grid(name, "solid") if w == pore else w for w in warnings]
+        return status, warnings
 
     def __str__(self) -> str:
         """The line ``psdesign conductivity`` prints (:func:`psdesign.cli.conductivity.

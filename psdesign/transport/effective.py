@@ -176,14 +176,25 @@ def rating(
     return status, warnings
 
 
-def blocked_on_grid(name: str) -> str:
+def blocked_on_grid(name: str, conducting: str = "pore") -> str:
     """The warning of a value blocked on the voxel grid of an analytic RVE: the block may be
     the grid's, not the RVE's (a square array across at solid fraction 0.75 has a 0.46 um gap
     per 20 um, closed at 0.5 um voxels: D_eff/D = 0 there, blocked; session 37 edge audit).
+    ``conducting``: the phase that conducts, ``"pore"`` or ``"solid"`` (a conductivity with
+    an insulating fluid, whose path the grid breaks at a contact thinner than a voxel, not at
+    a pore gap; until session 45 it got the pore's words).
 
     >>> blocked_on_grid("D_eff/D_x")[:40]
     'D_eff/D_x: blocked on the voxel grid, wh'
+    >>> blocked_on_grid("sigma_eff_x", "solid")[:76]
+    'sigma_eff_x: blocked on the voxel grid, which breaks any contact between the'
     """
+    if conducting == "solid":
+        return (
+            f"{name}: blocked on the voxel grid, which breaks any contact between the fibers "
+            "thinner than about a voxel: the fibers themselves may touch and conduct; refine "
+            "rve.voxel to tell fibers that do not touch from an unresolved contact"
+        )
     return (
         f"{name}: blocked on the voxel grid, which closes any gap of the fibers' surface "
         "narrower than about a voxel: the RVE itself may have a path; refine rve.voxel to tell "
@@ -252,13 +263,23 @@ STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
 """Statuses from best to worst (:func:`worst_status`)."""
 
 
-def worst_status(statuses: list[str]) -> str:
-    """The worst of several values' statuses (:data:`STATUS_ORDER`).
+def _rank(status: str | None) -> int:
+    # A word outside STATUS_ORDER (``extrapolated``, ``contact_left``, a missing status) ranks
+    # below every known one: nothing says it is better than ``blocked``, and the exit rule
+    # (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
+
+
+def worst_status(statuses: list[str | None]) -> str | None:
+    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: one
+    outside the order (or ``None``) is worse than ``blocked``; the first such one is returned.
 
     >>> worst_status(["ok", "untrustworthy", "ok"])
     'untrustworthy'
+    >>> worst_status(["ok", "blocked", "extrapolated", "not_converged"])
+    'extrapolated'
     """
-    return max(statuses, key=STATUS_ORDER.index, default="ok")
+    return max(statuses, key=_rank, default="ok")
 
 
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:

@@ -220,3 +220,34 @@ def test_preview_title_gives_the_porosity_with_its_bar(tmp_path, monkeypatch):
     (title,) = titles
     bar = f"{summary['porosity']:.4f} +- {summary['porosity_error']:.1e}"
     assert title == f"porosity {bar}, 1 fibers"
+
+
+def test_the_printed_porosity_carries_its_status_and_the_exit_follows_it(tmp_path, capsys):
+    """`generate` printed the porosity with its error but no status (audit s45): every printed
+    number carries its status (product rule). It is rated as study tables rate it
+    (``psdesign.analysis.columns.error_bar``: ``ok`` up to a 20 % bar) and the exit follows the
+    one rule (``cli.exit_status``). Closed forms: the rod of D = 0.2 periods (its PS
+    cross-section); three orthogonal cylinders of r = 0.49 L (inclusion-exclusion with the
+    Steinmetz bicylinder 16 r^3 / 3 and tricylinder 8 (2 - sqrt 2) r^3): porosity 0.06816, at
+    10 voxels across 0.088 +- 0.024, a 27 % bar: untrustworthy, exit 3. Fails on main (no
+    ``porosity_status``, exit 0)."""
+    spec = write(tmp_path, SPEC.format(d="20e-6"))
+    assert main(["generate", str(spec), "-o", str(tmp_path / "rod"), "--no-preview"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["porosity_status"] == "ok"
+    true = 1 - rod_cross_section_area(0.2)
+    assert abs(out["porosity"] - true) <= out["porosity_error"]
+    cyl = '\n[[fibers]]\nshape = "cylinder"\ndiameter = 98e-6\ncenter = [50e-6, 50e-6, 50e-6]\n'
+    text = "[rve]\nsize = [100e-6, 100e-6, 100e-6]\nvoxel = 10e-6\n" + "".join(
+        cyl + f"direction = {d}\n" for d in ("[1, 0, 0]", "[0, 1, 0]", "[0, 0, 1]")
+    )
+    spec = write(tmp_path, text, "tri.toml")
+    assert main(["generate", str(spec), "-o", str(tmp_path / "tri"), "--no-preview"]) == 3
+    out = json.loads(capsys.readouterr().out)
+    r, L = 49e-6, 100e-6
+    true = 1 - (3 * np.pi * r**2 * L - 16 * r**3 + 8 * (2 - np.sqrt(2)) * r**3) / L**3
+    assert true == pytest.approx(0.068157, abs=1e-6)
+    assert abs(out["porosity"] - true) <= out["porosity_error"]  # the bar covers the truth
+    assert out["porosity_error"] > 0.2 * out["porosity"]
+    assert out["porosity_status"] == "untrustworthy"
+    assert (tmp_path / "tri" / "summary.json").exists()  # finished: outputs complete

@@ -64,16 +64,21 @@ def test_mesh_format_help_lists_the_export_registry(tmp_path, capsys):
     assert "export registry" in out and all(name in out for name in WRITERS)
 
 
-def test_mesh_json_reports_analytic_pore_volume(tmp_path):
+def test_mesh_json_reports_analytic_pore_volume(tmp_path, capsys):
     """mesh.json carries pore_volume_m3, analytic_pore_volume_m3 and their relative
-    difference; the analytic value is the exact RVE pore volume L^3 - pi R^2 L (R = 5 voxels)."""
+    difference; the analytic value is the exact RVE pore volume L^3 - pi R^2 L (R = 5 voxels).
+    The printed porosity covers the exact one with its bar and carries its status (session 45:
+    it had none; ``cli.lines.with_porosity_status``)."""
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC)
     out = tmp_path / "m"
     assert main(["mesh", str(spec), "-o", str(out), "--direction", "x"]) == 0
+    printed = json.loads(capsys.readouterr().out)
     q = json.loads((out / "mesh.json").read_text())["quality"]
     L = 40e-6
     exact = L**3 - np.pi * 25e-12 * L
+    assert abs(printed["porosity"] - exact / L**3) <= printed["porosity_error"]
+    assert printed["porosity_status"] == "ok"
     assert q["analytic_pore_volume_m3"] == pytest.approx(exact, rel=2e-4, abs=0)
     assert abs(q["pore_volume_rel_diff"]) < 5e-4
     assert q["pore_volume_rel_diff"] == pytest.approx(

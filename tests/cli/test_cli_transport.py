@@ -463,3 +463,20 @@ def test_the_json_printers_print_strict_json(capsys):
         "value": 0.25,
         "warnings": [],
     }
+
+
+def test_a_conducting_solid_blocked_on_the_grid_is_told_about_contacts(spec, capsys):
+    """``conductivity --insulating fluid`` along x of the one 8 um cylinder along z in a 20 um
+    cell: the solid does not span x (closed form: 8 < 20 um, no contact), so sigma_eff_x = 0,
+    blocked, exit 3. The warning said the grid 'closes any gap of the fibers' surface ... the
+    RVE itself may have a path', the pore phase's words (session 45 audit); the solid conducts
+    here, and the grid breaks contacts, it does not close gaps. Fails on main (the pore words).
+    The pore phase's own block (diffusivity) keeps its words."""
+    args = ["conductivity", str(spec), "--direction", "x", "--insulating", "fluid"]
+    assert main([*args, "--solid", "10", "--json", "--quiet"]) == 3
+    out = json.loads(capsys.readouterr().out)
+    assert out["blocked"] and out["effective_conductivity"] == 0.0 and out["status"] == "blocked"
+    assert len(out["warnings"]) == 1, out["warnings"]
+    assert "breaks any contact between the fibers" in out["warnings"][0]
+    assert "gap of the fibers' surface" not in out["warnings"][0]
+    assert "refine rve.voxel" in out["warnings"][0]

@@ -657,6 +657,29 @@ def test_tls_options_are_checked(tmp_path):
     assert runner_mod.scheduler_security() is None
 
 
+def test_run_options_refuse_security_without_a_tls_scheduler(tmp_path):
+    """The command line refuses ``--tls-*`` without a ``tls://`` scheduler; the API took
+    ``RunOptions(security="zz")`` (and ``run_study(..., security=...)``) and ignored it, so a
+    caller believed a run encrypted that was not (audit s45). Now refused on creation, one
+    line naming the keyword, before the output folder exists. Fails on main's options.py."""
+    from distributed.security import Security
+
+    from psdesign.study.options import RunOptions
+
+    for scheduler in (None, "local"):
+        with pytest.raises(StudyError, match=r"^security: only with a scheduler tls://"):
+            RunOptions(workers=1, scheduler=scheduler, security=Security())
+    with pytest.raises(StudyError, match=r"^security: must be a distributed.security.Security"):
+        RunOptions(scheduler="tls://127.0.0.1:8786", security="zz")
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    with pytest.raises(StudyError, match=r"^security: only with a scheduler tls://"):
+        run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, security=Security())
+    assert not (tmp_path / "out").exists()
+    # accepted where it is used (the TLS run itself: test_tls_scheduler_end_to_end, slow)
+    opts = RunOptions(scheduler="tls://127.0.0.1:8786", security=Security())
+    assert opts.security is not None and opts.scheduler == "tls://127.0.0.1:8786"
+
+
 def _self_signed(tmp_path: Path) -> tuple[str, str]:
     """A CA-signed-by-itself certificate for 127.0.0.1 (cert + key in one PEM, and the key)."""
     import datetime as dt
