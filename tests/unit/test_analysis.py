@@ -208,12 +208,13 @@ def test_surrogate_rating(length_scale, cv, status, why) -> None:
     assert (warnings == []) if why is None else any(why in w for w in warnings)
 
 
-def _lhs_study(tmp_path, n: int):
-    """A finished ``n``-case Latin-hypercube porosity study of the fake solver (no fit yet)."""
+def _lhs_study(tmp_path, n: int, more: str = ""):
+    """A finished ``n``-case Latin-hypercube porosity study of the fake solver (no fit yet),
+    with the ``[parameters]`` lines ``more`` beside the porosity."""
     p = write_study(
         tmp_path,
         f'design = "latin-hypercube"\nn_samples = {n}\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n' + more,
     )
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
@@ -360,14 +361,7 @@ def test_predict_refuses_an_int_or_a_distribution_bound_the_schema_does_not_allo
 
     with pytest.raises(ValueError, match=r"--at: generator.n_fibers: must be >= 1, got 0 \("):
         parse_point("generator.n_fibers=0", ["generator.n_fibers"], {"generator.n_fibers"})
-    p = write_study(
-        tmp_path,
-        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
-        '"generator.theta.high" = {low = 4, high = 6}',
-    )
-    out = tmp_path / "out"
-    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    out = _lhs_study(tmp_path, 6, '"generator.theta.high" = {low = 4, high = 6}')
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
     at = "generator.porosity=0.8,generator.theta.high={}"
@@ -998,14 +992,7 @@ def test_predict_refuses_a_fraction_for_an_int_parameter(tmp_path, capsys) -> No
     n_fibers has ``type = "int"`` printed a prediction at 12.5 fibers, no flag (no case can
     have half a fiber). Rule: one line naming --at and the parameter; 12.0 and 30 are whole
     numbers and predict (exit 0)."""
-    p = write_study(
-        tmp_path,
-        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
-        '"generator.n_fibers" = {low = 10, high = 50, type = "int"}',
-    )
-    out = tmp_path / "out"
-    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    out = _lhs_study(tmp_path, 6, '"generator.n_fibers" = {low = 10, high = 50, type = "int"}')
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
     at = "generator.porosity=0.8,generator.n_fibers=12.5"
