@@ -163,8 +163,9 @@ def first_error(df: pd.DataFrame) -> str:
     return f" (first error: {errors.iloc[0]})" if len(errors) else ""
 
 
-def study_parameters(out_dir: str | Path) -> dict[str, dict]:
-    """The ``parameters`` table of ``OUT/study.json`` (path -> kind, values, low, high, ...)."""
+def study_table(out_dir: str | Path) -> dict:
+    """The ``study`` table of ``OUT/study.json`` (:meth:`psdesign.study.Study.to_dict`: its
+    ``parameters``, ``base`` spec, ``solver``, ...)."""
     path = Path(out_dir) / "study.json"
     if not path.is_file():
         raise FileNotFoundError(f"{out_dir}: no study.json; is this a study output folder?")
@@ -175,7 +176,12 @@ def study_parameters(out_dir: str | Path) -> dict[str, dict]:
     params = study.get("parameters", {}) if isinstance(study, dict) else None
     if not isinstance(params, dict):
         raise ValueError(f"out_dir: {path} is unreadable (no parameters table); rerun the study")
-    return dict(params)
+    return study
+
+
+def study_parameters(out_dir: str | Path) -> dict[str, dict]:
+    """The ``parameters`` table of ``OUT/study.json`` (path -> kind, values, low, high, ...)."""
+    return dict(study_table(out_dir)["parameters"])
 
 
 def is_design_parameter(name: str) -> bool:

@@ -674,7 +674,9 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
         ) from None
 
 
-def parse_point(text: str, params: list[str], ints: Collection[str] = ()) -> np.ndarray:
+def parse_point(
+    text: str, params: list[str], ints: Collection[str] = (), study: dict | None = None
+) -> np.ndarray:
     """``"generator.porosity=0.82,generator.diameter=8e-6"`` -> values in ``params`` order.
 
     A parameter in ``ints`` (``type = "int"`` in the study) must be a whole number:
@@ -685,6 +687,16 @@ def parse_point(text: str, params: list[str], ints: Collection[str] = ()) -> np.
     Traceback (most recent call last):
     ...
     ValueError: --at: n must be an integer (type = "int" in the study), got '12.5'
+
+    and every value one the schema allows its key (:func:`psdesign.study.point.
+    check_design_point`, set into ``study``'s base spec: ``study.json``'s ``study`` table,
+    :func:`~psdesign.analysis.columns.study_table`); a value outside the study's box but
+    allowed is predicted, flagged ``extrapolated`` (:func:`outside_range`):
+
+    >>> parse_point("generator.porosity=5", ["generator.porosity"])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: --at: generator.porosity: must be < 1, got 5 (allowed: target in (0, 1): ...
     """
     values: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
@@ -709,6 +721,13 @@ def parse_point(text: str, params: list[str], ints: Collection[str] = ()) -> np.
     missing = [p for p in params if p not in values]
     if missing:
         raise ValueError(f"--at: missing {', '.join(missing)}")
+    from psdesign.errors import SpecError
+    from psdesign.study.point import check_design_point
+
+    try:  # porosity 5 was predicted, flagged extrapolated only (exit 3; session 45)
+        check_design_point(values, study)
+    except SpecError as exc:
+        raise ValueError(f"--at: {exc}") from None
     return np.array([values[p] for p in params])
 
 

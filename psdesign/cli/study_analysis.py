@@ -88,7 +88,9 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     return status_code(*(r["status"] for r in rows.values()))
 
 
-def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, str]:
+def _predict_one(
+    m, at: str, ints: frozenset[str] = frozenset(), study: dict | None = None
+) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its bar and status (``extrapolated``
     outside the fitted cases, else the fit's rating, ``untrustworthy`` also when the fit's
     estimated error between its design points or the point's own bar is too wide:
@@ -97,7 +99,9 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     ``std`` is the printed bar: the GP std, never below the fit's hold-out figure for where
     the point is (:func:`~psdesign.analysis.prediction.holdout_bar`: between the design points
     inside the box, the largest hold-out error outside it; the GP std alone held the truth
-    within 2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own."""
+    within 2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own.
+    ``study``: ``study.json``'s table, whose base spec the point's values are checked in
+    (:func:`~psdesign.analysis.surrogate.parse_point`)."""
     from psdesign.analysis.prediction import (
         bar_error,
         holdout_bar,
@@ -106,7 +110,7 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
     )
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
-    x = parse_point(at, m.params, ints)
+    x = parse_point(at, m.params, ints, study)
     mean, gp_std = (float(v[0]) for v in m.predict(x[None, :]))
     outside = outside_range(m, x)
     status = "extrapolated" if outside else m.rating()[0]
@@ -129,15 +133,16 @@ def _predict_one(m, at: str, ints: frozenset[str] = frozenset()) -> tuple[dict, 
 
 
 def _cmd_predict(args: argparse.Namespace) -> int:
-    from psdesign.analysis.columns import study_parameters
+    from psdesign.analysis.columns import study_table
     from psdesign.analysis.surrogate import load_study_surrogates
 
     try:
         models = load_study_surrogates(args.out)
+        study = study_table(args.out)  # its base: each --at value held to the schema
         ints = frozenset(
-            p for p, info in study_parameters(args.out).items() if (info or {}).get("type") == "int"
+            p for p, info in study["parameters"].items() if (info or {}).get("type") == "int"
         )
-        rows = {name: _predict_one(m, args.at, ints) for name, m in models.items()}
+        rows = {name: _predict_one(m, args.at, ints, study) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
         return fail(" ".join(str(exc).split()))
     out = {name: row for name, (row, _) in rows.items()}

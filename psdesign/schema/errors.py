@@ -19,7 +19,7 @@ from pydantic_core import PydanticCustomError
 from psdesign.errors import SpecError
 from psdesign.schema.types import short
 
-__all__ = ["did_you_mean", "dotted", "fail_error", "field_allowed", "spec_error"]
+__all__ = ["did_you_mean", "dotted", "fail_error", "field_allowed", "spec_error", "spec_errors"]
 
 _BOUND_TEXT = {"gt": "> {}", "ge": ">= {}", "lt": "< {}", "le": "<= {}"}
 
@@ -136,14 +136,29 @@ def _first(exc: ValidationError) -> dict:
     return max(errs, key=lambda e: len(_clean_loc(tuple(e["loc"]))))
 
 
-def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str, str]:
-    """(dotted key, one-line message) of the first error of ``exc``."""
-    err = _first(exc)
+def _line(err: dict, root: Any, prefix: str) -> tuple[str, str]:
+    """(dotted key, one-line message) of one pydantic error dict."""
     loc = _clean_loc(tuple(err["loc"]))
     suffix, msg = _message(err, root, loc)
     key = dotted((prefix, *loc, *(suffix.split(".") if suffix else ())))
     msg = " ".join(msg.split())  # one line
     return key or (prefix or "spec"), msg
+
+
+def first_error(exc: ValidationError, root: Any, prefix: str = "") -> tuple[str, str]:
+    """(dotted key, one-line message) of the first error of ``exc``."""
+    return _line(_first(exc), root, prefix)
+
+
+def spec_errors(exc: ValidationError, root: Any, prefix: str = "") -> list[SpecError]:
+    """Every error of ``exc`` as a :class:`SpecError` (:func:`spec_error` gives the first):
+    for a caller that asks about some keys only, whose error may not be the first (a design
+    point's value beside a table key the point does not set)."""
+    out = []
+    for err in exc.errors(include_url=False):
+        key, msg = _line(err, root, prefix)
+        out.append(SpecError(key, msg, names=(err.get("ctx") or {}).get("names", ())))
+    return out
 
 
 def fail_error(exc: PydanticCustomError) -> SpecError:

@@ -16,7 +16,7 @@ from psdesign.schema.document import SpecDocument
 from psdesign.schema.errors import _models
 from psdesign.schema.study import BoundsParam, RangeParam, StudyTable
 
-__all__ = ["key_rows", "spec_paths", "study_rows"]
+__all__ = ["key_rows", "spec_paths", "study_rows", "table_model"]
 
 #: Tables whose keys a study parameter may set although the base spec lacks them.
 _VARIABLE_TABLES = ("rve", "generator", "intersections", "flow", "transport", "image")
@@ -79,12 +79,18 @@ def study_rows() -> dict[str, list[tuple[str, str, str]]]:
     }
 
 
+def table_model(table: str) -> type[BaseModel]:
+    """The model of the spec's top-level table ``table`` (``"generator"`` ->
+    :class:`~psdesign.schema.generator.GeneratorTable`); ``KeyError`` for another name."""
+    return _models(SpecDocument.model_fields[table].annotation)[0]
+
+
 def spec_paths() -> set[str]:
     """Dotted paths a study parameter may vary (``rve.size.2``, ``generator.theta.high``)."""
     paths: set[str] = set()
     dist_keys = {k for m in DIST_MODELS.values() for k in m.model_fields}
     for table in _VARIABLE_TABLES:
-        model = _models(SpecDocument.model_fields[table].annotation)[0]
+        model = table_model(table)
         paths.add(table)
         for name, info in model.model_fields.items():
             key = f"{table}.{name}"

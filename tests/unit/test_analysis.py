@@ -208,12 +208,13 @@ def test_surrogate_rating(length_scale, cv, status, why) -> None:
     assert (warnings == []) if why is None else any(why in w for w in warnings)
 
 
-def _lhs_study(tmp_path, n: int):
-    """A finished ``n``-case Latin-hypercube porosity study of the fake solver (no fit yet)."""
+def _lhs_study(tmp_path, n: int, more: str = ""):
+    """A finished ``n``-case Latin-hypercube porosity study of the fake solver (no fit yet),
+    with the ``[parameters]`` lines ``more`` beside the porosity."""
     p = write_study(
         tmp_path,
         f'design = "latin-hypercube"\nn_samples = {n}\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n' + more,
     )
     out = tmp_path / "out"
     run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
@@ -314,6 +315,63 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 3
     assert "(EXTRAPOLATED)" in capsys.readouterr().out
+
+
+def test_predict_refuses_a_value_the_schema_does_not_allow(tmp_path, capsys) -> None:
+    """Audit (session 45): ``study predict --at generator.porosity=5`` printed a prediction
+    flagged EXTRAPOLATED (exit 3) at a porosity no material has. Rule (the product's bad
+    input): exit 2 and one line naming the key and its range in the schema's own words
+    (``GeneratorTable.porosity``: ``number(gt=0, lt=1)``, the line ``study run`` gives a level
+    5), before any prediction; a value the schema allows outside the study's box [0.7, 0.9]
+    stays a prediction flagged extrapolated (exit 3). The Python equivalent
+    (``parse_point`` with the study's table) refuses the same values."""
+    from psdesign.analysis.columns import study_table
+    from psdesign.analysis.surrogate import parse_point
+
+    out = _lhs_study(tmp_path, 6)
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    allowed = "(allowed: target in (0, 1): below one fiber's porosity"
+    for v, why in [
+        ("5", "must be < 1, got 5"),
+        ("1", "must be < 1, got 1"),
+        ("0", "must be > 0, got 0"),
+        ("-0.2", "must be > 0, got -0.2"),
+    ]:
+        assert main(["study", "predict", str(out), "--at", f"generator.porosity={v}"]) == 2
+        line = _one_error_line(capsys)
+        assert line.startswith(f"psdesign: error: --at: generator.porosity: {why} {allowed}"), line
+        with pytest.raises(ValueError, match=f"generator.porosity: {why}"):
+            parse_point(f"generator.porosity={v}", ["generator.porosity"], (), study_table(out))
+    for v in ("0.95", "0.5", "0.999"):  # allowed by the schema, outside the box: flagged
+        assert main(["study", "predict", str(out), "--at", f"generator.porosity={v}"]) == 3
+        cap = capsys.readouterr()
+        assert "(EXTRAPOLATED)" in cap.out and "extrapolating" in cap.err
+
+
+def test_predict_refuses_an_int_or_a_distribution_bound_the_schema_does_not_allow(
+    tmp_path, capsys
+) -> None:
+    """``generator.n_fibers`` is ``integer(ge=1)`` and a ``theta`` distribution's support must
+    lie in [-360, 360] degrees (the generator table's own rule, checked in the study's base:
+    theta = uniform [-5, high]): predictions at theta.high 500 were flagged extrapolated
+    (exit 3) only; they are refused (exit 2, one line, the schema's words), and values inside
+    the schema's ranges are predicted (inside the box: exit 0)."""
+    from psdesign.analysis.surrogate import parse_point
+
+    with pytest.raises(ValueError, match=r"--at: generator.n_fibers: must be >= 1, got 0 \("):
+        parse_point("generator.n_fibers=0", ["generator.n_fibers"], {"generator.n_fibers"})
+    out = _lhs_study(tmp_path, 6, '"generator.theta.high" = {low = 4, high = 6}')
+    assert main(["study", "fit", str(out)]) == 0
+    capsys.readouterr()
+    at = "generator.porosity=0.8,generator.theta.high={}"
+    assert main(["study", "predict", str(out), "--at", at.format(500)]) == 2
+    assert _one_error_line(capsys) == (
+        "psdesign: error: --at: generator.theta: the distribution allows [-5, 500] degrees "
+        "(truncate with low/high) (allowed: [-360, 360])"
+    )
+    assert main(["study", "predict", str(out), "--at", at.format(5)]) == 0
+    assert main(["study", "predict", str(out), "--at", at.format(300)]) == 3  # box [4, 6]
 
 
 def test_optimize_finds_a_hidden_target_in_under_half_a_factorial(tmp_path, capsys) -> None:
@@ -934,14 +992,7 @@ def test_predict_refuses_a_fraction_for_an_int_parameter(tmp_path, capsys) -> No
     n_fibers has ``type = "int"`` printed a prediction at 12.5 fibers, no flag (no case can
     have half a fiber). Rule: one line naming --at and the parameter; 12.0 and 30 are whole
     numbers and predict (exit 0)."""
-    p = write_study(
-        tmp_path,
-        'design = "latin-hypercube"\nn_samples = 6\nseeds = [1]\noutputs = ["k_z"]',
-        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
-        '"generator.n_fibers" = {low = 10, high = 50, type = "int"}',
-    )
-    out = tmp_path / "out"
-    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    out = _lhs_study(tmp_path, 6, '"generator.n_fibers" = {low = 10, high = 50, type = "int"}')
     assert main(["study", "fit", str(out)]) == 0
     capsys.readouterr()
     at = "generator.porosity=0.8,generator.n_fibers=12.5"
