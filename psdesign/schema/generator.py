@@ -106,6 +106,8 @@ class GeneratorTable(Table):
                 f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
                 f"<= {self.max_fibers}",
             )
+        if not support(self.diameter)[0] > 0:  # the half-period bound needs the rve: document.py
+            raise fail("diameter", support_text(self.diameter, "m"), "(0, period / 2) m")
         for k in ("tx", "ty", "tz"):
             lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
             if lo < -1 or hi > 2:

@@ -563,3 +563,20 @@ def test_the_study_files_top_level_tables_have_one_definition():
     assert study_err({**STUDY, "extra": {}}).startswith(
         "extra: unknown top-level key (allowed: base, study, parameters)"
     )
+
+
+def test_a_generated_diameter_must_be_positive_in_its_own_table():
+    """Session 45 (s45-ranges left it): ``study predict --at generator.diameter=-1e-6`` made a
+    prediction flagged extrapolated, because the ``> 0`` rule of a generated diameter lived
+    only in the whole-spec check beside the memory budget, which a design point does not run.
+    The generator table holds it now (the half-period bound needs ``rve`` and stays there): a
+    spec and a design point are refused with the key and its range."""
+    from psdesign.study.point import check_design_point
+
+    base = copy.deepcopy(SPEC)
+    for d in (-1e-6, 0.0):
+        err = spec_err(with_(SPEC, "generator.diameter", d))
+        assert err.key == "generator.diameter" and "(0, period / 2) m" in err.message, err
+        with pytest.raises(SpecError, match=r"^generator.diameter: got .* m \(allowed: \(0, "):
+            check_design_point({"generator.diameter": d}, {"base": base})
+    check_design_point({"generator.diameter": 7e-6}, {"base": base})
