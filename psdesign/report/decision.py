@@ -22,6 +22,7 @@ from psdesign.analysis.columns import (
 )
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
+from psdesign.report.trust import failed_count, not_ok_status, status_style
 from psdesign.report.units import output_label, parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -156,10 +157,19 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
     summary = replicate_summary(ok, params)
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
-    kcols = [c for c in K_DIRECTIONS if c in has]
+    # a direction is drawn when it has a trusted mean or a case's value that is not ok
+    kcols = [
+        c for c in K_DIRECTIONS if c in has or any(m.any() for m in not_ok_status(df, c).values())
+    ]
     # an error column is the bar of its value (drawn on it, :func:`_err`), not an output
     others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS]
-    parts = [] if kcols or not any(c in df for c in K_DIRECTIONS) else [NO_TRUSTED_K]
+    # notes above the grid: a note in a grid cell pushed the frames aside
+    if any(c in df for c in K_DIRECTIONS) and not any(c in has for c in K_DIRECTIONS):
+        held += NO_TRUSTED_K
+    n_failed = failed_count(df)
+    if kcols and n_failed:
+        held += f'<p class="note">{n_failed} failed case(s) have no K: not drawn.</p>'
+    parts = []
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
         groups, mode = _line_groups(summary.iloc[order], p, params)
@@ -167,7 +177,10 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
             fig = go.Figure()
             for i, c in enumerate(kcols):
                 for j, (label, g) in enumerate(groups):
-                    fig.add_trace(_mean_trace(g, p, c, mode, K_DIRECTIONS[c], label, i, j))
+                    if c in has:
+                        fig.add_trace(_mean_trace(g, p, c, mode, K_DIRECTIONS[c], label, i, j))
+                # never in a mean or a line: each case's own value, marked by its status
+                fig.add_traces(_not_ok_traces(df, p, c, K_DIRECTIONS[c], COLORS[i % len(COLORS)]))
             fig.update_layout(
                 title=f"K vs {p} (mean of replicates; bar: 95 % CI + numerical error)",
                 height=360,
@@ -207,7 +220,8 @@ def _held_note(held: list[str], ok: pd.DataFrame) -> str:
 
 
 NO_TRUSTED_K = (
-    '<p class="note">No K to plot: every K value is not ok (see the red box at the top).</p>'
+    '<p class="note">No trusted K: every K value is not ok (see the red box at the top); each '
+    "is drawn as an open marker named by its status, no line.</p>"
 )
 COLORS = ("#636efa", "#ef553b", "#00cc96", "#ab63fa")
 
@@ -230,6 +244,36 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
         line={"color": COLORS[i % len(COLORS)], "dash": DASHES[j % len(DASHES)]},
         error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
     )
+
+
+def _not_ok_traces(df: pd.DataFrame, p: str, c: str, name: str, color: str) -> list:
+    """One marker-only trace per status that is not ``ok`` (:func:`~psdesign.report.trust.
+    not_ok_status`) of output ``c`` against ``p``: each case's value with its own numerical
+    error bar, an open symbol per status (:func:`~psdesign.report.trust.status_style`) in the
+    output's colour, named ``"<name>: <status> (not in the lines)"``."""
+    import plotly.graph_objects as go
+
+    out = []
+    rel = df.get(REL_ERROR_COLUMNS.get(c, ""))
+    for status, m in not_ok_status(df, c).items():
+        rows = df[m & pd.to_numeric(df[p], errors="coerce").notna()]
+        if rows.empty:
+            continue
+        k = pd.to_numeric(rows[c], errors="coerce")
+        e = None if rel is None else pd.to_numeric(rel[rows.index], errors="coerce") * k
+        symbol = status_style(status)[0]
+        out.append(
+            go.Scatter(
+                x=rows[p],
+                y=_nan_none(k),
+                mode="markers",
+                name=f"{name}: {status} (not in the lines)",
+                marker={"symbol": symbol, "size": 10, "color": color, "line": {"width": 2}},
+                error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
+                text=list(rows["case_id"]) if "case_id" in rows else None,
+            )
+        )
+    return out
 
 
 def _levels(x: pd.Series) -> pd.Series:

@@ -42,6 +42,13 @@ from psdesign.report.references import (
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
 from psdesign.report.transport import transport_figure
+from psdesign.report.trust import (
+    NOT_OK_MARKERS,
+    draw_not_ok,
+    failed_count,
+    status_style,
+    value_status,
+)
 from psdesign.report.units import output_label
 
 __all__ = ["ReportError", "build_html", "write_report"]
@@ -242,7 +249,8 @@ def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
 
 def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
     """Porosity vs K with error bars and the reference curves; K that is not ok (the case
-    not converged, or this direction untrustworthy) drawn as red open markers."""
+    not converged, or this direction untrustworthy) drawn with an open marker per status
+    (:func:`~psdesign.report.trust.draw_not_ok`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -263,7 +271,6 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         scale = r_all**2 if normalize else 1.0
         y, err = k / scale, _k_error(df, c, k / scale)
         good = value_ok(df, c).to_numpy() & (k > 0).to_numpy()
-        bad = ~value_ok(df, c).to_numpy() & (k > 0).to_numpy()
         if good.any():
             ax.errorbar(
                 eps_all[good],
@@ -276,27 +283,14 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
                 alpha=0.8,
                 label=f"{DIRECTIONS[c]} (this study)",
             )
-        if bad.any():
-            n_bad += int(bad.sum())
-            ax.errorbar(
-                eps_all[bad],
-                y[bad],
-                yerr=None if err is None else err[bad],
-                fmt=markers[c],
-                ms=9,
-                mfc="none",
-                mec="red",
-                ecolor="red",
-                capsize=2,
-                label=f"{DIRECTIONS[c]}: NOT ok (not converged / untrustworthy)",
-            )
+        n_bad += draw_not_ok(ax, df, c, eps_all, y, err, markers[c], DIRECTIONS[c])
     notes = [_reference_curves(ax, eps_all, r0, normalize)]
     if n_bad:
         notes.append(
-            f"{n_bad} K value(s) that are not ok (red open markers) are left out of the "
-            "fits and sensitivity."
+            f"{n_bad} K value(s) that are not ok ({NOT_OK_MARKERS}) are left out of the fits "
+            "and sensitivity."
         )
-    n_failed = int((df["status"] == "failed").sum()) if "status" in df else 0
+    n_failed = failed_count(df)
     if n_failed:
         notes.append(f"{n_failed} failed case(s) have no K and are not plotted.")
     ax.set_yscale("log")
@@ -372,21 +366,41 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
         and pd.to_numeric(df[c], errors="coerce").abs().gt(0).any()
     ]
     if fcols:
-        import matplotlib.pyplot as plt
-        from matplotlib.ticker import MaxNLocator
-
-        fig, ax = plt.subplots(figsize=(7, 3))
-        x = np.arange(len(df))
-        for c in fcols:
-            v = pd.to_numeric(df[c], errors="coerce").abs()
-            ax.semilogy(x, v.where(v > 0), "o", ms=3, label=c)
-        ax.axhline(FLUX_IMBALANCE_FLAG, color="r", lw=0.8, ls="--", label="flag threshold")
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_xlabel("case index")
-        ax.set_ylabel("|flux imbalance| (relative)")
-        ax.legend(fontsize=7)
-        fig_uri = _png(fig)
+        fig_uri = _png(_convergence_figure(df, fcols))
     return table, fig_uri, n_flag
+
+
+def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
+    """|flux imbalance| of each case and direction against its case id (the table's first
+    column): a shape per direction, filled where its K is ok, open in its status's colour
+    (:func:`~psdesign.report.trust.status_style`) where it is not."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.4))
+    x = np.arange(len(df))
+    for i, c in enumerate(fcols):
+        v = pd.to_numeric(df[c], errors="coerce").abs()
+        v = v.where(v > 0).to_numpy()
+        k_col = f"k_{c.rsplit('_', 1)[-1]}_m2"
+        st = value_status(df, k_col).to_numpy()
+        ok = st == "ok"
+        shape = "os^"[i % 3]  # a shape per direction, a colour per status (as _perm_figure)
+        ax.semilogy(x[ok], v[ok], shape, ms=4, color=f"C{i}", label=f"{c}: ok")
+        for status in sorted(set(st[~ok])):
+            m = st == status
+            if not np.isfinite(v[m]).any():  # a failed case has no imbalance to draw
+                continue
+            color = status_style(status)[2]
+            ax.semilogy(x[m], v[m], shape, ms=7, mfc="none", mec=color, label=f"{c}: {status}")
+    ax.axhline(FLUX_IMBALANCE_FLAG, color="r", lw=0.8, ls="--", label="flag threshold")
+    ids = df["case_id"].astype(str).str.split("-").str[0] if "case_id" in df else x
+    step = max(1, len(df) // 30)  # at most ~30 readable labels
+    ax.set_xticks(x[::step], list(ids)[::step], rotation=90, fontsize=7)
+    ax.set_xlabel("case id")
+    ax.set_ylabel("|flux imbalance| (relative)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
 
 
 def _k_cell(k: float, e: float, bc: str, status: str) -> str:
@@ -708,9 +722,8 @@ def _status_banner(df: pd.DataFrame) -> str:
         parts.append(f"{untrusted} value(s) of ok cases not ok ({_esc(cols)})")
     return (
         f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '
-        f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as red "
-        "open markers in the porosity-permeability and -diffusivity plots (when they have a "
-        "value) and highlighted "
+        f"{len(df)} cases. They are left out of the means, fits and sensitivity, drawn as "
+        "open markers named by status in the plots (when they have a value) and highlighted "
         "in the tables below; the reason is in the <code>error</code> column (cases), beside "
         "each untrustworthy K's status in the Permeability table (more in the Results table's "
         "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns) or in the "
@@ -772,13 +785,11 @@ def _references() -> str:
         f"eps_p = {TS_EPS_P}, alpha = {TS_ALPHA_IN_PLANE} (in-plane), "
         f"{TS_ALPHA_THROUGH_PLANE} (through-plane). "
         "K = r^2 eps (eps-eps_p)^(alpha+2) / (8 ln^2(eps) (1-eps_p)^alpha "
-        "((alpha+1) eps - eps_p)^2).</li>"
+        "((alpha+1) eps - eps_p)^2). Applied to carbon-paper GDLs by J. T. Gostick et al., "
+        "J. Power Sources 162 (2006) 228-238.</li>"
         "<li>Kozeny-Carman: P. C. Carman, Fluid flow through granular beds, Trans. Inst. Chem. "
         "Eng. 15 (1937) 150-166. "
         f"K = r^2 eps^3 / (4 k_K (1-eps)^2), k_K = {KOZENY_CONSTANT:g}.</li>"
-        "<li>J. T. Gostick, M. W. Fowler, M. D. Pritzker, M. A. Ioannidis, L. M. Behra, In-plane "
-        "and through-plane gas permeability of carbon fiber electrode backing layers, J. Power "
-        "Sources 162 (2006) 228-238 (Toray 090 through-plane 8.3e-12 m^2).</li>"
         "</ol>"
     )
 

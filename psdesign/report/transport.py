@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.report.trust import NOT_OK_MARKERS, draw_not_ok
+
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
 TS_2D = (0.11, 0.521, 0.785)
 
@@ -93,7 +95,8 @@ def transport_figure(df) -> tuple[str | None, str]:
     """Relative diffusivity vs porosity of a study table with the Tomadakis-Sotirchos curves;
     ``(base64 png or None, caption)``. Each value carries its error bar
     (``diffusivity_<d>_rel_error``); a value whose case or own status is not ``ok`` is drawn
-    as a red open marker and counted in the caption, as the report's K figure does."""
+    with an open marker per status (:func:`~psdesign.report.trust.draw_not_ok`) and counted
+    in the caption, as the report's K figure does."""
     import pandas as pd
 
     from psdesign.analysis.columns import REL_ERROR_COLUMNS, value_ok
@@ -115,15 +118,10 @@ def transport_figure(df) -> tuple[str | None, str]:
         err = None if rel is None else np.abs(pd.to_numeric(rel, errors="coerce").to_numpy() * y)
         has = np.isfinite(y) & np.isfinite(eps)
         good = has & value_ok(df, c).to_numpy()
-        bad = has & ~good
         if good.any():
             ax.errorbar(eps[good], y[good], yerr=None if err is None else err[good],
                         fmt="os^"[i], capsize=2, color=f"C{i}", label=c)  # fmt: skip
-        if bad.any():
-            ax.errorbar(eps[bad], y[bad], yerr=None if err is None else err[bad],
-                        fmt="os^"[i], capsize=2, **BAD_STYLE,
-                        label=f"{c}: NOT ok (not converged / untrustworthy)")  # fmt: skip
-        n_bad += int(bad.sum())
+        n_bad += draw_not_ok(ax, df, c, eps, y, err, "os^"[i], c)
     curve = np.linspace(0.12, 0.99, 100)
     ep, a_in, a_tp = TS_2D
     # black as the K figure's reference curves: the data keep the colours
@@ -146,11 +144,7 @@ def transport_figure(df) -> tuple[str | None, str]:
     )
     if n_bad:
         caption += (
-            f" {n_bad} value(s) that are not ok (red open markers) are left out of the fits and "
+            f" {n_bad} value(s) that are not ok ({NOT_OK_MARKERS}) are left out of the fits and "
             "sensitivity."
         )
     return png, caption
-
-
-#: How a value that is not ``ok`` is drawn (the K figure's red open marker).
-BAD_STYLE = {"ms": 9, "mfc": "none", "mec": "red", "ecolor": "red", "color": "red"}

@@ -28,6 +28,7 @@ from psdesign.report import (
     write_report,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
+from psdesign.report.trust import NOT_OK_MARKERS, status_style
 from psdesign.study import run_study
 
 
@@ -177,7 +178,7 @@ def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
         assert re.search(rf'<tr class="flag"><td>{cid}</td><td>ok</td>', table), cid
     assert table.count("± 30.0 %") == 2 and table.count("± 2.0 %") == 14
     # the porosity-permeability plot: 2 not-converged cases x 2 directions + 2 untrustworthy K_z
-    assert "6 K value(s) that are not ok (red open markers)" in html
+    assert f"6 K value(s) that are not ok ({NOT_OK_MARKERS})" in html
     assert "4 failed case(s) have no K and are not plotted." in html
 
 
@@ -327,9 +328,11 @@ def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
     run_study(p, tmp_path / "out", workers=0, case_fn=untrusted_case, progress=False)
     html = (tmp_path / "out" / "report.html").read_text()
     assert "24 value(s) of ok cases not ok (k_x_status, k_z_status)" in html  # 12 x (K_x, K_z)
-    assert "24 K value(s) that are not ok (red open markers)" in html
-    assert "No K to plot: every K value is not ok" in html
-    assert 'id="psd-k-generator.porosity"' not in html  # no empty K frame
+    assert f"24 K value(s) that are not ok ({NOT_OK_MARKERS})" in html
+    assert "No trusted K: every K value is not ok" in html
+    # session 45: the K frame draws each untrusted K by its status (it used to be left out)
+    frame = html.split('id="psd-k-generator.porosity"', 1)[1].split("</script>", 1)[0]
+    assert "x (in-plane): untrustworthy (not in the lines)" in frame
     assert 'id="psd-porosity-generator.porosity"' in html  # porosity is still plotted
     assert "warnings_x" in html
 
@@ -766,8 +769,8 @@ def test_parameter_plots_bar_is_student_half_width_where_the_ci_is_clipped(monke
 def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
     """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
     300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
-    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is a red open marker
-    counted in the caption, as the K figure does."""
+    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is an open marker (in
+    its status's colour since session 45) counted in the caption, as the K figure does."""
     import matplotlib.axes
 
     from psdesign.report.transport import transport_figure
@@ -789,12 +792,14 @@ def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monk
         }
     )
     png, caption = transport_figure(df)
-    assert png and "1 value(s) that are not ok (red open markers)" in caption
+    assert png and f"1 value(s) that are not ok ({NOT_OK_MARKERS})" in caption
     (gx, gy, gkw), (bx, by, bkw) = calls
     assert (gx, gy) == ([0.7, 0.9], [0.40, 0.75]) and bx == [0.8] and by == [0.55]
     np.testing.assert_allclose(gkw["yerr"], [0.02, 0.015], rtol=1e-12)
     np.testing.assert_allclose(bkw["yerr"], [1.65], rtol=1e-12)
-    assert bkw["mec"] == "red" and bkw["mfc"] == "none"
+    # session 45: one colour per status (it was red for any), named in the legend
+    assert bkw["mec"] == status_style("untrustworthy")[2] and bkw["mfc"] == "none"
+    assert bkw["label"] == "diffusivity_z: untrustworthy (not in fits)"
 
 
 def _transport_case(spec, outputs, solver, workdir):
@@ -818,7 +823,7 @@ def test_a_transport_study_report_plots_diffusivity_and_counts_values_not_ok(tmp
     run_study(p, tmp_path / "out", workers=0, case_fn=_transport_case, progress=False)
     html = (tmp_path / "out" / "report.html").read_text()
     assert '<h2>Porosity vs diffusivity</h2><img src="data:image/png;base64,' in html
-    assert "4 value(s) that are not ok (red open markers)" in html
+    assert f"4 value(s) that are not ok ({NOT_OK_MARKERS})" in html
     alert = re.search(r'<p class="alert" id="psd-status-alert">(.*?)</p>', html, flags=re.S)
     assert alert and "4 value(s) of ok cases not ok (diffusivity_z_status)" in alert.group(1)
     # each case's D_eff/D with its bar and status: T-S at 0.8 is 0.8 (0.69 / 0.89)^0.785
@@ -1197,3 +1202,105 @@ def test_a_line_with_no_trusted_value_says_so_in_its_legend():
     assert "z (through-plane), generator.diameter = 6e-06 m: no trusted value" in names
     assert "z (through-plane), generator.diameter = 8e-06 m" in names
     assert sum(n.endswith(": no trusted value") for n in names) == 1
+
+
+def _captured(monkeypatch, module, name: str) -> list:
+    """Figures passed to ``module.name`` (``figure_html`` or ``_png``) by the code under
+    test, the real function still called."""
+    figs = []
+    real = getattr(module, name)
+    monkeypatch.setattr(
+        module, name, lambda fig, *a, **k: (figs.append(fig), real(fig, *a, **k))[1]
+    )
+    return figs
+
+
+def test_k_vs_parameter_frames_draw_every_untrusted_case_by_its_status(mixed_report, monkeypatch):
+    """Session 45 looked at the report as pictures: the K-vs-parameter frames left out every
+    case whose K was not ok, unmarked (an engineer saw a line end, not why). Each such K is
+    now drawn at its case's design point with its own bar (rel_error x K: 30 % for the fake
+    study's untrustworthy K_z, mixed_status_case), one open symbol per status, in a trace named
+    for the direction and status, never in a line; failed cases (no K) are counted in a note."""
+    from psdesign.report import decision
+
+    df, _ = mixed_report
+    figs = _captured(monkeypatch, decision, "figure_html")
+    html = decision.parameter_plots(df, ["generator.porosity", "generator.diameter"], {})
+    assert "4 failed case(s) have no K: not drawn." in html
+    fig = next(f for f in figs if f.layout.title.text.startswith("K vs generator.porosity"))
+    traces = {t.name: t for t in fig.data}
+    for d, status, n in (
+        ("z", "untrustworthy", 2),
+        ("z", "not_converged", 2),
+        ("x", "not_converged", 2),
+    ):
+        name = f"{decision.K_DIRECTIONS[f'k_{d}_m2']}: {status} (not in the lines)"
+        t = traces[name]
+        assert t.mode == "markers" and len(t.x) == n and set(t.x) == {0.9}, name
+        rows = df[(df["generator.porosity"] == 0.9) & (df["status"] != "failed")]
+        rows = rows[(rows["status"] == "not_converged") == (status == "not_converged")]
+        assert sorted(t.y) == pytest.approx(sorted(rows[f"k_{d}_m2"]), rel=1e-12)
+        rel = 0.3 if status == "untrustworthy" else 0.02
+        assert list(t.error_y.array) == pytest.approx([rel * y for y in t.y], rel=1e-12)
+    assert traces["z (through-plane): untrustworthy (not in the lines)"].marker.symbol != (
+        traces["z (through-plane): not_converged (not in the lines)"].marker.symbol
+    )
+    # the lines hold trusted values only: no line point at 0.9 carries the untrustworthy K_z
+    bad = set(df.loc[df["k_z_status"] != "ok", "k_z_m2"].dropna())
+    lines = [t for t in fig.data if "lines" in (t.mode or "")]
+    assert lines and not any(y in bad for t in lines for y in t.y if y is not None)
+
+
+def test_porosity_k_and_convergence_figures_tell_not_converged_from_untrustworthy(
+    mixed_report, monkeypatch
+):
+    """Session 45: both statuses were one red open marker labelled "NOT ok (not converged /
+    untrustworthy)", and the convergence plot's x axis was a case index while its table named
+    case ids. Each status now has its own legend entry and colour; the convergence plot's x
+    ticks are the table's case ids (their c0000 part)."""
+    from psdesign.report import html as report_html
+
+    df, _ = mixed_report
+    figs = _captured(monkeypatch, report_html, "_png")
+    report_html._perm_figure(df, {})
+    ax = figs[0].axes[0]
+    handles, labels = ax.get_legend_handles_labels()
+    by = dict(zip(labels, handles, strict=True))
+    nc, un = (
+        "z (through-plane): not_converged (not in fits)",
+        "z (through-plane): untrustworthy (not in fits)",
+    )
+    assert nc in by and un in by and "x (in-plane): not_converged (not in fits)" in by
+    assert not any("NOT ok" in t for t in labels)
+    colour = {k: by[k][0].get_markeredgecolor() for k in (nc, un)}
+    assert colour[nc] != colour[un]
+    figs.clear()
+    table, uri, _ = report_html._convergence(df)
+    assert uri
+    ax = figs[0].axes[0]
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert ticks == [c.split("-")[0] for c in df["case_id"]]
+    assert ax.get_xlabel() == "case id"
+    labels = ax.get_legend_handles_labels()[1]
+    assert (
+        "flux_imbalance_z: not_converged" in labels and "flux_imbalance_z: untrustworthy" in labels
+    )
+
+
+def test_every_listed_reference_is_drawn_in_a_figure():
+    """Session 45: the References list had a 3rd entry (Gostick et al. 2006, a measured Toray
+    090 K) that no figure drew or cited. Every entry is now cited by a reference curve's
+    label ("[n]") of the porosity-permeability figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from psdesign.report import html as report_html
+
+    entries = re.findall(r"<li>(.*?)</li>", report_html._references(), flags=re.S)
+    fig, ax = plt.subplots()
+    report_html._reference_curves(ax, pd.Series([0.7, 0.9]), 3.5e-6, normalize=False)
+    cited = {int(n) for t in ax.get_legend_handles_labels()[1] for n in re.findall(r"\[(\d)\]", t)}
+    plt.close(fig)
+    assert cited == set(range(1, len(entries) + 1)), (cited, len(entries))

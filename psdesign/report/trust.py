@@ -1,0 +1,98 @@
+"""How the report's figures draw a value that is not trusted: the status of each case's value
+and one marker style per status, shared by the static (matplotlib) and interactive (Plotly)
+figures so that ``not_converged`` and ``untrustworthy`` never look alike.
+
+Session 45 found the K-vs-parameter frames dropping every untrusted case (an engineer saw a
+line end without being told why) and the porosity-K and convergence figures drawing every
+not-ok value with one red open marker.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from psdesign.analysis.columns import STATUS_COLUMNS
+
+__all__ = [
+    "NOT_OK_MARKERS",
+    "STATUS_STYLES",
+    "draw_not_ok",
+    "failed_count",
+    "not_ok_status",
+    "status_style",
+    "value_status",
+]
+
+#: How a caption names the not-ok markers of :func:`draw_not_ok`.
+NOT_OK_MARKERS = "open markers, one colour per status, named in the legend"
+
+#: Marker of each status that is not ``ok``: (Plotly open symbol, matplotlib marker, colour).
+#: Any other status (``blocked``, ``error``, ...) takes :data:`OTHER_STYLE`.
+STATUS_STYLES = {
+    "not_converged": ("x-thin-open", "x", "#d62728"),
+    # purple, not orange: the static figures' z direction is matplotlib's C1 orange
+    "untrustworthy": ("diamond-open", "D", "#9467bd"),
+}
+OTHER_STYLE = ("square-open", "s", "#7f7f7f")
+
+
+def status_style(status: str) -> tuple[str, str, str]:
+    """(Plotly symbol, matplotlib marker, colour) of a not-ok ``status``."""
+    return STATUS_STYLES.get(status, OTHER_STYLE)
+
+
+def value_status(df: pd.DataFrame, column: str) -> pd.Series:
+    """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): the
+    case's status when it is not ``ok`` (``failed``, ``not_converged``, ...), else the value's
+    own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`), else
+    ``ok`` (an unrated value).
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
+    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
+    >>> value_status(df, "k_z_m2").tolist()
+    ['ok', 'untrustworthy', 'not_converged']
+    """
+    case = df["status"].astype(str) if "status" in df else pd.Series("ok", index=df.index)
+    own = df.get(STATUS_COLUMNS.get(column, ""))
+    if own is None:
+        own = pd.Series("ok", index=df.index)
+    own = own.where(own.notna() & (own.astype(str) != ""), "ok").astype(str)
+    return case.where(case != "ok", own)
+
+
+def not_ok_status(df: pd.DataFrame, column: str) -> dict[str, pd.Series]:
+    """``{status: row mask}`` of the rows whose value in ``column`` is a positive finite number
+    and whose :func:`value_status` is not ``ok``, statuses in sorted order (a failed case has
+    no value: :func:`failed_count`)."""
+    st = value_status(df, column)
+    v = pd.to_numeric(df[column], errors="coerce") if column in df else None
+    if v is None:
+        return {}
+    has = v.gt(0) & v.lt(float("inf"))
+    return {s: has & (st == s) for s in sorted(set(st[has & (st != "ok")]))}
+
+
+def failed_count(df: pd.DataFrame) -> int:
+    """Cases whose status is ``failed`` (no value to draw)."""
+    return int((df["status"] == "failed").sum()) if "status" in df else 0
+
+
+def draw_not_ok(ax, df: pd.DataFrame, column: str, x, y, err, marker: str, name: str) -> int:
+    """Draw on matplotlib ``ax`` the rows of ``df`` whose value in ``column`` is not ``ok``
+    (:func:`not_ok_status`): at (``x``, ``y``) (arrays over the rows) with bars ``err`` (or
+    None), open ``marker`` in the status's colour, labelled ``"<name>: <status> (not in
+    fits)"``; returns how many points were drawn."""
+    import numpy as np
+
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    n = 0
+    for status, m in not_ok_status(df, column).items():
+        rows = m.to_numpy() & np.isfinite(x) & np.isfinite(y)
+        if not rows.any():
+            continue
+        color = status_style(status)[2]
+        ax.errorbar(x[rows], y[rows], yerr=None if err is None else np.asarray(err)[rows],
+                    fmt=marker, ms=9, mfc="none", mec=color, ecolor=color, color=color,
+                    capsize=2, label=f"{name}: {status} (not in fits)")  # fmt: skip
+        n += int(rows.sum())
+    return n
