@@ -18,6 +18,7 @@ __all__ = [
     "STATUS_STYLES",
     "draw_not_ok",
     "failed_count",
+    "no_ok_case",
     "not_ok_status",
     "status_style",
     "value_status",
@@ -75,6 +76,22 @@ def not_ok_status(df: pd.DataFrame, column: str) -> dict[str, pd.Series]:
 def failed_count(df: pd.DataFrame) -> int:
     """Cases whose status is ``failed`` (no value to draw)."""
     return int((df["status"] == "failed").sum()) if "status" in df else 0
+
+
+def no_ok_case(df: pd.DataFrame) -> str:
+    """How a study none of whose cases is ``ok`` is told (``"no case is ok: 12 failed of 12"``),
+    or ``""`` when one is or the table is empty: with no ok case the sections over the ok cases
+    said "No numeric design parameter to plot against" of a study varying two (session 45).
+
+    >>> no_ok_case(pd.DataFrame({"status": ["failed", "not_converged", "failed"]}))
+    'no case is ok: 2 failed, 1 not_converged of 3'
+    >>> no_ok_case(pd.DataFrame({"status": ["failed", "ok"]}))
+    ''
+    """
+    if not len(df) or "status" not in df or (df["status"] == "ok").any():
+        return ""
+    counts = df["status"].fillna("unknown").astype(str).value_counts().sort_index()
+    return f"no case is ok: {', '.join(f'{n} {s}' for s, n in counts.items())} of {len(df)}"
 
 
 def draw_not_ok(ax, df: pd.DataFrame, column: str, x, y, err, marker: str, name: str) -> int:

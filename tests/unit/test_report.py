@@ -1304,3 +1304,38 @@ def test_every_listed_reference_is_drawn_in_a_figure():
     cited = {int(n) for t in ax.get_legend_handles_labels()[1] for n in re.findall(r"\[(\d)\]", t)}
     plt.close(fig)
     assert cited == set(range(1, len(entries) + 1)), (cited, len(entries))
+
+
+def test_a_study_with_no_ok_case_says_so_not_that_it_varies_no_parameter():
+    """review s45: a study varying porosity and diameter whose every case failed or did not
+    converge read "No numeric design parameter to plot against." and "Main effects need a
+    varying numeric parameter and K." (both false: two parameters varied), and the all-failed
+    one had no "At a glance" section at all; now each says that no case is ok, with the
+    counts of the table."""
+    from psdesign.report.decision import effect_plots, parameter_plots
+    from psdesign.report.glance import glance_section
+
+    params = ["generator.porosity", "generator.diameter"]
+    eps, d = [0.7, 0.8, 0.9, 0.7, 0.8, 0.9], [6e-6] * 3 + [8e-6] * 3
+    nc = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(6)],
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "seed": 1,
+            "status": ["not_converged"] * 5 + ["failed"],
+            "k_z_m2": [kc_truth(e, r) for e, r in zip(eps, d, strict=True)],
+        }
+    )
+    nc.loc[5, "k_z_m2"] = np.nan
+    words = "no case is ok: 1 failed, 5 not_converged of 6"
+    for section in (parameter_plots(nc, params), effect_plots(nc, params)):
+        assert "No numeric design parameter" not in section and "need a varying" not in section
+        assert f"Nothing to plot against the design parameters, {words}" in section
+    assert "no trusted K" in glance_section(nc, params)  # the K columns say it per direction
+    failed = nc[["case_id", *params, "seed"]].assign(status="failed")  # no K column
+    glance = glance_section(failed, params)
+    assert 'id="psd-glance"' in glance and "No result: no case is ok: 6 failed of 6" in glance
+    # one ok case: the sections are not told that no case is ok
+    one_ok = nc.assign(status=["ok"] + ["not_converged"] * 5)
+    assert "no case is ok" not in parameter_plots(one_ok, params) + glance_section(one_ok, params)
