@@ -218,8 +218,8 @@ def _nothing_ok(df: pd.DataFrame) -> str:
     if not none_ok:
         return ""
     return (
-        f'<p class="note">Nothing to plot against the design parameters, {html.escape(none_ok)} '
-        "(the red box at the top; each case's reason in the tables below).</p>"
+        f'<p class="note">Not plotted against the design parameters, {html.escape(none_ok)} '
+        "(the red box at the top; each case's values and reason in the tables below).</p>"
     )
 
 

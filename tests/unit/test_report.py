@@ -1331,7 +1331,7 @@ def test_a_study_with_no_ok_case_says_so_not_that_it_varies_no_parameter():
     words = "no case is ok: 1 failed, 5 not_converged of 6"
     for section in (parameter_plots(nc, params), effect_plots(nc, params)):
         assert "No numeric design parameter" not in section and "need a varying" not in section
-        assert f"Nothing to plot against the design parameters, {words}" in section
+        assert f"Not plotted against the design parameters, {words}" in section
     assert "no trusted K" in glance_section(nc, params)  # the K columns say it per direction
     failed = nc[["case_id", *params, "seed"]].assign(status="failed")  # no K column
     glance = glance_section(failed, params)
