@@ -1339,3 +1339,32 @@ def test_a_study_with_no_ok_case_says_so_not_that_it_varies_no_parameter():
     # one ok case: the sections are not told that no case is ok
     one_ok = nc.assign(status=["ok"] + ["not_converged"] * 5)
     assert "no case is ok" not in parameter_plots(one_ok, params) + glance_section(one_ok, params)
+
+
+def test_a_case_with_no_status_is_highlighted_in_every_table_as_the_glance_leaves_it_out():
+    """review s45: a results row with an empty status (a table the runner did not write) is
+    failed by the exit rule (``case_masks``) and left out of the glance and the means
+    (``trusted``), but the K and values tables printed it as ``ok``, unhighlighted, beside a
+    glance that did not count it. Now both tables say ``unknown`` and highlight it."""
+    from psdesign.cli.exit_status import case_counts
+    from psdesign.report.glance import glance_section
+    from psdesign.report.html import _k_table, _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "generator.porosity": [0.8, 0.9],
+            "status": ["ok", np.nan],
+            "porosity": [0.8, 0.9],
+            "porosity_error": [1e-3, 1e-3],
+            "k_z_m2": [kc_truth(0.8, 7e-6), kc_truth(0.9, 7e-6)],
+            "k_z_rel_error": [0.02, 0.02],
+            "k_z_status": ["ok", "ok"],
+        }
+    )
+    assert case_counts(df).failed == 1
+    assert "1 of 2" in glance_section(df, ["generator.porosity"])
+    for table in (_k_table(df, "voxel"), _values_table(df)):
+        rows = re.findall(r"<tr( class=\"flag\")?>\s*<td>(c\d)</td>", table)
+        assert rows == [("", "c0"), (' class="flag"', "c1")], rows
+        assert "unknown" in table.split(">c1<", 1)[1].split("</tr>", 1)[0]
