@@ -46,14 +46,19 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): the
     case's status when it is not ``ok`` (``failed``, ``not_converged``, ...), else the value's
     own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`), else
-    ``ok`` (an unrated value).
+    ``ok`` (an unrated value); a missing case status is ``unknown``.
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
     ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
     >>> value_status(df, "k_z_m2").tolist()
     ['ok', 'untrustworthy', 'not_converged']
     """
-    case = df["status"].astype(str) if "status" in df else pd.Series("ok", index=df.index)
+    # a missing case status is "unknown", as the tables and the red box print it (not "nan")
+    case = (
+        df["status"].fillna("unknown").astype(str)
+        if "status" in df
+        else pd.Series("ok", index=df.index)
+    )
     own = df.get(STATUS_COLUMNS.get(column, ""))
     if own is None:
         own = pd.Series("ok", index=df.index)

@@ -28,7 +28,7 @@ from psdesign.report import (
     write_report,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.trust import NOT_OK_MARKERS, status_style
+from psdesign.report.trust import NOT_OK_MARKERS, status_style, value_status
 from psdesign.study import run_study
 
 
@@ -1363,6 +1363,7 @@ def test_a_case_with_no_status_is_highlighted_in_every_table_as_the_glance_leave
         }
     )
     assert case_counts(df).failed == 1
+    assert value_status(df, "k_z_m2").tolist() == ["ok", "unknown"]  # its marker's legend
     assert "1 of 2" in glance_section(df, ["generator.porosity"])
     for table in (_k_table(df, "voxel"), _values_table(df)):
         rows = re.findall(r"<tr( class=\"flag\")?>\s*<td>(c\d)</td>", table)
