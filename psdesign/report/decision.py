@@ -172,7 +172,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
         held += NO_TRUSTED_K
     n_failed = failed_count(df)
     if kcols and n_failed:
-        held += f'<p class="note">{n_failed} failed case(s) have no K: not drawn.</p>'
+        held += f'<p class="note">{n_failed} failed or timed-out case(s) have no K: not drawn.</p>'
     parts = []
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")

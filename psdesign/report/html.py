@@ -292,7 +292,7 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         )
     n_failed = failed_count(df)
     if n_failed:
-        notes.append(f"{n_failed} failed case(s) have no K and are not plotted.")
+        notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
     ax.set_yscale("log")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")

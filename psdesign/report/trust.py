@@ -79,8 +79,16 @@ def not_ok_status(df: pd.DataFrame, column: str) -> dict[str, pd.Series]:
 
 
 def failed_count(df: pd.DataFrame) -> int:
-    """Cases whose status is ``failed`` (no value to draw)."""
-    return int((df["status"] == "failed").sum()) if "status" in df else 0
+    """Cases the run could not give (``failed`` or ``timeout``,
+    :data:`psdesign.cli.exit_status.NOT_FINISHED`): no value to draw (review s45: a timed-out
+    case was not counted).
+
+    >>> failed_count(pd.DataFrame({"status": ["ok", "timeout", "failed", "not_converged"]}))
+    2
+    """
+    from psdesign.cli.exit_status import NOT_FINISHED
+
+    return int(df["status"].isin(NOT_FINISHED).sum()) if "status" in df else 0
 
 
 def no_ok_case(df: pd.DataFrame) -> str:

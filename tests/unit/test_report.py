@@ -179,7 +179,7 @@ def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
     assert table.count("± 30.0 %") == 2 and table.count("± 2.0 %") == 14
     # the porosity-permeability plot: 2 not-converged cases x 2 directions + 2 untrustworthy K_z
     assert f"6 K value(s) that are not ok ({NOT_OK_MARKERS})" in html
-    assert "4 failed case(s) have no K and are not plotted." in html
+    assert "4 failed or timed-out case(s) have no K and are not plotted." in html
 
 
 def test_untrustworthy_k_is_left_out_of_means_fits_and_sensitivity(mixed_report):
@@ -1226,7 +1226,7 @@ def test_k_vs_parameter_frames_draw_every_untrusted_case_by_its_status(mixed_rep
     df, _ = mixed_report
     figs = _captured(monkeypatch, decision, "figure_html")
     html = decision.parameter_plots(df, ["generator.porosity", "generator.diameter"], {})
-    assert "4 failed case(s) have no K: not drawn." in html
+    assert "4 failed or timed-out case(s) have no K: not drawn." in html
     fig = next(f for f in figs if f.layout.title.text.startswith("K vs generator.porosity"))
     traces = {t.name: t for t in fig.data}
     for d, status, n in (
@@ -1369,3 +1369,24 @@ def test_a_case_with_no_status_is_highlighted_in_every_table_as_the_glance_leave
         rows = re.findall(r"<tr( class=\"flag\")?>\s*<td>(c\d)</td>", table)
         assert rows == [("", "c0"), (' class="flag"', "c1")], rows
         assert "unknown" in table.split(">c1<", 1)[1].split("</tr>", 1)[0]
+
+
+def test_a_timed_out_case_is_counted_among_the_cases_with_no_k():
+    """review s45: the K frames' and the porosity-K figure's "N failed case(s) have no K"
+    counted ``failed`` only; a ``timeout`` case has no K either (the exit rule's
+    ``NOT_FINISHED``) and went uncounted. Truth: 1 failed + 1 timeout = 2."""
+    from psdesign.report.decision import parameter_plots
+
+    eps = [0.7, 0.8, 0.9, 0.75]
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(4)],
+            "generator.porosity": eps,
+            "seed": 1,
+            "status": ["ok", "ok", "timeout", "failed"],
+            "k_z_m2": [kc_truth(eps[0], 7e-6), kc_truth(eps[1], 7e-6), np.nan, np.nan],
+        }
+    )
+    assert "2 failed or timed-out case(s) have no K: not drawn." in parameter_plots(
+        df, ["generator.porosity"]
+    )
