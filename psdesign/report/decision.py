@@ -22,7 +22,7 @@ from psdesign.analysis.columns import (
 )
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
-from psdesign.report.trust import failed_count, not_ok_status, status_style
+from psdesign.report.trust import failed_count, no_ok_case, not_ok_status, status_style
 from psdesign.report.units import output_label, parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -153,7 +153,11 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
     held = _held_note([p for p in num if ok[p].nunique() == 1], ok)
     num = [p for p in num if ok[p].nunique() > 1]  # one x value is no trend: no frame of it
     if not num:
-        return held or '<p class="note">No numeric design parameter to plot against.</p>'
+        return (
+            _nothing_ok(df)
+            or held
+            or '<p class="note">No numeric design parameter to plot against.</p>'
+        )
     summary = replicate_summary(ok, params)
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
@@ -168,7 +172,7 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
         held += NO_TRUSTED_K
     n_failed = failed_count(df)
     if kcols and n_failed:
-        held += f'<p class="note">{n_failed} failed case(s) have no K: not drawn.</p>'
+        held += f'<p class="note">{n_failed} failed or timed-out case(s) have no K: not drawn.</p>'
     parts = []
     for p in num:
         order = np.argsort(summary[p].to_numpy(dtype=float), kind="stable")
@@ -205,6 +209,18 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
     grid = '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
     return held + grid
+
+
+def _nothing_ok(df: pd.DataFrame) -> str:
+    """The note of a section over the ok cases when there is none (:func:`~psdesign.report.
+    trust.no_ok_case`), or ``""``."""
+    none_ok = no_ok_case(df)
+    if not none_ok:
+        return ""
+    return (
+        f'<p class="note">Not plotted against the design parameters, {html.escape(none_ok)} '
+        "(the red box at the top; each case's values and reason in the tables below).</p>"
+    )
 
 
 def _held_note(held: list[str], ok: pd.DataFrame) -> str:
@@ -297,7 +313,10 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     kcols = [c for c in K_DIRECTIONS if c in ok and (ok[c] > 0).any()]
     if not num or not kcols:
-        return '<p class="note">Main effects need a varying numeric parameter and K.</p>'
+        return (
+            _nothing_ok(df)
+            or '<p class="note">Main effects need a varying numeric parameter and K.</p>'
+        )
     y = np.log10(ok[kcols].where(ok[kcols] > 0))
     parts = []
     fig = go.Figure()

@@ -10,6 +10,7 @@ import math
 import pandas as pd
 
 from psdesign.analysis.columns import trusted
+from psdesign.report.trust import no_ok_case
 
 __all__ = ["glance_section", "k_text"]
 
@@ -43,7 +44,8 @@ def _is_num(v) -> bool:
 def glance_section(df: pd.DataFrame, params: list[str]) -> str:
     """HTML of the "At a glance" section: per direction, the highest and the lowest trusted K
     (:func:`psdesign.analysis.columns.trusted`: the case ok and the K's own status ok) with its
-    error bar and design point, and how many cases gave a trusted K; "" without any K column.
+    error bar and design point, and how many cases gave a trusted K; without any K column, that
+    no case is ok when none is (every case failed), else "".
 
     Parameters
     ----------
@@ -58,8 +60,12 @@ def glance_section(df: pd.DataFrame, params: list[str]) -> str:
         The section's HTML (escaped), or "".
     """
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
-    if not dirs:
-        return ""
+    if not dirs:  # a study of every case failed has no K column: its answer is that
+        none_ok = no_ok_case(df)
+        return none_ok and (
+            f'<h2 id="psd-glance">At a glance</h2><p class="note">No result: '
+            f"{html.escape(none_ok)} (each case's reason in the tables below).</p>"
+        )
     t = trusted(df)
     params = [p for p in params if p in df]
     rows = []

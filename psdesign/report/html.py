@@ -292,7 +292,7 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         )
     n_failed = failed_count(df)
     if n_failed:
-        notes.append(f"{n_failed} failed case(s) have no K and are not plotted.")
+        notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
     ax.set_yscale("log")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
@@ -403,6 +403,16 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     return fig
 
 
+def _case_status(row: pd.Series | dict) -> str:
+    """A case's status as the tables print and highlight it: a missing one is ``unknown``, not
+    ``ok`` (the exit rule counts it failed, :func:`psdesign.cli.exit_status.case_masks`; the
+    glance, the means and the red box leave it out; review s45: the K and values tables showed
+    it as ok, unhighlighted); a table without a status column is ``ok``, as
+    :func:`psdesign.analysis.columns.trusted` reads it."""
+    status = row.get("status", "ok")
+    return "unknown" if pd.isna(status) else str(status)
+
+
 def _k_cell(k: float, e: float, bc: str, status: str) -> str:
     """One K table cell: the value with its error bar, then (each on its own line) the
     boundary condition when the column's header does not carry it and the status when it is
@@ -437,8 +447,7 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
     for _, row in df.iterrows():
-        case_status = row.get("status", "ok")
-        case_status = "ok" if pd.isna(case_status) else str(case_status)
+        case_status = _case_status(row)
         out = {"case_id": row.get("case_id", ""), "case status": case_status}
         flag = case_status != "ok"
         for d in dirs:
@@ -529,7 +538,7 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     rows, classes, any_bar = [], [], False
     for _, r in df.iterrows():
         row = r.to_dict()
-        status = "ok" if pd.isna(row.get("status", "ok")) else str(row.get("status", "ok"))
+        status = _case_status(row)
         out, flag = {"case_id": row.get("case_id", ""), "case status": status}, status != "ok"
         for c in cols:
             rel, st = error_bar(row, c)

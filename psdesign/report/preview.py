@@ -108,9 +108,12 @@ def box_label(shape: tuple[int, ...], spacing: np.ndarray) -> str:
     'box 50 x 50 x 25 µm'
     >>> box_label((120, 120, 120), np.full(3, 0.8333333333333333e-6))
     'box 100 x 100 x 100 µm'
+    >>> box_label((1500, 1500, 200), np.full(3, 1e-6))  # never '1.5e+03' (review s45)
+    'box 1500 x 1500 x 200 µm'
     """
-    edges = [n * float(h) * 1e6 for n, h in zip(shape, spacing, strict=True)]
-    return "box " + " x ".join(f"{e:.3g}" for e in edges) + " µm"
+    # 3 significant digits, written out: rve.size allows up to 1 m (1e6 µm)
+    edges = [float(f"{n * float(h) * 1e6:.3g}") for n, h in zip(shape, spacing, strict=True)]
+    return "box " + " x ".join(f"{e:.10g}" for e in edges) + " µm"
 
 
 def render_preview(

@@ -18,6 +18,7 @@ __all__ = [
     "STATUS_STYLES",
     "draw_not_ok",
     "failed_count",
+    "no_ok_case",
     "not_ok_status",
     "status_style",
     "value_status",
@@ -45,14 +46,19 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): the
     case's status when it is not ``ok`` (``failed``, ``not_converged``, ...), else the value's
     own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`), else
-    ``ok`` (an unrated value).
+    ``ok`` (an unrated value); a missing case status is ``unknown``.
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
     ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
     >>> value_status(df, "k_z_m2").tolist()
     ['ok', 'untrustworthy', 'not_converged']
     """
-    case = df["status"].astype(str) if "status" in df else pd.Series("ok", index=df.index)
+    # a missing case status is "unknown", as the tables and the red box print it (not "nan")
+    case = (
+        df["status"].fillna("unknown").astype(str)
+        if "status" in df
+        else pd.Series("ok", index=df.index)
+    )
     own = df.get(STATUS_COLUMNS.get(column, ""))
     if own is None:
         own = pd.Series("ok", index=df.index)
@@ -73,8 +79,32 @@ def not_ok_status(df: pd.DataFrame, column: str) -> dict[str, pd.Series]:
 
 
 def failed_count(df: pd.DataFrame) -> int:
-    """Cases whose status is ``failed`` (no value to draw)."""
-    return int((df["status"] == "failed").sum()) if "status" in df else 0
+    """Cases the run could not give (``failed`` or ``timeout``,
+    :data:`psdesign.cli.exit_status.NOT_FINISHED`): no value to draw (review s45: a timed-out
+    case was not counted).
+
+    >>> failed_count(pd.DataFrame({"status": ["ok", "timeout", "failed", "not_converged"]}))
+    2
+    """
+    from psdesign.cli.exit_status import NOT_FINISHED
+
+    return int(df["status"].isin(NOT_FINISHED).sum()) if "status" in df else 0
+
+
+def no_ok_case(df: pd.DataFrame) -> str:
+    """How a study none of whose cases is ``ok`` is told (``"no case is ok: 12 failed of 12"``),
+    or ``""`` when one is or the table is empty: with no ok case the sections over the ok cases
+    said "No numeric design parameter to plot against" of a study varying two (session 45).
+
+    >>> no_ok_case(pd.DataFrame({"status": ["failed", "not_converged", "failed"]}))
+    'no case is ok: 2 failed, 1 not_converged of 3'
+    >>> no_ok_case(pd.DataFrame({"status": ["failed", "ok"]}))
+    ''
+    """
+    if not len(df) or "status" not in df or (df["status"] == "ok").any():
+        return ""
+    counts = df["status"].fillna("unknown").astype(str).value_counts().sort_index()
+    return f"no case is ok: {', '.join(f'{n} {s}' for s, n in counts.items())} of {len(df)}"
 
 
 def draw_not_ok(ax, df: pd.DataFrame, column: str, x, y, err, marker: str, name: str) -> int:

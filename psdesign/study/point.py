@@ -74,12 +74,27 @@ def check_design_point(point: dict[str, float], study: dict | None = None) -> No
             model = table_model(table)
         except KeyError:
             continue
-        for err in _table_errors(model, spec.get(table, {}), table):
-            # at the point's key, or a table above it (not the table's own rules: give one of
-            # porosity or n_fibers), which only a base can fill (rve.size.2 of no rve.size)
-            above = bool(base) and err.key != table
-            if any(_under(err.key, p) or (above and _under(p, err.key)) for p in point):
-                raise err
+        data = spec.get(table, {})
+        # an array of tables (``[[fibers]]``, ``fibers.0.diameter``) element by element: as one
+        # table the list was "fibers: must be a table" and every value was let through
+        # (review s45: --at fibers.0.diameter=-1 was predicted, flagged extrapolated)
+        items = enumerate(data) if isinstance(data, list) else [(None, data)]
+        for i, item in items:
+            prefix = table if i is None else f"{table}[{i}]"
+            for err in _table_errors(model, item, prefix):
+                # at the point's key, or a table above it (not the table's own rules: give one
+                # of porosity or n_fibers), which only a base can fill (rve.size.2 of no
+                # rve.size)
+                above = bool(base) and err.key != prefix
+                at = _dotted(err.key)
+                if any(_under(err.key, p) or (above and _under(p, at)) for p in point):
+                    raise err
+
+
+def _dotted(key: str) -> str:
+    """A spec error's key as a study parameter spells it: ``fibers[0].center`` ->
+    ``fibers.0.center``."""
+    return key.replace("[", ".").replace("]", "")
 
 
 def _table_errors(model: type, data: Any, table: str) -> list[SpecError]:

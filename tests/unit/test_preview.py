@@ -56,3 +56,14 @@ def test_preview_carries_its_scale(tmp_path, window) -> None:
     gray = np.asarray(Image.open(path).convert("L"))
     rows, cols = np.nonzero(gray < 128)
     assert _in_label(rows, cols, window).sum() > 50
+
+
+def test_box_label_writes_every_edge_out_without_an_exponent() -> None:
+    """review s45: a 1.5 mm x 1.5 mm x 200 um box was labelled "box 1.5e+03 x 1.5e+03 x 200
+    µm" (``.3g``; rve.size allows up to 1 m). Truth: the edges n * voxel in micrometres, 3
+    significant digits, written out, for cubic and non-cubic boxes and voxels."""
+    assert box_label((1500, 1500, 200), np.full(3, 1e-6)) == "box 1500 x 1500 x 200 µm"
+    assert box_label((100, 100, 50), np.array([1e-6, 1e-6, 0.5e-6])) == "box 100 x 100 x 25 µm"
+    assert box_label((1234, 1, 3), np.full(3, 1e-6)) == "box 1230 x 1 x 3 µm"
+    assert box_label((1000, 10, 10), np.full(3, 1e-3)) == "box 1000000 x 10000 x 10000 µm"
+    assert box_label((3, 3, 3), np.full(3, 1e-7)) == "box 0.3 x 0.3 x 0.3 µm"

@@ -28,7 +28,7 @@ from psdesign.report import (
     write_report,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.trust import NOT_OK_MARKERS, status_style
+from psdesign.report.trust import NOT_OK_MARKERS, status_style, value_status
 from psdesign.study import run_study
 
 
@@ -179,7 +179,7 @@ def test_report_marks_failed_not_converged_and_untrustworthy(mixed_report):
     assert table.count("± 30.0 %") == 2 and table.count("± 2.0 %") == 14
     # the porosity-permeability plot: 2 not-converged cases x 2 directions + 2 untrustworthy K_z
     assert f"6 K value(s) that are not ok ({NOT_OK_MARKERS})" in html
-    assert "4 failed case(s) have no K and are not plotted." in html
+    assert "4 failed or timed-out case(s) have no K and are not plotted." in html
 
 
 def test_untrustworthy_k_is_left_out_of_means_fits_and_sensitivity(mixed_report):
@@ -1226,7 +1226,7 @@ def test_k_vs_parameter_frames_draw_every_untrusted_case_by_its_status(mixed_rep
     df, _ = mixed_report
     figs = _captured(monkeypatch, decision, "figure_html")
     html = decision.parameter_plots(df, ["generator.porosity", "generator.diameter"], {})
-    assert "4 failed case(s) have no K: not drawn." in html
+    assert "4 failed or timed-out case(s) have no K: not drawn." in html
     fig = next(f for f in figs if f.layout.title.text.startswith("K vs generator.porosity"))
     traces = {t.name: t for t in fig.data}
     for d, status, n in (
@@ -1304,3 +1304,89 @@ def test_every_listed_reference_is_drawn_in_a_figure():
     cited = {int(n) for t in ax.get_legend_handles_labels()[1] for n in re.findall(r"\[(\d)\]", t)}
     plt.close(fig)
     assert cited == set(range(1, len(entries) + 1)), (cited, len(entries))
+
+
+def test_a_study_with_no_ok_case_says_so_not_that_it_varies_no_parameter():
+    """review s45: a study varying porosity and diameter whose every case failed or did not
+    converge read "No numeric design parameter to plot against." and "Main effects need a
+    varying numeric parameter and K." (both false: two parameters varied), and the all-failed
+    one had no "At a glance" section at all; now each says that no case is ok, with the
+    counts of the table."""
+    from psdesign.report.decision import effect_plots, parameter_plots
+    from psdesign.report.glance import glance_section
+
+    params = ["generator.porosity", "generator.diameter"]
+    eps, d = [0.7, 0.8, 0.9, 0.7, 0.8, 0.9], [6e-6] * 3 + [8e-6] * 3
+    nc = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(6)],
+            "generator.porosity": eps,
+            "generator.diameter": d,
+            "seed": 1,
+            "status": ["not_converged"] * 5 + ["failed"],
+            "k_z_m2": [kc_truth(e, r) for e, r in zip(eps, d, strict=True)],
+        }
+    )
+    nc.loc[5, "k_z_m2"] = np.nan
+    words = "no case is ok: 1 failed, 5 not_converged of 6"
+    for section in (parameter_plots(nc, params), effect_plots(nc, params)):
+        assert "No numeric design parameter" not in section and "need a varying" not in section
+        assert f"Not plotted against the design parameters, {words}" in section
+    assert "no trusted K" in glance_section(nc, params)  # the K columns say it per direction
+    failed = nc[["case_id", *params, "seed"]].assign(status="failed")  # no K column
+    glance = glance_section(failed, params)
+    assert 'id="psd-glance"' in glance and "No result: no case is ok: 6 failed of 6" in glance
+    # one ok case: the sections are not told that no case is ok
+    one_ok = nc.assign(status=["ok"] + ["not_converged"] * 5)
+    assert "no case is ok" not in parameter_plots(one_ok, params) + glance_section(one_ok, params)
+
+
+def test_a_case_with_no_status_is_highlighted_in_every_table_as_the_glance_leaves_it_out():
+    """review s45: a results row with an empty status (a table the runner did not write) is
+    failed by the exit rule (``case_masks``) and left out of the glance and the means
+    (``trusted``), but the K and values tables printed it as ``ok``, unhighlighted, beside a
+    glance that did not count it. Now both tables say ``unknown`` and highlight it."""
+    from psdesign.cli.exit_status import case_counts
+    from psdesign.report.glance import glance_section
+    from psdesign.report.html import _k_table, _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "generator.porosity": [0.8, 0.9],
+            "status": ["ok", np.nan],
+            "porosity": [0.8, 0.9],
+            "porosity_error": [1e-3, 1e-3],
+            "k_z_m2": [kc_truth(0.8, 7e-6), kc_truth(0.9, 7e-6)],
+            "k_z_rel_error": [0.02, 0.02],
+            "k_z_status": ["ok", "ok"],
+        }
+    )
+    assert case_counts(df).failed == 1
+    assert value_status(df, "k_z_m2").tolist() == ["ok", "unknown"]  # its marker's legend
+    assert "1 of 2" in glance_section(df, ["generator.porosity"])
+    for table in (_k_table(df, "voxel"), _values_table(df)):
+        rows = re.findall(r"<tr( class=\"flag\")?>\s*<td>(c\d)</td>", table)
+        assert rows == [("", "c0"), (' class="flag"', "c1")], rows
+        assert "unknown" in table.split(">c1<", 1)[1].split("</tr>", 1)[0]
+
+
+def test_a_timed_out_case_is_counted_among_the_cases_with_no_k():
+    """review s45: the K frames' and the porosity-K figure's "N failed case(s) have no K"
+    counted ``failed`` only; a ``timeout`` case has no K either (the exit rule's
+    ``NOT_FINISHED``) and went uncounted. Truth: 1 failed + 1 timeout = 2."""
+    from psdesign.report.decision import parameter_plots
+
+    eps = [0.7, 0.8, 0.9, 0.75]
+    df = pd.DataFrame(
+        {
+            "case_id": [f"c{i}" for i in range(4)],
+            "generator.porosity": eps,
+            "seed": 1,
+            "status": ["ok", "ok", "timeout", "failed"],
+            "k_z_m2": [kc_truth(eps[0], 7e-6), kc_truth(eps[1], 7e-6), np.nan, np.nan],
+        }
+    )
+    assert "2 failed or timed-out case(s) have no K: not drawn." in parameter_plots(
+        df, ["generator.porosity"]
+    )

@@ -580,3 +580,31 @@ def test_a_generated_diameter_must_be_positive_in_its_own_table():
         with pytest.raises(SpecError, match=r"^generator.diameter: got .* m \(allowed: \(0, "):
             check_design_point({"generator.diameter": d}, {"base": base})
     check_design_point({"generator.diameter": 7e-6}, {"base": base})
+
+
+def test_a_design_point_in_an_array_of_tables_is_held_to_its_element():
+    """review s45: ``check_design_point`` validated ``[[fibers]]`` (a list) as one table, got
+    "fibers: must be a table" (a table-root error it leaves out) and let every value through:
+    ``study predict --at fibers.0.diameter=-1`` on a study of studies/examples/three_rods.toml
+    varying it was a prediction flagged extrapolated. Each element is held to its table now,
+    in the words a spec gets (``fibers[0].diameter: must be > 0``)."""
+    from psdesign.study.point import check_design_point
+
+    with open("studies/examples/three_rods.toml", "rb") as f:
+        rods = tomllib.load(f)
+    study = parse_study(
+        {
+            "base": rods,
+            "study": {"design": "full-factorial", "outputs": ["porosity", "k_z"]},
+            "parameters": {"fibers.0.diameter": [1.5e-5, 2e-5], "rve.size.2": [1e-4, 1.2e-4]},
+        }
+    ).to_dict()
+    check_design_point({"fibers.0.diameter": 1.7e-5, "rve.size.2": 1.1e-4}, study)
+    for d in (-1.0, 0.0):
+        with pytest.raises(SpecError, match=r"^fibers\[0\]\.diameter: must be > 0, got "):
+            check_design_point({"fibers.0.diameter": d, "rve.size.2": 1.1e-4}, study)
+    with pytest.raises(SpecError, match=r"^rve\.size\[2\]: must be >= 1e-09"):
+        check_design_point({"fibers.0.diameter": 1.7e-5, "rve.size.2": -1.0}, study)
+    # an element the point does not set is not its refusal
+    study["base"]["fibers"][1]["diameter"] = -1.0
+    check_design_point({"fibers.0.diameter": 1.7e-5, "rve.size.2": 1.1e-4}, study)
