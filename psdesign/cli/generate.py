@@ -46,6 +46,22 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     return status_code(out["porosity_status"])  # the one exit rule (cli.exit_status)
 
 
+def preview_title(porosity: float, error: float | None, n_fibers: int) -> str:
+    """The title of ``generate``'s preview.png: the porosity with its bar and its status, as
+    every printed number (session 42: without its bar; session 45: without its status).
+
+    >>> preview_title(0.81234, 0.00042, 12)
+    'porosity 0.8123 +- 4.2e-04 [ok], 12 fibers'
+    >>> preview_title(0.088, 0.024, 3)
+    'porosity 0.0880 +- 2.4e-02 [untrustworthy], 3 fibers'
+    """
+    from psdesign.geometry.porosity import porosity_text
+
+    status = with_porosity_status({"porosity": porosity, "porosity_error": error})
+    text = porosity_text(porosity, error)
+    return f"porosity {text} [{status['porosity_status']}], {n_fibers} fibers"
+
+
 GENERATE_FILES = (
     "rve.json",
     "summary.json",
@@ -139,7 +155,6 @@ def write_generate_outputs(
         The summary.
     """
     from psdesign.errors import SpecError
-    from psdesign.geometry.porosity import porosity_text
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.outputs import check_output_dir
     from psdesign.io.timings import write_record
@@ -187,9 +202,7 @@ def write_generate_outputs(
                 fields.distance,
                 fields.grid.spacing,
                 tmp / "preview.png",
-                # the porosity with its bar, as every printed number (session 42: without)
-                title=f"porosity {porosity_text(fields.porosity, fields.porosity_error)}, "
-                f"{len(rve.fibers)} fibers",
+                title=preview_title(fields.porosity, fields.porosity_error, len(rve.fibers)),
                 surface=surf,
             )
         if "tiff" in formats:

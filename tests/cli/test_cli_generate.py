@@ -204,9 +204,10 @@ def test_field_vti_says_which_sign_is_solid_and_it_is_the_porosity_s(tmp_path):
     assert img.spacing == pytest.approx((2e-6,) * 3, rel=1e-12, abs=0)
 
 
-def test_preview_title_gives_the_porosity_with_its_bar(tmp_path, monkeypatch):
+def test_preview_title_gives_the_porosity_with_its_bar_and_status(tmp_path, monkeypatch):
     # session 42 (new user's walk): preview.png's title read "porosity 0.8490, 10 fibers",
-    # the one number of generate's outputs printed without its error estimate
+    # the one number of generate's outputs printed without its error estimate; session 45
+    # (s45-review): still without its status, which generate's JSON line now prints
     from psdesign.report import preview
 
     titles = []
@@ -219,7 +220,8 @@ def test_preview_title_gives_the_porosity_with_its_bar(tmp_path, monkeypatch):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     (title,) = titles
     bar = f"{summary['porosity']:.4f} +- {summary['porosity_error']:.1e}"
-    assert title == f"porosity {bar}, 1 fibers"
+    assert summary["porosity_error"] / summary["porosity"] < 0.2  # ok: the rating's 20 % bar
+    assert title == f"porosity {bar} [ok], 1 fibers"
 
 
 def test_the_printed_porosity_carries_its_status_and_the_exit_follows_it(tmp_path, capsys):
