@@ -1251,6 +1251,66 @@ def test_k_vs_parameter_frames_draw_every_untrusted_case_by_its_status(mixed_rep
     assert lines and not any(y in bad for t in lines for y in t.y if y is not None)
 
 
+def test_the_other_outputs_frames_draw_every_value_that_is_not_ok_by_its_status(monkeypatch):
+    """Session 45: the porosity, anisotropy, D_eff/D and conductivity frames against a design
+    parameter drew trusted means only (s45-looks2 marked the K frames); a D_eff/D = 0 that is
+    ``blocked``, a not-converged case's values, an anisotropy over an untrustworthy K_z left
+    no trace, and an output with no trusted value had no frame. Each is now drawn at its case's
+    design point with its own bar (the table's rel error x value, or its absolute error), an
+    open symbol per status, never in a line. Truth: the table below, written by hand."""
+    from psdesign.report import decision
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2", "c3"],
+            "status": ["ok", "ok", "not_converged", "ok"],
+            "generator.porosity": [0.7, 0.8, 0.9, 0.8],
+            "porosity": [0.70, 0.79, 0.91, 0.81],
+            "porosity_error": [0.01, 0.01, 0.02, 0.01],
+            "k_x_m2": [1e-11, 2e-11, 3e-11, 2e-11],
+            "k_z_m2": [2e-11, 8e-12, 5e-11, 4e-11],
+            "k_z_rel_error": [0.02, 0.3, 0.02, 0.02],
+            "k_z_status": ["ok", "untrustworthy", "ok", "ok"],
+            "diffusivity_z": [0.5, 0.0, 0.6, 0.55],
+            "diffusivity_z_rel_error": [0.02, 0.0, 0.05, 0.02],
+            "diffusivity_z_status": ["ok", "blocked", "ok", "ok"],
+            # every conductivity untrustworthy: no trusted mean, still a frame
+            "conductivity_z": [0.1, 0.2, 0.3, 0.25],
+            "conductivity_z_rel_error": [0.4, 0.4, 0.4, 0.4],
+            "conductivity_z_status": "untrustworthy",
+        }
+    )
+    figs = _captured(monkeypatch, decision, "figure_html")
+    decision.parameter_plots(df, ["generator.porosity"], {})
+    frames = {f.layout.title.text: f for f in figs}
+
+    def traces(c):
+        return {t.name: t for t in frames[f"{c} vs generator.porosity"].data}
+
+    def marker(c, status):
+        t = traces(c)[f"{c}: {status} (not in the lines)"]
+        assert t.mode == "markers"
+        return list(t.x), list(t.y), list(t.error_y.array) if t.error_y.array is not None else None
+
+    assert marker("diffusivity_z", "blocked") == ([0.8], [0.0], [0.0])
+    assert marker("diffusivity_z", "not_converged") == ([0.9], [0.6], [pytest.approx(0.03)])
+    assert marker("porosity", "not_converged") == ([0.9], [0.91], [0.02])
+    aniso_x, aniso_y, _ = marker("anisotropy", "untrustworthy")  # its K_z is untrustworthy
+    assert aniso_x == [0.8] and aniso_y == [pytest.approx(2e-11 / 8e-12)]
+    assert marker("anisotropy", "not_converged")[:2] == ([0.9], [pytest.approx(3e-11 / 5e-11)])
+    x, y, e = marker("conductivity_z", "untrustworthy")
+    assert sorted(x) == [0.7, 0.8, 0.8] and e == pytest.approx([0.4 * v for v in y])
+    assert marker("conductivity_z", "not_converged")[:2] == ([0.9], [0.3])  # the case's status
+    assert not [t for t in traces("conductivity_z").values() if "lines" in (t.mode or "")]
+    symbols = {s: traces("diffusivity_z")[f"diffusivity_z: {s} (not in the lines)"].marker.symbol
+               for s in ("blocked", "not_converged")}  # fmt: skip
+    assert symbols == {s: status_style(s)[0] for s in symbols} and len(set(symbols.values())) == 2
+    # the lines hold trusted values only: the blocked 0 and the not-converged 0.6 are in none
+    for c, bad in (("diffusivity_z", {0.0, 0.6}), ("porosity", {0.91})):
+        lines = [t for t in traces(c).values() if "lines" in (t.mode or "")]
+        assert lines and not any(v in bad for t in lines for v in t.y if v is not None), c
+
+
 def test_porosity_k_and_convergence_figures_tell_not_converged_from_untrustworthy(
     mixed_report, monkeypatch
 ):
