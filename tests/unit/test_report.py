@@ -123,6 +123,54 @@ def test_report_without_results(tmp_path):
         write_report(tmp_path)
 
 
+def _always_fails(spec, outputs, solver, workdir):
+    raise RuntimeError("mesh failed")
+
+
+@pytest.mark.parametrize(("case_fn", "code"), [(fake_case, 0), (_always_fails, 3)])
+def test_study_report_exits_3_exactly_when_its_red_box_shows_a_case_not_ok(
+    tmp_path, capsys, case_fn, code
+):
+    """Session 45: ``psdesign study report`` of a folder whose every case failed exited 0 (a
+    script took the report for a good one). The exit table (cli.exit_status): the report
+    finished and is complete, so not 1 (a run that could not finish); 0 is "every result's
+    status ok"; a report showing cases not ok is "finished, a result's status is not ok": 3,
+    with one line, exactly when its red box is there (the same cases: case_counts)."""
+    from psdesign.cli import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=case_fn, progress=False, report=False)
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == code  # main: 0 for both
+    cap = capsys.readouterr()
+    assert cap.out.strip() == str(out / "report.html")
+    assert ('id="psd-status-alert"' in (out / "report.html").read_text()) == bool(code)
+    if code:
+        (line,) = cap.err.strip().splitlines()
+        assert line == (
+            "psdesign: the report shows 12 of 12 case(s) not ok (12 failed or timed out, 0 "
+            "not_converged, 0 ok with a value not ok): read its red box"
+        )
+    else:
+        assert cap.err == ""
+
+
+def test_study_reports_exit_follows_its_red_box_for_every_kind_of_case(mixed_report):
+    """The mixed study (4 failed, 2 not_converged, 2 ok with an untrustworthy K_z, 4 ok): its
+    red box is there, so ``study report`` exits 3; the report of its 4 all-ok cases has none
+    and exits 0; a not_converged case alone is 3 (``study report`` takes no
+    ``--allow-not-converged``: its exit says whether the red box is there)."""
+    from psdesign.cli.study import report_exit_status
+
+    df, html = mixed_report
+    assert 'id="psd-status-alert"' in html and report_exit_status(df) == 3
+    ok = df[(df["status"] == "ok") & (df["k_z_status"] == "ok")]
+    assert len(ok) == 4 and report_exit_status(ok) == 0
+    assert report_exit_status(df[df["status"] == "not_converged"]) == 3
+    assert report_exit_status(df[(df["status"] == "ok") & (df["k_z_status"] != "ok")]) == 3
+
+
 def test_results_csv_is_checked_once_by_the_reader(tmp_path, monkeypatch, capsys):
     """session 41 (s41-routes): the report checked results.csv exists, then read_results
     checked again with the same words: two checks of one file to keep in step. The reader's
