@@ -120,14 +120,15 @@ def no_ok_case(df: pd.DataFrame) -> str:
 
 def draw_not_ok(ax, df: pd.DataFrame, column: str, x, y, err, marker: str, name: str) -> int:
     """Draw on matplotlib ``ax`` the rows of ``df`` whose value in ``column`` is not ``ok``
-    (:func:`not_ok_status`): at (``x``, ``y``) (arrays over the rows) with bars ``err`` (or
-    None), open ``marker`` in the status's colour, labelled ``"<name>: <status> (not in
-    fits)"``; returns how many points were drawn."""
+    (:func:`not_ok_status`; a 0 too unless ``ax``'s y axis is already log: a ``blocked``
+    D_eff/D on a linear one, left out until session 45): at (``x``, ``y``) (arrays over the
+    rows) with bars ``err`` (or None), open ``marker`` in the status's colour, labelled
+    ``"<name>: <status> (not in fits)"``; returns how many points were drawn."""
     import numpy as np
 
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     n = 0
-    for status, m in not_ok_status(df, column).items():
+    for status, m in not_ok_status(df, column, ax.get_yscale() == "log").items():
         rows = m.to_numpy() & np.isfinite(x) & np.isfinite(y)
         if not rows.any():
             continue

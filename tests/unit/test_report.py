@@ -850,6 +850,38 @@ def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monk
     assert bkw["label"] == "diffusivity_z: untrustworthy (not in fits)"
 
 
+def test_the_diffusivity_figure_draws_a_blocked_zero_by_its_status(monkeypatch):
+    """Session 45: a ``blocked`` D_eff/D (0: the pore space closed along the direction, the
+    most not-ok value a transport solve gives) was left out of the D_eff/D figure and its
+    caption's count, though its axis is linear: ``not_ok_status`` drew positive values only,
+    for the K figures' log axes. It is drawn at 0 with its status's marker and counted."""
+    import matplotlib.axes
+
+    from psdesign.report.transport import transport_figure
+
+    calls = []
+    real = matplotlib.axes.Axes.errorbar
+    monkeypatch.setattr(
+        matplotlib.axes.Axes,
+        "errorbar",
+        lambda self, x, y, **kw: (calls.append((list(x), list(y), kw)), real(self, x, y, **kw))[1],
+    )
+    df = pd.DataFrame(
+        {
+            "status": ["ok", "ok"],
+            "porosity": [0.7, 0.3],
+            "diffusivity_z": [0.40, 0.0],
+            "diffusivity_z_rel_error": [0.05, 0.0],
+            "diffusivity_z_status": ["ok", "blocked"],
+        }
+    )
+    _, caption = transport_figure(df)
+    assert f"1 value(s) that are not ok ({NOT_OK_MARKERS})" in caption  # main: no count
+    (bx, by, bkw) = calls[-1]
+    assert (bx, by) == ([0.3], [0.0]) and bkw["label"] == "diffusivity_z: blocked (not in fits)"
+    assert bkw["mec"] == status_style("blocked")[2]
+
+
 def _transport_case(spec, outputs, solver, workdir):
     """``fake_case`` with a D_eff/D per case: the Tomadakis-Sotirchos through-plane value
     (eps ((eps - 0.11) / 0.89)^0.785); porosity 0.9 is ``untrustworthy`` (a 300 % bar at a
