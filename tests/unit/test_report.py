@@ -814,14 +814,10 @@ def test_parameter_plots_bar_is_student_half_width_where_the_ci_is_clipped(monke
     assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
 
 
-def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
-    """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
-    300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
-    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is an open marker (in
-    its status's colour since session 45) counted in the caption, as the K figure does."""
+def _errorbar_calls(monkeypatch) -> list:
+    """``(x, y, kwargs)`` of every matplotlib ``errorbar`` call of the code under test, the
+    real method still called."""
     import matplotlib.axes
-
-    from psdesign.report.transport import transport_figure
 
     calls = []
     real = matplotlib.axes.Axes.errorbar
@@ -830,6 +826,17 @@ def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monk
         "errorbar",
         lambda self, x, y, **kw: (calls.append((list(x), list(y), kw)), real(self, x, y, **kw))[1],
     )
+    return calls
+
+
+def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
+    """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
+    300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
+    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is an open marker (in
+    its status's colour since session 45) counted in the caption, as the K figure does."""
+    from psdesign.report.transport import transport_figure
+
+    calls = _errorbar_calls(monkeypatch)
     df = pd.DataFrame(
         {
             "status": ["ok", "ok", "ok", "failed"],
@@ -855,17 +862,9 @@ def test_the_diffusivity_figure_draws_a_blocked_zero_by_its_status(monkeypatch):
     most not-ok value a transport solve gives) was left out of the D_eff/D figure and its
     caption's count, though its axis is linear: ``not_ok_status`` drew positive values only,
     for the K figures' log axes. It is drawn at 0 with its status's marker and counted."""
-    import matplotlib.axes
-
     from psdesign.report.transport import transport_figure
 
-    calls = []
-    real = matplotlib.axes.Axes.errorbar
-    monkeypatch.setattr(
-        matplotlib.axes.Axes,
-        "errorbar",
-        lambda self, x, y, **kw: (calls.append((list(x), list(y), kw)), real(self, x, y, **kw))[1],
-    )
+    calls = _errorbar_calls(monkeypatch)
     df = pd.DataFrame(
         {
             "status": ["ok", "ok"],
