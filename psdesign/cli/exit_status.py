@@ -7,13 +7,15 @@ code   name               meaning
 0      ``OK``             done; every result's ``status`` is ``ok`` (a force-field search's
                           ``converged`` or ``at_bound``) and every target met
 1      ``FAILED``         could not finish: disk full, permissions, a failed or timed-out
-                          study case, lost workers; the line names the file or the case
+                          study case (``study run``, ``study optimize``, ``rev``: the run
+                          could not give it), lost workers; the line names the file or case
 2      ``BAD_INPUT``      a bad spec, argument or ``-o`` folder, refused before any work
 3      ``NOT_TRUSTED``    finished, outputs complete, but a result's ``status`` is not
                           ``ok`` (``not_converged``, ``untrustworthy``, ``blocked``,
                           ``extrapolated``, ``contact_left``...: read it),
-                          ``study optimize`` missed its target or ``rev`` found no size
-                          within ``--tol``
+                          ``study optimize`` missed its target, ``rev`` found no size
+                          within ``--tol``, or ``study report`` shows a case not ok (its
+                          red box: a failed case too, below)
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================
@@ -23,6 +25,13 @@ trusted when its ``status`` is in :data:`TRUSTED`. A study's table (``results.cs
 the same rule per case (:func:`case_counts`, :func:`cases_status`): a failed or timed-out
 case is 1, a case that finished with a status other than ``ok``, or an ``ok`` case with a
 value whose own status (``k_z_status``, ``diffusivity_x_status``...) is not ``ok``, is 3.
+
+``study report`` finishes when it has written the report, whatever the cases it shows: a
+table of failed cases is reported faithfully, not a report that could not finish, so it is
+never 1 for a case; its results are the cases, so it exits 3 exactly when one is not ok, the
+cases its red box counts (``psdesign.cli.study.report_exit_status``: ``case_counts``, a failed
+or timed-out case included; no ``--allow-not-converged``). Until session 45 it exited 0, also
+on a folder whose every case had failed.
 
 Before session 37, 3 was 1: a full disk and an unconverged solve looked the same to a script.
 Before session 45, 3 was a convergence flag only: ``permeability``, ``pores``, the transport
@@ -60,7 +69,8 @@ HELP = (
     "(disk full, permissions, a failed study case, lost workers); 2 bad input, refused before "
     "any work; 3 finished with complete outputs, but a result's status is not ok "
     "(not_converged, untrustworthy, blocked, extrapolated...: read it), a study optimize "
-    "target was missed or no rev size was within --tol; 130 Ctrl-C; 143 SIGTERM"
+    "target was missed, no rev size was within --tol, or study report shows a case not ok "
+    "(failed too); 130 Ctrl-C; 143 SIGTERM"
 )
 
 

@@ -217,6 +217,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
                 refuse_without_path(fields, d, _first_solve_flow(flow, args), rve)
         results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
     out = results[0] if len(results) == 1 else _combine(results, solver, fields)
+    out["overall_status"] = overall_status(results)
     out["wall_time_s"] = time.perf_counter() - t0
     for w in dict.fromkeys(out.get("warnings", [])):
         warning(w)
@@ -242,6 +243,22 @@ def result_statuses(results: list[dict]) -> list[str | None]:
         out.append(r.get("status"))
         out += [m.get("status") for m in r.get("bc_results", {}).values() if isinstance(m, dict)]
     return out
+
+
+def overall_status(results: list[dict]) -> str | None:
+    """The worst (:func:`~psdesign.transport.effective.worst_status`) of every status the exit
+    status reads (:func:`result_statuses`): ``ok`` exactly when the command exits 0. The
+    JSON's ``status`` is the K's own (the chosen model's; the worst over the directions with
+    ``--direction all``): with ``--bc both`` a script reading it saw ``ok`` beside exit 3 when
+    the other model's K was untrustworthy (review s45).
+
+    >>> overall_status([{"status": "ok", "bc_results": {"periodic": {"status": "ok"},
+    ...                  "permeameter": {"status": "untrustworthy"}}}])
+    'untrustworthy'
+    """
+    from psdesign.transport.effective import worst_status
+
+    return worst_status(result_statuses(results))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -8,7 +8,8 @@ The main CLI registers these with::
     args = parser.parse_args(argv)
     return args.func(args)   # exit status (psdesign.cli.exit_status): 0 ok, 1 failed /
                              # timeout cases or storage error, 2 bad input (also a refused
-                             # -o), 3 not_converged cases or flagged values, 130 Ctrl-C
+                             # -o), 3 not_converged cases or flagged values (``study
+                             # report``: any case not ok, failed too), 130 Ctrl-C
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from psdesign.cli.exit_status import (
     BAD_INPUT,
     FAILED,
     INTERRUPTED,
+    NOT_TRUSTED,
+    OK,
     TERMINATED,
     case_counts,
     cases_status,
@@ -289,6 +292,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     from psdesign.report import write_report
+    from psdesign.study.readback import read_results
     from psdesign.study.store import StorageError
 
     try:
@@ -298,7 +302,34 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)
-    return 0
+    return report_exit_status(read_results(args.out))
+
+
+def report_exit_status(df) -> int:
+    """The exit status of ``study report`` (session 45): the report finished and is complete,
+    so never ``FAILED`` for a case (``FAILED`` is a run that could not give it: ``study run``'s
+    exit); ``NOT_TRUSTED`` when a case it shows is not ok (failed, timed out, not_converged, or
+    an ok case with a value not ok: :func:`psdesign.cli.exit_status.case_counts`, the cases its
+    red box counts), with one line saying so; else ``OK``. Until session 45 it exited 0 on a
+    folder whose every case had failed. It takes no ``--allow-not-converged``: its exit says
+    whether the red box is there.
+
+    >>> import pandas as pd
+    >>> report_exit_status(pd.DataFrame({"status": ["ok", "ok"]}))
+    0
+    >>> report_exit_status(pd.DataFrame({"status": ["failed", "failed"]}))  # and one line
+    3
+    """
+    counts = case_counts(df)
+    if not any(counts):
+        return OK
+    print(
+        f"psdesign: the report shows {sum(counts)} of {len(df)} case(s) not ok ({counts.failed} "
+        f"failed or timed out, {counts.not_converged} not_converged, {counts.flagged} ok with a "
+        "value not ok): read its red box",
+        file=sys.stderr,
+    )
+    return NOT_TRUSTED
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -22,7 +22,13 @@ from psdesign.analysis.columns import (
 )
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
-from psdesign.report.trust import failed_count, no_ok_case, not_ok_status, status_style
+from psdesign.report.trust import (
+    failed_count,
+    no_ok_case,
+    not_ok_status,
+    status_style,
+    value_status,
+)
 from psdesign.report.units import output_label, parameter_label, parameter_unit
 
 K_DIRECTIONS = {"k_x_m2": "x (in-plane)", "k_y_m2": "y (in-plane)", "k_z_m2": "z (through-plane)"}
@@ -91,12 +97,25 @@ _ok = trusted
 
 
 def add_anisotropy(df: pd.DataFrame) -> pd.DataFrame:
-    """Add ``anisotropy`` = mean in-plane K / through-plane K (K_x, K_y over K_z) per case."""
+    """Add ``anisotropy`` = mean in-plane K / through-plane K (K_x, K_y over K_z) per case, and
+    ``anisotropy_status``: the worst (:func:`~psdesign.transport.effective.worst_status`) of
+    the statuses of the K it divides (:func:`~psdesign.report.trust.value_status`), a ratio
+    being no better than its parts.
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok"], "k_x_m2": [4.0, 4.0], "k_z_m2": [2.0, 1.0],
+    ...                    "k_z_status": ["ok", "untrustworthy"]})
+    >>> add_anisotropy(df)[["anisotropy", "anisotropy_status"]].values.tolist()
+    [[2.0, 'ok'], [4.0, 'untrustworthy']]
+    """
+    from psdesign.transport.effective import worst_status
+
     inplane = [c for c in ("k_x_m2", "k_y_m2") if c in df]
     if "k_z_m2" not in df or not inplane:
         return df
     out = df.copy()
     out["anisotropy"] = out[inplane].mean(axis=1) / out["k_z_m2"]
+    st = pd.concat([value_status(df, c) for c in [*inplane, "k_z_m2"]], axis=1)
+    out["anisotropy_status"] = [worst_status(list(r)) for r in st.itertuples(index=False)]
     return out
 
 
@@ -124,13 +143,24 @@ def _err(summary: pd.DataFrame, c: str) -> np.ndarray | None:
     return np.nan_to_num(half, nan=0.0) + num
 
 
-def _numerical_half_width(summary: pd.DataFrame, c: str) -> np.ndarray | None:
-    """The mean numerical error bar (absolute) of output ``c`` per design point, or None."""
-    if f"{REL_ERROR_COLUMNS.get(c)}_mean" in summary:
-        rel = summary[f"{REL_ERROR_COLUMNS[c]}_mean"].to_numpy(dtype=float)
-        return rel * np.abs(summary[f"{c}_mean"].to_numpy(dtype=float))
-    if f"{ABS_ERROR_COLUMNS.get(c)}_mean" in summary:
-        return summary[f"{ABS_ERROR_COLUMNS[c]}_mean"].to_numpy(dtype=float)
+def _numerical_half_width(table: pd.DataFrame, c: str, suffix: str = "_mean") -> np.ndarray | None:
+    """The numerical error bar (absolute) of output ``c`` per row of ``table``: a summary's
+    mean bar per design point, or with ``suffix=""`` each case's own bar in a results table
+    (:data:`~psdesign.analysis.columns.REL_ERROR_COLUMNS` x the value, else
+    :data:`~psdesign.analysis.columns.ABS_ERROR_COLUMNS`); None when ``c`` has neither.
+
+    >>> t = pd.DataFrame({"porosity": [0.8], "porosity_error": [0.01]})
+    >>> _numerical_half_width(t, "porosity", suffix="").tolist()
+    [0.01]
+    """
+
+    def col(name: str) -> np.ndarray:
+        return pd.to_numeric(table[f"{name}{suffix}"], errors="coerce").to_numpy(dtype=float)
+
+    if f"{REL_ERROR_COLUMNS.get(c)}{suffix}" in table:
+        return col(REL_ERROR_COLUMNS[c]) * np.abs(col(c))
+    if f"{ABS_ERROR_COLUMNS.get(c)}{suffix}" in table:
+        return col(ABS_ERROR_COLUMNS[c])
     return None
 
 
@@ -165,8 +195,8 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
     kcols = [
         c for c in K_DIRECTIONS if c in has or any(m.any() for m in not_ok_status(df, c).values())
     ]
-    # an error column is the bar of its value (drawn on it, :func:`_err`), not an output
-    others = [c for c in has if c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS]
+    every = add_anisotropy(df)  # every case, for the values that are not ok
+    others = _other_outputs(every, has)
     # notes above the grid: a note in a grid cell pushed the frames aside
     if any(c in df for c in K_DIRECTIONS) and not any(c in has for c in K_DIRECTIONS):
         held += NO_TRUSTED_K
@@ -195,20 +225,44 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
             )
             parts.append(figure_html(fig, f"psd-k-{p}", k_axis="yaxis", k_label="K"))
         for c in others:
-            fig = go.Figure(
-                [_mean_trace(g, p, c, mode, c, label, 0, j) for j, (label, g) in enumerate(groups)]
-            )
-            fig.update_layout(
-                title=f"{c} vs {p}",
-                height=320,
-                xaxis=param_axis(p, p in logs),
-                yaxis_title=output_label(c, study),
-                showlegend=len(groups) > 1,
-                margin={"l": 60, "r": 10, "t": 40, "b": 50},
-            )
+            fig = _other_figure(every, groups, mode, p, c, c in has)
+            fig.update_layout(xaxis=param_axis(p, p in logs), yaxis_title=output_label(c, study))
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
     grid = '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
     return held + grid
+
+
+def _other_outputs(every: pd.DataFrame, has: list[str]) -> list[str]:
+    """The outputs other than K drawn against the parameters: those with a trusted mean
+    (``has``), then those whose every value is not ok (drawn as the K frames draw them; until
+    session 45 such an output had no frame and an untrusted value no marker). An error column
+    is the bar of its value (drawn on it, :func:`_err`), not an output."""
+
+    def output(c: str) -> bool:
+        return c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS
+
+    out = [c for c in has if output(c)]
+    return out + [
+        c for c in every.columns if output(c) and c not in out and not_ok_status(every, c, False)
+    ]
+
+
+def _other_figure(every: pd.DataFrame, groups: list, mode: str, p: str, c: str, trusted: bool):
+    """The frame of output ``c`` against ``p`` (linear axis): the lines of trusted replicate
+    means (``groups`` of the summary, when ``trusted``) and every case's value that is not ok
+    by its status (:func:`_not_ok_traces`, a ``blocked`` 0 included), never in a line."""
+    import plotly.graph_objects as go
+
+    lines = [_mean_trace(g, p, c, mode, c, label, 0, j) for j, (label, g) in enumerate(groups)]
+    bad = _not_ok_traces(every, p, c, c, COLORS[0], log=False)
+    fig = go.Figure((lines if trusted else []) + bad)
+    fig.update_layout(
+        title=f"{c} vs {p}",
+        height=320,
+        showlegend=len(groups) > 1 or bool(bad),
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
 
 
 def _nothing_ok(df: pd.DataFrame) -> str:
@@ -262,21 +316,23 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
     )
 
 
-def _not_ok_traces(df: pd.DataFrame, p: str, c: str, name: str, color: str) -> list:
+def _not_ok_traces(
+    df: pd.DataFrame, p: str, c: str, name: str, color: str, log: bool = True
+) -> list:
     """One marker-only trace per status that is not ``ok`` (:func:`~psdesign.report.trust.
-    not_ok_status`) of output ``c`` against ``p``: each case's value with its own numerical
-    error bar, an open symbol per status (:func:`~psdesign.report.trust.status_style`) in the
-    output's colour, named ``"<name>: <status> (not in the lines)"``."""
+    not_ok_status`; a 0 is drawn unless the axis is ``log``) of output ``c`` against ``p``:
+    each case's value with its own numerical error bar (:func:`_numerical_half_width`), an
+    open symbol per status (:func:`~psdesign.report.trust.status_style`) in the output's
+    colour, named ``"<name>: <status> (not in the lines)"``."""
     import plotly.graph_objects as go
 
     out = []
-    rel = df.get(REL_ERROR_COLUMNS.get(c, ""))
-    for status, m in not_ok_status(df, c).items():
+    for status, m in not_ok_status(df, c, log).items():
         rows = df[m & pd.to_numeric(df[p], errors="coerce").notna()]
         if rows.empty:
             continue
         k = pd.to_numeric(rows[c], errors="coerce")
-        e = None if rel is None else pd.to_numeric(rel[rows.index], errors="coerce") * k
+        e = _numerical_half_width(rows, c, suffix="")
         symbol = status_style(status)[0]
         out.append(
             go.Scatter(

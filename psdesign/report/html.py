@@ -263,6 +263,7 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
     r_all, r0 = _fiber_radius(df, study)
     normalize = r_all is not None and r_all.nunique() > 1
     fig, ax = plt.subplots(figsize=(7, 4.8))
+    ax.set_yscale("log")  # before draw_not_ok, which draws no K <= 0 on a log axis
     markers = {"k_x_m2": "o", "k_y_m2": "s", "k_z_m2": "^"}
     colors = {"k_x_m2": "C0", "k_y_m2": "C2", "k_z_m2": "C1"}
     n_bad = 0
@@ -293,7 +294,6 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
     n_failed = failed_count(df)
     if n_failed:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
-    ax.set_yscale("log")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
     ax.grid(True, which="both", alpha=0.3)

@@ -121,7 +121,7 @@ def transport_figure(df) -> tuple[str | None, str]:
         if good.any():
             ax.errorbar(eps[good], y[good], yerr=None if err is None else err[good],
                         fmt="os^"[i], capsize=2, color=f"C{i}", label=c)  # fmt: skip
-        n_bad += draw_not_ok(ax, df, c, eps, y, err, "os^"[i], c)
+        n_bad += draw_not_ok(ax, df, c, eps, y, err, "os^"[i], c)  # linear: a blocked 0 too
     curve = np.linspace(0.12, 0.99, 100)
     ep, a_in, a_tp = TS_2D
     # black as the K figure's reference curves: the data keep the colours

@@ -45,8 +45,10 @@ def status_style(status: str) -> tuple[str, str, str]:
 def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): the
     case's status when it is not ``ok`` (``failed``, ``not_converged``, ...), else the value's
-    own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`), else
-    ``ok`` (an unrated value); a missing case status is ``unknown``.
+    own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`; a column
+    the table does not rate, a value the report derives, its ``<column>_status``:
+    :func:`psdesign.report.decision.add_anisotropy`), else ``ok`` (an unrated value); a
+    missing case status is ``unknown``.
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
     ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
@@ -59,22 +61,31 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
         if "status" in df
         else pd.Series("ok", index=df.index)
     )
-    own = df.get(STATUS_COLUMNS.get(column, ""))
+    own = df.get(STATUS_COLUMNS.get(column, f"{column}_status"))
     if own is None:
         own = pd.Series("ok", index=df.index)
     own = own.where(own.notna() & (own.astype(str) != ""), "ok").astype(str)
     return case.where(case != "ok", own)
 
 
-def not_ok_status(df: pd.DataFrame, column: str) -> dict[str, pd.Series]:
-    """``{status: row mask}`` of the rows whose value in ``column`` is a positive finite number
-    and whose :func:`value_status` is not ``ok``, statuses in sorted order (a failed case has
-    no value: :func:`failed_count`)."""
+def not_ok_status(df: pd.DataFrame, column: str, log: bool = True) -> dict[str, pd.Series]:
+    """``{status: row mask}`` of the rows whose value in ``column`` is a finite number a figure
+    can draw (positive on a ``log`` axis, else >= 0: a ``blocked`` D_eff/D is 0) and whose
+    :func:`value_status` is not ``ok``, statuses in sorted order (a failed case has no value:
+    :func:`failed_count`).
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "ok"], "diffusivity_z": [0.5, 0.0, 0.3],
+    ...                    "diffusivity_z_status": ["ok", "blocked", "untrustworthy"]})
+    >>> {s: m.tolist() for s, m in not_ok_status(df, "diffusivity_z", log=False).items()}
+    {'blocked': [False, True, False], 'untrustworthy': [False, False, True]}
+    >>> list(not_ok_status(df, "diffusivity_z"))  # a log axis cannot draw the 0
+    ['untrustworthy']
+    """
     st = value_status(df, column)
     v = pd.to_numeric(df[column], errors="coerce") if column in df else None
     if v is None:
         return {}
-    has = v.gt(0) & v.lt(float("inf"))
+    has = (v.gt(0) if log else v.ge(0)) & v.lt(float("inf"))
     return {s: has & (st == s) for s in sorted(set(st[has & (st != "ok")]))}
 
 
@@ -109,14 +120,15 @@ def no_ok_case(df: pd.DataFrame) -> str:
 
 def draw_not_ok(ax, df: pd.DataFrame, column: str, x, y, err, marker: str, name: str) -> int:
     """Draw on matplotlib ``ax`` the rows of ``df`` whose value in ``column`` is not ``ok``
-    (:func:`not_ok_status`): at (``x``, ``y``) (arrays over the rows) with bars ``err`` (or
-    None), open ``marker`` in the status's colour, labelled ``"<name>: <status> (not in
-    fits)"``; returns how many points were drawn."""
+    (:func:`not_ok_status`; a 0 too unless ``ax``'s y axis is already log: a ``blocked``
+    D_eff/D on a linear one, left out until session 45): at (``x``, ``y``) (arrays over the
+    rows) with bars ``err`` (or None), open ``marker`` in the status's colour, labelled
+    ``"<name>: <status> (not in fits)"``; returns how many points were drawn."""
     import numpy as np
 
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     n = 0
-    for status, m in not_ok_status(df, column).items():
+    for status, m in not_ok_status(df, column, ax.get_yscale() == "log").items():
         rows = m.to_numpy() & np.isfinite(x) & np.isfinite(y)
         if not rows.any():
             continue

@@ -204,6 +204,35 @@ def test_all_directions_summarize_bar_status_and_bc(tmp_path, capsys):
     assert np.asarray(res["tensor_m2"]).shape == (3, 3)
 
 
+@pytest.mark.parametrize("direction", ["all", "z"])
+def test_bc_both_json_says_at_top_level_what_the_exit_reads(tmp_path, capsys, direction):
+    """Review s45: with ``--bc both`` the JSON's top-level ``status`` is the chosen model's K
+    only, while the exit also reads the other model's (:func:`psdesign.cli.permeability.
+    result_statuses`): a script saw ``ok`` beside exit 3. The square cell is 12 um along z:
+    the permeameter's entrance/exit residual makes its K_z untrustworthy (bar > 20 %) while
+    the periodic K_z is ok, so the two disagree here. The truth is the exit rule
+    (:func:`psdesign.cli.exit_status.status_code`): ``overall_status`` is ``ok`` exactly when
+    the exit is 0, and it is the worst of every status printed."""
+    from psdesign.cli.exit_status import status_code
+    from psdesign.transport.effective import worst_status
+
+    code, out, _ = _run(
+        tmp_path, capsys, "--solver", "voxel", "--bc", "both", "--direction", direction, "--json"
+    )
+    res = json.loads(out)
+    rows = res["results"] if direction == "all" else [res]
+    z = next(r for r in rows if r["direction"] == "z")
+    assert z["bc"] == "periodic" and z["status"] == "ok"
+    assert z["bc_results"]["permeameter"]["status"] == "untrustworthy"
+    assert z["bc_results"]["permeameter"]["permeability_rel_error"] > 0.2
+    assert res["status"] == "ok"  # the chosen model's K: unchanged
+    assert code == 3
+    assert res["overall_status"] == "untrustworthy"  # main: KeyError
+    assert status_code(res["overall_status"]) == code
+    others = [o["status"] for r in rows for o in r["bc_results"].values()]
+    assert res["overall_status"] == worst_status([r["status"] for r in rows] + others)
+
+
 def test_spec_flow_direction_is_the_default_direction(tmp_path, capsys):
     """audit s32: ``flow.direction`` was accepted by the schema and used nowhere: a spec saying
     ``direction = "x"`` was solved along z without a word. Now it is the default of

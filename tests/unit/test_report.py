@@ -123,6 +123,54 @@ def test_report_without_results(tmp_path):
         write_report(tmp_path)
 
 
+def _always_fails(spec, outputs, solver, workdir):
+    raise RuntimeError("mesh failed")
+
+
+@pytest.mark.parametrize(("case_fn", "code"), [(fake_case, 0), (_always_fails, 3)])
+def test_study_report_exits_3_exactly_when_its_red_box_shows_a_case_not_ok(
+    tmp_path, capsys, case_fn, code
+):
+    """Session 45: ``psdesign study report`` of a folder whose every case failed exited 0 (a
+    script took the report for a good one). The exit table (cli.exit_status): the report
+    finished and is complete, so not 1 (a run that could not finish); 0 is "every result's
+    status ok"; a report showing cases not ok is "finished, a result's status is not ok": 3,
+    with one line, exactly when its red box is there (the same cases: case_counts)."""
+    from psdesign.cli import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=case_fn, progress=False, report=False)
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == code  # main: 0 for both
+    cap = capsys.readouterr()
+    assert cap.out.strip() == str(out / "report.html")
+    assert ('id="psd-status-alert"' in (out / "report.html").read_text()) == bool(code)
+    if code:
+        (line,) = cap.err.strip().splitlines()
+        assert line == (
+            "psdesign: the report shows 12 of 12 case(s) not ok (12 failed or timed out, 0 "
+            "not_converged, 0 ok with a value not ok): read its red box"
+        )
+    else:
+        assert cap.err == ""
+
+
+def test_study_reports_exit_follows_its_red_box_for_every_kind_of_case(mixed_report):
+    """The mixed study (4 failed, 2 not_converged, 2 ok with an untrustworthy K_z, 4 ok): its
+    red box is there, so ``study report`` exits 3; the report of its 4 all-ok cases has none
+    and exits 0; a not_converged case alone is 3 (``study report`` takes no
+    ``--allow-not-converged``: its exit says whether the red box is there)."""
+    from psdesign.cli.study import report_exit_status
+
+    df, html = mixed_report
+    assert 'id="psd-status-alert"' in html and report_exit_status(df) == 3
+    ok = df[(df["status"] == "ok") & (df["k_z_status"] == "ok")]
+    assert len(ok) == 4 and report_exit_status(ok) == 0
+    assert report_exit_status(df[df["status"] == "not_converged"]) == 3
+    assert report_exit_status(df[(df["status"] == "ok") & (df["k_z_status"] != "ok")]) == 3
+
+
 def test_results_csv_is_checked_once_by_the_reader(tmp_path, monkeypatch, capsys):
     """session 41 (s41-routes): the report checked results.csv exists, then read_results
     checked again with the same words: two checks of one file to keep in step. The reader's
@@ -766,14 +814,10 @@ def test_parameter_plots_bar_is_student_half_width_where_the_ci_is_clipped(monke
     assert bars["porosity"][1] == pytest.approx(0.004, rel=1e-12)
 
 
-def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
-    """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
-    300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
-    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is an open marker (in
-    its status's colour since session 45) counted in the caption, as the K figure does."""
+def _errorbar_calls(monkeypatch) -> list:
+    """``(x, y, kwargs)`` of every matplotlib ``errorbar`` call of the code under test, the
+    real method still called."""
     import matplotlib.axes
-
-    from psdesign.report.transport import transport_figure
 
     calls = []
     real = matplotlib.axes.Axes.errorbar
@@ -782,6 +826,17 @@ def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monk
         "errorbar",
         lambda self, x, y, **kw: (calls.append((list(x), list(y), kw)), real(self, x, y, **kw))[1],
     )
+    return calls
+
+
+def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monkeypatch):
+    """The report's D_eff/D figure drew every row alike: an ``untrustworthy`` diffusivity (a
+    300 % bar at a neck) looked like a trusted point, and no value had its bar. Now each point
+    carries ``|rel_error * D|`` and a value whose status is not ``ok`` is an open marker (in
+    its status's colour since session 45) counted in the caption, as the K figure does."""
+    from psdesign.report.transport import transport_figure
+
+    calls = _errorbar_calls(monkeypatch)
     df = pd.DataFrame(
         {
             "status": ["ok", "ok", "ok", "failed"],
@@ -800,6 +855,30 @@ def test_the_diffusivity_figure_draws_bars_and_marks_values_that_are_not_ok(monk
     # session 45: one colour per status (it was red for any), named in the legend
     assert bkw["mec"] == status_style("untrustworthy")[2] and bkw["mfc"] == "none"
     assert bkw["label"] == "diffusivity_z: untrustworthy (not in fits)"
+
+
+def test_the_diffusivity_figure_draws_a_blocked_zero_by_its_status(monkeypatch):
+    """Session 45: a ``blocked`` D_eff/D (0: the pore space closed along the direction, the
+    most not-ok value a transport solve gives) was left out of the D_eff/D figure and its
+    caption's count, though its axis is linear: ``not_ok_status`` drew positive values only,
+    for the K figures' log axes. It is drawn at 0 with its status's marker and counted."""
+    from psdesign.report.transport import transport_figure
+
+    calls = _errorbar_calls(monkeypatch)
+    df = pd.DataFrame(
+        {
+            "status": ["ok", "ok"],
+            "porosity": [0.7, 0.3],
+            "diffusivity_z": [0.40, 0.0],
+            "diffusivity_z_rel_error": [0.05, 0.0],
+            "diffusivity_z_status": ["ok", "blocked"],
+        }
+    )
+    _, caption = transport_figure(df)
+    assert f"1 value(s) that are not ok ({NOT_OK_MARKERS})" in caption  # main: no count
+    (bx, by, bkw) = calls[-1]
+    assert (bx, by) == ([0.3], [0.0]) and bkw["label"] == "diffusivity_z: blocked (not in fits)"
+    assert bkw["mec"] == status_style("blocked")[2]
 
 
 def _transport_case(spec, outputs, solver, workdir):
@@ -1249,6 +1328,66 @@ def test_k_vs_parameter_frames_draw_every_untrusted_case_by_its_status(mixed_rep
     bad = set(df.loc[df["k_z_status"] != "ok", "k_z_m2"].dropna())
     lines = [t for t in fig.data if "lines" in (t.mode or "")]
     assert lines and not any(y in bad for t in lines for y in t.y if y is not None)
+
+
+def test_the_other_outputs_frames_draw_every_value_that_is_not_ok_by_its_status(monkeypatch):
+    """Session 45: the porosity, anisotropy, D_eff/D and conductivity frames against a design
+    parameter drew trusted means only (s45-looks2 marked the K frames); a D_eff/D = 0 that is
+    ``blocked``, a not-converged case's values, an anisotropy over an untrustworthy K_z left
+    no trace, and an output with no trusted value had no frame. Each is now drawn at its case's
+    design point with its own bar (the table's rel error x value, or its absolute error), an
+    open symbol per status, never in a line. Truth: the table below, written by hand."""
+    from psdesign.report import decision
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2", "c3"],
+            "status": ["ok", "ok", "not_converged", "ok"],
+            "generator.porosity": [0.7, 0.8, 0.9, 0.8],
+            "porosity": [0.70, 0.79, 0.91, 0.81],
+            "porosity_error": [0.01, 0.01, 0.02, 0.01],
+            "k_x_m2": [1e-11, 2e-11, 3e-11, 2e-11],
+            "k_z_m2": [2e-11, 8e-12, 5e-11, 4e-11],
+            "k_z_rel_error": [0.02, 0.3, 0.02, 0.02],
+            "k_z_status": ["ok", "untrustworthy", "ok", "ok"],
+            "diffusivity_z": [0.5, 0.0, 0.6, 0.55],
+            "diffusivity_z_rel_error": [0.02, 0.0, 0.05, 0.02],
+            "diffusivity_z_status": ["ok", "blocked", "ok", "ok"],
+            # every conductivity untrustworthy: no trusted mean, still a frame
+            "conductivity_z": [0.1, 0.2, 0.3, 0.25],
+            "conductivity_z_rel_error": [0.4, 0.4, 0.4, 0.4],
+            "conductivity_z_status": "untrustworthy",
+        }
+    )
+    figs = _captured(monkeypatch, decision, "figure_html")
+    decision.parameter_plots(df, ["generator.porosity"], {})
+    frames = {f.layout.title.text: f for f in figs}
+
+    def traces(c):
+        return {t.name: t for t in frames[f"{c} vs generator.porosity"].data}
+
+    def marker(c, status):
+        t = traces(c)[f"{c}: {status} (not in the lines)"]
+        assert t.mode == "markers"
+        return list(t.x), list(t.y), list(t.error_y.array) if t.error_y.array is not None else None
+
+    assert marker("diffusivity_z", "blocked") == ([0.8], [0.0], [0.0])
+    assert marker("diffusivity_z", "not_converged") == ([0.9], [0.6], [pytest.approx(0.03)])
+    assert marker("porosity", "not_converged") == ([0.9], [0.91], [0.02])
+    aniso_x, aniso_y, _ = marker("anisotropy", "untrustworthy")  # its K_z is untrustworthy
+    assert aniso_x == [0.8] and aniso_y == [pytest.approx(2e-11 / 8e-12)]
+    assert marker("anisotropy", "not_converged")[:2] == ([0.9], [pytest.approx(3e-11 / 5e-11)])
+    x, y, e = marker("conductivity_z", "untrustworthy")
+    assert sorted(x) == [0.7, 0.8, 0.8] and e == pytest.approx([0.4 * v for v in y])
+    assert marker("conductivity_z", "not_converged")[:2] == ([0.9], [0.3])  # the case's status
+    assert not [t for t in traces("conductivity_z").values() if "lines" in (t.mode or "")]
+    symbols = {s: traces("diffusivity_z")[f"diffusivity_z: {s} (not in the lines)"].marker.symbol
+               for s in ("blocked", "not_converged")}  # fmt: skip
+    assert symbols == {s: status_style(s)[0] for s in symbols} and len(set(symbols.values())) == 2
+    # the lines hold trusted values only: the blocked 0 and the not-converged 0.6 are in none
+    for c, bad in (("diffusivity_z", {0.0, 0.6}), ("porosity", {0.91})):
+        lines = [t for t in traces(c).values() if "lines" in (t.mode or "")]
+        assert lines and not any(v in bad for t in lines for v in t.y if v is not None), c
 
 
 def test_porosity_k_and_convergence_figures_tell_not_converged_from_untrustworthy(
