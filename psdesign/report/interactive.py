@@ -92,7 +92,8 @@ def _plain_numbers(fig) -> None:
     for axis in [*fig.select_xaxes(), *fig.select_yaxes()]:
         if axis.exponentformat is None:
             axis.update(number_axis())
-        if axis.type == "log" and axis.minorloglabels is None:
+        # plotly 5.24 has no minorloglabels (pyproject allows >= 5.18: AttributeError there)
+        if axis.type == "log" and getattr(axis, "minorloglabels", "") is None:
             # a K axis within a decade ticked "3", "2", "1e-11", "9", "8": digits that read
             # as values (session 45); every tick a whole number: "3e-11"
             axis.minorloglabels = "complete"
