@@ -183,7 +183,7 @@ def psdesign_child(path: str) -> None:
     wall = time.perf_counter() - t0
     cpu = time.process_time() - cpu0
     with vs._threads(solid.size):
-        need = iteration_bytes(vs._Stokes.build(solid), lo_bytes=1)  # tol 1e-6: int8
+        need = iteration_bytes(vs._Stokes.build(solid), lo_bytes=1, w_bytes=3)  # tol 1e-6
     row = {
         "k": [float(v) for v in column_of(res)],
         "iterations": int(res.iterations),

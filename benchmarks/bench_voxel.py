@@ -36,6 +36,7 @@ import numba as nb
 import numpy as np
 
 from psdesign.flow.voxel import column_of
+from solvers.jit import kernel_log
 from solvers.voxel_stokes import solve_voxel_stokes
 
 BENCH = Path(__file__).resolve().parents[1] / "tests" / "data"  # vendored peer geometry
@@ -264,13 +265,15 @@ def _vcycle_bytes(mg0, fused: bool = True) -> float:
     return total
 
 
-def iteration_bytes(op, fused: bool = True, lo_bytes: int = 2) -> float:
+def iteration_bytes(op, fused: bool = True, lo_bytes: int = 2, w_bytes: int = 4) -> float:
     """Bytes one Krylov iteration must stream (the kernels of :func:`solvers.voxel_stokes._symmlq`
     or ``_minres`` by :data:`solvers.voxel.memory.KRYLOV` as they are fused now, each array read
     or written once per kernel; ``fused=False``: before the multigrid fusions, with the separate
     preconditioned dot product, float32 directions and the float64 solution).  ``lo_bytes``: the
     width of the solution's extension (:class:`solvers.voxel.lanczos.Solution`: 1 for the int8
-    one of a tol >= 1e-6 SYMMLQ solve, which the timed iterations use; 2 for int16)."""
+    one of a tol >= 1e-6 SYMMLQ solve, which the timed iterations use; 2 for int16);
+    ``w_bytes``: the width of SYMMLQ's packed direction (3 for the 24-bit one that goes with the
+    int8 extension, :data:`solvers.voxel.memory.LATER_SYMMLQ_BITS`; 4 for float32)."""
     n = op.fluid.size
     vec4 = 16.0  # one 4-field float32 vector per cell
     sol = 4 * (4.0 + lo_bytes)  # the solution: float32 + its extension, 4 fields
@@ -293,7 +296,7 @@ def iteration_bytes(op, fused: bool = True, lo_bytes: int = 2) -> float:
         # extension) read + written on the active unknowns (solvers.voxel.lanczos.Packing)
         active = (sum(np.count_nonzero(d) for d in op.d) + np.count_nonzero(op.fluid)) / (4 * n)
         masks = sum(d.itemsize for d in op.d) + 1.0  # the activity of each row's entries
-        update = vec4 + masks + active * (2 * 16.0 + 2 * sol)
+        update = vec4 + masks + active * (2 * 4.0 * w_bytes + 2 * sol)
     elif fused:  # z read; w read, w1 read + written (memory.DIRECTION_BITS: float32 or int16 +
         # a scale per 16); x = float32 + extension read + written
         direction = 16.0 if vmem.DIRECTION_BITS == 32 else 9.0
@@ -600,14 +603,22 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         e = lz.Solution(op.shape, work.packing)
         its = 20
         vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
-        e.extend()  # the solution of later refinement cycles (int8 extension at tol 1e-6)
+        # the storage of later refinement cycles, as _solve_core sets it at tol 1e-6: SYMMLQ's
+        # 24-bit direction, then the int8 extension.  Until session 46 the direction stayed
+        # float32 here, a pairing no solve makes, whose parallel kernel psdesign warmup never
+        # compiles: symmlq_step ran on one thread (56 of ~180 ms per iteration, wall = CPU)
+        work.store_directions(vs._later_bits(work, e.short(1e-6)))  # the default tol
+        e.extend(1e-6)
         # compile / load the kernels of the extended solution here, not in the first batch
         # (a stale numba cache made that batch 6x the others, session 31)
         vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
-        need = iteration_bytes(op, lo_bytes=e.lo.itemsize)
-        paired = paired_batches(
-            lambda: vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its), its, batches
-        )
+        need = iteration_bytes(op, lo_bytes=e.lo.itemsize, w_bytes=3 if work.wm.size else 4)
+        with kernel_log() as klog:
+            paired = paired_batches(
+                lambda: vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its), its, batches
+            )
+        if klog.fallback:  # a timed kernel on one thread would be timed under the name of two
+            print(f"  WARNING: on one thread (parallel twin not compiled): {sorted(klog.fallback)}")
         ratios = [w / (need / max(tb, ta) * 1e3) for w, _c, tb, ta in paired]
         best = int(np.argmin(ratios))
         rows["one MINRES iteration"] = paired[best][0]
