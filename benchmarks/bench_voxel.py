@@ -554,6 +554,27 @@ def _print_iteration_summary(
     )
 
 
+def later_cycle_state(op, rhs: np.ndarray) -> tuple:
+    """``(work, solution)`` of a solve on ``op`` in its later refinement cycles, as
+    :func:`solvers.voxel_stokes._solve_core` stores them at the default tol 1e-6: SYMMLQ's 24-bit
+    direction, then the int8 extension, after two iterations of the first cycle.  Until session
+    46 the direction stayed float32 here, a pairing no solve makes, whose parallel kernel
+    ``psdesign warmup`` never compiles: ``symmlq_step`` ran on one thread (56 of ~180 ms per
+    iteration at 200^3, wall = CPU)."""
+    from solvers import voxel_stokes as vs
+    from solvers.voxel import lanczos as lz
+
+    work = vs.MinresWork.of(op)
+    e = lz.Solution(op.shape, work.packing)
+    vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
+    work.store_directions(vs._later_bits(work, e.short(1e-6)))
+    e.extend(1e-6)
+    # compile / load the kernels of the extended solution here, not in the first timed batch
+    # (a stale numba cache made that batch 6x the others, session 31)
+    vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
+    return work, e
+
+
 def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> dict[str, float]:
     """Time the solver's kernels and one MINRES iteration on the Toray-like ``n^3`` grid
     (``subvoxel``: with its exact fibre distance, sub-voxel walls), and compare the iteration
@@ -570,7 +591,6 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
     run."""
     from solvers import voxel_stokes as vs
     from solvers.voxel import kernels as kr
-    from solvers.voxel import lanczos as lz
 
     _warm_parallel()
     phi = toray_like(n, distance=True) * n if subvoxel else None
@@ -599,19 +619,8 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         pairs = _fusion_pairs(op, reps)
         rhs = np.empty(op.shape, np.float32)
         op.residual(np.zeros(op.shape), 0, rhs)
-        work = vs.MinresWork.of(op)
-        e = lz.Solution(op.shape, work.packing)
         its = 20
-        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
-        # the storage of later refinement cycles, as _solve_core sets it at tol 1e-6: SYMMLQ's
-        # 24-bit direction, then the int8 extension.  Until session 46 the direction stayed
-        # float32 here, a pairing no solve makes, whose parallel kernel psdesign warmup never
-        # compiles: symmlq_step ran on one thread (56 of ~180 ms per iteration, wall = CPU)
-        work.store_directions(vs._later_bits(work, e.short(1e-6)))  # the default tol
-        e.extend(1e-6)
-        # compile / load the kernels of the extended solution here, not in the first batch
-        # (a stale numba cache made that batch 6x the others, session 31)
-        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, 2)
+        work, e = later_cycle_state(op, rhs)
         need = iteration_bytes(op, lo_bytes=e.lo.itemsize, w_bytes=3 if work.wm.size else 4)
         with kernel_log() as klog:
             paired = paired_batches(
