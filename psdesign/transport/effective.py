@@ -272,24 +272,36 @@ class Rated:
 
 
 STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
-"""Statuses from best to worst (:func:`worst_status`)."""
+"""Statuses from best to worst (:func:`worst_status`). The exit rule's trusted words
+(:data:`psdesign.cli.exit_status.TRUSTED`: ``ok`` and a force-field search's ``converged`` and
+``at_bound``) rank with ``ok``, and only they: the worst status is trusted exactly when the
+exit is 0."""
 
 
 def _rank(status: str | None) -> int:
-    # A word outside STATUS_ORDER (``extrapolated``, ``contact_left``, a missing status) ranks
-    # below every known one: nothing says it is better than ``blocked``, and the exit rule
-    # (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    # A trusted word ranks with "ok" (until session 46 "converged" and "at_bound" ranked below
+    # "blocked", as an unknown word: the worst of ["converged", "untrustworthy"] was
+    # "converged"). A word outside both (``extrapolated``, ``contact_left``, a missing status)
+    # ranks below every known one: nothing says it is better than ``blocked``, and the exit
+    # rule (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    from psdesign.cli.exit_status import TRUSTED
+
+    if status in TRUSTED:
+        return 0
     return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
 
 
 def worst_status(statuses: list[str | None]) -> str | None:
-    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: one
-    outside the order (or ``None``) is worse than ``blocked``; the first such one is returned.
+    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: a
+    trusted one (:data:`psdesign.cli.exit_status.TRUSTED`) is as good as ``ok``, one outside
+    both (or ``None``) is worse than ``blocked``; the first of the worst is returned.
 
     >>> worst_status(["ok", "untrustworthy", "ok"])
     'untrustworthy'
     >>> worst_status(["ok", "blocked", "extrapolated", "not_converged"])
     'extrapolated'
+    >>> worst_status(["converged", "untrustworthy"]), worst_status(["at_bound", "ok"])
+    ('untrustworthy', 'at_bound')
     """
     return max(statuses, key=_rank, default="ok")
 
