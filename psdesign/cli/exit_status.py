@@ -58,7 +58,9 @@ TERMINATED = 143
 #: force-field search's ``converged`` and ``at_bound`` (:func:`psdesign.forcefield.run.
 #: search_status`: a converged search whose optimum lies on the box the spec set is the
 #: answer to the constrained problem it asked, a result since session 44). Every other status
-#: of a finished result exits ``NOT_TRUSTED``.
+#: of a finished result exits ``NOT_TRUSTED``. The worst of several statuses
+#: (:func:`psdesign.transport.effective.worst_status`) ranks these with ``ok``, so it is
+#: trusted exactly when the exit is 0.
 TRUSTED = ("ok", "converged", "at_bound")
 #: A study case's status when the run could not give it (exit ``FAILED``).
 NOT_FINISHED = ("failed", "timeout")

@@ -76,12 +76,12 @@ def no_path_message(
     grid : str
         The refused grid, whose path test the line describes (:func:`path_test`):
         ``"permeameter"`` (``bc``), else the periodic bc's ``periodic_treatment``
-        (``"periodic"``, ``"mirror"``, ``"frame"``). On the periodic grid and the permeameter's
-        the tests here tell who closed the path (the permeameter's by :func:`closed_pore_space`
-        with its reservoirs and side walls: one copy closed closes any stack of them, since a
-        path across the stack crosses each copy from its inlet face to its outlet face); on
-        mirror and frame an RVE's line names the fibers when its walls moved back by
-        :data:`OPEN_MOVE` voxel leave no path on that grid, else ``rve.voxel``.
+        (``"periodic"``, ``"mirror"``, ``"frame"``). On every grid an RVE's line names the
+        fibers when its walls moved back by :data:`OPEN_MOVE` voxel leave no path on that grid
+        (:func:`solved_pore`; the permeameter's with one copy between its reservoirs and side
+        walls: one copy closed closes any stack of them, since a path across the stack crosses
+        each copy from its inlet face to its outlet face), else ``rve.voxel``; on the periodic
+        grid the diffuse wall's closing is told apart too.
 
     Returns
     -------
@@ -101,13 +101,13 @@ def no_path_message(
 
     if distance is None:
         return _image_line(name, grid)
-    if grid == "permeameter":  # the fibers' line where they close it (until session 45: none)
-        said = closed_pore_space(name, h, distance, None, axis, periodic=False)
-        if said is not None:
-            return said
-    if grid in ("mirror", "frame"):  # the fibers' line where they close it (until s45: none)
-        if not _treated_path(np.asarray(distance) / float(h) > -OPEN_MOVE, axis, grid):
-            return _fibers_line(name, h)
+    d = np.asarray(distance) / float(h)
+    if grid == "periodic" and wall == "diffuse" and rve is not None and percolates(d > 0, axis):
+        return _diffuse_closed(name, h, rve, d.shape, axis)
+    # the walls moved back on the solved grid (until session 45 the permeameter, mirror and
+    # frame routes named rve.voxel here, and each route asked it its own way)
+    if not percolates(solved_pore(d > -OPEN_MOVE, axis, grid), axis):
+        return _fibers_line(name, h)
     if grid != "periodic":
         return (
             f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid "
@@ -115,11 +115,6 @@ def no_path_message(
             "(allowed: a voxel small "
             f"enough to open the pore path; none if the pore space has no path along {name})"
         )
-    d = np.asarray(distance) / float(h)
-    if wall == "diffuse" and rve is not None and percolates(d > 0.0, axis):
-        return _diffuse_closed(name, h, rve, d.shape, axis)
-    if not percolates(d > -OPEN_MOVE, axis):
-        return _fibers_line(name, h)
     return (
         f"rve.voxel: no fluid path along {name} on the {h:.3g} m grid (face-connected, "
         "periodic fluid voxels): a gap under about a voxel closes on the grid, which the RVE's "
@@ -148,16 +143,6 @@ def path_test(name: str, grid: str, what: str = "pore") -> str:
     'face-connected pore voxels between the reservoirs, inside the side walls'
     """
     return PATH_TESTS[grid].format(what=what, name=name)
-
-
-def _treated_path(pore: np.ndarray, axis: int, grid: str) -> bool:
-    """Whether ``pore`` has a path along ``axis`` on the grid of a periodic solve with
-    ``flow.periodic_treatment = grid``: the solver's own grid (:func:`solvers.voxel_stokes.
-    apply_treatment`, the mirror image or the solid frame) and its own test of a path."""
-    from psdesign.geometry.throat import percolates
-    from solvers.voxel_stokes import apply_treatment
-
-    return percolates(~apply_treatment(~pore, axis, grid)[0], axis)
 
 
 def _image_line(name: str, grid: str) -> str:
@@ -228,16 +213,44 @@ def closed_pore_space(
     """
     from psdesign.geometry.throat import percolates
 
+    grid = "periodic" if periodic else "permeameter"
     pore = ~np.asarray(solid, bool) if distance is None else np.asarray(distance) / h > -OPEN_MOVE
-    if not periodic:
-        pore = permeameter_pore(pore, axis)
-    if percolates(pore, axis):
+    if percolates(solved_pore(pore, axis, grid), axis):
         return None
-    return (
-        _image_line(name, "periodic" if periodic else "permeameter")
-        if distance is None
-        else _fibers_line(name, h)
-    )
+    return _image_line(name, grid) if distance is None else _fibers_line(name, h)
+
+
+def solved_pore(pore: np.ndarray, axis: int, grid: str) -> np.ndarray:
+    """The pore mask of the grid a voxel solve along ``axis`` solves, for the one test of a
+    path (:func:`psdesign.geometry.throat.percolates`): the question of every route here and
+    of :func:`psdesign.flow.voxel.refuse_without_path` (until session 45 asked three ways).
+
+    Parameters
+    ----------
+    pore : ndarray of bool
+        The pore voxels of one RVE (or of the permeameter's stack of copies).
+    axis : int
+        The flow's axis.
+    grid : str
+        ``"permeameter"``: with its reservoirs and side walls (:func:`permeameter_pore`); else
+        the periodic bc's ``periodic_treatment``, the solver's own grid
+        (:func:`solvers.voxel_stokes.apply_treatment`): ``"periodic"`` (``pore`` itself),
+        ``"mirror"`` (with its mirror image along ``axis``), ``"frame"`` (a solid frame on the
+        high faces across ``axis``).
+
+    Returns
+    -------
+    ndarray of bool
+
+    >>> pore = np.ones((4, 3, 2), bool)
+    >>> [solved_pore(pore, 0, g).shape for g in ("periodic", "mirror", "frame", "permeameter")]
+    [(4, 3, 2), (8, 3, 2), (4, 4, 3), (6, 4, 3)]
+    """
+    if grid == "permeameter":
+        return permeameter_pore(pore, axis)
+    from solvers.voxel_stokes import apply_treatment
+
+    return ~apply_treatment(~pore, axis, grid)[0]
 
 
 def permeameter_pore(pore: np.ndarray, axis: int) -> np.ndarray:

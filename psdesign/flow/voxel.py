@@ -229,10 +229,10 @@ def refuse_without_path(
 ) -> None:
     """Refuse, before any work, a voxel solve whose grid has no fluid path along
     ``direction``: the solver's own test (:func:`solvers.voxel_stokes.percolates`) of the grid
-    it solves, the periodic one with its treatment (:func:`solvers.voxel_stokes.
-    apply_treatment`, ``flow.periodic_treatment``) or the permeameter's planned copies between
-    reservoirs and side walls (:func:`psdesign.flow.no_path.permeameter_pore`), raised with the
-    route's line (:func:`psdesign.flow.no_path.no_path_message`). The caller runs it before
+    it solves (:func:`psdesign.flow.no_path.solved_pore`), the periodic one with its treatment
+    (``flow.periodic_treatment``) or the permeameter's planned copies between reservoirs and
+    side walls, raised with the route's line (:func:`psdesign.flow.no_path.no_path_message`),
+    whose own tests ask the same question of the same grid. The caller runs it before
     the time and memory estimate, so the refusal is the only line (an image without a path
     printed the estimate first: the periodic route until session 43, the permeameter until
     session 44). The diffuse wall's fluid fractions are left to its solve's own test.
@@ -242,23 +242,23 @@ def refuse_without_path(
     solvers.voxel_stokes.NoFluidPathError
         The pore space of the solved grid has no path along ``direction``.
     """
-    from psdesign.flow.no_path import permeameter_pore
-    from solvers.voxel_stokes import NoFluidPathError, apply_treatment, percolates
+    from psdesign.flow.no_path import solved_pore
+    from psdesign.geometry.throat import percolates
+    from solvers.voxel_stokes import NoFluidPathError
 
     bc, wall = _options(flow)
     if wall == "diffuse":
         return
-    treatment = flow.get("periodic_treatment") or "periodic"
     name, ax = axis_of(direction)
+    treatment = flow.get("periodic_treatment") or "periodic"
+    solved = "permeameter" if bc == "permeameter" else treatment
+    solid = fields.solid
     if bc == "permeameter":
         reps = [plan_copies(flow, rve, fields, ax).copies if a == ax else 1 for a in range(3)]
-        grid = ~permeameter_pore(~np.tile(fields.solid, reps), ax)
-    else:
-        grid = apply_treatment(fields.solid, ax, treatment)[0]
-    if percolates(grid, ax):
+        solid = np.tile(solid, reps)
+    if percolates(solved_pore(~solid, ax, solved), ax):
         return
     distance = fields.distance if fields.analytic_distance else None
-    solved = "permeameter" if bc == "permeameter" else treatment
     line = no_path_message(name, _cubic_voxel(fields), distance, ax, wall, rve, solved)
     raise NoFluidPathError(line)
 

@@ -24,7 +24,7 @@ import numpy as np
 from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 from psdesign.schema.transport import check_conductivity, validate_transport
-from psdesign.transport.effective import Rated, blocked_on_grid, solve_effective, wiener_bounds
+from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 
 #: The contrast a blocked two-phase solve is repeated at (:func:`effective_conductivity`): the
 #: periodic solve calls a flux under 1e-7 of the Wiener upper bound blocked
@@ -87,15 +87,10 @@ class ConductivityResult(Rated):
         lo, hi = self.wiener_bounds
         return self.effective_conductivity, (lo, hi)
 
-    def _rating(self) -> tuple[str, list[str]]:
-        # With an insulating fluid the solid conducts: a block on the grid is a contact the
-        # grid broke, not a pore gap it closed (the warning :func:`rating` words for the pore).
-        status, warnings = super()._rating()
-        if self.insulating_phase == "fluid":
-            name = f"{self.QUANTITY}_{self.direction}"
-            pore = blocked_on_grid(name)
-            warnings = [blocked_on_grid(name, "solid") if w == pore else w for w in warnings]
-        return status, warnings
+    def conducting(self) -> str:
+        """``"solid"`` with an insulating fluid, else ``"pore"`` (:meth:`Rated.conducting`): a
+        block on the grid is then a contact the grid broke, not a pore gap it closed."""
+        return "solid" if self.insulating_phase == "fluid" else "pore"
 
     def __str__(self) -> str:
         """The line ``psdesign conductivity`` prints (:func:`psdesign.cli.conductivity.

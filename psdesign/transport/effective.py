@@ -131,11 +131,12 @@ def rating(
     wiener: tuple[float, tuple[float, float]] | None = None,
     neck: str | None = None,
     measure: str = DIAMETER_MEASURE,
+    conducting: str = "pore",
 ) -> tuple[str, list[str]]:
     """``(status, warnings)`` of one transport value named ``quantity`` (``"D_eff/D"``) along
     ``direction`` ("" for a value without one, e.g. the pore sizes; module docstring).
 
-    (Nine parameters: the value's own numbers, then its optional checks, keyword-only.)
+    (Ten parameters: the value's own numbers, then its optional checks, keyword-only.)
 
     ``wiener``: ``(value, (lower, upper))`` to check against its Wiener bounds
     (:func:`outside_wiener`; outside makes an ``ok`` value ``untrustworthy``). ``neck``: the
@@ -143,7 +144,9 @@ def rating(
     (:func:`psdesign.transport.necks.neck_warning`), which makes an ``ok`` value
     ``untrustworthy``. ``measure``: what ``cells_per_diameter`` counts voxels across
     (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width), named in
-    the resolution warning as K's is.
+    the resolution warning as K's is. ``conducting``: the phase that conducts, ``"pore"`` or
+    ``"solid"``, whose words the warning of a value blocked on the grid says
+    (:func:`blocked_on_grid`).
 
     >>> rating("D_eff/D", "z", False, True, 0.31, 6.0)[0]
     'untrustworthy'
@@ -153,10 +156,13 @@ def rating(
     'untrustworthy'
     >>> rating("D_eff/D", "z", False, True, 0.05, 7.0, measure="fiber thin width")[1][0][:48]
     'D_eff/D_z: only 7.0 voxels across the thinnest f'
+    >>> rating("sigma_eff", "x", True, True, 0.0, 12.0, conducting="solid")[1][0][:62]
+    'sigma_eff_x: blocked on the voxel grid, which breaks any conta'
     """
     name = f"{quantity}_{direction}" if direction else quantity
     if blocked:  # an image (no fiber diameter) is its own geometry: its block is exact
-        return "blocked", [] if cells_per_diameter is None else [blocked_on_grid(name)]
+        on_grid = [blocked_on_grid(name, conducting)]
+        return "blocked", [] if cells_per_diameter is None else on_grid
     warnings = err.resolution_warnings(
         cells_per_diameter, "voxel", direction, quantity, measure=measure
     )
@@ -225,6 +231,11 @@ class Rated:
         here (no check)."""
         return None
 
+    def conducting(self) -> str:
+        """The phase that conducts, ``"pore"`` here, whose words the warning of a value
+        blocked on the grid says (:func:`blocked_on_grid`)."""
+        return "pore"
+
     def __repr__(self) -> str:
         """:data:`REPR_FIELDS` and the ``status`` (a property, which the generated repr left
         out: a notebook's plain output showed the error bar but not the rating)."""
@@ -256,28 +267,41 @@ class Rated:
             wiener=self.wiener(),
             neck=getattr(self, "unresolved_neck", None),
             measure=getattr(self, "resolution_measure", DIAMETER_MEASURE),
+            conducting=self.conducting(),
         )
 
 
 STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
-"""Statuses from best to worst (:func:`worst_status`)."""
+"""Statuses from best to worst (:func:`worst_status`). The exit rule's trusted words
+(:data:`psdesign.cli.exit_status.TRUSTED`: ``ok`` and a force-field search's ``converged`` and
+``at_bound``) rank with ``ok``, and only they: the worst status is trusted exactly when the
+exit is 0."""
 
 
 def _rank(status: str | None) -> int:
-    # A word outside STATUS_ORDER (``extrapolated``, ``contact_left``, a missing status) ranks
-    # below every known one: nothing says it is better than ``blocked``, and the exit rule
-    # (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    # A trusted word ranks with "ok" (until session 46 "converged" and "at_bound" ranked below
+    # "blocked", as an unknown word: the worst of ["converged", "untrustworthy"] was
+    # "converged"). A word outside both (``extrapolated``, ``contact_left``, a missing status)
+    # ranks below every known one: nothing says it is better than ``blocked``, and the exit
+    # rule (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
+    from psdesign.cli.exit_status import TRUSTED
+
+    if status in TRUSTED:
+        return 0
     return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
 
 
 def worst_status(statuses: list[str | None]) -> str | None:
-    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: one
-    outside the order (or ``None``) is worse than ``blocked``; the first such one is returned.
+    """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: a
+    trusted one (:data:`psdesign.cli.exit_status.TRUSTED`) is as good as ``ok``, one outside
+    both (or ``None``) is worse than ``blocked``; the first of the worst is returned.
 
     >>> worst_status(["ok", "untrustworthy", "ok"])
     'untrustworthy'
     >>> worst_status(["ok", "blocked", "extrapolated", "not_converged"])
     'extrapolated'
+    >>> worst_status(["converged", "untrustworthy"]), worst_status(["at_bound", "ok"])
+    ('untrustworthy', 'at_bound')
     """
     return max(statuses, key=_rank, default="ok")
 

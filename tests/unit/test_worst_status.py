@@ -8,11 +8,12 @@ a traceback instead of the exit-3 line. The truth here is the ordering itself
 :mod:`psdesign.cli.exit_status` (any status that is not ok is not trusted).
 """
 
+import itertools
 from types import SimpleNamespace
 
 import pytest
 
-from psdesign.cli.exit_status import NOT_TRUSTED, status_code
+from psdesign.cli.exit_status import NOT_TRUSTED, OK, TRUSTED, status_code
 from psdesign.cli.permeability import _combine
 from psdesign.transport.effective import STATUS_ORDER, worst_status
 
@@ -39,6 +40,21 @@ def test_worst_status_follows_the_order():
         for b in STATUS_ORDER[i:]:
             assert worst_status([a, b]) == b
             assert worst_status([b, a]) == b
+
+
+def test_the_worst_status_is_trusted_exactly_when_the_exit_is_0():
+    """The order and the exit rule are one definition (session 46): a force-field search's
+    trusted ``converged`` and ``at_bound`` (:data:`psdesign.cli.exit_status.TRUSTED`) ranked
+    below ``blocked``, as unknown words, so ``worst_status(["converged", "untrustworthy"])``
+    was ``converged``, a trusted word for a list the exit rule calls not trusted (3). Over
+    every pair of words, in either order, the worst is trusted exactly when the exit is 0.
+    Fails on main's effective.py."""
+    assert STATUS_ORDER[0] in TRUSTED and not set(STATUS_ORDER[1:]) & set(TRUSTED)
+    words = [*TRUSTED, *STATUS_ORDER, "extrapolated", None]
+    for pair in itertools.product(words, repeat=2):
+        assert (worst_status(list(pair)) in TRUSTED) == (status_code(*pair) == OK), pair
+    assert worst_status(["converged", "untrustworthy"]) == "untrustworthy"
+    assert worst_status(["at_bound", "blocked", "converged"]) == "blocked"
 
 
 def _result(direction: str, status: str) -> dict:
