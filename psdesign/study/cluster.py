@@ -26,13 +26,16 @@ DEFAULT_WAIT_S = 600.0
 for a worker (the first batch job to connect, or any worker once all have left)."""
 
 
-def check_wait_s(value) -> float:
+def check_wait_s(value, what: str = "--cluster-wait") -> float:
     """``value`` as ``--cluster-wait`` seconds.
 
     Parameters
     ----------
     value : float
         Seconds; a finite number > 0.
+    what : str
+        How the error names the value: the command line's ``"--cluster-wait"``, the Python
+        API's keyword (``"worker_wait_s"`` of :class:`~psdesign.study.options.RunOptions`).
 
     Returns
     -------
@@ -41,10 +44,10 @@ def check_wait_s(value) -> float:
     Raises
     ------
     ValueError
-        One line naming ``--cluster-wait`` and its range.
+        One line naming ``what`` and its range.
     """
     if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
-        raise ValueError(f"--cluster-wait: expected seconds > 0 (finite), got {value!r}")
+        raise ValueError(f"{what}: expected seconds > 0 (finite), got {value!r}")
     return float(value)
 
 

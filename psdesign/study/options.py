@@ -20,23 +20,6 @@ __all__ = ["RunOptions"]
 
 _FLAGS = ("progress", "retry_failed", "report", "force", "retry_not_converged")
 
-#: Checks shared with the command line name its option; a keyword is named as the keyword.
-_KEYWORD_OF = {"--scheduler": "scheduler", "--cluster-wait": "worker_wait_s"}
-
-
-def _as_keyword(exc: Exception) -> StudyError:
-    """The line of a check shared with the command line, naming the keyword instead of the
-    option (``--cluster-wait: ...`` -> ``worker_wait_s: ...``): the key a caller gave.
-
-    >>> str(_as_keyword(ValueError("--cluster-wait: expected seconds > 0 (finite), got 0")))
-    'worker_wait_s: expected seconds > 0 (finite), got 0'
-    """
-    line = str(exc)
-    for option, keyword in _KEYWORD_OF.items():
-        if line.startswith(f"{option}: "):
-            line = keyword + line[len(option) :]
-    return StudyError(line)
-
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -88,6 +71,10 @@ class RunOptions:
     StudyError
         On creation, one line naming the option and what it allows (a
         :class:`psdesign.errors.SpecError`).
+    SchedulerError
+        On creation, one line naming ``scheduler``: its host does not resolve (the address is
+        well formed, the name service says no; see
+        :func:`psdesign.study.address.check_scheduler_address`).
 
     Examples
     --------
@@ -125,9 +112,10 @@ class RunOptions:
         _check_security(self.security, self.scheduler)
         if self.worker_wait_s is not None:
             try:
-                object.__setattr__(self, "worker_wait_s", check_wait_s(self.worker_wait_s))
-            except ValueError as exc:
-                raise _as_keyword(exc) from None
+                wait_s = check_wait_s(self.worker_wait_s, "worker_wait_s")
+            except ValueError as exc:  # the StudyError (a SpecError) of every bad option
+                raise StudyError(str(exc)) from None
+            object.__setattr__(self, "worker_wait_s", wait_s)
 
     def case_function(self) -> Callable | str:
         """``case_fn`` or its default, ``DEFAULT_CASE_FN`` (``psdesign.study.case:run_case``)."""
@@ -200,10 +188,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
             f"got {type(scheduler).__name__}"
         )
     if isinstance(scheduler, str):  # before the case function's imports and dask's
-        try:  # (one already checked: no lookup)
-            scheduler = check_scheduler_address(scheduler)
-        except StudyError as exc:
-            raise _as_keyword(exc) from None
+        # (one already checked: no lookup); a host that does not resolve: SchedulerError
+        scheduler = check_scheduler_address(scheduler, what="scheduler")
     if case_fn is not None:
         try:
             load_case_fn(case_fn)

@@ -648,6 +648,27 @@ def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_a_scheduler_host_that_does_not_resolve_names_the_keyword(tmp_path) -> None:
+    # session 46: RunOptions renamed "--scheduler: ..." to "scheduler: ..." only for a
+    # StudyError; a host that does not resolve is a SchedulerError, which escaped the rename:
+    # RunOptions(scheduler="tcp://nohost.invalid:8786") and run_study(...) said "--scheduler:
+    # the host of ...", the command line's option. Truth: ".invalid" never resolves (RFC 6761,
+    # section 6.4); the line starts with the keyword as written, nothing is created.
+    from psdesign.study import SchedulerError
+    from psdesign.study import run_study as runner_run_study
+
+    address = "tcp://nohost.invalid:8786"
+    line = f"scheduler: the host of {address} does not resolve ("
+    with pytest.raises(SchedulerError) as info:
+        psdesign.RunOptions(scheduler=address)
+    assert str(info.value).startswith(line) and len(str(info.value).splitlines()) == 1
+    for run in (psdesign.run_study, runner_run_study):
+        with pytest.raises(SchedulerError) as info:
+            run(_tiny_study(), tmp_path / "o", workers=1, scheduler=address, progress=False)
+        assert str(info.value).startswith(line), str(info.value)
+    assert not (tmp_path / "o").exists()
+
+
 def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:
     # session 34 fuzz: m.conductivity(solid=True) solved with a solid of 1.0 and solid="2"
     # with 2.0 (float() of a bool and of a string); from_image(<a folder>) was refused as
