@@ -615,6 +615,31 @@ def test_a_non_positive_generated_diameter_never_reaches_the_half_period_check()
     assert err.key == "generator.diameter" and "half the period" in err.message, err
 
 
+def test_a_design_point_without_its_study_names_its_first_wrong_key():
+    """Session 46: ``check_design_point`` called from Python without a study sets the point
+    into empty tables; the generator table's "give exactly one of porosity or n_fibers" (a
+    rule between keys, left out as not the point's) fired before the diameter's own rule, so
+    ``{"generator.diameter": -1e-6}`` was accepted without a word. Each key's own range is now
+    checked before the rules between keys, and of several wrong keys the first one given is
+    named (it was the schema's field order)."""
+    from psdesign.study.point import check_design_point
+
+    for d in (-1e-6, 0.0):
+        with pytest.raises(SpecError, match=r"^generator.diameter: got .* m \(allowed: \(0, "):
+            check_design_point({"generator.diameter": d})
+    check_design_point({"generator.diameter": 7e-6})
+    with pytest.raises(SpecError, match=r"^generator.theta: got 500 degrees \(allowed: \[-360, "):
+        check_design_point({"generator.theta": 500.0, "generator.diameter": 7e-6})
+    seed, porosity = ("generator.seed", -1.0), ("generator.porosity", 5.0)
+    for first, then in ((seed, porosity), (porosity, seed)):
+        with pytest.raises(SpecError) as info:
+            check_design_point(dict([first, then]))
+        assert info.value.key == first[0], str(info.value)
+    # the spec file alike: a generator without porosity or n_fibers names the diameter first
+    gen = {"kind": "straight", "diameter": -1e-6}
+    assert spec_err(with_(SPEC, "generator", gen)).key == "generator.diameter"
+
+
 def test_a_design_point_in_an_array_of_tables_is_held_to_its_element():
     """review s45: ``check_design_point`` validated ``[[fibers]]`` (a list) as one table, got
     "fibers: must be a table" (a table-root error it leaves out) and let every value through:
