@@ -530,7 +530,9 @@ def run_study(
     (``workers=2``). With ``workers >= 1`` (worker processes), a call from a script must sit
     under ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
     A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
-    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``.
+    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``; a
+    scheduler that does not answer is a ``SchedulerError`` naming ``scheduler``, not
+    ``--scheduler``.
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run
@@ -545,4 +547,5 @@ def run_study(
             "workers=0"
         )
     kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
+    kwargs.setdefault("scheduler_option", "scheduler")
     return _run(study, out_dir, options, **kwargs)

@@ -669,6 +669,30 @@ def test_a_scheduler_host_that_does_not_resolve_names_the_keyword(tmp_path) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_a_scheduler_that_does_not_answer_is_named_as_the_caller_named_it(tmp_path, capsys) -> None:
+    # session 46: psdesign.run_study(..., scheduler="tcp://127.0.0.1:9") raised "--scheduler:
+    # no Dask scheduler answers at ...", the command line's option; the runner's connection
+    # now names what its caller calls it: "scheduler" from Python, "--scheduler" from `study
+    # run` (exit 2, one line). Truth: port 9 (discard) on the loopback refuses the connection
+    # at once; nothing is created either way.
+    from study_cases import FAC_PARAMS, FACTORIAL, write_study
+
+    from psdesign.cli.main import main
+    from psdesign.study import SchedulerError
+
+    good, out = write_study(tmp_path, FACTORIAL, FAC_PARAMS), tmp_path / "o"
+    with pytest.raises(SchedulerError) as info:
+        psdesign.run_study(good, out, scheduler="tcp://127.0.0.1:9", progress=False)
+    assert str(info.value).startswith("scheduler: no Dask scheduler answers at tcp://127.0.0.1:9")
+    argv = ["study", "run", str(good), "-o", str(out), "--scheduler", "tcp://127.0.0.1:9"]
+    assert main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "psdesign: error: --scheduler: no Dask scheduler answers at tcp://127.0.0.1:9"
+    ), err
+    assert not out.exists()
+
+
 def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:
     # session 34 fuzz: m.conductivity(solid=True) solved with a solid of 1.0 and solid="2"
     # with 2.0 (float() of a bool and of a string); from_image(<a folder>) was refused as
