@@ -538,8 +538,10 @@ def run_study(
     from psdesign.study import run_study as _run
 
     workers = kwargs.get("workers", options.workers if isinstance(options, RunOptions) else 1)
-    # a bad ``workers`` (negative, not an int) is the runner's one-line error, not this one
+    # a bad ``workers`` (negative, not an int) or ``options`` (not a RunOptions) is the
+    # runner's one-line error, not this one (options=3 in a script was told of the main guard)
     real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+    real = real and isinstance(options, RunOptions | None)
     if real and _unguarded_call_in_main_script("run_study"):
         raise StudyError(
             "run_study: called at the top level of a script with worker processes; put the "

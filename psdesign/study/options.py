@@ -12,7 +12,7 @@ from typing import Any
 
 from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.address import check_scheduler_address
-from psdesign.study.casefn import DEFAULT_CASE_FN
+from psdesign.study.casefn import CASE_FN_ARGUMENTS, DEFAULT_CASE_FN, case_fn_call_error
 from psdesign.study.cluster import DEFAULT_WAIT_S, ClusterOptions, check_wait_s
 from psdesign.study.studyfile import StudyError
 
@@ -173,7 +173,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
     was taken as true), ``scheduler`` an address or the CLI's
     :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
     TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
-    folder was made).  Returns ``scheduler``, an address as checked
+    folder was made; so did one of other arguments than ``(spec, outputs, solver,
+    workdir)``).  Returns ``scheduler``, an address as checked
     (:class:`~psdesign.study.address.SchedulerAddress`: its host looked up here, once)."""
     import numpy as np
 
@@ -192,11 +193,25 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
         scheduler = check_scheduler_address(scheduler, what="scheduler")
     if case_fn is not None:
         try:
-            load_case_fn(case_fn)
+            fn = load_case_fn(case_fn)
         except (ImportError, AttributeError, ValueError) as exc:
             msg = " ".join(str(exc).split())
             raise StudyError(
                 f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
                 "importable 'module:function'"
             ) from None
+        why = case_fn_call_error(fn)
+        if why:  # it failed every case with a TypeError, the output folder made
+            raise StudyError(
+                f"case_fn: {_name_of(case_fn)} cannot be called as case_fn("
+                f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
+                "arguments returning a dict"
+            )
     return scheduler
+
+
+def _name_of(case_fn) -> str:
+    """A case function as a message names it: its ``module:function``, or the text given."""
+    if isinstance(case_fn, str):
+        return repr(case_fn)
+    return f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"

@@ -249,9 +249,11 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
         )
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
+        # the way to more workers as the caller gives options: flags or keywords
+        more = "--scheduler or --cluster" if what.startswith("--") else "scheduler= (Dask)"
         raise StudyError(
             f"{what}: at most {max_local_workers()} processes on this machine (64 or 4 per "
-            f"CPU, whichever is more), got {workers}; use --scheduler or --cluster for more"
+            f"CPU, whichever is more), got {workers}; use {more} for more"
         )
 
 

@@ -317,6 +317,57 @@ def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_run_study_bad_options_is_the_runner_message(tmp_path, monkeypatch) -> None:
+    # session 46 walk of the API: run_study(study, out, 3) from a script's top level was told
+    # to put the call under the main guard (the default workers=1 of an options it could not
+    # read); it is the runner's one line naming `options`, as workers=-1's names `workers`
+    import psdesign.api as api
+    from psdesign.study import StudyError
+
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    for bad in (3, {"workers": 0}):
+        with pytest.raises(StudyError, match=r"^options: must be a psdesign.study.RunOptions"):
+            psdesign.run_study(_tiny_study(), tmp_path / "o", bad)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_case_function_of_other_arguments_is_refused_before_the_run(tmp_path) -> None:
+    # session 46 walk of the API: run_study(..., case_fn=lambda spec: {}) was accepted, made
+    # the output folder and failed every case with "TypeError: <lambda>() takes 1 positional
+    # argument but 4 were given"; a case is called case_fn(spec, outputs, solver, workdir)
+    # (psdesign.study.worker.run_case_inline), so one that cannot take those four is refused
+    # up front in one line naming case_fn; a function that can (*args too) is accepted.
+    out = tmp_path / "o"
+    for bad, shown in (
+        (lambda spec: {}, "<lambda>"),
+        (lambda spec, outputs, solver, workdir, extra: {}, "<lambda>"),
+        ("json:dumps", "'json:dumps'"),  # dumps(obj, *, ...): one positional argument
+    ):
+        with pytest.raises(psdesign.StudyError) as info:
+            psdesign.run_study(_tiny_study(), out, workers=0, case_fn=bad, progress=False)
+        line = str(info.value)
+        assert line.startswith("case_fn: ") and shown in line and len(line.splitlines()) == 1
+        assert "cannot be called as case_fn(spec, outputs, solver, workdir)" in line, line
+        assert not out.exists()
+    from psdesign.study.casefn import case_fn_call_error
+
+    assert case_fn_call_error(lambda *args: {}) == ""
+    assert case_fn_call_error(lambda spec, outputs, solver, workdir, x=1: {}) == ""
+
+
+def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
+    # session 46 walk of the API: RunOptions(workers=10**6) advised "use --scheduler or
+    # --cluster", flags a Python caller has not; the keyword is named now (the CLI keeps its
+    # flags: test_study_safety)
+    from psdesign.study.runner import max_local_workers
+
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(workers=max_local_workers() + 1)
+    line = str(info.value)
+    assert line.startswith("workers: at most ") and "use scheduler=" in line, line
+    assert "--" not in line
+
+
 def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkeypatch) -> None:
     # a notebook user passed fields=...; main's message named '--fields' and advised '--force',
     # neither of which exists in the Python API. The user's folder stays untouched.
