@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import numbers
 import sys
 import warnings
 from collections.abc import Callable, Iterator
@@ -540,7 +541,7 @@ def run_study(
     workers = kwargs.get("workers", options.workers if isinstance(options, RunOptions) else 1)
     # a bad ``workers`` (negative, not an int) or ``options`` (not a RunOptions) is the
     # runner's one-line error, not this one (options=3 in a script was told of the main guard)
-    real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+    real = isinstance(workers, numbers.Integral) and not isinstance(workers, bool) and workers >= 1
     real = real and isinstance(options, RunOptions | None)
     if real and _unguarded_call_in_main_script("run_study"):
         raise StudyError(

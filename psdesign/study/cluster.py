@@ -14,6 +14,7 @@ Example (from a login node)::
 from __future__ import annotations
 
 import math
+import numbers
 import re
 import shutil
 import time
@@ -46,7 +47,8 @@ def check_wait_s(value, what: str = "--cluster-wait") -> float:
     ValueError
         One line naming ``what`` and its range.
     """
-    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+    # numbers.Real: NumPy's numbers too (np.int64(60) was refused as not seconds > 0)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
         raise ValueError(f"{what}: expected seconds > 0 (finite), got {value!r}")
     return float(value)
 

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -109,6 +110,7 @@ class RunOptions:
         )
         object.__setattr__(self, "scheduler", scheduler)  # an address: its host looked up once
         check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
+        object.__setattr__(self, "workers", int(self.workers))  # a NumPy integer as int
         _check_security(self.security, self.scheduler)
         if self.worker_wait_s is not None:
             try:
@@ -131,7 +133,7 @@ class RunOptions:
 def _check_timeout(timeout_s) -> float:
     if (
         isinstance(timeout_s, bool)
-        or not isinstance(timeout_s, int | float)
+        or not isinstance(timeout_s, numbers.Real)  # NumPy's numbers too, as the schema's
         or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
     ):
         raise StudyError(

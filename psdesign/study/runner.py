@@ -14,6 +14,7 @@ import datetime as _dt
 import errno
 import json
 import multiprocessing
+import numbers
 import os
 import platform
 import socket
@@ -238,7 +239,9 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
     scheduler or a batch cluster (``scheduler`` given) at least 1, as there is no "this
     process" there (a local Dask cluster of 0 workers started one). Else a one-line
     :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+    # numbers.Integral: NumPy's integers too (np.int64 from a notebook was "must be an
+    # integer, got np.int64(2)"), as the schema's integer keys take them
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
         raise StudyError(
             f"{what}: must be an integer >= 0 (0: the cases in this process), got {workers!r}"
         )

@@ -368,6 +368,37 @@ def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
     assert "--" not in line
 
 
+def test_run_options_take_numpy_numbers_as_the_schema_does(tmp_path, monkeypatch) -> None:
+    # session 46 walk of the API: a notebook's NumPy numbers were refused with a line that
+    # contradicted itself ("workers: must be an integer >= 0 ..., got np.int64(2)"; timeout_s
+    # and worker_wait_s alike), while every spec key takes them (schema.types: numbers.Real /
+    # numbers.Integral). They are taken now, as Python numbers; a NumPy bool, a float worker
+    # count and a non-finite wait are still refused. And a script's top-level call with
+    # workers=np.int64(2) meets the main-guard rule as workers=2 does.
+    import psdesign.api as api
+
+    opts = psdesign.RunOptions(
+        workers=np.int64(2), timeout_s=np.int64(60), scheduler="local", worker_wait_s=np.int32(5)
+    )
+    assert (opts.workers, opts.timeout_s, opts.worker_wait_s) == (2, 60.0, 5.0)
+    assert type(opts.workers) is int and type(opts.timeout_s) is float
+    assert type(opts.worker_wait_s) is float
+    for bad in (
+        {"workers": np.bool_(True)},
+        {"workers": np.float64(2.0)},
+        {"timeout_s": np.bool_(True)},
+        {"timeout_s": np.float32("nan")},
+        {"scheduler": "local", "worker_wait_s": np.float64("inf")},
+    ):
+        key = next(k for k in bad if k != "scheduler")
+        with pytest.raises(psdesign.StudyError, match=f"^{key}: "):
+            psdesign.RunOptions(**bad)
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    with pytest.raises(psdesign.StudyError, match=r"^run_study: called at the top level"):
+        psdesign.run_study(_tiny_study(), tmp_path / "o", workers=np.int64(2))
+    assert not (tmp_path / "o").exists()
+
+
 def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkeypatch) -> None:
     # a notebook user passed fields=...; main's message named '--fields' and advised '--force',
     # neither of which exists in the Python API. The user's folder stays untouched.
