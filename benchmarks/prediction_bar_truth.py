@@ -80,17 +80,26 @@ def lhs_fit(truth, n_points, seed=4, noise=0.01):
     return _fit(x, 2.0 * truth(x[:, 0], x[:, 1]) * noise, ["e", "d"])
 
 
-def coverage(s, truth, n: int) -> tuple[float, float]:
-    """Share of an n x n grid of the box with the truth within 2 bars, and median bar /
-    median true error."""
-    err, bar = [], []
+def _on_grid(s, truth, n: int) -> tuple[np.ndarray, np.ndarray, set[str]]:
+    """The fit's prediction on an n x n grid of its box (n points of a 1-D fit, at the diameter
+    ``D_1D``): the true relative errors, the bars relative to the truth, the statuses."""
+    one = len(s.params) == 1
+    ds = [D_1D] if one else np.linspace(s.low[1], s.high[1], n)
+    err, bar, status = [], [], set()
     for e in np.linspace(s.low[0], s.high[0], n):
-        for d in np.linspace(s.low[1], s.high[1], n):
-            r, _ = _predict_one(s, f"e={e},d={d}")
+        for d in ds:
+            r, _ = _predict_one(s, f"e={e}" if one else f"e={e},d={d}")
             k = 2.0 * truth(e, d)
             err.append(abs(r["mean"] - k) / k)
             bar.append(r["std"] / k)
-    err, bar = np.array(err), np.array(bar)
+            status.add(r["status"])
+    return np.array(err), np.array(bar), status
+
+
+def coverage(s, truth, n: int) -> tuple[float, float]:
+    """Share of an n x n grid of the box with the truth within 2 bars, and median bar /
+    median true error."""
+    err, bar, _ = _on_grid(s, truth, n)
     return float(np.mean(err <= 2 * bar)), float(np.median(bar) / np.median(err))
 
 
@@ -106,25 +115,24 @@ def lhs_sweep(n: int = 31) -> None:
         for n_points in (8, 12, 20, 30):
             fits = [lhs_fit(truth, n_points, seed, noise) for seed in range(1, 9)]
             got = [coverage(s, truth, n) for s in fits if s.rating()[0] == "ok"]
-            share = np.array([c for c, _ in got])
-            print(
-                f"| {tname} | {n_points} | {len(got)} / 8 | {int(np.sum(share < 0.95))} | "
-                f"{100 * share.min():.3g} % | {np.median([r for _, r in got]):.3g} |"
-            )
+            print(f"| {tname} | {n_points} | {len(got)} / 8 | {_sweep_cells(got)} |")
+
+
+def _sweep_cells(got: list[tuple[float, float]]) -> str:
+    """The last three cells of an LHS sweep line from the (share, ratio) of the designs
+    rated ok; with none rated ok there is nothing to measure, and the line says so (the
+    least share of no design raised ValueError and ended the sweep)."""
+    if not got:
+        return "no design rated ok | - | -"
+    share = np.array([c for c, _ in got])
+    return (
+        f"{int(np.sum(share < 0.95))} | {100 * share.min():.3g} % | "
+        f"{np.median([r for _, r in got]):.3g}"
+    )
 
 
 def row(name: str, s, truth, n: int) -> str:
-    one = len(s.params) == 1
-    ds = [D_1D] if one else np.linspace(s.low[1], s.high[1], n)
-    err, bar, status = [], [], set()
-    for e in np.linspace(s.low[0], s.high[0], n):
-        for d in ds:
-            r, _ = _predict_one(s, f"e={e}" if one else f"e={e},d={d}")
-            k = 2.0 * truth(e, d)
-            err.append(abs(r["mean"] - k) / k)
-            bar.append(r["std"] / k)
-            status.add(r["status"])
-    err, bar = np.array(err), np.array(bar)
+    err, bar, status = _on_grid(s, truth, n)
     between = getattr(s, "cv_between_rel_error", math.nan)  # absent before session 44
 
     def pct(v):

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import numbers
 import sys
 import warnings
 from collections.abc import Callable, Iterator
@@ -530,14 +531,18 @@ def run_study(
     (``workers=2``). With ``workers >= 1`` (worker processes), a call from a script must sit
     under ``if __name__ == "__main__":``; an unguarded call is refused with a one-line error.
     A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
-    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``.
+    (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``; a
+    scheduler that does not answer is a ``SchedulerError`` naming ``scheduler``, not
+    ``--scheduler``.
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run
 
     workers = kwargs.get("workers", options.workers if isinstance(options, RunOptions) else 1)
-    # a bad ``workers`` (negative, not an int) is the runner's one-line error, not this one
-    real = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+    # a bad ``workers`` (negative, not an int) or ``options`` (not a RunOptions) is the
+    # runner's one-line error, not this one (options=3 in a script was told of the main guard)
+    real = isinstance(workers, numbers.Integral) and not isinstance(workers, bool) and workers >= 1
+    real = real and isinstance(options, RunOptions | None)
     if real and _unguarded_call_in_main_script("run_study"):
         raise StudyError(
             "run_study: called at the top level of a script with worker processes; put the "
@@ -545,4 +550,5 @@ def run_study(
             "workers=0"
         )
     kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
+    kwargs.setdefault("scheduler_option", "scheduler")
     return _run(study, out_dir, options, **kwargs)

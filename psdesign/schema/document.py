@@ -452,8 +452,12 @@ class SpecDocument(Table):
     def _check_generator(self, size, voxel: float, period: float) -> None:
         g = self.generator
         inter = self.intersections or IntersectionsTable()
+        # dlo > 0 holds here: GeneratorTable._check refuses a diameter whose support starts
+        # at or below 0 (NaN is no number), the table is frozen and nothing builds one
+        # unvalidated (no model_construct / model_copy of it); only the half-period bound,
+        # which needs the rve, is this check's own
         dlo, dhi = support(g.diameter)
-        if not (dlo > 0 and dhi < 0.5 * period):
+        if not dhi < 0.5 * period:
             raise fail(
                 "generator.diameter",
                 support_text(g.diameter, "m"),

@@ -95,6 +95,10 @@ class GeneratorTable(Table):
 
     @model_validator(mode="after")
     def _check(self) -> GeneratorTable:
+        # each key's own range before the rules between keys: a table holding one key (a
+        # design point checked without its study, psdesign.study.point) met "give exactly one
+        # of porosity or n_fibers" first, which hid a negative diameter's own error
+        self._check_ranges()
         given = self.model_fields_set
         if ("porosity" in given) == ("n_fibers" in given):
             raise fail("", "give exactly one of porosity or n_fibers", "porosity or n_fibers")
@@ -106,6 +110,16 @@ class GeneratorTable(Table):
                 f"{self.n_fibers} exceeds max_fibers = {self.max_fibers}",
                 f"<= {self.max_fibers}",
             )
+        if self.kind == "bent":
+            self._check_bends()
+        else:
+            for k in ("u", "f"):
+                if k in given:
+                    raise fail(k, "only used with kind = 'bent'", "kind = 'bent'")
+        return self
+
+    def _check_ranges(self) -> None:
+        """The ranges of the distributed keys that need no other key."""
         if not support(self.diameter)[0] > 0:  # the half-period bound needs the rve: document.py
             raise fail("diameter", support_text(self.diameter, "m"), "(0, period / 2) m")
         for k in ("tx", "ty", "tz"):
@@ -120,24 +134,21 @@ class GeneratorTable(Table):
                     support_text(getattr(self, k), "degrees"),
                     "[-360, 360]",
                 )
-        if self.kind == "bent":
-            if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
-                raise fail("f", support_text(self.f), f"(0, {MAX_BENDS:g}]")
-            if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
-                raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
-            umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3
-            fmax = support(self.f)[1] if self.f is not None else 10.0
-            if umax * fmax > MAX_SLOPE:
-                raise fail(
-                    "f",
-                    f"bend slope max |u| x max f = {umax * fmax:g} (a dense zigzag)",
-                    f"max |u| x max f <= {MAX_SLOPE:g}",
-                )
-        else:
-            for k in ("u", "f"):
-                if k in given:
-                    raise fail(k, "only used with kind = 'bent'", "kind = 'bent'")
-        return self
+
+    def _check_bends(self) -> None:
+        """A bent generator's ``f`` and ``u``, each and together."""
+        if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
+            raise fail("f", support_text(self.f), f"(0, {MAX_BENDS:g}]")
+        if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
+            raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
+        umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3
+        fmax = support(self.f)[1] if self.f is not None else 10.0
+        if umax * fmax > MAX_SLOPE:
+            raise fail(
+                "f",
+                f"bend slope max |u| x max f = {umax * fmax:g} (a dense zigzag)",
+                f"max |u| x max f <= {MAX_SLOPE:g}",
+            )
 
 
 class IntersectionsTable(Table):

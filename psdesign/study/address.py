@@ -59,8 +59,9 @@ class SchedulerAddress(str):
         return (SchedulerAddress, (str(self), self.infos))
 
 
-def host_port(address: str) -> tuple[str, str, int]:
-    """``(scheme, host, port)`` of ``SCHEME://HOST:PORT`` (an IPv6 host in brackets).
+def host_port(address: str, what: str = "--scheduler") -> tuple[str, str, int]:
+    """``(scheme, host, port)`` of ``SCHEME://HOST:PORT`` (an IPv6 host in brackets); a
+    malformed one is a :class:`StudyError` naming ``what``.
 
     >>> host_port("tls://[::1]:8786")
     ('tls', '::1', 8786)
@@ -69,13 +70,13 @@ def host_port(address: str) -> tuple[str, str, int]:
     host, sep, port = rest.rpartition(":")
     host = host.strip("[]")
     if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise _malformed(address)
+        raise _malformed(address, what)
     return scheme, host, int(port)
 
 
-def _malformed(address: str) -> StudyError:
+def _malformed(address: str, what: str = "--scheduler") -> StudyError:
     return StudyError(
-        "--scheduler: expected an address like tcp://HOST:PORT, tls://HOST:PORT (PORT "
+        f"{what}: expected an address like tcp://HOST:PORT, tls://HOST:PORT (PORT "
         f"1-65535) or 'local', got {address!r}"
     )
 
@@ -103,9 +104,21 @@ def _resolve(host: str, port: int, timeout_s: float) -> tuple[list, str]:
     return [], why
 
 
-def check_scheduler_address(address: str, timeout_s: float = RESOLVE_TIMEOUT_S) -> str:
+def check_scheduler_address(
+    address: str, timeout_s: float = RESOLVE_TIMEOUT_S, what: str = "--scheduler"
+) -> str:
     """Refuse a ``--scheduler`` address that cannot name a Dask scheduler, before dask loads:
     ``local``, or ``tcp://HOST:PORT`` / ``tls://HOST:PORT`` whose HOST resolves.
+
+    Parameters
+    ----------
+    address : str
+        The address as given.
+    timeout_s : float
+        Seconds the host's name may take to resolve.
+    what : str
+        How the one-line errors name the address: the command line's ``"--scheduler"``, the
+        Python API's ``"scheduler"`` (:class:`~psdesign.study.options.RunOptions`).
 
     Returns
     -------
@@ -134,20 +147,20 @@ def check_scheduler_address(address: str, timeout_s: float = RESOLVE_TIMEOUT_S) 
         return address
     if not address.strip():  # "" ran on the local pool
         raise StudyError(
-            f"--scheduler: empty ({address!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
+            f"{what}: empty ({address!r}); give tcp://HOST:PORT, tls://HOST:PORT or "
             "'local', or leave it out for the local process pool"
         )
     if address == "local":
         return address
     if "://" not in address:
-        raise _malformed(address)
-    scheme, host, port = host_port(address)
+        raise _malformed(address, what)
+    scheme, host, port = host_port(address, what)
     if scheme not in ("tcp", "tls"):
-        raise StudyError(f"--scheduler: scheme {scheme}:// not supported; use tcp:// or tls://")
+        raise StudyError(f"{what}: scheme {scheme}:// not supported; use tcp:// or tls://")
     infos, why = _resolve(host, port, timeout_s)
     if why:
         raise SchedulerError(
-            f"--scheduler: the host of {address} does not resolve ({why}); check the name; "
+            f"{what}: the host of {address} does not resolve ({why}); check the name; "
             "nothing was run or changed"
         )
     return SchedulerAddress(address, infos)

@@ -9,11 +9,20 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["DEFAULT_CASE_FN", "load_case_fn", "runs_pipeline", "watch_parent"]
+__all__ = [
+    "CASE_FN_ARGUMENTS",
+    "DEFAULT_CASE_FN",
+    "case_fn_call_error",
+    "load_case_fn",
+    "runs_pipeline",
+    "watch_parent",
+]
 
 DEFAULT_CASE_FN = "psdesign.study.case:run_case"
 #: Case functions renamed by a layout change; old study folders record the old names.
 RENAMED_CASE_FNS = {"psdesign.pipeline:run_case": DEFAULT_CASE_FN}
+#: How every case calls it (psdesign.study.worker.run_case_inline): four positional arguments.
+CASE_FN_ARGUMENTS = ("spec", "outputs", "solver", "workdir")
 
 
 def runs_pipeline(case_fn: Callable | str | None) -> bool:
@@ -56,6 +65,29 @@ def load_case_fn(case_fn: Callable | str | None) -> Callable:
     if not callable(obj):
         raise ValueError(f"case_fn: {case_fn!r} is not callable")
     return obj
+
+
+def case_fn_call_error(fn: Callable) -> str:
+    """Why ``fn`` cannot be called as ``fn(spec, outputs, solver, workdir)``, or ``""``.
+
+    Checked once before a study runs: a function of other arguments failed every case with a
+    TypeError after the output folder was made. A callable whose signature Python cannot
+    read (some builtins) is given the benefit of the doubt.
+
+    >>> case_fn_call_error(lambda spec, outputs, solver, workdir: {})
+    ''
+    >>> case_fn_call_error(lambda spec: {})
+    'too many positional arguments'
+    """
+    import inspect
+
+    try:
+        inspect.signature(fn).bind(*CASE_FN_ARGUMENTS)
+    except TypeError as exc:  # the arguments do not fit
+        return " ".join(str(exc).split())
+    except ValueError:  # no signature to read
+        return ""
+    return ""
 
 
 def watch_parent(parent_pid: int, interval_s: float = 0.5) -> None:

@@ -14,6 +14,7 @@ Example (from a login node)::
 from __future__ import annotations
 
 import math
+import numbers
 import re
 import shutil
 import time
@@ -26,13 +27,16 @@ DEFAULT_WAIT_S = 600.0
 for a worker (the first batch job to connect, or any worker once all have left)."""
 
 
-def check_wait_s(value) -> float:
+def check_wait_s(value, what: str = "--cluster-wait") -> float:
     """``value`` as ``--cluster-wait`` seconds.
 
     Parameters
     ----------
     value : float
         Seconds; a finite number > 0.
+    what : str
+        How the error names the value: the command line's ``"--cluster-wait"``, the Python
+        API's keyword (``"worker_wait_s"`` of :class:`~psdesign.study.options.RunOptions`).
 
     Returns
     -------
@@ -41,10 +45,11 @@ def check_wait_s(value) -> float:
     Raises
     ------
     ValueError
-        One line naming ``--cluster-wait`` and its range.
+        One line naming ``what`` and its range.
     """
-    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
-        raise ValueError(f"--cluster-wait: expected seconds > 0 (finite), got {value!r}")
+    # numbers.Real: NumPy's numbers too (np.int64(60) was refused as not seconds > 0)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
+        raise ValueError(f"{what}: expected seconds > 0 (finite), got {value!r}")
     return float(value)
 
 

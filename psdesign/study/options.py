@@ -6,36 +6,20 @@
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.address import check_scheduler_address
-from psdesign.study.casefn import DEFAULT_CASE_FN
+from psdesign.study.casefn import CASE_FN_ARGUMENTS, DEFAULT_CASE_FN, case_fn_call_error
 from psdesign.study.cluster import DEFAULT_WAIT_S, ClusterOptions, check_wait_s
 from psdesign.study.studyfile import StudyError
 
 __all__ = ["RunOptions"]
 
 _FLAGS = ("progress", "retry_failed", "report", "force", "retry_not_converged")
-
-#: Checks shared with the command line name its option; a keyword is named as the keyword.
-_KEYWORD_OF = {"--scheduler": "scheduler", "--cluster-wait": "worker_wait_s"}
-
-
-def _as_keyword(exc: Exception) -> StudyError:
-    """The line of a check shared with the command line, naming the keyword instead of the
-    option (``--cluster-wait: ...`` -> ``worker_wait_s: ...``): the key a caller gave.
-
-    >>> str(_as_keyword(ValueError("--cluster-wait: expected seconds > 0 (finite), got 0")))
-    'worker_wait_s: expected seconds > 0 (finite), got 0'
-    """
-    line = str(exc)
-    for option, keyword in _KEYWORD_OF.items():
-        if line.startswith(f"{option}: "):
-            line = keyword + line[len(option) :]
-    return StudyError(line)
 
 
 @dataclass(frozen=True)
@@ -88,6 +72,10 @@ class RunOptions:
     StudyError
         On creation, one line naming the option and what it allows (a
         :class:`psdesign.errors.SpecError`).
+    SchedulerError
+        On creation, one line naming ``scheduler``: its host does not resolve (the address is
+        well formed, the name service says no; see
+        :func:`psdesign.study.address.check_scheduler_address`).
 
     Examples
     --------
@@ -122,12 +110,14 @@ class RunOptions:
         )
         object.__setattr__(self, "scheduler", scheduler)  # an address: its host looked up once
         check_workers(self.workers, self.scheduler)  # after the scheduler's type: 0 is refused
+        object.__setattr__(self, "workers", int(self.workers))  # a NumPy integer as int
         _check_security(self.security, self.scheduler)
         if self.worker_wait_s is not None:
             try:
-                object.__setattr__(self, "worker_wait_s", check_wait_s(self.worker_wait_s))
-            except ValueError as exc:
-                raise _as_keyword(exc) from None
+                wait_s = check_wait_s(self.worker_wait_s, "worker_wait_s")
+            except ValueError as exc:  # the StudyError (a SpecError) of every bad option
+                raise StudyError(str(exc)) from None
+            object.__setattr__(self, "worker_wait_s", wait_s)
 
     def case_function(self) -> Callable | str:
         """``case_fn`` or its default, ``DEFAULT_CASE_FN`` (``psdesign.study.case:run_case``)."""
@@ -143,7 +133,7 @@ class RunOptions:
 def _check_timeout(timeout_s) -> float:
     if (
         isinstance(timeout_s, bool)
-        or not isinstance(timeout_s, int | float)
+        or not isinstance(timeout_s, numbers.Real)  # NumPy's numbers too, as the schema's
         or not 0 < timeout_s <= MAX_TIMEOUT_S  # also NaN
     ):
         raise StudyError(
@@ -185,7 +175,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
     was taken as true), ``scheduler`` an address or the CLI's
     :class:`~psdesign.study.cluster.ClusterOptions` (an int failed in the connection with a
     TypeError), ``case_fn`` loadable here (a misspelled one failed every case after the output
-    folder was made).  Returns ``scheduler``, an address as checked
+    folder was made; so did one of other arguments than ``(spec, outputs, solver,
+    workdir)``).  Returns ``scheduler``, an address as checked
     (:class:`~psdesign.study.address.SchedulerAddress`: its host looked up here, once)."""
     import numpy as np
 
@@ -200,17 +191,29 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
             f"got {type(scheduler).__name__}"
         )
     if isinstance(scheduler, str):  # before the case function's imports and dask's
-        try:  # (one already checked: no lookup)
-            scheduler = check_scheduler_address(scheduler)
-        except StudyError as exc:
-            raise _as_keyword(exc) from None
+        # (one already checked: no lookup); a host that does not resolve: SchedulerError
+        scheduler = check_scheduler_address(scheduler, what="scheduler")
     if case_fn is not None:
         try:
-            load_case_fn(case_fn)
+            fn = load_case_fn(case_fn)
         except (ImportError, AttributeError, ValueError) as exc:
             msg = " ".join(str(exc).split())
             raise StudyError(
                 f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
                 "importable 'module:function'"
             ) from None
+        why = case_fn_call_error(fn)
+        if why:  # it failed every case with a TypeError, the output folder made
+            raise StudyError(
+                f"case_fn: {_name_of(case_fn)} cannot be called as case_fn("
+                f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
+                "arguments returning a dict"
+            )
     return scheduler
+
+
+def _name_of(case_fn) -> str:
+    """A case function as a message names it: its ``module:function``, or the text given."""
+    if isinstance(case_fn, str):
+        return repr(case_fn)
+    return f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"

@@ -53,7 +53,8 @@ def check_design_point(point: dict[str, float], study: dict | None = None) -> No
     Raises
     ------
     SpecError
-        The first key of ``point`` whose value the schema refuses, in the schema's words:
+        The first key of ``point`` (in the order given) whose value the schema refuses, in
+        the schema's words:
         ``generator.porosity: must be < 1, got 5 (allowed: target in (0, 1): ...)``.
 
     Examples
@@ -69,6 +70,19 @@ def check_design_point(point: dict[str, float], study: dict | None = None) -> No
     spec = apply_params(base, {p: _as_typed(v) for p, v in point.items()})
     if study.get("solver") and isinstance(spec.get("flow"), dict):  # as the study ran it
         spec["flow"] = {**spec["flow"], "solver": study["solver"]}
+    found = _point_errors(spec, point, bool(base))
+    for path in point:  # the first wrong key as the point gives them, not as the schema does
+        for err, above in found:
+            # at the point's key, or a table above it (not the table's own rules: give one of
+            # porosity or n_fibers), which only a base can fill (rve.size.2 of no rve.size)
+            if _under(err.key, path) or (above and _under(path, _dotted(err.key))):
+                raise err
+
+
+def _point_errors(spec: dict, point: dict, has_base: bool) -> list[tuple[SpecError, bool]]:
+    """The schema errors of the tables ``point`` sets in ``spec``, each with whether it may
+    be a table's above a key (``has_base`` and not the table's own rule)."""
+    found = []
     for table in dict.fromkeys(p.split(".")[0] for p in point):
         try:
             model = table_model(table)
@@ -81,14 +95,8 @@ def check_design_point(point: dict[str, float], study: dict | None = None) -> No
         items = enumerate(data) if isinstance(data, list) else [(None, data)]
         for i, item in items:
             prefix = table if i is None else f"{table}[{i}]"
-            for err in _table_errors(model, item, prefix):
-                # at the point's key, or a table above it (not the table's own rules: give one
-                # of porosity or n_fibers), which only a base can fill (rve.size.2 of no
-                # rve.size)
-                above = bool(base) and err.key != prefix
-                at = _dotted(err.key)
-                if any(_under(err.key, p) or (above and _under(p, at)) for p in point):
-                    raise err
+            found += [(e, has_base and e.key != prefix) for e in _table_errors(model, item, prefix)]
+    return found
 
 
 def _dotted(key: str) -> str:

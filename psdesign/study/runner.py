@@ -14,6 +14,7 @@ import datetime as _dt
 import errno
 import json
 import multiprocessing
+import numbers
 import os
 import platform
 import socket
@@ -238,7 +239,9 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
     scheduler or a batch cluster (``scheduler`` given) at least 1, as there is no "this
     process" there (a local Dask cluster of 0 workers started one). Else a one-line
     :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
+    # numbers.Integral: NumPy's integers too (np.int64 from a notebook was "must be an
+    # integer, got np.int64(2)"), as the schema's integer keys take them
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
         raise StudyError(
             f"{what}: must be an integer >= 0 (0: the cases in this process), got {workers!r}"
         )
@@ -249,9 +252,11 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
         )
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
+        # the way to more workers as the caller gives options: flags or keywords
+        more = "--scheduler or --cluster" if what.startswith("--") else "scheduler= (Dask)"
         raise StudyError(
             f"{what}: at most {max_local_workers()} processes on this machine (64 or 4 per "
-            f"CPU, whichever is more), got {workers}; use --scheduler or --cluster for more"
+            f"CPU, whichever is more), got {workers}; use {more} for more"
         )
 
 
@@ -331,7 +336,9 @@ def _connect(infos, timeout_s: float) -> socket.socket:
     raise err
 
 
-def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
+def probe_scheduler(
+    address: str, timeout_s: float, ssl_context=None, what: str = "--scheduler"
+) -> None:
     """Check that a Dask scheduler (not some other server) answers at ``address``.
 
     A Dask comm sends its handshake as soon as a connection is made: an 8-byte little-endian
@@ -342,18 +349,19 @@ def probe_scheduler(address: str, timeout_s: float, ssl_context=None) -> None:
     Raises
     ------
     SchedulerError
-        One line: nothing answers, or the peer does not speak the Dask protocol.
+        One line naming ``what`` (the command line's option, or the Python keyword):
+        nothing answers, or the peer does not speak the Dask protocol.
     """
     import struct
 
-    address = check_scheduler_address(address)  # its host's addresses (checked: no lookup)
-    _scheme, host, _port = host_port(address)
-    where = f"--scheduler: {address}"
+    address = check_scheduler_address(address, what=what)  # checked: no second lookup
+    _scheme, host, _port = host_port(address, what)
+    where = f"{what}: {address}"
     try:
         raw = _connect(address.infos, timeout_s)
     except OSError as exc:
         raise SchedulerError(
-            f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
+            f"{what}: no Dask scheduler answers at {address} within {timeout_s:g} s "
             f"({type(exc).__name__}); nothing was run or changed"
         ) from None
     try:
@@ -414,14 +422,21 @@ def scheduler_security(
     )
 
 
-def connect_scheduler(address: str, workers: int, timeout_s: float | None = None, security=None):
+def connect_scheduler(
+    address: str,
+    workers: int,
+    timeout_s: float | None = None,
+    security=None,
+    what: str = "--scheduler",
+):
     """Return ``(client, cluster_or_None)`` for a Dask scheduler address or ``"local"``.
 
     ``tcp://`` to a non-loopback host is unencrypted and unauthenticated: one warning line on
     stderr.  ``tls://`` uses ``security`` (a :class:`distributed.security.Security`, see
     :func:`scheduler_security`) or dask's ``distributed.comm.tls`` configuration.  The remote
     end is probed first (:func:`probe_scheduler`), and dask's connect timeouts are set to
-    ``timeout_s``.
+    ``timeout_s``.  Errors about the address name ``what``: the command line's
+    ``--scheduler``, or :func:`psdesign.run_study`'s ``scheduler``.
 
     Raises
     ------
@@ -432,12 +447,12 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         (default :data:`CONNECT_TIMEOUT_S`) or the peer is not a Dask scheduler.
     """
     if isinstance(address, str):  # form and host, before the seconds of dask's import
-        address = check_scheduler_address(address)  # one already checked: no second lookup
+        address = check_scheduler_address(address, what=what)  # checked: no second lookup
     try:
         import dask
         from distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - dependency of psdesign
-        raise SchedulerError(f"--scheduler: dask.distributed is not installed ({exc})") from exc
+        raise SchedulerError(f"{what}: dask.distributed is not installed ({exc})") from exc
     if timeout_s is None:
         timeout_s = CONNECT_TIMEOUT_S
     from psdesign.study import cluster as cluster_mod
@@ -453,7 +468,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             dashboard_address=None,
         )
         return Client(cluster), cluster
-    scheme, _host, _port = host_port(address)  # a tcp:// or tls:// address (checked above)
+    scheme, _host, _port = host_port(address, what)  # tcp:// or tls:// (checked above)
     ssl_context = None
     if scheme == "tls":
         from distributed.security import Security
@@ -462,8 +477,8 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
         ssl_context = sec.get_connection_args("client").get("ssl_context")
         if ssl_context is None:
             raise StudyError(
-                "--scheduler: tls:// needs --tls-ca-file, --tls-cert and --tls-key "
-                "(or dask config distributed.comm.tls.*)"
+                f"{what}: tls:// needs --tls-ca-file, --tls-cert and --tls-key "
+                "(security= in Python, or dask config distributed.comm.tls.*)"
             )
         security = sec
     else:
@@ -477,7 +492,7 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
                 "another machine; use tls:// with --tls-ca-file/--tls-cert/--tls-key",
                 file=sys.stderr,
             )
-    probe_scheduler(address, timeout_s, ssl_context)
+    probe_scheduler(address, timeout_s, ssl_context, what)
     limits = {
         "distributed.comm.timeouts.connect": f"{timeout_s}s",
         "distributed.comm.timeouts.tcp": f"{max(timeout_s, 30.0)}s",
@@ -487,12 +502,12 @@ def connect_scheduler(address: str, workers: int, timeout_s: float | None = None
             client = Client(address, timeout=timeout_s, security=security)
     except (OSError, TimeoutError) as exc:
         raise SchedulerError(
-            f"--scheduler: no Dask scheduler answers at {address} within {timeout_s:g} s "
+            f"{what}: no Dask scheduler answers at {address} within {timeout_s:g} s "
             f"({type(exc).__name__}); nothing was run or changed"
         ) from exc
     except (MemoryError, ValueError) as exc:  # garbage after a valid-looking handshake
         raise SchedulerError(
-            f"--scheduler: {address} does not speak the Dask protocol ({type(exc).__name__}); "
+            f"{what}: {address} does not speak the Dask protocol ({type(exc).__name__}); "
             "nothing was run or changed"
         ) from None
     return client, None
@@ -700,6 +715,7 @@ def run_study(
     *,
     command: str = "study run",
     out_option: tuple[str, str | None] = ("-o", "--force"),
+    scheduler_option: str = "--scheduler",
     **fields: Any,
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
@@ -718,6 +734,9 @@ def run_study(
     out_option : (str, str or None)
         How messages name ``out_dir`` and ``force``: the CLI's ``("-o", "--force")``, the
         Python API's ``("out_dir", "force=True")``.
+    scheduler_option : str
+        How messages about the scheduler's connection name it: the CLI's ``"--scheduler"``,
+        the Python API's ``"scheduler"`` (:class:`RunOptions` names the keyword itself).
     **fields
         :class:`RunOptions` fields as keywords, e.g. ``run_study(study, out, workers=2)``: the
         same as ``run_study(study, out, RunOptions(workers=2))`` (over ``options``' own
@@ -753,7 +772,7 @@ def run_study(
         out_dir, force=opts.force, force_option=force_option, command=command, option=option
     )
     check_same_study(study, target.path, option)  # another study's folder: refused, untouched
-    return _connect_and_run(study, cases, target, opts)
+    return _connect_and_run(study, cases, target, opts, scheduler_option)
 
 
 _OPTION_FIELDS = frozenset(f.name for f in fields_of(RunOptions))
@@ -771,10 +790,13 @@ def _run_options(options: RunOptions | None, fields: dict) -> RunOptions:
     return replace(options, **fields) if fields else options
 
 
-def _connect_and_run(study: Study, cases: list[Case], target, opts: RunOptions) -> pd.DataFrame:
+def _connect_and_run(
+    study: Study, cases: list[Case], target, opts: RunOptions, scheduler_option: str
+) -> pd.DataFrame:
     """Connect to the scheduler, claim and lock the output folder, run the cases.
 
-    The scheduler is connected first: a dead one must not touch the output folder.
+    The scheduler is connected first: a dead one must not touch the output folder; its
+    errors name ``scheduler_option``.
     """
     store = CaseStore(target.path)
     client = cluster = None
@@ -784,7 +806,7 @@ def _connect_and_run(study: Study, cases: list[Case], target, opts: RunOptions) 
                 _check_submit_command(opts.scheduler)  # before the "submitting" line
                 _say_waiting(opts.scheduler, opts.workers, opts.progress)
                 client, cluster = connect_scheduler(
-                    opts.scheduler, opts.workers, security=opts.security
+                    opts.scheduler, opts.workers, security=opts.security, what=scheduler_option
                 )
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock

@@ -163,6 +163,9 @@ def transport_table(
     """
     from psdesign.errors import SpecError
 
+    # not a table: the schema's one line (it was "'int' object is not iterable")
+    if transport is not None and not isinstance(transport, dict):
+        validate_transport({"transport": transport})
     tr = dict(transport or {})
     if solid is not None:
         tr["solid_conductivity"] = check_conductivity(solid, "transport.solid_conductivity")

@@ -248,6 +248,36 @@ def _scan(dt, pore, radii, inlet_axis, core):
     return lt, sat
 
 
+def _check_pore_arguments(
+    n_radii, thickness_axis, surface_tension, contact_angle_deg
+) -> tuple[str, int]:
+    """:func:`pore_sizes`' arguments held to the ``[transport]`` keys they are (the schema's
+    ranges, one line naming the key); returns the thickness axis's name and index.
+
+    Called from Python with other values, ``n_radii="a"`` and ``contact_angle_deg="a"`` were
+    TypeErrors from numpy, ``n_radii=3`` was taken (the schema allows [4, 200]), a negative
+    surface tension or a contact angle under 90 degrees (a wetting fluid: no intrusion
+    pressure) made negative pressures without a word (session 46).
+    """
+    from psdesign.errors import SpecError
+    from psdesign.schema.transport import validate_transport
+
+    try:
+        name, ax = axis_of(thickness_axis)
+    except (ValueError, TypeError):
+        raise SpecError(
+            "transport.thickness_axis", f"must be 'x', 'y' or 'z' (or 0-2), got {thickness_axis!r}"
+        ) from None
+    table = {
+        "n_radii": n_radii,
+        "thickness_axis": name,
+        "surface_tension_n_m": surface_tension,
+        "contact_angle_deg": contact_angle_deg,
+    }
+    validate_transport({"transport": table})
+    return name, ax
+
+
 def pore_sizes(
     fields: VoxelFields,
     n_radii: int = 16,
@@ -262,16 +292,21 @@ def pore_sizes(
     fields : VoxelFields
         Cubic voxels; pore where ``distance > 0``.
     n_radii : int
-        Radii scanned, evenly spaced from the largest inscribed radius down to one voxel.
+        Radii scanned, evenly spaced from the largest inscribed radius down to one voxel;
+        in [4, 200] (``transport.n_radii``).
     thickness_axis : "x", "y", "z" or 0..2
         Intrusion inlet is the first layer along it.
     surface_tension, contact_angle_deg : float
-        Intrusion fluid for the Washburn pressure (mercury by default).
+        Intrusion fluid for the Washburn pressure (mercury by default): N/m in (0, 10) and
+        degrees in (90, 180] (``transport.surface_tension_n_m``, ``contact_angle_deg``).
+
+    Raises
+    ------
+    SpecError
+        An argument out of its ``[transport]`` key's range, naming the key.
     """
     t0 = time.perf_counter()
-    if n_radii < 2:
-        raise ValueError(f"transport.n_radii: must be >= 2, got {n_radii}")
-    name, ax = axis_of(thickness_axis)
+    name, ax = _check_pore_arguments(n_radii, thickness_axis, surface_tension, contact_angle_deg)
     h = float(fields.grid.spacing[0])
     pore = ~fields.solid
     eps = fields.porosity

@@ -317,6 +317,88 @@ def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_run_study_bad_options_is_the_runner_message(tmp_path, monkeypatch) -> None:
+    # session 46 walk of the API: run_study(study, out, 3) from a script's top level was told
+    # to put the call under the main guard (the default workers=1 of an options it could not
+    # read); it is the runner's one line naming `options`, as workers=-1's names `workers`
+    import psdesign.api as api
+    from psdesign.study import StudyError
+
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    for bad in (3, {"workers": 0}):
+        with pytest.raises(StudyError, match=r"^options: must be a psdesign.study.RunOptions"):
+            psdesign.run_study(_tiny_study(), tmp_path / "o", bad)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_case_function_of_other_arguments_is_refused_before_the_run(tmp_path) -> None:
+    # session 46 walk of the API: run_study(..., case_fn=lambda spec: {}) was accepted, made
+    # the output folder and failed every case with "TypeError: <lambda>() takes 1 positional
+    # argument but 4 were given"; a case is called case_fn(spec, outputs, solver, workdir)
+    # (psdesign.study.worker.run_case_inline), so one that cannot take those four is refused
+    # up front in one line naming case_fn; a function that can (*args too) is accepted.
+    out = tmp_path / "o"
+    for bad, shown in (
+        (lambda spec: {}, "<lambda>"),
+        (lambda spec, outputs, solver, workdir, extra: {}, "<lambda>"),
+        ("json:dumps", "'json:dumps'"),  # dumps(obj, *, ...): one positional argument
+    ):
+        with pytest.raises(psdesign.StudyError) as info:
+            psdesign.run_study(_tiny_study(), out, workers=0, case_fn=bad, progress=False)
+        line = str(info.value)
+        assert line.startswith("case_fn: ") and shown in line and len(line.splitlines()) == 1
+        assert "cannot be called as case_fn(spec, outputs, solver, workdir)" in line, line
+        assert not out.exists()
+    from psdesign.study.casefn import case_fn_call_error
+
+    assert case_fn_call_error(lambda *args: {}) == ""
+    assert case_fn_call_error(lambda spec, outputs, solver, workdir, x=1: {}) == ""
+
+
+def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
+    # session 46 walk of the API: RunOptions(workers=10**6) advised "use --scheduler or
+    # --cluster", flags a Python caller has not; the keyword is named now (the CLI keeps its
+    # flags: test_study_safety)
+    from psdesign.study.runner import max_local_workers
+
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(workers=max_local_workers() + 1)
+    line = str(info.value)
+    assert line.startswith("workers: at most ") and "use scheduler=" in line, line
+    assert "--" not in line
+
+
+def test_run_options_take_numpy_numbers_as_the_schema_does(tmp_path, monkeypatch) -> None:
+    # session 46 walk of the API: a notebook's NumPy numbers were refused with a line that
+    # contradicted itself ("workers: must be an integer >= 0 ..., got np.int64(2)"; timeout_s
+    # and worker_wait_s alike), while every spec key takes them (schema.types: numbers.Real /
+    # numbers.Integral). They are taken now, as Python numbers; a NumPy bool, a float worker
+    # count and a non-finite wait are still refused. And a script's top-level call with
+    # workers=np.int64(2) meets the main-guard rule as workers=2 does.
+    import psdesign.api as api
+
+    opts = psdesign.RunOptions(
+        workers=np.int64(2), timeout_s=np.int64(60), scheduler="local", worker_wait_s=np.int32(5)
+    )
+    assert (opts.workers, opts.timeout_s, opts.worker_wait_s) == (2, 60.0, 5.0)
+    assert type(opts.workers) is int and type(opts.timeout_s) is float
+    assert type(opts.worker_wait_s) is float
+    for bad in (
+        {"workers": np.bool_(True)},
+        {"workers": np.float64(2.0)},
+        {"timeout_s": np.bool_(True)},
+        {"timeout_s": np.float32("nan")},
+        {"scheduler": "local", "worker_wait_s": np.float64("inf")},
+    ):
+        key = next(k for k in bad if k != "scheduler")
+        with pytest.raises(psdesign.StudyError, match=f"^{key}: "):
+            psdesign.RunOptions(**bad)
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    with pytest.raises(psdesign.StudyError, match=r"^run_study: called at the top level"):
+        psdesign.run_study(_tiny_study(), tmp_path / "o", workers=np.int64(2))
+    assert not (tmp_path / "o").exists()
+
+
 def test_fields_folder_errors_name_the_keyword_not_a_cli_option(tmp_path, monkeypatch) -> None:
     # a notebook user passed fields=...; main's message named '--fields' and advised '--force',
     # neither of which exists in the Python API. The user's folder stays untouched.
@@ -646,6 +728,51 @@ def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> N
         with pytest.raises(psdesign.StudyError, match=f"^{key}: "):
             psdesign.run_study(_tiny_study(), tmp_path / "o", workers=0, **kwargs)
     assert not (tmp_path / "o").exists()
+
+
+def test_a_scheduler_host_that_does_not_resolve_names_the_keyword(tmp_path) -> None:
+    # session 46: RunOptions renamed "--scheduler: ..." to "scheduler: ..." only for a
+    # StudyError; a host that does not resolve is a SchedulerError, which escaped the rename:
+    # RunOptions(scheduler="tcp://nohost.invalid:8786") and run_study(...) said "--scheduler:
+    # the host of ...", the command line's option. Truth: ".invalid" never resolves (RFC 6761,
+    # section 6.4); the line starts with the keyword as written, nothing is created.
+    from psdesign.study import SchedulerError
+    from psdesign.study import run_study as runner_run_study
+
+    address = "tcp://nohost.invalid:8786"
+    line = f"scheduler: the host of {address} does not resolve ("
+    with pytest.raises(SchedulerError) as info:
+        psdesign.RunOptions(scheduler=address)
+    assert str(info.value).startswith(line) and len(str(info.value).splitlines()) == 1
+    for run in (psdesign.run_study, runner_run_study):
+        with pytest.raises(SchedulerError) as info:
+            run(_tiny_study(), tmp_path / "o", workers=1, scheduler=address, progress=False)
+        assert str(info.value).startswith(line), str(info.value)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_scheduler_that_does_not_answer_is_named_as_the_caller_named_it(tmp_path, capsys) -> None:
+    # session 46: psdesign.run_study(..., scheduler="tcp://127.0.0.1:9") raised "--scheduler:
+    # no Dask scheduler answers at ...", the command line's option; the runner's connection
+    # now names what its caller calls it: "scheduler" from Python, "--scheduler" from `study
+    # run` (exit 2, one line). Truth: port 9 (discard) on the loopback refuses the connection
+    # at once; nothing is created either way.
+    from study_cases import FAC_PARAMS, FACTORIAL, write_study
+
+    from psdesign.cli.main import main
+    from psdesign.study import SchedulerError
+
+    good, out = write_study(tmp_path, FACTORIAL, FAC_PARAMS), tmp_path / "o"
+    with pytest.raises(SchedulerError) as info:
+        psdesign.run_study(good, out, scheduler="tcp://127.0.0.1:9", progress=False)
+    assert str(info.value).startswith("scheduler: no Dask scheduler answers at tcp://127.0.0.1:9")
+    argv = ["study", "run", str(good), "-o", str(out), "--scheduler", "tcp://127.0.0.1:9"]
+    assert main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "psdesign: error: --scheduler: no Dask scheduler answers at tcp://127.0.0.1:9"
+    ), err
+    assert not out.exists()
 
 
 def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:

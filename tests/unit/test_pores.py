@@ -256,3 +256,37 @@ def test_local_thickness_is_periodic():
     for res in (centred, shifted):
         assert res.max_diameter_m <= true_d + 1e-12  # never above the truth
         assert true_d - res.max_diameter_m <= res.diameter_error_m
+
+
+def test_pore_sizes_arguments_are_held_to_their_transport_keys():
+    """Session 46 walk of the documented low-level API (docs/transport.md): pore_sizes'
+    arguments are the ``[transport]`` keys n_radii, thickness_axis, surface_tension_n_m and
+    contact_angle_deg, but were checked apart from the schema: n_radii="a" or 2.5 and
+    contact_angle_deg="a" were numpy TypeErrors, n_radii=3 was scanned (the key allows
+    [4, 200]), and surface_tension=-1 or contact_angle_deg=10 (a wetting fluid: no intrusion)
+    gave negative Washburn pressures without a word. Now one SpecError naming the key and its
+    range; effective_conductivity's transport=3 is "transport: must be a table" (it was "'int'
+    object is not iterable")."""
+    from psdesign.errors import SpecError
+    from psdesign.transport.conductivity import effective_conductivity
+
+    X, Y, Z = _coords((12, 12, 8))
+    fields = _fields(4.0 - np.sqrt((X - 6) ** 2 + (Y - 6) ** 2))
+    for kwargs, key, allowed in (
+        ({"n_radii": "a"}, "n_radii", "[4, 200]"),
+        ({"n_radii": 2.5}, "n_radii", "[4, 200]"),
+        ({"n_radii": 3}, "n_radii", "[4, 200]"),
+        ({"thickness_axis": "w"}, "thickness_axis", "'x', 'y' or 'z'"),
+        ({"surface_tension": -1.0}, "surface_tension_n_m", "(0, 10)"),
+        ({"contact_angle_deg": 10.0}, "contact_angle_deg", "(90, 180]"),
+        ({"contact_angle_deg": "a"}, "contact_angle_deg", "(90, 180]"),
+    ):
+        with pytest.raises(SpecError) as info:
+            pore_sizes(fields, **kwargs)
+        line = str(info.value)
+        assert info.value.key == f"transport.{key}" and allowed in line, line
+        assert len(line.splitlines()) == 1
+    # accepted: the lower bound, an axis index, a NumPy integer
+    assert pore_sizes(fields, n_radii=np.int64(4), thickness_axis=0).pore_d50_m > 0
+    with pytest.raises(SpecError, match=r"^transport: must be a table"):
+        effective_conductivity(fields, "z", 1.0, 1.0, 3)

@@ -4,6 +4,7 @@ key, and the schema is the one description the generator, the study runner and t
 from __future__ import annotations
 
 import copy
+import math
 import tomllib
 import warnings
 
@@ -580,6 +581,63 @@ def test_a_generated_diameter_must_be_positive_in_its_own_table():
         with pytest.raises(SpecError, match=r"^generator.diameter: got .* m \(allowed: \(0, "):
             check_design_point({"generator.diameter": d}, {"base": base})
     check_design_point({"generator.diameter": 7e-6}, {"base": base})
+
+
+def test_a_non_positive_generated_diameter_never_reaches_the_half_period_check():
+    """Session 46: document.py's half-period check of ``generator.diameter`` also tested
+    ``dlo > 0``, which the generator table holds since session 45; the test was dropped there.
+    Proof kept here: every diameter whose support starts at or below 0 (a number, a constant, a
+    distribution without a positive ``low``: normal's support is (-inf, inf), beta's [0, 1])
+    and NaN are refused by ``GeneratorTable`` alone, and the whole spec names
+    ``generator.diameter``; a diameter over half the period is the document's (it needs the
+    rve)."""
+    from pydantic import ValidationError
+
+    from psdesign.schema.generator import GeneratorTable
+
+    normal = {"dist": "normal", "mean": 7e-6, "std": 1e-6}
+    bad = [
+        -1e-6,
+        0.0,
+        math.nan,
+        {"dist": "constant", "value": -1e-6},
+        normal,
+        {**normal, "low": 0.0},
+        {"dist": "uniform", "low": 0.0, "high": 1e-5},
+        {"dist": "beta", "a": 2, "b": 2},
+    ]
+    for d in bad:
+        with pytest.raises(ValidationError):
+            GeneratorTable(porosity=0.8, diameter=d)
+        assert spec_err(with_(SPEC, "generator.diameter", d)).key == "generator.diameter", d
+    GeneratorTable(porosity=0.8, diameter=BOX[0])  # positive: the table lets it through
+    err = spec_err(with_(SPEC, "generator.diameter", BOX[0]))  # over half the period
+    assert err.key == "generator.diameter" and "half the period" in err.message, err
+
+
+def test_a_design_point_without_its_study_names_its_first_wrong_key():
+    """Session 46: ``check_design_point`` called from Python without a study sets the point
+    into empty tables; the generator table's "give exactly one of porosity or n_fibers" (a
+    rule between keys, left out as not the point's) fired before the diameter's own rule, so
+    ``{"generator.diameter": -1e-6}`` was accepted without a word. Each key's own range is now
+    checked before the rules between keys, and of several wrong keys the first one given is
+    named (it was the schema's field order)."""
+    from psdesign.study.point import check_design_point
+
+    for d in (-1e-6, 0.0):
+        with pytest.raises(SpecError, match=r"^generator.diameter: got .* m \(allowed: \(0, "):
+            check_design_point({"generator.diameter": d})
+    check_design_point({"generator.diameter": 7e-6})
+    with pytest.raises(SpecError, match=r"^generator.theta: got 500 degrees \(allowed: \[-360, "):
+        check_design_point({"generator.theta": 500.0, "generator.diameter": 7e-6})
+    seed, porosity = ("generator.seed", -1.0), ("generator.porosity", 5.0)
+    for first, then in ((seed, porosity), (porosity, seed)):
+        with pytest.raises(SpecError) as info:
+            check_design_point(dict([first, then]))
+        assert info.value.key == first[0], str(info.value)
+    # the spec file alike: a generator without porosity or n_fibers names the diameter first
+    gen = {"kind": "straight", "diameter": -1e-6}
+    assert spec_err(with_(SPEC, "generator", gen)).key == "generator.diameter"
 
 
 def test_a_design_point_in_an_array_of_tables_is_held_to_its_element():
