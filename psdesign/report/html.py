@@ -21,11 +21,13 @@ import pandas as pd
 
 from psdesign.analysis.columns import (
     STATUS_COLUMNS,
+    case_status,
     error_bar,
+    flagged_values,
     is_design_parameter,
-    k_not_ok,
     trusted,
     value_ok,
+    value_status,
 )
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.glance import glance_section, k_text
@@ -47,7 +49,6 @@ from psdesign.report.trust import (
     draw_not_ok,
     failed_count,
     status_style,
-    value_status,
 )
 from psdesign.report.units import output_label
 
@@ -403,16 +404,6 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     return fig
 
 
-def _case_status(row: pd.Series | dict) -> str:
-    """A case's status as the tables print and highlight it: a missing one is ``unknown``, not
-    ``ok`` (the exit rule counts it failed, :func:`psdesign.cli.exit_status.case_masks`; the
-    glance, the means and the red box leave it out; review s45: the K and values tables showed
-    it as ok, unhighlighted); a table without a status column is ``ok``, as
-    :func:`psdesign.analysis.columns.trusted` reads it."""
-    status = row.get("status", "ok")
-    return "unknown" if pd.isna(status) else str(status)
-
-
 def _k_cell(k: float, e: float, bc: str, status: str) -> str:
     """One K table cell: the value with its error bar, then (each on its own line) the
     boundary condition when the column's header does not carry it and the status when it is
@@ -446,15 +437,15 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         one_bc[d] = bcs[0] if len(bcs) == 1 else None
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
-    for _, row in df.iterrows():
-        case_status = _case_status(row)
-        out = {"case_id": row.get("case_id", ""), "case status": case_status}
-        flag = case_status != "ok"
+    cases = case_status(df)  # a missing one is "unknown", not ok (review s45)
+    for i, row in df.iterrows():
+        out = {"case_id": row.get("case_id", ""), "case status": cases[i]}
+        flag = cases[i] != "ok"
         for d in dirs:
             k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
             e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
             st = row.get(f"k_{d}_status")
-            status = (case_status if case_status != "ok" else "") if pd.isna(st) else str(st)
+            status = (cases[i] if cases[i] != "ok" else "") if pd.isna(st) else str(st)
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
                 status = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
             bc = row.get(f"bc_{d}", "")
@@ -536,10 +527,10 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
     rows, classes, any_bar = [], [], False
-    for _, r in df.iterrows():
+    cases = case_status(df)
+    for i, r in df.iterrows():
         row = r.to_dict()
-        status = _case_status(row)
-        out, flag = {"case_id": row.get("case_id", ""), "case status": status}, status != "ok"
+        out, flag = {"case_id": row.get("case_id", ""), "case status": cases[i]}, cases[i] != "ok"
         for c in cols:
             rel, st = error_bar(row, c)
             any_bar |= rel is not None
@@ -712,22 +703,22 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 
 
 def _status_banner(df: pd.DataFrame) -> str:
-    """A red box at the top when any case or any rated value (K, D_eff/D, ...) is not ok: how
-    many, and where they show."""
-    status = df["status"].fillna("") if "status" in df else pd.Series([""] * len(df))
+    """A red box at the top when any case or any rated value (K, D_eff/D, ...) is not
+    ok: how many, and where they show. It reads what ``study report``'s exit reads
+    (:func:`psdesign.cli.exit_status.case_masks`: :func:`~psdesign.analysis.columns.case_status`
+    and :func:`~psdesign.analysis.columns.flagged_values`), so it is there exactly when that
+    exits 3 (until session 46 a table without a ``status`` column showed "N unknown" here and
+    a status column without its value was counted by the exit only)."""
+    status = case_status(df)
     counts = status[status != "ok"].value_counts().to_dict()
     # one count per status column: the tortuosity shares the diffusivity's, d10-d90 one column
-    rated: dict[str, str] = {}
-    for c, st in STATUS_COLUMNS.items():
-        if c in df and st in df:
-            rated.setdefault(st, c)
-    bad = {st: int(((status == "ok") & k_not_ok(df, c)).sum()) for st, c in rated.items()}
+    bad = {st: int(m.sum()) for st, m in flagged_values(df).items()}
     untrusted = sum(bad.values())
     if not counts and not untrusted:
         return ""
-    parts = [f"{v} {_esc(k or 'unknown')}" for k, v in sorted(counts.items())]
+    parts = [f"{v} {_esc(k)}" for k, v in sorted(counts.items())]
     if untrusted:
-        cols = ", ".join(st for st, n in bad.items() if n)
+        cols = ", ".join(bad)
         parts.append(f"{untrusted} value(s) of ok cases not ok ({_esc(cols)})")
     return (
         f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '

@@ -21,6 +21,7 @@ from study_cases import (
     write_study,
 )
 
+from psdesign.analysis.columns import value_status
 from psdesign.report import (
     ReportError,
     kozeny_carman,
@@ -28,7 +29,7 @@ from psdesign.report import (
     write_report,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.trust import NOT_OK_MARKERS, status_style, value_status
+from psdesign.report.trust import NOT_OK_MARKERS, status_style
 from psdesign.study import run_study
 
 
