@@ -14,6 +14,9 @@ K_STATUS_COLUMNS = {"k_x_m2": "k_x_status", "k_y_m2": "k_y_status", "k_z_m2": "k
 #: Every rated value column and its status column: K, and the transport values
 #: (:func:`psdesign.transport.effective.rating`; the tortuosity shares the diffusivity's).
 STATUS_COLUMNS = {
+    # the porosity (a voxel count) is rated by its bar alone (:func:`porosity_status`); a table
+    # written before session 46 has no porosity_status: :func:`own_status` rates it then
+    "porosity": "porosity_status",
     **K_STATUS_COLUMNS,
     **{f"diffusivity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
     **{f"tortuosity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
@@ -46,9 +49,9 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
     ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; the porosity's and a pore
     diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A value with an error
-    but no status column (the porosity) is ``ok`` up to a 20 % bar and ``untrustworthy``
-    above; ``"unrated"`` where the table rates nothing, ``"no trusted value"`` where the value
-    is missing.
+    but no status (the porosity of a row written before session 46) is ``ok`` up to a 20 % bar
+    and ``untrustworthy`` above; ``"unrated"`` where the table rates nothing, ``"no trusted
+    value"`` where the value is missing.
 
     >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
     (0.118, 'ok')
@@ -85,7 +88,7 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
 def porosity_status(porosity: float | None, error: float | None) -> str:
     """The porosity's own status, by its bar alone (:func:`error_bar`: a voxel count, ``ok`` up
     to a 20 % bar, ``untrustworthy`` above; ``unrated`` without a bar): what ``generate``,
-    ``mesh``, the notebook and the report's porosity table print.
+    ``mesh``, the notebook and a study case (``porosity_status``, since session 46) print.
 
     >>> porosity_status(0.8, 4e-4), porosity_status(0.088, 0.024)
     ('ok', 'untrustworthy')
@@ -106,10 +109,10 @@ def case_warnings(row: dict) -> dict[str, str]:
 
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
     """The ``ok`` cases of a results table (:func:`case_status`), with each rated value that is
-    not ``ok`` by its own status (``k_x_status``, ``diffusivity_x_status``, ...:
-    :func:`own_status`) set to NaN, and its relative error with it (:data:`REL_ERROR_COLUMNS`:
-    a mean bar must not hold the 300 % of a value left out): what summaries, fits, the
-    optimizer and the report use.
+    not ``ok`` by its own status (``k_x_status``, ``porosity_status``, ...: :func:`own_status`)
+    set to NaN, and its error with it (:data:`REL_ERROR_COLUMNS`, :data:`ABS_ERROR_COLUMNS`: a
+    mean bar must not hold the 300 % of a value left out): what summaries, fits, the optimizer
+    and the report use.
 
     Examples
     --------
@@ -125,7 +128,7 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
         if c in out:
             bad = k_not_ok(out, c)
             out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
-            e = REL_ERROR_COLUMNS.get(c)
+            e = REL_ERROR_COLUMNS.get(c, ABS_ERROR_COLUMNS.get(c))
             if e in out:  # its bar goes with it (the report's mean bar, summary.csv)
                 out[e] = pd.to_numeric(out[e], errors="coerce").mask(bad)
     return out
@@ -171,16 +174,25 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The own status of each row's value in ``column``, whatever its case's: its status column
     (:data:`STATUS_COLUMNS`; a column the table does not rate, a value the report derives:
     ``<column>_status``, :func:`psdesign.report.decision.add_anisotropy`), ``ok`` where that is
-    missing or empty (an unrated value).
+    missing or empty (an unrated value). A porosity without a status (a table written before
+    session 46) is rated by its bar (:func:`porosity_status`).
 
-    >>> df = pd.DataFrame({"k_z_status": ["untrustworthy", ""]})
-    >>> own_status(df, "k_z_m2").tolist()
-    ['untrustworthy', 'ok']
+    >>> df = pd.DataFrame({"porosity": [0.8, 0.088], "porosity_error": [4e-4, 0.024],
+    ...                    "k_z_status": ["untrustworthy", ""]})
+    >>> own_status(df, "k_z_m2").tolist(), own_status(df, "porosity").tolist()
+    (['untrustworthy', 'ok'], ['ok', 'untrustworthy'])
     """
     st = df.get(STATUS_COLUMNS.get(column, f"{column}_status"))
     if st is None:
         st = pd.Series(None, index=df.index, dtype=object)
     missing = st.isna() | (st.astype(str) == "")
+    if column == "porosity" and ABS_ERROR_COLUMNS[column] in df and column in df:
+        v, e = (pd.to_numeric(df[c], errors="coerce") for c in (column, ABS_ERROR_COLUMNS[column]))
+        rate = missing & v.notna() & e.notna()  # no value or no bar: unrated
+        bar = [porosity_status(*ve) for ve in zip(v[rate], e[rate], strict=True)]
+        st = st.astype(object).copy()
+        st[rate] = bar
+        missing &= ~rate
     return st.where(~missing, "ok").astype(str)
 
 
@@ -230,7 +242,8 @@ def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
     ok = case_status(df) == "ok"
     out: dict[str, pd.Series] = {}
     for c, st in STATUS_COLUMNS.items():
-        if st in df and st not in out and (m := ok & k_not_ok(df, c)).any():
+        rated = st in df or (c == "porosity" and c in df)  # by its bar: own_status
+        if rated and st not in out and (m := ok & k_not_ok(df, c)).any():
             out[st] = m
     return out
 

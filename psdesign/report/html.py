@@ -514,7 +514,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 
 
 #: The values other than K that :func:`_values_table` lists with their bars, in this order.
-RATED_VALUES = ("porosity", *(c for c in STATUS_COLUMNS if not c.startswith("k_")))
+RATED_VALUES = tuple(c for c in STATUS_COLUMNS if not c.startswith("k_"))
 
 
 def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
@@ -703,7 +703,7 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 
 
 def _status_banner(df: pd.DataFrame) -> str:
-    """A red box at the top when any case or any rated value (K, D_eff/D, ...) is not
+    """A red box at the top when any case or any rated value (K, porosity, D_eff/D, ...) is not
     ok: how many, and where they show. It reads what ``study report``'s exit reads
     (:func:`psdesign.cli.exit_status.case_masks`: :func:`~psdesign.analysis.columns.case_status`
     and :func:`~psdesign.analysis.columns.flagged_values`), so it is there exactly when that
@@ -726,8 +726,9 @@ def _status_banner(df: pd.DataFrame) -> str:
         "open markers named by status in the plots (when they have a value) and highlighted "
         "in the tables below; the reason is in the <code>error</code> column (cases), beside "
         "each untrustworthy K's status in the Permeability table (more in the Results table's "
-        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns) or in the "
-        "<code>diffusivity_z_warnings</code>-like columns (transport values).</p>"
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns), in the "
+        "<code>diffusivity_z_warnings</code>-like columns (transport values) or beside the "
+        "porosity's bar (above 20 %) in the Porosity table.</p>"
     )
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.analysis.columns import porosity_status
 from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
@@ -90,6 +91,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     row: dict = {
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
+        # rated by its bar, as generate prints it: the report, exit and fits read it
+        "porosity_status": porosity_status(fields.porosity, fields.porosity_error),
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
