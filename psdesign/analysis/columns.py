@@ -123,7 +123,7 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     >>> t["k_z_m2"].tolist(), t["k_z_rel_error"].tolist()
     ([1.0, nan], [0.02, nan])
     """
-    out = df[case_status(df) == "ok"].copy()
+    out = ok_cases(df).copy()
     for c in STATUS_COLUMNS:
         if c in out:
             bad = k_not_ok(out, c)
@@ -168,6 +168,17 @@ def case_status(df: pd.DataFrame) -> pd.Series:
     if "status" not in df:
         return pd.Series("ok", index=df.index, dtype=object)
     return df["status"].fillna(MISSING_STATUS).astype(str)
+
+
+def ok_cases(df: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a results table whose case is ``ok`` (:func:`case_status`: every row of a
+    table without a ``status`` column), values as they are (:func:`trusted` also drops the
+    values not ok by their own status).
+
+    >>> ok_cases(pd.DataFrame({"status": ["ok", None, "failed"], "k": [1, 2, 3]}))["k"].tolist()
+    [1]
+    """
+    return df[case_status(df) == "ok"]
 
 
 def own_status(df: pd.DataFrame, column: str) -> pd.Series:

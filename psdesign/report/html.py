@@ -342,8 +342,9 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     cols = [c for c in cols if c in df]
     classes = []
     n_flag = 0
-    for _, row in df.iterrows():
-        flag = row.get("status") != "ok"
+    cases = case_status(df)
+    for i, row in df.iterrows():
+        flag = cases[i] != "ok"
         for c in stat_cols:
             v = row[c]
             if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
@@ -662,7 +663,7 @@ def build_html(out_dir: str | Path) -> str:
     conv_table, conv_uri, n_flag = _convergence(df)
     conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
 
-    row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
+    row_cls = ["" if s == "ok" else "flag" for s in case_status(df)]
     results_html = _table(df, row_cls)
     k_html = _k_table(df, study.get("solver"))
 
@@ -740,7 +741,7 @@ def _meta_table(
     versions as table rows."""
     from psdesign.report.image_source import HEADER_KEY, image_rows
 
-    counts = df["status"].value_counts().to_dict() if "status" in df else {}
+    counts = case_status(df).value_counts().to_dict()
     run_list = runs.get("runs", [])
     last = run_list[-1] if run_list else {}
     machine = last.get("machine", {"host": platform.node(), "platform": platform.platform()})

@@ -85,3 +85,15 @@ def test_study_reports_exit_is_3_exactly_when_its_red_box_is_there(capsys):
     values_only = pd.DataFrame({"k_z_m2": [1e-11, 1e-11], "k_z_status": ["ok", "untrustworthy"]})
     assert report_exit_status(values_only) == 3 and "1 value(s)" in _status_banner(values_only)
     assert report_exit_status(values_only.iloc[:1]) == 0 and _status_banner(values_only[:1]) == ""
+
+
+def test_the_convergence_table_flags_the_cases_the_red_box_counts():
+    """The Solver convergence section flagged every row of a table without a ``status`` column
+    (``row.get("status") != "ok"``) while the red box, the K table and the means read it as
+    ok; now it reads ``case_status`` too: a flag for the missing status only."""
+    from psdesign.report.html import _convergence
+
+    values_only = pd.DataFrame({"k_z_m2": [1e-11, 2e-11], "iterations_z": [40, 41]})
+    assert _convergence(values_only)[2] == 0 and _status_banner(values_only) == ""
+    missing = values_only.assign(status=["ok", None])
+    assert _convergence(missing)[2] == 1 and "1 unknown" in _status_banner(missing)
