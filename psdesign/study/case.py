@@ -47,6 +47,16 @@ def _finish_fields(writer) -> dict:
 OPTIONAL_K_COLUMNS = ("permeameter_copies", "resolution_measure")
 
 
+#: Keys of the generation report a row copies where it has them.
+GENERATION_KEYS = (
+    "target_porosity",
+    "omega_before",
+    "omega_before_error",
+    "omega_after",
+    "omega_after_error",
+)
+
+
 def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
     """The size of a K solve as a count named by what it counts: ``n_dofs_<d>`` (FEM) or
     ``n_cells_<d>`` (voxel route's fluid cells). It was ``size_<d>``, which reads as the RVE's
@@ -99,15 +109,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}
-    for key in (
-        "target_porosity",
-        "omega_before",
-        "omega_before_error",
-        "omega_after",
-        "omega_after_error",
-    ):
-        if key in gen:
-            row[key] = gen[key]
+    row |= {key: gen[key] for key in GENERATION_KEYS if key in gen}
     columns = {}
     writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:
