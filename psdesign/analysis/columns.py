@@ -157,17 +157,18 @@ MISSING_STATUS = "unknown"
 
 def case_status(df: pd.DataFrame) -> pd.Series:
     """Each case's status as every table, figure, count and exit reads it: its ``status``,
-    :data:`MISSING_STATUS` where that is missing (not ``"nan"``, not ``ok``); ``ok`` for every
-    row of a table with no ``status`` column (a table of values only).
+    :data:`MISSING_STATUS` where that is missing or empty (not ``"nan"``, not ``ok``); ``ok``
+    for every row of a table with no ``status`` column (a table of values only).
 
-    >>> case_status(pd.DataFrame({"status": ["ok", None, "failed"]})).tolist()
-    ['ok', 'unknown', 'failed']
+    >>> case_status(pd.DataFrame({"status": ["ok", None, "failed", ""]})).tolist()
+    ['ok', 'unknown', 'failed', 'unknown']
     >>> case_status(pd.DataFrame({"k_z_m2": [1e-11]})).tolist()
     ['ok']
     """
     if "status" not in df:
         return pd.Series("ok", index=df.index, dtype=object)
-    return df["status"].fillna(MISSING_STATUS).astype(str)
+    st = df["status"]
+    return st.where(st.notna() & (st.astype(str) != ""), MISSING_STATUS).astype(str)
 
 
 def ok_cases(df: pd.DataFrame) -> pd.DataFrame:

@@ -22,7 +22,7 @@ from psdesign.cli.exit_status import case_counts
 from psdesign.cli.study import report_exit_status
 from psdesign.report.html import _status_banner
 
-CASE = ["ok", "failed", "timeout", "not_converged", None, "blocked"]
+CASE = ["ok", "failed", "timeout", "not_converged", None, "", "blocked"]
 OWN = ["ok", "untrustworthy", None, ""]  # None: an empty cell; "": an in-memory empty string
 
 
@@ -57,10 +57,10 @@ def test_a_value_is_trusted_exactly_when_its_case_is_ok_and_its_own_status_ok_or
             kept = trusted(df)["k_z_m2"].notna()
             assert kept.tolist() == truth[case == "ok"].tolist(), df
         n += 1
-    assert n == 4 * 2 * 24  # every combination was checked
+    assert n == 4 * 2 * 28  # every combination was checked
 
 
-@pytest.mark.parametrize("status", [None, float("nan")])
+@pytest.mark.parametrize("status", [None, float("nan"), ""])
 def test_a_missing_case_status_reads_unknown_everywhere(status):
     """One helper (``case_status``): the values' status, the exit's count (failed) and the red
     box all say ``unknown``; review s45 found the tables printing such a case ``ok``."""
