@@ -405,7 +405,7 @@ class Material:
         """The notebook's table: box, voxel grid, fibres (or image) and, once the voxel fields
         exist (a display does not voxelize), the porosity with its error estimate and its
         rating (a count: ``ok`` up to a 20 % bar, as in study tables)."""
-        from psdesign.analysis.columns import error_bar
+        from psdesign.analysis.columns import porosity_status
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import result_html
 
@@ -425,8 +425,7 @@ class Material:
             return result_html("Material", rows, "unrated", [])
         eps, err = self.porosity, self.porosity_error
         rows.append(("porosity (-)", porosity_text(eps, err)))
-        status = error_bar({"porosity": eps, "porosity_error": err}, "porosity")[1]
-        return result_html("Material", rows, status, [])
+        return result_html("Material", rows, porosity_status(eps, err), [])
 
     def __repr__(self) -> str:
         size = " x ".join(f"{s:g}" for s in self.rve.size)  # metres: SI, as every output

@@ -14,6 +14,9 @@ K_STATUS_COLUMNS = {"k_x_m2": "k_x_status", "k_y_m2": "k_y_status", "k_z_m2": "k
 #: Every rated value column and its status column: K, and the transport values
 #: (:func:`psdesign.transport.effective.rating`; the tortuosity shares the diffusivity's).
 STATUS_COLUMNS = {
+    # the porosity (a voxel count) is rated by its bar alone (:func:`porosity_status`); a table
+    # written before session 46 has no porosity_status: :func:`own_status` rates it then
+    "porosity": "porosity_status",
     **K_STATUS_COLUMNS,
     **{f"diffusivity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
     **{f"tortuosity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
@@ -46,9 +49,9 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
     ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; the porosity's and a pore
     diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A value with an error
-    but no status column (the porosity) is ``ok`` up to a 20 % bar and ``untrustworthy``
-    above; ``"unrated"`` where the table rates nothing, ``"no trusted value"`` where the value
-    is missing.
+    but no status (the porosity of a row written before session 46) is ``ok`` up to a 20 % bar
+    and ``untrustworthy`` above; ``"unrated"`` where the table rates nothing, ``"no trusted
+    value"`` where the value is missing.
 
     >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
     (0.118, 'ok')
@@ -82,6 +85,17 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     return rel, "ok" if rel <= UNTRUSTWORTHY_REL_ERROR else "untrustworthy"
 
 
+def porosity_status(porosity: float | None, error: float | None) -> str:
+    """The porosity's own status, by its bar alone (:func:`error_bar`: a voxel count, ``ok`` up
+    to a 20 % bar, ``untrustworthy`` above; ``unrated`` without a bar): what ``generate``,
+    ``mesh``, the notebook and a study case (``porosity_status``, since session 46) print.
+
+    >>> porosity_status(0.8, 4e-4), porosity_status(0.088, 0.024)
+    ('ok', 'untrustworthy')
+    """
+    return error_bar({"porosity": porosity, "porosity_error": error}, "porosity")[1]
+
+
 def case_warnings(row: dict) -> dict[str, str]:
     """The non-empty ``warnings_<d>`` cells of a case (what the solve said about its K, e.g. a
     periodic bc on a non-periodic RVE), ``{column: text}``: the words `study optimize` prints
@@ -94,10 +108,11 @@ def case_warnings(row: dict) -> dict[str, str]:
 
 
 def trusted(df: pd.DataFrame) -> pd.DataFrame:
-    """The ``ok`` cases of a results table, with each rated value whose own status
-    (``k_x_status``, ``diffusivity_x_status``, ...: :data:`STATUS_COLUMNS`) is not ``ok`` set to
-    NaN, and its relative error with it (:data:`REL_ERROR_COLUMNS`: a mean bar must not hold
-    the 300 % of a value left out): what summaries, fits, the optimizer and the report use.
+    """The ``ok`` cases of a results table (:func:`case_status`), with each rated value that is
+    not ``ok`` by its own status (``k_x_status``, ``porosity_status``, ...: :func:`own_status`)
+    set to NaN, and its error with it (:data:`REL_ERROR_COLUMNS`, :data:`ABS_ERROR_COLUMNS`: a
+    mean bar must not hold the 300 % of a value left out): what summaries, fits, the optimizer
+    and the report use.
 
     Examples
     --------
@@ -108,12 +123,12 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     >>> t["k_z_m2"].tolist(), t["k_z_rel_error"].tolist()
     ([1.0, nan], [0.02, nan])
     """
-    out = df[df["status"] == "ok"].copy() if "status" in df else df.copy()
+    out = ok_cases(df).copy()
     for c in STATUS_COLUMNS:
         if c in out:
             bad = k_not_ok(out, c)
             out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
-            e = REL_ERROR_COLUMNS.get(c)
+            e = REL_ERROR_COLUMNS.get(c, ABS_ERROR_COLUMNS.get(c))
             if e in out:  # its bar goes with it (the report's mean bar, summary.csv)
                 out[e] = pd.to_numeric(out[e], errors="coerce").mask(bad)
     return out
@@ -135,26 +150,114 @@ def distinct_realizations(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     return df[~df.duplicated(subset=keys, keep="first")]
 
 
-def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
-    """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) has its own status
-    (``k_x_status``, ``diffusivity_z_status``) and it is not ``ok``; False where the table has
-    no such status (an unrated value)."""
-    st = df.get(STATUS_COLUMNS[k_column])
+#: How a case whose status is missing (an empty ``status`` cell) reads: not ``ok``, and
+#: counted with the cases the run could not give (:func:`psdesign.cli.exit_status.case_masks`).
+MISSING_STATUS = "unknown"
+
+
+def case_status(df: pd.DataFrame) -> pd.Series:
+    """Each case's status as every table, figure, count and exit reads it: its ``status``,
+    :data:`MISSING_STATUS` where that is missing or empty (not ``"nan"``, not ``ok``); ``ok``
+    for every row of a table with no ``status`` column (a table of values only).
+
+    >>> case_status(pd.DataFrame({"status": ["ok", None, "failed", ""]})).tolist()
+    ['ok', 'unknown', 'failed', 'unknown']
+    >>> case_status(pd.DataFrame({"k_z_m2": [1e-11]})).tolist()
+    ['ok']
+    """
+    if "status" not in df:
+        return pd.Series("ok", index=df.index, dtype=object)
+    st = df["status"]
+    return st.where(st.notna() & (st.astype(str) != ""), MISSING_STATUS).astype(str)
+
+
+def ok_cases(df: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a results table whose case is ``ok`` (:func:`case_status`: every row of a
+    table without a ``status`` column), values as they are (:func:`trusted` also drops the
+    values not ok by their own status).
+
+    >>> ok_cases(pd.DataFrame({"status": ["ok", None, "failed"], "k": [1, 2, 3]}))["k"].tolist()
+    [1]
+    """
+    return df[case_status(df) == "ok"]
+
+
+def own_status(df: pd.DataFrame, column: str) -> pd.Series:
+    """The own status of each row's value in ``column``, whatever its case's: its status column
+    (:data:`STATUS_COLUMNS`; a column the table does not rate, a value the report derives:
+    ``<column>_status``, :func:`psdesign.report.decision.add_anisotropy`), ``ok`` where that is
+    missing or empty (an unrated value). A porosity without a status (a table written before
+    session 46) is rated by its bar (:func:`porosity_status`).
+
+    >>> df = pd.DataFrame({"porosity": [0.8, 0.088], "porosity_error": [4e-4, 0.024],
+    ...                    "k_z_status": ["untrustworthy", ""]})
+    >>> own_status(df, "k_z_m2").tolist(), own_status(df, "porosity").tolist()
+    (['untrustworthy', 'ok'], ['ok', 'untrustworthy'])
+    """
+    st = df.get(STATUS_COLUMNS.get(column, f"{column}_status"))
     if st is None:
-        return pd.Series(False, index=df.index)
-    return st.notna() & (st.astype(str) != "ok")
+        st = pd.Series(None, index=df.index, dtype=object)
+    missing = st.isna() | (st.astype(str) == "")
+    if column == "porosity" and ABS_ERROR_COLUMNS[column] in df and column in df:
+        v, e = (pd.to_numeric(df[c], errors="coerce") for c in (column, ABS_ERROR_COLUMNS[column]))
+        rate = missing & v.notna() & e.notna()  # no value or no bar: unrated
+        bar = [porosity_status(*ve) for ve in zip(v[rate], e[rate], strict=True)]
+        st = st.astype(object).copy()
+        st[rate] = bar
+        missing &= ~rate
+    return st.where(~missing, "ok").astype(str)
+
+
+def value_status(df: pd.DataFrame, column: str) -> pd.Series:
+    """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): its
+    case's (:func:`case_status`: ``failed``, ``not_converged``, ``unknown``...) when that is not
+    ``ok``, else its own (:func:`own_status`: ``ok`` for an unrated value).
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
+    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
+    >>> value_status(df, "k_z_m2").tolist()
+    ['ok', 'untrustworthy', 'not_converged']
+    """
+    case = case_status(df)
+    return case.where(case != "ok", own_status(df, column))
 
 
 def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
-    """Rows whose case is ``ok`` and whose value in ``column`` (``k_x_m2``, ``diffusivity_z``,
-    ...) is ``ok`` by its own status, or unrated (:func:`k_not_ok`).
+    """Rows whose value in ``column`` is trusted: :func:`value_status` ``ok`` (its case ``ok``
+    and the value ``ok`` by its own status, or unrated).
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_status": ["ok", "x", "ok"]})
     >>> value_ok(df, "k_z_m2").tolist()
     [True, False, False]
     """
-    ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
-    return ok & ~k_not_ok(df, column)
+    return value_status(df, column) == "ok"
+
+
+def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
+    """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
+    own status (:func:`own_status`), whatever its case's; False for an unrated value."""
+    return own_status(df, k_column) != "ok"
+
+
+def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
+    """``{status column: row mask}`` of the ``ok`` cases (:func:`case_status`) with a value
+    that is not ``ok`` by its own status (:func:`own_status`), one entry per status column
+    with such a row (the tortuosity shares the diffusivity's, d10-d90 ``pore_sizes_status``),
+    in :data:`STATUS_COLUMNS` order: the values ``study run``'s and ``study report``'s exit
+    (:func:`psdesign.cli.exit_status.case_masks`) and the report's red box count. A status
+    column is read with or without its value column (a status says what it says).
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_status": ["x", "ok", "x"]})
+    >>> {k: m.tolist() for k, m in flagged_values(df).items()}
+    {'k_z_status': [True, False, False]}
+    """
+    ok = case_status(df) == "ok"
+    out: dict[str, pd.Series] = {}
+    for c, st in STATUS_COLUMNS.items():
+        rated = st in df or (c == "porosity" and c in df)  # by its bar: own_status
+        if rated and st not in out and (m := ok & k_not_ok(df, c)).any():
+            out[st] = m
+    return out
 
 
 def first_error(df: pd.DataFrame) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import distinct_realizations, output_columns, trusted
+from psdesign.analysis.columns import distinct_realizations, ok_cases, output_columns, trusted
 from psdesign.analysis.ranges import RANGES
 
 
@@ -130,7 +130,7 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     >>> s[["a", "n", "k_mean", "k_std"]].values.tolist()
     [[1.0, 2.0, 2.0, 1.4142135623730951], [2.0, 1.0, 5.0, nan]]
     """
-    ok = df[df["status"] == "ok"] if "status" in df.columns else df
+    ok = ok_cases(df)
     ok = distinct_realizations(ok, params)
     outputs = output_columns(ok, params)
     keys = [p for p in params if p in ok.columns]

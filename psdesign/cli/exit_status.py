@@ -100,9 +100,13 @@ class CaseCounts(NamedTuple):
 
 def case_masks(df):
     """``(failed, not_converged, flagged)`` boolean Series over the rows of a results table
-    (:class:`CaseCounts` says which is which). A value's own status is its column in
-    :data:`psdesign.analysis.columns.STATUS_COLUMNS` (``k_z_status``, ``pore_sizes_status``...);
-    an empty one (an unrated value) is not a flag.
+    (:class:`CaseCounts` says which is which), read off each case's status
+    (:func:`psdesign.analysis.columns.case_status`: a missing one is ``unknown``, counted
+    failed; a table without a ``status`` column is all ``ok``) and the ``ok`` cases' values
+    that are not ok by their own status (:func:`psdesign.analysis.columns.flagged_values`:
+    ``k_z_status``, ``porosity_status``, ``pore_sizes_status``...; an empty one, an unrated
+    value, is not a flag): what the report's red box counts, so ``study report`` exits 3
+    exactly when the red box is there.
 
     >>> import pandas as pd
     >>> df = pd.DataFrame({"status": ["ok", "ok", "timeout", "not_converged", "untrustworthy"],
@@ -111,15 +115,15 @@ def case_masks(df):
     [[False, False, True, False, False], [False, False, False, True, False],
      [False, True, False, False, True]]
     """
-    from psdesign.analysis.columns import STATUS_COLUMNS, k_not_ok
+    from psdesign.analysis.columns import MISSING_STATUS, case_status, flagged_values
 
-    status = df["status"]
-    failed = status.isna() | status.astype(str).isin(NOT_FINISHED)
-    ok = status.astype(str) == "ok"
-    not_converged = status.astype(str) == "not_converged"
+    status = case_status(df)
+    failed = status.isin((*NOT_FINISHED, MISSING_STATUS))
+    ok = status == "ok"
+    not_converged = status == "not_converged"
     flagged = ~failed & ~ok & ~not_converged  # another status word: finished, not ok
-    for value in STATUS_COLUMNS:  # k_not_ok: set and not "ok"
-        flagged |= ok & k_not_ok(df, value)
+    for m in flagged_values(df).values():  # ok cases only
+        flagged |= m
     return failed, not_converged, flagged
 
 

@@ -33,8 +33,8 @@ def rating(r: dict) -> str:
 
 
 def with_porosity_status(out: dict) -> dict:
-    """``out`` with ``porosity_status``: the porosity's rating by its bar alone, as study
-    tables rate it (:func:`psdesign.analysis.columns.error_bar`: ``ok`` up to a 20 % bar), so
+    """``out`` with ``porosity_status``: the porosity's rating by its bar alone, as a study
+    case's (:func:`psdesign.analysis.columns.porosity_status`: ``ok`` up to a 20 % bar), so
     ``generate`` and ``mesh`` print their porosity with a status as every other number (until
     session 45 with its error only).
 
@@ -43,9 +43,9 @@ def with_porosity_status(out: dict) -> dict:
     >>> with_porosity_status({"porosity": 0.01, "porosity_error": 4e-3})["porosity_status"]
     'untrustworthy'
     """
-    from psdesign.analysis.columns import error_bar
+    from psdesign.analysis.columns import porosity_status
 
-    return out | {"porosity_status": error_bar(out, "porosity")[1]}
+    return out | {"porosity_status": porosity_status(out["porosity"], out.get("porosity_error"))}
 
 
 def print_json(obj: object) -> None:

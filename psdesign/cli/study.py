@@ -265,11 +265,11 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     counts = case_counts(df)
     if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
         print(
-            f"psdesign: {counts.flagged} ok case(s) have a K or transport value whose own "
-            "status is not ok (k_<d>_status, <name>_<d>_status, pore_sizes_status, "
-            "specific_surface_status: untrustworthy = error bar above 20 % or fewer than 8 "
-            "cells per fiber diameter, blocked = no conducting path); their values are kept in "
-            "results.csv and left out of fits and summaries",
+            f"psdesign: {counts.flagged} ok case(s) have a K, porosity or transport value whose "
+            "own status is not ok (k_<d>_status, porosity_status, <name>_<d>_status, "
+            "pore_sizes_status, specific_surface_status: untrustworthy = error bar above 20 % "
+            "or fewer than 8 cells per fiber diameter, blocked = no conducting path); their "
+            "values are kept in results.csv and left out of fits and summaries",
             file=sys.stderr,
         )
     if counts.failed:

@@ -19,6 +19,7 @@ from psdesign.analysis.columns import (
     distinct_realizations,
     numeric_parameters,
     trusted,
+    value_status,
 )
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
@@ -27,7 +28,6 @@ from psdesign.report.trust import (
     no_ok_case,
     not_ok_status,
     status_style,
-    value_status,
 )
 from psdesign.report.units import output_label, parameter_label, parameter_unit
 
@@ -99,7 +99,7 @@ _ok = trusted
 def add_anisotropy(df: pd.DataFrame) -> pd.DataFrame:
     """Add ``anisotropy`` = mean in-plane K / through-plane K (K_x, K_y over K_z) per case, and
     ``anisotropy_status``: the worst (:func:`~psdesign.transport.effective.worst_status`) of
-    the statuses of the K it divides (:func:`~psdesign.report.trust.value_status`), a ratio
+    the statuses of the K it divides (:func:`~psdesign.analysis.columns.value_status`), a ratio
     being no better than its parts.
 
     >>> df = pd.DataFrame({"status": ["ok", "ok"], "k_x_m2": [4.0, 4.0], "k_z_m2": [2.0, 1.0],

@@ -21,11 +21,13 @@ import pandas as pd
 
 from psdesign.analysis.columns import (
     STATUS_COLUMNS,
+    case_status,
     error_bar,
+    flagged_values,
     is_design_parameter,
-    k_not_ok,
     trusted,
     value_ok,
+    value_status,
 )
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
 from psdesign.report.glance import glance_section, k_text
@@ -47,7 +49,6 @@ from psdesign.report.trust import (
     draw_not_ok,
     failed_count,
     status_style,
-    value_status,
 )
 from psdesign.report.units import output_label
 
@@ -341,8 +342,9 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     cols = [c for c in cols if c in df]
     classes = []
     n_flag = 0
-    for _, row in df.iterrows():
-        flag = row.get("status") != "ok"
+    cases = case_status(df)
+    for i, row in df.iterrows():
+        flag = cases[i] != "ok"
         for c in stat_cols:
             v = row[c]
             if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
@@ -403,16 +405,6 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     return fig
 
 
-def _case_status(row: pd.Series | dict) -> str:
-    """A case's status as the tables print and highlight it: a missing one is ``unknown``, not
-    ``ok`` (the exit rule counts it failed, :func:`psdesign.cli.exit_status.case_masks`; the
-    glance, the means and the red box leave it out; review s45: the K and values tables showed
-    it as ok, unhighlighted); a table without a status column is ``ok``, as
-    :func:`psdesign.analysis.columns.trusted` reads it."""
-    status = row.get("status", "ok")
-    return "unknown" if pd.isna(status) else str(status)
-
-
 def _k_cell(k: float, e: float, bc: str, status: str) -> str:
     """One K table cell: the value with its error bar, then (each on its own line) the
     boundary condition when the column's header does not carry it and the status when it is
@@ -446,15 +438,15 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         one_bc[d] = bcs[0] if len(bcs) == 1 else None
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
-    for _, row in df.iterrows():
-        case_status = _case_status(row)
-        out = {"case_id": row.get("case_id", ""), "case status": case_status}
-        flag = case_status != "ok"
+    cases = case_status(df)  # a missing one is "unknown", not ok (review s45)
+    for i, row in df.iterrows():
+        out = {"case_id": row.get("case_id", ""), "case status": cases[i]}
+        flag = cases[i] != "ok"
         for d in dirs:
             k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
             e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
             st = row.get(f"k_{d}_status")
-            status = (case_status if case_status != "ok" else "") if pd.isna(st) else str(st)
+            status = (cases[i] if cases[i] != "ok" else "") if pd.isna(st) else str(st)
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
                 status = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
             bc = row.get(f"bc_{d}", "")
@@ -523,7 +515,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 
 
 #: The values other than K that :func:`_values_table` lists with their bars, in this order.
-RATED_VALUES = ("porosity", *(c for c in STATUS_COLUMNS if not c.startswith("k_")))
+RATED_VALUES = tuple(c for c in STATUS_COLUMNS if not c.startswith("k_"))
 
 
 def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
@@ -536,10 +528,10 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
     rows, classes, any_bar = [], [], False
-    for _, r in df.iterrows():
+    cases = case_status(df)
+    for i, r in df.iterrows():
         row = r.to_dict()
-        status = _case_status(row)
-        out, flag = {"case_id": row.get("case_id", ""), "case status": status}, status != "ok"
+        out, flag = {"case_id": row.get("case_id", ""), "case status": cases[i]}, cases[i] != "ok"
         for c in cols:
             rel, st = error_bar(row, c)
             any_bar |= rel is not None
@@ -671,7 +663,7 @@ def build_html(out_dir: str | Path) -> str:
     conv_table, conv_uri, n_flag = _convergence(df)
     conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
 
-    row_cls = ["" if s == "ok" else "flag" for s in df.get("status", pd.Series([""] * len(df)))]
+    row_cls = ["" if s == "ok" else "flag" for s in case_status(df)]
     results_html = _table(df, row_cls)
     k_html = _k_table(df, study.get("solver"))
 
@@ -712,22 +704,22 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 
 
 def _status_banner(df: pd.DataFrame) -> str:
-    """A red box at the top when any case or any rated value (K, D_eff/D, ...) is not ok: how
-    many, and where they show."""
-    status = df["status"].fillna("") if "status" in df else pd.Series([""] * len(df))
+    """A red box at the top when any case or any rated value (K, porosity, D_eff/D, ...) is not
+    ok: how many, and where they show. It reads what ``study report``'s exit reads
+    (:func:`psdesign.cli.exit_status.case_masks`: :func:`~psdesign.analysis.columns.case_status`
+    and :func:`~psdesign.analysis.columns.flagged_values`), so it is there exactly when that
+    exits 3 (until session 46 a table without a ``status`` column showed "N unknown" here and
+    a status column without its value was counted by the exit only)."""
+    status = case_status(df)
     counts = status[status != "ok"].value_counts().to_dict()
     # one count per status column: the tortuosity shares the diffusivity's, d10-d90 one column
-    rated: dict[str, str] = {}
-    for c, st in STATUS_COLUMNS.items():
-        if c in df and st in df:
-            rated.setdefault(st, c)
-    bad = {st: int(((status == "ok") & k_not_ok(df, c)).sum()) for st, c in rated.items()}
+    bad = {st: int(m.sum()) for st, m in flagged_values(df).items()}
     untrusted = sum(bad.values())
     if not counts and not untrusted:
         return ""
-    parts = [f"{v} {_esc(k or 'unknown')}" for k, v in sorted(counts.items())]
+    parts = [f"{v} {_esc(k)}" for k, v in sorted(counts.items())]
     if untrusted:
-        cols = ", ".join(st for st, n in bad.items() if n)
+        cols = ", ".join(bad)
         parts.append(f"{untrusted} value(s) of ok cases not ok ({_esc(cols)})")
     return (
         f'<p class="alert" id="psd-status-alert"><b>Not ok:</b> {", ".join(parts)} of '
@@ -735,8 +727,9 @@ def _status_banner(df: pd.DataFrame) -> str:
         "open markers named by status in the plots (when they have a value) and highlighted "
         "in the tables below; the reason is in the <code>error</code> column (cases), beside "
         "each untrustworthy K's status in the Permeability table (more in the Results table's "
-        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns) or in the "
-        "<code>diffusivity_z_warnings</code>-like columns (transport values).</p>"
+        "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns), in the "
+        "<code>diffusivity_z_warnings</code>-like columns (transport values) or beside the "
+        "porosity's bar (above 20 %) in the Porosity table.</p>"
     )
 
 
@@ -748,7 +741,7 @@ def _meta_table(
     versions as table rows."""
     from psdesign.report.image_source import HEADER_KEY, image_rows
 
-    counts = df["status"].value_counts().to_dict() if "status" in df else {}
+    counts = case_status(df).value_counts().to_dict()
     run_list = runs.get("runs", [])
     last = run_list[-1] if run_list else {}
     machine = last.get("machine", {"host": platform.node(), "platform": platform.platform()})

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import distinct_realizations
+from psdesign.analysis.columns import distinct_realizations, ok_cases
 from psdesign.analysis.entangled import entangled
 
 __all__ = ["main_effects", "response_columns", "sensitivity_table"]
@@ -50,7 +50,7 @@ def sensitivity_table(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     """
     from scipy.stats import spearmanr
 
-    ok = df[df["status"] == "ok"] if "status" in df else df
+    ok = ok_cases(df)
     ok = distinct_realizations(ok, params)  # a design point listed twice is one case
     responses = response_columns(ok)
     xs = {p: _numeric(ok[p]) for p in params if p in ok}
@@ -99,7 +99,7 @@ def main_effects(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     pandas.DataFrame
         Columns ``parameter``, ``level``, ``n`` and one mean column per response.
     """
-    ok = df[df["status"] == "ok"] if "status" in df else df
+    ok = ok_cases(df)
     ok = distinct_realizations(ok, params)  # a design point listed twice is one case
     responses = response_columns(ok)
     if not responses:

@@ -1,6 +1,7 @@
-"""How the report's figures draw a value that is not trusted: the status of each case's value
-and one marker style per status, shared by the static (matplotlib) and interactive (Plotly)
-figures so that ``not_converged`` and ``untrustworthy`` never look alike.
+"""How the report's figures draw a value that is not trusted (its status:
+:func:`psdesign.analysis.columns.value_status`, one definition since session 46): one marker
+style per status, shared by the static (matplotlib) and interactive (Plotly) figures so that
+``not_converged`` and ``untrustworthy`` never look alike.
 
 Session 45 found the K-vs-parameter frames dropping every untrusted case (an engineer saw a
 line end without being told why) and the porosity-K and convergence figures drawing every
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from psdesign.analysis.columns import STATUS_COLUMNS
+from psdesign.analysis.columns import case_status, value_status
 
 __all__ = [
     "NOT_OK_MARKERS",
@@ -21,7 +22,6 @@ __all__ = [
     "no_ok_case",
     "not_ok_status",
     "status_style",
-    "value_status",
 ]
 
 #: How a caption names the not-ok markers of :func:`draw_not_ok`.
@@ -42,37 +42,11 @@ def status_style(status: str) -> tuple[str, str, str]:
     return STATUS_STYLES.get(status, OTHER_STYLE)
 
 
-def value_status(df: pd.DataFrame, column: str) -> pd.Series:
-    """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): the
-    case's status when it is not ``ok`` (``failed``, ``not_converged``, ...), else the value's
-    own status (``k_x_status``, :data:`~psdesign.analysis.columns.STATUS_COLUMNS`; a column
-    the table does not rate, a value the report derives, its ``<column>_status``:
-    :func:`psdesign.report.decision.add_anisotropy`), else ``ok`` (an unrated value); a
-    missing case status is ``unknown``.
-
-    >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
-    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
-    >>> value_status(df, "k_z_m2").tolist()
-    ['ok', 'untrustworthy', 'not_converged']
-    """
-    # a missing case status is "unknown", as the tables and the red box print it (not "nan")
-    case = (
-        df["status"].fillna("unknown").astype(str)
-        if "status" in df
-        else pd.Series("ok", index=df.index)
-    )
-    own = df.get(STATUS_COLUMNS.get(column, f"{column}_status"))
-    if own is None:
-        own = pd.Series("ok", index=df.index)
-    own = own.where(own.notna() & (own.astype(str) != ""), "ok").astype(str)
-    return case.where(case != "ok", own)
-
-
 def not_ok_status(df: pd.DataFrame, column: str, log: bool = True) -> dict[str, pd.Series]:
     """``{status: row mask}`` of the rows whose value in ``column`` is a finite number a figure
     can draw (positive on a ``log`` axis, else >= 0: a ``blocked`` D_eff/D is 0) and whose
-    :func:`value_status` is not ``ok``, statuses in sorted order (a failed case has no value:
-    :func:`failed_count`).
+    :func:`~psdesign.analysis.columns.value_status` is not ``ok``, statuses in sorted order (a
+    failed case has no value: :func:`failed_count`).
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "ok"], "diffusivity_z": [0.5, 0.0, 0.3],
     ...                    "diffusivity_z_status": ["ok", "blocked", "untrustworthy"]})
@@ -99,7 +73,7 @@ def failed_count(df: pd.DataFrame) -> int:
     """
     from psdesign.cli.exit_status import NOT_FINISHED
 
-    return int(df["status"].isin(NOT_FINISHED).sum()) if "status" in df else 0
+    return int(case_status(df).isin(NOT_FINISHED).sum())
 
 
 def no_ok_case(df: pd.DataFrame) -> str:
@@ -112,9 +86,10 @@ def no_ok_case(df: pd.DataFrame) -> str:
     >>> no_ok_case(pd.DataFrame({"status": ["failed", "ok"]}))
     ''
     """
-    if not len(df) or "status" not in df or (df["status"] == "ok").any():
+    status = case_status(df)  # a table without a status column: every case ok
+    if not len(df) or (status == "ok").any():
         return ""
-    counts = df["status"].fillna("unknown").astype(str).value_counts().sort_index()
+    counts = status.value_counts().sort_index()
     return f"no case is ok: {', '.join(f'{n} {s}' for s, n in counts.items())} of {len(df)}"
 
 

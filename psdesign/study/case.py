@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.analysis.columns import porosity_status
 from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
@@ -44,6 +45,16 @@ def _finish_fields(writer) -> dict:
 #: stacked permeameter's copies (:mod:`psdesign.flow.stack`), the measure of a non-round
 #: thinnest fiber (``"fiber thin width"``, :func:`psdesign.geometry.rve.resolution_measure`).
 OPTIONAL_K_COLUMNS = ("permeameter_copies", "resolution_measure")
+
+
+#: Keys of the generation report a row copies where it has them.
+GENERATION_KEYS = (
+    "target_porosity",
+    "omega_before",
+    "omega_before_error",
+    "omega_after",
+    "omega_after_error",
+)
 
 
 def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
@@ -90,21 +101,15 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     row: dict = {
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
+        # rated by its bar, as generate prints it: the report, exit and fits read it
+        "porosity_status": porosity_status(fields.porosity, fields.porosity_error),
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}
-    for key in (
-        "target_porosity",
-        "omega_before",
-        "omega_before_error",
-        "omega_after",
-        "omega_after_error",
-    ):
-        if key in gen:
-            row[key] = gen[key]
+    row |= {key: gen[key] for key in GENERATION_KEYS if key in gen}
     columns = {}
     writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:

@@ -97,6 +97,7 @@ RESULT_ORDER = (
     "error",
     "porosity",
     "porosity_error",
+    "porosity_status",
     "k_x_m2",
     "k_y_m2",
     "k_z_m2",

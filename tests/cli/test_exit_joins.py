@@ -41,3 +41,86 @@ def test_the_exit_status_is_the_rule_applied_to_the_printed_statuses(tmp_path, c
     assert got == status_code(*printed), (got, printed)
     if code is not None:
         assert got == code, printed
+
+
+# ------------------------------------------------------- study report: its exit and its red box
+def _report_folder(tmp_path_factory):
+    """The factorial fake study (12 ok cases, porosity 0.7-0.9, K_x and K_z with 2 % bars):
+    the folder whose results.csv each edge case below rewrites."""
+    from study_cases import FAC_PARAMS, FACTORIAL, fake_case, write_study
+
+    from psdesign.study import run_study
+
+    tmp = tmp_path_factory.mktemp("report_exit")
+    out = tmp / "out"
+    run_study(write_study(tmp, FACTORIAL, FAC_PARAMS), out, workers=0, case_fn=fake_case,
+              progress=False, report=False)  # fmt: skip
+    return out
+
+
+@pytest.fixture(scope="module")
+def report_folder(tmp_path_factory):
+    return _report_folder(tmp_path_factory)
+
+
+def _no_status_column(df):
+    return df.drop(columns="status")  # a table of values only: every case ok (trusted's reading)
+
+
+def _status_without_value(df):
+    df["k_y_status"] = ["untrustworthy"] + ["ok"] * (len(df) - 1)  # the study solved no K_y
+    return df
+
+
+def _missing_case_status(df):
+    df["status"] = df["status"].astype(object)
+    df.loc[0, "status"] = None  # an empty cell: "unknown", counted failed
+    return df
+
+
+def _coarse_porosity(df):
+    """An ok case whose porosity has a 27 % bar, in a table written before session 46 (no
+    porosity_status: rated by its bar, as generate rates it; the report's values table said
+    untrustworthy while the exit, the box and the frames took it as ok)."""
+    df["porosity_error"] = [0.27 * df.loc[0, "porosity"]] + [1e-3] * (len(df) - 1)
+    return df.drop(columns="porosity_status", errors="ignore")
+
+
+@pytest.mark.parametrize(
+    ("edit", "code"),
+    [
+        (lambda df: df, 0),
+        (_no_status_column, 0),  # session 45: the red box said "12 unknown", the exit crashed
+        (_status_without_value, 3),  # session 45: exit 3, no red box
+        (_missing_case_status, 3),
+        (_coarse_porosity, 3),  # session 45: exit 0, no red box
+    ],
+    ids=[
+        "all_ok",
+        "no_status_column",
+        "status_without_value",
+        "missing_case_status",
+        "coarse_porosity",
+    ],
+)
+def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, capsys, edit, code):
+    """``study report``'s exit (``cli.exit_status.case_masks``) and its red box
+    (``report.html._status_banner``) read one definition of a case not ok
+    (``analysis.columns.case_status``, ``flagged_values``): until session 46 they were two
+    checks, which disagreed on a table without a ``status`` column (the box showed every case
+    as ``unknown``; the exit raised KeyError) and on a status column without its value
+    column (the exit counted it, the box did not). The truth is the rule read off the report
+    itself: exit 3 exactly when the red box is there; each edge case also pins its code."""
+    import pandas as pd
+
+    results = report_folder / "results.csv"
+    original = results.read_bytes()
+    try:
+        edit(pd.read_csv(results)).to_csv(results, index=False)
+        capsys.readouterr()
+        got = main(["study", "report", str(report_folder)])
+        box = 'id="psd-status-alert"' in (report_folder / "report.html").read_text()
+    finally:
+        results.write_bytes(original)
+    assert got == (3 if box else 0), (got, box, capsys.readouterr().err)
+    assert got == code

@@ -62,6 +62,7 @@ def test_row_porosity_carries_its_error_and_status(tmp_path):
     assert abs(row["porosity"] - true) <= row["porosity_error"] < 0.02
     rel, status = error_bar(row, "porosity")
     assert (rel, status) == (pytest.approx(row["porosity_error"] / row["porosity"]), "ok")
+    assert row["porosity_status"] == "ok"  # the row says it (session 46), as generate prints it
 
 
 def test_row_pore_values_are_rated_as_pores_rates_them():

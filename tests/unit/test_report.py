@@ -21,6 +21,7 @@ from study_cases import (
     write_study,
 )
 
+from psdesign.analysis.columns import value_status
 from psdesign.report import (
     ReportError,
     kozeny_carman,
@@ -28,7 +29,7 @@ from psdesign.report import (
     write_report,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.trust import NOT_OK_MARKERS, status_style, value_status
+from psdesign.report.trust import NOT_OK_MARKERS, status_style
 from psdesign.study import run_study
 
 
@@ -1529,3 +1530,45 @@ def test_a_timed_out_case_is_counted_among_the_cases_with_no_k():
     assert "2 failed or timed-out case(s) have no K: not drawn." in parameter_plots(
         df, ["generator.porosity"]
     )
+
+
+@pytest.mark.parametrize("with_column", [False, True])
+def test_a_porosity_with_a_27_percent_bar_is_marked_in_the_frames_not_in_their_means(with_column):
+    """Session 46: the frames rated a porosity by its case's status only, while ``generate``
+    and the values table rate it by its bar (``ok`` up to 20 %, ``analysis.columns.
+    porosity_status``): a porosity of 0.09 +- 0.0243 (27 %) in an ok case was in the frame's
+    mean, unmarked. Now the study row carries ``porosity_status`` (``with_column``) and a table
+    written before session 46 is rated by the bar: the mean of the 0.1 level is the other
+    seed's 0.11 alone (independent: the arithmetic mean of the trusted values), the point is
+    an open ``untrustworthy`` marker, and the red box counts it."""
+    from psdesign.analysis.columns import porosity_status, trusted
+    from psdesign.analysis.replicates import replicate_summary
+    from psdesign.report.decision import parameter_plots
+    from psdesign.report.html import _status_banner
+
+    eps, err = [0.09, 0.11, 0.80, 0.81], [0.0243, 1e-3, 1e-3, 1e-3]
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2", "c3"],
+            "generator.porosity": [0.1, 0.1, 0.8, 0.8],
+            "seed": [1, 2, 1, 2],
+            "status": ["ok"] * 4,
+            "porosity": eps,
+            "porosity_error": err,
+            "k_z_m2": [kc_truth(e, 7e-6) for e in eps],
+            "k_z_rel_error": [0.02] * 4,
+            "k_z_status": ["ok"] * 4,
+        }
+    )
+    if with_column:  # as run_case writes it
+        df["porosity_status"] = [porosity_status(e, b) for e, b in zip(eps, err, strict=True)]
+    t = trusted(df)
+    assert t["porosity"].isna().tolist() == [True, False, False, False]
+    assert t["porosity_error"].isna().tolist() == [True, False, False, False]  # its bar too
+    means = replicate_summary(t, ["generator.porosity"])["porosity_mean"].tolist()
+    assert means == pytest.approx([0.11, 0.805])
+    marks = re.findall(
+        r"porosity: ([a-z_]+) \(not in the lines\)", parameter_plots(df, ["generator.porosity"])
+    )
+    assert marks == ["untrustworthy"]
+    assert "1 value(s) of ok cases not ok (porosity_status)" in _status_banner(df)
