@@ -49,48 +49,78 @@ def _sig(data: dict) -> str:
     return ", ".join(str(a) for a in args) if args is not None else "?"
 
 
+class CompileRecorder:
+    """numba ``numba:compile`` listener: one row per compile (kernel, signature, inclusive and
+    exclusive wall and CPU seconds, ``parallel`` flag, nesting ``depth`` and the ``root``
+    kernel whose compile it is part of, and :attr:`label`, e.g. the running test).  Exclusive
+    means without the nested compiles of the jitted helpers it calls."""
+
+    def __init__(self) -> None:
+        from numba.core import event
+
+        self.rows: list[dict] = []
+        self.label = ""
+        self._stack: list[list] = []
+        recorder = self
+
+        class _Listener(event.Listener):
+            def on_start(self, ev):
+                recorder._start(ev)
+
+            def on_end(self, ev):
+                recorder._end(ev)
+
+        self.listener = _Listener()
+
+    @staticmethod
+    def _kernel(ev) -> str:
+        fn = ev.data["dispatcher"].py_func
+        return f"{fn.__module__}.{fn.__qualname__}"
+
+    def _start(self, ev) -> None:
+        self._stack.append([time.perf_counter(), 0.0, time.process_time(), 0.0, self._kernel(ev)])
+
+    def _end(self, ev) -> None:
+        t0, child, c0, cchild, kernel = self._stack.pop()
+        dt = time.perf_counter() - t0
+        dc = time.process_time() - c0
+        if self._stack:
+            self._stack[-1][1] += dt
+            self._stack[-1][3] += dc
+        disp = ev.data["dispatcher"]
+        self.rows.append(
+            {
+                "kernel": kernel,
+                "sig": _sig(ev.data),
+                "parallel": bool(disp.targetoptions.get("parallel")),
+                "incl_s": dt,
+                "excl_s": dt - child,
+                "incl_cpu_s": dc,
+                "excl_cpu_s": dc - cchild,
+                "depth": len(self._stack),
+                "root": self._stack[0][4] if self._stack else kernel,
+                "label": self.label,
+            }
+        )
+
+
 def profile(mode: str) -> dict:
     """Run warmup task ``mode`` in this process with the compile events recorded."""
     from numba.core import event
 
     from psdesign.warmup import _task
 
-    rows: list[dict] = []
-    stack: list[list] = []
-
-    class Listener(event.Listener):
-        def on_start(self, ev):
-            stack.append([time.perf_counter(), 0.0, time.process_time(), 0.0])
-
-        def on_end(self, ev):
-            t0, child, c0, cchild = stack.pop()
-            dt = time.perf_counter() - t0
-            dc = time.process_time() - c0
-            if stack:
-                stack[-1][1] += dt
-                stack[-1][3] += dc
-            disp = ev.data["dispatcher"]
-            rows.append(
-                {
-                    "kernel": f"{disp.py_func.__module__}.{disp.py_func.__qualname__}",
-                    "sig": _sig(ev.data),
-                    "incl_s": dt,
-                    "excl_s": dt - child,
-                    "incl_cpu_s": dc,
-                    "excl_cpu_s": dc - cchild,
-                }
-            )
-
+    rec = CompileRecorder()
     t0 = time.perf_counter()
     c0 = time.process_time()
-    with event.install_listener("numba:compile", Listener()):
+    with event.install_listener("numba:compile", rec.listener):
         _task(mode)
     return {
         "mode": mode,
         "wall_s": time.perf_counter() - t0,
         "cpu_s": time.process_time() - c0,
         "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        "rows": rows,
+        "rows": rec.rows,
     }
 
 
