@@ -20,6 +20,8 @@ STATUS_COLUMNS = {
     **{f"conductivity_{d}": f"conductivity_{d}_status" for d in "xyz"},
     **{f"pore_d{q}_m": "pore_sizes_status" for q in (10, 50, 90)},
     "specific_surface_m-1": "specific_surface_status",
+    # the delivered RVE's overlap Omega (psdesign.packing.overlap_status; session 46)
+    "intersection_volume_fraction": "intersection_volume_fraction_status",
 }
 
 #: The relative error column of each value that has one (the tortuosity, porosity / D_eff/D

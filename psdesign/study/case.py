@@ -13,6 +13,7 @@ from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
+from psdesign.packing.overlap_status import intersection_status
 from psdesign.schema.image import ImageWarning
 from psdesign.schema.spec import check_directions, validate_spec
 from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions
@@ -59,6 +60,19 @@ def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
     }
 
 
+#: The generation report's keys a study row copies (its Omega before and after the
+#: intersection removal, with their bars and statuses: psdesign.packing.overlap_status).
+GENERATION_COLUMNS = (
+    "target_porosity",
+    "omega_before",
+    "omega_before_error",
+    "omega_after",
+    "omega_after_error",
+    "omega_before_status",
+    "omega_after_status",
+)
+
+
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
     """Run one case and return a flat dict of results (SI units).
 
@@ -93,16 +107,11 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
+        "intersection_volume_fraction_status": intersection_status(rve, fields),
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}
-    for key in (
-        "target_porosity",
-        "omega_before",
-        "omega_before_error",
-        "omega_after",
-        "omega_after_error",
-    ):
+    for key in GENERATION_COLUMNS:
         if key in gen:
             row[key] = gen[key]
     columns = {}

@@ -253,3 +253,72 @@ def test_the_printed_porosity_carries_its_status_and_the_exit_follows_it(tmp_pat
     assert out["porosity_error"] > 0.2 * out["porosity"]
     assert out["porosity_status"] == "untrustworthy"
     assert (tmp_path / "tri" / "summary.json").exists()  # finished: outputs complete
+
+
+#: Session 45's lenses: two perpendicular 8 um cylinders in a 20 um cell, along x through
+#: (y, z) = (10, 10) um and along z through (x, y) = (10, 10 + s) um.
+LENS_SPEC = """
+[rve]
+size = [20e-6, 20e-6, 20e-6]
+voxel = {voxel}
+
+[[fibers]]
+shape = "cylinder"
+diameter = 8e-6
+center = [10e-6, 10e-6, 10e-6]
+direction = [1, 0, 0]
+
+[[fibers]]
+shape = "cylinder"
+diameter = 8e-6
+center = [10e-6, {y}, 10e-6]
+direction = [0, 0, 1]
+"""
+
+
+def crossing_lens_volume(r: float, s: float) -> float:
+    """Exact volume common to two infinite cylinders of radius r crossing at right angles with
+    axes s apart, by Cavalieri's principle: a plane at distance y from the first axis, parallel
+    to both, cuts them in strips of widths 2 sqrt(r^2 - y^2) and 2 sqrt(r^2 - (y - s)^2) that
+    meet in a rectangle (s = 0: the Steinmetz solid, 16 r^3 / 3)."""
+    from scipy.integrate import quad
+
+    def area(y: float) -> float:
+        return 4 * np.sqrt(max(r * r - y * y, 0)) * np.sqrt(max(r * r - (y - s) ** 2, 0))
+
+    return quad(area, s - r, r, epsabs=1e-30, epsrel=1e-12)[0]
+
+
+@pytest.mark.parametrize(
+    ("s", "voxel", "covered", "status"),
+    [
+        (7.6e-6, 1e-6, False, "untrustworthy"),  # 0.4 um deep: no voxel centre, 0 +- 0
+        (7.6e-6, 0.5e-6, True, "ok"),  # 0.8 voxel deep, its whole volume within the bar
+        (7.0e-6, 0.5e-6, False, "untrustworthy"),  # both axes on voxel faces: 2x its bar
+        (7.0e-6, 1e-6, True, "ok"),
+        (0.0, 1e-6, False, "untrustworthy"),  # the Steinmetz solid, axes on faces: 1.2x
+        (0.3e-6, 1e-6, True, "ok"),  # 7.7 voxels deep, the second axis off the faces
+    ],
+)
+def test_the_printed_omega_carries_its_status_and_the_exit_follows_it(
+    tmp_path, capsys, s, voxel, covered, status
+):
+    """`generate` printed Omega (intersection_volume_fraction) with a bar but no status
+    (session 45: the bar missed the exact lens of two 8 um cylinders 1.0 um deep at 0.5 um
+    voxels, and a 0.4 um lens at 1 um voxels was 0 +- 0). Now ``ok`` exactly where the bar
+    is calibrated (psdesign.packing.overlap_status; benchmarks/porosity_error_coverage.py
+    lens), and the exit follows both printed statuses (cli.exit_status). Truth: the exact lens
+    volume (:func:`crossing_lens_volume`). Fails on main (no status; exit 0 everywhere)."""
+    spec = write(tmp_path, LENS_SPEC.format(voxel=voxel, y=10e-6 + s))
+    got = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview"])
+    out = json.loads(capsys.readouterr().out)
+    exact = crossing_lens_volume(4e-6, s) / (20e-6) ** 3
+    if s == 0.0:
+        assert exact == pytest.approx(16 * (4e-6) ** 3 / 3 / (20e-6) ** 3, rel=1e-9)
+    omega, bar = out["intersection_volume_fraction"], out["intersection_volume_fraction_error"]
+    assert (abs(omega - exact) <= bar) == covered, (omega, bar, exact)
+    assert out["porosity_status"] == "ok"
+    assert out["intersection_volume_fraction_status"] == status
+    assert got == (0 if status == "ok" else 3)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["intersection_volume_fraction_status"] == status
