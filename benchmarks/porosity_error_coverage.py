@@ -21,14 +21,17 @@ voxels per period (seed 11). Session 32: 116 of 120 covered, median 5.3x.
 ``lens``: the same estimate on shallow offset lenses, which the Steinmetz pairs lack (session
 45: a lens 2 voxels deep counted outside its bar, one with no voxel centre 0 +- 0). Each trial
 (seed 46) draws two cylinders of diameter 0.1-0.4 periods, 16-64 voxels per period and a lens
-depth of 0.1-8 voxels, either crossing at right angles (axes along x and z, offset along y) or
+depth of 0.1-12 voxels, either crossing at right angles (axes along x and z, offset along y) or
 parallel (along z, offset in the xy plane), at a random place. Exact volumes: crossing, by
 Cavalieri's principle ``V = int w_i(y) w_j(y) dy`` with chord widths ``w = 2 sqrt(r^2 - y^2)``
 (a plane at y cuts each cylinder in a strip; two strips at right angles meet in a w_i x w_j
 rectangle; 16 r^3 / 3 for the Steinmetz solid), by adaptive quadrature; parallel, the
 circle-circle lens area (Weisstein, "Circle-Circle Intersection", MathWorld, eq. 14) times the
-period. Prints coverage of the bar by depth in voxels and what
-:func:`psdesign.packing.overlap_status.intersection_status` rates each case.
+period; and (200 more) crossing pairs with both axes on voxel faces. Prints coverage of the bar
+by depth in voxels, what :func:`psdesign.packing.overlap_status.intersection_status` rates each
+case, and session 45's four lenses. Session 46 (400 trials): the bar covers 507 of 600; at
+1-3 voxels deep 59 of 59 crossing at random places, 66 of 75 on faces, 62 of 73 parallel;
+rated ok 206, of which the bar covers 203.
 """
 
 from __future__ import annotations
