@@ -50,7 +50,7 @@ class Lenses(NamedTuple):
     #: both fibers along grid axes (within a voxel over the box), either the same axis (a lens
     #: the count samples on one 2-D lattice repeated along it) or both axes on voxel faces or
     #: centre planes (sampled symmetrically by the grid and its every-second-voxel twin): the
-    #: bar's two-grid term misses what the lattice does (coverage 76-80 %, module doc)
+    #: bar's two-grid term misses what the lattice does (coverage 77-81 %, module doc)
     aligned: np.ndarray
 
 

@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 from folders import assert_identical_folders
+from lens_volume import crossing_lens
 
 from psdesign.cli import main
 from psdesign.geometry.fibers import rod_cross_section_area
@@ -276,19 +277,6 @@ direction = [0, 0, 1]
 """
 
 
-def crossing_lens_volume(r: float, s: float) -> float:
-    """Exact volume common to two infinite cylinders of radius r crossing at right angles with
-    axes s apart, by Cavalieri's principle: a plane at distance y from the first axis, parallel
-    to both, cuts them in strips of widths 2 sqrt(r^2 - y^2) and 2 sqrt(r^2 - (y - s)^2) that
-    meet in a rectangle (s = 0: the Steinmetz solid, 16 r^3 / 3)."""
-    from scipy.integrate import quad
-
-    def area(y: float) -> float:
-        return 4 * np.sqrt(max(r * r - y * y, 0)) * np.sqrt(max(r * r - (y - s) ** 2, 0))
-
-    return quad(area, s - r, r, epsabs=1e-30, epsrel=1e-12)[0]
-
-
 @pytest.mark.parametrize(
     ("s", "voxel", "covered", "status"),
     [
@@ -308,11 +296,11 @@ def test_the_printed_omega_carries_its_status_and_the_exit_follows_it(
     voxels, and a 0.4 um lens at 1 um voxels was 0 +- 0). Now ``ok`` exactly where the bar
     is calibrated (psdesign.packing.overlap_status; benchmarks/porosity_error_coverage.py
     lens), and the exit follows both printed statuses (cli.exit_status). Truth: the exact lens
-    volume (:func:`crossing_lens_volume`). Fails on main (no status; exit 0 everywhere)."""
+    volume (tests/lens_volume.py). Fails on main (no status; exit 0 everywhere)."""
     spec = write(tmp_path, LENS_SPEC.format(voxel=voxel, y=10e-6 + s))
     got = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview"])
     out = json.loads(capsys.readouterr().out)
-    exact = crossing_lens_volume(4e-6, s) / (20e-6) ** 3
+    exact = crossing_lens(4e-6, 4e-6, s) / (20e-6) ** 3
     if s == 0.0:
         assert exact == pytest.approx(16 * (4e-6) ** 3 / 3 / (20e-6) ** 3, rel=1e-9)
     omega, bar = out["intersection_volume_fraction"], out["intersection_volume_fraction_error"]

@@ -154,6 +154,8 @@ def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
     exact 2.45e-4 of the box). The status joins the table's rated values, so the second case
     is flagged (exit 3) and its Omega left out of the trusted table. Fails on main (no
     status column)."""
+    from lens_volume import crossing_lens
+
     from psdesign.analysis.columns import trusted
     from psdesign.cli.exit_status import case_counts
 
@@ -166,6 +168,9 @@ def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
         ],
     }
     row = run_case(spec, ["porosity"], "voxel", tmp_path) | {"status": "ok"}
+    exact = crossing_lens(4e-6, 4e-6, y - 10e-6) / (20e-6) ** 3
+    miss = abs(row["intersection_volume_fraction"] - exact)
+    assert (miss <= row["intersection_volume_fraction_error"]) == (status == "ok")
     assert row["intersection_volume_fraction_status"] == status
     df = pd.DataFrame([row])
     assert case_counts(df).flagged == (status != "ok")

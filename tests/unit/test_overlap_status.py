@@ -10,20 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
+from lens_volume import crossing_lens
 
 from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
 from psdesign.packing.overlap_status import intersection_status, overlap_lenses
 
 L = 1e-4
-
-
-def crossing_lens(ri: float, rj: float, s: float) -> float:
-    def area(y: float) -> float:
-        return 4 * np.sqrt(max(ri * ri - y * y, 0)) * np.sqrt(max(rj * rj - (y - s) ** 2, 0))
-
-    return quad(area, max(-ri, s - rj), min(ri, s + rj), epsabs=1e-30, epsrel=1e-12)[0]
 
 
 def crossing_pair(ri: float, rj: float, s: float, c) -> list:
