@@ -29,9 +29,13 @@ image has no centre lines: the bar's own calibration stands.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from psdesign.geometry.rve import RVE, VoxelFields
+    from psdesign.packing.fiberset import Contacts
 
 #: Depth in voxels from which the count's bar covers an overlap lens (calibration: module doc).
 #: Deeper limits rated well-measured packings ``untrustworthy``: a ``none`` packing of 7 um
@@ -54,7 +58,7 @@ class Lenses(NamedTuple):
     aligned: np.ndarray
 
 
-def overlap_lenses(rve, voxel: float) -> Lenses | None:
+def overlap_lenses(rve: RVE, voxel: float) -> Lenses | None:
     """The overlaps between two fibers of ``rve`` (:class:`Lenses`), from their centre lines;
     None when a fiber is not round (a fixed shape: woven, compressed) or ``rve`` has no fibers
     list (an image), where no centre line says.
@@ -104,7 +108,7 @@ LENS_SAMPLES = 17
 LENS_ROUNDS = 8
 
 
-def _lens_depth(fibers: list, c) -> np.ndarray:
+def _lens_depth(fibers: list, c: Contacts) -> np.ndarray:
     """Depth (normalized) of each contact's lens by the fibers' own fields: ``-2 min_t
     max(phi_i, phi_j)`` on the segment between the centre lines' closest points, where the
     two surfaces face each other (``(D_i + D_j) / 2 - d`` for two cylinders; less for rods,
@@ -156,10 +160,11 @@ def _on_half_voxels(p: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
     return near.all(axis=1) & (axis >= 0)
 
 
-def uncalibrated_overlap_fraction(rve, voxel: float) -> float | None:
+def uncalibrated_overlap_fraction(rve: RVE, voxel: float) -> float | None:
     """Volume fraction of the box in overlaps whose count the bar is not calibrated on
     (:func:`overlap_lenses`): shallower than :data:`RESOLVED_LENS_VOXELS` voxels of ``voxel``
-    metres, or of two fibers along one grid axis; None where no centre line says."""
+    metres, or grid-aligned (:attr:`Lenses.aligned`); None where no centre line says (an
+    image's RVE, a fixed shape)."""
     lenses = overlap_lenses(rve, voxel)
     if lenses is None:
         return None
@@ -167,7 +172,7 @@ def uncalibrated_overlap_fraction(rve, voxel: float) -> float | None:
     return float(lenses.volume[thin | lenses.aligned].sum())
 
 
-def intersection_status(rve, fields) -> str:
+def intersection_status(rve: RVE, fields: VoxelFields) -> str:
     """``ok`` or ``untrustworthy``: the status of ``fields.intersection_volume_fraction``
     (module doc). ``untrustworthy`` when the overlaps of ``rve`` that the count's bar
     ``fields.intersection_error`` is not calibrated on (:func:`uncalibrated_overlap_fraction`)
