@@ -23,6 +23,8 @@ STATUS_COLUMNS = {
     **{f"conductivity_{d}": f"conductivity_{d}_status" for d in "xyz"},
     **{f"pore_d{q}_m": "pore_sizes_status" for q in (10, 50, 90)},
     "specific_surface_m-1": "specific_surface_status",
+    # the delivered RVE's overlap Omega (psdesign.packing.overlap_status; session 46)
+    "intersection_volume_fraction": "intersection_volume_fraction_status",
 }
 
 #: The relative error column of each value that has one (the tortuosity, porosity / D_eff/D
@@ -34,10 +36,14 @@ REL_ERROR_COLUMNS = {
     **{f"conductivity_{d}": f"conductivity_{d}_rel_error" for d in "xyz"},
     "specific_surface_m-1": "specific_surface_rel_error",
 }
+#: The overlap Omega's columns (the delivered RVE's, the generator's before and after): rated by
+#: their lenses (:mod:`psdesign.packing.overlap_status`), never by their relative bar, which
+#: grows without bound as Omega -> 0 (session 45).
+OMEGA_COLUMNS = ("intersection_volume_fraction", "omega_before", "omega_after")
 #: The absolute error column of each value that has one instead.
 ABS_ERROR_COLUMNS = {
     "porosity": "porosity_error",
-    **{c: f"{c}_error" for c in ("intersection_volume_fraction", "omega_before", "omega_after")},
+    **{c: f"{c}_error" for c in OMEGA_COLUMNS},
     **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
 }
 
@@ -57,6 +63,9 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     (0.118, 'ok')
     >>> error_bar({"porosity": 0.8, "porosity_error": 0.0004}, "porosity")
     (0.0005, 'ok')
+    >>> old = {"intersection_volume_fraction": 0.002, "intersection_volume_fraction_error": 0.0027}
+    >>> error_bar(old, "intersection_volume_fraction")  # no status (before session 46): not its bar
+    (1.35, 'unrated')
     """
 
     def num(v) -> float | None:
@@ -78,7 +87,7 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     status = row.get(STATUS_COLUMNS.get(column, ""))
     if isinstance(status, str) and status:
         return rel, status
-    if rel is None:
+    if rel is None or column in OMEGA_COLUMNS:  # a table written before session 46
         return rel, "unrated"
     from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR  # a count: rated by its bar alone
 

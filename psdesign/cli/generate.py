@@ -40,10 +40,12 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         "n_fibers",
         "intersection_volume_fraction",
         "intersection_volume_fraction_error",
+        "intersection_volume_fraction_status",
     )
     out = with_porosity_status({k: summary[k] for k in keys})
     print_json(out)  # strict JSON, as every --json
-    return status_code(out["porosity_status"])  # the one exit rule (cli.exit_status)
+    # the one exit rule (cli.exit_status): both numbers printed are results with a status
+    return status_code(out["porosity_status"], out["intersection_volume_fraction_status"])
 
 
 def preview_title(porosity: float, error: float | None, n_fibers: int) -> str:

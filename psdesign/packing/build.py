@@ -74,12 +74,15 @@ def _generator_text(gen: dict) -> str:
 
 def summarize(rve: RVE, fields: VoxelFields, report: dict | None = None) -> dict:
     """The summary.json content."""
+    from psdesign.packing.overlap_status import intersection_status
+
     out = {
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
+        "intersection_volume_fraction_status": intersection_status(rve, fields),
         "voxel_grid": fields.grid.to_dict(),
         "size_m": rve.size.tolist(),
         "period_m": rve.period,

@@ -42,6 +42,7 @@ from psdesign.packing.intersections import (
     orientation_tensor,
     place_sequential,
 )
+from psdesign.packing.overlap_status import intersection_status
 from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
@@ -339,6 +340,10 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         "omega_before_error": vf_before.intersection_error,
         "omega_after": vf.intersection_volume_fraction,
         "omega_after_error": vf.intersection_error,
+        "omega_before_status": intersection_status(
+            RVE(size, explicit + drawn.to_fibers(), period=period), vf_before
+        ),
+        "omega_after_status": intersection_status(rve, vf),
         **_placement_stats(drawn, st, both, lo, hi, period),
         "min_gap_m": gs.min_gap,
         "voxel_m": voxel,
@@ -362,6 +367,7 @@ def _explicit_only(size, voxel: float, period: float, explicit: list, t_start: f
         "porosity_error": vf.porosity_error,
         "omega_after": vf.intersection_volume_fraction,
         "omega_after_error": vf.intersection_error,
+        "omega_after_status": intersection_status(rve, vf),
         "voxel_m": voxel,
         "wall_time_s": {"total": time.perf_counter() - t_start},
     }

@@ -549,18 +549,24 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         classes.append("flag" if flag else "")
     if not any_bar:
         return ""
+    omega = "intersection_volume_fraction" in cols
+    transport = len(cols) > 1 + omega
     note = (
         '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
         "quadratures, docs/geometry.md)"
         + (
-            "; transport values ± their relative error bar (docs/transport.md), with their "
-            "status where it is not ok (highlighted)"
-            if len(cols) > 1
+            "; the overlap Omega (intersection_volume_fraction, a fraction of the box) ± its "
+            "relative bar, untrustworthy where overlaps thinner than a voxel or along the grid "
+            "could be missed (docs/geometry.md)"
+            if omega
             else ""
         )
+        + ("; transport values ± their relative error bar (docs/transport.md)" if transport else "")
+        + ("; each with its status where it is not ok (highlighted)" if len(cols) > 1 else "")
         + ".</p>"
     )
-    title = "Porosity and transport values" if len(cols) > 1 else "Porosity"
+    title = "Porosity and " + ("transport values" if transport else "overlap") if omega else ""
+    title = "Porosity and transport values" if transport else title or "Porosity"
     return f"<h3>{title} with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
 
 

@@ -91,13 +91,21 @@ def output_unit(column: str, study: dict | None = None) -> str:
     varies that key has no one unit.
 
     >>> [output_unit(c) for c in ("porosity", "k_z_m2", "diffusivity_z", "tortuosity_x",
-    ...                           "conductivity_y", "pore_d50_m", "specific_surface_m-1")]
-    ['-', 'm²', '-', '-', 'W/(m K)', 'm', '1/m']
+    ...                           "conductivity_y", "pore_d50_m", "specific_surface_m-1",
+    ...                           "intersection_volume_fraction")]
+    ['-', 'm²', '-', '-', 'W/(m K)', 'm', '1/m', '-']
     >>> output_unit("conductivity_z", {"base": {"transport": {"conductivity_unit": "S/m"}}})
     'S/m'
     """
-    if column in ("porosity", "anisotropy") or column.startswith(("diffusivity_", "tortuosity_")):
-        return "-"
+    ratios = (
+        "porosity",
+        "anisotropy",
+        "intersection_volume_fraction",
+        "omega_before",
+        "omega_after",
+    )
+    if column in ratios or column.startswith(("diffusivity_", "tortuosity_")):
+        return "-"  # Omega (the overlap) is a fraction of the box, as the porosity
     if column.startswith("conductivity_"):
         study = study or {}
         if "transport.conductivity_unit" in (study.get("parameters") or {}):

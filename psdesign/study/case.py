@@ -14,6 +14,7 @@ from psdesign.flow.permeability import permeability
 from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
+from psdesign.packing.overlap_status import intersection_status
 from psdesign.schema.image import ImageWarning
 from psdesign.schema.spec import check_directions, validate_spec
 from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions
@@ -47,16 +48,6 @@ def _finish_fields(writer) -> dict:
 OPTIONAL_K_COLUMNS = ("permeameter_copies", "resolution_measure")
 
 
-#: Keys of the generation report a row copies where it has them.
-GENERATION_KEYS = (
-    "target_porosity",
-    "omega_before",
-    "omega_before_error",
-    "omega_after",
-    "omega_after_error",
-)
-
-
 def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
     """The size of a K solve as a count named by what it counts: ``n_dofs_<d>`` (FEM) or
     ``n_cells_<d>`` (voxel route's fluid cells). It was ``size_<d>``, which reads as the RVE's
@@ -68,6 +59,19 @@ def solve_size_columns(direction: str, result: dict) -> dict[str, int]:
     return {
         f"{key}_{direction}": int(result[key]) for key in ("n_dofs", "n_cells") if key in result
     }
+
+
+#: The generation report's keys a study row copies (its Omega before and after the
+#: intersection removal, with their bars and statuses: psdesign.packing.overlap_status).
+GENERATION_COLUMNS = (
+    "target_porosity",
+    "omega_before",
+    "omega_before_error",
+    "omega_after",
+    "omega_after_error",
+    "omega_before_status",
+    "omega_after_status",
+)
 
 
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
@@ -106,10 +110,11 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
+        "intersection_volume_fraction_status": intersection_status(rve, fields),
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}
-    row |= {key: gen[key] for key in GENERATION_KEYS if key in gen}
+    row |= {key: gen[key] for key in GENERATION_COLUMNS if key in gen}
     columns = {}
     writer = _field_writer(workdir) if FIELDS_FLAG in outputs else None
     for d in directions:

@@ -34,6 +34,11 @@ diameter = 6e-6
 center = [12e-6, 18e-6, 16e-6]
 direction = [0, 1, 0]
 """
+#: ``generate``'s exit on RODS: 3 since session 46, by Omega's status: the cylinders overlap
+#: 3 um deep with both axes on voxel faces, where Omega's bar is not calibrated (covered 82 of
+#: 106 such lenses; docs/geometry.md); it happens to cover this one (0.00666 +- 0.00219
+#: against the exact 0.00548).
+RODS_EXIT = 3
 
 
 @pytest.fixture()
@@ -58,11 +63,10 @@ def run_json(capsys, *args) -> dict:
 
 def test_generate_tiff_round_trip_same_porosity_and_k(tmp_path, capsys) -> None:
     rods = spec_file(tmp_path, RODS + '[flow]\nwall_treatment = "staircase"\n', "rods.toml")
-    assert (
-        main(
-            ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
-        )
-        == 0
+    args = ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
+    assert main(args) == RODS_EXIT
+    assert json.loads(capsys.readouterr().out)["intersection_volume_fraction_status"] == (
+        "untrustworthy"
     )
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["tiff"]["solid_value"] == 1 and summary["tiff"]["voxel_size_m"] == 1e-6
@@ -81,11 +85,10 @@ def test_image_k_against_the_subvoxel_rve_route(tmp_path, capsys) -> None:
     """Staircase (image) vs sub-voxel (analytic RVE) on the same geometry: the difference is
     small and inside the image route's error bar (docs/images.md gives the numbers)."""
     rods = spec_file(tmp_path, RODS, "rods.toml")
-    assert (
-        main(
-            ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
-        )
-        == 0
+    args = ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
+    assert main(args) == RODS_EXIT
+    assert json.loads(capsys.readouterr().out)["intersection_volume_fraction_status"] == (
+        "untrustworthy"
     )
     capsys.readouterr()
     img = spec_file(tmp_path, '[image]\npath = "out/rve.tif"\n')
@@ -220,7 +223,8 @@ def test_generate_never_replaces_the_specs_own_image(tmp_path, capsys) -> None:
     naming ``-o``, the input byte-identical."""
     rods = spec_file(tmp_path, RODS, "rods.toml")
     out = tmp_path / "out"
-    assert main(["generate", str(rods), "-o", str(out), "--format", "tiff", "--no-preview"]) == 0
+    args = ["generate", str(rods), "-o", str(out), "--format", "tiff", "--no-preview"]
+    assert main(args) == RODS_EXIT
     before = (out / "rve.tif").read_bytes()
     img = spec_file(tmp_path, '[image]\npath = "out/rve.tif"\ncrop = [[0, 8], [0, 8], [0, 8]]\n')
     capsys.readouterr()

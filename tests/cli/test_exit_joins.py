@@ -124,3 +124,25 @@ def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, c
         results.write_bytes(original)
     assert got == (3 if box else 0), (got, box, capsys.readouterr().err)
     assert got == code
+
+
+@pytest.mark.parametrize(("y", "code"), [("13.3e-6", 0), ("17.6e-6", 3)])
+def test_generate_exits_by_both_statuses_it_prints(tmp_path, capsys, y, code):
+    """``generate`` prints the porosity's and Omega's statuses (session 46) and exits by the
+    rule on both. Two perpendicular 8 um cylinders in a 20 um cell at 1 um voxels: axes 3.3 um
+    apart, a lens 4.7 um deep, the second axis off the voxel faces (Omega resolved, ``ok``);
+    7.6 um apart, a lens 0.4 um deep that
+    holds no voxel centre (Omega ``0 +- 0`` against the exact 2.45e-4: ``untrustworthy``)."""
+    cyl = '\n[[fibers]]\nshape = "cylinder"\ndiameter = 8e-6\n'
+    spec = tmp_path / "s.toml"
+    spec.write_text(
+        "[rve]\nsize = [20e-6, 20e-6, 20e-6]\nvoxel = 1e-6\n"
+        + cyl
+        + "center = [10e-6, 10e-6, 10e-6]\ndirection = [1, 0, 0]\n"
+        + cyl
+        + f"center = [10e-6, {y}, 10e-6]\ndirection = [0, 0, 1]\n"
+    )
+    got = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview", "--quiet"])
+    printed = printed_statuses(json.loads(capsys.readouterr().out))
+    assert len(printed) == 2, printed  # the porosity's and Omega's
+    assert got == status_code(*printed) == code, printed

@@ -144,3 +144,35 @@ def test_report_k_table_has_one_wrapped_column_per_direction():
     from psdesign.report.html import CSS
 
     assert ".ktable th,.ktable td{white-space:normal" in CSS
+
+
+@pytest.mark.parametrize(("y", "status"), [(13.3e-6, "ok"), (17.6e-6, "untrustworthy")])
+def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
+    """Study rows gave Omega (``intersection_volume_fraction``) a bar and no status (session
+    45). Two perpendicular 8 um cylinders in a 20 um cell at 1 um voxels: a lens 4.7 um deep
+    (resolved: the exact volume, Cavalieri's ``int 4 sqrt(r^2 - y^2) sqrt(r^2 - (y - s)^2) dy``,
+    within the bar) and one 0.4 um deep that holds no voxel centre (``0 +- 0`` against the
+    exact 2.45e-4 of the box). The status joins the table's rated values, so the second case
+    is flagged (exit 3) and its Omega left out of the trusted table. Fails on main (no
+    status column)."""
+    from lens_volume import crossing_lens
+
+    from psdesign.analysis.columns import trusted
+    from psdesign.cli.exit_status import case_counts
+
+    cyl = {"shape": "cylinder", "diameter": 8e-6}
+    spec = {
+        "rve": {"size": [20e-6] * 3, "voxel": 1e-6},
+        "fibers": [
+            cyl | {"center": [10e-6, 10e-6, 10e-6], "direction": [1, 0, 0]},
+            cyl | {"center": [10e-6, y, 10e-6], "direction": [0, 0, 1]},
+        ],
+    }
+    row = run_case(spec, ["porosity"], "voxel", tmp_path) | {"status": "ok"}
+    exact = crossing_lens(4e-6, 4e-6, y - 10e-6) / (20e-6) ** 3
+    miss = abs(row["intersection_volume_fraction"] - exact)
+    assert (miss <= row["intersection_volume_fraction_error"]) == (status == "ok")
+    assert row["intersection_volume_fraction_status"] == status
+    df = pd.DataFrame([row])
+    assert case_counts(df).flagged == (status != "ok")
+    assert trusted(df)["intersection_volume_fraction"].isna().all() == (status != "ok")

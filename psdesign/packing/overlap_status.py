@@ -1,0 +1,195 @@
+"""The status of Omega, the intersection volume fraction counted on the voxel grid.
+
+The count (:attr:`psdesign.geometry.rve.VoxelFields.intersection_volume_fraction`) and its bar
+(:func:`psdesign.geometry.porosity.count_fraction_error`, calibrated on Steinmetz pairs at
+random places) see an overlap lens only through the voxel centres inside it. Session 45: two
+8 um cylinders overlapping 0.4 um deep at 1 um voxels counted ``0 +- 0`` against the exact
+2.45e-4 of the box; 1.0 um deep at 0.5 um voxels, 0.001875 +- 0.000204 against 0.001472. The
+centre lines know better: two round fibers (rod, cylinder, bent rod) overlap by a depth
+``(D_i + D_j) / 2 - d`` at their closest approach ``d`` (read off their fields:
+:func:`overlap_lenses`), in a lens of the volume :func:`psdesign.packing.genetic.crossing_volume`.
+
+Calibration (``python benchmarks/porosity_error_coverage.py lens``, benchmarks/RESULTS.md
+session 46; exact lens volumes): crossing cylinders at random places, the bar covered 59 of 59
+lenses 1-3 voxels deep and 6 of 12 at 0.5-1 (a lens under a voxel holds a voxel centre or
+not: counted 0 or whole voxels, up to 6x its volume); but where both fibers run along grid
+axes and either share the axis (parallel: 100 of 124 at 3-12 voxels deep) or lie on voxel
+faces or centre planes (a spec's round-number centres: 82 of 106 at 3-12 voxels, session 45's
+1.0 um lens among them), the grid and its every-second-voxel twin sample the lens
+alike and the two-grid term misses what the lattice does, as for the porosity of cylinders
+along an axis (session 37).
+
+Rule (:func:`intersection_status`): Omega is ``ok`` unless the overlaps the bar is not
+calibrated on (shallower than :data:`RESOLVED_LENS_VOXELS` voxel, or :attr:`Lenses.aligned`)
+hold more of the box than the bar: then the count may miss (or double) all of them and the bar
+would not say so, ``untrustworthy``. On the calibration's 600 lenses: 206 rated ``ok``, the
+bar covers 203 (the Steinmetz calibration's 97 %). A fixed shape (woven, compressed) or an
+image has no centre lines: the bar's own calibration stands.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from psdesign.geometry.rve import RVE, VoxelFields
+    from psdesign.packing.fiberset import Contacts
+
+#: Depth in voxels from which the count's bar covers an overlap lens (calibration: module doc).
+#: Deeper limits rated well-measured packings ``untrustworthy``: a ``none`` packing of 7 um
+#: rods at 1 um voxels (0.01794 +- 0.00052, the same at 0.25 um: 0.01803) holds 20 lenses under
+#: 3 voxels with 0.0058 of the box, though their errors cancel (RESULTS.md session 46).
+RESOLVED_LENS_VOXELS = 1.0
+
+
+class Lenses(NamedTuple):
+    """The overlaps of an RVE's fibers, one entry per overlapping pair of fiber copies."""
+
+    #: ``(D_i + D_j) / 2 - d`` at the closest approach ``d`` of the centre lines, metres
+    depth_m: np.ndarray
+    #: lens volume as a fraction of the box (:func:`psdesign.packing.genetic.crossing_volume`)
+    volume: np.ndarray
+    #: both fibers along grid axes (within a voxel over the box), either the same axis (a lens
+    #: the count samples on one 2-D lattice repeated along it) or both axes on voxel faces or
+    #: centre planes (sampled symmetrically by the grid and its every-second-voxel twin): the
+    #: bar's two-grid term misses what the lattice does (coverage 77-81 %, module doc)
+    aligned: np.ndarray
+
+
+def overlap_lenses(rve: RVE, voxel: float) -> Lenses | None:
+    """The overlaps between two fibers of ``rve`` (:class:`Lenses`), from their centre lines;
+    None when a fiber is not round (a fixed shape: woven, compressed) or ``rve`` has no fibers
+    list (an image), where no centre line says.
+
+    The volume is exact for two infinite cylinders crossing at an angle; a rod's Eq. (4)
+    section lies inside its nominal circle, so for rods depth and volume are upper bounds.
+    ``voxel`` (metres) decides which pairs are :attr:`Lenses.aligned`.
+
+    >>> from psdesign.geometry.fibers import make_fiber
+    >>> from psdesign.geometry.rve import RVE
+    >>> pair = [make_fiber("cylinder", 0.4, center=[0.5, 0.5, 0.5], direction=u)
+    ...         for u in ([1, 0, 0], [0, 0, 1])]
+    >>> lenses = overlap_lenses(RVE(size=[1e-4] * 3, fibers=pair), 2e-6)
+    >>> lenses.depth_m.round(9).tolist(), round(float(lenses.volume.sum()), 4)  # 16 r^3 / 3
+    ([4e-05], 0.0427)
+    """
+    from psdesign.geometry.fibers import ROUND_SHAPES
+
+    fibers = getattr(rve, "fibers", None)
+    if fibers is None or any(fb.shape not in ROUND_SHAPES for fb in fibers):
+        return None
+    if len(fibers) < 2:
+        return Lenses(np.zeros(0), np.zeros(0), np.zeros(0, bool))
+    from psdesign.packing.fiberset import FiberState, find_contacts
+    from psdesign.packing.genetic import crossing_volume
+
+    st = FiberState.from_fibers(fibers)
+    lo, hi = rve.box_normalized
+    c = find_contacts(st, lo, hi, 0.0)
+    depth = _lens_depth(fibers, c)
+    k = depth > 0
+    ri, rj = 0.5 * st.diameter[c.i[k]], 0.5 * st.diameter[c.j[k]]
+    sin_a = np.linalg.norm(np.cross(c.di[k], c.dj[k]), axis=1)
+    # the crossing volume of the nominal circles at the depth the fields show (rods: less)
+    volume = crossing_volume(ri + rj - depth[k], ri, rj, sin_a) / np.prod(hi - lo)
+    h = voxel / float(rve.period)
+    ax_i, ax_j = _grid_axis(c.di[k], hi - lo, h), _grid_axis(c.dj[k], hi - lo, h)
+    on_grid = (ax_i >= 0) & (ax_j >= 0)
+    symmetric = _on_half_voxels(c.pi[k], ax_i, h) & _on_half_voxels(c.pj[k], ax_j, h)
+    aligned = on_grid & ((ax_i == ax_j) | symmetric)
+    return Lenses(depth[k] * float(rve.period), volume, aligned)
+
+
+#: Points on the segment between two centre lines' closest points where :func:`_lens_depth`
+#: reads the fibers' fields, and the rounds that zoom in on the deepest of them.
+LENS_SAMPLES = 17
+LENS_ROUNDS = 8
+
+
+def _lens_depth(fibers: list, c: Contacts) -> np.ndarray:
+    """Depth (normalized) of each contact's lens by the fibers' own fields: ``-2 min_t
+    max(phi_i, phi_j)`` on the segment between the centre lines' closest points, where the
+    two surfaces face each other (``(D_i + D_j) / 2 - d`` for two cylinders; less for rods,
+    whose Eq. (4) section lies inside the nominal circle); <= 0 where they do not overlap.
+    Each round samples :data:`LENS_SAMPLES` points about the deepest one of the last (the
+    ``max`` is V-shaped: a lens 1e-3 of the segment deep lies between two coarse samples)."""
+    m = len(c.i)
+    if m == 0:
+        return np.zeros(0)
+    lo, hi = np.zeros(m), np.ones(m)
+    best = np.full(m, np.inf)
+    u = np.linspace(0.0, 1.0, LENS_SAMPLES)
+    for _ in range(LENS_ROUNDS):
+        t = lo[:, None] + (hi - lo)[:, None] * u[None, :]
+        pts = c.pi[:, None, :] + t[:, :, None] * (c.pj - c.pi)[:, None, :]
+        worst = np.full(t.shape, -np.inf)
+        for side in (c.i, c.j):
+            for f in np.unique(side):
+                sel = side == f
+                phi = fibers[int(f)].field(pts[sel].reshape(-1, 3)).reshape(-1, LENS_SAMPLES)
+                worst[sel] = np.maximum(worst[sel], phi)
+        k = np.argmin(worst, axis=1)
+        best = np.minimum(best, worst[np.arange(m), k])
+        step = (hi - lo) / (LENS_SAMPLES - 1)
+        lo, hi = np.clip(t[np.arange(m), k] - step, 0, 1), np.clip(t[np.arange(m), k] + step, 0, 1)
+    return -2.0 * best
+
+
+def _grid_axis(d: np.ndarray, box: np.ndarray, h: float) -> np.ndarray:
+    """The grid axis (0, 1, 2) each unit direction ``d`` runs along, drifting less than one
+    voxel ``h`` off it over the box's edge; -1 where it does not (lengths normalized)."""
+    ax = np.argmax(np.abs(d), axis=1)
+    along = np.abs(d[np.arange(len(d)), ax])
+    off = np.sqrt(np.clip(1.0 - along**2, 0.0, None))
+    return np.where(off * box[ax] < h * along, ax, -1)
+
+
+#: How close (in half voxels) an axis must lie to a voxel face or centre plane to be sampled
+#: symmetrically by the grid and its every-second-voxel twin.
+SYMMETRIC_TOLERANCE = 0.05
+
+
+def _on_half_voxels(p: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
+    """Whether the axis through each point ``p`` along grid ``axis`` lies, in both other
+    coordinates, on a voxel face or centre plane (within :data:`SYMMETRIC_TOLERANCE`)."""
+    q = p / (0.5 * h)
+    near = np.abs(q - np.round(q)) < SYMMETRIC_TOLERANCE
+    near[np.arange(len(p)), np.clip(axis, 0, 2)] = True  # along the axis: any position
+    return near.all(axis=1) & (axis >= 0)
+
+
+def uncalibrated_overlap_fraction(rve: RVE, voxel: float) -> float | None:
+    """Volume fraction of the box in overlaps whose count the bar is not calibrated on
+    (:func:`overlap_lenses`): shallower than :data:`RESOLVED_LENS_VOXELS` voxels of ``voxel``
+    metres, or grid-aligned (:attr:`Lenses.aligned`); None where no centre line says (an
+    image's RVE, a fixed shape)."""
+    lenses = overlap_lenses(rve, voxel)
+    if lenses is None:
+        return None
+    thin = lenses.depth_m < RESOLVED_LENS_VOXELS * voxel
+    return float(lenses.volume[thin | lenses.aligned].sum())
+
+
+def intersection_status(rve: RVE, fields: VoxelFields) -> str:
+    """``ok`` or ``untrustworthy``: the status of ``fields.intersection_volume_fraction``
+    (module doc). ``untrustworthy`` when the overlaps of ``rve`` that the count's bar
+    ``fields.intersection_error`` is not calibrated on (:func:`uncalibrated_overlap_fraction`)
+    hold more of the box than that bar. Without centre lines (an image, a fixed shape: woven,
+    compressed) the bar's own calibration stands: ``ok``.
+
+    >>> from psdesign.geometry.fibers import make_fiber
+    >>> from psdesign.geometry.rve import RVE
+    >>> pair = [make_fiber("cylinder", 0.4, center=[0.5, 0.5 + o, 0.5], direction=u)
+    ...         for o, u in ((0.0, [1, 0, 0]), (0.38, [0, 0, 1]))]  # a lens 0.4 um deep
+    >>> rve = RVE(size=[20e-6] * 3, fibers=pair)
+    >>> [(f.intersection_volume_fraction, intersection_status(rve, f))
+    ...  for f in (rve.voxelize(1e-6), rve.voxelize(0.5e-6))]
+    [(0.0, 'untrustworthy'), (0.000375, 'ok')]
+    """
+    voxel = float(np.max(fields.grid.spacing))
+    loose = uncalibrated_overlap_fraction(rve, voxel)
+    if loose is None or loose <= fields.intersection_error:
+        return "ok"
+    return "untrustworthy"
