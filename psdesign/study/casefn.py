@@ -72,7 +72,9 @@ def case_fn_call_error(fn: Callable) -> str:
 
     Checked once before a study runs: a function of other arguments failed every case with a
     TypeError after the output folder was made. A callable whose signature Python cannot
-    read (some builtins) is given the benefit of the doubt.
+    read (some builtins) is given the benefit of the doubt. The signature read is ``fn``'s own,
+    not the one ``functools.wraps`` copied from the function it wraps (``__wrapped__``): the
+    worker calls ``fn`` itself.
 
     >>> case_fn_call_error(lambda spec, outputs, solver, workdir: {})
     ''
@@ -82,7 +84,7 @@ def case_fn_call_error(fn: Callable) -> str:
     import inspect
 
     try:
-        inspect.signature(fn).bind(*CASE_FN_ARGUMENTS)
+        inspect.signature(fn, follow_wrapped=False).bind(*CASE_FN_ARGUMENTS)
     except TypeError as exc:  # the arguments do not fit
         return " ".join(str(exc).split())
     except ValueError:  # no signature to read

@@ -355,6 +355,43 @@ def test_a_case_function_of_other_arguments_is_refused_before_the_run(tmp_path) 
     assert case_fn_call_error(lambda spec, outputs, solver, workdir, x=1: {}) == ""
 
 
+def _spec_only(spec) -> dict:
+    """A case function of the spec alone (what a functools.wraps adapter wraps)."""
+    return {"n_fibers": float(spec["generator"]["n_fibers"])}
+
+
+class _CallableCase:
+    """A callable instance taking the four case arguments."""
+
+    def __call__(self, spec, outputs, solver, workdir) -> dict:
+        return _spec_only(spec)
+
+
+def test_a_wraps_adapter_partial_or_instance_is_a_case_function(tmp_path) -> None:
+    # session 46 review: case_fn_call_error read inspect.signature(fn), which follows
+    # __wrapped__: a functools.wraps adapter wrapper(spec, outputs, solver, workdir) around
+    # f(spec) was refused ("too many positional arguments") though the worker calls the
+    # adapter itself with four arguments. Independent truth: the run calls it and each row
+    # holds the n_fibers of its case's spec (study.parameters).
+    import functools
+
+    @functools.wraps(_spec_only)
+    def adapter(spec, outputs, solver, workdir):
+        return _spec_only(spec)
+
+    from psdesign.study.casefn import case_fn_call_error
+
+    partial = functools.partial(lambda extra, spec, outputs, solver, workdir: {}, 1)
+    for fn in (adapter, partial, _CallableCase()):
+        assert case_fn_call_error(fn) == "", fn
+        psdesign.RunOptions(case_fn=fn)  # accepted
+    study = _tiny_study()
+    study["parameters"] = {"generator.n_fibers": [2, 3]}
+    df = psdesign.run_study(study, tmp_path / "o", workers=0, case_fn=adapter, progress=False)
+    assert sorted(df["n_fibers"]) == [2.0, 3.0]
+    assert set(df["status"]) == {"ok"}
+
+
 def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
     # session 46 walk of the API: RunOptions(workers=10**6) advised "use --scheduler or
     # --cluster", flags a Python caller has not; the keyword is named now (the CLI keeps its
