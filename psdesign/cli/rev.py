@@ -26,7 +26,8 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     # rev has no --force: the refusal names none; a user's rev.csv / rev.json is refused now
     check_rev_dir(args.out)
     try:
-        check_workers(args.workers, what="--workers")  # the runner's rule, named as typed
+        # the runner's rule, named as typed; rev has no way to more workers to advise
+        check_workers(args.workers, what="--workers", more="")
         res = rev_study(
             args.spec,
             args.sizes,

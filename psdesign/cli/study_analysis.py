@@ -262,7 +262,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
-        check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
+        # the runner's rule, as typed; optimize has --scheduler, no --cluster
+        check_workers(args.workers, args.scheduler, "--workers", more="--scheduler")
         targets = [Target.parse(t) for t in args.target]
         _check_outcome_files(args.out)  # a file of yours under these names: refused first
         res = optimize_study(

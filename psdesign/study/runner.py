@@ -232,13 +232,18 @@ def max_local_workers() -> int:
     return max(64, 4 * (os.cpu_count() or 1))
 
 
-def check_workers(workers, scheduler=None, what: str = "workers") -> None:
+def check_workers(
+    workers, scheduler=None, what: str = "workers", more: str = "scheduler= (Dask)"
+) -> None:
     """The one rule of a study's worker count (``study run``, ``study optimize``, ``rev`` and
     :func:`run_study`): an integer >= 0, where 0 runs the cases in this process; on this
     machine (no ``scheduler`` or ``"local"``) at most :func:`max_local_workers`; with a
     scheduler or a batch cluster (``scheduler`` given) at least 1, as there is no "this
     process" there (a local Dask cluster of 0 workers started one). Else a one-line
-    :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
+    :class:`StudyError` naming ``what`` (``"--workers"`` from the command line); past the
+    local cap it advises ``more``, the caller's own way to more workers (``study run``'s
+    ``"--scheduler or --cluster"``, ``study optimize``'s ``"--scheduler"``; ``""`` for
+    ``rev``, which has none)."""
     # numbers.Integral: NumPy's integers too (np.int64 from a notebook was "must be an
     # integer, got np.int64(2)"), as the schema's integer keys take them
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
@@ -252,11 +257,9 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
         )
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
-        # the way to more workers as the caller gives options: flags or keywords
-        more = "--scheduler or --cluster" if what.startswith("--") else "scheduler= (Dask)"
         raise StudyError(
             f"{what}: at most {max_local_workers()} processes on this machine (64 or 4 per "
-            f"CPU, whichever is more), got {workers}; use {more} for more"
+            f"CPU, whichever is more), got {workers}" + (f"; use {more} for more" if more else "")
         )
 
 
