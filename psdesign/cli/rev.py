@@ -39,6 +39,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=not args.quiet,
             report=False,
+            out_option=("-o", None),  # messages name this command's flags: it has no --force
         )
     except ValueError as exc:
         return fail(str(exc))

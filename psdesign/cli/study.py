@@ -246,6 +246,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             retry_not_converged=args.retry_not_converged,
             security=security,
             worker_wait_s=wait_s,
+            out_option=("-o", "--force"),  # messages name this command's flags
+            scheduler_option="--scheduler",
         )
     except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
         return fail(str(exc), BAD_INPUT)

@@ -278,6 +278,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             case_fn=args.case_fn,
             progress=not args.quiet,
             force=args.force,
+            out_option=("-o", "--force"),  # messages name this command's flags
+            scheduler_option="--scheduler",
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))

@@ -717,8 +717,8 @@ def run_study(
     options: RunOptions | None = None,
     *,
     command: str = "study run",
-    out_option: tuple[str, str | None] = ("-o", "--force"),
-    scheduler_option: str = "--scheduler",
+    out_option: tuple[str, str | None] = ("out_dir", "force=True"),
+    scheduler_option: str = "scheduler",
     **fields: Any,
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
@@ -735,11 +735,12 @@ def run_study(
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
     out_option : (str, str or None)
-        How messages name ``out_dir`` and ``force``: the CLI's ``("-o", "--force")``, the
-        Python API's ``("out_dir", "force=True")``.
+        How messages name ``out_dir`` and ``force``: this function's keywords
+        ``("out_dir", "force=True")`` (the default); a command passes its flags (``study
+        run``'s ``("-o", "--force")``, ``rev``'s ``("-o", None)``: it has no ``--force``).
     scheduler_option : str
-        How messages about the scheduler's connection name it: the CLI's ``"--scheduler"``,
-        the Python API's ``"scheduler"`` (:class:`RunOptions` names the keyword itself).
+        How messages about the scheduler's connection name it: the keyword ``"scheduler"``
+        (the default, as :class:`RunOptions` names it), a command's ``"--scheduler"``.
     **fields
         :class:`RunOptions` fields as keywords, e.g. ``run_study(study, out, workers=2)``: the
         same as ``run_study(study, out, RunOptions(workers=2))`` (over ``options``' own

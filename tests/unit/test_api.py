@@ -812,6 +812,51 @@ def test_a_scheduler_that_does_not_answer_is_named_as_the_caller_named_it(tmp_pa
     assert not out.exists()
 
 
+def test_the_study_runner_names_python_keywords_and_each_command_its_flags(
+    tmp_path, capsys
+) -> None:
+    # session 46 review: psdesign.study.run_study (the runner's, public) defaulted to the
+    # command line's names: a scheduler that does not answer was "--scheduler: ...", a user's
+    # folder "-o: ... or --force", while RunOptions named "scheduler"; optimize_study alike.
+    # The Python keywords are the runner's defaults now and each command passes its flags:
+    # `study optimize` names --scheduler. Truth: port 9 (discard) on the loopback refuses
+    # the connection at once; nothing is created or changed either way.
+    from study_cases import write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.cli.main import main
+    from psdesign.study import SchedulerError
+    from psdesign.study import run_study as runner_run_study
+
+    down = "tcp://127.0.0.1:9"
+    study = 'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]'
+    p = write_study(tmp_path, study, '"generator.porosity" = {low = 0.7, high = 0.9}')
+    out = tmp_path / "o"
+    target = [Target.parse("k_z_m2=5e-12")]
+    for call in (
+        lambda: runner_run_study(p, out, scheduler=down, progress=False),
+        lambda: optimize_study(p, out, target, scheduler=down, progress=False),
+    ):
+        with pytest.raises(SchedulerError) as info:
+            call()
+        assert str(info.value).startswith(f"scheduler: no Dask scheduler answers at {down}")
+    argv = ["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=5e-12"]
+    assert main([*argv, "--scheduler", down, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    line = f"psdesign: error: --scheduler: no Dask scheduler answers at {down}"
+    assert len(err) == 1 and err[0].startswith(line), err
+    assert not out.exists()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    with pytest.raises(psdesign.OutputError) as refused:
+        runner_run_study(p, mine, workers=0, progress=False, report=False)
+    assert refused.value.key == "out_dir" and "--" not in refused.value.message
+    assert refused.value.message.endswith("or force=True to add psdesign's files beside them")
+    assert [f.name for f in mine.iterdir()] == ["notes.txt"]
+
+
 def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:
     # session 34 fuzz: m.conductivity(solid=True) solved with a solid of 1.0 and solid="2"
     # with 2.0 (float() of a bool and of a string); from_image(<a folder>) was refused as
