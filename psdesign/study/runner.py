@@ -38,7 +38,7 @@ from psdesign.study.address import (
     check_scheduler_address,
     host_port,
 )
-from psdesign.study.casefn import runs_pipeline, watch_parent
+from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
@@ -998,7 +998,6 @@ def _run_entry(
 ) -> dict:
     """This run's entry in ``runs.json``: ``times`` (started, finished, wall time) first, the
     study file's path (``study_file``: run metadata, kept out of ``study.json``) last."""
-    case_fn = opts.case_function()
     return {
         **times,
         "workers": opts.workers,
@@ -1007,9 +1006,7 @@ def _run_entry(
         "n_cases": n_cases,
         "n_run": n_run,
         "status_counts": {str(k): int(v) for k, v in counts.items()},
-        "case_fn": case_fn
-        if isinstance(case_fn, str)
-        else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+        "case_fn": case_fn_name(opts.case_fn),
         "study_file": None if study.source is None else str(study.source),
         "machine": _machine(),
     }

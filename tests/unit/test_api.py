@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -390,6 +391,35 @@ def test_a_wraps_adapter_partial_or_instance_is_a_case_function(tmp_path) -> Non
     df = psdesign.run_study(study, tmp_path / "o", workers=0, case_fn=adapter, progress=False)
     assert sorted(df["n_fibers"]) == [2.0, 3.0]
     assert set(df["status"]) == {"ok"}
+
+
+def test_a_case_function_is_spelled_one_way_everywhere(tmp_path) -> None:
+    # session 46 review: the "module:qualname" spelling of a case function had four copies
+    # (casefn.runs_pipeline and worker.case_fn_name with "" for a missing name, runner's
+    # run.json entry and options' refusal with "?"); one case_fn_name in casefn now, and
+    # every use reads it. Truth: the names Python gives (json.dumps is json:dumps; an
+    # instance has no __qualname__), the run.json a run writes, the refusal a run gives.
+    import json
+
+    from psdesign.study.case import run_case
+    from psdesign.study.casefn import case_fn_name, runs_pipeline
+    from psdesign.study.worker import importable_case_fn_name
+
+    inst = _CallableCase()
+    assert case_fn_name(None) == case_fn_name(run_case) == "psdesign.study.case:run_case"
+    assert case_fn_name(inst) == f"{_CallableCase.__module__}:?"
+    assert runs_pipeline(run_case) and not runs_pipeline(inst)
+    assert importable_case_fn_name(_spec_only) == case_fn_name(_spec_only)
+    with pytest.raises(ValueError, match=re.escape(f"got {case_fn_name(inst)}") + "$"):
+        importable_case_fn_name(inst)
+    bad = _spec_only  # one argument: refused, named as run.json would name it
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn=bad)
+    assert str(info.value).startswith(f"case_fn: {case_fn_name(bad)!r} cannot be called")
+    out = tmp_path / "o"
+    psdesign.run_study(_tiny_study(), out, workers=0, case_fn=inst, progress=False, report=False)
+    runs = json.loads((out / "run.json").read_text())["runs"]
+    assert [r["case_fn"] for r in runs] == [case_fn_name(inst)]
 
 
 def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
