@@ -548,6 +548,4 @@ def run_study(
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
             "workers=0"
         )
-    kwargs.setdefault("out_option", ("out_dir", "force=True"))  # this call's keywords
-    kwargs.setdefault("scheduler_option", "scheduler")
     return _run(study, out_dir, options, **kwargs)

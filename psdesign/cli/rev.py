@@ -26,7 +26,8 @@ def _cmd_rev(args: argparse.Namespace) -> int:
     # rev has no --force: the refusal names none; a user's rev.csv / rev.json is refused now
     check_rev_dir(args.out)
     try:
-        check_workers(args.workers, what="--workers")  # the runner's rule, named as typed
+        # the runner's rule, named as typed; rev has no way to more workers to advise
+        check_workers(args.workers, what="--workers", more="")
         res = rev_study(
             args.spec,
             args.sizes,
@@ -38,6 +39,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=not args.quiet,
             report=False,
+            out_option=("-o", None),  # messages name this command's flags: it has no --force
         )
     except ValueError as exc:
         return fail(str(exc))

@@ -221,7 +221,10 @@ def cmd_study_run(args: argparse.Namespace) -> int:
     try:
         # the runner's cap on local workers, named as typed (a --cluster's are not local)
         check_workers(
-            args.workers, args.scheduler or ("cluster" if args.cluster else None), "--workers"
+            args.workers,
+            args.scheduler or ("cluster" if args.cluster else None),
+            "--workers",
+            more="--scheduler or --cluster",
         )
         security = scheduler_security(args.tls_ca_file, args.tls_cert, args.tls_key)
         if security is not None and not str(args.scheduler or "").startswith("tls://"):
@@ -243,6 +246,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             retry_not_converged=args.retry_not_converged,
             security=security,
             worker_wait_s=wait_s,
+            out_option=("-o", "--force"),  # messages name this command's flags
+            scheduler_option="--scheduler",
         )
     except (SpecError, SchedulerError) as exc:  # StudyError is a SpecError
         return fail(str(exc), BAD_INPUT)

@@ -262,7 +262,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     from psdesign.study.runner import WorkersLost, check_workers
 
     try:
-        check_workers(args.workers, args.scheduler, "--workers")  # the runner's rule, as typed
+        # the runner's rule, as typed; optimize has --scheduler, no --cluster
+        check_workers(args.workers, args.scheduler, "--workers", more="--scheduler")
         targets = [Target.parse(t) for t in args.target]
         _check_outcome_files(args.out)  # a file of yours under these names: refused first
         res = optimize_study(
@@ -277,6 +278,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             case_fn=args.case_fn,
             progress=not args.quiet,
             force=args.force,
+            out_option=("-o", "--force"),  # messages name this command's flags
+            scheduler_option="--scheduler",
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))

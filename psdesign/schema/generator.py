@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from psdesign.schema.distributions import DistField, support, support_text
 from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
@@ -93,12 +94,22 @@ class GeneratorTable(Table):
         5000, description=f"integer in [1, {MAX_FIBERS_CAP}] (default 5000)"
     )
 
+    @field_validator("diameter", "tx", "ty", "tz", "theta", "omega", "u", "f")
+    @classmethod
+    def _check_range(cls, value: object, info: ValidationInfo) -> object:
+        # each key's own range as a field's check, not in the model rule: pydantic runs that
+        # rule only when every field passed, so a design point checked without its study
+        # (psdesign.study.point: a table missing its diameter, or another key out of range)
+        # let generator.f = 5000 through and named a later key before a wrong diameter
+        if value is not None:
+            inside, unit, allowed = _RANGES[info.field_name]
+            if not inside(*support(value)):
+                raise fail("", support_text(value, unit), allowed)
+        return value
+
     @model_validator(mode="after")
     def _check(self) -> GeneratorTable:
-        # each key's own range before the rules between keys: a table holding one key (a
-        # design point checked without its study, psdesign.study.point) met "give exactly one
-        # of porosity or n_fibers" first, which hid a negative diameter's own error
-        self._check_ranges()
+        """The rules between keys (each key's own range is its field's: ``_check_range``)."""
         given = self.model_fields_set
         if ("porosity" in given) == ("n_fibers" in given):
             raise fail("", "give exactly one of porosity or n_fibers", "porosity or n_fibers")
@@ -111,36 +122,15 @@ class GeneratorTable(Table):
                 f"<= {self.max_fibers}",
             )
         if self.kind == "bent":
-            self._check_bends()
+            self._check_slope()
         else:
             for k in ("u", "f"):
                 if k in given:
                     raise fail(k, "only used with kind = 'bent'", "kind = 'bent'")
         return self
 
-    def _check_ranges(self) -> None:
-        """The ranges of the distributed keys that need no other key."""
-        if not support(self.diameter)[0] > 0:  # the half-period bound needs the rve: document.py
-            raise fail("diameter", support_text(self.diameter, "m"), "(0, period / 2) m")
-        for k in ("tx", "ty", "tz"):
-            lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
-            if lo < -1 or hi > 2:
-                raise fail(k, support_text(getattr(self, k)), "[-1, 2]")
-        for k in ("theta", "omega"):
-            lo, hi = support(getattr(self, k)) if getattr(self, k) is not None else (0, 0)
-            if lo < -360 or hi > 360:
-                raise fail(
-                    k,
-                    support_text(getattr(self, k), "degrees"),
-                    "[-360, 360]",
-                )
-
-    def _check_bends(self) -> None:
-        """A bent generator's ``f`` and ``u``, each and together."""
-        if self.f is not None and not 0 < support(self.f)[0] <= support(self.f)[1] <= MAX_BENDS:
-            raise fail("f", support_text(self.f), f"(0, {MAX_BENDS:g}]")
-        if self.u is not None and max(abs(v) for v in support(self.u)) >= math.pi:
-            raise fail("u", "values must lie in (-pi, pi)", "(-pi, pi)")
+    def _check_slope(self) -> None:
+        """A bent generator's ``u`` and ``f`` together (each one's range: ``_check_range``)."""
         umax = max(abs(v) for v in support(self.u)) if self.u is not None else 0.3
         fmax = support(self.f)[1] if self.f is not None else 10.0
         if umax * fmax > MAX_SLOPE:
@@ -149,6 +139,23 @@ class GeneratorTable(Table):
                 f"bend slope max |u| x max f = {umax * fmax:g} (a dense zigzag)",
                 f"max |u| x max f <= {MAX_SLOPE:g}",
             )
+
+
+def _within(lo: float, hi: float) -> Callable[[float, float], bool]:
+    """Does a support ``[a, b]`` lie in the closed interval ``[lo, hi]``?"""
+    return lambda a, b: lo <= a and b <= hi
+
+
+#: The ranges of the generator's distributed keys that need no other key: (is the support
+#: (low, high) inside, unit, allowed). The diameter's half-period bound needs the rve:
+#: psdesign.schema.document.
+_RANGES: dict[str, tuple[Callable[[float, float], bool], str, str]] = {
+    "diameter": (lambda a, b: a > 0, "m", "(0, period / 2) m"),
+    **{k: (_within(-1, 2), "", "[-1, 2]") for k in ("tx", "ty", "tz")},
+    **{k: (_within(-360, 360), "degrees", "[-360, 360]") for k in ("theta", "omega")},
+    "u": (lambda a, b: max(abs(a), abs(b)) < math.pi, "", "(-pi, pi)"),
+    "f": (lambda a, b: 0 < a <= b <= MAX_BENDS, "", f"(0, {MAX_BENDS:g}]"),
+}
 
 
 class IntersectionsTable(Table):

@@ -14,7 +14,7 @@ from pydantic import Field, ValidationError
 
 from psdesign.errors import SpecError
 from psdesign.schema.errors import spec_error
-from psdesign.schema.types import Table, _is_bool, integer, number
+from psdesign.schema.types import Table, _is_bool, integer, number, short
 
 
 class TransportSpec(Table):
@@ -96,6 +96,33 @@ class TransportSpec(Table):
     )
 
 
+def transport_keyword(transport: object) -> dict:
+    """A public entry's ``transport=`` keyword as a table to validate: None -> ``{}`` (the
+    defaults), a dict -> a copy, anything else the one-line ``transport: must be a table``.
+
+    The one rule of every entry (conductivity's ``transport_table``, ``relative_diffusivity``,
+    ``diffusivity_tensor``): ``transport or {}`` let ``[]`` through as the defaults and
+    ``dict(transport)`` took a list of pairs or failed on ``3`` with a TypeError.
+
+    >>> transport_keyword(None), transport_keyword({"bc": "permeameter"})
+    ({}, {'bc': 'permeameter'})
+    >>> transport_keyword([])
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: transport: must be a table, got []
+    """
+    if transport is None:
+        return {}
+    _check_table(transport)
+    return dict(transport)
+
+
+def _check_table(table: object) -> None:
+    """``transport: must be a table, got ...`` for anything but a dict."""
+    if not isinstance(table, dict):
+        raise SpecError("transport", f"must be a table, got {short(table)}")
+
+
 def validate_transport(spec: dict | None) -> dict:
     """The validated ``[transport]`` table of ``spec`` (defaults if absent), a plain dict.
 
@@ -110,8 +137,7 @@ def validate_transport(spec: dict | None) -> dict:
         ``transport.<key>: ...`` for an unknown key or a value out of range.
     """
     table = (spec or {}).get("transport", {})
-    if not isinstance(table, dict):
-        raise SpecError("transport", "must be a table")
+    _check_table(table)
     try:
         return TransportSpec(**table).model_dump()
     except ValidationError as exc:

@@ -13,6 +13,7 @@ __all__ = [
     "CASE_FN_ARGUMENTS",
     "DEFAULT_CASE_FN",
     "case_fn_call_error",
+    "case_fn_name",
     "load_case_fn",
     "runs_pipeline",
     "watch_parent",
@@ -25,6 +26,23 @@ RENAMED_CASE_FNS = {"psdesign.pipeline:run_case": DEFAULT_CASE_FN}
 CASE_FN_ARGUMENTS = ("spec", "outputs", "solver", "workdir")
 
 
+def case_fn_name(case_fn: Callable | str | None) -> str:
+    """The ``"module:function"`` spelling of a case function, the one every message, record
+    (``runs.json``) and child process uses: None is :data:`DEFAULT_CASE_FN`, a string is as
+    given, a callable its ``__module__`` and ``__qualname__`` (``?`` for one it lacks: a
+    callable instance or a partial has no ``__qualname__``).
+
+    >>> import json
+    >>> case_fn_name(None), case_fn_name("m:f"), case_fn_name(json.dumps)
+    ('psdesign.study.case:run_case', 'm:f', 'json:dumps')
+    """
+    if case_fn is None:
+        return DEFAULT_CASE_FN
+    if isinstance(case_fn, str):
+        return case_fn
+    return f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"
+
+
 def runs_pipeline(case_fn: Callable | str | None) -> bool:
     """Is ``case_fn`` psdesign's own case function (None, its name, an old name of it, or the
     function itself)? Only then does a study plan the route's memory and time before any work
@@ -34,11 +52,8 @@ def runs_pipeline(case_fn: Callable | str | None) -> bool:
     >>> runs_pipeline(None), runs_pipeline("psdesign.pipeline:run_case"), runs_pipeline("m:f")
     (True, True, False)
     """
-    if case_fn is None:
-        return True
-    if not isinstance(case_fn, str):
-        case_fn = f"{getattr(case_fn, '__module__', '')}:{getattr(case_fn, '__qualname__', '')}"
-    return RENAMED_CASE_FNS.get(case_fn, case_fn) == DEFAULT_CASE_FN
+    name = case_fn_name(case_fn)
+    return RENAMED_CASE_FNS.get(name, name) == DEFAULT_CASE_FN
 
 
 def load_case_fn(case_fn: Callable | str | None) -> Callable:
@@ -72,7 +87,9 @@ def case_fn_call_error(fn: Callable) -> str:
 
     Checked once before a study runs: a function of other arguments failed every case with a
     TypeError after the output folder was made. A callable whose signature Python cannot
-    read (some builtins) is given the benefit of the doubt.
+    read (some builtins) is given the benefit of the doubt. The signature read is ``fn``'s own,
+    not the one ``functools.wraps`` copied from the function it wraps (``__wrapped__``): the
+    worker calls ``fn`` itself.
 
     >>> case_fn_call_error(lambda spec, outputs, solver, workdir: {})
     ''
@@ -82,7 +99,7 @@ def case_fn_call_error(fn: Callable) -> str:
     import inspect
 
     try:
-        inspect.signature(fn).bind(*CASE_FN_ARGUMENTS)
+        inspect.signature(fn, follow_wrapped=False).bind(*CASE_FN_ARGUMENTS)
     except TypeError as exc:  # the arguments do not fit
         return " ".join(str(exc).split())
     except ValueError:  # no signature to read

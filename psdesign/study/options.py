@@ -13,7 +13,12 @@ from typing import Any
 
 from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.address import check_scheduler_address
-from psdesign.study.casefn import CASE_FN_ARGUMENTS, DEFAULT_CASE_FN, case_fn_call_error
+from psdesign.study.casefn import (
+    CASE_FN_ARGUMENTS,
+    DEFAULT_CASE_FN,
+    case_fn_call_error,
+    case_fn_name,
+)
 from psdesign.study.cluster import DEFAULT_WAIT_S, ClusterOptions, check_wait_s
 from psdesign.study.studyfile import StudyError
 
@@ -205,15 +210,8 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
         why = case_fn_call_error(fn)
         if why:  # it failed every case with a TypeError, the output folder made
             raise StudyError(
-                f"case_fn: {_name_of(case_fn)} cannot be called as case_fn("
+                f"case_fn: {case_fn_name(case_fn)!r} cannot be called as case_fn("
                 f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
                 "arguments returning a dict"
             )
     return scheduler
-
-
-def _name_of(case_fn) -> str:
-    """A case function as a message names it: its ``module:function``, or the text given."""
-    if isinstance(case_fn, str):
-        return repr(case_fn)
-    return f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"

@@ -53,8 +53,9 @@ def check_design_point(point: dict[str, float], study: dict | None = None) -> No
     Raises
     ------
     SpecError
-        The first key of ``point`` (in the order given) whose value the schema refuses, in
-        the schema's words:
+        The first key of ``point`` (in the order given) of the errors the schema reports
+        together, in the schema's words (each key's own range is reported with the others';
+        a table's rules between keys run only once each of its keys passed):
         ``generator.porosity: must be < 1, got 5 (allowed: target in (0, 1): ...)``.
 
     Examples

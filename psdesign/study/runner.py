@@ -38,7 +38,7 @@ from psdesign.study.address import (
     check_scheduler_address,
     host_port,
 )
-from psdesign.study.casefn import runs_pipeline, watch_parent
+from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
@@ -232,13 +232,18 @@ def max_local_workers() -> int:
     return max(64, 4 * (os.cpu_count() or 1))
 
 
-def check_workers(workers, scheduler=None, what: str = "workers") -> None:
+def check_workers(
+    workers, scheduler=None, what: str = "workers", more: str = "scheduler= (Dask)"
+) -> None:
     """The one rule of a study's worker count (``study run``, ``study optimize``, ``rev`` and
     :func:`run_study`): an integer >= 0, where 0 runs the cases in this process; on this
     machine (no ``scheduler`` or ``"local"``) at most :func:`max_local_workers`; with a
     scheduler or a batch cluster (``scheduler`` given) at least 1, as there is no "this
     process" there (a local Dask cluster of 0 workers started one). Else a one-line
-    :class:`StudyError` naming ``what`` (``"--workers"`` from the command line)."""
+    :class:`StudyError` naming ``what`` (``"--workers"`` from the command line); past the
+    local cap it advises ``more``, the caller's own way to more workers (``study run``'s
+    ``"--scheduler or --cluster"``, ``study optimize``'s ``"--scheduler"``; ``""`` for
+    ``rev``, which has none)."""
     # numbers.Integral: NumPy's integers too (np.int64 from a notebook was "must be an
     # integer, got np.int64(2)"), as the schema's integer keys take them
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
@@ -252,11 +257,9 @@ def check_workers(workers, scheduler=None, what: str = "workers") -> None:
         )
     local = scheduler is None or scheduler == "local"
     if local and workers > max_local_workers():
-        # the way to more workers as the caller gives options: flags or keywords
-        more = "--scheduler or --cluster" if what.startswith("--") else "scheduler= (Dask)"
         raise StudyError(
             f"{what}: at most {max_local_workers()} processes on this machine (64 or 4 per "
-            f"CPU, whichever is more), got {workers}; use {more} for more"
+            f"CPU, whichever is more), got {workers}" + (f"; use {more} for more" if more else "")
         )
 
 
@@ -714,8 +717,8 @@ def run_study(
     options: RunOptions | None = None,
     *,
     command: str = "study run",
-    out_option: tuple[str, str | None] = ("-o", "--force"),
-    scheduler_option: str = "--scheduler",
+    out_option: tuple[str, str | None] = ("out_dir", "force=True"),
+    scheduler_option: str = "scheduler",
     **fields: Any,
 ) -> pd.DataFrame:
     """Run (or resume) a study and return its results table.
@@ -732,11 +735,12 @@ def run_study(
     command : str
         The command the output folder's marker names (``psdesign rev`` runs its study here).
     out_option : (str, str or None)
-        How messages name ``out_dir`` and ``force``: the CLI's ``("-o", "--force")``, the
-        Python API's ``("out_dir", "force=True")``.
+        How messages name ``out_dir`` and ``force``: this function's keywords
+        ``("out_dir", "force=True")`` (the default); a command passes its flags (``study
+        run``'s ``("-o", "--force")``, ``rev``'s ``("-o", None)``: it has no ``--force``).
     scheduler_option : str
-        How messages about the scheduler's connection name it: the CLI's ``"--scheduler"``,
-        the Python API's ``"scheduler"`` (:class:`RunOptions` names the keyword itself).
+        How messages about the scheduler's connection name it: the keyword ``"scheduler"``
+        (the default, as :class:`RunOptions` names it), a command's ``"--scheduler"``.
     **fields
         :class:`RunOptions` fields as keywords, e.g. ``run_study(study, out, workers=2)``: the
         same as ``run_study(study, out, RunOptions(workers=2))`` (over ``options``' own
@@ -994,7 +998,6 @@ def _run_entry(
 ) -> dict:
     """This run's entry in ``runs.json``: ``times`` (started, finished, wall time) first, the
     study file's path (``study_file``: run metadata, kept out of ``study.json``) last."""
-    case_fn = opts.case_function()
     return {
         **times,
         "workers": opts.workers,
@@ -1003,9 +1006,7 @@ def _run_entry(
         "n_cases": n_cases,
         "n_run": n_run,
         "status_counts": {str(k): int(v) for k, v in counts.items()},
-        "case_fn": case_fn
-        if isinstance(case_fn, str)
-        else f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}",
+        "case_fn": case_fn_name(opts.case_fn),
         "study_file": None if study.source is None else str(study.source),
         "machine": _machine(),
     }

@@ -31,7 +31,7 @@ from psdesign.errors import warn_at_caller
 from psdesign.io.atomic import json_default
 from psdesign.io.child_env import child_env
 from psdesign.io.diskfull import is_disk_full
-from psdesign.study.casefn import DEFAULT_CASE_FN, load_case_fn
+from psdesign.study.casefn import DEFAULT_CASE_FN, case_fn_name, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
 
@@ -124,19 +124,19 @@ def _kill_group(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
-def case_fn_name(case_fn: Callable | str | None) -> str:
-    """``"module:function"`` naming ``case_fn`` (sent to the per-case child process as text).
+def importable_case_fn_name(case_fn: Callable | str | None) -> str:
+    """:func:`~psdesign.study.casefn.case_fn_name` of ``case_fn``, sent to the per-case child
+    process as text, checked to import back to ``case_fn`` itself.
 
     Raises
     ------
     ValueError
-        If a callable cannot be imported back by that name (a lambda, a nested function).
+        If a callable cannot be imported back by that name (a lambda, a nested function, a
+        ``functools.wraps`` adapter: its name is the wrapped function's).
     """
-    if case_fn is None:
-        return DEFAULT_CASE_FN
-    if isinstance(case_fn, str):
-        return case_fn
-    name = f"{getattr(case_fn, '__module__', '')}:{getattr(case_fn, '__qualname__', '')}"
+    name = case_fn_name(case_fn)
+    if case_fn is None or isinstance(case_fn, str):
+        return name
     try:
         same = load_case_fn(name) is case_fn
     except (ImportError, AttributeError, ValueError):
@@ -160,7 +160,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
 
     job = {
         "case_id": str(payload.get("case_id", "?")),  # its warnings in case.log name it
-        "case_fn": case_fn_name(payload["case_fn"]),
+        "case_fn": importable_case_fn_name(payload["case_fn"]),
         "spec": payload["spec"],
         "outputs": list(payload["outputs"]),
         "solver": payload["solver"],

@@ -23,7 +23,7 @@ import numpy as np
 
 from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
-from psdesign.schema.transport import check_conductivity, validate_transport
+from psdesign.schema.transport import check_conductivity, transport_keyword, validate_transport
 from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 
 #: The contrast a blocked two-phase solve is repeated at (:func:`effective_conductivity`): the
@@ -163,10 +163,7 @@ def transport_table(
     """
     from psdesign.errors import SpecError
 
-    # not a table: the schema's one line (it was "'int' object is not iterable")
-    if transport is not None and not isinstance(transport, dict):
-        validate_transport({"transport": transport})
-    tr = dict(transport or {})
+    tr = transport_keyword(transport)  # not a table: the schema's one line
     if solid is not None:
         tr["solid_conductivity"] = check_conductivity(solid, "transport.solid_conductivity")
     if fluid is not None:

@@ -31,7 +31,7 @@ import numpy as np
 
 from psdesign.fields.writer import HeldCapture
 from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
-from psdesign.schema.transport import validate_transport
+from psdesign.schema.transport import transport_keyword, validate_transport
 from psdesign.transport.effective import (
     Effective,
     Rated,
@@ -238,7 +238,7 @@ def relative_diffusivity(
         What ``cells_per_diameter`` counts across, named in that warning
         (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
     """
-    tr = validate_transport({"transport": transport or {}})
+    tr = validate_transport({"transport": transport_keyword(transport)})
     held = None if capture is None else HeldCapture(partial(capture, "diffusivity"))
     eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=held)
     if pore_diameter is None and tr["mean_free_path_m"] > 0:
@@ -263,7 +263,7 @@ def diffusivity_tensor(
     ``a``), ``symmetric`` (its symmetric part), ``eigenvalues``, ``tortuosity_factor`` per
     axis, ``results`` (the three :class:`DiffusivityResult` dicts) and ``converged``.
     """
-    tr = dict(transport or {})
+    tr = transport_keyword(transport)
     tr["bc"] = "periodic"
     tr = validate_transport({"transport": tr})
     pore_d = mean_pore_diameter(fields) if tr["mean_free_path_m"] > 0 else None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -353,6 +354,72 @@ def test_a_case_function_of_other_arguments_is_refused_before_the_run(tmp_path) 
 
     assert case_fn_call_error(lambda *args: {}) == ""
     assert case_fn_call_error(lambda spec, outputs, solver, workdir, x=1: {}) == ""
+
+
+def _spec_only(spec) -> dict:
+    """A case function of the spec alone (what a functools.wraps adapter wraps)."""
+    return {"n_fibers": float(spec["generator"]["n_fibers"])}
+
+
+class _CallableCase:
+    """A callable instance taking the four case arguments."""
+
+    def __call__(self, spec, outputs, solver, workdir) -> dict:
+        return _spec_only(spec)
+
+
+def test_a_wraps_adapter_partial_or_instance_is_a_case_function(tmp_path) -> None:
+    # session 46 review: case_fn_call_error read inspect.signature(fn), which follows
+    # __wrapped__: a functools.wraps adapter wrapper(spec, outputs, solver, workdir) around
+    # f(spec) was refused ("too many positional arguments") though the worker calls the
+    # adapter itself with four arguments. Independent truth: the run calls it and each row
+    # holds the n_fibers of its case's spec (study.parameters).
+    import functools
+
+    @functools.wraps(_spec_only)
+    def adapter(spec, outputs, solver, workdir):
+        return _spec_only(spec)
+
+    from psdesign.study.casefn import case_fn_call_error
+
+    partial = functools.partial(lambda extra, spec, outputs, solver, workdir: {}, 1)
+    for fn in (adapter, partial, _CallableCase()):
+        assert case_fn_call_error(fn) == "", fn
+        psdesign.RunOptions(case_fn=fn)  # accepted
+    study = _tiny_study()
+    study["parameters"] = {"generator.n_fibers": [2, 3]}
+    df = psdesign.run_study(study, tmp_path / "o", workers=0, case_fn=adapter, progress=False)
+    assert sorted(df["n_fibers"]) == [2.0, 3.0]
+    assert set(df["status"]) == {"ok"}
+
+
+def test_a_case_function_is_spelled_one_way_everywhere(tmp_path) -> None:
+    # session 46 review: the "module:qualname" spelling of a case function had four copies
+    # (casefn.runs_pipeline and worker.case_fn_name with "" for a missing name, runner's
+    # run.json entry and options' refusal with "?"); one case_fn_name in casefn now, and
+    # every use reads it. Truth: the names Python gives (json.dumps is json:dumps; an
+    # instance has no __qualname__), the run.json a run writes, the refusal a run gives.
+    import json
+
+    from psdesign.study.case import run_case
+    from psdesign.study.casefn import case_fn_name, runs_pipeline
+    from psdesign.study.worker import importable_case_fn_name
+
+    inst = _CallableCase()
+    assert case_fn_name(None) == case_fn_name(run_case) == "psdesign.study.case:run_case"
+    assert case_fn_name(inst) == f"{_CallableCase.__module__}:?"
+    assert runs_pipeline(run_case) and not runs_pipeline(inst)
+    assert importable_case_fn_name(_spec_only) == case_fn_name(_spec_only)
+    with pytest.raises(ValueError, match=re.escape(f"got {case_fn_name(inst)}") + "$"):
+        importable_case_fn_name(inst)
+    bad = _spec_only  # one argument: refused, named as run.json would name it
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn=bad)
+    assert str(info.value).startswith(f"case_fn: {case_fn_name(bad)!r} cannot be called")
+    out = tmp_path / "o"
+    psdesign.run_study(_tiny_study(), out, workers=0, case_fn=inst, progress=False, report=False)
+    runs = json.loads((out / "run.json").read_text())["runs"]
+    assert [r["case_fn"] for r in runs] == [case_fn_name(inst)]
 
 
 def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:
@@ -773,6 +840,51 @@ def test_a_scheduler_that_does_not_answer_is_named_as_the_caller_named_it(tmp_pa
         "psdesign: error: --scheduler: no Dask scheduler answers at tcp://127.0.0.1:9"
     ), err
     assert not out.exists()
+
+
+def test_the_study_runner_names_python_keywords_and_each_command_its_flags(
+    tmp_path, capsys
+) -> None:
+    # session 46 review: psdesign.study.run_study (the runner's, public) defaulted to the
+    # command line's names: a scheduler that does not answer was "--scheduler: ...", a user's
+    # folder "-o: ... or --force", while RunOptions named "scheduler"; optimize_study alike.
+    # The Python keywords are the runner's defaults now and each command passes its flags:
+    # `study optimize` names --scheduler. Truth: port 9 (discard) on the loopback refuses
+    # the connection at once; nothing is created or changed either way.
+    from study_cases import write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.cli.main import main
+    from psdesign.study import SchedulerError
+    from psdesign.study import run_study as runner_run_study
+
+    down = "tcp://127.0.0.1:9"
+    study = 'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]'
+    p = write_study(tmp_path, study, '"generator.porosity" = {low = 0.7, high = 0.9}')
+    out = tmp_path / "o"
+    target = [Target.parse("k_z_m2=5e-12")]
+    for call in (
+        lambda: runner_run_study(p, out, scheduler=down, progress=False),
+        lambda: optimize_study(p, out, target, scheduler=down, progress=False),
+    ):
+        with pytest.raises(SchedulerError) as info:
+            call()
+        assert str(info.value).startswith(f"scheduler: no Dask scheduler answers at {down}")
+    argv = ["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=5e-12"]
+    assert main([*argv, "--scheduler", down, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    line = f"psdesign: error: --scheduler: no Dask scheduler answers at {down}"
+    assert len(err) == 1 and err[0].startswith(line), err
+    assert not out.exists()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    with pytest.raises(psdesign.OutputError) as refused:
+        runner_run_study(p, mine, workers=0, progress=False, report=False)
+    assert refused.value.key == "out_dir" and "--" not in refused.value.message
+    assert refused.value.message.endswith("or force=True to add psdesign's files beside them")
+    assert [f.name for f in mine.iterdir()] == ["notes.txt"]
 
 
 def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> None:

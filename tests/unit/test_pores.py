@@ -290,3 +290,32 @@ def test_pore_sizes_arguments_are_held_to_their_transport_keys():
     assert pore_sizes(fields, n_radii=np.int64(4), thickness_axis=0).pore_d50_m > 0
     with pytest.raises(SpecError, match=r"^transport: must be a table"):
         effective_conductivity(fields, "z", 1.0, 1.0, 3)
+
+
+def test_every_transport_entry_refuses_a_transport_that_is_not_a_table():
+    """Session 46 review: conductivity's ``transport=3`` was refused in one line, the other
+    public entries were not: ``diffusivity_tensor(fields, transport=3)`` raised TypeError
+    ('int' object is not iterable), ``transport=[("bc", "periodic")]`` went through
+    ``dict(...)`` and ``relative_diffusivity(..., transport=[])`` through ``[] or {}``. One
+    rule now (psdesign.schema.transport.transport_keyword): None is the defaults, anything
+    but a dict is ``transport: must be a table``, before any solve."""
+    from psdesign.errors import SpecError
+    from psdesign.transport.conductivity import effective_conductivity, transport_table
+    from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
+
+    X, Y, Z = _coords((12, 12, 8))
+    fields = _fields(4.0 - np.sqrt((X - 6) ** 2 + (Y - 6) ** 2))
+    entries = (
+        lambda t: transport_table(transport=t),
+        lambda t: effective_conductivity(fields, "z", 1.0, 1.0, t),
+        lambda t: relative_diffusivity(fields, "z", transport=t),
+        lambda t: diffusivity_tensor(fields, transport=t),
+    )
+    for entry in entries:
+        for bad in (3, [("bc", "periodic")], [], (), ""):
+            with pytest.raises(SpecError) as info:
+                entry(bad)
+            line = str(info.value)
+            assert info.value.key == "transport" and "must be a table" in line, (entry, bad)
+            assert len(line.splitlines()) == 1
+    assert transport_table(transport=None)["bc"] == "periodic"  # None: the defaults

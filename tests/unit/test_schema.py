@@ -615,6 +615,54 @@ def test_a_non_positive_generated_diameter_never_reaches_the_half_period_check()
     assert err.key == "generator.diameter" and "half the period" in err.message, err
 
 
+def test_a_bend_range_needs_no_other_key():
+    """Session 46 review: the ranges of ``generator.f`` (0, 1000] and ``generator.u``
+    (-pi, pi) (psdesign.schema.fibers MAX_BENDS, a fiber's bend) need no other key but were
+    checked in the model's rule after "give exactly one of porosity or n_fibers" and after
+    every field, so ``check_design_point({"generator.f": 5000.0})`` and ``({"generator.u":
+    4.0})`` were accepted without a word (the empty table misses its diameter: the model rule
+    never ran). Each is refused now with its key and range, as a spec is; a value inside is
+    accepted; the rule between keys (slope max |u| x max f <= 10) stays the bent table's."""
+    from psdesign.study.point import check_design_point
+
+    for point, allowed in (
+        ({"generator.f": 5000.0}, "(0, 1000]"),
+        ({"generator.f": 0.0}, "(0, 1000]"),
+        ({"generator.u": 4.0}, "(-pi, pi)"),
+        ({"generator.u": -3.2}, "(-pi, pi)"),
+    ):
+        ((key, value),) = point.items()
+        with pytest.raises(SpecError) as info:
+            check_design_point(point)
+        assert info.value.key == key and f"(allowed: {allowed})" in str(info.value), info.value
+        for kind in ("bent", "straight"):  # the range before "only with kind = 'bent'"
+            gen = {**SPEC["generator"], "kind": kind, key.split(".")[1]: value}
+            err = spec_err(with_(SPEC, "generator", gen))
+            assert err.key == key and f"(allowed: {allowed})" in str(err), err
+    check_design_point({"generator.f": 5.0, "generator.u": 0.2})
+    bent = {**SPEC["generator"], "kind": "bent", "u": 0.3, "f": 50.0}  # slope 15 > 10
+    err = spec_err(with_(SPEC, "generator", bent))
+    assert err.key == "generator.f" and "max |u| x max f <= 10" in str(err), err
+    straight = {**SPEC["generator"], "f": 5.0}
+    assert "only used with kind = 'bent'" in str(spec_err(with_(SPEC, "generator", straight)))
+
+
+def test_a_design_point_names_its_first_wrong_key_of_field_and_table_rules():
+    """Session 46 review: pydantic's field errors (porosity < 1) stopped the model rule that
+    held the generated diameter's range, so ``{"generator.diameter": -1e-6,
+    "generator.porosity": 5}`` named porosity, not the first key given. Every single-key
+    range of the generator is a field's own check now: both are found, the first given is
+    named, in either order."""
+    from psdesign.study.point import check_design_point
+
+    diameter, porosity = ("generator.diameter", -1e-6), ("generator.porosity", 5.0)
+    f, theta = ("generator.f", 5000.0), ("generator.theta", 500.0)
+    for first, then in ((diameter, porosity), (porosity, diameter), (f, theta), (theta, f)):
+        with pytest.raises(SpecError) as info:
+            check_design_point(dict([first, then]))
+        assert info.value.key == first[0], str(info.value)
+
+
 def test_a_design_point_without_its_study_names_its_first_wrong_key():
     """Session 46: ``check_design_point`` called from Python without a study sets the point
     into empty tables; the generator table's "give exactly one of porosity or n_fibers" (a

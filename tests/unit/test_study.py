@@ -599,7 +599,8 @@ def test_scheduler_not_answering_is_clear_and_harmless(tmp_path, monkeypatch):
     monkeypatch.setattr(runner_mod, "CONNECT_TIMEOUT_S", 2.0)
     with pytest.raises(
         SchedulerError,
-        match=r"^--scheduler: no Dask scheduler answers at "
+        # a Python call: the keyword's name (session 46; it was the CLI's --scheduler)
+        match=r"^scheduler: no Dask scheduler answers at "
         r"tcp://127.0.0.1:9",
     ):
         run_study(p, out, scheduler="tcp://127.0.0.1:9", case_fn=fake_case, progress=False)

@@ -238,7 +238,8 @@ def test_untrustworthy_k_is_counted_in_one_line_and_exits_3(tmp_path, capsys):
     args = ["study", "run", str(p), "-o", str(tmp_path / "out"), "--quiet", "--no-report"]
     assert main([*args, "--case-fn", "test_study_safety:untrustworthy_case"]) == 3
     err = capsys.readouterr().err
-    assert "psdesign: 1 ok case(s) have a K or transport value whose own status is not ok" in err
+    line = "psdesign: 1 ok case(s) have a K, porosity or transport value whose own status is not ok"
+    assert line in err
     assert len(err.strip().splitlines()) == 1
     flag = [*args, "--case-fn", "test_study_safety:untrustworthy_case", "--allow-not-converged"]
     assert main(flag) == 3  # resumed: both cases recorded, nothing re-run
@@ -787,6 +788,41 @@ def test_absurd_local_worker_count_and_nan_timeout_refused_before_work(tmp_path,
         run_study(p, out, workers=0, case_fn=fake_case, timeout_s=float("nan"))
     assert not out.exists()
     assert max_local_workers() >= 64
+
+
+@pytest.mark.parametrize(
+    ("cmd", "more"),
+    [
+        ("run", "; use --scheduler or --cluster for more"),
+        ("optimize", "; use --scheduler for more"),  # it has no --cluster
+        ("rev", ""),  # rev runs on this machine: no option gives it more
+    ],
+)
+def test_too_many_workers_names_only_the_options_the_command_has(
+    tmp_path, capsys, cmd, more
+) -> None:
+    """Session 46 review: the too-many-workers advice was chosen by the ``--`` prefix of
+    ``--workers`` alone, so ``rev --workers 1000000`` was told to use --scheduler or --cluster
+    (``rev`` has neither: cli/rev.py add_workers_argument(scheduler=False)) and ``study
+    optimize`` (no --cluster) to use --cluster. The advice names what the command has."""
+    from psdesign.cli.main import main
+    from psdesign.study.runner import max_local_workers
+
+    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "out"
+    spec = TESTS_DIR.parent / "studies" / "examples" / "fig13_straight.toml"
+    argv = {
+        "run": ["study", "run", str(p), "-o", str(out)],
+        "optimize": ["study", "optimize", str(p), "-o", str(out), "--target", "k_z_m2=1e-11"],
+        "rev": ["rev", str(spec), "--sizes", "1e-4", "-o", str(out)],
+    }[cmd]
+    n = max_local_workers() + 1
+    assert main([*argv, "--workers", str(n), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    head = f"psdesign: error: --workers: at most {max_local_workers()} processes on this machine"
+    assert len(err) == 1 and err[0].startswith(head), err
+    assert err[0].endswith(f"got {n}{more}"), err
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("cmd", ["run", "optimize"])
