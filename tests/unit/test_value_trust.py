@@ -185,3 +185,31 @@ def test_an_old_table_without_pore_and_surface_statuses_is_flagged_as_its_values
     )
     capsys.readouterr()
 
+
+@pytest.mark.parametrize(
+    ("own", "rel", "n_bad"),
+    [
+        (["ok", ""], [0.02, 0.03], 0),  # "": an in-memory unset own status
+        (["ok", "untrustworthy"], [0.02, 0.03], 1),
+        (None, [0.02, 0.30], 1),  # a table without k_z_status: rated by its 30 % bar
+    ],
+    ids=["empty_own_status", "untrustworthy", "old_table_30pct_bar"],
+)
+def test_the_k_and_convergence_tables_flag_the_k_the_red_box_counts(own, rel, n_bad, capsys):
+    """Review s46: the Solver convergence and Permeability tables flagged a K by
+    ``isinstance(st, str) and st != "ok"``: a K whose own status was an in-memory "" (unset,
+    ``ok`` for the red box and the exit) was highlighted while the red box was empty. Now
+    both read ``own_status`` (``k_not_ok``): the rows highlighted are the rows the red box
+    counts, the exit 3 exactly when there are some."""
+    from psdesign.report.html import _convergence, _k_table
+
+    df = pd.DataFrame(
+        {"case_id": ["c0", "c1"], "status": ["ok", "ok"], "k_z_m2": [1e-11, 2e-11],
+         "k_z_rel_error": rel, "iterations_z": [40, 41]}
+    )  # fmt: skip
+    if own is not None:
+        df["k_z_status"] = pd.Series(own, dtype=object)
+    assert _convergence(df)[2] == n_bad
+    assert _k_table(df).count('class="flag"') == n_bad
+    assert bool(_status_banner(df)) == (n_bad > 0) == (report_exit_status(df) == 3)
+    capsys.readouterr()
