@@ -15,7 +15,8 @@ K_STATUS_COLUMNS = {"k_x_m2": "k_x_status", "k_y_m2": "k_y_status", "k_z_m2": "k
 #: (:func:`psdesign.transport.effective.rating`; the tortuosity shares the diffusivity's).
 STATUS_COLUMNS = {
     # the porosity (a voxel count) is rated by its bar alone (:func:`porosity_status`); a table
-    # written before session 46 has no porosity_status: :func:`own_status` rates it then
+    # written before a value's status column (porosity_status: session 46; pore_sizes_status,
+    # specific_surface_status: abe85ab) has a bar only: :func:`own_status` rates it by that
     "porosity": "porosity_status",
     **K_STATUS_COLUMNS,
     **{f"diffusivity_{d}": f"diffusivity_{d}_status" for d in "xyz"},
@@ -51,13 +52,51 @@ ABS_ERROR_COLUMNS = {
 ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
 
 
+def status_column(column: str) -> str:
+    """The column holding the own status of a value column: :data:`STATUS_COLUMNS` (the
+    tortuosity shares the diffusivity's, d10-d90 ``pore_sizes_status``), else
+    ``<column>_status`` (a value the report derives, :func:`psdesign.report.decision.
+    add_anisotropy`).
+
+    >>> status_column("tortuosity_x"), status_column("anisotropy")
+    ('diffusivity_x_status', 'anisotropy_status')
+    """
+    return STATUS_COLUMNS.get(column, f"{column}_status")
+
+
+def bar_status(rel: float | None) -> str:
+    """The status of a rated value (:data:`STATUS_COLUMNS`) that has a relative error bar
+    ``rel`` and no status of its own (a table written before its status column existed: the
+    porosity before session 46, pore sizes and S_v before abe85ab): ``ok`` up to
+    :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (20 %, the rule of every rated value),
+    ``untrustworthy`` above, ``"unrated"`` without a bar. :func:`error_bar` and
+    :func:`own_status` (the exit, red box, means, values table, optimize) both read it.
+
+    >>> bar_status(0.118), bar_status(0.5), bar_status(None)
+    ('ok', 'untrustworthy', 'unrated')
+    """
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+
+    if rel is None or rel != rel:
+        return "unrated"
+    return "ok" if rel <= UNTRUSTWORTHY_REL_ERROR else "untrustworthy"
+
+
+def _number(v) -> float | None:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return v if v == v else None
+
+
 def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
-    ``*_status`` (:data:`REL_ERROR_COLUMNS`, :data:`STATUS_COLUMNS`; the porosity's and a pore
-    diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A value with an error
-    but no status (the porosity of a row written before session 46) is ``ok`` up to a 20 % bar
-    and ``untrustworthy`` above; ``"unrated"`` where the table rates nothing, ``"no trusted
-    value"`` where the value is missing.
+    status (:data:`REL_ERROR_COLUMNS`, :func:`status_column`; the porosity's and a pore
+    diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A rated value with
+    an error but no status (a row written before its status column) is rated by its bar
+    (:func:`bar_status`, as :func:`own_status` rates it); ``"unrated"`` where the table rates
+    nothing, ``"no trusted value"`` where the value is missing.
 
     >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
     (0.118, 'ok')
@@ -67,31 +106,21 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> error_bar(old, "intersection_volume_fraction")  # no status (before session 46): not its bar
     (1.35, 'unrated')
     """
-
-    def num(v) -> float | None:
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            return None
-        return v if v == v else None
-
-    y = num(row.get(column))
+    y = _number(row.get(column))
     if y is None:
         return None, "no trusted value"
     if column in REL_ERROR_COLUMNS:
-        rel = num(row.get(REL_ERROR_COLUMNS[column]))
-    elif num(row.get(ABS_ERROR_COLUMNS.get(column, ""))) is not None:
-        rel = num(row[ABS_ERROR_COLUMNS[column]]) / abs(y) if y else None
+        rel = _number(row.get(REL_ERROR_COLUMNS[column]))
+    elif (e := _number(row.get(ABS_ERROR_COLUMNS.get(column, "")))) is not None:
+        rel = e / abs(y) if y else None
     else:
         rel = None
-    status = row.get(STATUS_COLUMNS.get(column, ""))
+    status = row.get(status_column(column))
     if isinstance(status, str) and status:
         return rel, status
-    if rel is None or column in OMEGA_COLUMNS:  # a table written before session 46
+    if column in OMEGA_COLUMNS:  # rated by its lenses only: a table before session 46, unrated
         return rel, "unrated"
-    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR  # a count: rated by its bar alone
-
-    return rel, "ok" if rel <= UNTRUSTWORTHY_REL_ERROR else "untrustworthy"
+    return rel, bar_status(rel) if column in STATUS_COLUMNS else "unrated"
 
 
 def porosity_status(porosity: float | None, error: float | None) -> str:
@@ -193,28 +222,32 @@ def ok_cases(df: pd.DataFrame) -> pd.DataFrame:
 
 def own_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The own status of each row's value in ``column``, whatever its case's: its status column
-    (:data:`STATUS_COLUMNS`; a column the table does not rate, a value the report derives:
-    ``<column>_status``, :func:`psdesign.report.decision.add_anisotropy`), ``ok`` where that is
-    missing or empty (an unrated value). A porosity without a status (a table written before
-    session 46) is rated by its bar (:func:`porosity_status`).
+    (:func:`status_column`), else the status :func:`error_bar` gives it (a rated value with a
+    bar but no status, a table written before its status column: by its bar,
+    :func:`bar_status`), else ``ok`` (an unrated value, a missing one).
 
     >>> df = pd.DataFrame({"porosity": [0.8, 0.088], "porosity_error": [4e-4, 0.024],
     ...                    "k_z_status": ["untrustworthy", ""]})
     >>> own_status(df, "k_z_m2").tolist(), own_status(df, "porosity").tolist()
     (['untrustworthy', 'ok'], ['ok', 'untrustworthy'])
     """
-    st = df.get(STATUS_COLUMNS.get(column, f"{column}_status"))
+    st = df.get(status_column(column))
     if st is None:
         st = pd.Series(None, index=df.index, dtype=object)
-    missing = st.isna() | (st.astype(str) == "")
-    if column == "porosity" and ABS_ERROR_COLUMNS[column] in df and column in df:
-        v, e = (pd.to_numeric(df[c], errors="coerce") for c in (column, ABS_ERROR_COLUMNS[column]))
-        rate = missing & v.notna() & e.notna()  # no value or no bar: unrated
-        bar = [porosity_status(*ve) for ve in zip(v[rate], e[rate], strict=True)]
-        st = st.astype(object).copy()
-        st[rate] = bar
-        missing &= ~rate
-    return st.where(~missing, "ok").astype(str)
+    st = st.astype(object).where(st.notna() & (st.astype(str) != ""), None)
+    if column in df and _error_column(column) in df:  # error_bar's rule, one row at a time
+        unset = st.isna().to_numpy()
+        rows = df.loc[unset, [column, _error_column(column)]].to_dict("records")
+        rated = (error_bar(r, column)[1] for r in rows)
+        st[unset] = [r if r in ("ok", "untrustworthy") else None for r in rated]
+    return st.where(st.notna(), "ok").astype(str)
+
+
+def _error_column(column: str) -> str | None:
+    """The error column of a rated value (:data:`STATUS_COLUMNS`), relative or absolute."""
+    if column not in STATUS_COLUMNS:
+        return None
+    return REL_ERROR_COLUMNS.get(column, ABS_ERROR_COLUMNS.get(column))
 
 
 def value_status(df: pd.DataFrame, column: str) -> pd.Series:
@@ -263,9 +296,9 @@ def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
     ok = case_status(df) == "ok"
     out: dict[str, pd.Series] = {}
     for c, st in STATUS_COLUMNS.items():
-        rated = st in df or (c == "porosity" and c in df)  # by its bar: own_status
-        if rated and st not in out and (m := ok & k_not_ok(df, c)).any():
-            out[st] = m
+        rated = st in df or (c in df and _error_column(c) in df)  # by its bar: own_status
+        if rated and (m := ok & k_not_ok(df, c)).any():
+            out[st] = out[st] | m if st in out else m  # d10-d90 rated by their bars: any
     return out
 
 

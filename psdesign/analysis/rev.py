@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from psdesign.analysis.columns import first_error, k_not_ok
+from psdesign.analysis.columns import case_status, first_error, flagged_values
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 from psdesign.schema.budget import MAX_SEEDS  # as for a study file's seeds
@@ -69,8 +69,8 @@ class RevResult:
         ``X_ci95_low``, ``X_ci95_high`` (clipped to the physical range: K >= 0, porosity in
         [0, 1]), ``X_ci95_half`` (the Student half-width), ``X_ci_rel`` (``X_ci95_half`` /
         |mean|), and ``status`` (``"ok"``, or ``"untrustworthy: ..."`` naming
-        which K of the size are not ok by their own ``k_<d>_status`` and which K's CI
-        half-width is above 20 %).
+        which values of the size are not ok by their own status (``k_<d>_status``,
+        ``porosity_status``) and which K's CI half-width is above 20 %).
     rev_size_m : float or None
         Smallest edge whose (and every larger edge's) relative CI half-width is below ``tol``
         for every output; None when no size reaches it.
@@ -171,10 +171,11 @@ def rev_study(
         source=Path(spec_path).resolve(),
     )
     df = run_study(study, out_dir, command=REV_COMMAND, **run_kw)
-    if not (df["status"] == "ok").any():
+    status = case_status(df)  # a missing one "unknown" (as the exit counts it), not ok
+    if not (status == "ok").any():
         raise RevFailed(
             f"rev: no case finished ok ({len(df)} case(s): "
-            f"{', '.join(f'{k} {v}' for k, v in df['status'].value_counts().items())})"
+            f"{', '.join(f'{k} {v}' for k, v in status.value_counts().items())})"
             f"{first_error(df)}; see {Path(out_dir) / 'results.csv'}"
         )
     df["size_m"] = df["rve.size.0"]
@@ -218,9 +219,11 @@ def rev_study(
 def _size_status(df: pd.DataFrame, table: pd.DataFrame, directions) -> list[str]:
     """Per size: ``"ok"``, or ``"untrustworthy: ..."`` naming
 
-    * which K of its ``ok`` cases are not ok by their own ``k_<d>_status`` (e.g. ``k_z 2 of
-      3``): those K stay in the size's statistics (the REV is about their scatter), this says
-      they cannot be trusted one by one;
+    * which values of its ``ok`` cases are not ok by their own status (e.g. ``k_z 2 of 3``,
+      ``porosity 1 of 3``: :func:`~psdesign.analysis.columns.flagged_values`, what the exit
+      counts; until session 46 a flagged porosity exited 3 with this status ``ok``): those
+      values stay in the size's statistics (the REV is about their scatter), this says they
+      cannot be trusted one by one;
     * which K's 95 % CI half-width is above :data:`UNTRUSTWORTHY_REL_ERROR` (e.g. ``k_z CI
       above 20 % (n=2)``) or unknown: the size's mean K is then no trustworthy number,
       as a single K with such an error bar is not.
@@ -228,11 +231,12 @@ def _size_status(df: pd.DataFrame, table: pd.DataFrame, directions) -> list[str]
     out = []
     for _, row in table.iterrows():
         size = row["size_m"]
-        rows = df[(df["size_m"] == size) & (df["status"] == "ok")]
-        bad = []
-        for d in directions:
-            if n := int(k_not_ok(rows, f"k_{d}_m2").sum()):
-                bad.append(f"k_{d} {n} of {len(rows)}")
+        rows = df[df["size_m"] == size]
+        n_ok = int((case_status(rows) == "ok").sum())
+        bad = [
+            f"{st.removesuffix('_status')} {int(m.sum())} of {n_ok}"
+            for st, m in flagged_values(rows).items()
+        ]
         for d in directions:
             rel = row.get(f"k_{d}_m2_ci_rel", math.nan)
             if not rel <= UNTRUSTWORTHY_REL_ERROR:  # also NaN: no spread known

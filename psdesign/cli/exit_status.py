@@ -127,6 +127,45 @@ def case_masks(df):
     return failed, not_converged, flagged
 
 
+#: What the status words of a flagged value mean, in every command's line.
+FLAGGED_WORDS = (
+    "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber diameter, "
+    "blocked = no conducting path"
+)
+
+
+def flagged_text(df) -> str:
+    """Why the ``flagged`` cases of a results table (:func:`case_masks`) are not ok, the one
+    sentence ``study run``'s and ``rev``'s lines print: the ``ok`` cases with a value not ok by
+    its own status, naming the status columns that say so (:func:`psdesign.analysis.columns.
+    flagged_values`, the columns the report's red box names), then the finished cases with
+    another status word; "" when there are none. Until session 46 ``rev`` said "a K flagged"
+    also for a flagged porosity.
+
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "blocked"], "porosity": [0.8, 0.1, 0.8],
+    ...                    "porosity_error": [1e-3, 0.03, 1e-3]})
+    >>> flagged_text(df).split("; ")  # doctest: +ELLIPSIS, +NORMALIZE_WHITESPACE
+    ['1 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy...)',
+     '1 finished case(s) have another status (blocked)']
+    """
+    from psdesign.analysis.columns import case_status, flagged_values
+
+    parts = []
+    if values := flagged_values(df):
+        n = int(sum(values.values()).astype(bool).sum())
+        cols = ", ".join(values)
+        parts.append(
+            f"{n} ok case(s) have a value whose own status is not ok ({cols}: {FLAGGED_WORDS})"
+        )
+    status = case_status(df)
+    other = status[case_masks(df)[2] & (status != "ok")]
+    if len(other):
+        words = ", ".join(sorted(set(other)))
+        parts.append(f"{len(other)} finished case(s) have another status ({words})")
+    return "; ".join(parts)
+
+
 def case_counts(df) -> CaseCounts:
     """The :class:`CaseCounts` of the study cases (rows of ``results.csv``).
 

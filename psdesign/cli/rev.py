@@ -15,6 +15,7 @@ from psdesign.cli.exit_status import (
     case_masks,
     cases_status,
     fail,
+    flagged_text,
 )
 from psdesign.cli.lines import print_json
 
@@ -82,9 +83,10 @@ def _rev_status(out: str, rev_size_m: float | None) -> int:
 
 def _cases_status(out: str) -> int:
     """The exit status of the table in :mod:`psdesign.cli.exit_status`, as ``study run`` gives
-    it: 1 when a case failed or timed out, else 3 when one did not converge or an ``ok`` case's
-    K is flagged (``k_<d>_status``; it exited 0 with a warning until session 45), else 0; one
-    stderr line per kind naming ``results.csv``."""
+    it: 1 when a case failed or timed out, else 3 when one did not converge or an ``ok`` case
+    has a value flagged (``k_<d>_status``, ``porosity_status``; it exited 0 with a warning until
+    session 45), else 0; one stderr line per kind naming ``results.csv``, the flagged one
+    ``study run``'s (:func:`~psdesign.cli.exit_status.flagged_text`)."""
     from psdesign.analysis.columns import first_error
     from psdesign.study.readback import read_results
 
@@ -105,11 +107,10 @@ def _cases_status(out: str) -> int:
             "the sizes' rows",
             file=sys.stderr,
         )
-    if counts.flagged:
+    if counts.flagged:  # study run's sentence: a flagged porosity was "a K flagged" (s46)
         print(
-            f"psdesign: {counts.flagged} case(s) have a K flagged untrustworthy (k_<d>_status "
-            f"in {out}/results.csv: error bar above 20 % or fewer than 8 cells per fiber "
-            "diameter); the sizes' intervals include them",
+            f"psdesign: {flagged_text(df)}; their values are kept in {out}/results.csv and in "
+            "the sizes' intervals",
             file=sys.stderr,
         )
     return cases_status(counts)

@@ -27,6 +27,7 @@ from psdesign.cli.exit_status import (
     case_counts,
     cases_status,
     fail,
+    flagged_text,
 )
 from psdesign.cli.progress import (
     add_allow_not_converged_argument,
@@ -270,11 +271,8 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     counts = case_counts(df)
     if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
         print(
-            f"psdesign: {counts.flagged} ok case(s) have a K, porosity or transport value whose "
-            "own status is not ok (k_<d>_status, porosity_status, <name>_<d>_status, "
-            "pore_sizes_status, specific_surface_status: untrustworthy = error bar above 20 % "
-            "or fewer than 8 cells per fiber diameter, blocked = no conducting path); their "
-            "values are kept in results.csv and left out of fits and summaries",
+            f"psdesign: {flagged_text(df)}; their values are kept in results.csv and left out "
+            "of fits and summaries",
             file=sys.stderr,
         )
     if counts.failed:

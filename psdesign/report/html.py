@@ -25,6 +25,8 @@ from psdesign.analysis.columns import (
     error_bar,
     flagged_values,
     is_design_parameter,
+    k_not_ok,
+    own_status,
     trusted,
     value_ok,
     value_status,
@@ -343,8 +345,11 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     classes = []
     n_flag = 0
     cases = case_status(df)
+    # a K not ok by its own status (k_not_ok: what the red box counts; an in-memory "" own
+    # status is unset, not a flag, since review s46)
+    k_bad = pd.concat([k_not_ok(df, f"k_{d}_m2") for d in "xyz"], axis=1).any(axis=1)
     for i, row in df.iterrows():
-        flag = cases[i] != "ok"
+        flag = cases[i] != "ok" or k_bad[i]
         for c in stat_cols:
             v = row[c]
             if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
@@ -353,10 +358,6 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
                 fv = pd.to_numeric(pd.Series([v]), errors="coerce").iloc[0]
                 if pd.notna(fv) and abs(fv) > FLUX_IMBALANCE_FLAG:
                     flag = True
-        for d in "xyz":
-            st = row.get(f"k_{d}_status")
-            if isinstance(st, str) and st != "ok":
-                flag = True
         classes.append("flag" if flag else "")
         n_flag += flag
     table = _table(df[cols], classes)
@@ -439,20 +440,23 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
     cases = case_status(df)  # a missing one is "unknown", not ok (review s45)
+    # each K's own status as the red box reads it (own_status: "" unset, an old table's K
+    # without a status by its bar; review s46)
+    own = {d: own_status(df, f"k_{d}_m2") for d in dirs}
     for i, row in df.iterrows():
         out = {"case_id": row.get("case_id", ""), "case status": cases[i]}
         flag = cases[i] != "ok"
         for d in dirs:
             k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
             e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
-            st = row.get(f"k_{d}_status")
-            status = (cases[i] if cases[i] != "ok" else "") if pd.isna(st) else str(st)
+            st = own[d][i]
+            status = st if st != "ok" or cases[i] == "ok" else cases[i]
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
                 status = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
             bc = row.get(f"bc_{d}", "")
             bc = "" if one_bc[d] or pd.isna(bc) else str(bc)
             out[heads[d]] = _k_cell(k, e, bc, status)
-            flag |= isinstance(st, str) and st != "ok"
+            flag |= st != "ok"
         rows.append(out)
         classes.append("flag" if flag else "")
     note = (

@@ -86,6 +86,26 @@ def _coarse_porosity(df):
     return df.drop(columns="porosity_status", errors="ignore")
 
 
+def _old_pore_table(df):
+    """A table written before abe85ab: pore sizes with their absolute bar and S_v with its
+    relative one, no pore_sizes_status / specific_surface_status; case 0's d10 bar 50 %, its
+    S_v bar 35 % (review s46: the values table said untrustworthy, the exit 0, no red box)."""
+    n = len(df)
+    df["pore_d10_m"], df["pore_d50_m"], df["pore_d90_m"] = 2e-6, 8e-6, 12e-6
+    df["pore_diameter_error_m"] = [1e-6] + [1e-7] * (n - 1)
+    df["specific_surface_m-1"] = 2e5
+    df["specific_surface_rel_error"] = [0.35] + [0.02] * (n - 1)
+    return df.drop(columns=["pore_sizes_status", "specific_surface_status"], errors="ignore")
+
+
+def _old_pore_table_ok(df):
+    """``_old_pore_table`` with every bar below 20 %: no flag (the 20 % rule, not any bar)."""
+    df = _old_pore_table(df)
+    df["pore_diameter_error_m"] = 1e-7
+    df["specific_surface_rel_error"] = 0.19
+    return df
+
+
 @pytest.mark.parametrize(
     ("edit", "code"),
     [
@@ -94,6 +114,8 @@ def _coarse_porosity(df):
         (_status_without_value, 3),  # session 45: exit 3, no red box
         (_missing_case_status, 3),
         (_coarse_porosity, 3),  # session 45: exit 0, no red box
+        (_old_pore_table, 3),  # review s46: exit 0, no red box, [untrustworthy] cells
+        (_old_pore_table_ok, 0),
     ],
     ids=[
         "all_ok",
@@ -101,6 +123,8 @@ def _coarse_porosity(df):
         "status_without_value",
         "missing_case_status",
         "coarse_porosity",
+        "old_pore_table",
+        "old_pore_table_ok",
     ],
 )
 def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, capsys, edit, code):
@@ -119,11 +143,14 @@ def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, c
         edit(pd.read_csv(results)).to_csv(results, index=False)
         capsys.readouterr()
         got = main(["study", "report", str(report_folder)])
-        box = 'id="psd-status-alert"' in (report_folder / "report.html").read_text()
+        html = (report_folder / "report.html").read_text()
+        box = 'id="psd-status-alert"' in html
     finally:
         results.write_bytes(original)
     assert got == (3 if box else 0), (got, box, capsys.readouterr().err)
     assert got == code
+    # the values table's [untrustworthy] cells (error_bar) and the box read one rule (s46)
+    assert ("[untrustworthy]" in html) <= box
 
 
 @pytest.mark.parametrize(("y", "code"), [("13.3e-6", 0), ("17.6e-6", 3)])

@@ -148,7 +148,9 @@ def test_rev_says_when_its_k_are_untrustworthy(tmp_path, capsys, monkeypatch) ->
     assert main([*args, "--directions", "z"]) == 3  # no REV at 10 %
     got = capsys.readouterr()
     err = [ln for ln in got.err.splitlines() if "untrustworthy" in ln]
-    assert len(err) == 1 and err[0].startswith("psdesign: 1 case(s) have a K flagged")
+    assert len(err) == 1 and err[0].startswith(
+        "psdesign: 1 ok case(s) have a value whose own status is not ok (k_z_status: "
+    ), err
     # the size's line, rev.csv and rev.json name it too (one of the 3 seeds' K_z)
     line = [ln for ln in got.out.splitlines() if " m (n=" in ln][0]
     assert "untrustworthy: k_z 1 of 3" in line, line
@@ -348,7 +350,8 @@ def test_rev_with_a_flagged_k_exits_3_even_with_a_representative_size(
     got = capsys.readouterr()
     assert got.out.splitlines()[-1].startswith("REV: 4e-05 m"), got.out
     err = got.err.strip().splitlines()
-    assert err == [ln for ln in err if ln.startswith("psdesign: 1 case(s) have a K flagged")], err
+    flagged = "psdesign: 1 ok case(s) have a value whose own status is not ok (k_z_status: "
+    assert err == [ln for ln in err if ln.startswith(flagged)], err
     assert len(err) == 1
 
 
@@ -438,3 +441,44 @@ def test_the_help_says_which_exit_status_a_rev_without_a_representative_size_giv
     text = " ".join(capsys.readouterr().out.split())
     assert "3 finished with complete outputs" in text
     assert "no rev size was within --tol" in text.split("3 finished")[1].split("; 130")[0]
+
+
+def coarse_porosity_rev_case(spec, outputs, solver, workdir):
+    """``wide_rev_case`` (every K ok, REV at 40 um) with seed 2's porosity at the large size
+    rated untrustworthy by its own bar (0.8 +- 0.2: 25 %, above the 20 % of every rated value)."""
+    from psdesign.analysis.columns import porosity_status
+
+    out = wide_rev_case(spec, outputs, solver, workdir)
+    big = float(spec["rve"]["size"][0]) > 35e-6 and int(spec["generator"]["seed"]) == 2
+    out["porosity_error"] = 0.2 if big else 1e-3
+    out["porosity_status"] = porosity_status(out["porosity"], out["porosity_error"])
+    return out
+
+
+def test_rev_names_a_flagged_porosity_in_its_line_and_its_size_status(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Review s46: since the one trust rule (76ca78f) the exit counts a flagged
+    ``porosity_status`` too, so a rev whose every K is ok but one case's porosity bar is 25 %
+    exited 3 printing "1 case(s) have a K flagged untrustworthy (k_<d>_status ...)" (no K
+    is), while the size's status in the printed line, rev.csv and rev.json said ok. Now the
+    line is ``study run``'s sentence naming ``porosity_status``, and the size's status names
+    the porosity, as the exit counts it."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, coarse_porosity_rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--seeds", "2", "--quiet", "--directions", "z", "-o", str(out)]
+    assert main([*args, "--sizes", "32e-6", "40e-6"]) == 3
+    got = capsys.readouterr()
+    assert got.out.splitlines()[-1].startswith("REV: 4e-05 m"), got.out
+    err = got.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "psdesign: 1 ok case(s) have a value whose own status is not ok (porosity_status: "
+    ), err
+    assert "a K" not in err[0] and "k_<d>_status" not in err[0]
+    doc = json.loads((out / "rev.json").read_text())
+    assert [r["status"] for r in doc["table"]] == ["untrustworthy: k_z CI above 20 % (n=2)",
+                                                   "untrustworthy: porosity 1 of 2"]  # fmt: skip
+    rev_csv = (out / "rev.csv").read_text()
+    assert "untrustworthy: porosity 1 of 2" in rev_csv
+    line = [ln for ln in got.out.splitlines() if ln.startswith("4e-05 m (n=")][0]
+    assert line.endswith("untrustworthy: porosity 1 of 2"), line

@@ -97,3 +97,119 @@ def test_the_convergence_table_flags_the_cases_the_red_box_counts():
     assert _convergence(values_only)[2] == 0 and _status_banner(values_only) == ""
     missing = values_only.assign(status=["ok", None])
     assert _convergence(missing)[2] == 1 and "1 unknown" in _status_banner(missing)
+
+
+# ------------------------------------- one rule for a value with an error bar and no status
+#: A study table written before abe85ab (session 46): pore sizes with their absolute bar and S_v
+#: with its relative one, but no pore_sizes_status / specific_surface_status. Case 1's d10 has
+#: a 50 % bar (1 um on 2 um), its S_v a 35 % one; case 0's bars are 5 % and 2 %.
+OLD_PORES = pd.DataFrame(
+    {
+        "case_id": ["c0", "c1"],
+        "status": ["ok", "ok"],
+        "pore_d10_m": [20e-6, 2e-6],
+        "pore_d50_m": [40e-6, 8e-6],
+        "pore_d90_m": [60e-6, 12e-6],
+        "pore_diameter_error_m": [1e-6, 1e-6],
+        "specific_surface_m-1": [1e5, 2e5],
+        "specific_surface_rel_error": [0.02, 0.35],
+    }
+)
+
+
+def _rated_tables():
+    """``(column, table, rule's status)``: each rated value (STATUS_COLUMNS) of an ok case at
+    0.5 with a bar of 10 % or 35 % or none, and an own status that is missing, empty, ok or
+    untrustworthy; the status the rule gives it (a status says what it says, else a bar above
+    20 % is untrustworthy, else ok: unrated)."""
+    from psdesign.analysis.columns import ABS_ERROR_COLUMNS, REL_ERROR_COLUMNS, STATUS_COLUMNS
+
+    for c, st in STATUS_COLUMNS.items():
+        for bar, own in itertools.product((None, 0.1, 0.35), (None, "", "ok", "untrustworthy")):
+            row = {"status": "ok", c: 0.5}
+            if bar is not None and c in REL_ERROR_COLUMNS:
+                row[REL_ERROR_COLUMNS[c]] = bar
+            elif bar is not None:
+                row[ABS_ERROR_COLUMNS[c]] = bar * 0.5  # an absolute bar
+            if own is not None:
+                row[st] = own
+            truth = own or ("ok" if bar is None or bar <= 0.2 else "untrustworthy")
+            yield c, pd.DataFrame([row], dtype=object), truth
+
+
+def test_a_value_with_a_bar_and_no_status_is_rated_by_one_rule(capsys):
+    """Review s46: ``error_bar`` (the report's values table, ``study optimize``'s target
+    status) rated every value with a bar and no status by the 20 % rule, ``own_status`` (the
+    exit, red box, means, frames) only the porosity: an old table's 50 % pore bar was
+    ``[untrustworthy]`` in the values table and in the means, with no red box and exit 0. The
+    truth is the rule (flow.error.UNTRUSTWORTHY_REL_ERROR, docs/permeability.md): a status
+    says what it says, else a bar above 20 % is untrustworthy, else (no bar) unrated = ok;
+    ``error_bar``, ``own_status``, ``trusted``, the red box and the exit give it for every
+    rated value."""
+    from psdesign.analysis.columns import error_bar, own_status
+
+    n = 0
+    for c, df, truth in _rated_tables():
+        assert own_status(df, c).tolist() == [truth], (c, df.iloc[0].to_dict())
+        shown = error_bar(df.iloc[0].to_dict(), c)[1]  # the values table's, optimize's
+        assert shown == truth or (shown, truth) == ("unrated", "ok"), (c, df.iloc[0].to_dict())
+        assert trusted(df)[c].notna().tolist() == [truth == "ok"], c
+        assert (report_exit_status(df) == 3) == (truth != "ok"), (c, df.iloc[0].to_dict())
+        assert bool(_status_banner(df)) == (truth != "ok"), (c, df.iloc[0].to_dict())
+        n += 1
+    assert n == 17 * 12  # every rated value, bar and own status
+    capsys.readouterr()
+
+
+def test_an_old_table_without_pore_and_surface_statuses_is_flagged_as_its_values_table_shows(
+    capsys,
+):
+    """The reviewer's case: the values table shows case 1's d10 (50 %) and S_v (35 %)
+    ``[untrustworthy]``; now the red box counts them, ``study report`` exits 3, ``trusted``
+    leaves them out of the means and ``study optimize``'s target status says the same."""
+    from psdesign.analysis.targets import Target, target_report
+    from psdesign.report.html import _values_table
+
+    html = _values_table(OLD_PORES)
+    assert html.count("[untrustworthy]") == 2, html  # d10 and S_v of c1 (d50: 12.5 %)
+    assert report_exit_status(OLD_PORES) == 3
+    box = _status_banner(OLD_PORES)
+    assert "2 value(s) of ok cases not ok (pore_sizes_status, specific_surface_status)" in box
+    t = trusted(OLD_PORES)  # out of the means
+    assert t["pore_d10_m"].isna().tolist() == [False, True]
+    assert t["specific_surface_m-1"].isna().tolist() == [False, True]
+    assert t["pore_d50_m"].tolist() == [40e-6, 8e-6]  # 12.5 %: kept
+    best = OLD_PORES.iloc[1].to_dict()
+    assert target_report(Target.parse("specific_surface_m-1>=1e5"), best)["status"] == (
+        "untrustworthy"
+    )
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("own", "rel", "n_bad"),
+    [
+        (["ok", ""], [0.02, 0.03], 0),  # "": an in-memory unset own status
+        (["ok", "untrustworthy"], [0.02, 0.03], 1),
+        (None, [0.02, 0.30], 1),  # a table without k_z_status: rated by its 30 % bar
+    ],
+    ids=["empty_own_status", "untrustworthy", "old_table_30pct_bar"],
+)
+def test_the_k_and_convergence_tables_flag_the_k_the_red_box_counts(own, rel, n_bad, capsys):
+    """Review s46: the Solver convergence and Permeability tables flagged a K by
+    ``isinstance(st, str) and st != "ok"``: a K whose own status was an in-memory "" (unset,
+    ``ok`` for the red box and the exit) was highlighted while the red box was empty. Now
+    both read ``own_status`` (``k_not_ok``): the rows highlighted are the rows the red box
+    counts, the exit 3 exactly when there are some."""
+    from psdesign.report.html import _convergence, _k_table
+
+    df = pd.DataFrame(
+        {"case_id": ["c0", "c1"], "status": ["ok", "ok"], "k_z_m2": [1e-11, 2e-11],
+         "k_z_rel_error": rel, "iterations_z": [40, 41]}
+    )  # fmt: skip
+    if own is not None:
+        df["k_z_status"] = pd.Series(own, dtype=object)
+    assert _convergence(df)[2] == n_bad
+    assert _k_table(df).count('class="flag"') == n_bad
+    assert bool(_status_banner(df)) == (n_bad > 0) == (report_exit_status(df) == 3)
+    capsys.readouterr()
