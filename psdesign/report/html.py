@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import (
+    ABS_ERROR_COLUMNS,
     STATUS_COLUMNS,
     case_status,
     error_bar,
@@ -522,12 +523,31 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 RATED_VALUES = tuple(c for c in STATUS_COLUMNS if not c.startswith("k_"))
 
 
+#: Values printed with their absolute error (a fraction of the box: a relative bar says
+#: nothing for a zero Omega and 2000 % for a small one), as ``porosity_text`` prints them.
+ABSOLUTE_BARS = ("porosity", "intersection_volume_fraction")
+
+
+def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
+    """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
+    ``("0 ± 0", True)`` for Omega (an exact zero printed as such); the value alone and False
+    without a bar, ``""`` without a value."""
+    v, e = (pd.to_numeric(pd.Series([x]), errors="coerce").iloc[0] for x in (value, error))
+    if pd.isna(v):
+        return "", False
+    txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:.3g}"
+    if pd.isna(e):
+        return txt, False
+    return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
+
+
 def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
-    (:func:`psdesign.analysis.columns.error_bar`): the porosity ``+-`` its absolute bar, the
-    others ``+-`` a relative one and ``[status]`` where it is not ok, under headings with
-    their units (:func:`psdesign.report.units.output_label`); "" when the study has none of
-    them with a bar."""
+    (:func:`psdesign.analysis.columns.error_bar`): the porosity and Omega ``+-`` their
+    absolute bars (:func:`_absolute_bar_text`), the others ``+-`` a relative one, and
+    ``[status]`` where it is not ok, under headings with their units
+    (:func:`psdesign.report.units.output_label`); "" when the study has none of them with a
+    bar."""
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
@@ -540,11 +560,12 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
             rel, st = error_bar(row, c)
             any_bar |= rel is not None
             v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
-            txt = "" if pd.isna(v) else f"{v:.4f}" if c == "porosity" else f"{v:.4g}"
-            if rel is not None and c == "porosity":  # porosity_text's digits
-                txt += f" ± {rel * abs(v):.1e}"
-            elif rel is not None:
-                txt += f" ± {100 * rel:.1f} %"
+            if c in ABSOLUTE_BARS:
+                txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
+                any_bar |= has_bar
+            else:
+                txt = "" if pd.isna(v) else f"{v:.4g}"
+                txt += "" if rel is None else f" ± {100 * rel:.1f} %"
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"
                 flag = True
@@ -560,8 +581,9 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         "quadratures, docs/geometry.md)"
         + (
             "; the overlap Omega (intersection_volume_fraction, a fraction of the box) ± its "
-            "relative bar, untrustworthy where overlaps thinner than a voxel or along the grid "
-            "could be missed (docs/geometry.md)"
+            "absolute error (the same count on the grid and on every second voxel), "
+            "untrustworthy where overlaps thinner than a voxel or along the grid hold more of "
+            "the box than that error (docs/geometry.md)"
             if omega
             else ""
         )

@@ -6,11 +6,14 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import load_benchmark
 from folders import assert_identical_folders
-from lens_volume import crossing_lens
 
 from psdesign.cli import main
 from psdesign.geometry.fibers import rod_cross_section_area
+
+#: the exact lens volume (Cavalieri), the benchmark's own truth
+crossing_lens = load_benchmark("porosity_error_coverage").crossing_lens
 
 SPEC = """
 [rve]
@@ -296,7 +299,8 @@ def test_the_printed_omega_carries_its_status_and_the_exit_follows_it(
     voxels, and a 0.4 um lens at 1 um voxels was 0 +- 0). Now ``ok`` exactly where the bar
     is calibrated (psdesign.packing.overlap_status; benchmarks/porosity_error_coverage.py
     lens), and the exit follows both printed statuses (cli.exit_status). Truth: the exact lens
-    volume (tests/lens_volume.py). Fails on main (no status; exit 0 everywhere)."""
+    volume (benchmarks/porosity_error_coverage.py::crossing_lens). Fails on main (no status;
+    exit 0 everywhere)."""
     spec = write(tmp_path, LENS_SPEC.format(voxel=voxel, y=10e-6 + s))
     got = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview"])
     out = json.loads(capsys.readouterr().out)

@@ -155,7 +155,7 @@ def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
     exact 2.45e-4 of the box). The status joins the table's rated values, so the second case
     is flagged (exit 3) and its Omega left out of the trusted table. Fails on main (no
     status column)."""
-    from lens_volume import crossing_lens
+    from conftest import load_benchmark
 
     from psdesign.analysis.columns import trusted
     from psdesign.cli.exit_status import case_counts
@@ -169,6 +169,7 @@ def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
         ],
     }
     row = run_case(spec, ["porosity"], "voxel", tmp_path) | {"status": "ok"}
+    crossing_lens = load_benchmark("porosity_error_coverage").crossing_lens
     exact = crossing_lens(4e-6, 4e-6, y - 10e-6) / (20e-6) ** 3
     miss = abs(row["intersection_volume_fraction"] - exact)
     assert (miss <= row["intersection_volume_fraction_error"]) == (status == "ok")

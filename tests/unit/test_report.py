@@ -1572,3 +1572,28 @@ def test_a_porosity_with_a_27_percent_bar_is_marked_in_the_frames_not_in_their_m
     )
     assert marks == ["untrustworthy"]
     assert "1 value(s) of ok cases not ok (porosity_status)" in _status_banner(df)
+
+
+def test_the_values_table_prints_omega_with_its_absolute_bar():
+    """review s46: Omega (a fraction of the box) was printed with a relative bar, ``1e-05 ±
+    2000.0 %``, and an exact zero count without any (its relative bar 0 / 0). Like the
+    porosity, Omega is printed ± its absolute error: ``0 ± 0`` and ``1e-05 ± 2.0e-04``, the
+    numbers of the row (truth: the row itself)."""
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok", "ok"],
+            "porosity": [0.8, 0.9],
+            "porosity_error": [4e-4, 4e-4],
+            "intersection_volume_fraction": [0.0, 1e-5],
+            "intersection_volume_fraction_error": [0.0, 2e-4],
+            "intersection_volume_fraction_status": ["ok", "ok"],
+        }
+    )
+    table = _values_table(df)
+    cells = re.findall(r"<td>([^<]*±[^<]*)</td>", table)
+    assert cells == ["0.8000 ± 4.0e-04", "0 ± 0", "0.9000 ± 4.0e-04", "1e-05 ± 2.0e-04"], cells
+    assert "%" not in table.split("</p>", 1)[1]
+    assert "± its absolute error" in table
