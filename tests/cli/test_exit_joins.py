@@ -88,11 +88,12 @@ def _coarse_porosity(df):
 
 def _old_pore_table(df):
     """A table written before abe85ab: pore sizes with their absolute bar and S_v with its
-    relative one, no pore_sizes_status / specific_surface_status; case 0's d10 bar 50 %, its
-    S_v bar 35 % (review s46: the values table said untrustworthy, the exit 0, no red box)."""
+    relative one, no pore_sizes_status / specific_surface_status; case 0's pore bar 25 % of
+    d50 (the product's rating of all three), its S_v bar 35 % (review s46: the values table
+    said untrustworthy, the exit 0, no red box)."""
     n = len(df)
     df["pore_d10_m"], df["pore_d50_m"], df["pore_d90_m"] = 2e-6, 8e-6, 12e-6
-    df["pore_diameter_error_m"] = [1e-6] + [1e-7] * (n - 1)
+    df["pore_diameter_error_m"] = [2e-6] + [1e-7] * (n - 1)
     df["specific_surface_m-1"] = 2e5
     df["specific_surface_rel_error"] = [0.35] + [0.02] * (n - 1)
     return df.drop(columns=["pore_sizes_status", "specific_surface_status"], errors="ignore")
@@ -106,6 +107,16 @@ def _old_pore_table_ok(df):
     return df
 
 
+def _old_pore_table_d10_bar_30pct(df):
+    """``_old_pore_table_ok`` with case 0's pore bar 3 um on d 10/20/40 um: 15 % of d50, ``ok``
+    as the product rates the three together (pores.py ``rel_error``; review s46: d10's own
+    30 % flagged it, exit 3)."""
+    df = _old_pore_table_ok(df)
+    df["pore_d10_m"], df["pore_d50_m"], df["pore_d90_m"] = 10e-6, 20e-6, 40e-6
+    df["pore_diameter_error_m"] = [3e-6] + [1e-7] * (len(df) - 1)
+    return df
+
+
 @pytest.mark.parametrize(
     ("edit", "code"),
     [
@@ -116,6 +127,7 @@ def _old_pore_table_ok(df):
         (_coarse_porosity, 3),  # session 45: exit 0, no red box
         (_old_pore_table, 3),  # review s46: exit 0, no red box, [untrustworthy] cells
         (_old_pore_table_ok, 0),
+        (_old_pore_table_d10_bar_30pct, 0),  # review s46: exit 3, d10 rated by error / d10
     ],
     ids=[
         "all_ok",
@@ -125,6 +137,7 @@ def _old_pore_table_ok(df):
         "coarse_porosity",
         "old_pore_table",
         "old_pore_table_ok",
+        "old_pore_table_d10_bar_30pct",
     ],
 )
 def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, capsys, edit, code):
