@@ -43,6 +43,40 @@ def test_the_exit_status_is_the_rule_applied_to_the_printed_statuses(tmp_path, c
         assert got == code, printed
 
 
+def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
+    """Review s46: ``flagged_text`` (``study run``'s and ``rev``'s line) gave every status
+    column K's meaning, "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber
+    diameter, blocked = no conducting path". Each rating says what its words mean: the
+    porosity by its bar alone (``columns.porosity_status``); Omega by the overlaps its count
+    may miss (``packing.overlap_status``); K by ``flow.error.status_of`` (bar, resolution; no
+    ``blocked``); the transport values by ``transport.effective.rating`` (also ``blocked``);
+    the pore sizes also by d90 against the RVE (``study_outputs.pore_sizes_status``)."""
+    import pandas as pd
+
+    from psdesign.analysis.columns import STATUS_COLUMNS
+    from psdesign.cli.exit_status import flagged_text
+
+    bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
+    for st in dict.fromkeys(STATUS_COLUMNS.values()):
+        line = flagged_text(pd.DataFrame({"status": ["ok"], st: ["untrustworthy"]}))
+        words = line.split(f"({st}: ")[1]
+        assert words.startswith("untrustworthy = "), line
+        overlap = "overlaps thinner than a voxel or along the grid" in words
+        assert overlap == (st == "intersection_volume_fraction_status"), line
+        assert (bar in words) == (not overlap), line
+        assert (cells in words) == (not overlap and st != "porosity_status"), line
+        assert ("d90" in words) == (st == "pore_sizes_status"), line
+        blocked = st.startswith(("diffusivity_", "conductivity_"))
+        assert ("blocked = no conducting path" in words) == blocked, line
+    two = pd.DataFrame({"status": ["ok", "ok"], "porosity_status": ["untrustworthy", "ok"],
+                        "k_z_status": ["ok", "untrustworthy"]})  # fmt: skip
+    assert flagged_text(two) == (
+        f"2 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy "
+        f"= {bar}; k_z_status: untrustworthy = {bar} or {cells})"
+    )
+    capsys.readouterr()
+
+
 # ------------------------------------------------------- study report: its exit and its red box
 def _report_folder(tmp_path_factory):
     """The factorial fake study (12 ok cases, porosity 0.7-0.9, K_x and K_z with 2 % bars):
