@@ -50,6 +50,11 @@ ABS_ERROR_COLUMNS = {
 
 #: Every error column: an estimate of a value's error, not an output of its own.
 ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
+#: The value whose bar rates a value that has no status of its own, where that is another's:
+#: the product rates d10, d50 and d90 together by ``pore_diameter_error_m / pore_d50_m``
+#: (:mod:`psdesign.transport.pores` ``rel_error``, ``study_outputs.pore_sizes_status``), so a
+#: table without ``pore_sizes_status`` gives its row's one status to all three (review s46).
+RATED_BY = {f"pore_d{q}_m": "pore_d50_m" for q in (10, 90)}
 
 
 def status_column(column: str) -> str:
@@ -90,13 +95,23 @@ def _number(v) -> float | None:
     return v if v == v else None
 
 
+def _rel_error(row: dict, column: str) -> float | None:
+    """The relative error of ``row[column]``: its ``*_rel_error``, else its absolute error over
+    the value (:data:`ABS_ERROR_COLUMNS`), else None."""
+    if column in REL_ERROR_COLUMNS:
+        return _number(row.get(REL_ERROR_COLUMNS[column]))
+    y, e = _number(row.get(column)), _number(row.get(ABS_ERROR_COLUMNS.get(column, "")))
+    return e / abs(y) if e is not None and y else None
+
+
 def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     """``(relative error, status)`` of ``row[column]``: the value's own ``*_rel_error`` and
     status (:data:`REL_ERROR_COLUMNS`, :func:`status_column`; the porosity's and a pore
     diameter's absolute error over the value, :data:`ABS_ERROR_COLUMNS`). A rated value with
-    an error but no status (a row written before its status column) is rated by its bar
-    (:func:`bar_status`, as :func:`own_status` rates it); ``"unrated"`` where the table rates
-    nothing, ``"no trusted value"`` where the value is missing.
+    an error but no status (a row written before its status column) is rated by the bar the
+    product rates it by (:func:`bar_status`, as :func:`own_status` rates it: the pore sizes by
+    theirs over d50, :data:`RATED_BY`); ``"unrated"`` where the table rates nothing, ``"no
+    trusted value"`` where the value is missing.
 
     >>> error_bar({"k_z_m2": 1e-11, "k_z_rel_error": 0.118, "k_z_status": "ok"}, "k_z_m2")
     (0.118, 'ok')
@@ -105,22 +120,19 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> old = {"intersection_volume_fraction": 0.002, "intersection_volume_fraction_error": 0.0027}
     >>> error_bar(old, "intersection_volume_fraction")  # no status (before session 46): not its bar
     (1.35, 'unrated')
+    >>> pores = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
+    >>> error_bar(pores, "pore_d10_m")  # its own bar 30 %, rated as the product does: 15 % of d50
+    (0.3, 'ok')
     """
-    y = _number(row.get(column))
-    if y is None:
+    if _number(row.get(column)) is None:
         return None, "no trusted value"
-    if column in REL_ERROR_COLUMNS:
-        rel = _number(row.get(REL_ERROR_COLUMNS[column]))
-    elif (e := _number(row.get(ABS_ERROR_COLUMNS.get(column, "")))) is not None:
-        rel = e / abs(y) if y else None
-    else:
-        rel = None
+    rel = _rel_error(row, column)
     status = row.get(status_column(column))
     if isinstance(status, str) and status:
         return rel, status
-    if column in OMEGA_COLUMNS:  # rated by its lenses only: a table before session 46, unrated
-        return rel, "unrated"
-    return rel, bar_status(rel) if column in STATUS_COLUMNS else "unrated"
+    if column in OMEGA_COLUMNS or column not in STATUS_COLUMNS:  # Omega: rated by its lenses
+        return rel, "unrated"  # only (a table before session 46), never by its bar
+    return rel, bar_status(_rel_error(row, RATED_BY.get(column, column)))
 
 
 def porosity_status(porosity: float | None, error: float | None) -> str:
@@ -162,13 +174,14 @@ def trusted(df: pd.DataFrame) -> pd.DataFrame:
     ([1.0, nan], [0.02, nan])
     """
     out = ok_cases(df).copy()
-    for c in STATUS_COLUMNS:
-        if c in out:
-            bad = k_not_ok(out, c)
-            out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
-            e = REL_ERROR_COLUMNS.get(c, ABS_ERROR_COLUMNS.get(c))
-            if e in out:  # its bar goes with it (the report's mean bar, summary.csv)
-                out[e] = pd.to_numeric(out[e], errors="coerce").mask(bad)
+    # every value's status before any bar is blanked: d10-d90 share one bar, the tortuosity the
+    # diffusivity's, and a blanked bar would rate the next value unrated (kept)
+    bads = {c: k_not_ok(out, c) for c in STATUS_COLUMNS if c in out}
+    for c, bad in bads.items():
+        out[c] = pd.to_numeric(out[c], errors="coerce").mask(bad)
+        e = REL_ERROR_COLUMNS.get(c, ABS_ERROR_COLUMNS.get(c))
+        if e in out:  # its bar goes with it (the report's mean bar, summary.csv)
+            out[e] = pd.to_numeric(out[e], errors="coerce").mask(bad)
     return out
 
 
@@ -224,7 +237,8 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The own status of each row's value in ``column``, whatever its case's: its status column
     (:func:`status_column`), else the status :func:`error_bar` gives it (a rated value with a
     bar but no status, a table written before its status column: by its bar,
-    :func:`bar_status`), else ``ok`` (an unrated value, a missing one).
+    :func:`bar_status`; d10-d90 all by their row's bar over d50, :data:`RATED_BY`), else ``ok``
+    (an unrated value, a missing one).
 
     >>> df = pd.DataFrame({"porosity": [0.8, 0.088], "porosity_error": [4e-4, 0.024],
     ...                    "k_z_status": ["untrustworthy", ""]})
@@ -235,10 +249,11 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
     if st is None:
         st = pd.Series(None, index=df.index, dtype=object)
     st = st.astype(object).where(st.notna() & (st.astype(str) != ""), None)
-    if column in df and _error_column(column) in df:  # error_bar's rule, one row at a time
+    by = RATED_BY.get(column, column)  # d10, d90: their row's one status, d50's
+    if by in df and _error_column(by) in df:  # error_bar's rule, one row at a time
         unset = st.isna().to_numpy()
-        rows = df.loc[unset, [column, _error_column(column)]].to_dict("records")
-        rated = (error_bar(r, column)[1] for r in rows)
+        rows = df.loc[unset, [by, _error_column(by)]].to_dict("records")
+        rated = (error_bar(r, by)[1] for r in rows)
         st[unset] = [r if r in ("ok", "untrustworthy") else None for r in rated]
     return st.where(st.notna(), "ok").astype(str)
 
@@ -296,9 +311,12 @@ def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
     ok = case_status(df) == "ok"
     out: dict[str, pd.Series] = {}
     for c, st in STATUS_COLUMNS.items():
+        if c in RATED_BY:  # d10, d90: d50's status (own_status), read once
+            continue
         rated = st in df or (c in df and _error_column(c) in df)  # by its bar: own_status
         if rated and (m := ok & k_not_ok(df, c)).any():
-            out[st] = out[st] | m if st in out else m  # d10-d90 rated by their bars: any
+            # the tortuosity shares the diffusivity's status and bar: either flags the row
+            out[st] = out[st] | m if st in out else m
     return out
 
 

@@ -127,11 +127,36 @@ def case_masks(df):
     return failed, not_converged, flagged
 
 
-#: What the status words of a flagged value mean, in every command's line.
-FLAGGED_WORDS = (
-    "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber diameter, "
-    "blocked = no conducting path"
-)
+#: What ``untrustworthy`` means for a value rated by its bar and its resolution
+#: (:func:`psdesign.flow.error.status_of`: K, S_v, the transport values).
+_BAR_OR_CELLS = "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber diameter"
+
+
+def flagged_words(status_column: str) -> str:
+    """What the status words in ``status_column`` mean, as the rating that writes it means
+    them: the line of every command that names a flagged value (:func:`flagged_text`); ""
+    for a column no rating here writes (named without words). Until review s46 every column
+    read K's words, Omega's and the porosity's too.
+
+    >>> flagged_words("porosity_status"), flagged_words("anisotropy_status")
+    ('untrustworthy = error bar above 20 %', '')
+    """
+    from psdesign.analysis.columns import K_STATUS_COLUMNS
+
+    if status_column == "porosity_status":  # a voxel count: its bar alone (porosity_status)
+        return "untrustworthy = error bar above 20 %"
+    if status_column == "intersection_volume_fraction_status":  # packing.overlap_status
+        return (
+            "untrustworthy = overlaps thinner than a voxel or along the grid, which the count "
+            "may miss, hold more of the box than its error bar"
+        )
+    if status_column == "pore_sizes_status":  # study_outputs.pore_sizes_status
+        return f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge"
+    if status_column.startswith(("diffusivity_", "conductivity_")):  # effective.rating
+        return f"{_BAR_OR_CELLS}, blocked = no conducting path"
+    if status_column in (*K_STATUS_COLUMNS.values(), "specific_surface_status"):
+        return _BAR_OR_CELLS
+    return ""
 
 
 def flagged_text(df) -> str:
@@ -145,19 +170,23 @@ def flagged_text(df) -> str:
     >>> import pandas as pd
     >>> df = pd.DataFrame({"status": ["ok", "ok", "blocked"], "porosity": [0.8, 0.1, 0.8],
     ...                    "porosity_error": [1e-3, 0.03, 1e-3]})
-    >>> flagged_text(df).split("; ")  # doctest: +ELLIPSIS, +NORMALIZE_WHITESPACE
-    ['1 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy...)',
-     '1 finished case(s) have another status (blocked)']
+    >>> flagged_text(df).split("; ")  # doctest: +NORMALIZE_WHITESPACE
+    ['1 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy =
+      error bar above 20 %)', '1 finished case(s) have another status (blocked)']
     """
     from psdesign.analysis.columns import case_status, flagged_values
 
     parts = []
     if values := flagged_values(df):
         n = int(sum(values.values()).astype(bool).sum())
-        cols = ", ".join(values)
-        parts.append(
-            f"{n} ok case(s) have a value whose own status is not ok ({cols}: {FLAGGED_WORDS})"
+        # the columns that mean one thing, then its words (flagged_words), in values' order
+        groups: dict[str, list[str]] = {}
+        for st in values:
+            groups.setdefault(flagged_words(st), []).append(st)
+        cols = "; ".join(
+            ", ".join(sts) + (f": {words}" if words else "") for words, sts in groups.items()
         )
+        parts.append(f"{n} ok case(s) have a value whose own status is not ok ({cols})")
     status = case_status(df)
     other = status[case_masks(df)[2] & (status != "ok")]
     if len(other):

@@ -54,7 +54,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
                 "table": res.table.to_dict(orient="records"),
             }
         )
-        return _rev_status(args.out, res.rev_size_m)
+        return _rev_status(args.out, res.rev_size_m, res.outputs)
     for _, row in res.table.iterrows():
         parts = [f"{row['size_m']:.4g} m (n={int(row['n'])})"]
         for c in res.outputs:
@@ -68,26 +68,29 @@ def _cmd_rev(args: argparse.Namespace) -> int:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
     else:
         print(f"REV: {res.rev_size_m:.4g} m (95 % CI half-width below {100 * res.tol:g} %)")
-    return _rev_status(args.out, res.rev_size_m)
+    return _rev_status(args.out, res.rev_size_m, res.outputs)
 
 
-def _rev_status(out: str, rev_size_m: float | None) -> int:
+def _rev_status(out: str, rev_size_m: float | None, outputs: list[str]) -> int:
     """The cases' exit status (:func:`_cases_status`), and ``NOT_TRUSTED`` (3) when every case
     finished but no size reached the ``--tol`` CI: the answer the command was asked for is
     "not representative", a missed target as ``study optimize``'s (exit 3). Until session 43
     it exited 0, so ``psdesign rev ... && echo representative`` passed an RVE whose K
-    scattered 35 % between seeds."""
-    status = _cases_status(out)
+    scattered 35 % between seeds. ``outputs``: the values the sizes' intervals hold
+    (:attr:`psdesign.analysis.rev.RevResult.outputs`)."""
+    status = _cases_status(out, outputs)
     return NOT_TRUSTED if status == OK and rev_size_m is None else status
 
 
-def _cases_status(out: str) -> int:
+def _cases_status(out: str, outputs: list[str]) -> int:
     """The exit status of the table in :mod:`psdesign.cli.exit_status`, as ``study run`` gives
     it: 1 when a case failed or timed out, else 3 when one did not converge or an ``ok`` case
     has a value flagged (``k_<d>_status``, ``porosity_status``; it exited 0 with a warning until
     session 45), else 0; one stderr line per kind naming ``results.csv``, the flagged one
-    ``study run``'s (:func:`~psdesign.cli.exit_status.flagged_text`)."""
-    from psdesign.analysis.columns import first_error
+    ``study run``'s (:func:`~psdesign.cli.exit_status.flagged_text`) and which of the flagged
+    values the sizes' intervals hold (``outputs``: the porosity and K; Omega and any other
+    rated value of the cases are in ``results.csv`` only)."""
+    from psdesign.analysis.columns import first_error, flagged_values, status_column
     from psdesign.study.readback import read_results
 
     df = read_results(out)
@@ -108,9 +111,11 @@ def _cases_status(out: str) -> int:
             file=sys.stderr,
         )
     if counts.flagged:  # study run's sentence: a flagged porosity was "a K flagged" (s46)
+        held = {status_column(c): c.removesuffix("_m2") for c in outputs}
+        kept = ", ".join(dict.fromkeys(held[st] for st in flagged_values(df) if st in held))
         print(
-            f"psdesign: {flagged_text(df)}; their values are kept in {out}/results.csv and in "
-            "the sizes' intervals",
+            f"psdesign: {flagged_text(df)}; their values are kept in {out}/results.csv"
+            + (f", {kept} also in the sizes' intervals" if kept else ""),
             file=sys.stderr,
         )
     return cases_status(counts)

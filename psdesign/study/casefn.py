@@ -6,6 +6,7 @@ import importlib
 import os
 import threading
 import time
+import types
 from collections.abc import Callable
 from typing import Any
 
@@ -29,18 +30,38 @@ CASE_FN_ARGUMENTS = ("spec", "outputs", "solver", "workdir")
 def case_fn_name(case_fn: Callable | str | None) -> str:
     """The ``"module:function"`` spelling of a case function, the one every message, record
     (``runs.json``) and child process uses: None is :data:`DEFAULT_CASE_FN`, a string is as
-    given, a callable its ``__module__`` and ``__qualname__`` (``?`` for one it lacks: a
-    callable instance or a partial has no ``__qualname__``).
+    given, a plain function its own module and qualified name (its globals' ``__name__`` and
+    its code's ``co_qualname``: a ``functools.wraps`` adapter names itself, not the function
+    whose ``__module__`` / ``__qualname__`` it copied; review s46), unless only the copied
+    name imports back to it (a module-level function under a decorator: its module holds the
+    wrapper by the wrapped name); another callable its ``__module__`` and ``__qualname__``
+    (``?`` for one it lacks: a callable instance or a partial has no ``__qualname__``).
 
-    >>> import json
+    >>> import functools, json
     >>> case_fn_name(None), case_fn_name("m:f"), case_fn_name(json.dumps)
     ('psdesign.study.case:run_case', 'm:f', 'json:dumps')
+    >>> case_fn_name(functools.wraps(json.dumps)(lambda spec, outputs, solver, workdir: {}))
+    'psdesign.study.casefn:<lambda>'
     """
     if case_fn is None:
         return DEFAULT_CASE_FN
     if isinstance(case_fn, str):
         return case_fn
-    return f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"
+    copied = f"{getattr(case_fn, '__module__', '?')}:{getattr(case_fn, '__qualname__', '?')}"
+    if not isinstance(case_fn, types.FunctionType):
+        return copied
+    own = f"{case_fn.__globals__.get('__name__', '?')}:{case_fn.__code__.co_qualname}"
+    if own != copied and _imports_back(copied, case_fn) and not _imports_back(own, case_fn):
+        return copied
+    return own
+
+
+def _imports_back(name: str, fn: Callable) -> bool:
+    """Does ``name`` (``module:qualname``) load ``fn`` itself (:func:`load_case_fn`)?"""
+    try:
+        return load_case_fn(name) is fn
+    except (ImportError, AttributeError, ValueError):
+        return False
 
 
 def runs_pipeline(case_fn: Callable | str | None) -> bool:

@@ -54,7 +54,7 @@ from psdesign.study.store import (
     StorageError,
 )
 from psdesign.study.studyfile import Study, StudyError, load_study
-from psdesign.study.worker import execute_case
+from psdesign.study.worker import execute_case, importable_case_fn_name
 
 __all__ = ["SchedulerError", "WorkersLost", "run_study"]
 
@@ -711,6 +711,27 @@ def check_study_dir(
     )
 
 
+def _timeout(opts: RunOptions, study: Study) -> float | None:
+    """The per-case time limit of a run: ``timeout_s`` (``--timeout``), else the study's."""
+    return opts.timeout_s if opts.timeout_s is not None else study.timeout_s
+
+
+def _check_case_fn_for_timeout(case_fn, timeout_s: float | None) -> None:
+    """With a timeout every case runs in a child process that imports the case function by
+    its name (:func:`psdesign.study.worker.importable_case_fn_name`): a callable that does not
+    import back is refused here, before the output folder is made (it failed every case
+    after it was, review s46)."""
+    if timeout_s is None or case_fn is None or isinstance(case_fn, str):
+        return
+    try:
+        importable_case_fn_name(case_fn)
+    except ValueError as exc:
+        raise StudyError(
+            f"{exc} (each case runs in a child process that imports it); allowed: a "
+            "module-level function of a module, or no timeout_s"
+        ) from None
+
+
 def run_study(
     study: str | Path | Study,
     out_dir: str | Path,
@@ -771,6 +792,7 @@ def run_study(
     cases = expand_design(study)
     if runs_pipeline(opts.case_fn):
         validate_case_specs(cases, study.solver, k_directions(study.outputs))
+    _check_case_fn_for_timeout(opts.case_fn, _timeout(opts, study))
     option, force_option = out_option
     target = check_study_dir(
         out_dir, force=opts.force, force_option=force_option, command=command, option=option
@@ -869,7 +891,7 @@ def _run_locked(
     """Run the cases still to do (the output folder claimed and locked), then write the
     tables, the run's entry in ``runs.json`` and the report."""
     by_id = {c.case_id: c for c in cases}
-    timeout = opts.timeout_s if opts.timeout_s is not None else study.timeout_s
+    timeout = _timeout(opts, study)
     out = store.out
     t_start = time.perf_counter()
     started = _now()

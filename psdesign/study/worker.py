@@ -132,7 +132,8 @@ def importable_case_fn_name(case_fn: Callable | str | None) -> str:
     ------
     ValueError
         If a callable cannot be imported back by that name (a lambda, a nested function, a
-        ``functools.wraps`` adapter: its name is the wrapped function's).
+        partial, a callable instance), or is a script's (``__main__``: the child's
+        ``__main__`` is its own module, not the script).
     """
     name = case_fn_name(case_fn)
     if case_fn is None or isinstance(case_fn, str):
@@ -141,7 +142,7 @@ def importable_case_fn_name(case_fn: Callable | str | None) -> str:
         same = load_case_fn(name) is case_fn
     except (ImportError, AttributeError, ValueError):
         same = False
-    if not same or "<" in name:
+    if not same or "<" in name or name.startswith("__main__:"):
         raise ValueError(
             f"case_fn: with a timeout the case function must be importable as module:function, "
             f"got {name}"

@@ -43,6 +43,40 @@ def test_the_exit_status_is_the_rule_applied_to_the_printed_statuses(tmp_path, c
         assert got == code, printed
 
 
+def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
+    """Review s46: ``flagged_text`` (``study run``'s and ``rev``'s line) gave every status
+    column K's meaning, "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber
+    diameter, blocked = no conducting path". Each rating says what its words mean: the
+    porosity by its bar alone (``columns.porosity_status``); Omega by the overlaps its count
+    may miss (``packing.overlap_status``); K by ``flow.error.status_of`` (bar, resolution; no
+    ``blocked``); the transport values by ``transport.effective.rating`` (also ``blocked``);
+    the pore sizes also by d90 against the RVE (``study_outputs.pore_sizes_status``)."""
+    import pandas as pd
+
+    from psdesign.analysis.columns import STATUS_COLUMNS
+    from psdesign.cli.exit_status import flagged_text
+
+    bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
+    for st in dict.fromkeys(STATUS_COLUMNS.values()):
+        line = flagged_text(pd.DataFrame({"status": ["ok"], st: ["untrustworthy"]}))
+        words = line.split(f"({st}: ")[1]
+        assert words.startswith("untrustworthy = "), line
+        overlap = "overlaps thinner than a voxel or along the grid" in words
+        assert overlap == (st == "intersection_volume_fraction_status"), line
+        assert (bar in words) == (not overlap), line
+        assert (cells in words) == (not overlap and st != "porosity_status"), line
+        assert ("d90" in words) == (st == "pore_sizes_status"), line
+        blocked = st.startswith(("diffusivity_", "conductivity_"))
+        assert ("blocked = no conducting path" in words) == blocked, line
+    two = pd.DataFrame({"status": ["ok", "ok"], "porosity_status": ["untrustworthy", "ok"],
+                        "k_z_status": ["ok", "untrustworthy"]})  # fmt: skip
+    assert flagged_text(two) == (
+        f"2 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy "
+        f"= {bar}; k_z_status: untrustworthy = {bar} or {cells})"
+    )
+    capsys.readouterr()
+
+
 # ------------------------------------------------------- study report: its exit and its red box
 def _report_folder(tmp_path_factory):
     """The factorial fake study (12 ok cases, porosity 0.7-0.9, K_x and K_z with 2 % bars):
@@ -88,11 +122,12 @@ def _coarse_porosity(df):
 
 def _old_pore_table(df):
     """A table written before abe85ab: pore sizes with their absolute bar and S_v with its
-    relative one, no pore_sizes_status / specific_surface_status; case 0's d10 bar 50 %, its
-    S_v bar 35 % (review s46: the values table said untrustworthy, the exit 0, no red box)."""
+    relative one, no pore_sizes_status / specific_surface_status; case 0's pore bar 25 % of
+    d50 (the product's rating of all three), its S_v bar 35 % (review s46: the values table
+    said untrustworthy, the exit 0, no red box)."""
     n = len(df)
     df["pore_d10_m"], df["pore_d50_m"], df["pore_d90_m"] = 2e-6, 8e-6, 12e-6
-    df["pore_diameter_error_m"] = [1e-6] + [1e-7] * (n - 1)
+    df["pore_diameter_error_m"] = [2e-6] + [1e-7] * (n - 1)
     df["specific_surface_m-1"] = 2e5
     df["specific_surface_rel_error"] = [0.35] + [0.02] * (n - 1)
     return df.drop(columns=["pore_sizes_status", "specific_surface_status"], errors="ignore")
@@ -106,6 +141,16 @@ def _old_pore_table_ok(df):
     return df
 
 
+def _old_pore_table_d10_bar_30pct(df):
+    """``_old_pore_table_ok`` with case 0's pore bar 3 um on d 10/20/40 um: 15 % of d50, ``ok``
+    as the product rates the three together (pores.py ``rel_error``; review s46: d10's own
+    30 % flagged it, exit 3)."""
+    df = _old_pore_table_ok(df)
+    df["pore_d10_m"], df["pore_d50_m"], df["pore_d90_m"] = 10e-6, 20e-6, 40e-6
+    df["pore_diameter_error_m"] = [3e-6] + [1e-7] * (len(df) - 1)
+    return df
+
+
 @pytest.mark.parametrize(
     ("edit", "code"),
     [
@@ -116,6 +161,7 @@ def _old_pore_table_ok(df):
         (_coarse_porosity, 3),  # session 45: exit 0, no red box
         (_old_pore_table, 3),  # review s46: exit 0, no red box, [untrustworthy] cells
         (_old_pore_table_ok, 0),
+        (_old_pore_table_d10_bar_30pct, 0),  # review s46: exit 3, d10 rated by error / d10
     ],
     ids=[
         "all_ok",
@@ -125,6 +171,7 @@ def _old_pore_table_ok(df):
         "coarse_porosity",
         "old_pore_table",
         "old_pore_table_ok",
+        "old_pore_table_d10_bar_30pct",
     ],
 )
 def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, capsys, edit, code):

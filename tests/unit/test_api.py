@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import subprocess
@@ -13,6 +14,7 @@ import pytest
 
 import psdesign
 from psdesign.api import PermeabilityResult, _unguarded_call_in_main_script
+from psdesign.study.case import run_case as _pipeline_case
 
 
 def test_import_is_light() -> None:
@@ -368,6 +370,35 @@ class _CallableCase:
         return _spec_only(spec)
 
 
+@functools.wraps(_spec_only)
+def _wraps_case(spec, outputs, solver, workdir) -> dict:
+    """A module-level ``functools.wraps`` adapter: ``__qualname__`` says ``_spec_only``, the
+    module's attribute (how a child process imports it) is ``_wraps_case``."""
+    return _spec_only(spec)
+
+
+def _adapt(fn):
+    """A decorator: its module-level result is held by its module under ``fn``'s name."""
+
+    @functools.wraps(fn)
+    def wrapper(spec, outputs, solver, workdir):
+        return fn(spec)
+
+    return wrapper
+
+
+@_adapt
+def _decorated_case(spec) -> dict:
+    return _spec_only(spec)
+
+
+@functools.wraps(_pipeline_case)
+def _wraps_pipeline(spec, outputs, solver, workdir) -> dict:
+    """An adapter around psdesign's own case function: not the pipeline (it runs what it
+    chooses), though its copied name is ``psdesign.study.case:run_case``."""
+    return {"n_fibers": float(spec["generator"]["n_fibers"])}
+
+
 def test_a_wraps_adapter_partial_or_instance_is_a_case_function(tmp_path) -> None:
     # session 46 review: case_fn_call_error read inspect.signature(fn), which follows
     # __wrapped__: a functools.wraps adapter wrapper(spec, outputs, solver, workdir) around
@@ -420,6 +451,83 @@ def test_a_case_function_is_spelled_one_way_everywhere(tmp_path) -> None:
     psdesign.run_study(_tiny_study(), out, workers=0, case_fn=inst, progress=False, report=False)
     runs = json.loads((out / "run.json").read_text())["runs"]
     assert [r["case_fn"] for r in runs] == [case_fn_name(inst)]
+    # review s46: a module-level wraps adapter was spelled by the name it copied (run.json said
+    # _spec_only; one around run_case passed for the pipeline); its own name is the attribute
+    # its module holds, and it imports back (a timeout's child process loads it by that name)
+    own = f"{__name__}:_wraps_case"
+    assert sys.modules[__name__]._wraps_case is _wraps_case
+    assert case_fn_name(_wraps_case) == importable_case_fn_name(_wraps_case) == own
+    assert case_fn_name(_wraps_pipeline) == f"{__name__}:_wraps_pipeline"
+    assert not runs_pipeline(_wraps_pipeline)
+    # a decorated module-level function: its own code is _adapt's wrapper, which no module
+    # holds; the name it copied is its module's attribute, so that name imports back
+    decorated = f"{__name__}:_decorated_case"
+    assert case_fn_name(_decorated_case) == importable_case_fn_name(_decorated_case) == decorated
+    out = tmp_path / "wraps"
+    psdesign.run_study(_tiny_study(), out, workers=0, case_fn=_wraps_case, progress=False,
+                       report=False)  # fmt: skip
+    runs = json.loads((out / "run.json").read_text())["runs"]
+    assert [r["case_fn"] for r in runs] == [own]
+
+
+def test_with_a_timeout_a_case_function_must_import_by_its_name_before_the_run(tmp_path):
+    # review s46: with a timeout each case runs in a child process that imports the case
+    # function by name; a nested wraps adapter, a partial or an instance failed every case
+    # AFTER the output folder was made ("with a timeout the case function must be importable
+    # as module:function"). Now refused up front in one line naming case_fn, the folder never
+    # made, whether the timeout is the run's (timeout_s) or the study's (study.timeout_s); a
+    # module-level wraps adapter runs in the child by its own name (independent truth: each
+    # row's n_fibers is its spec's, study.parameters).
+    @functools.wraps(_spec_only)
+    def nested(spec, outputs, solver, workdir):
+        return _spec_only(spec)
+
+    partial = functools.partial(lambda extra, spec, outputs, solver, workdir: {}, 1)
+    study = _tiny_study()
+    study["study"]["timeout_s"] = 60
+    out = tmp_path / "o"
+    for fn in (nested, partial, _CallableCase()):
+        for kw, table in (({"timeout_s": 60}, _tiny_study()), ({}, study)):
+            with pytest.raises(psdesign.StudyError) as info:
+                psdesign.run_study(table, out, workers=0, case_fn=fn, progress=False, **kw)
+            line = str(info.value)
+            assert line.startswith("case_fn: ") and "importable" in line, line
+            assert len(line.splitlines()) == 1 and not out.exists()
+    study["parameters"] = {"generator.n_fibers": [2, 3]}
+    df = psdesign.run_study(study, out, workers=0, case_fn=_wraps_case, progress=False,
+                            report=False)  # fmt: skip
+    assert sorted(df["n_fibers"]) == [2.0, 3.0] and set(df["status"]) == {"ok"}
+
+
+def test_with_a_timeout_a_scripts_case_function_is_refused_before_the_run(tmp_path):
+    # found mending review s46: a script's case function is __main__:case, which imports
+    # back in the script, but a timeout's child process runs `python -m psdesign.study._child`,
+    # whose __main__ is that module: every case failed (AttributeError) after the output folder
+    # was made. Refused up front now, one line naming case_fn, no folder.
+    out = tmp_path / "o"
+    script = tmp_path / "run.py"
+    script.write_text(
+        textwrap.dedent(
+            f"""
+            import psdesign
+
+            def case(spec, outputs, solver, workdir):
+                return {{"n_fibers": 1.0}}
+
+            if __name__ == "__main__":
+                try:
+                    psdesign.run_study({_tiny_study()!r}, {str(out)!r}, workers=0,
+                                       case_fn=case, progress=False, timeout_s=60)
+                except psdesign.StudyError as exc:
+                    print(exc)
+            """
+        )
+    )
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=300, check=True)  # fmt: skip
+    line = run.stdout.strip()
+    assert line.startswith("case_fn: ") and "__main__:case" in line, (line, run.stderr)
+    assert not out.exists()
 
 
 def test_too_many_local_workers_points_to_the_keyword(tmp_path) -> None:

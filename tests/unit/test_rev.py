@@ -482,3 +482,42 @@ def test_rev_names_a_flagged_porosity_in_its_line_and_its_size_status(
     assert "untrustworthy: porosity 1 of 2" in rev_csv
     line = [ln for ln in got.out.splitlines() if ln.startswith("4e-05 m (n=")][0]
     assert line.endswith("untrustworthy: porosity 1 of 2"), line
+
+
+def overlapping_rev_case(spec, outputs, solver, workdir):
+    """``coarse_porosity_rev_case`` (the 40 um seed 2 porosity flagged) whose every case also
+    has Omega ``untrustworthy`` (overlaps thinner than a voxel: ``packing.overlap_status``)."""
+    out = coarse_porosity_rev_case(spec, outputs, solver, workdir)
+    out["intersection_volume_fraction"] = 2e-4
+    out["intersection_volume_fraction_error"] = 1e-5
+    out["intersection_volume_fraction_status"] = "untrustworthy"
+    return out
+
+
+def test_rev_words_each_flagged_status_and_keeps_only_its_outputs_in_the_intervals(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """Review s46: rev's line gave every flagged column one meaning ("untrustworthy = error bar
+    above 20 % or fewer than 8 cells per fiber diameter", a K's) and said the flagged values
+    were "kept ... in the sizes' intervals": Omega (``intersection_volume_fraction_status``,
+    a status column since session 46) means overlaps the voxel count may miss
+    (``packing.overlap_status``), the porosity is rated by its bar alone
+    (``columns.porosity_status``), and the sizes' intervals are the porosity's and K's
+    (rev.json's columns), no Omega. Now each column carries its own words and the line names
+    the flagged values the intervals hold."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, overlapping_rev_case)
+    out = tmp_path / "o"
+    args = ["rev", str(spec), "--seeds", "2", "--quiet", "--directions", "z", "-o", str(out)]
+    assert main([*args, "--sizes", "32e-6", "40e-6"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    line = err[0]
+    assert line.startswith("psdesign: 4 ok case(s) have a value whose own status is not ok ("), line
+    assert "porosity_status: untrustworthy = error bar above 20 %;" in line, line
+    omega = line.split("intersection_volume_fraction_status: ")[1]
+    assert omega.startswith("untrustworthy = overlaps thinner than a voxel or along the grid")
+    assert "cells per fiber diameter" not in line, line  # neither is rated by resolution
+    table = json.loads((out / "rev.json").read_text())["table"][0]
+    assert not any(k.startswith("intersection") for k in table)  # no Omega interval
+    assert line.endswith(f"their values are kept in {out}/results.csv, porosity also in the "
+                         "sizes' intervals"), line  # fmt: skip

@@ -101,14 +101,15 @@ def test_the_convergence_table_flags_the_cases_the_red_box_counts():
 
 # ------------------------------------- one rule for a value with an error bar and no status
 #: A study table written before abe85ab (session 46): pore sizes with their absolute bar and S_v
-#: with its relative one, but no pore_sizes_status / specific_surface_status. Case 1's d10 has
-#: a 50 % bar (1 um on 2 um), its S_v a 35 % one; case 0's bars are 5 % and 2 %.
+#: with its relative one, but no pore_sizes_status / specific_surface_status. Case 1's pore
+#: sizes have a 25 % bar (1 um on d50 = 4 um: the product's rating, pores.py rel_error), its
+#: S_v a 35 % one; case 0's bars are 2.5 % and 2 %.
 OLD_PORES = pd.DataFrame(
     {
         "case_id": ["c0", "c1"],
         "status": ["ok", "ok"],
         "pore_d10_m": [20e-6, 2e-6],
-        "pore_d50_m": [40e-6, 8e-6],
+        "pore_d50_m": [40e-6, 4e-6],
         "pore_d90_m": [60e-6, 12e-6],
         "pore_diameter_error_m": [1e-6, 1e-6],
         "specific_surface_m-1": [1e5, 2e5],
@@ -132,6 +133,9 @@ def _rated_tables():
     for c, st in STATUS_COLUMNS.items():
         for bar, own in itertools.product((None, 0.1, 0.35), (None, "", "ok", "untrustworthy")):
             row = {"status": "ok", c: 0.5}
+            if c.startswith("pore_d"):  # d10-d90 rated together by the bar over d50 (pores.py
+                # rel_error): d10 0.2 with a 10 % bar is 25 % of itself, d90 1.0 with 35 % 17.5 %
+                row.update({"pore_d10_m": 0.2, "pore_d50_m": 0.5, "pore_d90_m": 1.0})
             if bar is not None and c in REL_ERROR_COLUMNS:
                 row[REL_ERROR_COLUMNS[c]] = bar
             elif bar is not None:
@@ -174,25 +178,64 @@ def test_a_value_with_a_bar_and_no_status_is_rated_by_one_rule(capsys):
 def test_an_old_table_without_pore_and_surface_statuses_is_flagged_as_its_values_table_shows(
     capsys,
 ):
-    """The reviewer's case: the values table shows case 1's d10 (50 %) and S_v (35 %)
-    ``[untrustworthy]``; now the red box counts them, ``study report`` exits 3, ``trusted``
-    leaves them out of the means and ``study optimize``'s target status says the same."""
+    """The reviewer's case: the values table shows case 1's pore sizes (25 % of d50) and S_v
+    (35 %) ``[untrustworthy]``; now the red box counts them, ``study report`` exits 3,
+    ``trusted`` leaves them out of the means and ``study optimize``'s target status says the
+    same. The three pore sizes share one status (review s46: d90, 8.3 % of itself, was kept)."""
     from psdesign.analysis.targets import Target, target_report
     from psdesign.report.html import _values_table
 
     html = _values_table(OLD_PORES)
-    assert html.count("[untrustworthy]") == 2, html  # d10 and S_v of c1 (d50: 12.5 %)
+    assert html.count("[untrustworthy]") == 4, html  # d10, d50, d90 and S_v of c1
     assert report_exit_status(OLD_PORES) == 3
     box = _status_banner(OLD_PORES)
     assert "2 value(s) of ok cases not ok (pore_sizes_status, specific_surface_status)" in box
     t = trusted(OLD_PORES)  # out of the means
-    assert t["pore_d10_m"].isna().tolist() == [False, True]
-    assert t["specific_surface_m-1"].isna().tolist() == [False, True]
-    assert t["pore_d50_m"].tolist() == [40e-6, 8e-6]  # 12.5 %: kept
+    for c in ("pore_d10_m", "pore_d50_m", "pore_d90_m", "specific_surface_m-1"):
+        assert t[c].isna().tolist() == [False, True], c
     best = OLD_PORES.iloc[1].to_dict()
     assert target_report(Target.parse("specific_surface_m-1>=1e5"), best)["status"] == (
         "untrustworthy"
     )
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("d10_d50_d90", "error", "truth"),
+    [
+        ((10e-6, 20e-6, 40e-6), 3e-6, "ok"),  # 15 % of d50; d10's 30 % used to flag it
+        ((10e-6, 12e-6, 40e-6), 3e-6, "untrustworthy"),  # 25 % of d50; d90's 7.5 % was kept
+        ((10e-6, None, 40e-6), 3e-6, "ok"),  # no d50: no bar to rate by (unrated)
+    ],
+    ids=["d50_15pct", "d50_25pct", "no_d50"],
+)
+def test_an_old_tables_pore_sizes_are_rated_together_by_the_products_bar(
+    d10_d50_d90, error, truth, capsys
+):
+    """Review s46: the product rates d10, d50 and d90 together by ``pore_diameter_error_m /
+    pore_d50_m`` (``psdesign.transport.pores`` ``rel_error``, ``study_outputs.
+    pore_sizes_status``), while the reading of a table without ``pore_sizes_status`` rated each
+    by error / d_q: 3 um on 10/20/40 um flagged d10 (30 %) where the product says ok (15 %),
+    exit 3; with d50 = 12 um (25 %: untrustworthy) ``trusted`` kept d90. Now all three carry
+    the one status of their row: the values table, ``own_status``, ``trusted`` (all three or
+    none), the red box and the exit."""
+    from psdesign.analysis.columns import error_bar, own_status
+    from psdesign.report.html import _values_table
+
+    sizes = dict(zip(("pore_d10_m", "pore_d50_m", "pore_d90_m"), d10_d50_d90, strict=True))
+    df = pd.DataFrame([{"case_id": "c0", "status": "ok", **sizes,
+                        "pore_diameter_error_m": error}], dtype=object)  # fmt: skip
+    kept = trusted(df)
+    for c, v in sizes.items():
+        if v is None:
+            continue
+        assert own_status(df, c).tolist() == [truth], c
+        shown = truth if sizes["pore_d50_m"] else "unrated"  # its own bar, the row's status
+        assert error_bar(df.iloc[0].to_dict(), c) == (error / v, shown), c
+        assert kept[c].notna().tolist() == [truth == "ok"], c
+    bad = truth != "ok"
+    assert _values_table(df).count("[untrustworthy]") == 3 * bad  # d10, d50, d90 together
+    assert (report_exit_status(df) == 3) == bad == bool(_status_banner(df))
     capsys.readouterr()
 
 
@@ -223,3 +266,24 @@ def test_the_k_and_convergence_tables_flag_the_k_the_red_box_counts(own, rel, n_
     assert _k_table(df).count('class="flag"') == n_bad
     assert bool(_status_banner(df)) == (n_bad > 0) == (report_exit_status(df) == 3)
     capsys.readouterr()
+
+
+def test_trusted_blanks_every_value_that_shares_a_blanked_bar():
+    """``trusted`` blanked each not-ok value and its bar in turn, then rated the next value: the
+    tortuosity of a table without ``diffusivity_x_status`` shares ``diffusivity_x_rel_error``,
+    blanked with the diffusivity, so a 35 % tortuosity read unrated and stayed in the means
+    (found mending review s46). The truth is the rule applied to each value alone
+    (``own_status``): both untrustworthy, both blanked, the 2 % row kept."""
+    from psdesign.analysis.columns import own_status
+
+    df = pd.DataFrame(
+        {
+            "status": ["ok", "ok"],
+            "diffusivity_x": [0.5, 0.6],
+            "tortuosity_x": [1.6, 1.4],
+            "diffusivity_x_rel_error": [0.35, 0.02],
+        }
+    )
+    for c in ("diffusivity_x", "tortuosity_x"):
+        assert own_status(df, c).tolist() == ["untrustworthy", "ok"], c
+        assert trusted(df)[c].isna().tolist() == [True, False], c
