@@ -259,8 +259,10 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
 
 
 def _error_column(column: str) -> str | None:
-    """The error column of a rated value (:data:`STATUS_COLUMNS`), relative or absolute."""
-    if column not in STATUS_COLUMNS:
+    """The error column of a value rated by its bar when it has no status (:data:`STATUS_COLUMNS`),
+    relative or absolute; None for Omega, which is rated by its lenses only (:func:`error_bar`
+    gives it ``unrated``: no row of an old table need be read for it)."""
+    if column not in STATUS_COLUMNS or column in OMEGA_COLUMNS:
         return None
     return REL_ERROR_COLUMNS.get(column, ABS_ERROR_COLUMNS.get(column))
 

@@ -98,6 +98,14 @@ class CaseCounts(NamedTuple):
     flagged: int
 
 
+def _other_status(status):
+    """Cases that finished with a status word other than ``ok`` / ``not_converged`` (of
+    :func:`psdesign.analysis.columns.case_status`): flagged by their own word."""
+    from psdesign.analysis.columns import MISSING_STATUS
+
+    return ~status.isin((*NOT_FINISHED, MISSING_STATUS, "ok", "not_converged"))
+
+
 def case_masks(df):
     """``(failed, not_converged, flagged)`` boolean Series over the rows of a results table
     (:class:`CaseCounts` says which is which), read off each case's status
@@ -119,9 +127,8 @@ def case_masks(df):
 
     status = case_status(df)
     failed = status.isin((*NOT_FINISHED, MISSING_STATUS))
-    ok = status == "ok"
     not_converged = status == "not_converged"
-    flagged = ~failed & ~ok & ~not_converged  # another status word: finished, not ok
+    flagged = _other_status(status)
     for m in flagged_values(df).values():  # ok cases only
         flagged |= m
     return failed, not_converged, flagged
@@ -188,7 +195,7 @@ def flagged_text(df) -> str:
         )
         parts.append(f"{n} ok case(s) have a value whose own status is not ok ({cols})")
     status = case_status(df)
-    other = status[case_masks(df)[2] & (status != "ok")]
+    other = status[_other_status(status)]
     if len(other):
         words = ", ".join(sorted(set(other)))
         parts.append(f"{len(other)} finished case(s) have another status ({words})")
