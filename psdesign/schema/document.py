@@ -452,7 +452,7 @@ class SpecDocument(Table):
     def _check_generator(self, size, voxel: float, period: float) -> None:
         g = self.generator
         inter = self.intersections or IntersectionsTable()
-        # dlo > 0 holds here: GeneratorTable._check refuses a diameter whose support starts
+        # dlo > 0 holds here: GeneratorTable._check_range refuses a diameter whose support starts
         # at or below 0 (NaN is no number), the table is frozen and nothing builds one
         # unvalidated (no model_construct / model_copy of it); only the half-period bound,
         # which needs the rve, is this check's own

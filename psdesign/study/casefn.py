@@ -51,12 +51,12 @@ def case_fn_name(case_fn: Callable | str | None) -> str:
     if not isinstance(case_fn, types.FunctionType):
         return copied
     own = f"{case_fn.__globals__.get('__name__', '?')}:{case_fn.__code__.co_qualname}"
-    if own != copied and _imports_back(copied, case_fn) and not _imports_back(own, case_fn):
+    if own != copied and imports_back(copied, case_fn) and not imports_back(own, case_fn):
         return copied
     return own
 
 
-def _imports_back(name: str, fn: Callable) -> bool:
+def imports_back(name: str, fn: Callable) -> bool:
     """Does ``name`` (``module:qualname``) load ``fn`` itself (:func:`load_case_fn`)?"""
     try:
         return load_case_fn(name) is fn

@@ -31,7 +31,7 @@ from psdesign.errors import warn_at_caller
 from psdesign.io.atomic import json_default
 from psdesign.io.child_env import child_env
 from psdesign.io.diskfull import is_disk_full
-from psdesign.study.casefn import DEFAULT_CASE_FN, case_fn_name, load_case_fn
+from psdesign.study.casefn import DEFAULT_CASE_FN, case_fn_name, imports_back, load_case_fn
 
 __all__ = ["DEFAULT_CASE_FN", "execute_case", "load_case_fn", "normalize_results"]
 
@@ -138,11 +138,7 @@ def importable_case_fn_name(case_fn: Callable | str | None) -> str:
     name = case_fn_name(case_fn)
     if case_fn is None or isinstance(case_fn, str):
         return name
-    try:
-        same = load_case_fn(name) is case_fn
-    except (ImportError, AttributeError, ValueError):
-        same = False
-    if not same or "<" in name or name.startswith("__main__:"):
+    if not imports_back(name, case_fn) or "<" in name or name.startswith("__main__:"):
         raise ValueError(
             f"case_fn: with a timeout the case function must be importable as module:function, "
             f"got {name}"
