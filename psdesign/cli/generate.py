@@ -57,11 +57,11 @@ def preview_title(porosity: float, error: float | None, n_fibers: int) -> str:
     >>> preview_title(0.088, 0.024, 3)
     'porosity 0.0880 +- 2.4e-02 [untrustworthy], 3 fibers'
     """
+    from psdesign.analysis.columns import porosity_status
     from psdesign.geometry.porosity import porosity_text
 
-    status = with_porosity_status({"porosity": porosity, "porosity_error": error})
     text = porosity_text(porosity, error)
-    return f"porosity {text} [{status['porosity_status']}], {n_fibers} fibers"
+    return f"porosity {text} [{porosity_status(porosity, error)}], {n_fibers} fibers"
 
 
 GENERATE_FILES = (

@@ -248,6 +248,8 @@ def solved_pore(pore: np.ndarray, axis: int, grid: str) -> np.ndarray:
     """
     if grid == "permeameter":
         return permeameter_pore(pore, axis)
+    if grid == "periodic":  # apply_treatment's grid itself: no two inversions of the mask
+        return pore
     from solvers.voxel_stokes import apply_treatment
 
     return ~apply_treatment(~pore, axis, grid)[0]
