@@ -41,7 +41,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from psdesign.flow.darcy import axis_of
+from psdesign.flow.darcy import checked_axis
 from psdesign.geometry.edt import edt, periodic_edt
 from psdesign.geometry.rve import RVE, VoxelFields
 
@@ -259,15 +259,9 @@ def _check_pore_arguments(
     surface tension or a contact angle under 90 degrees (a wetting fluid: no intrusion
     pressure) made negative pressures without a word (session 46).
     """
-    from psdesign.errors import SpecError
     from psdesign.schema.transport import validate_transport
 
-    try:
-        name, ax = axis_of(thickness_axis)
-    except (ValueError, TypeError):
-        raise SpecError(
-            "transport.thickness_axis", f"must be 'x', 'y' or 'z' (or 0-2), got {thickness_axis!r}"
-        ) from None
+    name, ax = checked_axis(thickness_axis, "transport.thickness_axis")
     table = {
         "n_radii": n_radii,
         "thickness_axis": name,
@@ -396,7 +390,7 @@ def porosity_profile(fields: VoxelFields, axis: str | int = "z") -> dict:
     most its whole volume; so the bound is the fraction of such voxels in the layer.  A
     segmented image is its own geometry: 0.
     """
-    name, ax = axis_of(axis)
+    name, ax = checked_axis(axis, "axis")
     pore = ~fields.solid
     other = tuple(b for b in range(3) if b != ax)
     prof = pore.mean(axis=other)
