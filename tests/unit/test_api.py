@@ -1196,3 +1196,17 @@ def test_the_runner_refuses_naming_keywords_of_other_types(tmp_path, kw, line) -
     assert str(info.value).startswith(line)
     assert not (tmp_path / "o").exists()
     assert is_timing_column(3) is False  # main: AttributeError ('int' ... 'endswith')
+
+
+def test_load_study_refuses_a_case_fn_that_is_neither_callable_nor_a_name(tmp_path) -> None:
+    # session 47 walk: load_study(path, case_fn=3) was taken (as a user's case function: the
+    # route's memory left unplanned); run_study refused the same value by RunOptions' rule
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.study import StudyError, load_study
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    for bad in (3, 2.5, ["m:f"]):
+        with pytest.raises(StudyError, match=r"^case_fn: expected a callable or 'module:function'"):
+            load_study(p, bad)
+    assert load_study(p, "study_cases:fake_case").parameters  # a name is still taken
