@@ -155,8 +155,8 @@ def _check_cluster_fields(opts: ClusterOptions) -> None:
         value = getattr(opts, key)
         if value is not None and not _directive_word(value):
             raise StudyError(
-                f"{key}: must be None or a name without spaces (the batch system's "
-                f"{key}), got {value!r}"
+                f"{key}: must be a name without spaces (the batch system's {key}; none: "
+                f"its default), got {value!r}"
             )
     extra = opts.job_extra
     if isinstance(extra, str) or not isinstance(extra, tuple | list):

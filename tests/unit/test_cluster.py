@@ -293,3 +293,21 @@ def test_cli_bad_cluster_resources_exit_2_naming_the_flag(tmp_path, capsys, flag
     assert rc == 2 and err.count("\n") == 1
     assert err.startswith(f"psdesign: error: {flag.split('=')[0]}:")
     assert not out.exists()
+
+
+def test_cli_names_the_queue_flag_for_a_queue_with_spaces(tmp_path, capsys) -> None:
+    # session 47: `--cluster-queue "a b"` went into the job script's "#SBATCH -p a b"; now the
+    # field's refusal spelled as the flag, exit 2, one line, no folder
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    rc = main(
+        ["study", "run", str(p), "-o", str(out), "--cluster", "slurm", "--cluster-queue", "a b"]
+    )
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --cluster-queue: must be a name without spaces")
+    assert not out.exists()
