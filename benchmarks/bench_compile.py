@@ -44,6 +44,14 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
+def kernel_name(fn) -> str:
+    """A jitted function's name in the compile tables: ``module.qualname`` of its Python
+    function (a dispatcher's ``py_func``; a serial twin's qualname ends in ``__serial``,
+    :mod:`solvers.jit`). The one spelling of :class:`CompileRecorder` and of
+    ``compile_census.py product``, whose rows the census matches by it."""
+    return f"{fn.__module__}.{fn.__qualname__}"
+
+
 def _sig(data: dict) -> str:
     args = data.get("args")
     return ", ".join(str(a) for a in args) if args is not None else "?"
@@ -72,13 +80,9 @@ class CompileRecorder:
 
         self.listener = _Listener()
 
-    @staticmethod
-    def _kernel(ev) -> str:
-        fn = ev.data["dispatcher"].py_func
-        return f"{fn.__module__}.{fn.__qualname__}"
-
     def _start(self, ev) -> None:
-        self._stack.append([time.perf_counter(), 0.0, time.process_time(), 0.0, self._kernel(ev)])
+        kernel = kernel_name(ev.data["dispatcher"].py_func)
+        self._stack.append([time.perf_counter(), 0.0, time.process_time(), 0.0, kernel])
 
     def _end(self, ev) -> None:
         t0, child, c0, cchild, kernel = self._stack.pop()

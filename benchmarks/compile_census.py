@@ -31,7 +31,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_compile import CompileRecorder  # noqa: E402
+from bench_compile import CompileRecorder, kernel_name  # noqa: E402
 
 _RECORDER: CompileRecorder | None = None
 
@@ -73,7 +73,7 @@ def product(out: Path) -> None:
     compile_ = dispatcher.Dispatcher.compile
 
     def note(fn, args, parallel: bool) -> None:
-        seen.add((f"{fn.__module__}.{fn.__qualname__}", ", ".join(map(str, args)), parallel))
+        seen.add((kernel_name(fn), ", ".join(map(str, args)), parallel))
 
     def recorded_compile(self, sig):
         note(self.py_func, sigutils.normalize_signature(sig)[0], self.targetoptions.get("parallel"))

@@ -175,6 +175,9 @@ def run_one(
         n_contacts_before=s.get("n_contacts_before"),
         n_contacts_after=s.get("n_contacts_after"),
         omega_analytic=[s.get("omega_analytic_before"), s.get("omega_analytic_after")],
+        # their bars and statuses (session 47; absent from the records before)
+        omega_analytic_error=[s.get(f"omega_analytic_{t}_error") for t in ("before", "after")],
+        omega_analytic_status=[s.get(f"omega_analytic_{t}_status") for t in ("before", "after")],
         moves=moves(s, float(after.period)),
         reloads=len(after.fibers) == len(before.fibers),
         after=voxel_state(after, voxel),

@@ -83,6 +83,18 @@ class PermeabilityResult:
 
     @classmethod
     def from_dict(cls, d: dict) -> PermeabilityResult:
+        """The result of a route's record (:func:`psdesign.flow.permeability.permeability`'s
+        dict, or :meth:`to_dict`'s); ``SpecError`` naming ``d`` when it is not one (a
+        ``KeyError`` or ``AttributeError`` until session 47)."""
+        from psdesign.errors import SpecError
+
+        if not isinstance(d, dict) or not {"direction", "permeability_m2"} <= d.keys():
+            shown = sorted(d) if isinstance(d, dict) else type(d).__name__
+            raise SpecError(
+                "d",
+                "must be a dict with 'direction' and 'permeability_m2' (a permeability "
+                f"route's record, as to_dict writes), got {shown}",
+            )
         converged = bool(d.get("converged", False))
         status = d.get("status") or ("ok" if converged else "not_converged")
         rel = d.get("permeability_rel_error")
@@ -133,13 +145,9 @@ class PermeabilityResult:
 
 def _direction(direction: Any) -> str:
     """``'x' | 'y' | 'z'`` (or the axis index 0-2), else ``SpecError`` naming ``direction``."""
-    from psdesign.errors import SpecError
-    from psdesign.flow.darcy import axis_of
+    from psdesign.flow.darcy import checked_axis
 
-    try:
-        return axis_of(direction)[0]
-    except (ValueError, TypeError):
-        raise SpecError("direction", f"must be 'x', 'y' or 'z', got {direction!r}") from None
+    return checked_axis(direction, "direction")[0]
 
 
 def _progress_flag(progress: Any) -> bool:

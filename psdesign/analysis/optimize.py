@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -26,7 +27,7 @@ import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
-from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, Target, check_targets
+from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED, Target, check_targets
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -242,10 +243,52 @@ def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) 
     return out
 
 
-def _check_counts(budget: int, batch: int) -> None:
-    for key, v, hi in (("budget", budget, MAX_BUDGET), ("batch", batch, MAX_BATCH)):
-        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= hi:
-            raise ValueError(f"--{key}: an integer in [1, {hi}], got {v!r}")
+def _check_counts(budget: int, batch: int, seed: int) -> tuple[int, int, int]:
+    """``budget``, ``batch`` and ``seed`` as ints, else one line naming the keyword and its
+    range (``study optimize`` checks its ``--budget`` / ``--batch`` / ``--seed`` as typed:
+    only a Python call reaches this, which named the flags until session 47; a NumPy integer
+    was refused, ``seed=-1`` was numpy's "expected non-negative integer" and ``seed=True`` or
+    ``2**70`` were taken).
+
+    >>> _check_counts(np.int64(3), 1, 0)
+    (3, 1, 0)
+    >>> _check_counts(20, 1, -1)
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: seed: an integer in [0, 4294967294], got -1
+    """
+    from psdesign.errors import StudyError
+
+    checks = (("budget", budget, 1, MAX_BUDGET), ("batch", batch, 1, MAX_BATCH))
+    for key, v, lo, hi in (*checks, ("seed", seed, 0, MAX_SEED)):
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral) or not lo <= v <= hi:
+            raise StudyError(f"{key}: an integer in [{lo}, {hi}], got {v!r}")
+    return int(budget), int(batch), int(seed)
+
+
+#: Keywords of the runner that the search sets itself, round after round, and why.
+_OWN_RUN_KEYWORDS = {
+    "report": "each round runs with report=False; write_report(out_dir) after the search",
+    "command": "the folder's marker names the search, 'study optimize'",
+}
+
+
+def _check_run_keywords(run_kw: dict) -> None:
+    """Refuse, before any work, a keyword :func:`psdesign.study.runner.run_study` does not take
+    (the runner's ``TypeError`` named ``run_study()``) or one the search sets itself
+    (``report=True`` was "got multiple values for keyword argument")."""
+    from psdesign.errors import StudyError
+    from psdesign.study.runner import run_keywords
+
+    for key in run_kw:
+        if key in _OWN_RUN_KEYWORDS:
+            raise StudyError(f"{key}: set by optimize_study itself ({_OWN_RUN_KEYWORDS[key]})")
+        if key not in run_keywords():
+            allowed = sorted(run_keywords() - _OWN_RUN_KEYWORDS.keys())
+            raise StudyError(
+                f"{key}: not a keyword of optimize_study (allowed: budget, batch, seed, "
+                f"target_option and the runner's {', '.join(allowed)})"
+            )
 
 
 def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -330,6 +373,8 @@ def optimize_study(
     budget: int = 20,
     batch: int = 1,
     seed: int = 0,
+    *,
+    target_option: str = "targets",
     **run_kw,
 ) -> OptimizeResult:
     """Search the study's parameter box for a design that meets every target.
@@ -341,24 +386,43 @@ def optimize_study(
     out_dir : str or Path
         Output folder (a normal study folder; rerun to resume).
     targets : list of Target
+        At least one (:meth:`Target.parse`); each checked by :meth:`Target.check`.
     budget : int
-        Maximum number of design points.
+        Maximum number of design points, in [1, ``MAX_BUDGET``].
     batch : int
-        Points per round after the initial design (run in parallel by the runner).
+        Points per round after the initial design (run in parallel by the runner), in [1,
+        ``MAX_BATCH``].
     seed : int
-        Seed of the initial design and of the candidate set (same seed -> same path).
+        Seed of the initial design and of the candidate set (same seed -> same path), in
+        [0, ``MAX_SEED``].
+    target_option : str
+        How refusals name the targets: the keyword ``"targets"`` (the default), a command's
+        ``"--target"``.
     **run_kw
-        Passed to :func:`psdesign.study.runner.run_study` (workers, scheduler, case_fn, ...).
+        Passed to :func:`psdesign.study.runner.run_study` (workers, scheduler, case_fn, ...,
+        ``out_option``, ``scheduler_option``; not ``report`` or ``command``, which the search
+        sets).
+
+    Raises
+    ------
+    StudyError
+        Before any case or folder, one line naming the keyword (a
+        :class:`~psdesign.errors.SpecError`): a count or seed out of its range, a target that
+        is not a :class:`Target` or can never be met, a keyword the runner does not take or
+        one the search sets, and the runner's refusals of the study and its options
+        (:func:`~psdesign.study.runner.run_study`; ``out_dir``'s are an ``OutputError``).
     """
     from scipy.stats import qmc
 
     from psdesign.study.runner import run_study
     from psdesign.study.studyfile import load_study
 
-    _check_counts(budget, batch)
+    budget, batch, seed = _check_counts(budget, batch, seed)
+    _check_run_keywords(run_kw)
     study = load_study(study_path, run_kw.get("case_fn"))
     bounds = _bounds(study)
-    check_targets(targets, study.outputs)  # names and ranges: before any case or folder
+    # names and ranges: before any case or folder
+    check_targets(targets, study.outputs, target_option)
     names = list(bounds)
     b = [bounds[n] for n in names]
     n0 = min(budget, 2 * len(names) + 2)

@@ -3,16 +3,23 @@
 from __future__ import annotations
 
 import math
+import numbers
 import re
 from dataclasses import dataclass
 
 from psdesign.analysis.ranges import RANGES
+from psdesign.errors import StudyError
 
 #: Most design points of one optimization, and per round (``--budget``, ``--batch``; here, in
 #: the light module of ``study optimize``, so the command line checks them without importing
 #: the optimizer).
 MAX_BUDGET = 10_000
 MAX_BATCH = 1000
+#: Largest seed of a search (``--seed``): numpy / scipy take 32-bit seeds, and Sobol's
+#: bootstrap uses ``seed + 1``.
+MAX_SEED = 2**32 - 2
+#: The comparisons a target may make.
+TARGET_OPS = ("=", ">=", "<=")
 
 _TARGET = re.compile(
     r"^\s*([A-Za-z0-9_.\-]+)\s*(>=|<=|=)\s*([^\s]+?)\s*(?:\+-\s*(\S*?)\s*(%?))?\s*$"
@@ -42,26 +49,40 @@ def target_columns(outputs: list[str]) -> list[str]:
     return list(dict.fromkeys(cols))
 
 
-def check_targets(targets: list[Target], outputs: list[str]) -> None:
-    """Refuse (one-line ``ValueError``) a target on a column this study does not write, or one
-    whose value lies outside the column's physical range (:data:`RANGES`): before any case."""
+def check_targets(targets: list[Target], outputs: list[str], what: str = "--target") -> None:
+    """Refuse (one :class:`~psdesign.errors.StudyError` line, a ``ValueError``, naming
+    ``what``) no target, something that is not a :class:`Target`, a target on a column this
+    study does not write, or one that can never be met (:meth:`Target.check`): before any
+    case.
+
+    ``what`` names the targets: the command line's ``"--target"``, or the Python keyword
+    (``"targets"`` of :func:`psdesign.analysis.optimize.optimize_study`).
+    """
     from psdesign.schema.errors import did_you_mean
 
+    if isinstance(targets, Target | str) or not isinstance(targets, list | tuple) or not targets:
+        # a str was read one character at a time (AttributeError); [] ran a search for nothing
+        raise StudyError(f"{what}: must be a non-empty list of Target, got {targets!r}")
     cols = target_columns(outputs)
     for t in targets:
+        if not isinstance(t, Target):
+            raise StudyError(
+                f"{what}: each must be a psdesign.analysis.targets.Target (Target.parse("
+                f"'k_z_m2=8e-12+-5%')), got {type(t).__name__} {t!r}"
+            )
         if t.output not in cols:
-            raise ValueError(
-                f"--target: {t.output!r} is not an output of this study"
+            raise StudyError(
+                f"{what}: {t.output!r} is not an output of this study"
                 f"{did_you_mean(t.output, cols)} (outputs: {', '.join(cols)})"
             )
-        t.check_range()
+        t.check(what)
     for i, a in enumerate(targets):  # targets on one output that no value meets together
         for b in targets[i + 1 :]:
             if a.output == b.output:
                 (lo_a, hi_a), (lo_b, hi_b) = a.bounds(), b.bounds()
                 if max(lo_a, lo_b) > min(hi_a, hi_b):
-                    raise ValueError(
-                        f"--target: {a} and {b} can never both be met (no value of "
+                    raise StudyError(
+                        f"{what}: {a} and {b} can never both be met (no value of "
                         f"{a.output} meets both); give targets on one output that overlap"
                     )
 
@@ -98,7 +119,7 @@ class Target:
         """
         m = _TARGET.match(text)
         if not m:
-            raise ValueError(
+            raise StudyError(
                 "--target: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE, "
                 f"got {text!r}"
             )
@@ -106,9 +127,7 @@ class Target:
         try:
             value = float(val)
         except ValueError:
-            raise ValueError(f"--target: {name} value must be a number, got {val!r}") from None
-        if not math.isfinite(value):
-            raise ValueError(f"--target: {name} value must be finite, got {val!r}")
+            raise StudyError(f"--target: {name} value must be a number, got {val!r}") from None
         if tol is None:
             tolerance = DEFAULT_TOLERANCE
         else:
@@ -117,27 +136,45 @@ class Target:
             except ValueError:
                 tolerance = math.nan
             if not pct or not math.isfinite(tolerance):
-                raise ValueError(f"--target: {name} {_PERCENT}, got '+-{tol}{pct}'")
-        if op == "=" and not 0 < tolerance < 1:
-            raise ValueError(f"--target: {name} tolerance must be in (0, 100) %, got {tol}%")
-        if op == "=" and value == 0:
-            raise ValueError(f"--target: {name}=0 has no relative tolerance; use <= or >=")
+                raise StudyError(f"--target: {name} {_PERCENT}, got '+-{tol}{pct}'")
         target = cls(name, op, value, tolerance)
-        target.check_range()
+        target.check("--target")
         return target
 
-    def check_range(self) -> None:
-        """Refuse (one-line ``ValueError``) a value outside the output's physical range
-        (:data:`RANGES`): such a target can never be met."""
-        if self.output not in RANGES:
-            return
-        lo, lo_open, hi, hi_open, what = RANGES[self.output]
-        below = self.value <= lo if lo_open else self.value < lo
-        above = self.value >= hi if hi_open else self.value > hi
-        if below or above:
-            raise ValueError(
-                f"--target: {self.output}{self.op}{self.value:g} can never be met: {what}"
+    def check(self, what: str = "--target") -> None:
+        """Refuse (one :class:`~psdesign.errors.StudyError` line naming ``what``) a target that
+        can never be met or has no meaning: an op other than ``=``, ``>=``, ``<=``, a value
+        that is not a finite number, an ``=`` target's tolerance outside (0, 1) or of the
+        value 0 (no relative band), a value outside the output's physical range
+        (:data:`RANGES`).
+
+        A :class:`Target` built directly (not by :meth:`parse`) was used unchecked: ``op="~"``
+        was met by no value, a NaN value or a negative tolerance ran the whole budget
+        (session 47).
+
+        >>> Target("porosity", "=", 0.8, tolerance=-1.0).check("targets")
+        Traceback (most recent call last):
+        ...
+        psdesign.errors.StudyError: targets: porosity tolerance must be in (0, 100) %, got -100%
+        """
+        name, op, value, tol = self.output, self.op, self.value, self.tolerance
+        if op not in TARGET_OPS:
+            raise StudyError(
+                f"{what}: {name} op must be one of {', '.join(TARGET_OPS)}, got {op!r}"
             )
+        for key, v in (("value", value), ("tolerance", tol)):
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+                raise StudyError(f"{what}: {name} {key} must be a finite number, got {v!r}")
+        if op == "=" and not 0 < tol < 1:
+            raise StudyError(f"{what}: {name} tolerance must be in (0, 100) %, got {100 * tol:g}%")
+        if op == "=" and value == 0:
+            raise StudyError(f"{what}: {name}=0 has no relative tolerance; use <= or >=")
+        if self.output in RANGES:
+            lo, lo_open, hi, hi_open, why = RANGES[self.output]
+            below = value <= lo if lo_open else value < lo
+            above = value >= hi if hi_open else value > hi
+            if below or above:
+                raise StudyError(f"{what}: {name}{op}{value:g} can never be met: {why}")
 
     def bounds(self) -> tuple[float, float]:
         """The values that meet the target, as ``(low, high)``."""

@@ -165,14 +165,14 @@ def _cluster(args: argparse.Namespace, wait_s: float | None):
         return None
     if args.scheduler:
         raise StudyError("--cluster: give either --cluster or --scheduler, not both")
-    from psdesign.study.cluster import ClusterOptions
+    from psdesign.study.cluster import ClusterOptions, cluster_flag
 
     try:
         return ClusterOptions(
             args.cluster, **given, **({} if wait_s is None else {"wait_s": wait_s})
         )
-    except ValueError as exc:
-        raise StudyError(str(exc)) from None
+    except StudyError as exc:  # it names its field: spelled as the flag typed
+        raise StudyError(f"{cluster_flag(exc.key)}: {exc.message}") from None
 
 
 def _cluster_wait(args: argparse.Namespace) -> float | None:

@@ -17,9 +17,6 @@ from psdesign.cli.exit_status import (
 )
 from psdesign.cli.lines import print_json
 
-#: Largest seed: numpy / scipy take 32-bit seeds, and Sobol's bootstrap uses ``seed + 1``.
-MAX_SEED = 2**32 - 2
-
 
 def int_in(lo: int, hi: int, what: str):
     """An argparse ``type``: an integer in ``[lo, hi]``, else one line naming the range."""
@@ -280,6 +277,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
             force=args.force,
             out_option=("-o", "--force"),  # messages name this command's flags
             scheduler_option="--scheduler",
+            target_option="--target",
         )
     except (SchedulerError, ValueError) as exc:  # StudyError is a ValueError
         return fail(str(exc))
@@ -404,7 +402,7 @@ def _write_outcome(out: str, summary: dict) -> None:
 
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
-    from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET  # a light module: no numpy
+    from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED  # light: no numpy
     from psdesign.cli.progress import (
         add_allow_not_converged_argument,
         add_force_argument,

@@ -36,6 +36,26 @@ def axis_of(direction: str | int) -> tuple[str, int]:
     raise ValueError(f"direction must be 'x', 'y' or 'z', got {direction!r}")
 
 
+def checked_axis(value: object, key: str) -> tuple[str, int]:
+    """:func:`axis_of` of a user's value, else one :class:`~psdesign.errors.SpecError` line
+    naming ``key`` (``direction`` of a material's methods, ``transport.thickness_axis`` of
+    :func:`psdesign.transport.pores.pore_sizes`: one message for both since session 47).
+
+    >>> checked_axis(2, "direction")
+    ('z', 2)
+    >>> checked_axis("w", "direction")
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: direction: must be 'x', 'y' or 'z' (or 0-2), got 'w'
+    """
+    from psdesign.errors import SpecError
+
+    try:
+        return axis_of(value)
+    except (ValueError, TypeError):  # TypeError: an unhashable value (a list)
+        raise SpecError(key, f"must be 'x', 'y' or 'z' (or 0-2), got {value!r}") from None
+
+
 def flow_direction(given: str | int | None, flow: dict) -> str | int:
     """The flow direction of a solve: ``given`` (a command's ``--direction``, a method's
     keyword) or else the spec's ``flow.direction``, else ``"z"``.

@@ -42,6 +42,7 @@ from psdesign.packing.fiberset import (
     segment_distance,
 )
 from psdesign.packing.genetic import GL_NODES, analytic_omega, crossing_volume
+from psdesign.packing.overlap_status import analytic_omega_keys
 
 RELAX_KEYS = {"max_shift", "u_max", "f", "weights", "max_iter", "max_evals", "min_step"}
 #: Keys of the field route (woven / compressed fibers, :mod:`psdesign.forcefield.contact`).
@@ -516,15 +517,17 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     relaxed = RVE(rve.size, others + res.state.to_fibers(), period=period)
     w = kw["weights"]
     pot, err = rod_potential_error(res.state, lo, hi, w)  # one extra analytic_omega each
-    start_err = rod_potential_error(st_start(st, kw["f_straight"]), lo, hi, w)[1]["U"]
+    start = st_start(st, kw["f_straight"])
+    start_err = rod_potential_error(start, lo, hi, w)[1]["U"]
     # +- the last poll's mesh times each range: no compass neighbour that far was better
     poll = res.poll_step if len(res.movable) else 0.0
     summary = {
         "case": "relax",
         "n_fibers": len(st),
         "n_moved": int(len(res.movable)),
-        "omega_analytic_before": res.omega_before,
-        "omega_analytic_after": res.omega_after,
+        # the objective's Omega with its bar and status (the values are res.omega_before /
+        # res.omega_after, the same sums)
+        **analytic_omega_keys({"before": start, "after": res.state}, lo, hi),
         "U": res.U_after,
         "U_error": err["U"],
         "potentials": pot.to_dict(),

@@ -197,6 +197,28 @@ class VoxelFields:
         return count_fraction_error(self.count >= 2)
 
 
+def checked_fields(fields: object) -> VoxelFields:
+    """``fields`` when it is :class:`VoxelFields` (an image's too), else one
+    :class:`~psdesign.errors.SpecError` line naming ``fields``: the transport functions
+    (docs/transport.md) given something else raised ``AttributeError: 'int' object has no
+    attribute 'grid'`` (session 46 walk; mended in session 47).
+
+    >>> checked_fields(3)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: fields: must be the voxel fields of a material (...), got int
+    """
+    if not isinstance(fields, VoxelFields):
+        from psdesign.errors import SpecError
+
+        raise SpecError(
+            "fields",
+            "must be the voxel fields of a material (psdesign.build(spec).fields, a "
+            f"VoxelFields), got {type(fields).__name__}",
+        )
+    return fields
+
+
 @dataclass
 class RVE:
     """A box of fibers.

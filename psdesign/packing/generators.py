@@ -35,14 +35,13 @@ from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG, PAPER_MAX_SHIFT
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
-    analytic_omega,
     carrier_lengths,
     clearance,
     genetic,
     orientation_tensor,
     place_sequential,
 )
-from psdesign.packing.overlap_status import intersection_status
+from psdesign.packing.overlap_status import analytic_omega_keys, intersection_status
 from psdesign.packing.placement_settings import PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
@@ -404,8 +403,8 @@ def _placement_stats(drawn, st, both, lo, hi, period: float) -> dict:
     dist = np.linalg.norm(disp_perp, axis=1) * period
     rot = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", d0, d1)), 0, 1)))
     return {
-        "omega_analytic_before": analytic_omega(drawn, lo, hi) if len(drawn) else 0.0,
-        "omega_analytic_after": analytic_omega(both, lo, hi) if len(both) else 0.0,
+        # the centre lines' Omega (the GA's objective) with its bar and status
+        **analytic_omega_keys({"before": drawn, "after": both}, lo, hi),
         "orientation_tensor_before": orientation_tensor(drawn).round(6).tolist(),
         "orientation_tensor_after": orientation_tensor(st).round(6).tolist(),
         "displacement_m": _stats(dist),

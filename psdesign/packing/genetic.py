@@ -55,13 +55,19 @@ def crossing_volume(
 
 def analytic_omega(st: FiberState, lo: np.ndarray, hi: np.ndarray, n_gl: int = GL_NODES) -> float:
     """Estimated intersection volume fraction of the box from the centre lines
-    (:func:`crossing_volume` with ``n_gl`` nodes per crossing)."""
+    (:func:`crossing_volume` with ``n_gl`` nodes per crossing), the GA's and the relax route's
+    objective; its bar and status: :func:`psdesign.packing.overlap_status.rated_analytic_omega`."""
     c = find_contacts(st, lo, hi, 0.0)
     if len(c) == 0:
         return 0.0
+    return float(contact_volumes(st, c, n_gl).sum() / np.prod(hi - lo))
+
+
+def contact_volumes(st: FiberState, c, n_gl: int = GL_NODES) -> np.ndarray:
+    """The crossing volume of each contact ``c`` of :func:`find_contacts` (normalized units:
+    :func:`crossing_volume` of the two nominal circles at the centre lines' distance)."""
     sin_a = np.linalg.norm(np.cross(c.di, c.dj), axis=1)
-    v = crossing_volume(c.dist, 0.5 * st.diameter[c.i], 0.5 * st.diameter[c.j], sin_a, n_gl=n_gl)
-    return float(v.sum() / np.prod(hi - lo))
+    return crossing_volume(c.dist, 0.5 * st.diameter[c.i], 0.5 * st.diameter[c.j], sin_a, n_gl=n_gl)
 
 
 # --------------------------------------------------------------------- the GA

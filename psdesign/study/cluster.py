@@ -74,6 +74,13 @@ class ClusterOptions:
         ``--cluster-wait``: seconds to wait for the first worker to connect before the run
         stops (a job still queued after that is cancelled); ``run_study``'s
         ``worker_wait_s`` defaults to it.
+
+    Raises
+    ------
+    StudyError
+        On creation, one line naming the field (``cores: ...``; ``psdesign study run`` names
+        its flag, ``--cluster-cores: ...``) and what it allows (a
+        :class:`psdesign.errors.SpecError`, a ``ValueError``).
     """
 
     kind: str
@@ -86,32 +93,88 @@ class ClusterOptions:
     wait_s: float = DEFAULT_WAIT_S
 
     def __post_init__(self) -> None:
-        if self.kind not in CLUSTERS:
-            raise ValueError(f"--cluster: must be one of {', '.join(CLUSTERS)}, got {self.kind!r}")
-        if not isinstance(self.cores, int) or self.cores < 1:
-            raise ValueError(f"--cluster-cores: must be an integer >= 1, got {self.cores!r}")
-        parts = self.walltime.split(":") if isinstance(self.walltime, str) else []
-        if (
-            len(parts) != 3
-            or not all(p.isdigit() for p in parts)
-            or int(parts[1]) > 59
-            or int(parts[2]) > 59
-            or not any(int(p) for p in parts)
-        ):
-            raise ValueError(
-                f"--cluster-walltime: expected HH:MM:SS (minutes and seconds 0-59, "
-                f"above 00:00:00), got {self.walltime!r}"
-            )
-        if memory_bytes(self.memory) is None:
-            raise ValueError(
-                f"--cluster-memory: expected a size > 0 such as 16GB or 500MB, got {self.memory!r}"
-            )
-        check_wait_s(self.wait_s)
+        _check_cluster_fields(self)
+        object.__setattr__(self, "cores", int(self.cores))  # a NumPy integer as int
+        object.__setattr__(self, "job_extra", tuple(self.job_extra))  # a list as given
+        object.__setattr__(self, "wait_s", float(self.wait_s))
 
     @property
     def submit_command(self) -> str:
         """The batch system's submit command (``sbatch`` or ``qsub``)."""
         return SUBMIT_COMMANDS[self.kind]
+
+
+#: ``--cluster`` flags by :class:`ClusterOptions` field (the others are ``--cluster-<field>``).
+CLUSTER_FLAGS = {"kind": "--cluster", "wait_s": "--cluster-wait"}
+
+
+def cluster_flag(field_name: str) -> str:
+    """The command line's flag of a :class:`ClusterOptions` field.
+
+    >>> cluster_flag("kind"), cluster_flag("cores"), cluster_flag("wait_s")
+    ('--cluster', '--cluster-cores', '--cluster-wait')
+    """
+    return CLUSTER_FLAGS.get(field_name, f"--cluster-{field_name}")
+
+
+def _check_cluster_fields(opts: ClusterOptions) -> None:
+    """Each field of ``opts`` of its type and range, else a one-line
+    :class:`~psdesign.errors.StudyError` whose key is the field (``psdesign study run`` spells
+    it as its flag, :func:`cluster_flag`).
+
+    Until session 47 the errors named the flags from Python too, and ``queue=3``,
+    ``account=3``, ``cores=True`` and ``job_extra=3`` were taken (a text queue with a newline
+    wrote a directive of its own into the job script; ``job_extra="--x"`` one per character).
+    """
+    from psdesign.errors import StudyError
+
+    if opts.kind not in CLUSTERS:
+        raise StudyError(f"kind: must be one of {', '.join(CLUSTERS)}, got {opts.kind!r}")
+    cores = opts.cores
+    if isinstance(cores, bool) or not isinstance(cores, numbers.Integral) or cores < 1:
+        raise StudyError(f"cores: must be an integer >= 1, got {cores!r}")
+    parts = opts.walltime.split(":") if isinstance(opts.walltime, str) else []
+    if (
+        len(parts) != 3
+        or not all(p.isdigit() for p in parts)
+        or int(parts[1]) > 59
+        or int(parts[2]) > 59
+        or not any(int(p) for p in parts)
+    ):
+        raise StudyError(
+            "walltime: expected HH:MM:SS (minutes and seconds 0-59, above 00:00:00), "
+            f"got {opts.walltime!r}"
+        )
+    if memory_bytes(opts.memory) is None:
+        raise StudyError(f"memory: expected a size > 0 such as 16GB or 500MB, got {opts.memory!r}")
+    try:
+        check_wait_s(opts.wait_s, "wait_s")
+    except ValueError as exc:  # the StudyError (a SpecError) of every bad field
+        raise StudyError(str(exc)) from None
+    for key in ("queue", "account"):
+        value = getattr(opts, key)
+        if value is not None and not _directive_word(value):
+            raise StudyError(
+                f"{key}: must be a name without spaces (the batch system's {key}; none: "
+                f"its default), got {value!r}"
+            )
+    extra = opts.job_extra
+    if isinstance(extra, str) or not isinstance(extra, tuple | list):
+        raise StudyError(
+            f"job_extra: must be a tuple of directives such as ('--constraint=ib',), got {extra!r}"
+        )
+    for item in extra:
+        if not isinstance(item, str) or not item.strip() or "\n" in item or "\r" in item:
+            raise StudyError(
+                f"job_extra: each must be one line of text (a directive such as "
+                f"'--constraint=ib'), got {item!r}"
+            )
+
+
+def _directive_word(value: object) -> bool:
+    """A queue or account name: non-empty text with no white space (it is written into a
+    job-script directive line)."""
+    return isinstance(value, str) and bool(value) and not any(c.isspace() for c in value)
 
 
 def memory_bytes(text) -> int | None:

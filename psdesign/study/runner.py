@@ -786,6 +786,7 @@ def run_study(
     unknown = [k for k in fields if k not in _OPTION_FIELDS]
     if unknown:  # as Python words it for a keyword the signature does not have
         raise TypeError(f"run_study() got an unexpected keyword argument {unknown[0]!r}")
+    _check_naming(command, out_option, scheduler_option)
     opts = _run_options(options, fields)
     if not isinstance(study, Study):  # a case function of the user's: no route planned
         study = load_study(study, opts.case_fn)
@@ -802,6 +803,27 @@ def run_study(
 
 
 _OPTION_FIELDS = frozenset(f.name for f in fields_of(RunOptions))
+
+
+def run_keywords() -> frozenset[str]:
+    """The keywords :func:`run_study` takes besides ``study`` and ``out_dir``: ``options``,
+    its naming and marker keywords and every :class:`RunOptions` field."""
+    return _OPTION_FIELDS | {"options", "command", "out_option", "scheduler_option"}
+
+
+def _check_naming(command, out_option, scheduler_option) -> None:
+    """``command`` a text, ``out_option`` a pair (text, text or None), ``scheduler_option`` a
+    text, else one :class:`StudyError` line naming the keyword (``command=3`` was written into
+    the folder's marker; ``out_option=3`` was "cannot unpack non-iterable int object")."""
+    pair = isinstance(out_option, tuple | list) and len(out_option) == 2
+    if not (pair and isinstance(out_option[0], str) and isinstance(out_option[1], str | None)):
+        raise StudyError(
+            "out_option: must be a pair (name of out_dir, name of force or None), such as "
+            f"('out_dir', 'force=True'), got {out_option!r}"
+        )
+    for key, value in (("command", command), ("scheduler_option", scheduler_option)):
+        if not isinstance(value, str) or not value.strip():
+            raise StudyError(f"{key}: must be a non-empty text, got {value!r}")
 
 
 def _run_options(options: RunOptions | None, fields: dict) -> RunOptions:

@@ -122,10 +122,10 @@ def is_timing_column(name: str) -> bool:
     """True for columns that legitimately differ between identical runs: when, where and how
     they ran (``thread_note_<d>``: fewer threads than numba's, e.g. kernels not compiled yet).
 
-    >>> [is_timing_column(c) for c in ("pid", "time_mesh_s", "thread_note_z", "k_z_m2")]
-    [True, True, True, False]
+    >>> [is_timing_column(c) for c in ("pid", "time_mesh_s", "thread_note_z", "k_z_m2", 3)]
+    [True, True, True, False, False]
     """
-    return (
+    return isinstance(name, str) and (  # a column that is not text (3): no timing column
         name in TIMING_COLUMNS
         or name.endswith("_time_s")
         or name.startswith(("time_", "thread_note_"))

@@ -22,7 +22,7 @@ from functools import partial
 import numpy as np
 
 from psdesign.fields.writer import HeldCapture
-from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields, checked_fields
 from psdesign.schema.transport import check_conductivity, transport_keyword, validate_transport
 from psdesign.transport.effective import Rated, solve_effective, wiener_bounds
 
@@ -224,6 +224,7 @@ def effective_conductivity(
         A conductivity <= 0 (naming the key), or a ``solid`` / ``fluid`` value for the
         ``insulating_phase`` (:func:`transport_table`).
     """
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = transport_table(solid, fluid, transport)
     ks = 0.0 if tr["insulating_phase"] == "solid" else tr["solid_conductivity"]
     kf = 0.0 if tr["insulating_phase"] == "fluid" else tr["fluid_conductivity"]

@@ -30,7 +30,7 @@ from functools import partial
 import numpy as np
 
 from psdesign.fields.writer import HeldCapture
-from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields, checked_fields
 from psdesign.schema.transport import transport_keyword, validate_transport
 from psdesign.transport.effective import (
     Effective,
@@ -238,6 +238,7 @@ def relative_diffusivity(
         What ``cells_per_diameter`` counts across, named in that warning
         (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
     """
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = validate_transport({"transport": transport_keyword(transport)})
     held = None if capture is None else HeldCapture(partial(capture, "diffusivity"))
     eff = solve_effective(_pore_sigma, fields, direction, tr, progress=progress, capture=held)
@@ -263,6 +264,7 @@ def diffusivity_tensor(
     ``a``), ``symmetric`` (its symmetric part), ``eigenvalues``, ``tortuosity_factor`` per
     axis, ``results`` (the three :class:`DiffusivityResult` dicts) and ``converged``.
     """
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = transport_keyword(transport)
     tr["bc"] = "periodic"
     tr = validate_transport({"transport": tr})

@@ -43,7 +43,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from psdesign.flow import error as err
-from psdesign.flow.darcy import axis_of
+from psdesign.flow.darcy import checked_axis
 from psdesign.flow.error import richardson_rel_error
 from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
 
@@ -477,7 +477,7 @@ def solve_effective(
     from solvers.transport import solve_laplace
 
     t0 = time.perf_counter()
-    name, ax = axis_of(direction)
+    name, ax = checked_axis(direction, "direction")
     spacing = fields.grid.spacing
     if not np.allclose(spacing, spacing[0], rtol=1e-9):
         raise ValueError("transport needs cubic voxels; make rve.size a multiple of rve.voxel")

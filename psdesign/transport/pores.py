@@ -41,9 +41,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from psdesign.flow.darcy import axis_of
+from psdesign.flow.darcy import checked_axis
 from psdesign.geometry.edt import edt, periodic_edt
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, checked_fields
 
 
 @dataclass
@@ -259,15 +259,9 @@ def _check_pore_arguments(
     surface tension or a contact angle under 90 degrees (a wetting fluid: no intrusion
     pressure) made negative pressures without a word (session 46).
     """
-    from psdesign.errors import SpecError
     from psdesign.schema.transport import validate_transport
 
-    try:
-        name, ax = axis_of(thickness_axis)
-    except (ValueError, TypeError):
-        raise SpecError(
-            "transport.thickness_axis", f"must be 'x', 'y' or 'z' (or 0-2), got {thickness_axis!r}"
-        ) from None
+    name, ax = checked_axis(thickness_axis, "transport.thickness_axis")
     table = {
         "n_radii": n_radii,
         "thickness_axis": name,
@@ -305,6 +299,7 @@ def pore_sizes(
     SpecError
         An argument out of its ``[transport]`` key's range, naming the key.
     """
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     t0 = time.perf_counter()
     name, ax = _check_pore_arguments(n_radii, thickness_axis, surface_tension, contact_angle_deg)
     h = float(fields.grid.spacing[0])
@@ -368,6 +363,7 @@ def _mc_area(distance: np.ndarray, h: float) -> float:
 def specific_surface(fields: VoxelFields, check: bool = True) -> SurfaceResult:
     """Specific surface ``S_v`` (m^-1) by marching cubes on the signed distance field;
     ``check``: also on every second voxel, for ``rel_error`` (else 0 and no coarse value)."""
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     h = float(fields.grid.spacing[0])
     vol = float(np.prod(fields.grid.size))
     area = _mc_area(fields.distance, h)
@@ -396,7 +392,8 @@ def porosity_profile(fields: VoxelFields, axis: str | int = "z") -> dict:
     most its whole volume; so the bound is the fraction of such voxels in the layer.  A
     segmented image is its own geometry: 0.
     """
-    name, ax = axis_of(axis)
+    fields = checked_fields(fields)  # a VoxelFields, else one line naming it
+    name, ax = checked_axis(axis, "axis")
     pore = ~fields.solid
     other = tuple(b for b in range(3) if b != ax)
     prof = pore.mean(axis=other)

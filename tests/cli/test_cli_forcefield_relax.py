@@ -163,6 +163,18 @@ def test_relax_stopped_on_its_iteration_limit_is_not_converged(tmp_path, capsys)
     assert gap == pytest.approx(13e-6, rel=1e-9)  # 3 um + the 10 um move on the bound
     assert (gap >= D) == (summary["omega_analytic_after"] == 0.0)
     assert summary["omega_analytic_before"] > 0.0  # 3 um < D at the start
+    # session 47: each carries its bar and status (they were stored alone). Truth of the
+    # start: the exact lens of the nominal cylinders, axes 3 um apart (Cavalieri, scipy
+    # quad), as a fraction of the 100 um box
+    from conftest import load_benchmark
+
+    lens = load_benchmark("porosity_error_coverage").crossing_lens(D / 2, D / 2, 3e-6)
+    before, bar = summary["omega_analytic_before"], summary["omega_analytic_before_error"]
+    assert abs(before - lens / 1e-12) <= bar <= 0.2 * before
+    # rods: the nominal cylinders' lens only bounds the rods' own overlap from above
+    assert summary["omega_analytic_before_status"] == "untrustworthy"
+    assert summary["omega_analytic_after_error"] == 0.0
+    assert summary["omega_analytic_after_status"] == "ok"
 
 
 def test_relax_reports_its_search_progress(tmp_path, monkeypatch):

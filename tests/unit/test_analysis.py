@@ -533,9 +533,71 @@ def test_optimize_api_refuses_a_zero_batch(tmp_path) -> None:
     )
     t = [Target.parse("k_z_m2=5e-12")]
     for kw in ({"batch": 0}, {"budget": -1}, {"batch": 1.5}):
-        with pytest.raises(ValueError, match=r"^--(batch|budget): an integer in \[1, "):
+        with pytest.raises(ValueError, match=r"^(batch|budget): an integer in \[1, "):
             optimize_study(p, tmp_path / "out", t, case_fn=fake_case, workers=0, **kw)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("kw", "line"),
+    [
+        # main named the command line's flags from Python: "--budget: ...", "--batch: ..."
+        ({"budget": 0}, "budget: an integer in [1, 10000], got 0"),
+        ({"batch": 10**6}, "batch: an integer in [1, 1000], got 1000000"),
+        # numpy's "expected non-negative integer"; True and 2**70 ran a search
+        ({"seed": -1}, "seed: an integer in [0, 4294967294], got -1"),
+        ({"seed": True}, "seed: an integer in [0, 4294967294], got True"),
+        ({"seed": 2**70}, f"seed: an integer in [0, 4294967294], got {2**70}"),
+        # AttributeError / TypeError; [] ran a search toward nothing
+        ({"targets": "k_z_m2=5e-12"}, "targets: must be a non-empty list of Target, got"),
+        ({"targets": []}, "targets: must be a non-empty list of Target, got []"),
+        ({"targets": [3]}, "targets: each must be a psdesign.analysis.targets.Target"),
+        # a Target built directly was never checked: these ran the whole budget
+        ({"targets": [("k_z_m2", "~", 5e-12)]}, "targets: k_z_m2 op must be one of =, >=, <="),
+        ({"targets": [("k_z_m2", "=", math.nan)]}, "targets: k_z_m2 value must be a finite"),
+        ({"targets": [("k_z_m2", "=", 5e-12, -1.0)]}, "targets: k_z_m2 tolerance must be in"),
+        ({"targets": [("k_z", "=", 5e-12)]}, "targets: 'k_z' is not an output of this study"),
+        # "run_study() got an unexpected keyword argument" / "got multiple values for ..."
+        ({"wrkers": 2}, "wrkers: not a keyword of optimize_study (allowed: budget, batch,"),
+        ({"report": True}, "report: set by optimize_study itself"),
+    ],
+)
+def test_optimize_study_refusals_name_its_python_keywords(tmp_path, kw, line) -> None:
+    """Session 47: from Python, ``optimize_study`` names its keywords (``budget``, ``seed``,
+    ``targets``, ...) in one ``StudyError`` line before any case or folder, as ``run_study``
+    does; ``study optimize`` keeps its flags (``test_optimize_cli_names_the_target_flag``)."""
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.errors import StudyError
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    kw = {"targets": [Target.parse("k_z_m2=5e-12")], **kw}
+    if isinstance(kw["targets"], list):
+        kw["targets"] = [Target(*t) if isinstance(t, tuple) else t for t in kw["targets"]]
+    with pytest.raises(StudyError) as info:
+        optimize_study(p, tmp_path / "out", case_fn=fake_case, workers=0, progress=False, **kw)
+    assert str(info.value).startswith(line) and "\n" not in str(info.value), info.value
+    assert not (tmp_path / "out").exists()
+
+
+def test_optimize_cli_names_the_target_flag(tmp_path, capsys) -> None:
+    """The command's refusal of a target on a column the study does not write names
+    ``--target``, not the Python keyword (one line, exit 2, no folder)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    out = tmp_path / "out"
+    rc = main(["study", "optimize", str(p), "-o", str(out), "--target", "k_x_m2=5e-12"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --target: 'k_x_m2' is not an output of this study")
+    assert not out.exists()
 
 
 def test_k_ci_lower_bound_never_negative() -> None:

@@ -1137,3 +1137,76 @@ def test_an_unreachable_porosity_is_a_spec_error_naming_its_key() -> None:
     back = pickle.loads(pickle.dumps(err))  # a study worker sends it to the parent
     assert (type(back), str(back), back.key) == (type(err), str(err), err.key)
     assert back.closest_porosity == err.closest_porosity
+
+
+def test_one_axis_refusal_for_every_entry_that_takes_an_axis() -> None:
+    """Session 47: ``api._direction`` and ``pore_sizes``' thickness axis each wrapped
+    ``axis_of`` with their own message (the material's methods said "must be 'x', 'y' or
+    'z'" though they take 0-2 too); ``porosity_profile(axis="w")`` and
+    ``relative_diffusivity(fields, "w")`` were a bare ValueError "direction must be ..."
+    (the profile's argument is ``axis``). One helper now (``flow.darcy.checked_axis``): one
+    SpecError line naming the argument, the same words everywhere."""
+    from psdesign.transport.diffusivity import relative_diffusivity
+    from psdesign.transport.pores import pore_sizes, porosity_profile
+
+    m = psdesign.build(_one_cylinder())
+    words = "must be 'x', 'y' or 'z' (or 0-2), got 'w'"
+    for key, call in (
+        ("direction", lambda: m.permeability("w")),
+        ("direction", lambda: m.diffusivity("w")),
+        ("direction", lambda: relative_diffusivity(m.fields, "w")),
+        ("transport.thickness_axis", lambda: pore_sizes(m.fields, thickness_axis="w")),
+        ("axis", lambda: porosity_profile(m.fields, "w")),
+    ):
+        with pytest.raises(psdesign.SpecError) as info:
+            call()
+        assert (info.value.key, str(info.value)) == (key, f"{key}: {words}")
+
+
+def test_permeability_result_from_a_dict_that_is_not_a_record_is_one_line() -> None:
+    # main: from_dict(3) was AttributeError ('int' object has no attribute 'get'), from_dict({})
+    # KeyError: 'direction'
+    for bad, shown in ((3, "int"), ({}, "[]"), ({"k": 1.0}, "['k']")):
+        with pytest.raises(psdesign.SpecError) as info:
+            psdesign.PermeabilityResult.from_dict(bad)
+        assert str(info.value).startswith("d: must be a dict with 'direction' and ")
+        assert str(info.value).endswith(f"got {shown}")
+    ok = {"direction": "z", "permeability_m2": 1e-12, "converged": True}
+    assert psdesign.PermeabilityResult.from_dict(ok).permeability_m2 == 1e-12
+
+
+@pytest.mark.parametrize(
+    ("kw", "line"),
+    [
+        ({"out_option": 3}, "out_option: must be a pair"),  # main: "cannot unpack non-iterable"
+        ({"out_option": ("-o",)}, "out_option: must be a pair"),
+        ({"command": 3}, "command: must be a non-empty text, got 3"),  # main: the marker's
+        ({"scheduler_option": None}, "scheduler_option: must be a non-empty text, got None"),
+    ],
+)
+def test_the_runner_refuses_naming_keywords_of_other_types(tmp_path, kw, line) -> None:
+    from study_cases import FACTORIAL, fake_case, write_study
+
+    from psdesign.study import StudyError, is_timing_column
+    from psdesign.study import run_study as runner_run_study
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    with pytest.raises(StudyError) as info:
+        runner_run_study(p, tmp_path / "o", case_fn=fake_case, workers=0, progress=False, **kw)
+    assert str(info.value).startswith(line)
+    assert not (tmp_path / "o").exists()
+    assert is_timing_column(3) is False  # main: AttributeError ('int' ... 'endswith')
+
+
+def test_load_study_refuses_a_case_fn_that_is_neither_callable_nor_a_name(tmp_path) -> None:
+    # session 47 walk: load_study(path, case_fn=3) was taken (as a user's case function: the
+    # route's memory left unplanned); run_study refused the same value by RunOptions' rule
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.study import StudyError, load_study
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    for bad in (3, 2.5, ["m:f"]):
+        with pytest.raises(StudyError, match=r"^case_fn: expected a callable or 'module:function'"):
+            load_study(p, bad)
+    assert load_study(p, "study_cases:fake_case").parameters  # a name is still taken

@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from psdesign.study.cluster import ClusterOptions, job_script
@@ -63,22 +64,48 @@ def test_pbs_job_script() -> None:
 @pytest.mark.parametrize(
     ("kw", "key"),
     [
-        ({"kind": "lsf"}, "--cluster"),
-        ({"kind": "slurm", "cores": 0}, "--cluster-cores"),
-        ({"kind": "pbs", "walltime": "2h"}, "--cluster-walltime"),
-        ({"kind": "pbs", "walltime": "01:75:00"}, "--cluster-walltime"),
-        ({"kind": "pbs", "walltime": "00:00:00"}, "--cluster-walltime"),
-        ({"kind": "slurm", "memory": "banana"}, "--cluster-memory"),
-        ({"kind": "slurm", "memory": "-5GB"}, "--cluster-memory"),
-        ({"kind": "slurm", "memory": "0"}, "--cluster-memory"),
-        ({"kind": "slurm", "wait_s": 0}, "--cluster-wait"),
-        ({"kind": "slurm", "wait_s": float("inf")}, "--cluster-wait"),
-        ({"kind": "slurm", "wait_s": "soon"}, "--cluster-wait"),
+        ({"kind": "lsf"}, "kind"),
+        ({"kind": 3}, "kind"),
+        ({"kind": "slurm", "cores": 0}, "cores"),
+        ({"kind": "slurm", "cores": True}, "cores"),  # taken as 1 core until session 47
+        ({"kind": "pbs", "walltime": "2h"}, "walltime"),
+        ({"kind": "pbs", "walltime": "01:75:00"}, "walltime"),
+        ({"kind": "pbs", "walltime": "00:00:00"}, "walltime"),
+        ({"kind": "slurm", "memory": "banana"}, "memory"),
+        ({"kind": "slurm", "memory": "-5GB"}, "memory"),
+        ({"kind": "slurm", "memory": "0"}, "memory"),
+        ({"kind": "slurm", "wait_s": 0}, "wait_s"),
+        ({"kind": "slurm", "wait_s": float("inf")}, "wait_s"),
+        ({"kind": "slurm", "wait_s": "soon"}, "wait_s"),
+        # taken until session 47: an int queue or account reached dask-jobqueue, a text with
+        # a newline wrote a directive of its own, job_extra=3 / "--x" (one per character)
+        ({"kind": "slurm", "queue": 3}, "queue"),
+        ({"kind": "slurm", "queue": ""}, "queue"),
+        ({"kind": "slurm", "queue": "short\n#SBATCH --exclusive"}, "queue"),
+        ({"kind": "pbs", "account": 3}, "account"),
+        ({"kind": "slurm", "job_extra": 3}, "job_extra"),
+        ({"kind": "slurm", "job_extra": "--constraint=ib"}, "job_extra"),
+        ({"kind": "slurm", "job_extra": (3,)}, "job_extra"),
+        ({"kind": "slurm", "job_extra": ("a\nb",)}, "job_extra"),
     ],
 )
-def test_bad_cluster_options_name_the_flag(kw, key) -> None:
-    with pytest.raises(ValueError, match=key):
+def test_bad_cluster_options_name_the_field(kw, key) -> None:
+    """From Python each refusal is one StudyError line naming the field (main named the
+    command line's ``--cluster-*`` flags, and took the wrong types marked above); the
+    command spells the field as its flag (``test_cli_bad_cluster_resources_exit_2_...``)."""
+    from psdesign.errors import StudyError
+
+    with pytest.raises(StudyError) as info:
         ClusterOptions(**kw)
+    assert info.value.key == key and str(info.value).startswith(f"{key}: "), info.value
+    assert "\n" not in str(info.value)
+
+
+def test_cluster_options_take_numpy_cores_and_a_list_of_directives() -> None:
+    # np.int64(4) was refused "--cluster-cores: must be an integer >= 1, got np.int64(4)"
+    opts = ClusterOptions("slurm", cores=np.int64(4), job_extra=["--constraint=ib"])
+    assert opts.cores == 4 and type(opts.cores) is int
+    assert opts.job_extra == ("--constraint=ib",) and hash(opts)
 
 
 def test_study_runs_through_a_cluster_option(tmp_path, monkeypatch) -> None:
@@ -265,4 +292,22 @@ def test_cli_bad_cluster_resources_exit_2_naming_the_flag(tmp_path, capsys, flag
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1
     assert err.startswith(f"psdesign: error: {flag.split('=')[0]}:")
+    assert not out.exists()
+
+
+def test_cli_names_the_queue_flag_for_a_queue_with_spaces(tmp_path, capsys) -> None:
+    # session 47: `--cluster-queue "a b"` went into the job script's "#SBATCH -p a b"; now the
+    # field's refusal spelled as the flag, exit 2, one line, no folder
+    from study_cases import FACTORIAL, write_study
+
+    from psdesign.cli.study import main
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    out = tmp_path / "o"
+    rc = main(
+        ["study", "run", str(p), "-o", str(out), "--cluster", "slurm", "--cluster-queue", "a b"]
+    )
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("psdesign: error: --cluster-queue: must be a name without spaces")
     assert not out.exists()

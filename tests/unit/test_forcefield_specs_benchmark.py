@@ -47,5 +47,8 @@ def test_a_relax_stopped_on_max_iter_is_recorded_with_its_status_and_after_state
     # 1 um grid: the rods overlap before (3 um apart, 10 um thick); after is measured too
     assert rec["before"]["omega"] > 2e-4
     assert set(rec["after"]) == {"porosity", "omega", "min_gap_m"}
+    # the analytic Omega is recorded with its bars and statuses (session 47): rods overlapping
+    # before, so an upper bound only (untrustworthy)
+    assert rec["omega_analytic_error"][0] > 0 and rec["omega_analytic_status"][0] == "untrustworthy"
     timings = json.loads((work / "out" / "summary_timings.json").read_text())
     assert rec["relax_s"] == timings["wall_time_s"] > 0

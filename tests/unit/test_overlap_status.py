@@ -142,3 +142,42 @@ def parallel_pair(c) -> list:
         make_fiber("cylinder", 0.2, center=np.add(c, [0, o, 0]), direction=[0, 0, 1])
         for o in (0.0, 0.15)
     ]
+
+
+@pytest.mark.parametrize(
+    ("centre", "times", "status"),
+    [
+        ([0.41, 0.37, 0.52], 1, "ok"),  # inside the box: one contact
+        ([0.41, 0.0, 0.52], 2, "untrustworthy"),  # on the y = 0 face: one per periodic copy
+    ],
+)
+def test_analytic_omega_carries_a_bar_that_covers_the_exact_lens(centre, times, status):
+    """Session 47: ``omega_analytic_*`` (the GA's and the relax route's objective) was stored
+    in ``generate``'s report and the relax ``summary.json`` without a bar or status. Truth:
+    the exact crossing volume of two perpendicular cylinders (Cavalieri, scipy quad:
+    ``crossing_lens``). The value sums one lens per contact of the fiber copies, so a lens on
+    a box face counts twice; the bar (quadrature + lenses counted more than once) covers the
+    exact volume either way, and the doubled one is ``untrustworthy``."""
+    from psdesign.packing.fiberset import FiberState
+    from psdesign.packing.genetic import analytic_omega
+    from psdesign.packing.overlap_status import analytic_omega_keys, rated_analytic_omega
+
+    ri = rj = 0.1
+    s = 0.15  # depth 0.05 of the period
+    fibers = crossing_pair(ri, rj, s, centre)
+    fibers[1] = make_fiber(
+        "cylinder", 2 * rj, center=np.add(centre, [0, 0, s]), direction=[0, 1, 0]
+    )
+    rve = RVE(size=[L] * 3, fibers=fibers)
+    st, (lo, hi) = FiberState.from_fibers(fibers), rve.box_normalized
+    r = rated_analytic_omega(st, lo, hi)
+    exact = crossing_lens(ri, rj, s)  # in the unit box: a fraction of it
+    assert r["value"] == analytic_omega(st, lo, hi)  # the objective's own number
+    assert r["value"] == pytest.approx(times * exact, rel=2e-3)
+    assert abs(r["value"] - exact) <= r["error"] and r["status"] == status
+    apart = FiberState.from_fibers(crossing_pair(ri, rj, 0.2001, centre))
+    keys = analytic_omega_keys({"before": st, "after": apart}, lo, hi)
+    assert keys["omega_analytic_after"] == keys["omega_analytic_after_error"] == 0.0
+    assert (
+        keys["omega_analytic_after_status"] == "ok" and keys["omega_analytic_before"] == r["value"]
+    )

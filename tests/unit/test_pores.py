@@ -319,3 +319,26 @@ def test_every_transport_entry_refuses_a_transport_that_is_not_a_table():
             assert info.value.key == "transport" and "must be a table" in line, (entry, bad)
             assert len(line.splitlines()) == 1
     assert transport_table(transport=None)["bc"] == "periodic"  # None: the defaults
+
+
+def test_every_transport_entry_refuses_what_is_not_voxel_fields():
+    """Session 46 left: the documented transport functions (docs/transport.md) given something
+    that is not VoxelFields raised ``AttributeError: 'int' object has no attribute 'grid'``
+    (``'solid'`` for the profile). Now one SpecError line naming ``fields``."""
+    from psdesign.errors import SpecError
+    from psdesign.transport.conductivity import effective_conductivity
+    from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
+    from psdesign.transport.pores import porosity_profile, specific_surface
+
+    for call in (
+        lambda: relative_diffusivity(3, "z"),
+        lambda: diffusivity_tensor(3),
+        lambda: effective_conductivity(3, "z", 1.0, 1.0),
+        lambda: pore_sizes(None),
+        lambda: specific_surface(np.zeros((4, 4, 4))),
+        lambda: porosity_profile(3),
+    ):
+        with pytest.raises(SpecError) as info:
+            call()
+        assert info.value.key == "fields" and "\n" not in str(info.value)
+        assert str(info.value).startswith("fields: must be the voxel fields of a material")
