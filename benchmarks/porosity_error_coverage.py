@@ -37,7 +37,8 @@ faces; grid-aligned lenses no longer untrustworthy by kind): the bar covers 571 
 voxels deep 168 of 168 crossing at random places, 174 of 181 on faces, 196 of 197 parallel;
 rated ok 578, of which the bar covers 570. Then 100 parallel pairs on voxel faces (whole voxels
 apart) and 100 crossing pairs through voxel centres, drawn last: 89 of 93 and 95 of 96 at 1-12
-voxels (session 46's bar: 66 and 87); all 800: rated ok 774, of which the bar covers 761.
+voxels (session 46's bar: 66 and 87); all 800: rated ok 774, of which the bar covers 761
+(773 and 760 once a thin parallel lens's volume is the circle lens, not crossing_volume's cap).
 """
 
 from __future__ import annotations
