@@ -154,8 +154,8 @@ def flagged_words(status_column: str) -> str:
         return "untrustworthy = error bar above 20 %"
     if status_column == "intersection_volume_fraction_status":  # packing.overlap_status
         return (
-            "untrustworthy = overlaps thinner than a voxel or along the grid, which the count "
-            "may miss, hold more of the box than its error bar"
+            "untrustworthy = overlaps thinner than a voxel, which the count may miss, hold "
+            "more of the box than its error bar"
         )
     if status_column == "pore_sizes_status":  # study_outputs.pore_sizes_status
         return f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge"

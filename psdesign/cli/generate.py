@@ -181,7 +181,7 @@ def write_generate_outputs(
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
-    summary = summarize(rve, fields, built.report)
+    summary = summarize(built, fields)
     summary["wall_time_s"] = {"build_and_voxelize": round(time.perf_counter() - t0, 3)}
     from psdesign.cli import progress
 

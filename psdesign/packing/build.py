@@ -25,6 +25,18 @@ class BuiltRVE:
             return self.fields
         return self.rve.voxelize(voxel)
 
+    def intersection_status(self, fields: VoxelFields) -> str:
+        """The status of ``fields.intersection_volume_fraction``
+        (:func:`psdesign.packing.overlap_status.intersection_status`): the generator's
+        ``omega_after_status`` when ``fields`` are its final fields (the same fibers and grid,
+        :meth:`voxelize`'s reuse), so a case computes it once (0.03 s on fig13's 55 fibers,
+        0.2 s on 131, session 46); else computed on :attr:`rve`."""
+        if fields is self.fields and "omega_after_status" in self.report:
+            return self.report["omega_after_status"]
+        from psdesign.packing.overlap_status import intersection_status
+
+        return intersection_status(self.rve, fields)
+
 
 def build_rve(spec: dict) -> BuiltRVE:
     """Build the RVE of a validated spec: explicit fibers plus generated ones.
@@ -72,17 +84,16 @@ def _generator_text(gen: dict) -> str:
     return f"{value('kind')} fibers, {target}, seed {value('seed')}"
 
 
-def summarize(rve: RVE, fields: VoxelFields, report: dict | None = None) -> dict:
-    """The summary.json content."""
-    from psdesign.packing.overlap_status import intersection_status
-
+def summarize(built: BuiltRVE, fields: VoxelFields) -> dict:
+    """The summary.json content of ``built`` voxelized as ``fields``."""
+    rve, report = built.rve, built.report
     out = {
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
         "intersection_volume_fraction": fields.intersection_volume_fraction,
         "intersection_volume_fraction_error": fields.intersection_error,
-        "intersection_volume_fraction_status": intersection_status(rve, fields),
+        "intersection_volume_fraction_status": built.intersection_status(fields),
         "voxel_grid": fields.grid.to_dict(),
         "size_m": rve.size.tolist(),
         "period_m": rve.period,

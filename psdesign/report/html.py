@@ -581,9 +581,9 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         "quadratures, docs/geometry.md)"
         + (
             "; the overlap Omega (intersection_volume_fraction, a fraction of the box) ± its "
-            "absolute error (the same count on the grid and on every second voxel), "
-            "untrustworthy where overlaps thinner than a voxel or along the grid hold more of "
-            "the box than that error (docs/geometry.md)"
+            "absolute error (the same count on the grid and on every second voxel, and the "
+            "rounding of its boundary), untrustworthy where overlaps thinner than a voxel hold "
+            "more of the box than that error (docs/geometry.md)"
             if omega
             else ""
         )

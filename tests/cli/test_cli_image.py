@@ -34,11 +34,13 @@ diameter = 6e-6
 center = [12e-6, 18e-6, 16e-6]
 direction = [0, 1, 0]
 """
-#: ``generate``'s exit on RODS: 3 since session 46, by Omega's status: the cylinders overlap
-#: 3 um deep with both axes on voxel faces, where Omega's bar is not calibrated (covered 82 of
-#: 106 such lenses; docs/geometry.md); it happens to cover this one (0.00666 +- 0.00219
-#: against the exact 0.00548).
-RODS_EXIT = 3
+#: ``generate``'s exit on RODS: 0, Omega ``ok``. The cylinders overlap 3 um deep with both axes
+#: on voxel faces: session 46's bar was not calibrated there (covered 82 of 106 such lenses) and
+#: the status said ``untrustworthy`` (exit 3); session 47's bar covers 174 of 181 (module doc of
+#: psdesign.packing.overlap_status) and this one: 0.00666 +- 0.00282 against the exact 0.00548
+#: (Cavalieri, benchmarks/porosity_error_coverage.py ``crossing_lens(4, 3, 4) / 24^3``).
+RODS_EXIT = 0
+RODS_OMEGA_STATUS = "ok"
 
 
 @pytest.fixture()
@@ -66,7 +68,7 @@ def test_generate_tiff_round_trip_same_porosity_and_k(tmp_path, capsys) -> None:
     args = ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
     assert main(args) == RODS_EXIT
     assert json.loads(capsys.readouterr().out)["intersection_volume_fraction_status"] == (
-        "untrustworthy"
+        RODS_OMEGA_STATUS
     )
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["tiff"]["solid_value"] == 1 and summary["tiff"]["voxel_size_m"] == 1e-6
@@ -88,7 +90,7 @@ def test_image_k_against_the_subvoxel_rve_route(tmp_path, capsys) -> None:
     args = ["generate", str(rods), "-o", str(tmp_path / "out"), "--format", "tiff", "--no-preview"]
     assert main(args) == RODS_EXIT
     assert json.loads(capsys.readouterr().out)["intersection_volume_fraction_status"] == (
-        "untrustworthy"
+        RODS_OMEGA_STATUS
     )
     capsys.readouterr()
     img = spec_file(tmp_path, '[image]\npath = "out/rve.tif"\n')

@@ -177,3 +177,74 @@ def test_row_omega_carries_its_status_and_flags_the_case(tmp_path, y, status):
     df = pd.DataFrame([row])
     assert case_counts(df).flagged == (status != "ok")
     assert trusted(df)["intersection_volume_fraction"].isna().all() == (status != "ok")
+
+
+GENERATED = {
+    "rve": {"size": [40e-6] * 3, "voxel": 1e-6},
+    "generator": {
+        "kind": "straight",
+        "porosity": 0.85,
+        "diameter": 5e-6,
+        "seed": 1,
+        "porosity_tolerance": 0.02,
+    },
+    "intersections": {"method": "none"},
+}
+
+
+@pytest.fixture()
+def status_calls(monkeypatch) -> list:
+    """Every (fibers, grid shape) ``intersection_status`` is called on, wherever it is
+    imported from."""
+    import psdesign.packing.generators as generators
+    import psdesign.packing.overlap_status as overlap_status
+
+    real, calls = overlap_status.intersection_status, []
+
+    def counted(rve, fields):
+        calls.append((len(rve.fibers), fields.grid.shape))
+        return real(rve, fields)
+
+    monkeypatch.setattr(overlap_status, "intersection_status", counted)
+    monkeypatch.setattr(generators, "intersection_status", counted)
+    return calls
+
+
+def test_a_generated_case_rates_omega_once_and_says_it_alike(tmp_path, capsys, status_calls):
+    """Omega's status was computed twice on the same fibers and grid per generated case: by
+    the generator (``omega_after_status``) and again by the row (study/case.py) and by
+    summary.json (packing/build.summarize): 0.03 s on fig13, 0.2 s for 131 fibers (session
+    46). Now once, reused by :meth:`psdesign.packing.build.BuiltRVE.intersection_status`:
+    two calls per case (the drawn fibers', ``omega_before_status``, and the final ones'), the
+    same word in the row, the generation report and generate's JSON line and summary.json.
+    Fails on main's build.py / case.py (three calls)."""
+    import json
+
+    from psdesign.cli import main
+    from psdesign.packing.build import build_rve
+    from psdesign.schema.spec import validate_spec
+
+    row = run_case(GENERATED, ["porosity"], "voxel", tmp_path / "case")
+    assert len(status_calls) == 2
+    assert row["intersection_volume_fraction_status"] == row["omega_after_status"]
+    spec = tmp_path / "gen.toml"
+    spec.write_text(
+        '[rve]\nsize = [40e-6, 40e-6, 40e-6]\nvoxel = 1e-6\n[generator]\nkind = "straight"\n'
+        "porosity = 0.85\ndiameter = 5e-6\nseed = 1\nporosity_tolerance = 0.02\n"
+        '[intersections]\nmethod = "none"\n'
+    )
+    status_calls.clear()
+    code = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--no-preview", "--quiet"])
+    assert len(status_calls) == 2
+    out = json.loads(capsys.readouterr().out)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    word = row["intersection_volume_fraction_status"]
+    assert out["intersection_volume_fraction_status"] == word
+    assert summary["intersection_volume_fraction_status"] == word
+    assert summary["generation"]["omega_after_status"] == word
+    assert code == (0 if word == "ok" and out["porosity_status"] == "ok" else 3)
+    # fields on another grid are not the generator's: rated on their own
+    built = build_rve(validate_spec(GENERATED))
+    status_calls.clear()
+    assert built.intersection_status(built.voxelize(2e-6)) in ("ok", "untrustworthy")
+    assert status_calls == [(len(built.rve.fibers), (20, 20, 20))]
