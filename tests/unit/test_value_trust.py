@@ -287,3 +287,34 @@ def test_trusted_blanks_every_value_that_shares_a_blanked_bar():
     for c in ("diffusivity_x", "tortuosity_x"):
         assert own_status(df, c).tolist() == ["untrustworthy", "ok"], c
         assert trusted(df)[c].isna().tolist() == [True, False], c
+
+
+def test_a_whole_column_is_rated_as_error_bar_rates_each_row():
+    """``own_status`` rates an old table's column at once (session 47: one row at a time
+    through ``error_bar`` took 20-60 ms per 2000 rows); the truth is ``error_bar``'s rule,
+    row by row, over every cell a row can hold: a value missing, 0, negative, infinite or a
+    string, a bar missing, 0, just under, at and over 20 %, infinite or a string, an own status
+    missing, empty or set. A rule coded twice that disagreed on one cell fails here."""
+    import numpy as np
+
+    from psdesign.analysis.columns import error_bar, own_status
+
+    values = [np.nan, 0.0, -0.5, 0.5, 2e-5, np.inf, "0.5", "x"]
+    bars = [np.nan, 0.0, 0.0999, 0.1, 0.1001, 1.0, np.inf, "0.02", "y"]  # x 0.5: 20 % at 0.1
+    owns = [None, "", "ok", "untrustworthy"]
+    cells = list(itertools.product(values, bars, owns))
+    for value, error, status in (
+        ("porosity", "porosity_error", "porosity_status"),
+        ("k_z_m2", "k_z_rel_error", "k_z_status"),
+        ("pore_d10_m", "pore_diameter_error_m", "pore_sizes_status"),
+    ):
+        df = pd.DataFrame(cells, columns=[value, error, status], dtype=object)
+        if value == "pore_d10_m":  # rated by d50's bar (RATED_BY): d50 is the cell's value
+            df["pore_d50_m"] = df[value]
+        for table in (df, df.drop(columns=status)):
+            rows = table.to_dict("records")
+            truth = []
+            for r in rows:  # its own status when set, else error_bar's; unrated reads ok
+                st = r.get(status) or error_bar(r, value)[1]
+                truth.append(st if st not in ("unrated", "no trusted value") else "ok")
+            assert own_status(table, value).tolist() == truth, value
