@@ -1597,3 +1597,30 @@ def test_the_values_table_prints_omega_with_its_absolute_bar():
     assert cells == ["0.8000 ± 4.0e-04", "0 ± 0", "0.9000 ± 4.0e-04", "1e-05 ± 2.0e-04"], cells
     assert "%" not in table.split("</p>", 1)[1]
     assert "± its absolute error" in table
+
+
+def test_parameter_plots_rate_each_output_once_not_once_per_parameter(monkeypatch):
+    """Session 47: ``parameter_plots`` asked ``not_ok_status`` for an output's not-ok rows in
+    every frame (parameters x outputs; on a 2000-row table without status columns each call
+    rates every row by its bar) and K's once more to choose the directions. Each output is now
+    rated once (K on its log axis, the others on their linear ones), whatever the number of
+    parameters; the frames are the same (the frames tests above)."""
+    from collections import Counter
+
+    from psdesign.report import decision
+
+    calls = Counter()
+    real = decision.not_ok_status
+    monkeypatch.setattr(
+        decision,
+        "not_ok_status",
+        lambda df, c, log=True: (calls.update([(c, log)]), real(df, c, log))[1],
+    )
+    df = _random_kc_study()
+    df["generator.fiber_length"] = np.linspace(1e-4, 2e-4, len(df))  # a third parameter
+    df["porosity_error"] = 0.3 * df["porosity"]  # 30 %: every porosity untrustworthy
+    params = ["generator.porosity", "generator.diameter", "generator.fiber_length"]
+    html = decision.parameter_plots(df, params)
+    assert "porosity: untrustworthy (not in the lines)" in html  # the rating drew its markers
+    assert calls[("k_z_m2", True)] == 1 and calls[("porosity", False)] == 1, calls
+    assert max(calls.values()) == 1, calls
