@@ -29,7 +29,6 @@ from psdesign.analysis.columns import (
     k_not_ok,
     own_status,
     trusted,
-    value_ok,
     value_status,
 )
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
@@ -48,9 +47,11 @@ from psdesign.report.references import (
 from psdesign.report.sensitivity import main_effects, sensitivity_table
 from psdesign.report.transport import transport_figure
 from psdesign.report.trust import (
+    AT_UNTRUSTED_X,
     NOT_OK_MARKERS,
     draw_not_ok,
     failed_count,
+    point_status,
     status_style,
 )
 from psdesign.report.units import output_label
@@ -233,13 +234,15 @@ def _fiber_radius(df: pd.DataFrame, study: dict) -> tuple[pd.Series | None, floa
     return None, (float(d) / 2.0 if d else None)
 
 
-def _porosity(df: pd.DataFrame) -> pd.Series | None:
+def _porosity(df: pd.DataFrame) -> tuple[str | None, pd.Series | None]:
+    """The porosity column a porosity-K figure draws on its x axis (the measured one, else the
+    generator's target) and its values; ``(None, None)`` without one."""
     for c in ("porosity", "generator.porosity"):
         if c in df:
             p = pd.to_numeric(df[c], errors="coerce")
             if p.notna().any():
-                return p
-    return None
+                return c, p
+    return None, None
 
 
 def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
@@ -252,15 +255,16 @@ def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
 
 
 def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
-    """Porosity vs K with error bars and the reference curves; K that is not ok (the case
-    not converged, or this direction untrustworthy) drawn with an open marker per status
+    """Porosity vs K with error bars and the reference curves; a point that is not ok, its K
+    (the case not converged, or this direction untrustworthy) or its porosity (a bar above
+    20 %: :func:`~psdesign.report.trust.point_status`), drawn with an open marker per status
     (:func:`~psdesign.report.trust.draw_not_ok`)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    eps_all = _porosity(df)
+    eps_col, eps_all = _porosity(df)
     kcols = [c for c in DIRECTIONS if c in df and pd.to_numeric(df[c], errors="coerce").gt(0).any()]
     if eps_all is None or not kcols:
         return None, "No porosity/permeability results to plot."
@@ -270,12 +274,13 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
     ax.set_yscale("log")  # before draw_not_ok, which draws no K <= 0 on a log axis
     markers = {"k_x_m2": "o", "k_y_m2": "s", "k_z_m2": "^"}
     colors = {"k_x_m2": "C0", "k_y_m2": "C2", "k_z_m2": "C1"}
-    n_bad = 0
+    n_bad = n_x = 0
     for c in kcols:
         k = pd.to_numeric(df[c], errors="coerce")
         scale = r_all**2 if normalize else 1.0
         y, err = k / scale, _k_error(df, c, k / scale)
-        good = value_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        # filled: the K and its porosity both trusted (a point is as trusted as its worst)
+        good = (point_status(df, c, eps_col) == "ok").to_numpy() & (k > 0).to_numpy()
         if good.any():
             ax.errorbar(
                 eps_all[good],
@@ -288,13 +293,18 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
                 alpha=0.8,
                 label=f"{DIRECTIONS[c]} (this study)",
             )
-        n_bad += draw_not_ok(ax, df, c, eps_all, y, err, markers[c], DIRECTIONS[c])
+        bad, at_bad_x = draw_not_ok(
+            ax, df, c, (eps_all, y, err), markers[c], DIRECTIONS[c], eps_col
+        )
+        n_bad, n_x = n_bad + bad, n_x + at_bad_x
     notes = [_reference_curves(ax, eps_all, r0, normalize)]
     if n_bad:
         notes.append(
             f"{n_bad} K value(s) that are not ok ({NOT_OK_MARKERS}) are left out of the fits "
             "and sensitivity."
         )
+    if n_x:
+        notes.append(AT_UNTRUSTED_X.format(n=n_x, values="K", x="porosity"))
     n_failed = failed_count(df)
     if n_failed:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")

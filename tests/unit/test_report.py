@@ -1624,3 +1624,50 @@ def test_parameter_plots_rate_each_output_once_not_once_per_parameter(monkeypatc
     assert "porosity: untrustworthy (not in the lines)" in html  # the rating drew its markers
     assert calls[("k_z_m2", True)] == 1 and calls[("porosity", False)] == 1, calls
     assert max(calls.values()) == 1, calls
+
+
+@pytest.mark.parametrize("rated", ["own status", "bar alone"])
+def test_a_trusted_k_at_an_untrustworthy_porosity_is_drawn_open_in_both_porosity_figures(
+    monkeypatch, rated
+):
+    """Session 46 left it: the porosity-K figure drew a trusted K at a porosity with a 27 %
+    bar (0.09 +- 0.0243, untrustworthy by the 20 % rule of ``columns.porosity_status``) as a
+    filled point, an x no one trusts drawn as trusted; the D_eff/D figure likewise. A point
+    is as trusted as the least trusted of its coordinates (``trust.point_status``): it is
+    drawn open in the status's colour (as a not-ok K), with its own legend entry "porosity
+    untrustworthy (value in fits)", counted in the caption, and in no filled series. Truth:
+    the table below; only the porosity is flagged (a table with ``porosity_status`` and one
+    written before it, rated by its bar)."""
+    from psdesign.report import html as report_html
+    from psdesign.report.transport import transport_figure
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2"],
+            "status": ["ok", "ok", "ok"],
+            "porosity": [0.70, 0.09, 0.85],
+            "porosity_error": [4e-4, 0.0243, 4e-4],
+            "k_z_m2": [2e-12, 1e-14, 2e-11],
+            "k_z_rel_error": [0.05, 0.05, 0.05],
+            "k_z_status": ["ok", "ok", "ok"],
+            "diffusivity_z": [0.45, 0.01, 0.7],
+            "diffusivity_z_rel_error": [0.02, 0.02, 0.02],
+            "diffusivity_z_status": ["ok", "ok", "ok"],
+        }
+    )
+    if rated == "own status":
+        df["porosity_status"] = ["ok", "untrustworthy", "ok"]
+    purple = status_style("untrustworthy")[2]
+    for draw, name in ((lambda: report_html._perm_figure(df, {}), "z (through-plane)"),
+                       (lambda: transport_figure(df), "diffusivity_z")):  # fmt: skip
+        calls = _errorbar_calls(monkeypatch)
+        png, caption = draw()
+        assert png
+        filled = [x for x, _, kw in calls if kw.get("mfc") != "none"]
+        assert filled == [[0.70, 0.85]], filled  # main: [0.70, 0.09, 0.85], no open marker
+        ((ox, _, okw),) = [c for c in calls if c[2].get("mfc") == "none"]
+        assert ox == [0.09] and okw["mec"] == purple
+        assert okw["label"] == f"{name}: porosity untrustworthy (value in fits)"
+        values = "K" if name.startswith("z") else "D_eff/D"
+        assert f"1 trusted {values} value(s) at a porosity that is not ok are drawn open" in caption
+        assert "not ok (open markers" not in caption  # no value of its own is not ok
