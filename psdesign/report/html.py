@@ -21,6 +21,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
+    RATED_BY,
     STATUS_COLUMNS,
     case_status,
     error_bar,
@@ -538,14 +539,24 @@ RATED_VALUES = tuple(c for c in STATUS_COLUMNS if not c.startswith("k_"))
 ABSOLUTE_BARS = ("porosity", "intersection_volume_fraction")
 
 
+#: Values that share one absolute bar and are rated together by it over one of them
+#: (:data:`~psdesign.analysis.columns.RATED_BY`: d10, d50 and d90 by ``pore_diameter_error_m``
+#: over d50): printed ± that bar, the one they are rated over with the fraction that rates
+#: them (until session 47 each was printed ± its own fraction, d10's 30 % beside an ok status
+#: that d50's 15 % gave).
+SHARED_BARS = (*RATED_BY, *dict.fromkeys(RATED_BY.values()))
+
+
 def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
-    ``("0 ± 0", True)`` for Omega (an exact zero printed as such); the value alone and False
-    without a bar, ``""`` without a value."""
+    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05 ±
+    3.0e-06", True)`` for a pore diameter; the value alone and False without a bar, ``""``
+    without a value."""
     v, e = (pd.to_numeric(pd.Series([x]), errors="coerce").iloc[0] for x in (value, error))
     if pd.isna(v):
         return "", False
-    txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:.3g}"
+    digits = ".3g" if column == "intersection_volume_fraction" else ".4g"
+    txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:{digits}}"
     if pd.isna(e):
         return txt, False
     return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
@@ -568,14 +579,8 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         out, flag = {"case_id": row.get("case_id", ""), "case status": cases[i]}, cases[i] != "ok"
         for c in cols:
             rel, st = error_bar(row, c)
-            any_bar |= rel is not None
-            v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
-            if c in ABSOLUTE_BARS:
-                txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
-                any_bar |= has_bar
-            else:
-                txt = "" if pd.isna(v) else f"{v:.4g}"
-                txt += "" if rel is None else f" ± {100 * rel:.1f} %"
+            txt, has_bar = _value_cell(row, c, rel)
+            any_bar |= has_bar
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"
                 flag = True
@@ -586,6 +591,7 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         return ""
     omega = "intersection_volume_fraction" in cols
     transport = len(cols) > 1 + omega
+    pores = [c for c in SHARED_BARS if c in cols]
     note = (
         '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
         "quadratures, docs/geometry.md)"
@@ -598,12 +604,47 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
             else ""
         )
         + ("; transport values ± their relative error bar (docs/transport.md)" if transport else "")
+        + (_shared_bar_note() if pores else "")
         + ("; each with its status where it is not ok (highlighted)" if len(cols) > 1 else "")
         + ".</p>"
     )
     title = "Porosity and " + ("transport values" if transport else "overlap") if omega else ""
     title = "Porosity and transport values" if transport else title or "Porosity"
     return f"<h3>{title} with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
+
+
+def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
+    """The values table's cell of ``row[c]`` without its status, and whether it has a bar:
+    ``+-`` the absolute bar (:data:`ABSOLUTE_BARS`, :data:`SHARED_BARS`; the value the others
+    are rated over with ``rel``, the fraction that rates them all), else ``+-`` the relative
+    bar ``rel`` (:func:`~psdesign.analysis.columns.error_bar`'s).
+
+    >>> row = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
+    >>> _value_cell(row, "pore_d10_m", 0.3), _value_cell(row, "pore_d50_m", 0.15)
+    (('1e-05 ± 3.0e-06', True), ('2e-05 ± 3.0e-06 (15.0 %)', True))
+    >>> _value_cell({"diffusivity_z": 0.4}, "diffusivity_z", 0.05)
+    ('0.4 ± 5.0 %', True)
+    """
+    v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
+    if c in ABSOLUTE_BARS or c in SHARED_BARS:
+        txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
+        if has_bar and c in RATED_BY.values() and rel is not None:
+            txt += f" ({100 * rel:.1f} %)"  # the fraction that rates d10, d50 and d90
+        return txt, has_bar or rel is not None
+    txt = "" if pd.isna(v) else f"{v:.4g}"
+    return txt + ("" if rel is None else f" ± {100 * rel:.1f} %"), rel is not None
+
+
+def _shared_bar_note() -> str:
+    """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
+    rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
+    from psdesign.cli.exit_status import flagged_words
+
+    return (
+        "; pore diameters d10, d50 and d90 ± their one absolute bar (pore_diameter_error_m), "
+        "rated together by that bar over d50 (the % beside d50; "
+        f"{flagged_words('pore_sizes_status')}, docs/transport.md)"
+    )
 
 
 def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
