@@ -156,8 +156,8 @@ STATUS_WORDS = {
     "pore_sizes_status": f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge",
     "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
     "intersection_volume_fraction_status": (  # packing.overlap_status
-        "untrustworthy = overlaps thinner than a voxel or along the grid, which the count "
-        "may miss, hold more of the box than its error bar"
+        "untrustworthy = overlaps thinner than a voxel, which the count may miss, hold "
+        "more of the box than its error bar"
     ),
 }
 
