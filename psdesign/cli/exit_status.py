@@ -138,32 +138,40 @@ def case_masks(df):
 #: (:func:`psdesign.flow.error.status_of`: K, S_v, the transport values).
 _BAR_OR_CELLS = "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber diameter"
 
+#: What the words of each status column of :data:`psdesign.analysis.columns.STATUS_COLUMNS`
+#: mean, as the rating that writes it means them, one entry per column (until session 47 a
+#: chain of tests on the column's name): tests/cli/test_exit_joins.py holds its keys equal to
+#: the status columns, so a status column added without its words fails there.
+STATUS_WORDS = {
+    # a voxel count: its bar alone (analysis.columns.porosity_status)
+    "porosity_status": "untrustworthy = error bar above 20 %",
+    **{f"k_{d}_status": _BAR_OR_CELLS for d in "xyz"},  # flow.error.status_of
+    # transport.effective.rating (the tortuosity shares the diffusivity's)
+    **{
+        f"{v}_{d}_status": f"{_BAR_OR_CELLS}, blocked = no conducting path"
+        for v in ("diffusivity", "conductivity")
+        for d in "xyz"
+    },
+    # transport.study_outputs.pore_sizes_status
+    "pore_sizes_status": f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge",
+    "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
+    "intersection_volume_fraction_status": (  # packing.overlap_status
+        "untrustworthy = overlaps thinner than a voxel, which the count may miss, hold "
+        "more of the box than its error bar"
+    ),
+}
+
 
 def flagged_words(status_column: str) -> str:
     """What the status words in ``status_column`` mean, as the rating that writes it means
-    them: the line of every command that names a flagged value (:func:`flagged_text`); ""
-    for a column no rating here writes (named without words). Until review s46 every column
-    read K's words, Omega's and the porosity's too.
+    them (:data:`STATUS_WORDS`): the line of every command that names a flagged value
+    (:func:`flagged_text`); "" for a column no rating here writes (named without words).
+    Until review s46 every column read K's words, Omega's and the porosity's too.
 
     >>> flagged_words("porosity_status"), flagged_words("anisotropy_status")
     ('untrustworthy = error bar above 20 %', '')
     """
-    from psdesign.analysis.columns import K_STATUS_COLUMNS
-
-    if status_column == "porosity_status":  # a voxel count: its bar alone (porosity_status)
-        return "untrustworthy = error bar above 20 %"
-    if status_column == "intersection_volume_fraction_status":  # packing.overlap_status
-        return (
-            "untrustworthy = overlaps thinner than a voxel, which the count may miss, hold "
-            "more of the box than its error bar"
-        )
-    if status_column == "pore_sizes_status":  # study_outputs.pore_sizes_status
-        return f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge"
-    if status_column.startswith(("diffusivity_", "conductivity_")):  # effective.rating
-        return f"{_BAR_OR_CELLS}, blocked = no conducting path"
-    if status_column in (*K_STATUS_COLUMNS.values(), "specific_surface_status"):
-        return _BAR_OR_CELLS
-    return ""
+    return STATUS_WORDS.get(status_column, "")
 
 
 def flagged_text(df) -> str:

@@ -48,20 +48,38 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     return status_code(out["porosity_status"], out["intersection_volume_fraction_status"])
 
 
-def preview_title(porosity: float, error: float | None, n_fibers: int) -> str:
-    """The title of ``generate``'s preview.png: the porosity with its bar and its status, as
-    every printed number (session 42: without its bar; session 45: without its status).
+def preview_title(summary: dict) -> str:
+    """The title of ``generate``'s preview.png: the values ``generate`` prints of the RVE the
+    picture shows, each with its bar and its status in the words of its status column (the
+    report's values table's): the porosity (``porosity_status``) and the fibres' overlap Omega
+    (``intersection_volume_fraction_status``), then the fibre count (session 42: the porosity
+    without its bar; session 45: without its status; session 47: Omega, which the JSON line
+    rated, was not in it).
 
-    >>> preview_title(0.81234, 0.00042, 12)
-    'porosity 0.8123 +- 4.2e-04 [ok], 12 fibers'
-    >>> preview_title(0.088, 0.024, 3)
-    'porosity 0.0880 +- 2.4e-02 [untrustworthy], 3 fibers'
+    >>> preview_title({"porosity": 0.81234, "porosity_error": 0.00042, "n_fibers": 12,
+    ...                "intersection_volume_fraction": 0.00213,
+    ...                "intersection_volume_fraction_error": 0.0003,
+    ...                "intersection_volume_fraction_status": "ok"})
+    'porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [ok], 12 fibers'
+    >>> preview_title({"porosity": 0.088, "porosity_error": 0.024, "n_fibers": 3,
+    ...                "intersection_volume_fraction": 0.0,
+    ...                "intersection_volume_fraction_error": 0.0,
+    ...                "intersection_volume_fraction_status": "untrustworthy"})
+    'porosity 0.0880 +- 2.4e-02 [untrustworthy], Omega 0 +- 0 [untrustworthy], 3 fibers'
     """
     from psdesign.analysis.columns import porosity_status
     from psdesign.geometry.porosity import porosity_text
 
-    text = porosity_text(porosity, error)
-    return f"porosity {text} [{porosity_status(porosity, error)}], {n_fibers} fibers"
+    eps, err = summary["porosity"], summary.get("porosity_error")
+    parts = [f"porosity {porosity_text(eps, err)} [{porosity_status(eps, err)}]"]
+    omega = summary.get("intersection_volume_fraction")
+    if omega is not None:  # as the values table prints it: an exact 0 as such, 3 digits
+        bar = summary.get("intersection_volume_fraction_error")
+        text = "0" if omega == 0 else f"{omega:.3g}"
+        text += "" if bar is None else " +- " + ("0" if bar == 0 else f"{bar:.1e}")
+        status = summary.get("intersection_volume_fraction_status") or "unrated"
+        parts.append(f"Omega {text} [{status}]")
+    return ", ".join([*parts, f"{summary['n_fibers']} fibers"])
 
 
 GENERATE_FILES = (
@@ -204,7 +222,7 @@ def write_generate_outputs(
                 fields.distance,
                 fields.grid.spacing,
                 tmp / "preview.png",
-                title=preview_title(fields.porosity, fields.porosity_error, len(rve.fibers)),
+                title=preview_title(summary),
                 surface=surf,
             )
         if "tiff" in formats:

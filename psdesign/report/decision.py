@@ -191,12 +191,13 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
     summary = replicate_summary(ok, params)
     # outputs with at least one trusted value (an all-NaN output would draw an empty frame)
     has = [c[:-5] for c in summary.columns if c.endswith("_mean") and summary[c].notna().any()]
+    # each output's not-ok rows once (not once per parameter: on a 2000-row table without
+    # status columns each took a rating of every row, session 47); K on its log axis
+    k_bad = {c: not_ok_status(df, c) for c in K_DIRECTIONS}
     # a direction is drawn when it has a trusted mean or a case's value that is not ok
-    kcols = [
-        c for c in K_DIRECTIONS if c in has or any(m.any() for m in not_ok_status(df, c).values())
-    ]
+    kcols = [c for c in K_DIRECTIONS if c in has or any(m.any() for m in k_bad[c].values())]
     every = add_anisotropy(df)  # every case, for the values that are not ok
-    others = _other_outputs(every, has)
+    others, bad = _other_outputs(every, has)
     # notes above the grid: a note in a grid cell pushed the frames aside
     if any(c in df for c in K_DIRECTIONS) and not any(c in has for c in K_DIRECTIONS):
         held += NO_TRUSTED_K
@@ -214,7 +215,8 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
                     if c in has:
                         fig.add_trace(_mean_trace(g, p, c, mode, K_DIRECTIONS[c], label, i, j))
                 # never in a mean or a line: each case's own value, marked by its status
-                fig.add_traces(_not_ok_traces(df, p, c, K_DIRECTIONS[c], COLORS[i % len(COLORS)]))
+                color = COLORS[i % len(COLORS)]
+                fig.add_traces(_not_ok_traces(df, p, c, K_DIRECTIONS[c], color, k_bad[c]))
             fig.update_layout(
                 title=f"K vs {p} (mean of replicates; bar: 95 % CI + numerical error)",
                 height=360,
@@ -225,36 +227,40 @@ def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = No
             )
             parts.append(figure_html(fig, f"psd-k-{p}", k_axis="yaxis", k_label="K"))
         for c in others:
-            fig = _other_figure(every, groups, mode, p, c, c in has)
+            fig = _other_figure(every, groups, mode, p, c, bad[c], c in has)
             fig.update_layout(xaxis=param_axis(p, p in logs), yaxis_title=output_label(c, study))
             parts.append(figure_html(fig, f"psd-{c}-{p}"))
     grid = '<div class="psd-grid">' + "".join(f"<div>{x}</div>" for x in parts) + "</div>"
     return held + grid
 
 
-def _other_outputs(every: pd.DataFrame, has: list[str]) -> list[str]:
+def _other_outputs(
+    every: pd.DataFrame, has: list[str]
+) -> tuple[list[str], dict[str, dict[str, pd.Series]]]:
     """The outputs other than K drawn against the parameters: those with a trusted mean
     (``has``), then those whose every value is not ok (drawn as the K frames draw them; until
-    session 45 such an output had no frame and an untrusted value no marker). An error column
-    is the bar of its value (drawn on it, :func:`_err`), not an output."""
+    session 45 such an output had no frame and an untrusted value no marker); and each one's
+    not-ok rows on a linear axis (:func:`~psdesign.report.trust.not_ok_status`). An error
+    column is the bar of its value (drawn on it, :func:`_err`), not an output."""
+    outputs = [
+        c for c in dict.fromkeys([*has, *every.columns])
+        if c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS
+    ]  # fmt: skip
+    bad = {c: not_ok_status(every, c, False) for c in outputs}
+    return [c for c in outputs if c in has or bad[c]], bad
 
-    def output(c: str) -> bool:
-        return c.startswith(OTHER_OUTPUT_PREFIXES) and c not in ERROR_COLUMNS
 
-    out = [c for c in has if output(c)]
-    return out + [
-        c for c in every.columns if output(c) and c not in out and not_ok_status(every, c, False)
-    ]
-
-
-def _other_figure(every: pd.DataFrame, groups: list, mode: str, p: str, c: str, trusted: bool):
+def _other_figure(
+    every: pd.DataFrame, groups: list, mode: str, p: str, c: str, masks: dict, trusted: bool
+):
     """The frame of output ``c`` against ``p`` (linear axis): the lines of trusted replicate
     means (``groups`` of the summary, when ``trusted``) and every case's value that is not ok
-    by its status (:func:`_not_ok_traces`, a ``blocked`` 0 included), never in a line."""
+    by its status (``masks``, :func:`_not_ok_traces`, a ``blocked`` 0 included), never in a
+    line."""
     import plotly.graph_objects as go
 
     lines = [_mean_trace(g, p, c, mode, c, label, 0, j) for j, (label, g) in enumerate(groups)]
-    bad = _not_ok_traces(every, p, c, c, COLORS[0], log=False)
+    bad = _not_ok_traces(every, p, c, c, COLORS[0], masks)
     fig = go.Figure((lines if trusted else []) + bad)
     fig.update_layout(
         title=f"{c} vs {p}",
@@ -317,17 +323,18 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
 
 
 def _not_ok_traces(
-    df: pd.DataFrame, p: str, c: str, name: str, color: str, log: bool = True
+    df: pd.DataFrame, p: str, c: str, name: str, color: str, masks: dict[str, pd.Series]
 ) -> list:
-    """One marker-only trace per status that is not ``ok`` (:func:`~psdesign.report.trust.
-    not_ok_status`; a 0 is drawn unless the axis is ``log``) of output ``c`` against ``p``:
-    each case's value with its own numerical error bar (:func:`_numerical_half_width`), an
-    open symbol per status (:func:`~psdesign.report.trust.status_style`) in the output's
-    colour, named ``"<name>: <status> (not in the lines)"``."""
+    """One marker-only trace per status that is not ``ok`` of output ``c`` against ``p``, the
+    rows of ``masks`` (:func:`~psdesign.report.trust.not_ok_status` of ``df`` and ``c``; a 0
+    is drawn unless the axis is ``log``): each case's value with its own numerical error bar
+    (:func:`_numerical_half_width`), an open symbol per status
+    (:func:`~psdesign.report.trust.status_style`) in the output's colour, named
+    ``"<name>: <status> (not in the lines)"``."""
     import plotly.graph_objects as go
 
     out = []
-    for status, m in not_ok_status(df, c, log).items():
+    for status, m in masks.items():
         rows = df[m & pd.to_numeric(df[p], errors="coerce").notna()]
         if rows.empty:
             continue

@@ -21,6 +21,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
+    RATED_BY,
     STATUS_COLUMNS,
     case_status,
     error_bar,
@@ -29,7 +30,6 @@ from psdesign.analysis.columns import (
     k_not_ok,
     own_status,
     trusted,
-    value_ok,
     value_status,
 )
 from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
@@ -48,9 +48,11 @@ from psdesign.report.references import (
 from psdesign.report.sensitivity import main_effects, sensitivity_table
 from psdesign.report.transport import transport_figure
 from psdesign.report.trust import (
+    AT_UNTRUSTED_X,
     NOT_OK_MARKERS,
     draw_not_ok,
     failed_count,
+    point_status,
     status_style,
 )
 from psdesign.report.units import output_label
@@ -233,13 +235,15 @@ def _fiber_radius(df: pd.DataFrame, study: dict) -> tuple[pd.Series | None, floa
     return None, (float(d) / 2.0 if d else None)
 
 
-def _porosity(df: pd.DataFrame) -> pd.Series | None:
+def _porosity(df: pd.DataFrame) -> tuple[str | None, pd.Series | None]:
+    """The porosity column a porosity-K figure draws on its x axis (the measured one, else the
+    generator's target) and its values; ``(None, None)`` without one."""
     for c in ("porosity", "generator.porosity"):
         if c in df:
             p = pd.to_numeric(df[c], errors="coerce")
             if p.notna().any():
-                return p
-    return None
+                return c, p
+    return None, None
 
 
 def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
@@ -252,15 +256,16 @@ def _k_error(df: pd.DataFrame, c: str, k: pd.Series) -> np.ndarray | None:
 
 
 def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
-    """Porosity vs K with error bars and the reference curves; K that is not ok (the case
-    not converged, or this direction untrustworthy) drawn with an open marker per status
+    """Porosity vs K with error bars and the reference curves; a point that is not ok, its K
+    (the case not converged, or this direction untrustworthy) or its porosity (a bar above
+    20 %: :func:`~psdesign.report.trust.point_status`), drawn with an open marker per status
     (:func:`~psdesign.report.trust.draw_not_ok`)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    eps_all = _porosity(df)
+    eps_col, eps_all = _porosity(df)
     kcols = [c for c in DIRECTIONS if c in df and pd.to_numeric(df[c], errors="coerce").gt(0).any()]
     if eps_all is None or not kcols:
         return None, "No porosity/permeability results to plot."
@@ -270,12 +275,13 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
     ax.set_yscale("log")  # before draw_not_ok, which draws no K <= 0 on a log axis
     markers = {"k_x_m2": "o", "k_y_m2": "s", "k_z_m2": "^"}
     colors = {"k_x_m2": "C0", "k_y_m2": "C2", "k_z_m2": "C1"}
-    n_bad = 0
+    n_bad = n_x = 0
     for c in kcols:
         k = pd.to_numeric(df[c], errors="coerce")
         scale = r_all**2 if normalize else 1.0
         y, err = k / scale, _k_error(df, c, k / scale)
-        good = value_ok(df, c).to_numpy() & (k > 0).to_numpy()
+        # filled: the K and its porosity both trusted (a point is as trusted as its worst)
+        good = (point_status(df, c, eps_col) == "ok").to_numpy() & (k > 0).to_numpy()
         if good.any():
             ax.errorbar(
                 eps_all[good],
@@ -288,13 +294,18 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
                 alpha=0.8,
                 label=f"{DIRECTIONS[c]} (this study)",
             )
-        n_bad += draw_not_ok(ax, df, c, eps_all, y, err, markers[c], DIRECTIONS[c])
+        bad, at_bad_x = draw_not_ok(
+            ax, df, c, (eps_all, y, err), markers[c], DIRECTIONS[c], eps_col
+        )
+        n_bad, n_x = n_bad + bad, n_x + at_bad_x
     notes = [_reference_curves(ax, eps_all, r0, normalize)]
     if n_bad:
         notes.append(
             f"{n_bad} K value(s) that are not ok ({NOT_OK_MARKERS}) are left out of the fits "
             "and sensitivity."
         )
+    if n_x:
+        notes.append(AT_UNTRUSTED_X.format(n=n_x, values="K", x="porosity"))
     n_failed = failed_count(df)
     if n_failed:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
@@ -528,14 +539,33 @@ RATED_VALUES = tuple(c for c in STATUS_COLUMNS if not c.startswith("k_"))
 ABSOLUTE_BARS = ("porosity", "intersection_volume_fraction")
 
 
+def _scalar(x) -> float:
+    """One cell as a float, NaN where it is not a number (a one-value Series through
+    ``pd.to_numeric`` cost ~0.1 ms a cell: ~2.4 s of a 2000-row values table, session 47)."""
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+#: Values that share one absolute bar and are rated together by it over one of them
+#: (:data:`~psdesign.analysis.columns.RATED_BY`: d10, d50 and d90 by ``pore_diameter_error_m``
+#: over d50): printed ± that bar, the one they are rated over with the fraction that rates
+#: them (until session 47 each was printed ± its own fraction, d10's 30 % beside an ok status
+#: that d50's 15 % gave).
+SHARED_BARS = (*RATED_BY, *dict.fromkeys(RATED_BY.values()))
+
+
 def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
-    ``("0 ± 0", True)`` for Omega (an exact zero printed as such); the value alone and False
-    without a bar, ``""`` without a value."""
-    v, e = (pd.to_numeric(pd.Series([x]), errors="coerce").iloc[0] for x in (value, error))
+    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05 ±
+    3.0e-06", True)`` for a pore diameter; the value alone and False without a bar, ``""``
+    without a value."""
+    v, e = _scalar(value), _scalar(error)
     if pd.isna(v):
         return "", False
-    txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:.3g}"
+    digits = ".3g" if column == "intersection_volume_fraction" else ".4g"
+    txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:{digits}}"
     if pd.isna(e):
         return txt, False
     return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
@@ -558,14 +588,8 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         out, flag = {"case_id": row.get("case_id", ""), "case status": cases[i]}, cases[i] != "ok"
         for c in cols:
             rel, st = error_bar(row, c)
-            any_bar |= rel is not None
-            v = pd.to_numeric(pd.Series([row.get(c)]), errors="coerce").iloc[0]
-            if c in ABSOLUTE_BARS:
-                txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
-                any_bar |= has_bar
-            else:
-                txt = "" if pd.isna(v) else f"{v:.4g}"
-                txt += "" if rel is None else f" ± {100 * rel:.1f} %"
+            txt, has_bar = _value_cell(row, c, rel)
+            any_bar |= has_bar
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"
                 flag = True
@@ -576,6 +600,7 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         return ""
     omega = "intersection_volume_fraction" in cols
     transport = len(cols) > 1 + omega
+    pores = [c for c in SHARED_BARS if c in cols]
     note = (
         '<p class="note">Porosity ± its absolute error (the voxel count against two partial-volume '
         "quadratures, docs/geometry.md)"
@@ -588,12 +613,47 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
             else ""
         )
         + ("; transport values ± their relative error bar (docs/transport.md)" if transport else "")
+        + (_shared_bar_note() if pores else "")
         + ("; each with its status where it is not ok (highlighted)" if len(cols) > 1 else "")
         + ".</p>"
     )
     title = "Porosity and " + ("transport values" if transport else "overlap") if omega else ""
     title = "Porosity and transport values" if transport else title or "Porosity"
     return f"<h3>{title} with error bars</h3>" + note + _table(pd.DataFrame(rows), classes)
+
+
+def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
+    """The values table's cell of ``row[c]`` without its status, and whether it has a bar:
+    ``+-`` the absolute bar (:data:`ABSOLUTE_BARS`, :data:`SHARED_BARS`; the value the others
+    are rated over with ``rel``, the fraction that rates them all), else ``+-`` the relative
+    bar ``rel`` (:func:`~psdesign.analysis.columns.error_bar`'s).
+
+    >>> row = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
+    >>> _value_cell(row, "pore_d10_m", 0.3), _value_cell(row, "pore_d50_m", 0.15)
+    (('1e-05 ± 3.0e-06', True), ('2e-05 ± 3.0e-06 (15.0 %)', True))
+    >>> _value_cell({"diffusivity_z": 0.4}, "diffusivity_z", 0.05)
+    ('0.4 ± 5.0 %', True)
+    """
+    v = _scalar(row.get(c))
+    if c in ABSOLUTE_BARS or c in SHARED_BARS:
+        txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
+        if has_bar and c in RATED_BY.values() and rel is not None:
+            txt += f" ({100 * rel:.1f} %)"  # the fraction that rates d10, d50 and d90
+        return txt, has_bar or rel is not None
+    txt = "" if pd.isna(v) else f"{v:.4g}"
+    return txt + ("" if rel is None else f" ± {100 * rel:.1f} %"), rel is not None
+
+
+def _shared_bar_note() -> str:
+    """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
+    rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
+    from psdesign.cli.exit_status import flagged_words
+
+    return (
+        "; pore diameters d10, d50 and d90 ± their one absolute bar (pore_diameter_error_m), "
+        "rated together by that bar over d50 (the % beside d50; "
+        f"{flagged_words('pore_sizes_status')}, docs/transport.md)"
+    )
 
 
 def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:

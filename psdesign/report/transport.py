@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from psdesign.report.trust import NOT_OK_MARKERS, draw_not_ok
+from psdesign.report.trust import AT_UNTRUSTED_X, NOT_OK_MARKERS, draw_not_ok, point_status
 
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
 TS_2D = (0.11, 0.521, 0.785)
@@ -94,12 +94,13 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
 def transport_figure(df) -> tuple[str | None, str]:
     """Relative diffusivity vs porosity of a study table with the Tomadakis-Sotirchos curves;
     ``(base64 png or None, caption)``. Each value carries its error bar
-    (``diffusivity_<d>_rel_error``); a value whose case or own status is not ``ok`` is drawn
-    with an open marker per status (:func:`~psdesign.report.trust.draw_not_ok`) and counted
-    in the caption, as the report's K figure does."""
+    (``diffusivity_<d>_rel_error``); a point whose value or porosity is not ``ok`` (by its
+    case or own status, :func:`~psdesign.report.trust.point_status`) is drawn with an open
+    marker per status (:func:`~psdesign.report.trust.draw_not_ok`) and counted in the
+    caption, as the report's K figure does."""
     import pandas as pd
 
-    from psdesign.analysis.columns import REL_ERROR_COLUMNS, value_ok
+    from psdesign.analysis.columns import REL_ERROR_COLUMNS
 
     cols = [c for c in ("diffusivity_x", "diffusivity_y", "diffusivity_z") if c in df.columns]
     if not cols or "porosity" not in df.columns:
@@ -111,17 +112,19 @@ def transport_figure(df) -> tuple[str | None, str]:
 
     fig, ax = plt.subplots(figsize=(5, 3.6))
     eps = pd.to_numeric(df["porosity"], errors="coerce").to_numpy(dtype=float)
-    n_bad = 0
+    n_bad = n_x = 0
     for i, c in enumerate(cols):
         y = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
         rel = df.get(REL_ERROR_COLUMNS[c])
         err = None if rel is None else np.abs(pd.to_numeric(rel, errors="coerce").to_numpy() * y)
         has = np.isfinite(y) & np.isfinite(eps)
-        good = has & value_ok(df, c).to_numpy()
+        good = has & (point_status(df, c, "porosity") == "ok").to_numpy()
         if good.any():
             ax.errorbar(eps[good], y[good], yerr=None if err is None else err[good],
                         fmt="os^"[i], capsize=2, color=f"C{i}", label=c)  # fmt: skip
-        n_bad += draw_not_ok(ax, df, c, eps, y, err, "os^"[i], c)  # linear: a blocked 0 too
+        # linear axis: a blocked 0 too
+        bad, at_bad_x = draw_not_ok(ax, df, c, (eps, y, err), "os^"[i], c, "porosity")
+        n_bad, n_x = n_bad + bad, n_x + at_bad_x
     curve = np.linspace(0.12, 0.99, 100)
     ep, a_in, a_tp = TS_2D
     # black as the K figure's reference curves: the data keep the colours
@@ -147,4 +150,6 @@ def transport_figure(df) -> tuple[str | None, str]:
             f" {n_bad} value(s) that are not ok ({NOT_OK_MARKERS}) are left out of the fits and "
             "sensitivity."
         )
+    if n_x:
+        caption += " " + AT_UNTRUSTED_X.format(n=n_x, values="D_eff/D", x="porosity")
     return png, caption

@@ -225,7 +225,40 @@ def test_preview_title_gives_the_porosity_with_its_bar_and_status(tmp_path, monk
     (title,) = titles
     bar = f"{summary['porosity']:.4f} +- {summary['porosity_error']:.1e}"
     assert summary["porosity_error"] / summary["porosity"] < 0.2  # ok: the rating's 20 % bar
-    assert title == f"porosity {bar} [ok], 1 fibers"
+    # session 47: Omega, which generate's JSON line rates, with its bar and status (one rod:
+    # no overlap, an exact 0 printed as such)
+    assert summary["intersection_volume_fraction"] == 0.0
+    omega = f"0 +- {summary['intersection_volume_fraction_error']:.1e}".replace("0.0e+00", "0")
+    status = summary["intersection_volume_fraction_status"]
+    assert title == f"porosity {bar} [ok], Omega {omega} [{status}], 1 fibers"
+
+
+def test_preview_title_rates_omega_in_the_words_of_its_status_column(tmp_path, monkeypatch):
+    """Session 47: the title gave the porosity's status only, while the picture shows the
+    fibres' overlaps and generate's JSON line rates Omega (``packing.overlap_status``). Two
+    8 um cylinders crossing at right angles, one 7.6 um off the other's axis (a lens 0.4 um
+    deep, as in the doctest of ``intersection_status``): at 4 um voxels the count misses it
+    (Omega 0, untrustworthy); the title says so in the status column's word, as the JSON line
+    and the report's values table do."""
+    from psdesign.report import preview
+
+    titles = []
+    real = preview.render_preview
+    monkeypatch.setattr(
+        preview, "render_preview", lambda *a, **k: titles.append(k.get("title")) or real(*a, **k)
+    )
+    cyl = '\n[[fibers]]\nshape = "cylinder"\ndiameter = 8e-6\n'
+    text = "[rve]\nsize = [40e-6, 40e-6, 40e-6]\nvoxel = 4e-6\n" + "".join(
+        cyl + f"center = [20e-6, {y}, 20e-6]\ndirection = {d}\n"
+        for y, d in (("20e-6", "[1, 0, 0]"), ("27.6e-6", "[0, 0, 1]"))
+    )
+    spec = write(tmp_path, text, "lens.toml")
+    code = main(["generate", str(spec), "-o", str(tmp_path / "out"), "--quiet"])
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["intersection_volume_fraction_status"] == "untrustworthy"
+    assert code == 3  # the exit follows the printed statuses (cli.exit_status)
+    (title,) = titles
+    assert ", Omega 0 +- " in title and title.endswith(" [untrustworthy], 2 fibers"), title
 
 
 def test_the_printed_porosity_carries_its_status_and_the_exit_follows_it(tmp_path, capsys):

@@ -59,6 +59,7 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
     bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
     for st in dict.fromkeys(STATUS_COLUMNS.values()):
         line = flagged_text(pd.DataFrame({"status": ["ok"], st: ["untrustworthy"]}))
+        assert f"({st}: " in line, f"{st} has no words (cli.exit_status.STATUS_WORDS): {line}"
         words = line.split(f"({st}: ")[1]
         assert words.startswith("untrustworthy = "), line
         overlap = "overlaps thinner than a voxel, which the count may miss" in words
@@ -75,6 +76,20 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
         f"= {bar}; k_z_status: untrustworthy = {bar} or {cells})"
     )
     capsys.readouterr()
+
+
+def test_the_words_are_a_table_of_exactly_the_status_columns():
+    """Session 47: the words were a chain of tests on a column's name beside the ratings, and
+    a new status column needed a line there that only the test above noticed (as an
+    IndexError). They are one table keyed by status column: its keys are exactly the status
+    columns of ``analysis.columns.STATUS_COLUMNS`` (a column without words, or words of a
+    column that is gone, fails here), each with words."""
+    from psdesign.analysis.columns import STATUS_COLUMNS
+    from psdesign.cli.exit_status import STATUS_WORDS
+
+    columns = set(STATUS_COLUMNS.values())
+    assert set(STATUS_WORDS) == columns, set(STATUS_WORDS) ^ columns
+    assert all(w.startswith("untrustworthy = ") for w in STATUS_WORDS.values()), STATUS_WORDS
 
 
 # ------------------------------------------------------- study report: its exit and its red box

@@ -1597,3 +1597,77 @@ def test_the_values_table_prints_omega_with_its_absolute_bar():
     assert cells == ["0.8000 ± 4.0e-04", "0 ± 0", "0.9000 ± 4.0e-04", "1e-05 ± 2.0e-04"], cells
     assert "%" not in table.split("</p>", 1)[1]
     assert "± its absolute error" in table
+
+
+def test_parameter_plots_rate_each_output_once_not_once_per_parameter(monkeypatch):
+    """Session 47: ``parameter_plots`` asked ``not_ok_status`` for an output's not-ok rows in
+    every frame (parameters x outputs; on a 2000-row table without status columns each call
+    rates every row by its bar) and K's once more to choose the directions. Each output is now
+    rated once (K on its log axis, the others on their linear ones), whatever the number of
+    parameters; the frames are the same (the frames tests above)."""
+    from collections import Counter
+
+    from psdesign.report import decision
+
+    calls = Counter()
+    real = decision.not_ok_status
+    monkeypatch.setattr(
+        decision,
+        "not_ok_status",
+        lambda df, c, log=True: (calls.update([(c, log)]), real(df, c, log))[1],
+    )
+    df = _random_kc_study()
+    df["generator.fiber_length"] = np.linspace(1e-4, 2e-4, len(df))  # a third parameter
+    df["porosity_error"] = 0.3 * df["porosity"]  # 30 %: every porosity untrustworthy
+    params = ["generator.porosity", "generator.diameter", "generator.fiber_length"]
+    html = decision.parameter_plots(df, params)
+    assert "porosity: untrustworthy (not in the lines)" in html  # the rating drew its markers
+    assert calls[("k_z_m2", True)] == 1 and calls[("porosity", False)] == 1, calls
+    assert max(calls.values()) == 1, calls
+
+
+@pytest.mark.parametrize("rated", ["own status", "bar alone"])
+def test_a_trusted_k_at_an_untrustworthy_porosity_is_drawn_open_in_both_porosity_figures(
+    monkeypatch, rated
+):
+    """Session 46 left it: the porosity-K figure drew a trusted K at a porosity with a 27 %
+    bar (0.09 +- 0.0243, untrustworthy by the 20 % rule of ``columns.porosity_status``) as a
+    filled point, an x no one trusts drawn as trusted; the D_eff/D figure likewise. A point
+    is as trusted as the least trusted of its coordinates (``trust.point_status``): it is
+    drawn open in the status's colour (as a not-ok K), with its own legend entry "porosity
+    untrustworthy (value in fits)", counted in the caption, and in no filled series. Truth:
+    the table below; only the porosity is flagged (a table with ``porosity_status`` and one
+    written before it, rated by its bar)."""
+    from psdesign.report import html as report_html
+    from psdesign.report.transport import transport_figure
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2"],
+            "status": ["ok", "ok", "ok"],
+            "porosity": [0.70, 0.09, 0.85],
+            "porosity_error": [4e-4, 0.0243, 4e-4],
+            "k_z_m2": [2e-12, 1e-14, 2e-11],
+            "k_z_rel_error": [0.05, 0.05, 0.05],
+            "k_z_status": ["ok", "ok", "ok"],
+            "diffusivity_z": [0.45, 0.01, 0.7],
+            "diffusivity_z_rel_error": [0.02, 0.02, 0.02],
+            "diffusivity_z_status": ["ok", "ok", "ok"],
+        }
+    )
+    if rated == "own status":
+        df["porosity_status"] = ["ok", "untrustworthy", "ok"]
+    purple = status_style("untrustworthy")[2]
+    for draw, name in ((lambda: report_html._perm_figure(df, {}), "z (through-plane)"),
+                       (lambda: transport_figure(df), "diffusivity_z")):  # fmt: skip
+        calls = _errorbar_calls(monkeypatch)
+        png, caption = draw()
+        assert png
+        filled = [x for x, _, kw in calls if kw.get("mfc") != "none"]
+        assert filled == [[0.70, 0.85]], filled  # main: [0.70, 0.09, 0.85], no open marker
+        ((ox, _, okw),) = [c for c in calls if c[2].get("mfc") == "none"]
+        assert ox == [0.09] and okw["mec"] == purple
+        assert okw["label"] == f"{name}: porosity untrustworthy (value in fits)"
+        values = "K" if name.startswith("z") else "D_eff/D"
+        assert f"1 trusted {values} value(s) at a porosity that is not ok are drawn open" in caption
+        assert "not ok (open markers" not in caption  # no value of its own is not ok

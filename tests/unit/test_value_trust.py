@@ -287,3 +287,77 @@ def test_trusted_blanks_every_value_that_shares_a_blanked_bar():
     for c in ("diffusivity_x", "tortuosity_x"):
         assert own_status(df, c).tolist() == ["untrustworthy", "ok"], c
         assert trusted(df)[c].isna().tolist() == [True, False], c
+
+
+def test_a_whole_column_is_rated_as_error_bar_rates_each_row():
+    """``own_status`` rates an old table's column at once (session 47: one row at a time
+    through ``error_bar`` took 20-60 ms per 2000 rows); the truth is ``error_bar``'s rule,
+    row by row, over every cell a row can hold: a value missing, 0, negative, infinite or a
+    string, a bar missing, 0, just under, at and over 20 %, infinite or a string, an own status
+    missing, empty or set. A rule coded twice that disagreed on one cell fails here."""
+    import numpy as np
+
+    from psdesign.analysis.columns import error_bar, own_status
+
+    values = [np.nan, 0.0, -0.5, 0.5, 2e-5, np.inf, "0.5", "x"]
+    bars = [np.nan, 0.0, 0.0999, 0.1, 0.1001, 1.0, np.inf, "0.02", "y"]  # x 0.5: 20 % at 0.1
+    owns = [None, "", "ok", "untrustworthy"]
+    cells = list(itertools.product(values, bars, owns))
+    for value, error, status in (
+        ("porosity", "porosity_error", "porosity_status"),
+        ("k_z_m2", "k_z_rel_error", "k_z_status"),
+        ("pore_d10_m", "pore_diameter_error_m", "pore_sizes_status"),
+    ):
+        df = pd.DataFrame(cells, columns=[value, error, status], dtype=object)
+        if value == "pore_d10_m":  # rated by d50's bar (RATED_BY): d50 is the cell's value
+            df["pore_d50_m"] = df[value]
+        for table in (df, df.drop(columns=status)):
+            rows = table.to_dict("records")
+            truth = []
+            for r in rows:  # its own status when set, else error_bar's; unrated reads ok
+                st = r.get(status) or error_bar(r, value)[1]
+                truth.append(st if st not in ("unrated", "no trusted value") else "ok")
+            assert own_status(table, value).tolist() == truth, value
+
+
+@pytest.mark.parametrize("with_status", [False, True], ids=["old_table", "pore_sizes_status"])
+def test_the_values_table_shows_the_bar_that_rates_the_pore_sizes(with_status, capsys):
+    """Session 46 left it: an old table's d10, d50 and d90 are rated by
+    ``pore_diameter_error_m / pore_d50_m`` (s46-mend4), while the values table printed each
+    size ± its own fraction: 3 um on d10 = 10 um read "± 30.0 %" beside no flag (ok by d50's
+    15 %), and on d90 = 40 um "± 7.5 %" beside ``[untrustworthy]`` (d50 = 12 um: 25 %). Each
+    size is now printed ± the one absolute bar and d50 with the fraction that rates the three,
+    so a cell's flag is read off the table: flagged exactly when that fraction is above 20 %.
+    Truth: 3 / 20 = 15 %, 3 / 12 = 25 % (and the product's own rows, which carry
+    ``pore_sizes_status``, are printed the same way)."""
+    import re
+
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok", "ok"],
+            "pore_d10_m": [10e-6, 10e-6],
+            "pore_d50_m": [20e-6, 12e-6],
+            "pore_d90_m": [40e-6, 40e-6],
+            "pore_diameter_error_m": [3e-6, 3e-6],
+        }
+    )
+    if with_status:
+        df["pore_sizes_status"] = ["ok", "untrustworthy"]
+    html = _values_table(df)
+    rows = re.findall(r"<tr[^>]*>(.*?)</tr>", html.split("<tbody>", 1)[1], flags=re.S)
+    cells = [re.findall(r"<td>(.*?)</td>", r) for r in rows]
+    assert [c[2:] for c in cells] == [
+        ["1e-05 ± 3.0e-06", "2e-05 ± 3.0e-06 (15.0 %)", "4e-05 ± 3.0e-06"],
+        [
+            "1e-05 ± 3.0e-06 [untrustworthy]",
+            "1.2e-05 ± 3.0e-06 (25.0 %) [untrustworthy]",
+            "4e-05 ± 3.0e-06 [untrustworthy]",
+        ],
+    ]
+    assert "30.0 %" not in html and "7.5 %" not in html  # no size's own fraction
+    assert "rated together by that bar over d50 (the % beside d50" in html
+    assert "d90 above the RVE's smallest edge" in html  # the rating's own words
+    capsys.readouterr()
