@@ -890,13 +890,62 @@ def _gather(mr, zr, zc):
 
 
 @_SERIAL.inline
+def _rotate32(wsrc, zc, row, wdst, n, s, cs, sn):
+    """The rotation of :func:`symmlq_step` on ``n`` entries in float32 arithmetic (``v = s
+    zc``): ``row <- cs w + sn v`` (the finished direction) and ``wdst <- sn w - cs v`` (``w``
+    read from ``wsrc``; the two may be one array).  float32, not float64: the stored direction
+    keeps 16 bits of mantissa (24-bit storage), so float32's 2^-24 round-off is below it, and
+    the loop runs 8 lanes wide without the four float32/float64 conversions per 4 entries of
+    the float64 form (``benchmarks/RESULTS.md``, session 47)."""
+    s32 = np.float32(s)
+    c32 = np.float32(cs)
+    n32 = np.float32(sn)
+    for k in range(n):
+        v = s32 * zc[k]
+        wo = wsrc[k]
+        row[k] = c32 * wo + n32 * v
+        wdst[k] = n32 * wo - c32 * v
+
+
+@_SERIAL.inline
+def _two_sum(a, b):
+    """``(s, e)`` with ``s = fl(a + b)`` and ``a + b = s + e`` exactly (Knuth's TwoSum; exact
+    only without reassociation: :data:`_EXACT_OPTS`)."""
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+@_SERIAL.inline
+def _solution_row8(hr, lr, sc, cu, r0, lmax):
+    """``x += cu r0`` on one row of the solution ``hr + lr sc`` with the int8 extension, in
+    float32: ``d = cu r0`` rounded to float32, ``hr + d = s + e`` and ``s + (lr sc + e) = h +
+    rem`` exactly (:func:`_two_sum`), ``hr <- h``, ``lr <- rint(rem / sc)`` (``sc`` a power of
+    two, so the multiplication by its inverse is the exact division).  Same invariant as the
+    float64 form of :func:`_solution_row` (``|rem| <=`` half an ulp of ``h``, ``lr`` within
+    +-128); the rounding of ``d`` is ``2^-24`` of the step, below the extension's ``2^-31`` of
+    the row's largest entry once the steps are below ``2^-7`` of it (the later refinement
+    cycles, which alone carry the extension, correct a solution already within ~1e-4)."""
+    c = np.float32(cu)
+    s32 = np.float32(sc)
+    inv = np.float32(1.0 / sc)
+    lm = np.float32(lmax)
+    for k in range(r0.shape[0]):
+        s, e = _two_sum(hr[k], c * r0[k])
+        h, rem = _two_sum(s, np.float32(lr[k]) * s32 + e)
+        hr[k] = h
+        lr[k] = min(max(np.rint(rem * inv), -lm), lm)
+
+
+@_SERIAL.inline
 def _packed_row(mr, zr, s, wt, wm, h, lo, p, cs, sn, zeta, sc, lmax, zc, row, wrow, bits):
     """:func:`symmlq_step` on one row from packed entry ``p`` on: ``mr`` the row's activity,
     ``wt, wm, h, lo`` the packed direction and solution (``lo`` empty: the solution is ``h``
     alone; ``wm`` empty: ``wt`` is the float32 direction, else the 24-bit one, see
     :func:`symmlq_step`).  The active entries of ``zr`` are gathered into ``zc`` first; the rest
-    runs on contiguous slices in the plain loops of :func:`minres_direction` (vectorised; one
-    loop over the mask was 2.9x slower).  Returns the next row's first packed entry."""
+    runs on contiguous slices in plain loops (vectorised; one loop over the mask was 2.9x
+    slower, one loop for the rotation and the solution no faster).  Returns the next row's
+    first packed entry."""
     n = _gather(mr, zr, zc)
     if n == 0:
         return p
@@ -906,29 +955,30 @@ def _packed_row(mr, zr, s, wt, wm, h, lo, p, cs, sn, zeta, sc, lmax, zc, row, wr
         wm_r = wm[p:q]
         for k in range(n):
             bits[k] = (np.uint32(wt_r[k]) << np.uint32(16)) | (np.uint32(wm_r[k]) << np.uint32(8))
-        for k in range(n):
-            v = s * np.float64(zc[k])
-            wo = np.float64(wrow[k])
-            row[k] = np.float32(cs * wo + sn * v)
-            wrow[k] = np.float32(sn * wo - cs * v)
+        _rotate32(wrow, zc, row, wrow, n, s, cs, sn)
         for k in range(n):
             b = bits[k] + np.uint32(0x80)  # round the magnitude to nearest (ties away)
             wt_r[k] = np.uint16(b >> np.uint32(16))
             wm_r[k] = np.uint8((b >> np.uint32(8)) & np.uint32(0xFF))
     else:
-        wr = wt[p:q]
-        for k in range(n):
-            v = s * np.float64(zc[k])
-            wo = np.float64(wr[k])
-            row[k] = np.float32(cs * wo + sn * v)
-            wr[k] = np.float32(sn * wo - cs * v)
+        _rotate32(wt[p:q], zc, row, wt[p:q], n, s, cs, sn)
     if zeta != 0.0:
-        lr = lo[p:q] if lo.shape[0] > 0 else lo
-        _solution_row(h[p:q], lr, sc, zeta, row[:n], lmax)
+        if lo.itemsize == 1 and lo.shape[0] > 0:
+            _solution_row8(h[p:q], lo[p:q], sc, zeta, row[:n], lmax)
+        else:
+            lr = lo[p:q] if lo.shape[0] > 0 else lo
+            _solution_row(h[p:q], lr, sc, zeta, row[:n], lmax)
     return q
 
 
-@parallel_kernel(helpers=_SERIAL, **_OPTS)
+_EXACT_OPTS = {**_OPTS, "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn"}}
+""":data:`_OPTS` without fastmath's ``reassoc`` (it would fold :func:`_two_sum`'s error to
+zero) and ``contract`` (a fused multiply-add would round the sum without the product
+:func:`_two_sum` corrects for): :func:`symmlq_step`'s float32 arithmetic is then each
+operation rounded once, as numpy's float32 (``tests/unit/test_voxel_lanczos.py``)."""
+
+
+@parallel_kernel(helpers=_SERIAL, **_EXACT_OPTS)
 def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start):
     """One SYMMLQ rotation of the direction ``w`` (:func:`solvers.voxel_stokes._symmlq`'s
     ``w-bar``) with the Lanczos vector ``v = s z``: ``x += zeta (cs w + sn v)`` (the finished
@@ -939,7 +989,13 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
     24 bits per entry (:data:`solvers.voxel.memory.LATER_SYMMLQ_BITS`): the float32's upper
     16 bits in uint16 ``wt`` and the next 8 in uint8 ``wm``, rounded to nearest (relative
     error <= 2^-16).  ``cs = 1, sn = 0`` moves ``x`` to the CG point (``x += zeta w``);
-    ``zeta = 0, cs = -1, sn = 0`` sets ``w = v``."""
+    ``zeta = 0, cs = -1, sn = 0`` sets ``w = v``.
+
+    The rotation is float32 arithmetic (:func:`_rotate32`), and so is the update of a solution
+    with the int8 extension (:func:`_solution_row8`); the int16 / int32 extensions, which keep
+    more than float32 pairs can, are updated in float64 (:func:`_solution_row`).  Each float32
+    operation is rounded once (:data:`_EXACT_OPTS`): the values are those of the same
+    expressions in numpy float32, on any thread count."""
     nx, ny, nz = fluid.shape
     lmax = _lo_max(xl)
     per = (4 * nx * ny) // xs.shape[0]  # the solution's scales: per field or per row
