@@ -1120,6 +1120,29 @@ def test_the_report_is_small_self_contained_and_unpacks_the_same_plotly(tmp_path
     assert html.count("fflate 0.8.3") == 1 and "MIT License" in html
 
 
+def test_the_packed_plotly_is_compressed_once_per_process(monkeypatch) -> None:
+    """Session 47: every report compressed plotly.js again (level-9 gzip of 4.82 MB, 0.22-0.24 s
+    of CPU per report; a study's ``report`` and a search's outcome write several per process).
+    Truth: two reports' head scripts are the same text from one ``gzip.compress`` call, and
+    that text unpacks to plotly's own script (the test above)."""
+    import gzip
+
+    from psdesign.report import interactive
+
+    calls = []
+    compress = gzip.compress
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return compress(*args, **kwargs)
+
+    getattr(interactive.plotly_gz, "cache_clear", lambda: None)()  # a fresh process's state
+    monkeypatch.setattr(gzip, "compress", counted)
+    first = interactive.head_scripts()
+    assert interactive.head_scripts() == first
+    assert len(calls) == 1  # main: 2, one per report
+
+
 def test_response_surface_band_is_the_bar_study_predict_prints():
     """Review (session 43): `study predict` prints a bar never smaller than the fit's measured
     hold-out error (psdesign.analysis.prediction.holdout_bar), but the report's response
