@@ -252,9 +252,11 @@ def lens(trials: int = 400) -> None:
             )
     ok = [r for r in rows if r[5] == "ok"]
     session45()
+    missed = [r[2] / r[3] for r in ok if r[2] > r[3]]
+    far = f" (misses at {min(missed):.2f}-{max(missed):.2f}x the bar)" if missed else ""
     print(
         f"all: {len(rows)} lenses, bar covers {sum(r[2] <= r[3] for r in rows)}; rated ok "
-        f"{len(ok)}, of which the bar covers {sum(r[2] <= r[3] for r in ok)}"
+        f"{len(ok)}, of which the bar covers {sum(r[2] <= r[3] for r in ok)}{far}"
     )
 
 
