@@ -21,17 +21,19 @@ voxel centre or not, counted 0 or whole voxels (up to 6x its volume), and no bar
 count sees it.
 
 Rule (:func:`intersection_status`): Omega is ``untrustworthy`` when the count is 0 while the
-centre lines find lenses (it missed them whole), or when the lenses the bar is not calibrated
-on hold more of the box than the bar: the thin ones (:func:`_thin`: shallower than
+centre lines find lenses (it missed them whole), or when what the bar is not calibrated on
+exceeds the bar: the volume of the thin lenses (:func:`_thin`: shallower than
 :data:`RESOLVED_LENS_VOXELS` voxel, or so little deeper that voxel-centre planes cut them in
 chords under a voxel wide: a lens exactly 1 voxel deep between two centre planes holds no
 centre, a float tie of ``depth < 1 voxel`` rated its ``0 +- 0`` ``ok``), which the count may
-miss (or double) all of, and grid-aligned lenses congruent to another one (:func:`_repeated`:
-a regular layout on round centres rounds each alike, so their errors add linearly while the
-bar adds them in quadrature: 6-10x the bar in the session 47 review's arrays), else ``ok``.
-What the bar still misses among single deeper lenses is rated ``ok``: 13 of the 772
-calibration lenses rated ``ok``, all between fibers along grid axes, at 1.00-1.93x the bar
-(RESULTS.md session 47, helper s47-mendomega). A fixed shape (woven,
+miss (or double) all of, plus the count error of grid-aligned lenses congruent to each other
+(:func:`_congruent_groups`: a regular layout on round centres rounds each alike, so their
+errors add linearly while the bar adds them in quadrature: 6-10x the bar in the session 47
+review's arrays), ``k`` times one lens's error measured alone on the same grid against its
+exact volume (:func:`_group_error`; their whole volume for rods). Else ``ok``. What the bar
+still misses among single deeper lenses is rated ``ok``: 13 of the 772 calibration lenses
+rated ``ok``, all between fibers along grid axes, at 1.00-1.93x the bar (RESULTS.md session
+47, helper s47-mendomega). A fixed shape (woven,
 compressed) or an image has no centre lines: its overlaps keep the bar's own calibration, while
 the round fibers beside a fixed shape are still checked. Limitation: :func:`find_contacts`
 keeps the closest piece pair per pair of fiber copies, so a bent rod meeting another fiber
@@ -68,6 +70,8 @@ class Lenses(NamedTuple):
     point_m: np.ndarray
     #: the two centre lines' unit directions at those points, (m, 2, 3)
     direction: np.ndarray
+    #: the two fibers' indices in the RVE's fibers list, (m, 2)
+    pair: np.ndarray
 
 
 def overlap_lenses(rve: RVE) -> Lenses | None:
@@ -101,6 +105,7 @@ def overlap_lenses(rve: RVE) -> Lenses | None:
     from psdesign.packing.fiberset import FiberState, find_contacts
 
     st = FiberState.from_fibers(round_fibers)
+    index = np.array([n for n, fb in enumerate(fibers) if fb.shape in ROUND_SHAPES])
     lo, hi = rve.box_normalized
     c = find_contacts(st, lo, hi, 0.0)
     depth = _lens_depth(round_fibers, c)
@@ -120,13 +125,13 @@ def overlap_lenses(rve: RVE) -> Lenses | None:
         np.column_stack([ri, rj]) * period,
         np.stack([c.pi[k] - lo, c.pj[k] - lo], axis=1) * period,
         np.stack([c.di[k], c.dj[k]], axis=1),
+        np.column_stack([index[c.i[k]], index[c.j[k]]]),
     )
 
 
 def _no_lenses() -> Lenses:
-    return Lenses(
-        np.zeros(0), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2, 3)), np.zeros((0, 2, 3))
-    )
+    z = np.zeros
+    return Lenses(z(0), z(0), z((0, 2)), z((0, 2, 3)), z((0, 2, 3)), z((0, 2), np.int64))
 
 
 #: Depth (normalized by the period) under which a lens is rounding, not overlap: fibers that
@@ -312,18 +317,43 @@ def circle_lens_area(dist, r1, r2) -> np.ndarray:
 def uncalibrated_overlap_fraction(rve: RVE, spacing: float | np.ndarray) -> float | None:
     """Volume fraction of the box in overlaps whose count the bar is not calibrated on
     (:func:`overlap_lenses`, module doc) on a grid of ``spacing`` metres (one voxel edge or
-    three): thin lenses (:func:`_thin`) and congruent grid-aligned lenses repeated in the box
-    (:func:`_repeated`); None where no centre line says (an image's RVE, fewer than two round
-    fibers beside a fixed shape)."""
+    three): the volume of the thin lenses (:func:`_thin`) and the measured count error of the
+    congruent grid-aligned lenses repeated in the box (:func:`_group_error`); None where no
+    centre line says (an image's RVE, fewer than two round fibers beside a fixed shape)."""
     lenses = overlap_lenses(rve)
-    return None if lenses is None else _loose_volume(lenses, spacing, rve.size)
+    return None if lenses is None else _loose_volume(rve, lenses, spacing)
 
 
-def _loose_volume(lenses: Lenses, spacing: float | np.ndarray, box_m: np.ndarray) -> float:
-    """:func:`uncalibrated_overlap_fraction` of ``lenses`` in a box of ``box_m`` metres."""
+def _loose_volume(rve: RVE, lenses: Lenses, spacing: float | np.ndarray) -> float:
+    """:func:`uncalibrated_overlap_fraction` of ``lenses``, the overlaps of ``rve``."""
     spacing = np.broadcast_to(np.asarray(spacing, float), (3,))
-    loose = _thin(lenses, float(np.max(spacing))) | _repeated(lenses, spacing, box_m)
-    return float(lenses.volume[loose].sum())
+    group = _congruent_groups(lenses, spacing, rve.size)
+    thin = _thin(lenses, float(np.max(spacing)))
+    loose = float(lenses.volume[thin & (group < 0)].sum())
+    for g in np.unique(group[group >= 0]):
+        loose += _group_error(rve, lenses, np.flatnonzero(group == g), spacing)
+    return loose
+
+
+def _group_error(rve: RVE, lenses: Lenses, members: np.ndarray, spacing: np.ndarray) -> float:
+    """The count error of ``k`` congruent lenses (:func:`_congruent_groups`): ``k`` times one
+    lens's own, measured on the same grid with its two fibers alone in the box against their
+    exact lens volume (two cylinders along grid axes: crossing at right angles or parallel,
+    :func:`overlap_lenses`), since the grid rounds each alike; the group's whole volume where
+    that volume is only a bound (a rod's or bent rod's) or the grid differs."""
+    from psdesign.geometry.rve import RVE
+
+    whole = float(lenses.volume[members].sum())
+    pair = [rve.fibers[int(n)] for n in lenses.pair[members[0]]]
+    if any(fb.shape != "cylinder" for fb in pair):
+        return whole
+    alone = RVE(size=rve.size, fibers=pair, period=rve.period)
+    fields = alone.voxelize(float(spacing[0]))
+    own = overlap_lenses(alone)
+    if not np.allclose(fields.grid.spacing, spacing, rtol=1e-9) or len(own.volume) == 0:
+        return whole
+    error = abs(fields.intersection_volume_fraction - float(own.volume.sum())) / len(own.volume)
+    return len(members) * error
 
 
 def _thin(lenses: Lenses, voxel: float) -> np.ndarray:
@@ -340,14 +370,15 @@ def _thin(lenses: Lenses, voxel: float) -> np.ndarray:
 
 
 #: Tolerance (voxels) within which two lenses' radii, depths and sub-voxel offsets are the
-#: same for :func:`_repeated`.
+#: same for :func:`_congruent_groups`.
 CONGRUENT_VOXELS = 1e-3
 
 
-def _repeated(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndarray:
-    """Lenses congruent to another one on the grid: both fibers along grid axes (drifting
-    under a voxel over the box), the same radii, depth and axes, and the same offset of the
-    centre lines' closest points to the voxel centres (along a parallel pair's axis any).
+def _congruent_groups(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndarray:
+    """A label per lens, shared by the lenses congruent to each other on the grid (-1: none
+    congruent to it): both fibers along grid axes (drifting under a voxel over the box), the
+    same radii, depth and axes, and the same offset of the centre lines' closest points to
+    the voxel centres (along a parallel pair's axis any).
     The grid rounds congruent lenses alike, so their count's errors add linearly where the
     bar (:func:`psdesign.geometry.porosity.count_fraction_error`) adds runs in quadrature:
     a 4 x 4 square array of parallel fibers 3 voxels deep counted 0.125 against the exact
@@ -355,7 +386,7 @@ def _repeated(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndar
     single lens keeps the bar's calibration."""
     m = len(lenses.depth_m)
     if m < 2:
-        return np.zeros(m, bool)
+        return np.full(m, -1)
     voxel = float(np.max(spacing))
     ax = np.stack([_grid_axis(lenses.direction[:, s], box_m, voxel) for s in (0, 1)], axis=1)
     offset = np.mod(lenses.point_m / spacing, 1.0)  # (m, 2, 3), in voxels
@@ -374,7 +405,8 @@ def _repeated(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndar
     depth = np.round(lenses.depth_m / voxel / tick)[:, None]
     key = np.column_stack([depth, lo_side, hi_side]).astype(np.int64)
     _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return (counts[inverse.ravel()] > 1) & (ax >= 0).all(axis=1)
+    inverse = inverse.ravel()
+    return np.where((counts[inverse] > 1) & (ax >= 0).all(axis=1), inverse, -1)
 
 
 def _lexless(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -416,5 +448,5 @@ def intersection_status(rve: RVE, fields: VoxelFields) -> str:
         return "ok"
     if fields.intersection_volume_fraction == 0.0 and lenses.volume.sum() > 0.0:
         return "untrustworthy"  # lenses the count missed whole: its 0 +- 0 says nothing
-    loose = _loose_volume(lenses, fields.grid.spacing, rve.size)
+    loose = _loose_volume(rve, lenses, fields.grid.spacing)
     return "ok" if loose <= fields.intersection_error else "untrustworthy"
