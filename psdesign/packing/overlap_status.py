@@ -335,17 +335,24 @@ def _loose_volume(rve: RVE, lenses: Lenses, spacing: float | np.ndarray) -> floa
     return loose
 
 
+#: Voxels up to which :func:`_group_error` voxelizes a congruent lens's pair alone (256^3:
+#: about 85 MB of fields at 5 bytes a voxel); beyond, the group weighs its whole volume.
+MEASURED_GROUP_VOXELS = 256**3
+
+
 def _group_error(rve: RVE, lenses: Lenses, members: np.ndarray, spacing: np.ndarray) -> float:
     """The count error of ``k`` congruent lenses (:func:`_congruent_groups`): ``k`` times one
     lens's own, measured on the same grid with its two fibers alone in the box against their
     exact lens volume (two cylinders along grid axes: crossing at right angles or parallel,
     :func:`overlap_lenses`), since the grid rounds each alike; the group's whole volume where
-    that volume is only a bound (a rod's or bent rod's) or the grid differs."""
+    that volume is only a bound (a rod's or bent rod's), the grid differs, or it holds more
+    than :data:`MEASURED_GROUP_VOXELS` voxels (a second grid's fields held beside the case's)."""
     from psdesign.geometry.rve import RVE
 
     whole = float(lenses.volume[members].sum())
     pair = [rve.fibers[int(n)] for n in lenses.pair[members[0]]]
-    if any(fb.shape != "cylinder" for fb in pair):
+    too_big = np.prod(np.asarray(rve.size) / spacing) > MEASURED_GROUP_VOXELS
+    if too_big or any(fb.shape != "cylinder" for fb in pair):
         return whole
     alone = RVE(size=rve.size, fibers=pair, period=rve.period)
     fields = alone.voxelize(float(spacing[0]))
