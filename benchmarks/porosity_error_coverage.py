@@ -38,7 +38,9 @@ voxels deep 168 of 168 crossing at random places, 174 of 181 on faces, 196 of 19
 rated ok 578, of which the bar covers 570. Then 100 parallel pairs on voxel faces (whole voxels
 apart) and 100 crossing pairs through voxel centres, drawn last: 89 of 93 and 95 of 96 at 1-12
 voxels (session 46's bar: 66 and 87); all 800: rated ok 774, of which the bar covers 761
-(773 and 760 once a thin parallel lens's volume is the circle lens, not crossing_volume's cap).
+(773 and 760 once a thin parallel lens's volume is the circle lens, not crossing_volume's cap;
+772 and 759 once a lens up to ``h (1 + h / (4 R_min))`` deep is thin, session 47 review: the
+13 misses rated ok at 1.00-1.93x the bar).
 """
 
 from __future__ import annotations
@@ -252,9 +254,11 @@ def lens(trials: int = 400) -> None:
             )
     ok = [r for r in rows if r[5] == "ok"]
     session45()
+    missed = [r[2] / r[3] for r in ok if r[2] > r[3]]
+    far = f" (misses at {min(missed):.2f}-{max(missed):.2f}x the bar)" if missed else ""
     print(
         f"all: {len(rows)} lenses, bar covers {sum(r[2] <= r[3] for r in rows)}; rated ok "
-        f"{len(ok)}, of which the bar covers {sum(r[2] <= r[3] for r in ok)}"
+        f"{len(ok)}, of which the bar covers {sum(r[2] <= r[3] for r in ok)}{far}"
     )
 
 

@@ -351,3 +351,19 @@ def test_the_printed_omega_carries_its_status_and_the_exit_follows_it(
     assert got == (0 if status == "ok" else 3)
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["intersection_volume_fraction_status"] == status
+
+
+def test_an_images_preview_title_leaves_omega_out():
+    """An ``[image]`` has no fibre list: its 0/1 count cannot see where fibres overlap, so its
+    Omega is 0 whatever the truth (session 47 review: test_cli_image's RODS written as rve.tif
+    and read back as an image titled ``Omega 0 +- 0 [ok]``, while the two cylinders overlap
+    0.00548 of the box: Cavalieri, benchmarks/porosity_error_coverage.py crossing_lens(4, 3,
+    4) / 24^3). The title leaves Omega out there; a fibre RVE's title keeps it."""
+    from psdesign.cli.generate import preview_title
+
+    summary = {"porosity": 0.8608, "porosity_error": 0.0100, "n_fibers": 0}
+    summary |= {"intersection_volume_fraction": 0.0, "intersection_volume_fraction_error": 0.0}
+    summary |= {"intersection_volume_fraction_status": "ok"}
+    image = preview_title(summary | {"generation": {"source": "image", "path": "rve.tif"}})
+    assert image == "porosity 0.8608 +- 1.0e-02 [ok], 0 fibers"
+    assert "Omega 0 +- 0 [ok]" in preview_title(summary | {"generation": {"n_fibers": 0}})

@@ -228,10 +228,11 @@ def test_a_parallel_lens_is_the_circle_lens_along_the_box(r1, r2, depth):
     area (Weisstein, MathWorld "Circle-Circle Intersection", eq. 14; the benchmark's own) times
     the box's edge. crossing_volume's cap for near-parallel pairs gave 0.37x, 0.20x and 0.76x
     (the status weighs exactly such thin lenses: an undercount errs toward ``ok``); a 0.5-period
-    high box holds half the lens."""
+    high box holds half the lens, a 2-period one twice (the same fraction of the box; main
+    capped the lens at one period: half, 2.09e-4 against 4.18e-4, session 47 review)."""
     area = load_benchmark("porosity_error_coverage").circle_lens_area
     s = r1 + r2 - depth
-    for h in (1.0, 0.5):
+    for h in (1.0, 0.5, 2.0):
         pair = [
             make_fiber("cylinder", 2 * r, center=[0.41 + o, 0.37, 0.2], direction=[0, 0, 1])
             for r, o in ((r1, 0.0), (r2, s))
@@ -239,3 +240,95 @@ def test_a_parallel_lens_is_the_circle_lens_along_the_box(r1, r2, depth):
         lenses = overlap_lenses(RVE(size=[L, L, h * L], fibers=pair, period=L))
         # a fraction of the box: area x h / (1 x 1 x h); the depth is read to ~1e-9 period
         assert lenses.volume == pytest.approx([area(r1, r2, s)], rel=2e-5)
+
+
+@pytest.mark.parametrize(("box", "d", "n"), [(40e-6, 5e-6, 40), (L, 17 / 64 * L, 64)])
+def test_a_lens_a_voxel_deep_between_centre_planes_is_not_ok_when_counted_0(box, d, n):
+    """Two cylinders along z, axes 4 voxels apart on voxel faces, 4 + 1 voxels thick: a lens
+    exactly one voxel deep whose edges lie on voxel-centre planes holds no voxel centre (ties).
+    Truth: the circle-circle lens area (Weisstein, MathWorld eq. 14) times the box's edge:
+    1.28e-3 of the box for 5 um cylinders at 1 um voxels (session 47 review's t2.toml). Main
+    counted ``0 +- 0`` and rated it ``ok`` (``depth < 1 voxel`` was a float tie), also for a
+    4 x 4 square array of such pairs (0 against 0.0301)."""
+    area = load_benchmark("porosity_error_coverage").circle_lens_area
+    h, r = box / n, 0.5 * d / box
+    s = 2 * r - h / box  # one voxel deep
+    pair = [
+        make_fiber("cylinder", 2 * r, center=[x, 0.5, 0.5], direction=[0, 0, 1])
+        for x in (0.25, 0.25 + s)
+    ]
+    rve = RVE(size=[box] * 3, fibers=pair)
+    f = rve.voxelize(h)
+    exact = area(r, r, s)
+    assert float(overlap_lenses(rve).volume.sum()) == pytest.approx(exact, rel=2e-5)
+    assert exact > 9e-4 and (f.intersection_volume_fraction, f.intersection_error) == (0.0, 0.0)
+    assert intersection_status(rve, f) == "untrustworthy"
+
+
+def square_array(m: int, n: int, dv: int) -> tuple[list, float]:
+    """m x m parallel cylinders along z, dv voxels thick, n / m voxels apart on voxel faces,
+    and their exact overlap: 2 m^2 circle lenses (MathWorld eq. 14) along the box."""
+    area = load_benchmark("porosity_error_coverage").circle_lens_area
+    r = dv / n / 2
+    fibers = [
+        make_fiber(
+            "cylinder", 2 * r, center=[(i + 0.5) / m, (j + 0.5) / m, 0.5], direction=[0, 0, 1]
+        )
+        for i in range(m)
+        for j in range(m)
+    ]
+    return fibers, 2 * m * m * area(r, r, 1 / m)
+
+
+def test_congruent_lenses_on_the_grid_are_rated_by_their_summed_error():
+    """A regular layout on round centres rounds every lens alike: their count's errors add
+    linearly while the bar adds runs of faces in quadrature. A 4 x 4 square array of cylinders
+    19 voxels thick, 16 voxels apart at 64 voxels per period (32 lenses 3 voxels deep):
+    0.125 against the exact 0.163 (circle lenses), 9.4x the bar, rated ``ok`` on main
+    (session 47 review, f.py); a 0/90 grid of 4 x 4 crossings 13 voxels thick, 3 deep: 6.3x
+    the bar, ``ok`` on main (g.py; exact: Cavalieri). Their status now sums ``k`` times one
+    lens's error, measured alone: both ``untrustworthy``; the same grid 12 voxels thick
+    (covered, 0.18x the bar) and one crossing (0.1x) stay ``ok``."""
+    fibers, exact = square_array(4, 64, 19)
+    rve = RVE(size=[L] * 3, fibers=fibers)
+    f = rve.voxelize(L / 64)
+    assert abs(f.intersection_volume_fraction - exact) > 5 * f.intersection_error
+    assert intersection_status(rve, f) == "untrustworthy"
+    for m, dv, miss in ((4, 13, True), (4, 12, False), (1, 12, False)):
+        r, s = dv / 128, (dv - 3) / 64
+        grid = [
+            make_fiber("cylinder", 2 * r, center=[0.5, (j + 0.5) / m, 0.25], direction=[1, 0, 0])
+            for j in range(m)
+        ] + [
+            make_fiber(
+                "cylinder", 2 * r, center=[(i + 0.5) / m, 0.5, 0.25 + s], direction=[0, 1, 0]
+            )
+            for i in range(m)
+        ]
+        rve = RVE(size=[L] * 3, fibers=grid)
+        f = rve.voxelize(L / 64)
+        err = abs(f.intersection_volume_fraction - m * m * crossing_lens(r, r, s))
+        assert (err > f.intersection_error) == miss
+        assert intersection_status(rve, f) == ("untrustworthy" if miss else "ok")
+
+
+def test_congruent_lenses_on_a_grid_too_big_to_measure_weigh_their_whole_volume(monkeypatch):
+    """Past ``MEASURED_GROUP_VOXELS`` the pair is not voxelized a second time: the group's
+    whole volume (0.0090 of the box for 16 crossings 3 voxels deep: Cavalieri) against the
+    bar (0.0014) rates the covered grid ``untrustworthy``, the conservative side."""
+    from psdesign.packing import overlap_status
+
+    r, s = 12 / 128, 9 / 64
+    grid = [
+        make_fiber("cylinder", 2 * r, center=[0.5, (j + 0.5) / 4, 0.25], direction=[1, 0, 0])
+        for j in range(4)
+    ] + [
+        make_fiber("cylinder", 2 * r, center=[(i + 0.5) / 4, 0.5, 0.25 + s], direction=[0, 1, 0])
+        for i in range(4)
+    ]
+    rve = RVE(size=[L] * 3, fibers=grid)
+    f = rve.voxelize(L / 64)
+    assert 16 * crossing_lens(r, r, s) > f.intersection_error
+    assert intersection_status(rve, f) == "ok"
+    monkeypatch.setattr(overlap_status, "MEASURED_GROUP_VOXELS", 63**3)
+    assert intersection_status(rve, f) == "untrustworthy"
