@@ -156,8 +156,9 @@ STATUS_WORDS = {
     "pore_sizes_status": f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge",
     "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
     "intersection_volume_fraction_status": (  # packing.overlap_status
-        "untrustworthy = overlaps thinner than a voxel, which the count may miss, hold "
-        "more of the box than its error bar"
+        "untrustworthy = the count missed overlaps the fibres' centre lines find, or "
+        "overlaps thinner than a voxel (which the count may miss) plus the summed error of "
+        "congruent grid-aligned overlaps exceed its error bar"
     ),
 }
 

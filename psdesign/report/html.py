@@ -607,8 +607,9 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         + (
             "; the overlap Omega (intersection_volume_fraction, a fraction of the box) ± its "
             "absolute error (the same count on the grid and on every second voxel, and the "
-            "rounding of its boundary), untrustworthy where overlaps thinner than a voxel hold "
-            "more of the box than that error (docs/geometry.md)"
+            "rounding of its boundary; "
+            + _status_words("intersection_volume_fraction_status")
+            + ", docs/geometry.md)"
             if omega
             else ""
         )
@@ -644,15 +645,21 @@ def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
     return txt + ("" if rel is None else f" ± {100 * rel:.1f} %"), rel is not None
 
 
+def _status_words(status_column: str) -> str:
+    """The words of ``status_column``'s rating as every command prints them
+    (:func:`psdesign.cli.exit_status.flagged_words`: one copy of them)."""
+    from psdesign.cli.exit_status import flagged_words
+
+    return flagged_words(status_column)
+
+
 def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
     rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
-    from psdesign.cli.exit_status import flagged_words
-
     return (
         "; pore diameters d10, d50 and d90 ± their one absolute bar (pore_diameter_error_m), "
         "rated together by that bar over d50 (the % beside d50; "
-        f"{flagged_words('pore_sizes_status')}, docs/transport.md)"
+        f"{_status_words('pore_sizes_status')}, docs/transport.md)"
     )
 
 

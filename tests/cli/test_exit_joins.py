@@ -62,7 +62,7 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
         assert f"({st}: " in line, f"{st} has no words (cli.exit_status.STATUS_WORDS): {line}"
         words = line.split(f"({st}: ")[1]
         assert words.startswith("untrustworthy = "), line
-        overlap = "overlaps thinner than a voxel, which the count may miss" in words
+        overlap = "overlaps thinner than a voxel (which the count may miss)" in words
         assert overlap == (st == "intersection_volume_fraction_status"), line
         assert (bar in words) == (not overlap), line
         assert (cells in words) == (not overlap and st != "porosity_status"), line

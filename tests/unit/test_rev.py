@@ -515,7 +515,8 @@ def test_rev_words_each_flagged_status_and_keeps_only_its_outputs_in_the_interva
     assert line.startswith("psdesign: 4 ok case(s) have a value whose own status is not ok ("), line
     assert "porosity_status: untrustworthy = error bar above 20 %;" in line, line
     omega = line.split("intersection_volume_fraction_status: ")[1]
-    assert omega.startswith("untrustworthy = overlaps thinner than a voxel, which the count")
+    assert omega.startswith("untrustworthy = the count missed overlaps"), line
+    assert "overlaps thinner than a voxel (which the count may miss)" in omega, line
     assert "cells per fiber diameter" not in line, line  # neither is rated by resolution
     table = json.loads((out / "rev.json").read_text())["table"][0]
     assert not any(k.startswith("intersection") for k in table)  # no Omega interval
