@@ -27,7 +27,14 @@ import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
-from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED, Target, check_targets
+from psdesign.analysis.targets import (
+    MAX_BATCH,
+    MAX_BUDGET,
+    MAX_SEED,
+    Target,
+    check_targets,
+    target_columns,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -308,12 +315,26 @@ def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray
     return cand_x, to_unit(cand_x, *zip(*b, strict=True))
 
 
-def _check_target_columns(targets: list[Target], ok, df) -> None:
+def _check_target_columns(targets: list[Target], ok, df, outputs: list[str], what: str) -> None:
+    """After a round with a trusted case: refuse a target whose column the case function wrote
+    in no case (a case function of the user's that leaves an output out), one
+    :class:`~psdesign.errors.StudyError` line naming ``what`` (the keyword ``targets`` or the
+    command's ``--target``) and the columns it did write that a target may name
+    (:func:`~psdesign.analysis.targets.target_columns`). Until session 47 this was a
+    ``ValueError`` naming ``--target`` from Python too, saying the target "is not an output of
+    this study" (it is: :func:`check_targets` passed it) and listing the ``*_m2`` columns and
+    the porosity only."""
+    from psdesign.errors import StudyError
+
+    if not len(ok):  # no trusted case: the columns of failed cases say nothing
+        return
     for t in targets:
-        if len(ok) and t.output not in df.columns:
-            raise ValueError(
-                f"--target: {t.output!r} is not an output of this study; outputs: "
-                + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
+        if t.output not in df.columns:
+            wrote = [c for c in target_columns(outputs) if c in df.columns]
+            raise StudyError(
+                f"{what}: {t.output} is an output of this study but the case function wrote no "
+                f"{t.output!r} column (the columns it wrote that a target may name: "
+                f"{', '.join(wrote) or 'none'})"
             )
 
 
@@ -411,6 +432,8 @@ def optimize_study(
         is not a :class:`Target` or can never be met, a keyword the runner does not take or
         one the search sets, and the runner's refusals of the study and its options
         (:func:`~psdesign.study.runner.run_study`; ``out_dir``'s are an ``OutputError``).
+        After the first round, naming ``target_option``: a target whose column the case
+        function wrote in no trusted case.
     """
     from scipy.stats import qmc
 
@@ -441,7 +464,7 @@ def optimize_study(
         df = run_study(st, out_dir, report=False, command=OPTIMIZE_COMMAND, **run_kw)
         rounds += 1
         ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
-        _check_target_columns(targets, ok, df)
+        _check_target_columns(targets, ok, df, study.outputs, target_option)
         recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
         best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
         best_miss = _score(best, targets) if best else math.inf
