@@ -84,10 +84,15 @@ class OptimizeResult:
 
 
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
+    """The ``(low, high, log)`` box of each parameter; a parameter of levels is refused, one
+    :class:`~psdesign.errors.StudyError` line naming it (a bare ``ValueError`` until session
+    47: ``except psdesign.SpecError`` missed it)."""
+    from psdesign.errors import StudyError
+
     out = {}
     for name, p in study.parameters.items():
         if p.kind != "bounds":
-            raise ValueError(
+            raise StudyError(
                 f"{name}: optimize needs {{low, high}} bounds for every parameter, not a list"
             )
         out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
@@ -264,12 +269,12 @@ def _check_counts(budget: int, batch: int, seed: int) -> tuple[int, int, int]:
     ...
     psdesign.errors.StudyError: seed: an integer in [0, 4294967294], got -1
     """
-    from psdesign.errors import StudyError
+    from psdesign.errors import StudyError, short
 
     checks = (("budget", budget, 1, MAX_BUDGET), ("batch", batch, 1, MAX_BATCH))
     for key, v, lo, hi in (*checks, ("seed", seed, 0, MAX_SEED)):
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or not lo <= v <= hi:
-            raise StudyError(f"{key}: an integer in [{lo}, {hi}], got {v!r}")
+            raise StudyError(f"{key}: an integer in [{lo}, {hi}], got {short(v)}")
     return int(budget), int(batch), int(seed)
 
 

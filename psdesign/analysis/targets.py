@@ -8,7 +8,7 @@ import re
 from dataclasses import dataclass
 
 from psdesign.analysis.ranges import RANGES
-from psdesign.errors import StudyError
+from psdesign.errors import StudyError, short
 
 #: Most design points of one optimization, and per round (``--budget``, ``--batch``; here, in
 #: the light module of ``study optimize``, so the command line checks them without importing
@@ -62,13 +62,13 @@ def check_targets(targets: list[Target], outputs: list[str], what: str = "--targ
 
     if isinstance(targets, Target | str) or not isinstance(targets, list | tuple) or not targets:
         # a str was read one character at a time (AttributeError); [] ran a search for nothing
-        raise StudyError(f"{what}: must be a non-empty list of Target, got {targets!r}")
+        raise StudyError(f"{what}: must be a non-empty list of Target, got {short(targets)}")
     cols = target_columns(outputs)
     for t in targets:
         if not isinstance(t, Target):
             raise StudyError(
                 f"{what}: each must be a psdesign.analysis.targets.Target (Target.parse("
-                f"'k_z_m2=8e-12+-5%')), got {type(t).__name__} {t!r}"
+                f"'k_z_m2=8e-12+-5%')), got {type(t).__name__} {short(t)}"
             )
         if t.output not in cols:
             raise StudyError(
@@ -164,7 +164,7 @@ class Target:
             )
         for key, v in (("value", value), ("tolerance", tol)):
             if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
-                raise StudyError(f"{what}: {name} {key} must be a finite number, got {v!r}")
+                raise StudyError(f"{what}: {name} {key} must be a finite number, got {short(v)}")
         if op == "=" and not 0 < tol < 1:
             raise StudyError(f"{what}: {name} tolerance must be in (0, 100) %, got {100 * tol:g}%")
         if op == "=" and value == 0:

@@ -30,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from psdesign.errors import short
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
@@ -248,7 +249,7 @@ def check_workers(
     # integer, got np.int64(2)"), as the schema's integer keys take them
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
         raise StudyError(
-            f"{what}: must be an integer >= 0 (0: the cases in this process), got {workers!r}"
+            f"{what}: must be an integer >= 0 (0: the cases in this process), got {short(workers)}"
         )
     if scheduler is not None and workers == 0:
         raise StudyError(
@@ -819,11 +820,11 @@ def _check_naming(command, out_option, scheduler_option) -> None:
     if not (pair and isinstance(out_option[0], str) and isinstance(out_option[1], str | None)):
         raise StudyError(
             "out_option: must be a pair (name of out_dir, name of force or None), such as "
-            f"('out_dir', 'force=True'), got {out_option!r}"
+            f"('out_dir', 'force=True'), got {short(out_option)}"
         )
     for key, value in (("command", command), ("scheduler_option", scheduler_option)):
         if not isinstance(value, str) or not value.strip():
-            raise StudyError(f"{key}: must be a non-empty text, got {value!r}")
+            raise StudyError(f"{key}: must be a non-empty text, got {short(value)}")
 
 
 def _run_options(options: RunOptions | None, fields: dict) -> RunOptions:
