@@ -285,24 +285,6 @@ _OWN_RUN_KEYWORDS = {
 }
 
 
-def _check_run_keywords(run_kw: dict) -> None:
-    """Refuse, before any work, a keyword :func:`psdesign.study.runner.run_study` does not take
-    (the runner's ``TypeError`` named ``run_study()``) or one the search sets itself
-    (``report=True`` was "got multiple values for keyword argument")."""
-    from psdesign.errors import StudyError
-    from psdesign.study.runner import run_keywords
-
-    for key in run_kw:
-        if key in _OWN_RUN_KEYWORDS:
-            raise StudyError(f"{key}: set by optimize_study itself ({_OWN_RUN_KEYWORDS[key]})")
-        if key not in run_keywords():
-            allowed = sorted(run_keywords() - _OWN_RUN_KEYWORDS.keys())
-            raise StudyError(
-                f"{key}: not a keyword of optimize_study (allowed: budget, batch, seed, "
-                f"target_option and the runner's {', '.join(allowed)})"
-            )
-
-
 def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """2048 scrambled-Sobol candidates as the design points they run (int parameters
     rounded) and in the unit box."""
@@ -442,11 +424,14 @@ def optimize_study(
     """
     from scipy.stats import qmc
 
-    from psdesign.study.runner import run_study
+    from psdesign.study.runner import check_run_keywords, run_study
     from psdesign.study.studyfile import load_study
 
     budget, batch, seed = _check_counts(budget, batch, seed)
-    _check_run_keywords(run_kw)
+    # report=True was "got multiple values for keyword argument", an unknown keyword the
+    # runner's TypeError naming run_study()
+    extra = "budget, batch, seed, target_option"
+    check_run_keywords(run_kw, _OWN_RUN_KEYWORDS, "optimize_study", extra)
     study = load_study(study_path, run_kw.get("case_fn"))
     bounds = _bounds(study)
     # names and ranges: before any case or folder

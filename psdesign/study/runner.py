@@ -812,6 +812,29 @@ def run_keywords() -> frozenset[str]:
     return _OPTION_FIELDS | {"options", "command", "out_option", "scheduler_option"}
 
 
+def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: str) -> None:
+    """Refuse, before any work, a keyword of ``run_kw`` that :func:`run_study` does not take
+    (its ``TypeError`` named ``run_study()``) or one that ``caller`` (a function running its
+    study through :func:`run_study`) sets itself (``own``: keyword -> why; it was "got
+    multiple values for keyword argument"): one :class:`StudyError` line naming the keyword,
+    the allowed ones listed as ``extra`` (the caller's own) and the runner's.
+
+    >>> check_run_keywords({"wrkers": 2}, {"command": "set"}, "f", "a")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: wrkers: not a keyword of f (allowed: a and the runner's case_fn, ...
+    """
+    for key in run_kw:
+        if key in own:
+            raise StudyError(f"{key}: set by {caller} itself ({own[key]})")
+        if key not in run_keywords():
+            allowed = sorted(run_keywords() - own.keys())
+            raise StudyError(
+                f"{key}: not a keyword of {caller} (allowed: {extra} and the runner's "
+                f"{', '.join(allowed)})"
+            )
+
+
 def _check_naming(command, out_option, scheduler_option) -> None:
     """``command`` a text, ``out_option`` a pair (text, text or None), ``scheduler_option`` a
     text, else one :class:`StudyError` line naming the keyword (``command=3`` was written into
