@@ -174,15 +174,18 @@ def rev_study(
     sizes: list[float],
     seeds: int,
     out_dir: str | Path,
+    *,
     solver: str = "voxel",
     directions: str = "xyz",
     tol: float = 0.1,
-    *,
     option_names: dict[str, str] | None = None,
     **run_kw,
 ) -> RevResult:
     """Run the REV study; ``run_kw`` go to :func:`psdesign.study.runner.run_study` (not
     ``command``, which the check sets).
+
+    (Nine parameters: the spec, sizes, seeds and folder, then the check's independent knobs,
+    the naming and the runner's keywords, keyword-only since session 47.)
 
     ``option_names``: how refusals name ``sizes``, ``seeds``, ``tol``, ``directions`` and
     ``solver``: by the keywords (None, the default), or ``psdesign rev``'s :data:`REV_FLAGS`.
