@@ -152,11 +152,11 @@ def _direction(direction: Any) -> str:
 
 def _progress_flag(progress: Any) -> bool:
     """``progress``: True or False, also NumPy's (``progress="no"`` printed the progress)."""
-    from psdesign.errors import SpecError
+    from psdesign.errors import SpecError, short
     from psdesign.schema.types import _is_bool
 
     if not _is_bool(progress):
-        raise SpecError("progress", f"must be True or False, got {progress!r}")
+        raise SpecError("progress", f"must be True or False, got {short(progress)}")
     return bool(progress)
 
 

@@ -56,6 +56,25 @@ class StudyError(SpecError):
         super().__init__(key, rest)
 
 
+def short(value: object, limit: int = 60) -> str:
+    """``repr`` of a user value for a one-line refusal: cut to ``limit`` characters, the type's
+    name for a value whose ``repr`` spans lines (a NumPy array, a pandas Series: "got
+    DataFrame", as :func:`psdesign.geometry.rve.checked_fields` words it) or fails; never
+    raises.
+
+    >>> import numpy as np
+    >>> short("a" * 80)[-5:], short(np.arange(3)), short(np.zeros((2, 2)))
+    ('aa...', 'array([0, 1, 2])', 'ndarray')
+    """
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - e.g. a value whose repr overflows
+        return type(value).__name__
+    if "\n" in text or "\r" in text:  # a refusal is one line (session 47 review)
+        return type(value).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _restore(cls: type, state: dict, args: tuple) -> SpecError:
     """A :class:`SpecError` (or subclass) from its pickled state, without ``__init__``."""
     err = cls.__new__(cls)

@@ -52,6 +52,12 @@ def fake_case(spec, outputs, solver, workdir):
     return out
 
 
+def porosity_case(spec, outputs, solver, workdir):
+    """A case function of the user's that writes the porosity and a diffusivity only, whatever
+    the study's outputs (a target on K then has no column)."""
+    return {"porosity": float(spec["generator"]["porosity"]), "diffusivity_x": 0.5}
+
+
 def fields_case(spec, outputs, solver, workdir):
     """fake_case with the picture ``[study] fields = true`` adds (``fields/flow_z.png``), returned
     as run_case returns it: an absolute path into the case's folder."""

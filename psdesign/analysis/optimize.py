@@ -27,7 +27,14 @@ import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
 from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
-from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED, Target, check_targets
+from psdesign.analysis.targets import (
+    MAX_BATCH,
+    MAX_BUDGET,
+    MAX_SEED,
+    Target,
+    check_targets,
+    target_columns,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -77,10 +84,15 @@ class OptimizeResult:
 
 
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
+    """The ``(low, high, log)`` box of each parameter; a parameter of levels is refused, one
+    :class:`~psdesign.errors.StudyError` line naming it (a bare ``ValueError`` until session
+    47: ``except psdesign.SpecError`` missed it)."""
+    from psdesign.errors import StudyError
+
     out = {}
     for name, p in study.parameters.items():
         if p.kind != "bounds":
-            raise ValueError(
+            raise StudyError(
                 f"{name}: optimize needs {{low, high}} bounds for every parameter, not a list"
             )
         out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
@@ -257,12 +269,12 @@ def _check_counts(budget: int, batch: int, seed: int) -> tuple[int, int, int]:
     ...
     psdesign.errors.StudyError: seed: an integer in [0, 4294967294], got -1
     """
-    from psdesign.errors import StudyError
+    from psdesign.errors import StudyError, short
 
     checks = (("budget", budget, 1, MAX_BUDGET), ("batch", batch, 1, MAX_BATCH))
     for key, v, lo, hi in (*checks, ("seed", seed, 0, MAX_SEED)):
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or not lo <= v <= hi:
-            raise StudyError(f"{key}: an integer in [{lo}, {hi}], got {v!r}")
+            raise StudyError(f"{key}: an integer in [{lo}, {hi}], got {short(v)}")
     return int(budget), int(batch), int(seed)
 
 
@@ -271,24 +283,6 @@ _OWN_RUN_KEYWORDS = {
     "report": "each round runs with report=False; write_report(out_dir) after the search",
     "command": "the folder's marker names the search, 'study optimize'",
 }
-
-
-def _check_run_keywords(run_kw: dict) -> None:
-    """Refuse, before any work, a keyword :func:`psdesign.study.runner.run_study` does not take
-    (the runner's ``TypeError`` named ``run_study()``) or one the search sets itself
-    (``report=True`` was "got multiple values for keyword argument")."""
-    from psdesign.errors import StudyError
-    from psdesign.study.runner import run_keywords
-
-    for key in run_kw:
-        if key in _OWN_RUN_KEYWORDS:
-            raise StudyError(f"{key}: set by optimize_study itself ({_OWN_RUN_KEYWORDS[key]})")
-        if key not in run_keywords():
-            allowed = sorted(run_keywords() - _OWN_RUN_KEYWORDS.keys())
-            raise StudyError(
-                f"{key}: not a keyword of optimize_study (allowed: budget, batch, seed, "
-                f"target_option and the runner's {', '.join(allowed)})"
-            )
 
 
 def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -308,12 +302,26 @@ def _sobol_candidates(study, b: list, seed: int) -> tuple[np.ndarray, np.ndarray
     return cand_x, to_unit(cand_x, *zip(*b, strict=True))
 
 
-def _check_target_columns(targets: list[Target], ok, df) -> None:
+def _check_target_columns(targets: list[Target], ok, df, outputs: list[str], what: str) -> None:
+    """After a round with a trusted case: refuse a target whose column the case function wrote
+    in no case (a case function of the user's that leaves an output out), one
+    :class:`~psdesign.errors.StudyError` line naming ``what`` (the keyword ``targets`` or the
+    command's ``--target``) and the columns it did write that a target may name
+    (:func:`~psdesign.analysis.targets.target_columns`). Until session 47 this was a
+    ``ValueError`` naming ``--target`` from Python too, saying the target "is not an output of
+    this study" (it is: :func:`check_targets` passed it) and listing the ``*_m2`` columns and
+    the porosity only."""
+    from psdesign.errors import StudyError
+
+    if not len(ok):  # no trusted case: the columns of failed cases say nothing
+        return
     for t in targets:
-        if len(ok) and t.output not in df.columns:
-            raise ValueError(
-                f"--target: {t.output!r} is not an output of this study; outputs: "
-                + ", ".join(c for c in df.columns if c.endswith("_m2") or c == "porosity")
+        if t.output not in df.columns:
+            wrote = [c for c in target_columns(outputs) if c in df.columns]
+            raise StudyError(
+                f"{what}: {t.output} is an output of this study but the case function wrote no "
+                f"{t.output!r} column (the columns it wrote that a target may name: "
+                f"{', '.join(wrote) or 'none'})"
             )
 
 
@@ -411,14 +419,19 @@ def optimize_study(
         is not a :class:`Target` or can never be met, a keyword the runner does not take or
         one the search sets, and the runner's refusals of the study and its options
         (:func:`~psdesign.study.runner.run_study`; ``out_dir``'s are an ``OutputError``).
+        After the first round, naming ``target_option``: a target whose column the case
+        function wrote in no trusted case.
     """
     from scipy.stats import qmc
 
-    from psdesign.study.runner import run_study
+    from psdesign.study.runner import check_run_keywords, run_study
     from psdesign.study.studyfile import load_study
 
     budget, batch, seed = _check_counts(budget, batch, seed)
-    _check_run_keywords(run_kw)
+    # report=True was "got multiple values for keyword argument", an unknown keyword the
+    # runner's TypeError naming run_study()
+    extra = "budget, batch, seed, target_option"
+    check_run_keywords(run_kw, _OWN_RUN_KEYWORDS, "optimize_study", extra)
     study = load_study(study_path, run_kw.get("case_fn"))
     bounds = _bounds(study)
     # names and ranges: before any case or folder
@@ -441,7 +454,7 @@ def optimize_study(
         df = run_study(st, out_dir, report=False, command=OPTIMIZE_COMMAND, **run_kw)
         rounds += 1
         ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
-        _check_target_columns(targets, ok, df)
+        _check_target_columns(targets, ok, df, study.outputs, target_option)
         recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
         best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
         best_miss = _score(best, targets) if best else math.inf

@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import copy
 import math
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from psdesign.analysis.columns import case_status, first_error, flagged_values
@@ -33,6 +35,13 @@ from psdesign.schema.budget import MAX_SEEDS  # as for a study file's seeds
 REV_FILES = ("rev.csv", "rev.json")
 #: The command ``rev``'s output folder marker names (:mod:`psdesign.io.outputs`).
 REV_COMMAND = "rev"
+#: The arguments of :func:`rev_study` its refusals name, by the names ``psdesign rev`` gives
+#: them (its flags); from Python they are named as the keywords.
+REV_FLAGS = {k: f"--{k}" for k in ("sizes", "seeds", "tol", "directions", "solver")}
+#: The solvers a REV check runs (``--solver``).
+REV_SOLVERS = ("voxel", "fem")
+#: Keywords of the runner that :func:`rev_study` sets itself, and why.
+_OWN_RUN_KEYWORDS = {"command": "the folder's marker names the REV check, 'rev'"}
 
 
 def rev_folder_files() -> tuple[str, ...]:
@@ -84,11 +93,12 @@ class RevResult:
     outputs: list[str] = field(default_factory=list)
 
 
-def _check_sizes(spec: dict, rows: list[dict], solver: str) -> None:
+def _check_sizes(spec: dict, rows: list[dict], solver: str, what: str) -> None:
     """Validate the spec at each size of ``rows`` (:func:`_rows`), with the solver the cases
     run (``--solver``, not the spec's flow.solver), before any work: an edge outside
     ``rve.size``'s range, or a grid beyond that solver's memory budget at the spec's voxel, is
-    refused naming ``--sizes`` (the study's own check named ``parameters`` and a case id)."""
+    refused naming ``what`` (``sizes``, ``--sizes``; the study's own check named
+    ``parameters`` and a case id)."""
     from psdesign.errors import SpecError
     from psdesign.schema.spec import validate_spec
 
@@ -101,7 +111,7 @@ def _check_sizes(spec: dict, rows: list[dict], solver: str) -> None:
         try:
             validate_spec(sized)
         except SpecError as exc:
-            raise SpecError("--sizes", f"at {row['rve.size.0']:g} m, {exc}") from None
+            raise SpecError(what, f"at {row['rve.size.0']:g} m, {exc}") from None
 
 
 def _rows(spec: dict, sizes: list[float]) -> list[dict]:
@@ -117,41 +127,85 @@ def _rows(spec: dict, sizes: list[float]) -> list[dict]:
     return rows
 
 
+def _is_real(v: object) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def _check_rev_args(sizes, seeds, tol, directions, solver, names: dict[str, str]):
+    """``sizes`` as floats, ``seeds`` as an int, ``tol`` as a float, each checked with
+    ``directions`` and ``solver`` before any work; else one :class:`StudyError` line naming
+    the argument by ``names`` (a ``ValueError``; named ``--sizes`` ... from Python too until
+    session 47, and a NumPy array of sizes or ``seeds=np.int64(3)`` were refused with a
+    contradiction or raised Python's own errors)."""
+    from psdesign.errors import StudyError, short
+
+    n = names
+    ok = isinstance(sizes, list | tuple | np.ndarray) and np.ndim(sizes) == 1 and len(sizes)
+    if not ok or not all(_is_real(s) and 0 < s < math.inf for s in sizes):
+        raise StudyError(f"{n['sizes']}: need edge lengths > 0 in metres, got {short(sizes)}")
+    sizes = [float(s) for s in sizes]
+    if len(set(sizes)) < len(sizes):
+        raise StudyError(f"{n['sizes']}: each edge length once, got {short(sizes)}")
+    if isinstance(seeds, bool) or not isinstance(seeds, numbers.Integral) or seeds < 2:
+        raise StudyError(
+            f"{n['seeds']}: need >= 2 seeds for a confidence interval, got {short(seeds)}"
+        )
+    if seeds > MAX_SEEDS:
+        raise StudyError(f"{n['seeds']}: need 2..{MAX_SEEDS} seeds, got {seeds}")
+    if not (_is_real(tol) and 0 < tol <= UNTRUSTWORTHY_REL_ERROR):  # also NaN
+        # a REV's mean K must itself be trustworthy
+        raise StudyError(
+            f"{n['tol']}: must be in (0, {UNTRUSTWORTHY_REL_ERROR:g}], got {short(tol)}"
+        )
+    d = directions
+    if not isinstance(d, str) or not d or set(d) - set("xyz") or len(set(d)) < len(d):
+        raise StudyError(
+            f"{n['directions']}: a subset of xyz, each axis once (e.g. z or xz), got {short(d)}"
+        )
+    if solver not in REV_SOLVERS:
+        raise StudyError(
+            f"{n['solver']}: must be one of {', '.join(REV_SOLVERS)}, got {short(solver)}"
+        )
+    return sizes, int(seeds), float(tol)
+
+
 def rev_study(
     spec_path: str | Path,
     sizes: list[float],
     seeds: int,
     out_dir: str | Path,
+    *,
     solver: str = "voxel",
     directions: str = "xyz",
     tol: float = 0.1,
+    option_names: dict[str, str] | None = None,
     **run_kw,
 ) -> RevResult:
-    """Run the REV study; ``run_kw`` go to :func:`psdesign.study.runner.run_study`."""
+    """Run the REV study; ``run_kw`` go to :func:`psdesign.study.runner.run_study` (not
+    ``command``, which the check sets).
+
+    (Nine parameters: the spec, sizes, seeds and folder, then the check's independent knobs,
+    the naming and the runner's keywords, keyword-only since session 47.)
+
+    ``option_names``: how refusals name ``sizes``, ``seeds``, ``tol``, ``directions`` and
+    ``solver``: by the keywords (None, the default), or ``psdesign rev``'s :data:`REV_FLAGS`.
+    Refusals before any work are one :class:`~psdesign.errors.StudyError` line (a
+    ``ValueError``), as are a keyword the runner does not take and ``command``.
+    """
     from psdesign.schema.spec import load_spec
-    from psdesign.study.runner import run_study
+    from psdesign.study.runner import check_run_keywords, run_study
     from psdesign.study.studyfile import ParamSpec, Study
 
-    if not sizes or any(not (s > 0 and math.isfinite(s)) for s in sizes):
-        raise ValueError(f"--sizes: need edge lengths > 0 in metres, got {sizes}")
-    if len(set(sizes)) < len(sizes):
-        raise ValueError(f"--sizes: each edge length once, got {sizes}")
-    if not isinstance(seeds, int) or seeds < 2:
-        raise ValueError(f"--seeds: need >= 2 seeds for a confidence interval, got {seeds}")
-    if seeds > MAX_SEEDS:
-        raise ValueError(f"--seeds: need 2..{MAX_SEEDS} seeds, got {seeds}")
-    if not 0 < tol <= UNTRUSTWORTHY_REL_ERROR:  # a REV's mean K must itself be trustworthy
-        raise ValueError(f"--tol: must be in (0, {UNTRUSTWORTHY_REL_ERROR:g}], got {tol}")
-    if not directions or set(directions) - set("xyz") or len(set(directions)) < len(directions):
-        raise ValueError(
-            f"--directions: a subset of xyz, each axis once (e.g. z or xz), got {directions!r}"
-        )
+    names = {k: k for k in REV_FLAGS} | dict(option_names or {})
+    sizes, seeds, tol = _check_rev_args(sizes, seeds, tol, directions, solver, names)
+    extra = "solver, directions, tol, option_names"
+    check_run_keywords(run_kw, _OWN_RUN_KEYWORDS, "rev_study", extra)
     spec = load_spec(spec_path)
     check_rev_dir(out_dir)  # a user's rev.csv / rev.json: refused before hours of work
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
     rows = _rows(spec, sorted(sizes))
-    _check_sizes(spec, rows, solver)
+    _check_sizes(spec, rows, solver, names["sizes"])
     params = {
         k: ParamSpec(path=k, kind="values", values=tuple(r[k] for r in rows)) for k in rows[0]
     }

@@ -8,7 +8,7 @@ import re
 from dataclasses import dataclass
 
 from psdesign.analysis.ranges import RANGES
-from psdesign.errors import StudyError
+from psdesign.errors import StudyError, short
 
 #: Most design points of one optimization, and per round (``--budget``, ``--batch``; here, in
 #: the light module of ``study optimize``, so the command line checks them without importing
@@ -49,26 +49,27 @@ def target_columns(outputs: list[str]) -> list[str]:
     return list(dict.fromkeys(cols))
 
 
-def check_targets(targets: list[Target], outputs: list[str], what: str = "--target") -> None:
+def check_targets(targets: list[Target], outputs: list[str], what: str = "targets") -> None:
     """Refuse (one :class:`~psdesign.errors.StudyError` line, a ``ValueError``, naming
     ``what``) no target, something that is not a :class:`Target`, a target on a column this
     study does not write, or one that can never be met (:meth:`Target.check`): before any
     case.
 
-    ``what`` names the targets: the command line's ``"--target"``, or the Python keyword
-    (``"targets"`` of :func:`psdesign.analysis.optimize.optimize_study`).
+    ``what`` names the targets: the Python keyword (``"targets"`` of
+    :func:`psdesign.analysis.optimize.optimize_study`, the default), or the command line's
+    ``"--target"``.
     """
     from psdesign.schema.errors import did_you_mean
 
     if isinstance(targets, Target | str) or not isinstance(targets, list | tuple) or not targets:
         # a str was read one character at a time (AttributeError); [] ran a search for nothing
-        raise StudyError(f"{what}: must be a non-empty list of Target, got {targets!r}")
+        raise StudyError(f"{what}: must be a non-empty list of Target, got {short(targets)}")
     cols = target_columns(outputs)
     for t in targets:
         if not isinstance(t, Target):
             raise StudyError(
                 f"{what}: each must be a psdesign.analysis.targets.Target (Target.parse("
-                f"'k_z_m2=8e-12+-5%')), got {type(t).__name__} {t!r}"
+                f"'k_z_m2=8e-12+-5%')), got {type(t).__name__} {short(t)}"
             )
         if t.output not in cols:
             raise StudyError(
@@ -111,23 +112,31 @@ class Target:
     tolerance: float = DEFAULT_TOLERANCE
 
     @classmethod
-    def parse(cls, text: str) -> Target:
-        """Parse ``OUTPUT=VALUE[+-P%]``, ``OUTPUT>=VALUE`` or ``OUTPUT<=VALUE``.
+    def parse(cls, text: str, what: str = "targets") -> Target:
+        """Parse ``OUTPUT=VALUE[+-P%]``, ``OUTPUT>=VALUE`` or ``OUTPUT<=VALUE``; refusals are
+        one :class:`~psdesign.errors.StudyError` line naming ``what``: the keyword ``targets``
+        of :func:`psdesign.analysis.optimize.optimize_study` (the default), or the command
+        line's ``"--target"`` (named from Python too until session 47; ``text=3`` was a
+        ``TypeError``).
 
         >>> Target.parse("k_z_m2=8e-12+-3%")
         Target(output='k_z_m2', op='=', value=8e-12, tolerance=0.03)
+        >>> Target.parse("k_z_m2=-1e-12", "--target")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        psdesign.errors.StudyError: --target: k_z_m2=-1e-12 can never be met: ...
         """
-        m = _TARGET.match(text)
+        m = _TARGET.match(text) if isinstance(text, str) else None
         if not m:
             raise StudyError(
-                "--target: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE, "
-                f"got {text!r}"
+                f"{what}: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE, "
+                f"got {short(text)}"
             )
         name, op, val, tol, pct = m.groups()
         try:
             value = float(val)
         except ValueError:
-            raise StudyError(f"--target: {name} value must be a number, got {val!r}") from None
+            raise StudyError(f"{what}: {name} value must be a number, got {val!r}") from None
         if tol is None:
             tolerance = DEFAULT_TOLERANCE
         else:
@@ -136,12 +145,12 @@ class Target:
             except ValueError:
                 tolerance = math.nan
             if not pct or not math.isfinite(tolerance):
-                raise StudyError(f"--target: {name} {_PERCENT}, got '+-{tol}{pct}'")
+                raise StudyError(f"{what}: {name} {_PERCENT}, got '+-{tol}{pct}'")
         target = cls(name, op, value, tolerance)
-        target.check("--target")
+        target.check(what)
         return target
 
-    def check(self, what: str = "--target") -> None:
+    def check(self, what: str = "targets") -> None:
         """Refuse (one :class:`~psdesign.errors.StudyError` line naming ``what``) a target that
         can never be met or has no meaning: an op other than ``=``, ``>=``, ``<=``, a value
         that is not a finite number, an ``=`` target's tolerance outside (0, 1) or of the
@@ -164,7 +173,7 @@ class Target:
             )
         for key, v in (("value", value), ("tolerance", tol)):
             if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
-                raise StudyError(f"{what}: {name} {key} must be a finite number, got {v!r}")
+                raise StudyError(f"{what}: {name} {key} must be a finite number, got {short(v)}")
         if op == "=" and not 0 < tol < 1:
             raise StudyError(f"{what}: {name} tolerance must be in (0, 100) %, got {100 * tol:g}%")
         if op == "=" and value == 0:

@@ -21,7 +21,7 @@ from psdesign.cli.lines import print_json
 
 
 def _cmd_rev(args: argparse.Namespace) -> int:
-    from psdesign.analysis.rev import RevFailed, check_rev_dir, rev_study
+    from psdesign.analysis.rev import REV_FLAGS, RevFailed, check_rev_dir, rev_study
     from psdesign.study.runner import check_workers
 
     # rev has no --force: the refusal names none; a user's rev.csv / rev.json is refused now
@@ -41,6 +41,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
             progress=not args.quiet,
             report=False,
             out_option=("-o", None),  # messages name this command's flags: it has no --force
+            option_names=REV_FLAGS,
         )
     except ValueError as exc:
         return fail(str(exc))
@@ -135,7 +136,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
     p.add_argument(
         "--solver",
-        choices=("voxel", "fem"),
+        choices=("voxel", "fem"),  # analysis.rev.REV_SOLVERS (pandas: not imported for --help)
         default="voxel",
         help="solver of every case (default voxel, whatever the spec's flow.solver: many sizes "
         "and seeds; fem for the body-fitted check)",

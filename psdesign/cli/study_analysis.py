@@ -261,7 +261,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     try:
         # the runner's rule, as typed; optimize has --scheduler, no --cluster
         check_workers(args.workers, args.scheduler, "--workers", more="--scheduler")
-        targets = [Target.parse(t) for t in args.target]
+        targets = [Target.parse(t, "--target") for t in args.target]
         _check_outcome_files(args.out)  # a file of yours under these names: refused first
         res = optimize_study(
             args.study,

@@ -48,12 +48,12 @@ def checked_axis(value: object, key: str) -> tuple[str, int]:
     ...
     psdesign.errors.SpecError: direction: must be 'x', 'y' or 'z' (or 0-2), got 'w'
     """
-    from psdesign.errors import SpecError
+    from psdesign.errors import SpecError, short
 
     try:
         return axis_of(value)
     except (ValueError, TypeError):  # TypeError: an unhashable value (a list)
-        raise SpecError(key, f"must be 'x', 'y' or 'z' (or 0-2), got {value!r}") from None
+        raise SpecError(key, f"must be 'x', 'y' or 'z' (or 0-2), got {short(value)}") from None
 
 
 def flow_direction(given: str | int | None, flow: dict) -> str | int:

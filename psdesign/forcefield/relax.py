@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, short
 from psdesign.forcefield.pattern import pattern_search, poll_bars
 from psdesign.forcefield.potentials import Potentials, quadrature_error
 from psdesign.forcefield.search_settings import RELAX_SEARCH, SearchSettings
@@ -368,7 +368,9 @@ def _num(tab: dict, key: str, default: float, lo: float, hi: float, integer: boo
     kind = "an integer" if integer else "a number"
     ok = not isinstance(v, bool) and isinstance(v, int if integer else int | float)
     if not ok or not lo <= v <= hi:
-        raise SpecError(f"forcefield.relax.{key}", f"must be {kind} in [{lo:g}, {hi:g}], got {v!r}")
+        raise SpecError(
+            f"forcefield.relax.{key}", f"must be {kind} in [{lo:g}, {hi:g}], got {short(v)}"
+        )
     return float(v)
 
 
@@ -382,7 +384,7 @@ def _weights(options: dict) -> tuple[float, float, float]:
     if not ok:
         raise SpecError(
             "forcefield.relax.weights",
-            f"must be three finite numbers >= 0, not all zero, got {w!r}",
+            f"must be three finite numbers >= 0, not all zero, got {short(w)}",
         )
     return tuple(float(v) for v in w)
 
@@ -433,7 +435,7 @@ def check_relax_table(options: object, period: float) -> None:
     _num(options, "f", 1.0, 1e-3, 100.0)
     if not isinstance(options.get("tie_bend", False), bool):
         raise SpecError(
-            "forcefield.relax.tie_bend", f"must be true or false, got {options['tie_bend']!r}"
+            "forcefield.relax.tie_bend", f"must be true or false, got {short(options['tie_bend'])}"
         )
     for key in ("grid", "gap"):
         if key in options:
@@ -593,7 +595,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     kw = _search_options(options, dmin, period)
     tie = options.get("tie_bend", False)
     if not isinstance(tie, bool):
-        raise SpecError("forcefield.relax.tie_bend", f"must be true or false, got {tie!r}")
+        raise SpecError("forcefield.relax.tie_bend", f"must be true or false, got {short(tie)}")
     kw["tie_bend"] = tie
     grid = _num(options, "grid", dmin / 5.0, 1e-3 * dmin, dmin) if "grid" in options else None
     gap = _num(options, "gap", 0.0, 0.0, dmin) if "gap" in options else None

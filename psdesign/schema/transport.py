@@ -148,11 +148,11 @@ def check_conductivity(value: float, key: str) -> float:
     """A conductivity given outside the spec (CLI): finite and > 0, else SpecError naming key."""
     # a bool or a string is no number (float(True) is 1.0, float("2") 2.0: the API took both)
     if isinstance(value, str | bytes) or _is_bool(value):
-        raise SpecError(key, f"must be a number > 0 and < 1e12, got {value!r}")
+        raise SpecError(key, f"must be a number > 0 and < 1e12, got {short(value)}")
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise SpecError(key, f"must be a number > 0, got {value!r}") from None
+        raise SpecError(key, f"must be a number > 0, got {short(value)}") from None
     if not (v > 0 and v < 1e12):
         # name the way to say "0" where the user is: the CLI flag or the spec key
         zero = "--insulating" if key.startswith("--") else "transport.insulating_phase"

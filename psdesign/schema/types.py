@@ -17,16 +17,9 @@ import annotated_types as at
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
+from psdesign.errors import short  # re-exported: the schema's refusals show values with it
+
 __all__ = ["Table", "Vec3", "fail", "flag", "integer", "number", "short"]
-
-
-def short(value: Any, limit: int = 60) -> str:
-    """``repr`` of a user value, cut to ``limit`` characters; never raises."""
-    try:
-        text = repr(value)
-    except Exception:  # noqa: BLE001 - e.g. a value whose repr overflows
-        text = f"<{type(value).__name__}>"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def fail(

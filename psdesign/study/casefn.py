@@ -14,6 +14,7 @@ __all__ = [
     "CASE_FN_ARGUMENTS",
     "DEFAULT_CASE_FN",
     "case_fn_call_error",
+    "check_case_fn_form",
     "case_fn_name",
     "load_case_fn",
     "runs_pipeline",
@@ -77,23 +78,43 @@ def runs_pipeline(case_fn: Callable | str | None) -> bool:
     return RENAMED_CASE_FNS.get(name, name) == DEFAULT_CASE_FN
 
 
+def check_case_fn_form(case_fn: object) -> None:
+    """Refuse, without importing anything, a ``case_fn`` that is neither None, a callable nor
+    ``"module:function"`` text: one :class:`~psdesign.errors.StudyError` line (a
+    ``ValueError``) naming ``case_fn``. The one rule of :func:`load_case_fn` and of
+    :func:`psdesign.study.studyfile.load_study`, which wrote it again until session 47 (and
+    took a name without a colon).
+
+    >>> check_case_fn_form("study_cases:fake_case")
+    >>> check_case_fn_form("fake_case")
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: case_fn: expected a callable or 'module:function', got 'fake_case'
+    """
+    if case_fn is None or callable(case_fn) or (isinstance(case_fn, str) and ":" in case_fn):
+        return
+    from psdesign.errors import StudyError, short
+
+    raise StudyError(f"case_fn: expected a callable or 'module:function', got {short(case_fn)}")
+
+
 def load_case_fn(case_fn: Callable | str | None) -> Callable:
     """Resolve a case function: a callable, ``"module:attr"``, or None (the default pipeline).
 
     Raises
     ------
     ValueError
-        If a ``"module:attr"`` string is malformed.
+        If ``case_fn`` is no callable or ``"module:attr"`` string
+        (:func:`check_case_fn_form`), or what it names is not callable.
     ImportError, AttributeError
         If the module or attribute does not exist.
     """
+    check_case_fn_form(case_fn)
     if case_fn is None:
         case_fn = DEFAULT_CASE_FN
     if callable(case_fn):
         return case_fn
     case_fn = RENAMED_CASE_FNS.get(case_fn, case_fn)
-    if not isinstance(case_fn, str) or ":" not in case_fn:
-        raise ValueError(f"case_fn: expected a callable or 'module:function', got {case_fn!r}")
     mod, _, attr = case_fn.partition(":")
     obj: Any = importlib.import_module(mod)
     for part in attr.split("."):

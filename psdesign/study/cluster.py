@@ -20,8 +20,12 @@ import shutil
 import time
 from dataclasses import dataclass, field
 
+from psdesign.errors import short
+
 CLUSTERS = ("slurm", "pbs")
 SUBMIT_COMMANDS = {"slurm": "sbatch", "pbs": "qsub"}  # what dask-jobqueue runs per job
+#: ``--cluster-walltime``: ``HH:MM:SS`` in ASCII digits (minutes and seconds 0-59: checked).
+_WALLTIME = re.compile(r"([0-9]+):([0-9]+):([0-9]+)")
 DEFAULT_WAIT_S = 600.0
 """Default ``--cluster-wait``: seconds a Dask run (``--cluster`` or ``--scheduler``) waits
 for a worker (the first batch job to connect, or any worker once all have left)."""
@@ -49,7 +53,7 @@ def check_wait_s(value, what: str = "--cluster-wait") -> float:
     """
     # numbers.Real: NumPy's numbers too (np.int64(60) was refused as not seconds > 0)
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
-        raise ValueError(f"{what}: expected seconds > 0 (finite), got {value!r}")
+        raise ValueError(f"{what}: expected seconds > 0 (finite), got {short(value)}")
     return float(value)
 
 
@@ -129,24 +133,23 @@ def _check_cluster_fields(opts: ClusterOptions) -> None:
     from psdesign.errors import StudyError
 
     if opts.kind not in CLUSTERS:
-        raise StudyError(f"kind: must be one of {', '.join(CLUSTERS)}, got {opts.kind!r}")
+        raise StudyError(f"kind: must be one of {', '.join(CLUSTERS)}, got {short(opts.kind)}")
     cores = opts.cores
     if isinstance(cores, bool) or not isinstance(cores, numbers.Integral) or cores < 1:
-        raise StudyError(f"cores: must be an integer >= 1, got {cores!r}")
-    parts = opts.walltime.split(":") if isinstance(opts.walltime, str) else []
-    if (
-        len(parts) != 3
-        or not all(p.isdigit() for p in parts)
-        or int(parts[1]) > 59
-        or int(parts[2]) > 59
-        or not any(int(p) for p in parts)
-    ):
+        raise StudyError(f"cores: must be an integer >= 1, got {short(cores)}")
+    # ASCII digits only: str.isdigit took '0²' (then int() raised a bare ValueError naming no
+    # field) and other scripts' digits, which the batch system would read as no walltime
+    hms = _WALLTIME.fullmatch(opts.walltime) if isinstance(opts.walltime, str) else None
+    h, m, sec = (int(p) for p in hms.groups()) if hms else (0, 60, 60)
+    if m > 59 or sec > 59 or not h + m + sec:
         raise StudyError(
             "walltime: expected HH:MM:SS (minutes and seconds 0-59, above 00:00:00), "
-            f"got {opts.walltime!r}"
+            f"got {short(opts.walltime)}"
         )
     if memory_bytes(opts.memory) is None:
-        raise StudyError(f"memory: expected a size > 0 such as 16GB or 500MB, got {opts.memory!r}")
+        raise StudyError(
+            f"memory: expected a size > 0 such as 16GB or 500MB, got {short(opts.memory)}"
+        )
     try:
         check_wait_s(opts.wait_s, "wait_s")
     except ValueError as exc:  # the StudyError (a SpecError) of every bad field
@@ -156,18 +159,19 @@ def _check_cluster_fields(opts: ClusterOptions) -> None:
         if value is not None and not _directive_word(value):
             raise StudyError(
                 f"{key}: must be a name without spaces (the batch system's {key}; none: "
-                f"its default), got {value!r}"
+                f"its default), got {short(value)}"
             )
     extra = opts.job_extra
     if isinstance(extra, str) or not isinstance(extra, tuple | list):
         raise StudyError(
-            f"job_extra: must be a tuple of directives such as ('--constraint=ib',), got {extra!r}"
+            "job_extra: must be a tuple of directives such as ('--constraint=ib',), got "
+            f"{short(extra)}"
         )
     for item in extra:
         if not isinstance(item, str) or not item.strip() or "\n" in item or "\r" in item:
             raise StudyError(
                 f"job_extra: each must be one line of text (a directive such as "
-                f"'--constraint=ib'), got {item!r}"
+                f"'--constraint=ib'), got {short(item)}"
             )
 
 
@@ -185,7 +189,7 @@ def memory_bytes(text) -> int | None:
         return None
     try:
         n = parse_bytes(text)
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, OverflowError):  # '1e400GB': int(inf) raised OverflowError
         return None
     return n if n > 0 else None
 

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from psdesign.errors import short
 from psdesign.schema.budget import MAX_TIMEOUT_S
 from psdesign.study.address import check_scheduler_address
 from psdesign.study.casefn import (
@@ -143,7 +144,7 @@ def _check_timeout(timeout_s) -> float:
     ):
         raise StudyError(
             f"timeout_s: must be a number > 0 and <= {MAX_TIMEOUT_S:.0f} (seconds, as "
-            f"study.timeout_s), got {timeout_s!r}"
+            f"study.timeout_s), got {short(timeout_s)}"
         )
     return float(timeout_s)
 
@@ -189,7 +190,7 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
 
     for name, value in zip(_FLAGS, flags, strict=True):
         if not isinstance(value, bool | np.bool_):
-            raise StudyError(f"{name}: must be True or False, got {value!r}")
+            raise StudyError(f"{name}: must be True or False, got {short(value)}")
     if scheduler is not None and not isinstance(scheduler, str | ClusterOptions):
         raise StudyError(
             "scheduler: must be an address tcp://HOST:PORT or tls://HOST:PORT, or 'local', "

@@ -30,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from psdesign.errors import short
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
@@ -248,7 +249,7 @@ def check_workers(
     # integer, got np.int64(2)"), as the schema's integer keys take them
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 0:
         raise StudyError(
-            f"{what}: must be an integer >= 0 (0: the cases in this process), got {workers!r}"
+            f"{what}: must be an integer >= 0 (0: the cases in this process), got {short(workers)}"
         )
     if scheduler is not None and workers == 0:
         raise StudyError(
@@ -811,6 +812,29 @@ def run_keywords() -> frozenset[str]:
     return _OPTION_FIELDS | {"options", "command", "out_option", "scheduler_option"}
 
 
+def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: str) -> None:
+    """Refuse, before any work, a keyword of ``run_kw`` that :func:`run_study` does not take
+    (its ``TypeError`` named ``run_study()``) or one that ``caller`` (a function running its
+    study through :func:`run_study`) sets itself (``own``: keyword -> why; it was "got
+    multiple values for keyword argument"): one :class:`StudyError` line naming the keyword,
+    the allowed ones listed as ``extra`` (the caller's own) and the runner's.
+
+    >>> check_run_keywords({"wrkers": 2}, {"command": "set"}, "f", "a")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: wrkers: not a keyword of f (allowed: a and the runner's case_fn, ...
+    """
+    for key in run_kw:
+        if key in own:
+            raise StudyError(f"{key}: set by {caller} itself ({own[key]})")
+        if key not in run_keywords():
+            allowed = sorted(run_keywords() - own.keys())
+            raise StudyError(
+                f"{key}: not a keyword of {caller} (allowed: {extra} and the runner's "
+                f"{', '.join(allowed)})"
+            )
+
+
 def _check_naming(command, out_option, scheduler_option) -> None:
     """``command`` a text, ``out_option`` a pair (text, text or None), ``scheduler_option`` a
     text, else one :class:`StudyError` line naming the keyword (``command=3`` was written into
@@ -819,11 +843,11 @@ def _check_naming(command, out_option, scheduler_option) -> None:
     if not (pair and isinstance(out_option[0], str) and isinstance(out_option[1], str | None)):
         raise StudyError(
             "out_option: must be a pair (name of out_dir, name of force or None), such as "
-            f"('out_dir', 'force=True'), got {out_option!r}"
+            f"('out_dir', 'force=True'), got {short(out_option)}"
         )
     for key, value in (("command", command), ("scheduler_option", scheduler_option)):
         if not isinstance(value, str) or not value.strip():
-            raise StudyError(f"{key}: must be a non-empty text, got {value!r}")
+            raise StudyError(f"{key}: must be a non-empty text, got {short(value)}")
 
 
 def _run_options(options: RunOptions | None, fields: dict) -> RunOptions:

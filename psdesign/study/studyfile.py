@@ -720,12 +720,11 @@ def load_study(path: str | Path | dict, case_fn: Callable | str | None = None) -
     from contextlib import nullcontext
 
     from psdesign.schema.budget import unplanned_route
-    from psdesign.study.casefn import runs_pipeline
+    from psdesign.study.casefn import check_case_fn_form, runs_pipeline
 
-    if case_fn is not None and not (callable(case_fn) or isinstance(case_fn, str)):
-        # case_fn=3 was taken as a case function of the user's (no route planned); run_study
-        # refuses it by RunOptions' rule, this is the same first words
-        raise StudyError(f"case_fn: expected a callable or 'module:function', got {case_fn!r}")
+    # case_fn=3 was taken as a case function of the user's (no route planned); run_study
+    # refuses it by the same rule (RunOptions loads it)
+    check_case_fn_form(case_fn)
     with nullcontext() if runs_pipeline(case_fn) else unplanned_route():
         return _load_study(path)
 

@@ -600,6 +600,40 @@ def test_optimize_cli_names_the_target_flag(tmp_path, capsys) -> None:
     assert not out.exists()
 
 
+def test_a_target_column_the_case_function_never_wrote_is_named_as_the_caller_names_it(
+    tmp_path, capsys
+) -> None:
+    """Session 47 review: a case function of the user's that wrote no ``k_z_m2`` under
+    ``outputs = ["k_z"]`` ended the first round in ``ValueError --target: 'k_z_m2' is not an
+    output of this study; outputs: porosity`` from Python (the flag, not the keyword; it is an
+    output; diffusivity_x, written, was left out of the list). Now one StudyError line naming
+    ``targets`` (``--target`` from the command, exit 2, one line) and every written column a
+    target may name."""
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.errors import StudyError
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\n'
+        'outputs = ["k_z", "diffusivity_x"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    t = [Target.parse("k_z_m2=5e-12")]
+    with pytest.raises(StudyError) as info:
+        optimize_study(
+            p, tmp_path / "a", t, case_fn="study_cases:porosity_case", workers=0, progress=False
+        )
+    want = (
+        "k_z_m2 is an output of this study but the case function wrote no 'k_z_m2' column (the "
+        "columns it wrote that a target may name: porosity, diffusivity_x)"
+    )
+    assert str(info.value) == f"targets: {want}", info.value
+    args = ["study", "optimize", str(p), "-o", str(tmp_path / "b"), "--target", "k_z_m2=5e-12"]
+    assert main([*args, "--case-fn", "study_cases:porosity_case", "--workers", "0", "--quiet"]) == 2
+    assert capsys.readouterr().err == f"psdesign: error: --target: {want}\n"
+
+
 def test_k_ci_lower_bound_never_negative() -> None:
     """audit (session 31): the Student-t CI of K over two seeds a factor 10 apart had a
     negative lower bound (summary.csv, rev.csv). K > 0: its lower bound is clipped at 0, the

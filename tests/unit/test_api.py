@@ -1206,7 +1206,77 @@ def test_load_study_refuses_a_case_fn_that_is_neither_callable_nor_a_name(tmp_pa
     from psdesign.study import StudyError, load_study
 
     p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
-    for bad in (3, 2.5, ["m:f"]):
+    # "fake_case" (no module): taken by load_study until the review of session 47, refused by
+    # run_study's load_case_fn; one rule now (casefn.check_case_fn_form)
+    for bad in (3, 2.5, ["m:f"], "fake_case"):
         with pytest.raises(StudyError, match=r"^case_fn: expected a callable or 'module:function'"):
             load_study(p, bad)
     assert load_study(p, "study_cases:fake_case").parameters  # a name is still taken
+
+
+def _array_refusals(tmp_path):
+    """(name, call) of Python refusals given a 2-D NumPy array or a pandas Series."""
+    import pandas as pd
+    from study_cases import FACTORIAL, fake_case, write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.flow.darcy import checked_axis
+    from psdesign.schema.transport import check_conductivity
+    from psdesign.study import RunOptions, run_study
+
+    a2 = np.zeros((4, 4))
+    s = pd.Series(np.arange(5.0))
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    box = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+        name="box.toml",
+    )
+    t = [Target.parse("k_z_m2=5e-12")]
+    opt = functools.partial(optimize_study, box, tmp_path / "o", case_fn=fake_case, workers=0)
+    return [
+        ("targets", lambda: opt(a2)),
+        ("targets", lambda: opt(s)),
+        ("targets", lambda: opt([Target("k_z_m2", "=", a2)])),
+        ("budget", lambda: opt(t, budget=a2)),
+        ("timeout_s", lambda: RunOptions(timeout_s=a2)),
+        ("report", lambda: RunOptions(report=s)),
+        ("workers", lambda: RunOptions(workers=a2)),
+        ("command", lambda: run_study(p, tmp_path / "o", command=a2, case_fn=fake_case)),
+        ("direction", lambda: checked_axis(a2, "direction")),
+        ("transport.conductivity", lambda: check_conductivity(a2, "transport.conductivity")),
+        ("progress", lambda: psdesign.api._progress_flag(s)),
+    ]
+
+
+def test_refusals_show_an_array_by_its_type_name_on_one_line(tmp_path) -> None:
+    """Session 47 review: ``got {value!r}`` of a NumPy array or a pandas Series spans lines,
+    so the refusal of ``optimize_study(targets=series)``, ``RunOptions(timeout_s=array)``,
+    ``checked_axis(array)`` ... was several lines. ``psdesign.errors.short`` words such a
+    value by its type's name (as ``checked_fields`` does): one line naming the key."""
+    from psdesign.errors import SpecError
+
+    for key, call in _array_refusals(tmp_path):
+        with pytest.raises(SpecError) as info:
+            call()
+        text = str(info.value)
+        assert text.startswith(f"{key}: ") and "\n" not in text, text
+        assert text.endswith(("ndarray", "Series")) or "got ndarray" in text, text
+    assert not (tmp_path / "o").exists()
+
+
+def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(tmp_path) -> None:
+    # session 47: a bare ValueError (``except psdesign.SpecError`` missed it)
+    from study_cases import FACTORIAL, fake_case, write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    with pytest.raises(
+        psdesign.SpecError, match=r"^generator.porosity: optimize needs {low, high}"
+    ):
+        optimize_study(p, tmp_path / "o", [Target.parse("k_z_m2=5e-12")], case_fn=fake_case)
+    assert not (tmp_path / "o").exists()

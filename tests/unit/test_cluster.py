@@ -87,6 +87,14 @@ def test_pbs_job_script() -> None:
         ({"kind": "slurm", "job_extra": "--constraint=ib"}, "job_extra"),
         ({"kind": "slurm", "job_extra": (3,)}, "job_extra"),
         ({"kind": "slurm", "job_extra": ("a\nb",)}, "job_extra"),
+        # session 47 review: '0²' passed str.isdigit, then int() raised a bare ValueError; the
+        # Arabic-Indic digits were taken into the job script; '1e400GB' was an OverflowError
+        # traceback; an array's repr made the refusal several lines
+        ({"kind": "slurm", "walltime": "01:00:0\u00b2"}, "walltime"),
+        ({"kind": "slurm", "walltime": "\u0660\u0661:\u0660\u0660:\u0660\u0660"}, "walltime"),
+        ({"kind": "slurm", "memory": "1e400GB"}, "memory"),
+        ({"kind": "slurm", "job_extra": np.array(["--a"] * 40)}, "job_extra"),
+        ({"kind": "slurm", "cores": np.ones((3, 3), int)}, "cores"),
     ],
 )
 def test_bad_cluster_options_name_the_field(kw, key) -> None:
@@ -275,6 +283,8 @@ def test_cluster_without_its_submit_command_says_one_line_also_with_progress(
         ("--cluster-memory", "banana"),
         ("--cluster-memory=-5GB", None),
         ("--cluster-walltime", "1:99:00"),
+        ("--cluster-walltime", "01:00:0\u00b2"),  # 'psdesign: error: invalid literal for int()'
+        ("--cluster-memory", "1e400GB"),  # 'psdesign: error: input: OverflowError (...)'
         ("--cluster-wait", "0"),
         ("--cluster-wait", "soon"),
         ("--cluster-wait", "nan"),

@@ -105,6 +105,28 @@ def test_a_relative_diffusivity_target_is_a_fraction() -> None:
     assert Target.parse("diffusivity_z>=0.5").value == 0.5
 
 
+def test_target_parse_names_the_keyword_from_python_and_the_flag_from_the_command() -> None:
+    """Session 47 review: ``Target.parse``, which optimize_study's docstring points Python users
+    to, named ``--target`` always (and ``Target.parse(3)`` was a TypeError); the command
+    passes ``"--target"`` (``test_optimize_cli_names_the_target_flag`` and the CLI cases
+    above)."""
+    from psdesign.analysis.targets import Target
+    from psdesign.errors import StudyError
+
+    for text, line in (
+        ("k_z_m2~5e-12", "targets: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE"),
+        (3, "targets: expected OUTPUT=VALUE[+-P%], OUTPUT>=VALUE or OUTPUT<=VALUE, got 3"),
+        ("k_z_m2=abc", "targets: k_z_m2 value must be a number, got 'abc'"),
+        ("k_z_m2=5e-12+-5", "targets: k_z_m2 tolerance must be a percentage like +-5%"),
+        ("k_z_m2=-1e-12", "targets: k_z_m2=-1e-12 can never be met"),
+    ):
+        with pytest.raises(StudyError) as info:
+            Target.parse(text)
+        assert str(info.value).startswith(line), info.value
+    with pytest.raises(StudyError, match=r"^--target: k_z_m2=-1e-12 can never be met"):
+        Target.parse("k_z_m2=-1e-12", "--target")
+
+
 def test_measured_values_print_with_their_error_bar(tmp_path, capsys) -> None:
     """audit (s31): 'k_z_m2=1.2e-11+-10%: measured 1.077e-11 (missed)' hid the case's own
     11.8 % error bar, which holds the target band."""

@@ -98,6 +98,62 @@ def test_rev_cli_bad_directions_and_seeds_before_work(tmp_path, capsys, args, ke
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("kw", "line"),
+    [
+        # main named the command's flags from Python: "--sizes: ...", "--seeds: ..."
+        ({"sizes": []}, "sizes: need edge lengths > 0 in metres, got []"),
+        ({"seeds": 1}, "seeds: need >= 2 seeds for a confidence interval, got 1"),
+        ({"tol": 0.3}, "tol: must be in (0, 0.2], got 0.3"),
+        ({"directions": "q"}, "directions: a subset of xyz, each axis once"),
+        # main: numpy's "truth value of an array ... is ambiguous", TypeErrors
+        ({"sizes": np.zeros((3, 3))}, "sizes: need edge lengths > 0 in metres, got ndarray"),
+        ({"sizes": ["a"]}, "sizes: need edge lengths > 0 in metres, got ['a']"),
+        ({"tol": "a"}, "tol: must be in (0, 0.2], got 'a'"),
+        ({"directions": 3}, "directions: a subset of xyz, each axis once"),
+        # main: "--sizes: at 3e-05 m, flow.solver: got 'banana'"
+        ({"solver": "banana"}, "solver: must be one of voxel, fem, got 'banana'"),
+        # main: "run_study() got multiple values for keyword argument 'command'" and the
+        # runner's "run_study() got an unexpected keyword argument"
+        ({"command": "x"}, "command: set by rev_study itself"),
+        ({"wrkers": 2}, "wrkers: not a keyword of rev_study (allowed: solver, directions, tol,"),
+        # named --sizes from Python
+        ({"sizes": [1.0]}, "sizes: at 1 m, rve.voxel: "),
+    ],
+)
+def test_rev_study_refusals_name_its_python_keywords(tmp_path, kw, line) -> None:
+    """Session 47 review: from Python ``rev_study`` names its keywords (``psdesign rev`` its
+    flags: ``option_names=REV_FLAGS``, ``test_rev_cli_bad_*``), one SpecError line before any
+    case or folder."""
+    from psdesign.errors import SpecError
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    args = {"sizes": [30e-6], "seeds": 2, "directions": "z"} | kw
+    with pytest.raises(SpecError) as info:
+        rev_study(spec, out_dir=tmp_path / "o", workers=0, progress=False, report=False, **args)
+    assert str(info.value).startswith(line) and "\n" not in str(info.value), info.value
+    assert not (tmp_path / "o").exists()
+
+
+def test_rev_study_takes_numpy_sizes_and_seeds(tmp_path) -> None:
+    # main: seeds=np.int64(2) was refused "--seeds: need >= 2 seeds ..., got 2"
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    res = rev_study(
+        spec,
+        np.array([30e-6]),
+        np.int64(2),
+        tmp_path / "ok",
+        directions="z",
+        workers=0,
+        case_fn="study_cases:rev_case",
+        progress=False,
+        report=False,
+    )
+    assert res.table["n"].tolist() == [2]
+
+
 def failing_case(spec, outputs, solver, workdir):
     raise RuntimeError("mesh failed")
 
