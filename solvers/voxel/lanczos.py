@@ -893,10 +893,13 @@ def _gather(mr, zr, zc):
 def _rotate32(wsrc, zc, row, wdst, n, s, cs, sn):
     """The rotation of :func:`symmlq_step` on ``n`` entries in float32 arithmetic (``v = s
     zc``): ``row <- cs w + sn v`` (the finished direction) and ``wdst <- sn w - cs v`` (``w``
-    read from ``wsrc``; the two may be one array).  float32, not float64: the stored direction
-    keeps 16 bits of mantissa (24-bit storage), so float32's 2^-24 round-off is below it, and
-    the loop runs 8 lanes wide without the four float32/float64 conversions per 4 entries of
-    the float64 form (``benchmarks/RESULTS.md``, session 47)."""
+    read from ``wsrc``; the two may be one array).  float32, not float64, in every cycle: where
+    the direction is stored in 24 bits (16 of mantissa) float32's 2^-24 round-off is below what
+    is kept; where it is stored as a full float32 (first cycles, tol below 1e-6, after
+    ``widen``) the arithmetic's round-off is the storage's size, and the justification is
+    measured (same iterations, K within 1.1e-10 on nine validation cases); the loop runs 8
+    lanes wide without the four float32/float64 conversions per 4 entries of the float64 form
+    (``benchmarks/RESULTS.md``, session 47)."""
     s32 = np.float32(s)
     c32 = np.float32(cs)
     n32 = np.float32(sn)
@@ -922,9 +925,10 @@ def _solution_row8(hr, lr, sc, cu, r0, lmax):
     float32: ``d = cu r0`` rounded to float32, ``hr + d = s + e`` and ``s + (lr sc + e) = h +
     rem`` exactly (:func:`_two_sum`), ``hr <- h``, ``lr <- rint(rem / sc)`` (``sc`` a power of
     two, so the multiplication by its inverse is the exact division).  Same invariant as the
-    float64 form of :func:`_solution_row` (``|rem| <=`` half an ulp of ``h``, ``lr`` within
-    +-128); the rounding of ``d`` is ``2^-24`` of the step, below the extension's ``2^-31`` of
-    the row's largest entry once the steps are below ``2^-7`` of it (the later refinement
+    float64 form of :func:`_solution_row` (``|rem| <=`` half an ulp of ``h``, ``lr`` clamped to
+    +-127); ``d`` is rounded twice (``cu`` to float32, then the product): up to ~``2^-23`` of
+    the step, below the extension's ``2^-31`` of the row's largest entry once the steps are
+    below ~``2^-8`` of it (the later refinement
     cycles, which alone carry the extension, correct a solution already within ~1e-4)."""
     c = np.float32(cu)
     s32 = np.float32(sc)
