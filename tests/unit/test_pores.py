@@ -117,6 +117,17 @@ def test_orientation_tensor():
     assert sum(a["eigenvalues"]) == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("bad", [3, None, "rve.toml"])
+def test_orientation_tensor_refuses_what_is_not_an_rve_naming_rve(bad):
+    """Session 47: ``orientation_tensor(3)`` raised ``AttributeError`` (product rule: one line
+    naming the key, never a traceback)."""
+    from psdesign.errors import SpecError
+
+    with pytest.raises(SpecError, match=r"^rve: must be an RVE .*got ") as e:
+        orientation_tensor(bad)
+    assert "\n" not in str(e.value)
+
+
 def test_cropped_ball_unions_equal_the_whole_grid_transform():
     """The per-cluster boxes (merged where that is cheaper) give the same ball union, bit for
     bit, as one distance transform of the whole grid: many small clusters, one large one and
