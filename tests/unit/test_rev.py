@@ -362,6 +362,17 @@ def test_rev_folder_marker_names_rev(tmp_path, monkeypatch, fails) -> None:
     assert ("rev.json" in marker["files"]) == (not fails)
 
 
+def test_rev_study_from_python_writes_no_report_unless_asked(tmp_path) -> None:
+    """Session 47: ``rev_study`` from Python without ``report=False`` wrote ``report.html``
+    (the runner's default), though the module doc and :func:`rev_folder_files` (what the
+    folder's marker lists) say rev writes none."""
+    (tmp_path / "s.toml").write_text(SPEC)
+    kw = {"directions": "z", "workers": 0, "case_fn": "study_cases:rev_case", "progress": False}
+    rev_study(tmp_path / "s.toml", [30e-6, 60e-6], 2, tmp_path / "o", **kw)
+    assert not (tmp_path / "o" / "report.html").exists()
+    assert (tmp_path / "o" / "rev.csv").exists()
+
+
 def test_rev_study_json_is_the_same_from_another_path_and_size_order(tmp_path, monkeypatch) -> None:
     """Session 35 audit (benchmarks/audit_reproducibility.py): rev's study.json described the
     study as 'REV check of <the spec path as typed>: sizes <as typed>', so the same spec and
