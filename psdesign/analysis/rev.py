@@ -224,8 +224,7 @@ def rev_study(
         description=f"REV check of {Path(spec_path).name}: sizes {sorted(sizes)} m, {seeds} seeds",
         source=Path(spec_path).resolve(),
     )
-    # no report.html unless asked (the module doc, rev_folder_files): from Python the runner's
-    # default wrote one, a file the folder's marker does not list (session 47)
+    # no report.html unless asked (module doc, rev_folder_files; session 47)
     df = run_study(study, out_dir, command=REV_COMMAND, **{"report": False, **run_kw})
     status = case_status(df)  # a missing one "unknown" (as the exit counts it), not ok
     if not (status == "ok").any():
