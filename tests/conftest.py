@@ -9,6 +9,7 @@ tet meshes), :mod:`study_cases` (fake case functions that pickle to workers); an
 from __future__ import annotations
 
 import importlib.util
+import signal
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -18,6 +19,13 @@ import pytest
 import worker_crash
 
 approx_guard.install()  # a stated rel bar is the enforced one (approx_guard's docstring)
+
+# A shell starts a background job with SIGINT ignored and every process it starts inherits
+# that, so the Ctrl-C tests' signals were never delivered (session 47: six failures in a run
+# started with `nohup ... &`). A handled signal is reset to its default across exec, so the
+# processes these tests start get Python's KeyboardInterrupt again.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_configure(config: pytest.Config) -> None:
