@@ -44,6 +44,14 @@ REV_SOLVERS = ("voxel", "fem")
 _OWN_RUN_KEYWORDS = {"command": "the folder's marker names the REV check, 'rev'"}
 
 
+def _no_report_unless_asked(run_kw: dict) -> dict:
+    """``run_kw`` with ``report=False`` unless the caller chose (``report`` or ``options``, whose
+    ``report`` field then holds): rev writes no report.html (module doc, :func:`rev_folder_files`);
+    from Python the runner's default wrote one (session 47)."""
+    chose = "report" in run_kw or run_kw.get("options") is not None
+    return run_kw if chose else {**run_kw, "report": False}
+
+
 def rev_folder_files() -> tuple[str, ...]:
     """Every file ``rev`` writes in its output folder: the study's (no ``report.html``: rev
     runs the study without a report) and :data:`REV_FILES`."""
@@ -224,8 +232,7 @@ def rev_study(
         description=f"REV check of {Path(spec_path).name}: sizes {sorted(sizes)} m, {seeds} seeds",
         source=Path(spec_path).resolve(),
     )
-    # no report.html unless asked (module doc, rev_folder_files; session 47)
-    df = run_study(study, out_dir, command=REV_COMMAND, **{"report": False, **run_kw})
+    df = run_study(study, out_dir, command=REV_COMMAND, **_no_report_unless_asked(run_kw))
     status = case_status(df)  # a missing one "unknown" (as the exit counts it), not ok
     if not (status == "ok").any():
         raise RevFailed(

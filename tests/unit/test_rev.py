@@ -371,6 +371,12 @@ def test_rev_study_from_python_writes_no_report_unless_asked(tmp_path) -> None:
     rev_study(tmp_path / "s.toml", [30e-6, 60e-6], 2, tmp_path / "o", **kw)
     assert not (tmp_path / "o" / "report.html").exists()
     assert (tmp_path / "o" / "rev.csv").exists()
+    # a caller's choice holds, also inside options (the first mend overrode it)
+    from psdesign.study import RunOptions
+
+    opts = RunOptions(workers=0, case_fn="study_cases:rev_case", progress=False, report=True)
+    rev_study(tmp_path / "s.toml", [30e-6, 60e-6], 2, tmp_path / "p", directions="z", options=opts)
+    assert (tmp_path / "p" / "report.html").exists()
 
 
 def test_rev_study_json_is_the_same_from_another_path_and_size_order(tmp_path, monkeypatch) -> None:
