@@ -380,3 +380,22 @@ def _fiber_full_values(fb: Fiber, grid: VoxelGrid, period: float):
         pts = np.column_stack([np.repeat(xs, len(yz)), np.tile(yz, (len(xs), 1))])
         flat = np.arange(i0 * len(yz), (i0 + len(xs)) * len(yz))
         yield flat, fb.field(pts)
+
+
+def checked_rve(rve: object) -> RVE:
+    """``rve`` when it is an :class:`RVE`, else one :class:`~psdesign.errors.SpecError` line
+    naming ``rve`` (:func:`checked_fields`' twin): ``orientation_tensor(3)`` raised
+    ``AttributeError`` until session 47.
+
+    >>> checked_rve(3)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: rve: must be an RVE (psdesign.build(spec).rve), got int
+    """
+    if not isinstance(rve, RVE):
+        from psdesign.errors import SpecError
+
+        raise SpecError(
+            "rve", f"must be an RVE (psdesign.build(spec).rve), got {type(rve).__name__}"
+        )
+    return rve

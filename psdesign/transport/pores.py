@@ -43,7 +43,7 @@ from scipy import ndimage
 
 from psdesign.flow.darcy import checked_axis
 from psdesign.geometry.edt import edt, periodic_edt
-from psdesign.geometry.rve import RVE, VoxelFields, checked_fields
+from psdesign.geometry.rve import RVE, VoxelFields, checked_fields, checked_rve
 
 
 @dataclass
@@ -413,17 +413,9 @@ def porosity_profile(fields: VoxelFields, axis: str | int = "z") -> dict:
 
 
 def orientation_tensor(rve: RVE) -> dict:
-    """Second-order fibre orientation tensor of the carrier directions (weight ``d^2``).
-
-    Anything but an :class:`RVE` is refused in one line naming ``rve`` (``orientation_tensor(3)``
-    raised ``AttributeError`` until session 47)."""
-    if not isinstance(rve, RVE):
-        from psdesign.errors import SpecError
-
-        raise SpecError(
-            "rve", f"must be an RVE (psdesign.build(spec).rve), got {type(rve).__name__}"
-        )
-    if not rve.fibers:
+    """Second-order fibre orientation tensor of the carrier directions (weight ``d^2``);
+    anything but an :class:`RVE` is refused naming ``rve`` (:func:`checked_rve`)."""
+    if not checked_rve(rve).fibers:
         return {"tensor": np.zeros((3, 3)).tolist(), "eigenvalues": [0.0, 0.0, 0.0], "n_fibers": 0}
     a = np.zeros((3, 3))
     wsum = 0.0
