@@ -314,18 +314,11 @@ def circle_lens_area(dist, r1, r2) -> np.ndarray:
     return np.where(d >= r1 + r2, 0.0, a1 + a2 - 0.5 * np.sqrt(np.maximum(k, 0.0)))
 
 
-def uncalibrated_overlap_fraction(rve: RVE, spacing: float | np.ndarray) -> float | None:
-    """Volume fraction of the box in overlaps whose count the bar is not calibrated on
-    (:func:`overlap_lenses`, module doc) on a grid of ``spacing`` metres (one voxel edge or
-    three): the volume of the thin lenses (:func:`_thin`) and the measured count error of the
-    congruent grid-aligned lenses repeated in the box (:func:`_group_error`); None where no
-    centre line says (an image's RVE, fewer than two round fibers beside a fixed shape)."""
-    lenses = overlap_lenses(rve)
-    return None if lenses is None else _loose_volume(rve, lenses, spacing)
-
-
 def _loose_volume(rve: RVE, lenses: Lenses, spacing: float | np.ndarray) -> float:
-    """:func:`uncalibrated_overlap_fraction` of ``lenses``, the overlaps of ``rve``."""
+    """Volume fraction of the box in overlaps of ``rve`` (``lenses``: :func:`overlap_lenses`)
+    whose count the bar is not calibrated on (module doc) on a grid of ``spacing`` metres: the
+    volume of the thin lenses (:func:`_thin`) and the measured count error of the congruent
+    grid-aligned lenses repeated in the box (:func:`_group_error`)."""
     spacing = np.broadcast_to(np.asarray(spacing, float), (3,))
     group = _congruent_groups(lenses, spacing, rve.size)
     thin = _thin(lenses, float(np.max(spacing)))
@@ -437,7 +430,7 @@ def intersection_status(rve: RVE, fields: VoxelFields) -> str:
     """``ok`` or ``untrustworthy``: the status of ``fields.intersection_volume_fraction``
     (module doc). ``untrustworthy`` when the count is 0 while the centre lines of ``rve``
     find lenses, or when the overlaps that the count's bar ``fields.intersection_error`` is
-    not calibrated on (:func:`uncalibrated_overlap_fraction`) hold more of the box than that
+    not calibrated on (:func:`_loose_volume`) hold more of the box than that
     bar. Without centre lines (an image, or fewer than two round
     fibers beside a fixed shape: woven, compressed) the bar's own calibration stands: ``ok``.
 
