@@ -30,6 +30,7 @@ from psdesign.analysis.columns import case_status, first_error, flagged_values
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 from psdesign.schema.budget import MAX_SEEDS  # as for a study file's seeds
+from psdesign.schema.flow import SOLVERS
 
 #: What ``rev`` writes in its output folder beside the study's files.
 REV_FILES = ("rev.csv", "rev.json")
@@ -38,8 +39,9 @@ REV_COMMAND = "rev"
 #: The arguments of :func:`rev_study` its refusals name, by the names ``psdesign rev`` gives
 #: them (its flags); from Python they are named as the keywords.
 REV_FLAGS = {k: f"--{k}" for k in ("sizes", "seeds", "tol", "directions", "solver")}
-#: The solvers a REV check runs (``--solver``).
-REV_SOLVERS = ("voxel", "fem")
+#: The solvers a REV check runs (``--solver``): every solver (:data:`psdesign.schema.flow.
+#: SOLVERS`, not a second list), its default, voxel, first (many sizes and seeds).
+REV_SOLVERS = tuple(sorted(SOLVERS, key=lambda s: s != "voxel"))
 #: Keywords of the runner that :func:`rev_study` sets itself, and why.
 _OWN_RUN_KEYWORDS = {"command": "the folder's marker names the REV check, 'rev'"}
 

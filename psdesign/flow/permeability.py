@@ -48,6 +48,7 @@ from psdesign.geometry.rve import (
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
+    SOLVERS,
     TREATMENT_ALLOWED,
     TREATMENT_NAMES,
     resolution_key,
@@ -71,8 +72,6 @@ __all__ = [
 
 #: The boundary-condition models of ``flow.bc``.
 BC_MODELS = ("permeameter", "periodic")
-#: Each route's behaviour when ``flow.bc`` is absent.
-SOLVERS = ("fem", "voxel")
 
 
 class BoundaryConditionUnavailable(ValueError, NotImplementedError):
