@@ -119,6 +119,14 @@ def test_rev_cli_bad_directions_and_seeds_before_work(tmp_path, capsys, args, ke
         ({"wrkers": 2}, "wrkers: not a keyword of rev_study (allowed: solver, directions, tol,"),
         # named --sizes from Python
         ({"sizes": [1.0]}, "sizes: at 1 m, rve.voxel: "),
+        # main (session 47 re-read): NumPy's "setting an array element with a sequence. The
+        # requested array has an inhomogeneous shape ..." for ragged sizes
+        ({"sizes": [[1e-4, 1e-4], [2e-4]]}, "sizes: need edge lengths > 0 in metres, got [[0.0"),
+        ({"sizes": [1e-4, [2e-4]]}, "sizes: need edge lengths > 0 in metres, got [0.0001, ["),
+        # main: "'int' object is not iterable"; a misspelled key or a non-text name was taken
+        ({"option_names": 3}, "option_names: must be None or a dict from some of sizes, seeds,"),
+        ({"option_names": {"size": "--size"}}, "option_names: must be None or a dict from"),
+        ({"option_names": {"sizes": 3}}, "option_names: must be None or a dict from some of"),
     ],
 )
 def test_rev_study_refusals_name_its_python_keywords(tmp_path, kw, line) -> None:
