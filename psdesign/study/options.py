@@ -176,6 +176,10 @@ def _check_security(security, scheduler) -> None:
         )
 
 
+#: What ``case_fn`` may be, as a refusal says it.
+_CASE_FN_ALLOWED = "allowed: a callable or an importable 'module:function'"
+
+
 def _check_run_arguments(scheduler, case_fn, *flags: object):
     """The other options, before any work: each flag a bool (a string such as ``report="no"``
     was taken as true), ``scheduler`` an address or the CLI's
@@ -202,11 +206,17 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
     if case_fn is not None:
         try:
             fn = load_case_fn(case_fn)
+        except StudyError:  # its form (casefn.check_case_fn_form), whose rule the line's
+            # "allowed" says: the form's own line in the brackets said it twice (session 48)
+            why = "no ':' between module and function" if isinstance(case_fn, str) else None
+            raise StudyError(
+                f"case_fn: cannot load {short(case_fn)} "
+                f"({why or type(case_fn).__name__ + ' is not callable'}); {_CASE_FN_ALLOWED}"
+            ) from None
         except (ImportError, AttributeError, ValueError) as exc:
             msg = " ".join(str(exc).split())
             raise StudyError(
-                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
-                "importable 'module:function'"
+                f"case_fn: cannot load {short(case_fn)} ({msg}); {_CASE_FN_ALLOWED}"
             ) from None
         why = case_fn_call_error(fn)
         if why:  # it failed every case with a TypeError, the output folder made
