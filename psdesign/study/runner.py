@@ -43,7 +43,7 @@ from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
-from psdesign.study.options import RunOptions
+from psdesign.study.options import RunOptions, refuse_unknown_keywords
 from psdesign.study.progress import Progress
 from psdesign.study.sameness import check_same_study
 from psdesign.study.stages import StageWatcher
@@ -828,10 +828,7 @@ def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: st
     for key in run_kw:
         if key in own:
             raise StudyError(f"{key}: set by {caller} itself ({own[key]})")
-        if key not in run_keywords():
-            runner = ", ".join(sorted(run_keywords() - own.keys()))
-            allowed = f"{extra} and the runner's {runner}" if extra else runner
-            raise StudyError(f"{key}: not a keyword of {caller} (allowed: {allowed})")
+    refuse_unknown_keywords(run_kw, run_keywords() - own.keys(), caller, extra)
 
 
 def _check_naming(command, out_option, scheduler_option) -> None:

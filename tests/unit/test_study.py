@@ -1050,6 +1050,14 @@ def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
         assert info.value.key == "worker" and "\n" not in line
         assert line.startswith("worker: not a keyword of run_study (allowed: case_fn, command,")
         assert "workers" in line and "out_option" in line  # the runner's own, all listed
+    # RunOptions' own unknown keyword likewise (the dataclass's TypeError until session 48)
+    with pytest.raises(StudyError) as info:
+        psdesign.RunOptions(worker=2)
+    assert str(info.value) == (
+        "worker: not a keyword of RunOptions (allowed: case_fn, force, progress, report, "
+        "retry_failed, retry_not_converged, scheduler, security, timeout_s, worker_wait_s, "
+        "workers)"
+    )
     assert not (tmp_path / "out").exists()
 
 
