@@ -120,7 +120,7 @@ def test_public_functions_refuse_what_is_no_rve_or_fields_naming_the_parameter(b
     ``TypeError: argument of type 'int' is not iterable``. Walking ``psdesign.__all__`` with a
     wrong-typed first argument (3, "x", None; benchmarks/RESULTS.md, session 48) found 6 such
     tracebacks in 45 calls; now each is one SpecError line naming the parameter
-    (``geometry.rve.checked_rve`` / ``checked_fields``), before any work."""
+    (``geometry.rve.checked_rve`` / ``checked_fields``), before any work; ``RVE(size)`` too."""
     m = psdesign.build(SQUARE_075)
     good = {"rve": m.rve, "fields": m.fields, "direction": "z", "flow": m.spec["flow"]}
     walked = _rve_or_fields_parameters()
@@ -135,3 +135,8 @@ def test_public_functions_refuse_what_is_no_rve_or_fields_naming_the_parameter(b
     with pytest.raises(psdesign.SpecError) as info:
         psdesign.Material(bad)
     assert str(info.value).startswith("spec: must be a validated spec (a dict: psdesign.build")
+    # psdesign.RVE(3): NumPy's "cannot reshape array of size 1 into shape (3,)" (a ValueError
+    # naming no parameter, which `except psdesign.SpecError` missed) until session 48
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.RVE(bad)
+    assert str(info.value) == f"size: must be three positive lengths in metres, got {bad!r}"
