@@ -238,12 +238,21 @@ class Material:
     Parameters
     ----------
     spec : dict
-        A validated spec (see :func:`build`).
+        A validated spec (see :func:`build`); anything but a dict is one
+        :class:`~psdesign.errors.SpecError` line naming ``spec`` (``Material(3)`` raised
+        ``TypeError: argument of type 'int' is not iterable`` until session 48).
     """
 
     def __init__(self, spec: dict) -> None:
+        from psdesign.errors import SpecError
         from psdesign.packing.build import build_rve
 
+        if not isinstance(spec, dict):
+            raise SpecError(
+                "spec",
+                "must be a validated spec (a dict: psdesign.build(spec) validates a dict or a "
+                f"spec file and makes the Material), got {type(spec).__name__}",
+            )
         self.spec = spec
         self._built = build_rve(spec)
         self._fields = None

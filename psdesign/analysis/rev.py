@@ -30,6 +30,7 @@ from psdesign.analysis.columns import case_status, first_error, flagged_values
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 from psdesign.schema.budget import MAX_SEEDS  # as for a study file's seeds
+from psdesign.schema.flow import SOLVERS
 
 #: What ``rev`` writes in its output folder beside the study's files.
 REV_FILES = ("rev.csv", "rev.json")
@@ -38,8 +39,9 @@ REV_COMMAND = "rev"
 #: The arguments of :func:`rev_study` its refusals name, by the names ``psdesign rev`` gives
 #: them (its flags); from Python they are named as the keywords.
 REV_FLAGS = {k: f"--{k}" for k in ("sizes", "seeds", "tol", "directions", "solver")}
-#: The solvers a REV check runs (``--solver``).
-REV_SOLVERS = ("voxel", "fem")
+#: The solvers a REV check runs (``--solver``): every solver (:data:`psdesign.schema.flow.
+#: SOLVERS`, not a second list), its default, voxel, first (many sizes and seeds).
+REV_SOLVERS = tuple(sorted(SOLVERS, key=lambda s: s != "voxel"))
 #: Keywords of the runner that :func:`rev_study` sets itself, and why.
 _OWN_RUN_KEYWORDS = {"command": "the folder's marker names the REV check, 'rev'"}
 
@@ -139,6 +141,24 @@ def _is_real(v: object) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
+def _names(option_names: object) -> dict[str, str]:
+    """How refusals name the arguments: the keywords, with ``option_names`` (None, or a dict
+    from some of :data:`REV_FLAGS`' keys to non-empty texts) over them; else one
+    :class:`StudyError` line naming ``option_names`` (``option_names=3`` was Python's
+    "'int' object is not iterable" until session 48, and a misspelled key was taken)."""
+    from psdesign.errors import StudyError, short
+
+    names = {k: k for k in REV_FLAGS}
+    given = {} if option_names is None else option_names
+    ok = isinstance(given, dict) and set(given) <= set(REV_FLAGS)
+    if not (ok and all(isinstance(v, str) and v.strip() for v in given.values())):
+        raise StudyError(
+            f"option_names: must be None or a dict from some of {', '.join(REV_FLAGS)} to the "
+            f"names refusals use (e.g. psdesign rev's flags --sizes ...), got {short(option_names)}"
+        )
+    return names | given
+
+
 def _check_rev_args(sizes, seeds, tol, directions, solver, names: dict[str, str]):
     """``sizes`` as floats, ``seeds`` as an int, ``tol`` as a float, each checked with
     ``directions`` and ``solver`` before any work; else one :class:`StudyError` line naming
@@ -148,8 +168,10 @@ def _check_rev_args(sizes, seeds, tol, directions, solver, names: dict[str, str]
     from psdesign.errors import StudyError, short
 
     n = names
-    ok = isinstance(sizes, list | tuple | np.ndarray) and np.ndim(sizes) == 1 and len(sizes)
-    if not ok or not all(_is_real(s) and 0 < s < math.inf for s in sizes):
+    # each item checked before NumPy sees the whole (``np.ndim`` of ragged sizes such as
+    # [[1e-4, 1e-4], [2e-4]] or [1e-4, [2e-4]] raised NumPy's ValueError until session 48)
+    ok = isinstance(sizes, list | tuple) or (isinstance(sizes, np.ndarray) and sizes.ndim == 1)
+    if not (ok and len(sizes)) or not all(_is_real(s) and 0 < s < math.inf for s in sizes):
         raise StudyError(f"{n['sizes']}: need edge lengths > 0 in metres, got {short(sizes)}")
     sizes = [float(s) for s in sizes]
     if len(set(sizes)) < len(sizes):
@@ -204,7 +226,7 @@ def rev_study(
     from psdesign.study.runner import check_run_keywords, run_study
     from psdesign.study.studyfile import ParamSpec, Study
 
-    names = {k: k for k in REV_FLAGS} | dict(option_names or {})
+    names = _names(option_names)
     sizes, seeds, tol = _check_rev_args(sizes, seeds, tol, directions, solver, names)
     extra = "solver, directions, tol, option_names"
     check_run_keywords(run_kw, _OWN_RUN_KEYWORDS, "rev_study", extra)

@@ -275,7 +275,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     perm.add_argument(
         "--solver",
-        choices=("fem", "voxel"),
+        choices=("fem", "voxel"),  # schema.flow.SOLVERS, written out: --help imports no pydantic
         default=None,
         help="fem (tet mesh, Taylor-Hood) or voxel (MAC grid) (default: the spec's flow.solver, "
         "else fem)",

@@ -136,7 +136,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--out", required=True, help="output folder (a study folder; resumes)")
     p.add_argument(
         "--solver",
-        choices=("voxel", "fem"),  # analysis.rev.REV_SOLVERS (pandas: not imported for --help)
+        # analysis.rev.REV_SOLVERS, written out: --help imports no pydantic nor pandas
+        # (tests/unit/test_rev.py checks the two agree)
+        choices=("voxel", "fem"),
         default="voxel",
         help="solver of every case (default voxel, whatever the spec's flow.solver: many sizes "
         "and seeds; fem for the body-fitted check)",

@@ -42,12 +42,15 @@ from psdesign.geometry.rve import (
     DIAMETER_MEASURE,
     RVE,
     VoxelFields,
+    checked_fields,
+    checked_rve,
     resolution_measure,
     thinnest_fiber_diameter,
 )
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     NATIVE_BC,
+    SOLVERS,
     TREATMENT_ALLOWED,
     TREATMENT_NAMES,
     resolution_key,
@@ -71,8 +74,6 @@ __all__ = [
 
 #: The boundary-condition models of ``flow.bc``.
 BC_MODELS = ("permeameter", "periodic")
-#: Each route's behaviour when ``flow.bc`` is absent.
-SOLVERS = ("fem", "voxel")
 
 
 class BoundaryConditionUnavailable(ValueError, NotImplementedError):
@@ -462,7 +463,15 @@ def permeability(
         ``bc``, ``converged``, ``residual``, ``iterations``, ``flux_imbalance``,
         ``wall_time_s``, ...) plus ``permeability_rel_error``, ``error_estimate``,
         ``cells_per_diameter``, ``warnings`` and ``status``.
+
+    Raises
+    ------
+    SpecError
+        ``rve`` not an :class:`RVE` or ``fields`` not :class:`VoxelFields`: one line naming
+        it, before any work (``permeability(3, ...)`` raised ``AttributeError: 'int' object
+        has no attribute 'fibers'`` until session 48).
     """
+    rve, fields = checked_rve(rve), checked_fields(fields)
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
     final = None if capture is None else HeldCapture(capture)

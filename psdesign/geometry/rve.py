@@ -238,9 +238,18 @@ class RVE:
     period: float | None = None
 
     def __post_init__(self) -> None:
-        self.size = np.asarray(self.size, float).reshape(3)
-        if not np.all(np.isfinite(self.size)) or np.any(self.size <= 0):
-            raise ValueError(f"size must be three positive lengths, got {self.size}")
+        from psdesign.errors import SpecError, short
+
+        try:
+            size = np.asarray(self.size, float).reshape(3)
+        except (TypeError, ValueError):  # RVE(3): NumPy's "cannot reshape array of size 1
+            size = None  # into shape (3,)" named no parameter until session 48
+        if size is None or not np.all(np.isfinite(size)) or np.any(size <= 0):
+            # a SpecError (a ValueError): ``except psdesign.SpecError`` catches bad input
+            raise SpecError(
+                "size", f"must be three positive lengths in metres, got {short(self.size)}"
+            )
+        self.size = size
         if self.period is None:
             self.period = float(self.size.max())
         if not (np.isfinite(self.period) and self.period > 0):

@@ -17,6 +17,9 @@ MAX_PERMEAMETER_COPIES = 8
 #: direction count their planned copies in both (psdesign.schema.plan; a longer stack "auto"
 #: takes after the first solve is checked before it is solved).
 AUTO_PERMEAMETER_COPIES = 2
+#: The Stokes solvers (``flow.solver``): the one list, which a study's ``solver``, the route
+#: (:mod:`psdesign.flow.permeability`) and ``rev --solver`` take too.
+SOLVERS = ("fem", "voxel")
 
 
 def _copies(value: Any) -> Any:
@@ -140,7 +143,9 @@ def unread_mesher_key(flow: dict) -> str | None:
 class FlowTable(Table):
     """Stokes solve and boundary conditions."""
 
-    solver: Literal["fem", "voxel"] = Field("fem", description="fem | voxel (default fem)")
+    solver: Literal[SOLVERS] = Field(  # type: ignore[valid-type]
+        "fem", description="fem | voxel (default fem)"
+    )
     bc: Literal["permeameter", "periodic"] | None = Field(
         None,
         description="permeameter | periodic (default: the solver's own, fem -> "

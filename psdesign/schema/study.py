@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from psdesign.schema.budget import MAX_CASES, MAX_LEVELS, MAX_SEEDS, MAX_TIMEOUT_S
+from psdesign.schema.flow import SOLVERS
 from psdesign.schema.types import Table, fail, flag, integer, number
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS
 
@@ -16,7 +17,6 @@ DESIGNS = ("full-factorial", "latin-hypercube", "sobol", "csv")
 OUTPUTS = ("porosity", "k_x", "k_y", "k_z", "k_tensor") + TRANSPORT_OUTPUTS
 #: Added to a case's outputs by ``[study] fields = true``: the case writes its flow fields.
 FIELDS_FLAG = "fields"
-SOLVERS = ("fem", "voxel")
 Output = Literal[OUTPUTS]  # type: ignore[valid-type]
 #: The K outputs of one direction each.
 K_OUTPUTS = {"k_x": "x", "k_y": "y", "k_z": "z"}
@@ -56,7 +56,7 @@ class StudyTable(Table):
         description=" | ".join(OUTPUTS) + " (a list; default porosity and K along the base's "
         "flow.direction, else k_z)",
     )
-    solver: Literal["fem", "voxel"] | None = Field(
+    solver: Literal[SOLVERS] | None = Field(  # type: ignore[valid-type]
         None, description="fem | voxel (default: base flow.solver, else fem)"
     )
     timeout_s: number(gt=0, le=MAX_TIMEOUT_S) | None = Field(

@@ -120,7 +120,8 @@ def load_case_fn(case_fn: Callable | str | None) -> Callable:
     for part in attr.split("."):
         obj = getattr(obj, part)
     if not callable(obj):
-        raise ValueError(f"case_fn: {case_fn!r} is not callable")
+        # no "case_fn:" key: RunOptions puts this in its own line, which names case_fn
+        raise ValueError(f"it names a {type(obj).__name__}, which is not callable")
     return obj
 
 

@@ -7,8 +7,8 @@
 from __future__ import annotations
 
 import numbers
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, fields
 from typing import Any
 
 from psdesign.errors import short
@@ -26,6 +26,28 @@ from psdesign.study.studyfile import StudyError
 __all__ = ["RunOptions"]
 
 _FLAGS = ("progress", "retry_failed", "report", "force", "retry_not_converged")
+
+
+def refuse_unknown_keywords(
+    given: Iterable[str], allowed: Iterable[str], caller: str, extra: str = ""
+) -> None:
+    """The first of ``given`` not in ``allowed``: one :class:`StudyError` line naming it and
+    listing the allowed ones (``extra``, a caller's own, before "the runner's" ``allowed``),
+    the one wording of every study entry point's unknown keyword (:class:`RunOptions`,
+    :func:`~psdesign.study.runner.run_study` and, by
+    :func:`~psdesign.study.runner.check_run_keywords`, ``rev_study`` / ``optimize_study``).
+
+    >>> refuse_unknown_keywords(["wrkers"], ["workers", "force"], "f")
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.StudyError: wrkers: not a keyword of f (allowed: force, workers)
+    """
+    allowed = set(allowed)
+    for key in given:
+        if key not in allowed:
+            listed = ", ".join(sorted(allowed))
+            listed = f"{extra} and the runner's {listed}" if extra else listed
+            raise StudyError(f"{key}: not a keyword of {caller} (allowed: {listed})")
 
 
 @dataclass(frozen=True)
@@ -77,7 +99,8 @@ class RunOptions:
     ------
     StudyError
         On creation, one line naming the option and what it allows (a
-        :class:`psdesign.errors.SpecError`).
+        :class:`psdesign.errors.SpecError`), an unknown keyword too
+        (:func:`refuse_unknown_keywords`).
     SchedulerError
         On creation, one line naming ``scheduler``: its host does not resolve (the address is
         well formed, the name service says no; see
@@ -105,6 +128,12 @@ class RunOptions:
     force: bool = False
     security: Any = None
     worker_wait_s: float | None = None
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> RunOptions:
+        # an unknown keyword (RunOptions(wrkers=2)): run_study's one StudyError line, not the
+        # dataclass's TypeError (session 48); __init__ then takes the arguments
+        refuse_unknown_keywords(kwargs, (f.name for f in fields(cls)), "RunOptions")
+        return super().__new__(cls)
 
     def __post_init__(self) -> None:
         from psdesign.study.runner import check_workers  # the runner's rule (runner imports us)
@@ -176,6 +205,10 @@ def _check_security(security, scheduler) -> None:
         )
 
 
+#: What ``case_fn`` may be, as a refusal says it.
+_CASE_FN_ALLOWED = "allowed: a callable or an importable 'module:function'"
+
+
 def _check_run_arguments(scheduler, case_fn, *flags: object):
     """The other options, before any work: each flag a bool (a string such as ``report="no"``
     was taken as true), ``scheduler`` an address or the CLI's
@@ -202,11 +235,17 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
     if case_fn is not None:
         try:
             fn = load_case_fn(case_fn)
+        except StudyError:  # its form (casefn.check_case_fn_form), whose rule the line's
+            # "allowed" says: the form's own line in the brackets said it twice (session 48)
+            why = "no ':' between module and function" if isinstance(case_fn, str) else None
+            raise StudyError(
+                f"case_fn: cannot load {short(case_fn)} "
+                f"({why or type(case_fn).__name__ + ' is not callable'}); {_CASE_FN_ALLOWED}"
+            ) from None
         except (ImportError, AttributeError, ValueError) as exc:
             msg = " ".join(str(exc).split())
             raise StudyError(
-                f"case_fn: cannot load {case_fn!r} ({msg}); allowed: a callable or an "
-                "importable 'module:function'"
+                f"case_fn: cannot load {short(case_fn)} ({msg}); {_CASE_FN_ALLOWED}"
             ) from None
         why = case_fn_call_error(fn)
         if why:  # it failed every case with a TypeError, the output folder made

@@ -43,7 +43,7 @@ from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
 from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
-from psdesign.study.options import RunOptions
+from psdesign.study.options import RunOptions, refuse_unknown_keywords
 from psdesign.study.progress import Progress
 from psdesign.study.sameness import check_same_study
 from psdesign.study.stages import StageWatcher
@@ -784,9 +784,9 @@ def run_study(
     StorageError
         Writing results failed (disk full, permissions); records written so far are intact.
     """
-    unknown = [k for k in fields if k not in _OPTION_FIELDS]
-    if unknown:  # as Python words it for a keyword the signature does not have
-        raise TypeError(f"run_study() got an unexpected keyword argument {unknown[0]!r}")
+    # an unknown keyword: the one-line StudyError of rev_study / optimize_study (Python's
+    # TypeError "run_study() got an unexpected keyword argument" until session 48)
+    check_run_keywords(fields, {}, "run_study")
     _check_naming(command, out_option, scheduler_option)
     opts = _run_options(options, fields)
     if not isinstance(study, Study):  # a case function of the user's: no route planned
@@ -812,12 +812,13 @@ def run_keywords() -> frozenset[str]:
     return _OPTION_FIELDS | {"options", "command", "out_option", "scheduler_option"}
 
 
-def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: str) -> None:
+def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: str = "") -> None:
     """Refuse, before any work, a keyword of ``run_kw`` that :func:`run_study` does not take
     (its ``TypeError`` named ``run_study()``) or one that ``caller`` (a function running its
-    study through :func:`run_study`) sets itself (``own``: keyword -> why; it was "got
-    multiple values for keyword argument"): one :class:`StudyError` line naming the keyword,
-    the allowed ones listed as ``extra`` (the caller's own) and the runner's.
+    study through :func:`run_study`, or :func:`run_study` itself) sets itself (``own``:
+    keyword -> why; it was "got multiple values for keyword argument"): one
+    :class:`StudyError` line naming the keyword, the allowed ones listed as ``extra`` (the
+    caller's own, if any) and the runner's.
 
     >>> check_run_keywords({"wrkers": 2}, {"command": "set"}, "f", "a")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -827,12 +828,7 @@ def check_run_keywords(run_kw: dict, own: dict[str, str], caller: str, extra: st
     for key in run_kw:
         if key in own:
             raise StudyError(f"{key}: set by {caller} itself ({own[key]})")
-        if key not in run_keywords():
-            allowed = sorted(run_keywords() - own.keys())
-            raise StudyError(
-                f"{key}: not a keyword of {caller} (allowed: {extra} and the runner's "
-                f"{', '.join(allowed)})"
-            )
+    refuse_unknown_keywords(run_kw, run_keywords() - own.keys(), caller, extra)
 
 
 def _check_naming(command, out_option, scheduler_option) -> None:

@@ -884,6 +884,31 @@ def test_run_study_arguments_checked_before_the_output_folder(tmp_path) -> None:
         assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("case_fn", "why"),
+    [
+        ("fake_case", "no ':' between module and function"),
+        (3, "int is not callable"),
+        ("json:__name__", "it names a str, which is not callable"),
+        ("nope_module_x:run", "No module named 'nope_module_x'"),
+    ],
+)
+def test_run_options_case_fn_refusal_says_each_thing_once(case_fn, why) -> None:
+    """Session 47 re-read: ``RunOptions(case_fn="fake_case")`` was "case_fn: cannot load
+    'fake_case' (case_fn: expected a callable or 'module:function', got 'fake_case');
+    allowed: a callable or an importable 'module:function'": the key, the value and the rule
+    twice (the form's own refusal put in the brackets; so was "case_fn: ... is not
+    callable"). One line, each once; "cannot load" kept."""
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn=case_fn)
+    line = str(info.value)
+    assert line == (
+        f"case_fn: cannot load {case_fn!r} ({why}); "
+        "allowed: a callable or an importable 'module:function'"
+    )
+    assert info.value.key == "case_fn"
+
+
 def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> None:
     # audit s45: RunOptions(timeout_s=-1) was refused as "timeout: ...", scheduler="zz" /
     # scheduler="" as "--scheduler: ..." and worker_wait_s=0 as "--cluster-wait: ...": the

@@ -96,3 +96,47 @@ def test_other_errors_are_left_as_they_are():
     assert as_spec_error(MeshFailedError("pore volume exceeds the box volume")) is None
     err = as_spec_error(PoreTopologyError("the pore space is empty: `distance` is <= 0"))
     assert (err.key, str(err)) == ("rve.voxel", "the pore space is empty: `distance` is <= 0")
+
+
+def _rve_or_fields_parameters():
+    """(name, function, parameter) of every function of ``psdesign.__all__`` with an
+    :class:`RVE` or :class:`VoxelFields` parameter (by its annotation)."""
+    import inspect
+
+    out = []
+    for name in psdesign.__all__:
+        fn = getattr(psdesign, name)
+        if inspect.isfunction(fn):
+            for p in inspect.signature(fn).parameters.values():
+                if any(t in str(p.annotation) for t in ("RVE", "VoxelFields")):
+                    out.append((name, fn, p.name))
+    return out
+
+
+@pytest.mark.parametrize("bad", [3, "x", None])
+def test_public_functions_refuse_what_is_no_rve_or_fields_naming_the_parameter(bad):
+    """Session 47 re-read: ``psdesign.permeability(3, ...)`` raised ``AttributeError: 'int'
+    object has no attribute 'fibers'`` (``fields=3``: ``... 'grid'``) and ``psdesign.Material(3)``
+    ``TypeError: argument of type 'int' is not iterable``. Walking ``psdesign.__all__`` with a
+    wrong-typed first argument (3, "x", None; benchmarks/RESULTS.md, session 48) found 6 such
+    tracebacks in 45 calls; now each is one SpecError line naming the parameter
+    (``geometry.rve.checked_rve`` / ``checked_fields``), before any work; ``RVE(size)`` too."""
+    m = psdesign.build(SQUARE_075)
+    good = {"rve": m.rve, "fields": m.fields, "direction": "z", "flow": m.spec["flow"]}
+    walked = _rve_or_fields_parameters()
+    assert {(name, p) for name, _, p in walked} >= {
+        ("permeability", "rve"),
+        ("permeability", "fields"),
+    }
+    for name, fn, param in walked:
+        with pytest.raises(psdesign.SpecError) as info:
+            fn(**{**good, param: bad})
+        assert info.value.key == param and "\n" not in str(info.value), (name, str(info.value))
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.Material(bad)
+    assert str(info.value).startswith("spec: must be a validated spec (a dict: psdesign.build")
+    # psdesign.RVE(3): NumPy's "cannot reshape array of size 1 into shape (3,)" (a ValueError
+    # naming no parameter, which `except psdesign.SpecError` missed) until session 48
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.RVE(bad)
+    assert str(info.value) == f"size: must be three positive lengths in metres, got {bad!r}"

@@ -119,6 +119,14 @@ def test_rev_cli_bad_directions_and_seeds_before_work(tmp_path, capsys, args, ke
         ({"wrkers": 2}, "wrkers: not a keyword of rev_study (allowed: solver, directions, tol,"),
         # named --sizes from Python
         ({"sizes": [1.0]}, "sizes: at 1 m, rve.voxel: "),
+        # main (session 47 re-read): NumPy's "setting an array element with a sequence. The
+        # requested array has an inhomogeneous shape ..." for ragged sizes
+        ({"sizes": [[1e-4, 1e-4], [2e-4]]}, "sizes: need edge lengths > 0 in metres, got [[0.0"),
+        ({"sizes": [1e-4, [2e-4]]}, "sizes: need edge lengths > 0 in metres, got [0.0001, ["),
+        # main: "'int' object is not iterable"; a misspelled key or a non-text name was taken
+        ({"option_names": 3}, "option_names: must be None or a dict from some of sizes, seeds,"),
+        ({"option_names": {"size": "--size"}}, "option_names: must be None or a dict from"),
+        ({"option_names": {"sizes": 3}}, "option_names: must be None or a dict from some of"),
     ],
 )
 def test_rev_study_refusals_name_its_python_keywords(tmp_path, kw, line) -> None:
@@ -595,3 +603,23 @@ def test_rev_words_each_flagged_status_and_keeps_only_its_outputs_in_the_interva
     assert not any(k.startswith("intersection") for k in table)  # no Omega interval
     assert line.endswith(f"their values are kept in {out}/results.csv, porosity also in the "
                          "sizes' intervals"), line  # fmt: skip
+
+
+def test_rev_solvers_are_the_one_list_of_solvers() -> None:
+    """Session 47 re-read: ``REV_SOLVERS`` was a second list beside ``schema.study.SOLVERS``
+    (and ``flow.permeability.SOLVERS`` a third); now every one is ``schema.flow.SOLVERS``, the
+    REV's its reordering (default voxel first), and the commands' ``--solver`` choices, written
+    out for a light ``--help``, agree with it."""
+    import argparse
+
+    from psdesign.analysis.rev import REV_SOLVERS
+    from psdesign.cli.main import build_parser
+    from psdesign.flow import permeability
+    from psdesign.schema import flow, study
+
+    assert study.SOLVERS is flow.SOLVERS and permeability.SOLVERS is flow.SOLVERS
+    assert sorted(REV_SOLVERS) == sorted(flow.SOLVERS) and REV_SOLVERS[0] == "voxel"
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for command, solvers in (("rev", REV_SOLVERS), ("permeability", flow.SOLVERS)):
+        opt = next(a for a in sub.choices[command]._actions if "--solver" in a.option_strings)
+        assert tuple(opt.choices) == tuple(solvers), command

@@ -1032,8 +1032,10 @@ def test_run_study_with_options_is_the_keyword_run(tmp_path):
 
 def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
     """A third positional argument was ``workers`` (run_study(s, out, 0) ran in-process);
-    now it is the options: anything else is one line naming it, before any folder, and an
-    unknown keyword is Python's own TypeError."""
+    now it is the options: anything else is one line naming it, before any folder. An
+    unknown keyword was Python's own TypeError ("run_study() got an unexpected keyword
+    argument 'worker'") where rev_study and optimize_study refuse it in one StudyError line
+    (session 47 re-read): now run_study does too, in the same words (check_run_keywords)."""
     import psdesign
 
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
@@ -1042,8 +1044,20 @@ def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
             StudyError, match="options: must be a psdesign.study.RunOptions, got int"
         ):
             call(p, tmp_path / "out", 0, case_fn=fake_case, progress=False, report=False)
-        with pytest.raises(TypeError, match="unexpected keyword argument 'worker'"):
+        with pytest.raises(StudyError) as info:
             call(p, tmp_path / "out", worker=2)
+        line = str(info.value)
+        assert info.value.key == "worker" and "\n" not in line
+        assert line.startswith("worker: not a keyword of run_study (allowed: case_fn, command,")
+        assert "workers" in line and "out_option" in line  # the runner's own, all listed
+    # RunOptions' own unknown keyword likewise (the dataclass's TypeError until session 48)
+    with pytest.raises(StudyError) as info:
+        psdesign.RunOptions(worker=2)
+    assert str(info.value) == (
+        "worker: not a keyword of RunOptions (allowed: case_fn, force, progress, report, "
+        "retry_failed, retry_not_converged, scheduler, security, timeout_s, worker_wait_s, "
+        "workers)"
+    )
     assert not (tmp_path / "out").exists()
 
 
