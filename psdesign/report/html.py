@@ -828,7 +828,10 @@ def _status_banner(df: pd.DataFrame) -> str:
         "each untrustworthy K's status in the Permeability table (more in the Results table's "
         "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns), in the "
         "<code>diffusivity_z_warnings</code>-like columns (transport values) or beside the "
-        "porosity's bar (above 20 %) in the Porosity table.</p>"
+        "porosity's bar in the Porosity table (porosity_status: "
+        # the rating's words as every command prints them (session 48: "above 20 %" was
+        # written out here beside STATUS_WORDS' copy)
+        f"{_esc(_status_words('porosity_status'))}).</p>"
     )
 
 
