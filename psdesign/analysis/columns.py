@@ -49,6 +49,11 @@ ABS_ERROR_COLUMNS = {
     **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
 }
 
+#: The values whose absolute bar is one-sided, the truth at or above the value by up to the bar:
+#: the pore diameters' scan measures low (:func:`psdesign.transport.pores.diameter_bar_text`),
+#: so the report prints them ``+bar/-0`` and draws their bar upward only (session 48).
+UPPER_BARS = frozenset(c for c, e in ABS_ERROR_COLUMNS.items() if e == "pore_diameter_error_m")
+
 #: Every error column: an estimate of a value's error, not an output of its own.
 ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
 #: The value whose bar rates a value that has no status of its own, where that is another's:

@@ -23,6 +23,7 @@ from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
     RATED_BY,
     STATUS_COLUMNS,
+    UPPER_BARS,
     case_status,
     error_bar,
     flagged_values,
@@ -550,17 +551,18 @@ def _scalar(x) -> float:
 
 #: Values that share one absolute bar and are rated together by it over one of them
 #: (:data:`~psdesign.analysis.columns.RATED_BY`: d10, d50 and d90 by ``pore_diameter_error_m``
-#: over d50): printed ± that bar, the one they are rated over with the fraction that rates
-#: them (until session 47 each was printed ± its own fraction, d10's 30 % beside an ok status
-#: that d50's 15 % gave).
+#: over d50): printed with that bar (one-sided, ``+bar/-0``: :data:`~psdesign.analysis.columns.
+#: UPPER_BARS`), the one they are rated over with the fraction that rates them (until session
+#: 47 each was printed ± its own fraction, d10's 30 % beside an ok status that d50's 15 % gave).
 SHARED_BARS = (*RATED_BY, *dict.fromkeys(RATED_BY.values()))
 
 
 def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
-    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05 ±
-    3.0e-06", True)`` for a pore diameter; the value alone and False without a bar, ``""``
-    without a value."""
+    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05
+    +3.0e-06/-0", True)`` for a pore diameter (its bar one-sided, the truth above:
+    :func:`~psdesign.transport.pores.diameter_bar_text`; until session 48 ``± 3.0e-06``); the
+    value alone and False without a bar, ``""`` without a value."""
     v, e = _scalar(value), _scalar(error)
     if pd.isna(v):
         return "", False
@@ -568,6 +570,10 @@ def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:{digits}}"
     if pd.isna(e):
         return txt, False
+    if column in UPPER_BARS:
+        from psdesign.transport.pores import diameter_bar_text
+
+        return f"{txt} {diameter_bar_text(e)}", True
     return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
 
 
@@ -631,7 +637,7 @@ def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
 
     >>> row = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
     >>> _value_cell(row, "pore_d10_m", 0.3), _value_cell(row, "pore_d50_m", 0.15)
-    (('1e-05 ± 3.0e-06', True), ('2e-05 ± 3.0e-06 (15.0 %)', True))
+    (('1e-05 +3.0e-06/-0', True), ('2e-05 +3.0e-06/-0 (15.0 %)', True))
     >>> _value_cell({"diffusivity_z": 0.4}, "diffusivity_z", 0.05)
     ('0.4 ± 5.0 %', True)
     """
@@ -657,8 +663,9 @@ def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
     rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
     return (
-        "; pore diameters d10, d50 and d90 ± their one absolute bar (pore_diameter_error_m), "
-        "rated together by that bar over d50 (the % beside d50; "
+        "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m), "
+        "one-sided: the scan measures low, so each true diameter lies between the value and "
+        "the value + the bar (+bar/-0); rated together by that bar over d50 (the % beside d50; "
         f"{_status_words('pore_sizes_status')}, docs/transport.md)"
     )
 
@@ -781,7 +788,8 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{k_html}
 {diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % half-width of the mean
-(summary.csv's X_ci95_half; none for one seed) plus the cases' mean numerical error bar;
+(summary.csv's X_ci95_half; none for one seed) plus the cases' mean numerical error bar
+(a pore diameter's upward only: the scan measures low, the truth lies above it);
 anisotropy = mean in-plane K / through-plane K.</p>
 {_safe(parameter_plots, df, params, study)}
 <h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}

@@ -60,6 +60,8 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from psdesign.transport.pores import diameter_bar_text
+
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.4))
     d = np.asarray(pores["diameters_m"])  # metres, as every output
     a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1e-6)
@@ -71,7 +73,7 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     a.legend(fontsize=7, loc="upper left")
     status = str(pores.get("pore_sizes_status", pores.get("status", "")))
     if status:
-        bar = f", each +{err:.1e}/-0 m (shaded)" if err > 0 else ""
+        bar = f", each {diameter_bar_text(err)} m (shaded)" if err > 0 else ""
         fig.suptitle(
             f"pore sizes [{status}]{bar}",
             fontsize=9,
