@@ -112,7 +112,7 @@ def _number(v) -> float | None:
     return v if v == v else None
 
 
-def _numbers(df: pd.DataFrame, column: str) -> np.ndarray:
+def column_numbers(df: pd.DataFrame, column: str) -> np.ndarray:
     """``df[column]`` as floats (NaN where it is not a number or the column is missing): what
     :func:`_number` reads of one cell."""
     if column not in df:
@@ -132,8 +132,8 @@ def _rel_error(row: dict, column: str) -> float | None:
 def _rel_errors(df: pd.DataFrame, column: str) -> np.ndarray:
     """:func:`_rel_error` of every row of ``df`` at once (NaN for None)."""
     if column in REL_ERROR_COLUMNS:
-        return _numbers(df, REL_ERROR_COLUMNS[column])
-    y, e = _numbers(df, column), _numbers(df, ABS_ERROR_COLUMNS.get(column, ""))
+        return column_numbers(df, REL_ERROR_COLUMNS[column])
+    y, e = column_numbers(df, column), column_numbers(df, ABS_ERROR_COLUMNS.get(column, ""))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(np.isnan(e) | np.isnan(y) | (y == 0), np.nan, e / np.abs(y))
 
@@ -291,7 +291,7 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
         # error_bar's rule over the whole column (row by row until session 47: 20-60 ms per
         # 2000 rows): no value reads "no trusted value", no bar "unrated", both left unset
         words = _bar_words(_rel_errors(df, by))
-        words = np.where(~np.isnan(_numbers(df, by)) & (words != "unrated"), words, None)
+        words = np.where(~np.isnan(column_numbers(df, by)) & (words != "unrated"), words, None)
         vals[unset] = words[unset]
     vals[pd.isna(vals)] = "ok"
     return pd.Series(vals, index=df.index, name=None if st is None else st.name).astype(str)

@@ -25,6 +25,7 @@ from psdesign.analysis.columns import (
     STATUS_COLUMNS,
     UPPER_BARS,
     case_status,
+    column_numbers,
     error_bar,
     flagged_values,
     is_design_parameter,
@@ -47,7 +48,7 @@ from psdesign.report.references import (
     tomadakis_sotirchos,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.transport import transport_figure
+from psdesign.report.transport import log_ticks, transport_figure
 from psdesign.report.trust import (
     AT_UNTRUSTED_X,
     NOT_OK_MARKERS,
@@ -97,11 +98,48 @@ def _esc(x) -> str:
     return html.escape("" if x is None else str(x))
 
 
+#: Margins of the report's matplotlib figures (inches: left, right, bottom, top), fixed: each
+#: PNG is drawn once. ``bbox_inches="tight"`` drew every figure twice to find its margins (and
+#: the convergence figure's ``tight_layout`` measured it a third time): about half the CPU of
+#: the two PNGs, session 48 (benchmarks/RESULTS.md). They hold every label because the labels'
+#: sizes are known: log axes tick ``2e-11`` or ``3.2e-11`` (:func:`~psdesign.report.transport.
+#: log_tick_text`, at most 7 characters), the porosity ``0.80``, and x tick labels written at 90
+#: degrees (the convergence figure's case ids) set the bottom one by their measured length
+#: (:func:`_bottom_margin`).
+FIG_MARGINS_IN = (0.95, 0.25, 0.55, 0.15)
+#: Of a bottom margin: the x axis' label and its pad, and the ticks with theirs (inches).
+XLABEL_IN, TICKS_IN = 0.3, 0.1
+
+
+def _bottom_margin(fig) -> float:
+    """The bottom margin (inches) that holds ``fig``'s x axis: :data:`FIG_MARGINS_IN`'s, or
+    with tick labels at 90 degrees the longest one's length (measured, not drawn) plus the
+    ticks and the axis' label."""
+    labels = [t for ax in fig.axes for t in ax.get_xticklabels()]
+    rotated = [t for t in labels if t.get_rotation() == 90 and t.get_text()]
+    if not rotated:
+        return FIG_MARGINS_IN[2]
+    renderer = fig.canvas.get_renderer()
+    longest = max(
+        renderer.get_text_width_height_descent(t.get_text(), t.get_fontproperties(), False)[0]
+        for t in rotated
+    )
+    return XLABEL_IN + TICKS_IN + longest / fig.dpi
+
+
 def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    """``fig`` as a PNG ``data:`` URI at the margins :data:`FIG_MARGINS_IN`, drawn once."""
     import matplotlib.pyplot as plt
 
+    left, right, fixed, top = FIG_MARGINS_IN
+    bottom = _bottom_margin(fig)
+    w, h = fig.get_size_inches()
+    if bottom > fixed:  # long labels lengthen the picture, never shorten the plot
+        h += bottom - fixed
+        fig.set_size_inches(w, h)
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
@@ -312,6 +350,8 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
+    # labels of a known width (FIG_MARGINS_IN); over the data and the reference curves drawn
+    log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return _png(fig), " ".join(n for n in notes if n)
@@ -348,6 +388,8 @@ def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> 
 
 
 def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
+    """The solver-convergence table (each case flagged when :func:`_convergence_flags`), the
+    flux-imbalance figure's PNG (None without an imbalance) and the number flagged."""
     stat_cols = [
         c
         for c in df.columns
@@ -355,25 +397,8 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     cols = ["case_id", "status", *stat_cols, "error"]
     cols = [c for c in cols if c in df]
-    classes = []
-    n_flag = 0
-    cases = case_status(df)
-    # a K not ok by its own status (k_not_ok: what the red box counts; an in-memory "" own
-    # status is unset, not a flag, since review s46)
-    k_bad = pd.concat([k_not_ok(df, f"k_{d}_m2") for d in "xyz"], axis=1).any(axis=1)
-    for i, row in df.iterrows():
-        flag = cases[i] != "ok" or k_bad[i]
-        for c in stat_cols:
-            v = row[c]
-            if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
-                flag = True
-            if c.startswith("flux_imbalance_"):
-                fv = pd.to_numeric(pd.Series([v]), errors="coerce").iloc[0]
-                if pd.notna(fv) and abs(fv) > FLUX_IMBALANCE_FLAG:
-                    flag = True
-        classes.append("flag" if flag else "")
-        n_flag += flag
-    table = _table(df[cols], classes)
+    flags = _convergence_flags(df, stat_cols)
+    table = _table(df[cols], ["flag" if f else "" for f in flags])
     fig_uri = None
     fcols = [
         c
@@ -383,7 +408,23 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     if fcols:
         fig_uri = _png(_convergence_figure(df, fcols))
-    return table, fig_uri, n_flag
+    return table, fig_uri, int(flags.sum())
+
+
+def _convergence_flags(df: pd.DataFrame, stat_cols: list[str]) -> np.ndarray:
+    """Each case flagged in the convergence table: its status not ok, a K not ok by its own
+    status (:func:`~psdesign.analysis.columns.k_not_ok`, what the red box counts; an in-memory
+    "" own status is unset, not a flag, since review s46), a direction not converged or an
+    |flux imbalance| above :data:`FLUX_IMBALANCE_FLAG`. Column by column: a one-value Series
+    through ``pd.to_numeric`` per cell cost ~0.1 ms (session 48)."""
+    flag = (case_status(df) != "ok").to_numpy(copy=True)
+    flag |= pd.concat([k_not_ok(df, f"k_{d}_m2") for d in "xyz"], axis=1).any(axis=1).to_numpy()
+    for c in stat_cols:
+        if c.startswith("converged_"):
+            flag |= df[c].astype(str).str.lower().isin(("false", "0", "0.0")).to_numpy()
+        if c.startswith("flux_imbalance_"):
+            flag |= np.abs(column_numbers(df, c)) > FLUX_IMBALANCE_FLAG
+    return flag
 
 
 def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
@@ -414,8 +455,8 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     ax.set_xticks(x[::step], list(ids)[::step], rotation=90, fontsize=7)
     ax.set_xlabel("case id")
     ax.set_ylabel("|flux imbalance| (relative)")
+    log_ticks(ax.yaxis, [FLUX_IMBALANCE_FLAG, *(v for line in ax.lines for v in line.get_ydata())])
     ax.legend(fontsize=7)
-    fig.tight_layout()
     return fig
 
 
@@ -452,16 +493,19 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         one_bc[d] = bcs[0] if len(bcs) == 1 else None
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
-    cases = case_status(df)  # a missing one is "unknown", not ok (review s45)
+    cases = case_status(df).tolist()  # a missing one is "unknown", not ok (review s45)
     # each K's own status as the red box reads it (own_status: "" unset, an old table's K
     # without a status by its bar; review s46)
-    own = {d: own_status(df, f"k_{d}_m2") for d in dirs}
-    for i, row in df.iterrows():
+    own = {d: own_status(df, f"k_{d}_m2").tolist() for d in dirs}
+    # each column parsed once, cells read by position: a one-value Series through
+    # pd.to_numeric per cell and a Series looked up by label per cell cost 2.6 s of CPU of a
+    # 2000-row table's 14 s report (session 48)
+    num = {c: column_numbers(df, c) for d in dirs for c in (f"k_{d}_m2", f"k_{d}_rel_error")}
+    for i, row in enumerate(df.to_dict("records")):
         out = {"case_id": row.get("case_id", ""), "case status": cases[i]}
         flag = cases[i] != "ok"
         for d in dirs:
-            k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
-            e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
+            k, e = num[f"k_{d}_m2"][i], num[f"k_{d}_rel_error"][i]
             st = own[d][i]
             status = st if st != "ok" or cases[i] == "ok" else cases[i]
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
@@ -484,7 +528,7 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     return "<h3>Permeability with error bars</h3>" + note + table
 
 
-def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> str:
+def untrusted_k_reason(row: pd.Series | dict, d: str, solver: str | None = "voxel") -> str:
     """Why the K of ``row`` along ``d`` is ``untrustworthy``, in a few words, from the row's
     numbers by :func:`psdesign.flow.error.untrustworthy_reasons`, the rule of ``status_of``:
     its error bar above :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
@@ -495,7 +539,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 
     Parameters
     ----------
-    row : pandas.Series
+    row : pandas.Series or dict
         A row of ``results.csv``.
     d : str
         The direction, ``"x"``, ``"y"`` or ``"z"``.
@@ -520,10 +564,8 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     from psdesign.flow.error import untrustworthy_reasons
     from psdesign.geometry.rve import DIAMETER_MEASURE
 
-    def num(col: str) -> float:
-        return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
-
-    e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
+    # a cell at a time (_scalar: a one-value Series through pd.to_numeric cost ~0.1 ms)
+    e, cpd = _scalar(row.get(f"k_{d}_rel_error")), _scalar(row.get(f"cells_per_diameter_{d}"))
     rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
     measure = row.get(f"resolution_measure_{d}")
     measure = measure if isinstance(measure, str) and measure else DIAMETER_MEASURE

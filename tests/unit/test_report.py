@@ -1714,3 +1714,60 @@ def test_a_trusted_k_at_an_untrustworthy_porosity_is_drawn_open_in_both_porosity
         values = "K" if name.startswith("z") else "D_eff/D"
         assert f"1 trusted {values} value(s) at a porosity that is not ok are drawn open" in caption
         assert "not ok (open markers" not in caption  # no value of its own is not ok
+
+
+@pytest.mark.parametrize(
+    ("k_z", "ids", "diameter"),
+    [
+        ([9.4e-12, 2.2e-11], ["c0000-x", "c0001-x"], 7e-6),  # the quickstart's two cases
+        ([3.0e-11, 4.5e-11], ["c0000", "c0001"], None),  # inside a decade, no curves
+        ([1e-13, 3e-9], ["averyveryverylongcaseidentifier0000", "b1"], 8e-6),
+    ],
+    ids=["quickstart", "in_a_decade", "long_ids"],
+)
+def test_the_report_figures_are_drawn_once_with_every_label_inside(
+    k_z, ids, diameter, monkeypatch
+):
+    """Session 48: each of the report's two matplotlib PNGs was drawn twice
+    (``bbox_inches="tight"`` draws to find the margins, then again to save; the convergence
+    figure's ``tight_layout`` measured it a third time), about half their CPU. They are now
+    drawn once, at fixed margins that hold labels of a known size (``log_tick_text``) and a
+    bottom one measured from the rotated case ids. Truth: matplotlib's own extent of every
+    artist of each axes (tick labels, axis labels, legend) lies inside the saved picture, and
+    ``Figure.draw`` ran once per figure."""
+    import matplotlib.figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from psdesign.report import html as report_html
+
+    draws = []
+    real_draw = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "draw", lambda self, r: (draws.append(self), real_draw(self, r))
+    )
+    figs = _captured(monkeypatch, report_html, "_png")
+    df = pd.DataFrame(
+        {
+            "case_id": ids,
+            "status": "ok",
+            "porosity": [0.849, 0.904],
+            "porosity_error": [4e-4, 4e-4],
+            "k_z_m2": k_z,
+            "k_z_rel_error": [0.05, 0.05],
+            "k_z_status": "ok",
+            "converged_z": [True, True],
+            "flux_imbalance_z": [8e-7, 1.5e-6],
+        }
+    )
+    study = {"base": {"generator": {"diameter": diameter}}} if diameter else {}
+    assert report_html._perm_figure(df, study)[0] and report_html._convergence(df)[1]
+    assert len(figs) == 2 and [draws.count(f) for f in figs] == [1, 1]
+    for fig in figs:
+        renderer = FigureCanvasAgg(fig).get_renderer()  # pyplot's was closed
+        width, height = fig.bbox.width, fig.bbox.height
+        for ax in fig.axes:
+            box = ax.get_tightbbox(renderer)
+            inside = box.x0 >= 0 and box.y0 >= 0 and box.x1 <= width and box.y1 <= height
+            assert inside, (box, width, height)
+            labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+            assert len(labels) == len(set(labels)) >= 2, labels  # no label twice
