@@ -736,8 +736,14 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
     return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields", width=640)
 
 
-def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
-    """Every case's preview picture, paged (images are decoded only when their page shows)."""
+def _previews(df: pd.DataFrame, out: Path, params: list[str], image: bool = False) -> str:
+    """Every case's preview picture, paged (images are decoded only when their page shows),
+    captioned with its design point and the title ``generate`` puts on its own preview
+    (:func:`~psdesign.report.preview.preview_title`: the porosity and Omega with their bars and
+    statuses, the fibre count; ``image``: an image's RVE, no Omega), which a study's preview
+    lacked until session 48."""
+    from psdesign.report.preview import preview_title
+
     if "preview_png" not in df:
         return '<p class="note">The case function wrote no preview pictures.</p>'
     items = []
@@ -750,7 +756,9 @@ def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         if uri is None:
             continue
         cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
-        items.append((uri, f"{row['case_id']}: {cap} seed={row.get('seed')}"))
+        title = preview_title(row, image=image)  # "" without a porosity
+        caption = f"{row['case_id']}: {cap} seed={row.get('seed')}"
+        items.append((uri, f"{caption}; {title}" if title else caption))
     if not items:
         return '<p class="note">No preview pictures found.</p>'
     return gallery_html(items)
@@ -808,6 +816,7 @@ def build_html(out_dir: str | Path) -> str:
         if len(me):
             me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
 
+    image = bool((study.get("base") or {}).get("image"))  # an image's RVE: no Omega
     conv_table, conv_uri, n_flag = _convergence(df)
     conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
 
@@ -840,7 +849,7 @@ anisotropy = mean in-plane K / through-plane K.</p>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
 least squares on standardized variables) of each numeric parameter against porosity and
 log10 K, over cases with status ok.</p>{sens_html}{me_html}
-<h2>Sample RVEs</h2>{_previews(df, out, params)}
+<h2>Sample RVEs</h2>{_previews(df, out, params, image)}
 {_field_pictures(df, out, params)}
 <h2>Solver convergence</h2>
 <p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged

@@ -1725,9 +1725,7 @@ def test_a_trusted_k_at_an_untrustworthy_porosity_is_drawn_open_in_both_porosity
     ],
     ids=["quickstart", "in_a_decade", "long_ids"],
 )
-def test_the_report_figures_are_drawn_once_with_every_label_inside(
-    k_z, ids, diameter, monkeypatch
-):
+def test_the_report_figures_are_drawn_once_with_every_label_inside(k_z, ids, diameter, monkeypatch):
     """Session 48: each of the report's two matplotlib PNGs was drawn twice
     (``bbox_inches="tight"`` draws to find the margins, then again to save; the convergence
     figure's ``tight_layout`` measured it a third time), about half their CPU. They are now
@@ -1771,3 +1769,38 @@ def test_the_report_figures_are_drawn_once_with_every_label_inside(
             assert inside, (box, width, height)
             labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
             assert len(labels) == len(set(labels)) >= 2, labels  # no label twice
+
+
+def test_the_study_previews_carry_generates_title(tmp_path):
+    """Session 48 (the session-47 re-read): ``generate``'s preview is titled with the porosity
+    and Omega, each with its bar and status, and the fibre count, while a study's previews
+    were captioned with the design point only: an untrustworthy Omega looked like an ok one.
+    The report's caption now ends with the one title (``report.preview.preview_title``, which
+    ``generate`` calls too): the row's own numbers, Omega left out for an image's RVE (its 0/1
+    count cannot see overlaps, docs/geometry.md)."""
+    from study_cases import PNG_1PX
+
+    from psdesign.report.html import _previews
+    from psdesign.report.preview import preview_title
+
+    (tmp_path / "p.png").write_bytes(PNG_1PX)
+    row = {
+        "case_id": "c0000-ab",
+        "seed": 1,
+        "generator.porosity": 0.8,
+        "porosity": 0.81234,
+        "porosity_error": 0.00042,
+        "n_fibers": 12,
+        "intersection_volume_fraction": 0.00213,
+        "intersection_volume_fraction_error": 0.0003,
+        "intersection_volume_fraction_status": "untrustworthy",
+        "preview_png": "p.png",
+    }
+    df = pd.DataFrame([row])
+    title = "porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [untrustworthy], 12 fibers"
+    assert preview_title(row) == title
+    html = _previews(df, tmp_path, ["generator.porosity"])
+    assert f"<figcaption>c0000-ab: generator.porosity=0.8 seed=1; {title}</figcaption>" in html
+    image = _previews(df, tmp_path, ["generator.porosity"], image=True)
+    assert "seed=1; porosity 0.8123 +- 4.2e-04 [ok], 12 fibers</figcaption>" in image, image
+    assert "Omega" not in image
