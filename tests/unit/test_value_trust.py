@@ -405,3 +405,24 @@ def test_pore_diameters_print_their_bar_one_sided():
     # the frame's title says so (plotly writes "/" as "\\u002f" in its JSON)
     title = "pore_d50_m vs generator.porosity (bar one-sided: +bar/-0)"
     assert title.replace("/", "\\u002f") in html
+
+
+def test_a_pore_diameter_target_reads_its_bar_one_sided():
+    """Session 48: ``study optimize``'s verdicts took a pore diameter's bar both ways. The
+    true d50 lies between the measured value and the value + ``pore_diameter_error_m``
+    (docs/transport.md), so d50 = 21 um with a 3 um bar (14.3 % of it) meets ``>= 20 um``
+    with its whole bar (21-24 um; the symmetric 18-24 um "reached outside") and misses
+    ``<= 20 um`` beyond its bar (the symmetric one "could not tell"); the line prints the bar
+    ``+14.3 %/-0``. Truth: interval arithmetic on [21, 24] um."""
+    from psdesign.analysis.targets import Target, measured_text, target_report
+
+    row = {"pore_d50_m": 21e-6, "pore_diameter_error_m": 3e-6, "pore_sizes_status": "ok"}
+    above = target_report(Target.parse("pore_d50_m>=20e-6"), row)
+    assert above["met"] and above["error_bar_inside_target"]
+    assert measured_text(above) == "measured 2.1e-05 +14.3 %/-0 [ok] (met)"
+    below = target_report(Target.parse("pore_d50_m<=20e-6"), row)
+    assert not below["met"] and not below["target_within_error_bar"]
+    assert measured_text(below) == "measured 2.1e-05 +14.3 %/-0 [ok] (missed)"
+    k = {"k_z_m2": 21e-12, "k_z_rel_error": 3 / 21, "k_z_status": "ok"}  # a K's bar: both ways
+    r = target_report(Target.parse("k_z_m2<=20e-12"), k)
+    assert r["target_within_error_bar"] and "+- 14.3 %" in measured_text(r)
