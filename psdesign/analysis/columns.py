@@ -49,6 +49,11 @@ ABS_ERROR_COLUMNS = {
     **{f"pore_d{q}_m": "pore_diameter_error_m" for q in (10, 50, 90)},
 }
 
+#: The values whose absolute bar is one-sided, the truth at or above the value by up to the bar:
+#: the pore diameters' scan measures low (:func:`psdesign.transport.pores.diameter_bar_text`),
+#: so the report prints them ``+bar/-0`` and draws their bar upward only (session 48).
+UPPER_BARS = frozenset(c for c, e in ABS_ERROR_COLUMNS.items() if e == "pore_diameter_error_m")
+
 #: Every error column: an estimate of a value's error, not an output of its own.
 ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
 #: The value whose bar rates a value that has no status of its own, where that is another's:
@@ -107,7 +112,7 @@ def _number(v) -> float | None:
     return v if v == v else None
 
 
-def _numbers(df: pd.DataFrame, column: str) -> np.ndarray:
+def column_numbers(df: pd.DataFrame, column: str) -> np.ndarray:
     """``df[column]`` as floats (NaN where it is not a number or the column is missing): what
     :func:`_number` reads of one cell."""
     if column not in df:
@@ -127,8 +132,8 @@ def _rel_error(row: dict, column: str) -> float | None:
 def _rel_errors(df: pd.DataFrame, column: str) -> np.ndarray:
     """:func:`_rel_error` of every row of ``df`` at once (NaN for None)."""
     if column in REL_ERROR_COLUMNS:
-        return _numbers(df, REL_ERROR_COLUMNS[column])
-    y, e = _numbers(df, column), _numbers(df, ABS_ERROR_COLUMNS.get(column, ""))
+        return column_numbers(df, REL_ERROR_COLUMNS[column])
+    y, e = column_numbers(df, column), column_numbers(df, ABS_ERROR_COLUMNS.get(column, ""))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(np.isnan(e) | np.isnan(y) | (y == 0), np.nan, e / np.abs(y))
 
@@ -286,7 +291,7 @@ def own_status(df: pd.DataFrame, column: str) -> pd.Series:
         # error_bar's rule over the whole column (row by row until session 47: 20-60 ms per
         # 2000 rows): no value reads "no trusted value", no bar "unrated", both left unset
         words = _bar_words(_rel_errors(df, by))
-        words = np.where(~np.isnan(_numbers(df, by)) & (words != "unrated"), words, None)
+        words = np.where(~np.isnan(column_numbers(df, by)) & (words != "unrated"), words, None)
         vals[unset] = words[unset]
     vals[pd.isna(vals)] = "ok"
     return pd.Series(vals, index=df.index, name=None if st is None else st.name).astype(str)

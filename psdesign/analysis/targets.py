@@ -194,22 +194,22 @@ class Target:
         half = self.tolerance * abs(self.value)
         return self.value - half, self.value + half
 
-    def within_bar(self, y: float, rel_error: float | None) -> bool:
-        """Whether the error bar ``y +- rel_error |y|`` overlaps the values that meet the
-        target (the measurement cannot tell met from missed)."""
-        if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
+    def within_bar(self, y: float, rel_error: float | None, one_sided: bool = False) -> bool:
+        """Whether the error bar of ``y`` (:func:`bar_range`) overlaps the values that meet
+        the target (the measurement cannot tell met from missed)."""
+        bar = bar_range(y, rel_error, one_sided)
+        if bar is None:
             return False
         lo, hi = self.bounds()
-        half = abs(rel_error * y)
-        return y - half <= hi and lo <= y + half
+        return bar[0] <= hi and lo <= bar[1]
 
-    def bar_inside(self, y: float, rel_error: float | None) -> bool:
-        """Whether the whole error bar ``y +- rel_error |y|`` meets the target."""
-        if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
+    def bar_inside(self, y: float, rel_error: float | None, one_sided: bool = False) -> bool:
+        """Whether the whole error bar of ``y`` (:func:`bar_range`) meets the target."""
+        bar = bar_range(y, rel_error, one_sided)
+        if bar is None:
             return False
         lo, hi = self.bounds()
-        half = abs(rel_error * y)
-        return lo <= y - half and y + half <= hi
+        return lo <= bar[0] and bar[1] <= hi
 
     def met(self, y: float) -> bool:
         """Whether a measured value meets the target."""
@@ -238,6 +238,20 @@ class Target:
         return f"{self.output}{self.op}{self.value:g}"
 
 
+def bar_range(y: float, rel_error: float | None, one_sided: bool = False):
+    """The values the error bar of a measured ``y`` spans, ``(low, high)``: ``y +- rel_error
+    |y|``, or for a one-sided bar (:data:`~psdesign.analysis.columns.UPPER_BARS`: a pore
+    diameter, whose scan measures low) ``y`` to ``y + rel_error |y|``; None without a bar.
+
+    >>> bar_range(2.0, 0.1), bar_range(2.0, 0.1, one_sided=True), bar_range(2.0, None)
+    ((1.8, 2.2), (2.0, 2.2), None)
+    """
+    if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
+        return None
+    half = abs(rel_error * y)
+    return (y if one_sided else y - half), y + half
+
+
 def target_report(t: Target, best: dict) -> dict:
     """One target against the chosen case ``best`` (a row of a results table): the row of the
     ``study optimize`` outcome's ``targets`` (``--json``, ``optimize.json``), with the
@@ -249,7 +263,8 @@ def target_report(t: Target, best: dict) -> dict:
     >>> measured_text(r)
     'measured 1.05e-11 +- 10 % [ok] (met; the error bar reaches outside the target)'
     """
-    from psdesign.analysis.columns import error_bar  # pandas: not on the CLI's start path
+    # pandas: not on the CLI's start path
+    from psdesign.analysis.columns import UPPER_BARS, error_bar
 
     try:
         y = float(best.get(t.output, float("nan")))
@@ -263,8 +278,9 @@ def target_report(t: Target, best: dict) -> dict:
         "rel_error": rel,
         "status": status,
         "met": t.met(y),
-        "target_within_error_bar": t.within_bar(y, rel),  # the bar overlaps the target
-        "error_bar_inside_target": t.bar_inside(y, rel),
+        # the bar overlaps the target; a pore diameter's reaches upward only (session 48)
+        "target_within_error_bar": t.within_bar(y, rel, t.output in UPPER_BARS),
+        "error_bar_inside_target": t.bar_inside(y, rel, t.output in UPPER_BARS),
     }
 
 
@@ -293,13 +309,14 @@ REPORT_KEYS = frozenset(
 def measured_text(r: dict) -> str:
     """One target's line of the ``study optimize`` outcome (a :func:`target_report` row):
     ``measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within ...)``."""
+    from psdesign.analysis.columns import UPPER_BARS
+
     if r["measured"] is None:
         return f"no measured value [{r['status']}] (missed)"
-    bar = (
-        f" +- {100 * r['rel_error']:.3g} %"
-        if r["rel_error"] is not None
-        else " (no error estimate)"
-    )
+    bar = " (no error estimate)"
+    if r["rel_error"] is not None:  # a pore diameter's bar is one-sided, upward (session 48)
+        pct = f"{100 * r['rel_error']:.3g} %"
+        bar = f" +{pct}/-0" if r.get("output") in UPPER_BARS else f" +- {pct}"
     verdict = "met" if r["met"] else "missed"
     if r["target_within_error_bar"] and not r["met"]:
         verdict += "; the target lies within the measurement's error bar"

@@ -48,48 +48,6 @@ def _cmd_generate(args: argparse.Namespace) -> int:
     return status_code(out["porosity_status"], out["intersection_volume_fraction_status"])
 
 
-def preview_title(summary: dict) -> str:
-    """The title of ``generate``'s preview.png: the values ``generate`` prints of the RVE the
-    picture shows, each with its bar and its status in the words of its status column (the
-    report's values table's): the porosity (``porosity_status``) and the fibres' overlap Omega
-    (``intersection_volume_fraction_status``), then the fibre count (session 42: the porosity
-    without its bar; session 45: without its status; session 47: Omega, which the JSON line
-    rated, was not in it). An image's RVE (``generation.source == "image"``) has no fibre
-    list: its 0/1 count cannot see where fibres overlap, so Omega is left out of its title
-    (session 47 review: ``Omega 0 +- 0 [ok]`` under an image of two cylinders overlapping
-    0.00548 of the box; docs/geometry.md).
-
-    >>> preview_title({"porosity": 0.81234, "porosity_error": 0.00042, "n_fibers": 12,
-    ...                "intersection_volume_fraction": 0.00213,
-    ...                "intersection_volume_fraction_error": 0.0003,
-    ...                "intersection_volume_fraction_status": "ok"})
-    'porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [ok], 12 fibers'
-    >>> preview_title({"porosity": 0.088, "porosity_error": 0.024, "n_fibers": 3,
-    ...                "intersection_volume_fraction": 0.0,
-    ...                "intersection_volume_fraction_error": 0.0,
-    ...                "intersection_volume_fraction_status": "untrustworthy"})
-    'porosity 0.0880 +- 2.4e-02 [untrustworthy], Omega 0 +- 0 [untrustworthy], 3 fibers'
-    >>> preview_title({"porosity": 0.861, "porosity_error": 0.01, "n_fibers": 0,
-    ...                "intersection_volume_fraction": 0.0, "generation": {"source": "image"}})
-    'porosity 0.8610 +- 1.0e-02 [ok], 0 fibers'
-    """
-    from psdesign.analysis.columns import porosity_status
-    from psdesign.geometry.porosity import porosity_text
-
-    eps, err = summary["porosity"], summary.get("porosity_error")
-    parts = [f"porosity {porosity_text(eps, err)} [{porosity_status(eps, err)}]"]
-    omega = summary.get("intersection_volume_fraction")
-    if (summary.get("generation") or {}).get("source") == "image":
-        omega = None  # no fibre list: the image's count cannot see overlaps
-    if omega is not None:  # as the values table prints it: an exact 0 as such, 3 digits
-        bar = summary.get("intersection_volume_fraction_error")
-        text = "0" if omega == 0 else f"{omega:.3g}"
-        text += "" if bar is None else " +- " + ("0" if bar == 0 else f"{bar:.1e}")
-        status = summary.get("intersection_volume_fraction_status") or "unrated"
-        parts.append(f"Omega {text} [{status}]")
-    return ", ".join([*parts, f"{summary['n_fibers']} fibers"])
-
-
 GENERATE_FILES = (
     "rve.json",
     "summary.json",
@@ -191,6 +149,7 @@ def write_generate_outputs(
     from psdesign.report.preview import (
         distance_image,
         fiber_surface,
+        preview_title,
         render_preview,
         write_stl,
     )

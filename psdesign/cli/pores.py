@@ -52,12 +52,13 @@ def _sizes_line(out: dict) -> str:
     one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
     measures low, so the true value lies up to the bar above), the rating, the scan step."""
     from psdesign.cli.lines import rating
+    from psdesign.transport.pores import diameter_bar_text
 
     converged = bool(out.get("converged", True))
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {out['breakthrough_diameter_m']:.3e} m, "
-        f"each +{out['diameter_error_m']:.1e}/-0 m  "
+        f"each {diameter_bar_text(out['diameter_error_m'])} m  "
         f"{rating({'status': out['pore_sizes_status'], 'converged': converged})}  "
         f"(scan step {out['bin_width_m']:.1e} m)"
     )

@@ -16,6 +16,7 @@ from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
     ERROR_COLUMNS,
     REL_ERROR_COLUMNS,
+    UPPER_BARS,
     distinct_realizations,
     numeric_parameters,
     trusted,
@@ -168,6 +169,32 @@ def _nan_none(a) -> list:
     return [None if (v is None or not math.isfinite(float(v))) else float(v) for v in a]
 
 
+def _error_y(c: str, up: np.ndarray | None, down: np.ndarray | None) -> dict | None:
+    """Plotly's ``error_y`` of output ``c``: ``up`` both ways, or for a value whose numerical
+    bar is one-sided (:data:`~psdesign.analysis.columns.UPPER_BARS`: a pore diameter's scan
+    measures low, the truth lies above) ``up`` above and ``down`` (the part of the bar that
+    is not the numerical one: the replicates' CI, 0 for one case) below; None without ``up``.
+
+    >>> _error_y("pore_d50_m", np.array([3.0]), np.array([1.0]))["arrayminus"]
+    [1.0]
+    >>> "arrayminus" in _error_y("k_z_m2", np.array([3.0]), np.array([1.0]))
+    False
+    """
+    if up is None:
+        return None
+    bar = {"type": "data", "array": _nan_none(up)}
+    if c in UPPER_BARS and down is not None:
+        bar |= {"symmetric": False, "arrayminus": _nan_none(down)}
+    return bar
+
+
+def _ci_part(summary: pd.DataFrame, c: str) -> np.ndarray:
+    """The replicates' 95 % CI half-width of each design point's mean of ``c`` (0 without
+    one): the part of :func:`_err` below a one-sided value's mean."""
+    half = ci95_half(summary, c)
+    return np.zeros(len(summary)) if half is None else np.nan_to_num(half, nan=0.0)
+
+
 def parameter_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
     """Every output against each numeric design parameter: replicate means, bars of the 95 % CI
     plus the numerical error bar (:func:`_err`); ``loguniform`` parameters of ``study`` on a
@@ -263,7 +290,7 @@ def _other_figure(
     bad = _not_ok_traces(every, p, c, c, COLORS[0], masks)
     fig = go.Figure((lines if trusted else []) + bad)
     fig.update_layout(
-        title=f"{c} vs {p}",
+        title=f"{c} vs {p}" + (" (bar one-sided: +bar/-0)" if c in UPPER_BARS else ""),
         height=320,
         showlegend=len(groups) > 1 or bool(bad),
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
@@ -318,7 +345,7 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
         mode=mode,
         name=label,
         line={"color": COLORS[i % len(COLORS)], "dash": DASHES[j % len(DASHES)]},
-        error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
+        error_y=_error_y(c, e, _ci_part(g, c)),
     )
 
 
@@ -348,7 +375,7 @@ def _not_ok_traces(
                 mode="markers",
                 name=f"{name}: {status} (not in the lines)",
                 marker={"symbol": symbol, "size": 10, "color": color, "line": {"width": 2}},
-                error_y=None if e is None else {"type": "data", "array": _nan_none(e)},
+                error_y=_error_y(c, e, np.zeros(len(rows))),  # a case's own bar
                 text=list(rows["case_id"]) if "case_id" in rows else None,
             )
         )

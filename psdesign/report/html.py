@@ -23,7 +23,9 @@ from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
     RATED_BY,
     STATUS_COLUMNS,
+    UPPER_BARS,
     case_status,
+    column_numbers,
     error_bar,
     flagged_values,
     is_design_parameter,
@@ -46,7 +48,7 @@ from psdesign.report.references import (
     tomadakis_sotirchos,
 )
 from psdesign.report.sensitivity import main_effects, sensitivity_table
-from psdesign.report.transport import transport_figure
+from psdesign.report.transport import log_ticks, transport_figure
 from psdesign.report.trust import (
     AT_UNTRUSTED_X,
     NOT_OK_MARKERS,
@@ -96,11 +98,48 @@ def _esc(x) -> str:
     return html.escape("" if x is None else str(x))
 
 
+#: Margins of the report's matplotlib figures (inches: left, right, bottom, top), fixed: each
+#: PNG is drawn once. ``bbox_inches="tight"`` drew every figure twice to find its margins (and
+#: the convergence figure's ``tight_layout`` measured it a third time): about half the CPU of
+#: the two PNGs, session 48 (benchmarks/RESULTS.md). They hold every label because the labels'
+#: sizes are known: log axes tick ``2e-11`` or ``3.2e-11`` (:func:`~psdesign.report.transport.
+#: log_tick_text`, at most 7 characters), the porosity ``0.80``, and x tick labels written at 90
+#: degrees (the convergence figure's case ids) set the bottom one by their measured length
+#: (:func:`_bottom_margin`).
+FIG_MARGINS_IN = (0.95, 0.25, 0.55, 0.15)
+#: Of a bottom margin: the x axis' label and its pad, and the ticks with theirs (inches).
+XLABEL_IN, TICKS_IN = 0.3, 0.1
+
+
+def _bottom_margin(fig) -> float:
+    """The bottom margin (inches) that holds ``fig``'s x axis: :data:`FIG_MARGINS_IN`'s, or
+    with tick labels at 90 degrees the longest one's length (measured, not drawn) plus the
+    ticks and the axis' label."""
+    labels = [t for ax in fig.axes for t in ax.get_xticklabels()]
+    rotated = [t for t in labels if t.get_rotation() == 90 and t.get_text()]
+    if not rotated:
+        return FIG_MARGINS_IN[2]
+    renderer = fig.canvas.get_renderer()
+    longest = max(
+        renderer.get_text_width_height_descent(t.get_text(), t.get_fontproperties(), False)[0]
+        for t in rotated
+    )
+    return XLABEL_IN + TICKS_IN + longest / fig.dpi
+
+
 def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    """``fig`` as a PNG ``data:`` URI at the margins :data:`FIG_MARGINS_IN`, drawn once."""
     import matplotlib.pyplot as plt
 
+    left, right, fixed, top = FIG_MARGINS_IN
+    bottom = _bottom_margin(fig)
+    w, h = fig.get_size_inches()
+    if bottom > fixed:  # long labels lengthen the picture, never shorten the plot
+        h += bottom - fixed
+        fig.set_size_inches(w, h)
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
@@ -311,6 +350,8 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
+    # labels of a known width (FIG_MARGINS_IN); over the data and the reference curves drawn
+    log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return _png(fig), " ".join(n for n in notes if n)
@@ -347,6 +388,8 @@ def _reference_curves(ax, eps: pd.Series, r0: float | None, normalize: bool) -> 
 
 
 def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
+    """The solver-convergence table (each case flagged when :func:`_convergence_flags`), the
+    flux-imbalance figure's PNG (None without an imbalance) and the number flagged."""
     stat_cols = [
         c
         for c in df.columns
@@ -354,25 +397,8 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     cols = ["case_id", "status", *stat_cols, "error"]
     cols = [c for c in cols if c in df]
-    classes = []
-    n_flag = 0
-    cases = case_status(df)
-    # a K not ok by its own status (k_not_ok: what the red box counts; an in-memory "" own
-    # status is unset, not a flag, since review s46)
-    k_bad = pd.concat([k_not_ok(df, f"k_{d}_m2") for d in "xyz"], axis=1).any(axis=1)
-    for i, row in df.iterrows():
-        flag = cases[i] != "ok" or k_bad[i]
-        for c in stat_cols:
-            v = row[c]
-            if c.startswith("converged_") and str(v).lower() in ("false", "0", "0.0"):
-                flag = True
-            if c.startswith("flux_imbalance_"):
-                fv = pd.to_numeric(pd.Series([v]), errors="coerce").iloc[0]
-                if pd.notna(fv) and abs(fv) > FLUX_IMBALANCE_FLAG:
-                    flag = True
-        classes.append("flag" if flag else "")
-        n_flag += flag
-    table = _table(df[cols], classes)
+    flags = _convergence_flags(df, stat_cols)
+    table = _table(df[cols], ["flag" if f else "" for f in flags])
     fig_uri = None
     fcols = [
         c
@@ -382,7 +408,23 @@ def _convergence(df: pd.DataFrame) -> tuple[str, str | None, int]:
     ]
     if fcols:
         fig_uri = _png(_convergence_figure(df, fcols))
-    return table, fig_uri, n_flag
+    return table, fig_uri, int(flags.sum())
+
+
+def _convergence_flags(df: pd.DataFrame, stat_cols: list[str]) -> np.ndarray:
+    """Each case flagged in the convergence table: its status not ok, a K not ok by its own
+    status (:func:`~psdesign.analysis.columns.k_not_ok`, what the red box counts; an in-memory
+    "" own status is unset, not a flag, since review s46), a direction not converged or an
+    |flux imbalance| above :data:`FLUX_IMBALANCE_FLAG`. Column by column: a one-value Series
+    through ``pd.to_numeric`` per cell cost ~0.1 ms (session 48)."""
+    flag = (case_status(df) != "ok").to_numpy(copy=True)
+    flag |= pd.concat([k_not_ok(df, f"k_{d}_m2") for d in "xyz"], axis=1).any(axis=1).to_numpy()
+    for c in stat_cols:
+        if c.startswith("converged_"):
+            flag |= df[c].astype(str).str.lower().isin(("false", "0", "0.0")).to_numpy()
+        if c.startswith("flux_imbalance_"):
+            flag |= np.abs(column_numbers(df, c)) > FLUX_IMBALANCE_FLAG
+    return flag
 
 
 def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
@@ -413,8 +455,8 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     ax.set_xticks(x[::step], list(ids)[::step], rotation=90, fontsize=7)
     ax.set_xlabel("case id")
     ax.set_ylabel("|flux imbalance| (relative)")
+    log_ticks(ax.yaxis, [FLUX_IMBALANCE_FLAG, *(v for line in ax.lines for v in line.get_ydata())])
     ax.legend(fontsize=7)
-    fig.tight_layout()
     return fig
 
 
@@ -451,16 +493,19 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         one_bc[d] = bcs[0] if len(bcs) == 1 else None
     heads = {d: f"K_{d} (m²)" + (f", bc {one_bc[d]}" if one_bc[d] else "") for d in dirs}
     classes = []
-    cases = case_status(df)  # a missing one is "unknown", not ok (review s45)
+    cases = case_status(df).tolist()  # a missing one is "unknown", not ok (review s45)
     # each K's own status as the red box reads it (own_status: "" unset, an old table's K
     # without a status by its bar; review s46)
-    own = {d: own_status(df, f"k_{d}_m2") for d in dirs}
-    for i, row in df.iterrows():
+    own = {d: own_status(df, f"k_{d}_m2").tolist() for d in dirs}
+    # each column parsed once, cells read by position: a one-value Series through
+    # pd.to_numeric per cell and a Series looked up by label per cell cost 2.6 s of CPU of a
+    # 2000-row table's 14 s report (session 48)
+    num = {c: column_numbers(df, c) for d in dirs for c in (f"k_{d}_m2", f"k_{d}_rel_error")}
+    for i, row in enumerate(df.to_dict("records")):
         out = {"case_id": row.get("case_id", ""), "case status": cases[i]}
         flag = cases[i] != "ok"
         for d in dirs:
-            k = pd.to_numeric(pd.Series([row.get(f"k_{d}_m2")]), errors="coerce").iloc[0]
-            e = pd.to_numeric(pd.Series([row.get(f"k_{d}_rel_error")]), errors="coerce").iloc[0]
+            k, e = num[f"k_{d}_m2"][i], num[f"k_{d}_rel_error"][i]
             st = own[d][i]
             status = st if st != "ok" or cases[i] == "ok" else cases[i]
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
@@ -483,7 +528,7 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     return "<h3>Permeability with error bars</h3>" + note + table
 
 
-def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> str:
+def untrusted_k_reason(row: pd.Series | dict, d: str, solver: str | None = "voxel") -> str:
     """Why the K of ``row`` along ``d`` is ``untrustworthy``, in a few words, from the row's
     numbers by :func:`psdesign.flow.error.untrustworthy_reasons`, the rule of ``status_of``:
     its error bar above :data:`~psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR`, fewer than
@@ -494,7 +539,7 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
 
     Parameters
     ----------
-    row : pandas.Series
+    row : pandas.Series or dict
         A row of ``results.csv``.
     d : str
         The direction, ``"x"``, ``"y"`` or ``"z"``.
@@ -519,10 +564,8 @@ def untrusted_k_reason(row: pd.Series, d: str, solver: str | None = "voxel") -> 
     from psdesign.flow.error import untrustworthy_reasons
     from psdesign.geometry.rve import DIAMETER_MEASURE
 
-    def num(col: str) -> float:
-        return float(pd.to_numeric(pd.Series([row.get(col)]), errors="coerce").iloc[0])
-
-    e, cpd = num(f"k_{d}_rel_error"), num(f"cells_per_diameter_{d}")
+    # a cell at a time (_scalar: a one-value Series through pd.to_numeric cost ~0.1 ms)
+    e, cpd = _scalar(row.get(f"k_{d}_rel_error")), _scalar(row.get(f"cells_per_diameter_{d}"))
     rated_cpd = cpd if solver != "fem" and math.isfinite(cpd) else None
     measure = row.get(f"resolution_measure_{d}")
     measure = measure if isinstance(measure, str) and measure else DIAMETER_MEASURE
@@ -550,17 +593,18 @@ def _scalar(x) -> float:
 
 #: Values that share one absolute bar and are rated together by it over one of them
 #: (:data:`~psdesign.analysis.columns.RATED_BY`: d10, d50 and d90 by ``pore_diameter_error_m``
-#: over d50): printed ± that bar, the one they are rated over with the fraction that rates
-#: them (until session 47 each was printed ± its own fraction, d10's 30 % beside an ok status
-#: that d50's 15 % gave).
+#: over d50): printed with that bar (one-sided, ``+bar/-0``: :data:`~psdesign.analysis.columns.
+#: UPPER_BARS`), the one they are rated over with the fraction that rates them (until session
+#: 47 each was printed ± its own fraction, d10's 30 % beside an ok status that d50's 15 % gave).
 SHARED_BARS = (*RATED_BY, *dict.fromkeys(RATED_BY.values()))
 
 
 def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
-    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05 ±
-    3.0e-06", True)`` for a pore diameter; the value alone and False without a bar, ``""``
-    without a value."""
+    ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05
+    +3.0e-06/-0", True)`` for a pore diameter (its bar one-sided, the truth above:
+    :func:`~psdesign.transport.pores.diameter_bar_text`; until session 48 ``± 3.0e-06``); the
+    value alone and False without a bar, ``""`` without a value."""
     v, e = _scalar(value), _scalar(error)
     if pd.isna(v):
         return "", False
@@ -568,6 +612,10 @@ def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     txt = f"{v:.4f}" if column == "porosity" else "0" if v == 0 else f"{v:{digits}}"
     if pd.isna(e):
         return txt, False
+    if column in UPPER_BARS:
+        from psdesign.transport.pores import diameter_bar_text
+
+        return f"{txt} {diameter_bar_text(e)}", True
     return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
 
 
@@ -631,7 +679,7 @@ def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
 
     >>> row = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
     >>> _value_cell(row, "pore_d10_m", 0.3), _value_cell(row, "pore_d50_m", 0.15)
-    (('1e-05 ± 3.0e-06', True), ('2e-05 ± 3.0e-06 (15.0 %)', True))
+    (('1e-05 +3.0e-06/-0', True), ('2e-05 +3.0e-06/-0 (15.0 %)', True))
     >>> _value_cell({"diffusivity_z": 0.4}, "diffusivity_z", 0.05)
     ('0.4 ± 5.0 %', True)
     """
@@ -657,8 +705,9 @@ def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
     rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
     return (
-        "; pore diameters d10, d50 and d90 ± their one absolute bar (pore_diameter_error_m), "
-        "rated together by that bar over d50 (the % beside d50; "
+        "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m), "
+        "one-sided: the scan measures low, so each true diameter lies between the value and "
+        "the value + the bar (+bar/-0); rated together by that bar over d50 (the % beside d50; "
         f"{_status_words('pore_sizes_status')}, docs/transport.md)"
     )
 
@@ -687,8 +736,14 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
     return "<h2>Flow fields</h2>" + note + gallery_html(items, "psd-fields", width=640)
 
 
-def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
-    """Every case's preview picture, paged (images are decoded only when their page shows)."""
+def _previews(df: pd.DataFrame, out: Path, params: list[str], image: bool = False) -> str:
+    """Every case's preview picture, paged (images are decoded only when their page shows),
+    captioned with its design point and the title ``generate`` puts on its own preview
+    (:func:`~psdesign.report.preview.preview_title`: the porosity and Omega with their bars and
+    statuses, the fibre count; ``image``: an image's RVE, no Omega), which a study's preview
+    lacked until session 48."""
+    from psdesign.report.preview import preview_title
+
     if "preview_png" not in df:
         return '<p class="note">The case function wrote no preview pictures.</p>'
     items = []
@@ -701,7 +756,9 @@ def _previews(df: pd.DataFrame, out: Path, params: list[str]) -> str:
         if uri is None:
             continue
         cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
-        items.append((uri, f"{row['case_id']}: {cap} seed={row.get('seed')}"))
+        title = preview_title(row, image=image)  # "" without a porosity
+        caption = f"{row['case_id']}: {cap} seed={row.get('seed')}"
+        items.append((uri, f"{caption}; {title}" if title else caption))
     if not items:
         return '<p class="note">No preview pictures found.</p>'
     return gallery_html(items)
@@ -759,6 +816,7 @@ def build_html(out_dir: str | Path) -> str:
         if len(me):
             me_html = "<h3>Main effects (mean response per level)</h3>" + _table(me)
 
+    image = bool((study.get("base") or {}).get("image"))  # an image's RVE: no Omega
     conv_table, conv_uri, n_flag = _convergence(df)
     conv_fig = f'<img src="{conv_uri}" alt="flux imbalance">' if conv_uri else ""
 
@@ -781,7 +839,8 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{k_html}
 {diff_html}{_values_table(df, study)}
 <h2>Outputs vs design parameters</h2>
 <p class="note">Means over replicates (seeds); bar: the Student-t 95 % half-width of the mean
-(summary.csv's X_ci95_half; none for one seed) plus the cases' mean numerical error bar;
+(summary.csv's X_ci95_half; none for one seed) plus the cases' mean numerical error bar
+(a pore diameter's upward only: the scan measures low, the truth lies above it);
 anisotropy = mean in-plane K / through-plane K.</p>
 {_safe(parameter_plots, df, params, study)}
 <h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}
@@ -790,7 +849,7 @@ anisotropy = mean in-plane K / through-plane K.</p>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
 least squares on standardized variables) of each numeric parameter against porosity and
 log10 K, over cases with status ok.</p>{sens_html}{me_html}
-<h2>Sample RVEs</h2>{_previews(df, out, params)}
+<h2>Sample RVEs</h2>{_previews(df, out, params, image)}
 {_field_pictures(df, out, params)}
 <h2>Solver convergence</h2>
 <p class="note">{n_flag} flagged case(s) (highlighted): status not ok, a direction not converged
@@ -828,7 +887,10 @@ def _status_banner(df: pd.DataFrame) -> str:
         "each untrustworthy K's status in the Permeability table (more in the Results table's "
         "<code>warnings_x</code> / <code>_y</code> / <code>_z</code> columns), in the "
         "<code>diffusivity_z_warnings</code>-like columns (transport values) or beside the "
-        "porosity's bar (above 20 %) in the Porosity table.</p>"
+        "porosity's bar in the Porosity table (porosity_status: "
+        # the rating's words as every command prints them (session 48: "above 20 %" was
+        # written out here beside STATUS_WORDS' copy)
+        f"{_esc(_status_words('porosity_status'))}).</p>"
     )
 
 

@@ -116,6 +116,83 @@ def box_label(shape: tuple[int, ...], spacing: np.ndarray) -> str:
     return "box " + " x ".join(f"{e:.10g}" for e in edges) + " µm"
 
 
+def _given(value) -> float | None:
+    """A number of a summary or a table row, None where it is missing (None or NaN)."""
+    if value is None:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return None if v != v else v
+
+
+def preview_title(values: dict, image: bool | None = None) -> str:
+    """The title of an RVE's preview picture, ``generate``'s preview.png and a study case's
+    (one helper for both since session 48: a study's previews had none): the values
+    ``generate`` prints of the RVE the picture shows, each with its bar and its status in the
+    words of its status column (the report's values table's): the porosity
+    (``porosity_status``) and the fibres' overlap Omega (``intersection_volume_fraction_status``),
+    then the fibre count (session 42: the porosity without its bar; session 45: without its
+    status; session 47: Omega, which the JSON line rated, was not in it). An image's RVE
+    (``image``, by default ``generation.source == "image"``) has no fibre list: its 0/1 count
+    cannot see where fibres overlap, so Omega is left out of its title (session 47 review:
+    ``Omega 0 +- 0 [ok]`` under an image of two cylinders overlapping 0.00548 of the box;
+    docs/geometry.md).
+
+    Parameters
+    ----------
+    values : dict
+        ``generate``'s summary or a study case's row (``results.csv``: a missing value is
+        None or NaN, left out with its status).
+    image : bool, optional
+        Whether the RVE is an image's; None: read ``values["generation"]["source"]``.
+
+    Returns
+    -------
+    str
+        The title, "" without a porosity.
+
+    Examples
+    --------
+    >>> preview_title({"porosity": 0.81234, "porosity_error": 0.00042, "n_fibers": 12,
+    ...                "intersection_volume_fraction": 0.00213,
+    ...                "intersection_volume_fraction_error": 0.0003,
+    ...                "intersection_volume_fraction_status": "ok"})
+    'porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [ok], 12 fibers'
+    >>> preview_title({"porosity": 0.088, "porosity_error": 0.024, "n_fibers": 3,
+    ...                "intersection_volume_fraction": 0.0,
+    ...                "intersection_volume_fraction_error": 0.0,
+    ...                "intersection_volume_fraction_status": "untrustworthy"})
+    'porosity 0.0880 +- 2.4e-02 [untrustworthy], Omega 0 +- 0 [untrustworthy], 3 fibers'
+    >>> preview_title({"porosity": 0.861, "porosity_error": 0.01, "n_fibers": 0,
+    ...                "intersection_volume_fraction": 0.0, "generation": {"source": "image"}})
+    'porosity 0.8610 +- 1.0e-02 [ok], 0 fibers'
+    >>> preview_title({"porosity": 0.9, "porosity_error": float("nan"), "n_fibers": 4.0,
+    ...                "intersection_volume_fraction": float("nan")})  # a table's row
+    'porosity 0.9000 [unrated], 4 fibers'
+    """
+    from psdesign.analysis.columns import porosity_status
+    from psdesign.geometry.porosity import porosity_text
+
+    eps, err = _given(values.get("porosity")), _given(values.get("porosity_error"))
+    if eps is None:
+        return ""
+    parts = [f"porosity {porosity_text(eps, err)} [{porosity_status(eps, err)}]"]
+    omega = _given(values.get("intersection_volume_fraction"))
+    if image is None:
+        image = (values.get("generation") or {}).get("source") == "image"
+    if omega is not None and not image:  # as the values table prints it: an exact 0, 3 digits
+        bar = _given(values.get("intersection_volume_fraction_error"))
+        text = "0" if omega == 0 else f"{omega:.3g}"
+        text += "" if bar is None else " +- " + ("0" if bar == 0 else f"{bar:.1e}")
+        status = values.get("intersection_volume_fraction_status")
+        status = status if isinstance(status, str) and status else "unrated"
+        parts.append(f"Omega {text} [{status}]")
+    n = _given(values.get("n_fibers"))
+    return ", ".join(parts + ([] if n is None else [f"{n:.0f} fibers"]))
+
+
 def render_preview(
     distance: np.ndarray,
     spacing: np.ndarray,

@@ -29,7 +29,18 @@ def _fig_png(fig) -> bytes:
     return buf.getvalue()
 
 
-def _log_ticks(axis, values) -> None:
+def log_tick_text(x: float) -> str:
+    """A log axis' tick label: one digit (``2e-05``), two where matplotlib falls back to linear
+    ticks inside a decade (``3.2e-05``, not ``3e-05`` beside ``3e-05``): at most 7 characters.
+
+    >>> log_tick_text(2e-05), log_tick_text(3.2e-05), log_tick_text(3.25e-05)
+    ('2e-05', '3.2e-05', '3.2e-05')
+    """
+    one = f"{x:.0e}"
+    return one if abs(float(one) - x) <= 1e-9 * abs(x) else f"{x:.1e}"
+
+
+def log_ticks(axis, values) -> None:
     """Label a log axis over ``values`` at 1, 2 and 5 per decade (``2e-05``) when they span up
     to two decades, else at the decades, and leave the other ticks bare: over less than a
     decade matplotlib labels every minor tick (``4x10^-6`` and ``3x10^-6`` overlapped on the
@@ -41,7 +52,7 @@ def _log_ticks(axis, values) -> None:
     span = float(np.log10(v.max() / v.min())) if v.size else 0.0
     subs = (1.0, 2.0, 5.0) if span <= 2.0 else (1.0,)
     axis.set_major_locator(ticker.LogLocator(base=10.0, subs=subs))
-    axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: f"{x:.0e}"))
+    axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: log_tick_text(x)))
     axis.set_minor_locator(ticker.LogLocator(base=10.0, subs=np.arange(1.0, 10.0)))
     axis.set_minor_formatter(ticker.NullFormatter())
 
@@ -60,6 +71,8 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from psdesign.transport.pores import diameter_bar_text
+
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.4))
     d = np.asarray(pores["diameters_m"])  # metres, as every output
     a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1e-6)
@@ -71,7 +84,7 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     a.legend(fontsize=7, loc="upper left")
     status = str(pores.get("pore_sizes_status", pores.get("status", "")))
     if status:
-        bar = f", each +{err:.1e}/-0 m (shaded)" if err > 0 else ""
+        bar = f", each {diameter_bar_text(err)} m (shaded)" if err > 0 else ""
         fig.suptitle(
             f"pore sizes [{status}]{bar}",
             fontsize=9,
@@ -82,7 +95,7 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     dia = np.asarray(pores["intrusion_diameter_m"], dtype=float)
     b.plot(dia, pores["intrusion_saturation"], "o-")
     b.set_xscale("log")
-    _log_ticks(b.xaxis, dia)
+    log_ticks(b.xaxis, dia)
     b.invert_xaxis()
     b.set_xlabel("accessible diameter (m)")
     b.set_ylabel("non-wetting saturation (-)")

@@ -128,6 +128,19 @@ def periodic_pore_distance(distance: np.ndarray, h: float) -> np.ndarray:
 #: voxel corner ``sqrt(3)``; ``tests/unit/test_pores.py``).
 CENTRE_OFFSET = float(np.sqrt(3.0))
 
+
+def diameter_bar_text(error_m: float) -> str:
+    """A pore diameter's one-sided bar as every output prints it: the scan measures low
+    (:data:`CENTRE_OFFSET`, the radius step), so the true diameter lies between the value and
+    the value plus ``diameter_error_m``, never below: ``+bar/-0`` (metres), never ``± bar``
+    (session 48: the report printed d10-d90 ``± bar``).
+
+    >>> diameter_bar_text(3e-6), diameter_bar_text(0.0)
+    ('+3.0e-06/-0', '+0/-0')
+    """
+    return "+" + ("0" if error_m == 0 else f"{error_m:.1e}") + "/-0"
+
+
 #: A ball union is computed crop by crop (one box per seed cluster) while the boxes hold fewer
 #: voxels than this fraction of the grid; otherwise by one distance transform of the whole grid.
 CROP_FRACTION = 0.6

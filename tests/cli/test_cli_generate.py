@@ -359,7 +359,7 @@ def test_an_images_preview_title_leaves_omega_out():
     and read back as an image titled ``Omega 0 +- 0 [ok]``, while the two cylinders overlap
     0.00548 of the box: Cavalieri, benchmarks/porosity_error_coverage.py crossing_lens(4, 3,
     4) / 24^3). The title leaves Omega out there; a fibre RVE's title keeps it."""
-    from psdesign.cli.generate import preview_title
+    from psdesign.report.preview import preview_title
 
     summary = {"porosity": 0.8608, "porosity_error": 0.0100, "n_fibers": 0}
     summary |= {"intersection_volume_fraction": 0.0, "intersection_volume_fraction_error": 0.0}

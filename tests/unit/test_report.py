@@ -1597,6 +1597,26 @@ def test_a_porosity_with_a_27_percent_bar_is_marked_in_the_frames_not_in_their_m
     assert "1 value(s) of ok cases not ok (porosity_status)" in _status_banner(df)
 
 
+def test_the_red_box_words_the_porosity_rating_from_status_words(monkeypatch):
+    """Session 48: the red box wrote the porosity's rating as "(above 20 %)", a copy of
+    ``cli.exit_status.STATUS_WORDS["porosity_status"]`` that an edit of the table would leave
+    behind (as the values table's Omega note did until 216c428). The box reads the table: a
+    changed entry shows in it, and the old hand-written words do not."""
+    from psdesign.cli import exit_status
+    from psdesign.report.html import _status_banner
+
+    df = pd.DataFrame(
+        {"case_id": ["c0"], "status": ["ok"], "porosity": [0.09], "porosity_error": [0.0243]}
+    )
+    box = _status_banner(df)
+    assert "(porosity_status: untrustworthy = error bar above 20 %)" in box, box
+    words = "untrustworthy = a bar over TEST_LIMIT & <more>"
+    monkeypatch.setitem(exit_status.STATUS_WORDS, "porosity_status", words)
+    box = _status_banner(df)
+    assert "untrustworthy = a bar over TEST_LIMIT &amp; &lt;more&gt;" in box, box  # escaped
+    assert "20 %" not in box, box
+
+
 def test_the_values_table_prints_omega_with_its_absolute_bar():
     """review s46: Omega (a fraction of the box) was printed with a relative bar, ``1e-05 ±
     2000.0 %``, and an exact zero count without any (its relative bar 0 / 0). Like the
@@ -1694,3 +1714,93 @@ def test_a_trusted_k_at_an_untrustworthy_porosity_is_drawn_open_in_both_porosity
         values = "K" if name.startswith("z") else "D_eff/D"
         assert f"1 trusted {values} value(s) at a porosity that is not ok are drawn open" in caption
         assert "not ok (open markers" not in caption  # no value of its own is not ok
+
+
+@pytest.mark.parametrize(
+    ("k_z", "ids", "diameter"),
+    [
+        ([9.4e-12, 2.2e-11], ["c0000-x", "c0001-x"], 7e-6),  # the quickstart's two cases
+        ([3.0e-11, 4.5e-11], ["c0000", "c0001"], None),  # inside a decade, no curves
+        ([1e-13, 3e-9], ["averyveryverylongcaseidentifier0000", "b1"], 8e-6),
+    ],
+    ids=["quickstart", "in_a_decade", "long_ids"],
+)
+def test_the_report_figures_are_drawn_once_with_every_label_inside(k_z, ids, diameter, monkeypatch):
+    """Session 48: each of the report's two matplotlib PNGs was drawn twice
+    (``bbox_inches="tight"`` draws to find the margins, then again to save; the convergence
+    figure's ``tight_layout`` measured it a third time), about half their CPU. They are now
+    drawn once, at fixed margins that hold labels of a known size (``log_tick_text``) and a
+    bottom one measured from the rotated case ids. Truth: matplotlib's own extent of every
+    artist of each axes (tick labels, axis labels, legend) lies inside the saved picture, and
+    ``Figure.draw`` ran once per figure."""
+    import matplotlib.figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from psdesign.report import html as report_html
+
+    draws = []
+    real_draw = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "draw", lambda self, r: (draws.append(self), real_draw(self, r))
+    )
+    figs = _captured(monkeypatch, report_html, "_png")
+    df = pd.DataFrame(
+        {
+            "case_id": ids,
+            "status": "ok",
+            "porosity": [0.849, 0.904],
+            "porosity_error": [4e-4, 4e-4],
+            "k_z_m2": k_z,
+            "k_z_rel_error": [0.05, 0.05],
+            "k_z_status": "ok",
+            "converged_z": [True, True],
+            "flux_imbalance_z": [8e-7, 1.5e-6],
+        }
+    )
+    study = {"base": {"generator": {"diameter": diameter}}} if diameter else {}
+    assert report_html._perm_figure(df, study)[0] and report_html._convergence(df)[1]
+    assert len(figs) == 2 and [draws.count(f) for f in figs] == [1, 1]
+    for fig in figs:
+        renderer = FigureCanvasAgg(fig).get_renderer()  # pyplot's was closed
+        width, height = fig.bbox.width, fig.bbox.height
+        for ax in fig.axes:
+            box = ax.get_tightbbox(renderer)
+            inside = box.x0 >= 0 and box.y0 >= 0 and box.x1 <= width and box.y1 <= height
+            assert inside, (box, width, height)
+            labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+            assert len(labels) == len(set(labels)) >= 2, labels  # no label twice
+
+
+def test_the_study_previews_carry_generates_title(tmp_path):
+    """Session 48 (the session-47 re-read): ``generate``'s preview is titled with the porosity
+    and Omega, each with its bar and status, and the fibre count, while a study's previews
+    were captioned with the design point only: an untrustworthy Omega looked like an ok one.
+    The report's caption now ends with the one title (``report.preview.preview_title``, which
+    ``generate`` calls too): the row's own numbers, Omega left out for an image's RVE (its 0/1
+    count cannot see overlaps, docs/geometry.md)."""
+    from study_cases import PNG_1PX
+
+    from psdesign.report.html import _previews
+    from psdesign.report.preview import preview_title
+
+    (tmp_path / "p.png").write_bytes(PNG_1PX)
+    row = {
+        "case_id": "c0000-ab",
+        "seed": 1,
+        "generator.porosity": 0.8,
+        "porosity": 0.81234,
+        "porosity_error": 0.00042,
+        "n_fibers": 12,
+        "intersection_volume_fraction": 0.00213,
+        "intersection_volume_fraction_error": 0.0003,
+        "intersection_volume_fraction_status": "untrustworthy",
+        "preview_png": "p.png",
+    }
+    df = pd.DataFrame([row])
+    title = "porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [untrustworthy], 12 fibers"
+    assert preview_title(row) == title
+    html = _previews(df, tmp_path, ["generator.porosity"])
+    assert f"<figcaption>c0000-ab: generator.porosity=0.8 seed=1; {title}</figcaption>" in html
+    image = _previews(df, tmp_path, ["generator.porosity"], image=True)
+    assert "seed=1; porosity 0.8123 +- 4.2e-04 [ok], 12 fibers</figcaption>" in image, image
+    assert "Omega" not in image

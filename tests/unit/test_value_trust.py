@@ -350,14 +350,79 @@ def test_the_values_table_shows_the_bar_that_rates_the_pore_sizes(with_status, c
     rows = re.findall(r"<tr[^>]*>(.*?)</tr>", html.split("<tbody>", 1)[1], flags=re.S)
     cells = [re.findall(r"<td>(.*?)</td>", r) for r in rows]
     assert [c[2:] for c in cells] == [
-        ["1e-05 ± 3.0e-06", "2e-05 ± 3.0e-06 (15.0 %)", "4e-05 ± 3.0e-06"],
+        ["1e-05 +3.0e-06/-0", "2e-05 +3.0e-06/-0 (15.0 %)", "4e-05 +3.0e-06/-0"],
         [
-            "1e-05 ± 3.0e-06 [untrustworthy]",
-            "1.2e-05 ± 3.0e-06 (25.0 %) [untrustworthy]",
-            "4e-05 ± 3.0e-06 [untrustworthy]",
+            "1e-05 +3.0e-06/-0 [untrustworthy]",
+            "1.2e-05 +3.0e-06/-0 (25.0 %) [untrustworthy]",
+            "4e-05 +3.0e-06/-0 [untrustworthy]",
         ],
-    ]
+    ]  # each bar one-sided, above (session 48; test_pore_diameters_print_their_bar_one_sided)
     assert "30.0 %" not in html and "7.5 %" not in html  # no size's own fraction
     assert "rated together by that bar over d50 (the % beside d50" in html
     assert "d90 above the RVE's smallest edge" in html  # the rating's own words
     capsys.readouterr()
+
+
+def test_pore_diameters_print_their_bar_one_sided():
+    """Session 48 (the session-47 re-read): d10, d50 and d90 were printed ``value ± bar`` and
+    drawn with a bar both ways, although their bar is one-sided: the local-thickness scan
+    measures low (balls on voxel centres, the radius step), so the true diameter lies between
+    the value and the value + ``pore_diameter_error_m``, never below (docs/transport.md,
+    ``psdesign.transport.pores``). The values table prints ``+bar/-0``; a frame against a
+    design parameter draws the numerical bar above the mean only: two seeds of d50 = 20 and
+    22 um, bar 3 um, have the mean 21 um, the 95 % CI half-width t(0.975, 1) s / sqrt(2) =
+    12.706 um (s = sqrt(2) um), so the bar reaches 12.706 + 3 um above and 12.706 um below;
+    one case at the other level (no CI) 3 um above and 0 below."""
+    import json
+    import re
+
+    from psdesign.report.decision import parameter_plots
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2"],
+            "status": ["ok"] * 3,
+            "generator.porosity": [0.7, 0.7, 0.8],
+            "seed": [1, 2, 1],
+            "pore_d10_m": [10e-6, 11e-6, 15e-6],
+            "pore_d50_m": [20e-6, 22e-6, 30e-6],
+            "pore_d90_m": [40e-6, 41e-6, 50e-6],
+            "pore_diameter_error_m": [3e-6] * 3,
+            "pore_sizes_status": ["ok"] * 3,
+        }
+    )
+    table = _values_table(df)
+    assert "2e-05 +3.0e-06/-0 (15.0 %)" in table and "1e-05 +3.0e-06/-0" in table, table
+    assert "±" not in table.split("<tbody>", 1)[1], table  # no pore diameter ± its bar
+    html = parameter_plots(df, ["generator.porosity"])
+    frame = r'id="psd-pore_d50_m-generator.porosity".*?newPlot\(\s*"[^"]+",\s*(\[.*?\]),\s*\{'
+    fig = re.search(frame, html, re.S)
+    trace = json.loads(fig.group(1))[0]
+    assert trace["error_y"]["symmetric"] is False
+    assert trace["error_y"]["array"] == pytest.approx([12.7062e-6 + 3e-6, 3e-6], rel=1e-4)
+    assert trace["error_y"]["arrayminus"] == pytest.approx([12.7062e-6, 0.0], rel=1e-4, abs=1e-12)
+    # the frame's title says so (plotly writes "/" as "\\u002f" in its JSON)
+    title = "pore_d50_m vs generator.porosity (bar one-sided: +bar/-0)"
+    assert title.replace("/", "\\u002f") in html
+
+
+def test_a_pore_diameter_target_reads_its_bar_one_sided():
+    """Session 48: ``study optimize``'s verdicts took a pore diameter's bar both ways. The
+    true d50 lies between the measured value and the value + ``pore_diameter_error_m``
+    (docs/transport.md), so d50 = 21 um with a 3 um bar (14.3 % of it) meets ``>= 20 um``
+    with its whole bar (21-24 um; the symmetric 18-24 um "reached outside") and misses
+    ``<= 20 um`` beyond its bar (the symmetric one "could not tell"); the line prints the bar
+    ``+14.3 %/-0``. Truth: interval arithmetic on [21, 24] um."""
+    from psdesign.analysis.targets import Target, measured_text, target_report
+
+    row = {"pore_d50_m": 21e-6, "pore_diameter_error_m": 3e-6, "pore_sizes_status": "ok"}
+    above = target_report(Target.parse("pore_d50_m>=20e-6"), row)
+    assert above["met"] and above["error_bar_inside_target"]
+    assert measured_text(above) == "measured 2.1e-05 +14.3 %/-0 [ok] (met)"
+    below = target_report(Target.parse("pore_d50_m<=20e-6"), row)
+    assert not below["met"] and not below["target_within_error_bar"]
+    assert measured_text(below) == "measured 2.1e-05 +14.3 %/-0 [ok] (missed)"
+    k = {"k_z_m2": 21e-12, "k_z_rel_error": 3 / 21, "k_z_status": "ok"}  # a K's bar: both ways
+    r = target_report(Target.parse("k_z_m2<=20e-12"), k)
+    assert r["target_within_error_bar"] and "+- 14.3 %" in measured_text(r)
