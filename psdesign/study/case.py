@@ -154,9 +154,13 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     # preview.png (the case is then run again)
     tmp_png = workdir / f"{TEMP_PREFIX}preview.{os.getpid()}.png"
     try:
-        from psdesign.report.preview import render_preview
+        from psdesign.report.preview import preview_title, render_preview
 
-        render_preview(fields.distance, fields.grid.spacing, tmp_png, window_size=(480, 400))
+        # the title generate puts on its own preview: porosity and Omega with bars and statuses
+        title = preview_title(row, image="image" in spec)
+        render_preview(
+            fields.distance, fields.grid.spacing, tmp_png, title=title, window_size=(480, 400)
+        )
         os.replace(tmp_png, workdir / "preview.png")
         row["preview_png"] = str(workdir / "preview.png")
     except Exception as exc:  # a picture must never fail a case; a full disk stops the run

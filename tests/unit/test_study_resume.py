@@ -220,6 +220,30 @@ def test_disk_full_in_a_timed_case_child_stops_the_run_too(tmp_path):
     assert list((out / "cases").glob("*.json")) == []
 
 
+def test_a_study_case_preview_carries_generates_title(tmp_path, monkeypatch):
+    """Session 48 (re-read of session 47): a study case's preview.png had no title while
+    generate's shows the porosity and Omega with their bars and statuses. One 4 um rod in a
+    12 um box at 1 um voxels: the title is preview_title of the case's own row."""
+    from psdesign.report import preview
+    from psdesign.study.case import run_case
+
+    titles = []
+    real = preview.render_preview
+    monkeypatch.setattr(
+        preview, "render_preview", lambda *a, **k: titles.append(k.get("title")) or real(*a, **k)
+    )
+    spec = {
+        "rve": {"size": [12e-6, 12e-6, 12e-6], "voxel": 1e-6},
+        "fibers": [{"shape": "rod", "diameter": 4e-6, "center": [6e-6, 6e-6, 6e-6]}],
+    }
+    row = run_case(spec, ["porosity"], "voxel", tmp_path)
+    (title,) = titles
+    bar = f"{row['porosity']:.4f} +- {row['porosity_error']:.1e}"
+    assert title.startswith(f"porosity {bar} [{row['porosity_status']}], Omega ")
+    assert title.endswith(f"[{row['intersection_volume_fraction_status']}], 1 fibers")
+    assert (tmp_path / "preview.png").stat().st_size > 0
+
+
 def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):
     """psdesign.study.case: a picture never fails a case, but a full disk is not the picture's
     failure (the old code recorded ``preview_error`` and an ok case without its picture)."""
