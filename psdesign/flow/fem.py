@@ -52,11 +52,12 @@ from psdesign.meshing.options import (
     thinnest_fiber_diameter,
 )
 from psdesign.schema.budget import check_planned_stack
+from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
 from psdesign.schema.flow import coarser_advice, resolution_key
 from solvers.fem.memory import MemoryLimitError
 
-#: The ``flow.bc`` models this route applies.
-BC_MODELS = ("permeameter", "periodic")
+#: The ``flow.bc`` models this route applies: every one.
+BC_MODELS = SCHEMA_BC_MODELS
 
 
 #: Layers of the plane-pressure profile whose windowed drop (:func:`windowed_drop`) is the
@@ -109,9 +110,6 @@ def _plane_average(grid, points: np.ndarray, axis: int, position: float) -> floa
     integ = cut.integrate_data()
     area = float(integ["Area"][0])
     return float(integ.point_data["p"][0] / area)
-
-
-BCS = ("permeameter", "periodic")
 
 
 def cells_per_diameter(rve: RVE, mesh) -> float | None:
@@ -307,7 +305,7 @@ def permeability_fem(
     """
     name, ax = axis_of(direction)
     bc = flow.get("bc") or "permeameter"
-    if bc not in BCS:
+    if bc not in BC_MODELS:
         raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
     t0 = time.perf_counter()
     plan = plan_copies(flow, rve, fields, ax) if bc == "permeameter" else None

@@ -49,6 +49,7 @@ from psdesign.geometry.rve import (
 )
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
+    BC_MODELS,
     NATIVE_BC,
     SOLVERS,
     TREATMENT_ALLOWED,
@@ -71,9 +72,6 @@ __all__ = [
     "plane_average_pressure",
     "route_result",
 ]
-
-#: The boundary-condition models of ``flow.bc``.
-BC_MODELS = ("permeameter", "periodic")
 
 
 class BoundaryConditionUnavailable(ValueError, NotImplementedError):

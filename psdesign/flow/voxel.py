@@ -42,12 +42,12 @@ from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.flow.voxel_estimate import announce_voxel_solve
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
 from psdesign.schema.budget import check_planned_stack
+from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
 
-BCS = ("periodic", "permeameter")
 WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
 
-#: The ``flow.bc`` models this route applies.
-BC_MODELS = ("permeameter", "periodic")
+#: The ``flow.bc`` models this route applies: every one.
+BC_MODELS = SCHEMA_BC_MODELS
 
 
 class ResolutionWarning(UserWarning):
@@ -121,8 +121,8 @@ def voxel_permeability_tensor(
 
 def _options(flow: dict) -> tuple[str, str]:
     bc = flow.get("bc") or "periodic"
-    if bc not in BCS:
-        raise ValueError(f"flow.bc: must be one of {', '.join(BCS)}, got {bc!r}")
+    if bc not in BC_MODELS:
+        raise ValueError(f"flow.bc: must be one of {', '.join(BC_MODELS)}, got {bc!r}")
     wall = flow.get("wall_treatment") or "subvoxel"
     if wall not in WALL_TREATMENTS:
         raise ValueError(

@@ -20,6 +20,9 @@ AUTO_PERMEAMETER_COPIES = 2
 #: The Stokes solvers (``flow.solver``): the one list, which a study's ``solver``, the route
 #: (:mod:`psdesign.flow.permeability`) and ``rev --solver`` take too.
 SOLVERS = ("fem", "voxel")
+#: The boundary-condition models of ``flow.bc``: the one list, which each route's
+#: ``BC_MODELS`` (:func:`psdesign.flow.permeability.supported_bc`) names its share of.
+BC_MODELS = ("permeameter", "periodic")
 
 
 def _copies(value: Any) -> Any:
@@ -146,7 +149,7 @@ class FlowTable(Table):
     solver: Literal[SOLVERS] = Field(  # type: ignore[valid-type]
         "fem", description="fem | voxel (default fem)"
     )
-    bc: Literal["permeameter", "periodic"] | None = Field(
+    bc: Literal[BC_MODELS] | None = Field(  # type: ignore[valid-type]
         None,
         description="permeameter | periodic (default: the solver's own, fem -> "
         "permeameter, voxel -> periodic)",

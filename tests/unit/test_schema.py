@@ -714,3 +714,19 @@ def test_a_design_point_in_an_array_of_tables_is_held_to_its_element():
     # an element the point does not set is not its refusal
     study["base"]["fibers"][1]["diameter"] = -1.0
     check_design_point({"fibers.0.diameter": 1.7e-5, "rve.size.2": 1.1e-4}, study)
+
+
+def test_the_bc_models_are_one_list():
+    """Session 48 (re-read of session 47): ``flow.bc``'s models were written five times (the
+    schema's Literal, ``flow.permeability.BC_MODELS``, each route's ``BC_MODELS`` and ``BCS``).
+    Now the schema holds the one list; every route names it, and the spec refuses a sixth."""
+    from psdesign.flow import fem, voxel
+    from psdesign.flow.permeability import supported_bc
+    from psdesign.schema import flow
+
+    assert flow.BC_MODELS == ("permeameter", "periodic")
+    assert fem.BC_MODELS is flow.BC_MODELS and voxel.BC_MODELS is flow.BC_MODELS
+    assert supported_bc("fem") == supported_bc("voxel") == flow.BC_MODELS
+    assert flow.FlowTable(bc="periodic").bc == "periodic"
+    with pytest.raises(ValueError, match="permeameter"):
+        flow.FlowTable(bc="dirichlet")
