@@ -348,10 +348,11 @@ def _loose_volume(
             continue  # a single lens keeps the bar's calibration (thin: weighed)
         pair = [rve.fibers[int(k)] for k in lenses.pair[members[0]]]
         e = _whole_box_error(rve, pair, spacing)
-        weighed[members] = e is None or weighed[members]
-        if e is not None:
+        if e is None:  # rods, too big: a group weighs its volume, a single lens if thin
+            weighed[members] |= len(members) > 1
+        else:  # its error stands for its volume, thin or not
             signed += len(members) * e
-            placed[members] = True
+            weighed[members], placed[members] = False, True
     loose = abs(signed) + float(lenses.volume[weighed].sum())
     return loose + (_shared_volume(count) if placed.any() and count is not None else 0.0)
 
