@@ -157,8 +157,8 @@ STATUS_WORDS = {
     "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
     "intersection_volume_fraction_status": (  # packing.overlap_status
         "untrustworthy = the count missed overlaps the fibres' centre lines find, or "
-        "overlaps thinner than a voxel (which the count may miss) plus the summed error of "
-        "congruent grid-aligned overlaps exceed its error bar"
+        "overlaps thinner than a voxel (which the count may miss) plus the signed sum of the "
+        "grid-aligned overlaps' errors, measured on the grid, exceed its error bar"
     ),
 }
 

@@ -22,18 +22,25 @@ count sees it.
 
 Rule (:func:`intersection_status`): Omega is ``untrustworthy`` when the count is 0 while the
 centre lines find lenses (it missed them whole), or when what the bar is not calibrated on
-exceeds the bar: the volume of the thin lenses (:func:`_thin`: shallower than
+exceeds the bar (:func:`_loose_volume`): ``|sum e|`` over the lenses whose count error ``e``
+is measured, plus the volume of the thin lenses not measured (:func:`_thin`: shallower than
 :data:`RESOLVED_LENS_VOXELS` voxel, or so little deeper that voxel-centre planes cut them in
 chords under a voxel wide: a lens exactly 1 voxel deep between two centre planes holds no
 centre, a float tie of ``depth < 1 voxel`` rated its ``0 +- 0`` ``ok``), which the count may
-miss (or double) all of, plus the count error of grid-aligned lenses congruent to each other
-(:func:`_congruent_groups`: a regular layout on round centres rounds each alike, so their
-errors add linearly while the bar adds them in quadrature: 6-10x the bar in the session 47
-review's arrays), ``k`` times one lens's error measured alone on the same grid against its
-exact volume (:func:`_group_error`; their whole volume for rods). Else ``ok``. What the bar
-still misses among single deeper lenses is rated ``ok``: 13 of the 772 calibration lenses
-rated ``ok``, all between fibers along grid axes, at 1.00-1.93x the bar (RESULTS.md session
-47, helper s47-mendomega). A fixed shape (woven,
+miss (or double) all of. A lens between two cylinders exactly along grid axes is counted where
+it lies, on the fields' own voxel centres, against its exact volume (:func:`_in_place_errors`);
+between cylinders off the axes by under a voxel, ``k`` congruent lenses
+(:func:`_congruent_groups`) err ``k`` times one measured with its pair alone in the whole box
+(:func:`_whole_box_error`; unmeasured: their whole volume). Signed, since a regular layout on
+round centres rounds its lenses alike, so their errors add linearly while the bar adds them in
+quadrature (6-10x the bar in the session 47 review's arrays), and lenses of other shapes round
+with other signs (session 47 re-read: a 16 x 16 array summed as absolute values per group was
+``untrustworthy`` at 0.69x its bar). Once a lens is measured, the volume counted in three or
+more fibers is added too (:func:`_shared_volume`): the pairs' counts then differ from the
+count. For cylinders exactly along grid axes with no voxel in three the sum is the count's own
+error, so the status rates it exactly: of the 800 calibration lenses 762 are rated ``ok``, all
+covered (session 47's rule: 772, 13 of them outside the bar at 1.00-1.93x; RESULTS.md session
+48). A fixed shape (woven,
 compressed) or an image has no centre lines: its overlaps keep the bar's own calibration, while
 the round fibers beside a fixed shape are still checked. Limitation: :func:`find_contacts`
 keeps the closest piece pair per pair of fiber copies, so a bent rod meeting another fiber
@@ -314,46 +321,169 @@ def circle_lens_area(dist, r1, r2) -> np.ndarray:
     return np.where(d >= r1 + r2, 0.0, a1 + a2 - 0.5 * np.sqrt(np.maximum(k, 0.0)))
 
 
-def _loose_volume(rve: RVE, lenses: Lenses, spacing: float | np.ndarray) -> float:
+def _loose_volume(
+    rve: RVE, lenses: Lenses, spacing: float | np.ndarray, count: np.ndarray | None = None
+) -> float:
     """Volume fraction of the box in overlaps of ``rve`` (``lenses``: :func:`overlap_lenses`)
-    whose count the bar is not calibrated on (module doc) on a grid of ``spacing`` metres: the
-    volume of the thin lenses (:func:`_thin`) and the measured count error of the congruent
-    grid-aligned lenses repeated in the box (:func:`_group_error`)."""
+    whose count the bar is not calibrated on (module doc) on a grid of ``spacing`` metres:
+    ``|sum e|`` over the lenses whose signed count error ``e`` is measured (between two
+    cylinders along grid axes, each in place: :func:`_in_place_errors`; fibers off the axes
+    by under a voxel: ``k`` times one of ``k`` congruent lenses, :func:`_whole_box_error`),
+    plus, without a sign, the volume of the thin lenses not measured (:func:`_thin`), of the
+    groups that cannot be measured, and, once a lens is measured, the volume counted in three
+    or more fibers (:func:`_shared_volume`; ``count``: the fields' count). Signed: lenses
+    round with different signs (session 47 re-read: a 16 x 16 array of cylinders at 250^3
+    voxels, summed as absolute values per group, read 7.6e-3 against its true error 7.4e-4
+    and its bar 1.07e-3)."""
     spacing = np.broadcast_to(np.asarray(spacing, float), (3,))
-    group = _congruent_groups(lenses, spacing, rve.size)
-    thin = _thin(lenses, float(np.max(spacing)))
-    loose = float(lenses.volume[thin & (group < 0)].sum())
+    error = _in_place_errors(rve, lenses, spacing)
+    placed = ~np.isnan(error)
+    signed = float(error[placed].sum())
+    weighed = _thin(lenses, float(np.max(spacing))) & ~placed
+    group = np.where(placed, -1, _congruent_groups(lenses, spacing, rve.size))
+    cheap = np.prod(np.asarray(rve.size) / spacing) <= CHEAP_WHOLE_BOX_VOXELS
     for g in np.unique(group[group >= 0]):
-        loose += _group_error(rve, lenses, np.flatnonzero(group == g), spacing)
-    return loose
+        members = np.flatnonzero(group == g)
+        if len(members) == 1 and not cheap:
+            continue  # a single lens keeps the bar's calibration (thin: weighed)
+        pair = [rve.fibers[int(k)] for k in lenses.pair[members[0]]]
+        e = _whole_box_error(rve, pair, spacing)
+        if e is None:  # rods, too big: a group weighs its volume, a single lens if thin
+            weighed[members] |= len(members) > 1
+        else:  # its error stands for its volume, thin or not
+            signed += len(members) * e
+            weighed[members], placed[members] = False, True
+    loose = abs(signed) + float(lenses.volume[weighed].sum())
+    return loose + (_shared_volume(count) if placed.any() and count is not None else 0.0)
 
 
-#: Voxels up to which :func:`_group_error` voxelizes a congruent lens's pair alone (256^3:
-#: about 85 MB of fields at 5 bytes a voxel); beyond, the group weighs its whole volume.
+def _shared_volume(count: np.ndarray) -> float:
+    """The counted volume fraction in three or more fibers, each voxel in ``c`` fibers
+    weighted ``C(c, 2) - 1``: what the pairs' counts (:func:`_loose_volume`) count beyond
+    the count of voxels in two or more. Their measured errors then miss the rounding of these
+    shared parts, which the count may miss as whole as a thin lens's (square arrays of
+    parallel cylinders whose diagonal neighbours overlap, benchmarks/RESULTS.md session 48:
+    the pairs' sum off the true error by up to 0.67 of this volume)."""
+    top = int(count.max()) if count.size else 0
+    return sum((k - 1) * np.count_nonzero(count >= k) for k in range(3, top + 1)) / count.size
+
+
+#: Voxels up to which :func:`_whole_box_error` voxelizes a congruent lens's pair alone in the
+#: whole box (256^3: about 85 MB of fields at 5 bytes a voxel); beyond, the group weighs its
+#: whole volume.
 MEASURED_GROUP_VOXELS = 256**3
 
+#: Voxels up to which :func:`_loose_volume` measures a single lens that is not measured in
+#: place in the whole box (about 10 ms at 64^3): a random packing of fibers slightly off the
+#: grid axes would cost one whole-box voxelization per lens on a fine grid (the bar's
+#: calibration stands for them there).
+CHEAP_WHOLE_BOX_VOXELS = 64**3
 
-def _group_error(rve: RVE, lenses: Lenses, members: np.ndarray, spacing: np.ndarray) -> float:
-    """The count error of ``k`` congruent lenses (:func:`_congruent_groups`): ``k`` times one
-    lens's own, measured on the same grid with its two fibers alone in the box against their
-    exact lens volume (two cylinders along grid axes: crossing at right angles or parallel,
-    :func:`overlap_lenses`), since the grid rounds each alike; the group's whole volume where
-    that volume is only a bound (a rod's or bent rod's), the grid differs, or it holds more
-    than :data:`MEASURED_GROUP_VOXELS` voxels (a second grid's fields held beside the case's)."""
+#: Voxels :func:`_lens_window` leaves around a lens's bounding box.
+WINDOW_PAD_VOXELS = 2
+
+
+def _whole_box_error(rve: RVE, pair: list, spacing: np.ndarray) -> float | None:
+    """The signed count error (count - exact, a fraction of the box) of one lens between the
+    two cylinders ``pair``, measured with them alone in the whole box on the same grid
+    against their exact lens volume: the mean over their lenses there; None for a rod or
+    bent rod (its volume is a bound), past :data:`MEASURED_GROUP_VOXELS` voxels, or when the
+    grid differs. Session 47 measured every group so (4.2 s for the 164 groups of a 16 x 16
+    array at 250^3 voxels); two fibers exactly along grid axes are now measured in place
+    (:func:`_in_place_errors`)."""
     from psdesign.geometry.rve import RVE
 
-    whole = float(lenses.volume[members].sum())
-    pair = [rve.fibers[int(n)] for n in lenses.pair[members[0]]]
     too_big = np.prod(np.asarray(rve.size) / spacing) > MEASURED_GROUP_VOXELS
     if too_big or any(fb.shape != "cylinder" for fb in pair):
-        return whole
+        return None
     alone = RVE(size=rve.size, fibers=pair, period=rve.period)
     fields = alone.voxelize(float(spacing[0]))
     own = overlap_lenses(alone)
     if not np.allclose(fields.grid.spacing, spacing, rtol=1e-9) or len(own.volume) == 0:
-        return whole
-    error = abs(fields.intersection_volume_fraction - float(own.volume.sum())) / len(own.volume)
-    return len(members) * error
+        return None
+    return (fields.intersection_volume_fraction - float(own.volume.sum())) / len(own.volume)
+
+
+def _in_place_errors(rve: RVE, lenses: Lenses, spacing: np.ndarray) -> np.ndarray:
+    """The signed count error (count - exact, a fraction of the box) of each lens between two
+    cylinders exactly along grid axes, counted where it lies: the voxel centres of a small
+    window of the grid around it (:func:`_lens_window`) inside both cylinders, by the
+    rasterizer's own arithmetic (:func:`_inside_cylinder`), so that each voxel rounds as in
+    the fields, a centre on a surface too (tests/unit/test_overlap_status.py: the pairs'
+    counts sum to the fields' count, voxel for voxel); NaN for the other lenses."""
+    out = np.full(len(lenses.depth_m), np.nan)
+    shape = np.round(np.asarray(rve.size) / spacing).astype(np.int64)
+    h = spacing / rve.period  # normalized, as RVE.voxelize rasterizes
+    whole = np.abs(rve.size / rve.period - np.round(rve.size / rve.period)) < 1e-9
+    for n in range(len(out)):
+        pair = [rve.fibers[int(k)] for k in lenses.pair[n]]
+        window = _lens_window(lenses, n, spacing, float(rve.period), shape)
+        if window is None or any(fb.shape != "cylinder" for fb in pair):
+            continue
+        wraps = [w.min() < 0 or w.max() >= s for w, s in zip(window, shape, strict=True)]
+        if any(wr and not wh for wr, wh in zip(wraps, whole, strict=True)):
+            continue  # a box of part of a period is not periodic: its faces cut the lens
+        x = [((w % s) + 0.5) * ha for w, s, ha in zip(window, shape, h, strict=True)]
+        out[n] = _count_both(pair, x) / np.prod(shape) - lenses.volume[n]
+    return out
+
+
+def _count_both(pair: list, x: list[np.ndarray]) -> int:
+    """The voxel centres ``x[0] x x[1] x x[2]`` inside both cylinders of ``pair``
+    (:func:`_inside_cylinder`). Along an axis where neither fiber's lattice has a component
+    (a parallel pair's: adding 0.0 leaves each sum as it is) every slice rounds alike, so one
+    stands for all (``len(x[a])`` of them)."""
+    x, slices = list(x), 1
+    for a in range(3):
+        if not any(fb.lattice[:, a].any() for fb in pair):
+            x[a], slices = x[a][:1], slices * len(x[a])
+    both = _inside_cylinder(pair[0], x) & _inside_cylinder(pair[1], x)
+    return int(np.count_nonzero(both)) * slices
+
+
+def _lens_window(
+    lenses: Lenses, n: int, spacing: np.ndarray, period: float, shape: np.ndarray
+) -> list[np.ndarray] | None:
+    """The voxel indices (per axis, unwrapped) of a window of the grid that holds lens ``n``:
+    along an axis that one of its fibers crosses, within that fiber's radius of its closest
+    point (both: the tighter), plus :data:`WINDOW_PAD_VOXELS`; along a parallel pair's axis
+    the whole grid. None when a fiber does not run exactly along a grid axis, the window is
+    wider than the grid, or a radius and the pad reach half a period: another copy of a fiber
+    lies a period off across its axis, so its lens with the other fiber lies outside a window
+    under ``2 (r + pad)`` wide in that direction (a guard on the sum of the two radii sent
+    fat pairs to :func:`_whole_box_error`, whose congruent members round differently at
+    surface ties: a 3 x 3 array 26 voxels thick at 60^3 read 0.0258 against its 0.0152)."""
+    d = lenses.direction[n]
+    ax = np.argmax(np.abs(d), axis=1)
+    radius, point = lenses.radius_m[n], lenses.point_m[n]
+    pad = WINDOW_PAD_VOXELS * float(np.max(spacing))
+    if np.any(np.abs(d[[0, 1], ax]) != 1.0) or radius.max() + pad >= 0.5 * period:
+        return None
+    lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+    for s in (0, 1):
+        across = np.arange(3) != ax[s]
+        lo[across] = np.maximum(lo[across], point[s, across] - radius[s])
+        hi[across] = np.minimum(hi[across], point[s, across] + radius[s])
+    along = ~np.isfinite(lo)  # a parallel pair's axis
+    first = np.where(along, 0, np.floor(lo / spacing) - WINDOW_PAD_VOXELS).astype(np.int64)
+    last = np.where(along, shape, np.ceil(hi / spacing) + WINDOW_PAD_VOXELS).astype(np.int64)
+    if np.any(last - first > shape):
+        return None
+    return [np.arange(a, b) for a, b in zip(first, last, strict=True)]
+
+
+def _inside_cylinder(fb, x: list[np.ndarray]) -> np.ndarray:
+    """Whether the voxel centres ``x[0] x x[1] x x[2]`` (normalized coordinates per axis) lie
+    in the cylinder ``fb``, by the operations of
+    :func:`psdesign.geometry.raster.rasterize_copy` in their order (``val <= 0``), so that a
+    centre on the surface rounds as it does in the fields."""
+    e = [x[0][:, None, None] - fb.center[0], x[1][None, :, None] - fb.center[1]]
+    e.append(x[2][None, None, :] - fb.center[2])
+    a = e[0] * fb.lattice[0][0] + e[1] * fb.lattice[0][1] + e[2] * fb.lattice[0][2]
+    b = e[0] * fb.lattice[1][0] + e[1] * fb.lattice[1][1] + e[2] * fb.lattice[1][2]
+    a -= np.round(a)
+    b -= np.round(b)
+    return np.sqrt(a * a + b * b) - fb.diameter / 2.0 <= 0.0
 
 
 def _thin(lenses: Lenses, voxel: float) -> np.ndarray:
@@ -369,24 +499,29 @@ def _thin(lenses: Lenses, voxel: float) -> np.ndarray:
     return lenses.depth_m < limit
 
 
-#: Tolerance (voxels) within which two lenses' radii, depths and sub-voxel offsets are the
-#: same for :func:`_congruent_groups`.
-CONGRUENT_VOXELS = 1e-3
+#: Tick (voxels) to which :func:`_congruent_groups` rounds two lenses' radii, depths, sub-voxel
+#: offsets and relative vectors: a power of two, so that round-number layouts (centres at
+#: k / 2^j of a voxel) fall on whole ticks, not on the half-ticks where rounding noise of
+#: 1e-16 splits a group (1e-3 until session 48: 16 of the 512 lenses of a 16 x 16 array at
+#: 250^3 voxels, offsets 0.1875 = 187.5 ticks, fell out of their groups).
+CONGRUENT_VOXELS = 2.0**-10
 
 
 def _congruent_groups(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndarray:
     """A label per lens, shared by the lenses congruent to each other on the grid (-1: none
     congruent to it): both fibers along grid axes (drifting under a voxel over the box), the
-    same radii, depth and axes, and the same offset of the centre lines' closest points to
-    the voxel centres (along a parallel pair's axis any).
+    same radii, depth and axes, the same offset of the centre lines' closest points to the
+    voxel centres (along a parallel pair's axis any), and the same vector between those
+    points (:func:`_pair_vector`): a pair of axis neighbours and a diagonal pair of the same
+    offsets are not congruent (session 47 re-read: without it the status depended on the
+    order of the fibers, one axis pair before 63 diagonal ones ``ok`` at 1.3x the bar).
     The grid rounds congruent lenses alike, so their count's errors add linearly where the
     bar (:func:`psdesign.geometry.porosity.count_fraction_error`) adds runs in quadrature:
     a 4 x 4 square array of parallel fibers 3 voxels deep counted 0.125 against the exact
     0.163, 9.4x the bar; one pair 1.8x its bar, 32 copies 10.3x (session 47 review). A
     single lens keeps the bar's calibration."""
-    m = len(lenses.depth_m)
-    if m < 2:
-        return np.full(m, -1)
+    if len(lenses.depth_m) == 0:
+        return np.zeros(0, np.int64)
     voxel = float(np.max(spacing))
     ax = np.stack([_grid_axis(lenses.direction[:, s], box_m, voxel) for s in (0, 1)], axis=1)
     offset = np.mod(lenses.point_m / spacing, 1.0)  # (m, 2, 3), in voxels
@@ -403,10 +538,24 @@ def _congruent_groups(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) ->
     lo_side = np.where(first[:, None], sides[0], sides[1])
     hi_side = np.where(first[:, None], sides[1], sides[0])
     depth = np.round(lenses.depth_m / voxel / tick)[:, None]
-    key = np.column_stack([depth, lo_side, hi_side]).astype(np.int64)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    return np.where((counts[inverse] > 1) & (ax >= 0).all(axis=1), inverse, -1)
+    vector = _pair_vector(lenses, spacing, rows, ax, first, (sides[0] == sides[1]).all(axis=1))
+    key = np.column_stack([depth, lo_side, hi_side, vector]).astype(np.int64)
+    _, inverse = np.unique(key, axis=0, return_inverse=True)
+    return np.where((ax >= 0).all(axis=1), inverse.ravel(), -1)
+
+
+def _pair_vector(lenses: Lenses, spacing, parallel, ax, first, same) -> np.ndarray:
+    """The vector (ticks of :data:`CONGRUENT_VOXELS` voxels) from the closest point of each
+    lens's first side to its second's, in the sides' order of :func:`_congruent_groups`
+    (``first``: side 0 comes first); 0 along the axis of a ``parallel`` pair (rows), where
+    any point is closest; where both sides are alike (``same``) the pair has no order, so
+    the vector and its negative are one: the lexicographically larger one stands."""
+    vector = (lenses.point_m[:, 1] - lenses.point_m[:, 0]) / spacing
+    vector[parallel, ax[parallel, 0]] = 0.0
+    vector = np.round(np.where(first[:, None], vector, -vector) / CONGRUENT_VOXELS) + 0.0
+    flip = same & _lexless(vector, -vector)
+    vector[flip] = -vector[flip] + 0.0  # + 0.0: no -0 ticks
+    return vector
 
 
 def _lexless(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -448,5 +597,5 @@ def intersection_status(rve: RVE, fields: VoxelFields) -> str:
         return "ok"
     if fields.intersection_volume_fraction == 0.0 and lenses.volume.sum() > 0.0:
         return "untrustworthy"  # lenses the count missed whole: its 0 +- 0 says nothing
-    loose = _loose_volume(rve, lenses, fields.grid.spacing)
+    loose = _loose_volume(rve, lenses, fields.grid.spacing, fields.count)
     return "ok" if loose <= fields.intersection_error else "untrustworthy"
