@@ -1029,3 +1029,10 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
 
 
 _SERIAL.seal(globals())
+
+# both twins of :func:`stokes_lanczos` call the one slab compiled over the serial helpers (plain
+# leaves): the parallel twin's own slab, its leaves inlined by numba, cost 3x the serial one's
+# compile (44 s against 14 s CPU) and gave other last bits on the row loops (non-unit couplings;
+# benchmarks/RESULTS.md, session 48).  The slab's leaves that take arrays run per row, plane or
+# block, not per entry, so the reference counts they may touch cost nothing measurable
+_lanczos_slab = _SERIAL.ns["_lanczos_slab"]

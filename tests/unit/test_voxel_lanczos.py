@@ -469,6 +469,34 @@ def test_flat_lanczos_product_against_numpy(shape: tuple[int, int, int], twin: s
         assert xy == pytest.approx(float(np.dot(x.ravel().astype(float), want.ravel())), rel=1e-6)
 
 
+def test_general_lanczos_product_twins_agree_bitwise() -> None:
+    """The row-loop Lanczos product (couplings that are not all ones: walls, permeameter
+    staircases) gives the same bits in both twins.  Until session 48 the parallel twin's slab
+    inlined the one-line helpers in numba (``inline="always"``) and the serial twin's called
+    them as plain functions: on this 24^3 grid ``y`` differed in the last bits.  Truth: the
+    serial twin (``test_voxel_kernels.py`` checks its row loops against the flat product)."""
+    from solvers.voxel import multigrid as mg
+
+    rng = np.random.default_rng(2)
+    solid = rng.random((24, 24, 24)) < 0.25
+    op = vs._Stokes.build(solid)
+    full = [mg.component_operator(~solid, a)[1] for a in range(3)]
+    assert not any(c.shape == op.c[0].shape for c in full)  # the row loops, not the flat ones
+    x = rng.standard_normal(op.shape).astype(np.float32)
+    for a in range(3):
+        x[a] *= op.d[a] > 0
+    x[3] *= op.fluid > 0
+    y0 = rng.standard_normal(op.shape).astype(np.float32)
+    out = {}
+    for twin in ("serial", "parallel"):
+        y = y0.copy()
+        dot = getattr(lz.stokes_lanczos, twin)(*op.d, *full, op.fluid, x, 1.3, 0.4, y)
+        out[twin] = (y, dot)
+    assert np.abs(out["serial"][0]).max() > 1.0
+    assert np.array_equal(out["serial"][0], out["parallel"][0])
+    assert out["serial"][1] == out["parallel"][1]
+
+
 _CACHE_STATE_CHILD = """
 import hashlib
 import numpy as np
