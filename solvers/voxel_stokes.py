@@ -929,7 +929,7 @@ class _Stokes:
             self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights, faces=cut_faces)
             if cut is None and THIN_BLOCKS:
                 # the staircase's 1 / A_ff, formed once for the scale code and the thin blocks
-                # (each formed its own: 0.3 s of one-thread set-up at 200^3; 12 B per cell
+                # (each formed its own: 0.4 s of a one-thread 200^3 set-up's profile; 12 B per cell
                 # while both use them, below the Krylov phase's peak)
                 faces = self._face_inverses()
                 code = schur.schur_code(self.d, SCHUR_FLOOR, list(faces))

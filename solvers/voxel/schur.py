@@ -281,8 +281,8 @@ def unit_inverse(da: np.ndarray) -> np.ndarray:
     where the diagonal ``da`` is 0): the staircase faces' part of the Schur diagonal.
 
     A one-byte diagonal (the staircase's) takes it from a 256-entry table: one gather
-    instead of a masked float64 division and its cast (200^3: 25 ms instead of 130 ms per
-    component, twice per component in the set-up: :func:`schur_code` and the thin blocks);
+    instead of a masked float64 division and its cast (200^3, one thread, load 5: 17 ms
+    instead of 33 ms per component on warm memory; ``benchmarks/RESULTS.md``, session 48);
     the same float32 values (the table is that division of every byte)."""
     if da.dtype == np.uint8:
         return _UNIT_INVERSE[da]
