@@ -922,32 +922,44 @@ class _Stokes:
         self.mg = [mg.ScalarMG(o[0], o[1], work=work, **mg_kw) for o in ops]
         _share_coarse_work(self.mg)
         self.coarse_p = None
+        faces = None
         if COARSE_PRESSURE:
             weights = None if cut is None else cf.WeightView(cut, self.d)
-            faces = None if cut is None else (lambda a: cut.scale_inverse(a, self.d[a]))
-            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights, faces=faces)
+            cut_faces = None if cut is None else (lambda a: cut.scale_inverse(a, self.d[a]))
+            self.coarse_p = schur.CoarsePressure(self.fluid, ops, self.mg, weights, faces=cut_faces)
+            if cut is None and THIN_BLOCKS:
+                # the staircase's 1 / A_ff, formed once for the scale code and the thin blocks
+                # (each formed its own: 0.4 s of a one-thread 200^3 set-up's profile; 12 B per cell
+                # while both use them, below the Krylov phase's peak)
+                faces = self._face_inverses()
+                code = schur.schur_code(self.d, SCHUR_FLOOR, list(faces))
             if code is not None:
                 self.coarse_p.use_code(code)
             # the scale code (the staircase's formed now, its ~13 B per cell of temporaries
             self._mask_in_code()  # off the peak) is the pressure-cell mask too
         elif code is not None:
             self.p_scale = schur.CODE_TABLE[code]
-        self.thin = self._thin_blocks() if THIN_BLOCKS else None
+        self.thin = self._thin_blocks(faces) if THIN_BLOCKS else None
+        del faces
         del ops
         self._drop_couplings()
 
-    def _thin_blocks(self) -> thin.ThinBlocks | None:
+    def _face_inverses(self) -> list[np.ndarray]:
+        """Each component's ``w_f^2 / A_ff`` (float32, 0 off the active faces; staircase:
+        ``1 / A_ff``, :func:`solvers.voxel.schur.unit_inverse`)."""
+        if self.cut is not None:
+            return [self.cut.scale_inverse(a, da) for a, da in enumerate(self.d)]
+        return [schur.unit_inverse(da) for da in self.d]
+
+    def _thin_blocks(self, faces: list[np.ndarray] | None = None) -> thin.ThinBlocks | None:
         """The exact local pressure solves on the thin cells (:mod:`solvers.voxel.thin`), from
-        the faces' ``w_f^2 / A_ff`` (staircase: ``1 / A_ff``); None without a pressure scale."""
+        the faces' ``w_f^2 / A_ff`` (:meth:`_face_inverses`, unless given); None without a
+        pressure scale."""
         dinv = self.schur_scale()
         if dinv is None:
             return None
-        faces = []
-        for a, da in enumerate(self.d):
-            if self.cut is not None:
-                faces.append(self.cut.scale_inverse(a, da))
-            else:
-                faces.append(np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0))
+        if faces is None:
+            faces = self._face_inverses()
         return thin.ThinBlocks(faces, self.fluid, dinv, SCHUR_FLOOR)
 
     def schur_scale(self) -> np.ndarray | None:

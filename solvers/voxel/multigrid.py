@@ -42,20 +42,51 @@ def component_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarra
     each of the four tangential neighbours contributes 1, or 2 when both of its cells are solid
     (the wall lies half a cell away: ghost value ``-q``).
     """
-    act = fluid & np.roll(fluid, 1, axis=a)
-    solid = ~fluid
-    both_solid = solid & np.roll(solid, 1, axis=a)
+    act = np.empty(fluid.shape, bool)
+    _with_lower(np.logical_and, fluid, a, act)
+    both_solid = np.empty(fluid.shape, bool)  # solid & lower solid = ~(fluid | lower fluid)
+    _with_lower(np.logical_or, fluid, a, both_solid)
+    np.logical_not(both_solid, out=both_solid)
     diag = np.full(fluid.shape, 6, dtype=np.uint8)
     for b in range(3):
         if b == a:
             continue
-        for s in (-1, 1):
-            diag += np.roll(both_solid, s, axis=b)
-    diag[~act] = 0
+        _add_shifted(diag, both_solid, b)
+    diag *= act
     c = np.empty((3, *fluid.shape), dtype=np.uint8)
     for b in range(3):
-        c[b] = act & np.roll(act, 1, axis=b)
+        _with_lower(np.logical_and, act, b, c[b].view(bool))
     return diag, c
+
+
+def _halves(a: int, shift: int) -> list[tuple[tuple[slice, ...], tuple[slice, ...]]]:
+    """``(destination, source)`` index pairs of ``out[i] = x[i - shift]`` along ``a``
+    (periodic; ``shift`` +-1): the two slices ``np.roll(x, shift, axis=a)`` is made of."""
+    n = 1 if shift > 0 else -1
+    pairs = []
+    for dst, src in (
+        (slice(n, None), slice(None, -n)) if n > 0 else (slice(None, n), slice(-n, None)),
+        (slice(None, n), slice(-n, None)) if n > 0 else (slice(n, None), slice(None, -n)),
+    ):
+        di, si = [slice(None)] * 3, [slice(None)] * 3
+        di[a], si[a] = dst, src
+        pairs.append((tuple(di), tuple(si)))
+    return pairs
+
+
+def _with_lower(op: np.ufunc, x: np.ndarray, a: int, out: np.ndarray) -> None:
+    """``out = op(x, np.roll(x, 1, axis=a))`` (each cell with its lower neighbour along
+    ``a``, periodic) without the rolled copy."""
+    for dst, src in _halves(a, 1):
+        op(x[dst], x[src], out=out[dst])
+
+
+def _add_shifted(diag: np.ndarray, x: np.ndarray, b: int) -> None:
+    """``diag += np.roll(x, -1, axis=b) + np.roll(x, 1, axis=b)`` (one after the other, as
+    integers: exact) without the rolled copies."""
+    for shift in (-1, 1):
+        for dst, src in _halves(b, shift):
+            diag[dst] += x[src]
 
 
 def _small_integers(fine: Level, coarse: np.ndarray) -> np.ndarray:

@@ -97,6 +97,7 @@ __all__ = [
     "poisson_velocity",
     "schur_code",
     "pressure_block_code",
+    "unit_inverse",
 ]
 
 BLOCK = 4
@@ -268,6 +269,37 @@ if not np.array_equal(CODE_TABLE, np.ldexp(CODE_TABLE[32 + _c % 16], _c // 16 + 
 del _c
 
 
+_UNIT_INVERSE = np.divide(
+    1.0, np.arange(256, dtype=np.uint8), out=np.zeros(256, np.float32), where=np.arange(256) > 0
+)
+"""``1 / k`` of every one-byte diagonal ``k`` (0 at 0), by the very expression
+:func:`unit_inverse` stands for, so the look-up gives its bits."""
+
+
+def unit_inverse(da: np.ndarray) -> np.ndarray:
+    """``1 / A_ff`` of the faces of one velocity component (float32, 0 off the active faces,
+    where the diagonal ``da`` is 0): the staircase faces' part of the Schur diagonal.
+
+    A one-byte diagonal (the staircase's) takes it from a 256-entry table: one gather
+    instead of a masked float64 division and its cast (200^3, one thread, load 5: 17 ms
+    instead of 33 ms per component on warm memory; ``benchmarks/RESULTS.md``, session 48);
+    the same float32 values (the table is that division of every byte)."""
+    if da.dtype == np.uint8:
+        return _UNIT_INVERSE[da]
+    return np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+
+
+def _add_upper(s2: np.ndarray, q: np.ndarray, a: int) -> None:
+    """``s2 += np.roll(q, -1, axis=a)`` (the face at the upper neighbour along ``a``, periodic)
+    as two slice additions: the same sums without the rolled copy (4 B per cell)."""
+    lo = [slice(None)] * 3
+    hi = [slice(None)] * 3
+    lo[a], hi[a] = slice(0, -1), slice(1, None)
+    s2[tuple(lo)] += q[tuple(hi)]
+    lo[a], hi[a] = slice(-1, None), slice(0, 1)
+    s2[tuple(lo)] += q[tuple(hi)]
+
+
 def schur_code(
     diags: list[np.ndarray], floor: float, faces: list[np.ndarray] | None = None
 ) -> np.ndarray:
@@ -281,9 +313,9 @@ def schur_code(
             q = faces[a]
             faces[a] = None  # freed as it is summed
         else:
-            q = np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+            q = unit_inverse(da)
         s2 += q
-        s2 += np.roll(q, -1, axis=a)
+        _add_upper(s2, q, a)
         del q
     np.maximum(s2, floor, out=s2)
     np.log2(s2, out=s2)
@@ -317,16 +349,24 @@ def poisson_velocity(
     """``w * A^-1 w`` approximated by ``cycles`` multigrid-preconditioned iterations (float32):
     the unconstrained velocity under a unit force, whose block mean is the Poisson permeability
     (``w`` the sub-voxel face weight, 1 on the staircase's active faces)."""
-    b = (d > 0).astype(np.float32) if weight is None else np.asarray(weight, np.float32)
-    u = np.zeros(d.shape, np.float32)
-    r = b.copy()
-    e = np.empty(d.shape, np.float32)
-    for it in range(cycles):
-        smg.apply(r, e)
-        u += e
-        if it + 1 < cycles:
+    if weight is None:
+        b = np.empty(d.shape, np.float32)
+        np.greater(d, 0, out=b)  # the 0/1 mask straight into float32 (no bool temporary)
+    else:
+        b = np.asarray(weight, np.float32)
+    # the first cycle starts from u = 0: its residual is b itself and u its V-cycle (no copy
+    # of b, no zero field to add to; 0 + e is e up to the sign of a zero, which no later step
+    # reads: the results are bitwise those of the former copy and sum)
+    u = np.empty(d.shape, np.float32)
+    smg.apply(b, u)
+    if cycles > 1:
+        r = np.empty(d.shape, np.float32)
+        e = np.empty(d.shape, np.float32)
+        for _ in range(1, cycles):
             kr.lap_residual(d, c[0], c[1], c[2], u, b, r)
-    del r, e
+            smg.apply(r, e)
+            u += e
+        del r, e
     u *= b
     return u
 

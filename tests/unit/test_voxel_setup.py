@@ -1,0 +1,107 @@
+"""The voxel Stokes set-up's one-thread numpy passes (issue 16 item 1, session 48): the finest
+operators without rolled copies, the staircase's ``1 / A_ff`` from a table and formed once for
+the scale code and the thin blocks, the Poisson velocity's first cycle without a copy of its
+right-hand side.  Each is checked bit for bit against the numpy definition it replaces (the
+former code, kept here as the reference), so the solver's results do not move."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import solvers.voxel_stokes as vs
+from solvers.voxel import kernels as kr
+from solvers.voxel import multigrid as mg
+from solvers.voxel import schur
+
+
+def _rolled_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarray]:
+    """The definition of :func:`solvers.voxel.multigrid.component_operator` by ``np.roll``
+    (its code until session 47)."""
+    act = fluid & np.roll(fluid, 1, axis=a)
+    both_solid = ~fluid & np.roll(~fluid, 1, axis=a)
+    diag = np.full(fluid.shape, 6, dtype=np.uint8)
+    for b in range(3):
+        if b != a:
+            diag += np.roll(both_solid, -1, axis=b)
+            diag += np.roll(both_solid, 1, axis=b)
+    diag[~act] = 0
+    c = np.stack([act & np.roll(act, 1, axis=b) for b in range(3)]).astype(np.uint8)
+    return diag, c
+
+
+def _masked_inverse(da: np.ndarray) -> np.ndarray:
+    """``1 / A_ff`` by the masked division (the set-up's code until session 47)."""
+    return np.divide(1.0, da, out=np.zeros(da.shape, np.float32), where=da > 0)
+
+
+@pytest.mark.parametrize("shape", [(7, 6, 5), (1, 4, 3), (2, 2, 9), (5, 1, 1)])
+def test_component_operator_is_the_rolled_definition(shape, monkeypatch) -> None:
+    # periodic neighbours by slices, axes of one and two cells included (where the upper and
+    # the lower neighbour are one cell, or the cell itself); and no rolled copy is made
+    fluid = np.random.default_rng(sum(shape)).random(shape) < 0.6
+    want = [_rolled_operator(fluid, a) for a in range(3)]
+
+    def no_roll(*args, **kwargs):
+        raise AssertionError("np.roll copy in component_operator")
+
+    monkeypatch.setattr(np, "roll", no_roll)
+    for a in range(3):
+        diag, c = mg.component_operator(fluid, a)
+        assert diag.dtype == np.uint8 and c.dtype == np.uint8
+        assert np.array_equal(diag, want[a][0]) and np.array_equal(c, want[a][1])
+
+
+def test_unit_inverse_is_the_masked_division_bit_for_bit() -> None:
+    every = np.arange(256, dtype=np.uint8).reshape(4, 8, 8)
+    got = schur.unit_inverse(every)
+    assert got.dtype == np.float32
+    assert np.array_equal(got.view(np.uint32), _masked_inverse(every).view(np.uint32))
+    assert got[0, 0, 0] == 0.0 and got[0, 0, 3] == np.float32(1.0 / 3.0)
+    wide = np.linspace(0.0, 30.0, 61).reshape(1, 61, 1)  # a float diagonal: the division
+    assert np.array_equal(schur.unit_inverse(wide), _masked_inverse(wide))
+
+
+def test_staircase_set_up_forms_each_inverse_once(monkeypatch) -> None:
+    # the scale code and the thin blocks share one 1 / A_ff per component (twice before:
+    # 6 grid-sized divisions, 0.3 s of one-thread set-up at 200^3); the code is that of the
+    # rolled sum of the masked divisions
+    solid = np.random.default_rng(5).random((12, 10, 9)) < 0.35
+    calls = []
+    inverse = schur.unit_inverse
+    monkeypatch.setattr(schur, "unit_inverse", lambda da: calls.append(1) or inverse(da))
+    op = vs._Stokes.build(solid)
+    assert len(calls) == 3 and op.thin is not None
+    s2 = np.zeros(solid.shape, np.float32)
+    for a in range(3):
+        q = _masked_inverse(op.d[a])
+        s2 += q
+        s2 += np.roll(q, -1, axis=a)
+    code = np.clip(
+        np.rint(32.0 - schur.CODE_STEPS * np.log2(np.maximum(s2, vs.SCHUR_FLOOR))), 0, 255
+    )
+    cells = op.fluid != 0
+    assert np.array_equal(op.fluid[cells], code.astype(np.uint8)[cells])
+
+
+def test_poisson_velocity_is_the_zero_start_iteration_bit_for_bit() -> None:
+    # the first cycle's V-cycle of b itself (no copy of b, no zero field to add to) against
+    # the former loop from u = 0: the same bits
+    solid = np.random.default_rng(6).random((16, 12, 10)) < 0.3
+    d, c = mg.component_operator(~solid, 0)
+    smg = mg.ScalarMG(d, c)
+    b = (d > 0).astype(np.float32)
+    u = np.zeros(d.shape, np.float32)
+    r, e = b.copy(), np.empty(d.shape, np.float32)
+    for it in range(schur.CYCLES):
+        smg.apply(r, e)
+        u += e
+        if it + 1 < schur.CYCLES:
+            kr.lap_residual(d, c[0], c[1], c[2], u, b, r)
+    u *= b
+    got = schur.poisson_velocity(smg, d, c, None, schur.CYCLES)
+    assert np.abs(got).max() > 0.1  # a real flow, not zeros
+    assert np.array_equal(got, u)
+    one = schur.poisson_velocity(smg, d, c, None, 1)
+    smg.apply(b, e)
+    assert np.array_equal(one, e * b)
