@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import inspect
 import numbers
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, fields
@@ -163,6 +164,21 @@ class RunOptions:
         if self.worker_wait_s is None:
             return getattr(self.scheduler, "wait_s", DEFAULT_WAIT_S)
         return self.worker_wait_s
+
+
+def _fields_signature(cls: type) -> inspect.Signature:
+    """``cls.__init__``'s signature without ``self``: the one :func:`inspect.signature`,
+    ``help()`` and IDEs show for ``cls`` (a ``__new__(cls, *args, **kwargs)`` hides it)."""
+    init = inspect.signature(cls.__init__)
+    return init.replace(
+        parameters=list(init.parameters.values())[1:],
+        return_annotation=inspect.Signature.empty,
+    )
+
+
+# __new__ (unknown keywords refused in one line) made inspect.signature(RunOptions) and help()
+# read "(*args, **kwargs)": the 11 fields were lost to help() and completion (review s48)
+RunOptions.__signature__ = _fields_signature(RunOptions)  # type: ignore[attr-defined]
 
 
 def _check_timeout(timeout_s) -> float:
