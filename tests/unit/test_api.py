@@ -909,6 +909,24 @@ def test_run_options_case_fn_refusal_says_each_thing_once(case_fn, why) -> None:
     assert info.value.key == "case_fn"
 
 
+def test_run_options_case_fn_whose_module_refuses_on_import_says_why(tmp_path, monkeypatch) -> None:
+    """Review s48: any StudyError out of loading ``case_fn`` was taken for its form, so a
+    module of the user's that raises a StudyError (or SpecError) while importing was told
+    "no ':' between module and function" though the name has one; its own text now."""
+    (tmp_path / "mendc_refusing_cases.py").write_text(
+        "from psdesign.errors import StudyError\n"
+        "raise StudyError('fibers.count: must be >= 1, got 0 (set in the module)')\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn="mendc_refusing_cases:run")
+    assert str(info.value) == (
+        "case_fn: cannot load 'mendc_refusing_cases:run' (fibers.count: must be >= 1, got 0 "
+        "(set in the module)); allowed: a callable or an importable 'module:function'"
+    )
+    assert info.value.key == "case_fn"
+
+
 def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> None:
     # audit s45: RunOptions(timeout_s=-1) was refused as "timeout: ...", scheduler="zz" /
     # scheduler="" as "--scheduler: ..." and worker_wait_s=0 as "--cluster-wait: ...": the
