@@ -254,7 +254,7 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
 def _check_case_fn(case_fn: Callable | str) -> None:
     """``case_fn`` loadable here and callable as a case is called, else one
     :class:`StudyError` line naming it."""
-    from psdesign.study.casefn import check_case_fn_form, load_case_fn
+    from psdesign.study.casefn import CaseFnNotCallable, check_case_fn_form, load_case_fn
 
     try:
         check_case_fn_form(case_fn)
@@ -265,6 +265,8 @@ def _check_case_fn(case_fn: Callable | str) -> None:
     try:  # apart from the form: a StudyError its module raises while importing is its own
         # (review s48: it was told "no ':' between module and function")
         fn = load_case_fn(case_fn)
+    except CaseFnNotCallable as exc:  # its line names case_fn and the name, as this one does
+        _cannot_load(case_fn, f"it names a {exc.kind}, which is not callable")
     except (ImportError, AttributeError, ValueError) as exc:
         _cannot_load(case_fn, " ".join(str(exc).split()))
     why = case_fn_call_error(fn)

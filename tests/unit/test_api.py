@@ -927,6 +927,34 @@ def test_run_options_case_fn_whose_module_refuses_on_import_says_why(tmp_path, m
     assert info.value.key == "case_fn"
 
 
+@pytest.mark.parametrize("timeout_s", [None, 60])
+def test_a_case_whose_case_fn_is_not_callable_records_case_fn_and_the_name(
+    tmp_path, timeout_s
+) -> None:
+    """Review s48: load_case_fn's not-callable line was cut to "it names a str, which is not
+    callable" for RunOptions' brackets, but each case loads the function too
+    (worker.run_case_inline, in the worker or the case's child process), where the record
+    named neither ``case_fn`` nor the name. Its line is whole again; RunOptions words its own
+    (test_run_options_case_fn_refusal_says_each_thing_once)."""
+    from psdesign.study.worker import execute_case
+
+    payload = {
+        "case_id": "c0001-00000000",
+        "spec": {},
+        "outputs": [],
+        "solver": "fem",
+        "workdir": str(tmp_path / "case"),
+        "out_dir": str(tmp_path),
+        "case_fn": "json:__name__",
+        "timeout_s": timeout_s,  # None: in this process; 60: the case's child process
+    }
+    record = execute_case(payload)
+    assert record["status"] == "failed"
+    assert record["error"] == (
+        "CaseFnNotCallable: case_fn: 'json:__name__' names a str, which is not callable"
+    )
+
+
 def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> None:
     # audit s45: RunOptions(timeout_s=-1) was refused as "timeout: ...", scheduler="zz" /
     # scheduler="" as "--scheduler: ..." and worker_wait_s=0 as "--cluster-wait: ...": the
