@@ -320,6 +320,22 @@ def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_run_study_unknown_keyword_is_the_runner_message(tmp_path, monkeypatch) -> None:
+    # review s48: run_study("x.toml", out, wrkers=2) at a script's top level was told to put
+    # the call under the main guard (the default workers=1 beside the misspelled one); it is
+    # the one line every study entry point gives an unknown keyword (check_run_keywords)
+    import psdesign.api as api
+    from psdesign.study import StudyError
+
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    with pytest.raises(StudyError) as info:
+        psdesign.run_study("x.toml", tmp_path / "o", wrkers=2)
+    line = str(info.value)
+    assert line.startswith("wrkers: not a keyword of run_study (allowed: case_fn, command,")
+    assert info.value.key == "wrkers" and "workers" in line and "__main__" not in line
+    assert not (tmp_path / "o").exists()
+
+
 def test_run_study_bad_options_is_the_runner_message(tmp_path, monkeypatch) -> None:
     # session 46 walk of the API: run_study(study, out, 3) from a script's top level was told
     # to put the call under the main guard (the default workers=1 of an options it could not
