@@ -19,6 +19,7 @@ from psdesign.flow.permeability import (
     NATIVE_BC,
     SOLVERS,
     BoundaryConditionUnavailable,
+    checked_flow,
     permeability,
 )
 from psdesign.geometry.rve import RVE, VoxelFields
@@ -58,6 +59,7 @@ def permeability_both_bc(
         ``status``, or ``"n/a: <reason>"``), ``bc_sensitivity`` (``None`` when a model is
         unavailable) and warnings.
     """
+    flow = checked_flow(flow)  # before its .get: permeability's one line naming flow
     solver = solver or flow.get("solver", "fem")
     if solver not in SOLVERS:
         raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")

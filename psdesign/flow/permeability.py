@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, short
 from psdesign.fields.writer import HeldCapture
 from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
@@ -62,6 +62,7 @@ from psdesign.schema.flow import (
 __all__ = [
     "BC_MODELS",
     "check_route_keys",
+    "checked_flow",
     "BoundaryConditionUnavailable",
     "NATIVE_BC",
     "face_mismatch",
@@ -76,6 +77,26 @@ __all__ = [
 
 class BoundaryConditionUnavailable(ValueError, NotImplementedError):
     """The chosen solver cannot apply the requested ``flow.bc`` (yet)."""
+
+
+def checked_flow(flow: object) -> dict:
+    """``flow`` when it is a dict (the spec's ``[flow]`` table), else one :class:`SpecError`
+    line naming ``flow`` (:func:`~psdesign.geometry.rve.checked_rve`'s twin):
+    ``permeability(rve, fields, "z", flow=3)`` raised ``AttributeError: 'int' object has no
+    attribute 'get'`` until session 48 (review).
+
+    >>> checked_flow(3)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: flow: must be a table (a dict: the spec's [flow], ...), got 3
+    """
+    if not isinstance(flow, dict):
+        raise SpecError(
+            "flow",
+            "must be a table (a dict: the spec's [flow], psdesign.build(spec).spec['flow']), "
+            f"got {short(flow)}",
+        )
+    return flow
 
 
 def _check(solver: str, bc: str | None) -> None:
@@ -465,11 +486,11 @@ def permeability(
     Raises
     ------
     SpecError
-        ``rve`` not an :class:`RVE` or ``fields`` not :class:`VoxelFields`: one line naming
-        it, before any work (``permeability(3, ...)`` raised ``AttributeError: 'int' object
-        has no attribute 'fibers'`` until session 48).
+        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or ``flow`` not a
+        dict: one line naming it, before any work (``permeability(3, ...)`` raised
+        ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """
-    rve, fields = checked_rve(rve), checked_fields(fields)
+    rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow)
     solver = solver or flow.get("solver", "fem")
     _check(solver, flow.get("bc"))
     final = None if capture is None else HeldCapture(capture)
