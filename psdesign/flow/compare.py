@@ -23,6 +23,7 @@ from psdesign.flow.permeability import (
     permeability,
 )
 from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.schema.flow import check_solver_bc
 
 #: Warn when ``bc_sensitivity`` exceeds this plus the two results' error bars: beyond the
 #: discretization, a face effect of 5 % is a systematic error comparable to the seed scatter
@@ -61,8 +62,7 @@ def permeability_both_bc(
     """
     flow = checked_flow(flow)  # before its .get: permeability's one line naming flow
     solver = solver or flow.get("solver", "fem")
-    if solver not in SOLVERS:
-        raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
+    check_solver_bc(solver)
     primary_bc = flow.get("bc") or NATIVE_BC[solver]
     results: dict[str, dict] = {}
     notes: dict[str, str] = {}

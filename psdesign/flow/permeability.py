@@ -54,6 +54,7 @@ from psdesign.schema.flow import (
     SOLVERS,
     TREATMENT_ALLOWED,
     TREATMENT_NAMES,
+    check_solver_bc,
     resolution_key,
     treatment_refusal,
     unread_mesher_key,
@@ -61,6 +62,7 @@ from psdesign.schema.flow import (
 
 __all__ = [
     "BC_MODELS",
+    "SOLVERS",
     "check_route_keys",
     "checked_flow",
     "BoundaryConditionUnavailable",
@@ -97,13 +99,6 @@ def checked_flow(flow: object) -> dict:
             f"got {short(flow)}",
         )
     return flow
-
-
-def _check(solver: str, bc: str | None) -> None:
-    if solver not in SOLVERS:
-        raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
-    if bc is not None and bc not in BC_MODELS:
-        raise ValueError(f"flow.bc must be 'permeameter' or 'periodic', got {bc!r}")
 
 
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
@@ -196,7 +191,7 @@ def route_result(
         a ``bc`` of its own (it predates the ``bc`` key).
     """
     bc = flow.get("bc")
-    _check(solver, bc)
+    check_solver_bc(solver, bc)
     if bc is not None and bc not in supported_bc(solver):
         raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
     check_route_keys(flow, solver)
@@ -492,7 +487,7 @@ def permeability(
     """
     rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow)
     solver = solver or flow.get("solver", "fem")
-    _check(solver, flow.get("bc"))
+    check_solver_bc(solver, flow.get("bc"))
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)
