@@ -41,13 +41,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
+# the solvers and flow.bc models: the product's one list each (a copy here until session 48)
+from psdesign.schema.flow import BC_MODELS, SOLVERS  # noqa: E402
+
 RUNS = ROOT / "benchmarks" / "solver_agreement_runs.jsonl"
 DOC = ROOT / "docs" / "solver-agreement.md"
 MU = 1.8e-5
 S = 40e-6  #: array spacing (m)
 AGREE = 0.02
-SOLVERS = ("fem", "voxel")
-BCS = ("periodic", "permeameter")
 #: Row labels of the specs part: the permeameter with one RVE between the reservoirs
 #: (``permeameter_copies = 1``, the definition before the stack), with ``"auto"`` copies
 #: (engineer stack's stacked permeameter, ``psdesign/flow/stack.py``) and, where the stacked row
@@ -1758,7 +1759,7 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--solver", choices=SOLVERS, required=True)
     v.add_argument(
         "--bc",
-        choices=[*BCS, "mirrored"],
+        choices=[*BC_MODELS, "mirrored"],
         default="permeameter",
         help="mirrored: periodic K of the RVE mirrored across its side faces (mirror_sides)",
     )

@@ -553,7 +553,10 @@ def run_study(
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run
+    from psdesign.study.runner import check_run_keywords
 
+    # an unknown keyword (wrkers=2) is its one line, not the main guard's (review s48)
+    check_run_keywords(kwargs, {}, "run_study")
     workers = kwargs.get("workers", options.workers if isinstance(options, RunOptions) else 1)
     # a bad ``workers`` (negative, not an int) or ``options`` (not a RunOptions) is the
     # runner's one-line error, not this one (options=3 in a script was told of the main guard)

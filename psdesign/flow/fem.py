@@ -53,7 +53,7 @@ from psdesign.meshing.options import (
 )
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
-from psdesign.schema.flow import coarser_advice, resolution_key
+from psdesign.schema.flow import check_solver_bc, coarser_advice, resolution_key
 from solvers.fem.memory import MemoryLimitError
 
 #: The ``flow.bc`` models this route applies: every one.
@@ -305,8 +305,7 @@ def permeability_fem(
     """
     name, ax = axis_of(direction)
     bc = flow.get("bc") or "permeameter"
-    if bc not in BC_MODELS:
-        raise ValueError(f"flow.bc: must be 'permeameter' or 'periodic', got {bc!r}")
+    check_solver_bc(bc=bc)
     t0 = time.perf_counter()
     plan = plan_copies(flow, rve, fields, ax) if bc == "permeameter" else None
     own, note = None, None

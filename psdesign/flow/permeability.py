@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, short
 from psdesign.fields.writer import HeldCapture
 from psdesign.flow import error as err
 from psdesign.flow.darcy import axis_of
@@ -54,6 +54,7 @@ from psdesign.schema.flow import (
     SOLVERS,
     TREATMENT_ALLOWED,
     TREATMENT_NAMES,
+    check_solver_bc,
     resolution_key,
     treatment_refusal,
     unread_mesher_key,
@@ -61,7 +62,9 @@ from psdesign.schema.flow import (
 
 __all__ = [
     "BC_MODELS",
+    "SOLVERS",
     "check_route_keys",
+    "checked_flow",
     "BoundaryConditionUnavailable",
     "NATIVE_BC",
     "face_mismatch",
@@ -78,11 +81,24 @@ class BoundaryConditionUnavailable(ValueError, NotImplementedError):
     """The chosen solver cannot apply the requested ``flow.bc`` (yet)."""
 
 
-def _check(solver: str, bc: str | None) -> None:
-    if solver not in SOLVERS:
-        raise ValueError(f"solver must be 'fem' or 'voxel', got {solver!r}")
-    if bc is not None and bc not in BC_MODELS:
-        raise ValueError(f"flow.bc must be 'permeameter' or 'periodic', got {bc!r}")
+def checked_flow(flow: object) -> dict:
+    """``flow`` when it is a dict (the spec's ``[flow]`` table), else one :class:`SpecError`
+    line naming ``flow`` (:func:`~psdesign.geometry.rve.checked_rve`'s twin):
+    ``permeability(rve, fields, "z", flow=3)`` raised ``AttributeError: 'int' object has no
+    attribute 'get'`` until session 48 (review).
+
+    >>> checked_flow(3)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: flow: must be a table (a dict: the spec's [flow], ...), got 3
+    """
+    if not isinstance(flow, dict):
+        raise SpecError(
+            "flow",
+            "must be a table (a dict: the spec's [flow], psdesign.build(spec).spec['flow']), "
+            f"got {short(flow)}",
+        )
+    return flow
 
 
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
@@ -175,7 +191,7 @@ def route_result(
         a ``bc`` of its own (it predates the ``bc`` key).
     """
     bc = flow.get("bc")
-    _check(solver, bc)
+    check_solver_bc(solver, bc)
     if bc is not None and bc not in supported_bc(solver):
         raise _refuse(solver, bc, NATIVE_BC[solver])  # before a solve is wasted
     check_route_keys(flow, solver)
@@ -465,13 +481,13 @@ def permeability(
     Raises
     ------
     SpecError
-        ``rve`` not an :class:`RVE` or ``fields`` not :class:`VoxelFields`: one line naming
-        it, before any work (``permeability(3, ...)`` raised ``AttributeError: 'int' object
-        has no attribute 'fibers'`` until session 48).
+        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or ``flow`` not a
+        dict: one line naming it, before any work (``permeability(3, ...)`` raised
+        ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """
-    rve, fields = checked_rve(rve), checked_fields(fields)
+    rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow)
     solver = solver or flow.get("solver", "fem")
-    _check(solver, flow.get("bc"))
+    check_solver_bc(solver, flow.get("bc"))
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)

@@ -43,6 +43,7 @@ from psdesign.flow.voxel_estimate import announce_voxel_solve
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
+from psdesign.schema.flow import check_solver_bc
 
 WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
 
@@ -121,8 +122,7 @@ def voxel_permeability_tensor(
 
 def _options(flow: dict) -> tuple[str, str]:
     bc = flow.get("bc") or "periodic"
-    if bc not in BC_MODELS:
-        raise ValueError(f"flow.bc: must be one of {', '.join(BC_MODELS)}, got {bc!r}")
+    check_solver_bc(bc=bc)
     wall = flow.get("wall_treatment") or "subvoxel"
     if wall not in WALL_TREATMENTS:
         raise ValueError(

@@ -219,6 +219,28 @@ def checked_fields(fields: object) -> VoxelFields:
     return fields
 
 
+def _period(period: object) -> float:
+    """``period`` (metres per PS period) as a float when it is one positive finite real number,
+    else one :class:`~psdesign.errors.SpecError` line naming ``period``, as ``size``'s names
+    ``size``: ``RVE(size, period="abc")`` raised NumPy's ``TypeError`` and ``period=0`` a
+    ``ValueError`` naming no key until session 48 (review).
+
+    >>> _period(2), _period(np.int64(3))
+    (2.0, 3.0)
+    >>> _period("abc")
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: period: must be a positive length in metres, got 'abc'
+    """
+    real = np.ndim(period) == 0 and np.asarray(period).dtype.kind in "iuf"  # no bool, text
+    value = float(period) if real else np.nan  # type: ignore[arg-type]
+    if not (np.isfinite(value) and value > 0):
+        from psdesign.errors import SpecError, short
+
+        raise SpecError("period", f"must be a positive length in metres, got {short(period)}")
+    return value
+
+
 @dataclass
 class RVE:
     """A box of fibers.
@@ -250,10 +272,7 @@ class RVE:
                 "size", f"must be three positive lengths in metres, got {short(self.size)}"
             )
         self.size = size
-        if self.period is None:
-            self.period = float(self.size.max())
-        if not (np.isfinite(self.period) and self.period > 0):
-            raise ValueError(f"period must be positive, got {self.period}")
+        self.period = float(self.size.max()) if self.period is None else _period(self.period)
 
     @property
     def box_normalized(self) -> tuple[np.ndarray, np.ndarray]:

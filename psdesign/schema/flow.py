@@ -25,6 +25,26 @@ SOLVERS = ("fem", "voxel")
 BC_MODELS = ("permeameter", "periodic")
 
 
+def check_solver_bc(solver: object = None, bc: object = None) -> None:
+    """``solver`` (when given) one of :data:`SOLVERS` and ``bc`` (when given) one of
+    :data:`BC_MODELS`, else one :class:`~psdesign.errors.SpecError` line naming
+    ``flow.solver`` / ``flow.bc`` and listing the allowed from those lists: the one wording of
+    the routes' refusals (:mod:`psdesign.flow.permeability`, ``compare``, ``fem``, ``voxel``),
+    which spelled the lists by hand until session 48 (review).
+
+    >>> check_solver_bc("voxel", "periodic")
+    >>> check_solver_bc(bc="open")
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: flow.bc: must be one of permeameter, periodic, got 'open'
+    """
+    from psdesign.errors import SpecError
+
+    for key, value, allowed in (("flow.solver", solver, SOLVERS), ("flow.bc", bc, BC_MODELS)):
+        if value is not None and not (isinstance(value, str) and value in allowed):
+            raise SpecError(key, f"must be one of {', '.join(allowed)}, got {short(value)}")
+
+
 def _copies(value: Any) -> Any:
     """``"auto"`` or an integer in ``[1, MAX_PERMEAMETER_COPIES]`` (bools and floats refused)."""
     if value == "auto" and isinstance(value, str):

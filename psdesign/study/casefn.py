@@ -12,6 +12,7 @@ from typing import Any
 
 __all__ = [
     "CASE_FN_ARGUMENTS",
+    "CaseFnNotCallable",
     "DEFAULT_CASE_FN",
     "case_fn_call_error",
     "check_case_fn_form",
@@ -98,6 +99,24 @@ def check_case_fn_form(case_fn: object) -> None:
     raise StudyError(f"case_fn: expected a callable or 'module:function', got {short(case_fn)}")
 
 
+class CaseFnNotCallable(ValueError):
+    """What a ``"module:function"`` ``case_fn`` names is not callable: its line names
+    ``case_fn`` and the name, as a case's record shows it (:func:`load_case_fn` runs in each
+    case too); ``kind`` is the type's name, for :class:`~psdesign.study.options.RunOptions`'
+    own line.
+
+    >>> str(CaseFnNotCallable("json:__name__", "str"))
+    "case_fn: 'json:__name__' names a str, which is not callable"
+    """
+
+    def __init__(self, case_fn: str, kind: str) -> None:
+        super().__init__(case_fn, kind)  # both in args: a pickled copy (a worker's) rebuilds
+        self.case_fn, self.kind = case_fn, kind
+
+    def __str__(self) -> str:
+        return f"case_fn: {self.case_fn!r} names a {self.kind}, which is not callable"
+
+
 def load_case_fn(case_fn: Callable | str | None) -> Callable:
     """Resolve a case function: a callable, ``"module:attr"``, or None (the default pipeline).
 
@@ -105,7 +124,8 @@ def load_case_fn(case_fn: Callable | str | None) -> Callable:
     ------
     ValueError
         If ``case_fn`` is no callable or ``"module:attr"`` string
-        (:func:`check_case_fn_form`), or what it names is not callable.
+        (:func:`check_case_fn_form`), or what it names is not callable
+        (:class:`CaseFnNotCallable`).
     ImportError, AttributeError
         If the module or attribute does not exist.
     """
@@ -114,14 +134,15 @@ def load_case_fn(case_fn: Callable | str | None) -> Callable:
         case_fn = DEFAULT_CASE_FN
     if callable(case_fn):
         return case_fn
-    case_fn = RENAMED_CASE_FNS.get(case_fn, case_fn)
+    name, case_fn = case_fn, RENAMED_CASE_FNS.get(case_fn, case_fn)
     mod, _, attr = case_fn.partition(":")
     obj: Any = importlib.import_module(mod)
     for part in attr.split("."):
         obj = getattr(obj, part)
     if not callable(obj):
-        # no "case_fn:" key: RunOptions puts this in its own line, which names case_fn
-        raise ValueError(f"it names a {type(obj).__name__}, which is not callable")
+        # its own line names case_fn and the name: a case's record showed "ValueError: it
+        # names a str, which is not callable", naming neither (review s48)
+        raise CaseFnNotCallable(name, type(obj).__name__)
     return obj
 
 

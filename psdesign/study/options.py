@@ -6,10 +6,11 @@
 
 from __future__ import annotations
 
+import inspect
 import numbers
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import Any, NoReturn
 
 from psdesign.errors import short
 from psdesign.schema.budget import MAX_TIMEOUT_S
@@ -165,6 +166,21 @@ class RunOptions:
         return self.worker_wait_s
 
 
+def _fields_signature(cls: type) -> inspect.Signature:
+    """``cls.__init__``'s signature without ``self``: the one :func:`inspect.signature`,
+    ``help()`` and IDEs show for ``cls`` (a ``__new__(cls, *args, **kwargs)`` hides it)."""
+    init = inspect.signature(cls.__init__)
+    return init.replace(
+        parameters=list(init.parameters.values())[1:],
+        return_annotation=inspect.Signature.empty,
+    )
+
+
+# __new__ (unknown keywords refused in one line) made inspect.signature(RunOptions) and help()
+# read "(*args, **kwargs)": the 11 fields were lost to help() and completion (review s48)
+RunOptions.__signature__ = _fields_signature(RunOptions)  # type: ignore[attr-defined]
+
+
 def _check_timeout(timeout_s) -> float:
     if (
         isinstance(timeout_s, bool)
@@ -219,8 +235,6 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
     (:class:`~psdesign.study.address.SchedulerAddress`: its host looked up here, once)."""
     import numpy as np
 
-    from psdesign.study.casefn import load_case_fn
-
     for name, value in zip(_FLAGS, flags, strict=True):
         if not isinstance(value, bool | np.bool_):
             raise StudyError(f"{name}: must be True or False, got {short(value)}")
@@ -233,25 +247,37 @@ def _check_run_arguments(scheduler, case_fn, *flags: object):
         # (one already checked: no lookup); a host that does not resolve: SchedulerError
         scheduler = check_scheduler_address(scheduler, what="scheduler")
     if case_fn is not None:
-        try:
-            fn = load_case_fn(case_fn)
-        except StudyError:  # its form (casefn.check_case_fn_form), whose rule the line's
-            # "allowed" says: the form's own line in the brackets said it twice (session 48)
-            why = "no ':' between module and function" if isinstance(case_fn, str) else None
-            raise StudyError(
-                f"case_fn: cannot load {short(case_fn)} "
-                f"({why or type(case_fn).__name__ + ' is not callable'}); {_CASE_FN_ALLOWED}"
-            ) from None
-        except (ImportError, AttributeError, ValueError) as exc:
-            msg = " ".join(str(exc).split())
-            raise StudyError(
-                f"case_fn: cannot load {short(case_fn)} ({msg}); {_CASE_FN_ALLOWED}"
-            ) from None
-        why = case_fn_call_error(fn)
-        if why:  # it failed every case with a TypeError, the output folder made
-            raise StudyError(
-                f"case_fn: {case_fn_name(case_fn)!r} cannot be called as case_fn("
-                f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
-                "arguments returning a dict"
-            )
+        _check_case_fn(case_fn)
     return scheduler
+
+
+def _check_case_fn(case_fn: Callable | str) -> None:
+    """``case_fn`` loadable here and callable as a case is called, else one
+    :class:`StudyError` line naming it."""
+    from psdesign.study.casefn import CaseFnNotCallable, check_case_fn_form, load_case_fn
+
+    try:
+        check_case_fn_form(case_fn)
+    except StudyError:  # the form's rule is the line's "allowed": its own line in the
+        # brackets said the key, the value and the rule twice (session 48)
+        why = "no ':' between module and function" if isinstance(case_fn, str) else None
+        _cannot_load(case_fn, why or f"{type(case_fn).__name__} is not callable")
+    try:  # apart from the form: a StudyError its module raises while importing is its own
+        # (review s48: it was told "no ':' between module and function")
+        fn = load_case_fn(case_fn)
+    except CaseFnNotCallable as exc:  # its line names case_fn and the name, as this one does
+        _cannot_load(case_fn, f"it names a {exc.kind}, which is not callable")
+    except (ImportError, AttributeError, ValueError) as exc:
+        _cannot_load(case_fn, " ".join(str(exc).split()))
+    why = case_fn_call_error(fn)
+    if why:  # it failed every case with a TypeError, the output folder made
+        raise StudyError(
+            f"case_fn: {case_fn_name(case_fn)!r} cannot be called as case_fn("
+            f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
+            "arguments returning a dict"
+        )
+
+
+def _cannot_load(case_fn: object, why: str) -> NoReturn:
+    """The one line of a ``case_fn`` that cannot be loaded, ``why`` in brackets."""
+    raise StudyError(f"case_fn: cannot load {short(case_fn)} ({why}); {_CASE_FN_ALLOWED}") from None

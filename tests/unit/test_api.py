@@ -320,6 +320,22 @@ def test_run_study_bad_workers_is_the_runner_message(tmp_path, monkeypatch) -> N
     assert not (tmp_path / "o").exists()
 
 
+def test_run_study_unknown_keyword_is_the_runner_message(tmp_path, monkeypatch) -> None:
+    # review s48: run_study("x.toml", out, wrkers=2) at a script's top level was told to put
+    # the call under the main guard (the default workers=1 beside the misspelled one); it is
+    # the one line every study entry point gives an unknown keyword (check_run_keywords)
+    import psdesign.api as api
+    from psdesign.study import StudyError
+
+    monkeypatch.setattr(api, "_unguarded_call_in_main_script", lambda name: True)
+    with pytest.raises(StudyError) as info:
+        psdesign.run_study("x.toml", tmp_path / "o", wrkers=2)
+    line = str(info.value)
+    assert line.startswith("wrkers: not a keyword of run_study (allowed: case_fn, command,")
+    assert info.value.key == "wrkers" and "workers" in line and "__main__" not in line
+    assert not (tmp_path / "o").exists()
+
+
 def test_run_study_bad_options_is_the_runner_message(tmp_path, monkeypatch) -> None:
     # session 46 walk of the API: run_study(study, out, 3) from a script's top level was told
     # to put the call under the main guard (the default workers=1 of an options it could not
@@ -907,6 +923,52 @@ def test_run_options_case_fn_refusal_says_each_thing_once(case_fn, why) -> None:
         "allowed: a callable or an importable 'module:function'"
     )
     assert info.value.key == "case_fn"
+
+
+def test_run_options_case_fn_whose_module_refuses_on_import_says_why(tmp_path, monkeypatch) -> None:
+    """Review s48: any StudyError out of loading ``case_fn`` was taken for its form, so a
+    module of the user's that raises a StudyError (or SpecError) while importing was told
+    "no ':' between module and function" though the name has one; its own text now."""
+    (tmp_path / "mendc_refusing_cases.py").write_text(
+        "from psdesign.errors import StudyError\n"
+        "raise StudyError('fibers.count: must be >= 1, got 0 (set in the module)')\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn="mendc_refusing_cases:run")
+    assert str(info.value) == (
+        "case_fn: cannot load 'mendc_refusing_cases:run' (fibers.count: must be >= 1, got 0 "
+        "(set in the module)); allowed: a callable or an importable 'module:function'"
+    )
+    assert info.value.key == "case_fn"
+
+
+@pytest.mark.parametrize("timeout_s", [None, 60])
+def test_a_case_whose_case_fn_is_not_callable_records_case_fn_and_the_name(
+    tmp_path, timeout_s
+) -> None:
+    """Review s48: load_case_fn's not-callable line was cut to "it names a str, which is not
+    callable" for RunOptions' brackets, but each case loads the function too
+    (worker.run_case_inline, in the worker or the case's child process), where the record
+    named neither ``case_fn`` nor the name. Its line is whole again; RunOptions words its own
+    (test_run_options_case_fn_refusal_says_each_thing_once)."""
+    from psdesign.study.worker import execute_case
+
+    payload = {
+        "case_id": "c0001-00000000",
+        "spec": {},
+        "outputs": [],
+        "solver": "fem",
+        "workdir": str(tmp_path / "case"),
+        "out_dir": str(tmp_path),
+        "case_fn": "json:__name__",
+        "timeout_s": timeout_s,  # None: in this process; 60: the case's child process
+    }
+    record = execute_case(payload)
+    assert record["status"] == "failed"
+    assert record["error"] == (
+        "CaseFnNotCallable: case_fn: 'json:__name__' names a str, which is not callable"
+    )
 
 
 def test_run_options_name_the_keyword_not_the_command_line_option(tmp_path) -> None:

@@ -140,3 +140,37 @@ def test_public_functions_refuse_what_is_no_rve_or_fields_naming_the_parameter(b
     with pytest.raises(psdesign.SpecError) as info:
         psdesign.RVE(bad)
     assert str(info.value) == f"size: must be three positive lengths in metres, got {bad!r}"
+
+
+@pytest.mark.parametrize("bad", [3, "x", None, [("bc", "periodic")]])
+def test_permeability_refuses_a_flow_that_is_no_table_naming_flow(bad):
+    """Review s48: ``psdesign.permeability(rve, fields, "z", flow=3)`` raised
+    ``AttributeError: 'int' object has no attribute 'get'`` where docs/permeability.md says a
+    wrong type is refused in one line; now one SpecError naming ``flow``, before any work
+    (``flow.permeability.checked_flow``, the twin of ``checked_rve``)."""
+    from psdesign.flow.compare import permeability_both_bc
+
+    m = psdesign.build(SQUARE_075)
+    for fn in (psdesign.permeability, permeability_both_bc):  # --bc both read it first
+        with pytest.raises(psdesign.SpecError) as info:
+            fn(m.rve, m.fields, "z", flow=bad)
+        assert info.value.key == "flow"
+        assert str(info.value) == (
+            "flow: must be a table (a dict: the spec's [flow], "
+            f"psdesign.build(spec).spec['flow']), got {bad!r}"
+        )
+
+
+@pytest.mark.parametrize("bad", ["abc", 0, -1e-6, float("nan"), float("inf"), True, [L]])
+def test_rve_refuses_a_period_that_is_no_positive_length_naming_period(bad):
+    """Review s48: ``psdesign.RVE(size, period="abc")`` raised NumPy's ``TypeError``
+    ("ufunc 'isfinite' not supported") and ``period=0`` a ``ValueError`` naming no key
+    ("period must be positive"), which ``except psdesign.SpecError`` missed; ``size``'s
+    pattern now: one SpecError line naming ``period``. A real number (an int, a NumPy
+    scalar) is taken as metres, as a float."""
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.RVE([L, L, L], period=bad)
+    assert info.value.key == "period"
+    assert str(info.value) == f"period: must be a positive length in metres, got {bad!r}"
+    assert psdesign.RVE([L, L, L], period=np.float32(2 * L)).period == pytest.approx(2 * L)
+    assert psdesign.RVE([L, L, L]).period == L

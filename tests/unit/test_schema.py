@@ -730,3 +730,40 @@ def test_the_bc_models_are_one_list():
     assert flow.FlowTable(bc="periodic").bc == "periodic"
     with pytest.raises(ValueError, match="permeameter"):
         flow.FlowTable(bc="dirichlet")
+
+
+def test_the_routes_refusals_list_solvers_and_bc_models_from_the_one_list():
+    """Review s48: after ``BC_MODELS`` became one list, the refusals still spelled it by hand
+    ("flow.bc must be 'permeameter' or 'periodic'" in flow.permeability and flow.fem, "solver
+    must be 'fem' or 'voxel'" in flow.permeability and flow.compare, a plain ValueError in
+    flow.voxel) and benchmarks/solver_agreement.py kept its own SOLVERS and BCS. Each line now
+    is schema.flow.check_solver_bc's, listing schema.flow's lists, a SpecError naming its key."""
+    from conftest import load_benchmark
+
+    import psdesign
+    from psdesign.flow.compare import permeability_both_bc
+    from psdesign.flow.fem import permeability_fem
+    from psdesign.flow.voxel import permeability_voxel
+    from psdesign.schema import flow
+
+    rod = {"shape": "cylinder", "diameter": 6e-6, "center": [1e-5] * 3, "direction": [0, 0, 1]}
+    m = psdesign.build({"rve": {"size": [2e-5] * 3, "voxel": 2e-6}, "fibers": [rod]})
+    bc_line = f"flow.bc: must be one of {', '.join(flow.BC_MODELS)}, got 'open'"
+    solver_line = f"flow.solver: must be one of {', '.join(flow.SOLVERS)}, got 'lbm'"
+    assert bc_line == "flow.bc: must be one of permeameter, periodic, got 'open'"
+    assert solver_line == "flow.solver: must be one of fem, voxel, got 'lbm'"
+    calls = [
+        (lambda: psdesign.permeability(m.rve, m.fields, "z", {"bc": "open"}), bc_line),
+        (lambda: psdesign.permeability(m.rve, m.fields, "z", {}, solver="lbm"), solver_line),
+        (lambda: permeability_both_bc(m.rve, m.fields, "z", {}, solver="lbm"), solver_line),
+        (lambda: permeability_fem(m.rve, m.fields, "z", {"bc": "open"}), bc_line),
+        (lambda: permeability_voxel(m.fields, "z", {"bc": "open"}), bc_line),
+    ]
+    for call, line in calls:
+        with pytest.raises(SpecError) as info:
+            call()
+        assert str(info.value) == line
+        assert info.value.key == line.partition(":")[0]
+    bench = load_benchmark("solver_agreement")
+    assert bench.SOLVERS is flow.SOLVERS and bench.BC_MODELS is flow.BC_MODELS
+    assert not hasattr(bench, "BCS")

@@ -1061,6 +1061,28 @@ def test_run_study_refuses_what_is_not_a_run_options(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_run_options_signature_lists_its_fields():
+    """Review s48: the ``__new__`` that refuses an unknown keyword in one line made
+    ``inspect.signature(RunOptions)`` (so ``help()`` and IDE completion) read ``(*args,
+    **kwargs)``; it is the dataclass's 11 fields, in order, with their defaults."""
+    import dataclasses
+    import inspect
+    import pydoc
+
+    import psdesign
+
+    sig = inspect.signature(psdesign.RunOptions)
+    names = [f.name for f in dataclasses.fields(psdesign.RunOptions)]
+    assert list(sig.parameters) == names and len(names) == 11
+    assert names[:3] == ["workers", "scheduler", "case_fn"]
+    assert {p.name: p.default for p in sig.parameters.values()} == {
+        f.name: f.default for f in dataclasses.fields(psdesign.RunOptions)
+    }
+    text = pydoc.render_doc(psdesign.RunOptions, renderer=pydoc.plaintext)
+    heading = next(line for line in text.splitlines() if " |  RunOptions(" in line)
+    assert "RunOptions(workers: " in heading and "worker_wait_s: " in heading, heading
+
+
 IMAGE_STUDY = """
 [base.image]
 path = "scan.npy"
