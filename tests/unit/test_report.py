@@ -1804,3 +1804,51 @@ def test_the_study_previews_carry_generates_title(tmp_path):
     image = _previews(df, tmp_path, ["generator.porosity"], image=True)
     assert "seed=1; porosity 0.8123 +- 4.2e-04 [ok], 12 fibers</figcaption>" in image, image
     assert "Omega" not in image
+
+
+def _log_axis_labels(values: list[float], inverted: bool = False):
+    """The labels in view of a log y axis over ``values`` (2 % error bars) ticked by
+    ``log_ticks``, with the axis' limits."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from psdesign.report.transport import log_ticks
+
+    fig, ax = plt.subplots()
+    ax.errorbar(range(len(values)), values, yerr=[0.02 * v for v in values], fmt="o")
+    ax.set_yscale("log")
+    if inverted:
+        ax.invert_yaxis()
+    log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])
+    fig.canvas.draw()
+    limits = ax.get_ylim()
+    lo, hi = sorted(limits)
+    labels = [
+        t.get_text()
+        for t in ax.yaxis.get_majorticklabels()
+        if t.get_text() and lo <= t.get_position()[1] <= hi
+    ]
+    plt.close(fig)
+    return labels, limits
+
+
+@pytest.mark.parametrize(
+    ("values", "inverted"),
+    [([9.40e-12, 9.45e-12], False), ([9.4e-12], False), ([1.8e-5, 2.3e-5], True)],
+)
+def test_a_narrow_log_axis_labels_each_value_once(values, inverted):
+    """Session 48 review: K_z = 9.40e-12 and 9.45e-12 (or a one-case study) lie within one
+    1-2-5 step, matplotlib's LogLocator falls back to linear ticks and the labels read
+    ``9.4e-12`` over and over. The view now widens to the 1-2-5 values on either side
+    (5e-12 and 1e-11): at least two labels, none twice, each at most 7 characters
+    (FIG_MARGINS_IN), every point inside the view, an inverted axis (the intrusion curve's)
+    still inverted. Truth: the 1-2-5 sequence around the values."""
+    labels, (a, b) = _log_axis_labels(values, inverted)
+    assert len(labels) >= 2 and len(set(labels)) == len(labels), labels
+    assert max(map(len, labels)) <= 7, labels
+    assert (a > b) == inverted
+    assert all(min(a, b) < v < max(a, b) for v in values)
+    if values[0] == 9.4e-12:
+        assert labels == ["5e-12", "1e-11"]
