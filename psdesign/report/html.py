@@ -584,7 +584,9 @@ ABSOLUTE_BARS = ("porosity", "intersection_volume_fraction")
 
 def _scalar(x) -> float:
     """One cell as a float, NaN where it is not a number (a one-value Series through
-    ``pd.to_numeric`` cost ~0.1 ms a cell: ~2.4 s of a 2000-row values table, session 47)."""
+    ``pd.to_numeric`` cost ~0.1 ms a cell: ~2.4 s of a 2000-row values table, session 47).
+    NaN, not :func:`~psdesign.analysis.columns.cell_number`'s None: its callers hand it on as
+    a float (``math.isfinite``, ``pd.isna``, ``untrustworthy_reasons``' error bar)."""
     try:
         return float(x)
     except (TypeError, ValueError):

@@ -1852,3 +1852,24 @@ def test_a_narrow_log_axis_labels_each_value_once(values, inverted):
     assert all(min(a, b) < v < max(a, b) for v in values)
     if values[0] == 9.4e-12:
         assert labels == ["5e-12", "1e-11"]
+
+
+def test_a_summary_number_is_read_by_one_helper():
+    """Session 48 review: ``report.preview._given`` repeated ``analysis.columns._number`` (a
+    cell as a float, None where missing, NaN or text). One public helper,
+    ``columns.cell_number``, reads both; the preview's title reads a table row's NaN bar as
+    none (``[unrated]``) and text as missing. Truth: the values as given."""
+    from psdesign.analysis import columns
+    from psdesign.report import preview
+
+    assert not hasattr(preview, "_given") and not hasattr(columns, "_number")
+    read = columns.cell_number
+    assert (read("2.5e-05"), read(3), read(None), read(math.nan), read("x")) == (
+        2.5e-05,
+        3.0,
+        None,
+        None,
+        None,
+    )
+    row = {"porosity": "0.8", "porosity_error": math.nan, "n_fibers": "many"}
+    assert preview.preview_title(row) == "porosity 0.8000 [unrated]"
