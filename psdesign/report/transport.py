@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.report.png import figure_png
 from psdesign.report.trust import AT_UNTRUSTED_X, NOT_OK_MARKERS, draw_not_ok, point_status
 
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
@@ -21,6 +22,9 @@ TS_2D = (0.11, 0.521, 0.785)
 
 
 def _fig_png(fig) -> bytes:
+    """``psdesign pores --plot``'s two panels under a title, margins found by drawing
+    (``bbox_inches="tight"``): the report's figures take :func:`~psdesign.report.png.
+    figure_png`'s fixed ones, which leave no room for a title."""
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
@@ -172,7 +176,7 @@ def transport_figure(df) -> tuple[str | None, str]:
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("D_eff / D_bulk (-)")
     ax.legend(fontsize=7)
-    png = base64.b64encode(_fig_png(fig)).decode()
+    png = base64.b64encode(figure_png(fig)).decode()
     caption = (
         "Relative diffusivity against porosity, bars: each value's error bar; lines: Tomadakis & "
         "Sotirchos (1993) for random overlapping 2-D fibre structures (eps_p = 0.11, alpha = "

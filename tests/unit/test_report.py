@@ -1214,7 +1214,7 @@ def test_every_reference_curve_cites_its_entry_of_the_references(monkeypatch):
     labels = list(ax.get_legend_handles_labels()[1])
     plt.close(fig)
     figs = []
-    monkeypatch.setattr(transport, "_fig_png", lambda f: figs.append(f) or b"")
+    monkeypatch.setattr(transport, "figure_png", lambda f: figs.append(f) or b"")
     eps = np.array([0.7, 0.8, 0.9])
     transport.transport_figure(pd.DataFrame({"porosity": eps, "diffusivity_z": eps**1.5}))
     labels += [t for t in figs[0].axes[0].get_legend_handles_labels()[1] if "diffusivity" not in t]
@@ -1873,3 +1873,44 @@ def test_a_summary_number_is_read_by_one_helper():
     )
     row = {"porosity": "0.8", "porosity_error": math.nan, "n_fibers": "many"}
     assert preview.preview_title(row) == "porosity 0.8000 [unrated]"
+
+
+def test_the_diffusivity_figure_is_drawn_once_with_every_label_inside(monkeypatch):
+    """Session 48 review: the report's diffusivity figure was still saved with
+    ``bbox_inches="tight"``, drawn twice, beside the K and convergence figures drawn once at
+    fixed margins. It now goes through the same encoder (``report.png.figure_png``). Truth:
+    matplotlib's own extent of every artist of the axes (tick labels, axis labels, legend)
+    lies inside the saved picture, and ``Figure.draw`` ran once."""
+    import matplotlib.figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from psdesign.report.transport import transport_figure
+
+    draws = []
+    real_draw = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "draw", lambda self, r: (draws.append(self), real_draw(self, r))
+    )
+    eps = np.array([0.62, 0.75, 0.9])
+    status = ["ok", "untrustworthy", "ok"]  # an open marker and its legend entry too
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2"],
+            "status": "ok",
+            "porosity": eps,
+            "porosity_error": 4e-4,
+            "diffusivity_z": eps**1.5,
+            "diffusivity_z_rel_error": 0.03,
+            "diffusivity_z_status": status,
+            "diffusivity_x": eps**1.4,
+            "diffusivity_x_rel_error": 0.03,
+            "diffusivity_x_status": "ok",
+        }
+    )
+    png, _ = transport_figure(df)
+    assert png and len(set(draws)) == 1 and len(draws) == 1, len(draws)
+    fig = draws[0]
+    renderer = FigureCanvasAgg(fig).get_renderer()  # pyplot's was closed
+    box = fig.axes[0].get_tightbbox(renderer)
+    assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= fig.bbox.width, box
+    assert box.y1 <= fig.bbox.height, (box, fig.bbox)
