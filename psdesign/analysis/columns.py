@@ -104,9 +104,16 @@ def _bar_words(rel: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(rel), "unrated", ok)
 
 
-def _number(v) -> float | None:
+def cell_number(value) -> float | None:
+    """One cell of a table or one value of a summary as a float, None where it is not a number
+    (missing, None, NaN, text): the one reader of such a value (until session 48 also
+    ``report.preview._given``). :func:`column_numbers` reads a whole column, NaN for None.
+
+    >>> cell_number("2.5e-05"), cell_number(None), cell_number(float("nan")), cell_number("x")
+    (2.5e-05, None, None, None)
+    """
     try:
-        v = float(v)
+        v = float(value)
     except (TypeError, ValueError):
         return None
     return v if v == v else None
@@ -114,7 +121,7 @@ def _number(v) -> float | None:
 
 def column_numbers(df: pd.DataFrame, column: str) -> np.ndarray:
     """``df[column]`` as floats (NaN where it is not a number or the column is missing): what
-    :func:`_number` reads of one cell."""
+    :func:`cell_number` reads of one cell."""
     if column not in df:
         return np.full(len(df), np.nan)
     return pd.to_numeric(df[column], errors="coerce").to_numpy(dtype=float, na_value=np.nan)
@@ -124,8 +131,8 @@ def _rel_error(row: dict, column: str) -> float | None:
     """The relative error of ``row[column]``: its ``*_rel_error``, else its absolute error over
     the value (:data:`ABS_ERROR_COLUMNS`), else None."""
     if column in REL_ERROR_COLUMNS:
-        return _number(row.get(REL_ERROR_COLUMNS[column]))
-    y, e = _number(row.get(column)), _number(row.get(ABS_ERROR_COLUMNS.get(column, "")))
+        return cell_number(row.get(REL_ERROR_COLUMNS[column]))
+    y, e = cell_number(row.get(column)), cell_number(row.get(ABS_ERROR_COLUMNS.get(column, "")))
     return e / abs(y) if e is not None and y else None
 
 
@@ -158,7 +165,7 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> error_bar(pores, "pore_d10_m")  # its own bar 30 %, rated as the product does: 15 % of d50
     (0.3, 'ok')
     """
-    if _number(row.get(column)) is None:
+    if cell_number(row.get(column)) is None:
         return None, "no trusted value"
     rel = _rel_error(row, column)
     status = row.get(status_column(column))

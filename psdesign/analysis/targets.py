@@ -300,10 +300,37 @@ def no_closest_case(rows: list[dict]) -> str:
     return ""
 
 
-#: The keys of a :func:`target_report` row that :func:`measured_text` reads.
+#: The keys of a :func:`target_report` row that :func:`measured_text` reads (``output`` picks
+#: the bar's sides, ``target`` re-reads a one-sided bar's verdicts: rows have held both since
+#: session 43).
 REPORT_KEYS = frozenset(
-    ("measured", "rel_error", "status", "met", "target_within_error_bar", "error_bar_inside_target")
+    (
+        "target",
+        "output",
+        "measured",
+        "rel_error",
+        "status",
+        "met",
+        "target_within_error_bar",
+        "error_bar_inside_target",
+    )
 )
+
+
+def _bar_verdicts(r: dict, one_sided: bool) -> tuple[bool, bool]:
+    """``(target_within_error_bar, error_bar_inside_target)`` of a :func:`target_report` row:
+    for a one-sided bar recomputed from the row's target, value and bar, since an
+    ``optimize.json`` written before session 48 stored the two-sided bar's verdicts (d50 =
+    21 um +3 um "could not tell" ``<= 20 um``); the stored ones otherwise."""
+    stored = bool(r["target_within_error_bar"]), bool(r["error_bar_inside_target"])
+    if not one_sided or r["rel_error"] is None:
+        return stored
+    try:
+        t = Target.parse(r["target"])
+        y, rel = float(r["measured"]), float(r["rel_error"])
+    except (StudyError, TypeError, ValueError):  # an edited row: its own words stand
+        return stored
+    return t.within_bar(y, rel, one_sided=True), t.bar_inside(y, rel, one_sided=True)
 
 
 def measured_text(r: dict) -> str:
@@ -313,13 +340,15 @@ def measured_text(r: dict) -> str:
 
     if r["measured"] is None:
         return f"no measured value [{r['status']}] (missed)"
+    one_sided = r.get("output") in UPPER_BARS
     bar = " (no error estimate)"
     if r["rel_error"] is not None:  # a pore diameter's bar is one-sided, upward (session 48)
         pct = f"{100 * r['rel_error']:.3g} %"
-        bar = f" +{pct}/-0" if r.get("output") in UPPER_BARS else f" +- {pct}"
+        bar = f" +{pct}/-0" if one_sided else f" +- {pct}"
+    within, inside = _bar_verdicts(r, one_sided)
     verdict = "met" if r["met"] else "missed"
-    if r["target_within_error_bar"] and not r["met"]:
+    if within and not r["met"]:
         verdict += "; the target lies within the measurement's error bar"
-    elif r["met"] and r["rel_error"] is not None and not r["error_bar_inside_target"]:
+    elif r["met"] and r["rel_error"] is not None and not inside:
         verdict += "; the error bar reaches outside the target"
     return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"

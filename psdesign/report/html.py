@@ -39,6 +39,7 @@ from psdesign.report.glance import glance_section, k_text
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.outcome import optimize_section
+from psdesign.report.png import figure_png
 from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
@@ -98,50 +99,9 @@ def _esc(x) -> str:
     return html.escape("" if x is None else str(x))
 
 
-#: Margins of the report's matplotlib figures (inches: left, right, bottom, top), fixed: each
-#: PNG is drawn once. ``bbox_inches="tight"`` drew every figure twice to find its margins (and
-#: the convergence figure's ``tight_layout`` measured it a third time): about half the CPU of
-#: the two PNGs, session 48 (benchmarks/RESULTS.md). They hold every label because the labels'
-#: sizes are known: log axes tick ``2e-11`` or ``3.2e-11`` (:func:`~psdesign.report.transport.
-#: log_tick_text`, at most 7 characters), the porosity ``0.80``, and x tick labels written at 90
-#: degrees (the convergence figure's case ids) set the bottom one by their measured length
-#: (:func:`_bottom_margin`).
-FIG_MARGINS_IN = (0.95, 0.25, 0.55, 0.15)
-#: Of a bottom margin: the x axis' label and its pad, and the ticks with theirs (inches).
-XLABEL_IN, TICKS_IN = 0.3, 0.1
-
-
-def _bottom_margin(fig) -> float:
-    """The bottom margin (inches) that holds ``fig``'s x axis: :data:`FIG_MARGINS_IN`'s, or
-    with tick labels at 90 degrees the longest one's length (measured, not drawn) plus the
-    ticks and the axis' label."""
-    labels = [t for ax in fig.axes for t in ax.get_xticklabels()]
-    rotated = [t for t in labels if t.get_rotation() == 90 and t.get_text()]
-    if not rotated:
-        return FIG_MARGINS_IN[2]
-    renderer = fig.canvas.get_renderer()
-    longest = max(
-        renderer.get_text_width_height_descent(t.get_text(), t.get_fontproperties(), False)[0]
-        for t in rotated
-    )
-    return XLABEL_IN + TICKS_IN + longest / fig.dpi
-
-
 def _png(fig) -> str:
-    """``fig`` as a PNG ``data:`` URI at the margins :data:`FIG_MARGINS_IN`, drawn once."""
-    import matplotlib.pyplot as plt
-
-    left, right, fixed, top = FIG_MARGINS_IN
-    bottom = _bottom_margin(fig)
-    w, h = fig.get_size_inches()
-    if bottom > fixed:  # long labels lengthen the picture, never shorten the plot
-        h += bottom - fixed
-        fig.set_size_inches(w, h)
-    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+    """``fig`` as a PNG ``data:`` URI (:func:`~psdesign.report.png.figure_png`: drawn once)."""
+    return "data:image/png;base64," + base64.b64encode(figure_png(fig)).decode()
 
 
 def _img_file(path: Path) -> str | None:
@@ -350,7 +310,7 @@ def _perm_figure(df: pd.DataFrame, study: dict) -> tuple[str | None, str]:
         notes.append(f"{n_failed} failed or timed-out case(s) have no K and are not plotted.")
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("K / r² (-)" if normalize else "permeability K (m²)")
-    # labels of a known width (FIG_MARGINS_IN); over the data and the reference curves drawn
+    # labels of a known width (report.png.FIG_MARGINS_IN), over the data and reference curves
     log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
@@ -584,7 +544,9 @@ ABSOLUTE_BARS = ("porosity", "intersection_volume_fraction")
 
 def _scalar(x) -> float:
     """One cell as a float, NaN where it is not a number (a one-value Series through
-    ``pd.to_numeric`` cost ~0.1 ms a cell: ~2.4 s of a 2000-row values table, session 47)."""
+    ``pd.to_numeric`` cost ~0.1 ms a cell: ~2.4 s of a 2000-row values table, session 47).
+    NaN, not :func:`~psdesign.analysis.columns.cell_number`'s None: its callers hand it on as
+    a float (``math.isfinite``, ``pd.isna``, ``untrustworthy_reasons``' error bar)."""
     try:
         return float(x)
     except (TypeError, ValueError):

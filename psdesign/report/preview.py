@@ -116,17 +116,6 @@ def box_label(shape: tuple[int, ...], spacing: np.ndarray) -> str:
     return "box " + " x ".join(f"{e:.10g}" for e in edges) + " µm"
 
 
-def _given(value) -> float | None:
-    """A number of a summary or a table row, None where it is missing (None or NaN)."""
-    if value is None:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return None
-    return None if v != v else v
-
-
 def preview_title(values: dict, image: bool | None = None) -> str:
     """The title of an RVE's preview picture, ``generate``'s preview.png and a study case's
     (one helper for both since session 48: a study's previews had none): the values
@@ -172,24 +161,24 @@ def preview_title(values: dict, image: bool | None = None) -> str:
     ...                "intersection_volume_fraction": float("nan")})  # a table's row
     'porosity 0.9000 [unrated], 4 fibers'
     """
-    from psdesign.analysis.columns import porosity_status
+    from psdesign.analysis.columns import cell_number, porosity_status
     from psdesign.geometry.porosity import porosity_text
 
-    eps, err = _given(values.get("porosity")), _given(values.get("porosity_error"))
+    eps, err = cell_number(values.get("porosity")), cell_number(values.get("porosity_error"))
     if eps is None:
         return ""
     parts = [f"porosity {porosity_text(eps, err)} [{porosity_status(eps, err)}]"]
-    omega = _given(values.get("intersection_volume_fraction"))
+    omega = cell_number(values.get("intersection_volume_fraction"))
     if image is None:
         image = (values.get("generation") or {}).get("source") == "image"
     if omega is not None and not image:  # as the values table prints it: an exact 0, 3 digits
-        bar = _given(values.get("intersection_volume_fraction_error"))
+        bar = cell_number(values.get("intersection_volume_fraction_error"))
         text = "0" if omega == 0 else f"{omega:.3g}"
         text += "" if bar is None else " +- " + ("0" if bar == 0 else f"{bar:.1e}")
         status = values.get("intersection_volume_fraction_status")
         status = status if isinstance(status, str) and status else "unrated"
         parts.append(f"Omega {text} [{status}]")
-    n = _given(values.get("n_fibers"))
+    n = cell_number(values.get("n_fibers"))
     return ", ".join(parts + ([] if n is None else [f"{n:.0f} fibers"]))
 
 

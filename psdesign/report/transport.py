@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.report.png import figure_png
 from psdesign.report.trust import AT_UNTRUSTED_X, NOT_OK_MARKERS, draw_not_ok, point_status
 
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
@@ -21,6 +22,9 @@ TS_2D = (0.11, 0.521, 0.785)
 
 
 def _fig_png(fig) -> bytes:
+    """``psdesign pores --plot``'s two panels under a title, margins found by drawing
+    (``bbox_inches="tight"``): the report's figures take :func:`~psdesign.report.png.
+    figure_png`'s fixed ones, which leave no room for a title."""
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
@@ -55,6 +59,26 @@ def log_ticks(axis, values) -> None:
     axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: log_tick_text(x)))
     axis.set_minor_locator(ticker.LogLocator(base=10.0, subs=np.arange(1.0, 10.0)))
     axis.set_minor_formatter(ticker.NullFormatter())
+    if v.size and span <= 2.0:
+        _widen_to_two_ticks(axis, float(v.min()), float(v.max()))
+
+
+def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
+    """Widen ``axis``' view to the 1-2-5 values on either side of ``[lo, hi]`` when fewer than
+    two lie within it: with one or no major tick in view matplotlib's LogLocator falls back
+    to linear ticks, labelled ``9.4e-12`` seven times over K_z = 9.40e-12 and 9.45e-12 (or a
+    one-case study; session 48 review). Only widens, and keeps an inverted axis inverted
+    (``set_view_interval``); autoscaling is then off so a later artist does not undo it."""
+    exps = np.arange(np.floor(np.log10(lo)) - 1, np.ceil(np.log10(hi)) + 2)
+    steps = np.sort(np.outer(10.0**exps, (1.0, 2.0, 5.0)).ravel())
+    # a relative slack: 5e-12 computed as 5 * 10**-12 may differ from a value in the last bit
+    inside = steps[(steps >= lo * (1 - 1e-9)) & (steps <= hi * (1 + 1e-9))]
+    if inside.size >= 2:
+        return
+    below, above = steps[steps < lo * (1 - 1e-9)][-1], steps[steps > hi * (1 + 1e-9)][0]
+    # a hair beyond the 1-2-5 values, so the locator counts both as in view
+    axis.set_view_interval(below * (1 - 1e-6), above * (1 + 1e-6))
+    axis.axes.autoscale(enable=False, axis=axis.axis_name)
 
 
 def pore_figure(pores: dict, path: str | Path) -> Path:
@@ -152,7 +176,7 @@ def transport_figure(df) -> tuple[str | None, str]:
     ax.set_xlabel("porosity (-)")
     ax.set_ylabel("D_eff / D_bulk (-)")
     ax.legend(fontsize=7)
-    png = base64.b64encode(_fig_png(fig)).decode()
+    png = base64.b64encode(figure_png(fig)).decode()
     caption = (
         "Relative diffusivity against porosity, bars: each value's error bar; lines: Tomadakis & "
         "Sotirchos (1993) for random overlapping 2-D fibre structures (eps_p = 0.11, alpha = "

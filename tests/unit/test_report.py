@@ -1214,7 +1214,7 @@ def test_every_reference_curve_cites_its_entry_of_the_references(monkeypatch):
     labels = list(ax.get_legend_handles_labels()[1])
     plt.close(fig)
     figs = []
-    monkeypatch.setattr(transport, "_fig_png", lambda f: figs.append(f) or b"")
+    monkeypatch.setattr(transport, "figure_png", lambda f: figs.append(f) or b"")
     eps = np.array([0.7, 0.8, 0.9])
     transport.transport_figure(pd.DataFrame({"porosity": eps, "diffusivity_z": eps**1.5}))
     labels += [t for t in figs[0].axes[0].get_legend_handles_labels()[1] if "diffusivity" not in t]
@@ -1804,3 +1804,113 @@ def test_the_study_previews_carry_generates_title(tmp_path):
     image = _previews(df, tmp_path, ["generator.porosity"], image=True)
     assert "seed=1; porosity 0.8123 +- 4.2e-04 [ok], 12 fibers</figcaption>" in image, image
     assert "Omega" not in image
+
+
+def _log_axis_labels(values: list[float], inverted: bool = False):
+    """The labels in view of a log y axis over ``values`` (2 % error bars) ticked by
+    ``log_ticks``, with the axis' limits."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from psdesign.report.transport import log_ticks
+
+    fig, ax = plt.subplots()
+    ax.errorbar(range(len(values)), values, yerr=[0.02 * v for v in values], fmt="o")
+    ax.set_yscale("log")
+    if inverted:
+        ax.invert_yaxis()
+    log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])
+    fig.canvas.draw()
+    limits = ax.get_ylim()
+    lo, hi = sorted(limits)
+    labels = [
+        t.get_text()
+        for t in ax.yaxis.get_majorticklabels()
+        if t.get_text() and lo <= t.get_position()[1] <= hi
+    ]
+    plt.close(fig)
+    return labels, limits
+
+
+@pytest.mark.parametrize(
+    ("values", "inverted"),
+    [([9.40e-12, 9.45e-12], False), ([9.4e-12], False), ([1.8e-5, 2.3e-5], True)],
+)
+def test_a_narrow_log_axis_labels_each_value_once(values, inverted):
+    """Session 48 review: K_z = 9.40e-12 and 9.45e-12 (or a one-case study) lie within one
+    1-2-5 step, matplotlib's LogLocator falls back to linear ticks and the labels read
+    ``9.4e-12`` over and over. The view now widens to the 1-2-5 values on either side
+    (5e-12 and 1e-11): at least two labels, none twice, each at most 7 characters
+    (FIG_MARGINS_IN), every point inside the view, an inverted axis (the intrusion curve's)
+    still inverted. Truth: the 1-2-5 sequence around the values."""
+    labels, (a, b) = _log_axis_labels(values, inverted)
+    assert len(labels) >= 2 and len(set(labels)) == len(labels), labels
+    assert max(map(len, labels)) <= 7, labels
+    assert (a > b) == inverted
+    assert all(min(a, b) < v < max(a, b) for v in values)
+    if values[0] == 9.4e-12:
+        assert labels == ["5e-12", "1e-11"]
+
+
+def test_a_summary_number_is_read_by_one_helper():
+    """Session 48 review: ``report.preview._given`` repeated ``analysis.columns._number`` (a
+    cell as a float, None where missing, NaN or text). One public helper,
+    ``columns.cell_number``, reads both; the preview's title reads a table row's NaN bar as
+    none (``[unrated]``) and text as missing. Truth: the values as given."""
+    from psdesign.analysis import columns
+    from psdesign.report import preview
+
+    assert not hasattr(preview, "_given") and not hasattr(columns, "_number")
+    read = columns.cell_number
+    assert (read("2.5e-05"), read(3), read(None), read(math.nan), read("x")) == (
+        2.5e-05,
+        3.0,
+        None,
+        None,
+        None,
+    )
+    row = {"porosity": "0.8", "porosity_error": math.nan, "n_fibers": "many"}
+    assert preview.preview_title(row) == "porosity 0.8000 [unrated]"
+
+
+def test_the_diffusivity_figure_is_drawn_once_with_every_label_inside(monkeypatch):
+    """Session 48 review: the report's diffusivity figure was still saved with
+    ``bbox_inches="tight"``, drawn twice, beside the K and convergence figures drawn once at
+    fixed margins. It now goes through the same encoder (``report.png.figure_png``). Truth:
+    matplotlib's own extent of every artist of the axes (tick labels, axis labels, legend)
+    lies inside the saved picture, and ``Figure.draw`` ran once."""
+    import matplotlib.figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from psdesign.report.transport import transport_figure
+
+    draws = []
+    real_draw = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "draw", lambda self, r: (draws.append(self), real_draw(self, r))
+    )
+    eps = np.array([0.62, 0.75, 0.9])
+    status = ["ok", "untrustworthy", "ok"]  # an open marker and its legend entry too
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1", "c2"],
+            "status": "ok",
+            "porosity": eps,
+            "porosity_error": 4e-4,
+            "diffusivity_z": eps**1.5,
+            "diffusivity_z_rel_error": 0.03,
+            "diffusivity_z_status": status,
+            "diffusivity_x": eps**1.4,
+            "diffusivity_x_rel_error": 0.03,
+            "diffusivity_x_status": "ok",
+        }
+    )
+    png, _ = transport_figure(df)
+    assert png and len(set(draws)) == 1 and len(draws) == 1, len(draws)
+    fig = draws[0]
+    renderer = FigureCanvasAgg(fig).get_renderer()  # pyplot's was closed
+    box = fig.axes[0].get_tightbbox(renderer)
+    assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= fig.bbox.width, box
+    assert box.y1 <= fig.bbox.height, (box, fig.bbox)

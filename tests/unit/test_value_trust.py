@@ -426,3 +426,32 @@ def test_a_pore_diameter_target_reads_its_bar_one_sided():
     k = {"k_z_m2": 21e-12, "k_z_rel_error": 3 / 21, "k_z_status": "ok"}  # a K's bar: both ways
     r = target_report(Target.parse("k_z_m2<=20e-12"), k)
     assert r["target_within_error_bar"] and "+- 14.3 %" in measured_text(r)
+
+
+def test_an_old_optimize_json_reads_a_pore_diameters_bar_one_sided():
+    """Session 48 review: an ``optimize.json`` written before the one-sided pore bar stored
+    the two-sided bar's verdicts, and the report printed them under the one-sided bar it
+    shows: d50 = 21 um with a 3 um bar ``+14.3 %/-0`` (21-24 um) "missed; the target lies
+    within the measurement's error bar" for ``<= 20 um``. The line re-reads a one-sided bar's
+    verdicts from the row's target, value and bar. Truth: interval arithmetic on [21, 24] um,
+    which lies wholly above 20 um (missed, beyond the bar) and wholly above 19 um (met, the
+    whole bar inside ``>= 19 um``). The row needs ``output`` and ``target``: without
+    ``output`` the line printed the bar ``+-`` (REPORT_KEYS did not list it)."""
+    from psdesign.analysis.targets import REPORT_KEYS, measured_text
+
+    old = {  # the row as the session-47 code wrote it: bar 18-24 um both ways
+        "target": "pore_d50_m<=2e-05",
+        "output": "pore_d50_m",
+        "measured": 21e-6,
+        "rel_error": 3 / 21,
+        "status": "ok",
+        "met": False,
+        "target_within_error_bar": True,
+        "error_bar_inside_target": False,
+    }
+    assert measured_text(old) == "measured 2.1e-05 +14.3 %/-0 [ok] (missed)"
+    met = dict(old, target="pore_d50_m>=1.9e-05", met=True)  # the old code: bar 18-24 "outside"
+    assert measured_text(met) == "measured 2.1e-05 +14.3 %/-0 [ok] (met)"
+    k = dict(old, target="k_z_m2<=2e-11", output="k_z_m2", measured=21e-12)  # both ways: stored
+    assert measured_text(k).endswith("(missed; the target lies within the measurement's error bar)")
+    assert {"output", "target"} <= REPORT_KEYS

@@ -1,0 +1,54 @@
+"""The report's matplotlib figures as PNG: drawn once, at fixed margins that hold labels of a
+known size."""
+
+from __future__ import annotations
+
+import io
+
+#: Margins of the report's matplotlib figures (inches: left, right, bottom, top), fixed: each
+#: PNG is drawn once. ``bbox_inches="tight"`` drew every figure twice to find its margins (and
+#: the convergence figure's ``tight_layout`` measured it a third time): about half the CPU of
+#: the PNGs, session 48 (benchmarks/RESULTS.md). They hold every label because the labels'
+#: sizes are known: log axes tick ``2e-11`` or ``3.2e-11`` (:func:`~psdesign.report.transport.
+#: log_tick_text`, at most 7 characters), the porosity ``0.80``, and x tick labels written at 90
+#: degrees (the convergence figure's case ids) set the bottom one by their measured length
+#: (:func:`_bottom_margin`).
+FIG_MARGINS_IN = (0.95, 0.25, 0.55, 0.15)
+#: Of a bottom margin: the x axis' label and its pad, and the ticks with theirs (inches).
+XLABEL_IN, TICKS_IN = 0.3, 0.1
+
+
+def _bottom_margin(fig) -> float:
+    """The bottom margin (inches) that holds ``fig``'s x axis: :data:`FIG_MARGINS_IN`'s, or
+    with tick labels at 90 degrees the longest one's length (measured, not drawn) plus the
+    ticks and the axis' label."""
+    labels = [t for ax in fig.axes for t in ax.get_xticklabels()]
+    rotated = [t for t in labels if t.get_rotation() == 90 and t.get_text()]
+    if not rotated:
+        return FIG_MARGINS_IN[2]
+    renderer = fig.canvas.get_renderer()
+    longest = max(
+        renderer.get_text_width_height_descent(t.get_text(), t.get_fontproperties(), False)[0]
+        for t in rotated
+    )
+    return XLABEL_IN + TICKS_IN + longest / fig.dpi
+
+
+def figure_png(fig) -> bytes:
+    """``fig`` as PNG bytes at the margins :data:`FIG_MARGINS_IN`, drawn once, and closed: the
+    one encoder of the report's matplotlib figures (the K, convergence and diffusivity ones;
+    the diffusivity figure saved with ``bbox_inches="tight"``, drawn twice, until session
+    48's review)."""
+    import matplotlib.pyplot as plt
+
+    left, right, fixed, top = FIG_MARGINS_IN
+    bottom = _bottom_margin(fig)
+    w, h = fig.get_size_inches()
+    if bottom > fixed:  # long labels lengthen the picture, never shorten the plot
+        h += bottom - fixed
+        fig.set_size_inches(w, h)
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return buf.getvalue()
