@@ -415,6 +415,7 @@ def _in_place_errors(
     shape = np.round(np.asarray(rve.size) / spacing).astype(np.int64)
     h = spacing / rve.period  # normalized, as RVE.voxelize rasterizes
     whole = np.abs(rve.size / rve.period - np.round(rve.size / rve.period)) < 1e-9
+    shared: dict[tuple, np.ndarray] = {}  # voxels in 3+ fibers, projected along flat axes
     for n in range(len(out)):
         pair = [rve.fibers[int(k)] for k in lenses.pair[n]]
         window = _lens_window(lenses, n, spacing, float(rve.period), shape)
@@ -427,10 +428,22 @@ def _in_place_errors(
         index = [w % s for w, s in zip(window, shape, strict=True)]
         x = [(i + 0.5) * ha for i, ha in zip(index, h, strict=True)]
         both, slices = _count_both(pair, x)
-        if count is not None and np.any(both & (count[np.ix_(*index)] >= 3)):
+        if count is not None and _holds_shared(both, index, count, shared):
             continue  # shared with a third fiber: the pair's count is not the count's
         out[n] = int(np.count_nonzero(both)) * slices / np.prod(shape) - lenses.volume[n]
     return out, cut
+
+
+def _holds_shared(both: np.ndarray, index: list, count: np.ndarray, cache: dict) -> bool:
+    """Whether a voxel of ``both`` (a pair's mask on the window ``index``, of length 1 along
+    the axes where one slice stands for all) lies in three or more fibers by ``count``. Along
+    those axes the count is projected once (``cache``): a parallel pair's window runs the
+    whole grid, and gathering it per lens doubled the status's cost on a 16 x 16 array."""
+    flat = tuple(a for a in range(3) if both.shape[a] == 1 < len(index[a]))
+    if flat not in cache:
+        cache[flat] = np.any(count >= 3, axis=flat, keepdims=True)
+    index = [np.zeros(1, np.int64) if a in flat else i for a, i in enumerate(index)]
+    return bool(np.any(both & cache[flat][np.ix_(*index)]))
 
 
 def _count_both(pair: list, x: list[np.ndarray]) -> tuple[np.ndarray, int]:
