@@ -35,12 +35,13 @@ between cylinders off the axes by under a voxel, ``k`` congruent lenses
 round centres rounds its lenses alike, so their errors add linearly while the bar adds them in
 quadrature (6-10x the bar in the session 47 review's arrays), and lenses of other shapes round
 with other signs (session 47 re-read: a 16 x 16 array summed as absolute values per group was
-``untrustworthy`` at 0.69x its bar). Once a lens is measured, the volume counted in three or
-more fibers is added too (:func:`_shared_volume`): the pairs' counts then differ from the
-count. For cylinders exactly along grid axes with no voxel in three the sum is the count's own
-error, so the status rates it exactly: of the 800 calibration lenses 762 are rated ``ok``, all
-covered (session 47's rule: 772, 13 of them outside the bar at 1.00-1.93x; RESULTS.md session
-48). A fixed shape (woven,
+``untrustworthy`` at 0.69x its bar). A lens holding a voxel in three or more fibers is not
+counted in place (the pairs' counts differ from the count there by a shared part of no closed
+form): it is measured as the lenses off the axes are; one cut by a face of a box of part of a
+period keeps the bar's calibration. For cylinders exactly along grid axes with no voxel in
+three the sum is the count's own error, so the status rates it exactly: of the 800
+calibration lenses 762 are rated ``ok``, all covered (session 47's rule: 772, 13 of them
+outside the bar at 1.00-1.93x; RESULTS.md session 48). A fixed shape (woven,
 compressed) or an image has no centre lines: its overlaps keep the bar's own calibration, while
 the round fibers beside a fixed shape are still checked. Limitation: :func:`find_contacts`
 keeps the closest piece pair per pair of fiber copies, so a bent rod meeting another fiber
@@ -329,18 +330,18 @@ def _loose_volume(
     ``|sum e|`` over the lenses whose signed count error ``e`` is measured (between two
     cylinders along grid axes, each in place: :func:`_in_place_errors`; fibers off the axes
     by under a voxel: ``k`` times one of ``k`` congruent lenses, :func:`_whole_box_error`),
-    plus, without a sign, the volume of the thin lenses not measured (:func:`_thin`), of the
-    groups that cannot be measured, and, once a lens is measured, the volume counted in three
-    or more fibers (:func:`_shared_volume`; ``count``: the fields' count). Signed: lenses
+    plus, without a sign, the volume of the thin lenses not measured (:func:`_thin`) and of
+    the groups that cannot be measured. ``count``: the fields' count; a lens holding a voxel
+    in three or more fibers is not counted in place (:func:`_in_place_errors`). Signed: lenses
     round with different signs (session 47 re-read: a 16 x 16 array of cylinders at 250^3
     voxels, summed as absolute values per group, read 7.6e-3 against its true error 7.4e-4
     and its bar 1.07e-3)."""
     spacing = np.broadcast_to(np.asarray(spacing, float), (3,))
-    error = _in_place_errors(rve, lenses, spacing)
+    error, cut = _in_place_errors(rve, lenses, spacing, count)
     placed = ~np.isnan(error)
     signed = float(error[placed].sum())
     weighed = _thin(lenses, float(np.max(spacing))) & ~placed
-    group = np.where(placed, -1, _congruent_groups(lenses, spacing, rve.size))
+    group = np.where(placed | cut, -1, _congruent_groups(lenses, spacing, rve.size))
     cheap = np.prod(np.asarray(rve.size) / spacing) <= CHEAP_WHOLE_BOX_VOXELS
     for g in np.unique(group[group >= 0]):
         members = np.flatnonzero(group == g)
@@ -353,19 +354,7 @@ def _loose_volume(
         else:  # its error stands for its volume, thin or not
             signed += len(members) * e
             weighed[members], placed[members] = False, True
-    loose = abs(signed) + float(lenses.volume[weighed].sum())
-    return loose + (_shared_volume(count) if placed.any() and count is not None else 0.0)
-
-
-def _shared_volume(count: np.ndarray) -> float:
-    """The counted volume fraction in three or more fibers, each voxel in ``c`` fibers
-    weighted ``C(c, 2) - 1``: what the pairs' counts (:func:`_loose_volume`) count beyond
-    the count of voxels in two or more. Their measured errors then miss the rounding of these
-    shared parts, which the count may miss as whole as a thin lens's (square arrays of
-    parallel cylinders whose diagonal neighbours overlap, benchmarks/RESULTS.md session 48:
-    the pairs' sum off the true error by up to 0.67 of this volume)."""
-    top = int(count.max()) if count.size else 0
-    return sum((k - 1) * np.count_nonzero(count >= k) for k in range(3, top + 1)) / count.size
+    return abs(signed) + float(lenses.volume[weighed].sum())
 
 
 #: Voxels up to which :func:`_whole_box_error` voxelizes a congruent lens's pair alone in the
@@ -404,17 +393,29 @@ def _whole_box_error(rve: RVE, pair: list, spacing: np.ndarray) -> float | None:
     return (fields.intersection_volume_fraction - float(own.volume.sum())) / len(own.volume)
 
 
-def _in_place_errors(rve: RVE, lenses: Lenses, spacing: np.ndarray) -> np.ndarray:
+def _in_place_errors(
+    rve: RVE, lenses: Lenses, spacing: np.ndarray, count: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The signed count error (count - exact, a fraction of the box) of each lens between two
     cylinders exactly along grid axes, counted where it lies: the voxel centres of a small
     window of the grid around it (:func:`_lens_window`) inside both cylinders, by the
     rasterizer's own arithmetic (:func:`_inside_cylinder`), so that each voxel rounds as in
     the fields, a centre on a surface too (tests/unit/test_overlap_status.py: the pairs'
-    counts sum to the fields' count, voxel for voxel); NaN for the other lenses."""
-    out = np.full(len(lenses.depth_m), np.nan)
+    counts sum to the fields' count, voxel for voxel); NaN for the other lenses, and for a
+    lens that holds a voxel in three or more fibers by ``count`` (the fields' count): there
+    the pairs' counts differ from the count by a shared part whose exact volume no closed
+    form gives (session 48 review: added whole, it rated 16 of 16 random packings of
+    parallel cylinders whose counts the bar covers ``untrustworthy``, up to 49x the bar).
+
+    Also a mask of the lenses whose window a face of a box of part of a period cuts (the box
+    is not periodic there): the count holds only the part inside, so no exact volume is known
+    (session 48 review: measured whole, a lens on the z = 0 face of a box 0.75 of a period
+    tall read its cut-off part as count error, ``untrustworthy`` at 40-68^3)."""
+    out, cut = np.full(len(lenses.depth_m), np.nan), np.zeros(len(lenses.depth_m), bool)
     shape = np.round(np.asarray(rve.size) / spacing).astype(np.int64)
     h = spacing / rve.period  # normalized, as RVE.voxelize rasterizes
     whole = np.abs(rve.size / rve.period - np.round(rve.size / rve.period)) < 1e-9
+    shared: dict[tuple, np.ndarray] = {}  # voxels in 3+ fibers, projected along flat axes
     for n in range(len(out)):
         pair = [rve.fibers[int(k)] for k in lenses.pair[n]]
         window = _lens_window(lenses, n, spacing, float(rve.period), shape)
@@ -422,23 +423,40 @@ def _in_place_errors(rve: RVE, lenses: Lenses, spacing: np.ndarray) -> np.ndarra
             continue
         wraps = [w.min() < 0 or w.max() >= s for w, s in zip(window, shape, strict=True)]
         if any(wr and not wh for wr, wh in zip(wraps, whole, strict=True)):
-            continue  # a box of part of a period is not periodic: its faces cut the lens
-        x = [((w % s) + 0.5) * ha for w, s, ha in zip(window, shape, h, strict=True)]
-        out[n] = _count_both(pair, x) / np.prod(shape) - lenses.volume[n]
-    return out
+            cut[n] = True  # a box of part of a period is not periodic: its faces cut the lens
+            continue
+        index = [w % s for w, s in zip(window, shape, strict=True)]
+        x = [(i + 0.5) * ha for i, ha in zip(index, h, strict=True)]
+        both, slices = _count_both(pair, x)
+        if count is not None and _holds_shared(both, index, count, shared):
+            continue  # shared with a third fiber: the pair's count is not the count's
+        out[n] = int(np.count_nonzero(both)) * slices / np.prod(shape) - lenses.volume[n]
+    return out, cut
 
 
-def _count_both(pair: list, x: list[np.ndarray]) -> int:
-    """The voxel centres ``x[0] x x[1] x x[2]`` inside both cylinders of ``pair``
-    (:func:`_inside_cylinder`). Along an axis where neither fiber's lattice has a component
-    (a parallel pair's: adding 0.0 leaves each sum as it is) every slice rounds alike, so one
-    stands for all (``len(x[a])`` of them)."""
+def _holds_shared(both: np.ndarray, index: list, count: np.ndarray, cache: dict) -> bool:
+    """Whether a voxel of ``both`` (a pair's mask on the window ``index``, of length 1 along
+    the axes where one slice stands for all) lies in three or more fibers by ``count``. Along
+    those axes the count is projected once (``cache``): a parallel pair's window runs the
+    whole grid, and gathering it per lens doubled the status's cost on a 16 x 16 array."""
+    flat = tuple(a for a in range(3) if both.shape[a] == 1 < len(index[a]))
+    if flat not in cache:
+        cache[flat] = np.any(count >= 3, axis=flat, keepdims=True)
+    index = [np.zeros(1, np.int64) if a in flat else i for a, i in enumerate(index)]
+    return bool(np.any(both & cache[flat][np.ix_(*index)]))
+
+
+def _count_both(pair: list, x: list[np.ndarray]) -> tuple[np.ndarray, int]:
+    """Which voxel centres ``x[0] x x[1] x x[2]`` lie inside both cylinders of ``pair``
+    (:func:`_inside_cylinder`), and how many slices each stands for. Along an axis where
+    neither fiber's lattice has a component (a parallel pair's: adding 0.0 leaves each sum as
+    it is) every slice rounds alike, so one stands for all (``len(x[a])`` of them; the mask
+    has length 1 there and broadcasts)."""
     x, slices = list(x), 1
     for a in range(3):
         if not any(fb.lattice[:, a].any() for fb in pair):
             x[a], slices = x[a][:1], slices * len(x[a])
-    both = _inside_cylinder(pair[0], x) & _inside_cylinder(pair[1], x)
-    return int(np.count_nonzero(both)) * slices
+    return _inside_cylinder(pair[0], x) & _inside_cylinder(pair[1], x), slices
 
 
 def _lens_window(
@@ -508,8 +526,8 @@ CONGRUENT_VOXELS = 2.0**-10
 
 
 def _congruent_groups(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) -> np.ndarray:
-    """A label per lens, shared by the lenses congruent to each other on the grid (-1: none
-    congruent to it): both fibers along grid axes (drifting under a voxel over the box), the
+    """A label per lens, shared by the lenses congruent to each other on the grid (-1: a fiber
+    not along a grid axis): both fibers along grid axes (drifting under a voxel over the box), the
     same radii, depth and axes, the same offset of the centre lines' closest points to the
     voxel centres (along a parallel pair's axis any), and the same vector between those
     points (:func:`_pair_vector`): a pair of axis neighbours and a diagonal pair of the same
@@ -518,8 +536,11 @@ def _congruent_groups(lenses: Lenses, spacing: np.ndarray, box_m: np.ndarray) ->
     The grid rounds congruent lenses alike, so their count's errors add linearly where the
     bar (:func:`psdesign.geometry.porosity.count_fraction_error`) adds runs in quadrature:
     a 4 x 4 square array of parallel fibers 3 voxels deep counted 0.125 against the exact
-    0.163, 9.4x the bar; one pair 1.8x its bar, 32 copies 10.3x (session 47 review). A
-    single lens keeps the bar's calibration."""
+    0.163, 9.4x the bar; one pair 1.8x its bar, 32 copies 10.3x (session 47 review). Every
+    lens gets a label, a single lens its own; -1 only where a fiber drifts a voxel or more off
+    the grid axes over the box. :func:`_loose_volume` measures a single lens in the whole box
+    only on grids up to :data:`CHEAP_WHOLE_BOX_VOXELS`; above, it keeps the bar's calibration
+    (thin: weighed)."""
     if len(lenses.depth_m) == 0:
         return np.zeros(0, np.int64)
     voxel = float(np.max(spacing))
