@@ -591,3 +591,45 @@ def test_flat_is_a_view_of_every_entry() -> None:
     assert a[1, 3, 2] == -1.0  # entry 37 of the C order
     with pytest.raises(TypingError):
         through_flat(a[:, :, ::2], 0, 0.0)
+
+
+def test_both_twins_of_the_flat_sweeps_are_compiled_without_aliasing() -> None:
+    """Session 48: ``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` compile *both* twins with
+    :class:`solvers.jit.NoAliasCompiler` (until session 47 the serial twins only: the parallel
+    twins kept LLVM's run-time overlap checks in front of every 64-cell block and took
+    1.1-1.2x the serial twins' one-thread CPU at 200^3, ``benchmarks/RESULTS.md``);
+    ``residual_restrict`` neither (its output is a local buffer).  Fails on main 24d962b."""
+    from solvers.jit import NoAliasCompiler
+
+    for k in (kr.jacobi, kr.jacobi2_zero, kr.prolong_jacobi):
+        assert k.serial._compiler.pipeline_class is NoAliasCompiler
+        assert k.parallel._compiler.pipeline_class is NoAliasCompiler
+    assert kr.residual_restrict.parallel._compiler.pipeline_class is not NoAliasCompiler
+
+
+@pytest.mark.slow  # compiles the three parallel kernels (minutes on a cold cache)
+@pytest.mark.parametrize("nz", [9, 37])
+def test_parallel_and_serial_twins_agree_bitwise_at_the_row_ends(nz: int) -> None:
+    """The serial and parallel twins of the three flat sweeps, both with ``noalias``, must give
+    the same bits (a one-thread and a two-thread solve the same V-cycle): in session 48 the
+    parallel twins with ``noalias`` first summed the row end ``k = nz - 1`` in another order
+    under fast-math's ``reassoc`` (1 ulp on 5 000-9 000 of the 8 M cells at 200^3), which
+    ``kernels._jacobi_ends`` (no fastmath) removed."""
+    shape = (5, 7, nz)
+    d, c, f, x, xc, b, _ = _sweep_case(shape, seed=48, fluid_seed=4)
+    cc = kr.unit_couplings(nz)
+    outs = {}
+    for twin in ("serial", "parallel"):
+        for chunks in (1, 2):
+            t1 = np.full(shape, np.nan, np.float32)
+            t2 = np.full(shape, np.nan, np.float32)
+            t3 = np.full(shape, np.nan, np.float32)
+            getattr(kr.jacobi2_zero, twin)(d, *cc, b, t1, 0.9, chunks)
+            getattr(kr.prolong_jacobi, twin)(d, *cc, x, xc, *f, 1.6, b, t2, 0.9, chunks)
+            s = getattr(kr.jacobi, twin)(d, *cc, x, b, t3, 0.9)
+            outs[twin, chunks] = (t1, t2, t3, s)
+    ref = outs["serial", 1]
+    for key, got in outs.items():
+        for a, r in zip(got, ref, strict=True):
+            assert np.array_equal(np.asarray(a), np.asarray(r)), key
+    assert np.abs(ref[0]).max() > 0.1
