@@ -446,8 +446,7 @@ class NoAliasCompiler(compiler.Compiler):
     loops without the run-time overlap checks it otherwise emits in front of each vectorised
     loop (re-done per block in the flat sweeps: ``benchmarks/RESULTS.md``, band20).  numba
     sets the same flag on a ``prange`` loop's gufunc when it finds no aliasing among its
-    arrays; this sets it for the whole kernel (its gufuncs inherit it) and its serial twin.
-    Only for kernels whose
+    arrays; this sets it for the whole kernel and its serial twin.  Only for kernels whose
     callers never pass an output that overlaps an input (:func:`parallel_kernel`
     ``noalias=True``); read-only arguments may share memory (the flag only constrains memory
     that is written)."""
@@ -483,9 +482,9 @@ class TwinKernel:
     ) -> None:
         self.py_func = fn
         self.serial_below = int(serial_below)
-        if noalias:  # both twins (numba passes the flag on to the parfor gufuncs)
-            opts = {**opts, "pipeline_class": NoAliasCompiler}
         self.parallel = nb.njit(parallel=True, **opts)(fn)
+        if noalias:  # the serial twin only: in the parallel twins it broke bitwise equality
+            opts = {**opts, "pipeline_class": NoAliasCompiler}
         # a copy of the function under its own qualified name: numba names its cache files
         # after ``__qualname__`` and does not key them on the ``parallel`` flag; over the
         # serial helpers' globals if given
@@ -548,15 +547,11 @@ def parallel_kernel(
     ``@numba.njit(parallel=True, cache=True, fastmath=True)`` (see :class:`TwinKernel`);
     ``serial_below``: first-argument size below which the serial twin runs; ``helpers``: the
     module's :class:`SerialHelpers`, whose variants the serial twin calls; ``noalias``: compile
-    both twins with :class:`NoAliasCompiler` (no argument the kernel writes may overlap another
-    argument).  Until session 48 the serial twin only: in the parallel twins it made ``jacobi``
-    and the fused sweeps (``jacobi2_zero``, ``prolong_jacobi``) differ by an ulp (session 20
-    review), through a fast-math sum whose order depended on the code around it (the row ends
-    ``k = nz - 1`` of the flat sweeps); :mod:`solvers.voxel.kernels` computes those without
-    fast-math now (``kernels._jacobi_ends``), and the twins agree bitwise with each other and
-    with session 47's values (``tests/unit/test_voxel_kernels.py``); without the flag the
-    parallel twins took 1.1-1.2x the serial twins' one-thread CPU (``benchmarks/RESULTS.md``,
-    session 48)."""
+    the serial twin with :class:`NoAliasCompiler` (no argument the kernel writes may overlap
+    another argument).  Not the parallel twin: there it made ``jacobi`` and the fused sweeps
+    (``jacobi2_zero``, ``prolong_jacobi``) differ by an ulp, so the V-cycle of a two-thread
+    solve after ``psdesign warmup`` was no longer one symmetric operator (session 20 review;
+    ``tests/unit/test_voxel_kernels.py``)."""
 
     def wrap(fn: Callable) -> TwinKernel:
         return TwinKernel(fn, serial_below=serial_below, helpers=helpers, noalias=noalias, **opts)

@@ -45,11 +45,10 @@ kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``
 the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero.
 ``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` are compiled with ``noalias=True``
-(:class:`solvers.jit.NoAliasCompiler`, both twins since session 48; their callers never pass an
-output that overlaps an input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM
-then drops the run-time overlap checks it put in front of every 64-cell block of the flat sweeps
-(0.91-0.93x their one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20; the parallel twins
-0.89-0.92x, session 48).  The three
+(:class:`solvers.jit.NoAliasCompiler`, serial twins only; their callers never pass an output
+that overlaps an input) and take flat views with :func:`solvers.voxel.simd.flat`: LLVM then
+drops the run-time overlap checks it put in front of every 64-cell block of the flat sweeps
+(0.91-0.93x their one-thread CPU at 200^3, ``benchmarks/RESULTS.md``, band20).  The three
 must stay bitwise one operator (the V-cycle's symmetry; ``tests/unit/test_voxel_kernels.py``),
 which is why ``jacobi``'s row loops hide the arguments behind a reshape and
 ``residual_restrict`` (whose
@@ -465,28 +464,13 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
             c = b0 + t
             sm = xm[bm + t] + xp[bp + t] + x0[rm + k] + x0[rp + k] + x0[c - one] + x0[c + one]
             fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
-    _jacobi_ends(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om)
-    return _plane_dot(fb, fo, base, pl) if dot else 0.0
-
-
-@nb.njit(nogil=True, error_model="numpy")
-def _jacobi_ends(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om):
-    """The two ends of every row of :func:`_jacobi_flat`'s plane (the periodic k-neighbours;
-    arguments as there), in IEEE arithmetic: no ``fastmath``, so each operation rounds once in
-    the order written, whatever the code around it (the same values as the scalar ends of the
-    serial twins before: their division was already exact, their sum in this order).  Under
-    the kernels' ``reassoc`` the six neighbours' sum at ``k = nz - 1`` took another order in the
-    parallel twins compiled with ``noalias`` than in the serial ones (1 ulp on 5 000-9 000
-    cells at 200^3), and in a function compiled on its own another order when a process loaded
-    it from numba's cache than when it compiled it (session 47).  Compiled once per signature,
-    not cached itself (its callers' cache holds it); one call per plane.  (13 parameters:
-    :func:`_jacobi_flat`'s planes and offsets.)"""
-    for j in range(ny):
+    for j in range(ny):  # the two ends of every row: the periodic k-neighbours
         for e in range(_ends(nz)):
             k = 0 if e == 0 else nz - 1
             t = _u(j * nz + k)
             sm = _wrap_sum(x0, b0, xm, bm, xp, bp, j, k, ny, nz)
             fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, b0 + t, sm, om)
+    return _plane_dot(fb, fo, base, pl) if dot else 0.0
 
 
 @_SERIAL.inline
