@@ -907,7 +907,7 @@ class _Stokes:
         code = None
         if cut is not None and PRESSURE_SCALING:
             # the Schur-diagonal scale as the staircase's one-byte code (4 B per cell less)
-            inverse = [cut.scale_inverse(a, da) for a, da in enumerate(self.d)]
+            inverse = self._face_inverses()
             code = schur.schur_code(self.d, SCHUR_FLOOR, inverse)  # frees each as it is summed
             del inverse
         self.c = [o[1] for o in ops]

@@ -59,7 +59,7 @@ def component_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarra
     return diag, c
 
 
-def _halves(a: int, shift: int) -> list[tuple[tuple[slice, ...], tuple[slice, ...]]]:
+def roll_halves(a: int, shift: int) -> list[tuple[tuple[slice, ...], tuple[slice, ...]]]:
     """``(destination, source)`` index pairs of ``out[i] = x[i - shift]`` along ``a``
     (periodic; ``shift`` +-1): the two slices ``np.roll(x, shift, axis=a)`` is made of."""
     n = 1 if shift > 0 else -1
@@ -77,7 +77,7 @@ def _halves(a: int, shift: int) -> list[tuple[tuple[slice, ...], tuple[slice, ..
 def _with_lower(op: np.ufunc, x: np.ndarray, a: int, out: np.ndarray) -> None:
     """``out = op(x, np.roll(x, 1, axis=a))`` (each cell with its lower neighbour along
     ``a``, periodic) without the rolled copy."""
-    for dst, src in _halves(a, 1):
+    for dst, src in roll_halves(a, 1):
         op(x[dst], x[src], out=out[dst])
 
 
@@ -85,7 +85,7 @@ def _add_shifted(diag: np.ndarray, x: np.ndarray, b: int) -> None:
     """``diag += np.roll(x, -1, axis=b) + np.roll(x, 1, axis=b)`` (one after the other, as
     integers: exact) without the rolled copies."""
     for shift in (-1, 1):
-        for dst, src in _halves(b, shift):
+        for dst, src in roll_halves(b, shift):
             diag[dst] += x[src]
 
 

@@ -291,13 +291,10 @@ def unit_inverse(da: np.ndarray) -> np.ndarray:
 
 def _add_upper(s2: np.ndarray, q: np.ndarray, a: int) -> None:
     """``s2 += np.roll(q, -1, axis=a)`` (the face at the upper neighbour along ``a``, periodic)
-    as two slice additions: the same sums without the rolled copy (4 B per cell)."""
-    lo = [slice(None)] * 3
-    hi = [slice(None)] * 3
-    lo[a], hi[a] = slice(0, -1), slice(1, None)
-    s2[tuple(lo)] += q[tuple(hi)]
-    lo[a], hi[a] = slice(-1, None), slice(0, 1)
-    s2[tuple(lo)] += q[tuple(hi)]
+    as two slice additions (:func:`solvers.voxel.multigrid.roll_halves`): the same sums
+    without the rolled copy (4 B per cell)."""
+    for dst, src in mg.roll_halves(a, -1):
+        s2[dst] += q[src]
 
 
 def schur_code(
