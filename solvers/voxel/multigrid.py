@@ -62,11 +62,10 @@ def component_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarra
 def roll_halves(a: int, shift: int) -> list[tuple[tuple[slice, ...], tuple[slice, ...]]]:
     """``(destination, source)`` index pairs of ``out[i] = x[i - shift]`` along ``a``
     (periodic; ``shift`` +-1): the two slices ``np.roll(x, shift, axis=a)`` is made of."""
-    n = 1 if shift > 0 else -1
-    pairs = []
+    pairs = []  # the two destinations are disjoint: their order does not matter
     for dst, src in (
-        (slice(n, None), slice(None, -n)) if n > 0 else (slice(None, n), slice(-n, None)),
-        (slice(None, n), slice(-n, None)) if n > 0 else (slice(n, None), slice(None, -n)),
+        (slice(shift, None), slice(None, -shift)),
+        (slice(None, shift), slice(-shift, None)),
     ):
         di, si = [slice(None)] * 3, [slice(None)] * 3
         di[a], si[a] = dst, src

@@ -564,7 +564,8 @@ class CoarsePressure:
         return self.xc
 
     def use_code(self, code: np.ndarray) -> None:
-        """Take a scale code formed by the caller (sub-voxel weights, :func:`schur_code`)."""
+        """Take a scale code formed by the caller (:func:`schur_code`: the sub-voxel weights's, or
+        the staircase's from the faces it shares with the thin blocks)."""
         self._code = code
 
     @property
