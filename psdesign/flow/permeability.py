@@ -486,8 +486,7 @@ def permeability(
         ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """
     rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow)
-    solver = solver or flow.get("solver", "fem")
-    check_solver_bc(solver, flow.get("bc"))
+    solver = solver or flow.get("solver", "fem")  # checked first thing in route_result
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)

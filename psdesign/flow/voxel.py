@@ -43,9 +43,7 @@ from psdesign.flow.voxel_estimate import announce_voxel_solve
 from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
-from psdesign.schema.flow import check_solver_bc
-
-WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
+from psdesign.schema.flow import WALL_TREATMENTS, check_solver_bc
 
 #: The ``flow.bc`` models this route applies: every one.
 BC_MODELS = SCHEMA_BC_MODELS

@@ -415,7 +415,7 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     ax.set_xticks(x[::step], list(ids)[::step], rotation=90, fontsize=7)
     ax.set_xlabel("case id")
     ax.set_ylabel("|flux imbalance| (relative)")
-    log_ticks(ax.yaxis, [FLUX_IMBALANCE_FLAG, *(v for line in ax.lines for v in line.get_ydata())])
+    log_ticks(ax.yaxis, [v for line in ax.lines for v in line.get_ydata()])  # the flag's line too
     ax.legend(fontsize=7)
     return fig
 

@@ -6,6 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from psdesign.errors import SpecError
 from psdesign.schema.types import Table, fail, flag, number, short
 
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
@@ -23,6 +24,8 @@ SOLVERS = ("fem", "voxel")
 #: The boundary-condition models of ``flow.bc``: the one list, which each route's
 #: ``BC_MODELS`` (:func:`psdesign.flow.permeability.supported_bc`) names its share of.
 BC_MODELS = ("permeameter", "periodic")
+#: The voxel route's wall treatments (``flow.wall_treatment``): the one list.
+WALL_TREATMENTS = ("subvoxel", "staircase", "diffuse")
 
 
 def check_solver_bc(solver: object = None, bc: object = None) -> None:
@@ -38,8 +41,6 @@ def check_solver_bc(solver: object = None, bc: object = None) -> None:
     ...
     psdesign.errors.SpecError: flow.bc: must be one of permeameter, periodic, got 'open'
     """
-    from psdesign.errors import SpecError
-
     for key, value, allowed in (("flow.solver", solver, SOLVERS), ("flow.bc", bc, BC_MODELS)):
         if value is not None and not (isinstance(value, str) and value in allowed):
             raise SpecError(key, f"must be one of {', '.join(allowed)}, got {short(value)}")
@@ -186,7 +187,7 @@ class FlowTable(Table):
         description="true | false: second solve at a coarser resolution for the error bar "
         "(default true)",
     )
-    wall_treatment: Literal["subvoxel", "staircase", "diffuse"] | None = Field(
+    wall_treatment: Literal[WALL_TREATMENTS] | None = Field(  # type: ignore[valid-type]
         None,
         description="subvoxel | staircase | diffuse (voxel solver walls, default subvoxel where "
         "the geometry has an analytic distance; diffuse: converges monotonically, periodic bc, "
