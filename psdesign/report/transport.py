@@ -9,7 +9,6 @@ has no transport columns) for ``report/html.py`` to embed; :func:`pore_figure` w
 from __future__ import annotations
 
 import base64
-import io
 from pathlib import Path
 
 import numpy as np
@@ -19,18 +18,6 @@ from psdesign.report.trust import AT_UNTRUSTED_X, NOT_OK_MARKERS, draw_not_ok, p
 
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
 TS_2D = (0.11, 0.521, 0.785)
-
-
-def _fig_png(fig) -> bytes:
-    """``psdesign pores --plot``'s two panels under a title, margins found by drawing
-    (``bbox_inches="tight"``): the report's figures take :func:`~psdesign.report.png.
-    figure_png`'s fixed ones, which leave no room for a title."""
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return buf.getvalue()
 
 
 def log_tick_text(x: float) -> str:
@@ -124,7 +111,7 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     b.set_xlabel("accessible diameter (m)")
     b.set_ylabel("non-wetting saturation (-)")
     out = Path(path)
-    out.write_bytes(_fig_png(fig))
+    out.write_bytes(figure_png(fig))
     return out
 
 

@@ -961,16 +961,19 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
     diameters 2e-6 to 2e-5 m, one decade) labelled every minor tick of the log axis, and
     "4x10^-6" ran into "3x10^-6". No two drawn tick labels of either panel may overlap, and
     the log axis keeps at least two labels; the axes name their units."""
-    from psdesign.report import transport
+    from psdesign.report import png, transport
 
     drawn = []
 
-    def capture(fig):
-        fig.canvas.draw()
+    def capture(fig):  # the layout figure_png gives it, then drawn (closed: a new canvas)
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        png.figure_png(fig)
+        FigureCanvasAgg(fig).draw()
         drawn.append(fig)
         return b""
 
-    monkeypatch.setattr(transport, "_fig_png", capture)
+    monkeypatch.setattr(transport, "figure_png", capture)
     d = np.linspace(1e-6, 2e-5, 20)
     pores = {
         "diameters_m": d,
@@ -1001,6 +1004,64 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
             assert len(boxes) >= 2
             for b0, b1 in zip(boxes[:-1], boxes[1:], strict=True):
                 assert not b0.overlaps(b1), [t.get_text() for t in labels]
+
+
+def _pores(scale: float, status: str) -> dict:
+    """A pore scan's dict for :func:`psdesign.report.transport.pore_figure`, its diameters
+    ``scale`` times those of a 20 um box."""
+    d = np.linspace(1e-6, 2e-5, 20) * scale
+    return {
+        "diameters_m": d,
+        "volume_fraction": np.full(d.size, 1 / d.size),
+        "pore_d10_m": 3e-6 * scale,
+        "pore_d50_m": 1e-5 * scale,
+        "pore_d90_m": 1.8e-5 * scale,
+        "diameter_error_m": 2.7e-6 * scale,
+        "pore_sizes_status": status,
+        "intrusion_diameter_m": np.geomspace(2e-5, 2e-6, 14) * scale,
+        "intrusion_saturation": np.linspace(0.4, 1.0, 14),
+    }
+
+
+def test_pore_figure_has_one_size_and_room_for_its_title_and_labels(tmp_path, monkeypatch):
+    """Session 49: ``psdesign pores --plot`` was saved with ``bbox_inches="tight"`` (its two
+    panels under a title did not fit :func:`~psdesign.report.png.figure_png`'s fixed
+    margins), so its size followed its labels: 862 x 394 px for the three-rod example, other
+    sizes for other data. It now takes figure_png, whose margins hold a title and side by
+    side panels: every input gives the figure's 9 x 3.4 in at 100 dpi, and, drawn, no text
+    leaves the picture, the title clears both panels and the right panel's y label clears
+    the left panel."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    from psdesign.report import png, transport
+
+    drawn = []
+    monkeypatch.setattr(
+        transport, "figure_png", lambda fig: (drawn.append(fig), png.figure_png(fig))[1]
+    )
+    sizes = set()
+    for i, (scale, status) in enumerate([(1.0, "ok"), (1e-3, "untrustworthy"), (40.0, "")]):
+        out = transport.pore_figure(_pores(scale, status), tmp_path / f"p{i}.png")
+        sizes.add(Image.open(out).size)
+        fig = drawn[-1]
+        FigureCanvasAgg(fig).draw()  # figure_png closed it: its canvas went with it
+        renderer = fig.canvas.get_renderer()
+        page = fig.bbox
+        left, right = fig.axes
+        boxes = [ax.get_tightbbox(renderer) for ax in fig.axes]  # labels and ticks drawn
+        if fig._suptitle is not None:
+            boxes.append(fig._suptitle.get_window_extent(renderer))
+        for box in boxes:
+            assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1, (i, box)
+            assert page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, (i, box)
+        if fig._suptitle is not None:
+            title = fig._suptitle.get_window_extent(renderer)
+            for ax in fig.axes:
+                assert title.y0 >= ax.get_tightbbox(renderer).y1, fig._suptitle.get_text()
+        label = right.yaxis.get_tightbbox(renderer)
+        assert label.x0 > left.get_tightbbox(renderer).x1
+    assert sizes == {(900, 340)}
 
 
 def test_an_explicit_fibers_diameter_as_parameter_normalizes_k(monkeypatch):
@@ -1059,7 +1120,7 @@ def test_pore_figure_names_the_diameters_their_bar_and_the_status(tmp_path, monk
     from psdesign.report import transport
 
     drawn = []
-    monkeypatch.setattr(transport, "_fig_png", lambda fig: drawn.append(fig) or b"")
+    monkeypatch.setattr(transport, "figure_png", lambda fig: drawn.append(fig) or b"")
     d = np.linspace(1e-6, 2e-5, 20)
     pores = {
         "diameters_m": d,
