@@ -163,6 +163,9 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         )
         os.replace(tmp_png, workdir / "preview.png")
         row["preview_png"] = str(workdir / "preview.png")
+        # the title drawn on it: the report's caption leaves it out (a folder written before
+        # session 49 has no such column, and its pictures no title: there the caption has it)
+        row["preview_title"] = title
     except Exception as exc:  # a picture must never fail a case; a full disk stops the run
         if is_disk_full(exc):
             raise

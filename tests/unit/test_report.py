@@ -1867,6 +1867,38 @@ def test_the_study_previews_carry_generates_title(tmp_path):
     assert "Omega" not in image
 
 
+def test_a_titled_preview_is_not_captioned_with_its_title_again(tmp_path):
+    """Session 49: since session 48 a study case's preview.png carries generate's title, and
+    the gallery's caption repeated it under the picture. The case's row now says what is
+    drawn (``preview_title``, written by psdesign.study.case with the picture): such a
+    picture is captioned with its design point only, while a row of an older folder (no
+    ``preview_title``: its picture has no title) keeps the title in its caption; in one
+    table (an old folder resumed) each row by its own."""
+    from study_cases import PNG_1PX
+
+    from psdesign.report.html import _previews
+
+    (tmp_path / "p.png").write_bytes(PNG_1PX)
+    title = "porosity 0.8123 +- 4.2e-04 [ok], 12 fibers"
+    old = {
+        "case_id": "c0000-ab",
+        "seed": 1,
+        "generator.porosity": 0.8,
+        "porosity": 0.81234,
+        "porosity_error": 0.00042,
+        "n_fibers": 12,
+        "preview_png": "p.png",
+    }
+    new = {**old, "case_id": "c0001-cd", "preview_title": title}
+    for rows in ([old], [new], [old, new]):
+        html = _previews(pd.DataFrame(rows), tmp_path, ["generator.porosity"], image=True)
+        if old in rows:
+            assert f"<figcaption>c0000-ab: generator.porosity=0.8 seed=1; {title}<" in html
+        if new in rows:
+            assert "<figcaption>c0001-cd: generator.porosity=0.8 seed=1</figcaption>" in html
+        assert html.count(title) == 2 * (old in rows), html  # caption and alt text
+
+
 def _log_axis_labels(values: list[float], inverted: bool = False):
     """The labels in view of a log y axis over ``values`` (2 % error bars) ticked by
     ``log_ticks``, with the axis' limits."""
