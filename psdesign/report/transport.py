@@ -54,8 +54,11 @@ def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
     """Widen ``axis``' view to the 1-2-5 values on either side of ``[lo, hi]`` when fewer than
     two lie within it: with one or no major tick in view matplotlib's LogLocator falls back
     to linear ticks, labelled ``9.4e-12`` seven times over K_z = 9.40e-12 and 9.45e-12 (or a
-    one-case study; session 48 review). Only widens, and keeps an inverted axis inverted
-    (``set_view_interval``); autoscaling is then off so a later artist does not undo it."""
+    one-case study; session 48 review). The view is centred on the data in log space (the
+    geometric mean of ``lo`` and ``hi``), as far on either side as the farther of the two
+    values: 9.4e-12 sat at 91 % of the height of [5e-12, 1e-11], by its top edge (session
+    49). Only widens, and keeps an inverted axis inverted (``set_view_interval``);
+    autoscaling is then off so a later artist does not undo it."""
     exps = np.arange(np.floor(np.log10(lo)) - 1, np.ceil(np.log10(hi)) + 2)
     steps = np.sort(np.outer(10.0**exps, (1.0, 2.0, 5.0)).ravel())
     # a relative slack: 5e-12 computed as 5 * 10**-12 may differ from a value in the last bit
@@ -63,8 +66,10 @@ def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
     if inside.size >= 2:
         return
     below, above = steps[steps < lo * (1 - 1e-9)][-1], steps[steps > hi * (1 + 1e-9)][0]
+    centre = np.sqrt(lo * hi)
+    half = max(centre / below, above / centre)  # a ratio: the half-width in log space
     # a hair beyond the 1-2-5 values, so the locator counts both as in view
-    axis.set_view_interval(below * (1 - 1e-6), above * (1 + 1e-6))
+    axis.set_view_interval(centre / half * (1 - 1e-6), centre * half * (1 + 1e-6))
     axis.axes.autoscale(enable=False, axis=axis.axis_name)
 
 

@@ -1947,6 +1947,23 @@ def test_a_narrow_log_axis_labels_each_value_once(values, inverted):
         assert labels == ["5e-12", "1e-11"]
 
 
+@pytest.mark.parametrize(
+    ("values", "inverted"),
+    [([9.40e-12, 9.45e-12], False), ([9.4e-12], False), ([1.8e-5, 2.3e-5], True)],
+)
+def test_a_widened_log_axis_is_centred_on_its_data(values, inverted):
+    """Session 49: the widened view of a narrow log axis ran from the 1-2-5 value below the
+    data to the one above, so K_z = 9.4e-12 sat at 91 % of the height of [5e-12, 1e-11], by
+    the top edge. The view is now centred on the data in log space: the geometric mean of
+    the smallest and largest value lies half-way up, to 1e-3 of the log height, and the
+    1-2-5 values either side stay in view. Truth: log10 of the limits and the values."""
+    labels, limits = _log_axis_labels(values, inverted)
+    a, b = np.log10(sorted(limits))
+    centre = 0.5 * (math.log10(min(values)) + math.log10(max(values)))
+    assert (centre - a) / (b - a) == pytest.approx(0.5, abs=1e-3), (limits, values)
+    assert len(labels) >= 2, labels
+
+
 def test_a_summary_number_is_read_by_one_helper():
     """Session 48 review: ``report.preview._given`` repeated ``analysis.columns._number`` (a
     cell as a float, None where missing, NaN or text). One public helper,
