@@ -275,9 +275,10 @@ def target_report(t: Target, best: dict) -> dict:
     return {
         "target": str(t),
         "output": t.output,
-        # the target's numbers as given: its text rounds them to 6 digits (session 49)
+        # the target's numbers as given: its text rounds them to 6 digits (session 49); a
+        # tolerance only where it counts, an = target
         "target_value": t.value,
-        "target_tolerance": t.tolerance,
+        "target_tolerance": t.tolerance if t.op == "=" else None,
         "measured": y if y == y else None,
         "rel_error": rel,
         "status": status,
@@ -323,8 +324,9 @@ REPORT_KEYS = frozenset(
 
 def row_target(r: dict) -> Target:
     """The :class:`Target` of a :func:`target_report` row: its text's output and comparison
-    with the numbers stored beside it (``target_value``, ``target_tolerance``, since session
-    49); a row written before has only the text, whose numbers are rounded to 6 digits.
+    with the numbers stored beside it (``target_value``, and ``target_tolerance`` of an ``=``
+    target, None otherwise; since session 49); a row written before has only the text,
+    whose numbers are rounded to 6 digits.
 
     >>> row_target({"target": "pore_d50_m<=2e-05", "target_value": 2.0000004e-05}).value
     2.0000004e-05
@@ -332,9 +334,10 @@ def row_target(r: dict) -> Target:
     2e-05
     """
     t = Target.parse(r["target"])
-    value, tolerance = r.get("target_value", t.value), r.get("target_tolerance", t.tolerance)
-    if value is t.value and tolerance is t.tolerance:
+    value, tolerance = r.get("target_value"), r.get("target_tolerance")
+    if value is None:
         return t
+    tolerance = t.tolerance if tolerance is None else tolerance  # None: a >= or <= target
     exact = Target(t.output, t.op, float(value), float(tolerance))
     exact.check("target")
     return exact

@@ -473,6 +473,10 @@ def test_a_pore_diameter_verdict_at_the_targets_edge_reads_the_stored_number():
     t = Target.parse("pore_d50_m<=2.0000004e-05")
     r = json.loads(json.dumps(target_report(t, row)))
     assert r["target"] == "pore_d50_m<=2e-05" and r["target_value"] == 2.0000004e-05
+    assert r["target_tolerance"] is None  # a <= target has none
+    band = target_report(Target.parse("pore_d50_m=2e-05+-5.00000004%"), row)
+    assert band["target"] == "pore_d50_m=2e-05+-5%"
+    assert band["target_tolerance"] == pytest.approx(0.0500000004, rel=1e-12)
     assert r["met"] and r["error_bar_inside_target"]
     assert measured_text(r) == "measured 1.9e-05 +5.26 %/-0 [ok] (met)"
     older = {k: v for k, v in r.items() if k not in ("target_value", "target_tolerance")}
