@@ -503,8 +503,6 @@ def permeability(
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)
-    if final is not None:
-        final.flush()
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     out = with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
@@ -512,6 +510,8 @@ def permeability(
     for unused in (unused_permeameter_keys(flow, out["bc"]), unread):
         if unused is not None:
             out["warnings"].append(unused)
+    if final is not None:  # once rated: the picture's title gives K's bar and status (s49)
+        final.flush()
     return out
 
 
