@@ -1006,6 +1006,30 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
                 assert not b0.overlaps(b1), [t.get_text() for t in labels]
 
 
+def test_the_reports_surrogate_note_does_not_contradict_study_fit():
+    """Session 49 (new user's walk): a 3-case study's report said "A surrogate needs at least 6
+    finished cases", while ``psdesign study fit`` on the same folder fitted one from the 3
+    (analysis.surrogate's minimum). The note now says the 6 are the report's and that
+    ``study fit`` fits from 3. Truth: fit_surrogate fits the 3 cases without refusal."""
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+    from psdesign.report.decision import MIN_CASES_SURROGATE, surrogate_plots
+
+    df = pd.DataFrame(
+        {
+            "generator.porosity": [0.8, 0.85, 0.9],
+            "status": "ok",
+            "porosity": [0.795, 0.852, 0.910],
+            "k_z_m2": [2.04e-12, 4.15e-12, 9.95e-12],
+            "k_z_status": "ok",
+        }
+    )
+    params = ["generator.porosity"]
+    assert fit_surrogate(df, "k_z_m2", params, parameter_bounds(df, params, {})).output == "k_z_m2"
+    note = surrogate_plots(df, params, {})
+    assert f"The report fits its surrogate from at least {MIN_CASES_SURROGATE}" in note, note
+    assert "`psdesign study fit` fits from 3" in note and "needs at least" not in note
+
+
 def _pores(scale: float, status: str) -> dict:
     """A pore scan's dict for :func:`psdesign.report.transport.pore_figure`, its diameters
     ``scale`` times those of a 20 um box."""
