@@ -1856,6 +1856,18 @@ def test_the_report_figures_are_drawn_once_with_every_label_inside(k_z, ids, dia
             assert len(labels) == len(set(labels)) >= 2, labels  # no label twice
 
 
+#: A study case's row with a preview picture ``p.png`` (the gallery tests).
+PREVIEW_ROW = {
+    "case_id": "c0000-ab",
+    "seed": 1,
+    "generator.porosity": 0.8,
+    "porosity": 0.81234,
+    "porosity_error": 0.00042,
+    "n_fibers": 12,
+    "preview_png": "p.png",
+}
+
+
 def test_the_study_previews_carry_generates_title(tmp_path):
     """Session 48 (the session-47 re-read): ``generate``'s preview is titled with the porosity
     and Omega, each with its bar and status, and the fibre count, while a study's previews
@@ -1870,16 +1882,10 @@ def test_the_study_previews_carry_generates_title(tmp_path):
 
     (tmp_path / "p.png").write_bytes(PNG_1PX)
     row = {
-        "case_id": "c0000-ab",
-        "seed": 1,
-        "generator.porosity": 0.8,
-        "porosity": 0.81234,
-        "porosity_error": 0.00042,
-        "n_fibers": 12,
+        **PREVIEW_ROW,
         "intersection_volume_fraction": 0.00213,
         "intersection_volume_fraction_error": 0.0003,
         "intersection_volume_fraction_status": "untrustworthy",
-        "preview_png": "p.png",
     }
     df = pd.DataFrame([row])
     title = "porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [untrustworthy], 12 fibers"
@@ -1904,15 +1910,7 @@ def test_a_titled_preview_is_not_captioned_with_its_title_again(tmp_path):
 
     (tmp_path / "p.png").write_bytes(PNG_1PX)
     title = "porosity 0.8123 +- 4.2e-04 [ok], 12 fibers"
-    old = {
-        "case_id": "c0000-ab",
-        "seed": 1,
-        "generator.porosity": 0.8,
-        "porosity": 0.81234,
-        "porosity_error": 0.00042,
-        "n_fibers": 12,
-        "preview_png": "p.png",
-    }
+    old = dict(PREVIEW_ROW)
     new = {**old, "case_id": "c0001-cd", "preview_title": title}
     for rows in ([old], [new], [old, new]):
         html = _previews(pd.DataFrame(rows), tmp_path, ["generator.porosity"], image=True)
