@@ -176,13 +176,14 @@ def _add_result(grid, result: dict | None, viscosity: float) -> None:
 
 def add_rating(grid, result: dict, rel_key: str) -> None:
     """A solve's relative error bar (``result[rel_key]``, under that name:
-    ``permeability_rel_error``, a Laplace solve's ``rel_error``) and its ``status`` as field
-    data of ``grid``: a ParaView user read the value without either until session 49
-    (fields.json had them)."""
+    ``permeability_rel_error``, a Laplace solve's ``rel_error``) and ``status_ok`` (1 when its
+    ``status`` is ``ok``, else 0; the word is in fields.json and the picture's title: a
+    string array in a .vtu stops meshio's reader) as field data of ``grid``: a ParaView user
+    read the value without either until session 49."""
     if result.get(rel_key) is not None:
         grid.field_data[rel_key] = np.array([float(result[rel_key])])
     if result.get("status") is not None:
-        grid.field_data["status"] = np.array([str(result["status"])])
+        grid.field_data["status_ok"] = np.array([int(result["status"] == "ok")], np.int32)
 
 
 def face_mean(points: np.ndarray, triangles: np.ndarray, values: np.ndarray) -> float:
