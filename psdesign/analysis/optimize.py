@@ -92,8 +92,11 @@ def _bounds(study) -> dict[str, tuple[float, float, bool]]:
     out = {}
     for name, p in study.parameters.items():
         if p.kind != "bounds":
+            # the key as the study file and its other refusals spell it, and what a full-
+            # factorial design also needs (learnt on a second run until session 49)
             raise StudyError(
-                f"{name}: optimize needs {{low, high}} bounds for every parameter, not a list"
+                f"parameters.{name}: optimize needs {{low, high}} bounds for every parameter, "
+                "not a list (allowed: {low, high}, with levels = N in a full-factorial design)"
             )
         out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
     return out

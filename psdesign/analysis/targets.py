@@ -275,6 +275,10 @@ def target_report(t: Target, best: dict) -> dict:
     return {
         "target": str(t),
         "output": t.output,
+        # the target's numbers as given: its text rounds them to 6 digits (session 49); a
+        # tolerance only where it counts, an = target
+        "target_value": t.value,
+        "target_tolerance": t.tolerance if t.op == "=" else None,
         "measured": y if y == y else None,
         "rel_error": rel,
         "status": status,
@@ -318,16 +322,38 @@ REPORT_KEYS = frozenset(
 )
 
 
+def row_target(r: dict) -> Target:
+    """The :class:`Target` of a :func:`target_report` row: its text's output and comparison
+    with the numbers stored beside it (``target_value``, and ``target_tolerance`` of an ``=``
+    target, None otherwise; since session 49); a row written before has only the text,
+    whose numbers are rounded to 6 digits.
+
+    >>> row_target({"target": "pore_d50_m<=2e-05", "target_value": 2.0000004e-05}).value
+    2.0000004e-05
+    >>> row_target({"target": "pore_d50_m<=2e-05"}).value
+    2e-05
+    """
+    t = Target.parse(r["target"])
+    value, tolerance = r.get("target_value"), r.get("target_tolerance")
+    if value is None:
+        return t
+    tolerance = t.tolerance if tolerance is None else tolerance  # None: a >= or <= target
+    exact = Target(t.output, t.op, float(value), float(tolerance))
+    exact.check("target")
+    return exact
+
+
 def _bar_verdicts(r: dict, one_sided: bool) -> tuple[bool, bool]:
     """``(target_within_error_bar, error_bar_inside_target)`` of a :func:`target_report` row:
-    for a one-sided bar recomputed from the row's target, value and bar, since an
+    for a one-sided bar recomputed from the row's target (:func:`row_target`: its stored
+    numbers, not its 6-digit text, since session 49), value and bar, since an
     ``optimize.json`` written before session 48 stored the two-sided bar's verdicts (d50 =
     21 um +3 um "could not tell" ``<= 20 um``); the stored ones otherwise."""
     stored = bool(r["target_within_error_bar"]), bool(r["error_bar_inside_target"])
     if not one_sided or r["rel_error"] is None:
         return stored
     try:
-        t = Target.parse(r["target"])
+        t = row_target(r)
         y, rel = float(r["measured"]), float(r["rel_error"])
     except (StudyError, TypeError, ValueError):  # an edited row: its own words stand
         return stored

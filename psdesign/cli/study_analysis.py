@@ -166,7 +166,8 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         from psdesign.analysis.prediction import bar_text
 
         for name, r in out.items():
-            flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else ""
+            # an ok one says so too, as study fit's [ok] (its line had no word: session 49)
+            flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else "  [ok]"
             print(f"{name} = {r['mean']:.4g} +- {r['std']:.2g} ({bar_text(r)}){flag}")
     # a printed prediction flagged extrapolated / untrustworthy is a result not to trust, as
     # an unconverged solve (exit_status's rule; it exited 0 before session 43)

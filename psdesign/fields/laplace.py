@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from psdesign.fields.flow import _flat
+from psdesign.fields.flow import _flat, add_rating
 from psdesign.fields.tables import add_tables
 
 
@@ -112,4 +112,5 @@ def laplace_grid(solution, conductivity: np.ndarray, fields, kind: str, result: 
         key = "relative_diffusivity" if kind == "diffusivity" else "effective_conductivity"
         if key in result:
             grid.field_data[key] = np.array([float(result[key])])
+        add_rating(grid, result, "rel_error")
     return grid

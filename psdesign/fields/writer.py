@@ -75,6 +75,43 @@ RESULT_KEYS = (
 )
 
 
+def result_words(kind: str, direction: str, result: dict | None) -> str:
+    """A solve's reported value with its error bar and status, as the command's line starts
+    (``K_z = 2.1678e-11 m^2 +- 8.6 %  [untrustworthy]``, ``D_eff/D_z = 0.8349 ...``,
+    ``sigma_eff_z = 0.035215 W/(m K) ...``); "" without a result or its value.
+
+    >>> result_words("voxel_flow", "z", {"permeability_m2": 2.1678e-11,
+    ...              "permeability_rel_error": 0.086, "status": "untrustworthy"})
+    'K_z = 2.1678e-11 m^2 +- 8.6 %  [untrustworthy]'
+    >>> result_words("conductivity", "x", {"effective_conductivity": 0.035215,
+    ...              "conductivity_unit": "W/(m K)", "rel_error": None, "status": "ok"})
+    'sigma_eff_x = 0.035215 W/(m K)  [ok]'
+    """
+    from psdesign.cli.lines import error_bar
+
+    if not result:
+        return ""
+    if kind in ("fem_flow", "voxel_flow"):
+        value, rel = result.get("permeability_m2"), result.get("permeability_rel_error")
+        text = f"K_{direction} = {value:.4e} m^2" if value is not None else ""
+    elif kind == "diffusivity":
+        value, rel = result.get("relative_diffusivity"), result.get("rel_error")
+        text = f"D_eff/D_{direction} = {value:.4f}" if value is not None else ""
+    else:
+        value, rel = result.get("effective_conductivity"), result.get("rel_error")
+        unit = result.get("conductivity_unit", "")
+        text = f"sigma_eff_{direction} = {value:.5g} {unit}" if value is not None else ""
+    return f"{text}{error_bar(rel)}  [{result.get('status', 'unrated')}]" if text else ""
+
+
+def _with_result(title: str, kind: str, direction: str, result: dict | None) -> str:
+    """A field picture's title: the solve's value with its bar and status
+    (:func:`result_words`) above ``title``, so an untrustworthy solve's picture says so (it
+    named the solver and direction only until session 49)."""
+    words = result_words(kind, direction, result)
+    return f"{words}\n{title}" if words else title
+
+
 class HeldCapture:
     """Holds a solve's ``capture`` call until its result is final: the fields are written only
     for the solve that is reported (a superseded one is :meth:`drop`-ped), and :meth:`flush`
@@ -155,6 +192,7 @@ class FieldWriter:
             entry["files"] = [f"{stem}.vtu", f"{stem}_boundary.vtu"]
         axis = "xyz".index(d)
         title = f"{result.get('solver', '')} {result.get('bc', '')}: flow along {d}"
+        title = _with_result(title, kind, d, result)
         self._picture(entry, grid, axis, "velocity_m_per_s", "pressure_Pa", title)
         self.solves.append(entry)
 
@@ -172,7 +210,7 @@ class FieldWriter:
             float(v) for v in solution.mean_flux / solution.gradient
         ]
         scalar = "concentration_relative" if kind == "diffusivity" else "potential_relative"
-        title = f"{kind}: gradient along {d}"
+        title = _with_result(f"{kind}: gradient along {d}", kind, d, result)
         self._picture(entry, grid, int(solution.axis), "flux_per_unit_gradient", scalar, title)
         self.solves.append(entry)
 

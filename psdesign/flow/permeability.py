@@ -82,10 +82,12 @@ class BoundaryConditionUnavailable(ValueError, NotImplementedError):
 
 
 def checked_flow(flow: object) -> dict:
-    """``flow`` when it is a dict (the spec's ``[flow]`` table), else one :class:`SpecError`
-    line naming ``flow`` (:func:`~psdesign.geometry.rve.checked_rve`'s twin):
+    """``flow`` (the spec's ``[flow]`` table) checked by the schema as a spec file's table,
+    with the defaults of the keys it lacks, else one :class:`SpecError` line naming ``flow``
+    (:func:`~psdesign.geometry.rve.checked_rve`'s twin) or ``flow.<key>`` and its range:
     ``permeability(rve, fields, "z", flow=3)`` raised ``AttributeError: 'int' object has no
-    attribute 'get'`` until session 48 (review).
+    attribute 'get'`` until session 48 (review), ``flow={"solver": "voxel"}`` ``KeyError:
+    'viscosity'`` until session 49.
 
     >>> checked_flow(3)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -98,7 +100,18 @@ def checked_flow(flow: object) -> dict:
             "must be a table (a dict: the spec's [flow], psdesign.build(spec).spec['flow']), "
             f"got {short(flow)}",
         )
-    return flow
+    from pydantic import ValidationError
+
+    from psdesign.schema.errors import spec_error
+    from psdesign.schema.flow import FlowTable
+
+    try:  # a table of some keys ({"solver": "voxel"}) was a KeyError 'viscosity' (session 49)
+        table = FlowTable.model_validate(flow)
+    except ValidationError as exc:  # a spec file's line: flow.<key>, its range
+        raise spec_error(exc, FlowTable, prefix="flow") from None
+    # the defaults of the keys not given; the given values as given (a validated spec's
+    # table comes back equal)
+    return {**table.to_spec(), **flow}
 
 
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
@@ -490,8 +503,6 @@ def permeability(
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)
-    if final is not None:
-        final.flush()
     if error_estimate is None:
         error_estimate = bool(flow.get("error_estimate", True))
     out = with_error_estimate(rve, fields, direction, flow, solver, res, error_estimate)
@@ -499,6 +510,8 @@ def permeability(
     for unused in (unused_permeameter_keys(flow, out["bc"]), unread):
         if unused is not None:
             out["warnings"].append(unused)
+    if final is not None:  # once rated: the picture's title gives K's bar and status (s49)
+        final.flush()
     return out
 
 

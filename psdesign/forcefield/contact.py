@@ -489,7 +489,7 @@ def relax_rve_fields(rve, kw: dict, grid_m: float | None, gap_m: float | None):
 def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) -> dict:
     """The ``summary.json`` record of a field-route relaxation (lengths in metres)."""
     from psdesign.forcefield.relax import free_variable_bars
-    from psdesign.forcefield.run import search_status
+    from psdesign.forcefield.run import RELAX_UNITS, search_status
 
     status = search_status(res.limit_stop, res.at_bound, res.min_gap_after < 0.0)
     return {
@@ -525,4 +525,5 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         },
         "free_variables_error": free_variable_bars(res.poll_step, kw, period),
         "surface_term": "change of shape (bend moment and shift)",
+        "units": RELAX_UNITS,
     }

@@ -483,6 +483,7 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     ``f`` (waves per period given to straight fibers, default 1), ``weights``,
     ``max_iter``, ``max_evals``, ``min_step``.
     """
+    from psdesign.forcefield.run import RELAX_UNITS
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.timings import write_record
     from psdesign.packing.build import build_rve, rve_document
@@ -553,6 +554,7 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "free_variables": {"max_shift_m": kw["max_shift"] * period, "u_max": kw["u_max"]},
         "free_variables_error": free_variable_bars(poll, kw, period),
         "surface_term": "bending area",
+        "units": RELAX_UNITS,
     }
     with staged_directory(out_dir) as tmp:
         kept = write_record(tmp, "summary.json", summary)  # the wall time beside it

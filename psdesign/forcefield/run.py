@@ -63,10 +63,22 @@ _TOP = set(ForceFieldTable.model_fields)
 
 
 #: What the numbers of a paper case's rve.json and history.csv are: the paper's Sec. 6 cases have
-#: no physical period, so no SI length exists to write (an RVE spec's relax route writes metres).
+#: no physical period, so no SI length exists to write (an RVE spec's relax route writes its
+#: lengths in metres, its U in the search's units: :data:`RELAX_UNITS`).
 PAPER_UNITS = (
     "dimensionless: the paper's unit cell (lengths and the quadrature step h in periods; U, its "
     "terms and the weights in the paper's normalized units)"
+)
+
+#: What the numbers of the relax route's summary.json (and rve.json's ``forcefield``) are: the
+#: search runs on the normalized box, so U, its terms and the moves are not SI; its ``*_m``
+#: keys are metres. They said nothing until session 49 (``potentials.area`` 1.2566 for two
+#: rods of 6 um in a 30 um box: pi D L in periods^2).
+RELAX_UNITS = (
+    "keys ending in _m in metres; U, its terms (potentials) and the weights in the force "
+    "field's normalized units: lengths in periods of rve.period metres (an area in period^2), "
+    "the crossing volume as a fraction of the box; variables: shifts in periods, u and f "
+    "dimensionless"
 )
 
 

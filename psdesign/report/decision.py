@@ -513,9 +513,10 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         ok = ok[ok[c] > 0]
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
-        return (
-            f'<p class="note">A surrogate needs at least {MIN_CASES_SURROGATE} finished '
-            "cases with a trusted K and a varying numeric parameter.</p>"
+        return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
+            f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
+            "finished cases with a trusted K and a varying numeric parameter; `psdesign study "
+            "fit` fits from 3 (its cross-validated error says how far to trust it).</p>"
         )
     s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
     # the rating `study fit` prints (cross-validated error and length scales), not a second rule

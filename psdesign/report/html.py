@@ -700,10 +700,12 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str], image: bool = False) -> str:
     """Every case's preview picture, paged (images are decoded only when their page shows),
-    captioned with its design point and the title ``generate`` puts on its own preview
-    (:func:`~psdesign.report.preview.preview_title`: the porosity and Omega with their bars and
-    statuses, the fibre count; ``image``: an image's RVE, no Omega), which a study's preview
-    lacked until session 48."""
+    captioned with its design point. A picture drawn before session 49 lacks the title
+    ``generate`` puts on its own preview (:func:`~psdesign.report.preview.preview_title`: the
+    porosity and Omega with their bars and statuses, the fibre count; ``image``: an image's
+    RVE, no Omega), and its caption ends with it; a newer one has it drawn, and its row says
+    so (``preview_title``, written with the picture by ``psdesign.study.case``): its caption
+    does not repeat it."""
     from psdesign.report.preview import preview_title
 
     if "preview_png" not in df:
@@ -718,7 +720,8 @@ def _previews(df: pd.DataFrame, out: Path, params: list[str], image: bool = Fals
         if uri is None:
             continue
         cap = ", ".join(f"{k}={_fmt(row[k])}" for k in params if k in row)
-        title = preview_title(row, image=image)  # "" without a porosity
+        drawn = row.get("preview_title")  # the title on the picture: not repeated
+        title = "" if isinstance(drawn, str) else preview_title(row, image=image)
         caption = f"{row['case_id']}: {cap} seed={row.get('seed')}"
         items.append((uri, f"{caption}; {title}" if title else caption))
     if not items:

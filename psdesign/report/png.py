@@ -16,6 +16,8 @@ import io
 FIG_MARGINS_IN = (0.95, 0.25, 0.55, 0.15)
 #: Of a bottom margin: the x axis' label and its pad, and the ticks with theirs (inches).
 XLABEL_IN, TICKS_IN = 0.3, 0.1
+#: Of a top margin: the space between a figure's title and its plots (inches).
+TITLE_PAD_IN = 0.15
 
 
 def _bottom_margin(fig) -> float:
@@ -34,20 +36,52 @@ def _bottom_margin(fig) -> float:
     return XLABEL_IN + TICKS_IN + longest / fig.dpi
 
 
+def _title_height(fig) -> float:
+    """The height (inches) of ``fig``'s title (``suptitle``) with its pad, measured, not
+    drawn; 0 without one."""
+    title = fig._suptitle  # matplotlib's own attribute: None until suptitle() is called
+    if title is None or not title.get_text():
+        return 0.0
+    renderer = fig.canvas.get_renderer()
+    _, height, _ = renderer.get_text_width_height_descent(
+        title.get_text(), title.get_fontproperties(), False
+    )
+    return TITLE_PAD_IN + height / fig.dpi
+
+
+def _columns(fig) -> int:
+    """How many columns of axes ``fig``'s grid has (1 for a figure of one plot)."""
+    specs = [ax.get_subplotspec() for ax in fig.axes]
+    return max((s.get_gridspec().ncols for s in specs if s is not None), default=1)
+
+
 def figure_png(fig) -> bytes:
     """``fig`` as PNG bytes at the margins :data:`FIG_MARGINS_IN`, drawn once, and closed: the
-    one encoder of the report's matplotlib figures (the K, convergence and diffusivity ones;
-    the diffusivity figure saved with ``bbox_inches="tight"``, drawn twice, until session
-    48's review)."""
+    one encoder of the report's matplotlib figures (the K, convergence and diffusivity ones,
+    and ``psdesign pores --plot``'s; the diffusivity figure saved with
+    ``bbox_inches="tight"``, drawn twice, until session 48's review, the pores one until
+    session 49). A title (``suptitle``) adds its measured height to the top margin, and
+    panels side by side are the left margin apart (it holds a y axis' label and ticks): the
+    picture's size is the figure's, whatever its data."""
     import matplotlib.pyplot as plt
 
     left, right, fixed, top = FIG_MARGINS_IN
     bottom = _bottom_margin(fig)
+    top += _title_height(fig)
     w, h = fig.get_size_inches()
     if bottom > fixed:  # long labels lengthen the picture, never shorten the plot
         h += bottom - fixed
         fig.set_size_inches(w, h)
-    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h)
+    n = _columns(fig)
+    # subplots_adjust's wspace is a fraction of the mean axes width
+    width = (w - left - right - (n - 1) * left) / n
+    fig.subplots_adjust(
+        left=left / w,
+        right=1 - right / w,
+        bottom=bottom / h,
+        top=1 - top / h,
+        wspace=left / width if n > 1 else None,
+    )
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)

@@ -9,7 +9,6 @@ has no transport columns) for ``report/html.py`` to embed; :func:`pore_figure` w
 from __future__ import annotations
 
 import base64
-import io
 from pathlib import Path
 
 import numpy as np
@@ -19,18 +18,6 @@ from psdesign.report.trust import AT_UNTRUSTED_X, NOT_OK_MARKERS, draw_not_ok, p
 
 #: Tomadakis & Sotirchos (1993), 2-D random fibre structures: eps_p, alpha in / through plane.
 TS_2D = (0.11, 0.521, 0.785)
-
-
-def _fig_png(fig) -> bytes:
-    """``psdesign pores --plot``'s two panels under a title, margins found by drawing
-    (``bbox_inches="tight"``): the report's figures take :func:`~psdesign.report.png.
-    figure_png`'s fixed ones, which leave no room for a title."""
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return buf.getvalue()
 
 
 def log_tick_text(x: float) -> str:
@@ -67,8 +54,11 @@ def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
     """Widen ``axis``' view to the 1-2-5 values on either side of ``[lo, hi]`` when fewer than
     two lie within it: with one or no major tick in view matplotlib's LogLocator falls back
     to linear ticks, labelled ``9.4e-12`` seven times over K_z = 9.40e-12 and 9.45e-12 (or a
-    one-case study; session 48 review). Only widens, and keeps an inverted axis inverted
-    (``set_view_interval``); autoscaling is then off so a later artist does not undo it."""
+    one-case study; session 48 review). The view is centred on the data in log space (the
+    geometric mean of ``lo`` and ``hi``), as far on either side as the farther of the two
+    values: 9.4e-12 sat at 91 % of the height of [5e-12, 1e-11], by its top edge (session
+    49). Only widens, and keeps an inverted axis inverted (``set_view_interval``);
+    autoscaling is then off so a later artist does not undo it."""
     exps = np.arange(np.floor(np.log10(lo)) - 1, np.ceil(np.log10(hi)) + 2)
     steps = np.sort(np.outer(10.0**exps, (1.0, 2.0, 5.0)).ravel())
     # a relative slack: 5e-12 computed as 5 * 10**-12 may differ from a value in the last bit
@@ -76,8 +66,10 @@ def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
     if inside.size >= 2:
         return
     below, above = steps[steps < lo * (1 - 1e-9)][-1], steps[steps > hi * (1 + 1e-9)][0]
+    centre = np.sqrt(lo * hi)
+    half = max(centre / below, above / centre)  # a ratio: the half-width in log space
     # a hair beyond the 1-2-5 values, so the locator counts both as in view
-    axis.set_view_interval(below * (1 - 1e-6), above * (1 + 1e-6))
+    axis.set_view_interval(centre / half * (1 - 1e-6), centre * half * (1 + 1e-6))
     axis.axes.autoscale(enable=False, axis=axis.axis_name)
 
 
@@ -124,7 +116,7 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     b.set_xlabel("accessible diameter (m)")
     b.set_ylabel("non-wetting saturation (-)")
     out = Path(path)
-    out.write_bytes(_fig_png(fig))
+    out.write_bytes(figure_png(fig))
     return out
 
 

@@ -73,6 +73,32 @@ GENERATION_COLUMNS = (
 )
 
 
+def _preview(row: dict, fields, workdir: Path, image: bool) -> dict:
+    """The case's preview.png, titled as ``generate`` titles its own (porosity and Omega with
+    their bars and statuses, from ``row``): the row's ``preview_png`` and ``preview_title``,
+    or ``preview_error`` (a picture never fails a case; a full disk stops the run)."""
+    # drawn under a temporary name and moved into place: a full disk leaves no truncated
+    # preview.png (the case is then run again)
+    tmp_png = workdir / f"{TEMP_PREFIX}preview.{os.getpid()}.png"
+    try:
+        from psdesign.report.preview import preview_title, render_preview
+
+        title = preview_title(row, image=image)
+        render_preview(
+            fields.distance, fields.grid.spacing, tmp_png, title=title, window_size=(480, 400)
+        )
+        os.replace(tmp_png, workdir / "preview.png")
+        # the title drawn on it: the report's caption leaves it out (a folder written before
+        # session 49 has no such column, and its pictures no title: there the caption has it)
+        return {"preview_png": str(workdir / "preview.png"), "preview_title": title}
+    except Exception as exc:  # a picture must never fail a case; a full disk stops the run
+        if is_disk_full(exc):
+            raise
+        return {"preview_error": str(exc)}
+    finally:
+        tmp_png.unlink(missing_ok=True)
+
+
 def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict:
     """Run one case and return a flat dict of results (SI units).
 
@@ -150,24 +176,6 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     mark_stage(workdir, "preview picture")
-    # drawn under a temporary name and moved into place: a full disk leaves no truncated
-    # preview.png (the case is then run again)
-    tmp_png = workdir / f"{TEMP_PREFIX}preview.{os.getpid()}.png"
-    try:
-        from psdesign.report.preview import preview_title, render_preview
-
-        # the title generate puts on its own preview: porosity and Omega with bars and statuses
-        title = preview_title(row, image="image" in spec)
-        render_preview(
-            fields.distance, fields.grid.spacing, tmp_png, title=title, window_size=(480, 400)
-        )
-        os.replace(tmp_png, workdir / "preview.png")
-        row["preview_png"] = str(workdir / "preview.png")
-    except Exception as exc:  # a picture must never fail a case; a full disk stops the run
-        if is_disk_full(exc):
-            raise
-        row["preview_error"] = str(exc)
-    finally:
-        tmp_png.unlink(missing_ok=True)
+    row.update(_preview(row, fields, workdir, image="image" in spec))
     row["time_total_s"] = time.perf_counter() - t0
     return row

@@ -267,8 +267,12 @@ def _check_case_fn(case_fn: Callable | str) -> None:
         fn = load_case_fn(case_fn)
     except CaseFnNotCallable as exc:  # its line names case_fn and the name, as this one does
         _cannot_load(case_fn, f"it names a {exc.kind}, which is not callable")
-    except (ImportError, AttributeError, ValueError) as exc:
-        _cannot_load(case_fn, " ".join(str(exc).split()))
+    except (StudyError, ModuleNotFoundError, AttributeError) as exc:  # a refusal of the
+        # module's own, or no such module or function: their text names it
+        _cannot_load(case_fn, _text(exc))
+    except (Exception, SystemExit) as exc:  # anything else its module raised while importing:
+        # a RuntimeError was a traceback from RunOptions / study run (session 49)
+        _cannot_load(case_fn, f"importing it raised {type(exc).__name__}: {_text(exc)}")
     why = case_fn_call_error(fn)
     if why:  # it failed every case with a TypeError, the output folder made
         raise StudyError(
@@ -276,6 +280,11 @@ def _check_case_fn(case_fn: Callable | str) -> None:
             f"{', '.join(CASE_FN_ARGUMENTS)}) ({why}); allowed: a function of those four "
             "arguments returning a dict"
         )
+
+
+def _text(exc: BaseException) -> str:
+    """``exc``'s message on one line (``SystemExit(2)``'s is its code)."""
+    return " ".join(str(exc).split())
 
 
 def _cannot_load(case_fn: object, why: str) -> NoReturn:

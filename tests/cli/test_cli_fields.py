@@ -91,6 +91,13 @@ def test_voxel_periodic_vti_names_units_and_mean_velocity(voxel_runs):
 
     title = Image.open(out / "flow_x.png").text["Title"]
     assert re.search(r"mid-plane (y = 6|z = 8) um", title), title
+    # and the value it gave with its status, as printed (session 49: solver and axis only)
+    assert title.startswith(f"K_x = {res['permeability_m2']:.4e} m^2"), title
+    assert f"[{res['status']}]\n" in title, title
+    # and the VTI's field data give K's bar and status beside K (session 49: K alone)
+    rel = float(pv.read(out / "flow_x.vti").field_data["permeability_rel_error"][0])
+    assert rel == res["permeability_rel_error"] > 0
+    assert pv.read(out / "flow_x.vti").field_data["status_ok"][0] == (res["status"] == "ok") == 1
     assert grid.spacing == pytest.approx((H, H, H))
     for name in ("velocity_m_per_s", "pressure_Pa", "solid", "zone"):
         assert name in grid.cell_data
@@ -493,7 +500,9 @@ def test_transport_fields_json_carries_the_final_result(tmp_path):
     session-31 audit found none (the field was captured before the error bar existed). The
     diffusivity tensor route (``--direction all``, periodic) and one permeameter conductivity;
     the 2 um cell has 5 voxels across its fibre, so the results are ``untrustworthy`` with
-    warnings, which the entries must carry too."""
+    warnings, which the entries must carry too, and the pictures' titles (session 49)."""
+    from PIL import Image
+
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC.replace("voxel = 1e-6", "voxel = 2e-6"))
     runs = (
@@ -515,6 +524,11 @@ def test_transport_fields_json_carries_the_final_result(tmp_path):
             assert block["bc"] == r["bc"] and block["solver"] == "voxel-laplace"
             grid = pv.read(tmp_path / cmd / s["files"][0])
             assert float(grid.field_data[key][0]) == pytest.approx(r[key], rel=1e-12)
+            assert float(grid.field_data["rel_error"][0]) == r["rel_error"]  # session 49
+            assert grid.field_data["status_ok"][0] == 0  # untrustworthy
+            # its picture's title says the value's status (session 49: it did not)
+            title = Image.open(tmp_path / cmd / s["picture"]).text["Title"]
+            assert f"{100 * r['rel_error']:.1f} %  [untrustworthy]" in title, title
             assert _cells(grid, "flux_per_unit_gradient")["xyz".index(s["direction"])].mean() == (
                 pytest.approx(r[key], rel=1e-6)
             )

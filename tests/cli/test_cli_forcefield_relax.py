@@ -254,3 +254,25 @@ def test_relax_prints_and_writes_error_bars(tmp_path, capsys):
     for name, e in summary["variables_error"].items():
         want = fv["u"] if name.startswith("u[") else fv["shift_m"] / 1e-4
         assert e == pytest.approx(want, rel=1e-12), name
+
+
+def test_relax_says_the_units_of_its_numbers(tmp_path, capsys):
+    """Session 49 (new user's walk): the relax route's summary.json gave U = 0, start U =
+    1.16e7 and ``potentials.area`` 1.2566 for two 6 um rods in a 30 um box, with no unit (the
+    paper cases' rve.json has ``units``, PAPER_UNITS): the numbers are the search's, lengths
+    in periods. ``units`` now says so, in summary.json and rve.json's ``forcefield``. Truth:
+    the area the summary gives is the rods' lateral area pi D L in the box, in period^2
+    (1e-4 m here: one rod crosses the box once, two rods, no bend at the start)."""
+    from psdesign.forcefield.run import RELAX_UNITS
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(RODS.replace("max_shift = 10e-6", "max_shift = 1e-6") + "u_max = 0.01\n")
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["units"] == RELAX_UNITS
+    assert json.loads((out / "rve.json").read_text())["forcefield"]["units"] == RELAX_UNITS
+    assert "periods" in RELAX_UNITS and "_m in metres" in RELAX_UNITS
+    lateral = 2 * np.pi * (D / 1e-4) * 1.0  # two rods, each 1 period long in the box
+    bend = summary["potentials"]["surface"]  # the bending area, also in period^2
+    assert summary["potentials"]["area"] == pytest.approx(lateral + bend, rel=1e-9)

@@ -315,6 +315,10 @@ def test_predict_refuses_nan_and_repeats_and_flags_extrapolation(tmp_path, capsy
     assert "extrapolating" in cap.err and len(cap.err.strip().splitlines()) == 1
     assert main(["study", "predict", str(out), "--at", "generator.porosity=0.95"]) == 3
     assert "(EXTRAPOLATED)" in capsys.readouterr().out
+    # session 49 (walk): a trusted prediction's line said no status word; it ends [ok] now
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.8"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines and all(line.endswith("  [ok]") for line in lines), lines
 
 
 def test_predict_refuses_a_value_the_schema_does_not_allow(tmp_path, capsys) -> None:

@@ -943,6 +943,47 @@ def test_run_options_case_fn_whose_module_refuses_on_import_says_why(tmp_path, m
     assert info.value.key == "case_fn"
 
 
+@pytest.mark.parametrize(
+    ("body", "why"),
+    [
+        ("raise RuntimeError('no licence server')", "RuntimeError: no licence server"),
+        ("raise ValueError('bad table')", "ValueError: bad table"),
+        ("import sys; sys.exit(3)", "SystemExit: 3"),
+        ("raise ImportError('needs licence_lib')", "ImportError: needs licence_lib"),
+    ],
+)
+def test_case_fn_module_raising_on_import_is_one_line_exit_2_no_folder(
+    tmp_path, monkeypatch, capsys, body, why
+) -> None:
+    """Session 49: a case function's module raising anything but a StudyError while it is
+    imported (a RuntimeError) was a traceback out of ``RunOptions`` and ``psdesign study run
+    --case-fn`` (exit status 1 from Python, after the argument checks). Now one line naming
+    ``case_fn``, the name, and the exception's type and text: a StudyError from the API, exit
+    status 2 from the command, before any folder is made."""
+    from psdesign.cli.study import main
+
+    module = f"walk_boom_{why.split(':')[0].lower()}"  # one module per case: none cached
+    (tmp_path / f"{module}.py").write_text(body + "\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    line = (
+        f"case_fn: cannot load '{module}:run' (importing it raised {why}); "
+        "allowed: a callable or an importable 'module:function'"
+    )
+    with pytest.raises(psdesign.StudyError) as info:
+        psdesign.RunOptions(case_fn=f"{module}:run")
+    assert str(info.value) == line and info.value.key == "case_fn"
+    study = tmp_path / "s.toml"
+    study.write_text(
+        '[base.rve]\nsize = [2e-5, 2e-5, 2e-5]\nvoxel = 1e-6\n[study]\nname = "t"\n'
+        'outputs = ["porosity"]\n[parameters]\n"rve.voxel" = [1e-6]\n'
+    )
+    out = tmp_path / "out"
+    rc = main(["study", "run", str(study), "-o", str(out), "--case-fn", f"{module}:run"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err == f"psdesign: error: {line}\n", err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("timeout_s", [None, 60])
 def test_a_case_whose_case_fn_is_not_callable_records_case_fn_and_the_name(
     tmp_path, timeout_s
@@ -1362,8 +1403,13 @@ def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(tmp_path) -> No
     from psdesign.analysis.targets import Target
 
     p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
-    with pytest.raises(
-        psdesign.SpecError, match=r"^generator.porosity: optimize needs {low, high}"
-    ):
+    with pytest.raises(psdesign.SpecError) as info:
         optimize_study(p, tmp_path / "o", [Target.parse("k_z_m2=5e-12")], case_fn=fake_case)
+    # session 49 (walk): the key as the study file spells it (its other refusals say
+    # parameters.generator.porosity), and the levels a full-factorial design needs with bounds
+    # (its own refusal came on the next run)
+    assert str(info.value) == (
+        "parameters.generator.porosity: optimize needs {low, high} bounds for every parameter, "
+        "not a list (allowed: {low, high}, with levels = N in a full-factorial design)"
+    )
     assert not (tmp_path / "o").exists()

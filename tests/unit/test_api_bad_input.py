@@ -161,6 +161,30 @@ def test_permeability_refuses_a_flow_that_is_no_table_naming_flow(bad):
         )
 
 
+def test_permeability_takes_a_flow_of_some_keys_and_refuses_a_bad_one():
+    """Session 49 (new user's walk): ``psdesign.permeability(rve, fields, "z", {"solver":
+    "voxel"})`` raised ``KeyError: 'viscosity'`` (the route read keys only a validated spec's
+    table holds), and ``{"viscosity": "x"}`` failed inside the solve. The table is now checked
+    as a spec file's [flow] is, its missing keys taken at their defaults: the same K as the
+    spec's full table, bit for bit (a fibre along z in a 20 um box, voxel periodic, no second
+    resolution), and one SpecError line naming ``flow.<key>`` and its range otherwise."""
+    from psdesign.schema.flow import DEFAULT_FLOW
+
+    m = psdesign.build(SQUARE_075)
+    assert m.spec["flow"] == {**DEFAULT_FLOW, **m.spec["flow"]}  # the full table
+    some = psdesign.permeability(m.rve, m.fields, "z", {"solver": "voxel"}, "voxel", None, False)
+    full = psdesign.permeability(m.rve, m.fields, "z", m.spec["flow"], "voxel", None, False)
+    assert some["permeability_m2"] == full["permeability_m2"] > 0
+    for flow, key in (
+        ({"viscosity": "x"}, "flow.viscosity"),
+        ({"viscosty": 1e-5}, "flow.viscosty"),
+    ):
+        with pytest.raises(psdesign.SpecError) as info:
+            psdesign.permeability(m.rve, m.fields, "z", flow, "voxel", None, False)
+        assert info.value.key == key and "\n" not in str(info.value), str(info.value)
+        assert str(info.value).startswith(f"{key}: ")
+
+
 @pytest.mark.parametrize("bad", ["abc", 0, -1e-6, float("nan"), float("inf"), True, [L]])
 def test_rve_refuses_a_period_that_is_no_positive_length_naming_period(bad):
     """Review s48: ``psdesign.RVE(size, period="abc")`` raised NumPy's ``TypeError``

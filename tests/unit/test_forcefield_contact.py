@@ -149,6 +149,7 @@ def test_force_field_removes_the_contact_of_compressed_fibers(tmp_path):
     assert _overlap_fraction(f1) == 0.0
     assert _min_gap_m(f1) >= 0.0  # on a grid 4x finer than the one relaxed on
     assert summary["route"] == "fields" and summary["min_gap_after_m"] >= 0.0
+    assert "periods" in summary["units"]  # U is the search's, not SI (session 49)
     # U's bar (4 |U(h) - U(h/2)|) covers U against the volume term at h/4 (a 1 um grid):
     # measured bar / true 4.0 at the start and 5.8 at the end, where U(h)'s volume term is 0
     # but the h/4 one is 41 (the old h -> 2h rule's bar there was 0; benchmarks/RESULTS.md;

@@ -961,16 +961,19 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
     diameters 2e-6 to 2e-5 m, one decade) labelled every minor tick of the log axis, and
     "4x10^-6" ran into "3x10^-6". No two drawn tick labels of either panel may overlap, and
     the log axis keeps at least two labels; the axes name their units."""
-    from psdesign.report import transport
+    from psdesign.report import png, transport
 
     drawn = []
 
-    def capture(fig):
-        fig.canvas.draw()
+    def capture(fig):  # the layout figure_png gives it, then drawn (closed: a new canvas)
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        png.figure_png(fig)
+        FigureCanvasAgg(fig).draw()
         drawn.append(fig)
         return b""
 
-    monkeypatch.setattr(transport, "_fig_png", capture)
+    monkeypatch.setattr(transport, "figure_png", capture)
     d = np.linspace(1e-6, 2e-5, 20)
     pores = {
         "diameters_m": d,
@@ -1001,6 +1004,88 @@ def test_pore_figure_tick_labels_do_not_overlap(tmp_path, monkeypatch, decades):
             assert len(boxes) >= 2
             for b0, b1 in zip(boxes[:-1], boxes[1:], strict=True):
                 assert not b0.overlaps(b1), [t.get_text() for t in labels]
+
+
+def test_the_reports_surrogate_note_does_not_contradict_study_fit():
+    """Session 49 (new user's walk): a 3-case study's report said "A surrogate needs at least 6
+    finished cases", while ``psdesign study fit`` on the same folder fitted one from the 3
+    (analysis.surrogate's minimum). The note now says the 6 are the report's and that
+    ``study fit`` fits from 3. Truth: fit_surrogate fits the 3 cases without refusal."""
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+    from psdesign.report.decision import MIN_CASES_SURROGATE, surrogate_plots
+
+    df = pd.DataFrame(
+        {
+            "generator.porosity": [0.8, 0.85, 0.9],
+            "status": "ok",
+            "porosity": [0.795, 0.852, 0.910],
+            "k_z_m2": [2.04e-12, 4.15e-12, 9.95e-12],
+            "k_z_status": "ok",
+        }
+    )
+    params = ["generator.porosity"]
+    assert fit_surrogate(df, "k_z_m2", params, parameter_bounds(df, params, {})).output == "k_z_m2"
+    note = surrogate_plots(df, params, {})
+    assert f"The report fits its surrogate from at least {MIN_CASES_SURROGATE}" in note, note
+    assert "`psdesign study fit` fits from 3" in note and "needs at least" not in note
+
+
+def _pores(scale: float, status: str) -> dict:
+    """A pore scan's dict for :func:`psdesign.report.transport.pore_figure`, its diameters
+    ``scale`` times those of a 20 um box."""
+    d = np.linspace(1e-6, 2e-5, 20) * scale
+    return {
+        "diameters_m": d,
+        "volume_fraction": np.full(d.size, 1 / d.size),
+        "pore_d10_m": 3e-6 * scale,
+        "pore_d50_m": 1e-5 * scale,
+        "pore_d90_m": 1.8e-5 * scale,
+        "diameter_error_m": 2.7e-6 * scale,
+        "pore_sizes_status": status,
+        "intrusion_diameter_m": np.geomspace(2e-5, 2e-6, 14) * scale,
+        "intrusion_saturation": np.linspace(0.4, 1.0, 14),
+    }
+
+
+def test_pore_figure_has_one_size_and_room_for_its_title_and_labels(tmp_path, monkeypatch):
+    """Session 49: ``psdesign pores --plot`` was saved with ``bbox_inches="tight"`` (its two
+    panels under a title did not fit :func:`~psdesign.report.png.figure_png`'s fixed
+    margins), so its size followed its labels: 862 x 394 px for the three-rod example, other
+    sizes for other data. It now takes figure_png, whose margins hold a title and side by
+    side panels: every input gives the figure's 9 x 3.4 in at 100 dpi, and, drawn, no text
+    leaves the picture, the title clears both panels and the right panel's y label clears
+    the left panel."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    from psdesign.report import png, transport
+
+    drawn = []
+    monkeypatch.setattr(
+        transport, "figure_png", lambda fig: (drawn.append(fig), png.figure_png(fig))[1]
+    )
+    sizes = set()
+    for i, (scale, status) in enumerate([(1.0, "ok"), (1e-3, "untrustworthy"), (40.0, "")]):
+        out = transport.pore_figure(_pores(scale, status), tmp_path / f"p{i}.png")
+        sizes.add(Image.open(out).size)
+        fig = drawn[-1]
+        FigureCanvasAgg(fig).draw()  # figure_png closed it: its canvas went with it
+        renderer = fig.canvas.get_renderer()
+        page = fig.bbox
+        left, right = fig.axes
+        boxes = [ax.get_tightbbox(renderer) for ax in fig.axes]  # labels and ticks drawn
+        if fig._suptitle is not None:
+            boxes.append(fig._suptitle.get_window_extent(renderer))
+        for box in boxes:
+            assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1, (i, box)
+            assert page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, (i, box)
+        if fig._suptitle is not None:
+            title = fig._suptitle.get_window_extent(renderer)
+            for ax in fig.axes:
+                assert title.y0 >= ax.get_tightbbox(renderer).y1, fig._suptitle.get_text()
+        label = right.yaxis.get_tightbbox(renderer)
+        assert label.x0 > left.get_tightbbox(renderer).x1
+    assert sizes == {(900, 340)}
 
 
 def test_an_explicit_fibers_diameter_as_parameter_normalizes_k(monkeypatch):
@@ -1059,7 +1144,7 @@ def test_pore_figure_names_the_diameters_their_bar_and_the_status(tmp_path, monk
     from psdesign.report import transport
 
     drawn = []
-    monkeypatch.setattr(transport, "_fig_png", lambda fig: drawn.append(fig) or b"")
+    monkeypatch.setattr(transport, "figure_png", lambda fig: drawn.append(fig) or b"")
     d = np.linspace(1e-6, 2e-5, 20)
     pores = {
         "diameters_m": d,
@@ -1771,6 +1856,18 @@ def test_the_report_figures_are_drawn_once_with_every_label_inside(k_z, ids, dia
             assert len(labels) == len(set(labels)) >= 2, labels  # no label twice
 
 
+#: A study case's row with a preview picture ``p.png`` (the gallery tests).
+PREVIEW_ROW = {
+    "case_id": "c0000-ab",
+    "seed": 1,
+    "generator.porosity": 0.8,
+    "porosity": 0.81234,
+    "porosity_error": 0.00042,
+    "n_fibers": 12,
+    "preview_png": "p.png",
+}
+
+
 def test_the_study_previews_carry_generates_title(tmp_path):
     """Session 48 (the session-47 re-read): ``generate``'s preview is titled with the porosity
     and Omega, each with its bar and status, and the fibre count, while a study's previews
@@ -1785,16 +1882,10 @@ def test_the_study_previews_carry_generates_title(tmp_path):
 
     (tmp_path / "p.png").write_bytes(PNG_1PX)
     row = {
-        "case_id": "c0000-ab",
-        "seed": 1,
-        "generator.porosity": 0.8,
-        "porosity": 0.81234,
-        "porosity_error": 0.00042,
-        "n_fibers": 12,
+        **PREVIEW_ROW,
         "intersection_volume_fraction": 0.00213,
         "intersection_volume_fraction_error": 0.0003,
         "intersection_volume_fraction_status": "untrustworthy",
-        "preview_png": "p.png",
     }
     df = pd.DataFrame([row])
     title = "porosity 0.8123 +- 4.2e-04 [ok], Omega 0.00213 +- 3.0e-04 [untrustworthy], 12 fibers"
@@ -1804,6 +1895,30 @@ def test_the_study_previews_carry_generates_title(tmp_path):
     image = _previews(df, tmp_path, ["generator.porosity"], image=True)
     assert "seed=1; porosity 0.8123 +- 4.2e-04 [ok], 12 fibers</figcaption>" in image, image
     assert "Omega" not in image
+
+
+def test_a_titled_preview_is_not_captioned_with_its_title_again(tmp_path):
+    """Session 49: since session 48 a study case's preview.png carries generate's title, and
+    the gallery's caption repeated it under the picture. The case's row now says what is
+    drawn (``preview_title``, written by psdesign.study.case with the picture): such a
+    picture is captioned with its design point only, while a row of an older folder (no
+    ``preview_title``: its picture has no title) keeps the title in its caption; in one
+    table (an old folder resumed) each row by its own."""
+    from study_cases import PNG_1PX
+
+    from psdesign.report.html import _previews
+
+    (tmp_path / "p.png").write_bytes(PNG_1PX)
+    title = "porosity 0.8123 +- 4.2e-04 [ok], 12 fibers"
+    old = dict(PREVIEW_ROW)
+    new = {**old, "case_id": "c0001-cd", "preview_title": title}
+    for rows in ([old], [new], [old, new]):
+        html = _previews(pd.DataFrame(rows), tmp_path, ["generator.porosity"], image=True)
+        if old in rows:
+            assert f"<figcaption>c0000-ab: generator.porosity=0.8 seed=1; {title}<" in html
+        if new in rows:
+            assert "<figcaption>c0001-cd: generator.porosity=0.8 seed=1</figcaption>" in html
+        assert html.count(title) == 2 * (old in rows), html  # caption and alt text
 
 
 def _log_axis_labels(values: list[float], inverted: bool = False):
@@ -1852,6 +1967,23 @@ def test_a_narrow_log_axis_labels_each_value_once(values, inverted):
     assert all(min(a, b) < v < max(a, b) for v in values)
     if values[0] == 9.4e-12:
         assert labels == ["5e-12", "1e-11"]
+
+
+@pytest.mark.parametrize(
+    ("values", "inverted"),
+    [([9.40e-12, 9.45e-12], False), ([9.4e-12], False), ([1.8e-5, 2.3e-5], True)],
+)
+def test_a_widened_log_axis_is_centred_on_its_data(values, inverted):
+    """Session 49: the widened view of a narrow log axis ran from the 1-2-5 value below the
+    data to the one above, so K_z = 9.4e-12 sat at 91 % of the height of [5e-12, 1e-11], by
+    the top edge. The view is now centred on the data in log space: the geometric mean of
+    the smallest and largest value lies half-way up, to 1e-3 of the log height, and the
+    1-2-5 values either side stay in view. Truth: log10 of the limits and the values."""
+    labels, limits = _log_axis_labels(values, inverted)
+    a, b = np.log10(sorted(limits))
+    centre = 0.5 * (math.log10(min(values)) + math.log10(max(values)))
+    assert (centre - a) / (b - a) == pytest.approx(0.5, abs=1e-3), (limits, values)
+    assert len(labels) >= 2, labels
 
 
 def test_a_summary_number_is_read_by_one_helper():

@@ -223,7 +223,8 @@ def test_disk_full_in_a_timed_case_child_stops_the_run_too(tmp_path):
 def test_a_study_case_preview_carries_generates_title(tmp_path, monkeypatch):
     """Session 48 (re-read of session 47): a study case's preview.png had no title while
     generate's shows the porosity and Omega with their bars and statuses. One 4 um rod in a
-    12 um box at 1 um voxels: the title is preview_title of the case's own row."""
+    12 um box at 1 um voxels: the title is preview_title of the case's own row, and the row
+    records it as ``preview_title`` (session 49)."""
     from psdesign.report import preview
     from psdesign.study.case import run_case
 
@@ -242,6 +243,8 @@ def test_a_study_case_preview_carries_generates_title(tmp_path, monkeypatch):
     assert title.startswith(f"porosity {bar} [{row['porosity_status']}], Omega ")
     assert title.endswith(f"[{row['intersection_volume_fraction_status']}], 1 fibers")
     assert (tmp_path / "preview.png").stat().st_size > 0
+    # what the picture shows, for the report's caption (session 49: it repeated the title)
+    assert row["preview_title"] == title
 
 
 def test_a_preview_on_a_full_disk_stops_the_case(tmp_path, monkeypatch):

@@ -455,3 +455,29 @@ def test_an_old_optimize_json_reads_a_pore_diameters_bar_one_sided():
     k = dict(old, target="k_z_m2<=2e-11", output="k_z_m2", measured=21e-12)  # both ways: stored
     assert measured_text(k).endswith("(missed; the target lies within the measurement's error bar)")
     assert {"output", "target"} <= REPORT_KEYS
+
+
+def test_a_pore_diameter_verdict_at_the_targets_edge_reads_the_stored_number():
+    """Session 49: the one-sided bar's verdicts were recomputed from the row's target text,
+    whose value is rounded to 6 digits (``pore_d50_m<=2e-05`` for 2.0000004e-05). d50 = 19 um
+    with a bar up to 20.0000002 um lies wholly inside ``<= 20.0000004 um`` (stored: met, bar
+    inside), but against the text's 20 um its bar "reached outside the target". The row now
+    stores the number (``target_value``, ``target_tolerance``; through JSON, as optimize.json
+    holds it) and the line reads it; a row without them (an older file) still reads its
+    text. Truth: interval arithmetic on [19, 20.0000002] um."""
+    import json
+
+    from psdesign.analysis.targets import Target, measured_text, target_report
+
+    row = {"pore_d50_m": 19e-6, "pore_diameter_error_m": 1.0000002e-6, "pore_sizes_status": "ok"}
+    t = Target.parse("pore_d50_m<=2.0000004e-05")
+    r = json.loads(json.dumps(target_report(t, row)))
+    assert r["target"] == "pore_d50_m<=2e-05" and r["target_value"] == 2.0000004e-05
+    assert r["target_tolerance"] is None  # a <= target has none
+    band = target_report(Target.parse("pore_d50_m=2e-05+-5.00000004%"), row)
+    assert band["target"] == "pore_d50_m=2e-05+-5%"
+    assert band["target_tolerance"] == pytest.approx(0.0500000004, rel=1e-12)
+    assert r["met"] and r["error_bar_inside_target"]
+    assert measured_text(r) == "measured 1.9e-05 +5.26 %/-0 [ok] (met)"
+    older = {k: v for k, v in r.items() if k not in ("target_value", "target_tolerance")}
+    assert measured_text(older).endswith("(met; the error bar reaches outside the target)")
