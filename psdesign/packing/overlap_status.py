@@ -518,9 +518,11 @@ def _lens_window(
     pair's window wraps at the box's faces onto the next copy of its lens family
     (:func:`_lens_labels`), which lies ``1 / cos - 1`` periods off a period: under half a
     voxel, inside the pad. None when a fiber does not run exactly along a grid axis (parallel
-    pairs: past that tilt), the window is wider than the grid, or a radius and the pad reach
-    half a period: another copy of a fiber lies a period off across its axis, so its lens with
-    the other fiber lies outside a window under ``2 (r + pad)`` wide in that direction (a
+    pairs: past that tilt, or in a box over a period across their axis, which holds several
+    copies of the family: a 2-period box read half of it), the window is wider than the
+    grid, or a radius and the pad reach half a period: another copy of a fiber lies a period
+    off across its axis, so its lens with the other fiber lies outside a window under
+    ``2 (r + pad)`` wide in that direction (a
     guard on the sum of the two radii sent fat pairs to :func:`_whole_box_error`, whose
     congruent members round differently at surface ties: a 3 x 3 array 26 voxels thick at
     60^3 read 0.0258 against its 0.0152)."""
@@ -533,6 +535,9 @@ def _lens_window(
     # a voxel (of the pad) from a period off: ``1 / along - 1`` periods
     tilted = ax[0] == ax[1] and np.linalg.norm(np.cross(d[0], d[1])) < LENS_MIDPOINT_GRID
     tilted &= (1.0 / along[0] - 1.0) * period < 0.5 * float(np.min(spacing))
+    # a box over a period across the axis holds several copies of the family, a window one
+    across = np.arange(3) != ax[0]
+    tilted &= bool(np.all(shape[across] * spacing[across] <= period * (1.0 + 1e-9)))
     if not (np.all(along == 1.0) or tilted) or radius.max() + pad >= 0.5 * period:
         return None
     lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
