@@ -375,8 +375,8 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
     # cell c between c - e_a and c): pressure cells outside the thin mask with more than
     # MAX_FACES open faces, at most `other` of them into cells outside the mask
     rng = np.random.default_rng(0)
-    for _ in range(10):
-        shape = tuple(int(n) for n in rng.integers(4, 9, 3))
+    for t in range(14):  # axes of one and two cells too: the wrap-around selects (session 49)
+        shape = tuple(int(n) for n in rng.integers(4 if t < 10 else 1, 9, 3))
         cells = rng.random(shape) < 0.6
         f = []
         for a in range(3):
@@ -385,7 +385,7 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
         mask = np.empty(shape, bool)
         thin._thin_mask(*f, cells.astype(np.uint8), thin.MAX_FACES, mask)
         for other in (0, 1):
-            out = np.zeros(shape, bool)
+            out = np.ones(shape, bool)  # every cell written (the set-up passes np.empty)
             thin._junctions(*f, cells.astype(np.uint8), mask, thin.MAX_FACES, other, out)
             wide = np.zeros(shape, int)
             nopen = np.zeros(shape, int)
@@ -398,3 +398,85 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
                 )
             want = cells & ~mask & (nopen > thin.MAX_FACES) & (wide <= other)
             assert np.array_equal(out, want)
+
+
+def _reference_correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``thin._correction`` with the eigenvalues of every piece (its code until session 48)."""
+    mouths = (mats.sum(axis=2) > 1e-6 * np.diagonal(mats, axis1=1, axis2=2)).sum(axis=1)
+    low = np.where(mouths <= thin.MOUTHS, thin.DEAD_END_LOW, thin.LOW)
+    s = np.sqrt(dinv.astype(np.float64))
+    out = mats * (s[:, :, None] * s[:, None, :])
+    active = np.linalg.eigvalsh(out)[:, 0] < low
+    lam, vec = np.linalg.eigh(out[active])
+    gain = np.where(lam < low[active, None], 1.0 / lam - 1.0, 0.0)
+    out[~active] = 0.0
+    out[active] = np.einsum("pik,pk,pjk->pij", vec, gain, vec) * (
+        s[active, :, None] * s[active, None, :]
+    )
+    return out, active
+
+
+def test_the_gershgorin_floor_bounds_the_spectrum_and_skips_only_clear_pieces(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Gershgorin's theorem (Golub & Van Loan, Matrix Computations, Thm 7.2.1): no eigenvalue of
+    # a symmetric matrix lies below min_i (m_ii - sum_{j != i} |m_ij|); pieces with their floor
+    # above LOW skip eigvalsh (session 49), the correction keeps every bit of the former one
+    rng = np.random.default_rng(11)
+    sym = rng.normal(size=(500, 6, 6))
+    sym = sym + sym.transpose(0, 2, 1)
+    assert np.all(np.linalg.eigvalsh(sym)[:, 0] >= thin._gershgorin_floor(sym) - 1e-12)
+    # L_P-like blocks: a chain of cells, diagonal = inner faces + a leaving part per cell
+    n, size = 400, 5
+    w = rng.uniform(0.05, 0.25, (n, size - 1))
+    leave = rng.uniform(0.0, 1.0, (n, size)) * (rng.random((n, size)) < 0.6)
+    leave[:, 0] += 0.05  # a mouth on every piece: no singular (enclosed) block
+    mats = np.zeros((n, size, size))
+    idx = np.arange(size - 1)
+    mats[:, idx, idx + 1] = mats[:, idx + 1, idx] = -w
+    diag = leave.copy()
+    diag[:, :-1] += w
+    diag[:, 1:] += w
+    mats[:, np.arange(size), np.arange(size)] = diag
+    dinv = (1.0 / diag * rng.uniform(0.96, 1.04, (n, size))).astype(np.float32)
+    batches = []
+    eigvalsh = np.linalg.eigvalsh
+    monkeypatch.setattr(np.linalg, "eigvalsh", lambda m: batches.append(len(m)) or eigvalsh(m))
+    got, active = thin._correction(mats.copy(), dinv)
+    monkeypatch.setattr(np.linalg, "eigvalsh", eigvalsh)
+    want, want_active = _reference_correction(mats, dinv)
+    assert 0 < active.sum() < n and 0 < batches[0] < n  # some skipped, some corrected
+    assert np.array_equal(active, want_active) and got.tobytes() == want.tobytes()
+
+
+def test_each_size_batch_gets_the_faces_of_its_own_pieces(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the faces inside the pieces are grouped by the pieces' size once (session 49; each
+    # size's batch scanned every face before): each batch gets exactly its pieces' faces
+    fluid = np.random.default_rng(5).random((12, 12, 12)) > 0.35
+    faces = _faces(fluid)
+    seen = []
+    invert = thin.ThinBlocks._invert
+
+    def spy(self, size, which, sel, d, edges, local, owner, dinv):
+        seen.append((size, np.unique(owner[edges[0]]), which.copy()))
+        return invert(self, size, which, sel, d, edges, local, owner, dinv)
+
+    monkeypatch.setattr(thin, "LOW", np.inf)  # every piece kept, so `owner` is that of the pieces
+    monkeypatch.setattr(thin.ThinBlocks, "_invert", spy)
+    tb = _blocks(faces, fluid, _dinv(faces), FLOOR)
+    assert len(seen) > 3 and sum(w.size for _, _, w in seen) == tb.start.size - 1
+    for size, owners, which in seen:
+        assert np.array_equal(owners, which)  # every piece of `size` cells is connected
+        assert np.all(np.diff(tb.start)[which] == size)
+
+
+def test_a_pore_space_without_thin_pieces_has_no_blocks() -> None:
+    # a slab of fluid five cells thick (every cell 5 or 6 open faces): no thin cell, no piece,
+    # nothing stored, and apply adds nothing (the size batches of an empty set)
+    fluid = np.zeros((6, 9, 6), bool)
+    fluid[:, 2:7, :] = True
+    faces = _faces(fluid)
+    tb = _blocks(faces, fluid, _dinv(faces), FLOOR)
+    assert tb.n_cells == 0 and tb.start.size == 1
+    z = np.zeros(fluid.shape, np.float32)
+    assert tb.apply(np.ones(fluid.shape, np.float32), z) == 0.0 and not z.any()
