@@ -400,22 +400,6 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
             assert np.array_equal(out, want)
 
 
-def _reference_correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``thin._correction`` with the eigenvalues of every piece (its code until session 48)."""
-    mouths = (mats.sum(axis=2) > 1e-6 * np.diagonal(mats, axis1=1, axis2=2)).sum(axis=1)
-    low = np.where(mouths <= thin.MOUTHS, thin.DEAD_END_LOW, thin.LOW)
-    s = np.sqrt(dinv.astype(np.float64))
-    out = mats * (s[:, :, None] * s[:, None, :])
-    active = np.linalg.eigvalsh(out)[:, 0] < low
-    lam, vec = np.linalg.eigh(out[active])
-    gain = np.where(lam < low[active, None], 1.0 / lam - 1.0, 0.0)
-    out[~active] = 0.0
-    out[active] = np.einsum("pik,pk,pjk->pij", vec, gain, vec) * (
-        s[active, :, None] * s[active, None, :]
-    )
-    return out, active
-
-
 def test_the_gershgorin_floor_bounds_the_spectrum_and_skips_only_clear_pieces(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -443,10 +427,19 @@ def test_the_gershgorin_floor_bounds_the_spectrum_and_skips_only_clear_pieces(
     eigvalsh = np.linalg.eigvalsh
     monkeypatch.setattr(np.linalg, "eigvalsh", lambda m: batches.append(len(m)) or eigvalsh(m))
     got, active = thin._correction(mats.copy(), dinv)
-    monkeypatch.setattr(np.linalg, "eigvalsh", eigvalsh)
-    want, want_active = _reference_correction(mats, dinv)
-    assert 0 < active.sum() < n and 0 < batches[0] < n  # some skipped, some corrected
-    assert np.array_equal(active, want_active) and got.tobytes() == want.tobytes()
+    # the former code: every piece's eigenvalues (no floor clears any)
+    monkeypatch.setattr(thin, "_gershgorin_floor", lambda m: np.full(len(m), -np.inf))
+    want, want_active = thin._correction(mats.copy(), dinv)
+    assert batches == [batches[0], n] and 0 < batches[0] < n  # some skipped
+    assert 0 < active.sum() < n and np.array_equal(active, want_active)
+    assert got.tobytes() == want.tobytes()
+    # and the documented rule: a mode of D^-1 L_P below LOW, DEAD_END_LOW with <= MOUTHS mouths
+    s = np.sqrt(dinv.astype(np.float64))
+    theta = eigvalsh(mats * (s[:, :, None] * s[:, None, :]))[:, 0]
+    mouths = (leave > 0).sum(axis=1)
+    assert np.array_equal(
+        active, theta < np.where(mouths <= thin.MOUTHS, thin.DEAD_END_LOW, thin.LOW)
+    )
 
 
 def test_each_size_batch_gets_the_faces_of_its_own_pieces(monkeypatch: pytest.MonkeyPatch) -> None:
