@@ -1362,8 +1362,9 @@ def _true_residual(
 
 def _force_residual(op: _Stokes, gdir: int, r: np.ndarray) -> tuple[float, float]:
     """``r <- b``, the residual ``b - K x`` at ``x = 0`` that starts :func:`_solve_core`, and
-    ``(||b||, ||b||)``, without :func:`_true_residual`'s operator pass at zero (0.39 s of one
-    thread at 200^3; ``benchmarks/RESULTS.md``, session 49): the bits of
+    ``(||b||, ||b||)``, without :func:`_true_residual`'s operator pass at zero (0.13 s of one
+    thread at 200^3, 0.3-0.39 s where it first touches ``r``; ``benchmarks/RESULTS.md``,
+    session 49): the bits of
     :meth:`_Stokes.residual` there.
 
     ``b`` is the body force: 1 on the active faces of ``gdir`` (the staircase's ``diag != 0``),
@@ -1416,10 +1417,12 @@ def _solve_core(
     48 bits per entry (:class:`solvers.voxel.lanczos.Solution`: float32 in the first cycle, plus
     an int16 extension from the second); returns the solution as float64."""
     shp = op.shape
+    r = np.empty(shp, np.float32)
+    # x = 0: r = b, formed before the Krylov vectors exist (the sub-voxel force's dense
+    # weight, 4 B per cell, stays below the solve's peak)
+    rn, bn = _force_residual(op, d, r)
     work = MinresWork.of(op)
     x = lz.Solution(shp, work.packing)
-    r = np.empty(shp, np.float32)
-    rn, bn = _force_residual(op, d, r)  # x = 0: r = b
     rel = rn / bn
     history = [rel]
     total = 0

@@ -158,3 +158,17 @@ def test_a_solve_runs_no_operator_pass_at_zero(monkeypatch) -> None:
     res = vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-6)
     assert res.converged and len(zeros) == len(res.history) - 1 and not any(zeros)
     assert res.history[0] == 1.0
+
+
+def test_the_force_is_formed_before_the_krylov_vectors(monkeypatch) -> None:
+    # the sub-voxel force's dense weight (4 B per cell) is a temporary of the first residual:
+    # formed before the Krylov work vectors and the solution exist it stays below the solve's
+    # peak (formed after them it raised a 96^3 sub-voxel solve's traced peak from 83.8 to 88.2 B
+    # per cell, benchmarks/RESULTS.md session 49)
+    solid, dist = _rods_distance(12)
+    order = []
+    force, of = vs._force_residual, vs.MinresWork.of
+    monkeypatch.setattr(vs, "_force_residual", lambda *a: order.append("force") or force(*a))
+    monkeypatch.setattr(vs.MinresWork, "of", lambda op, k=None: order.append("work") or of(op, k))
+    vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-3, distance=dist)
+    assert order == ["force", "work"]
