@@ -1360,6 +1360,41 @@ def _true_residual(
     return rn, bn
 
 
+def _force_residual(op: _Stokes, gdir: int, r: np.ndarray) -> tuple[float, float]:
+    """``r <- b``, the residual ``b - K x`` at ``x = 0`` that starts :func:`_solve_core`, and
+    ``(||b||, ||b||)``, without :func:`_true_residual`'s operator pass at zero (0.13 s of one
+    thread at 200^3, 0.3-0.39 s where it first touches ``r``; ``benchmarks/RESULTS.md``,
+    session 49): the bits of
+    :meth:`_Stokes.residual` there.
+
+    ``b`` is the body force: 1 on the active faces of ``gdir`` (the staircase's ``diag != 0``),
+    the cut faces' weight on the sub-voxel grid (:meth:`_Stokes.weight`), 0 on the other
+    components and on the pressure: ``+0.0`` from the staircase kernel (fastmath), ``-0.0``
+    from the sub-voxel one (exact: the negated zero divergence).  Its norm is summed as the
+    kernels sum it: plane by plane, each in its cells' order (``np.cumsum``: sequential), the
+    planes in index order (:func:`_sequential_sum`); on the staircase a count of ones, exact in
+    any order."""
+    r.fill(0.0)
+    w = op.weight(gdir)
+    if w is None:
+        np.not_equal(op.d[gdir], 0, out=r[gdir])
+        ff = float(np.count_nonzero(op.d[gdir]))
+    else:
+        np.copyto(r[gdir], w)
+        del w
+        part = [_sequential_sum(np.square(p.ravel(), dtype=np.float64)) for p in r[gdir]]
+        ff = _sequential_sum(np.array(part))
+        np.negative(r[3], out=r[3])
+    bn = float(np.sqrt(ff))
+    return bn, bn
+
+
+def _sequential_sum(v: np.ndarray) -> float:
+    """``v[0] + v[1] + ...`` one after the other from 0.0 (float64; ``np.cumsum`` adds in order,
+    ``np.sum`` pairwise): the order of a kernel's running sum."""
+    return float(np.cumsum(v)[-1]) if v.size else 0.0
+
+
 def _later_bits(work: MinresWork, short: bool) -> int:
     """Storage bits of the directions from the second refinement cycle on: SYMMLQ's
     :data:`solvers.voxel.memory.LATER_SYMMLQ_BITS` where the solution's extension is int8
@@ -1382,10 +1417,12 @@ def _solve_core(
     48 bits per entry (:class:`solvers.voxel.lanczos.Solution`: float32 in the first cycle, plus
     an int16 extension from the second); returns the solution as float64."""
     shp = op.shape
+    r = np.empty(shp, np.float32)
+    # x = 0: r = b, formed before the Krylov vectors exist (the sub-voxel force's dense
+    # weight, 4 B per cell, stays below the solve's peak)
+    rn, bn = _force_residual(op, d, r)
     work = MinresWork.of(op)
     x = lz.Solution(shp, work.packing)
-    r = np.empty(shp, np.float32)
-    rn, bn = _true_residual(op, x, d, r, work)
     rel = rn / bn
     history = [rel]
     total = 0

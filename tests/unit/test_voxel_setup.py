@@ -1,7 +1,8 @@
 """The voxel Stokes set-up's one-thread numpy passes (issue 16 item 1, session 48): the finest
 operators without rolled copies, the staircase's ``1 / A_ff`` from a table and formed once for
 the scale code and the thin blocks, the Poisson velocity's first cycle without a copy of its
-right-hand side.  Each is checked bit for bit against the numpy definition it replaces (the
+right-hand side; and (session 49) the first residual formed as the body force, without an
+operator pass at x = 0.  Each is checked bit for bit against the numpy definition it replaces (the
 former code, kept here as the reference), so the solver's results do not move."""
 
 from __future__ import annotations
@@ -105,3 +106,69 @@ def test_poisson_velocity_is_the_zero_start_iteration_bit_for_bit() -> None:
     one = schur.poisson_velocity(smg, d, c, None, 1)
     smg.apply(b, e)
     assert np.array_equal(one, e * b)
+
+
+def _rods_distance(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Two periodic rods of radius 0.2 n across a cube of ``n`` cells: solid and signed
+    distance (cells, > 0 in the fluid): cut faces of many weights."""
+    g = np.arange(n) + 0.5
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    dist = (
+        np.minimum(
+            np.hypot((x - 0.3 * n + n / 2) % n - n / 2, (y - 0.4 * n + n / 2) % n - n / 2),
+            np.hypot((y - 0.8 * n + n / 2) % n - n / 2, (z - 0.6 * n + n / 2) % n - n / 2),
+        )
+        - 0.2 * n
+    )
+    return dist <= 0, dist
+
+
+@pytest.mark.parametrize("subvoxel", [False, True])
+@pytest.mark.parametrize("walls", [None, {1: "slip", 2: "noslip"}])
+def test_the_first_residual_is_the_force_bit_for_bit(subvoxel, walls) -> None:
+    # r = b - K 0 formed without the operator pass (0.39 s of one thread at 200^3, session 49):
+    # every bit of the residual kernel's r at x = 0 (its zero signs too: +0.0 from the
+    # staircase kernel, -0.0 from the sub-voxel one) and its two norms, summed in the kernel's
+    # order over cut-face weights that are not integers
+    solid, dist = _rods_distance(11)
+    op = vs._Stokes.build(solid, dist if subvoxel else None, walls)
+    if subvoxel:
+        assert len({float(w) for w in np.unique(op.weight(0))}) > 10
+    for gdir in range(3):
+        want = np.empty(op.shape, np.float32)
+        norms = op.residual(np.zeros(op.shape, np.float32), gdir, want)
+        got = np.full(op.shape, np.nan, np.float32)
+        assert vs._force_residual(op, gdir, got) == norms
+        assert got.tobytes() == want.tobytes()
+        assert norms[0] > 1.0
+
+
+def test_a_solve_runs_no_operator_pass_at_zero(monkeypatch) -> None:
+    # the first refinement cycle starts from r = b: the residual kernel runs only on the
+    # cycles' solutions (before session 49 also at x = 0), and the history is the same
+    solid, _ = _rods_distance(12)
+    zeros = []
+    residual = vs._Stokes.residual
+
+    def spy(self, x, gdir, r):
+        zeros.append(not np.any(x))
+        return residual(self, x, gdir, r)
+
+    monkeypatch.setattr(vs._Stokes, "residual", spy)
+    res = vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-6)
+    assert res.converged and len(zeros) == len(res.history) - 1 and not any(zeros)
+    assert res.history[0] == 1.0
+
+
+def test_the_force_is_formed_before_the_krylov_vectors(monkeypatch) -> None:
+    # the sub-voxel force's dense weight (4 B per cell) is a temporary of the first residual:
+    # formed before the Krylov work vectors and the solution exist it stays below the solve's
+    # peak (formed after them it raised a 96^3 sub-voxel solve's traced peak from 83.8 to 88.2 B
+    # per cell, benchmarks/RESULTS.md session 49)
+    solid, dist = _rods_distance(12)
+    order = []
+    force, of = vs._force_residual, vs.MinresWork.of
+    monkeypatch.setattr(vs, "_force_residual", lambda *a: order.append("force") or force(*a))
+    monkeypatch.setattr(vs.MinresWork, "of", lambda op, k=None: order.append("work") or of(op, k))
+    vs.solve_voxel_stokes(solid, 1e-6, "x", tol=1e-3, distance=dist)
+    assert order == ["force", "work"]

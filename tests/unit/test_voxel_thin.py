@@ -375,8 +375,8 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
     # cell c between c - e_a and c): pressure cells outside the thin mask with more than
     # MAX_FACES open faces, at most `other` of them into cells outside the mask
     rng = np.random.default_rng(0)
-    for _ in range(10):
-        shape = tuple(int(n) for n in rng.integers(4, 9, 3))
+    for t in range(14):  # axes of one and two cells too: the wrap-around selects (session 49)
+        shape = tuple(int(n) for n in rng.integers(4 if t < 10 else 1, 9, 3))
         cells = rng.random(shape) < 0.6
         f = []
         for a in range(3):
@@ -385,7 +385,7 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
         mask = np.empty(shape, bool)
         thin._thin_mask(*f, cells.astype(np.uint8), thin.MAX_FACES, mask)
         for other in (0, 1):
-            out = np.zeros(shape, bool)
+            out = np.ones(shape, bool)  # every cell written (the set-up passes np.empty)
             thin._junctions(*f, cells.astype(np.uint8), mask, thin.MAX_FACES, other, out)
             wide = np.zeros(shape, int)
             nopen = np.zeros(shape, int)
@@ -398,3 +398,113 @@ def test_the_junction_pass_counts_the_open_faces_into_thin_cells() -> None:
                 )
             want = cells & ~mask & (nopen > thin.MAX_FACES) & (wide <= other)
             assert np.array_equal(out, want)
+
+
+def test_the_gershgorin_floor_bounds_the_spectrum_and_skips_only_clear_pieces(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Gershgorin's theorem (Golub & Van Loan, Matrix Computations, Thm 7.2.1): no eigenvalue of
+    # a symmetric matrix lies below min_i (m_ii - sum_{j != i} |m_ij|); pieces with their floor
+    # above LOW skip eigvalsh (session 49), the correction keeps every bit of the former one
+    rng = np.random.default_rng(11)
+    sym = rng.normal(size=(500, 6, 6))
+    sym = sym + sym.transpose(0, 2, 1)
+    assert np.all(np.linalg.eigvalsh(sym)[:, 0] >= thin._gershgorin_floor(sym) - 1e-12)
+    # L_P-like blocks: a chain of cells, diagonal = inner faces + a leaving part per cell
+    n, size = 400, 5
+    w = rng.uniform(0.05, 0.25, (n, size - 1))
+    leave = rng.uniform(0.0, 1.0, (n, size)) * (rng.random((n, size)) < 0.6)
+    leave[:, 0] += 0.05  # a mouth on every piece: no singular (enclosed) block
+    mats = np.zeros((n, size, size))
+    idx = np.arange(size - 1)
+    mats[:, idx, idx + 1] = mats[:, idx + 1, idx] = -w
+    diag = leave.copy()
+    diag[:, :-1] += w
+    diag[:, 1:] += w
+    mats[:, np.arange(size), np.arange(size)] = diag
+    dinv = (1.0 / diag * rng.uniform(0.96, 1.04, (n, size))).astype(np.float32)
+    batches = []
+    eigvalsh = np.linalg.eigvalsh
+    monkeypatch.setattr(np.linalg, "eigvalsh", lambda m: batches.append(len(m)) or eigvalsh(m))
+    got, active = thin._correction(mats.copy(), dinv)
+    # the former code: every piece's eigenvalues (no floor clears any)
+    monkeypatch.setattr(thin, "_gershgorin_floor", lambda m: np.full(len(m), -np.inf))
+    want, want_active = thin._correction(mats.copy(), dinv)
+    assert batches == [batches[0], n] and 0 < batches[0] < n  # some skipped
+    assert 0 < active.sum() < n and np.array_equal(active, want_active)
+    assert got.tobytes() == want.tobytes()
+    # and the documented rule: a mode of D^-1 L_P below LOW, DEAD_END_LOW with <= MOUTHS mouths
+    s = np.sqrt(dinv.astype(np.float64))
+    theta = eigvalsh(mats * (s[:, :, None] * s[:, None, :]))[:, 0]
+    mouths = (leave > 0).sum(axis=1)
+    assert np.array_equal(
+        active, theta < np.where(mouths <= thin.MOUTHS, thin.DEAD_END_LOW, thin.LOW)
+    )
+
+
+def test_each_size_batch_gets_the_faces_of_its_own_pieces(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the faces inside the pieces are grouped by the pieces' size once (session 49; each
+    # size's batch scanned every face before): each batch gets exactly its pieces' faces
+    fluid = np.random.default_rng(5).random((12, 12, 12)) > 0.35
+    faces = _faces(fluid)
+    seen = []
+    invert = thin.ThinBlocks._invert
+
+    def spy(self, size, which, sel, d, edges, local, owner, dinv):
+        seen.append((size, np.unique(owner[edges[0]]), which.copy()))
+        return invert(self, size, which, sel, d, edges, local, owner, dinv)
+
+    monkeypatch.setattr(thin, "LOW", np.inf)  # every piece kept, so `owner` is that of the pieces
+    monkeypatch.setattr(thin.ThinBlocks, "_invert", spy)
+    tb = _blocks(faces, fluid, _dinv(faces), FLOOR)
+    assert len(seen) > 3 and sum(w.size for _, _, w in seen) == tb.start.size - 1
+    for size, owners, which in seen:
+        assert np.array_equal(owners, which)  # every piece of `size` cells is connected
+        assert np.all(np.diff(tb.start)[which] == size)
+
+
+def test_a_pore_space_without_thin_pieces_has_no_blocks() -> None:
+    # a slab of fluid five cells thick (every cell 5 or 6 open faces): no thin cell, no piece,
+    # nothing stored, and apply adds nothing (the size batches of an empty set)
+    fluid = np.zeros((6, 9, 6), bool)
+    fluid[:, 2:7, :] = True
+    faces = _faces(fluid)
+    tb = _blocks(faces, fluid, _dinv(faces), FLOOR)
+    assert tb.n_cells == 0 and tb.start.size == 1
+    z = np.zeros(fluid.shape, np.float32)
+    assert tb.apply(np.ones(fluid.shape, np.float32), z) == 0.0 and not z.any()
+
+
+@pytest.mark.parametrize("shape", [(12, 12, 12), (14, 13, 1), (12, 2, 12), (2, 11, 2)])
+def test_pieces_cleared_from_their_faces_are_those_without_a_low_mode(
+    shape, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # thin._cleared drops, before any dense block is formed, the pieces whose Gershgorin floor
+    # (from the faces) is above both lows (session 49): the stored blocks are bit for bit those
+    # of the dense path on every piece, on random pore spaces with axes of one cell (a face
+    # from a cell to itself) and two (two faces between one pair of cells) too
+    fluid = np.random.default_rng(sum(shape)).random(shape) > 0.35
+    faces = _faces(fluid)
+    dinv = _dinv(faces)
+    cleared = []
+    real = thin._cleared
+    monkeypatch.setattr(thin, "_cleared", lambda *a: cleared.append(real(*a)) or cleared[-1])
+    tb = _blocks(faces, fluid, dinv, FLOOR)
+    monkeypatch.setattr(thin, "_cleared", lambda *a: np.zeros(a[-1], bool))
+    want = _blocks(faces, fluid, dinv, FLOOR)
+    for name in ("cells", "start", "fstart", "packed"):
+        assert getattr(tb, name).tobytes() == getattr(want, name).tobytes(), name
+    if shape == (12, 12, 12):
+        assert 0 < cleared[0].sum() < cleared[0].size and tb.n_cells > 0
+
+
+def test_a_piece_with_a_face_to_itself_is_never_cleared() -> None:
+    # two pieces of two cells with the same Gershgorin floor 1 - 0.1 - 0.1 = 0.8 from their
+    # faces; the second has a face from its cell 2 to itself (an axis of one cell), which the
+    # dense block writes on its diagonal: only the first is cleared without a dense block
+    thin_cells = np.arange(4)
+    d = np.ones(4)
+    inner = (np.array([0, 2, 2]), np.array([1, 3, 2]), np.array([0.1, 0.1, 0.05]))
+    owner = np.array([0, 0, 1, 1])
+    got = thin._cleared(thin_cells, d, inner, owner, np.ones(4, np.float32), 2)
+    assert got.tolist() == [True, False]
