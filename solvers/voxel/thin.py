@@ -35,6 +35,12 @@ R^T S_c^+ R`` stays SPD and SYMMLQ / MINRES stay valid.  Stored as ``E_P = L_P^-
 float32, added to the pressure block's output in one pass (:func:`thin_apply`); single cells
 are left out (their block is ``D`` itself).
 
+On a grid with an axis of one cell the periodic face along it joins a cell to itself; the operator
+has no pressure difference nor divergence term across it, so it is no face of ``L`` and its two
+halves come off the piece's diagonal (session 49: it had overwritten that diagonal with ``-w_f^2 /
+A_ff``, every piece of such a grid negative there, the pressure block indefinite); the thin-cell
+mask and ``D`` still count it as two open faces.
+
 Only the slow modes (since session 13)
 -------------------------------------
 The Dirichlet condition at the mouth is right for a dead end behind a narrow mouth, wrong for a
@@ -305,8 +311,7 @@ def _cleared(
     ``D^-1`` by grid cell): no mode below either ``low``, so :func:`_correction` would find none.
     Each face's ``|m_rc|`` is subtracted from both its cells, every face counted (the dense block
     keeps the last of two faces between one pair of cells: a lower floor here, still a bound);
-    a piece with a face from a cell to itself (an axis of one cell, which the dense block writes
-    on its diagonal) is never cleared."""
+    ``inner`` holds no face from a cell to itself (an axis of one cell: :class:`ThinBlocks`)."""
     r, c, v = inner
     sc = np.sqrt(dinv[thin].astype(np.float64))
     off = v * sc[r] * sc[c]
@@ -314,9 +319,7 @@ def _cleared(
     lowest = np.full(npieces, np.inf)
     mine = owner >= 0
     np.minimum.at(lowest, owner[mine], floor[mine])
-    clear = lowest >= max(LOW, DEAD_END_LOW) + GERSHGORIN_SLACK
-    clear[owner[r[r == c]]] = False
-    return clear
+    return lowest >= max(LOW, DEAD_END_LOW) + GERSHGORIN_SLACK
 
 
 def _correction(mats: np.ndarray, dinv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -389,7 +392,17 @@ class ThinBlocks:
         thin = np.flatnonzero(mask)
         del mask
         rows, cols, vals = [], [], []
+        own = np.zeros(thin.size) if 1 in shape else None
         for a, q in enumerate((f0, f1, f2)):
+            if shape[a] == 1:
+                # the periodic face from a cell to itself: the operator has no pressure
+                # difference across it nor a divergence term (p[c] - p[c], w[c] - w[c] in the
+                # kernels), so it is no face of L = G^T diag(A)^-1 G: neither an inner face of a
+                # piece (its -w overwrote L_P's diagonal: every piece of a 14 x 13 x 1 grid had a
+                # negative one, session 49) nor in the operator's diagonal block (its two halves
+                # counted in the Schur diagonal of _faces_at come off below)
+                own += 2.0 * q.ravel()[thin].astype(np.float64)
+                continue
             low = _neighbour(thin, shape, a)
             pos = np.searchsorted(thin, low)
             pos[pos == thin.size] = 0
@@ -399,7 +412,10 @@ class ThinBlocks:
             cols.append(pos[both])
             vals.append(w[both])
         r, c, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-        d = np.maximum(_thin_diagonal(f0, f1, f2, thin), floor)
+        diag = _thin_diagonal(f0, f1, f2, thin)
+        if own is not None:
+            diag -= own
+        d = np.maximum(diag, floor)
         n = thin.size
         graph = coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
         ncomp, labels = connected_components(graph, directed=False)

@@ -481,8 +481,9 @@ def test_pieces_cleared_from_their_faces_are_those_without_a_low_mode(
 ) -> None:
     # thin._cleared drops, before any dense block is formed, the pieces whose Gershgorin floor
     # (from the faces) is above both lows (session 49): the stored blocks are bit for bit those
-    # of the dense path on every piece, on random pore spaces with axes of one cell (a face
-    # from a cell to itself) and two (two faces between one pair of cells) too
+    # of the dense path on every piece, on random pore spaces with axes of one cell (whose face
+    # from a cell to itself is no face of a piece: test_voxel_thin_one_cell) and two (two
+    # faces between one pair of cells) too
     fluid = np.random.default_rng(sum(shape)).random(shape) > 0.35
     faces = _faces(fluid)
     dinv = _dinv(faces)
@@ -496,15 +497,3 @@ def test_pieces_cleared_from_their_faces_are_those_without_a_low_mode(
         assert getattr(tb, name).tobytes() == getattr(want, name).tobytes(), name
     if shape == (12, 12, 12):
         assert 0 < cleared[0].sum() < cleared[0].size and tb.n_cells > 0
-
-
-def test_a_piece_with_a_face_to_itself_is_never_cleared() -> None:
-    # two pieces of two cells with the same Gershgorin floor 1 - 0.1 - 0.1 = 0.8 from their
-    # faces; the second has a face from its cell 2 to itself (an axis of one cell), which the
-    # dense block writes on its diagonal: only the first is cleared without a dense block
-    thin_cells = np.arange(4)
-    d = np.ones(4)
-    inner = (np.array([0, 2, 2]), np.array([1, 3, 2]), np.array([0.1, 0.1, 0.05]))
-    owner = np.array([0, 0, 1, 1])
-    got = thin._cleared(thin_cells, d, inner, owner, np.ones(4, np.float32), 2)
-    assert got.tolist() == [True, False]
