@@ -551,7 +551,10 @@ def parallel_kernel(
     another argument).  Not the parallel twin: there it made ``jacobi`` and the fused sweeps
     (``jacobi2_zero``, ``prolong_jacobi``) differ by an ulp, so the V-cycle of a two-thread
     solve after ``psdesign warmup`` was no longer one symmetric operator (session 20 review;
-    ``tests/unit/test_voxel_kernels.py``)."""
+    ``tests/unit/test_voxel_kernels.py``).  Session 49: numba passes the flag to every array
+    parameter of the parfor gufunc, also to arrays a kernel reshapes to hide them from it, and
+    the stored-coupling row loops then gave other bits in a process that compiled the twin
+    than in one that loaded it from the cache (``benchmarks/RESULTS.md``)."""
 
     def wrap(fn: Callable) -> TwinKernel:
         return TwinKernel(fn, serial_below=serial_below, helpers=helpers, noalias=noalias, **opts)

@@ -591,3 +591,22 @@ def test_flat_is_a_view_of_every_entry() -> None:
     assert a[1, 3, 2] == -1.0  # entry 37 of the C order
     with pytest.raises(TypingError):
         through_flat(a[:, :, ::2], 0, 0.0)
+
+
+def test_parallel_twins_of_the_sweeps_are_compiled_with_overlap_checks() -> None:
+    """The parallel twins of ``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` must not be
+    compiled with :class:`solvers.jit.NoAliasCompiler` while they hold the stored-coupling row
+    loops (session 49; s48's 4e39655 did, and was reverted).  numba then marks every array
+    parameter of the parfor gufunc ``noalias``, also the arrays ``jacobi`` reshapes to keep its
+    row loops compiled as without the flag (a trick that works in the serial twin only), and the
+    row loops give other bits: the row ends ``k = nz - 1`` of ``jacobi`` in a process that
+    compiled them (1 281 cells of a 72^3 staircase sweep), the vector bodies of ``jacobi`` and
+    ``prolong_jacobi`` in one that loaded them from numba's cache (54 881 / 48 063 cells).  The
+    two-thread solve of ``test_voxel_threads`` then started at 1.79826e-4 or 1.80488e-4 against
+    1.81817e-4, and the slow parallel cases of :func:`test_fused_sweeps_are_bitwise_jacobis` fail
+    (``benchmarks/RESULTS.md``, session 49).  Fails on 4e39655."""
+    from solvers.jit import NoAliasCompiler
+
+    for k in (kr.jacobi, kr.jacobi2_zero, kr.prolong_jacobi):
+        assert k.serial._compiler.pipeline_class is NoAliasCompiler
+        assert k.parallel._compiler.pipeline_class is not NoAliasCompiler
