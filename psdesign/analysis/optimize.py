@@ -83,20 +83,32 @@ class OptimizeResult:
     results: pd.DataFrame | None = None
 
 
+#: What optimize allows of a study's parameters (its refusals' one "allowed" text).
+_BOUNDS_ALLOWED = "{low, high}, with levels = N in a full-factorial design"
+
+
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
-    """The ``(low, high, log)`` box of each parameter; a parameter of levels is refused, one
-    :class:`~psdesign.errors.StudyError` line naming it (a bare ``ValueError`` until session
-    47: ``except psdesign.SpecError`` missed it)."""
+    """The ``(low, high, log)`` box of each parameter; a csv design or a parameter of levels
+    is refused, one :class:`~psdesign.errors.StudyError` line naming the study file's key (a
+    bare ``ValueError`` until session 47: ``except psdesign.SpecError`` missed it)."""
     from psdesign.errors import StudyError
 
+    if study.design == "csv":  # its columns were refused as parameters.<column>, a key the
+        # study file does not have (session 49's review)
+        raise StudyError(
+            "study.csv: optimize needs {low, high} bounds, not a csv design (allowed: "
+            f"[parameters] of {_BOUNDS_ALLOWED})"
+        )
     out = {}
     for name, p in study.parameters.items():
         if p.kind != "bounds":
             # the key as the study file and its other refusals spell it, and what a full-
-            # factorial design also needs (learnt on a second run until session 49)
+            # factorial design also needs (learnt on a second run until session 49); a range
+            # {start, stop, step} gives levels as a list does (it was told "not a list")
             raise StudyError(
                 f"parameters.{name}: optimize needs {{low, high}} bounds for every parameter, "
-                "not a list (allowed: {low, high}, with levels = N in a full-factorial design)"
+                "not levels (a list or a {start, stop, step} range) (allowed: "
+                f"{_BOUNDS_ALLOWED})"
             )
         out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
     return out
