@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
-from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
+from psdesign.analysis.surrogate import MIN_FIT_CASES, fit_surrogate, from_unit, to_unit
 from psdesign.analysis.targets import (
     MAX_BATCH,
     MAX_BUDGET,
@@ -66,7 +66,7 @@ class OptimizeResult:
         Per round: points added and the best miss so far.
     message : str
     failed : bool
-        The search stopped on its cases' failures (no case, or fewer than three to fit,
+        The search stopped on its cases' failures (no case, or fewer than ``MIN_FIT_CASES`` to fit,
         finished ok), not on a spent budget: the command's exit status 1, not 3.
     results : DataFrame or None
         The folder's results table after the last round (every case of the search, with its
@@ -367,9 +367,9 @@ def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool)
     if n_points >= space:  # int parameters only: a small box, all run
         msg = f"every design point of the parameter box has run ({n_points}; its int "
         return msg + "parameters hold no other)" + none_ok, not any_ok
-    if len(ok) >= 3:  # every candidate rounds onto a point that has run
+    if len(ok) >= MIN_FIT_CASES:  # every candidate rounds onto a point that has run
         return f"no candidate left that is a new design point ({n_points} run)", False
-    msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
+    msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than {MIN_FIT_CASES}; cannot fit"
     return msg + first_error(df), True
 
 
@@ -479,7 +479,7 @@ def optimize_study(
             msg = f"met every target after {n} design points" + single_seed_note(best, targets)
             return OptimizeResult(True, best, n, rounds, history, msg, results=df)
         new: list[list[float]] = []
-        if n < min(budget, space) and len(ok) >= 3:
+        if n < min(budget, space) and len(ok) >= MIN_FIT_CASES:
             new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
         if not new:
             msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
