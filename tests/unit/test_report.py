@@ -1908,9 +1908,10 @@ def test_a_titled_preview_is_not_captioned_with_its_title_again(tmp_path):
     """Session 49: since session 48 a study case's preview.png carries generate's title, and
     the gallery's caption repeated it under the picture. The case's row now says what is
     drawn (``preview_title``, written by psdesign.study.case with the picture): such a
-    picture is captioned with its design point only, while a row of an older folder (no
-    ``preview_title``: its picture has no title) keeps the title in its caption; in one
-    table (an old folder resumed) each row by its own."""
+    picture is captioned with its design point only, while a row of a folder written before
+    session 49 (no ``preview_title``; its picture drawn with the title since session 48)
+    keeps the title in its caption; in one table (an old folder resumed) each row by its
+    own."""
     from study_cases import PNG_1PX
 
     from psdesign.report.html import _previews
