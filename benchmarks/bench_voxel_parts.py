@@ -8,14 +8,15 @@ Usage (one size per process; the Toray-like box of ``bench_voxel_scale.py``)::
 Wraps, for the timed solve only, the solver's Python-level steps with timers (wall, CPU of the
 process, minor page faults): the set-up (``_Stokes.build`` and its phases: the component
 operators, the multigrid hierarchies, the coarse pressure term, the scale code, the thin
-pieces), each Krylov run (refinement cycle) with its iteration count, the true residual
-between cycles, and inside the iterations the operator product (``_Stokes.lanczos``), the
-preconditioner and its parts (each scalar V-cycle, counted four times per application: three
-velocity components and the coarse pressure term's own; the coarse pressure block; the thin
-pieces' pass) and the Krylov vector steps (``add_scaled``, ``symmlq_step``).  The numba
-kernels are the solver's own (a warm-up solve on a 48^3 box loads or compiles them first, as
-``bench_voxel_scale.py`` does), so the sum of the parts is the solve; the printed medians per
-cycle separate the first call of a new array (its page faults) from the steady cost.
+pieces), the first residual (the body force, ``_force_residual``, since session 49), each
+Krylov run (refinement cycle) with its iteration count, the true residual between cycles, and
+inside the iterations the operator product (``_Stokes.lanczos``), the preconditioner and its
+parts (each scalar V-cycle, counted four times per application: three velocity components and
+the coarse pressure term's own; the coarse pressure block; the thin pieces' pass) and the
+Krylov vector steps (``add_scaled``, ``symmlq_step``). The numba kernels are the solver's own
+(a warm-up solve on a 48^3 box loads or compiles them first, as ``bench_voxel_scale.py`` does),
+so the sum of the parts is the solve; the printed medians per cycle separate the first call of
+a new array (its page faults) from the steady cost.
 
 ``nohuge`` turns numpy's ``madvise(MADV_HUGEPAGE)`` of its large arrays off
 (``numpy._core.multiarray._set_madvise_hugepage``): with transparent huge pages on ``madvise``
@@ -100,6 +101,7 @@ def instrument() -> None:
         (vs, "percolates", "setup: percolation check"),
         (vs.MinresWork, "of", "solve: work vectors"),
         (vs.MinresWork, "store_directions", "solve: narrower directions"),
+        (vs, "_force_residual", "first residual (force)"),
         (lz.Solution, "extend", "solve: solution extension"),
         (lz.Solution, "value", "solve: solution as float64"),
         (vs, "_result", "post: fluxes and result"),

@@ -12,7 +12,8 @@ Usage (one thread, as recorded in ``benchmarks/RESULTS.md``)::
                                                               # first / later direction bits
 
 ``phases`` wraps the phases of :func:`solvers.voxel_stokes.solve_voxel_stokes` (set-up, the
-percolation check, the work vectors, each MINRES run, each true residual, the solution's
+percolation check, the work vectors, each MINRES run, the first residual (the body force,
+``_force_residual``, since session 49), each true residual, the solution's
 extension and its float64 value, the result) and prints the traced numpy memory before, the
 peak within (``tracemalloc.reset_peak``) and after each, in bytes per cell of the staircase
 Toray-like grid ``bench_voxel.toray_like(n)``.  ``bits`` solves the same grid with the given
@@ -41,6 +42,7 @@ PHASES = [
     (vs, "percolates", "percolates"),
     (vs.MinresWork, "of", "work vectors"),
     (vs, "krylov_run", "Krylov run"),
+    (vs, "_force_residual", "first residual (force)"),
     (vs, "_true_residual", "true residual"),
     (lz.Solution, "extend", "extension"),
     (lz.Solution, "value", "float64 value"),
@@ -49,7 +51,10 @@ PHASES = [
 
 
 def _wrap(obj: object, name: str, label: str, n_cells: int, log: list) -> None:
-    """Replace ``obj.name`` by a wrapper that logs the traced memory around each call."""
+    """Replace ``obj.name`` by a wrapper that logs the traced memory around each call; a
+    phase an older tree does not have (``_force_residual`` before session 49) is skipped."""
+    if not hasattr(obj, name):
+        return
     fn = getattr(obj, name)
 
     def wrapped(*args: object, **kwargs: object) -> object:
@@ -85,7 +90,7 @@ def phases(n: int, subvoxel: bool = False, fibres: bool = False) -> None:
     tracemalloc.stop()
     peak = max(top for _, _, top, _ in log) * solid.size  # the wrappers reset the peak
     for phase, before, top, after in log:
-        print(f"{phase:14s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
+        print(f"{phase:22s} before {before:6.1f}  peak {top:6.1f}  after {after:6.1f} B per cell")
     print(
         f"{label} {res.wall_treatment}, {vmem.KRYLOV}, directions "
         f"{vmem.DIRECTION_BITS} then {vmem.LATER_DIRECTION_BITS} bits (MINRES): traced peak "
@@ -120,6 +125,8 @@ def rss(n: int, trim: bool = True) -> None:
     cells = box[0].size
     log: list = []
     for obj, name, label in PHASES:
+        if not hasattr(obj, name):  # an older tree's (as _wrap)
+            continue
         fn = getattr(obj, name)
 
         def wrapped(*args: object, _fn=fn, _label=label, **kwargs: object) -> object:
@@ -136,7 +143,7 @@ def rss(n: int, trim: bool = True) -> None:
     per = 1024.0 / cells
     for label, before, after, hwm in log:
         print(
-            f"{label:14s} RSS {(before - base) * per:6.1f} -> {(after - base) * per:6.1f}  "
+            f"{label:22s} RSS {(before - base) * per:6.1f} -> {(after - base) * per:6.1f}  "
             f"peak so far {(hwm - base) * per:6.1f} B per cell"
         )
     print(

@@ -164,15 +164,9 @@ def _flow_table(spec_flow: dict, given: dict) -> dict:
     """The spec's ``[flow]`` table with the keywords ``given`` to a method, validated by the
     schema like a spec file's table (``SpecError`` naming ``flow.<key>`` and its range: an
     unknown or misspelled keyword is refused, not ignored)."""
-    from pydantic import ValidationError
+    from psdesign.schema.flow import validated_flow
 
-    from psdesign.schema.errors import spec_error
-    from psdesign.schema.flow import FlowTable
-
-    try:
-        checked = FlowTable.model_validate(given)
-    except ValidationError as exc:
-        raise spec_error(exc, FlowTable, prefix="flow") from None
+    checked = validated_flow(given)
     return {**spec_flow, **{key: getattr(checked, key) for key in given}}
 
 

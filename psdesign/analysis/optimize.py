@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.analysis.columns import first_error, trusted
-from psdesign.analysis.surrogate import fit_surrogate, from_unit, to_unit
+from psdesign.analysis.surrogate import MIN_FIT_CASES, fit_surrogate, from_unit, to_unit
 from psdesign.analysis.targets import (
     MAX_BATCH,
     MAX_BUDGET,
@@ -66,7 +66,7 @@ class OptimizeResult:
         Per round: points added and the best miss so far.
     message : str
     failed : bool
-        The search stopped on its cases' failures (no case, or fewer than three to fit,
+        The search stopped on its cases' failures (no case, or fewer than ``MIN_FIT_CASES`` to fit,
         finished ok), not on a spent budget: the command's exit status 1, not 3.
     results : DataFrame or None
         The folder's results table after the last round (every case of the search, with its
@@ -83,20 +83,32 @@ class OptimizeResult:
     results: pd.DataFrame | None = None
 
 
+#: What optimize allows of a study's parameters (its refusals' one "allowed" text).
+_BOUNDS_ALLOWED = "{low, high}, with levels = N in a full-factorial design"
+
+
 def _bounds(study) -> dict[str, tuple[float, float, bool]]:
-    """The ``(low, high, log)`` box of each parameter; a parameter of levels is refused, one
-    :class:`~psdesign.errors.StudyError` line naming it (a bare ``ValueError`` until session
-    47: ``except psdesign.SpecError`` missed it)."""
+    """The ``(low, high, log)`` box of each parameter; a csv design or a parameter of levels
+    is refused, one :class:`~psdesign.errors.StudyError` line naming the study file's key (a
+    bare ``ValueError`` until session 47: ``except psdesign.SpecError`` missed it)."""
     from psdesign.errors import StudyError
 
+    if study.design == "csv":  # its columns were refused as parameters.<column>, a key the
+        # study file does not have (session 49's review)
+        raise StudyError(
+            "study.csv: optimize needs {low, high} bounds, not a csv design (allowed: "
+            f"[parameters] of {_BOUNDS_ALLOWED})"
+        )
     out = {}
     for name, p in study.parameters.items():
         if p.kind != "bounds":
             # the key as the study file and its other refusals spell it, and what a full-
-            # factorial design also needs (learnt on a second run until session 49)
+            # factorial design also needs (learnt on a second run until session 49); a range
+            # {start, stop, step} gives levels as a list does (it was told "not a list")
             raise StudyError(
                 f"parameters.{name}: optimize needs {{low, high}} bounds for every parameter, "
-                "not a list (allowed: {low, high}, with levels = N in a full-factorial design)"
+                "not levels (a list or a {start, stop, step} range) (allowed: "
+                f"{_BOUNDS_ALLOWED})"
             )
         out[name] = (float(p.low), float(p.high), p.dist == "loguniform")
     return out
@@ -355,9 +367,9 @@ def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool)
     if n_points >= space:  # int parameters only: a small box, all run
         msg = f"every design point of the parameter box has run ({n_points}; its int "
         return msg + "parameters hold no other)" + none_ok, not any_ok
-    if len(ok) >= 3:  # every candidate rounds onto a point that has run
+    if len(ok) >= MIN_FIT_CASES:  # every candidate rounds onto a point that has run
         return f"no candidate left that is a new design point ({n_points} run)", False
-    msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than 3; cannot fit"
+    msg = f"{len(ok)} of {len(df)} case(s) finished ok, fewer than {MIN_FIT_CASES}; cannot fit"
     return msg + first_error(df), True
 
 
@@ -467,7 +479,7 @@ def optimize_study(
             msg = f"met every target after {n} design points" + single_seed_note(best, targets)
             return OptimizeResult(True, best, n, rounds, history, msg, results=df)
         new: list[list[float]] = []
-        if n < min(budget, space) and len(ok) >= 3:
+        if n < min(budget, space) and len(ok) >= MIN_FIT_CASES:
             new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
         if not new:
             msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))

@@ -35,6 +35,9 @@ LENGTH_SCALE_BOUNDS = (1e-2, 1e2)
 #: Distinct design points a fit needs before its cross-validated error says anything: with
 #: two, each is predicted from the other alone (:meth:`Surrogate.too_few_points`).
 MIN_DESIGN_POINTS = 3
+#: Fewest finished cases with a trusted value :func:`fit_surrogate` fits from: the one number
+#: of its refusal, `study optimize`'s "cannot fit" and the report's note (which spelled "3").
+MIN_FIT_CASES = 3
 
 
 #: The fit's hold-out figures (attributes of :class:`Surrogate`) and their words: the one
@@ -517,9 +520,10 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
     status is ``untrustworthy`` or ``not_converged`` left out)."""
     ok = distinct_realizations(trusted(df), params)
     ok = ok[ok[output].notna()]
-    if len(ok) < 3:
+    if len(ok) < MIN_FIT_CASES:
         raise ValueError(
-            f"{output}: need at least 3 finished cases with a trusted value to fit, got {len(ok)}"
+            f"{output}: need at least {MIN_FIT_CASES} finished cases with a trusted value to "
+            f"fit, got {len(ok)}"
         )
     y = ok[output].to_numpy(float)
     log_out = bool(np.all(y > 0) and y.max() / y.min() > 3.0)

@@ -75,13 +75,12 @@ def _check_insulating(args: argparse.Namespace) -> None:
 
 def result_line(r: dict) -> str:
     """The printed line of one conductivity result dict (``to_dict()``; its ``__str__``)."""
-    from psdesign.cli.lines import error_bar, rating
+    from psdesign.cli.lines import rating, value_text
 
-    u = r["conductivity_unit"]
     return (
-        f"sigma_eff_{r['direction']} = {r['effective_conductivity']:.5g} {u}"
-        f"{error_bar(r['rel_error'])}  {rating(r)}  (solid {r['solid_conductivity']:g}, "
-        f"fluid {r['fluid_conductivity']:g} {u})"
+        f"{value_text('conductivity', r['direction'], r)}  {rating(r)}  (solid "
+        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g} "
+        f"{r['conductivity_unit']})"
     )
 
 

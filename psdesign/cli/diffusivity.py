@@ -57,15 +57,14 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def result_line(r: dict) -> str:
     """The printed line of one diffusivity result dict (``to_dict()``; its ``__str__``)."""
-    from psdesign.cli.lines import error_bar, rating
+    from psdesign.cli.lines import error_bar, rating, value_text
     from psdesign.geometry.porosity import porosity_text
 
     tau = r["tortuosity_factor"]  # porosity / D: a count over D, so D's relative bar
     tau_text = "inf" if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
     return (
-        f"D_eff/D_{r['direction']} = {r['relative_diffusivity']:.4f}{error_bar(r['rel_error'])}  "
-        f"{rating(r)}  tortuosity factor {tau_text}  "
-        f"porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
+        f"{value_text('diffusivity', r['direction'], r)}  {rating(r)}  tortuosity factor "
+        f"{tau_text}  porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
     )
 
 

@@ -66,14 +66,13 @@ def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
 
 
 def _line(r: dict) -> str:
-    from psdesign.cli.lines import error_bar, rating
+    from psdesign.cli.lines import rating, value_text
     from psdesign.geometry.porosity import porosity_text
 
     sens = r.get("bc_sensitivity")
     extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
     return (
-        f"K_{r['direction']} = {r['permeability_m2']:.4e} m^2"
-        f"{error_bar(r.get('permeability_rel_error'))}  {rating(r)}  porosity "
+        f"{value_text('permeability', r['direction'], r)}  {rating(r)}  porosity "
         f"{porosity_text(r['porosity'], r.get('porosity_error'))}  solver {r['solver']}  "
         f"flux imbalance {r['flux_imbalance']:.2e}{extra}{_other_bc(r)}"
     )

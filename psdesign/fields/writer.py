@@ -87,21 +87,13 @@ def result_words(kind: str, direction: str, result: dict | None) -> str:
     ...              "conductivity_unit": "W/(m K)", "rel_error": None, "status": "ok"})
     'sigma_eff_x = 0.035215 W/(m K)  [ok]'
     """
-    from psdesign.cli.lines import error_bar
+    from psdesign.cli.lines import value_text
 
     if not result:
         return ""
-    if kind in ("fem_flow", "voxel_flow"):
-        value, rel = result.get("permeability_m2"), result.get("permeability_rel_error")
-        text = f"K_{direction} = {value:.4e} m^2" if value is not None else ""
-    elif kind == "diffusivity":
-        value, rel = result.get("relative_diffusivity"), result.get("rel_error")
-        text = f"D_eff/D_{direction} = {value:.4f}" if value is not None else ""
-    else:
-        value, rel = result.get("effective_conductivity"), result.get("rel_error")
-        unit = result.get("conductivity_unit", "")
-        text = f"sigma_eff_{direction} = {value:.5g} {unit}" if value is not None else ""
-    return f"{text}{error_bar(rel)}  [{result.get('status', 'unrated')}]" if text else ""
+    quantity = "permeability" if kind in ("fem_flow", "voxel_flow") else kind
+    text = value_text(quantity, direction, result)
+    return f"{text}  [{result.get('status', 'unrated')}]" if text else ""
 
 
 def _with_result(title: str, kind: str, direction: str, result: dict | None) -> str:

@@ -23,7 +23,6 @@ from psdesign.flow.permeability import (
     permeability,
 )
 from psdesign.geometry.rve import RVE, VoxelFields
-from psdesign.schema.flow import check_solver_bc
 
 #: Warn when ``bc_sensitivity`` exceeds this plus the two results' error bars: beyond the
 #: discretization, a face effect of 5 % is a systematic error comparable to the seed scatter
@@ -60,9 +59,9 @@ def permeability_both_bc(
         ``status``, or ``"n/a: <reason>"``), ``bc_sensitivity`` (``None`` when a model is
         unavailable) and warnings.
     """
-    flow = checked_flow(flow)  # before its .get: permeability's one line naming flow
-    solver = solver or flow.get("solver", "fem")
-    check_solver_bc(solver)
+    # before its .get: permeability's one line naming flow, the table of the route's solver
+    flow = checked_flow(flow, solver)
+    solver = flow["solver"]
     primary_bc = flow.get("bc") or NATIVE_BC[solver]
     results: dict[str, dict] = {}
     notes: dict[str, str] = {}

@@ -58,6 +58,7 @@ from psdesign.schema.flow import (
     resolution_key,
     treatment_refusal,
     unread_mesher_key,
+    validated_flow,
 )
 
 __all__ = [
@@ -81,7 +82,7 @@ class BoundaryConditionUnavailable(ValueError, NotImplementedError):
     """The chosen solver cannot apply the requested ``flow.bc`` (yet)."""
 
 
-def checked_flow(flow: object) -> dict:
+def checked_flow(flow: object, solver: str | None = None) -> dict:
     """``flow`` (the spec's ``[flow]`` table) checked by the schema as a spec file's table,
     with the defaults of the keys it lacks, else one :class:`SpecError` line naming ``flow``
     (:func:`~psdesign.geometry.rve.checked_rve`'s twin) or ``flow.<key>`` and its range:
@@ -89,6 +90,14 @@ def checked_flow(flow: object) -> dict:
     attribute 'get'`` until session 48 (review), ``flow={"solver": "voxel"}`` ``KeyError:
     'viscosity'`` until session 49.
 
+    ``solver`` (given: the route that will run) replaces ``flow["solver"]`` in the table
+    checked and returned, so the cross-key rules see the route's solver: a validated spec's
+    ``periodic_treatment = "mirror"`` with no ``flow.solver`` (the table's default "fem") and
+    ``solver="voxel"`` was refused naming solver 'fem' (session 49's review: every such study
+    case failed).
+
+    >>> checked_flow({"periodic_treatment": "mirror"}, "voxel")["solver"]
+    'voxel'
     >>> checked_flow(3)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -100,18 +109,13 @@ def checked_flow(flow: object) -> dict:
             "must be a table (a dict: the spec's [flow], psdesign.build(spec).spec['flow']), "
             f"got {short(flow)}",
         )
-    from pydantic import ValidationError
-
-    from psdesign.schema.errors import spec_error
-    from psdesign.schema.flow import FlowTable
-
-    try:  # a table of some keys ({"solver": "voxel"}) was a KeyError 'viscosity' (session 49)
-        table = FlowTable.model_validate(flow)
-    except ValidationError as exc:  # a spec file's line: flow.<key>, its range
-        raise spec_error(exc, FlowTable, prefix="flow") from None
-    # the defaults of the keys not given; the given values as given (a validated spec's
+    route = flow if solver is None else {**flow, "solver": solver}
+    # the routes' one wording of a solver / bc out of the lists (the schema words it otherwise)
+    check_solver_bc(route.get("solver"), route.get("bc"))
+    # a table of some keys ({"solver": "voxel"}) was a KeyError 'viscosity' (session 49);
+    # the defaults of the keys not given, the given values as given (a validated spec's
     # table comes back equal)
-    return {**table.to_spec(), **flow}
+    return {**validated_flow(route).to_spec(), **route}
 
 
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
@@ -498,8 +502,8 @@ def permeability(
         dict: one line naming it, before any work (``permeability(3, ...)`` raised
         ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """
-    rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow)
-    solver = solver or flow.get("solver", "fem")  # checked first thing in route_result
+    rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow, solver)
+    solver = flow["solver"]  # the route's: the argument, else flow.solver, else "fem"
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))
     res, flow = auto_lengthen(rve, fields, direction, flow, solver, res, progress, final)

@@ -502,7 +502,7 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         sobol_indices,
         tied_inputs,
     )
-    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+    from psdesign.analysis.surrogate import MIN_FIT_CASES, fit_surrogate, parameter_bounds
 
     ok = _ok(df)
     kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
@@ -515,8 +515,9 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
         return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
             f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
-            "finished cases with a trusted K and a varying numeric parameter; `psdesign study "
-            "fit` fits from 3 (its cross-validated error says how far to trust it).</p>"
+            "finished cases with a trusted K and a varying numeric parameter; <code>psdesign "
+            f"study fit</code> fits from {MIN_FIT_CASES} (its cross-validated error says how far "
+            "to trust it).</p>"
         )
     s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
     # the rating `study fit` prints (cross-validated error and length scales), not a second rule

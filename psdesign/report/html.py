@@ -700,12 +700,13 @@ def _field_pictures(df: pd.DataFrame, out: Path, params: list[str]) -> str:
 
 def _previews(df: pd.DataFrame, out: Path, params: list[str], image: bool = False) -> str:
     """Every case's preview picture, paged (images are decoded only when their page shows),
-    captioned with its design point. A picture drawn before session 49 lacks the title
-    ``generate`` puts on its own preview (:func:`~psdesign.report.preview.preview_title`: the
-    porosity and Omega with their bars and statuses, the fibre count; ``image``: an image's
-    RVE, no Omega), and its caption ends with it; a newer one has it drawn, and its row says
-    so (``preview_title``, written with the picture by ``psdesign.study.case``): its caption
-    does not repeat it."""
+    captioned with its design point. The title ``generate`` puts on its own preview
+    (:func:`~psdesign.report.preview.preview_title`: the porosity and Omega with their bars
+    and statuses, the fibre count; ``image``: an image's RVE, no Omega) is drawn on a picture
+    since session 48; since session 49 its row says so (``preview_title``, written with the
+    picture by ``psdesign.study.case``) and the caption does not repeat it. A folder written
+    before session 49 (no ``preview_title``; its pictures with the title drawn, or before
+    session 48 without) keeps the title in its caption."""
     from psdesign.report.preview import preview_title
 
     if "preview_png" not in df:

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import BeforeValidator, Field, ValidationError, model_validator
 
 from psdesign.errors import SpecError
+from psdesign.schema.errors import spec_error
 from psdesign.schema.types import Table, fail, flag, number, short
 
 #: Largest ``flow.permeameter_copies`` (psdesign.flow.stack.MAX_COPIES).
@@ -270,3 +271,22 @@ class FlowTable(Table):
         out = dict(DEFAULT_FLOW)
         out.update({k: getattr(self, k) for k in self.model_fields_set})
         return out
+
+
+def validated_flow(flow: dict) -> FlowTable:
+    """``flow`` (a ``[flow]`` table, or some of its keys) validated as a spec file's table, else
+    one :class:`~psdesign.errors.SpecError` line naming ``flow.<key>`` and its range: the one
+    check of :func:`psdesign.flow.permeability.checked_flow` and of the keywords given to
+    ``Model.permeability`` (each spelled it until session 49's review).
+
+    >>> validated_flow({"solver": "voxel"}).solver
+    'voxel'
+    >>> validated_flow({"viscosty": 1e-5})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    psdesign.errors.SpecError: flow.viscosty: unknown key; did you mean 'viscosity'? ...
+    """
+    try:
+        return FlowTable.model_validate(flow)
+    except ValidationError as exc:  # a spec file's line: flow.<key>, its range
+        raise spec_error(exc, FlowTable, prefix="flow") from None

@@ -1395,21 +1395,51 @@ def test_refusals_show_an_array_by_its_type_name_on_one_line(tmp_path) -> None:
     assert not (tmp_path / "o").exists()
 
 
-def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(tmp_path) -> None:
-    # session 47: a bare ValueError (``except psdesign.SpecError`` missed it)
-    from study_cases import FACTORIAL, fake_case, write_study
+_LEVELS_LINE = (
+    "parameters.generator.porosity: optimize needs {low, high} bounds for every parameter, "
+    "not levels (a list or a {start, stop, step} range) (allowed: {low, high}, with "
+    "levels = N in a full-factorial design)"
+)
+_CSV_LINE = (
+    "study.csv: optimize needs {low, high} bounds, not a csv design (allowed: [parameters] "
+    "of {low, high}, with levels = N in a full-factorial design)"
+)
+
+
+@pytest.mark.parametrize(
+    ("params", "line"),
+    [
+        ('"generator.porosity" = [0.7, 0.8]', _LEVELS_LINE),
+        ('"generator.porosity" = {start = 0.7, stop = 0.8, step = 0.1}', _LEVELS_LINE),
+        ("csv", _CSV_LINE),
+    ],
+    ids=["list", "range", "csv"],
+)
+def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(
+    tmp_path, capsys, params, line
+) -> None:
+    """Session 47: a bare ValueError (``except psdesign.SpecError`` missed it). Session 49
+    (walk): the key as the study file spells it (its other refusals say
+    parameters.generator.porosity), and the levels a full-factorial design needs with bounds
+    (its own refusal came on the next run). Session 49's review: a range {start, stop, step}
+    was told "not a list", and a csv design was refused naming parameters.<its column>, a key
+    its study file does not have: it is study.csv. The command: exit 2, that one line."""
+    from study_cases import FACTORIAL, fake_case, write_entangled_study, write_study
 
     from psdesign.analysis.optimize import optimize_study
     from psdesign.analysis.targets import Target
+    from psdesign.cli import main
 
-    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    if params == "csv":
+        p = write_entangled_study(tmp_path)
+    else:
+        p = write_study(tmp_path, FACTORIAL, params)
     with pytest.raises(psdesign.SpecError) as info:
         optimize_study(p, tmp_path / "o", [Target.parse("k_z_m2=5e-12")], case_fn=fake_case)
-    # session 49 (walk): the key as the study file spells it (its other refusals say
-    # parameters.generator.porosity), and the levels a full-factorial design needs with bounds
-    # (its own refusal came on the next run)
-    assert str(info.value) == (
-        "parameters.generator.porosity: optimize needs {low, high} bounds for every parameter, "
-        "not a list (allowed: {low, high}, with levels = N in a full-factorial design)"
-    )
+    assert str(info.value) == line
+    assert not (tmp_path / "o").exists()
+    argv = ["study", "optimize", str(p), "-o", str(tmp_path / "o"), "--target", "k_z_m2=5e-12"]
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert capsys.readouterr().err == f"psdesign: error: {line}\n"
     assert not (tmp_path / "o").exists()

@@ -198,3 +198,31 @@ def test_rve_refuses_a_period_that_is_no_positive_length_naming_period(bad):
     assert str(info.value) == f"period: must be a positive length in metres, got {bad!r}"
     assert psdesign.RVE([L, L, L], period=np.float32(2 * L)).period == pytest.approx(2 * L)
     assert psdesign.RVE([L, L, L]).period == L
+
+
+def test_permeability_checks_flow_with_the_solver_it_runs():
+    """Review of session 49: the [flow] check read the table's own solver (a validated spec's
+    default "fem"), not the ``solver`` argument the route runs, so a spec's
+    ``periodic_treatment = "mirror"`` with ``solver="voxel"`` was refused naming solver 'fem'
+    by ``permeability`` and ``permeability_both_bc`` (``--bc both``), which took it until
+    b74d15a. Now the route's table is checked: the mirrored K is the periodic one (a centred
+    cylinder is its own mirror image, docs/permeability.md), --bc both gives the periodic
+    model's K and says the permeameter is n/a with the treatment's line; solver "fem" is
+    refused with that line, naming the solver it runs."""
+    from psdesign.flow.compare import permeability_both_bc
+
+    spec = {**SQUARE_075, "fibers": [{**SQUARE_075["fibers"][0], "diameter": 8e-6}]}
+    m = psdesign.build({**spec, "flow": {"periodic_treatment": "mirror"}})
+    assert m.spec["flow"]["solver"] == "fem"  # the validated table's default
+    periodic = {**m.spec["flow"], "periodic_treatment": "periodic"}
+    k = psdesign.permeability(m.rve, m.fields, "z", periodic, "voxel", None, False)
+    mirror = psdesign.permeability(m.rve, m.fields, "z", m.spec["flow"], "voxel", None, False)
+    assert mirror["converged"] and mirror["permeability_m2"] == pytest.approx(
+        k["permeability_m2"], rel=1e-6
+    )
+    both = permeability_both_bc(m.rve, m.fields, "z", m.spec["flow"], "voxel", None, False)
+    assert both["bc_results"]["periodic"]["permeability_m2"] == mirror["permeability_m2"]
+    assert both["bc_results"]["permeameter"].startswith("n/a: flow.periodic_treatment: 'mirror'")
+    with pytest.raises(psdesign.SpecError) as info:
+        psdesign.permeability(m.rve, m.fields, "z", m.spec["flow"], "fem", None, False)
+    assert info.value.key == "flow.periodic_treatment" and "solver 'fem'" in str(info.value)

@@ -248,3 +248,61 @@ def test_a_generated_case_rates_omega_once_and_says_it_alike(tmp_path, capsys, s
     status_calls.clear()
     assert built.intersection_status(built.voxelize(2e-6)) in ("ok", "untrustworthy")
     assert status_calls == [(len(built.rve.fibers), (20, 20, 20))]
+
+
+#: a study whose base [flow] names the voxel periodic bc's mirror treatment but no flow.solver
+#: (the validated table's solver is then the default "fem"): the study's solver is the route
+MIRROR_STUDY = """
+[base.rve]
+size = [40e-6, 40e-6, 40e-6]
+voxel = 4e-6
+[[base.fibers]]
+shape = "cylinder"
+diameter = 10e-6
+center = [20e-6, 20e-6, 20e-6]
+direction = [1, 0, 0]
+[base.flow]
+periodic_treatment = "mirror"
+error_estimate = false
+[study]
+design = "full-factorial"
+seeds = [1]
+solver = "voxel"
+outputs = ["k_z"]
+[parameters]
+"flow.viscosity" = [1.8e-5]
+"""
+#: the study's base as a spec (a 4 um grid, the fibre along x)
+MIRROR_BASE = {
+    "rve": {"size": [40e-6, 40e-6, 40e-6], "voxel": 4e-6},
+    "fibers": [{**SPEC["fibers"][0], "direction": [1, 0, 0]}],
+    "flow": {"periodic_treatment": "mirror", "error_estimate": False},
+}
+
+
+def test_a_study_of_solver_voxel_runs_a_base_mirror_treatment(tmp_path):
+    """Review of session 49: a study with base ``[flow] periodic_treatment = "mirror"`` (no
+    flow.solver) and ``solver = "voxel"`` failed every case (``flow.periodic_treatment:
+    'mirror' applies to the voxel solver's periodic bc only, not to solver 'fem'``, exit 1):
+    the route's check read the table's default solver, not the study's. It worked until
+    b74d15a. The case runs again and its K is the truth of the treatment: a cylinder centred
+    in the box is its own mirror image, so the mirrored solve is the periodic one's array
+    (docs/permeability.md, periodic_treatment) and K agrees to the solver tolerance."""
+    import warnings
+
+    import psdesign
+    from psdesign.flow.voxel import ResolutionWarning
+    from psdesign.study import run_study
+
+    study = tmp_path / "s.toml"
+    study.write_text(MIRROR_STUDY)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResolutionWarning)  # 2.5 voxels across: the point
+        df = run_study(study, tmp_path / "out", workers=0, progress=False, report=False)
+        m = psdesign.build(MIRROR_BASE)
+        flow = {**m.spec["flow"], "periodic_treatment": "periodic"}
+        periodic = psdesign.permeability(m.rve, m.fields, "z", flow, "voxel", None, False)
+    row = df.iloc[0]
+    assert row["status"] == "ok", row["error"]
+    assert row["converged_z"] and row["bc_z"] == "periodic"
+    assert row["k_z_m2"] == pytest.approx(periodic["permeability_m2"], rel=1e-6)

@@ -1010,7 +1010,10 @@ def test_the_reports_surrogate_note_does_not_contradict_study_fit():
     """Session 49 (new user's walk): a 3-case study's report said "A surrogate needs at least 6
     finished cases", while ``psdesign study fit`` on the same folder fitted one from the 3
     (analysis.surrogate's minimum). The note now says the 6 are the report's and that
-    ``study fit`` fits from 3. Truth: fit_surrogate fits the 3 cases without refusal."""
+    ``study fit`` fits from 3. Truth: fit_surrogate fits the 3 cases without refusal and
+    refuses 2. Session 49's review: the note spelled the 3 apart from fit_surrogate's minimum
+    (now analysis.surrogate.MIN_FIT_CASES) and showed raw backticks in the HTML, where the
+    other notes mark a command with <code>."""
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
     from psdesign.report.decision import MIN_CASES_SURROGATE, surrogate_plots
 
@@ -1024,10 +1027,14 @@ def test_the_reports_surrogate_note_does_not_contradict_study_fit():
         }
     )
     params = ["generator.porosity"]
-    assert fit_surrogate(df, "k_z_m2", params, parameter_bounds(df, params, {})).output == "k_z_m2"
+    bounds = parameter_bounds(df, params, {})
+    assert fit_surrogate(df, "k_z_m2", params, bounds).output == "k_z_m2"
+    with pytest.raises(ValueError, match="need at least 3 finished cases"):
+        fit_surrogate(df.iloc[:2], "k_z_m2", params, bounds)
     note = surrogate_plots(df, params, {})
     assert f"The report fits its surrogate from at least {MIN_CASES_SURROGATE}" in note, note
-    assert "`psdesign study fit` fits from 3" in note and "needs at least" not in note
+    assert "<code>psdesign study fit</code> fits from 3" in note and "needs at least" not in note
+    assert "`" not in note
 
 
 def _pores(scale: float, status: str) -> dict:
@@ -1901,9 +1908,10 @@ def test_a_titled_preview_is_not_captioned_with_its_title_again(tmp_path):
     """Session 49: since session 48 a study case's preview.png carries generate's title, and
     the gallery's caption repeated it under the picture. The case's row now says what is
     drawn (``preview_title``, written by psdesign.study.case with the picture): such a
-    picture is captioned with its design point only, while a row of an older folder (no
-    ``preview_title``: its picture has no title) keeps the title in its caption; in one
-    table (an old folder resumed) each row by its own."""
+    picture is captioned with its design point only, while a row of a folder written before
+    session 49 (no ``preview_title``; its picture drawn with the title since session 48)
+    keeps the title in its caption; in one table (an old folder resumed) each row by its
+    own."""
     from study_cases import PNG_1PX
 
     from psdesign.report.html import _previews
