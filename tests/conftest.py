@@ -15,6 +15,7 @@ from pathlib import Path
 from types import ModuleType
 
 import approx_guard
+import file_order
 import pytest
 import worker_crash
 
@@ -30,6 +31,12 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
 
 def pytest_configure(config: pytest.Config) -> None:
     worker_crash.no_worker_restart(config)  # a crashed xdist worker ends the run, not hangs it
+    file_order.keep_file_order(config)  # loadfile hands files out in the order below
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    file_order.reorder(config, items)  # the costliest files first, so both workers end together
 
 
 TESTS_DIR = Path(__file__).resolve().parent
