@@ -309,8 +309,8 @@ def _cleared(
     ``max(LOW, DEAD_END_LOW) +`` :data:`GERSHGORIN_SLACK`, from the faces ``inner = (r, c, v)``
     between their cells (thin-cell indices; ``d`` the cells' Schur diagonal, ``dinv`` the coded
     ``D^-1`` by grid cell): no mode below either ``low``, so :func:`_correction` would find none.
-    Each face's ``|m_rc|`` is subtracted from both its cells, every face counted (the dense block
-    keeps the last of two faces between one pair of cells: a lower floor here, still a bound);
+    Each face's ``|m_rc|`` is subtracted from both its cells, every face counted (two faces
+    between one pair of cells, on an axis of two cells, are summed in the dense block too);
     ``inner`` holds no face from a cell to itself (an axis of one cell: :class:`ThinBlocks`)."""
     r, c, v = inner
     sc = np.sqrt(dinv[thin].astype(np.float64))
@@ -517,8 +517,10 @@ class ThinBlocks:
         mats[:, np.arange(size), np.arange(size)] = d[members]
         r, c, v = edges  # the faces inside these pieces (``which`` ascending)
         k, i, j = np.searchsorted(which, owner[r]), local[r], local[c]
-        mats[k, i, j] = -v
-        mats[k, j, i] = -v
+        # np.add.at: on an axis of two cells two faces join one pair, and the block holds both
+        # (a plain assignment kept the last); with one face per pair 0.0 + (-v) is -v bitwise.
+        np.add.at(mats, (k, i, j), -v)
+        np.add.at(mats, (k, j, i), -v)
         inv, active = _correction(
             mats, dinv[self.cells[self.start[which][:, None] + np.arange(size)]]
         )
