@@ -244,8 +244,9 @@ class FlowTable(Table):
     def _mesher_fits_bc(self) -> FlowTable:
         """A periodic mesh (``bc = "periodic"``) is the stuffing mesher's only: pytetwild cannot
         give matching opposite faces (:func:`psdesign.meshing.options._check` refuses it too,
-        but only after the RVE is built)."""
-        if self.bc == "periodic" and self.mesher == "pytetwild":
+        but only after the RVE is built). The voxel solver meshes nothing: its table may keep
+        a mesher for the FEM."""
+        if self.solver == "fem" and self.bc == "periodic" and self.mesher == "pytetwild":
             raise fail(
                 "mesher",
                 "pytetwild cannot mesh with flow.bc = 'periodic' (no matching opposite faces)",

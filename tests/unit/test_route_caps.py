@@ -494,3 +494,15 @@ def test_the_voxel_cap_refusal_names_the_direction_it_counted(tmp_path, capsys, 
     with pytest.raises(SpecError) as ei:
         validate_spec(tomllib.loads(text))
     assert "B each with solver 'voxel', counted along the least of x, y, z)" in ei.value.message
+
+
+def test_a_voxel_route_keeps_a_pytetwild_mesher_with_the_periodic_bc():
+    """The voxel solver meshes nothing: a table written for the FEM with mesher = "pytetwild"
+    and bc = "periodic" is the voxel route's to solve. Session 49's review: once checked_flow
+    ran the whole table through the schema, ``permeability_both_bc(..., "voxel")`` lost its
+    periodic K to "flow.mesher: pytetwild cannot mesh with flow.bc = 'periodic'" (b74d15a solved
+    it, K 2.1678e-11 m^2). The FEM still refuses it."""
+    flow = {"mesher": "pytetwild", "bc": "periodic"}
+    assert P.checked_flow(flow, "voxel")["mesher"] == "pytetwild"
+    with pytest.raises(SpecError, match=r"^flow\.mesher: pytetwild cannot mesh"):
+        P.checked_flow(flow, "fem")
