@@ -729,3 +729,45 @@ def test_a_lens_cut_by_a_face_of_a_box_of_part_of_a_period_keeps_the_bars_calibr
         assert intersection_status(rve, f) == "ok"
         error, cut = overlap_status._in_place_errors(rve, lenses, f.grid.spacing)
         assert np.isnan(error).all() and cut.all()
+
+
+def _area_in_two_discs(centres, r, n=2000):
+    """Area (fraction of the unit square, periodic) in two or more discs of radius ``r``,
+    counted at ``n^2`` cell midpoints: the exact Omega of parallel z-cylinders."""
+    x = (np.arange(n) + 0.5) / n
+    count = np.zeros((n, n), np.uint8)
+    for cx, cy in centres:
+        dx, dy = x - cx, x - cy
+        dx -= np.round(dx)
+        dy -= np.round(dy)
+        count += dx[:, None] ** 2 + dy[None, :] ** 2 <= r * r
+    return np.count_nonzero(count >= 2) / count.size
+
+
+@pytest.mark.parametrize(("n", "m", "dv"), [(48, 4, 18), (36, 3, 18), (45, 3, 25)])
+def test_the_rounding_of_voxels_in_three_fibers_joins_the_loose_volume(n, m, dv):
+    """Square arrays of z-cylinders on voxel faces whose diagonal neighbours overlap (voxels
+    in 3-4 fibers): the counts lay 1.77x, 1.32x, 1.19x their bars off the area in two or more
+    discs (counted at 4000^2 in the session 49 review, /tmp/rrb/arr.py; here at 2000^2,
+    3.6e-5 from it on the first), rated ``ok``: the shared part's rounding was left out. Its
+    estimate now brings the pairs' summed errors to the count's own error within the
+    estimate's stated error, and the status to ``untrustworthy``."""
+    from psdesign.packing import overlap_status
+    from psdesign.packing.shared_overlap import shared_part_error
+
+    centres = [(i / m, j / m) for i in range(m) for j in range(m)]
+    fibers = [
+        make_fiber("cylinder", dv / n, center=[cx, cy, 0.5], direction=[0, 0, 1])
+        for cx, cy in centres
+    ]
+    rve = RVE(size=[L] * 3, fibers=fibers)
+    f = rve.voxelize(L / n)
+    lenses = overlap_lenses(rve)
+    error, _ = overlap_status._in_place_errors(rve, lenses, f.grid.spacing)
+    shared, shared_error = shared_part_error(rve, f.count, f.grid.spacing)
+    true_error = f.intersection_volume_fraction - _area_in_two_discs(centres, dv / n / 2)
+    assert abs(true_error) > f.intersection_error
+    assert (
+        abs(float(error.sum()) - shared - true_error) <= shared_error + 0.1 * f.intersection_error
+    )
+    assert intersection_status(rve, f) == "untrustworthy"
