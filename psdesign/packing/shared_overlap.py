@@ -28,6 +28,11 @@ if TYPE_CHECKING:
 SHARED_SAMPLES_2D = 16
 SHARED_SAMPLES_3D = 8
 
+#: Points beyond which :func:`shared_part_error` halves the points per axis (down to 2; about
+#: 1 s of cylinder fields): 8^3 points in each of mix3.py's 32-48^3 random layouts cost up to
+#: 0.8 s (RESULTS.md session 49); a 250^3 grid holds ~200x their voxels.
+SHARED_POINTS = 2**21
+
 
 def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple[float, float]:
     """The count's rounding of the part of the box in three or more fibers, and its error.
@@ -63,6 +68,9 @@ def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple
     centre = (voxels + 0.5) * h
     counted = float(_g(count[tuple(voxels.T)].astype(np.int64)).sum())
     s = SHARED_SAMPLES_3D if all(varies) else SHARED_SAMPLES_2D
+    # fewer points on big grids (their error, stated, grows): a cost bound, not a precision
+    while s > 2 and len(voxels) * s ** sum(varies) > SHARED_POINTS:
+        s //= 2
     fine, coarse = (_sampled(fibers, centre, h, k, varies) for k in (s, s // 2))
     n = float(count.size)
     return (counted - fine) / n, abs(fine - coarse) / n
