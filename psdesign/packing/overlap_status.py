@@ -397,8 +397,9 @@ def _loose_volume(
     ``|sum e|`` over the lenses whose signed count error ``e`` is measured (between two
     cylinders along grid axes, each in place: :func:`_in_place_errors`; fibers off the axes
     by under a voxel: ``k`` times one of ``k`` congruent lenses, :func:`_whole_box_error`),
-    plus, without a sign, the volume of the thin lenses not measured (:func:`_thin`) and of
-    the groups that cannot be measured. Signed: lenses
+    plus, without a sign, the volume of the thin lenses not measured (:func:`_thin`), of the
+    tilted parallel families not measured (:func:`_tilted_parallel`) and of the groups that
+    cannot be measured. Signed: lenses
     round with different signs (session 47 re-read: a 16 x 16 array of cylinders at 250^3
     voxels, summed as absolute values per group, read 7.6e-3 against its true error 7.4e-4
     and its bar 1.07e-3). With the fields' ``count``, the rounding of the part in three or
