@@ -414,8 +414,10 @@ def _loose_volume(
     signed = float(error[placed].sum()) - shared
     # a parallel pair off the grid axes is a lens family the bar is not calibrated on: unless
     # measured, its whole volume is weighed (session 49 review: a box of 2 x 2 periods across
-    # a 4 x 4 array tilted 2 voxels measured none of it, ``ok`` at 1.34x the bar)
-    weighed = (_thin(lenses, float(np.max(spacing))) | _tilted_parallel(lenses)) & ~placed
+    # a 4 x 4 array tilted 2 voxels measured none of it, ``ok`` at 1.34x the bar); a lens cut
+    # by a face keeps the bar's calibration, tilted or not (weighed whole, a 0.75-period box
+    # across a tilted 4 x 4 array read 1.07x / 2.12x the bar for a count 0.06x off)
+    weighed = (_thin(lenses, float(np.max(spacing))) | _tilted_parallel(lenses)) & ~placed & ~cut
     group = np.where(placed | cut, -1, _congruent_groups(lenses, spacing, rve.size))
     cheap = np.prod(np.asarray(rve.size) / spacing) <= CHEAP_WHOLE_BOX_VOXELS
     for g in np.unique(group[group >= 0]):
