@@ -570,9 +570,13 @@ def _lens_window(
     # window, its lenses unmeasured, ``ok`` at 1.31x the bar)
     tilted = ax[0] == ax[1] and np.linalg.norm(np.cross(d[0], d[1])) < LENS_MIDPOINT_GRID
     extra = int(np.ceil((1.0 / along[0] - 1.0) * period / float(np.min(spacing)))) if tilted else 0
-    # a box over a period across the axis holds several copies of the family, a window one
     across = np.arange(3) != ax[0]
+    # a box over a period across the axis holds several copies of the family, a window one;
+    # tilted on both across axes the fibre's copies form a sheared lattice whose next copy
+    # the widened window misses (session 49 review: 14 needless flags in 40 4 x 4 arrays
+    # tilted (tx, ty, 1), one ``ok`` right by chance): only a single-axis tilt is windowed
     tilted &= bool(np.all(shape[across] * spacing[across] <= period * (1.0 + 1e-9)))
+    tilted &= int(np.count_nonzero(d[0, across])) == 1
     if not (np.all(along == 1.0) or tilted) or radius.max() + pad >= 0.5 * period:
         return None
     lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
