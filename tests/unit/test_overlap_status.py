@@ -549,19 +549,24 @@ def test_an_array_tilted_past_half_a_voxel_is_counted_in_place(off, status):
     assert intersection_status(rve, f) == status
 
 
-def test_a_tilted_family_not_measured_weighs_its_whole_volume():
+def test_a_tilted_family_not_measured_weighs_its_whole_volume(monkeypatch):
     """A 4 x 4 array 12 voxels thick, 10 apart, tilted 2 voxels over a period of 40, in a box
     of 2 x 2 periods across its axis: neither counted in place (the box holds the family
     four times, a window once) nor in a congruent group (2 voxels off the axis), its lenses
     counted nothing into the loose volume and the status read ``ok`` while the count (0.185)
     lay 1.34x its bar (0.00333) off the count 6x finer (0.180528; session 49 review,
-    /tmp/rrb/t5.py). Such a family now weighs its whole volume."""
+    /tmp/rrb/t5.py). Each pair is now measured alone in the whole box (loose 1.58x the bar);
+    on a grid over the cap of that measurement the family weighs its whole volume."""
     from psdesign.packing import overlap_status
 
     rve, f = _tilted_array(40, 4, 12, 0.0, 2.0, size=(2, 2, 1))
     lenses = overlap_lenses(rve)
     loose = overlap_status._loose_volume(rve, lenses, f.grid.spacing)
+    assert f.intersection_error < loose < float(lenses.volume.sum())
+    monkeypatch.setattr(overlap_status, "MEASURED_GROUP_VOXELS", 0)
+    loose = overlap_status._loose_volume(rve, lenses, f.grid.spacing)
     assert loose >= float(lenses.volume.sum()) > 0.0
+    monkeypatch.undo()
     assert abs(f.intersection_volume_fraction - 0.180528) > f.intersection_error
     assert intersection_status(rve, f) == "untrustworthy"
 
@@ -870,3 +875,31 @@ def test_a_family_tilted_on_both_across_axes_is_not_counted_in_a_window(tx, ty):
                 rve, [rve.fibers[int(k)] for k in pair], spacing
             )
             assert float(error[own].sum()) == pytest.approx(len(own) * alone, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("seed", "status"), [(0, "ok"), (1, "ok"), (2, "untrustworthy"), (3, "ok")]
+)
+def test_a_tilted_family_no_window_holds_is_measured_with_its_pair_alone(seed, status):
+    """14 random cylinders 0.12 of a period thick along ``(tan 30 deg, 0, 1)`` at 48^3: the
+    next copy across the box lies 7.4 voxels off a period, no window holds a family, and each
+    was weighed whole: counts 0.12 / 0.39 / 1.21 / 0.54x their bars off the count at 4x the
+    resolution (refinement), all ``untrustworthy`` (session 49 review, /tmp/rre/h.py). Each
+    pair measured alone in the whole box, the status is ``ok`` exactly when the count is
+    inside its bar."""
+    from psdesign.packing import overlap_status
+
+    n, rng = 48, np.random.default_rng(seed)
+    t = np.tan(np.radians(30.0))
+    fibers = [
+        make_fiber("cylinder", 0.12, center=list(rng.uniform(0, 1, 3)), direction=[t, 0, 1])
+        for _ in range(14)
+    ]
+    rve = RVE(size=[L] * 3, fibers=fibers)
+    f = rve.voxelize(L / n)
+    lenses = overlap_lenses(rve)
+    assert np.isnan(overlap_status._in_place_errors(rve, lenses, f.grid.spacing)[0]).all()
+    fine = rve.voxelize(L / (4 * n)).intersection_volume_fraction
+    inside = abs(f.intersection_volume_fraction - fine) <= f.intersection_error
+    assert inside == (status == "ok")
+    assert intersection_status(rve, f) == status
