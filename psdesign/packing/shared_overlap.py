@@ -63,7 +63,7 @@ def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple
     # along an axis no fiber varies every slice rounds alike (as in _count_both): one stands
     # for all, a fraction of its own voxels as of the box's
     count = count[tuple(slice(None) if v else slice(0, 1) for v in varies)]
-    voxels = _around(np.argwhere(count >= 3), np.asarray(count.shape))
+    voxels = _around(count >= 3)
     h = np.asarray(spacing, float) / rve.period  # normalized, as RVE.voxelize rasterizes
     centre = (voxels + 0.5) * h
     counted = float(_g(count[tuple(voxels.T)].astype(np.int64)).sum())
@@ -76,11 +76,15 @@ def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple
     return (counted - fine) / n, abs(fine - coarse) / n
 
 
-def _around(index: np.ndarray, shape: np.ndarray) -> np.ndarray:
-    """The voxels ``index`` (k, 3) and their 26 neighbours (periodic), each once."""
-    step = np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-    near = (index[:, None, :] + step[None]).reshape(-1, 3) % shape
-    return np.unique(near, axis=0)
+def _around(mask: np.ndarray) -> np.ndarray:
+    """The indices (k, 3, C order) of the voxels in ``mask`` and their 26 neighbours
+    (periodic), each once: a periodic dilation by one voxel per axis. Listing the 27 offsets of
+    each voxel and ``np.unique(axis=0)`` cost 7.7 s and a 273 MB peak of a 250^3 random
+    packing's 8.7 s (session 49 review, /tmp/rre/e.py); the dilation gives the same array."""
+    near = mask.copy()
+    for a in range(mask.ndim):
+        near = near | np.roll(near, 1, a) | np.roll(near, -1, a)
+    return np.argwhere(near)
 
 
 def _sampled(fibers: list, centre: np.ndarray, h: np.ndarray, s: int, varies: list) -> float:
