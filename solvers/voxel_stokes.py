@@ -1347,17 +1347,15 @@ residual; Toray-like at 1 um, 100 / 200 / 300 um, with :data:`solvers.voxel.schu
 (``benchmarks/RESULTS.md``, "Issue 16 item 4, iteration growth (iter11)")."""
 
 
-def _true_residual(
-    op: _Stokes, x: lz.Solution, d: int, r: np.ndarray, work: MinresWork
-) -> tuple[float, float]:
+def _true_residual(op: _Stokes, x: lz.Solution, d: int, r: np.ndarray, work: MinresWork) -> float:
     """``r <- b - K x`` for the solution ``hi + lo * scale`` (float64 arithmetic on ``hi``; the
     small ``K (lo * scale)`` is formed in float32 in the free work vectors ``z, r1`` and
-    subtracted); returns ``(||r||, ||b||)``."""
-    rn, bn = op.residual(x.hi_value(work.z), d, r)
+    subtracted); returns ``||r||`` (``||b||`` is the first residual's: :func:`_force_residual`)."""
+    rn = op.residual(x.hi_value(work.z), d, r)[0]
     if x.extended:  # the Lanczos kernel with c1 = 0 is the product K x
         op.lanczos(x.lo_value(work.z), 1.0, 0.0, work.r1)
         rn = float(np.sqrt(lz.subtract_sq(r, work.r1)))
-    return rn, bn
+    return rn
 
 
 def _force_residual(op: _Stokes, gdir: int, r: np.ndarray) -> tuple[float, float]:
@@ -1447,7 +1445,7 @@ def _solve_core(
         vmem.release_free_heap()
         its, status = krylov_run(op, r, x, work, rtol, max_iter - total, report)
         total += its
-        rn, _ = _true_residual(op, x, d, r, work)
+        rn = _true_residual(op, x, d, r, work)
         new = rn / bn
         history.append(new)
         if progress is not None:
@@ -1463,7 +1461,7 @@ def _solve_core(
             # store_directions, float32 directions)
             x.widen()
             stalls = 0
-            rn, _ = _true_residual(op, x, d, r, work)  # of the folded solution
+            rn = _true_residual(op, x, d, r, work)  # of the folded solution
             rel = rn / bn
             history.append(rel)
         if not np.isfinite(rel) or stalls >= 3:

@@ -86,6 +86,7 @@ from solvers.blas_threads import single_thread_blas
 from solvers.jit import parallel_kernel
 from solvers.reduction import ordered_sum
 from solvers.voxel import simd
+from solvers.voxel.kernels import _dn, _up  # the periodic neighbours by selects
 
 __all__ = ["JUNCTION", "MAX_FACES", "PIECE", "ThinBlocks", "thin_apply"]
 
@@ -203,12 +204,6 @@ def _faces_at(f0, f1, f2, i, j, k):
     return nopen, diag
 
 
-@nb.njit(inline="always")
-def _wrap(i, n):
-    """``(i - 1, i + 1)`` periodic in ``0 .. n - 1`` (selects: no integer division per cell)."""
-    return (i - 1 if i > 0 else n - 1), (i + 1 if i + 1 < n else 0)
-
-
 @nb.njit(cache=True, nogil=True)
 def _thin_mask(f0, f1, f2, cells, most, mask):
     """``mask`` of the thin cells: pressure cells (``cells != 0``) with 1 to ``most`` open
@@ -234,14 +229,14 @@ def _junctions(f0, f1, f2, cells, mask, most, other, out):
     cells."""
     nx, ny, nz = f0.shape
     for i in range(nx):
-        im, ip = _wrap(i, nx)
+        im, ip = _dn(i, nx), _up(i, nx)
         for j in range(ny):
-            jm, jp = _wrap(j, ny)
+            jm, jp = _dn(j, ny), _up(j, ny)
             u, uu, mu, muu = f0[i, j], f0[ip, j], mask[im, j], mask[ip, j]
             v, vu, mv, mvu = f1[i, j], f1[i, jp], mask[i, jm], mask[i, jp]
             w, mk, cr, row = f2[i, j], mask[i, j], cells[i, j], out[i, j]
             for k in range(nz):
-                km, kp = _wrap(k, nz)
+                km, kp = _dn(k, nz), _up(k, nz)
                 o = (u[k] > 0, uu[k] > 0, v[k] > 0, vu[k] > 0, w[k] > 0, w[kp] > 0)
                 nopen = o[0] + o[1] + o[2] + o[3] + o[4] + o[5]
                 wide = ((o[0] & (mu[k] == 0)) + (o[1] & (muu[k] == 0)) + (o[2] & (mv[k] == 0))
