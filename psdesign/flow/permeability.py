@@ -50,6 +50,7 @@ from psdesign.geometry.rve import (
 from psdesign.geometry.throat import percolation_radius
 from psdesign.schema.flow import (
     BC_MODELS,
+    DEFAULT_FLOW,
     NATIVE_BC,
     SOLVERS,
     TREATMENT_ALLOWED,
@@ -114,8 +115,9 @@ def checked_flow(flow: object, solver: str | None = None) -> dict:
     check_solver_bc(route.get("solver"), route.get("bc"))
     # a table of some keys ({"solver": "voxel"}) was a KeyError 'viscosity' (session 49);
     # the defaults of the keys not given, the given values as given (a validated spec's
-    # table comes back equal)
-    return {**validated_flow(route).to_spec(), **route}
+    # table comes back equal); FlowTable forbids extra keys, so route's keys are its given ones
+    validated_flow(route)
+    return {**DEFAULT_FLOW, **route}
 
 
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
