@@ -60,6 +60,8 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from psdesign.packing.shared_overlap import fibers_vary, shared_part_error
+
 if TYPE_CHECKING:
     from psdesign.geometry.rve import RVE, VoxelFields
     from psdesign.packing.fiberset import Contacts, FiberState
@@ -408,7 +410,6 @@ def _loose_volume(
     and its bar 1.07e-3). With the fields' ``count``, the rounding of the part in three or
     more fibers (:func:`psdesign.packing.shared_overlap.shared_part_error`) joins the sum,
     and its estimate's error is added."""
-    from psdesign.packing.shared_overlap import shared_part_error
 
     spacing = np.broadcast_to(np.asarray(spacing, float), (3,))
     error, cut = _in_place_errors(rve, lenses, spacing)
@@ -561,8 +562,8 @@ def _count_both(pair: list, x: list[np.ndarray]) -> tuple[np.ndarray, int]:
     it is) every slice rounds alike, so one stands for all (``len(x[a])`` of them; the mask
     has length 1 there and broadcasts)."""
     x, slices = list(x), 1
-    for a in range(3):
-        if not any(fb.lattice[:, a].any() for fb in pair):
+    for a, varies in enumerate(fibers_vary(pair)):
+        if not varies:
             x[a], slices = x[a][:1], slices * len(x[a])
     return _inside_cylinder(pair[0], x) & _inside_cylinder(pair[1], x), slices
 

@@ -34,6 +34,13 @@ SHARED_SAMPLES_3D = 8
 SHARED_POINTS = 2**21
 
 
+def fibers_vary(fibers: list) -> list[bool]:
+    """Per axis, whether any of ``fibers``' lattices has a component along it: along an axis
+    where none has, every slice of the box rounds alike (adding 0.0 leaves each sum as it is).
+    """
+    return [any(fb.lattice[:, a].any() for fb in fibers) for a in range(3)]
+
+
 def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple[float, float]:
     """The count's rounding of the part of the box in three or more fibers, and its error.
 
@@ -59,7 +66,7 @@ def shared_part_error(rve: RVE, count: np.ndarray, spacing: np.ndarray) -> tuple
     fibers = getattr(rve, "fibers", None) or []
     if count.max(initial=0) < 3 or any(fb.shape != "cylinder" for fb in fibers):
         return 0.0, 0.0
-    varies = [any(fb.lattice[:, a].any() for fb in fibers) for a in range(3)]
+    varies = fibers_vary(fibers)
     # along an axis no fiber varies every slice rounds alike (as in _count_both): one stands
     # for all, a fraction of its own voxels as of the box's
     count = count[tuple(slice(None) if v else slice(0, 1) for v in varies)]
