@@ -20,6 +20,16 @@ XLABEL_IN, TICKS_IN = 0.3, 0.1
 TITLE_PAD_IN = 0.15
 
 
+def _text_size(fig, text) -> tuple[float, float]:
+    """Width and height (inches) of the matplotlib ``text`` as ``fig`` would draw it, measured
+    by its renderer, not drawn."""
+    renderer = fig.canvas.get_renderer()
+    w, h, _ = renderer.get_text_width_height_descent(
+        text.get_text(), text.get_fontproperties(), False
+    )
+    return w / fig.dpi, h / fig.dpi
+
+
 def _bottom_margin(fig) -> float:
     """The bottom margin (inches) that holds ``fig``'s x axis: :data:`FIG_MARGINS_IN`'s, or
     with tick labels at 90 degrees the longest one's length (measured, not drawn) plus the
@@ -28,12 +38,7 @@ def _bottom_margin(fig) -> float:
     rotated = [t for t in labels if t.get_rotation() == 90 and t.get_text()]
     if not rotated:
         return FIG_MARGINS_IN[2]
-    renderer = fig.canvas.get_renderer()
-    longest = max(
-        renderer.get_text_width_height_descent(t.get_text(), t.get_fontproperties(), False)[0]
-        for t in rotated
-    )
-    return XLABEL_IN + TICKS_IN + longest / fig.dpi
+    return XLABEL_IN + TICKS_IN + max(_text_size(fig, t)[0] for t in rotated)
 
 
 def _title_height(fig) -> float:
@@ -42,11 +47,7 @@ def _title_height(fig) -> float:
     title = fig._suptitle  # matplotlib's own attribute: None until suptitle() is called
     if title is None or not title.get_text():
         return 0.0
-    renderer = fig.canvas.get_renderer()
-    _, height, _ = renderer.get_text_width_height_descent(
-        title.get_text(), title.get_fontproperties(), False
-    )
-    return TITLE_PAD_IN + height / fig.dpi
+    return TITLE_PAD_IN + _text_size(fig, title)[1]
 
 
 def _columns(fig) -> int:
