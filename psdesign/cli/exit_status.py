@@ -78,12 +78,18 @@ HELP = (
 
 def status_code(*statuses: str | None) -> int:
     """The exit status of finished results by their ``status``: ``OK`` when every one is in
-    :data:`TRUSTED`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+    :data:`TRUSTED` or says the value does not apply (``not_applicable``: an image's Omega,
+    :data:`psdesign.packing.overlap_status.NOT_APPLICABLE`; no result, so nothing to distrust),
+    else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
 
     >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
     (0, 3, 3)
+    >>> status_code("ok", "not_applicable")
+    0
     """
-    return OK if all(s in TRUSTED for s in statuses) else NOT_TRUSTED
+    from psdesign.packing.overlap_status import NOT_APPLICABLE
+
+    return OK if all(s in TRUSTED or s == NOT_APPLICABLE for s in statuses) else NOT_TRUSTED
 
 
 class CaseCounts(NamedTuple):
