@@ -393,7 +393,9 @@ def study_table(out_dir: str | Path) -> dict:
     ``parameters``, ``base`` spec, ``solver``, ...)."""
     path = Path(out_dir) / "study.json"
     if not path.is_file():
-        raise FileNotFoundError(f"{out_dir}: no study.json; is this a study output folder?")
+        raise FileNotFoundError(
+            f"out_dir: no study.json in {out_dir}; is this a study output folder?"
+        )
     from psdesign.study.readback import read_json_object
 
     doc = read_json_object(path)

@@ -247,6 +247,27 @@ def cases_status(counts: CaseCounts, allow_not_converged: bool = False) -> int:
     return OK
 
 
+#: How ``study report``, ``fit``, ``predict`` and ``sensitivity`` show their study folder
+#: argument (``metavar``: ``--help`` and the one line of a refusal, :func:`folder_line`).
+FOLDER_METAVAR = "OUT"
+
+
+def folder_line(exc: Exception) -> str:
+    """``exc``'s one line with the folder named as the user typed it (:data:`FOLDER_METAVAR`)
+    where the library names its Python parameter ``out_dir`` (``write_report``, the readers of
+    a study folder): ``study report nodir`` said ``out_dir: no results.csv ...`` until session
+    50.
+
+    >>> folder_line(ValueError("out_dir: no results.csv in nodir; run the study first"))
+    'OUT: no results.csv in nodir; run the study first'
+    >>> folder_line(ValueError("--outputs: unknown"))
+    '--outputs: unknown'
+    """
+    text = " ".join(str(exc).split())
+    key, sep, rest = text.partition(": ")
+    return f"{FOLDER_METAVAR}{sep}{rest}" if key == "out_dir" else text
+
+
 def fail(message: str, code: int = BAD_INPUT) -> int:
     """Print ``psdesign: error: message`` (the one line on stderr) and return ``code``."""
     print(f"psdesign: error: {message}", file=sys.stderr)
