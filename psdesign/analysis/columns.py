@@ -164,9 +164,15 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> pores = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
     >>> error_bar(pores, "pore_d10_m")  # its own bar 30 %, rated as the product does: 15 % of d50
     (0.3, 'ok')
+    >>> image = {"intersection_volume_fraction_status": "not_applicable"}  # no fibres: no Omega
+    >>> error_bar(image, "intersection_volume_fraction")
+    (None, 'not_applicable')
     """
     if cell_number(row.get(column)) is None:
-        return None, "no trusted value"
+        from psdesign.packing.overlap_status import NOT_APPLICABLE
+
+        applies = row.get(status_column(column)) != NOT_APPLICABLE
+        return None, "no trusted value" if applies else NOT_APPLICABLE
     rel = _rel_error(row, column)
     status = row.get(status_column(column))
     if isinstance(status, str) and status:
@@ -340,8 +346,16 @@ def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
 
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
-    own status (:func:`own_status`), whatever its case's; False for an unrated value."""
-    return own_status(df, k_column) != "ok"
+    own status (:func:`own_status`), whatever its case's; False for an unrated value and for
+    one that does not apply (an image's Omega: ``not_applicable``, no value to distrust).
+
+    >>> k_not_ok(pd.DataFrame({"intersection_volume_fraction_status": ["not_applicable", "x"]}),
+    ...          "intersection_volume_fraction").tolist()
+    [False, True]
+    """
+    from psdesign.packing.overlap_status import NOT_APPLICABLE
+
+    return ~own_status(df, k_column).isin(("ok", NOT_APPLICABLE))
 
 
 def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
@@ -379,7 +393,9 @@ def study_table(out_dir: str | Path) -> dict:
     ``parameters``, ``base`` spec, ``solver``, ...)."""
     path = Path(out_dir) / "study.json"
     if not path.is_file():
-        raise FileNotFoundError(f"{out_dir}: no study.json; is this a study output folder?")
+        raise FileNotFoundError(
+            f"out_dir: no study.json in {out_dir}; is this a study output folder?"
+        )
     from psdesign.study.readback import read_json_object
 
     doc = read_json_object(path)

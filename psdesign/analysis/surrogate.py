@@ -666,7 +666,9 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
     """The surrogates saved by :func:`fit_study`."""
     path = Path(out_dir) / SURROGATE_FILE
     if not path.is_file():
-        raise FileNotFoundError(f"{out_dir}: no {SURROGATE_FILE}; run `psdesign study fit` first")
+        raise FileNotFoundError(
+            f"out_dir: no {SURROGATE_FILE} in {out_dir}; run `psdesign study fit` first"
+        )
     try:
         doc = json.loads(path.read_text())
         return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}

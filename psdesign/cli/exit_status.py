@@ -78,12 +78,18 @@ HELP = (
 
 def status_code(*statuses: str | None) -> int:
     """The exit status of finished results by their ``status``: ``OK`` when every one is in
-    :data:`TRUSTED`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+    :data:`TRUSTED` or says the value does not apply (``not_applicable``: an image's Omega,
+    :data:`psdesign.packing.overlap_status.NOT_APPLICABLE`; no result, so nothing to distrust),
+    else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
 
     >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
     (0, 3, 3)
+    >>> status_code("ok", "not_applicable")
+    0
     """
-    return OK if all(s in TRUSTED for s in statuses) else NOT_TRUSTED
+    from psdesign.packing.overlap_status import NOT_APPLICABLE
+
+    return OK if all(s in TRUSTED or s == NOT_APPLICABLE for s in statuses) else NOT_TRUSTED
 
 
 class CaseCounts(NamedTuple):
@@ -239,6 +245,27 @@ def cases_status(counts: CaseCounts, allow_not_converged: bool = False) -> int:
     if counts.flagged or (counts.not_converged and not allow_not_converged):
         return NOT_TRUSTED
     return OK
+
+
+#: How ``study report``, ``fit``, ``predict`` and ``sensitivity`` show their study folder
+#: argument (``metavar``: ``--help`` and the one line of a refusal, :func:`folder_line`).
+FOLDER_METAVAR = "OUT"
+
+
+def folder_line(exc: Exception) -> str:
+    """``exc``'s one line with the folder named as the user typed it (:data:`FOLDER_METAVAR`)
+    where the library names its Python parameter ``out_dir`` (``write_report``, the readers of
+    a study folder): ``study report nodir`` said ``out_dir: no results.csv ...`` until session
+    50.
+
+    >>> folder_line(ValueError("out_dir: no results.csv in nodir; run the study first"))
+    'OUT: no results.csv in nodir; run the study first'
+    >>> folder_line(ValueError("--outputs: unknown"))
+    '--outputs: unknown'
+    """
+    text = " ".join(str(exc).split())
+    key, sep, rest = text.partition(": ")
+    return f"{FOLDER_METAVAR}{sep}{rest}" if key == "out_dir" else text
 
 
 def fail(message: str, code: int = BAD_INPUT) -> int:

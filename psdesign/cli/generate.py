@@ -41,8 +41,9 @@ def _cmd_generate(args: argparse.Namespace) -> int:
         "intersection_volume_fraction",
         "intersection_volume_fraction_error",
         "intersection_volume_fraction_status",
+        "intersection_volume_fraction_note",  # an image's: why Omega does not apply
     )
-    out = with_porosity_status({k: summary[k] for k in keys})
+    out = with_porosity_status({k: summary[k] for k in keys if k in summary})
     print_json(out)  # strict JSON, as every --json
     # the one exit rule (cli.exit_status): both numbers printed are results with a status
     return status_code(out["porosity_status"], out["intersection_volume_fraction_status"])

@@ -80,15 +80,18 @@ def _line(r: dict) -> str:
 
 def _other_bc(r: dict) -> str:
     """``--bc both``: the other model's K with its bar and rating, which the line compares
-    (until session 45 only ``--json`` had it), or why it is missing; "" otherwise.
+    (until session 45 only ``--json`` had it), or why it is missing; "" otherwise. The K is
+    spelled as the line's own (:func:`~psdesign.cli.lines.value_text`; until session 50
+    ``K = ...`` without its direction, a format of its own).
 
     >>> other = {"permeability_m2": 2e-11, "permeability_rel_error": 0.02, "status": "ok",
     ...          "bc": "permeameter", "converged": True, "solver": "voxel"}
-    >>> r = {"bc": "periodic", "solver": "voxel", "bc_results": {"permeameter": other}}
+    >>> r = {"bc": "periodic", "solver": "voxel", "direction": "z",
+    ...      "bc_results": {"permeameter": other}}
     >>> _other_bc(r)
-    '  (against K = 2.0000e-11 m^2 +- 2.0 %  [ok]  bc permeameter  converged true)'
+    '  (against K_z = 2.0000e-11 m^2 +- 2.0 %  [ok]  bc permeameter  converged true)'
     """
-    from psdesign.cli.lines import error_bar, rating
+    from psdesign.cli.lines import rating, value_text
 
     others = {bc: o for bc, o in (r.get("bc_results") or {}).items() if bc != r.get("bc")}
     parts = []
@@ -97,10 +100,8 @@ def _other_bc(r: dict) -> str:
             parts.append(f"bc {bc}: {o}")  # "n/a: <why>"
             continue
         route = "" if o.get("solver") in (None, r.get("solver")) else f"  solver {o['solver']}"
-        parts.append(
-            f"against K = {o['permeability_m2']:.4e} m^2"
-            f"{error_bar(o.get('permeability_rel_error'))}  {rating(o)}{route}"
-        )
+        k = value_text("permeability", r["direction"], o)
+        parts.append(f"against {k}  {rating(o)}{route}")
     return "".join(f"  ({p})" for p in parts)
 
 

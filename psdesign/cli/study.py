@@ -20,6 +20,7 @@ import sys
 from psdesign.cli.exit_status import (
     BAD_INPUT,
     FAILED,
+    FOLDER_METAVAR,
     INTERRUPTED,
     NOT_TRUSTED,
     OK,
@@ -28,6 +29,7 @@ from psdesign.cli.exit_status import (
     cases_status,
     fail,
     flagged_text,
+    folder_line,
 )
 from psdesign.cli.progress import (
     add_allow_not_converged_argument,
@@ -136,7 +138,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     run.set_defaults(func=cmd_study_run)
 
     rep = sub.add_parser("report", help="write OUT/report.html from a study output folder")
-    rep.add_argument("out", help="study output folder")
+    rep.add_argument("out", metavar=FOLDER_METAVAR, help="study output folder")
     rep.set_defaults(func=cmd_study_report)
 
     from psdesign.cli.study_analysis import register_study_commands
@@ -301,7 +303,7 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     try:
         path = write_report(args.out)
     except ValueError as exc:  # ReportError, OutputError, a damaged file (study.readback)
-        return fail(str(exc), BAD_INPUT)
+        return fail(folder_line(exc), BAD_INPUT)
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)

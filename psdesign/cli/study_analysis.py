@@ -7,12 +7,14 @@ import sys
 
 from psdesign.cli.exit_status import (
     FAILED,
+    FOLDER_METAVAR,
     NOT_TRUSTED,
     OK,
     CaseCounts,
     case_masks,
     cases_status,
     fail,
+    folder_line,
     status_code,
 )
 from psdesign.cli.lines import print_json
@@ -42,7 +44,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     try:
         models = fit_study(args.out, args.outputs or None, skipped)
     except (FileNotFoundError, ValueError) as exc:
-        return fail(str(exc))
+        return fail(folder_line(exc))
     for reason in skipped.values():  # "k_z_m2: need at least 3 ..."
         print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
@@ -141,7 +143,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         )
         rows = {name: _predict_one(m, args.at, ints, study) for name, m in models.items()}
     except (FileNotFoundError, ValueError) as exc:
-        return fail(" ".join(str(exc).split()))
+        return fail(folder_line(exc))
     out = {name: row for name, (row, _) in rows.items()}
     wide = [w for _, w in rows.values() if w]
     for w in wide:
@@ -199,7 +201,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
     try:
         models = load_study_surrogates(args.out)
     except (FileNotFoundError, ValueError) as exc:
-        return fail(str(exc))
+        return fail(folder_line(exc))
     names = args.outputs or list(models)
     unknown = [n for n in names if n not in models]
     if unknown:
@@ -411,7 +413,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     )
 
     fit = sub.add_parser("fit", help="fit a Gaussian-process surrogate per output of a study")
-    fit.add_argument("out", help="study output folder")
+    fit.add_argument("out", metavar=FOLDER_METAVAR, help="study output folder")
     fit.add_argument(
         "--outputs",
         nargs="*",
@@ -423,7 +425,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     fit.set_defaults(func=_cmd_fit)
 
     pred = sub.add_parser("predict", help="predict outputs at a design point from the surrogates")
-    pred.add_argument("out", help="study output folder (after `study fit`)")
+    pred.add_argument("out", metavar=FOLDER_METAVAR, help="study output folder (after `study fit`)")
     pred.add_argument(
         "--at", required=True, help='e.g. "generator.porosity=0.82,generator.diameter=8e-6"'
     )
@@ -433,7 +435,7 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     sens = sub.add_parser(
         "sensitivity", help="Sobol indices or Morris screening from the surrogates"
     )
-    sens.add_argument("out", help="study output folder (after `study fit`)")
+    sens.add_argument("out", metavar=FOLDER_METAVAR, help="study output folder (after `study fit`)")
     sens.add_argument(
         "--method",
         choices=("sobol", "morris"),

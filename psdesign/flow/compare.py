@@ -19,10 +19,11 @@ from psdesign.flow.permeability import (
     NATIVE_BC,
     SOLVERS,
     BoundaryConditionUnavailable,
+    check_grid_voxels,
     checked_flow,
     permeability,
 )
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, checked_fields
 
 #: Warn when ``bc_sensitivity`` exceeds this plus the two results' error bars: beyond the
 #: discretization, a face effect of 5 % is a systematic error comparable to the seed scatter
@@ -61,6 +62,7 @@ def permeability_both_bc(
     """
     # before its .get: permeability's one line naming flow, the table of the route's solver
     flow = checked_flow(flow, solver)
+    check_grid_voxels(checked_fields(fields))  # its line, not "neither model could be solved"
     solver = flow["solver"]
     primary_bc = flow.get("bc") or NATIVE_BC[solver]
     results: dict[str, dict] = {}

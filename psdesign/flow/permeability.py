@@ -120,6 +120,31 @@ def checked_flow(flow: object, solver: str | None = None) -> dict:
     return {**DEFAULT_FLOW, **route}
 
 
+def check_grid_voxels(fields: VoxelFields) -> None:
+    """Refuse ``fields`` with fewer voxels along an axis than a spec allows
+    (:data:`~psdesign.schema.rve.MIN_VOXELS_PER_EDGE`: ``rve.voxel`` at most a quarter of the
+    smallest edge, an image 4 voxels per axis): one :class:`SpecError` line naming ``fields``.
+    A spec's fields pass it; fields built by hand (``image_fields``) 16 x 16 x 1-3 voxels were
+    solved and rated ``ok`` until session 50.
+
+    >>> from psdesign.image.fields import image_fields
+    >>> try:
+    ...     check_grid_voxels(image_fields(np.eye(4, dtype=bool)[:, :, None], 1e-6))
+    ... except SpecError as exc:
+    ...     print(exc.key, exc.message[:34])
+    fields the voxel grid is [4, 4, 1] voxels
+    """
+    from psdesign.schema.rve import MIN_VOXELS_PER_EDGE, MIN_VOXELS_TEXT
+
+    shape = [int(n) for n in fields.grid.shape]
+    if min(shape) < MIN_VOXELS_PER_EDGE:
+        raise SpecError(
+            "fields",
+            f"the voxel grid is {shape} voxels (allowed: {MIN_VOXELS_TEXT}, as a spec's "
+            "rve.voxel <= a quarter of the smallest edge)",
+        )
+
+
 def check_route_keys(flow: dict, solver: str, bc: str | None = None) -> None:
     """Refuse a ``[flow]`` choice the route would not apply (a :class:`SpecError`, exit 2):
     ``periodic_treatment`` mirror / frame is the voxel solver's periodic bc's only; the FEM
@@ -500,11 +525,13 @@ def permeability(
     Raises
     ------
     SpecError
-        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or ``flow`` not a
+        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or with fewer than 4
+        voxels along an axis (:func:`check_grid_voxels`), or ``flow`` not a
         dict: one line naming it, before any work (``permeability(3, ...)`` raised
         ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """
     rve, fields, flow = checked_rve(rve), checked_fields(fields), checked_flow(flow, solver)
+    check_grid_voxels(fields)  # a spec's rule, for fields built by hand (session 50)
     solver = flow["solver"]  # the route's: the argument, else flow.solver, else "fem"
     final = None if capture is None else HeldCapture(capture)
     res = route_result(rve, fields, direction, flow, solver, progress=progress, **_cap(final))

@@ -37,6 +37,27 @@ class BuiltRVE:
 
         return intersection_status(self.rve, fields)
 
+    def omega_values(self, fields: VoxelFields) -> dict:
+        """Omega's value, bar and status (:meth:`intersection_status`) under their summary and
+        study-row keys; for an image (no fibres to overlap) None, None and
+        :data:`~psdesign.packing.overlap_status.NOT_APPLICABLE`, with the note why (the
+        summary's only: a study row keeps numbers and status words)."""
+        key = "intersection_volume_fraction"
+        if self.report.get("source") == "image":  # as report.preview tells an image's RVE
+            from psdesign.packing.overlap_status import NOT_APPLICABLE, NOT_APPLICABLE_NOTE
+
+            return {
+                key: None,
+                f"{key}_error": None,
+                f"{key}_status": NOT_APPLICABLE,
+                f"{key}_note": NOT_APPLICABLE_NOTE,
+            }
+        return {
+            key: fields.intersection_volume_fraction,
+            f"{key}_error": fields.intersection_error,
+            f"{key}_status": self.intersection_status(fields),
+        }
+
 
 def build_rve(spec: dict) -> BuiltRVE:
     """Build the RVE of a validated spec: explicit fibers plus generated ones.
@@ -91,9 +112,7 @@ def summarize(built: BuiltRVE, fields: VoxelFields) -> dict:
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
-        "intersection_volume_fraction": fields.intersection_volume_fraction,
-        "intersection_volume_fraction_error": fields.intersection_error,
-        "intersection_volume_fraction_status": built.intersection_status(fields),
+        **built.omega_values(fields),
         "voxel_grid": fields.grid.to_dict(),
         "size_m": rve.size.tolist(),
         "period_m": rve.period,

@@ -72,6 +72,15 @@ if TYPE_CHECKING:
 #: 3 voxels with 0.0058 of the box, though their errors cancel (RESULTS.md session 46).
 RESOLVED_LENS_VOXELS = 1.0
 
+#: The status of an Omega that does not apply: an image (a segmented scan) has no fibres, so
+#: nothing to overlap; its ``0 +- 0`` was printed ``ok`` until session 50, a measurement never
+#: made. The value and its bar are then None (``null``, an empty cell), with
+#: :data:`NOT_APPLICABLE_NOTE` beside them; the exit, the red box and the trusted table pass
+#: it by (:func:`psdesign.cli.exit_status.status_code`, ``analysis.columns.k_not_ok``).
+NOT_APPLICABLE = "not_applicable"
+#: Why, as ``generate``'s line and summary.json say it (``intersection_volume_fraction_note``).
+NOT_APPLICABLE_NOTE = "n/a (image: no fibres)"
+
 
 class Lenses(NamedTuple):
     """The overlaps of an RVE's fibers, one entry per overlapping pair of fiber copies."""

@@ -16,7 +16,7 @@ from psdesign.schema.flow import FlowTable
 from psdesign.schema.forcefield import ForceFieldTable
 from psdesign.schema.generator import GeneratorTable, IntersectionsTable
 from psdesign.schema.image import ImageTable
-from psdesign.schema.rve import RveTable
+from psdesign.schema.rve import MIN_VOXELS_PER_EDGE, RveTable
 from psdesign.schema.transport import TransportSpec
 from psdesign.schema.types import Table, fail
 
@@ -123,11 +123,11 @@ class SpecDocument(Table):
             self._check_image()
             return self
         size, voxel, period = self.rve.size, self.voxel, self.period
-        if voxel > min(size) / 4:
+        if voxel > min(size) / MIN_VOXELS_PER_EDGE:
             raise fail(
                 "rve.voxel",
                 f"{voxel:g} m is over a quarter of the smallest edge",
-                f"<= {min(size) / 4:g} m",
+                f"<= {min(size) / MIN_VOXELS_PER_EDGE:g} m",
             )
         budget.check_copies(size, period)
         flow, planned_porosity = self._planned_flow(size, voxel)

@@ -21,6 +21,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, ValidationInfo, model_validator
 
+from psdesign.schema.rve import MIN_VOXELS_PER_EDGE, MIN_VOXELS_TEXT
 from psdesign.schema.types import Table, fail, integer, number
 
 Label = integer(ge=-(2**63), le=2**64 - 1)
@@ -185,15 +186,11 @@ class ImageTable(Table):
                 f"the file's voxel size {voxel:g} is not a length in metres in [1e-9, 1e-2]",
                 "give voxel_size in metres",
             )
-        if min(shape) < 4:
+        if min(shape) < MIN_VOXELS_PER_EDGE:
             if self.crop is not None:
-                raise fail(
-                    "crop", f"the image is {list(shape)} voxels", "at least 4 voxels per axis"
-                )
+                raise fail("crop", f"the image is {list(shape)} voxels", MIN_VOXELS_TEXT)
             flat = " (a 2-D image: give the 3-D stack)" if min(stored) == 1 else ""
-            raise fail(
-                "path", f"{path.name} is {list(stored)} voxels{flat}", "at least 4 voxels per axis"
-            )
+            raise fail("path", f"{path.name} is {list(stored)} voxels{flat}", MIN_VOXELS_TEXT)
         if in_file is not None and abs(voxel - in_file) > 1e-3 * in_file:
             warnings.warn(
                 f"image.voxel_size: {voxel:g} m is used; {path.name} says {in_file:g} m",

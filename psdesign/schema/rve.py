@@ -11,6 +11,14 @@ from psdesign.schema.types import Table, number
 Length = number(gt=0)
 Edge = number(ge=1e-9, le=1.0)
 
+#: Fewest voxels along any axis of a grid, the one rule of ``rve.voxel`` (at most a quarter of
+#: the smallest edge: :class:`psdesign.schema.document.SpecDocument`), of an image
+#: (:mod:`psdesign.schema.image`) and of fields built by hand given to ``psdesign.permeability``
+#: (:func:`psdesign.flow.permeability.check_grid_voxels`; until session 50 solved and rated).
+MIN_VOXELS_PER_EDGE = 4
+#: The range they name when refusing.
+MIN_VOXELS_TEXT = f"at least {MIN_VOXELS_PER_EDGE} voxels per axis"
+
 
 class RveTable(Table):
     """The box, its sampling step and the PS period (metres)."""

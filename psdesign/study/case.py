@@ -133,9 +133,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         # rated by its bar, as generate prints it: the report, exit and fits read it
         "porosity_status": porosity_status(fields.porosity, fields.porosity_error),
         "n_fibers": len(rve.fibers),
-        "intersection_volume_fraction": fields.intersection_volume_fraction,
-        "intersection_volume_fraction_error": fields.intersection_error,
-        "intersection_volume_fraction_status": built.intersection_status(fields),
+        # an image's: not_applicable, no value (the note is the summary's: a row keeps words)
+        **{k: v for k, v in built.omega_values(fields).items() if not k.endswith("_note")},
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}

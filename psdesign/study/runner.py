@@ -95,8 +95,10 @@ def _pid_alive(pid: int) -> bool:
 
 
 @contextmanager
-def _run_lock(out: Path) -> Iterator[None]:
-    """Refuse two runs writing into the same folder; a stale lock (dead pid) is taken over."""
+def _run_lock(out: Path, option: str = "out_dir") -> Iterator[None]:
+    """Refuse two runs writing into the same folder; a stale lock (dead pid) is taken over.
+    ``option`` names the folder in the refusal: the command's ``-o`` (``out_dir`` said so until
+    session 50), the API's ``out_dir``."""
     lock = out / ".lock"
     me = {"pid": os.getpid(), "host": socket.gethostname()}
     for _ in range(3):
@@ -114,12 +116,12 @@ def _run_lock(out: Path) -> Iterator[None]:
                 and other["pid"] != me["pid"]
             ):
                 raise StudyError(
-                    f"out_dir: {out} is in use by a running study (pid {other['pid']}); "
+                    f"{option}: {out} is in use by a running study (pid {other['pid']}); "
                     "wait for it or choose another folder"
                 ) from None
             if other.get("host") not in (None, me["host"]):
                 raise StudyError(
-                    f"out_dir: {out} is locked by host {other['host']} (pid {other.get('pid')}); "
+                    f"{option}: {out} is locked by host {other['host']} (pid {other.get('pid')}); "
                     f"delete {lock} if that run is dead"
                 ) from None
             try:
@@ -133,7 +135,7 @@ def _run_lock(out: Path) -> Iterator[None]:
             json.dump(me, fh)
         break
     else:  # pragma: no cover - lost a race three times
-        raise StudyError(f"out_dir: cannot lock {out}")
+        raise StudyError(f"{option}: cannot lock {out}")
     try:
         yield
     finally:
@@ -880,7 +882,8 @@ def _connect_and_run(
             # before the lock
             _claim(target, STUDY_FILES if opts.report else STUDY_FILES_NO_REPORT)
             store.prepare()
-            with _run_lock(target.path), stop_on_interrupt():  # workers stop before the lock
+            # workers stop before the lock; its refusal names the command's option (-o)
+            with _run_lock(target.path, target.option), stop_on_interrupt():
                 store.remove_stale_temp()
                 return _run_locked(study, cases, store, list(study.parameters), client, opts)
     finally:

@@ -464,8 +464,9 @@ class ThinBlocks:
         # batches scanned every face before)
         dense = ~_cleared(thin, d, (r, c, v), owner, dinv, s.size)
         go = dense[owner[r]]
-        by = np.argsort(s[owner[r[go]]], kind="stable")
-        er, ec, ev = r[go][by], c[go][by], v[go][by]
+        r, c, v = r[go], c[go], v[go]  # each gathered once (r[go] was gathered twice)
+        by = np.argsort(s[owner[r]], kind="stable")
+        er, ec, ev = r[by], c[by], v[by]
         esize = s[owner[er]]
         bysize = np.flatnonzero(dense)[np.argsort(s[dense], kind="stable")]
         sizes, first = np.unique(s[bysize], return_index=True)

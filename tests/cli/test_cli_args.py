@@ -122,3 +122,31 @@ def test_quiet_reads_the_same_on_every_command():
     }
     assert {"study run", "study optimize", "generate", "rev"} <= set(helps)
     assert all(h.startswith("no progress lines on stderr") for h in helps.values()), helps
+
+
+@pytest.mark.parametrize(
+    ("argv", "why"),
+    [
+        (["study", "report"], "no results.csv in {d}; run the study first"),
+        (["study", "fit"], "no study.json in {d}; is this a study output folder?"),
+        (["study", "predict", "--at", "a=1"], "no surrogate.json in {d}; run `psdesign study fit`"),
+        (["study", "sensitivity"], "no surrogate.json in {d}; run `psdesign study fit` first"),
+    ],
+)
+def test_a_study_folder_is_named_as_help_shows_it(argv, why, tmp_path, capsys):
+    """Session 49 note: ``study report nodir`` named ``out_dir`` (the Python parameter of
+    ``write_report``), which the user never typed; ``fit``, ``predict`` and ``sensitivity``
+    named the folder's path as the key. Each names the argument as its ``--help`` shows it,
+    ``OUT`` (``study report`` writes OUT/report.html), and then the folder; exit 2, one line."""
+    folder = tmp_path / "nodir"
+    head = argv[:2]
+    with pytest.raises(SystemExit):
+        main([*head, "--help"])
+    usage = capsys.readouterr().out
+    assert f"usage: psdesign {' '.join(head)} [-h]" in usage and usage.split("\n\n")[0].endswith(
+        " OUT"
+    ), usage
+    assert main([*argv, str(folder)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"psdesign: error: OUT: {why.format(d=folder)}"), err

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from printed_statuses import printed_statuses
 
-from psdesign.cli.exit_status import status_code
+from psdesign.cli.exit_status import case_masks, status_code
 from psdesign.cli.main import main
 
 #: A crop of the shipped image with voxel-solver-sized work (16 x 16 x 32 voxels).
@@ -177,6 +177,30 @@ def test_study_on_an_image_spec(folder) -> None:
     assert len(df) == 2 and np.allclose(df["porosity"], 1 - 108 / (16 * 16 * 32))
     k = df.sort_values("flow.viscosity")["k_z_m2"].to_numpy()
     assert k[0] == pytest.approx(k[1], rel=1e-6, abs=0)  # K is a geometry property
+    # an image's Omega does not apply (test_generate_on_an_image_says_omega_does_not_apply):
+    # no value, status not_applicable, and no case flagged for it (the exit, the red box)
+    assert df["intersection_volume_fraction"].isna().all()
+    assert (df["intersection_volume_fraction_status"] == "not_applicable").all()
+    assert [m.sum() for m in case_masks(df)] == [0, 0, 0]
+    assert main(["study", "report", str(folder / "out")]) == 0
+
+
+def test_generate_on_an_image_says_omega_does_not_apply(folder, capsys) -> None:
+    """Omega (Sec. 7.1) is the volume fraction inside two or more fibres; an image has no
+    fibres (its ``fiber_count`` is 0 or 1: FIELD_VTI_MEANINGS), so no overlap to count. On
+    session 49's main ``generate`` printed ``0 +- 0`` with status ``ok``, a measurement that
+    was never made; it is ``null`` with status ``not_applicable`` and a note saying why, in the
+    printed line and summary.json, and the exit is the porosity's alone (0)."""
+    spec = spec_file(folder, CROP)
+    code = main(["generate", str(spec), "-o", str(folder / "out"), "--no-preview", "--quiet"])
+    printed = json.loads(capsys.readouterr().out)
+    summary = json.loads((folder / "out" / "summary.json").read_text())
+    for out in (printed, summary):
+        assert out["intersection_volume_fraction"] is None
+        assert out["intersection_volume_fraction_error"] is None
+        assert out["intersection_volume_fraction_status"] == "not_applicable"
+        assert out["intersection_volume_fraction_note"] == "n/a (image: no fibres)"
+    assert code == 0 == status_code(*printed_statuses(printed))
 
 
 @pytest.mark.parametrize(

@@ -182,7 +182,7 @@ def test_results_csv_is_checked_once_by_the_reader(tmp_path, monkeypatch, capsys
 
     assert main(["study", "report", str(tmp_path)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
-    assert line == f"psdesign: error: out_dir: no results.csv in {tmp_path}; run the study first"
+    assert line == f"psdesign: error: OUT: no results.csv in {tmp_path}; run the study first"
     (tmp_path / "results.csv").write_bytes(b"")
     with pytest.raises(ReportError, match="is unreadable"):
         write_report(tmp_path)

@@ -637,7 +637,7 @@ def test_dask_cluster_on_loopback_same_table(tmp_path):
     pd.testing.assert_frame_equal(drop_timing(a), drop_timing(c))
 
 
-def test_concurrent_run_refused(tmp_path):
+def test_concurrent_run_refused(tmp_path, capsys):
     p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
     out = tmp_path / "out"
     out.mkdir()
@@ -646,8 +646,15 @@ def test_concurrent_run_refused(tmp_path):
         import socket
 
         (out / ".lock").write_text(json.dumps({"pid": sleeper.pid, "host": socket.gethostname()}))
-        with pytest.raises(StudyError, match="in use by a running study"):
+        with pytest.raises(StudyError, match="^out_dir: .* in use by a running study"):
             run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+        # the command names its own option, as its other folder refusals do (session 50:
+        # ``study run -o`` said ``out_dir``, write_report's Python parameter)
+        from psdesign.cli import main
+
+        assert main(["study", "run", str(p), "-o", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"psdesign: error: -o: {out} is in use by a running study"), err
     finally:
         sleeper.kill()
         sleeper.wait()
