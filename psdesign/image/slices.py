@@ -33,12 +33,15 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.schema.rve import MIN_VOXELS_PER_EDGE
+
 #: Characters that make ``path`` a glob pattern.
 GLOB_CHARS = "*?["
 #: Extensions of slice files (any case).
 SLICE_EXTS = (".tif", ".tiff")
-#: Fewest slices read (the image needs 4 voxels per axis).
-MIN_SLICES = 4
+#: Fewest slices read: an image needs as many voxels per axis as any grid
+#: (:data:`psdesign.schema.rve.MIN_VOXELS_PER_EDGE`, the one rule).
+MIN_SLICES = MIN_VOXELS_PER_EDGE
 _NUMBER = re.compile(r"(\d+)(\D*)$")
 _DIGITS = re.compile(r"(\d+)")
 _CACHE: OrderedDict[tuple, SliceSet] = OrderedDict()
@@ -291,7 +294,8 @@ def slice_set(path: str | Path) -> SliceSet:
     first, z_spacing = _checked(files)  # first: one stack given as a folder is named so
     if len(files) < MIN_SLICES:
         raise ValueError(
-            f"image.path: {len(files)} slices (allowed: at least {MIN_SLICES}: 4 voxels per axis)"
+            f"image.path: {len(files)} slices (allowed: at least {MIN_SLICES}: "
+            f"{MIN_SLICES} voxels per axis)"
         )
     out = SliceSet(path, tuple(files), first.shape, first.dtype, z_spacing)
     _CACHE[key] = out
