@@ -1443,3 +1443,29 @@ def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(
     assert main(argv) == 2
     assert capsys.readouterr().err == f"psdesign: error: {line}\n"
     assert not (tmp_path / "o").exists()
+
+
+def test_optimize_of_bounds_without_levels_is_told_every_way_out(tmp_path, capsys) -> None:
+    """Session 50 (walk): a study file written as ``study optimize --help`` said ("every
+    parameter a {low, high} range") in the default full-factorial design was refused by the
+    study loader with "(or give a list/range)", which optimize then refuses too. The line
+    lists what a full-factorial design takes and the sampled designs, says lists and ranges
+    are not for optimize, and the help names the levels a full-factorial design needs."""
+    from study_cases import fake_case, write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.cli import main
+
+    p = write_study(
+        tmp_path, 'name = "o"\nseeds = [1]\n', '"generator.porosity" = {low = 0.7, high = 0.8}\n'
+    )
+    with pytest.raises(psdesign.SpecError) as info:
+        optimize_study(p, tmp_path / "o", [Target.parse("k_z_m2=5e-12")], case_fn=fake_case)
+    text = str(info.value)
+    assert text.startswith("parameters.generator.porosity: bounds need levels = N"), text
+    assert "study.design = latin-hypercube / sobol" in text and "not with study optimize" in text
+    assert "\n" not in text and not (tmp_path / "o").exists()
+    with pytest.raises(SystemExit):
+        main(["study", "optimize", "--help"])
+    assert "levels = N in a full-factorial design" in " ".join(capsys.readouterr().out.split())
