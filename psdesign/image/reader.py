@@ -30,6 +30,8 @@ from psdesign.image.slices import is_slice_path, read_slices, slice_set
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
+#: What a file's voxel size must be (its refusal's allowed range; the tests below use 1e-6).
+CUBIC_ALLOWED = "(allowed: cubic voxels, x = y = z to 1 part in 1e6)"
 #: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
 #: its escaped "\\u00B5m", and the spellings other writers use; "microns" read as "no voxel
 #: size" until session 43). Not "inch": ImageJ's unit of a picture calibrated by its DPI tag
@@ -493,14 +495,15 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
         if abs(z - xy) > 1e-6 * xy or abs(y - xy) > 1e-6 * xy:
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, y {y:g} m, "
-                f"z {z:g} m); resample to cubic voxels"
+                f"z {z:g} m); resample to cubic voxels {CUBIC_ALLOWED}"
             )
         return float(xy)
     if ext == ".vti":
         h = np.asarray(vti_header(path)[1], float)
         if not np.allclose(h, h[0], rtol=1e-6):
             raise ValueError(
-                f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()})"
+                f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()}); "
+                f"resample to cubic voxels {CUBIC_ALLOWED}"
             )
         return float(h[0])
     return None

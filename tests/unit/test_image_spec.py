@@ -379,6 +379,12 @@ def test_a_tiff_with_other_x_and_y_pixel_sizes_is_refused(tmp_path):
         psdesign.from_image(tmp_path / "s.tif")
     assert info.value.key == "image.voxel_size"
     assert "not cubic (x 5e-07 m, y 1e-06 m, z 5e-07 m)" in info.value.message
+    # the allowed range, as every refusal's line gives it (session 50's walk: none; a
+    # voxel_size given beside such a file is refused the same way)
+    assert info.value.message.endswith("(allowed: cubic voxels, x = y = z to 1 part in 1e6)")
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "s.tif", voxel_size=5e-7)
+    assert info.value.message.endswith("(allowed: cubic voxels, x = y = z to 1 part in 1e6)")
 
 
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
