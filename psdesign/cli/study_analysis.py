@@ -460,7 +460,11 @@ def register_study_commands(sub: argparse._SubParsersAction) -> None:
     opt = sub.add_parser(
         "optimize", help="adaptive sampling toward target outputs (runs cases through the runner)"
     )
-    opt.add_argument("study", help="study TOML file; every parameter a {low, high} range")
+    opt.add_argument(
+        "study",
+        help="study TOML file; every parameter a {low, high} range (with levels = N in a "
+        "full-factorial design, the default; the search samples the box itself)",
+    )
     opt.add_argument("-o", "--out", required=True, help="output folder (resumed if it exists)")
     opt.add_argument(
         "--target",

@@ -19,6 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from psdesign.flow.darcy import periodic_gradient
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.geometry.walls import NearestWalls, along_box_axis, untiled_axis
 from psdesign.geometry.walls import unsupported as unsupported_geometry
@@ -139,11 +140,13 @@ def solve_diffuse(
     _check_solid(walls, fields)
     grid = DiffuseGrid.sample(fields.grid.shape, walls)
     kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
+    ax = "xyz".index(direction)
     return solve_diffuse_stokes(
         grid,
         voxel,
         direction,
         viscosity=float(flow["viscosity"]),
+        pressure_gradient=periodic_gradient(flow, fields.solid.shape[ax] * voxel),
         progress=progress,
         **kw,
     )

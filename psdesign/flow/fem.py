@@ -34,6 +34,7 @@ from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-
     axis_of,
     darcy_column,
     darcy_permeability,
+    periodic_gradient,
     rve_window,
     windowed_drop,
     windowed_drop_from_dissipation,
@@ -405,7 +406,7 @@ def _periodic(rve, fields, name, ax, flow, mesh, t0, t_mesh) -> dict:
     from solvers.fem_stokes import solve_stokes_periodic
 
     mu = float(flow["viscosity"])
-    grad = float(flow.get("pressure_drop", 1.0)) / float(rve.size[ax])
+    grad = periodic_gradient(flow, rve.size[ax])
     _announce(mesh, name)
     res = solve_stokes_periodic(
         mesh.points,

@@ -28,6 +28,7 @@ from psdesign.flow.darcy import (
     axis_of,
     darcy_column,
     darcy_permeability,
+    periodic_gradient,
     permeability_tensor,
     windowed_drop,
 )
@@ -300,6 +301,9 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     if wall == "subvoxel":
         kw["distance"] = fields.distance
     if bc != "permeameter":
+        # the spec's drop over the RVE's length, as the FEM's periodic solve (a mirrored or
+        # framed grid is longer; its mean gradient is still the RVE's)
+        kw["pressure_gradient"] = periodic_gradient(flow, fields.solid.shape[ax] * h)
         return None, fields, kw
     from solvers.voxel_stokes import solved_shape
 

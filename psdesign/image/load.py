@@ -15,7 +15,7 @@ import numpy as np
 
 from psdesign.geometry.rve import BAND_MARGIN_VOXELS, RVE, VoxelFields, VoxelGrid
 from psdesign.image.fields import ImageFields, image_fields, resample
-from psdesign.image.reader import ImageSource, read_image
+from psdesign.image.reader import THREE_D_ALLOWED, ImageSource, read_image
 from psdesign.image.slices import is_slice_path, signature, slice_set
 
 _CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
@@ -69,7 +69,9 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
     else:  # vti: the header's extent (the data are read after the memory budget)
         return tuple(int(n) for n in vti_header(Path(src.path))[0])
     if len(stored) != 3:
-        raise ValueError(f"image.path: expected a 3-D image, got shape {list(stored)}")
+        raise ValueError(
+            f"image.path: expected a 3-D image, got shape {list(stored)} {THREE_D_ALLOWED}"
+        )
     return tuple(int(stored[order.index(a)]) for a in "xyz")
 
 

@@ -30,6 +30,10 @@ from psdesign.image.slices import is_slice_path, read_slices, slice_set
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
+#: What a file's voxel size must be (its refusal's allowed range; the tests below use 1e-6).
+CUBIC_ALLOWED = "(allowed: cubic voxels, x = y = z to 1 part in 1e6)"
+#: What an image's array must be (the refusal of one of another rank).
+THREE_D_ALLOWED = "(allowed: a 3-D image, at least 4 voxels per axis)"
 #: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
 #: its escaped "\\u00B5m", and the spellings other writers use; "microns" read as "no voxel
 #: size" until session 43). Not "inch": ImageJ's unit of a picture calibrated by its DPI tag
@@ -158,7 +162,8 @@ def raw_layout(src: ImageSource) -> tuple[np.dtype, int]:
     if size != n * dt.itemsize:
         raise ValueError(
             f"image.shape: {list(src.shape)} x {dt.itemsize} bytes = {n * dt.itemsize} bytes, "
-            f"but {Path(src.path).name} has {size} bytes"
+            f"but {Path(src.path).name} has {size} bytes (allowed: [nx, ny, nz] with nx ny nz x "
+            f"{dt.itemsize} bytes = the file's {size} bytes)"
         )
     return dt, n
 
@@ -338,7 +343,9 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         if data.ndim == 2:
             data = data[None]
         if data.ndim != 3:
-            raise ValueError(f"image.path: expected a 3-D stack, got shape {data.shape}")
+            raise ValueError(
+                f"image.path: expected a 3-D stack, got shape {data.shape} {THREE_D_ALLOWED}"
+            )
         crop = src.crop
         if sliced:  # the pages read are the crop's: the rest of it still to apply
             crop = tuple((0, data.shape[0]) if ax == page_axis else c for ax, c in enumerate(crop))
@@ -349,7 +356,9 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         except (ValueError, OSError) as exc:
             raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
         if data.ndim != 3:
-            raise ValueError(f"image.path: expected a 3-D array, got shape {data.shape}")
+            raise ValueError(
+                f"image.path: expected a 3-D array, got shape {data.shape} {THREE_D_ALLOWED}"
+            )
         return _to_xyz(data, src.axis_order or "xyz"), src.crop
     if ext == ".raw":
         return _read_raw(src), src.crop
@@ -493,14 +502,15 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
         if abs(z - xy) > 1e-6 * xy or abs(y - xy) > 1e-6 * xy:
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, y {y:g} m, "
-                f"z {z:g} m); resample to cubic voxels"
+                f"z {z:g} m); resample to cubic voxels {CUBIC_ALLOWED}"
             )
         return float(xy)
     if ext == ".vti":
         h = np.asarray(vti_header(path)[1], float)
         if not np.allclose(h, h[0], rtol=1e-6):
             raise ValueError(
-                f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()})"
+                f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()}); "
+                f"resample to cubic voxels {CUBIC_ALLOWED}"
             )
         return float(h[0])
     return None

@@ -209,7 +209,11 @@ class FlowTable(Table):
         "--direction, and of a study without study.outputs (default z)",
     )
     sides: Literal["slip", "noslip"] = Field("slip", description="slip | noslip (default slip)")
-    pressure_drop: number(gt=0, le=1e9) = Field(1.0, description="Pa in (0, 1e9] (default 1)")
+    pressure_drop: number(gt=0, le=1e9) = Field(
+        1.0,
+        description="Pa in (0, 1e9] (default 1): between the permeameter's reservoir ends; "
+        "periodic bc: over the RVE's length (G = drop / L)",
+    )
     tol: number(gt=0, lt=1) | None = Field(None, description="relative tolerance in (0, 1)")
     edge_length: number(ge=0.005, le=10) | None = Field(
         None,

@@ -152,6 +152,26 @@ def _mp_context():
     return multiprocessing.get_context("spawn")
 
 
+def _check_main_script(opts: RunOptions) -> None:
+    """Refuse local worker processes when they cannot start: a spawned worker re-imports the
+    ``__main__`` script by its path, and a script read from stdin (``python - < run.py``, a
+    heredoc) has the path ``<stdin>``, no file; each case then died as "crash or out of memory"
+    (session 50's walk). Jupyter, ``python -c`` and ``python -m`` have no such path."""
+    if opts.scheduler or opts.workers < 1:
+        return
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or getattr(getattr(main, "__spec__", None), "name", None):
+        return  # spawn imports a module by its name, or nothing
+    # spawn resolves a relative path against the folder the process started in
+    start = multiprocessing.process.ORIGINAL_DIR or os.getcwd()
+    if not Path(start, path).is_file():
+        raise StudyError(
+            f"workers: worker processes re-import the main script, and {path} is no file (a "
+            "script read from stdin?) (allowed: workers=0, or the script run from a file)"
+        )
+
+
 THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 """Thread-count variables shared out among pool workers (numba kernels, BLAS)."""
 
@@ -791,6 +811,7 @@ def run_study(
     check_run_keywords(fields, {}, "run_study")
     _check_naming(command, out_option, scheduler_option)
     opts = _run_options(options, fields)
+    _check_main_script(opts)
     if not isinstance(study, Study):  # a case function of the user's: no route planned
         study = load_study(study, opts.case_fn)
     cases = expand_design(study)

@@ -525,7 +525,10 @@ def _parameters(
                 if p.kind == "bounds" and p.levels is None:
                     raise _err(
                         f"parameters.{p.path}",
-                        "bounds need levels = N in a full-factorial design (or give a list/range)",
+                        "bounds need levels = N in a full-factorial design (allowed: {low, "
+                        "high, levels = N}, a list or a {start, stop, step} range (not with "
+                        "study optimize), or study.design = latin-hypercube / sobol with "
+                        "study.n_samples)",
                     )
         _check_design_size(st, params, seeds)
     return params, csv_rows

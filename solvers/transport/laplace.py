@@ -221,7 +221,8 @@ def solve_laplace(
                 bc,
                 grad,
                 t0,
-                f"blocked: no conducting path from inlet to outlet along axis {axis}; flux is zero",
+                f"blocked: no conducting path from inlet to outlet along {'xyz'[axis]}; flux is "
+                "zero",
             )
         sigma[~span] = 0.0
     c = np.empty((3, *shape), np.float32)
@@ -237,7 +238,7 @@ def solve_laplace(
                 bc,
                 grad,
                 t0,
-                f"blocked: a plane normal to axis {axis} has no conducting face; flux is zero",
+                f"blocked: a plane normal to {'xyz'[axis]} has no conducting face; flux is zero",
             )
     x, its, res, conv, hist = _pcg(d, c, rhs, fixed, tol, max_iter, progress)
     planes, mean = _fluxes(x, c, sigma, axis, fixed)
@@ -252,7 +253,7 @@ def solve_laplace(
             bc,
             grad,
             t0,
-            f"blocked: no periodic conducting path along axis {axis}; flux is zero",
+            f"blocked: no periodic conducting path along {'xyz'[axis]}; flux is zero",
         )
     return LaplaceResult(
         potential=x,

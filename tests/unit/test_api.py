@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import re
 import subprocess
 import sys
@@ -110,6 +111,39 @@ def test_unguarded_script_fails_with_one_line(tmp_path) -> None:
     assert proc.returncode != 0
     assert 'if __name__ == "__main__":' in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_script_read_from_stdin_is_refused_worker_processes(tmp_path) -> None:
+    """Session 50 (walk): ``python - < script.py`` (a heredoc) calling ``run_study(...,
+    workers=1)``: spawned workers re-import the main script by its path, ``<stdin>``, which is
+    no file, so every case died as "worker process died while running this case (crash or out
+    of memory)" and the run exited 0 with a results.csv of failed cases. Now one line naming
+    ``workers`` before any folder is made; ``workers=0`` runs the cases in the process."""
+    from study_cases import FACTORIAL, write_study
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.8]')
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(tests)  # this tree's psdesign, not an installed one
+    script = (
+        f"import sys; sys.path[:0] = [{root!r}, {tests!r}]\n"
+        "import psdesign\n"
+        f"df = psdesign.run_study({str(p)!r}, {str(tmp_path / 'o')!r}, workers=1, "
+        "case_fn='study_cases:fake_case', progress=False)\n"
+        "print(sorted(df['status']))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-"], input=script, capture_output=True, text=True, cwd=tmp_path
+    )
+    assert proc.returncode != 0, proc.stdout
+    last = proc.stderr.strip().splitlines()[-1]
+    assert "StudyError: workers: worker processes re-import the main script" in last, last
+    assert "(allowed: workers=0, or the script run from a file)" in last
+    assert not (tmp_path / "o").exists()
+    script = script.replace("workers=1", "workers=0")
+    proc = subprocess.run(
+        [sys.executable, "-"], input=script, capture_output=True, text=True, cwd=tmp_path
+    )
+    assert proc.returncode == 0 and "['ok', 'ok', 'ok', 'ok']" in proc.stdout, proc.stderr
 
 
 def test_permeability_result_html_marks_a_status_that_is_not_ok() -> None:
@@ -1443,3 +1477,29 @@ def test_optimize_refuses_a_parameter_of_levels_as_a_study_error(
     assert main(argv) == 2
     assert capsys.readouterr().err == f"psdesign: error: {line}\n"
     assert not (tmp_path / "o").exists()
+
+
+def test_optimize_of_bounds_without_levels_is_told_every_way_out(tmp_path, capsys) -> None:
+    """Session 50 (walk): a study file written as ``study optimize --help`` said ("every
+    parameter a {low, high} range") in the default full-factorial design was refused by the
+    study loader with "(or give a list/range)", which optimize then refuses too. The line
+    lists what a full-factorial design takes and the sampled designs, says lists and ranges
+    are not for optimize, and the help names the levels a full-factorial design needs."""
+    from study_cases import fake_case, write_study
+
+    from psdesign.analysis.optimize import optimize_study
+    from psdesign.analysis.targets import Target
+    from psdesign.cli import main
+
+    p = write_study(
+        tmp_path, 'name = "o"\nseeds = [1]\n', '"generator.porosity" = {low = 0.7, high = 0.8}\n'
+    )
+    with pytest.raises(psdesign.SpecError) as info:
+        optimize_study(p, tmp_path / "o", [Target.parse("k_z_m2=5e-12")], case_fn=fake_case)
+    text = str(info.value)
+    assert text.startswith("parameters.generator.porosity: bounds need levels = N"), text
+    assert "study.design = latin-hypercube / sobol" in text and "not with study optimize" in text
+    assert "\n" not in text and not (tmp_path / "o").exists()
+    with pytest.raises(SystemExit):
+        main(["study", "optimize", "--help"])
+    assert "levels = N in a full-factorial design" in " ".join(capsys.readouterr().out.split())

@@ -379,6 +379,12 @@ def test_a_tiff_with_other_x_and_y_pixel_sizes_is_refused(tmp_path):
         psdesign.from_image(tmp_path / "s.tif")
     assert info.value.key == "image.voxel_size"
     assert "not cubic (x 5e-07 m, y 1e-06 m, z 5e-07 m)" in info.value.message
+    # the allowed range, as every refusal's line gives it (session 50's walk: none; a
+    # voxel_size given beside such a file is refused the same way)
+    assert info.value.message.endswith("(allowed: cubic voxels, x = y = z to 1 part in 1e6)")
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "s.tif", voxel_size=5e-7)
+    assert info.value.message.endswith("(allowed: cubic voxels, x = y = z to 1 part in 1e6)")
 
 
 def test_vti_extent_from_the_header_and_a_vector_array_named(tmp_path, monkeypatch):
@@ -425,3 +431,21 @@ def test_out_of_memory_while_reading_an_image_names_image_path(monkeypatch):
         spec_mod.validate_document({"image": {"path": "scan.tif"}})
     assert info.value.key == "image.path" and "image.crop" in info.value.message
     assert "nested" not in info.value.message
+
+
+def test_a_flat_array_and_a_raw_file_of_another_size_give_the_allowed_range(tmp_path):
+    """Session 50 (walk): a 2-D .npy ("image.path: expected a 3-D image, got shape [16, 16]")
+    and a raw file whose bytes are not shape x dtype ended without "(allowed: ...)", the tail
+    of every other refusal's line."""
+    np.save(tmp_path / "flat.npy", np.zeros((16, 16), np.uint8))
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "flat.npy", voxel_size=1e-6)
+    assert info.value.key == "image.path"
+    assert info.value.message.endswith("(allowed: a 3-D image, at least 4 voxels per axis)")
+    np.zeros(1000, np.uint8).tofile(tmp_path / "x.raw")
+    with pytest.raises(SpecError) as info:
+        psdesign.from_image(tmp_path / "x.raw", voxel_size=1e-6, shape=[10, 10, 11])
+    assert info.value.key == "image.shape"
+    assert info.value.message.endswith(
+        "(allowed: [nx, ny, nz] with nx ny nz x 1 bytes = the file's 1000 bytes)"
+    ), info.value.message

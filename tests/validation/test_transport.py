@@ -80,6 +80,8 @@ def test_blocked_direction_is_zero_with_message(bc):
     assert res.blocked and res.relative_diffusivity == 0.0
     assert res.tortuosity_factor is None
     assert "blocked" in res.message
+    # the axis by its name, as the printed line says it (session 50's walk: "axis 1")
+    assert ("normal to y" if bc == "periodic" else "along y") in res.message, res.message
     assert np.isfinite(res.effective_diffusivity_m2_s)
 
 
