@@ -879,9 +879,12 @@ a face of diagonal 26, is 1e-4; 1e-3 and 1e-5 gave the same iteration count at 4
 def _share_coarse_work(mgs: list[mg.ScalarMG]) -> None:
     """Let the V-cycles of the three components (run one after the other) share the work
     arrays ``x, t, b`` of their coarse levels where the shapes agree (about 3.4 B per fine
-    cell saved; the coarse operators stay per component; :meth:`ScalarMG.share_coarse_work`)."""
+    cell saved; the coarse operators stay per component)."""
+    first = mgs[0].levels[1:]
     for other in mgs[1:]:
-        other.share_coarse_work(mgs[0])
+        for lev, lev0 in zip(other.levels[1:], first, strict=False):
+            if lev.d.shape == lev0.d.shape:
+                lev.x, lev.t, lev.b = lev0.x, lev0.t, lev0.b
 
 
 class _Stokes:

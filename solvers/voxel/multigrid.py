@@ -16,10 +16,7 @@ symmetric V-cycle per component:
   ``pre = 1`` the dot takes a pass of its own);
 * the coarse correction is over-weighted by ``alpha`` (piecewise-constant aggregation makes the
   coarse operator about twice too stiff for smooth modes; cf. Braess 1995, Notay's AGMG);
-* the coarsest level (<= ``max_coarse`` unknowns) is solved by its dense inverse (formed from a
-  sparse LU at set-up);
-* the one-thread levels from level 2 down run as one compiled call
-  (:mod:`solvers.voxel.coarse_cycle`: the same kernels, one dispatch instead of ~25).
+* the coarsest level (<= ``max_coarse`` unknowns) is solved by a sparse LU.
 
 The V-cycle is a fixed symmetric positive definite operator, as MINRES requires.
 """
@@ -34,8 +31,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from solvers.voxel import kernels as kr
-from solvers.voxel.coarse_cycle import CoarsePack, dense_solve
-from solvers.voxel.threads import PARALLEL_MIN_CELLS, level_threads
+from solvers.voxel.threads import level_threads
 
 
 def component_operator(fluid: np.ndarray, a: int) -> tuple[np.ndarray, np.ndarray]:
@@ -179,52 +175,14 @@ class ScalarMG:
                 lev.x = np.zeros(lev.d.shape, np.float32)
                 lev.t = np.zeros(lev.d.shape, np.float32)
             lev.b = np.zeros(lev.d.shape, np.float32) if li > 0 else np.zeros(0)
-        self._inverse = self._dense_inverse(self.levels[-1])
-        self.tail = self._tail_start()
-        self.pack: CoarsePack | None = None
-        if self.tail < len(self.levels):
-            self.pack = CoarsePack(self.levels[self.tail :], self._inverse)
-            self._bind_tail()
-        self._threads: dict[int, list[int]] = {}
-
-    def _tail_start(self) -> int:
-        """First level of the compiled coarse cycle (:mod:`solvers.voxel.coarse_cycle`): the
-        first below :data:`~solvers.voxel.threads.PARALLEL_MIN_CELLS` cells (one thread for any
-        thread count) from level 2 on (its float32 copies of the operators cost at most 16 B
-        per 64 fine cells: ``solvers.voxel.memory``'s budget of the coarse levels holds), or
-        ``len(levels)`` (no compiled cycle) for a one- or two-level hierarchy."""
-        nlev = len(self.levels)
-        for li in range(2, nlev):
-            if self.levels[li].d.size < PARALLEL_MIN_CELLS:
-                return li
-        return nlev
-
-    def _bind_tail(self) -> None:
-        """The packed levels' ``x, b, t``: views of :attr:`pack`'s buffers."""
-        for li in range(self.tail, len(self.levels)):
-            lev = self.levels[li]
-            lev.x, lev.b, lev.t = self.pack.views(li - self.tail)
-
-    def share_coarse_work(self, other: ScalarMG) -> None:
-        """Use ``other``'s coarse work arrays ``x, t, b`` (its V-cycles run at other times)
-        on every coarse level whose shape agrees (the packed levels' buffers as a whole when
-        all their shapes agree)."""
-        for lev, lev0 in zip(self.levels[1 : self.tail], other.levels[1:], strict=False):
-            if lev.d.shape == lev0.d.shape:
-                lev.x, lev.t, lev.b = lev0.x, lev0.t, lev0.b
-        mine, theirs = self.pack, other.pack
-        if mine is not None and theirs is not None and mine.same_layout(theirs):
-            mine.x, mine.b, mine.t = theirs.x, theirs.b, theirs.t
-            self._bind_tail()
+        self._coarse_solve = self._factor(self.levels[-1])
 
     @staticmethod
-    def _dense_inverse(lev: Level) -> np.ndarray:
-        """The coarsest operator's inverse (float64, <= ``max_coarse`` squared entries; rows of
-        inactive unknowns zero: their value stays 0) from its sparse LU, column by column: a
-        matrix-vector product per V-cycle instead of SuperLU's solve and its copies."""
+    def _factor(lev: Level):
         d = lev.d.astype(np.float64)
+        shp = d.shape
         n = d.size
-        idx = np.arange(n).reshape(d.shape)
+        idx = np.arange(n).reshape(shp)
         rows = [np.arange(n)]
         cols = [np.arange(n)]
         vals = [np.where(d.ravel() > 0, d.ravel(), 1.0)]
@@ -238,14 +196,16 @@ class ScalarMG:
         mat = sp.csr_matrix(
             (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)
         )
+        active = d.ravel() > 0
         lu = spla.splu(mat.tocsc())  # SuperLU: no BLAS threads (they spin on a busy machine)
-        inv = lu.solve(np.eye(n))
-        inv[d.ravel() <= 0, :] = 0.0
-        return np.ascontiguousarray(inv)
+        lin = lu.solve
 
-    def _coarse_solve(self, b: np.ndarray, x: np.ndarray) -> None:
-        """``x = A_c^-1 b`` on the coarsest level (:meth:`_dense_inverse`)."""
-        dense_solve(self._inverse, np.ascontiguousarray(b).reshape(-1), x.reshape(-1))
+        def solve(b: np.ndarray, x: np.ndarray) -> None:
+            sol = lin(b.ravel().astype(np.float64))
+            sol[~active] = 0.0
+            x[...] = sol.reshape(shp)
+
+        return solve
 
     def _pre_smooth(self, lev: Level, nthr: int) -> None:
         """``pre`` damped Jacobi sweeps from zero on ``lev.x`` (the first two in one pass), on
@@ -301,12 +261,9 @@ class ScalarMG:
         if self._fine_work is not None:
             self._fine_arrays(out)
         nlev = len(levels)
-        nthr = self._threads.get(avail)
-        if nthr is None:
-            nthr = self._threads[avail] = [level_threads(lev.d.size, avail) for lev in levels]
-        top = min(self.tail, nlev - 1)  # levels above the compiled coarse cycle
+        nthr = [level_threads(lev.d.size, avail) for lev in levels]
         cur = avail  # numba.set_num_threads only where the count changes (it takes a lock)
-        for li in range(top):
+        for li in range(nlev - 1):
             lev = levels[li]
             if nthr[li] != cur:
                 cur = nthr[li]
@@ -315,12 +272,9 @@ class ScalarMG:
             _kernel(kr.residual_restrict, nthr[li])(
                 lev.d, *lev.c, lev.x, lev.b, *lev.f, levels[li + 1].b
             )
-        if self.pack is not None:  # one thread, one call: no thread count to set
-            self.pack.run(self.pre, self.omega, self.alpha)
-        else:
-            self._coarse_solve(levels[-1].b, levels[-1].x)
+        self._coarse_solve(levels[-1].b, levels[-1].x)
         dot = 0.0
-        for li in range(top - 1, -1, -1):
+        for li in range(nlev - 2, -1, -1):
             lev = levels[li]
             if nthr[li] != cur:
                 cur = nthr[li]
