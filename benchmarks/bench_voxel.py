@@ -692,8 +692,9 @@ def paired_batches(run, its: int, batches: int) -> list[tuple[float, ...]]:
     ``run(k)`` must set up its right-hand side outside its timed part (:func:`_krylov_batch`):
     a run's start (the preconditioner of the right-hand side, clearing the direction) and its
     end (the move to the CG point) are one pass each per run, not per iteration; in batches of
-    20 they added ~4 ms per iteration at 200^3 (a solve's runs are ~180 iterations long), the
-    marginal time leaves them out (session 50)."""
+    20 they add about (65 + 22) / 20 ms per iteration at 200^3 idle (8-14 ms measured at load 6,
+    session 50), where a solve's runs are ~180 iterations long; the marginal time leaves them
+    out."""
     out = []
     for _ in range(batches):
         tb = triad_bandwidth(reps=3)
