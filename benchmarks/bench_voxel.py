@@ -508,9 +508,10 @@ def iteration_breakdown(op, rhs, e, work, bw: float, its: int) -> None:
     log.wrap(lz, ("stokes_lanczos", "add_scaled", "symmlq_step"))
     log.wrap(schur, ("block_sum", "pressure_block_code"))
     log.wrap(cf, ("stokes_lanczos_cut",))
+    b = rhs.copy()  # outside the timing (its fresh pages, session 50)
     try:
         t0 = time.perf_counter()
-        vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its)
+        vs.krylov_run(op, b, e, work, 1e-30, its)
         wall = (time.perf_counter() - t0) / its * 1e3
     finally:
         log.restore()
@@ -541,12 +542,19 @@ def _print_iteration_summary(
         f"= {need / 1e9:.2f} GB: ideal {ideal:.1f} ms at it"
     )
     print("  each batch of iterations against the triad measured just before and after it:")
-    for (w, c, tb, ta), ratio in zip(paired, ratios, strict=True):
+    for (w, c, tb, ta, m), ratio in zip(paired, ratios, strict=True):
         print(
             f"    {w:6.1f} ms (CPU {c:6.1f}), triad {tb / 1e9:4.1f} / {ta / 1e9:4.1f} GB/s: "
             f"{ratio:.2f} x ideal at the higher, "
-            f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower"
+            f"{w / (need / min(tb, ta) * 1e3):.2f} x at the lower; marginal {m:6.1f} ms = "
+            f"{m / (need / max(tb, ta) * 1e3):.2f} x"
         )
+    marg = [m / (need / max(tb, ta) * 1e3) for _w, _c, tb, ta, m in paired]
+    print(
+        f"  marginal iteration (the run's start and end left out): best "
+        f"{min(p[4] for p in paired):.1f} ms = {min(marg):.2f} x, median ratio "
+        f"{float(np.median(marg)):.2f} x"
+    )
     print(
         f"  best batch {meas:.1f} ms = {ratios[best]:.2f} x its ideal; median batch ratio "
         f"{float(np.median(ratios)):.2f} x, worst {max(ratios):.2f} x",
@@ -623,12 +631,10 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         work, e = later_cycle_state(op, rhs)
         need = iteration_bytes(op, lo_bytes=e.lo.itemsize, w_bytes=3 if work.wm.size else 4)
         with kernel_log() as klog:
-            paired = paired_batches(
-                lambda: vs.krylov_run(op, rhs.copy(), e, work, 1e-30, its), its, batches
-            )
+            paired = paired_batches(_krylov_batch(op, rhs, e, work), its, batches)
         if klog.fallback:  # a timed kernel on one thread would be timed under the name of two
             print(f"  WARNING: on one thread (parallel twin not compiled): {sorted(klog.fallback)}")
-        ratios = [w / (need / max(tb, ta) * 1e3) for w, _c, tb, ta in paired]
+        ratios = [w / (need / max(tb, ta) * 1e3) for w, _c, tb, ta, _m in paired]
         best = int(np.argmin(ratios))
         rows["one MINRES iteration"] = paired[best][0]
         rows["one MINRES iteration, median of the batches"] = float(
@@ -666,27 +672,56 @@ def kernels(n: int, reps: int = 5, subvoxel: bool = False, batches: int = 6) -> 
         "iteration_median_ms": med,
         "ratio_median": float(np.median(ratios)),
         "ratio_worst": max(ratios),
+        "marginal_ms": min(p[4] for p in paired),
+        "ratio_marginal_median": float(
+            np.median([r * p[4] / p[0] for r, p in zip(ratios, paired, strict=True)])
+        ),
         "triad_before": bw_before,
         "triad_after": bw_after,
     }
 
 
-def paired_batches(run, its: int, batches: int) -> list[tuple[float, float, float, float]]:
-    """Time ``batches`` calls of ``run`` (``its`` Krylov iterations each), each between two triad
-    measurements (best of 3): per batch the wall and CPU ms per iteration and the triad before
-    and after it (B/s).  The host's bandwidth moves between two levels from minute to minute
-    (37-39 or 57-64 GB/s on this VM, under every wait policy, session 26), so a batch is only
-    compared with the bandwidth measured beside it."""
+def paired_batches(run, its: int, batches: int) -> list[tuple[float, ...]]:
+    """Time ``batches`` calls of ``run(its)`` (``its`` Krylov iterations each), each between two
+    triad measurements (best of 3): per batch the wall and CPU ms per iteration, the triad
+    before and after it (B/s) and the marginal wall ms of one iteration, ``(T(its) - T(1)) /
+    (its - 1)`` with ``T(1)`` timed right after it.  The host's bandwidth moves between two
+    levels from minute to minute (37-39 or 57-64 GB/s on this VM, under every wait policy,
+    session 26), so a batch is only compared with the bandwidth measured beside it.
+
+    ``run(k)`` must set up its right-hand side outside its timed part (:func:`_krylov_batch`):
+    a run's start (the preconditioner of the right-hand side, clearing the direction) and its
+    end (the move to the CG point) are one pass each per run, not per iteration; in batches of
+    20 they add about (65 + 22) / 20 ms per iteration at 200^3 idle (8-14 ms measured at load 6,
+    session 50), where a solve's runs are ~180 iterations long; the marginal time leaves them
+    out."""
     out = []
     for _ in range(batches):
         tb = triad_bandwidth(reps=3)
+        wall, cpu = run(its)
+        one, _ = run(1)
+        marginal = (wall - one) / (its - 1) * 1e3
+        out.append((wall / its * 1e3, cpu / its * 1e3, tb, triad_bandwidth(reps=3), marginal))
+    return out
+
+
+def _krylov_batch(op, rhs: np.ndarray, e, work):
+    """``run(k)`` for :func:`paired_batches`: ``k`` Krylov iterations from ``rhs`` on ``op``,
+    returning their wall and CPU seconds; the right-hand side is copied into a buffer kept
+    between runs before the clock starts (a fresh ``rhs.copy()`` inside the timing faulted in
+    128 MB of new pages at 200^3 every batch, up to 0.5 s on a busy host, session 50)."""
+    from solvers import voxel_stokes as vs
+
+    buf = np.empty_like(rhs)
+
+    def run(k: int) -> tuple[float, float]:
+        np.copyto(buf, rhs)
         t0 = time.perf_counter()
         c0 = time.process_time()
-        run()
-        wall = (time.perf_counter() - t0) / its * 1e3
-        cpu = (time.process_time() - c0) / its * 1e3
-        out.append((wall, cpu, tb, triad_bandwidth(reps=3)))
-    return out
+        vs.krylov_run(op, buf, e, work, 1e-30, k)
+        return time.perf_counter() - t0, time.process_time() - c0
+
+    return run
 
 
 THREAD_MODES = {
