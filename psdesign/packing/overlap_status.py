@@ -183,6 +183,34 @@ LENS_DEPTH_TOLERANCE = 1e-9
 LENS_MIDPOINT_GRID = 1e-9
 
 
+def on_grid_axis(direction: np.ndarray) -> np.ndarray:
+    """Whether each unit direction (rows, shape (m, 3)) runs along a grid axis: its largest
+    component within :data:`LENS_MIDPOINT_GRID` of 1 (a tilt under ~4.5e-5 rad, whose next
+    lattice copy lies ``1 / cos - 1`` < 1e-9 periods off a period).
+
+    >>> d = np.array([[0.0, 0.0, -1.0], [1e-6, 0.0, 1.0], [1e-4, 0.0, 1.0]])
+    >>> on_grid_axis(d / np.linalg.norm(d, axis=1)[:, None]).tolist()
+    [True, True, False]
+    """
+    return np.max(np.abs(direction), axis=1) > 1.0 - LENS_MIDPOINT_GRID
+
+
+def parallel_off_axes(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Whether two fibers' unit directions (rows of ``first`` and ``second``, shape (m, 3)) are
+    parallel (``|d_i x d_j| <`` :data:`LENS_MIDPOINT_GRID`) and off the grid axes (not
+    :func:`on_grid_axis`): the one rule of a tilted lens family for :func:`_lens_labels`,
+    :func:`_tilted_parallel` and :func:`_lens_window` (until session 50 each had its own:
+    ``1 -`` the largest component over 1e-9, over 0, and ``!= 1.0`` exactly, so a tilt of
+    1e-6 was along an axis to the labels, a family to the loose volume and windowed as a tilt).
+
+    >>> d = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.6, 0.0, 0.8]])
+    >>> parallel_off_axes(d, d[[0, 1, 0]]).tolist()
+    [False, True, False]
+    """
+    cross = np.linalg.norm(np.cross(first, second), axis=1)
+    return (cross < LENS_MIDPOINT_GRID) & ~on_grid_axis(first)
+
+
 def rated_analytic_omega(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> dict[str, object]:
     """:func:`psdesign.packing.genetic.analytic_omega` of ``st`` with its error bar and status:
     ``{"value", "error", "status"}`` (fractions of the box), what ``generate``'s report and the
@@ -297,9 +325,9 @@ def _lens_labels(
     width = np.minimum(st.diameter[c.i], st.diameter[c.j])
     sin_a = np.linalg.norm(np.cross(c.di, c.dj), axis=1)
     ax = np.argmax(np.abs(c.di), axis=1)
-    along = (sin_a < width) & (np.abs(c.di[np.arange(len(ax)), ax]) > 1.0 - LENS_MIDPOINT_GRID)
+    along = (sin_a < width) & on_grid_axis(c.di)
     straight = (st.u[c.i] == 0.0) & (st.u[c.j] == 0.0)
-    family = straight & (sin_a < LENS_MIDPOINT_GRID) & ~along
+    family = straight & parallel_off_axes(c.di, c.dj)
     # parallel pieces tie: a family's midpoint slides along the axis, to the box's first face
     rows, a = np.flatnonzero(family), ax[family]
     mid[rows] -= ((mid[rows, a] - lo[a]) / c.di[rows, a])[:, None] * c.di[rows]
@@ -476,9 +504,7 @@ def _pairs_alone_errors(
 def _tilted_parallel(lenses: Lenses) -> np.ndarray:
     """Lenses between two parallel fibers off the grid axes (a lens family,
     :func:`_lens_labels`)."""
-    d = lenses.direction
-    parallel = np.linalg.norm(np.cross(d[:, 0], d[:, 1]), axis=1) < LENS_MIDPOINT_GRID
-    return parallel & (np.max(np.abs(d[:, 0]), axis=1) < 1.0)
+    return parallel_off_axes(lenses.direction[:, 0], lenses.direction[:, 1])
 
 
 #: Voxels up to which :func:`_whole_box_error` voxelizes a congruent lens's pair alone in the
@@ -588,7 +614,8 @@ def _lens_window(
     (:func:`_lens_labels`), which lies ``1 / cos - 1`` periods off a period: the window widens
     by that many voxels on both sides (session 49 review: required under half a voxel, a
     4 x 4 array tilted 10 voxels over 64^3 went unmeasured). None when a fiber does not run
-    exactly along a grid axis and is not such a parallel pair, a parallel pair sits in a box
+    along a grid axis (:func:`on_grid_axis`) and is not such a parallel pair
+    (:func:`parallel_off_axes`), a parallel pair sits in a box
     over a period across its axis (several copies of the family, a window holds one: a
     2-period box read half of it; :func:`_loose_volume` measures such a family with each pair
     alone, or weighs it), the window is wider than the grid, or a radius and the pad
@@ -607,7 +634,7 @@ def _lens_window(
     # from a period off, so the window widens by that many voxels on both sides (session 49
     # review: required under half a voxel, a 4 x 4 array tilted 10 voxels over 64^3 had no
     # window, its lenses unmeasured, ``ok`` at 1.31x the bar)
-    tilted = ax[0] == ax[1] and np.linalg.norm(np.cross(d[0], d[1])) < LENS_MIDPOINT_GRID
+    tilted = bool(parallel_off_axes(d[:1], d[1:])[0])
     extra = int(np.ceil((1.0 / along[0] - 1.0) * period / float(np.min(spacing)))) if tilted else 0
     across = np.arange(3) != ax[0]
     # a box over a period across the axis holds several copies of the family, a window one;
@@ -616,7 +643,7 @@ def _lens_window(
     # tilted (tx, ty, 1), one ``ok`` right by chance): only a single-axis tilt is windowed
     tilted &= bool(np.all(shape[across] * spacing[across] <= period * (1.0 + 1e-9)))
     tilted &= int(np.count_nonzero(d[0, across])) == 1
-    if not (np.all(along == 1.0) or tilted) or radius.max() + pad >= 0.5 * period:
+    if not (np.all(on_grid_axis(d)) or tilted) or radius.max() + pad >= 0.5 * period:
         return None
     lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
     for s in (0, 1):
