@@ -136,18 +136,19 @@ def overlap_lenses(rve: RVE) -> Lenses | None:
     lo, hi = rve.box_normalized
     c = find_contacts(st, lo, hi, 0.0)
     depth = _lens_depth(round_fibers, c)
-    label, family, copies = _lens_labels(c, st, lo, hi)
+    label, family = _lens_labels(c, st, lo, hi)
     k = (depth > LENS_DEPTH_TOLERANCE) & _first_of_each(label)
     ri, rj = 0.5 * st.diameter[c.i[k]], 0.5 * st.diameter[c.j[k]]
     sin_a = np.linalg.norm(np.cross(c.di[k], c.dj[k]), axis=1)
     ax = np.argmax(np.abs(c.di[k]), axis=1)
     along = np.abs(c.di[k][np.arange(len(ax)), ax])
     # a parallel lens runs the box's whole length (a box of 2 periods holds 2 periods of it);
-    # a family of lattice copies (parallel fibers off the grid axes) the length of its copies'
-    # centre lines inside the box
+    # a family of lattice copies (parallel fibers off the grid axes) the mean length inside the
+    # box of the lattice lines through its lens (_family_length)
     length = (hi - lo)[ax] / np.maximum(along, 1e-12)
-    inside = np.bincount(label, weights=_length_in_box(c, lo, hi) * copies)[label[k]]
-    length = np.where(family[k], inside, length)
+    rows = np.flatnonzero(k)[family[k]]
+    dist = (ri + rj - depth[k])[family[k]]
+    length[family[k]] = _family_length(round_fibers, c, rows, dist, lo, hi)
     # the lens of the nominal circles at the depth the fields show (rods: less)
     volume = _lens_volume(ri + rj - depth[k], ri, rj, sin_a, length)
     period = float(rve.period)
@@ -181,6 +182,34 @@ LENS_DEPTH_TOLERANCE = 1e-9
 #: the crossing formula's lens capped at the circle lens along the box, an over-count that
 #: errs toward ``untrustworthy``.
 LENS_MIDPOINT_GRID = 1e-9
+
+
+def on_grid_axis(direction: np.ndarray) -> np.ndarray:
+    """Whether each unit direction (rows, shape (m, 3)) runs along a grid axis: its largest
+    component within :data:`LENS_MIDPOINT_GRID` of 1 (a tilt under ~4.5e-5 rad, whose next
+    lattice copy lies ``1 / cos - 1`` < 1e-9 periods off a period).
+
+    >>> d = np.array([[0.0, 0.0, -1.0], [1e-6, 0.0, 1.0], [1e-4, 0.0, 1.0]])
+    >>> on_grid_axis(d / np.linalg.norm(d, axis=1)[:, None]).tolist()
+    [True, True, False]
+    """
+    return np.max(np.abs(direction), axis=1) > 1.0 - LENS_MIDPOINT_GRID
+
+
+def parallel_off_axes(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Whether two fibers' unit directions (rows of ``first`` and ``second``, shape (m, 3)) are
+    parallel (``|d_i x d_j| <`` :data:`LENS_MIDPOINT_GRID`) and off the grid axes (not
+    :func:`on_grid_axis`): the one rule of a tilted lens family for :func:`_lens_labels`,
+    :func:`_tilted_parallel` and :func:`_lens_window` (until session 50 each had its own:
+    ``1 -`` the largest component over 1e-9, over 0, and ``!= 1.0`` exactly, so a tilt of
+    1e-6 was along an axis to the labels, a family to the loose volume and windowed as a tilt).
+
+    >>> d = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.6, 0.0, 0.8]])
+    >>> parallel_off_axes(d, d[[0, 1, 0]]).tolist()
+    [False, True, False]
+    """
+    cross = np.linalg.norm(np.cross(first, second), axis=1)
+    return (cross < LENS_MIDPOINT_GRID) & ~on_grid_axis(first)
 
 
 def rated_analytic_omega(st: FiberState, lo: np.ndarray, hi: np.ndarray) -> dict[str, object]:
@@ -269,10 +298,9 @@ def _first_of_each(label: np.ndarray) -> np.ndarray:
 
 def _lens_labels(
     c: Contacts, st: FiberState, lo: np.ndarray, hi: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A label per contact, shared by the contacts that see one lens; a mask of the contacts
-    that see a lens family (below); a mask keeping one contact per copy of the pair modulo the
-    period (a family's copies, whose lengths add).
+) -> tuple[np.ndarray, np.ndarray]:
+    """A label per contact, shared by the contacts that see one lens, and a mask of the
+    contacts that see a lens family (below).
 
     :func:`psdesign.packing.fiberset.find_contacts` sees a lens near a box face once per
     periodic copy of the pair (twice at a face, four times at a corner where both fibers run
@@ -287,22 +315,19 @@ def _lens_labels(
     through one face and leaves through another, the next copy (a lattice step on, not a
     period) taking over, at a midpoint elsewhere along the axis. Their copies are one lens
     family, labelled by the vector between the two centre lines (the same for every copy),
-    whose volume is the lens area times the length of its copies' centre lines inside the
-    box (:func:`overlap_lenses`; session 48 review: counted per copy, a 4 x 4 array of
+    whose volume is the lens area times the mean summed length inside the box of the lattice
+    lines through it (:func:`_family_length`; session 48 review: counted per copy, a 4 x 4 array of
     cylinders tilted 0.2-0.9 voxel over the box read 1.16-1.41x its lens volume and loose
     volumes 16-30x the bar)."""
     if len(c.i) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0, bool)
+        return np.zeros(0, np.int64), np.zeros(0, bool)
     period, mid = hi - lo, 0.5 * (c.pi + c.pj)
     width = np.minimum(st.diameter[c.i], st.diameter[c.j])
     sin_a = np.linalg.norm(np.cross(c.di, c.dj), axis=1)
     ax = np.argmax(np.abs(c.di), axis=1)
-    along = (sin_a < width) & (np.abs(c.di[np.arange(len(ax)), ax]) > 1.0 - LENS_MIDPOINT_GRID)
+    along = (sin_a < width) & on_grid_axis(c.di)
     straight = (st.u[c.i] == 0.0) & (st.u[c.j] == 0.0)
-    family = straight & (sin_a < LENS_MIDPOINT_GRID) & ~along
-    # parallel pieces tie: a family's midpoint slides along the axis, to the box's first face
-    rows, a = np.flatnonzero(family), ax[family]
-    mid[rows] -= ((mid[rows, a] - lo[a]) / c.di[rows, a])[:, None] * c.di[rows]
+    family = straight & parallel_off_axes(c.di, c.dj)
     q = np.mod(mid - lo, period) / period
     q[along, ax[along]] = 0.0
     cell = np.round(q / LENS_MIDPOINT_GRID).astype(np.int64)
@@ -310,25 +335,53 @@ def _lens_labels(
     vector = np.where((c.i < c.j)[:, None], c.pj - c.pi, c.pi - c.pj)
     vector -= np.einsum("ij,ij->i", vector, c.di)[:, None] * c.di  # across the axis
     pair = np.column_stack([np.minimum(c.i, c.j), np.maximum(c.i, c.j), family])
-    copies = _first_of_each(
-        np.unique(np.column_stack([pair, cell]), axis=0, return_inverse=True)[1].ravel()
-    )
     cell[family] = np.round(vector[family] / LENS_MIDPOINT_GRID).astype(np.int64)
     label = np.unique(np.column_stack([pair, cell]), axis=0, return_inverse=True)[1].ravel()
-    return label, family, copies
+    return label, family
 
 
-def _length_in_box(c: Contacts, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Length (normalized) of each contact's lens centre line (through the midpoint of its
-    closest points, along the first fiber) inside the box ``[lo, hi]``. Along an axis the
-    line does not cross, the midpoint is taken modulo the period: a line on a face (a lens
-    centred there) lies in the box once, not on both faces or on neither."""
+#: Points per axis at which :func:`_family_length` samples a lens family's cross-section.
+FAMILY_SAMPLES = 48
+
+
+def _family_length(
+    fibers: list, c: Contacts, rows: np.ndarray, dist: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """The length (normalized) that a tilted lens family's cross-section area stands for: the
+    mean, over :data:`FAMILY_SAMPLES` ``^2`` points of the lens between the circles of the two
+    fibers of contact ``rows`` (axes ``dist`` apart, a row each), of the summed length inside
+    the box ``[lo, hi]`` of the lattice lines through the point (one per lattice copy). The
+    length of the copies' centre lines alone (session 49) differs where the lens crosses an
+    edge of the box: the copies' lines leave through different faces across it (session 50,
+    benchmarks/omega_audit.py: 4 x 4 arrays 18 voxels thick at 48^3 tilted on both axes read
+    their 56-64 lenses 1.1-6.5x the bar over the lattice-coordinate integral of ``C(c, 2)``,
+    and flagged 9 of 10 counts inside their bars)."""
+    from itertools import product
+
     from psdesign.packing.fiberset import _clip_lines
 
-    mid = 0.5 * (c.pi + c.pj)
-    mid = np.where(c.di == 0.0, lo + np.mod(mid - lo, hi - lo), mid)
-    s0, s1 = _clip_lines(mid, c.di, lo, hi)
-    return np.maximum(s1 - s0, 0.0)
+    g = (np.arange(FAMILY_SAMPLES) + 0.5) / FAMILY_SAMPLES
+    corners = np.array(list(product(*zip(lo, hi, strict=True))))
+    out = np.zeros(len(rows))
+    for n, (k, sep) in enumerate(zip(rows, dist, strict=True)):
+        e1, e2 = fibers[c.i[k]].lattice
+        d = np.cross(e1, e2)
+        ri, rj = 0.5 * fibers[c.i[k]].diameter, 0.5 * fibers[c.j[k]].diameter
+        w = c.pj[k] - c.pi[k]
+        w = w - (w @ d) * d
+        eu = w / np.linalg.norm(w) if np.linalg.norm(w) > 0.0 else e1
+        u, v = np.meshgrid(sep - rj + g * (ri + rj - sep), (2 * g - 1) * min(ri, rj))
+        keep = (u * u + v * v <= ri * ri) & ((u - sep) ** 2 + v * v <= rj * rj)
+        q = c.pi[k] + np.outer(u[keep], eu) + np.outer(v[keep], np.cross(d, eu))
+        span = [(corners @ e)[:, None] - (q @ e)[None] for e in (e1, e2)]
+        length = np.zeros(len(q))
+        for a, b in product(
+            *(range(int(np.floor(x.min())), int(np.ceil(x.max())) + 1) for x in span)
+        ):
+            s0, s1 = _clip_lines(q + a * e1 + b * e2, np.broadcast_to(d, q.shape), lo, hi)
+            length += np.maximum(s1 - s0, 0.0)
+        out[n] = length.mean() if len(q) else 0.0
+    return out
 
 
 #: Points on the segment between two centre lines' closest points where :func:`_lens_depth`
@@ -476,9 +529,7 @@ def _pairs_alone_errors(
 def _tilted_parallel(lenses: Lenses) -> np.ndarray:
     """Lenses between two parallel fibers off the grid axes (a lens family,
     :func:`_lens_labels`)."""
-    d = lenses.direction
-    parallel = np.linalg.norm(np.cross(d[:, 0], d[:, 1]), axis=1) < LENS_MIDPOINT_GRID
-    return parallel & (np.max(np.abs(d[:, 0]), axis=1) < 1.0)
+    return parallel_off_axes(lenses.direction[:, 0], lenses.direction[:, 1])
 
 
 #: Voxels up to which :func:`_whole_box_error` voxelizes a congruent lens's pair alone in the
@@ -588,7 +639,8 @@ def _lens_window(
     (:func:`_lens_labels`), which lies ``1 / cos - 1`` periods off a period: the window widens
     by that many voxels on both sides (session 49 review: required under half a voxel, a
     4 x 4 array tilted 10 voxels over 64^3 went unmeasured). None when a fiber does not run
-    exactly along a grid axis and is not such a parallel pair, a parallel pair sits in a box
+    along a grid axis (:func:`on_grid_axis`) and is not such a parallel pair
+    (:func:`parallel_off_axes`), a parallel pair sits in a box
     over a period across its axis (several copies of the family, a window holds one: a
     2-period box read half of it; :func:`_loose_volume` measures such a family with each pair
     alone, or weighs it), the window is wider than the grid, or a radius and the pad
@@ -607,7 +659,7 @@ def _lens_window(
     # from a period off, so the window widens by that many voxels on both sides (session 49
     # review: required under half a voxel, a 4 x 4 array tilted 10 voxels over 64^3 had no
     # window, its lenses unmeasured, ``ok`` at 1.31x the bar)
-    tilted = ax[0] == ax[1] and np.linalg.norm(np.cross(d[0], d[1])) < LENS_MIDPOINT_GRID
+    tilted = bool(parallel_off_axes(d[:1], d[1:])[0])
     extra = int(np.ceil((1.0 / along[0] - 1.0) * period / float(np.min(spacing)))) if tilted else 0
     across = np.arange(3) != ax[0]
     # a box over a period across the axis holds several copies of the family, a window one;
@@ -616,7 +668,7 @@ def _lens_window(
     # tilted (tx, ty, 1), one ``ok`` right by chance): only a single-axis tilt is windowed
     tilted &= bool(np.all(shape[across] * spacing[across] <= period * (1.0 + 1e-9)))
     tilted &= int(np.count_nonzero(d[0, across])) == 1
-    if not (np.all(along == 1.0) or tilted) or radius.max() + pad >= 0.5 * period:
+    if not (np.all(on_grid_axis(d)) or tilted) or radius.max() + pad >= 0.5 * period:
         return None
     lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
     for s in (0, 1):
