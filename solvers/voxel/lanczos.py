@@ -1010,13 +1010,14 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
         )  # fmt: skip
 
 
-@_SERIAL.slab(**_EXACT_OPTS)
+@_SERIAL.shared(**_EXACT_OPTS)
 def _symmlq_slab(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start, lmax, per, t):
     """Plane ``i`` of field ``a`` (``t = a nx + i``) of :func:`symmlq_step` (18 parameters: the
-    kernel's, the extension's bound ``lmax`` and rows per scale ``per``, and ``t``).  One
-    function for both twins (compiled over the serial helpers): four inlined copies of
-    :func:`_packed_row` in the parallel kernel's own body cost more to compile than the serial
-    twin (``benchmarks/RESULTS.md``, session 50)."""
+    kernel's, the extension's bound ``lmax`` and rows per scale ``per``, and ``t``).  Compiled
+    once over the serial helpers for the parallel twin, inlined in the serial twin
+    (:meth:`solvers.jit.SerialHelpers.shared`): four numba-inlined copies of :func:`_packed_row`
+    in the parallel kernel cost 2.5x the serial twin's compile (``benchmarks/RESULTS.md``,
+    session 50)."""
     nx, ny, nz = fluid.shape
     zc = np.empty(nz, np.float32)
     row = np.empty(nz, np.float32)
@@ -1050,5 +1051,3 @@ _SERIAL.seal(globals())
 # benchmarks/RESULTS.md, session 48).  The slab's leaves that take arrays run per row, plane or
 # block, not per entry, so the reference counts they may touch cost nothing measurable
 _lanczos_slab = _SERIAL.ns["_lanczos_slab"]
-# likewise :func:`symmlq_step`'s plane function: one compile per SYMMLQ storage for both twins
-_symmlq_slab = _SERIAL.ns["_symmlq_slab"]
