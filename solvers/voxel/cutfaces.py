@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from solvers.jit import SerialHelpers, parallel_kernel
+from solvers.jit import parallel_kernel
 from solvers.reduction import ordered_sum
 from solvers.voxel.kernels import _dn, _on, _stencil, _up
 from solvers.voxel.lanczos import _combine, _momentum_lanczos
@@ -42,12 +42,6 @@ _EXACT = {"cache": True, "nogil": True}
 """Options of the float64 residual: no ``fastmath``, under which LLVM narrowed the continuity
 rows' float64 arithmetic on float32 inputs to float32 (their cut-face terms then cancelled only
 to 4e-8, and the refinement cycles stalled near a relative residual of 1e-6)."""
-
-_SERIAL = SerialHelpers(**_OPTS)
-"""The Krylov product's slab compiled once, over the serial helpers (plain leaves, as
-:data:`solvers.voxel.lanczos._SERIAL`), for both twins of :func:`stokes_lanczos_cut`; the exact
-residual (:data:`_EXACT`, no ``fastmath``) keeps the module's inline helpers: a plain leaf
-carries the fast-math flags of :data:`_OPTS`."""
 
 DIAG_QUANTUM = 2.0**-15
 """Unit of the stored remainder ``diag - d8`` (int16; ``|diag - d8| <= 1/2``)."""
@@ -241,7 +235,7 @@ def finish(coos: list[_Coo], shape: tuple[int, int, int]) -> CutFaces:
     return CutFaces(start, k, dd, ww, shape)
 
 
-@_SERIAL.inline
+@nb.njit(inline="always")
 def _fix_momentum(qr, pr, plow, shift, st, kk, dd, ww, row, s, yr):
     """Cut-face corrections of one momentum row after :func:`_momentum_lanczos`: ``yr[k] += s
     ((diag - d8) q_k + (w - 1) (p_k - p_low))`` on the row's cut faces; returns the float64
@@ -260,7 +254,7 @@ def _fix_momentum(qr, pr, plow, shift, st, kk, dd, ww, row, s, yr):
     return acc
 
 
-@_SERIAL.inline
+@nb.njit(inline="always")
 def _fix_div(qr, st, kk, ww, row, sign, shift, fr, out):
     """Cut-face corrections of one continuity row: the faces of row ``row`` of a component
     (``qr`` its values) add ``sign (w - 1) q_f`` to the balance of the cell ``k + shift``
@@ -274,7 +268,7 @@ def _fix_div(qr, st, kk, ww, row, sign, shift, fr, out):
             out[kc] += sign * (_weight(ww[e]) - 1.0) * np.float64(qr[k])
 
 
-@parallel_kernel(helpers=_SERIAL, **_OPTS)
+@parallel_kernel(**_OPTS)
 def stokes_lanczos_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c1, y):
     """:func:`solvers.voxel.lanczos.stokes_lanczos` (``y <- s K x - c1 y`` in place, returns
     ``x . y_new``) for the sub-voxel matrix stored as ``d8`` plus the cut faces
@@ -288,7 +282,7 @@ def stokes_lanczos_cut(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c
     return ordered_sum(acc)
 
 
-@_SERIAL.inline
+@nb.njit(inline="always")
 def _plane(fluid, x, i):
     """``(ny, nz, u, v, w, p, i - 1, i + 1)`` of plane ``i`` (periodic): the preamble of the
     slab functions of :func:`stokes_lanczos_cut` and :func:`stokes_residual_cut`."""
@@ -296,7 +290,7 @@ def _plane(fluid, x, i):
     return ny, nz, x[0], x[1], x[2], x[3], _dn(i, nx), _up(i, nx)
 
 
-@_SERIAL.slab(**_OPTS)
+@nb.njit(**_OPTS)
 def _lanczos_cut_slab(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c1, y, i):
     """Plane ``i`` of :func:`stokes_lanczos_cut` (16 parameters: the kernel's and ``i``)."""
     ny, nz, u, v, w, p, im, ip = _plane(fluid, x, i)
@@ -323,7 +317,7 @@ def _lanczos_cut_slab(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, s, c1
     return s_y
 
 
-@_SERIAL.inline
+@nb.njit(inline="always")
 def _divergence_row(ur, uip, vr, vjp, wr, fr, out):
     """``out[k]`` = the unweighted ``sum_a q_a[I] - q_a[I + e_a]`` of the cells of one row
     (float64; 0 off the pressure cells ``fr``)."""
@@ -341,7 +335,7 @@ def _divergence_row(ur, uip, vr, vjp, wr, fr, out):
         out[k] = val * _on(fr[k])  # a multiply, not a select: kernels._on
 
 
-@_SERIAL.inline
+@nb.njit(inline="always")
 def _fix_rows(u, v, w, start, kk, ww, i, j, ip, jp, ny, fr, div):
     """The cut-face weights in the continuity row ``(i, j)``: lower faces ``u[i, j], v[i, j],
     w[i, j]``, upper faces ``u[ip, j], v[i, jp]`` and ``w[i, j, k + 1]``."""
@@ -433,11 +427,3 @@ def _residual_cut_slab(du, dv, dw, cu, cv, cw, fluid, start, kk, dd, ww, x, gdir
             out[k] = -val[k]
             s2 += val[k] * val[k]
     return s2, f2
-
-
-_SERIAL.seal(globals())
-
-# both twins of :func:`stokes_lanczos_cut` call the one slab compiled over the serial helpers, as
-# solvers.voxel.lanczos._lanczos_slab: numba inlined the leaves' IR at every call site of the
-# module's slab (12.5 s CPU of its compile; benchmarks/RESULTS.md, session 50)
-_lanczos_cut_slab = _SERIAL.ns["_lanczos_cut_slab"]
