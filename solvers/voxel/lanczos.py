@@ -1000,47 +1000,32 @@ def symmlq_step(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start
     more than float32 pairs can, are updated in float64 (:func:`_solution_row`).  Each float32
     operation is rounded once (:data:`_EXACT_OPTS`): the values are those of the same
     expressions in numpy float32, on any thread count."""
-    nx, ny = fluid.shape[0], fluid.shape[1]
+    nx, ny, nz = fluid.shape
     lmax = _lo_max(xl)
     per = (4 * nx * ny) // xs.shape[0]  # the solution's scales: per field or per row
     for t in nb.prange(4 * nx):
-        _symmlq_slab(
-            z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start, lmax, per,
-            np.int64(t),
-        )  # fmt: skip
-
-
-@_SERIAL.shared(**_EXACT_OPTS)
-def _symmlq_slab(z, s, wt, wm, cs, sn, xh, xl, xs, zeta, du, dv, dw, fluid, start, lmax, per, t):
-    """Plane ``i`` of field ``a`` (``t = a nx + i``) of :func:`symmlq_step` (18 parameters: the
-    kernel's, the extension's bound ``lmax`` and rows per scale ``per``, and ``t``).  Compiled
-    once over the serial helpers for the parallel twin, inlined in the serial twin
-    (:meth:`solvers.jit.SerialHelpers.shared`): four numba-inlined copies of :func:`_packed_row`
-    in the parallel kernel cost 2.5x the serial twin's compile (``benchmarks/RESULTS.md``,
-    session 50)."""
-    nx, ny, nz = fluid.shape
-    zc = np.empty(nz, np.float32)
-    row = np.empty(nz, np.float32)
-    wrow = np.empty(nz, np.float32)
-    bits = wrow.view(np.uint32)
-    a = t // nx
-    i = t - a * nx
-    p = start[t]
-    for j in range(ny):
-        sc = np.float64(xs[(t * ny + j) // per])
-        zr = z[a, i, j]
-        if a == 0:  # one call per field: the masks' dtypes differ (float32 / uint8)
-            p = _packed_row(du[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
-                            row, wrow, bits)  # fmt: skip
-        elif a == 1:
-            p = _packed_row(dv[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
-                            row, wrow, bits)  # fmt: skip
-        elif a == 2:
-            p = _packed_row(dw[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
-                            row, wrow, bits)  # fmt: skip
-        else:
-            p = _packed_row(fluid[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax,
-                            zc, row, wrow, bits)  # fmt: skip
+        zc = np.empty(nz, np.float32)
+        row = np.empty(nz, np.float32)
+        wrow = np.empty(nz, np.float32)
+        bits = wrow.view(np.uint32)
+        a = t // nx
+        i = t - a * nx
+        p = start[t]
+        for j in range(ny):
+            sc = np.float64(xs[(t * ny + j) // per])
+            zr = z[a, i, j]
+            if a == 0:  # one call per field: the masks' dtypes differ (float32 / uint8)
+                p = _packed_row(du[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
+            elif a == 1:
+                p = _packed_row(dv[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
+            elif a == 2:
+                p = _packed_row(dw[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax, zc,
+                                row, wrow, bits)  # fmt: skip
+            else:
+                p = _packed_row(fluid[i, j], zr, s, wt, wm, xh, xl, p, cs, sn, zeta, sc, lmax,
+                                zc, row, wrow, bits)  # fmt: skip
 
 
 _SERIAL.seal(globals())
