@@ -421,6 +421,23 @@ class SerialHelpers:
 
         return wrap
 
+    def shared(self, **opts: object) -> Callable[[Callable], Callable]:
+        """Decorator for the body of a parallel kernel's ``prange`` loop (a plane, chunk or
+        row block): in the module one cached ``@njit(**opts)`` dispatcher over :attr:`ns`,
+        named ``<qualname>__serial``, which the parallel kernel calls; in :attr:`ns` an
+        ``inline="always"`` copy, so the serial twin compiles exactly as with the body written
+        in its loop.  The parallel kernel then no longer inlines the body's helpers by numba
+        (its own copy cost 2-5x the serial twin's compile) and computes the serial twin's
+        values; the serial twin keeps its code (a call per plane made some 2-4 % slower,
+        ``benchmarks/RESULTS.md``, session 50)."""
+
+        def wrap(fn: Callable) -> Callable:
+            disp = nb.njit(**opts)(_copy(fn, self.ns, f"{fn.__qualname__}__serial"))
+            self._add(fn.__name__, disp, nb.njit(inline="always")(_copy(fn, self.ns)))
+            return disp
+
+        return wrap
+
     def _add(self, name: str, module_disp: object, serial_disp: object) -> None:
         self._serial[name] = serial_disp
         _SERIAL_VARIANT[module_disp] = serial_disp

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import SerialHelpers, parallel_kernel
+from solvers.jit import NoAliasCompiler, SerialHelpers, parallel_kernel
 from solvers.reduction import ordered_sum
 from solvers.voxel import simd
 
@@ -684,18 +684,35 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
     :func:`jacobi`).  ``nchunks``: number of x-chunks, i.e. of threads that can work at once
     (each chunk computes two planes more).
     """
-    nx, ny, nz = d.shape
+    nx = d.shape[0]
     nt = max(1, min(nchunks, nx))
     for t in nb.prange(nt):
-        lo, hi = _chunk(t, nt, nx)
-        buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
-        blk = np.empty(nz, dtype=xnew.dtype)
-        _zero_plane(d, b, _dn(lo, nx), omega, buf[0].reshape((ny, nz)))
-        _zero_plane(d, b, lo, omega, buf[1].reshape((ny, nz)))
-        for i in range(lo, hi):
-            rm, r0, rp = _ring(i - lo)
-            _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
-            _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b, False)
+        _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, np.int64(t), nt)
+
+
+_CHUNK_OPTS = {**_OPTS, "pipeline_class": NoAliasCompiler}
+"""Options of the chunk functions of :func:`jacobi2_zero` and :func:`prolong_jacobi`: the
+kernels' (their serial twins' ``noalias``, :func:`solvers.jit.parallel_kernel`)."""
+
+
+@_SERIAL.shared(**_CHUNK_OPTS)
+def _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, t, nt):
+    """Chunk ``t`` of ``nt`` of :func:`jacobi2_zero` (nine parameters: the kernel's, ``t`` and
+    ``nt``).  Compiled once over the serial helpers, with the serial twin's ``noalias``, for the
+    parallel twin; inlined in the serial twin (:meth:`solvers.jit.SerialHelpers.shared`): the
+    parallel twin's own copy of this body, its helpers inlined by numba, cost 25-33 s of CPU to
+    compile per signature (``benchmarks/RESULTS.md``, session 50).  A chunk is a thread's
+    share of the grid: one call per thread."""
+    nx, ny, nz = d.shape
+    lo, hi = _chunk(t, nt, nx)
+    buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
+    blk = np.empty(nz, dtype=xnew.dtype)
+    _zero_plane(d, b, _dn(lo, nx), omega, buf[0].reshape((ny, nz)))
+    _zero_plane(d, b, lo, omega, buf[1].reshape((ny, nz)))
+    for i in range(lo, hi):
+        rm, r0, rp = _ring(i - lo)
+        _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
+        _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b, False)
 
 
 @_SERIAL.inline
@@ -755,25 +772,35 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     :func:`jacobi2_zero`.  (14 parameters: the fine operator, both grids' vectors, the two
     methods' scalars and the chunk count.)
     """
-    nx, ny, nz = d.shape
+    nx = d.shape[0]
     nt = max(1, min(nchunks, nx))
     acc = np.zeros(nt)
     for t in nb.prange(nt):
-        lo, hi = _chunk(t, nt, nx)
-        buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
-        blk = np.empty(nz, dtype=xnew.dtype)
-        ex = np.empty(nz, dtype=np.float64)
-        _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, buf[0].reshape((ny, nz)), ex)
-        _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, buf[1].reshape((ny, nz)), ex)
-        s = 0.0
-        for i in range(lo, hi):
-            rm, r0, rp = _ring(i - lo)
-            _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
-            s += _jacobi_plane(
-                d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None, False
-            )
-        acc[t] = s
+        acc[t] = _prolong_jacobi_chunk(
+            d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, np.int64(t), nt
+        )
     return ordered_sum(acc)
+
+
+@_SERIAL.shared(**_CHUNK_OPTS)
+def _prolong_jacobi_chunk(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, t, nt):
+    """Chunk ``t`` of ``nt`` of :func:`prolong_jacobi`; returns its ``b . xnew`` (15
+    parameters: the kernel's, ``t`` and ``nt``); compiled as :func:`_jacobi2_zero_chunk`."""
+    nx, ny, nz = d.shape
+    lo, hi = _chunk(t, nt, nx)
+    buf = np.empty((3, ny * nz), dtype=xnew.dtype)  # _ring: planes i - 1, i, i + 1
+    blk = np.empty(nz, dtype=xnew.dtype)
+    ex = np.empty(nz, dtype=np.float64)
+    _prolong_plane(d, x, xc, _dn(lo, nx), fx, fy, fz, alpha, buf[0].reshape((ny, nz)), ex)
+    _prolong_plane(d, x, xc, lo, fx, fy, fz, alpha, buf[1].reshape((ny, nz)), ex)
+    s = 0.0
+    for i in range(lo, hi):
+        rm, r0, rp = _ring(i - lo)
+        _prolong_plane(d, x, xc, _up(i, nx), fx, fy, fz, alpha, buf[rp].reshape((ny, nz)), ex)
+        s += _jacobi_plane(
+            d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, None, None, False
+        )
+    return s
 
 
 @parallel_kernel(helpers=_SERIAL, **_OPTS)

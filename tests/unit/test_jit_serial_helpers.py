@@ -62,8 +62,30 @@ def _kernel2(a):
     return out.sum()
 
 
+_H3 = SerialHelpers()
+
+
+@_H3.leaf
+def _sq(v):
+    return v * v
+
+
+@_H3.shared(cache=False)
+def _body(a, i):
+    return _sq(a[i]) + 1.0
+
+
+@parallel_kernel(helpers=_H3)
+def _kernel3(a):
+    out = np.zeros(a.shape[0])
+    for i in nb.prange(a.shape[0]):
+        out[i] = _body(a, np.int64(i))
+    return out.sum()
+
+
 _H.seal(globals())
 _H2.seal(globals())
+_H3.seal(globals())
 
 
 def _a() -> np.ndarray:
@@ -96,3 +118,15 @@ def test_imported_helpers_map_to_their_serial_variants():
     assert other.ns["_twice"] is _H.ns["_twice"]
     assert other.ns["_row_sum"] is _H.ns["_row_sum"]
     assert other.ns["x"] == [1] and other.ns["n"] == 3  # unhashable and plain values kept
+
+
+def test_shared_body_is_a_function_for_the_parallel_kernel_and_inline_in_the_serial_twin():
+    a = np.arange(4.0)
+    # sum of v^2 + 1 over 0..3: 14 + 4 = 18
+    assert _kernel3.serial(a) == 18.0
+    assert not _body.signatures  # the serial twin inlined the body: no call, no compile
+    assert _H3.ns["_sq"].signatures  # ... whose leaf is the plain one
+    assert _kernel3.parallel(a) == 18.0
+    assert _body.py_func.__qualname__ == "_body__serial" and _body.signatures
+    assert _body.py_func.__globals__ is _H3.ns  # compiled over the serial helpers
+    assert _H3.ns["_body"] is not _body  # the serial twin's name: the inline copy
