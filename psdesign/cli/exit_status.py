@@ -10,6 +10,8 @@ code   name               meaning
                           study case (``study run``, ``study optimize``, ``rev``: the run
                           could not give it), lost workers; the line names the file or case
 2      ``BAD_INPUT``      a bad spec, argument or ``-o`` folder, refused before any work
+                          (or a ``generator.porosity`` the box cannot reach, found by
+                          trying; nothing written)
 3      ``NOT_TRUSTED``    finished, outputs complete, but a result's ``status`` is not
                           ``ok`` (``not_converged``, ``untrustworthy``, ``blocked``,
                           ``extrapolated``, ``contact_left``...: read it),
