@@ -288,7 +288,7 @@ def measure(case: dict) -> dict:
     side = "inside" if dev + terr <= bar else "outside" if dev - terr > bar else "borderline"
     return dict(
         name=case["name"], n=case["n"], omega=omega, bar=bar, status=status, truth=truth,
-        truth_error=terr, dev_over_bar=dev / bar if bar > 0 else float(dev > 0) * np.inf,
+        truth_error=terr, dev_over_bar=dev / bar if bar > 0 else (np.inf if dev > 0 else 0.0),
         side=side,
         seconds=seconds,
     )  # fmt: skip
@@ -326,9 +326,13 @@ def main() -> None:
         with open(args.table) as rows:
             print(table([json.loads(line) for line in rows]))
         return
+    names = args.sets.split(",")
+    unknown = [n for n in names if n not in SETS]
+    if unknown:  # before --out is opened (and truncated)
+        parser.error(f"--sets: unknown {', '.join(unknown)} (allowed: {', '.join(SETS)})")
     rows = []
     with open(args.out, "w") as out:
-        for name in args.sets.split(","):
+        for name in names:
             rng = np.random.default_rng(50)  # each set its own seeded stream
             for case in SETS[name](rng, SIZES[name][int(args.full)]):
                 row = {"set": name, **measure(case)}

@@ -372,7 +372,11 @@ class SerialHelpers:
     - an :meth:`inline` helper (the row and plane helpers, with few call sites) is still
       ``inline="always"``, over :attr:`ns`, so the leaves it calls are the plain ones;
     - a :meth:`slab` (a cached ``@njit`` function a kernel calls per plane) is a second cached
-      dispatcher over :attr:`ns` (``<name>__serial``).
+      dispatcher over :attr:`ns` (``<name>__serial``);
+    - a :meth:`shared` body (a parallel kernel's ``prange`` body) is one cached function
+      compiled over :attr:`ns` that the parallel twin calls, and ``inline="always"`` in the
+      serial twin (its code unchanged); never with ``noalias`` (session 50's review: loaded
+      from the cache, such a body gave other bits than the serial twin).
 
     Why not everywhere: a call to a plain helper in a loop keeps numba's reference-count
     pruning from removing the increments and decrements of the row views around it, and LLVM

@@ -221,7 +221,7 @@ class Surrogate:
         return np.log10(y) if self.log_output else y
 
     # -------------------------------------------------------------- model
-    def _regressor(self, fixed: bool, noise: float = 1e-4):
+    def _regressor(self, fixed: bool, noise: float = 1e-4, restarts: int = 3):
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
@@ -235,7 +235,7 @@ class Surrogate:
             kernel=kern,
             normalize_y=True,
             optimizer=None if fixed else "fmin_l_bfgs_b",
-            n_restarts_optimizer=0 if fixed else 3,
+            n_restarts_optimizer=0 if fixed else restarts,
             random_state=0,
         )
 
@@ -254,8 +254,9 @@ class Surrogate:
                 # scale sits on its lower bound (each case interpolated, flat between them)
                 # though a trend fits better (session 50: a porosity study, log likelihood
                 # -2.614 there, -2.437 at length 1.0): one more start with a tenth of the
-                # variance as noise, the likelier fit kept
-                alt = self._regressor(False, noise=0.1).fit(x, y)
+                # variance as noise, the likelier fit kept (its restarts would repeat the
+                # first fit's: sklearn draws them from random_state=0 and the same bounds)
+                alt = self._regressor(False, noise=0.1, restarts=0).fit(x, y)
                 if alt.log_marginal_likelihood_value_ > gp.log_marginal_likelihood_value_:
                     gp = alt
         if not self.kernel:
@@ -643,7 +644,7 @@ def fit_study(
     _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:
-        raise ValueError(f"{out}: the study has no numeric design parameter to fit over")
+        raise ValueError(f"out_dir: the study in {out} has no numeric design parameter to fit over")
     bounds = parameter_bounds(df, params, spec)
     allowed = output_columns(df, params)
     names = outputs or default_fit_outputs(allowed)
@@ -663,7 +664,9 @@ def fit_study(
     if skipped is not None:
         skipped.update(reasons)
     if not models:
-        raise ValueError(f"{out}: no output could be fitted ({'; '.join(reasons.values())})")
+        raise ValueError(
+            f"out_dir: no output of {out} could be fitted ({'; '.join(reasons.values())})"
+        )
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     remove_dead_temp(out / SURROGATE_FILE)
     atomic_write_json(

@@ -533,8 +533,8 @@ def permeability(
     Raises
     ------
     SpecError
-        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or with fewer than 4
-        voxels along an axis (:func:`check_grid_voxels`), or ``flow`` not a
+        ``rve`` not an :class:`RVE`, ``fields`` not :class:`VoxelFields` or with 2-3 voxels
+        along an axis the geometry varies along (:func:`check_grid_voxels`), or ``flow`` not a
         dict: one line naming it, before any work (``permeability(3, ...)`` raised
         ``AttributeError: 'int' object has no attribute 'fibers'`` until session 48).
     """

@@ -105,7 +105,7 @@ def resample(fields: VoxelFields, shape: tuple[int, int, int]) -> ImageFields:
     """
     size = np.asarray(fields.grid.size, float)
     h_new = size / np.asarray(shape, float)
-    if not np.allclose(h_new, h_new[0], rtol=1e-9):
+    if not np.allclose(h_new, h_new[0], rtol=1e-9, atol=0.0):  # lengths in m: no absolute slack
         raise ValueError(f"resample: shape {list(shape)} does not give cubic voxels")
     fine = fields.solid
     frac = _box_average(fine, shape).ravel()

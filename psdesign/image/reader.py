@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from psdesign.image.slices import is_slice_path, read_slices, slice_set
+from psdesign.schema.rve import MIN_VOXELS_TEXT
 
 FORMATS = (".tif", ".tiff", ".npy", ".raw", ".vti")
 #: Element types of a raw image.
@@ -33,7 +34,7 @@ RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", 
 #: What a file's voxel size must be (its refusal's allowed range; the tests below use 1e-6).
 CUBIC_ALLOWED = "(allowed: cubic voxels, x = y = z to 1 part in 1e6)"
 #: What an image's array must be (the refusal of one of another rank).
-THREE_D_ALLOWED = "(allowed: a 3-D image, at least 4 voxels per axis)"
+THREE_D_ALLOWED = f"(allowed: a 3-D image, {MIN_VOXELS_TEXT})"
 #: Length units of ImageJ metadata, in metres (looked up in lower case: ImageJ's own "micron",
 #: its escaped "\\u00B5m", and the spellings other writers use; "microns" read as "no voxel
 #: size" until session 43). Not "inch": ImageJ's unit of a picture calibrated by its DPI tag
@@ -507,7 +508,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
         return float(xy)
     if ext == ".vti":
         h = np.asarray(vti_header(path)[1], float)
-        if not np.allclose(h, h[0], rtol=1e-6):
+        if not np.allclose(h, h[0], rtol=1e-6, atol=0.0):  # numpy's atol 1e-8 m: 1 % of 1 um
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()}); "
                 f"resample to cubic voxels {CUBIC_ALLOWED}"

@@ -27,8 +27,9 @@ is measured, plus the volume of the thin lenses not measured (:func:`_thin`: sha
 :data:`RESOLVED_LENS_VOXELS` voxel, or so little deeper that voxel-centre planes cut them in
 chords under a voxel wide: a lens exactly 1 voxel deep between two centre planes holds no
 centre, a float tie of ``depth < 1 voxel`` rated its ``0 +- 0`` ``ok``), which the count may
-miss (or double) all of. A lens between two cylinders exactly along grid axes is counted where
-it lies, on the fields' own voxel centres, against its exact volume (:func:`_in_place_errors`),
+miss (or double) all of. A lens between two cylinders along grid axes
+(:func:`on_grid_axis`: within ~4.5e-5 rad) is counted where it lies, on the fields' own
+voxel centres, against its exact volume (:func:`_in_place_errors`),
 and so is a lens family between two parallel cylinders tilted off an axis toward one other
 axis (:func:`_lens_labels`; not counted in place, e.g. in a box over a period across its axis
 or tilted toward both: each pair measured alone in the whole box, past its cap its whole
@@ -44,7 +45,7 @@ counted in place too, its pair's error alone: the pairs' counts differ from the 
 the rounding of a shared part of no closed form, estimated where it lies
 (:func:`psdesign.packing.shared_overlap.shared_part_error`, its error added; RESULTS.md
 session 49); one cut by a face of a box of part of a period keeps the
-bar's calibration. For cylinders exactly along grid axes with no voxel in
+bar's calibration. For cylinders along grid axes (:func:`on_grid_axis`) with no voxel in
 three the sum is the count's own error, so the status rates it exactly: of the 800
 calibration lenses 762 are rated ``ok``, all covered (session 47's rule: 772, 13 of them
 outside the bar at 1.00-1.93x; RESULTS.md session 48). A fixed shape (woven,
@@ -372,7 +373,10 @@ def _family_length(
         eu = w / np.linalg.norm(w) if np.linalg.norm(w) > 0.0 else e1
         u, v = np.meshgrid(sep - rj + g * (ri + rj - sep), (2 * g - 1) * min(ri, rj))
         keep = (u * u + v * v <= ri * ri) & ((u - sep) ** 2 + v * v <= rj * rj)
-        q = c.pi[k] + np.outer(u[keep], eu) + np.outer(v[keep], np.cross(d, eu))
+        u, v = (u[keep], v[keep]) if keep.any() else (np.array([0.5 * (sep - rj + ri)]), [0.0])
+        # a lens thinner than the samples' spacing (fibers a hair closer than their radii's
+        # sum: a tilted array whose pitch is its diameter) is read at its centre alone
+        q = c.pi[k] + np.outer(u, eu) + np.outer(v, np.cross(d, eu))
         span = [(corners @ e)[:, None] - (q @ e)[None] for e in (e1, e2)]
         length = np.zeros(len(q))
         for a, b in product(
@@ -380,7 +384,7 @@ def _family_length(
         ):
             s0, s1 = _clip_lines(q + a * e1 + b * e2, np.broadcast_to(d, q.shape), lo, hi)
             length += np.maximum(s1 - s0, 0.0)
-        out[n] = length.mean() if len(q) else 0.0
+        out[n] = length.mean()
     return out
 
 
@@ -553,8 +557,8 @@ def _whole_box_error(rve: RVE, pair: list, spacing: np.ndarray) -> float | None:
     against their exact lens volume: the mean over their lenses there; None for a rod or
     bent rod (its volume is a bound), past :data:`MEASURED_GROUP_VOXELS` voxels, or when the
     grid differs. Session 47 measured every group so (4.2 s for the 164 groups of a 16 x 16
-    array at 250^3 voxels); two fibers exactly along grid axes are now measured in place
-    (:func:`_in_place_errors`)."""
+    array at 250^3 voxels); two fibers along grid axes (:func:`on_grid_axis`) are now
+    measured in place (:func:`_in_place_errors`)."""
     from psdesign.geometry.rve import RVE
 
     too_big = np.prod(np.asarray(rve.size) / spacing) > MEASURED_GROUP_VOXELS
@@ -574,8 +578,8 @@ def _in_place_errors(
     rve: RVE, lenses: Lenses, spacing: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """The signed count error (count - exact, a fraction of the box) of each lens between two
-    cylinders exactly along grid axes, or parallel and tilted off one (:func:`_lens_window`),
-    counted where it lies: the voxel centres of a small
+    cylinders along grid axes (:func:`on_grid_axis`), or parallel and tilted off one
+    (:func:`_lens_window`), counted where it lies: the voxel centres of a small
     window of the grid around it (:func:`_lens_window`) inside both cylinders, by the
     rasterizer's own arithmetic (:func:`_inside_cylinder`), so that each voxel rounds as in
     the fields, a centre on a surface too (tests/unit/test_overlap_status.py: the pairs'

@@ -156,8 +156,10 @@ def _check_main_script(opts: RunOptions) -> None:
     """Refuse local worker processes when they cannot start: a spawned worker re-imports the
     ``__main__`` script by its path, and a script read from stdin (``python - < run.py``, a
     heredoc) has the path ``<stdin>``, no file; each case then died as "crash or out of memory"
-    (session 50's walk). Jupyter, ``python -c`` and ``python -m`` have no such path."""
-    if opts.scheduler or opts.workers < 1:
+    (session 50's walk); a local Dask cluster (``scheduler="local"``) spawns its workers so
+    too (its nanny failed with a 60-line traceback, session 50's review). Jupyter, ``python
+    -c`` and ``python -m`` have no such path."""
+    if opts.scheduler not in (None, "local") or opts.workers < 1:
         return
     main = sys.modules.get("__main__")
     path = getattr(main, "__file__", None)
@@ -168,7 +170,8 @@ def _check_main_script(opts: RunOptions) -> None:
     if not Path(start, path).is_file():
         raise StudyError(
             f"workers: worker processes re-import the main script, and {path} is no file (a "
-            "script read from stdin?) (allowed: workers=0, or the script run from a file)"
+            "script read from stdin?) (allowed: workers=0 without a scheduler, or the script "
+            "run from a file)"
         )
 
 

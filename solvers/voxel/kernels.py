@@ -25,7 +25,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from solvers.jit import NoAliasCompiler, SerialHelpers, parallel_kernel
+from solvers.jit import SerialHelpers, parallel_kernel
 from solvers.reduction import ordered_sum
 from solvers.voxel import simd
 
@@ -42,7 +42,10 @@ unsigned, a ``range`` index signed, which would be two signatures).  The multigr
 kernels (``jacobi``, ``jacobi2_zero``, ``prolong_jacobi``, ``residual_restrict``,
 ``lap_residual``) keep their body inside the ``prange`` loop: split the same way they ran
 1.13-1.5x slower on two threads (the code numba compiles into the parfor gufunc is faster than
-the same code as a plain function; ``benchmarks/RESULTS.md``).  ``error_model="numpy"``: no
+the same code as a plain function; ``benchmarks/RESULTS.md``), except ``jacobi2_zero`` and
+``prolong_jacobi``, whose parallel twins call one chunk body compiled over the serial helpers
+(:meth:`solvers.jit.SerialHelpers.shared`: their parallel compile 26-31 -> 2-5 s per
+signature, their two-thread speed within the noise, session 50).  ``error_model="numpy"``: no
 zero-divisor check (and exception path) in the vectorised loops; no kernel divides by zero.
 ``jacobi``, ``jacobi2_zero`` and ``prolong_jacobi`` are compiled with ``noalias=True``
 (:class:`solvers.jit.NoAliasCompiler`, serial twins only; their callers never pass an output
@@ -690,9 +693,15 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, np.int64(t), nt)
 
 
-_CHUNK_OPTS = {**_OPTS, "pipeline_class": NoAliasCompiler}
-"""Options of the chunk functions of :func:`jacobi2_zero` and :func:`prolong_jacobi`: the
-kernels' (their serial twins' ``noalias``, :func:`solvers.jit.parallel_kernel`)."""
+_CHUNK_OPTS = _OPTS
+"""Options of the chunk functions of :func:`jacobi2_zero` and :func:`prolong_jacobi`, which
+only their parallel twins call (:meth:`solvers.jit.SerialHelpers.shared`; the serial twins
+inline the body under their own ``noalias``): the kernels' options without ``noalias``, as the
+parallel twins were compiled before (session 50's review: with
+:class:`~solvers.jit.NoAliasCompiler` here the compiling process stayed bitwise, but one that
+loaded the chunks from numba's cache gave other last bits at the row ends ``k = nz - 1`` and in
+the stored-coupling rows, 36 / 614 cells of a 40 x 36 x 44 sweep: the V-cycle was no longer one
+symmetric operator; ``test_fused_sweeps_are_bitwise_jacobis``' slow parallel cases failed)."""
 
 
 @_SERIAL.shared(**_CHUNK_OPTS)

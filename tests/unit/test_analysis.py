@@ -1075,7 +1075,11 @@ def test_fit_fits_every_output_it_can_and_names_the_one_it_skips(tmp_path, capsy
     run_study(p, out, workers=0, case_fn=untrusted_case, progress=False, report=False)
     assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 2
     line = _one_error_line(capsys)
-    assert "no output could be fitted" in line and "k_z_m2: need at least 3" in line
+    assert (
+        "no output of" in line and "could be fitted" in line and "k_z_m2: need at least 3" in line
+    )
+    # the folder named as --help shows it, OUT, not its path in the key's place (session 50)
+    assert line.startswith("psdesign: error: OUT: no output of "), line
     assert not (out / "surrogate.json").exists()
     assert main(["study", "fit", str(out), "--json"]) == 0
     cap = capsys.readouterr()

@@ -137,7 +137,16 @@ def test_a_script_read_from_stdin_is_refused_worker_processes(tmp_path) -> None:
     assert proc.returncode != 0, proc.stdout
     last = proc.stderr.strip().splitlines()[-1]
     assert "StudyError: workers: worker processes re-import the main script" in last, last
-    assert "(allowed: workers=0, or the script run from a file)" in last
+    assert "(allowed: workers=0 without a scheduler, or the script run from a file)" in last
+    assert not (tmp_path / "o").exists()
+    # a local Dask cluster spawns its workers the same way (a 60-line nanny traceback before:
+    # session 50's review)
+    local = script.replace("workers=1", "workers=1, scheduler='local'")
+    proc = subprocess.run(
+        [sys.executable, "-"], input=local, capture_output=True, text=True, cwd=tmp_path
+    )
+    last = proc.stderr.strip().splitlines()[-1]
+    assert proc.returncode != 0 and "StudyError: workers: worker processes" in last, last
     assert not (tmp_path / "o").exists()
     script = script.replace("workers=1", "workers=0")
     proc = subprocess.run(

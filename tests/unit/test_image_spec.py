@@ -449,3 +449,18 @@ def test_a_flat_array_and_a_raw_file_of_another_size_give_the_allowed_range(tmp_
     assert info.value.message.endswith(
         "(allowed: [nx, ny, nz] with nx ny nz x 1 bytes = the file's 1000 bytes)"
     ), info.value.message
+
+
+def test_a_vti_a_percent_off_cubic_is_refused(tmp_path) -> None:
+    """Session 50's review: the .vti check ``np.allclose(h, h[0], rtol=1e-6)`` kept numpy's
+    ``atol=1e-8`` m, 1 % of a 1 um voxel: spacing (1, 1, 1.009) um was read as cubic 1 um and
+    solved, against the refusal's own "x = y = z to 1 part in 1e6"."""
+    import pyvista as pv
+
+    solid = np.random.default_rng(3).random((6, 5, 4)) < 0.4
+    img = pv.ImageData(dimensions=(6, 5, 4), spacing=(1e-6, 1e-6, 1.009e-6))
+    img.point_data["phase"] = solid.ravel(order="F").astype(np.uint8)
+    img.save(str(tmp_path / "s.vti"))
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n'))
+    assert info.value.key == "image.voxel_size" and "not cubic" in info.value.message

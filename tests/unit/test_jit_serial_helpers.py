@@ -130,3 +130,4 @@ def test_shared_body_is_a_function_for_the_parallel_kernel_and_inline_in_the_ser
     assert _body.py_func.__qualname__ == "_body__serial" and _body.signatures
     assert _body.py_func.__globals__ is _H3.ns  # compiled over the serial helpers
     assert _H3.ns["_body"] is not _body  # the serial twin's name: the inline copy
+    assert not _H3.ns["_body"].signatures  # ... inlined, never compiled as a function

@@ -994,3 +994,21 @@ def test_a_tilted_family_weighs_the_lattice_lines_through_its_whole_lens(tx, ty,
     assert (off + truth_error < f.intersection_error) == (status == "ok")
     assert (off - truth_error > f.intersection_error) == (status != "ok")
     assert intersection_status(rve, f) == status
+
+
+def test_a_tilted_pair_a_hair_closer_than_its_radii_is_rated_not_crashed():
+    """Session 50's review: two tilted cylinders 1e-6 of the box closer than their radii's sum
+    (a tilted array whose pitch is its diameter) make a lens thinner than
+    ``_family_length``'s 48^2 samples' spacing; none fell inside and ``x.min()`` of an empty
+    array raised ``ValueError`` (``generate`` exited 2 with numpy's message). The lens is read at
+    its centre now; the count is 0 (no voxel centre in both) against a lens volume of ~1e-9 of
+    the box, rated as before the family volume changed (``untrustworthy``, 121ab82)."""
+    d = [0.01, 0.0, 1.0]
+    fb = [
+        make_fiber("cylinder", 0.25, center=[0.3, 0.5, 0.5], direction=d),
+        make_fiber("cylinder", 0.25, center=[0.3 + 0.25 - 1e-6, 0.5, 0.5], direction=d),
+    ]
+    rve = RVE(size=[1e-4] * 3, fibers=fb)
+    f = rve.voxelize(1e-4 / 32)
+    assert f.intersection_volume_fraction == 0.0
+    assert intersection_status(rve, f) == "untrustworthy"

@@ -610,3 +610,7 @@ def test_parallel_twins_of_the_sweeps_are_compiled_with_overlap_checks() -> None
     for k in (kr.jacobi, kr.jacobi2_zero, kr.prolong_jacobi):
         assert k.serial._compiler.pipeline_class is NoAliasCompiler
         assert k.parallel._compiler.pipeline_class is not NoAliasCompiler
+    # the chunk bodies the parallel twins of the fused sweeps call (session 50; its review found
+    # them compiled with NoAliasCompiler: other bits when loaded from the cache)
+    for body in (kr._jacobi2_zero_chunk, kr._prolong_jacobi_chunk):
+        assert body._compiler.pipeline_class is not NoAliasCompiler
