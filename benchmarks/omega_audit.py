@@ -39,36 +39,13 @@ import json
 import time
 
 import numpy as np
+from porosity_error_coverage import circle_lens_area as lens_area
+from porosity_error_coverage import crossing_lens  # the same closed forms, one definition
 
 from psdesign.geometry.fibers import make_fiber
 from psdesign.geometry.rve import RVE
 
 L = 1e-4  # the box edge, metres (one period)
-
-
-def crossing_lens(ri: float, rj: float, s: float) -> float:
-    """Volume of two infinite cylinders crossing at right angles, axes ``s`` apart (normalized
-    units; Cavalieri: strips ``2 sqrt(ri^2 - y^2)`` and ``2 sqrt(rj^2 - (y - s)^2)``)."""
-    from scipy.integrate import quad
-
-    lo, hi = max(-ri, s - rj), min(ri, s + rj)
-    if hi <= lo:
-        return 0.0
-
-    def w(y: float) -> float:
-        return 4 * np.sqrt(max(ri * ri - y * y, 0)) * np.sqrt(max(rj * rj - (y - s) ** 2, 0))
-
-    return quad(w, lo, hi, epsabs=1e-30, epsrel=1e-11, limit=200)[0]
-
-
-def lens_area(r1: float, r2: float, s: float) -> float:
-    """Area common to two circles of radii r1, r2 with centres s apart (MathWorld eq. 14)."""
-    if s >= r1 + r2:
-        return 0.0
-    a1 = r1 * r1 * np.arccos((s * s + r1 * r1 - r2 * r2) / (2 * s * r1))
-    a2 = r2 * r2 * np.arccos((s * s + r2 * r2 - r1 * r1) / (2 * s * r2))
-    k = (-s + r1 + r2) * (s + r1 - r2) * (s - r1 + r2) * (s + r1 + r2)
-    return float(a1 + a2 - 0.5 * np.sqrt(max(k, 0.0)))
 
 
 def _clipped_length(p: np.ndarray, d: np.ndarray, box: np.ndarray) -> np.ndarray:
