@@ -78,20 +78,31 @@ HELP = (
 )
 
 
+def passes(status: str | None) -> bool:
+    """Whether a result's ``status`` lets the exit be ``OK``: in :data:`TRUSTED`, or saying the
+    value does not apply (``not_applicable``: an image's Omega,
+    :data:`psdesign.packing.overlap_status.NOT_APPLICABLE`; no result, so nothing to
+    distrust). The one rule of :func:`status_code` and of
+    :func:`psdesign.transport.effective.worst_status`'s ranking.
+
+    >>> passes("at_bound"), passes("not_applicable"), passes("untrustworthy"), passes(None)
+    (True, True, False, False)
+    """
+    from psdesign.packing.overlap_status import NOT_APPLICABLE
+
+    return status in TRUSTED or status == NOT_APPLICABLE
+
+
 def status_code(*statuses: str | None) -> int:
-    """The exit status of finished results by their ``status``: ``OK`` when every one is in
-    :data:`TRUSTED` or says the value does not apply (``not_applicable``: an image's Omega,
-    :data:`psdesign.packing.overlap_status.NOT_APPLICABLE`; no result, so nothing to distrust),
-    else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+    """The exit status of finished results by their ``status``: ``OK`` when every one
+    :func:`passes`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
 
     >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
     (0, 3, 3)
     >>> status_code("ok", "not_applicable")
     0
     """
-    from psdesign.packing.overlap_status import NOT_APPLICABLE
-
-    return OK if all(s in TRUSTED or s == NOT_APPLICABLE for s in statuses) else NOT_TRUSTED
+    return OK if all(passes(s) for s in statuses) else NOT_TRUSTED
 
 
 class CaseCounts(NamedTuple):

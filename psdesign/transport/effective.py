@@ -272,10 +272,10 @@ class Rated:
 
 
 STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
-"""Statuses from best to worst (:func:`worst_status`). The exit rule's trusted words
-(:data:`psdesign.cli.exit_status.TRUSTED`: ``ok`` and a force-field search's ``converged`` and
-``at_bound``) rank with ``ok``, and only they: the worst status is trusted exactly when the
-exit is 0."""
+"""Statuses from best to worst (:func:`worst_status`). The words the exit rule passes
+(:func:`psdesign.cli.exit_status.passes`: ``ok``, a force-field search's ``converged`` and
+``at_bound``, and ``not_applicable``) rank with ``ok``, and only they: the worst status passes
+exactly when the exit is 0."""
 
 
 def _rank(status: str | None) -> int:
@@ -284,9 +284,9 @@ def _rank(status: str | None) -> int:
     # "converged"). A word outside both (``extrapolated``, ``contact_left``, a missing status)
     # ranks below every known one: nothing says it is better than ``blocked``, and the exit
     # rule (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
-    from psdesign.cli.exit_status import TRUSTED
+    from psdesign.cli.exit_status import passes
 
-    if status in TRUSTED:
+    if passes(status):  # trusted, or not applicable (an image's Omega), as the exit rule
         return 0
     return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
 
@@ -302,6 +302,8 @@ def worst_status(statuses: list[str | None]) -> str | None:
     'extrapolated'
     >>> worst_status(["converged", "untrustworthy"]), worst_status(["at_bound", "ok"])
     ('untrustworthy', 'at_bound')
+    >>> worst_status(["ok", "not_applicable"])  # as the exit: 0 (session 50 review)
+    'ok'
     """
     return max(statuses, key=_rank, default="ok")
 
