@@ -46,7 +46,7 @@ from psdesign.flow.fem_field import (
     spec_grid_step,
 )
 from psdesign.flow.stack import plan_copies, stack_fields, stacked_flow, unmatched_faces
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, is_cubic
 from psdesign.meshing import tags
 from psdesign.meshing.options import (
     mesher_options,  # noqa: F401 (moved; re-exported)
@@ -149,7 +149,7 @@ def _mesh(
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     spacing = fields.grid.spacing
-    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+    if not is_cubic(spacing):
         raise ValueError("the fem route needs cubic voxels; make rve.size a multiple of rve.voxel")
     from psdesign.flow.no_path import says_closed_pore_space
     from psdesign.image.fields import mesh_overrides

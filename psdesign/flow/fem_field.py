@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from psdesign.geometry.rve import RVE, VoxelFields
+from psdesign.geometry.rve import RVE, VoxelFields, is_cubic
 
 #: Voxels across the thinnest fiber diameter the FEM's field has at least (the resolution at
 #: which the smoothed-step volume of rods of 3.5-10 voxels radius is within 5e-4 of the exact
@@ -147,8 +147,10 @@ def refinable(rve: RVE, fields: VoxelFields) -> bool:
     return (
         bool(getattr(fields, "analytic_distance", False))
         and bool(getattr(rve, "fibers", None))
-        and np.allclose(np.asarray(fields.grid.size, float), np.asarray(rve.size, float), rtol=1e-9)
-        and np.allclose(fields.grid.spacing, fields.grid.spacing[0], rtol=1e-9)
+        and np.allclose(
+            np.asarray(fields.grid.size, float), np.asarray(rve.size, float), rtol=1e-9, atol=0.0
+        )
+        and is_cubic(fields.grid.spacing)
     )
 
 

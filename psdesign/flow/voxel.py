@@ -41,7 +41,7 @@ from psdesign.flow.error import (
 from psdesign.flow.no_path import no_path_message
 from psdesign.flow.stack import plan_copies, stack_fields, unmatched_faces
 from psdesign.flow.voxel_estimate import announce_voxel_solve
-from psdesign.geometry.rve import RVE, VoxelFields, resolution_measure
+from psdesign.geometry.rve import RVE, VoxelFields, is_cubic, resolution_measure
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
 from psdesign.schema.flow import WALL_TREATMENTS, check_solver_bc
@@ -284,7 +284,7 @@ def _diffuse(rve, fields, name, flow, h, bc, progress, return_fields):
 
 def _cubic_voxel(fields: VoxelFields) -> float:
     spacing = fields.grid.spacing
-    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+    if not is_cubic(spacing):
         raise ValueError(
             "the voxel route needs cubic voxels; make rve.size a multiple of rve.voxel"
         )

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from psdesign.geometry.edt import periodic_edt
-from psdesign.geometry.rve import VoxelFields, VoxelGrid
+from psdesign.geometry.rve import VoxelFields, VoxelGrid, is_cubic
 
 
 @dataclass(frozen=True)
@@ -105,7 +105,7 @@ def resample(fields: VoxelFields, shape: tuple[int, int, int]) -> ImageFields:
     """
     size = np.asarray(fields.grid.size, float)
     h_new = size / np.asarray(shape, float)
-    if not np.allclose(h_new, h_new[0], rtol=1e-9, atol=0.0):  # lengths in m: no absolute slack
+    if not is_cubic(h_new):
         raise ValueError(f"resample: shape {list(shape)} does not give cubic voxels")
     fine = fields.solid
     frac = _box_average(fine, shape).ravel()

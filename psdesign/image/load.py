@@ -121,7 +121,7 @@ class ImageRVE(RVE):
     def voxelize(self, voxel: float, margin_voxels: int = BAND_MARGIN_VOXELS) -> VoxelFields:
         """The image's fields at ``voxel`` metres (resampled unless it is the image's own)."""
         h = float(self.image.grid.spacing[0])
-        if np.isclose(voxel, h, rtol=1e-9):
+        if np.isclose(voxel, h, rtol=1e-9, atol=0.0):  # metres: no absolute slack
             return self.image
         grid = VoxelGrid.from_voxel(self.size, voxel)
         return resample(self.image, grid.shape)

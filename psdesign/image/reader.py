@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psdesign.geometry.rve import is_cubic
 from psdesign.image.slices import is_slice_path, read_slices, slice_set
 from psdesign.schema.rve import MIN_VOXELS_TEXT
 
@@ -508,7 +509,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
         return float(xy)
     if ext == ".vti":
         h = np.asarray(vti_header(path)[1], float)
-        if not np.allclose(h, h[0], rtol=1e-6, atol=0.0):  # numpy's atol 1e-8 m: 1 % of 1 um
+        if not is_cubic(h, rtol=1e-6):
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (spacing {h.tolist()}); "
                 f"resample to cubic voxels {CUBIC_ALLOWED}"

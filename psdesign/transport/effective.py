@@ -45,7 +45,7 @@ import numpy as np
 from psdesign.flow import error as err
 from psdesign.flow.darcy import checked_axis
 from psdesign.flow.error import richardson_rel_error
-from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields
+from psdesign.geometry.rve import DIAMETER_MEASURE, VoxelFields, is_cubic
 
 BC_NAMES = ("periodic", "permeameter")
 #: ``C`` of the staircase floor ``C h S_f m``: on the calibration set (square
@@ -285,8 +285,11 @@ def _rank(status: str | None) -> int:
     # ranks below every known one: nothing says it is better than ``blocked``, and the exit
     # rule (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
     from psdesign.cli.exit_status import passes
+    from psdesign.packing.overlap_status import NOT_APPLICABLE
 
-    if passes(status):  # trusted, or not applicable (an image's Omega), as the exit rule
+    if status == NOT_APPLICABLE:  # no value (an image's Omega): never the worst of real ones
+        return -1
+    if passes(status):  # trusted, as the exit rule
         return 0
     return STATUS_ORDER.index(status) if status in STATUS_ORDER else len(STATUS_ORDER)
 
@@ -302,8 +305,8 @@ def worst_status(statuses: list[str | None]) -> str | None:
     'extrapolated'
     >>> worst_status(["converged", "untrustworthy"]), worst_status(["at_bound", "ok"])
     ('untrustworthy', 'at_bound')
-    >>> worst_status(["ok", "not_applicable"])  # as the exit: 0 (session 50 review)
-    'ok'
+    >>> worst_status(["ok", "not_applicable"]), worst_status(["not_applicable", "ok"])
+    ('ok', 'ok')
     """
     return max(statuses, key=_rank, default="ok")
 
@@ -481,7 +484,7 @@ def solve_effective(
     t0 = time.perf_counter()
     name, ax = checked_axis(direction, "direction")
     spacing = fields.grid.spacing
-    if not np.allclose(spacing, spacing[0], rtol=1e-9):
+    if not is_cubic(spacing):
         raise ValueError("transport needs cubic voxels; make rve.size a multiple of rve.voxel")
     bc = check_bc(transport.get("bc", "periodic"))
     kw = {

@@ -707,8 +707,9 @@ symmetric operator; ``test_fused_sweeps_are_bitwise_jacobis``' slow parallel cas
 @_SERIAL.shared(**_CHUNK_OPTS)
 def _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, t, nt):
     """Chunk ``t`` of ``nt`` of :func:`jacobi2_zero` (nine parameters: the kernel's, ``t`` and
-    ``nt``).  Compiled once over the serial helpers, with the serial twin's ``noalias``, for the
-    parallel twin; inlined in the serial twin (:meth:`solvers.jit.SerialHelpers.shared`): the
+    ``nt``).  Compiled once over the serial helpers, without ``noalias`` (:data:`_CHUNK_OPTS`),
+    for the parallel twin; inlined in the serial twin under its ``noalias``
+    (:meth:`solvers.jit.SerialHelpers.shared`): the
     parallel twin's own copy of this body, its helpers inlined by numba, cost 25-33 s of CPU to
     compile per signature (``benchmarks/RESULTS.md``, session 50).  A chunk is a thread's
     share of the grid: one call per thread."""

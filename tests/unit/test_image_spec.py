@@ -464,3 +464,19 @@ def test_a_vti_a_percent_off_cubic_is_refused(tmp_path) -> None:
     with pytest.raises(SpecError) as info:
         load_spec(write_spec(tmp_path, '[image]\npath = "s.vti"\n'))
     assert info.value.key == "image.voxel_size" and "not cubic" in info.value.message
+
+
+def test_every_route_refuses_a_grid_a_percent_off_cubic() -> None:
+    """Session 50's second review: after the .vti mend, five more places checked cubic voxels
+    with numpy's ``atol=1e-8`` m (1 % of a 1 um voxel); ``psdesign.flow.voxel._cubic_voxel``
+    read a (1, 1, 1.009) um grid of hand-built fields as cubic 1 um. Now one rule,
+    ``psdesign.geometry.rve.is_cubic``, in every route: the voxel route refuses it."""
+    from types import SimpleNamespace
+
+    from psdesign.flow.voxel import _cubic_voxel
+
+    grid = SimpleNamespace(grid=SimpleNamespace(spacing=np.array([1e-6, 1e-6, 1.009e-6])))
+    with pytest.raises(ValueError, match="cubic voxels"):
+        _cubic_voxel(grid)
+    grid.grid.spacing = np.array([1e-6, 1e-6, 1e-6 * (1 + 1e-12)])  # a rounding: cubic
+    assert _cubic_voxel(grid) == 1e-6
