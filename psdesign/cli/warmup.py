@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "warmup",
         help="compile the numba kernels once (after install)",
         description="Compile every numba kernel signature the solvers use into numba's on-disk "
-        "cache, once after install (5-16 min on 2 cores, idle to busy); "
+        "cache, once after install (4-16 min on 2 cores, idle to busy); "
         "later runs load them in seconds. Without it the first solves compile what they use "
         "and small grids run on one thread until the parallel kernels exist.",
     )
