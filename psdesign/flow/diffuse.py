@@ -146,7 +146,7 @@ def solve_diffuse(
         voxel,
         direction,
         viscosity=float(flow["viscosity"]),
-        pressure_gradient=periodic_gradient(flow, fields.solid.shape[ax] * voxel),
+        pressure_gradient=periodic_gradient(flow, fields.grid.shape[ax] * voxel),
         progress=progress,
         **kw,
     )

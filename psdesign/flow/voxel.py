@@ -303,7 +303,7 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     if bc != "permeameter":
         # the spec's drop over the RVE's length, as the FEM's periodic solve (a mirrored or
         # framed grid is longer; its mean gradient is still the RVE's)
-        kw["pressure_gradient"] = periodic_gradient(flow, fields.solid.shape[ax] * h)
+        kw["pressure_gradient"] = periodic_gradient(flow, fields.grid.shape[ax] * h)
         return None, fields, kw
     from solvers.voxel_stokes import solved_shape
 
