@@ -167,12 +167,16 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> image = {"intersection_volume_fraction_status": "not_applicable"}  # no fibres: no Omega
     >>> error_bar(image, "intersection_volume_fraction")
     (None, 'not_applicable')
+    >>> error_bar({"tortuosity_x": None, "diffusivity_x_status": "blocked"}, "tortuosity_x")
+    (None, 'blocked')
     """
     if cell_number(row.get(column)) is None:
         from psdesign.packing.overlap_status import NOT_APPLICABLE
+        from psdesign.transport.effective import BLOCKED
 
-        applies = row.get(status_column(column)) != NOT_APPLICABLE
-        return None, "no trusted value" if applies else NOT_APPLICABLE
+        # no value by its status: an image's Omega, a blocked tortuosity (porosity / 0)
+        said = row.get(status_column(column))
+        return None, said if said in (NOT_APPLICABLE, BLOCKED) else "no trusted value"
     rel = _rel_error(row, column)
     status = row.get(status_column(column))
     if isinstance(status, str) and status:

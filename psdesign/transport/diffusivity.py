@@ -100,6 +100,7 @@ class DiffusivityResult(Rated):
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
+        from psdesign.cli.diffusivity import tortuosity_undefined
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
@@ -112,7 +113,9 @@ class DiffusivityResult(Rated):
             ),
             (
                 "tortuosity factor (-)",
-                "n/a" if tau is None else f"{tau:.4g} {plus_minus(self.rel_error)}",
+                tortuosity_undefined(self.to_dict())
+                if tau is None
+                else f"{tau:.4g} {plus_minus(self.rel_error)}",
             ),
             (
                 "D<sub>eff</sub> (m<sup>2</sup>/s)",
