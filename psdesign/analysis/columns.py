@@ -350,16 +350,18 @@ def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
 
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
-    own status (:func:`own_status`), whatever its case's; False for an unrated value and for
-    one that does not apply (an image's Omega: ``not_applicable``, no value to distrust).
+    own status (:func:`own_status`) by the exit's rule
+    (:func:`psdesign.cli.exit_status.passing`, one list of the words), whatever its case's;
+    False for an unrated value and for one that does not apply (an image's Omega:
+    ``not_applicable``, no value to distrust).
 
     >>> k_not_ok(pd.DataFrame({"intersection_volume_fraction_status": ["not_applicable", "x"]}),
     ...          "intersection_volume_fraction").tolist()
     [False, True]
     """
-    from psdesign.packing.overlap_status import NOT_APPLICABLE
+    from psdesign.cli.exit_status import passing
 
-    return ~own_status(df, k_column).isin(("ok", NOT_APPLICABLE))
+    return ~own_status(df, k_column).isin(passing())
 
 
 def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
