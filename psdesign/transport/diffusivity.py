@@ -18,7 +18,8 @@ Definitions (Fick's law on the pore space, solid impermeable, zero flux on the f
 Boundary conditions: ``periodic`` (homogenized tensor; three solves give it whole) or
 ``permeameter`` (fixed concentrations on the inlet and outlet faces, insulated sides).
 A blocked direction gives 0 with ``blocked=True`` and a message; the tortuosity factor is then
-None (infinite).
+None (porosity / 0: printed "undefined ... [blocked]", :func:`psdesign.cli.diffusivity.
+tortuosity_undefined`).
 """
 
 from __future__ import annotations
