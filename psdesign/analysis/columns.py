@@ -167,12 +167,16 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     >>> image = {"intersection_volume_fraction_status": "not_applicable"}  # no fibres: no Omega
     >>> error_bar(image, "intersection_volume_fraction")
     (None, 'not_applicable')
+    >>> error_bar({"tortuosity_x": None, "diffusivity_x_status": "blocked"}, "tortuosity_x")
+    (None, 'blocked')
     """
     if cell_number(row.get(column)) is None:
         from psdesign.packing.overlap_status import NOT_APPLICABLE
+        from psdesign.transport.effective import BLOCKED
 
-        applies = row.get(status_column(column)) != NOT_APPLICABLE
-        return None, "no trusted value" if applies else NOT_APPLICABLE
+        # no value by its status: an image's Omega, a blocked tortuosity (porosity / 0)
+        said = row.get(status_column(column))
+        return None, said if said in (NOT_APPLICABLE, BLOCKED) else "no trusted value"
     rel = _rel_error(row, column)
     status = row.get(status_column(column))
     if isinstance(status, str) and status:
@@ -346,16 +350,18 @@ def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
 
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
-    own status (:func:`own_status`), whatever its case's; False for an unrated value and for
-    one that does not apply (an image's Omega: ``not_applicable``, no value to distrust).
+    own status (:func:`own_status`) by the exit's rule
+    (:func:`psdesign.cli.exit_status.passing`, one list of the words), whatever its case's;
+    False for an unrated value and for one that does not apply (an image's Omega:
+    ``not_applicable``, no value to distrust).
 
     >>> k_not_ok(pd.DataFrame({"intersection_volume_fraction_status": ["not_applicable", "x"]}),
     ...          "intersection_volume_fraction").tolist()
     [False, True]
     """
-    from psdesign.packing.overlap_status import NOT_APPLICABLE
+    from psdesign.cli.exit_status import passing
 
-    return ~own_status(df, k_column).isin(("ok", NOT_APPLICABLE))
+    return ~own_status(df, k_column).isin(passing())
 
 
 def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:

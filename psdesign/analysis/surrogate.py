@@ -643,8 +643,12 @@ def fit_study(
     df = read_results(out)
     _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
-    if not params:
-        raise ValueError(f"out_dir: the study in {out} has no numeric design parameter to fit over")
+    if not params:  # a GP needs a number per case on an axis: a category is no axis
+        raise ValueError(
+            f"out_dir: the study in {out} has no numeric design parameter to fit over "
+            f"({', '.join(spec) or 'none'}: not a number in every case); allowed: a study "
+            "with a numeric parameter (e.g. generator.porosity)"
+        )
     bounds = parameter_bounds(df, params, spec)
     allowed = output_columns(df, params)
     names = outputs or default_fit_outputs(allowed)

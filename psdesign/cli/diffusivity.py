@@ -61,11 +61,25 @@ def result_line(r: dict) -> str:
     from psdesign.geometry.porosity import porosity_text
 
     tau = r["tortuosity_factor"]  # porosity / D: a count over D, so D's relative bar
-    tau_text = "inf" if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
+    tau_text = tortuosity_undefined(r) if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
     return (
         f"{value_text('diffusivity', r['direction'], r)}  {rating(r)}  tortuosity factor "
         f"{tau_text}  porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
     )
+
+
+def tortuosity_undefined(r: dict) -> str:
+    """The words for a tortuosity factor with no value (JSON ``null``, porosity / 0), with the
+    status it shares with D_eff/D: the text line and the notebook printed a bare ``inf`` /
+    ``n/a`` until session 51.
+
+    >>> tortuosity_undefined({"blocked": True, "direction": "x", "status": "blocked"})
+    'undefined (no pore path along x) [blocked]'
+    >>> tortuosity_undefined({"blocked": False, "direction": "z", "status": "untrustworthy"})
+    'undefined (D_eff/D = 0) [untrustworthy]'
+    """
+    why = f"no pore path along {r['direction']}" if r.get("blocked") else "D_eff/D = 0"
+    return f"undefined ({why}) [{r['status']}]"
 
 
 def register(sub: argparse._SubParsersAction) -> None:

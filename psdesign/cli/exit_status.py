@@ -88,9 +88,17 @@ def passes(status: str | None) -> bool:
     >>> passes("at_bound"), passes("not_applicable"), passes("untrustworthy"), passes(None)
     (True, True, False, False)
     """
+    return status in passing()
+
+
+def passing() -> tuple[str, ...]:
+    """The status words :func:`passes`: :data:`TRUSTED` and ``not_applicable``; what a study
+    table's value columns are read by too (:func:`psdesign.analysis.columns.k_not_ok`, which
+    spelled ``ok`` and ``not_applicable`` itself until session 51, so a value rated
+    ``converged`` or ``at_bound`` was flagged there and passed here)."""
     from psdesign.packing.overlap_status import NOT_APPLICABLE
 
-    return status in TRUSTED or status == NOT_APPLICABLE
+    return (*TRUSTED, NOT_APPLICABLE)
 
 
 def status_code(*statuses: str | None) -> int:

@@ -470,6 +470,17 @@ def read_image(src: ImageSource) -> np.ndarray:
     return np.ascontiguousarray(solid_mask(read_labels(src), src.solid, src.threshold))
 
 
+def in_metres(length: float, unit: float) -> float:
+    """``length`` (in a unit of ``unit`` metres) in metres, to 15 significant digits: the
+    decimal the file means, not the float product's last bit (a 0.8 pixels-per-um resolution
+    is 1.25 um, written 1.2499999999999999e-06 m in rve.json until session 51).
+
+    >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
+    (1.2499999999999999e-06, 1.25e-06)
+    """
+    return float(f"{length * unit:.15g}")
+
+
 def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
     """The voxel edge (metres) a file carries, or None.
 
@@ -496,11 +507,11 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
             num, den = xtag.value
             if not num or not den:
                 return None
-            xy = den / num * unit
+            xy = in_metres(den / num, unit)
             # y from its own tag (read as x's until review2: 0.5 x 1 um pixels gave 0.5 um cubes)
             ynum, yden = ytag.value if ytag is not None else (num, den)
-            y = yden / ynum * unit if ynum and yden else xy
-            z = float(meta.get("spacing", den / num)) * unit
+            y = in_metres(yden / ynum, unit) if ynum and yden else xy
+            z = in_metres(float(meta.get("spacing", den / num)), unit)
         if abs(z - xy) > 1e-6 * xy or abs(y - xy) > 1e-6 * xy:
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, y {y:g} m, "

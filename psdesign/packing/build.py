@@ -40,18 +40,14 @@ class BuiltRVE:
     def omega_values(self, fields: VoxelFields) -> dict:
         """Omega's value, bar and status (:meth:`intersection_status`) under their summary and
         study-row keys; for an image (no fibres to overlap) None, None and
-        :data:`~psdesign.packing.overlap_status.NOT_APPLICABLE`, with the note why (the
-        summary's only: a study row keeps numbers and status words)."""
+        :data:`~psdesign.packing.overlap_status.NOT_APPLICABLE` (:func:`summarize` adds the
+        note why: a study row keeps numbers and status words, and filtered the note out of
+        this dict until session 51)."""
         key = "intersection_volume_fraction"
         if self.report.get("source") == "image":  # as report.preview tells an image's RVE
-            from psdesign.packing.overlap_status import NOT_APPLICABLE, NOT_APPLICABLE_NOTE
+            from psdesign.packing.overlap_status import NOT_APPLICABLE
 
-            return {
-                key: None,
-                f"{key}_error": None,
-                f"{key}_status": NOT_APPLICABLE,
-                f"{key}_note": NOT_APPLICABLE_NOTE,
-            }
+            return {key: None, f"{key}_error": None, f"{key}_status": NOT_APPLICABLE}
         return {
             key: fields.intersection_volume_fraction,
             f"{key}_error": fields.intersection_error,
@@ -107,12 +103,17 @@ def _generator_text(gen: dict) -> str:
 
 def summarize(built: BuiltRVE, fields: VoxelFields) -> dict:
     """The summary.json content of ``built`` voxelized as ``fields``."""
+    from psdesign.packing.overlap_status import NOT_APPLICABLE, NOT_APPLICABLE_NOTE
+
     rve, report = built.rve, built.report
+    omega = built.omega_values(fields)
+    if omega["intersection_volume_fraction_status"] == NOT_APPLICABLE:  # an image: say why
+        omega["intersection_volume_fraction_note"] = NOT_APPLICABLE_NOTE
     out = {
         "porosity": fields.porosity,
         "porosity_error": fields.porosity_error,
         "n_fibers": len(rve.fibers),
-        **built.omega_values(fields),
+        **omega,
         "voxel_grid": fields.grid.to_dict(),
         "size_m": rve.size.tolist(),
         "period_m": rve.period,

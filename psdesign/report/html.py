@@ -59,6 +59,7 @@ from psdesign.report.trust import (
     status_style,
 )
 from psdesign.report.units import output_label
+from psdesign.transport.effective import BLOCKED
 
 __all__ = ["ReportError", "build_html", "write_report"]
 
@@ -599,6 +600,8 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         for c in cols:
             rel, st = error_bar(row, c)
             txt, has_bar = _value_cell(row, c, rel)
+            if not txt and st == BLOCKED:  # a tortuosity: porosity / 0 (the JSON's null)
+                txt = "undefined"
             any_bar |= has_bar
             if txt and st not in ("ok", "unrated"):
                 txt += f" [{st}]"

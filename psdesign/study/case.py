@@ -133,8 +133,8 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
         # rated by its bar, as generate prints it: the report, exit and fits read it
         "porosity_status": porosity_status(fields.porosity, fields.porosity_error),
         "n_fibers": len(rve.fibers),
-        # an image's: not_applicable, no value (the note is the summary's: a row keeps words)
-        **{k: v for k, v in built.omega_values(fields).items() if not k.endswith("_note")},
+        # an image's: not_applicable, no value (the note why is the summary's alone)
+        **built.omega_values(fields),
         "time_geometry_s": time.perf_counter() - t0,
     }
     gen = built.report or {}

@@ -18,7 +18,8 @@ Definitions (Fick's law on the pore space, solid impermeable, zero flux on the f
 Boundary conditions: ``periodic`` (homogenized tensor; three solves give it whole) or
 ``permeameter`` (fixed concentrations on the inlet and outlet faces, insulated sides).
 A blocked direction gives 0 with ``blocked=True`` and a message; the tortuosity factor is then
-None (infinite).
+None (porosity / 0: printed "undefined ... [blocked]", :func:`psdesign.cli.diffusivity.
+tortuosity_undefined`).
 """
 
 from __future__ import annotations
@@ -100,6 +101,7 @@ class DiffusivityResult(Rated):
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
+        from psdesign.cli.diffusivity import tortuosity_undefined
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
@@ -112,7 +114,9 @@ class DiffusivityResult(Rated):
             ),
             (
                 "tortuosity factor (-)",
-                "n/a" if tau is None else f"{tau:.4g} {plus_minus(self.rel_error)}",
+                tortuosity_undefined(self.to_dict())
+                if tau is None
+                else f"{tau:.4g} {plus_minus(self.rel_error)}",
             ),
             (
                 "D<sub>eff</sub> (m<sup>2</sup>/s)",

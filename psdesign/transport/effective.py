@@ -162,7 +162,7 @@ def rating(
     name = f"{quantity}_{direction}" if direction else quantity
     if blocked:  # an image (no fiber diameter) is its own geometry: its block is exact
         on_grid = [blocked_on_grid(name, conducting)]
-        return "blocked", [] if cells_per_diameter is None else on_grid
+        return BLOCKED, [] if cells_per_diameter is None else on_grid
     warnings = err.resolution_warnings(
         cells_per_diameter, "voxel", direction, quantity, measure=measure
     )
@@ -271,7 +271,9 @@ class Rated:
         )
 
 
-STATUS_ORDER = ("ok", "untrustworthy", "not_converged", "blocked")
+#: A transport value's status with no conducting path (its value 0, a tortuosity undefined).
+BLOCKED = "blocked"
+STATUS_ORDER = ("ok", "untrustworthy", "not_converged", BLOCKED)
 """Statuses from best to worst (:func:`worst_status`). The words the exit rule passes
 (:func:`psdesign.cli.exit_status.passes`: ``ok``, a force-field search's ``converged`` and
 ``at_bound``, and ``not_applicable``) rank with ``ok``, and only they: the worst status passes

@@ -181,6 +181,7 @@ def test_study_on_an_image_spec(folder) -> None:
     # no value, status not_applicable, and no case flagged for it (the exit, the red box)
     assert df["intersection_volume_fraction"].isna().all()
     assert (df["intersection_volume_fraction_status"] == "not_applicable").all()
+    assert "intersection_volume_fraction_note" not in df  # summary.json's words, not a row's
     assert [m.sum() for m in case_masks(df)] == [0, 0, 0]
     assert main(["study", "report", str(folder / "out")]) == 0
 

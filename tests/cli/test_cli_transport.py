@@ -343,6 +343,34 @@ def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
     assert len(res["warnings"]) == 1 and "refine rve.voxel" in res["warnings"][0]
 
 
+def test_a_blocked_tortuosity_says_undefined_in_the_text_as_null_in_the_json(tmp_path, capsys):
+    """Session 51: a blocked D_eff/D (0, no pore path across the closed square array above)
+    has no tortuosity factor (porosity / 0): the JSON said ``null`` and the text line a bare
+    ``tortuosity factor inf``. The text now says it in words with its status, as the JSON's
+    ``null`` with ``status: blocked``; the notebook's table says the same words."""
+    from psdesign.transport.diffusivity import relative_diffusivity
+    from psdesign.transport.load import load_case
+
+    l, phi = 20e-6, 0.75
+    d = float(2 * l * np.sqrt(phi / np.pi))
+    path = tmp_path / "s.toml"
+    path.write_text(
+        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = 5e-7\n[[fibers]]\n"
+        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
+        "direction = [0, 0, 1]\n"
+    )
+    assert main(["diffusivity", str(path), "--direction", "x", "--quiet", "--json"]) == 3
+    res = json.loads(capsys.readouterr().out)
+    assert (res["tortuosity_factor"], res["status"]) == (None, "blocked")
+    assert main(["diffusivity", str(path), "--direction", "x", "--quiet"]) == 3
+    line = capsys.readouterr().out
+    assert "tortuosity factor undefined (no pore path along x) [blocked]" in line, line
+    assert "inf" not in line
+    case = load_case(path, {}, {})
+    r = relative_diffusivity(case.fields, "x", dict(case.transport))
+    assert "undefined (no pore path along x) [blocked]" in r._repr_html_()
+
+
 def test_a_study_row_says_why_a_transport_value_is_not_ok(tmp_path):
     """A study row carried ``diffusivity_z_status = untrustworthy`` but not the reason the
     ``psdesign diffusivity`` command prints (K's rows carry theirs in ``warnings_z``). The

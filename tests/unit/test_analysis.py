@@ -227,6 +227,27 @@ def _one_error_line(capsys) -> str:
     return err[0]
 
 
+@pytest.mark.parametrize("levels", ['["straight", "bent"]', '["straight"]'])
+def test_fit_refuses_a_study_with_no_numeric_design_parameter(tmp_path, capsys, levels) -> None:
+    """Session 51: ``study fit``'s refusal of a study whose one design parameter is a category
+    (generator.kind varied, or one level) had no test of its words; it now names the
+    parameters and what is allowed. Exit 2 (bad input), one line, no surrogate.json."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]',
+        f'"generator.kind" = {levels}\n',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 2
+    assert _one_error_line(capsys) == (
+        f"psdesign: error: OUT: the study in {out} has no numeric design parameter to fit over "
+        "(generator.kind: not a number in every case); allowed: a study with a numeric "
+        "parameter (e.g. generator.porosity)"
+    )
+    assert not (out / "surrogate.json").exists()
+
+
 def test_fit_and_report_never_replace_a_users_file(tmp_path, capsys) -> None:
     """audit (session 31): ``study fit`` replaced a user's ``surrogate.json`` in a finished study
     folder and did not list its own in the marker. Rule: a file the marker does not list is

@@ -347,6 +347,26 @@ def test_imagej_unit_spellings_give_the_voxel_size(tmp_path, unit, voxel):
     assert m.spec["rve"]["voxel"] == pytest.approx(voxel, rel=1e-12, abs=0)
 
 
+def test_an_imagej_resolution_reads_as_the_decimal_the_file_means(tmp_path):
+    """Session 51: 0.8 pixels per um is a 1.25 um voxel, but ``1 / 0.8 * 1e-6`` is the float
+    1.2499999999999999e-06, which rve.json and summary.json printed (the box of 8 voxels
+    9.999999999999999e-06 m). The conversion now keeps 15 significant digits: 1.25e-06 and
+    1e-05 exactly as the decimals read (truth: 8 x 1.25 um = 10 um)."""
+    import tifffile
+
+    from psdesign.image.reader import file_voxel_size
+
+    data = np.zeros((8, 8, 8), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": "um", "spacing": 1.25, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(0.8, 0.8), metadata=meta)
+    assert 1 / 0.8 * 1e-6 != 1.25e-6  # the float product the old code kept
+    assert file_voxel_size(tmp_path / "s.tif") == 1.25e-6
+    m = psdesign.from_image(tmp_path / "s.tif")
+    assert repr(m.spec["rve"]["voxel"]) == "1.25e-06"
+    assert [repr(x) for x in m.spec["rve"]["size"]] == ["1e-05"] * 3
+
+
 def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
     # a calibrated file in a unit psdesign does not read was refused as "carries no voxel
     # size", as an uncalibrated one: now the line names the unit and the ones it reads

@@ -295,6 +295,17 @@ def test_a_cut_short_outcome_file_is_one_line_in_the_report(tmp_path, capsys) ->
     assert "KeyError" not in page and "<h2>Porosity vs permeability</h2>" in page
 
 
+def test_a_missed_target_says_its_distance_is_to_the_band(tmp_path, capsys) -> None:
+    """Session 51: the NOT MET line said "closest case misses by 0.685 (relative)", read as
+    the distance to the target value, while it is measured to the nearest edge of the band
+    (Target.miss). K 1.077e-11 (barred_case) against 5e-11 +- 10 %: (4.5e-11 - 1.077e-11) /
+    5e-11 = 0.6846 to the band's edge, 0.7846 to the value (closed form)."""
+    assert main([*_argv(tmp_path, "k_z_m2=5e-11+-10%"), "--json"]) == 3
+    msg = json.loads(capsys.readouterr().out)["message"]
+    assert (4.5e-11 - 1.077e-11) / 5e-11 == pytest.approx(0.6846, abs=1e-4)
+    assert msg.endswith("; closest case misses the target band by 0.685 of the target value"), msg
+
+
 def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, capsys) -> None:
     """Review (session 43): when every case's K_z is untrustworthy (study_cases.untrusted_case:
     a periodic solve of a non-periodic RVE), no case has a distance to the target; the

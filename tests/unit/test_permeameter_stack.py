@@ -135,6 +135,34 @@ def test_voxel_check_on_images():
     assert periodicity(None, image_fields(slant, 1e-6), 1)[0] is True
 
 
+def test_a_fibre_cut_at_an_end_plane_the_image_test_passes_is_said():
+    """Session 51 (session 50's walk: a nonwoven's z faces were non-periodic by the RVE route,
+    periodic by the image route of its TIFF, stacked there in 3 copies). An 8 um fibre along x
+    with its axis 1 um above z = 0 is cut by that plane, and nothing meets it at z = L: the
+    analytic test refuses the stack (truth: the cut). Its voxels at 2 um (4 per diameter) pass
+    the image's test, which can only ask whether the seam step is as rough as a step between
+    layers inside. The two tests must differ (an image has no fibre surfaces); the messages
+    now say which test spoke and what it measured."""
+    rve = _cylinders([40e-6, 40e-6, 30e-6], [[20e-6, 20e-6, 1e-6]], 8e-6, direction=(1, 0, 0))
+    fields = rve.voxelize(2e-6)
+    img = image_fields(fields.solid, 2e-6)
+    assert periodicity(rve, fields, 2)[:3] == (False, 1, "analytic")
+    assert periodicity(None, img, 2)[:3] == (True, 1, "voxel")
+    on_rve = plan_copies({}, rve, fields, 2)
+    assert on_rve.copies == 1 and "the fiber surfaces at z = 0 and z = L differ by" in on_rve.note
+    on_img = plan_copies({}, None, img, 2)
+    assert on_img.copies == 2 and on_img.note.startswith(
+        "K_z: copies stacked on the voxel test of the end planes (the first and last voxel "
+        "layers along z differ on "
+    )
+    assert "fibres cut at the end planes" in on_img.note
+    assert "flow.permeameter_copies = 1" in on_img.note
+    with pytest.raises(SpecError, match="the fiber surfaces at z = 0 and z = L differ"):
+        plan_copies({"permeameter_copies": 2}, rve, fields, 2)
+    # an analytic stack says nothing: its test saw the fibre surfaces
+    assert plan_copies({}, _row(1), _row(1).voxelize(1e-6), 0).note is None
+
+
 def test_stack_fields_tiles_and_keeps_the_class():
     rve = _row(1)
     f = rve.voxelize(1e-6)

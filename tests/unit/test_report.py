@@ -1734,6 +1734,27 @@ def test_the_values_table_prints_omega_with_its_absolute_bar():
     assert "± its absolute error" in table
 
 
+def test_the_values_table_says_a_blocked_tortuosity_is_blocked():
+    """Session 51: a blocked diffusivity's row has D_eff/D 0 and no tortuosity (an empty
+    cell, the JSON's ``null``: porosity / 0), both rated by ``diffusivity_z_status =
+    blocked``. The values table printed the diffusivity ``[blocked]`` and the tortuosity as a
+    blank cell; it now says ``undefined [blocked]`` (truth: the row's status)."""
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok", "ok"],
+            "diffusivity_z": [0.0, 0.5],
+            "diffusivity_z_rel_error": [0.0, 0.01],
+            "diffusivity_z_status": ["blocked", "ok"],
+            "tortuosity_z": [None, 1.6],
+        }
+    )
+    cells = re.findall(r"<td>([^<]*)</td>", _values_table(df))
+    assert cells[2:4] == ["0 ± 0.0 % [blocked]", "undefined [blocked]"], cells
+
+
 def test_parameter_plots_rate_each_output_once_not_once_per_parameter(monkeypatch):
     """Session 47: ``parameter_plots`` asked ``not_ok_status`` for an output's not-ok rows in
     every frame (parameters x outputs; on a 2000-row table without status columns each call

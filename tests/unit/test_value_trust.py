@@ -60,6 +60,21 @@ def test_a_value_is_trusted_exactly_when_its_case_is_ok_and_its_own_status_ok_or
     assert n == 4 * 2 * 28  # every combination was checked
 
 
+def test_a_values_own_status_is_read_by_the_exits_one_rule():
+    """Session 51: ``k_not_ok`` (the red box, the study exit's flagged values) spelled its good
+    words ``ok`` and ``not_applicable`` itself, ``exit_status.passes`` (every command's exit)
+    read ``TRUSTED`` and ``not_applicable``: a value rated ``converged`` or ``at_bound`` was
+    flagged by one and passed by the other. Truth: the exit rule, word by word."""
+    from psdesign.analysis.columns import k_not_ok
+    from psdesign.cli.exit_status import passes
+
+    words = ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "blocked"]
+    words += ["not_converged", "extrapolated"]
+    flagged = k_not_ok(pd.DataFrame({"k_z_status": words}), "k_z_m2").tolist()
+    assert flagged == [not passes(w) for w in words]
+    assert flagged == [False] * 4 + [True] * 4
+
+
 @pytest.mark.parametrize("status", [None, float("nan"), ""])
 def test_a_missing_case_status_reads_unknown_everywhere(status):
     """One helper (``case_status``): the values' status, the exit's count (failed) and the red
