@@ -339,8 +339,10 @@ class Fiber:
         """Medial axis polylines (normalized) of every copy crossing the box [lo, hi].
 
         Straight fibers give two-point segments; bent ones are sampled from the closed
-        form ``centre + s d - u cos(2 pi f s') / (2 pi) w`` (Eq. 13-15 with the
-        carrier term), where ``s'`` is the canonical coordinate along the axis.
+        form ``centre + s d - u cos(2 pi f s') / (2 pi) w``, where ``s'`` is the canonical
+        coordinate along the axis: Eq. (16)'s centre line, where the carrier phase is pi.
+        Eq. (13)-(15) as printed (``p . r - u cos(...) = 0``) flip the bend's sign and drop
+        the factor ``1 / (2 pi kappa)`` and the half period (docs/paper-reproduction.md, 0).
         """
         lines = []
         for p in self.axis_copies(lo, hi, 0.0):

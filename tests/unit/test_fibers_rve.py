@@ -6,11 +6,17 @@ import numpy as np
 import pytest
 
 from psdesign.geometry.fibers import (
+    bent_rod_model,
     bent_rod_narrowing,
+    compressed_bent_model,
+    compressed_rod_a_model,
+    compressed_rod_b_model,
+    compressed_straight_model,
     make_fiber,
     rod_cross_section_area,
     rod_diameter,
     rod_isovalue,
+    rod_model,
     woven_cell,
 )
 from psdesign.geometry.rve import RVE
@@ -29,6 +35,66 @@ def test_eq5_eq6_round_trip_and_measured_diameter(D):
     # across the axis, along both lattice directions (Eq. 5 measures along a cell axis)
     for e in fb.lattice:
         assert _interval_length(fb, fb.center + 0.2 * fb.direction, e) == pytest.approx(D, abs=5e-6)
+
+
+def test_papers_printed_examples_of_eq5_and_sec5():
+    """Huang et al. 2015, Sec. 3: "when psi0 = 0, the diameter is approximately 0.58" (Eq. 5);
+    Sec. 5: "when a is 0.1, D_diff-max = 0.00496D" (f = 1, where our slope amplitude u f is
+    the paper's u). The rod's chord at psi0 = 0 is also measured on the field itself."""
+    assert rod_diameter(0.0) == pytest.approx(0.58, abs=0.005)
+    assert rod_isovalue(0.58) == pytest.approx(0.0, abs=0.02)
+    fb = make_fiber("rod", diameter=rod_diameter(0.0), direction=[0, 0, 1])
+    assert fb.isovalue == pytest.approx(0.0, abs=1e-12)
+    assert _interval_length(fb, fb.center, fb.lattice[1]) == pytest.approx(0.58, abs=0.005)
+    assert bent_rod_narrowing(1.0, 0.1, 1.0) == pytest.approx(0.00496, abs=5e-6)
+    assert bent_rod_narrowing(7e-6, 0.1, 1.0) == pytest.approx(0.00496 * 7e-6, rel=2e-3)
+
+
+def _printed(x, y, z):
+    """The fixed shapes as printed in Huang et al. 2015 (left-hand sides; solid where <= 0,
+    or <= psi0 for Eq. 4 and 16), written out term by term from the paper's text."""
+    c, pi = np.cos, np.pi
+    return {
+        "eq4": 4 * c(2 * pi * x) + 4 * c(2 * pi * y) + 3,
+        "eq16": 4 * c(2 * pi * x + 0.25 * c(2 * pi * 1.5 * z)) + 4 * c(2 * pi * y) + 3,
+        "fig6a": 4 * c(2 * pi * x)
+        + c(3 * pi * x)
+        + 4 * c(2 * pi * y)
+        + c(pi * y / 6)
+        + c(3 * pi * (x + z)) / 4
+        + 2.5,
+        "fig6b": 7 * c(2 * pi * x) + 7 * c(2 * pi * y) + 2 * c(4 * pi * x) + 2 * c(4 * pi * y) + 8,
+        "eq17": 4 * c(2 * pi * x)
+        + 3 * c(2 * pi * y)
+        + 0.95 * c(2 * pi * z)
+        + 0.5 * c(2 * pi * (y + z))
+        + 0.5 * c(2 * pi * (y - z))
+        + 6.55,
+        "eq18": 4 * c(2 * pi * x + 0.3 * c(pi * z - pi / 2))
+        + 3 * c(2 * pi * y)
+        + 0.95 * c(2 * pi * z)
+        + 0.5 * c(2 * pi * (y + z))
+        + 0.5 * c(2 * pi * (y - z))
+        + 6.55,
+    }
+
+
+def test_fixed_shapes_are_the_printed_equations():
+    """Eq. (4), (16) (u = 0.25, f = 1.5), Fig. 6(a), 6(b), Eq. (17) and Eq. (18) of the paper
+    against their PS models (Eq. 19 is checked in test_paper.py). Before session 51 no test
+    compared Eq. (18) with its printed form: a wrong bend phase passed every test."""
+    p = np.random.default_rng(51).uniform(-0.5, 1.5, (400, 3))
+    truth = _printed(*p.T)
+    models = {
+        "eq4": rod_model(),
+        "eq16": bent_rod_model(0.25, 1.5),
+        "fig6a": compressed_rod_a_model(),
+        "fig6b": compressed_rod_b_model(),
+        "eq17": compressed_straight_model(),
+        "eq18": compressed_bent_model(),
+    }
+    for name, model in models.items():
+        assert np.allclose(model.evaluate(p), truth[name], atol=1e-12), name
 
 
 def test_rod_cross_section_area_matches_independent_sampling():

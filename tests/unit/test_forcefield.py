@@ -12,6 +12,8 @@ import pytest
 from psdesign.forcefield.cases import (
     PAPER_TWO_FIBER,
     TABLE_II_INITIAL,
+    TABLE_II_RANGE,
+    TABLE_II_RESULT,
     six_fiber_problem,
     two_fiber_problem,
 )
@@ -484,6 +486,39 @@ def test_six_fiber_start_and_weave():
     assert [f.model.u[0] for f in fl] == pytest.approx([0.29, -0.29, 0.29, -0.29, 0.29, -0.29])
     paper = p.potential(p.free_of(p.paper))
     assert paper.volume > start.volume  # Table II optimum is fatter: more overlap here
+
+
+def test_table_ii_and_sec61_are_the_printed_numbers_tied_as_sec62_says():
+    """Huang et al., Eng. Comput. 32(1) 2015: Table II (initial condition, adjustment range,
+    optimization result) and Sec. 6.1's optimum f = 2.6733, u1 = -u2 = 0.1896, typed here from
+    the paper. The printed result obeys Sec. 6.2's constraints (mu1 - mu2 = 1, mu4 = mu5,
+    kappa3 = 3 kappa1 = 3 kappa2 = 3 kappa4 = 3 kappa5, f = 1.5 kappa1, u1 = -u2); the printed
+    start breaks two of them (kappa3 2.9 != 2.7, f 1.3 != 1.35: docs/forcefield.md), and the
+    search box is the intersection of the printed ranges of the tied parameters."""
+    mu = dict(mu1=(3.9, 4.08), mu2=(2.9, 3.08), mu3=(1.1, 0.975), mu4=(0.55, 0.4549))
+    mu["mu5"] = (0.55, 0.4549)
+    kappa = dict(kappa1=(0.9, 0.96), kappa2=(0.9, 0.96), kappa3=(2.9, 2.88))
+    kappa.update(kappa4=(0.9, 0.96), kappa5=(0.9, 0.96))
+    rest = dict(u1=(0.29, 0.415), u2=(-0.29, -0.415), f=(1.3, 1.44))
+    printed = {**mu, **kappa, **rest}
+    assert TABLE_II_INITIAL == {k: v[0] for k, v in printed.items()}
+    assert TABLE_II_RESULT == {k: v[1] for k, v in printed.items()}
+    half = {**dict.fromkeys(mu, 0.2), **dict.fromkeys(kappa, 0.3), "u1": 0.2, "u2": 0.2}
+    assert TABLE_II_RANGE == {**half, "f": 0.3}
+    assert PAPER_TWO_FIBER == {"f": 2.6733, "u1": 0.1896, "u2": -0.1896}
+
+    p = six_fiber_problem(n_s=16, n_theta=8)
+    assert p.param.inconsistencies(p.paper) == []
+    start = {**TABLE_II_INITIAL, "tx": p.paper["tx"], "ty": p.paper["ty"]}
+    assert sorted(m.split(":")[0] for m in p.param.inconsistencies(start)) == ["f", "kappa3"]
+    lo, hi = p.param.bounds()
+    k = p.param.free.index("kappa1")  # kappa3 in 2.9 +- 0.3 and f in 1.3 +- 0.3 bind it
+    assert (lo[k], hi[k]) == pytest.approx((2.6 / 3, 1.6 / 1.5), abs=1e-12)
+    x = p.free_of(p.paper)
+    assert np.all((lo <= x) & (x <= hi))  # Table II's result lies inside the box
+    two = two_fiber_problem(seed=5, n_s=8, n_theta=8)  # Sec. 6.1: f0 in [1, 2], f0 +- 1
+    lo2, hi2 = two.param.bounds()
+    assert np.all((lo2 <= two.free_of(PAPER_TWO_FIBER)) & (two.free_of(PAPER_TWO_FIBER) <= hi2))
 
 
 # ---------------------------------------------------------------------------- CLI
