@@ -323,11 +323,9 @@ def test_a_real_value_below_hashin_shtrikman_but_inside_wiener_is_ok(spec, capsy
     assert "Hashin-Shtrikman bounds, isotropic media only" in r._repr_html_()
 
 
-def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
-    """Session 37 edge audit: a square array across at solid fraction 0.75 has a gap L - D =
-    0.46 um per 20 um (the closed form: a path), closed on 0.5 um voxels. Its D_eff/D_x was
-    0 +- 0 % [blocked] with no warning, as if the RVE had no path; an image's block is exact.
-    Exit 3 (the rule: a status other than ok; 0 until session 45)."""
+def _closed_square_array(tmp_path):
+    """A square array across at solid fraction 0.75 in a 20 um box: a gap L - D = 0.46 um
+    (the closed form: a path), closed on 0.5 um voxels (the spec's path)."""
     l, phi = 20e-6, 0.75
     d = float(2 * l * np.sqrt(phi / np.pi))
     assert 0 < l - d < 0.5e-6
@@ -337,6 +335,15 @@ def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
         f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
         "direction = [0, 0, 1]\n"
     )
+    return path
+
+
+def test_a_block_of_the_grid_on_an_analytic_rve_is_said(tmp_path, capsys):
+    """Session 37 edge audit: a square array across at solid fraction 0.75 has a gap L - D =
+    0.46 um per 20 um (the closed form: a path), closed on 0.5 um voxels. Its D_eff/D_x was
+    0 +- 0 % [blocked] with no warning, as if the RVE had no path; an image's block is exact.
+    Exit 3 (the rule: a status other than ok; 0 until session 45)."""
+    path = _closed_square_array(tmp_path)
     assert main(["diffusivity", str(path), "--direction", "x", "--json", "--quiet"]) == 3
     res = json.loads(capsys.readouterr().out)
     assert res["blocked"] and res["relative_diffusivity"] == 0.0 and res["status"] == "blocked"
@@ -351,14 +358,7 @@ def test_a_blocked_tortuosity_says_undefined_in_the_text_as_null_in_the_json(tmp
     from psdesign.transport.diffusivity import relative_diffusivity
     from psdesign.transport.load import load_case
 
-    l, phi = 20e-6, 0.75
-    d = float(2 * l * np.sqrt(phi / np.pi))
-    path = tmp_path / "s.toml"
-    path.write_text(
-        f"[rve]\nsize = [{l!r}, {l!r}, {l!r}]\nvoxel = 5e-7\n[[fibers]]\n"
-        f'shape = "cylinder"\ndiameter = {d!r}\ncenter = [1e-5, 1e-5, 1e-5]\n'
-        "direction = [0, 0, 1]\n"
-    )
+    path = _closed_square_array(tmp_path)
     assert main(["diffusivity", str(path), "--direction", "x", "--quiet", "--json"]) == 3
     res = json.loads(capsys.readouterr().out)
     assert (res["tortuosity_factor"], res["status"]) == (None, "blocked")
