@@ -32,7 +32,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import paper_table3 as t3  # noqa: E402  (the shared helpers: cache, pore statistics, CI)
 
 ROOT = t3.ROOT
-PAPER_IN_PLANE = {"straight": 1.21e-11, "bent": 1.11e-11}
 
 
 def _spec(kind: str, method: str, seed: int, size: float | None) -> dict:
@@ -470,7 +469,7 @@ def summary(path: Path) -> str:
             cells.append(_cell(k, ref) + f" n={len(k)}" if len(k) else "-")
         both = [s for s in seeds if s in by_dir.get("x", {}) and s in by_dir.get("y", {})]
         kin = np.array([(by_dir["x"][s] + by_dir["y"][s]) / 2 for s in both])
-        cells.append(_cell(kin, PAPER_IN_PLANE.get(kind)) if len(kin) else "-")
+        cells.append(_cell(kin, t3.PAPER.get((kind, "x"))) if len(kin) else "-")
         rat = [kin[i] / by_dir["z"][s] for i, s in enumerate(both) if s in by_dir.get("z", {})]
         paper = 1.21 / 0.807 if kind != "bent" else 1.11 / 0.78
         cells.append(_cell(np.array(rat), paper, ".3f") if rat else "-")
@@ -518,7 +517,7 @@ def bc_table(path: Path, perm_tag: str = "permeameter-main") -> str:
     out = [head, "| " + " | ".join(["---"] * 7) + " |"]
     for kind in ("straight", "bent"):
         for d in ("z", "x", "y", "in"):
-            ref = PAPER_IN_PLANE[kind] if d != "z" else t3.PAPER[(kind, "z")]
+            ref = t3.PAPER[(kind, "x" if d != "z" else "z")]
             cells = [kind, {"in": "(K_x + K_y) / 2"}.get(d, f"K_{d}")]
             per = k.get((kind, "periodic"), {}).get(d, {})
             prm = k.get((kind, perm_tag), {}).get(d, {})
@@ -630,7 +629,7 @@ def controlled(path: Path, layering_path: Path, kind: str) -> str:
         cells.append(f"{np.mean(std):.3f}" if std else "-")
         cells.append(_cell(np.array([k["z"] for k in ks]), t3.PAPER[(kind, "z")]))
         kin = np.array([0.5 * (k["x"] + k["y"]) for k in ks])
-        cells.append(_cell(kin, PAPER_IN_PLANE[kind]))
+        cells.append(_cell(kin, t3.PAPER[(kind, "x")]))
         cells.append(_cell(np.array([ratio(k) for k in ks]), None, ".3f"))
         paired = [ratio(full[(m, s)]) / ratio(full[("ga", s)]) for s in seeds if ("ga", s) in full]
         cells.append(_cell(np.array(paired), None, ".3f") if paired and m != "ga" else "-")

@@ -491,10 +491,11 @@ def test_six_fiber_start_and_weave():
 def test_table_ii_and_sec61_are_the_printed_numbers_tied_as_sec62_says():
     """Huang et al., Eng. Comput. 32(1) 2015: Table II (initial condition, adjustment range,
     optimization result) and Sec. 6.1's optimum f = 2.6733, u1 = -u2 = 0.1896, typed here from
-    the paper. The printed result obeys Sec. 6.2's constraints (mu1 - mu2 = 1, mu4 = mu5,
-    kappa3 = 3 kappa1 = 3 kappa2 = 3 kappa4 = 3 kappa5, f = 1.5 kappa1, u1 = -u2); the printed
-    start breaks two of them (kappa3 2.9 != 2.7, f 1.3 != 1.35: docs/forcefield.md), and the
-    search box is the intersection of the printed ranges of the tied parameters."""
+    the paper (Table II prints one u row: u2 = -u1 by the tie). The printed result obeys Sec.
+    6.2's constraints (mu1 - mu2 = 1, mu4 = mu5, kappa3 = 3 kappa1 = 3 kappa2 = 3 kappa4 =
+    3 kappa5, f = 1.5 kappa1, u1 = -u2); the printed start breaks two of them (kappa3 2.9 !=
+    2.7, f 1.3 != 1.35: docs/forcefield.md), and the search box is the intersection of the
+    printed ranges of the tied parameters."""
     mu = dict(mu1=(3.9, 4.08), mu2=(2.9, 3.08), mu3=(1.1, 0.975), mu4=(0.55, 0.4549))
     mu["mu5"] = (0.55, 0.4549)
     kappa = dict(kappa1=(0.9, 0.96), kappa2=(0.9, 0.96), kappa3=(2.9, 2.88))
