@@ -481,6 +481,19 @@ def in_metres(length: float, unit: float) -> float:
     return float(f"{length * unit:.15g}")
 
 
+def box_size(shape, voxel: float) -> tuple[float, float, float]:
+    """The box edges in metres of ``shape`` voxels of ``voxel`` metres, rounded as
+    :func:`in_metres` (a count in a unit of one voxel): the spec, rve.json and the image grid
+    print 12 voxels of 1.25 um as 1.5e-05 m, not the float product 1.5000000000000002e-05
+    (session 51). The edge stays a whole number of cubic voxels: the rounding moves it by at
+    most 5e-16 of itself (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
+
+    >>> 12 * 1.25e-6, box_size((12, 8, 1), 1.25e-6)
+    (1.5000000000000002e-05, (1.5e-05, 1e-05, 1.25e-06))
+    """
+    return tuple(in_metres(int(n), voxel) for n in shape)
+
+
 def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
     """The voxel edge (metres) a file carries, or None.
 
