@@ -471,9 +471,12 @@ def read_image(src: ImageSource) -> np.ndarray:
 
 
 def in_metres(length: float, unit: float) -> float:
-    """``length`` (in a unit of ``unit`` metres) in metres, to 15 significant digits: the
-    decimal the file means, not the float product's last bit (a 0.8 pixels-per-um resolution
-    is 1.25 um, written 1.2499999999999999e-06 m in rve.json until session 51).
+    """``length`` (in a unit of ``unit`` metres) in metres, rounded to 15 significant digits, so
+    that a length whose decimal terminates within them reads as written, not as the float
+    product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
+    1.2499999999999999e-06 m in rve.json until session 51). The rounding moves a value by at
+    most 5e-16 of itself; a decimal that does not terminate comes out to 15 digits, not
+    correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
 
     >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
     (1.2499999999999999e-06, 1.25e-06)
