@@ -326,20 +326,26 @@ def _error_column(column: str) -> str | None:
 def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): its
     case's (:func:`case_status`: ``failed``, ``not_converged``, ``unknown``...) when that is not
-    ``ok``, else its own (:func:`own_status`: ``ok`` for an unrated value).
+    ``ok``, else its own (:func:`own_status`: ``ok`` for an unrated value), read as ``ok`` when
+    the exit trusts it (:data:`psdesign.cli.exit_status.TRUSTED`: ``converged``, ``at_bound``;
+    the rule of :func:`k_not_ok` and the fits, session 51). ``not_applicable`` stays its word:
+    no value to draw or to call trusted (:func:`k_not_ok` does not flag it either).
 
-    >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged"],
-    ...                    "k_z_status": ["ok", "untrustworthy", "ok"]})
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "not_converged", "ok"],
+    ...                    "k_z_status": ["ok", "untrustworthy", "ok", "converged"]})
     >>> value_status(df, "k_z_m2").tolist()
-    ['ok', 'untrustworthy', 'not_converged']
+    ['ok', 'untrustworthy', 'not_converged', 'ok']
     """
-    case = case_status(df)
-    return case.where(case != "ok", own_status(df, column))
+    from psdesign.cli.exit_status import TRUSTED
+
+    case, own = case_status(df), own_status(df, column)
+    return case.where(case != "ok", own.where(~own.isin(TRUSTED), "ok"))
 
 
 def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
     """Rows whose value in ``column`` is trusted: :func:`value_status` ``ok`` (its case ``ok``
-    and the value ``ok`` by its own status, or unrated).
+    and the value trusted by its own status, :data:`psdesign.cli.exit_status.TRUSTED`, or
+    unrated).
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_status": ["ok", "x", "ok"]})
     >>> value_ok(df, "k_z_m2").tolist()
@@ -351,9 +357,10 @@ def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
     own status (:func:`own_status`) by the exit's rule
-    (:func:`psdesign.cli.exit_status.passing`, one list of the words), whatever its case's;
-    False for an unrated value and for one that does not apply (an image's Omega:
-    ``not_applicable``, no value to distrust).
+    (:func:`psdesign.cli.exit_status.passing`: :data:`~psdesign.cli.exit_status.TRUSTED`, as
+    :func:`value_status` reads it, and ``not_applicable``), whatever its case's; False for an
+    unrated value and for one that does not apply (an image's Omega: ``not_applicable``, no
+    value to distrust).
 
     >>> k_not_ok(pd.DataFrame({"intersection_volume_fraction_status": ["not_applicable", "x"]}),
     ...          "intersection_volume_fraction").tolist()

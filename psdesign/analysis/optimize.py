@@ -373,6 +373,19 @@ def _stop_reason(n_points: int, budget: int, space: float, ok, df, any_ok: bool)
     return msg + first_error(df), True
 
 
+def miss_words(n_targets: int) -> tuple[str, str]:
+    """The words before and after the closest miss (:meth:`Target.miss`, summed over
+    ``n_targets``): the NOT MET line's (:func:`_closest_miss`) and the report's rounds table's
+    header (session 51: it said "best miss (relative)").
+
+    >>> miss_words(1)
+    ('misses the target band by', 'of the target value')
+    """
+    if n_targets == 1:
+        return "misses the target band by", "of the target value"
+    return "misses the target bands by", f"of the target values (summed over {n_targets} targets)"
+
+
 def _closest_miss(best_miss: float, targets: list[Target]) -> str:
     """How far the closest case is from the targets, for the NOT MET message; with no case
     holding a trusted value of every target's output (all untrustworthy, failed) there is no
@@ -390,12 +403,8 @@ def _closest_miss(best_miss: float, targets: list[Target]) -> str:
     '; closest case misses the target bands by 0.2 of the target values (summed over 2 targets)'
     """
     if math.isfinite(best_miss):
-        if len(targets) == 1:
-            return f"; closest case misses the target band by {best_miss:.3g} of the target value"
-        return (
-            f"; closest case misses the target bands by {best_miss:.3g} of the target values "
-            f"(summed over {len(targets)} targets)"
-        )
+        before, after = miss_words(len(targets))
+        return f"; closest case {before} {best_miss:.3g} {after}"
     return "; no case has a trusted value of " + " and ".join(
         dict.fromkeys(t.output for t in targets)
     )

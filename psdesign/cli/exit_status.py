@@ -26,7 +26,8 @@ One rule decides 0 or 3 for every command (:func:`status_code`): a finished resu
 trusted when its ``status`` is in :data:`TRUSTED`. A study's table (``results.csv``) follows
 the same rule per case (:func:`case_counts`, :func:`cases_status`): a failed or timed-out
 case is 1, a case that finished with a status other than ``ok``, or an ``ok`` case with a
-value whose own status (``k_z_status``, ``diffusivity_x_status``...) is not ``ok``, is 3.
+value whose own status (``k_z_status``, ``diffusivity_x_status``...) does not pass
+(:func:`passes`), is 3.
 
 ``study report`` finishes when it has written the report, whatever the cases it shows: a
 table of failed cases is reported faithfully, not a report that could not finish, so it is
@@ -93,9 +94,12 @@ def passes(status: str | None) -> bool:
 
 def passing() -> tuple[str, ...]:
     """The status words :func:`passes`: :data:`TRUSTED` and ``not_applicable``; what a study
-    table's value columns are read by too (:func:`psdesign.analysis.columns.k_not_ok`, which
-    spelled ``ok`` and ``not_applicable`` itself until session 51, so a value rated
-    ``converged`` or ``at_bound`` was flagged there and passed here)."""
+    table's value columns are read by too: :func:`psdesign.analysis.columns.k_not_ok` (the
+    fits, the red box) flags a value outside these, and
+    :func:`~psdesign.analysis.columns.value_status` (the figures) and the report's tables read
+    a :data:`TRUSTED` one as ``ok``. Until session 51 ``k_not_ok`` spelled ``ok`` and
+    ``not_applicable`` itself and the others ``ok`` alone, so a value rated ``converged`` or
+    ``at_bound`` was flagged there and passed here."""
     from psdesign.packing.overlap_status import NOT_APPLICABLE
 
     return (*TRUSTED, NOT_APPLICABLE)
@@ -120,7 +124,7 @@ class CaseCounts(NamedTuple):
     failed: int
     #: finished ``not_converged`` (what ``--allow-not-converged`` accepts, and only that)
     not_converged: int
-    #: ``ok`` cases with a value whose own status is not ``ok`` (``untrustworthy``, ``blocked``)
+    #: ``ok`` cases with a value whose own status does not pass (``untrustworthy``, ``blocked``)
     #: and finished cases with any other status word (a table the runner did not write)
     flagged: int
 

@@ -288,13 +288,18 @@ def periodicity(
     (:attr:`EndPlanes.gap_fraction`). ``fields`` a voxel size (m): the RVE's analytic field
     alone, before its voxel fields are built (:func:`spec_auto_copies`)."""
     ends = end_planes(rve, fields, axis)
+    return ends.periodic, _periods(rve, fields, ends), ends.check, ends.gap_fraction
+
+
+def _periods(rve: RVE | None, fields: VoxelFields | SolidMask | float, ends: EndPlanes) -> int:
+    """The sub-periods within one copy along ``ends``' axis by the test that judged its end
+    planes (1 when they differ): :func:`periodicity`'s, for a caller that needs ``ends`` too."""
     if not ends.periodic:
-        return False, 1, ends.check, ends.gap_fraction
+        return 1
+    axis = "xyz".index(ends.axis)
     if ends.check == "analytic":
-        periods = _analytic_periods(rve, fields, axis)
-    else:
-        periods = _voxel_periods(fields, axis)
-    return True, periods, ends.check, ends.gap_fraction
+        return _analytic_periods(rve, fields, axis)
+    return _voxel_periods(fields, axis)
 
 
 def parse_copies(value: object) -> int | str:
@@ -323,16 +328,20 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
         copies would meet at a seam of mismatched fibres).
     """
     want = parse_copies(flow.get("permeameter_copies"))
-    periodic, periods, check, gap = periodicity(rve, fields, axis)
+    # the end planes once: the analytic test samples 4000 points of the union field (~50 ms on
+    # 119 fibres), and a solve plans two or more times (review s51: it ran three times here)
+    ends = end_planes(rve, fields, axis)
+    periodic, check, gap = ends.periodic, ends.check, ends.gap_fraction
+    periods = _periods(rve, fields, ends)
     name = "xyz"[axis]
     if want == "auto":
         if periodic:
             copies = auto_copies(periodic, periods)
-            note = voxel_stack_note(rve, fields, axis) if copies >= 2 else None
+            note = voxel_stack_note(ends) if copies >= 2 else None
             return StackPlan(copies, True, periods, check, note, gap if copies >= 2 else 0.0)
         note = (
             f"K_{name}: the geometry is not periodic along {name} (its end planes differ: "
-            f"{end_planes(rve, fields, axis).detail}), so the permeameter cannot stack copies: "
+            f"{ends.detail}), so the permeameter cannot stack copies: "
             "K is this sample's, its entrance layers included (flow.permeameter_copies = 1); "
             "compare bc = 'periodic'"
         )
@@ -341,15 +350,16 @@ def plan_copies(flow: dict, rve: RVE | None, fields: VoxelFields, axis: int) -> 
         raise SpecError(
             "flow.permeameter_copies",
             f"{want} copies need a geometry periodic along {name} (its end planes differ: "
-            f"{end_planes(rve, fields, axis).detail}); allowed here: 1 or 'auto'",
+            f"{ends.detail}); allowed here: 1 or 'auto'",
         )
-    note = voxel_stack_note(rve, fields, axis) if want >= 2 else None
+    note = voxel_stack_note(ends) if want >= 2 else None
     return StackPlan(want, periodic, periods, check, note, gap if want >= 2 else 0.0)
 
 
-def voxel_stack_note(rve: RVE | None, fields: VoxelFields, axis: int) -> str | None:
+def voxel_stack_note(ends: EndPlanes) -> str | None:
     """Why a stack of copies on the voxel test (an image: no fibre surfaces) may hold seams
-    the analytic test of the same fibres refuses; None on the analytic test.
+    the analytic test of the same fibres refuses; None on the analytic test (``ends``: the
+    :func:`end_planes` of the stacking axis).
 
     The two tests of :func:`end_planes` must differ: the analytic one compares the fibres'
     surfaces on the two end planes (the fibres continue past the box), to
@@ -359,7 +369,6 @@ def voxel_stack_note(rve: RVE | None, fields: VoxelFields, axis: int) -> str | N
     is. Session 50's walk: 13 fibres across 80 um in z, 76.5 % of L apart on the end planes,
     stacked in 3 copies as their TIFF (seam 7.3 % of the voxels, steps inside up to 16 %).
     """
-    ends = end_planes(rve, fields, axis)
     if ends.check != "voxel":
         return None
     return (

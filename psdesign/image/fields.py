@@ -18,6 +18,7 @@ import numpy as np
 
 from psdesign.geometry.edt import periodic_edt
 from psdesign.geometry.rve import VoxelFields, VoxelGrid, is_cubic
+from psdesign.image.reader import box_size
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,7 @@ def image_fields(
     """
     solid = np.asarray(solid, dtype=bool)
     shape = solid.shape
-    size = np.array(shape, float) * voxel
+    size = np.array(box_size(shape, voxel))  # 12 x 1.25 um is 1.5e-05 m, as the spec says
     grid = VoxelGrid(size=size, shape=tuple(int(n) for n in shape), spacing=np.full(3, voxel))
     if distance is None:
         distance = signed_distance(solid, voxel)

@@ -136,7 +136,7 @@ def image_rve(table: dict) -> ImageRVE:
     src = source_of(table)
     mask = load_mask(src)
     fields = image_fields(mask, src.voxel)
-    size = np.asarray(mask.shape, float) * src.voxel
+    size = fields.grid.size.copy()  # the grid's box (reader.box_size), one rounding
     return ImageRVE(size=size, fibers=[], image=fields, source=dict(table))
 
 

@@ -442,6 +442,8 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     header, the bar, bc and a status that is not ok in the cell, wrapped: with a column each
     for status and bc, two directions' reasons made the table 1601 px wide in a 1319 px box
     at a 1400 px window (session 43, benchmarks/RESULTS.md)."""
+    from psdesign.cli.exit_status import passes
+
     rows = []
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
     if not any(f"k_{d}_rel_error" in df for d in dirs):
@@ -474,7 +476,7 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
             bc = row.get(f"bc_{d}", "")
             bc = "" if one_bc[d] or pd.isna(bc) else str(bc)
             out[heads[d]] = _k_cell(k, e, bc, status)
-            flag |= st != "ok"
+            flag |= not passes(st)  # what k_not_ok (the red box) flags
         rows.append(out)
         classes.append("flag" if flag else "")
     note = (
@@ -586,9 +588,11 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
     (:func:`psdesign.analysis.columns.error_bar`): the porosity and Omega ``+-`` their
     absolute bars (:func:`_absolute_bar_text`), the others ``+-`` a relative one, and
-    ``[status]`` where it is not ok, under headings with their units
-    (:func:`psdesign.report.units.output_label`); "" when the study has none of them with a
-    bar."""
+    ``[status]`` where it is not trusted (:data:`psdesign.cli.exit_status.TRUSTED`) nor
+    unrated, under headings with their units (:func:`psdesign.report.units.output_label`); ""
+    when the study has none of them with a bar."""
+    from psdesign.cli.exit_status import TRUSTED
+
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
@@ -603,7 +607,7 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
             if not txt and st == BLOCKED:  # a tortuosity: porosity / 0 (the JSON's null)
                 txt = "undefined"
             any_bar |= has_bar
-            if txt and st not in ("ok", "unrated"):
+            if txt and st != "unrated" and st not in TRUSTED:
                 txt += f" [{st}]"
                 flag = True
             out[output_label(c, study)] = txt

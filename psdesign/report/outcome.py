@@ -13,7 +13,7 @@ import math
 from pathlib import Path
 
 from psdesign.analysis.columns import case_warnings, is_design_parameter
-from psdesign.analysis.optimize import OPTIMIZE_FILE
+from psdesign.analysis.optimize import OPTIMIZE_FILE, miss_words
 from psdesign.analysis.targets import REPORT_KEYS, measured_text, no_closest_case
 from psdesign.report.units import parameter_unit
 
@@ -92,9 +92,13 @@ def _design_point(best: dict) -> str:
     return "".join(rows)
 
 
-def _history(history: list) -> str:
+def _history(history: list, n_targets: int) -> str:
     """The rounds as a table; a round whose cases hold no trusted value of a target's output
-    has no closest miss (``optimize.json`` keeps it as ``"inf"``): "no trusted value"."""
+    has no closest miss (``optimize.json`` keeps it as ``"inf"``): "no trusted value". The
+    miss's header says what the NOT MET line says of it
+    (:func:`psdesign.analysis.optimize.miss_words`: to the band's edge, over the target value,
+    summed over the ``n_targets``)."""
+    before, after = miss_words(n_targets)
     rows = []
     for h in history or []:
         miss = h.get("best_miss")
@@ -104,7 +108,8 @@ def _history(history: list) -> str:
             f"<tr><td>{_esc(h.get('round'))}</td><td>{_esc(h.get('n_points'))}</td>"
             f"<td>{_esc(miss)}</td></tr>"
         )
-    head = "<tr><th>round</th><th>design points run</th><th>best miss (relative)</th></tr>"
+    miss = _esc(f"closest case {before} ... {after}")
+    head = f"<tr><th>round</th><th>design points run</th><th>{miss}</th></tr>"
     return f'<table class="meta">{head}{"".join(rows)}</table>'
 
 
@@ -144,5 +149,5 @@ def optimize_section(out: Path) -> str:
         f'<table class="meta">{rows}</table>'
         f"<h3>Design point{_esc(point_note)}</h3>"
         f'<table class="meta">{_design_point(doc["best"])}</table>'
-        f"<h3>Search rounds</h3>{_history(doc.get('history', []))}"
+        f"<h3>Search rounds</h3>{_history(doc.get('history', []), len(doc['targets']))}"
     )

@@ -1,7 +1,8 @@
 """How the report's figures draw a value that is not trusted (its status:
-:func:`psdesign.analysis.columns.value_status`, one definition since session 46): one marker
-style per status, shared by the static (matplotlib) and interactive (Plotly) figures so that
-``not_converged`` and ``untrustworthy`` never look alike.
+:func:`psdesign.analysis.columns.value_status`, one definition since session 46, whose ``ok``
+is the exit's trusted words since session 51): one marker style per status, shared by the
+static (matplotlib) and interactive (Plotly) figures so that ``not_converged`` and
+``untrustworthy`` never look alike.
 
 Session 45 found the K-vs-parameter frames dropping every untrusted case (an engineer saw a
 line end without being told why) and the porosity-K and convergence figures drawing every

@@ -128,8 +128,10 @@ class ImageTable(Table):
 
     @property
     def size(self) -> tuple[float, float, float]:
-        """Box edges in metres."""
-        return tuple(float(n * self._voxel) for n in self._shape)
+        """Box edges in metres (:func:`psdesign.image.reader.box_size`)."""
+        from psdesign.image.reader import box_size
+
+        return box_size(self._shape, self._voxel)
 
     @model_validator(mode="after")
     def _check_file(self, info: ValidationInfo) -> ImageTable:

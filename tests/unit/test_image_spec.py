@@ -367,6 +367,30 @@ def test_an_imagej_resolution_reads_as_the_decimal_the_file_means(tmp_path):
     assert [repr(x) for x in m.spec["rve"]["size"]] == ["1e-05"] * 3
 
 
+def test_an_imagej_images_box_reads_as_the_decimal_n_voxels_make(tmp_path):
+    """Review s51: the voxel was rounded (above) but not the box: 12 voxels of 1.25 um are
+    15 um, and ``12 * 1.25e-6`` is the float 1.5000000000000002e-05, which the spec,
+    rve.json's ``size_m`` and summary.json's grid printed (8 voxels are exact by luck). The
+    box is rounded as the voxel (``reader.in_metres``) and still holds exactly 12 cubic voxels
+    (the grid rule, ``VoxelGrid.from_voxel`` / ``is_cubic``, within 1e-9). Truth: 12 x 1.25 um
+    = 15 um."""
+    import tifffile
+
+    from psdesign.geometry.rve import VoxelGrid, is_cubic
+
+    data = np.zeros((12, 12, 12), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": "um", "spacing": 1.25, "axes": "ZYX"}
+    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(0.8, 0.8), metadata=meta)
+    assert 12 * 1.25e-6 != 1.5e-5  # the float product the old code kept
+    m = psdesign.from_image(tmp_path / "s.tif")
+    assert repr(m.spec["rve"]["voxel"]) == "1.25e-06"
+    for size in (m.spec["rve"]["size"], m.rve.size, m.fields.grid.size):  # spec, rve.json, grid
+        assert [repr(float(x)) for x in size] == ["1.5e-05"] * 3
+    grid = VoxelGrid.from_voxel(m.rve.size, m.spec["rve"]["voxel"])
+    assert grid.shape == (12, 12, 12) and is_cubic([*grid.spacing, 1.25e-6])
+
+
 def test_an_unknown_imagej_unit_is_named_in_the_refusal(tmp_path):
     # a calibrated file in a unit psdesign does not read was refused as "carries no voxel
     # size", as an uncalibrated one: now the line names the unit and the ones it reads

@@ -225,6 +225,8 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     # with the closest miss: every case measures 1.077e-11, so |1.077 - 1.2| / 1.2 - 10 %
     rounds = page.split("<h3>Search rounds</h3>")[1].split("</table>")[0]
     assert rounds.count("<tr><td>") == res["rounds"] == len(res["history"]) >= 1, rounds
+    head = "closest case misses the target bands by ... of the target values (summed over 2"
+    assert f"<th>{head} targets)</th>" in rounds, rounds  # the NOT MET line's words
     miss = (1.2e-11 - 1.077e-11) / 1.2e-11 - 0.10
     for h in res["history"]:
         assert f"<tr><td>{h['round']}</td><td>{h['n_points']}</td><td>{miss:.3g}</td>" in rounds
@@ -304,6 +306,13 @@ def test_a_missed_target_says_its_distance_is_to_the_band(tmp_path, capsys) -> N
     msg = json.loads(capsys.readouterr().out)["message"]
     assert (4.5e-11 - 1.077e-11) / 5e-11 == pytest.approx(0.6846, abs=1e-4)
     assert msg.endswith("; closest case misses the target band by 0.685 of the target value"), msg
+    # the report's rounds table heads the same number with the same words (review s51: "best
+    # miss (relative)")
+    from psdesign.report import build_html
+
+    rounds = build_html(tmp_path / "opt").split("<h3>Search rounds</h3>")[1].split("</tr>")[0]
+    assert "<th>closest case misses the target band by ... of the target value</th>" in rounds
+    assert "relative" not in rounds and "<td>0.685</td>" in build_html(tmp_path / "opt")
 
 
 def test_a_search_with_no_trusted_value_says_so_not_a_miss_of_inf(tmp_path, capsys) -> None:

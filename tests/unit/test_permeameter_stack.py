@@ -163,6 +163,40 @@ def test_a_fibre_cut_at_an_end_plane_the_image_test_passes_is_said():
     assert plan_copies({}, _row(1), _row(1).voxelize(1e-6), 0).note is None
 
 
+@pytest.mark.parametrize(
+    ("want", "axis", "outcome"),
+    [("auto", 0, 2), (3, 0, 3), ("auto", 2, 1), (2, 2, SpecError)],
+    ids=["auto_stack", "explicit_stack", "auto_not_periodic_note", "refused"],
+)
+def test_a_plan_tests_the_end_planes_once(monkeypatch, want, axis, outcome):
+    """Review s51: ``plan_copies`` built the end-plane test in ``periodicity``, again in
+    ``voxel_stack_note`` (4000 points of the union field on every analytic stack, only to say
+    None: ~50 ms on a 119-fibre RVE, and a solve plans at least twice) and again for the
+    not-periodic note or refusal. Now once per plan, same plans (60 of 60 plans of five
+    geometries compared with the old code, benchmarks/RESULTS.md session 51 menda). Truth:
+    the calls counted; the plans as the tests above pin them (a one-cell row stacks along x,
+    a fibre cut at z = 0 is refused along z)."""
+    import psdesign.flow.stack as stack
+
+    calls = []
+    real = stack.end_planes
+    monkeypatch.setattr(stack, "end_planes", lambda *a: calls.append(a) or real(*a))
+    if axis == 0:
+        rve = _row(1)
+        fields = rve.voxelize(1e-6)
+    else:
+        rve = _cylinders([40e-6, 40e-6, 30e-6], [[20e-6, 20e-6, 1e-6]], 8e-6, direction=(1, 0, 0))
+        fields = rve.voxelize(2e-6)
+    flow = {"permeameter_copies": want}
+    if outcome is SpecError:
+        with pytest.raises(SpecError, match="the fiber surfaces at z = 0 and z = L differ"):
+            plan_copies(flow, rve, fields, axis)
+    else:
+        plan = plan_copies(flow, rve, fields, axis)
+        assert plan.copies == outcome and (plan.note is None) == (outcome >= 2)
+    assert len(calls) == 1
+
+
 def test_stack_fields_tiles_and_keeps_the_class():
     rve = _row(1)
     f = rve.voxelize(1e-6)

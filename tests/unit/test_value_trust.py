@@ -6,8 +6,9 @@ reads ``unknown``" in four places, and ``study report``'s exit (``cli.exit_statu
 beside its red box (``report.html._status_banner``), which disagreed on a table without a
 ``status`` column and on a status column without its value column. The truth here is each
 rule's own statement, checked over every combination of the cells a table can hold: a value
-is trusted exactly when its case is ``ok`` and its own status is ``ok`` or unset; the red box
-is there exactly when ``study report`` exits 3.
+is trusted exactly when its case is ``ok`` and its own status is a trusted word (``ok``, a
+force-field search's ``converged``: the exit's rule, ``cli.exit_status.TRUSTED``) or unset;
+the red box is there exactly when ``study report`` exits 3.
 """
 
 from __future__ import annotations
@@ -23,7 +24,9 @@ from psdesign.cli.study import report_exit_status
 from psdesign.report.html import _status_banner
 
 CASE = ["ok", "failed", "timeout", "not_converged", None, "", "blocked"]
-OWN = ["ok", "untrustworthy", None, ""]  # None: an empty cell; "": an in-memory empty string
+# None: an empty cell; "": an in-memory empty string; "converged": trusted by the exit's rule,
+# so by every reader (session 51: value_status read "ok" alone, k_not_ok the exit's list)
+OWN = ["ok", "converged", "untrustworthy", None, ""]
 
 
 def _tables():
@@ -50,14 +53,14 @@ def test_a_value_is_trusted_exactly_when_its_case_is_ok_and_its_own_status_ok_or
     for df in _tables():
         case = df["status"] if "status" in df else pd.Series("ok", index=df.index)
         own = df["k_z_status"] if "k_z_status" in df else pd.Series(None, index=df.index)
-        truth = (case == "ok") & (own.isna() | own.isin(["ok", ""]))
+        truth = (case == "ok") & (own.isna() | own.isin(["ok", "converged", ""]))
         assert value_ok(df, "k_z_m2").tolist() == truth.tolist(), df
         assert (value_status(df, "k_z_m2") == "ok").tolist() == truth.tolist(), df
         if "k_z_m2" in df:  # what the means and fits keep: the trusted values, no other
             kept = trusted(df)["k_z_m2"].notna()
             assert kept.tolist() == truth[case == "ok"].tolist(), df
         n += 1
-    assert n == 4 * 2 * 28  # every combination was checked
+    assert n == 4 * 2 * 35  # every combination was checked
 
 
 def test_a_values_own_status_is_read_by_the_exits_one_rule():
@@ -280,6 +283,44 @@ def test_the_k_and_convergence_tables_flag_the_k_the_red_box_counts(own, rel, n_
     assert _convergence(df)[2] == n_bad
     assert _k_table(df).count('class="flag"') == n_bad
     assert bool(_status_banner(df)) == (n_bad > 0) == (report_exit_status(df) == 3)
+    capsys.readouterr()
+
+
+def test_a_value_rated_converged_is_trusted_by_every_reader_of_the_report(capsys):
+    """Review s51: ``k_not_ok`` (the fits, the red box, the exit) read a value's own status by
+    the exit's rule (``converged`` and ``at_bound`` pass), ``value_status`` and the report's
+    tables by ``ok`` alone: a K rated ``converged`` stayed in the fits while its figures
+    drew it "(not in fits)" and the values and K tables highlighted its row (a D_eff/D rated
+    ``converged`` likewise). Truth: the exit's
+    rule (``cli.exit_status.TRUSTED``; docs: exit 0 for ``converged``), so the same table with
+    ``ok`` in place of ``converged`` reads the same everywhere, and ``untrustworthy`` still
+    flags (the rule is not "anything passes")."""
+    from psdesign.analysis.columns import k_not_ok
+    from psdesign.report.decision import add_anisotropy
+    from psdesign.report.html import _k_table, _values_table
+    from psdesign.report.trust import not_ok_status
+
+    def table(word):
+        return pd.DataFrame(
+            {"case_id": ["c0", "c1"], "status": ["ok", "ok"], "k_x_m2": [4e-11, 4e-11],
+             "k_x_rel_error": [0.02, 0.02], "k_x_status": ["ok", "ok"], "k_z_m2": [2e-11, 1e-11],
+             "k_z_rel_error": [0.02, 0.03], "k_z_status": ["ok", word],
+             "diffusivity_z": [0.5, 0.4], "diffusivity_z_rel_error": [0.02, 0.03],
+             "diffusivity_z_status": ["ok", word]}
+        )  # fmt: skip
+
+    conv, bad = table("converged"), table("untrustworthy")
+    assert k_not_ok(conv, "k_z_m2").tolist() == [False, False]  # in the fits
+    assert value_ok(conv, "k_z_m2").tolist() == [True, True]
+    assert not_ok_status(conv, "k_z_m2") == {}  # drawn as a trusted point, not "(not in fits)"
+    assert list(not_ok_status(bad, "k_z_m2")) == ["untrustworthy"]
+    assert not_ok_status(conv, "diffusivity_z", log=False) == {}
+    assert add_anisotropy(conv)["anisotropy_status"].tolist() == ["ok", "ok"]
+    assert add_anisotropy(bad)["anisotropy_status"].tolist() == ["ok", "untrustworthy"]
+    for reader in (_values_table, _k_table):  # no row highlighted, as the red box counts none
+        assert reader(conv).count('class="flag"') == 0 == bool(_status_banner(conv))
+        assert reader(bad).count('class="flag"') == 1
+    assert "[converged]" not in _values_table(conv) and "[untrustworthy]" in _values_table(bad)
     capsys.readouterr()
 
 
