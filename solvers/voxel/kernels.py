@@ -420,7 +420,7 @@ def _plane_dot(fx, fy, c0, pl):
 
 
 @_SERIAL.inline
-def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb, zero):
+def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, eq, eb):
     """Jacobi sweep (unit couplings) of the plane of ``ny nz`` cells at flat offset ``base`` of
     ``fd, fb`` into ``fo``, from the iterate's plane at ``x0[b0:]`` and its neighbour planes
     along x at ``xm[bm:], xp[bp:]`` (the grid itself, or plane buffers); returns the plane's
@@ -438,14 +438,7 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
     from the neighbouring rows by the flat loop) are then redone with the periodic neighbours,
     the rows 0 and ``ny - 1`` (the y-wrap) by their own vector loops (:func:`_wrap_rows`; as
     scalar cells they cost ~20 % of the sweep at 200^3), and ``b . xnew`` is summed over the
-    plane from cache.  Unsigned indices (:func:`_u`): vectorised.
-
-    ``zero`` (:func:`jacobi2_zero`): ``ea, eb`` are ``b, d`` and ``eq`` the offset of plane
-    ``i + 1``, whose first sweep from zero (the iterate's plane ``xp[bp:]``) each block forms
-    just before its own sweep reads it, from ``b, d`` streamed :data:`PREFETCH` cells ahead, in
-    the spans of :func:`_zero_plane` (so the same values): a separate pass over the plane
-    before the sweep cost 24 % of ``jacobi2_zero`` at 200^3 on one thread, fused 0.89x its
-    time (``benchmarks/RESULTS.md``, session 51 kern2)."""
+    plane from cache.  Unsigned indices (:func:`_u`): vectorised."""
     pl = _u(ny * nz)
     unz = _u(nz)
     one = _u(1)
@@ -456,19 +449,14 @@ def _jacobi_flat(fd, fb, fo, base, x0, b0, xm, bm, xp, bp, ny, nz, om, dot, ea, 
             _fetch_lines(fo, qa, 16)
             _fetch_lines(fb, qa, 16)
             _fetch_lines(fd, qa, 64)
-            qe = eq + t0 + (_u(PREFETCH) if zero else _u(0))
-            _fetch_lines(ea, qe, 16)  # float32 (b, or x)
-            _fetch_lines(eb, qe, 64)  # uint8 (d) or None
+            _fetch_lines(ea, eq + t0, 16)  # float32 (b, or x)
+            _fetch_lines(eb, eq + t0, 64)  # uint8 (d) or None
             t1 = min(t0 + _u(BLOCK), pl - unz)
-            if zero:  # this block of plane i + 1 of the iterate, the first sweep from zero
-                _zero_span(eb, ea, eq, t0, t1, om, xp, bp)
             for t in range(t0, t1):
                 c = b0 + t
                 sm = xm[bm + t] + xp[bp + t] + x0[c - unz] + x0[c + unz] + x0[c - one] + x0[c + one]
                 fo[base + t] = _jacobi_cell(fd, x0, fb, base + t, c, sm, om)
             t0 = t1
-    if zero:  # the rest of plane i + 1 of the iterate, which the loops below read
-        _zero_wrap(eb, ea, eq, ny, nz, om, xp, bp)
     for r in range(_wrap_rows(ny)):  # the y-wrap rows, vectorised along k
         j = _wrap_row(r, ny)
         rj = _u(j * nz)
@@ -555,7 +543,7 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
             acc[i] = _jacobi_flat(
                 simd.flat(d), simd.flat(b), simd.flat(xnew), base,
                 fx, base, fx, _u(_dn(i, nx)) * pl, fx, bp, ny, nz, om, True,
-                fx, bp + _u(PREFETCH), None, False,
+                fx, bp + _u(PREFETCH), None,
             )  # fmt: skip
         return ordered_sum(acc)
     # stored couplings (coarse levels): the arrays through numba's reshape, whose run-time call
@@ -583,8 +571,10 @@ def jacobi(d, cx, cy, cz, x, b, xnew, omega):
 @parallel_kernel(helpers=_SERIAL, **_OPTS)
 def jacobi_zero(d, b, x, omega):
     """First Jacobi sweep from a zero guess: ``x = omega D^-1 b``."""
-    for i in nb.prange(d.shape[0]):
-        _zero_plane(d, b, i, omega, x[i])
+    nx, ny, nz = d.shape
+    for i in nb.prange(nx):
+        for j in range(ny):
+            _zero_row(d[i, j], b[i, j], omega, x[i, j])
 
 
 @_SERIAL.inline
@@ -603,43 +593,10 @@ def _chunk(t, nt, n):
 
 
 @_SERIAL.inline
-def _zero_span(fd, fb, q, t0, t1, om, fo, o):
-    """``fo[o + t0 : o + t1]`` = the first sweep from zero of the flat ``fd, fb[q + t0 : q + t1]``
-    (:func:`_zero_row`)."""
-    _zero_row(fd[q + t0 : q + t1], fb[q + t0 : q + t1], om, fo[o + t0 : o + t1])
-
-
-@_SERIAL.inline
-def _zero_wrap(fd, fb, q, ny, nz, om, fo, o):
-    """:func:`_zero_span` of the rows 0 and ``ny - 1`` of the plane at ``q`` (the whole plane when
-    ``ny < 3``): the rows outside the flat sweep's block loop (:func:`_jacobi_flat`)."""
-    pl = _u(ny * nz)
-    unz = _u(nz)
-    _zero_span(fd, fb, q, _u(0), unz if ny >= 3 else pl, om, fo, o)
-    if ny >= 3:
-        _zero_span(fd, fb, q, pl - unz, pl, om, fo, o)
-
-
-@_SERIAL.inline
 def _zero_plane(d, b, i, omega, out):
-    """out = omega b[i] / d[i]: plane ``i`` of the first sweep from zero, in the spans in which
-    :func:`_jacobi_flat` forms it inside its block loop (rows 0 and ``ny - 1``, the rows between
-    in :data:`BLOCK` cells): LLVM compiles :func:`_zero_row`'s fast-math division differently in
-    a loop's vector body and its remainder, so other spans gave other last bits (a row loop:
-    half of the cells of a 48^3 plane), and :func:`jacobi_zero` + :func:`jacobi` must stay
-    bitwise :func:`jacobi2_zero`."""
-    ny, nz = d.shape[1], d.shape[2]
-    pl = _u(ny * nz)
-    unz = _u(nz)
-    q = _u(i) * pl
-    fd, fb, fo, om = simd.flat(d), simd.flat(b), simd.flat(out), np.float32(omega)
-    if ny >= 3:
-        t0 = unz
-        while t0 < pl - unz:
-            t1 = min(t0 + _u(BLOCK), pl - unz)
-            _zero_span(fd, fb, q, t0, t1, om, fo, _u(0))
-            t0 = t1
-    _zero_wrap(fd, fb, q, ny, nz, om, fo, _u(0))
+    """out[j, :] = omega b[i, j, :] / d[i, j, :]: plane ``i`` of the first sweep from zero."""
+    for j in range(d.shape[1]):
+        _zero_row(d[i, j], b[i, j], omega, out[j])
 
 
 @_SERIAL.leaf
@@ -678,14 +635,13 @@ def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb
     ``i + 2`` the caller's next plane step streams from memory, or None (:func:`_fetch_ahead`).
 
     With unit couplings (the finest level) the sweep is the flat prefetching loop of
-    :func:`jacobi` over the buffered planes (:func:`_jacobi_flat`); given ``fa, fb`` (``d, b``:
-    :func:`jacobi2_zero`) it forms the buffer row ``rp``, plane ``i + 1`` of the first sweep from
-    zero, itself block by block (``zero``), streaming ``fa, fb``'s plane ``i + 1``; the coarse
-    levels (stored couplings) keep the row loops (``benchmarks/RESULTS.md``, band14)."""
+    :func:`jacobi` over the buffered planes (:func:`_jacobi_flat`), which also prefetches the
+    plane ``i + 2`` of ``fa, fb`` block by block; the coarse levels (stored couplings) keep the
+    row loops (``benchmarks/RESULTS.md``, band14)."""
     nx, ny, nz = d.shape
     if _unit(d, cx):  # unit_couplings: one flat loop over the plane (_jacobi_flat)
         pl = _u(ny * nz)
-        ahead = _u(_up(_up(i, nx), nx)) * pl  # prolong_jacobi's next plane step (plane i + 2)
+        ahead = _u(_up(_up(i, nx), nx)) * pl  # the next plane step's d, b (plane i + 2)
         fd, fbb, fo, om = simd.flat(d), simd.flat(b), simd.flat(xnew), np.float32(omega)
         # the three planes as one array at three offsets, as jacobi passes the grid: the row
         # ends then compile to the same sums as jacobi's (as three arrays they did not, and
@@ -695,11 +651,11 @@ def _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, fa, fb
         if fa is None:  # compiled out where the caller passes arrays
             return _jacobi_flat(
                 fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, dot,
-                None, ahead, None, False,
+                None, ahead, None,
             )  # fmt: skip
-        return _jacobi_flat(  # jacobi2_zero: forms plane i + 1 of the iterate itself (zero)
+        return _jacobi_flat(
             fd, fbb, fo, _u(i) * pl, fp, o0, fp, om_, fp, op, ny, nz, om, dot,
-            simd.flat(fb), _u(_up(i, nx)) * pl, simd.flat(fa), True,
+            simd.flat(fb), ahead, simd.flat(fa),
         )  # fmt: skip
     pm2 = buf[rm].reshape((ny, nz))
     p02 = buf[r0].reshape((ny, nz))
@@ -765,8 +721,7 @@ def _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, t, nt):
     _zero_plane(d, b, lo, omega, buf[1].reshape((ny, nz)))
     for i in range(lo, hi):
         rm, r0, rp = _ring(i - lo)
-        if not _unit(d, cx):  # unit couplings: the flat sweep forms plane i + 1 itself
-            _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
+        _zero_plane(d, b, _up(i, nx), omega, buf[rp].reshape((ny, nz)))
         _jacobi_plane(d, cx, cy, cz, buf, rm, r0, rp, b, i, omega, blk, xnew, d, b, False)
 
 
