@@ -471,7 +471,9 @@ def summary(path: Path) -> str:
         kin = np.array([(by_dir["x"][s] + by_dir["y"][s]) / 2 for s in both])
         cells.append(_cell(kin, t3.PAPER.get((kind, "x"))) if len(kin) else "-")
         rat = [kin[i] / by_dir["z"][s] for i, s in enumerate(both) if s in by_dir.get("z", {})]
-        paper = 1.21 / 0.807 if kind != "bent" else 1.11 / 0.78
+        paper = (  # Table III's in-plane / through-plane; none printed for the woven sample
+            t3.PAPER[(kind, "x")] / t3.PAPER[(kind, "z")] if (kind, "x") in t3.PAPER else None
+        )
         cells.append(_cell(np.array(rat), paper, ".3f") if rat else "-")
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
