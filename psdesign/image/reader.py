@@ -475,7 +475,7 @@ def in_metres(length: float, unit: float) -> float:
     that a length whose decimal terminates within them reads as written, not as the float
     product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
     1.2499999999999999e-06 m in rve.json until session 51). The rounding moves a value by at
-    most 5e-16 of itself; a decimal that does not terminate comes out to 15 digits, not
+    most 5e-15 of itself; a decimal that does not terminate comes out to 15 digits, not
     correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
 
     >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
@@ -489,7 +489,7 @@ def box_size(shape, voxel: float) -> tuple[float, float, float]:
     :func:`in_metres` (a count in a unit of one voxel): the spec, rve.json and the image grid
     print 12 voxels of 1.25 um as 1.5e-05 m, not the float product 1.5000000000000002e-05
     (session 51). The edge stays a whole number of cubic voxels: the rounding moves it by at
-    most 5e-16 of itself (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
+    most 5e-15 of itself (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
 
     >>> 12 * 1.25e-6, box_size((12, 8, 1), 1.25e-6)
     (1.5000000000000002e-05, (1.5e-05, 1e-05, 1.25e-06))

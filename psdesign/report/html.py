@@ -482,8 +482,9 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     note = (
         '<p class="note">Error bar: two-grid discretization estimate (a second solve at about '
         "twice the step) with a resolution floor, plus the solver residual "
-        "(docs/permeability.md). Highlighted: a case or a direction whose status is not ok "
-        "(failed, not_converged, untrustworthy; the status under the K).</p>"
+        "(docs/permeability.md). Highlighted: a case or a direction whose status is not "
+        "trusted (failed, not_converged, untrustworthy); a status other than ok is written "
+        "under the K.</p>"
     )
     table = _table(
         pd.DataFrame(rows), classes, raw=tuple(heads.values()), table_class="sortable ktable"
