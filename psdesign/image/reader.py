@@ -528,7 +528,7 @@ def file_voxel_size(path: str | Path, fmt: str | None = None) -> float | None:
             ynum, yden = ytag.value if ytag is not None else (num, den)
             y = in_metres(yden / ynum, unit) if ynum and yden else xy
             z = in_metres(float(meta.get("spacing", den / num)), unit)
-        if abs(z - xy) > 1e-6 * xy or abs(y - xy) > 1e-6 * xy:
+        if not is_cubic((xy, y, z), rtol=1e-6):  # the .vti branch's rule below
             raise ValueError(
                 f"image.voxel_size: the file's voxels are not cubic (x {xy:g} m, y {y:g} m, "
                 f"z {z:g} m); resample to cubic voxels {CUBIC_ALLOWED}"
