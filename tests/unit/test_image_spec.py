@@ -347,19 +347,26 @@ def test_imagej_unit_spellings_give_the_voxel_size(tmp_path, unit, voxel):
     assert m.spec["rve"]["voxel"] == pytest.approx(voxel, rel=1e-12, abs=0)
 
 
+def _imagej_tiff(path, n: int, resolution: tuple[float, float], spacing: float):
+    """An ``n``^3 ImageJ TIFF in um (``resolution`` pixels per um in x, y; ``spacing`` um in z),
+    solid in its first three x-planes (the last axis of ZYX)."""
+    import tifffile
+
+    data = np.zeros((n, n, n), np.uint8)
+    data[:, :, :3] = 255
+    meta = {"unit": "um", "spacing": spacing, "axes": "ZYX"}
+    tifffile.imwrite(path, data, imagej=True, resolution=resolution, metadata=meta)
+    return path
+
+
 def test_an_imagej_resolution_reads_as_the_decimal_the_file_means(tmp_path):
     """Session 51: 0.8 pixels per um is a 1.25 um voxel, but ``1 / 0.8 * 1e-6`` is the float
     1.2499999999999999e-06, which rve.json and summary.json printed (the box of 8 voxels
     9.999999999999999e-06 m). The conversion now keeps 15 significant digits: 1.25e-06 and
     1e-05 exactly as the decimals read (truth: 8 x 1.25 um = 10 um)."""
-    import tifffile
-
     from psdesign.image.reader import file_voxel_size
 
-    data = np.zeros((8, 8, 8), np.uint8)
-    data[:, :, :3] = 255
-    meta = {"unit": "um", "spacing": 1.25, "axes": "ZYX"}
-    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(0.8, 0.8), metadata=meta)
+    _imagej_tiff(tmp_path / "s.tif", 8, (0.8, 0.8), 1.25)
     assert 1 / 0.8 * 1e-6 != 1.25e-6  # the float product the old code kept
     assert file_voxel_size(tmp_path / "s.tif") == 1.25e-6
     m = psdesign.from_image(tmp_path / "s.tif")
@@ -374,14 +381,9 @@ def test_an_imagej_images_box_reads_as_the_decimal_n_voxels_make(tmp_path):
     box is rounded as the voxel (``reader.in_metres``) and still holds exactly 12 cubic voxels
     (the grid rule, ``VoxelGrid.from_voxel`` / ``is_cubic``, within 1e-9). Truth: 12 x 1.25 um
     = 15 um."""
-    import tifffile
-
     from psdesign.geometry.rve import VoxelGrid, is_cubic
 
-    data = np.zeros((12, 12, 12), np.uint8)
-    data[:, :, :3] = 255
-    meta = {"unit": "um", "spacing": 1.25, "axes": "ZYX"}
-    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(0.8, 0.8), metadata=meta)
+    _imagej_tiff(tmp_path / "s.tif", 12, (0.8, 0.8), 1.25)
     assert 12 * 1.25e-6 != 1.5e-5  # the float product the old code kept
     m = psdesign.from_image(tmp_path / "s.tif")
     assert repr(m.spec["rve"]["voxel"]) == "1.25e-06"
@@ -413,12 +415,7 @@ def test_a_tiff_with_other_x_and_y_pixel_sizes_is_refused(tmp_path):
     pixels were taken as 0.5 um cubes (the box 4 x 8 um read as 4 x 4 um, K of another
     material, exit 0). The docstring said x, y and z must agree; now y is checked too
     (review2). Old code: voxel 5e-07."""
-    import tifffile
-
-    data = np.zeros((8, 8, 8), np.uint8)
-    data[:, :, :3] = 255
-    meta = {"unit": "um", "spacing": 0.5, "axes": "ZYX"}
-    tifffile.imwrite(tmp_path / "s.tif", data, imagej=True, resolution=(2.0, 1.0), metadata=meta)
+    _imagej_tiff(tmp_path / "s.tif", 8, (2.0, 1.0), 0.5)
     with pytest.raises(SpecError) as info:
         psdesign.from_image(tmp_path / "s.tif")
     assert info.value.key == "image.voxel_size"
