@@ -406,7 +406,7 @@ def _write_outcome(out: str, summary: dict) -> None:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED  # light: no numpy
-    from psdesign.cli.progress import (
+    from psdesign.cli.options import (
         add_allow_not_converged_argument,
         add_force_argument,
         add_workers_argument,

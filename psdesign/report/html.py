@@ -442,7 +442,7 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     header, the bar, bc and a status that is not ok in the cell, wrapped: with a column each
     for status and bc, two directions' reasons made the table 1601 px wide in a 1319 px box
     at a 1400 px window (session 43, benchmarks/RESULTS.md)."""
-    from psdesign.cli.exit_status import passes
+    from psdesign.status import passes
 
     rows = []
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
@@ -589,10 +589,10 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
     (:func:`psdesign.analysis.columns.error_bar`): the porosity and Omega ``+-`` their
     absolute bars (:func:`_absolute_bar_text`), the others ``+-`` a relative one, and
-    ``[status]`` where it is not trusted (:data:`psdesign.cli.exit_status.TRUSTED`) nor
+    ``[status]`` where it is not trusted (:data:`psdesign.status.TRUSTED`) nor
     unrated, under headings with their units (:func:`psdesign.report.units.output_label`); ""
     when the study has none of them with a bar."""
-    from psdesign.cli.exit_status import TRUSTED
+    from psdesign.status import TRUSTED
 
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
@@ -665,15 +665,15 @@ def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
 
 def _status_words(status_column: str) -> str:
     """The words of ``status_column``'s rating as every command prints them
-    (:func:`psdesign.cli.exit_status.flagged_words`: one copy of them)."""
-    from psdesign.cli.exit_status import flagged_words
+    (:func:`psdesign.status.flagged_words`: one copy of them)."""
+    from psdesign.status import flagged_words
 
     return flagged_words(status_column)
 
 
 def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
-    rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
+    rating it enters (:func:`psdesign.status.flagged_words`)."""
     return (
         "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m), "
         "one-sided: the scan measures low, so each true diameter lies between the value and "

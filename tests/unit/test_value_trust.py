@@ -7,7 +7,7 @@ beside its red box (``report.html._status_banner``), which disagreed on a table 
 ``status`` column and on a status column without its value column. The truth here is each
 rule's own statement, checked over every combination of the cells a table can hold: a value
 is trusted exactly when its case is ``ok`` and its own status is a trusted word (``ok``, a
-force-field search's ``converged``: the exit's rule, ``cli.exit_status.TRUSTED``) or unset;
+force-field search's ``converged``: the exit's rule, ``psdesign.status.TRUSTED``) or unset;
 the red box is there exactly when ``study report`` exits 3.
 """
 
@@ -65,11 +65,11 @@ def test_a_value_is_trusted_exactly_when_its_case_is_ok_and_its_own_status_ok_or
 
 def test_a_values_own_status_is_read_by_the_exits_one_rule():
     """Session 51: ``k_not_ok`` (the red box, the study exit's flagged values) spelled its good
-    words ``ok`` and ``not_applicable`` itself, ``exit_status.passes`` (every command's exit)
+    words ``ok`` and ``not_applicable`` itself, ``psdesign.status.passes`` (every command's exit)
     read ``TRUSTED`` and ``not_applicable``: a value rated ``converged`` or ``at_bound`` was
     flagged by one and passed by the other. Truth: the exit rule, word by word."""
     from psdesign.analysis.columns import k_not_ok
-    from psdesign.cli.exit_status import passes
+    from psdesign.status import passes
 
     words = ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "blocked"]
     words += ["not_converged", "extrapolated"]
@@ -292,7 +292,7 @@ def test_a_value_rated_converged_is_trusted_by_every_reader_of_the_report(capsys
     tables by ``ok`` alone: a K rated ``converged`` stayed in the fits while its figures
     drew it "(not in fits)" and the values and K tables highlighted its row (a D_eff/D rated
     ``converged`` likewise). Truth: the exit's
-    rule (``cli.exit_status.TRUSTED``; docs: exit 0 for ``converged``), so the same table with
+    rule (``psdesign.status.TRUSTED``; docs: exit 0 for ``converged``), so the same table with
     ``ok`` in place of ``converged`` reads the same everywhere, and ``untrustworthy`` still
     flags (the rule is not "anything passes")."""
     from psdesign.analysis.columns import k_not_ok

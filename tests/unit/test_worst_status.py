@@ -13,8 +13,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from psdesign.cli.exit_status import NOT_TRUSTED, OK, TRUSTED, status_code
+from psdesign.cli.exit_status import NOT_TRUSTED, OK, status_code
 from psdesign.cli.permeability import _combine
+from psdesign.status import TRUSTED
 from psdesign.transport.effective import STATUS_ORDER, worst_status
 
 
@@ -44,7 +45,7 @@ def test_worst_status_follows_the_order():
 
 def test_the_worst_status_is_trusted_exactly_when_the_exit_is_0():
     """The order and the exit rule are one definition (session 46): a force-field search's
-    trusted ``converged`` and ``at_bound`` (:data:`psdesign.cli.exit_status.TRUSTED`) ranked
+    trusted ``converged`` and ``at_bound`` (:data:`psdesign.status.TRUSTED`) ranked
     below ``blocked``, as unknown words, so ``worst_status(["converged", "untrustworthy"])``
     was ``converged``, a trusted word for a list the exit rule calls not trusted (3). Over
     every pair of words, in either order, the worst is trusted exactly when the exit is 0.
