@@ -324,6 +324,38 @@ def test_a_value_rated_converged_is_trusted_by_every_reader_of_the_report(capsys
     capsys.readouterr()
 
 
+@pytest.mark.parametrize(
+    "word",
+    ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "blocked", "extrapolated"],
+)
+def test_the_k_and_values_tables_write_and_highlight_a_status_by_the_one_rule(word, capsys):
+    """Session 52: the K table highlighted a row by ``passes`` (the red box's rule) but wrote
+    every word other than ``ok`` under the K (``converged`` too, which every other reader
+    reads as ``ok``); the values table wrote and highlighted every word outside ``TRUSTED``,
+    so a ``not_applicable`` value's row was highlighted while the red box and the exit passed
+    it. Truth: the one rule of :mod:`psdesign.status` as the exit applies it (docs: exit 0 for
+    ``converged`` / ``at_bound``, ``not_applicable`` passes): a row is highlighted exactly
+    when ``study report`` exits 3 for it, and a word is written exactly when it is not read
+    as ``ok`` (not in ``TRUSTED``)."""
+    from psdesign.report.html import _k_table, _values_table
+    from psdesign.status import TRUSTED
+
+    df = pd.DataFrame(
+        {"case_id": ["c0"], "status": ["ok"], "k_z_m2": [1e-11], "k_z_rel_error": [0.02],
+         "k_z_status": [word], "diffusivity_z": [0.4], "diffusivity_z_rel_error": [0.03],
+         "diffusivity_z_status": [word]}
+    )  # fmt: skip
+    bad = report_exit_status(df) == 3
+    assert bad == (word in ("untrustworthy", "blocked", "extrapolated"))  # the exit's rule
+    k, values = _k_table(df, "fem"), _values_table(df)
+    for table in (k, values):
+        assert table.count('class="flag"') == bad, (word, table)
+    written = word not in TRUSTED
+    assert (f'<span class="kst">{word}' in k) == written, k
+    assert (f"[{word}]" in values) == written, values
+    capsys.readouterr()
+
+
 def test_trusted_blanks_every_value_that_shares_a_blanked_bar():
     """``trusted`` blanked each not-ok value and its bar in turn, then rated the next value: the
     tortuosity of a table without ``diffusivity_x_status`` shares ``diffusivity_x_rel_error``,
