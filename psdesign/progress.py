@@ -8,7 +8,7 @@ command (:func:`activate`); library code reports through the module functions :f
 tests, ``--quiet``). stdout is never written.
 
 A package root module like :mod:`psdesign.errors`: every stage reports through it and the CLI
-only activates it (until session 52 it was ``psdesign.cli.progress``, which 15 stage modules
+only activates it (until session 52 it was ``psdesign.cli.progress``, which 14 stage modules
 imported; the options it also held are :mod:`psdesign.cli.options`).
 """
 

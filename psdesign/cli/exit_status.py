@@ -72,7 +72,8 @@ HELP = (
 
 def status_code(*statuses: str | None) -> int:
     """The exit status of finished results by their ``status``: ``OK`` when every one
-    :func:`passes`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+    :func:`~psdesign.status.passes`, else ``NOT_TRUSTED`` (a missing status too: nothing
+    says it is ``ok``).
 
     >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
     (0, 3, 3)
