@@ -180,7 +180,7 @@ def _progress(
     if not on:
         yield None
         return
-    from psdesign.cli.progress import activate, progress_printer
+    from psdesign.progress import activate, progress_printer
 
     with activate():
         yield progress_printer(direction, solve=solve, method=method)

@@ -214,10 +214,10 @@ jit_locks.install()
 class _CompileListener(numba_event.Listener):
     """Tells the running ``psdesign`` command that a kernel compile started (a cold start
     compiles for up to a minute or two before the first progress line): through
-    :func:`psdesign.cli.progress.compiling` when that module is loaded, else nothing."""
+    :func:`psdesign.progress.compiling` when that module is loaded, else nothing."""
 
     def on_start(self, event) -> None:
-        progress = sys.modules.get("psdesign.cli.progress")
+        progress = sys.modules.get("psdesign.progress")
         if progress is None:
             return
         data = event.data or {}

@@ -2,7 +2,7 @@
 
 The solvers know nothing of psdesign's printer: they call ``progress(iterations, residual)``
 (or ``progress(done, total)`` for counted work such as assembly) and the caller throttles
-what it prints (:meth:`psdesign.cli.progress.Printer.throttled`).
+what it prints (:meth:`psdesign.progress.Printer.throttled`).
 """
 
 PROGRESS_EVERY = 1

@@ -327,7 +327,7 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     """The status of each row's value in ``column`` (``k_x_m2``, ``diffusivity_z``, ...): its
     case's (:func:`case_status`: ``failed``, ``not_converged``, ``unknown``...) when that is not
     ``ok``, else its own (:func:`own_status`: ``ok`` for an unrated value), read as ``ok`` when
-    the exit trusts it (:data:`psdesign.cli.exit_status.TRUSTED`: ``converged``, ``at_bound``;
+    the exit trusts it (:data:`psdesign.status.TRUSTED`: ``converged``, ``at_bound``;
     the rule of :func:`k_not_ok` and the fits, session 51). ``not_applicable`` stays its word:
     no value to draw or to call trusted (:func:`k_not_ok` does not flag it either).
 
@@ -336,7 +336,7 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
     >>> value_status(df, "k_z_m2").tolist()
     ['ok', 'untrustworthy', 'not_converged', 'ok']
     """
-    from psdesign.cli.exit_status import TRUSTED
+    from psdesign.status import TRUSTED
 
     case, own = case_status(df), own_status(df, column)
     return case.where(case != "ok", own.where(~own.isin(TRUSTED), "ok"))
@@ -344,7 +344,7 @@ def value_status(df: pd.DataFrame, column: str) -> pd.Series:
 
 def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
     """Rows whose value in ``column`` is trusted: :func:`value_status` ``ok`` (its case ``ok``
-    and the value trusted by its own status, :data:`psdesign.cli.exit_status.TRUSTED`, or
+    and the value trusted by its own status, :data:`psdesign.status.TRUSTED`, or
     unrated).
 
     >>> df = pd.DataFrame({"status": ["ok", "ok", "failed"], "k_z_status": ["ok", "x", "ok"]})
@@ -357,7 +357,7 @@ def value_ok(df: pd.DataFrame, column: str) -> pd.Series:
 def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     """Rows whose value in ``k_column`` (``k_x_m2``, ``diffusivity_z``, ...) is not ``ok`` by its
     own status (:func:`own_status`) by the exit's rule
-    (:func:`psdesign.cli.exit_status.passing`: :data:`~psdesign.cli.exit_status.TRUSTED`, as
+    (:func:`psdesign.status.passing`: :data:`~psdesign.status.TRUSTED`, as
     :func:`value_status` reads it, and ``not_applicable``), whatever its case's; False for an
     unrated value and for one that does not apply (an image's Omega: ``not_applicable``, no
     value to distrust).
@@ -366,7 +366,7 @@ def k_not_ok(df: pd.DataFrame, k_column: str) -> pd.Series:
     ...          "intersection_volume_fraction").tolist()
     [False, True]
     """
-    from psdesign.cli.exit_status import passing
+    from psdesign.status import passing
 
     return ~own_status(df, k_column).isin(passing())
 

@@ -9,10 +9,10 @@ from psdesign.cli.laplace_report import combine, emit
 
 
 def _cmd(args: argparse.Namespace) -> int:
-    from psdesign.cli.progress import laplace_progress
+    from psdesign.cli.laplace_report import laplace_progress
     from psdesign.fields import fields_folder
     from psdesign.schema.transport import check_conductivity
-    from psdesign.transport.conductivity import effective_conductivity
+    from psdesign.transport.conductivity import effective_conductivity, result_line
     from psdesign.transport.load import load_case
 
     solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
@@ -71,17 +71,6 @@ def _check_insulating(args: argparse.Namespace) -> None:
             f"{where} makes the {phase} a perfect insulator (conductivity 0), so --{phase} "
             f"would be ignored; give one of them (--insulating none to use --{phase})",
         )
-
-
-def result_line(r: dict) -> str:
-    """The printed line of one conductivity result dict (``to_dict()``; its ``__str__``)."""
-    from psdesign.cli.lines import rating, value_text
-
-    return (
-        f"{value_text('conductivity', r['direction'], r)}  {rating(r)}  (solid "
-        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g} "
-        f"{r['conductivity_unit']})"
-    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -9,7 +9,7 @@ from psdesign.cli.laplace_report import combine, emit
 
 
 def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
-    from psdesign.cli.progress import laplace_progress
+    from psdesign.cli.laplace_report import laplace_progress
     from psdesign.transport.diffusivity import diffusivity_tensor, relative_diffusivity
 
     if args.direction == "all" and tr["bc"] == "periodic":
@@ -41,6 +41,7 @@ def _solve(args: argparse.Namespace, case, tr: dict, dirs: list[str], writer):
 
 def _cmd(args: argparse.Namespace) -> int:
     from psdesign.fields import fields_folder
+    from psdesign.transport.diffusivity import result_line
     from psdesign.transport.load import load_case
 
     t0 = time.perf_counter()
@@ -53,33 +54,6 @@ def _cmd(args: argparse.Namespace) -> int:
         out, results = _solve(args, case, tr, dirs, writer)
     out["wall_time_s"] = time.perf_counter() - t0
     return emit("diffusivity", out, results, args.json, result_line)
-
-
-def result_line(r: dict) -> str:
-    """The printed line of one diffusivity result dict (``to_dict()``; its ``__str__``)."""
-    from psdesign.cli.lines import error_bar, rating, value_text
-    from psdesign.geometry.porosity import porosity_text
-
-    tau = r["tortuosity_factor"]  # porosity / D: a count over D, so D's relative bar
-    tau_text = tortuosity_undefined(r) if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
-    return (
-        f"{value_text('diffusivity', r['direction'], r)}  {rating(r)}  tortuosity factor "
-        f"{tau_text}  porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
-    )
-
-
-def tortuosity_undefined(r: dict) -> str:
-    """The words for a tortuosity factor with no value (JSON ``null``, porosity / 0), with the
-    status it shares with D_eff/D: the text line and the notebook printed a bare ``inf`` /
-    ``n/a`` until session 51.
-
-    >>> tortuosity_undefined({"blocked": True, "direction": "x", "status": "blocked"})
-    'undefined (no pore path along x) [blocked]'
-    >>> tortuosity_undefined({"blocked": False, "direction": "z", "status": "untrustworthy"})
-    'undefined (D_eff/D = 0) [untrustworthy]'
-    """
-    why = f"no pore path along {r['direction']}" if r.get("blocked") else "D_eff/D = 0"
-    return f"undefined ({why}) [{r['status']}]"
 
 
 def register(sub: argparse._SubParsersAction) -> None:

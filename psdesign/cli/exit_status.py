@@ -23,11 +23,11 @@ code   name               meaning
 =====  =================  ============================================================
 
 One rule decides 0 or 3 for every command (:func:`status_code`): a finished result is
-trusted when its ``status`` is in :data:`TRUSTED`. A study's table (``results.csv``) follows
-the same rule per case (:func:`case_counts`, :func:`cases_status`): a failed or timed-out
-case is 1, a case that finished with a status other than ``ok``, or an ``ok`` case with a
-value whose own status (``k_z_status``, ``diffusivity_x_status``...) does not pass
-(:func:`passes`), is 3.
+trusted when its ``status`` is in :data:`psdesign.status.TRUSTED`. A study's table
+(``results.csv``) follows the same rule per case (:func:`case_counts`, :func:`cases_status`):
+a failed or timed-out case is 1, a case that finished with a status other than ``ok``, or an
+``ok`` case with a value whose own status (``k_z_status``, ``diffusivity_x_status``...) does
+not pass (:func:`psdesign.status.passes`), is 3.
 
 ``study report`` finishes when it has written the report, whatever the cases it shows: a
 table of failed cases is reported faithfully, not a report that could not finish, so it is
@@ -50,23 +50,14 @@ from __future__ import annotations
 import sys
 from typing import NamedTuple
 
+from psdesign.status import NOT_FINISHED, flagged_words, passes
+
 OK = 0
 FAILED = 1
 BAD_INPUT = 2
 NOT_TRUSTED = 3
 INTERRUPTED = 130
 TERMINATED = 143
-
-#: The statuses of a result to trust: ``ok`` (every measured or predicted value) and a
-#: force-field search's ``converged`` and ``at_bound`` (:func:`psdesign.forcefield.run.
-#: search_status`: a converged search whose optimum lies on the box the spec set is the
-#: answer to the constrained problem it asked, a result since session 44). Every other status
-#: of a finished result exits ``NOT_TRUSTED``. The worst of several statuses
-#: (:func:`psdesign.transport.effective.worst_status`) ranks these with ``ok``, so it is
-#: trusted exactly when the exit is 0.
-TRUSTED = ("ok", "converged", "at_bound")
-#: A study case's status when the run could not give it (exit ``FAILED``).
-NOT_FINISHED = ("failed", "timeout")
 
 #: The table in one paragraph: ``psdesign --help`` prints it below the commands.
 HELP = (
@@ -79,35 +70,10 @@ HELP = (
 )
 
 
-def passes(status: str | None) -> bool:
-    """Whether a result's ``status`` lets the exit be ``OK``: in :data:`TRUSTED`, or saying the
-    value does not apply (``not_applicable``: an image's Omega,
-    :data:`psdesign.packing.overlap_status.NOT_APPLICABLE`; no result, so nothing to
-    distrust). The one rule of :func:`status_code` and of
-    :func:`psdesign.transport.effective.worst_status`'s ranking.
-
-    >>> passes("at_bound"), passes("not_applicable"), passes("untrustworthy"), passes(None)
-    (True, True, False, False)
-    """
-    return status in passing()
-
-
-def passing() -> tuple[str, ...]:
-    """The status words :func:`passes`: :data:`TRUSTED` and ``not_applicable``; what a study
-    table's value columns are read by too: :func:`psdesign.analysis.columns.k_not_ok` (the
-    fits, the red box) flags a value outside these, and
-    :func:`~psdesign.analysis.columns.value_status` (the figures) and the report's tables read
-    a :data:`TRUSTED` one as ``ok``. Until session 51 ``k_not_ok`` spelled ``ok`` and
-    ``not_applicable`` itself and the others ``ok`` alone, so a value rated ``converged`` or
-    ``at_bound`` was flagged there and passed here."""
-    from psdesign.packing.overlap_status import NOT_APPLICABLE
-
-    return (*TRUSTED, NOT_APPLICABLE)
-
-
 def status_code(*statuses: str | None) -> int:
     """The exit status of finished results by their ``status``: ``OK`` when every one
-    :func:`passes`, else ``NOT_TRUSTED`` (a missing status too: nothing says it is ``ok``).
+    :func:`~psdesign.status.passes`, else ``NOT_TRUSTED`` (a missing status too: nothing
+    says it is ``ok``).
 
     >>> status_code("converged"), status_code("ok", "blocked"), status_code(None)
     (0, 3, 3)
@@ -163,47 +129,6 @@ def case_masks(df):
     for m in flagged_values(df).values():  # ok cases only
         flagged |= m
     return failed, not_converged, flagged
-
-
-#: What ``untrustworthy`` means for a value rated by its bar and its resolution
-#: (:func:`psdesign.flow.error.status_of`: K, S_v, the transport values).
-_BAR_OR_CELLS = "untrustworthy = error bar above 20 % or fewer than 8 cells per fiber diameter"
-
-#: What the words of each status column of :data:`psdesign.analysis.columns.STATUS_COLUMNS`
-#: mean, as the rating that writes it means them, one entry per column (until session 47 a
-#: chain of tests on the column's name): tests/cli/test_exit_joins.py holds its keys equal to
-#: the status columns, so a status column added without its words fails there.
-STATUS_WORDS = {
-    # a voxel count: its bar alone (analysis.columns.porosity_status)
-    "porosity_status": "untrustworthy = error bar above 20 %",
-    **{f"k_{d}_status": _BAR_OR_CELLS for d in "xyz"},  # flow.error.status_of
-    # transport.effective.rating (the tortuosity shares the diffusivity's)
-    **{
-        f"{v}_{d}_status": f"{_BAR_OR_CELLS}, blocked = no conducting path"
-        for v in ("diffusivity", "conductivity")
-        for d in "xyz"
-    },
-    # transport.study_outputs.pore_sizes_status
-    "pore_sizes_status": f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge",
-    "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
-    "intersection_volume_fraction_status": (  # packing.overlap_status
-        "untrustworthy = the count missed overlaps the fibres' centre lines find, or "
-        "overlaps thinner than a voxel (which the count may miss) plus the signed sum of the "
-        "grid-aligned overlaps' errors, measured on the grid, exceed its error bar"
-    ),
-}
-
-
-def flagged_words(status_column: str) -> str:
-    """What the status words in ``status_column`` mean, as the rating that writes it means
-    them (:data:`STATUS_WORDS`): the line of every command that names a flagged value
-    (:func:`flagged_text`); "" for a column no rating here writes (named without words).
-    Until review s46 every column read K's words, Omega's and the porosity's too.
-
-    >>> flagged_words("porosity_status"), flagged_words("anisotropy_status")
-    ('untrustworthy = error bar above 20 %', '')
-    """
-    return STATUS_WORDS.get(status_column, "")
 
 
 def flagged_text(df) -> str:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from psdesign.cli import progress
+from psdesign import progress
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
-from psdesign.cli.progress import add_force_argument
+from psdesign.cli.options import add_force_argument
 
 FORCEFIELD_FILES = (
     "rve.json",

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json, with_porosity_status
-from psdesign.cli.progress import add_force_argument
+from psdesign.cli.options import add_force_argument
 from psdesign.io.vtkfile import save_vtk
 
 #: What ``field.vti``'s point arrays hold (docs/fields.md "generate's field.vti"), written
@@ -169,7 +169,7 @@ def write_generate_outputs(
     fields = built.voxelize(spec["rve"]["voxel"])
     summary = summarize(built, fields)
     summary["wall_time_s"] = {"build_and_voxelize": round(time.perf_counter() - t0, 3)}
-    from psdesign.cli import progress
+    from psdesign import progress
 
     progress.stage(f"writing {target.path.name}: rve.json, field.vti, fibers.stl")
     with staged_directory(target) as tmp:

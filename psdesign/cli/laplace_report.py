@@ -45,10 +45,10 @@ def emit(
 ) -> int:
     """Print the blocked directions' messages and every warning on stderr, then ``out`` as JSON
     or ``line(r)`` per result on stdout (the line carries its error bar, ``[status]`` and
-    ``converged``: :mod:`psdesign.cli.lines`); 0 when every result's status is ``ok``, else 3
+    ``converged``: :mod:`psdesign.lines`); 0 when every result's status is ``ok``, else 3
     (``untrustworthy``, ``not_converged``, ``blocked``: :func:`psdesign.cli.exit_status.
     status_code`)."""
-    from psdesign.cli.progress import warning
+    from psdesign.progress import warning
 
     for r in results:
         if r["blocked"]:
@@ -61,3 +61,10 @@ def emit(
         for r in results:
             print(line(r))
     return status_code(*(r.get("status") for r in results))
+
+
+def laplace_progress(args, direction: str):
+    """Progress lines of a Laplace (CG) solve on stderr; None with ``--quiet``."""
+    from psdesign.progress import progress_printer
+
+    return None if args.quiet else progress_printer(direction, solve="Laplace solve", method="CG")

@@ -13,8 +13,8 @@ from collections.abc import Sequence
 from psdesign.cli.exit_status import FAILED, INTERRUPTED, TERMINATED, fail
 from psdesign.cli.exit_status import HELP as EXIT_HELP
 from psdesign.cli.parser import Parser
-from psdesign.cli.progress import activate
 from psdesign.errors import SpecError, show_warning_one_line
+from psdesign.progress import activate
 
 #: Sub-command modules, in ``--help`` order; each has ``register(subparsers)``.
 COMMANDS = (

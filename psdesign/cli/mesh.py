@@ -9,7 +9,7 @@ from pathlib import Path
 
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json, with_porosity_status
-from psdesign.cli.progress import add_force_argument
+from psdesign.cli.options import add_force_argument
 from psdesign.errors import SpecError
 from psdesign.meshing.exports import NO_PERIODIC, NO_PERIODIC_WHY, OUTPUTS, WRITERS, output_names
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
-from psdesign.cli.progress import progress_printer, warning
+from psdesign.progress import progress_printer, warning
 
 if TYPE_CHECKING:
     from psdesign.geometry.rve import VoxelFields
@@ -66,8 +66,8 @@ def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
 
 
 def _line(r: dict) -> str:
-    from psdesign.cli.lines import rating, value_text
     from psdesign.geometry.porosity import porosity_text
+    from psdesign.lines import rating, value_text
 
     sens = r.get("bc_sensitivity")
     extra = f"  bc_sensitivity {100 * sens:.1f} %" if sens is not None else ""
@@ -81,7 +81,7 @@ def _line(r: dict) -> str:
 def _other_bc(r: dict) -> str:
     """``--bc both``: the other model's K with its bar and rating, which the line compares
     (until session 45 only ``--json`` had it), or why it is missing; "" otherwise. The K is
-    spelled as the line's own (:func:`~psdesign.cli.lines.value_text`; until session 50
+    spelled as the line's own (:func:`~psdesign.lines.value_text`; until session 50
     ``K = ...`` without its direction, a format of its own).
 
     >>> other = {"permeability_m2": 2e-11, "permeability_rel_error": 0.02, "status": "ok",
@@ -91,7 +91,7 @@ def _other_bc(r: dict) -> str:
     >>> _other_bc(r)
     '  (against K_z = 2.0000e-11 m^2 +- 2.0 %  [ok]  bc permeameter  converged true)'
     """
-    from psdesign.cli.lines import rating, value_text
+    from psdesign.lines import rating, value_text
 
     others = {bc: o for bc, o in (r.get("bc_results") or {}).items() if bc != r.get("bc")}
     parts = []

@@ -10,10 +10,10 @@ from psdesign.cli.lines import print_json
 
 
 def _cmd(args: argparse.Namespace) -> int:
-    from psdesign.cli.lines import error_bar, rating
-    from psdesign.cli.progress import warning
     from psdesign.geometry.porosity import porosity_text
     from psdesign.io.newfile import check_new_file, write_new_file
+    from psdesign.lines import error_bar, rating
+    from psdesign.progress import warning
     from psdesign.transport.load import load_case
     from psdesign.transport.study_outputs import pore_report
 
@@ -51,7 +51,7 @@ def _sizes_line(out: dict) -> str:
     """The pore sizes' line: the three diameters and the breakthrough diameter (one scan, one
     one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
     measures low, so the true value lies up to the bar above), the rating, the scan step."""
-    from psdesign.cli.lines import rating
+    from psdesign.lines import rating
     from psdesign.transport.pores import diameter_bar_text
 
     converged = bool(out.get("converged", True))

@@ -124,7 +124,7 @@ def _cases_status(out: str, outputs: list[str]) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Register ``rev``."""
-    from psdesign.cli.progress import add_workers_argument
+    from psdesign.cli.options import add_workers_argument
 
     p = sub.add_parser("rev", help="grow the RVE at fixed statistics: K with 95 %% CI vs size")
     # argparse takes "-30e-6" for an option (its negative-number pattern has no exponent), so

@@ -31,7 +31,7 @@ from psdesign.cli.exit_status import (
     flagged_text,
     folder_line,
 )
-from psdesign.cli.progress import (
+from psdesign.cli.options import (
     add_allow_not_converged_argument,
     add_force_argument,
     add_workers_argument,

@@ -166,10 +166,13 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         print_json(out)
     else:
         from psdesign.analysis.prediction import bar_text
+        from psdesign.status import passes
 
         for name, r in out.items():
-            # an ok one says so too, as study fit's [ok] (its line had no word: session 49)
-            flag = f"  ({r['status'].upper()})" if r["status"] != "ok" else "  [ok]"
+            # an ok one says so too, as study fit's [ok] (its line had no word: session 49);
+            # capitals exactly where the exit reads 3 (the one rule, session 52: != "ok")
+            w = r["status"]
+            flag = f"  [{w}]" if passes(w) else f"  ({w.upper()})"
             print(f"{name} = {r['mean']:.4g} +- {r['std']:.2g} ({bar_text(r)}){flag}")
     # a printed prediction flagged extrapolated / untrustworthy is a result not to trust, as
     # an unconverged solve (exit_status's rule; it exited 0 before session 43)
@@ -406,7 +409,7 @@ def _write_outcome(out: str, summary: dict) -> None:
 def register_study_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``fit``, ``predict`` and ``sensitivity`` to the ``study`` sub-commands."""
     from psdesign.analysis.targets import MAX_BATCH, MAX_BUDGET, MAX_SEED  # light: no numpy
-    from psdesign.cli.progress import (
+    from psdesign.cli.options import (
         add_allow_not_converged_argument,
         add_force_argument,
         add_workers_argument,

@@ -87,7 +87,7 @@ def result_words(kind: str, direction: str, result: dict | None) -> str:
     ...              "conductivity_unit": "W/(m K)", "rel_error": None, "status": "ok"})
     'sigma_eff_x = 0.035215 W/(m K)  [ok]'
     """
-    from psdesign.cli.lines import value_text
+    from psdesign.lines import value_text
 
     if not result:
         return ""

@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from psdesign.cli import progress
+from psdesign import progress
 from psdesign.errors import SpecError
 from psdesign.flow.darcy import (  # noqa: F401 (rve_window: moved to darcy, re-exported)
     axis_of,

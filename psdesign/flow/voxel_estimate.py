@@ -49,7 +49,7 @@ def announce_voxel_solve(
 
     import numba
 
-    from psdesign.cli import progress
+    from psdesign import progress
     from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
 
     cells = math.prod(int(n) for n in shape)

@@ -354,7 +354,7 @@ def relax_contacts(
             "no contacts", 0, time.perf_counter() - t0,
         )  # fmt: skip
     u0 = prob.energy(x0)
-    from psdesign.cli.progress import search_progress
+    from psdesign.progress import search_progress
 
     res = pattern_search(
         prob.energy, x0, prob.lower, prob.upper,

@@ -324,7 +324,7 @@ def relax_fibers(
     lower = np.tile([-max_shift, -max_shift, -u_max], len(movable))
     upper = -lower
     u0 = model.energy(x0)
-    from psdesign.cli.progress import search_progress
+    from psdesign.progress import search_progress
 
     res = pattern_search(
         model.energy, x0, lower, upper,

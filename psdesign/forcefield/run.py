@@ -193,7 +193,7 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     v = _validated(ff)
     max_iter, min_step, step, workers = v.max_iter, v.min_step, v.step, v.workers
     t0 = time.perf_counter()
-    from psdesign.cli.progress import search_progress
+    from psdesign.progress import search_progress
 
     report = search_progress(f"force field {prob.name}")
     res = prob.solve(

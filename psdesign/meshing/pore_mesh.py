@@ -93,7 +93,7 @@ def mesh_pore_space(
     if legacy:
         opts = MeshOptions.from_kwargs(**{**_fields(opts), **legacy})
     distance, voxel, size = validate_inputs(distance, voxel, size, direction, opts)
-    from psdesign.cli import progress
+    from psdesign import progress
 
     mesher = mesh_stuffing if opts.mesher == "stuffing" else mesh_tetwild
     progress.stage(f"meshing the pore space ({opts.mesher}, {direction})")

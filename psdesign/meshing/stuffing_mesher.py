@@ -30,7 +30,7 @@ _MATCH_MAX_ITER = 6
 
 def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float) -> PoreMesh:
     """Lattice ("stuffing") pore mesh; arguments as :func:`~.pore_mesh.mesh_pore_space`."""
-    from psdesign.cli import progress
+    from psdesign import progress
 
     step = opts.lattice_step
     if step is None:
@@ -124,7 +124,7 @@ def _pass_progress():
     """``counted()``: the ``progress`` callback of the next stuffing pass (volume matching
     makes up to ``1 + _MATCH_MAX_ITER``), one throttled line ``psdesign: stuffing pass K:
     N/5 steps, T s`` for all; None without a printer."""
-    from psdesign.cli import progress
+    from psdesign import progress
 
     report = progress.throttled(
         lambda s, k, done, total: f"psdesign: stuffing pass {k}: {done}/{total} steps, {s:.0f} s"

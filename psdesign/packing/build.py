@@ -70,7 +70,7 @@ def build_rve(spec: dict) -> BuiltRVE:
     fibers = explicit_fibers(spec)
     rve_spec = spec["rve"]
     if "generator" in spec:
-        from psdesign.cli import progress
+        from psdesign import progress
         from psdesign.packing.generators import build_fibers
 
         gen = spec["generator"]

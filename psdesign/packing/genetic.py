@@ -92,7 +92,7 @@ def ga_progress(
     One callback for several GA runs (the porosity rounds; ``rounds[0]`` is the current one,
     named in the line) keeps the throttle across them: a new one per round printed nothing
     in a GA of rounds shorter than the throttle's 5 s."""
-    from psdesign.cli import progress
+    from psdesign import progress
 
     def label() -> str:
         return "GA" if rounds is None else f"GA round {rounds[0]}"

@@ -487,7 +487,7 @@ def _placement_progress(n_fibers: int, stop_solid: float | None):
     """Throttled progress of a placement on the command's printer (None without one):
     ``psdesign: fiber placement: N placed, solid fraction S of GOAL, T s`` (``N of M placed``
     without a solid goal)."""
-    from psdesign.cli import progress
+    from psdesign import progress
 
     if stop_solid is None:
         return progress.throttled(

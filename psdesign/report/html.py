@@ -421,6 +421,26 @@ def _convergence_figure(df: pd.DataFrame, fcols: list[str]):
     return fig
 
 
+def status_mark(status: str) -> tuple[str, bool]:
+    """``(word, flagged)`` of a value's own ``status`` in the report's K and values tables, by
+    the one rule (:mod:`psdesign.status`): the word written beside the value, "" for a
+    trusted one (:data:`~psdesign.status.TRUSTED`: ``converged`` and ``at_bound`` read as
+    ``ok``, as :func:`psdesign.analysis.columns.value_status` reads them), and whether its row
+    is highlighted: where the status does not pass (:func:`~psdesign.status.passes`), the rule
+    of the red box and the exit (``not_applicable`` is written, not highlighted). Until
+    session 52 the K table wrote every word but ``ok`` and the values table highlighted
+    ``not_applicable``.
+
+    >>> status_mark("ok"), status_mark("at_bound"), status_mark("not_applicable")
+    (('', False), ('', False), ('not_applicable', False))
+    >>> status_mark("untrustworthy")
+    ('untrustworthy', True)
+    """
+    from psdesign.status import TRUSTED, passes
+
+    return ("" if status in TRUSTED else status), not passes(status)
+
+
 def _k_cell(k: float, e: float, bc: str, status: str) -> str:
     """One K table cell: the value with its error bar, then (each on its own line) the
     boundary condition when the column's header does not carry it and the status when it is
@@ -442,8 +462,6 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
     header, the bar, bc and a status that is not ok in the cell, wrapped: with a column each
     for status and bc, two directions' reasons made the table 1601 px wide in a 1319 px box
     at a 1400 px window (session 43, benchmarks/RESULTS.md)."""
-    from psdesign.cli.exit_status import passes
-
     rows = []
     dirs = [d for d in "xyz" if f"k_{d}_m2" in df]
     if not any(f"k_{d}_rel_error" in df for d in dirs):
@@ -470,21 +488,22 @@ def _k_table(df: pd.DataFrame, solver: str | None = None) -> str:
         for d in dirs:
             k, e = num[f"k_{d}_m2"][i], num[f"k_{d}_rel_error"][i]
             st = own[d][i]
-            status = st if st != "ok" or cases[i] == "ok" else cases[i]
+            word, bad = status_mark(st)
+            status = word if word or cases[i] == "ok" else cases[i]  # its own word first
             if st == "untrustworthy":  # the reason where the reader looks (session 42)
                 status = f"untrustworthy: {untrusted_k_reason(row, d, solver)}"
             bc = row.get(f"bc_{d}", "")
             bc = "" if one_bc[d] or pd.isna(bc) else str(bc)
             out[heads[d]] = _k_cell(k, e, bc, status)
-            flag |= not passes(st)  # what k_not_ok (the red box) flags
+            flag |= bad  # what k_not_ok (the red box) flags
         rows.append(out)
         classes.append("flag" if flag else "")
     note = (
         '<p class="note">Error bar: two-grid discretization estimate (a second solve at about '
         "twice the step) with a resolution floor, plus the solver residual "
         "(docs/permeability.md). Highlighted: a case or a direction whose status is not "
-        "trusted (failed, not_converged, untrustworthy); a status other than ok is written "
-        "under the K.</p>"
+        "trusted (failed, not_converged, untrustworthy); a status other than ok (or a "
+        "trusted converged / at_bound) is written under the K.</p>"
     )
     table = _table(
         pd.DataFrame(rows), classes, raw=tuple(heads.values()), table_class="sortable ktable"
@@ -589,11 +608,9 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
     """Porosity and the transport values of each case with their error bars and statuses
     (:func:`psdesign.analysis.columns.error_bar`): the porosity and Omega ``+-`` their
     absolute bars (:func:`_absolute_bar_text`), the others ``+-`` a relative one, and
-    ``[status]`` where it is not trusted (:data:`psdesign.cli.exit_status.TRUSTED`) nor
+    ``[status]`` where it is not trusted (:data:`psdesign.status.TRUSTED`) nor
     unrated, under headings with their units (:func:`psdesign.report.units.output_label`); ""
     when the study has none of them with a bar."""
-    from psdesign.cli.exit_status import TRUSTED
-
     cols = [
         c for c in RATED_VALUES if c in df and pd.to_numeric(df[c], errors="coerce").notna().any()
     ]
@@ -608,9 +625,10 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
             if not txt and st == BLOCKED:  # a tortuosity: porosity / 0 (the JSON's null)
                 txt = "undefined"
             any_bar |= has_bar
-            if txt and st != "unrated" and st not in TRUSTED:
-                txt += f" [{st}]"
-                flag = True
+            if txt and st != "unrated":
+                word, bad = status_mark(st)
+                txt += f" [{word}]" if word else ""
+                flag |= bad
             out[output_label(c, study)] = txt
         rows.append(out)
         classes.append("flag" if flag else "")
@@ -665,15 +683,15 @@ def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
 
 def _status_words(status_column: str) -> str:
     """The words of ``status_column``'s rating as every command prints them
-    (:func:`psdesign.cli.exit_status.flagged_words`: one copy of them)."""
-    from psdesign.cli.exit_status import flagged_words
+    (:func:`psdesign.status.flagged_words`: one copy of them)."""
+    from psdesign.status import flagged_words
 
     return flagged_words(status_column)
 
 
 def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
-    rating it enters (:func:`psdesign.cli.exit_status.flagged_words`)."""
+    rating it enters (:func:`psdesign.status.flagged_words`)."""
     return (
         "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m), "
         "one-sided: the scan measures low, so each true diameter lies between the value and "

@@ -103,13 +103,13 @@ def not_ok_status(
 
 def failed_count(df: pd.DataFrame) -> int:
     """Cases the run could not give (``failed`` or ``timeout``,
-    :data:`psdesign.cli.exit_status.NOT_FINISHED`): no value to draw (review s45: a timed-out
+    :data:`psdesign.status.NOT_FINISHED`): no value to draw (review s45: a timed-out
     case was not counted).
 
     >>> failed_count(pd.DataFrame({"status": ["ok", "timeout", "failed", "not_converged"]}))
     2
     """
-    from psdesign.cli.exit_status import NOT_FINISHED
+    from psdesign.status import NOT_FINISHED
 
     return int(case_status(df).isin(NOT_FINISHED).sum())
 

@@ -30,7 +30,7 @@ def main(argv: list[str]) -> int:
         watch_parent(int(argv[1]))
     try:
         job = read_job(sys.stdin.buffer)
-        from psdesign.cli import progress
+        from psdesign import progress
         from psdesign.study.worker import run_case_inline
 
         with progress.activate(stream=sys.stderr):  # solver progress lines go to case.log

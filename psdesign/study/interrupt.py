@@ -140,7 +140,7 @@ def _on_sigint(signum, frame) -> None:
 def _cli_command():
     """The running command's progress printer, or None (library use): the ``psdesign``
     command prints its one line (``psdesign: interrupted``) on the way out."""
-    progress = sys.modules.get("psdesign.cli.progress")
+    progress = sys.modules.get("psdesign.progress")
     return progress.active() if progress is not None else None
 
 

@@ -224,13 +224,13 @@ def untrusted_reason(results: dict) -> str | None:
     A case is ``not_converged`` when any ``converged`` / ``converged_*`` / ``*_converged`` (or
     ``trusted``, ``trustworthy`` in the same forms) result is False, or a ``status`` /
     ``status_*`` result is a string other than a trusted one (``"ok"``, ``"converged"``,
-    ``"at_bound"``: :data:`psdesign.cli.exit_status.TRUSTED`), or a ``*_status``
+    ``"at_bound"``: :data:`psdesign.status.TRUSTED`), or a ``*_status``
     result is ``"not_converged"``. A K whose ``k_<d>_status`` is ``"untrustworthy"`` (error
     bar above 20 % or < 8 cells per fiber diameter) keeps the case ``ok``: its status column
     says so beside the number, and ``study run`` counts those cases and exits 3
     (:func:`psdesign.cli.exit_status.case_masks`).
     """
-    from psdesign.cli.exit_status import TRUSTED
+    from psdesign.status import TRUSTED
 
     bad = []
     for k, v in results.items():

@@ -93,10 +93,8 @@ class ConductivityResult(Rated):
         return "solid" if self.insulating_phase == "fluid" else "pore"
 
     def __str__(self) -> str:
-        """The line ``psdesign conductivity`` prints (:func:`psdesign.cli.conductivity.
-        result_line`): value with its unit, error bar, status, convergence, phases."""
-        from psdesign.cli.conductivity import result_line
-
+        """The line ``psdesign conductivity`` prints (:func:`result_line`): value with its
+        unit, error bar, status, convergence, phases."""
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
@@ -123,6 +121,19 @@ class ConductivityResult(Rated):
             ("bc", self.bc),
         ]
         return result_html("ConductivityResult", rows, self.status, [self.message, *self.warnings])
+
+
+def result_line(r: dict) -> str:
+    """The printed line of one conductivity result dict (``to_dict()``): ``psdesign
+    conductivity``'s and :meth:`ConductivityResult.__str__`'s (in ``psdesign.cli.conductivity``
+    until session 52)."""
+    from psdesign.lines import rating, value_text
+
+    return (
+        f"{value_text('conductivity', r['direction'], r)}  {rating(r)}  (solid "
+        f"{r['solid_conductivity']:g}, fluid {r['fluid_conductivity']:g} "
+        f"{r['conductivity_unit']})"
+    )
 
 
 def hashin_shtrikman(s1: float, s2: float, f2: float, dim: int = 3) -> tuple[float, float]:

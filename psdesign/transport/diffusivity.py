@@ -18,8 +18,7 @@ Definitions (Fick's law on the pore space, solid impermeable, zero flux on the f
 Boundary conditions: ``periodic`` (homogenized tensor; three solves give it whole) or
 ``permeameter`` (fixed concentrations on the inlet and outlet faces, insulated sides).
 A blocked direction gives 0 with ``blocked=True`` and a message; the tortuosity factor is then
-None (porosity / 0: printed "undefined ... [blocked]", :func:`psdesign.cli.diffusivity.
-tortuosity_undefined`).
+None (porosity / 0: printed "undefined ... [blocked]", :func:`tortuosity_undefined`).
 """
 
 from __future__ import annotations
@@ -94,14 +93,11 @@ class DiffusivityResult(Rated):
         return self.relative_diffusivity, wiener_bounds(1.0, 0.0, 1.0 - self.porosity)
 
     def __str__(self) -> str:
-        """The line ``psdesign diffusivity`` prints (:func:`psdesign.cli.diffusivity.
-        result_line`): value, error bar, status, convergence, tortuosity, porosity."""
-        from psdesign.cli.diffusivity import result_line
-
+        """The line ``psdesign diffusivity`` prints (:func:`result_line`): value, error bar,
+        status, convergence, tortuosity, porosity."""
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
-        from psdesign.cli.diffusivity import tortuosity_undefined
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
@@ -127,6 +123,34 @@ class DiffusivityResult(Rated):
             ("bc", self.bc),
         ]
         return result_html("DiffusivityResult", rows, self.status, [self.message, *self.warnings])
+
+
+def result_line(r: dict) -> str:
+    """The printed line of one diffusivity result dict (``to_dict()``): ``psdesign diffusivity``'s
+    and :meth:`DiffusivityResult.__str__`'s (in ``psdesign.cli.diffusivity`` until session 52)."""
+    from psdesign.geometry.porosity import porosity_text
+    from psdesign.lines import error_bar, rating, value_text
+
+    tau = r["tortuosity_factor"]  # porosity / D: a count over D, so D's relative bar
+    tau_text = tortuosity_undefined(r) if tau is None else f"{tau:.4f}{error_bar(r['rel_error'])}"
+    return (
+        f"{value_text('diffusivity', r['direction'], r)}  {rating(r)}  tortuosity factor "
+        f"{tau_text}  porosity {porosity_text(r['porosity'], r.get('porosity_error'))}"
+    )
+
+
+def tortuosity_undefined(r: dict) -> str:
+    """The words for a tortuosity factor with no value (JSON ``null``, porosity / 0), with the
+    status it shares with D_eff/D: the text line and the notebook printed a bare ``inf`` /
+    ``n/a`` until session 51.
+
+    >>> tortuosity_undefined({"blocked": True, "direction": "x", "status": "blocked"})
+    'undefined (no pore path along x) [blocked]'
+    >>> tortuosity_undefined({"blocked": False, "direction": "z", "status": "untrustworthy"})
+    'undefined (D_eff/D = 0) [untrustworthy]'
+    """
+    why = f"no pore path along {r['direction']}" if r.get("blocked") else "D_eff/D = 0"
+    return f"undefined ({why}) [{r['status']}]"
 
 
 def knudsen_number(mean_free_path: float, pore_diameter: float) -> float:

@@ -275,7 +275,7 @@ class Rated:
 BLOCKED = "blocked"
 STATUS_ORDER = ("ok", "untrustworthy", "not_converged", BLOCKED)
 """Statuses from best to worst (:func:`worst_status`). The words the exit rule passes
-(:func:`psdesign.cli.exit_status.passes`: ``ok``, a force-field search's ``converged`` and
+(:func:`psdesign.status.passes`: ``ok``, a force-field search's ``converged`` and
 ``at_bound``, and ``not_applicable``) rank with ``ok``, and only they: the worst status passes
 exactly when the exit is 0."""
 
@@ -285,9 +285,9 @@ def _rank(status: str | None) -> int:
     # "blocked", as an unknown word: the worst of ["converged", "untrustworthy"] was
     # "converged"). A word outside both (``extrapolated``, ``contact_left``, a missing status)
     # ranks below every known one: nothing says it is better than ``blocked``, and the exit
-    # rule (cli.exit_status) treats it as not ok. ``.index`` raised ValueError on it.
-    from psdesign.cli.exit_status import passes
+    # rule (psdesign.status) treats it as not ok. ``.index`` raised ValueError on it.
     from psdesign.packing.overlap_status import NOT_APPLICABLE
+    from psdesign.status import passes
 
     if status == NOT_APPLICABLE:  # no value (an image's Omega): never the worst of real ones
         return -1
@@ -298,7 +298,7 @@ def _rank(status: str | None) -> int:
 
 def worst_status(statuses: list[str | None]) -> str | None:
     """The worst of several values' statuses (:data:`STATUS_ORDER`), total over every word: a
-    trusted one (:data:`psdesign.cli.exit_status.TRUSTED`) is as good as ``ok``, one outside
+    trusted one (:data:`psdesign.status.TRUSTED`) is as good as ``ok``, one outside
     both (or ``None``) is worse than ``blocked``; the first of the worst is returned.
 
     >>> worst_status(["ok", "untrustworthy", "ok"])

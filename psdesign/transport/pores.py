@@ -211,7 +211,7 @@ def _ball_union(lab: np.ndarray, boxes: list, ids: np.ndarray, r: float) -> np.n
 def _scan_progress(n_radii: int):
     """Throttled progress of the radius scan on the command's printer (None without one):
     ``psdesign: pore scan: radius I of N (R voxels), T s``."""
-    from psdesign.cli import progress
+    from psdesign import progress
 
     return progress.throttled(
         lambda s, i, r: (

@@ -56,7 +56,7 @@ TRANSPORT_OUTPUTS = (
 def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     """Everything ``psdesign pores`` prints: size distribution, intrusion, surface, profile,
     orientation tensor (when ``rve`` is given)."""
-    from psdesign.cli import progress
+    from psdesign import progress
     from psdesign.transport.pores import (
         orientation_tensor,
         pore_sizes,

@@ -175,7 +175,7 @@ def test_fields_under_a_file_names_the_option_it_came_from(spec, tmp_path, capsy
 
 # main: the text output of `pores` printed d10/d50/d90 and S_v without the error estimates its
 # JSON carries (rule: every number printed carries its error estimate). Session 32: in the
-# shape of the other commands' lines (psdesign.cli.lines): the bar after the values, then
+# shape of the other commands' lines (psdesign.lines): the bar after the values, then
 # `[status]  converged true|false` (it printed `rel. error 1.0e-01` and no flag), the pore
 # sizes with their one-sided absolute bar (the scan measures low) covering the breakthrough
 # diameter too, and the porosity with its error.

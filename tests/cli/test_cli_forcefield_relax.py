@@ -184,7 +184,7 @@ def test_relax_reports_its_search_progress(tmp_path, monkeypatch):
     import io
     import re
 
-    from psdesign.cli import progress as pr
+    from psdesign import progress as pr
     from psdesign.forcefield.run import load_forcefield_spec, run_forcefield
 
     class Tty(io.StringIO):

@@ -59,7 +59,7 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
     bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
     for st in dict.fromkeys(STATUS_COLUMNS.values()):
         line = flagged_text(pd.DataFrame({"status": ["ok"], st: ["untrustworthy"]}))
-        assert f"({st}: " in line, f"{st} has no words (cli.exit_status.STATUS_WORDS): {line}"
+        assert f"({st}: " in line, f"{st} has no words (psdesign.status.STATUS_WORDS): {line}"
         words = line.split(f"({st}: ")[1]
         assert words.startswith("untrustworthy = "), line
         overlap = "overlaps thinner than a voxel (which the count may miss)" in words
@@ -85,7 +85,7 @@ def test_the_words_are_a_table_of_exactly_the_status_columns():
     columns of ``analysis.columns.STATUS_COLUMNS`` (a column without words, or words of a
     column that is gone, fails here), each with words."""
     from psdesign.analysis.columns import STATUS_COLUMNS
-    from psdesign.cli.exit_status import STATUS_WORDS
+    from psdesign.status import STATUS_WORDS
 
     columns = set(STATUS_COLUMNS.values())
     assert set(STATUS_WORDS) == columns, set(STATUS_WORDS) ^ columns

@@ -7,8 +7,8 @@ import io
 
 import pytest
 
+from psdesign import progress as pr
 from psdesign.cli import main
-from psdesign.cli import progress as pr
 from solvers import jit
 
 

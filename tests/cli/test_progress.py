@@ -1,4 +1,4 @@
-"""Progress on stderr (one printer, psdesign.cli.progress), ``--quiet``, a clean stdout; the
+"""Progress on stderr (one printer, psdesign.progress), ``--quiet``, a clean stdout; the
 cold-start pieces: ``--help`` imports no numerical library, serial twins of parallel kernels."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from meshes import box_mesh, tag_box_boundary
 
+from psdesign import progress as pr
 from psdesign.cli import main
-from psdesign.cli import progress as pr
 from solvers import jit
 
 SPEC = """

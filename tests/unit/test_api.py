@@ -812,8 +812,8 @@ def test_progress_keyword_reports_on_stderr_and_leaves_nothing_on(monkeypatch, c
     # the CLI prints stages and solver iterations; the API had no way to ask for them (a
     # minutes-long FEM solve in a notebook was silent). progress=True activates the same
     # printer for the call only; the default stays silent (audit s33).
-    import psdesign.cli.progress as prog
     import psdesign.flow.permeability as perm
+    import psdesign.progress as prog
     import psdesign.transport.diffusivity as diff
 
     seen = []

@@ -1691,10 +1691,10 @@ def test_a_porosity_with_a_27_percent_bar_is_marked_in_the_frames_not_in_their_m
 
 def test_the_red_box_words_the_porosity_rating_from_status_words(monkeypatch):
     """Session 48: the red box wrote the porosity's rating as "(above 20 %)", a copy of
-    ``cli.exit_status.STATUS_WORDS["porosity_status"]`` that an edit of the table would leave
+    ``psdesign.status.STATUS_WORDS["porosity_status"]`` that an edit of the table would leave
     behind (as the values table's Omega note did until 216c428). The box reads the table: a
     changed entry shows in it, and the old hand-written words do not."""
-    from psdesign.cli import exit_status
+    from psdesign import status
     from psdesign.report.html import _status_banner
 
     df = pd.DataFrame(
@@ -1703,7 +1703,7 @@ def test_the_red_box_words_the_porosity_rating_from_status_words(monkeypatch):
     box = _status_banner(df)
     assert "(porosity_status: untrustworthy = error bar above 20 %)" in box, box
     words = "untrustworthy = a bar over TEST_LIMIT & <more>"
-    monkeypatch.setitem(exit_status.STATUS_WORDS, "porosity_status", words)
+    monkeypatch.setitem(status.STATUS_WORDS, "porosity_status", words)
     box = _status_banner(df)
     assert "untrustworthy = a bar over TEST_LIMIT &amp; &lt;more&gt;" in box, box  # escaped
     assert "20 %" not in box, box

@@ -1,15 +1,15 @@
 """One spelling of a solve's value: the command lines (``permeability``, ``diffusivity``,
 ``conductivity``) and the field pictures' titles (``psdesign.fields.writer.result_words``)
-start with ``psdesign.cli.lines.value_text`` (session 49's review: four copies of the formats).
+start with ``psdesign.lines.value_text`` (session 49's review: four copies of the formats).
 """
 
 from __future__ import annotations
 
 import pytest
 
-from psdesign.cli import conductivity, diffusivity
 from psdesign.cli import permeability as perm
 from psdesign.fields.writer import result_words
+from psdesign.transport import conductivity, diffusivity
 
 BASE = {"direction": "y", "status": "untrustworthy", "converged": True, "porosity": 0.8}
 CASES = [

@@ -7,7 +7,7 @@ beside its red box (``report.html._status_banner``), which disagreed on a table 
 ``status`` column and on a status column without its value column. The truth here is each
 rule's own statement, checked over every combination of the cells a table can hold: a value
 is trusted exactly when its case is ``ok`` and its own status is a trusted word (``ok``, a
-force-field search's ``converged``: the exit's rule, ``cli.exit_status.TRUSTED``) or unset;
+force-field search's ``converged``: the exit's rule, ``psdesign.status.TRUSTED``) or unset;
 the red box is there exactly when ``study report`` exits 3.
 """
 
@@ -65,11 +65,11 @@ def test_a_value_is_trusted_exactly_when_its_case_is_ok_and_its_own_status_ok_or
 
 def test_a_values_own_status_is_read_by_the_exits_one_rule():
     """Session 51: ``k_not_ok`` (the red box, the study exit's flagged values) spelled its good
-    words ``ok`` and ``not_applicable`` itself, ``exit_status.passes`` (every command's exit)
+    words ``ok`` and ``not_applicable`` itself, ``psdesign.status.passes`` (every command's exit)
     read ``TRUSTED`` and ``not_applicable``: a value rated ``converged`` or ``at_bound`` was
     flagged by one and passed by the other. Truth: the exit rule, word by word."""
     from psdesign.analysis.columns import k_not_ok
-    from psdesign.cli.exit_status import passes
+    from psdesign.status import passes
 
     words = ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "blocked"]
     words += ["not_converged", "extrapolated"]
@@ -292,7 +292,7 @@ def test_a_value_rated_converged_is_trusted_by_every_reader_of_the_report(capsys
     tables by ``ok`` alone: a K rated ``converged`` stayed in the fits while its figures
     drew it "(not in fits)" and the values and K tables highlighted its row (a D_eff/D rated
     ``converged`` likewise). Truth: the exit's
-    rule (``cli.exit_status.TRUSTED``; docs: exit 0 for ``converged``), so the same table with
+    rule (``psdesign.status.TRUSTED``; docs: exit 0 for ``converged``), so the same table with
     ``ok`` in place of ``converged`` reads the same everywhere, and ``untrustworthy`` still
     flags (the rule is not "anything passes")."""
     from psdesign.analysis.columns import k_not_ok
@@ -321,6 +321,38 @@ def test_a_value_rated_converged_is_trusted_by_every_reader_of_the_report(capsys
         assert reader(conv).count('class="flag"') == 0 == bool(_status_banner(conv))
         assert reader(bad).count('class="flag"') == 1
     assert "[converged]" not in _values_table(conv) and "[untrustworthy]" in _values_table(bad)
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "word",
+    ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "blocked", "extrapolated"],
+)
+def test_the_k_and_values_tables_write_and_highlight_a_status_by_the_one_rule(word, capsys):
+    """Session 52: the K table highlighted a row by ``passes`` (the red box's rule) but wrote
+    every word other than ``ok`` under the K (``converged`` too, which every other reader
+    reads as ``ok``); the values table wrote and highlighted every word outside ``TRUSTED``,
+    so a ``not_applicable`` value's row was highlighted while the red box and the exit passed
+    it. Truth: the one rule of :mod:`psdesign.status` as the exit applies it (docs: exit 0 for
+    ``converged`` / ``at_bound``, ``not_applicable`` passes): a row is highlighted exactly
+    when ``study report`` exits 3 for it, and a word is written exactly when it is not read
+    as ``ok`` (not in ``TRUSTED``)."""
+    from psdesign.report.html import _k_table, _values_table
+    from psdesign.status import TRUSTED
+
+    df = pd.DataFrame(
+        {"case_id": ["c0"], "status": ["ok"], "k_z_m2": [1e-11], "k_z_rel_error": [0.02],
+         "k_z_status": [word], "diffusivity_z": [0.4], "diffusivity_z_rel_error": [0.03],
+         "diffusivity_z_status": [word]}
+    )  # fmt: skip
+    bad = report_exit_status(df) == 3
+    assert bad == (word in ("untrustworthy", "blocked", "extrapolated"))  # the exit's rule
+    k, values = _k_table(df, "fem"), _values_table(df)
+    for table in (k, values):
+        assert table.count('class="flag"') == bad, (word, table)
+    written = word not in TRUSTED
+    assert (f'<span class="kst">{word}' in k) == written, k
+    assert (f"[{word}]" in values) == written, values
     capsys.readouterr()
 
 

@@ -13,8 +13,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from psdesign.cli.exit_status import NOT_TRUSTED, OK, TRUSTED, status_code
+from psdesign.cli.exit_status import NOT_TRUSTED, OK, status_code
 from psdesign.cli.permeability import _combine
+from psdesign.status import TRUSTED
 from psdesign.transport.effective import STATUS_ORDER, worst_status
 
 
@@ -44,7 +45,7 @@ def test_worst_status_follows_the_order():
 
 def test_the_worst_status_is_trusted_exactly_when_the_exit_is_0():
     """The order and the exit rule are one definition (session 46): a force-field search's
-    trusted ``converged`` and ``at_bound`` (:data:`psdesign.cli.exit_status.TRUSTED`) ranked
+    trusted ``converged`` and ``at_bound`` (:data:`psdesign.status.TRUSTED`) ranked
     below ``blocked``, as unknown words, so ``worst_status(["converged", "untrustworthy"])``
     was ``converged``, a trusted word for a list the exit rule calls not trusted (3). Over
     every pair of words, in either order, the worst is trusted exactly when the exit is 0.
@@ -81,3 +82,34 @@ def test_combine_all_directions_with_a_blocked_one(bad):
         "z": 1e-11 if bad != "blocked" else 0.0,
     }
     assert status_code(out["status"]) == NOT_TRUSTED
+
+
+@pytest.mark.parametrize(
+    "word", ["ok", "converged", "at_bound", "not_applicable", "untrustworthy", "extrapolated"]
+)
+def test_a_predictions_flag_is_shouted_exactly_when_the_exit_is_3(
+    word, tmp_path, monkeypatch, capsys
+):
+    """Session 52: ``study predict`` printed ``[ok]`` for ``ok`` and ``(WORD)``, the form of a
+    value not to trust, for every other word, while its exit follows the one rule
+    (:func:`psdesign.cli.exit_status.status_code`: ``converged``, ``at_bound`` and
+    ``not_applicable`` exit 0). Truth: the exit rule; the word itself is printed either way.
+    The surrogate is stubbed (the statuses a fit gives are ok / untrustworthy / extrapolated;
+    the rule must hold for every word a row can carry)."""
+    import psdesign.analysis.columns as columns
+    import psdesign.analysis.surrogate as surrogate
+    from psdesign.cli import study_analysis
+    from psdesign.cli.main import main
+
+    row = {"mean": 1.5e-11, "std": 1e-12, "gp_std": 1e-12, "error_from": "GP std",
+           "holdout_rel_error": None, "cv_rel_error": 0.05, "cv_level_rel_error": None,
+           "cv_between_rel_error": None, "status": word, "outside": []}  # fmt: skip
+    monkeypatch.setattr(surrogate, "load_study_surrogates", lambda out: {"k_z_m2": None})
+    monkeypatch.setattr(columns, "study_table", lambda out: {"parameters": {}})
+    monkeypatch.setattr(study_analysis, "_predict_one", lambda *a: (dict(row), ""))
+    code = main(["study", "predict", str(tmp_path), "--at", "generator.porosity=0.8"])
+    line = capsys.readouterr().out.strip()
+    assert code == status_code(word) == (OK if word in (*TRUSTED, "not_applicable") else 3)
+    shouted = f"({word.upper()})" in line
+    assert shouted == (code == NOT_TRUSTED), line
+    assert shouted or line.endswith(f"[{word}]"), line

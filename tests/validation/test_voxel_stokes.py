@@ -312,7 +312,7 @@ def test_progress_reports_monotone_iterations_and_final_true_residual() -> None:
 
 
 def test_cli_progress_printer_writes_one_line_per_report(capsys) -> None:
-    from psdesign.cli.progress import progress_printer
+    from psdesign.progress import progress_printer
 
     report = progress_printer("x", every_s=0.0)
     report(25, 1.5e-3)
