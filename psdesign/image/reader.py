@@ -197,6 +197,7 @@ def vti_header(path: Path) -> tuple[tuple[int, int, int], tuple[float, float, fl
     spacing = info.Get(vtkDataObject.SPACING())
     if ext is None or spacing is None:
         raise ValueError(f"image.path: cannot read the header of {Path(path).name}")
+    _check_vti_direction(Path(path).name, info.Get(vtkDataObject.DIRECTION()))
     if not reader.GetNumberOfPointArrays() and not reader.GetNumberOfCellArrays():
         raise ValueError(f"image.path: {Path(path).name} holds no data array")
     points = tuple(int(ext[2 * a + 1] - ext[2 * a] + 1) for a in range(3))
@@ -204,9 +205,33 @@ def vti_header(path: Path) -> tuple[tuple[int, int, int], tuple[float, float, fl
     return cells, tuple(float(h) for h in spacing)
 
 
+#: What a .vti file's Direction matrix must be (the refusal of another).
+IDENTITY_ALLOWED = '(allowed: the identity direction, Direction="1 0 0 0 1 0 0 0 1", or none)'
+
+
+def _check_vti_direction(name: str, direction) -> None:
+    """Refuse a .vti whose Direction matrix is not the identity (``image.path``): psdesign
+    reads the stored i, j, k axes as x, y, z, so a rotated or flipped image was read in the
+    wrong frame (a 90-degree swap of x and y gave K_x of the plates normal to x, ``ok``,
+    exit 0: session 52 I/O review, finding 2). ``None`` (VTK < 9 writes none) is the identity.
+    """
+    if direction is None:
+        return
+    d = np.asarray(direction, dtype=float).reshape(3, 3)
+    if not np.array_equal(d, np.eye(3)):
+        rows = "; ".join(" ".join(f"{v:g}" for v in row) for row in d)
+        raise ValueError(
+            f"image.path: {name} has the Direction matrix [{rows}], not the identity: psdesign "
+            "reads the stored i, j, k axes as x, y, z and would solve in a rotated or flipped "
+            f"frame {IDENTITY_ALLOWED}; resample it onto axis-aligned x, y, z "
+            "(ParaView: Resample To Image) or give it as .npy with image.axis_order"
+        )
+
+
 def _read_vti(path: Path) -> np.ndarray:
     import pyvista as pv
 
+    vti_header(path)  # its Direction checked (a cheap header read) before the voxels
     img = pv.read(str(path))
     arrays = list(img.point_data.keys()) or list(img.cell_data.keys())
     if not arrays:

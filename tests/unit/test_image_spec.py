@@ -521,3 +521,37 @@ def test_every_route_refuses_a_grid_a_percent_off_cubic() -> None:
         _cubic_voxel(grid)
     grid.grid.spacing = np.array([1e-6, 1e-6, 1e-6 * (1 + 1e-12)])  # a rounding: cubic
     assert _cubic_voxel(grid) == 1e-6
+
+
+@pytest.mark.parametrize(
+    "direction",
+    [[[0, 1, 0], [1, 0, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, 1]]],
+    ids=["x-y swapped", "x flipped"],
+)
+def test_a_vti_with_a_direction_other_than_the_identity_is_refused(tmp_path, direction) -> None:
+    """Session 52 I/O review, finding 2: the .vti reader took spacing and extent only, so an
+    image whose Direction matrix swaps x and y (plates normal to world x stored normal to j)
+    was solved in the stored frame: K_x of plates normal to x reported ``ok``, exit 0. A
+    rotated or flipped image is refused (``image.path``, naming what is allowed), before any
+    voxel is read; the same file with the identity direction still loads (8 of 16 x-layers
+    solid: porosity 0.5 exactly)."""
+    import pyvista as pv
+
+    from psdesign.image.reader import ImageSource, read_labels
+
+    solid = np.zeros((16, 12, 20), dtype=np.uint8)
+    solid[::2] = 1
+    for name, d in (("ok.vti", np.eye(3)), ("turned.vti", np.asarray(direction, float))):
+        img = pv.ImageData(dimensions=solid.shape, spacing=(1e-6,) * 3)
+        img.direction_matrix = d
+        img.point_data["phase"] = solid.ravel(order="F")
+        img.save(str(tmp_path / name))
+    spec = load_spec(write_spec(tmp_path, '[image]\npath = "ok.vti"\n'))
+    assert spec["rve"]["size"] == pytest.approx([16e-6, 12e-6, 20e-6], rel=1e-12, abs=0)
+    assert build_rve(spec).voxelize(spec["rve"]["voxel"]).porosity == 0.5
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "turned.vti"\n'))
+    assert info.value.key == "image.path"
+    assert "not the identity" in info.value.message and "allowed: the identity" in str(info.value)
+    with pytest.raises(ValueError, match="image.path: turned.vti has the Direction matrix"):
+        read_labels(ImageSource(path=tmp_path / "turned.vti", voxel=1e-6))
