@@ -291,6 +291,17 @@ def plain_tiff_shape(name: str, axes: str, shape: tuple[int, ...]) -> tuple[int,
     """A TIFF series' shape without its colour (``S``) and channel (``C``) axes of length 1;
     a colour or multi-channel image is refused (``image.path``, naming ``name``)."""
     colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
+    if set(colour) == {"C"} and not set(axes) & set("ZT"):
+        # session 52 I/O review, finding 3: tifffile.imwrite(path, vol, imagej=True) stores a
+        # 3-D array as channels (CYX) unless told its axes; the colour advice did not help
+        raise ValueError(
+            f"image.path: {name} stores its {colour['C']} planes as ImageJ channels (axes "
+            f"{axes}, no Z), as tifffile.imwrite(..., imagej=True) saves a 3-D array without "
+            "metadata={'axes': 'ZYX'}; psdesign does not read channels as z slices "
+            "(allowed: a single-channel stack, axes ZYX): if the planes are z slices, write it "
+            "with metadata={'axes': 'ZYX'} (Fiji: Image > Hyperstacks > Re-order Hyperstacks, "
+            "channels to slices)"
+        )
     if colour:
         what = ", ".join(
             f"{n} {'colour samples' if a == 'S' else 'channels'}" for a, n in colour.items()

@@ -275,7 +275,7 @@ def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
     [
         ("rgba.tif", (16, 16, 4), {"photometric": "rgb"}, "YXS"),  # a 2-D colour picture
         ("rgb_stack.tif", (6, 16, 16, 3), {"photometric": "rgb"}, "YXS"),
-        ("channels.tif", (5, 16, 16), {"imagej": True, "metadata": {"axes": "CYX"}}, "CYX"),
+        ("channels.tif", (5, 2, 16, 16), {"imagej": True, "metadata": {"axes": "ZCYX"}}, "ZCYX"),
     ],
 )
 def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
@@ -283,7 +283,8 @@ def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
 ):
     # a 2-D RGBA picture was read as a 3-D image four voxels thick along x (its R, G, B and
     # alpha as slices) and solved, exit 0 (session 43's CT walk-through); a 5-channel ImageJ
-    # image likewise with its channels as z slices. Both are one label image nobody gave.
+    # image likewise with its channels as z slices. Both are one label image nobody gave. (A
+    # C axis with no Z has its own refusal since session 52: a 2-channel z stack here.)
     import tifffile
 
     data = np.zeros(shape, np.uint8)
@@ -294,6 +295,30 @@ def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
         load_spec(spec)
     assert info.value.key == "image.path"
     assert "colour or multi-channel" in info.value.message and axes in info.value.message
+
+
+@pytest.mark.parametrize("metadata", [{"unit": "um"}, {"axes": "CYX"}])
+def test_a_stack_saved_as_imagej_channels_is_refused_with_the_cure(tmp_path, metadata):
+    """Session 52 I/O review, finding 3: ``tifffile.imwrite(p, vol_zyx, imagej=True)`` without
+    ``metadata={'axes': 'ZYX'}`` stores the 20 z planes as ImageJ channels (axes CYX); the
+    refusal said "colour or multi-channel ... (Fiji: Image > Type > 8-bit)", advice that does
+    not help. A grey image whose only extra axis is C (no Z, no T) is refused naming what
+    happened and the cure; the same array written with the axes loads (porosity 2/3)."""
+    import tifffile
+
+    vol = np.zeros((20, 12, 16), np.uint8)  # z, y, x
+    vol[:, :4] = 255
+    tifffile.imwrite(tmp_path / "c.tif", vol, imagej=True, metadata=metadata)
+    tifffile.imwrite(tmp_path / "z.tif", vol, imagej=True, metadata={"axes": "ZYX"})
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "c.tif"\nvoxel_size = 1e-6\n'))
+    assert info.value.key == "image.path" and "\n" not in info.value.message
+    for words in ("20 planes as ImageJ channels", "axes CYX", "allowed: a single-channel"):
+        assert words in info.value.message
+    assert "metadata={'axes': 'ZYX'}" in info.value.message
+    spec = load_spec(write_spec(tmp_path, '[image]\npath = "z.tif"\nvoxel_size = 1e-6\n'))
+    assert spec["rve"]["size"] == pytest.approx([16e-6, 12e-6, 20e-6], rel=1e-12, abs=0)
+    assert build_rve(spec).voxelize(1e-6).porosity == pytest.approx(2 / 3, rel=1e-12, abs=0)
 
 
 @pytest.mark.parametrize("given", ["slices", "slices/slice_*.tif"])
