@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from psdesign.geometry.rve import is_cubic
+from psdesign.geometry.rve import in_metres, is_cubic
 from psdesign.image.slices import is_slice_path, read_slices, slice_set
 from psdesign.schema.rve import MIN_VOXELS_TEXT
 
@@ -506,26 +506,13 @@ def read_image(src: ImageSource) -> np.ndarray:
     return np.ascontiguousarray(solid_mask(read_labels(src), src.solid, src.threshold))
 
 
-def in_metres(length: float, unit: float) -> float:
-    """``length`` (in a unit of ``unit`` metres) in metres, rounded to 15 significant digits, so
-    that a length whose decimal terminates within them reads as written, not as the float
-    product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
-    1.2499999999999999e-06 m in rve.json until session 51). The rounding moves a value by at
-    most 5e-15 of itself; a decimal that does not terminate comes out to 15 digits, not
-    correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
-
-    >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
-    (1.2499999999999999e-06, 1.25e-06)
-    """
-    return float(f"{length * unit:.15g}")
-
-
 def box_size(shape, voxel: float) -> tuple[float, float, float]:
     """The box edges in metres of ``shape`` voxels of ``voxel`` metres, rounded as
-    :func:`in_metres` (a count in a unit of one voxel): the spec, rve.json and the image grid
-    print 12 voxels of 1.25 um as 1.5e-05 m, not the float product 1.5000000000000002e-05
-    (session 51). The edge stays a whole number of cubic voxels: the rounding moves it by at
-    most 5e-15 of itself (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
+    :func:`psdesign.geometry.rve.in_metres` (a count in a unit of one voxel): the spec,
+    rve.json and the image grid print 12 voxels of 1.25 um as 1.5e-05 m, not the float
+    product 1.5000000000000002e-05 (session 51). The edge stays a whole number of cubic
+    voxels: the rounding moves it by at most 5e-15 of itself
+    (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
 
     >>> 12 * 1.25e-6, box_size((12, 8, 1), 1.25e-6)
     (1.5000000000000002e-05, (1.5e-05, 1e-05, 1.25e-06))

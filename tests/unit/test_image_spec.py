@@ -403,7 +403,7 @@ def test_an_imagej_images_box_reads_as_the_decimal_n_voxels_make(tmp_path):
     """Review s51: the voxel was rounded (above) but not the box: 12 voxels of 1.25 um are
     15 um, and ``12 * 1.25e-6`` is the float 1.5000000000000002e-05, which the spec,
     rve.json's ``size_m`` and summary.json's grid printed (8 voxels are exact by luck). The
-    box is rounded as the voxel (``reader.in_metres``) and still holds exactly 12 cubic voxels
+    box is rounded as the voxel (``geometry.rve.in_metres``) and still holds exactly 12 cubic voxels
     (the grid rule, ``VoxelGrid.from_voxel`` / ``is_cubic``, within 1e-9). Truth: 12 x 1.25 um
     = 15 um."""
     from psdesign.geometry.rve import VoxelGrid, is_cubic
