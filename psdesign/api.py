@@ -128,15 +128,18 @@ class PermeabilityResult:
         }
 
     def _repr_html_(self) -> str:
+        import html
+
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import plus_minus, result_html
 
+        # from_dict takes any strings: escaped (session 52 I/O review, finding 5)
         rows = [
-            ("direction", self.direction),
+            ("direction", html.escape(self.direction)),
             ("K (m<sup>2</sup>)", f"{self.permeability_m2:.4e}"),
             ("error estimate", plus_minus(self.rel_error)),
             ("converged", str(self.converged)),
-            ("solver / bc", f"{self.solver} / {self.bc}"),
+            ("solver / bc", html.escape(f"{self.solver} / {self.bc}")),
             ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
         ]
         notes = self.details.get("warnings") or []
@@ -416,13 +419,15 @@ class Material:
         """The notebook's table: box, voxel grid, fibres (or image) and, once the voxel fields
         exist (a display does not voxelize), the porosity with its error estimate and its
         rating (a count: ``ok`` up to a 20 % bar, as in study tables)."""
+        import html
+
         from psdesign.analysis.columns import porosity_status
         from psdesign.geometry.porosity import porosity_text
         from psdesign.notebook import result_html
 
         grid = self.rve.grid(self.spec["rve"]["voxel"])
-        source = (
-            ("image", Path(self.spec["image"]["path"]).name)
+        source = (  # the file name escaped: a<i>b&c.npy went in raw (session 52 I/O review)
+            ("image", html.escape(Path(self.spec["image"]["path"]).name))
             if "image" in self.spec
             else ("fibers", str(len(self.rve.fibers)))
         )

@@ -15,7 +15,11 @@ _STATUS_STYLE = {
 
 def result_html(title: str, rows: list[tuple[str, str]], status: str, notes: list[str]) -> str:
     """A small HTML table: ``title``, the ``(label, value)`` rows (labels carry the units),
-    the ``status`` (red when it is not ``"ok"``) and ``notes`` (warnings) under it."""
+    the ``status`` (red when it is not ``"ok"``) and ``notes`` (warnings) under it.
+
+    ``title``, ``status`` and ``notes`` are escaped here; the rows are HTML as given (units
+    use ``<sup>``, errors ``&plusmn;``): the caller escapes any user-given string in them
+    (``html.escape``: a file name, a ``from_dict`` field)."""
     body = "".join(
         f'<tr><th style="text-align:left">{label}</th><td style="text-align:left">{value}</td></tr>'
         for label, value in rows

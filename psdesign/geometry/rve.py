@@ -98,6 +98,22 @@ def is_cubic(spacing, rtol: float = 1e-9) -> bool:
     return bool(np.allclose(h, h[0], rtol=rtol, atol=0.0))
 
 
+def in_metres(length: float, unit: float) -> float:
+    """``length`` (in a unit of ``unit`` metres) in metres, rounded to 15 significant digits, so
+    that a length whose decimal terminates within them reads as written, not as the float
+    product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
+    1.2499999999999999e-06 m in rve.json until session 51; a generated RVE's 1 um voxel,
+    20e-6 / 20, 1.0000000000000002e-06 m until session 52: :meth:`VoxelGrid.from_voxel`): one
+    rule for an image's voxels and a generated grid's. The rounding moves a value by at most
+    5e-15 of itself; a decimal that does not terminate comes out to 15 digits, not
+    correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
+
+    >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
+    (1.2499999999999999e-06, 1.25e-06)
+    """
+    return float(f"{length * unit:.15g}")
+
+
 @dataclass(frozen=True)
 class VoxelGrid:
     """Cell-centred voxel grid of a box ``[0, size]`` in metres.
@@ -107,8 +123,9 @@ class VoxelGrid:
     shape : tuple of int
         Voxel counts (nx, ny, nz).
     spacing : ndarray (3,)
-        Voxel edge lengths in metres (``size / shape``; equal to the requested
-        voxel size when the box is a whole number of voxels).
+        Voxel edge lengths in metres (``size / shape`` rounded to 15 significant digits,
+        :func:`in_metres`; equal to the requested voxel size when the box is a whole number
+        of voxels).
     """
 
     size: np.ndarray
@@ -119,7 +136,10 @@ class VoxelGrid:
     def from_voxel(cls, size: np.ndarray, voxel: float) -> VoxelGrid:
         size = np.asarray(size, float)
         shape = tuple(int(max(1, round(s / voxel))) for s in size)
-        return cls(size=size, shape=shape, spacing=size / np.array(shape))
+        # the edge rounded as image voxels are (in_metres): 20e-6 / 20 wrote
+        # 1.0000000000000002e-06 into summary.json, mesh.json, rve.tif and .vti
+        spacing = np.array([in_metres(s / n, 1.0) for s, n in zip(size, shape, strict=True)])
+        return cls(size=size, shape=shape, spacing=spacing)
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Voxel-centre coordinates along each axis (metres)."""

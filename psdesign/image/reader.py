@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from psdesign.geometry.rve import is_cubic
+from psdesign.geometry.rve import in_metres, is_cubic
 from psdesign.image.slices import is_slice_path, read_slices, slice_set
 from psdesign.schema.rve import MIN_VOXELS_TEXT
 
@@ -197,6 +197,7 @@ def vti_header(path: Path) -> tuple[tuple[int, int, int], tuple[float, float, fl
     spacing = info.Get(vtkDataObject.SPACING())
     if ext is None or spacing is None:
         raise ValueError(f"image.path: cannot read the header of {Path(path).name}")
+    _check_vti_direction(Path(path).name, info.Get(vtkDataObject.DIRECTION()))
     if not reader.GetNumberOfPointArrays() and not reader.GetNumberOfCellArrays():
         raise ValueError(f"image.path: {Path(path).name} holds no data array")
     points = tuple(int(ext[2 * a + 1] - ext[2 * a] + 1) for a in range(3))
@@ -204,9 +205,33 @@ def vti_header(path: Path) -> tuple[tuple[int, int, int], tuple[float, float, fl
     return cells, tuple(float(h) for h in spacing)
 
 
+#: What a .vti file's Direction matrix must be (the refusal of another).
+IDENTITY_ALLOWED = '(allowed: the identity direction, Direction="1 0 0 0 1 0 0 0 1", or none)'
+
+
+def _check_vti_direction(name: str, direction) -> None:
+    """Refuse a .vti whose Direction matrix is not the identity (``image.path``): psdesign
+    reads the stored i, j, k axes as x, y, z, so a rotated or flipped image was read in the
+    wrong frame (a 90-degree swap of x and y gave K_x of the plates normal to x, ``ok``,
+    exit 0: session 52 I/O review, finding 2). ``None`` (VTK < 9 writes none) is the identity.
+    """
+    if direction is None:
+        return
+    d = np.asarray(direction, dtype=float).reshape(3, 3)
+    if not np.array_equal(d, np.eye(3)):
+        rows = "; ".join(" ".join(f"{v:g}" for v in row) for row in d)
+        raise ValueError(
+            f"image.path: {name} has the Direction matrix [{rows}], not the identity: psdesign "
+            "reads the stored i, j, k axes as x, y, z and would solve in a rotated or flipped "
+            f"frame {IDENTITY_ALLOWED}; resample it onto axis-aligned x, y, z "
+            "(ParaView: Resample To Image) or give it as .npy with image.axis_order"
+        )
+
+
 def _read_vti(path: Path) -> np.ndarray:
     import pyvista as pv
 
+    vti_header(path)  # its Direction checked (a cheap header read) before the voxels
     img = pv.read(str(path))
     arrays = list(img.point_data.keys()) or list(img.cell_data.keys())
     if not arrays:
@@ -266,6 +291,17 @@ def plain_tiff_shape(name: str, axes: str, shape: tuple[int, ...]) -> tuple[int,
     """A TIFF series' shape without its colour (``S``) and channel (``C``) axes of length 1;
     a colour or multi-channel image is refused (``image.path``, naming ``name``)."""
     colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
+    if set(colour) == {"C"} and not set(axes) & set("ZT"):
+        # session 52 I/O review, finding 3: tifffile.imwrite(path, vol, imagej=True) stores a
+        # 3-D array as channels (CYX) unless told its axes; the colour advice did not help
+        raise ValueError(
+            f"image.path: {name} stores its {colour['C']} planes as ImageJ channels (axes "
+            f"{axes}, no Z), as tifffile.imwrite(..., imagej=True) saves a 3-D array without "
+            "metadata={'axes': 'ZYX'}; psdesign does not read channels as z slices "
+            "(allowed: a single-channel stack, axes ZYX): if the planes are z slices, write it "
+            "with metadata={'axes': 'ZYX'} (Fiji: Image > Hyperstacks > Re-order Hyperstacks, "
+            "channels to slices)"
+        )
     if colour:
         what = ", ".join(
             f"{n} {'colour samples' if a == 'S' else 'channels'}" for a, n in colour.items()
@@ -470,26 +506,13 @@ def read_image(src: ImageSource) -> np.ndarray:
     return np.ascontiguousarray(solid_mask(read_labels(src), src.solid, src.threshold))
 
 
-def in_metres(length: float, unit: float) -> float:
-    """``length`` (in a unit of ``unit`` metres) in metres, rounded to 15 significant digits, so
-    that a length whose decimal terminates within them reads as written, not as the float
-    product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
-    1.2499999999999999e-06 m in rve.json until session 51). The rounding moves a value by at
-    most 5e-15 of itself; a decimal that does not terminate comes out to 15 digits, not
-    correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
-
-    >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
-    (1.2499999999999999e-06, 1.25e-06)
-    """
-    return float(f"{length * unit:.15g}")
-
-
 def box_size(shape, voxel: float) -> tuple[float, float, float]:
     """The box edges in metres of ``shape`` voxels of ``voxel`` metres, rounded as
-    :func:`in_metres` (a count in a unit of one voxel): the spec, rve.json and the image grid
-    print 12 voxels of 1.25 um as 1.5e-05 m, not the float product 1.5000000000000002e-05
-    (session 51). The edge stays a whole number of cubic voxels: the rounding moves it by at
-    most 5e-15 of itself (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
+    :func:`psdesign.geometry.rve.in_metres` (a count in a unit of one voxel): the spec,
+    rve.json and the image grid print 12 voxels of 1.25 um as 1.5e-05 m, not the float
+    product 1.5000000000000002e-05 (session 51). The edge stays a whole number of cubic
+    voxels: the rounding moves it by at most 5e-15 of itself
+    (:func:`psdesign.geometry.rve.is_cubic` allows 1e-9).
 
     >>> 12 * 1.25e-6, box_size((12, 8, 1), 1.25e-6)
     (1.5000000000000002e-05, (1.5e-05, 1e-05, 1.25e-06))

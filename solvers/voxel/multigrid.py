@@ -110,6 +110,22 @@ def _kernel(kernel, nthr: int):
     return getattr(kernel, "serial", kernel) if nthr == 1 else kernel
 
 
+def _check_c_ordered(name: str, a: np.ndarray, shape: tuple[int, ...]) -> None:
+    """Refuse an output buffer the kernels cannot write (one line, ``ValueError``): not a
+    C-ordered array of ``shape`` (a strided or Fortran-ordered view reached numba's
+    TypingError; it is the caller's array, so it is not replaced by a copy)."""
+    if not isinstance(a, np.ndarray) or a.shape != tuple(shape) or not a.flags.c_contiguous:
+        what = (
+            f"shape {a.shape}, C-contiguous {a.flags.c_contiguous}"
+            if isinstance(a, np.ndarray)
+            else type(a).__name__
+        )
+        raise ValueError(
+            f"{name} must be a C-contiguous array of shape {tuple(shape)} (the operator's), "
+            f"got {what}; pass np.ascontiguousarray(...) or a new np.empty"
+        )
+
+
 @dataclass
 class Level:
     """One level: operator (diag, couplings), aggregation factors to the next level, work."""
@@ -146,6 +162,12 @@ class ScalarMG:
                 f"c (couplings) must have shape (3, *d.shape) = (3, {', '.join(map(str, d.shape))})"
                 f", got {c.shape}: kernels.unit_couplings replaces them only after the set-up"
             )
+        # the kernels are compiled for C-ordered arrays: a strided or Fortran-ordered view
+        # failed with numba's multi-page TypingError (session 52 I/O review, finding 6); the
+        # operator is the class's own, so copied (no copy when already C-ordered)
+        d, c = np.ascontiguousarray(d), np.ascontiguousarray(c)
+        for w in work or ():
+            _check_c_ordered("work", w, d.shape)
         self.pre = int(pre)
         self.omega = omega
         self.alpha = alpha
@@ -249,6 +271,8 @@ class ScalarMG:
         coarse levels on one: a parallel region there costs more than its work on a busy
         machine); the caller's thread count is restored on return.
         """
+        _check_c_ordered("out", out, self.levels[0].d.shape)  # the caller's: not copied
+        b = np.ascontiguousarray(b)  # read only: a strided b is copied
         avail = numba.get_num_threads()
         try:
             return self._vcycle(b, out, avail)

@@ -367,3 +367,28 @@ def test_an_images_preview_title_leaves_omega_out():
     image = preview_title(summary | {"generation": {"source": "image", "path": "rve.tif"}})
     assert image == "porosity 0.8608 +- 1.0e-02 [ok], 0 fibers"
     assert "Omega 0 +- 0 [ok]" in preview_title(summary | {"generation": {"n_fibers": 0}})
+
+
+def test_a_generated_voxel_is_written_as_the_decimal_given(tmp_path):
+    """Session 52 I/O review, finding 4: a 20 um box at 1 um voxels had the grid spacing
+    ``20e-6 / 20`` = 1.0000000000000002e-06 m, written so into summary.json
+    (``voxel_grid.spacing_m``, ``tiff.voxel_size_m``), the .vti spacing and rve.tif. The grid
+    now rounds as image voxels are (``geometry.rve.in_metres``, 15 significant digits): every
+    output says 1e-06, and rve.tif reads back as 1e-06 m exactly."""
+    import pyvista as pv
+
+    from psdesign.image.reader import file_voxel_size
+
+    text = SPEC.format(d="8e-6").replace("100e-6", "20e-6").replace("voxel = 2e-6", "voxel = 1e-6")
+    text = text.replace("[50e-6, 50.3e-6, 49.1e-6]", "[10e-6, 10.3e-6, 9.1e-6]")
+    spec = write(tmp_path, text)
+    out = tmp_path / "out"
+    args = ["generate", str(spec), "-o", str(out), "--no-preview", "--quiet", "--format", "tiff"]
+    assert main(args) == 0
+    raw = (out / "summary.json").read_text()
+    assert "1.0000000000000002e-06" not in raw and "9.999999999999999e-07" not in raw
+    summary = json.loads(raw)
+    assert summary["voxel_grid"]["spacing_m"] == [1e-6] * 3
+    assert summary["tiff"]["voxel_size_m"] == 1e-6
+    assert pv.read(out / "field.vti").spacing == (1e-6,) * 3
+    assert file_voxel_size(out / "rve.tif") == 1e-6

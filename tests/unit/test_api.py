@@ -1512,3 +1512,24 @@ def test_optimize_of_bounds_without_levels_is_told_every_way_out(tmp_path, capsy
     with pytest.raises(SystemExit):
         main(["study", "optimize", "--help"])
     assert "levels = N in a full-factorial design" in " ".join(capsys.readouterr().out.split())
+
+
+def test_notebook_html_escapes_the_file_name_and_result_strings(tmp_path) -> None:
+    """Session 52 I/O review, finding 5: ``Material._repr_html_`` put the image file name in
+    raw, so ``a<i>b&c.npy`` opened an ``<i>`` element in the notebook; ``PermeabilityResult.
+    from_dict`` takes any direction / solver / bc strings, put in raw as well. Each is shown
+    as its text (``html.escape``), and the table's own markup stays."""
+    import html
+
+    import psdesign
+
+    name = "a<i>b&c.npy"
+    solid = np.zeros((6, 6, 6), np.uint8)
+    solid[:, :2] = 1
+    np.save(tmp_path / name, solid)
+    page = psdesign.from_image(tmp_path / name, voxel_size=1e-6)._repr_html_()
+    assert html.escape(name) in page and name not in page and "<i>" not in page
+    d = {"direction": "<b>x", "permeability_m2": 3e-12, "solver": "voxel&", "bc": "<s>"}
+    page = PermeabilityResult.from_dict(d)._repr_html_()
+    assert "&lt;b&gt;x" in page and "voxel&amp; / &lt;s&gt;" in page
+    assert "<b>x" not in page and "<s>" not in page and "K (m<sup>2</sup>)" in page

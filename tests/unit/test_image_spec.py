@@ -275,7 +275,7 @@ def test_a_2d_image_names_the_path_not_a_crop_nobody_gave(tmp_path):
     [
         ("rgba.tif", (16, 16, 4), {"photometric": "rgb"}, "YXS"),  # a 2-D colour picture
         ("rgb_stack.tif", (6, 16, 16, 3), {"photometric": "rgb"}, "YXS"),
-        ("channels.tif", (5, 16, 16), {"imagej": True, "metadata": {"axes": "CYX"}}, "CYX"),
+        ("channels.tif", (5, 2, 16, 16), {"imagej": True, "metadata": {"axes": "ZCYX"}}, "ZCYX"),
     ],
 )
 def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
@@ -283,7 +283,8 @@ def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
 ):
     # a 2-D RGBA picture was read as a 3-D image four voxels thick along x (its R, G, B and
     # alpha as slices) and solved, exit 0 (session 43's CT walk-through); a 5-channel ImageJ
-    # image likewise with its channels as z slices. Both are one label image nobody gave.
+    # image likewise with its channels as z slices. Both are one label image nobody gave. (A
+    # C axis with no Z has its own refusal since session 52: a 2-channel z stack here.)
     import tifffile
 
     data = np.zeros(shape, np.uint8)
@@ -294,6 +295,30 @@ def test_a_colour_or_multichannel_tiff_is_refused_naming_the_path(
         load_spec(spec)
     assert info.value.key == "image.path"
     assert "colour or multi-channel" in info.value.message and axes in info.value.message
+
+
+@pytest.mark.parametrize("metadata", [{"unit": "um"}, {"axes": "CYX"}])
+def test_a_stack_saved_as_imagej_channels_is_refused_with_the_cure(tmp_path, metadata):
+    """Session 52 I/O review, finding 3: ``tifffile.imwrite(p, vol_zyx, imagej=True)`` without
+    ``metadata={'axes': 'ZYX'}`` stores the 20 z planes as ImageJ channels (axes CYX); the
+    refusal said "colour or multi-channel ... (Fiji: Image > Type > 8-bit)", advice that does
+    not help. A grey image whose only extra axis is C (no Z, no T) is refused naming what
+    happened and the cure; the same array written with the axes loads (porosity 2/3)."""
+    import tifffile
+
+    vol = np.zeros((20, 12, 16), np.uint8)  # z, y, x
+    vol[:, :4] = 255
+    tifffile.imwrite(tmp_path / "c.tif", vol, imagej=True, metadata=metadata)
+    tifffile.imwrite(tmp_path / "z.tif", vol, imagej=True, metadata={"axes": "ZYX"})
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "c.tif"\nvoxel_size = 1e-6\n'))
+    assert info.value.key == "image.path" and "\n" not in info.value.message
+    for words in ("20 planes as ImageJ channels", "axes CYX", "allowed: a single-channel"):
+        assert words in info.value.message
+    assert "metadata={'axes': 'ZYX'}" in info.value.message
+    spec = load_spec(write_spec(tmp_path, '[image]\npath = "z.tif"\nvoxel_size = 1e-6\n'))
+    assert spec["rve"]["size"] == pytest.approx([16e-6, 12e-6, 20e-6], rel=1e-12, abs=0)
+    assert build_rve(spec).voxelize(1e-6).porosity == pytest.approx(2 / 3, rel=1e-12, abs=0)
 
 
 @pytest.mark.parametrize("given", ["slices", "slices/slice_*.tif"])
@@ -378,7 +403,7 @@ def test_an_imagej_images_box_reads_as_the_decimal_n_voxels_make(tmp_path):
     """Review s51: the voxel was rounded (above) but not the box: 12 voxels of 1.25 um are
     15 um, and ``12 * 1.25e-6`` is the float 1.5000000000000002e-05, which the spec,
     rve.json's ``size_m`` and summary.json's grid printed (8 voxels are exact by luck). The
-    box is rounded as the voxel (``reader.in_metres``) and still holds exactly 12 cubic voxels
+    box is rounded as the voxel (``geometry.rve.in_metres``) and still holds exactly 12 cubic voxels
     (the grid rule, ``VoxelGrid.from_voxel`` / ``is_cubic``, within 1e-9). Truth: 12 x 1.25 um
     = 15 um."""
     from psdesign.geometry.rve import VoxelGrid, is_cubic
@@ -521,3 +546,37 @@ def test_every_route_refuses_a_grid_a_percent_off_cubic() -> None:
         _cubic_voxel(grid)
     grid.grid.spacing = np.array([1e-6, 1e-6, 1e-6 * (1 + 1e-12)])  # a rounding: cubic
     assert _cubic_voxel(grid) == 1e-6
+
+
+@pytest.mark.parametrize(
+    "direction",
+    [[[0, 1, 0], [1, 0, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, 1]]],
+    ids=["x-y swapped", "x flipped"],
+)
+def test_a_vti_with_a_direction_other_than_the_identity_is_refused(tmp_path, direction) -> None:
+    """Session 52 I/O review, finding 2: the .vti reader took spacing and extent only, so an
+    image whose Direction matrix swaps x and y (plates normal to world x stored normal to j)
+    was solved in the stored frame: K_x of plates normal to x reported ``ok``, exit 0. A
+    rotated or flipped image is refused (``image.path``, naming what is allowed), before any
+    voxel is read; the same file with the identity direction still loads (8 of 16 x-layers
+    solid: porosity 0.5 exactly)."""
+    import pyvista as pv
+
+    from psdesign.image.reader import ImageSource, read_labels
+
+    solid = np.zeros((16, 12, 20), dtype=np.uint8)
+    solid[::2] = 1
+    for name, d in (("ok.vti", np.eye(3)), ("turned.vti", np.asarray(direction, float))):
+        img = pv.ImageData(dimensions=solid.shape, spacing=(1e-6,) * 3)
+        img.direction_matrix = d
+        img.point_data["phase"] = solid.ravel(order="F")
+        img.save(str(tmp_path / name))
+    spec = load_spec(write_spec(tmp_path, '[image]\npath = "ok.vti"\n'))
+    assert spec["rve"]["size"] == pytest.approx([16e-6, 12e-6, 20e-6], rel=1e-12, abs=0)
+    assert build_rve(spec).voxelize(spec["rve"]["voxel"]).porosity == 0.5
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "turned.vti"\n'))
+    assert info.value.key == "image.path"
+    assert "not the identity" in info.value.message and "allowed: the identity" in str(info.value)
+    with pytest.raises(ValueError, match="image.path: turned.vti has the Direction matrix"):
+        read_labels(ImageSource(path=tmp_path / "turned.vti", voxel=1e-6))

@@ -182,15 +182,16 @@ def test_allrun_runs_as_sh_allrun_inside_the_case(tmp_path, periodic):
     assert re.search(r"^K_(rve_planes|periodic) = [-+0-9.eE]+ m\^2$", run.stdout, re.M)
 
 
-def _periodic_cell() -> PoreMesh:
-    """One cylinder along z, radius 8 um, in a periodic 40 um cell (a coarse periodic mesh)."""
+def _periodic_cell(step: float = 8e-6) -> PoreMesh:
+    """One cylinder along z, radius 8 um, in a periodic 40 um cell (a coarse periodic mesh at
+    lattice step ``step``)."""
     from psdesign.meshing.pore_mesh import mesh_pore_space
 
     n, h = 8, 5e-6
     c = (np.arange(n) + 0.5) * h
     x, y = np.meshgrid(c, c, indexing="ij")
     d = np.repeat((np.hypot(x - 20e-6, y - 20e-6) - 8e-6)[:, :, None], n, axis=2)
-    return mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=8e-6)
+    return mesh_pore_space(d, h, (40e-6,) * 3, "z", periodic=True, lattice_step=step)
 
 
 def _patches(case) -> dict[str, str]:
@@ -451,6 +452,37 @@ def test_allrun_solves_on_the_dual_and_keeps_the_tets(tmp_path, periodic):
     assert (case / "log.calls").read_text() == "-overwrite 70\n"  # once, not for ./Allrun tets
     assert (case / "log.seen").read_text() == "dual\n" + points
     assert (case / "constant" / "polyMesh.tet" / "points").read_text() == points
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_a_re_export_after_allrun_solves_the_new_mesh(tmp_path, periodic):
+    """Session 52 I/O review, finding 1: ``./Allrun`` copies ``constant/polyMesh`` into
+    ``constant/polyMesh.tet`` on its first run and starts every later run from that copy. A
+    re-export into the same folder replaced ``polyMesh`` only, so the next ``./Allrun`` copied
+    the OLD tets over the new mesh and solved the old geometry. The export now writes
+    ``polyMesh.tet`` itself (listed in ``OUTPUTS``, so the marker owns it): after export A,
+    ``./Allrun``, export B, ``./Allrun tets``, ``checkMesh`` (stub) must see B's points."""
+    from psdesign.meshing.exports import OUTPUTS
+
+    meshes = (_periodic_cell(8e-6), _periodic_cell(6e-6)) if periodic else (_duct(3), _duct(4))
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    tools = {"polyDualMesh": "", "checkMesh": "cat constant/polyMesh/points > log.seen\n"}
+    for tool, body in tools.items():
+        (bin_dir / tool).write_text("#!/bin/sh\n" + body)
+        (bin_dir / tool).chmod(0o755)
+    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(tmp_path)}
+    seen = []
+    for pm in meshes:
+        case = export_mesh(pm, tmp_path / "out", formats=("openfoam",))["openfoam"]
+        points = (case / "constant" / "polyMesh" / "points").read_text()
+        # no simpleFoam on PATH: Allrun stops after checkMesh, which logged the mesh it saw
+        subprocess.run(["sh", "Allrun", "tets"], cwd=case, env=env, capture_output=True, timeout=60)
+        seen.append((case / "log.seen").read_text() == points)
+    assert len(meshes[0].points) != len(meshes[1].points)  # two different meshes
+    assert seen == [True, True]
+    tet = {f"openfoam/constant/polyMesh.tet/{n}" for n in ("points", "faces", "owner")}
+    assert tet <= set(OUTPUTS["openfoam"])
 
 
 @pytest.mark.slow

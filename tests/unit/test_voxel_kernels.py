@@ -614,3 +614,31 @@ def test_parallel_twins_of_the_sweeps_are_compiled_with_overlap_checks() -> None
     # them compiled with NoAliasCompiler: other bits when loaded from the cache)
     for body in (kr._jacobi2_zero_chunk, kr._prolong_jacobi_chunk):
         assert body._compiler.pipeline_class is not NoAliasCompiler
+
+
+def test_multigrid_takes_strided_inputs_and_refuses_a_strided_output() -> None:
+    """Session 52 I/O review, finding 6: ``ScalarMG(d, c)`` and ``.apply(b, out)`` on a
+    Fortran-ordered or strided ``d``, ``c``, ``b`` or ``out`` failed with numba's multi-page
+    TypingError (the kernels are compiled for C order). The inputs (the operator the class
+    keeps, the right-hand side it reads) are copied to C order: the V-cycle is then the same
+    numbers as on the C-ordered arrays, bit for bit; the output buffer is the caller's, so a
+    strided or Fortran one is refused with one line."""
+    d, c = mg.component_operator(_fluid((12, 10, 9), seed=3), 1)
+    b = (np.random.default_rng(4).standard_normal(d.shape) * (d > 0)).astype(np.float32)
+    want = np.empty(d.shape, np.float32)
+    dot = mg.ScalarMG(d, c, max_coarse=8).apply(b, want)
+    strided_b = np.stack([b, b], axis=-1)[..., 0]  # every other float32 of a wider array
+    assert not strided_b.flags.c_contiguous and not np.asfortranarray(d).flags.c_contiguous
+    for dd, cc, bb in (
+        (np.asfortranarray(d), np.asfortranarray(c), np.asfortranarray(b)),
+        (d, c, strided_b),
+        (np.stack([d, d], axis=-1)[..., 0], np.stack([c, c], axis=-1)[..., 0], b),
+    ):
+        out = np.empty(d.shape, np.float32)
+        assert mg.ScalarMG(dd, cc, max_coarse=8).apply(bb, out) == dot
+        assert np.array_equal(out, want)
+    m = mg.ScalarMG(d, c, max_coarse=8)
+    for bad in (np.empty(d.shape, np.float32, order="F"), np.stack([b, b], axis=-1)[..., 0]):
+        with pytest.raises(ValueError, match=r"^out must be a C-contiguous array of shape") as e:
+            m.apply(b, bad)
+        assert "\n" not in str(e.value)

@@ -82,12 +82,16 @@ WRITERS: dict[str, Writer] = {
 }
 
 
+#: The files of an OpenFOAM ``constant/polyMesh`` psdesign writes (also copied into
+#: ``constant/polyMesh.tet``, :func:`psdesign.meshing.exports.openfoam.write_tet_copy`).
+POLYMESH_FILES = ("boundary", "faces", "neighbour", "owner", "points")
 _OPENFOAM_CASE = (
     "Allrun",
     "README.txt",
     "0/U",
     "0/p",
-    *(f"constant/polyMesh/{n}" for n in ("boundary", "faces", "neighbour", "owner", "points")),
+    # polyMesh.tet: the export's own copy of the tets Allrun starts from (session 52)
+    *(f"constant/{d}/{n}" for d in ("polyMesh", "polyMesh.tet") for n in POLYMESH_FILES),
     "constant/momentumTransport",
     "constant/transportProperties",
     "constant/turbulenceProperties",

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdesign.meshing import tags as T
+from psdesign.meshing.exports import POLYMESH_FILES
 from psdesign.meshing.exports._common import side_type
 from psdesign.meshing.topology import FaceTopology, face_topology
 
@@ -97,6 +98,18 @@ def write_topology(pm: PoreMesh, topo: FaceTopology, poly: Path) -> None:
         topo.neighbour[:, None],
         "%d",
     )
+
+
+def write_tet_copy(case: Path) -> None:
+    """Copy the exported ``constant/polyMesh`` into ``constant/polyMesh.tet``, the tets every
+    Allrun starts from (:data:`CELLS_LINES`). Written (and listed in the output marker) by the
+    export itself, so a re-export replaces it: a copy made by an earlier ``./Allrun`` was left
+    holding the old mesh, which the next Allrun copied over the new one (session 52, I/O
+    review finding 1)."""
+    poly, tet = case / "constant" / "polyMesh", case / "constant" / "polyMesh.tet"
+    tet.mkdir(parents=True, exist_ok=True)
+    for name in POLYMESH_FILES:
+        (tet / name).write_bytes((poly / name).read_bytes())
 
 
 def write_constants_and_fields(case: Path, nu: float, boundary: dict[str, str]) -> None:
@@ -328,7 +341,8 @@ fi
 echo "cells: $cells"
 """
 """Shell lines of every Allrun before ``checkMesh``: psdesign's tets are kept in
-``constant/polyMesh.tet`` (a second run starts from them again) and, with ``$cells`` = ``dual``,
+``constant/polyMesh.tet`` (written by the export, :func:`write_tet_copy`; a second run starts
+from them again) and, with ``$cells`` = ``dual``,
 turned into their polyhedral dual (``polyDualMesh``, feature angle 70 degrees: one cell per
 mesh vertex); ``$cells`` = ``tets`` solves on the tets themselves (docs/meshers.md)."""
 
@@ -490,6 +504,7 @@ def write_openfoam_case(
     if p_inlet is not None:
         c["p_inlet"] = float(p_inlet)
     write_polymesh(pm, case / "constant" / "polyMesh", flow)
+    write_tet_copy(case)
     (case / "system").mkdir(parents=True, exist_ok=True)
     bcs = {f: _patch_bc(f, c["p_inlet"], flow) for f in ("p", "U")}
     write_constants_and_fields(case, c["nu"], bcs)

@@ -32,6 +32,7 @@ from psdesign.meshing.exports.openfoam import (
     control_dict,
     write_constants_and_fields,
     write_script,
+    write_tet_copy,
     write_topology,
 )
 from psdesign.meshing.topology import FaceTopology, face_keys, face_topology
@@ -224,6 +225,7 @@ def write_periodic_case(pm: PoreMesh, case: Path, flow: dict | None = None) -> P
     case = Path(case)
     c = case_constants(pm, flow)
     write_cyclic_polymesh(pm, case / "constant" / "polyMesh")
+    write_tet_copy(case)
     write_constants_and_fields(case, c["nu"], _fields(c["p_inlet"]))
     system = case / "system"
     system.mkdir(parents=True, exist_ok=True)
