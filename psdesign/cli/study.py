@@ -9,7 +9,8 @@ The main CLI registers these with::
     return args.func(args)   # exit status (psdesign.cli.exit_status): 0 ok, 1 failed /
                              # timeout cases or storage error, 2 bad input (also a refused
                              # -o), 3 not_converged cases or flagged values (``study
-                             # report``: any case not ok, failed too), 130 Ctrl-C
+                             # report``: any case not ok, failed too, or a case of
+                             # study.json not run), 130 Ctrl-C
 """
 
 from __future__ import annotations
@@ -297,7 +298,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     from psdesign.report import write_report
-    from psdesign.study.readback import read_results
+    from psdesign.study.readback import cases_not_run, read_results
     from psdesign.study.store import StorageError
 
     try:
@@ -307,7 +308,17 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)
-    return report_exit_status(read_results(args.out))
+    df = read_results(args.out)
+    code = report_exit_status(df)
+    missing, n_design = cases_not_run(args.out, df)
+    if missing:  # finished, but not the study: 3 ("read it"), not 1 (no case failed)
+        print(
+            f"psdesign: the report shows {n_design - missing} of {n_design} case(s); "
+            f"{missing} not run: rerun study run to resume",
+            file=sys.stderr,
+        )
+        return NOT_TRUSTED
+    return code
 
 
 def report_exit_status(df) -> int:
