@@ -128,6 +128,42 @@ def test_surrogate_json_round_trip_predicts_the_same() -> None:
     np.testing.assert_allclose(r.predict(x)[1], s.predict(x)[1], rtol=1e-6)
 
 
+def test_a_surrogate_fitted_on_an_older_results_csv_is_refused(tmp_path, capsys) -> None:
+    """walk-cli finding 2 (session 52): after ``study fit`` on 6 cases the study grew to 12 and
+    ``study predict`` / ``study sensitivity`` kept using the 6-case fit without a word. The
+    truth here is the table itself: the fit saw 8 of the 12 rows, the folder now has 12, so
+    both commands refuse (exit 2, one line saying to fit again); a refit is accepted, and a
+    surrogate.json from before the check (no "table") is used with one warning."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    full = pd.read_csv(out / "results.csv")
+    full.head(8).to_csv(out / "results.csv", index=False)  # the table before the study grew
+    # 3: 8 cases fit k_z to 80 % (untrustworthy); the refusal below is 2 whatever the fit
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 3
+    full.to_csv(out / "results.csv", index=False)
+    capsys.readouterr()
+    at = ["--at", "generator.porosity=0.8,generator.diameter=7e-6"]
+    for cmd in (["predict", str(out), *at], ["sensitivity", str(out)]):
+        assert main(["study", *cmd]) == 2
+        cap = capsys.readouterr()
+        (line,) = cap.err.strip().splitlines()
+        assert line == (
+            f"psdesign: error: OUT: {out / 'surrogate.json'} was fitted on an older "
+            "results.csv (8 case(s); now 12, or their statuses changed); rerun `psdesign "
+            "study fit`"
+        ) and cap.out == ""
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0  # 12 cases: ok
+    assert main(["study", "predict", str(out), *at]) == 0
+    doc = json.loads((out / "surrogate.json").read_text())
+    del doc["table"]  # as written before session 52
+    (out / "surrogate.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["study", "predict", str(out), *at]) == 0
+    err = capsys.readouterr().err
+    assert "predates the check against results.csv (session 52)" in err
+
+
 def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> None:
     p = write_study(
         tmp_path,
