@@ -133,7 +133,11 @@ def register(subparsers) -> argparse.ArgumentParser:
     )
     add_allow_not_converged_argument(run)
     add_force_argument(run)
-    run.add_argument("--no-report", action="store_true", help="do not write report.html")
+    run.add_argument(
+        "--no-report",
+        action="store_true",
+        help="do not write report.html (an earlier run's is removed: `study report` writes it)",
+    )
     run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
     run.set_defaults(func=cmd_study_run)
@@ -263,6 +267,12 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return fail(
             "interrupted; finished cases are saved, rerun the command to resume", INTERRUPTED
         )
+    if args.no_report:  # an earlier run's report.html would show other cases (finding 3)
+        from pathlib import Path
+
+        from psdesign.io.outputs import remove_owned_files
+
+        remove_owned_files(Path(args.out), ["report.html"])
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
 
 

@@ -172,6 +172,24 @@ def test_study_reports_exit_follows_its_red_box_for_every_kind_of_case(mixed_rep
     assert report_exit_status(df[(df["status"] == "ok") & (df["k_z_status"] != "ok")]) == 3
 
 
+def test_study_run_no_report_removes_an_earlier_runs_report(tmp_path, capsys):
+    """walk-cli finding 3 (session 52): ``study run --no-report`` into a folder with an
+    earlier run's report.html kept it (it said "cases 1" beside 6 rows of results.csv). The
+    report psdesign wrote goes, with its entry in the marker; ``study report`` writes it."""
+    from psdesign.cli import main
+    from psdesign.io.outputs import read_marker
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    argv = ["study", "run", str(p), "-o", str(out), "--workers", "0", "--quiet"]
+    argv += ["--case-fn", "study_cases:fake_case"]
+    assert main(argv) == 0 and (out / "report.html").is_file()
+    assert main([*argv, "--no-report"]) == 0
+    assert not (out / "report.html").exists()
+    assert "report.html" not in read_marker(out)["files"]
+    assert main(["study", "report", str(out)]) == 0 and (out / "report.html").is_file()
+
+
 def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
     """walk-cli finding 1 (session 52): a study interrupted after 3 of its 12 cases gave a
     report saying "cases 3", exit 0, nowhere that 9 cases of study.json never ran. Truth: the
