@@ -20,6 +20,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import distinct_realizations, ok_cases, output_columns, trusted
 from psdesign.analysis.ranges import RANGES
+from psdesign.transport.study_outputs import UNIT_COLUMN
 
 
 def t_quantile_975(dof: int) -> float:
@@ -156,6 +157,8 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
                 f"{c}_ci95_high": high,
                 f"{c}_ci95_half": half,
             }
+        if UNIT_COLUMN in g:  # the conductivity's unit: a text column, carried per point
+            row[UNIT_COLUMN] = "; ".join(sorted(set(g[UNIT_COLUMN].dropna().astype(str))))
         rows.append(row)
     return pd.DataFrame(rows)
 
