@@ -641,6 +641,11 @@ def fit_study(
     check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
     df = read_results(out)
+    if df.empty:  # interrupted before its first case: not "no numeric parameter" (session 52)
+        raise ValueError(
+            f"out_dir: the study in {out} has no finished case yet (results.csv has no rows); "
+            "run or resume it with `psdesign study run` first"
+        )
     _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:  # a GP needs a number per case on an axis: a category is no axis
