@@ -216,7 +216,6 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
         return fail(str(exc), BAD_INPUT)
-    from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import (
         WorkersLost,
         check_workers,
@@ -261,12 +260,8 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return fail(str(exc), BAD_INPUT)
     except (StorageError, WorkersLost) as exc:
         return fail(str(exc), FAILED)
-    except Terminated:
-        return fail("terminated; finished cases are saved, rerun the command to resume", TERMINATED)
-    except KeyboardInterrupt:
-        return fail(
-            "interrupted; finished cases are saved, rerun the command to resume", INTERRUPTED
-        )
+    except KeyboardInterrupt as exc:  # Ctrl-C, and SIGTERM (Terminated)
+        return stopped(exc)
     if args.no_report:  # an earlier run's report.html would show other cases (finding 3)
         from pathlib import Path
 
@@ -274,6 +269,19 @@ def cmd_study_run(args: argparse.Namespace) -> int:
 
         remove_owned_files(Path(args.out), ["report.html"])
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
+
+
+def stopped(exc: KeyboardInterrupt) -> int:
+    """The one line and exit status of a study command (``study run``, ``study optimize``)
+    stopped by Ctrl-C (130) or SIGTERM (143, :class:`~psdesign.study.interrupt.Terminated`): its
+    finished cases are in the folder and a rerun resumes. ``study optimize`` said only
+    "psdesign: interrupted" until session 52 (walk-cli finding 5), though it resumes too."""
+    from psdesign.study.interrupt import Terminated
+
+    note = "finished cases are saved, rerun the command to resume"
+    if isinstance(exc, Terminated):
+        return fail(f"terminated; {note}", TERMINATED)
+    return fail(f"interrupted; {note}", INTERRUPTED)
 
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
