@@ -18,8 +18,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psdesign.analysis.columns import distinct_realizations, ok_cases, output_columns, trusted
+from psdesign.analysis.columns import (
+    ERROR_COLUMNS,
+    distinct_realizations,
+    ok_cases,
+    output_columns,
+    trusted,
+)
 from psdesign.analysis.ranges import RANGES
+from psdesign.transport.study_outputs import UNIT_COLUMN
 
 
 def t_quantile_975(dof: int) -> float:
@@ -36,11 +43,18 @@ def physical_range(column: str) -> tuple[float | None, float | None]:
     (:data:`psdesign.analysis.ranges.RANGES`), to which :func:`replicate_summary` clips the
     95 % CI: floor 0 for K, its tensor's diagonal, porosity, D_eff/D, conductivity, pore sizes,
     S_v; ceiling 1 for porosity and D_eff/D. None where an output has no such bound (an
-    off-diagonal ``k_xy_m2`` may be negative; K has no ceiling).
+    off-diagonal ``k_xy_m2`` may be negative; K has no ceiling). An error bar
+    (:data:`~psdesign.analysis.columns.ERROR_COLUMNS`: ``porosity_error``, ``k_z_rel_error``...)
+    is a magnitude: floor 0 (summary.csv had ``porosity_error_ci95_low = -0.000909``: walk-cli
+    finding 5, session 52).
 
     >>> [physical_range(c) for c in ("k_z_m2", "k_xy_m2", "porosity", "diffusivity_z")]
     [(0.0, None), (None, None), (0.0, 1.0), (0.0, 1.0)]
+    >>> physical_range("porosity_error"), physical_range("k_z_rel_error")
+    ((0.0, None), (0.0, None))
     """
+    if column in ERROR_COLUMNS:
+        return 0.0, None
     rng = RANGES.get(column)
     if rng is None:
         return None, None
@@ -156,6 +170,8 @@ def replicate_summary(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
                 f"{c}_ci95_high": high,
                 f"{c}_ci95_half": half,
             }
+        if UNIT_COLUMN in g:  # the conductivity's unit: a text column, carried per point
+            row[UNIT_COLUMN] = "; ".join(sorted(set(g[UNIT_COLUMN].dropna().astype(str))))
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -641,6 +641,11 @@ def fit_study(
     check_study_files(out, [SURROGATE_FILE], "study fit")
     spec = study_parameters(out)
     df = read_results(out)
+    if df.empty:  # interrupted before its first case: not "no numeric parameter" (session 52)
+        raise ValueError(
+            f"out_dir: the study in {out} has no finished case yet (results.csv has no rows); "
+            "run or resume it with `psdesign study run` first"
+        )
     _check_parameter_cells(df, list(spec))
     params = numeric_parameters(df, list(spec))
     if not params:  # a GP needs a number per case on an axis: a category is no axis
@@ -674,13 +679,75 @@ def fit_study(
     claim_output_dir(check_study_files(out, [SURROGATE_FILE], "study fit"), [SURROGATE_FILE])
     remove_dead_temp(out / SURROGATE_FILE)
     atomic_write_json(
-        out / SURROGATE_FILE, {"version": 1, "models": {k: m.to_dict() for k, m in models.items()}}
+        out / SURROGATE_FILE,
+        {
+            "version": 1,
+            "table": table_fingerprint(df),
+            "models": {k: m.to_dict() for k, m in models.items()},
+        },
     )
     return models
 
 
+def table_fingerprint(df: pd.DataFrame) -> dict:
+    """What ``surrogate.json`` records of the ``results.csv`` it was fitted on: the number of
+    rows and the sha256 of its sorted ``case_id,status`` lines.
+
+    A ``study run`` that adds cases (a grown design), re-runs failed or not_converged ones or
+    finishes an interrupted run changes the ids or a status, so :func:`load_study_surrogates`
+    tells a fit of an older table (walk-cli finding 2, session 52: ``study predict`` used a
+    6-case fit, CV 77.8 %, after the study grew to 12 cases, whose refit gives 19.4 %). Cases
+    are never recomputed with their status unchanged, so the pairs name the fitted data
+    without the timing columns a rewrite may change.
+
+    >>> t = table_fingerprint(pd.DataFrame({"case_id": ["b", "a"], "status": ["ok", "failed"]}))
+    >>> t["n_cases"], t["sha256"][:12]
+    (2, '50dd8aabb456')
+    """
+    import hashlib
+
+    lines = sorted(f"{c},{s}" for c, s in zip(df["case_id"], df["status"], strict=True))
+    digest = hashlib.sha256("\n".join(lines).encode("utf-8")).hexdigest()
+    return {"n_cases": len(lines), "sha256": digest}
+
+
+def _check_table(out_dir: Path, doc: dict) -> None:
+    """Refuse a ``surrogate.json`` fitted on another ``results.csv`` than the folder's now
+    (:func:`table_fingerprint`); warn on one written before session 52, which has no
+    fingerprint to check."""
+    import warnings
+
+    from psdesign.study.readback import read_results
+
+    fitted = doc.get("table")
+    if not isinstance(fitted, dict):
+        warnings.warn(
+            f"{out_dir / SURROGATE_FILE} predates the check against results.csv (session 52): "
+            "if the study ran again since `psdesign study fit`, fit again",
+            UserWarning,
+            stacklevel=3,
+        )
+        return
+    now = table_fingerprint(read_results(out_dir))
+    if now["sha256"] != fitted.get("sha256"):
+        raise ValueError(
+            f"out_dir: {out_dir / SURROGATE_FILE} was fitted on an older results.csv "
+            f"({fitted.get('n_cases')} case(s); now {now['n_cases']}, or their statuses "
+            "changed); rerun `psdesign study fit`"
+        )
+
+
 def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
-    """The surrogates saved by :func:`fit_study`."""
+    """The surrogates saved by :func:`fit_study`.
+
+    Raises
+    ------
+    FileNotFoundError
+        No ``surrogate.json`` in ``out_dir``.
+    ValueError
+        One psdesign did not write, or fitted on an older ``results.csv`` than the folder's
+        (:func:`table_fingerprint`; one written before session 52 has none: a warning).
+    """
     path = Path(out_dir) / SURROGATE_FILE
     if not path.is_file():
         raise FileNotFoundError(
@@ -688,13 +755,15 @@ def load_study_surrogates(out_dir: str | Path) -> dict[str, Surrogate]:
         )
     try:
         doc = json.loads(path.read_text())
-        return {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
+        models = {k: Surrogate.from_dict(v) for k, v in doc["models"].items()}
     except (ValueError, TypeError, KeyError, AttributeError) as exc:  # also UnicodeDecodeError
         msg = " ".join(str(exc).split())
         raise ValueError(
             f"{path}: not a surrogate file psdesign wrote ({type(exc).__name__}: {msg}); "
             "run `psdesign study fit` again"
         ) from None
+    _check_table(Path(out_dir), doc)
+    return models
 
 
 def parse_point(

@@ -9,24 +9,15 @@ from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json
 from psdesign.cli.options import add_force_argument
 
-FORCEFIELD_FILES = (
-    "rve.json",
-    "history.csv",
-    "before.png",
-    "after.png",
-    "rve_timings.json",
-    "summary.json",
-    "summary_timings.json",
-)
-
 
 def _cmd_forcefield(args: argparse.Namespace) -> int:
-    from psdesign.forcefield.run import load_forcefield_spec, run_forcefield
+    # OUTPUT_FILES: the one list of the command's files, which a rerun replaces (session 52)
+    from psdesign.forcefield.run import OUTPUT_FILES, load_forcefield_spec, run_forcefield
     from psdesign.io.outputs import check_output_dir
 
     # the folder is checked first (like every -o command), then the spec; both before any work
     target = check_output_dir(
-        args.output, force=args.force, command="forcefield", expected=FORCEFIELD_FILES
+        args.output, force=args.force, command="forcefield", expected=OUTPUT_FILES
     )
     ff = load_forcefield_spec(args.spec)
     summary = run_forcefield(ff, target, pictures=not args.no_pictures)

@@ -172,7 +172,10 @@ def write_generate_outputs(
     from psdesign import progress
 
     progress.stage(f"writing {target.path.name}: rve.json, field.vti, fibers.stl")
-    with staged_directory(target) as tmp:
+    # an earlier run's rve.tif / preview.png this run does not write are removed (finding 3)
+    with staged_directory(
+        target, replaces=GENERATE_FILES + tuple(GENERATE_FORMATS.values())
+    ) as tmp:
         write_json(tmp / "rve.json", rve_document(rve))
         img = distance_image(fields.distance, fields.grid.spacing)
         img.point_data["fiber_count"] = fields.count.ravel(order="F")

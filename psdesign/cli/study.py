@@ -9,7 +9,8 @@ The main CLI registers these with::
     return args.func(args)   # exit status (psdesign.cli.exit_status): 0 ok, 1 failed /
                              # timeout cases or storage error, 2 bad input (also a refused
                              # -o), 3 not_converged cases or flagged values (``study
-                             # report``: any case not ok, failed too), 130 Ctrl-C
+                             # report``: any case not ok, failed too, or a case of
+                             # study.json not run), 130 Ctrl-C
 """
 
 from __future__ import annotations
@@ -132,7 +133,11 @@ def register(subparsers) -> argparse.ArgumentParser:
     )
     add_allow_not_converged_argument(run)
     add_force_argument(run)
-    run.add_argument("--no-report", action="store_true", help="do not write report.html")
+    run.add_argument(
+        "--no-report",
+        action="store_true",
+        help="do not write report.html (an earlier run's is removed: `study report` writes it)",
+    )
     run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     run.add_argument("--case-fn", default=None, help=argparse.SUPPRESS)  # module:function
     run.set_defaults(func=cmd_study_run)
@@ -211,7 +216,6 @@ def cmd_study_run(args: argparse.Namespace) -> int:
             args.scheduler = check_scheduler_address(args.scheduler)
     except (SpecError, SchedulerError) as exc:
         return fail(str(exc), BAD_INPUT)
-    from psdesign.study.interrupt import Terminated
     from psdesign.study.runner import (
         WorkersLost,
         check_workers,
@@ -256,13 +260,28 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return fail(str(exc), BAD_INPUT)
     except (StorageError, WorkersLost) as exc:
         return fail(str(exc), FAILED)
-    except Terminated:
-        return fail("terminated; finished cases are saved, rerun the command to resume", TERMINATED)
-    except KeyboardInterrupt:
-        return fail(
-            "interrupted; finished cases are saved, rerun the command to resume", INTERRUPTED
-        )
+    except KeyboardInterrupt as exc:  # Ctrl-C, and SIGTERM (Terminated)
+        return stopped(exc)
+    if args.no_report:  # an earlier run's report.html would show other cases (finding 3)
+        from pathlib import Path
+
+        from psdesign.io.outputs import remove_owned_files
+
+        remove_owned_files(Path(args.out), ["report.html"])
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
+
+
+def stopped(exc: KeyboardInterrupt) -> int:
+    """The one line and exit status of a study command (``study run``, ``study optimize``)
+    stopped by Ctrl-C (130) or SIGTERM (143, :class:`~psdesign.study.interrupt.Terminated`): its
+    finished cases are in the folder and a rerun resumes. ``study optimize`` said only
+    "psdesign: interrupted" until session 52 (walk-cli finding 5), though it resumes too."""
+    from psdesign.study.interrupt import Terminated
+
+    note = "finished cases are saved, rerun the command to resume"
+    if isinstance(exc, Terminated):
+        return fail(f"terminated; {note}", TERMINATED)
+    return fail(f"interrupted; {note}", INTERRUPTED)
 
 
 def study_exit_status(df, allow_not_converged: bool = False) -> int:
@@ -297,7 +316,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     from psdesign.report import write_report
-    from psdesign.study.readback import read_results
+    from psdesign.study.readback import cases_not_run, read_results
     from psdesign.study.store import StorageError
 
     try:
@@ -307,7 +326,17 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)
-    return report_exit_status(read_results(args.out))
+    df = read_results(args.out)
+    code = report_exit_status(df)
+    missing, n_design = cases_not_run(args.out, df)
+    if missing:  # finished, but not the study: 3 ("read it"), not 1 (no case failed)
+        print(
+            f"psdesign: the report shows {n_design - missing} of {n_design} case(s); "
+            f"{missing} not run: rerun study run to resume",
+            file=sys.stderr,
+        )
+        return NOT_TRUSTED
+    return code
 
 
 def report_exit_status(df) -> int:

@@ -289,6 +289,10 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         return fail(str(exc))
     except WorkersLost as exc:  # as `study run` (exit 1; finished cases are saved)
         return fail(str(exc), FAILED)
+    except KeyboardInterrupt as exc:  # as `study run`: the cases are saved, a rerun resumes
+        from psdesign.cli.study import stopped
+
+        return stopped(exc)
     from psdesign.analysis.columns import case_warnings
 
     targets_out = [target_report(t, res.best) for t in targets]

@@ -270,19 +270,18 @@ def fields_output(
     """Check the fields folder now (:class:`psdesign.io.outputs.OutputError`, exit 2, before
     any solve), yield a :class:`FieldWriter` on a temporary folder, and move its files into
     place when the block succeeds (nothing is written if it fails)."""
-    from psdesign.io.outputs import check_output_dir, remove_owned_files, staged_output
+    from psdesign.io.outputs import check_output_dir, staged_output
 
     out = check_output_dir(  # no --force for a fields folder
         path, option=option, command=command, expected=expected, force_option=None
     )
     before = indexed_files(out.path / "fields.json") if out.exists else set()
-    with staged_output(out) as tmp:
+    # the previous set's files this run does not write again go once the new set is in place
+    # (a failed run leaves the previous set whole): staged_output's replaces
+    with staged_output(out, replaces=before) as tmp:
         writer = FieldWriter(tmp)
         yield writer
         writer.finish()
-        written = {p.name for p in tmp.iterdir()}
-    # only after the new set is in place: a failed run leaves the previous set whole
-    remove_owned_files(out.path, before - written)
 
 
 def indexed_files(path: Path) -> set[str]:

@@ -483,7 +483,7 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
     ``f`` (waves per period given to straight fibers, default 1), ``weights``,
     ``max_iter``, ``max_evals``, ``min_step``.
     """
-    from psdesign.forcefield.run import RELAX_UNITS
+    from psdesign.forcefield.run import OUTPUT_FILES, RELAX_UNITS
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.timings import write_record
     from psdesign.packing.build import build_rve, rve_document
@@ -556,7 +556,7 @@ def relax_spec(spec: dict, options: dict, out_dir: str | Path) -> dict:
         "surface_term": "bending area",
         "units": RELAX_UNITS,
     }
-    with staged_directory(out_dir) as tmp:
+    with staged_directory(out_dir, replaces=OUTPUT_FILES) as tmp:
         kept = write_record(tmp, "summary.json", summary)  # the wall time beside it
         write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(relaxed_spec_toml(spec, others, res.state, period))
@@ -588,6 +588,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     with a bend term, as Sec. 6.2 ties its woven yarns; default false).
     """
     from psdesign.forcefield.contact import field_summary, relax_rve_fields, relaxed_fibers_toml
+    from psdesign.forcefield.run import OUTPUT_FILES
     from psdesign.io.atomic import staged_directory, write_json
     from psdesign.io.timings import write_record
     from psdesign.packing.build import rve_document
@@ -605,7 +606,7 @@ def relax_spec_fields(spec: dict, rve, options: dict, out_dir: str | Path) -> di
     h_m = grid if grid is not None else dmin / 5.0
     summary = field_summary(res, period, kw, h_m)
     text = relaxed_fibers_toml(spec, relaxed.fibers, period)  # before writing: may refuse
-    with staged_directory(out_dir) as tmp:
+    with staged_directory(out_dir, replaces=OUTPUT_FILES) as tmp:
         kept = write_record(tmp, "summary.json", summary)  # the wall time beside it
         write_json(tmp / "rve.json", {**rve_document(relaxed), "forcefield": kept})
         (tmp / "relaxed.toml").write_text(text)

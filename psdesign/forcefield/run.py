@@ -61,6 +61,21 @@ CASES = ("two-fiber", "six-fiber")
 DEFAULT_SURFACE = "area"
 _TOP = set(ForceFieldTable.model_fields)
 
+#: Every file ``psdesign forcefield`` can write into its folder, on any route (the paper cases'
+#: search, the relax routes' summary.json and relaxed.toml): what its ``-o`` check expects and
+#: what a rerun removes when it did not write it again (``--no-pictures``, another route:
+#: walk-cli finding 3, session 52, left the first run's before.png / after.png).
+OUTPUT_FILES = (
+    "rve.json",
+    "history.csv",
+    "before.png",
+    "after.png",
+    "rve_timings.json",
+    "summary.json",
+    "summary_timings.json",
+    "relaxed.toml",
+)
+
 
 #: What the numbers of a paper case's rve.json and history.csv are: the paper's Sec. 6 cases have
 #: no physical period, so no SI length exists to write (an RVE spec's relax route writes its
@@ -202,7 +217,7 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
     wall = time.perf_counter() - t0
     summary = summarize(prob, res, wall)
     summary["workers"] = workers
-    with staged_directory(out_dir) as tmp:
+    with staged_directory(out_dir, replaces=OUTPUT_FILES) as tmp:  # no old before.png left
         write_record(tmp, "rve.json", summary)  # its wall time in rve_timings.json
         write_history(tmp / "history.csv", res)
         if pictures:

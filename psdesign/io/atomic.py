@@ -5,15 +5,19 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from psdesign.io.outputs import TEMP_PREFIX, OutputDir, check_output_dir, staged_output
 
 
 @contextlib.contextmanager
-def staged_directory(out_dir: str | Path | OutputDir) -> Iterator[Path]:
-    """Yield a temporary sibling folder; on success move its files into ``out_dir``.
+def staged_directory(
+    out_dir: str | Path | OutputDir, replaces: Iterable[str] = ()
+) -> Iterator[Path]:
+    """Yield a temporary sibling folder; on success move its files into ``out_dir``, and
+    remove the files of ``replaces`` (the command's possible outputs) an earlier run left
+    there that this one did not write (:func:`psdesign.io.outputs.staged_output`).
 
     On any exception the temporary folder is removed and ``out_dir`` is left as it was (not
     created if it did not exist).  ``out_dir`` is best checked first with
@@ -22,7 +26,7 @@ def staged_directory(out_dir: str | Path | OutputDir) -> Iterator[Path]:
     (see :mod:`psdesign.io.outputs`).
     """
     out = out_dir if isinstance(out_dir, OutputDir) else check_output_dir(out_dir)
-    with staged_output(out) as tmp:
+    with staged_output(out, replaces) as tmp:
         yield tmp
 
 

@@ -487,8 +487,14 @@ def _named_as_final(exc: OSError, tmp: Path, final: Path) -> OSError:
 
 
 @contextlib.contextmanager
-def staged_output(out: OutputDir) -> Iterator[Path]:
+def staged_output(out: OutputDir, replaces: Iterable[str] = ()) -> Iterator[Path]:
     """Yield a temporary folder; on success move its files into ``out.path``.
+
+    ``replaces``: every file name the command can write there (its optional ones too). Those
+    of them an earlier run wrote (the marker lists them) that this run did not write are
+    removed once the new files are in place (:func:`remove_owned_files`), so that a rerun
+    with fewer outputs (``generate --no-preview``, ``forcefield --no-pictures``) leaves no old
+    file beside the new ones (walk-cli finding 3, session 52).
 
     A new folder appears with all its files at once.  Into an existing folder the files are
     moved one by one after checking that none of them would replace a file psdesign did not
@@ -523,6 +529,8 @@ def staged_output(out: OutputDir) -> Iterator[Path]:
             target = claimed.path / rel
             target.parent.mkdir(parents=True, exist_ok=True)
             os.replace(tmp / rel, target)
+        # only after the new set is in place: a failed run leaves the previous set whole
+        remove_owned_files(out.path, set(replaces) - set(files))
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)

@@ -822,7 +822,7 @@ def build_html(out_dir: str | Path) -> str:
 <style>{CSS}{INTERACTIVE_CSS}</style>
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
-{_status_banner(df)}{_safe(glance_section, df, params)}
+{_incomplete_banner(out, df)}{_status_banner(df)}{_safe(glance_section, df, params)}
 <h2>Study</h2><table class="meta">{meta}</table>
 {_safe(optimize_section, out)}
 {unit_selector()}
@@ -851,6 +851,23 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 <h2>References</h2>{_references()}
 </body></html>
 """
+
+
+def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
+    """A red box at the top when ``study.json`` lists cases ``results.csv`` has no row for (an
+    interrupted run: :func:`psdesign.study.readback.cases_not_run`); "" for a finished study,
+    whose report stays byte-identical. ``study report`` exits 3 exactly when it is there."""
+    from psdesign.study.readback import cases_not_run
+
+    missing, n_design = cases_not_run(out, df)
+    if not missing:
+        return ""
+    return (
+        f'<p class="alert" id="psd-incomplete-alert"><b>Incomplete study:</b> this report '
+        f"shows {n_design - missing} of the {n_design} cases in study.json; {missing} were "
+        "not run. Rerun <code>psdesign study run</code> with the same study file and folder "
+        "to resume, then report again.</p>"
+    )
 
 
 def _status_banner(df: pd.DataFrame) -> str:

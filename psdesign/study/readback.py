@@ -23,7 +23,12 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["read_json_object", "read_results"]
+__all__ = ["REQUIRED_COLUMNS", "cases_not_run", "read_json_object", "read_results"]
+
+#: The columns every ``results.csv`` ``study run`` writes has and every reader keys on: a
+#: table without them (a file overwritten by hand, another program's CSV) is unreadable, not
+#: a study of 0 cases (walk-cli finding 1, session 52: ``study report`` exited 0 on it).
+REQUIRED_COLUMNS = ("case_id", "status")
 
 
 def _unreadable(path: Path, why: str) -> ValueError:
@@ -74,12 +79,50 @@ def read_results(out_dir: str | Path) -> pd.DataFrame:
     Raises
     ------
     ValueError
-        No ``results.csv``, or one that is empty, not UTF-8 or not CSV: one line naming it.
+        No ``results.csv``, or one that is empty, not UTF-8, not CSV or without a column of
+        :data:`REQUIRED_COLUMNS`: one line naming it.
     """
     path = Path(out_dir) / "results.csv"
     if not path.is_file():
         raise ValueError(f"out_dir: no results.csv in {out_dir}; run the study first")
     try:
-        return pd.read_csv(path)
+        df = pd.read_csv(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise _unreadable(path, " ".join(str(exc).split())) from None
+    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    if missing:
+        raise _unreadable(path, f"no {' or '.join(missing)} column: not a study run's table")
+    return df
+
+
+def cases_not_run(out_dir: str | Path, df: pd.DataFrame) -> tuple[int, int]:
+    """How many of the cases ``study.json`` lists have no row in ``df``, and how many it lists.
+
+    A study interrupted before its last case (or a study grown by a rerun that did not
+    finish) has fewer rows than its design: ``study report`` says so in the report's header
+    and exits 3 instead of showing "cases 1" as if that were the study.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        A study output folder.
+    df : pandas.DataFrame
+        Its ``results.csv`` (:func:`read_results`).
+
+    Returns
+    -------
+    tuple of int
+        ``(n_not_run, n_design)``; ``(0, 0)`` without a ``study.json`` or a case list in it.
+
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "study.json").write_text('{"cases": [{"case_id": "a"}, {"case_id": "b"}]}')
+    >>> cases_not_run(d, pd.DataFrame({"case_id": ["a"], "status": ["ok"]}))
+    (1, 2)
+    """
+    path = Path(out_dir) / "study.json"
+    if not path.is_file():
+        return 0, 0
+    cases = read_json_object(path).get("cases")
+    ids = {c.get("case_id") for c in cases or [] if isinstance(c, dict)}
+    return len(ids - set(df["case_id"].astype(str))), len(ids)

@@ -311,6 +311,8 @@ def _flatten_parameters(table: dict, prefix: str = "") -> list[tuple[str, Any]]:
 def _read_csv_rows(path: Path, key: str) -> tuple[list[str], list[dict]]:
     import pandas as pd
 
+    if path.is_dir():  # as a spec given as a folder (schema.spec.read_toml); session 52
+        raise _err(key, f"{path} is a folder; give a CSV file")
     if not path.is_file():
         raise _err(key, f"CSV file not found: {path}")
     try:
@@ -368,7 +370,7 @@ def _read_base(data: dict, root: Path) -> dict:
     base_raw = data["base"]
     if isinstance(base_raw, str):
         bpath = (root / base_raw).resolve()
-        if not bpath.is_file():
+        if not bpath.exists():  # a folder or a device: read_toml's line says which
             raise _err("base", f"spec file not found: {bpath}")
         try:
             base = read_toml(bpath, key="base", error=SpecError)

@@ -36,6 +36,11 @@ TRANSPORT_KEYS = tuple(
     )
 )
 
+#: The text column of ``results.csv`` / ``summary.csv`` that names the unit of the
+#: ``conductivity_<d>`` columns (their names carry none: ``W/(m K)`` or ``S/m``, as
+#: ``transport.conductivity_unit`` chose); :func:`psdesign.analysis.replicates.
+#: replicate_summary` carries it per design point.
+UNIT_COLUMN = "conductivity_unit"
 TRANSPORT_OUTPUTS = (
     "diffusivity_x",
     "diffusivity_y",
@@ -176,6 +181,9 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
             fields, d, transport=tr, cells_per_diameter=cpd, resolution_measure=measure
         )
         row[f"conductivity_{d}"] = res.effective_conductivity
+        # the SI unit of conductivity_x/y/z (transport.conductivity_unit: W/(m K) or S/m),
+        # in the table itself (walk-cli finding 4, session 52: only report.html named it)
+        row[UNIT_COLUMN] = res.conductivity_unit
         row[f"conductivity_{d}_rel_error"] = res.rel_error
         row[f"conductivity_{d}_converged"] = res.converged
         row[f"conductivity_{d}_status"] = res.status

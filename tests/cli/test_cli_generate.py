@@ -392,3 +392,23 @@ def test_a_generated_voxel_is_written_as_the_decimal_given(tmp_path):
     assert summary["tiff"]["voxel_size_m"] == 1e-6
     assert pv.read(out / "field.vti").spacing == (1e-6,) * 3
     assert file_voxel_size(out / "rve.tif") == 1e-6
+
+
+def test_a_rerun_with_fewer_outputs_leaves_no_old_file_beside_the_new_ones(tmp_path):
+    """walk-cli finding 3 (session 52): ``generate A --format tiff`` then ``generate B
+    --no-preview`` into the same folder left A's rve.tif and preview.png beside B's rve.json,
+    still listed in the marker (porosity 0.884 in rve.tif, 0.929 in summary.json). The truth
+    is the folder's own listing: after B only B's files, and a file psdesign did not write
+    (the user's notes.txt, not in the marker) is never removed."""
+    from psdesign.io.outputs import read_marker
+
+    out = tmp_path / "out"
+    assert main(["generate", str(write(tmp_path, SPEC.format(d="20e-6"))), "-o", str(out),
+                 "--format", "tiff", "--quiet"]) == 0  # fmt: skip
+    assert {"rve.tif", "preview.png"} <= {p.name for p in out.iterdir()}
+    (out / "notes.txt").write_text("mine")
+    b = write(tmp_path, SPEC.format(d="16e-6"), "b.toml")
+    assert main(["generate", str(b), "-o", str(out), "--no-preview", "--quiet"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert not {"rve.tif", "preview.png"} & names and "notes.txt" in names
+    assert not {"rve.tif", "preview.png"} & set(read_marker(out)["files"])

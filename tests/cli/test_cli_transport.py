@@ -126,6 +126,38 @@ def test_study_file_accepts_transport_outputs_and_run_case_fills_them(tmp_path):
     assert row["tortuosity_x"] > 1.0 and row["specific_surface_m-1"] > 0
 
 
+def test_the_conductivitys_unit_is_a_column_of_results_and_summary(tmp_path, capsys):
+    """walk-cli finding 4 (session 52): ``conductivity_z`` in results.csv / summary.csv named no
+    unit, and ``transport.conductivity_unit`` may be W/(m K) or S/m (SI rule: units named).
+    Each row now says it in ``conductivity_unit``; the value is the closed form of a straight
+    cylinder along z, the parallel mean sigma_s f_s + sigma_f (1 - f_s), and the report,
+    which reads the columns by their old names, still exits 0."""
+    from psdesign.study import run_study
+
+    base = SPEC.replace("[transport]", '[transport]\nconductivity_unit = "S/m"')
+    base = re.sub(r"^\[(\[?)", r"[\1base.", base, flags=re.M)  # [rve] -> [base.rve]
+    study = tmp_path / "st.toml"
+    study.write_text(
+        base + '\n[study]\nname = "u"\ndesign = "full-factorial"\nseeds = [1, 2]\n'
+        'outputs = ["conductivity_z"]\nsolver = "voxel"\n'
+        '[parameters]\n"transport.solid_conductivity" = [10.0, 20.0]\n'
+    )
+    out = tmp_path / "out"
+    run_study(study, out, workers=0, progress=False)
+    import pandas as pd
+
+    res = pd.read_csv(out / "results.csv")
+    assert list(res["conductivity_unit"]) == ["S/m"] * 4
+    fs = 1 - res["porosity"]
+    truth = res["transport.solid_conductivity"] * fs + 0.026 * (1 - fs)
+    np.testing.assert_allclose(res["conductivity_z"], truth, rtol=1e-6)
+    summ = pd.read_csv(out / "summary.csv")
+    assert list(summ["conductivity_unit"]) == ["S/m", "S/m"]
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 0
+    assert "conductivity_z (S/m)" in (out / "report.html").read_text()
+
+
 def test_under_resolved_transport_values_are_untrustworthy(tmp_path, capsys):
     """Product rule: a value that is not trustworthy says so in its status. The permeability's
     rule (:func:`psdesign.flow.error.status_of`: fewer than 8 cells across the thinnest fiber

@@ -128,6 +128,64 @@ def test_surrogate_json_round_trip_predicts_the_same() -> None:
     np.testing.assert_allclose(r.predict(x)[1], s.predict(x)[1], rtol=1e-6)
 
 
+def test_fit_of_a_study_with_no_finished_case_says_so(tmp_path, capsys) -> None:
+    """walk-cli finding 5 (session 52): ``study fit`` on a folder interrupted before its first
+    case finished (results.csv: the header alone) said "no numeric design parameter to fit over
+    (generator.porosity: not a number in every case)"; the cause is zero cases."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    pd.read_csv(out / "results.csv").head(0).to_csv(out / "results.csv", index=False)
+    capsys.readouterr()
+    assert main(["study", "fit", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (
+        f"psdesign: error: OUT: the study in {out} has no finished case yet (results.csv has "
+        "no rows); run or resume it with `psdesign study run` first"
+    )
+    assert not (out / "surrogate.json").exists()
+
+
+def test_a_surrogate_fitted_on_an_older_results_csv_is_refused(tmp_path, capsys) -> None:
+    """walk-cli finding 2 (session 52): after ``study fit`` on 6 cases the study grew to 12 and
+    ``study predict`` / ``study sensitivity`` kept using the 6-case fit without a word. The
+    truth here is the table itself: the fit saw 8 of the 12 rows, the folder now has 12, so
+    both commands refuse (exit 2, one line saying to fit again); a refit is accepted, and a
+    surrogate.json from before the check (no "table") is used with one warning."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    full = pd.read_csv(out / "results.csv")
+    full.head(8).to_csv(out / "results.csv", index=False)  # the table before the study grew
+    # 3: 8 cases fit k_z to 80 % (untrustworthy); the refusal below is 2 whatever the fit
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 3
+    full.to_csv(out / "results.csv", index=False)
+    capsys.readouterr()
+    at = ["--at", "generator.porosity=0.8,generator.diameter=7e-6"]
+    for cmd in (["predict", str(out), *at], ["sensitivity", str(out)]):
+        assert main(["study", *cmd]) == 2
+        cap = capsys.readouterr()
+        (line,) = cap.err.strip().splitlines()
+        assert (
+            line
+            == (
+                f"psdesign: error: OUT: {out / 'surrogate.json'} was fitted on an older "
+                "results.csv (8 case(s); now 12, or their statuses changed); rerun `psdesign "
+                "study fit`"
+            )
+            and cap.out == ""
+        )
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0  # 12 cases: ok
+    assert main(["study", "predict", str(out), *at]) == 0
+    doc = json.loads((out / "surrogate.json").read_text())
+    del doc["table"]  # as written before session 52
+    (out / "surrogate.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["study", "predict", str(out), *at]) == 0
+    err = capsys.readouterr().err
+    assert "predates the check against results.csv (session 52)" in err
+
+
 def test_study_fit_predict_sensitivity_cli(tmp_path, capsys, monkeypatch) -> None:
     p = write_study(
         tmp_path,
@@ -698,6 +756,25 @@ def test_k_ci_lower_bound_never_negative() -> None:
 #: tan(0.475 pi) = 12.7062047361747 (closed form of the Cauchy distribution; the 12.706 of
 #: NIST/SEMATECH e-Handbook of Statistical Methods, Sec. 1.3.6.7.2, table of t critical values).
 T_975_1 = math.tan(0.475 * math.pi)
+
+
+def test_an_error_bars_ci_is_clipped_at_0() -> None:
+    """walk-cli finding 5 (session 52): summary.csv had ``porosity_error_ci95_low =
+    -0.000909``. An error bar (porosity_error: the count's absolute error estimate,
+    docs/geometry.md; k_z_rel_error: K's relative one) is a magnitude, >= 0: its CI is clipped
+    at 0 as K's is, the upper bound and the half-width stay Student's (mean + t s / sqrt(n),
+    t_{0.975, 1} = tan(0.475 pi) for two seeds)."""
+    from psdesign.analysis.replicates import replicate_summary
+
+    e = [1e-4, 2e-3]
+    df = pd.DataFrame({"a": 1, "status": "ok", "porosity_error": e, "k_z_rel_error": e})
+    s = replicate_summary(df, ["a"]).iloc[0]
+    half = T_975_1 * np.std(e, ddof=1) / np.sqrt(2)
+    assert np.mean(e) - half < 0  # Student's bound: a negative error bar
+    for c in ("porosity_error", "k_z_rel_error"):
+        assert s[f"{c}_ci95_low"] == 0.0
+        assert s[f"{c}_ci95_high"] == pytest.approx(np.mean(e) + half, rel=1e-12)
+        assert s[f"{c}_ci95_half"] == pytest.approx(half, rel=1e-12)
 
 
 def test_ci_near_one_stays_in_unit_interval_and_half_width_is_student() -> None:

@@ -523,6 +523,31 @@ def test_table_ii_and_sec61_are_the_printed_numbers_tied_as_sec62_says():
 
 
 # ---------------------------------------------------------------------------- CLI
+def test_a_rerun_without_pictures_removes_the_first_runs_pictures(tmp_path):
+    """walk-cli finding 3 (session 52): ``forcefield ff.toml -o ff1`` then ``forcefield
+    ff2.toml -o ff1 --no-pictures`` left the first run's before.png / after.png beside the
+    second's rve.json. After the rerun the folder holds its files only."""
+    from psdesign.cli import main
+    from psdesign.io.outputs import read_marker
+
+    spec = tmp_path / "two.toml"
+    spec.write_text(
+        '[forcefield]\ncase = "two-fiber"\nmax_iter = 1\n'
+        "[forcefield.quadrature]\nh = 0.02\nn_s = 16\nn_theta = 8\n"
+    )
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--quiet"]) == 3  # max_iter: 3
+    assert {"before.png", "after.png"} <= {p.name for p in out.iterdir()}
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
+    assert {p.name for p in out.iterdir()} == {
+        ".psdesign-output.json",
+        "history.csv",
+        "rve.json",
+        "rve_timings.json",
+    }
+    assert "before.png" not in read_marker(out)["files"]
+
+
 def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     from psdesign.cli import main
 

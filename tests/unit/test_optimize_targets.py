@@ -10,6 +10,7 @@ from __future__ import annotations
 import html
 import json
 
+import pandas as pd
 import pytest
 from study_cases import fake_case, kc_truth, write_study
 
@@ -278,6 +279,42 @@ def test_the_decision_of_an_earlier_search_is_not_shown_over_a_later_design(
     assert "<b>MET:</b>" not in page and "<h3>Design point</h3>" not in page
     assert "<b>NO DECISION:</b> optimize.json holds the outcome of an earlier search" in page
     assert f"its chosen case {first['best']['case_id']} is not in the folder" in page
+
+
+def test_an_interrupted_optimize_says_its_cases_are_saved_and_a_rerun_resumes(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """walk-cli finding 5 (session 52): Ctrl-C in ``study optimize`` printed only "psdesign:
+    interrupted", where ``study run`` says its finished cases are saved and a rerun resumes;
+    optimize resumes too. Its line is study run's now (exit 130), and it is true: the rerun
+    keeps the first round's rows as they were written (nothing recomputed)."""
+    import psdesign.study.runner as runner
+
+    target = 2.0 * kc_truth(0.84, 7e-6)
+    p = write_study(tmp_path, STUDY, PARAMS)
+    out = tmp_path / "opt"
+    argv = ["study", "optimize", str(p), "-o", str(out), "--budget", "8", "--workers", "0"]
+    argv += ["--quiet", "--case-fn", "study_cases:fake_case", "--target"]
+    argv += [f"k_z_m2={target:.6e}+-10%"]
+    real = runner.run_study
+
+    def ctrl_c_after_a_round(*args, **kwargs):
+        real(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "run_study", ctrl_c_after_a_round)
+    assert main(argv) == 130
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (
+        "psdesign: error: interrupted; finished cases are saved, rerun the command to resume"
+    )
+    first = pd.read_csv(out / "results.csv")
+    assert len(first) == 4  # the first round's 4 points, seed 1
+    monkeypatch.setattr(runner, "run_study", real)
+    assert main(argv) == 0
+    again = pd.read_csv(out / "results.csv").set_index("case_id")
+    kept = again.loc[first["case_id"], "finished_at"].tolist()
+    assert kept == first["finished_at"].tolist()
 
 
 def test_a_cut_short_outcome_file_is_one_line_in_the_report(tmp_path, capsys) -> None:

@@ -172,6 +172,69 @@ def test_study_reports_exit_follows_its_red_box_for_every_kind_of_case(mixed_rep
     assert report_exit_status(df[(df["status"] == "ok") & (df["k_z_status"] != "ok")]) == 3
 
 
+def test_study_run_no_report_removes_an_earlier_runs_report(tmp_path, capsys):
+    """walk-cli finding 3 (session 52): ``study run --no-report`` into a folder with an
+    earlier run's report.html kept it (it said "cases 1" beside 6 rows of results.csv). The
+    report psdesign wrote goes, with its entry in the marker; ``study report`` writes it."""
+    from psdesign.cli import main
+    from psdesign.io.outputs import read_marker
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    argv = ["study", "run", str(p), "-o", str(out), "--workers", "0", "--quiet"]
+    argv += ["--case-fn", "study_cases:fake_case"]
+    assert main(argv) == 0 and (out / "report.html").is_file()
+    assert main([*argv, "--no-report"]) == 0
+    assert not (out / "report.html").exists()
+    assert "report.html" not in read_marker(out)["files"]
+    assert main(["study", "report", str(out)]) == 0 and (out / "report.html").is_file()
+
+
+def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
+    """walk-cli finding 1 (session 52): a study interrupted after 3 of its 12 cases gave a
+    report saying "cases 3", exit 0, nowhere that 9 cases of study.json never ran. Truth: the
+    design's 12 case ids in study.json against the 3 rows kept. The report is finished but is
+    not the study: 3 ("read it"; no case failed, so not 1), one line, a red box in its header;
+    the finished study's report has no box (byte-identical) and exits 0."""
+    from psdesign.cli import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "report", str(out)]) == 0
+    whole = (out / "report.html").read_bytes()
+    assert b"psd-incomplete-alert" not in whole
+    full = pd.read_csv(out / "results.csv")
+    full.head(3).to_csv(out / "results.csv", index=False)  # what an interrupted run keeps
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 3
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (
+        "psdesign: the report shows 3 of 12 case(s); 9 not run: rerun study run to resume"
+    )
+    html = (out / "report.html").read_text()
+    assert "<b>Incomplete study:</b> this report shows 3 of the 12 cases" in html
+    full.to_csv(out / "results.csv", index=False)  # resumed to the end: the same report again
+    assert main(["study", "report", str(out)]) == 0
+    assert (out / "report.html").read_bytes() == whole
+
+
+def test_report_of_a_table_without_case_id_or_status_is_bad_input(tmp_path, capsys):
+    """walk-cli finding 1: ``echo garbage > OUT/results.csv; study report OUT`` exited 0 with a
+    report of "cases 0". A table without the case_id / status columns every study run writes is
+    unreadable: exit 2, one line naming the file and the missing column, no report written."""
+    from psdesign.cli import main
+
+    (tmp_path / "results.csv").write_text("garbage\n")
+    assert main(["study", "report", str(tmp_path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (
+        f"psdesign: error: OUT: {tmp_path / 'results.csv'} is unreadable (no case_id or status "
+        "column: not a study run's table); rerun the study"
+    )
+    assert not (tmp_path / "report.html").exists()
+
+
 def test_results_csv_is_checked_once_by_the_reader(tmp_path, monkeypatch, capsys):
     """session 41 (s41-routes): the report checked results.csv exists, then read_results
     checked again with the same words: two checks of one file to keep in step. The reader's

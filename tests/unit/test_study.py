@@ -143,6 +143,18 @@ def test_missing_file_and_base_file(tmp_path):
         load_study(tmp_path / "s.toml")
 
 
+def test_a_folder_given_as_base_or_csv_is_named_a_folder(tmp_path):
+    """walk-cli finding 5 (session 52): ``base = "/tmp"`` said "spec file not found: /tmp" and
+    ``csv = "."`` "CSV file not found": both exist, as folders. They say so now, as a spec
+    given as a folder does (schema.spec.read_toml: "is a folder; give a TOML file")."""
+    (tmp_path / "s.toml").write_text('base = "."\n[study]\n[parameters]\n"a.b" = [1]\n')
+    with pytest.raises(StudyError, match=f"^base: {tmp_path} is a folder; give a TOML file$"):
+        load_study(tmp_path / "s.toml")
+    (tmp_path / "c.toml").write_text(BASE + '[study]\ndesign = "csv"\ncsv = "."\n')
+    with pytest.raises(StudyError, match=f"^study.csv: {tmp_path} is a folder; give a CSV file$"):
+        load_study(tmp_path / "c.toml")
+
+
 def test_base_from_relative_file_and_nested_parameter_tables(tmp_path):
     (tmp_path / "specs").mkdir()
     (tmp_path / "specs" / "spec.toml").write_text(BASE.replace("[base.", "["))
