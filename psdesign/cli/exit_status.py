@@ -17,7 +17,8 @@ code   name               meaning
                           ``extrapolated``, ``contact_left``...: read it),
                           ``study optimize`` missed its target, ``rev`` found no size
                           within ``--tol``, or ``study report`` shows a case not ok (its
-                          red box: a failed case too, below)
+                          red box: a failed case too, below) or fewer cases than the
+                          study has (an unfinished study)
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================
@@ -33,8 +34,9 @@ not pass (:func:`psdesign.status.passes`), is 3.
 table of failed cases is reported faithfully, not a report that could not finish, so it is
 never 1 for a case; its results are the cases, so it exits 3 exactly when one is not ok, the
 cases its red box counts (``psdesign.cli.study.report_exit_status``: ``case_counts``, a failed
-or timed-out case included; no ``--allow-not-converged``). Until session 45 it exited 0, also
-on a folder whose every case had failed.
+or timed-out case included; no ``--allow-not-converged``), or when the table holds fewer cases
+than ``study.json`` plans (an unfinished study: its report says so at the top). Until
+session 45 it exited 0, also on a folder whose every case had failed.
 
 Before session 37, 3 was 1: a full disk and an unconverged solve looked the same to a script.
 Before session 45, 3 was a convergence flag only: ``permeability``, ``pores``, the transport
@@ -66,7 +68,7 @@ HELP = (
     "any work; 3 finished with complete outputs, but a result's status is not ok "
     "(not_converged, untrustworthy, blocked, extrapolated...: read it), a study optimize "
     "target was missed, no rev size was within --tol, or study report shows a case not ok "
-    "(failed too); 130 Ctrl-C; 143 SIGTERM"
+    "(failed too) or an unfinished study; 130 Ctrl-C; 143 SIGTERM"
 )
 
 

@@ -219,9 +219,9 @@ def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
     assert (out / "report.html").read_bytes() == whole
 
 
-def test_report_of_a_table_without_case_id_or_status_is_bad_input(tmp_path, capsys):
+def test_report_of_a_table_without_case_id_is_bad_input(tmp_path, capsys):
     """walk-cli finding 1: ``echo garbage > OUT/results.csv; study report OUT`` exited 0 with a
-    report of "cases 0". A table without the case_id / status columns every study run writes is
+    report of "cases 0". A table without the case_id column every study run writes is
     unreadable: exit 2, one line naming the file and the missing column, no report written."""
     from psdesign.cli import main
 
@@ -229,8 +229,8 @@ def test_report_of_a_table_without_case_id_or_status_is_bad_input(tmp_path, caps
     assert main(["study", "report", str(tmp_path)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line == (
-        f"psdesign: error: OUT: {tmp_path / 'results.csv'} is unreadable (no case_id or status "
-        "column: not a study run's table); rerun the study"
+        f"psdesign: error: OUT: {tmp_path / 'results.csv'} is unreadable (no case_id column: "
+        "not a study run's table); rerun the study"
     )
     assert not (tmp_path / "report.html").exists()
 
