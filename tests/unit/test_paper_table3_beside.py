@@ -1,6 +1,7 @@
 """``benchmarks/paper_table3.py summary FEM --beside VOXEL``: the FEM permeameter K beside the
 voxel periodic K of the same seeds (docs/paper-reproduction.md section 2.1), on hand-made runs
-whose means, Student-t intervals and ratios are known in closed form."""
+whose means, Student-t intervals and ratios are known in closed form, and the doc's table
+against the shipped runs."""
 
 from __future__ import annotations
 
@@ -53,3 +54,15 @@ def test_beside_gives_the_closed_form_means_intervals_and_ratios(t3, tmp_path):
     assert cells[6] == "3.000e-11 +- 1.27e-10 (+148 %)"  # faces reading, 2x
     assert cells[7] == "4.500e-11 +- 1.91e-10 (+272 %)"  # applied reading, 3x
     assert cells[8:] == ["10.0-20.0 %, ok", "1.21e-11"]
+
+
+def test_paper_doc_2_1_table_is_the_summary_of_the_shipped_runs(t3):
+    """The section 2.1 table is the script's output on the shipped runs, not typed by hand."""
+    doc = (ROOT / "docs" / "paper-reproduction.md").read_text()
+    section = doc.split("### 2.1 ")[1].split("### 2.2 ")[0]
+    table = t3.beside(
+        ROOT / "benchmarks" / "paper_table3_fem_runs_s52.jsonl",
+        ROOT / "benchmarks" / "paper_table3_voxel_runs_s52.jsonl",
+    )
+    for line in table.splitlines():
+        assert line in section, line
