@@ -10,7 +10,9 @@ Usage::
 Omega (voxel overlap fraction, Eq. 8), the pore-size distribution by local thickness, the
 clustering of the solid (coefficient of variation of the solid fraction over sub-blocks) and
 K along each direction with the periodic voxel route. ``summary`` prints the mean, the 95 %
-confidence interval (Student t) and n per (kind, method, direction) as a markdown table.
+confidence interval (Student t) and n per (kind, method, direction) as a markdown table;
+``summary FEM.jsonl --beside VOXEL.jsonl`` the FEM permeameter runs beside the voxel periodic K of
+the same seeds (docs/paper-reproduction.md section 2.1's table).
 """
 
 from __future__ import annotations
