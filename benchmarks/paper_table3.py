@@ -10,7 +10,9 @@ Usage::
 Omega (voxel overlap fraction, Eq. 8), the pore-size distribution by local thickness, the
 clustering of the solid (coefficient of variation of the solid fraction over sub-blocks) and
 K along each direction with the periodic voxel route. ``summary`` prints the mean, the 95 %
-confidence interval (Student t) and n per (kind, method, direction) as a markdown table.
+confidence interval (Student t) and n per (kind, method, direction) as a markdown table;
+``summary FEM.jsonl --beside VOXEL.jsonl`` the FEM permeameter runs beside the voxel periodic K of
+the same seeds (docs/paper-reproduction.md section 2.1's table).
 """
 
 from __future__ import annotations
@@ -253,6 +255,74 @@ def summary(path: Path, reading: str = "") -> str:
     return "\n".join(lines)
 
 
+def _by_seed(path: Path, solver: str, bc: str) -> dict:
+    """{(kind, method, direction): {seed: record}} of one route's runs (last record wins)."""
+    out: dict = {}
+    for line in path.read_text().splitlines():
+        r = json.loads(line) if line.strip() else None
+        if r is None or (r.get("solver", "voxel"), r.get("bc", "periodic")) != (solver, bc):
+            continue
+        for d in ("z", "x", "y"):
+            if f"k_{d}_m2" in r:
+                out.setdefault((Path(r["spec"]).stem, r["method"], d), {})[r["seed"]] = r
+    return out
+
+
+def _mean_cell(k: np.ndarray, ref: float | None) -> str:
+    ci = f" +- {_ci95(k):.2e}" if len(k) > 1 else ""
+    vs = f" ({100 * (k.mean() / ref - 1):+.0f} %)" if ref else ""
+    return f"{k.mean():.3e}{ci}{vs}"
+
+
+def beside(fem_path: Path, voxel_path: Path) -> str:
+    """Markdown table: the FEM permeameter K (three readings) beside the voxel periodic K of the
+    same seeds, per (kind, direction); mean +- 95 % CI (Student t) and vs Table III, the
+    per-seed FEM / voxel ratios, the FEM bars and statuses. Seeds without a voxel run are left
+    out of the voxel mean and the ratio (the n column says which seeds each has).
+    """
+    fem = _by_seed(fem_path, "fem", "permeameter")
+    vox = _by_seed(voxel_path, "voxel", "periodic")
+    lines = [
+        "| kind | direction | n (seeds) | FEM permeameter, windowed | voxel periodic, same seeds | "
+        "FEM / voxel (per seed) | FEM, drop between RVE faces | FEM, applied drop over RVE + "
+        "zones | FEM bar, status | paper |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for key, runs in sorted(fem.items(), key=lambda kv: (kv[0][0] != "straight", kv[0])):
+        kind, d = key[0], key[2]
+        seeds = sorted(runs)
+        ref = PAPER.get((kind, d))
+        k = {
+            rd: np.array([runs[s][f"k_{d}{rd}_m2"] for s in seeds])
+            for rd in ("", "_faces", "_applied")
+        }
+        both = [s for s in seeds if s in vox.get(key, {})]
+        kv = np.array([vox[key][s][f"k_{d}_m2"] for s in both])
+        ratio = [runs[s][f"k_{d}_m2"] / vox[key][s][f"k_{d}_m2"] for s in both]
+        ratio_cell = (
+            f"{np.mean(ratio):.3f} ({', '.join(f'{r:.3f}' for r in ratio)})" if both else "-"
+        )
+        bars = [100 * (runs[s][f"k_{d}_rel_error"] or float("nan")) for s in seeds]
+        status = sorted({str(runs[s][f"k_{d}_status"]) for s in seeds})
+        conv = all(runs[s][f"k_{d}_converged"] for s in seeds)
+        cells = [kind, d, f"{len(seeds)} ({', '.join(map(str, seeds))})", _mean_cell(k[""], ref)]
+        cells.append(
+            _mean_cell(kv, ref) + (f" (n={len(both)})" if len(both) != len(seeds) else "")
+            if both
+            else "-"
+        )
+        cells += [ratio_cell, _mean_cell(k["_faces"], ref), _mean_cell(k["_applied"], ref)]
+        cells.append(
+            f"{min(bars):.1f}"
+            + (f"-{max(bars):.1f}" if max(bars) > min(bars) else "")
+            + f" %, {'/'.join(status)}"
+            + ("" if conv else ", NOT all converged")
+        )
+        cells.append(f"{ref:.3g}" if ref else "-")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -281,9 +351,12 @@ def main(argv=None) -> int:
     s = sub.add_parser("summary")
     s.add_argument("path")
     s.add_argument("--reading", default="", choices=("", "_faces", "_applied"))
+    s.add_argument("--beside", default=None, help="voxel periodic runs: the FEM vs voxel table")
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        print(summary(Path(a.path), a.reading))
+        print(
+            beside(Path(a.path), Path(a.beside)) if a.beside else summary(Path(a.path), a.reading)
+        )
         return 0
     global CACHE_DIR
     CACHE_DIR = a.cache
