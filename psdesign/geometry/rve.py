@@ -105,13 +105,20 @@ def in_metres(length: float, unit: float) -> float:
     1.2499999999999999e-06 m in rve.json until session 51; a generated RVE's 1 um voxel,
     20e-6 / 20, 1.0000000000000002e-06 m until session 52: :meth:`VoxelGrid.from_voxel`): one
     rule for an image's voxels and a generated grid's. The rounding moves a value by at most
-    5e-15 of itself; a decimal that does not terminate comes out to 15 digits, not
-    correctly rounded (3 pixels per um: 3.33333333333333e-07, the product 3.333333333333333e-07).
+    5e-15 of itself, and only a value whose decimal terminates within 12 significant digits
+    is rounded: any other is the product itself (3 pixels per um: 3.333333333333333e-07), so a
+    grid whose edge has no short decimal (100 um / 90) keeps ``size / shape`` exactly and its
+    voxel centres, hence which voxels a surface on a voxel boundary covers, do not move (the
+    session 52 merge moved them, ``test_the_errors_of_the_lenses_add_with_their_signs``).
 
     >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
     (1.2499999999999999e-06, 1.25e-06)
+    >>> in_metres(1 / 3, 1e-6), in_metres(100 / 90, 1e-6)
+    (3.333333333333333e-07, 1.111111111111111e-06)
     """
-    return float(f"{length * unit:.15g}")
+    value = length * unit
+    short = float(f"{value:.12g}")
+    return short if short == float(f"{value:.15g}") else value
 
 
 @dataclass(frozen=True)
