@@ -456,10 +456,8 @@ def with_error_estimate(
             "bound their error (untrustworthy): refine the grid (rve.voxel, or a finer image)"
         )
     if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
-        warnings.append(
-            f"K_{res['direction']}: estimated error {100 * est.rel_error:.1f} % exceeds "
-            f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
-        )
+        refine = "rve.voxel, or a finer image" if solver == "voxel" else key
+        warnings.append(err.over_limit_warning(f"K_{res['direction']}", est.rel_error, refine))
     if est.window > err.WINDOW_WARN:
         warnings.append(
             f"K_{res['direction']}: entrance/exit residual of the permeameter up to "
