@@ -584,7 +584,7 @@ def over_limit_warning(name: str, rel_error: float, refine: str) -> str:
     reads 56 % low in a 36.5 % bar, 0.7 at 23 voxels 28 % low in 25.6 % (session 52
     walk-numbers, Sangani & Acrivos 1982). The line says so, as the lost-phase warning does.
 
-    >>> over_limit_warning("K_x", 0.365, "rve.voxel")[:62]
+    >>> over_limit_warning("K_x", 0.365, "rve.voxel")[:63]
     'K_x: estimated error 36.5 % exceeds 20 %, where the bar may und'
     """
     return (
