@@ -145,7 +145,7 @@ def check_grid_voxels(fields: VoxelFields) -> None:
     shape = [int(n) for n in fields.grid.shape]
     # only an axis of 2-3 voxels is read (one pass over the field each), none on a spec's grid
     thin = [a for a, n in enumerate(shape) if 1 < n < MIN_VOXELS_PER_EDGE]
-    if any(np.any(np.ptp(fields.distance, axis=a)) for a in thin):
+    if any(fields.varies_along(a) for a in thin):
         raise SpecError(
             "fields",
             f"the voxel grid is {shape} voxels (allowed: {MIN_VOXELS_TEXT} the geometry "
