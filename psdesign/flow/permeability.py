@@ -424,7 +424,11 @@ def with_error_estimate(
     analytic = solver == "voxel" and fields.analytic_distance
     throat = _throat_fn(fields, direction, step) if analytic else None
     diameter = floor_diameter(rve, fields) if scheme in err.FIBER_FLOOR else None
-    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat, diameter)
+    # a permeameter along a geometry that does not vary along the flow has no entrance reach
+    varies = res.get("bc") != "permeameter" or fields.varies_along("xyz".index(res["direction"]))
+    est = err.estimate_with(
+        res, step, _order(solver, res), coarse, scheme, throat, diameter, varies
+    )
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
@@ -644,8 +648,9 @@ def auto_lengthen(
     from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
 
     requested, tries = flow.get("permeameter_copies"), []
+    varies = fields.varies_along("xyz".index(res["direction"]))
     while True:
-        window = err.window_of(res)
+        window = err.window_of(res, varies)
         done = int(res.get("permeameter_copies") or 1)
         tries.append(
             {"copies": done, "permeability_m2": float(res["permeability_m2"]), "window": window}
