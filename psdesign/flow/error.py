@@ -391,7 +391,8 @@ def window_rel_error(
     length: float | None = None,
 ) -> float:
     """The permeameter's window term ``max(C_W |dp_alt / dp - 1|, C_R (R / L)^2)`` (0 without a
-    second estimator ``drop_alt``); ``R = flow_length_scale(k, porosity)``, ``L = length``.
+    second estimator ``drop_alt``); ``R = flow_length_scale(k, porosity)``, ``L = length``
+    (None: no reach term, for a geometry that does not vary along the flow, :func:`window_of`).
 
     >>> round(window_rel_error(1.0, 1.004), 12)
     0.01
@@ -408,21 +409,32 @@ def window_rel_error(
     return float(max(gap, reach))
 
 
-def window_of(result: dict) -> float:
+def window_of(result: dict, varies_along_flow: bool = True) -> float:
     """The window term (:func:`window_rel_error`) of a route ``result``: its
     ``pressure_drop_rve_pa``, ``pressure_drop_plane_window_pa``, ``permeability_m2``,
     ``porosity`` and ``rve_length_m`` (0 for a result without a second windowed drop, e.g. a
     periodic solve).
 
+    ``varies_along_flow`` False (:meth:`~psdesign.geometry.rve.VoxelFields.varies_along`: the
+    geometry is the same along the flow, as cylinders along it) drops the reach term
+    ``C_R (R / L)^2``: the a-priori weight of an entrance perturbation calibrated across arrays,
+    which along them is at most 0.003 of ``(R / L)^2`` (:data:`WINDOW_REACH`), gave 62 % to a
+    square array along, phi 0.1, one diameter long, whose K is 0.57 % off Sparrow & Loeffler's
+    (session 52 walk-numbers); the measured gap term ``C_W |dp_alt / dp - 1|`` stays.
+
     >>> window_of({"permeability_m2": 1.0, "porosity": 1.0})
     0.0
+    >>> r = {"permeability_m2": 1.0 / 8, "porosity": 1.0, "rve_length_m": 10.0,
+    ...      "pressure_drop_rve_pa": 1.0, "pressure_drop_plane_window_pa": 1.0}
+    >>> round(window_of(r), 12), window_of(r, varies_along_flow=False)
+    (0.0015, 0.0)
     """
     return window_rel_error(
         result.get("pressure_drop_rve_pa"),
         result.get("pressure_drop_plane_window_pa"),
         float(result["permeability_m2"]),
         float(result["porosity"]),
-        result.get("rve_length_m"),
+        result.get("rve_length_m") if varies_along_flow else None,
     )
 
 
@@ -574,6 +586,26 @@ def untrustworthy_reasons(
     return why
 
 
+def over_limit_warning(name: str, rel_error: float, refine: str) -> str:
+    """The warning of a value ``name`` whose bar ``rel_error`` exceeds
+    :data:`UNTRUSTWORTHY_REL_ERROR`; ``refine``: the key(s) that refine it.
+
+    The bar's constants (the floors, ``C_G`` of :data:`GAP`, ``C_W`` and ``C_R`` of the window)
+    are the smallest that leave no ``ok`` result outside its bar, so past the limit the bar is no
+    bound: a square array across at solid fraction 0.7, 19 voxels per spacing (sub-voxel walls)
+    reads 56 % low in a 36.5 % bar, 0.7 at 23 voxels 28 % low in 25.6 % (session 52
+    walk-numbers, Sangani & Acrivos 1982). The line says so, as the lost-phase warning does.
+
+    >>> over_limit_warning("K_x", 0.365, "rve.voxel")[:63]
+    'K_x: estimated error 36.5 % exceeds 20 %, where the bar may und'
+    """
+    return (
+        f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
+        f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %, where the bar may understate the error (its terms "
+        f"are calibrated to cover ok results only; untrustworthy): refine the grid ({refine})"
+    )
+
+
 def count_below(count: float, limit: float) -> str:
     """``count`` (a cell count under ``limit``) printed so the printed number is under ``limit``
     too: one decimal, or two or three where rounding would reach the limit (7.99 cells under a
@@ -648,6 +680,7 @@ def estimate_with(
     scheme: str | None = None,
     throat: Callable[[], float | None] | None = None,
     diameter: float | None = None,
+    varies_along_flow: bool = True,
 ) -> ErrorEstimate:
     """Error bar of a route ``result`` (``permeability_m2``, ``porosity``, ``residual``,
     ``flux_imbalance``; a permeameter's ``pressure_drop_rve_pa`` and, if the route has it,
@@ -658,7 +691,8 @@ def estimate_with(
     returns the throat width along the flow (m, :func:`throat_width_voxels`), for the gap term
     (:func:`gap_rel_error`; schemes in :data:`GAP` only), or None where no throat limits the
     flow (:func:`throat_limits`: no gap term). ``diameter``: the thinnest fibre diameter (m),
-    for the fibre floor (:data:`FIBER_FLOOR`; None without fibres: no such floor)."""
+    for the fibre floor (:data:`FIBER_FLOOR`; None without fibres: no such floor).
+    ``varies_along_flow``: as :func:`window_of`."""
     k_c = ratio = None
     failure = None
     lost = False
@@ -684,7 +718,7 @@ def estimate_with(
         k_coarse=k_c,
         ratio=ratio,
         floor_law=FLOOR.get(scheme) if scheme else None,
-        window=window_of(result),
+        window=window_of(result, varies_along_flow),
         law_floor=max(gap, thin if scheme == "staircase" else 0.0),
         fiber_floor=fiber,
     )

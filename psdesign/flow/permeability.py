@@ -145,7 +145,7 @@ def check_grid_voxels(fields: VoxelFields) -> None:
     shape = [int(n) for n in fields.grid.shape]
     # only an axis of 2-3 voxels is read (one pass over the field each), none on a spec's grid
     thin = [a for a, n in enumerate(shape) if 1 < n < MIN_VOXELS_PER_EDGE]
-    if any(np.any(np.ptp(fields.distance, axis=a)) for a in thin):
+    if any(fields.varies_along(a) for a in thin):
         raise SpecError(
             "fields",
             f"the voxel grid is {shape} voxels (allowed: {MIN_VOXELS_TEXT} the geometry "
@@ -424,7 +424,11 @@ def with_error_estimate(
     analytic = solver == "voxel" and fields.analytic_distance
     throat = _throat_fn(fields, direction, step) if analytic else None
     diameter = floor_diameter(rve, fields) if scheme in err.FIBER_FLOOR else None
-    est = err.estimate_with(res, step, _order(solver, res), coarse, scheme, throat, diameter)
+    # a permeameter along a geometry that does not vary along the flow has no entrance reach
+    varies = res.get("bc") != "permeameter" or fields.varies_along("xyz".index(res["direction"]))
+    est = err.estimate_with(
+        res, step, _order(solver, res), coarse, scheme, throat, diameter, varies
+    )
     res.update(est.as_dict())
     res["error_estimate"]["wall_time_s"] = time.perf_counter() - t0
     warnings = list(res.get("warnings", []))
@@ -456,10 +460,8 @@ def with_error_estimate(
             "bound their error (untrustworthy): refine the grid (rve.voxel, or a finer image)"
         )
     if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
-        warnings.append(
-            f"K_{res['direction']}: estimated error {100 * est.rel_error:.1f} % exceeds "
-            f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
-        )
+        refine = "rve.voxel, or a finer image" if solver == "voxel" else key
+        warnings.append(err.over_limit_warning(f"K_{res['direction']}", est.rel_error, refine))
     if est.window > err.WINDOW_WARN:
         warnings.append(
             f"K_{res['direction']}: entrance/exit residual of the permeameter up to "
@@ -646,8 +648,9 @@ def auto_lengthen(
     from psdesign.flow.stack import AUTO_MAX_COPIES, AUTO_WINDOW, MAX_COPIES, next_auto_copies
 
     requested, tries = flow.get("permeameter_copies"), []
+    varies = fields.varies_along("xyz".index(res["direction"]))
     while True:
-        window = err.window_of(res)
+        window = err.window_of(res, varies)
         done = int(res.get("permeameter_copies") or 1)
         tries.append(
             {"copies": done, "permeability_m2": float(res["permeability_m2"]), "window": window}

@@ -195,6 +195,16 @@ class VoxelFields:
         """Pore volume fraction of the box."""
         return float(1.0 - np.count_nonzero(self.distance <= 0.0) / self.distance.size)
 
+    def varies_along(self, axis: int) -> bool:
+        """Whether the geometry varies along ``axis`` (0, 1, 2): some two slices of
+        :attr:`distance` normal to it differ. Along an axis it does not (an extruded, quasi-2-D
+        geometry; one voxel always) the periodic flow, the pores and the box's edge do not
+        matter: the edge is an arbitrary depth, the flow is the same at any count of voxels
+        (:func:`psdesign.flow.permeability.check_grid_voxels`), a pore's size is not bounded by
+        it (:func:`psdesign.transport.study_outputs.varying_edge`) and a permeameter along it
+        has no entrance layer (:func:`psdesign.flow.error.window_rel_error`)."""
+        return bool(np.any(np.ptp(self.distance, axis=axis)))
+
     @cached_property
     def wall_distance(self) -> np.ndarray:
         """Distance of each voxel centre to the wall, in voxels (float32, read-only;

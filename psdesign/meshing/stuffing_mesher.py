@@ -15,7 +15,7 @@ from psdesign.meshing.checks import (
     mesh_quality,
     restore_planes,
 )
-from psdesign.meshing.errors import Remedy
+from psdesign.meshing.errors import PoreTopologyError, Remedy
 from psdesign.meshing.inputs import ScaledField, scaled_field
 from psdesign.meshing.options import MeshOptions, default_lattice_step
 from psdesign.meshing.periodic import periodic_pairs
@@ -76,7 +76,7 @@ def mesh_stuffing(distance, voxel, size, direction, opts: MeshOptions, t0: float
         sm = stuff(0.0)
         offset = 0.0
         if opts.match_volume:
-            offset, sm, n_match = match_volume(stuff, sm, target, f.axis)
+            offset, sm, n_match = match_volume(stuff, sm, target, f.axis, _no_wall(step, opts))
     timings["stuffing_time_s"] = time.perf_counter() - t
     t = time.perf_counter()
     progress.stage(f"mesh: {len(sm.tets)} tets stuffed; through-flow components and tags")
@@ -174,12 +174,29 @@ def _quality(f: ScaledField, pts, tets, bfaces, tags, comp, sm, target, aux_volu
     }
 
 
-def match_volume(stuff, sm, target: float, axis: int):
+def _no_wall(step: float, opts: MeshOptions) -> Remedy:
+    """The refusal of a lattice with no vertex inside any fiber (:func:`match_volume`)."""
+    d = opts.fiber_diameter
+    radius = f", {d / 2:.3g} m here" if d else ""
+    return Remedy(
+        "flow.lattice_step",
+        f"the lattice step {step:.3g} m leaves no lattice vertex inside any fiber, so the mesh "
+        "has no fiber wall and the pore volume cannot be matched (allowed: a step under about "
+        f"the thinnest fiber's radius{radius}; {LATTICE_STEP_RANGE})",
+    )
+
+
+def match_volume(stuff, sm, target: float, axis: int, no_wall: Remedy):
     """Shift the meshed level set so that the mesh volume equals ``target`` (secant method).
 
     The piecewise-linear boundary through points on a convex fiber surface cuts its chords into
     the fiber, which inflates the pore by about (chord^2 / 12 R) x fiber area; a uniform level
     shift removes this bias. ``stuff(offset)`` builds a mesh. Returns (offset, mesh, iterations).
+
+    A first mesh with no wall face (a lattice coarser than the fibers: no vertex inside one)
+    has nothing to shift: it raises :class:`PoreTopologyError` with ``no_wall``'s line (the
+    secant step divided by a zero wall area gave an offset of -2e298, every vertex solid and
+    a keyless "pore space is empty" line until session 52).
     """
 
     def volume(m):
@@ -189,8 +206,10 @@ def match_volume(stuff, sm, target: float, axis: int):
     if abs(v0 / target - 1) <= _MATCH_RTOL:
         return 0.0, sm, 0
     bf, _, _ = face_structure(sm.tets)
-    wall = tag_faces(sm.points, bf, sm.lo, sm.hi, axis)[T.WALL]
-    x1 = (v0 - target) / max(area(sm.points, wall), 1e-300)
+    wall = area(sm.points, tag_faces(sm.points, bf, sm.lo, sm.hi, axis)[T.WALL])
+    if not wall > 0:
+        raise PoreTopologyError(f"{no_wall.key}: {no_wall.advice}")
+    x1 = (v0 - target) / wall
     best = (abs(v0 / target - 1), x0, sm)
     n_iter = 0
     for n_iter in range(1, _MATCH_MAX_ITER + 1):  # noqa: B007 (reported after the loop)

@@ -93,8 +93,28 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)
-    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0]), fields.solid.shape))
+    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0]), varying_edge(fields)))
     return out
+
+
+def varying_edge(fields: VoxelFields) -> float:
+    """The RVE's smallest edge (m) over the axes its geometry varies along
+    (:meth:`~psdesign.geometry.rve.VoxelFields.varies_along`), the bound of a representative
+    pore size: along an extruded axis the edge is an arbitrary depth (a cylinder along z in a
+    40 x 40 x 25 um box has pores up to the 36 um periodic sphere, marked untrustworthy against
+    the 25 um depth until session 52). The smallest edge when no axis varies.
+
+    >>> import numpy as np
+    >>> from psdesign.image.fields import image_fields
+    >>> solid = np.zeros((8, 6, 4), bool)
+    >>> solid[3:5, 2:4, :] = True  # a square rod along z
+    >>> varying_edge(image_fields(solid, 1e-6)), varying_edge(image_fields(solid[:, :, :1], 1e-6))
+    (6e-06, 6e-06)
+    """
+    shape = fields.grid.shape
+    h = float(fields.grid.spacing[0])
+    varying = [int(n) for a, n in enumerate(shape) if fields.varies_along(a)]
+    return h * min(varying or [int(n) for n in shape])
 
 
 def pore_sizes_status(
@@ -109,13 +129,13 @@ def pore_sizes_status(
     return "untrustworthy" if status == "ok" and d90_m > edge_m else status
 
 
-def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -> dict:
+def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
     """``status`` (the worse of the two below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
-    bars alone), and the pore sizes when ``d90`` exceeds the grid's smallest edge (a pore
-    larger than the RVE)."""
+    bars alone), and the pore sizes when ``d90`` exceeds ``edge``, the smallest edge the
+    geometry varies along (:func:`varying_edge`: a pore larger than the RVE)."""
     from psdesign.flow import error as err
     from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
@@ -128,7 +148,6 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, shape: tuple[int, ...]) -
     converged = bool(out.get("converged", True))
     warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
-    edge = h * min(shape)
     sizes = pore_sizes_status(converged, out["rel_error"], out["pore_d90_m"], cpd, edge)
     surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
     if out["pore_d90_m"] > edge:
@@ -199,7 +218,7 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         )
         row["pore_bin_width_m"] = ps.bin_width_m
         row["pore_diameter_error_m"] = ps.diameter_error_m
-        edge = float(fields.grid.spacing[0]) * min(fields.solid.shape)
+        edge = varying_edge(fields)
         row["pore_sizes_status"] = pore_sizes_status(
             ps.converged, ps.rel_error, ps.pore_d90_m, cpd, edge
         )

@@ -27,6 +27,21 @@ SQUARE_075 = {
         }
     ],
 }
+#: the reviewer's square array across at solid fraction 0.05 (session 52, walk-numbers finding
+#: 1): L = 40 um, D = 10.09 um, 4 um voxels, so the default lattice step is 2 voxels = 8 um; its
+#: vertices nearest the axis, (16 or 24, 16 or 24) um, lie 4 sqrt(2) = 5.66 um from it, outside
+#: the 5.05 um radius: no vertex inside the fiber (plane geometry)
+SQUARE_005 = {
+    "rve": {"size": [4e-5, 4e-5, 1.6e-5], "voxel": 4e-6},
+    "fibers": [
+        {
+            "shape": "cylinder",
+            "diameter": float(2 * 4e-5 * np.sqrt(0.05 / np.pi)),
+            "center": [2e-5, 2e-5, 8e-6],
+            "direction": [0, 0, 1],
+        }
+    ],
+}
 #: one fiber tilted across the box: its opposite faces differ (not periodic)
 TILTED = {
     "rve": {"size": [L, L, L], "voxel": 1e-6},
@@ -73,6 +88,13 @@ def _channel_image(tmp_path):
             "flow.bc",
             "PeriodicMeshError",
             "flow.bc = 'periodic': the geometry is not periodic",
+        ),
+        (  # a volume match divided by a zero wall area: rve.voxel, "pore space is empty"
+            lambda _: psdesign.build(SQUARE_005),
+            lambda m: m.permeability("x", solver="fem", bc="periodic"),
+            "flow.lattice_step",
+            "PoreTopologyError",
+            "flow.lattice_step: the lattice step 8e-06 m leaves no lattice vertex inside any fiber",
         ),
     ],
 )

@@ -233,15 +233,45 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
     from psdesign.transport.study_outputs import _pore_rating
 
     base = {"rel_error": 0.05, "specific_surface_rel_error": 0.01, "converged": True}
-    inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, (100, 120, 100))
+    inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, 100e-6)
     assert (inside["status"], inside["warnings"]) == ("ok", [])
-    past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, (100, 120, 100))
+    past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, 100e-6)
     assert past["pore_sizes_status"] == past["status"] == "untrustworthy"
     assert past["specific_surface_status"] == "ok"
     assert past["warnings"] == [
         "pore sizes: d90 1.010e-04 m exceeds the RVE's smallest edge 1.000e-04 m: the RVE is "
         "smaller than its pores; use a larger RVE"
     ]
+
+
+def test_an_extruded_rve_bounds_its_pores_by_the_edges_it_varies_along():
+    """One cylinder along z (square array across, solid fraction 0.2) in a 40 x 40 x 25 um
+    box: the geometry does not vary along z, so the 25 um depth bounds no pore. The largest
+    periodic sphere sits midway between four axes, ``L / sqrt(2)`` from each (plane geometry):
+    diameter ``2 (L / sqrt(2) - R)`` = 36.4 um. Its d90 (32.9 um) lies under that and under the
+    40 um edges; it was untrustworthy against the 25 um depth until session 52 (walk-numbers
+    finding 3), in ``psdesign pores`` and in a study's ``pore_d90_m`` row alike."""
+    import psdesign
+    from psdesign.transport.study_outputs import transport_outputs
+
+    L, phi = 40e-6, 0.2
+    r = L * np.sqrt(phi / np.pi)
+    spec = {
+        "rve": {"size": [L, L, 25e-6], "voxel": 2.5e-6},
+        "fibers": [
+            {"shape": "cylinder", "diameter": 2 * r, "center": [L / 2, L / 2, 12.5e-6],
+             "direction": [0, 0, 1]}
+        ],
+    }  # fmt: skip
+    m = psdesign.build(spec)
+    assert [m.fields.varies_along(a) for a in range(3)] == [True, True, False]
+    out = m.pores()
+    largest = 2 * (L / np.sqrt(2) - r)
+    assert 25e-6 < out["pore_d90_m"] <= largest + out["diameter_error_m"]
+    assert out["pore_sizes_status"] == "ok", out["warnings"]
+    assert not any("smallest edge" in w for w in out["warnings"])
+    row = transport_outputs(m.rve, m.fields, ["pore_d90_m"], m.spec)
+    assert row["pore_d90_m"] == out["pore_d90_m"] and row["pore_sizes_status"] == "ok"
 
 
 def test_local_thickness_is_periodic():
