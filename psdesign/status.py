@@ -69,7 +69,9 @@ STATUS_WORDS = {
         for d in "xyz"
     },
     # transport.study_outputs.pore_sizes_status
-    "pore_sizes_status": f"{_BAR_OR_CELLS} or d90 above the RVE's smallest edge",
+    "pore_sizes_status": (
+        f"{_BAR_OR_CELLS} or d90 above the smallest edge the geometry varies along"
+    ),
     "specific_surface_status": _BAR_OR_CELLS,  # flow.error.status_of
     "intersection_volume_fraction_status": (  # packing.overlap_status
         "untrustworthy = the count missed overlaps the fibres' centre lines find, or "

@@ -706,7 +706,12 @@ def table_fingerprint(df: pd.DataFrame) -> dict:
     """
     import hashlib
 
-    lines = sorted(f"{c},{s}" for c, s in zip(df["case_id"], df["status"], strict=True))
+    from psdesign.analysis.columns import case_status
+
+    # case_status: a values-only table (no status column) reads as every case ok, as the
+    # report and exit read it (review C, session 52: df["status"] raised KeyError there)
+    pairs = zip(df["case_id"], case_status(df), strict=True)
+    lines = sorted(f"{c},{s}" for c, s in pairs)
     digest = hashlib.sha256("\n".join(lines).encode("utf-8")).hexdigest()
     return {"n_cases": len(lines), "sha256": digest}
 

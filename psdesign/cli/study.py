@@ -316,7 +316,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     from psdesign.report import write_report
-    from psdesign.study.readback import cases_not_run, read_results
+    from psdesign.study.readback import cases_not_run, read_results, resume_command
     from psdesign.study.store import StorageError
 
     try:
@@ -332,7 +332,7 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     if missing:  # finished, but not the study: 3 ("read it"), not 1 (no case failed)
         print(
             f"psdesign: the report shows {n_design - missing} of {n_design} case(s); "
-            f"{missing} not run: rerun study run to resume",
+            f"{missing} not run: rerun {resume_command(args.out)} to resume",
             file=sys.stderr,
         )
         return NOT_TRUSTED

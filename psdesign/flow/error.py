@@ -586,9 +586,10 @@ def untrustworthy_reasons(
     return why
 
 
-def over_limit_warning(name: str, rel_error: float, refine: str) -> str:
+def over_limit_warning(name: str, rel_error: float, advice: str) -> str:
     """The warning of a value ``name`` whose bar ``rel_error`` exceeds
-    :data:`UNTRUSTWORTHY_REL_ERROR`; ``refine``: the key(s) that refine it.
+    :data:`UNTRUSTWORTHY_REL_ERROR`; ``advice``: what shrinks the bar (refining the grid, or,
+    where the permeameter's window term makes most of it, a longer RVE: review B, session 52).
 
     The bar's constants (the floors, ``C_G`` of :data:`GAP`, ``C_W`` and ``C_R`` of the window)
     are the smallest that leave no ``ok`` result outside its bar, so past the limit the bar is no
@@ -596,13 +597,13 @@ def over_limit_warning(name: str, rel_error: float, refine: str) -> str:
     reads 56 % low in a 36.5 % bar, 0.7 at 23 voxels 28 % low in 25.6 % (session 52
     walk-numbers, Sangani & Acrivos 1982). The line says so, as the lost-phase warning does.
 
-    >>> over_limit_warning("K_x", 0.365, "rve.voxel")[:63]
+    >>> over_limit_warning("K_x", 0.365, "refine the grid (rve.voxel)")[:63]
     'K_x: estimated error 36.5 % exceeds 20 %, where the bar may und'
     """
     return (
         f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
         f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %, where the bar may understate the error (its terms "
-        f"are calibrated to cover ok results only; untrustworthy): refine the grid ({refine})"
+        f"are calibrated to cover ok results only; untrustworthy): {advice}"
     )
 
 

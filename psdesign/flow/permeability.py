@@ -461,7 +461,10 @@ def with_error_estimate(
         )
     if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
         refine = "rve.voxel, or a finer image" if solver == "voxel" else key
-        warnings.append(err.over_limit_warning(f"K_{res['direction']}", est.rel_error, refine))
+        advice = f"refine the grid ({refine})"
+        if est.window >= est.rel_error / 2:  # the window, not the grid, makes the bar
+            advice = "lengthen the RVE along the flow or use bc = 'periodic'"
+        warnings.append(err.over_limit_warning(f"K_{res['direction']}", est.rel_error, advice))
     if est.window > err.WINDOW_WARN:
         warnings.append(
             f"K_{res['direction']}: entrance/exit residual of the permeameter up to "

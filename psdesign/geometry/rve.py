@@ -99,17 +99,17 @@ def is_cubic(spacing, rtol: float = 1e-9) -> bool:
 
 
 def in_metres(length: float, unit: float) -> float:
-    """``length`` (in a unit of ``unit`` metres) in metres, rounded to 15 significant digits, so
-    that a length whose decimal terminates within them reads as written, not as the float
-    product's last bit (a 0.8 pixels-per-um resolution is 1.25 um, written
-    1.2499999999999999e-06 m in rve.json until session 51; a generated RVE's 1 um voxel,
-    20e-6 / 20, 1.0000000000000002e-06 m until session 52: :meth:`VoxelGrid.from_voxel`): one
-    rule for an image's voxels and a generated grid's. The rounding moves a value by at most
-    5e-15 of itself, and only a value whose decimal terminates within 12 significant digits
-    is rounded: any other is the product itself (3 pixels per um: 3.333333333333333e-07), so a
-    grid whose edge has no short decimal (100 um / 90) keeps ``size / shape`` exactly and its
-    voxel centres, hence which voxels a surface on a voxel boundary covers, do not move (the
-    session 52 merge moved them, ``test_the_errors_of_the_lenses_add_with_their_signs``).
+    """``length`` (in a unit of ``unit`` metres) in metres, so that a length whose decimal
+    terminates within 12 significant digits reads as written, not as the float product's last
+    bit (a 0.8 pixels-per-um resolution is 1.25 um, written 1.2499999999999999e-06 m in
+    rve.json until session 51; a generated RVE's 1 um voxel, 20e-6 / 20,
+    1.0000000000000002e-06 m until session 52: :meth:`VoxelGrid.from_voxel`): one rule for an
+    image's voxels and a generated grid's. Such a value is the product rounded to 15
+    significant digits (a move of at most 5e-15 of itself); any other is the product itself
+    (3 pixels per um: 3.333333333333333e-07), so a grid whose edge has no short decimal
+    (100 um / 90) keeps ``size / shape`` exactly and its voxel centres, hence which voxels a
+    surface on a voxel boundary covers, do not move (the session 52 merge moved them,
+    ``test_the_errors_of_the_lenses_add_with_their_signs``).
 
     >>> 1 / 0.8 * 1e-6, in_metres(1 / 0.8, 1e-6)
     (1.2499999999999999e-06, 1.25e-06)
@@ -130,7 +130,7 @@ class VoxelGrid:
     shape : tuple of int
         Voxel counts (nx, ny, nz).
     spacing : ndarray (3,)
-        Voxel edge lengths in metres (``size / shape`` rounded to 15 significant digits,
+        Voxel edge lengths in metres (``size / shape``, its decimal as written where it is short,
         :func:`in_metres`; equal to the requested voxel size when the box is a whole number
         of voxels).
     """
@@ -202,7 +202,8 @@ class VoxelFields:
         matter: the edge is an arbitrary depth, the flow is the same at any count of voxels
         (:func:`psdesign.flow.permeability.check_grid_voxels`), a pore's size is not bounded by
         it (:func:`psdesign.transport.study_outputs.varying_edge`) and a permeameter along it
-        has no entrance layer (:func:`psdesign.flow.error.window_rel_error`)."""
+        has no entrance reach beyond the measured gap term
+        (:func:`psdesign.flow.error.window_rel_error`)."""
         return bool(np.any(np.ptp(self.distance, axis=axis)))
 
     @cached_property

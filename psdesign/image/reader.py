@@ -287,11 +287,16 @@ def tiff_shape(path: Path) -> tuple[int, ...]:
     return plain_tiff_shape(Path(path).name, axes, shape)
 
 
-def plain_tiff_shape(name: str, axes: str, shape: tuple[int, ...]) -> tuple[int, ...]:
+def plain_tiff_shape(
+    name: str, axes: str, shape: tuple[int, ...], stack: bool = True
+) -> tuple[int, ...]:
     """A TIFF series' shape without its colour (``S``) and channel (``C``) axes of length 1;
-    a colour or multi-channel image is refused (``image.path``, naming ``name``)."""
+    a colour or multi-channel image is refused (``image.path``, naming ``name``). ``stack``:
+    the file is the whole image (a single-file stack), not one slice of a folder, where the
+    channels-as-z cure (write the planes as ZYX) would only meet the one-slice-per-file
+    refusal (review B, session 52)."""
     colour = {a: n for a, n in zip(axes, shape, strict=True) if a in "SC" and n > 1}
-    if set(colour) == {"C"} and not set(axes) & set("ZT"):
+    if stack and set(colour) == {"C"} and not set(axes) & set("ZT"):
         # session 52 I/O review, finding 3: tifffile.imwrite(path, vol, imagej=True) stores a
         # 3-D array as channels (CYX) unless told its axes; the colour advice did not help
         raise ValueError(

@@ -225,7 +225,7 @@ def _header(path: Path) -> _Header:
             header = _Header(shape, str(series.dtype), len(tf.pages), pixel)
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
         raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
-    shape = plain_tiff_shape(path.name, axes, shape)
+    shape = plain_tiff_shape(path.name, axes, shape, stack=False)
     while header.pages == 1 and len(shape) > 2 and shape[0] == 1:  # a writer's (1, rows, cols)
         shape = shape[1:]
     return _Header(shape, header.dtype, header.pages, pixel)

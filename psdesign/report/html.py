@@ -651,7 +651,11 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
         )
         + ("; transport values ± their relative error bar (docs/transport.md)" if transport else "")
         + (_shared_bar_note() if pores else "")
-        + ("; each with its status where it is not ok (highlighted)" if len(cols) > 1 else "")
+        + (
+            "; each with its status where it is not ok (highlighted where it is not trusted)"
+            if len(cols) > 1
+            else ""
+        )
         + ".</p>"
     )
     title = "Porosity and " + ("transport values" if transport else "overlap") if omega else ""
@@ -857,7 +861,7 @@ def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
     """A red box at the top when ``study.json`` lists cases ``results.csv`` has no row for (an
     interrupted run: :func:`psdesign.study.readback.cases_not_run`); "" for a finished study,
     whose report stays byte-identical. ``study report`` exits 3 exactly when it is there."""
-    from psdesign.study.readback import cases_not_run
+    from psdesign.study.readback import cases_not_run, resume_command
 
     missing, n_design = cases_not_run(out, df)
     if not missing:
@@ -865,8 +869,8 @@ def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
     return (
         f'<p class="alert" id="psd-incomplete-alert"><b>Incomplete study:</b> this report '
         f"shows {n_design - missing} of the {n_design} cases in study.json; {missing} were "
-        "not run. Rerun <code>psdesign study run</code> with the same study file and folder "
-        "to resume, then report again.</p>"
+        f"not run. Rerun <code>psdesign {resume_command(out)}</code> with the same arguments "
+        "and folder to resume, then report again.</p>"
     )
 
 

@@ -23,7 +23,13 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["REQUIRED_COLUMNS", "cases_not_run", "read_json_object", "read_results"]
+__all__ = [
+    "REQUIRED_COLUMNS",
+    "cases_not_run",
+    "read_json_object",
+    "read_results",
+    "resume_command",
+]
 
 #: The column every ``results.csv`` ``study run`` writes has and every reader keys on: a table
 #: without it (a file overwritten by hand, another program's CSV) is unreadable, not a study of
@@ -126,5 +132,29 @@ def cases_not_run(out_dir: str | Path, df: pd.DataFrame) -> tuple[int, int]:
     if not path.is_file():
         return 0, 0
     cases = read_json_object(path).get("cases")
+    if cases is not None and not isinstance(cases, list):  # a damaged file: one line, exit 2
+        raise _unreadable(path, f"cases is a {type(cases).__name__}, not a list")
     ids = {c.get("case_id") for c in cases or [] if isinstance(c, dict)}
     return len(ids - set(df["case_id"].astype(str))), len(ids)
+
+
+#: The commands that resume an unfinished study folder with themselves; any other folder
+#: (``study run``'s, or one ``study report`` marked) resumes with ``study run``.
+_SELF_RESUMING = ("study optimize", "rev")
+
+
+def resume_command(out_dir: str | Path) -> str:
+    """The ``psdesign`` command that resumes the unfinished study in ``out_dir``: the one its
+    marker says made it when that resumes itself (``study optimize``, ``rev``), else
+    ``study run``. Review C (session 52): the advice always said ``study run``, and following
+    it in an optimize folder rewrote ``results.csv`` with the study file's 4 cases in place of
+    the optimizer's 10.
+
+    >>> import tempfile
+    >>> resume_command(tempfile.mkdtemp())
+    'study run'
+    """
+    from psdesign.io.outputs import read_marker
+
+    command = str((read_marker(Path(out_dir)) or {}).get("command", ""))
+    return command if command in _SELF_RESUMING else "study run"

@@ -152,8 +152,8 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
     surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
     if out["pore_d90_m"] > edge:
         warnings.append(
-            f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the RVE's smallest edge "
-            f"{edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
+            f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the smallest edge the geometry "
+            f"varies along {edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
     return {
         "pore_sizes_status": sizes,

@@ -373,8 +373,9 @@ def test_a_generated_voxel_is_written_as_the_decimal_given(tmp_path):
     """Session 52 I/O review, finding 4: a 20 um box at 1 um voxels had the grid spacing
     ``20e-6 / 20`` = 1.0000000000000002e-06 m, written so into summary.json
     (``voxel_grid.spacing_m``, ``tiff.voxel_size_m``), the .vti spacing and rve.tif. The grid
-    now rounds as image voxels are (``geometry.rve.in_metres``, 15 significant digits): every
-    output says 1e-06, and rve.tif reads back as 1e-06 m exactly."""
+    now rounds as image voxels are (``geometry.rve.in_metres``: a decimal that terminates
+    within 12 digits as written): every output says 1e-06, and rve.tif reads back as 1e-06 m
+    exactly."""
     import pyvista as pv
 
     from psdesign.image.reader import file_voxel_size

@@ -206,27 +206,33 @@ def test_all_directions_summarize_bar_status_and_bc(tmp_path, capsys):
     assert np.asarray(res["tensor_m2"]).shape == (3, 3)
 
 
-@pytest.mark.parametrize("direction", ["all", "z"])
+@pytest.mark.parametrize("direction", ["all", "x"])
 def test_bc_both_json_says_at_top_level_what_the_exit_reads(tmp_path, capsys, direction):
     """Review s45: with ``--bc both`` the JSON's top-level ``status`` is the chosen model's K
     only, while the exit also reads the other model's (:func:`psdesign.cli.permeability.
-    result_statuses`): a script saw ``ok`` beside exit 3. The square cell is 12 um along z:
-    the permeameter's entrance/exit residual makes its K_z untrustworthy (bar > 20 %) while
-    the periodic K_z is ok, so the two disagree here. The truth is the exit rule
+    result_statuses`): a script saw ``ok`` beside exit 3. Across the square cell's cylinder (x),
+    a one-copy permeameter's entrance/exit residual makes its K_x untrustworthy (bar > 20 %)
+    while the periodic K_x is ok, so the two disagree here (until session 52 the case was K_z
+    along the cylinder, 12 um long; there the geometry does not vary along the flow, so the
+    permeameter has no entrance reach and is ok since then). The truth is the exit rule
     (:func:`psdesign.cli.exit_status.status_code`): ``overall_status`` is ``ok`` exactly when
     the exit is 0, and it is the worst of every status printed."""
     from psdesign.cli.exit_status import status_code
     from psdesign.transport.effective import worst_status
 
+    one_copy = SPEC + "permeameter_copies = 1\n"
     code, out, _ = _run(
-        tmp_path, capsys, "--solver", "voxel", "--bc", "both", "--direction", direction, "--json"
+        tmp_path,
+        capsys,
+        *("--solver", "voxel", "--bc", "both", "--direction", direction, "--json"),
+        spec=one_copy,
     )
     res = json.loads(out)
     rows = res["results"] if direction == "all" else [res]
-    z = next(r for r in rows if r["direction"] == "z")
-    assert z["bc"] == "periodic" and z["status"] == "ok"
-    assert z["bc_results"]["permeameter"]["status"] == "untrustworthy"
-    assert z["bc_results"]["permeameter"]["permeability_rel_error"] > 0.2
+    x = next(r for r in rows if r["direction"] == "x")
+    assert x["bc"] == "periodic" and x["status"] == "ok"
+    assert x["bc_results"]["permeameter"]["status"] == "untrustworthy"
+    assert x["bc_results"]["permeameter"]["permeability_rel_error"] > 0.2
     assert res["status"] == "ok"  # the chosen model's K: unchanged
     assert code == 3
     assert res["overall_status"] == "untrustworthy"  # main: KeyError

@@ -146,6 +146,28 @@ def test_fit_of_a_study_with_no_finished_case_says_so(tmp_path, capsys) -> None:
     assert not (out / "surrogate.json").exists()
 
 
+def test_fit_and_predict_read_a_values_only_table_as_every_case_ok(tmp_path, capsys) -> None:
+    """Review C (session 52): a results.csv without a ``status`` column reads as every case ok
+    (``analysis.columns.case_status``, the report and the exit since session 45); the surrogate
+    fingerprint added this session read ``df["status"]`` and ``study fit`` raised KeyError.
+    Truth: the same fit as on the table with its all-ok status column, and predict accepts it."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    df = pd.read_csv(out / "results.csv")
+    assert set(df["status"]) == {"ok"}
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0
+    with_status = json.loads((out / "surrogate.json").read_text())["table"]
+    df.drop(columns="status").to_csv(out / "results.csv", index=False)
+    (out / "surrogate.json").unlink()
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0
+    assert json.loads((out / "surrogate.json").read_text())["table"] == with_status
+    capsys.readouterr()
+    at = "generator.porosity=0.85,generator.diameter=8e-6"
+    assert main(["study", "predict", str(out), "--at", at]) in (0, 3)
+    assert "older results.csv" not in capsys.readouterr().err
+
+
 def test_a_surrogate_fitted_on_an_older_results_csv_is_refused(tmp_path, capsys) -> None:
     """walk-cli finding 2 (session 52): after ``study fit`` on 6 cases the study grew to 12 and
     ``study predict`` / ``study sensitivity`` kept using the 6-case fit without a word. The

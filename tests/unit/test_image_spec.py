@@ -321,6 +321,25 @@ def test_a_stack_saved_as_imagej_channels_is_refused_with_the_cure(tmp_path, met
     assert build_rve(spec).voxelize(1e-6).porosity == pytest.approx(2 / 3, rel=1e-12, abs=0)
 
 
+def test_a_slice_folder_of_channel_files_gets_the_multichannel_refusal(tmp_path):
+    """Review B (session 52): the channels-as-z cure above ("write it with metadata={'axes':
+    'ZYX'}") also fired for each file of a slice folder, where following it only meets the
+    one-slice-per-file refusal. A folder's 2-channel files keep the general multi-channel
+    refusal, naming the file and its channels."""
+    import tifffile
+
+    (tmp_path / "s").mkdir()
+    for k in range(6):
+        plane = np.zeros((2, 12, 16), np.uint8)
+        plane[:, :4] = 255
+        tifffile.imwrite(tmp_path / "s" / f"s_{k:02d}.tif", plane, imagej=True)
+    with pytest.raises(SpecError) as info:
+        load_spec(write_spec(tmp_path, '[image]\npath = "s"\nvoxel_size = 1e-6\n'))
+    assert info.value.key == "image.path" and "\n" not in info.value.message
+    assert "colour or multi-channel" in info.value.message and "2 channels" in info.value.message
+    assert "ImageJ channels" not in info.value.message
+
+
 @pytest.mark.parametrize("given", ["slices", "slices/slice_*.tif"])
 def test_a_folder_of_slices_reads_as_the_stack_of_its_slices(tmp_path, given):
     # one TIFF per z slice is a usual CT export; until session 44 a folder or pattern was

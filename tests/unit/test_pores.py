@@ -239,8 +239,8 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
     assert past["pore_sizes_status"] == past["status"] == "untrustworthy"
     assert past["specific_surface_status"] == "ok"
     assert past["warnings"] == [
-        "pore sizes: d90 1.010e-04 m exceeds the RVE's smallest edge 1.000e-04 m: the RVE is "
-        "smaller than its pores; use a larger RVE"
+        "pore sizes: d90 1.010e-04 m exceeds the smallest edge the geometry varies along "
+        "1.000e-04 m: the RVE is smaller than its pores; use a larger RVE"
     ]
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import json
 import math
 import re
 
@@ -217,6 +218,43 @@ def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
     full.to_csv(out / "results.csv", index=False)  # resumed to the end: the same report again
     assert main(["study", "report", str(out)]) == 0
     assert (out / "report.html").read_bytes() == whole
+
+
+def test_an_unfinished_optimize_folder_is_told_to_resume_with_optimize(tmp_path, capsys):
+    """Review C (session 52): the unfinished-study advice always said ``study run``; in a
+    ``study optimize`` folder that rewrote results.csv with the study file's cases in place of
+    the optimizer's. Truth: the folder's marker names the command that made it; the line and
+    the red box must name that one."""
+    from psdesign.cli import main
+    from psdesign.io.outputs import read_marker
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    marker = read_marker(out)
+    marker["command"] = "study optimize"  # what an optimize run writes (io.outputs marker)
+    (out / ".psdesign-output.json").write_text(json.dumps(marker))
+    pd.read_csv(out / "results.csv").head(5).to_csv(out / "results.csv", index=False)
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 3
+    assert capsys.readouterr().err.strip().endswith("rerun study optimize to resume")
+    assert "Rerun <code>psdesign study optimize</code>" in (out / "report.html").read_text()
+
+
+def test_a_study_json_whose_cases_is_not_a_list_is_one_line_exit_2(tmp_path, capsys):
+    """Review C (session 52): ``{"cases": 5}`` in study.json raised a TypeError traceback from
+    the incomplete-study check; a damaged file is bad input: exit 2, one line naming it."""
+    from psdesign.cli import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    doc = json.loads((out / "study.json").read_text())
+    (out / "study.json").write_text(json.dumps(doc | {"cases": 5}))
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "study.json" in line and "cases is a int, not a list" in line
 
 
 def test_report_of_a_table_without_case_id_is_bad_input(tmp_path, capsys):

@@ -356,6 +356,22 @@ def test_the_k_and_values_tables_write_and_highlight_a_status_by_the_one_rule(wo
     capsys.readouterr()
 
 
+@pytest.mark.parametrize("own", ["ok", "converged"])
+def test_the_k_cell_of_a_failed_case_shows_the_case_status(own, capsys):
+    """Review A (session 52): the K cell writes the case's word when the case is not ok and the
+    value's own word passes (a trusted ``converged`` must not hide that the case failed); the
+    test above used an ok case only, so a K cell writing its own word alone passed it."""
+    from psdesign.report.html import _k_table
+
+    df = pd.DataFrame(
+        {"case_id": ["c0"], "status": ["failed"], "k_z_m2": [1e-11], "k_z_rel_error": [0.02],
+         "k_z_status": [own]}
+    )  # fmt: skip
+    k = _k_table(df, "fem")
+    assert '<span class="kst">failed' in k and f'<span class="kst">{own}' not in k, k
+    capsys.readouterr()
+
+
 def test_trusted_blanks_every_value_that_shares_a_blanked_bar():
     """``trusted`` blanked each not-ok value and its bar in turn, then rated the next value: the
     tortuosity of a table without ``diffusivity_x_status`` shares ``diffusivity_x_rel_error``,
@@ -447,7 +463,7 @@ def test_the_values_table_shows_the_bar_that_rates_the_pore_sizes(with_status, c
     ]  # each bar one-sided, above (session 48; test_pore_diameters_print_their_bar_one_sided)
     assert "30.0 %" not in html and "7.5 %" not in html  # no size's own fraction
     assert "rated together by that bar over d50 (the % beside d50" in html
-    assert "d90 above the RVE's smallest edge" in html  # the rating's own words
+    assert "d90 above the smallest edge the geometry varies along" in html  # the rating's own words
     capsys.readouterr()
 
 
