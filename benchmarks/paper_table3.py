@@ -142,19 +142,39 @@ def run_case(
         rec["lattice_step_m"] = lattice_step
     for d in directions:
         r = permeability(built.rve, fields, d, flow, solver=solver, error_estimate=error_estimate)
-        rec[f"k_{d}_m2"] = r["permeability_m2"]
-        rec[f"k_{d}_converged"] = r["converged"]
-        rec[f"k_{d}_wall_s"] = r["wall_time_s"]
-        rec[f"k_{d}_rel_error"] = r.get("permeability_rel_error")
-        rec[f"k_{d}_status"] = r.get("status")
-        if "pressure_drop_faces_pa" in r:  # the FEM permeameter's other readings of dP
-            kw = r["permeability_m2"]
-            rec[f"k_{d}_faces_m2"] = kw * r["pressure_drop_rve_pa"] / r["pressure_drop_faces_pa"]
-            frac = 1.0 + 2.0 * r["aux_length"]  # applied drop over the RVE + both zones
-            rec[f"k_{d}_applied_m2"] = (
-                kw * r["pressure_drop_rve_pa"] / r["pressure_drop_applied_pa"] * frac
-            )
-            rec[f"k_{d}_n_dofs"] = r.get("n_dofs")
+        rec.update(k_record(r, d))
+    return rec
+
+
+def k_record(r: dict, d: str) -> dict:
+    """The record's ``k_<d>_*`` fields of one :func:`psdesign.flow.permeability.permeability`
+    result ``r`` along ``d``: K, converged, wall, bar, status; a permeameter's copies and, for
+    ``permeameter_copies = "auto"``, why it stopped and the copies / window term of each solve
+    (records before session 52's mend have none: straight z seed 3 of
+    ``paper_table3_fem_runs_s52.jsonl`` took 3 copies, seen only in its dofs); the FEM
+    permeameter's faces and applied-drop readings and dofs.
+    """
+    rec = {
+        f"k_{d}_m2": r["permeability_m2"],
+        f"k_{d}_converged": r["converged"],
+        f"k_{d}_wall_s": r["wall_time_s"],
+        f"k_{d}_rel_error": r.get("permeability_rel_error"),
+        f"k_{d}_status": r.get("status"),
+    }
+    if r.get("permeameter_copies") is not None:
+        rec[f"k_{d}_copies"] = r["permeameter_copies"]
+    auto = r.get("permeameter_auto")
+    if auto is not None:
+        rec[f"k_{d}_auto_stopped"] = auto["stopped"]
+        rec[f"k_{d}_auto_tries"] = [[t["copies"], t["window"]] for t in auto["tries"]]
+    if "pressure_drop_faces_pa" in r:  # the FEM permeameter's other readings of dP
+        kw = r["permeability_m2"]
+        rec[f"k_{d}_faces_m2"] = kw * r["pressure_drop_rve_pa"] / r["pressure_drop_faces_pa"]
+        frac = 1.0 + 2.0 * r["aux_length"]  # applied drop over the RVE + both zones
+        rec[f"k_{d}_applied_m2"] = (
+            kw * r["pressure_drop_rve_pa"] / r["pressure_drop_applied_pa"] * frac
+        )
+        rec[f"k_{d}_n_dofs"] = r.get("n_dofs")
     return rec
 
 
@@ -225,6 +245,31 @@ def _k_cell(rs: list, key: str, ref: float | None) -> list[str]:
     return [f"{k.mean():.3e}{ci} (n={len(k)})", vs]
 
 
+class RunsError(ValueError):
+    """Bad input to ``summary``: one line naming the file or option (``main`` exits 2)."""
+
+
+def read_runs(path: Path) -> list[dict]:
+    """The JSON records of a runs file, one per non-blank line; :class:`RunsError` naming the
+    file (and line) when it is missing or a line is not a JSON object."""
+    try:
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise RunsError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    rows = []
+    for n, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            r = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise RunsError(f"{path}:{n}: not a JSON record ({exc.msg})") from None
+        if not isinstance(r, dict):
+            raise RunsError(f"{path}:{n}: not a JSON record (a {type(r).__name__})")
+        rows.append(r)
+    return rows
+
+
 def summary(path: Path, reading: str = "") -> str:
     """Markdown table: mean +- 95 % CI per (spec, method, solver, bc, direction).
 
@@ -232,7 +277,7 @@ def summary(path: Path, reading: str = "") -> str:
     permeameter, drop between the RVE faces) or '_applied' (FEM permeameter, applied drop over
     the RVE plus both auxiliary zones).
     """
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = read_runs(path)
     groups: dict = {}
     for r in rows:
         groups.setdefault(_key(r), []).append(r)
@@ -258,13 +303,18 @@ def summary(path: Path, reading: str = "") -> str:
 def _by_seed(path: Path, solver: str, bc: str) -> dict:
     """{(kind, method, direction): {seed: record}} of one route's runs (last record wins)."""
     out: dict = {}
-    for line in path.read_text().splitlines():
-        r = json.loads(line) if line.strip() else None
-        if r is None or (r.get("solver", "voxel"), r.get("bc", "periodic")) != (solver, bc):
+    for r in read_runs(path):
+        if (r.get("solver", "voxel"), r.get("bc", "periodic")) != (solver, bc):
             continue
         for d in ("z", "x", "y"):
             if f"k_{d}_m2" in r:
                 out.setdefault((Path(r["spec"]).stem, r["method"], d), {})[r["seed"]] = r
+    if not out:  # e.g. the two files swapped: a header-only table said nothing (session 52)
+        raise RunsError(
+            f"{path}: no {solver} {bc} runs (records with solver = '{solver}', bc = '{bc}' and "
+            "a k_<d>_m2); summary FEM_RUNS --beside VOXEL_RUNS takes the FEM permeameter runs "
+            "first"
+        )
     return out
 
 
@@ -274,11 +324,29 @@ def _mean_cell(k: np.ndarray, ref: float | None) -> str:
     return f"{k.mean():.3e}{ci}{vs}"
 
 
+def _has_bar(r: dict, d: str) -> bool:
+    return r.get(f"k_{d}_rel_error") is not None
+
+
+def _bar_cell(bars: list, no_bar: list, status: list, conv: bool) -> str:
+    """The FEM bars' range (%), the statuses, the seeds without a bar and a not-converged flag
+    (a missing bar was a NaN that ``min`` / ``max`` kept or dropped by its place in the list)."""
+    if bars:
+        cell = f"{min(bars):.1f}" + (f"-{max(bars):.1f}" if max(bars) > min(bars) else "") + " %"
+    else:
+        cell = "no bar"
+    cell += f", {'/'.join(status)}"
+    if bars and no_bar:
+        cell += f", no bar: seed {', '.join(map(str, no_bar))}"
+    return cell + ("" if conv else ", NOT all converged")
+
+
 def beside(fem_path: Path, voxel_path: Path) -> str:
     """Markdown table: the FEM permeameter K (three readings) beside the voxel periodic K of the
     same seeds, per (kind, direction); mean +- 95 % CI (Student t) and vs Table III, the
     per-seed FEM / voxel ratios, the FEM bars and statuses. Seeds without a voxel run are left
-    out of the voxel mean and the ratio (the n column says which seeds each has).
+    out of the voxel mean and the ratio (the n column says which seeds each has). A file that
+    cannot be read, or holds no FEM permeameter (resp. voxel periodic) runs: :class:`RunsError`.
     """
     fem = _by_seed(fem_path, "fem", "permeameter")
     vox = _by_seed(voxel_path, "voxel", "periodic")
@@ -302,9 +370,9 @@ def beside(fem_path: Path, voxel_path: Path) -> str:
         ratio_cell = (
             f"{np.mean(ratio):.3f} ({', '.join(f'{r:.3f}' for r in ratio)})" if both else "-"
         )
-        bars = [100 * (runs[s][f"k_{d}_rel_error"] or float("nan")) for s in seeds]
-        status = sorted({str(runs[s][f"k_{d}_status"]) for s in seeds})
-        conv = all(runs[s][f"k_{d}_converged"] for s in seeds)
+        bars = [100 * runs[s][f"k_{d}_rel_error"] for s in seeds if _has_bar(runs[s], d)]
+        status = sorted({str(runs[s].get(f"k_{d}_status")) for s in seeds})
+        conv = all(runs[s].get(f"k_{d}_converged") is True for s in seeds)
         cells = [kind, d, f"{len(seeds)} ({', '.join(map(str, seeds))})", _mean_cell(k[""], ref)]
         cells.append(
             _mean_cell(kv, ref) + (f" (n={len(both)})" if len(both) != len(seeds) else "")
@@ -312,15 +380,28 @@ def beside(fem_path: Path, voxel_path: Path) -> str:
             else "-"
         )
         cells += [ratio_cell, _mean_cell(k["_faces"], ref), _mean_cell(k["_applied"], ref)]
-        cells.append(
-            f"{min(bars):.1f}"
-            + (f"-{max(bars):.1f}" if max(bars) > min(bars) else "")
-            + f" %, {'/'.join(status)}"
-            + ("" if conv else ", NOT all converged")
-        )
+        cells.append(_bar_cell(bars, [s for s in seeds if not _has_bar(runs[s], d)], status, conv))
         cells.append(f"{ref:.3g}" if ref else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _summary(a: argparse.Namespace) -> int:
+    """``summary``: print the table, or one line on stderr and exit status 2 for bad input."""
+    try:
+        if a.beside and a.reading:  # beside has all three readings: one would be ignored
+            raise RunsError(
+                f"--reading {a.reading} with --beside: the beside table has every reading "
+                "(windowed, faces, applied); drop --reading, or drop --beside for one reading"
+            )
+        table = (
+            beside(Path(a.path), Path(a.beside)) if a.beside else summary(Path(a.path), a.reading)
+        )
+    except RunsError as exc:
+        print(f"paper_table3 summary: {exc}", file=sys.stderr)
+        return 2
+    print(table)
+    return 0
 
 
 def main(argv=None) -> int:
@@ -354,10 +435,7 @@ def main(argv=None) -> int:
     s.add_argument("--beside", default=None, help="voxel periodic runs: the FEM vs voxel table")
     a = p.parse_args(argv)
     if a.cmd == "summary":
-        print(
-            beside(Path(a.path), Path(a.beside)) if a.beside else summary(Path(a.path), a.reading)
-        )
-        return 0
+        return _summary(a)
     global CACHE_DIR
     CACHE_DIR = a.cache
     if a.cmd == "mirror":
