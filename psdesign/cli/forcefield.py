@@ -34,6 +34,15 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         on = summary["at_bound"]
         where = f" (on the bound of {', '.join(on)})" if on else ""
         progress.warning(f"{summary['message']}, not converged; wrote the best point found{where}")
+    elif summary["status"] == "contact_left":
+        on = summary["at_bound"]
+        where = (
+            f"; the moves stop on the bound of {', '.join(on)}: widen forcefield.relax.max_shift"
+            " or u_max"
+            if on
+            else ""
+        )
+        progress.warning(f"the fibers still overlap (contact_left{where}); wrote the best point")
     elif summary["at_bound"]:
         progress.warning(
             f"optimum on the bound of {', '.join(summary['at_bound'])} "
