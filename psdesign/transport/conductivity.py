@@ -283,7 +283,9 @@ def effective_conductivity(
         n_cells=eff.n_cells,
         wall_time_s=eff.wall_time_s,
         conductivity_unit=tr["conductivity_unit"],
-        cells_per_diameter=cells_per_diameter,
+        # one conductivity in both phases: a uniform field, exact on any grid, so no fibre
+        # floor (session 52 walk: --solid 1 --fluid 1 gave 1.0 exactly, "untrustworthy")
+        cells_per_diameter=None if ks == kf else cells_per_diameter,
         unresolved_neck=eff.neck,
         resolution_measure=resolution_measure,
     )

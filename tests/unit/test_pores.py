@@ -425,3 +425,20 @@ def test_every_transport_entry_refuses_what_is_not_voxel_fields():
             call()
         assert info.value.key == "fields" and "\n" not in str(info.value)
         assert str(info.value).startswith("fields: must be the voxel fields of a material")
+
+
+def test_conductivity_of_one_conductivity_in_both_phases_is_it_and_ok():
+    """A homogeneous medium (solid and fluid conductivity equal) conducts at that value
+    exactly, on any grid (the Wiener bounds meet): 1.0 ``ok`` at 6 voxels per fibre diameter,
+    where a real contrast is ``untrustworthy`` (session 52 walk: 1.0, rel_error 0, yet
+    untrustworthy, exit 3)."""
+    from psdesign.transport.conductivity import effective_conductivity
+
+    X, Y, _ = _coords((12, 12, 8))
+    fields = _fields(3.0 - np.sqrt((X - 6) ** 2 + (Y - 6) ** 2))
+    same = effective_conductivity(fields, "x", 1.0, 1.0, cells_per_diameter=6.0)
+    assert same.wiener_bounds == [1.0, 1.0]
+    assert same.effective_conductivity == pytest.approx(1.0, rel=1e-6)
+    assert same.status == "ok" and not same.warnings
+    contrast = effective_conductivity(fields, "x", 10.0, 1.0, cells_per_diameter=6.0)
+    assert contrast.status == "untrustworthy"
