@@ -19,8 +19,12 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
     target = check_output_dir(
         args.output, force=args.force, command="forcefield", expected=OUTPUT_FILES
     )
-    ff = load_forcefield_spec(args.spec)
-    summary = run_forcefield(ff, target, pictures=not args.no_pictures)
+    from psdesign.schema.budget import unplanned_route
+
+    # no flow solve: an RVE spec is held to its voxel grid's memory, not to its [flow] solve
+    with unplanned_route():
+        ff = load_forcefield_spec(args.spec)
+        summary = run_forcefield(ff, target, pictures=not args.no_pictures)
     keys = ("case", "U", "converged", "status", "at_bound", "message", "n_evals")
     keys += ("wall_time_s", "free_variables")
     print_json(  # strict JSON, as every --json
@@ -34,6 +38,15 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         on = summary["at_bound"]
         where = f" (on the bound of {', '.join(on)})" if on else ""
         progress.warning(f"{summary['message']}, not converged; wrote the best point found{where}")
+    elif summary["status"] == "contact_left":
+        on = summary["at_bound"]
+        where = (
+            f"; the moves stop on the bound of {', '.join(on)}: widen forcefield.relax.max_shift"
+            " or u_max"
+            if on
+            else ""
+        )
+        progress.warning(f"the fibers still overlap (contact_left{where}); wrote the best point")
     elif summary["at_bound"]:
         progress.warning(
             f"optimum on the bound of {', '.join(summary['at_bound'])} "

@@ -24,16 +24,20 @@ FIELD_VTI_MEANINGS = {
 
 
 def _cmd_generate(args: argparse.Namespace) -> int:
+    from psdesign.schema.budget import unplanned_route
     from psdesign.schema.spec import load_spec
 
-    spec = load_spec(args.spec)
-    summary = write_generate_outputs(
-        spec,
-        args.output,
-        preview=not args.no_preview,
-        force=args.force,
-        formats=tuple(args.format or ()),
-    )
+    # no flow solve: the spec is held to its voxel grid's memory, not to the [flow] solve a
+    # permeability run would plan (session 52 walk: refused for a 16.7 GiB FEM permeameter)
+    with unplanned_route():
+        spec = load_spec(args.spec)
+        summary = write_generate_outputs(
+            spec,
+            args.output,
+            preview=not args.no_preview,
+            force=args.force,
+            formats=tuple(args.format or ()),
+        )
     keys = (
         "porosity",
         "porosity_error",

@@ -45,11 +45,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _spec_warnings_once():
+    """:func:`~psdesign.errors.show_warning_one_line` that shows each spec warning
+    (:class:`~psdesign.schema.document.SpecWarning`) once per command: a command validates its
+    spec more than once (on load and again when it builds), and the same line came twice before
+    the error it foretold (session 52 walk: ``generate`` of a fast porosity 0.3 spec)."""
+    shown: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        from psdesign.schema.document import SpecWarning
+
+        if issubclass(category, SpecWarning):
+            if str(message) in shown:
+                return
+            shown.add(str(message))
+        show_warning_one_line(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    warnings.showwarning = show_warning_one_line  # one line per warning
+    warnings.showwarning = _spec_warnings_once()  # one line per warning, a spec's once
     from psdesign.study.interrupt import terminate_as_interrupt
 
     try:

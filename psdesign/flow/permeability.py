@@ -395,7 +395,7 @@ def floor_diameter(rve: RVE, fields: VoxelFields) -> float | None:
         return d
     from psdesign.transport.pores import specific_surface
 
-    sv = specific_surface(fields, check=False).specific_surface_m_1
+    sv = specific_surface(fields, check=False, rve=rve).specific_surface_m_1
     return 4.0 * float(fields.solid.mean()) / sv if sv > 0 else None
 
 

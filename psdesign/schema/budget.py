@@ -110,7 +110,10 @@ def unplanned_route() -> Iterator[None]:
     stacked copies, ``flow.max_memory_gb``, the stuffing lattice's cells. Before session 44 a
     study of a custom case function that builds no permeameter was refused at load for the
     2-copy FEM permeameter of its base spec ("a 1000x1000x1000 grid ... 2 copies stacked
-    needs about 14.9 GiB"), or for ``flow.max_memory_gb``, and never ran."""
+    needs about 14.9 GiB"), or for ``flow.max_memory_gb``, and never ran. The commands that
+    solve no flow (``generate``, ``pores``, ``diffusivity``, ``conductivity``, ``forcefield``)
+    load their spec inside it too (session 52: they were refused for a 16.7 GiB FEM
+    permeameter; ``permeability`` and ``study run`` still plan theirs up front)."""
     token = _ROUTE_PLANNED.set(False)
     try:
         yield
@@ -413,7 +416,10 @@ def _counted(solver: str, flow, aux: float) -> str:
     "with solver 'fem'"
     """
     if solver == "geometry":  # inside unplanned_route: no solver a user could set
-        return "for the voxel grid's own fields; a custom case function's solve is not counted"
+        return (
+            "for the voxel grid's own fields; no flow solve is counted (a command that runs "
+            "none, or a custom case function's)"
+        )
     if solver == "voxel" and getattr(flow, "wall_treatment", None) != "diffuse":
         return f"with solver 'voxel', counted along {counted_axis(solve_of(flow, aux).get('axis'))}"
     return f"with solver {solver!r}"

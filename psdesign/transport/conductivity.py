@@ -224,7 +224,7 @@ def effective_conductivity(
         :class:`psdesign.fields.FieldWriter`).
     cells_per_diameter : float, optional
         Voxels across the thinnest fiber (:func:`psdesign.flow.error.cells_per_diameter`);
-        below 8 the result is ``untrustworthy`` and says why in ``warnings``.
+        below 8 ``untrustworthy``, saying why in ``warnings`` (not if solid = fluid: exact).
     resolution_measure : str, optional
         What ``cells_per_diameter`` counts across, named in that warning
         (:func:`psdesign.geometry.rve.resolution_measure`: a woven yarn's thin width).
@@ -283,7 +283,7 @@ def effective_conductivity(
         n_cells=eff.n_cells,
         wall_time_s=eff.wall_time_s,
         conductivity_unit=tr["conductivity_unit"],
-        cells_per_diameter=cells_per_diameter,
+        cells_per_diameter=None if ks == kf else cells_per_diameter,  # ks = kf: exact, any grid
         unresolved_neck=eff.neck,
         resolution_measure=resolution_measure,
     )

@@ -57,6 +57,7 @@ def load_case(
 
     from psdesign.errors import SpecError
     from psdesign.packing.build import build_rve
+    from psdesign.schema.budget import unplanned_route
     from psdesign.schema.spec import load_spec, read_toml, validate_spec
     from psdesign.schema.transport import validate_transport
 
@@ -75,7 +76,12 @@ def load_case(
                 raise
             raise SpecError(f"{flags[key]} ({exc.key})", exc.message) from None
     rest = {k: v for k, v in raw.items() if k != "transport"}
-    spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
-    spec["transport"] = transport
-    built = build_rve(spec)
-    return TransportCase(spec, transport, built.rve, built.voxelize(spec["rve"]["voxel"]))
+    # pores, diffusivity and conductivity solve no flow: the spec is held to its voxel grid's
+    # memory, not to the [flow] solve a permeability run would plan (session 52 walk: refused
+    # for a 16.7 GiB FEM permeameter they never run)
+    with unplanned_route():
+        spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
+        spec["transport"] = transport
+        built = build_rve(spec)
+        fields = built.voxelize(spec["rve"]["voxel"])
+    return TransportCase(spec, transport, built.rve, fields)

@@ -78,11 +78,12 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         contact_angle_deg=float(transport["contact_angle_deg"]),
     )
     progress.stage("specific surface (marching cubes)")
-    sv = specific_surface(fields)
+    sv = specific_surface(fields, rve=rve)
     out = ps.to_dict()
     out["specific_surface_m-1"] = sv.specific_surface_m_1
     out["specific_surface_rel_error"] = sv.rel_error
     out["surface_area_m2"] = sv.area_m2
+    out["surface_periodic_axes"] = sv.extra["periodic_axes"]  # the axes wrapped (session 52)
     out["surface_method"] = (
         "marching cubes on the analytic signed distance"
         if fields.analytic_distance
@@ -226,7 +227,7 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         from psdesign.flow.error import status_of
         from psdesign.transport.pores import specific_surface
 
-        sv = specific_surface(fields)
+        sv = specific_surface(fields, rve=rve)
         row["specific_surface_m-1"] = sv.specific_surface_m_1
         row["specific_surface_rel_error"] = sv.rel_error
         row["specific_surface_status"] = status_of(True, sv.rel_error, cpd)

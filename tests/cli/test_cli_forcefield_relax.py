@@ -230,7 +230,8 @@ def test_relax_prints_and_writes_error_bars(tmp_path, capsys):
     spec = tmp_path / "s.toml"
     spec.write_text(RODS.replace("max_shift = 10e-6", "max_shift = 1e-6") + "u_max = 0.01\n")
     out = tmp_path / "out"
-    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    # 3: an overlap is left (below), whatever bound the moves touch (it was at_bound, exit 0)
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
     printed = json.loads(capsys.readouterr().out)
     summary = json.loads((out / "summary.json").read_text())
     rve = json.loads((out / "rve.json").read_text())["forcefield"]
@@ -242,7 +243,7 @@ def test_relax_prints_and_writes_error_bars(tmp_path, capsys):
     assert abs(start["U"] - true_u) <= start["U_error"] <= 0.01 * start["U"]
     assert abs(start["U"] - true_u) > 0.0  # 8 nodes are not exact here: the bar is tested
     # the end: a crossing is left; U and its terms carry their bar, U_error = w1 * volume's bar
-    assert summary["omega_analytic_after"] > 0.0 and summary["status"] == "at_bound"
+    assert summary["omega_analytic_after"] > 0.0 and summary["status"] == "contact_left"
     assert summary["potentials"]["U"] == summary["U"]
     err = summary["potentials_error"]
     assert summary["U_error"] == pytest.approx(1e10 * err["volume_interaction"], rel=1e-12)
@@ -254,6 +255,30 @@ def test_relax_prints_and_writes_error_bars(tmp_path, capsys):
     for name, e in summary["variables_error"].items():
         want = fv["u"] if name.startswith("u[") else fv["shift_m"] / 1e-4
         assert e == pytest.approx(want, rel=1e-12), name
+
+
+def test_relax_on_its_bound_with_an_overlap_left_is_contact_left(tmp_path, capsys):
+    """docs/forcefield.md: a relaxation that leaves an overlap is ``contact_left``, exit 3,
+    also when a move stops on its bound (session 52 walk: ``at_bound``, exit 0, with 9 contacts
+    before and 9 after). Truth: two perpendicular cylinders of diameter D are disjoint iff the
+    distance of their axes is >= D; two 1 um moves from 3 um leave at most 5 um < D = 10 um, so
+    they still cross (Steinmetz volume > 0), and the moves sit on their 1 um bound."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(RODS.replace("max_shift = 10e-6", "max_shift = 1e-6") + "u_max = 0.01\n")
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
+    (warn,) = capsys.readouterr().err.strip().splitlines()
+    assert "still overlap (contact_left; the moves stop on the bound of t1[0]" in warn
+    summary = json.loads((out / "summary.json").read_text())
+    fibers = [b for b in (out / "relaxed.toml").read_text().split("[[fibers]]")[1:] if "shape" in b]
+    z = [json.loads(b.split("center = ")[1].splitlines()[0])[2] for b in fibers]
+    assert abs(z[1] - z[0]) <= 5e-6 + 1e-12  # axes at most 3 + 2 x 1 um apart: < D, they cross
+    assert _two_cylinder_volume(D / 2, abs(z[1] - z[0])) > 0.0
+    assert summary["omega_analytic_after"] > 0.0
+    assert summary["status"] == "contact_left" and summary["converged"] is False
+    assert summary["at_bound"]  # the bound it stopped on stays in the record
+    rve = json.loads((out / "rve.json").read_text())["forcefield"]
+    assert rve["status"] == "contact_left" and rve["at_bound"] == summary["at_bound"]
 
 
 def test_relax_says_the_units_of_its_numbers(tmp_path, capsys):
@@ -268,7 +293,8 @@ def test_relax_says_the_units_of_its_numbers(tmp_path, capsys):
     spec = tmp_path / "s.toml"
     spec.write_text(RODS.replace("max_shift = 10e-6", "max_shift = 1e-6") + "u_max = 0.01\n")
     out = tmp_path / "out"
-    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 0
+    # 3: the 1 um moves leave the rods crossing (contact_left, session 52; it was at_bound, 0)
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 3
     summary = json.loads((out / "summary.json").read_text())
     assert summary["units"] == RELAX_UNITS
     assert json.loads((out / "rve.json").read_text())["forcefield"]["units"] == RELAX_UNITS

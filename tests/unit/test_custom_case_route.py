@@ -116,6 +116,6 @@ def test_a_custom_case_functions_grid_refusal_names_no_solver_a_user_cannot_set(
     with pytest.raises(StudyError) as ei:
         load_study(p, case_fn=fake_case)
     line = str(ei.value)
-    assert "(2.7e+10 voxels, 16 B each for the voxel grid's own fields; a custom case" in line
+    assert "(2.7e+10 voxels, 16 B each for the voxel grid's own fields; no flow solve is" in line
     assert "solver" not in line, line
     assert f"needs about {2.7e10 * 16 / 2**30:.3g} GiB" in line

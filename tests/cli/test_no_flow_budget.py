@@ -1,0 +1,118 @@
+"""Commands that solve no flow are held to their voxel grid's memory, not to a flow solve.
+
+Session 52 walk (geometry): ``generate``, ``pores``, ``diffusivity`` (and ``conductivity``,
+``forcefield``) refused, exit 2, a spec with no ``[flow]`` table for "the FEM solve of about
+1.22e+06 tets (2 copies) needs about 16.7 GiB", a solve none of them runs; the advice the
+transport warnings gave (a finer voxel) led there. They now load the spec inside
+:func:`psdesign.schema.budget.unplanned_route`; ``permeability --solver fem`` and ``study run``
+still refuse up front.
+
+Truth: the budget's own figures on a machine of 64 MiB (budget 32 MiB): the FEM's refined
+field of two D = 6 um rods at 1 um voxels needs about 0.938 GiB (refused), the 20^3 grid's own
+fields 16 B per voxel (:data:`~psdesign.schema.budget.GEOMETRY_BYTES_PER_VOXEL`), 128 kB (fits);
+on a machine of 200 kB (budget 100 kB) the grid itself does not fit and every command refuses.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from psdesign.cli.main import main
+from psdesign.schema import budget
+
+SPEC = """[rve]
+size = [20e-6, 20e-6, 20e-6]
+voxel = 1e-6
+[[fibers]]
+shape = "rod"
+diameter = 6e-6
+center = [10e-6, 10e-6, 10e-6]
+[[fibers]]
+shape = "rod"
+diameter = 6e-6
+center = [10e-6, 10e-6, 14e-6]
+omega = 90.0
+"""
+
+STUDY = """[base.rve]
+size = [20e-6, 20e-6, 20e-6]
+voxel = 1e-6
+[[base.fibers]]
+shape = "rod"
+diameter = 6e-6
+center = [10e-6, 10e-6, 10e-6]
+[study]
+name = "s"
+design = "full-factorial"
+seeds = [1]
+outputs = ["porosity", "k_z"]
+solver = "fem"
+[parameters]
+"rve.voxel" = [1e-6]
+"""
+
+
+def _argv(name: str, spec, tmp_path) -> list[str]:
+    s = str(spec)
+    relax = tmp_path / "relax.toml"  # the force field's own spec: [forcefield.relax] added
+    relax.write_text(SPEC + "[forcefield.relax]\nmax_shift = 6e-6\n")
+    return {
+        "generate": ["generate", s, "-o", str(tmp_path / "g"), "--no-preview"],
+        "pores": ["pores", s, "--json"],
+        "diffusivity": ["diffusivity", s, "--direction", "z", "--json"],
+        "conductivity": ["conductivity", s, "--direction", "z", "--json"],
+        "forcefield": [
+            "forcefield",
+            str(relax),
+            "-o",
+            str(tmp_path / "f"),
+            "--no-pictures",
+            "--quiet",
+        ],
+    }[name]
+
+
+@pytest.fixture
+def spec(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text(SPEC)
+    return p
+
+
+def test_the_premise():
+    assert budget.GEOMETRY_BYTES_PER_VOXEL * 20**3 == pytest.approx(128e3)
+    assert budget.grid_bytes([20] * 3, "geometry") < 32 * 2**20 < 0.938 * 2**30
+
+
+@pytest.mark.parametrize("name", ["generate", "pores", "diffusivity", "conductivity", "forcefield"])
+def test_a_command_that_solves_no_flow_is_not_refused_for_the_fem_solve(
+    name, spec, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**20)
+    rc = main(_argv(name, spec, tmp_path))
+    err = capsys.readouterr().err
+    assert "psdesign: error" not in err and "FEM" not in err, err
+    assert rc in (0, 3)  # a result, rated (3: a value not trusted at 6 voxels per fibre)
+
+
+def test_the_flow_solves_still_refuse_up_front(spec, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**20)
+    assert main(["permeability", str(spec), "--solver", "fem", "--direction", "z"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: rve.voxel: the FEM's refined field needs about")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    assert main(["study", "run", str(study), "-o", str(tmp_path / "out")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "base.rve.voxel: the FEM's refined field needs about" in line
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["generate", "pores", "forcefield"])
+def test_their_voxel_grid_is_still_held_to_the_memory(name, spec, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(budget, "machine_memory", lambda: 200e3)
+    assert main(_argv(name, spec, tmp_path)) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "rve.voxel: a 20x20x20 grid (8e+03 voxels, 16 B each for the voxel grid's own" in line
+    assert f"needs about {128e3 / 2**30:.3g} GiB" in line
+    assert not (tmp_path / "g").exists() and not (tmp_path / "f").exists()
