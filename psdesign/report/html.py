@@ -147,9 +147,38 @@ def _fmt(v) -> str:
     return str(v)
 
 
+#: The columns the unit selector converts: a permeability in m² (``k_z_m2``, a tensor's
+#: ``k_xz_m2``). Any other name ending in ``_m2`` stays: the main effects' "mean log10
+#: k_z_m2" (-11.33) became -1.148e+13 in darcy (review s52, walk-report 1).
+K_VALUE_COLUMN = re.compile(r"k_[xyz]{1,2}_m2")
+
+#: Under a table whose K (or log10 K) stays in m² whatever the unit selector picks.
+STAYS_M2_NOTE = (
+    '<p class="note psd-stays-m2">This table stays in m² (the unit selector converts the '
+    "Results table's K columns and the K figures).</p>"
+)
+
+
+def _converts(col: str) -> bool:
+    """Whether the unit selector converts column ``col`` (:data:`K_VALUE_COLUMN`).
+
+    >>> _converts("k_z_m2"), _converts("k_xy_m2"), _converts("mean log10 k_z_m2")
+    (True, True, False)
+    """
+    return K_VALUE_COLUMN.fullmatch(str(col)) is not None
+
+
+def _head(col: str) -> str:
+    """A table header; a converted K column names the unit the selector picked (the
+    ``psd-kunit`` span report.js rewrites): ``k_z (m²)``."""
+    if _converts(col):
+        return f'<th title="{_esc(col)}">{_esc(col[:-3])} (<span class="psd-kunit">m²</span>)</th>'
+    return f"<th>{_esc(col)}</th>"
+
+
 def _cell(col: str, v) -> str:
-    """A table cell; K columns (``*_m2``) carry the value in m^2 for the unit selector."""
-    if col.endswith("_m2") and isinstance(v, float | int | np.floating) and math.isfinite(v):
+    """A table cell; a K column (:func:`_converts`) carries the value in m² for the selector."""
+    if _converts(col) and isinstance(v, float | int | np.floating) and math.isfinite(v):
         return f'<td data-m2="{float(v)!r}">{_esc(_fmt(v))}</td>'
     return f"<td>{_esc(_fmt(v))}</td>"
 
@@ -162,9 +191,10 @@ def _table(
     table_class: str = "sortable",
 ):
     """A scrolling, sortable table of ``df``; the columns of ``raw`` hold HTML already
-    escaped (:func:`_k_cell`), the others values (:func:`_cell`)."""
+    escaped (:func:`_k_cell`), the others values (:func:`_cell`). A table with a K (or log10
+    K) column the unit selector does not convert says it stays in m² (:data:`STAYS_M2_NOTE`)."""
     cols = list(df.columns)
-    head = "".join(f"<th>{_esc(c)}</th>" for c in cols)
+    head = "".join(_head(c) for c in cols)
     body = []
     for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
         cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
@@ -173,6 +203,8 @@ def _table(
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
+    if any(("_m2" in str(c) or "m²" in str(c)) and not _converts(c) for c in cols):
+        more += STAYS_M2_NOTE
     return (
         f'<div class="scroll"><table class="{table_class}"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(body)

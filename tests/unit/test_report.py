@@ -2138,3 +2138,28 @@ def test_the_diffusivity_figure_is_drawn_once_with_every_label_inside(monkeypatc
     box = fig.axes[0].get_tightbbox(renderer)
     assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= fig.bbox.width, box
     assert box.y1 <= fig.bbox.height, (box, fig.bbox)
+
+
+def test_unit_selector_converts_only_k_columns_and_names_its_unit(tmp_path):
+    """Review s52 (walk-report 1): every column ending in ``_m2`` was marked for the unit
+    selector, so the main effects' "mean log10 k_z_m2" (-11.33) became -1.148e+13 in darcy,
+    and no header followed the selector. Truth: the converted cells are exactly the K values
+    in m² of results.csv (a value times a unit factor is only meaningful for a K), each such
+    column's header holds the ``psd-kunit`` span report.js rewrites, and a table whose K stays
+    in m² says so."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    page = (tmp_path / "out" / "report.html").read_text()
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    marked = sorted(float(v) for v in re.findall(r'<td data-m2="([^"]+)"', page))
+    truth = sorted(float(v) for c in ("k_x_m2", "k_z_m2") for v in df[c].dropna())
+    assert marked == pytest.approx(truth, rel=1e-15)
+    me = re.search(r"Main effects \(mean response per level\)</h3>(.*?)</table>", page, re.S)
+    assert me is not None and "mean log10 k_z_m2" in me.group(1)
+    assert "data-m2" not in me.group(1)
+    for d in "xz":  # the Results table's K headers follow the selector
+        assert f'k_{d} (<span class="psd-kunit">m²</span>)</th>' in page
+    # the glance and main-effects tables (fake_case has no K table) stay in m² and say so
+    glance = page.split('id="psd-glance"', 1)[1].split("</table>", 1)
+    assert 'class="note psd-stays-m2"' in glance[0]
+    assert page.split(me.group(0), 1)[1].startswith('</div><p class="note psd-stays-m2">')
