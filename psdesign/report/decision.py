@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import math
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -487,9 +488,54 @@ def _interaction_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols: list[str], a, 
     return fig
 
 
-def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
+class ReportFit(NamedTuple):
+    """The surrogate the report draws (:func:`report_fit`): the fit, the K column it models,
+    the cases it was fitted to and its numeric inputs."""
+
+    surrogate: object
+    column: str
+    ok: pd.DataFrame
+    num: list[str]
+
+
+def report_fit(df: pd.DataFrame, params: list[str], study: dict) -> ReportFit | None:
+    """The Gaussian-process surrogate the report draws, fitted from the cases whose K is
+    trusted, or ``None`` when it draws none (fewer than :data:`MIN_CASES_SURROGATE` such
+    cases, or no varying numeric parameter). One fit for the section and the red box."""
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+
+    ok = _ok(df)
+    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
+    # the K with the most trusted values (z first on a tie); fit, range and markers are
+    # those cases only (a case whose K is not ok must not look like a data point)
+    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+    if c is not None:
+        ok = ok[ok[c] > 0]
+    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
+    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
+        return None
+    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    return ReportFit(s, c, ok, num)
+
+
+def fit_alert(fit: ReportFit | None) -> str:
+    """The red box's line for a surrogate the report draws that is not trusted (its rating,
+    the one `study fit` prints), or ``""`` (review s52: `study fit` exited 3 on a fit the
+    report drew under a green page and an exit of 0)."""
+    if fit is None:
+        return ""
+    status, why = fit.surrogate.rating()
+    if status == "ok":
+        return ""
+    return f"the surrogate of {fit.column} the report draws is {status} ({'; '.join(why)})"
+
+
+def surrogate_plots(
+    df: pd.DataFrame, params: list[str], study: dict, fit: ReportFit | None = None
+) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
-    its relative uncertainty), fitted here from the finished cases; no surface over two
+    its relative uncertainty), fitted here from the finished cases (or ``fit``, the same
+    :func:`report_fit` made by the caller); no surface over two
     parameters that moved together (a note says why: :func:`~psdesign.analysis.sensitivity.
     entangled_inputs`, the rule that gives them no Sobol index); a third parameter that moved
     with one of the two follows it on the surface as in the cases (:func:`~psdesign.analysis.
@@ -502,24 +548,17 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         sobol_indices,
         tied_inputs,
     )
-    from psdesign.analysis.surrogate import MIN_FIT_CASES, fit_surrogate, parameter_bounds
+    from psdesign.analysis.surrogate import MIN_FIT_CASES
 
-    ok = _ok(df)
-    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
-    # the K with the most trusted values (z first on a tie); fit, range and markers are
-    # those cases only (a case whose K is not ok must not look like a data point)
-    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
-    if c is not None:
-        ok = ok[ok[c] > 0]
-    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
-    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
+    fit = fit or report_fit(df, params, study)
+    if fit is None:
         return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
             f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
             "finished cases with a trusted K and a varying numeric parameter; <code>psdesign "
             f"study fit</code> fits from {MIN_FIT_CASES} (its cross-validated error says how far "
             "to trust it).</p>"
         )
-    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    s, c, ok, num = fit
     # the rating `study fit` prints (cross-validated error and length scales), not a second rule
     status, why = s.rating()
     weak = ""
