@@ -26,7 +26,7 @@ import re
 import shutil
 import socket
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -287,6 +287,7 @@ def check_added_files(
     option: str = "out_dir",
     legacy: Iterable[str] = (),
     legacy_files: Iterable[str] = (),
+    legacy_owns: Callable[[Path], bool] | None = None,
 ) -> OutputDir:
     """Check that psdesign may add ``files`` to ``folder``, an existing folder given as input
     (a study folder for ``study fit`` / ``study report``); nothing is created or changed.
@@ -305,6 +306,11 @@ def check_added_files(
     legacy_files : iterable of str
         The other files such a folder owns; they are recorded with ``files`` when the marker
         is first written, so that the folder stays the older command's (a study resumes).
+    legacy_owns : callable, optional
+        Whether such a folder's existing file among ``files`` is recognisably psdesign's
+        (e.g. its report's title); one it is not is refused like a file the marker does not
+        list. Review s52: ``cp -r out/* dest/`` drops the marker (a dotfile), and a user's
+        own report.html in ``dest`` was replaced.
 
     Raises
     ------
@@ -317,6 +323,13 @@ def check_added_files(
     )
     owned = out.owned
     if out.exists and owned and read_marker(out.path) is None:  # an older psdesign's folder
+        for rel in files if legacy_owns else ():
+            p = out.path / rel
+            if p.is_file() and not legacy_owns(p):  # it owns what it wrote, not any file
+                raise out.fail(
+                    f"{p} exists, no {MARKER} lists it and it is not a file psdesign writes; "
+                    "it is never replaced: move it away or choose another folder"
+                )
         owned = owned | set(legacy_files)
     return OutputDir(out.path, out.option, out.command, frozenset(owned), out.exists)
 
