@@ -728,6 +728,42 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     return fig
 
 
+#: Steps of the surface's relative uncertainty (a fraction): 0.01 %, below the colour bar's
+#: 0.1 % ticks. A field whose spread is within one step is one number, not a map: contoured
+#: raw, a constant 0.1998 bar drew stray lines from 1e-16 noise and one colour-bar tick
+#: "0.1998213424444766073" (review s52, walk-report 4).
+REL_UNCERTAINTY_STEP = 1e-4
+
+
+def _uncertainty_panel(fig, ga, gb, rel: np.ndarray, bar: dict, floor: bool) -> bool:
+    """Draw the right panel of :func:`_surface_2d`: contours of ``rel`` (bar / mean, rounded
+    to :data:`REL_UNCERTAINTY_STEP`, ticks in %); a field within one step of constant is a
+    note in the panel instead, naming the hold-out floor when ``floor`` (every bar is it).
+    Returns whether it was constant."""
+    import plotly.graph_objects as go
+
+    z = np.round(rel, 4)
+    if np.ptp(z) <= REL_UNCERTAINTY_STEP:
+        why = "<br>(the fit's estimated error between design points)" if floor else ""
+        pct = 100 * float(np.median(rel))
+        fig.add_annotation(
+            text=f"bar = {pct:.1f} % of the mean everywhere in the box{why}",
+            xref="paper",  # the right panel's middle (its axes hold the cases alone)
+            yref="paper",
+            x=sum(fig.layout.xaxis2.domain) / 2,
+            xanchor="center",
+            y=0.5,
+            showarrow=False,
+            bgcolor="white",
+        )
+        return True
+    right_bar = {"x": 1.01, "title": {"text": "bar /<br>mean"}, "tickformat": ".1%"}
+    fig.add_trace(
+        go.Contour(x=ga, y=gb, z=z, colorscale="Greys", colorbar={**right_bar, **bar}), 1, 2
+    )
+    return False
+
+
 def _surface_2d(
     s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str, ties: dict | None = None
 ):
@@ -738,7 +774,7 @@ def _surface_2d(
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    from psdesign.analysis.prediction import prediction_bar
+    from psdesign.analysis.prediction import holdout_bar, prediction_bar
 
     a, b = pair
     log_a, log_b = s.log_params[num.index(a)], s.log_params[num.index(b)]
@@ -762,18 +798,8 @@ def _surface_2d(
         1,
         1,
     )
-    right_bar = {"x": 1.01, "title": {"text": "bar /<br>mean (-)"}}
-    fig.add_trace(
-        go.Contour(
-            x=ga,
-            y=gb,
-            z=(err / m).reshape(A.shape),
-            colorscale="Greys",
-            colorbar={**right_bar, **bar},
-        ),
-        1,
-        2,
-    )
+    floor = bool(np.all(err <= holdout_bar(s, m)))  # the GP std nowhere above the floor
+    _uncertainty_panel(fig, ga, gb, (err / m).reshape(A.shape), bar, floor)
     for col in (1, 2):
         fig.add_trace(
             go.Scatter(
