@@ -82,7 +82,7 @@ def test_sensitivity_and_main_effects_against_hand_values():
     me = main_effects(df, ["a", "b"])
     row = me[(me["parameter"] == "a") & (me["level"] == "2.0")].iloc[0]
     assert row["mean log10 k_z_m2"] == pytest.approx(-11.0)
-    assert row["n"] == 3
+    assert row["n log10 k_z_m2"] == row["n porosity"] == 3
     rows_b = me[me["parameter"] == "b"]
     assert np.allclose(rows_b["mean log10 k_z_m2"], -11.0)  # (-11.5 - 11 - 10.5) / 3
 
@@ -734,7 +734,9 @@ def test_a_design_point_listed_twice_counts_once_in_spearman_and_main_effects(mo
     me = main_effects(df, ["a", "b"]).set_index(["parameter", "level"])
     want_b1 = np.mean(np.log10([1e-12, 2e-12, 4e-12]))
     assert me.loc[("b", "1.0"), "mean log10 k_z_m2"] == pytest.approx(want_b1, abs=1e-12)
-    assert me.loc[("b", "1.0"), "n"] == 3 and me.loc[("a", "5.0"), "n"] == 1
+    assert (
+        me.loc[("b", "1.0"), "n log10 k_z_m2"] == 3 and me.loc[("a", "5.0"), "n log10 k_z_m2"] == 1
+    )
     figs = []
     real = decision.figure_html
     monkeypatch.setattr(
@@ -2173,3 +2175,22 @@ def test_unit_selector_converts_only_k_columns_and_names_its_unit(tmp_path):
     glance = page.split('id="psd-glance"', 1)[1].split("</table>", 1)
     assert 'class="note psd-stays-m2"' in glance[0]
     assert page.split(me.group(0), 1)[1].startswith('</div><p class="note psd-stays-m2">')
+
+
+def test_main_effects_count_the_values_behind_each_mean():
+    """Review s52 (walk-report 5): tiny2's main effects showed porosity 0.8: n = 2 beside a
+    mean log10 K of one value (the other K untrustworthy; summary.csv's k_z_m2_n said 1).
+    Truth by hand: at a = 1 two cases, one with its K not trusted (NaN after ``trusted``):
+    the mean log10 K is log10(2e-12) from 1 value, the mean porosity (0.5 + 0.7) / 2 from 2."""
+    df = pd.DataFrame(
+        {
+            "a": [1.0, 1.0, 2.0, 2.0],
+            "porosity": [0.5, 0.7, 0.6, 0.8],
+            "k_z_m2": [2e-12, np.nan, 3e-12, 5e-12],
+            "status": "ok",
+        }
+    )
+    row = main_effects(df, ["a"]).set_index("level").loc["1.0"]
+    assert row["mean log10 k_z_m2"] == pytest.approx(np.log10(2e-12), abs=1e-12)
+    assert row["n log10 k_z_m2"] == 1
+    assert row["mean porosity"] == pytest.approx(0.6, abs=1e-12) and row["n porosity"] == 2
