@@ -391,11 +391,43 @@ def _levels(x: pd.Series) -> pd.Series:
     return x.groupby(bins).transform("median")  # each bin named by its median value
 
 
+def _main_effects_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols, num, logs):
+    """Mean log10 K per level: a panel per parameter over its levels in its own unit (a
+    ``loguniform`` one of ``logs`` on a log axis), log10 K shared. Until session 52 one axis
+    held every parameter's level rank, 0..1 ("level (low -> high)"; review s52)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    fig = make_subplots(rows=1, cols=len(num), shared_yaxes=True, horizontal_spacing=0.06)
+    for i, p in enumerate(num, start=1):
+        lv = _levels(ok[p].astype(float))
+        for c in kcols:
+            m = y[c].groupby(lv.to_numpy()).mean()
+            fig.add_trace(
+                go.Scatter(
+                    x=[float(v) for v in m.index],
+                    y=m.to_list(),
+                    mode="markers+lines",
+                    name=f"{p}: {c}",
+                    text=[_value(p, v) for v in m.index],
+                ),
+                1,
+                i,
+            )
+        fig.update_xaxes(param_axis(p, p in logs), row=1, col=i)
+    fig.update_yaxes(title_text="log10 K (m²)", row=1, col=1)
+    fig.update_layout(
+        title="Main effects: mean log10 K per level",
+        height=380,
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
+
+
 def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
     """Main effects (mean log10 K per level, each distinct realization counted once) and the
     two-factor interaction of the first two numeric parameters (lines of one parameter's
     levels over the other's; a ``loguniform`` one of ``study`` on a log axis)."""
-    import plotly.graph_objects as go
 
     from psdesign.analysis.entangled import entangled, tied_to_axes
     from psdesign.analysis.surrogate import log_parameters
@@ -409,36 +441,12 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
             or '<p class="note">Main effects need a varying numeric parameter and K.</p>'
         )
     y = np.log10(ok[kcols].where(ok[kcols] > 0))
-    parts = []
-    fig = go.Figure()
-    for p in num:
-        lv = _levels(ok[p].astype(float))
-        for c in kcols:
-            m = y[c].groupby(lv.to_numpy()).mean()
-            # x as the level's rank scaled to [0, 1], so parameters share one axis
-            xr = np.linspace(0, 1, len(m)) if len(m) > 1 else [0.5]
-            fig.add_trace(
-                go.Scatter(
-                    x=list(xr),
-                    y=m.to_list(),
-                    mode="markers+lines",
-                    name=f"{p}: {c}",
-                    text=[f"{v:.4g}" for v in m.index],
-                )
-            )
-    fig.update_layout(
-        title="Main effects: mean log10 K per level (levels low to high)",
-        height=380,
-        xaxis_title="level (low -> high)",
-        yaxis_title="log10 K (m²)",
-        margin={"l": 60, "r": 10, "t": 40, "b": 50},
-    )
-    parts.append(figure_html(fig, "psd-main-effects"))
+    logs = log_parameters((study or {}).get("parameters") or {})
+    parts = [figure_html(_main_effects_figure(ok, y, kcols, num, logs), "psd-main-effects")]
     # the groups over every varied parameter (a and b linked through c = 3 a = 3 b are one line
     # too); a third parameter that moved with one of the two moved with it in the cases shown
     tangled = entangled(ok[num].to_numpy(dtype=float), num, num[:2]) if len(num) >= 2 else ""
     if len(num) >= 2 and not tangled:
-        logs = log_parameters((study or {}).get("parameters") or {})
         fig = _interaction_figure(ok, y, kcols, num[0], num[1], num[0] in logs)
         parts.append(figure_html(fig, "psd-interaction"))
     note = (

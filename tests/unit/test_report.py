@@ -2194,3 +2194,30 @@ def test_main_effects_count_the_values_behind_each_mean():
     assert row["mean log10 k_z_m2"] == pytest.approx(np.log10(2e-12), abs=1e-12)
     assert row["n log10 k_z_m2"] == 1
     assert row["mean porosity"] == pytest.approx(0.6, abs=1e-12) and row["n porosity"] == 2
+
+
+def test_main_effects_plot_each_parameter_over_its_levels_in_its_unit(monkeypatch):
+    """Review s52 (walk-report 5): the main-effects figure put every parameter on one axis of
+    level ranks 0..1 ("level (low -> high)"), so no level could be read. Truth: each trace's
+    x are its parameter's levels (here 0.7/0.8/0.9 and 6/8 um) on a panel whose axis names
+    the parameter with its unit; y is the hand mean of log10 K per level."""
+    from psdesign.report import decision
+
+    a, b = np.repeat([0.7, 0.8, 0.9], 2), np.tile([6e-6, 8e-6], 3)
+    k = 1e-12 * 10 ** (3 * a) * (b / 6e-6)
+    df = pd.DataFrame({"generator.porosity": a, "generator.diameter": b, "k_z_m2": k})
+    df["status"], df["seed"], df["case_id"] = "ok", 1, [f"c{i}" for i in range(6)]
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *x, **kw: (figs.append(fig), real(fig, *x, **kw))[1]
+    )
+    decision.effect_plots(df, ["generator.porosity", "generator.diameter"])
+    fig = figs[0]
+    by = {t.name: t for t in fig.data}
+    eps, dia = by["generator.porosity: k_z_m2"], by["generator.diameter: k_z_m2"]
+    assert list(eps.x) == [0.7, 0.8, 0.9] and list(dia.x) == [6e-6, 8e-6]
+    want = np.mean(np.log10(k[a == 0.8]))
+    assert eps.y[1] == pytest.approx(want, abs=1e-12)
+    assert fig.layout[eps.xaxis.replace("x", "xaxis")].title.text == "generator.porosity (-)"
+    assert fig.layout[dia.xaxis.replace("x", "xaxis")].title.text == "generator.diameter (m)"
