@@ -961,6 +961,21 @@ def _status_banner(df: pd.DataFrame, alerts: list[str] | tuple[str, ...] = ()) -
     )
 
 
+def _design_text(study: dict, out: Path) -> str | None:
+    """The Study table's design: a folder ``study optimize`` made (its marker's command) ran
+    its own search, whatever the spec's design (review s52: it read ``csv``, the form of each
+    round, for a spec saying latin-hypercube)."""
+    from psdesign.analysis.optimize import OPTIMIZE_COMMAND
+    from psdesign.io.outputs import read_marker
+
+    if (read_marker(out) or {}).get("command") == OPTIMIZE_COMMAND:
+        return (
+            "study optimize search: a Latin-hypercube start, then the points its surrogate "
+            "chose (optimize.json)"
+        )
+    return study.get("design")
+
+
 def _meta_table(
     df: pd.DataFrame, study: dict, runs: dict, params: list[str], name: str, out: Path
 ) -> str:
@@ -980,7 +995,7 @@ def _meta_table(
     meta_rows = [
         ("study", name),
         ("description", study.get("description", "")),
-        ("design", study.get("design")),
+        ("design", _design_text(study, out)),
         *image_rows(study, out, study.get(HEADER_KEY)),
         ("cases", len(df)),
         ("status", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))),
