@@ -600,8 +600,8 @@ def surrogate_plots(
     if not tangled:  # a surface is drawn: what its band is
         parts[0] += f'<p class="note">{html.escape(surface_band_note(s))}.</p>'
     if len(order) == 1:
-        fig = _surface_1d(s, ok, num, order[0], c)
-        parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
+        fig = _surface_1d(s, ok, num, order[0], c)  # its y axis: "K (m²)"
+        parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label="K"))
     elif tangled:  # the sensitivity rule: a surface over a pair the cases never separated
         parts.append(f'<p class="note">Response surface not shown: {html.escape(tangled)}.</p>')
     else:

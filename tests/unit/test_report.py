@@ -2221,3 +2221,21 @@ def test_main_effects_plot_each_parameter_over_its_levels_in_its_unit(monkeypatc
     assert eps.y[1] == pytest.approx(want, abs=1e-12)
     assert fig.layout[eps.xaxis.replace("x", "xaxis")].title.text == "generator.porosity (-)"
     assert fig.layout[dia.xaxis.replace("x", "xaxis")].title.text == "generator.diameter (m)"
+
+
+def test_the_1d_surrogate_axis_keeps_its_name_in_every_unit():
+    """Review s52 (walk-report 1): in darcy the surrogate plot's axis read "k_z_m2 (darcy)"
+    (a column name in m² beside another unit); it is "K (m²)" and the selector rewrites the
+    unit alone: the label report.js puts before the unit is the axis title's "K"."""
+    import json
+
+    from psdesign.report.decision import surrogate_plots
+
+    eps = np.repeat([0.7, 0.75, 0.8, 0.85, 0.9], 2)
+    df = pd.DataFrame({"generator.porosity": eps, "k_z_m2": 2 * kc_truth(eps, 7e-6)})
+    df["status"], df["seed"] = "ok", np.tile([1, 2], 5)
+    df["case_id"] = [f"c{i}" for i in range(10)]
+    text = surrogate_plots(df, ["generator.porosity"], {})
+    push = r"window\.PSD_KFIGS = window\.PSD_KFIGS \|\| \[\]\)\.push\((.*?)\);</script>"
+    reg = re.search(push, text)
+    assert reg is not None and json.loads(reg.group(1))["label"] == "K"
