@@ -1011,6 +1011,12 @@ def test_a_copy_without_the_marker_keeps_a_users_report_and_surrogate(tmp_path, 
     assert len(err) == 1 and f"{theirs} exists" in err[0] and "never replaced" in err[0], err
     assert theirs.read_text() == "MY OWN FILE\n"
     assert not (out / ".psdesign-output.json").exists()
+    if name == "report.html":  # study run resuming the copy writes a report too
+        run = ["study", "run", str(p), "-o", str(out), "--workers", "0", "--quiet"]
+        assert main([*run, "--case-fn", "study_cases:fake_case"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{theirs} exists" in err[0], err
+        assert theirs.read_text() == "MY OWN FILE\n"
     theirs.write_bytes(psdesigns)  # psdesign's own file: an older psdesign's folder
     assert main(["study", argv, str(out)]) == 0
     assert theirs.read_bytes() != b"MY OWN FILE\n"
