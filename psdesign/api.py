@@ -130,8 +130,7 @@ class PermeabilityResult:
     def _repr_html_(self) -> str:
         import html
 
-        from psdesign.geometry.porosity import porosity_text
-        from psdesign.notebook import plus_minus, result_html
+        from psdesign.notebook import plus_minus, porosity_html, result_html
 
         # from_dict takes any strings: escaped (session 52 I/O review, finding 5)
         rows = [
@@ -140,7 +139,7 @@ class PermeabilityResult:
             ("error estimate", plus_minus(self.rel_error)),
             ("converged", str(self.converged)),
             ("solver / bc", html.escape(f"{self.solver} / {self.bc}")),
-            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
+            ("porosity (-)", porosity_html(self.porosity, self.porosity_error)),
         ]
         notes = self.details.get("warnings") or []
         return result_html("PermeabilityResult", rows, self.status, list(notes))
@@ -422,8 +421,7 @@ class Material:
         import html
 
         from psdesign.analysis.columns import porosity_status
-        from psdesign.geometry.porosity import porosity_text
-        from psdesign.notebook import result_html
+        from psdesign.notebook import porosity_html, result_html
 
         grid = self.rve.grid(self.spec["rve"]["voxel"])
         source = (  # the file name escaped: a<i>b&c.npy went in raw (session 52 I/O review)
@@ -440,7 +438,7 @@ class Material:
             rows.append(("porosity (-)", "not computed yet (m.porosity voxelizes)"))
             return result_html("Material", rows, "unrated", [])
         eps, err = self.porosity, self.porosity_error
-        rows.append(("porosity (-)", porosity_text(eps, err)))
+        rows.append(("porosity (-)", porosity_html(eps, err)))
         return result_html("Material", rows, porosity_status(eps, err), [])
 
     def __repr__(self) -> str:

@@ -42,3 +42,16 @@ def plus_minus(rel_error: float | None) -> str:
     if rel_error is None:
         return "n/a"
     return f"&plusmn; {100 * rel_error:.2g} %"
+
+
+def porosity_html(porosity: float, error: float | None) -> str:
+    """The porosity row's value as the other rows write theirs: ``0.8497 &plusmn; 3.1e-03``
+    (:func:`~psdesign.geometry.porosity.porosity_text` with ``&plusmn;`` for ``+-``; the
+    notebook showed ``+-`` beside every other row's ``±``, review s52).
+
+    >>> porosity_html(0.84972, 0.0031)
+    '0.8497 &plusmn; 3.1e-03'
+    """
+    from psdesign.geometry.porosity import porosity_text
+
+    return porosity_text(porosity, error).replace(" +- ", " &plusmn; ")

@@ -17,8 +17,9 @@ code   name               meaning
                           ``extrapolated``, ``contact_left``...: read it),
                           ``study optimize`` missed its target, ``rev`` found no size
                           within ``--tol``, or ``study report`` shows a case not ok (its
-                          red box: a failed case too, below) or fewer cases than the
-                          study has (an unfinished study)
+                          red box: a failed case too, below), a missed optimize target or
+                          an untrustworthy surrogate (session 52; its red box too), or
+                          fewer cases than the study has (an unfinished study)
 130    ``INTERRUPTED``    Ctrl-C (SIGINT); staged outputs removed, a study resumes
 143    ``TERMINATED``     SIGTERM (``kill``, ``timeout``, a batch system's cancel)
 =====  =================  ============================================================
@@ -68,7 +69,8 @@ HELP = (
     "any work; 3 finished with complete outputs, but a result's status is not ok "
     "(not_converged, untrustworthy, blocked, extrapolated...: read it), a study optimize "
     "target was missed, no rev size was within --tol, or study report shows a case not ok "
-    "(failed too) or an unfinished study; 130 Ctrl-C; 143 SIGTERM"
+    "(failed too), a missed target or an untrustworthy surrogate, or an unfinished study; "
+    "130 Ctrl-C; 143 SIGTERM"
 )
 
 

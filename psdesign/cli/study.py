@@ -315,19 +315,19 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
-    from psdesign.report import write_report
+    from psdesign.report import write_report_alerts
     from psdesign.study.readback import cases_not_run, read_results, resume_command
     from psdesign.study.store import StorageError
 
     try:
-        path = write_report(args.out)
+        path, alerts = write_report_alerts(args.out)
     except ValueError as exc:  # ReportError, OutputError, a damaged file (study.readback)
         return fail(folder_line(exc), BAD_INPUT)
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)
     df = read_results(args.out)
-    code = report_exit_status(df)
+    code = report_exit_status(df, alerts)
     missing, n_design = cases_not_run(args.out, df)
     if missing:  # finished, but not the study: 3 ("read it"), not 1 (no case failed)
         print(
@@ -339,14 +339,16 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     return code
 
 
-def report_exit_status(df) -> int:
+def report_exit_status(df, alerts: list[str] | tuple[str, ...] = ()) -> int:
     """The exit status of ``study report`` (session 45): the report finished and is complete,
     so never ``FAILED`` for a case (``FAILED`` is a run that could not give it: ``study run``'s
     exit); ``NOT_TRUSTED`` when a case it shows is not ok (failed, timed out, not_converged, or
     an ok case with a value not ok: :func:`psdesign.cli.exit_status.case_counts`, the cases its
     red box counts), with one line saying so; else ``OK``. Until session 45 it exited 0 on a
     folder whose every case had failed. It takes no ``--allow-not-converged``: its exit says
-    whether the red box is there.
+    whether the red box is there: since session 52 also 3 for the lines ``alerts`` its box
+    adds (a missed ``study optimize`` target, an untrustworthy surrogate it draws:
+    :func:`psdesign.report.html.render_report`), one line each.
 
     >>> import pandas as pd
     >>> report_exit_status(pd.DataFrame({"status": ["ok", "ok"]}))
@@ -355,8 +357,10 @@ def report_exit_status(df) -> int:
     3
     """
     counts = case_counts(df)
+    for line in alerts:
+        print(f"psdesign: {line}: read the report's red box", file=sys.stderr)
     if not any(counts):
-        return OK
+        return NOT_TRUSTED if alerts else OK
     print(
         f"psdesign: the report shows {sum(counts)} of {len(df)} case(s) not ok ({counts.failed} "
         f"failed or timed out, {counts.not_converged} not_converged, {counts.flagged} ok with a "

@@ -26,7 +26,7 @@ import re
 import shutil
 import socket
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -172,6 +172,7 @@ def check_output_dir(
     expected: Iterable[str] = (),
     legacy: Iterable[str] = (),
     force_option: str | None = "--force",
+    legacy_owns: Callable[[Path], bool] | None = None,
 ) -> OutputDir:
     """Check that psdesign may write into ``path``; nothing is created or changed.
 
@@ -189,7 +190,10 @@ def check_output_dir(
         exists and was not written by psdesign is refused now, before the work starts.
     legacy : iterable of str
         Top-level names that identify an output folder written by an older psdesign without a
-        marker (all must be present); such a folder is psdesign's and owns ``expected``.
+        marker (all must be present); such a folder is psdesign's and owns ``expected``...
+    legacy_owns : callable, optional
+        ...but for an existing file of ``expected`` this says is not recognisably psdesign's
+        (e.g. a report.html without its title): refused as a file the marker does not list.
     force_option : str or None
         The command's option that accepts a non-empty folder, named in the refusal of one;
         None for a command without it (``--fields``, ``rev -o``): the message then names
@@ -240,7 +244,7 @@ def check_output_dir(
     legacy, expected = tuple(legacy), tuple(expected)
     owned: set[str] = set(marker["files"]) if marker else set()
     if marker is None and legacy and all((resolved / n).exists() for n in legacy):
-        owned = set(expected)  # an older psdesign's folder: its files are the command's own
+        owned = _legacy_owned(resolved, expected, legacy_owns)
     foreign = _user_entries(resolved) if marker is None and not owned else []
     if foreign and not force:
         shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
@@ -256,6 +260,17 @@ def check_output_dir(
     for rel in expected:
         _refuse_foreign(out, rel.rstrip("/"))
     return out
+
+
+def _legacy_owned(folder: Path, expected: tuple[str, ...], legacy_owns) -> set[str]:
+    """What a folder of an older psdesign (no marker) owns of ``expected``: every file but one
+    that ``legacy_owns`` says is not recognisably psdesign's (a ``cp -r out/*`` copy drops the
+    marker, and its user's own report.html was replaced: review s52)."""
+    return {
+        n
+        for n in expected
+        if legacy_owns is None or not (folder / n).is_file() or legacy_owns(folder / n)
+    }
 
 
 def _refuse_foreign(out: OutputDir, rel: str) -> None:
@@ -287,6 +302,7 @@ def check_added_files(
     option: str = "out_dir",
     legacy: Iterable[str] = (),
     legacy_files: Iterable[str] = (),
+    legacy_owns: Callable[[Path], bool] | None = None,
 ) -> OutputDir:
     """Check that psdesign may add ``files`` to ``folder``, an existing folder given as input
     (a study folder for ``study fit`` / ``study report``); nothing is created or changed.
@@ -305,6 +321,8 @@ def check_added_files(
     legacy_files : iterable of str
         The other files such a folder owns; they are recorded with ``files`` when the marker
         is first written, so that the folder stays the older command's (a study resumes).
+    legacy_owns : callable, optional
+        As for :func:`check_output_dir`.
 
     Raises
     ------
@@ -313,7 +331,13 @@ def check_added_files(
     """
     files = tuple(files)
     out = check_output_dir(
-        folder, force=True, option=option, command=command, expected=files, legacy=legacy
+        folder,
+        force=True,
+        option=option,
+        command=command,
+        expected=files,
+        legacy=legacy,
+        legacy_owns=legacy_owns,
     )
     owned = out.owned
     if out.exists and owned and read_marker(out.path) is None:  # an older psdesign's folder

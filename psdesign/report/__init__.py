@@ -1,6 +1,6 @@
 """HTML report of a study (one self-contained file) and reference permeability models."""
 
-from psdesign.report.html import ReportError, build_html, write_report
+from psdesign.report.html import ReportError, build_html, write_report, write_report_alerts
 from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
@@ -20,4 +20,5 @@ __all__ = [
     "kozeny_carman",
     "tomadakis_sotirchos",
     "write_report",
+    "write_report_alerts",
 ]

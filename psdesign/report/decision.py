@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import math
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -390,11 +391,43 @@ def _levels(x: pd.Series) -> pd.Series:
     return x.groupby(bins).transform("median")  # each bin named by its median value
 
 
+def _main_effects_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols, num, logs):
+    """Mean log10 K per level: a panel per parameter over its levels in its own unit (a
+    ``loguniform`` one of ``logs`` on a log axis), log10 K shared. Until session 52 one axis
+    held every parameter's level rank, 0..1 ("level (low -> high)"; review s52)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    fig = make_subplots(rows=1, cols=len(num), shared_yaxes=True, horizontal_spacing=0.06)
+    for i, p in enumerate(num, start=1):
+        lv = _levels(ok[p].astype(float))
+        for c in kcols:
+            m = y[c].groupby(lv.to_numpy()).mean()
+            fig.add_trace(
+                go.Scatter(
+                    x=[float(v) for v in m.index],
+                    y=m.to_list(),
+                    mode="markers+lines",
+                    name=f"{p}: {c}",
+                    text=[_value(p, v) for v in m.index],
+                ),
+                1,
+                i,
+            )
+        fig.update_xaxes(param_axis(p, p in logs), row=1, col=i)
+    fig.update_yaxes(title_text="log10 K (m²)", row=1, col=1)
+    fig.update_layout(
+        title="Main effects: mean log10 K per level",
+        height=380,
+        margin={"l": 60, "r": 10, "t": 40, "b": 50},
+    )
+    return fig
+
+
 def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None) -> str:
     """Main effects (mean log10 K per level, each distinct realization counted once) and the
     two-factor interaction of the first two numeric parameters (lines of one parameter's
     levels over the other's; a ``loguniform`` one of ``study`` on a log axis)."""
-    import plotly.graph_objects as go
 
     from psdesign.analysis.entangled import entangled, tied_to_axes
     from psdesign.analysis.surrogate import log_parameters
@@ -408,36 +441,12 @@ def effect_plots(df: pd.DataFrame, params: list[str], study: dict | None = None)
             or '<p class="note">Main effects need a varying numeric parameter and K.</p>'
         )
     y = np.log10(ok[kcols].where(ok[kcols] > 0))
-    parts = []
-    fig = go.Figure()
-    for p in num:
-        lv = _levels(ok[p].astype(float))
-        for c in kcols:
-            m = y[c].groupby(lv.to_numpy()).mean()
-            # x as the level's rank scaled to [0, 1], so parameters share one axis
-            xr = np.linspace(0, 1, len(m)) if len(m) > 1 else [0.5]
-            fig.add_trace(
-                go.Scatter(
-                    x=list(xr),
-                    y=m.to_list(),
-                    mode="markers+lines",
-                    name=f"{p}: {c}",
-                    text=[f"{v:.4g}" for v in m.index],
-                )
-            )
-    fig.update_layout(
-        title="Main effects: mean log10 K per level (levels low to high)",
-        height=380,
-        xaxis_title="level (low -> high)",
-        yaxis_title="log10 K (m²)",
-        margin={"l": 60, "r": 10, "t": 40, "b": 50},
-    )
-    parts.append(figure_html(fig, "psd-main-effects"))
+    logs = log_parameters((study or {}).get("parameters") or {})
+    parts = [figure_html(_main_effects_figure(ok, y, kcols, num, logs), "psd-main-effects")]
     # the groups over every varied parameter (a and b linked through c = 3 a = 3 b are one line
     # too); a third parameter that moved with one of the two moved with it in the cases shown
     tangled = entangled(ok[num].to_numpy(dtype=float), num, num[:2]) if len(num) >= 2 else ""
     if len(num) >= 2 and not tangled:
-        logs = log_parameters((study or {}).get("parameters") or {})
         fig = _interaction_figure(ok, y, kcols, num[0], num[1], num[0] in logs)
         parts.append(figure_html(fig, "psd-interaction"))
     note = (
@@ -487,9 +496,54 @@ def _interaction_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols: list[str], a, 
     return fig
 
 
-def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
+class ReportFit(NamedTuple):
+    """The surrogate the report draws (:func:`report_fit`): the fit, the K column it models,
+    the cases it was fitted to and its numeric inputs."""
+
+    surrogate: object
+    column: str
+    ok: pd.DataFrame
+    num: list[str]
+
+
+def report_fit(df: pd.DataFrame, params: list[str], study: dict) -> ReportFit | None:
+    """The Gaussian-process surrogate the report draws, fitted from the cases whose K is
+    trusted, or ``None`` when it draws none (fewer than :data:`MIN_CASES_SURROGATE` such
+    cases, or no varying numeric parameter). One fit for the section and the red box."""
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+
+    ok = _ok(df)
+    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
+    # the K with the most trusted values (z first on a tie); fit, range and markers are
+    # those cases only (a case whose K is not ok must not look like a data point)
+    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+    if c is not None:
+        ok = ok[ok[c] > 0]
+    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
+    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
+        return None
+    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    return ReportFit(s, c, ok, num)
+
+
+def fit_alert(fit: ReportFit | None) -> str:
+    """The red box's line for a surrogate the report draws that is not trusted (its rating,
+    the one `study fit` prints), or ``""`` (review s52: `study fit` exited 3 on a fit the
+    report drew under a green page and an exit of 0)."""
+    if fit is None:
+        return ""
+    status, why = fit.surrogate.rating()
+    if status == "ok":
+        return ""
+    return f"the surrogate of {fit.column} the report draws is {status} ({'; '.join(why)})"
+
+
+def surrogate_plots(
+    df: pd.DataFrame, params: list[str], study: dict, fit: ReportFit | None = None
+) -> str:
     """Sobol bars and the response surface of the two most important parameters (GP mean and
-    its relative uncertainty), fitted here from the finished cases; no surface over two
+    its relative uncertainty), fitted here from the finished cases (or ``fit``, the same
+    :func:`report_fit` made by the caller); no surface over two
     parameters that moved together (a note says why: :func:`~psdesign.analysis.sensitivity.
     entangled_inputs`, the rule that gives them no Sobol index); a third parameter that moved
     with one of the two follows it on the surface as in the cases (:func:`~psdesign.analysis.
@@ -502,24 +556,17 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
         sobol_indices,
         tied_inputs,
     )
-    from psdesign.analysis.surrogate import MIN_FIT_CASES, fit_surrogate, parameter_bounds
+    from psdesign.analysis.surrogate import MIN_FIT_CASES
 
-    ok = _ok(df)
-    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
-    # the K with the most trusted values (z first on a tie); fit, range and markers are
-    # those cases only (a case whose K is not ok must not look like a data point)
-    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
-    if c is not None:
-        ok = ok[ok[c] > 0]
-    num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
-    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
+    fit = fit or report_fit(df, params, study)
+    if fit is None:
         return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
             f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
             "finished cases with a trusted K and a varying numeric parameter; <code>psdesign "
             f"study fit</code> fits from {MIN_FIT_CASES} (its cross-validated error says how far "
             "to trust it).</p>"
         )
-    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    s, c, ok, num = fit
     # the rating `study fit` prints (cross-validated error and length scales), not a second rule
     status, why = s.rating()
     weak = ""
@@ -553,8 +600,8 @@ def surrogate_plots(df: pd.DataFrame, params: list[str], study: dict) -> str:
     if not tangled:  # a surface is drawn: what its band is
         parts[0] += f'<p class="note">{html.escape(surface_band_note(s))}.</p>'
     if len(order) == 1:
-        fig = _surface_1d(s, ok, num, order[0], c)
-        parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label=c))
+        fig = _surface_1d(s, ok, num, order[0], c)  # its y axis: "K (m²)"
+        parts.append(figure_html(fig, "psd-surface", k_axis="yaxis", k_label="K"))
     elif tangled:  # the sensitivity rule: a surface over a pair the cases never separated
         parts.append(f'<p class="note">Response surface not shown: {html.escape(tangled)}.</p>')
     else:
@@ -689,6 +736,42 @@ def _surface_1d(s, ok: pd.DataFrame, num: list[str], a: str, c: str):
     return fig
 
 
+#: Steps of the surface's relative uncertainty (a fraction): 0.01 %, below the colour bar's
+#: 0.1 % ticks. A field whose spread is within one step is one number, not a map: contoured
+#: raw, a constant 0.1998 bar drew stray lines from 1e-16 noise and one colour-bar tick
+#: "0.1998213424444766073" (review s52, walk-report 4).
+REL_UNCERTAINTY_STEP = 1e-4
+
+
+def _uncertainty_panel(fig, ga, gb, rel: np.ndarray, bar: dict, floor: bool) -> bool:
+    """Draw the right panel of :func:`_surface_2d`: contours of ``rel`` (bar / mean, rounded
+    to :data:`REL_UNCERTAINTY_STEP`, ticks in %); a field within one step of constant is a
+    note in the panel instead, naming the hold-out floor when ``floor`` (every bar is it).
+    Returns whether it was constant."""
+    import plotly.graph_objects as go
+
+    z = np.round(rel, 4)
+    if np.ptp(z) <= REL_UNCERTAINTY_STEP:
+        why = "<br>(the fit's estimated error between design points)" if floor else ""
+        pct = 100 * float(np.median(rel))
+        fig.add_annotation(
+            text=f"bar = {pct:.1f} % of the mean everywhere in the box{why}",
+            xref="paper",  # the right panel's middle (its axes hold the cases alone)
+            yref="paper",
+            x=sum(fig.layout.xaxis2.domain) / 2,
+            xanchor="center",
+            y=0.5,
+            showarrow=False,
+            bgcolor="white",
+        )
+        return True
+    right_bar = {"x": 1.01, "title": {"text": "bar /<br>mean"}, "tickformat": ".1%"}
+    fig.add_trace(
+        go.Contour(x=ga, y=gb, z=z, colorscale="Greys", colorbar={**right_bar, **bar}), 1, 2
+    )
+    return False
+
+
 def _surface_2d(
     s, ok: pd.DataFrame, num: list[str], pair: list[str], c: str, ties: dict | None = None
 ):
@@ -699,7 +782,7 @@ def _surface_2d(
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    from psdesign.analysis.prediction import prediction_bar
+    from psdesign.analysis.prediction import holdout_bar, prediction_bar
 
     a, b = pair
     log_a, log_b = s.log_params[num.index(a)], s.log_params[num.index(b)]
@@ -723,18 +806,8 @@ def _surface_2d(
         1,
         1,
     )
-    right_bar = {"x": 1.01, "title": {"text": "bar /<br>mean (-)"}}
-    fig.add_trace(
-        go.Contour(
-            x=ga,
-            y=gb,
-            z=(err / m).reshape(A.shape),
-            colorscale="Greys",
-            colorbar={**right_bar, **bar},
-        ),
-        1,
-        2,
-    )
+    floor = bool(np.all(err <= holdout_bar(s, m)))  # the GP std nowhere above the floor
+    _uncertainty_panel(fig, ga, gb, (err / m).reshape(A.shape), bar, floor)
     for col in (1, 2):
         fig.add_trace(
             go.Scatter(

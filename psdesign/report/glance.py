@@ -88,6 +88,8 @@ def glance_section(df: pd.DataFrame, params: list[str]) -> str:
         "permeability of each direction over the cases whose K is trusted (case and K status "
         "ok; any other is marked in the tables below), with its error bar and the design "
         "point that gave it.</p>"
+        '<p class="note psd-stays-m2">This table stays in m² (the unit selector below '
+        "converts the Results table's K columns and the K figures).</p>"
         f'<table class="meta glance"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(rows)
         + "</tbody></table>"

@@ -34,11 +34,17 @@ from psdesign.analysis.columns import (
     trusted,
     value_status,
 )
-from psdesign.report.decision import effect_plots, parameter_plots, surrogate_plots
+from psdesign.report.decision import (
+    effect_plots,
+    fit_alert,
+    parameter_plots,
+    report_fit,
+    surrogate_plots,
+)
 from psdesign.report.glance import glance_section, k_text
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
-from psdesign.report.outcome import optimize_section
+from psdesign.report.outcome import missed_target_alert, optimize_section
 from psdesign.report.png import figure_png
 from psdesign.report.references import (
     KOZENY_CONSTANT,
@@ -147,9 +153,38 @@ def _fmt(v) -> str:
     return str(v)
 
 
+#: The columns the unit selector converts: a permeability in m² (``k_z_m2``, a tensor's
+#: ``k_xz_m2``). Any other name ending in ``_m2`` stays: the main effects' "mean log10
+#: k_z_m2" (-11.33) became -1.148e+13 in darcy (review s52, walk-report 1).
+K_VALUE_COLUMN = re.compile(r"k_[xyz]{1,2}_m2")
+
+#: Under a table whose K (or log10 K) stays in m² whatever the unit selector picks.
+STAYS_M2_NOTE = (
+    '<p class="note psd-stays-m2">This table stays in m² (the unit selector converts the '
+    "Results table's K columns and the K figures).</p>"
+)
+
+
+def _converts(col: str) -> bool:
+    """Whether the unit selector converts column ``col`` (:data:`K_VALUE_COLUMN`).
+
+    >>> _converts("k_z_m2"), _converts("k_xy_m2"), _converts("mean log10 k_z_m2")
+    (True, True, False)
+    """
+    return K_VALUE_COLUMN.fullmatch(str(col)) is not None
+
+
+def _head(col: str) -> str:
+    """A table header; a converted K column names the unit the selector picked (the
+    ``psd-kunit`` span report.js rewrites): ``k_z (m²)``."""
+    if _converts(col):
+        return f'<th title="{_esc(col)}">{_esc(col[:-3])} (<span class="psd-kunit">m²</span>)</th>'
+    return f"<th>{_esc(col)}</th>"
+
+
 def _cell(col: str, v) -> str:
-    """A table cell; K columns (``*_m2``) carry the value in m^2 for the unit selector."""
-    if col.endswith("_m2") and isinstance(v, float | int | np.floating) and math.isfinite(v):
+    """A table cell; a K column (:func:`_converts`) carries the value in m² for the selector."""
+    if _converts(col) and isinstance(v, float | int | np.floating) and math.isfinite(v):
         return f'<td data-m2="{float(v)!r}">{_esc(_fmt(v))}</td>'
     return f"<td>{_esc(_fmt(v))}</td>"
 
@@ -162,9 +197,10 @@ def _table(
     table_class: str = "sortable",
 ):
     """A scrolling, sortable table of ``df``; the columns of ``raw`` hold HTML already
-    escaped (:func:`_k_cell`), the others values (:func:`_cell`)."""
+    escaped (:func:`_k_cell`), the others values (:func:`_cell`). A table with a K (or log10
+    K) column the unit selector does not convert says it stays in m² (:data:`STAYS_M2_NOTE`)."""
     cols = list(df.columns)
-    head = "".join(f"<th>{_esc(c)}</th>" for c in cols)
+    head = "".join(_head(c) for c in cols)
     body = []
     for i, (_, row) in enumerate(df.head(max_rows).iterrows()):
         cls = f' class="{row_class[i]}"' if row_class and row_class[i] else ""
@@ -173,6 +209,8 @@ def _table(
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
+    if any(("_m2" in str(c) or "m²" in str(c)) and not _converts(c) for c in cols):
+        more += STAYS_M2_NOTE
     return (
         f'<div class="scroll"><table class="{table_class}"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(body)
@@ -780,13 +818,30 @@ def _safe(section, *args) -> str:
         return f'<p class="note">Section not available: {_esc(type(exc).__name__)}: {_esc(exc)}</p>'
 
 
+def _fit_or_none(df: pd.DataFrame, params: list[str], study: dict):
+    """:func:`report_fit`, or ``None`` when it cannot fit (its section then says why)."""
+    try:
+        return report_fit(df, params, study)
+    except Exception:  # noqa: BLE001 - the section's _safe note names the error
+        return None
+
+
 def build_html(out_dir: str | Path) -> str:
     """Return the report HTML for a study output folder (see :func:`write_report`)."""
+    return render_report(out_dir)[0]
+
+
+def render_report(out_dir: str | Path) -> tuple[str, list[str]]:
+    """The report HTML of a study output folder and the lines its red box adds to the cases'
+    count: a missed ``study optimize`` target and an untrustworthy surrogate it draws
+    (``study report`` exits 3 exactly when the box is there: the cases or these lines)."""
     out = Path(out_dir)
     df, study, runs = _load(out)
     params = list((study.get("parameters") or {}).keys()) or [
         c for c in df.columns if is_design_parameter(c)
     ]
+    fit = _fit_or_none(df, params, study)
+    alerts = [a for a in (missed_target_alert(out), fit_alert(fit)) if a]
     name = study.get("name", out.name)
     meta = _meta_table(df, study, runs, params, name, out)
 
@@ -820,13 +875,13 @@ def build_html(out_dir: str | Path) -> str:
     results_html = _table(df, row_cls)
     k_html = _k_table(df, study.get("solver"))
 
-    return f"""<!DOCTYPE html>
+    page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>psdesign study report: {_esc(name)}</title>
 <style>{CSS}{INTERACTIVE_CSS}</style>
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
-{_incomplete_banner(out, df)}{_status_banner(df)}{_safe(glance_section, df, params)}
+{_incomplete_banner(out, df)}{_status_banner(df, alerts)}{_safe(glance_section, df, params)}
 <h2>Study</h2><table class="meta">{meta}</table>
 {_safe(optimize_section, out)}
 {unit_selector()}
@@ -840,7 +895,7 @@ x, y in-plane, z through-plane (fibers lie mostly in the x-y plane).</p>{k_html}
 anisotropy = mean in-plane K / through-plane K.</p>
 {_safe(parameter_plots, df, params, study)}
 <h2>Main effects and interactions</h2>{_safe(effect_plots, df, params, study)}
-<h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study)}
+<h2>Surrogate model and global sensitivity</h2>{_safe(surrogate_plots, df, params, study, fit)}
 <h2>Sensitivity</h2>
 <p class="note">Spearman rank correlation and standardized regression coefficient (SRC, linear
 least squares on standardized variables) of each numeric parameter against porosity and
@@ -855,6 +910,7 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 <h2>References</h2>{_references()}
 </body></html>
 """
+    return page, alerts
 
 
 def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
@@ -874,20 +930,22 @@ def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
     )
 
 
-def _status_banner(df: pd.DataFrame) -> str:
+def _status_banner(df: pd.DataFrame, alerts: list[str] | tuple[str, ...] = ()) -> str:
     """A red box at the top when any case or any rated value (K, porosity, D_eff/D, ...) is not
     ok: how many, and where they show. It reads what ``study report``'s exit reads
     (:func:`psdesign.cli.exit_status.case_masks`: :func:`~psdesign.analysis.columns.case_status`
     and :func:`~psdesign.analysis.columns.flagged_values`), so it is there exactly when that
     exits 3 (until session 46 a table without a ``status`` column showed "N unknown" here and
-    a status column without its value was counted by the exit only)."""
+    a status column without its value was counted by the exit only). ``alerts``
+    (:func:`render_report`): what else the report shows not trusted, a line each (session 52)."""
     status = case_status(df)
     counts = status[status != "ok"].value_counts().to_dict()
     # one count per status column: the tortuosity shares the diffusivity's, d10-d90 one column
     bad = {st: int(m.sum()) for st, m in flagged_values(df).items()}
     untrusted = sum(bad.values())
+    more = "".join(f"<br><b>Not trusted:</b> {_esc(a)}." for a in alerts)
     if not counts and not untrusted:
-        return ""
+        return more and f'<p class="alert" id="psd-status-alert">{more[4:]}</p>'
     parts = [f"{v} {_esc(k)}" for k, v in sorted(counts.items())]
     if untrusted:
         cols = ", ".join(bad)
@@ -903,8 +961,23 @@ def _status_banner(df: pd.DataFrame) -> str:
         "porosity's bar in the Porosity table (porosity_status: "
         # the rating's words as every command prints them (session 48: "above 20 %" was
         # written out here beside STATUS_WORDS' copy)
-        f"{_esc(_status_words('porosity_status'))}).</p>"
+        f"{_esc(_status_words('porosity_status'))}).{more}</p>"
     )
+
+
+def _design_text(study: dict, out: Path) -> str | None:
+    """The Study table's design: a folder ``study optimize`` made (its marker's command) ran
+    its own search, whatever the spec's design (review s52: it read ``csv``, the form of each
+    round, for a spec saying latin-hypercube)."""
+    from psdesign.analysis.optimize import OPTIMIZE_COMMAND
+    from psdesign.io.outputs import read_marker
+
+    if (read_marker(out) or {}).get("command") == OPTIMIZE_COMMAND:
+        return (
+            "study optimize search: a Latin-hypercube start, then the points its surrogate "
+            "chose (optimize.json)"
+        )
+    return study.get("design")
 
 
 def _meta_table(
@@ -926,7 +999,7 @@ def _meta_table(
     meta_rows = [
         ("study", name),
         ("description", study.get("description", "")),
-        ("design", study.get("design")),
+        ("design", _design_text(study, out)),
         *image_rows(study, out, study.get(HEADER_KEY)),
         ("cases", len(df)),
         ("status", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))),
@@ -996,14 +1069,20 @@ def write_report(out_dir: str | Path) -> Path:
     psdesign.io.outputs.OutputError
         If ``report.html`` exists and psdesign did not write it (it is never replaced).
     """
+    return write_report_alerts(out_dir)[0]
+
+
+def write_report_alerts(out_dir: str | Path) -> tuple[Path, list[str]]:
+    """:func:`write_report`, also returning the lines its red box adds to the cases' count
+    (:func:`render_report`; ``study report``'s exit reads them)."""
     from psdesign.io.outputs import check_folder_name, claim_output_dir
     from psdesign.study.store import atomic_write_bytes, check_study_files
 
     check_folder_name(out_dir, "out_dir")
     out = Path(out_dir)
     check_study_files(out, ["report.html"], "study report")
-    text = build_html(out)
+    text, alerts = render_report(out)
     claim_output_dir(check_study_files(out, ["report.html"], "study report"), ["report.html"])
     path = out / "report.html"
     atomic_write_bytes(path, text.encode("utf-8"))
-    return path
+    return path, alerts

@@ -113,6 +113,21 @@ def _history(history: list, n_targets: int) -> str:
     return f'<table class="meta">{head}{"".join(rows)}</table>'
 
 
+def missed_target_alert(out: Path) -> str:
+    """The red box's line when the folder's ``study optimize`` outcome (for the design it now
+    holds: not :func:`stale_reason`) is NOT MET, or ``""``; a file :func:`read_outcome` cannot
+    read is its section's own note. Review s52: the report's headline was the red NOT MET box
+    while ``study report`` exited 0 (``study optimize`` exited 3)."""
+    try:
+        doc = read_outcome(out)
+    except ValueError:
+        return ""
+    if doc is None or doc["met"] or stale_reason(out, doc):
+        return ""
+    targets = ", ".join(str(t.get("target")) for t in doc["targets"])
+    return f"the design decision (study optimize) is NOT MET for {targets}"
+
+
 def optimize_section(out: Path) -> str:
     """The ``<h2>`` section of the search's outcome, or ``""`` when the folder has none."""
     doc = read_outcome(out)

@@ -97,7 +97,10 @@ def main_effects(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        Columns ``parameter``, ``level``, ``n`` and one mean column per response.
+        Columns ``parameter``, ``level`` and per response its mean (``mean log10 k_z_m2``)
+        and the count of values behind it (``n log10 k_z_m2``, as summary.csv's ``k_z_m2_n``:
+        a case whose K is not trusted has none; one ``n`` of cases read as the mean's count,
+        review s52).
     """
     ok = ok_cases(df)
     ok = distinct_realizations(ok, params)  # a design point listed twice is one case
@@ -110,10 +113,10 @@ def main_effects(df: pd.DataFrame, params: list[str]) -> pd.DataFrame:
         if p not in ok or ok[p].nunique() < 2:
             continue
         g = frame.groupby(ok[p].astype(str).to_numpy(), sort=False)
-        means = g.mean()
-        counts = g.size()
+        means, counts = g.mean(), g.count()
         for level in means.index:
-            row = {"parameter": p, "level": level, "n": int(counts[level])}
-            row.update({f"mean {k}": float(v) for k, v in means.loc[level].items()})
+            row: dict = {"parameter": p, "level": level}
+            for k, v in means.loc[level].items():
+                row[f"mean {k}"], row[f"n {k}"] = float(v), int(counts.loc[level, k])
             out.append(row)
     return pd.DataFrame(out)

@@ -53,6 +53,7 @@ from psdesign.study.store import (
     STUDY_LEGACY,
     CaseStore,
     StorageError,
+    psdesign_wrote,
 )
 from psdesign.study.studyfile import Study, StudyError, load_study
 from psdesign.study.worker import execute_case, importable_case_fn_name
@@ -734,6 +735,7 @@ def check_study_dir(
         expected=tuple(files),
         legacy=STUDY_LEGACY,
         force_option=force_option,
+        legacy_owns=psdesign_wrote,
     )
 
 

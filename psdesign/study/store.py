@@ -66,6 +66,38 @@ STUDY_FILES_NO_REPORT = tuple(f for f in STUDY_FILES if f != "report.html")
 STUDY_LEGACY = ("study.json", "cases")
 
 
+#: How a file psdesign adds to a study folder begins (within its first KB): what a folder
+#: without the marker may have of psdesign's (:func:`psdesign_wrote`). The report's title is
+#: that of every report since the first (bebcd22b); surrogate.json is a JSON object whose
+#: first key is its format's version.
+ADDED_FILE_SIGNATURES = {
+    "report.html": re.compile(rb"<title>psdesign study report: "),
+    "surrogate.json": re.compile(rb'\A\{\s*"version":'),
+}
+
+
+def psdesign_wrote(path: Path) -> bool:
+    """Whether ``path`` (a study folder's ``report.html`` or ``surrogate.json``) is
+    recognisably a file psdesign wrote (:data:`ADDED_FILE_SIGNATURES`); any other name:
+    ``True`` (an older ``study run``'s own files, :data:`STUDY_FILES`).
+
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "report.html"
+    >>> _ = p.write_text("MY OWN REPORT")
+    >>> psdesign_wrote(p)
+    False
+    """
+    sig = ADDED_FILE_SIGNATURES.get(path.name)
+    if sig is None:
+        return True
+    try:
+        with path.open("rb") as f:
+            head = f.read(1024)
+    except OSError:
+        return False
+    return sig.search(head) is not None
+
+
 def check_study_files(
     out_dir: str | Path, files: Iterable[str], command: str, option: str = "out_dir"
 ) -> OutputDir:
@@ -75,6 +107,8 @@ def check_study_files(
     A file psdesign did not write is never replaced
     (:func:`psdesign.io.outputs.check_added_files`, :class:`~psdesign.io.outputs.OutputError`);
     record the files with :func:`psdesign.io.outputs.claim_output_dir` just before writing.
+    A folder without the marker (an older psdesign's, or a ``cp -r out/*`` copy) replaces
+    such a file only when it is recognisably psdesign's (:func:`psdesign_wrote`).
     """
     return check_added_files(
         out_dir,
@@ -83,6 +117,7 @@ def check_study_files(
         option=option,
         legacy=STUDY_LEGACY,
         legacy_files=STUDY_FILES,
+        legacy_owns=psdesign_wrote,
     )
 
 

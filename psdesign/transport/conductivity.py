@@ -98,8 +98,7 @@ class ConductivityResult(Rated):
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
-        from psdesign.geometry.porosity import porosity_text
-        from psdesign.notebook import plus_minus, result_html
+        from psdesign.notebook import plus_minus, porosity_html, result_html
 
         lo, hi = self.hashin_shtrikman_bounds
         w_lo, w_hi = self.wiener_bounds
@@ -117,7 +116,7 @@ class ConductivityResult(Rated):
             ),
             (f"Wiener bounds, any direction ({u})", f"[{w_lo:.4g}, {w_hi:.4g}]"),
             (f"Hashin-Shtrikman bounds, isotropic media only ({u})", f"[{lo:.4g}, {hi:.4g}]"),
-            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
+            ("porosity (-)", porosity_html(self.porosity, self.porosity_error)),
             ("bc", self.bc),
         ]
         return result_html("ConductivityResult", rows, self.status, [self.message, *self.warnings])

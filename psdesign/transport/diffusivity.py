@@ -98,8 +98,7 @@ class DiffusivityResult(Rated):
         return result_line(self.to_dict())
 
     def _repr_html_(self) -> str:
-        from psdesign.geometry.porosity import porosity_text
-        from psdesign.notebook import plus_minus, result_html
+        from psdesign.notebook import plus_minus, porosity_html, result_html
 
         tau = self.tortuosity_factor
         rows = [
@@ -119,7 +118,7 @@ class DiffusivityResult(Rated):
                 f"{self.effective_diffusivity_m2_s:.4e} {plus_minus(self.rel_error)}",
             ),
             ("converged", str(self.converged)),
-            ("porosity (-)", porosity_text(self.porosity, self.porosity_error)),
+            ("porosity (-)", porosity_html(self.porosity, self.porosity_error)),
             ("bc", self.bc),
         ]
         return result_html("DiffusivityResult", rows, self.status, [self.message, *self.warnings])

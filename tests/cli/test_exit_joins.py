@@ -166,10 +166,22 @@ def _old_pore_table_d10_bar_30pct(df):
     return df
 
 
+def _scattered_k(df):
+    """Review s52 (walk-report 2): K_z scattered over two decades by a seeded draw, each with
+    its 2 % bar (every case ok), so the surrogate the report draws cross-validates far above
+    20 % (`study fit` exits 3 on it); `study report` exited 0 with no red box."""
+    import numpy as np
+
+    rng = np.random.default_rng(52)
+    df["k_z_m2"] = df["k_z_m2"] * 10.0 ** rng.uniform(-1.0, 1.0, len(df))
+    return df
+
+
 @pytest.mark.parametrize(
     ("edit", "code"),
     [
         (lambda df: df, 0),
+        (_scattered_k, 3),  # review s52: exit 0, the untrustworthy fit in its section only
         (_no_status_column, 0),  # session 45: the red box said "12 unknown", the exit crashed
         (_status_without_value, 3),  # session 45: exit 3, no red box
         (_missing_case_status, 3),
@@ -180,6 +192,7 @@ def _old_pore_table_d10_bar_30pct(df):
     ],
     ids=[
         "all_ok",
+        "scattered_k",
         "no_status_column",
         "status_without_value",
         "missing_case_status",
@@ -213,6 +226,32 @@ def test_study_report_exits_3_exactly_when_its_red_box_is_there(report_folder, c
     assert got == code
     # the values table's [untrustworthy] cells (error_bar) and the box read one rule (s46)
     assert ("[untrustworthy]" in html) <= box
+
+
+def test_study_report_exits_3_when_its_design_decision_is_not_met(tmp_path, capsys):
+    """Review s52 (walk-report 2): after `study optimize` exited 3 (NOT MET), `study report`
+    of the folder exited 0 under a report headed by the red NOT MET box. Truth: the fake
+    case's K_z = 2 KC(eps) (study_cases.kc_truth) is below 5e-11 m² over porosity 0.8-0.88
+    (KC(0.88, 3.5 um) = 1.1e-11), so a target of 1e-9 m² +-10 % cannot be met; the same
+    folder with its outcome edited to met exits 0 and has no box (4 cases: no surrogate)."""
+    from study_cases import write_study
+
+    study = 'design = "latin-hypercube"\nn_samples = 4\nseeds = [1]\noutputs = ["porosity", "k_z"]'
+    p = write_study(tmp_path, study, '"generator.porosity" = {low = 0.8, high = 0.88}')
+    out = tmp_path / "opt"
+    argv = ["study", "optimize", str(p), "-o", str(out), "--budget", "4", "--workers", "0"]
+    argv += ["--quiet", "--case-fn", "study_cases:fake_case", "--target", "k_z_m2=1e-9+-10%"]
+    assert main(argv) == 3
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert "the design decision (study optimize) is NOT MET for k_z_m2=1e-09+-10%" in err
+    box = (out / "report.html").read_text().split('id="psd-status-alert">')[1].split("</p>")[0]
+    assert "NOT MET for k_z_m2=1e-09+-10%" in box
+    doc = json.loads((out / "optimize.json").read_text())
+    (out / "optimize.json").write_text(json.dumps({**doc, "met": True}))
+    assert main(["study", "report", str(out)]) == 0
+    assert 'id="psd-status-alert"' not in (out / "report.html").read_text()
 
 
 @pytest.mark.parametrize(("y", "code"), [("13.3e-6", 0), ("17.6e-6", 3)])

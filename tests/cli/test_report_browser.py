@@ -230,3 +230,24 @@ def test_the_page_does_not_scroll_sideways_in_an_800_px_window(report, tmp_path)
     copy.write_text(report.read_text())
     scroll, client = _widths(copy, PAGE_WIDTHS, "page", 800)
     assert 700 < client and scroll <= client, (scroll, client)
+
+
+def test_darcy_leaves_log10_k_alone_and_relabels_the_k_headers(tmp_path) -> None:
+    """Review s52 (walk-report 1): in darcy the main effects' "mean log10 k_z_m2" (-11.33) read
+    -1.148e+13 and the K headers kept m². In chromium: every converted cell is a K over
+    9.869233e-13 m²/darcy (the darcy's definition), the log10 means keep the page's text, and
+    each converted header reads the unit picked."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    page = tmp_path / "out" / "report.html"
+    dom = _chromium("--dump-dom", page.as_uri() + "#unit=darcy").stdout
+    assert 'data-psd-ready="1"' in dom
+    cells = re.findall(r'<td data-m2="([^"]+)">([^<]*)</td>', dom)
+    assert len(cells) == 2 * 12  # k_x and k_z of the 12 cases
+    for m2, shown in cells:
+        assert float(shown) == pytest.approx(float(m2) / 9.869233e-13, rel=1e-3)
+    me = r"Main effects \(mean response per level\)</h3>(.*?)</table>"
+    before = re.search(me, page.read_text(), re.S)
+    after = re.search(me, dom, re.S)
+    assert before is not None and after is not None and after.group(1) == before.group(1)
+    assert dom.count('<span class="psd-kunit">darcy</span>') == 2

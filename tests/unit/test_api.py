@@ -54,7 +54,8 @@ def test_build_porosity_matches_the_exact_cylinder_area() -> None:
     assert repr(m) == "Material(2e-05 x 2e-05 x 2e-05 m, 1 fibers)"  # SI, as every output
     page = m._repr_html_()  # the notebook's table: the porosity with its bar and rating
     assert "80 x 80 x 80" in psdesign.build(spec)._repr_html_()  # a display: no voxelization
-    assert f"{m.porosity:.4f} +- {m.porosity_error:.1e}" in page and ">ok</span>" in page
+    # "&plusmn;" as every other row (review s52: the porosity row alone wrote "+-")
+    assert f"{m.porosity:.4f} &plusmn; {m.porosity_error:.1e}" in page and ">ok</span>" in page
     assert "80 x 80 x 80 of 2.5e-07 m" in page
 
 
@@ -77,7 +78,7 @@ def test_permeability_result_repr_and_html() -> None:
     r = PermeabilityResult.from_dict(d)
     assert r.status == "not_converged" and r.details["iterations"] == 3
     assert "1.25e-12" in repr(r) and "details" not in repr(r)
-    assert "1.2500e-12" in r._repr_html_() and "0.8000 +- 4.2e-04" in r._repr_html_()
+    assert "1.2500e-12" in r._repr_html_() and "0.8000 &plusmn; 4.2e-04" in r._repr_html_()
     # to_dict, as the transport results have (session 31 audit: PermeabilityResult had none)
     back = r.to_dict()
     assert back["iterations"] == 3 and back["status"] == "not_converged"
@@ -226,7 +227,9 @@ def test_transport_results_have_short_repr_and_html_with_units() -> None:
     page = dr._repr_html_()
     assert dr.status == "not_converged" and ">not_converged</span>" in page
     assert "m<sup>2</sup>/s" in page and "1.2200e-05" in page and "&plusmn; 5 %" in page
-    assert "0.8000 +- 3.1e-04" in page  # the porosity with its error (psdesign.geometry.porosity)
+    assert (
+        "0.8000 &plusmn; 3.1e-04" in page
+    )  # the porosity with its error (psdesign.geometry.porosity)
     cr = _conductivity_result(column)
     assert len(repr(cr)) < 700 and "0.5, 0.5" not in repr(cr)
     assert repr(cr).endswith("status='ok')")

@@ -216,6 +216,9 @@ def test_the_report_of_an_optimize_folder_shows_the_decision(tmp_path, capsys) -
     out = tmp_path / "opt"
     page = (out / "report.html").read_text()
     assert "<h2>Design decision (study optimize)</h2>" in page
+    # the Study table names the search, not "csv", the form of its rounds (review s52; the
+    # spec says latin-hypercube)
+    assert "<th>design</th><td>study optimize search: a Latin-hypercube start" in page
     assert f"<b>NOT MET:</b> {res['message']}" in page
     line = "measured 1.077e-11 +- 11.8 % [ok] (missed; the target lies within the measurement"
     assert f"<th>k_z_m2=1.2e-11+-10%</th><td>{line}" in page

@@ -83,7 +83,7 @@ def test_sensitivity_and_main_effects_against_hand_values():
     me = main_effects(df, ["a", "b"])
     row = me[(me["parameter"] == "a") & (me["level"] == "2.0")].iloc[0]
     assert row["mean log10 k_z_m2"] == pytest.approx(-11.0)
-    assert row["n"] == 3
+    assert row["n log10 k_z_m2"] == row["n porosity"] == 3
     rows_b = me[me["parameter"] == "b"]
     assert np.allclose(rows_b["mean log10 k_z_m2"], -11.0)  # (-11.5 - 11 - 10.5) / 3
 
@@ -471,6 +471,12 @@ def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
     assert bar.title.text.startswith("log10 K")
     assert fig.layout.yaxis.title.text == "generator.diameter (m)"
     assert fig.layout.xaxis2.title.text == "generator.porosity (-)"
+    # the relative uncertainty varies here: contours of bar / mean rounded to 0.01 %, ticked
+    # in % (review s52: a raw field drew 1e-16 noise and a tick "0.1998213424444766073")
+    rel = fig.data[1]
+    assert rel.type == "contour" and rel.colorbar.tickformat == ".1%"
+    z = np.asarray(rel.z)
+    assert np.ptp(z) > 1e-4 and np.array_equal(z, np.round(z, 4))
 
 
 def test_report_with_no_trusted_k_says_so_instead_of_empty_frames(tmp_path):
@@ -766,7 +772,9 @@ def test_a_design_point_listed_twice_counts_once_in_spearman_and_main_effects(mo
     me = main_effects(df, ["a", "b"]).set_index(["parameter", "level"])
     want_b1 = np.mean(np.log10([1e-12, 2e-12, 4e-12]))
     assert me.loc[("b", "1.0"), "mean log10 k_z_m2"] == pytest.approx(want_b1, abs=1e-12)
-    assert me.loc[("b", "1.0"), "n"] == 3 and me.loc[("a", "5.0"), "n"] == 1
+    assert (
+        me.loc[("b", "1.0"), "n log10 k_z_m2"] == 3 and me.loc[("a", "5.0"), "n log10 k_z_m2"] == 1
+    )
     figs = []
     real = decision.figure_html
     monkeypatch.setattr(
@@ -1375,8 +1383,12 @@ def test_response_surface_band_is_the_bar_study_predict_prints():
     ok["generator.diameter"] = np.tile([6e-6, 8e-6], 5)
     two = ["generator.porosity", "generator.diameter"]
     s2 = fit_surrogate(ok, "k_z_m2", two, parameter_bounds(ok, two, {}))
-    rel = np.asarray(_surface_2d(s2, ok, two, two, "k_z_m2").data[1].z)
-    assert rel.min() >= bar_error(s2)[0] * (1 - 1e-12)
+    # (1 % noise: the GP std is below the hold-out floor everywhere, so the panel is the
+    # floor in one line, not contours of a constant: review s52, walk-report 4)
+    fig = _surface_2d(s2, ok, two, two, "k_z_m2")
+    assert [t.type for t in fig.data] == ["contour", "scatter", "scatter"]
+    note = f"bar = {100 * bar_error(s2)[0]:.1f} % of the mean everywhere in the box<br>(the fit"
+    assert [a.text[: len(note)] for a in fig.layout.annotations if "bar =" in a.text] == [note]
     text = surrogate_plots(ok.drop(columns="generator.diameter"), num, {})
     rel_pct = f"{100 * bar_error(s)[0]:.3g} %"
     assert (
@@ -2176,3 +2188,92 @@ def test_the_diffusivity_figure_is_drawn_once_with_every_label_inside(monkeypatc
     box = fig.axes[0].get_tightbbox(renderer)
     assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= fig.bbox.width, box
     assert box.y1 <= fig.bbox.height, (box, fig.bbox)
+
+
+def test_unit_selector_converts_only_k_columns_and_names_its_unit(tmp_path):
+    """Review s52 (walk-report 1): every column ending in ``_m2`` was marked for the unit
+    selector, so the main effects' "mean log10 k_z_m2" (-11.33) became -1.148e+13 in darcy,
+    and no header followed the selector. Truth: the converted cells are exactly the K values
+    in m² of results.csv (a value times a unit factor is only meaningful for a K), each such
+    column's header holds the ``psd-kunit`` span report.js rewrites, and a table whose K stays
+    in m² says so."""
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    run_study(p, tmp_path / "out", workers=0, case_fn=fake_case, progress=False)
+    page = (tmp_path / "out" / "report.html").read_text()
+    df = pd.read_csv(tmp_path / "out" / "results.csv")
+    marked = sorted(float(v) for v in re.findall(r'<td data-m2="([^"]+)"', page))
+    truth = sorted(float(v) for c in ("k_x_m2", "k_z_m2") for v in df[c].dropna())
+    assert marked == pytest.approx(truth, rel=1e-15)
+    me = re.search(r"Main effects \(mean response per level\)</h3>(.*?)</table>", page, re.S)
+    assert me is not None and "mean log10 k_z_m2" in me.group(1)
+    assert "data-m2" not in me.group(1)
+    for d in "xz":  # the Results table's K headers follow the selector
+        assert f'k_{d} (<span class="psd-kunit">m²</span>)</th>' in page
+    # the glance and main-effects tables (fake_case has no K table) stay in m² and say so
+    glance = page.split('id="psd-glance"', 1)[1].split("</table>", 1)
+    assert 'class="note psd-stays-m2"' in glance[0]
+    assert page.split(me.group(0), 1)[1].startswith('</div><p class="note psd-stays-m2">')
+
+
+def test_main_effects_count_the_values_behind_each_mean():
+    """Review s52 (walk-report 5): tiny2's main effects showed porosity 0.8: n = 2 beside a
+    mean log10 K of one value (the other K untrustworthy; summary.csv's k_z_m2_n said 1).
+    Truth by hand: at a = 1 two cases, one with its K not trusted (NaN after ``trusted``):
+    the mean log10 K is log10(2e-12) from 1 value, the mean porosity (0.5 + 0.7) / 2 from 2."""
+    df = pd.DataFrame(
+        {
+            "a": [1.0, 1.0, 2.0, 2.0],
+            "porosity": [0.5, 0.7, 0.6, 0.8],
+            "k_z_m2": [2e-12, np.nan, 3e-12, 5e-12],
+            "status": "ok",
+        }
+    )
+    row = main_effects(df, ["a"]).set_index("level").loc["1.0"]
+    assert row["mean log10 k_z_m2"] == pytest.approx(np.log10(2e-12), abs=1e-12)
+    assert row["n log10 k_z_m2"] == 1
+    assert row["mean porosity"] == pytest.approx(0.6, abs=1e-12) and row["n porosity"] == 2
+
+
+def test_main_effects_plot_each_parameter_over_its_levels_in_its_unit(monkeypatch):
+    """Review s52 (walk-report 5): the main-effects figure put every parameter on one axis of
+    level ranks 0..1 ("level (low -> high)"), so no level could be read. Truth: each trace's
+    x are its parameter's levels (here 0.7/0.8/0.9 and 6/8 um) on a panel whose axis names
+    the parameter with its unit; y is the hand mean of log10 K per level."""
+    from psdesign.report import decision
+
+    a, b = np.repeat([0.7, 0.8, 0.9], 2), np.tile([6e-6, 8e-6], 3)
+    k = 1e-12 * 10 ** (3 * a) * (b / 6e-6)
+    df = pd.DataFrame({"generator.porosity": a, "generator.diameter": b, "k_z_m2": k})
+    df["status"], df["seed"], df["case_id"] = "ok", 1, [f"c{i}" for i in range(6)]
+    figs = []
+    real = decision.figure_html
+    monkeypatch.setattr(
+        decision, "figure_html", lambda fig, *x, **kw: (figs.append(fig), real(fig, *x, **kw))[1]
+    )
+    decision.effect_plots(df, ["generator.porosity", "generator.diameter"])
+    fig = figs[0]
+    by = {t.name: t for t in fig.data}
+    eps, dia = by["generator.porosity: k_z_m2"], by["generator.diameter: k_z_m2"]
+    assert list(eps.x) == [0.7, 0.8, 0.9] and list(dia.x) == [6e-6, 8e-6]
+    want = np.mean(np.log10(k[a == 0.8]))
+    assert eps.y[1] == pytest.approx(want, abs=1e-12)
+    assert fig.layout[eps.xaxis.replace("x", "xaxis")].title.text == "generator.porosity (-)"
+    assert fig.layout[dia.xaxis.replace("x", "xaxis")].title.text == "generator.diameter (m)"
+
+
+def test_the_1d_surrogate_axis_keeps_its_name_in_every_unit():
+    """Review s52 (walk-report 1): in darcy the surrogate plot's axis read "k_z_m2 (darcy)"
+    (a column name in m² beside another unit); it is "K (m²)" and the selector rewrites the
+    unit alone: the label report.js puts before the unit is the axis title's "K"."""
+    import json
+
+    from psdesign.report.decision import surrogate_plots
+
+    eps = np.repeat([0.7, 0.75, 0.8, 0.85, 0.9], 2)
+    df = pd.DataFrame({"generator.porosity": eps, "k_z_m2": 2 * kc_truth(eps, 7e-6)})
+    df["status"], df["seed"] = "ok", np.tile([1, 2], 5)
+    df["case_id"] = [f"c{i}" for i in range(10)]
+    text = surrogate_plots(df, ["generator.porosity"], {})
+    push = r"window\.PSD_KFIGS = window\.PSD_KFIGS \|\| \[\]\)\.push\((.*?)\);</script>"
+    reg = re.search(push, text)
+    assert reg is not None and json.loads(reg.group(1))["label"] == "K"

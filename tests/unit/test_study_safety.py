@@ -986,3 +986,37 @@ def test_a_finished_case_that_is_not_to_be_trusted_exits_3_not_1():
     assert code(["ok", "failed"], k_z_status=["ok", None]) == 1  # a failed case has no K
     assert code(["ok", "ok"], k_z_status=["ok", None]) == 0  # an unrated value is no flag
     assert code(["ok", "ok"], k_z_status=["ok", "ok"]) == 0
+
+
+@pytest.mark.parametrize(("name", "argv"), [("report.html", "report"), ("surrogate.json", "fit")])
+def test_a_copy_without_the_marker_keeps_a_users_report_and_surrogate(tmp_path, capsys, name, argv):
+    """Review s52 (walk-report 3): ``cp -r out/* dest/`` drops the marker (a dotfile); a
+    user's own report.html there was replaced by ``study report`` (the folder read as an
+    older psdesign's, which owned every file). docs/study-files.md: a file the marker does not
+    list is never replaced (exit 2, one line). psdesign's own report / surrogate in such a
+    folder (what an older psdesign left) is still replaced."""
+    from psdesign.cli.main import main
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False)
+    assert main(["study", "fit", str(out)]) == 0
+    (out / ".psdesign-output.json").unlink()
+    theirs = out / name
+    psdesigns = theirs.read_bytes()
+    theirs.write_text("MY OWN FILE\n")
+    capsys.readouterr()
+    assert main(["study", argv, str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{theirs} exists" in err[0] and "never replaced" in err[0], err
+    assert theirs.read_text() == "MY OWN FILE\n"
+    assert not (out / ".psdesign-output.json").exists()
+    if name == "report.html":  # study run resuming the copy writes a report too
+        run = ["study", "run", str(p), "-o", str(out), "--workers", "0", "--quiet"]
+        assert main([*run, "--case-fn", "study_cases:fake_case"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{theirs} exists" in err[0], err
+        assert theirs.read_text() == "MY OWN FILE\n"
+    theirs.write_bytes(psdesigns)  # psdesign's own file: an older psdesign's folder
+    assert main(["study", argv, str(out)]) == 0
+    assert theirs.read_bytes() != b"MY OWN FILE\n"
