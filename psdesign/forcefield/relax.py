@@ -467,9 +467,9 @@ def check_relax_route(spec: dict, options: dict) -> None:
 
 
 def rod_status(res: RelaxResult) -> str:
-    """``not_converged`` (a limit stopped the search), ``at_bound`` (a free variable on its
-    bound), ``contact_left`` (stopped with an overlap left) or ``converged``
-    (:func:`psdesign.forcefield.run.search_status`)."""
+    """``not_converged`` (a limit stopped the search), ``contact_left`` (stopped with an
+    overlap left, also on a bound: session 52), ``at_bound`` (a free variable on its bound,
+    no overlap left) or ``converged`` (:func:`psdesign.forcefield.run.search_status`)."""
     from psdesign.forcefield.run import search_status
 
     return search_status(res.limit_stop, res.at_bound, res.omega_after > 0.0)

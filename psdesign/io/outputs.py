@@ -341,7 +341,9 @@ def check_added_files(
     )
     owned = out.owned
     if out.exists and owned and read_marker(out.path) is None:  # an older psdesign's folder
-        owned = owned | set(legacy_files)
+        # its files as _legacy_owned judges them: a user's report.html in a cp -r copy stays
+        # the user's, also once study fit wrote the marker first (review F, session 52)
+        owned = owned | _legacy_owned(out.path, tuple(legacy_files), legacy_owns)
     return OutputDir(out.path, out.option, out.command, frozenset(owned), out.exists)
 
 

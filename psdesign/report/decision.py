@@ -398,7 +398,9 @@ def _main_effects_figure(ok: pd.DataFrame, y: pd.DataFrame, kcols, num, logs):
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=1, cols=len(num), shared_yaxes=True, horizontal_spacing=0.06)
+    # plotly refuses a spacing above 1 / (cols - 1): 18 panels at 0.06 lost the section
+    gap = min(0.06, 0.5 / max(len(num) - 1, 1))  # (review F, session 52)
+    fig = make_subplots(rows=1, cols=len(num), shared_yaxes=True, horizontal_spacing=gap)
     for i, p in enumerate(num, start=1):
         lv = _levels(ok[p].astype(float))
         for c in kcols:
@@ -750,7 +752,7 @@ def _uncertainty_panel(fig, ga, gb, rel: np.ndarray, bar: dict, floor: bool) -> 
     Returns whether it was constant."""
     import plotly.graph_objects as go
 
-    z = np.round(rel, 4)
+    z = np.round(rel / REL_UNCERTAINTY_STEP) * REL_UNCERTAINTY_STEP
     if np.ptp(z) <= REL_UNCERTAINTY_STEP:
         why = "<br>(the fit's estimated error between design points)" if floor else ""
         pct = 100 * float(np.median(rel))

@@ -12,6 +12,13 @@ import pandas as pd
 from psdesign.analysis.columns import trusted
 from psdesign.report.trust import no_ok_case
 
+#: Under a table whose K (or log10 K) stays in m² whatever the unit selector picks (this one,
+#: and the tables of :mod:`psdesign.report.html` that do not convert).
+STAYS_M2_NOTE = (
+    '<p class="note psd-stays-m2">This table stays in m² (the unit selector converts the '
+    "Results table's K columns and the K figures).</p>"
+)
+
 __all__ = ["glance_section", "k_text"]
 
 DIRECTION_NAMES = {"x": "in-plane", "y": "in-plane", "z": "through-plane"}
@@ -88,9 +95,8 @@ def glance_section(df: pd.DataFrame, params: list[str]) -> str:
         "permeability of each direction over the cases whose K is trusted (case and K status "
         "ok; any other is marked in the tables below), with its error bar and the design "
         "point that gave it.</p>"
-        '<p class="note psd-stays-m2">This table stays in m² (the unit selector below '
-        "converts the Results table's K columns and the K figures).</p>"
-        f'<table class="meta glance"><thead><tr>{head}</tr></thead><tbody>'
+        + STAYS_M2_NOTE
+        + f'<table class="meta glance"><thead><tr>{head}</tr></thead><tbody>'
         + "".join(rows)
         + "</tbody></table>"
     )

@@ -41,7 +41,7 @@ from psdesign.report.decision import (
     report_fit,
     surrogate_plots,
 )
-from psdesign.report.glance import glance_section, k_text
+from psdesign.report.glance import STAYS_M2_NOTE, glance_section, k_text
 from psdesign.report.interactive import CSS as INTERACTIVE_CSS
 from psdesign.report.interactive import gallery_html, head_scripts, unit_selector
 from psdesign.report.outcome import missed_target_alert, optimize_section
@@ -157,12 +157,8 @@ def _fmt(v) -> str:
 #: ``k_xz_m2``). Any other name ending in ``_m2`` stays: the main effects' "mean log10
 #: k_z_m2" (-11.33) became -1.148e+13 in darcy (review s52, walk-report 1).
 K_VALUE_COLUMN = re.compile(r"k_[xyz]{1,2}_m2")
-
-#: Under a table whose K (or log10 K) stays in m² whatever the unit selector picks.
-STAYS_M2_NOTE = (
-    '<p class="note psd-stays-m2">This table stays in m² (the unit selector converts the '
-    "Results table's K columns and the K figures).</p>"
-)
+#: Any K column name, converted or not (a mean of log10 K too): the "stays in m²" note's test.
+_K_NAME = re.compile(r"\bk_[xyz]{1,2}_m2\b|^K_[xyz]{1,2}\b.*m²")
 
 
 def _converts(col: str) -> bool:
@@ -209,7 +205,9 @@ def _table(
     more = ""
     if len(df) > max_rows:
         more = f'<p class="note">{len(df) - max_rows} more rows in results.csv</p>'
-    if any(("_m2" in str(c) or "m²" in str(c)) and not _converts(c) for c in cols):
+    # a K column (k_z_m2, "mean log10 k_z_m2") that does not convert; not any "_m2" name (a
+    # varied transport.bulk_diffusivity_m2_s is no K: review F, session 52)
+    if any(_K_NAME.search(str(c)) and not _converts(c) for c in cols):
         more += STAYS_M2_NOTE
     return (
         f'<div class="scroll"><table class="{table_class}"><thead><tr>{head}</tr></thead><tbody>'

@@ -52,13 +52,13 @@ def stale_reason(out: Path, doc: dict) -> str:
     but not it, so its verdict (e.g. MET) would stand over cases it never saw: the search's
     last design had ``n_points`` x seeds cases and held its chosen case (session 43 review).
     """
-    from psdesign.study.readback import read_json_object
+    from psdesign.study.readback import design_cases, read_json_object
 
     path = Path(out) / "study.json"
     if not path.is_file():
         return ""
     design = read_json_object(path)
-    cases = [c for c in design.get("cases") or [] if isinstance(c, dict)]
+    cases = design_cases(design, path)
     seeds = (design.get("study") or {}).get("seeds") or [None]
     n, best = doc.get("n_points"), (doc.get("best") or {}).get("case_id")
     if best and best not in {c.get("case_id") for c in cases}:
@@ -139,7 +139,9 @@ def optimize_section(out: Path) -> str:
         targets = ", ".join(str(t.get("target")) for t in doc["targets"])
         return (
             "<h2>Design decision (study optimize)</h2>"
-            f'<p class="alert" id="psd-optimize"><b>NO DECISION:</b> {OPTIMIZE_FILE} holds '
+            # a note, not a red box: the folder's own results are not in question, so
+            # study report exits 0 on it (review F, session 52: red box beside exit 0)
+            f'<p class="note" id="psd-optimize"><b>NO DECISION:</b> {OPTIMIZE_FILE} holds '
             f"the outcome of an earlier search ({_esc(was)} for {_esc(targets)}), not of this "
             f"folder's design: {_esc(stale)} (a later <code>study optimize</code> did not "
             "finish, or another design ran here). Run <code>study optimize</code> again to "

@@ -63,6 +63,12 @@ MEMORY_FRACTION = 0.5
 DEFAULT_STEP_BUDGET = 11.0 * 2**30
 #: The kept voxel fields (float32 distance, uint8 count): what the stacked permeameter tiles.
 FIELD_BYTES_PER_VOXEL = 5
+#: Peak bytes per voxel of a transport command (``pores``, ``diffusivity``,
+#: ``conductivity``: the pore scan's distance transforms, the Laplace solve's fields and
+#: multigrid) over the grid's own fields: measured 270 (pores) and 324 (diffusivity) B per
+#: voxel above the import baseline on an 864 k-voxel random RVE (review E, session 52), with
+#: a quarter of margin. Loaded inside :func:`unplanned_route` they were held to 16 B per voxel.
+TRANSPORT_BYTES_PER_VOXEL = 400
 #: Stuffing mesh per lattice cell of pore (6 Kuhn tets a cell, plus the clipped pieces), rounded
 #: up from 6.2 tets and 1.43 vertices per pore lattice vertex (50 um Toray-like cube, porosity
 #: 0.80, 2 um step, periodic and permeameter meshes alike).
@@ -318,6 +324,8 @@ def grid_bytes(
     (:func:`solve_of`; None: periodic)."""
     n = math.prod(float(s) for s in shape)
     geometry = n * max(GEOMETRY_BYTES_PER_VOXEL, FIELD_BYTES_PER_VOXEL * (1 + copies))
+    if solver == "transport":
+        return geometry + TRANSPORT_BYTES_PER_VOXEL * n
     if solver != "voxel":
         return geometry
     return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(shape, copies, **(solve or {}))
@@ -361,7 +369,7 @@ def check_grid(
     ``counts``: what the grid is, for the refusal, when it is no solve's
     (``"for the GA's overlap grid"`` with ``solver = "geometry"``); ``""``: the solve's
     words, :func:`_counted`."""
-    if not route_planned():
+    if not route_planned() and solver != "transport":
         solver, flow = "geometry", None
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
@@ -415,6 +423,8 @@ def _counted(solver: str, flow, aux: float) -> str:
     >>> _counted("fem", None, 0.2)
     "with solver 'fem'"
     """
+    if solver == "transport":
+        return "for a transport command's scan or Laplace solve; no flow solve is counted"
     if solver == "geometry":  # inside unplanned_route: no solver a user could set
         return (
             "for the voxel grid's own fields; no flow solve is counted (a command that runs "

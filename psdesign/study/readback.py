@@ -26,6 +26,7 @@ import pandas as pd
 __all__ = [
     "REQUIRED_COLUMNS",
     "cases_not_run",
+    "design_cases",
     "read_json_object",
     "read_results",
     "resume_command",
@@ -131,16 +132,23 @@ def cases_not_run(out_dir: str | Path, df: pd.DataFrame) -> tuple[int, int]:
     path = Path(out_dir) / "study.json"
     if not path.is_file():
         return 0, 0
-    cases = read_json_object(path).get("cases")
-    if cases is not None and not isinstance(cases, list):  # a damaged file: one line, exit 2
-        raise _unreadable(path, f"cases is a {type(cases).__name__}, not a list")
-    ids = {c.get("case_id") for c in cases or [] if isinstance(c, dict)}
+    ids = {c.get("case_id") for c in design_cases(read_json_object(path), path)}
     return len(ids - set(df["case_id"].astype(str))), len(ids)
 
 
-#: The commands that resume an unfinished study folder with themselves; any other folder
-#: (``study run``'s, or one ``study report`` marked) resumes with ``study run``.
-_SELF_RESUMING = ("study optimize", "rev")
+def design_cases(design: dict, path: Path) -> list[dict]:
+    """The case records of a ``study.json`` read as ``design`` (from ``path``): its ``cases``
+    list, entries that are not objects left out. A ``cases`` that is not a list is a damaged
+    file, one line (exit 2): every reader of the list goes through here (review C and F,
+    session 52: ``{"cases": 5}`` was a TypeError traceback, twice).
+
+    >>> design_cases({"cases": [{"case_id": "a"}, 3]}, Path("study.json"))
+    [{'case_id': 'a'}]
+    """
+    cases = design.get("cases")
+    if cases is not None and not isinstance(cases, list):
+        raise _unreadable(path, f"cases is a {type(cases).__name__}, not a list")
+    return [c for c in cases or [] if isinstance(c, dict)]
 
 
 def resume_command(out_dir: str | Path) -> str:
@@ -154,7 +162,11 @@ def resume_command(out_dir: str | Path) -> str:
     >>> resume_command(tempfile.mkdtemp())
     'study run'
     """
+    from psdesign.analysis.optimize import OPTIMIZE_COMMAND
+    from psdesign.analysis.rev import REV_COMMAND
     from psdesign.io.outputs import read_marker
 
+    # the commands that resume their folder themselves; any other (study run's, or a folder
+    # study report marked) resumes with study run
     command = str((read_marker(Path(out_dir)) or {}).get("command", ""))
-    return command if command in _SELF_RESUMING else "study run"
+    return command if command in (OPTIMIZE_COMMAND, REV_COMMAND) else "study run"

@@ -108,6 +108,23 @@ def test_the_flow_solves_still_refuse_up_front(spec, tmp_path, capsys, monkeypat
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("name", ["pores", "diffusivity", "conductivity"])
+def test_a_transport_command_is_held_to_its_own_solve(name, spec, tmp_path, capsys, monkeypatch):
+    """Review E (session 52): loaded inside ``unplanned_route`` alone, the transport commands
+    were held to the grid's 16 B per voxel, while they peak at 270-335 B per voxel (pores,
+    diffusivity on an 864 k-voxel RVE): an out-of-memory crash instead of exit 2. On a machine
+    of 4 MiB (budget 2 MiB) the 20^3 grid's fields (128 kB) fit and its transport solve
+    (:data:`~psdesign.schema.budget.TRANSPORT_BYTES_PER_VOXEL`, 3.3 MB) does not."""
+    monkeypatch.setattr(budget, "machine_memory", lambda: 4 * 2**20)
+    need = budget.grid_bytes([20] * 3, "transport")
+    assert budget.grid_bytes([20] * 3, "geometry") < 2 * 2**20 < need
+    assert main(_argv(name, spec, tmp_path)) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: rve.voxel: a 20x20x20 grid") and "transport" in line
+    assert f"needs about {need / 2**30:.3g} GiB" in line
+    assert main(_argv("generate", spec, tmp_path)) == 0  # no transport solve: the grid fits
+
+
 @pytest.mark.parametrize("name", ["generate", "pores", "forcefield"])
 def test_their_voxel_grid_is_still_held_to_the_memory(name, spec, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(budget, "machine_memory", lambda: 200e3)

@@ -281,6 +281,7 @@ def test_the_decision_of_an_earlier_search_is_not_shown_over_a_later_design(
     page = build_html(tmp_path / "opt")
     assert "<b>MET:</b>" not in page and "<h3>Design point</h3>" not in page
     assert "<b>NO DECISION:</b> optimize.json holds the outcome of an earlier search" in page
+    assert '<p class="note" id="psd-optimize"><b>NO DECISION:' in page  # no red box: review F
     assert f"its chosen case {first['best']['case_id']} is not in the folder" in page
 
 

@@ -2277,3 +2277,38 @@ def test_the_1d_surrogate_axis_keeps_its_name_in_every_unit():
     push = r"window\.PSD_KFIGS = window\.PSD_KFIGS \|\| \[\]\)\.push\((.*?)\);</script>"
     reg = re.search(push, text)
     assert reg is not None and json.loads(reg.group(1))["label"] == "K"
+
+
+def test_the_stays_in_m2_note_is_for_k_columns_only():
+    """Review F (session 52): the "stays in m²" note went under any table with a column name
+    holding ``_m2`` (a varied ``transport.bulk_diffusivity_m2_s``), so the Results table, whose
+    K converts, said it stays in m². The note is for a K column that does not convert."""
+    from psdesign.report.html import _table
+
+    k = {"case_id": ["a"], "k_z_m2": [1e-11]}
+    assert "psd-stays-m2" not in _table(pd.DataFrame(k | {"t.bulk_diffusivity_m2_s": [3e-9]}))
+    assert "psd-stays-m2" in _table(pd.DataFrame({"case_id": ["a"], "mean log10 k_z_m2": [-11]}))
+
+
+def test_a_main_effects_figure_of_eighteen_parameters_is_drawn():
+    """Review F (session 52): one panel per parameter at a fixed 0.06 spacing; plotly refuses
+    a spacing above 1 / (cols - 1), so 18 varied parameters lost the section."""
+    from psdesign.report.decision import _main_effects_figure
+
+    rng = np.random.default_rng(0)
+    num = [f"p{i}" for i in range(18)]
+    ok = pd.DataFrame(rng.uniform(1, 2, (6, 18)), columns=num)
+    y = pd.DataFrame({"k_z_m2": rng.uniform(-12, -11, 6)})
+    fig = _main_effects_figure(ok, y, ["k_z_m2"], num, set())
+    assert len(fig.data) == 18
+
+
+def test_a_damaged_study_json_is_one_line_for_the_optimize_outcome_too(tmp_path):
+    """Review F (session 52): ``{"cases": 5}`` reached the optimize outcome's stale check
+    (``report.outcome.stale_reason``) before the incomplete-study check, a TypeError
+    traceback; every reader of the case list goes through ``readback.design_cases``."""
+    from psdesign.report.outcome import stale_reason
+
+    (tmp_path / "study.json").write_text('{"cases": 5}')
+    with pytest.raises(ValueError, match="cases is a int, not a list"):
+        stale_reason(tmp_path, {"n_points": 2, "best": {"case_id": "c0"}})

@@ -988,6 +988,27 @@ def test_a_finished_case_that_is_not_to_be_trusted_exits_3_not_1():
     assert code(["ok", "ok"], k_z_status=["ok", "ok"]) == 0
 
 
+def test_a_users_report_in_a_copy_stays_theirs_after_study_fit_writes_the_marker(tmp_path, capsys):
+    """Review F (session 52): in a marker-less copy (``cp -r out/* dest/``) with the user's
+    own report.html, ``study fit`` wrote the first marker and listed report.html in it (every
+    file an older psdesign's folder holds), so the next ``study report`` replaced it. The
+    marker now lists only what the older-folder rule owns: the report is refused, kept."""
+    from psdesign.cli.main import main
+    from psdesign.io.outputs import read_marker
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False)
+    (out / ".psdesign-output.json").unlink()
+    theirs = out / "report.html"
+    theirs.write_text("MY OWN REPORT\n")
+    assert main(["study", "fit", str(out)]) == 0
+    assert "report.html" not in read_marker(out)["files"]
+    capsys.readouterr()
+    assert main(["study", "report", str(out)]) == 2
+    assert theirs.read_text() == "MY OWN REPORT\n"
+
+
 @pytest.mark.parametrize(("name", "argv"), [("report.html", "report"), ("surrogate.json", "fit")])
 def test_a_copy_without_the_marker_keeps_a_users_report_and_surrogate(tmp_path, capsys, name, argv):
     """Review s52 (walk-report 3): ``cp -r out/* dest/`` drops the marker (a dotfile); a
