@@ -36,6 +36,38 @@ def _solve(rve, fields, direction: str, flow: dict, args: argparse.Namespace, so
     return permeability(rve, fields, direction, flow, solver, progress, estimate, capture)
 
 
+def _solve_each(rve, fields, directions: list[str], flow: dict, args, solver: str, writer):
+    """Every direction's result; on Ctrl-C the finished ones are printed (their lines, or the
+    JSON with ``"interrupted": true``) before the interrupt goes on to exit 130 and remove the
+    ``--fields`` staging folder: ``--direction all`` printed its lines only after the last solve,
+    so a Ctrl-C during K_y lost a finished K_x silently (session 52 walk-mesh finding 3)."""
+    results: list[dict] = []
+    try:
+        for d in directions:
+            results.append(_solve(rve, fields, d, flow, args, solver, writer))
+    except KeyboardInterrupt:
+        if results:
+            _print_finished(results, directions, solver, fields, args)
+        raise
+    return results
+
+
+def _print_finished(results: list[dict], directions: list[str], solver: str, fields, args):
+    """The results of an interrupted ``--direction all`` (:func:`_solve_each`)."""
+    done = [r["direction"] for r in results]
+    missing = [d for d in directions if d not in done]
+    for w in dict.fromkeys(w for r in results for w in r.get("warnings", [])):
+        warning(w)
+    warning(f"interrupted: K_{', K_'.join(missing)} not solved; the finished directions follow")
+    if args.json:
+        out = _combine(results, solver, fields)
+        out.update(interrupted=True, unsolved_directions=missing, overall_status="interrupted")
+        print_json(out)
+    else:
+        for r in results:
+            print(_line(r), flush=True)
+
+
 def _combine(results: list[dict], solver: str, fields: VoxelFields) -> dict:
     import numpy as np
 
@@ -215,7 +247,7 @@ def _cmd_permeability(args: argparse.Namespace) -> int:
 
             for d in directions:
                 refuse_without_path(fields, d, _first_solve_flow(flow, args), rve)
-        results = [_solve(rve, fields, d, flow, args, solver, writer) for d in directions]
+        results = _solve_each(rve, fields, directions, flow, args, solver, writer)
     out = results[0] if len(results) == 1 else _combine(results, solver, fields)
     out["overall_status"] = overall_status(results)
     out["wall_time_s"] = time.perf_counter() - t0

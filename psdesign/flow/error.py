@@ -607,6 +607,69 @@ def over_limit_warning(name: str, rel_error: float, advice: str) -> str:
     )
 
 
+def window_from_solver(est: ErrorEstimate) -> bool:
+    """Whether the window term is within what the solve's own algebraic error explains:
+    ``window <= C_W e_solver`` (:data:`WINDOW_SAFETY`). The gap term compares two windowed
+    pressure drops of one solve, and a solve stopped at a loose ``flow.tol`` moves them apart
+    by about its residual: a cylinder along the flow (no entrance length at all) read a window
+    term of 85.3 % at ``tol = 0.3`` (solver term 58.9 %) and 6.0 % at ``tol = 0.05`` (7.8 %),
+    0.03 % at the default tolerance (session 52 walk-mesh). A real short RVE's window term is
+    tens of times its solver term."""
+    return est.window > 0.0 and est.window <= WINDOW_SAFETY * est.solver
+
+
+def bar_cause(est: ErrorEstimate) -> str:
+    """The largest term of the bar ``est``, which picks the advice that shrinks it:
+    ``"solver"`` (tighten ``flow.tol``; a window term the solve explains,
+    :func:`window_from_solver`, counts as the solver's), ``"window"`` (a longer RVE or
+    ``bc = 'periodic'``) or ``"grid"`` (refine it; the discretization and the other terms).
+
+    >>> bar_cause(ErrorEstimate(0.6, 0.5, None, 0.0, 0.1, 2, None, None, "x"))
+    'grid'
+    >>> bar_cause(ErrorEstimate(1.99, 0.54, None, 0.0, 0.59, 2, None, None, "x", window=0.85))
+    'solver'
+    >>> bar_cause(ErrorEstimate(0.65, 0.004, None, 0.0, 1e-5, 2, None, None, "x", window=0.647))
+    'window'
+    """
+    solver_made = window_from_solver(est)
+    terms = {
+        "solver": est.solver + (est.window if solver_made else 0.0),
+        "window": 0.0 if solver_made else est.window,
+        "grid": est.rel_error - est.solver - est.window,
+    }
+    return max(terms, key=lambda k: terms[k])
+
+
+def bar_warnings(name: str, est: ErrorEstimate, refine: str) -> list[str]:
+    """The bar's advice lines for value ``name``: past :data:`UNTRUSTWORTHY_REL_ERROR` the
+    :func:`over_limit_warning` with the advice of its largest term (:func:`bar_cause`;
+    ``refine``: the grid's key, e.g. ``flow.lattice_step``), and a window term over
+    :data:`WINDOW_WARN` that the solve does not explain (:func:`window_from_solver`): the RVE is
+    short. A loose ``flow.tol`` was blamed on the grid and the sample's length (session 52
+    walk-mesh finding 4)."""
+    advice = {
+        "solver": "tighten flow.tol (the solve's residual makes most of the bar)",
+        "window": "lengthen the RVE along the flow or use bc = 'periodic'",
+        "grid": f"refine the grid ({refine})",
+    }
+    out = []
+    if est.rel_error > UNTRUSTWORTHY_REL_ERROR:
+        out.append(over_limit_warning(name, est.rel_error, advice[bar_cause(est)]))
+    if est.window > WINDOW_WARN and not window_from_solver(est):
+        out.append(
+            f"{name}: entrance/exit residual of the permeameter up to "
+            f"{100 * est.window:.1f} % (in the error bar): the RVE is short compared with the "
+            "entrance length; lengthen it along the flow or use bc = 'periodic'"
+        )
+    elif est.window > WINDOW_WARN:
+        out.append(
+            f"{name}: window term {100 * est.window:.1f} % (in the error bar): the two "
+            "windowed pressure drops of a solve stopped at a residual of "
+            f"{100 * est.solver:.1f} % differ by that much; tighten flow.tol"
+        )
+    return out
+
+
 def count_below(count: float, limit: float) -> str:
     """``count`` (a cell count under ``limit``) printed so the printed number is under ``limit``
     too: one decimal, or two or three where rounding would reach the limit (7.99 cells under a

@@ -55,7 +55,7 @@ from psdesign.meshing.options import (
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
 from psdesign.schema.flow import check_solver_bc, coarser_advice, resolution_key
-from solvers.fem.memory import MemoryLimitError
+from solvers.fem.memory import ESTIMATE_VERB, MemoryLimitError
 
 #: The ``flow.bc`` models this route applies: every one.
 BC_MODELS = SCHEMA_BC_MODELS
@@ -370,8 +370,8 @@ def memory_error(
     advice = coarser_advice(resolution_key("fem", mesher))
     return SpecError(
         "flow.max_memory_gb",
-        f"the FEM solve of {len(mesh.tets)} tets needs about {exc.estimate_gb:.3g} GB, over "
-        f"{limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or {advice})",
+        f"the FEM solve of {len(mesh.tets)} tets {ESTIMATE_VERB} about {exc.estimate_gb:.3g} GB, "
+        f"over {limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or {advice})",
     )
 
 

@@ -459,18 +459,8 @@ def with_error_estimate(
             "its features are only a few voxels across here and the resolution floor does not "
             "bound their error (untrustworthy): refine the grid (rve.voxel, or a finer image)"
         )
-    if est.rel_error > err.UNTRUSTWORTHY_REL_ERROR:
-        refine = "rve.voxel, or a finer image" if solver == "voxel" else key
-        advice = f"refine the grid ({refine})"
-        if est.window >= est.rel_error / 2:  # the window, not the grid, makes the bar
-            advice = "lengthen the RVE along the flow or use bc = 'periodic'"
-        warnings.append(err.over_limit_warning(f"K_{res['direction']}", est.rel_error, advice))
-    if est.window > err.WINDOW_WARN:
-        warnings.append(
-            f"K_{res['direction']}: entrance/exit residual of the permeameter up to "
-            f"{100 * est.window:.1f} % (in the error bar): the RVE is short compared with the "
-            "entrance length; lengthen it along the flow or use bc = 'periodic'"
-        )
+    refine = "rve.voxel, or a finer image" if solver == "voxel" else key
+    warnings += err.bar_warnings(f"K_{res['direction']}", est, refine)
     spread = err.definition_spread(res)
     if spread is not None:
         res["definition_spread"] = spread

@@ -6,8 +6,8 @@ Boundary facets
     ``WALL``: every fiber surface, including fiber end caps facing the auxiliary zones.
 Regions (tets)
     ``RVE``: the porous RVE proper; ``AUX_INLET`` / ``AUX_OUTLET``: the empty auxiliary zones
-    before and after it along the flow axis; ``FLUID`` is the name of the whole pore domain
-    (Gmsh physical volume).
+    before and after it along the flow axis (Gmsh physical volumes); ``FLUID`` is the name of
+    the whole pore domain (the Fluent cell zone).
 
 Solvers take these names as arguments (``solvers/`` does not import :mod:`psdesign`); the
 integer ids are those of the Gmsh / VTU exports.
@@ -43,9 +43,10 @@ TAG_IDS = {
     SIDE_Z0: 8,
     SIDE_Z1: 9,
 }
-#: integer id of the fluid volume (Gmsh physical volume, VTU ``region`` cell data)
-FLUID_TAG = 10
-#: integer ids of the regions (VTU ``zone`` cell data)
+#: integer id of the whole pore domain (VTU ``region`` cell data, mesh.json ``fluid_tag``): not
+#: one of :data:`REGION_IDS` (until session 52 it was 10, the ``rve`` region's id too)
+FLUID_TAG = 13
+#: integer ids of the regions (VTU ``zone`` cell data, Gmsh physical volumes)
 REGION_IDS = {RVE: 10, AUX_INLET: 11, AUX_OUTLET: 12}
 
 

@@ -18,6 +18,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +48,31 @@ def _write_job(folder: Path, verts, faces, kwargs: dict[str, Any]) -> None:
     (folder / "options.json").write_text(json.dumps(scalars))
 
 
+#: Seconds between the "fTetWild running" lines while the child meshes: fTetWild reports
+#: nothing until it ends, 5-18 min on a 100 um RVE (docs/meshers.md), and the command printed no
+#: line in between (session 52 walk-mesh finding 2).
+PROGRESS_EVERY_S = 15.0
+
+
+def child_command(folder: Path) -> list[str]:
+    """The child's command line: this module run on the job ``folder``."""
+    return [sys.executable, "-m", "psdesign.meshing.tetwild_process", str(folder)]
+
+
+def _wait_reporting(proc: subprocess.Popen) -> None:
+    """Wait for ``proc``, with a progress stage line every :data:`PROGRESS_EVERY_S` (none
+    without an active printer or with ``--quiet``: :func:`psdesign.progress.stage`)."""
+    from psdesign import progress
+
+    t0 = time.perf_counter()
+    while True:
+        try:
+            proc.wait(timeout=PROGRESS_EVERY_S)
+            return
+        except subprocess.TimeoutExpired:
+            progress.stage(f"fTetWild running, {time.perf_counter() - t0:.0f} s")
+
+
 def tetrahedralize_isolated(verts: np.ndarray, faces: np.ndarray, kwargs: dict[str, Any]):
     """:func:`run_in_process` in a child process; an interrupt of psdesign kills the child and
     propagates. A child that ends without a mesh raises :class:`MeshFailedError` with the last
@@ -56,14 +82,13 @@ def tetrahedralize_isolated(verts: np.ndarray, faces: np.ndarray, kwargs: dict[s
     with tempfile.TemporaryDirectory(prefix="psdesign-tetwild-") as tmp:
         folder = Path(tmp)
         _write_job(folder, verts, faces, kwargs)
-        cmd = [sys.executable, "-m", "psdesign.meshing.tetwild_process", str(folder)]
         with open(folder / "child.log", "wb") as log:
             proc = subprocess.Popen(
-                cmd, stdin=subprocess.DEVNULL, stdout=log, stderr=log, env=child_env(),
-                start_new_session=True,
+                child_command(folder), stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                env=child_env(), start_new_session=True,
             )  # fmt: skip
             try:
-                proc.wait()
+                _wait_reporting(proc)
             except BaseException:  # Ctrl-C, SIGTERM: the mesh is not wanted any more
                 proc.kill()
                 proc.wait()

@@ -12,9 +12,17 @@ basis of up to ``DEFAULT_RESTART + 1`` vectors, :mod:`solvers.fem.linsolve`; tem
 arrays of one 100 k-element assembly chunk; interpreter and libraries). Calibrated on this
 machine with ``benchmarks/bench_fem.py`` (structured cylinder-array meshes with 5.6 k to 1.07 M
 unknowns, measured peak 0.10-1.17 GB; fTetWild fiber meshes with 0.15 M and 1.27 M unknowns,
-0.47 and 1.52 GB; see benchmarks/RESULTS.md) and rounded up: the estimate exceeds every
+0.47 and 1.52 GB; see benchmarks/RESULTS.md) and rounded up: the estimate exceeded every
 measured peak, by 15-80 %. These were MINRES runs; the GMRES basis term was added when GMRES
 became the default (Toray-like permeameter, 658 k unknowns, 128 iterations: peak 1.46 GB).
+With GMRES it is an upper bound by more: on one cylinder in a 40 um cell (periodic and
+permeameter, lattice 2 and 1.3 um) and a random 40 um RVE (3 copies stacked), 39-171 k tets,
+41-86 iterations of the 201 vectors the basis term counts, the peak RSS was 39-61 % of this
+estimate, i.e. the estimate is 63-159 % over (session 52 mendmesh, benchmarks/RESULTS.md).
+It is not lowered: the default lattice step is sized by it
+(:func:`psdesign.schema.budget.fem_lattice_step`), so a smaller figure would change the default
+mesh, and K, of large RVEs. Refusals say "estimated (conservatively)"
+(:data:`ESTIMATE_VERB`), not the need.
 """
 
 from __future__ import annotations
@@ -29,6 +37,9 @@ BYTES_PER_DOF = 1.5e3
 BYTES_PER_CHUNK_TET = 3.0e3
 CHUNK = 100_000
 BASE_BYTES = 0.15e9
+#: How a refusal states the estimate: an upper bound, not the measured need (session 52
+#: walk-mesh finding 1: "needs about 1.17 GB" for a solve whose peak was 0.53 GB).
+ESTIMATE_VERB = "is estimated (conservatively) to need"
 #: The GMRES basis at its largest (``linsolve.DEFAULT_RESTART + 1`` float64 vectors).
 KRYLOV_BYTES_PER_DOF = 8.0 * (DEFAULT_RESTART + 1)
 

@@ -516,8 +516,9 @@ def test_a_memory_cap_just_below_the_fem_solve_names_the_key(tmp_path, capsys):
     assert main(["permeability", str(spec), "--quiet"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line == (
-        "psdesign: error: flow.max_memory_gb: the FEM solve of 13360 tets needs about 0.38 GB, "
-        "over the cap (0.35 GB) (allowed: >= 0.38 GB, or a coarser flow.lattice_step)"
+        "psdesign: error: flow.max_memory_gb: the FEM solve of 13360 tets is estimated "
+        "(conservatively) to need about 0.38 GB, over the cap (0.35 GB) (allowed: >= 0.38 GB, "
+        "or a coarser flow.lattice_step)"
     )
 
 

@@ -73,3 +73,42 @@ def test_ctrl_c_during_pytetwild_stops_the_mesher_with_one_line(tmp_path):
     psutil.wait_procs(kids, timeout=5)
     assert not any(k.is_running() and k.status() != psutil.STATUS_ZOMBIE for k in kids)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def _stub_child(seconds: float):
+    """A child that sleeps ``seconds`` (fTetWild's silent run) and then writes a one-tet mesh."""
+
+    def command(folder):
+        code = (
+            "import sys, time, numpy as np; time.sleep(float(sys.argv[2])); "
+            "np.savez(sys.argv[1] + '/mesh.npz', points=np.eye(4, 3), tets=np.arange(4)[None])"
+        )
+        return [sys.executable, "-c", code, str(folder), str(seconds)]
+
+    return command
+
+
+def test_a_long_fTetWild_run_prints_elapsed_time(monkeypatch):
+    """Session 52 walk-mesh finding 2: psdesign printed nothing between "meshing the pore space
+    (pytetwild, z)" and the mesh's line while fTetWild ran (23 s on a 40 um RVE; 5-18 min on a
+    100 um one, docs/meshers.md). Truth: a stub child sleeping 1.0 s with a line every 0.3 s
+    gives at least three lines "fTetWild running, N s" (at 0.3, 0.6, 0.9 s: a lower bound, no
+    timing asserted); with --quiet (a quiet printer) none."""
+    import io
+
+    import numpy as np
+
+    from psdesign import progress
+    from psdesign.meshing import tetwild_process as tp
+
+    monkeypatch.setattr(tp, "child_command", _stub_child(1.0))
+    monkeypatch.setattr(tp, "PROGRESS_EVERY_S", 0.3)
+    verts, faces = np.eye(4, 3), np.array([[0, 1, 2]])
+    for quiet, want in ((False, True), (True, False)):
+        stream = io.StringIO()
+        with progress.activate(quiet=quiet, stream=stream):
+            pts, tets = tp.tetrahedralize_isolated(verts, faces, {})
+        assert pts.shape == (4, 3) and tets.shape == (1, 4)
+        lines = [x for x in stream.getvalue().splitlines() if "fTetWild running" in x]
+        assert len(lines) >= 3 if want else not lines, stream.getvalue()
+        assert all(x.startswith("psdesign: fTetWild running, ") for x in lines)

@@ -1,4 +1,5 @@
-"""Gmsh 2.2 ASCII writer with physical groups (boundary tag names + ``fluid``); a periodic
+"""Gmsh 2.2 ASCII writer with physical groups (boundary tag names + the regions ``rve``,
+``aux_inlet``, ``aux_outlet``, ids :data:`~psdesign.meshing.tags.REGION_IDS`); a periodic
 mesh's opposite faces are linked in a ``$Periodic`` section (:func:`periodic_links`)."""
 
 from __future__ import annotations
@@ -10,19 +11,24 @@ import meshio
 import numpy as np
 
 from psdesign.meshing.exports._common import boundary, periodic_faces
-from psdesign.meshing.tags import FLUID, FLUID_TAG, TAG_IDS
+from psdesign.meshing.tags import REGION_IDS, TAG_IDS
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
 
 
 def write_gmsh(pm: PoreMesh, out: Path) -> dict[str, Path]:
-    """``pore.msh``: Gmsh 2.2 with physical names, readable by ``gmshToFoam``."""
+    """``pore.msh``: Gmsh 2.2 with physical names, readable by ``gmshToFoam`` (one cellZone per
+    region present: a periodic mesh has the ``rve`` alone)."""
     path = out / "pore.msh"
     tris, ids, names = boundary(pm)
     field_data = {k: np.array([TAG_IDS[k], 2]) for k in names}
-    field_data[FLUID] = np.array([FLUID_TAG, 3])
-    tet_ids = np.full(len(pm.tets), FLUID_TAG)
+    # each tet's region (mesh.json's region_table, pore.vtu's zone): one fluid volume id 10
+    # lost the auxiliary zones, and 10 meant "rve" in the other files (session 52 walk-mesh 5)
+    tet_ids = np.vectorize(REGION_IDS.get, otypes=[np.int64])(pm.tet_regions())
+    for name, i in REGION_IDS.items():
+        if (tet_ids == i).any():
+            field_data[name] = np.array([i, 3])
     mesh = meshio.Mesh(
         pm.points,
         [("triangle", tris), ("tetra", pm.tets)],
