@@ -752,7 +752,7 @@ def _uncertainty_panel(fig, ga, gb, rel: np.ndarray, bar: dict, floor: bool) -> 
     Returns whether it was constant."""
     import plotly.graph_objects as go
 
-    z = np.round(rel / REL_UNCERTAINTY_STEP) * REL_UNCERTAINTY_STEP
+    z = np.round(rel, round(-np.log10(REL_UNCERTAINTY_STEP)))  # to the step, as decimals
     if np.ptp(z) <= REL_UNCERTAINTY_STEP:
         why = "<br>(the fit's estimated error between design points)" if floor else ""
         pct = 100 * float(np.median(rel))
