@@ -342,10 +342,12 @@ class Material:
         ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.geometry.rve import resolution_measure
+        from psdesign.schema.budget import check_transport
         from psdesign.transport.diffusivity import relative_diffusivity
 
         progress = _progress_flag(progress)
         direction = _direction(direction)
+        check_transport(self.spec)  # its solve's memory, before the voxels (review G, s52)
         table = {**self.spec.get("transport", {}), **transport}
         folder = fields_folder(fields, "diffusivity", [direction], option="fields")
         with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
@@ -374,12 +376,14 @@ class Material:
         a folder for the potential field; ``progress=True``: the solve's iterations on stderr."""
         from psdesign.fields import fields_folder
         from psdesign.geometry.rve import resolution_measure
+        from psdesign.schema.budget import check_transport
         from psdesign.transport.conductivity import effective_conductivity, transport_table
 
         progress = _progress_flag(progress)
         direction = _direction(direction)
         table = {**self.spec.get("transport", {}), **transport}
         transport_table(solid, fluid, table)  # refused before the voxels are computed
+        check_transport(self.spec)
         folder = fields_folder(fields, "conductivity", [direction], option="fields")
         with folder as writer, _progress(progress, direction, "Laplace solve", "CG") as report:
             return effective_conductivity(
@@ -408,10 +412,12 @@ class Material:
         ``specific_surface_rel_error`` are the error estimates). Keywords (``n_radii``,
         ``thickness_axis``, ``surface_tension_n_m``, ``contact_angle_deg``) override the spec's
         ``[transport]`` table and are validated with it (``SpecError`` naming the key)."""
+        from psdesign.schema.budget import check_transport
         from psdesign.schema.transport import validate_transport
         from psdesign.transport.study_outputs import pore_report
 
         table = validate_transport({"transport": {**self.spec.get("transport", {}), **transport}})
+        check_transport(self.spec)
         return pore_report(self.rve, self.fields, table)
 
     def _repr_html_(self) -> str:

@@ -306,7 +306,7 @@ def fem_flow_grids(
         "pressure_Pa": p,
     }
     vol = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: tets10}, nodes)
-    zone = np.vectorize(tags.REGION_IDS.get, otypes=[np.int32])(mesh.tet_regions())
+    zone = tags.region_ids(mesh.tet_regions(), "int32")
     vol.cell_data["zone"] = zone
     vol.cell_data["region"] = np.full(len(mesh.tets), tags.FLUID_TAG, np.int32)
     bnd = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TRIANGLE: tris6}, nodes)

@@ -12,7 +12,8 @@ from psdesign.meshing import tags
 
 
 def region_table() -> dict[str, int]:
-    """Region name -> id (``zone`` / ``region`` cell data): RVE, inlet and outlet zones."""
+    """Region name -> id (``zone`` cell data): RVE, inlet and outlet zones (the ``region``
+    array holds the whole fluid's :data:`~psdesign.meshing.tags.FLUID_TAG`)."""
     return dict(tags.REGION_IDS)
 
 

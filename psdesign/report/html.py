@@ -158,7 +158,7 @@ def _fmt(v) -> str:
 #: k_z_m2" (-11.33) became -1.148e+13 in darcy (review s52, walk-report 1).
 K_VALUE_COLUMN = re.compile(r"k_[xyz]{1,2}_m2")
 #: Any K column name, converted or not (a mean of log10 K too): the "stays in m²" note's test.
-_K_NAME = re.compile(r"\bk_[xyz]{1,2}_m2\b|^K_[xyz]{1,2}\b.*m²")
+_K_NAME = re.compile(rf"\b{K_VALUE_COLUMN.pattern}\b|^K_[xyz]{{1,2}}\b.*m²")
 
 
 def _converts(col: str) -> bool:

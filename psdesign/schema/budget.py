@@ -418,6 +418,29 @@ def check_grid(
     )
 
 
+def check_transport(spec: dict) -> None:
+    """Refuse a validated ``spec`` whose transport solve (``pores``, ``diffusivity``,
+    ``conductivity``: :data:`TRANSPORT_BYTES_PER_VOXEL`) exceeds the memory budget, one line
+    naming ``rve.voxel`` (``image.crop`` for an image). One check for the commands
+    (:func:`psdesign.transport.load.load_case`) and the Python API's methods (review G,
+    session 52: the API was held to the grid's own 16 B per voxel).
+
+    Raises
+    ------
+    SpecError
+        The grid's transport solve does not fit.
+    """
+    from pydantic_core import PydanticCustomError
+
+    from psdesign.schema.errors import fail_error
+
+    key = "image.crop" if spec.get("image") else "rve.voxel"
+    try:
+        check_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], "transport", key)
+    except PydanticCustomError as exc:  # the schema's own line, raised outside it
+        raise fail_error(exc) from None
+
+
 def _counted(solver: str, flow, aux: float) -> str:
     """What :func:`check_grid`'s estimate of a solve counted, for its refusal: the solver, and
     for the voxel solver's grid (reservoirs, mirror or frame) the direction it was counted
@@ -567,6 +590,8 @@ def check_fem(
     thinnest, in metres, or None), coarsened to fit where the box-relative step fits. With
     ``flow.mesher = "pytetwild"`` the mesh is :func:`tetwild_mesh_size` instead. Nothing
     inside :func:`unplanned_route`."""
+    from solvers.fem.memory import ESTIMATE_VERB
+
     if not route_planned():
         return
     if getattr(flow, "mesher", "stuffing") == "pytetwild":
@@ -592,15 +617,13 @@ def check_fem(
         _, tets = fem_mesh_size(size, step, least, aux, phi)
         what = f"the FEM solve of about {tets:.3g} tets (lattice step {step:.3g} m)"
         need = fem_need_bytes(size, step, least, aux, phi)
-        from solvers.fem.memory import ESTIMATE_VERB
-
         check_cap(flow, need, what, resolution_key("fem", "stuffing"), verb=ESTIMATE_VERB)
         return
     pts, tets = fem_mesh_size(size, step, copies, aux, phi)
     what = (
         f"the FEM solve of about {tets:.3g} tets ({copies} copies, lattice step {step:.3g} m) "
-        f"needs about {total / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half "
-        "the machine)"
+        f"{ESTIMATE_VERB} about {total / 2**30:.3g} GiB; the budget is "
+        f"{budget / 2**30:.3g} GiB (half the machine)"
     )
     if copies > 1 and fem_need_bytes(size, step, 1, aux, phi) <= budget:
         raise fail("flow.permeameter_copies", what, "1, or flow.bc = 'periodic'", ("flow.bc",))

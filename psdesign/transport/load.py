@@ -55,12 +55,9 @@ def load_case(
     """
     from pathlib import Path
 
-    from pydantic_core import PydanticCustomError
-
     from psdesign.errors import SpecError
     from psdesign.packing.build import build_rve
-    from psdesign.schema.budget import check_grid, unplanned_route
-    from psdesign.schema.errors import fail_error
+    from psdesign.schema.budget import check_transport, unplanned_route
     from psdesign.schema.spec import load_spec, read_toml, validate_spec
     from psdesign.schema.transport import validate_transport
 
@@ -86,11 +83,7 @@ def load_case(
         spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
         # held to the transport solve's own memory instead (review E, session 52: inside
         # unplanned_route alone the grid's 16 B per voxel let an out-of-memory run through)
-        key = "image.crop" if spec.get("image") else "rve.voxel"
-        try:
-            check_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], "transport", key)
-        except PydanticCustomError as exc:  # the schema's own line, raised outside it
-            raise fail_error(exc) from None
+        check_transport(spec)
         spec["transport"] = transport
         built = build_rve(spec)
         fields = built.voxelize(spec["rve"]["voxel"])

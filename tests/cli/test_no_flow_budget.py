@@ -111,7 +111,7 @@ def test_the_flow_solves_still_refuse_up_front(spec, tmp_path, capsys, monkeypat
 @pytest.mark.parametrize("name", ["pores", "diffusivity", "conductivity"])
 def test_a_transport_command_is_held_to_its_own_solve(name, spec, tmp_path, capsys, monkeypatch):
     """Review E (session 52): loaded inside ``unplanned_route`` alone, the transport commands
-    were held to the grid's 16 B per voxel, while they peak at 270-335 B per voxel (pores,
+    were held to the grid's 16 B per voxel, while they peak at 270-324 B per voxel (pores,
     diffusivity on an 864 k-voxel RVE): an out-of-memory crash instead of exit 2. On a machine
     of 4 MiB (budget 2 MiB) the 20^3 grid's fields (128 kB) fit and its transport solve
     (:data:`~psdesign.schema.budget.TRANSPORT_BYTES_PER_VOXEL`, 3.3 MB) does not."""
@@ -133,3 +133,20 @@ def test_their_voxel_grid_is_still_held_to_the_memory(name, spec, tmp_path, caps
     assert "rve.voxel: a 20x20x20 grid (8e+03 voxels, 16 B each for the voxel grid's own" in line
     assert f"needs about {128e3 / 2**30:.3g} GiB" in line
     assert not (tmp_path / "g").exists() and not (tmp_path / "f").exists()
+
+
+@pytest.mark.parametrize("method", ["pores", "diffusivity", "conductivity"])
+def test_the_api_is_held_to_the_transport_solve_too(method, spec, monkeypatch):
+    """Review G (session 52): only the commands' loader checked the transport solve's memory;
+    ``psdesign.build(spec).diffusivity()`` (and ``pores``, ``conductivity``) ran on a grid
+    the command refuses. One check (``budget.check_transport``): the same refusal, before the
+    voxels are computed."""
+    import psdesign
+    from psdesign.errors import SpecError
+
+    m = psdesign.build(spec)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 4 * 2**20)
+    with pytest.raises(SpecError) as info:
+        getattr(m, method)(**({"direction": "z"} if method != "pores" else {}))
+    assert info.value.key == "rve.voxel" and "transport" in info.value.message
+    assert m._fields is None  # refused before the voxels

@@ -77,7 +77,7 @@ def write_fluent(pm: PoreMesh, path: Path, flow: dict | None = None) -> Path:
         out.write("))\n")
         zones.append((zone_id, ztype, name))
         zone_id += 1
-    out.write("(45 (2 fluid fluid)())\n")
+    out.write(f"(45 (2 fluid {T.FLUID})())\n")
     for zid, ztype, name in zones:
         out.write(f"(45 ({zid} {ztype} {name})())\n")
     path = Path(path)

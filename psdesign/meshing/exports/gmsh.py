@@ -11,7 +11,7 @@ import meshio
 import numpy as np
 
 from psdesign.meshing.exports._common import boundary, periodic_faces
-from psdesign.meshing.tags import REGION_IDS, TAG_IDS
+from psdesign.meshing.tags import REGION_IDS, TAG_IDS, region_ids
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
@@ -25,7 +25,7 @@ def write_gmsh(pm: PoreMesh, out: Path) -> dict[str, Path]:
     field_data = {k: np.array([TAG_IDS[k], 2]) for k in names}
     # each tet's region (mesh.json's region_table, pore.vtu's zone): one fluid volume id 10
     # lost the auxiliary zones, and 10 meant "rve" in the other files (session 52 walk-mesh 5)
-    tet_ids = np.vectorize(REGION_IDS.get, otypes=[np.int64])(pm.tet_regions())
+    tet_ids = region_ids(pm.tet_regions())
     for name, i in REGION_IDS.items():
         if (tet_ids == i).any():
             field_data[name] = np.array([i, 3])

@@ -11,7 +11,7 @@ import numpy as np
 
 from psdesign.io.vtkfile import save_vtk
 from psdesign.meshing.exports._common import boundary
-from psdesign.meshing.tags import FLUID_TAG, REGION_IDS
+from psdesign.meshing.tags import FLUID_TAG, region_ids
 
 if TYPE_CHECKING:
     from psdesign.meshing.result import PoreMesh
@@ -27,7 +27,7 @@ def write_vtu(pm: PoreMesh, out: Path) -> dict[str, Path]:
     pts = np.asarray(pm.points, float)
     vol = pv.UnstructuredGrid({pv.CellType.TETRA: np.asarray(pm.tets, np.int64)}, pts)
     vol.cell_data["region"] = np.full(len(pm.tets), FLUID_TAG, np.int64)
-    vol.cell_data["zone"] = np.vectorize(REGION_IDS.get, otypes=[np.int64])(pm.tet_regions())
+    vol.cell_data["zone"] = region_ids(pm.tet_regions())
     tris, ids, _ = boundary(pm)
     bnd = pv.UnstructuredGrid({pv.CellType.TRIANGLE: tris}, pts)
     bnd.cell_data["tag"] = np.asarray(ids, np.int64)
