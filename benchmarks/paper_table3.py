@@ -282,7 +282,7 @@ RUN_FIELDS = (
     "clustering_cv_20um",
 )
 MIRROR_FIELDS = (
-    "spec", "method", "seed", "direction", "face_mismatch",
+    "spec", "method", "seed", "voxel_m", "direction", "face_mismatch",
     "k_plain_m2", "k_plain_converged", "k_mirrored_m2", "k_mirrored_converged",
 )  # fmt: skip
 
@@ -315,6 +315,8 @@ def summary(path: Path, reading: str = "") -> str:
     """
     rows, mirrors = _split_records(path, read_runs(path))
     if mirrors and not rows:  # a mirror runs file
+        if reading:  # as with --beside: a reading the table cannot show is refused, not ignored
+            raise RunsError(f"{path}: --reading {reading}: mirror records have one K per solve")
         return mirror_summary(mirrors)
     groups: dict = {}
     for r in rows:
@@ -342,16 +344,19 @@ def mirror_summary(rows: list[dict]) -> str:
     """Markdown table of ``mirror`` records (:func:`run_mirror`) per (spec, method,
     direction): the seeds, the face mismatch, K of the RVE and of it + its mirror image (mean
     +- 95 % CI, Student t), the per-seed ratio mirrored / plain (docs/paper-reproduction.md's
-    mirror test) and whether every solve converged (last record of a seed wins)."""
+    mirror test) and whether every solve converged (last record of a seed at one voxel size
+    wins; each voxel size is its own row)."""
     groups: dict = {}
     for r in rows:
-        groups.setdefault((r["spec"], r["method"], r["direction"]), {})[r["seed"]] = r
+        key = (r["spec"], r["method"], r["direction"], r["voxel_m"])
+        groups.setdefault(key, {})[r["seed"]] = r
     lines = [
-        "| spec | method | direction | n (seeds) | face mismatch | K plain mean +- 95% CI (m^2) "
-        "| K mirrored mean +- 95% CI (m^2) | mirrored / plain (per seed) | converged |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| spec | method | direction | voxel (um) | n (seeds) | face mismatch "
+        "| K plain mean +- 95% CI (m^2) | K mirrored mean +- 95% CI (m^2) "
+        "| mirrored / plain (per seed) | converged |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for (spec, method, d), by_seed in sorted(groups.items()):
+    for (spec, method, d, voxel), by_seed in sorted(groups.items()):
         seeds = sorted(by_seed)
         rs = [by_seed[s] for s in seeds]
         k = {n: np.array([r[f"k_{n}_m2"] for r in rs]) for n in ("plain", "mirrored")}
@@ -362,7 +367,13 @@ def mirror_summary(rows: list[dict]) -> str:
             for r in rs
             if not (r["k_plain_converged"] is True and r["k_mirrored_converged"] is True)
         ]
-        cells = [spec, method, d, f"{len(seeds)} ({', '.join(map(str, seeds))})"]
+        cells = [
+            spec,
+            method,
+            d,
+            f"{1e6 * voxel:g}",
+            f"{len(seeds)} ({', '.join(map(str, seeds))})",
+        ]
         cells.append(f"{min(mism):.0f}-{max(mism):.0f} %" if len(mism) > 1 else f"{mism[0]:.0f} %")
         cells += [_mean_cell(k["plain"], None), _mean_cell(k["mirrored"], None)]
         cells.append(f"{ratio.mean():.3f} ({', '.join(f'{x:.3f}' for x in ratio)})")

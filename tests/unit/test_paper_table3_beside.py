@@ -137,7 +137,8 @@ def test_summary_bad_input_exits_2_with_one_line(t3, tmp_path, capsys, args, say
 
 
 def _mirror(seed: int, plain: float, mirrored: float, **extra) -> dict:
-    return {"spec": SPEC, "method": "ga", "seed": seed, "direction": "x", "porosity": 0.8,
+    return {"spec": SPEC, "method": "ga", "seed": seed, "voxel_m": 1e-6, "direction": "x",
+            "porosity": 0.8,
             "face_mismatch": 0.25 + 0.05 * seed, "k_plain_m2": plain, "k_plain_converged": True,
             "k_plain_wall_s": 1.0, "k_mirrored_m2": mirrored, "k_mirrored_converged": True,
             "k_mirrored_wall_s": 2.0, **extra}  # fmt: skip
@@ -156,8 +157,8 @@ def test_summary_of_mirror_records_gives_their_closed_form_table(t3, tmp_path, c
     assert err == ""
     row = out.strip().splitlines()[2]
     cells = [c.strip() for c in row.strip("|").split("|")]
-    assert cells[:5] == [SPEC, "ga", "x", "2 (1, 2)", "30-35 %"]
-    assert cells[5:] == [
+    assert cells[:6] == [SPEC, "ga", "x", "1", "2 (1, 2)", "30-35 %"]
+    assert cells[6:] == [
         "1.500e-11 +- 6.35e-11",
         "1.700e-11 +- 6.35e-11",
         "1.150 (1.200, 1.100)",
@@ -171,7 +172,7 @@ def test_summary_of_the_shipped_mirror_runs_is_the_docs_mirror_test(t3):
     straight in-plane 7.93e-12 -> 9.01e-12; from benchmarks/paper_table3_mirror_runs.jsonl."""
     table = t3.summary(ROOT / "benchmarks" / "paper_table3_mirror_runs.jsonl")
     rows = [[c.strip() for c in r.strip("|").split("|")] for r in table.splitlines()[2:]]
-    got = {(Path(r[0]).stem, r[2]): (r[5][:9], r[6][:9], r[7], r[8]) for r in rows}
+    got = {(Path(r[0]).stem, r[2]): (r[6][:9], r[7][:9], r[8], r[9]) for r in rows}
     assert got == {
         ("bent", "x"): ("7.892e-12", "8.847e-12", "1.121 (1.153, 1.090, 1.119)", "yes"),
         ("straight", "x"): ("7.929e-12", "9.009e-12", "1.136 (1.130, 1.149, 1.130)", "yes"),
@@ -270,3 +271,19 @@ def test_run_records_the_copies_and_why_auto_stopped(t3, monkeypatch, copies, tr
         assert [w for _, w in rec["k_z_auto_tries"]] == pytest.approx([0.02, 0.004])
     else:
         assert "k_z_auto_tries" not in rec
+
+
+def test_mirror_records_at_another_voxel_size_are_their_own_row(t3, tmp_path, capsys):
+    """Review s53: a mirror rerun of a seed at another resolution replaced the earlier record
+    in the same row (n still 2). Truth: the 1 um seeds 1, 2 stay one row (K plain mean 1.5e-11);
+    the 0.5 um seed 1 is a second row with n 1; a --reading on mirror records is refused
+    (exit 2: mirror records have one K per solve), as with --beside."""
+    rows = [_mirror(1, 1e-11, 1.2e-11), _mirror(2, 2e-11, 2.2e-11),
+            _mirror(1, 5e-12, 6e-12, voxel_m=5e-7)]  # fmt: skip
+    path = _write(tmp_path / "m.jsonl", rows)
+    assert t3.main(["summary", str(path)]) == 0
+    table = [r.strip("|").split("|") for r in capsys.readouterr().out.strip().splitlines()[2:]]
+    got = sorted((c[3].strip(), c[4].strip(), c[6].strip()[:9]) for c in table)
+    assert got == [("0.5", "1 (1)", "5.000e-12"), ("1", "2 (1, 2)", "1.500e-11")]
+    assert t3.main(["summary", str(path), "--reading", "_applied"]) == 2
+    assert "one K per solve" in capsys.readouterr().err
