@@ -270,14 +270,54 @@ def read_runs(path: Path) -> list[dict]:
     return rows
 
 
+#: The fields ``summary`` reads of a ``run`` record and of a ``mirror`` record (one with
+#: ``k_plain_m2``, :func:`run_mirror`).
+RUN_FIELDS = (
+    "spec",
+    "method",
+    "porosity",
+    "omega",
+    "pore_d50_m",
+    "pore_d90_m",
+    "clustering_cv_20um",
+)
+MIRROR_FIELDS = (
+    "spec", "method", "seed", "voxel_m", "direction", "face_mismatch",
+    "k_plain_m2", "k_plain_converged", "k_mirrored_m2", "k_mirrored_converged",
+)  # fmt: skip
+
+
+def _split_records(path: Path, rows: list[dict]) -> tuple[list[dict], list[dict]]:
+    """The ``run`` and the ``mirror`` records of a runs file; :class:`RunsError` naming the
+    record and the fields it lacks for one that is neither (until session 53 a KeyError
+    traceback: ``summary`` read a mirror record as a run, its ``omega`` missing)."""
+    runs, mirrors = [], []
+    for n, r in enumerate(rows, 1):
+        mirror = "k_plain_m2" in r
+        missing = [f for f in (MIRROR_FIELDS if mirror else RUN_FIELDS) if f not in r]
+        if missing:
+            whose = " (paper_table3_voxel.py summary reads its records)" if "kind" in r else ""
+            raise RunsError(
+                f"{path}: record {n} is not a {'mirror' if mirror else 'run'} record of "
+                f"paper_table3.py (no {', '.join(missing)}){whose}"
+            )
+        (mirrors if mirror else runs).append(r)
+    return runs, mirrors
+
+
 def summary(path: Path, reading: str = "") -> str:
-    """Markdown table: mean +- 95 % CI per (spec, method, solver, bc, direction).
+    """Markdown table: mean +- 95 % CI per (spec, method, solver, bc, direction); the
+    ``mirror`` records of the file in a second table (:func:`mirror_summary`).
 
     ``reading``: '' (the route's K; FEM permeameter: windowed dissipation), '_faces' (FEM
     permeameter, drop between the RVE faces) or '_applied' (FEM permeameter, applied drop over
     the RVE plus both auxiliary zones).
     """
-    rows = read_runs(path)
+    rows, mirrors = _split_records(path, read_runs(path))
+    if mirrors and not rows:  # a mirror runs file
+        if reading:  # as with --beside: a reading the table cannot show is refused, not ignored
+            raise RunsError(f"{path}: --reading {reading}: mirror records have one K per solve")
+        return mirror_summary(mirrors)
     groups: dict = {}
     for r in rows:
         groups.setdefault(_key(r), []).append(r)
@@ -296,6 +336,48 @@ def summary(path: Path, reading: str = "") -> str:
         cells.append(f"{1e6 * np.mean([r['pore_d50_m'] for r in rs]):.1f}")
         cells.append(f"{1e6 * np.mean([r['pore_d90_m'] for r in rs]):.1f}")
         cells.append(f"{np.mean([r['clustering_cv_20um'] for r in rs]):.3f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + (f"\n\n{mirror_summary(mirrors)}" if mirrors else "")
+
+
+def mirror_summary(rows: list[dict]) -> str:
+    """Markdown table of ``mirror`` records (:func:`run_mirror`) per (spec, method,
+    direction): the seeds, the face mismatch, K of the RVE and of it + its mirror image (mean
+    +- 95 % CI, Student t), the per-seed ratio mirrored / plain (docs/paper-reproduction.md's
+    mirror test) and whether every solve converged (last record of a seed at one voxel size
+    wins; each voxel size is its own row)."""
+    groups: dict = {}
+    for r in rows:
+        key = (r["spec"], r["method"], r["direction"], r["voxel_m"])
+        groups.setdefault(key, {})[r["seed"]] = r
+    lines = [
+        "| spec | method | direction | voxel (um) | n (seeds) | face mismatch "
+        "| K plain mean +- 95% CI (m^2) | K mirrored mean +- 95% CI (m^2) "
+        "| mirrored / plain (per seed) | converged |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for (spec, method, d, voxel), by_seed in sorted(groups.items()):
+        seeds = sorted(by_seed)
+        rs = [by_seed[s] for s in seeds]
+        k = {n: np.array([r[f"k_{n}_m2"] for r in rs]) for n in ("plain", "mirrored")}
+        ratio = k["mirrored"] / k["plain"]
+        mism = [100 * r["face_mismatch"] for r in rs]
+        bad = [  # a not-converged solve's K is in the means: the column says which seeds
+            r["seed"]
+            for r in rs
+            if not (r["k_plain_converged"] is True and r["k_mirrored_converged"] is True)
+        ]
+        cells = [
+            spec,
+            method,
+            d,
+            f"{1e6 * voxel:g}",
+            f"{len(seeds)} ({', '.join(map(str, seeds))})",
+        ]
+        cells.append(f"{min(mism):.0f}-{max(mism):.0f} %" if len(mism) > 1 else f"{mism[0]:.0f} %")
+        cells += [_mean_cell(k["plain"], None), _mean_cell(k["mirrored"], None)]
+        cells.append(f"{ratio.mean():.3f} ({', '.join(f'{x:.3f}' for x in ratio)})")
+        cells.append(f"NO: seed {', '.join(map(str, bad))}" if bad else "yes")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

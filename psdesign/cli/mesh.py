@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 from psdesign.cli.exit_status import status_code
 from psdesign.cli.lines import print_json, with_porosity_status
@@ -25,34 +24,6 @@ def _load_spec(path: str, mesher: str | None) -> dict:
     from psdesign.schema.spec import load_spec
 
     return load_spec(path, {"mesher": mesher})
-
-
-def _drop_stale_outputs(folder: Path, formats: tuple[str, ...]) -> list[str]:
-    """Remove the export files a previous run wrote into ``folder`` (as its marker lists them)
-    for formats this run did not write, so that no old mesh is left beside the new one.
-
-    Parameters
-    ----------
-    folder
-        The output folder, after this run's files are in place.
-    formats
-        The formats this run wrote.
-
-    Returns
-    -------
-    list of str
-        Relative paths removed.
-    """
-    from psdesign.io.outputs import remove_owned_files, remove_owned_tree
-
-    written = set(output_names(formats))
-    old = [n for n in output_names(tuple(OUTPUTS)) if n not in written]
-    removed = remove_owned_files(folder, [n for n in old if "/" not in n])
-    for sub in sorted(
-        {n.split("/")[0] for n in old if "/" in n} - {n.split("/")[0] for n in written}
-    ):
-        removed += remove_owned_tree(folder, sub)
-    return removed
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -108,7 +79,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     opts = MeshOptions.from_flow(flow, fiber_diameter=diameter, **extra)
     with says_closed_pore_space(own.fields, direction, opts.periodic):  # permeability's line
         pm = mesh_pore_space(own.fields.distance, own.voxel, rve.size, direction, opts)
-    with staged_directory(target) as tmp:
+    # every format's files: a previous run's this one does not rewrite go once the new ones
+    # are in place (an old pore.msh or openfoam/ case would describe another mesh)
+    with staged_directory(target, replaces=output_names(tuple(OUTPUTS))) as tmp:
         files = export_mesh(pm, tmp, formats=formats, flow=flow)
         info = {
             "direction": direction,
@@ -123,7 +96,6 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         summary = mesh_summary(pm)  # the tag tables: names -> ids, facets and areas per tag
         info |= {k: summary[k] for k in ("tags", "tag_table", "region_table", "fluid_tag")}
         write_record(tmp, "mesh.json", info)  # the wall time beside it
-    _drop_stale_outputs(target.path, formats)
     out = with_porosity_status(
         {k: info[k] for k in ("direction", "porosity", "porosity_error", "wall_time_s")}
     )

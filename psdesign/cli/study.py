@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from psdesign.cli.exit_status import (
     BAD_INPUT,
@@ -37,6 +39,9 @@ from psdesign.cli.options import (
     add_force_argument,
     add_workers_argument,
 )
+
+if TYPE_CHECKING:
+    from psdesign.report import ReportAlert
 
 __all__ = ["cmd_study_report", "cmd_study_run", "main"]
 
@@ -316,7 +321,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
 def cmd_study_report(args: argparse.Namespace) -> int:
     """Handler of ``psdesign study report``; returns the exit status."""
     from psdesign.report import write_report_alerts
-    from psdesign.study.readback import cases_not_run, read_results, resume_command
+    from psdesign.study.readback import read_results
     from psdesign.study.store import StorageError
 
     try:
@@ -326,29 +331,20 @@ def cmd_study_report(args: argparse.Namespace) -> int:
     except StorageError as exc:
         return fail(str(exc), FAILED)
     print(path)
-    df = read_results(args.out)
-    code = report_exit_status(df, alerts)
-    missing, n_design = cases_not_run(args.out, df)
-    if missing:  # finished, but not the study: 3 ("read it"), not 1 (no case failed)
-        print(
-            f"psdesign: the report shows {n_design - missing} of {n_design} case(s); "
-            f"{missing} not run: rerun {resume_command(args.out)} to resume",
-            file=sys.stderr,
-        )
-        return NOT_TRUSTED
-    return code
+    return report_exit_status(read_results(args.out), alerts)
 
 
-def report_exit_status(df, alerts: list[str] | tuple[str, ...] = ()) -> int:
+def report_exit_status(df, alerts: Sequence[ReportAlert] = ()) -> int:
     """The exit status of ``study report`` (session 45): the report finished and is complete,
     so never ``FAILED`` for a case (``FAILED`` is a run that could not give it: ``study run``'s
     exit); ``NOT_TRUSTED`` when a case it shows is not ok (failed, timed out, not_converged, or
     an ok case with a value not ok: :func:`psdesign.cli.exit_status.case_counts`, the cases its
     red box counts), with one line saying so; else ``OK``. Until session 45 it exited 0 on a
     folder whose every case had failed. It takes no ``--allow-not-converged``: its exit says
-    whether the red box is there: since session 52 also 3 for the lines ``alerts`` its box
-    adds (a missed ``study optimize`` target, an untrustworthy surrogate it draws:
-    :func:`psdesign.report.html.render_report`), one line each.
+    whether a red box is there: since session 52 also 3 for each of the report's ``alerts``
+    (:func:`psdesign.report.html.render_report`: an unfinished study, since session 53 one of
+    them, a missed ``study optimize`` target, an untrustworthy surrogate it draws), one line
+    each: ``psdesign: <what>: <todo>``.
 
     >>> import pandas as pd
     >>> report_exit_status(pd.DataFrame({"status": ["ok", "ok"]}))
@@ -357,8 +353,8 @@ def report_exit_status(df, alerts: list[str] | tuple[str, ...] = ()) -> int:
     3
     """
     counts = case_counts(df)
-    for line in alerts:
-        print(f"psdesign: {line}: read the report's red box", file=sys.stderr)
+    for alert in alerts:  # an unfinished study: finished, but not the study: 3, not 1
+        print(f"psdesign: {alert.what}: {alert.todo}", file=sys.stderr)
     if not any(counts):
         return NOT_TRUSTED if alerts else OK
     print(

@@ -42,7 +42,6 @@ __all__ = [
     "claim_output_dir",
     "is_psdesign_temp",
     "remove_owned_files",
-    "remove_owned_tree",
     "staged_output",
 ]
 
@@ -380,37 +379,32 @@ def claim_output_dir(out: OutputDir, files: Iterable[str]) -> OutputDir:
 
 
 def remove_owned_files(folder: Path, names: Iterable[str]) -> list[str]:
-    """Remove the files ``names`` (plain names in ``folder``) that psdesign wrote, as its
-    marker lists them, and drop them from the marker; returns the names removed.
+    """Remove the files ``names`` (relative POSIX paths in ``folder``: ``pore.msh``,
+    ``openfoam/0/p``) that psdesign wrote, as its marker lists them, drop them from the
+    marker and remove the sub-folders they leave empty; returns the paths removed.
 
-    Anything the marker does not list, a symbolic link or a folder is left alone: a file is
-    only removed if psdesign wrote it.
+    Anything the marker does not list, a symbolic link (or a path through one), a folder, an
+    absolute path or one with ``..`` is left alone: a file is only removed if psdesign wrote
+    it, and a folder only if it held nothing else. Until session 53 plain names only, and
+    ``psdesign mesh`` dropped its stale ``openfoam/`` case by a second function of its own.
     """
     marker = read_marker(folder)
     if marker is None:
         return []
-    return _remove_owned(folder, marker, sorted(n for n in set(names) if Path(n).name == n))
-
-
-def remove_owned_tree(folder: Path, sub: str) -> list[str]:
-    """Remove the files under the sub-folder ``sub`` of ``folder`` that psdesign wrote (its
-    marker lists them), drop them from the marker and remove the folders left empty; returns
-    the relative paths removed.
-
-    As :func:`remove_owned_files`: a file the marker does not list, a symbolic link or a
-    folder that still holds anything else is left alone.
-    """
-    marker = read_marker(folder)
-    sub = sub.strip("/")
-    if marker is None or not sub or ".." in sub.split("/"):
-        return []
-    rels = sorted(r for r in marker["files"] if r.startswith(sub + "/"))
+    rels = sorted(n for n in set(names) if _inside(n))
     removed = _remove_owned(folder, marker, rels)
     for d in sorted({(folder / r).parent for r in removed}, key=lambda q: -len(q.parts)):
         while d != folder and d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
             d.rmdir()
             d = d.parent
     return removed
+
+
+def _inside(rel: str) -> bool:
+    """Whether ``rel`` is a plain relative POSIX path below a folder (no ``..``, ``.`` or
+    empty part, not absolute): a path :func:`remove_owned_files` may remove."""
+    parts = rel.split("/")
+    return bool(rel) and all(p not in ("", ".", "..") for p in parts)
 
 
 def _remove_owned(folder: Path, marker: dict, rels: list[str]) -> list[str]:
@@ -516,11 +510,12 @@ def _named_as_final(exc: OSError, tmp: Path, final: Path) -> OSError:
 def staged_output(out: OutputDir, replaces: Iterable[str] = ()) -> Iterator[Path]:
     """Yield a temporary folder; on success move its files into ``out.path``.
 
-    ``replaces``: every file name the command can write there (its optional ones too). Those
-    of them an earlier run wrote (the marker lists them) that this run did not write are
-    removed once the new files are in place (:func:`remove_owned_files`), so that a rerun
-    with fewer outputs (``generate --no-preview``, ``forcefield --no-pictures``) leaves no old
-    file beside the new ones (walk-cli finding 3, session 52).
+    ``replaces``: every file the command can write there (its optional ones too; relative
+    paths, ``openfoam/0/p`` too since session 53). Those of them an earlier run wrote (the
+    marker lists them) that this run did not write are removed once the new files are in
+    place (:func:`remove_owned_files`), so that a rerun with fewer outputs (``generate
+    --no-preview``, ``forcefield --no-pictures``, ``mesh`` with fewer ``--format``) leaves no
+    old file beside the new ones (walk-cli finding 3, session 52).
 
     A new folder appears with all its files at once.  Into an existing folder the files are
     moved one by one after checking that none of them would replace a file psdesign did not

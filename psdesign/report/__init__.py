@@ -1,6 +1,12 @@
 """HTML report of a study (one self-contained file) and reference permeability models."""
 
-from psdesign.report.html import ReportError, build_html, write_report, write_report_alerts
+from psdesign.report.html import (
+    ReportAlert,
+    ReportError,
+    build_html,
+    write_report,
+    write_report_alerts,
+)
 from psdesign.report.references import (
     KOZENY_CONSTANT,
     TS_ALPHA_IN_PLANE,
@@ -15,6 +21,7 @@ __all__ = [
     "TS_ALPHA_IN_PLANE",
     "TS_ALPHA_THROUGH_PLANE",
     "TS_EPS_P",
+    "ReportAlert",
     "ReportError",
     "build_html",
     "kozeny_carman",

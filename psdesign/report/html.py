@@ -15,6 +15,7 @@ import platform
 import re
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -67,7 +68,7 @@ from psdesign.report.trust import (
 from psdesign.report.units import output_label
 from psdesign.transport.effective import BLOCKED
 
-__all__ = ["ReportError", "build_html", "write_report"]
+__all__ = ["ReportAlert", "ReportError", "build_html", "write_report", "write_report_alerts"]
 
 FLUX_IMBALANCE_FLAG = 1e-2
 SENS_BLANK_NOTE = (
@@ -829,17 +830,28 @@ def build_html(out_dir: str | Path) -> str:
     return render_report(out_dir)[0]
 
 
-def render_report(out_dir: str | Path) -> tuple[str, list[str]]:
-    """The report HTML of a study output folder and the lines its red box adds to the cases'
-    count: a missed ``study optimize`` target and an untrustworthy surrogate it draws
-    (``study report`` exits 3 exactly when the box is there: the cases or these lines)."""
+class ReportAlert(NamedTuple):
+    """One thing a report shows not trusted besides its cases' statuses: what (``what``, the
+    red box's words) and what to do (``todo``); ``study report`` prints
+    ``psdesign: <what>: <todo>`` for each and exits 3 when there is one."""
+
+    what: str
+    todo: str = "read the report's red box"
+
+
+def render_report(out_dir: str | Path) -> tuple[str, list[ReportAlert]]:
+    """The report HTML of a study output folder and what its red boxes add to the cases'
+    count: an unfinished study (fewer cases than study.json plans), a missed ``study
+    optimize`` target and an untrustworthy surrogate it draws (``study report`` exits 3
+    exactly when a box is there: the cases or these alerts)."""
     out = Path(out_dir)
     df, study, runs = _load(out)
     params = list((study.get("parameters") or {}).keys()) or [
         c for c in df.columns if is_design_parameter(c)
     ]
     fit = _fit_or_none(df, params, study)
-    alerts = [a for a in (missed_target_alert(out), fit_alert(fit)) if a]
+    boxed = [a for a in (missed_target_alert(out), fit_alert(fit)) if a]
+    incomplete, unfinished = _unfinished(out, df)
     name = study.get("name", out.name)
     meta = _meta_table(df, study, runs, params, name, out)
 
@@ -879,7 +891,7 @@ def render_report(out_dir: str | Path) -> tuple[str, list[str]]:
 <style>{CSS}{INTERACTIVE_CSS}</style>
 {head_scripts()}</head><body>
 <h1>Study report: {_esc(name)}</h1>
-{_incomplete_banner(out, df)}{_status_banner(df, alerts)}{_safe(glance_section, df, params)}
+{incomplete}{_status_banner(df, boxed)}{_safe(glance_section, df, params)}
 <h2>Study</h2><table class="meta">{meta}</table>
 {_safe(optimize_section, out)}
 {unit_selector()}
@@ -908,24 +920,28 @@ or not trustworthy (k_*_status), or |flux imbalance| &gt; {FLUX_IMBALANCE_FLAG:g
 <h2>References</h2>{_references()}
 </body></html>
 """
-    return page, alerts
+    return page, unfinished + [ReportAlert(a) for a in boxed]
 
 
-def _incomplete_banner(out: Path, df: pd.DataFrame) -> str:
-    """A red box at the top when ``study.json`` lists cases ``results.csv`` has no row for (an
-    interrupted run: :func:`psdesign.study.readback.cases_not_run`); "" for a finished study,
-    whose report stays byte-identical. ``study report`` exits 3 exactly when it is there."""
+def _unfinished(out: Path, df: pd.DataFrame) -> tuple[str, list[ReportAlert]]:
+    """The red box at the top and its alert when ``study.json`` lists cases ``results.csv``
+    has no row for (an interrupted run: :func:`psdesign.study.readback.cases_not_run`); ``""``
+    and none for a finished study, whose report stays byte-identical. The one place that
+    decides "unfinished" (until session 53 ``study report`` counted again on its own)."""
     from psdesign.study.readback import cases_not_run, resume_command
 
     missing, n_design = cases_not_run(out, df)
     if not missing:
-        return ""
-    return (
+        return "", []
+    command = resume_command(out)
+    banner = (
         f'<p class="alert" id="psd-incomplete-alert"><b>Incomplete study:</b> this report '
         f"shows {n_design - missing} of the {n_design} cases in study.json; {missing} were "
-        f"not run. Rerun <code>psdesign {resume_command(out)}</code> with the same arguments "
+        f"not run. Rerun <code>psdesign {command}</code> with the same arguments "
         "and folder to resume, then report again.</p>"
     )
+    what = f"the report shows {n_design - missing} of {n_design} case(s); {missing} not run"
+    return banner, [ReportAlert(what, f"rerun {command} to resume")]
 
 
 def _status_banner(df: pd.DataFrame, alerts: list[str] | tuple[str, ...] = ()) -> str:
@@ -1070,9 +1086,10 @@ def write_report(out_dir: str | Path) -> Path:
     return write_report_alerts(out_dir)[0]
 
 
-def write_report_alerts(out_dir: str | Path) -> tuple[Path, list[str]]:
-    """:func:`write_report`, also returning the lines its red box adds to the cases' count
-    (:func:`render_report`; ``study report``'s exit reads them)."""
+def write_report_alerts(out_dir: str | Path) -> tuple[Path, list[ReportAlert]]:
+    """:func:`write_report`, also returning what its red boxes add to the cases' count
+    (:func:`render_report`: an unfinished study, a missed target, an untrustworthy surrogate;
+    ``study report`` prints them and exits by them)."""
     from psdesign.io.outputs import check_folder_name, claim_output_dir
     from psdesign.study.store import atomic_write_bytes, check_study_files
 

@@ -693,21 +693,17 @@ def jacobi2_zero(d, cx, cy, cz, b, xnew, omega, nchunks):
         _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, np.int64(t), nt)
 
 
-_CHUNK_OPTS = _OPTS
-"""Options of the chunk functions of :func:`jacobi2_zero` and :func:`prolong_jacobi`, which
-only their parallel twins call (:meth:`solvers.jit.SerialHelpers.shared`; the serial twins
-inline the body under their own ``noalias``): the kernels' options without ``noalias``, as the
-parallel twins were compiled before (session 50's review: with
-:class:`~solvers.jit.NoAliasCompiler` here the compiling process stayed bitwise, but one that
-loaded the chunks from numba's cache gave other last bits at the row ends ``k = nz - 1`` and in
-the stored-coupling rows, 36 / 614 cells of a 40 x 36 x 44 sweep: the V-cycle was no longer one
-symmetric operator; ``test_fused_sweeps_are_bitwise_jacobis``' slow parallel cases failed)."""
-
-
-@_SERIAL.shared(**_CHUNK_OPTS)
+# the chunk functions of jacobi2_zero and prolong_jacobi, which only their parallel twins call
+# (SerialHelpers.shared; the serial twins inline the body under their own noalias), take _OPTS
+# without noalias, as the parallel twins were compiled before. Session 50's review: with
+# NoAliasCompiler here the compiling process stayed bitwise, but one that loaded the chunks
+# from numba's cache gave other last bits at the row ends k = nz - 1 and in the stored-coupling
+# rows (36 / 614 cells of a 40 x 36 x 44 sweep): the V-cycle was no longer one symmetric
+# operator (test_fused_sweeps_are_bitwise_jacobis' slow parallel cases failed).
+@_SERIAL.shared(**_OPTS)
 def _jacobi2_zero_chunk(d, cx, cy, cz, b, xnew, omega, t, nt):
     """Chunk ``t`` of ``nt`` of :func:`jacobi2_zero` (nine parameters: the kernel's, ``t`` and
-    ``nt``).  Compiled once over the serial helpers, without ``noalias`` (:data:`_CHUNK_OPTS`),
+    ``nt``).  Compiled once over the serial helpers, with :data:`_OPTS` (no ``noalias``: above),
     for the parallel twin; inlined in the serial twin under its ``noalias``
     (:meth:`solvers.jit.SerialHelpers.shared`): the
     parallel twin's own copy of this body, its helpers inlined by numba, cost 25-33 s of CPU to
@@ -792,7 +788,7 @@ def prolong_jacobi(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, nchu
     return ordered_sum(acc)
 
 
-@_SERIAL.shared(**_CHUNK_OPTS)
+@_SERIAL.shared(**_OPTS)
 def _prolong_jacobi_chunk(d, cx, cy, cz, x, xc, fx, fy, fz, alpha, b, xnew, omega, t, nt):
     """Chunk ``t`` of ``nt`` of :func:`prolong_jacobi`; returns its ``b . xnew`` (15
     parameters: the kernel's, ``t`` and ``nt``); compiled as :func:`_jacobi2_zero_chunk`."""

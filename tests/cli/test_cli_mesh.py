@@ -136,7 +136,9 @@ def test_mesh_refuses_a_users_export_file_before_meshing(tmp_path, capsys, monke
 def test_mesh_rerun_drops_the_previous_runs_other_exports(tmp_path):
     """A second run into the same folder with fewer formats removes the exports of the first
     run it did not rewrite (an old pore.msh or openfoam/ case would describe another mesh),
-    keeps a user's file, and the remaining pore.vtu holds the whole pore domain: the RVE's pore
+    keeps a user's files (in openfoam/, and a pore.stl psdesign did not write), by the one
+    mechanism, ``staged_output(replaces=...)`` (session 53; a second function before), and
+    the remaining pore.vtu holds the whole pore domain: the RVE's pore
     volume L^3 - pi R^2 L plus the two empty auxiliary zones 2 * 0.25 L^3 (within 1 %)."""
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC)
@@ -144,8 +146,9 @@ def test_mesh_rerun_drops_the_previous_runs_other_exports(tmp_path):
     assert main(["mesh", str(spec), "-o", str(out), "--format", "msh", "openfoam", "--quiet"]) == 0
     assert (out / "pore.msh").is_file() and (out / "openfoam" / "0" / "p").is_file()
     (out / "openfoam" / "notes.txt").write_text("mine")  # a user's file in psdesign's folder
+    (out / "pore.stl").write_text("mine")  # a user's file named as an export (stl not asked)
     assert main(["mesh", str(spec), "-o", str(out), "--quiet"]) == 0
-    assert not (out / "pore.msh").exists()
+    assert not (out / "pore.msh").exists() and (out / "pore.stl").read_text() == "mine"
     assert sorted(p.relative_to(out).as_posix() for p in (out / "openfoam").rglob("*")) == [
         "openfoam/notes.txt"
     ]

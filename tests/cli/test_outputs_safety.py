@@ -18,6 +18,7 @@ from psdesign.io.outputs import (
     OutputError,
     check_output_dir,
     claim_output_dir,
+    remove_owned_files,
     staged_output,
 )
 
@@ -263,6 +264,37 @@ def test_helper_owns_subfolders_and_refuses_symlinks_in_the_way(tmp_path):
             (tmp / "link").mkdir()
             (tmp / "link" / "x").write_text("1")
     assert list(elsewhere.iterdir()) == []
+
+
+def test_replaces_removes_a_previous_runs_files_in_subfolders_but_never_a_users(tmp_path):
+    """Session 53: ``staged_output(replaces=...)`` removed stale plain names only, so ``mesh``
+    kept a second mechanism for its ``openfoam/`` case. Truth by construction: a first run
+    writes a.txt, case/0/p, case/sys/d and keep/k; the user adds case/notes.txt, a top-level
+    mine.txt and a link; a second run writes keep/k only. The owned stale files go, the
+    folders they leave empty go (case/0, case/sys), case/ stays for the user's file, the user's
+    files and the link stay, the marker lists what is left, and a path out of the folder
+    (``..``, absolute) is never touched, even when an edited marker lists it."""
+    out = tmp_path / "o"
+    possible = ["a.txt", "case/0/p", "case/sys/d", "keep/k"]
+    with staged_output(check_output_dir(out, command="t"), replaces=possible) as tmp:
+        for rel in ("a.txt", "case/0/p", "case/sys/d", "keep/k"):
+            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / rel).write_text("1")
+    (out / "case" / "notes.txt").write_text("mine")
+    (out / "mine.txt").write_text("mine")
+    (tmp_path / "outside.txt").write_text("mine")
+    (out / "case" / "link").symlink_to(tmp_path / "outside.txt")
+    with staged_output(check_output_dir(out, command="t"), replaces=possible) as tmp:
+        (tmp / "keep").mkdir()
+        (tmp / "keep" / "k").write_text("2")
+    left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    assert left == [MARKER, "case", "case/link", "case/notes.txt", "keep", "keep/k", "mine.txt"]
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["files"] == ["keep/k"]
+    escapes = ["../outside.txt", str(tmp_path / "outside.txt"), "case/../../outside.txt"]
+    (out / MARKER).write_text(json.dumps(marker | {"files": ["keep/k", *escapes]}))  # edited
+    assert remove_owned_files(out, escapes) == []
+    assert (tmp_path / "outside.txt").read_text() == "mine"
 
 
 def test_a_failed_write_names_the_output_file_not_the_staging_folder(tmp_path):

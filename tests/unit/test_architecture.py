@@ -107,3 +107,43 @@ def test_no_stage_imports_the_cli_layer() -> None:
             module = rel.removesuffix(".py").replace("/", ".")
             offenders += [f"{rel}:{n}" for n in cli_imports(p.read_text(), module)]
     assert offenders == [], "import these from the stage or package root module instead"
+
+
+# ------------------------------------------ one name per definition: no module-level alias
+def own_aliases(source: str) -> list[str]:
+    """The module-level ``B = A`` of ``source`` where ``A`` is a name the module itself
+    defined above (an assignment, function or class; an imported name re-exported under the
+    module's own name is not one), as ``"B = A"``: a second name of one definition."""
+    defined: set[str] = set()
+    found = []
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            defined.add(node.name)
+        if not isinstance(node, ast.Assign | ast.AnnAssign):
+            continue
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+        names = [t.id for t in targets if isinstance(t, ast.Name)]
+        if isinstance(node.value, ast.Name) and node.value.id in defined:
+            found += [f"{n} = {node.value.id}" for n in names]
+        defined.update(names)
+    return found
+
+
+def test_the_alias_finder_sees_an_own_alias_only() -> None:
+    """The finder of the test below, on snippets: an alias of the module's own constant or
+    function is found; a re-exported import, a new value and a call are not."""
+    assert own_aliases("_OPTS = {}\n_CHUNK_OPTS = _OPTS\n") == ["_CHUNK_OPTS = _OPTS"]
+    assert own_aliases("def f(): pass\ng: object = f\n") == ["g = f"]
+    assert own_aliases("from a import B\nC = B\nD = dict(B)\nE = {**B}\n") == []
+
+
+def test_no_module_defines_a_second_name_for_its_own_definition() -> None:
+    """Project rule: one definition of each concept. Session 53: ``solvers/voxel/kernels.py``
+    kept ``_CHUNK_OPTS = _OPTS`` (from session 50, once a different options dict), a dead
+    second name a reader had to resolve; removed, and none may come back unnoticed."""
+    offenders = []
+    for root in ("psdesign", "solvers"):
+        for p in sorted((REPO_ROOT / root).rglob("*.py")):
+            rel = p.relative_to(REPO_ROOT).as_posix()
+            offenders += [f"{rel}: {a}" for a in own_aliases(p.read_text())]
+    assert offenders == [], "use the one name"

@@ -136,6 +136,81 @@ def test_summary_bad_input_exits_2_with_one_line(t3, tmp_path, capsys, args, say
     assert err.startswith("paper_table3 summary: ") and says in err, err
 
 
+def _mirror(seed: int, plain: float, mirrored: float, **extra) -> dict:
+    return {"spec": SPEC, "method": "ga", "seed": seed, "voxel_m": 1e-6, "direction": "x",
+            "porosity": 0.8,
+            "face_mismatch": 0.25 + 0.05 * seed, "k_plain_m2": plain, "k_plain_converged": True,
+            "k_plain_wall_s": 1.0, "k_mirrored_m2": mirrored, "k_mirrored_converged": True,
+            "k_mirrored_wall_s": 2.0, **extra}  # fmt: skip
+
+
+def test_summary_of_mirror_records_gives_their_closed_form_table(t3, tmp_path, capsys):
+    """Session 53: ``summary`` without ``--beside`` on ``mirror`` records (no ``omega``) was a
+    KeyError traceback. Truth: seeds 1, 2 with K plain 1e-11, 2e-11 and mirrored 1.2e-11,
+    2.2e-11: plain mean 1.5e-11 +- t(0.975, 1) 0.5e-11 = 6.35e-11 (NIST/SEMATECH 1.3.6.7.2),
+    mirrored 1.7e-11 +- 6.35e-11, ratios 1.2 and 1.1 (mean 1.15), mismatch 30-35 %; seed 2's
+    mirrored solve not converged is named. Exit 0, the table on stdout."""
+    rows = [_mirror(1, 1e-11, 1.2e-11), _mirror(2, 2e-11, 2.2e-11, k_mirrored_converged=False)]
+    path = _write(tmp_path / "m.jsonl", rows)
+    assert t3.main(["summary", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    row = out.strip().splitlines()[2]
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[:6] == [SPEC, "ga", "x", "1", "2 (1, 2)", "30-35 %"]
+    assert cells[6:] == [
+        "1.500e-11 +- 6.35e-11",
+        "1.700e-11 +- 6.35e-11",
+        "1.150 (1.200, 1.100)",
+        "NO: seed 2",
+    ]
+
+
+def test_summary_of_the_shipped_mirror_runs_is_the_docs_mirror_test(t3):
+    """docs/paper-reproduction.md's hypothesis table (mirror test): K_x x 1.130, 1.149, 1.130
+    (straight seeds 1-3), 1.153, 1.090, 1.119 (bent seeds 1-3), K_z x 1.056 (straight seed 1);
+    straight in-plane 7.93e-12 -> 9.01e-12; from benchmarks/paper_table3_mirror_runs.jsonl."""
+    table = t3.summary(ROOT / "benchmarks" / "paper_table3_mirror_runs.jsonl")
+    rows = [[c.strip() for c in r.strip("|").split("|")] for r in table.splitlines()[2:]]
+    got = {(Path(r[0]).stem, r[2]): (r[6][:9], r[7][:9], r[8], r[9]) for r in rows}
+    assert got == {
+        ("bent", "x"): ("7.892e-12", "8.847e-12", "1.121 (1.153, 1.090, 1.119)", "yes"),
+        ("straight", "x"): ("7.929e-12", "9.009e-12", "1.136 (1.130, 1.149, 1.130)", "yes"),
+        ("straight", "z"): ("6.677e-12", "7.048e-12", "1.056 (1.056)", "yes"),
+    }
+    doc = (ROOT / "docs" / "paper-reproduction.md").read_text()
+    assert "K_x x 1.130, 1.149, 1.130 (straight seeds 1-3), 1.153, 1.090, 1.119" in doc
+
+
+def test_summary_of_a_run_file_with_mirror_records_prints_both_tables(t3, tmp_path):
+    """A runs file holding ``run`` and ``mirror`` records: the run table, then the mirror
+    table (the mirror records were read as runs)."""
+    run = _voxel(1, 1e-11) | {"porosity": 0.8, "omega": 0.01, "pore_d50_m": 15e-6}
+    run |= {"pore_d90_m": 25e-6, "clustering_cv_20um": 0.4}
+    table = t3.summary(_write(tmp_path / "r.jsonl", [run, _mirror(1, 1e-11, 1.2e-11)]))
+    first, second = table.split("\n\n")
+    assert "| 1.000e-11 (n=1) | -17 % |" in first  # K_x against Table III's 1.21e-11
+    assert second.splitlines()[2].endswith("| 1.200 (1.200) | yes |")
+
+
+@pytest.mark.parametrize(
+    ("record", "says"),
+    [
+        ({"kind": "straight", "k_x_m2": 1e-11}, "record 2 is not a run record of paper_table3.py"),
+        ({"k_plain_m2": 1e-11, "spec": SPEC}, "record 2 is not a mirror record"),
+    ],
+)
+def test_summary_of_a_record_it_cannot_read_is_one_line_exit_2(t3, tmp_path, capsys, record, says):
+    """A record of another script (paper_table3_voxel.py's ``kind`` records) or a mirror
+    record without its fields: exit 2, one line naming the file, the record and the fields it
+    lacks (a KeyError traceback before)."""
+    path = _write(tmp_path / "x.jsonl", [_mirror(1, 1e-11, 1.2e-11), record])
+    assert t3.main(["summary", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1, err
+    assert err.startswith(f"paper_table3 summary: {path}: {says}") and "(no " in err, err
+
+
 def _route(windows: dict, calls: list):
     """A FEM permeameter route_result stand-in (as tests/unit/test_auto_copies.py's): the
     result of ``flow["permeameter_copies"]`` copies ("auto": 2) with window term
@@ -196,3 +271,19 @@ def test_run_records_the_copies_and_why_auto_stopped(t3, monkeypatch, copies, tr
         assert [w for _, w in rec["k_z_auto_tries"]] == pytest.approx([0.02, 0.004])
     else:
         assert "k_z_auto_tries" not in rec
+
+
+def test_mirror_records_at_another_voxel_size_are_their_own_row(t3, tmp_path, capsys):
+    """Review s53: a mirror rerun of a seed at another resolution replaced the earlier record
+    in the same row (n still 2). Truth: the 1 um seeds 1, 2 stay one row (K plain mean 1.5e-11);
+    the 0.5 um seed 1 is a second row with n 1; a --reading on mirror records is refused
+    (exit 2: mirror records have one K per solve), as with --beside."""
+    rows = [_mirror(1, 1e-11, 1.2e-11), _mirror(2, 2e-11, 2.2e-11),
+            _mirror(1, 5e-12, 6e-12, voxel_m=5e-7)]  # fmt: skip
+    path = _write(tmp_path / "m.jsonl", rows)
+    assert t3.main(["summary", str(path)]) == 0
+    table = [r.strip("|").split("|") for r in capsys.readouterr().out.strip().splitlines()[2:]]
+    got = sorted((c[3].strip(), c[4].strip(), c[6].strip()[:9]) for c in table)
+    assert got == [("0.5", "1 (1)", "5.000e-12"), ("1", "2 (1, 2)", "1.500e-11")]
+    assert t3.main(["summary", str(path), "--reading", "_applied"]) == 2
+    assert "one K per solve" in capsys.readouterr().err

@@ -220,6 +220,33 @@ def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
     assert (out / "report.html").read_bytes() == whole
 
 
+def test_unfinished_is_one_of_the_reports_alerts_and_the_exit_reads_only_them(tmp_path, capsys):
+    """Session 53 (left by s52): "the study is unfinished" was decided twice, by the report's
+    red box and again by ``study report``'s own count. Truth: study.json's 12 case ids against
+    the 3 rows kept; the report returns it as one of its alerts (beside nothing else: the 3
+    fake cases are ok), and the exit reads the alerts alone: the alert with an all-ok table
+    is 3 and its one line, the same table without it 0 and silent."""
+    from psdesign.cli.study import report_exit_status
+    from psdesign.report import ReportAlert, write_report_alerts
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert write_report_alerts(out)[1] == []
+    df = pd.read_csv(out / "results.csv").head(3)
+    df.to_csv(out / "results.csv", index=False)
+    _, alerts = write_report_alerts(out)
+    assert alerts == [
+        ReportAlert("the report shows 3 of 12 case(s); 9 not run", "rerun study run to resume")
+    ]
+    capsys.readouterr()
+    assert report_exit_status(df, alerts) == 3
+    assert capsys.readouterr().err == (
+        "psdesign: the report shows 3 of 12 case(s); 9 not run: rerun study run to resume\n"
+    )
+    assert report_exit_status(df) == 0 and capsys.readouterr().err == ""
+
+
 def test_an_unfinished_optimize_folder_is_told_to_resume_with_optimize(tmp_path, capsys):
     """Review C (session 52): the unfinished-study advice always said ``study run``; in a
     ``study optimize`` folder that rewrote results.csv with the study file's cases in place of
