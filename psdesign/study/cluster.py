@@ -27,6 +27,11 @@ SUBMIT_COMMANDS = {"slurm": "sbatch", "pbs": "qsub"}  # what dask-jobqueue runs 
 #: ``--cluster-walltime``: ``HH:MM:SS`` in ASCII digits (minutes and seconds 0-59: checked).
 _WALLTIME = re.compile(r"([0-9]+):([0-9]+):([0-9]+)")
 DEFAULT_WAIT_S = 600.0
+#: The schedulers psdesign starts (local Dask, Slurm/PBS) show no dashboard, but dask always
+#: serves its HTTP routes (health, metrics) and, given no address, takes port 8787 or prints
+#: "Port 8787 is already in use" on stderr when another dask holds it (session 53: a second
+#: line under a one-line refusal). A free loopback port: no clash, nothing on other interfaces.
+SCHEDULER_HTTP = {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
 """Default ``--cluster-wait``: seconds a Dask run (``--cluster`` or ``--scheduler``) waits
 for a worker (the first batch job to connect, or any worker once all have left)."""
 
@@ -261,7 +266,7 @@ def make_cluster(opts: ClusterOptions):
         queue=opts.queue,
         account=opts.account,
         job_script_prologue=prologue,
-        scheduler_options={"dashboard_address": None},
+        scheduler_options=dict(SCHEDULER_HTTP),
         **extra,
     )
 

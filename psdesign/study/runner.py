@@ -495,7 +495,7 @@ def connect_scheduler(
             n_workers=max(1, workers),
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            scheduler_kwargs=dict(cluster_mod.SCHEDULER_HTTP),
         )
         return Client(cluster), cluster
     scheme, _host, _port = host_port(address, what)  # tcp:// or tls:// (checked above)

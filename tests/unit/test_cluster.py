@@ -166,8 +166,58 @@ def _folder_state(out: Path) -> dict[str, bytes]:
     return {str(f.relative_to(out)): f.read_bytes() for f in sorted(out.rglob("*")) if f.is_file()}
 
 
+@pytest.fixture
+def dask_port_taken():
+    """Port 8787 (dask's default HTTP port) held, as by another dask on the machine: the
+    refusal test below failed in session 53 while a walker's `dask scheduler` held it."""
+    import socket
+
+    sock = socket.socket()
+    try:
+        sock.bind(("0.0.0.0", 8787))
+        sock.listen(1)
+    except OSError:
+        pass  # already held by someone else: the condition under test holds anyway
+    yield
+    sock.close()
+
+
+def test_schedulers_psdesign_starts_take_no_fixed_http_port(dask_port_taken) -> None:
+    """dask serves HTTP routes even without a dashboard and, given no address, takes port 8787
+    or warns "Port 8787 is already in use" (a stray stderr line under psdesign's one-line
+    messages). Truth: the local Dask cluster and the Slurm/PBS scheduler bind a loopback port
+    the OS picks, with port 8787 held, and no warning is logged."""
+    import logging
+
+    from psdesign.study.cluster import make_cluster
+    from psdesign.study.runner import connect_scheduler
+
+    records: list[logging.LogRecord] = []
+    handler = logging.Handler()
+    handler.emit = records.append
+    logging.getLogger("distributed").addHandler(handler)
+    try:
+        client, cluster = connect_scheduler("local", 1)
+        try:
+            host, port = cluster.scheduler.http_server.address, cluster.scheduler.http_server.port
+        finally:
+            client.close()
+            cluster.close()
+        batch = make_cluster(ClusterOptions(kind="slurm"))
+        try:
+            batch_http = batch.scheduler.http_server
+            batch_host, batch_port = batch_http.address, batch_http.port
+        finally:
+            batch.close()
+    finally:
+        logging.getLogger("distributed").removeHandler(handler)
+    assert (host, batch_host) == ("127.0.0.1", "127.0.0.1")
+    assert 8787 not in (port, batch_port)
+    assert not [r.getMessage() for r in records if "8787" in r.getMessage()]
+
+
 def test_refused_submission_stops_with_sbatchs_words_and_keeps_the_study(
-    tmp_path, monkeypatch
+    tmp_path, monkeypatch, dask_port_taken
 ) -> None:
     """A refused sbatch (bad partition) was only logged by dask-jobqueue and the runner waited
     for workers forever (here: the subprocess timeout); now one line with sbatch's error text,
