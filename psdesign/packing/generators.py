@@ -235,9 +235,63 @@ def _solid_per_fiber(probe: FiberState, lo: np.ndarray, hi: np.ndarray) -> float
     """
     areas = _areas(probe)
     ext = np.asarray(hi, float) - np.asarray(lo, float)
-    if np.allclose(ext, np.round(ext), rtol=0.0, atol=1e-9) and np.all(ext >= 1.0 - 1e-9):
+    if whole_periods(ext):
         return float(np.mean(areas))
     return float(np.mean(areas * carrier_lengths(probe, lo, hi)) / np.prod(ext))
+
+
+def whole_periods(ext: np.ndarray) -> bool:
+    """Whether every box edge ``ext`` (in periods) is a whole number (>= 1) of periods: then a
+    fiber's copies (one line per period^2 across its axis) tile the box, and its expected
+    length in it is the box's volume over period^2, whatever its orientation."""
+    ext = np.asarray(ext, float)
+    return bool(np.allclose(ext, np.round(ext), rtol=0.0, atol=1e-9) and np.all(ext >= 1 - 1e-9))
+
+
+def n_fibers_at_edge(spec: dict, edge: float) -> int:
+    """``generator.n_fibers`` of ``spec`` carried to a cube of edge ``edge`` (metres) at the
+    same expected solid fraction, as ``psdesign rev`` grows an RVE at fixed statistics.
+
+    A fiber adds ``E[A] / P^2`` of solid (mean cross-section ``A``, period ``P``) to a box of
+    whole periods (:func:`whole_periods`), for every orientation distribution, so the count
+    goes as ``P^2``: as ``edge^2`` for the default period (the box's longest edge; not as the
+    volume, which doubled the solid per doubling of the edge), unchanged for a given
+    ``rve.period`` (its copies fill the bigger box). Elsewhere the solid per fiber depends on the
+    orientations, and so does the rounding of the count to a whole number. The porosity does
+    not stay exactly: fibers that may overlap (``intersections.method = "none"``) hide
+    ``O(n s^2)`` of each other, ``s`` one fiber's solid.
+
+    Raises
+    ------
+    SpecError
+        ``generator.n_fibers``, when the spec's box or the cube is not a whole number of
+        periods, or when the nearest whole count moves the solid fraction by more than
+        ``generator.porosity_tolerance``: a porosity target (``generator.porosity``) then.
+    """
+    size, _, period = parse_rve(spec)
+    gs = parse_generator(spec, size, period)
+    given = spec["rve"].get("period")
+    cube_period = float(given) if given is not None else float(edge)
+    help_ = "give generator.porosity instead of n_fibers to hold the material"
+    if not (whole_periods(size / period) and whole_periods(np.full(3, edge / cube_period))):
+        raise SpecError(
+            "generator.n_fibers",
+            f"held fixed only in boxes of whole periods (rve.period {period:g} m, box "
+            f"{'x'.join(f'{s:g}' for s in size)} m, cube {edge:g} m, period {cube_period:g} "
+            f"m): the solid per fiber there depends on the orientations; {help_}",
+        )
+    exact = gs.n_fibers * (cube_period / period) ** 2
+    n = max(1, round(exact))
+    per_fiber = _solid_per_fiber(_probe(gs, size), np.zeros(3), size / period)
+    shift = abs(n - exact) * per_fiber * (period / cube_period) ** 2
+    if shift > gs.tolerance:
+        raise SpecError(
+            "generator.n_fibers",
+            f"{gs.n_fibers} fibers of the spec's box are {exact:.3g} in a {edge:g} m cube, and "
+            f"{n} move its solid fraction by {shift:.3f}, over generator.porosity_tolerance "
+            f"{gs.tolerance:g}: choose sizes where the count is nearly whole, or {help_}",
+        )
+    return n
 
 
 def _coarse_step(probe: FiberState, lo: np.ndarray, hi: np.ndarray, tol: float) -> str | None:
