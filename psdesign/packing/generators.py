@@ -31,7 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import ROUND_SHAPES, Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
-from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG, PAPER_MAX_SHIFT, GASettings
+from psdesign.packing.ga_settings import GA_VOXEL_RVE_VOXELS, PAPER_MAX_SHIFT, GASettings
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
@@ -42,7 +42,7 @@ from psdesign.packing.intersections import (
     place_sequential,
 )
 from psdesign.packing.overlap_status import analytic_omega_keys, intersection_status
-from psdesign.packing.placement_settings import PlacementSettings
+from psdesign.packing.placement_settings import FAST_SPEC_DEFAULTS, PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
 from psdesign.schema.generator import GeneratorTable as _GeneratorTable
@@ -74,6 +74,18 @@ class GenerationError(SpecError):
         self.closest_porosity = closest_porosity
         key, _, rest = message.partition(": ")
         super().__init__(key, rest)
+
+
+#: The uniform (low, high) each ``[generator]`` distribution a spec leaves out is drawn from
+#: (degrees; fractions of the edge; u and f of bent fibers): one definition, for
+#: :func:`parse_generator` and docs/spec-keys.md (:func:`psdesign.schema.keys.code_defaults`).
+DEFAULT_UNIFORM = {
+    "theta": (-5.0, 5.0),
+    "omega": (0.0, 180.0),
+    **{k: (0.0, 1.0) for k in ("tx", "ty", "tz")},
+    "u": (0.1, 0.3),
+    "f": (1.0, 10.0),
+}
 
 
 @dataclass
@@ -150,13 +162,13 @@ def parse_generator(spec: dict, size: np.ndarray, period: float | None = None) -
     if g.orientation is not None:
         orientation = AnisotropicOrientation(g.orientation.anisotropy)
     else:
-        theta = dist("theta", Distribution.uniform(-5.0, 5.0))
-        omega = dist("omega", Distribution.uniform(0.0, 180.0))
-    t = tuple(dist(k, Distribution.uniform(0.0, 1.0)) for k in ("tx", "ty", "tz"))
+        theta = dist("theta", Distribution.uniform(*DEFAULT_UNIFORM["theta"]))
+        omega = dist("omega", Distribution.uniform(*DEFAULT_UNIFORM["omega"]))
+    t = tuple(dist(k, Distribution.uniform(*DEFAULT_UNIFORM[k])) for k in ("tx", "ty", "tz"))
     u = f = None
     if g.kind == "bent":
-        u = dist("u", Distribution.uniform(0.1, 0.3))
-        f = dist("f", Distribution.uniform(1.0, 10.0))
+        u = dist("u", Distribution.uniform(*DEFAULT_UNIFORM["u"]))
+        f = dist("f", Distribution.uniform(*DEFAULT_UNIFORM["f"]))
     opts = {
         k: getattr(inter, k)
         for k in inter.model_fields_set
@@ -516,17 +528,17 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
 
 def _fast_options(gs, gap: float) -> PlacementSettings:
     """:func:`place_sequential`'s settings from ``[intersections]`` (normalized lengths)."""
-    opts = gs.options
+    opts = FAST_SPEC_DEFAULTS | gs.options
     return PlacementSettings(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
-        max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
-        orientation_tries=int(opts.get("orientation_tries", 4)),
-        max_ejections=int(opts.get("max_ejections", 6)),
+        max_rotation_deg=float(opts["max_rotation_deg"]),
+        orientation_tries=int(opts["orientation_tries"]),
+        max_ejections=int(opts["max_ejections"]),
         max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
         max_shift=float(opts.get("max_shift", PAPER_MAX_SHIFT * gs.period)) / gs.period,
-        exceed=bool(opts.get("exceed_bounds", True)),
-        exceed_rotation_deg=float(opts.get("exceed_rotation_deg", 5.0)),
+        exceed=bool(opts["exceed_bounds"]),
+        exceed_rotation_deg=float(opts["exceed_rotation_deg"]),
     )
 
 
@@ -755,7 +767,7 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         population=int(opts.get("population", d.population)),
         generations=int(opts.get("generations", d.generations)),
         objective=opts.get("objective", d.objective),
-        voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
+        voxel=float(opts.get("ga_voxel", GA_VOXEL_RVE_VOXELS * voxel_norm * period)) / period,
         time_limit_s=opts.get("time_limit_s"),
     )
     best = None
