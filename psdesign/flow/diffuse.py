@@ -23,6 +23,7 @@ from psdesign.flow.darcy import periodic_gradient
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.geometry.walls import NearestWalls, along_box_axis, untiled_axis
 from psdesign.geometry.walls import unsupported as unsupported_geometry
+from psdesign.schema.flow import DIFFUSE_FLOW_TOL
 
 
 def unsupported(rve: RVE | None, fields: VoxelFields, bc: str, treatment: str) -> str | None:
@@ -139,7 +140,7 @@ def solve_diffuse(
     walls = NearestWalls(rve, voxel, reach=REACH_VOXELS + 1.0)
     _check_solid(walls, fields)
     grid = DiffuseGrid.sample(fields.grid.shape, walls)
-    kw = {} if flow.get("tol") is None else {"tol": float(flow["tol"])}
+    kw = {"tol": float(flow.get("tol") or DIFFUSE_FLOW_TOL)}
     ax = "xyz".index(direction)
     return solve_diffuse_stokes(
         grid,

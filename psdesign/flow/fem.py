@@ -54,7 +54,7 @@ from psdesign.meshing.options import (
 )
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
-from psdesign.schema.flow import check_solver_bc, coarser_advice, resolution_key
+from psdesign.schema.flow import FLOW_TOL, check_solver_bc, coarser_advice, resolution_key
 from solvers.fem.memory import ESTIMATE_VERB, MemoryLimitError
 
 #: The ``flow.bc`` models this route applies: every one.
@@ -394,7 +394,7 @@ def _solver_options(flow: dict, name: str):
     from solvers.fem.options import StokesOptions
 
     return StokesOptions(
-        tol=float(flow.get("tol") or 1e-6),
+        tol=float(flow.get("tol") or FLOW_TOL),
         max_memory_gb=flow.get("max_memory_gb"),
         progress=progress.iterations(f"FEM solve {name}", "GMRES"),
         stage=lambda message: progress.stage(f"FEM solve {name}: {message}"),

@@ -44,7 +44,7 @@ from psdesign.flow.voxel_estimate import announce_voxel_solve
 from psdesign.geometry.rve import RVE, VoxelFields, is_cubic, resolution_measure
 from psdesign.schema.budget import check_planned_stack
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
-from psdesign.schema.flow import WALL_TREATMENTS, check_solver_bc
+from psdesign.schema.flow import FLOW_TOL, WALL_TREATMENTS, check_solver_bc
 
 #: The ``flow.bc`` models this route applies: every one.
 BC_MODELS = SCHEMA_BC_MODELS
@@ -295,9 +295,7 @@ def _solve_setup(flow, rve, fields, ax, h, bc, wall):
     """``(plan, grid, solver keywords)``: the copies stacked along the flow for the permeameter
     (:mod:`psdesign.flow.stack`; ``plan`` None for the periodic bc) and what the solver needs
     beyond the grid."""
-    kw: dict = {"bc": bc}
-    if flow.get("tol") is not None:
-        kw["tol"] = float(flow["tol"])
+    kw: dict = {"bc": bc, "tol": float(flow.get("tol") or FLOW_TOL)}
     if wall == "subvoxel":
         kw["distance"] = fields.distance
     if bc != "permeameter":

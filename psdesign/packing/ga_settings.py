@@ -9,6 +9,8 @@ from dataclasses import dataclass
 #: (:func:`psdesign.packing.generators._fast_options`).
 PAPER_MAX_SHIFT = 0.1
 PAPER_MAX_ROTATION_DEG = 1.0
+#: The GA's voxel objective grid without ``intersections.ga_voxel``: this many RVE voxels a step.
+GA_VOXEL_RVE_VOXELS = 4
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import ROUND_SHAPES, Fiber, rod_cross_section_area
 from psdesign.geometry.rve import RVE, VoxelFields
 from psdesign.packing.distributions import AnisotropicOrientation, Distribution
-from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG, PAPER_MAX_SHIFT, GASettings
+from psdesign.packing.ga_settings import GA_VOXEL_RVE_VOXELS, PAPER_MAX_SHIFT, GASettings
 from psdesign.packing.genetic import ga_progress
 from psdesign.packing.intersections import (
     FiberState,
@@ -42,7 +42,7 @@ from psdesign.packing.intersections import (
     place_sequential,
 )
 from psdesign.packing.overlap_status import analytic_omega_keys, intersection_status
-from psdesign.packing.placement_settings import PlacementSettings
+from psdesign.packing.placement_settings import FAST_SPEC_DEFAULTS, PlacementSettings
 from psdesign.schema.document import MAX_CYLINDER_PACKING  # noqa: F401 (re-export)
 from psdesign.schema.generator import DEFAULT_TOLERANCE, METHODS, IntersectionsTable  # noqa: F401
 from psdesign.schema.generator import GeneratorTable as _GeneratorTable
@@ -74,6 +74,18 @@ class GenerationError(SpecError):
         self.closest_porosity = closest_porosity
         key, _, rest = message.partition(": ")
         super().__init__(key, rest)
+
+
+#: The uniform (low, high) each ``[generator]`` distribution a spec leaves out is drawn from
+#: (degrees; fractions of the edge; u and f of bent fibers): one definition, for
+#: :func:`parse_generator` and docs/spec-keys.md (:func:`psdesign.schema.keys.code_defaults`).
+DEFAULT_UNIFORM = {
+    "theta": (-5.0, 5.0),
+    "omega": (0.0, 180.0),
+    **{k: (0.0, 1.0) for k in ("tx", "ty", "tz")},
+    "u": (0.1, 0.3),
+    "f": (1.0, 10.0),
+}
 
 
 @dataclass
@@ -150,13 +162,13 @@ def parse_generator(spec: dict, size: np.ndarray, period: float | None = None) -
     if g.orientation is not None:
         orientation = AnisotropicOrientation(g.orientation.anisotropy)
     else:
-        theta = dist("theta", Distribution.uniform(-5.0, 5.0))
-        omega = dist("omega", Distribution.uniform(0.0, 180.0))
-    t = tuple(dist(k, Distribution.uniform(0.0, 1.0)) for k in ("tx", "ty", "tz"))
+        theta = dist("theta", Distribution.uniform(*DEFAULT_UNIFORM["theta"]))
+        omega = dist("omega", Distribution.uniform(*DEFAULT_UNIFORM["omega"]))
+    t = tuple(dist(k, Distribution.uniform(*DEFAULT_UNIFORM[k])) for k in ("tx", "ty", "tz"))
     u = f = None
     if g.kind == "bent":
-        u = dist("u", Distribution.uniform(0.1, 0.3))
-        f = dist("f", Distribution.uniform(1.0, 10.0))
+        u = dist("u", Distribution.uniform(*DEFAULT_UNIFORM["u"]))
+        f = dist("f", Distribution.uniform(*DEFAULT_UNIFORM["f"]))
     opts = {
         k: getattr(inter, k)
         for k in inter.model_fields_set
@@ -235,9 +247,63 @@ def _solid_per_fiber(probe: FiberState, lo: np.ndarray, hi: np.ndarray) -> float
     """
     areas = _areas(probe)
     ext = np.asarray(hi, float) - np.asarray(lo, float)
-    if np.allclose(ext, np.round(ext), rtol=0.0, atol=1e-9) and np.all(ext >= 1.0 - 1e-9):
+    if whole_periods(ext):
         return float(np.mean(areas))
     return float(np.mean(areas * carrier_lengths(probe, lo, hi)) / np.prod(ext))
+
+
+def whole_periods(ext: np.ndarray) -> bool:
+    """Whether every box edge ``ext`` (in periods) is a whole number (>= 1) of periods: then a
+    fiber's copies (one line per period^2 across its axis) tile the box, and its expected
+    length in it is the box's volume over period^2, whatever its orientation."""
+    ext = np.asarray(ext, float)
+    return bool(np.allclose(ext, np.round(ext), rtol=0.0, atol=1e-9) and np.all(ext >= 1 - 1e-9))
+
+
+def n_fibers_at_edge(spec: dict, edge: float) -> int:
+    """``generator.n_fibers`` of ``spec`` carried to a cube of edge ``edge`` (metres) at the
+    same expected solid fraction, as ``psdesign rev`` grows an RVE at fixed statistics.
+
+    A fiber adds ``E[A] / P^2`` of solid (mean cross-section ``A``, period ``P``) to a box of
+    whole periods (:func:`whole_periods`), for every orientation distribution, so the count
+    goes as ``P^2``: as ``edge^2`` for the default period (the box's longest edge; not as the
+    volume, which doubled the solid per doubling of the edge), unchanged for a given
+    ``rve.period`` (its copies fill the bigger box). Elsewhere the solid per fiber depends on the
+    orientations, and so does the rounding of the count to a whole number. The porosity does
+    not stay exactly: fibers that may overlap (``intersections.method = "none"``) hide
+    ``O(n s^2)`` of each other, ``s`` one fiber's solid.
+
+    Raises
+    ------
+    SpecError
+        ``generator.n_fibers``, when the spec's box or the cube is not a whole number of
+        periods, or when the nearest whole count moves the solid fraction by more than
+        ``generator.porosity_tolerance``: a porosity target (``generator.porosity``) then.
+    """
+    size, _, period = parse_rve(spec)
+    gs = parse_generator(spec, size, period)
+    given = spec["rve"].get("period")
+    cube_period = float(given) if given is not None else float(edge)
+    help_ = "give generator.porosity instead of n_fibers to hold the material"
+    if not (whole_periods(size / period) and whole_periods(np.full(3, edge / cube_period))):
+        raise SpecError(
+            "generator.n_fibers",
+            f"held fixed only in boxes of whole periods (rve.period {period:g} m, box "
+            f"{'x'.join(f'{s:g}' for s in size)} m, cube {edge:g} m, period {cube_period:g} "
+            f"m): the solid per fiber there depends on the orientations; {help_}",
+        )
+    exact = gs.n_fibers * (cube_period / period) ** 2
+    n = max(1, round(exact))
+    per_fiber = _solid_per_fiber(_probe(gs, size), np.zeros(3), size / period)
+    shift = abs(n - exact) * per_fiber * (period / cube_period) ** 2
+    if shift > gs.tolerance:
+        raise SpecError(
+            "generator.n_fibers",
+            f"{gs.n_fibers} fibers of the spec's box are {exact:.3g} in a {edge:g} m cube, and "
+            f"{n} move its solid fraction by {shift:.3f}, over generator.porosity_tolerance "
+            f"{gs.tolerance:g}: choose sizes where the count is nearly whole, or {help_}",
+        )
+    return n
 
 
 def _coarse_step(probe: FiberState, lo: np.ndarray, hi: np.ndarray, tol: float) -> str | None:
@@ -462,17 +528,17 @@ def _fast(gs, rng, size, lo, hi, gap, fixed, measure):
 
 def _fast_options(gs, gap: float) -> PlacementSettings:
     """:func:`place_sequential`'s settings from ``[intersections]`` (normalized lengths)."""
-    opts = gs.options
+    opts = FAST_SPEC_DEFAULTS | gs.options
     return PlacementSettings(
         gap=gap,
         step=opts.get("step", None) and opts["step"] / gs.period,
-        max_rotation_deg=float(opts.get("max_rotation_deg", PAPER_MAX_ROTATION_DEG)),
-        orientation_tries=int(opts.get("orientation_tries", 4)),
-        max_ejections=int(opts.get("max_ejections", 6)),
+        max_rotation_deg=float(opts["max_rotation_deg"]),
+        orientation_tries=int(opts["orientation_tries"]),
+        max_ejections=int(opts["max_ejections"]),
         max_shift_z=(float(opts["max_shift_z"]) / gs.period if "max_shift_z" in opts else None),
         max_shift=float(opts.get("max_shift", PAPER_MAX_SHIFT * gs.period)) / gs.period,
-        exceed=bool(opts.get("exceed_bounds", True)),
-        exceed_rotation_deg=float(opts.get("exceed_rotation_deg", 5.0)),
+        exceed=bool(opts["exceed_bounds"]),
+        exceed_rotation_deg=float(opts["exceed_rotation_deg"]),
     )
 
 
@@ -701,7 +767,7 @@ def _ga(gs, rng, size, lo, hi, voxel_norm, measure):
         population=int(opts.get("population", d.population)),
         generations=int(opts.get("generations", d.generations)),
         objective=opts.get("objective", d.objective),
-        voxel=float(opts.get("ga_voxel", 4 * voxel_norm * period)) / period,
+        voxel=float(opts.get("ga_voxel", GA_VOXEL_RVE_VOXELS * voxel_norm * period)) / period,
         time_limit_s=opts.get("time_limit_s"),
     )
     best = None

@@ -4,6 +4,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from psdesign.packing.ga_settings import PAPER_MAX_ROTATION_DEG
+
+#: What ``fast`` uses for each ``[intersections]`` key a spec leaves out (the class defaults
+#: below are a library caller's): one definition, for
+#: :func:`psdesign.packing.generators._fast_options` and docs/spec-keys.md
+#: (:func:`psdesign.schema.keys.code_defaults`). ``max_shift``'s is
+#: :data:`~psdesign.packing.ga_settings.PAPER_MAX_SHIFT` of the period.
+FAST_SPEC_DEFAULTS = {
+    "max_rotation_deg": PAPER_MAX_ROTATION_DEG,
+    "orientation_tries": 4,
+    "max_ejections": 6,
+    "exceed_bounds": True,
+    "exceed_rotation_deg": 5.0,
+}
+#: The shift search's grid step without ``intersections.step``: this fraction of the thinnest
+#: drawn diameter (:class:`psdesign.packing.sequential` placement).
+DEFAULT_STEP_DIAMETERS = 0.25
+
 
 @dataclass(frozen=True)
 class PlacementSettings:

@@ -30,7 +30,7 @@ from psdesign.packing.fiberset import (
     carrier_lengths,
     pieces_for,
 )
-from psdesign.packing.placement_settings import PlacementSettings
+from psdesign.packing.placement_settings import DEFAULT_STEP_DIAMETERS, PlacementSettings
 
 
 # ------------------------------------------------------------------ fast method
@@ -303,7 +303,7 @@ class _Placer:
         self.area, self.stop_solid = area, stop_solid
         self.rng = np.random.default_rng(seed)
         n = len(st)
-        step = float(st.diameter.min()) / 4.0 if opts.step is None else opts.step
+        step = DEFAULT_STEP_DIAMETERS * float(st.diameter.min()) if opts.step is None else opts.step
         self.T = torus_offsets(step)
         self.k_grid = max(2, int(np.ceil(1.0 / step)))
         self.tidx = (

@@ -94,6 +94,15 @@ TREATMENT_ALLOWED = "periodic, or solver 'voxel' with flow.bc = 'periodic'"
 TREATMENT_NAMES = ("flow.bc",)
 
 
+#: ``flow.tol`` when the spec leaves it out: the relative residual the Stokes solves stop at
+#: (the voxel solver's iterations, the FEM's Krylov solve), passed by :mod:`psdesign.flow`; the
+#: solvers' own keyword defaults are a library caller's. One definition, for the code and
+#: docs/spec-keys.md (:func:`psdesign.schema.keys.code_defaults`).
+FLOW_TOL = 1e-6
+#: ``flow.tol`` left out with ``flow.wall_treatment = "diffuse"``: its solve's own (tighter)
+#: stop, :func:`solvers.voxel.diffuse.solve_diffuse_stokes`'s default until session 53.
+DIFFUSE_FLOW_TOL = 1e-8
+
 #: Defaults filled into every validated spec (other keys appear only when given).
 DEFAULT_FLOW = {
     "solver": "fem",

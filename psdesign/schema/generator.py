@@ -67,25 +67,18 @@ class GeneratorTable(Table):
     )
     diameter: DistField = Field(description=f"metres in (0, period / 2): {_DIST}")
     seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0 (default 0)")
-    theta: DistField | None = Field(
-        None, description=f"degrees in [-360, 360]: {_DIST} (default uniform [-5, 5])"
-    )
-    omega: DistField | None = Field(
-        None, description=f"degrees in [-360, 360]: {_DIST} (default uniform [0, 180])"
-    )
+    theta: DistField | None = Field(None, description=f"degrees in [-360, 360]: {_DIST}")
+    omega: DistField | None = Field(None, description=f"degrees in [-360, 360]: {_DIST}")
     orientation: Orientation | None = Field(
         None, description="{ anisotropy = beta } instead of theta/omega"
     )
     tx: DistField | None = Field(None, description=f"fraction of the x edge in [-1, 2]: {_DIST}")
     ty: DistField | None = Field(None, description=f"fraction of the y edge in [-1, 2]: {_DIST}")
     tz: DistField | None = Field(None, description=f"fraction of the z edge in [-1, 2]: {_DIST}")
-    u: DistField | None = Field(
-        None, description=f"bent only, in (-pi, pi): {_DIST} (default uniform [0.1, 0.3])"
-    )
+    u: DistField | None = Field(None, description=f"bent only, in (-pi, pi): {_DIST}")
     f: DistField | None = Field(
         None,
-        description=f"bent only, in (0, 1000], max |u| x max f <= 10: {_DIST} (default "
-        "uniform [1, 10])",
+        description=f"bent only, in (0, 1000], max |u| x max f <= 10: {_DIST}",
     )
     porosity_tolerance: number(gt=0, lt=0.5) = Field(
         DEFAULT_TOLERANCE, description="in (0, 0.5) (default 0.005)"
@@ -180,21 +173,20 @@ class IntersectionsTable(Table):
     )
     exceed_bounds: flag | None = Field(
         None,
-        description="true | false: fast may exceed the bounds when a fiber fits nowhere "
-        "(default true; reported)",
+        description="true | false: fast may exceed the bounds when a fiber fits nowhere (reported)",
     )
     exceed_rotation_deg: number(ge=0, le=360) | None = Field(
         None,
-        description="fast: rotation beyond the bounds, degrees in [0, 360] (default 5)",
+        description="fast: rotation beyond the bounds, degrees in [0, 360]",
     )
     max_ejections: integer(ge=0, le=10_000) | None = Field(
         None, description="fast only: integer in [0, 10000]"
     )
     population: integer(ge=2, le=10_000) | None = Field(
-        None, description="GA population, integer in [2, 10000] (default 24)"
+        None, description="GA population, integer in [2, 10000]"
     )
     generations: integer(ge=2, le=100_000) | None = Field(
-        None, description="GA generations, integer in [2, 100000] (default 40)"
+        None, description="GA generations, integer in [2, 100000]"
     )
     objective: Literal["analytic", "voxel"] | None = Field(
         None, description="GA only: analytic | voxel"

@@ -6,6 +6,7 @@ key tables (``docs/spec-keys.md``) are generated from :func:`key_rows`.
 
 from __future__ import annotations
 
+import inspect
 import typing
 
 from pydantic import BaseModel
@@ -16,7 +17,7 @@ from psdesign.schema.document import SpecDocument
 from psdesign.schema.errors import _models
 from psdesign.schema.study import BoundsParam, RangeParam, StudyTable
 
-__all__ = ["key_rows", "spec_paths", "study_rows", "table_model"]
+__all__ = ["code_defaults", "key_rows", "spec_paths", "study_rows", "table_model"]
 
 #: Tables whose keys a study parameter may set although the base spec lacks them.
 _VARIABLE_TABLES = ("rve", "generator", "intersections", "flow", "transport", "image")
@@ -46,13 +47,45 @@ def _default(info) -> str:
     return "" if info.default in (None, PydanticUndefined) else repr(info.default)
 
 
+def code_defaults() -> dict[str, str]:
+    """The defaults the code applies to keys the schema leaves None (so that a study can tell
+    a given value from none), read from the one place each is defined: ``fast``'s
+    (:data:`~psdesign.packing.placement_settings.FAST_SPEC_DEFAULTS`), the GA's
+    (:class:`~psdesign.packing.ga_settings.GASettings`), the generator's distributions
+    (:data:`~psdesign.packing.generators.DEFAULT_UNIFORM`), a woven cell's
+    (:func:`~psdesign.geometry.fibers.woven_cell`) and ``flow.tol``
+    (:data:`~psdesign.schema.flow.FLOW_TOL`). docs/spec-keys.md's default column showed none
+    of them until session 53."""
+    # imported here: psdesign.packing imports the schema
+    from psdesign.geometry.fibers import woven_cell
+    from psdesign.packing.ga_settings import GA_VOXEL_RVE_VOXELS, GASettings
+    from psdesign.packing.generators import DEFAULT_UNIFORM
+    from psdesign.packing.placement_settings import DEFAULT_STEP_DIAMETERS, FAST_SPEC_DEFAULTS
+    from psdesign.schema.flow import DIFFUSE_FLOW_TOL, FLOW_TOL
+
+    ga = GASettings()
+    out = {f"generator.{k}": f"uniform [{lo:g}, {hi:g}]" for k, (lo, hi) in DEFAULT_UNIFORM.items()}
+    woven = inspect.signature(woven_cell).parameters
+    for k in ("thickness_axis", "layers", "layer_shift"):  # woven-cell
+        out[f"fibers[].{k}"] = repr(woven[k].default)
+    out |= {f"intersections.{k}": repr(v) for k, v in FAST_SPEC_DEFAULTS.items()}
+    out["intersections.step"] = f"{DEFAULT_STEP_DIAMETERS:g} x the thinnest diameter"
+    out["intersections.ga_voxel"] = f"{GA_VOXEL_RVE_VOXELS} x rve.voxel"
+    for k in ("population", "generations", "objective", "angle_range_deg", "shift_range"):
+        out[f"intersections.{k}"] = repr(getattr(ga, k))
+    out["flow.tol"] = f"{FLOW_TOL!r} ({DIFFUSE_FLOW_TOL!r} with wall_treatment diffuse)"
+    return out
+
+
 def key_rows() -> dict[str, list[tuple[str, str, str]]]:
-    """Key rows per RVE spec table (``fibers`` keys as ``fibers[].key``)."""
+    """Key rows per RVE spec table (``fibers`` keys as ``fibers[].key``); a key the schema
+    leaves None shows the code's default (:func:`code_defaults`)."""
+    code = code_defaults()
     tables: dict[str, list[tuple[str, str, str]]] = {}
     for name, info in SpecDocument.model_fields.items():
         prefix = f"{name}[]." if name == "fibers" else f"{name}."
         model = _models(info.annotation)[0]
-        tables[name] = _rows(model, prefix)
+        tables[name] = [(k, d or code.get(k, ""), a) for k, d, a in _rows(model, prefix)]
     dist_keys = sorted({k for m in DIST_MODELS.values() for k in m.model_fields})
     tables["distribution"] = [
         (f"<dist>.{k}", "", f"distribution table key ({_dist_users(k)})") for k in dist_keys

@@ -623,3 +623,81 @@ def test_rev_solvers_are_the_one_list_of_solvers() -> None:
     for command, solvers in (("rev", REV_SOLVERS), ("permeability", flow.SOLVERS)):
         opt = next(a for a in sub.choices[command]._actions if "--solver" in a.option_strings)
         assert tuple(opt.choices) == tuple(solvers), command
+
+
+#: 6 fibers of 7 um in a 30 um cube (default period: the box), no intersection removal: the
+#: walkthrough's spec (session 53), on 1.5 um voxels.
+N_FIBERS_SPEC = """
+[rve]
+size = [30e-6, 30e-6, 30e-6]
+voxel = 1.5e-6
+[generator]
+n_fibers = 6
+diameter = 7e-6
+[intersections]
+method = "none"
+[flow]
+solver = "voxel"
+"""
+
+
+def test_rev_with_n_fibers_holds_the_porosity(tmp_path) -> None:
+    """Walkthrough (session 53): rev scaled ``n_fibers`` with the volume, so 6 fibers in 30 um
+    became 48 in 60 um, porosity 0.76 -> 0.59 (a denser material, not a bigger RVE). A PS fiber
+    puts one line per period^2 (fiberset.py), so its solid is ``A / P^2`` of a box of whole
+    periods: at the default period (the edge) the count goes as edge^2, 6 -> 24, and the
+    porosity means of the two sizes must agree within their 95 % CIs."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(N_FIBERS_SPEC)
+    res = rev_study(
+        spec,
+        [30e-6, 60e-6],
+        6,
+        tmp_path / "out",
+        directions="z",
+        workers=0,
+        case_fn="study_cases:rev_porosity_case",
+        progress=False,
+        report=False,
+    )
+    small, big = res.table.iloc[0], res.table.iloc[1]
+    gap = abs(small["porosity_mean"] - big["porosity_mean"])
+    assert gap < small["porosity_ci95_half"] + big["porosity_ci95_half"]
+    # and both near the fibers' own porosity, 1 - 6 pi (7 um)^2 / 4 / (30 um)^2 = 0.743 less
+    # their overlaps (a wrong count misses this by 0.15: 48 fibers gave 0.59)
+    assert 0.72 < big["porosity_mean"] < 0.82
+    assert sorted(set(pd.read_csv(tmp_path / "out" / "results.csv")["n_fibers"])) == [6, 24]
+
+
+def test_rev_n_fibers_count_per_size(tmp_path) -> None:
+    """The count that keeps the solid fraction ``n A / P^2``: as edge^2 at the default period,
+    the same for a given rve.period (the copies fill the bigger box); one line naming
+    generator.n_fibers where no whole count does (a box not of whole periods, where the solid
+    per fiber depends on the orientations, or a count far from whole), before any work."""
+    from psdesign.analysis.rev import _rows
+    from psdesign.errors import SpecError
+    from psdesign.schema.spec import load_spec
+
+    path = tmp_path / "s.toml"
+    path.write_text(N_FIBERS_SPEC)
+    spec = load_spec(path)
+    counts = [r["generator.n_fibers"] for r in _rows(spec, [30e-6, 60e-6, 90e-6])]
+    assert counts == [6, 24, 54]  # 6 (L / 30 um)^2
+    with pytest.raises(SpecError, match=r"^generator.n_fibers: 6 fibers .* are 2.67 in a 2e-05"):
+        _rows(spec, [20e-6])  # 3 fibers are 12 % too many: porosity 0.032 off
+    spec["rve"]["period"] = 30e-6
+    assert [r["generator.n_fibers"] for r in _rows(spec, [30e-6, 60e-6])] == [6, 6]
+    with pytest.raises(SpecError, match="^generator.n_fibers: held fixed only in boxes of whole"):
+        _rows(spec, [45e-6])
+
+
+def test_rev_cli_n_fibers_without_a_whole_count_exits_2(tmp_path, capsys) -> None:
+    """The walkthrough's ``rev --sizes 20e-6 30e-6`` of the 30 um spec: one line, no folder."""
+    path = tmp_path / "s.toml"
+    path.write_text(N_FIBERS_SPEC)
+    out = tmp_path / "o"
+    args = ["rev", str(path), "--sizes", "20e-6", "30e-6", "--seeds", "2", "-o", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "generator.n_fibers: 6 fibers" in err[0]
+    assert "generator.porosity" in err[0] and not out.exists()
