@@ -1018,3 +1018,50 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
     out = summarize(p, res, 0.0)
     assert out["at_bound"] == ["mu1", "mu4"] and out["at_breaking_wall"] == ["mu1", "mu4"]
     assert out["status"] == "at_bound" and out["converged"] is False
+
+
+@pytest.mark.parametrize(
+    ("case", "body", "needles"),
+    [
+        # mu = 0: no rod; a ZeroDivisionError traceback, exit 1 (walk-paper, session 53)
+        ("two-fiber", "mu = 0.0", ("forcefield.two_fiber.mu: must be > 0, got 0.0",)),
+        # the model's range, as the two-fiber case names it; the messages named no key ("enlarge
+        # the tube radius") or no range ("isovalue -100.0 gives no fiber for parameters ...")
+        (
+            "six-fiber",
+            "isovalue = 100.0",
+            ("forcefield.six_fiber: isovalue 100.0", "(-6.8, -6.12)"),
+        ),
+        ("six-fiber", "isovalue = -100.0", ("isovalue -100.0 must lie in (-6.8, -6.12)",)),
+        ("six-fiber", "isovalue = -6.1", ("isovalue -6.1 must lie in (-6.8, -6.12)",)),
+        # "bounds must satisfy hi > lo, got [4.67e-001 ... 5e+299]"
+        ("six-fiber", "t_range = 1e300", ("forcefield.six_fiber.t_range: must be <= 0.5",)),
+    ],
+)
+def test_a_case_key_out_of_its_range_is_one_line_naming_it(tmp_path, capsys, case, body, needles):
+    from psdesign.cli import main
+
+    spec = tmp_path / "ff.toml"
+    table = case.replace("-", "_")
+    spec.write_text(f'[forcefield]\ncase = "{case}"\nmax_iter = 1\n[forcefield.{table}]\n{body}\n')
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--no-pictures", "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert all(n in line for n in needles), line
+    assert not out.exists()
+
+
+def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
+    """The straight Table II fiber: its field's minimum is -mu1 - mu2 = -6.8 in closed form (on
+    the centre line the third to fifth terms are (mu3 - mu4 - mu5) cos(2 pi kappa3 z) = 0, as
+    mu3 = mu4 + mu5 = 1.1), and at the range's top its lateral half width is half the fibers'
+    spacing 0.318 (fibers of one set touch side by side)."""
+    from psdesign.forcefield.cases import woven_half_widths, woven_isovalue_range
+    from psdesign.geometry.fibers import WOVEN_SPACING
+
+    p = {**TABLE_II_INITIAL, "kappa3": 3 * TABLE_II_INITIAL["kappa1"]}
+    lo, hi = woven_isovalue_range(p)
+    assert lo == pytest.approx(-6.8, abs=1e-9)
+    lat_scan_step = 0.9 / 450 / p["kappa2"]  # woven_half_widths is conservative by one step
+    assert woven_half_widths(p, hi)[0] == pytest.approx(WOVEN_SPACING / 2, abs=lat_scan_step)
+    assert woven_half_widths(p, -6.65)[0] < WOVEN_SPACING / 2
