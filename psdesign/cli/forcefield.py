@@ -75,7 +75,11 @@ def register(subparsers) -> None:
         "(paper Sec. 6); the paper's cases write rve.json, history.csv, before.png, after.png; "
         "case = relax writes relaxed.toml, rve.json, summary.json (docs/forcefield.md)",
     )
-    p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
+    p.add_argument(
+        "spec",
+        help="force-field spec (TOML: a [forcefield] table, case = two-fiber | six-fiber), or an "
+        "RVE spec ([rve] with fibers, optional [forcefield.relax] table) whose fibers it relaxes",
+    )
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--no-pictures", action="store_true", help="skip before.png / after.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -344,10 +344,15 @@ def at_bounds(names, x, lower, upper, rel: float = 1e-6) -> list[str]:
     return [str(n) for n, flag in zip(names, on, strict=True) if flag]
 
 
+#: history.csv's header (``iter,n_evals,U,step`` until session 53, which said no units).
+HISTORY_COLUMNS = ("iter", "n_evals", "U_normalized", "step_fraction_of_range")
+
+
 def write_history(path: str | Path, res: PatternSearchResult) -> None:
     """history.csv: one row per pattern-search iteration (best U so far)."""
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["iter", "n_evals", "U", "step"])
+        # U in the paper's normalized units; the mesh size a fraction of each variable's range
+        w.writerow(HISTORY_COLUMNS)
         for h in res.history:
             w.writerow([h["iter"], h["n_evals"], repr(h["fun"]), repr(h["step"])])

@@ -584,7 +584,8 @@ def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     m = GeneralizedPS.from_dict(rve["fibers"][0]["ps_model"])
     assert m.n_minor == 1 and m.u[0] == pytest.approx(rve["parameters"]["u1"])
     rows = (out / "history.csv").read_text().strip().splitlines()
-    assert rows[0] == "iter,n_evals,U,step" and len(rows) == 4
+    # session 53: the columns say their units (they were iter,n_evals,U,step)
+    assert rows[0] == "iter,n_evals,U_normalized,step_fraction_of_range" and len(rows) == 4
     assert "paper_optimum" in rve and rve["paper_optimum"]["U"] > 0
     # s40-relaxerr: the start and the paper's optimum carry U's bar too (they had none): the
     # same rule, one coarser evaluation each (checked against a 4x finer quadrature above)
