@@ -165,7 +165,7 @@ def run_one(
         status=s["status"],
         converged=s["converged"],
         n_at_bound=len(s["at_bound"]),
-        n_variables=len(s.get("variables", {})) or 3 * s["n_moved"],
+        n_variables=len(s.get("variables", {})) or 3 * s.get("n_movable", s["n_moved"]),
         at_bound=s["at_bound"],
         message=s["message"],
         n_evals=s["n_evals"],

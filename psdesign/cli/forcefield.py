@@ -31,7 +31,11 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         {k: summary[k] for k in keys}
         # the error bars (docs/forcefield.md): U's quadrature error and each free
         # variable's +- (paper cases, the rod and the field relax routes)
-        | {k: summary[k] for k in ("U_error", "free_variables_error") if k in summary}
+        | {
+            k: summary[k]
+            for k in ("at_breaking_wall", "U_error", "free_variables_error")
+            if k in summary
+        }
     )
     # warnings on stderr: stdout stays one JSON object
     if summary["status"] == "not_converged":
@@ -48,9 +52,13 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
         )
         progress.warning(f"the fibers still overlap (contact_left{where}); wrote the best point")
     elif summary["at_bound"]:
+        wall = summary.get("at_breaking_wall", [])
+        box = [n for n in summary["at_bound"] if n not in wall]
+        where = [f"the bound of {', '.join(box)}"] if box else []
+        where += [f"the fiber-breaking wall of {', '.join(wall)}"] if wall else []
         progress.warning(
-            f"optimum on the bound of {', '.join(summary['at_bound'])} "
-            "(a constrained stop, not converged); widen the ranges or read it as such"
+            f"optimum on {' and on '.join(where)} (a constrained stop, not converged); "
+            "widen the ranges or read it as such"
         )
     elif not summary["converged"]:
         progress.warning(f"{summary['message']}; wrote the best point found")
@@ -67,7 +75,11 @@ def register(subparsers) -> None:
         "(paper Sec. 6); the paper's cases write rve.json, history.csv, before.png, after.png; "
         "case = relax writes relaxed.toml, rve.json, summary.json (docs/forcefield.md)",
     )
-    p.add_argument("spec", help="force-field spec (TOML, [forcefield] table)")
+    p.add_argument(
+        "spec",
+        help="force-field spec (TOML: a [forcefield] table, case = two-fiber | six-fiber), or an "
+        "RVE spec ([rve] with fibers, optional [forcefield.relax] table) whose fibers it relaxes",
+    )
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--no-pictures", action="store_true", help="skip before.png / after.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

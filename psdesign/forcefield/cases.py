@@ -385,19 +385,39 @@ def woven_half_widths(p: dict, isovalue: float) -> tuple[float, float]:
     return _half_widths(tuple(float(p[k]) for k in _WIDTH_KEYS), float(isovalue))
 
 
-@lru_cache(maxsize=256)
-def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, float]:
-    p = dict(zip(_WIDTH_KEYS, values, strict=True))
-    k1, k2, k3 = p["kappa1"], p["kappa2"], p["kappa3"]
-    ys = np.linspace(-0.45, 0.45, 451) / k2
+def _section_rest(p: dict, ys: np.ndarray) -> np.ndarray:
+    """The straight fiber's terms but the first, on lateral offsets ``ys`` from its centre
+    (rows) and 61 axial positions over one period of the third term (columns)."""
+    k2, k3 = p["kappa2"], p["kappa3"]
     zs = np.linspace(0.0, 1.0, 61) / max(k3, 1e-9)
     Y, Z = np.meshgrid(ys + 0.5 / k2, zs, indexing="ij")
-    rest = (
+    return (
         p["mu2"] * np.cos(2 * np.pi * k2 * Y)
         + p["mu3"] * np.cos(2 * np.pi * k3 * Z)
         + p["mu4"] * np.cos(2 * np.pi * p["kappa4"] * (Y + 3 * Z))
         + p["mu5"] * np.cos(2 * np.pi * p["kappa5"] * (Y - 3 * Z))
     )
+
+
+def woven_isovalue_range(p: dict) -> tuple[float, float]:
+    """Isovalues ``(lo, hi)`` that give the straight Sec. 6.2 fiber of moments ``p``:
+    above ``lo`` (the field's minimum on :func:`woven_half_widths`' scan) it has solid; at
+    ``hi`` its lateral half width reaches half of :data:`WOVEN_SPACING`, so the fibers of
+    one set, that far apart, merge side by side (and the tube quadrature soon fails:
+    "surface farther than its tube radius").
+    """
+    q = {k: float(p[k]) for k in _WIDTH_KEYS}
+    lo = float(_section_rest(q, np.linspace(-0.45, 0.45, 451) / q["kappa2"]).min() - q["mu1"])
+    side = _section_rest(q, np.array([-0.5, 0.5]) * WOVEN_SPACING)
+    return lo, float(side.min() - q["mu1"])
+
+
+@lru_cache(maxsize=256)
+def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, float]:
+    p = dict(zip(_WIDTH_KEYS, values, strict=True))
+    k1, k2 = p["kappa1"], p["kappa2"]
+    ys = np.linspace(-0.45, 0.45, 451) / k2
+    rest = _section_rest(p, ys)
     cstar = (isovalue - rest) / p["mu1"]
     solid = cstar >= -1.0
     if not solid.any():
@@ -443,6 +463,14 @@ def six_fiber_problem(
         raise ValueError(f"t_range must be >= 0, got {t_range}")
     if weave_sign not in (-1, 1):
         raise ValueError(f"weave_sign must be -1 or 1, got {weave_sign}")
+    start_p = {**init, "kappa3": 3 * init["kappa1"]}  # the start, tied as below
+    lo, hi = woven_isovalue_range(start_p)
+    if not lo < isovalue < hi:
+        raise ValueError(
+            f"isovalue {isovalue} must lie in ({lo:.4g}, {hi:.4g}) for the start's moments: "
+            f"below, the woven fiber has no solid; above, the fibers of one set "
+            f"({WOVEN_SPACING} apart) merge side by side"
+        )
     t0 = SIX_TRANSLATIONS[0, :2]
     param = _six_fiber_parametrization(init, rng, t_range)
     build = _SixFiberBuild(isovalue, weave_sign)

@@ -60,6 +60,7 @@ class ContactRelaxResult:
     message: str
     n_evals: int
     wall_time_s: float
+    n_moved: int = 0  # movable fibers the search did move (a non-zero shift or bend change)
     limit_stop: bool = False  # the search stopped on max_iter / max_evals
     potentials: dict = field(default_factory=dict)  # FIELD_TERMS at the result
     potentials_error: dict = field(default_factory=dict)  # their quadrature bars
@@ -384,6 +385,7 @@ def relax_contacts(
         message=res.message,
         n_evals=res.n_evals,
         wall_time_s=time.perf_counter() - t0,
+        n_moved=sum(any(v != 0.0 for v in m) for m in prob.split(res.x).values()),
         limit_stop=not res.converged,
         potentials=pot,
         potentials_error=err,
@@ -496,7 +498,8 @@ def field_summary(res: ContactRelaxResult, period: float, kw: dict, h_m: float) 
         "case": "relax",
         "route": "fields",
         "n_fibers": len(res.fibers),
-        "n_moved": int(len(res.movable)),
+        "n_movable": int(len(res.movable)),
+        "n_moved": res.n_moved,
         "min_gap_before_m": res.min_gap_before * period,
         "min_gap_after_m": res.min_gap_after * period,
         "overlap_fraction_before": res.overlap_before,

@@ -65,6 +65,10 @@ class PatternSearchResult:
         stop every compass neighbour at this distance was no better, so it is the optimum's
         uncertainty per variable (the final ``step`` is this times ``contract``, never
         polled). NaN when no poll was made.
+    infeasible : list of int
+        Variables (indices) with a compass neighbour of the last poll where the objective
+        is +inf (an infeasible point: a broken fiber): the optimum sits against that
+        wall as against a bound, a constrained stop.
     """
 
     x: np.ndarray
@@ -76,6 +80,7 @@ class PatternSearchResult:
     history: list[dict] = field(default_factory=list)
     n_speculative: int = 0
     poll_step: float = float("nan")
+    infeasible: list[int] = field(default_factory=list)
 
 
 def poll_bars(names, lower, upper, poll_step: float) -> dict[str, float]:
@@ -202,7 +207,18 @@ def pattern_search(
         history=history,
         n_speculative=polls.n_done - len(polls.used),
         poll_step=polled,
+        infeasible=_infeasible_neighbours(polls, z, dirs, polled),
     )
+
+
+def _infeasible_neighbours(polls: _Poller, z: np.ndarray, dirs, step: float) -> list[int]:
+    """Variables whose compass neighbour at ``step`` (the last poll's mesh) evaluated to +inf
+    (cached values only: a poll cut short by a limit did not examine all)."""
+    if not np.isfinite(step):
+        return []
+    trials = _compass_trials(z, dirs, step)
+    out = {dirs[k][0] for k, t in trials if polls.cache.get(polls.key(t)) == np.inf}
+    return sorted(int(i) for i in out)
 
 
 def _start_value(polls: _Poller, z: np.ndarray) -> float:

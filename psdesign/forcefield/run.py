@@ -239,7 +239,10 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
 def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) -> dict:
     """JSON-ready record of an optimization run."""
     fields = prob.fields(res.x)
-    at_bound = at_bounds(prob.param.free, res.x, prob.lower, prob.upper)
+    # a neighbour where a fiber breaks (U = +inf) bounds the optimum as a box bound does
+    on_wall = [prob.param.free[i] for i in res.infeasible]
+    on = set(at_bounds(prob.param.free, res.x, prob.lower, prob.upper)) | set(on_wall)
+    at_bound = [n for n in prob.param.free if n in on]
     status = search_status(not res.converged, at_bound, False)
     pot = prob.potential(res.x)
     err = prob.potential_error(res.x, fine=pot)  # one coarser evaluation: the quadrature bar
@@ -263,6 +266,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "converged": res.converged and not at_bound,
         "status": status,
         "at_bound": at_bound,
+        "at_breaking_wall": on_wall,
         "message": res.message,
         "n_iter": res.n_iter,
         "n_evals": res.n_evals,
@@ -340,10 +344,15 @@ def at_bounds(names, x, lower, upper, rel: float = 1e-6) -> list[str]:
     return [str(n) for n, flag in zip(names, on, strict=True) if flag]
 
 
+#: history.csv's header (``iter,n_evals,U,step`` until session 53, which said no units).
+HISTORY_COLUMNS = ("iter", "n_evals", "U_normalized", "step_fraction_of_range")
+
+
 def write_history(path: str | Path, res: PatternSearchResult) -> None:
     """history.csv: one row per pattern-search iteration (best U so far)."""
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["iter", "n_evals", "U", "step"])
+        # U in the paper's normalized units; the mesh size a fraction of each variable's range
+        w.writerow(HISTORY_COLUMNS)
         for h in res.history:
             w.writerow([h["iter"], h["n_evals"], repr(h["fun"]), repr(h["step"])])

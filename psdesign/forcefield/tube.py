@@ -174,23 +174,42 @@ def _raise_status(status: int) -> None:
         raise ValueError("tube quadrature: surface root finding did not converge")
 
 
+#: A fiber whose thinnest cross-section has a field depth below the isovalue (``-phi`` at the
+#: section's minimum) under this fraction of its median section's depth counts as broken
+#: (:class:`NoFiberError`, U = +inf). Near a section's minimum the field is a quadratic well,
+#: so the section's area is proportional to that depth (area = 2 pi depth / sqrt(det H)):
+#: 0.25 is a neck of about a quarter of the fiber's typical area, half its width. Without it
+#: only a section with no solid at all was refused, and the six-fiber "area" optimum thinned
+#: its woven fibers to a neck of depth 1.7e-5 of the median (area 0 on a 200^2 grid: pinched
+#: lobes, walk-paper, session 53); the bending optimum's thinnest section keeps 0.81.
+NECK_DEPTH_FRACTION = 0.25
+
+
 def check_continuous(
     fld: PSField, domain: tuple[np.ndarray, np.ndarray], tube: Tube, n_check: int = 256
 ) -> None:
-    """Raise :class:`NoFiberError` if the fiber pinches off anywhere along the domain.
+    """Raise :class:`NoFiberError` if the fiber pinches off, or nearly, along the domain.
 
     The section minimum of the field is found on ``n_check`` equally spaced sections
     (the quadrature nodes alone could straddle a break); a section without solid means
-    the fiber breaks into pieces there. Necks thinner than the quadrature resolves are
-    not detected as breaks.
+    the fiber breaks into pieces there, and a section shallower than
+    :data:`NECK_DEPTH_FRACTION` of the median section's depth is a neck the fiber is
+    refused for too. Necks thinner than the ``n_check`` sections resolve are not detected.
     """
     lo, hi = (np.asarray(b, float) for b in domain)
     a = tube.axis
     e1, e2, d = tube.frame()
     s = np.linspace(lo[a], hi[a], n_check)
     c = _centres(fld, tube.point + np.outer(s - tube.point[a], d), e1, e2)
-    if np.any(fld.values(c) >= 0):
+    depth = -fld.values(c)
+    if np.any(depth <= 0):
         raise NoFiberError("the fiber pinches off inside the domain (a cross-section has no solid)")
+    if depth.min() < NECK_DEPTH_FRACTION * np.median(depth):
+        raise NoFiberError(
+            f"the fiber nearly pinches off inside the domain: its thinnest cross-section has "
+            f"{depth.min() / np.median(depth):.3g} of its median section's depth (below "
+            f"NECK_DEPTH_FRACTION = {NECK_DEPTH_FRACTION})"
+        )
 
 
 def tube_sample(

@@ -15,6 +15,8 @@ Shape = Literal[tuple(SHAPES + CELL_SHAPES)]  # type: ignore[valid-type]
 Angle = number(ge=-360, le=360)
 #: Fixed shapes whose equation has a bend term: ``u`` replaces its minor moment.
 BENT_FIXED_SHAPES = ("woven", "compressed-bent")
+#: The shapes of a fixed equation: ``isovalue`` sets their size, no ``diameter`` or ``f``.
+FIXED_SHAPES = tuple(s for s in SHAPES if s not in ROUND_SHAPES)
 #: Largest bend slope amplitude ``|u| f`` (Eq. 16; the paper's fibers have u f <= 3).
 MAX_SLOPE = 10.0
 #: Most bends per period ``f`` (fibers, generator, the force field's two-fiber case).
@@ -28,7 +30,7 @@ class FiberTable(Table):
     diameter: number(gt=0) | None = Field(
         None,
         description="metres > 0, below the smallest edge and the period (rod, cylinder, "
-        "bent-rod: required)",
+        "bent-rod only: required)",
     )
     center: Vec3 | None = Field(
         None, description="[x, y, z] metres, each in [-edge, 2 edge] (default: the box centre)"
@@ -44,9 +46,15 @@ class FiberTable(Table):
         "moment (default: the equation's)",
     )
     f: number(gt=0, le=MAX_BENDS) = Field(
-        1.0, description="bends per period in (0, 1000], with |u| f <= 10"
+        1.0,
+        description="bends per period in (0, 1000], with |u| f <= 10 (rod, cylinder, bent-rod; "
+        "a fixed shape's is its equation's)",
     )
-    isovalue: number() | None = Field(None, description="finite number (default: the shape's)")
+    isovalue: number() | None = Field(
+        None,
+        description="finite number, fixed shapes only: " + ", ".join(FIXED_SHAPES) + " (default: "
+        "the shape's; a rod's, cylinder's, bent-rod's is set by its diameter)",
+    )
     thickness_axis: Literal["x", "z"] | None = Field(None, description="x | z (woven-cell only)")
     layers: integer(ge=1, le=8) | None = Field(
         None, description="woven-cell layers stacked along the thickness, integer in [1, 8]"
@@ -72,6 +80,7 @@ class FiberTable(Table):
                 raise fail(key, "only used with shape = 'woven-cell'", "woven-cell")
         if self.shape in ROUND_SHAPES and self.diameter is None:
             raise fail("diameter", "missing; give the fiber diameter in metres", "number > 0 m")
+        self._check_shape_keys(given)
         if self.direction is not None:
             if "theta" in given or "omega" in given:
                 raise fail("direction", "give either direction or theta/omega, not both")
@@ -92,6 +101,27 @@ class FiberTable(Table):
             )
         return self
 
+    def _check_shape_keys(self, given: set) -> None:
+        """Refuse the keys the shape's geometry ignores (they had no effect: walk-paper,
+        session 53): a round fiber's isovalue is set by its diameter (``rod_isovalue``); a
+        fixed shape's size by its equation and isovalue, its bend scale by its equation."""
+        if self.shape in ROUND_SHAPES:
+            if "isovalue" in given:
+                raise fail(
+                    "isovalue",
+                    f"not used by shape = {self.shape!r} (its diameter sets the isovalue)",
+                    "only with a fixed shape: " + ", ".join(FIXED_SHAPES),
+                )
+            return
+        for key, what in (("diameter", "its equation and isovalue"), ("f", "its equation")):
+            if key in given:
+                raise fail(
+                    key,
+                    f"not used by shape = {self.shape!r} (set by {what})",
+                    "only with shape = "
+                    + ", ".join(ROUND_SHAPES if key == "diameter" else ("bent-rod",)),
+                )
+
     def to_spec(self) -> dict:
         """The plain dict of today's validated spec."""
         if self.shape == "woven-cell":
@@ -111,7 +141,9 @@ class FiberTable(Table):
         else:
             out["theta"] = self.theta or 0.0
             out["omega"] = self.omega or 0.0
-        out["u"], out["f"] = self.u, self.f
+        out["u"] = self.u
+        if self.shape in ROUND_SHAPES:  # a fixed shape's bend scale is its equation's
+            out["f"] = self.f
         if self.shape in BENT_FIXED_SHAPES and "u" not in self.model_fields_set:
             del out["u"]  # the equation's own bend
         if self.isovalue is not None:

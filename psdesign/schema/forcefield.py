@@ -32,8 +32,12 @@ class Quadrature(Table):
 class TwoFiber(Table):
     """The two-fiber case."""
 
-    isovalue: number() = Field(-8.82, description="finite number (default -8.82)")
-    mu: number(ge=0) = Field(4.5, description="number >= 0 (default 4.5)")
+    isovalue: number() = Field(
+        -8.82, description="finite number in (constant - 2 mu, constant) (default -8.82)"
+    )
+    # mu = 0 is no rod (the isovalue range (constant - 2 mu, constant) is empty): it divided
+    # by zero in cases.rod_half_width, a traceback (walk-paper, session 53)
+    mu: number(gt=0) = Field(4.5, description="number > 0 (default 4.5)")
     constant: number() = Field(0.0, description="finite number (default 0)")
     seed: integer(ge=0, le=2**63 - 1) = Field(0, description="integer >= 0")
     f0: number(ge=1e-6, le=MAX_BENDS) | None = Field(
@@ -68,8 +72,17 @@ _SIX = Literal[tuple(SIX_NAMES)]  # type: ignore[valid-type]
 class SixFiber(Table):
     """The six-fiber case (defaults: paper Table II)."""
 
-    isovalue: number() = Field(-6.65, description="finite number (default -6.65)")
-    t_range: number(ge=0) = Field(0.1, description="number >= 0 (default 0.1)")
+    isovalue: number() = Field(
+        -6.65,
+        description="finite number in the start's range (-6.8, -6.12) for Table II's moments: "
+        "a fiber, apart from its neighbours (default -6.65)",
+    )
+    # fibers 4-6 start at t_x = 0.45 in the unit cube: a translation range beyond half a period
+    # lets them leave it; 1e300 overflowed their boxes ("bounds must satisfy hi > lo", exit 2
+    # naming no key: walk-paper, session 53)
+    t_range: number(ge=0, le=0.5) = Field(
+        0.1, description="translation half-range in [0, 0.5] periods (default 0.1)"
+    )
     initial: dict[_SIX, number()] = Field(
         default_factory=dict, description=f"table of {', '.join(SIX_NAMES)} (finite numbers)"
     )

@@ -80,3 +80,58 @@ def test_rod_relax_energy_of_bent_rods_depends_on_the_state_alone():
     # vertex of a bent axis by its search order
     err = [abs(e - whole(y)) / whole(y) for y, e in walk]
     assert np.median(err) < 1e-9 and max(err) < 0.1
+
+
+def _two_rods(tmp_path, z_um: float, max_shift: str) -> dict:
+    """Relax two crossing rods of 20 um (axes at z = ``z_um`` and 55 um) with the CLI; its
+    summary.json."""
+    import json
+
+    from psdesign.cli import main
+
+    spec = tmp_path / "two.toml"
+    spec.write_text(
+        '[rve]\nsize = [100e-6, 100e-6, 100e-6]\nvoxel = 2e-6\n\n[[fibers]]\nshape = "rod"\n'
+        f'diameter = 20e-6\ncenter = [50e-6, 50e-6, {z_um}e-6]\n\n[[fibers]]\nshape = "rod"\n'
+        "diameter = 20e-6\ncenter = [50e-6, 50e-6, 55e-6]\nomega = 90.0\n\n"
+        f"[forcefield.relax]\nmax_shift = {max_shift}\n"
+    )
+    out = tmp_path / "out"
+    assert main(["forcefield", str(spec), "-o", str(out), "--quiet"]) in (0, 3)
+    return json.loads((out / "summary.json").read_text()) | {"out": out}
+
+
+def test_relaxed_contacts_are_the_pairs_omega_counts(tmp_path):
+    """walk-paper (session 53): two rods 10 um into each other, max_shift 2 um: the relax bends
+    them apart to Omega 0 (voxel Omega of relaxed.toml 0 too) but summary.json said
+    n_contacts_after 1: find_contacts keeps bent axes within their chords' sag of touching.
+    Truth: the relaxed axes cut into 0.0005-period chords (sag 6e-8) are no contact, and
+    their closest sampled points are >= D apart."""
+    from scipy.spatial import cKDTree
+
+    from psdesign.packing.build import build_rve
+    from psdesign.packing.fiberset import build_pieces
+    from psdesign.schema.spec import load_spec
+
+    s = _two_rods(tmp_path, 45, "2e-6")
+    assert s["n_contacts_before"] == 1 and s["omega_analytic_before"] > 0
+    assert s["omega_analytic_after"] == 0.0 and s["n_contacts_after"] == 0
+    rve = build_rve(load_spec(s["out"] / "relaxed.toml")).rve
+    st = FiberState.from_fibers(list(rve.fibers), fixed=False)
+    lo, hi = rve.box_normalized
+    assert len(find_contacts(st, lo, hi, 0.0)) == 1  # the sag band: the case this test is
+    assert len(find_contacts(st, lo, hi, 0.0, piece=0.002)) == 0
+    pc = build_pieces(st, lo, hi, 0.1, 0.0005)
+    mid = 0.5 * (pc.a + pc.b)
+    dist, _ = cKDTree(mid[pc.fiber == 1]).query(mid[pc.fiber == 0])
+    assert dist.min() > 0.2  # (D1 + D2) / 2 = 20 um = 0.2 periods (measured 0.204)
+
+
+def test_n_moved_counts_the_fibers_moved_not_the_movable(tmp_path):
+    """Rods whose axes are 19 um apart (D 20 um): moving the first by 1.75 um ends the
+    contact, the second is left where it was; n_moved said 2 (the movable fibers) until
+    session 53."""
+    s = _two_rods(tmp_path, 36, "3.5e-6")
+    assert s["n_movable"] == 2 and s["n_moved"] == 1
+    assert all(v == 0.0 for k, v in s["variables"].items() if k.endswith("[1]"))
+    assert s["variables"]["t1[0]"] != 0.0

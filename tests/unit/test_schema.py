@@ -767,3 +767,35 @@ def test_the_routes_refusals_list_solvers_and_bc_models_from_the_one_list():
     bench = load_benchmark("solver_agreement")
     assert bench.SOLVERS is flow.SOLVERS and bench.BC_MODELS is flow.BC_MODELS
     assert not hasattr(bench, "BCS")
+
+
+@pytest.mark.parametrize(
+    ("shape", "key", "value"),
+    [
+        ("rod", "isovalue", -2.0),  # the rod's isovalue is rod_isovalue(diameter)
+        ("cylinder", "isovalue", -2.0),
+        ("bent-rod", "isovalue", -2.0),
+        ("woven", "diameter", 7e-6),  # a fixed shape's size is its equation's and isovalue's
+        ("compressed-rod-a", "diameter", 7e-6),
+        ("woven", "f", 3.0),  # a fixed shape's bend scale is its equation's
+        ("compressed-bent", "f", 3.0),
+    ],
+)
+def test_a_key_the_fibers_shape_ignores_is_refused(shape, key, value):
+    """walk-paper (session 53): these keys were read and silently had no effect (the walker's
+    rod with isovalue -2.0 built the same rod as without; a woven fiber with f = 3 the same
+    woven fiber), while ``u`` on a rod was already refused. Exit 2, one line naming the key
+    and the shapes that take it."""
+    fb = {"shape": shape, key: value}
+    if shape in ("rod", "cylinder", "bent-rod"):
+        fb["diameter"] = 7e-6
+    doc = {"rve": {"size": BOX, "voxel": 1e-6}, "fibers": [fb]}
+    err = spec_err(doc)
+    assert err.key == f"fibers[0].{key}"
+    assert f"not used by shape = '{shape}'" in str(err)
+    takes = "woven" if key == "isovalue" else "bent-rod"
+    assert takes in str(err)
+    del fb[key]
+    out = validate_spec(doc)["fibers"][0]  # without it: valid, and the same spec again
+    assert validate_spec(with_(doc, "fibers", [out]))["fibers"][0] == out
+    assert ("f" in out) == (shape in ("rod", "cylinder", "bent-rod"))
