@@ -150,3 +150,25 @@ def test_the_api_is_held_to_the_transport_solve_too(method, spec, monkeypatch):
         getattr(m, method)(**({"direction": "z"} if method != "pores" else {}))
     assert info.value.key == "rve.voxel" and "transport" in info.value.message
     assert m._fields is None  # refused before the voxels
+
+
+def test_build_is_held_to_the_geometry_and_permeability_to_its_solve(spec, monkeypatch):
+    """Session 52 review E (left): ``psdesign.build`` (geometry only) was refused for the FEM
+    solve of the spec (the refined field's 0.938 GiB on a 64 MiB machine, as the commands
+    above), so neither ``.porosity`` nor ``.pores()`` could be had. It is held to the grid's own
+    fields now (128 kB, fits); ``.permeability`` still refuses its FEM solve before any work,
+    with the command's line, and its voxel solve on the same grid runs."""
+    import psdesign
+    from psdesign.errors import SpecError
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**20)
+    m = psdesign.build(spec)
+    assert m._fields is None
+    with pytest.raises(SpecError) as info:
+        m.permeability("z", solver="fem")
+    assert info.value.key == "rve.voxel"
+    assert info.value.message.startswith("the FEM's refined field needs about")
+    assert m._fields is None  # refused before the voxels
+    with pytest.raises(SpecError):  # the spec's own [flow]: the FEM's default route
+        m.permeability("z")
+    assert 0.0 < m.porosity < 1.0
