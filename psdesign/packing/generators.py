@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -373,17 +374,32 @@ def _explicit_only(size, voxel: float, period: float, explicit: list, t_start: f
     return GenerationResult(explicit, rve, report, vf)
 
 
+def _jam_advice(gs: GeneratorSpec, closest: float, info: dict) -> str:
+    """What to change when ``fast`` jammed short of its solid: the porosity this seed reached,
+    rounded up to two decimals (a target there is met within the band as the jam stops at the
+    same fibers), or overlaps allowed; '' for any other miss (its reason says what to do).
+    Until session 53 the jam named no key or value (session 52 walk-geometry: a thin slab)."""
+    if not str(info.get("why", "")).startswith("packing jammed") or closest <= gs.porosity:
+        return ""
+    works = math.ceil(round(closest * 100.0, 6)) / 100.0
+    return (
+        f"; a generator.porosity of at least {works:.2f} for this box and seed, thinner "
+        "fibers, or intersections.method = 'none' (overlaps allowed)"
+    )
+
+
 def _check_reached(gs: GeneratorSpec, vf: VoxelFields, info: dict, others: list) -> None:
     """Raise :class:`GenerationError` when the porosity target was missed or ``fast`` left
     overlap on the voxel grid (the closest porosity reached in the message)."""
     achieved = vf.porosity
     omega_after = vf.intersection_volume_fraction
     if gs.porosity is not None and abs(achieved - gs.porosity) > gs.tolerance + 1e-12:
+        closest = info.get("closest", achieved)
         raise GenerationError(
             f"generator.porosity: target {gs.porosity} not reached within +-{gs.tolerance} on "
-            f"the voxel grid; closest porosity reached {info.get('closest', achieved):.4f} "
-            f"({info.get('why', 'optimizer limit')})",
-            info.get("closest", achieved),
+            f"the voxel grid; closest porosity reached {closest:.4f} "
+            f"({info.get('why', 'optimizer limit')}{_jam_advice(gs, closest, info)})",
+            closest,
         )
     if gs.method == "fast" and omega_after > 0 and gs.min_gap >= 0:
         raise GenerationError(

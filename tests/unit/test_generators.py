@@ -249,6 +249,16 @@ def test_jammed_target_raises_with_closest_porosity():
     assert "closest porosity" in str(e.value)
     # the pool grows when rejections use it up, so the reason is the jam, not the pool size
     assert "packing jammed" in str(e.value)
+    # session 53: the line names the key and a value that works for this box and seed (the
+    # closest porosity rounded up), checked by building it: met within the default band
+    import re
+
+    works = float(re.search(r"generator\.porosity of at least (\d\.\d\d)", str(e.value))[1])
+    assert e.value.closest_porosity <= works < e.value.closest_porosity + 0.01
+    assert "intersections.method = 'none'" in str(e.value)
+    spec["generator"]["porosity"] = works
+    r = build_fibers(spec)
+    assert abs(r.report["porosity"] - works) <= 0.005
 
 
 def test_medial_axes_export(tmp_path):
