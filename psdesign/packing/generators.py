@@ -348,7 +348,7 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         "min_gap_m": gs.min_gap,
         "voxel_m": voxel,
         "grid_shape": list(vf.grid.shape),
-        **{k: v for k, v in info.items() if k not in ("closest", "why")},
+        **{k: v for k, v in info.items() if k not in ("closest", "why", "jammed")},
     }
     times["total"] = time.perf_counter() - t_start
     report["wall_time_s"] = {k: round(v, 3) for k, v in times.items()}
@@ -375,16 +375,18 @@ def _explicit_only(size, voxel: float, period: float, explicit: list, t_start: f
 
 
 def _jam_advice(gs: GeneratorSpec, closest: float, info: dict) -> str:
-    """What to change when ``fast`` jammed short of its solid: the porosity this seed reached,
-    rounded up to two decimals (a target there is met within the band as the jam stops at the
-    same fibers), or overlaps allowed; '' for any other miss (its reason says what to do).
-    Until session 53 the jam named no key or value (session 52 walk-geometry: a thin slab)."""
-    if not str(info.get("why", "")).startswith("packing jammed") or closest <= gs.porosity:
+    """What to change when ``fast`` jammed short of its solid: a porosity above the one this
+    seed reached (a hint, not a promise: where a packing jams depends on its target, session
+    53's review saw 0.72 advised at 0.70 jam again at 0.739), thinner fibers, or overlaps
+    allowed; '' for any other miss (its reason says what to do). Until session 53 the jam named
+    no key or value (session 52 walk-geometry: a thin slab)."""
+    if not info.get("jammed") or closest <= gs.porosity:
         return ""
     works = math.ceil(round(closest * 100.0, 6)) / 100.0
     return (
-        f"; a generator.porosity of at least {works:.2f} for this box and seed, thinner "
-        "fibers, or intersections.method = 'none' (overlaps allowed)"
+        f"; raise generator.porosity above {closest:.4f} (e.g. {works:.2f}: where a packing "
+        "jams depends on its target), use thinner fibers, or intersections.method = 'none' "
+        "(overlaps allowed)"
     )
 
 
@@ -568,6 +570,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
         "fields": vf,
         "closest": porosity,
         "why": why,
+        "jammed": run.jammed,
         "placement_time_s": round(time.perf_counter() - t0, 3),
         "bounds": _bounds_report(opts, gs.period, run.exceeded_counts),
     }
@@ -633,34 +636,29 @@ class _PoolPlacement:
                 else "fiber pool exhausted (raise generator.max_fibers)"
             )
 
-    def placed_solid(self) -> float:
-        """Predicted solid fraction of the explicit fibers and the pool fibers kept, each
-        counted where it was placed, as :meth:`keep_closest` counts them. Until session 53 the
-        kept fibers were counted where they were drawn: in a box thinner than a period a shift
-        changes an in-plane fiber's length in the box (a 9 um slab of 7 um fibers: 0.334 drawn
-        against 0.202 placed), so a later round found its goal met, placed nothing, and the
-        target was missed as "the measured porosity did not converge"."""
+    def _kept_solid(self) -> np.ndarray:
+        """Each kept pool fiber's solid volume (area x length in the box), the length where it
+        was placed, not where it was drawn: in a box thinner than a period a shift changes a
+        tilted fiber's length in the box (a 9 um slab of 7 um fibers: solid fraction 0.334
+        drawn against 0.202 placed)."""
         placed, n_fixed = self.placed, self.n_fixed
-        if placed is None or len(placed) <= n_fixed:
-            return self.fixed_solid
-        moved = placed.subset(np.arange(n_fixed, len(placed)))
-        lengths = carrier_lengths(moved, self.lo, self.hi)
-        area = self.areas[np.array(self.kept, int)]
-        return self.fixed_solid + float(np.sum(area * lengths)) / self.box_volume
+        if placed is None or not self.kept:
+            return np.zeros(0)
+        lengths = carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
+        return self.areas[np.array(self.kept, int)] * lengths
+
+    def placed_solid(self) -> float:
+        """Predicted solid fraction of the explicit fibers and the pool fibers kept, counted as
+        :meth:`keep_closest` counts them (:meth:`_kept_solid`). Until session 53 the kept fibers
+        were counted where they were drawn, so a later round in a thin slab found its goal met,
+        placed nothing, and the target was missed as "the measured porosity did not converge"."""
+        return self.fixed_solid + float(np.sum(self._kept_solid())) / self.box_volume
 
     def keep_closest(self, goal: float) -> tuple[FiberState, float]:
         """Keep the prefix of placed fibers whose predicted solid fraction is closest to
         ``goal``; the kept pool fibers and their predicted solid fraction."""
         n_fixed, placed = self.n_fixed, self.placed
-        mov = np.array(self.kept, int)
-        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
-        # a period a shift changes a tilted fiber's length in the box
-        lengths = (
-            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
-            if len(mov)
-            else np.zeros(0)
-        )
-        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self.areas[mov] * lengths) / self.box_volume]
+        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self._kept_solid()) / self.box_volume]
         k = int(np.argmin(np.abs(cum - goal)))
         self.kept = self.kept[:k]
         if placed is not None:

@@ -324,3 +324,21 @@ def test_mesh_is_held_to_the_memory_of_the_one_copy_it_meshes(tmp_path, capsys):
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith("psdesign: error: flow.max_memory_gb:") and "0.282 GB" in line
     assert not (tmp_path / "m2").exists()
+
+
+def test_mesh_of_a_voxel_solver_spec_is_held_to_the_fem_it_builds(tmp_path, capsys):
+    """Review s53: `psdesign mesh` always builds the FEM's refined field and one copy's mesh, but
+    a ``solver = "voxel"`` spec was checked against the voxel grid's smaller need and passed
+    a cap the mesh needs more than. Truth: the budget's own FEM estimate for the one copy,
+    0.282 GB (``budget.fem_need_bytes``, as above), against a 0.2 GB cap: refused before any
+    work with that figure; under 0.25 GB it meshes, and a voxel-only key
+    (``periodic_treatment = "mirror"``) does not stop it."""
+    spec = tmp_path / "s.toml"
+    flow = 'aux_length = 0.25\nsolver = "voxel"\nperiodic_treatment = "mirror"\nmax_memory_gb = {}'
+    spec.write_text(SPEC.replace("aux_length = 0.25", flow.format(0.2)))
+    assert main(["mesh", str(spec), "-o", str(tmp_path / "m")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: flow.max_memory_gb:") and "0.282 GB" in line
+    assert not (tmp_path / "m").exists()
+    spec.write_text(SPEC.replace("aux_length = 0.25", flow.format(0.25)))
+    assert main(["mesh", str(spec), "-o", str(tmp_path / "m2")]) == 0
