@@ -303,7 +303,7 @@ class Material:
         from psdesign.fields import fields_folder
         from psdesign.flow.darcy import flow_direction
         from psdesign.flow.permeability import permeability
-        from psdesign.schema.spec import check_directions, check_flow_override
+        from psdesign.schema.spec import check_directions
 
         progress = _progress_flag(progress)
         direction = _direction(flow_direction(direction, self.spec["flow"]))
@@ -313,7 +313,7 @@ class Material:
         if bc is not None:
             given["bc"] = bc
         table = _flow_table(self.spec["flow"], given)
-        check_flow_override(self.spec, table)  # the budget of this solver / bc, as the CLI
+        _check_flow_budget(self.spec, table)  # the budget of this solver / bc, as the CLI
         check_directions(self.spec, table, [direction])  # the copies "auto" stacks along it
         route = table["solver"]
         folder = fields_folder(fields, "permeability", [direction], route, option="fields")
@@ -455,12 +455,38 @@ class Material:
         return f"Material({size} m, {len(self.rve.fibers)} fibers)"
 
 
+def _check_flow_budget(spec: dict, flow: dict) -> None:
+    """The flow solve's checks (memory budget, ``flow.max_memory_gb``, the route's keys) of
+    ``spec`` with the ``[flow]`` table ``flow``, before :meth:`Material.permeability` solves:
+    :func:`build` held the spec to its geometry only. Warnings the build showed are not
+    repeated; a table the call changed is validated as ``--solver`` / ``--bc`` are
+    (:func:`psdesign.schema.spec.check_flow_override`). ``SpecError``."""
+    import warnings
+
+    from psdesign.schema.image import ImageWarning
+    from psdesign.schema.spec import SpecWarning, check_flow_override, validate_spec
+
+    if flow != spec["flow"]:
+        check_flow_override(spec, flow)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SpecWarning)
+        warnings.simplefilter("ignore", ImageWarning)
+        validate_spec(spec)
+
+
 @_warns_at_caller
 def build(spec: dict | str | Path) -> Material:
-    """Build a material from a spec dict or a spec file; the spec is validated first."""
+    """Build a material from a spec dict or a spec file; the spec is validated first, held to
+    the memory of its geometry (its voxel grid: :func:`psdesign.schema.budget.unplanned_route`),
+    not to a flow solve's: :meth:`Material.permeability` checks the solve it runs, and
+    ``diffusivity`` / ``conductivity`` / ``pores`` theirs (``budget.check_transport``). Until
+    session 53 a spec whose FEM permeameter would not fit was refused here, geometry and all."""
+    from psdesign.schema.budget import unplanned_route
     from psdesign.schema.spec import validate_spec
 
-    spec = load_spec(spec) if isinstance(spec, str | Path) else validate_spec(spec)
+    with unplanned_route():
+        spec = load_spec(spec) if isinstance(spec, str | Path) else validate_spec(spec)
     return Material(spec)
 
 

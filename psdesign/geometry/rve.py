@@ -203,8 +203,21 @@ class VoxelFields:
         (:func:`psdesign.flow.permeability.check_grid_voxels`), a pore's size is not bounded by
         it (:func:`psdesign.transport.study_outputs.varying_edge`) and a permeameter along it
         has no entrance reach beyond the measured gap term
-        (:func:`psdesign.flow.error.window_rel_error`)."""
-        return bool(np.any(np.ptp(self.distance, axis=axis)))
+        (:func:`psdesign.flow.error.window_rel_error`).
+
+        Read once per axis and kept (:attr:`_varies`): an ``"auto"`` permeameter asks it for
+        its window term (:func:`psdesign.flow.permeability.auto_lengthen`) and again for the
+        error bar (:func:`~psdesign.flow.permeability.with_error_estimate`), one pass over the
+        field each until session 53."""
+        known = self._varies
+        if axis not in known:
+            known[axis] = bool(np.any(np.ptp(self.distance, axis=axis)))
+        return known[axis]
+
+    @cached_property
+    def _varies(self) -> dict[int, bool]:
+        """:meth:`varies_along`'s answers by axis (the fields are not changed once built)."""
+        return {}
 
     @cached_property
     def wall_distance(self) -> np.ndarray:

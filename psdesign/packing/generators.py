@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -413,7 +414,7 @@ def build_fibers(spec: dict, explicit: list[Fiber] | tuple = ()) -> GenerationRe
         "min_gap_m": gs.min_gap,
         "voxel_m": voxel,
         "grid_shape": list(vf.grid.shape),
-        **{k: v for k, v in info.items() if k not in ("closest", "why")},
+        **{k: v for k, v in info.items() if k not in ("closest", "why", "jammed")},
     }
     times["total"] = time.perf_counter() - t_start
     report["wall_time_s"] = {k: round(v, 3) for k, v in times.items()}
@@ -439,17 +440,34 @@ def _explicit_only(size, voxel: float, period: float, explicit: list, t_start: f
     return GenerationResult(explicit, rve, report, vf)
 
 
+def _jam_advice(gs: GeneratorSpec, closest: float, info: dict) -> str:
+    """What to change when ``fast`` jammed short of its solid: a porosity above the one this
+    seed reached (a hint, not a promise: where a packing jams depends on its target, session
+    53's review saw 0.72 advised at 0.70 jam again at 0.739), thinner fibers, or overlaps
+    allowed; '' for any other miss (its reason says what to do). Until session 53 the jam named
+    no key or value (session 52 walk-geometry: a thin slab)."""
+    if not info.get("jammed") or closest <= gs.porosity:
+        return ""
+    works = math.ceil(round(closest * 100.0, 6)) / 100.0
+    return (
+        f"; raise generator.porosity above {closest:.4f} (e.g. {works:.2f}: where a packing "
+        "jams depends on its target), use thinner fibers, or intersections.method = 'none' "
+        "(overlaps allowed)"
+    )
+
+
 def _check_reached(gs: GeneratorSpec, vf: VoxelFields, info: dict, others: list) -> None:
     """Raise :class:`GenerationError` when the porosity target was missed or ``fast`` left
     overlap on the voxel grid (the closest porosity reached in the message)."""
     achieved = vf.porosity
     omega_after = vf.intersection_volume_fraction
     if gs.porosity is not None and abs(achieved - gs.porosity) > gs.tolerance + 1e-12:
+        closest = info.get("closest", achieved)
         raise GenerationError(
             f"generator.porosity: target {gs.porosity} not reached within +-{gs.tolerance} on "
-            f"the voxel grid; closest porosity reached {info.get('closest', achieved):.4f} "
-            f"({info.get('why', 'optimizer limit')})",
-            info.get("closest", achieved),
+            f"the voxel grid; closest porosity reached {closest:.4f} "
+            f"({info.get('why', 'optimizer limit')}{_jam_advice(gs, closest, info)})",
+            closest,
         )
     if gs.method == "fast" and omega_after > 0 and gs.min_gap >= 0:
         raise GenerationError(
@@ -618,6 +636,7 @@ def _fast_porosity(gs, size, lo, hi, fixed, measure, opts: PlacementSettings):
         "fields": vf,
         "closest": porosity,
         "why": why,
+        "jammed": run.jammed,
         "placement_time_s": round(time.perf_counter() - t0, 3),
         "bounds": _bounds_report(opts, gs.period, run.exceeded_counts),
     }
@@ -654,8 +673,7 @@ class _PoolPlacement:
         """Place further pool fibers until the predicted solid fraction reaches ``goal``
         (nothing when it already does, the pool is used up or the packing jammed)."""
         lo, hi, n_pool, used = self.lo, self.hi, self.n_pool, self.used
-        solid = self.fixed_solid + _solid(self.pool, self.kept, self.areas, lo, hi)
-        if not (solid < goal and used < n_pool and not self.jammed):
+        if not (self.placed_solid() < goal and used < n_pool and not self.jammed):
             return
         rest = self.pool.subset(np.arange(used, n_pool))
         if self.placed is None:
@@ -684,19 +702,29 @@ class _PoolPlacement:
                 else "fiber pool exhausted (raise generator.max_fibers)"
             )
 
+    def _kept_solid(self) -> np.ndarray:
+        """Each kept pool fiber's solid volume (area x length in the box), the length where it
+        was placed, not where it was drawn: in a box thinner than a period a shift changes a
+        tilted fiber's length in the box (a 9 um slab of 7 um fibers: solid fraction 0.334
+        drawn against 0.202 placed)."""
+        placed, n_fixed = self.placed, self.n_fixed
+        if placed is None or not self.kept:
+            return np.zeros(0)
+        lengths = carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
+        return self.areas[np.array(self.kept, int)] * lengths
+
+    def placed_solid(self) -> float:
+        """Predicted solid fraction of the explicit fibers and the pool fibers kept, counted as
+        :meth:`keep_closest` counts them (:meth:`_kept_solid`). Until session 53 the kept fibers
+        were counted where they were drawn, so a later round in a thin slab found its goal met,
+        placed nothing, and the target was missed as "the measured porosity did not converge"."""
+        return self.fixed_solid + float(np.sum(self._kept_solid())) / self.box_volume
+
     def keep_closest(self, goal: float) -> tuple[FiberState, float]:
         """Keep the prefix of placed fibers whose predicted solid fraction is closest to
         ``goal``; the kept pool fibers and their predicted solid fraction."""
         n_fixed, placed = self.n_fixed, self.placed
-        mov = np.array(self.kept, int)
-        # lengths where the fibers were placed, not where they were drawn: in a box thinner than
-        # a period a shift changes a tilted fiber's length in the box
-        lengths = (
-            carrier_lengths(placed.subset(np.arange(n_fixed, len(placed))), self.lo, self.hi)
-            if len(mov)
-            else np.zeros(0)
-        )
-        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self.areas[mov] * lengths) / self.box_volume]
+        cum = self.fixed_solid + np.r_[0.0, np.cumsum(self._kept_solid()) / self.box_volume]
         k = int(np.argmin(np.abs(cum - goal)))
         self.kept = self.kept[:k]
         if placed is not None:
@@ -741,13 +769,6 @@ def _as_fixed(st: FiberState) -> FiberState:
     s = st.copy()
     s.fixed[:] = True
     return s
-
-
-def _solid(pool: FiberState, idx: list[int], areas: np.ndarray, lo, hi) -> float:
-    if not idx:
-        return 0.0
-    sub = pool.subset(np.array(idx, int))
-    return float(np.sum(areas[idx] * carrier_lengths(sub, lo, hi))) / float(np.prod(hi - lo))
 
 
 def _ga(gs, rng, size, lo, hi, voxel_norm, measure):

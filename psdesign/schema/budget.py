@@ -121,7 +121,10 @@ def unplanned_route() -> Iterator[None]:
     needs about 14.9 GiB"), or for ``flow.max_memory_gb``, and never ran. The commands that
     solve no flow (``generate``, ``pores``, ``diffusivity``, ``conductivity``, ``forcefield``)
     load their spec inside it too (session 52: they were refused for a 16.7 GiB FEM
-    permeameter; ``permeability`` and ``study run`` still plan theirs up front)."""
+    permeameter; ``permeability`` and ``study run`` still plan theirs up front), and since
+    session 53 ``psdesign.build`` (geometry; ``Material.permeability`` checks its solve), a
+    study's cases without a K output (:func:`psdesign.schema.study.validate_case_spec`) and
+    ``mesh`` (then checked at the one copy it meshes)."""
     token = _ROUTE_PLANNED.set(False)
     try:
         yield

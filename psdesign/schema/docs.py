@@ -55,6 +55,13 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   stacks one when not periodic along the flow); there the
   stack `"auto"` plans is checked the same way once the RVE is built, before it is meshed or
   solved (at the RVE's porosity). The FEM solve checks the cap again from the built mesh.
+* Each command is held to the memory of the work it does: `permeability` (and
+  `Material.permeability`, a study with a `k_*` output) to its solve as above; `psdesign mesh`
+  to the route's estimate of the one copy it meshes (`flow.permeameter_copies = 1`: the
+  stack is `permeability`'s); `generate`, `forcefield`, `psdesign.build` and a study of
+  porosity alone to the voxel grid's own fields; `pores`, `diffusivity`, `conductivity` (and
+  their study outputs) to the transport solve's 400 B per voxel (session 53: `mesh`,
+  `build` and a study without a K were refused for an FEM solve they never run).
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
   checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)
   and `flow.edge_length` (pytetwild). The other mesher's key on an FEM solve is not used and

@@ -33,6 +33,35 @@ def k_directions(outputs: Iterable[str]) -> list[str]:
     return [d for o, d in K_OUTPUTS.items() if o in outputs]
 
 
+def validate_case_spec(spec: dict, outputs: Iterable[str]) -> dict:
+    """Validate a study case's ``spec``, held to the memory of the work its ``outputs`` do:
+    the flow solve's (the route's budget, ``flow.max_memory_gb``, the planned stack) only when
+    they include a K (:func:`k_directions`), else the voxel grid's own
+    (:func:`psdesign.schema.budget.unplanned_route`, as ``generate``); transport outputs add
+    their solve's (:func:`psdesign.schema.budget.check_transport`, as ``pores``) where the route
+    is planned (psdesign's own case function). The one rule of the study file's check, the
+    runner's and the case's: until session 53 a study of porosity or transport outputs alone
+    was refused for an FEM solve no case runs.
+
+    Raises
+    ------
+    SpecError
+        The first check that fails, naming its key.
+    """
+    from contextlib import nullcontext
+
+    from psdesign.schema import budget
+    from psdesign.schema.spec import validate_spec
+
+    outputs = list(outputs)
+    planned = budget.route_planned()
+    with nullcontext() if k_directions(outputs) else budget.unplanned_route():
+        valid = validate_spec(spec)
+    if planned and any(o in TRANSPORT_OUTPUTS for o in outputs):
+        budget.check_transport(valid)
+    return valid
+
+
 class StudyTable(Table):
     """The ``[study]`` table."""
 

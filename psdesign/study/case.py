@@ -15,8 +15,8 @@ from psdesign.io.diskfull import is_disk_full
 from psdesign.io.outputs import TEMP_PREFIX
 from psdesign.packing.build import build_rve
 from psdesign.schema.image import ImageWarning
-from psdesign.schema.spec import check_directions, validate_spec
-from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions
+from psdesign.schema.spec import check_directions
+from psdesign.schema.study import FIELDS_FLAG, OUTPUTS, k_directions, validate_case_spec
 from psdesign.study.stages import mark_stage
 from psdesign.transport.study_outputs import TRANSPORT_OUTPUTS, transport_outputs
 
@@ -117,7 +117,7 @@ def run_case(spec: dict, outputs: list[str], solver: str, workdir: Path) -> dict
     t0 = time.perf_counter()
     with warnings.catch_warnings():  # the run showed them once (validate_case_specs)
         warnings.simplefilter("ignore", ImageWarning)
-        spec = validate_spec(spec)
+        spec = validate_case_spec(spec, outputs)  # held to the work its outputs do
     for o in outputs:
         if o not in OUTPUTS and o != FIELDS_FLAG:
             raise ValueError(f"outputs: unknown output {o!r}; allowed: {', '.join(OUTPUTS)}")

@@ -657,13 +657,14 @@ def _machine() -> dict:
 
 
 def validate_case_specs(
-    cases: list[Case], solver: str | None = None, directions: Sequence[str] = ()
+    cases: list[Case], solver: str | None = None, outputs: Sequence[str] = ()
 ) -> None:
     """Check every case spec with the spec validators of the pipeline (before running), with
     ``solver`` (the study's, which the cases run) in its ``[flow]`` table when given: the
-    memory budget depends on it; and along each of ``directions`` (the K the cases solve:
-    the copies an ``"auto"`` permeameter of explicit fibers stacks,
-    :func:`psdesign.schema.spec.check_directions`).
+    memory budget depends on it; held to the work of the cases' ``outputs``
+    (:func:`psdesign.schema.study.validate_case_spec`: no flow solve's memory without a K);
+    and along each direction of their K (the copies an ``"auto"`` permeameter of explicit
+    fibers stacks, :func:`psdesign.schema.spec.check_directions`).
 
     The image's warnings (:class:`psdesign.schema.image.ImageWarning`: "z is taken equal to
     x and y" of a slice folder, a voxel size against the file's) are the specs', not a case's:
@@ -683,16 +684,19 @@ def validate_case_specs(
     caught: list = []
     try:
         with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
-            _validate_cases(cases, solver, directions)
+            _validate_cases(cases, solver, outputs)
     finally:
         show_case_warnings(caught, None)
 
 
-def _validate_cases(cases: list[Case], solver: str | None, directions: Sequence[str]) -> None:
+def _validate_cases(cases: list[Case], solver: str | None, outputs: Sequence[str]) -> None:
     """:func:`validate_case_specs`' checks, one case after the other."""
     import numpy as np
 
-    from psdesign.schema.spec import check_directions, validate_spec
+    from psdesign.schema.spec import check_directions
+    from psdesign.schema.study import validate_case_spec
+
+    directions = k_directions(outputs)
 
     try:
         from psdesign.packing.generators import parse_generator
@@ -703,7 +707,7 @@ def _validate_cases(cases: list[Case], solver: str | None, directions: Sequence[
             spec = c.spec
             if solver is not None and isinstance(spec.get("flow"), dict):
                 spec = {**spec, "flow": {**spec["flow"], "solver": solver}}
-            spec = validate_spec(spec)
+            spec = validate_case_spec(spec, outputs)
             check_directions(spec, spec["flow"], directions)
             if parse_generator is not None and "generator" in spec:
                 parse_generator(spec, np.asarray(spec["rve"]["size"], dtype=float))
@@ -821,7 +825,7 @@ def run_study(
         study = load_study(study, opts.case_fn)
     cases = expand_design(study)
     if runs_pipeline(opts.case_fn):
-        validate_case_specs(cases, study.solver, k_directions(study.outputs))
+        validate_case_specs(cases, study.solver, study.outputs)
     _check_case_fn_for_timeout(opts.case_fn, _timeout(opts, study))
     option, force_option = out_option
     target = check_study_dir(

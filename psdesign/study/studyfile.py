@@ -26,7 +26,7 @@ from psdesign.schema.document import STUDY_TABLES
 from psdesign.schema.errors import did_you_mean, first_error
 from psdesign.schema.image import ImageWarning
 from psdesign.schema.keys import spec_paths
-from psdesign.schema.spec import SpecWarning, check_directions, read_toml, validate_spec
+from psdesign.schema.spec import SpecWarning, check_directions, read_toml
 from psdesign.schema.study import (
     DESIGNS,
     FIELDS_FLAG,
@@ -36,6 +36,7 @@ from psdesign.schema.study import (
     RangeParam,
     StudyTable,
     k_directions,
+    validate_case_spec,
 )
 from psdesign.schema.types import short
 
@@ -648,7 +649,7 @@ def check_study_specs(study: Study) -> None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpecWarning)
                 warnings.simplefilter("ignore", ImageWarning)  # the run shows them once
-                valid = validate_spec(spec)
+                valid = validate_case_spec(spec, study.outputs)
                 check_directions(valid, valid["flow"], directions)  # "auto"'s copies along them
             if solves_k:  # a [flow] choice the study's solver would not apply
                 check_route_keys(valid["flow"], study.solver)

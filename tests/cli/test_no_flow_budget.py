@@ -150,3 +150,51 @@ def test_the_api_is_held_to_the_transport_solve_too(method, spec, monkeypatch):
         getattr(m, method)(**({"direction": "z"} if method != "pores" else {}))
     assert info.value.key == "rve.voxel" and "transport" in info.value.message
     assert m._fields is None  # refused before the voxels
+
+
+def test_build_is_held_to_the_geometry_and_permeability_to_its_solve(spec, monkeypatch):
+    """Session 52 review E (left): ``psdesign.build`` (geometry only) was refused for the FEM
+    solve of the spec (the refined field's 0.938 GiB on a 64 MiB machine, as the commands
+    above), so neither ``.porosity`` nor ``.pores()`` could be had. It is held to the grid's own
+    fields now (128 kB, fits); ``.permeability`` still refuses its FEM solve before any work,
+    with the command's line, and its voxel solve on the same grid runs."""
+    import psdesign
+    from psdesign.errors import SpecError
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**20)
+    m = psdesign.build(spec)
+    assert m._fields is None
+    with pytest.raises(SpecError) as info:
+        m.permeability("z", solver="fem")
+    assert info.value.key == "rve.voxel"
+    assert info.value.message.startswith("the FEM's refined field needs about")
+    assert m._fields is None  # refused before the voxels
+    with pytest.raises(SpecError):  # the spec's own [flow]: the FEM's default route
+        m.permeability("z")
+    assert 0.0 < m.porosity < 1.0
+
+
+def test_a_study_without_k_is_held_to_the_work_of_its_outputs(tmp_path, capsys, monkeypatch):
+    """Session 52 review E (left): ``study run`` of outputs without a K (porosity alone) was
+    refused for the FEM solve no case runs (on a machine of 64 MiB, the refined field's
+    0.938 GiB: the line of ``test_the_flow_solves_still_refuse_up_front``). It runs now, held
+    to the grid's own fields (128 kB), and writes the porosity; a transport output is held to
+    its solve (``TRANSPORT_BYTES_PER_VOXEL``: 3.3 MB of the 20^3 grid, over a 4 MiB machine's
+    2 MiB budget) before any work, as ``pores`` is; the study file's check, the runner's and
+    each case's apply the one rule (``schema.study.validate_case_spec``)."""
+    import csv
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 64 * 2**20)
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.replace('["porosity", "k_z"]', '["porosity"]'))
+    out = tmp_path / "out"
+    assert main(["study", "run", str(study), "-o", str(out), "--quiet"]) == 0
+    (row,) = csv.DictReader((out / "results.csv").open())
+    assert 0.0 < float(row["porosity"]) < 1.0 and row["porosity_status"] == "ok"
+    capsys.readouterr()
+    monkeypatch.setattr(budget, "machine_memory", lambda: 4 * 2**20)
+    study.write_text(STUDY.replace('["porosity", "k_z"]', '["porosity", "pore_d50_m"]'))
+    assert main(["study", "run", str(study), "-o", str(tmp_path / "t")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "base.rve.voxel: a 20x20x20 grid" in line and "transport" in line
+    assert not (tmp_path / "t").exists()

@@ -255,3 +255,33 @@ def test_the_fem_solves_own_cap_refusal_keeps_the_shorter_stack(monkeypatch):
     assert res["permeameter_auto"]["stopped"] == "max_memory_gb"
     (w,) = [w for w in res["warnings"] if "stopped at" in w]
     assert "3 were refused by the solve" in w and "flow.permeameter_copies" in w
+
+
+def test_the_field_is_read_once_per_axis_for_the_window_and_the_bar(monkeypatch):
+    """Session 53: ``auto_lengthen`` (the window term of each solve) and
+    ``with_error_estimate`` (the bar) each asked whether the geometry varies along the flow,
+    one ``np.ptp`` pass over the distance field each time. The fields keep the answer per axis
+    now: one pass. Truth: a cylinder along x varies along z and y, not along x."""
+    import numpy as np
+
+    rve = _rve()
+    fields = rve.voxelize(2e-6)
+    passes: list = []
+    ptp = np.ptp
+
+    def counted(a, axis=None, **kw):
+        if a is fields.distance:
+            passes.append(axis)
+        return ptp(a, axis=axis, **kw)
+
+    monkeypatch.setattr(np, "ptp", counted)
+    calls: list = []
+    monkeypatch.setattr(perm, "route_result", _stub(VOXEL_WINDOW, "voxel", calls))
+    flow = {"bc": "permeameter", "aux_length": 0.2}
+    first = perm.route_result(rve, fields, "z", flow, "voxel")
+    res, _ = perm.auto_lengthen(rve, fields, "z", flow, "voxel", first)
+    assert res["permeameter_copies"] == 4 and len(calls) == 3
+    assert fields.varies_along(2)  # as with_error_estimate asks it for the bar
+    assert passes == [2]
+    assert fields.varies_along(1) and not fields.varies_along(0)
+    assert passes == [2, 1, 0]
