@@ -121,6 +121,10 @@ class Surrogate:
         The estimated relative error between the study's design points, the bar of a
         prediction inside the box (:func:`between_level_error`; NaN in a surrogate.json
         written before session 44).
+    pooled : list of str
+        Design parameters that are no input of the fit (not numeric: a whole-table level such
+        as ``generator = [{kind = "straight", ...}, {kind = "bent", ...}]``) and took more
+        than one value among the fitted cases: the fit mixes their levels (:meth:`rating`).
     """
 
     output: str
@@ -136,6 +140,7 @@ class Surrogate:
     cv_rel_error: float = math.nan
     cv_level_rel_error: float = math.nan
     cv_between_rel_error: float = math.nan
+    pooled: list[str] = field(default_factory=list)
     _gp: object = field(default=None, repr=False, compare=False)
 
     def fixed_inputs(self) -> dict[str, float]:
@@ -190,6 +195,23 @@ class Surrogate:
                 "constant to within noise"
             )
         return ""
+
+    def pooled_text(self) -> str:
+        """Why a fit over cases that differ in a parameter it has no input for is not trusted
+        (:attr:`pooled`), or ``""``.
+
+        Its cases at one numeric point but another level (a straight and a bent generator)
+        are read as scatter: a prediction is neither level's value. Until session 53 the fit
+        kept the first level's cases only, rated ``ok`` (8 cases of 2 generators x 4
+        ``flow.aux_length``: "GP over flow.aux_length from 4 cases", the straight values).
+        """
+        if not self.pooled:
+            return ""
+        return (
+            f"{self.output}: the fitted cases differ in {', '.join(self.pooled)}, which is not "
+            "numeric and no input of the fit: it mixes their levels (a prediction is none of "
+            "theirs); run a study per level"
+        )
 
     def level_error_text(self) -> str:
         """``", error with each inner level held out 30.2 %, estimated error between the
@@ -279,7 +301,7 @@ class Surrogate:
         few = self.too_few_points()
         if few:
             return "untrustworthy", [f"{self.output}: {few}"]
-        warnings = []
+        warnings = [self.pooled_text()] if self.pooled else []
         if math.isnan(self.cv_rel_error):
             warnings.append(
                 f"{self.output}: no cross-validated error: every fitted case is at one design "
@@ -525,11 +547,20 @@ def between_level_error(s: Surrogate, folds) -> float:
     return max(found, _rmse_and_rel(s, err)[1]) if found == found else math.nan
 
 
-def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict) -> Surrogate:
+def fit_surrogate(
+    df: pd.DataFrame,
+    output: str,
+    params: list[str],
+    bounds: dict,
+    others: Collection[str] = (),
+) -> Surrogate:
     """Fit one output of a results table; ``bounds[p] = (low, high, log)``. Only trusted
     values are fitted (:func:`psdesign.analysis.columns.trusted`: ``ok`` cases, a K whose own
-    status is ``untrustworthy`` or ``not_converged`` left out)."""
-    ok = distinct_realizations(trusted(df), params)
+    status is ``untrustworthy`` or ``not_converged`` left out). ``others``: the study's other
+    design parameters (not inputs: a whole-table level); a case repeats another only when
+    they match too, and those that vary are kept in :attr:`Surrogate.pooled`."""
+    others = [p for p in others if p in df.columns and p not in params]
+    ok = distinct_realizations(trusted(df), [*params, *others])
     ok = ok[ok[output].notna()]
     if len(ok) < MIN_FIT_CASES:
         raise ValueError(
@@ -548,6 +579,7 @@ def fit_surrogate(df: pd.DataFrame, output: str, params: list[str], bounds: dict
         kernel={},
         x=ok[params].to_numpy(float).tolist(),
         y=y.tolist(),
+        pooled=[p for p in others if ok[p].astype(str).nunique() > 1],
     )
     s._fit()
     folds = _fold_errors(s)
@@ -667,7 +699,7 @@ def fit_study(
     models, reasons = {}, {}
     for name in names:
         try:
-            models[name] = fit_surrogate(df, name, params, bounds)
+            models[name] = fit_surrogate(df, name, params, bounds, others=list(spec))
         except ValueError as exc:
             reasons[name] = " ".join(str(exc).split())
     if skipped is not None:

@@ -524,7 +524,8 @@ def report_fit(df: pd.DataFrame, params: list[str], study: dict) -> ReportFit | 
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
         return None
-    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    bounds = parameter_bounds(ok, num, study.get("parameters") or {})
+    s = fit_surrogate(ok, c, num, bounds, others=params)
     return ReportFit(s, c, ok, num)
 
 
@@ -577,10 +578,9 @@ def surrogate_plots(
             f" <b>[{status}] {html.escape('; '.join(why))}: the surface and the Sobol indices are "
             "not reliable; more cases (or fewer parameters) are needed.</b>"
         )
-    pooled = [p for p in params if p in ok and p not in num and ok[p].nunique() > 1]
-    if pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
+    if s.pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
         weak += (
-            f" It pools the levels of {', '.join(pooled)} (not numeric, not an input of the "
+            f" It pools the levels of {', '.join(s.pooled)} (not numeric, not an input of the "
             "surrogate): compare the levels in the plots above."
         )
     parts = [

@@ -1762,3 +1762,38 @@ def test_the_fit_follows_a_trend_its_random_restarts_missed() -> None:
     mean, _ = s.predict(np.array([[0.92, 9e-6]]))
     assert float(np.ravel(mean)[0]) == pytest.approx(0.92, abs=0.005)
     assert s.rating()[0] == "ok", s.rating()
+
+
+def test_a_category_that_varies_is_pooled_and_rated_untrustworthy_everywhere(
+    tmp_path, capsys
+) -> None:
+    """walk-design (session 53): with ``generator.kind`` = straight / bent (K x 3, the truth of
+    :func:`study_cases.kind_case`) over 4 porosities, the fit deduplicated over the numeric
+    parameters only and kept the 4 straight cases: "GP over generator.porosity from 4 cases"
+    [ok], a prediction of the straight K [ok], and the report said it "pools the levels of
+    generator.kind". Now every case is fitted, the fit says which category it mixes and is
+    untrustworthy in `study fit`, `study predict`, `study sensitivity` and the report."""
+    from study_cases import kind_case
+
+    from psdesign.report.decision import fit_alert, report_fit
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.kind" = ["straight", "bent"]\n"generator.porosity" = [0.7, 0.75, 0.8, 0.85]\n',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=kind_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 3
+    cap = capsys.readouterr()
+    assert "k_z_m2: GP over generator.porosity from 8 cases" in cap.out, cap.out
+    why = "k_z_m2: the fitted cases differ in generator.kind, which is not numeric"
+    assert why in cap.err
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.775"]) == 3
+    assert "(UNTRUSTWORTHY)" in capsys.readouterr().out
+    main(["study", "sensitivity", str(out)])
+    assert "[ok]" not in capsys.readouterr().out
+    df = pd.read_csv(out / "results.csv")
+    fit = report_fit(df, ["generator.kind", "generator.porosity"], {"parameters": {}})
+    assert len(fit.surrogate.y) == 8 and fit.surrogate.pooled == ["generator.kind"]
+    assert why in fit_alert(fit)
