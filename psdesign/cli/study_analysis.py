@@ -62,8 +62,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "status": status,
             "warnings": warnings,
         }
-    for r in rows.values():
-        for w in r["warnings"]:
+    for name, r in rows.items():
+        for w in filter(None, [*r["warnings"], models[name].sparse_design()]):
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
         print_json(rows)
@@ -228,8 +228,8 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             )
         status, cv_text = _surrogate_flag(models[name])
         advice = few_levels(models[name])  # a 2 x 2 factorial: what to run, in one line
-        if advice:
-            print(f"psdesign: warning: {advice}", file=sys.stderr)
+        for w in filter(None, [advice, models[name].sparse_design()]):
+            print(f"psdesign: warning: {w}", file=sys.stderr)
         # each row carries the trust of the surrogate its index was computed from
         trust = {
             "surrogate_status": status,

@@ -1014,13 +1014,14 @@ def test_a_latin_hypercube_bar_inside_is_never_below_its_cross_validated_error(t
     1937) and Gebart (1992) truth within 2 bars at 82.6 %, 85.1 % and 88.4 % of an 11 x 11
     grid of the box (31 x 31: 84.9 %, 87 %, 93 %; benchmarks/prediction_bar_truth.py
     --lhs-sweep). Never below the CV error since session 45: 100 %, median bar / median true
-    error 4.5, 4.2, 3.7 (1.1, 1.1, 1.2 before)."""
+    error 4.5, 4.2, 3.7 (1.1, 1.1, 1.2 before); 6.9, 6.6, 3.7 since session 53, each fold's
+    kernel fitted again (the test below)."""
     s = _lhs_fit(truth, 8, seed)
     assert s.rating()[0] == "ok"
     err, bar, status = _bars_inside(s, truth)
     assert status == {"ok"}
     assert np.mean(err <= 2 * bar) >= 0.95, np.mean(err <= 2 * bar)
-    assert np.median(bar) <= 6.0 * np.median(err), (np.median(bar), np.median(err))
+    assert np.median(bar) <= 8.0 * np.median(err), (np.median(bar), np.median(err))
     assert s.cv_between_rel_error >= s.cv_rel_error
 
 
@@ -1797,3 +1798,48 @@ def test_a_category_that_varies_is_pooled_and_rated_untrustworthy_everywhere(
     fit = report_fit(df, ["generator.kind", "generator.porosity"], {"parameters": {}})
     assert len(fit.surrogate.y) == 8 and fit.surrogate.pooled == ["generator.kind"]
     assert why in fit_alert(fit)
+
+
+# walk-design (session 53): a 6-point latin hypercube of studies/inverse_design.toml's box
+# (porosity 0.75-0.88, diameter 6-10 um; design_seed = 3), K = Kozeny-Carman (kc_truth)
+WALK_LHS6 = {
+    "e": [0.8131442680452214, 0.8409723865871948, 0.7912938794181247, 0.8262872218736153,
+          0.864084161719467, 0.763190055872594],
+    "d": [9.842126328935934e-06, 7.611891975957089e-06, 9.044582039842352e-06,
+          8.560174056908615e-06, 6.590885320052398e-06, 6.988839878252424e-06],
+}  # fmt: skip
+
+
+def _walk_lhs6_fit() -> Surrogate:
+    df = pd.DataFrame(WALK_LHS6).assign(status="ok")
+    df["k"] = kc_truth(df["e"], df["d"])
+    return fit_surrogate(df, "k", ["e", "d"], {"e": (0.75, 0.88, False), "d": (6e-6, 1e-5, False)})
+
+
+def test_a_small_latin_hypercubes_cross_validated_error_is_not_below_its_true_error() -> None:
+    """walk-design (session 53): the cross-validation kept the kernel fitted on every case, so
+    the held-out cases had chosen the length scales that predicted them: 1.59 % [ok] on the 6
+    points above, where the fit is off the Kozeny-Carman truth (Carman 1937) by 4.4 % RMS,
+    12 % at most over 11 x 11 points of the cases' box. Each fold's kernel fitted again: 55.6 %,
+    untrustworthy, and a warning of fewer than 4 points per varied parameter."""
+    s = _walk_lhs6_fit()
+    e, d = np.meshgrid(*(np.linspace(min(v), max(v), 11) for v in WALK_LHS6.values()))
+    x = np.c_[e.ravel(), d.ravel()]
+    true_rms = float(np.sqrt(np.mean((s.predict(x)[0] / kc_truth(x[:, 0], x[:, 1]) - 1) ** 2)))
+    assert 0.03 < true_rms < s.cv_rel_error, (true_rms, s.cv_rel_error)
+    assert s.rating()[0] == "untrustworthy"
+    assert "6 design points for 2 varied parameters" in s.sparse_design()
+
+
+def test_a_point_inside_the_box_beyond_the_fitted_cases_is_extrapolated() -> None:
+    """docs/study-files.md: ``extrapolated`` means outside the fitted cases. Until session 53
+    only the declared {low, high} box was checked, and porosity 0.755 (box 0.75-0.88, the
+    cases' lowest 0.763) was predicted ``ok``."""
+    from psdesign.analysis.surrogate import outside_range
+
+    s = _walk_lhs6_fit()
+    assert outside_range(s, np.array([0.755, 8e-6])) == [
+        "e = 0.755 outside the fitted cases' [0.76319, 0.864084]"
+    ]
+    assert outside_range(s, np.array([0.80, 8e-6])) == []
+    assert outside_range(s, np.array([0.70, 8e-6])) == ["e = 0.7 outside [0.75, 0.88]"]
