@@ -232,6 +232,23 @@ class Target:
             return max(0.0, y - self.value) / scale
         return max(0.0, abs(y - self.value) / scale - self.tolerance)
 
+    def margin(self, y: float) -> float:
+        """Relative distance towards missing the target, larger nearer (or past) a miss: a
+        tie-break between values that :meth:`miss` scores alike (every met one 0). ``=``:
+        ``|y - value| / |value|``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
+
+        >>> Target("k", "=", 2.0, tolerance=0.1).margin(2.5), Target("k", ">=", 2.0).margin(3.0)
+        (0.25, -0.5)
+        """
+        if not math.isfinite(y):
+            return math.inf
+        scale = abs(self.value) or 1.0
+        if self.op == ">=":
+            return (self.value - y) / scale
+        if self.op == "<=":
+            return (y - self.value) / scale
+        return abs(y - self.value) / scale
+
     def __str__(self) -> str:
         if self.op == "=":
             return f"{self.output}={self.value:g}+-{100 * self.tolerance:g}%"

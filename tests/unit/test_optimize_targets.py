@@ -582,3 +582,20 @@ def test_allow_not_converged_accepts_the_unconverged_cases_of_a_met_search(tmp_p
     (tmp_path / "f").mkdir()
     failing = _met_search(tmp_path / "f", "low_porosity_fails")
     assert main([*failing, "--allow-not-converged"]) == 1
+
+
+def test_the_worst_of_a_design_points_met_seeds_is_the_one_nearest_a_miss() -> None:
+    """walk-design (session 53): "the worst of its 3 seeds" was the last met seed listed (the
+    max of (score, index), every met seed scoring 0). The worst is the one nearest a miss:
+    farthest from an ``=`` target's value, nearest a ``<=`` / ``>=`` bound."""
+    from psdesign.analysis.optimize import worst_replicates
+    from psdesign.analysis.targets import Target
+
+    recs = [{"a": 1, "seed": s, "k": k} for s, k in ((1, 1.972e-11), (2, 2.01e-11), (3, 1.995e-11))]
+    eq = [Target("k", "=", 2e-11, tolerance=0.02)]  # all three met (1.4 %, 0.5 %, 0.25 % off)
+    assert worst_replicates(recs, ["a"], eq)[0]["seed"] == 1
+    assert worst_replicates(recs, ["a"], [Target("k", "<=", 3e-11)])[0]["seed"] == 2
+    assert worst_replicates(recs, ["a"], [Target("k", ">=", 1e-11)])[0]["seed"] == 1
+    # a missed seed still outranks every met one, whatever the order
+    recs[1]["k"] = 2.1e-11
+    assert worst_replicates(recs, ["a"], eq)[0] == recs[1] | {"replicates": 3}
