@@ -38,6 +38,7 @@ def int_in(lo: int, hi: int, what: str):
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
+    from psdesign.analysis.prediction import fit_status
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
     skipped: dict[str, str] = {}
@@ -49,7 +50,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
     for name, m in models.items():
-        status, warnings = m.rating()
+        status, warnings = fit_status(m)
         rows[name] = {
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
@@ -182,7 +183,9 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 def _surrogate_flag(model) -> tuple[str, str]:
     """``(status, "surrogate cross-validated error 3.1 %")`` of a fitted surrogate; an
     untrustworthy one is also said on stderr (its indices describe the fit, not the study)."""
-    status, _ = model.rating()
+    from psdesign.analysis.prediction import fit_status
+
+    status, _ = fit_status(model)
     if status != "ok":
         print(
             f"psdesign: warning: the surrogate of {model.output} is {status} (`psdesign study "

@@ -533,9 +533,11 @@ def fit_alert(fit: ReportFit | None) -> str:
     """The red box's line for a surrogate the report draws that is not trusted (its rating,
     the one `study fit` prints), or ``""`` (review s52: `study fit` exited 3 on a fit the
     report drew under a green page and an exit of 0)."""
+    from psdesign.analysis.prediction import fit_status
+
     if fit is None:
         return ""
-    status, why = fit.surrogate.rating()
+    status, why = fit_status(fit.surrogate)
     if status == "ok":
         return ""
     return f"the surrogate of {fit.column} the report draws is {status} ({'; '.join(why)})"
@@ -552,6 +554,7 @@ def surrogate_plots(
     with one of the two follows it on the surface as in the cases (:func:`~psdesign.analysis.
     sensitivity.tied_inputs`), never held at mid-range apart from it."""
     from psdesign.analysis.entangled import tied_note
+    from psdesign.analysis.prediction import fit_status
     from psdesign.analysis.sensitivity import (
         entangled_inputs,
         few_levels,
@@ -570,8 +573,8 @@ def surrogate_plots(
             "to trust it).</p>"
         )
     s, c, ok, num = fit
-    # the rating `study fit` prints (cross-validated error and length scales), not a second rule
-    status, why = s.rating()
+    # the status `study fit` prints (psdesign.analysis.prediction.fit_status), not a second rule
+    status, why = fit_status(s)
     weak = ""
     if status != "ok":
         weak = (

@@ -1843,3 +1843,37 @@ def test_a_point_inside_the_box_beyond_the_fitted_cases_is_extrapolated() -> Non
     ]
     assert outside_range(s, np.array([0.80, 8e-6])) == []
     assert outside_range(s, np.array([0.70, 8e-6])) == ["e = 0.7 outside [0.75, 0.88]"]
+
+
+def test_a_fit_too_wide_between_its_levels_has_one_status_everywhere(tmp_path, capsys) -> None:
+    """walk-design (session 53): 3 x 3 levels of Kozeny-Carman truth with 10 % seed scatter
+    (3 seeds, :func:`study_cases.scattered_case`): `study predict` rated every prediction
+    inside untrustworthy (estimated error between the levels 27.3 %, above 20 %) while
+    `study fit`, `study sensitivity` and the report's red box said [ok]. One status now
+    (:func:`psdesign.analysis.prediction.fit_status`)."""
+    from study_cases import scattered_case
+
+    from psdesign.report.decision import fit_alert, report_fit
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]',
+        '"generator.porosity" = [0.7, 0.8, 0.9]\n"generator.diameter" = [6e-6, 8e-6, 1e-5]\n',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=scattered_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2", "--json"]) == 3
+    row = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert row["cv_rel_error"] < 0.2 < row["cv_between_rel_error"]  # the rating alone: ok
+    assert row["status"] == "untrustworthy"
+    assert "between the study's levels it may be off by that much" in row["warnings"][0]
+    at = "generator.porosity=0.75,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at]) == 3
+    assert "(UNTRUSTWORTHY)" in capsys.readouterr().out
+    assert main(["study", "sensitivity", str(out)]) == 3
+    assert "[untrustworthy]" in capsys.readouterr().out
+    fit = report_fit(pd.read_csv(out / "results.csv"), FAC_PARAMS_2, {"parameters": {}})
+    assert "between the study's levels" in fit_alert(fit)
+
+
+FAC_PARAMS_2 = ["generator.porosity", "generator.diameter"]
