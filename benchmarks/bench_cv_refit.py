@@ -20,7 +20,7 @@ from psdesign.analysis import surrogate as sg
 ORIGINAL = sg._held_out_errors
 
 
-def _old_held_out_errors(s, test):
+def _old_held_out_errors(s, test, refit=False):
     """The held-out fit with the full fit's hyper-parameters (main before session 53)."""
     x, y = np.asarray(s.x, float), np.asarray(s.y, float)
     args = (s.output, s.params, s.low, s.high, s.log_params, s.log_output, dict(s.kernel))
