@@ -286,13 +286,7 @@ def rev_study(
     table = table[keep]
     k_cols = [f"{c}_ci_rel" for c in names if c != "porosity" and f"{c}_ci_rel" in table]
     table["status"] = _size_status(df, table, directions)
-    ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
-    rev, still = None, ""
-    for i in range(len(ok)):
-        if ok[i:].all():
-            still = _still_changes(table.iloc[i:], [c.removesuffix("_ci_rel") for c in k_cols], tol)
-            rev = None if still else float(table["size_m"].iloc[i])
-            break
+    rev, still = _rev_size(table, k_cols, tol)
     from psdesign.io.outputs import claim_output_dir
     from psdesign.study.store import atomic_write_bytes, atomic_write_json
 
@@ -310,6 +304,18 @@ def rev_study(
         },
     )
     return RevResult(table, rev, tol, names, still)
+
+
+def _rev_size(table: pd.DataFrame, k_cols: list[str], tol: float) -> tuple[float | None, str]:
+    """``(REV edge or None, why K still changes)`` of the sorted size table: the smallest
+    edge from which on every ``k_cols`` CI half-width is within ``tol``, unless a mean from
+    there on still moves (:func:`_still_changes`)."""
+    ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
+    for i in range(len(ok)):
+        if ok[i:].all():
+            still = _still_changes(table.iloc[i:], [c.removesuffix("_ci_rel") for c in k_cols], tol)
+            return (None if still else float(table["size_m"].iloc[i])), still
+    return None, ""
 
 
 def _still_changes(rows: pd.DataFrame, ks: list[str], tol: float) -> str:
