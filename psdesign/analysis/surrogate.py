@@ -6,7 +6,8 @@ log10. The kernel is ``C * Matern(nu=2.5, one length scale per parameter) + Whit
 ``normalize_y``; its fitted hyper-parameters and the training data are saved as JSON (portable,
 no pickle), and :meth:`Surrogate.from_dict` rebuilds the same predictor by refitting with the
 optimizer off. The cross-validated error (k-fold over design points, k = min(5, points);
-replicates of a point share a fold) is stored with each model.
+replicates of a point share a fold; a scattered design's folds refit the kernel) is stored
+with each model.
 """
 
 from __future__ import annotations
