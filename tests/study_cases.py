@@ -126,6 +126,24 @@ def untrusted_case(spec, outputs, solver, workdir):
     return out
 
 
+def kind_case(spec, outputs, solver, workdir):
+    """Kozeny-Carman K, three times larger for a bent generator: a category that moves K."""
+    out = fake_case(spec, outputs, solver, workdir)
+    for a in "xyz":
+        if f"k_{a}_m2" in out and spec["generator"]["kind"] == "bent":
+            out[f"k_{a}_m2"] *= 3.0
+    return out
+
+
+def scattered_case(spec, outputs, solver, workdir):
+    """Kozeny-Carman K with 10 % seed-to-seed scatter (a small RVE's), 2 % error bar."""
+    g = spec["generator"]
+    eps, d = float(g["porosity"]), float(g["diameter"])
+    rng = np.random.default_rng([int(g["seed"]), int(round(eps * 1e6)), int(round(d * 1e12))])
+    k = kc_truth(eps, d) * (1 + 0.10 * rng.standard_normal())
+    return {"porosity": eps, "k_z_m2": k, "converged_z": True, "k_z_rel_error": 0.02}
+
+
 def disk_full_case(spec, outputs, solver, workdir):
     """Every case meets a full disk (ENOSPC), as a case writing on a full tmpfs does."""
     raise OSError(errno.ENOSPC, "No space left on device")

@@ -261,13 +261,23 @@ def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) 
     >>> recs = [{"a": 1, "k": 1.0}, {"a": 1, "k": 3.0}, {"a": 2, "k": 1.5}, {"a": 2, "k": math.nan}]
     >>> [r["k"] for r in worst_replicates(recs, ["a"], t)]
     [3.0, 1.5]
+    >>> eq = [Target("k", "=", 2.0, tolerance=0.1)]  # all met: the farthest from 2
+    >>> [r["k"] for r in worst_replicates([{"a": 1, "k": k} for k in (2.1, 1.85, 2.0)], ["a"], eq)]
+    [1.85]
     """
     out = []
     for group in design_points(recs, names).values():
-        scored = [(_score(r, targets), i) for i, r in enumerate(group)]
+        # met seeds all score 0: the one nearest a miss (Target.margin) is the worst, not the
+        # last listed (session 53: of 3 met seeds it named the last, 1.972e-11 for a 2e-11
+        # target when another seed was farther off)
+        scored = [(_score(r, targets), _margin(r, targets), i) for i, r in enumerate(group)]
         finite = [si for si in scored if math.isfinite(si[0])] or scored
-        out.append(group[max(finite)[1]] | {"replicates": len(group)})
+        out.append(group[max(finite)[2]] | {"replicates": len(group)})
     return out
+
+
+def _margin(row: dict, targets: list[Target]) -> float:
+    return sum(t.margin(float(row.get(t.output, math.nan))) for t in targets)
 
 
 def _check_counts(budget: int, batch: int, seed: int) -> tuple[int, int, int]:

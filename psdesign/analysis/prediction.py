@@ -107,6 +107,18 @@ def holdout_reason(s: Surrogate) -> str:
     )
 
 
+def fit_status(s: Surrogate) -> tuple[str, list[str]]:
+    """``(status, reasons)`` of a fit as every command and the report give it: its
+    :meth:`~psdesign.analysis.surrogate.Surrogate.rating`, and ``untrustworthy`` also when
+    its estimated error between the design points is too wide (:func:`holdout_reason`), as
+    `study predict` rates each prediction inside the box. Until session 53 `study fit`,
+    `study sensitivity` and the report said ``[ok]`` of a 3 x 3 grid with 10 % seed scatter
+    whose every prediction `study predict` rated untrustworthy (27.3 % between the levels)."""
+    status, why = s.rating()
+    held = holdout_reason(s) if status == "ok" else ""
+    return ("untrustworthy", [held]) if held else (status, why)
+
+
 def bar_text(row: dict) -> str:
     """What a prediction's ``+-`` is, after the value: the GP std, or the fit's hold-out
     error where that is larger, then the cross-validated error.

@@ -92,15 +92,20 @@ class RevResult:
         ``porosity_status``) and which K's CI half-width is above 20 %).
     rev_size_m : float or None
         Smallest edge whose (and every larger edge's) relative CI half-width is below ``tol``
-        for every output; None when no size reaches it.
+        for every output, and whose mean K (and every larger edge's) is within ``tol`` of the
+        largest edge's or its 95 % CI overlaps that one's; None when no size reaches it.
     tol : float
     outputs : list of str
+    still_changes : str
+        Why the sizes inside the CI ``tol`` are no REV (a K's mean still moves with the
+        size), or ``""``.
     """
 
     table: pd.DataFrame
     rev_size_m: float | None
     tol: float
     outputs: list[str] = field(default_factory=list)
+    still_changes: str = ""
 
 
 def _check_sizes(spec: dict, rows: list[dict], solver: str, what: str) -> None:
@@ -285,12 +290,7 @@ def rev_study(
     table = table[keep]
     k_cols = [f"{c}_ci_rel" for c in names if c != "porosity" and f"{c}_ci_rel" in table]
     table["status"] = _size_status(df, table, directions)
-    ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
-    rev = None
-    for i in range(len(ok)):
-        if ok[i:].all():
-            rev = float(table["size_m"].iloc[i])
-            break
+    rev, still = _rev_size(table, k_cols, tol)
     from psdesign.io.outputs import claim_output_dir
     from psdesign.study.store import atomic_write_bytes, atomic_write_json
 
@@ -299,9 +299,50 @@ def rev_study(
     atomic_write_bytes(out / "rev.csv", table.to_csv(index=False).encode())
     atomic_write_json(
         out / "rev.json",
-        {"rev_size_m": rev, "tol": tol, "outputs": names, "table": table.to_dict(orient="records")},
+        {
+            "rev_size_m": rev,
+            "tol": tol,
+            "still_changes": still or None,
+            "outputs": names,
+            "table": table.to_dict(orient="records"),
+        },
     )
-    return RevResult(table, rev, tol, names)
+    return RevResult(table, rev, tol, names, still)
+
+
+def _rev_size(table: pd.DataFrame, k_cols: list[str], tol: float) -> tuple[float | None, str]:
+    """``(REV edge or None, why K still changes)`` of the sorted size table: the smallest
+    edge from which on every ``k_cols`` CI half-width is within ``tol``, unless a mean from
+    there on still moves (:func:`_still_changes`)."""
+    ok = (table[k_cols] <= tol).all(axis=1).to_numpy()
+    for i in range(len(ok)):
+        if ok[i:].all():
+            still = _still_changes(table.iloc[i:], [c.removesuffix("_ci_rel") for c in k_cols], tol)
+            return (None if still else float(table["size_m"].iloc[i])), still
+    return None, ""
+
+
+def _still_changes(rows: pd.DataFrame, ks: list[str], tol: float) -> str:
+    """Why the sizes of ``rows`` (sorted, each inside the CI ``tol``) are no REV, or ``""``:
+    a K's mean at a size differs from the largest size's by more than ``tol`` and their 95 %
+    intervals do not overlap, so K still changes with the box (a wall or finite-size bias),
+    whatever its scatter. Until session 53 the CI alone named the REV: K = 5e-12 (1 + 30 um /
+    L) with 1 % scatter named 20 um, its means 12.4 / 8.7 / 6.8 / 5.9e-12 m^2 (walk-design)."""
+    last = rows.iloc[-1]
+    for _, row in rows.iloc[:-1].iterrows():
+        for c in ks:
+            rel = row[f"{c}_mean"] / last[f"{c}_mean"] - 1.0
+            apart = row[f"{c}_ci95_low"] > last[f"{c}_ci95_high"] or (
+                last[f"{c}_ci95_low"] > row[f"{c}_ci95_high"]
+            )
+            if abs(rel) > tol and apart:
+                return (
+                    f"{c} still changes with size: mean {row[f'{c}_mean']:.3e} m^2 at "
+                    f"{row['size_m']:.4g} m is {100 * rel:+.3g} % from {last[f'{c}_mean']:.3e} "
+                    f"m^2 at {last['size_m']:.4g} m (95 % CIs apart, beyond the {100 * tol:g} % "
+                    "tolerance)"
+                )
+    return ""
 
 
 def _size_status(df: pd.DataFrame, table: pd.DataFrame, directions) -> list[str]:

@@ -232,6 +232,23 @@ class Target:
             return max(0.0, y - self.value) / scale
         return max(0.0, abs(y - self.value) / scale - self.tolerance)
 
+    def margin(self, y: float) -> float:
+        """Relative distance towards missing the target, larger nearer (or past) a miss: a
+        tie-break between values that :meth:`miss` scores alike (every met one 0). ``=``:
+        ``|y - value| / |value|``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
+
+        >>> Target("k", "=", 2.0, tolerance=0.1).margin(2.5), Target("k", ">=", 2.0).margin(3.0)
+        (0.25, -0.5)
+        """
+        if not math.isfinite(y):
+            return math.inf
+        scale = abs(self.value) or 1.0
+        if self.op == ">=":
+            return (self.value - y) / scale
+        if self.op == "<=":
+            return (y - self.value) / scale
+        return abs(y - self.value) / scale
+
     def __str__(self) -> str:
         if self.op == "=":
             return f"{self.output}={self.value:g}+-{100 * self.tolerance:g}%"
@@ -377,5 +394,27 @@ def measured_text(r: dict) -> str:
     if within and not r["met"]:
         verdict += "; the target lies within the measurement's error bar"
     elif r["met"] and r["rel_error"] is not None and not inside:
-        verdict += "; the error bar reaches outside the target"
+        verdict += _wider_than_band(r) or "; the error bar reaches outside the target"
     return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"
+
+
+def _wider_than_band(r: dict) -> str:
+    """Of a met ``=`` target's row: ``"; its error bar (+- 2 %) is wider than the target's
+    band (+- 1 %)..."`` when the bar's half-width exceeds the band's (no value, however close,
+    is then confirmed inside it: session 53, a +-1 % K target MET on a +-2 % K), else ``""``.
+
+    >>> _wider_than_band({"target": "k=3e-11+-1%", "target_value": 3e-11,
+    ...                   "target_tolerance": 0.01, "measured": 2.995e-11, "rel_error": 0.02})[:65]
+    "; its error bar (+- 2 %) is wider than the target's band (+- 1 %)"
+    """
+    try:
+        t = row_target(r)
+        y, rel = float(r["measured"]), float(r["rel_error"])
+    except (StudyError, TypeError, ValueError):  # an edited row: the general words
+        return ""
+    if t.op != "=" or not rel * abs(y) > t.tolerance * abs(t.value):
+        return ""
+    return (
+        f"; its error bar (+- {100 * rel:.3g} %) is wider than the target's band "
+        f"(+- {100 * t.tolerance:.3g} %): it cannot tell met from missed"
+    )

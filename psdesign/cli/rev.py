@@ -52,6 +52,7 @@ def _cmd_rev(args: argparse.Namespace) -> int:
             {
                 "rev_size_m": res.rev_size_m,
                 "tol": res.tol,
+                "still_changes": res.still_changes or None,
                 "table": res.table.to_dict(orient="records"),
             }
         )
@@ -65,7 +66,9 @@ def _cmd_rev(args: argparse.Namespace) -> int:
                 parts.append(f"{c} {row[f'{c}_mean']:.3e} {bar}")
         parts.append(str(row.get("status", "ok")))
         print("  ".join(parts))
-    if res.rev_size_m is None:
+    if res.still_changes:
+        print(f"no REV: {res.still_changes}: grow the RVE")
+    elif res.rev_size_m is None:
         print(f"no size reached a 95 % CI half-width below {100 * res.tol:g} %: grow the RVE")
     else:
         print(f"REV: {res.rev_size_m:.4g} m (95 % CI half-width below {100 * res.tol:g} %)")
@@ -150,7 +153,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--tol",
         type=float,
         default=0.1,
-        help="relative 95 %% CI half-width of K that makes a size the REV, in (0, 0.2] "
+        help="relative 95 %% CI half-width of K that makes a size the REV, in (0, 0.2], and "
+        "how far its mean K may be from the largest size's (unless their CIs overlap) "
         "(default 0.1; above 0.2 a K is untrustworthy)",
     )
     add_workers_argument(p, scheduler=False)

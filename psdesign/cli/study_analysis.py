@@ -38,6 +38,7 @@ def int_in(lo: int, hi: int, what: str):
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
+    from psdesign.analysis.prediction import fit_status
     from psdesign.analysis.surrogate import SURROGATE_FILE, fit_study
 
     skipped: dict[str, str] = {}
@@ -49,7 +50,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         print(f"psdesign: warning: not fitted: {reason}", file=sys.stderr)
     rows = {}
     for name, m in models.items():
-        status, warnings = m.rating()
+        status, warnings = fit_status(m)
         rows[name] = {
             "cv_rmse": m.cv_rmse,
             "cv_rel_error": m.cv_rel_error,
@@ -62,8 +63,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             "status": status,
             "warnings": warnings,
         }
-    for r in rows.values():
-        for w in r["warnings"]:
+    for name, r in rows.items():
+        for w in filter(None, [*r["warnings"], models[name].sparse_design()]):
             print(f"psdesign: warning: {w}", file=sys.stderr)
     if args.json:
         print_json(rows)
@@ -182,7 +183,9 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 def _surrogate_flag(model) -> tuple[str, str]:
     """``(status, "surrogate cross-validated error 3.1 %")`` of a fitted surrogate; an
     untrustworthy one is also said on stderr (its indices describe the fit, not the study)."""
-    status, _ = model.rating()
+    from psdesign.analysis.prediction import fit_status
+
+    status, _ = fit_status(model)
     if status != "ok":
         print(
             f"psdesign: warning: the surrogate of {model.output} is {status} (`psdesign study "
@@ -228,8 +231,8 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             )
         status, cv_text = _surrogate_flag(models[name])
         advice = few_levels(models[name])  # a 2 x 2 factorial: what to run, in one line
-        if advice:
-            print(f"psdesign: warning: {advice}", file=sys.stderr)
+        for w in filter(None, [advice, models[name].sparse_design()]):
+            print(f"psdesign: warning: {w}", file=sys.stderr)
         # each row carries the trust of the surrogate its index was computed from
         trust = {
             "surrogate_status": status,

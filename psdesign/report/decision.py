@@ -524,7 +524,8 @@ def report_fit(df: pd.DataFrame, params: list[str], study: dict) -> ReportFit | 
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
     if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
         return None
-    s = fit_surrogate(ok, c, num, parameter_bounds(ok, num, study.get("parameters") or {}))
+    bounds = parameter_bounds(ok, num, study.get("parameters") or {})
+    s = fit_surrogate(ok, c, num, bounds, others=params)
     return ReportFit(s, c, ok, num)
 
 
@@ -532,9 +533,11 @@ def fit_alert(fit: ReportFit | None) -> str:
     """The red box's line for a surrogate the report draws that is not trusted (its rating,
     the one `study fit` prints), or ``""`` (review s52: `study fit` exited 3 on a fit the
     report drew under a green page and an exit of 0)."""
+    from psdesign.analysis.prediction import fit_status
+
     if fit is None:
         return ""
-    status, why = fit.surrogate.rating()
+    status, why = fit_status(fit.surrogate)
     if status == "ok":
         return ""
     return f"the surrogate of {fit.column} the report draws is {status} ({'; '.join(why)})"
@@ -551,6 +554,7 @@ def surrogate_plots(
     with one of the two follows it on the surface as in the cases (:func:`~psdesign.analysis.
     sensitivity.tied_inputs`), never held at mid-range apart from it."""
     from psdesign.analysis.entangled import tied_note
+    from psdesign.analysis.prediction import fit_status
     from psdesign.analysis.sensitivity import (
         entangled_inputs,
         few_levels,
@@ -569,18 +573,17 @@ def surrogate_plots(
             "to trust it).</p>"
         )
     s, c, ok, num = fit
-    # the rating `study fit` prints (cross-validated error and length scales), not a second rule
-    status, why = s.rating()
+    # the status `study fit` prints (psdesign.analysis.prediction.fit_status), not a second rule
+    status, why = fit_status(s)
     weak = ""
     if status != "ok":
         weak = (
             f" <b>[{status}] {html.escape('; '.join(why))}: the surface and the Sobol indices are "
             "not reliable; more cases (or fewer parameters) are needed.</b>"
         )
-    pooled = [p for p in params if p in ok and p not in num and ok[p].nunique() > 1]
-    if pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
+    if s.pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
         weak += (
-            f" It pools the levels of {', '.join(pooled)} (not numeric, not an input of the "
+            f" It pools the levels of {', '.join(s.pooled)} (not numeric, not an input of the "
             "surrogate): compare the levels in the plots above."
         )
     parts = [

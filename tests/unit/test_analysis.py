@@ -1014,13 +1014,14 @@ def test_a_latin_hypercube_bar_inside_is_never_below_its_cross_validated_error(t
     1937) and Gebart (1992) truth within 2 bars at 82.6 %, 85.1 % and 88.4 % of an 11 x 11
     grid of the box (31 x 31: 84.9 %, 87 %, 93 %; benchmarks/prediction_bar_truth.py
     --lhs-sweep). Never below the CV error since session 45: 100 %, median bar / median true
-    error 4.5, 4.2, 3.7 (1.1, 1.1, 1.2 before)."""
+    error 4.5, 4.2, 3.7 (1.1, 1.1, 1.2 before); 6.9, 6.6, 3.7 since session 53, each fold's
+    kernel fitted again (the test below)."""
     s = _lhs_fit(truth, 8, seed)
     assert s.rating()[0] == "ok"
     err, bar, status = _bars_inside(s, truth)
     assert status == {"ok"}
     assert np.mean(err <= 2 * bar) >= 0.95, np.mean(err <= 2 * bar)
-    assert np.median(bar) <= 6.0 * np.median(err), (np.median(bar), np.median(err))
+    assert np.median(bar) <= 8.0 * np.median(err), (np.median(bar), np.median(err))
     assert s.cv_between_rel_error >= s.cv_rel_error
 
 
@@ -1762,3 +1763,117 @@ def test_the_fit_follows_a_trend_its_random_restarts_missed() -> None:
     mean, _ = s.predict(np.array([[0.92, 9e-6]]))
     assert float(np.ravel(mean)[0]) == pytest.approx(0.92, abs=0.005)
     assert s.rating()[0] == "ok", s.rating()
+
+
+def test_a_category_that_varies_is_pooled_and_rated_untrustworthy_everywhere(
+    tmp_path, capsys
+) -> None:
+    """walk-design (session 53): with ``generator.kind`` = straight / bent (K x 3, the truth of
+    :func:`study_cases.kind_case`) over 4 porosities, the fit deduplicated over the numeric
+    parameters only and kept the 4 straight cases: "GP over generator.porosity from 4 cases"
+    [ok], a prediction of the straight K [ok], and the report said it "pools the levels of
+    generator.kind". Now every case is fitted, the fit says which category it mixes and is
+    untrustworthy in `study fit`, `study predict`, `study sensitivity` and the report."""
+    from study_cases import kind_case
+
+    from psdesign.report.decision import fit_alert, report_fit
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.kind" = ["straight", "bent"]\n"generator.porosity" = [0.7, 0.75, 0.8, 0.85]\n',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=kind_case, progress=False, report=False)
+    assert main(["study", "fit", str(out)]) == 3
+    cap = capsys.readouterr()
+    assert "k_z_m2: GP over generator.porosity from 8 cases" in cap.out, cap.out
+    why = "k_z_m2: the fitted cases differ in generator.kind, which is not numeric"
+    assert why in cap.err
+    assert main(["study", "predict", str(out), "--at", "generator.porosity=0.775"]) == 3
+    assert "(UNTRUSTWORTHY)" in capsys.readouterr().out
+    main(["study", "sensitivity", str(out)])
+    assert "[ok]" not in capsys.readouterr().out
+    df = pd.read_csv(out / "results.csv")
+    fit = report_fit(df, ["generator.kind", "generator.porosity"], {"parameters": {}})
+    assert len(fit.surrogate.y) == 8 and fit.surrogate.pooled == ["generator.kind"]
+    assert why in fit_alert(fit)
+
+
+# walk-design (session 53): a 6-point latin hypercube of studies/inverse_design.toml's box
+# (porosity 0.75-0.88, diameter 6-10 um; design_seed = 3), K = Kozeny-Carman (kc_truth)
+WALK_LHS6 = {
+    "e": [0.8131442680452214, 0.8409723865871948, 0.7912938794181247, 0.8262872218736153,
+          0.864084161719467, 0.763190055872594],
+    "d": [9.842126328935934e-06, 7.611891975957089e-06, 9.044582039842352e-06,
+          8.560174056908615e-06, 6.590885320052398e-06, 6.988839878252424e-06],
+}  # fmt: skip
+
+
+def _walk_lhs6_fit() -> Surrogate:
+    df = pd.DataFrame(WALK_LHS6).assign(status="ok")
+    df["k"] = kc_truth(df["e"], df["d"])
+    return fit_surrogate(df, "k", ["e", "d"], {"e": (0.75, 0.88, False), "d": (6e-6, 1e-5, False)})
+
+
+def test_a_small_latin_hypercubes_cross_validated_error_is_not_below_its_true_error() -> None:
+    """walk-design (session 53): the cross-validation kept the kernel fitted on every case, so
+    the held-out cases had chosen the length scales that predicted them: 1.59 % [ok] on the 6
+    points above, where the fit is off the Kozeny-Carman truth (Carman 1937) by 4.4 % RMS,
+    12 % at most over 11 x 11 points of the cases' box. Each fold's kernel fitted again: 55.6 %,
+    untrustworthy, and a warning of fewer than 4 points per varied parameter."""
+    s = _walk_lhs6_fit()
+    e, d = np.meshgrid(*(np.linspace(min(v), max(v), 11) for v in WALK_LHS6.values()))
+    x = np.c_[e.ravel(), d.ravel()]
+    true_rms = float(np.sqrt(np.mean((s.predict(x)[0] / kc_truth(x[:, 0], x[:, 1]) - 1) ** 2)))
+    assert 0.03 < true_rms < s.cv_rel_error, (true_rms, s.cv_rel_error)
+    assert s.rating()[0] == "untrustworthy"
+    assert "6 design points for 2 varied parameters" in s.sparse_design()
+
+
+def test_a_point_inside_the_box_beyond_the_fitted_cases_is_extrapolated() -> None:
+    """docs/study-files.md: ``extrapolated`` means outside the fitted cases. Until session 53
+    only the declared {low, high} box was checked, and porosity 0.755 (box 0.75-0.88, the
+    cases' lowest 0.763) was predicted ``ok``."""
+    from psdesign.analysis.surrogate import outside_range
+
+    s = _walk_lhs6_fit()
+    assert outside_range(s, np.array([0.755, 8e-6])) == [
+        "e = 0.755 outside the fitted cases' [0.76319, 0.864084]"
+    ]
+    assert outside_range(s, np.array([0.80, 8e-6])) == []
+    assert outside_range(s, np.array([0.70, 8e-6])) == ["e = 0.7 outside [0.75, 0.88]"]
+
+
+def test_a_fit_too_wide_between_its_levels_has_one_status_everywhere(tmp_path, capsys) -> None:
+    """walk-design (session 53): 3 x 3 levels of Kozeny-Carman truth with 10 % seed scatter
+    (3 seeds, :func:`study_cases.scattered_case`): `study predict` rated every prediction
+    inside untrustworthy (estimated error between the levels 27.3 %, above 20 %) while
+    `study fit`, `study sensitivity` and the report's red box said [ok]. One status now
+    (:func:`psdesign.analysis.prediction.fit_status`)."""
+    from study_cases import scattered_case
+
+    from psdesign.report.decision import fit_alert, report_fit
+
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1, 2, 3]\noutputs = ["k_z"]',
+        '"generator.porosity" = [0.7, 0.8, 0.9]\n"generator.diameter" = [6e-6, 8e-6, 1e-5]\n',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=scattered_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2", "--json"]) == 3
+    row = json.loads(capsys.readouterr().out)["k_z_m2"]
+    assert row["cv_rel_error"] < 0.2 < row["cv_between_rel_error"]  # the rating alone: ok
+    assert row["status"] == "untrustworthy"
+    assert "between the study's levels it may be off by that much" in row["warnings"][0]
+    at = "generator.porosity=0.75,generator.diameter=7e-6"
+    assert main(["study", "predict", str(out), "--at", at]) == 3
+    assert "(UNTRUSTWORTHY)" in capsys.readouterr().out
+    assert main(["study", "sensitivity", str(out)]) == 3
+    assert "[untrustworthy]" in capsys.readouterr().out
+    fit = report_fit(pd.read_csv(out / "results.csv"), FAC_PARAMS_2, {"parameters": {}})
+    assert "between the study's levels" in fit_alert(fit)
+
+
+FAC_PARAMS_2 = ["generator.porosity", "generator.diameter"]

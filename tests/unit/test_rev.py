@@ -701,3 +701,39 @@ def test_rev_cli_n_fibers_without_a_whole_count_exits_2(tmp_path, capsys) -> Non
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "generator.n_fibers: 6 fibers" in err[0]
     assert "generator.porosity" in err[0] and not out.exists()
+
+
+def drifting_rev_case(spec, outputs, solver, workdir):
+    """K = 5e-12 (1 + 30 um / L) m^2 with 1 % seed scatter: a finite-size bias that falls as
+    1 / L (walk-design, session 53), the mean 2x the large-box value at 30 um."""
+    edge = float(spec["rve"]["size"][0])
+    rng = np.random.default_rng([int(spec["generator"]["seed"]), int(round(edge * 1e9))])
+    k = 5e-12 * (1 + 30e-6 / edge) * (1 + 0.01 * rng.standard_normal())
+    return {"porosity": 0.8, "n_fibers": 10, "k_z_m2": k, "converged_z": True, "k_z_status": "ok"}
+
+
+@pytest.mark.parametrize("json_out", [False, True])
+def test_rev_names_no_size_while_the_mean_k_still_moves(tmp_path, capsys, monkeypatch, json_out):
+    """walk-design (session 53): each size's CI half-width alone named the REV, so K = 5e-12
+    (1 + 30 um / L) m^2 with 1 % scatter was "REV: 3e-05 m" (exit 0) though its means fall
+    10.0 / 7.5 / 6.25e-12 over 30 / 60 / 120 um (closed form). From the REV size on each mean
+    must be within --tol of the largest size's or its 95 % CI overlap that one's: here
+    "k_z_m2 still changes with size", exit 3, as a size beyond --tol."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, drifting_rev_case)
+    args = ["rev", str(spec), "--seeds", "3", "--quiet", "--directions", "z", "--tol", "0.05"]
+    args += ["--sizes", "30e-6", "60e-6", "120e-6", "-o", str(tmp_path / "o")]
+    assert main([*args, "--json"] if json_out else args) == 3
+    out = capsys.readouterr().out
+    import re
+
+    why = "k_z_m2 still changes with size: mean "
+    if json_out:
+        doc = json.loads(out)
+        assert doc["rev_size_m"] is None
+        line = doc["still_changes"]
+    else:
+        line = out.splitlines()[-1]
+        assert line.startswith(f"no REV: {why}") and line.endswith(": grow the RVE"), out
+    rel = float(re.search(r"at 3e-05 m is \+([\d.]+) % from", line).group(1))
+    assert abs(rel - 60.0) < 8.0, line  # 10 / 6.25 - 1 = 60 %, 1 % scatter in 3 seeds
+    assert json.loads((tmp_path / "o" / "rev.json").read_text())["rev_size_m"] is None
