@@ -19,7 +19,11 @@
   enters from the inlet face (first layer along ``thickness_axis``, a plane of the periodic
   medium); at radius ``r`` it fills the union of balls of radius ``r`` whose centres
   ``dt >= r`` are connected to that layer through such centres.  Saturation vs accessible
-  pore diameter, and the Washburn pressure ``p = -2 gamma cos(theta) / r``.
+  pore diameter, and the Washburn pressure ``p = -2 gamma cos(theta) / r``.  The
+  **breakthrough diameter** is the largest scanned ``2 r`` whose centres ``dt >= r`` cross the
+  sample: wind around the periodic box along the axis (:func:`breakthrough_radius`; such a
+  cluster meets every layer, the inlet too, so it is invaded); None when none does (no
+  intrusion path along the axis: the result is ``blocked``).
 * **Specific surface** ``S_v = A / V_box`` (m^-1) with ``A`` from marching cubes
   (:func:`skimage.measure.marching_cubes`) on the signed distance field
   ``VoxelFields.distance`` (the analytic surface sampled at voxel centres, second order, not
@@ -63,7 +67,7 @@ class PoreSizeResult:
     intrusion_diameter_m: list[float]
     intrusion_saturation: list[float]
     intrusion_pressure_pa: list[float]
-    breakthrough_diameter_m: float
+    breakthrough_diameter_m: float | None
     bin_width_m: float
     porosity: float
     diameter_error_m: float = 0.0
@@ -263,6 +267,37 @@ def _scan(dt, pore, radii, inlet_axis, core):
     return lt, sat
 
 
+def breakthrough_radius(dt: np.ndarray, radii: np.ndarray, axis: int) -> float | None:
+    """The largest of ``radii`` (descending, voxels) whose ball centres ``dt >= r`` (the periodic
+    pore distance of the unpadded grid) wind around the periodic box along ``axis``
+    (:func:`psdesign.geometry.throat.percolates`, the voxel solver's one test of a path), None
+    when not even the smallest does.
+
+    Until session 53 it was the first radius with any intruded volume: a cluster touching the
+    inlet layer counted though it never reached the outlet (walls across x: 23 um ``ok`` where
+    no path exists, and 0 with the box cut elsewhere). The set grows as ``r`` falls, so a
+    bisection over ``radii`` needs ``log2(n_radii)`` tests.
+
+    >>> d = np.zeros((6, 7, 1), np.float32); d[:, 2:5, 0] = [1.0, 2.0, 1.0]  # a channel along x
+    >>> breakthrough_radius(d, np.array([2.5, 2.0, 1.0]), 0)
+    2.0
+    >>> breakthrough_radius(d, np.array([1.0]), 1) is None  # across the channel: no path
+    True
+    """
+    from psdesign.geometry.throat import percolates
+
+    if not percolates(dt >= radii[-1], axis):
+        return None
+    lo, hi = 0, len(radii) - 1  # radii[hi] crosses, none before radii[lo] does
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if percolates(dt >= radii[mid], axis):
+            hi = mid
+        else:
+            lo = mid + 1
+    return float(radii[hi])
+
+
 def _check_pore_arguments(
     n_radii, thickness_axis, surface_tension, contact_angle_deg
 ) -> tuple[str, int]:
@@ -329,6 +364,7 @@ def pore_sizes(
     radii = np.unique(np.linspace(max(rmax, 1.0), min(1.0, rmax), n_radii))[::-1]
     # every ball reaching the grid has its centre within rmax of it: rmax + 1 periodic layers
     # of the (periodic) distance hold them all
+    r_break = breakthrough_radius(dt, radii, ax)
     dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1)
     lt, sat = _scan(dt, dt > 0, radii, ax, core)
     del dt
@@ -340,7 +376,6 @@ def pore_sizes(
     q10, q50, q90 = (float(v) for v in np.percentile(diam, [10, 50, 90], method="inverted_cdf"))
     p = -2.0 * surface_tension * np.cos(np.radians(contact_angle_deg)) / (radii * h)
     sat_arr = np.asarray(sat)
-    hit = np.nonzero(sat_arr > 0)[0]
     step = float(2.0 * h * (radii[0] - radii[1])) if radii.size > 1 else 2.0 * h
     bar = step + CENTRE_OFFSET * h
     return PoreSizeResult(
@@ -355,7 +390,7 @@ def pore_sizes(
         intrusion_diameter_m=(2.0 * h * radii).tolist(),
         intrusion_saturation=sat_arr.tolist(),
         intrusion_pressure_pa=p.tolist(),
-        breakthrough_diameter_m=float(2.0 * h * radii[hit[0]]) if hit.size else 0.0,
+        breakthrough_diameter_m=None if r_break is None else 2.0 * h * r_break,
         bin_width_m=step,
         porosity=eps,
         diameter_error_m=bar,

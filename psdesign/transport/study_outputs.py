@@ -131,12 +131,13 @@ def pore_sizes_status(
 
 
 def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
-    """``status`` (the worse of the two below) and ``warnings`` of a pore report, as a
+    """``status`` (the worst of the three below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
     bars alone), and the pore sizes when ``d90`` exceeds ``edge``, the smallest edge the
-    geometry varies along (:func:`varying_edge`: a pore larger than the RVE)."""
+    geometry varies along (:func:`varying_edge`: a pore larger than the RVE); the
+    breakthrough ``blocked`` when no intrusion path crosses the sample (its diameter None)."""
     from psdesign.flow import error as err
     from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
@@ -156,10 +157,19 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the smallest edge the geometry "
             f"varies along {edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
+    # no crossing: no breakthrough (null), blocked as a diffusivity with no path is
+    crossing = "ok" if out["breakthrough_diameter_m"] is not None else "blocked"
+    if crossing == "blocked":
+        warnings.append(
+            f"breakthrough: no intrusion path along {out['thickness_axis']}: the pore space "
+            f"does not cross the sample through throats of diameter >= "
+            f"{out['intrusion_diameter_m'][-1]:.3e} m (the smallest scanned)"
+        )
     return {
         "pore_sizes_status": sizes,
+        "breakthrough_status": crossing,
         "specific_surface_status": surface,
-        "status": worst_status([sizes, surface]),
+        "status": worst_status([sizes, surface, crossing]),
         "warnings": warnings,
     }
 

@@ -275,6 +275,7 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
     from psdesign.transport.study_outputs import _pore_rating
 
     base = {"rel_error": 0.05, "specific_surface_rel_error": 0.01, "converged": True}
+    base["breakthrough_diameter_m"] = 2e-5  # a path crosses (test above when none does)
     inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, 100e-6)
     assert (inside["status"], inside["warnings"]) == ("ok", [])
     past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, 100e-6)
@@ -442,3 +443,28 @@ def test_conductivity_of_one_conductivity_in_both_phases_is_it_and_ok():
     assert same.status == "ok" and not same.warnings
     contrast = effective_conductivity(fields, "x", 10.0, 1.0, cells_per_diameter=6.0)
     assert contrast.status == "untrustworthy"
+
+
+@pytest.mark.parametrize("shift", [0, 12])
+def test_breakthrough_needs_a_path_across_and_ignores_where_the_box_is_cut(shift):
+    """A solid slab x in [0, 8) of a periodic 32-voxel box (walls, a slit pore 24 voxels wide
+    along y and z): no non-wetting path crosses along x at any diameter, so the breakthrough is
+    None and the report ``blocked`` (exit 3), however the box is cut (np.roll). Along y the
+    slit's width, 24 um, less at most the scan's one-sided bar. Session 53 (walk-transport
+    finding 1): it was the first diameter with any intruded volume, 23 um ``ok`` with the cut
+    at x = 12 and 0 ``ok`` with the cut at x = 0."""
+    from psdesign.transport.study_outputs import pore_report
+
+    solid = np.zeros((32, 12, 12), bool)
+    solid[:8] = True
+    solid = np.roll(solid, shift, axis=0)
+    fields = _fields(np.where(solid, -0.5, 0.5))
+    across = pore_sizes(fields, n_radii=16, thickness_axis="x")
+    assert across.breakthrough_diameter_m is None
+    along = pore_sizes(fields, n_radii=16, thickness_axis="y")
+    width = 24 * H
+    assert width - along.diameter_error_m <= along.breakthrough_diameter_m <= width
+    tr = {"n_radii": 16, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert (out["breakthrough_status"], out["status"]) == ("blocked", "blocked")
+    assert any("no intrusion path along x" in w for w in out["warnings"])
