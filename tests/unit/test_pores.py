@@ -276,6 +276,7 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
 
     base = {"rel_error": 0.05, "specific_surface_rel_error": 0.01, "converged": True}
     base["breakthrough_diameter_m"] = 2e-5  # a path crosses (test above when none does)
+    base["surface_short_axes"] = ""  # the S_v bar's coarse grid halves every axis
     inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, 100e-6)
     assert (inside["status"], inside["warnings"]) == ("ok", [])
     past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, 100e-6)
@@ -468,3 +469,41 @@ def test_breakthrough_needs_a_path_across_and_ignores_where_the_box_is_cut(shift
     out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
     assert (out["breakthrough_status"], out["status"]) == ("blocked", "blocked")
     assert any("no intrusion path along x" in w for w in out["warnings"])
+
+
+@pytest.mark.parametrize("depth", [6, 16])
+def test_surface_bar_of_an_extruded_rod_does_not_depend_on_its_depth(depth):
+    """A rod of radius 8 voxels along z (32 x 32 cross-section, analytic distance) extruded
+    ``depth`` voxels: exact ``S_v = 2 pi R / A_cross`` = 49087 1/m at any depth. The bar's
+    coarse grid halves x and y only when z is short; z, along which nothing varies, adds no
+    error, so the bar is the deep rod's and covers the true error. Session 53 (walk-transport
+    finding 2): under 8 voxels on any axis the bar was 0.0 % and the value ``ok``."""
+    from psdesign.transport.pores import surface_status
+
+    X, Y, _ = _coords((32, 32, depth))
+    rod = np.sqrt((X - 16) ** 2 + (Y - 16) ** 2) - 8.0  # > 0 in the pore
+    res = specific_surface(_fields(rod))
+    exact = 2 * np.pi * 8.0 / (32 * 32) / H
+    assert res.rel_error > 0.001  # measured 0.0029, true error 0.096 % (49040 1/m)
+    assert abs(res.specific_surface_m_1 - exact) <= res.rel_error * res.specific_surface_m_1
+    deep = specific_surface(_fields(np.repeat(rod[:, :, :1], 16, axis=2)))
+    assert res.rel_error == pytest.approx(deep.rel_error, rel=1e-6)
+    assert res.extra["short_axes"] == ""
+    assert surface_status(res.rel_error, res.extra["short_axes"], None) == "ok"
+
+
+def test_surface_along_a_short_axis_the_geometry_varies_along_is_untrustworthy():
+    """A rod along x (radius 2.5 voxels in y-z) in a 32 x 32 x 6 box varies along z over 6
+    voxels, too few for a coarse grid there: the bar misses that part, so the value is
+    ``untrustworthy`` with a warning naming z, never ``ok`` from lack of data."""
+    from psdesign.transport.study_outputs import pore_report
+
+    _, Y, Z = _coords((32, 32, 6))
+    fields = _fields(np.sqrt((Y - 16) ** 2 + (Z - 3) ** 2) - 2.5)
+    assert specific_surface(fields).extra["short_axes"] == "z"
+    tr = {"n_radii": 8, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert out["specific_surface_status"] == "untrustworthy"
+    assert any(
+        w.startswith("S_v: the geometry varies along z over fewer than 8") for w in out["warnings"]
+    )
