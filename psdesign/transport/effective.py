@@ -313,6 +313,25 @@ def worst_status(statuses: list[str | None]) -> str | None:
     return max(statuses, key=_rank, default="ok")
 
 
+def tensor_parts(columns: list) -> dict:
+    """The homogenized tensor of three periodic solves, as ``--direction all`` reports it for
+    every transport value: ``tensor`` (3x3, column ``a`` = the mean flux for a unit gradient
+    along ``a``), ``symmetric`` (its symmetric part) and its ``eigenvalues`` (ascending).
+    One definition for diffusivity and conductivity (``conductivity`` gave the tensor alone
+    until session 53, though docs/transport.md promised all three).
+
+    >>> tensor_parts([[2.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]])["symmetric"][0]
+    [2.0, 0.1, 0.0]
+    """
+    tensor = np.column_stack([np.asarray(c, float) for c in columns])
+    sym = 0.5 * (tensor + tensor.T)
+    return {
+        "tensor": tensor.tolist(),
+        "symmetric": sym.tolist(),
+        "eigenvalues": np.linalg.eigvalsh(sym).tolist(),
+    }
+
+
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:
     """VoxelFields of a voxel image (True = solid) with cubic voxels of ``voxel`` metres; the
     distance field is a binary +-voxel/2 (no sub-voxel surface)."""

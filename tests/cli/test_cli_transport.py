@@ -51,6 +51,14 @@ def test_conductivity_names_its_unit(spec, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["conductivity_unit"] == "W/(m K)"  # the thermal defaults (fibre 120, air 0.026)
     assert {r["conductivity_unit"] for r in out["results"]} == {"W/(m K)"}
+    # --direction all: the tensor, its symmetric part and eigenvalues, as docs/transport.md says
+    # and diffusivity gives (conductivity gave the tensor alone until session 53); along the
+    # cylinder (z) the parallel mean of the phases, an eigenvalue of the diagonal tensor
+    sym = np.array(out["symmetric"])
+    np.testing.assert_allclose(sym, 0.5 * (np.array(out["tensor"]) + np.array(out["tensor"]).T))
+    fs = out["results"][2]["solid_fraction"]
+    assert sym[2, 2] == pytest.approx(120 * fs + 0.026 * (1 - fs), rel=1e-6)
+    np.testing.assert_allclose(out["eigenvalues"], np.sort(np.diag(sym)), rtol=1e-6)
     assert main(["conductivity", str(spec), "--solid", "1e4", "--fluid", "1", "--unit", "S/m"]) == 0
     line = capsys.readouterr().out
     assert line.startswith("sigma_eff_z = ") and " S/m +- " in line
