@@ -239,8 +239,12 @@ def effective_conductivity(
     ks = 0.0 if tr["insulating_phase"] == "solid" else tr["solid_conductivity"]
     kf = 0.0 if tr["insulating_phase"] == "fluid" else tr["fluid_conductivity"]
 
+    # float64: the solver divides by the larger phase before its float32 cast, so the map's
+    # own float32 cast underflowed a phase under 1.4e-45 to 0 (--fluid 1e-46 "blocked",
+    # 1e-300 "no conducting voxel") and made equal phases 3.7 read 3.700000047683716
+    # (session 53); the float64 map costs no more at the peak (the solver copies to float64)
     def sigma_of(mask: np.ndarray) -> np.ndarray:
-        return np.where(mask, np.float32(ks), np.float32(kf))
+        return np.where(mask, np.float64(ks), np.float64(kf))
 
     held = None if capture is None else HeldCapture(partial(capture, "conductivity"))
     eff = solve_effective(sigma_of, fields, direction, tr, progress=progress, capture=held)
@@ -252,7 +256,7 @@ def effective_conductivity(
         ks_c, kf_c = min(ks, top), min(kf, top)
 
         def sigma_of(mask: np.ndarray) -> np.ndarray:  # noqa: F811 - the repeated solve's
-            return np.where(mask, np.float32(ks_c), np.float32(kf_c))
+            return np.where(mask, np.float64(ks_c), np.float64(kf_c))
 
         if held is not None:
             held.drop()
