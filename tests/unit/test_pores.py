@@ -78,6 +78,8 @@ def test_intrusion_ink_bottle_fills_the_cavity_at_the_neck_size():
     first = np.nonzero(diam <= neck_d + 1e-12)[0][0]
     assert sat[first] > 0.7  # the cavity (3/4 of the pore volume) fills at the neck size
     assert sat[-1] > 0.9  # what is left are sub-voxel corners at the walls
+    # the bottle has a bottom (solid beyond the cavity, z > 50.5): it fills but nothing crosses
+    assert res.breakthrough_diameter_m is None
     # local thickness (no access constraint) sees the cavity at its own size
     assert res.max_diameter_m == pytest.approx(20.0 * H, rel=0.02)
 
@@ -507,3 +509,16 @@ def test_surface_along_a_short_axis_the_geometry_varies_along_is_untrustworthy()
     assert any(
         w.startswith("S_v: the geometry varies along z over fewer than 8") for w in out["warnings"]
     )
+
+
+def test_breakthrough_is_the_neck_a_wide_inlet_pore_leads_to():
+    """A pore of radius 10 voxels open at the inlet (z < 30) continued to the outlet by a neck
+    of radius 3 (z >= 30), periodic along z: the non-wetting phase enters at 20 um but crosses
+    only at the neck's 6 um (the scan measures low by at most its bar). It read 20 um, the
+    largest diameter that enters, until session 53."""
+    X, Y, Z = _coords((41, 41, 60))
+    rxy = np.sqrt((X - 20.5) ** 2 + (Y - 20.5) ** 2)
+    res = pore_sizes(_fields(np.where(Z < 30, 10.0, 3.0) - rxy), n_radii=30, thickness_axis="z")
+    assert res.intrusion_saturation[0] > 0  # the wide pore fills at the largest diameter
+    neck = 6.0 * H
+    assert neck - res.diameter_error_m <= res.breakthrough_diameter_m <= neck
