@@ -52,9 +52,12 @@ def _sizes_line(out: dict) -> str:
     one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
     measures low, so the true value lies up to the bar above), the rating, the scan step."""
     from psdesign.lines import rating
+    from psdesign.transport.effective import worst_status
     from psdesign.transport.pores import diameter_bar_text
 
     converged = bool(out.get("converged", True))
+    # the line's numbers rated together: a blocked breakthrough says so in the [status] too
+    status = worst_status([out["pore_sizes_status"], out["breakthrough_status"]])
     bt = out["breakthrough_diameter_m"]
     bt_text = (  # None: no path crosses the sample (blocked; it printed 0 or a size, [ok])
         f"{bt:.3e} m"
@@ -65,7 +68,7 @@ def _sizes_line(out: dict) -> str:
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "
         f"each {diameter_bar_text(out['diameter_error_m'])} m  "
-        f"{rating({'status': out['pore_sizes_status'], 'converged': converged})}  "
+        f"{rating({'status': status, 'converged': converged})}  "
         f"(scan step {out['bin_width_m']:.1e} m)"
     )
 

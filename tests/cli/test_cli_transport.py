@@ -548,3 +548,25 @@ def test_a_conducting_solid_blocked_on_the_grid_is_told_about_contacts(spec, cap
     assert "breaks any contact between the fibers" in out["warnings"][0]
     assert "gap of the fibers' surface" not in out["warnings"][0]
     assert "refine rve.voxel" in out["warnings"][0]
+
+
+def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path, capsys):
+    """Walls (solid slab x in [0, 8) of 32 voxels, an image): along x no intrusion path
+    crosses, so the breakthrough is JSON null, the sizes line says 'none (...: blocked)' and
+    '[blocked]', and the exit status is 3 (as diffusivity across the walls). Session 53
+    (walk-transport finding 1): '0.000e+00 m ... [ok]', exit 0."""
+    solid = np.zeros((32, 8, 8), np.uint8)
+    solid[:8] = 1
+    np.save(tmp_path / "walls.npy", solid)
+    spec = tmp_path / "walls.toml"
+    spec.write_text('[image]\npath = "walls.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["breakthrough_diameter_m"] is None and out["breakthrough_status"] == "blocked"
+    assert "breakthrough: no intrusion path along x" in cap.err
+    assert main(["pores", str(spec), "--axis", "x", "--quiet"]) == 3
+    sizes = capsys.readouterr().out.splitlines()[0]
+    assert "breakthrough none (no intrusion path along x: blocked), each " in sizes
+    assert "[blocked]  converged true" in sizes
+    assert main(["pores", str(spec), "--axis", "y", "--quiet"]) == 0  # along the walls: ok
