@@ -13,6 +13,7 @@ def _cmd(args: argparse.Namespace) -> int:
     from psdesign.fields import fields_folder
     from psdesign.schema.transport import check_conductivity
     from psdesign.transport.conductivity import effective_conductivity, result_line
+    from psdesign.transport.effective import tensor_parts
     from psdesign.transport.load import load_case
 
     solid = None if args.solid is None else check_conductivity(args.solid, "--solid")
@@ -41,8 +42,8 @@ def _cmd(args: argparse.Namespace) -> int:
         ]
     out = combine(results, tr["bc"], ("effective_conductivity",))
     out["conductivity_unit"] = results[0]["conductivity_unit"]
-    if len(results) > 1 and tr["bc"] == "periodic":
-        out["tensor"] = [[r["conductivity_column"][i] for r in results] for i in range(3)]
+    if len(results) > 1 and tr["bc"] == "periodic":  # tensor, symmetric part, eigenvalues
+        out.update(tensor_parts([r["conductivity_column"] for r in results]))
     out["wall_time_s"] = time.perf_counter() - t0
     return emit("conductivity", out, results, args.json, result_line)
 

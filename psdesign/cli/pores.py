@@ -42,7 +42,7 @@ def _cmd(args: argparse.Namespace) -> int:
             f"{rating({'status': out['specific_surface_status'], 'converged': True})}  "
             f"porosity {porosity_text(out['porosity'], out.get('porosity_error'))}"
         )
-    # 3 when the pore sizes or S_v are not ok (``status``: the worse of the two); it exited 0
+    # 3 when the pore sizes, the breakthrough or S_v are not ok (``status``: the worst); it exited 0
     # with both untrustworthy until session 45
     return status_code(out["status"])
 
@@ -52,14 +52,23 @@ def _sizes_line(out: dict) -> str:
     one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
     measures low, so the true value lies up to the bar above), the rating, the scan step."""
     from psdesign.lines import rating
+    from psdesign.transport.effective import worst_status
     from psdesign.transport.pores import diameter_bar_text
 
     converged = bool(out.get("converged", True))
+    # the line's numbers rated together: a blocked breakthrough says so in the [status] too
+    status = worst_status([out["pore_sizes_status"], out["breakthrough_status"]])
+    bt = out["breakthrough_diameter_m"]
+    bt_text = (  # None: no path crosses the sample (blocked; it printed 0 or a size, [ok])
+        f"{bt:.3e} m"
+        if bt is not None
+        else f"none (no intrusion path along {out['thickness_axis']}: blocked)"
+    )
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
-        f"d90 {out['pore_d90_m']:.3e} m  breakthrough {out['breakthrough_diameter_m']:.3e} m, "
+        f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "
         f"each {diameter_bar_text(out['diameter_error_m'])} m  "
-        f"{rating({'status': out['pore_sizes_status'], 'converged': converged})}  "
+        f"{rating({'status': status, 'converged': converged})}  "
         f"(scan step {out['bin_width_m']:.1e} m)"
     )
 

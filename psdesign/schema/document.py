@@ -34,6 +34,30 @@ def _stacked_porosity(flow: FlowTable, seen: dict) -> float | None:
     return seen.get("porosity") if isinstance(copies, int) and copies >= 2 else None
 
 
+def _diameter_limit(fb: FiberTable, size, period: float) -> float:
+    """The bound a round fiber's diameter must stay below: the period and the box edges across
+    the fiber. A straight fiber (rod, cylinder) whose ``direction`` runs along a box axis never
+    meets the faces normal to it, so that edge does not count (a cylinder along z of diameter
+    16 um in a 32 x 32 x 16 um box was refused "not below the cell", session 53); any other
+    fiber (tilted, bent, or given by theta/omega) is held to every edge as before.
+
+    >>> from types import SimpleNamespace as F
+    >>> _diameter_limit(F(shape="cylinder", direction=(0, 0, 2)), (4.0, 5.0, 1.0), 6.0)
+    4.0
+    >>> _diameter_limit(F(shape="cylinder", direction=(0, 1, 1)), (4.0, 5.0, 1.0), 6.0)
+    1.0
+    """
+    limit = min(min(size), period)
+    d = fb.direction
+    if fb.shape not in ("rod", "cylinder") or d is None:
+        return limit
+    norm = math.sqrt(sum(c * c for c in d))
+    along = [k for k in range(3) if abs(d[k]) / norm > 1.0 - 1e-9]  # on a grid axis
+    if not along:
+        return limit
+    return min(period, *(size[k] for k in range(3) if k != along[0]))
+
+
 class SpecWarning(UserWarning):
     """A spec that is valid but likely to fail or to be slow (printed as one line)."""
 
@@ -424,8 +448,8 @@ class SpecDocument(Table):
                 f"{len(self.fibers)} explicit fibers",
                 f"at most {budget.MAX_EXPLICIT_FIBERS} (use [generator])",
             )
-        limit = min(min(size), period)
         for i, fb in enumerate(self.fibers):
+            limit = _diameter_limit(fb, size, period)
             for k, c in enumerate(fb.center or ()):
                 if not -size[k] <= c <= 2 * size[k]:
                     raise fail(

@@ -29,8 +29,9 @@ class FiberTable(Table):
     shape: Shape = Field("rod", description=" | ".join(SHAPES + CELL_SHAPES) + " (default rod)")
     diameter: number(gt=0) | None = Field(
         None,
-        description="metres > 0, below the smallest edge and the period (rod, cylinder, "
-        "bent-rod only: required)",
+        description="metres > 0, below the period and the box edges across the fiber (all "
+        "edges unless a rod or cylinder runs along an axis; rod, cylinder, bent-rod only: "
+        "required)",
     )
     center: Vec3 | None = Field(
         None, description="[x, y, z] metres, each in [-edge, 2 edge] (default: the box centre)"

@@ -36,6 +36,7 @@ from psdesign.transport.effective import (
     Effective,
     Rated,
     solve_effective,
+    tensor_parts,
     wiener_bounds,
     worst_status,
 )
@@ -308,12 +309,8 @@ def diffusivity_tensor(
         )
         for d in "xyz"
     ]
-    tensor = np.column_stack([r.relative_diffusivity_column for r in results])
-    sym = 0.5 * (tensor + tensor.T)
     return {
-        "tensor": tensor.tolist(),
-        "symmetric": sym.tolist(),
-        "eigenvalues": np.linalg.eigvalsh(sym).tolist(),
+        **tensor_parts([r.relative_diffusivity_column for r in results]),
         "tortuosity_factor": {r.direction: r.tortuosity_factor for r in results},
         "relative_diffusivity": {r.direction: r.relative_diffusivity for r in results},
         "porosity": fields.porosity,

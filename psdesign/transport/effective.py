@@ -313,6 +313,25 @@ def worst_status(statuses: list[str | None]) -> str | None:
     return max(statuses, key=_rank, default="ok")
 
 
+def tensor_parts(columns: list) -> dict:
+    """The homogenized tensor of three periodic solves, as ``--direction all`` reports it for
+    every transport value: ``tensor`` (3x3, column ``a`` = the mean flux for a unit gradient
+    along ``a``), ``symmetric`` (its symmetric part) and its ``eigenvalues`` (ascending).
+    One definition for diffusivity and conductivity (``conductivity`` gave the tensor alone
+    until session 53, though docs/transport.md promised all three).
+
+    >>> tensor_parts([[2.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]])["symmetric"][0]
+    [2.0, 0.1, 0.0]
+    """
+    tensor = np.column_stack([np.asarray(c, float) for c in columns])
+    sym = 0.5 * (tensor + tensor.T)
+    return {
+        "tensor": tensor.tolist(),
+        "symmetric": sym.tolist(),
+        "eigenvalues": np.linalg.eigvalsh(sym).tolist(),
+    }
+
+
 def fields_from_solid(solid: np.ndarray, voxel: float) -> VoxelFields:
     """VoxelFields of a voxel image (True = solid) with cubic voxels of ``voxel`` metres; the
     distance field is a binary +-voxel/2 (no sub-voxel surface)."""
@@ -356,13 +375,16 @@ def coarsen_conductivity(sigma: np.ndarray, axis: int) -> np.ndarray:
     """
     n = [s - s % 2 for s in sigma.shape]
     s = np.asarray(sigma[: n[0], : n[1], : n[2]], np.float64)
-    s = s.reshape(n[0] // 2, 2, n[1] // 2, 2, n[2] // 2, 2)
+    # in units of the largest: a * b of two 1e-300 phases underflowed to 0 (session 53)
+    scale = float(s.max()) if s.size and s.max() > 0 else 1.0
+    s = (s / scale).reshape(n[0] // 2, 2, n[1] // 2, 2, n[2] // 2, 2)
     pair = 2 * axis + 1
     a, b = np.take(s, 0, axis=pair), np.take(s, 1, axis=pair)
     total = a + b
     series = np.divide(2.0 * a * b, total, out=np.zeros_like(total), where=total > 0)
     across = tuple(i if i < pair else i - 1 for i in (1, 3, 5) if i != pair)
-    return series.mean(axis=across).astype(np.float32)
+    # the map's own precision: a float64 map (conductivity) keeps a phase under float32's range
+    return (scale * series.mean(axis=across)).astype(np.result_type(sigma.dtype, np.float32))
 
 
 def face_surface(solid: np.ndarray) -> float:

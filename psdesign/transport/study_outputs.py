@@ -84,6 +84,7 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["specific_surface_rel_error"] = sv.rel_error
     out["surface_area_m2"] = sv.area_m2
     out["surface_periodic_axes"] = sv.extra["periodic_axes"]  # the axes wrapped (session 52)
+    out["surface_short_axes"] = sv.extra["short_axes"]  # no coarse grid along them (session 53)
     out["surface_method"] = (
         "marching cubes on the analytic signed distance"
         if fields.analytic_distance
@@ -131,15 +132,19 @@ def pore_sizes_status(
 
 
 def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
-    """``status`` (the worse of the two below) and ``warnings`` of a pore report, as a
+    """``status`` (the worst of the three below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
-    bars alone), and the pore sizes when ``d90`` exceeds ``edge``, the smallest edge the
-    geometry varies along (:func:`varying_edge`: a pore larger than the RVE)."""
+    bars alone), the S_v when an axis it varies along is too short for its bar's coarse grid
+    (:func:`psdesign.transport.pores.surface_status`), and the pore sizes when ``d90``
+    exceeds ``edge``, the smallest edge the geometry varies along (:func:`varying_edge`: a
+    pore larger than the RVE); the breakthrough ``blocked`` when no intrusion path crosses
+    the sample (its diameter None)."""
     from psdesign.flow import error as err
     from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
+    from psdesign.transport.pores import MIN_COARSE_VOXELS, surface_status
 
     cpd = None if rve is None else err.cells_per_diameter(rve, h)
     # the resolution line once for both values, then each one's own error-bar line; it names
@@ -150,16 +155,31 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
     warnings += rating("pore sizes", "", False, converged, out["rel_error"], None)[1]
     warnings += rating("S_v", "", False, True, out["specific_surface_rel_error"], None)[1]
     sizes = pore_sizes_status(converged, out["rel_error"], out["pore_d90_m"], cpd, edge)
-    surface = err.status_of(True, out["specific_surface_rel_error"], cpd)
+    surface = surface_status(out["specific_surface_rel_error"], out["surface_short_axes"], cpd)
+    if out["surface_short_axes"]:
+        warnings.append(
+            f"S_v: the geometry varies along {out['surface_short_axes']} over fewer than "
+            f"{MIN_COARSE_VOXELS} voxels, too few for the bar's coarse grid: the bar misses "
+            "that part of the error; use a longer box or a finer rve.voxel"
+        )
     if out["pore_d90_m"] > edge:
         warnings.append(
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the smallest edge the geometry "
             f"varies along {edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
+    # no crossing: no breakthrough (null), blocked as a diffusivity with no path is
+    crossing = "ok" if out["breakthrough_diameter_m"] is not None else "blocked"
+    if crossing == "blocked":
+        warnings.append(
+            f"breakthrough: no intrusion path along {out['thickness_axis']}: the pore space "
+            f"does not cross the sample through throats of diameter >= "
+            f"{out['intrusion_diameter_m'][-1]:.3e} m (the smallest scanned)"
+        )
     return {
         "pore_sizes_status": sizes,
+        "breakthrough_status": crossing,
         "specific_surface_status": surface,
-        "status": worst_status([sizes, surface]),
+        "status": worst_status([sizes, surface, crossing]),
         "warnings": warnings,
     }
 
@@ -224,11 +244,10 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
             ps.converged, ps.rel_error, ps.pore_d90_m, cpd, edge
         )
     if "specific_surface_m-1" in wanted:
-        from psdesign.flow.error import status_of
-        from psdesign.transport.pores import specific_surface
+        from psdesign.transport.pores import specific_surface, surface_status
 
         sv = specific_surface(fields, rve=rve)
         row["specific_surface_m-1"] = sv.specific_surface_m_1
         row["specific_surface_rel_error"] = sv.rel_error
-        row["specific_surface_status"] = status_of(True, sv.rel_error, cpd)
+        row["specific_surface_status"] = surface_status(sv.rel_error, sv.extra["short_axes"], cpd)
     return row

@@ -51,6 +51,14 @@ def test_conductivity_names_its_unit(spec, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["conductivity_unit"] == "W/(m K)"  # the thermal defaults (fibre 120, air 0.026)
     assert {r["conductivity_unit"] for r in out["results"]} == {"W/(m K)"}
+    # --direction all: the tensor, its symmetric part and eigenvalues, as docs/transport.md says
+    # and diffusivity gives (conductivity gave the tensor alone until session 53); along the
+    # cylinder (z) the parallel mean of the phases, an eigenvalue of the diagonal tensor
+    sym = np.array(out["symmetric"])
+    np.testing.assert_allclose(sym, 0.5 * (np.array(out["tensor"]) + np.array(out["tensor"]).T))
+    fs = out["results"][2]["solid_fraction"]
+    assert sym[2, 2] == pytest.approx(120 * fs + 0.026 * (1 - fs), rel=1e-6)
+    np.testing.assert_allclose(out["eigenvalues"], np.sort(np.diag(sym)), rtol=1e-6)
     assert main(["conductivity", str(spec), "--solid", "1e4", "--fluid", "1", "--unit", "S/m"]) == 0
     line = capsys.readouterr().out
     assert line.startswith("sigma_eff_z = ") and " S/m +- " in line
@@ -556,3 +564,25 @@ def test_docs_transport_example_lines_are_the_commands_output(spec, capsys):
         assert main([command, str(spec), "--direction", "x"]) == 0
         lines += capsys.readouterr().out.splitlines()
     assert lines == block
+
+
+def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path, capsys):
+    """Walls (solid slab x in [0, 8) of 32 voxels, an image): along x no intrusion path
+    crosses, so the breakthrough is JSON null, the sizes line says 'none (...: blocked)' and
+    '[blocked]', and the exit status is 3 (as diffusivity across the walls). Session 53
+    (walk-transport finding 1): '0.000e+00 m ... [ok]', exit 0."""
+    solid = np.zeros((32, 8, 8), np.uint8)
+    solid[:8] = 1
+    np.save(tmp_path / "walls.npy", solid)
+    spec = tmp_path / "walls.toml"
+    spec.write_text('[image]\npath = "walls.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["breakthrough_diameter_m"] is None and out["breakthrough_status"] == "blocked"
+    assert "breakthrough: no intrusion path along x" in cap.err
+    assert main(["pores", str(spec), "--axis", "x", "--quiet"]) == 3
+    sizes = capsys.readouterr().out.splitlines()[0]
+    assert "breakthrough none (no intrusion path along x: blocked), each " in sizes
+    assert "[blocked]  converged true" in sizes
+    assert main(["pores", str(spec), "--axis", "y", "--quiet"]) == 0  # along the walls: ok

@@ -1178,7 +1178,7 @@ def test_conductivity_and_from_image_bad_arguments_name_the_key(tmp_path) -> Non
         with pytest.raises(psdesign.SpecError) as info:
             m.conductivity("z", solid=bad, fluid=0.1)
         assert info.value.key == "transport.solid_conductivity", str(info.value)
-        assert "must be a number > 0 and < 1e12" in info.value.message
+        assert "must be a number >= 1e-300 and < 1e12" in info.value.message
     with pytest.raises(psdesign.SpecError) as info:
         psdesign.from_image(tmp_path, voxel_size=1e-6)
     assert info.value.key == "image.path" and "no .tif / .tiff file in the folder" in str(

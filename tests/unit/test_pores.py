@@ -78,6 +78,8 @@ def test_intrusion_ink_bottle_fills_the_cavity_at_the_neck_size():
     first = np.nonzero(diam <= neck_d + 1e-12)[0][0]
     assert sat[first] > 0.7  # the cavity (3/4 of the pore volume) fills at the neck size
     assert sat[-1] > 0.9  # what is left are sub-voxel corners at the walls
+    # the bottle has a bottom (solid beyond the cavity, z > 50.5): it fills but nothing crosses
+    assert res.breakthrough_diameter_m is None
     # local thickness (no access constraint) sees the cavity at its own size
     assert res.max_diameter_m == pytest.approx(20.0 * H, rel=0.02)
 
@@ -275,6 +277,8 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
     from psdesign.transport.study_outputs import _pore_rating
 
     base = {"rel_error": 0.05, "specific_surface_rel_error": 0.01, "converged": True}
+    base["breakthrough_diameter_m"] = 2e-5  # a path crosses (test above when none does)
+    base["surface_short_axes"] = ""  # the S_v bar's coarse grid halves every axis
     inside = _pore_rating({**base, "pore_d90_m": 0.99e-4}, None, 1e-6, 100e-6)
     assert (inside["status"], inside["warnings"]) == ("ok", [])
     past = _pore_rating({**base, "pore_d90_m": 1.01e-4}, None, 1e-6, 100e-6)
@@ -442,3 +446,79 @@ def test_conductivity_of_one_conductivity_in_both_phases_is_it_and_ok():
     assert same.status == "ok" and not same.warnings
     contrast = effective_conductivity(fields, "x", 10.0, 1.0, cells_per_diameter=6.0)
     assert contrast.status == "untrustworthy"
+
+
+@pytest.mark.parametrize("shift", [0, 12])
+def test_breakthrough_needs_a_path_across_and_ignores_where_the_box_is_cut(shift):
+    """A solid slab x in [0, 8) of a periodic 32-voxel box (walls, a slit pore 24 voxels wide
+    along y and z): no non-wetting path crosses along x at any diameter, so the breakthrough is
+    None and the report ``blocked`` (exit 3), however the box is cut (np.roll). Along y the
+    slit's width, 24 um, less at most the scan's one-sided bar. Session 53 (walk-transport
+    finding 1): it was the first diameter with any intruded volume, 23 um ``ok`` with the cut
+    at x = 12 and 0 ``ok`` with the cut at x = 0."""
+    from psdesign.transport.study_outputs import pore_report
+
+    solid = np.zeros((32, 12, 12), bool)
+    solid[:8] = True
+    solid = np.roll(solid, shift, axis=0)
+    fields = _fields(np.where(solid, -0.5, 0.5))
+    across = pore_sizes(fields, n_radii=16, thickness_axis="x")
+    assert across.breakthrough_diameter_m is None
+    along = pore_sizes(fields, n_radii=16, thickness_axis="y")
+    width = 24 * H
+    assert width - along.diameter_error_m <= along.breakthrough_diameter_m <= width
+    tr = {"n_radii": 16, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert (out["breakthrough_status"], out["status"]) == ("blocked", "blocked")
+    assert any("no intrusion path along x" in w for w in out["warnings"])
+
+
+@pytest.mark.parametrize("depth", [6, 16])
+def test_surface_bar_of_an_extruded_rod_does_not_depend_on_its_depth(depth):
+    """A rod of radius 8 voxels along z (32 x 32 cross-section, analytic distance) extruded
+    ``depth`` voxels: exact ``S_v = 2 pi R / A_cross`` = 49087 1/m at any depth. The bar's
+    coarse grid halves x and y only when z is short; z, along which nothing varies, adds no
+    error, so the bar is the deep rod's and covers the true error. Session 53 (walk-transport
+    finding 2): under 8 voxels on any axis the bar was 0.0 % and the value ``ok``."""
+    from psdesign.transport.pores import surface_status
+
+    X, Y, _ = _coords((32, 32, depth))
+    rod = np.sqrt((X - 16) ** 2 + (Y - 16) ** 2) - 8.0  # > 0 in the pore
+    res = specific_surface(_fields(rod))
+    exact = 2 * np.pi * 8.0 / (32 * 32) / H
+    assert res.rel_error > 0.001  # measured 0.0029, true error 0.096 % (49040 1/m)
+    assert abs(res.specific_surface_m_1 - exact) <= res.rel_error * res.specific_surface_m_1
+    deep = specific_surface(_fields(np.repeat(rod[:, :, :1], 16, axis=2)))
+    assert res.rel_error == pytest.approx(deep.rel_error, rel=1e-6)
+    assert res.extra["short_axes"] == ""
+    assert surface_status(res.rel_error, res.extra["short_axes"], None) == "ok"
+
+
+def test_surface_along_a_short_axis_the_geometry_varies_along_is_untrustworthy():
+    """A rod along x (radius 2.5 voxels in y-z) in a 32 x 32 x 6 box varies along z over 6
+    voxels, too few for a coarse grid there: the bar misses that part, so the value is
+    ``untrustworthy`` with a warning naming z, never ``ok`` from lack of data."""
+    from psdesign.transport.study_outputs import pore_report
+
+    _, Y, Z = _coords((32, 32, 6))
+    fields = _fields(np.sqrt((Y - 16) ** 2 + (Z - 3) ** 2) - 2.5)
+    assert specific_surface(fields).extra["short_axes"] == "z"
+    tr = {"n_radii": 8, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert out["specific_surface_status"] == "untrustworthy"
+    assert any(
+        w.startswith("S_v: the geometry varies along z over fewer than 8") for w in out["warnings"]
+    )
+
+
+def test_breakthrough_is_the_neck_a_wide_inlet_pore_leads_to():
+    """A pore of radius 10 voxels open at the inlet (z < 30) continued to the outlet by a neck
+    of radius 3 (z >= 30), periodic along z: the non-wetting phase enters at 20 um but crosses
+    only at the neck's 6 um (the scan measures low by at most its bar). It read 20 um, the
+    largest diameter that enters, until session 53."""
+    X, Y, Z = _coords((41, 41, 60))
+    rxy = np.sqrt((X - 20.5) ** 2 + (Y - 20.5) ** 2)
+    res = pore_sizes(_fields(np.where(Z < 30, 10.0, 3.0) - rxy), n_radii=30, thickness_axis="z")
+    assert res.intrusion_saturation[0] > 0  # the wide pore fills at the largest diameter
+    neck = 6.0 * H
+    assert neck - res.diameter_error_m <= res.breakthrough_diameter_m <= neck

@@ -293,6 +293,45 @@ def test_bad_transport_keys_are_refused_naming_the_key(table, key):
     assert "\n" not in str(exc.value)
 
 
+def _walls() -> np.ndarray:
+    """Solid slab x in [0, 8) of a 32 x 8 x 8 periodic box (solid fraction 1/4)."""
+    solid = np.zeros((32, 8, 8), bool)
+    solid[:8] = True
+    return solid
+
+
+@pytest.mark.parametrize("fluid", [1e-46, 1e-300])
+def test_two_conducting_phases_never_block_however_weak_one_is(fluid):
+    """Walls across x in series, along y in parallel (the layered closed forms) with a fluid
+    far below float32's range. Session 53 (walk-transport finding 4): the map was cast to
+    float32, the fluid underflowed to 0: 1e-46 gave ``0 [blocked]``, 1e-300 'no conducting
+    voxel' though the solid is 120; docs/transport.md says two conducting phases never block."""
+    fields = fields_from_solid(_walls(), 1e-6)
+    across = effective_conductivity(fields, "x", 120.0, fluid)
+    assert not across.blocked and across.status == "ok"
+    assert across.effective_conductivity == pytest.approx(1 / (0.25 / 120 + 0.75 / fluid), rel=1e-6)
+    along = effective_conductivity(fields, "y", 120.0, fluid)
+    assert along.effective_conductivity == pytest.approx(0.25 * 120 + 0.75 * fluid, rel=1e-6)
+
+
+def test_equal_phases_give_the_phase_value_exactly():
+    """solid = fluid = 3.7: a uniform medium, 3.7 exactly (the float64 value), bar 0. The
+    float32 map gave 3.700000047683716 (session 53, walk-transport finding 5)."""
+    res = effective_conductivity(fields_from_solid(_walls(), 1e-6), "x", 3.7, 3.7)
+    assert (res.effective_conductivity, res.rel_error, res.status) == (3.7, 0.0, "ok")
+
+
+def test_conductivities_below_float64s_normal_range_are_refused():
+    """Below 1e-300 the effective value is not representable (5e-324 across walls gave
+    4.9e-324 for 6.6e-324): refused naming the key and the range, as the spec key is."""
+    with pytest.raises(SpecError, match=r"--fluid: must be >= 1e-300 and < 1e12"):
+        check_conductivity(5e-324, "--fluid")
+    with pytest.raises(SpecError) as exc:
+        validate_transport({"transport": {"fluid_conductivity": 1e-310}})
+    assert exc.value.key == "transport.fluid_conductivity" and "1e-300" in str(exc.value)
+    assert check_conductivity(1e-300, "--fluid") == 1e-300
+
+
 def test_cli_conductivity_refuses_zero():
     with pytest.raises(SpecError, match="--solid"):
         check_conductivity(0.0, "--solid")
