@@ -463,14 +463,6 @@ def six_fiber_problem(
         raise ValueError(f"t_range must be >= 0, got {t_range}")
     if weave_sign not in (-1, 1):
         raise ValueError(f"weave_sign must be -1 or 1, got {weave_sign}")
-    start_p = {**init, "kappa3": 3 * init["kappa1"]}  # the start, tied as below
-    lo, hi = woven_isovalue_range(start_p)
-    if not lo < isovalue < hi:
-        raise ValueError(
-            f"isovalue {isovalue} must lie in ({lo:.4g}, {hi:.4g}) for the start's moments: "
-            f"below, the woven fiber has no solid; above, the fibers of one set "
-            f"({WOVEN_SPACING} apart) merge side by side"
-        )
     t0 = SIX_TRANSLATIONS[0, :2]
     param = _six_fiber_parametrization(init, rng, t_range)
     build = _SixFiberBuild(isovalue, weave_sign)
@@ -491,6 +483,16 @@ def six_fiber_problem(
         surface=surface,
         paper={**TABLE_II_RESULT, "tx": float(t0[0]), "ty": float(t0[1])},
     )
+    # the range of the start the search begins from: every tie applied (mu2 = mu1 - 1,
+    # mu5 = mu4, kappa2..5 from kappa1), not the initial table with kappa3 alone tied (with
+    # initial.mu1 = 4 that refused -6.95, inside the tied start's (-7, -6.28): mendff2, s53)
+    lo, hi = woven_isovalue_range(prob.params(prob.x0))
+    if not lo < isovalue < hi:
+        raise ValueError(
+            f"isovalue {isovalue} must lie in ({lo:.4g}, {hi:.4g}) for the start's moments: "
+            f"below, the woven fiber has no solid; above, the fibers of one set "
+            f"({WOVEN_SPACING} apart) merge side by side"
+        )
     prob.notes = [
         f"Table II start kappa3 = {init['kappa3']}, f = {init['f']} replaced by "
         f"3 kappa1 = {start['kappa3']:.4g}, 1.5 kappa1 = {start['f']:.4g}"

@@ -1037,6 +1037,14 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
         ("six-fiber", "isovalue = -6.1", ("isovalue -6.1 must lie in (-6.8, -6.12)",)),
         # "bounds must satisfy hi > lo, got [4.67e-001 ... 5e+299]"
         ("six-fiber", "t_range = 1e300", ("forcefield.six_fiber.t_range: must be <= 0.5",)),
+        # the tied start (mu2 = mu1 - 1 = 2.8): lo = -mu1 - mu2 = -6.6 in closed form; the range
+        # of the untied table passed -6.65, then "isovalue -6.65 gives no fiber for parameters
+        # {...}" named no range (mendff2, session 53)
+        (
+            "six-fiber",
+            "[forcefield.six_fiber.initial]\nmu1 = 3.8",
+            ("isovalue -6.65 must lie in (-6.6, -5.958)",),
+        ),
     ],
 )
 def test_a_case_key_out_of_its_range_is_one_line_naming_it(tmp_path, capsys, case, body, needles):
@@ -1050,6 +1058,23 @@ def test_a_case_key_out_of_its_range_is_one_line_naming_it(tmp_path, capsys, cas
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert all(n in line for n in needles), line
     assert not out.exists()
+
+
+def test_the_six_fiber_isovalue_range_is_the_tied_starts(tmp_path):
+    """initial.mu1 = 4 ties mu2 = mu1 - 1 = 3: the start's field minimum is -mu1 - mu2 = -7
+    (closed form, as below), so isovalue -6.95 is valid; checked on the initial table with
+    only kappa3 tied (mu2 = 2.9), the range began at -6.9 and the spec was refused."""
+    from psdesign.forcefield.run import load_forcefield_spec, problem_from_spec
+
+    spec = tmp_path / "ff.toml"
+    spec.write_text(
+        '[forcefield]\ncase = "six-fiber"\nmax_iter = 1\n[forcefield.six_fiber]\n'
+        "isovalue = -6.95\n[forcefield.six_fiber.initial]\nmu1 = 4.0\n"
+        "[forcefield.quadrature]\nh = 0.02\nn_s = 16\nn_theta = 8\n"
+    )
+    prob = problem_from_spec(load_forcefield_spec(spec))
+    assert prob.params(prob.x0)["mu2"] == pytest.approx(3.0)
+    assert np.isfinite(prob.objective(prob.x0))  # a fiber there: the start evaluates
 
 
 def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
