@@ -1022,6 +1022,51 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
 
 
 @pytest.mark.parametrize(
+    ("status", "message", "needles", "absent"),
+    [
+        # the gaussian six-fiber optimum (review of session 53): mu1 = 3.828 inside [3.7, 4.1]
+        (
+            "at_bound",
+            "",
+            (
+                "optimum on the bound of kappa1 and on the fiber-breaking wall of mu1, mu3",
+                "widen the ranges of kappa1 or read it as such; beyond the wall a fiber breaks",
+                "thinner than 0.25 of its median section depth",
+            ),
+            ("widen the ranges or", "ranges of kappa1, mu1", "ranges of mu1"),
+        ),
+        (
+            "not_converged",
+            "stopped on the iteration limit (max_iter=1)",
+            ("(on the bound of kappa1 and on the fiber-breaking wall of mu1, mu3)",),
+            ("the bound of mu1",),
+        ),
+    ],
+)
+def test_the_stop_warning_asks_to_widen_only_box_bound_ranges(
+    tmp_path, capsys, monkeypatch, status, message, needles, absent
+):
+    """A variable against the fiber-breaking wall lies inside its range: no range change moves
+    the wall, so the warning says a fiber breaks there, and names ranges only of box-bound
+    variables (it said "widen the ranges or read it as such" and "on the bound of" the wall's)."""
+    import psdesign.forcefield.run as ffrun
+    from psdesign.cli import main
+
+    summary = {
+        "case": "six-fiber", "U": 0.37, "converged": False, "status": status,
+        "at_bound": ["mu1", "mu3", "kappa1"], "at_breaking_wall": ["mu1", "mu3"],
+        "message": message, "n_evals": 1, "wall_time_s": 0.0, "free_variables": {},
+    }  # fmt: skip
+    monkeypatch.setattr(ffrun, "run_forcefield", lambda *a, **k: summary)
+    spec = tmp_path / "ff.toml"
+    spec.write_text('[forcefield]\ncase = "six-fiber"\nmax_iter = 1\n')
+    main(["forcefield", str(spec), "-o", str(tmp_path / "out"), "--no-pictures", "--quiet"])
+    (warn,) = capsys.readouterr().err.strip().splitlines()
+    assert all(n in warn for n in needles), warn
+    assert not any(a in warn for a in absent), warn
+
+
+@pytest.mark.parametrize(
     ("case", "body", "needles"),
     [
         # mu = 0: no rod; a ZeroDivisionError traceback, exit 1 (walk-paper, session 53)
