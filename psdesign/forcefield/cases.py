@@ -385,6 +385,13 @@ def woven_half_widths(p: dict, isovalue: float) -> tuple[float, float]:
     return _half_widths(tuple(float(p[k]) for k in _WIDTH_KEYS), float(isovalue))
 
 
+def _lateral_scan(kappa2: float) -> np.ndarray:
+    """Lateral offsets from the straight woven fiber's centre scanned for its solid: 451
+    over 0.9 of its period ``1 / kappa2`` (the one grid of :func:`woven_half_widths` and
+    :func:`woven_isovalue_range`, so the range's ``lo`` is where the half widths find none)."""
+    return np.linspace(-0.45, 0.45, 451) / kappa2
+
+
 def _section_rest(p: dict, ys: np.ndarray) -> np.ndarray:
     """The straight fiber's terms but the first, on lateral offsets ``ys`` from its centre
     (rows) and 61 axial positions over one period of the third term (columns)."""
@@ -407,7 +414,7 @@ def woven_isovalue_range(p: dict) -> tuple[float, float]:
     "surface farther than its tube radius").
     """
     q = {k: float(p[k]) for k in _WIDTH_KEYS}
-    lo = float(_section_rest(q, np.linspace(-0.45, 0.45, 451) / q["kappa2"]).min() - q["mu1"])
+    lo = float(_section_rest(q, _lateral_scan(q["kappa2"])).min() - q["mu1"])
     side = _section_rest(q, np.array([-0.5, 0.5]) * WOVEN_SPACING)
     return lo, float(side.min() - q["mu1"])
 
@@ -416,7 +423,7 @@ def woven_isovalue_range(p: dict) -> tuple[float, float]:
 def _half_widths(values: tuple[float, ...], isovalue: float) -> tuple[float, float]:
     p = dict(zip(_WIDTH_KEYS, values, strict=True))
     k1, k2 = p["kappa1"], p["kappa2"]
-    ys = np.linspace(-0.45, 0.45, 451) / k2
+    ys = _lateral_scan(k2)
     rest = _section_rest(p, ys)
     cstar = (isovalue - rest) / p["mu1"]
     solid = cstar >= -1.0

@@ -1128,6 +1128,7 @@ def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
     mu3 = mu4 + mu5 = 1.1), and at the range's top its lateral half width is half the fibers'
     spacing 0.318 (fibers of one set touch side by side)."""
     from psdesign.forcefield.cases import woven_half_widths, woven_isovalue_range
+    from psdesign.forcefield.fields import NoFiberError
     from psdesign.geometry.fibers import WOVEN_SPACING
 
     p = {**TABLE_II_INITIAL, "kappa3": 3 * TABLE_II_INITIAL["kappa1"]}
@@ -1136,3 +1137,7 @@ def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
     lat_scan_step = 0.9 / 450 / p["kappa2"]  # woven_half_widths is conservative by one step
     assert woven_half_widths(p, hi)[0] == pytest.approx(WOVEN_SPACING / 2, abs=lat_scan_step)
     assert woven_half_widths(p, -6.65)[0] < WOVEN_SPACING / 2
+    # one lateral scan (cases._lateral_scan): lo is where the half widths start to find solid
+    woven_half_widths(p, lo + 1e-9)
+    with pytest.raises(NoFiberError, match="gives no fiber"):
+        woven_half_widths(p, lo - 1e-9)
