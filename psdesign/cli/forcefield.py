@@ -73,6 +73,13 @@ def stop_warning(summary: dict) -> str | None:
             else ""
         )
         return f"the fibers still overlap (contact_left{at}); wrote the best point"
+    if status == "untrustworthy":  # the bar's coarser quadrature broke a fiber
+        at = f" (on {where})" if on else ""
+        return (
+            f"U's error bar is unknown{at}: the coarser quadrature of the bar breaks a fiber "
+            "at the optimum (on the fiber-breaking wall within the quadrature's resolution); "
+            "untrustworthy, wrote the best point found"
+        )
     if on:
         return f"optimum on {where} (a constrained stop, not converged); {advice}"
     if not summary["converged"]:

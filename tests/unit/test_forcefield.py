@@ -1021,6 +1021,45 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
     assert out["status"] == "at_bound" and out["converged"] is False
 
 
+def test_an_error_bar_whose_coarse_quadrature_breaks_a_fiber_is_unknown_not_a_crash(monkeypatch):
+    """The bar's coarser quadrature checks fewer sections for a neck: at an optimum on the
+    breaking wall (the gaussian six-fiber's neck ratio 0.2505 vs 0.25, session 53) it may break
+    a fiber the working quadrature keeps. The run raised NoFiberError after its search; now
+    the bar is inf (unknown, not 0), the status untrustworthy (exit 3) and a note says why;
+    a point where the working quadrature breaks a fiber (the paper's optimum beyond the wall)
+    gets U = inf and the reason."""
+    from psdesign.cli.exit_status import status_code
+    from psdesign.forcefield.fields import NoFiberError
+    from psdesign.forcefield.pattern import PatternSearchResult
+    from psdesign.forcefield.run import UNKNOWN_BAR, _with_error, summarize
+
+    p = two_fiber_problem(h=0.02, n_s=16, n_theta=8)
+    real = p.potential
+
+    def coarse_breaks(x, h=None, **kw):
+        if h is not None and h > p.h:
+            raise NoFiberError("the fiber nearly pinches off inside the domain")
+        return real(x, h=h, **kw)
+
+    monkeypatch.setattr(p, "potential", coarse_breaks)
+    res = PatternSearchResult(
+        x=p.x0, fun=p.objective(p.x0), n_iter=1, n_evals=1, converged=True, message="",
+        poll_step=1e-3, infeasible=[],
+    )  # fmt: skip
+    out = summarize(p, res, 0.0)
+    assert out["U"] == pytest.approx(real(p.x0).U) and out["U_error"] == np.inf
+    assert all(v == np.inf for v in out["potentials_error"]["per_fiber_surface"])
+    assert out["status"] == "untrustworthy" and status_code(out["status"]) == 3
+    assert UNKNOWN_BAR in out["notes"] and out["start"]["U_error"] == np.inf
+
+    def broken(x, h=None, **kw):
+        raise NoFiberError("a cross-section of the fiber has no solid")
+
+    monkeypatch.setattr(p, "potential", broken)
+    got = _with_error(p, p.x0)
+    assert got["U"] == got["U_error"] == np.inf and "no solid" in got["no_fiber"]
+
+
 @pytest.mark.parametrize(
     ("status", "message", "needles", "absent"),
     [
@@ -1040,6 +1079,12 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
             "stopped on the iteration limit (max_iter=1)",
             ("(on the bound of kappa1 and on the fiber-breaking wall of mu1, mu3)",),
             ("the bound of mu1",),
+        ),
+        (
+            "untrustworthy",
+            "",
+            ("U's error bar is unknown (on the bound of kappa1 and on the fiber-breaking wall",),
+            ("widen",),
         ),
     ],
 )
