@@ -37,34 +37,74 @@ def _cmd_forcefield(args: argparse.Namespace) -> int:
             if k in summary
         }
     )
-    # warnings on stderr: stdout stays one JSON object
-    if summary["status"] == "not_converged":
-        on = summary["at_bound"]
-        where = f" (on the bound of {', '.join(on)})" if on else ""
-        progress.warning(f"{summary['message']}, not converged; wrote the best point found{where}")
-    elif summary["status"] == "contact_left":
-        on = summary["at_bound"]
-        where = (
+    warning = stop_warning(summary)
+    if warning:  # on stderr: stdout stays one JSON object
+        progress.warning(warning)
+    # a constrained optimum (at_bound) is a result; a search stopped early (not_converged) or
+    # one that left an overlap (contact_left, 0 until session 45) is written but exits 3
+    return status_code(summary["status"])
+
+
+def stop_warning(summary: dict) -> str | None:
+    """The warning of a run that did not converge cleanly, or None.
+
+    Parameters
+    ----------
+    summary : dict
+        ``run_forcefield``'s summary (``status``, ``at_bound``, ``at_breaking_wall``, ...).
+
+    Returns
+    -------
+    str or None
+        One line naming where the search stopped; a range to widen only for variables on a
+        box bound (a variable against the fiber-breaking wall is inside its range: no range
+        moves the wall; mendff2, session 53).
+    """
+    status, on = summary["status"], summary["at_bound"]
+    where, advice = _stop_places(summary)
+    if status == "not_converged":
+        at = f" (on {where})" if on else ""
+        return f"{summary['message']}, not converged; wrote the best point found{at}"
+    if status == "contact_left":
+        at = (
             f"; the moves stop on the bound of {', '.join(on)}: widen forcefield.relax.max_shift"
             " or u_max"
             if on
             else ""
         )
-        progress.warning(f"the fibers still overlap (contact_left{where}); wrote the best point")
-    elif summary["at_bound"]:
-        wall = summary.get("at_breaking_wall", [])
-        box = [n for n in summary["at_bound"] if n not in wall]
-        where = [f"the bound of {', '.join(box)}"] if box else []
-        where += [f"the fiber-breaking wall of {', '.join(wall)}"] if wall else []
-        progress.warning(
-            f"optimum on {' and on '.join(where)} (a constrained stop, not converged); "
-            "widen the ranges or read it as such"
+        return f"the fibers still overlap (contact_left{at}); wrote the best point"
+    if status == "untrustworthy":  # the bar's coarser quadrature broke a fiber
+        at = f" (on {where})" if on else ""
+        return (
+            f"U's error bar is unknown{at}: the coarser quadrature of the bar breaks a fiber "
+            "at the optimum (on the fiber-breaking wall within the quadrature's resolution); "
+            "untrustworthy, wrote the best point found"
         )
-    elif not summary["converged"]:
-        progress.warning(f"{summary['message']}; wrote the best point found")
-    # a constrained optimum (at_bound) is a result; a search stopped early (not_converged) or
-    # one that left an overlap (contact_left, 0 until session 45) is written but exits 3
-    return status_code(summary["status"])
+    if on:
+        return f"optimum on {where} (a constrained stop, not converged); {advice}"
+    if not summary["converged"]:
+        return f"{summary['message']}; wrote the best point found"
+    return None
+
+
+def _stop_places(summary: dict) -> tuple[str, str]:
+    """Where the search stopped ("the bound of kappa1 and on the fiber-breaking wall of mu1")
+    and the advice for each kind of stop."""
+    from psdesign.forcefield.tube import NECK_DEPTH_FRACTION
+
+    wall = summary.get("at_breaking_wall", [])
+    box = [n for n in summary["at_bound"] if n not in wall]
+    where, advice = [], []
+    if box:
+        where.append(f"the bound of {', '.join(box)}")
+        advice.append(f"widen the ranges of {', '.join(box)} or read it as such")
+    if wall:
+        where.append(f"the fiber-breaking wall of {', '.join(wall)}")
+        advice.append(
+            f"beyond the wall a fiber breaks (a neck thinner than {NECK_DEPTH_FRACTION} of its "
+            "median section depth, tube.NECK_DEPTH_FRACTION): no range moves it"
+        )
+    return " and on ".join(where), "; ".join(advice)
 
 
 def register(subparsers) -> None:

@@ -49,6 +49,7 @@ from psdesign.forcefield.cases import (
     six_fiber_problem,
     two_fiber_problem,
 )
+from psdesign.forcefield.fields import NoFiberError
 from psdesign.forcefield.pattern import PatternSearchResult, poll_bars
 from psdesign.schema.errors import did_you_mean, spec_error
 from psdesign.schema.forcefield import ForceFieldTable, SixFiber, TwoFiber
@@ -246,6 +247,10 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     status = search_status(not res.converged, at_bound, False)
     pot = prob.potential(res.x)
     err = prob.potential_error(res.x, fine=pot)  # one coarser evaluation: the quadrature bar
+    notes = list(prob.notes)
+    if not np.isfinite(err["U"]):  # the coarse quadrature broke a fiber: no bar (it crashed)
+        notes.append(UNKNOWN_BAR)
+        status = "untrustworthy" if status in ("converged", "at_bound") else status
     out = {
         "case": prob.name,
         "units": PAPER_UNITS,
@@ -273,7 +278,7 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
         "n_speculative": res.n_speculative,
         "wall_time_s": wall,
         "start": _with_error(prob, prob.x0),
-        "notes": prob.notes,
+        "notes": notes,
         "fibers": [
             {"index": i + 1, "isovalue": f.isovalue, "ps_model": f.model.to_dict()}
             for i, f in enumerate(fields)
@@ -290,10 +295,23 @@ def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) ->
     return out
 
 
+#: The note of a run whose error bar is unknown (mendff2, session 53: it was a traceback).
+UNKNOWN_BAR = (
+    "U's quadrature bar is unknown (U_error inf, status untrustworthy): the coarser "
+    "quadrature of the bar (h doubled, n_s and n_theta halved, fewer sections checked for a "
+    "neck) breaks a fiber at the optimum, which lies on the fiber-breaking wall within the "
+    "quadrature's resolution"
+)
+
+
 def _with_error(prob: ForceFieldProblem, x) -> dict:
     """Parameters, potentials and U's quadrature bar at ``x`` (one extra, coarser evaluation:
-    :meth:`ForceFieldProblem.potential_error`)."""
-    pot = prob.potential(x)
+    :meth:`ForceFieldProblem.potential_error`); ``U`` and its bar ``inf`` and the reason in
+    ``no_fiber`` where a fiber breaks at ``x`` (e.g. the paper's optimum beyond the wall)."""
+    try:
+        pot = prob.potential(x)
+    except NoFiberError as exc:
+        return {"parameters": prob.params(x), "U": np.inf, "U_error": np.inf, "no_fiber": str(exc)}
     return {
         "parameters": prob.params(x),
         **pot.to_dict(),

@@ -48,8 +48,8 @@ class FiberTable(Table):
     )
     f: number(gt=0, le=MAX_BENDS) = Field(
         1.0,
-        description="bends per period in (0, 1000], with |u| f <= 10 (rod, cylinder, bent-rod; "
-        "a fixed shape's is its equation's)",
+        description="bends per period in (0, 1000], with |u| f <= 10 (bent-rod only; a fixed "
+        "shape's is its equation's)",
     )
     isovalue: number() | None = Field(
         None,
@@ -106,19 +106,23 @@ class FiberTable(Table):
         """Refuse the keys the shape's geometry ignores (they had no effect: walk-paper,
         session 53): a round fiber's isovalue is set by its diameter (``rod_isovalue``); a
         fixed shape's size by its equation and isovalue, its bend scale by its equation."""
-        if self.shape in ROUND_SHAPES:
-            if "isovalue" in given:
-                raise fail(
-                    "isovalue",
-                    f"not used by shape = {self.shape!r} (its diameter sets the isovalue)",
-                    "only with a fixed shape: " + ", ".join(FIXED_SHAPES),
-                )
-            return
-        for key, what in (("diameter", "its equation and isovalue"), ("f", "its equation")):
+        if self.shape in ROUND_SHAPES and "isovalue" in given:
+            raise fail(
+                "isovalue",
+                f"not used by shape = {self.shape!r} (its diameter sets the isovalue)",
+                "only with a fixed shape: " + ", ".join(FIXED_SHAPES),
+            )
+        # f on a rod or cylinder (u = 0: no bend to scale) was accepted and ignored while the
+        # message on a fixed shape said "only with shape = bent-rod" (mendff2, session 53)
+        fixed = self.shape in FIXED_SHAPES
+        ignored = {"diameter": "set by its equation and isovalue"} if fixed else {}
+        if self.shape != "bent-rod":
+            ignored["f"] = "set by its equation" if fixed else "it has no bend, u = 0"
+        for key, why in ignored.items():
             if key in given:
                 raise fail(
                     key,
-                    f"not used by shape = {self.shape!r} (set by {what})",
+                    f"not used by shape = {self.shape!r} ({why})",
                     "only with shape = "
                     + ", ".join(ROUND_SHAPES if key == "diameter" else ("bent-rod",)),
                 )
@@ -143,7 +147,7 @@ class FiberTable(Table):
             out["theta"] = self.theta or 0.0
             out["omega"] = self.omega or 0.0
         out["u"] = self.u
-        if self.shape in ROUND_SHAPES:  # a fixed shape's bend scale is its equation's
+        if self.shape == "bent-rod":  # a fixed shape's bend scale is its equation's
             out["f"] = self.f
         if self.shape in BENT_FIXED_SHAPES and "u" not in self.model_fields_set:
             del out["u"]  # the equation's own bend

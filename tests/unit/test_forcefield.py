@@ -1021,6 +1021,96 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
     assert out["status"] == "at_bound" and out["converged"] is False
 
 
+def test_an_error_bar_whose_coarse_quadrature_breaks_a_fiber_is_unknown_not_a_crash(monkeypatch):
+    """The bar's coarser quadrature checks fewer sections for a neck: at an optimum on the
+    breaking wall (the gaussian six-fiber's neck ratio 0.2505 vs 0.25, session 53) it may break
+    a fiber the working quadrature keeps. The run raised NoFiberError after its search; now
+    the bar is inf (unknown, not 0), the status untrustworthy (exit 3) and a note says why;
+    a point where the working quadrature breaks a fiber (the paper's optimum beyond the wall)
+    gets U = inf and the reason."""
+    from psdesign.cli.exit_status import status_code
+    from psdesign.forcefield.fields import NoFiberError
+    from psdesign.forcefield.pattern import PatternSearchResult
+    from psdesign.forcefield.run import UNKNOWN_BAR, _with_error, summarize
+
+    p = two_fiber_problem(h=0.02, n_s=16, n_theta=8)
+    real = p.potential
+
+    def coarse_breaks(x, h=None, **kw):
+        if h is not None and h > p.h:
+            raise NoFiberError("the fiber nearly pinches off inside the domain")
+        return real(x, h=h, **kw)
+
+    monkeypatch.setattr(p, "potential", coarse_breaks)
+    res = PatternSearchResult(
+        x=p.x0, fun=p.objective(p.x0), n_iter=1, n_evals=1, converged=True, message="",
+        poll_step=1e-3, infeasible=[],
+    )  # fmt: skip
+    out = summarize(p, res, 0.0)
+    assert out["U"] == pytest.approx(real(p.x0).U) and out["U_error"] == np.inf
+    assert all(v == np.inf for v in out["potentials_error"]["per_fiber_surface"])
+    assert out["status"] == "untrustworthy" and status_code(out["status"]) == 3
+    assert UNKNOWN_BAR in out["notes"] and out["start"]["U_error"] == np.inf
+
+    def broken(x, h=None, **kw):
+        raise NoFiberError("a cross-section of the fiber has no solid")
+
+    monkeypatch.setattr(p, "potential", broken)
+    got = _with_error(p, p.x0)
+    assert got["U"] == got["U_error"] == np.inf and "no solid" in got["no_fiber"]
+
+
+@pytest.mark.parametrize(
+    ("status", "message", "needles", "absent"),
+    [
+        # the gaussian six-fiber optimum (review of session 53): mu1 = 3.828 inside [3.7, 4.1]
+        (
+            "at_bound",
+            "",
+            (
+                "optimum on the bound of kappa1 and on the fiber-breaking wall of mu1, mu3",
+                "widen the ranges of kappa1 or read it as such; beyond the wall a fiber breaks",
+                "thinner than 0.25 of its median section depth",
+            ),
+            ("widen the ranges or", "ranges of kappa1, mu1", "ranges of mu1"),
+        ),
+        (
+            "not_converged",
+            "stopped on the iteration limit (max_iter=1)",
+            ("(on the bound of kappa1 and on the fiber-breaking wall of mu1, mu3)",),
+            ("the bound of mu1",),
+        ),
+        (
+            "untrustworthy",
+            "",
+            ("U's error bar is unknown (on the bound of kappa1 and on the fiber-breaking wall",),
+            ("widen",),
+        ),
+    ],
+)
+def test_the_stop_warning_asks_to_widen_only_box_bound_ranges(
+    tmp_path, capsys, monkeypatch, status, message, needles, absent
+):
+    """A variable against the fiber-breaking wall lies inside its range: no range change moves
+    the wall, so the warning says a fiber breaks there, and names ranges only of box-bound
+    variables (it said "widen the ranges or read it as such" and "on the bound of" the wall's)."""
+    import psdesign.forcefield.run as ffrun
+    from psdesign.cli import main
+
+    summary = {
+        "case": "six-fiber", "U": 0.37, "converged": False, "status": status,
+        "at_bound": ["mu1", "mu3", "kappa1"], "at_breaking_wall": ["mu1", "mu3"],
+        "message": message, "n_evals": 1, "wall_time_s": 0.0, "free_variables": {},
+    }  # fmt: skip
+    monkeypatch.setattr(ffrun, "run_forcefield", lambda *a, **k: summary)
+    spec = tmp_path / "ff.toml"
+    spec.write_text('[forcefield]\ncase = "six-fiber"\nmax_iter = 1\n')
+    main(["forcefield", str(spec), "-o", str(tmp_path / "out"), "--no-pictures", "--quiet"])
+    (warn,) = capsys.readouterr().err.strip().splitlines()
+    assert all(n in warn for n in needles), warn
+    assert not any(a in warn for a in absent), warn
+
+
 @pytest.mark.parametrize(
     ("case", "body", "needles"),
     [
@@ -1037,6 +1127,14 @@ def test_an_optimum_on_the_breaking_wall_is_listed_at_bound():
         ("six-fiber", "isovalue = -6.1", ("isovalue -6.1 must lie in (-6.8, -6.12)",)),
         # "bounds must satisfy hi > lo, got [4.67e-001 ... 5e+299]"
         ("six-fiber", "t_range = 1e300", ("forcefield.six_fiber.t_range: must be <= 0.5",)),
+        # the tied start (mu2 = mu1 - 1 = 2.8): lo = -mu1 - mu2 = -6.6 in closed form; the range
+        # of the untied table passed -6.65, then "isovalue -6.65 gives no fiber for parameters
+        # {...}" named no range (mendff2, session 53)
+        (
+            "six-fiber",
+            "[forcefield.six_fiber.initial]\nmu1 = 3.8",
+            ("isovalue -6.65 must lie in (-6.6, -5.958)",),
+        ),
     ],
 )
 def test_a_case_key_out_of_its_range_is_one_line_naming_it(tmp_path, capsys, case, body, needles):
@@ -1052,12 +1150,30 @@ def test_a_case_key_out_of_its_range_is_one_line_naming_it(tmp_path, capsys, cas
     assert not out.exists()
 
 
+def test_the_six_fiber_isovalue_range_is_the_tied_starts(tmp_path):
+    """initial.mu1 = 4 ties mu2 = mu1 - 1 = 3: the start's field minimum is -mu1 - mu2 = -7
+    (closed form, as below), so isovalue -6.95 is valid; checked on the initial table with
+    only kappa3 tied (mu2 = 2.9), the range began at -6.9 and the spec was refused."""
+    from psdesign.forcefield.run import load_forcefield_spec, problem_from_spec
+
+    spec = tmp_path / "ff.toml"
+    spec.write_text(
+        '[forcefield]\ncase = "six-fiber"\nmax_iter = 1\n[forcefield.six_fiber]\n'
+        "isovalue = -6.95\n[forcefield.six_fiber.initial]\nmu1 = 4.0\n"
+        "[forcefield.quadrature]\nh = 0.02\nn_s = 16\nn_theta = 8\n"
+    )
+    prob = problem_from_spec(load_forcefield_spec(spec))
+    assert prob.params(prob.x0)["mu2"] == pytest.approx(3.0)
+    assert np.isfinite(prob.objective(prob.x0))  # a fiber there: the start evaluates
+
+
 def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
     """The straight Table II fiber: its field's minimum is -mu1 - mu2 = -6.8 in closed form (on
     the centre line the third to fifth terms are (mu3 - mu4 - mu5) cos(2 pi kappa3 z) = 0, as
     mu3 = mu4 + mu5 = 1.1), and at the range's top its lateral half width is half the fibers'
     spacing 0.318 (fibers of one set touch side by side)."""
     from psdesign.forcefield.cases import woven_half_widths, woven_isovalue_range
+    from psdesign.forcefield.fields import NoFiberError
     from psdesign.geometry.fibers import WOVEN_SPACING
 
     p = {**TABLE_II_INITIAL, "kappa3": 3 * TABLE_II_INITIAL["kappa1"]}
@@ -1066,3 +1182,7 @@ def test_the_six_fiber_isovalue_range_is_where_the_start_has_separate_fibers():
     lat_scan_step = 0.9 / 450 / p["kappa2"]  # woven_half_widths is conservative by one step
     assert woven_half_widths(p, hi)[0] == pytest.approx(WOVEN_SPACING / 2, abs=lat_scan_step)
     assert woven_half_widths(p, -6.65)[0] < WOVEN_SPACING / 2
+    # one lateral scan (cases._lateral_scan): lo is where the half widths start to find solid
+    woven_half_widths(p, lo + 1e-9)
+    with pytest.raises(NoFiberError, match="gives no fiber"):
+        woven_half_widths(p, lo - 1e-9)
