@@ -445,6 +445,16 @@ def numeric_parameters(df: pd.DataFrame, params: list[str]) -> list[str]:
     return out
 
 
+def varying_categories(df: pd.DataFrame, params: list[str]) -> list[str]:
+    """Parameters that are not numeric (:func:`numeric_parameters`: a whole-table level, a
+    wall model's name) and take more than one value in ``df``: no input of a surrogate, so a
+    fit over the numeric ones would mix their levels."""
+    num = set(numeric_parameters(df, params))
+    return [
+        p for p in params if p in df.columns and p not in num and df[p].astype(str).nunique() > 1
+    ]
+
+
 def output_columns(df: pd.DataFrame, params: list[str]) -> list[str]:
     """Numeric result columns (K, porosity, errors, solver statistics; timings left out)."""
     from psdesign.study.store import is_timing_column

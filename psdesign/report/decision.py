@@ -22,6 +22,7 @@ from psdesign.analysis.columns import (
     numeric_parameters,
     trusted,
     value_status,
+    varying_categories,
 )
 from psdesign.analysis.replicates import ci95_half, replicate_summary
 from psdesign.report.interactive import figure_html, number_axis
@@ -511,22 +512,54 @@ class ReportFit(NamedTuple):
 def report_fit(df: pd.DataFrame, params: list[str], study: dict) -> ReportFit | None:
     """The Gaussian-process surrogate the report draws, fitted from the cases whose K is
     trusted, or ``None`` when it draws none (fewer than :data:`MIN_CASES_SURROGATE` such
-    cases, or no varying numeric parameter). One fit for the section and the red box."""
+    cases, no varying numeric parameter, or a varying non-numeric one:
+    :func:`~psdesign.analysis.columns.varying_categories`). One fit for the section and the red
+    box."""
     from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
 
     ok = _ok(df)
-    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
-    # the K with the most trusted values (z first on a tie); fit, range and markers are
-    # those cases only (a case whose K is not ok must not look like a data point)
-    c = max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+    c = _report_column(ok)
     if c is not None:
         ok = ok[ok[c] > 0]
     num = [p for p in numeric_parameters(ok, params) if ok[p].nunique() > 1]
-    if len(ok) < MIN_CASES_SURROGATE or not num or c is None:
+    if len(ok) < MIN_CASES_SURROGATE or not num or c is None or varying_categories(ok, params):
+        # a varying category: a fit over the numeric inputs mixes its levels (`study fit` rates
+        # it untrustworthy); the report draws none and says why (review s53: a red box and
+        # exit 3 on every study of a wall model or fibre kind, e.g. studies/voxel_walls.toml)
         return None
     bounds = parameter_bounds(ok, num, study.get("parameters") or {})
     s = fit_surrogate(ok, c, num, bounds, others=params)
     return ReportFit(s, c, ok, num)
+
+
+def _report_column(ok: pd.DataFrame) -> str | None:
+    """The K with the most trusted values (z first on a tie), or None: fit, range and markers
+    are those cases only (a case whose K is not ok must not look like a data point)."""
+    kcols = [c for c in ("k_z_m2", "k_x_m2", "k_y_m2") if c in ok and (ok[c] > 0).sum() > 0]
+    return max(kcols, key=lambda k: (int((ok[k] > 0).sum()), k == "k_z_m2")) if kcols else None
+
+
+def _no_surrogate_note(df: pd.DataFrame, params: list[str]) -> str:
+    """Why the report draws no surrogate (:func:`report_fit` gave None)."""
+    from psdesign.analysis.surrogate import MIN_FIT_CASES
+
+    ok = _ok(df)
+    c = _report_column(ok)
+    cats = varying_categories(ok[ok[c] > 0] if c is not None else ok, params)
+    if cats:
+        names = html.escape(", ".join(cats))
+        return (
+            f'<p class="note">No surrogate drawn: the cases differ in {names}, which is not '
+            "numeric, so a surrogate over the numeric parameters would mix its levels "
+            "(<code>psdesign study fit</code> rates such a fit untrustworthy); compare the "
+            "levels in the plots above, or run a study per level.</p>"
+        )
+    return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
+        f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
+        "finished cases with a trusted K and a varying numeric parameter; <code>psdesign "
+        f"study fit</code> fits from {MIN_FIT_CASES} (its cross-validated error says how far "
+        "to trust it).</p>"
+    )
 
 
 def fit_alert(fit: ReportFit | None) -> str:
@@ -562,16 +595,10 @@ def surrogate_plots(
         sobol_indices,
         tied_inputs,
     )
-    from psdesign.analysis.surrogate import MIN_FIT_CASES
 
     fit = fit or report_fit(df, params, study)
     if fit is None:
-        return (  # "a surrogate needs 6" read as a rule of study fit, which fits from 3
-            f'<p class="note">The report fits its surrogate from at least {MIN_CASES_SURROGATE} '
-            "finished cases with a trusted K and a varying numeric parameter; <code>psdesign "
-            f"study fit</code> fits from {MIN_FIT_CASES} (its cross-validated error says how far "
-            "to trust it).</p>"
-        )
+        return _no_surrogate_note(df, params)
     s, c, ok, num = fit
     # the status `study fit` prints (psdesign.analysis.prediction.fit_status), not a second rule
     status, why = fit_status(s)
@@ -580,11 +607,6 @@ def surrogate_plots(
         weak = (
             f" <b>[{status}] {html.escape('; '.join(why))}: the surface and the Sobol indices are "
             "not reliable; more cases (or fewer parameters) are needed.</b>"
-        )
-    if s.pooled:  # e.g. flow.wall_treatment: no axis of the surrogate, its levels mixed in
-        weak += (
-            f" It pools the levels of {', '.join(s.pooled)} (not numeric, not an input of the "
-            "surrogate): compare the levels in the plots above."
         )
     parts = [
         f'<p class="note">Gaussian-process surrogate of {c} over {", ".join(num)} from '

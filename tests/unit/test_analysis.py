@@ -1773,7 +1773,8 @@ def test_a_category_that_varies_is_pooled_and_rated_untrustworthy_everywhere(
     parameters only and kept the 4 straight cases: "GP over generator.porosity from 4 cases"
     [ok], a prediction of the straight K [ok], and the report said it "pools the levels of
     generator.kind". Now every case is fitted, the fit says which category it mixes and is
-    untrustworthy in `study fit`, `study predict`, `study sensitivity` and the report."""
+    untrustworthy in `study fit`, `study predict` and `study sensitivity`; the report draws no
+    surrogate and says why (review s53), so its page is not red for it."""
     from study_cases import kind_case
 
     from psdesign.report.decision import fit_alert, report_fit
@@ -1795,9 +1796,18 @@ def test_a_category_that_varies_is_pooled_and_rated_untrustworthy_everywhere(
     main(["study", "sensitivity", str(out)])
     assert "[ok]" not in capsys.readouterr().out
     df = pd.read_csv(out / "results.csv")
-    fit = report_fit(df, ["generator.kind", "generator.porosity"], {"parameters": {}})
-    assert len(fit.surrogate.y) == 8 and fit.surrogate.pooled == ["generator.kind"]
-    assert why in fit_alert(fit)
+    params = ["generator.kind", "generator.porosity"]
+    assert report_fit(df, params, {"parameters": {}}) is None
+    from psdesign.analysis.columns import distinct_realizations, trusted
+    from psdesign.analysis.surrogate import fit_surrogate, parameter_bounds
+
+    ok = distinct_realizations(trusted(df), params)
+    bounds = parameter_bounds(ok, ["generator.porosity"], {})
+    s = fit_surrogate(ok, "k_z_m2", ["generator.porosity"], bounds, others=params)
+    assert len(s.y) == 8 and s.pooled == ["generator.kind"]
+    from psdesign.report.decision import ReportFit
+
+    assert why in fit_alert(ReportFit(s, "k_z_m2", ok, ["generator.porosity"]))
 
 
 # walk-design (session 53): a 6-point latin hypercube of studies/inverse_design.toml's box

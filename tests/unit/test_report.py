@@ -476,8 +476,15 @@ def test_parameter_lines_are_split_by_a_categorical_parameter():
     assert '"name":"z (through-plane), flow.wall_treatment = diffuse"' in parameter_plots(
         df, params
     )
-    # the surrogate takes numeric inputs only: the report says it pools the wall models
-    assert "pools the levels of flow.wall_treatment" in surrogate_plots(df, params, {})
+    # the surrogate takes numeric inputs only: a fit over rve.voxel would mix the wall models
+    # (`study fit` rates it untrustworthy), so the report draws none and says why (review s53:
+    # a red box and exit 3 on every such study, studies/voxel_walls.toml among them)
+    from psdesign.report.decision import fit_alert, report_fit
+
+    assert report_fit(df, params, {}) is None and fit_alert(None) == ""
+    note = surrogate_plots(df, params, {})
+    assert "No surrogate drawn: the cases differ in flow.wall_treatment" in note
+    assert "psd-surface" not in note
 
 
 def test_response_surface_leaves_room_for_its_colour_bars(mixed_report):
