@@ -212,3 +212,28 @@ def test_every_key_with_a_code_default_shows_it():
         if not default and "default" not in allowed and "required" not in allowed
     ]
     assert sorted(set(missing) - NO_DEFAULT) == [], "show the code's default (keys.code_defaults)"
+
+
+def test_woven_cell_defaults_applied_are_the_ones_documented(monkeypatch):
+    """Review s53 (mendrev2): docs/spec-keys.md read a woven cell's defaults from woven_cell's
+    signature, while FiberTable.to_spec applied its own (``or "z"``, ``or 1``, ``or (0.0,
+    0.0)``) and schema/spec.py had a third copy: changing one moved the doc or the RVE, not
+    both. Truth: a change of WOVEN_DEFAULTS moves the value applied to a spec without the key
+    (the validated dict, and the woven_cell it builds: 6 fibers a layer) and the doc's
+    default together; woven_cell's own keyword defaults equal it."""
+    import inspect
+
+    from psdesign.geometry.fibers import woven_cell
+    from psdesign.schema import fibers
+    from psdesign.schema.keys import code_defaults
+    from psdesign.schema.spec import explicit_fibers
+
+    params = inspect.signature(woven_cell).parameters
+    assert {k: params[k].default for k in fibers.WOVEN_DEFAULTS} == fibers.WOVEN_DEFAULTS
+    for key, value in (("layers", 3), ("thickness_axis", "x"), ("layer_shift", (0.25, 0.5))):
+        monkeypatch.setitem(fibers.WOVEN_DEFAULTS, key, value)
+        fb = fibers.FiberTable(shape="woven-cell").to_spec()
+        assert fb[key] == (list(value) if key == "layer_shift" else value), key
+        assert code_defaults()[f"fibers[].{key}"] == repr(value), key
+    spec = {"rve": {"size": [1e-4] * 3, "period": None}, "fibers": [{"shape": "woven-cell"}]}
+    assert len(explicit_fibers(spec)) == 6 * 3  # spec.py's fallback is the same dict
