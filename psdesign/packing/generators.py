@@ -255,10 +255,9 @@ def _solid_per_fiber(probe: FiberState, lo: np.ndarray, hi: np.ndarray) -> float
     return float(np.mean(areas * carrier_lengths(probe, lo, hi)) / np.prod(ext))
 
 
-#: Fibers drawn to measure one fiber's expected carrier length in a box
-#: (:func:`_measured_solid_per_fiber`): in a one-period cube an isotropic fiber's ``L / V``
-#: scatters by 0.19, so 20000 give ``E[L] / V`` to +-0.0013 (session 53: 0.8 s at one
-#: period, 2.7 s at four).
+#: Fibers drawn to measure one fiber's expected carrier length in a one-period box
+#: (:func:`_measured_solid_per_fiber`): an isotropic fiber's ``L / V`` scatters by 0.19 there,
+#: so 20000 give ``E[L] / V`` to +-0.0013 (session 53: 0.8 s).
 SOLID_PROBE_FIBERS = 20_000
 #: Fibers whose copies are clipped at once (bounds the memory of the larger boxes' copies).
 _PROBE_CHUNK = 2_000
@@ -266,25 +265,29 @@ _PROBE_CHUNK = 2_000
 
 def _measured_solid_per_fiber(gs: GeneratorSpec, size: np.ndarray) -> float:
     """Expected solid volume fraction one fiber of ``gs`` adds to a box of ``size`` (metres),
-    ``E[A] E[L] / V``, measured: ``E[L]`` on :data:`SOLID_PROBE_FIBERS` fibers drawn as the
-    RVE's (own seed, so deterministic), ``E[A]`` on the first 256 of them (:func:`_probe`).
+    ``E[A] E[L] / V``, measured: ``E[L]`` on fibers drawn as the RVE's (own seed, so
+    deterministic), ``E[A]`` on the first 256 of them (:func:`_probe`).
 
     ``A`` and ``L`` are independent: the diameter, the orientation and the centre are drawn
     from separate streams (:func:`draw_fibers`). A fiber's copies sit on a unit lattice in its
     own cross-plane and its centre is uniform in the box, so ``E[L] / V`` is 1 only for fibers
     along a box axis or in boxes of many periods: at one period 1.044 (isotropic), 1.014 (the
     default theta / omega), 1.037 (omega 45 deg); at two and three periods 1.0025, 1.0005
-    (isotropic; session 53, 20000 draws).
+    (isotropic; session 53, 20000 draws). ``L / V`` scatters as about ``0.2 / m^2`` in a box
+    whose shortest edge is ``m`` periods (0.19 / 0.051 / 0.024 / 0.013 at 1-4, isotropic):
+    :data:`SOLID_PROBE_FIBERS` ``/ m^2`` fibers (the copies clipped grow as ``m^2``) keep the
+    one-period box's error, the time about constant.
     """
     size = np.asarray(size, float)
-    probe = draw_fibers(gs, gs.seed + 10_000, SOLID_PROBE_FIBERS, size)
     hi = size / gs.period
+    m = max(1.0, float(hi.min()))
+    n = max(_PROBE_CHUNK, math.ceil(SOLID_PROBE_FIBERS / m**2))
+    probe = draw_fibers(gs, gs.seed + 10_000, n, size)
     total = 0.0
-    for start in range(0, SOLID_PROBE_FIBERS, _PROBE_CHUNK):
-        part = probe.subset(np.arange(start, min(start + _PROBE_CHUNK, SOLID_PROBE_FIBERS)))
+    for start in range(0, n, _PROBE_CHUNK):
+        part = probe.subset(np.arange(start, min(start + _PROBE_CHUNK, n)))
         total += float(carrier_lengths(part, np.zeros(3), hi).sum())
-    mean_length = total / SOLID_PROBE_FIBERS
-    return float(np.mean(_areas(_probe(gs, size)))) * mean_length / float(np.prod(hi))
+    return float(np.mean(_areas(_probe(gs, size)))) * total / n / float(np.prod(hi))
 
 
 def whole_periods(ext: np.ndarray) -> bool:
