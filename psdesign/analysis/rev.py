@@ -132,8 +132,9 @@ def _check_sizes(spec: dict, rows: list[dict], solver: str, what: str) -> None:
 def _rows(spec: dict, sizes: list[float]) -> list[dict]:
     """A study row per cube edge: its size and, for an ``n_fibers`` spec, the count that keeps
     the solid fraction (:func:`~psdesign.packing.generators.n_fibers_at_edge`: as edge^2 for
-    the default period, the same for a given one; by the volume until session 53, which
-    measured porosity 0.81 / 0.76 / 0.59 at 20 / 30 / 60 um for 6 fibers of 7 um in 30 um)."""
+    the default period, near the same for a given one, by the measured solid per fiber; by the
+    volume until session 53, which measured porosity 0.81 / 0.76 / 0.59 at 20 / 30 / 60 um for
+    6 fibers of 7 um in 30 um)."""
     from psdesign.packing.generators import n_fibers_at_edge
 
     n_fib = (spec.get("generator") or {}).get("n_fibers")

@@ -9,6 +9,7 @@ from typing import Any
 from pydantic import Field, PrivateAttr, model_validator
 
 from psdesign.geometry.fibers import ROUND_SHAPES
+from psdesign.packing.ga_settings import GASettings
 from psdesign.schema import budget
 from psdesign.schema.distributions import support, support_text
 from psdesign.schema.fibers import FiberTable
@@ -533,7 +534,10 @@ class SpecDocument(Table):
                 counts="for the GA's overlap grid",
             )
         if inter.method == "ga":
-            budget.check_ga(inter.population or 24, inter.generations or 40, n_est)
+            ga = GASettings()  # the GA's defaults, set there only
+            pop = ga.population if inter.population is None else inter.population
+            gens = ga.generations if inter.generations is None else inter.generations
+            budget.check_ga(pop, gens, n_est)
 
     @staticmethod
     def _check_porosity(porosity: float, tol: float, one: float, method: str) -> None:

@@ -21,6 +21,11 @@ FIXED_SHAPES = tuple(s for s in SHAPES if s not in ROUND_SHAPES)
 MAX_SLOPE = 10.0
 #: Most bends per period ``f`` (fibers, generator, the force field's two-fiber case).
 MAX_BENDS = 1000
+#: What a woven cell's keys default to, the one place: applied by :meth:`FiberTable.to_spec`,
+#: shown by docs/spec-keys.md (:func:`psdesign.schema.keys.code_defaults`); ``woven_cell``'s
+#: own keyword defaults are held to it by tests/unit/test_consistency.py (the geometry
+#: cannot import the schema). Three copies until session 53.
+WOVEN_DEFAULTS: dict[str, object] = {"thickness_axis": "z", "layers": 1, "layer_shift": (0.0, 0.0)}
 
 
 class FiberTable(Table):
@@ -132,9 +137,9 @@ class FiberTable(Table):
         if self.shape == "woven-cell":
             return {
                 "shape": self.shape,
-                "thickness_axis": self.thickness_axis or "z",
-                "layers": self.layers or 1,
-                "layer_shift": list(self.layer_shift or (0.0, 0.0)),
+                "thickness_axis": _or_default(self.thickness_axis, "thickness_axis"),
+                "layers": _or_default(self.layers, "layers"),
+                "layer_shift": list(_or_default(self.layer_shift, "layer_shift")),
             }
         out: dict = {"shape": self.shape}
         if self.diameter is not None and self.shape in ROUND_SHAPES:
@@ -154,3 +159,8 @@ class FiberTable(Table):
         if self.isovalue is not None:
             out["isovalue"] = self.isovalue
         return out
+
+
+def _or_default(value: object, key: str) -> object:
+    """``value``, or the woven cell's default for ``key`` when not given (None)."""
+    return WOVEN_DEFAULTS[key] if value is None else value

@@ -8,6 +8,7 @@ from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
+from psdesign.packing.ga_settings import PAPER_MAX_SHIFT
 from psdesign.schema.distributions import DistField, support, support_text
 from psdesign.schema.fibers import MAX_BENDS, MAX_SLOPE
 from psdesign.schema.types import Table, fail, flag, integer, number
@@ -169,7 +170,9 @@ class IntersectionsTable(Table):
     )
     max_shift_z: number(gt=0) | None = Field(None, description="fast only: metres > 0")
     max_shift: number(gt=0) | None = Field(
-        None, description="fast: largest move in metres > 0 (default 0.1 of the period, Sec. 7.1)"
+        None,
+        description=f"fast: largest move in metres > 0 (default {PAPER_MAX_SHIFT:g} of the period, "
+        "Sec. 7.1)",
     )
     exceed_bounds: flag | None = Field(
         None,

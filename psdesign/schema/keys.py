@@ -6,7 +6,6 @@ key tables (``docs/spec-keys.md``) are generated from :func:`key_rows`.
 
 from __future__ import annotations
 
-import inspect
 import typing
 
 from pydantic import BaseModel
@@ -15,6 +14,7 @@ from pydantic_core import PydanticUndefined
 from psdesign.schema.distributions import DIST_MODELS
 from psdesign.schema.document import SpecDocument
 from psdesign.schema.errors import _models
+from psdesign.schema.fibers import WOVEN_DEFAULTS
 from psdesign.schema.study import BoundsParam, RangeParam, StudyTable
 
 __all__ = ["code_defaults", "key_rows", "spec_paths", "study_rows", "table_model"]
@@ -53,11 +53,10 @@ def code_defaults() -> dict[str, str]:
     (:data:`~psdesign.packing.placement_settings.FAST_SPEC_DEFAULTS`), the GA's
     (:class:`~psdesign.packing.ga_settings.GASettings`), the generator's distributions
     (:data:`~psdesign.packing.generators.DEFAULT_UNIFORM`), a woven cell's
-    (:func:`~psdesign.geometry.fibers.woven_cell`) and ``flow.tol``
+    (:data:`~psdesign.schema.fibers.WOVEN_DEFAULTS`, which ``to_spec`` applies) and ``flow.tol``
     (:data:`~psdesign.schema.flow.FLOW_TOL`). docs/spec-keys.md's default column showed none
     of them until session 53."""
     # imported here: psdesign.packing imports the schema
-    from psdesign.geometry.fibers import woven_cell
     from psdesign.packing.ga_settings import GA_VOXEL_RVE_VOXELS, GASettings
     from psdesign.packing.generators import DEFAULT_UNIFORM
     from psdesign.packing.placement_settings import DEFAULT_STEP_DIAMETERS, FAST_SPEC_DEFAULTS
@@ -65,9 +64,7 @@ def code_defaults() -> dict[str, str]:
 
     ga = GASettings()
     out = {f"generator.{k}": f"uniform [{lo:g}, {hi:g}]" for k, (lo, hi) in DEFAULT_UNIFORM.items()}
-    woven = inspect.signature(woven_cell).parameters
-    for k in ("thickness_axis", "layers", "layer_shift"):  # woven-cell
-        out[f"fibers[].{k}"] = repr(woven[k].default)
+    out |= {f"fibers[].{k}": repr(v) for k, v in WOVEN_DEFAULTS.items()}
     out |= {f"intersections.{k}": repr(v) for k, v in FAST_SPEC_DEFAULTS.items()}
     out["intersections.step"] = f"{DEFAULT_STEP_DIAMETERS:g} x the thinnest diameter"
     out["intersections.ga_voxel"] = f"{GA_VOXEL_RVE_VOXELS} x rve.voxel"

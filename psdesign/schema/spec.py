@@ -20,7 +20,7 @@ from psdesign.errors import SpecError
 from psdesign.geometry.fibers import Fiber, make_fiber
 from psdesign.schema.document import SpecDocument, SpecWarning
 from psdesign.schema.errors import spec_error
-from psdesign.schema.fibers import BENT_FIXED_SHAPES, CELL_SHAPES, FiberTable
+from psdesign.schema.fibers import BENT_FIXED_SHAPES, CELL_SHAPES, WOVEN_DEFAULTS, FiberTable
 from psdesign.schema.flow import DEFAULT_FLOW, FlowTable
 
 __all__ = [
@@ -221,9 +221,9 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
 
             fibers.extend(
                 woven_cell(
-                    fb.get("thickness_axis", "z"),
-                    fb.get("layers", 1),
-                    tuple(fb.get("layer_shift", (0.0, 0.0))),
+                    fb.get("thickness_axis", WOVEN_DEFAULTS["thickness_axis"]),
+                    fb.get("layers", WOVEN_DEFAULTS["layers"]),
+                    tuple(fb.get("layer_shift", WOVEN_DEFAULTS["layer_shift"])),
                 )
             )
             continue

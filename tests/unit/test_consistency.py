@@ -7,6 +7,7 @@ import re
 import typing
 from pathlib import Path
 
+import pytest
 from pydantic import BaseModel
 
 from psdesign.schema.distributions import DIST_MODELS
@@ -212,3 +213,56 @@ def test_every_key_with_a_code_default_shows_it():
         if not default and "default" not in allowed and "required" not in allowed
     ]
     assert sorted(set(missing) - NO_DEFAULT) == [], "show the code's default (keys.code_defaults)"
+
+
+def test_woven_cell_defaults_applied_are_the_ones_documented(monkeypatch):
+    """Review s53 (mendrev2): docs/spec-keys.md read a woven cell's defaults from woven_cell's
+    signature, while FiberTable.to_spec applied its own (``or "z"``, ``or 1``, ``or (0.0,
+    0.0)``) and schema/spec.py had a third copy: changing one moved the doc or the RVE, not
+    both. Truth: a change of WOVEN_DEFAULTS moves the value applied to a spec without the key
+    (the validated dict, and the woven_cell it builds: 6 fibers a layer) and the doc's
+    default together; woven_cell's own keyword defaults equal it."""
+    import inspect
+
+    from psdesign.geometry.fibers import woven_cell
+    from psdesign.schema import fibers
+    from psdesign.schema.keys import code_defaults
+    from psdesign.schema.spec import explicit_fibers
+
+    params = inspect.signature(woven_cell).parameters
+    assert {k: params[k].default for k in fibers.WOVEN_DEFAULTS} == fibers.WOVEN_DEFAULTS
+    for key, value in (("layers", 3), ("thickness_axis", "x"), ("layer_shift", (0.25, 0.5))):
+        monkeypatch.setitem(fibers.WOVEN_DEFAULTS, key, value)
+        fb = fibers.FiberTable(shape="woven-cell").to_spec()
+        assert fb[key] == (list(value) if key == "layer_shift" else value), key
+        assert code_defaults()[f"fibers[].{key}"] == repr(value), key
+    spec = {"rve": {"size": [1e-4] * 3, "period": None}, "fibers": [{"shape": "woven-cell"}]}
+    assert len(explicit_fibers(spec)) == 6 * 3  # spec.py's fallback is the same dict
+
+
+def test_ga_budget_and_max_shift_doc_read_the_one_definition(monkeypatch):
+    """Review s53 (mendrev2): the spec check held a GA to ``population or 24`` x ``generations
+    or 40``, a second copy of GASettings' defaults, and intersections.max_shift's text said
+    "default 0.1 of the period" apart from PAPER_MAX_SHIFT. Truth: with other GA defaults the
+    check refuses the work they make (10000 x 100000 x fibers, over budget.MAX_GA_WORK), and
+    the doc's max_shift default is the fraction the fast placement applies."""
+    from psdesign.errors import SpecError
+    from psdesign.packing.ga_settings import PAPER_MAX_SHIFT, GASettings
+    from psdesign.packing.generators import _fast_options, parse_generator
+    from psdesign.schema import document
+    from psdesign.schema.spec import validate_document
+
+    spec = {
+        "rve": {"size": [1e-4] * 3, "voxel": 1e-6},
+        "generator": {"porosity": 0.8, "diameter": 7e-6},
+        "intersections": {"method": "ga"},
+    }
+    validate_document(spec)  # the shipped defaults: within the budget
+    big = GASettings(population=10_000, generations=100_000)
+    monkeypatch.setattr(document, "GASettings", lambda: big)
+    with pytest.raises(SpecError, match=r"population 10000 x generations 100000 x about \d+"):
+        validate_document(spec)
+    spec["intersections"]["method"] = "fast"
+    assert _fast_options(parse_generator(spec, None), 0.0).max_shift == PAPER_MAX_SHIFT
+    rows = {k: a for k, _, a in ROW.findall(DOC.read_text())}
+    assert f"(default {PAPER_MAX_SHIFT:g} of the period" in rows["intersections.max_shift"]
