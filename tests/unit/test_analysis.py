@@ -1845,6 +1845,47 @@ def test_a_point_inside_the_box_beyond_the_fitted_cases_is_extrapolated() -> Non
     assert outside_range(s, np.array([0.70, 8e-6])) == ["e = 0.7 outside [0.75, 0.88]"]
 
 
+def test_a_grids_computed_end_level_is_no_extrapolation(tmp_path, capsys) -> None:
+    """Review of session 53: the grid's end levels are computed, log-spaced 5e-6 - 1e-5 ends
+    at exp(log 1e-5) = 9.999999999999997e-06 and linear 1e-5 - 3e-5 at 1e-5 + 2e-5 =
+    2.9999999999999997e-05 (IEEE 754 rounding), so ``--at ...diameter=1e-5`` read "outside
+    the fitted cases' [5e-06, 1e-05]", extrapolated, exit 3, on a full factorial's own level
+    (ok, exit 0 before session 53). A value within 1e-9 of a fitted one is that value; a real
+    step beyond the cases (1 %) still is not."""
+    from psdesign.analysis.surrogate import fit_surrogate, outside_range
+
+    hi = 1e-5 + 1.0 * (3e-5 - 1e-5)  # the design's u = 1 level, as psdesign.study.design maps
+    assert hi != 3e-5
+    x = np.array([(e, d) for e in (0.7, 0.8, 0.9) for d in (1e-5, 2e-5, hi)])
+    df = pd.DataFrame(x, columns=["e", "d"]).assign(k=2 * kc_truth(x[:, 0], x[:, 1]), status="ok")
+    s = fit_surrogate(
+        df.assign(seed=1), "k", ["e", "d"], {"e": (0.7, 0.9, False), "d": (1e-5, 3e-5, False)}
+    )
+    assert outside_range(s, np.array([0.8, 3e-5])) == []
+    assert outside_range(s, np.array([0.9, 1e-5])) == []
+    assert outside_range(s, np.array([0.8, 2.97e-5])) == []
+    s.low[1], s.high[1] = 5e-6, 4e-5  # a box wider than the cases
+    assert outside_range(s, np.array([0.8, 3.03e-5])) == [
+        "d = 3.03e-05 outside the fitted cases' [1e-05, 3e-05]"
+    ]
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"\nseeds = [1]\noutputs = ["k_z"]',
+        '"generator.porosity" = [0.7, 0.8, 0.9]\n"generator.diameter" = '
+        '{ low = 5e-6, high = 1e-5, dist = "loguniform", levels = 3 }',
+    )
+    out = tmp_path / "out"
+    run_study(p, out, workers=0, case_fn=fake_case, progress=False, report=False)
+    assert main(["study", "fit", str(out), "--outputs", "k_z_m2"]) == 0
+    capsys.readouterr()
+    for d in ("1e-5", "5e-6"):
+        at = f"generator.porosity=0.8,generator.diameter={d}"
+        assert main(["study", "predict", str(out), "--at", at, "--json"]) == 0, d
+        r = json.loads(capsys.readouterr().out)["k_z_m2"]
+        assert (r["status"], r["outside"]) == ("ok", []), r
+        assert r["error_from"] == "estimated error between the study's design points", r
+
+
 def test_a_fit_too_wide_between_its_levels_has_one_status_everywhere(tmp_path, capsys) -> None:
     """walk-design (session 53): 3 x 3 levels of Kozeny-Carman truth with 10 % seed scatter
     (3 seeds, :func:`study_cases.scattered_case`): `study predict` rated every prediction
