@@ -222,23 +222,18 @@ class Target:
         return abs(y - self.value) <= self.tolerance * abs(self.value)
 
     def miss(self, y: float) -> float:
-        """Relative distance from meeting the target (0 when met)."""
-        if not math.isfinite(y):
-            return math.inf
-        scale = abs(self.value) or 1.0
-        if self.op == ">=":
-            return max(0.0, self.value - y) / scale
-        if self.op == "<=":
-            return max(0.0, y - self.value) / scale
-        return max(0.0, abs(y - self.value) / scale - self.tolerance)
+        """Relative distance from meeting the target (0 when met): :meth:`margin` clipped."""
+        return max(0.0, self.margin(y))
 
     def margin(self, y: float) -> float:
-        """Relative distance towards missing the target, larger nearer (or past) a miss: a
-        tie-break between values that :meth:`miss` scores alike (every met one 0). ``=``:
-        ``|y - value| / |value|``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
+        """The unclipped :meth:`miss`: relative distance past the edge of the met values,
+        negative inside (how far from missing), so that the margins of targets of different
+        kinds and bands compare (the nearest a miss is the largest): a tie-break between
+        values that :meth:`miss` scores alike (every met one 0). ``=``: ``|y - value| /
+        |value| - tolerance``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
 
         >>> Target("k", "=", 2.0, tolerance=0.1).margin(2.5), Target("k", ">=", 2.0).margin(3.0)
-        (0.25, -0.5)
+        (0.15, -0.5)
         """
         if not math.isfinite(y):
             return math.inf
@@ -247,7 +242,7 @@ class Target:
             return (self.value - y) / scale
         if self.op == "<=":
             return (y - self.value) / scale
-        return abs(y - self.value) / scale
+        return abs(y - self.value) / scale - self.tolerance
 
     def __str__(self) -> str:
         if self.op == "=":
