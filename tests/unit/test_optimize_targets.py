@@ -644,3 +644,25 @@ def test_a_met_target_whose_error_bar_is_wider_than_its_band_says_so() -> None:
     row["k_z_m2"] = 1.972e-11  # +-2 % bar, +-2 % band, 1.4 % off: it pokes out, no wider
     r = target_report(Target.parse("k_z_m2=2e-11+-2%"), row)
     assert measured_text(r).endswith("(met; the error bar reaches outside the target)")
+
+
+@pytest.mark.parametrize(
+    ("err", "words"),
+    [
+        (3.0e-7, "(met; the error bar reaches outside the target)"),
+        (5.0e-7, "(met; its error bar (+2.5 %/-0) is wider than the target's band (+- 1 %): "),
+    ],
+)
+def test_a_one_sided_bar_is_wider_than_the_band_by_its_span(err, words) -> None:
+    """Review of session 53: a pore diameter's bar is one-sided (+bar/-0, UPPER_BARS), so
+    d50 = 2e-5 m +1.5 %/-0 spans 1.5 % of the 2 % a +-1 % band spans, yet the half-widths
+    compared (1.5 % > 1 %) read "wider than the target's band"; it merely pokes out above
+    (2.03e-5 > 2.02e-5). A +2.5 %/-0 bar spans more than the band: wider."""
+    from psdesign.analysis.targets import Target, measured_text, target_report
+
+    row = {"pore_d50_m": 2.0e-5, "pore_diameter_error_m": err}
+    r = target_report(Target.parse("pore_d50_m=2e-5+-1%"), row)
+    assert r["met"] and not r["error_bar_inside_target"], r
+    text = measured_text(r)
+    assert text.startswith(f"measured 2e-05 +{100 * err / 2e-5:.3g} %/-0 ["), text
+    assert words in text, text
