@@ -1123,6 +1123,24 @@ def test_sobol_of_the_ishigami_function_through_the_surrogate() -> None:
     assert (t[["S1_conf", "ST_conf"]].to_numpy() > 0).all()
 
 
+def test_a_prediction_of_an_untrustworthy_fit_carries_the_fits_status_and_reasons() -> None:
+    """One rule (review of session 53): `study predict` rated a point inside the fitted cases
+    by the fit's rating and holdout_reason inline, a second copy of prediction.fit_status, and
+    of a fit its rating refused said only "`psdesign study fit` says why". It takes
+    fit_status now, status and reasons: a 50 % cross-validated error is above the 20 % every
+    value is held to (psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR)."""
+    from psdesign.analysis.prediction import fit_status
+    from psdesign.cli.study_analysis import _predict_one
+
+    good = _fit(lambda a, b: 10 + 3 * a + b)
+    bad = Surrogate.from_dict(good.to_dict() | {"output": "bad", "cv_rel_error": 0.5})
+    for s, words in ((good, ""), (bad, "bad: cross-validated error 50 % exceeds 20 %")):
+        row, why = _predict_one(s, "a=0.5,b=0.5")
+        assert (row["status"], why) == (fit_status(s)[0], words), (row, why)
+    row, why = _predict_one(bad, "a=1.5,b=0.5")  # outside the box: that is what it says
+    assert (row["status"], why, row["outside"]) == ("extrapolated", "", ["a = 1.5 outside [0, 1]"])
+
+
 def test_sensitivity_says_when_its_surrogate_is_untrustworthy(tmp_path, capsys) -> None:
     """Audit (session 33): ``study sensitivity`` printed Sobol indices and Morris mu* of a
     surrogate that ``study fit`` rated untrustworthy with no flag: every printed number
