@@ -277,7 +277,10 @@ def worst_replicates(recs: list[dict], names: list[str], targets: list[Target]) 
 
 
 def _margin(row: dict, targets: list[Target]) -> float:
-    return sum(t.margin(float(row.get(t.output, math.nan))) for t in targets)
+    """How near ``row`` is to missing its nearest target: the largest :meth:`Target.margin`
+    (a sum let one target met by far hide another about to miss: k 0.05 % from its band's
+    edge with porosity 0.9 >= 0.8 ranked safer than k on its value with porosity 0.81)."""
+    return max((t.margin(float(row.get(t.output, math.nan))) for t in targets), default=0.0)
 
 
 def _check_counts(budget: int, batch: int, seed: int) -> tuple[int, int, int]:

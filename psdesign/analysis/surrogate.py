@@ -6,8 +6,8 @@ log10. The kernel is ``C * Matern(nu=2.5, one length scale per parameter) + Whit
 ``normalize_y``; its fitted hyper-parameters and the training data are saved as JSON (portable,
 no pickle), and :meth:`Surrogate.from_dict` rebuilds the same predictor by refitting with the
 optimizer off. The cross-validated error (k-fold over design points, k = min(5, points);
-replicates of a point share a fold; a scattered design's folds refit the kernel) is stored
-with each model.
+replicates of a point share a fold; a design without an inner level shared by two points
+refits the kernel per fold) is stored with each model.
 """
 
 from __future__ import annotations
@@ -312,9 +312,12 @@ class Surrogate:
     def rating(self) -> tuple[str, list[str]]:
         """``(status, warnings)`` of the fit: ``untrustworthy`` when its cross-validated error
         is above :data:`psdesign.flow.error.UNTRUSTWORTHY_REL_ERROR` (the rule every value of
-        psdesign follows) or a length scale sits on its lower bound (the fit then interpolates
+        psdesign follows), a length scale sits on its lower bound (the fit then interpolates
         each case and is flat between them: predictions inside the range equal those far
-        outside it), else ``ok``."""
+        outside it), its cases pool the levels of a non-numeric parameter it has no input for
+        (:attr:`pooled`, :meth:`pooled_text`: a prediction is none of theirs; since session
+        53), there is no cross-validated error (one design point) or too few design points
+        (:meth:`too_few_points`), else ``ok``."""
         from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
 
         few = self.too_few_points()
@@ -467,12 +470,16 @@ def _fold_errors(s: Surrogate) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     folds, k = design_point_folds(x)
     if k < 2:
         return None
-    # scattered points (a latin hypercube): the held-out cases had shaped the length scales
-    # that predicted them, so each fold's are fitted again; on 6 points of Kozeny-Carman
-    # truth (design seed 3) the error read 1.59 % where the refit gives 55.6 %, and 11.3 % for
-    # 24 % on 5 points over 3 parameters, the truth 4-5 bars away (walk-design, session 53).
-    # A grid keeps the full fit's: a held-out point keeps its levels through its neighbours,
-    # and a refit of 3 x 2 Kozeny-Carman levels less one read 59 % for a fit off by 3.3 % RMS
+    # No parameter with an inner level shared by two design points (_inner_level_columns: a
+    # latin hypercube, a csv design of scattered values, a 2 x 2 or 2 x 2 x 2 grid): the
+    # held-out cases had shaped the length scales that predicted them, so each fold's are
+    # fitted again; on 6 points of Kozeny-Carman truth (design seed 3) the error read 1.59 %
+    # where the refit gives 55.6 %, and 11.3 % for 24 % on 5 points over 3 parameters, the
+    # truth 4-5 bars away (walk-design, session 53). With one (a grid of 3+ levels, a latin
+    # hypercube whose discrete parameter repeats an inner value) the full fit's are kept:
+    # inner_level_error holds out whole levels for the error between the points, and a refit
+    # of 3 x 2 Kozeny-Carman levels less one read 59 % for a fit off by 3.3 % RMS. The rule
+    # is by that estimate, not by the design's name: a 2 x 2 grid has none.
     refit = not _inner_level_columns(s)
     err = np.empty(len(s.y))
     kept, inside = np.zeros(len(s.y), bool), np.zeros(len(s.y), bool)
@@ -944,7 +951,10 @@ def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
     parameter keeps its ``[low, high]`` bounds) ``"name = v, every fitted case had v0"``, and
     inside the box but beyond the fitted cases' values ``"name = v outside the fitted cases'
     [min, max]"`` (a small latin hypercube leaves the box's ends unsampled: its fit was off by
-    4-5 bars there, rated ``ok`` until session 53); empty inside."""
+    4-5 bars there, rated ``ok`` until session 53); empty inside. A value within
+    :data:`SAME_VALUE_REL` of a fitted one is that value: a grid's end levels are computed
+    (log-spaced ``1e-5`` is stored as 9.999999999999997e-06), and ``--at ...=1e-5`` there is
+    no extrapolation (session 53 flagged it so, its bar 20.5 % not 7.68 %, exit 3)."""
     fixed = s.fixed_inputs()
     cases = np.asarray(s.x, float).reshape(-1, len(s.params))
     out = []
@@ -952,8 +962,18 @@ def outside_range(s: Surrogate, x: np.ndarray) -> list[str]:
         lo, hi, cmin, cmax = s.low[j], s.high[j], cases[:, j].min(), cases[:, j].max()
         if not lo <= v <= hi:
             out.append(f"{p} = {v:g} outside [{lo:g}, {hi:g}]")
-        elif p in fixed and not math.isclose(v, fixed[p], rel_tol=1e-9, abs_tol=0.0):
+        elif p in fixed and not _same_value(v, fixed[p]):
             out.append(f"{p} = {v:g}, every fitted case had {fixed[p]:g}")
-        elif not cmin <= v <= cmax:
+        elif (v < cmin and not _same_value(v, cmin)) or (v > cmax and not _same_value(v, cmax)):
             out.append(f"{p} = {v:g} outside the fitted cases' [{cmin:g}, {cmax:g}]")
     return out
+
+
+#: Relative difference below which a point's parameter value is a fitted case's value
+#: (:func:`outside_range`): float rounding of computed levels is ~1e-16, a real step >> 1e-9.
+SAME_VALUE_REL = 1e-9
+
+
+def _same_value(v: float, fitted: float) -> bool:
+    """``v`` is the fitted value ``fitted`` to within :data:`SAME_VALUE_REL`."""
+    return math.isclose(v, fitted, rel_tol=SAME_VALUE_REL, abs_tol=0.0)

@@ -222,23 +222,18 @@ class Target:
         return abs(y - self.value) <= self.tolerance * abs(self.value)
 
     def miss(self, y: float) -> float:
-        """Relative distance from meeting the target (0 when met)."""
-        if not math.isfinite(y):
-            return math.inf
-        scale = abs(self.value) or 1.0
-        if self.op == ">=":
-            return max(0.0, self.value - y) / scale
-        if self.op == "<=":
-            return max(0.0, y - self.value) / scale
-        return max(0.0, abs(y - self.value) / scale - self.tolerance)
+        """Relative distance from meeting the target (0 when met): :meth:`margin` clipped."""
+        return max(0.0, self.margin(y))
 
     def margin(self, y: float) -> float:
-        """Relative distance towards missing the target, larger nearer (or past) a miss: a
-        tie-break between values that :meth:`miss` scores alike (every met one 0). ``=``:
-        ``|y - value| / |value|``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
+        """The unclipped :meth:`miss`: relative distance past the edge of the met values,
+        negative inside (how far from missing), so that the margins of targets of different
+        kinds and bands compare (the nearest a miss is the largest): a tie-break between
+        values that :meth:`miss` scores alike (every met one 0). ``=``: ``|y - value| /
+        |value| - tolerance``; ``<=``: ``(y - value) / |value|``; ``>=``: the reverse.
 
         >>> Target("k", "=", 2.0, tolerance=0.1).margin(2.5), Target("k", ">=", 2.0).margin(3.0)
-        (0.25, -0.5)
+        (0.15, -0.5)
         """
         if not math.isfinite(y):
             return math.inf
@@ -247,7 +242,7 @@ class Target:
             return (self.value - y) / scale
         if self.op == "<=":
             return (y - self.value) / scale
-        return abs(y - self.value) / scale
+        return abs(y - self.value) / scale - self.tolerance
 
     def __str__(self) -> str:
         if self.op == "=":
@@ -387,21 +382,23 @@ def measured_text(r: dict) -> str:
     one_sided = r.get("output") in UPPER_BARS
     bar = " (no error estimate)"
     if r["rel_error"] is not None:  # a pore diameter's bar is one-sided, upward (session 48)
-        pct = f"{100 * r['rel_error']:.3g} %"
-        bar = f" +{pct}/-0" if one_sided else f" +- {pct}"
+        bar = " " + _bar_text(r["rel_error"], one_sided)
     within, inside = _bar_verdicts(r, one_sided)
     verdict = "met" if r["met"] else "missed"
     if within and not r["met"]:
         verdict += "; the target lies within the measurement's error bar"
     elif r["met"] and r["rel_error"] is not None and not inside:
-        verdict += _wider_than_band(r) or "; the error bar reaches outside the target"
+        verdict += _wider_than_band(r, one_sided) or "; the error bar reaches outside the target"
     return f"measured {r['measured']:.4g}{bar} [{r['status']}] ({verdict})"
 
 
-def _wider_than_band(r: dict) -> str:
+def _wider_than_band(r: dict, one_sided: bool = False) -> str:
     """Of a met ``=`` target's row: ``"; its error bar (+- 2 %) is wider than the target's
-    band (+- 1 %)..."`` when the bar's half-width exceeds the band's (no value, however close,
-    is then confirmed inside it: session 53, a +-1 % K target MET on a +-2 % K), else ``""``.
+    band (+- 1 %)..."`` when the bar's span (:func:`bar_range`; a one-sided bar's is its
+    half-width) exceeds the band's (no value, however close, is then confirmed inside it:
+    session 53, a +-1 % K target MET on a +-2 % K), else ``""``. Until the review of session
+    53 the half-widths were compared, so a pore diameter's +1.5 %/-0 bar (spanning 1.5 %)
+    read wider than a +-1 % band (spanning 2 %).
 
     >>> _wider_than_band({"target": "k=3e-11+-1%", "target_value": 3e-11,
     ...                   "target_tolerance": 0.01, "measured": 2.995e-11, "rel_error": 0.02})[:65]
@@ -409,12 +406,19 @@ def _wider_than_band(r: dict) -> str:
     """
     try:
         t = row_target(r)
-        y, rel = float(r["measured"]), float(r["rel_error"])
+        bar = bar_range(float(r["measured"]), float(r["rel_error"]), one_sided)
     except (StudyError, TypeError, ValueError):  # an edited row: the general words
         return ""
-    if t.op != "=" or not rel * abs(y) > t.tolerance * abs(t.value):
+    lo, hi = t.bounds()
+    if t.op != "=" or bar is None or not bar[1] - bar[0] > hi - lo:
         return ""
     return (
-        f"; its error bar (+- {100 * rel:.3g} %) is wider than the target's band "
-        f"(+- {100 * t.tolerance:.3g} %): it cannot tell met from missed"
+        f"; its error bar ({_bar_text(float(r['rel_error']), one_sided)}) is wider than the "
+        f"target's band (+- {100 * t.tolerance:.3g} %): it cannot tell met from missed"
     )
+
+
+def _bar_text(rel_error: float, one_sided: bool) -> str:
+    """A relative error bar as printed: ``+- 2 %``, one-sided ``+1.5 %/-0``."""
+    pct = f"{100 * rel_error:.3g} %"
+    return f"+{pct}/-0" if one_sided else f"+- {pct}"

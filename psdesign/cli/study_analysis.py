@@ -92,29 +92,30 @@ def _predict_one(
     m, at: str, ints: frozenset[str] = frozenset(), study: dict | None = None
 ) -> tuple[dict, str]:
     """One surrogate's prediction at ``--at`` with its bar and status (``extrapolated``
-    outside the fitted cases, else the fit's rating, ``untrustworthy`` also when the fit's
-    estimated error between its design points or the point's own bar is too wide:
-    :func:`~psdesign.analysis.prediction.holdout_reason`,
-    :func:`~psdesign.analysis.surrogate.wide_prediction`, whose reason is returned too).
+    outside the fitted cases, else the fit's status as `study fit` gives it,
+    :func:`~psdesign.analysis.prediction.fit_status`, whose reasons are returned too, and
+    ``untrustworthy`` also when the point's own bar is too wide,
+    :func:`~psdesign.analysis.surrogate.wide_prediction`, with that reason).
     ``std`` is the printed bar: the GP std, never below the fit's hold-out figure for where
     the point is (:func:`~psdesign.analysis.prediction.holdout_bar`: between the design points
     inside the box, the largest hold-out error outside it; the GP std alone held the truth
     within 2 std at 21-42 % of a grid's box, session 43); ``gp_std`` the GP's own.
     ``study``: ``study.json``'s table, whose base spec the point's values are checked in
     (:func:`~psdesign.analysis.surrogate.parse_point`)."""
-    from psdesign.analysis.prediction import (
-        bar_error,
-        holdout_bar,
-        holdout_reason,
-        prediction_bar,
-    )
+    from psdesign.analysis.prediction import bar_error, fit_status, holdout_bar, prediction_bar
     from psdesign.analysis.surrogate import outside_range, parse_point, wide_prediction
 
     x = parse_point(at, m.params, ints, study)
     mean, gp_std = (float(v[0]) for v in m.predict(x[None, :]))
     outside = outside_range(m, x)
-    status = "extrapolated" if outside else m.rating()[0]
-    wide = (holdout_reason(m) or wide_prediction(m, mean, gp_std)) if status == "ok" else ""
+    fit, why = fit_status(m)  # the one rule of study fit, sensitivity and the report
+    status = "extrapolated" if outside else fit
+    if outside:
+        wide = ""
+    elif fit == "ok":
+        wide = wide_prediction(m, mean, gp_std)
+    else:  # an untrustworthy fit says why here too (until session 53 only `study fit` did)
+        wide = "; ".join(why)
     held, words = bar_error(m, inside=not outside)
     bar = holdout_bar(m, mean, inside=not outside)
     row = {

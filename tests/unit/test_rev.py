@@ -806,3 +806,60 @@ def test_rev_names_no_size_while_the_mean_k_still_moves(tmp_path, capsys, monkey
     rel = float(re.search(r"at 3e-05 m is \+([\d.]+) % from", line).group(1))
     assert abs(rel - 60.0) < 8.0, line  # 10 / 6.25 - 1 = 60 %, 1 % scatter in 3 seeds
     assert json.loads((tmp_path / "o" / "rev.json").read_text())["rev_size_m"] is None
+
+
+#: Mean K (m^2) per edge (um) of :func:`settling_rev_case`: settled from 40 um on (review of
+#: session 53's REV rule).
+SETTLING_K = {20: 12.0e-12, 40: 6.0e-12, 80: 5.95e-12, 160: 5.9e-12}
+
+
+def settling_rev_case(spec, outputs, solver, workdir):
+    """K of :data:`SETTLING_K` at the box edge, seeds 1 / 2 / 3 at -0.5 / 0 / +0.5 %: a
+    standard deviation of 0.5 %, a 95 % CI half-width of t(0.975, 2) 0.5 % / sqrt(3) = 1.24 %."""
+    edge = int(round(float(spec["rve"]["size"][0]) * 1e6))
+    k = SETTLING_K[edge] * (1 + 0.005 * (int(spec["generator"]["seed"]) % 3 - 1))
+    return {"porosity": 0.8, "n_fibers": 10, "k_z_m2": k, "converged_z": True, "k_z_status": "ok"}
+
+
+def test_rev_names_the_size_from_which_the_mean_k_has_settled(tmp_path, capsys, monkeypatch):
+    """Review of session 53: the REV rule took the smallest size inside the CI --tol, found its
+    mean 12e-12 m^2 at 20 um +103 % from the 160 um one's, and refused every size ("no REV:
+    ... grow the RVE", exit 3) though from 40 um on each mean is within 1.7 % < 5 % of the
+    largest (6.0 / 5.95 / 5.9e-12, CIs 1.24 %: closed form above). The REV is 40 um, exit 0."""
+    spec = _spec_with_cases(tmp_path, monkeypatch, settling_rev_case)
+    args = ["rev", str(spec), "--seeds", "3", "--quiet", "--directions", "z", "--tol", "0.05"]
+    args += ["--sizes", "20e-6", "40e-6", "80e-6", "160e-6", "-o", str(tmp_path / "o"), "--json"]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["rev_size_m"] == 40e-6 and doc["still_changes"] is None
+    ci = json.loads((tmp_path / "o" / "rev.json").read_text())["table"][1]["k_z_m2_ci_rel"]
+    assert abs(ci - 4.302653 * 0.005 / math.sqrt(3)) < 1e-4  # t(0.975, 2) = 4.3027
+
+
+def test_rev_size_takes_the_first_settled_tail_not_the_largest_size_alone() -> None:
+    """The rule of :func:`~psdesign.analysis.rev._rev_size` on tables of means (2 % CIs, tol
+    5 %): a tail that moves does not end the search; the largest size alone is no REV once a
+    longer tail moved (walk-design's 12.4 / 8.7 / 6.8 / 5.9e-12 m^2 names none, and the first
+    move is the reason); the largest size alone is the REV when it is the only one inside the
+    CI --tol (nothing moved)."""
+    from psdesign.analysis.rev import _rev_size
+
+    def table(means, ci_rel=0.02):
+        m = np.array(means) * 1e-12
+        return pd.DataFrame(
+            {
+                "size_m": [20e-6, 40e-6, 80e-6, 160e-6][: len(m)],
+                "k_z_m2_mean": m,
+                "k_z_m2_ci95_low": m * (1 - 0.02),
+                "k_z_m2_ci95_high": m * (1 + 0.02),
+                "k_z_m2_ci_rel": ci_rel,
+            }
+        )
+
+    assert _rev_size(table([12.0, 6.0, 5.95, 5.9]), ["k_z_m2_ci_rel"], 0.05) == (40e-6, "")
+    assert _rev_size(table([12.0, 8.0, 6.1, 5.9]), ["k_z_m2_ci_rel"], 0.05) == (80e-6, "")
+    rev, why = _rev_size(table([12.4, 8.7, 6.8, 5.9]), ["k_z_m2_ci_rel"], 0.05)
+    assert rev is None and "mean 1.240e-11 m^2 at 2e-05 m is +110 %" in why, why
+    wide = table([12.4, 8.7, 6.8, 5.9])
+    wide.loc[:2, "k_z_m2_ci_rel"] = 0.3
+    assert _rev_size(wide, ["k_z_m2_ci_rel"], 0.05) == (160e-6, "")
