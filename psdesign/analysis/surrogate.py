@@ -6,8 +6,10 @@ log10. The kernel is ``C * Matern(nu=2.5, one length scale per parameter) + Whit
 ``normalize_y``; its fitted hyper-parameters and the training data are saved as JSON (portable,
 no pickle), and :meth:`Surrogate.from_dict` rebuilds the same predictor by refitting with the
 optimizer off. The cross-validated error (k-fold over design points, k = min(5, points);
-replicates of a point share a fold; a design without an inner level shared by two points
-refits the kernel per fold) is stored with each model.
+replicates of a point share a fold; a design of two or more varying parameters without an
+inner level shared by two points refits the kernel per fold; a one-parameter design of 3 or
+more points keeps the full fit's, each inner point held out as a level) is stored with each
+model.
 """
 
 from __future__ import annotations
@@ -479,7 +481,9 @@ def _fold_errors(s: Surrogate) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     # hypercube whose discrete parameter repeats an inner value) the full fit's are kept:
     # inner_level_error holds out whole levels for the error between the points, and a refit
     # of 3 x 2 Kozeny-Carman levels less one read 59 % for a fit off by 3.3 % RMS. The rule
-    # is by that estimate, not by the design's name: a 2 x 2 grid has none.
+    # is by that estimate, not by the design's name: a 2 x 2 grid has none, and a design of
+    # one varying parameter with 3 or more points has one (each inner point is a level held
+    # out, scattered or not: review s53).
     refit = not _inner_level_columns(s)
     err = np.empty(len(s.y))
     kept, inside = np.zeros(len(s.y), bool), np.zeros(len(s.y), bool)

@@ -1866,6 +1866,7 @@ def test_a_small_latin_hypercubes_cross_validated_error_is_not_below_its_true_er
         ([0.7, 0.8, 0.9], [6e-6, 1e-5], False),  # 3 x 2 grid: an inner porosity level
         (None, None, True),  # latin hypercube, 8 points
         (None, [6e-6, 8e-6, 1e-5], False),  # its diameter rounded to 3 levels (discrete)
+        ([0.71, 0.745, 0.79, 0.83, 0.88], [8e-6], False),  # 1 parameter: inner points levels
     ],
 )
 def test_the_cross_validation_refits_where_no_inner_level_is_shared(e, d, refits, monkeypatch):
@@ -1873,7 +1874,9 @@ def test_the_cross_validation_refits_where_no_inner_level_is_shared(e, d, refits
     hypercube, a csv design", the code's comment "a grid keeps the full fit's"; neither is the
     rule): each fold's kernel is fitted again exactly where no parameter has an inner level
     shared by two design points, whatever the design's name, since that is where no
-    whole-level hold-out estimates the error between the points."""
+    whole-level hold-out estimates the error between the points; a design of one varying
+    parameter (3+ points, scattered or not) holds out each inner point as a level (review s53:
+    the docs said such a scattered design was refitted)."""
     from scipy.stats import qmc
 
     import psdesign.analysis.surrogate as sur
