@@ -10,6 +10,7 @@ command skips cases whose record says ``ok`` (and ``failed``/``timeout`` unless
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import datetime as _dt
 import errno
 import json
@@ -42,7 +43,7 @@ from psdesign.study.address import (
 from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
-from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
+from psdesign.study.interrupt import GRACE_S, ignore_sigint, sigint_blocked, stop_on_interrupt
 from psdesign.study.options import RunOptions, refuse_unknown_keywords
 from psdesign.study.progress import Progress
 from psdesign.study.sameness import check_same_study
@@ -227,7 +228,7 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
             initargs=(os.getpid(),),
         )
         try:
-            with _thread_budget(n_workers):
+            with _thread_budget(n_workers), sigint_blocked():  # workers start with it blocked
                 futs = {ex.submit(execute_case, p): p for p in batch}
             for fut in cf.as_completed(futs):
                 p = futs[fut]
@@ -303,13 +304,19 @@ def _init_worker(parent_pid: int) -> None:
 
 
 def _terminate_pool(ex: cf.ProcessPoolExecutor) -> None:
-    """Stop the pool's own worker processes (by pid) after an error or interrupt."""
-    procs = getattr(ex, "_processes", None) or {}
-    for proc in list(procs.values()):
-        try:
+    """Stop the pool's own worker processes after an error or interrupt, and join them:
+    multiprocessing must reap its own workers (see :func:`~psdesign.study.interrupt.stop_children`)
+    or the pool's manager thread waits for them for ever."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
             proc.terminate()
-        except Exception:  # noqa: BLE001, S110
-            pass
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(GRACE_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join(GRACE_S)
 
 
 def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
