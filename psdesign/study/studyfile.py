@@ -497,6 +497,13 @@ def _parameters(
 
     csv_rows = None
     if st.design == "csv":
+        if params:  # the design reads the rows only: the levels were listed, never run
+            path = next(iter(params))
+            raise _err(
+                f"parameters.{path}",
+                f"a csv design runs the rows of study.csv only (allowed: no [parameters] with "
+                f'design = "csv"; give {path} as a column of {st.csv})',
+            )
         cols, csv_rows = _read_csv_rows((root / st.csv).resolve(), "study.csv")
         if len(csv_rows) * (1 if "seed" in cols else len(seeds)) > MAX_CASES:
             raise _err(

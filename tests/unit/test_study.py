@@ -274,6 +274,23 @@ def test_csv_design(tmp_path):
         load_study(p)
 
 
+def test_csv_design_refuses_an_inline_parameter(tmp_path):
+    """design = "csv" reads its points from the file only: an inline [parameters] entry was
+    dropped without a word (every case ran at the base diameter 7e-6, results.csv had an empty
+    generator.diameter column; walk-study, session 53). Now one line names it, before any work."""
+    (tmp_path / "pts.csv").write_text("generator.porosity\n0.85\n0.9\n")
+    p = tmp_path / "s.toml"
+    p.write_text(
+        BASE + '[study]\ndesign = "csv"\ncsv = "pts.csv"\nseeds = [1]\n'
+        '[parameters]\n"generator.diameter" = [7e-6, 8e-6]\n'
+    )
+    with pytest.raises(StudyError) as exc:
+        load_study(p)
+    assert exc.value.key == "parameters.generator.diameter"
+    assert "csv design" in str(exc.value) and "pts.csv" in str(exc.value)
+    assert "\n" not in str(exc.value)
+
+
 # ----------------------------------------------------------------------------- running
 
 
