@@ -262,6 +262,7 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
         return ParamSpec(path=path, kind="values", values=tuple(value))
     if isinstance(value, dict):
         keys = set(value)
+        _refuse_extra_keys(value, key)
         if keys and keys <= RANGE_KEYS:
             return ParamSpec(path=path, kind="values", values=_range_values(key, value))
         if keys and keys <= BOUNDS_KEYS:
@@ -285,13 +286,47 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
     )
 
 
+_FORMS = (
+    ("range", ("start", "stop"), tuple(RangeParam.model_fields)),
+    ("bounds", ("low", "high"), tuple(BoundsParam.model_fields)),
+)
+"""The table forms of a parameter: name, the keys that mark it, all its keys."""
+
+
+def _table_form(value: dict) -> tuple[str, tuple[str, ...]] | None:
+    """The form (name, allowed keys) of a table of scalars that has a form's marking keys
+    (``start`` and ``stop``, or ``low`` and ``high``), whatever else it holds; else None."""
+    if any(isinstance(v, dict | list) for v in value.values()):
+        return None
+    for name, marks, allowed in _FORMS:
+        if all(m in value for m in marks):
+            return name, allowed
+    return None
+
+
+def _refuse_extra_keys(value: dict, key: str) -> None:
+    """Refuse, by name, a key a range or bounds table does not take: read as nested paths,
+    ``{low, high, levels, foo = 1}`` was "unknown parameter path 'generator.porosity.low'"
+    (walk-study, session 53)."""
+    form = _table_form(value)
+    if form is None:
+        return
+    name, allowed = form
+    extra = [k for k in value if k not in allowed]
+    if extra:
+        raise _err(
+            f"{key}.{extra[0]}", f"not a key of a {name} table (allowed: {', '.join(allowed)})"
+        )
+
+
 def _is_param_value(value: Any) -> bool:
     if isinstance(value, list):
         return True
     if isinstance(value, dict):
         keys = set(value)
         scalars = not any(isinstance(v, dict | list) for v in value.values())
-        return bool(keys) and scalars and (keys <= RANGE_KEYS or keys <= BOUNDS_KEYS)
+        known = keys <= RANGE_KEYS or keys <= BOUNDS_KEYS
+        return bool(keys) and scalars and (known or _table_form(value) is not None)
     return True  # scalars: rejected later with a clear message
 
 

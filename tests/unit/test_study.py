@@ -111,6 +111,38 @@ def test_invalid_study_names_key(tmp_path, study, params, key):
     assert "\n" not in msg
 
 
+@pytest.mark.parametrize(
+    ("params", "line"),
+    [
+        (
+            '"generator.porosity" = {low = 0.8, high = 0.9, levels = 2, foo = 1}',
+            "parameters.generator.porosity.foo: not a key of a bounds table "
+            "(allowed: low, high, dist, levels, type)",
+        ),
+        (
+            '"flow.aux_length" = {start = 0.1, stop = 0.3, step = 0.1, type = "int"}',
+            "parameters.flow.aux_length.type: not a key of a range table "
+            "(allowed: start, stop, step)",
+        ),
+        (
+            "[parameters.flow]\naux_length = {start = 0.1, stop = 0.3, step = 0.1, levels = 2}",
+            "parameters.flow.aux_length.levels: not a key of a range table "
+            "(allowed: start, stop, step)",
+        ),
+    ],
+)
+def test_an_extra_key_in_a_range_or_bounds_table_is_named(tmp_path, params, line):
+    """The bad key itself is named with the keys of its table's form; before, the table was
+    read as nested parameter paths and the line blamed a good key: "unknown parameter path
+    'generator.porosity.low'" (walk-study, session 53)."""
+    p = write_study(tmp_path, 'design = "full-factorial"', params)
+    if params.startswith("["):
+        p.write_text(p.read_text().replace("[parameters]\n[parameters.flow]", "[parameters.flow]"))
+    with pytest.raises(StudyError) as ei:
+        load_study(p)
+    assert str(ei.value) == line
+
+
 def test_invalid_base_value_that_every_case_overrides_is_refused(tmp_path):
     """A base value no case uses is still what the reader takes for the baseline: porosity 1.85
     (a typo for 0.85) beside a porosity sweep is refused by name, before any work (session 18
