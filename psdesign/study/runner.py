@@ -32,7 +32,7 @@ from typing import Any
 import pandas as pd
 
 from psdesign.errors import short
-from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
+from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir, remove_owned_files
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
     SchedulerAddress,
@@ -918,6 +918,8 @@ def _connect_and_run(
             # workers stop before the lock; its refusal names the command's option (-o)
             with _run_lock(target.path, target.option), stop_on_interrupt():
                 store.remove_stale_temp()
+                if not opts.report:  # before the cases: an interrupted run left the old one
+                    remove_owned_files(target.path, ["report.html"])
                 return _run_locked(study, cases, store, list(study.parameters), client, opts)
     finally:
         if client is not None:
