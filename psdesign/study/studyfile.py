@@ -239,8 +239,17 @@ def _range_values(key: str, spec: dict) -> tuple:
     all_int = all(isinstance(v, int) for v in (start, stop, step))
     vals = [start + i * step for i in range(n)]
     if not all_int:
-        vals = [round(float(v), 12) for v in vals]
+        vals = [round_level(v) for v in vals]
     return tuple(vals)
+
+
+def round_level(v: float) -> float:
+    """A float level of a design as the study runs and shows it: 12 decimals, so floating-point
+    noise goes (0.1 + 2 * 0.1 is 0.3; bounds 0.8-0.9 at 3 levels give 0.85, not
+    0.8500000000000001), or 12 significant digits where 12 decimals would move the value
+    itself (below ~1e-3: 3.71234e-11 stays 3.71234e-11, not 3.7e-11)."""
+    r = round(float(v), 12)
+    return r if abs(r - v) <= 1e-9 * abs(v) else float(f"{float(v):.12g}")
 
 
 def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
@@ -270,6 +279,12 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
                 if name not in value:
                     raise _err(key, f"bounds need low and high (missing {name})")
             b = _validate(BoundsParam, value, key)
+            if b.type == "int" and math.ceil(b.low) > math.floor(b.high):
+                raise _err(
+                    key,
+                    f"no integer between low = {b.low} and high = {b.high} (allowed: "
+                    'type = "int" bounds holding at least one integer)',
+                )
             return ParamSpec(
                 path=path,
                 kind="bounds",

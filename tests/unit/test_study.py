@@ -143,6 +143,60 @@ def test_an_extra_key_in_a_range_or_bounds_table_is_named(tmp_path, params, line
     assert str(ei.value) == line
 
 
+def test_bounds_levels_are_rounded_as_ranges_are(tmp_path):
+    """{low = 0.8, high = 0.9, levels = 3}: the middle level is 0.85 (0.8 + 0.5 * 0.1 is
+    0.8500000000000001 in floating point, written into results.csv, summary.csv and the case
+    ids; walk-study item 4a), as {start, stop, step} ranges are rounded; the same value as the
+    range {0.8, 0.9, 0.05} gives, so the same case id."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"',
+        '"generator.porosity" = {low = 0.8, high = 0.9, levels = 3}',
+    )
+    bounds = expand_design(load_study(p))
+    assert [c.params["generator.porosity"] for c in bounds] == [0.8, 0.85, 0.9]
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"',
+        '"generator.porosity" = {start = 0.8, stop = 0.9, step = 0.05}',
+    )
+    assert [c.case_id for c in expand_design(load_study(p))] == [c.case_id for c in bounds]
+
+
+def test_integer_bounds_stay_inside_and_share_the_samples_equally(tmp_path):
+    """type = "int" bounds give integers in [ceil(low), floor(high)], each an equal share of a
+    Latin hypercube's strata: 300 samples over 1999.6-2002.4 hold 100 each of 2000-2002 (LHS
+    puts one sample in each 1/300 stratum; the old rounding gave the ends 0.9/2.8 of them).
+    2000.2-2000.8 holds no integer and is refused (10.2-10.8 gave 10 and 11; walk-study 4b)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 300',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.max_fibers" = {low = 1999.6, high = 2002.4, type = "int"}',
+    )
+    n = [c.params["generator.max_fibers"] for c in expand_design(load_study(p))]
+    ints = [2000, 2001, 2002]
+    assert sorted(set(n)) == ints and [n.count(k) for k in ints] == [100] * 3
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4',
+        '"generator.max_fibers" = {low = 2000.2, high = 2000.8, type = "int"}',
+    )
+    with pytest.raises(StudyError, match=r"^parameters\.generator\.max_fibers: no integer"):
+        load_study(p)
+
+
+def test_sampled_list_levels_that_coincide_run_once(tmp_path):
+    """Sobol's 4 samples over the levels [0.85, 0.9] are 2 distinct points (each twice): each
+    runs once per seed, not twice with the same hash and seed (walk-study item 4c)."""
+    p = write_study(
+        tmp_path, 'design = "sobol"\nn_samples = 4', '"generator.porosity" = [0.85, 0.9]'
+    )
+    cases = expand_design(load_study(p))
+    assert sorted(c.params["generator.porosity"] for c in cases) == [0.85, 0.9]
+    assert len({c.case_id.split("-")[-1] for c in cases}) == 2
+
+
 def test_invalid_base_value_that_every_case_overrides_is_refused(tmp_path):
     """A base value no case uses is still what the reader takes for the baseline: porosity 1.85
     (a typo for 0.85) beside a porosity sweep is refused by name, before any work (session 18
