@@ -26,6 +26,7 @@ __all__ = [
     "Terminated",
     "held_signals",
     "ignore_sigint",
+    "restore_dask_logs",
     "sigint_blocked",
     "stop_children",
     "stop_on_interrupt",
@@ -179,6 +180,7 @@ def _on_sigint(signum, frame) -> None:
         _resend_later(signum, _on_sigint)
         return
     _STATE["hit"] = True
+    _quiet_dask_logs()  # at once: a group signal already stops a local cluster's workers
     term = signum == signal.SIGTERM
     if _cli_command() is None:  # library use: say why the run stops; a command says it once
         what = "terminated (SIGTERM)" if term else "interrupted"
@@ -214,6 +216,7 @@ def stop_on_interrupt() -> Iterator[None]:
         yield
     except KeyboardInterrupt:
         _STATE["hit"] = True  # also for an interrupt raised before the handler saw it
+        _quiet_dask_logs()
         stop_children(keep=_STATE["before"])
         raise
     finally:
@@ -221,6 +224,27 @@ def stop_on_interrupt() -> Iterator[None]:
         if outer:
             signal.signal(signal.SIGINT, previous)
             signal.signal(signal.SIGTERM, previous_term)
+
+
+def _quiet_dask_logs() -> None:
+    """Stopping: a local Dask cluster's nannies (in this process) log "distributed.nanny -
+    WARNING - Restarting worker" for each worker :func:`stop_children` ends, 1-4 lines above
+    the command's one line (walk-study, session 53).  Until :func:`restore_dask_logs`."""
+    if "distributed" not in sys.modules or "dask_level" in _STATE:
+        return
+    import logging
+
+    log = logging.getLogger("distributed")
+    _STATE["dask_level"] = log.level
+    log.setLevel(logging.CRITICAL)
+
+
+def restore_dask_logs() -> None:
+    """Dask's log level as it was before an interrupt quieted it (once its cluster is closed)."""
+    if "dask_level" in _STATE:
+        import logging
+
+        logging.getLogger("distributed").setLevel(_STATE.pop("dask_level"))
 
 
 _TERM: dict = {"pid": None, "hit": False}

@@ -43,7 +43,13 @@ from psdesign.study.address import (
 from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
-from psdesign.study.interrupt import GRACE_S, ignore_sigint, sigint_blocked, stop_on_interrupt
+from psdesign.study.interrupt import (
+    GRACE_S,
+    ignore_sigint,
+    restore_dask_logs,
+    sigint_blocked,
+    stop_on_interrupt,
+)
 from psdesign.study.options import RunOptions, refuse_unknown_keywords
 from psdesign.study.progress import Progress
 from psdesign.study.sameness import check_same_study
@@ -926,6 +932,7 @@ def _connect_and_run(
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+        restore_dask_logs()  # quieted while an interrupted run stopped its workers
 
 
 def _check_submit_command(scheduler) -> None:

@@ -547,6 +547,11 @@ def test_timeout_kills_case(tmp_path):
     assert st == {0.7: "ok", 0.9: "timeout"}
     row = df[df["status"] == "timeout"].iloc[0]
     assert "timeout of 3 s" in row["error"]
+    # the failed-case line points to error.txt: a timeout writes what, the limit and the time
+    # it ran (it wrote none; walk-study item 6, session 53)
+    why = (out / "cases" / row["case_id"] / "error.txt").read_text()
+    assert why.startswith("timeout: case exceeded the timeout of 3 s and was killed")
+    assert 3.0 <= float(why.split(" after ")[1].split(" s")[0]) < 30
     pid = int((out / "cases" / row["case_id"] / "pid.txt").read_text())
     assert pid != os.getpid()
     assert not psutil.pid_exists(pid)
