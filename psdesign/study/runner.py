@@ -914,9 +914,10 @@ def _connect_and_run(
             if opts.scheduler:
                 _check_submit_command(opts.scheduler)  # before the "submitting" line
                 _say_waiting(opts.scheduler, opts.workers, opts.progress)
-                client, cluster = connect_scheduler(
-                    opts.scheduler, opts.workers, security=opts.security, what=scheduler_option
-                )
+                with _local_worker_preload(opts.scheduler):
+                    client, cluster = connect_scheduler(
+                        opts.scheduler, opts.workers, security=opts.security, what=scheduler_option
+                    )
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock
             _claim(target, STUDY_FILES if opts.report else STUDY_FILES_NO_REPORT)
@@ -933,6 +934,16 @@ def _connect_and_run(
         if cluster is not None:
             cluster.close(timeout=5)
         restore_dask_logs()  # quieted while an interrupted run stopped its workers
+
+
+def _local_worker_preload(scheduler):
+    """For ``scheduler="local"``: the cluster's workers ignore Ctrl-C (``_dask_preload``)."""
+    if scheduler != "local":
+        return contextlib.nullcontext()
+    import dask
+    import distributed  # noqa: F401 - its config defaults first: set() undoes only its key
+
+    return dask.config.set({"distributed.worker.preload": ["psdesign.study._dask_preload"]})
 
 
 def _check_submit_command(scheduler) -> None:
