@@ -267,12 +267,6 @@ def cmd_study_run(args: argparse.Namespace) -> int:
         return fail(str(exc), FAILED)
     except KeyboardInterrupt as exc:  # Ctrl-C, and SIGTERM (Terminated)
         return stopped(exc)
-    if args.no_report:  # an earlier run's report.html would show other cases (finding 3)
-        from pathlib import Path
-
-        from psdesign.io.outputs import remove_owned_files
-
-        remove_owned_files(Path(args.out), ["report.html"])
     return study_exit_status(df, allow_not_converged=args.allow_not_converged)
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from psdesign.schema.budget import MAX_CASES
-from psdesign.study.studyfile import ParamSpec, Study, StudyError
+from psdesign.study.studyfile import ParamSpec, Study, StudyError, round_level
 
 __all__ = [
     "Case",
@@ -163,23 +163,35 @@ def _levels(p: ParamSpec) -> list:
         pts = np.array([0.5])
     else:
         pts = np.linspace(0.0, 1.0, n)
-    return list(_map_unit(p, pts))
+    # dict.fromkeys: integer levels can coincide (levels = 5 over 1..3); each runs once
+    return list(dict.fromkeys(_map_unit(p, pts, ends=True)))
 
 
-def _map_unit(p: ParamSpec, u: np.ndarray) -> list:
-    """Map unit samples ``u`` in [0, 1) onto the parameter's domain."""
+def _map_unit(p: ParamSpec, u: np.ndarray, ends: bool = False) -> list:
+    """Map unit samples ``u`` in [0, 1) onto the parameter's domain (``ends``: ``u`` in
+    [0, 1], levels from one end to the other).
+
+    Float values are rounded as ranges are (:func:`round_level`).  Integers lie in
+    [ceil(low), floor(high)] (10.2-10.8 gave 10 and 11) and, sampled, each has an equal share
+    of [0, 1) (rounding low + u (high - low) gave the two ends half a share each)."""
     u = np.asarray(u, dtype=float)
     if p.kind == "values":
         n = len(p.values)
         idx = np.minimum((u * n).astype(int), n - 1)
         return [p.values[i] for i in idx]
-    if p.dist == "loguniform":
-        x = np.exp(np.log(p.low) + u * (np.log(p.high) - np.log(p.low)))
-    else:
-        x = p.low + u * (p.high - p.low)
+    low, high = p.low, p.high
     if p.value_type == "int":
-        return [int(round(v)) for v in x]
-    return [float(v) for v in x]
+        low, high = math.ceil(p.low), math.floor(p.high)
+        if not ends:
+            low, high = low - 0.5, high + 0.5
+    if p.dist == "loguniform":
+        x = np.exp(np.log(low) + u * (np.log(high) - np.log(low)))
+    else:
+        x = low + u * (high - low)
+    if p.value_type == "int":
+        lo, hi = math.ceil(p.low), math.floor(p.high)
+        return [min(max(int(round(v)), lo), hi) for v in x]
+    return [round_level(v) for v in x]
 
 
 def design_points(study: Study) -> list[dict]:
@@ -220,7 +232,13 @@ def design_points(study: Study) -> list[dict]:
                 warnings.simplefilter("ignore", UserWarning)  # balance warning for n != 2^m
                 u = sampler.random(n)
         cols = [_map_unit(p, u[:, j]) for j, p in enumerate(params)]
-        return [{p.path: _py(cols[j][i]) for j, p in enumerate(params)} for i in range(n)]
+        points = [{p.path: _py(cols[j][i]) for j, p in enumerate(params)} for i in range(n)]
+        # samples over list levels (or integers) can coincide: the same case (hash and seed)
+        # ran twice (walk-study, session 53); each distinct point runs once
+        unique: dict[str, dict] = {}
+        for pt in points:
+            unique.setdefault(json.dumps(pt, sort_keys=True, default=str), pt)
+        return list(unique.values())
     if study.design == "csv":
         rows = []
         for row in study.csv_rows or []:

@@ -26,6 +26,8 @@ __all__ = [
     "Terminated",
     "held_signals",
     "ignore_sigint",
+    "restore_dask_logs",
+    "sigint_blocked",
     "stop_children",
     "stop_on_interrupt",
     "terminate_as_interrupt",
@@ -41,8 +43,30 @@ class Terminated(KeyboardInterrupt):  # noqa: N818 - a KeyboardInterrupt, caught
 
 
 def ignore_sigint() -> None:
-    """In a worker process: ignore SIGINT (the runner decides when workers stop)."""
+    """In a worker process: ignore SIGINT (the runner decides when workers stop), then
+    unblock it (:func:`sigint_blocked`: a Ctrl-C held since the start is dropped)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextlib.contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Block SIGINT in this thread while the body starts worker processes, which inherit the
+    mask: a Ctrl-C to the process group then waits in a worker until its initializer ignores
+    it (:func:`ignore_sigint`).  Before, a worker still importing got it and printed a 20-80
+    line ``KeyboardInterrupt`` traceback (or "Fatal Python error: init_import_site") under
+    the runner's line (walk-study, session 53).  The runner gets the signal after the body."""
+    if not hasattr(signal, "pthread_sigmask") or (
+        threading.current_thread() is not threading.main_thread()
+    ):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _key(proc) -> tuple[int, float]:
@@ -112,12 +136,38 @@ def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None 
     for k in targets:
         with contextlib.suppress(psutil.Error):
             k.terminate()
-    _gone, alive = psutil.wait_procs(targets, timeout=grace_s)
-    for k in alive:
+    # multiprocessing's own children are waited for by multiprocessing: reaped here (psutil
+    # waits with waitpid), their Process objects stayed "alive" for ever and a process pool's
+    # manager thread spun in shutdown_workers, so the runner never exited after "interrupted"
+    # (walk-study, session 53: 2 of 3 Ctrl-C, 2 of 9 SIGTERM)
+    pids = {k.pid for k in targets}
+    owned = {pid: p for pid, p in _multiprocessing_children().items() if pid in pids}
+    others = [k for k in targets if k.pid not in owned]
+    _join(owned.values(), grace_s)
+    _gone, alive = psutil.wait_procs(others, timeout=grace_s)
+    for k in alive + [k for k in targets if k.pid in owned and owned[k.pid].is_alive()]:
         with contextlib.suppress(psutil.Error):
             k.kill()
+    _join(owned.values(), grace_s)
     psutil.wait_procs(alive, timeout=grace_s)
     return len(targets)
+
+
+def _multiprocessing_children() -> dict:
+    """This process's live :mod:`multiprocessing` children (pool workers), by pid."""
+    import multiprocessing
+
+    return {p.pid: p for p in multiprocessing.active_children() if p.pid is not None}
+
+
+def _join(procs, grace_s: float) -> None:
+    """Join multiprocessing ``procs`` within ``grace_s`` seconds in all."""
+    import time
+
+    deadline = time.monotonic() + grace_s
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(max(0.0, deadline - time.monotonic()))
 
 
 _STATE: dict = {"depth": 0, "hit": False, "before": set()}
@@ -130,6 +180,7 @@ def _on_sigint(signum, frame) -> None:
         _resend_later(signum, _on_sigint)
         return
     _STATE["hit"] = True
+    _quiet_dask_logs()  # at once: a group signal already stops a local cluster's workers
     term = signum == signal.SIGTERM
     if _cli_command() is None:  # library use: say why the run stops; a command says it once
         what = "terminated (SIGTERM)" if term else "interrupted"
@@ -165,6 +216,7 @@ def stop_on_interrupt() -> Iterator[None]:
         yield
     except KeyboardInterrupt:
         _STATE["hit"] = True  # also for an interrupt raised before the handler saw it
+        _quiet_dask_logs()
         stop_children(keep=_STATE["before"])
         raise
     finally:
@@ -172,6 +224,27 @@ def stop_on_interrupt() -> Iterator[None]:
         if outer:
             signal.signal(signal.SIGINT, previous)
             signal.signal(signal.SIGTERM, previous_term)
+
+
+def _quiet_dask_logs() -> None:
+    """Stopping: a local Dask cluster's nannies (in this process) log "distributed.nanny -
+    WARNING - Restarting worker" for each worker :func:`stop_children` ends, 1-4 lines above
+    the command's one line (walk-study, session 53).  Until :func:`restore_dask_logs`."""
+    if "distributed" not in sys.modules or "dask_level" in _STATE:
+        return
+    import logging
+
+    log = logging.getLogger("distributed")
+    _STATE["dask_level"] = log.level
+    log.setLevel(logging.CRITICAL)
+
+
+def restore_dask_logs() -> None:
+    """Dask's log level as it was before an interrupt quieted it (once its cluster is closed)."""
+    if "dask_level" in _STATE:
+        import logging
+
+        logging.getLogger("distributed").setLevel(_STATE.pop("dask_level"))
 
 
 _TERM: dict = {"pid": None, "hit": False}

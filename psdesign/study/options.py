@@ -82,7 +82,9 @@ class RunOptions:
         Re-run cases recorded as ``not_converged`` (otherwise they count as finished); default
         False.
     report : bool
-        Write ``OUT/report.html`` at the end; default True.
+        Write ``OUT/report.html`` at the end; default True.  False removes an earlier
+        run's (psdesign's own) before the cases run, so a stopped or failed run leaves none
+        showing other cases.
     force : bool
         Accept a non-empty output folder psdesign did not create (``--force``); a file psdesign
         did not write is still never replaced (:mod:`psdesign.io.outputs`).  Default False.

@@ -10,6 +10,7 @@ command skips cases whose record says ``ok`` (and ``failed``/``timeout`` unless
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import datetime as _dt
 import errno
 import json
@@ -31,7 +32,7 @@ from typing import Any
 import pandas as pd
 
 from psdesign.errors import short
-from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir
+from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir, remove_owned_files
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
     SchedulerAddress,
@@ -42,7 +43,13 @@ from psdesign.study.address import (
 from psdesign.study.casefn import case_fn_name, runs_pipeline, watch_parent
 from psdesign.study.cluster import DEFAULT_WAIT_S, has_worker
 from psdesign.study.design import Case, expand_design, match_finished
-from psdesign.study.interrupt import ignore_sigint, stop_on_interrupt
+from psdesign.study.interrupt import (
+    GRACE_S,
+    ignore_sigint,
+    restore_dask_logs,
+    sigint_blocked,
+    stop_on_interrupt,
+)
 from psdesign.study.options import RunOptions, refuse_unknown_keywords
 from psdesign.study.progress import Progress
 from psdesign.study.sameness import check_same_study
@@ -227,7 +234,7 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
             initargs=(os.getpid(),),
         )
         try:
-            with _thread_budget(n_workers):
+            with _thread_budget(n_workers), sigint_blocked():  # workers start with it blocked
                 futs = {ex.submit(execute_case, p): p for p in batch}
             for fut in cf.as_completed(futs):
                 p = futs[fut]
@@ -303,13 +310,19 @@ def _init_worker(parent_pid: int) -> None:
 
 
 def _terminate_pool(ex: cf.ProcessPoolExecutor) -> None:
-    """Stop the pool's own worker processes (by pid) after an error or interrupt."""
-    procs = getattr(ex, "_processes", None) or {}
-    for proc in list(procs.values()):
-        try:
+    """Stop the pool's own worker processes after an error or interrupt, and join them:
+    multiprocessing must reap its own workers (see :func:`~psdesign.study.interrupt.stop_children`)
+    or the pool's manager thread waits for them for ever."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
             proc.terminate()
-        except Exception:  # noqa: BLE001, S110
-            pass
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(GRACE_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join(GRACE_S)
 
 
 def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
@@ -905,9 +918,10 @@ def _connect_and_run(
             if opts.scheduler:
                 _check_submit_command(opts.scheduler)  # before the "submitting" line
                 _say_waiting(opts.scheduler, opts.workers, opts.progress)
-                client, cluster = connect_scheduler(
-                    opts.scheduler, opts.workers, security=opts.security, what=scheduler_option
-                )
+                with _local_worker_preload(opts.scheduler):
+                    client, cluster = connect_scheduler(
+                        opts.scheduler, opts.workers, security=opts.security, what=scheduler_option
+                    )
             # the folder and its marker (report.html only when written); nothing is deleted
             # before the lock
             _claim(target, STUDY_FILES if opts.report else STUDY_FILES_NO_REPORT)
@@ -915,12 +929,25 @@ def _connect_and_run(
             # workers stop before the lock; its refusal names the command's option (-o)
             with _run_lock(target.path, target.option), stop_on_interrupt():
                 store.remove_stale_temp()
+                if not opts.report:  # before the cases: an interrupted run left the old one
+                    remove_owned_files(target.path, ["report.html"])
                 return _run_locked(study, cases, store, list(study.parameters), client, opts)
     finally:
         if client is not None:
             client.close(timeout=5)
         if cluster is not None:
             cluster.close(timeout=5)
+        restore_dask_logs()  # quieted while an interrupted run stopped its workers
+
+
+def _local_worker_preload(scheduler):
+    """For ``scheduler="local"``: the cluster's workers ignore Ctrl-C (``_dask_preload``)."""
+    if scheduler != "local":
+        return contextlib.nullcontext()
+    import dask
+    import distributed  # noqa: F401 - its config defaults first: set() undoes only its key
+
+    return dask.config.set({"distributed.worker.preload": ["psdesign.study._dask_preload"]})
 
 
 def _check_submit_command(scheduler) -> None:

@@ -240,8 +240,17 @@ def _range_values(key: str, spec: dict) -> tuple:
     all_int = all(isinstance(v, int) for v in (start, stop, step))
     vals = [start + i * step for i in range(n)]
     if not all_int:
-        vals = [round(float(v), 12) for v in vals]
+        vals = [round_level(v) for v in vals]
     return tuple(vals)
+
+
+def round_level(v: float) -> float:
+    """A float level of a design as the study runs and shows it: 12 decimals, so floating-point
+    noise goes (0.1 + 2 * 0.1 is 0.3; bounds 0.8-0.9 at 3 levels give 0.85, not
+    0.8500000000000001), or 12 significant digits where 12 decimals would move the value
+    itself (below ~1e-3: 3.71234e-11 stays 3.71234e-11, not 3.7e-11)."""
+    r = round(float(v), 12)
+    return r if abs(r - v) <= 1e-9 * abs(v) else float(f"{float(v):.12g}")
 
 
 def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
@@ -263,6 +272,7 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
         return ParamSpec(path=path, kind="values", values=tuple(value))
     if isinstance(value, dict):
         keys = set(value)
+        _refuse_extra_keys(value, key)
         if keys and keys <= RANGE_KEYS:
             return ParamSpec(path=path, kind="values", values=_range_values(key, value))
         if keys and keys <= BOUNDS_KEYS:
@@ -270,6 +280,12 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
                 if name not in value:
                     raise _err(key, f"bounds need low and high (missing {name})")
             b = _validate(BoundsParam, value, key)
+            if b.type == "int" and math.ceil(b.low) > math.floor(b.high):
+                raise _err(
+                    key,
+                    f"no integer between low = {b.low} and high = {b.high} (allowed: "
+                    'type = "int" bounds holding at least one integer)',
+                )
             return ParamSpec(
                 path=path,
                 kind="bounds",
@@ -286,13 +302,47 @@ def _param_spec(path: str, value: Any, key: str) -> ParamSpec:
     )
 
 
+_FORMS = (
+    ("range", ("start", "stop"), tuple(RangeParam.model_fields)),
+    ("bounds", ("low", "high"), tuple(BoundsParam.model_fields)),
+)
+"""The table forms of a parameter: name, the keys that mark it, all its keys."""
+
+
+def _table_form(value: dict) -> tuple[str, tuple[str, ...]] | None:
+    """The form (name, allowed keys) of a table of scalars that has a form's marking keys
+    (``start`` and ``stop``, or ``low`` and ``high``), whatever else it holds; else None."""
+    if any(isinstance(v, dict | list) for v in value.values()):
+        return None
+    for name, marks, allowed in _FORMS:
+        if all(m in value for m in marks):
+            return name, allowed
+    return None
+
+
+def _refuse_extra_keys(value: dict, key: str) -> None:
+    """Refuse, by name, a key a range or bounds table does not take: read as nested paths,
+    ``{low, high, levels, foo = 1}`` was "unknown parameter path 'generator.porosity.low'"
+    (walk-study, session 53)."""
+    form = _table_form(value)
+    if form is None:
+        return
+    name, allowed = form
+    extra = [k for k in value if k not in allowed]
+    if extra:
+        raise _err(
+            f"{key}.{extra[0]}", f"not a key of a {name} table (allowed: {', '.join(allowed)})"
+        )
+
+
 def _is_param_value(value: Any) -> bool:
     if isinstance(value, list):
         return True
     if isinstance(value, dict):
         keys = set(value)
         scalars = not any(isinstance(v, dict | list) for v in value.values())
-        return bool(keys) and scalars and (keys <= RANGE_KEYS or keys <= BOUNDS_KEYS)
+        known = keys <= RANGE_KEYS or keys <= BOUNDS_KEYS
+        return bool(keys) and scalars and (known or _table_form(value) is not None)
     return True  # scalars: rejected later with a clear message
 
 
@@ -498,6 +548,13 @@ def _parameters(
 
     csv_rows = None
     if st.design == "csv":
+        if params:  # the design reads the rows only: the levels were listed, never run
+            path = next(iter(params))
+            raise _err(
+                f"parameters.{path}",
+                f"a csv design runs the rows of study.csv only (allowed: no [parameters] with "
+                f'design = "csv"; give {path} as a column of {st.csv})',
+            )
         cols, csv_rows = _read_csv_rows((root / st.csv).resolve(), "study.csv")
         if len(csv_rows) * (1 if "seed" in cols else len(seeds)) > MAX_CASES:
             raise _err(

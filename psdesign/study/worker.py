@@ -168,6 +168,7 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
     outp.unlink(missing_ok=True)
     arrays.unlink(missing_ok=True)
     timeout = float(payload["timeout_s"])
+    t0 = time.perf_counter()
     with open(workdir / "case.log", "ab") as log:
         proc = subprocess.Popen(
             [sys.executable, "-m", "psdesign.study._child", str(workdir), str(os.getpid())],
@@ -181,7 +182,13 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
             proc.communicate(data, timeout=timeout)
         except subprocess.TimeoutExpired:
             _kill_group(proc)
-            return "timeout", None, f"case exceeded the timeout of {timeout:g} s and was killed"
+            error = f"case exceeded the timeout of {timeout:g} s and was killed"
+            # the failed-case line points to error.txt; a timeout has no traceback (session 53)
+            (workdir / "error.txt").write_text(
+                f"timeout: {error} (its process group, after {time.perf_counter() - t0:.1f} s; "
+                "study.timeout_s or --timeout); its output so far is in case.log\n"
+            )
+            return "timeout", None, error
         except BaseException:
             _kill_group(proc)
             raise
@@ -193,7 +200,9 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
                 sig = f" ({signal.Signals(-rc).name})"
             except ValueError:
                 sig = ""
-        return "failed", None, f"case process died with exit status {rc}{sig}; see case.log"
+        error = f"case process died with exit status {rc}{sig}; see case.log"
+        (workdir / "error.txt").write_text(f"{error} (no Python traceback: crash or kill)\n")
+        return "failed", None, error
     try:
         res = read_result(workdir)
     except CaseExchangeError as exc:

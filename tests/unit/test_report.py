@@ -191,6 +191,29 @@ def test_study_run_no_report_removes_an_earlier_runs_report(tmp_path, capsys):
     assert main(["study", "report", str(out)]) == 0 and (out / "report.html").is_file()
 
 
+def interrupting_case(spec, outputs, solver, workdir):
+    """Ctrl-C in the first case (``--workers 0``: the runner's own process)."""
+    raise KeyboardInterrupt
+
+
+def test_an_interrupted_no_report_run_removes_the_earlier_report_first(tmp_path, capsys):
+    """walk-study item 5 (session 53): the earlier run's report.html was removed only after a
+    ``--no-report`` run succeeded, so a Ctrl-C'd (or failed) one left it showing the old cases,
+    though ``--help`` says it is removed. Now it goes once the folder is locked, before any case."""
+    from psdesign.cli import main
+    from psdesign.io.outputs import read_marker
+
+    p = write_study(tmp_path, FACTORIAL, FAC_PARAMS)
+    out = tmp_path / "out"
+    argv = ["study", "run", str(p), "-o", str(out), "--workers", "0", "--quiet"]
+    assert main([*argv, "--case-fn", "study_cases:fake_case"]) == 0
+    assert (out / "report.html").is_file()
+    p.write_text(p.read_text().replace("[0.7, 0.8, 0.9]", "[0.7, 0.8, 0.9, 0.85]"))  # 4 to run
+    assert main([*argv, "--no-report", "--case-fn", "test_report:interrupting_case"]) == 130
+    assert not (out / "report.html").exists()
+    assert "report.html" not in read_marker(out)["files"]
+
+
 def test_report_of_an_unfinished_study_says_so_and_exits_3(tmp_path, capsys):
     """walk-cli finding 1 (session 52): a study interrupted after 3 of its 12 cases gave a
     report saying "cases 3", exit 0, nowhere that 9 cases of study.json never ran. Truth: the

@@ -111,6 +111,92 @@ def test_invalid_study_names_key(tmp_path, study, params, key):
     assert "\n" not in msg
 
 
+@pytest.mark.parametrize(
+    ("params", "line"),
+    [
+        (
+            '"generator.porosity" = {low = 0.8, high = 0.9, levels = 2, foo = 1}',
+            "parameters.generator.porosity.foo: not a key of a bounds table "
+            "(allowed: low, high, dist, levels, type)",
+        ),
+        (
+            '"flow.aux_length" = {start = 0.1, stop = 0.3, step = 0.1, type = "int"}',
+            "parameters.flow.aux_length.type: not a key of a range table "
+            "(allowed: start, stop, step)",
+        ),
+        (
+            "[parameters.flow]\naux_length = {start = 0.1, stop = 0.3, step = 0.1, levels = 2}",
+            "parameters.flow.aux_length.levels: not a key of a range table "
+            "(allowed: start, stop, step)",
+        ),
+    ],
+)
+def test_an_extra_key_in_a_range_or_bounds_table_is_named(tmp_path, params, line):
+    """The bad key itself is named with the keys of its table's form; before, the table was
+    read as nested parameter paths and the line blamed a good key: "unknown parameter path
+    'generator.porosity.low'" (walk-study, session 53)."""
+    p = write_study(tmp_path, 'design = "full-factorial"', params)
+    if params.startswith("["):
+        p.write_text(p.read_text().replace("[parameters]\n[parameters.flow]", "[parameters.flow]"))
+    with pytest.raises(StudyError) as ei:
+        load_study(p)
+    assert str(ei.value) == line
+
+
+def test_bounds_levels_are_rounded_as_ranges_are(tmp_path):
+    """{low = 0.8, high = 0.9, levels = 3}: the middle level is 0.85 (0.8 + 0.5 * 0.1 is
+    0.8500000000000001 in floating point, written into results.csv, summary.csv and the case
+    ids; walk-study item 4a), as {start, stop, step} ranges are rounded; the same value as the
+    range {0.8, 0.9, 0.05} gives, so the same case id."""
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"',
+        '"generator.porosity" = {low = 0.8, high = 0.9, levels = 3}',
+    )
+    bounds = expand_design(load_study(p))
+    assert [c.params["generator.porosity"] for c in bounds] == [0.8, 0.85, 0.9]
+    p = write_study(
+        tmp_path,
+        'design = "full-factorial"',
+        '"generator.porosity" = {start = 0.8, stop = 0.9, step = 0.05}',
+    )
+    assert [c.case_id for c in expand_design(load_study(p))] == [c.case_id for c in bounds]
+
+
+def test_integer_bounds_stay_inside_and_share_the_samples_equally(tmp_path):
+    """type = "int" bounds give integers in [ceil(low), floor(high)], each an equal share of a
+    Latin hypercube's strata: 300 samples over 1999.6-2002.4 hold 100 each of 2000-2002 (LHS
+    puts one sample in each 1/300 stratum; the old rounding gave the ends 0.9/2.8 of them).
+    2000.2-2000.8 holds no integer and is refused (10.2-10.8 gave 10 and 11; walk-study 4b)."""
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 300',
+        '"generator.porosity" = {low = 0.7, high = 0.9}\n'
+        '"generator.max_fibers" = {low = 1999.6, high = 2002.4, type = "int"}',
+    )
+    n = [c.params["generator.max_fibers"] for c in expand_design(load_study(p))]
+    ints = [2000, 2001, 2002]
+    assert sorted(set(n)) == ints and [n.count(k) for k in ints] == [100] * 3
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 4',
+        '"generator.max_fibers" = {low = 2000.2, high = 2000.8, type = "int"}',
+    )
+    with pytest.raises(StudyError, match=r"^parameters\.generator\.max_fibers: no integer"):
+        load_study(p)
+
+
+def test_sampled_list_levels_that_coincide_run_once(tmp_path):
+    """Sobol's 4 samples over the levels [0.85, 0.9] are 2 distinct points (each twice): each
+    runs once per seed, not twice with the same hash and seed (walk-study item 4c)."""
+    p = write_study(
+        tmp_path, 'design = "sobol"\nn_samples = 4', '"generator.porosity" = [0.85, 0.9]'
+    )
+    cases = expand_design(load_study(p))
+    assert sorted(c.params["generator.porosity"] for c in cases) == [0.85, 0.9]
+    assert len({c.case_id.split("-")[-1] for c in cases}) == 2
+
+
 def test_invalid_base_value_that_every_case_overrides_is_refused(tmp_path):
     """A base value no case uses is still what the reader takes for the baseline: porosity 1.85
     (a typo for 0.85) beside a porosity sweep is refused by name, before any work (session 18
@@ -272,6 +358,23 @@ def test_csv_design(tmp_path):
     p.write_text(BASE + '[study]\ndesign = "csv"\ncsv = "empty.csv"\n')
     with pytest.raises(StudyError, match="no rows"):
         load_study(p)
+
+
+def test_csv_design_refuses_an_inline_parameter(tmp_path):
+    """design = "csv" reads its points from the file only: an inline [parameters] entry was
+    dropped without a word (every case ran at the base diameter 7e-6, results.csv had an empty
+    generator.diameter column; walk-study, session 53). Now one line names it, before any work."""
+    (tmp_path / "pts.csv").write_text("generator.porosity\n0.85\n0.9\n")
+    p = tmp_path / "s.toml"
+    p.write_text(
+        BASE + '[study]\ndesign = "csv"\ncsv = "pts.csv"\nseeds = [1]\n'
+        '[parameters]\n"generator.diameter" = [7e-6, 8e-6]\n'
+    )
+    with pytest.raises(StudyError) as exc:
+        load_study(p)
+    assert exc.value.key == "parameters.generator.diameter"
+    assert "csv design" in str(exc.value) and "pts.csv" in str(exc.value)
+    assert "\n" not in str(exc.value)
 
 
 # ----------------------------------------------------------------------------- running
@@ -444,6 +547,11 @@ def test_timeout_kills_case(tmp_path):
     assert st == {0.7: "ok", 0.9: "timeout"}
     row = df[df["status"] == "timeout"].iloc[0]
     assert "timeout of 3 s" in row["error"]
+    # the failed-case line points to error.txt: a timeout writes what, the limit and the time
+    # it ran (it wrote none; walk-study item 6, session 53)
+    why = (out / "cases" / row["case_id"] / "error.txt").read_text()
+    assert why.startswith("timeout: case exceeded the timeout of 3 s and was killed")
+    assert 3.0 <= float(why.split(" after ")[1].split(" s")[0]) < 30
     pid = int((out / "cases" / row["case_id"] / "pid.txt").read_text())
     assert pid != os.getpid()
     assert not psutil.pid_exists(pid)

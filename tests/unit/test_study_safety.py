@@ -432,10 +432,16 @@ def test_flagged_case_is_not_converged_and_shown_in_report(tmp_path):
 # ----------------------------------------------------------------------------- Ctrl-C
 
 
-def _start_runner(tmp_path: Path, timeout: float | None, workers: int = 2):
+def _start_runner(
+    tmp_path: Path,
+    timeout: float | None,
+    workers: int = 2,
+    params: str = '"generator.porosity" = [0.7, 0.75, 0.8, 0.85]',
+    extra=(),
+):
     flag = tmp_path / "FLAG"
     flag.write_text("slow")
-    p = write_study(tmp_path, ONE, '"generator.porosity" = [0.7, 0.75, 0.8, 0.85]')
+    p = write_study(tmp_path, ONE, params)
     out = tmp_path / "out"
     code = (
         f"import sys; sys.path[:0] = [{str(TESTS_DIR)!r}, {str(HERE)!r}]\n"
@@ -444,6 +450,7 @@ def _start_runner(tmp_path: Path, timeout: float | None, workers: int = 2):
         f"sys.argv = ['psdesign', 'study', 'run', {str(p)!r}, '-o', {str(out)!r}, '--workers',"
         f" '{workers}', '--no-report', '--case-fn', 'test_study_safety:slow_unless_flag_case']"
         + (f" + ['--timeout', '{timeout}']" if timeout else "")
+        + f" + {list(extra)!r}"
         + "\nconsole()\n"
     )
     proc = subprocess.Popen(
@@ -555,6 +562,99 @@ def test_sigterm_stops_runner_and_workers_releases_lock_and_resumes(tmp_path, ta
     finally:
         _kill_all(procs)
     _resumes(p, out, flag)
+
+
+EIGHT = '"generator.porosity" = [0.7, 0.75, 0.8, 0.85]\n"generator.diameter" = [6e-6, 7e-6]'
+"""8 cases for 2 workers: more than the pool's call queue holds (workers + 1), so the queue is
+full when the run is stopped, the state in which the pool's stop used to hang."""
+
+
+def _stop_once(
+    tmp_path: Path, sig: int, group: bool, delay_s: float, params: str = EIGHT, extra=()
+) -> tuple[int | None, str]:
+    """Start an 8-case, 2-worker ``study run`` (slow cases), send ``sig`` ``delay_s`` after its
+    "to run on" line (while the workers start or run), and return (exit status or None if it
+    was still running 20 s later, stderr)."""
+    import psutil
+
+    tmp_path.mkdir()
+    proc, _p, _out, _flag = _start_runner(tmp_path, None, params=params, extra=extra)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stderr), daemon=True)
+    reader.start()
+    deadline = time.monotonic() + 60.0
+    while not any(b"to run on" in ln for ln in lines) and time.monotonic() < deadline:
+        assert proc.poll() is None, b"".join(lines).decode()
+        time.sleep(0.02)
+    time.sleep(delay_s)
+    procs = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
+    (os.killpg if group else os.kill)(proc.pid, sig)
+    try:
+        status = proc.wait(timeout=20.0)  # the hang: "psdesign: error: interrupted", no exit
+    except subprocess.TimeoutExpired:
+        status = None
+    _kill_all(procs)
+    proc.wait()
+    reader.join(5.0)
+    return status, b"".join(lines).decode()
+
+
+@pytest.mark.parametrize(
+    ("sig", "group", "delays"),
+    [
+        pytest.param(signal.SIGINT, True, (0.0, 0.5, 1.0, 2.0), id="ctrl-c-group"),
+        pytest.param(signal.SIGTERM, False, (0.5, 2.0, 4.0), id="sigterm-runner"),
+        pytest.param(
+            signal.SIGINT,
+            True,
+            (0.1, 0.3, 0.7, 1.5, 3.0, 5.0),
+            id="ctrl-c-more",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            signal.SIGTERM, True, (0.3, 1.0, 3.0, 6.0), id="sigterm-group", marks=pytest.mark.slow
+        ),
+    ],
+)
+def test_a_stop_while_the_pool_queue_is_full_exits_with_one_line(tmp_path, sig, group, delays):
+    """Ctrl-C or SIGTERM while 8 cases wait for 2 workers (starting or running) exits 130/143
+    within 20 s with one line. On session 52's main the runner hung for ever after printing
+    "psdesign: error: interrupted" (walk-study, session 53: 2 of 3 Ctrl-C, 2 of 9 SIGTERM):
+    the clean-up reaped the pool's workers itself, so multiprocessing saw them alive for ever and
+    its manager thread spun in shutdown_workers with the call queue full; and a Ctrl-C while a
+    worker was still importing printed that worker's KeyboardInterrupt traceback."""
+    want = 143 if sig == signal.SIGTERM else 130
+    for i, delay in enumerate(delays):
+        status, err = _stop_once(tmp_path / f"r{i}", sig, group, delay)
+        assert status == want, (delay, status, err)
+        lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("[study]")]
+        assert len(lines) == 1 and lines[0].startswith("psdesign: error: "), (delay, err)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("sig", "word"), [(signal.SIGTERM, "terminated"), (signal.SIGINT, "interr")]
+)
+def test_a_stopped_local_dask_run_prints_only_its_line(tmp_path, sig, word):
+    """SIGTERM or Ctrl-C to the process group of a ``--scheduler local`` run: exit 143/130 and
+    one line. The local cluster's nannies (threads of the runner) logged 1-4 "distributed.nanny
+    - WARNING - Restarting worker" lines above it on SIGTERM (walk-study, session 53; 2 of 2
+    stops on the old code), and on Ctrl-C each Dask worker logged "Async instruction for <Task
+    cancelled ...>" (6 of 6): dask's logs are quiet while the runner stops and the workers
+    ignore Ctrl-C. Three stops, ~15 s each."""
+    for i in range(3):
+        status, err = _stop_once(
+            tmp_path / f"r{i}",
+            sig,
+            True,
+            2.0,
+            params='"generator.porosity" = [0.7, 0.75, 0.8, 0.85]',
+            extra=("--scheduler", "local"),
+        )
+        assert status == (143 if sig == signal.SIGTERM else 130), err
+        lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("[study]")]
+        lines = [ln for ln in lines if "Port 8787" not in ln]  # another dask on the machine
+        assert len(lines) == 1 and lines[0].startswith(f"psdesign: error: {word}"), err
 
 
 def test_interrupt_stops_only_processes_started_during_the_run():
