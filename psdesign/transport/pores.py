@@ -22,8 +22,10 @@
   pore diameter, and the Washburn pressure ``p = -2 gamma cos(theta) / r``.  The
   **breakthrough diameter** is the largest scanned ``2 r`` whose centres ``dt >= r`` cross the
   sample: wind around the periodic box along the axis (:func:`breakthrough_radius`; such a
-  cluster meets every layer, the inlet too, so it is invaded); None when none does (no
-  intrusion path along the axis: the result is ``blocked``).
+  cluster meets every layer, the inlet too, so it is invaded); None when none does, with
+  ``pore_space_crosses``: whether the pore space itself (``dt > 0``) crosses (a path narrower
+  than the smallest scanned ball: the breakthrough unresolved, ``untrustworthy``), else no
+  path at all (``blocked``).
 * **Specific surface** ``S_v = A / V_box`` (m^-1) with ``A`` from marching cubes
   (:func:`skimage.measure.marching_cubes`) on the signed distance field
   ``VoxelFields.distance`` (the analytic surface sampled at voxel centres, second order, not
@@ -70,6 +72,10 @@ class PoreSizeResult:
     breakthrough_diameter_m: float | None
     bin_width_m: float
     porosity: float
+    #: whether the pore space itself (``dt > 0``) crosses the sample along the axis: with no
+    #: breakthrough diameter, True means the path is narrower than the scan resolves (the
+    #: breakthrough unresolved, not absent); False: no path at all (``blocked``)
+    pore_space_crosses: bool = True
     diameter_error_m: float = 0.0
     converged: bool = True
     rel_error: float = 0.0
@@ -349,6 +355,8 @@ def pore_sizes(
     SpecError
         An argument out of its ``[transport]`` key's range, naming the key.
     """
+    from psdesign.geometry.throat import percolates
+
     fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     t0 = time.perf_counter()
     name, ax = _check_pore_arguments(n_radii, thickness_axis, surface_tension, contact_angle_deg)
@@ -365,6 +373,8 @@ def pore_sizes(
     # every ball reaching the grid has its centre within rmax of it: rmax + 1 periodic layers
     # of the (periodic) distance hold them all
     r_break = breakthrough_radius(dt, radii, ax)
+    # no scanned ball crosses: is there a path at all (blocked), or one too narrow to resolve?
+    crosses = r_break is not None or percolates(dt > 0, ax)
     dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1)
     lt, sat = _scan(dt, dt > 0, radii, ax, core)
     del dt
@@ -393,6 +403,7 @@ def pore_sizes(
         breakthrough_diameter_m=None if r_break is None else 2.0 * h * r_break,
         bin_width_m=step,
         porosity=eps,
+        pore_space_crosses=bool(crosses),
         diameter_error_m=bar,
         rel_error=float(bar / q50) if q50 > 0 else 0.0,
         wall_time_s=time.perf_counter() - t0,

@@ -586,3 +586,30 @@ def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path
     assert "breakthrough none (no intrusion path along x: blocked), each " in sizes
     assert "[blocked]  converged true" in sizes
     assert main(["pores", str(spec), "--axis", "y", "--quiet"]) == 0  # along the walls: ok
+
+
+def test_pores_through_a_hole_narrower_than_the_scan_prints_an_unresolved_breakthrough(
+    tmp_path, capsys
+):
+    """The walls above pierced by a 2 x 2 voxel hole (session 53 review, hole.npy): a path
+    crosses (D_eff/D 0.048 through it) but no scanned ball passes, so the breakthrough is null
+    with ``pore_space_crosses`` true, the line says '< 2.000e-06 m (unresolved)' and
+    '[untrustworthy]', the warning asks for finer voxels (exit 3). It said 'none (no intrusion
+    path along x: blocked)', as if no path existed."""
+    solid = np.zeros((32, 16, 16), np.uint8)
+    solid[:8] = 1
+    solid[:8, 7:9, 7:9] = 0
+    np.save(tmp_path / "hole.npy", solid)
+    spec = tmp_path / "hole.toml"
+    spec.write_text('[image]\npath = "hole.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["breakthrough_diameter_m"] is None and out["pore_space_crosses"] is True
+    assert out["breakthrough_status"] == "untrustworthy"
+    assert "breakthrough: unresolved: the pore space crosses the sample along x" in cap.err
+    assert "use a finer image" in cap.err
+    assert main(["pores", str(spec), "--axis", "x", "--quiet"]) == 3
+    sizes = capsys.readouterr().out.splitlines()[0]
+    assert "breakthrough < 2.000e-06 m (unresolved), each " in sizes
+    assert "[untrustworthy]  converged true" in sizes
