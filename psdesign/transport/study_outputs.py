@@ -76,6 +76,7 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         thickness_axis=transport["thickness_axis"],
         surface_tension=float(transport["surface_tension_n_m"]),
         contact_angle_deg=float(transport["contact_angle_deg"]),
+        rve=rve,
     )
     progress.stage("specific surface (marching cubes)")
     sv = specific_surface(fields, rve=rve)
@@ -264,7 +265,8 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
     if any(o.startswith("pore_d") for o in wanted):
         from psdesign.transport.pores import pore_sizes
 
-        ps = pore_sizes(fields, n_radii=int(tr["n_radii"]), thickness_axis=tr["thickness_axis"])
+        axis = tr["thickness_axis"]
+        ps = pore_sizes(fields, n_radii=int(tr["n_radii"]), thickness_axis=axis, rve=rve)
         row.update(
             {"pore_d10_m": ps.pore_d10_m, "pore_d50_m": ps.pore_d50_m, "pore_d90_m": ps.pore_d90_m}
         )
