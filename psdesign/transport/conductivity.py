@@ -163,14 +163,15 @@ def transport_table(
     solid: float | None = None, fluid: float | None = None, transport: dict | None = None
 ) -> dict:
     """The validated ``[transport]`` table of a conductivity solve: ``transport`` with the
-    phase conductivities ``solid`` / ``fluid`` (keywords, > 0) in it.
+    phase conductivities ``solid`` / ``fluid`` (keywords, in
+    :data:`~psdesign.schema.transport.CONDUCTIVITY_RANGE`, ``[1e-300, 1e12)``) in it.
 
     Raises
     ------
     SpecError
-        A conductivity <= 0 (naming its key); a bad ``[transport]`` key; a ``solid`` (or
-        ``fluid``) for the phase ``insulating_phase`` makes a perfect insulator (conductivity
-        0: the value would be ignored), naming the keyword.
+        A conductivity outside ``[1e-300, 1e12)`` (naming its key); a bad ``[transport]``
+        key; a ``solid`` (or ``fluid``) for the phase ``insulating_phase`` makes a perfect
+        insulator (conductivity 0: the value would be ignored), naming the keyword.
 
     Examples
     --------
@@ -218,7 +219,8 @@ def effective_conductivity(
     fields : VoxelFields
     direction : "x", "y", "z" or 0..2
     solid, fluid : float, optional
-        Phase conductivities (> 0), overriding ``transport.solid_conductivity`` /
+        Phase conductivities in ``[1e-300, 1e12)``, overriding
+        ``transport.solid_conductivity`` /
         ``fluid_conductivity``.
     transport : dict, optional
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
@@ -237,8 +239,8 @@ def effective_conductivity(
     Raises
     ------
     SpecError
-        A conductivity <= 0 (naming the key), or a ``solid`` / ``fluid`` value for the
-        ``insulating_phase`` (:func:`transport_table`).
+        A conductivity outside ``[1e-300, 1e12)`` (naming the key), or a ``solid`` /
+        ``fluid`` value for the ``insulating_phase`` (:func:`transport_table`).
     """
     fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = transport_table(solid, fluid, transport)
