@@ -227,8 +227,7 @@ def effective_conductivity(
     fields : VoxelFields
     direction : "x", "y", "z" or 0..2
     solid, fluid : float, optional
-        Phase conductivities in ``[1e-300, 1e12)``, overriding
-        ``transport.solid_conductivity`` /
+        In ``[1e-300, 1e12)``, overriding ``transport.solid_conductivity`` /
         ``fluid_conductivity``.
     transport : dict, optional
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
@@ -248,16 +247,14 @@ def effective_conductivity(
     ------
     SpecError
         A conductivity outside ``[1e-300, 1e12)`` (naming the key), or a ``solid`` /
-        ``fluid`` value for the ``insulating_phase`` (:func:`transport_table`).
+        ``fluid`` for the ``insulating_phase`` (:func:`transport_table`).
     """
     fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = transport_table(solid, fluid, transport)
     ks = 0.0 if tr["insulating_phase"] == "solid" else tr["solid_conductivity"]
     kf = 0.0 if tr["insulating_phase"] == "fluid" else tr["fluid_conductivity"]
 
-    # float64: a float32 map made 1e-46 a zero before the blocked repeat below could lower the
-    # better phase to RESOLVED_CONTRAST times it (the solver's own float32 cast, after it
-    # divides by the better phase, keeps that ratio, not 120 / 1e-46: module docstring)
+    # float64: a float32 map made 1e-46 a zero before the repeat below (module docstring)
     def sigma_of(mask: np.ndarray) -> np.ndarray:
         return np.where(mask, np.float64(ks), np.float64(kf))
 
