@@ -86,19 +86,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="z",
         help="direction of the applied gradient (default z)",
     )
+    # the range is schema.transport.CONDUCTIVITY_RANGE, written out: importing the schema
+    # (pydantic) to build the parser cost every command ~0.1 s (tests/cli: the help says it)
     p.add_argument(
         "--solid",
         type=float,
         default=None,
-        help="solid (fibre) conductivity in --unit, > 0 (default: the spec's "
-        "transport.solid_conductivity, 120)",
+        help="solid (fibre) conductivity in --unit, in [1e-300, 1e12) (default: the "
+        "spec's transport.solid_conductivity, 120)",
     )
     p.add_argument(
         "--fluid",
         type=float,
         default=None,
-        help="fluid (pore) conductivity in --unit, > 0 (default: the spec's "
-        "transport.fluid_conductivity, 0.026)",
+        help="fluid (pore) conductivity in --unit, in [1e-300, 1e12) (default: the "
+        "spec's transport.fluid_conductivity, 0.026)",
     )
     p.add_argument(
         "--unit",

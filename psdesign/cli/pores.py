@@ -59,11 +59,12 @@ def _sizes_line(out: dict) -> str:
     # the line's numbers rated together: a blocked breakthrough says so in the [status] too
     status = worst_status([out["pore_sizes_status"], out["breakthrough_status"]])
     bt = out["breakthrough_diameter_m"]
-    bt_text = (  # None: no path crosses the sample (blocked; it printed 0 or a size, [ok])
-        f"{bt:.3e} m"
-        if bt is not None
-        else f"none (no intrusion path along {out['thickness_axis']}: blocked)"
-    )
+    if bt is not None:
+        bt_text = f"{bt:.3e} m"
+    elif out.get("pore_space_crosses", False):  # a path narrower than the smallest scanned ball
+        bt_text = f"< {out['intrusion_diameter_m'][-1]:.3e} m (unresolved)"
+    else:  # no path crosses the sample (blocked; it printed 0 or a size, [ok])
+        bt_text = f"none (no intrusion path along {out['thickness_axis']}: blocked)"
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "

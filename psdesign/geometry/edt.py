@@ -76,9 +76,10 @@ def _envelope(f, out, v, z, n):  # pragma: no cover - compiled
 
 
 @nb.njit(cache=True)
-def _pass_last_axis(a):  # pragma: no cover - compiled
-    """One envelope pass along the last axis of the 3-D float32 array ``a``, in place,
-    periodic: each line is extended by ``n // 2 + 1`` wrapped sites on either side."""
+def _pass_last_axis(a, wrap):  # pragma: no cover - compiled
+    """One envelope pass along the last axis of the 3-D float32 array ``a``, in place;
+    ``wrap``: periodic, each line extended by ``n // 2 + 1`` wrapped sites on either side,
+    else by as many empty ones (faces open: nothing beyond them)."""
     n0, n1, n = a.shape
     h = n // 2 + 1
     m = n + 2 * h
@@ -89,13 +90,15 @@ def _pass_last_axis(a):  # pragma: no cover - compiled
     for i in range(n0):
         for j in range(n1):
             for q in range(m):
-                f[q] = a[i, j, (q - h) % n]
+                f[q] = a[i, j, (q - h) % n] if wrap or 0 <= q - h < n else np.inf
             _envelope(f, out, v, z, n)
             for p in range(n):
                 a[i, j, p] = out[p]
 
 
-def periodic_edt(mask: np.ndarray) -> np.ndarray:
+def periodic_edt(
+    mask: np.ndarray, periodic: tuple[bool, bool, bool] = (True, True, True)
+) -> np.ndarray:
     """Euclidean distance (voxel centres, in voxels, float32) of every True voxel to the
     nearest False voxel of the periodic medium ``mask`` is one period of.
 
@@ -103,6 +106,9 @@ def periodic_edt(mask: np.ndarray) -> np.ndarray:
     ----------
     mask : ndarray of bool, 3-D
         Must hold at least one False voxel.
+    periodic : three bools
+        The axes the medium repeats along; along another the faces are open (nothing beyond
+        them, as :func:`edt`'s).
 
     Returns
     -------
@@ -115,6 +121,10 @@ def periodic_edt(mask: np.ndarray) -> np.ndarray:
     >>> m = np.ones((6, 1, 1), bool); m[2] = False
     >>> periodic_edt(m)[:, 0, 0]
     array([2., 1., 0., 1., 2., 3.], dtype=float32)
+    >>> periodic_edt(m, (False, True, True))[:, 0, 0]
+    array([2., 1., 0., 1., 2., 3.], dtype=float32)
+    >>> periodic_edt(np.roll(m, 2, axis=0), (False, True, True))[:, 0, 0]
+    array([4., 3., 2., 1., 0., 1.], dtype=float32)
     """
     if mask.ndim != 3:
         raise ValueError(f"mask: must be 3-D, got {mask.ndim}-D")
@@ -122,5 +132,5 @@ def periodic_edt(mask: np.ndarray) -> np.ndarray:
         raise ValueError("mask: must hold at least one False voxel")
     sq = np.where(mask, np.float32(np.inf), np.float32(0.0))
     for axis in (2, 1, 0):  # any order gives the same result
-        _pass_last_axis(np.moveaxis(sq, axis, 2))
+        _pass_last_axis(np.moveaxis(sq, axis, 2), bool(periodic[axis]))
     return np.sqrt(sq, out=sq)

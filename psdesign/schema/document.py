@@ -37,23 +37,30 @@ def _stacked_porosity(flow: FlowTable, seen: dict) -> float | None:
 
 def _diameter_limit(fb: FiberTable, size, period: float) -> float:
     """The bound a round fiber's diameter must stay below: the period and the box edges across
-    the fiber. A straight fiber (rod, cylinder) whose ``direction`` runs along a box axis never
-    meets the faces normal to it, so that edge does not count (a cylinder along z of diameter
-    16 um in a 32 x 32 x 16 um box was refused "not below the cell", session 53); any other
-    fiber (tilted, bent, or given by theta/omega) is held to every edge as before.
+    the fiber. A straight fiber (rod, cylinder) whose axis runs along a box axis never meets
+    the faces normal to it, so that edge does not count (a cylinder along z of diameter 16 um
+    in a 32 x 32 x 16 um box was refused "not below the cell", session 53); any other fiber
+    (tilted or bent) is held to every edge as before. The axis is the placed one
+    (:func:`psdesign.geometry.fibers.placement_rotation`), so ``direction`` and theta/omega
+    (both 0 by default: along x) are one rule; until the session 53 review only ``direction``
+    was read, and ``theta = omega = 0`` was held to every edge.
 
     >>> from types import SimpleNamespace as F
     >>> _diameter_limit(F(shape="cylinder", direction=(0, 0, 2)), (4.0, 5.0, 1.0), 6.0)
     4.0
     >>> _diameter_limit(F(shape="cylinder", direction=(0, 1, 1)), (4.0, 5.0, 1.0), 6.0)
     1.0
+    >>> _diameter_limit(F(shape="rod", theta=None, omega=None, direction=None), (1.0, 5, 4), 6)
+    4
     """
+    from psdesign.geometry.fibers import placement_rotation
+
     limit = min(min(size), period)
-    d = fb.direction
-    if fb.shape not in ("rod", "cylinder") or d is None:
+    if fb.shape not in ("rod", "cylinder"):
         return limit
-    norm = math.sqrt(sum(c * c for c in d))
-    along = [k for k in range(3) if abs(d[k]) / norm > 1.0 - 1e-9]  # on a grid axis
+    theta, omega = getattr(fb, "theta", None), getattr(fb, "omega", None)
+    axis = placement_rotation(theta, omega, fb.direction) @ (0.0, 0.0, 1.0)  # the placed axis
+    along = [k for k in range(3) if abs(axis[k]) > 1.0 - 1e-9]  # on a grid axis
     if not along:
         return limit
     return min(period, *(size[k] for k in range(3) if k != along[0]))

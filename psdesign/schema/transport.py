@@ -20,6 +20,17 @@ from psdesign.schema.types import Table, _is_bool, integer, number, short
 #: series mean; below it the effective value is not representable (a fluid of 5e-324 across
 #: walls gave 4.9e-324 for 6.6e-324, session 53). 1e-300 itself is solved exactly.
 MIN_CONDUCTIVITY = 1e-300
+#: Largest phase conductivity (exclusive, any unit): the schema's bound of the two keys.
+MAX_CONDUCTIVITY = 1e12
+
+
+def _g(value: float) -> str:
+    """A bound as the messages print it: ``1e-300``, ``1e12`` (``:g`` without its ``+``)."""
+    return f"{value:g}".replace("e+", "e")
+
+
+#: The accepted range, as every message, flag help and key description says it.
+CONDUCTIVITY_RANGE = f"[{_g(MIN_CONDUCTIVITY)}, {_g(MAX_CONDUCTIVITY)})"
 
 
 class TransportSpec(Table):
@@ -75,11 +86,12 @@ class TransportSpec(Table):
     mean_free_path_m: number(ge=0, lt=1) = Field(
         6.8e-8, description="metres in [0, 1) (default 6.8e-8, air; 0 switches Knudsen off)"
     )
-    solid_conductivity: number(ge=MIN_CONDUCTIVITY, lt=1e12) = Field(
-        120.0, description="in conductivity_unit, in [1e-300, 1e12) (default 120, carbon fibre)"
+    solid_conductivity: number(ge=MIN_CONDUCTIVITY, lt=MAX_CONDUCTIVITY) = Field(
+        120.0,
+        description=f"in conductivity_unit, in {CONDUCTIVITY_RANGE} (default 120, carbon fibre)",
     )
-    fluid_conductivity: number(ge=MIN_CONDUCTIVITY, lt=1e12) = Field(
-        0.026, description="in conductivity_unit, in [1e-300, 1e12) (default 0.026, air)"
+    fluid_conductivity: number(ge=MIN_CONDUCTIVITY, lt=MAX_CONDUCTIVITY) = Field(
+        0.026, description=f"in conductivity_unit, in {CONDUCTIVITY_RANGE} (default 0.026, air)"
     )
     conductivity_unit: Literal["W/(m K)", "S/m"] = Field(
         "W/(m K)", description="W/(m K) | S/m (default W/(m K))"
@@ -150,17 +162,18 @@ def validate_transport(spec: dict | None) -> dict:
 
 
 def check_conductivity(value: float, key: str) -> float:
-    """A conductivity given outside the spec (CLI): in [1e-300, 1e12), else SpecError naming key
-    (:data:`MIN_CONDUCTIVITY`)."""
+    """A conductivity given outside the spec (CLI): in :data:`CONDUCTIVITY_RANGE`
+    (:data:`MIN_CONDUCTIVITY`, :data:`MAX_CONDUCTIVITY`), else SpecError naming key."""
+    lo, hi = _g(MIN_CONDUCTIVITY), _g(MAX_CONDUCTIVITY)
     # a bool or a string is no number (float(True) is 1.0, float("2") 2.0: the API took both)
     if isinstance(value, str | bytes) or _is_bool(value):
-        raise SpecError(key, f"must be a number >= 1e-300 and < 1e12, got {short(value)}")
+        raise SpecError(key, f"must be a number >= {lo} and < {hi}, got {short(value)}")
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise SpecError(key, f"must be a number >= 1e-300, got {short(value)}") from None
-    if not (v >= MIN_CONDUCTIVITY and v < 1e12):
+        raise SpecError(key, f"must be a number >= {lo}, got {short(value)}") from None
+    if not (v >= MIN_CONDUCTIVITY and v < MAX_CONDUCTIVITY):
         # name the way to say "0" where the user is: the CLI flag or the spec key
         zero = "--insulating" if key.startswith("--") else "transport.insulating_phase"
-        raise SpecError(key, f"must be >= 1e-300 and < 1e12 (use {zero} for 0), got {v:g}")
+        raise SpecError(key, f"must be >= {lo} and < {hi} (use {zero} for 0), got {v:g}")
     return v

@@ -12,11 +12,19 @@ isotropic 3-D Hashin-Shtrikman bounds (Hashin & Shtrikman, J. Appl. Phys. 33, 31
 which bind only an isotropic medium: a fibrous medium is anisotropic (a straight fibre's axis
 reaches the parallel mean, above them), so they rate nothing.
 
-The phase map is float64: the solver divides it by the better phase before its own float32
-cast, so any two phases in the accepted ``[1e-300, 1e12)`` keep their ratio (a float32 map
-underflowed a fluid of 1e-46 to 0, ``blocked``, and read equal phases 3.7 as
-3.700000047683716; session 53). It costs about 4 B per voxel more at the peak (113.2 against
-109.2 B per voxel traced on a 96^3 image), the solver copying the map to float64 either way.
+The phase map is float64; the solver divides it by the better phase and then casts it to
+float32 (:func:`solvers.transport.laplace.solve_laplace`), so equal phases are exact (a
+float32 map read 3.7 as 3.700000047683716) but a ratio under float32's range does not
+survive the solver's cast (120 and 1e-46 passed straight to it: the fluid flushes to 0,
+``blocked``). Any two phases in the accepted ``[1e-300, 1e12)`` are still solved right,
+because such a contrast never reaches the solver alone: where the better phase spans, the
+weaker one's share is below float32's resolution anyway; where it does not, the first solve is
+blocked (a flux under ``BLOCKED_FRACTION`` of the Wiener upper bound, from a contrast of about
+1e8) and is repeated at :data:`RESOLVED_CONTRAST`, with the better phase lowered in this
+float64 map, a ratio the cast keeps (walls across x, 120 against 1e-3 ... 1e-300: the series
+mean within 2e-7; a float32 map flushed 1e-46 to 0 before the repeat, session 53). The
+float64 map costs about 4 B per voxel more at the peak (113.2 against 109.2 B per voxel
+traced on a 96^3 image), the solver copying the map to float64 either way.
 """
 
 from __future__ import annotations
@@ -163,14 +171,15 @@ def transport_table(
     solid: float | None = None, fluid: float | None = None, transport: dict | None = None
 ) -> dict:
     """The validated ``[transport]`` table of a conductivity solve: ``transport`` with the
-    phase conductivities ``solid`` / ``fluid`` (keywords, > 0) in it.
+    phase conductivities ``solid`` / ``fluid`` (keywords, in
+    :data:`~psdesign.schema.transport.CONDUCTIVITY_RANGE`, ``[1e-300, 1e12)``) in it.
 
     Raises
     ------
     SpecError
-        A conductivity <= 0 (naming its key); a bad ``[transport]`` key; a ``solid`` (or
-        ``fluid``) for the phase ``insulating_phase`` makes a perfect insulator (conductivity
-        0: the value would be ignored), naming the keyword.
+        A conductivity outside ``[1e-300, 1e12)`` (naming its key); a bad ``[transport]``
+        key; a ``solid`` (or ``fluid``) for the phase ``insulating_phase`` makes a perfect
+        insulator (conductivity 0: the value would be ignored), naming the keyword.
 
     Examples
     --------
@@ -218,7 +227,7 @@ def effective_conductivity(
     fields : VoxelFields
     direction : "x", "y", "z" or 0..2
     solid, fluid : float, optional
-        Phase conductivities (> 0), overriding ``transport.solid_conductivity`` /
+        In ``[1e-300, 1e12)``, overriding ``transport.solid_conductivity`` /
         ``fluid_conductivity``.
     transport : dict, optional
         ``[transport]`` table (``bc``, ``tol``, ``error_estimate``, ``insulating_phase``).
@@ -237,15 +246,15 @@ def effective_conductivity(
     Raises
     ------
     SpecError
-        A conductivity <= 0 (naming the key), or a ``solid`` / ``fluid`` value for the
-        ``insulating_phase`` (:func:`transport_table`).
+        A conductivity outside ``[1e-300, 1e12)`` (naming the key), or a ``solid`` /
+        ``fluid`` for the ``insulating_phase`` (:func:`transport_table`).
     """
     fields = checked_fields(fields)  # a VoxelFields, else one line naming it
     tr = transport_table(solid, fluid, transport)
     ks = 0.0 if tr["insulating_phase"] == "solid" else tr["solid_conductivity"]
     kf = 0.0 if tr["insulating_phase"] == "fluid" else tr["fluid_conductivity"]
 
-    # float64 (the solver scales before its float32 cast): a float32 map made 1e-46 a zero
+    # float64: a float32 map made 1e-46 a zero before the repeat below (module docstring)
     def sigma_of(mask: np.ndarray) -> np.ndarray:
         return np.where(mask, np.float64(ks), np.float64(kf))
 

@@ -21,9 +21,14 @@
   ``dt >= r`` are connected to that layer through such centres.  Saturation vs accessible
   pore diameter, and the Washburn pressure ``p = -2 gamma cos(theta) / r``.  The
   **breakthrough diameter** is the largest scanned ``2 r`` whose centres ``dt >= r`` cross the
-  sample: wind around the periodic box along the axis (:func:`breakthrough_radius`; such a
-  cluster meets every layer, the inlet too, so it is invaded); None when none does (no
-  intrusion path along the axis: the result is ``blocked``).
+  sample (:func:`breakthrough_radius`, :func:`crosses`): along an axis the geometry repeats
+  across (:func:`periodic_axes`, the rule S_v wraps by) they wind around the periodic box
+  (such a cluster meets every layer, the inlet too, so it is invaded); along another one
+  cluster joins the first layer to the last, faces crossed only where the geometry repeats,
+  with ``dt`` open at the other faces; None when none does, with
+  ``pore_space_crosses``: whether the pore space itself (``dt > 0``) crosses (a path narrower
+  than the smallest scanned ball: the breakthrough unresolved, ``untrustworthy``), else no
+  path at all (``blocked``).
 * **Specific surface** ``S_v = A / V_box`` (m^-1) with ``A`` from marching cubes
   (:func:`skimage.measure.marching_cubes`) on the signed distance field
   ``VoxelFields.distance`` (the analytic surface sampled at voxel centres, second order, not
@@ -70,6 +75,10 @@ class PoreSizeResult:
     breakthrough_diameter_m: float | None
     bin_width_m: float
     porosity: float
+    #: whether the pore space itself (``dt > 0``) crosses the sample along the axis: with no
+    #: breakthrough diameter, True means the path is narrower than the scan resolves (the
+    #: breakthrough unresolved, not absent); False: no path at all (``blocked``)
+    pore_space_crosses: bool = True
     diameter_error_m: float = 0.0
     converged: bool = True
     rel_error: float = 0.0
@@ -267,16 +276,49 @@ def _scan(dt, pore, radii, inlet_axis, core):
     return lt, sat
 
 
-def breakthrough_radius(dt: np.ndarray, radii: np.ndarray, axis: int) -> float | None:
+def crosses(mask: np.ndarray, axis: int, periodic: tuple[bool, bool, bool]) -> bool:
+    """Whether the True voxels of ``mask`` (face-connected) cross the box along ``axis``,
+    passing a face of the box only where the geometry repeats across it (``periodic``, per
+    axis: :func:`periodic_axes`, the rule S_v wraps by). Along a periodic ``axis`` a path
+    winds around the box (:func:`psdesign.geometry.throat.percolates`, the voxel solver's one
+    test of a path); along another one cluster joins the first layer to the last (a fluid
+    layer beyond each end, joined across the wrap: the permeameter's reservoirs,
+    :func:`psdesign.flow.no_path.permeameter_pore`). Across a non-periodic side axis a solid
+    layer closes the wrap (the permeameter's side walls); across a periodic one it stays open.
+
+    >>> m = np.zeros((8, 8, 1), bool); m[np.arange(8), np.arange(8) // 2 + 2, 0] = True
+    >>> m[np.arange(7), np.arange(7) // 2 + 2 + 1, 0] = True  # a face-connected diagonal
+    >>> crosses(m, 0, (True, True, True)), crosses(m, 0, (False, True, True))
+    (False, True)
+    """
+    from psdesign.geometry.throat import percolates
+
+    if not periodic[axis]:
+        ends = [(1, 1) if a == axis else (0, 0) for a in range(3)]
+        mask = np.pad(mask, ends, constant_values=True)
+    walls = [(0, 1) if a != axis and not periodic[a] else (0, 0) for a in range(3)]
+    if any(w != (0, 0) for w in walls):
+        mask = np.pad(mask, walls, constant_values=False)
+    return percolates(mask, axis)
+
+
+def breakthrough_radius(
+    dt: np.ndarray,
+    radii: np.ndarray,
+    axis: int,
+    periodic: tuple[bool, bool, bool] = (True, True, True),
+) -> float | None:
     """The largest of ``radii`` (descending, voxels) whose ball centres ``dt >= r`` (the periodic
-    pore distance of the unpadded grid) wind around the periodic box along ``axis``
-    (:func:`psdesign.geometry.throat.percolates`, the voxel solver's one test of a path), None
+    pore distance of the unpadded grid) cross the box along ``axis`` (:func:`crosses`: wind
+    around it along a ``periodic`` axis, join its first and last layers along another), None
     when not even the smallest does.
 
     Until session 53 it was the first radius with any intruded volume: a cluster touching the
     inlet layer counted though it never reached the outlet (walls across x: 23 um ``ok`` where
-    no path exists, and 0 with the box cut elsewhere). The set grows as ``r`` falls, so a
-    bisection over ``radii`` needs ``log2(n_radii)`` tests.
+    no path exists, and 0 with the box cut elsewhere). Until the session 53 review the path
+    had to wind around the box also along an axis the geometry does not repeat across (a
+    diagonal channel from y = 6 to 22 over x: ``blocked``, D_eff/D 0.136 along it). The set
+    grows as ``r`` falls, so a bisection over ``radii`` needs ``log2(n_radii)`` tests.
 
     >>> d = np.zeros((6, 7, 1), np.float32); d[:, 2:5, 0] = [1.0, 2.0, 1.0]  # a channel along x
     >>> breakthrough_radius(d, np.array([2.5, 2.0, 1.0]), 0)
@@ -284,18 +326,41 @@ def breakthrough_radius(dt: np.ndarray, radii: np.ndarray, axis: int) -> float |
     >>> breakthrough_radius(d, np.array([1.0]), 1) is None  # across the channel: no path
     True
     """
-    from psdesign.geometry.throat import percolates
-
-    if not percolates(dt >= radii[-1], axis):
+    if not crosses(dt >= radii[-1], axis, periodic):
         return None
     lo, hi = 0, len(radii) - 1  # radii[hi] crosses, none before radii[lo] does
     while lo < hi:
         mid = (lo + hi) // 2
-        if percolates(dt >= radii[mid], axis):
+        if crosses(dt >= radii[mid], axis, periodic):
             hi = mid
         else:
             lo = mid + 1
     return float(radii[hi])
+
+
+def _breakthrough(
+    fields: VoxelFields,
+    dt: np.ndarray,
+    radii: np.ndarray,
+    axis: int,
+    periodic: tuple[bool, bool, bool],
+) -> tuple[float | None, bool]:
+    """:func:`breakthrough_radius` along ``axis`` and whether the pore space crosses at all
+    (no scanned ball crosses: a path too narrow to resolve, or none, ``blocked``). ``dt`` is
+    the periodic pore distance; along an axis the geometry does not repeat across, the
+    distance with those faces open replaces it (the solid of the opposite face is no
+    neighbour there: a channel reaching the face read 0.5 voxel wide in its first layer);
+    an image's signed distance is itself periodic, so its voxels' transform alone counts."""
+    if not all(periodic):
+        pore = fields.distance > 0
+        dt = periodic_edt(pore, periodic)
+        if fields.analytic_distance:  # the surface's own distance inside its band
+            dt = _edt_pore(fields.distance, float(fields.grid.spacing[0]), lambda m: dt)
+        else:
+            dt[pore] -= 0.5  # to the solid voxels' faces, as _edt_pore
+            dt[~pore] = 0.0
+    r_break = breakthrough_radius(dt, radii, axis, periodic)
+    return r_break, r_break is not None or crosses(dt > 0, axis, periodic)
 
 
 def _check_pore_arguments(
@@ -328,6 +393,7 @@ def pore_sizes(
     thickness_axis: str | int = "z",
     surface_tension: float = 0.485,
     contact_angle_deg: float = 140.0,
+    rve: RVE | None = None,
 ) -> PoreSizeResult:
     """Local-thickness pore size distribution and intrusion curve (see module docstring).
 
@@ -343,6 +409,10 @@ def pore_sizes(
     surface_tension, contact_angle_deg : float
         Intrusion fluid for the Washburn pressure (mercury by default): N/m in (0, 10) and
         degrees in (90, 180] (``transport.surface_tension_n_m``, ``contact_angle_deg``).
+    rve : RVE, optional
+        The fibres of ``fields``, to judge along which axes the geometry repeats across the
+        box (:func:`periodic_axes`, as :func:`specific_surface`; without it the voxel layers
+        judge): the breakthrough's path crosses a face only there (:func:`crosses`).
 
     Raises
     ------
@@ -364,7 +434,8 @@ def pore_sizes(
     radii = np.unique(np.linspace(max(rmax, 1.0), min(1.0, rmax), n_radii))[::-1]
     # every ball reaching the grid has its centre within rmax of it: rmax + 1 periodic layers
     # of the (periodic) distance hold them all
-    r_break = breakthrough_radius(dt, radii, ax)
+    periodic = periodic_axes(rve, fields)  # a path crosses a face only where these repeat
+    r_break, through = _breakthrough(fields, dt, radii, ax, periodic)
     dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1)
     lt, sat = _scan(dt, dt > 0, radii, ax, core)
     del dt
@@ -393,6 +464,7 @@ def pore_sizes(
         breakthrough_diameter_m=None if r_break is None else 2.0 * h * r_break,
         bin_width_m=step,
         porosity=eps,
+        pore_space_crosses=bool(through),
         diameter_error_m=bar,
         rel_error=float(bar / q50) if q50 > 0 else 0.0,
         wall_time_s=time.perf_counter() - t0,

@@ -76,6 +76,7 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
         thickness_axis=transport["thickness_axis"],
         surface_tension=float(transport["surface_tension_n_m"]),
         contact_angle_deg=float(transport["contact_angle_deg"]),
+        rve=rve,
     )
     progress.stage("specific surface (marching cubes)")
     sv = specific_surface(fields, rve=rve)
@@ -95,7 +96,8 @@ def pore_report(rve: RVE | None, fields: VoxelFields, transport: dict) -> dict:
     out["porosity_profile"] = porosity_profile(fields, transport["thickness_axis"])
     if rve is not None:
         out["orientation_tensor"] = orientation_tensor(rve)
-    out.update(_pore_rating(out, rve, float(fields.grid.spacing[0]), varying_edge(fields)))
+    h, image = float(fields.grid.spacing[0]), not fields.analytic_distance
+    out.update(_pore_rating(out, rve, h, varying_edge(fields), image))
     return out
 
 
@@ -131,7 +133,7 @@ def pore_sizes_status(
     return "untrustworthy" if status == "ok" and d90_m > edge_m else status
 
 
-def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
+def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float, image: bool = False) -> dict:
     """``status`` (the worst of the three below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
     their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
@@ -140,7 +142,8 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
     (:func:`psdesign.transport.pores.surface_status`), and the pore sizes when ``d90``
     exceeds ``edge``, the smallest edge the geometry varies along (:func:`varying_edge`: a
     pore larger than the RVE); the breakthrough ``blocked`` when no intrusion path crosses
-    the sample (its diameter None)."""
+    the sample and ``untrustworthy`` when the path is narrower than the scan resolves
+    (:func:`breakthrough_rating`; ``image``: a segmented image's voxels, no ``rve.voxel``)."""
     from psdesign.flow import error as err
     from psdesign.geometry.rve import resolution_measure
     from psdesign.transport.effective import rating, worst_status
@@ -167,14 +170,8 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the smallest edge the geometry "
             f"varies along {edge:.3e} m: the RVE is smaller than its pores; use a larger RVE"
         )
-    # no crossing: no breakthrough (null), blocked as a diffusivity with no path is
-    crossing = "ok" if out["breakthrough_diameter_m"] is not None else "blocked"
-    if crossing == "blocked":
-        warnings.append(
-            f"breakthrough: no intrusion path along {out['thickness_axis']}: the pore space "
-            f"does not cross the sample through throats of diameter >= "
-            f"{out['intrusion_diameter_m'][-1]:.3e} m (the smallest scanned)"
-        )
+    crossing, said = breakthrough_rating(out, image)
+    warnings += said
     return {
         "pore_sizes_status": sizes,
         "breakthrough_status": crossing,
@@ -182,6 +179,41 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float) -> dict:
         "status": worst_status([sizes, surface, crossing]),
         "warnings": warnings,
     }
+
+
+def breakthrough_rating(out: dict, image: bool) -> tuple[str, list[str]]:
+    """``breakthrough_status`` of a pore report and its warning: ``ok`` with a diameter;
+    without one ``untrustworthy`` when the pore space crosses the sample
+    (``pore_space_crosses``: a path narrower than the scan resolves, its diameter unknown) and
+    ``blocked`` when it does not (no path at all, as a diffusivity with none). Until session 53
+    both were ``blocked``: a 2 x 2 voxel hole through a wall (D_eff/D 0.048 through it).
+    ``image``: the voxels are the image's (no ``rve.voxel`` to refine).
+
+    >>> out = {"breakthrough_diameter_m": None, "pore_space_crosses": True,
+    ...        "thickness_axis": "x", "intrusion_diameter_m": [4e-6, 2e-6],
+    ...        "diameter_error_m": 3.1e-6}
+    >>> status, said = breakthrough_rating(out, image=False)
+    >>> status, said[0][:56]
+    ('untrustworthy', 'breakthrough: unresolved: the pore space crosses the sam')
+    >>> breakthrough_rating({**out, "pore_space_crosses": False}, image=False)[0]
+    'blocked'
+    """
+    if out["breakthrough_diameter_m"] is not None:
+        return "ok", []
+    axis, smallest = out["thickness_axis"], out["intrusion_diameter_m"][-1]
+    if not out.get("pore_space_crosses", False):
+        return "blocked", [
+            f"breakthrough: no intrusion path along {axis}: the pore space does not cross "
+            "the sample (no path at any diameter on this voxel grid)"
+        ]
+    finer = "a finer image" if image else "a finer rve.voxel"
+    return "untrustworthy", [
+        f"breakthrough: unresolved: the pore space crosses the sample along {axis}, but "
+        f"only through throats narrower than the scan resolves (no ball of the smallest "
+        f"scanned diameter {smallest:.3e} m passes; the throat is under "
+        f"{smallest + out['diameter_error_m']:.3e} m with the scan's one-sided bar); use "
+        f"{finer}, a few voxels across the throat"
+    ]
 
 
 def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: dict) -> dict:
@@ -233,7 +265,8 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
     if any(o.startswith("pore_d") for o in wanted):
         from psdesign.transport.pores import pore_sizes
 
-        ps = pore_sizes(fields, n_radii=int(tr["n_radii"]), thickness_axis=tr["thickness_axis"])
+        axis = tr["thickness_axis"]
+        ps = pore_sizes(fields, n_radii=int(tr["n_radii"]), thickness_axis=axis, rve=rve)
         row.update(
             {"pore_d10_m": ps.pore_d10_m, "pore_d50_m": ps.pore_d50_m, "pore_d90_m": ps.pore_d90_m}
         )

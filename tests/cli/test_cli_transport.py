@@ -586,3 +586,62 @@ def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path
     assert "breakthrough none (no intrusion path along x: blocked), each " in sizes
     assert "[blocked]  converged true" in sizes
     assert main(["pores", str(spec), "--axis", "y", "--quiet"]) == 0  # along the walls: ok
+
+
+def test_pores_through_a_hole_narrower_than_the_scan_prints_an_unresolved_breakthrough(
+    tmp_path, capsys
+):
+    """The walls above pierced by a 2 x 2 voxel hole (session 53 review, hole.npy): a path
+    crosses (D_eff/D 0.048 through it) but no scanned ball passes, so the breakthrough is null
+    with ``pore_space_crosses`` true, the line says '< 2.000e-06 m (unresolved)' and
+    '[untrustworthy]', the warning asks for finer voxels (exit 3). It said 'none (no intrusion
+    path along x: blocked)', as if no path existed."""
+    solid = np.zeros((32, 16, 16), np.uint8)
+    solid[:8] = 1
+    solid[:8, 7:9, 7:9] = 0
+    np.save(tmp_path / "hole.npy", solid)
+    spec = tmp_path / "hole.toml"
+    spec.write_text('[image]\npath = "hole.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["breakthrough_diameter_m"] is None and out["pore_space_crosses"] is True
+    assert out["breakthrough_status"] == "untrustworthy"
+    assert "breakthrough: unresolved: the pore space crosses the sample along x" in cap.err
+    assert "use a finer image" in cap.err
+    assert main(["pores", str(spec), "--axis", "x", "--quiet"]) == 3
+    sizes = capsys.readouterr().out.splitlines()[0]
+    assert "breakthrough < 2.000e-06 m (unresolved), each " in sizes
+    assert "[untrustworthy]  converged true" in sizes
+
+
+def test_every_text_of_the_conductivity_range_is_the_schema_range(capsys):
+    """The phase conductivities are accepted in [1e-300, 1e12) (schema.transport
+    MIN_CONDUCTIVITY / MAX_CONDUCTIVITY, session 53); the flags' help, the keys' descriptions
+    and the API docstrings say that range, not '> 0' (session 53 review: 1e-310 is > 0 and
+    refused), and the refusal names it from the same constants."""
+    from psdesign.schema.transport import (
+        CONDUCTIVITY_RANGE,
+        MAX_CONDUCTIVITY,
+        MIN_CONDUCTIVITY,
+        TransportSpec,
+        check_conductivity,
+    )
+    from psdesign.transport.conductivity import effective_conductivity, transport_table
+
+    assert CONDUCTIVITY_RANGE == "[1e-300, 1e12)"
+    assert (MIN_CONDUCTIVITY, MAX_CONDUCTIVITY) == (1e-300, 1e12)
+    with pytest.raises(SystemExit):
+        main(["conductivity", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for flag in ("--solid SOLID", "--fluid FLUID"):
+        assert f"{flag} " in text
+        assert f"conductivity in --unit, in {CONDUCTIVITY_RANGE} (default" in text
+        assert f"{flag.split()[0]} conductivity in --unit, > 0" not in text
+    for key in ("solid_conductivity", "fluid_conductivity"):
+        assert CONDUCTIVITY_RANGE in TransportSpec.model_fields[key].description
+    for doc in (effective_conductivity.__doc__, transport_table.__doc__):
+        assert "> 0" not in doc and "<= 0" not in doc and "[1e-300, 1e12)" in doc
+    with pytest.raises(Exception, match=r"must be >= 1e-300 and < 1e12 \(use --insulating"):
+        check_conductivity(1e12, "--solid")
+    assert check_conductivity(MIN_CONDUCTIVITY, "--fluid") == 1e-300

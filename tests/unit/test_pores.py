@@ -473,6 +473,65 @@ def test_breakthrough_needs_a_path_across_and_ignores_where_the_box_is_cut(shift
     assert any("no intrusion path along x" in w for w in out["warnings"])
 
 
+@pytest.mark.parametrize("hole", [2, 8])
+def test_breakthrough_through_a_hole_narrower_than_the_scan_is_unresolved_not_blocked(hole):
+    """The walls above (x in [0, 8) of a 32 x 16 x 16 box) pierced by a square hole ``hole``
+    voxels wide: a path crosses along x by construction. 8 voxels: its width, less at most
+    the one-sided bar. 2 voxels: no scanned ball (diameter 2 voxels and up, centred on voxel
+    centres: the hole's centre voxels lie 1/2 voxel from its faces) passes, so the
+    breakthrough is unknown (None), but the pore space crosses: ``untrustworthy`` with a
+    warning to refine, never ``blocked``, which says no path exists (the diffusivity through
+    the 2-voxel hole is 0.048 of bulk). Session 53 review: both were ``blocked``."""
+    from psdesign.transport.study_outputs import pore_report
+
+    solid = np.zeros((32, 16, 16), bool)
+    solid[:8] = True
+    solid[:8, 7 : 7 + hole, 7 : 7 + hole] = False
+    fields = _fields(np.where(solid, -0.5, 0.5))
+    tr = {"n_radii": 16, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert out["pore_space_crosses"] is True
+    if hole == 8:
+        bt = out["breakthrough_diameter_m"]
+        assert hole * H - out["diameter_error_m"] <= bt <= hole * H
+        assert out["breakthrough_status"] == "ok"
+        return
+    assert out["breakthrough_diameter_m"] is None
+    assert out["breakthrough_status"] == out["status"] == "untrustworthy"
+    said = "breakthrough: unresolved: the pore space crosses the sample along x"
+    assert any(w.startswith(said) for w in out["warnings"])
+
+
+@pytest.mark.parametrize("cut", [False, True])
+def test_breakthrough_along_an_axis_the_geometry_does_not_repeat_joins_its_two_faces(cut):
+    """A channel 6 voxels wide (y) climbing from y = 6 to 22 over x in a 32 x 32 x 8 image
+    (session 53 review, tilt.npy): its faces normal to x do not match (``periodic_axes``), so
+    the path need not wind around the box; one cluster joining the x = 0 and x = 31 layers
+    crosses, and the distance there does not see the opposite face's solid. The breakthrough
+    lies between the smallest scanned diameter and the channel's width across its axis,
+    ``6 / sqrt(1 + (1/2)^2)`` = 5.37 voxels (plane geometry). Cut by a solid layer at x = 16:
+    no path at all, ``blocked``. It was ``blocked`` uncut too (D_eff/D 0.136 along it)."""
+    from psdesign.image.fields import image_fields
+    from psdesign.transport.study_outputs import pore_report
+
+    solid = np.ones((32, 32, 8), bool)
+    for x in range(32):
+        solid[x, 6 + x // 2 : 12 + x // 2, :] = False
+    if cut:
+        solid[16] = True
+    fields = image_fields(solid, H)
+    tr = {"n_radii": 16, "thickness_axis": "x", "surface_tension_n_m": 0.485}
+    out = pore_report(None, fields, {**tr, "contact_angle_deg": 140.0})
+    assert out["surface_periodic_axes"] == "yz"
+    if cut:
+        assert out["pore_space_crosses"] is False and out["breakthrough_diameter_m"] is None
+        assert out["breakthrough_status"] == "blocked"
+        return
+    bt = out["breakthrough_diameter_m"]
+    assert 2 * H <= bt <= 6 / np.sqrt(1.25) * H
+    assert out["breakthrough_status"] == "ok"
+
+
 @pytest.mark.parametrize("depth", [6, 16])
 def test_surface_bar_of_an_extruded_rod_does_not_depend_on_its_depth(depth):
     """A rod of radius 8 voxels along z (32 x 32 cross-section, analytic distance) extruded

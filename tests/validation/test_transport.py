@@ -314,6 +314,25 @@ def test_two_conducting_phases_never_block_however_weak_one_is(fluid):
     assert along.effective_conductivity == pytest.approx(0.25 * 120 + 0.75 * fluid, rel=1e-6)
 
 
+def test_a_ratio_below_float32_reaches_the_solver_only_through_the_blocked_repeat():
+    """What keeps 120 / 1e-46 right (session 53 review finding 5: the docstring said the
+    solver's float32 cast keeps any ratio): given straight to the Laplace solver the fluid
+    flushes to 0 after its division by the better phase (blocked, no conducting face); through
+    :func:`effective_conductivity` the blocked solve is repeated with the solid lowered to
+    ``RESOLVED_CONTRAST`` times the fluid in the float64 map, which the cast keeps: the series
+    mean 1 / (0.25 / 120 + 0.75 / 1e-46) to 1e-6."""
+    from psdesign.transport.conductivity import RESOLVED_CONTRAST
+    from solvers.transport.laplace import solve_laplace
+
+    solid = _walls()
+    raw = solve_laplace(np.where(solid, 120.0, 1e-46), 0, bc="periodic")
+    assert raw.blocked
+    capped = solve_laplace(np.where(solid, 1e-46 * RESOLVED_CONTRAST, 1e-46), 0, bc="periodic")
+    assert not capped.blocked
+    res = effective_conductivity(fields_from_solid(solid, 1e-6), "x", 120.0, 1e-46)
+    assert res.effective_conductivity == pytest.approx(1 / (0.25 / 120 + 0.75 / 1e-46), rel=1e-6)
+
+
 def test_equal_phases_give_the_phase_value_exactly():
     """solid = fluid = 3.7: a uniform medium, 3.7 exactly (the float64 value), bar 0. The
     float32 map gave 3.700000047683716 (session 53, walk-transport finding 5)."""
