@@ -156,6 +156,21 @@ def sleepy_case(spec, outputs, solver, workdir):
     return fake_case(spec, outputs, solver, workdir)
 
 
+def record_breaking_case(spec, outputs, solver, workdir):
+    """Porosity 0.7: the case replaces its work folder by a file, so the runner's own write of
+    its record fails (an error in the runner, not a case failure); the other cases sleep 60 s."""
+    import shutil
+
+    if spec["generator"]["porosity"] == 0.7:
+        time.sleep(1.0)
+        shutil.rmtree(workdir)
+        workdir.write_text("x")
+        return {}
+    (workdir / "pid.txt").write_text(str(os.getpid()))
+    time.sleep(60)
+    return fake_case(spec, outputs, solver, workdir)
+
+
 def crash_case(spec, outputs, solver, workdir):
     if spec["generator"]["porosity"] == 0.8:
         os._exit(3)  # the worker process dies, like a segfault or an OOM kill

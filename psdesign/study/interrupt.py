@@ -56,7 +56,9 @@ def sigint_blocked() -> Iterator[None]:
     mask: a Ctrl-C to the process group then waits in a worker until its initializer ignores
     it (:func:`ignore_sigint`).  Before, a worker still importing got it and printed a 20-80
     line ``KeyboardInterrupt`` traceback (or "Fatal Python error: init_import_site") under
-    the runner's line (walk-study, session 53).  The runner gets the signal after the body."""
+    the runner's line (walk-study, session 53).  The runner gets the signal after the body, or
+    during it when another of its threads has SIGINT unblocked (the submit loop's ``except
+    BaseException`` then stops the run as on any interrupt)."""
     if not hasattr(signal, "pthread_sigmask") or (
         threading.current_thread() is not threading.main_thread()
     ):
@@ -143,12 +145,12 @@ def stop_children(grace_s: float = GRACE_S, keep: set[tuple[int, float]] | None 
     pids = {k.pid for k in targets}
     owned = {pid: p for pid, p in _multiprocessing_children().items() if pid in pids}
     others = [k for k in targets if k.pid not in owned]
-    _join(owned.values(), grace_s)
+    join_within(owned.values(), grace_s)
     _gone, alive = psutil.wait_procs(others, timeout=grace_s)
     for k in alive + [k for k in targets if k.pid in owned and owned[k.pid].is_alive()]:
         with contextlib.suppress(psutil.Error):
             k.kill()
-    _join(owned.values(), grace_s)
+    join_within(owned.values(), grace_s)
     psutil.wait_procs(alive, timeout=grace_s)
     return len(targets)
 
@@ -160,7 +162,7 @@ def _multiprocessing_children() -> dict:
     return {p.pid: p for p in multiprocessing.active_children() if p.pid is not None}
 
 
-def _join(procs, grace_s: float) -> None:
+def join_within(procs, grace_s: float) -> None:
     """Join multiprocessing ``procs`` within ``grace_s`` seconds in all."""
     import time
 

@@ -254,8 +254,9 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
                     continue
                 on_done(p, rec)
         except BaseException:
+            procs = _pool_processes(ex)  # shutdown forgets them (CPython sets _processes None)
             ex.shutdown(wait=False, cancel_futures=True)
-            _terminate_pool(ex)
+            _terminate_pool(procs)
             raise
         ex.shutdown(wait=True)
 
@@ -309,20 +310,30 @@ def _init_worker(parent_pid: int) -> None:
     watch_parent(parent_pid)
 
 
-def _terminate_pool(ex: cf.ProcessPoolExecutor) -> None:
-    """Stop the pool's own worker processes after an error or interrupt, and join them:
-    multiprocessing must reap its own workers (see :func:`~psdesign.study.interrupt.stop_children`)
-    or the pool's manager thread waits for them for ever."""
-    procs = list((getattr(ex, "_processes", None) or {}).values())
+def _pool_processes(ex: cf.ProcessPoolExecutor) -> list:
+    """The pool's worker processes, taken before ``ex.shutdown``, which drops its record of
+    them (review s53: :func:`_terminate_pool` then found none, and after an error that is not
+    an interrupt the workers ran their cases on after the lock was released)."""
+    return list((getattr(ex, "_processes", None) or {}).values())
+
+
+def _terminate_pool(procs: list) -> None:
+    """Stop the pool's worker processes ``procs`` (:func:`_pool_processes`) after an error or
+    interrupt, and join them within :data:`GRACE_S` in all (then kill, and join again):
+    multiprocessing must reap its own workers (see
+    :func:`~psdesign.study.interrupt.stop_children`) or the pool's manager thread waits for
+    them for ever."""
+    from psdesign.study.interrupt import join_within
+
     for proc in procs:
         with contextlib.suppress(Exception):
             proc.terminate()
-    for proc in procs:
+    join_within(procs, GRACE_S)
+    alive = [p for p in procs if p.is_alive()]
+    for proc in alive:
         with contextlib.suppress(Exception):
-            proc.join(GRACE_S)
-            if proc.is_alive():
-                proc.kill()
-                proc.join(GRACE_S)
+            proc.kill()
+    join_within(alive, GRACE_S)
 
 
 def _run_inline(payloads: list[dict], on_done: Callable[[dict, dict], None]) -> None:
@@ -940,6 +951,16 @@ def _connect_and_run(
         restore_dask_logs()  # quieted while an interrupted run stopped its workers
 
 
+def _fewer_points_note(study, cases) -> str:
+    """``" (n_samples = 8 gave 2 distinct points)"`` when coinciding samples of a latin
+    hypercube / Sobol design ran once each (review s53: the smaller design went unsaid)."""
+    n = study.n_samples if study.design in ("latin-hypercube", "sobol") else None
+    points = len({json.dumps(c.params, sort_keys=True, default=str) for c in cases})
+    if not n or points >= n:
+        return ""
+    return f" (n_samples = {n} gave {points} distinct points)"
+
+
 def _local_worker_preload(scheduler):
     """For ``scheduler="local"``: the cluster's workers ignore Ctrl-C (``_dask_preload``)."""
     if scheduler != "local":
@@ -947,7 +968,11 @@ def _local_worker_preload(scheduler):
     import dask
     import distributed  # noqa: F401 - its config defaults first: set() undoes only its key
 
-    return dask.config.set({"distributed.worker.preload": ["psdesign.study._dask_preload"]})
+    # beside the user's own worker preloads from their dask config, not instead (review s53)
+    theirs = list(dask.config.get("distributed.worker.preload", None) or [])
+    return dask.config.set(
+        {"distributed.worker.preload": [*theirs, "psdesign.study._dask_preload"]}
+    )
 
 
 def _check_submit_command(scheduler) -> None:
@@ -1003,7 +1028,7 @@ def _run_locked(
     prog = Progress(len(cases), already_done=len(cases) - len(todo), enabled=opts.progress)
     prog.start(
         f"[study] {study.name}: {len(cases)} cases, {len(cases) - len(todo)} already done, "
-        f"{len(todo)} to run on {_backend(opts)} -> {out}"
+        f"{len(todo)} to run on {_backend(opts)} -> {out}{_fewer_points_note(study, cases)}"
     )
 
     def on_done(payload: dict, rec: dict) -> None:

@@ -163,6 +163,24 @@ def test_bounds_levels_are_rounded_as_ranges_are(tmp_path):
     assert [c.case_id for c in expand_design(load_study(p))] == [c.case_id for c in bounds]
 
 
+def test_float_samples_are_the_samplers_values_unrounded(tmp_path):
+    """Review s53: the level rounding (12 decimals) was applied to latin-hypercube samples as
+    well, so 0.8989756619015952 became 0.898975661902 and every case id of an older LHS or
+    Sobol folder changed (8 of 8 cases re-run on resume). Truth: a sample is low + u (high -
+    low) of scipy's own LatinHypercube(d, seed=design_seed) draw, bit for bit."""
+    from scipy.stats import qmc
+
+    p = write_study(
+        tmp_path,
+        'design = "latin-hypercube"\nn_samples = 8\ndesign_seed = 3',
+        '"generator.porosity" = {low = 0.7, high = 0.9}',
+    )
+    got = [c.params["generator.porosity"] for c in expand_design(load_study(p))]
+    u = qmc.LatinHypercube(d=1, seed=3).random(8)[:, 0]
+    assert got == [0.7 + float(x) * (0.9 - 0.7) for x in u]
+    assert any(len(repr(v)) > 14 for v in got)  # not rounded to 12 decimals
+
+
 def test_integer_bounds_stay_inside_and_share_the_samples_equally(tmp_path):
     """type = "int" bounds give integers in [ceil(low), floor(high)], each an equal share of a
     Latin hypercube's strata: 300 samples over 1999.6-2002.4 hold 100 each of 2000-2002 (LHS
@@ -195,6 +213,10 @@ def test_sampled_list_levels_that_coincide_run_once(tmp_path):
     cases = expand_design(load_study(p))
     assert sorted(c.params["generator.porosity"] for c in cases) == [0.85, 0.9]
     assert len({c.case_id.split("-")[-1] for c in cases}) == 2
+    # and the run says so in its first line (review s53: the smaller design went unsaid)
+    from psdesign.study.runner import _fewer_points_note
+
+    assert _fewer_points_note(load_study(p), cases) == " (n_samples = 4 gave 2 distinct points)"
 
 
 def test_invalid_base_value_that_every_case_overrides_is_refused(tmp_path):

@@ -657,6 +657,29 @@ def test_a_stopped_local_dask_run_prints_only_its_line(tmp_path, sig, word):
         assert len(lines) == 1 and lines[0].startswith(f"psdesign: error: {word}"), err
 
 
+def test_an_error_in_the_runner_stops_the_pool_workers_at_once(tmp_path):
+    """Review s53: the runner's clean-up after an error took the pool's workers from the
+    executor after ``shutdown``, which forgets them, so it stopped none: the runner waited for
+    the other worker's case (60 s here; the review's 40 s case gave exit 1 after 43.7 s) and
+    the worker ran on after the study's lock was released. Truth: exit 1 with one line well
+    before the sleeping case could end (3.6 s measured), and no case process is left."""
+    import psutil
+
+    p = write_study(tmp_path, FACTORIAL, '"generator.porosity" = [0.7, 0.75]')
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR.parent), str(TESTS_DIR)])}
+    cmd = [sys.executable, "-m", "psdesign", "study", "run", str(p), "-o", str(tmp_path / "o")]
+    cmd += ["--workers", "2", "--no-report", "--case-fn", "study_cases:record_breaking_case"]
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stderr
+    assert time.monotonic() - t0 < 45.0, proc.stderr  # the other case sleeps 60 s
+    # the sleeping case's worker (when it had started: under load a spawn can be slow, and be
+    # stopped while it writes its pid) is gone
+    texts = [f.read_text().strip() for f in (tmp_path / "o").rglob("pid.txt")]
+    for pid in [int(t) for t in texts if t]:
+        assert not psutil.pid_exists(pid) or psutil.Process(pid).status() == "zombie"
+
+
 def test_interrupt_stops_only_processes_started_during_the_run():
     from psdesign.study.interrupt import stop_on_interrupt
 
