@@ -566,6 +566,14 @@ def test_docs_transport_example_lines_are_the_commands_output(spec, capsys):
     assert lines == block
 
 
+def _walls_image_spec(tmp_path, name: str, solid: np.ndarray):
+    """An image spec of ``solid`` (1 = solid) at 1 um voxels, written as NAME.npy / NAME.toml."""
+    np.save(tmp_path / f"{name}.npy", solid)
+    spec = tmp_path / f"{name}.toml"
+    spec.write_text(f'[image]\npath = "{name}.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    return spec
+
+
 def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path, capsys):
     """Walls (solid slab x in [0, 8) of 32 voxels, an image): along x no intrusion path
     crosses, so the breakthrough is JSON null, the sizes line says 'none (...: blocked)' and
@@ -573,9 +581,7 @@ def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path
     (walk-transport finding 1): '0.000e+00 m ... [ok]', exit 0."""
     solid = np.zeros((32, 8, 8), np.uint8)
     solid[:8] = 1
-    np.save(tmp_path / "walls.npy", solid)
-    spec = tmp_path / "walls.toml"
-    spec.write_text('[image]\npath = "walls.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    spec = _walls_image_spec(tmp_path, "walls", solid)
     assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
     cap = capsys.readouterr()
     out = json.loads(cap.out)
@@ -599,9 +605,7 @@ def test_pores_through_a_hole_narrower_than_the_scan_prints_an_unresolved_breakt
     solid = np.zeros((32, 16, 16), np.uint8)
     solid[:8] = 1
     solid[:8, 7:9, 7:9] = 0
-    np.save(tmp_path / "hole.npy", solid)
-    spec = tmp_path / "hole.toml"
-    spec.write_text('[image]\npath = "hole.npy"\nvoxel_size = 1e-6\nsolid_label = 1\n')
+    spec = _walls_image_spec(tmp_path, "hole", solid)
     assert main(["pores", str(spec), "--axis", "x", "--json", "--quiet"]) == 3
     cap = capsys.readouterr()
     out = json.loads(cap.out)
