@@ -602,14 +602,17 @@ def _stop_once(
 @pytest.mark.parametrize(
     ("sig", "group", "delays"),
     [
-        pytest.param(signal.SIGINT, True, (0.0, 0.5, 1.0, 2.0), id="ctrl-c-group"),
-        pytest.param(signal.SIGTERM, False, (0.5, 2.0, 4.0), id="sigterm-runner"),
+        pytest.param(signal.SIGINT, True, (0.0, 1.0), id="ctrl-c-group"),
+        pytest.param(signal.SIGTERM, False, (0.5, 2.0), id="sigterm-runner"),
         pytest.param(
             signal.SIGINT,
             True,
-            (0.1, 0.3, 0.7, 1.5, 3.0, 5.0),
+            (0.1, 0.3, 0.5, 0.7, 1.5, 2.0, 3.0, 5.0),
             id="ctrl-c-more",
             marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            signal.SIGTERM, False, (1.0, 4.0), id="sigterm-runner-more", marks=pytest.mark.slow
         ),
         pytest.param(
             signal.SIGTERM, True, (0.3, 1.0, 3.0, 6.0), id="sigterm-group", marks=pytest.mark.slow
