@@ -116,7 +116,7 @@ def _bounds(study) -> dict[str, tuple[float, float, bool]]:
 
 def _from_unit(u: np.ndarray, b: list[tuple[float, float, bool]], study) -> np.ndarray:
     """Design points of unit samples ``u``; an int parameter's rounded into its whole numbers
-    (:func:`psdesign.study.design.int_range`: 10 was proposed for bounds 10.4-12.2 until
+    (:func:`psdesign.study.studyfile.int_range`: 10 was proposed for bounds 10.4-12.2 until
     review s53).
 
     >>> from types import SimpleNamespace as P
@@ -124,7 +124,7 @@ def _from_unit(u: np.ndarray, b: list[tuple[float, float, bool]], study) -> np.n
     >>> _from_unit(np.array([[0.0], [0.01], [0.999]]), [(10.4, 12.2, False)], st).ravel()
     array([11., 11., 12.])
     """
-    from psdesign.study.design import int_range
+    from psdesign.study.studyfile import int_range
 
     x = from_unit(u, *zip(*b, strict=True))
     for j, (p, (lo, hi, _)) in enumerate(zip(study.parameters.values(), b, strict=True)):
@@ -135,7 +135,7 @@ def _from_unit(u: np.ndarray, b: list[tuple[float, float, bool]], study) -> np.n
 
 def _box_points(study, b: list[tuple[float, float, bool]]) -> float:
     """How many distinct design points the parameter box holds: the product of the int
-    parameters' whole numbers (:func:`psdesign.study.design.int_range`, as :func:`_from_unit`
+    parameters' whole numbers (:func:`psdesign.study.studyfile.int_range`, as :func:`_from_unit`
     takes them), ``inf`` when a parameter is a float.
 
     >>> from types import SimpleNamespace as P
@@ -143,7 +143,7 @@ def _box_points(study, b: list[tuple[float, float, bool]]) -> float:
     >>> _box_points(st, [(10, 11, False), (1, 3, False)])
     6
     """
-    from psdesign.study.design import int_range
+    from psdesign.study.studyfile import int_range
 
     n = 1
     for (lo, hi, _), p in zip(b, study.parameters.values(), strict=True):

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from psdesign.schema.budget import MAX_CASES
-from psdesign.study.studyfile import ParamSpec, Study, StudyError, round_level
+from psdesign.study.studyfile import ParamSpec, Study, StudyError, int_range, round_level
 
 __all__ = [
     "Case",
@@ -167,17 +167,6 @@ def _levels(p: ParamSpec) -> list:
     return list(dict.fromkeys(_map_unit(p, pts, ends=True)))
 
 
-def int_range(low: float, high: float) -> tuple[int, int]:
-    """The whole numbers an ``type = "int"`` parameter with bounds ``low``-``high`` takes:
-    [ceil(low), floor(high)] (10.2-10.8 gave 10 and 11 by rounding), the one rule of the
-    designs and of ``study optimize``'s proposals.
-
-    >>> int_range(10.4, 12.2), int_range(1, 3)
-    ((11, 12), (1, 3))
-    """
-    return math.ceil(low), math.floor(high)
-
-
 def _map_unit(p: ParamSpec, u: np.ndarray, ends: bool = False) -> list:
     """Map unit samples ``u`` in [0, 1) onto the parameter's domain (``ends``: ``u`` in
     [0, 1], levels from one end to the other).
@@ -205,6 +194,12 @@ def _map_unit(p: ParamSpec, u: np.ndarray, ends: bool = False) -> list:
         lo, hi = int_range(p.low, p.high)
         return [min(max(int(round(v)), lo), hi) for v in x]
     return [round_level(v) for v in x] if ends else [float(v) for v in x]
+
+
+def point_key(point: dict) -> str:
+    """One text per design point (parameter path -> value): two points are the same design
+    point exactly when their keys are equal."""
+    return json.dumps(point, sort_keys=True, default=str)
 
 
 def design_points(study: Study) -> list[dict]:
@@ -250,7 +245,7 @@ def design_points(study: Study) -> list[dict]:
         # ran twice (walk-study, session 53); each distinct point runs once
         unique: dict[str, dict] = {}
         for pt in points:
-            unique.setdefault(json.dumps(pt, sort_keys=True, default=str), pt)
+            unique.setdefault(point_key(pt), pt)
         return list(unique.values())
     if study.design == "csv":
         rows = []

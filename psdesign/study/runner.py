@@ -955,7 +955,9 @@ def _fewer_points_note(study, cases) -> str:
     """``" (n_samples = 8 gave 2 distinct points)"`` when coinciding samples of a latin
     hypercube / Sobol design ran once each (review s53: the smaller design went unsaid)."""
     n = study.n_samples if study.design in ("latin-hypercube", "sobol") else None
-    points = len({json.dumps(c.params, sort_keys=True, default=str) for c in cases})
+    from psdesign.study.design import point_key
+
+    points = len({point_key(c.params) for c in cases})
     if not n or points >= n:
         return ""
     return f" (n_samples = {n} gave {points} distinct points)"
