@@ -299,9 +299,13 @@ def whole_periods(ext: np.ndarray) -> bool:
     return bool(np.allclose(ext, np.round(ext), rtol=0.0, atol=1e-9) and np.all(ext >= 1 - 1e-9))
 
 
-def n_fibers_at_edge(spec: dict, edge: float) -> int:
-    """``generator.n_fibers`` of ``spec`` carried to a cube of edge ``edge`` (metres) at the
-    same expected solid fraction, as ``psdesign rev`` grows an RVE at fixed statistics.
+_N_FIBERS_HELP = "give generator.porosity instead of n_fibers to hold the material"
+
+
+def n_fibers_at_edges(spec: dict, edges: list[float]) -> list[int]:
+    """``generator.n_fibers`` of ``spec`` carried to cubes of edge ``edges`` (metres) at the
+    same expected solid fraction, as ``psdesign rev`` grows an RVE at fixed statistics (the
+    spec box's own probe measured once for all edges).
 
     The count is scaled by the measured solid one fiber adds in each box
     (:func:`_measured_solid_per_fiber`): ``n s_box / s_cube``. A fiber adds about ``E[A] / P^2``
@@ -325,30 +329,35 @@ def n_fibers_at_edge(spec: dict, edge: float) -> int:
     """
     size, _, period = parse_rve(spec)
     given = spec["rve"].get("period")
-    cube_period = float(given) if given is not None else float(edge)
-    help_ = "give generator.porosity instead of n_fibers to hold the material"
-    if not (whole_periods(size / period) and whole_periods(np.full(3, edge / cube_period))):
-        raise SpecError(
-            "generator.n_fibers",
-            f"held fixed only in boxes of whole periods (rve.period {period:g} m, box "
-            f"{'x'.join(f'{s:g}' for s in size)} m, cube {edge:g} m, period {cube_period:g} "
-            f"m): the solid per fiber there depends on the orientations; {help_}",
-        )
     gs = parse_generator(spec, size, period)
-    per_fiber = _measured_solid_per_fiber(gs, size)
-    cube = np.full(3, float(edge))
-    per_fiber_cube = _measured_solid_per_fiber(replace(gs, period=cube_period), cube)
-    exact = gs.n_fibers * per_fiber / per_fiber_cube
-    n = max(1, round(exact))
-    shift = abs(n - exact) * per_fiber_cube
-    if shift > gs.tolerance:
-        raise SpecError(
-            "generator.n_fibers",
-            f"{gs.n_fibers} fibers of the spec's box are {exact:.3g} in a {edge:g} m cube, and "
-            f"{n} move its solid fraction by {shift:.3f}, over generator.porosity_tolerance "
-            f"{gs.tolerance:g}: choose sizes where the count is nearly whole, or {help_}",
-        )
-    return n
+    per_fiber = None  # the spec box's, measured once when the first edge needs it
+    counts = []
+    for edge in map(float, edges):
+        cube_period = float(given) if given is not None else edge
+        if not (whole_periods(size / period) and whole_periods(np.full(3, edge / cube_period))):
+            raise SpecError(
+                "generator.n_fibers",
+                f"held fixed only in boxes of whole periods (rve.period {period:g} m, box "
+                f"{'x'.join(f'{s:g}' for s in size)} m, cube {edge:g} m, period {cube_period:g} "
+                f"m): the solid per fiber there depends on the orientations; {_N_FIBERS_HELP}",
+            )
+        if per_fiber is None:
+            per_fiber = _measured_solid_per_fiber(gs, size)
+        cube = np.full(3, edge)
+        per_fiber_cube = _measured_solid_per_fiber(replace(gs, period=cube_period), cube)
+        exact = gs.n_fibers * per_fiber / per_fiber_cube
+        n = max(1, round(exact))
+        shift = abs(n - exact) * per_fiber_cube
+        if shift > gs.tolerance:
+            raise SpecError(
+                "generator.n_fibers",
+                f"{gs.n_fibers} fibers of the spec's box are {exact:.3g} in a {edge:g} m cube, "
+                f"and {n} move its solid fraction by {shift:.3f}, over "
+                f"generator.porosity_tolerance {gs.tolerance:g}: choose sizes where the count is "
+                f"nearly whole, or {_N_FIBERS_HELP}",
+            )
+        counts.append(n)
+    return counts
 
 
 def _coarse_step(probe: FiberState, lo: np.ndarray, hi: np.ndarray, tol: float) -> str | None:
