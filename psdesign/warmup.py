@@ -216,10 +216,11 @@ def _run_pool(procs: tuple[str, ...], n: int) -> dict[str, float]:
     end (a SIGINT to the process group was lost in LLVM's callbacks there), minutes on a cold
     cache (session 36: Ctrl-C 30 s into a cold warmup, still compiling 3 min later).  numba
     writes each cache file whole, so a killed compile leaves nothing broken."""
-    from psdesign.study.interrupt import _children_now, stop_children
+    from psdesign.study.interrupt import _children_now, held_signals, stop_children
 
     before = _children_now()
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"))
+    with held_signals():  # its named semaphores whole, as the study runner's pool (_new_pool)
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"))
     try:
         out = dict(pool.map(_task, procs))
     except BaseException:

@@ -375,6 +375,9 @@ def held_signals() -> Iterator[None]:
     was printed as a VTK error dump and lost, and ``generate`` went on and exited 0).  The
     signal is re-raised (:func:`signal.raise_signal`) with the previous handlers back in place,
     so it takes its usual way out (``psdesign: interrupted``, exit 130) once the body returns.
+    And for making a spawn-based process pool: multiprocessing registers each of its named
+    semaphores with its resource tracker a few lines before the semaphore's finalizer exists,
+    so an interrupt in between left the tracker's "leaked semaphore" warning (session 54).
     Keep such bodies short: the interrupt waits for them.  Main thread only (elsewhere a no-op).
     """
     if threading.current_thread() is not threading.main_thread():
