@@ -8,7 +8,8 @@ scipy's transform for the pore distance), on the image of ``bench_transport.py``
 Both run in one process, one after the other (the reference first); prints one JSON object
 with CPU and wall time of each, the 1-minute load, and whether the local-thickness map and the
 intrusion curve are identical.  ``pore_sizes_*`` times the product's whole call, which since
-session 31 scans a grid padded by ``r_max + 1`` periodic layers (the scans above do not).
+session 31 scans a grid padded by ``r_max + 1`` wrapped layers (the scans above do not), since
+session 54 along the axes the geometry repeats across only (this image: z).
 """
 
 from __future__ import annotations

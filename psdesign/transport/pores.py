@@ -13,11 +13,17 @@
   ``sqrt(3) h`` (:data:`CENTRE_OFFSET`), because the inscribed balls are centred on voxel
   centres, up to ``sqrt(3) h / 2`` from a pore's true centre (a slit or cylinder pore whose
   mid-plane or axis falls between voxel centres comes out one or ``sqrt(2)`` voxels narrow).
-  The RVE is periodic: the distance and the balls reach across its faces into the next
-  period (the scan runs on the grid padded by ``r_max + 1`` periodic layers, :func:`_wrapped`).
+  Faces: along an axis the geometry repeats across (:func:`periodic_axes`, the rule S_v and
+  the breakthrough follow) the distance and the balls reach across them into the next period
+  (the scan runs on the grid padded by ``r_max + 1`` wrapped layers there, :func:`_wrapped`);
+  along another the face is open, the outside pore (as PoreSpy's ``edt``): the distance sees
+  only the solid inside the box (:func:`pore_distance`) and the balls are cut at the face, so
+  a pore the face cuts is not closed by an imagined wall (until session 54 every face wrapped:
+  a cylinder pore of diameter 16 um an image cut at its axis read 7.0 um).
 * **Intrusion / capillary drainage** (as PoreSpy's ``porosimetry``): a non-wetting fluid
-  enters from the inlet face (first layer along ``thickness_axis``, a plane of the periodic
-  medium); at radius ``r`` it fills the union of balls of radius ``r`` whose centres
+  enters from the inlet face only (first layer along ``thickness_axis``; every other face is
+  closed to it, crossed by no path or ball unless the geometry repeats across it, the same
+  distance as above); at radius ``r`` it fills the union of balls of radius ``r`` whose centres
   ``dt >= r`` are connected to that layer through such centres.  Saturation vs accessible
   pore diameter, and the Washburn pressure ``p = -2 gamma cos(theta) / r``.  The
   **breakthrough diameter** is the largest scanned ``2 r`` whose centres ``dt >= r`` cross the
@@ -123,17 +129,43 @@ def _edt_pore(distance: np.ndarray, h: float, transform=edt) -> np.ndarray:
     return dt
 
 
-def _wrapped(distance: np.ndarray, pad: int) -> tuple[np.ndarray, tuple[slice, ...]]:
-    """``distance`` padded by ``pad`` periodic layers on every side (the RVE is periodic) and
-    the slices of the original grid in it."""
-    core = tuple(slice(pad, pad + n) for n in distance.shape)
-    return np.pad(distance, pad, mode="wrap"), core
+def _wrapped(
+    dt: np.ndarray, pad: int, periodic: tuple[bool, bool, bool]
+) -> tuple[np.ndarray, tuple[slice, ...]]:
+    """``dt`` padded by ``pad`` wrapped layers on both sides of each ``periodic`` axis (a ball
+    there crosses the face into the next period) and by none along another (nothing beyond
+    the face is known: a ball is cut at it), and the slices of the original grid in it."""
+    widths = [(pad, pad) if p else (0, 0) for p in periodic]
+    core = tuple(slice(w[0], w[0] + n) for w, n in zip(widths, dt.shape, strict=True))
+    return np.pad(dt, widths, mode="wrap"), core
 
 
 def periodic_pore_distance(distance: np.ndarray, h: float) -> np.ndarray:
     """:func:`_edt_pore` of the periodic medium: the distance to the nearest solid of any
     periodic image (:func:`~psdesign.geometry.edt.periodic_edt`)."""
     return _edt_pore(distance, h, periodic_edt)
+
+
+def pore_distance(fields: VoxelFields, periodic: tuple[bool, bool, bool]) -> np.ndarray:
+    """Distance (voxels) from pore voxel centres to the solid's faces for the whole pore scan
+    (local thickness, intrusion, breakthrough): wrapped along the ``periodic`` axes
+    (:func:`periodic_axes`), open at the other faces (:func:`~psdesign.geometry.edt.
+    periodic_edt`: nothing beyond them is known to be solid, as PoreSpy's ``edt``; a pore the
+    box cuts is not closed by an imagined wall, nor by the solid of the opposite face).
+    Periodic on all three: :func:`periodic_pore_distance`, as before session 54. An image's
+    signed distance is itself periodic (:func:`psdesign.image.fields.signed_distance`), so
+    with an open face its voxels' transform alone counts; an analytic distance keeps its
+    surface's own value inside its band (:func:`_edt_pore`)."""
+    h = float(fields.grid.spacing[0])
+    pore = fields.distance > 0
+    if all(periodic) or pore.all():  # no solid: the clip value, whatever the faces
+        return periodic_pore_distance(fields.distance, h)
+    dt = periodic_edt(pore, periodic)
+    if fields.analytic_distance:  # the surface's own distance inside its band
+        return _edt_pore(fields.distance, h, lambda m: dt)
+    dt[pore] -= 0.5  # to the solid voxels' faces, as _edt_pore
+    dt[~pore] = 0.0
+    return dt
 
 
 #: Diameter lost, in voxels, when a pore's true centre lies between voxel centres: the balls are
@@ -339,26 +371,12 @@ def breakthrough_radius(
 
 
 def _breakthrough(
-    fields: VoxelFields,
-    dt: np.ndarray,
-    radii: np.ndarray,
-    axis: int,
-    periodic: tuple[bool, bool, bool],
+    dt: np.ndarray, radii: np.ndarray, axis: int, periodic: tuple[bool, bool, bool]
 ) -> tuple[float | None, bool]:
     """:func:`breakthrough_radius` along ``axis`` and whether the pore space crosses at all
     (no scanned ball crosses: a path too narrow to resolve, or none, ``blocked``). ``dt`` is
-    the periodic pore distance; along an axis the geometry does not repeat across, the
-    distance with those faces open replaces it (the solid of the opposite face is no
-    neighbour there: a channel reaching the face read 0.5 voxel wide in its first layer);
-    an image's signed distance is itself periodic, so its voxels' transform alone counts."""
-    if not all(periodic):
-        pore = fields.distance > 0
-        dt = periodic_edt(pore, periodic)
-        if fields.analytic_distance:  # the surface's own distance inside its band
-            dt = _edt_pore(fields.distance, float(fields.grid.spacing[0]), lambda m: dt)
-        else:
-            dt[pore] -= 0.5  # to the solid voxels' faces, as _edt_pore
-            dt[~pore] = 0.0
+    the scan's :func:`pore_distance` (open at the faces the geometry does not repeat across:
+    a channel reaching such a face read 0.5 voxel wide in its first layer until session 53)."""
     r_break = breakthrough_radius(dt, radii, axis, periodic)
     return r_break, r_break is not None or crosses(dt > 0, axis, periodic)
 
@@ -412,7 +430,8 @@ def pore_sizes(
     rve : RVE, optional
         The fibres of ``fields``, to judge along which axes the geometry repeats across the
         box (:func:`periodic_axes`, as :func:`specific_surface`; without it the voxel layers
-        judge): the breakthrough's path crosses a face only there (:func:`crosses`).
+        judge): only there do the distance and the balls wrap (:func:`pore_distance`) and the
+        intrusion's and the breakthrough's paths cross a face (:func:`crosses`).
 
     Raises
     ------
@@ -427,16 +446,18 @@ def pore_sizes(
     eps = fields.porosity
     if not pore.any():
         raise ValueError("pores: the RVE has no pore voxel")
-    # periodic: a ball may cross a face of the RVE into the next period (with open faces a
-    # pore reaching a face grew past it: d90 134 um in the 100 um three-rod cube, session 31)
-    dt = periodic_pore_distance(fields.distance, h)
+    # a ball crosses a face into the next period only where the geometry repeats across it
+    # (with open faces a periodic RVE's pore reaching a face grew past it: d90 134 um in the
+    # 100 um three-rod cube, session 31; with every face wrapped a pore an image cuts was
+    # closed by the opposite face: 7 um for a 16 um cylinder, session 54)
+    periodic = periodic_axes(rve, fields)
+    dt = pore_distance(fields, periodic)
     rmax = float(dt.max())
     radii = np.unique(np.linspace(max(rmax, 1.0), min(1.0, rmax), n_radii))[::-1]
-    # every ball reaching the grid has its centre within rmax of it: rmax + 1 periodic layers
-    # of the (periodic) distance hold them all
-    periodic = periodic_axes(rve, fields)  # a path crosses a face only where these repeat
-    r_break, through = _breakthrough(fields, dt, radii, ax, periodic)
-    dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1)
+    r_break, through = _breakthrough(dt, radii, ax, periodic)
+    # every ball reaching the grid has its centre within rmax of it: rmax + 1 wrapped layers
+    # of the distance along the periodic axes hold them all
+    dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1, periodic)
     lt, sat = _scan(dt, dt > 0, radii, ax, core)
     del dt
     idx = lt[pore]

@@ -581,3 +581,54 @@ def test_breakthrough_is_the_neck_a_wide_inlet_pore_leads_to():
     assert res.intrusion_saturation[0] > 0  # the wide pore fills at the largest diameter
     neck = 6.0 * H
     assert neck - res.diameter_error_m <= res.breakthrough_diameter_m <= neck
+
+
+def test_a_pore_a_face_cuts_is_measured_whole_where_the_geometry_does_not_repeat():
+    """A cylinder pore of radius R = 8 voxels along z cut at its axis by the x = 0 face of a
+    32 x 40 x 16 image, solid at x = 31: the faces normal to x do not match, so the box is a
+    cut of a larger medium there, not one period of it. Closed form (Hildebrand & Ruegsegger
+    1997): local thickness 2R = 16 um; the pore reaches the inlet face (z = 0, periodic) and
+    crosses, so it fills and breaks through at 2R too; the scan measures low by at most its
+    one-sided bar. Until session 54 the scan wrapped x: the half cylinder was closed by the
+    solid of the x = 31 face, a D-shaped pore 8 voxels deep: d50 and d90 7.0 um (d10 4.6), the
+    intrusion curve filled 0.73 of it at 7.0 um only."""
+    from psdesign.image.fields import image_fields
+
+    R = 8.0
+    X, Y, _ = _coords((32, 40, 16))
+    fields = image_fields(np.sqrt(X**2 + (Y - 20) ** 2) >= R, H)
+    assert specific_surface(fields).extra["periodic_axes"] == "yz"
+    res = pore_sizes(fields, n_radii=24, thickness_axis="z")
+    for d in (res.pore_d10_m, res.pore_d50_m, res.pore_d90_m, res.max_diameter_m):
+        assert 2 * R * H - res.diameter_error_m <= d <= 2 * R * H  # measured 14.2 um
+    bt = res.breakthrough_diameter_m
+    assert 2 * R * H - res.diameter_error_m <= bt <= 2 * R * H
+    # the largest ball fills the whole half cylinder but its staircase corners (voxels farther
+    # than the smallest ball from any seed: 0.077 of it) at once
+    assert res.intrusion_saturation[0] == res.intrusion_saturation[-1] > 0.9
+
+
+def test_intrusion_crosses_no_face_the_geometry_does_not_repeat_across():
+    """Intrusion along z into a 32 x 40 x 32 box whose faces normal to y do not match: a
+    cylinder pore (radius 8 voxels) along z cut at its axis by the y = 0 face, and a cavity, a
+    sphere of radius 6 cut at its centre by the y = 40 face, which no path inside the box joins
+    to the inlet (closed form: the intruded fraction never exceeds the cylinder's share of the
+    pore volume, 0.879, and reaches it at the cylinder's 2R). Until session 54 the balls of the
+    cylinder reached across the y faces into the cavity: it filled at 14.6 um, saturation 1."""
+    X, Y, Z = _coords((32, 40, 32))
+    cyl = 8.0 - np.sqrt((X - 16) ** 2 + Y**2)
+    cavity = 6.0 - np.sqrt((X - 16) ** 2 + (Y - 40) ** 2 + (Z - 16) ** 2)
+    dist = np.maximum(cyl, cavity)
+    share = np.count_nonzero(cyl > 0) / np.count_nonzero(dist > 0)
+    fields = _fields(dist)
+    assert specific_surface(fields).extra["periodic_axes"] == "xz"
+    res = pore_sizes(fields, n_radii=24, thickness_axis="z")
+    sat = np.array(res.intrusion_saturation)
+    assert sat.max() == pytest.approx(share, abs=1e-12)  # the cylinder, whole, and no more
+    assert 16 * H - res.diameter_error_m <= res.intrusion_diameter_m[0] <= 16 * H
+    assert sat[0] == pytest.approx(share, abs=1e-12)
+    # local thickness sees the cavity at its own size: the sphere the face cuts, 12 um
+    d = np.array(res.diameters_m)
+    cavity_share = 1.0 - share
+    near = (d >= 12 * H - res.diameter_error_m) & (d <= 12 * H)
+    assert np.array(res.volume_fraction)[near].sum() >= 0.9 * cavity_share
