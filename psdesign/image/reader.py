@@ -278,13 +278,75 @@ def tiff_shape(path: Path) -> tuple[int, ...]:
     """
     import tifffile
 
+    name = Path(path).name
     try:
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
-            series = tf.series[0]
-            axes, shape = str(series.axes), tuple(int(n) for n in series.shape)
+            axes, shape = _stack_header(tf, name)
+    except ValueError as exc:
+        if str(exc).startswith("image."):  # the refusals of _stack_header
+            raise
+        raise ValueError(f"image.path: cannot read {name} as TIFF: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
-        raise ValueError(f"image.path: cannot read {Path(path).name} as TIFF: {exc}") from None
-    return plain_tiff_shape(Path(path).name, axes, shape)
+        raise ValueError(f"image.path: cannot read {name} as TIFF: {exc}") from None
+    return plain_tiff_shape(name, axes, shape)
+
+
+def page_series(tf) -> bool:
+    """Whether a TIFF file holds its stack as one 2-D series per page, as
+    ``tifffile.imwrite(path, page, append=True)`` writes it page by page: several one-page
+    series of one shape and element type (:func:`tiff_shape` refuses other series sets).
+    Such a file read as its first series was "a 2-D image" (session 54 walk)."""
+    series = tf.series
+    if len(series) < 2:
+        return False
+    first = series[0]
+    return all(
+        len(s.pages) == 1 and s.shape == first.shape and s.dtype == first.dtype for s in series
+    )
+
+
+def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
+    """The axes and shape of the stack a TIFF file holds (its first series, or its pages as
+    z when :func:`page_series`), from the header; a file of other series, or one whose
+    header describes more pages than it holds (truncated), is refused (``image.path``)."""
+    series = tf.series
+    if page_series(tf):
+        first = series[0]
+        if len([a for a in first.axes if a not in "SC"]) == 2:
+            return "Q" + str(first.axes), (len(series), *(int(n) for n in first.shape))
+    if len(series) > 1:
+        kinds = sorted({f"{'x'.join(map(str, s.shape))} {s.dtype}" for s in series})
+        raise ValueError(
+            f"image.path: {name} holds {len(series)} image series ({', '.join(kinds[:4])}); "
+            "psdesign reads one stack (allowed: a single 3-D series, or one 2-D page per "
+            "series, all of one shape and element type)"
+        )
+    _check_complete(tf, name)
+    return str(series[0].axes), tuple(int(n) for n in series[0].shape)
+
+
+def _check_complete(tf, name: str) -> None:
+    """Refuse a truncated TIFF stack (an interrupted copy or save) naming the pages its header
+    describes and those the file holds: tifffile falls back to the first page when the ImageJ
+    header's ``images`` are missing, and keeps a shaped series whose data end early (both were
+    read as "a 2-D image" or a stack of missing pages, session 54 walk)."""
+    series = tf.series[0]
+    page = series.keyframe
+    meta = tf.imagej_metadata or {}
+    size = tf.filehandle.size
+    if meta and series.kind.lower() != "imagej":  # tifffile found the ImageJ header invalid
+        expected = int(meta.get("images", 1))
+        found = len(tf.pages)
+    elif series.dataoffset is not None and series.dataoffset + series.nbytes > size:
+        expected = series.size // max(1, page.size)
+        found = min(len(tf.pages), (size - series.dataoffset) // max(1, page.nbytes))
+    else:
+        return
+    if found < expected:
+        raise ValueError(
+            f"image.path: {name} is truncated: its header describes {expected} pages, the "
+            f"file holds {found} (allowed: a complete stack; copy or save it again)"
+        )
 
 
 def plain_tiff_shape(
@@ -326,6 +388,9 @@ def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.nd
     else read whole."""
     import tifffile
 
+    with tifffile.TiffFile(path) as tf:
+        if page_series(tf):  # one series per page: tifffile.memmap would map the first only
+            return _read_pages(tf.pages, len(tf.series), pages)
     try:
         return tifffile.memmap(path, mode="r"), False
     except ValueError:  # compressed or tiled: not memory-mappable
@@ -335,10 +400,23 @@ def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.nd
         stack = series.pages
         if pages is None or len(series.shape) != 3 or len(stack) != series.shape[0]:
             return np.asarray(series.asarray()), False
-        lo, hi = pages
-        if not 0 <= lo < hi <= len(stack):
-            return np.asarray(series.asarray()), False  # read_labels names the bad crop
-        return np.stack([stack[k].asarray() for k in range(lo, hi)]), True
+        return _read_pages(stack, len(stack), pages)
+
+
+def _read_pages(stack, n: int, pages: tuple[int, int] | None) -> tuple[np.ndarray, bool]:
+    """The first ``n`` pages of ``stack`` as a (z, y, x) array, decoded one at a time, or only
+    ``pages = (lo, hi)`` of them (then True); a bad range reads all (``read_labels`` names
+    the bad crop)."""
+    lo, hi = (0, n) if pages is None else pages
+    sliced = pages is not None and 0 <= lo < hi <= n
+    if not sliced:
+        lo, hi = 0, n
+    first = np.asarray(stack[lo].asarray())
+    out = np.empty((hi - lo, *first.shape), dtype=first.dtype)
+    out[0] = first
+    for k in range(lo + 1, hi):
+        out[k - lo] = stack[k].asarray()
+    return out, sliced
 
 
 def _read_slice_crop(src: ImageSource, order: str) -> np.ndarray:

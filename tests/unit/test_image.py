@@ -191,3 +191,80 @@ def test_a_crop_of_a_compressed_tiff_decodes_only_its_pages(tmp_path, monkeypatc
     monkeypatch.setattr(tifffile, "imread", whole)
     src = ImageSource(path, voxel=1e-6, solid=1, crop=crop, axis_order=order)
     np.testing.assert_array_equal(read_labels(src), truth)
+
+
+def _pages_written_one_by_one(path, stored: np.ndarray, compression=None) -> None:
+    """``stored`` (z, y, x) written as ``tifffile.imwrite(..., append=True)`` page by page:
+    one 2-D series per page (Fiji opens it as a stack of len(stored) slices)."""
+    import tifffile
+
+    for page in stored:
+        tifffile.imwrite(path, page, append=True, compression=compression)
+
+
+@pytest.mark.parametrize("compression", [None, "zlib"])
+@pytest.mark.parametrize("order", ["zyx", "xyz", "yxz"])
+def test_a_tiff_written_page_by_page_reads_as_its_z_stack(
+    tmp_path, monkeypatch, order, compression
+) -> None:
+    """Session 54 walk: a stack written page by page was refused as "a 2-D image" (its first
+    series only). Truth: NumPy's own array, transposed by the axis order and cropped; the
+    header counts every page and a crop decodes only its pages."""
+    import tifffile
+
+    from psdesign.image.load import header_shape
+
+    rng = np.random.default_rng(1)
+    stored = rng.integers(0, 3, size=(12, 9, 7), dtype=np.uint8)  # 12 pages of 9 x 7
+    path = tmp_path / "pages.tif"
+    _pages_written_one_by_one(path, stored, compression)
+    xyz = stored.transpose([order.index(a) for a in "xyz"])
+    whole = ImageSource(path, voxel=1e-6, solid=1, axis_order=order)
+    decoded = []
+    page_asarray = tifffile.TiffPage.asarray
+
+    def counted(page, *args, **kwargs):
+        decoded.append(page.index)
+        return page_asarray(page, *args, **kwargs)
+
+    monkeypatch.setattr(tifffile.TiffPage, "asarray", counted)
+    assert header_shape(whole) == xyz.shape and not decoded  # the header alone
+    np.testing.assert_array_equal(read_labels(whole), xyz)
+    crop = ((2, 6), (1, 5), (3, 7))  # x, y, z
+    decoded.clear()
+    cropped = ImageSource(path, voxel=1e-6, solid=1, crop=crop, axis_order=order)
+    np.testing.assert_array_equal(read_labels(cropped), xyz[2:6, 1:5, 3:7])
+    page_range = crop["xyz".index(order[0])]
+    assert sorted(set(decoded)) == list(range(*page_range))
+
+
+def test_a_tiff_of_series_of_other_shapes_is_refused_naming_how_many(tmp_path) -> None:
+    """Several series that are not one 2-D page each of one shape and type are no stack: the
+    refusal names how many the file holds (they were read as their first alone)."""
+    import tifffile
+
+    path = tmp_path / "mixed.tif"
+    tifffile.imwrite(path, np.zeros((6, 8, 8), np.uint8), append=True)
+    tifffile.imwrite(path, np.zeros((4, 4), np.uint8), append=True)
+    with pytest.raises(ValueError, match=r"^image\.path: mixed\.tif holds 2 image series"):
+        read_labels(ImageSource(path, voxel=1e-6))
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"imagej": True, "metadata": {"axes": "ZYX"}}])
+def test_a_truncated_tiff_stack_names_the_pages_expected_and_found(tmp_path, kwargs) -> None:
+    """A stack cut at half its bytes (an interrupted copy): its header (tifffile's shaped or
+    ImageJ metadata) describes 24 pages, the file holds one page directory; it read as "a 2-D
+    image" (ImageJ) or a series of missing pages (session 54 walk)."""
+    import tifffile
+
+    from psdesign.image.load import header_shape
+
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    tifffile.imwrite(whole, np.zeros((24, 16, 16), np.uint8), **kwargs)
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 24 pages, the file holds 1 "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg):
+            read(ImageSource(cut, voxel=1e-6))
+    assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 24)
