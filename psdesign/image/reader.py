@@ -313,6 +313,7 @@ def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
     if page_series(tf):
         first = series[0]
         if len([a for a in first.axes if a not in "SC"]) == 2:
+            check_numeric(first.dtype, name)
             return "Q" + str(first.axes), (len(series), *(int(n) for n in first.shape))
     if len(series) > 1:
         kinds = sorted({f"{'x'.join(map(str, s.shape))} {s.dtype}" for s in series})
@@ -322,6 +323,7 @@ def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
             "series, all of one shape and element type)"
         )
     _check_complete(tf, name)
+    check_numeric(series[0].dtype, name)
     return str(series[0].axes), tuple(int(n) for n in series[0].shape)
 
 
@@ -472,10 +474,7 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
             crop = tuple((0, data.shape[0]) if ax == page_axis else c for ax, c in enumerate(crop))
         return _to_xyz(data, order), crop
     if ext == ".npy":
-        try:
-            data = np.load(path, mmap_mode="r", allow_pickle=False)
-        except (ValueError, OSError) as exc:
-            raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
+        data = open_npy(path)
         if data.ndim != 3:
             raise ValueError(
                 f"image.path: expected a 3-D array, got shape {data.shape} {THREE_D_ALLOWED}"
@@ -483,7 +482,40 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         return _to_xyz(data, src.axis_order or "xyz"), src.crop
     if ext == ".raw":
         return _read_raw(src), src.crop
-    return _to_xyz(_read_vti(path), src.axis_order or "xyz"), src.crop
+    data = _read_vti(path)
+    check_numeric(data.dtype, path.name)
+    return _to_xyz(data, src.axis_order or "xyz"), src.crop
+
+
+#: The element types an image's voxels may have (NumPy kinds: bool, signed and unsigned
+#: integer, float) and the refusal's allowed range.
+NUMERIC_KINDS = "biuf"
+NUMERIC_ALLOWED = "(allowed: bool, integer or float voxels)"
+
+
+def check_numeric(dtype: np.dtype, name: str) -> None:
+    """Refuse an image whose element type is not a number psdesign can label or threshold
+    (``image.path``): a string array of '0' / '1' read as all solid, a structured one raised
+    a TypeError at ``labels != 0``, complex, datetime and object arrays were taken as
+    labels (session 54 walk)."""
+    if np.dtype(dtype).kind not in NUMERIC_KINDS:
+        raise ValueError(
+            f"image.path: {name} holds elements of type {np.dtype(dtype)}, not numbers "
+            f"{NUMERIC_ALLOWED}"
+        )
+
+
+def open_npy(path: str | Path) -> np.ndarray:
+    """A ``.npy`` file memory-mapped (its header read, no voxel), its element type checked
+    (:func:`check_numeric`); an unreadable file, an empty one (an interrupted ``np.save``:
+    ``EOFError``) or a pickled array is refused naming ``image.path``."""
+    name = Path(path).name
+    try:
+        data = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise ValueError(f"image.path: cannot read {name} as .npy: {exc}") from None
+    check_numeric(data.dtype, name)
+    return data
 
 
 def read_labels(src: ImageSource) -> np.ndarray:

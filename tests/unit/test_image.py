@@ -268,3 +268,39 @@ def test_a_truncated_tiff_stack_names_the_pages_expected_and_found(tmp_path, kwa
         with pytest.raises(ValueError, match=msg):
             read(ImageSource(cut, voxel=1e-6))
     assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 24)
+
+
+@pytest.mark.parametrize(
+    "array, kind",
+    [
+        (np.array([[["0", "1"]]] * 4).repeat(2, axis=1), "<U1"),  # read as all solid
+        (np.zeros((4, 4, 4), dtype=[("a", "u1"), ("b", "f4")]), "[('a', 'u1')"),  # TypeError
+        (np.zeros((4, 4, 4), np.complex64), "complex64"),
+        (np.zeros((4, 4, 4), "datetime64[s]"), "datetime64[s]"),
+    ],
+)
+def test_an_image_of_non_numbers_is_refused_naming_the_allowed_kinds(tmp_path, array, kind):
+    """Session 54 walk: a '0'/'1' string array read as every voxel solid, a structured one
+    raised a TypeError (exit 1), complex and datetime arrays were taken as labels. Refused
+    from the header (``header_shape``) and by the reader, one line naming image.path."""
+    from psdesign.image.load import header_shape
+
+    np.save(tmp_path / "a.npy", array)
+    src = ImageSource(tmp_path / "a.npy", voxel=1e-6)
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError) as info:
+            read(src)
+        assert str(info.value).startswith(f"image.path: a.npy holds elements of type {kind}")
+        assert str(info.value).endswith("(allowed: bool, integer or float voxels)")
+
+
+def test_an_empty_npy_file_is_refused_naming_image_path(tmp_path) -> None:
+    """A 0-byte ``.npy`` (an interrupted ``np.save``): NumPy raises EOFError, which came out
+    as a traceback, exit 1 (session 54 walk)."""
+    from psdesign.image.load import header_shape
+
+    (tmp_path / "e.npy").write_bytes(b"")
+    src = ImageSource(tmp_path / "e.npy", voxel=1e-6)
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=r"^image\.path: cannot read e\.npy as \.npy: "):
+            read(src)
