@@ -268,7 +268,8 @@ def tifffile_quiet() -> Iterator[None]:
 
 
 def tiff_shape(path: Path) -> tuple[int, ...]:
-    """The stored shape of a TIFF file's first series, from its header (no voxel is read);
+    """The stored shape of the stack a TIFF file holds, from its header (no voxel is read):
+    its first series, or its pages as z when written page by page (:func:`_stack_header`);
     a colour or multi-channel image is refused (``image.path``).
 
     tifffile puts the colour samples of an RGB(A) image on an axis ``S`` and ImageJ's channels
@@ -306,16 +307,17 @@ def page_series(tf) -> bool:
 
 
 def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
-    """The axes and shape of the stack a TIFF file holds (its first series, or its pages as
-    z when :func:`page_series`), from the header; a file of other series, or one whose
-    header describes more pages than it holds (truncated), is refused (``image.path``)."""
+    """The axes and shape of the stack a TIFF file holds (its first series, also beside
+    smaller ones: :func:`_aux_series_only`; or its pages as z when :func:`page_series`), from
+    the header; a file of other series, or one whose header describes more pages than it
+    holds (truncated), is refused (``image.path``)."""
     series = tf.series
     if page_series(tf):
         first = series[0]
         if len([a for a in first.axes if a not in "SC"]) == 2:
             check_numeric(first.dtype, name)
             return "Q" + str(first.axes), (len(series), *(int(n) for n in first.shape))
-    if len(series) > 1:
+    if len(series) > 1 and not _aux_series_only(series):
         kinds = sorted({f"{'x'.join(map(str, s.shape))} {s.dtype}" for s in series})
         raise ValueError(
             f"image.path: {name} holds {len(series)} image series ({', '.join(kinds[:4])}); "
@@ -325,6 +327,20 @@ def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
     _check_complete(tf, name)
     check_numeric(series[0].dtype, name)
     return str(series[0].axes), tuple(int(n) for n in series[0].shape)
+
+
+def _aux_series_only(series) -> bool:
+    """Whether a TIFF file's series after the first are only smaller images beside a 3-D
+    first one (a thumbnail, RGB preview, OME label image or reduced-resolution page): the
+    first is then the stack, as tifffile, Fiji and PoreSpy read it (review of session 54: the
+    multi-series refusal had refused such files, which main read). Series of the first one's
+    page size (a file appended in 3-D chunks) are no such file: reading the first chunk alone
+    lost the rest without a word."""
+    first = series[0].keyframe
+    area = first.imagewidth * first.imagelength
+    return len([a for a in series[0].axes if a not in "SC"]) >= 3 and all(
+        s.keyframe.imagewidth * s.keyframe.imagelength < area for s in series[1:]
+    )
 
 
 def _check_complete(tf, name: str) -> None:
@@ -384,10 +400,12 @@ def plain_tiff_shape(
 
 
 def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
-    """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
-    were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
-    only its voxels); else, for a stack of pages, only those pages (decoded one at a time);
-    else read whole."""
+    """The stack of a TIFF file (its first series, or its pages when :func:`page_series`),
+    and whether only the pages ``[lo, hi)`` of ``pages`` were read. A file written page by
+    page is decoded page by page (only the crop's pages); else the first series is
+    memory-mapped when stored uncompressed and contiguous (a crop then reads only its
+    voxels); else, for a stack of pages, only those pages (decoded one at a time); else read
+    whole."""
     import tifffile
 
     with tifffile.TiffFile(path) as tf:

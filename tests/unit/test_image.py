@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from psdesign.image.fields import image_fields, signed_distance
+from psdesign.image.load import header_shape
 from psdesign.image.reader import ImageSource, read_image, read_labels
 from psdesign.image.writer import write_tiff
 
@@ -212,8 +213,6 @@ def test_a_tiff_written_page_by_page_reads_as_its_z_stack(
     header counts every page and a crop decodes only its pages."""
     import tifffile
 
-    from psdesign.image.load import header_shape
-
     rng = np.random.default_rng(1)
     stored = rng.integers(0, 3, size=(12, 9, 7), dtype=np.uint8)  # 12 pages of 9 x 7
     path = tmp_path / "pages.tif"
@@ -238,16 +237,58 @@ def test_a_tiff_written_page_by_page_reads_as_its_z_stack(
     assert sorted(set(decoded)) == list(range(*page_range))
 
 
-def test_a_tiff_of_series_of_other_shapes_is_refused_naming_how_many(tmp_path) -> None:
-    """Several series that are not one 2-D page each of one shape and type are no stack: the
-    refusal names how many the file holds (they were read as their first alone)."""
+def test_a_tiff_of_same_size_3d_chunks_is_refused_naming_how_many(tmp_path) -> None:
+    """A stack appended in two 3-D chunks of one page size (tifffile ``append=True``) is no
+    stack psdesign can tell from two scans: refused naming how many series the file holds
+    (main read the first chunk alone, 4 of 10 pages, without a word)."""
     import tifffile
 
-    path = tmp_path / "mixed.tif"
-    tifffile.imwrite(path, np.zeros((6, 8, 8), np.uint8), append=True)
-    tifffile.imwrite(path, np.zeros((4, 4), np.uint8), append=True)
-    with pytest.raises(ValueError, match=r"^image\.path: mixed\.tif holds 2 image series"):
-        read_labels(ImageSource(path, voxel=1e-6))
+    path = tmp_path / "chunks.tif"
+    tifffile.imwrite(path, np.zeros((4, 8, 8), np.uint8), photometric="minisblack")
+    tifffile.imwrite(path, np.ones((6, 8, 8), np.uint8), append=True, photometric="minisblack")
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=r"^image\.path: chunks\.tif holds 2 image series"):
+            read(ImageSource(path, voxel=1e-6))
+
+
+def _stack_with_aux(path, stored: np.ndarray, kind: str) -> None:
+    """``stored`` (z, y, x) as the first series of a TIFF file beside a smaller image of
+    ``kind``, as microscopes, Fiji and tifffile write them (review of session 54's branch)."""
+    import tifffile
+
+    thumb = np.zeros((4, 4), np.uint8)
+    if kind in ("thumb", "rgb"):  # tifffile shaped stack, then a thumbnail or RGB preview
+        tifffile.imwrite(path, stored, compression="zlib")
+        extra = thumb if kind == "thumb" else np.zeros((4, 4, 3), np.uint8)
+        tifffile.imwrite(path, extra, append=True)
+    elif kind == "ome":  # OME-TIFF: the stack and a label image
+        with tifffile.TiffWriter(path, ome=True) as w:
+            w.write(stored, metadata={"axes": "ZYX"})
+            w.write(thumb, metadata={"axes": "YX"})
+    else:  # plain pages (no description), then a thumbnail or a reduced-resolution page
+        with tifffile.TiffWriter(path) as w:
+            for page in stored:
+                w.write(page, metadata=None)
+            reduced = kind == "reduced"
+            w.write(stored[0, ::2, ::2] if reduced else thumb, subfiletype=int(reduced))
+
+
+@pytest.mark.parametrize("kind", ["thumb", "rgb", "ome", "thumblast", "reduced"])
+def test_a_stack_beside_a_smaller_image_reads_as_the_stack(tmp_path, kind) -> None:
+    """A 3-D first series beside smaller images (thumbnail, RGB preview, OME label image,
+    reduced-resolution page) is the stack, as tifffile, Fiji and PoreSpy read it; the
+    multi-series refusal had refused it (review of session 54). Truth: NumPy's own array as
+    x, y, z, whole and cropped."""
+    rng = np.random.default_rng(2)
+    stored = rng.integers(0, 3, size=(10, 12, 8), dtype=np.uint8)  # 10 pages of 12 x 8
+    path = tmp_path / ("s.ome.tif" if kind == "ome" else "s.tif")
+    _stack_with_aux(path, stored, kind)
+    xyz = stored.transpose(2, 1, 0)
+    assert header_shape(ImageSource(path, voxel=1e-6)) == (8, 12, 10)
+    np.testing.assert_array_equal(read_labels(ImageSource(path, voxel=1e-6, solid=1)), xyz)
+    crop = ((1, 5), (2, 9), (3, 7))
+    cropped = ImageSource(path, voxel=1e-6, solid=1, crop=crop)
+    np.testing.assert_array_equal(read_labels(cropped), xyz[1:5, 2:9, 3:7])
 
 
 @pytest.mark.parametrize("kwargs", [{}, {"imagej": True, "metadata": {"axes": "ZYX"}}])
@@ -256,8 +297,6 @@ def test_a_truncated_tiff_stack_names_the_pages_expected_and_found(tmp_path, kwa
     ImageJ metadata) describes 24 pages, the file holds one page directory; it read as "a 2-D
     image" (ImageJ) or a series of missing pages (session 54 walk)."""
     import tifffile
-
-    from psdesign.image.load import header_shape
 
     whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
     tifffile.imwrite(whole, np.zeros((24, 16, 16), np.uint8), **kwargs)
@@ -283,8 +322,6 @@ def test_an_image_of_non_numbers_is_refused_naming_the_allowed_kinds(tmp_path, a
     """Session 54 walk: a '0'/'1' string array read as every voxel solid, a structured one
     raised a TypeError (exit 1), complex and datetime arrays were taken as labels. Refused
     from the header (``header_shape``) and by the reader, one line naming image.path."""
-    from psdesign.image.load import header_shape
-
     np.save(tmp_path / "a.npy", array)
     src = ImageSource(tmp_path / "a.npy", voxel=1e-6)
     for read in (header_shape, read_labels):
@@ -297,8 +334,6 @@ def test_an_image_of_non_numbers_is_refused_naming_the_allowed_kinds(tmp_path, a
 def test_an_empty_npy_file_is_refused_naming_image_path(tmp_path) -> None:
     """A 0-byte ``.npy`` (an interrupted ``np.save``): NumPy raises EOFError, which came out
     as a traceback, exit 1 (session 54 walk)."""
-    from psdesign.image.load import header_shape
-
     (tmp_path / "e.npy").write_bytes(b"")
     src = ImageSource(tmp_path / "e.npy", voxel=1e-6)
     for read in (header_shape, read_labels):
