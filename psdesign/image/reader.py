@@ -347,19 +347,25 @@ def _check_complete(tf, name: str) -> None:
     """Refuse a truncated TIFF stack (an interrupted copy or save) naming the pages its header
     describes and those the file holds: tifffile falls back to the first page when the ImageJ
     header's ``images`` are missing, and keeps a shaped series whose data end early (both were
-    read as "a 2-D image" or a stack of missing pages, session 54 walk)."""
+    read as "a 2-D image" or a stack of missing pages, session 54 walk). A compressed (not
+    contiguous) stack holds one page directory per page: fewer than its ImageJ or tifffile
+    shaped header describes is truncated too (a zlib stack cut short read as "a 2-D image")."""
     series = tf.series[0]
     page = series.keyframe
     meta = tf.imagej_metadata or {}
     size = tf.filehandle.size
+    expected, found = 1, len(tf.pages)
     if meta and series.kind.lower() != "imagej":  # tifffile found the ImageJ header invalid
         expected = int(meta.get("images", 1))
-        found = len(tf.pages)
-    elif series.dataoffset is not None and series.dataoffset + series.nbytes > size:
-        expected = series.size // max(1, page.size)
-        found = min(len(tf.pages), (size - series.dataoffset) // max(1, page.nbytes))
-    else:
-        return
+    elif series.dataoffset is not None:  # contiguous: may hold one page directory alone
+        if series.dataoffset + series.nbytes > size:
+            expected = series.size // max(1, page.size)
+            found = min(found, (size - series.dataoffset) // max(1, page.nbytes))
+    elif meta:
+        expected = int(meta.get("images", 1))
+    elif tf.shaped_metadata:  # the first series' shape over the first page's size
+        shape = tf.shaped_metadata[0].get("shape") or [1]
+        expected = int(np.prod(shape)) // max(1, tf.pages[0].size)
     if found < expected:
         raise ValueError(
             f"image.path: {name} is truncated: its header describes {expected} pages, the "

@@ -309,6 +309,30 @@ def test_a_truncated_tiff_stack_names_the_pages_expected_and_found(tmp_path, kwa
     assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 24)
 
 
+@pytest.mark.parametrize("kwargs", [{}, {"imagej": True, "metadata": {"axes": "ZYX"}}])
+def test_a_truncated_compressed_tiff_stack_is_refused(tmp_path, kwargs) -> None:
+    """A zlib stack cut at half its bytes holds the page directories written before the cut,
+    fewer than the 24 its tifffile shaped or ImageJ header describes: refused naming both (the
+    shaped one read as "a 2-D image", the ImageJ one failed mid-decode; review of session
+    54). Truth: the whole file reads as its 24 pages."""
+    import tifffile
+
+    rng = np.random.default_rng(3)
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    stored = rng.integers(0, 255, size=(24, 16, 16), dtype=np.uint8)  # incompressible
+    tifffile.imwrite(whole, stored, compression="zlib", **kwargs)
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 24 pages, the file holds "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg) as info:
+            read(ImageSource(cut, voxel=1e-6))
+        held = int(str(info.value).split("the file holds ")[1].split()[0])
+        assert 0 < held < 24
+    src = ImageSource(whole, voxel=1e-6, solid=1)
+    np.testing.assert_array_equal(read_labels(src), stored.transpose(2, 1, 0))
+
+
 @pytest.mark.parametrize(
     "array, kind",
     [
