@@ -452,9 +452,17 @@ def check_transport(spec: dict) -> None:
 
     key = "image.crop" if spec.get("image") else "rve.voxel"
     try:
-        check_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], "transport", key)
+        check_transport_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], key)
     except PydanticCustomError as exc:  # the schema's own line, raised outside it
         raise fail_error(exc) from None
+
+
+def check_transport_grid(size: tuple[float, ...], voxel: float, key: str) -> None:
+    """Refuse a grid of ``size`` (m) at ``voxel`` (m) whose transport solve does not fit the
+    memory budget, naming ``key``: the one rule :func:`check_transport` applies to a validated
+    spec and the schema to an image's header (a transport command's image, before its voxels
+    are read). Raises the schema's ``PydanticCustomError`` (:func:`check_grid`)."""
+    check_grid(size, voxel, "transport", key)
 
 
 def _counted(solver: str, flow, aux: float) -> str:

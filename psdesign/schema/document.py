@@ -247,10 +247,10 @@ class SpecDocument(Table):
     def _image_memory(self, img, flow: FlowTable, porosity: float | None = None) -> None:
         """The memory checks of an image spec at ``flow`` (the crop names the grid;
         ``porosity`` None: the FEM counts every lattice cell as pore). A transport command's
-        image: its solve's figure (:func:`psdesign.schema.budget.check_transport`'s check)
+        image: its solve's figure (:func:`psdesign.schema.budget.check_transport_grid`)
         from the header, before the voxels are read."""
         if not budget.route_planned() and budget.transport_route():
-            budget.check_grid(img.size, img.voxel, "transport", key="image.crop")
+            budget.check_transport_grid(img.size, img.voxel, "image.crop")
             return
         budget.check_grid(img.size, img.voxel, flow.solver, key="image.crop", flow=flow)
         if flow.solver == "fem":
