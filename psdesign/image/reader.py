@@ -313,10 +313,12 @@ def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
     holds (truncated), is refused (``image.path``)."""
     series = tf.series
     if page_series(tf):
-        first = series[0]
-        if len([a for a in first.axes if a not in "SC"]) == 2:
+        first = series[0]  # its pages' axes: a writer's leading 1 (1 x rows x cols) dropped
+        axes = zip(first.axes, first.shape, strict=True)
+        page = [(a, int(n)) for a, n in axes if a in "YXSC" or n > 1]
+        if len([a for a, _ in page if a not in "SC"]) == 2:
             check_numeric(first.dtype, name)
-            return "Q" + str(first.axes), (len(series), *(int(n) for n in first.shape))
+            return "Q" + "".join(a for a, _ in page), (len(series), *(n for _, n in page))
     if len(series) > 1 and not _aux_series_only(series):
         kinds = sorted({f"{'x'.join(map(str, s.shape))} {s.dtype}" for s in series})
         raise ValueError(

@@ -237,6 +237,21 @@ def test_a_tiff_written_page_by_page_reads_as_its_z_stack(
     assert sorted(set(decoded)) == list(range(*page_range))
 
 
+def test_pages_written_one_by_one_as_1_x_rows_x_columns_read_as_the_stack(tmp_path) -> None:
+    """Each page appended as a (1, rows, columns) array (one one-page series of shape
+    1 x 16 x 16 each, a common loop over ``vol[k:k + 1]``): the z stack, as for 2-D pages
+    (main read the first page alone, "a 2-D image" of 16 x 16 x 1). Truth: NumPy's array."""
+    import tifffile
+
+    stored = np.random.default_rng(4).integers(0, 3, size=(6, 16, 10), dtype=np.uint8)
+    path = tmp_path / "p.tif"
+    for k in range(len(stored)):
+        tifffile.imwrite(path, stored[k : k + 1], append=True)
+    src = ImageSource(path, voxel=1e-6, solid=1)
+    assert header_shape(src) == (10, 16, 6)
+    np.testing.assert_array_equal(read_labels(src), stored.transpose(2, 1, 0))
+
+
 def test_a_tiff_of_same_size_3d_chunks_is_refused_naming_how_many(tmp_path) -> None:
     """A stack appended in two 3-D chunks of one page size (tifffile ``append=True``) is no
     stack psdesign can tell from two scans: refused naming how many series the file holds
