@@ -317,6 +317,7 @@ def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
         axes = zip(first.axes, first.shape, strict=True)
         page = [(a, int(n)) for a, n in axes if a in "YXSC" or n > 1]
         if len([a for a, _ in page if a not in "SC"]) == 2:
+            _check_complete(tf, name)
             check_numeric(first.dtype, name)
             return "Q" + "".join(a for a, _ in page), (len(series), *(n for _, n in page))
     if len(series) > 1 and not _aux_series_only(series):
@@ -351,7 +352,10 @@ def _check_complete(tf, name: str) -> None:
     header's ``images`` are missing, and keeps a shaped series whose data end early (both were
     read as "a 2-D image" or a stack of missing pages, session 54 walk). A compressed (not
     contiguous) stack holds one page directory per page: fewer than its ImageJ or tifffile
-    shaped header describes is truncated too (a zlib stack cut short read as "a 2-D image")."""
+    shaped header describes is truncated too (a zlib stack cut short read as "a 2-D image"),
+    and so is a file whose last page's data end past the file's end (a page-by-page file cut
+    mid-page: tifffile's read error, with its own log line, came only when the voxels were
+    read)."""
     series = tf.series[0]
     page = series.keyframe
     meta = tf.imagej_metadata or {}
@@ -368,6 +372,10 @@ def _check_complete(tf, name: str) -> None:
     elif tf.shaped_metadata:  # the first series' shape over the first page's size
         shape = tf.shaped_metadata[0].get("shape") or [1]
         expected = int(np.prod(shape)) // max(1, tf.pages[0].size)
+    last = tf.pages[-1]  # its data cut short (a page-by-page file cut mid-page)
+    ends = zip(last.dataoffsets, last.databytecounts, strict=True)
+    if max((o + n for o, n in ends), default=0) > size:
+        expected, found = max(expected, len(tf.pages)), min(found, len(tf.pages) - 1)
     if found < expected:
         raise ValueError(
             f"image.path: {name} is truncated: its header describes {expected} pages, the "

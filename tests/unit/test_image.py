@@ -348,6 +348,25 @@ def test_a_truncated_compressed_tiff_stack_is_refused(tmp_path, kwargs) -> None:
     np.testing.assert_array_equal(read_labels(src), stored.transpose(2, 1, 0))
 
 
+def test_a_page_by_page_tiff_cut_mid_page_is_refused_from_the_header(tmp_path) -> None:
+    """A page-by-page file cut inside its last page's data (its page directory is whole): the
+    header counted 12 pages and the read failed with tifffile's error and a stray log line
+    (review of session 54's branch). Now ``truncated``, 12 pages described, 11 held, from the
+    header. Truth: the cut is 10 bytes into page 12's data, whose offset the whole file gives."""
+    import tifffile
+
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    _pages_written_one_by_one(whole, np.ones((12, 16, 16), np.uint8))
+    with tifffile.TiffFile(whole) as tf:
+        start = tf.pages[-1].dataoffsets[0]
+    cut.write_bytes(whole.read_bytes()[: start + 10])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 12 pages, the file holds 11 "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg):
+            read(ImageSource(cut, voxel=1e-6))
+    assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 12)
+
+
 @pytest.mark.parametrize(
     "array, kind",
     [
