@@ -557,6 +557,23 @@ def status_of(
     )
 
 
+def over_limit_percent(rel_error: float, limit: float = UNTRUSTWORTHY_REL_ERROR) -> str:
+    """``rel_error`` in percent to one decimal, or to as many more as it takes not to print as
+    ``limit`` (a bar over the limit is refused by ``rel_error > limit`` unrounded, the rule
+    kept: only the print changes). A pore-size bar of 0.2000109 read "estimated error 20.0 %
+    exceeds 20 %" (session 54 walk).
+
+    >>> over_limit_percent(0.365), over_limit_percent(0.2000109), over_limit_percent(0.2004)
+    ('36.5', '20.001', '20.04')
+    """
+    text = f"{100 * rel_error:.1f}"
+    for digits in range(2, 16):
+        if float(text) != round(100 * limit, digits - 1):
+            break
+        text = f"{100 * rel_error:.{digits}f}"
+    return text
+
+
 def untrustworthy_reasons(
     rel_error: float,
     cpd: float | None,
@@ -577,7 +594,7 @@ def untrustworthy_reasons(
     """
     why = []
     if not np.isfinite(rel_error) or rel_error > UNTRUSTWORTHY_REL_ERROR:
-        bar = f"{100 * rel_error:.1f} %" if np.isfinite(rel_error) else "unknown"
+        bar = f"{over_limit_percent(rel_error)} %" if np.isfinite(rel_error) else "unknown"
         why.append(f"error bar {bar} > {100 * UNTRUSTWORTHY_REL_ERROR:g} %")
     if under_resolved(cpd, min_cpd):
         why.append(f"{count_below(cpd, min_cpd)} voxels per {measure}, need {min_cpd:g}")
@@ -601,7 +618,7 @@ def over_limit_warning(name: str, rel_error: float, advice: str) -> str:
     'K_x: estimated error 36.5 % exceeds 20 %, where the bar may und'
     """
     return (
-        f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
+        f"{name}: estimated error {over_limit_percent(rel_error)} % exceeds "
         f"{100 * UNTRUSTWORTHY_REL_ERROR:g} %, where the bar may understate the error (its terms "
         f"are calibrated to cover ok results only; untrustworthy): {advice}"
     )

@@ -45,7 +45,7 @@ def source_of(table: dict, voxel: float | None = None) -> ImageSource:
 def header_shape(src: ImageSource) -> tuple[int, int, int]:
     """Voxel counts (x, y, z) of the stored image before the crop, read from its header
     where the format has one (TIFF, NumPy, raw ``shape``, the VTI header); nothing is read."""
-    from psdesign.image.reader import raw_layout, tiff_shape, vti_header
+    from psdesign.image.reader import open_npy, raw_layout, tiff_shape, vti_header
 
     ext = src.ext
     order = src.axis_order or ("zyx" if ext in (".tif", ".tiff", ".raw") else "xyz")
@@ -55,12 +55,7 @@ def header_shape(src: ImageSource) -> tuple[int, int, int]:
         stored = tiff_shape(Path(src.path))
         stored = (1, *stored) if len(stored) == 2 else stored
     elif ext == ".npy":
-        try:
-            stored = tuple(np.load(src.path, mmap_mode="r", allow_pickle=False).shape)
-        except (ValueError, OSError) as exc:
-            raise ValueError(
-                f"image.path: cannot read {Path(src.path).name} as .npy: {exc}"
-            ) from None
+        stored = tuple(open_npy(src.path).shape)
     elif ext == ".raw":
         raw_layout(src)  # shape x dtype = the file's size; the voxels are not read
         if sorted(order) != ["x", "y", "z"]:

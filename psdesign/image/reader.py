@@ -268,7 +268,8 @@ def tifffile_quiet() -> Iterator[None]:
 
 
 def tiff_shape(path: Path) -> tuple[int, ...]:
-    """The stored shape of a TIFF file's first series, from its header (no voxel is read);
+    """The stored shape of the stack a TIFF file holds, from its header (no voxel is read):
+    its first series, or its pages as z when written page by page (:func:`_stack_header`);
     a colour or multi-channel image is refused (``image.path``).
 
     tifffile puts the colour samples of an RGB(A) image on an axis ``S`` and ImageJ's channels
@@ -278,13 +279,108 @@ def tiff_shape(path: Path) -> tuple[int, ...]:
     """
     import tifffile
 
+    name = Path(path).name
     try:
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
-            series = tf.series[0]
-            axes, shape = str(series.axes), tuple(int(n) for n in series.shape)
+            axes, shape = _stack_header(tf, name)
+    except ValueError as exc:
+        if str(exc).startswith("image."):  # the refusals of _stack_header
+            raise
+        raise ValueError(f"image.path: cannot read {name} as TIFF: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
-        raise ValueError(f"image.path: cannot read {Path(path).name} as TIFF: {exc}") from None
-    return plain_tiff_shape(Path(path).name, axes, shape)
+        raise ValueError(f"image.path: cannot read {name} as TIFF: {exc}") from None
+    return plain_tiff_shape(name, axes, shape)
+
+
+def page_series(tf) -> bool:
+    """Whether a TIFF file holds its stack as one 2-D series per page, as
+    ``tifffile.imwrite(path, page, append=True)`` writes it page by page: several one-page
+    series of one shape and element type (:func:`tiff_shape` refuses other series sets).
+    Such a file read as its first series was "a 2-D image" (session 54 walk)."""
+    series = tf.series
+    if len(series) < 2:
+        return False
+    first = series[0]
+    return all(
+        len(s.pages) == 1 and s.shape == first.shape and s.dtype == first.dtype for s in series
+    )
+
+
+def _stack_header(tf, name: str) -> tuple[str, tuple[int, ...]]:
+    """The axes and shape of the stack a TIFF file holds (its first series, also beside
+    smaller ones: :func:`_aux_series_only`; or its pages as z when :func:`page_series`), from
+    the header; a file of other series, or one whose header describes more pages than it
+    holds (truncated), is refused (``image.path``)."""
+    series = tf.series
+    if page_series(tf):
+        first = series[0]  # its pages' axes: a writer's leading 1 (1 x rows x cols) dropped
+        axes = zip(first.axes, first.shape, strict=True)
+        page = [(a, int(n)) for a, n in axes if a in "YXSC" or n > 1]
+        if len([a for a, _ in page if a not in "SC"]) == 2:
+            _check_complete(tf, name)
+            check_numeric(first.dtype, name)
+            return "Q" + "".join(a for a, _ in page), (len(series), *(n for _, n in page))
+    if len(series) > 1 and not _aux_series_only(series):
+        kinds = sorted({f"{'x'.join(map(str, s.shape))} {s.dtype}" for s in series})
+        raise ValueError(
+            f"image.path: {name} holds {len(series)} image series ({', '.join(kinds[:4])}); "
+            "psdesign reads one stack (allowed: a single 3-D series, or one 2-D page per "
+            "series, all of one shape and element type)"
+        )
+    _check_complete(tf, name)
+    check_numeric(series[0].dtype, name)
+    return str(series[0].axes), tuple(int(n) for n in series[0].shape)
+
+
+def _aux_series_only(series) -> bool:
+    """Whether a TIFF file's series after the first are only smaller images beside a 3-D
+    first one (a thumbnail, RGB preview, OME label image or reduced-resolution page): the
+    first is then the stack, as tifffile, Fiji and PoreSpy read it (review of session 54: the
+    multi-series refusal had refused such files, which main read). Series of the first one's
+    page size (a file appended in 3-D chunks) are no such file: reading the first chunk alone
+    lost the rest without a word."""
+    first = series[0].keyframe
+    area = first.imagewidth * first.imagelength
+    return len([a for a in series[0].axes if a not in "SC"]) >= 3 and all(
+        s.keyframe.imagewidth * s.keyframe.imagelength < area for s in series[1:]
+    )
+
+
+def _check_complete(tf, name: str) -> None:
+    """Refuse a truncated TIFF stack (an interrupted copy or save) naming the pages its header
+    describes and those the file holds: tifffile falls back to the first page when the ImageJ
+    header's ``images`` are missing, and keeps a shaped series whose data end early (both were
+    read as "a 2-D image" or a stack of missing pages, session 54 walk). A compressed (not
+    contiguous) stack holds one page directory per page: fewer than its ImageJ or tifffile
+    shaped header describes is truncated too (a zlib stack cut short read as "a 2-D image"),
+    and so is a file whose last page's data end past the file's end (a page-by-page file cut
+    mid-page: tifffile's read error, with its own log line, came only when the voxels were
+    read)."""
+    series = tf.series[0]
+    page = series.keyframe
+    meta = tf.imagej_metadata or {}
+    size = tf.filehandle.size
+    expected, found = 1, len(tf.pages)
+    if meta and series.kind.lower() != "imagej":  # tifffile found the ImageJ header invalid
+        expected = int(meta.get("images", 1))
+    elif series.dataoffset is not None:  # contiguous: may hold one page directory alone
+        if series.dataoffset + series.nbytes > size:
+            expected = series.size // max(1, page.size)
+            found = min(found, (size - series.dataoffset) // max(1, page.nbytes))
+    elif meta:
+        expected = int(meta.get("images", 1))
+    elif tf.shaped_metadata:  # the first series' shape over the first page's size
+        shape = tf.shaped_metadata[0].get("shape") or [1]
+        expected = int(np.prod(shape)) // max(1, tf.pages[0].size)
+    last = tf.pages[-1]  # its data cut short (a page-by-page file cut mid-page)
+    ends = zip(last.dataoffsets, last.databytecounts, strict=True)
+    if max((o + n for o, n in ends), default=0) > size:
+        expected, found = max(expected, len(tf.pages)), min(found, len(tf.pages) - 1)
+    if found < expected:
+        raise ValueError(
+            f"image.path: {name} is truncated: its header describes {expected} pages, the "
+            f"file holds {found} (allowed: a complete stack; copy or save it again)"
+        )
 
 
 def plain_tiff_shape(
@@ -320,12 +416,17 @@ def plain_tiff_shape(
 
 
 def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.ndarray, bool]:
-    """The first series of a TIFF file, and whether only the pages ``[lo, hi)`` of ``pages``
-    were read: memory-mapped when it is stored uncompressed and contiguous (a crop then reads
-    only its voxels); else, for a stack of pages, only those pages (decoded one at a time);
-    else read whole."""
+    """The stack of a TIFF file (its first series, or its pages when :func:`page_series`),
+    and whether only the pages ``[lo, hi)`` of ``pages`` were read. A file written page by
+    page is decoded page by page (only the crop's pages); else the first series is
+    memory-mapped when stored uncompressed and contiguous (a crop then reads only its
+    voxels); else, for a stack of pages, only those pages (decoded one at a time); else read
+    whole."""
     import tifffile
 
+    with tifffile.TiffFile(path) as tf:
+        if page_series(tf):  # one series per page: tifffile.memmap would map the first only
+            return _read_pages(tf.pages, len(tf.series), pages)
     try:
         return tifffile.memmap(path, mode="r"), False
     except ValueError:  # compressed or tiled: not memory-mappable
@@ -335,10 +436,23 @@ def _tiff_array(path: Path, pages: tuple[int, int] | None = None) -> tuple[np.nd
         stack = series.pages
         if pages is None or len(series.shape) != 3 or len(stack) != series.shape[0]:
             return np.asarray(series.asarray()), False
-        lo, hi = pages
-        if not 0 <= lo < hi <= len(stack):
-            return np.asarray(series.asarray()), False  # read_labels names the bad crop
-        return np.stack([stack[k].asarray() for k in range(lo, hi)]), True
+        return _read_pages(stack, len(stack), pages)
+
+
+def _read_pages(stack, n: int, pages: tuple[int, int] | None) -> tuple[np.ndarray, bool]:
+    """The first ``n`` pages of ``stack`` as a (z, y, x) array, decoded one at a time, or only
+    ``pages = (lo, hi)`` of them (then True); a bad range reads all (``read_labels`` names
+    the bad crop)."""
+    lo, hi = (0, n) if pages is None else pages
+    sliced = pages is not None and 0 <= lo < hi <= n
+    if not sliced:
+        lo, hi = 0, n
+    first = np.asarray(stack[lo].asarray())
+    out = np.empty((hi - lo, *first.shape), dtype=first.dtype)
+    out[0] = first
+    for k in range(lo + 1, hi):
+        out[k - lo] = stack[k].asarray()
+    return out, sliced
 
 
 def _read_slice_crop(src: ImageSource, order: str) -> np.ndarray:
@@ -394,10 +508,7 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
             crop = tuple((0, data.shape[0]) if ax == page_axis else c for ax, c in enumerate(crop))
         return _to_xyz(data, order), crop
     if ext == ".npy":
-        try:
-            data = np.load(path, mmap_mode="r", allow_pickle=False)
-        except (ValueError, OSError) as exc:
-            raise ValueError(f"image.path: cannot read {path.name} as .npy: {exc}") from None
+        data = open_npy(path)
         if data.ndim != 3:
             raise ValueError(
                 f"image.path: expected a 3-D array, got shape {data.shape} {THREE_D_ALLOWED}"
@@ -405,7 +516,40 @@ def _read_stored(src: ImageSource) -> tuple[np.ndarray, tuple | None]:
         return _to_xyz(data, src.axis_order or "xyz"), src.crop
     if ext == ".raw":
         return _read_raw(src), src.crop
-    return _to_xyz(_read_vti(path), src.axis_order or "xyz"), src.crop
+    data = _read_vti(path)
+    check_numeric(data.dtype, path.name)
+    return _to_xyz(data, src.axis_order or "xyz"), src.crop
+
+
+#: The element types an image's voxels may have (NumPy kinds: bool, signed and unsigned
+#: integer, float) and the refusal's allowed range.
+NUMERIC_KINDS = "biuf"
+NUMERIC_ALLOWED = "(allowed: bool, integer or float voxels)"
+
+
+def check_numeric(dtype: np.dtype, name: str) -> None:
+    """Refuse an image whose element type is not a number psdesign can label or threshold
+    (``image.path``): a string array of '0' / '1' read as all solid, a structured one raised
+    a TypeError at ``labels != 0``, complex, datetime and object arrays were taken as
+    labels (session 54 walk)."""
+    if np.dtype(dtype).kind not in NUMERIC_KINDS:
+        raise ValueError(
+            f"image.path: {name} holds elements of type {np.dtype(dtype)}, not numbers "
+            f"{NUMERIC_ALLOWED}"
+        )
+
+
+def open_npy(path: str | Path) -> np.ndarray:
+    """A ``.npy`` file memory-mapped (its header read, no voxel), its element type checked
+    (:func:`check_numeric`); an unreadable file, an empty one (an interrupted ``np.save``:
+    ``EOFError``) or a pickled array is refused naming ``image.path``."""
+    name = Path(path).name
+    try:
+        data = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise ValueError(f"image.path: cannot read {name} as .npy: {exc}") from None
+    check_numeric(data.dtype, name)
+    return data
 
 
 def read_labels(src: ImageSource) -> np.ndarray:

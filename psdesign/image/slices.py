@@ -205,10 +205,11 @@ def _resolution(tags, name: str) -> float | None:
 
 
 def _header(path: Path) -> _Header:
-    """One slice's header (no pixel is decoded); a colour image is refused."""
+    """One slice's header (no pixel is decoded); a colour image, or one whose elements are
+    not numbers (:func:`psdesign.image.reader.check_numeric`), is refused."""
     import tifffile
 
-    from psdesign.image.reader import plain_tiff_shape, tifffile_quiet
+    from psdesign.image.reader import check_numeric, plain_tiff_shape, tifffile_quiet
 
     try:
         with tifffile_quiet(), tifffile.TiffFile(path) as tf:
@@ -226,6 +227,7 @@ def _header(path: Path) -> _Header:
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
         raise ValueError(f"image.path: cannot read {path.name} as TIFF: {exc}") from None
     shape = plain_tiff_shape(path.name, axes, shape, stack=False)
+    check_numeric(np.dtype(header.dtype), path.name)  # complex slices were read (review s54)
     while header.pages == 1 and len(shape) > 2 and shape[0] == 1:  # a writer's (1, rows, cols)
         shape = shape[1:]
     return _Header(shape, header.dtype, header.pages, pixel)

@@ -107,10 +107,20 @@ MAX_TIMEOUT_S = 1e7
 #: False while a spec is validated for a study whose case function is not psdesign's pipeline
 #: (:func:`unplanned_route`).
 _ROUTE_PLANNED: ContextVar[bool] = ContextVar("psdesign_route_planned", default=True)
+#: True while a transport command's spec is validated (``unplanned_route(transport=True)``).
+_TRANSPORT_ROUTE: ContextVar[bool] = ContextVar("psdesign_transport_route", default=False)
+
+
+def transport_route() -> bool:
+    """True inside ``unplanned_route(transport=True)``: the spec is a transport command's,
+    whose image the schema holds to :func:`check_transport`'s figure from its header, before
+    its voxels are read (session 54 walk: a 700^3 image was read whole, 12.8 s and 0.8 GB,
+    before the same refusal)."""
+    return _TRANSPORT_ROUTE.get()
 
 
 @contextmanager
-def unplanned_route() -> Iterator[None]:
+def unplanned_route(transport: bool = False) -> Iterator[None]:
     """Validations inside plan no flow route: a study's own case function
     (``run_study(case_fn=...)``) decides what it builds and solves, so its specs are held to
     the schema's keys and to the memory of their voxel grid (:func:`check_grid` as geometry),
@@ -124,11 +134,14 @@ def unplanned_route() -> Iterator[None]:
     permeameter; ``permeability`` and ``study run`` still plan theirs up front), and since
     session 53 ``psdesign.build`` (geometry; ``Material.permeability`` checks its solve), a
     study's cases without a K output (:func:`psdesign.schema.study.validate_case_spec`) and
-    ``mesh`` (then checked at the one copy it meshes)."""
+    ``mesh`` (then checked at the one copy it meshes). ``transport``: a transport command's
+    spec (:func:`transport_route`)."""
     token = _ROUTE_PLANNED.set(False)
+    kind = _TRANSPORT_ROUTE.set(transport)
     try:
         yield
     finally:
+        _TRANSPORT_ROUTE.reset(kind)
         _ROUTE_PLANNED.reset(token)
 
 
@@ -439,9 +452,17 @@ def check_transport(spec: dict) -> None:
 
     key = "image.crop" if spec.get("image") else "rve.voxel"
     try:
-        check_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], "transport", key)
+        check_transport_grid(tuple(spec["rve"]["size"]), spec["rve"]["voxel"], key)
     except PydanticCustomError as exc:  # the schema's own line, raised outside it
         raise fail_error(exc) from None
+
+
+def check_transport_grid(size: tuple[float, ...], voxel: float, key: str) -> None:
+    """Refuse a grid of ``size`` (m) at ``voxel`` (m) whose transport solve does not fit the
+    memory budget, naming ``key``: the one rule :func:`check_transport` applies to a validated
+    spec and the schema to an image's header (a transport command's image, before its voxels
+    are read). Raises the schema's ``PydanticCustomError`` (:func:`check_grid`)."""
+    check_grid(size, voxel, "transport", key)
 
 
 def _counted(solver: str, flow, aux: float) -> str:

@@ -246,7 +246,12 @@ class SpecDocument(Table):
 
     def _image_memory(self, img, flow: FlowTable, porosity: float | None = None) -> None:
         """The memory checks of an image spec at ``flow`` (the crop names the grid;
-        ``porosity`` None: the FEM counts every lattice cell as pore)."""
+        ``porosity`` None: the FEM counts every lattice cell as pore). A transport command's
+        image: its solve's figure (:func:`psdesign.schema.budget.check_transport_grid`)
+        from the header, before the voxels are read."""
+        if not budget.route_planned() and budget.transport_route():
+            budget.check_transport_grid(img.size, img.voxel, "image.crop")
+            return
         budget.check_grid(img.size, img.voxel, flow.solver, key="image.crop", flow=flow)
         if flow.solver == "fem":
             budget.check_fem(img.size, img.voxel, flow, porosity)

@@ -55,9 +55,11 @@ def validate_case_spec(spec: dict, outputs: Iterable[str]) -> dict:
 
     outputs = list(outputs)
     planned = budget.route_planned()
-    with nullcontext() if k_directions(outputs) else budget.unplanned_route():
+    transport = planned and any(o in TRANSPORT_OUTPUTS for o in outputs)
+    # an image's transport solve checked from its header, before its voxels (session 54)
+    with nullcontext() if k_directions(outputs) else budget.unplanned_route(transport):
         valid = validate_spec(spec)
-    if planned and any(o in TRANSPORT_OUTPUTS for o in outputs):
+    if transport:
         budget.check_transport(valid)
     return valid
 

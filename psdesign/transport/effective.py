@@ -170,7 +170,7 @@ def rating(
         warnings.append(f"{name}: solver did not converge")
     if not rel_error <= err.UNTRUSTWORTHY_REL_ERROR:
         warnings.append(
-            f"{name}: estimated error {100 * rel_error:.1f} % exceeds "
+            f"{name}: estimated error {err.over_limit_percent(rel_error)} % exceeds "
             f"{100 * err.UNTRUSTWORTHY_REL_ERROR:g} %"
         )
     status = err.status_of(converged, rel_error, cells_per_diameter)

@@ -79,10 +79,11 @@ def load_case(
     # pores, diffusivity and conductivity solve no flow: the spec is held to its voxel grid's
     # memory, not to the [flow] solve a permeability run would plan (session 52 walk: refused
     # for a 16.7 GiB FEM permeameter they never run)
-    with unplanned_route():
+    # held to the transport solve's own memory instead (review E, session 52: inside
+    # unplanned_route alone the grid's 16 B per voxel let an out-of-memory run through); an
+    # image's from its header, before the spec check reads its voxels (session 54)
+    with unplanned_route(transport=True):
         spec = validate_spec(rest, base=p.parent) if rest else load_spec(p)
-        # held to the transport solve's own memory instead (review E, session 52: inside
-        # unplanned_route alone the grid's 16 B per voxel let an out-of-memory run through)
         check_transport(spec)
         spec["transport"] = transport
         built = build_rve(spec)

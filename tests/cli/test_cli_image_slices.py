@@ -156,6 +156,9 @@ def _bad(folder, case: str) -> str:
         shutil.copy(folder / "s005.tif", folder / "preview.tif")
     elif case == "two scans":
         shutil.copy(folder / "s005.tif", folder / "t008.tif")
+    elif case == "complex":  # every slice complex: one type, so only check_numeric refuses
+        for k in range(n):
+            tifffile.imwrite(folder / f"s{k:03d}.tif", page.astype(np.complex64))
     elif case == "calibration":
         tifffile.imwrite(folder / "s005.tif", page, **{**IMAGEJ_UM, "resolution": (2.0, 2.0)})
     return {"no match": "slices/x_*.tif"}.get(case, "slices")
@@ -176,6 +179,7 @@ def _bad(folder, case: str) -> str:
         ("no number", "preview.tif has no slice number"),
         ("two scans", "are named by two patterns"),
         ("calibration", "s005.tif has pixels of 0.5 x 0.5 um, s000.tif of 1 x 1 um"),
+        ("complex", "s000.tif holds elements of type complex64, not numbers (allowed: bool, "),
     ],
 )
 @pytest.mark.parametrize("command", ["permeability", "generate"])

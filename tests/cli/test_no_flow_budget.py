@@ -198,3 +198,59 @@ def test_a_study_without_k_is_held_to_the_work_of_its_outputs(tmp_path, capsys, 
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "base.rve.voxel: a 20x20x20 grid" in line and "transport" in line
     assert not (tmp_path / "t").exists()
+
+
+@pytest.mark.parametrize("name", ["pores", "diffusivity", "conductivity"])
+def test_a_transport_command_refuses_an_image_before_reading_its_voxels(
+    name, tmp_path, capsys, monkeypatch
+):
+    """Session 54 walk: a 700^3 ``.npy`` image was read whole (12.8 s, 0.8 GB) by the spec
+    check before the transport refusal. Now the refusal comes from the header: the voxel
+    reader fails the test if called. Truth: the budget's figures on a machine of 4 MiB
+    (budget 2 MiB): the 20^3 grid's fields (128 kB) fit, its transport solve (3.3 MB) does
+    not, and the one line is the same ``check_transport`` line as for the RVE route."""
+    import numpy as np
+
+    import psdesign.image.load as image_load
+
+    image = np.zeros((20, 20, 20), np.uint8)
+    image[:, :, :5] = 1
+    np.save(tmp_path / "img.npy", image)
+    spec = tmp_path / "img.toml"
+    spec.write_text('[image]\npath = "img.npy"\nvoxel_size = 1e-6\n')
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("the image's voxels were read")
+
+    monkeypatch.setattr(image_load, "read_image", no_read)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 4 * 2**20)
+    argv = _argv(name, spec, tmp_path)
+    assert main(argv) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("psdesign: error: image.crop: a 20x20x20 grid"), line
+    assert "transport command's scan or Laplace solve" in line
+
+
+def test_a_study_case_of_transport_outputs_refuses_an_image_before_its_voxels(
+    tmp_path, monkeypatch
+):
+    """The study's case check (:func:`psdesign.schema.study.validate_case_spec`) holds an image
+    case of transport outputs to the same figure, from the header (session 54); truth as
+    above (4 MiB machine: the 20^3 grid's 3.3 MB transport solve over the 2 MiB budget)."""
+    import numpy as np
+
+    import psdesign.image.load as image_load
+    from psdesign.errors import SpecError
+    from psdesign.schema.study import validate_case_spec
+
+    np.save(tmp_path / "img.npy", np.eye(20, dtype=np.uint8)[:, :, None].repeat(20, axis=2))
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("the image's voxels were read")
+
+    monkeypatch.setattr(image_load, "read_image", no_read)
+    monkeypatch.setattr(budget, "machine_memory", lambda: 4 * 2**20)
+    case = {"image": {"path": str(tmp_path / "img.npy"), "voxel_size": 1e-6}}
+    with pytest.raises(SpecError) as info:
+        validate_case_spec(case, ["porosity", "diffusivity_z"])
+    assert info.value.key == "image.crop" and "transport command" in info.value.message

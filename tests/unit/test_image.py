@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from psdesign.image.fields import image_fields, signed_distance
+from psdesign.image.load import header_shape
 from psdesign.image.reader import ImageSource, read_image, read_labels
 from psdesign.image.writer import write_tiff
 
@@ -191,3 +192,208 @@ def test_a_crop_of_a_compressed_tiff_decodes_only_its_pages(tmp_path, monkeypatc
     monkeypatch.setattr(tifffile, "imread", whole)
     src = ImageSource(path, voxel=1e-6, solid=1, crop=crop, axis_order=order)
     np.testing.assert_array_equal(read_labels(src), truth)
+
+
+def _pages_written_one_by_one(path, stored: np.ndarray, compression=None) -> None:
+    """``stored`` (z, y, x) written as ``tifffile.imwrite(..., append=True)`` page by page:
+    one 2-D series per page (Fiji opens it as a stack of len(stored) slices)."""
+    import tifffile
+
+    for page in stored:
+        tifffile.imwrite(path, page, append=True, compression=compression)
+
+
+@pytest.mark.parametrize("compression", [None, "zlib"])
+@pytest.mark.parametrize("order", ["zyx", "xyz", "yxz"])
+def test_a_tiff_written_page_by_page_reads_as_its_z_stack(
+    tmp_path, monkeypatch, order, compression
+) -> None:
+    """Session 54 walk: a stack written page by page was refused as "a 2-D image" (its first
+    series only). Truth: NumPy's own array, transposed by the axis order and cropped; the
+    header counts every page and a crop decodes only its pages."""
+    import tifffile
+
+    rng = np.random.default_rng(1)
+    stored = rng.integers(0, 3, size=(12, 9, 7), dtype=np.uint8)  # 12 pages of 9 x 7
+    path = tmp_path / "pages.tif"
+    _pages_written_one_by_one(path, stored, compression)
+    xyz = stored.transpose([order.index(a) for a in "xyz"])
+    whole = ImageSource(path, voxel=1e-6, solid=1, axis_order=order)
+    decoded = []
+    page_asarray = tifffile.TiffPage.asarray
+
+    def counted(page, *args, **kwargs):
+        decoded.append(page.index)
+        return page_asarray(page, *args, **kwargs)
+
+    monkeypatch.setattr(tifffile.TiffPage, "asarray", counted)
+    assert header_shape(whole) == xyz.shape and not decoded  # the header alone
+    np.testing.assert_array_equal(read_labels(whole), xyz)
+    crop = ((2, 6), (1, 5), (3, 7))  # x, y, z
+    decoded.clear()
+    cropped = ImageSource(path, voxel=1e-6, solid=1, crop=crop, axis_order=order)
+    np.testing.assert_array_equal(read_labels(cropped), xyz[2:6, 1:5, 3:7])
+    page_range = crop["xyz".index(order[0])]
+    assert sorted(set(decoded)) == list(range(*page_range))
+
+
+def test_pages_written_one_by_one_as_1_x_rows_x_columns_read_as_the_stack(tmp_path) -> None:
+    """Each page appended as a (1, rows, columns) array (one one-page series of shape
+    1 x 16 x 16 each, a common loop over ``vol[k:k + 1]``): the z stack, as for 2-D pages
+    (main read the first page alone, "a 2-D image" of 16 x 16 x 1). Truth: NumPy's array."""
+    import tifffile
+
+    stored = np.random.default_rng(4).integers(0, 3, size=(6, 16, 10), dtype=np.uint8)
+    path = tmp_path / "p.tif"
+    for k in range(len(stored)):
+        tifffile.imwrite(path, stored[k : k + 1], append=True)
+    src = ImageSource(path, voxel=1e-6, solid=1)
+    assert header_shape(src) == (10, 16, 6)
+    np.testing.assert_array_equal(read_labels(src), stored.transpose(2, 1, 0))
+
+
+def test_a_tiff_of_same_size_3d_chunks_is_refused_naming_how_many(tmp_path) -> None:
+    """A stack appended in two 3-D chunks of one page size (tifffile ``append=True``) is no
+    stack psdesign can tell from two scans: refused naming how many series the file holds
+    (main read the first chunk alone, 4 of 10 pages, without a word)."""
+    import tifffile
+
+    path = tmp_path / "chunks.tif"
+    tifffile.imwrite(path, np.zeros((4, 8, 8), np.uint8), photometric="minisblack")
+    tifffile.imwrite(path, np.ones((6, 8, 8), np.uint8), append=True, photometric="minisblack")
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=r"^image\.path: chunks\.tif holds 2 image series"):
+            read(ImageSource(path, voxel=1e-6))
+
+
+def _stack_with_aux(path, stored: np.ndarray, kind: str) -> None:
+    """``stored`` (z, y, x) as the first series of a TIFF file beside a smaller image of
+    ``kind``, as microscopes, Fiji and tifffile write them (review of session 54's branch)."""
+    import tifffile
+
+    thumb = np.zeros((4, 4), np.uint8)
+    if kind in ("thumb", "rgb"):  # tifffile shaped stack, then a thumbnail or RGB preview
+        tifffile.imwrite(path, stored, compression="zlib")
+        extra = thumb if kind == "thumb" else np.zeros((4, 4, 3), np.uint8)
+        tifffile.imwrite(path, extra, append=True)
+    elif kind == "ome":  # OME-TIFF: the stack and a label image
+        with tifffile.TiffWriter(path, ome=True) as w:
+            w.write(stored, metadata={"axes": "ZYX"})
+            w.write(thumb, metadata={"axes": "YX"})
+    else:  # plain pages (no description), then a thumbnail or a reduced-resolution page
+        with tifffile.TiffWriter(path) as w:
+            for page in stored:
+                w.write(page, metadata=None)
+            reduced = kind == "reduced"
+            w.write(stored[0, ::2, ::2] if reduced else thumb, subfiletype=int(reduced))
+
+
+@pytest.mark.parametrize("kind", ["thumb", "rgb", "ome", "thumblast", "reduced"])
+def test_a_stack_beside_a_smaller_image_reads_as_the_stack(tmp_path, kind) -> None:
+    """A 3-D first series beside smaller images (thumbnail, RGB preview, OME label image,
+    reduced-resolution page) is the stack, as tifffile, Fiji and PoreSpy read it; the
+    multi-series refusal had refused it (review of session 54). Truth: NumPy's own array as
+    x, y, z, whole and cropped."""
+    rng = np.random.default_rng(2)
+    stored = rng.integers(0, 3, size=(10, 12, 8), dtype=np.uint8)  # 10 pages of 12 x 8
+    path = tmp_path / ("s.ome.tif" if kind == "ome" else "s.tif")
+    _stack_with_aux(path, stored, kind)
+    xyz = stored.transpose(2, 1, 0)
+    assert header_shape(ImageSource(path, voxel=1e-6)) == (8, 12, 10)
+    np.testing.assert_array_equal(read_labels(ImageSource(path, voxel=1e-6, solid=1)), xyz)
+    crop = ((1, 5), (2, 9), (3, 7))
+    cropped = ImageSource(path, voxel=1e-6, solid=1, crop=crop)
+    np.testing.assert_array_equal(read_labels(cropped), xyz[1:5, 2:9, 3:7])
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"imagej": True, "metadata": {"axes": "ZYX"}}])
+def test_a_truncated_tiff_stack_names_the_pages_expected_and_found(tmp_path, kwargs) -> None:
+    """A stack cut at half its bytes (an interrupted copy): its header (tifffile's shaped or
+    ImageJ metadata) describes 24 pages, the file holds one page directory; it read as "a 2-D
+    image" (ImageJ) or a series of missing pages (session 54 walk)."""
+    import tifffile
+
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    tifffile.imwrite(whole, np.zeros((24, 16, 16), np.uint8), **kwargs)
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 24 pages, the file holds 1 "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg):
+            read(ImageSource(cut, voxel=1e-6))
+    assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 24)
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"imagej": True, "metadata": {"axes": "ZYX"}}])
+def test_a_truncated_compressed_tiff_stack_is_refused(tmp_path, kwargs) -> None:
+    """A zlib stack cut at half its bytes holds the page directories written before the cut,
+    fewer than the 24 its tifffile shaped or ImageJ header describes: refused naming both (the
+    shaped one read as "a 2-D image", the ImageJ one failed mid-decode; review of session
+    54). Truth: the whole file reads as its 24 pages."""
+    import tifffile
+
+    rng = np.random.default_rng(3)
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    stored = rng.integers(0, 255, size=(24, 16, 16), dtype=np.uint8)  # incompressible
+    tifffile.imwrite(whole, stored, compression="zlib", **kwargs)
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 24 pages, the file holds "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg) as info:
+            read(ImageSource(cut, voxel=1e-6))
+        held = int(str(info.value).split("the file holds ")[1].split()[0])
+        assert 0 < held < 24
+    src = ImageSource(whole, voxel=1e-6, solid=1)
+    np.testing.assert_array_equal(read_labels(src), stored.transpose(2, 1, 0))
+
+
+def test_a_page_by_page_tiff_cut_mid_page_is_refused_from_the_header(tmp_path) -> None:
+    """A page-by-page file cut inside its last page's data (its page directory is whole): the
+    header counted 12 pages and the read failed with tifffile's error and a stray log line
+    (review of session 54's branch). Now ``truncated``, 12 pages described, 11 held, from the
+    header. Truth: the cut is 10 bytes into page 12's data, whose offset the whole file gives."""
+    import tifffile
+
+    whole, cut = tmp_path / "whole.tif", tmp_path / "cut.tif"
+    _pages_written_one_by_one(whole, np.ones((12, 16, 16), np.uint8))
+    with tifffile.TiffFile(whole) as tf:
+        start = tf.pages[-1].dataoffsets[0]
+    cut.write_bytes(whole.read_bytes()[: start + 10])
+    msg = r"^image\.path: cut\.tif is truncated: its header describes 12 pages, the file holds 11 "
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=msg):
+            read(ImageSource(cut, voxel=1e-6))
+    assert header_shape(ImageSource(whole, voxel=1e-6)) == (16, 16, 12)
+
+
+@pytest.mark.parametrize(
+    "array, kind",
+    [
+        (np.array([[["0", "1"]]] * 4).repeat(2, axis=1), "<U1"),  # read as all solid
+        (np.zeros((4, 4, 4), dtype=[("a", "u1"), ("b", "f4")]), "[('a', 'u1')"),  # TypeError
+        (np.zeros((4, 4, 4), np.complex64), "complex64"),
+        (np.zeros((4, 4, 4), "datetime64[s]"), "datetime64[s]"),
+    ],
+)
+def test_an_image_of_non_numbers_is_refused_naming_the_allowed_kinds(tmp_path, array, kind):
+    """Session 54 walk: a '0'/'1' string array read as every voxel solid, a structured one
+    raised a TypeError (exit 1), complex and datetime arrays were taken as labels. Refused
+    from the header (``header_shape``) and by the reader, one line naming image.path."""
+    np.save(tmp_path / "a.npy", array)
+    src = ImageSource(tmp_path / "a.npy", voxel=1e-6)
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError) as info:
+            read(src)
+        assert str(info.value).startswith(f"image.path: a.npy holds elements of type {kind}")
+        assert str(info.value).endswith("(allowed: bool, integer or float voxels)")
+
+
+def test_an_empty_npy_file_is_refused_naming_image_path(tmp_path) -> None:
+    """A 0-byte ``.npy`` (an interrupted ``np.save``): NumPy raises EOFError, which came out
+    as a traceback, exit 1 (session 54 walk)."""
+    (tmp_path / "e.npy").write_bytes(b"")
+    src = ImageSource(tmp_path / "e.npy", voxel=1e-6)
+    for read in (header_shape, read_labels):
+        with pytest.raises(ValueError, match=r"^image\.path: cannot read e\.npy as \.npy: "):
+            read(src)

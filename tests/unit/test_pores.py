@@ -290,6 +290,25 @@ def test_pore_sizes_past_the_box_are_untrustworthy():
     ]
 
 
+@pytest.mark.parametrize(
+    "rel_error, status, shown",
+    [(0.2, "ok", None), (0.2000109, "untrustworthy", "20.001"), (0.2049, "untrustworthy", "20.5")],
+)
+def test_a_bar_just_over_the_limit_does_not_print_as_the_limit(rel_error, status, shown):
+    """Session 54 walk: ``pores`` warned "pore sizes: estimated error 20.0 % exceeds 20 %" for a
+    bar of 0.2000109. The rule (``rel_error > 0.2``, unrounded) is kept: 0.2 itself is ok; a bar
+    over it is printed with the digits that show it is over (``flow.error.over_limit_percent``)."""
+    from psdesign.transport.study_outputs import _pore_rating
+
+    base = {"specific_surface_rel_error": 0.01, "converged": True, "pore_d90_m": 1e-5}
+    base["breakthrough_diameter_m"] = 2e-5
+    base["surface_short_axes"] = ""
+    out = _pore_rating({**base, "rel_error": rel_error}, None, 1e-6, 100e-6)
+    assert out["pore_sizes_status"] == status
+    expected = [] if shown is None else [f"pore sizes: estimated error {shown} % exceeds 20 %"]
+    assert out["warnings"] == expected
+
+
 def test_an_extruded_rve_bounds_its_pores_by_the_edges_it_varies_along():
     """One cylinder along z (square array across, solid fraction 0.2) in a 40 x 40 x 25 um
     box: the geometry does not vary along z, so the 25 um depth bounds no pore. The largest
