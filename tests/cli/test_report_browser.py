@@ -149,6 +149,10 @@ def test_a_browser_that_cannot_unpack_says_so_and_shows_tables_and_pictures(
     assert gallery is not None and ' src="data:image/' in gallery.group(1)
 
 
+# slow: the same darcy conversion of every K cell is asserted by the default
+# test_darcy_leaves_log10_k_alone_and_relabels_the_k_headers (and in the page that cannot
+# unpack); this one only repeats it on the module's report (one more chromium run)
+@pytest.mark.slow
 def test_unit_selector_converts_k_to_darcy(report) -> None:
     dom = _chromium("--dump-dom", report.as_uri() + "#unit=darcy").stdout
     cells = re.findall(r'<td data-m2="([^"]+)">([^<]*)</td>', dom)
