@@ -224,17 +224,44 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
         if pictures:
             from psdesign.forcefield.render import render_fibers
 
-            render_fibers(
-                prob.fields(prob.x0),
-                tmp / "before.png",
-                f"{prob.name}: start, U = {summary['start']['U']:.6g}",
-            )
-            render_fibers(
-                prob.fields(res.x),
-                tmp / "after.png",
-                f"{prob.name}: optimum ({prob.surface}), U = {res.fun:.6g}",
-            )
+            before, after = picture_titles(summary)
+            render_fibers(prob.fields(prob.x0), tmp / "before.png", before)
+            render_fibers(prob.fields(res.x), tmp / "after.png", after)
     return summary
+
+
+def u_text(u: float, u_error: float, status: str) -> str:
+    """``U = 0.434199 +- 5.8e-04 [at_bound]``: U with its quadrature bar and its status, as
+    ``generate``'s preview title spells a value (:func:`psdesign.report.preview.preview_title`).
+
+    >>> u_text(0.4341988, 0.00058, "at_bound"), u_text(0.5, float("inf"), "untrustworthy")
+    ('U = 0.434199 +- 5.8e-04 [at_bound]', 'U = 0.5 +- unknown [untrustworthy]')
+    """
+    bar = f"{u_error:.1e}" if np.isfinite(u_error) else "unknown"
+    return f"U = {u:.6g} +- {bar} [{status}]"
+
+
+def picture_titles(summary: dict) -> tuple[str, str]:
+    """The titles of before.png and after.png of a run's ``summary`` (:func:`summarize`).
+
+    Each carries U with its bar and status (:func:`u_text`); the start's status is ``ok`` where
+    its U and bar are finite, else ``untrustworthy``. The end point is the ``optimum`` only
+    when the search converged, else the ``best point`` (a constrained or unfinished stop;
+    walk-woven s54: both titles printed U alone and called every end point the optimum).
+
+    >>> titles = picture_titles({"case": "six-fiber", "surface_term": "area", "U": 0.4342,
+    ...     "U_error": 0.0006, "status": "at_bound", "start": {"U": 0.51, "U_error": 0.001}})
+    >>> titles[0]
+    'six-fiber: start, U = 0.51 +- 1.0e-03 [ok]'
+    >>> titles[1]
+    'six-fiber: best point (area), U = 0.4342 +- 6.0e-04 [at_bound]'
+    """
+    start, name = summary["start"], summary["case"]
+    trusted = bool(np.isfinite(start["U"]) and np.isfinite(start["U_error"]))
+    before = u_text(start["U"], start["U_error"], "ok" if trusted else "untrustworthy")
+    end = "optimum" if summary["status"] == "converged" else "best point"
+    after = u_text(summary["U"], summary["U_error"], summary["status"])
+    return f"{name}: start, {before}", f"{name}: {end} ({summary['surface_term']}), {after}"
 
 
 def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) -> dict:
