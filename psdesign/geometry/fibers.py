@@ -780,14 +780,16 @@ def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
 
 def woven_cell_centre(edges_periods: np.ndarray) -> np.ndarray:
     """The woven cell's centre (normalized) in a box of ``edges_periods`` (its edges in periods):
-    along each edge the whole cells that cover it are centred on the box,
-    ``0.5 + (t - ceil(t)) / 2`` for an edge of ``t`` periods.
+    along each edge the nearest whole number of cells (at least one) is centred on the box,
+    ``0.5 + (t - n) / 2`` with ``n = max(rint(t), 1)`` for an edge of ``t`` periods.
 
     An edge of whole periods keeps the cell centre at half a period (exactly 0.5: the cells tile
     the box, as the paper's Fig. 10 cell fills its cube); a shorter one, e.g. a box half a
     period thick, gets the cell centred on it, as every other shape defaults to the box centre
     (session 54: the cell stayed at half the period, so a 50 um box of a 100 um period held the
-    lower half of every yarn, their centres on its top face).
+    lower half of every yarn, their centres on its top face). Rounding, not ceil: an edge a
+    little over whole periods (1.2, 2.1) keeps its yarn layers whole and away from the faces
+    (with ceil, 1.2 periods put a layer on both faces: porosity 0.899 -> 0.808).
 
     Parameters
     ----------
@@ -805,8 +807,10 @@ def woven_cell_centre(edges_periods: np.ndarray) -> np.ndarray:
     [0.5, 0.5, 0.25]
     """
     t = np.asarray(edges_periods, float).reshape(3)
-    whole = np.isclose(t, np.round(t), rtol=1e-9, atol=0.0)  # 3 x 30e-6 / 30e-6 is not 3.0
-    return np.where(whole, _CELL_CENTRE, _CELL_CENTRE + (t - np.ceil(t)) / 2.0)
+    n = np.maximum(np.rint(t), 1.0)
+    # size / period is off whole by an ulp (1e-5 / 2e-6 = 5.000000000000001): exactly 0.5 there
+    whole = np.isclose(t, n, rtol=1e-9, atol=0.0)
+    return np.where(whole, _CELL_CENTRE, _CELL_CENTRE + (t - n) / 2.0)
 
 
 def woven_cell(

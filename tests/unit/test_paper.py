@@ -138,7 +138,40 @@ def test_woven_cell_in_a_box_thinner_than_the_period_is_centred_on_it():
     assert 1 - thin.fields.porosity == pytest.approx(2 * 0.122, abs=0.01)  # the cube's 0.878
     centres = [float(fb.center[2]) * float(thin.rve.period) for fb in thin.rve.fibers]
     assert centres == pytest.approx([25e-6] * 6)  # the box centre, was 50e-6 (the top face)
-    assert woven_cell_centre(np.array([1.0, 2.0, 90e-6 / 30e-6])).tolist() == [0.5] * 3
+    # size / period an ulp off whole (1e-5 / 2e-6 = 5.000000000000001, 3e-4 / 1e-4 =
+    # 2.9999999999999996): the guard keeps exactly 0.5, the geometry of the whole-period box
+    edges = np.array([1.0, 1e-5 / 2e-6, 3e-4 / 1e-4])
+    assert edges[1] != 5.0 and edges[2] != 3.0
+    assert woven_cell_centre(edges).tolist() == [0.5] * 3
+
+
+@pytest.mark.filterwarnings("ignore")  # 14 um yarns at 2.5 um voxels: under the 8-voxel rule
+@pytest.mark.parametrize(("periods", "layers"), [(0.5, 1), (1.2, 1), (2.1, 2)])
+def test_woven_cell_in_a_box_of_any_thickness_holds_whole_yarn_layers(periods, layers):
+    """Review of s54-mendwoven: the first centring (``0.5 + (t - ceil t) / 2``) put the yarn
+    layers of a box a little over whole periods (1.2, 2.1) on its faces: porosity 0.8993 ->
+    0.8078 at 1.2 periods, 38-67 % of the z-face voxel layers solid (main: 0). Rounding to the
+    nearest whole number of cells (at least one) keeps every layer whole and inside. Truth,
+    conservation: the box holds ``layers`` whole cube layers, voxel for voxel (the layer
+    centres fall on the cube's voxel phase: 25, 60, 55 um at 2.5 um voxels), so its solid is
+    ``layers`` times the cube's and none touches the two z faces; porosity
+    ``1 - layers (1 - phi_cube) / periods`` (main 3e2b9069: 0.8993 at 1.2, 0.8849 at 2.1)."""
+    import psdesign
+
+    def build(t):
+        return psdesign.build(
+            {
+                "rve": {"size": [1e-4, 1e-4, t * 1e-4], "voxel": 2.5e-6, "period": 1e-4},
+                "fibers": [{"shape": "woven-cell", "layers": 1}],
+            }
+        ).fields
+
+    box, cube = build(periods), build(1.0)
+    assert box.solid.sum() == layers * cube.solid.sum() > 0
+    assert not box.solid[:, :, 0].any() and not box.solid[:, :, -1].any()
+    phi = 1 - layers * (1 - cube.porosity) / periods
+    assert box.porosity == pytest.approx(phi, abs=1e-6)
+    assert box.porosity == pytest.approx({0.5: 0.7583, 1.2: 0.8993, 2.1: 0.8849}[periods], abs=1e-4)
 
 
 def test_woven_cell_is_a_plain_weave_every_weft_crosses_every_warp_on_its_other_side():
