@@ -476,7 +476,10 @@ def test_allrun_gmsh_keeps_the_case_mesh_unless_the_conversion_succeeds(tmp_path
     not run; a failing gmshToFoam (after writing a partial mesh) or changeDictionary -> exit 1
     and their one line, the case's meshes byte for byte as before, no ``*.keep`` left (also when
     an interrupted run's backup was waiting); a succeeding conversion -> checkMesh sees
-    gmshToFoam's mesh, which ``polyMesh.tet`` keeps, and the old mesh is gone."""
+    gmshToFoam's mesh, which ``polyMesh.tet`` keeps, and the old mesh is gone. Review of
+    s54-mendwoven: a ``./Allrun gmsh`` killed during gmshToFoam, then a plain ``./Allrun``,
+    solved on the half-converted mesh (only the gmsh route put ``*.keep`` back): every route
+    now restores first."""
     case = export_mesh(_duct(3), tmp_path, formats=("openfoam",))["openfoam"]
     before = _mesh_files(case)
     assert {"polyMesh/points", "polyMesh.tet/points"} <= set(before)
@@ -484,10 +487,12 @@ def test_allrun_gmsh_keeps_the_case_mesh_unless_the_conversion_succeeds(tmp_path
     bin_dir.mkdir()
     env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(tmp_path)}
 
-    def run(gmsh_rc: int, change_rc: int = 0) -> tuple[int, list[str]]:
+    def run(gmsh_rc: int, change_rc: int = 0, route: str = "gmsh") -> tuple[int, list[str]]:
+        # gmsh_rc = -9: gmshToFoam is killed with its Allrun, after writing a partial mesh
+        end = "kill -9 $PPID; exit 1" if gmsh_rc == -9 else f"exit {gmsh_rc}"
         tools = {
             "gmshToFoam": "echo called >> log.gmsh_calls; mkdir -p constant/polyMesh\n"
-            f"echo gmsh > constant/polyMesh/points; exit {gmsh_rc}\n",
+            f"echo gmsh > constant/polyMesh/points; {end}\n",
             "changeDictionary": f"exit {change_rc}\n",
             "polyDualMesh": "",
             "checkMesh": "cat constant/polyMesh/points > log.seen\n",
@@ -495,9 +500,8 @@ def test_allrun_gmsh_keeps_the_case_mesh_unless_the_conversion_succeeds(tmp_path
         for tool, body in tools.items():
             (bin_dir / tool).write_text("#!/bin/sh\n" + body)
             (bin_dir / tool).chmod(0o755)
-        done = subprocess.run(
-            ["sh", "Allrun", "gmsh", "tets"], cwd=case, env=env, capture_output=True, text=True
-        )
+        args = ["sh", "Allrun", *route.split(), "tets"]
+        done = subprocess.run(args, cwd=case, env=env, capture_output=True, text=True)
         return done.returncode, (done.stdout + done.stderr).splitlines()
 
     rc, said = run(0)
@@ -513,6 +517,10 @@ def test_allrun_gmsh_keeps_the_case_mesh_unless_the_conversion_succeeds(tmp_path
     const = case / "constant"
     (const / "polyMesh").rename(const / "polyMesh.keep")  # a run interrupted after its backup
     assert run(1)[0] == 1 and _mesh_files(case) == before
+    assert run(-9)[0] == -9 and "polyMesh.keep/points" in _mesh_files(case)  # killed mid-way
+    rc, said = run(0, route="")  # the plain route puts the case's mesh back, then solves on it
+    assert said[0] == "cells: tets" and _mesh_files(case) == before, said  # no simpleFoam here
+    assert (case / "log.seen").read_text() == before["polyMesh.tet/points"]
     rc, said = run(0)  # converted: no simpleFoam here, so the run stops after checkMesh
     assert said[0] == "cells: tets" and (case / "log.seen").read_text() == "gmsh\n", said
     assert _mesh_files(case) == {"polyMesh/points": "gmsh\n", "polyMesh.tet/points": "gmsh\n"}

@@ -404,15 +404,16 @@ for arg in "$@"; do
         *) echo "Allrun: unknown argument '$arg' (allowed: gmsh, tets)"; exit 2 ;;
     esac
 done
+# an interrupted ./Allrun gmsh left the case's mesh in *.keep and a half-converted one in its
+# place: every route puts the case's mesh back first
+for d in polyMesh polyMesh.tet; do
+    if [ -d "constant/$d.keep" ]; then rm -rf "constant/$d"; mv "constant/$d.keep" "constant/$d"; fi
+done
 if [ "$route" = gmsh ]; then
     [ -f ../pore.msh ] || { echo "Allrun gmsh: ../pore.msh not found (export it with" \
         "psdesign mesh ... --format msh openfoam); the case's mesh is left as it was"; exit 2; }
-    # the case's meshes wait in *.keep until the conversion succeeded (an interrupted run's
-    # *.keep is the case's mesh: put back first)
+    # the case's meshes wait in *.keep until the conversion succeeded
     for d in polyMesh polyMesh.tet; do
-        if [ -d "constant/$d.keep" ]; then
-            rm -rf "constant/$d"; mv "constant/$d.keep" "constant/$d"
-        fi
         if [ -d "constant/$d" ]; then mv "constant/$d" "constant/$d.keep"; fi
     done
     restore() {
