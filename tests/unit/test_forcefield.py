@@ -553,7 +553,9 @@ def test_the_pictures_titles_carry_u_its_bar_and_status(tmp_path, monkeypatch):
     status at_bound (and of one stopped by max_iter), before.png "start, U = ..." with no bar.
     Run stopped by ``max_iter = 1`` (status not_converged): the titles (the renderer stubbed)
     must hold rve.json's U, U_error and status, and call the end point the best point; a
-    converged summary alone is an optimum."""
+    converged summary is an optimum, an at_bound one a constrained optimum. Review of
+    s54-mendwoven: the titles use the run's own status words (rve.json's), not the preview's
+    ok/untrustworthy: a start where a fiber breaks is ``no_fiber``, a sound start has none."""
     import json
 
     import psdesign.forcefield.render as render
@@ -573,15 +575,24 @@ def test_the_pictures_titles_carry_u_its_bar_and_status(tmp_path, monkeypatch):
     assert doc["status"] == "not_converged" and 0 < doc["U_error"] < float("inf")
     start = doc["start"]
     assert titles == {
-        "before.png": f"two-fiber: start, U = {start['U']:.6g} +- {start['U_error']:.1e} [ok]",
+        "before.png": f"two-fiber: start, U = {start['U']:.6g} +- {start['U_error']:.1e}",
         "after.png": f"two-fiber: best point ({doc['surface_term']}), U = {doc['U']:.6g} +- "
         f"{doc['U_error']:.1e} [not_converged]",
     }
-    for status, word in (("converged", "optimum"), ("at_bound", "best point")):
+    words = {
+        "converged": "optimum",
+        "at_bound": "constrained optimum",
+        "contact_left": "best point",
+        "untrustworthy": "best point",
+    }
+    for status, word in words.items():
         after = picture_titles({**doc, "status": status})[1]
         assert after.startswith(f"two-fiber: {word} (") and after.endswith(f"[{status}]")
-    broken = {**doc, "start": {"U": float("inf"), "U_error": float("inf")}}
-    assert picture_titles(broken)[0] == "two-fiber: start, U = inf +- unknown [untrustworthy]"
+    inf = float("inf")
+    broken = {**doc, "start": {"U": inf, "U_error": inf, "no_fiber": "fiber 1: no solid"}}
+    assert picture_titles(broken)[0] == "two-fiber: start, U = inf +- unknown [no_fiber]"
+    no_bar = {**doc, "start": {"U": 0.5, "U_error": inf}}
+    assert picture_titles(no_bar)[0] == "two-fiber: start, U = 0.5 +- unknown [untrustworthy]"
 
 
 def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
