@@ -395,14 +395,14 @@ def _refresh_refusal(rel: str, row: dict | None, rve, fields, args) -> None:
     """A cached periodic-FEM refusal re-worded by the product's check as it is now (its seam
     tolerance is a length since session 19; the rows quoted voxels); a geometry the check
     now accepts is reported for a new solve (``specs --force``) and left as it is."""
-    from psdesign.flow.fem import _check_periodic_geometry
+    from psdesign.flow.fem import check_periodic_geometry
     from psdesign.io.atomic import write_json
     from solvers.fem.periodic import PeriodicMeshError
 
     if not row or "not periodic" not in row.get("error", ""):
         return
     try:
-        _check_periodic_geometry(rve, fields)
+        check_periodic_geometry(rve, fields)
     except PeriodicMeshError as exc:
         msg = f"PeriodicMeshError: {exc}"
         if msg != row["error"]:

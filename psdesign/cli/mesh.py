@@ -49,6 +49,7 @@ def _load_spec(path: str, mesher: str | None) -> dict:
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
     from psdesign.flow.darcy import flow_direction
+    from psdesign.flow.fem import check_periodic_geometry
     from psdesign.flow.fem_field import fem_field, spec_grid_step
     from psdesign.flow.no_path import says_closed_pore_space
     from psdesign.image.fields import mesh_overrides
@@ -88,6 +89,8 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     built = build_rve(spec)
     rve = built.rve
     fields = built.voxelize(spec["rve"]["voxel"])
+    if flow.get("bc") == "periodic":  # permeability's rule and line, before any folder is staged
+        check_periodic_geometry(rve, fields)
     # the FEM's own field (psdesign.flow.fem_field): the mesh the fem route would make
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing")
     diameter = thinnest_fiber_diameter(rve)

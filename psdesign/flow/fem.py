@@ -167,7 +167,7 @@ def _mesh(
     from solvers.fem.periodic import PeriodicMeshError
 
     if refinement == 1:  # else checked on the spec's grid (permeability_fem): the same tolerance
-        _check_periodic_geometry(rve, fields)
+        check_periodic_geometry(rve, fields)
     opts = MeshOptions.from_flow(flow, aux_length=0.0, periodic=True, **target)
     try:
         with says_closed_pore_space(fields, name, periodic=True):
@@ -199,7 +199,7 @@ def fem_mesh(
     ax = axis_of(direction)[1]
     own = fem_field(rve, fields, flow.get("mesher") or "stuffing", copies)
     if bc == "periodic" and own.refinement > 1:
-        _check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
+        check_periodic_geometry(rve, fields)  # on the spec's grid: the same tolerance
     step, note = spec_grid_step(
         flow,
         float(fields.grid.spacing[0]),
@@ -213,13 +213,29 @@ def fem_mesh(
     return mesh, own.as_dict(), note
 
 
-def _check_periodic_geometry(rve: RVE, fields: VoxelFields) -> None:
+def check_periodic_geometry(rve: RVE | None, fields: VoxelFields) -> None:
     """Refuse ``bc = "periodic"`` on a geometry whose opposite faces differ
     (:func:`psdesign.flow.stack.end_planes`: the same test as the stacked permeameter's).
 
     The mesher would mesh the wrapped field, whose faces then meet at seams of cut fibers: not
     the RVE's material, and at the default lattice step the seams leave solid tet centroids
-    (measured: 4 % within two voxels of the faces of six tilted rods)."""
+    (measured: 4 % within two voxels of the faces of six tilted rods). The one rule of the fem
+    route and of ``psdesign mesh``'s periodic exports (session 54: mesh wrote cyclic patches of
+    such a geometry, exit 0).
+
+    Parameters
+    ----------
+    rve : RVE or None
+        The analytic RVE (its union field decides near the surface); None for an image (its
+        voxel layers decide).
+    fields : VoxelFields
+        Its voxel fields on the spec's grid (the tolerance is a length, the same on every grid).
+
+    Raises
+    ------
+    solvers.fem.periodic.PeriodicMeshError
+        One line naming ``flow.bc`` and the faces that differ (the CLI exits 2 with it).
+    """
     from solvers.fem.periodic import PeriodicMeshError
 
     faces = unmatched_faces(rve, fields)

@@ -224,17 +224,65 @@ def run_forcefield(ff: dict, out_dir: str | Path, pictures: bool = True) -> dict
         if pictures:
             from psdesign.forcefield.render import render_fibers
 
-            render_fibers(
-                prob.fields(prob.x0),
-                tmp / "before.png",
-                f"{prob.name}: start, U = {summary['start']['U']:.6g}",
-            )
-            render_fibers(
-                prob.fields(res.x),
-                tmp / "after.png",
-                f"{prob.name}: optimum ({prob.surface}), U = {res.fun:.6g}",
-            )
+            before, after = picture_titles(summary)
+            render_fibers(prob.fields(prob.x0), tmp / "before.png", before)
+            render_fibers(prob.fields(res.x), tmp / "after.png", after)
     return summary
+
+
+def u_text(u: float, u_error: float, status: str | None) -> str:
+    """``U = 0.434199 +- 5.8e-04 [at_bound]``: U with its quadrature bar and its status (none
+    for ``status`` None), as ``generate``'s preview title spells a value
+    (:func:`psdesign.report.preview.preview_title`).
+
+    >>> u_text(0.4341988, 0.00058, "at_bound"), u_text(0.5, float("inf"), "untrustworthy")
+    ('U = 0.434199 +- 5.8e-04 [at_bound]', 'U = 0.5 +- unknown [untrustworthy]')
+    """
+    bar = f"{u_error:.1e}" if np.isfinite(u_error) else "unknown"
+    return f"U = {u:.6g} +- {bar}" + ("" if status is None else f" [{status}]")
+
+
+#: What after.png calls the end point of a search of each status (:func:`search_status`, or
+#: ``untrustworthy`` for an unknown bar); any other status: the ``best point``.
+END_POINT = {"converged": "optimum", "at_bound": "constrained optimum"}
+
+
+def start_status(start: dict) -> str | None:
+    """The status of the search's start (``summary["start"]``) in the run's own words, as
+    rve.json records it: ``no_fiber`` where a fiber breaks there, ``untrustworthy`` where its
+    bar is unknown (the coarser quadrature broke a fiber, :data:`UNKNOWN_BAR`), else None (a
+    start is not a search result: its bar is all there is to say).
+
+    >>> start_status({"U": 0.5, "U_error": 1e-3}), start_status({"U": 0.5, "U_error": np.inf})
+    (None, 'untrustworthy')
+    """
+    if "no_fiber" in start:
+        return "no_fiber"
+    return None if np.isfinite(start["U_error"]) else "untrustworthy"
+
+
+def picture_titles(summary: dict) -> tuple[str, str]:
+    """The titles of before.png and after.png of a run's ``summary`` (:func:`summarize`).
+
+    Each carries U with its bar (:func:`u_text`) and the run's own status words: after.png
+    the run's ``status``, the end point the ``optimum`` when ``converged``, the ``constrained
+    optimum`` when ``at_bound`` (a trusted stop on the box the spec set), else the ``best
+    point`` (:data:`END_POINT`); before.png the start's (:func:`start_status`). Walk-woven s54:
+    both titles printed U alone and called every end point the optimum; its first mend called
+    an ``at_bound`` stop the best point and the start ``ok`` (the preview's word).
+
+    >>> titles = picture_titles({"case": "six-fiber", "surface_term": "area", "U": 0.4342,
+    ...     "U_error": 0.0006, "status": "at_bound", "start": {"U": 0.51, "U_error": 0.001}})
+    >>> titles[0]
+    'six-fiber: start, U = 0.51 +- 1.0e-03'
+    >>> titles[1]
+    'six-fiber: constrained optimum (area), U = 0.4342 +- 6.0e-04 [at_bound]'
+    """
+    start, name, status = summary["start"], summary["case"], summary["status"]
+    before = u_text(start["U"], start["U_error"], start_status(start))
+    after = u_text(summary["U"], summary["U_error"], status)
+    end = END_POINT.get(status, "best point")
+    return f"{name}: start, {before}", f"{name}: {end} ({summary['surface_term']}), {after}"
 
 
 def summarize(prob: ForceFieldProblem, res: PatternSearchResult, wall: float) -> dict:

@@ -778,8 +778,46 @@ def _woven_fiber(center: np.ndarray, R: np.ndarray, u: float) -> Fiber:
     )
 
 
+def woven_cell_centre(edges_periods: np.ndarray) -> np.ndarray:
+    """The woven cell's centre (normalized) in a box of ``edges_periods`` (its edges in periods):
+    along each edge the nearest whole number of cells (at least one) is centred on the box,
+    ``0.5 + (t - n) / 2`` with ``n = max(rint(t), 1)`` for an edge of ``t`` periods.
+
+    An edge of whole periods keeps the cell centre at half a period (exactly 0.5: the cells tile
+    the box, as the paper's Fig. 10 cell fills its cube); a shorter one, e.g. a box half a
+    period thick, gets the cell centred on it, as every other shape defaults to the box centre
+    (session 54: the cell stayed at half the period, so a 50 um box of a 100 um period held the
+    lower half of every yarn, their centres on its top face). Rounding, not ceil: an edge a
+    little over whole periods (1.2, 2.1) keeps its yarn layers whole and away from the faces
+    (with ceil, 1.2 periods put a layer on both faces: porosity 0.899 -> 0.808).
+
+    Parameters
+    ----------
+    edges_periods : array of 3 floats
+        The box edges divided by the period.
+
+    Returns
+    -------
+    numpy.ndarray
+        The cell centre, normalized (``[0.5, 0.5, 0.5]`` for edges of whole periods).
+
+    Examples
+    --------
+    >>> woven_cell_centre(np.array([1.0, 2.0, 0.5])).tolist()
+    [0.5, 0.5, 0.25]
+    """
+    t = np.asarray(edges_periods, float).reshape(3)
+    n = np.maximum(np.rint(t), 1.0)
+    # size / period is off whole by an ulp (1e-5 / 2e-6 = 5.000000000000001): exactly 0.5 there
+    whole = np.isclose(t, n, rtol=1e-9, atol=0.0)
+    return np.where(whole, _CELL_CENTRE, _CELL_CENTRE + (t - n) / 2.0)
+
+
 def woven_cell(
-    thickness_axis: str = "z", layers: int = 1, layer_shift: tuple[float, float] = (0.0, 0.0)
+    thickness_axis: str = "z",
+    layers: int = 1,
+    layer_shift: tuple[float, float] = (0.0, 0.0),
+    centre: np.ndarray | None = None,
 ) -> list[Fiber]:
     """Six-fiber plain-weave cell of Eq. (19) fibers placed by Table I (Fig. 10), stacked.
 
@@ -804,6 +842,9 @@ def woven_cell(
     layer_shift : (float, float)
         In-plane shift (normalized) of layer k+1 relative to layer k (nesting), along the
         warp and weft axes.
+    centre : array of 3 floats, optional
+        The cell centre (normalized; :func:`woven_cell_centre` of the box); default half a
+        period on every axis.
     """
     if thickness_axis not in ("x", "z"):
         raise ValueError(f"thickness_axis must be 'x' or 'z', got {thickness_axis!r}")
@@ -815,14 +856,15 @@ def woven_cell(
     rot90 = rotation_matrix(0.0, 90.0)  # own frame -> world frame of the weft
     table = woven_table_i()
     u0 = WOVEN_EQ19_U
+    c0 = _CELL_CENTRE if centre is None else np.asarray(centre, float).reshape(3)
     fibers = []
     for k in range(layers):
         base = np.array([layer_shift[0] * k, layer_shift[1] * k, k / layers])
         for j in range(3):
             off = base + table[j]
-            fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_warp, u0))
+            fibers.append(_woven_fiber(c0 + G @ off, G @ R_warp, u0))
         for j in range(3):
             off = base + rot90 @ table[3 + j]
             u = WOVEN_WEFT_SIGNS[j] * u0
-            fibers.append(_woven_fiber(_CELL_CENTRE + G @ off, G @ R_weft, u))
+            fibers.append(_woven_fiber(c0 + G @ off, G @ R_weft, u))
     return fibers

@@ -217,13 +217,14 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
     fibers = []
     for i, fb in enumerate(spec["fibers"]):
         if fb["shape"] == "woven-cell":
-            from psdesign.geometry.fibers import woven_cell
+            from psdesign.geometry.fibers import woven_cell, woven_cell_centre
 
             fibers.extend(
                 woven_cell(
                     fb.get("thickness_axis", WOVEN_DEFAULTS["thickness_axis"]),
                     fb.get("layers", WOVEN_DEFAULTS["layers"]),
                     tuple(fb.get("layer_shift", WOVEN_DEFAULTS["layer_shift"])),
+                    woven_cell_centre(size / ref),  # the box centre, as the other shapes'
                 )
             )
             continue

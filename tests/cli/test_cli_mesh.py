@@ -218,6 +218,48 @@ def test_periodic_mesh_is_not_exported_to_a_format_without_periodic_patches(
     assert "periodic" in err[0] and not out.exists()
 
 
+class _Meshed(Exception):
+    """Raised by a stand-in mesher: the run got past the checks to the mesher."""
+
+
+def _reached_mesher(*args, **kwargs):
+    raise _Meshed
+
+
+def test_mesh_refuses_a_periodic_export_of_a_geometry_that_is_not_periodic(
+    tmp_path, capsys, monkeypatch
+):
+    """walk-woven s54 finding 1: ``mesh`` wrote cyclic OpenFOAM patches and a gmsh $Periodic
+    section of a geometry whose opposite faces differ (exit 0), while ``permeability`` refused
+    it. Truth: a cylinder tilted across the box, axis (0.4, 0.2, 1), leaves its z = 0 and
+    z = L sections 0.4 L = 8 um apart along x, far above the 2 % seam tolerance; the same cylinder
+    along z is periodic (identical sections). The one rule (flow.fem.check_periodic_geometry):
+    exit 2, its one line, before the mesher and before any folder."""
+    import psdesign
+    from psdesign.flow.fem import check_periodic_geometry
+    from psdesign.meshing import pore_mesh
+    from solvers.fem.periodic import PeriodicMeshError
+
+    monkeypatch.setattr(pore_mesh, "mesh_pore_space", _reached_mesher)
+    periodic = SPEC.replace("aux_length = 0.25", 'bc = "periodic"').replace("1e-6", "2e-6")
+    spec = tmp_path / "t.toml"
+    spec.write_text(periodic.replace("[0, 0, 1]", "[0.4, 0.2, 1]"))
+    out = tmp_path / "m"
+    assert main(["mesh", str(spec), "-o", str(out), "--format", "msh", "openfoam"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    built = psdesign.build(str(spec))
+    with pytest.raises(PeriodicMeshError) as exc:  # permeability's line, word for word
+        check_periodic_geometry(built.rve, built.fields)
+    assert err == [f"psdesign: error: {exc.value}"], err
+    assert "the geometry is not periodic, its faces normal to x, y, z" in err[0]
+    assert not out.exists()
+    # the periodic cylinder passes the check and reaches the mesher
+    spec.write_text(periodic)
+    with pytest.raises(_Meshed):
+        main(["mesh", str(spec), "-o", str(out), "--format", "msh", "openfoam"])
+    assert not out.exists()
+
+
 def test_export_mesh_refuses_a_periodic_mesh_for_fluent(tmp_path):
     """The API route (export_mesh) refuses it too; vtu of the same mesh is written."""
     from psdesign.meshing.errors import MeshInputError

@@ -548,6 +548,53 @@ def test_a_rerun_without_pictures_removes_the_first_runs_pictures(tmp_path):
     assert "before.png" not in read_marker(out)["files"]
 
 
+def test_the_pictures_titles_carry_u_its_bar_and_status(tmp_path, monkeypatch):
+    """walk-woven s54 finding 4: after.png said "optimum (area), U = 0.434199" of a run with
+    status at_bound (and of one stopped by max_iter), before.png "start, U = ..." with no bar.
+    Run stopped by ``max_iter = 1`` (status not_converged): the titles (the renderer stubbed)
+    must hold rve.json's U, U_error and status, and call the end point the best point; a
+    converged summary is an optimum, an at_bound one a constrained optimum. Review of
+    s54-mendwoven: the titles use the run's own status words (rve.json's), not the preview's
+    ok/untrustworthy: a start where a fiber breaks is ``no_fiber``, a sound start has none."""
+    import json
+
+    import psdesign.forcefield.render as render
+    from psdesign.forcefield.run import load_forcefield_spec, picture_titles, run_forcefield
+
+    titles = {}
+    monkeypatch.setattr(
+        render, "render_fibers", lambda f, path, title: titles.update({path.name: title})
+    )
+    spec = tmp_path / "two.toml"
+    spec.write_text(
+        '[forcefield]\ncase = "two-fiber"\nmax_iter = 1\n'
+        "[forcefield.quadrature]\nh = 0.02\nn_s = 16\nn_theta = 8\n"
+    )
+    run_forcefield(load_forcefield_spec(str(spec)), tmp_path / "out")
+    doc = json.loads((tmp_path / "out" / "rve.json").read_text())
+    assert doc["status"] == "not_converged" and 0 < doc["U_error"] < float("inf")
+    start = doc["start"]
+    assert titles == {
+        "before.png": f"two-fiber: start, U = {start['U']:.6g} +- {start['U_error']:.1e}",
+        "after.png": f"two-fiber: best point ({doc['surface_term']}), U = {doc['U']:.6g} +- "
+        f"{doc['U_error']:.1e} [not_converged]",
+    }
+    words = {
+        "converged": "optimum",
+        "at_bound": "constrained optimum",
+        "contact_left": "best point",
+        "untrustworthy": "best point",
+    }
+    for status, word in words.items():
+        after = picture_titles({**doc, "status": status})[1]
+        assert after.startswith(f"two-fiber: {word} (") and after.endswith(f"[{status}]")
+    inf = float("inf")
+    broken = {**doc, "start": {"U": inf, "U_error": inf, "no_fiber": "fiber 1: no solid"}}
+    assert picture_titles(broken)[0] == "two-fiber: start, U = inf +- unknown [no_fiber]"
+    no_bar = {**doc, "start": {"U": 0.5, "U_error": inf}}
+    assert picture_titles(no_bar)[0] == "two-fiber: start, U = 0.5 +- unknown [untrustworthy]"
+
+
 def test_cli_writes_outputs_and_rejects_bad_specs(tmp_path, capsys):
     from psdesign.cli import main
 

@@ -454,6 +454,78 @@ def test_allrun_solves_on_the_dual_and_keeps_the_tets(tmp_path, periodic):
     assert (case / "constant" / "polyMesh.tet" / "points").read_text() == points
 
 
+#: the end of the Allrun's line when a conversion of its gmsh route fails
+KEPT = "(the case's mesh is left as it was)"
+
+
+def _mesh_files(case) -> dict:
+    """The text of every file under ``constant/polyMesh*`` (the meshes and any ``*.keep``)."""
+    const = case / "constant"
+    return {
+        str(p.relative_to(const)): p.read_text()
+        for p in sorted(const.glob("polyMesh*/**/*"))
+        if p.is_file()
+    }
+
+
+def test_allrun_gmsh_keeps_the_case_mesh_unless_the_conversion_succeeds(tmp_path):
+    """walk-woven s54 finding 2: ``./Allrun gmsh`` in an export without ``--format msh``
+    removed ``constant/polyMesh`` and ``polyMesh.tet`` before ``gmshToFoam`` and stopped with
+    rc 127 and nothing printed (``set -e``): the case lost its only mesh. Now, with stub tools
+    on the PATH: no ``../pore.msh`` -> exit 2 and one line naming ``--format msh``, gmshToFoam
+    not run; a failing gmshToFoam (after writing a partial mesh) or changeDictionary -> exit 1
+    and their one line, the case's meshes byte for byte as before, no ``*.keep`` left (also when
+    an interrupted run's backup was waiting); a succeeding conversion -> checkMesh sees
+    gmshToFoam's mesh, which ``polyMesh.tet`` keeps, and the old mesh is gone. Review of
+    s54-mendwoven: a ``./Allrun gmsh`` killed during gmshToFoam, then a plain ``./Allrun``,
+    solved on the half-converted mesh (only the gmsh route put ``*.keep`` back): every route
+    now restores first."""
+    case = export_mesh(_duct(3), tmp_path, formats=("openfoam",))["openfoam"]
+    before = _mesh_files(case)
+    assert {"polyMesh/points", "polyMesh.tet/points"} <= set(before)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "WM_PROJECT_DIR": str(tmp_path)}
+
+    def run(gmsh_rc: int, change_rc: int = 0, route: str = "gmsh") -> tuple[int, list[str]]:
+        # gmsh_rc = -9: gmshToFoam is killed with its Allrun, after writing a partial mesh
+        end = "kill -9 $PPID; exit 1" if gmsh_rc == -9 else f"exit {gmsh_rc}"
+        tools = {
+            "gmshToFoam": "echo called >> log.gmsh_calls; mkdir -p constant/polyMesh\n"
+            f"echo gmsh > constant/polyMesh/points; {end}\n",
+            "changeDictionary": f"exit {change_rc}\n",
+            "polyDualMesh": "",
+            "checkMesh": "cat constant/polyMesh/points > log.seen\n",
+        }
+        for tool, body in tools.items():
+            (bin_dir / tool).write_text("#!/bin/sh\n" + body)
+            (bin_dir / tool).chmod(0o755)
+        args = ["sh", "Allrun", *route.split(), "tets"]
+        done = subprocess.run(args, cwd=case, env=env, capture_output=True, text=True)
+        return done.returncode, (done.stdout + done.stderr).splitlines()
+
+    rc, said = run(0)
+    assert (rc, len(said)) == (2, 1) and "--format msh" in said[0], said
+    assert not (case / "log.gmsh_calls").exists() and _mesh_files(case) == before
+    (tmp_path / "pore.msh").write_text("$MeshFormat\n")  # the tools are stubs
+    rc, said = run(1)
+    assert (rc, said) == (1, [f"gmshToFoam failed: see log.gmshToFoam {KEPT}"])
+    assert _mesh_files(case) == before
+    rc, said = run(0, change_rc=1)
+    assert rc == 1 and said[0].startswith("changeDictionary failed: see log.changeDictionary")
+    assert _mesh_files(case) == before
+    const = case / "constant"
+    (const / "polyMesh").rename(const / "polyMesh.keep")  # a run interrupted after its backup
+    assert run(1)[0] == 1 and _mesh_files(case) == before
+    assert run(-9)[0] == -9 and "polyMesh.keep/points" in _mesh_files(case)  # killed mid-way
+    rc, said = run(0, route="")  # the plain route puts the case's mesh back, then solves on it
+    assert said[0] == "cells: tets" and _mesh_files(case) == before, said  # no simpleFoam here
+    assert (case / "log.seen").read_text() == before["polyMesh.tet/points"]
+    rc, said = run(0)  # converted: no simpleFoam here, so the run stops after checkMesh
+    assert said[0] == "cells: tets" and (case / "log.seen").read_text() == "gmsh\n", said
+    assert _mesh_files(case) == {"polyMesh/points": "gmsh\n", "polyMesh.tet/points": "gmsh\n"}
+
+
 @pytest.mark.parametrize("periodic", [False, True])
 def test_a_re_export_after_allrun_solves_the_new_mesh(tmp_path, periodic):
     """Session 52 I/O review, finding 1: ``./Allrun`` copies ``constant/polyMesh`` into

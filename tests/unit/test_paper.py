@@ -111,6 +111,69 @@ def test_woven_cell_porosity_matches_independent_count(layers):
     assert (1 - solid.mean()) == pytest.approx(0.878 if layers == 1 else 0.635, abs=0.01)
 
 
+@pytest.mark.filterwarnings("ignore")  # 14 um yarns at 2.5 um voxels: under the 8-voxel rule
+def test_woven_cell_in_a_box_thinner_than_the_period_is_centred_on_it():
+    """walk-woven s54 finding 3: in a box 100 x 100 x 50 um (period 100 um) the cell stayed at
+    half the period, so the yarn centres lay on the top face and the box held their lower half
+    (porosity 0.879, the cube's). Now the cell is centred on the box (as every other shape's
+    default centre): truths, the independent Eq. (19) count (:func:`_independent_woven_solid`)
+    at the cell points z + 0.25 periods, and conservation: the layer (z 0.365-0.635 periods) lies
+    whole in the box, so the box holds the cube's solid voxel for voxel (solid fraction doubled).
+    A box of whole periods keeps the cell at exactly half a period (byte-identical geometry)."""
+    import psdesign
+    from psdesign.geometry.fibers import woven_cell_centre
+
+    n = 40
+    spec = {
+        "rve": {"size": [1e-4, 1e-4, 5e-5], "voxel": 1e-4 / n},
+        "fibers": [{"shape": "woven-cell", "layers": 1}],
+    }
+    thin = psdesign.build(spec)
+    c = (np.arange(n) + 0.5) / n
+    grid = np.stack(np.meshgrid(c, c, c[: n // 2] + 0.25, indexing="ij"), -1).reshape(-1, 3)
+    solid, _ = _independent_woven_solid(grid, 1)
+    cube = np.stack(np.meshgrid(c, c, c, indexing="ij"), -1).reshape(-1, 3)
+    assert solid.sum() == _independent_woven_solid(cube, 1)[0].sum() > 0  # every yarn whole
+    assert thin.fields.porosity == pytest.approx(1 - solid.mean(), abs=2e-4)
+    assert 1 - thin.fields.porosity == pytest.approx(2 * 0.122, abs=0.01)  # the cube's 0.878
+    centres = [float(fb.center[2]) * float(thin.rve.period) for fb in thin.rve.fibers]
+    assert centres == pytest.approx([25e-6] * 6)  # the box centre, was 50e-6 (the top face)
+    # size / period an ulp off whole (1e-5 / 2e-6 = 5.000000000000001, 3e-4 / 1e-4 =
+    # 2.9999999999999996): the guard keeps exactly 0.5, the geometry of the whole-period box
+    edges = np.array([1.0, 1e-5 / 2e-6, 3e-4 / 1e-4])
+    assert edges[1] != 5.0 and edges[2] != 3.0
+    assert woven_cell_centre(edges).tolist() == [0.5] * 3
+
+
+@pytest.mark.filterwarnings("ignore")  # 14 um yarns at 2.5 um voxels: under the 8-voxel rule
+@pytest.mark.parametrize(("periods", "layers"), [(0.5, 1), (1.2, 1), (2.1, 2)])
+def test_woven_cell_in_a_box_of_any_thickness_holds_whole_yarn_layers(periods, layers):
+    """Review of s54-mendwoven: the first centring (``0.5 + (t - ceil t) / 2``) put the yarn
+    layers of a box a little over whole periods (1.2, 2.1) on its faces: porosity 0.8993 ->
+    0.8078 at 1.2 periods, 38-67 % of the z-face voxel layers solid (main: 0). Rounding to the
+    nearest whole number of cells (at least one) keeps every layer whole and inside. Truth,
+    conservation: the box holds ``layers`` whole cube layers, voxel for voxel (the layer
+    centres fall on the cube's voxel phase: 25, 60, 55 um at 2.5 um voxels), so its solid is
+    ``layers`` times the cube's and none touches the two z faces; porosity
+    ``1 - layers (1 - phi_cube) / periods`` (main 3e2b9069: 0.8993 at 1.2, 0.8849 at 2.1)."""
+    import psdesign
+
+    def build(t):
+        return psdesign.build(
+            {
+                "rve": {"size": [1e-4, 1e-4, t * 1e-4], "voxel": 2.5e-6, "period": 1e-4},
+                "fibers": [{"shape": "woven-cell", "layers": 1}],
+            }
+        ).fields
+
+    box, cube = build(periods), build(1.0)
+    assert box.solid.sum() == layers * cube.solid.sum() > 0
+    assert not box.solid[:, :, 0].any() and not box.solid[:, :, -1].any()
+    phi = 1 - layers * (1 - cube.porosity) / periods
+    assert box.porosity == pytest.approx(phi, abs=1e-6)
+    assert box.porosity == pytest.approx({0.5: 0.7583, 1.2: 0.8993, 2.1: 0.8849}[periods], abs=1e-4)
+
+
 def test_woven_cell_is_a_plain_weave_every_weft_crosses_every_warp_on_its_other_side():
     """At each of the 9 warp-weft crossings the two yarns lie on opposite sides of the fabric
     mid-plane, and along each yarn the side alternates (Fig. 10's plain weave)."""

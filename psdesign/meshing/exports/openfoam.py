@@ -385,7 +385,9 @@ _ALLRUN = r"""#!/bin/sh
 #   18 914 / 56 930 tets (linear interpolation to skewed tet faces is inconsistent); the dual
 #   of the same meshes gave +12.2 / +3.2 / +1.9 % (docs/meshers.md, session 35).
 # Usage: ./Allrun          (the polyMesh written by psdesign, as polyhedra)
-#        ./Allrun gmsh     (gmshToFoam on ../pore.msh; wall, side_* typed as in polyMesh)
+#        ./Allrun gmsh     (gmshToFoam on ../pore.msh, written by psdesign mesh --format msh;
+#                           wall, side_* typed as in polyMesh; a failed conversion keeps the
+#                           case's mesh)
 #        ./Allrun tets     (psdesign's tetrahedra as they are; also ./Allrun gmsh tets)
 # psdesign's (or gmshToFoam's) tet mesh is kept in constant/polyMesh.tet: a second run starts
 # from it again.
@@ -402,10 +404,30 @@ for arg in "$@"; do
         *) echo "Allrun: unknown argument '$arg' (allowed: gmsh, tets)"; exit 2 ;;
     esac
 done
+# an interrupted ./Allrun gmsh left the case's mesh in *.keep and a half-converted one in its
+# place: every route puts the case's mesh back first
+for d in polyMesh polyMesh.tet; do
+    if [ -d "constant/$d.keep" ]; then rm -rf "constant/$d"; mv "constant/$d.keep" "constant/$d"; fi
+done
 if [ "$route" = gmsh ]; then
-    rm -rf constant/polyMesh constant/polyMesh.tet
-    gmshToFoam ../pore.msh > log.gmshToFoam 2>&1
-    changeDictionary > log.changeDictionary 2>&1
+    [ -f ../pore.msh ] || { echo "Allrun gmsh: ../pore.msh not found (export it with" \
+        "psdesign mesh ... --format msh openfoam); the case's mesh is left as it was"; exit 2; }
+    # the case's meshes wait in *.keep until the conversion succeeded
+    for d in polyMesh polyMesh.tet; do
+        if [ -d "constant/$d" ]; then mv "constant/$d" "constant/$d.keep"; fi
+    done
+    restore() {
+        for d in polyMesh polyMesh.tet; do
+            rm -rf "constant/$d"
+            if [ -d "constant/$d.keep" ]; then mv "constant/$d.keep" "constant/$d"; fi
+        done
+    }
+    gmshToFoam ../pore.msh > log.gmshToFoam 2>&1 || { restore
+        echo "gmshToFoam failed: see log.gmshToFoam (the case's mesh is left as it was)"; exit 1; }
+    changeDictionary > log.changeDictionary 2>&1 || { restore
+        echo "changeDictionary failed: see log.changeDictionary (the case's mesh is left as" \
+            "it was)"; exit 1; }
+    rm -rf constant/polyMesh.keep constant/polyMesh.tet.keep
 fi
 @CELLS@
 checkMesh > log.checkMesh 2>&1 || { echo "checkMesh failed: see log.checkMesh"; exit 1; }
@@ -532,6 +554,8 @@ def write_openfoam_case(
         "a plane its cut samples where fibres end on it).\n"
         "Cells: ./Allrun solves on the polyhedral dual of psdesign's tetrahedra (polyDualMesh;\n"
         "the tets are kept in constant/polyMesh.tet); ./Allrun tets solves on the tets.\n"
+        "./Allrun gmsh converts ../pore.msh with gmshToFoam instead: it needs the export's\n"
+        "--format msh (psdesign mesh ... --format msh openfoam).\n"
         + (
             "Sides (side_*) are symmetry planes (flow.sides = slip).\n"
             if side_type(flow) == "symmetry"
