@@ -64,8 +64,8 @@ MEMORY_FRACTION = 0.5
 DEFAULT_STEP_UNKNOWNS = 3_655_456
 #: :data:`DEFAULT_STEP_UNKNOWNS` in bytes, ``solvers.fem.memory.estimate_bytes`` of it plus half
 #: an unknown (the counts are whole, so the comparison cannot round either way), written out
-#: because the estimate's module loads the solver. A machine of at least twice this (about
-#: 12 GB; 24 GB before session 54) gets the default mesh; a smaller one plans for half its
+#: because the estimate's module loads the solver. A machine of at least twice this (19.0 GB,
+#: 17.7 GiB; 23.6 GB before session 54) gets the default mesh; a smaller one plans for half its
 #: memory, and the result's note says so.
 DEFAULT_STEP_BUDGET = 9517884902.0
 #: The kept voxel fields (float32 distance, uint8 count): what the stacked permeameter tiles.

@@ -140,7 +140,7 @@ def test_spec_grid_step_is_the_budget_step(monkeypatch):
 
 def test_default_step_is_the_same_on_every_machine_of_the_reference_size(monkeypatch):
     """The default step plans for at most ``DEFAULT_STEP_BUDGET`` (8.86 GiB since session 54;
-    11 GiB of the estimate before it), so K does not change with the machine above about 18 GB:
+    11 GiB of the estimate before it), so K does not change with the machine above 19 GB (17.7 GiB):
     the 2-copy stacked Toray-like cube (its D/3 mesh needs 9.89 GiB) gets one step, 2.42 um as
     before session 54, on a 23.5 (this project's machines), 64 and 256 GiB machine; a 16 GiB
     machine's own budget (8 GiB) coarsens it further, and the note says so."""
