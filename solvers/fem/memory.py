@@ -7,29 +7,31 @@ pressure per vertex, :func:`unknowns`), and the peak resident memory is at most
     bytes = BASE_BYTES + (BYTES_PER_DOF + KRYLOV_BYTES_PER_DOF) * unknowns
 
 ``BASE_BYTES``: the interpreter, numpy / scipy / numba / pyamg / scikit-fem and the RVE's fields
-before the solve (0.24-0.43 GB measured as the solve starts; 0.73-0.77 GB in an ``auto`` stack's
-later solve, which reuses what the earlier one freed); ``BYTES_PER_DOF``: what the solve holds
-per unknown besides the Krylov basis (the assembled and reduced matrices, three
-smoothed-aggregation hierarchies, work vectors); ``KRYLOV_BYTES_PER_DOF``: the GMRES basis at
-its largest, ``DEFAULT_RESTART + 1`` float64 vectors (:mod:`solvers.fem.linsolve`). A solve of
-``k`` iterations touches ``k + 1`` of them, so the peak is that much under the figure; the
-iterations are not known before the solve and the restart is what bounds them, so the figure
-counts the full basis (an upper bound, not the need: :data:`ESTIMATE_VERB`). The assembly (its
-transient COO chunk of at most 100 k elements) and the post-solve flux and dissipation integrals
-come before and after the basis and peak below it (the assembly was the peak of two of the
-measured solves, by less than the basis they did not use), so they add nothing (until session 54
-a chunk term of 3 kB per tet, up to 0.3 GB, was added on top).
+before the solve (0.24-0.43 GB measured as the solves of up to 2.2 M unknowns start);
+``BYTES_PER_DOF``: what the solve holds per unknown besides the Krylov basis (the assembled and
+reduced matrices, three smoothed-aggregation hierarchies, work vectors: 580-920 B measured as
+GMRES starts) and what grows with the RVE before it (the stack's fields and the mesh: 1.19 GB as
+a 3.4 M-unknown solve starts; 0.73-0.77 GB in an ``auto`` stack's later solve, which reuses what
+the earlier one freed); ``KRYLOV_BYTES_PER_DOF``: the GMRES basis at its largest,
+``DEFAULT_RESTART + 1`` float64 vectors (:mod:`solvers.fem.linsolve`). A solve of ``k``
+iterations touches ``k + 1`` of them, so the peak is that much under the figure; the iterations
+are not known before the solve and the restart is what bounds them, so the figure counts the
+full basis (an upper bound, not the need: :data:`ESTIMATE_VERB`). The assembly (its transient
+COO chunk of at most 100 k elements) and the post-solve flux and dissipation integrals come
+before and after the basis and peak below it (the assembly was the peak of two of the measured
+solves, by less than the basis they did not use), so they add nothing (until session 54 a chunk
+term of 3 kB per tet, up to 0.3 GB, was added on top).
 
-Calibrated in session 54 (benchmarks/RESULTS.md "Session 54: femmem", ``/usr/bin/time -v``
-of ``psdesign permeability``): with the ``k + 1`` basis vectors a solve of ``k`` iterations
-used in place of the full basis, the model is 1.05-1.24 x the whole-process peak RSS, never
-under it, on one cylinder in a 40 um cell (periodic and permeameter, lattice 2 and 1.3 um) and a
-random 40 um RVE (``auto`` copies, 2 then 3 stacked; lattice 2 and 1.3 um): 0.18-2.2 M unknowns,
-41-94 iterations, peak 0.50-3.7 GB. The estimate itself (the full basis) is 1.5-2.1 x those
-peaks; it was 1.6-2.6 x with 3.1 kB per unknown and 0.45 GB (session 52 mendmesh), whose 0.15 GB
-base was under the imports alone (a 7340-tet solve: estimate 0.278 GB, peak 0.33 GB, session
-42). The default lattice step, which is sized by this estimate, keeps its meshes
-(:data:`psdesign.schema.budget.DEFAULT_STEP_UNKNOWNS`).
+Calibrated in session 54 (benchmarks/RESULTS.md "Session 54: femmem", ``/usr/bin/time -v`` of
+``psdesign permeability``): with the ``k + 1`` basis vectors a solve of ``k`` iterations used in
+place of the full basis, the model is 1.05-1.24 x the whole-process peak RSS, never under it, on
+one cylinder in a 40 um cell (periodic and permeameter, lattice 2 and 1.3 um) and a random 40 um
+RVE (3 copies stacked: ``auto``, 2 then 3, at lattice 2 and 1.3 um; given, at 1.1 um): 0.18-3.4
+M unknowns, 41-99 iterations, peak 0.50-5.3 GB. The estimate itself (the full basis) is
+1.50-2.07 x those peaks; it was 1.62-2.58 x with 3.1 kB per unknown and 0.45 GB (session 52
+mendmesh), whose 0.15 GB base was under the imports alone (a 7340-tet solve: estimate 0.278 GB,
+peak 0.33 GB, session 42). The default lattice step, which is sized by this estimate, keeps its
+meshes (:data:`psdesign.schema.budget.DEFAULT_STEP_UNKNOWNS`).
 """
 
 from __future__ import annotations
