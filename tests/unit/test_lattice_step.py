@@ -245,7 +245,7 @@ def test_default_step_budget_is_the_old_rules_unknowns():
 # The FEM steps the study files plan (studies/**.toml with solver = "fem", periodic and
 # permeameter, collected from check_fem's calls on the 23.5 GiB reference machine) where the
 # budget coarsens the step: the 100 um Toray-like cubes of bent_vs_straight and porosity_sweep,
-# 2 copies stacked (benchmarks/RESULTS.md "Session 54: femmem" lists all 72).
+# 2 copies stacked (benchmarks/fem_step_invariance.py checks all 72 plans).
 _STUDY_COARSENED = [((1e-4,) * 3, 5e-7, 7e-6, 2, 0.2, phi) for phi in (0.8, 1.0)] + [
     ((1e-4,) * 3, 8.333333333333333e-07, 7e-6, 2, 0.2, phi) for phi in (0.75, 0.8, 0.85, 0.9)
 ]
