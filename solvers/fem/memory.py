@@ -31,7 +31,11 @@ M unknowns, 41-99 iterations, peak 0.50-5.3 GB. The estimate itself (the full ba
 1.50-2.07 x those peaks; it was 1.62-2.58 x with 3.1 kB per unknown and 0.45 GB (session 52
 mendmesh), whose 0.15 GB base was under the imports alone (a 7340-tet solve: estimate 0.278 GB,
 peak 0.33 GB, session 42). The default lattice step, which is sized by this estimate, keeps its
-meshes (:data:`psdesign.schema.budget.DEFAULT_STEP_UNKNOWNS`).
+meshes on machines of 23.6 GB or more (:data:`psdesign.schema.budget.DEFAULT_STEP_UNKNOWNS`);
+on smaller ones, where half the machine bounds the step, the step is now finer than before.
+``BASE_BYTES`` covers fields of the measured size (0.24-1.19 GB); a much finer voxel grid than the
+lattice (e.g. 0.25 um voxels under a 6 um lattice: 1.26 GB peak against a 0.42 GB estimate) is
+not counted.
 """
 
 from __future__ import annotations
