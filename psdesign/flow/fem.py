@@ -394,9 +394,10 @@ def memory_error(
 def _announce(mesh, name: str) -> None:
     """Time and memory estimate of the Taylor-Hood solve of ``mesh`` on stderr (CLI only)."""
     from solvers.fem.memory import estimate_memory_gb
+    from solvers.fem.memory import unknowns as count_unknowns
 
     n_p, n_t = len(mesh.points), len(mesh.tets)
-    unknowns = 3 * (n_p + 1.2 * n_t) + n_p  # P2 nodes ~ vertices + edges (~1.2 per tet)
+    unknowns = count_unknowns(n_p, n_t)
     progress.estimate(
         f"FEM solve {name} ({unknowns:.3g} unknowns)",
         FEM_SECONDS_PER_UNKNOWN * unknowns,

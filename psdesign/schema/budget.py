@@ -56,11 +56,18 @@ GEOMETRY_BYTES_PER_VOXEL = 16
 #: sub-voxel walls with the permeameter's box walls (their couplings stored), the larger figure
 VOXEL_SOLVER_BYTES_PER_VOXEL = BYTES_PER_CELL["subvoxel"] + WALL_COUPLING_BYTES
 MEMORY_FRACTION = 0.5
-#: The most memory the *default* FEM lattice step may plan for (:func:`fem_lattice_step`): a
-#: little under half of the 24 GB reference machine (it reports 23.5 GiB), fixed so that the
-#: default mesh, and with it K, is the same on every machine at least that large (a smaller
-#: machine's own budget applies below it, and the result's note says so).
-DEFAULT_STEP_BUDGET = 11.0 * 2**30
+#: The most Taylor-Hood unknowns (:func:`solvers.fem.memory.unknowns`) the *default* FEM
+#: lattice step may plan for (:func:`fem_lattice_step`), fixed so that the default mesh, and with
+#: it K, is the same on every machine large enough: what the estimate before session 54 (3108 B
+#: per unknown plus 0.45 GB) fitted in its 11 GiB, ``floor((11 GiB - 0.45 GB) / 3108 B)``, so
+#: that its recalibration changed no default mesh (``tests/unit/test_lattice_step.py``).
+DEFAULT_STEP_UNKNOWNS = 3_655_456
+#: :data:`DEFAULT_STEP_UNKNOWNS` in bytes, ``solvers.fem.memory.estimate_bytes`` of it plus half
+#: an unknown (the counts are whole, so the comparison cannot round either way), written out
+#: because the estimate's module loads the solver. A machine of at least twice this (19.0 GB,
+#: 17.7 GiB; 23.6 GB before session 54) gets the default mesh; a smaller one plans for half its
+#: memory, and the result's note says so.
+DEFAULT_STEP_BUDGET = 9517884902.0
 #: The kept voxel fields (float32 distance, uint8 count): what the stacked permeameter tiles.
 FIELD_BYTES_PER_VOXEL = 5
 #: Peak bytes per voxel of a transport command (``pores``, ``diffusivity``,
@@ -71,9 +78,10 @@ FIELD_BYTES_PER_VOXEL = 5
 TRANSPORT_BYTES_PER_VOXEL = 400
 #: Stuffing mesh per lattice cell of pore (6 Kuhn tets a cell, plus the clipped pieces), rounded
 #: up from 6.2 tets and 1.43 vertices per pore lattice vertex (50 um Toray-like cube, porosity
-#: 0.80, 2 um step, periodic and permeameter meshes alike). On one smooth cylinder in a 40 um
-#: cell it counts 32-33 % more tets than the mesh has (5.89e4 / 44 248, 2 um step; session 52
-#: mendmesh): an upper bound there, kept because the default lattice step is sized by it.
+#: 0.80, 2 um step, periodic and permeameter meshes alike) and 6.40 tets, 1.36 vertices (random
+#: straight 40 um RVE, porosity 0.85, 3 copies and reservoirs, 2 um; session 54 femmem). On one
+#: smooth cylinder in a 40 um cell it counts 32-33 % more tets than the mesh has (5.89e4 /
+#: 44 248, 2 um step; session 52 mendmesh): the fewest clipped cells, the one case over 10 %.
 TETS_PER_PORE_CELL = 6.5
 POINTS_PER_PORE_CELL = 1.5
 #: ``flow.max_memory_gb`` is refused before the mesh when this estimate is over it by this
