@@ -597,4 +597,18 @@ def run_study(
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
             "workers=0"
         )
-    return _run(study, out_dir, options, **kwargs)
+    df = _run(study, out_dir, options, **kwargs)
+    _warn_flagged(df)
+    return df
+
+
+def _warn_flagged(df) -> None:
+    """Warn at the caller's line when ``df`` (a finished study's table) has flagged cases, in
+    the words ``study run`` prints before it exits 3 (:func:`~psdesign.analysis.columns.
+    flagged_text`): until session 54 an API user saw "done ...: ok 3" and nothing else when
+    every value was untrustworthy."""
+    from psdesign.analysis.columns import FLAGGED_KEPT, FlaggedCasesWarning, flagged_text
+    from psdesign.errors import warn_at_caller
+
+    if text := flagged_text(df):
+        warn_at_caller(f"run_study: {text}; {FLAGGED_KEPT}", FlaggedCasesWarning)

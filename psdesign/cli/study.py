@@ -20,6 +20,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from psdesign.analysis.columns import FLAGGED_KEPT, flagged_text
 from psdesign.cli.exit_status import (
     BAD_INPUT,
     FAILED,
@@ -31,7 +32,6 @@ from psdesign.cli.exit_status import (
     case_counts,
     cases_status,
     fail,
-    flagged_text,
     folder_line,
 )
 from psdesign.cli.options import (
@@ -291,8 +291,7 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     counts = case_counts(df)
     if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
         print(
-            f"psdesign: {flagged_text(df)}; their values are kept in results.csv and left out "
-            "of fits and summaries",
+            f"psdesign: {flagged_text(df)}; {FLAGGED_KEPT}",
             file=sys.stderr,
         )
     if counts.failed:

@@ -53,8 +53,7 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
     the pore sizes also by d90 against the RVE (``study_outputs.pore_sizes_status``)."""
     import pandas as pd
 
-    from psdesign.analysis.columns import STATUS_COLUMNS
-    from psdesign.cli.exit_status import flagged_text
+    from psdesign.analysis.columns import STATUS_COLUMNS, flagged_text
 
     bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
     for st in dict.fromkeys(STATUS_COLUMNS.values()):
@@ -84,7 +83,7 @@ def test_the_words_are_a_table_of_exactly_the_status_columns():
     IndexError). They are one table keyed by status column: its keys are exactly the status
     columns of ``analysis.columns.STATUS_COLUMNS`` (a column without words, or words of a
     column that is gone, fails here), each with words."""
-    from psdesign.analysis.columns import STATUS_COLUMNS
+    from psdesign.analysis.columns import STATUS_COLUMNS, flagged_text
     from psdesign.status import STATUS_WORDS
 
     columns = set(STATUS_COLUMNS.values())

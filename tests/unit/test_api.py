@@ -1536,3 +1536,40 @@ def test_notebook_html_escapes_the_file_name_and_result_strings(tmp_path) -> Non
     page = PermeabilityResult.from_dict(d)._repr_html_()
     assert "&lt;b&gt;x" in page and "voxel&amp; / &lt;s&gt;" in page
     assert "<b>x" not in page and "<s>" not in page and "K (m<sup>2</sup>)" in page
+
+
+def test_run_study_warns_of_flagged_cases_as_the_cli_exits_3(tmp_path) -> None:
+    """Session 54 (walk-api 1): ``psdesign.run_study`` printed "done ...: ok 3" and nothing else
+    when every ``k_z_status`` was untrustworthy; ``study run`` on the same table prints "N ok
+    case(s) have a value whose own status is not ok (...)" and exits 3. The API now warns with
+    the same sentence (one function, ``flagged_text``), at the caller's line; a table with
+    every value ok warns nothing. Truth: the fake case sets k_z_status itself (a 30 % bar on
+    the porosity-0.9, seed-1 case), so exactly one ok case is flagged."""
+    import warnings
+
+    from study_cases import write_study
+
+    from psdesign.analysis.columns import FlaggedCasesWarning
+    from psdesign.cli.exit_status import case_counts
+
+    study = 'name = "f"\nseeds = [1]\noutputs = ["porosity", "k_z"]\nsolver = "voxel"\n'
+    p = write_study(tmp_path, study, '"generator.porosity" = [0.8, 0.9]')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = psdesign.run_study(
+            p, tmp_path / "o", workers=0, case_fn="study_cases:mixed_status_case", progress=False
+        )
+    assert case_counts(df).flagged == 1  # what makes `study run` exit 3
+    flagged = [w for w in caught if w.category is FlaggedCasesWarning]
+    assert len(flagged) == 1, [str(w.message) for w in caught]
+    text = str(flagged[0].message)
+    assert text.startswith("run_study: 1 ok case(s) have a value whose own status is not ok ")
+    assert "(k_z_status: untrustworthy = " in text and "\n" not in text, text
+    assert flagged[0].filename == __file__  # the caller's line, not psdesign's
+    ok = write_study(tmp_path, study, '"generator.porosity" = [0.8]', name="ok.toml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        psdesign.run_study(
+            ok, tmp_path / "o2", workers=0, case_fn="study_cases:mixed_status_case", progress=False
+        )
+    assert not [w for w in caught if w.category is FlaggedCasesWarning]
