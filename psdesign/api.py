@@ -194,17 +194,21 @@ def _warns_at_caller(method: Callable) -> Callable:
     Bad input found past the spec is raised as a ``SpecError`` (:func:`_spec_errors`).
     Raised deep inside psdesign, a warning (``ResolutionWarning``: too few voxels across a
     fiber) pointed at psdesign's own line, and Python's default filter shows a warning once
-    per line: a second under-resolved material in a notebook printed nothing.
+    per line: a second under-resolved material in a notebook printed nothing (recording
+    starts with fresh registries, so each call records its own). Recorded under the filters in
+    force, as a study's case is (:func:`psdesign.study.worker.run_case_inline`): with
+    ``"always"`` a library's ``DeprecationWarning`` (scikit-fem's "Writing 'u.value' is
+    unnecessary", every FEM call) was re-issued at ``__main__``, where the default filters show
+    it (session 54).
     """
 
     @functools.wraps(method)
     def call(*args: Any, **kwargs: Any) -> Any:
         caught: list = []
         try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
+            with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
                 return _spec_errors(method, args, kwargs)
-        finally:  # the user's own filters decide now ("error" raises at their line)
+        finally:  # at the caller's line, under the same filters ("error" raised in the call)
             for w in caught:
                 warnings.warn(w.message, w.category, stacklevel=2)
 

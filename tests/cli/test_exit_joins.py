@@ -83,7 +83,7 @@ def test_the_words_are_a_table_of_exactly_the_status_columns():
     IndexError). They are one table keyed by status column: its keys are exactly the status
     columns of ``analysis.columns.STATUS_COLUMNS`` (a column without words, or words of a
     column that is gone, fails here), each with words."""
-    from psdesign.analysis.columns import STATUS_COLUMNS, flagged_text
+    from psdesign.analysis.columns import STATUS_COLUMNS
     from psdesign.status import STATUS_WORDS
 
     columns = set(STATUS_COLUMNS.values())

@@ -1573,3 +1573,30 @@ def test_run_study_warns_of_flagged_cases_as_the_cli_exits_3(tmp_path) -> None:
             ok, tmp_path / "o2", workers=0, case_fn="study_cases:mixed_status_case", progress=False
         )
     assert not [w for w in caught if w.category is FlaggedCasesWarning]
+
+
+def test_library_deprecation_warnings_are_not_reissued_at_main(tmp_path) -> None:
+    """Session 54 (walk-api 2): ``_warns_at_caller`` recorded every warning with ``"always"``
+    and re-issued it at the caller's line, so a library's ``DeprecationWarning`` (scikit-fem's,
+    on every FEM call) was shown at ``__main__`` under Python's default filters. Recorded under
+    the filters in force, it stays hidden as Python hides it, while psdesign's own warnings
+    (a ``UserWarning``) still reach the script's line. Run as a script: only ``__main__``'s
+    DeprecationWarnings are shown by default."""
+    script = tmp_path / "user.py"
+    script.write_text(
+        "import warnings\n"
+        "from psdesign.api import _warns_at_caller\n"
+        "lib = {'__name__': 'somelib', 'warnings': warnings}\n"  # a library's module
+        "exec('def f():\\n    warnings.warn(\"old api\", DeprecationWarning)\\n"
+        "    warnings.warn(\"too coarse\", UserWarning)\\n    return 1', lib)\n"
+        "assert _warns_at_caller(lib['f'])() == 1\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env["PYTHONPATH"] = root  # this tree's psdesign
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, env=env, cwd=tmp_path
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "DeprecationWarning" not in proc.stderr, proc.stderr
+    assert f"{script}:5: UserWarning: too coarse" in proc.stderr, proc.stderr
