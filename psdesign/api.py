@@ -238,9 +238,10 @@ class Material:
     Parameters
     ----------
     spec : dict
-        A validated spec (see :func:`build`); anything but a dict is one
-        :class:`~psdesign.errors.SpecError` line naming ``spec`` (``Material(3)`` raised
-        ``TypeError: argument of type 'int' is not iterable`` until session 48).
+        A validated spec (see :func:`build`); anything but a dict, or a dict not validated
+        (missing a key validation fills in), is one :class:`~psdesign.errors.SpecError` line
+        naming ``spec`` (``Material(3)`` raised ``TypeError: argument of type 'int' is not
+        iterable`` until session 48, an unvalidated dict ``KeyError: 'period'`` until 54).
     """
 
     def __init__(self, spec: dict) -> None:
@@ -254,7 +255,14 @@ class Material:
                 f"spec file and makes the Material), got {type(spec).__name__}",
             )
         self.spec = spec
-        self._built = build_rve(spec)
+        try:
+            self._built = build_rve(spec)
+        except KeyError as exc:  # a key validate_spec fills in (rve.period): not validated
+            raise SpecError(
+                "spec",
+                "must be a validated spec (psdesign.build(spec) validates a dict or a spec "
+                f"file and makes the Material), missing key {exc}",
+            ) from None
         self._fields = None
 
     @property

@@ -19,6 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from psdesign.errors import SpecError, short
 from psdesign.geometry.model import GeneralizedPS, rotation_between, rotation_matrix
 
 SHAPES = (
@@ -412,7 +413,7 @@ def placement_rotation(
         d = np.asarray(direction, float)
         norm = np.linalg.norm(d)
         if not np.isfinite(norm) or norm < 1e-12:
-            raise ValueError("direction must be a non-zero finite vector")
+            raise SpecError("direction", f"must be a non-zero finite vector, got {d.tolist()}")
         return rotation_between(_X, d / norm) @ to_x
     return rotation_matrix(theta or 0.0, omega or 0.0) @ to_x
 
@@ -458,11 +459,13 @@ def make_fiber(
         Bend moment of a fixed shape with a bend term (woven, compressed-bent; default: the
         equation's), as changed by the force field.
     """
+    # bad input is a SpecError naming the argument (README: ``except psdesign.SpecError``
+    # catches any bad input; a bare ValueError until session 54)
     if shape not in SHAPES:
-        raise ValueError(f"shape must be one of {', '.join(SHAPES)}; got {shape!r}")
+        raise SpecError("shape", f"got {short(shape)}; allowed: {', '.join(SHAPES)}")
     center = _CELL_CENTRE.copy() if center is None else np.asarray(center, float).reshape(3)
     if not np.all(np.isfinite(center)):
-        raise ValueError("center must be finite")
+        raise SpecError("center", f"must be three finite numbers (periods), got {center.tolist()}")
     R = placement_rotation(theta, omega, direction)
     if extra_rotation is not None:
         R = R @ extra_rotation
@@ -472,11 +475,11 @@ def make_fiber(
 
     if shape in ROUND_SHAPES:
         if diameter is None or not np.isfinite(diameter) or not 0.0 < diameter < 1.0:
-            raise ValueError(f"diameter must lie in (0, 1) periods, got {diameter}")
+            raise SpecError("diameter", f"must lie in (0, 1) periods, got {short(diameter)}")
         iso = rod_isovalue(diameter)
         if shape == "bent-rod" and u != 0.0:
             if not (np.isfinite(u) and np.isfinite(f) and f > 0):
-                raise ValueError(f"bent-rod needs finite u and f > 0, got u={u}, f={f}")
+                raise SpecError("f", f"bent-rod needs finite u and f > 0, got u={u}, f={f}")
             canon = bent_rod_model(u, f)
         else:
             canon = rod_model()

@@ -243,6 +243,8 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
                     minor_moment=fb.get("u") if fb["shape"] in BENT_FIXED_SHAPES else None,
                 )
             )
+        except SpecError as exc:  # make_fiber's own argument: fibers[i].diameter
+            raise SpecError(f"fibers[{i}].{exc.key}", exc.message) from None
         except ValueError as exc:
             raise SpecError(f"fibers[{i}]", str(exc)) from None
     return fibers

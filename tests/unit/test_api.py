@@ -1587,8 +1587,8 @@ def test_library_deprecation_warnings_are_not_reissued_at_main(tmp_path) -> None
         "import warnings\n"
         "from psdesign.api import _warns_at_caller\n"
         "lib = {'__name__': 'somelib', 'warnings': warnings}\n"  # a library's module
-        "exec('def f():\\n    warnings.warn(\"old api\", DeprecationWarning)\\n"
-        "    warnings.warn(\"too coarse\", UserWarning)\\n    return 1', lib)\n"
+        'exec(\'def f():\\n    warnings.warn("old api", DeprecationWarning)\\n'
+        '    warnings.warn("too coarse", UserWarning)\\n    return 1\', lib)\n'
         "assert _warns_at_caller(lib['f'])() == 1\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
@@ -1600,3 +1600,36 @@ def test_library_deprecation_warnings_are_not_reissued_at_main(tmp_path) -> None
     assert proc.returncode == 0, proc.stderr
     assert "DeprecationWarning" not in proc.stderr, proc.stderr
     assert f"{script}:5: UserWarning: too coarse" in proc.stderr, proc.stderr
+
+
+def test_bad_input_to_every_public_name_is_a_spec_error(tmp_path) -> None:
+    """Session 54 (walk-api 3): README promises ``except psdesign.SpecError`` catches any bad
+    input, but ``mesh_pore_space`` raised ``MeshInputError(ValueError)``, ``make_fiber("rodd")``
+    a bare ``ValueError``, ``write_report("nope")`` ``ReportError(ValueError)`` and
+    ``Material(<unvalidated dict>)`` ``KeyError: 'period'``. Each is now a SpecError whose key
+    is the argument and whose one line names it (and the allowed values where there is a
+    list); the CLI still exits 2 for the report's (``study report``)."""
+    import numpy as np
+
+    d = np.ones((10, 10, 10))
+    cases = [
+        (lambda: psdesign.mesh_pore_space(d, 1e-6, (1e-5,) * 3, "w"), "direction", "'x', 'y'"),
+        (lambda: psdesign.mesh_pore_space(d[:1], 1e-6, (1e-5,) * 3, "x"), "distance", "3-D"),
+        (lambda: psdesign.make_fiber("rodd", diameter=0.1), "shape", "allowed: rod, cylinder"),
+        (lambda: psdesign.make_fiber("rod", diameter=1.5), "diameter", "(0, 1) periods"),
+        (lambda: psdesign.write_report(tmp_path / "nope"), "out_dir", "no results.csv"),
+        (lambda: psdesign.Material({"rve": {"size": [2e-5] * 3, "voxel": 1e-6}}), "spec", "build"),
+    ]
+    for call, key, words in cases:
+        with pytest.raises(psdesign.SpecError) as info:
+            call()
+        line = str(info.value)
+        assert info.value.key == key and line.startswith(key) and words in line, line
+        assert "\n" not in line, line
+    proc = subprocess.run(
+        [sys.executable, "-m", "psdesign", "study", "report", str(tmp_path / "nope")],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": os.getcwd()},
+    )
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
