@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, short
 from psdesign.geometry.fibers import Fiber, make_fiber
 from psdesign.schema.document import SpecDocument, SpecWarning
 from psdesign.schema.errors import spec_error
@@ -52,7 +52,10 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
     """Parse a TOML file; every problem is one ``error`` line (no traceback).
 
     Missing or unreadable file, over :data:`MAX_FILE_BYTES`, not UTF-8, TOML syntax,
-    nesting too deep for the parser. A leading UTF-8 byte-order mark is skipped.
+    nesting too deep for the parser. A leading UTF-8 byte-order mark is skipped. A ``str``
+    that is no file and holds a newline or ``=`` is refused as TOML text (session 54): the
+    API takes a path or a dict, and ``tomllib.loads(text)`` makes the dict (text is not taken
+    as TOML, so that a mistyped path never parses as one).
     """
 
     def bad(msg: str) -> Exception:
@@ -64,6 +67,12 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
             raise bad(f"{p} is a folder; give a TOML file")
         if p.exists() and not p.is_file():  # /dev/stdin, a pipe <(...), /dev/null
             raise bad(f"{p} is not a regular file (a pipe or a device); give a TOML file")
+        if not p.is_file() and isinstance(path, str) and ("\n" in path or "=" in path):
+            # TOML text given as the path: "file not found: [rve]\nsize=..." spanned lines
+            raise bad(
+                f"got {short(path)}, which looks like TOML text, not a file name; give the "
+                "file's path, or the dict tomllib.loads(text) makes of the text"
+            )
         if not p.is_file():
             raise bad(f"file not found: {p}")
         if p.stat().st_size > MAX_FILE_BYTES:

@@ -314,6 +314,32 @@ def test_load_spec_file_problems(tmp_path):
         load_spec(tmp_path / "none.toml")
 
 
+def test_toml_text_given_as_a_path_is_named_in_one_line(tmp_path):
+    """Session 54 (walk-api 6): ``psdesign.build('[rve]\\nsize=...')`` said "spec: file not
+    found: [rve]" and the text's other lines. A str that is no file and holds a newline or
+    ``=`` is now one line saying it looks like TOML text and how to pass it (the dict of
+    ``tomllib.loads``), for a spec and a study file alike; a missing file name is as before."""
+    import tomllib
+
+    import psdesign
+
+    text = "[rve]\nsize = [2e-5, 2e-5, 2e-5]\nvoxel = 1e-6\n"
+    for call, key in ((psdesign.build, "spec"), (psdesign.load_study, "study")):
+        with pytest.raises(SpecError) as info:
+            call(text)
+        line = str(info.value)
+        assert line.startswith(f"{key}: got '[rve]") and "\n" not in line, line
+        assert "looks like TOML text" in line and "tomllib.loads(text)" in line, line
+    with pytest.raises(SpecError, match="looks like TOML text"):
+        load_spec("voxel=1e-6")
+    with pytest.raises(SpecError, match="^spec: file not found: .*none.toml$"):
+        load_spec(str(tmp_path / "none.toml"))
+    # the advice works: the dict of the same text (with a fiber) builds
+    fiber = '[[fibers]]\nshape = "cylinder"\ndiameter = 8e-6\ndirection = [0, 0, 1]\n'
+    m = psdesign.build(tomllib.loads(text + fiber))
+    assert m.spec["rve"]["voxel"] == 1e-6
+
+
 def test_deep_nesting_in_a_valid_toml_is_one_line():
     deep: dict = {}
     node = deep
