@@ -166,6 +166,24 @@ def test_permeability_result_html_marks_a_status_that_is_not_ok() -> None:
     assert "background:#c00" not in ok and ">ok</span>" in ok
 
 
+def test_an_unrated_material_is_not_shown_as_an_alarm() -> None:
+    """Session 54 (walk-api 7): a Material not yet voxelized showed its status "unrated" in
+    the red of an untrustworthy result, so the red lost its weight. It is grey now; once
+    voxelized, the porosity's own status decides (ok: green, no red)."""
+    m = psdesign.build(
+        {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+        }
+    )
+    page = m._repr_html_()
+    assert ">unrated</span>" in page and "background:#c00" not in page, page
+    assert "color:#555" in page  # the neutral badge
+    m.porosity  # noqa: B018  (voxelizes)
+    page = m._repr_html_()
+    assert ">ok</span>" in page and "background:#c00" not in page, page
+
+
 def _transport_fields() -> dict:
     return {
         "direction": "z",
@@ -1633,3 +1651,22 @@ def test_bad_input_to_every_public_name_is_a_spec_error(tmp_path) -> None:
         env={**os.environ, "PYTHONPATH": os.getcwd()},
     )
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_diffusivity_takes_error_estimate_false_as_permeability_does() -> None:
+    """Session 54 (walk-api 8): ``m.permeability(..., error_estimate=False)`` works but
+    ``m.diffusivity(..., error_estimate=False)`` was refused ("allowed: resolution,
+    residual"). The bool means the same in both (docs/permeability.md: ``false`` skips the
+    coarse solve and the bar is the floor alone, doubled; docs/transport.md: ``residual`` is the
+    staircase floor doubled): False is ``residual``, True ``resolution``, the same numbers."""
+    m = psdesign.build(
+        {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+        }
+    )
+    for flag, word in ((False, "residual"), (True, "resolution")):
+        a, b = m.diffusivity("x", error_estimate=flag), m.diffusivity("x", error_estimate=word)
+        assert a.to_dict() == b.to_dict() | {"wall_time_s": a.to_dict()["wall_time_s"]}, flag
+    with pytest.raises(psdesign.SpecError, match="^transport.error_estimate: got 'no'; allowed"):
+        m.diffusivity("x", error_estimate="no")
