@@ -590,7 +590,9 @@ def run_study(
     A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
     (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``; a
     scheduler that does not answer is a ``SchedulerError`` naming ``scheduler``, not
-    ``--scheduler``.
+    ``--scheduler``. A finished study with cases ``study run`` would exit 3 for (an ``ok`` case
+    with an untrustworthy ``k_z_status``...) issues a
+    :class:`~psdesign.analysis.columns.FlaggedCasesWarning` at the call, in the CLI's words.
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run

@@ -459,8 +459,6 @@ def make_fiber(
         Bend moment of a fixed shape with a bend term (woven, compressed-bent; default: the
         equation's), as changed by the force field.
     """
-    # bad input is a SpecError naming the argument (README: ``except psdesign.SpecError``
-    # catches any bad input; a bare ValueError until session 54)
     if shape not in SHAPES:
         raise SpecError("shape", f"got {short(shape)}; allowed: {', '.join(SHAPES)}")
     center = _CELL_CENTRE.copy() if center is None else np.asarray(center, float).reshape(3)
