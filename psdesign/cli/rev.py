@@ -7,7 +7,6 @@ import math
 import re
 import sys
 
-from psdesign.analysis.columns import flagged_text
 from psdesign.cli.exit_status import (
     FAILED,
     NOT_TRUSTED,
@@ -94,7 +93,7 @@ def _cases_status(out: str, outputs: list[str]) -> int:
     ``study run``'s (:func:`~psdesign.analysis.columns.flagged_text`) and which of the flagged
     values the sizes' intervals hold (``outputs``: the porosity and K; Omega and any other
     rated value of the cases are in ``results.csv`` only)."""
-    from psdesign.analysis.columns import first_error, flagged_values, status_column
+    from psdesign.analysis.columns import first_error, flagged_text, flagged_values, status_column
     from psdesign.study.readback import read_results
 
     df = read_results(out)

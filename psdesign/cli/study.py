@@ -20,7 +20,6 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from psdesign.analysis.columns import FLAGGED_KEPT, flagged_text
 from psdesign.cli.exit_status import (
     BAD_INPUT,
     FAILED,
@@ -288,12 +287,12 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     when every case and every value in it is ``ok`` (``not_converged`` cases allowed by the
     flag); 1 when a case failed or timed out; else 3 (a ``not_converged`` case, or an ``ok``
     case with a value flagged ``untrustworthy`` or ``blocked``); one line per kind why."""
+    # here, not at the top: analysis.columns imports pandas, which no CLI start may pay for
+    from psdesign.analysis.columns import FLAGGED_KEPT, flagged_text
+
     counts = case_counts(df)
     if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
-        print(
-            f"psdesign: {flagged_text(df)}; {FLAGGED_KEPT}",
-            file=sys.stderr,
-        )
+        print(f"psdesign: {flagged_text(df)}; {FLAGGED_KEPT}", file=sys.stderr)
     if counts.failed:
         print(
             f"psdesign: {counts.failed} case(s) failed or timed out (their error in "

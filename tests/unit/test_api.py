@@ -29,11 +29,14 @@ def test_import_is_light() -> None:
 
 
 def test_cli_help_is_light() -> None:
-    # `psdesign --help` (the console script's entry point) imports none of the heavy stacks
+    # `psdesign --help` (the console script's entry point) imports none of the heavy stacks;
+    # pandas too: a top-level import of analysis.columns in cli/study.py cost every CLI start
+    # +500 modules and 2-4 s (session 54)
     code = (
         "import sys\nfrom psdesign.cli import main\ntry:\n    main(['--help'])\n"
         "except SystemExit:\n    pass\nheavy = [m for m in ('numba', 'scipy.stats', 'pyvista',"
-        " 'matplotlib') if m in sys.modules]\nprint(heavy, file=sys.stderr)"
+        " 'matplotlib', 'numpy', 'pandas', 'dask') if m in sys.modules]\n"
+        "print(heavy, file=sys.stderr)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert "usage" in out.stdout
