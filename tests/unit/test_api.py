@@ -1638,6 +1638,13 @@ def test_bad_input_to_every_public_name_is_a_spec_error(tmp_path) -> None:
         (lambda: psdesign.mesh_pore_space(d[:1], 1e-6, (1e-5,) * 3, "x"), "distance", "3-D"),
         (lambda: psdesign.make_fiber("rodd", diameter=0.1), "shape", "allowed: rod, cylinder"),
         (lambda: psdesign.make_fiber("rod", diameter=1.5), "diameter", "(0, 1) periods"),
+        # review of session 54: NumPy's reshape ValueError, isfinite TypeError, u=nan keyed f
+        (lambda: psdesign.make_fiber("rod", 0.2, center=[0.1, 0.2]), "center", "three finite"),
+        (lambda: psdesign.make_fiber("rod", diameter="a"), "diameter", "got 'a'"),
+        (lambda: psdesign.make_fiber("bent-rod", 0.2, u=float("nan")), "u", "finite u"),
+        (lambda: psdesign.make_fiber("bent-rod", 0.2, u=0.1, f=0.0), "f", "f > 0"),
+        (lambda: psdesign.make_fiber("rod", 0.2, theta="a"), "theta", "degrees"),
+        (lambda: psdesign.make_fiber("rod", 0.2, direction=[1, 2]), "direction", "got [1, 2]"),
         (lambda: psdesign.write_report(tmp_path / "nope"), "out_dir", "no results.csv"),
         (lambda: psdesign.Material({"rve": {"size": [2e-5] * 3, "voxel": 1e-6}}), "spec", "build"),
     ]
