@@ -590,9 +590,11 @@ def run_study(
     A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
     (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``; a
     scheduler that does not answer is a ``SchedulerError`` naming ``scheduler``, not
-    ``--scheduler``. A finished study with cases ``study run`` would exit 3 for (an ``ok`` case
-    with an untrustworthy ``k_z_status``...) issues a
-    :class:`~psdesign.analysis.columns.FlaggedCasesWarning` at the call, in the CLI's words.
+    ``--scheduler``. A finished study with flagged cases (an ``ok`` case with a value whose own
+    status is not ok, such as an untrustworthy ``k_z_status``, or a case finished with another
+    status word, such as ``blocked``) issues a :class:`psdesign.FlaggedCasesWarning` at the
+    call, in ``study run``'s words. Only those: cases that did not converge, failed or timed out
+    (for which ``study run`` exits 3 or 1 too) are not warned of; read the table's ``status``.
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run

@@ -404,8 +404,10 @@ def other_status(status: pd.Series) -> pd.Series:
 
 
 class FlaggedCasesWarning(UserWarning):
-    """A study finished with cases that are not ok (:func:`flagged_text` says which):
-    :func:`psdesign.run_study`'s counterpart of ``study run``'s exit status 3."""
+    """A study finished with flagged cases (:func:`flagged_text` says which: an ``ok`` case
+    with a value not ok by its own status, or one finished with another status word):
+    :func:`psdesign.run_study`'s counterpart of ``study run``'s exit status 3 for them (not for
+    ``not_converged``, failed or timed-out cases, which it does not warn of)."""
 
 
 #: What becomes of the flagged cases' values (:func:`flagged_text`'s tail in ``study run``'s

@@ -1570,8 +1570,10 @@ def test_run_study_warns_of_flagged_cases_as_the_cli_exits_3(tmp_path) -> None:
 
     from study_cases import write_study
 
-    from psdesign.analysis.columns import FlaggedCasesWarning
     from psdesign.cli.exit_status import case_counts
+
+    FlaggedCasesWarning = psdesign.FlaggedCasesWarning  # the README names it bare (review s54)
+    assert "FlaggedCasesWarning" in psdesign.__all__
 
     study = 'name = "f"\nseeds = [1]\noutputs = ["porosity", "k_z"]\nsolver = "voxel"\n'
     p = write_study(tmp_path, study, '"generator.porosity" = [0.8, 0.9]')
