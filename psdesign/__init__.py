@@ -33,6 +33,7 @@ _LAZY = {
     "SpecError": "psdesign.errors",
     "StudyError": "psdesign.study",
     "OutputError": "psdesign.io.outputs",
+    "FlaggedCasesWarning": "psdesign.analysis.columns",  # README names it bare (session 54)
     "RVE": "psdesign.geometry.rve",
     "GeneralizedPS": "psdesign.geometry.model",
     "make_fiber": "psdesign.geometry.fibers",

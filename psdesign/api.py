@@ -194,17 +194,21 @@ def _warns_at_caller(method: Callable) -> Callable:
     Bad input found past the spec is raised as a ``SpecError`` (:func:`_spec_errors`).
     Raised deep inside psdesign, a warning (``ResolutionWarning``: too few voxels across a
     fiber) pointed at psdesign's own line, and Python's default filter shows a warning once
-    per line: a second under-resolved material in a notebook printed nothing.
+    per line: a second under-resolved material in a notebook printed nothing (recording
+    starts with fresh registries, so each call records its own). Recorded under the filters in
+    force, as a study's case is (:func:`psdesign.study.worker.run_case_inline`): with
+    ``"always"`` a library's ``DeprecationWarning`` (scikit-fem's "Writing 'u.value' is
+    unnecessary", every FEM call) was re-issued at ``__main__``, where the default filters show
+    it (session 54).
     """
 
     @functools.wraps(method)
     def call(*args: Any, **kwargs: Any) -> Any:
         caught: list = []
         try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
+            with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
                 return _spec_errors(method, args, kwargs)
-        finally:  # the user's own filters decide now ("error" raises at their line)
+        finally:  # at the caller's line, under the same filters ("error" raised in the call)
             for w in caught:
                 warnings.warn(w.message, w.category, stacklevel=2)
 
@@ -234,9 +238,10 @@ class Material:
     Parameters
     ----------
     spec : dict
-        A validated spec (see :func:`build`); anything but a dict is one
-        :class:`~psdesign.errors.SpecError` line naming ``spec`` (``Material(3)`` raised
-        ``TypeError: argument of type 'int' is not iterable`` until session 48).
+        A validated spec (see :func:`build`); anything but a dict, or a dict not validated
+        (missing a key validation fills in), is one :class:`~psdesign.errors.SpecError` line
+        naming ``spec`` (``Material(3)`` raised ``TypeError: argument of type 'int' is not
+        iterable`` until session 48, an unvalidated dict ``KeyError: 'period'`` until 54).
     """
 
     def __init__(self, spec: dict) -> None:
@@ -250,7 +255,14 @@ class Material:
                 f"spec file and makes the Material), got {type(spec).__name__}",
             )
         self.spec = spec
-        self._built = build_rve(spec)
+        try:
+            self._built = build_rve(spec)
+        except KeyError as exc:  # a key validate_spec fills in (rve.period): not validated
+            raise SpecError(
+                "spec",
+                "must be a validated spec (psdesign.build(spec) validates a dict or a spec "
+                f"file and makes the Material), missing key {exc}",
+            ) from None
         self._fields = None
 
     @property
@@ -578,7 +590,11 @@ def run_study(
     A refused ``out_dir`` is an :class:`~psdesign.io.outputs.OutputError` naming ``out_dir``
     (and ``force=True`` where that would help), not the CLI's ``-o`` / ``--force``; a
     scheduler that does not answer is a ``SchedulerError`` naming ``scheduler``, not
-    ``--scheduler``.
+    ``--scheduler``. A finished study with flagged cases (an ``ok`` case with a value whose own
+    status is not ok, such as an untrustworthy ``k_z_status``, or a case finished with another
+    status word, such as ``blocked``) issues a :class:`psdesign.FlaggedCasesWarning` at the
+    call, in ``study run``'s words. Only those: cases that did not converge, failed or timed out
+    (for which ``study run`` exits 3 or 1 too) are not warned of; read the table's ``status``.
     """
     from psdesign.study import RunOptions, StudyError
     from psdesign.study import run_study as _run
@@ -597,4 +613,18 @@ def run_study(
             'call under `if __name__ == "__main__":` (workers re-import the script) or pass '
             "workers=0"
         )
-    return _run(study, out_dir, options, **kwargs)
+    df = _run(study, out_dir, options, **kwargs)
+    _warn_flagged(df)
+    return df
+
+
+def _warn_flagged(df) -> None:
+    """Warn at the caller's line when ``df`` (a finished study's table) has flagged cases, in
+    the words ``study run`` prints before it exits 3 (:func:`~psdesign.analysis.columns.
+    flagged_text`): until session 54 an API user saw "done ...: ok 3" and nothing else when
+    every value was untrustworthy."""
+    from psdesign.analysis.columns import FLAGGED_KEPT, FlaggedCasesWarning, flagged_text
+    from psdesign.errors import warn_at_caller
+
+    if text := flagged_text(df):
+        warn_at_caller(f"run_study: {text}; {FLAGGED_KEPT}", FlaggedCasesWarning)

@@ -7,15 +7,20 @@ import html
 
 __all__ = ["result_html"]
 
+#: The badge of a status: ``ok`` green; ``unrated`` (nothing measured yet: a Material not
+#: voxelized) neutral grey, so that red marks only a result not to trust (the same red for
+#: both until session 54 took the alarm's weight); every other word red.
 _STATUS_STYLE = {
-    True: "color:#060;font-weight:bold",
-    False: "color:#fff;background:#c00;font-weight:bold;padding:0 .4em",
+    "ok": "color:#060;font-weight:bold",
+    "unrated": "color:#555;border:1px solid #999;padding:0 .4em",
 }
+_ALARM_STYLE = "color:#fff;background:#c00;font-weight:bold;padding:0 .4em"
 
 
 def result_html(title: str, rows: list[tuple[str, str]], status: str, notes: list[str]) -> str:
     """A small HTML table: ``title``, the ``(label, value)`` rows (labels carry the units),
-    the ``status`` (red when it is not ``"ok"``) and ``notes`` (warnings) under it.
+    the ``status`` (:data:`_STATUS_STYLE`: red unless ``"ok"`` or ``"unrated"``) and ``notes``
+    (warnings) under it.
 
     ``title``, ``status`` and ``notes`` are escaped here; the rows are HTML as given (units
     use ``<sup>``, errors ``&plusmn;``): the caller escapes any user-given string in them
@@ -24,7 +29,7 @@ def result_html(title: str, rows: list[tuple[str, str]], status: str, notes: lis
         f'<tr><th style="text-align:left">{label}</th><td style="text-align:left">{value}</td></tr>'
         for label, value in rows
     )
-    style = _STATUS_STYLE[status == "ok"]
+    style = _STATUS_STYLE.get(status, _ALARM_STYLE)
     body += (
         '<tr><th style="text-align:left">status</th>'
         f'<td style="text-align:left"><span style="{style}">{html.escape(status)}</span></td></tr>'

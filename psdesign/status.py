@@ -84,7 +84,7 @@ STATUS_WORDS = {
 def flagged_words(status_column: str) -> str:
     """What the status words in ``status_column`` mean, as the rating that writes it means
     them (:data:`STATUS_WORDS`): the line of every command that names a flagged value
-    (:func:`psdesign.cli.exit_status.flagged_text`); "" for a column no rating here writes
+    (:func:`psdesign.analysis.columns.flagged_text`); "" for a column no rating here writes
     (named without words). Until review s46 every column read K's words, Omega's and the
     porosity's too.
 

@@ -395,6 +395,62 @@ def flagged_values(df: pd.DataFrame) -> dict[str, pd.Series]:
     return out
 
 
+def other_status(status: pd.Series) -> pd.Series:
+    """The cases of ``status`` (:func:`case_status`) that finished with a status word other
+    than ``ok`` / ``not_converged``: flagged by their own word."""
+    from psdesign.status import NOT_FINISHED
+
+    return ~status.isin((*NOT_FINISHED, MISSING_STATUS, "ok", "not_converged"))
+
+
+class FlaggedCasesWarning(UserWarning):
+    """A study finished with flagged cases (:func:`flagged_text` says which: an ``ok`` case
+    with a value not ok by its own status, or one finished with another status word):
+    :func:`psdesign.run_study`'s counterpart of ``study run``'s exit status 3 for them (not for
+    ``not_converged``, failed or timed-out cases, which it does not warn of)."""
+
+
+#: What becomes of the flagged cases' values (:func:`flagged_text`'s tail in ``study run``'s
+#: line and :func:`psdesign.run_study`'s warning).
+FLAGGED_KEPT = "their values are kept in results.csv and left out of fits and summaries"
+
+
+def flagged_text(df: pd.DataFrame) -> str:
+    """Why the ``flagged`` cases of a results table (:func:`psdesign.cli.exit_status.
+    case_masks`) are not ok, the one sentence ``study run``'s and ``rev``'s lines and
+    :func:`psdesign.run_study`'s warning print: the ``ok`` cases with a value not ok by its own
+    status, naming the status columns that say so (:func:`flagged_values`, the columns the
+    report's red box names), then the finished cases with another status word; "" when there
+    are none. Until session 46 ``rev`` said "a K flagged" also for a flagged porosity; until
+    session 54 the API's ``run_study`` did not say it (it printed "done ...: ok 3").
+
+    >>> df = pd.DataFrame({"status": ["ok", "ok", "blocked"], "porosity": [0.8, 0.1, 0.8],
+    ...                    "porosity_error": [1e-3, 0.03, 1e-3]})
+    >>> flagged_text(df).split("; ")  # doctest: +NORMALIZE_WHITESPACE
+    ['1 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy =
+      error bar above 20 %)', '1 finished case(s) have another status (blocked)']
+    """
+    from psdesign.status import flagged_words
+
+    parts = []
+    if values := flagged_values(df):
+        n = int(sum(values.values()).astype(bool).sum())
+        # the columns that mean one thing, then its words (flagged_words), in values' order
+        groups: dict[str, list[str]] = {}
+        for st in values:
+            groups.setdefault(flagged_words(st), []).append(st)
+        cols = "; ".join(
+            ", ".join(sts) + (f": {words}" if words else "") for words, sts in groups.items()
+        )
+        parts.append(f"{n} ok case(s) have a value whose own status is not ok ({cols})")
+    status = case_status(df)
+    other = status[other_status(status)]
+    if len(other):
+        words = ", ".join(sorted(set(other)))
+        parts.append(f"{len(other)} finished case(s) have another status ({words})")
+    return "; ".join(parts)
+
+
 def first_error(df: pd.DataFrame) -> str:
     """``" (first error: ...)"`` from a results table's ``error`` column, or ``""``."""
     errors = df["error"].dropna().astype(str) if "error" in df else []

@@ -53,7 +53,7 @@ from __future__ import annotations
 import sys
 from typing import NamedTuple
 
-from psdesign.status import NOT_FINISHED, flagged_words, passes
+from psdesign.status import NOT_FINISHED, passes
 
 OK = 0
 FAILED = 1
@@ -99,14 +99,6 @@ class CaseCounts(NamedTuple):
     flagged: int
 
 
-def _other_status(status):
-    """Cases that finished with a status word other than ``ok`` / ``not_converged`` (of
-    :func:`psdesign.analysis.columns.case_status`): flagged by their own word."""
-    from psdesign.analysis.columns import MISSING_STATUS
-
-    return ~status.isin((*NOT_FINISHED, MISSING_STATUS, "ok", "not_converged"))
-
-
 def case_masks(df):
     """``(failed, not_converged, flagged)`` boolean Series over the rows of a results table
     (:class:`CaseCounts` says which is which), read off each case's status
@@ -124,51 +116,20 @@ def case_masks(df):
     [[False, False, True, False, False], [False, False, False, True, False],
      [False, True, False, False, True]]
     """
-    from psdesign.analysis.columns import MISSING_STATUS, case_status, flagged_values
+    from psdesign.analysis.columns import (
+        MISSING_STATUS,
+        case_status,
+        flagged_values,
+        other_status,
+    )
 
     status = case_status(df)
     failed = status.isin((*NOT_FINISHED, MISSING_STATUS))
     not_converged = status == "not_converged"
-    flagged = _other_status(status)
+    flagged = other_status(status)
     for m in flagged_values(df).values():  # ok cases only
         flagged |= m
     return failed, not_converged, flagged
-
-
-def flagged_text(df) -> str:
-    """Why the ``flagged`` cases of a results table (:func:`case_masks`) are not ok, the one
-    sentence ``study run``'s and ``rev``'s lines print: the ``ok`` cases with a value not ok by
-    its own status, naming the status columns that say so (:func:`psdesign.analysis.columns.
-    flagged_values`, the columns the report's red box names), then the finished cases with
-    another status word; "" when there are none. Until session 46 ``rev`` said "a K flagged"
-    also for a flagged porosity.
-
-    >>> import pandas as pd
-    >>> df = pd.DataFrame({"status": ["ok", "ok", "blocked"], "porosity": [0.8, 0.1, 0.8],
-    ...                    "porosity_error": [1e-3, 0.03, 1e-3]})
-    >>> flagged_text(df).split("; ")  # doctest: +NORMALIZE_WHITESPACE
-    ['1 ok case(s) have a value whose own status is not ok (porosity_status: untrustworthy =
-      error bar above 20 %)', '1 finished case(s) have another status (blocked)']
-    """
-    from psdesign.analysis.columns import case_status, flagged_values
-
-    parts = []
-    if values := flagged_values(df):
-        n = int(sum(values.values()).astype(bool).sum())
-        # the columns that mean one thing, then its words (flagged_words), in values' order
-        groups: dict[str, list[str]] = {}
-        for st in values:
-            groups.setdefault(flagged_words(st), []).append(st)
-        cols = "; ".join(
-            ", ".join(sts) + (f": {words}" if words else "") for words, sts in groups.items()
-        )
-        parts.append(f"{n} ok case(s) have a value whose own status is not ok ({cols})")
-    status = case_status(df)
-    other = status[_other_status(status)]
-    if len(other):
-        words = ", ".join(sorted(set(other)))
-        parts.append(f"{len(other)} finished case(s) have another status ({words})")
-    return "; ".join(parts)
 
 
 def case_counts(df) -> CaseCounts:

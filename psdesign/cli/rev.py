@@ -15,7 +15,6 @@ from psdesign.cli.exit_status import (
     case_masks,
     cases_status,
     fail,
-    flagged_text,
 )
 from psdesign.cli.lines import print_json
 
@@ -91,10 +90,10 @@ def _cases_status(out: str, outputs: list[str]) -> int:
     it: 1 when a case failed or timed out, else 3 when one did not converge or an ``ok`` case
     has a value flagged (``k_<d>_status``, ``porosity_status``; it exited 0 with a warning until
     session 45), else 0; one stderr line per kind naming ``results.csv``, the flagged one
-    ``study run``'s (:func:`~psdesign.cli.exit_status.flagged_text`) and which of the flagged
+    ``study run``'s (:func:`~psdesign.analysis.columns.flagged_text`) and which of the flagged
     values the sizes' intervals hold (``outputs``: the porosity and K; Omega and any other
     rated value of the cases are in ``results.csv`` only)."""
-    from psdesign.analysis.columns import first_error, flagged_values, status_column
+    from psdesign.analysis.columns import first_error, flagged_text, flagged_values, status_column
     from psdesign.study.readback import read_results
 
     df = read_results(out)

@@ -31,7 +31,6 @@ from psdesign.cli.exit_status import (
     case_counts,
     cases_status,
     fail,
-    flagged_text,
     folder_line,
 )
 from psdesign.cli.options import (
@@ -288,13 +287,12 @@ def study_exit_status(df, allow_not_converged: bool = False) -> int:
     when every case and every value in it is ``ok`` (``not_converged`` cases allowed by the
     flag); 1 when a case failed or timed out; else 3 (a ``not_converged`` case, or an ``ok``
     case with a value flagged ``untrustworthy`` or ``blocked``); one line per kind why."""
+    # here, not at the top: analysis.columns imports pandas, which no CLI start may pay for
+    from psdesign.analysis.columns import FLAGGED_KEPT, flagged_text
+
     counts = case_counts(df)
     if counts.flagged:  # exit 3 since session 45 (0 and a warning before)
-        print(
-            f"psdesign: {flagged_text(df)}; their values are kept in results.csv and left out "
-            "of fits and summaries",
-            file=sys.stderr,
-        )
+        print(f"psdesign: {flagged_text(df)}; {FLAGGED_KEPT}", file=sys.stderr)
     if counts.failed:
         print(
             f"psdesign: {counts.failed} case(s) failed or timed out (their error in "

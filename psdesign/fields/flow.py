@@ -172,6 +172,34 @@ def _add_result(grid, result: dict | None, viscosity: float) -> None:
     ):
         if result.get(key) is not None:
             grid.field_data[name] = np.atleast_1d(np.asarray(result[key], float))
+    rve = rve_gradient(result)
+    if rve is not None:
+        grid.field_data["pressure_gradient_rve_Pa_per_m"] = np.array([rve[0]])
+        grid.field_data["rve_copies"] = np.array([rve[1]], np.int32)
+
+
+def rve_gradient(result: dict) -> tuple[float, int] | None:
+    """``(G, copies)``: the pressure gradient (Pa/m) that defines the reported K over the
+    ``rve`` zone, so ``K = mu <u> / G`` with ``<u>`` the mean velocity along the flow over
+    that zone, and the copies of the RVE the zone holds along the flow; None without the
+    keys. A permeameter's ``pressure_gradient_pa_m`` spans the whole stack, reservoirs
+    included (``mu <u> / G`` was K +20 % for a 24 um RVE between 5-voxel reservoirs, walk-api
+    session 54): its G is ``pressure_drop_rve_pa / rve_length_m`` (the zone's length, every
+    copy); a periodic solve's is its ``pressure_gradient_pa_m``, over one copy.
+
+    >>> rve_gradient({"bc": "permeameter", "pressure_drop_rve_pa": 0.5, "rve_length_m": 4.8e-5,
+    ...               "permeameter_copies": 2})
+    (10416.666666666666, 2)
+    >>> rve_gradient({"bc": "periodic", "pressure_gradient_pa_m": 1e5})
+    (100000.0, 1)
+    """
+    if result.get("bc") == "permeameter":
+        drop, length = result.get("pressure_drop_rve_pa"), result.get("rve_length_m")
+        if drop is None or not length:
+            return None
+        return float(drop) / float(length), int(result.get("permeameter_copies") or 1)
+    grad = result.get("pressure_gradient_pa_m")
+    return None if grad is None else (float(grad), 1)
 
 
 def add_rating(grid, result: dict, rel_key: str) -> None:

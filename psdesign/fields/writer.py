@@ -35,6 +35,10 @@ UNITS = {
     "conductivity_unit": "field data: the unit of the two arrays above (1 for diffusivity)",
     "zone": "region id (see regions)",
     "tag": "boundary tag id (see boundary_tags)",
+    "pressure_gradient_rve_Pa_per_m": "Pa/m, field data: the gradient that defines K over the "
+    "rve zone (K = mu <u> / it, <u> the mean velocity along the flow over the rve zone; a "
+    "permeameter's pressure_gradient_Pa_per_m spans its reservoirs too)",
+    "rve_copies": "field data: copies of the RVE the rve zone holds along the flow",
 }
 
 _KINDS = ("fem_flow", "voxel_flow", "diffusivity", "conductivity")
@@ -164,7 +168,7 @@ class FieldWriter:
             self._laplace(kind, solution, fields, extra["conductivity"], result)
 
     def _flow(self, kind, solution, fields, result, extra) -> None:
-        from psdesign.fields.flow import fem_flow_grids, voxel_flow_grid
+        from psdesign.fields.flow import fem_flow_grids, rve_gradient, voxel_flow_grid
 
         d = str(result["direction"])
         stem = self._stem(f"flow_{d}")
@@ -182,6 +186,8 @@ class FieldWriter:
             save_vtk(grid, self.folder / f"{stem}.vtu")
             save_vtk(bnd, self.folder / f"{stem}_boundary.vtu")
             entry["files"] = [f"{stem}.vtu", f"{stem}_boundary.vtu"]
+        if (rve := rve_gradient(result)) is not None:  # K = mu <u> / G over the rve zone
+            entry["pressure_gradient_rve_Pa_per_m"], entry["rve_copies"] = rve
         axis = "xyz".index(d)
         title = f"{result.get('solver', '')} {result.get('bc', '')}: flow along {d}"
         title = _with_result(title, kind, d, result)

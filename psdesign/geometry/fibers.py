@@ -14,11 +14,13 @@ direction vector can be given.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
 
+from psdesign.errors import SpecError, short
 from psdesign.geometry.model import GeneralizedPS, rotation_between, rotation_matrix
 
 SHAPES = (
@@ -409,12 +411,48 @@ def placement_rotation(
     """
     to_x = rotation_between(_Z, _X)
     if direction is not None:
-        d = np.asarray(direction, float)
-        norm = np.linalg.norm(d)
+        d = _three_numbers(direction)
+        norm = np.linalg.norm(d) if d is not None else np.nan
         if not np.isfinite(norm) or norm < 1e-12:
-            raise ValueError("direction must be a non-zero finite vector")
+            got = d.tolist() if d is not None else short(direction)
+            raise SpecError("direction", f"must be a non-zero finite vector, got {got}")
         return rotation_between(_X, d / norm) @ to_x
+    for key, angle in (("theta", theta), ("omega", omega)):
+        if angle is not None and not (_is_real(angle) and np.isfinite(angle)):
+            raise SpecError(key, f"must be a finite angle in degrees, got {short(angle)}")
     return rotation_matrix(theta or 0.0, omega or 0.0) @ to_x
+
+
+def _is_real(value: object) -> bool:
+    """A real number (Python's or NumPy's), not a bool, str or sequence: make_fiber's
+    ``diameter="a"`` was NumPy's TypeError from ``isfinite`` (session 54 review)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def _three_numbers(value: object) -> np.ndarray | None:
+    """``value`` as a float vector of three, or None when it is none (two numbers, a str): a
+    centre ``[.1, .2]`` was NumPy's "cannot reshape array of size 2" (session 54 review)."""
+    try:
+        v = np.asarray(value, float)
+    except (TypeError, ValueError):
+        return None
+    return v.reshape(3) if v.size == 3 else None
+
+
+def _round_args(shape: str, diameter: object, u: object, f: object) -> tuple[float, float, float]:
+    """A rod's, cylinder's or bent rod's ``(diameter, u, f)`` as floats (``u`` 0 but for a bent
+    rod), or a SpecError keyed on the argument that is wrong (a bent rod's ``u=nan`` was keyed
+    ``f`` until session 54)."""
+    if not (_is_real(diameter) and 0.0 < diameter < 1.0):  # NaN fails the comparison too
+        raise SpecError("diameter", f"must lie in (0, 1) periods, got {short(diameter)}")
+    if shape != "bent-rod" or (_is_real(u) and u == 0.0):  # u = 0: a straight rod, f unused
+        return float(diameter), 0.0, float(f) if _is_real(f) else 1.0
+    for key, value in (("u", u), ("f", f)):
+        if not (_is_real(value) and np.isfinite(value)):
+            raise SpecError(key, f"bent-rod needs a finite {key}, got {short(value)}")
+    if not f > 0:
+        raise SpecError("f", f"bent-rod needs f > 0, got {short(f)}")
+    return float(diameter), float(u), float(f)
 
 
 def make_fiber(
@@ -459,10 +497,10 @@ def make_fiber(
         equation's), as changed by the force field.
     """
     if shape not in SHAPES:
-        raise ValueError(f"shape must be one of {', '.join(SHAPES)}; got {shape!r}")
-    center = _CELL_CENTRE.copy() if center is None else np.asarray(center, float).reshape(3)
-    if not np.all(np.isfinite(center)):
-        raise ValueError("center must be finite")
+        raise SpecError("shape", f"got {short(shape)}; allowed: {', '.join(SHAPES)}")
+    given, center = center, _CELL_CENTRE.copy() if center is None else _three_numbers(center)
+    if center is None or not np.all(np.isfinite(center)):
+        raise SpecError("center", f"must be three finite numbers (periods), got {short(given)}")
     R = placement_rotation(theta, omega, direction)
     if extra_rotation is not None:
         R = R @ extra_rotation
@@ -471,16 +509,9 @@ def make_fiber(
     extra: dict = {}
 
     if shape in ROUND_SHAPES:
-        if diameter is None or not np.isfinite(diameter) or not 0.0 < diameter < 1.0:
-            raise ValueError(f"diameter must lie in (0, 1) periods, got {diameter}")
+        diameter, u, f = _round_args(shape, diameter, u, f)
         iso = rod_isovalue(diameter)
-        if shape == "bent-rod" and u != 0.0:
-            if not (np.isfinite(u) and np.isfinite(f) and f > 0):
-                raise ValueError(f"bent-rod needs finite u and f > 0, got u={u}, f={f}")
-            canon = bent_rod_model(u, f)
-        else:
-            canon = rod_model()
-            u = 0.0 if shape != "bent-rod" else u
+        canon = bent_rod_model(u, f) if u != 0.0 else rod_model()
         grad = 8.0 * np.pi * np.sin(np.pi * diameter)
         band = bent_rod_band(diameter, u)
         # minor phase along the placed axis: canonical z = s + 1/2 for s measured from centre

@@ -197,7 +197,8 @@ class MeshOptions:
             key = _LEGACY_NAMES.get(key, key)
             if key not in names:
                 raise MeshInputError(
-                    f"unknown mesh option {key!r}; allowed: {', '.join(sorted(names))}"
+                    f"unknown mesh option {key!r}; allowed: {', '.join(sorted(names))}",
+                    key="options",
                 )
             kw[key] = value
         return cls(**kw)
@@ -375,7 +376,8 @@ def _check(o: MeshOptions) -> None:
     if o.periodic and o.mesher != "stuffing":
         raise MeshInputError(
             "periodic meshes need mesher = 'stuffing' (pytetwild cannot give matching "
-            f"opposite faces), got mesher = {o.mesher!r}"
+            f"opposite faces), got mesher = {o.mesher!r}",
+            key="mesher",
         )
     bad = sorted(set(o.tetwild_options or {}) - set(TETWILD_OPTIONS))
     if bad:

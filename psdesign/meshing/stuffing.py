@@ -618,7 +618,7 @@ def _check_stuffing_args(size, h, alpha, slab_factor, aux_length, periodic) -> N
     if not (h > 0 and np.isfinite(h)):
         raise MeshInputError(f"lattice_step must be a positive length, got {h}")
     if not (0.0 < alpha < 0.5):
-        raise MeshInputError(f"stuffing alpha must be in (0, 0.5), got {alpha}")
+        raise MeshInputError(f"stuffing alpha must be in (0, 0.5), got {alpha}", key="alpha")
     if not (size / h <= 2000).all():
         raise MeshInputError(
             f"lattice_step {h} gives more than 2000 cells per axis; use a "

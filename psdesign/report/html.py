@@ -35,6 +35,7 @@ from psdesign.analysis.columns import (
     trusted,
     value_status,
 )
+from psdesign.errors import SpecError
 from psdesign.report.decision import (
     effect_plots,
     fit_alert,
@@ -99,8 +100,23 @@ figcaption{font-size:.8em;color:#555;max-width:320px}
 """
 
 
-class ReportError(ValueError):
-    """The folder holds no study results to report on."""
+class ReportError(SpecError):
+    """The folder holds no study results to report on: bad input (``study report`` exits 2),
+    so a :class:`~psdesign.errors.SpecError` naming ``out_dir`` (a plain ``ValueError`` until
+    session 54; README: ``except psdesign.SpecError`` catches any bad input).
+
+    Parameters
+    ----------
+    message : str
+        The reader's one line (``"out_dir: no results.csv in ..."``): the key before its first
+        ``": "`` (``out_dir`` when there is none), as :class:`~psdesign.errors.StudyError`.
+    """
+
+    def __init__(self, message: str) -> None:
+        key, sep, rest = message.partition(": ")
+        if not sep or " " in key:
+            key, rest = "out_dir", message
+        super().__init__(key, rest)
 
 
 def _esc(x) -> str:

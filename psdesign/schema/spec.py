@@ -8,6 +8,7 @@ and the allowed range, before anything is built. Lengths are in metres.
 from __future__ import annotations
 
 import copy
+import os
 import tomllib
 from collections.abc import Iterable
 from pathlib import Path
@@ -16,7 +17,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from psdesign.errors import SpecError
+from psdesign.errors import SpecError, short
 from psdesign.geometry.fibers import Fiber, make_fiber
 from psdesign.schema.document import SpecDocument, SpecWarning
 from psdesign.schema.errors import spec_error
@@ -46,18 +47,32 @@ FIBER_KEYS = tuple(FiberTable.model_fields)
 FLOW_KEYS = tuple(FlowTable.model_fields)
 #: Spec and study files larger than this are refused unread.
 MAX_FILE_BYTES = 10 * 2**20
+#: What to give instead of TOML text where a spec or study file's path is asked for.
+_AS_TEXT = "give a file's path or, in Python, the dict tomllib.loads(text) makes of the text"
 
 
 def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = SpecError) -> dict:
     """Parse a TOML file; every problem is one ``error`` line (no traceback).
 
     Missing or unreadable file, over :data:`MAX_FILE_BYTES`, not UTF-8, TOML syntax,
-    nesting too deep for the parser. A leading UTF-8 byte-order mark is skipped.
+    nesting too deep for the parser. A leading UTF-8 byte-order mark is skipped. A path that
+    is no file and holds a line break is refused as TOML text (session 54), before anything
+    asks the file system (a real spec's text has parts over 255 bytes: ``Path.is_dir`` raised
+    "File name too long", and the refusal quoted the whole text); a missing file whose name
+    holds ``=`` is "file not found" with a hint, since ``a=b/spec.toml`` is a valid path. The
+    API takes a path or a dict, and ``tomllib.loads(text)`` makes the dict (text is not taken
+    as TOML, so that a mistyped path never parses as one).
     """
 
     def bad(msg: str) -> Exception:
         return error(key, msg) if error is SpecError else error(f"{key}: {msg}")
 
+    name = str(path)
+    # os.path.isfile never raises (False for a name too long or with a NUL byte); a str and a
+    # Path say the same (the CLI's pores / diffusivity pass a Path, the others a str)
+    if ("\n" in name or "\r" in name) and not os.path.isfile(name):
+        # TOML text given as the path: "file not found: [rve]\nsize=..." spanned lines
+        raise bad(f"got {short(name)}, which looks like TOML text, not a file name; {_AS_TEXT}")
     p = Path(path)
     try:
         if p.is_dir():
@@ -65,7 +80,8 @@ def read_toml(path: str | Path, key: str = "spec", error: type[Exception] = Spec
         if p.exists() and not p.is_file():  # /dev/stdin, a pipe <(...), /dev/null
             raise bad(f"{p} is not a regular file (a pipe or a device); give a TOML file")
         if not p.is_file():
-            raise bad(f"file not found: {p}")
+            hint = f" (if that is TOML text, not a file name: {_AS_TEXT})" if "=" in name else ""
+            raise bad(f"file not found: {p}{hint}")
         if p.stat().st_size > MAX_FILE_BYTES:
             raise bad(f"{p} is {p.stat().st_size} bytes (allowed: at most {MAX_FILE_BYTES})")
         # a UTF-8 byte-order mark (Windows Notepad writes one) is no TOML: tomllib's "Invalid
@@ -244,6 +260,8 @@ def explicit_fibers(spec: dict) -> list[Fiber]:
                     minor_moment=fb.get("u") if fb["shape"] in BENT_FIXED_SHAPES else None,
                 )
             )
+        except SpecError as exc:  # make_fiber's own argument: fibers[i].diameter
+            raise SpecError(f"fibers[{i}].{exc.key}", exc.message) from None
         except ValueError as exc:
             raise SpecError(f"fibers[{i}]", str(exc)) from None
     return fibers

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, field_validator
 
 from psdesign.errors import SpecError
 from psdesign.schema.errors import spec_error
@@ -48,7 +48,10 @@ class TransportSpec(Table):
     error_estimate : {"resolution", "residual"}
         ``resolution``: a second solve on a grid twice as coarse (``3 |X_h - X_2h| / X_h``,
         at least the staircase floor) plus the flux imbalance; ``residual``: the staircase
-        floor doubled plus the flux imbalance (:mod:`psdesign.transport.effective`).
+        floor doubled plus the flux imbalance (:mod:`psdesign.transport.effective`). A bool
+        means what ``flow.error_estimate``'s does (``permeability(error_estimate=False)``: no
+        second grid, the doubled floor): ``True`` is ``resolution``, ``False`` ``residual``
+        (``diffusivity(error_estimate=False)`` was refused until session 54).
     bulk_diffusivity_m2_s : float
         Molecular (bulk) diffusivity of the gas, m^2/s (default O2 in air, 25 C: 2.0e-5).
     mean_free_path_m : float
@@ -78,7 +81,9 @@ class TransportSpec(Table):
         2000, description="CG iteration cap in [1, 100000] (default 2000)"
     )
     error_estimate: Literal["resolution", "residual"] = Field(
-        "resolution", description="resolution | residual (default resolution)"
+        "resolution",
+        description="resolution | residual, or true | false as flow.error_estimate "
+        "(default resolution)",
     )
     bulk_diffusivity_m2_s: number(gt=0, lt=1) = Field(
         2.0e-5, description="m^2/s in (0, 1) (default 2.0e-5, O2 in air at 25 C)"
@@ -111,6 +116,14 @@ class TransportSpec(Table):
     contact_angle_deg: number(gt=90, le=180) = Field(
         140.0, description="degrees in (90, 180] (default 140, mercury)"
     )
+
+    @field_validator("error_estimate", mode="before")
+    @classmethod
+    def _estimate_bool(cls, value: object) -> object:
+        """``True`` / ``False`` as ``flow.error_estimate``'s: ``resolution`` / ``residual``."""
+        if _is_bool(value):
+            return "resolution" if value else "residual"
+        return value
 
 
 def transport_keyword(transport: object) -> dict:

@@ -813,7 +813,7 @@ def _load_study(path: str | Path | dict) -> Study:
         )
     p = Path(path)
     try:
-        data = read_toml(p, key="study", error=SpecError)
+        data = read_toml(path, key="study", error=SpecError)  # a str: TOML text is named
     except SpecError as exc:
         raise _err("study", exc.message) from None
     return parse_study(data, source=p.resolve())

@@ -189,7 +189,7 @@ def weighted_dissipation(mesh: MeshTet, u: np.ndarray, weight, chunk: int = 100_
     for start in range(0, n_el, chunk):
         idx = np.arange(start, min(start + chunk, n_el))
         vb = CellBasis(mesh, ElementTetP2(), intorder=4, elements=idx, dofs=dofs2)
-        xq = vb.global_coordinates().value  # (3, n_el, n_qp)
+        xq = np.asarray(vb.global_coordinates())  # (3, n_el, n_qp); .value is deprecated
         wq = weight(xq.reshape(3, -1).T).reshape(xq.shape[1:])
         total += float(
             asm(

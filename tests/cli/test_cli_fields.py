@@ -157,6 +157,31 @@ def test_voxel_permeameter_flux_and_pressure_drop(voxel_runs):
     )
 
 
+def test_k_is_mu_mean_velocity_over_gradient_on_the_rve_zone_for_both_bcs(voxel_runs):
+    """Session 54 (walk-api 4): docs/fields.md's ``K = mu <u> / G`` with the permeameter's
+    ``pressure_gradient_Pa_per_m`` (1 Pa over the whole stack, reservoirs included) gave K
+    +20 %: the rve zone holds 2 copies and K is defined by the windowed drop across it. The
+    files now hold the G that defines K over the rve zone and the copies it holds (field data
+    and fields.json); from the written field alone, ``mu <u_x>`` over the rve zone divided by it
+    is the reported K (to float32 rounding of the velocity) for the periodic and the
+    permeameter solve."""
+    for bc, copies in (("periodic", 1), ("permeameter", 2)):
+        out, res = voxel_runs[bc]
+        grid = pv.read(out / "flow_x.vti")
+        fd = grid.field_data
+        g_rve = float(fd["pressure_gradient_rve_Pa_per_m"][0])
+        assert int(fd["rve_copies"][0]) == copies == res.get("permeameter_copies", 1)
+        (solve,) = json.loads((out / "fields.json").read_text())["solves"]
+        assert solve["pressure_gradient_rve_Pa_per_m"] == g_rve and solve["rve_copies"] == copies
+        rve = _cells(grid, "zone") == tags.REGION_IDS[tags.RVE]
+        u = _cells(grid, "velocity_m_per_s")[0]
+        mu = float(fd["viscosity_Pa_s"][0])
+        assert mu * u[rve].mean() / g_rve == pytest.approx(res["permeability_m2"], rel=1e-5)
+        whole = mu * u.mean() / float(fd["pressure_gradient_Pa_per_m"][0])
+        off = whole / res["permeability_m2"] - 1  # the old recipe on the permeameter
+        assert (abs(off) < 1e-5) if bc == "periodic" else (off > 0.1), (bc, off)
+
+
 def _cylinder_pressure_cells(shape: tuple[int, int, int]) -> np.ndarray:
     """The pressure cells docs/fields.md defines, from SPEC's analytic cylinder on the periodic
     grid (not from the solver's arrays): the cells with a face whose centre lies in the fluid

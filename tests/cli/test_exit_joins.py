@@ -53,8 +53,7 @@ def test_the_flagged_line_words_each_status_column_as_its_rating_means(capsys):
     the pore sizes also by d90 against the RVE (``study_outputs.pore_sizes_status``)."""
     import pandas as pd
 
-    from psdesign.analysis.columns import STATUS_COLUMNS
-    from psdesign.cli.exit_status import flagged_text
+    from psdesign.analysis.columns import STATUS_COLUMNS, flagged_text
 
     bar, cells = "error bar above 20 %", "fewer than 8 cells per fiber diameter"
     for st in dict.fromkeys(STATUS_COLUMNS.values()):

@@ -29,11 +29,14 @@ def test_import_is_light() -> None:
 
 
 def test_cli_help_is_light() -> None:
-    # `psdesign --help` (the console script's entry point) imports none of the heavy stacks
+    # `psdesign --help` (the console script's entry point) imports none of the heavy stacks;
+    # pandas too: a top-level import of analysis.columns in cli/study.py cost every CLI start
+    # +500 modules and 2-4 s (session 54)
     code = (
         "import sys\nfrom psdesign.cli import main\ntry:\n    main(['--help'])\n"
         "except SystemExit:\n    pass\nheavy = [m for m in ('numba', 'scipy.stats', 'pyvista',"
-        " 'matplotlib') if m in sys.modules]\nprint(heavy, file=sys.stderr)"
+        " 'matplotlib', 'numpy', 'pandas', 'dask') if m in sys.modules]\n"
+        "print(heavy, file=sys.stderr)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert "usage" in out.stdout
@@ -170,6 +173,24 @@ def test_permeability_result_html_marks_a_status_that_is_not_ok() -> None:
     assert "&plusmn; 30 %" in page and "error bar 30 % above the 20 % limit" in page
     ok = PermeabilityResult.from_dict({**d, "status": "ok", "warnings": []})._repr_html_()
     assert "background:#c00" not in ok and ">ok</span>" in ok
+
+
+def test_an_unrated_material_is_not_shown_as_an_alarm() -> None:
+    """Session 54 (walk-api 7): a Material not yet voxelized showed its status "unrated" in
+    the red of an untrustworthy result, so the red lost its weight. It is grey now; once
+    voxelized, the porosity's own status decides (ok: green, no red)."""
+    m = psdesign.build(
+        {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+        }
+    )
+    page = m._repr_html_()
+    assert ">unrated</span>" in page and "background:#c00" not in page, page
+    assert "color:#555" in page  # the neutral badge
+    m.porosity  # noqa: B018  (voxelizes)
+    page = m._repr_html_()
+    assert ">ok</span>" in page and "background:#c00" not in page, page
 
 
 def _transport_fields() -> dict:
@@ -1542,3 +1563,128 @@ def test_notebook_html_escapes_the_file_name_and_result_strings(tmp_path) -> Non
     page = PermeabilityResult.from_dict(d)._repr_html_()
     assert "&lt;b&gt;x" in page and "voxel&amp; / &lt;s&gt;" in page
     assert "<b>x" not in page and "<s>" not in page and "K (m<sup>2</sup>)" in page
+
+
+def test_run_study_warns_of_flagged_cases_as_the_cli_exits_3(tmp_path) -> None:
+    """Session 54 (walk-api 1): ``psdesign.run_study`` printed "done ...: ok 3" and nothing else
+    when every ``k_z_status`` was untrustworthy; ``study run`` on the same table prints "N ok
+    case(s) have a value whose own status is not ok (...)" and exits 3. The API now warns with
+    the same sentence (one function, ``flagged_text``), at the caller's line; a table with
+    every value ok warns nothing. Truth: the fake case sets k_z_status itself (a 30 % bar on
+    the porosity-0.9, seed-1 case), so exactly one ok case is flagged."""
+    import warnings
+
+    from study_cases import write_study
+
+    from psdesign.cli.exit_status import case_counts
+
+    FlaggedCasesWarning = psdesign.FlaggedCasesWarning  # the README names it bare (review s54)
+    assert "FlaggedCasesWarning" in psdesign.__all__
+
+    study = 'name = "f"\nseeds = [1]\noutputs = ["porosity", "k_z"]\nsolver = "voxel"\n'
+    p = write_study(tmp_path, study, '"generator.porosity" = [0.8, 0.9]')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = psdesign.run_study(
+            p, tmp_path / "o", workers=0, case_fn="study_cases:mixed_status_case", progress=False
+        )
+    assert case_counts(df).flagged == 1  # what makes `study run` exit 3
+    flagged = [w for w in caught if w.category is FlaggedCasesWarning]
+    assert len(flagged) == 1, [str(w.message) for w in caught]
+    text = str(flagged[0].message)
+    assert text.startswith("run_study: 1 ok case(s) have a value whose own status is not ok ")
+    assert "(k_z_status: untrustworthy = " in text and "\n" not in text, text
+    assert flagged[0].filename == __file__  # the caller's line, not psdesign's
+    ok = write_study(tmp_path, study, '"generator.porosity" = [0.8]', name="ok.toml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        psdesign.run_study(
+            ok, tmp_path / "o2", workers=0, case_fn="study_cases:mixed_status_case", progress=False
+        )
+    assert not [w for w in caught if w.category is FlaggedCasesWarning]
+
+
+def test_library_deprecation_warnings_are_not_reissued_at_main(tmp_path) -> None:
+    """Session 54 (walk-api 2): ``_warns_at_caller`` recorded every warning with ``"always"``
+    and re-issued it at the caller's line, so a library's ``DeprecationWarning`` (scikit-fem's,
+    on every FEM call) was shown at ``__main__`` under Python's default filters. Recorded under
+    the filters in force, it stays hidden as Python hides it, while psdesign's own warnings
+    (a ``UserWarning``) still reach the script's line. Run as a script: only ``__main__``'s
+    DeprecationWarnings are shown by default."""
+    script = tmp_path / "user.py"
+    script.write_text(
+        "import warnings\n"
+        "from psdesign.api import _warns_at_caller\n"
+        "lib = {'__name__': 'somelib', 'warnings': warnings}\n"  # a library's module
+        'exec(\'def f():\\n    warnings.warn("old api", DeprecationWarning)\\n'
+        '    warnings.warn("too coarse", UserWarning)\\n    return 1\', lib)\n'
+        "assert _warns_at_caller(lib['f'])() == 1\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env["PYTHONPATH"] = root  # this tree's psdesign
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, env=env, cwd=tmp_path
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "DeprecationWarning" not in proc.stderr, proc.stderr
+    assert f"{script}:5: UserWarning: too coarse" in proc.stderr, proc.stderr
+
+
+def test_bad_input_to_every_public_name_is_a_spec_error(tmp_path) -> None:
+    """Session 54 (walk-api 3): README promises ``except psdesign.SpecError`` catches any bad
+    input, but ``mesh_pore_space`` raised ``MeshInputError(ValueError)``, ``make_fiber("rodd")``
+    a bare ``ValueError``, ``write_report("nope")`` ``ReportError(ValueError)`` and
+    ``Material(<unvalidated dict>)`` ``KeyError: 'period'``. Each is now a SpecError whose key
+    is the argument and whose one line names it (and the allowed values where there is a
+    list); the CLI still exits 2 for the report's (``study report``)."""
+    import numpy as np
+
+    d = np.ones((10, 10, 10))
+    cases = [
+        (lambda: psdesign.mesh_pore_space(d, 1e-6, (1e-5,) * 3, "w"), "direction", "'x', 'y'"),
+        (lambda: psdesign.mesh_pore_space(d[:1], 1e-6, (1e-5,) * 3, "x"), "distance", "3-D"),
+        (lambda: psdesign.make_fiber("rodd", diameter=0.1), "shape", "allowed: rod, cylinder"),
+        (lambda: psdesign.make_fiber("rod", diameter=1.5), "diameter", "(0, 1) periods"),
+        # review of session 54: NumPy's reshape ValueError, isfinite TypeError, u=nan keyed f
+        (lambda: psdesign.make_fiber("rod", 0.2, center=[0.1, 0.2]), "center", "three finite"),
+        (lambda: psdesign.make_fiber("rod", diameter="a"), "diameter", "got 'a'"),
+        (lambda: psdesign.make_fiber("bent-rod", 0.2, u=float("nan")), "u", "finite u"),
+        (lambda: psdesign.make_fiber("bent-rod", 0.2, u=0.1, f=0.0), "f", "f > 0"),
+        (lambda: psdesign.make_fiber("rod", 0.2, theta="a"), "theta", "degrees"),
+        (lambda: psdesign.make_fiber("rod", 0.2, direction=[1, 2]), "direction", "got [1, 2]"),
+        (lambda: psdesign.write_report(tmp_path / "nope"), "out_dir", "no results.csv"),
+        (lambda: psdesign.Material({"rve": {"size": [2e-5] * 3, "voxel": 1e-6}}), "spec", "build"),
+    ]
+    for call, key, words in cases:
+        with pytest.raises(psdesign.SpecError) as info:
+            call()
+        line = str(info.value)
+        assert info.value.key == key and line.startswith(key) and words in line, line
+        assert "\n" not in line, line
+    proc = subprocess.run(
+        [sys.executable, "-m", "psdesign", "study", "report", str(tmp_path / "nope")],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": os.getcwd()},
+    )
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_diffusivity_takes_error_estimate_false_as_permeability_does() -> None:
+    """Session 54 (walk-api 8): ``m.permeability(..., error_estimate=False)`` works but
+    ``m.diffusivity(..., error_estimate=False)`` was refused ("allowed: resolution,
+    residual"). The bool means the same in both (docs/permeability.md: ``false`` skips the
+    coarse solve and the bar is the floor alone, doubled; docs/transport.md: ``residual`` is the
+    staircase floor doubled): False is ``residual``, True ``resolution``, the same numbers."""
+    m = psdesign.build(
+        {
+            "rve": {"size": [20e-6] * 3, "voxel": 2e-6},
+            "fibers": [{"shape": "cylinder", "diameter": 8e-6, "direction": [0, 0, 1]}],
+        }
+    )
+    for flag, word in ((False, "residual"), (True, "resolution")):
+        a, b = m.diffusivity("x", error_estimate=flag), m.diffusivity("x", error_estimate=word)
+        assert a.to_dict() == b.to_dict() | {"wall_time_s": a.to_dict()["wall_time_s"]}, flag
+    with pytest.raises(psdesign.SpecError, match="^transport.error_estimate: got 'no'; allowed"):
+        m.diffusivity("x", error_estimate="no")

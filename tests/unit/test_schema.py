@@ -7,6 +7,7 @@ import copy
 import math
 import tomllib
 import warnings
+from pathlib import Path
 
 import pytest
 from toml_writer import dumps
@@ -17,6 +18,8 @@ from psdesign.packing.generators import parse_generator, parse_rve
 from psdesign.schema import budget
 from psdesign.schema.spec import SpecWarning, load_spec, validate_spec
 from psdesign.study.studyfile import KNOWN_SPEC_KEYS, StudyError, load_study, parse_study
+
+ROOT = Path(__file__).resolve().parents[2]
 
 BOX = [100e-6, 100e-6, 100e-6]
 SPEC = {
@@ -312,6 +315,88 @@ def test_load_spec_file_problems(tmp_path):
         load_spec(p)
     with pytest.raises(SpecError, match="file not found"):
         load_spec(tmp_path / "none.toml")
+
+
+def test_toml_text_given_as_a_path_is_named_in_one_line(tmp_path):
+    """Session 54 (walk-api 6): ``psdesign.build('[rve]\\nsize=...')`` said "spec: file not
+    found: [rve]" and the text's other lines. A path that is no file and holds a newline is now
+    one line saying it looks like TOML text and how to pass it (the dict of ``tomllib.loads``),
+    for a spec and a study file alike; a missing file name is as before."""
+    import psdesign
+
+    text = "[rve]\nsize = [2e-5, 2e-5, 2e-5]\nvoxel = 1e-6\n"
+    for call, key in ((psdesign.build, "spec"), (psdesign.load_study, "study")):
+        with pytest.raises(SpecError) as info:
+            call(text)
+        line = str(info.value)
+        assert line.startswith(f"{key}: got '[rve]") and "\n" not in line, line
+        assert "looks like TOML text" in line and "tomllib.loads(text)" in line, line
+    with pytest.raises(SpecError, match="^spec: file not found: .*none.toml$"):
+        load_spec(str(tmp_path / "none.toml"))
+    # the advice works: the dict of the same text (with a fiber) builds
+    fiber = '[[fibers]]\nshape = "cylinder"\ndiameter = 8e-6\ndirection = [0, 0, 1]\n'
+    m = psdesign.build(tomllib.loads(text + fiber))
+    assert m.spec["rve"]["voxel"] == 1e-6
+
+
+def test_a_real_spec_files_text_is_one_line_for_every_entry(tmp_path):
+    """Session 54 review: a real spec's text has a '/'-separated part over 255 bytes, and
+    ``Path.is_dir`` raised ENAMETOOLONG before the text check: build(<three_rods.toml's text>)
+    was the 24-line "cannot read <whole text>: File name too long". Now one line for build,
+    load_spec, run_study and load_study, and run_study makes no folder."""
+    import psdesign
+
+    spec = (ROOT / "studies" / "examples" / "three_rods.toml").read_text()
+    study = (ROOT / "studies" / "quickstart.toml").read_text()
+    assert max(len(part) for part in spec.split("/")) > 255  # the trigger, in the file itself
+    out = tmp_path / "out"
+    calls = (
+        ("spec", lambda: psdesign.build(spec)),
+        ("spec", lambda: load_spec(spec)),
+        ("spec", lambda: load_spec(Path(spec))),  # the CLI's pores / diffusivity pass a Path
+        ("study", lambda: psdesign.run_study(study, out, workers=0)),
+        ("study", lambda: psdesign.load_study(study)),
+    )
+    for key, call in calls:
+        with pytest.raises(SpecError) as info:
+            call()
+        line = str(info.value)
+        assert "\n" not in line and line.startswith(f"{key}: got '# "), line
+        assert "looks like TOML text" in line, line
+    assert not out.exists()
+
+
+def test_a_missing_file_with_an_equals_sign_is_not_found(tmp_path):
+    """Session 54 review: ``a=b/nope.toml`` and ``x=1.toml`` are file names (a folder may hold
+    '='), so a missing one is "file not found" (with a hint on TOML text), not "looks like TOML
+    text"; an existing one reads. The CLI says the same through a str (permeability) and a Path
+    (pores, diffusivity)."""
+    folder = tmp_path / "a=b"
+    folder.mkdir()
+    (folder / "spec.toml").write_text(
+        (ROOT / "studies" / "examples" / "three_rods.toml").read_text()
+    )
+    assert load_spec(str(folder / "spec.toml"))["rve"]["voxel"] > 0
+    for name in (str(folder / "nope.toml"), "x=1.toml", "voxel=1e-6"):
+        for given in (name, Path(name)):
+            with pytest.raises(SpecError) as info:
+                load_spec(given)
+            line = str(info.value)
+            assert line.startswith(f"spec: file not found: {name} (if that is TOML text"), line
+            assert "tomllib.loads(text)" in line and "\n" not in line, line
+    with pytest.raises(SpecError, match="^study: file not found: x=1.toml "):
+        load_study("x=1.toml")
+
+
+@pytest.mark.parametrize("command", ["permeability", "pores", "diffusivity", "conductivity"])
+@pytest.mark.parametrize("name", ["x=1.toml", "[rve]\nvoxel = 1e-6"])
+def test_cli_commands_name_a_bad_spec_path_alike(command, name, capsys):
+    # permeability and conductivity pass the str, pores and diffusivity a Path (session 54)
+    assert main([command, name]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    head = "file not found: x=1.toml (if" if "=1" in name else "got '[rve]\\nvoxel"
+    assert err.startswith(f"psdesign: error: spec: {head}"), err
 
 
 def test_deep_nesting_in_a_valid_toml_is_one_line():

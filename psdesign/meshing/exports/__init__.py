@@ -144,7 +144,7 @@ def formats() -> tuple[str, ...]:
 def register_writer(name: str, writer: Writer) -> None:
     """Add (or replace) the writer of format ``name``."""
     if not name.isidentifier():
-        raise MeshInputError(f"format name must be an identifier, got {name!r}")
+        raise MeshInputError(f"format name must be an identifier, got {name!r}", key="name")
     WRITERS[name] = writer
 
 
@@ -178,7 +178,7 @@ def export_mesh(
     if bad:
         raise MeshInputError(f"formats {bad} not supported; allowed: {', '.join(WRITERS)}")
     if pm.periodic and set(formats) & set(NO_PERIODIC):
-        raise MeshInputError(NO_PERIODIC_WHY)
+        raise MeshInputError(NO_PERIODIC_WHY, key="formats")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
