@@ -60,7 +60,7 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   to the route's estimate of the one copy it meshes (`flow.permeameter_copies = 1`: the
   stack is `permeability`'s); `generate`, `forcefield`, `psdesign.build` and a study of
   porosity alone to the voxel grid's own fields; `pores`, `diffusivity`, `conductivity` (and
-  their study outputs) to the transport solve's 400 B per voxel (session 53: `mesh`,
+  their study outputs) to the transport solve's 130 B per voxel and 0.35 GB (session 53: `mesh`,
   `build` and a study without a K were refused for an FEM solve they never run).
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
   checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)

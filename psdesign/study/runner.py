@@ -33,6 +33,7 @@ import pandas as pd
 
 from psdesign.errors import short
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir, remove_owned_files
+from psdesign.schema.budget import concurrent_workers
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
     SchedulerAddress,
@@ -160,6 +161,27 @@ def _mp_context():
     return multiprocessing.get_context("spawn")
 
 
+def concurrent_cases(workers: int, scheduler, n_cases: int) -> int:
+    """Cases of a run that hold their memory at once on this machine: the local pool's (or a
+    local Dask cluster's) workers, at most one per case; 1 in this process (``workers=0``) or
+    on a remote scheduler or batch cluster (its workers' machines have their own memory).
+
+    >>> concurrent_cases(2, None, 9), concurrent_cases(4, "local", 3), concurrent_cases(0, None, 9)
+    (2, 3, 1)
+    """
+    if scheduler is not None and scheduler != "local":
+        return 1
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral):
+        return 1  # refused by the run's own check (check_workers), with its line
+    return max(1, min(int(workers), int(n_cases)))
+
+
+def workers_option(out_option: tuple[str, str | None]) -> str:
+    """How a refusal names the workers: ``--workers`` where messages name a command's flags
+    (``out_option`` ``("-o", ...)``), else the keyword ``workers``."""
+    return "--workers" if out_option[0].startswith("-") else "workers"
+
+
 def _check_main_script(opts: RunOptions) -> None:
     """Refuse local worker processes when they cannot start: a spawned worker re-imports the
     ``__main__`` script by its path, and a script read from stdin (``python - < run.py``, a
@@ -211,6 +233,34 @@ def _thread_budget(workers: int):
             os.environ.pop(v, None)
 
 
+#: The solver threads a user's value is kept for in every worker (:func:`oversubscribed`).
+SOLVER_THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def oversubscribed(workers: int, cpus: int | None = None) -> str | None:
+    """The warning line when a solver thread count the user set (kept in every worker, the
+    rule: the user's value wins) times ``workers`` is over the CPUs and over the share the
+    runner gives (:func:`threads_per_worker`); None otherwise. Session 54: ``NUMBA_NUM_THREADS=2
+    --workers 2`` ran 4 solver threads on 2 cores, silently."""
+    cpus = cpus or os.cpu_count() or 1
+    share = threads_per_worker(workers, cpus)
+    over = []
+    for var in SOLVER_THREAD_VARS:
+        try:
+            n = int(os.environ.get(var, ""))
+        except ValueError:  # unset or not a count: the runner's share, or numba's own refusal
+            continue
+        if n > share and n * workers > cpus:
+            over.append(f"{var}={n}")
+    if not over:
+        return None
+    verb, it = ("is", "it") if len(over) == 1 else ("are", "them")
+    return (
+        f"psdesign: warning: {' and '.join(over)} {verb} kept in each of {workers} workers: more "
+        f"threads than the {cpus} CPUs (unset {it} to share the CPUs out, {share} per worker)"
+    )
+
+
 def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]) -> None:
     """Run payloads on a spawn-based ProcessPoolExecutor.
 
@@ -219,6 +269,9 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
     two breaks is then run alone in its own one-worker pool, and recorded as failed only if it
     breaks that pool too, so innocent queued cases are never blamed.
     """
+    line = oversubscribed(min(workers, len(payloads)))
+    if line:
+        print(line, file=sys.stderr)
     normal = list(payloads)
     isolate: list[dict] = []
     breaks: dict[str, int] = {}
@@ -848,8 +901,10 @@ def run_study(
     if not isinstance(study, Study):  # a case function of the user's: no route planned
         study = load_study(study, opts.case_fn)
     cases = expand_design(study)
-    if runs_pipeline(opts.case_fn):
-        validate_case_specs(cases, study.solver, study.outputs)
+    if runs_pipeline(opts.case_fn):  # each case held to its worker's share of the memory
+        at_once = concurrent_cases(opts.workers, opts.scheduler, len(cases))
+        with concurrent_workers(at_once, workers_option(out_option)):
+            validate_case_specs(cases, study.solver, study.outputs)
     _check_case_fn_for_timeout(opts.case_fn, _timeout(opts, study))
     option, force_option = out_option
     target = check_study_dir(
