@@ -794,10 +794,13 @@ def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) ->
     """Refuse a lattice step giving more than ``limit`` cells in the box."""
     n = math.prod(grid_shape(size, step))
     if not n <= limit:
+        least = step * (n / limit) ** (1 / 3) if math.isfinite(n) else math.inf
+        while math.isfinite(least) and math.prod(grid_shape(size, round_up(least))) > limit:
+            least *= 1.001  # grid_shape rounds the cells to the nearest (session 54)
         raise fail(
             key,
             f"{step:g} m gives {n:.3g} cells",
-            f"at most {limit:.0e} cells, step >= {step * (n / limit) ** (1 / 3):.3g} m",
+            f"at most {limit:.0e} cells, step >= {round_up(least):.3g} m",
         )
 
 
@@ -805,7 +808,10 @@ def check_copies(size: tuple[float, ...], period: float) -> None:
     """Refuse a period so small that every fiber has too many periodic copies."""
     copies = math.prod(s / period + 1.0 for s in size)
     if not copies <= MAX_COPIES:
-        lo = max(size) / (MAX_COPIES ** (1 / 3) - 1.0)
+        # rounded up: printed at :.3g, 1.11e-4 m for a 1 mm cube gave 1000.1 copies (session 54)
+        lo = round_up(max(size) / (MAX_COPIES ** (1 / 3) - 1.0))
+        while math.prod(s / lo + 1.0 for s in size) > MAX_COPIES:
+            lo = round_up(lo * 1.001)
         raise fail(
             "rve.period",
             f"gives about {copies:.3g} periodic copies of every fiber in the box",

@@ -161,3 +161,29 @@ def test_voxel_solve_line_is_not_below_the_process_peak(monkeypatch):
     for n, peak in VOXEL_PEAK_GB.items():
         announce_voxel_solve("z", (n, n, n))
         assert 1.0 <= said[-1] / peak <= 1.3, (n, said[-1], peak)
+
+
+@pytest.mark.parametrize(
+    "size", [(1e-3,) * 3, (7.77e-4,) * 3, (3.3e-4, 2.1e-4, 5e-4)], ids=["1mm", "777um", "box"]
+)
+def test_allowed_step_and_period_are_accepted(size):
+    """``flow.lattice_step``'s and ``rve.period``'s printed bounds, fed back, are accepted
+    (session 54: a 1 mm cube printed "step >= 2.71e-06 m" and "period >= 0.000111 m", both
+    refused again: the cube root ignored the grid's rounding, :.3g rounded down)."""
+
+    def bound(check, value, word):
+        try:
+            check(value)
+        except Exception as exc:  # noqa: BLE001 - the schema's PydanticCustomError
+            return float(re.search(word + r" >= ([0-9.e+-]+) m", exc.context["allowed"]).group(1))
+        return None
+
+    def cells(step):
+        budget.check_cells("flow.lattice_step", size, step, budget.MAX_LATTICE_CELLS)
+
+    def copies(period):
+        budget.check_copies(size, period)
+
+    for check, value, word in ((cells, 1e-7, "step"), (copies, 1e-6, "period")):
+        least = bound(check, value, word)
+        assert least is not None and bound(check, least, word) is None, (word, least)
