@@ -23,7 +23,8 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
   memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`, 2100 with
-  `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil). A permeameter
+  `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil; in a study or
+  `rev` with several local workers, each case within its worker's share). A permeameter
   (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
   (`"auto"` counts the copies it will stack first where the spec tells: explicit fibers or an
   image along the direction solved (their analytic end planes, the image's voxel seam: the test
