@@ -141,10 +141,18 @@ def _workers_share(run_kw: dict, n_cases: int):
     from psdesign.study.options import RunOptions
     from psdesign.study.runner import concurrent_cases, workers_option
 
-    opts = run_kw.get("options") or RunOptions()
+    opts = run_kw.get("options")
+    out_option = run_kw.get("out_option", ("out_dir", None))
+    well_formed = (
+        isinstance(out_option, tuple | list) and out_option and isinstance(out_option[0], str)
+    )
+    if not (isinstance(opts, RunOptions | None) and well_formed):
+        # run_study refuses them with its one line (a TypeError / AttributeError here, s54)
+        return contextlib.nullcontext()
+    opts = opts or RunOptions()
     workers = run_kw.get("workers", opts.workers)
     scheduler = run_kw.get("scheduler", opts.scheduler)
-    option = workers_option(run_kw.get("out_option", ("out_dir", None)))
+    option = workers_option(out_option)
     return concurrent_workers(concurrent_cases(workers, scheduler, n_cases), option)
 
 
