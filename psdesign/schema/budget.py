@@ -29,7 +29,8 @@ Every check raises a schema error naming the key and the estimate. Figures:
   plans once the RVE is built is checked the same way before it is meshed or solved
   (:func:`check_planned_stack`); each refusal names the route's resolution key;
 * the budget is half the machine's memory (``psutil.virtual_memory().total``), of which each
-  of a run's concurrent local workers gets its share on the voxel and transport routes
+  of a run's concurrent local workers gets its share on the voxel and transport routes, up
+  front and while its case runs, each process's fixed load counted once
   (:func:`memory_budget`, :func:`concurrent_workers`). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
@@ -167,29 +168,77 @@ def concurrent_workers(n: int, option: str = "workers") -> Iterator[None]:
         _CONCURRENT.reset(token)
 
 
-def memory_budget() -> float:
-    """Bytes one case may use: :data:`MEMORY_FRACTION` of the machine over the processes that
-    run at once (:func:`concurrent_workers`; 1 outside a study run)."""
-    return MEMORY_FRACTION * machine_memory() / _CONCURRENT.get()[0]
+def workers_at_once() -> tuple[int, str]:
+    """``(n, option)`` of the innermost :func:`concurrent_workers` (``(1, "workers")``
+    outside one): what a run sends each case so that it is held to its share while it runs."""
+    return _CONCURRENT.get()
 
 
-def budget_words() -> str:
-    """How a refusal names the budget: ``"half the machine"``, or shared by the workers."""
-    n, option = _CONCURRENT.get()
+def memory_budget(counts_process: bool = False, n: int | None = None) -> float:
+    """Bytes one case may use: :data:`MEMORY_FRACTION` of the machine shared by the ``n``
+    processes that run at once (default: :func:`concurrent_workers`'; 1 outside a study run).
+
+    One rule for every route: each process's fixed load (:data:`PROCESS_FIXED_BYTES`) is
+    counted once. ``counts_process``: the route's estimate counts its own (transport,
+    :func:`grid_bytes`), so the share is ``B / n``; else (the voxel route, whose one process
+    was never charged it: the machine's other half holds it, small CI machines unchanged) the
+    other ``n - 1`` processes' are taken off first, ``(B - (n - 1) F) / n``. Until session
+    54's review the voxel share was ``B / n``: 8 workers on 4 GiB could reach B + 8 F.
+
+    >>> with concurrent_workers(1):
+    ...     memory_budget() == memory_budget(True) == MEMORY_FRACTION * machine_memory()
+    True
+    """
+    if n is None:
+        n = _CONCURRENT.get()[0]
+    whole = MEMORY_FRACTION * machine_memory()
+    if counts_process or n == 1:
+        return whole / n
+    return max(0.0, whole - (n - 1) * PROCESS_FIXED_BYTES) / n
+
+
+def most_workers(need: float, counts_process: bool = False) -> int:
+    """The most processes at once whose shares (:func:`memory_budget`) each hold ``need``
+    bytes (0: not even one).
+
+    >>> most_workers(0.25 * MEMORY_FRACTION * machine_memory(), True)
+    4
+    """
+    if need <= 0:
+        return MAX_CASES
+    whole = MEMORY_FRACTION * machine_memory()
+    if counts_process:
+        return int(whole // need)
+    # n need + (n - 1) F <= B, with one process allowed the whole budget
+    return int((whole + PROCESS_FIXED_BYTES) // (need + PROCESS_FIXED_BYTES))
+
+
+def workers_flag(n: int) -> str:
+    """``--workers n`` or ``workers=n``, as the run's option is spelled."""
+    option = _CONCURRENT.get()[1]
+    return f"--workers {n}" if option.startswith("-") else f"{option}={n}"
+
+
+def budget_words(counts_process: bool = False) -> str:
+    """How a refusal names the budget (:func:`memory_budget`): ``"half the machine"``, or
+    shared by the workers at once (the user's ``--workers`` value is not spelled: a 2-case
+    study of ``--workers 4`` runs 2 at once, and the refusal said "--workers 2", session 54's
+    review), less the other workers' fixed loads where the route does not count its own."""
+    n = _CONCURRENT.get()[0]
     if n == 1:
         return "half the machine"
-    spelled = f"--workers {n}" if option.startswith("-") else f"{option}={n}"
-    return f"half the machine shared by {n} workers at once, {spelled}"
+    less = "" if counts_process else f" less {PROCESS_FIXED_BYTES / 1e9:g} GB per other worker"
+    return f"half the machine{less} shared by {n} workers at once"
 
 
-def fewer_workers(need: float) -> str:
+def fewer_workers(need: float, counts_process: bool = False) -> str:
     """``", or --workers 1"``: the most workers whose shares each fit ``need`` bytes, when
     fewer than the run's would (``""`` outside a multi-worker run or when none would)."""
-    n, option = _CONCURRENT.get()
-    most = int(MEMORY_FRACTION * machine_memory() // need) if need > 0 else n
+    n = _CONCURRENT.get()[0]
+    most = most_workers(need, counts_process)
     if n == 1 or not 1 <= most < n:
         return ""
-    return f", or {f'--workers {most}' if option.startswith('-') else f'{option}={most}'}"
+    return f", or {workers_flag(most)}"
 
 
 def machine_memory() -> float:
@@ -447,8 +496,9 @@ def check_grid(
             return grid_bytes(grid, "geometry") + diffuse_memory_bytes(grid)
         return grid_bytes(grid, solver, stacked, solve_of(flow, aux))
 
+    transport = solver == "transport"  # its estimate counts its process's fixed load
     need = need_of(shape)
-    budget = memory_budget()
+    budget = memory_budget(transport)
     if need <= budget:
         if solver == "voxel":
             _check_voxel_cap(shape, flow, key)
@@ -456,30 +506,49 @@ def check_grid(
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
     single = need_of(shape, 1)
     counted = counts or _counted(solver, flow, aux)
+    words = f"the budget is {budget / 2**30:.3g} GiB ({budget_words(transport)})"
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
             f"{copies} copies of the {dims} grid stacked in the permeameter ({counted}) "
-            f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
-            f"is {budget / 2**30:.3g} GiB ({budget_words()})",
-            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}{fewer_workers(need)}",
+            f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; {words}",
+            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}{fewer_workers(need, transport)}",
             names=(key, "flow.bc"),
         )
-    fixed = PROCESS_FIXED_BYTES if solver == "transport" else 0.0  # the process's, once
+    fixed = PROCESS_FIXED_BYTES if transport else 0.0  # the process's, once
     per = (need - fixed) / n
-    least = least_voxel(size, voxel, need_of, budget)
-    allowed = f"voxel >= {least:.3g} m" if math.isfinite(least) else "more memory: no grid fits"
-    if key == "image.crop":  # an image's voxel is fixed: the crop is what the user can change
-        most = max(0.0, budget - fixed) / per
-        allowed = f"a crop of at most {most:.3g} voxels (about {int(most ** (1 / 3))}^3)"
+    allowed = _grid_advice(size, voxel, need_of, key, per, transport)
     raise fail(
         key,
         f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each {counted}"
         f"{f', {copies} copies stacked' if copies > 1 else ''}"
         f"{f', and {fixed / 1e9:.3g} GB for the process' if fixed else ''}) needs about "
-        f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB ({budget_words()})",
-        allowed + fewer_workers(need),
+        f"{need / 2**30:.3g} GiB; {words}",
+        allowed if allowed.startswith("at most") else allowed + fewer_workers(need, transport),
     )
+
+
+def _grid_advice(
+    size: tuple[float, ...], voxel: float, need_of: Callable, key: str, per: float, transport: bool
+) -> str:
+    """:func:`check_grid`'s allowed values: the least voxel (an image's largest crop) within a
+    worker's share; where not even one voxel fits it (a transport process's fixed load over
+    the share), the most workers at once that leave room, with the voxel or crop at their
+    share (it said "a crop of at most 0 voxels" / "no grid fits", session 54's review)."""
+    budget, prefix = memory_budget(transport), ""
+    if need_of([1.0] * len(size)) > budget:
+        most = most_workers(need_of([1.0] * len(size)), transport)
+        if most < 1:
+            return "more memory: no grid fits"
+        budget = memory_budget(transport, most)
+        plural = "s" if most > 1 else ""
+        prefix = f"at most {most} worker{plural} at once ({workers_flag(most)}), with "
+    if key == "image.crop":  # an image's voxel is fixed: the crop is what the user can change
+        fixed = PROCESS_FIXED_BYTES if transport else 0.0
+        most_voxels = round_down(max(0.0, budget - fixed) / per)  # per: the grid's B a voxel
+        cube = int(most_voxels ** (1 / 3))
+        return f"{prefix}a crop of at most {most_voxels:.3g} voxels (about {cube}^3)"
+    return f"{prefix}voxel >= {least_voxel(size, voxel, need_of, budget):.3g} m"
 
 
 def round_up(x: float, digits: int = 3) -> float:
@@ -496,6 +565,23 @@ def round_up(x: float, digits: int = 3) -> float:
         step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
         up = float(f"{up + step:.{digits}g}")
     return up
+
+
+def round_down(x: float, digits: int = 3) -> float:
+    """``x`` rounded down to ``digits`` significant digits: an upper bound printed with
+    ``:.3g`` stays one (``period <= 0.0334 m`` for 100 x 3.337e-4 m was refused when fed
+    back, session 54's review).
+
+    >>> round_down(0.03337), round_down(1.5e-6), round_down(0.0)
+    (0.0333, 1.5e-06, 0.0)
+    """
+    if not (math.isfinite(x) and x > 0):
+        return x
+    down = float(f"{x:.{digits}g}")
+    if down > x:
+        step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+        down = float(f"{down - step:.{digits}g}")
+    return down
 
 
 def least_voxel(
@@ -821,7 +907,7 @@ def check_copies(size: tuple[float, ...], period: float) -> None:
         raise fail(
             "rve.period",
             f"{period:g} m is over 100 x the largest edge",
-            f"period <= {100 * max(size):.3g} m",
+            f"period <= {round_down(100 * max(size)):.3g} m",
         )
 
 

@@ -31,9 +31,12 @@ GRID = [100.0] * 3  # BASE: 100 um at 1 um
 
 
 def _machine_for(monkeypatch, times: float) -> float:
-    """Set the machine so that one process's budget is ``times`` one BASE case's voxel need."""
+    """Set the machine so that 2 workers' shares are each ``times / 2`` one BASE case's voxel
+    need (the second worker's fixed load taken off, ``budget.memory_budget``): one process's
+    budget is ``times`` the need plus that fixed load."""
     need = budget.grid_bytes(GRID, "voxel")
-    monkeypatch.setattr(budget, "machine_memory", lambda: times * need / budget.MEMORY_FRACTION)
+    whole = times * need + budget.PROCESS_FIXED_BYTES
+    monkeypatch.setattr(budget, "machine_memory", lambda: whole / budget.MEMORY_FRACTION)
     return need
 
 
@@ -50,7 +53,7 @@ def test_two_workers_are_held_to_their_share(tmp_path, monkeypatch):
     with pytest.raises(StudyError) as err:
         run_study(p, out, workers=2, progress=False, report=False)
     msg = str(err.value)
-    assert "rve.voxel" in msg and "2 workers at once, workers=2" in msg, msg
+    assert "rve.voxel" in msg and "shared by 2 workers at once)" in msg, msg
     assert msg.endswith(", or workers=1)"), msg
     assert "\n" not in msg and not out.exists()  # one line, no folder
     study = load_study(p)
@@ -69,7 +72,9 @@ def test_rev_workers_share_names_sizes(tmp_path, monkeypatch):
     _machine_for(monkeypatch, 1.5)
     spec = tmp_path / "s.toml"
     spec.write_text(BASE.replace("[base.", "["))
-    with pytest.raises(ValueError, match=r"sizes: at 0.0001 m, rve.voxel: .*workers=2"):
+    with pytest.raises(
+        ValueError, match=r"sizes: at 0.0001 m, rve.voxel: .*2 workers at once.*workers=1"
+    ):
         rev_study(spec, [100e-6], 2, tmp_path / "rv", workers=2, progress=False)
     assert not (tmp_path / "rv").exists()
 
@@ -187,3 +192,199 @@ def test_allowed_step_and_period_are_accepted(size):
     for check, value, word in ((cells, 1e-7, "step"), (copies, 1e-6, "period")):
         least = bound(check, value, word)
         assert least is not None and bound(check, least, word) is None, (word, least)
+
+
+# ---------------------------------------------------------------- session 54 review (round 2)
+
+
+def test_a_case_is_held_to_its_share_while_it_runs(monkeypatch):
+    """The payload carries the run's workers at once; the case runs inside that share
+    (the worker started at 1 and an "auto" permeameter's longer stack was checked against
+    the whole machine in each of N workers), and the restack check uses it. Truth: the
+    share's closed form (B - F) / 2 and the restack estimate of the same grid."""
+    from types import SimpleNamespace
+
+    from psdesign.flow.permeability import _restack_refusal
+    from psdesign.study import runner
+    from psdesign.study.worker import run_case_inline
+
+    seen = []
+
+    def case_fn(spec, outputs, solver, workdir):
+        seen.append((budget.workers_at_once(), budget.memory_budget()))
+        return {}
+
+    monkeypatch.setattr(budget, "machine_memory", lambda: 8 * 2**30)
+    whole = 4 * 2**30
+    run_case_inline({"case_fn": case_fn, "spec": {}, "outputs": [], "solver": None,
+                     "at_once": 2, "workers_option": "--workers"}, Path("."))  # fmt: skip
+    assert seen[-1][0] == (2, "--workers")
+    assert seen[-1][1] == pytest.approx((whole - budget.PROCESS_FIXED_BYTES) / 2)
+    run_case_inline({"case_fn": case_fn, "spec": {}, "outputs": [], "solver": None}, Path("."))
+    assert seen[-1] == ((1, "workers"), whole)  # an old payload: one process, as before
+    # the payloads a run sends carry the share it was checked at
+    study = SimpleNamespace(outputs=["porosity"], solver="voxel")
+    store = SimpleNamespace(workdir=lambda c: Path("w") / c, out=Path("o"))
+    case = SimpleNamespace(case_id="c0", spec={})
+    with budget.concurrent_workers(3, "--workers"):
+        (p,) = runner._payloads(study, [case], store, {"c0": "c0"}, "m:f", None)
+    assert (p["at_once"], p["workers_option"]) == (3, "--workers")
+    # a restack that fits the machine's budget but not a worker's share is stopped
+    res = {"solver": "voxel", "direction": "z"}
+    n = 190
+    fields = SimpleNamespace(grid=SimpleNamespace(shape=(n, n, n)))
+    need = budget.restack_bytes(res, 3, [float(n)] * 3, 0.2)
+    assert (whole - budget.PROCESS_FIXED_BYTES) / 2 < need < whole  # the premise
+    assert _restack_refusal(res, 3, fields, {"aux_length": 0.2}) == (None, None)
+    with budget.concurrent_workers(2):
+        why, reason = _restack_refusal(res, 3, fields, {"aux_length": 0.2})
+    assert why == "budget" and "shared by 2 workers at once" in reason, reason
+
+
+def test_rev_bad_run_keywords_are_one_line_study_errors(tmp_path):
+    """``out_option=None`` and ``options={"workers": 2}`` are refused with run_study's own
+    line (a TypeError and an AttributeError from the share's set-up, session 54's review)."""
+    from psdesign.analysis.rev import rev_study
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(BASE.replace("[base.", "["))
+    with pytest.raises(StudyError, match=r"^out_option: must be a pair"):
+        rev_study(spec, [1e-4], 2, tmp_path / "a", out_option=None, progress=False)
+    with pytest.raises(StudyError, match=r"^options: must be a psdesign.study.RunOptions"):
+        rev_study(spec, [1e-4], 2, tmp_path / "b", options={"workers": 2}, progress=False)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_refusal_does_not_spell_a_worker_count_the_user_did_not_type(tmp_path, monkeypatch):
+    """``--workers 4`` on a 2-case study runs 2 at once: the refusal said "--workers 2"."""
+    _machine_for(monkeypatch, 1.5)
+    p = write_study(tmp_path, TWO, TWO_PARAMS)
+    with pytest.raises(StudyError) as err:
+        run_study(p, tmp_path / "o", workers=4, out_option=("-o", "--force"), progress=False)
+    msg = str(err.value)
+    assert "shared by 2 workers at once)" in msg and "--workers 2" not in msg, msg
+    assert msg.endswith(", or --workers 1)"), msg
+
+
+@pytest.mark.parametrize("gib", [4.0, 23.5])
+@pytest.mark.parametrize("n", [1, 2, 8])
+def test_every_process_fixed_load_is_counted_once(monkeypatch, gib, n):
+    """n workers at their share hold at most the budget plus the one fixed load a single
+    voxel process was never charged (the voxel route's share was B / n: 8 workers on 4 GiB
+    could reach B + 8 F), and exactly the budget on the transport route, which counts its
+    own; one process is unchanged (B). Truth: the sum over the n processes."""
+    monkeypatch.setattr(budget, "machine_memory", lambda: gib * 2**30)
+    whole, fixed = budget.MEMORY_FRACTION * gib * 2**30, budget.PROCESS_FIXED_BYTES
+    with budget.concurrent_workers(n):
+        voxel, transport = budget.memory_budget(), budget.memory_budget(True)
+    if voxel == 0.0:  # the other workers' fixed loads alone fill it: nothing fits a share
+        assert (n - 1) * fixed >= whole
+        return
+    assert n * (voxel + fixed) == pytest.approx(whole + fixed)
+    assert n * transport == pytest.approx(whole)  # its need has F in it
+    if n == 1:
+        assert voxel == transport == whole
+    # the check uses it: a grid at the share fits, one a tenth over is refused
+    per = budget.grid_bytes([100] * 3, "voxel") / 1e6
+    edge = (voxel / per) ** (1 / 3)
+    with budget.concurrent_workers(n):
+        budget.check_grid((0.95 * edge * 1e-6,) * 3, 1e-6, "voxel")
+        with pytest.raises(Exception, match="needs about"):
+            budget.check_grid((1.05 * edge * 1e-6,) * 3, 1e-6, "voxel")
+
+
+@pytest.mark.parametrize("key", ["rve.voxel", "image.crop"])
+def test_no_voxel_fits_a_share_names_the_workers_that_leave_room(monkeypatch, key):
+    """1 GiB, 2 transport workers: each share (0.27 GB) is under one process's fixed load
+    (0.35 GB); the refusal said "a crop of at most 0 voxels" / "more memory: no grid fits".
+    It names the most workers that leave room and the voxel (crop) at their share, accepted
+    when fed back."""
+    monkeypatch.setattr(budget, "machine_memory", lambda: 2**30)
+    size = (200e-6,) * 3
+    with budget.concurrent_workers(2, "--workers"), pytest.raises(Exception) as err:
+        budget.check_grid(size, 1e-6, "transport", key)
+    allowed = err.value.context["allowed"]
+    assert allowed.startswith("at most 1 worker at once (--workers 1), with "), allowed
+    assert " 0 voxels" not in allowed and "no grid" not in allowed
+    if key == "rve.voxel":
+        v = float(re.search(r"voxel >= ([0-9.e+-]+) m", allowed).group(1))
+        budget.check_grid(size, v, "transport", key)  # one worker: accepted
+    else:
+        cube = int(re.search(r"about (\d+)\^3", allowed).group(1))
+        edge = cube * 1e-6
+        budget.check_grid((edge,) * 3, 1e-6, "transport", key)
+    # a machine under one fixed load: nothing fits, said so
+    monkeypatch.setattr(budget, "machine_memory", lambda: 0.5e9)
+    with budget.concurrent_workers(2), pytest.raises(Exception) as err:
+        budget.check_grid(size, 1e-6, "transport", key)
+    assert err.value.context["allowed"].startswith("more memory: no grid fits")
+
+
+def test_optimize_rounds_share_the_first_rounds_workers(tmp_path, monkeypatch, capsys):
+    """Inside one_share (study optimize's rounds) the workers at once are the first run's,
+    over its pending cases (finished ones hold no memory), and the thread warning prints
+    once (round 2 counted all 6 cases of --workers 8: a case accepted in round 1 could be
+    refused; the warning repeated each round)."""
+    from types import SimpleNamespace
+
+    from psdesign.study import runner
+    from psdesign.study.options import RunOptions
+
+    opts = RunOptions(workers=8)
+    cases = [SimpleNamespace(case_id=f"c{i}", seed=1, params={}) for i in range(6)]
+    monkeypatch.setattr(runner, "match_finished", lambda cs, loaded: {k: k for k in loaded})
+    store = tmp_path / "cases"
+    store.mkdir()
+    for i in range(4):  # four finished cases in the folder: two pending
+        (store / f"c{i}.json").write_text(f'{{"case_id": "c{i}", "status": "ok"}}')
+    assert runner._at_once(opts, cases, tmp_path) == 2
+    assert runner._at_once(opts, cases, tmp_path / "new") == 6
+    with runner.one_share():
+        assert runner._at_once(opts, cases[:4], tmp_path / "new") == 4
+        assert runner._at_once(opts, cases, tmp_path / "new") == 4  # the first round's
+        assert [runner._warn_once() for _ in range(3)] == [True, False, False]
+    assert runner._warn_once()  # outside: every run warns
+
+
+def test_printed_upper_bounds_are_accepted_when_fed_back():
+    """``rve.period <= X`` was rounded to nearest (0.0334 for 100 x 3.337e-4, refused);
+    ``intersections.step >= X`` printed with :g (3.33333e-08 for 3.3333337e-08, refused)."""
+    from psdesign.schema.spec import validate_spec
+
+    size = (3.337e-4,) * 3
+    with pytest.raises(Exception) as err:
+        budget.check_copies(size, 1.0)
+    top = float(re.search(r"period <= ([0-9.e+-]+) m", err.value.context["allowed"]).group(1))
+    budget.check_copies(size, top)
+    assert budget.round_down(0.03337) == 0.0333 and budget.round_down(9.999e-6) == 9.99e-6
+
+    def step_bound(step):
+        spec = {
+            "rve": {"size": [3.3333337e-4] * 3, "voxel": 1e-5},
+            "generator": {"porosity": 0.9, "diameter": 2e-5},
+            "intersections": {"method": "fast", "step": step},
+        }
+        try:
+            validate_spec(spec)
+        except Exception as exc:  # noqa: BLE001 - the spec's one-line error
+            m = re.search(r"intersections.step: .*allowed: >= ([0-9.e+-]+) m", str(exc))
+            assert m, str(exc)
+            return float(m.group(1))
+        return None
+
+    least = step_bound(1e-9)
+    assert least is not None and step_bound(least) is None
+
+
+def test_spec_keys_figures_come_from_the_constants(monkeypatch):
+    """docs/spec-keys.md's transport figures are the budget's constants (130 B per voxel and
+    0.35 GB were written into the text beside the substituted voxel figure)."""
+    from psdesign.schema import docs
+
+    text = docs.render()
+    per = budget.TRANSPORT_BYTES_PER_VOXEL + budget.GEOMETRY_BYTES_PER_VOXEL
+    assert f"transport solve's {per} B per voxel and 0.35 GB" in text
+    monkeypatch.setattr(docs, "PROCESS_FIXED_BYTES", 0.5e9)
+    monkeypatch.setattr(docs, "TRANSPORT_BYTES_PER_VOXEL", 200)
+    assert "transport solve's 216 B per voxel and 0.5 GB" in docs.render()
+    assert (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text() == text
