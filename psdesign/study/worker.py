@@ -162,6 +162,9 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
         "outputs": list(payload["outputs"]),
         "solver": payload["solver"],
         "workdir": str(workdir),
+        # the share the case is held to in the child too (run_case_inline)
+        "at_once": int(payload.get("at_once", 1)),
+        "workers_option": str(payload.get("workers_option", "workers")),
     }
     data = json.dumps(job, default=json_default).encode()
     outp, arrays = result_paths(workdir)

@@ -388,3 +388,25 @@ def test_spec_keys_figures_come_from_the_constants(monkeypatch):
     monkeypatch.setattr(docs, "TRANSPORT_BYTES_PER_VOXEL", 200)
     assert "transport solve's 216 B per voxel and 0.5 GB" in docs.render()
     assert (Path(__file__).resolve().parents[2] / "docs" / "spec-keys.md").read_text() == text
+
+
+def test_a_timed_case_child_runs_in_the_share(tmp_path):
+    """With a time limit the case runs in a child process fed a JSON job: the job carries
+    the share (the child's job check refused the new keys, every timed case failed)."""
+    from psdesign.study.worker import execute_case
+
+    payload = {
+        "case_id": "c0",
+        "spec": {},
+        "outputs": ["porosity"],
+        "solver": "voxel",
+        "workdir": str(tmp_path / "w"),
+        "out_dir": str(tmp_path),
+        "timeout_s": 120.0,
+        "case_fn": "study_cases:share_case",
+        "at_once": 3,
+        "workers_option": "workers",
+    }
+    rec = execute_case(payload)
+    assert rec["status"] == "ok", rec.get("error")
+    assert rec["results"]["at_once"] == 3.0
