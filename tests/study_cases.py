@@ -269,3 +269,10 @@ def rev_case(spec, outputs, solver, workdir):
             out[f"k_{a}_m2"] = 5e-12 * (1.0 + sigma * rng.standard_normal())
             out[f"converged_{a}"] = True
     return out
+
+
+def share_case(spec, outputs, solver, workdir):
+    """The memory share the case runs in (:func:`psdesign.schema.budget.workers_at_once`)."""
+    from psdesign.schema import budget
+
+    return {"porosity": 0.5, "at_once": float(budget.workers_at_once()[0])}

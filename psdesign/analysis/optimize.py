@@ -487,7 +487,7 @@ def optimize_study(
     """
     from scipy.stats import qmc
 
-    from psdesign.study.runner import check_run_keywords, run_study
+    from psdesign.study.runner import check_run_keywords, one_share, run_study
     from psdesign.study.studyfile import load_study
 
     budget, batch, seed = _check_counts(budget, batch, seed)
@@ -511,27 +511,29 @@ def optimize_study(
     space = _box_points(study, b)
     history: list[dict] = []
     rounds = 0
-    while True:
-        rows = [dict(zip(names, p, strict=True)) for p in points]
-        st = dataclasses.replace(study, design="csv", csv_rows=rows, n_samples=None)
-        df = run_study(st, out_dir, report=False, command=OPTIMIZE_COMMAND, **run_kw)
-        rounds += 1
-        ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
-        _check_target_columns(targets, ok, df, study.outputs, target_option)
-        recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
-        best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
-        best_miss = _score(best, targets) if best else math.inf
-        history.append({"round": rounds, "n_points": len(points), "best_miss": best_miss})
-        n = len(points)
-        if best and best_miss == 0.0:
-            msg = f"met every target after {n} design points" + single_seed_note(best, targets)
-            return OptimizeResult(True, best, n, rounds, history, msg, results=df)
-        new: list[list[float]] = []
-        if n < min(budget, space) and len(ok) >= MIN_FIT_CASES:
-            new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
-        if not new:
-            msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
-            msg += _closest_miss(best_miss, targets)
-            msg += seed_scatter_note(ok.to_dict(orient="records"), names, best, targets)
-            return OptimizeResult(False, best, n, rounds, history, msg, failed, df)
-        points.extend(new)
+    # one memory share and one thread warning for all rounds (each round's run recounted)
+    with one_share():
+        while True:
+            rows = [dict(zip(names, p, strict=True)) for p in points]
+            st = dataclasses.replace(study, design="csv", csv_rows=rows, n_samples=None)
+            df = run_study(st, out_dir, report=False, command=OPTIMIZE_COMMAND, **run_kw)
+            rounds += 1
+            ok = trusted(df)  # an untrustworthy K neither wins nor enters the fit
+            _check_target_columns(targets, ok, df, study.outputs, target_option)
+            recs = worst_replicates(ok.to_dict(orient="records"), names, targets)
+            best = min(recs, key=lambda r: _score(r, targets)) if recs else {}
+            best_miss = _score(best, targets) if best else math.inf
+            history.append({"round": rounds, "n_points": len(points), "best_miss": best_miss})
+            n = len(points)
+            if best and best_miss == 0.0:
+                msg = f"met every target after {n} design points" + single_seed_note(best, targets)
+                return OptimizeResult(True, best, n, rounds, history, msg, results=df)
+            new: list[list[float]] = []
+            if n < min(budget, space) and len(ok) >= MIN_FIT_CASES:
+                new = _propose(ok, targets, bounds, points, cands, seen, min(batch, budget - n))
+            if not new:
+                msg, failed = _stop_reason(n, budget, space, ok, df, bool(recs))
+                msg += _closest_miss(best_miss, targets)
+                msg += seed_scatter_note(ok.to_dict(orient="records"), names, best, targets)
+                return OptimizeResult(False, best, n, rounds, history, msg, failed, df)
+            points.extend(new)

@@ -17,6 +17,7 @@ work starts, and the marker lists them once written.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import math
 import numbers
@@ -110,25 +111,49 @@ class RevResult:
     still_changes: str = ""
 
 
-def _check_sizes(spec: dict, rows: list[dict], solver: str, what: str) -> None:
+def _check_sizes(spec: dict, rows: list[dict], solver: str, what: str, share=None) -> None:
     """Validate the spec at each size of ``rows`` (:func:`_rows`), with the solver the cases
     run (``--solver``, not the spec's flow.solver), before any work: an edge outside
     ``rve.size``'s range, or a grid beyond that solver's memory budget at the spec's voxel, is
     refused naming ``what`` (``sizes``, ``--sizes``; the study's own check named
-    ``parameters`` and a case id)."""
+    ``parameters`` and a case id); inside ``share``, the workers' (:func:`_workers_share`)."""
     from psdesign.errors import SpecError
     from psdesign.schema.spec import validate_spec
 
-    for row in rows:
-        sized = copy.deepcopy(spec)
-        sized["rve"]["size"] = [row[f"rve.size.{i}"] for i in range(3)]
-        sized["flow"] = {**sized["flow"], "solver": solver}
-        if "generator.n_fibers" in row:
-            sized["generator"]["n_fibers"] = row["generator.n_fibers"]
-        try:
-            validate_spec(sized)
-        except SpecError as exc:
-            raise SpecError(what, f"at {row['rve.size.0']:g} m, {exc}") from None
+    with share or contextlib.nullcontext():
+        for row in rows:
+            sized = copy.deepcopy(spec)
+            sized["rve"]["size"] = [row[f"rve.size.{i}"] for i in range(3)]
+            sized["flow"] = {**sized["flow"], "solver": solver}
+            if "generator.n_fibers" in row:
+                sized["generator"]["n_fibers"] = row["generator.n_fibers"]
+            try:
+                validate_spec(sized)
+            except SpecError as exc:
+                raise SpecError(what, f"at {row['rve.size.0']:g} m, {exc}") from None
+
+
+def _workers_share(run_kw: dict, n_cases: int):
+    """The sizes' checks at one worker's share of the memory, as the run's own check of its
+    cases (:func:`psdesign.study.runner.concurrent_cases`): ``--workers 2`` of two 10.5 GiB
+    cases was accepted against one process's 11.8 GiB budget until session 54."""
+    from psdesign.schema.budget import concurrent_workers
+    from psdesign.study.options import RunOptions
+    from psdesign.study.runner import concurrent_cases, workers_option
+
+    opts = run_kw.get("options")
+    out_option = run_kw.get("out_option", ("out_dir", None))
+    well_formed = (
+        isinstance(out_option, tuple | list) and out_option and isinstance(out_option[0], str)
+    )
+    if not (isinstance(opts, RunOptions | None) and well_formed):
+        # run_study refuses them with its one line (a TypeError / AttributeError here, s54)
+        return contextlib.nullcontext()
+    opts = opts or RunOptions()
+    workers = run_kw.get("workers", opts.workers)
+    scheduler = run_kw.get("scheduler", opts.scheduler)
+    option = workers_option(out_option)
+    return concurrent_workers(concurrent_cases(workers, scheduler, n_cases), option)
 
 
 def _rows(spec: dict, sizes: list[float]) -> list[dict]:
@@ -244,7 +269,7 @@ def rev_study(
     if "generator" not in spec:
         raise ValueError("generator: the REV check needs a [generator] (random fibers) spec")
     rows = _rows(spec, sorted(sizes))
-    _check_sizes(spec, rows, solver, names["sizes"])
+    _check_sizes(spec, rows, solver, names["sizes"], _workers_share(run_kw, len(rows) * seeds))
     params = {
         k: ParamSpec(path=k, kind="values", values=tuple(r[k] for r in rows)) for k in rows[0]
     }

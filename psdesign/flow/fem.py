@@ -52,7 +52,7 @@ from psdesign.meshing.options import (
     mesher_options,  # noqa: F401 (moved; re-exported)
     thinnest_fiber_diameter,
 )
-from psdesign.schema.budget import check_planned_stack
+from psdesign.schema.budget import check_planned_stack, round_up
 from psdesign.schema.flow import BC_MODELS as SCHEMA_BC_MODELS
 from psdesign.schema.flow import FLOW_TOL, check_solver_bc, coarser_advice, resolution_key
 from solvers.fem.memory import ESTIMATE_VERB, MemoryLimitError
@@ -387,7 +387,8 @@ def memory_error(
     return SpecError(
         "flow.max_memory_gb",
         f"the FEM solve of {len(mesh.tets)} tets {ESTIMATE_VERB} about {exc.estimate_gb:.3g} GB, "
-        f"over {limit} ({exc.limit_gb:.3g} GB) (allowed: >= {exc.estimate_gb:.3g} GB, or {advice})",
+        f"over {limit} ({exc.limit_gb:.3g} GB) (allowed: >= {round_up(exc.estimate_gb):.3g} GB, "
+        f"or {advice})",
     )
 
 

@@ -329,6 +329,7 @@ def _diffuse_closed(name: str, h: float, rve, shape, axis: int) -> str:
     across it."""
     from psdesign.flow.diffuse import half_gap
     from psdesign.geometry.throat import percolation_radius
+    from psdesign.schema.budget import round_down
 
     field = half_gap(rve, shape, h)
     tol = R_TOL
@@ -341,6 +342,7 @@ def _diffuse_closed(name: str, h: float, rve, shape, axis: int) -> str:
         f"rve.voxel: the diffuse wall closes the pore path along {name} on the {h:.3g} m grid, "
         f"which has it open: its narrowest gap is {gap:.3g} voxels ({gap * h:.3g} m) and the "
         "two walls' layers leave no cell with fluid fraction >= 1/2 across a gap under about 2 "
-        f"voxels (allowed: rve.voxel <= {gap * h / DIFFUSE_GAP:.3g} m, {DIFFUSE_GAP:g} voxels "
-        "across the gap, or flow.wall_treatment = 'subvoxel', which keeps it open)"
+        f"voxels (allowed: rve.voxel <= {round_down(gap * h / DIFFUSE_GAP):.3g} m, "
+        f"{DIFFUSE_GAP:g} voxels across the gap, or flow.wall_treatment = 'subvoxel', which "
+        "keeps it open)"
     )

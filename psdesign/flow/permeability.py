@@ -563,18 +563,19 @@ def _longer_flow(flow: dict, res: dict, copies: int) -> dict:
 
 def _restack_refusal(res: dict, copies: int, fields: VoxelFields, flow: dict) -> tuple:
     """``(why, reason)`` when ``copies`` stacked do not fit (:func:`~psdesign.schema.budget.
-    restack_bytes` over half the machine, or not :func:`~psdesign.schema.budget.fits_cap`
-    ``flow.max_memory_gb``, the rule of every up-front cap check), else ``(None, None)``."""
+    restack_bytes` over :func:`~psdesign.schema.budget.memory_budget`, a study worker's share,
+    or not :func:`~psdesign.schema.budget.fits_cap` ``flow.max_memory_gb``, the rule of every
+    up-front cap check), else ``(None, None)``."""
     from psdesign.schema import budget
 
     shape = [float(n) for n in fields.grid.shape]
     need = budget.restack_bytes(res, copies, shape, float(flow.get("aux_length", 0.2)))
-    limit = budget.MEMORY_FRACTION * budget.machine_memory()
+    limit = budget.memory_budget()  # a study worker's share (the whole in each of N, s54)
     cap = flow.get("max_memory_gb")
     if need > limit:
         return "budget", (
             f"{copies} would need about {need / 2**30:.3g} GiB; the budget is "
-            f"{limit / 2**30:.3g} GiB, half the machine"
+            f"{limit / 2**30:.3g} GiB, {budget.budget_words()}"
         )
     if not budget.fits_cap(cap, need):
         # the FEM solve refused it after the first solve's work (exit 2, no K); the voxel

@@ -33,7 +33,8 @@ def announce_voxel_solve(
     name: str, shape: Sequence[int], diffuse_images: int | None = None
 ) -> None:
     """Print ``voxel solve <name> (<cells> cells): estimated ~<t>, ~<m> GB`` for a solve whose
-    grid has ``shape`` (the solved grid, :func:`solvers.voxel_stokes.solved_shape`).
+    grid has ``shape`` (the solved grid, :func:`solvers.voxel_stokes.solved_shape`); ``<m>`` is
+    the process's peak (:data:`psdesign.schema.budget.PROCESS_FIXED_BYTES` with the grid's).
 
     Parameters
     ----------
@@ -50,14 +51,21 @@ def announce_voxel_solve(
     import numba
 
     from psdesign import progress
-    from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
+    from psdesign.schema.budget import (
+        GEOMETRY_BYTES_PER_VOXEL,
+        PROCESS_FIXED_BYTES,
+        VOXEL_SOLVER_BYTES_PER_VOXEL,
+    )
 
     cells = math.prod(int(n) for n in shape)
     rate = VOXEL_SECONDS_PER_CELL[1 if numba.get_num_threads() == 1 else 2]
-    need = VOXEL_SOLVER_BYTES_PER_VOXEL * cells
+    # the process's peak, not the solver's alone: 0.03 GB was printed for a 64^3 solve whose
+    # process peaked at 0.37 GB (session 54; now 0.39, and 0.80 for 150^3's measured 0.65)
+    per_cell = VOXEL_SOLVER_BYTES_PER_VOXEL + GEOMETRY_BYTES_PER_VOXEL
+    need = PROCESS_FIXED_BYTES + per_cell * cells
     if diffuse_images is not None:
         from solvers.voxel.diffuse import diffuse_memory_bytes
 
         rate = DIFFUSE_SECONDS_PER_CELL + WALL_SECONDS_PER_CELL_AND_COPY * diffuse_images
-        need = diffuse_memory_bytes(tuple(shape))
+        need = PROCESS_FIXED_BYTES + diffuse_memory_bytes(tuple(shape))
     progress.estimate(f"voxel solve {name} ({cells:.3g} cells)", rate * cells, need / 1e9)

@@ -28,7 +28,10 @@ Every check raises a schema error naming the key and the estimate. Figures:
   stacks (:func:`least_stack_of`); there (a generated RVE) the stack ``"auto"``
   plans once the RVE is built is checked the same way before it is meshed or solved
   (:func:`check_planned_stack`); each refusal names the route's resolution key;
-* the budget is half the machine's memory (``psutil.virtual_memory().total``). A permeameter
+* the budget is half the machine's memory (``psutil.virtual_memory().total``), of which each
+  of a run's concurrent local workers gets its share on the voxel and transport routes, up
+  front and while its case runs, each process's fixed load counted once
+  (:func:`memory_budget`, :func:`concurrent_workers`). A permeameter
   whose ``"auto"`` copies lengthen the sample after the first solve
   (:mod:`psdesign.flow.stack`) checks each longer stack against it before solving
   (:func:`restack_bytes`) and stops, warning with ``flow.permeameter_copies``, where it would not
@@ -38,7 +41,7 @@ Every check raises a schema error naming the key and the estimate. Figures:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 
@@ -72,10 +75,17 @@ DEFAULT_STEP_BUDGET = 9517884902.0
 FIELD_BYTES_PER_VOXEL = 5
 #: Peak bytes per voxel of a transport command (``pores``, ``diffusivity``,
 #: ``conductivity``: the pore scan's distance transforms, the Laplace solve's fields and
-#: multigrid) over the grid's own fields: measured 270 (pores) and 324 (diffusivity) B per
-#: voxel above the import baseline on an 864 k-voxel random RVE (review E, session 52), with
-#: a quarter of margin. Loaded inside :func:`unplanned_route` they were held to 16 B per voxel.
-TRANSPORT_BYTES_PER_VOXEL = 400
+#: multigrid) over the grid's own fields (:data:`GEOMETRY_BYTES_PER_VOXEL`), on top of
+#: :data:`PROCESS_FIXED_BYTES`. Session 54 (mendscale, ``benchmarks/RESULTS.md``): peak RSS at
+#: 64^3, 100^3 and 150^3 (Toray-like, 1 um) rises 91 (pores), 109 (diffusivity) and 118
+#: (conductivity) B per voxel with ~0.31-0.33 GB at zero; the largest, 118, with a tenth to
+#: spare, is 130 with the fields' 16 (estimate / peak 1.10-1.29 measured). Until session 54
+#: 400 + 16 and no fixed term: 4-5x the peak, refusing grids that fit (session 52's 270-324 B
+#: on 864 k voxels had the fixed process load divided into the slope).
+TRANSPORT_BYTES_PER_VOXEL = 114
+#: A psdesign process's memory before its grids: Python, numpy, scipy, numba's LLVM and the
+#: compiled kernels (0.31-0.33 GB measured at zero voxels, session 54), rounded up.
+PROCESS_FIXED_BYTES = 0.35e9
 #: Stuffing mesh per lattice cell of pore (6 Kuhn tets a cell, plus the clipped pieces), rounded
 #: up from 6.2 tets and 1.43 vertices per pore lattice vertex (50 um Toray-like cube, porosity
 #: 0.80, 2 um step, periodic and permeameter meshes alike) and 6.40 tets, 1.36 vertices (random
@@ -156,6 +166,100 @@ def unplanned_route(transport: bool = False) -> Iterator[None]:
 def route_planned() -> bool:
     """False inside :func:`unplanned_route`."""
     return _ROUTE_PLANNED.get()
+
+
+#: Processes of one run on this machine that hold their memory at once (a study's local pool,
+#: ``rev --workers``): each case is held to its share of the budget (:func:`memory_budget`);
+#: with the option's spelling (``--workers`` or ``workers``) for the refusal.
+_CONCURRENT: ContextVar[tuple[int, str]] = ContextVar(
+    "psdesign_concurrent_workers", default=(1, "workers")
+)
+
+
+@contextmanager
+def concurrent_workers(n: int, option: str = "workers") -> Iterator[None]:
+    """Validations inside are for one of ``n`` processes running at once on this machine
+    (:func:`psdesign.study.runner.concurrent_cases`), named ``option`` in a refusal: each
+    grid's budget is the machine's divided by ``n`` (session 54: a 2-worker study of two
+    10.5 GiB cases was accepted against the 11.8 GiB budget of one process)."""
+    token = _CONCURRENT.set((max(1, int(n)), option))
+    try:
+        yield
+    finally:
+        _CONCURRENT.reset(token)
+
+
+def workers_at_once() -> tuple[int, str]:
+    """``(n, option)`` of the innermost :func:`concurrent_workers` (``(1, "workers")``
+    outside one): what a run sends each case so that it is held to its share while it runs."""
+    return _CONCURRENT.get()
+
+
+def memory_budget(counts_process: bool = False, n: int | None = None) -> float:
+    """Bytes one case may use: :data:`MEMORY_FRACTION` of the machine shared by the ``n``
+    processes that run at once (default: :func:`concurrent_workers`'; 1 outside a study run).
+
+    One rule for every route: each process's fixed load (:data:`PROCESS_FIXED_BYTES`) is
+    counted once. ``counts_process``: the route's estimate counts its own (transport,
+    :func:`grid_bytes`), so the share is ``B / n``; else (the voxel route, whose one process
+    was never charged it: the machine's other half holds it, small CI machines unchanged) the
+    other ``n - 1`` processes' are taken off first, ``(B - (n - 1) F) / n``. Until session
+    54's review the voxel share was ``B / n``: 8 workers on 4 GiB could reach B + 8 F.
+
+    >>> with concurrent_workers(1):
+    ...     memory_budget() == memory_budget(True) == MEMORY_FRACTION * machine_memory()
+    True
+    """
+    if n is None:
+        n = _CONCURRENT.get()[0]
+    whole = MEMORY_FRACTION * machine_memory()
+    if counts_process or n == 1:
+        return whole / n
+    return max(0.0, whole - (n - 1) * PROCESS_FIXED_BYTES) / n
+
+
+def most_workers(need: float, counts_process: bool = False) -> int:
+    """The most processes at once whose shares (:func:`memory_budget`) each hold ``need``
+    bytes (0: not even one).
+
+    >>> most_workers(0.25 * MEMORY_FRACTION * machine_memory(), True)
+    4
+    """
+    if need <= 0:
+        return MAX_CASES
+    whole = MEMORY_FRACTION * machine_memory()
+    if counts_process:
+        return int(whole // need)
+    # n need + (n - 1) F <= B, with one process allowed the whole budget
+    return int((whole + PROCESS_FIXED_BYTES) // (need + PROCESS_FIXED_BYTES))
+
+
+def workers_flag(n: int) -> str:
+    """``--workers n`` or ``workers=n``, as the run's option is spelled."""
+    option = _CONCURRENT.get()[1]
+    return f"--workers {n}" if option.startswith("-") else f"{option}={n}"
+
+
+def budget_words(counts_process: bool = False) -> str:
+    """How a refusal names the budget (:func:`memory_budget`): ``"half the machine"``, or
+    shared by the workers at once (the user's ``--workers`` value is not spelled: a 2-case
+    study of ``--workers 4`` runs 2 at once, and the refusal said "--workers 2", session 54's
+    review), less the other workers' fixed loads where the route does not count its own."""
+    n = _CONCURRENT.get()[0]
+    if n == 1:
+        return "half the machine"
+    less = "" if counts_process else f" less {PROCESS_FIXED_BYTES / 1e9:g} GB per other worker"
+    return f"half the machine{less} shared by {n} workers at once"
+
+
+def fewer_workers(need: float, counts_process: bool = False) -> str:
+    """``", or --workers 1"``: the most workers whose shares each fit ``need`` bytes, when
+    fewer than the run's would (``""`` outside a multi-worker run or when none would)."""
+    n = _CONCURRENT.get()[0]
+    most = most_workers(need, counts_process)
+    if n == 1 or not 1 <= most < n:
+        return ""
+    return f", or {workers_flag(most)}"
 
 
 def machine_memory() -> float:
@@ -354,8 +458,8 @@ def grid_bytes(
     (:func:`solve_of`; None: periodic)."""
     n = math.prod(float(s) for s in shape)
     geometry = n * max(GEOMETRY_BYTES_PER_VOXEL, FIELD_BYTES_PER_VOXEL * (1 + copies))
-    if solver == "transport":
-        return geometry + TRANSPORT_BYTES_PER_VOXEL * n
+    if solver == "transport":  # a command's own process: its fixed load counted
+        return PROCESS_FIXED_BYTES + geometry + TRANSPORT_BYTES_PER_VOXEL * n
     if solver != "voxel":
         return geometry
     return geometry + VOXEL_SOLVER_BYTES_PER_VOXEL * solved_cells(shape, copies, **(solve or {}))
@@ -394,7 +498,8 @@ def check_grid(
     counts: str = "",
 ) -> None:
     """Refuse a voxel grid whose estimated memory (the permeameter's stack included,
-    :func:`stack_of`) exceeds the budget; ``flow.permeameter_copies`` is named when one copy
+    :func:`stack_of`) exceeds the budget (:func:`memory_budget`: one worker's share in a
+    multi-worker run); ``flow.permeameter_copies`` is named when one copy
     would fit. Inside :func:`unplanned_route` the grid alone (``solver = "geometry"``).
     ``counts``: what the grid is, for the refusal, when it is no solve's
     (``"for the GA's overlap grid"`` with ``solver = "geometry"``); ``""``: the solve's
@@ -404,42 +509,120 @@ def check_grid(
     shape = grid_shape(size, voxel)
     n = math.prod(shape)
     copies, aux = stack_of(flow)
-    if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
-        from solvers.voxel.diffuse import diffuse_memory_bytes
 
-        need = grid_bytes(shape, "geometry") + diffuse_memory_bytes(shape)
-    else:
-        need = grid_bytes(shape, solver, copies, solve_of(flow, aux))
-    budget = MEMORY_FRACTION * machine_memory()
+    def need_of(grid: list[float], stacked: int = copies) -> float:
+        if solver == "voxel" and getattr(flow, "wall_treatment", None) == "diffuse":
+            from solvers.voxel.diffuse import diffuse_memory_bytes
+
+            return grid_bytes(grid, "geometry") + diffuse_memory_bytes(grid)
+        return grid_bytes(grid, solver, stacked, solve_of(flow, aux))
+
+    transport = solver == "transport"  # its estimate counts its process's fixed load
+    need = need_of(shape)
+    budget = memory_budget(transport)
     if need <= budget:
         if solver == "voxel":
             _check_voxel_cap(shape, flow, key)
         return
     dims = "x".join(f"{s:.0f}" if s < 1e9 else f"{s:.2g}" for s in shape)
-    single = grid_bytes(shape, solver, 1, solve_of(flow, aux))
+    single = need_of(shape, 1)
     counted = counts or _counted(solver, flow, aux)
+    words = f"the budget is {budget / 2**30:.3g} GiB ({budget_words(transport)})"
     if copies > 1 and single <= budget:
         raise fail(
             "flow.permeameter_copies",
             f"{copies} copies of the {dims} grid stacked in the permeameter ({counted}) "
-            f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; the budget "
-            f"is {budget / 2**30:.3g} GiB (half the machine)",
-            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}",
+            f"need about {need / 2**30:.3g} GiB, one copy {single / 2**30:.3g} GiB; {words}",
+            f"1, or flow.bc = 'periodic', or {coarser_advice(key)}{fewer_workers(need, transport)}",
             names=(key, "flow.bc"),
         )
-    vmin = voxel * (need / budget) ** (1 / 3)
-    per = need / n
-    allowed = f"voxel >= {vmin:.3g} m"
-    if key == "image.crop":  # an image's voxel is fixed: the crop is what the user can change
-        most = budget / per
-        allowed = f"a crop of at most {most:.3g} voxels (about {int(most ** (1 / 3))}^3)"
+    fixed = PROCESS_FIXED_BYTES if transport else 0.0  # the process's, once
+    per = (need - fixed) / n
+    allowed = _grid_advice(size, voxel, need_of, key, per, transport)
     raise fail(
         key,
         f"a {dims} grid ({n:.3g} voxels, {per:.4g} B each {counted}"
-        f"{f', {copies} copies stacked' if copies > 1 else ''}) needs about "
-        f"{need / 2**30:.3g} GiB; the budget is {budget / 2**30:.3g} GiB (half the machine)",
-        allowed,
+        f"{f', {copies} copies stacked' if copies > 1 else ''}"
+        f"{f', and {fixed / 1e9:.3g} GB for the process' if fixed else ''}) needs about "
+        f"{need / 2**30:.3g} GiB; {words}",
+        allowed if allowed.startswith("at most") else allowed + fewer_workers(need, transport),
     )
+
+
+def _grid_advice(
+    size: tuple[float, ...], voxel: float, need_of: Callable, key: str, per: float, transport: bool
+) -> str:
+    """:func:`check_grid`'s allowed values: the least voxel (an image's largest crop) within a
+    worker's share; where not even one voxel fits it (a transport process's fixed load over
+    the share), the most workers at once that leave room, with the voxel or crop at their
+    share (it said "a crop of at most 0 voxels" / "no grid fits", session 54's review)."""
+    budget, prefix = memory_budget(transport), ""
+    if need_of([1.0] * len(size)) > budget:
+        most = most_workers(need_of([1.0] * len(size)), transport)
+        if most < 1:
+            return "more memory: no grid fits"
+        budget = memory_budget(transport, most)
+        plural = "s" if most > 1 else ""
+        prefix = f"at most {most} worker{plural} at once ({workers_flag(most)}), with "
+    if key == "image.crop":  # an image's voxel is fixed: the crop is what the user can change
+        fixed = PROCESS_FIXED_BYTES if transport else 0.0
+        most_voxels = round_down(max(0.0, budget - fixed) / per)  # per: the grid's B a voxel
+        cube = int(most_voxels ** (1 / 3))
+        return f"{prefix}a crop of at most {most_voxels:.3g} voxels (about {cube}^3)"
+    return f"{prefix}voxel >= {least_voxel(size, voxel, need_of, budget):.3g} m"
+
+
+def round_up(x: float, digits: int = 3) -> float:
+    """``x`` rounded up to ``digits`` significant digits: a lower bound printed with
+    ``:.3g`` stays one (``1.0853e-6`` printed as 1.09e-06, not 1.08e-06, session 54).
+
+    >>> round_up(1.0853e-6), round_up(1.5e-6), round_up(0.0)
+    (1.09e-06, 1.5e-06, 0.0)
+    """
+    if not (math.isfinite(x) and x > 0):
+        return x
+    up = float(f"{x:.{digits}g}")
+    if up < x:
+        step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+        up = float(f"{up + step:.{digits}g}")
+    return up
+
+
+def round_down(x: float, digits: int = 3) -> float:
+    """``x`` rounded down to ``digits`` significant digits: an upper bound printed with
+    ``:.3g`` stays one (``period <= 0.0334 m`` for 100 x 3.337e-4 m was refused when fed
+    back, session 54's review).
+
+    >>> round_down(0.03337), round_down(1.5e-6), round_down(0.0)
+    (0.0333, 1.5e-06, 0.0)
+    """
+    if not (math.isfinite(x) and x > 0):
+        return x
+    down = float(f"{x:.{digits}g}")
+    if down > x:
+        step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+        down = float(f"{down - step:.{digits}g}")
+    return down
+
+
+def least_voxel(
+    size: tuple[float, ...], voxel: float, need_of: Callable[[list[float]], float], budget: float
+) -> float:
+    """The smallest voxel (to 3 significant digits, rounded up) whose grid (:func:`grid_shape`,
+    which rounds the voxel count to the nearest) ``need_of`` fits ``budget`` bytes: the
+    "allowed" bound of a refusal, accepted when fed back. The cube root of need over budget
+    alone fell short by the grid's rounding (session 54: "voxel >= 1.09e-06 m", then a
+    459^3 grid at 1.09e-6 needed 11.9 GiB of 11.8 and was refused again). ``inf`` when not
+    even one voxel fits (a transport process's fixed load over a worker's share)."""
+    if need_of([1.0] * len(size)) > budget:  # the process's fixed load alone is over it
+        return math.inf
+    v = voxel * max(1.0, need_of(grid_shape(size, voxel)) / budget) ** (1 / 3)
+    for _ in range(100_000):  # 0.1 % steps from the continuous estimate: a few dozen
+        v = round_up(v)
+        if need_of(grid_shape(size, v)) <= budget:
+            return v
+        v *= 1.001
+    return v
 
 
 def check_transport(spec: dict) -> None:
@@ -726,10 +909,13 @@ def check_cells(key: str, size: tuple[float, ...], step: float, limit: float) ->
     """Refuse a lattice step giving more than ``limit`` cells in the box."""
     n = math.prod(grid_shape(size, step))
     if not n <= limit:
+        least = step * (n / limit) ** (1 / 3) if math.isfinite(n) else math.inf
+        while math.isfinite(least) and math.prod(grid_shape(size, round_up(least))) > limit:
+            least *= 1.001  # grid_shape rounds the cells to the nearest (session 54)
         raise fail(
             key,
             f"{step:g} m gives {n:.3g} cells",
-            f"at most {limit:.0e} cells, step >= {step * (n / limit) ** (1 / 3):.3g} m",
+            f"at most {limit:.0e} cells, step >= {round_up(least):.3g} m",
         )
 
 
@@ -737,7 +923,10 @@ def check_copies(size: tuple[float, ...], period: float) -> None:
     """Refuse a period so small that every fiber has too many periodic copies."""
     copies = math.prod(s / period + 1.0 for s in size)
     if not copies <= MAX_COPIES:
-        lo = max(size) / (MAX_COPIES ** (1 / 3) - 1.0)
+        # rounded up: printed at :.3g, 1.11e-4 m for a 1 mm cube gave 1000.1 copies (session 54)
+        lo = round_up(max(size) / (MAX_COPIES ** (1 / 3) - 1.0))
+        while math.prod(s / lo + 1.0 for s in size) > MAX_COPIES:
+            lo = round_up(lo * 1.001)
         raise fail(
             "rve.period",
             f"gives about {copies:.3g} periodic copies of every fiber in the box",
@@ -747,7 +936,7 @@ def check_copies(size: tuple[float, ...], period: float) -> None:
         raise fail(
             "rve.period",
             f"{period:g} m is over 100 x the largest edge",
-            f"period <= {100 * max(size):.3g} m",
+            f"period <= {round_down(100 * max(size)):.3g} m",
         )
 
 

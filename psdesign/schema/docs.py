@@ -8,7 +8,12 @@ from __future__ import annotations
 
 import sys
 
-from psdesign.schema.budget import VOXEL_SOLVER_BYTES_PER_VOXEL
+from psdesign.schema.budget import (
+    GEOMETRY_BYTES_PER_VOXEL,
+    PROCESS_FIXED_BYTES,
+    TRANSPORT_BYTES_PER_VOXEL,
+    VOXEL_SOLVER_BYTES_PER_VOXEL,
+)
 from psdesign.schema.keys import key_rows, study_rows
 
 HEADER = """# Spec and study keys
@@ -23,7 +28,8 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
 * `rve.voxel` <= a quarter of the smallest edge and <= half the thinnest fiber diameter
   (explicit fibers and the lower end of `generator.diameter`); the voxel grid's estimated
   memory (16 B per voxel, plus {B} B per solved cell with `flow.solver = "voxel"`, 2100 with
-  `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil). A permeameter
+  `flow.wall_treatment = "diffuse"`) within half the machine's memory (psutil; in a study or
+  `rev` with several local workers, each case within its worker's share). A permeameter
   (`flow.bc`, or the FEM's default) counts its stack: `flow.permeameter_copies` copies
   (`"auto"` counts the copies it will stack first where the spec tells: explicit fibers or an
   image along the direction solved (their analytic end planes, the image's voxel seam: the test
@@ -60,7 +66,7 @@ Cross-field checks (`psdesign/schema/document.py`, `psdesign/schema/budget.py`):
   to the route's estimate of the one copy it meshes (`flow.permeameter_copies = 1`: the
   stack is `permeability`'s); `generate`, `forcefield`, `psdesign.build` and a study of
   porosity alone to the voxel grid's own fields; `pores`, `diffusivity`, `conductivity` (and
-  their study outputs) to the transport solve's 400 B per voxel (session 53: `mesh`,
+  their study outputs) to the transport solve's {T} B per voxel and {F} GB (session 53: `mesh`,
   `build` and a study without a K were refused for an FEM solve they never run).
 * Each FEM mesher reads its own resolution key: `flow.lattice_step` (stuffing; its range is
   checked with `flow.mesher = "stuffing"`, which `psdesign mesh` also uses for a voxel spec)
@@ -109,7 +115,16 @@ def _table(title: str, rows: list[tuple[str, str, str]]) -> str:
 
 def render() -> str:
     """The whole ``docs/spec-keys.md`` text."""
-    parts = [HEADER.replace("{B}", str(VOXEL_SOLVER_BYTES_PER_VOXEL))]
+    # the figures from the constants the checks use: one definition (s54 review: 130 / 0.35)
+    figures = {
+        "{B}": str(VOXEL_SOLVER_BYTES_PER_VOXEL),
+        "{T}": str(TRANSPORT_BYTES_PER_VOXEL + GEOMETRY_BYTES_PER_VOXEL),
+        "{F}": f"{PROCESS_FIXED_BYTES / 1e9:g}",
+    }
+    header = HEADER
+    for mark, value in figures.items():
+        header = header.replace(mark, value)
+    parts = [header]
     for name, rows in key_rows().items():
         title = "distribution tables" if name == "distribution" else f"[{name}]"
         parts.append(_table(title, rows))

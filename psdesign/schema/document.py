@@ -159,7 +159,7 @@ class SpecDocument(Table):
             raise fail(
                 "rve.voxel",
                 f"{voxel:g} m is over a quarter of the smallest edge",
-                f"<= {min(size) / MIN_VOXELS_PER_EDGE:g} m",
+                f"<= {budget.round_down(min(size) / MIN_VOXELS_PER_EDGE, 6):g} m",
             )
         budget.check_copies(size, period)
         flow, planned_porosity = self._planned_flow(size, voxel)
@@ -171,7 +171,7 @@ class SpecDocument(Table):
             raise fail(
                 "flow.lattice_step",
                 f"{lattice:g} m is over half the smallest edge",
-                f"<= {min(size) / 2:g} m",
+                f"<= {budget.round_down(min(size) / 2, 6):g} m",
             )
         if lattice is not None and budget.route_planned():
             budget.check_cells("flow.lattice_step", size, lattice, budget.MAX_LATTICE_CELLS)
@@ -483,7 +483,7 @@ class SpecDocument(Table):
                     "rve.voxel",
                     f"{voxel:g} m gives under 2 voxels across fibers[{i}] "
                     f"(diameter {fb.diameter:g} m)",
-                    f"<= {fb.diameter / 2:g} m",
+                    f"<= {budget.round_down(fb.diameter / 2, 6):g} m",
                 )
 
     def _check_generator(self, size, voxel: float, period: float) -> None:
@@ -504,7 +504,7 @@ class SpecDocument(Table):
             raise fail(
                 "rve.voxel",
                 f"{voxel:g} m gives under 2 voxels across the thinnest generated fiber ({dlo:g} m)",
-                f"<= {dlo / 2:g} m",
+                f"<= {budget.round_down(dlo / 2, 6):g} m",
             )
         if not -0.5 * dlo <= inter.min_gap < 0.5 * period:
             raise fail(
@@ -526,7 +526,7 @@ class SpecDocument(Table):
                     f"{g.n_fibers} fibers of diameter >= {dlo:g} m "
                     f"fill {g.n_fibers * one:.3g} of the box, over the densest packing "
                     "pi/sqrt(12) without overlap",
-                    f"<= {MAX_CYLINDER_PACKING / one:.0f}",
+                    f"<= {math.floor(MAX_CYLINDER_PACKING / one)}",
                 )
         if n_est > g.max_fibers:
             raise fail(
@@ -536,7 +536,9 @@ class SpecDocument(Table):
                 names=("generator.max_fibers",),
             )
         if inter.step is not None and inter.step < min(size) / 1e4:
-            raise fail("intersections.step", f"{inter.step:g} m", f">= {min(size) / 1e4:g} m")
+            # rounded up: :g printed 3.33333e-08 for 3.3333337e-08, refused when fed back (s54)
+            least = budget.round_up(min(size) / 1e4)
+            raise fail("intersections.step", f"{inter.step:g} m", f">= {least:.3g} m")
         if inter.ga_voxel is not None:
             budget.check_grid(
                 size,
@@ -559,7 +561,7 @@ class SpecDocument(Table):
                 "generator.porosity",
                 f"{porosity} is above the porosity of one fiber or "
                 "within the tolerance of an empty box (the RVE would be empty)",
-                f"<= {top:.4f}",
+                f"<= {_floor4(top):.4f}",
             )
         if method != "none" and porosity <= 1.0 - MAX_CYLINDER_PACKING:
             raise fail(
@@ -577,3 +579,9 @@ class SpecDocument(Table):
                 SpecWarning,
                 stacklevel=2,
             )
+
+
+def _floor4(x: float) -> float:
+    """``x`` rounded down to 4 decimals: an upper bound printed with ``:.4f`` stays one."""
+    down = math.floor(x * 1e4) / 1e4
+    return down - 1e-4 if down > x else down

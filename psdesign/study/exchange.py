@@ -44,7 +44,7 @@ def read_job(stream: BinaryIO) -> dict:
     ------
     CaseExchangeError
         If it is not ``{"case_id": str, "case_fn": str, "spec": dict, "outputs": [str],
-        "solver": str, "workdir": str}``.
+        "solver": str, "workdir": str, "at_once": int, "workers_option": str}``.
     """
     try:
         job = json.loads(stream.read().decode("utf-8"))
@@ -57,6 +57,8 @@ def read_job(stream: BinaryIO) -> dict:
         "outputs": list,
         "solver": str,
         "workdir": str,
+        "at_once": int,  # the run's workers at once: the case's share of the memory
+        "workers_option": str,
     }
     if not isinstance(job, dict) or set(job) != set(types):
         raise CaseExchangeError(f"case job must have exactly the keys {sorted(types)}")

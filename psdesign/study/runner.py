@@ -24,8 +24,10 @@ import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass, replace
 from dataclasses import fields as fields_of
-from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +35,7 @@ import pandas as pd
 
 from psdesign.errors import short
 from psdesign.io.outputs import OutputDir, check_output_dir, claim_output_dir, remove_owned_files
+from psdesign.schema.budget import concurrent_workers, workers_at_once
 from psdesign.schema.study import k_directions
 from psdesign.study.address import (
     SchedulerAddress,
@@ -161,6 +164,89 @@ def _mp_context():
     return multiprocessing.get_context("spawn")
 
 
+def concurrent_cases(workers: int, scheduler, n_cases: int) -> int:
+    """Cases of a run that hold their memory at once on this machine: the local pool's (or a
+    local Dask cluster's) workers, at most one per case; 1 in this process (``workers=0``) or
+    on a remote scheduler or batch cluster (its workers' machines have their own memory).
+
+    >>> concurrent_cases(2, None, 9), concurrent_cases(4, "local", 3), concurrent_cases(0, None, 9)
+    (2, 3, 1)
+    """
+    if scheduler is not None and scheduler != "local":
+        return 1
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral):
+        return 1  # refused by the run's own check (check_workers), with its line
+    return max(1, min(int(workers), int(n_cases)))
+
+
+@dataclass
+class _RunShare:
+    """One memory share and one thread warning for a run of several :func:`run_study` calls
+    (:func:`one_share`)."""
+
+    at_once: int | None = None
+    warned: bool = False
+
+
+_SHARE: ContextVar[_RunShare | None] = ContextVar("psdesign_run_share", default=None)
+
+
+@contextmanager
+def one_share() -> Iterator[None]:
+    """:func:`run_study` calls inside share the first one's workers at once (the memory share
+    each case is held to, and the pool's size) and print the thread warning
+    (:func:`oversubscribed`) once: ``study optimize`` runs a study per round, and each round
+    recounted its share from every case, finished ones included (a case accepted in round 1
+    could be refused in round 2), and warned again (session 54's review)."""
+    token = _SHARE.set(_RunShare())
+    try:
+        yield
+    finally:
+        _SHARE.reset(token)
+
+
+def _at_once(opts: RunOptions, cases: list[Case], out_dir) -> int:
+    """The run's workers at once (:func:`concurrent_cases`) over the cases still to run (a
+    resumed folder's finished ones hold no memory), or the first run's inside
+    :func:`one_share`."""
+    held = _SHARE.get()
+    if held is not None and held.at_once is not None:
+        return held.at_once
+    n = concurrent_cases(opts.workers, opts.scheduler, _pending(cases, out_dir, opts))
+    if held is not None:
+        held.at_once = n
+    return n
+
+
+def _pending(cases: list[Case], out_dir, opts: RunOptions) -> int:
+    """Cases of ``cases`` a run in ``out_dir`` would run (:func:`_todo` of its readable
+    records, read only; all of them for ``force`` or an unreadable folder)."""
+    if opts.force:
+        return len(cases)
+    try:
+        loaded = CaseStore(out_dir).load_records()
+        stored = match_finished(cases, loaded)
+        records = {c: loaded[r] for c, r in stored.items()}
+    except (OSError, TypeError, ValueError):
+        return len(cases)
+    return len(_todo(cases, records, opts))
+
+
+def _warn_once() -> bool:
+    """True unless a :func:`one_share` run already printed its thread warning."""
+    held = _SHARE.get()
+    if held is None:
+        return True
+    first, held.warned = not held.warned, True
+    return first
+
+
+def workers_option(out_option: tuple[str, str | None]) -> str:
+    """How a refusal names the workers: ``--workers`` where messages name a command's flags
+    (``out_option`` ``("-o", ...)``), else the keyword ``workers``."""
+    return "--workers" if out_option[0].startswith("-") else "workers"
+
+
 def _check_main_script(opts: RunOptions) -> None:
     """Refuse local worker processes when they cannot start: a spawned worker re-imports the
     ``__main__`` script by its path, and a script read from stdin (``python - < run.py``, a
@@ -212,6 +298,34 @@ def _thread_budget(workers: int):
             os.environ.pop(v, None)
 
 
+#: The solver threads a user's value is kept for in every worker (:func:`oversubscribed`).
+SOLVER_THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def oversubscribed(workers: int, cpus: int | None = None) -> str | None:
+    """The warning line when a solver thread count the user set (kept in every worker, the
+    rule: the user's value wins) times ``workers`` is over the CPUs and over the share the
+    runner gives (:func:`threads_per_worker`); None otherwise. Session 54: ``NUMBA_NUM_THREADS=2
+    --workers 2`` ran 4 solver threads on 2 cores, silently."""
+    cpus = cpus or os.cpu_count() or 1
+    share = threads_per_worker(workers, cpus)
+    over = []
+    for var in SOLVER_THREAD_VARS:
+        try:
+            n = int(os.environ.get(var, ""))
+        except ValueError:  # unset or not a count: the runner's share, or numba's own refusal
+            continue
+        if n > share and n * workers > cpus:
+            over.append(f"{var}={n}")
+    if not over:
+        return None
+    verb, it = ("is", "it") if len(over) == 1 else ("are", "them")
+    return (
+        f"psdesign: warning: {' and '.join(over)} {verb} kept in each of {workers} workers: more "
+        f"threads than the {cpus} CPUs (unset {it} to share the CPUs out, {share} per worker)"
+    )
+
+
 def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict], None]) -> None:
     """Run payloads on a spawn-based ProcessPoolExecutor.
 
@@ -220,6 +334,9 @@ def _run_pool(payloads: list[dict], workers: int, on_done: Callable[[dict, dict]
     two breaks is then run alone in its own one-worker pool, and recorded as failed only if it
     breaks that pool too, so innocent queued cases are never blamed.
     """
+    line = oversubscribed(min(workers, len(payloads)))
+    if line and _warn_once():
+        print(line, file=sys.stderr)
     normal = list(payloads)
     isolate: list[dict] = []
     breaks: dict[str, int] = {}
@@ -862,15 +979,19 @@ def run_study(
     if not isinstance(study, Study):  # a case function of the user's: no route planned
         study = load_study(study, opts.case_fn)
     cases = expand_design(study)
+    # each case held to its worker's share of the memory, up front and while it runs
+    share = partial(concurrent_workers, _at_once(opts, cases, out_dir), workers_option(out_option))
     if runs_pipeline(opts.case_fn):
-        validate_case_specs(cases, study.solver, study.outputs)
+        with share():
+            validate_case_specs(cases, study.solver, study.outputs)
     _check_case_fn_for_timeout(opts.case_fn, _timeout(opts, study))
     option, force_option = out_option
     target = check_study_dir(
         out_dir, force=opts.force, force_option=force_option, command=command, option=option
     )
     check_same_study(study, target.path, option)  # another study's folder: refused, untouched
-    return _connect_and_run(study, cases, target, opts, scheduler_option)
+    with share():  # the payloads carry it (_payloads), the pool is at most that size
+        return _connect_and_run(study, cases, target, opts, scheduler_option)
 
 
 _OPTION_FIELDS = frozenset(f.name for f in fields_of(RunOptions))
@@ -1132,7 +1253,9 @@ def _backend(opts: RunOptions) -> str:
 
 
 def _payloads(study: Study, todo: list[Case], store: CaseStore, key: dict, case_fn, timeout):
-    """What a worker needs to run each case of ``todo``."""
+    """What a worker needs to run each case of ``todo``, with the run's workers at once
+    (:func:`~psdesign.schema.budget.workers_at_once`: the share it is held to)."""
+    at_once, option = workers_at_once()
     return [
         {
             "case_id": c.case_id,
@@ -1143,6 +1266,8 @@ def _payloads(study: Study, todo: list[Case], store: CaseStore, key: dict, case_
             "out_dir": str(store.out),
             "case_fn": case_fn,
             "timeout_s": timeout,
+            "at_once": at_once,
+            "workers_option": option,
         }
         for c in todo
     ]
@@ -1154,8 +1279,9 @@ def _dispatch(client, payloads: list[dict], on_done, opts: RunOptions) -> None:
         _run_dask(client, payloads, on_done, opts.wait_s())
     elif payloads and opts.workers == 0:
         _run_inline(payloads, on_done)
-    elif payloads:
-        _run_pool(payloads, min(opts.workers, len(payloads)), on_done)
+    elif payloads:  # never more at once than the share the cases were checked at
+        at_once = workers_at_once()[0]
+        _run_pool(payloads, min(opts.workers, len(payloads), at_once), on_done)
 
 
 def _run_entry(

@@ -162,6 +162,9 @@ def _run_in_child(payload: dict, workdir: Path) -> tuple[str, dict | None, str |
         "outputs": list(payload["outputs"]),
         "solver": payload["solver"],
         "workdir": str(workdir),
+        # the share the case is held to in the child too (run_case_inline)
+        "at_once": int(payload.get("at_once", 1)),
+        "workers_option": str(payload.get("workers_option", "workers")),
     }
     data = json.dumps(job, default=json_default).encode()
     outp, arrays = result_paths(workdir)
@@ -260,10 +263,15 @@ def run_case_inline(payload: dict, workdir: Path) -> dict:
     """Call the case function in this process (no isolation, no timeout: a worker; with a
     timeout the case's child process, :mod:`psdesign.study._child`); the warnings it raises
     are shown once each, after it, naming the case (:func:`show_case_warnings`)."""
+    from psdesign.schema.budget import concurrent_workers
+
     fn = load_case_fn(payload["case_fn"])
     caught: list = []
+    # held to its worker's share while it runs (an "auto" permeameter's longer stack was
+    # checked against the whole machine in each of N workers until session 54's review)
+    share = concurrent_workers(payload.get("at_once", 1), payload.get("workers_option", "workers"))
     try:
-        with warnings.catch_warnings(record=True) as caught:  # the filters in force decide
+        with share, warnings.catch_warnings(record=True) as caught:  # the filters decide
             return fn(payload["spec"], list(payload["outputs"]), payload["solver"], workdir)
     finally:
         show_case_warnings(caught, str(payload.get("case_id", "?")))
@@ -298,7 +306,9 @@ def execute_case(payload: dict) -> dict:
     ----------
     payload : dict
         ``case_id``, ``spec``, ``outputs``, ``solver``, ``workdir``, ``out_dir``, ``case_fn``
-        (callable or ``"module:attr"``) and ``timeout_s`` (None for no limit).
+        (callable or ``"module:attr"``), ``timeout_s`` (None for no limit) and ``at_once``
+        with ``workers_option`` (the run's workers at once, whose share of the memory the
+        case is held to while it runs, :func:`psdesign.schema.budget.concurrent_workers`).
 
     Returns
     -------
