@@ -54,8 +54,17 @@ ABS_ERROR_COLUMNS = {
 #: so the report prints them ``+bar/-0`` and draws their bar upward only (session 48).
 UPPER_BARS = frozenset(c for c, e in ABS_ERROR_COLUMNS.items() if e == "pore_diameter_error_m")
 
+#: How far below the pore diameters their truth may lie where a face of the case's box does not
+#: repeat (:func:`psdesign.transport.pores.walled`; written only there, absent or NaN: 0, the
+#: ``-0`` of :data:`UPPER_BARS`); the report prints it, the targets and the decision figure do
+#: not yet (session 54).
+LOWER_BAR_COLUMN = "pore_diameter_error_below_m"
 #: Every error column: an estimate of a value's error, not an output of its own.
-ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
+ERROR_COLUMNS = (
+    frozenset(REL_ERROR_COLUMNS.values())
+    | frozenset(ABS_ERROR_COLUMNS.values())
+    | {LOWER_BAR_COLUMN}
+)
 #: The value whose bar rates a value that has no status of its own, where that is another's:
 #: the product rates d10, d50 and d90 together by ``pore_diameter_error_m / pore_d50_m``
 #: (:mod:`psdesign.transport.pores` ``rel_error``, ``study_outputs.pore_sizes_status``), so a

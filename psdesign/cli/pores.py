@@ -49,8 +49,10 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def _sizes_line(out: dict) -> str:
     """The pore sizes' line: the three diameters and the breakthrough diameter (one scan, one
-    one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
-    measures low, so the true value lies up to the bar above), the rating, the scan step."""
+    bar: ``diameter_error_m`` above, the radius step plus the centre offset: the scan
+    measures low; ``diameter_error_below_m`` below, 0 when every face repeats, else down to the
+    scan with walls past the faces that do not, :func:`psdesign.transport.pores.walled`, whose
+    breakthrough is named apart), the rating, the scan step."""
     from psdesign.lines import rating
     from psdesign.transport.effective import worst_status
     from psdesign.transport.pores import diameter_bar_text
@@ -59,16 +61,21 @@ def _sizes_line(out: dict) -> str:
     # the line's numbers rated together: a blocked breakthrough says so in the [status] too
     status = worst_status([out["pore_sizes_status"], out["breakthrough_status"]])
     bt = out["breakthrough_diameter_m"]
+    below = float(out.get("diameter_error_below_m", 0.0))
     if bt is not None:
         bt_text = f"{bt:.3e} m"
     elif out.get("pore_space_crosses", False):  # a path narrower than the smallest scanned ball
         bt_text = f"< {out['intrusion_diameter_m'][-1]:.3e} m (unresolved)"
     else:  # no path crosses the sample (blocked; it printed 0 or a size, [ok])
         bt_text = f"none (no intrusion path along {out['thickness_axis']}: blocked)"
+    walled = out.get("walled_axes", "")
+    if bt is not None and walled:  # its own lower bound, the walled side faces'
+        low = out["breakthrough_diameter_walled_m"]
+        bt_text += f" (walls at {walled}: {'none' if low is None else f'{low:.3e} m'})"
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "
-        f"each {diameter_bar_text(out['diameter_error_m'])} m  "
+        f"each {diameter_bar_text(out['diameter_error_m'], below)} m  "
         f"{rating({'status': status, 'converged': converged})}  "
         f"(scan step {out['bin_width_m']:.1e} m)"
     )

@@ -9,7 +9,8 @@ Output names (``[study] outputs``) and the row keys they add:
 * ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
   ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``, ``conductivity_<d>_status``;
 * ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m), with
-  ``pore_bin_width_m`` (the scan step), ``pore_diameter_error_m`` (their one-sided error) and
+  ``pore_bin_width_m`` (the scan step), ``pore_diameter_error_m`` (their error above; below,
+  ``pore_diameter_error_below_m``, only where a face of the box does not repeat) and
   ``pore_sizes_status`` (:func:`pore_sizes_status`, as ``psdesign pores`` rates them);
 * ``specific_surface_m-1``: marching-cubes surface per box volume (1/m), with
   ``specific_surface_rel_error`` and ``specific_surface_status``.
@@ -165,6 +166,13 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float, image: bool 
             f"{MIN_COARSE_VOXELS} voxels, too few for the bar's coarse grid: the bar misses "
             "that part of the error; use a longer box or a finer rve.voxel"
         )
+    if out.get("diameter_error_below_m", 0.0) > 0:
+        warnings.append(
+            f"pore sizes: the geometry does not repeat across {out['walled_axes']}: the values "
+            "take the outside of those faces as pore (a pore a face bounds counts as going on); "
+            f"with walls there they read up to {out['diameter_error_below_m']:.3e} m lower (the "
+            "bar's lower side); a larger box narrows it"
+        )
     if out["pore_d90_m"] > edge:
         warnings.append(
             f"pore sizes: d90 {out['pore_d90_m']:.3e} m exceeds the smallest edge the geometry "
@@ -272,6 +280,8 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         )
         row["pore_bin_width_m"] = ps.bin_width_m
         row["pore_diameter_error_m"] = ps.diameter_error_m
+        if ps.walled_axes:  # a face does not repeat: the bar reaches below too (session 54)
+            row["pore_diameter_error_below_m"] = ps.diameter_error_below_m
         edge = varying_edge(fields)
         row["pore_sizes_status"] = pore_sizes_status(
             ps.converged, ps.rel_error, ps.pore_d90_m, cpd, edge
