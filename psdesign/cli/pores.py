@@ -68,16 +68,20 @@ def _sizes_line(out: dict) -> str:
         bt_text = f"< {out['intrusion_diameter_m'][-1]:.3e} m (unresolved)"
     else:  # no path crosses the sample (blocked; it printed 0 or a size, [ok])
         bt_text = f"none (no intrusion path along {out['thickness_axis']}: blocked)"
-    walled = out.get("walled_axes", "")
-    if bt is not None and walled:  # its own lower bound, the walled side faces'
+    walled = ""
+    if out.get("walled_axes"):  # each value's own lower end: the scan with those faces walled
+        d10, d50, d90 = out["walled_d10_d50_d90_m"]
         low = out["breakthrough_diameter_walled_m"]
-        bt_text += f" (walls at {walled}: {'none' if low is None else f'{low:.3e} m'})"
+        walled = (
+            f"  (walled at {out['walled_axes']}: d10 {d10:.3e} m  d50 {d50:.3e} m  "
+            f"d90 {d90:.3e} m  breakthrough {'none' if low is None else f'{low:.3e} m'})"
+        )
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "
         f"each {diameter_bar_text(out['diameter_error_m'], below)} m  "
         f"{rating({'status': status, 'converged': converged})}  "
-        f"(scan step {out['bin_width_m']:.1e} m)"
+        f"(scan step {out['bin_width_m']:.1e} m){walled}"
     )
 
 

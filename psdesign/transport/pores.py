@@ -110,6 +110,9 @@ class PoreSizeResult:
     #: (:func:`walled`), lower bounds of the open-face values above (None: every face repeats)
     intrusion_saturation_walled: list[float] | None = None
     breakthrough_diameter_walled_m: float | None = None
+    #: d10, d50, d90 of the walled scan (m): each value's own lower end, the shared
+    #: ``diameter_error_below_m`` their largest distance below the values
+    walled_d10_d50_d90_m: list[float] | None = None
 
     def to_dict(self) -> dict:
         """Plain dict (JSON-ready); the walled bounds' keys only where a face does not repeat
@@ -126,6 +129,7 @@ _WALLED_KEYS = (
     "diameter_error_below_m",
     "intrusion_saturation_walled",
     "breakthrough_diameter_walled_m",
+    "walled_d10_d50_d90_m",
 )
 
 
@@ -609,6 +613,7 @@ def _bounds(walls, opened, pore, radii, h, periodic) -> dict:
         "diameter_error_below_m": float(below),
         "intrusion_saturation_walled": [float(v) for v in sat],
         "breakthrough_diameter_walled_m": None if r_break is None else 2.0 * h * r_break,
+        "walled_d10_d50_d90_m": [float(v) for v in low],
     }
 
 

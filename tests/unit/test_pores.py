@@ -662,6 +662,8 @@ def test_a_slit_a_face_bounds_lies_inside_the_two_sided_bar(thickness_axis, thro
     assert res.pore_d50_m > 17 * H  # the open-face value: the slit read as going on
     assert res.rel_error > UNTRUSTWORTHY_REL_ERROR
     assert res.walled_axes == "y"
+    values = (res.pore_d10_m, res.pore_d50_m, res.pore_d90_m)
+    assert all(d - below <= w <= d for d, w in zip(values, res.walled_d10_d50_d90_m, strict=True))
     walled, opened = np.array(res.intrusion_saturation_walled), np.array(res.intrusion_saturation)
     assert np.all(walled <= opened) and walled[-1] == opened[-1] > 0.99  # the step corners
     bt, bt_walled = res.breakthrough_diameter_m, res.breakthrough_diameter_walled_m
