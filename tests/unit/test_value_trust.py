@@ -462,7 +462,7 @@ def test_the_values_table_shows_the_bar_that_rates_the_pore_sizes(with_status, c
         ],
     ]  # each bar one-sided, above (session 48; test_pore_diameters_print_their_bar_one_sided)
     assert "30.0 %" not in html and "7.5 %" not in html  # no size's own fraction
-    assert "rated together by that bar over d50 (the % beside d50" in html
+    assert "rated together by the larger side over d50 (the % beside d50" in html
     assert "d90 above the smallest edge the geometry varies along" in html  # the rating's own words
     capsys.readouterr()
 
@@ -530,6 +530,33 @@ def test_a_pore_diameter_target_reads_its_bar_one_sided():
     k = {"k_z_m2": 21e-12, "k_z_rel_error": 3 / 21, "k_z_status": "ok"}  # a K's bar: both ways
     r = target_report(Target.parse("k_z_m2<=20e-12"), k)
     assert r["target_within_error_bar"] and "+- 14.3 %" in measured_text(r)
+
+
+def test_the_values_table_rates_d50_by_its_larger_side():
+    """Session 54 review (/tmp/rr-mendpores/slit.py): the fraction beside d50 was the upper
+    side over d50 alone (12.4 %) beside the [untrustworthy] its 55 % lower side gave. The
+    product rates the pore sizes by the larger side over d50 (``rel_error``, the 20 % rule):
+    d50 = 20 um +2.5/-11 um prints 11 / 20 = 55.0 %, and where every face repeats (NaN
+    lower side) the upper side's 12.5 %."""
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok"] * 2,
+            "pore_d10_m": [10e-6] * 2,
+            "pore_d50_m": [20e-6] * 2,
+            "pore_d90_m": [40e-6] * 2,
+            "pore_diameter_error_m": [2.5e-6] * 2,
+            "pore_diameter_error_below_m": [11e-6, float("nan")],
+            "pore_sizes_status": ["untrustworthy", "ok"],
+        }
+    )
+    table = _values_table(df)
+    assert "2e-05 +2.5e-06/-1.1e-05 (55.0 %) [untrustworthy]" in table, table
+    assert "2e-05 +2.5e-06/-0 (12.5 %)" in table, table
+    assert "(12.5 %) [untrustworthy]" not in table
+    assert "down to the value - pore_diameter_error_below_m (+bar/-below)" in table
 
 
 def test_a_pore_diameter_target_reads_the_lower_bar_where_a_face_does_not_repeat():
