@@ -21,7 +21,7 @@
   a pore the face cuts is not closed by an imagined wall (until session 54 every face wrapped:
   a cylinder pore of diameter 16 um an image cut at its axis read 7.0 um). Such a face can
   make the value read high (a pore the face bounds counts as continuing: a 10 um slit walled
-  by the y = 0 face reads 18.9 um), so there a second scan takes the outside as solid
+  by the y = 0 face reads 20.5 um), so there a second scan takes the outside as solid
   (:func:`walled`, a true lower bound: local thickness is monotone in the pore set) and the
   bar is two-sided, ``+diameter_error_m/-diameter_error_below_m`` (down to the walled
   d10/d50/d90), ``rel_error`` the larger side over d50 (one 20 % rule). Every face repeating:
@@ -219,7 +219,7 @@ def walled(
     the box) is the value and the upper side, a convention, not a bound over every
     continuation (outside all pore with centres there too, a face voxel's ball is unbounded):
     session 54 found a crop 1.4 um above it at d90 (``docs/transport.md``). Until session 54
-    open faces alone read a 10 um slit the y = 0 face bounds as 18.9 um under ``+bar/-0``.
+    open faces alone read a 10 um slit the y = 0 face bounds as 20.5 um under ``+bar/-0``.
 
     >>> d = np.full((4, 1, 1), 9.0, np.float32)
     >>> walled(d, (False, True, True))[:, 0, 0].tolist(), float(walled(d, (False,) * 3, (0,)).max())
@@ -349,7 +349,9 @@ def _scan(dt, pore, radii, inlet_axis, core, cover=True):
     touching the inlet (the first layer of ``core`` along ``inlet_axis``, all its periodic
     images) is the invaded set, and with the ball union of the other clusters the covered set
     (two transforms, each over the clusters' boxes or the whole grid). ``cover=False``: the
-    intrusion alone (no second transform; the thickness comes out as the smallest radius).
+    intrusion alone (no second transform); the thickness it returns is then no local
+    thickness (only the inlet clusters' balls set it, every other pore voxel gets the last,
+    smallest radius): read the saturation only.
     """
     lt = np.full(dt.shape, -1, np.int16)
     sat = []

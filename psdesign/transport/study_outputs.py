@@ -137,7 +137,9 @@ def pore_sizes_status(
 def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float, image: bool = False) -> dict:
     """``status`` (the worst of the three below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
-    their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
+    their ``rel_error`` (the larger of ``diameter_error_m`` and ``diameter_error_below_m``
+    over d50, :class:`~psdesign.transport.pores.PoreSizeResult`) and the specific surface by
+    its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
     bars alone), the S_v when an axis it varies along is too short for its bar's coarse grid
     (:func:`psdesign.transport.pores.surface_status`), and the pore sizes when ``d90``
