@@ -282,7 +282,10 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         )
         row["pore_bin_width_m"] = ps.bin_width_m
         row["pore_diameter_error_m"] = ps.diameter_error_m
-        if ps.walled_axes:  # a face does not repeat: the bar reaches below too (session 54)
+        # a face does not repeat: the bar reaches below too (session 54); the name is
+        # analysis.columns.LOWER_BAR_COLUMN (a later stage that imports pandas: not imported
+        # here; tests/unit/test_pores.py holds the two equal)
+        if ps.walled_axes:
             row["pore_diameter_error_below_m"] = ps.diameter_error_below_m
         edge = varying_edge(fields)
         row["pore_sizes_status"] = pore_sizes_status(
